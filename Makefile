@@ -1,0 +1,47 @@
+# Two entry points for a fresh clone: `make demo` and `make test`.
+# Both create .venv when it is missing. torch is pinned to the CPU wheel that lies on disk
+# (pip install torch==2.13.0) so nothing pulls a CUDA build.
+PYTHON ?= python3.11
+VENV := .venv
+PY := $(VENV)/bin/python
+PIP := $(PY) -m pip
+OUT := demo_out
+SAMPLE := src/mocapkit/data/131_01.bvh
+
+.PHONY: demo test install install-test bench clean
+
+$(PY):
+	@command -v $(PYTHON) >/dev/null 2>&1 || { echo "$(PYTHON) not found; run make PYTHON=python3" >&2; exit 1; }
+	$(PYTHON) -m venv $(VENV)
+	$(PIP) install --upgrade pip
+
+$(VENV)/.installed: pyproject.toml | $(PY)
+	$(PIP) install torch==2.13.0
+	$(PIP) install -e .
+	touch $@
+
+$(VENV)/.installed-test: pyproject.toml $(VENV)/.installed
+	$(PIP) install -e '.[test]'
+	touch $@
+
+install: $(VENV)/.installed
+install-test: $(VENV)/.installed-test
+
+demo: install
+	@mkdir -p $(OUT)
+	$(VENV)/bin/mocapkit info $(SAMPLE)
+	$(VENV)/bin/mocapkit convert $(SAMPLE) $(OUT)/131_01_30fps.bvh --fps 30
+	$(VENV)/bin/mocapkit corrupt $(OUT)/131_01_30fps.bvh $(OUT)/131_01_noisy.bvh --kind noise --amount 0.5 --seed 7
+	$(VENV)/bin/mocapkit corrupt $(OUT)/131_01_30fps.bvh $(OUT)/131_01_errors.bvh --kind errors --seed 7
+	$(VENV)/bin/mocapkit plot $(OUT)/131_01_30fps.bvh $(OUT)/131_01_noisy.bvh --joint LeftKnee -o $(OUT)/131_01_LeftKnee.png
+	@echo "demo outputs written to $(OUT)/"
+
+test: install-test
+	$(PY) -m pytest -q -m "not slow"
+
+bench: install-test
+	$(PIP) install -e '.[bench]'
+	$(PY) benchmarks/io_speed.py --json
+
+clean:
+	rm -rf $(OUT) .pytest_cache

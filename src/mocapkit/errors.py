@@ -1,0 +1,32 @@
+"""The exception hierarchy: everything mocapkit raises on bad input derives from MocapError."""
+
+from __future__ import annotations
+
+import os
+
+__all__ = ["MocapError", "MocapFormatError", "SkeletonError"]
+
+
+class MocapError(Exception):
+    """Base class of mocapkit's errors about user input (files, skeletons, parameters)."""
+
+
+class MocapFormatError(MocapError, ValueError):
+    """A file cannot be read or written: names the file, the line when known, and the reason.
+
+    ``str(err)`` is one line, ``"PATH:LINE: REASON"`` (or ``"PATH: REASON"``),
+    which is what the CLI prints before exiting with status 2.
+    """
+
+    def __init__(self, path: str | os.PathLike | None, reason: str, line: int | None = None):
+        self.path = None if path is None else os.fspath(path)
+        self.reason = reason
+        self.line = line
+        where = self.path if self.path is not None else "<input>"
+        if line is not None:
+            where = f"{where}:{line}"
+        super().__init__(f"{where}: {reason}")
+
+
+class SkeletonError(MocapError, ValueError):
+    """A skeleton is malformed or two skeletons do not match where they must."""

@@ -1,0 +1,789 @@
+"""The motion model: ``Skeleton`` and ``Motion``, forward kinematics, slicing, resampling, mirroring.
+
+Both are small frozen dataclasses holding read-only numpy arrays; every
+operation returns a new object (``dataclasses.replace(motion, rotations=...)``
+is the way to change a field). Arrays are frames first: rotations (F, J, 4)
+local to the parent joint, w first; positions (F, J, 3) in the file's units.
+Missing data is NaN and survives every operation that does not fill it.
+
+A skeleton is a ``parents`` array in topological order (``parents[0] == -1``,
+``parents[j] < j``); forward kinematics is one loop over joints on whole arrays.
+Joint ``j`` sits at its parent's position plus the parent's global rotation
+applied to ``offsets[j]`` (BVH semantics); ASF/AMC skeletons are converted to
+that form on reading, their per-bone axis frames kept in ``Skeleton.axes``.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import re
+from dataclasses import dataclass, field
+from typing import Iterable, Sequence
+
+import numpy as np
+
+from . import rotations as R
+from .errors import SkeletonError
+
+__all__ = [
+    "Skeleton",
+    "Motion",
+    "concatenate",
+    "mirror_pairs",
+    "find_joint",
+    "standard_joints",
+    "unit_scale_cm",
+    "ROLES",
+    "DEFAULT_ROOT_CHANNELS",
+    "DEFAULT_JOINT_CHANNELS",
+]
+
+DEFAULT_ROOT_CHANNELS = ("Xposition", "Yposition", "Zposition", "Zrotation", "Yrotation", "Xrotation")
+DEFAULT_JOINT_CHANNELS = ("Zrotation", "Yrotation", "Xrotation")
+_CHANNEL_NAMES = {"Xposition", "Yposition", "Zposition", "Xrotation", "Yrotation", "Zrotation"}
+
+
+def _readonly(a: np.ndarray) -> np.ndarray:
+    v = a.view()
+    v.setflags(write=False)
+    return v
+
+
+def _as_float(a, name: str, shape_tail: tuple[int, ...], ndim: int) -> np.ndarray:
+    arr = np.asarray(a, dtype=np.float64)
+    if arr.ndim != ndim or arr.shape[arr.ndim - len(shape_tail):] != shape_tail:
+        tail = ", ".join(str(s) for s in shape_tail)
+        raise SkeletonError(f"{name}: expected shape ({'N, ' * (ndim - len(shape_tail))}{tail}), got {arr.shape}")
+    return _readonly(arr)
+
+
+@dataclass(frozen=True, eq=False)
+class Skeleton:
+    """Joint hierarchy with rest offsets.
+
+    Attributes
+    ----------
+    joint_names : tuple of str, (J,)
+        Joint names; end sites are not joints.
+    parents : int array (J,)
+        Parent index of each joint, -1 for the root (index 0); ``parents[j] < j``.
+    offsets : float array (J, 3)
+        Rest offset of each joint from its parent, in the file's units.
+    end_site_parents : int array (E,)
+        The joint each end site (BVH ``End Site``, ASF leaf bone tip) hangs from.
+    end_site_offsets : float array (E, 3)
+        End-site offsets from their parent joint.
+    channels : tuple of tuple of str, optional
+        Per joint, the BVH-style channels of the source file in file order
+        (``"Xposition"``, ``"Zrotation"``, ...). Rotation channels are in
+        intrinsic order. None means the BVH default (root: 3 positions + ZYX,
+        others ZYX).
+    axes : float array (J, 4), optional
+        ASF ``axis`` frame ``C`` of each joint: the local rotation is
+        ``C @ M @ C^-1`` where ``M`` is built from the joint-angle channels.
+        None means identity (BVH).
+    limits : tuple, optional
+        Per joint, a (lo, hi) pair in degrees for each rotation channel (ASF ``limits``).
+    unit_cm : float, optional
+        Centimetres per length unit when the source states it (ASF ``:units length``).
+    """
+
+    joint_names: tuple[str, ...]
+    parents: np.ndarray
+    offsets: np.ndarray
+    end_site_parents: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
+    end_site_offsets: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
+    channels: tuple[tuple[str, ...], ...] | None = None
+    axes: np.ndarray | None = None
+    limits: tuple[tuple[tuple[float, float], ...], ...] | None = None
+    unit_cm: float | None = None
+
+    def __post_init__(self):
+        names = tuple(str(n) for n in self.joint_names)
+        object.__setattr__(self, "joint_names", names)
+        J = len(names)
+        if J == 0:
+            raise SkeletonError("a skeleton needs at least one joint")
+        if len(set(names)) != J:
+            dup = sorted({n for n in names if names.count(n) > 1})
+            raise SkeletonError(f"duplicate joint names: {', '.join(dup)}")
+        parents = np.asarray(self.parents, dtype=np.int64)
+        if parents.shape != (J,):
+            raise SkeletonError(f"parents: expected shape ({J},), got {parents.shape}")
+        if parents[0] != -1:
+            raise SkeletonError("the root must be joint 0 with parent -1")
+        if J > 1 and np.any((parents[1:] < 0) | (parents[1:] >= np.arange(1, J))):
+            raise SkeletonError("parents must be in topological order: 0 <= parents[j] < j for every j > 0")
+        object.__setattr__(self, "parents", _readonly(parents))
+        offsets = _as_float(self.offsets, "offsets", (3,), 2)
+        if offsets.shape[0] != J:
+            raise SkeletonError(f"offsets: expected shape ({J}, 3), got {offsets.shape}")
+        object.__setattr__(self, "offsets", offsets)
+        esp = np.asarray(self.end_site_parents, dtype=np.int64).reshape(-1)
+        if np.any((esp < 0) | (esp >= J)):
+            raise SkeletonError("end_site_parents must index joints")
+        object.__setattr__(self, "end_site_parents", _readonly(esp))
+        eso = _as_float(np.asarray(self.end_site_offsets, dtype=np.float64).reshape(-1, 3), "end_site_offsets", (3,), 2)
+        if eso.shape[0] != esp.shape[0]:
+            raise SkeletonError("end_site_offsets and end_site_parents differ in length")
+        object.__setattr__(self, "end_site_offsets", eso)
+        if self.channels is not None:
+            ch = tuple(tuple(str(c) for c in cs) for cs in self.channels)
+            if len(ch) != J:
+                raise SkeletonError(f"channels: expected one entry per joint ({J}), got {len(ch)}")
+            for name, cs in zip(names, ch):
+                bad = [c for c in cs if c not in _CHANNEL_NAMES]
+                if bad:
+                    raise SkeletonError(f"joint {name}: unknown channel(s) {', '.join(bad)}")
+                if len(set(cs)) != len(cs):
+                    raise SkeletonError(f"joint {name}: repeated channel in {cs}")
+            object.__setattr__(self, "channels", ch)
+        if self.axes is not None:
+            axes = _as_float(self.axes, "axes", (4,), 2)
+            if axes.shape[0] != J:
+                raise SkeletonError(f"axes: expected shape ({J}, 4), got {axes.shape}")
+            object.__setattr__(self, "axes", axes)
+        if self.limits is not None:
+            lim = tuple(tuple((float(lo), float(hi)) for lo, hi in jl) for jl in self.limits)
+            if len(lim) != J:
+                raise SkeletonError(f"limits: expected one entry per joint ({J}), got {len(lim)}")
+            object.__setattr__(self, "limits", lim)
+
+    # -- basic facts -------------------------------------------------------
+    @property
+    def num_joints(self) -> int:
+        return len(self.joint_names)
+
+    @property
+    def num_end_sites(self) -> int:
+        return int(self.end_site_parents.shape[0])
+
+    @property
+    def end_site_names(self) -> tuple[str, ...]:
+        """Names of end sites: ``"<parent joint>_end"`` (numbered if a joint has several)."""
+        out, seen = [], {}
+        for p in self.end_site_parents:
+            base = f"{self.joint_names[p]}_end"
+            k = seen.get(base, 0)
+            seen[base] = k + 1
+            out.append(base if k == 0 else f"{base}{k + 1}")
+        return tuple(out)
+
+    def index(self, name: str) -> int:
+        """Index of joint ``name``; raises ``KeyError`` naming the joints that exist."""
+        try:
+            return self.joint_names.index(name)
+        except ValueError:
+            raise KeyError(f"no joint {name!r}; joints are: {', '.join(self.joint_names)}") from None
+
+    def children(self, j: int) -> list[int]:
+        return [int(c) for c in np.flatnonzero(self.parents == j)]
+
+    def joint_channels(self, j: int) -> tuple[str, ...]:
+        """The file channels of joint ``j`` (the BVH default when the skeleton has none)."""
+        if self.channels is not None:
+            return self.channels[j]
+        return DEFAULT_ROOT_CHANNELS if j == 0 else DEFAULT_JOINT_CHANNELS
+
+    def rotation_order(self, j: int) -> str:
+        """Intrinsic Euler order of joint ``j``'s rotation channels, e.g. ``"ZYX"`` ('' if none)."""
+        return "".join(c[0] for c in self.joint_channels(j) if c.endswith("rotation"))
+
+    def bone_lengths(self) -> np.ndarray:
+        """Length of every joint's offset (J,); the root's is 0 by convention."""
+        lengths = np.linalg.norm(self.offsets, axis=1)
+        lengths[0] = 0.0
+        return lengths
+
+    def rest_positions(self, end_sites: bool = False) -> np.ndarray:
+        """Global joint positions of the rest pose (identity rotations, root at its offset), (J, 3)."""
+        pos = np.zeros((self.num_joints, 3))
+        pos[0] = self.offsets[0]
+        for j in range(1, self.num_joints):
+            pos[j] = pos[self.parents[j]] + self.offsets[j]
+        if end_sites:
+            pos = np.concatenate([pos, pos[self.end_site_parents] + self.end_site_offsets])
+        return pos
+
+    def is_compatible(self, other: "Skeleton") -> bool:
+        """Same joint names and hierarchy (offsets may differ: another actor of the same rig)."""
+        return self.joint_names == other.joint_names and np.array_equal(self.parents, other.parents)
+
+    def __eq__(self, other) -> bool:
+        if not isinstance(other, Skeleton):
+            return NotImplemented
+        same_axes = (self.axes is None and other.axes is None) or (
+            self.axes is not None and other.axes is not None and np.array_equal(self.axes, other.axes)
+        )
+        return (
+            self.is_compatible(other)
+            and np.array_equal(self.offsets, other.offsets)
+            and np.array_equal(self.end_site_parents, other.end_site_parents)
+            and np.array_equal(self.end_site_offsets, other.end_site_offsets)
+            and same_axes
+        )
+
+    __hash__ = None  # mutable-looking arrays inside: not hashable
+
+    def __repr__(self) -> str:
+        return f"Skeleton({self.num_joints} joints, {self.num_end_sites} end sites, root={self.joint_names[0]!r})"
+
+
+@dataclass(frozen=True, eq=False)
+class Motion:
+    """A clip: a skeleton animated by local joint rotations and a root trajectory.
+
+    Attributes
+    ----------
+    skeleton : Skeleton
+    rotations : float array (F, J, 4)
+        Local joint rotations relative to the parent, unit quaternions, w first.
+    root_positions : float array (F, 3)
+        Global position of the root joint in the file's units.
+    fps : float
+        Frames per second.
+    name : str
+        Free text, usually the file stem.
+    translations : float array (F, J, 3), optional
+        Per-frame local offsets for files that animate them (BVH position
+        channels on non-root joints). Where given, forward kinematics uses
+        ``translations[:, j]`` instead of ``skeleton.offsets[j]`` for every
+        joint ``j > 0``; column 0 is unused (the root is ``root_positions``).
+
+    Examples
+    --------
+    >>> import mocapkit
+    >>> m = mocapkit.load(mocapkit.samples.path("131_01.bvh"))
+    >>> m.rotations.shape, m.fps
+    ((994, 31, 4), 120.0)
+    >>> m[10:20].global_positions().shape
+    (10, 31, 3)
+    """
+
+    skeleton: Skeleton
+    rotations: np.ndarray
+    root_positions: np.ndarray
+    fps: float
+    name: str = ""
+    translations: np.ndarray | None = None
+
+    def __post_init__(self):
+        if not isinstance(self.skeleton, Skeleton):
+            raise TypeError(f"skeleton must be a Skeleton, got {type(self.skeleton).__name__}")
+        J = self.skeleton.num_joints
+        rot = np.asarray(self.rotations, dtype=np.float64)
+        if rot.ndim != 3 or rot.shape[1:] != (J, 4):
+            raise SkeletonError(f"rotations: expected shape (F, {J}, 4) with w first, got {rot.shape}")
+        F = rot.shape[0]
+        root = np.asarray(self.root_positions, dtype=np.float64)
+        if root.shape != (F, 3):
+            raise SkeletonError(f"root_positions: expected shape ({F}, 3), got {root.shape}")
+        fps = float(self.fps)
+        if not np.isfinite(fps) or fps <= 0:
+            raise SkeletonError(f"fps must be a positive number, got {self.fps!r}")
+        object.__setattr__(self, "rotations", _readonly(rot))
+        object.__setattr__(self, "root_positions", _readonly(root))
+        object.__setattr__(self, "fps", fps)
+        object.__setattr__(self, "name", str(self.name))
+        if self.translations is not None:
+            tr = np.asarray(self.translations, dtype=np.float64)
+            if tr.shape != (F, J, 3):
+                raise SkeletonError(f"translations: expected shape ({F}, {J}, 3), got {tr.shape}")
+            object.__setattr__(self, "translations", _readonly(tr))
+
+    # -- sizes -------------------------------------------------------------
+    @property
+    def num_frames(self) -> int:
+        return int(self.rotations.shape[0])
+
+    @property
+    def num_joints(self) -> int:
+        return self.skeleton.num_joints
+
+    @property
+    def duration(self) -> float:
+        """Length in seconds, ``num_frames / fps``."""
+        return self.num_frames / self.fps
+
+    def __len__(self) -> int:
+        return self.num_frames
+
+    def __repr__(self) -> str:
+        return (
+            f"Motion({self.name!r}, {self.num_frames} frames @ {self.fps:g} fps, "
+            f"{self.num_joints} joints, {self.duration:.2f} s)"
+        )
+
+    # -- slicing -----------------------------------------------------------
+    def __getitem__(self, key) -> "Motion":
+        """Frames by slice (a step ``k`` divides fps by ``k``) or by a single index (one frame)."""
+        fps = self.fps
+        if isinstance(key, (int, np.integer)):
+            k = int(key)
+            if not -self.num_frames <= k < self.num_frames:
+                raise IndexError(f"frame {k} out of range for {self.num_frames} frames")
+            k %= self.num_frames
+            key = slice(k, k + 1)
+        if not isinstance(key, slice):
+            raise TypeError("a Motion is sliced by frames: motion[a:b], motion[a:b:k] or motion[i]")
+        step = 1 if key.step is None else int(key.step)
+        if step <= 0:
+            raise ValueError("frame slices need a positive step")
+        fps = fps / step
+        tr = None if self.translations is None else self.translations[key]
+        return dataclasses.replace(
+            self, rotations=self.rotations[key], root_positions=self.root_positions[key], fps=fps, translations=tr
+        )
+
+    # -- forward kinematics -------------------------------------------------
+    def local_offsets(self) -> np.ndarray:
+        """Per-frame local joint offsets (F, J, 3): skeleton offsets, animated translations, root position."""
+        F, J = self.num_frames, self.num_joints
+        if self.translations is not None:
+            off = np.array(self.translations)
+        else:
+            off = np.broadcast_to(self.skeleton.offsets, (F, J, 3)).copy()
+        off[:, 0] = self.root_positions
+        return off
+
+    def global_transforms(self) -> tuple[np.ndarray, np.ndarray]:
+        """Forward kinematics: global rotations (F, J, 4) and positions (F, J, 3) of all joints."""
+        parents = self.skeleton.parents
+        F, J = self.num_frames, self.num_joints
+        grot = np.empty((F, J, 4))
+        gpos = np.empty((F, J, 3))
+        grot[:, 0] = self.rotations[:, 0]
+        gpos[:, 0] = self.root_positions
+        if self.translations is None:
+            offsets = self.skeleton.offsets
+            for j in range(1, J):
+                p = parents[j]
+                grot[:, j] = R.quaternion_multiply(grot[:, p], self.rotations[:, j])
+                gpos[:, j] = gpos[:, p] + R.quaternion_rotate(grot[:, p], offsets[j])
+        else:
+            tr = self.translations
+            for j in range(1, J):
+                p = parents[j]
+                grot[:, j] = R.quaternion_multiply(grot[:, p], self.rotations[:, j])
+                gpos[:, j] = gpos[:, p] + R.quaternion_rotate(grot[:, p], tr[:, j])
+        return grot, gpos
+
+    def global_rotations(self) -> np.ndarray:
+        """Global joint rotations (F, J, 4), w first."""
+        return self.global_transforms()[0]
+
+    def global_positions(self, end_sites: bool = False) -> np.ndarray:
+        """Global joint positions (F, J, 3) in the file's units; with ``end_sites`` (F, J + E, 3)."""
+        grot, gpos = self.global_transforms()
+        if not end_sites:
+            return gpos
+        return np.concatenate([gpos, self._end_sites(grot, gpos)], axis=1)
+
+    def end_site_positions(self) -> np.ndarray:
+        """Global end-site positions (F, E, 3), in ``skeleton.end_site_names`` order."""
+        grot, gpos = self.global_transforms()
+        return self._end_sites(grot, gpos)
+
+    def _end_sites(self, grot: np.ndarray, gpos: np.ndarray) -> np.ndarray:
+        sk = self.skeleton
+        p = sk.end_site_parents
+        return gpos[:, p] + R.quaternion_rotate(grot[:, p], sk.end_site_offsets)
+
+    def positions(self, names: Sequence[str]) -> np.ndarray:
+        """Global positions (F, len(names), 3) of named joints and/or end sites."""
+        sk = self.skeleton
+        lookup = {n: i for i, n in enumerate(sk.joint_names + sk.end_site_names)}
+        missing = [n for n in names if n not in lookup]
+        if missing:
+            raise KeyError(f"no joint or end site named {', '.join(map(repr, missing))}")
+        allpos = self.global_positions(end_sites=bool(set(names) & set(sk.end_site_names)))
+        return allpos[:, [lookup[n] for n in names]]
+
+    # -- missing data --------------------------------------------------------
+    def missing(self) -> np.ndarray:
+        """Boolean (F, J) mask of joints with any NaN in their rotation (root: or its position)."""
+        mask = np.any(np.isnan(self.rotations), axis=-1)
+        mask[:, 0] |= np.any(np.isnan(self.root_positions), axis=-1)
+        if self.translations is not None:
+            mask[:, 1:] |= np.any(np.isnan(self.translations[:, 1:]), axis=-1)
+        return mask
+
+    # -- channels as the file gives them ------------------------------------
+    def channel_names(self) -> list[str]:
+        """Names ``"joint.Channel"`` of :meth:`channel_values`' columns."""
+        sk = self.skeleton
+        return [f"{sk.joint_names[j]}.{c}" for j in range(sk.num_joints) for c in sk.joint_channels(j)]
+
+    def channel_values(self) -> np.ndarray:
+        """All file channels (F, C): positions in file units, rotations in degrees, in file order.
+
+        These are the "joint angles as the BVH gives them" (for ASF skeletons:
+        the AMC degrees of freedom, with the ``axis`` frame removed). Joints
+        without rotation channels contribute nothing.
+        """
+        sk = self.skeleton
+        cols = []
+        local = self.local_offsets()
+        for j in range(sk.num_joints):
+            chans = sk.joint_channels(j)
+            if not chans:
+                continue
+            order = sk.rotation_order(j)
+            angles = None
+            if order:
+                q = self.rotations[:, j]
+                if sk.axes is not None:
+                    c = sk.axes[j]
+                    q = R.quaternion_multiply(R.quaternion_multiply(R.quaternion_conjugate(c), q), c)
+                angles = R.quaternion_to_euler(q, order)
+            k = 0
+            for ch in chans:
+                if ch.endswith("position"):
+                    cols.append(local[:, j, "XYZ".index(ch[0])])
+                else:
+                    cols.append(angles[:, k])
+                    k += 1
+        return np.stack(cols, axis=1) if cols else np.zeros((self.num_frames, 0))
+
+    @classmethod
+    def from_channel_values(
+        cls, skeleton: Skeleton, values: np.ndarray, fps: float, name: str = "", animated_offsets: bool = False
+    ) -> "Motion":
+        """Inverse of :meth:`channel_values`: build a Motion from (F, C) file channels.
+
+        Joints with no position channels keep their skeleton offset; a root
+        without position channels stays at its offset. With
+        ``animated_offsets``, position channels of non-root joints become
+        ``translations``; otherwise they must be absent.
+        """
+        values = np.asarray(values, dtype=np.float64)
+        sk = skeleton
+        F = values.shape[0]
+        J = sk.num_joints
+        ncols = sum(len(sk.joint_channels(j)) for j in range(J))
+        if values.ndim != 2 or values.shape[1] != ncols:
+            raise SkeletonError(f"channel values: expected shape (F, {ncols}), got {values.shape}")
+        rot = np.empty((F, J, 4))
+        local = np.broadcast_to(sk.offsets, (F, J, 3)).copy()
+        has_tr = False
+        col = 0
+        # Group joints by rotation order so each distinct order is one vectorised conversion.
+        by_order: dict[str, list[tuple[int, list[int]]]] = {}
+        for j in range(J):
+            chans = sk.joint_channels(j)
+            rcols = []
+            for ch in chans:
+                if ch.endswith("position"):
+                    local[:, j, "XYZ".index(ch[0])] = values[:, col]
+                    has_tr = has_tr or j > 0
+                else:
+                    rcols.append(col)
+                col += 1
+            by_order.setdefault(sk.rotation_order(j), []).append((j, rcols))
+        for order, items in by_order.items():
+            js = [j for j, _ in items]
+            if not order:
+                rot[:, js] = R.identity((F, len(js)))
+                continue
+            cols_idx = np.array([c for _, c in items])  # (n, k)
+            rot[:, js] = R.euler_to_quaternion(values[:, cols_idx], order)
+        if sk.axes is not None:
+            c = sk.axes[None]
+            rot = R.quaternion_multiply(R.quaternion_multiply(c, rot), R.quaternion_conjugate(c))
+        if has_tr and not animated_offsets:
+            raise SkeletonError("non-root joints have position channels; pass animated_offsets=True")
+        return cls(
+            skeleton=sk,
+            rotations=rot,
+            root_positions=local[:, 0],
+            fps=fps,
+            name=name,
+            translations=local if has_tr else None,
+        )
+
+    # -- resampling ----------------------------------------------------------
+    def resample(self, fps: float) -> "Motion":
+        """Resample to ``fps`` by slerp of rotations and linear interpolation of positions.
+
+        Frame 0 is kept; the new frames are at times ``k / fps`` up to the last
+        original frame. A NaN endpoint makes the interpolated sample NaN.
+        """
+        fps = float(fps)
+        if not np.isfinite(fps) or fps <= 0:
+            raise ValueError(f"fps must be a positive number, got {fps!r}")
+        if fps == self.fps:
+            return self
+        F = self.num_frames
+        n_new = int(np.floor((F - 1) * fps / self.fps + 1e-9)) + 1 if F > 0 else 0
+        t = np.arange(n_new) * (self.fps / fps)
+        i0 = np.minimum(np.floor(t + 1e-9).astype(np.int64), max(F - 1, 0))
+        i1 = np.minimum(i0 + 1, max(F - 1, 0))
+        a = np.clip(t - i0, 0.0, 1.0)
+        rot = R.slerp(self.rotations[i0], self.rotations[i1], a[:, None])
+        # Exact hits stay exact (no renormalisation round-off on kept frames).
+        exact = a == 0.0
+        rot[exact] = self.rotations[i0[exact]]
+        lerp = lambda x: x[i0] * (1 - a).reshape((-1,) + (1,) * (x.ndim - 1)) + x[i1] * a.reshape(
+            (-1,) + (1,) * (x.ndim - 1)
+        )
+        root = lerp(self.root_positions)
+        root[exact] = self.root_positions[i0[exact]]
+        tr = None
+        if self.translations is not None:
+            tr = lerp(self.translations)
+            tr[exact] = self.translations[i0[exact]]
+        return dataclasses.replace(self, rotations=rot, root_positions=root, fps=fps, translations=tr)
+
+    # -- mirroring -----------------------------------------------------------
+    def mirror(self, axis: int | None = None) -> "Motion":
+        """Left/right mirror image: reflect across the sagittal plane and swap paired joints.
+
+        Pairs are found by name (:func:`mirror_pairs`); ``axis`` is the lateral
+        axis (0, 1, 2), by default the one separating paired joints in the rest
+        pose. The skeleton is mirrored too, so ``mirror().global_positions()``
+        is the reflected, pair-swapped ``global_positions()`` exactly.
+        """
+        sk = self.skeleton
+        perm = mirror_pairs(sk.joint_names)
+        if axis is None:
+            axis = _lateral_axis(sk, perm)
+        flip = np.ones(3)
+        flip[axis] = -1.0
+        qflip = np.ones(4)
+        qflip[1:] = -flip  # reflection M R M negates the quaternion's non-lateral components
+        rot = self.rotations[:, perm] * qflip
+        root = self.root_positions * flip
+        tr = None if self.translations is None else self.translations[:, perm] * flip
+        # An end site takes the mirrored offset of the same-rank end site on its joint's partner.
+        es_off_new = sk.end_site_offsets * flip
+        for slot, p in enumerate(sk.end_site_parents):
+            partner_slots = np.flatnonzero(sk.end_site_parents == perm[p])
+            rank = np.flatnonzero(sk.end_site_parents == p).tolist().index(slot)
+            if rank < len(partner_slots):
+                es_off_new[slot] = sk.end_site_offsets[partner_slots[rank]] * flip
+        axes = None if sk.axes is None else sk.axes[perm] * qflip
+        limits = None
+        if sk.limits is not None:
+            lim = []
+            for j in range(sk.num_joints):
+                src = perm[j]
+                order_src = sk.rotation_order(src)
+                new = []
+                for (lo, hi), ax in zip(sk.limits[src], order_src):
+                    new.append((lo, hi) if "XYZ".index(ax) == axis else (-hi, -lo))
+                lim.append(tuple(new))
+            limits = tuple(lim)
+        channels = None if sk.channels is None else tuple(sk.channels[perm[j]] for j in range(sk.num_joints))
+        new_sk = dataclasses.replace(
+            sk,
+            offsets=sk.offsets[perm] * flip,
+            end_site_offsets=es_off_new,
+            channels=channels,
+            axes=axes,
+            limits=limits,
+        )
+        return dataclasses.replace(
+            self, skeleton=new_sk, rotations=rot, root_positions=root, translations=tr, name=self.name + "_mirror"
+        )
+
+
+def concatenate(motions: Iterable[Motion], name: str | None = None) -> Motion:
+    """Frames of several clips one after another; skeletons must match and frame rates agree."""
+    motions = list(motions)
+    if not motions:
+        raise ValueError("concatenate needs at least one motion")
+    first = motions[0]
+    for m in motions[1:]:
+        if not m.skeleton.is_compatible(first.skeleton):
+            raise SkeletonError(f"cannot concatenate {m.name!r}: its skeleton differs from {first.name!r}'s")
+        if m.fps != first.fps:
+            raise SkeletonError(f"cannot concatenate {m.name!r} at {m.fps:g} fps with {first.name!r} at {first.fps:g} fps")
+    any_tr = any(m.translations is not None for m in motions)
+    tr = np.concatenate([m.local_offsets() for m in motions]) if any_tr else None
+    return dataclasses.replace(
+        first,
+        rotations=np.concatenate([m.rotations for m in motions]),
+        root_positions=np.concatenate([m.root_positions for m in motions]),
+        translations=tr,
+        name=first.name if name is None else name,
+    )
+
+
+# -- joint naming ---------------------------------------------------------------
+
+_SIDE_SWAPS = [
+    (re.compile(r"^Left"), "Right"), (re.compile(r"^Right"), "Left"),
+    (re.compile(r"^left"), "right"), (re.compile(r"^right"), "left"),
+    (re.compile(r"^L(?=[A-Z_])"), "R"), (re.compile(r"^R(?=[A-Z_])"), "L"),
+    (re.compile(r"^l(?=[a-z_])"), "r"), (re.compile(r"^r(?=[a-z_])"), "l"),
+    (re.compile(r"([_.\- ])L$"), r"\1R"), (re.compile(r"([_.\- ])R$"), r"\1L"),
+    (re.compile(r"([_.\- ])l$"), r"\1r"), (re.compile(r"([_.\- ])r$"), r"\1l"),
+    (re.compile(r"Left"), "Right"), (re.compile(r"Right"), "Left"),
+]
+
+
+def _partner_name(name: str, names: set[str]) -> str | None:
+    for pat, rep in _SIDE_SWAPS:
+        if pat.search(name):
+            cand = pat.sub(rep, name, count=1)
+            if cand != name and cand in names:
+                return cand
+    return None
+
+
+def mirror_pairs(joint_names: Sequence[str]) -> np.ndarray:
+    """Permutation (J,) mapping each joint to its left/right partner (itself when unpaired).
+
+    A name pairs with another when swapping its side marker gives that other
+    name: ``Left``/``Right``, ``l``/``r`` prefixes (``lfemur``), ``L``/``R``
+    prefixes (``LHipJoint``) and ``_L``/``_R`` suffixes. ``lowerback`` stays
+    unpaired because ``rowerback`` does not exist.
+
+    >>> mirror_pairs(["root", "lfemur", "rfemur", "lowerback"]).tolist()
+    [0, 2, 1, 3]
+    """
+    names = list(joint_names)
+    pos = {n: i for i, n in enumerate(names)}
+    perm = np.arange(len(names))
+    for i, n in enumerate(names):
+        p = _partner_name(n, set(names))
+        if p is not None and _partner_name(p, set(names)) == n:
+            perm[i] = pos[p]
+    return perm
+
+
+def _lateral_axis(sk: Skeleton, perm: np.ndarray) -> int:
+    rest = sk.rest_positions()
+    paired = np.flatnonzero(perm != np.arange(len(perm)))
+    if len(paired) == 0:
+        raise SkeletonError("cannot mirror: no left/right joint pairs found by name")
+    d = np.abs(rest[paired] - rest[perm[paired]]).sum(axis=0)
+    return int(np.argmax(d))
+
+
+def _side_and_part(name: str, names: set[str]) -> tuple[str | None, str]:
+    """('left'|'right'|None, body-part name lower-cased without its side marker)."""
+    partner = _partner_name(name, names)
+    low = name.lower()
+    if partner is None:
+        return None, re.sub(r"^joint_", "", low)
+    for pat, side in (
+        (r"^left[_.\- ]?", "left"), (r"^right[_.\- ]?", "right"),
+        (r"[_.\- ]l$", "left"), (r"[_.\- ]r$", "right"),
+        (r"^l", "left"), (r"^r", "right"),
+    ):
+        if re.search(pat, low):
+            return side, re.sub(pat, "", low)
+    return None, low
+
+
+# Role -> ordered patterns on side-stripped lower-case names; the first pattern with a match wins.
+ROLES: dict[str, tuple[str | None, tuple[str, ...]]] = {
+    "pelvis": (None, (r"hips", r"pelvis", r"root")),
+    "lower_back": (None, (r"lowerback", r"spine", r"abdomen")),
+    "chest": (None, (r"thorax", r"chest", r"spine1", r"upperback", r"spine2")),
+    "neck": (None, (r"lowerneck", r"neck")),
+    "head": (None, (r"head",)),
+    "left_shoulder": ("left", (r"humerus", r"upperarm", r"arm", r"shoulder")),
+    "right_shoulder": ("right", (r"humerus", r"upperarm", r"arm", r"shoulder")),
+    "left_elbow": ("left", (r"elbow", r"radius", r"forearm", r"lowerarm")),
+    "right_elbow": ("right", (r"elbow", r"radius", r"forearm", r"lowerarm")),
+    "left_hand": ("left", (r"wrist", r"hand")),
+    "right_hand": ("right", (r"wrist", r"hand")),
+    "left_hip": ("left", (r"femur", r"upleg", r"upperleg", r"hip", r"thigh")),
+    "right_hip": ("right", (r"femur", r"upleg", r"upperleg", r"hip", r"thigh")),
+    "left_knee": ("left", (r"knee", r"tibia", r"lowerleg", r"leg", r"shin")),
+    "right_knee": ("right", (r"knee", r"tibia", r"lowerleg", r"leg", r"shin")),
+    "left_foot": ("left", (r"ankle", r"foot")),
+    "right_foot": ("right", (r"ankle", r"foot")),
+    "left_toe": ("left", (r"toes?", r"toebase")),
+    "right_toe": ("right", (r"toes?", r"toebase")),
+}
+
+
+def find_joint(skeleton: Skeleton, role: str) -> int:
+    """Index of the joint playing ``role`` (a key of :data:`ROLES`) on CMU, HDM05 and common BVH rigs.
+
+    Hands are the wrists and feet the ankles, as in Krüger et al.'s F15
+    features; ``pelvis`` falls back to the root joint.
+
+    >>> import mocapkit
+    >>> sk = mocapkit.load(mocapkit.samples.path("131_01.bvh")).skeleton
+    >>> sk.joint_names[find_joint(sk, "left_hand")]
+    'LeftWrist'
+    """
+    if role not in ROLES:
+        raise KeyError(f"unknown role {role!r}; roles are: {', '.join(ROLES)}")
+    want_side, patterns = ROLES[role]
+    names = set(skeleton.joint_names)
+    parsed = [_side_and_part(n, names) for n in skeleton.joint_names]
+    for pat in patterns:
+        rx = re.compile(rf"^{pat}$")
+        for j, (side, part) in enumerate(parsed):
+            if side == want_side and rx.match(part):
+                return j
+    if role == "pelvis":
+        return 0
+    raise KeyError(f"no joint plays the role {role!r} in skeleton with joints: {', '.join(skeleton.joint_names)}")
+
+
+def standard_joints(skeleton: Skeleton, roles: Iterable[str] | None = None) -> dict[str, int]:
+    """Map of role -> joint index for every role found (or exactly ``roles``, raising if one is missing)."""
+    if roles is not None:
+        return {r: find_joint(skeleton, r) for r in roles}
+    out = {}
+    for r in ROLES:
+        try:
+            out[r] = find_joint(skeleton, r)
+        except KeyError:
+            pass
+    return out
+
+
+# Known length units in centimetres; a skeleton's unit is the one giving a plausible adult size.
+_UNITS_CM = {"mm": 0.1, "cm": 1.0, "inch": 2.54, "CMU (1/0.45 inch)": 2.54 / 0.45, "dm": 10.0, "foot": 30.48, "m": 100.0}
+
+
+def unit_scale_cm(skeleton: Skeleton) -> float:
+    """Centimetres per length unit of ``skeleton``.
+
+    Uses ``skeleton.unit_cm`` when the file stated it; otherwise it checks the
+    bone lengths instead of guessing: the rest-pose path from the ankle through
+    the pelvis to the head (about 0.9 of standing height) is read in each known
+    unit (mm, cm, inch, CMU's 1/0.45 inch, dm, foot, m) and the unit giving a
+    height closest to 1.7 m wins. A skeleton that is no human of 1.0-2.3 m in
+    any of them raises ``SkeletonError``.
+    """
+    if skeleton.unit_cm is not None:
+        return float(skeleton.unit_cm)
+    foot = find_joint(skeleton, "left_foot")
+    head = find_joint(skeleton, "head")
+    rest = skeleton.rest_positions()
+    # path length foot -> common ancestor -> head along the tree
+    def chain(j):
+        out = [j]
+        while skeleton.parents[out[-1]] >= 0:
+            out.append(int(skeleton.parents[out[-1]]))
+        return out
+
+    a, b = chain(foot), chain(head)
+    common = next(j for j in a if j in b)
+    length = 0.0
+    for path in (a, b):
+        for j in path:
+            if j == common:
+                break
+            length += np.linalg.norm(rest[j] - rest[skeleton.parents[j]])
+    # ankle-to-head along the skeleton is about 0.9 of standing height
+    best, best_err = None, np.inf
+    for unit, cm in _UNITS_CM.items():
+        height = length * cm / 0.9
+        err = abs(np.log(height / 170.0))
+        if 100.0 <= height <= 230.0 and err < best_err:
+            best, best_err = cm, err
+    if best is None:
+        raise SkeletonError(
+            f"cannot tell the length unit: ankle-to-head path is {length:.4g} units, "
+            "no known unit makes that a human; pass the scale explicitly"
+        )
+    return best
