@@ -162,7 +162,9 @@ def quaternion_log(q: np.ndarray) -> np.ndarray:
     # sin(half)/half -> 1 as half -> 0; use the series to stay exact near identity.
     with np.errstate(invalid="ignore", divide="ignore"):
         scale = np.where(s > 1e-12, half / np.where(s > 1e-12, s, 1.0), 1.0 + s * s / 6.0)
-    return v * scale
+    out = v * scale
+    out[np.any(np.isnan(q), axis=-1)] = np.nan
+    return out
 
 
 def quaternion_exp(v: np.ndarray) -> np.ndarray:

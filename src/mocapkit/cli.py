@@ -1,0 +1,241 @@
+"""The ``mocapkit`` command: thin wrappers that parse, call the library, and print.
+
+Every command writes its outputs atomically (temporary file + rename), refuses
+to overwrite its input, and on bad input prints one line naming the file and
+the problem and exits with status 2.
+"""
+
+from __future__ import annotations
+
+import json
+import sys
+from pathlib import Path
+from typing import Optional
+
+import numpy as np
+import typer
+from rich.console import Console
+from rich.table import Table
+
+from .errors import MocapError, MocapFormatError
+
+app = typer.Typer(
+    name="mocapkit",
+    help="Clean and reconstruct human motion-capture data (BVH, ASF/AMC, C3D, npz).",
+    no_args_is_help=True,
+    add_completion=False,
+    pretty_exceptions_enable=False,
+)
+console = Console()
+
+EXIT_BAD_INPUT = 2
+
+
+def _fail(message: str) -> None:
+    raise MocapError(message)
+
+
+def _check_output(inp: Path, out: Path) -> None:
+    if out.exists() and inp.exists() and out.resolve() == inp.resolve():
+        raise MocapFormatError(out, "refusing to overwrite the input file; choose another output path")
+
+
+@app.command()
+def info(
+    file: Path = typer.Argument(..., help="A .bvh, .amc, .c3d or .npz file."),
+    joints: bool = typer.Option(False, "--joints", help="Also list every joint with its parent and channels."),
+    asf: Optional[Path] = typer.Option(None, help="Skeleton for an .amc file (default: the ASF beside it)."),
+) -> None:
+    """Print the skeleton, frame count, frame rate, duration and missing data of FILE."""
+    from . import io
+    from .io.c3d import MarkerSet
+    from .motion import unit_scale_cm
+
+    obj = io.load(file, **({"asf": asf} if asf is not None else {}))
+    table = Table(show_header=False, box=None, pad_edge=False)
+    table.add_column(style="bold")
+    table.add_column()
+    table.add_row("file", str(file))
+    if isinstance(obj, MarkerSet):
+        table.add_row("kind", f"markers (read with {obj.reader})")
+        table.add_row("markers", str(obj.num_markers))
+        table.add_row("frames", str(obj.num_frames))
+        table.add_row("fps", f"{obj.fps:g}")
+        table.add_row("duration", f"{obj.num_frames / obj.fps:.3f} s")
+        table.add_row("units", obj.units)
+        table.add_row("missing", f"{100.0 * obj.missing().mean():.2f} % of marker samples")
+        console.print(table)
+        if joints:
+            console.print(", ".join(obj.labels))
+        return
+    m = obj
+    sk = m.skeleton
+    miss = m.missing()
+    table.add_row("kind", "motion")
+    table.add_row("name", m.name)
+    table.add_row("joints", f"{sk.num_joints} (+{sk.num_end_sites} end sites), root {sk.joint_names[0]!r}")
+    table.add_row("frames", str(m.num_frames))
+    table.add_row("fps", f"{m.fps:g}")
+    table.add_row("duration", f"{m.duration:.3f} s")
+    try:
+        scale = unit_scale_cm(sk)
+        table.add_row("length unit", f"{scale:.4g} cm" + (" (stated by the file)" if sk.unit_cm else " (from bone lengths)"))
+    except MocapError as exc:
+        table.add_row("length unit", f"unknown ({exc})")
+    table.add_row("channels", str(len(m.channel_names())))
+    table.add_row(
+        "missing",
+        f"{100.0 * miss.mean():.2f} % of joint samples, {int(miss.any(axis=1).sum())} frames affected",
+    )
+    console.print(table)
+    if joints:
+        jt = Table("#", "joint", "parent", "channels")
+        for j, name in enumerate(sk.joint_names):
+            p = sk.parents[j]
+            jt.add_row(str(j), name, "-" if p < 0 else sk.joint_names[p], " ".join(sk.joint_channels(j)))
+        console.print(jt)
+
+
+@app.command()
+def convert(
+    inp: Path = typer.Argument(..., metavar="IN", help="Input motion (.bvh, .amc, .npz)."),
+    out: Path = typer.Argument(..., metavar="OUT", help="Output (.bvh or .npz), chosen by suffix."),
+    fps: Optional[float] = typer.Option(None, "--fps", help="Resample to this frame rate (slerp)."),
+    asf: Optional[Path] = typer.Option(None, help="Skeleton for an .amc input."),
+) -> None:
+    """Convert IN to OUT, optionally resampling to --fps."""
+    from . import io
+    from .motion import Motion
+
+    _check_output(inp, out)
+    m = io.load(inp, **({"asf": asf} if asf is not None else {}))
+    if not isinstance(m, Motion):
+        if fps is not None or out.suffix.lower() != ".npz":
+            raise MocapFormatError(inp, "marker files convert to .npz only, without --fps")
+        io.save(m, out)
+        console.print(f"wrote {out}")
+        return
+    if fps is not None:
+        m = m.resample(fps)
+    io.save(m, out)
+    console.print(f"wrote {out} ({m.num_frames} frames @ {m.fps:g} fps)")
+
+
+@app.command()
+def corrupt(
+    inp: Path = typer.Argument(..., metavar="IN", help="Clean input motion."),
+    out: Path = typer.Argument(..., metavar="OUT", help="Corrupted output (.bvh or .npz; gaps need .npz)."),
+    kind: str = typer.Option(..., "--kind", help="noise | spatial | gaps | errors"),
+    amount: Optional[float] = typer.Option(
+        None, "--amount", help="noise: std as a fraction of each channel's std (0.1/0.5/0.9); spatial: std in cm."
+    ),
+    seed: int = typer.Option(0, "--seed", help="Random seed: the same seed gives the same corruption."),
+    mask_out: Optional[Path] = typer.Option(
+        None, "--mask", help="Ground-truth mask file (default: OUT with suffix .mask.npz)."
+    ),
+) -> None:
+    """Corrupt IN with known ground truth; writes OUT and a .mask.npz of what changed."""
+    from . import corrupt as corrupt_mod
+    from . import io
+    from .io import atomic_write
+
+    _check_output(inp, out)
+    m = io.load(inp)
+    params = {}
+    if amount is not None:
+        params["amount"] = amount
+    try:
+        result = corrupt_mod.corrupt(m, kind=kind, seed=seed, **params)
+    except (TypeError, ValueError) as exc:
+        raise MocapError(f"corrupt --kind {kind}: {exc}") from None
+    bad, mask = result[0], result[1]
+    records = result[2] if len(result) > 2 else []
+    if np.isnan(bad.rotations).any() and out.suffix.lower() == ".bvh":
+        raise MocapFormatError(out, "this corruption leaves missing values (NaN), which BVH cannot hold; write .npz")
+    mask_path = mask_out or out.with_name(out.name[: -len(out.suffix)] + ".mask.npz")
+    _check_output(inp, mask_path)
+    io.save(bad, out)
+    with atomic_write(mask_path, "wb") as fh:
+        np.savez_compressed(
+            fh,
+            mask=mask,
+            joint_names=np.array(m.skeleton.joint_names),
+            kind=np.array(kind),
+            seed=np.array(seed),
+            params=np.array(json.dumps(params)),
+            errors=np.array(json.dumps([_record(r) for r in records])),
+        )
+    frames = int(mask.any(axis=1).sum())
+    console.print(
+        f"wrote {out} and {mask_path}: {int(mask.sum())} joint samples changed in {frames} of {m.num_frames} frames"
+    )
+    for r in records:
+        console.print(f"  {_record(r)}")
+
+
+def _record(r) -> dict:
+    if isinstance(r, dict):
+        return r
+    if hasattr(r, "_asdict"):
+        return dict(r._asdict())
+    import dataclasses
+
+    if dataclasses.is_dataclass(r):
+        return dataclasses.asdict(r)
+    return {"error": str(r)}
+
+
+@app.command()
+def plot(
+    reference: Path = typer.Argument(..., help="Reference motion (e.g. the clean clip)."),
+    other: Path = typer.Argument(..., help="Motion to compare (e.g. the corrupted clip)."),
+    joint: str = typer.Option(..., "--joint", help="Joint whose rotation channels are plotted."),
+    out: Path = typer.Option(..., "-o", "--out", help="PNG to write."),
+    mask: Optional[Path] = typer.Option(None, "--mask", help="A .mask.npz from `mocapkit corrupt` to shade."),
+) -> None:
+    """Plot the rotation channels of one joint of two motions over time, as a PNG."""
+    from . import io
+    from .report import plot_channels
+
+    a, b = io.load(reference), io.load(other)
+    mask_arr = None
+    mask_path = mask or other.with_name(other.name[: -len(other.suffix)] + ".mask.npz")
+    if mask_path.is_file():
+        with np.load(mask_path, allow_pickle=False) as z:
+            mask_arr = z["mask"]
+        if mask_arr.shape[0] != b.num_frames:
+            mask_arr = None
+    try:
+        plot_channels([a, b], joint, out, labels=[reference.stem, other.stem], mask=mask_arr)
+    except KeyError as exc:
+        raise MocapError(str(exc.args[0])) from None
+    console.print(f"wrote {out}")
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Entry point of the console script: runs the app, turning user errors into one line and exit 2."""
+    try:
+        app(args=argv, standalone_mode=False)
+    except MocapError as exc:
+        print(f"mocapkit: error: {exc}", file=sys.stderr)
+        return EXIT_BAD_INPUT
+    except FileNotFoundError as exc:
+        print(f"mocapkit: error: {exc.filename or exc}: no such file", file=sys.stderr)
+        return EXIT_BAD_INPUT
+    except KeyboardInterrupt:
+        print("mocapkit: interrupted; no partial output was left", file=sys.stderr)
+        return 130
+    except Exception as exc:  # click usage errors and the like
+        import click
+
+        if isinstance(exc, click.exceptions.ClickException):
+            exc.show()
+            return exc.exit_code
+        if isinstance(exc, click.exceptions.Abort):
+            return 130
+        raise
+    return 0
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())

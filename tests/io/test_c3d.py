@@ -1,0 +1,57 @@
+import numpy as np
+import pytest
+
+import mocapkit
+from mocapkit.errors import MocapFormatError
+from mocapkit.io.c3d import read_c3d
+
+
+def test_bundled_gait_trial():
+    ms = mocapkit.load(mocapkit.samples.path("Eb015pr.c3d"))
+    assert ms.num_frames == 450 and ms.num_markers == 26 and ms.fps == 50.0
+    assert ms.units == "mm" and ms.unit_cm == 0.1
+    assert ms.labels[:3] == ("RFT1", "RFT2", "RFT3")
+    # the README's validation found 1.9 % of samples flagged invalid (negative residual)
+    assert ms.missing().mean() == pytest.approx(0.019316, abs=1e-5)
+    # markers move smoothly: frame-to-frame steps of a gait trial at 50 Hz stay under 10 cm
+    step = np.linalg.norm(np.diff(ms.positions, axis=0), axis=-1)
+    assert np.nanmax(step) < 100.0
+
+
+def test_every_c3d_in_shared_data_loads(shared_data):
+    # expected marker counts and missing fractions from the data README (python `c3d` validation)
+    expected = {
+        "Eb015pi": (26, 0.019), "Eb015pr": (26, 0.019), "Dance": (40, 0.0), "golfswing": (29, 0.0),
+        "phasespace_sample": (40, 0.046), "dynamic": (34, 0.355), "PiG_Motion-FlatFoot-Full": (193, 0.099),
+        "PiG_Motion-FlatFoot-Hole": (193, 0.105), "Gait": (33, 0.602), "FunctionalWalk": (146, 0.261),
+    }
+    files = sorted(shared_data.rglob("*.c3d"))
+    assert files
+    for f in files:
+        ms = read_c3d(f)
+        n, miss = expected[f.stem]
+        assert ms.num_markers == n, f.name
+        assert ms.missing().mean() == pytest.approx(miss, abs=0.0006), f.name
+        # the trajectories are smooth (a data block read from the wrong offset is not): median step < 5 cm
+        step = np.linalg.norm(np.diff(ms.positions, axis=0), axis=-1) * ms.unit_cm
+        assert np.nanmedian(step) < 5.0, f.name
+
+
+def test_the_two_pig_files_hold_the_same_trial(shared_data):
+    full = read_c3d(shared_data / "c3d_markers" / "PiG_Motion-FlatFoot-Full.c3d")
+    hole = read_c3d(shared_data / "c3d_markers" / "PiG_Motion-FlatFoot-Hole.c3d")
+    assert set(full.labels) == set(hole.labels)
+    # the "Hole" file has more gaps than the complete one
+    assert hole.missing().mean() > full.missing().mean()
+
+
+def test_bad_c3d(tmp_path):
+    bad = tmp_path / "bad.c3d"
+    bad.write_bytes(b"\x00" * 100)
+    with pytest.raises(MocapFormatError, match="bad.c3d"):
+        mocapkit.load(bad)
+    real = mocapkit.samples.path("Eb015pr.c3d").read_bytes()
+    cut = tmp_path / "cut.c3d"
+    cut.write_bytes(real[:1500])
+    with pytest.raises(MocapFormatError, match="cut.c3d"):
+        mocapkit.load(cut)

@@ -1,0 +1,226 @@
+import dataclasses
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+import mocapkit
+from mocapkit import rotations as R
+from mocapkit.errors import SkeletonError
+from mocapkit.motion import Motion, Skeleton, concatenate, find_joint, mirror_pairs, standard_joints, unit_scale_cm
+
+
+def random_motion(seed=0, frames=20, joints=7, with_axes=False, with_translations=False):
+    rng = np.random.default_rng(seed)
+    parents = np.array([-1] + [int(rng.integers(0, j)) for j in range(1, joints)])
+    sk = Skeleton(
+        joint_names=tuple(f"j{i}" for i in range(joints)),
+        parents=parents,
+        offsets=rng.normal(size=(joints, 3)),
+        end_site_parents=np.array([joints - 1]),
+        end_site_offsets=rng.normal(size=(1, 3)),
+        axes=R.quaternion_normalize(rng.normal(size=(joints, 4))) if with_axes else None,
+    )
+    rot = R.quaternion_normalize(rng.normal(size=(frames, joints, 4)))
+    tr = rng.normal(size=(frames, joints, 3)) if with_translations else None
+    return Motion(sk, rot, rng.normal(size=(frames, 3)), fps=30.0, name="rand", translations=tr)
+
+
+def naive_fk(motion):
+    """Per frame, per joint 4x4 matrices: the obvious reference for Motion.global_transforms."""
+    sk = motion.skeleton
+    out = np.zeros((motion.num_frames, sk.num_joints, 3))
+    local = motion.local_offsets()
+    for f in range(motion.num_frames):
+        mats = []
+        for j in range(sk.num_joints):
+            m = np.eye(4)
+            m[:3, :3] = R.to_scipy(motion.rotations[f, j]).as_matrix()[0]
+            m[:3, 3] = local[f, j]
+            mats.append(m if sk.parents[j] < 0 else mats[sk.parents[j]] @ m)
+            out[f, j] = mats[j][:3, 3]
+    return out
+
+
+@pytest.mark.parametrize("translations", [False, True])
+def test_fk_matches_matrix_loop(translations):
+    m = random_motion(3, with_translations=translations)
+    np.testing.assert_allclose(m.global_positions(), naive_fk(m), atol=1e-12)
+
+
+def test_end_sites_follow_their_joint():
+    m = random_motion(4)
+    p = m.global_positions(end_sites=True)
+    grot = m.global_rotations()
+    j = m.skeleton.end_site_parents[0]
+    expected = p[:, j] + R.quaternion_rotate(grot[:, j], m.skeleton.end_site_offsets[0])
+    np.testing.assert_allclose(p[:, m.num_joints], expected, atol=1e-12)
+    assert m.skeleton.end_site_names == ("j6_end",)
+    np.testing.assert_allclose(m.positions(["j6_end", "j2"]), p[:, [7, 2]])
+
+
+def test_motion_is_immutable_and_replace_makes_new():
+    m = random_motion(5)
+    with pytest.raises(ValueError):
+        m.rotations[0, 0, 0] = 2.0
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        m.fps = 10
+    src = np.array(m.rotations)
+    m2 = dataclasses.replace(m, rotations=src)
+    src[0, 0, 0] = 99.0  # our view is read-only, the caller's array stays writable
+    assert m2.rotations.flags.writeable is False
+
+
+def test_bad_shapes_raise_with_the_expected_shape():
+    m = random_motion(6)
+    with pytest.raises(SkeletonError, match=r"expected shape \(F, 7, 4\)"):
+        Motion(m.skeleton, np.zeros((5, 6, 4)), np.zeros((5, 3)), 30.0)
+    with pytest.raises(SkeletonError, match="topological"):
+        Skeleton(("a", "b", "c"), [-1, 2, 0], np.zeros((3, 3)))
+    with pytest.raises(SkeletonError, match="fps"):
+        Motion(m.skeleton, m.rotations, m.root_positions, 0.0)
+
+
+def test_slicing():
+    m = random_motion(7, frames=40)
+    s = m[10:20]
+    assert s.num_frames == 10 and s.fps == 30.0
+    np.testing.assert_array_equal(s.rotations, m.rotations[10:20])
+    t = m[::4]
+    assert t.fps == 7.5 and t.num_frames == 10
+    one = m[-1]
+    assert one.num_frames == 1
+    np.testing.assert_array_equal(one.root_positions[0], m.root_positions[-1])
+    with pytest.raises(TypeError):
+        m[[1, 2]]
+
+
+def test_resample_to_quarter_rate_keeps_every_fourth_frame_exactly():
+    m = random_motion(8, frames=41)
+    m = dataclasses.replace(m, fps=120.0)
+    r = m.resample(30)
+    assert r.fps == 30 and r.num_frames == 11
+    np.testing.assert_array_equal(r.rotations, m.rotations[::4])
+    np.testing.assert_array_equal(r.root_positions, m.root_positions[::4])
+
+
+def test_resample_interpolates_on_the_arc():
+    sk = Skeleton(("root",), [-1], np.zeros((1, 3)))
+    q = R.euler_to_quaternion(np.array([[0.0], [90.0]]), "Z")[:, None]
+    m = Motion(sk, q, np.array([[0.0, 0, 0], [2.0, 0, 0]]), fps=1.0)
+    r = m.resample(2.0)
+    assert r.num_frames == 3
+    assert abs(np.degrees(R.geodesic_angle(r.rotations[1, 0], R.euler_to_quaternion([45.0], "Z")))) < 1e-9
+    np.testing.assert_allclose(r.root_positions[1], [1.0, 0, 0])
+
+
+def test_nan_survives_slicing_resampling_mirroring_and_fk():
+    m = mocapkit.load(mocapkit.samples.path("131_01.bvh"))[:120]
+    rot = np.array(m.rotations)
+    rot[0, 5] = np.nan  # start
+    rot[60, 7] = np.nan  # middle
+    rot[-1, 9] = np.nan  # end
+    g = dataclasses.replace(m, rotations=rot)
+    assert g.missing()[[0, 60, 119], [5, 7, 9]].all() and g.missing().sum() == 3
+    assert np.isnan(g.global_positions()[60, 7]).all()
+    assert np.isfinite(g.global_positions()[60, 6]).all()
+    assert g.resample(30).missing()[0, 5] and g.resample(30).missing()[15, 7]
+    perm = mirror_pairs(m.skeleton.joint_names)
+    assert g.mirror().missing()[60, perm[7]]
+    assert g[50:70].missing()[10, 7]
+
+
+def test_mirror_reflects_and_swaps_exactly():
+    m = mocapkit.load(mocapkit.samples.path("131_01.bvh"))[:50]
+    mm = m.mirror()
+    perm = mirror_pairs(m.skeleton.joint_names)
+    names = m.skeleton.joint_names
+    assert names[perm[names.index("LeftWrist")]] == "RightWrist"
+    assert names[perm[names.index("LHipJoint")]] == "RHipJoint"
+    assert names[perm[names.index("Hips")]] == "Hips"
+    p, q = m.global_positions(), mm.global_positions()
+    flip = np.array([-1.0, 1.0, 1.0])  # CMU: x is lateral
+    np.testing.assert_allclose(q, p[:, perm] * flip, atol=1e-9)
+    # mirroring twice gives the original back
+    back = mm.mirror()
+    np.testing.assert_allclose(back.global_positions(), p, atol=1e-9)
+
+
+def test_mirror_pairs_on_common_rigs():
+    assert mirror_pairs(["joint_Root", "Hips", "UpperLeg_L", "UpperLeg_R"]).tolist() == [0, 1, 3, 2]
+    assert mirror_pairs(["Hips", "LeftUpLeg", "RightUpLeg", "LThumb", "RThumb"]).tolist() == [0, 2, 1, 4, 3]
+    assert mirror_pairs(["root", "lowerback", "lhumerus", "rhumerus"]).tolist() == [0, 1, 3, 2]
+
+
+def test_concatenate():
+    m = random_motion(9, frames=10)
+    c = concatenate([m, m[2:5]], name="both")
+    assert c.num_frames == 13 and c.name == "both"
+    np.testing.assert_array_equal(c.rotations[10:], m.rotations[2:5])
+    other = dataclasses.replace(m, fps=60.0)
+    with pytest.raises(SkeletonError, match="fps"):
+        concatenate([m, other])
+
+
+@settings(max_examples=30, deadline=None)
+@given(seed=st.integers(0, 10_000), axes=st.booleans())
+def test_channel_values_round_trip(seed, axes):
+    rng = np.random.default_rng(seed)
+    orders = ["XYZ", "XZY", "YXZ", "YZX", "ZXY", "ZYX", "ZX", "Y", ""]
+    J = 6
+    channels = [("Xposition", "Yposition", "Zposition") + tuple(f"{a}rotation" for a in "ZYX")]
+    for _ in range(1, J):
+        o = orders[rng.integers(len(orders))]
+        channels.append(tuple(f"{a}rotation" for a in o))
+    sk = Skeleton(
+        tuple(f"j{i}" for i in range(J)),
+        [-1, 0, 1, 2, 1, 4],
+        rng.normal(size=(J, 3)),
+        channels=tuple(channels),
+        axes=R.quaternion_normalize(rng.normal(size=(J, 4))) if axes else None,
+    )
+    ncols = sum(len(c) for c in channels)
+    values = rng.uniform(-80, 80, size=(5, ncols))
+    m = Motion.from_channel_values(sk, values, fps=60)
+    np.testing.assert_allclose(m.channel_values(), values, atol=1e-8)
+    assert m.channel_names()[0] == "j0.Xposition"
+
+
+def test_find_joint_on_cmu_hdm05_and_bvh_rigs():
+    bvh = mocapkit.load(mocapkit.samples.path("131_01.bvh")).skeleton
+    got = {r: bvh.joint_names[j] for r, j in standard_joints(bvh).items()}
+    assert got["left_hand"] == "LeftWrist" and got["right_foot"] == "RightAnkle" and got["head"] == "Head"
+    assert got["left_elbow"] == "LeftElbow" and got["left_shoulder"] == "LeftShoulder" and got["pelvis"] == "Hips"
+    mb = Skeleton(
+        ("Hips", "LeftUpLeg", "LeftLeg", "LeftFoot", "RightUpLeg", "RightLeg", "RightFoot", "Spine", "Spine1",
+         "Head", "LeftShoulder", "LeftArm", "LeftForeArm", "LeftHand", "RightShoulder", "RightArm",
+         "RightForeArm", "RightHand"),
+        [-1, 0, 1, 2, 0, 4, 5, 0, 7, 8, 8, 10, 11, 12, 8, 14, 15, 16],
+        np.ones((18, 3)),
+    )
+    names = lambda role: mb.joint_names[find_joint(mb, role)]
+    assert names("left_hand") == "LeftHand" and names("left_shoulder") == "LeftArm"
+    assert names("left_knee") == "LeftLeg" and names("left_hip") == "LeftUpLeg" and names("chest") == "Spine1"
+    bandai = Skeleton(
+        ("joint_Root", "Hips", "Spine", "Chest", "Neck", "Head", "Shoulder_L", "UpperArm_L", "LowerArm_L", "Hand_L",
+         "Shoulder_R", "UpperArm_R", "LowerArm_R", "Hand_R", "UpperLeg_L", "LowerLeg_L", "Foot_L", "UpperLeg_R",
+         "LowerLeg_R", "Foot_R"),
+        [-1, 0, 1, 2, 3, 4, 3, 6, 7, 8, 3, 10, 11, 12, 1, 14, 15, 1, 17, 18],
+        np.ones((20, 3)),
+    )
+    names = lambda role: bandai.joint_names[find_joint(bandai, role)]
+    assert names("pelvis") == "Hips" and names("right_hand") == "Hand_R" and names("left_foot") == "Foot_L"
+    assert names("left_shoulder") == "UpperArm_L" and names("lower_back") == "Spine"
+    with pytest.raises(KeyError, match="unknown role"):
+        find_joint(bandai, "tail")
+
+
+def test_unit_scale_checks_bone_lengths():
+    bvh = mocapkit.load(mocapkit.samples.path("131_01.bvh")).skeleton
+    assert unit_scale_cm(bvh) == pytest.approx(2.54 / 0.45)  # a CMU conversion, lengths in 1/0.45 inch
+    scaled = dataclasses.replace(bvh, offsets=bvh.offsets * (2.54 / 0.45))
+    assert unit_scale_cm(scaled) == 1.0  # the same body in centimetres
+    tiny = dataclasses.replace(bvh, offsets=bvh.offsets * 1e-4)
+    with pytest.raises(SkeletonError, match="cannot tell the length unit"):
+        unit_scale_cm(tiny)

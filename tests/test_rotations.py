@@ -1,0 +1,163 @@
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from hypothesis.extra.numpy import arrays
+from scipy.spatial.transform import Rotation
+
+from mocapkit import rotations as R
+
+ORDERS = ["XYZ", "XZY", "YXZ", "YZX", "ZXY", "ZYX"]
+
+finite = st.floats(-1.0, 1.0, allow_nan=False, width=64)
+quats = arrays(np.float64, (4,), elements=finite).filter(lambda q: np.linalg.norm(q) > 0.1).map(
+    lambda q: q / np.linalg.norm(q)
+)
+
+
+def test_scipy_order_is_pinned_w_first():
+    # 90 degrees about z: scipy's scalar-first quaternion must equal ours.
+    q = R.euler_to_quaternion([90.0], "Z")
+    np.testing.assert_allclose(q, [np.cos(np.pi / 4), 0, 0, np.sin(np.pi / 4)], atol=1e-15)
+    np.testing.assert_allclose(R.from_scipy(R.to_scipy(q))[0], q, atol=1e-15)
+    np.testing.assert_allclose(Rotation.from_quat(q, scalar_first=True).as_rotvec(), [0, 0, np.pi / 2], atol=1e-15)
+
+
+@pytest.mark.parametrize("order", ORDERS + [o.lower() for o in ORDERS])
+def test_euler_to_quaternion_matches_scipy(order):
+    rng = np.random.default_rng(0)
+    ang = rng.uniform(-180, 180, size=(200, 3))
+    ours = R.euler_to_quaternion(ang, order)
+    ref = Rotation.from_euler(order, ang, degrees=True).as_quat(scalar_first=True)
+    dots = np.abs(np.sum(ours * ref, axis=1))
+    np.testing.assert_allclose(dots, 1.0, atol=1e-12)
+
+
+def test_bvh_and_asf_conventions_agree():
+    # BVH "Zrotation Yrotation Xrotation" (intrinsic ZYX) and ASF "dof rx ry rz" (extrinsic xyz)
+    # are the same matrix Rz @ Ry @ Rx for the same x, y, z angles.
+    x, y, z = 10.0, -25.0, 70.0
+    bvh = R.euler_to_quaternion([z, y, x], "ZYX")
+    asf = R.euler_to_quaternion([x, y, z], "xyz")
+    assert np.degrees(R.geodesic_angle(bvh, asf)) < 1e-12
+    m = R.quaternion_to_matrix(bvh)
+    c = lambda a: (np.cos(np.radians(a)), np.sin(np.radians(a)))
+    (cx, sx), (cy, sy), (cz, sz) = c(x), c(y), c(z)
+    rx = np.array([[1, 0, 0], [0, cx, -sx], [0, sx, cx]])
+    ry = np.array([[cy, 0, sy], [0, 1, 0], [-sy, 0, cy]])
+    rz = np.array([[cz, -sz, 0], [sz, cz, 0], [0, 0, 1]])
+    np.testing.assert_allclose(m, rz @ ry @ rx, atol=1e-14)
+
+
+@settings(max_examples=200, deadline=None)
+@given(
+    order=st.sampled_from(ORDERS + [o.lower() for o in ORDERS]),
+    a=st.floats(-179.0, 179.0),
+    b=st.floats(-85.0, 85.0),
+    c=st.floats(-179.0, 179.0),
+)
+def test_euler_quat_euler_round_trip(order, a, b, c):
+    ang = np.array([a, b, c])
+    back = R.quaternion_to_euler(R.euler_to_quaternion(ang, order), order)
+    # Away from gimbal lock (middle angle within +-85 deg) the angles themselves come back.
+    np.testing.assert_allclose(back, ang, atol=1e-7)
+
+
+@settings(max_examples=100, deadline=None)
+@given(order=st.sampled_from(["x", "y", "z", "xz", "zx", "XY", "YZ", "ZX"]), data=st.data())
+def test_partial_orders_round_trip(order, data):
+    ang = np.array([data.draw(st.floats(-80.0, 80.0)) for _ in order])
+    back = R.quaternion_to_euler(R.euler_to_quaternion(ang, order), order)
+    np.testing.assert_allclose(back, ang, atol=1e-7)
+
+
+@settings(max_examples=200, deadline=None)
+@given(q=quats)
+def test_log_exp_inverse(q):
+    back = R.quaternion_exp(R.quaternion_log(q))
+    assert abs(abs(np.dot(back, q)) - 1.0) < 1e-12
+
+
+@settings(max_examples=200, deadline=None)
+@given(v=arrays(np.float64, (3,), elements=st.floats(-0.9, 0.9)).filter(lambda v: np.linalg.norm(v) < 1.55))
+def test_exp_log_inverse_within_half_pi(v):
+    # log returns half-angle vectors of norm <= pi/2; inside that ball exp then log is the identity.
+    np.testing.assert_allclose(R.quaternion_log(R.quaternion_exp(v)), v, atol=1e-12)
+
+
+@settings(max_examples=200, deadline=None)
+@given(a=quats, b=quats)
+def test_geodesic_symmetric_and_zero_on_identical(a, b):
+    assert R.geodesic_angle(a, a) < 1e-7
+    assert R.geodesic_angle(a, -a) < 1e-7
+    assert abs(R.geodesic_angle(a, b) - R.geodesic_angle(b, a)) < 1e-12
+    # equals twice the log norm of the relative rotation (Aristidou eq. 1)
+    rel = R.quaternion_multiply(R.quaternion_inverse(a), b)
+    assert abs(R.geodesic_angle(a, b) - 2 * np.linalg.norm(R.quaternion_log(rel))) < 1e-9
+
+
+@settings(max_examples=100, deadline=None)
+@given(q=quats, v=arrays(np.float64, (3,), elements=st.floats(-10, 10)))
+def test_rotate_matches_matrix(q, v):
+    np.testing.assert_allclose(R.quaternion_rotate(q, v), R.quaternion_to_matrix(q) @ v, atol=1e-12)
+
+
+@settings(max_examples=100, deadline=None)
+@given(a=quats, b=quats)
+def test_multiply_is_matrix_product(a, b):
+    np.testing.assert_allclose(
+        R.quaternion_to_matrix(R.quaternion_multiply(a, b)),
+        R.quaternion_to_matrix(a) @ R.quaternion_to_matrix(b),
+        atol=1e-12,
+    )
+
+
+def test_matrix_round_trip():
+    rng = np.random.default_rng(1)
+    q = R.quaternion_normalize(rng.normal(size=(50, 4)))
+    back = R.matrix_to_quaternion(R.quaternion_to_matrix(q))
+    np.testing.assert_allclose(np.abs(np.sum(back * q, axis=1)), 1.0, atol=1e-12)
+
+
+@settings(max_examples=100, deadline=None)
+@given(a=quats, b=quats, t=st.floats(0.0, 1.0))
+def test_slerp_endpoints_and_constant_speed(a, b, t):
+    assert R.geodesic_angle(R.slerp(a, b, 0.0), a) < 1e-6
+    assert R.geodesic_angle(R.slerp(a, b, 1.0), b) < 1e-6
+    total = R.geodesic_angle(a, b)
+    mid = R.slerp(a, b, t)
+    assert abs(R.geodesic_angle(a, mid) - t * total) < 1e-6
+
+
+def test_continuity_removes_sign_flips_and_bridges_nan():
+    rng = np.random.default_rng(2)
+    angles = np.cumsum(rng.normal(scale=2.0, size=(100, 3)), axis=0)
+    q = R.euler_to_quaternion(angles, "ZYX")
+    signs = rng.choice([-1.0, 1.0], size=(100, 1))
+    flipped = q * signs
+    flipped[40:45] = np.nan
+    out = R.quaternion_continuity(flipped)
+    assert np.all(np.isnan(out[40:45]))
+    ok = np.isfinite(out[:, 0])
+    idx = np.flatnonzero(ok)
+    dots = np.sum(out[idx[1:]] * out[idx[:-1]], axis=1)
+    assert np.all(dots > 0)
+    # same rotations as before
+    assert np.all(R.geodesic_angle(out[ok], q[ok]) < 1e-7)
+
+
+def test_nan_passes_through():
+    q = np.array([[np.nan, 0, 0, 0], [1, 0, 0, 0]])
+    assert np.isnan(R.quaternion_multiply(q, q)[0]).all()
+    assert np.isnan(R.quaternion_log(q)[0]).all()
+    assert np.isnan(R.quaternion_to_euler(q, "ZYX")[0]).all()
+    assert np.isfinite(R.quaternion_to_euler(q, "ZYX")[1]).all()
+
+
+def test_bad_shapes_name_the_fix():
+    with pytest.raises(ValueError, match=r"expected shape \(\.\.\., 4\)"):
+        R.geodesic_angle(np.zeros((3, 5)), np.zeros((3, 4)))
+    with pytest.raises(ValueError, match="only contain x, y and z"):
+        R.euler_to_quaternion([1.0, 2.0, 3.0], "ABC")
+    with pytest.raises(ValueError, match="mixes cases"):
+        R.euler_to_quaternion([1.0, 2.0, 3.0], "Xyz")
