@@ -215,7 +215,9 @@ def plot(
 def main(argv: list[str] | None = None) -> int:
     """Entry point of the console script: runs the app, turning user errors into one line and exit 2."""
     try:
-        app(args=argv, standalone_mode=False)
+        app(args=argv)  # standalone: usage errors print their help and exit 2 themselves
+    except SystemExit as exc:
+        return exc.code if isinstance(exc.code, int) else (0 if exc.code is None else 1)
     except MocapError as exc:
         print(f"mocapkit: error: {exc}", file=sys.stderr)
         return EXIT_BAD_INPUT
@@ -225,15 +227,6 @@ def main(argv: list[str] | None = None) -> int:
     except KeyboardInterrupt:
         print("mocapkit: interrupted; no partial output was left", file=sys.stderr)
         return 130
-    except Exception as exc:  # click usage errors and the like
-        import click
-
-        if isinstance(exc, click.exceptions.ClickException):
-            exc.show()
-            return exc.exit_code
-        if isinstance(exc, click.exceptions.Abort):
-            return 130
-        raise
     return 0
 
 

@@ -1,0 +1,515 @@
+"""BVH reading and writing: real files, round trips, an independent FK oracle, edge cases, bad files."""
+
+import os
+import re
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+import mocapkit
+from mocapkit.errors import MocapFormatError
+from mocapkit.io.bvh import read_bvh, write_bvh
+from mocapkit.motion import Motion, Skeleton
+from mocapkit.rotations import euler_to_quaternion, geodesic_angle, quaternion_normalize
+from tests.naive import naive_bvh_fk, naive_bvh_parse
+
+
+def skeleton_size(m: Motion) -> float:
+    rest = m.skeleton.rest_positions(end_sites=True)
+    return float(np.linalg.norm(np.ptp(rest, axis=0)))
+
+
+def assert_same_motion(a: Motion, b: Motion, pos_tol: float = 1e-6):
+    """Rotations within 1e-4 degrees, root positions / translations within ``pos_tol``, same FK."""
+    assert a.num_frames == b.num_frames
+    assert a.fps == b.fps
+    assert a.skeleton.joint_names == b.skeleton.joint_names
+    np.testing.assert_array_equal(a.skeleton.parents, b.skeleton.parents)
+    np.testing.assert_array_equal(a.skeleton.offsets, b.skeleton.offsets)
+    np.testing.assert_array_equal(a.skeleton.end_site_parents, b.skeleton.end_site_parents)
+    np.testing.assert_array_equal(a.skeleton.end_site_offsets, b.skeleton.end_site_offsets)
+    ang = np.degrees(geodesic_angle(a.rotations, b.rotations))
+    assert np.array_equal(np.isnan(ang), np.isnan(a.rotations).any(-1))
+    assert np.nanmax(ang, initial=0.0) < 1e-4
+    np.testing.assert_allclose(a.root_positions, b.root_positions, rtol=0, atol=pos_tol)
+    np.testing.assert_allclose(a.local_offsets(), b.local_offsets(), rtol=0, atol=pos_tol)
+    assert (a.translations is None) == (b.translations is None)
+    # 1e-4 degrees of rotation error at most moves a point by size * 1.7e-6; files keep 6 decimals
+    tol = 1e-7 * skeleton_size(a) + 2 * pos_tol
+    np.testing.assert_allclose(a.global_positions(end_sites=True), b.global_positions(end_sites=True), rtol=0, atol=tol)
+
+
+def round_trip(m: Motion, tmp_path, **kw) -> Motion:
+    out = tmp_path / f"{m.name or 'clip'}_rt.bvh"
+    write_bvh(m, out, **kw)
+    return read_bvh(out)
+
+
+def check_fk_against_naive(path, m: Motion, frames):
+    naive = naive_bvh_fk(path, frames)
+    ours = m.global_positions(end_sites=True)[frames]
+    tol = 1e-9 * skeleton_size(m)
+    np.testing.assert_allclose(ours, naive, rtol=0, atol=tol)
+
+
+# -- real files ---------------------------------------------------------------------
+
+
+def test_every_bvh_in_shared_data_round_trips(shared_data, tmp_path):
+    files = sorted(shared_data.rglob("*.bvh"))
+    assert files
+    for f in files:
+        m = read_bvh(f)
+        _, _, frames, _ = naive_bvh_parse(f)
+        assert m.num_frames == len(frames) and m.name == f.stem
+        assert m.skeleton.channels is not None
+        assert_same_motion(m, round_trip(m, tmp_path))
+        # the written file keeps the file's own channel layout
+        assert read_bvh(tmp_path / f"{m.name}_rt.bvh").skeleton.channels == m.skeleton.channels
+
+
+def check_fused_conversion(path):
+    """The reader's numba conversion agrees with the numpy reference route (Motion.from_channel_values)."""
+    m = read_bvh(path)
+    raw = np.array(naive_bvh_parse(path)[2])
+    ref = Motion.from_channel_values(m.skeleton, raw, m.fps, name=m.name, animated_offsets=True)
+    np.testing.assert_allclose(m.rotations, ref.rotations, rtol=0, atol=1e-15)
+    np.testing.assert_array_equal(m.root_positions, ref.root_positions)
+    assert (m.translations is None) == (ref.translations is None)
+    np.testing.assert_array_equal(m.local_offsets(), ref.local_offsets())
+
+
+def test_fused_conversion_on_shared_data(shared_data):
+    for f in sorted(shared_data.rglob("*.bvh")):
+        check_fused_conversion(f)
+
+
+def test_fused_conversion_on_sample_and_odd_layouts(tmp_path, rng):
+    check_fused_conversion(mocapkit.samples.path("131_01.bvh"))
+    odd = tmp_path / "odd.bvh"
+    odd.write_text(bvh_text(ODD, odd_rows(rng).tolist()))
+    check_fused_conversion(odd)
+
+
+def test_shared_data_facts(shared_data):
+    cmu = read_bvh(shared_data / "cmu_bvh" / "01_01.bvh")
+    assert (cmu.num_frames, cmu.num_joints, cmu.fps) == (2752, 31, 120.0)
+    assert cmu.translations is None and cmu.skeleton.num_end_sites == 7  # head, 2 thumbs, 2 hands, 2 toes
+    for f in sorted((shared_data / "secondary_bandai_namco_CC-BY-NC").glob("*.bvh")):
+        m = read_bvh(f)
+        assert m.fps == 30.0 and m.num_joints == 22 and m.translations is not None
+        assert all(len(c) == 6 for c in m.skeleton.channels)
+
+
+def test_bundled_sample_round_trips(tmp_path):
+    path = mocapkit.samples.path("131_01.bvh")
+    m = mocapkit.load(path)
+    assert (m.num_frames, m.num_joints, m.fps, m.name) == (994, 31, 120.0, "131_01")
+    assert_same_motion(m, round_trip(m, tmp_path))
+    out = tmp_path / "via_save.bvh"
+    assert mocapkit.save(m, out) == out
+    assert_same_motion(m, mocapkit.load(out))
+
+
+def test_round_trip_is_stable_on_second_write(tmp_path):
+    m = mocapkit.load(mocapkit.samples.path("131_01.bvh"))
+    a = tmp_path / "a.bvh"
+    b = tmp_path / "b.bvh"
+    write_bvh(m, a)
+    write_bvh(read_bvh(a), b)
+    assert a.read_text().split("MOTION")[1] == b.read_text().split("MOTION")[1]
+
+
+# -- FK oracle ----------------------------------------------------------------------
+
+
+def test_fk_matches_naive_matrices_on_shared_data(shared_data):
+    for f in sorted(shared_data.rglob("*.bvh")):
+        m = read_bvh(f)
+        F = m.num_frames
+        check_fk_against_naive(f, m, sorted({0, 1, F // 3, F // 2, F - 1}))
+
+
+def test_fk_matches_naive_matrices_on_sample():
+    path = mocapkit.samples.path("131_01.bvh")
+    m = read_bvh(path)
+    check_fk_against_naive(path, m, [0, 1, 100, 500, 993])
+
+
+# -- edge cases ----------------------------------------------------------------------
+
+
+def bvh_text(blocks: str, rows, frame_time="0.0333333", frames=None) -> str:
+    lines = ["HIERARCHY", blocks.strip("\n"), "MOTION", f"Frames: {len(rows) if frames is None else frames}",
+             f"Frame Time: {frame_time}"]
+    lines += [" ".join(str(v) for v in r) for r in rows]
+    return "\n".join(lines) + "\n"
+
+
+ODD = """ROOT Hips
+{
+  OFFSET 1.5 -2 3
+  CHANNELS 6 Yposition Xrotation Zposition Zrotation Xposition Yrotation
+  JOINT One
+  {
+    OFFSET 0 10 0
+    CHANNELS 1 Yrotation
+    JOINT Two
+    {
+      OFFSET 2 3 -1
+      CHANNELS 2 Xrotation Zrotation
+      End Site
+      {
+        OFFSET 0 4 0
+      }
+    }
+  }
+  JOINT Three
+  {
+    OFFSET -3 0 1
+    CHANNELS 3 Yposition Xrotation Zposition
+    End Site
+    {
+      OFFSET 1 1 1
+    }
+  }
+  JOINT Still
+  {
+    OFFSET 0 -5 0
+    CHANNELS 0
+    JOINT Six
+    {
+      OFFSET 0.5 0.5 0.5
+      CHANNELS 6 Zposition Yrotation Xposition Xrotation Yposition Zrotation
+      End Site
+      {
+        OFFSET 0 0 2
+      }
+    }
+  }
+}"""
+ODD_NCOLS = 6 + 1 + 2 + 3 + 0 + 6
+
+
+def odd_rows(rng, n=7):
+    return np.round(rng.uniform(-170, 170, size=(n, ODD_NCOLS)), 4)
+
+
+def test_odd_channel_orders_match_naive_fk(tmp_path, rng):
+    rows = odd_rows(rng)
+    path = tmp_path / "odd.bvh"
+    path.write_text(bvh_text(ODD, rows.tolist()))
+    m = read_bvh(path)
+    sk = m.skeleton
+    assert sk.joint_names == ("Hips", "One", "Two", "Three", "Still", "Six")
+    assert sk.parents.tolist() == [-1, 0, 1, 0, 0, 4]
+    assert [len(c) for c in sk.channels] == [6, 1, 2, 3, 0, 6]
+    assert sk.rotation_order(0) == "XZY" and sk.rotation_order(2) == "XZ" and sk.rotation_order(3) == "X"
+    assert sk.end_site_parents.tolist() == [2, 3, 5]
+    np.testing.assert_array_equal(sk.end_site_offsets, [[0, 4, 0], [1, 1, 1], [0, 0, 2]])
+    # root position channels replace the OFFSET; joint "Three" keeps its OFFSET x, takes y and z from channels
+    np.testing.assert_array_equal(m.root_positions, rows[:, [4, 0, 2]])
+    assert m.translations is not None
+    np.testing.assert_array_equal(m.translations[:, 3], np.stack([np.full(7, -3.0), rows[:, 9], rows[:, 11]], 1))
+    np.testing.assert_array_equal(m.translations[:, 5], rows[:, [14, 16, 12]])
+    np.testing.assert_array_equal(m.translations[:, 1], np.broadcast_to([0.0, 10.0, 0.0], (7, 3)))
+    np.testing.assert_array_equal(m.rotations[:, 4], np.broadcast_to([1.0, 0, 0, 0], (7, 4)))
+    check_fk_against_naive(path, m, list(range(7)))
+    # channel values come back as the file wrote them: positions exactly, 1- and 2-axis rotations too (they have
+    # no third-axis component); 3-axis rotations may come back as the other Euler solution of the same rotation
+    exact_cols = [0, 2, 4, 6, 7, 8, 9, 10, 11, 12, 14, 16]
+    np.testing.assert_allclose(m.channel_values()[:, exact_cols], rows[:, exact_cols], rtol=0, atol=1e-9)
+    back = round_trip(m, tmp_path)
+    assert back.skeleton.channels == sk.channels
+    assert_same_motion(m, back)
+    check_fk_against_naive(tmp_path / "odd_rt.bvh", back, list(range(7)))
+
+
+def test_tabs_crlf_and_scientific_notation(tmp_path, rng):
+    rows = odd_rows(rng, 4)
+    plain = bvh_text(ODD, rows.tolist())
+    p1 = tmp_path / "plain.bvh"
+    p1.write_text(plain)
+    # same numbers in scientific notation, tabs for indentation and between values, CRLF line ends
+    sci = plain.split("Frame Time: 0.0333333\n")[0] + "Frame Time: 3.33333e-002\n"
+    sci += "".join("\t".join(f"{v:.6e}" for v in r) + " \t\n" for r in rows)
+    sci = re.sub(r"^ +", lambda mm: "\t" * (len(mm.group()) // 2), sci, flags=re.M).replace("\n", "\r\n")
+    p2 = tmp_path / "sci_tabs_crlf.bvh"
+    p2.write_bytes(sci.encode())
+    a, b = read_bvh(p1), read_bvh(p2)
+    assert b.fps == 30.0
+    np.testing.assert_array_equal(a.channel_values(), b.channel_values())
+    np.testing.assert_array_equal(a.global_positions(True), b.global_positions(True))
+    tiny = tmp_path / "tiny.bvh"
+    tiny.write_text(bvh_text("ROOT r\n{\nOFFSET 0 0 0\nCHANNELS 3 Xposition Yposition Zposition\n}",
+                             [["3.64024e-015", "1E+2", "-.5e1"], ["+1.", ".0083", "-0"]]))
+    np.testing.assert_array_equal(read_bvh(tiny).root_positions, [[3.64024e-15, 100.0, -5.0], [1.0, 0.0083, -0.0]])
+
+
+def test_blank_lines_and_trailing_spaces_in_motion(tmp_path):
+    text = bvh_text("ROOT r\n{\nOFFSET 0 0 0\nCHANNELS 3 Xposition Yposition Zposition\n}", [[1, 2, 3], [4, 5, 6]])
+    text = text.replace("1 2 3\n", "1 2 3   \n\n   \n")
+    (tmp_path / "blank.bvh").write_text(text + "\n\n")
+    np.testing.assert_array_equal(read_bvh(tmp_path / "blank.bvh").root_positions, [[1, 2, 3], [4, 5, 6]])
+
+
+@pytest.mark.parametrize(
+    "offset, channels, expect",
+    [
+        ("OFFSET 0 0 0", "CHANNELS 6 Xposition Yposition Zposition Zrotation Yrotation Xrotation", "channels"),
+        ("OFFSET 10 20 30", "CHANNELS 6 Xposition Yposition Zposition Zrotation Yrotation Xrotation", "channels"),
+        ("OFFSET 10 20 30", "CHANNELS 3 Zrotation Yrotation Xrotation", "offset"),
+        ("", "CHANNELS 3 Zrotation Yrotation Xrotation", "zero"),
+        ("", "CHANNELS 6 Xposition Yposition Zposition Zrotation Yrotation Xrotation", "channels"),
+    ],
+)
+def test_root_offset_and_position_channels(tmp_path, offset, channels, expect):
+    n = int(channels.split()[1])
+    rows = [[float(k + 3 * f) for k in range(n)] for f in range(3)]
+    blocks = f"ROOT Hips\n{{\n{offset}\n{channels}\nJOINT Leg\n{{\nOFFSET 0 -4 0\nCHANNELS 1 Xrotation\n}}\n}}"
+    path = tmp_path / "root.bvh"
+    path.write_text(bvh_text(blocks, [r + [30.0] for r in rows]))
+    m = read_bvh(path)
+    if expect == "channels":
+        np.testing.assert_array_equal(m.root_positions, np.array(rows)[:, :3])
+    elif expect == "offset":
+        np.testing.assert_array_equal(m.root_positions, np.broadcast_to([10.0, 20.0, 30.0], (3, 3)))
+    else:
+        np.testing.assert_array_equal(m.root_positions, np.zeros((3, 3)))
+    assert m.translations is None
+    check_fk_against_naive(path, m, [0, 1, 2])
+    assert_same_motion(m, round_trip(m, tmp_path))
+
+
+@pytest.mark.parametrize(
+    "frame_time, fps", [
+        (".0083333", 120.0), ("0.0333333", 30.0), ("0.04", 25.0), ("1", 1.0), ("8.3333e-03", 120.0),
+        ("0.0104167", 96.0), ("0.0333667", 1 / 0.0333667), ("0.0125001", 1 / 0.0125001), ("0.1234", 1 / 0.1234),
+    ]
+)
+def test_frame_time_to_fps(tmp_path, frame_time, fps):
+    path = tmp_path / "ft.bvh"
+    path.write_text(bvh_text("ROOT r\n{\nCHANNELS 1 Xposition\n}", [[1.0]], frame_time=frame_time))
+    assert read_bvh(path).fps == fps
+
+
+def test_nan_values_read_and_write(tmp_path, rng):
+    rows = odd_rows(rng, 5).astype(object)
+    rows[1, 0] = "nan"  # root Yposition
+    rows[3, 7] = "NaN"  # joint Two Xrotation
+    path = tmp_path / "gaps.bvh"
+    path.write_text(bvh_text(ODD, rows.tolist()))
+    m = read_bvh(path)
+    assert np.isnan(m.root_positions[1, 1]) and not np.isnan(m.root_positions[[0, 2, 3, 4]]).any()
+    assert np.isnan(m.rotations[3, 2]).all() and np.isnan(m.rotations).any(-1).sum() == 1
+    assert m.missing().sum() == 2
+    back = round_trip(m, tmp_path, allow_nan=True)
+    assert "nan" in (tmp_path / "gaps_rt.bvh").read_text()
+    assert_same_motion(m, back)
+    np.testing.assert_array_equal(np.isnan(back.root_positions), np.isnan(m.root_positions))
+
+
+def test_writing_nan_without_allow_nan_raises_and_leaves_no_file(tmp_path, rng):
+    m = read_bvh(mocapkit.samples.path("131_01.bvh"))[:20]
+    rot = np.array(m.rotations)
+    rot[[3, 7], 4] = np.nan
+    bad = Motion(m.skeleton, rot, m.root_positions, m.fps, "gappy")
+    out = tmp_path / "gappy.bvh"
+    with pytest.raises(MocapFormatError, match=r"missing values \(NaN\) in 2 frames; fill them or save as \.npz") as e:
+        write_bvh(bad, out)
+    assert "gappy.bvh" in str(e.value)
+    assert not out.exists() and os.listdir(tmp_path) == []
+    # an existing file is left untouched
+    write_bvh(m, out)
+    before = out.read_bytes()
+    with pytest.raises(MocapFormatError):
+        mocapkit.save(bad, out)
+    assert out.read_bytes() == before and os.listdir(tmp_path) == ["gappy.bvh"]
+
+
+def test_written_angles_are_unwrapped(tmp_path):
+    F = 200
+    sk = Skeleton(("root", "spin"), [-1, 0], [[0, 0, 0], [0, 1, 0]], channels=(("Xposition", "Yposition", "Zposition"),
+                                                                                ("Zrotation", "Yrotation", "Xrotation")))
+    angles = np.zeros((F, 3))
+    angles[:, 0] = np.linspace(0, 1000, F)  # about Z, several turns
+    angles[:, 2] = np.linspace(0, -400, F)  # about X
+    rot = np.stack([np.tile([1.0, 0, 0, 0], (F, 1)), euler_to_quaternion(angles, "ZYX")], axis=1)
+    m = Motion(sk, rot, np.zeros((F, 3)), 60.0, "spin")
+    path = tmp_path / "spin.bvh"
+    write_bvh(m, path)
+    _, _, frames, _ = naive_bvh_parse(path)
+    cols = np.array(frames)[:, 3:]
+    assert np.abs(np.diff(cols, axis=0)).max() < 30.0
+    assert_same_motion(m, read_bvh(path))
+
+
+def test_asf_style_skeleton_is_written_as_zyx(tmp_path, rng):
+    J = 4
+    axes = quaternion_normalize(rng.normal(size=(J, 4)))
+    chans = (
+        ("Xposition", "Yposition", "Zposition", "Xrotation", "Yrotation", "Zrotation"),
+        ("Xrotation", "Zrotation"),
+        (),
+        ("Yrotation",),
+    )
+    sk = Skeleton(("root", "a", "b", "c"), [-1, 0, 1, 1], rng.normal(size=(J, 3)), [2, 3], rng.normal(size=(2, 3)),
+                  channels=chans, axes=axes)
+    values = np.concatenate([rng.normal(size=(9, 3)) * 10, rng.uniform(-90, 90, size=(9, 6))], axis=1)
+    m = Motion.from_channel_values(sk, values, fps=120.0, name="asf")
+    path = tmp_path / "asf.bvh"
+    write_bvh(m, path)
+    back = read_bvh(path)
+    assert back.skeleton.axes is None
+    assert back.skeleton.channels == (
+        ("Xposition", "Yposition", "Zposition", "Zrotation", "Yrotation", "Xrotation"),
+        ("Zrotation", "Yrotation", "Xrotation"),
+        (),
+        ("Zrotation", "Yrotation", "Xrotation"),
+    )
+    assert_same_motion(m, back)
+
+
+def test_breadth_first_skeleton_is_written_depth_first(tmp_path, rng):
+    # ASF hierarchies may list joints breadth first: 0 -> (1, 2), 1 -> 3, 2 -> 4
+    names = ("root", "l1", "r1", "l2", "r2")
+    sk = Skeleton(names, [-1, 0, 0, 1, 2], rng.normal(size=(5, 3)), [3, 4], rng.normal(size=(2, 3)))
+    F = 6
+    rot = quaternion_normalize(rng.normal(size=(F, 5, 4)))
+    m = Motion(sk, rot, rng.normal(size=(F, 3)), 120.0, "bfs")
+    path = tmp_path / "bfs.bvh"
+    write_bvh(m, path)
+    back = read_bvh(path)
+    assert back.skeleton.joint_names == ("root", "l1", "l2", "r1", "r2")
+    perm = [names.index(n) for n in back.skeleton.joint_names]
+    assert back.skeleton.parents.tolist() == [-1, 0, 1, 0, 3]
+    np.testing.assert_array_equal(back.skeleton.offsets, sk.offsets[perm])
+    assert np.degrees(geodesic_angle(back.rotations, m.rotations[:, perm])).max() < 1e-4
+    np.testing.assert_allclose(back.global_positions(), m.global_positions()[:, perm], atol=1e-5)
+    np.testing.assert_allclose(back.end_site_positions(), m.end_site_positions(), atol=1e-5)
+    check_fk_against_naive(path, back, list(range(F)))
+
+
+def test_animated_offsets_are_written_even_without_position_channels(tmp_path, rng):
+    m = read_bvh(mocapkit.samples.path("131_01.bvh"))[:10]
+    tr = np.array(m.local_offsets())
+    tr[:, 5] += rng.normal(size=(10, 3))
+    moved = Motion(m.skeleton, m.rotations, m.root_positions, m.fps, "moved", translations=tr)
+    back = round_trip(moved, tmp_path)
+    assert back.skeleton.channels[5][:3] == ("Xposition", "Yposition", "Zposition")
+    assert_same_motion(moved, back)
+
+
+@given(st.lists(st.floats(-1e4, 1e4, allow_nan=False), min_size=6, max_size=6), st.integers(3, 8))
+@settings(max_examples=30, deadline=None)
+def test_precision_bounds_round_trip_error(tmp_path_factory, row, precision):
+    path = tmp_path_factory.mktemp("prec") / "p.bvh"
+    path.write_text(bvh_text("ROOT r\n{\nCHANNELS 6 Xposition Yposition Zposition Xrotation Yrotation Zrotation\n}",
+                             [row]))
+    m = read_bvh(path)
+    write_bvh(m, path, precision=precision)
+    back = read_bvh(path)
+    assert np.abs(back.root_positions - m.root_positions).max() <= 0.5 * 10.0**-precision * (1 + 1e-9) + 1e-9
+    # three angles each rounded by at most half a unit of the last decimal
+    assert np.degrees(geodesic_angle(back.rotations, m.rotations)).max() <= 1.5 * 10.0**-precision + 1e-9
+
+
+# -- bad files ---------------------------------------------------------------------
+
+GOOD_LINES = [
+    "HIERARCHY",                                                                  # 1
+    "ROOT Hips",                                                                  # 2
+    "{",                                                                          # 3
+    "\tOFFSET 0 0 0",                                                             # 4
+    "\tCHANNELS 6 Xposition Yposition Zposition Zrotation Yrotation Xrotation",   # 5
+    "\tJOINT Spine",                                                              # 6
+    "\t{",                                                                        # 7
+    "\t\tOFFSET 0 10 0",                                                          # 8
+    "\t\tCHANNELS 3 Zrotation Yrotation Xrotation",                               # 9
+    "\t\tEnd Site",                                                               # 10
+    "\t\t{",                                                                      # 11
+    "\t\t\tOFFSET 0 5 0",                                                         # 12
+    "\t\t}",                                                                      # 13
+    "\t}",                                                                        # 14
+    "}",                                                                          # 15
+    "MOTION",                                                                     # 16
+    "Frames: 3",                                                                  # 17
+    "Frame Time: 0.0333333",                                                      # 18
+    "0 90 0 1 2 3 4 5 6",                                                         # 19
+    "0 91 0 1 2 3 4 5 6",                                                         # 20
+    "0 92 0 1 2 3 4 5 6",                                                         # 21
+]
+
+
+def test_good_template_reads(tmp_path):
+    path = tmp_path / "good.bvh"
+    path.write_text("\n".join(GOOD_LINES) + "\n")
+    m = read_bvh(path)
+    assert m.num_frames == 3 and m.num_joints == 2 and m.skeleton.num_end_sites == 1
+
+
+def _edit(lines, replace=None, delete=(), insert=None, cut=None):
+    out = list(lines)
+    for k, v in (replace or {}).items():
+        out[k - 1] = v
+    for k in sorted(delete, reverse=True):
+        del out[k - 1]
+    if insert:
+        k, v = insert
+        out.insert(k - 1, v)
+    if cut is not None:
+        out = out[:cut]
+    return out
+
+
+BAD = {
+    "truncated in hierarchy": (_edit(GOOD_LINES, cut=9), 9, "truncated"),
+    "truncated last line": ("\n".join(GOOD_LINES[:-1]) + "\n0 92 0 1", 21, "truncated"),
+    "missing frame lines": (_edit(GOOD_LINES, cut=20), 20, "Frames: says 3 but the data holds only 2"),
+    "more frame lines": (GOOD_LINES + ["0 93 0 1 2 3 4 5 6"], 22, "more frame lines"),
+    "wrong channel count": (_edit(GOOD_LINES, replace={20: "0 91 0 1 2 3 4 5 6 7"}), 20, "has 10 values"),
+    "non-numeric value": (_edit(GOOD_LINES, replace={21: "0 92 0 1 2 abc 4 5 6"}), 21, "non-numeric value 'abc'"),
+    "bad number": (_edit(GOOD_LINES, replace={19: "0 90 0 1.2.3 2 3 4 5 6"}), 19, "non-numeric value '1.2.3'"),
+    "zero frames": (_edit(GOOD_LINES, replace={17: "Frames: 0"}, cut=18), 17, "zero frames"),
+    "no data at all": (_edit(GOOD_LINES, cut=18), 18, "zero frames"),
+    "bad frames count": (_edit(GOOD_LINES, replace={17: "Frames: many"}), 17, "not an integer"),
+    "missing frame time": (_edit(GOOD_LINES, delete=[18]), 18, "Frame Time"),
+    "bad frame time": (_edit(GOOD_LINES, replace={18: "Frame Time: 0"}), 18, "positive"),
+    "no MOTION": (_edit(GOOD_LINES, cut=15), 15, "no MOTION"),
+    "extra closing brace": (_edit(GOOD_LINES, insert=(15, "}")), 16, "unbalanced '}'"),
+    "missing closing brace": (_edit(GOOD_LINES, delete=[14]), 15, "unbalanced braces"),
+    "missing OFFSET": (_edit(GOOD_LINES, delete=[8]), 6, "no OFFSET"),
+    "missing CHANNELS": (_edit(GOOD_LINES, delete=[9]), 6, "no CHANNELS"),
+    "unknown channel": (_edit(GOOD_LINES, replace={9: "\t\tCHANNELS 3 Zrotation Wrotation Xrotation"}), 9,
+                        "unknown channel 'Wrotation'"),
+    "channel count mismatch": (_edit(GOOD_LINES, replace={9: "\t\tCHANNELS 4 Zrotation Yrotation Xrotation"}), 9,
+                               "CHANNELS says 4 but names 3"),
+    "bad OFFSET": (_edit(GOOD_LINES, replace={8: "\t\tOFFSET 0 ten 0"}), 8, "'ten' is not a number"),
+    "short OFFSET": (_edit(GOOD_LINES, replace={12: "\t\t\tOFFSET 0 5"}), 12, "OFFSET needs 3 numbers"),
+    "no HIERARCHY": (_edit(GOOD_LINES, delete=[1]), 1, "expected HIERARCHY"),
+    "unknown keyword": (_edit(GOOD_LINES, insert=(9, "\t\tSCALE 2")), 9, "unexpected 'SCALE'"),
+    "empty file": ([""], 1, "empty file"),
+}
+
+
+@pytest.mark.parametrize("kind", sorted(BAD))
+def test_bad_files_raise_with_file_and_line(tmp_path, kind):
+    content, line, reason = BAD[kind]
+    text = content if isinstance(content, str) else "\n".join(content) + "\n"
+    path = tmp_path / f"bad_{kind.replace(' ', '_')}.bvh"
+    path.write_text(text)
+    with pytest.raises(MocapFormatError) as e:
+        mocapkit.load(path)
+    msg = str(e.value)
+    assert msg.startswith(f"{path}:{line}: "), msg
+    assert reason in msg, msg
+    assert e.value.line == line and path.name in msg and "\n" not in msg
+
+
+def test_unknown_suffix_and_missing_file(tmp_path):
+    with pytest.raises(MocapFormatError, match="unknown suffix"):
+        mocapkit.load("x.xyz")
+    with pytest.raises(MocapFormatError, match="no such file"):
+        mocapkit.load(tmp_path / "absent.bvh")
