@@ -499,10 +499,7 @@ def test_nan_stays_near_its_frame(rng, k):
 
 
 def _load_sample(name):
-    try:
-        return mocapkit.load(mocapkit.samples.path(name))
-    except ModuleNotFoundError as e:  # a reader not written yet
-        pytest.skip(f"cannot read {name}: {e}")
+    return mocapkit.load(mocapkit.samples.path(name))
 
 
 def test_cmu_bvh_features_and_accelerometers():
