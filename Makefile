@@ -34,6 +34,7 @@ demo: install
 	$(VENV)/bin/mocapkit corrupt $(OUT)/131_01_30fps.bvh $(OUT)/131_01_noisy.bvh --kind noise --amount 0.5 --seed 7
 	$(VENV)/bin/mocapkit corrupt $(OUT)/131_01_30fps.bvh $(OUT)/131_01_errors.bvh --kind errors --seed 7
 	$(VENV)/bin/mocapkit plot $(OUT)/131_01_30fps.bvh $(OUT)/131_01_noisy.bvh --joint LeftKnee -o $(OUT)/131_01_LeftKnee.png
+	$(VENV)/bin/mocapkit plot $(OUT)/131_01_30fps.bvh $(OUT)/131_01_errors.bvh --joint LeftElbow -o $(OUT)/131_01_errors_LeftElbow.png
 	@echo "demo outputs written to $(OUT)/"
 
 test: install-test

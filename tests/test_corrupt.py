@@ -3,6 +3,7 @@ import pytest
 
 import mocapkit
 from mocapkit import corrupt as C
+from mocapkit import metrics
 from mocapkit import rotations as R
 
 
@@ -49,7 +50,7 @@ def test_spatial_noise_keeps_bone_lengths_and_has_the_requested_size(clip):
     p = bad.global_positions()
     lengths = np.linalg.norm(p[:, 1:] - p[:, sk.parents[1:]], axis=-1)
     np.testing.assert_allclose(lengths, np.broadcast_to(np.linalg.norm(sk.offsets[1:], axis=1), lengths.shape), atol=1e-9)
-    err = mocapkit.metrics.joint_position_rms(clip, bad)
+    err = metrics.joint_position_rms(clip, bad)
     assert 0.5 < err < 3.0  # about sqrt(3) cm per noisy joint, less where bones pin the joint
 
 

@@ -268,7 +268,8 @@ def real_errors(
     (the joint turned 180 deg about its bone axis), ``freeze`` (the joint holds
     its first value of the window; windows are chosen where it moves at least
     15 deg), ``drift`` (an offset growing linearly to 20-40 deg), ``swap``
-    (a limb's rotations exchanged with the mirrored partner's). Returns
+    (a joint and its left/right partner take each other's mirrored rotations,
+    as when marker labels swap sides). Returns
     ``(motion, mask, records)``; records list what was injected where.
     """
     rng = _rng(seed)
@@ -280,6 +281,7 @@ def real_errors(
     rot = np.array(motion.rotations)
     records: list[ErrorRecord] = []
     kinds = list(kinds)
+    mirrored = None
     for _ in range(n_errors):
         kind = kinds[int(rng.integers(len(kinds)))]
         j = int(rng.choice(candidates))
@@ -326,8 +328,10 @@ def real_errors(
                 continue
             j = int(rng.choice(paired))
             k = int(perm[j])
-            a, b = np.array(rot[s:e, j]), np.array(rot[s:e, k])
-            rot[s:e, j], rot[s:e, k] = b, a
+            # Swapped labels put each limb's motion on the other side: the partner's mirrored rotation.
+            if mirrored is None:
+                mirrored = motion.mirror().rotations
+            rot[s:e, j], rot[s:e, k] = mirrored[s:e, j], mirrored[s:e, k]
             records.append(ErrorRecord(kind, sk.joint_names[k], s, e))
         else:
             raise ValueError(f"unknown error kind {kind!r}; kinds are spike, flip, freeze, drift, swap")

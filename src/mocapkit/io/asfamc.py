@@ -1,22 +1,41 @@
-"""Acclaim ASF/AMC (the native CMU and HDM05 format).
+"""Acclaim ASF/AMC, the native format of the CMU and HDM05 databases.
 
-The ASF describes bones; mocapkit's skeleton is joint based (BVH semantics), so
-joint 0 is ``root`` and every bone becomes the joint at its start (the end of
-its parent bone): its offset is the parent bone's ``direction * length``
-(children of the root: the root ``position``), and every leaf bone gets an end
-site at its tip. The bone's ``axis`` frame ``C`` is kept in
-``Skeleton.axes`` so the local rotation is ``C @ M @ C^-1`` with ``M`` built
-from the AMC's degrees of freedom, applied in dof order (extrinsic: ``dof rx ry
-rz`` is ``Rz @ Ry @ Rx``). Channels are stored BVH style in intrinsic order,
-i.e. the dof order reversed; limits are kept aligned with them.
+The ASF describes *bones*; mocapkit's skeleton is joint based with BVH
+semantics, so the ASF is converted on reading:
 
-Lengths stay in ASF units; ``Skeleton.unit_cm = 2.54 / length`` from
-``:units length`` (CMU's 0.45 gives 5.644 cm per unit).
+* joint 0 is ``root``; then one joint per bone, named as the bone, in
+  depth-first order of the ``:hierarchy`` (children in the order listed);
+* the joint of bone ``b`` sits at the *start* of ``b`` (the end of its parent
+  bone): its offset is the parent bone's ``direction * length``, and for the
+  children of the root the root ``position`` (normally zero);
+* every leaf bone gets an end site at its tip, ``direction * length`` from its
+  joint;
+* the bone's ``axis`` frame ``C`` goes to ``Skeleton.axes`` (the root's from
+  ``:root orientation`` in the ``:root axis`` order), so the local rotation is
+  ``C @ M @ C^-1`` with ``M`` built from the AMC degrees of freedom applied in
+  dof order. ASF angles are *extrinsic*: ``dof rx ry rz`` and ``axis ... XYZ``
+  mean ``Rz @ Ry @ Rx``;
+* ``Skeleton.channels`` are BVH style, rotations in *intrinsic* order, which is
+  the dof order reversed (``dof rx ry rz`` -> ``Zrotation Yrotation
+  Xrotation``); the root has its position channels first. ``Skeleton.limits``
+  follow the channels (so are reversed too), in degrees;
+* lengths stay in ASF units; ``Skeleton.unit_cm = 2.54 / length`` from
+  ``:units length`` (CMU and HDM05's 0.45 gives 5.644 cm per unit).
+
+The AMC root line's translations become ``Motion.root_positions`` (ASF units).
+
+Reading is vectorised: the AMC body is scanned with numpy for the bone name
+starting each line, the names are blanked and every number is parsed in one
+pass (:func:`mocapkit.io._numparse.parse_floats`); the frame structure is then
+checked on arrays, and Euler angles become quaternions per group of joints
+sharing a dof order.
 """
 
 from __future__ import annotations
 
+import os
 import re
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -25,310 +44,585 @@ from .. import rotations as R
 from ..errors import MocapFormatError
 from ..motion import Motion, Skeleton
 
-__all__ = ["read_asf", "read_amc", "find_asf"]
+__all__ = ["read_asf", "read_amc", "find_asf", "fps_from_name", "DEFAULT_FPS"]
 
-_DOF = {"rx": "Xrotation", "ry": "Yrotation", "rz": "Zrotation", "tx": "Xposition", "ty": "Yposition", "tz": "Zposition"}
+DEFAULT_FPS = 120.0
+"""Frame rate used when neither ``fps=`` nor the file name gives one (CMU captured at 120 Hz)."""
+
+_ROT_CHANNEL = {"x": "Xrotation", "y": "Yrotation", "z": "Zrotation"}
+_POS_CHANNEL = {"x": "Xposition", "y": "Yposition", "z": "Zposition"}
+_LIMIT_PAIR = re.compile(r"\(\s*([^\s,()]+)\s*,?\s*([^\s,()]+)\s*\)")
 
 
-def _lines(path: Path) -> list[str]:
+@dataclass(frozen=True)
+class _Layout:
+    """How the AMC lists each joint's numbers.
+
+    ``dofs[j]`` is the joint's dof tokens in AMC order, each ``"rx"`` ... ``"tz"``
+    (lower case); only the root may have translations.
+    """
+
+    dofs: tuple[tuple[str, ...], ...]
+    radians: bool
+
+
+# -- ASF -----------------------------------------------------------------------------
+
+
+def _read_text(path: Path) -> str:
     try:
-        return path.read_bytes().decode("latin-1").splitlines()
+        return path.read_bytes().decode("latin-1")
     except OSError as exc:
         raise MocapFormatError(path, f"cannot read: {exc.strerror or exc}") from None
 
 
-def _floats(path, tokens, line, what, n=None):
+def _numbers(path: Path, tokens: list[str], line: int, what: str, n: int | None = None) -> list[float]:
     try:
         vals = [float(t) for t in tokens]
     except ValueError:
-        raise MocapFormatError(path, f"non-numeric {what}: {' '.join(tokens)!r}", line) from None
+        raise MocapFormatError(path, f"{what}: non-numeric value in {' '.join(tokens)!r}", line) from None
     if n is not None and len(vals) != n:
-        raise MocapFormatError(path, f"{what} needs {n} numbers, got {len(vals)}", line)
+        raise MocapFormatError(path, f"{what}: expected {n} numbers, got {len(vals)}", line)
     return vals
 
 
-def read_asf(path) -> Skeleton:
-    """Read an ASF skeleton file into a joint-based :class:`Skeleton` (see the module docstring)."""
-    path = Path(path)
-    lines = _lines(path)
-    length_unit, angle_unit = 1.0, "deg"
-    root = {"order": ["TX", "TY", "TZ", "RX", "RY", "RZ"], "axis": "XYZ", "position": [0.0] * 3, "orientation": [0.0] * 3}
+def _axis_order(path: Path, token: str, line: int, what: str) -> str:
+    low = token.lower()
+    if len(low) != 3 or sorted(low) != ["x", "y", "z"]:
+        raise MocapFormatError(path, f"{what}: axis order must be a permutation of XYZ, got {token!r}", line)
+    return low
+
+
+def _parse_asf(path: Path) -> tuple[Skeleton, _Layout]:
+    """Parse an ASF file into a Skeleton and the AMC column layout of its joints."""
+    text = _read_text(path)
+    length_unit: float | None = None
+    radians = False
+    root_order: list[str] = ["tx", "ty", "tz", "rx", "ry", "rz"]
+    root_axis = "xyz"
+    root_position = [0.0, 0.0, 0.0]
+    root_orientation = [0.0, 0.0, 0.0]
     bones: dict[str, dict] = {}
-    order: list[str] = []
     children: dict[str, list[str]] = {}
     section = None
-    bone = None
-    limits_left = 0
-    for ln, raw in enumerate(lines, start=1):
+    bone: dict | None = None
+    in_limits = False
+    for ln, raw in enumerate(text.splitlines(), start=1):
         line = raw.split("#", 1)[0].strip()
         if not line:
             continue
-        if line.startswith(":"):
-            head = line.split()
-            section = head[0][1:].lower()
-            if section in ("version", "name"):
-                section = None
-            continue
         tok = line.split()
-        if section == "units":
-            if tok[0] == "length":
-                length_unit = _floats(path, tok[1:2], ln, "length unit", 1)[0]
-            elif tok[0] == "angle":
-                angle_unit = tok[1].lower()
-                if angle_unit not in ("deg", "rad"):
-                    raise MocapFormatError(path, f"unknown angle unit {tok[1]!r}", ln)
-        elif section == "root":
-            key = tok[0].lower()
-            if key == "order":
-                root["order"] = [t.upper() for t in tok[1:]]
-            elif key == "axis":
-                root["axis"] = tok[1].upper()
-            elif key in ("position", "orientation"):
-                root[key] = _floats(path, tok[1:4], ln, key, 3)
-        elif section == "bonedata":
-            key = tok[0].lower()
-            if key == "begin":
-                bone = {"line": ln, "dof": [], "limits": [], "axis": [0.0] * 3, "axis_order": "XYZ",
-                        "direction": [0.0] * 3, "length": 0.0}
-                limits_left = 0
-            elif key == "end":
-                if bone is None or "name" not in bone:
-                    raise MocapFormatError(path, "bone without a name", ln)
-                bones[bone["name"]] = bone
-                order.append(bone["name"])
+        if line.startswith(":"):
+            section = tok[0][1:].lower()
+            in_limits = False
+            if section == "bonedata" or section == "hierarchy":
                 bone = None
-            elif bone is None:
+            continue
+        key = tok[0].lower()
+        if section == "units":
+            if key == "length":
+                length_unit = _numbers(path, tok[1:], ln, "units length", 1)[0]
+                if not length_unit > 0:
+                    raise MocapFormatError(path, f"units length must be positive, got {tok[1]}", ln)
+            elif key == "angle":
+                unit = tok[1].lower() if len(tok) > 1 else ""
+                if unit not in ("deg", "rad"):
+                    raise MocapFormatError(path, f"units angle must be deg or rad, got {unit or '(none)'!r}", ln)
+                radians = unit == "rad"
+            elif key == "mass":
+                _numbers(path, tok[1:], ln, "units mass", 1)
+        elif section == "root":
+            if key == "order":
+                root_order = [t.lower() for t in tok[1:]]
+                bad = [t for t in root_order if t not in ("tx", "ty", "tz", "rx", "ry", "rz")]
+                if bad or len(set(root_order)) != len(root_order):
+                    raise MocapFormatError(path, f"root order must list distinct TX TY TZ RX RY RZ, got {' '.join(tok[1:])!r}", ln)
+            elif key == "axis":
+                if len(tok) != 2:
+                    raise MocapFormatError(path, "root axis needs one order like XYZ", ln)
+                root_axis = _axis_order(path, tok[1], ln, "root axis")
+            elif key == "position":
+                root_position = _numbers(path, tok[1:], ln, "root position", 3)
+            elif key == "orientation":
+                root_orientation = _numbers(path, tok[1:], ln, "root orientation", 3)
+        elif section == "bonedata":
+            if key == "begin":
+                if bone is not None:
+                    raise MocapFormatError(path, "begin inside a bone block (missing end)", ln)
+                bone = {"line": ln, "dof": [], "limits": [], "axis": [0.0, 0.0, 0.0], "axis_order": "xyz",
+                        "direction": None, "length": None}
+                in_limits = False
+                continue
+            if bone is None:
                 raise MocapFormatError(path, f"{tok[0]!r} outside a begin/end bone block", ln)
-            elif key == "name":
+            if key == "end":
+                _finish_bone(path, bone, bones, ln)
+                bone = None
+                in_limits = False
+                continue
+            if line.startswith("(") and in_limits:
+                bone["limits"].extend(_limit_pairs(path, line, ln))
+                continue
+            in_limits = False
+            if key == "name":
+                if len(tok) != 2:
+                    raise MocapFormatError(path, "bone name must be one word", ln)
                 bone["name"] = tok[1]
             elif key == "direction":
-                bone["direction"] = _floats(path, tok[1:4], ln, "direction", 3)
+                bone["direction"] = _numbers(path, tok[1:], ln, "direction", 3)
             elif key == "length":
-                bone["length"] = _floats(path, tok[1:2], ln, "length", 1)[0]
+                bone["length"] = _numbers(path, tok[1:], ln, "length", 1)[0]
             elif key == "axis":
-                bone["axis"] = _floats(path, tok[1:4], ln, "axis", 3)
-                bone["axis_order"] = tok[4].upper() if len(tok) > 4 else "XYZ"
+                if len(tok) != 5:
+                    raise MocapFormatError(path, "axis needs three angles and an order like XYZ", ln)
+                bone["axis"] = _numbers(path, tok[1:4], ln, "axis", 3)
+                bone["axis_order"] = _axis_order(path, tok[4], ln, "axis")
             elif key == "dof":
                 dofs = [t.lower() for t in tok[1:]]
-                bad = [d for d in dofs if d not in _DOF]
-                if bad:
-                    raise MocapFormatError(path, f"unsupported dof {' '.join(bad)} (only rx ry rz tx ty tz)", ln)
+                for d in dofs:
+                    if d == "l":
+                        raise MocapFormatError(path, "dof l (animated bone length) is not supported", ln)
+                    if d in ("tx", "ty", "tz"):
+                        raise MocapFormatError(path, f"dof {d} on a bone (animated bone translation) is not supported", ln)
+                    if d not in ("rx", "ry", "rz"):
+                        raise MocapFormatError(path, f"unknown dof {d!r}; expected rx ry rz", ln)
+                if len(set(dofs)) != len(dofs):
+                    raise MocapFormatError(path, f"dof repeats an axis: {' '.join(tok[1:])}", ln)
                 bone["dof"] = dofs
-            elif key == "limits" or (limits_left and line.startswith("(")):
-                text = line[len("limits"):] if key == "limits" else line
-                for lo, hi in re.findall(r"\(\s*([^\s,()]+)\s*,?\s*([^\s,()]+)\s*\)", text):
-                    bone["limits"].append((_lim(path, lo, ln), _lim(path, hi, ln)))
-                limits_left = len(bone["dof"]) - len(bone["limits"])
-            elif key == "id" or key == "bodymass" or key == "cofmass":
-                pass
-            elif line.startswith("("):
-                for lo, hi in re.findall(r"\(\s*([^\s,()]+)\s*,?\s*([^\s,()]+)\s*\)", line):
-                    bone["limits"].append((_lim(path, lo, ln), _lim(path, hi, ln)))
+            elif key == "limits":
+                bone["limits"] = _limit_pairs(path, line[len(tok[0]):], ln)
+                in_limits = True
+            # id, bodymass, cofmass and other per-bone extras carry nothing we use
         elif section == "hierarchy":
-            key = tok[0].lower()
             if key in ("begin", "end"):
                 continue
             parent = tok[0]
             if parent != "root" and parent not in bones:
-                raise MocapFormatError(path, f"hierarchy names unknown bone {parent!r}", ln)
+                raise MocapFormatError(path, f"hierarchy names bone {parent!r} that :bonedata lacks", ln)
             for c in tok[1:]:
                 if c not in bones:
-                    raise MocapFormatError(path, f"hierarchy names unknown bone {c!r}", ln)
+                    raise MocapFormatError(path, f"hierarchy names bone {c!r} that :bonedata lacks", ln)
                 children.setdefault(parent, []).append(c)
+        # :version, :name, :documentation and unknown sections are skipped
+    if bone is not None:
+        raise MocapFormatError(path, f"bone block opened at line {bone['line']} is never closed")
     if not bones:
-        raise MocapFormatError(path, "no :bonedata bones found")
+        raise MocapFormatError(path, "no bones: the ASF has no :bonedata blocks")
     if "root" not in children:
-        raise MocapFormatError(path, "no :hierarchy under root")
-    to_deg = (lambda v: np.degrees(v)) if angle_unit == "rad" else (lambda v: np.asarray(v, dtype=float))
+        raise MocapFormatError(path, "no bone hangs from root in :hierarchy")
 
+    def deg(v):
+        return np.degrees(np.asarray(v, dtype=np.float64)) if radians else np.asarray(v, dtype=np.float64)
+
+    root_rot = [d[1] for d in root_order if d[0] == "r"]
+    root_pos = [d[1] for d in root_order if d[0] == "t"]
     names = ["root"]
     parents = [-1]
-    offsets = [np.asarray(root["position"], dtype=float)]
-    axes = [R.euler_to_quaternion(to_deg(root["orientation"]), root["axis"].lower())]
-    rot_dofs = [d for d in root["order"] if d.startswith("R")]
-    pos_dofs = [d for d in root["order"] if d.startswith("T")]
-    channels = [tuple(_DOF[d.lower()] for d in pos_dofs) + tuple(_DOF[d.lower()] for d in reversed(rot_dofs))]
-    limits = [tuple((-np.inf, np.inf) for _ in rot_dofs)]
-    end_parents, end_offsets = [], []
-    seen = set()
-
-    def visit(bname: str, parent_index: int, offset):
-        if bname in seen:
-            raise MocapFormatError(path, f"bone {bname!r} appears twice in the hierarchy")
-        seen.add(bname)
-        b = bones[bname]
+    offsets = [np.zeros(3)]
+    axes = [R.euler_to_quaternion(deg(root_orientation), root_axis)]
+    channels = [tuple(_POS_CHANNEL[a] for a in root_pos) + tuple(_ROT_CHANNEL[a] for a in reversed(root_rot))]
+    limits = [tuple((-np.inf, np.inf) for _ in root_rot)]
+    dofs = [tuple(root_order)]
+    end_parents: list[int] = []
+    end_offsets: list[np.ndarray] = []
+    placed: set[str] = set()
+    # Iterative depth-first walk (children in listed order); each entry is (bone, parent joint, offset).
+    stack = [(c, 0, np.asarray(root_position, dtype=np.float64)) for c in reversed(children["root"])]
+    while stack:
+        name, parent, offset = stack.pop()
+        if name in placed:
+            raise MocapFormatError(path, f"bone {name!r} appears twice in :hierarchy")
+        placed.add(name)
+        b = bones[name]
         j = len(names)
-        names.append(bname)
-        parents.append(parent_index)
-        offsets.append(np.asarray(offset, dtype=float))
-        axes.append(R.euler_to_quaternion(to_deg(b["axis"]), b["axis_order"].lower()))
-        rd = [d for d in b["dof"] if d.startswith("r")]
-        channels.append(tuple(_DOF[d] for d in reversed(rd)))
-        lim = list(b["limits"])[: len(b["dof"])]
-        lim = [l for d, l in zip(b["dof"], lim) if d.startswith("r")]
-        if len(lim) < len(rd):
-            lim += [(-np.inf, np.inf)] * (len(rd) - len(lim))
+        names.append(name)
+        parents.append(parent)
+        offsets.append(offset)
+        axes.append(R.euler_to_quaternion(deg(b["axis"]), b["axis_order"]))
+        axes_of_dof = [d[1] for d in b["dof"]]
+        channels.append(tuple(_ROT_CHANNEL[a] for a in reversed(axes_of_dof)))
+        lim = b["limits"] or [(-np.inf, np.inf)] * len(axes_of_dof)
+        if radians:
+            lim = [(float(np.degrees(lo)), float(np.degrees(hi))) for lo, hi in lim]
         limits.append(tuple(reversed(lim)))
-        tip = np.asarray(b["direction"], dtype=float) * b["length"]
-        kids = children.get(bname, [])
+        dofs.append(tuple(b["dof"]))
+        tip = np.asarray(b["direction"], dtype=np.float64) * b["length"]
+        kids = children.get(name, [])
         if not kids:
             end_parents.append(j)
             end_offsets.append(tip)
-        for c in kids:
-            visit(c, j, tip)
-
-    for c in children["root"]:
-        visit(c, 0, np.zeros(3))
-    axes_arr = np.array(axes)
-    return Skeleton(
+        stack.extend((c, j, tip) for c in reversed(kids))
+    unplaced = [n for n in bones if n not in placed]
+    if unplaced:
+        raise MocapFormatError(path, f"bones not reachable from root in :hierarchy: {', '.join(unplaced)}")
+    skeleton = Skeleton(
         joint_names=tuple(names),
-        parents=np.array(parents),
+        parents=np.array(parents, dtype=np.int64),
         offsets=np.array(offsets),
         end_site_parents=np.array(end_parents, dtype=np.int64),
         end_site_offsets=np.array(end_offsets).reshape(-1, 3),
         channels=tuple(channels),
-        axes=axes_arr,
+        axes=np.array(axes),
         limits=tuple(limits),
-        unit_cm=2.54 / length_unit if length_unit > 0 else None,
+        unit_cm=None if length_unit is None else 2.54 / length_unit,
     )
+    return skeleton, _Layout(dofs=tuple(dofs), radians=radians)
 
 
-def _lim(path, tok, ln) -> float:
-    t = tok.lower()
-    if t in ("inf", "+inf"):
-        return np.inf
-    if t == "-inf":
-        return -np.inf
-    try:
-        return float(tok)
-    except ValueError:
-        raise MocapFormatError(path, f"non-numeric limit {tok!r}", ln) from None
+def _limit_pairs(path: Path, text: str, line: int) -> list[tuple[float, float]]:
+    pairs = _LIMIT_PAIR.findall(text)
+    rest = _LIMIT_PAIR.sub("", text).strip()
+    if rest or not pairs:
+        raise MocapFormatError(path, f"limits must be pairs like (-10.0 170.0), got {text.strip()!r}", line)
+    out = []
+    for lo, hi in pairs:
+        a, b = _numbers(path, [lo, hi], line, "limits", 2)
+        out.append((a, b))
+    return out
 
 
-def find_asf(amc: Path) -> Path:
-    """The ASF for an AMC: the longest ASF stem that prefixes the AMC stem, else the only ASF beside it."""
+def _finish_bone(path: Path, bone: dict, bones: dict, line: int) -> None:
+    where = f"bone block opened at line {bone['line']}"
+    if "name" not in bone:
+        raise MocapFormatError(path, f"{where} has no name", line)
+    name = bone["name"]
+    if name == "root" or name in bones:
+        raise MocapFormatError(path, f"bone name {name!r} is used twice", line)
+    if bone["direction"] is None or bone["length"] is None:
+        raise MocapFormatError(path, f"bone {name!r} needs a direction and a length", line)
+    if bone["limits"] and len(bone["limits"]) != len(bone["dof"]):
+        raise MocapFormatError(
+            path, f"bone {name!r} has {len(bone['limits'])} limits for {len(bone['dof'])} dofs", line
+        )
+    bones[name] = bone
+
+
+def read_asf(path) -> Skeleton:
+    """Read an ASF skeleton as a joint-based :class:`~mocapkit.motion.Skeleton`.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The ``.asf`` file (ASCII or Latin-1, LF or CRLF line ends).
+
+    Returns
+    -------
+    Skeleton
+        ``root`` plus one joint per bone in depth-first hierarchy order; offsets
+        (J, 3) and end-site offsets (E, 3) in ASF length units; ``axes`` (J, 4)
+        the bones' axis frames as w-first quaternions; ``channels`` and
+        ``limits`` (degrees) in BVH intrinsic order (the dof order reversed);
+        ``unit_cm`` from ``:units length`` (None if the file gives none).
+
+    Raises
+    ------
+    MocapFormatError
+        Malformed or unsupported content (e.g. the ``l`` length dof), with the line.
+    """
+    return _parse_asf(Path(path))[0]
+
+
+def _layout_from_skeleton(skeleton: Skeleton) -> _Layout:
+    """AMC column layout of a skeleton given directly: root positions first, then dofs in ASF order."""
+    dofs = []
+    for j in range(skeleton.num_joints):
+        chans = skeleton.joint_channels(j)
+        pos = ["t" + c[0].lower() for c in chans if c.endswith("position")]
+        rot = ["r" + c[0].lower() for c in chans if c.endswith("rotation")][::-1]
+        dofs.append(tuple(pos + rot))
+    return _Layout(dofs=tuple(dofs), radians=False)
+
+
+# -- finding the skeleton, the frame rate -----------------------------------------------
+
+
+def _at_boundary(stem: str, k: int) -> bool:
+    """True when ``stem[:k]`` ends a word of ``stem``: at its end, before a separator, or at a letter/digit switch."""
+    if k == len(stem):
+        return True
+    a, b = stem[k - 1], stem[k]
+    if not b.isalnum():
+        return True
+    return a.isalpha() != b.isalpha()
+
+
+def find_asf(amc) -> Path:
+    """The ASF skeleton file for an AMC motion file in the same folder.
+
+    The ASF whose stem is the longest prefix of the AMC's stem ending at a word
+    boundary (compared ignoring case): ``07_01.amc`` -> ``07.asf``,
+    ``HDM_bd_kick_001_120.amc`` -> ``HDM_bd.asf``, ``charleston1.amc`` ->
+    ``charleston.asf``. Failing that, the only ASF in the folder.
+
+    Raises
+    ------
+    MocapFormatError
+        No such ASF, naming the file looked for.
+    """
     amc = Path(amc)
-    asfs = sorted(p for p in amc.parent.iterdir() if p.suffix.lower() == ".asf")
-    stem = amc.stem
+    folder = amc.parent
+    try:
+        asfs = sorted(p for p in folder.iterdir() if p.suffix.lower() == ".asf" and p.is_file())
+    except OSError as exc:
+        raise MocapFormatError(amc, f"cannot list {folder} to find its ASF: {exc.strerror or exc}") from None
+    stem = amc.stem.lower()
     best = None
     for p in asfs:
-        s = p.stem
-        if stem.startswith(s) and (len(stem) == len(s) or not stem[len(s)].isalpha() or s[-1].isdigit() is False):
+        s = p.stem.lower()
+        if s and stem.startswith(s) and _at_boundary(stem, len(s)):
             if best is None or len(s) > len(best.stem):
                 best = p
     if best is not None:
         return best
     if len(asfs) == 1:
         return asfs[0]
-    prefix = stem.split("_")[0]
+    first = next((k for k in range(1, len(amc.stem) + 1) if _at_boundary(amc.stem, k)), len(amc.stem))
+    wanted = folder / f"{amc.stem[:first]}.asf"
+    found = f"{len(asfs)} other ASF files" if asfs else "no ASF files"
     raise MocapFormatError(
         amc,
-        f"no skeleton: found no {prefix}.asf (or other ASF named by a prefix of {stem!r}) and "
-        f"{len(asfs)} ASF files beside it; pass asf=",
+        f"no skeleton: looked for {wanted} (or another ASF named by a prefix of {amc.stem!r}) "
+        f"and found {found} there; pass asf=",
     )
 
 
-def _fps_from_name(stem: str) -> float | None:
-    m = re.search(r"_(\d+)$", stem)
-    if m and 24 <= int(m.group(1)) <= 1000:
-        return float(m.group(1))
-    return None
+def fps_from_name(stem: str) -> float | None:
+    """Frame rate written at the end of a file stem (HDM05 ``..._120``), if plausible (24-1000 Hz)."""
+    m = re.search(r"(?<![0-9.])(\d+)$", stem)
+    if m is None or stem == m.group(1):
+        return None
+    rate = int(m.group(1))
+    return float(rate) if 24 <= rate <= 1000 else None
+
+
+# -- AMC -------------------------------------------------------------------------------
+
+
+def _amc_header(data: bytes) -> tuple[int, int, bool | None]:
+    """(byte offset of the body, its 1-based first line, radians flag or None if unstated)."""
+    pos = 0
+    line = 1
+    radians = None
+    n = len(data)
+    while pos < n:
+        end = data.find(b"\n", pos)
+        end = n if end < 0 else end
+        s = data[pos:end].strip()
+        if s and not s.startswith(b"#"):
+            if not s.startswith(b":"):
+                return pos, line, radians
+            word = s.split()[0].upper()
+            if word == b":RADIANS":
+                radians = True
+            elif word == b":DEGREES":
+                radians = False
+        pos = end + 1
+        line += 1
+    return n, line, radians
 
 
 def read_amc(path, asf=None, fps: float | None = None) -> Motion:
-    """Read an AMC motion with its ASF skeleton (``asf=``, else :func:`find_asf`).
+    """Read an AMC motion with its ASF skeleton.
 
-    The frame rate is ``fps``, else the number ending the file name (HDM05
-    ``..._120.amc``), else 120 Hz (CMU).
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The ``.amc`` file: ``:FULLY-SPECIFIED``, ``:DEGREES`` or ``:RADIANS``,
+        then per frame a frame-number line and one line per bone,
+        ``name v1 v2 ...`` in the bone's dof order.
+    asf : str, os.PathLike or Skeleton, optional
+        The skeleton; by default :func:`find_asf` looks beside the AMC. A
+        Skeleton given directly must have ASF channels (e.g. from
+        :func:`read_asf`); its root line is read as positions then rotations.
+    fps : float, optional
+        Frame rate; by default the number ending the file stem when plausible
+        (:func:`fps_from_name`), else 120.
+
+    Returns
+    -------
+    Motion
+        ``rotations`` (F, J, 4) local quaternions (``C @ M @ C^-1``; bones the
+        frame omits get the identity), ``root_positions`` (F, 3) in ASF length
+        units, ``name`` the file stem.
+
+    Raises
+    ------
+    MocapFormatError
+        With the AMC's path and line: unknown bone, wrong count of values,
+        non-numeric value, no frames, frame numbers not consecutive, bone
+        listed twice in a frame, last frame truncated; or no ASF found.
     """
     path = Path(path)
-    asf_path = Path(asf) if asf is not None else find_asf(path)
-    skeleton = read_asf(asf_path)
-    lines = _lines(path)
-    radians = False
-    body_start = None
-    for ln, raw in enumerate(lines):
-        s = raw.strip()
-        if not s or s.startswith("#"):
-            continue
-        if s.startswith(":"):
-            radians = radians or s.upper().startswith(":RADIANS")
-            continue
-        body_start = ln
-        break
-    if body_start is None:
-        raise MocapFormatError(path, "no frames: the AMC holds only a header")
-    names = skeleton.joint_names
-    index = {n: i for i, n in enumerate(names)}
-    ndof = {n: len(skeleton.joint_channels(i)) for n, i in index.items()}
-    frames: list[dict[str, list[str]]] = []
-    numbers: list[int] = []
-    cur = None
-    for ln in range(body_start, len(lines)):
-        s = lines[ln].strip()
-        if not s or s.startswith("#"):
-            continue
-        tok = s.split()
-        if len(tok) == 1 and tok[0].lstrip("-").isdigit():
-            n = int(tok[0])
-            if numbers and n != numbers[-1] + 1:
-                raise MocapFormatError(path, f"frame {n} follows frame {numbers[-1]}: frames must be consecutive", ln + 1)
-            numbers.append(n)
-            cur = {}
-            frames.append(cur)
-            continue
-        if cur is None:
-            raise MocapFormatError(path, f"expected a frame number, found {tok[0]!r}", ln + 1)
-        name = tok[0]
-        if name not in index:
-            raise MocapFormatError(path, f"AMC names joint {name!r} that the ASF {asf_path.name} lacks", ln + 1)
-        if len(tok) - 1 != ndof[name]:
-            raise MocapFormatError(path, f"joint {name} needs {ndof[name]} values, got {len(tok) - 1}", ln + 1)
-        cur[name] = (tok[1:], ln + 1)
-    if not frames:
-        raise MocapFormatError(path, "no frames")
-    F = len(frames)
-    expected = {n for n in names if ndof[n] > 0}
-    last = frames[-1]
-    if set(last) != set(frames[0]) and len(last) < len(frames[0]):
-        raise MocapFormatError(path, f"truncated: the last frame {numbers[-1]} lists {len(last)} of {len(frames[0])} joints")
-    cols = sum(ndof.values())
-    values = np.zeros((F, cols))
-    col0 = {}
-    c = 0
-    for n in names:
-        col0[n] = c
-        c += ndof[n]
-    for f, fr in enumerate(frames):
-        for n, (toks, ln) in fr.items():
-            values[f, col0[n] : col0[n] + ndof[n]] = _floats(path, toks, ln, f"values of {n}")
-    del expected
-    # AMC lists dofs in dof order; channels are stored reversed (intrinsic) except root positions.
-    reordered = values.copy()
-    for j, n in enumerate(names):
-        chans = skeleton.joint_channels(j)
-        k = ndof[n]
-        if k == 0:
-            continue
-        if j == 0:
-            # root: AMC gives values in :root order; channels are positions then reversed rotations
-            order = [d for d in _root_order(skeleton)]
-            src = values[:, col0[n] : col0[n] + k]
-            pos_idx = [i for i, d in enumerate(order) if d.startswith("T")]
-            rot_idx = [i for i, d in enumerate(order) if d.startswith("R")]
-            reordered[:, col0[n] : col0[n] + k] = src[:, pos_idx + rot_idx[::-1]]
-        else:
-            reordered[:, col0[n] : col0[n] + k] = values[:, col0[n] : col0[n] + k][:, ::-1]
-        del chans
-    if radians:
-        rot_cols = np.array([ch.endswith("rotation") for j in range(len(names)) for ch in skeleton.joint_channels(j)])
-        reordered[:, rot_cols] = np.degrees(reordered[:, rot_cols])
-    rate = fps if fps is not None else (_fps_from_name(path.stem) or 120.0)
-    return Motion.from_channel_values(skeleton, reordered, rate, name=path.stem)
+    if isinstance(asf, Skeleton):
+        skeleton, layout, asf_name = asf, _layout_from_skeleton(asf), "skeleton"
+    else:
+        asf_path = Path(asf) if asf is not None else find_asf(path)
+        if not asf_path.is_file():
+            raise MocapFormatError(asf_path, "no such ASF file")
+        skeleton, layout = _parse_asf(asf_path)
+        asf_name = asf_path.name
+    try:
+        data = path.read_bytes()
+    except OSError as exc:
+        raise MocapFormatError(path, f"cannot read: {exc.strerror or exc}") from None
+    body_at, first_line, radians = _amc_header(data)
+    if radians is None:
+        radians = layout.radians
+    values, frames, (F, ncols) = _parse_amc_body(path, data[body_at:], first_line, skeleton, layout, asf_name)
+    table = np.zeros((F, ncols))
+    table.reshape(-1)[frames] = values if values is not None else 0.0
+    rotations, root = _to_motion_arrays(table, skeleton, layout, radians)
+    rate = float(fps) if fps is not None else (fps_from_name(path.stem) or DEFAULT_FPS)
+    return Motion(skeleton=skeleton, rotations=rotations, root_positions=root, fps=rate, name=path.stem)
 
 
-def _root_order(skeleton: Skeleton) -> list[str]:
-    chans = skeleton.joint_channels(0)
-    pos = [c for c in chans if c.endswith("position")]
-    rot = [c for c in chans if c.endswith("rotation")][::-1]
-    return ["T" + c[0] for c in pos] + ["R" + c[0] for c in rot]
+def _parse_amc_body(path, body: bytes, first_line: int, skeleton: Skeleton, layout: _Layout, asf_name: str):
+    """Parse and check the frames; returns (values, flat table indices, (F, columns))."""
+    from ._numparse import line_of_offset, parse_floats
+
+    if b"#" in body:
+        body = re.sub(rb"#[^\n]*", b"", body)
+    arr = np.frombuffer(body, dtype=np.uint8)
+    n = arr.shape[0]
+    newlines = np.flatnonzero(arr == 10)
+    n_lines = newlines.shape[0] + (1 if n and arr[-1] != 10 else 0)
+    if n_lines == 0:
+        raise MocapFormatError(path, "no frames: the file holds a header only")
+    line_starts = np.concatenate([[0], newlines + 1])[:n_lines]
+    line_ends = np.concatenate([newlines, [n]])[:n_lines]
+
+    def where(k: int) -> int:  # 1-based file line of body line k
+        return first_line + int(k)
+
+    # The first token of every line: a bone name starts with anything but a digit, sign or point.
+    solid = arr > 32
+    tok_start = np.flatnonzero(solid & ~np.concatenate([[False], solid[:-1]]))
+    k = np.searchsorted(tok_start, line_starts)
+    first = np.append(tok_start, n)[k]
+    has_token = first < line_ends
+    c0 = np.where(has_token, np.append(arr, np.uint8(32))[first], 48)
+    numeric_start = ((c0 >= 48) & (c0 <= 57)) | (c0 == 43) | (c0 == 45) | (c0 == 46)
+    is_name = has_token & ~numeric_start
+    name_lines = np.flatnonzero(is_name)
+    name_starts = first[name_lines]
+    gaps = np.flatnonzero(~solid)
+    name_ends = np.append(gaps, n)[np.searchsorted(gaps, name_starts)]
+    # Blank the names out and parse every remaining number at once.
+    mark = np.zeros(n + 1, dtype=np.int8)
+    mark[name_starts] = 1
+    mark[name_ends] -= 1
+    numbers = arr.copy()
+    numbers[np.cumsum(mark[:n], dtype=np.int8).astype(bool)] = 32
+    values, counts, err = parse_floats(numbers)
+    if err >= 0:
+        ln = line_of_offset(numbers, err)
+        tok = body[err:].split(None, 1)[0].decode("latin-1")
+        raise MocapFormatError(path, f"non-numeric value {tok!r}", where(ln))
+    if counts.shape[0] < n_lines:
+        counts = np.concatenate([counts, np.zeros(n_lines - counts.shape[0], dtype=counts.dtype)])
+    value_at = np.concatenate([[0], np.cumsum(counts)])[:-1]  # index of each line's first number
+
+    frame_lines = np.flatnonzero(has_token & ~is_name)
+    if frame_lines.shape[0] == 0:
+        raise MocapFormatError(path, "no frames: no frame-number line after the header", where(0) if name_lines.size else None)
+    bad = frame_lines[counts[frame_lines] != 1]
+    if bad.size:
+        raise MocapFormatError(
+            path, f"expected a frame number or a bone line, found {counts[bad[0]]} numbers", where(bad[0])
+        )
+    numbers_of_frames = values[value_at[frame_lines]]
+    nonint = np.flatnonzero(numbers_of_frames != np.round(numbers_of_frames))
+    if nonint.size:
+        raise MocapFormatError(path, f"frame number {numbers_of_frames[nonint[0]]!r} is not an integer", where(frame_lines[nonint[0]]))
+    if name_lines.size and name_lines[0] < frame_lines[0]:
+        raise MocapFormatError(path, "bone values before the first frame number", where(name_lines[0]))
+    jumps = np.flatnonzero(np.diff(numbers_of_frames) != 1)
+    if jumps.size:
+        i = jumps[0]
+        raise MocapFormatError(
+            path,
+            f"frame {numbers_of_frames[i + 1]:.0f} follows frame {numbers_of_frames[i]:.0f}: frame numbers must be consecutive",
+            where(frame_lines[i + 1]),
+        )
+    F = frame_lines.shape[0]
+
+    # Bones: name -> joint, check the value counts.
+    lookup = {nm.encode("latin-1"): j for j, nm in enumerate(skeleton.joint_names)}
+    names = [body[s:e] for s, e in zip(name_starts.tolist(), name_ends.tolist())]
+    ids = np.array([lookup.get(nm, -1) for nm in names], dtype=np.int64)
+    unknown = np.flatnonzero(ids < 0)
+    if unknown.size:
+        i = unknown[0]
+        raise MocapFormatError(
+            path, f"AMC names joint {names[i].decode('latin-1')!r} that the ASF {asf_name} lacks", where(name_lines[i])
+        )
+    ndof = np.array([len(d) for d in layout.dofs], dtype=np.int64)
+    got = counts[name_lines]
+    wrong = np.flatnonzero(got != ndof[ids])
+    if wrong.size:
+        i = wrong[0]
+        joint = skeleton.joint_names[ids[i]]
+        raise MocapFormatError(
+            path, f"joint {joint} needs {ndof[ids[i]]} values ({' '.join(layout.dofs[ids[i]])}), got {got[i]}", where(name_lines[i])
+        )
+    frame_of = np.searchsorted(frame_lines, name_lines) - 1
+    J = skeleton.num_joints
+    key = frame_of * J + ids
+    seen = np.bincount(key, minlength=F * J)
+    if np.any(seen > 1):
+        i = int(np.flatnonzero(seen[key] > 1)[1 if np.count_nonzero(key == key[np.flatnonzero(seen[key] > 1)[0]]) > 1 else 0])
+        raise MocapFormatError(
+            path,
+            f"joint {skeleton.joint_names[ids[i]]} appears twice in frame {numbers_of_frames[frame_of[i]]:.0f}",
+            where(name_lines[i]),
+        )
+    per_frame = seen.reshape(F, J).sum(axis=1)
+    if per_frame[-1] < per_frame.max() or per_frame[-1] == 0:
+        raise MocapFormatError(
+            path,
+            f"truncated: the last frame ({numbers_of_frames[-1]:.0f}) lists {per_frame[-1]} of {per_frame.max()} joints",
+            where(line_ends.shape[0] - 1),
+        )
+    # Flat indices into the (F, columns) table, columns in AMC dof order joint after joint.
+    col0 = np.concatenate([[0], np.cumsum(ndof)])
+    ncols = int(col0[-1])
+    total = int(got.sum())
+    within = np.arange(total) - np.repeat(np.cumsum(got) - got, got)
+    src = np.repeat(value_at[name_lines], got) + within
+    dst = np.repeat(frame_of * ncols + col0[ids], got) + within
+    return values[src], dst, (F, ncols)
+
+
+def _to_motion_arrays(table: np.ndarray, skeleton: Skeleton, layout: _Layout, radians: bool):
+    """Rotations (F, J, 4) and root positions (F, 3) from the (F, columns) AMC table."""
+    F = table.shape[0]
+    J = skeleton.num_joints
+    rotations = np.empty((F, J, 4))
+    rotations[..., 0] = 1.0
+    rotations[..., 1:] = 0.0
+    root = np.zeros((F, 3))
+    groups: dict[str, tuple[list[int], list[list[int]]]] = {}
+    col = 0
+    for j, dofs in enumerate(layout.dofs):
+        rot_cols, order = [], ""
+        for d in dofs:
+            if d[0] == "t":
+                root[:, "xyz".index(d[1])] = table[:, col]
+            else:
+                rot_cols.append(col)
+                order += d[1]
+            col += 1
+        if order:
+            js, cols = groups.setdefault(order, ([], []))
+            js.append(j)
+            cols.append(rot_cols)
+    rotated = []
+    for order, (js, cols) in groups.items():
+        rotations[:, js] = R.euler_to_quaternion(table[:, np.array(cols)], order, degrees=not radians)
+        rotated.extend(js)
+    if skeleton.axes is not None and rotated:
+        rotated = np.sort(np.array(rotated))
+        c = skeleton.axes[rotated]
+        m = R.quaternion_multiply(R.quaternion_multiply(c, rotations[:, rotated]), R.quaternion_conjugate(c))
+        rotations[:, rotated] = m
+    return rotations, root
