@@ -233,3 +233,16 @@ def test_bad_amc_files(tmp_path):
         read_amc(write(bad, "gap.amc"), asf=asf)
     with pytest.raises(MocapFormatError, match="trunc.amc.*truncated"):
         read_amc(write(text[: nxt + 5], "trunc.amc"), asf=asf)
+
+
+def test_amc_motions_round_trip_through_bvh_and_npz(tmp_path, shared_data):
+    files = sorted(shared_data.rglob("*.amc"))[::25] + [mocapkit.samples.path("12_walk.amc")]
+    for f in files:
+        m = mocapkit.load(f)
+        ref = m.global_positions(end_sites=True)
+        size = np.ptp(ref.reshape(-1, 3), axis=0).max()
+        for suffix in (".bvh", ".npz"):
+            back = mocapkit.load(mocapkit.save(m, tmp_path / (f.stem + suffix)))
+            got = back.global_positions(end_sites=True)
+            tol = 1e-5 * size if suffix == ".bvh" else 0.0  # BVH holds 6 decimals; npz is exact
+            np.testing.assert_allclose(got, ref, atol=tol, rtol=0, err_msg=f"{f.name} via {suffix}")

@@ -470,7 +470,7 @@ def read_amc(path, asf=None, fps: float | None = None) -> Motion:
         radians = layout.radians
     values, frames, (F, ncols) = _parse_amc_body(path, data[body_at:], first_line, skeleton, layout, asf_name)
     table = np.zeros((F, ncols))
-    table.reshape(-1)[frames] = values if values is not None else 0.0
+    table.reshape(-1)[frames] = values
     rotations, root = _to_motion_arrays(table, skeleton, layout, radians)
     rate = float(fps) if fps is not None else (fps_from_name(path.stem) or DEFAULT_FPS)
     return Motion(skeleton=skeleton, rotations=rotations, root_positions=root, fps=rate, name=path.stem)
@@ -547,15 +547,12 @@ def _parse_amc_body(path, body: bytes, first_line: int, skeleton: Skeleton, layo
     F = frame_lines.shape[0]
 
     # Bones: name -> joint, check the value counts.
-    lookup = {nm.encode("latin-1"): j for j, nm in enumerate(skeleton.joint_names)}
-    names = [body[s:e] for s, e in zip(name_starts.tolist(), name_ends.tolist())]
-    ids = np.array([lookup.get(nm, -1) for nm in names], dtype=np.int64)
+    ids = _token_ids(arr, name_starts, name_ends, skeleton.joint_names)
     unknown = np.flatnonzero(ids < 0)
     if unknown.size:
         i = unknown[0]
-        raise MocapFormatError(
-            path, f"AMC names joint {names[i].decode('latin-1')!r} that the ASF {asf_name} lacks", where(name_lines[i])
-        )
+        name = body[name_starts[i] : name_ends[i]].decode("latin-1")
+        raise MocapFormatError(path, f"AMC names joint {name!r} that the ASF {asf_name} lacks", where(name_lines[i]))
     ndof = np.array([len(d) for d in layout.dofs], dtype=np.int64)
     got = counts[name_lines]
     wrong = np.flatnonzero(got != ndof[ids])
@@ -570,7 +567,9 @@ def _parse_amc_body(path, body: bytes, first_line: int, skeleton: Skeleton, layo
     key = frame_of * J + ids
     seen = np.bincount(key, minlength=F * J)
     if np.any(seen > 1):
-        i = int(np.flatnonzero(seen[key] > 1)[1 if np.count_nonzero(key == key[np.flatnonzero(seen[key] > 1)[0]]) > 1 else 0])
+        repeated = np.ones(key.shape[0], dtype=bool)
+        repeated[np.unique(key, return_index=True)[1]] = False
+        i = int(np.flatnonzero(repeated)[0])
         raise MocapFormatError(
             path,
             f"joint {skeleton.joint_names[ids[i]]} appears twice in frame {numbers_of_frames[frame_of[i]]:.0f}",
@@ -591,6 +590,49 @@ def _parse_amc_body(path, body: bytes, first_line: int, skeleton: Skeleton, layo
     src = np.repeat(value_at[name_lines], got) + within
     dst = np.repeat(frame_of * ncols + col0[ids], got) + within
     return values[src], dst, (F, ncols)
+
+
+_HASH_BASE = np.uint64(1099511628211)
+
+
+def _token_ids(arr: np.ndarray, starts: np.ndarray, ends: np.ndarray, names: tuple[str, ...]) -> np.ndarray:
+    """Index in ``names`` of each token ``arr[starts[i]:ends[i]]`` (-1 where none), vectorised.
+
+    Tokens are hashed (a polynomial over their bytes, wrapping in uint64), looked
+    up among the hashes of ``names``, and the candidate is confirmed byte by byte,
+    so a hash collision can never map an unknown token to a joint.
+    """
+    count = starts.shape[0]
+    if count == 0:
+        return np.zeros(0, dtype=np.int64)
+    known = [n.encode("latin-1") for n in names]
+    width = max(len(k) for k in known)
+    table = np.zeros((len(known), width), dtype=np.uint8)
+    for i, k in enumerate(known):
+        table[i, : len(k)] = np.frombuffer(k, dtype=np.uint8)
+    known_len = np.array([len(k) for k in known], dtype=np.int64)
+    lens = ends - starts
+    # Only tokens no longer than the longest name can be names; longer ones are hashed on a prefix.
+    use = np.minimum(lens, width)
+    first = np.cumsum(use) - use
+    within = np.arange(int(use.sum())) - np.repeat(first, use)
+    chars = arr[np.repeat(starts, use) + within]
+    with np.errstate(over="ignore"):
+        powers = np.concatenate([[np.uint64(1)], np.cumprod(np.full(width - 1, _HASH_BASE, dtype=np.uint64))])
+        h = np.add.reduceat(chars.astype(np.uint64) * powers[within], first)
+        kh = (table.astype(np.uint64) * powers).sum(axis=1)
+    if np.unique(kh).shape[0] < kh.shape[0]:  # two joint names share a hash: look tokens up one by one
+        lookup = {k: i for i, k in enumerate(known)}
+        raw = arr.tobytes()
+        return np.array([lookup.get(raw[a:b], -1) for a, b in zip(starts.tolist(), ends.tolist())], dtype=np.int64)
+    order = np.argsort(kh)
+    slot = np.minimum(np.searchsorted(kh[order], h), len(known) - 1)
+    cand = order[slot]
+    ok = (kh[cand] == h) & (lens == known_len[cand])
+    # confirm byte by byte
+    same = chars == table[np.repeat(cand, use), within]
+    ok &= np.logical_and.reduceat(same, first)
+    return np.where(ok, cand, -1).astype(np.int64)
 
 
 def _to_motion_arrays(table: np.ndarray, skeleton: Skeleton, layout: _Layout, radians: bool):
