@@ -45,7 +45,7 @@ import numpy as np
 
 from . import rotations as R
 from .errors import SkeletonError
-from .motion import Motion, Skeleton, find_joint, unit_scale_cm
+from .motion import Motion, Skeleton, _readonly, find_joint, unit_scale_cm
 
 __all__ = [
     "detect_up_axis",
@@ -288,9 +288,7 @@ class Features:
         names = tuple(str(n) for n in self.names)
         if v.ndim != 2 or v.shape[1] != len(names):
             raise ValueError(f"values: expected shape (F, {len(names)}), got {v.shape}")
-        v = v.view()
-        v.setflags(write=False)
-        object.__setattr__(self, "values", v)
+        object.__setattr__(self, "values", _readonly(v))
         object.__setattr__(self, "names", names)
         object.__setattr__(self, "fps", float(self.fps))
 
