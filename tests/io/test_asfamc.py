@@ -246,3 +246,17 @@ def test_amc_motions_round_trip_through_bvh_and_npz(tmp_path, shared_data):
             got = back.global_positions(end_sites=True)
             tol = 1e-5 * size if suffix == ".bvh" else 0.0  # BVH holds 6 decimals; npz is exact
             np.testing.assert_allclose(got, ref, atol=tol, rtol=0, err_msg=f"{f.name} via {suffix}")
+
+
+def test_prefix_must_end_at_a_boundary(tmp_path):
+    amc = _copy(tmp_path, "12_walk.amc", "071_01.amc")
+    _copy(tmp_path, "12.asf", "07.asf")
+    _copy(tmp_path, "12.asf", "08.asf")
+    with pytest.raises(MocapFormatError, match="071.asf"):
+        find_asf(amc)
+    dance = tmp_path / "dance"
+    dance.mkdir()
+    amc = _copy(dance, "12_walk.amc", "charleston1.amc")
+    _copy(dance, "12.asf", "charleston.asf")
+    _copy(dance, "12.asf", "lambada.asf")
+    assert find_asf(amc).name == "charleston.asf"
