@@ -213,12 +213,16 @@ def naive_asf_parse(path) -> dict:
     return out
 
 
-def naive_amc_parse(path) -> tuple[list[dict], bool]:
-    """Parse an AMC file: a list of frames, each ``{bone name: [values]}``, and whether it is in radians."""
+def naive_amc_parse(path, only=None) -> tuple[list[dict], bool]:
+    """Parse an AMC file: a list of frames, each ``{bone name: [values]}``, and whether it is in radians.
+
+    With ``only`` (a set of 0-based frame indices) the other frames are left as empty dicts.
+    """
     with open(path, encoding="latin-1", newline=None) as fh:
         lines = fh.read().splitlines()
     frames: list[dict] = []
     radians = False
+    keep = True
     for raw in lines:
         tokens = raw.split()
         if not tokens or tokens[0].startswith("#"):
@@ -227,9 +231,11 @@ def naive_amc_parse(path) -> tuple[list[dict], bool]:
             radians = radians or tokens[0].upper() == ":RADIANS"
             continue
         if len(tokens) == 1 and tokens[0].isdigit():
+            keep = only is None or len(frames) in only
             frames.append({})
             continue
-        frames[-1][tokens[0]] = [float(t) for t in tokens[1:]]
+        if keep:
+            frames[-1][tokens[0]] = [float(t) for t in tokens[1:]]
     return frames, radians
 
 
@@ -252,7 +258,7 @@ def naive_asfamc_fk(asf_path, amc_path, frames) -> list[dict]:
         in ASF length units.
     """
     asf = naive_asf_parse(asf_path)
-    data, amc_radians = naive_amc_parse(amc_path)
+    data, amc_radians = naive_amc_parse(amc_path, only=set(frames))
     to_deg = (lambda v: [math.degrees(x) for x in v]) if asf["radians"] else (lambda v: list(v))
     amc_deg = (lambda v: [math.degrees(x) for x in v]) if amc_radians else (lambda v: list(v))
     root = asf["root"]

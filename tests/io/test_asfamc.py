@@ -1,251 +1,385 @@
+"""ASF/AMC reading: every real clip against an independent FK oracle, the AMC's own numbers,
+skeleton conversion, skeleton lookup, bad files, and a golden comparison with a BVH conversion."""
+
+import dataclasses
+import re
+
 import numpy as np
 import pytest
 
 import mocapkit
 from mocapkit.errors import MocapFormatError
-from mocapkit.io.asfamc import find_asf, read_amc, read_asf
-from mocapkit.motion import unit_scale_cm
+from mocapkit.io.asfamc import find_asf, fps_from_name, read_amc, read_asf
+from mocapkit.motion import Motion, unit_scale_cm
+from mocapkit.rotations import euler_to_quaternion, geodesic_angle
+from tests.naive import naive_amc_parse, naive_asf_parse, naive_asfamc_fk
+
+SAMPLES = [
+    ("12_walk.amc", "12.asf"),
+    ("HDM_bd_jogLeftCircle4StepsRstart_001_120.amc", "HDM_bd.asf"),
+    ("HDM_bk_sneak2StepsLStart_004_120.amc", "HDM_bk.asf"),
+]
 
 
-def _rot(axis, deg):
-    a = np.radians(deg)
-    c, s = np.cos(a), np.sin(a)
-    if axis == "x":
-        return np.array([[1, 0, 0], [0, c, -s], [0, s, c]])
-    if axis == "y":
-        return np.array([[c, 0, s], [0, 1, 0], [-s, 0, c]])
-    return np.array([[c, -s, 0], [s, c, 0], [0, 0, 1]])
+def skeleton_size(m: Motion) -> float:
+    rest = m.skeleton.rest_positions(end_sites=True)
+    return float(np.linalg.norm(np.ptp(rest, axis=0)))
 
 
-def naive_asf_fk(asf_path, amc_path, frames):
-    """Bone start/end points from first principles (ASF spec): G_b = G_parent C_b M_b C_b^-1.
-
-    Parses both files with plain Python; rotations are products of elementary matrices applied
-    in the listed order (x first for "XYZ"/"rx ry rz"). Returns {frame: {bone: (start, end)}}.
-    """
-    bones, hier, root = {}, {}, {}
-    section, cur = None, None
-    for raw in open(asf_path, encoding="latin-1"):
-        line = raw.split("#")[0].strip()
-        if not line:
-            continue
-        if line.startswith(":"):
-            section = line.split()[0]
-            continue
-        t = line.split()
-        if section == ":root":
-            root[t[0]] = t[1:]
-        elif section == ":bonedata":
-            if t[0] == "begin":
-                cur = {"dof": []}
-            elif t[0] == "end":
-                bones[cur["name"]] = cur
-            elif t[0] == "name":
-                cur["name"] = t[1]
-            elif t[0] == "direction":
-                cur["dir"] = np.array([float(v) for v in t[1:4]])
-            elif t[0] == "length":
-                cur["len"] = float(t[1])
-            elif t[0] == "axis":
-                cur["axis"] = ([float(v) for v in t[1:4]], t[4].lower())
-            elif t[0] == "dof":
-                cur["dof"] = t[1:]
-        elif section == ":hierarchy" and t[0] not in ("begin", "end"):
-            hier[t[0]] = t[1:]
-
-    def axis_matrix(vals, order):
-        m = np.eye(3)
-        for ax, v in zip(order, vals):  # x first: m = R_last ... R_first
-            m = _rot(ax, v) @ m
-        return m
-
-    wanted = set(frames)
-    data, f = {}, None
-    for raw in open(amc_path, encoding="latin-1"):
-        t = raw.split()
-        if not t or t[0].startswith(("#", ":")):
-            continue
-        if len(t) == 1 and t[0].isdigit():
-            f = int(t[0]) - 1
-            continue
-        if f in wanted:
-            data.setdefault(f, {})[t[0]] = [float(v) for v in t[1:]]
-    out = {}
-    for f in frames:
-        vals = data[f]
-        r = vals["root"]
-        order = [o.lower() for o in root["order"]]
-        pos = np.array([r[order.index(a)] for a in ("tx", "ty", "tz")])
-        rot_order = "".join(o[1] for o in order if o.startswith("r"))
-        rvals = [r[order.index("r" + a)] for a in rot_order]
-        c_root = axis_matrix([float(v) for v in root["orientation"]], root["axis"][0].lower())
-        g_root = c_root @ axis_matrix(rvals, rot_order) @ c_root.T
-        res = {}
-
-        def visit(name, g_parent, start):
-            b = bones[name]
-            c = axis_matrix(*b["axis"])
-            dofs = b["dof"]
-            m = axis_matrix(vals.get(name, [0.0] * len(dofs)), "".join(d[1] for d in dofs)) if dofs else np.eye(3)
-            g = g_parent @ c @ m @ c.T
-            end = start + g @ (b["dir"] * b["len"])
-            res[name] = (start, end)
-            for ch in hier.get(name, []):
-                visit(ch, g, end)
-
-        for ch in hier["root"]:
-            visit(ch, g_root, pos)
-        out[f] = res
+def oracle_positions(m: Motion, asf, amc, frames) -> np.ndarray:
+    """The oracle's points arranged like ``global_positions(end_sites=True)``: root, bone starts, leaf tips."""
+    sk = m.skeleton
+    out = np.empty((len(frames), sk.num_joints + sk.num_end_sites, 3))
+    for k, res in enumerate(naive_asfamc_fk(asf, amc, frames)):
+        out[k, 0] = res["root"]
+        for j, name in enumerate(sk.joint_names[1:], start=1):
+            out[k, j] = res[name][0]
+        for e, j in enumerate(sk.end_site_parents):
+            out[k, sk.num_joints + e] = res[sk.joint_names[j]][1]
     return out
 
 
-def check_against_oracle(m, asf, amc, frames):
-    ref = naive_asf_fk(asf, amc, frames)
-    p = m.global_positions(end_sites=True)
-    names = m.skeleton.joint_names
-    end_of = dict(zip(m.skeleton.end_site_parents.tolist(), range(m.num_joints, m.num_joints + 99)))
-    size = np.ptp(m.skeleton.rest_positions(), axis=0).max()
-    for f in frames:
-        for j, name in enumerate(names[1:], start=1):
-            start, end = ref[f][name]
-            np.testing.assert_allclose(p[f, j], start, atol=1e-9 * size, err_msg=f"{amc} frame {f} {name}")
-            if j in end_of:
-                np.testing.assert_allclose(p[f, end_of[j]], end, atol=1e-9 * size)
+def check_against_oracle(m: Motion, asf, amc, frames):
+    ours = m.global_positions(end_sites=True)[frames]
+    ref = oracle_positions(m, asf, amc, frames)
+    np.testing.assert_allclose(ours, ref, rtol=0, atol=1e-9 * skeleton_size(m), err_msg=str(amc))
 
 
-SAMPLES = [("12_walk.amc", "12.asf"), ("HDM_bd_jogLeftCircle4StepsRstart_001_120.amc", "HDM_bd.asf"),
-           ("HDM_bk_sneak2StepsLStart_004_120.amc", "HDM_bk.asf")]
+def amc_lines(name: str) -> list[str]:
+    return mocapkit.samples.path(name).read_text(encoding="latin-1").splitlines()
 
 
-@pytest.mark.parametrize("amc,asf", SAMPLES)
-def test_bundled_clips_match_the_oracle(amc, asf):
-    path = mocapkit.samples.path(amc)
-    m = mocapkit.load(path)
-    assert find_asf(path).name == asf
-    assert m.fps == 120.0 and m.num_joints == 31
-    check_against_oracle(m, mocapkit.samples.path(asf), path, [0, m.num_frames // 2, m.num_frames - 1])
+def first_frame_line(lines: list[str]) -> int:
+    return next(i for i, line in enumerate(lines) if line.strip() == "1")
+
+
+# -- real clips against the oracle ----------------------------------------------------
 
 
 def test_every_amc_in_shared_data_loads_and_matches_the_oracle(shared_data):
     files = sorted(shared_data.rglob("*.amc"))
     assert len(files) >= 280
-    for i, f in enumerate(files):
-        m = mocapkit.load(f)
-        assert m.num_frames > 0 and np.isfinite(m.rotations).all(), f.name
-        if i % 10 == 0:  # the oracle is slow: every tenth clip, three frames each
-            check_against_oracle(m, find_asf(f), f, [0, m.num_frames // 2, m.num_frames - 1])
+    for f in files:
+        m = mocapkit.load(f)  # the ASF is found automatically
+        frames, _ = naive_amc_parse(f, only=set())
+        assert m.num_frames == len(frames) and m.name == f.stem, f.name
+        assert m.num_joints == 31 and np.isfinite(m.rotations).all(), f.name
+        assert m.fps == 120.0
+        picks = sorted({0, 1, m.num_frames // 3, m.num_frames - 1})
+        check_against_oracle(m, find_asf(f), f, picks)
 
 
-def test_cmu_amc_equals_its_cgspeed_bvh_conversion(shared_data):
-    amc = mocapkit.load(shared_data / "cmu_asfamc" / "01_01.amc")
-    bvh = mocapkit.load(shared_data / "cmu_bvh" / "01_01.bvh")
-    assert bvh.num_frames == amc.num_frames + 1  # the converter prepends a T-pose
-    pa = amc.global_positions()
-    pb = bvh.global_positions()[1:]
-    # Same joint order (root/Hips, lhipjoint/LHipJoint, ...) and units: root-relative positions of the
-    # legs and the spine up to the thorax agree to the BVH's 5 printed decimals. From the neck up the
-    # converter moved the joints by a constant 2.06 units, so the comparison stops at the thorax.
-    upto = amc.skeleton.index("thorax") + 1
-    assert bvh.skeleton.joint_names[upto - 1] == "Spine1"
-    ra, rb = pa - pa[:, :1], pb - pb[:, :1]
-    np.testing.assert_allclose(ra[:, :upto], rb[:, :upto], atol=1e-4)
-
-
-def test_channel_values_are_the_amc_numbers():
-    path = mocapkit.samples.path("12_walk.amc")
+@pytest.mark.parametrize("amc,asf", SAMPLES)
+def test_bundled_clips_match_the_oracle(amc, asf):
+    path = mocapkit.samples.path(amc)
+    assert find_asf(path) == mocapkit.samples.path(asf)
     m = mocapkit.load(path)
-    lines = path.read_text(encoding="latin-1").splitlines()
-    start = next(i for i, line in enumerate(lines) if line.strip() == "1")
-    frame1 = {t.split()[0]: [float(v) for v in t.split()[1:]] for t in lines[start + 1 : start + 30]}
+    assert m.fps == 120.0 and m.num_joints == 31 and m.name == path.stem
+    frames = sorted({0, 7, m.num_frames // 2, m.num_frames - 1})
+    check_against_oracle(m, mocapkit.samples.path(asf), path, frames)
+
+
+def test_cmu_root_positions_and_units(shared_data):
+    m = mocapkit.load(shared_data / "cmu_asfamc" / "01_01.amc")
+    frames, _ = naive_amc_parse(shared_data / "cmu_asfamc" / "01_01.amc")
+    np.testing.assert_array_equal(m.root_positions, [f["root"][:3] for f in frames])
+    for f in sorted(shared_data.rglob("*.asf")):
+        sk = read_asf(f)
+        assert sk.unit_cm == pytest.approx(2.54 / 0.45, rel=1e-15), f.name
+        assert unit_scale_cm(sk) == pytest.approx(2.54 / 0.45, rel=1e-15), f.name
+
+
+# -- the AMC's own numbers --------------------------------------------------------------
+
+
+def amc_columns(m: Motion, amc_frames) -> tuple[np.ndarray, np.ndarray]:
+    """The AMC values rearranged into ``channel_values()`` columns, and which columns are 3-dof middles."""
+    sk = m.skeleton
+    cols, middle = [], []
+    for j, name in enumerate(sk.joint_names):
+        chans = sk.joint_channels(j)
+        vals = np.array([f.get(name, [0.0] * len(chans)) for f in amc_frames]).reshape(len(amc_frames), -1)
+        if j == 0:  # TX TY TZ RX RY RZ -> positions, then rotations reversed
+            vals = vals[:, [0, 1, 2, 5, 4, 3]]
+        else:  # dof order reversed
+            vals = vals[:, ::-1]
+        n_rot = sum(c.endswith("rotation") for c in chans)
+        for k in range(vals.shape[1]):
+            cols.append(vals[:, k])
+            middle.append(n_rot == 3 and k == len(chans) - 2)
+    return np.stack(cols, axis=1), np.array(middle)
+
+
+@pytest.mark.parametrize("amc", ["12_walk.amc", "HDM_bk_sneak2StepsLStart_004_120.amc"])
+def test_channel_values_are_the_amc_numbers(amc):
+    path = mocapkit.samples.path(amc)
+    m = mocapkit.load(path)
+    frames, _ = naive_amc_parse(path)
+    expected, middle = amc_columns(m, frames)
+    got = m.channel_values()
+    assert got.shape == expected.shape
     names = m.channel_names()
-    values = m.channel_values()[0]
-    got = dict(zip(names, values))
-    # lfemur: dof rx ry rz -> channels stored reversed (intrinsic Z Y X)
-    assert got["lfemur.Xrotation"] == pytest.approx(frame1["lfemur"][0], abs=1e-6)
-    assert got["lfemur.Yrotation"] == pytest.approx(frame1["lfemur"][1], abs=1e-6)
-    assert got["lfemur.Zrotation"] == pytest.approx(frame1["lfemur"][2], abs=1e-6)
-    assert got["ltibia.Xrotation"] == pytest.approx(frame1["ltibia"][0], abs=1e-6)
-    assert got["root.Xposition"] == pytest.approx(frame1["root"][0], abs=1e-9)
+    assert names[:6] == ["root.Xposition", "root.Yposition", "root.Zposition",
+                         "root.Zrotation", "root.Yrotation", "root.Xrotation"]
+    assert names[names.index("lfemur.Zrotation") + 2] == "lfemur.Xrotation"
+    np.testing.assert_array_equal(got[:, :3], expected[:, :3])
+    diff = (got[:, 3:] - expected[:, 3:] + 180.0) % 360.0 - 180.0  # angles are equal modulo 360
+    # Away from gimbal lock the Euler triple is unique: the middle angle of 3-dof joints stays below 85 degrees.
+    far = np.all(np.abs(expected[:, 3:][:, middle[3:]]) < 85.0, axis=1)
+    assert far.mean() > 0.9
+    assert np.abs(diff[far]).max() < 1e-6
 
 
-def test_skeleton_units_and_limits():
+def test_a_bone_missing_from_a_frame_gets_the_identity(tmp_path):
+    lines = amc_lines("12_walk.amc")
+    start = first_frame_line(lines)
+    nxt = next(i for i in range(start + 1, len(lines)) if lines[i].strip() == "2")
+    lfemur = next(i for i in range(nxt, nxt + 31) if lines[i].startswith("lfemur "))
+    del lines[lfemur]
+    p = tmp_path / "12_gap.amc"
+    p.write_text("\n".join(lines) + "\n", encoding="latin-1")
+    m = read_amc(p, asf=mocapkit.samples.path("12.asf"))
+    full = mocapkit.load(mocapkit.samples.path("12_walk.amc"))
+    j = m.skeleton.index("lfemur")
+    np.testing.assert_allclose(m.rotations[1, j], [1.0, 0.0, 0.0, 0.0], rtol=0, atol=1e-15)
+    np.testing.assert_array_equal(m.rotations[0], full.rotations[0])
+    np.testing.assert_array_equal(np.delete(m.rotations[1], j, axis=0), np.delete(full.rotations[1], j, axis=0))
+
+
+# -- the skeleton ---------------------------------------------------------------------
+
+
+def test_skeleton_conversion_follows_the_asf():
+    path = mocapkit.samples.path("12.asf")
+    sk = read_asf(path)
+    asf = naive_asf_parse(path)
+    bones = asf["bones"]
+    assert sk.joint_names[:7] == ("root", "lhipjoint", "lfemur", "ltibia", "lfoot", "ltoes", "rhipjoint")
+    assert sorted(sk.joint_names[1:]) == sorted(bones)
+    for j, name in enumerate(sk.joint_names[1:], start=1):
+        p = sk.parents[j]
+        parent = sk.joint_names[p]
+        assert name in asf["children"][parent]
+        expected = np.zeros(3) if parent == "root" else bones[parent]["direction"] * bones[parent]["length"]
+        np.testing.assert_array_equal(sk.offsets[j], expected)
+        b = bones[name]
+        np.testing.assert_allclose(sk.axes[j], euler_to_quaternion(b["axis"], b["axis_order"]), atol=1e-15)
+        dof = b["dof"]
+        assert sk.joint_channels(j) == tuple(f"{d[1].upper()}rotation" for d in reversed(dof))
+        assert sk.rotation_order(j) == "".join(d[1].upper() for d in reversed(dof))
+    leaves = [n for n in bones if n not in asf["children"]]
+    assert sorted(sk.joint_names[j] for j in sk.end_site_parents) == sorted(leaves)
+    for e, j in enumerate(sk.end_site_parents):
+        b = bones[sk.joint_names[j]]
+        np.testing.assert_array_equal(sk.end_site_offsets[e], b["direction"] * b["length"])
+    assert sk.joint_channels(0) == ("Xposition", "Yposition", "Zposition", "Zrotation", "Yrotation", "Xrotation")
+    # limits follow the channels: lfemur "limits (-160 20) (-70 70) (-60 70)" for rx ry rz, stored reversed
+    assert sk.limits[sk.index("lfemur")] == ((-60.0, 70.0), (-70.0, 70.0), (-160.0, 20.0))
+    assert sk.limits[sk.index("lfoot")] == ((-70.0, 20.0), (-45.0, 90.0))
+    assert sk.limits[sk.index("lhipjoint")] == ()
+    assert sk.unit_cm == pytest.approx(2.54 / 0.45)
+
+
+TINY_ASF = """\
+# a hand-made skeleton: comments, documentation, CRLF and Latin-1 (Müller)
+:version 1.10
+:name tiny
+:units
+  mass 1.0
+  length {length}
+  angle {angle}
+:documentation
+   Anything here is ignored: begin end dof rx  # and so are these words
+:root
+   order TX TY TZ RZ RY RX
+   axis XYZ
+   position 0 0 0
+   orientation {orient}
+:bonedata
+  begin
+     id 1
+     name hip
+     direction 0 -1 0
+     length 2
+     axis {axis1} ZYX
+    dof rz rx
+    limits ({lo1} {hi1})
+           ({lo2} {hi2})
+  end
+  begin
+     id 2
+     name knee
+     direction 0 0 1
+     length 3
+     axis 0 0 0 XYZ
+     bodymass 2.0
+    dof ry
+    limits (-inf inf)
+  end
+  begin
+     id 3
+     name spine
+     direction 0 1 0
+     length 4
+     axis 0 0 0 XYZ
+  end
+:hierarchy
+  begin
+    root hip spine
+    hip knee
+  end
+"""
+
+TINY_AMC = """\
+# motion for the tiny skeleton
+:FULLY-SPECIFIED
+:{unit}
+0
+root 1 2 3 {r1} {r2} {r3}
+hip {h1} {h2}
+knee {k1}
+spine
+1
+root 1.5 2 3 {r1} {r2} {r3}
+knee {k1}
+hip {h1} {h2}
+"""
+
+
+def write_tiny(folder, radians: bool, crlf: bool = False):
+    conv = np.radians if radians else (lambda v: v)
+    f = lambda v: repr(float(conv(v)))  # noqa: E731
+    asf = TINY_ASF.format(
+        length=0.5, angle="rad" if radians else "deg", orient=" ".join(f(v) for v in (10, 20, 30)),
+        axis1=" ".join(f(v) for v in (15, -25, 35)), lo1=f(-60), hi1=f(60), lo2=f(-10), hi2=f(170),
+    )
+    amc = TINY_AMC.format(
+        unit="RADIANS" if radians else "DEGREES", r1=f(40), r2=f(-50), r3=f(60), h1=f(30), h2=f(-45), k1=f(70)
+    )
+    nl = "\r\n" if crlf else "\n"
+    (folder / "tiny.asf").write_bytes(asf.replace("\n", nl).encode("latin-1"))
+    (folder / "tiny_01.amc").write_bytes(amc.replace("\n", nl).encode("latin-1"))
+    return folder / "tiny.asf", folder / "tiny_01.amc"
+
+
+@pytest.mark.parametrize("radians,crlf", [(False, False), (False, True), (True, False)])
+def test_hand_made_skeleton(tmp_path, radians, crlf):
+    asf, amc = write_tiny(tmp_path, radians, crlf)
+    sk = read_asf(asf)
+    assert sk.joint_names == ("root", "hip", "knee", "spine")
+    np.testing.assert_array_equal(sk.parents, [-1, 0, 1, 0])
+    np.testing.assert_allclose(sk.offsets, [[0, 0, 0], [0, 0, 0], [0, -2, 0], [0, 0, 0]])
+    np.testing.assert_array_equal(sk.end_site_parents, [2, 3])
+    np.testing.assert_allclose(sk.end_site_offsets, [[0, 0, 3], [0, 4, 0]])
+    assert sk.channels == (
+        ("Xposition", "Yposition", "Zposition", "Xrotation", "Yrotation", "Zrotation"),
+        ("Xrotation", "Zrotation"),
+        ("Yrotation",),
+        (),
+    )
+    np.testing.assert_allclose(sk.limits[1], ((-10, 170), (-60, 60)), atol=1e-12)
+    assert sk.limits[2] == ((-np.inf, np.inf),)
+    assert sk.unit_cm == pytest.approx(5.08)
+    np.testing.assert_allclose(sk.axes[1], euler_to_quaternion([15, -25, 35], "zyx"), atol=1e-14)
+    np.testing.assert_allclose(sk.axes[0], euler_to_quaternion([10, 20, 30], "xyz"), atol=1e-14)
+    m = read_amc(amc)
+    assert m.num_frames == 2 and m.fps == 120.0 and m.name == "tiny_01"
+    np.testing.assert_array_equal(m.root_positions, [[1, 2, 3], [1.5, 2, 3]])
+    check_against_oracle(m, asf, amc, [0, 1])
+    # the spine has no dof: identity; bones listed in any order
+    np.testing.assert_array_equal(m.rotations[:, 3], [[1, 0, 0, 0]] * 2)
+    np.testing.assert_allclose(m.rotations[0, 1:3], m.rotations[1, 1:3], atol=1e-15)
+    ch = m.channel_values()
+    np.testing.assert_allclose(ch[0], [1, 2, 3, 60, -50, 40, -45, 30, 70], atol=1e-9)
+
+
+def test_radians_files_give_the_same_motion(tmp_path):
+    (tmp_path / "deg").mkdir()
+    (tmp_path / "rad").mkdir()
+    a = read_amc(write_tiny(tmp_path / "deg", False)[1])
+    b = read_amc(write_tiny(tmp_path / "rad", True)[1])
+    assert np.degrees(geodesic_angle(a.rotations, b.rotations)).max() < 1e-9
+    np.testing.assert_allclose(a.global_positions(end_sites=True), b.global_positions(end_sites=True), atol=1e-12)
+
+
+def test_skeleton_given_directly(tmp_path):
+    path = mocapkit.samples.path("12_walk.amc")
     sk = read_asf(mocapkit.samples.path("12.asf"))
-    assert sk.unit_cm == pytest.approx(2.54 / 0.45) and unit_scale_cm(sk) == pytest.approx(2.54 / 0.45)
-    j = sk.index("lfemur")
-    assert sk.joint_channels(j) == ("Zrotation", "Yrotation", "Xrotation")
-    assert len(sk.limits[j]) == 3
-    assert sk.num_end_sites >= 5
+    a = read_amc(path, asf=sk, fps=30)
+    b = mocapkit.load(path)
+    assert a.fps == 30.0 and a.skeleton is sk
+    np.testing.assert_array_equal(a.rotations, b.rotations)
+    np.testing.assert_array_equal(a.root_positions, b.root_positions)
 
 
-def _copy(tmp_path, name, new=None):
-    dst = tmp_path / (new or name)
+# -- finding the skeleton, the frame rate ----------------------------------------------
+
+
+def _touch(folder, *names, amc_text=None):
+    folder.mkdir(parents=True, exist_ok=True)
+    asf = mocapkit.samples.path("12.asf").read_bytes()
+    for n in names:
+        (folder / n).write_bytes(amc_text if n.endswith(".amc") and amc_text else asf)
+    return folder
+
+
+@pytest.mark.parametrize(
+    "amc,others,expected",
+    [
+        ("07_01.amc", ["07.asf", "08.asf", "0.asf", "07_0.asf", "07_01x.asf"], "07.asf"),
+        ("HDM_bd_kick_001_120.amc", ["HDM_bd.asf", "HDM_b.asf", "HDM_bk.asf", "HDM.asf"], "HDM_bd.asf"),
+        ("charleston1.amc", ["charleston.asf", "lambada.asf", "charle.asf"], "charleston.asf"),
+        ("12_from_examples_02_01.amc", ["12.asf", "1.asf", "02.asf", "12_from.asf"], "12_from.asf"),
+        ("12_from_examples_02_01.amc", ["12.asf", "1.asf", "02.asf"], "12.asf"),
+        ("walk.amc", ["subject.asf"], "subject.asf"),
+        ("walk.amc", ["WALK.ASF", "other.asf"], "WALK.ASF"),
+    ],
+)
+def test_skeleton_lookup(tmp_path, amc, others, expected):
+    folder = _touch(tmp_path / "d", *others)
+    assert find_asf(folder / amc).name == expected
+
+
+def test_missing_skeleton_names_the_file_looked_for(tmp_path):
+    folder = _touch(tmp_path / "none", "08.asf", "10.asf")
+    amc = folder / "09_01.amc"
+    amc.write_bytes(mocapkit.samples.path("12_walk.amc").read_bytes())
+    with pytest.raises(MocapFormatError, match=r"09_01\.amc: no skeleton: looked for .*09\.asf"):
+        mocapkit.load(amc)
+    empty = tmp_path / "empty"
+    empty.mkdir()
+    (empty / "HDM_xx_walk_001_120.amc").write_bytes(amc.read_bytes())
+    with pytest.raises(MocapFormatError, match=r"HDM\.asf.*no ASF files"):
+        read_amc(empty / "HDM_xx_walk_001_120.amc")
+    with pytest.raises(MocapFormatError, match=r"nope\.asf: no such ASF file"):
+        read_amc(amc, asf=tmp_path / "nope.asf")
+    m = read_amc(amc, asf=mocapkit.samples.path("12.asf"), fps=60)
+    assert m.fps == 60.0 and m.name == "09_01"
+
+
+def test_fps_from_name():
+    assert fps_from_name("HDM_bd_kick_001_120") == 120.0
+    assert fps_from_name("clip_60") == 60.0
+    assert fps_from_name("07_01") is None
+    assert fps_from_name("charleston1") is None
+    assert fps_from_name("take_5000") is None
+    assert fps_from_name("120") is None
+    assert fps_from_name("walk") is None
+
+
+def test_fps_comes_from_the_name(tmp_path):
+    folder = _touch(tmp_path, "12.asf")
+    body = mocapkit.samples.path("12_walk.amc").read_bytes()
+    for name, fps in [("12_walk_60.amc", 60.0), ("12_walk_01.amc", 120.0), ("12_walk.amc", 120.0)]:
+        (folder / name).write_bytes(body)
+        assert mocapkit.load(folder / name).fps == fps
+    assert mocapkit.load(folder / "12_walk_60.amc", fps=25).fps == 25.0
+
+
+def _copy(folder, name, new=None):
+    dst = folder / (new or name)
     dst.write_bytes(mocapkit.samples.path(name).read_bytes())
     return dst
-
-
-def test_skeleton_resolution_rules(tmp_path):
-    amc = _copy(tmp_path, "12_walk.amc", "07_01.amc")
-    _copy(tmp_path, "12.asf", "07.asf")
-    _copy(tmp_path, "12.asf", "08.asf")
-    assert find_asf(amc).name == "07.asf"
-    solo = tmp_path / "solo"
-    solo.mkdir()
-    amc2 = _copy(solo, "12_walk.amc", "walk.amc")
-    _copy(solo, "12.asf", "subject.asf")
-    assert find_asf(amc2).name == "subject.asf"
-    none = tmp_path / "none"
-    none.mkdir()
-    amc3 = _copy(none, "12_walk.amc", "09_01.amc")
-    with pytest.raises(MocapFormatError, match="09_01.amc.*09.asf"):
-        mocapkit.load(amc3)
-    m = read_amc(amc3, asf=mocapkit.samples.path("12.asf"), fps=60)
-    assert m.fps == 60
-
-
-def test_bad_amc_files(tmp_path):
-    asf = mocapkit.samples.path("12.asf")
-    text = mocapkit.samples.path("12_walk.amc").read_text(encoding="latin-1").splitlines()
-    start = next(i for i, line in enumerate(text) if line.strip() == "1")
-
-    def write(lines, name):
-        p = tmp_path / name
-        p.write_text("\n".join(lines) + "\n", encoding="latin-1")
-        return p
-
-    bad = list(text)
-    bad[start + 3] = "tail 1 2 3"
-    with pytest.raises(MocapFormatError, match=rf"unknown.amc:{start + 4}:.*tail"):
-        read_amc(write(bad, "unknown.amc"), asf=asf)
-    bad = list(text)
-    bad[start + 2] = bad[start + 2].rsplit(" ", 1)[0]
-    with pytest.raises(MocapFormatError, match=rf"few.amc:{start + 3}:.*values"):
-        read_amc(write(bad, "few.amc"), asf=asf)
-    bad = list(text)
-    bad[start + 2] = bad[start + 2].split()[0] + " 1 x 3"
-    with pytest.raises(MocapFormatError, match=rf"nonnum.amc:{start + 3}:.*non-numeric"):
-        read_amc(write(bad, "nonnum.amc"), asf=asf)
-    with pytest.raises(MocapFormatError, match="zero.amc.*no frames"):
-        read_amc(write(text[:start], "zero.amc"), asf=asf)
-    bad = list(text)
-    nxt = next(i for i in range(start + 1, len(bad)) if bad[i].strip() == "2")
-    bad[nxt] = "5"
-    with pytest.raises(MocapFormatError, match=rf"gap.amc:{nxt + 1}:.*consecutive"):
-        read_amc(write(bad, "gap.amc"), asf=asf)
-    with pytest.raises(MocapFormatError, match="trunc.amc.*truncated"):
-        read_amc(write(text[: nxt + 5], "trunc.amc"), asf=asf)
-
-
-def test_amc_motions_round_trip_through_bvh_and_npz(tmp_path, shared_data):
-    files = sorted(shared_data.rglob("*.amc"))[::25] + [mocapkit.samples.path("12_walk.amc")]
-    for f in files:
-        m = mocapkit.load(f)
-        ref = m.global_positions(end_sites=True)
-        size = np.ptp(ref.reshape(-1, 3), axis=0).max()
-        for suffix in (".bvh", ".npz"):
-            back = mocapkit.load(mocapkit.save(m, tmp_path / (f.stem + suffix)))
-            got = back.global_positions(end_sites=True)
-            tol = 1e-5 * size if suffix == ".bvh" else 0.0  # BVH holds 6 decimals; npz is exact
-            np.testing.assert_allclose(got, ref, atol=tol, rtol=0, err_msg=f"{f.name} via {suffix}")
 
 
 def test_prefix_must_end_at_a_boundary(tmp_path):
@@ -260,3 +394,135 @@ def test_prefix_must_end_at_a_boundary(tmp_path):
     _copy(dance, "12.asf", "charleston.asf")
     _copy(dance, "12.asf", "lambada.asf")
     assert find_asf(amc).name == "charleston.asf"
+
+
+# -- bad files ------------------------------------------------------------------------
+
+
+@pytest.fixture
+def walk():
+    lines = amc_lines("12_walk.amc")
+    start = first_frame_line(lines)
+    second = next(i for i in range(start + 1, len(lines)) if lines[i].strip() == "2")
+    return lines, start, second
+
+
+def _write(tmp_path, name, lines):
+    p = tmp_path / name
+    p.write_text("\n".join(lines) + "\n", encoding="latin-1")
+    return p
+
+
+def _edit(lines, i, text):
+    out = list(lines)
+    out[i] = text
+    return out
+
+
+def test_bad_amc_files(tmp_path, walk):
+    lines, start, second = walk
+    asf = mocapkit.samples.path("12.asf")
+    first_bone = lines[start + 2]
+    cases = [
+        ("unknown.amc", _edit(lines, start + 3, "tail 1 2 3"), start + 4,
+         r"AMC names joint 'tail' that the ASF 12\.asf lacks"),
+        ("few.amc", _edit(lines, start + 2, first_bone.rsplit(" ", 1)[0]), start + 3,
+         r"joint lowerback needs 3 values \(rx ry rz\), got 2"),
+        ("many.amc", _edit(lines, start + 2, first_bone + " 4"), start + 3, r"needs 3 values .*got 4"),
+        ("nonnum.amc", _edit(lines, start + 2, "lowerback 1 x 3"), start + 3, r"non-numeric value 'x'"),
+        ("gap.amc", _edit(lines, second, "5"), second + 1,
+         r"frame 5 follows frame 1: frame numbers must be consecutive"),
+        ("back.amc", _edit(lines, second, "1"), second + 1, r"frame 1 follows frame 1"),
+        ("twice.amc", _edit(lines, start + 3, first_bone), start + 4, r"appears twice in frame 1"),
+        ("framenum.amc", _edit(lines, second, "2 3"), second + 1, r"expected a frame number"),
+        ("early.amc", lines[:start] + lines[start + 1 :], start + 1, r"before the first frame number"),
+    ]
+    for name, text, line, message in cases:
+        with pytest.raises(MocapFormatError, match=rf"{re.escape(name)}:{line}: (.* )?{message}"):
+            read_amc(_write(tmp_path, name, text), asf=asf)
+    with pytest.raises(MocapFormatError, match=r"zero\.amc: no frames"):
+        read_amc(_write(tmp_path, "zero.amc", lines[:start]), asf=asf)
+    with pytest.raises(MocapFormatError, match=r"trunc\.amc:\d+: truncated: the last frame \(2\) lists 4 of 29 joints"):
+        read_amc(_write(tmp_path, "trunc.amc", lines[: second + 5]), asf=asf)
+    with pytest.raises(MocapFormatError, match=r"cut\.amc:\d+: .*needs 3 values"):
+        read_amc(_write(tmp_path, "cut.amc", lines[: second + 4] + [lines[second + 4].rsplit(" ", 1)[0]]), asf=asf)
+
+
+def test_bad_asf_files(tmp_path):
+    good = mocapkit.samples.path("12.asf").read_text(encoding="latin-1")
+
+    def bad(text, name="bad.asf"):
+        p = tmp_path / name
+        p.write_text(text, encoding="latin-1")
+        return p
+
+    with pytest.raises(MocapFormatError, match=r"bad\.asf:\d+: dof l .*not supported"):
+        read_asf(bad(good.replace("dof rx\n", "dof rx l\n", 1)))
+    with pytest.raises(MocapFormatError, match=r"bad\.asf:\d+: .*tx on a bone .*not supported"):
+        read_asf(bad(good.replace("dof rx\n", "dof rx tx\n", 1)))
+    with pytest.raises(MocapFormatError, match=r"bad\.asf:\d+: hierarchy names bone 'lfemr'"):
+        read_asf(bad(good.replace("lhipjoint lfemur", "lhipjoint lfemr")))
+    with pytest.raises(MocapFormatError, match=r"bad\.asf:\d+: bone 'ltibia' has 2 limits for 1 dofs"):
+        read_asf(bad(good.replace("limits (-10.0 170.0)", "limits (-10.0 170.0)\n (0 1)", 1)))
+    with pytest.raises(MocapFormatError, match=r"bad\.asf:\d+: direction: non-numeric"):
+        read_asf(bad(good.replace("direction 0.34202 -0.939693 0", "direction 0.34202 -0.9x 0", 1)))
+    with pytest.raises(MocapFormatError, match=r"bad\.asf: bones not reachable from root.*lthumb"):
+        read_asf(bad(re.sub(r"lwrist lhand lthumb", "lwrist lhand", good)))
+    with pytest.raises(MocapFormatError, match=r"bad\.asf:\d+: units angle must be deg or rad"):
+        read_asf(bad(good.replace("angle deg", "angle grad")))
+
+
+# -- golden: the same take converted to BVH by cgspeed ------------------------------------
+
+
+def test_cmu_amc_equals_its_cgspeed_bvh_conversion(shared_data):
+    """01_01.amc read here against cgspeed's BVH of the same take (which adds a T-pose as frame 0).
+
+    Found empirically: same joint order (root/Hips, lhipjoint/LHipJoint, ...), same length unit
+    (scale 1), offsets equal to the BVH's 5 decimals, except that the converter writes zero offsets
+    for Neck, the shoulders (collapsing the thorax bone), the finger bases and thumbs (collapsing the
+    wrist bone). With those seven offsets zeroed, every joint and end site of every frame agrees to
+    1e-4 units (0.6 mm), the precision of the BVH's printed numbers.
+    """
+    amc = mocapkit.load(shared_data / "cmu_asfamc" / "01_01.amc")
+    bvh = mocapkit.load(shared_data / "cmu_bvh" / "01_01.bvh")
+    assert bvh.num_frames == amc.num_frames + 1
+    assert bvh.fps == pytest.approx(amc.fps)
+    pairs = dict(zip(amc.skeleton.joint_names, bvh.skeleton.joint_names))
+    assert [pairs[n] for n in ("root", "lfemur", "ltibia", "thorax", "lowerneck", "lclavicle", "lhand", "rthumb")] == [
+        "Hips", "LeftUpLeg", "LeftLeg", "Spine1", "Neck", "LeftShoulder", "LeftFingerBase", "RThumb"
+    ]
+    np.testing.assert_array_equal(amc.skeleton.parents, bvh.skeleton.parents)
+    np.testing.assert_array_equal(amc.skeleton.end_site_parents, bvh.skeleton.end_site_parents)
+    collapsed = np.linalg.norm(bvh.skeleton.offsets, axis=1) == 0
+    had_length = np.linalg.norm(amc.skeleton.offsets, axis=1) > 0
+    names = {amc.skeleton.joint_names[j] for j in np.flatnonzero(collapsed & had_length)}
+    assert names == {"lowerneck", "lclavicle", "rclavicle", "lhand", "lthumb", "rhand", "rthumb"}
+    offsets = np.array(amc.skeleton.offsets)
+    offsets[collapsed] = 0.0
+    np.testing.assert_allclose(offsets, bvh.skeleton.offsets, rtol=0, atol=1e-5)
+    np.testing.assert_allclose(amc.skeleton.end_site_offsets, bvh.skeleton.end_site_offsets, rtol=0, atol=1e-5)
+    as_bvh = dataclasses.replace(amc, skeleton=dataclasses.replace(amc.skeleton, offsets=offsets))
+    ours = as_bvh.global_positions(end_sites=True)
+    theirs = bvh.global_positions(end_sites=True)[1:]
+    assert np.abs(ours - theirs).max() < 1e-4
+    # without the collapse the head and arms sit a thorax length (2.06 units) away
+    gap = np.linalg.norm(amc.global_positions() - bvh.global_positions()[1:], axis=-1).max(axis=0)
+    thorax_length = np.linalg.norm(amc.skeleton.offsets[amc.skeleton.index("lowerneck")])
+    assert gap[amc.skeleton.index("head")] == pytest.approx(thorax_length, abs=1e-3)
+
+
+# -- round trips through the other formats ----------------------------------------------------
+
+
+def test_amc_motions_round_trip_through_bvh_and_npz(tmp_path, shared_data):
+    files = sorted(shared_data.rglob("*.amc"))[::25] + [mocapkit.samples.path("12_walk.amc")]
+    for f in files:
+        m = mocapkit.load(f)
+        ref = m.global_positions(end_sites=True)
+        size = np.ptp(ref.reshape(-1, 3), axis=0).max()
+        for suffix in (".bvh", ".npz"):
+            back = mocapkit.load(mocapkit.save(m, tmp_path / (f.stem + suffix)))
+            got = back.global_positions(end_sites=True)
+            tol = 1e-5 * size if suffix == ".bvh" else 0.0  # BVH holds 6 decimals; npz is exact
+            np.testing.assert_allclose(got, ref, atol=tol, rtol=0, err_msg=f"{f.name} via {suffix}")

@@ -33,7 +33,6 @@ sharing a dof order.
 
 from __future__ import annotations
 
-import os
 import re
 from dataclasses import dataclass
 from pathlib import Path
@@ -136,7 +135,8 @@ def _parse_asf(path: Path) -> tuple[Skeleton, _Layout]:
                 root_order = [t.lower() for t in tok[1:]]
                 bad = [t for t in root_order if t not in ("tx", "ty", "tz", "rx", "ry", "rz")]
                 if bad or len(set(root_order)) != len(root_order):
-                    raise MocapFormatError(path, f"root order must list distinct TX TY TZ RX RY RZ, got {' '.join(tok[1:])!r}", ln)
+                    got = " ".join(tok[1:])
+                    raise MocapFormatError(path, f"root order must list distinct TX TY TZ RX RY RZ, got {got!r}", ln)
             elif key == "axis":
                 if len(tok) != 2:
                     raise MocapFormatError(path, "root axis needs one order like XYZ", ln)
@@ -183,7 +183,9 @@ def _parse_asf(path: Path) -> tuple[Skeleton, _Layout]:
                     if d == "l":
                         raise MocapFormatError(path, "dof l (animated bone length) is not supported", ln)
                     if d in ("tx", "ty", "tz"):
-                        raise MocapFormatError(path, f"dof {d} on a bone (animated bone translation) is not supported", ln)
+                        raise MocapFormatError(
+                            path, f"dof {d} on a bone (animated bone translation) is not supported", ln
+                        )
                     if d not in ("rx", "ry", "rz"):
                         raise MocapFormatError(path, f"unknown dof {d!r}; expected rx ry rz", ln)
                 if len(set(dofs)) != len(dofs):
@@ -524,7 +526,7 @@ def _parse_amc_body(path, body: bytes, first_line: int, skeleton: Skeleton, layo
 
     frame_lines = np.flatnonzero(has_token & ~is_name)
     if frame_lines.shape[0] == 0:
-        raise MocapFormatError(path, "no frames: no frame-number line after the header", where(0) if name_lines.size else None)
+        raise MocapFormatError(path, "no frames: no frame-number line after the header")
     bad = frame_lines[counts[frame_lines] != 1]
     if bad.size:
         raise MocapFormatError(
@@ -533,16 +535,16 @@ def _parse_amc_body(path, body: bytes, first_line: int, skeleton: Skeleton, layo
     numbers_of_frames = values[value_at[frame_lines]]
     nonint = np.flatnonzero(numbers_of_frames != np.round(numbers_of_frames))
     if nonint.size:
-        raise MocapFormatError(path, f"frame number {numbers_of_frames[nonint[0]]!r} is not an integer", where(frame_lines[nonint[0]]))
+        i = nonint[0]
+        raise MocapFormatError(path, f"frame number {numbers_of_frames[i]!r} is not an integer", where(frame_lines[i]))
     if name_lines.size and name_lines[0] < frame_lines[0]:
         raise MocapFormatError(path, "bone values before the first frame number", where(name_lines[0]))
     jumps = np.flatnonzero(np.diff(numbers_of_frames) != 1)
     if jumps.size:
         i = jumps[0]
+        a, b = numbers_of_frames[i], numbers_of_frames[i + 1]
         raise MocapFormatError(
-            path,
-            f"frame {numbers_of_frames[i + 1]:.0f} follows frame {numbers_of_frames[i]:.0f}: frame numbers must be consecutive",
-            where(frame_lines[i + 1]),
+            path, f"frame {b:.0f} follows frame {a:.0f}: frame numbers must be consecutive", where(frame_lines[i + 1])
         )
     F = frame_lines.shape[0]
 
@@ -558,9 +560,9 @@ def _parse_amc_body(path, body: bytes, first_line: int, skeleton: Skeleton, layo
     wrong = np.flatnonzero(got != ndof[ids])
     if wrong.size:
         i = wrong[0]
-        joint = skeleton.joint_names[ids[i]]
+        joint, dofs = skeleton.joint_names[ids[i]], " ".join(layout.dofs[ids[i]])
         raise MocapFormatError(
-            path, f"joint {joint} needs {ndof[ids[i]]} values ({' '.join(layout.dofs[ids[i]])}), got {got[i]}", where(name_lines[i])
+            path, f"joint {joint} needs {ndof[ids[i]]} values ({dofs}), got {got[i]}", where(name_lines[i])
         )
     frame_of = np.searchsorted(frame_lines, name_lines) - 1
     J = skeleton.num_joints
@@ -575,11 +577,12 @@ def _parse_amc_body(path, body: bytes, first_line: int, skeleton: Skeleton, layo
             f"joint {skeleton.joint_names[ids[i]]} appears twice in frame {numbers_of_frames[frame_of[i]]:.0f}",
             where(name_lines[i]),
         )
-    per_frame = seen.reshape(F, J).sum(axis=1)
+    per_frame = (seen.reshape(F, J) * (ndof > 0)).sum(axis=1)  # a bone line without values says nothing
     if per_frame[-1] < per_frame.max() or per_frame[-1] == 0:
+        last, most = per_frame[-1], per_frame.max()
         raise MocapFormatError(
             path,
-            f"truncated: the last frame ({numbers_of_frames[-1]:.0f}) lists {per_frame[-1]} of {per_frame.max()} joints",
+            f"truncated: the last frame ({numbers_of_frames[-1]:.0f}) lists {last} of {most} joints",
             where(line_ends.shape[0] - 1),
         )
     # Flat indices into the (F, columns) table, columns in AMC dof order joint after joint.
