@@ -1,87 +1,401 @@
+import dataclasses
+import functools
+
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 import mocapkit
 from mocapkit import corrupt as C
 from mocapkit import metrics
 from mocapkit import rotations as R
+from mocapkit.motion import Motion, Skeleton, find_joint, mirror_pairs
+
+ALL_KINDS = C.KINDS + C.ERROR_KINDS
+
+
+# -- fixtures -----------------------------------------------------------------------
+
+
+def toy_skeleton() -> Skeleton:
+    """A 17-joint humanoid in cm: legs and arms as chains, a chest with three children."""
+    joints = [
+        ("Hips", -1, [0, 0, 0]),
+        ("LeftHip", 0, [9, -5, 0]), ("LeftKnee", 1, [0, -42, 0]), ("LeftAnkle", 2, [0, -40, 0]),
+        ("RightHip", 0, [-9, -5, 0]), ("RightKnee", 4, [0, -42, 0]), ("RightAnkle", 5, [0, -40, 0]),
+        ("Spine", 0, [0, 10, 0]), ("Chest", 7, [0, 25, 0]), ("Neck", 8, [0, 20, 0]), ("Head", 9, [0, 10, 0]),
+        ("LeftShoulder", 8, [15, 15, 0]), ("LeftElbow", 11, [28, 0, 0]), ("LeftWrist", 12, [25, 0, 0]),
+        ("RightShoulder", 8, [-15, 15, 0]), ("RightElbow", 14, [-28, 0, 0]), ("RightWrist", 15, [-25, 0, 0]),
+    ]
+    names, parents, offsets = zip(*joints)
+    return Skeleton(
+        names, list(parents), np.array(offsets, dtype=float),
+        end_site_parents=[3, 6, 10, 13, 16],
+        end_site_offsets=[[0, -5, 12], [0, -5, 12], [0, 15, 0], [8, 0, 0], [-8, 0, 0]],
+        unit_cm=1.0,
+    )
+
+
+@functools.lru_cache(maxsize=None)
+def toy_motion(frames: int = 300, fps: float = 60.0, seed: int = 0) -> Motion:
+    """Smooth random joint angles (sines of 10-40 deg around a random pose) and a root walking along z."""
+    sk = toy_skeleton()
+    rng = np.random.default_rng(seed)
+    t = np.arange(frames)[:, None, None] / fps
+    J = sk.num_joints
+    amp = rng.uniform(10, 40, size=(1, J, 3))
+    freq = rng.uniform(0.3, 1.5, size=(1, J, 3))
+    phase = rng.uniform(0, 2 * np.pi, size=(1, J, 3))
+    base = rng.uniform(-30, 30, size=(1, J, 3))
+    angles = base + amp * np.sin(2 * np.pi * freq * t + phase)
+    rot = R.euler_to_quaternion(angles, "ZYX")
+    root = np.stack([np.zeros(frames), 95 + np.sin(np.arange(frames) / 10), np.arange(frames) * 1.5], axis=1)
+    return Motion(sk, rot, root, fps, name="toy")
 
 
 @pytest.fixture(scope="module")
-def clip():
-    return mocapkit.load(mocapkit.samples.path("131_01.bvh")).resample(30)
+def bvh():
+    return mocapkit.load(mocapkit.samples.path("131_01.bvh"))
+
+
+@pytest.fixture(scope="module")
+def amc():
+    return mocapkit.load(mocapkit.samples.path("HDM_bd_jogLeftCircle4StepsRstart_001_120.amc"))
+
+
+@pytest.fixture(scope="module", params=["toy", "bvh", "amc"])
+def clip(request):
+    if request.param == "toy":
+        return toy_motion()
+    return request.getfixturevalue(request.param)
 
 
 def changed_cells(a, b):
-    same = (a.rotations == b.rotations).all(-1) | (np.isnan(a.rotations).all(-1) & np.isnan(b.rotations).all(-1))
-    out = ~same
-    out[:, 0] |= np.any(a.root_positions != b.root_positions, axis=-1)
+    """Reference for the masks: any quaternion component or root coordinate differs (NaN == NaN)."""
+    def differs(x, y):
+        return ~((x == y) | (np.isnan(x) & np.isnan(y)))
+
+    out = differs(a.rotations, b.rotations).any(-1)
+    out[:, 0] |= differs(a.root_positions, b.root_positions).any(-1)
     return out
 
 
-@pytest.mark.parametrize("kind", ["noise", "uniform", "bias", "spatial", "gaps", "errors"])
+def runs(column: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Starts and ends [s, e) of True runs in a boolean vector."""
+    d = np.diff(np.concatenate([[0], column.astype(int), [0]]))
+    return np.flatnonzero(d == 1), np.flatnonzero(d == -1)
+
+
+def wrapped(d):
+    return (d + 180.0) % 360.0 - 180.0
+
+
+def rotation_columns(m, include_root=False):
+    sk = m.skeleton
+    return np.array(
+        [c.endswith("rotation") and (include_root or j > 0) for j in range(sk.num_joints) for c in sk.joint_channels(j)]
+    )
+
+
+# -- the contract every corruption keeps ----------------------------------------------
+
+
+@pytest.mark.parametrize("kind", ALL_KINDS)
 def test_mask_is_exactly_what_changed_and_seeded(clip, kind):
-    bad, mask = C.corrupt(clip, kind, seed=4)[:2]
+    rot_before, root_before = np.array(clip.rotations), np.array(clip.root_positions)
+    result = C.corrupt(clip, kind, seed=4)
+    bad, mask = result[:2]
     assert mask.shape == (clip.num_frames, clip.num_joints) and mask.dtype == bool and mask.any()
     np.testing.assert_array_equal(mask, changed_cells(clip, bad))
-    np.testing.assert_array_equal(bad.root_positions, clip.root_positions)  # root trajectory kept clean
-    again = C.corrupt(clip, kind, seed=4)[0]
-    np.testing.assert_array_equal(again.rotations, bad.rotations)
+    # unmasked cells bit-identical, input untouched, root trajectory clean
+    np.testing.assert_array_equal(bad.rotations[~mask], clip.rotations[~mask])
+    np.testing.assert_array_equal(clip.rotations, rot_before)
+    np.testing.assert_array_equal(clip.root_positions, root_before)
+    np.testing.assert_array_equal(bad.root_positions, clip.root_positions)
+    assert bad.skeleton is clip.skeleton and bad.fps == clip.fps
+    again = C.corrupt(clip, kind, seed=4)
+    np.testing.assert_array_equal(again[0].rotations, bad.rotations)
+    np.testing.assert_array_equal(again[1], mask)
     other = C.corrupt(clip, kind, seed=5)[0]
     assert not np.array_equal(other.rotations, bad.rotations, equal_nan=True)
+    if kind in ("errors",) + C.ERROR_KINDS:
+        assert len(result) == 3 and result[2]
+    else:
+        assert len(result) == 2
 
 
-def test_angular_noise_has_the_requested_std(clip):
-    for amount in (0.1, 0.5, 0.9):
-        bad, _ = C.angular_noise(clip, amount=amount, seed=0)
-        names = clip.channel_names()
-        rot = np.array([n.endswith("rotation") and not n.startswith(clip.skeleton.joint_names[0] + ".") for n in names])
-        a, b = clip.channel_values()[:, rot], bad.channel_values()[:, rot]
-        std = a.std(axis=0)
-        moving = std > 1.0  # channels that move enough for Euler wrap not to matter
-        d = (b - a + 180.0) % 360.0 - 180.0
-        ratio = d[:, moving].std(axis=0) / std[moving]
-        assert np.median(ratio) == pytest.approx(amount, rel=0.1)
+@settings(max_examples=30, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1), kind=st.sampled_from(ALL_KINDS))
+def test_mask_contract_for_any_seed(seed, kind):
+    m = toy_motion()
+    bad, mask = C.corrupt(m, kind, seed=seed)[:2]
+    np.testing.assert_array_equal(mask, changed_cells(m, bad))
+    np.testing.assert_array_equal(bad.rotations[~mask], m.rotations[~mask])
+    np.testing.assert_array_equal(bad.root_positions, m.root_positions)
+    # quaternions stay unit and in the input's hemisphere wherever they are present
+    q = bad.rotations[mask & ~np.isnan(bad.rotations).any(-1)]
+    np.testing.assert_allclose(np.linalg.norm(q, axis=-1), 1.0, atol=1e-12)
+    assert np.all(np.sum(q * m.rotations[mask & ~np.isnan(bad.rotations).any(-1)], axis=-1) >= -1e-12)
 
 
-def test_spatial_noise_keeps_bone_lengths_and_has_the_requested_size(clip):
-    bad, _ = C.spatial_noise(clip, std_cm=1.0, seed=2)
+def test_a_generator_is_a_seed():
+    m = toy_motion()
+    a = C.angular_noise(m, seed=np.random.default_rng(7))[0]
+    b = C.angular_noise(m, seed=np.random.default_rng(7))[0]
+    np.testing.assert_array_equal(a.rotations, b.rotations)
+
+
+# -- angular, uniform and biased noise ---------------------------------------------------
+
+
+# Re-reading the noisy rotations as Euler angles can land on the other Euler branch where the
+# middle angle is pushed past +-90 deg: those channels then show ~180 deg jumps. Rare at 0.1/0.5.
+@pytest.mark.parametrize("amount, share", [(0.1, 0.95), (0.5, 0.9), (0.9, 0.8)])
+def test_angular_noise_has_the_requested_std_per_channel(bvh, amount, share):
+    bad, _ = C.angular_noise(bvh, amount=amount, seed=0)
+    cols = rotation_columns(bvh)
+    a, b = bvh.channel_values()[:, cols], bad.channel_values()[:, cols]
+    std = a.std(axis=0)
+    moving = std > 1.0
+    d = wrapped(b - a)[:, moving]
+    ratio = d.std(axis=0) / (amount * std[moving])
+    # ~994 frames: the sample std of one channel is within ~7% (3 sigma) of the true one
+    assert np.median(ratio) == pytest.approx(1.0, abs=0.03)
+    assert np.mean(np.abs(ratio - 1.0) < 0.1) > share
+    assert np.median(np.abs(d.mean(axis=0)) / std[moving]) < 3 * amount / np.sqrt(len(d))
+
+
+def test_angular_noise_keeps_the_root_unless_asked(bvh):
+    bad, mask = C.angular_noise(bvh, seed=1)
+    assert not mask[:, 0].any()
+    bad, mask = C.angular_noise(bvh, seed=1, include_root=True)
+    assert mask[:, 0].all()
+    np.testing.assert_array_equal(bad.root_positions, bvh.root_positions)
+    bad, mask = C.angular_noise(bvh, seed=1, joints=["LeftKnee", "Head"])
+    assert set(np.flatnonzero(mask.any(0))) == {bvh.skeleton.index("LeftKnee"), bvh.skeleton.index("Head")}
+
+
+def test_noise_keeps_asf_joints_within_their_degrees_of_freedom(amc):
+    for func in (C.angular_noise, C.uniform_noise, C.bias, C.spatial_noise):
+        bad, mask = func(amc, seed=3)
+        # joints without rotation channels are never touched
+        no_dof = [j for j in range(amc.num_joints) if not amc.skeleton.rotation_order(j)]
+        assert no_dof and not mask[:, no_dof].any()
+        back = Motion.from_channel_values(amc.skeleton, bad.channel_values(), amc.fps)
+        assert np.degrees(R.geodesic_angle(back.rotations, bad.rotations)).max() < 1e-6
+
+
+def test_uniform_noise_is_bounded_with_the_same_std(bvh):
+    amount = 0.5
+    bad, _ = C.uniform_noise(bvh, amount=amount, seed=2)
+    cols = rotation_columns(bvh)
+    a, b = bvh.channel_values()[:, cols], bad.channel_values()[:, cols]
+    std = a.std(axis=0)
+    moving = std > 1.0
+    d = wrapped(b - a)[:, moving]
+    ratio = d.std(axis=0) / (amount * std[moving])
+    assert np.median(ratio) == pytest.approx(1.0, abs=0.03)
+    width = np.sqrt(3) * amount * std[moving]
+    inside = np.abs(d) <= width * (1 + 1e-6) + 1e-6
+    assert inside.mean() > 0.99  # all but Euler-branch changes near gimbal lock
+
+
+def test_bias_constant_and_sinusoidal(bvh):
+    cols = rotation_columns(bvh)
+    a = bvh.channel_values()[:, cols]
+    std = a.std(axis=0)
+    moving = std > 1.0
+    bad, _ = C.bias(bvh, amount=0.5, kind="constant", seed=0)
+    d = wrapped(bad.channel_values()[:, cols] - a)[:, moving]
+    np.testing.assert_allclose(np.median(np.abs(d), axis=0), 0.5 * std[moving], rtol=1e-6)
+    assert np.mean(np.abs(d.std(axis=0)) < 1e-6) > 0.9  # constant per channel
+    period = 1.0  # 120 frames at 120 fps
+    bad, _ = C.bias(bvh, amount=0.5, kind="sinusoidal", period_s=period, seed=0)
+    d = wrapped(bad.channel_values()[:, cols] - a)[:, moving]
+    shift = int(period * bvh.fps)
+    assert np.median(np.abs(d[shift:] - d[:-shift])) < 1e-6  # periodic
+    amplitude = np.max(np.abs(d), axis=0) / (0.5 * std[moving])
+    assert np.mean(np.abs(amplitude - 1.0) < 0.02) > 0.9  # all but Euler-branch changes
+    with pytest.raises(ValueError, match="constant"):
+        C.bias(bvh, kind="linear")
+    noisy, _ = C.corrupt(bvh, "bias", seed=0, bias_kind="sinusoidal", noise=0.5)
+    assert metrics.joint_angle_rms(bvh, noisy) > metrics.joint_angle_rms(bvh, bad)
+
+
+# -- spatial noise -------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("end_effector_scale", [1.0, 3.0])
+def test_spatial_noise_keeps_bone_lengths(clip, end_effector_scale):
+    bad, mask = C.spatial_noise(clip, std_cm=2.0, end_effector_scale=end_effector_scale, seed=2)
     sk = clip.skeleton
-    p = bad.global_positions()
-    lengths = np.linalg.norm(p[:, 1:] - p[:, sk.parents[1:]], axis=-1)
-    np.testing.assert_allclose(lengths, np.broadcast_to(np.linalg.norm(sk.offsets[1:], axis=1), lengths.shape), atol=1e-9)
-    err = metrics.joint_position_rms(clip, bad)
-    assert 0.5 < err < 3.0  # about sqrt(3) cm per noisy joint, less where bones pin the joint
+    p = bad.global_positions(end_sites=True)
+    J = sk.num_joints
+    parents = np.concatenate([sk.parents[1:], sk.end_site_parents])
+    lengths = np.linalg.norm(p[:, 1:] - p[:, parents], axis=-1)
+    rest = np.linalg.norm(np.concatenate([sk.offsets[1:], sk.end_site_offsets]), axis=1)
+    np.testing.assert_allclose(lengths, np.broadcast_to(rest, lengths.shape), rtol=0, atol=1e-9)
+    assert not mask[:, 0].any()  # root rotation and position clean by default
+    assert J == mask.shape[1]
 
 
-def test_gaps_follow_the_configured_distribution(clip):
-    bad, mask = C.gaps(clip, start_prob=0.002, mean_length_s=0.2, max_length_s=1.0, seed=3)
+def test_spatial_noise_has_about_the_requested_size(bvh):
+    std_cm = 1.0
+    bad, _ = C.spatial_noise(bvh, std_cm=std_cm, seed=2)
+    scale = mocapkit.motion.unit_scale_cm(bvh.skeleton)
+    d = (bad.global_positions(end_sites=True) - bvh.global_positions(end_sites=True)) * scale
+    moved = np.linalg.norm(d, axis=-1).max(axis=0) > 0
+    per_axis = d[:, moved].std(axis=0).mean()
+    # the noise along each bone cannot be followed (bone lengths are kept): about sqrt(2/3) of it stays
+    assert 0.6 * std_cm < per_axis < 1.1 * std_cm
+    assert 1.0 * std_cm < metrics.joint_position_rms(bvh, bad) < 2.0 * std_cm
+    # wrists and ankles get more with end_effector_scale
+    big, _ = C.spatial_noise(bvh, std_cm=std_cm, end_effector_scale=4.0, seed=2)
+    sk = bvh.skeleton
+    ends = [find_joint(sk, r) for r in ("left_hand", "right_hand", "left_foot", "right_foot")]
+
+    def err(m):
+        return np.linalg.norm(m.global_positions()[:, ends] - bvh.global_positions()[:, ends], axis=-1).mean() * scale
+
+    assert err(big) > 2.0 * err(bad)
+
+
+def test_spatial_noise_fits_a_branching_joint_by_least_squares():
+    m = toy_motion()
+    sk = m.skeleton
+    bad, mask = C.spatial_noise(m, std_cm=1.0, seed=0)
+    chest = sk.index("Chest")
+    assert mask[:, chest].all()
+    # the chest's three children move about as much as the noise, not more
+    kids = sk.children(chest)
+    d = np.linalg.norm(bad.global_positions()[:, kids] - m.global_positions()[:, kids], axis=-1)
+    assert d.mean() < 3.0
+
+
+def test_spatial_noise_leaves_missing_joints_and_their_subtrees():
+    m = toy_motion()
+    rot = np.array(m.rotations)
+    elbow = m.skeleton.index("LeftElbow")
+    rot[100:110, elbow] = np.nan
+    gappy = dataclasses.replace(m, rotations=rot)
+    bad, mask = C.spatial_noise(gappy, seed=0)
+    assert np.isnan(bad.rotations[100:110, elbow]).all() and not mask[100:110, elbow].any()
+    wrist = m.skeleton.index("LeftWrist")
+    np.testing.assert_array_equal(bad.rotations[100:110, wrist], m.rotations[100:110, wrist])
+    assert np.isfinite(bad.rotations[:100]).all() and np.isfinite(bad.rotations[110:]).all()
+
+
+# -- gaps ------------------------------------------------------------------------------------
+
+
+def test_gap_lengths_and_starts_follow_the_configured_distribution():
+    m = toy_motion(frames=20000, fps=60.0)
+    p, mean_s, max_s = 0.01, 0.2, 0.5
+    bad, mask = C.gaps(m, start_prob=p, mean_length_s=mean_s, max_length_s=max_s, seed=3)
     assert np.isnan(bad.rotations[mask]).all() and not np.isnan(bad.rotations[~mask]).any()
-    assert not mask[:, 0].any()  # the root is never gapped
-    # run lengths: mean close to 0.2 s (capped, at least one frame)
-    runs = []
-    for j in range(1, clip.num_joints):
-        col = np.concatenate([[0], mask[:, j].astype(int), [0]])
-        d = np.diff(col)
-        runs += list(np.flatnonzero(d == -1) - np.flatnonzero(d == 1))
-    assert len(runs) > 5
-    assert 0.1 < np.mean(runs) / clip.fps < 0.35
-    long_bad, long_mask = C.gaps(clip, start_prob=0.0005, long=True, seed=1)
-    assert long_mask.any()
+    assert not mask[:, 0].any()  # the root is not gapped by default
+    lengths, n_gaps, eligible = [], 0, 0
+    for j in range(1, m.num_joints):
+        s, e = runs(mask[:, j])
+        lengths += list((e - s)[e < m.num_frames])  # the last one may be cut by the clip's end
+        n_gaps += len(s)
+        # frames that could start a gap: observed ones not right after a gap
+        eligible += int((~mask[:, j]).sum()) - int(np.sum(e < m.num_frames))
+    lengths = np.array(lengths)
+    q, cap = 1.0 / (mean_s * m.fps), int(max_s * m.fps)
+    expected_mean = (1 - (1 - q) ** cap) / q  # E[min(Geometric(q), cap)]
+    assert lengths.mean() == pytest.approx(expected_mean, rel=0.05)
+    assert lengths.min() >= 1 and lengths.max() == cap
+    assert np.mean(lengths == cap) == pytest.approx((1 - q) ** (cap - 1), abs=0.03)
+    assert np.mean(lengths == 1) == pytest.approx(q, abs=0.02)  # geometric: P(1) = q
+    assert n_gaps / eligible == pytest.approx(p, rel=0.08)
 
 
-def test_real_errors_are_visible_where_masked_only(clip):
-    bad, mask, records = C.real_errors(clip, n_errors=6, seed=11)
-    assert records and {r.kind for r in records} <= {"spike", "flip", "freeze", "drift", "swap"}
-    angle = np.degrees(R.geodesic_angle(bad.rotations, clip.rotations))
-    np.testing.assert_array_equal(bad.rotations[~mask], clip.rotations[~mask])
+def test_gaps_defaults_long_gaps_and_root():
+    m = toy_motion(frames=6000, fps=60.0)
+    bad, mask = C.gaps(m, seed=0)
+    assert 0.01 < mask[:, 1:].mean() < 0.05  # about 2.5% of each joint missing
+    np.testing.assert_array_equal(mask, m.missing() ^ bad.missing())
+    bad, mask = C.gaps(m, start_prob=0.002, long=True, seed=1)
+    lengths = []
+    for j in range(1, m.num_joints):
+        s, e = runs(mask[:, j])
+        lengths += list((e - s)[e < m.num_frames])
+    lengths = np.array(lengths) / m.fps
+    assert len(lengths) > 5 and lengths.min() >= 1.0 and lengths.max() <= 5.0
+    bad, mask = C.gaps(m, start_prob=0.01, joints=["Hips"], seed=2)
+    assert mask[:, 0].any() and not mask[:, 1:].any()
+    np.testing.assert_array_equal(np.isnan(bad.root_positions).any(-1), mask[:, 0])
+    with pytest.raises(ValueError, match="probability"):
+        C.gaps(m, start_prob=1.5)
+
+
+# -- real errors -----------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_real_errors_are_visible_where_masked_and_nowhere_else(clip, seed):
+    bad, mask, records = C.real_errors(clip, n_errors=7, seed=seed)
+    sk = clip.skeleton
+    assert {r.kind for r in records} == set(C.ERROR_KINDS)  # each kind once before repeats
+    assert records == sorted(records, key=lambda r: (r.start, r.joint))
+    angle = np.degrees(metrics.geodesic_pose_distance(clip, bad))
+    covered = np.zeros_like(mask)
+    freeze = np.zeros_like(mask)
     for r in records:
-        j = clip.skeleton.index(r.joint)
-        assert mask[r.start : r.end, j].any()
-        if r.kind in ("spike", "flip"):
-            assert angle[r.start : r.end, j].min() >= 15.0
+        j = sk.index(r.joint)
+        assert 0 <= r.start < r.end <= clip.num_frames
+        assert not covered[max(r.start - 1, 0) : r.end + 1, j].any()  # no overlap, never touching
+        covered[r.start : r.end, j] = True
+        if r.kind == "freeze":
+            freeze[r.start : r.end, j] = True
+            held = clip.rotations[r.start - 1, j]
+            assert np.degrees(R.geodesic_angle(bad.rotations[r.start : r.end, j], held)).max() < 1e-6
+            assert angle[r.start : r.end, j].max() >= 15.0
+        else:
+            assert mask[r.start : r.end, j].all()
+        if r.kind == "spike":
+            assert r.end - r.start <= 3
+        if r.kind == "swap":
+            assert sk.index(r.partner) == mirror_pairs(sk.joint_names)[j]
+    assert not (mask & ~covered).any()
+    # the geodesic metric finds exactly the masked cells (freeze aside: it depends on the motion)
+    score = metrics.precision_recall((angle >= 15.0 - 1e-6) & ~freeze, mask & ~freeze)
+    assert (score.precision, score.recall) == (1.0, 1.0)
+    assert np.all(angle[~mask] == 0.0)
 
 
-def test_unknown_kind_is_a_clear_error(clip):
+def test_real_errors_stay_within_asf_degrees_of_freedom(amc):
+    for seed in range(5):
+        bad, mask, _ = C.real_errors(amc, n_errors=8, seed=seed)
+        back = Motion.from_channel_values(amc.skeleton, bad.channel_values(), amc.fps)
+        assert np.degrees(R.geodesic_angle(back.rotations, bad.rotations)).max() < 1e-6
+        no_dof = [j for j in range(amc.num_joints) if not amc.skeleton.rotation_order(j)]
+        assert not mask[:, no_dof].any()
+
+
+def test_real_errors_avoid_missing_data_and_respect_joint_choice():
+    m = toy_motion()
+    gappy, gap_mask = C.gaps(m, start_prob=0.01, seed=0)
+    bad, mask, records = C.real_errors(gappy, n_errors=10, seed=1)
+    assert not (mask & gap_mask).any()
+    for r in records:
+        assert np.isfinite(gappy.rotations[r.start : r.end, m.skeleton.index(r.joint)]).all()
+    bad, mask, records = C.real_errors(m, kinds=("spike", "drift"), joints=["LeftKnee"], n_errors=3, seed=2)
+    assert {r.joint for r in records} == {"LeftKnee"} and len(records) == 3
+    assert set(np.flatnonzero(mask.any(0))) == {m.skeleton.index("LeftKnee")}
+    with pytest.raises(ValueError, match="unknown error kind"):
+        C.real_errors(m, kinds=("wobble",))
+
+
+def test_umbrella_dispatch_and_errors():
+    m = toy_motion()
+    bad, mask, records = C.corrupt(m, "flip", seed=0, n_errors=2)
+    assert {r.kind for r in records} == {"flip"}
+    spatial, _ = C.corrupt(m, "spatial", seed=0, amount=2.0)
+    np.testing.assert_array_equal(spatial.rotations, C.spatial_noise(m, std_cm=2.0, seed=0)[0].rotations)
     with pytest.raises(ValueError, match="unknown corruption kind"):
-        C.corrupt(clip, "fire", seed=0)
+        C.corrupt(m, "fire", seed=0)
+    with pytest.raises(ValueError, match="does not apply"):
+        C.corrupt(m, "gaps", seed=0, amount=0.5)

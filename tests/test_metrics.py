@@ -88,3 +88,133 @@ def test_precision_recall_on_hand_made_masks():
     assert (w.tp, w.fn) == (3, 0) and w.fp == 2
     with pytest.raises(ValueError, match="differ in shape"):
         M.precision_recall(det, truth[:5])
+
+
+# -- constructed cases on tiny skeletons ---------------------------------------------------
+
+from hypothesis import given, settings  # noqa: E402
+from hypothesis import strategies as st  # noqa: E402
+from hypothesis.extra.numpy import arrays  # noqa: E402
+
+
+def fork(frames=4, fps=10.0, child_rotations=None):
+    """Root with two children 10 cm along x and y, each ending in an end site; unit 1 cm."""
+    sk = mocapkit.Skeleton(
+        ("root", "a", "b"), [-1, 0, 0], [[0, 0, 0], [10, 0, 0], [0, 10, 0]],
+        end_site_parents=[1, 2], end_site_offsets=[[0, 0, 0], [0, 0, 0]], unit_cm=1.0,
+    )
+    rot = R.identity((frames, 3))
+    if child_rotations is not None:
+        rot[:, 0] = child_rotations
+    return mocapkit.Motion(sk, rot, np.zeros((frames, 3)), fps)
+
+
+def test_geodesic_and_eq2_conventions_on_a_constructed_case():
+    a = fork()
+    q = R.quaternion_from_axis_angle([0, 0, 1], np.pi / 2)
+    b = fork(child_rotations=q)
+    g = M.geodesic_pose_distance(a, b)
+    np.testing.assert_allclose(g[:, 0], np.pi / 2, rtol=1e-12)
+    np.testing.assert_allclose(g[:, 1:], 0.0, atol=1e-15)
+    # eq. 2 with the half-angle log: ||log(q_a^-1 q_b)||^2 = (theta / 2)^2
+    direct = np.sum(np.sum(R.quaternion_log(R.quaternion_multiply(R.quaternion_conjugate(a.rotations), b.rotations)) ** 2, -1), -1)
+    np.testing.assert_allclose(M.pose_error(a, b), direct, rtol=1e-12)
+    np.testing.assert_allclose(M.pose_error(a, b), (np.pi / 4) ** 2, rtol=1e-12)
+    # q and -q are the same rotation
+    neg = dataclasses.replace(b, rotations=-np.asarray(b.rotations))
+    np.testing.assert_allclose(M.pose_error(a, neg), M.pose_error(a, b), rtol=1e-12)
+
+
+def test_d_pv_by_hand_on_a_static_fork():
+    a = fork()
+    # turn the root 90 deg about x: bone b (along y) goes to z, bone a stays on x
+    q = R.quaternion_from_axis_angle([1, 0, 0], np.pi / 2)
+    b = fork(child_rotations=q)
+    # at the root: c1 = (10,0,0) x (0,10,0) = (0,0,100), c2 = (10,0,0) x (0,0,10) = (0,-100,0)
+    # static motions: no derivative term; two ordered pairs per frame, 4 frames
+    per_pair = np.linalg.norm([0, 100, 100])
+    assert M.d_pv(a, b) == pytest.approx(np.sqrt(4 * 2 * per_pair**2), rel=1e-12)
+    np.testing.assert_allclose(M.d_pv_per_frame(a, b), 2 * per_pair**2, rtol=1e-12)
+    assert M.d_pv(a, b, scale_cm=2.0) == pytest.approx(4 * M.d_pv(a, b), rel=1e-12)  # cm^2
+    assert M.d_pv(a, a) == 0.0
+
+
+def test_d_pv_sees_motion_not_only_poses():
+    # same poses, played in a different order: the derivative term sees it
+    angles = np.radians([0, 10, 20, 30, 40])
+    q = R.quaternion_from_axis_angle([0, 0, 1], angles[:, None] * np.ones((1, 1)))[:, 0]
+    fwd = fork(frames=5, child_rotations=q)
+    static = fork(frames=5, child_rotations=q[[2, 2, 2, 2, 2]])
+    assert M.d_pv(fwd, static) > 0.0
+
+
+def test_d_pv_sees_a_turned_motion_and_position_rms_can_ignore_it(clip):
+    turn = R.quaternion_from_axis_angle([0, 1, 0], np.pi / 2)
+    rot = np.array(clip.rotations)
+    rot[:, 0] = R.quaternion_multiply(turn, rot[:, 0])
+    turned = dataclasses.replace(clip, rotations=rot)
+    # a global turn of one motion against the other is an error for D_pv (global quantities)...
+    assert M.d_pv(clip, turned) > 0.0
+    assert M.joint_position_rms(clip, turned) > 1.0
+    # ...but not in the root frame, nor for the local joints
+    assert M.joint_position_rms(clip, turned, root_relative="frame") == pytest.approx(0.0, abs=1e-9)
+    assert np.all(M.geodesic_pose_distance(clip, turned)[:, 1:] < 1e-9)
+
+
+quats = arrays(np.float64, (6, 3, 4), elements=st.floats(-1, 1, allow_nan=False)).filter(
+    lambda q: np.all(np.linalg.norm(q, axis=-1) > 0.1)
+)
+
+
+@settings(max_examples=40, deadline=None)
+@given(qa=quats, qb=quats)
+def test_metrics_are_symmetric_and_zero_on_identical(qa, qb):
+    a = fork(frames=6, fps=30.0)
+    a = dataclasses.replace(a, rotations=R.quaternion_normalize(qa))
+    b = dataclasses.replace(a, rotations=R.quaternion_normalize(qb))
+    np.testing.assert_allclose(M.geodesic_pose_distance(a, b), M.geodesic_pose_distance(b, a), atol=1e-12)
+    np.testing.assert_allclose(M.pose_error(a, b), M.pose_error(b, a), atol=1e-12)
+    assert M.joint_position_rms(a, b) == pytest.approx(M.joint_position_rms(b, a), abs=1e-9)
+    assert M.d_pv(a, b) == pytest.approx(M.d_pv(b, a), rel=1e-9, abs=1e-9)
+    assert M.joint_angle_rms(a, b) == pytest.approx(M.joint_angle_rms(b, a), abs=1e-9)
+    g = M.geodesic_pose_distance(a, b)
+    assert np.all((g >= 0) & (g <= np.pi + 1e-12))
+    assert np.all(M.pose_error(a, a) < 1e-24) and M.d_pv(a, a) == 0.0 and M.joint_position_rms(a, a) == 0.0
+
+
+def test_per_frame_and_root_options_of_joint_angle_rms(clip):
+    bad = with_joint_rotated(clip, "Hips", 10.0, frames=slice(0, 10), axis=(0.0, 0.0, 1.0))
+    per_frame = M.joint_angle_rms(clip, bad, per_frame=True)
+    assert per_frame.shape == (clip.num_frames,) and np.all(per_frame[10:] < 1e-9) and np.all(per_frame[:10] > 0)
+    assert M.joint_angle_rms(clip, bad, include_root=False) == pytest.approx(0.0, abs=1e-9)
+
+
+def test_all_missing_gives_nan_without_warnings(clip):
+    import warnings
+
+    gone = dataclasses.replace(clip, rotations=np.full(clip.rotations.shape, np.nan))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert np.isnan(M.pose_error(clip, gone)).all()
+        assert np.isnan(M.pose_error_per_joint(clip, gone)).all()
+        assert np.isnan(M.joint_angle_rms(clip, gone))
+        assert np.isnan(M.joint_position_rms(clip, gone))
+        assert np.isnan(M.d_pv(clip, gone))
+
+
+def test_words_cover_the_clip_end_and_can_count_whole_words():
+    truth = np.zeros((32, 3), dtype=bool)
+    truth[31, 2] = True  # only in the last frame: words 0, 5, 10, 15 end at 29, a flush word 17..31 catches it
+    w = M.word_precision_recall(np.zeros_like(truth), truth, word_length=15, stride=5)
+    assert (w.tp, w.fp, w.fn) == (0, 0, 1) and w.recall == 0.0 and w.precision == 1.0 and w.f1 == 0.0
+    det = np.zeros_like(truth)
+    det[31, 1] = True  # right word, wrong joint
+    assert M.word_precision_recall(det, truth).as_dict() == {
+        "precision": 0.0, "recall": 0.0, "f1": 0.0, "tp": 0, "fp": 1, "fn": 1
+    }
+    whole = M.word_precision_recall(det, truth, per_joint=False)
+    assert (whole.tp, whole.fp, whole.fn) == (1, 0, 0)
+    empty = M.precision_recall(np.zeros((5, 2), bool), np.zeros((5, 2), bool))
+    assert (empty.precision, empty.recall) == (1.0, 1.0)
+    with pytest.raises(ValueError, match="at least 1"):
+        M.word_precision_recall(det, truth, stride=0)

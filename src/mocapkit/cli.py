@@ -125,7 +125,7 @@ def convert(
 def corrupt(
     inp: Path = typer.Argument(..., metavar="IN", help="Clean input motion."),
     out: Path = typer.Argument(..., metavar="OUT", help="Corrupted output (.bvh or .npz; gaps need .npz)."),
-    kind: str = typer.Option(..., "--kind", help="noise | spatial | gaps | errors"),
+    kind: str = typer.Option(..., "--kind", help="noise | uniform | bias | spatial | gaps | errors, or one error kind: spike | flip | freeze | drift | swap"),
     amount: Optional[float] = typer.Option(
         None, "--amount", help="noise: std as a fraction of each channel's std (0.1/0.5/0.9); spatial: std in cm."
     ),

@@ -1,9 +1,23 @@
 """Error measures of the four papers: geodesic pose error, joint-angle and joint-position RMS, D_pv, precision/recall.
 
 All measures compare two motions frame by frame (same skeleton, same number
-of frames) and ignore NaN cells (missing data), averaging over what is left.
+of frames) and ignore NaN cells (missing data): sums and means run over the
+cells that are finite in both (``nansum`` / ``nanmean``); a result with no
+finite cell at all is NaN.
 Lengths are reported in centimetres with the skeleton's unit scale
 (:func:`mocapkit.motion.unit_scale_cm`) unless ``scale_cm`` is given.
+
+Examples
+--------
+>>> import mocapkit
+>>> from mocapkit import corrupt, metrics
+>>> m = mocapkit.load(mocapkit.samples.path("131_01.bvh"))[:240]
+>>> bad, mask, _ = corrupt.real_errors(m, kinds=("spike", "flip"), n_errors=2, seed=0)
+>>> detected = metrics.geodesic_pose_distance(m, bad) > 0.26   # 15 degrees
+>>> metrics.precision_recall(detected, mask).as_dict()["recall"]
+1.0
+>>> float(metrics.pose_error(m, m).max()), metrics.d_pv(m, m)
+(0.0, 0.0)
 """
 
 from __future__ import annotations
@@ -23,10 +37,19 @@ __all__ = [
     "joint_angle_rms",
     "joint_position_rms",
     "d_pv",
+    "d_pv_per_frame",
     "DetectionScore",
     "precision_recall",
     "word_precision_recall",
 ]
+
+
+def _nanmean(x: np.ndarray, axis=None):
+    """``np.nanmean`` without the all-NaN warning (the answer is NaN there)."""
+    x = np.asarray(x, dtype=np.float64)
+    n = np.sum(~np.isnan(x), axis=axis)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.nansum(x, axis=axis) / np.where(n > 0, n, np.nan)
 
 
 def _check_pair(a: Motion, b: Motion) -> None:
@@ -37,9 +60,16 @@ def _check_pair(a: Motion, b: Motion) -> None:
 
 
 def geodesic_pose_distance(a: Motion, b: Motion) -> np.ndarray:
-    """Rotation angle (radians) between corresponding local joint rotations, (F, J); NaN where missing."""
+    """Rotation angle in radians, in [0, pi], between corresponding local joint rotations, (F, J).
+
+    This is ``2 |log(q_a^-1 q_b)|`` (the full angle; ``quaternion_log`` gives
+    half-angle vectors). NaN where either motion is missing the joint.
+    """
     _check_pair(a, b)
-    return R.geodesic_angle(a.rotations, b.rotations)
+    angle = R.geodesic_angle(a.rotations, b.rotations)
+    # identical quaternions are exactly 0 apart (renormalisation would leave ~1e-16)
+    same = np.all(a.rotations == b.rotations, axis=-1)
+    return np.where(same, 0.0, angle)
 
 
 def pose_error(a: Motion, b: Motion) -> np.ndarray:
@@ -58,86 +88,149 @@ def pose_error(a: Motion, b: Motion) -> np.ndarray:
 def pose_error_per_joint(a: Motion, b: Motion) -> np.ndarray:
     """Mean over frames of each joint's eq. 2 term ``||log(q_a^-1 q_b)||^2``, (J,)."""
     half = 0.5 * geodesic_pose_distance(a, b)
-    with np.errstate(invalid="ignore"):
-        return np.nanmean(half**2, axis=0)
+    return _nanmean(half**2, axis=0)
 
 
-def joint_angle_rms(a: Motion, b: Motion) -> float:
-    """RMS difference in degrees over all joint-angle channels and frames, as Mall et al. report it.
+def joint_angle_rms(a: Motion, b: Motion, per_frame: bool = False, include_root: bool = True):
+    """RMS difference in degrees over the joint-angle channels, as Mall et al. report it.
 
-    Channels are the files' rotation channels (:meth:`Motion.channel_values`);
-    differences are wrapped to [-180, 180) so a wrap-around is no error.
+    Channels are the files' rotation channels (:meth:`Motion.channel_values`:
+    BVH Euler angles, ASF degrees of freedom); differences are wrapped to
+    [-180, 180) so a wrap-around is no error. Root position channels never
+    count; the root's rotation channels do unless ``include_root`` is False.
+    Returns one float over all channels and frames, or with ``per_frame`` the
+    RMS over channels of each frame (F,) (Mall's error-over-time plots).
+    NaN channels are left out.
     """
     _check_pair(a, b)
-    names = a.channel_names()
-    rot = np.array([n.endswith("rotation") for n in names])
+    sk = a.skeleton
+    rot = np.array(
+        [c.endswith("rotation") and (include_root or j > 0) for j in range(sk.num_joints) for c in sk.joint_channels(j)],
+        dtype=bool,
+    )
     d = a.channel_values()[:, rot] - b.channel_values()[:, rot]
     d = (d + 180.0) % 360.0 - 180.0
-    return float(np.sqrt(np.nanmean(d**2)))
+    if per_frame:
+        return np.sqrt(_nanmean(d**2, axis=1))
+    return float(np.sqrt(_nanmean(d**2)))
 
 
-def joint_position_rms(a: Motion, b: Motion, scale_cm: float | None = None, root_relative: bool = True) -> float:
-    """RMS joint-position error in cm over joints and frames (root-relative by default).
+def joint_position_rms(
+    a: Motion, b: Motion, scale_cm: float | None = None, root_relative: bool | str = True
+) -> float:
+    """RMS joint-position error in cm over joints and frames: ``sqrt(mean |p_a - p_b|^2)``.
 
-    ``root_relative`` subtracts each motion's root position first, so a root
-    trajectory error does not dominate; set it False for global positions.
+    ``root_relative``:
+
+    - True (default): each motion's root position is subtracted first, so a
+      root trajectory error does not dominate; the root joint itself (always
+      zero then) is left out of the mean;
+    - ``"frame"``: positions in each motion's root frame (root position and
+      rotation removed), as Tautges et al. evaluate reconstructions whose
+      heading is free; the root is left out too;
+    - False: global positions, all joints.
+
+    Lengths are converted with ``scale_cm`` or :func:`unit_scale_cm` of
+    ``a``'s skeleton. NaN joints are left out.
     """
     _check_pair(a, b)
+    if root_relative not in (True, False, "frame"):
+        raise ValueError(f"root_relative must be True, False or 'frame', got {root_relative!r}")
     scale = unit_scale_cm(a.skeleton) if scale_cm is None else float(scale_cm)
-    pa, pb = a.global_positions(), b.global_positions()
-    if root_relative:
-        pa = pa - pa[:, :1]
-        pb = pb - pb[:, :1]
+    ga, pa = a.global_transforms()
+    gb, pb = b.global_transforms()
+    if root_relative is not False:
+        pa = pa[:, 1:] - pa[:, :1]
+        pb = pb[:, 1:] - pb[:, :1]
+        if root_relative == "frame":
+            pa = R.quaternion_rotate(R.quaternion_conjugate(ga[:, :1]), pa)
+            pb = R.quaternion_rotate(R.quaternion_conjugate(gb[:, :1]), pb)
     d2 = np.sum((pa - pb) ** 2, axis=-1)
-    return float(np.sqrt(np.nanmean(d2)) * scale)
+    return float(np.sqrt(_nanmean(d2)) * scale)
 
 
-def d_pv(a: Motion, b: Motion, scale_cm: float | None = None) -> float:
-    """Tautges' D_pv (thesis 2.4, eqs. 2.13-2.24) between two motions, in cm^2 units of the cross products.
+def d_pv_per_frame(a: Motion, b: Motion, scale_cm: float | None = None) -> np.ndarray:
+    """Tautges' per-frame term ``sum_j D^j(f)`` (eq. 2.24 summed over joints), (F,), in cm^4.
 
-    For every joint ``j`` with child joints ``a != b`` the cross product
-    ``c = v_{j->a} x v_{j->b}`` of the two bone vectors (eq. 2.13) and its time
-    derivative are compared: ``D = |c1 - c2| + dt |c1' - c2'|`` (eq. 2.19) with
-    ``dt = |v_a||v_b| / (|c1'| + |c2'|)`` (eq. 2.22); D_pv is the square root
-    of the sum of ``D^2`` over frames, joints and ordered child pairs (eqs.
-    2.23/2.24). Joints with a single child use (parent, child) as their pair,
-    so chains such as arms and legs count too (the thesis' skeletons branch
-    at every joint it evaluates). Invariant to global translation, not to
-    global rotation (as the thesis notes). Positions are in cm.
+    ``d_pv(a, b) == sqrt(nansum(d_pv_per_frame(a, b)))``; see :func:`d_pv`.
     """
     _check_pair(a, b)
     sk = a.skeleton
     scale = unit_scale_cm(sk) if scale_cm is None else float(scale_cm)
-    pa, pb = a.global_positions() * scale, b.global_positions() * scale
-    pairs = []
-    for j in range(sk.num_joints):
-        kids = sk.children(j)
-        if len(kids) >= 2:
-            pairs += [(j, x, y) for x in kids for y in kids if x != y]
-        elif len(kids) == 1 and sk.parents[j] >= 0:
-            p = int(sk.parents[j])
-            pairs += [(j, kids[0], p), (j, p, kids[0])]
-    if not pairs:
-        return 0.0
-    j, x, y = (np.array(t) for t in zip(*pairs))
+    J = sk.num_joints
+    # End sites are bone ends too: append them as extra points after the joints.
+    pa = a.global_positions(end_sites=True) * scale
+    pb = b.global_positions(end_sites=True) * scale
+    kids: list[list[int]] = [[] for _ in range(J)]
+    for c in range(1, J):
+        kids[int(sk.parents[c])].append(c)
+    for e, p in enumerate(sk.end_site_parents):
+        kids[int(p)].append(J + e)
+    triples = []  # (joint, a, b) for ordered pairs a != b
+    for j in range(J):
+        ends = list(kids[j])
+        if len(ends) == 1 and sk.parents[j] >= 0:
+            ends.append(int(sk.parents[j]))  # a chain joint: its bone to the parent and to the child
+        triples += [(j, x, y) for x in ends for y in ends if x != y]
+    F = a.num_frames
+    if not triples:
+        return np.zeros(F)
+    j, x, y = (np.array(t) for t in zip(*triples))
 
     def cross(p):
         return np.cross(p[:, x] - p[:, j], p[:, y] - p[:, j])
 
     ca, cb = cross(pa), cross(pb)
-    da = np.gradient(ca, 1.0 / a.fps, axis=0) if a.num_frames > 1 else np.zeros_like(ca)
-    db = np.gradient(cb, 1.0 / b.fps, axis=0) if b.num_frames > 1 else np.zeros_like(cb)
-    va = np.linalg.norm(pa[:, x] - pa[:, j], axis=-1) * np.linalg.norm(pa[:, y] - pa[:, j], axis=-1)
+    if F > 1:
+        # central differences inside, one-sided at the ends (np.gradient), per second
+        da = np.gradient(ca, 1.0 / a.fps, axis=0)
+        db = np.gradient(cb, 1.0 / b.fps, axis=0)
+    else:
+        da, db = np.zeros_like(ca), np.zeros_like(cb)
+    lengths = np.linalg.norm(pa[:, x] - pa[:, j], axis=-1) * np.linalg.norm(pa[:, y] - pa[:, j], axis=-1)
     denom = np.linalg.norm(da, axis=-1) + np.linalg.norm(db, axis=-1)
     with np.errstate(invalid="ignore", divide="ignore"):
-        dt = np.where(denom > 0, va / denom, 0.0)
-    D = np.linalg.norm(ca - cb, axis=-1) + dt * np.linalg.norm(da - db, axis=-1)
-    return float(np.sqrt(np.nansum(D**2)))
+        dt = np.where(denom > 0, lengths / np.where(denom > 0, denom, 1.0), 0.0)  # eq. 2.22
+    D = np.linalg.norm(ca - cb, axis=-1) + dt * np.linalg.norm(da - db, axis=-1)  # eqs. 2.19-2.21
+    out = np.nansum(D**2, axis=1)
+    out[np.all(np.isnan(D), axis=1)] = np.nan
+    return out
+
+
+def d_pv(a: Motion, b: Motion, scale_cm: float | None = None) -> float:
+    """Tautges' D_pv (thesis 2.4, eqs. 2.13-2.24) between two motions, in cm^2 (the unit of the cross products).
+
+    For every joint ``j`` and ordered pair of distinct bone ends ``a != b``
+    hanging from it, the cross product ``c = v_{j->a} x v_{j->b}`` of the two
+    bone vectors (eq. 2.13) and its time derivative ``c'`` (finite differences
+    at the clip's fps) are compared: ``D = |c1 - c2| + dt |c1' - c2'|``
+    (eqs. 2.19-2.21, the thesis' simplification of eq. 2.18) with
+    ``dt = |v_a||v_b| / (|c1'| + |c2'|)`` (eq. 2.22, bone lengths of ``a``; 0
+    where both derivatives vanish). ``D_pv = sqrt(sum_f sum_j sum_{a != b} D^2)``
+    (eqs. 2.23/2.24); every unordered pair counts twice, as in eq. 2.24.
+
+    Bone ends are child joints and end sites. A joint with a single bone end
+    (a chain: elbow, knee) uses its parent joint as the second, so chains
+    count too (the thesis' skeletons branch at every joint it evaluates); a
+    joint with nothing hanging from it adds nothing, and zero-length bones add
+    zero. Positions are in cm (``scale_cm`` or :func:`unit_scale_cm`).
+    Invariant to a global translation, not to a global rotation (as the
+    thesis notes). NaN terms are left out of the sum.
+    """
+    per_frame = d_pv_per_frame(a, b, scale_cm)
+    if np.all(np.isnan(per_frame)) and per_frame.size:
+        return float("nan")
+    return float(np.sqrt(np.nansum(per_frame)))
 
 
 @dataclass(frozen=True)
 class DetectionScore:
-    """Counts and rates of a detection against ground truth."""
+    """Counts and rates of a detection against ground truth.
+
+    Conventions for empty denominators: with nothing detected precision is 1
+    (no false alarm), with nothing to find recall is 1; f1 is 0 when both
+    precision and recall are 0.
+    """
 
     tp: int
     fp: int
@@ -156,39 +249,66 @@ class DetectionScore:
         p, r = self.precision, self.recall
         return 2 * p * r / (p + r) if p + r else 0.0
 
+    def as_dict(self) -> dict:
+        """Counts and rates as a plain dict (for JSON)."""
+        return {"precision": self.precision, "recall": self.recall, "f1": self.f1, "tp": self.tp, "fp": self.fp, "fn": self.fn}
 
-def precision_recall(detected: np.ndarray, truth: np.ndarray) -> DetectionScore:
-    """Precision and recall per (frame, joint) cell of two boolean (F, J) masks.
 
-    With nothing detected precision is 1; with nothing to find recall is 1.
-    """
+def _check_masks(detected, truth) -> tuple[np.ndarray, np.ndarray]:
     detected = np.asarray(detected, dtype=bool)
     truth = np.asarray(truth, dtype=bool)
     if detected.shape != truth.shape:
         raise ValueError(f"masks differ in shape: {detected.shape} vs {truth.shape}")
+    return detected, truth
+
+
+def precision_recall(detected: np.ndarray, truth: np.ndarray) -> DetectionScore:
+    """Precision and recall per (frame, joint) cell of two boolean (F, J) masks (any equal shapes).
+
+    ``detected`` is what a detector flagged, ``truth`` the ground truth (e.g. a
+    corruption mask). See :class:`DetectionScore` for the empty cases.
+    """
+    detected, truth = _check_masks(detected, truth)
     return DetectionScore(
         tp=int(np.sum(detected & truth)), fp=int(np.sum(detected & ~truth)), fn=int(np.sum(~detected & truth))
     )
 
 
+def _word_starts(F: int, word_length: int, stride: int) -> np.ndarray:
+    """Starts of words of ``word_length`` frames every ``stride`` frames, plus one flush with the end."""
+    if word_length < 1 or stride < 1:
+        raise ValueError(f"word_length and stride must be at least 1, got {word_length} and {stride}")
+    last = max(F - word_length, 0)
+    starts = np.arange(0, last + 1, stride)
+    if starts[-1] != last:
+        starts = np.append(starts, last)  # so the last frames belong to a word too
+    return starts
+
+
 def _words(mask: np.ndarray, word_length: int, stride: int) -> np.ndarray:
-    F = mask.shape[0]
-    starts = np.arange(0, max(F - word_length, 0) + 1, stride)
+    starts = _word_starts(mask.shape[0], word_length, stride)
     return np.stack([mask[s : s + word_length].any(axis=0) for s in starts])
 
 
 def word_precision_recall(
-    detected: np.ndarray, truth: np.ndarray, word_length: int = 15, stride: int = 5
+    detected: np.ndarray, truth: np.ndarray, word_length: int = 15, stride: int = 5, per_joint: bool = True
 ) -> DetectionScore:
-    """Precision and recall at motion-word level, as Aristidou et al. Table 1 counts them.
+    """Precision and recall at motion-word level, as Aristidou et al. (section 6, Table 1) count them.
 
     Words are windows of ``word_length`` frames every ``stride`` frames (15 and
-    5 at 24 fps in the paper). A (word, joint) is positive when any of its
-    cells is; the counts are over (word, joint) pairs, so a detection must
-    name the right joint in the right word to count.
+    5 in the paper, in frames of the clip as analysed; a last word flush with
+    the clip's end is added when the stride does not reach it, so every frame
+    is in some word). A word is positive when any of its cells is. The paper
+    counts "joint rotation anomalies" in words ("words ... include at least
+    one joint with erroneous rotations"), so by default the counts are over
+    (word, joint) pairs: a detection must name the right joint in the right
+    word. With ``per_joint=False`` a word is one item, positive if any joint
+    is, and a detection only has to find the right word.
     """
-    detected = np.asarray(detected, dtype=bool)
-    truth = np.asarray(truth, dtype=bool)
-    if detected.shape != truth.shape:
-        raise ValueError(f"masks differ in shape: {detected.shape} vs {truth.shape}")
-    return precision_recall(_words(detected, word_length, stride), _words(truth, word_length, stride))
+    detected, truth = _check_masks(detected, truth)
+    if detected.ndim != 2:
+        raise ValueError(f"masks must be (F, J), got shape {detected.shape}")
+    wd, wt = _words(detected, word_length, stride), _words(truth, word_length, stride)
+    if not per_joint:
+        wd, wt = wd.any(axis=1), wt.any(axis=1)
+    return precision_recall(wd, wt)
