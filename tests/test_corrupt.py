@@ -149,21 +149,26 @@ def test_a_generator_is_a_seed():
 # -- angular, uniform and biased noise ---------------------------------------------------
 
 
+def channel_noise(clean, noisy, amount):
+    """Wrapped channel differences of moving rotation channels, their clean std, and std ratio to the target."""
+    cols = rotation_columns(clean)
+    a, b = clean.channel_values()[:, cols], noisy.channel_values()[:, cols]
+    std = a.std(axis=0)
+    moving = std > 1.0  # channels that move enough for Euler wrap not to matter
+    d = wrapped(b - a)[:, moving]
+    return d, std[moving], d.std(axis=0) / (amount * std[moving])
+
+
 # Re-reading the noisy rotations as Euler angles can land on the other Euler branch where the
 # middle angle is pushed past +-90 deg: those channels then show ~180 deg jumps. Rare at 0.1/0.5.
 @pytest.mark.parametrize("amount, share", [(0.1, 0.95), (0.5, 0.9), (0.9, 0.8)])
 def test_angular_noise_has_the_requested_std_per_channel(bvh, amount, share):
     bad, _ = C.angular_noise(bvh, amount=amount, seed=0)
-    cols = rotation_columns(bvh)
-    a, b = bvh.channel_values()[:, cols], bad.channel_values()[:, cols]
-    std = a.std(axis=0)
-    moving = std > 1.0
-    d = wrapped(b - a)[:, moving]
-    ratio = d.std(axis=0) / (amount * std[moving])
+    d, std_moving, ratio = channel_noise(bvh, bad, amount)
     # ~994 frames: the sample std of one channel is within ~7% (3 sigma) of the true one
     assert np.median(ratio) == pytest.approx(1.0, abs=0.03)
     assert np.mean(np.abs(ratio - 1.0) < 0.1) > share
-    assert np.median(np.abs(d.mean(axis=0)) / std[moving]) < 3 * amount / np.sqrt(len(d))
+    assert np.median(np.abs(d.mean(axis=0)) / std_moving) < 3 * amount / np.sqrt(len(d))
 
 
 def test_angular_noise_keeps_the_root_unless_asked(bvh):
@@ -189,14 +194,9 @@ def test_noise_keeps_asf_joints_within_their_degrees_of_freedom(amc):
 def test_uniform_noise_is_bounded_with_the_same_std(bvh):
     amount = 0.5
     bad, _ = C.uniform_noise(bvh, amount=amount, seed=2)
-    cols = rotation_columns(bvh)
-    a, b = bvh.channel_values()[:, cols], bad.channel_values()[:, cols]
-    std = a.std(axis=0)
-    moving = std > 1.0
-    d = wrapped(b - a)[:, moving]
-    ratio = d.std(axis=0) / (amount * std[moving])
+    d, std_moving, ratio = channel_noise(bvh, bad, amount)
     assert np.median(ratio) == pytest.approx(1.0, abs=0.03)
-    width = np.sqrt(3) * amount * std[moving]
+    width = np.sqrt(3) * amount * std_moving
     inside = np.abs(d) <= width * (1 + 1e-6) + 1e-6
     assert inside.mean() > 0.99  # all but Euler-branch changes near gimbal lock
 
