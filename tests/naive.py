@@ -297,3 +297,162 @@ def naive_asfamc_fk(asf_path, amc_path, frames) -> list[dict]:
             visit(child, g_root, translation + g_root @ position)
         results.append(res)
     return results
+
+
+# -- DTW --------------------------------------------------------------------------
+#
+# Full-matrix dynamic time warping written out cell by cell. Conventions shared
+# with mocapkit.search.dtw: query frame n (rows), database frame m (columns);
+# ties between predecessors go to the first of (diagonal, database step, query
+# step) with the smallest value; classic steps (1,1), (0,1), (1,0) with unit
+# weights; Tautges steps (1,1) and (1,2) weight 1, (2,1) weight 2.
+
+_INF = float("inf")
+
+
+def naive_local_cost(query, data) -> np.ndarray:
+    """C[n, m] = Euclidean distance, summing squares feature by feature; inf for non-finite rows."""
+    query = [[float(v) for v in row] for row in np.asarray(query, dtype=float)]
+    data = [[float(v) for v in row] for row in np.asarray(data, dtype=float)]
+    out = np.empty((len(query), len(data)))
+    for n, q in enumerate(query):
+        for m, x in enumerate(data):
+            if not all(math.isfinite(v) for v in q) or not all(math.isfinite(v) for v in x):
+                out[n, m] = _INF
+                continue
+            acc = 0.0
+            for a, b in zip(q, x):
+                t = a - b
+                acc = acc + t * t
+            out[n, m] = math.sqrt(acc)
+    return out
+
+
+def _naive_prepare(C, clip_ids, exclude):
+    C = [[float(v) for v in row] for row in np.asarray(C, dtype=float)]
+    M, N = len(C), len(C[0]) if C else 0
+    for m in range(N):
+        if exclude is not None and exclude[m]:
+            for n in range(M):
+                C[n][m] = _INF
+    clip = [0] * N if clip_ids is None else [int(v) for v in clip_ids]
+    first = [m == 0 or clip[m] != clip[m - 1] for m in range(N)]
+    usable = [any(C[n][m] < _INF for n in range(M)) for m in range(N)]
+    return C, M, N, first, usable
+
+
+def naive_subsequence_dtw_matrix(C, clip_ids=None, steps="classic", exclude=None):
+    """Subsequence DTW accumulated cost matrix over a local cost matrix C (M, N).
+
+    Returns ``(D, pred)``: D as an (M, N) array and, for every cell, the chosen
+    predecessor cell ``(n', m')`` or None (a path start, or an infinite cell).
+    Clip starts: classic allows only (n-1, m) -> (n, m), Tautges makes D infinite
+    for n > 0. A Tautges (1, 2) step needs m-2, m-1, m in one clip and m-1 usable
+    (not excluded and not infinite for every query frame).
+    """
+    C, M, N, first, usable = _naive_prepare(C, clip_ids, exclude)
+    D = [[_INF] * N for _ in range(M)]
+    pred = [[None] * N for _ in range(M)]
+    for m in range(N):
+        for n in range(M):
+            c = C[n][m]
+            if n == 0:
+                D[n][m] = c
+                continue
+            # (predecessor, value compared), in tie order; classic compares D(pred)
+            # and adds C afterwards, Tautges compares D(pred) + weight * C
+            cands = []
+            if steps == "classic":
+                if not first[m]:
+                    cands.append(((n - 1, m - 1), D[n - 1][m - 1]))
+                    cands.append(((n, m - 1), D[n][m - 1]))
+                cands.append(((n - 1, m), D[n - 1][m]))
+            else:
+                if first[m]:
+                    continue
+                cands.append(((n - 1, m - 1), D[n - 1][m - 1] + c))
+                if m >= 2 and not first[m - 1] and usable[m - 1]:
+                    cands.append(((n - 1, m - 2), D[n - 1][m - 2] + c))
+                if n >= 2:
+                    cands.append(((n - 2, m - 1), D[n - 2][m - 1] + 2.0 * c))
+            best, val = None, _INF
+            for p, v in cands:
+                if best is None or v < val:
+                    best, val = p, v
+            if steps == "classic":
+                val = c + val
+            D[n][m] = val
+            pred[n][m] = best if val < _INF else None
+    return np.array(D, dtype=float).reshape(M, N), pred
+
+
+def naive_backtrack(pred, n, m):
+    """The path (list of (query frame, database frame)) that ends in cell (n, m)."""
+    path = [(n, m)]
+    while pred[n][m] is not None:
+        n, m = pred[n][m]
+        path.append((n, m))
+    return path[::-1]
+
+
+def naive_dtw(C, steps="classic"):
+    """Global DTW over a local cost matrix C (n, m), from (0, 0) to (n-1, m-1).
+
+    Returns ``(cost, path)``; path is a list of (i, j), empty when the cost is inf.
+    A Tautges (1, 2) step may not skip a column that is infinite in every row.
+    """
+    C, M, N, _, usable = _naive_prepare(C, None, None)
+    D = [[_INF] * N for _ in range(M)]
+    pred = [[None] * N for _ in range(M)]
+    for i in range(M):
+        for j in range(N):
+            c = C[i][j]
+            if i == 0 and j == 0:
+                D[i][j] = c
+                continue
+            cands = []
+            if steps == "classic":
+                if i >= 1 and j >= 1:
+                    cands.append(((i - 1, j - 1), D[i - 1][j - 1]))
+                if j >= 1:
+                    cands.append(((i, j - 1), D[i][j - 1]))
+                if i >= 1:
+                    cands.append(((i - 1, j), D[i - 1][j]))
+            else:
+                if i >= 1 and j >= 1:
+                    cands.append(((i - 1, j - 1), D[i - 1][j - 1] + c))
+                    if j >= 2 and usable[j - 1]:
+                        cands.append(((i - 1, j - 2), D[i - 1][j - 2] + c))
+                    if i >= 2:
+                        cands.append(((i - 2, j - 1), D[i - 2][j - 1] + 2.0 * c))
+            best, val = None, _INF
+            for p, v in cands:
+                if best is None or v < val:
+                    best, val = p, v
+            if steps == "classic":
+                val = c + val
+            D[i][j] = val
+            pred[i][j] = best if val < _INF else None
+    cost = D[M - 1][N - 1]
+    if not cost < _INF:
+        return _INF, []
+    return cost, naive_backtrack(pred, M - 1, N - 1)
+
+
+def naive_k_best(C, clip_ids=None, steps="classic", exclude=None, k=1, max_overlap=0):
+    """The k best matches by the full matrix: ends sorted by (cost, index), greedy non-overlap.
+
+    Returns a list of (start, end, cost, path) with path from backtracking.
+    """
+    D, pred = naive_subsequence_dtw_matrix(C, clip_ids, steps, exclude)
+    M, N = D.shape
+    ends = sorted((D[M - 1, m], m) for m in range(N) if D[M - 1, m] < _INF)
+    out = []
+    for cost, e in ends:
+        if len(out) >= k:
+            break
+        path = naive_backtrack(pred, M - 1, e)
+        s = path[0][1]
+        if all(min(e, e2) - max(s, s2) + 1 <= max_overlap for s2, e2, _, _ in out):
+            out.append((s, e, cost, path))
+    return out
