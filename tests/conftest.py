@@ -19,3 +19,13 @@ def shared_data() -> Path:
 @pytest.fixture
 def rng():
     return np.random.default_rng(12345)
+
+
+@pytest.fixture(scope="session")
+def small_db():
+    """A real database from the bundled samples: two HDM05 clips and a CMU walk, mirrored, at 30 fps."""
+    from mocapkit import samples
+    from mocapkit.database import MotionDatabase
+
+    names = ["12_walk.amc", "HDM_bd_jogLeftCircle4StepsRstart_001_120.amc", "HDM_bk_sneak2StepsLStart_004_120.amc", "HDM_bk_sneak2StepsLStart_005_120.amc"]
+    return MotionDatabase.build([samples.path(n) for n in names], fps=30, features=("F15", "F15x3"), mirror=True, executor="serial", progress=False)

@@ -10,6 +10,11 @@ def test_readme_python_example_runs(tmp_path, monkeypatch, capsys):
     blocks = re.findall(r"```python\n(.*?)```", README.read_text(), flags=re.S)
     assert blocks, "README has no python example"
     monkeypatch.chdir(tmp_path)
-    exec(compile(blocks[0], "README.md", "exec"), {})
+    for block in blocks:
+        exec(compile(block, "README.md", "exec"), {})
     assert (tmp_path / "noisy.bvh").is_file()
-    assert "deg RMS" in capsys.readouterr().out
+    assert (tmp_path / "walks.db" / "database.json").is_file()
+    out = capsys.readouterr().out
+    assert "deg RMS" in out
+    # the database example's first result is the other take of the sneak
+    assert "HDM_bk_sneak2StepsLStart_005_120 " in out

@@ -212,6 +212,126 @@ def plot(
     console.print(f"wrote {out}")
 
 
+db_app = typer.Typer(help="Build and inspect motion databases (the knowledge that search and cleaning compare against).", no_args_is_help=True)
+app.add_typer(db_app, name="db")
+
+
+def _feature_list(text: str) -> tuple[str, ...]:
+    return tuple(t.strip() for t in text.split(",") if t.strip())
+
+
+@db_app.command("build")
+def db_build(
+    out_dir: Path = typer.Argument(..., metavar="OUT_DIR", help="Folder to create for the database."),
+    files: list[Path] = typer.Argument(..., metavar="FILES...", help="Motion files (.bvh, .amc, .npz) or folders."),
+    fps: float = typer.Option(30.0, "--fps", help="Frame rate every clip is resampled to."),
+    mirror: bool = typer.Option(False, "--mirror", help="Also add every clip's left/right mirror image."),
+    features: str = typer.Option("F15", "--features", help="Comma-separated feature sets: F15, F30, F39, F15x3, F15x5, F30x3, F39x3."),
+    executor: Optional[str] = typer.Option(
+        None, "--executor", help="Where to load clips: 'processes' (default), 'serial', 'dask' (local cluster) or a Dask scheduler address."
+    ),
+    joint_map: Optional[Path] = typer.Option(None, "--joint-map", help="JSON object {clip joint: database joint} for clips of another skeleton."),
+    overwrite: bool = typer.Option(False, "--overwrite", help="Replace OUT_DIR if it exists."),
+) -> None:
+    """Build a motion database from FILES and save it to OUT_DIR."""
+    from .database import MotionDatabase
+    from .parallel import describe_executor
+
+    for f in files:
+        if f.exists() and out_dir.exists() and out_dir.resolve() == f.resolve():
+            raise MocapFormatError(out_dir, "refusing to overwrite an input; choose another output folder")
+    if out_dir.exists() and not overwrite:
+        raise MocapFormatError(out_dir, "already exists; pass --overwrite to replace it")
+    jm = None
+    if joint_map is not None:
+        try:
+            jm = json.loads(joint_map.read_text(encoding="utf-8"))
+        except (OSError, ValueError) as exc:
+            raise MocapFormatError(joint_map, f"not a readable JSON joint map ({exc})") from None
+        if not isinstance(jm, dict) or not all(isinstance(k, str) and isinstance(v, str) for k, v in jm.items()):
+            raise MocapFormatError(joint_map, "a joint map is a JSON object of joint name -> joint name")
+    console.print(f"building from {len(files)} path(s) on {describe_executor(executor)}")
+    try:
+        db = MotionDatabase.build(files, fps=fps, features=_feature_list(features), mirror=mirror, joint_map=jm, executor=executor)
+    except ValueError as exc:
+        raise MocapError(str(exc)) from None
+    db.save(out_dir, overwrite=overwrite)
+    console.print(f"wrote {out_dir}: {db.num_clips} clips, {db.num_frames} frames @ {db.fps:g} fps, features {', '.join(db.feature_names)}")
+
+
+@db_app.command("info")
+def db_info(
+    directory: Path = typer.Argument(..., metavar="DIR", help="A database folder."),
+    clips: bool = typer.Option(False, "--clips", help="Also list every clip with its frame range."),
+    as_json: bool = typer.Option(False, "--json", help="Print JSON instead of a table."),
+) -> None:
+    """Print the size, frame rate, features and clips of the database in DIR."""
+    from .database import MotionDatabase
+
+    db = MotionDatabase.open(directory)
+    summary = db.summary()
+    if as_json:
+        if clips:
+            summary["clip_list"] = [{"name": c.name, "start": c.start, "frames": c.frames, "source": c.source} for c in db.clips]
+        print(json.dumps(summary))
+        return
+    table = Table(show_header=False, box=None, pad_edge=False)
+    table.add_column(style="bold")
+    table.add_column()
+    for k, v in summary.items():
+        table.add_row(k.replace("_", " "), ", ".join(f"{a} ({b})" for a, b in v.items()) if isinstance(v, dict) else str(v))
+    console.print(table)
+    if clips:
+        ct = Table("#", "clip", "first frame", "frames", "source")
+        for k, c in enumerate(db.clips):
+            ct.add_row(str(k), c.name, str(c.start), str(c.frames), c.source)
+        console.print(ct)
+
+
+@app.command()
+def search(
+    db_dir: Path = typer.Argument(..., metavar="DB_DIR", help="A database folder (`mocapkit db build`)."),
+    query: Path = typer.Argument(..., metavar="QUERY", help="Query motion (.bvh, .amc, .npz)."),
+    k: int = typer.Option(10, "--k", help="Number of matches."),
+    features: Optional[str] = typer.Option(None, "--features", help="Feature set (default: the database's first)."),
+    neighbors: int = typer.Option(128, "--neighbors", help="Nearest neighbours per query frame in the lazy neighbourhood graph."),
+    method: str = typer.Option("lng", "--method", help="lng (fast, Krüger 2010) or dtw (exact subsequence DTW)."),
+    start: Optional[float] = typer.Option(None, "--start", help="Use the query from this time (s)."),
+    end: Optional[float] = typer.Option(None, "--end", help="Use the query up to this time (s)."),
+    as_json: bool = typer.Option(False, "--json", help="Print the matches as JSON."),
+) -> None:
+    """Rank the database segments most similar to QUERY (numerical similarity search)."""
+    from . import io
+    from .database import MotionDatabase
+    from .motion import Motion
+
+    db = MotionDatabase.open(db_dir)
+    m = io.load(query)
+    if not isinstance(m, Motion):
+        raise MocapFormatError(query, "a marker file cannot be a query; give a motion")
+    a = 0 if start is None else int(round(start * m.fps))
+    b = m.num_frames if end is None else int(round(end * m.fps))
+    if not 0 <= a < b <= m.num_frames:
+        raise MocapFormatError(query, f"--start/--end select no frames (clip has {m.num_frames} frames, {m.duration:.2f} s)")
+    try:
+        results = db.search(m[a:b], k=k, features=features, neighbors=neighbors, method=method)
+    except (KeyError, ValueError) as exc:
+        raise MocapError(f"{db_dir}: {exc.args[0] if exc.args else exc}") from None
+    if as_json:
+        print(json.dumps([dict(r.as_dict(), start_s=r.start / db.fps, end_s=r.end / db.fps) for r in results]))
+        return
+    if not results:
+        console.print("no match (try a larger --neighbors)")
+        return
+    table = Table("#", "clip", "start", "end", "seconds", "cost", "cost/frame")
+    qlen = int(round((b - a) / m.fps * db.fps))
+    for r_, r in enumerate(results, 1):
+        table.add_row(
+            str(r_), r.name, str(r.start), str(r.end), f"{r.start / db.fps:.2f}-{r.end / db.fps:.2f}", f"{r.cost:.1f}", f"{r.cost / max(qlen, 1):.2f}"
+        )
+    console.print(table)
+
+
 def main(argv: list[str] | None = None) -> int:
     """Entry point of the console script: runs the app, turning user errors into one line and exit 2."""
     try:

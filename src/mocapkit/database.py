@@ -1,0 +1,772 @@
+"""MotionDatabase: many clips stacked along frames, with features, saved on disk and memory-mapped.
+
+A database is the unit of "knowledge" that similarity search, self-similarity
+cleaning and reconstruction compare a motion against (Krüger et al. 2010,
+sec. 3-5). It is packed arrays plus clip ranges:
+
+* every clip is resampled to one frame rate; frame ``i`` of the database has
+  a clip (:attr:`MotionDatabase.clip_ids`) and a frame number in it, and
+  consecutive frames of one clip have consecutive indices, so a path in a
+  neighbourhood graph may step ``i -> i + 1`` exactly when
+  ``clip_ids[i] == clip_ids[i + 1]`` (never across a clip boundary);
+* rotations ``(N, J, 4)`` and root positions ``(N, 3)`` are stored as float32
+  (1e-7 relative precision; :meth:`MotionDatabase.clip` returns float64
+  Motions), features ``(N, D)`` as float64 in centimetres so clips of rigs in
+  different units compare;
+* all clips share one skeleton topology (joint names and parents). Bone
+  lengths may differ (several actors); a clip of another topology is
+  rejected unless a joint map says how its joints correspond;
+* :meth:`MotionDatabase.save` writes a directory of ``.npy`` files plus a JSON
+  description; :meth:`MotionDatabase.open` memory-maps them, so a
+  million-frame database opens in milliseconds and worker processes share
+  the pages instead of copying them.
+
+Indexes (kd-trees) are built from a database on demand
+(:meth:`MotionDatabase.index`) and never stored in it.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import tempfile
+from dataclasses import dataclass
+from functools import partial
+from pathlib import Path
+from typing import Iterable, Mapping, Sequence
+
+import numpy as np
+
+from .errors import MocapError, MocapFormatError
+from .features import FEATURE_SETS, WINDOWED_SETS, feature_set
+from .motion import Motion, Skeleton, _readonly
+from .search.matches import Match
+
+__all__ = ["MotionDatabase", "ClipInfo", "SearchResult", "FORMAT_VERSION", "SUFFIXES"]
+
+FORMAT_VERSION = 1
+#: File suffixes a database is built from (C3D marker files hold no skeleton motion).
+SUFFIXES = (".bvh", ".amc", ".npz")
+_DESCRIPTION = "database.json"
+
+
+@dataclass(frozen=True)
+class ClipInfo:
+    """One clip of a database: its name, where it came from, and its frame range.
+
+    ``start`` is the database index of its first frame; it covers
+    ``start .. start + frames - 1``. ``skeleton`` indexes
+    :attr:`MotionDatabase.skeletons`.
+    """
+
+    name: str
+    source: str
+    start: int
+    frames: int
+    skeleton: int
+    mirrored: bool = False
+
+    @property
+    def stop(self) -> int:
+        """One past the last database index of the clip."""
+        return self.start + self.frames
+
+
+@dataclass(frozen=True, eq=False)
+class SearchResult:
+    """A database segment similar to a query: clip, first and last frame (at the database rate), cost.
+
+    ``match`` keeps the database-index form with the warping path (rows
+    ``(query frame, database frame)``, query frames at the database rate).
+    """
+
+    clip: int
+    name: str
+    start: int
+    end: int
+    cost: float
+    match: Match
+
+    def as_dict(self) -> dict:
+        return {"clip": self.clip, "name": self.name, "start": self.start, "end": self.end, "cost": self.cost}
+
+
+# -- skeletons to and from JSON -------------------------------------------------------------
+
+
+def _skeleton_to_json(sk: Skeleton) -> dict:
+    return {
+        "joint_names": list(sk.joint_names),
+        "parents": sk.parents.tolist(),
+        "offsets": sk.offsets.tolist(),
+        "end_site_parents": sk.end_site_parents.tolist(),
+        "end_site_offsets": sk.end_site_offsets.tolist(),
+        "channels": None if sk.channels is None else [list(c) for c in sk.channels],
+        "axes": None if sk.axes is None else sk.axes.tolist(),
+        "limits": None if sk.limits is None else [[list(p) for p in jl] for jl in sk.limits],
+        "unit_cm": sk.unit_cm,
+    }
+
+
+def _skeleton_from_json(d: dict) -> Skeleton:
+    return Skeleton(
+        joint_names=tuple(d["joint_names"]),
+        parents=np.asarray(d["parents"], dtype=np.int64),
+        offsets=np.asarray(d["offsets"], dtype=np.float64).reshape(-1, 3),
+        end_site_parents=np.asarray(d["end_site_parents"], dtype=np.int64),
+        end_site_offsets=np.asarray(d["end_site_offsets"], dtype=np.float64).reshape(-1, 3),
+        channels=None if d["channels"] is None else tuple(tuple(c) for c in d["channels"]),
+        axes=None if d["axes"] is None else np.asarray(d["axes"], dtype=np.float64),
+        limits=None if d["limits"] is None else tuple(tuple(tuple(p) for p in jl) for jl in d["limits"]),
+        unit_cm=d["unit_cm"],
+    )
+
+
+def _topology(sk: Skeleton) -> tuple:
+    return tuple(sk.joint_names), tuple(int(p) for p in sk.parents)
+
+
+def _topology_difference(sk: Skeleton, ref: tuple) -> str:
+    names, parents = _topology(sk)
+    rnames, rparents = ref
+    if len(names) != len(rnames):
+        return f"{len(names)} joints, the database has {len(rnames)}"
+    for j, (a, b) in enumerate(zip(names, rnames)):
+        if a != b:
+            return f"joint {j} is {a!r}, the database's is {b!r}"
+    for j, (a, b) in enumerate(zip(parents, rparents)):
+        if a != b:
+            return f"joint {names[j]!r} has another parent"
+    return ""
+
+
+# -- preparing one clip (runs in worker processes) --------------------------------------------
+
+
+def _check_features(features: Sequence[str]) -> tuple[str, ...]:
+    names = tuple(features)
+    if not names:
+        raise ValueError("features: at least one feature set is needed (e.g. ('F15',))")
+    known = list(FEATURE_SETS) + list(WINDOWED_SETS)
+    for n in names:
+        if n not in known:
+            raise ValueError(f"unknown feature set {n!r}; known: {', '.join(known)}")
+    return names
+
+
+def _retarget(m: Motion, ref_skeleton: Skeleton, joint_map: Mapping[str, str], source: str) -> Motion:
+    """Copy local rotations joint by joint onto the reference topology (rest poses assumed to agree)."""
+    rnames = ref_skeleton.joint_names
+    src = {n: j for j, n in enumerate(m.skeleton.joint_names)}
+    rot = np.zeros((m.num_frames, len(rnames), 4))
+    rot[..., 0] = 1.0
+    mapped = 0
+    inverse = {v: k for k, v in joint_map.items()}
+    for j, name in enumerate(rnames):
+        s = inverse.get(name, name if name in src else None)
+        if s is None:
+            continue
+        if s not in src:
+            raise MocapFormatError(source, f"joint map names {s!r}, which the clip's skeleton lacks")
+        rot[:, j] = m.rotations[:, src[s]]
+        mapped += 1
+    root_src = inverse.get(rnames[0], rnames[0])
+    if root_src not in src:
+        raise MocapFormatError(source, f"joint map does not map the database root {rnames[0]!r}")
+    scale = 1.0
+    if m.skeleton.unit_cm and ref_skeleton.unit_cm:
+        scale = m.skeleton.unit_cm / ref_skeleton.unit_cm
+    return Motion(ref_skeleton, rot, m.root_positions * scale, m.fps, m.name)
+
+
+def _prepare(item, fps: float, features: tuple[str, ...], mirror: bool, ref_skeleton: Skeleton | None, joint_map) -> list[dict]:
+    """Load (if a path), check, resample and featurise one clip; with ``mirror`` also its mirror image."""
+    from . import io
+
+    if isinstance(item, Motion):
+        m, source = item, f"<motion {item.name}>"
+    else:
+        path = Path(item)
+        m = io.load(path)
+        source = str(path)
+        if not isinstance(m, Motion):
+            raise MocapFormatError(path, "a marker file holds no skeleton motion and cannot go into a motion database")
+    if m.num_frames == 0:
+        raise MocapFormatError(source, "the clip has no frames")
+    if ref_skeleton is not None:
+        diff = _topology_difference(m.skeleton, _topology(ref_skeleton))
+        if diff:
+            if joint_map is None:
+                raise MocapFormatError(
+                    source, f"skeleton differs from the database's ({diff}); pass a joint map to retarget it"
+                )
+            m = _retarget(m, ref_skeleton, joint_map, source)
+    m = m.resample(fps)
+    out = []
+    for mirrored in (False, True) if mirror else (False,):
+        mm = m.mirror() if mirrored else m
+        try:
+            feats = {n: feature_set(mm, n, scale_cm=True).values for n in features}
+        except MocapError as exc:
+            raise MocapFormatError(source, f"cannot compute features: {exc}") from None
+        tr = None if mm.translations is None else mm.translations.astype(np.float32)
+        out.append(
+            {
+                "name": m.name + (" (mirrored)" if mirrored else ""),
+                "source": source,
+                "mirrored": mirrored,
+                "skeleton": mm.skeleton,
+                "rotations": mm.rotations.astype(np.float32),
+                "root_positions": mm.root_positions.astype(np.float32),
+                "translations": tr,
+                "features": feats,
+            }
+        )
+    return out
+
+
+def _expand_sources(sources) -> list:
+    if isinstance(sources, (str, os.PathLike, Motion)):
+        sources = [sources]
+    items: list = []
+    for s in sources:
+        if isinstance(s, Motion):
+            items.append(s)
+            continue
+        p = Path(s)
+        if p.is_dir():
+            found = sorted(q for q in p.rglob("*") if q.suffix.lower() in SUFFIXES and q.is_file())
+            if not found:
+                raise MocapFormatError(p, f"the folder holds no motion files ({', '.join(SUFFIXES)})")
+            items.extend(found)
+        elif p.is_file():
+            if p.suffix.lower() not in SUFFIXES:
+                raise MocapFormatError(p, f"cannot go into a motion database (expected {', '.join(SUFFIXES)})")
+            items.append(p)
+        else:
+            raise MocapFormatError(p, "no such file or folder")
+    if not items:
+        raise ValueError("no clips given")
+    return items
+
+
+# -- the database -------------------------------------------------------------------------------
+
+
+class MotionDatabase:
+    """Clips stacked along frames at one frame rate, with their features (see the module docstring).
+
+    Build one with :meth:`build`, keep it with :meth:`save`, reopen it with
+    :meth:`open`. Arrays are read-only.
+
+    Attributes
+    ----------
+    fps : float
+    skeletons : tuple of Skeleton
+        The distinct skeletons (one topology, possibly several bone lengths).
+    clips : tuple of ClipInfo
+    rotations : float32 array (N, J, 4)
+        Local joint rotations, w first.
+    root_positions : float32 array (N, 3)
+        File units of each clip's skeleton.
+    features : dict of str -> float64 array (N, D)
+        Krüger's feature sets in centimetres (:func:`mocapkit.features.feature_set`).
+    clip_ids : int32 array (N,)
+        Clip number of each frame.
+    path : Path or None
+        The directory it was opened from.
+
+    Examples
+    --------
+    >>> from mocapkit import samples
+    >>> db = MotionDatabase.build([samples.path("12_walk.amc")], fps=30, mirror=True, progress=False)
+    >>> db
+    MotionDatabase(2 clips, 172 frames @ 30 fps, features F15)
+    >>> db.clip_names
+    ('12_walk', '12_walk (mirrored)')
+    >>> db.locate(100), db.index_of("12_walk (mirrored)", 14)
+    ((1, 14), 100)
+    """
+
+    def __init__(
+        self,
+        *,
+        fps: float,
+        skeletons: Sequence[Skeleton],
+        clips: Sequence[ClipInfo],
+        rotations: np.ndarray,
+        root_positions: np.ndarray,
+        features: Mapping[str, np.ndarray],
+        translations: np.ndarray | None = None,
+        clip_ids: np.ndarray | None = None,
+        path: Path | None = None,
+        info: Mapping | None = None,
+    ):
+        self.fps = float(fps)
+        self.skeletons = tuple(skeletons)
+        self.clips = tuple(clips)
+        N = int(rotations.shape[0])
+        starts = np.array([c.start for c in self.clips] + [N], dtype=np.int64)
+        if len(self.clips) == 0 or starts[0] != 0 or np.any(np.diff(starts) != [c.frames for c in self.clips]):
+            raise ValueError("clips must tile the frames 0..N-1 in order")
+        if root_positions.shape != (N, 3):
+            raise ValueError(f"root_positions: expected shape ({N}, 3), got {root_positions.shape}")
+        for name, f in features.items():
+            if f.ndim != 2 or f.shape[0] != N:
+                raise ValueError(f"features[{name!r}]: expected shape ({N}, D), got {f.shape}")
+        self.rotations = _readonly(rotations)
+        self.root_positions = _readonly(root_positions)
+        self.translations = None if translations is None else _readonly(translations)
+        self.features = {k: _readonly(v) for k, v in features.items()}
+        self.clip_starts = _readonly(starts)
+        if clip_ids is None:
+            clip_ids = np.repeat(np.arange(len(self.clips), dtype=np.int32), [c.frames for c in self.clips])
+        self.clip_ids = _readonly(clip_ids)
+        self.path = path
+        self.info = dict(info or {})
+        self._indexes: dict = {}
+
+    # -- sizes and lookups ---------------------------------------------------------------
+
+    @property
+    def num_frames(self) -> int:
+        return int(self.rotations.shape[0])
+
+    @property
+    def num_clips(self) -> int:
+        return len(self.clips)
+
+    @property
+    def num_joints(self) -> int:
+        return int(self.rotations.shape[1])
+
+    @property
+    def feature_names(self) -> tuple[str, ...]:
+        return tuple(self.features)
+
+    @property
+    def clip_names(self) -> tuple[str, ...]:
+        return tuple(c.name for c in self.clips)
+
+    @property
+    def duration(self) -> float:
+        """Total length in seconds."""
+        return self.num_frames / self.fps
+
+    def __len__(self) -> int:
+        return self.num_frames
+
+    def __repr__(self) -> str:
+        return (
+            f"MotionDatabase({self.num_clips} clips, {self.num_frames} frames @ {self.fps:g} fps, "
+            f"features {', '.join(self.feature_names)})"
+        )
+
+    def clip_number(self, clip) -> int:
+        """The clip number of ``clip`` given as a number or a name."""
+        if isinstance(clip, (int, np.integer)):
+            c = int(clip)
+            if not 0 <= c < self.num_clips:
+                raise IndexError(f"clip {c} out of range for {self.num_clips} clips")
+            return c
+        for k, info in enumerate(self.clips):
+            if info.name == clip:
+                return k
+        raise KeyError(f"no clip named {clip!r} in the database")
+
+    def locate(self, index):
+        """(clip number, frame in clip) of database frame(s) ``index`` (int or int array)."""
+        idx = np.asarray(index, dtype=np.int64)
+        if np.any((idx < 0) | (idx >= self.num_frames)):
+            raise IndexError(f"database frame out of range 0..{self.num_frames - 1}")
+        clip = self.clip_ids[idx].astype(np.int64)
+        frame = idx - self.clip_starts[clip]
+        if idx.ndim == 0:
+            return int(clip), int(frame)
+        return clip, frame
+
+    def index_of(self, clip, frame: int) -> int:
+        """Database frame index of ``frame`` of ``clip`` (number or name)."""
+        c = self.clip_number(clip)
+        info = self.clips[c]
+        if not 0 <= frame < info.frames:
+            raise IndexError(f"frame {frame} out of range for clip {info.name!r} ({info.frames} frames)")
+        return info.start + int(frame)
+
+    def clip_range(self, clip) -> tuple[int, int]:
+        """Half-open database range ``[start, stop)`` of a clip."""
+        info = self.clips[self.clip_number(clip)]
+        return info.start, info.stop
+
+    # -- motions out ------------------------------------------------------------------------
+
+    def segment(self, start: int, stop: int, name: str | None = None) -> Motion:
+        """Database frames ``start .. stop-1`` (within one clip) as a float64 Motion."""
+        if not 0 <= start < stop <= self.num_frames:
+            raise IndexError(f"segment [{start}, {stop}) out of range 0..{self.num_frames}")
+        c = int(self.clip_ids[start])
+        if int(self.clip_ids[stop - 1]) != c:
+            raise ValueError(f"segment [{start}, {stop}) crosses a clip boundary")
+        info = self.clips[c]
+        rot = np.asarray(self.rotations[start:stop], dtype=np.float64)
+        rot /= np.linalg.norm(rot, axis=-1, keepdims=True)
+        tr = None if self.translations is None else np.asarray(self.translations[start:stop], dtype=np.float64)
+        if tr is not None and np.isnan(tr).all():
+            tr = None
+        if name is None:
+            a, b = start - info.start, stop - 1 - info.start
+            name = info.name if (a == 0 and b == info.frames - 1) else f"{info.name}[{a}:{b + 1}]"
+        return Motion(
+            self.skeletons[info.skeleton],
+            rot,
+            np.asarray(self.root_positions[start:stop], dtype=np.float64),
+            self.fps,
+            name,
+            translations=tr,
+        )
+
+    def clip(self, clip) -> Motion:
+        """A whole clip (number or name) as a float64 Motion at the database's frame rate."""
+        start, stop = self.clip_range(clip)
+        return self.segment(start, stop)
+
+    # -- features and indexes -----------------------------------------------------------------
+
+    def _feature_name(self, name: str | None) -> str:
+        if name is None:
+            return self.feature_names[0]
+        if name not in self.features:
+            raise KeyError(f"the database has no feature set {name!r}; it has {', '.join(self.feature_names)}")
+        return name
+
+    def query_features(self, motion: Motion, name: str | None = None) -> np.ndarray:
+        """Features of ``motion`` computed as the database's were: resampled to :attr:`fps`, centimetres.
+
+        Returns float array (F', D) with F' frames at the database rate.
+        """
+        name = self._feature_name(name)
+        return feature_set(motion.resample(self.fps), name, scale_cm=True).values
+
+    def index(self, features: str | None = None, backend: str = "kdtree", **options):
+        """The :class:`~mocapkit.search.knn.KNNIndex` over a feature set, built on first use and cached."""
+        from .search.knn import KNNIndex
+
+        name = self._feature_name(features)
+        key = (name, backend, tuple(sorted(options.items())))
+        if key not in self._indexes:
+            self._indexes[key] = KNNIndex(self.features[name], backend=backend, **options)
+        return self._indexes[key]
+
+    # -- similarity search (Krüger sec. 4.1, 5.1) ----------------------------------------------------
+
+    def _results(self, matches: Iterable[Match]) -> list[SearchResult]:
+        out = []
+        for mt in matches:
+            c, a = self.locate(mt.start)
+            out.append(SearchResult(c, self.clips[c].name, a, a + mt.end - mt.start, mt.cost, mt))
+        return out
+
+    def search(
+        self,
+        query,
+        k: int = 10,
+        features: str | None = None,
+        neighbors: int = 128,
+        method: str = "lng",
+        exclude=None,
+    ) -> list[SearchResult]:
+        """Numerical similarity search: the ``k`` best non-overlapping segments similar to ``query``.
+
+        With ``method="lng"`` (default) the lazy neighbourhood graph on the
+        ``neighbors`` nearest frames of every query frame (Krüger sec. 4.1,
+        O(m log n)); with ``method="dtw"`` exact subsequence DTW (O(mn), the
+        reference). Costs are sums of Euclidean feature distances (cm) along
+        the warping path.
+
+        Parameters
+        ----------
+        query : Motion or float array (M, D)
+            A motion (resampled and featurised like the database) or
+            precomputed query features.
+        k : int
+            Number of results.
+        features : str, optional
+            Feature set (default: the database's first).
+        neighbors : int
+            Neighbourhood size K of the graph.
+        method : {"lng", "dtw"}
+        exclude : (lo, hi), optional
+            Half-open database range no result may use (e.g. the query's own clip).
+        """
+        from .search import dtw, lng
+
+        name = self._feature_name(features)
+        q = self.query_features(query, name) if isinstance(query, Motion) else np.asarray(query, dtype=np.float64)
+        data = self.features[name]
+        if q.ndim != 2 or q.shape[1] != data.shape[1]:
+            raise ValueError(f"query features: expected shape (M, {data.shape[1]}), got {q.shape}")
+        if method == "lng":
+            dist, idx = self.index(name).query(q, k=min(neighbors, self.num_frames), exclude=exclude)
+            matches = lng.lazy_neighborhood_graph(idx, dist, self.clip_ids, k=k)
+        elif method == "dtw":
+            mask = None
+            if exclude is not None:
+                mask = np.zeros(self.num_frames, dtype=bool)
+                mask[int(exclude[0]) : int(exclude[1])] = True
+            matches = dtw.subsequence_dtw(q, data, self.clip_ids, k=k, exclude=mask)
+        else:
+            raise ValueError(f"method must be 'lng' or 'dtw', got {method!r}")
+        return self._results(matches)
+
+    def logical_search(
+        self,
+        query,
+        k: int = 10,
+        iterations: int = 2,
+        features: str | None = None,
+        neighbors: int = 128,
+        max_cost_ratio: float = 2.0,
+    ) -> list[SearchResult]:
+        """Logical similarity search by iteration (Krüger sec. 5.1, after Kovar and Gleicher 2004).
+
+        The segments found for the query become queries themselves, and so
+        on for ``iterations`` rounds; a segment is kept when its cost per
+        query frame is at most ``max_cost_ratio`` times the cost per frame of
+        the round-one best match that led to it. Returns all kept segments,
+        non-overlapping, ranked by cost per frame of the query that found them.
+        """
+        name = self._feature_name(features)
+        q0 = self.query_features(query, name) if isinstance(query, Motion) else np.asarray(query, dtype=np.float64)
+        found: list[tuple[float, SearchResult]] = []
+        frontier = [(q0, None)]
+        data = self.features[name]
+        for _ in range(max(1, iterations)):
+            new_frontier = []
+            for q, bound in frontier:
+                for r in self.search(q, k=k, features=name, neighbors=neighbors):
+                    per_frame = r.cost / max(len(q), 1)
+                    if bound is not None and per_frame > bound:
+                        continue
+                    if any(r.match.overlaps(f.match) for _, f in found):
+                        continue
+                    found.append((per_frame, r))
+                    limit = max_cost_ratio * max(per_frame, 1e-9) if bound is None else bound
+                    new_frontier.append((np.asarray(data[r.match.start : r.match.end + 1]), limit))
+            frontier = new_frontier
+            if not frontier:
+                break
+        found.sort(key=lambda t: t[0])
+        return [r for _, r in found]
+
+    # -- building -------------------------------------------------------------------------------
+
+    @classmethod
+    def build(
+        cls,
+        sources,
+        fps: float = 30,
+        features: Sequence[str] = ("F15",),
+        mirror: bool = False,
+        joint_map: Mapping[str, str] | None = None,
+        executor=None,
+        progress: bool = True,
+    ) -> "MotionDatabase":
+        """Build a database from files, folders (searched recursively) and/or Motions.
+
+        Every clip is resampled to ``fps`` (slerp), featurised with the named
+        feature sets (centimetres), and with ``mirror=True`` also added as its
+        mirror image. Clips whose skeleton topology differs from the first
+        clip's are rejected with :class:`~mocapkit.errors.MocapFormatError`
+        unless ``joint_map`` (clip joint name -> database joint name; unnamed
+        joints map by equal name) says how to copy their local rotations —
+        which is only right when the rest poses agree.
+
+        Loading and featurising runs on ``executor`` (:mod:`mocapkit.parallel`:
+        local processes by default, ``"dask"`` or a scheduler address for a
+        Dask cluster).
+        """
+        from .parallel import map_ordered
+
+        fps = float(fps)
+        if not np.isfinite(fps) or fps <= 0:
+            raise ValueError(f"fps must be a positive number, got {fps!r}")
+        features = _check_features(features)
+        items = _expand_sources(sources)
+        first = _prepare(items[0], fps, features, mirror, None, joint_map)
+        ref = first[0]["skeleton"]
+        job = partial(_prepare, fps=fps, features=features, mirror=mirror, ref_skeleton=ref, joint_map=joint_map)
+        # files are loaded and featurised on the executor; Motions already in memory stay here
+        file_slots = [k for k in range(1, len(items)) if not isinstance(items[k], Motion)]
+        loaded = map_ordered(job, [items[k] for k in file_slots], executor=executor, progress=progress, desc="clips")
+        prepared: list = [first] + [None] * (len(items) - 1)
+        for k, group in zip(file_slots, loaded):
+            prepared[k] = group
+        for k in range(1, len(items)):
+            if prepared[k] is None:
+                prepared[k] = job(items[k])
+        entries = [e for group in prepared for e in group]
+        return cls._stack(entries, fps, features, info={"mirror": mirror, "joint_map": dict(joint_map or {})})
+
+    @classmethod
+    def _stack(cls, entries: list[dict], fps: float, features: tuple[str, ...], info: dict) -> "MotionDatabase":
+        N = sum(e["rotations"].shape[0] for e in entries)
+        J = entries[0]["rotations"].shape[1]
+        rot = np.empty((N, J, 4), dtype=np.float32)
+        root = np.empty((N, 3), dtype=np.float32)
+        any_tr = any(e["translations"] is not None for e in entries)
+        tr = np.full((N, J, 3), np.nan, dtype=np.float32) if any_tr else None
+        feats = {n: np.empty((N, entries[0]["features"][n].shape[1])) for n in features}
+        skeletons: list[Skeleton] = []
+        keys: dict[str, int] = {}
+        clips = []
+        names_seen: dict[str, int] = {}
+        a = 0
+        for e in entries:
+            F = e["rotations"].shape[0]
+            key = json.dumps(_skeleton_to_json(e["skeleton"]), sort_keys=True)
+            if key not in keys:
+                keys[key] = len(skeletons)
+                skeletons.append(e["skeleton"])
+            name = e["name"]
+            if name in names_seen:  # clip names are unique keys: number repeats
+                names_seen[name] += 1
+                name = f"{name} #{names_seen[name]}"
+            else:
+                names_seen[name] = 1
+            clips.append(ClipInfo(name, e["source"], a, F, keys[key], e["mirrored"]))
+            rot[a : a + F] = e["rotations"]
+            root[a : a + F] = e["root_positions"]
+            if tr is not None and e["translations"] is not None:
+                tr[a : a + F] = e["translations"]
+            for n in features:
+                feats[n][a : a + F] = e["features"][n]
+            a += F
+        return cls(fps=fps, skeletons=skeletons, clips=clips, rotations=rot, root_positions=root, features=feats, translations=tr, info=info)
+
+    # -- saving and opening ---------------------------------------------------------------------
+
+    def save(self, directory, overwrite: bool = False) -> Path:
+        """Write the database to ``directory`` (created; atomically replaced with ``overwrite``).
+
+        Layout: ``database.json`` (frame rate, skeletons, clips, feature
+        names), ``rotations.npy``, ``root_positions.npy``, ``clip_ids.npy``,
+        ``features/<name>.npy`` and, when some clip animates joint offsets,
+        ``translations.npy``. Everything is written into a temporary folder
+        beside the target and renamed into place, so an interrupted save
+        leaves no partial database.
+        """
+        directory = Path(directory)
+        if directory.exists() and not overwrite:
+            raise MocapFormatError(directory, "already exists; choose another folder or pass overwrite=True")
+        if self.path is not None and directory.resolve() == Path(self.path).resolve():
+            raise MocapFormatError(directory, "cannot save a database over the folder it is opened from")
+        directory.parent.mkdir(parents=True, exist_ok=True)
+        tmp = Path(tempfile.mkdtemp(prefix=f".{directory.name}.", suffix=".part", dir=directory.parent))
+        try:
+            (tmp / "features").mkdir()
+            np.save(tmp / "rotations.npy", self.rotations)
+            np.save(tmp / "root_positions.npy", self.root_positions)
+            np.save(tmp / "clip_ids.npy", self.clip_ids)
+            if self.translations is not None:
+                np.save(tmp / "translations.npy", self.translations)
+            for name, f in self.features.items():
+                np.save(tmp / "features" / f"{name}.npy", f)
+            desc = {
+                "format": "mocapkit-motion-database",
+                "format_version": FORMAT_VERSION,
+                "fps": self.fps,
+                "num_frames": self.num_frames,
+                "feature_unit": "cm",
+                "features": {n: int(f.shape[1]) for n, f in self.features.items()},
+                "skeletons": [_skeleton_to_json(s) for s in self.skeletons],
+                "clips": [
+                    {"name": c.name, "source": c.source, "start": c.start, "frames": c.frames, "skeleton": c.skeleton, "mirrored": c.mirrored}
+                    for c in self.clips
+                ],
+                "info": self.info,
+            }
+            with open(tmp / _DESCRIPTION, "w", encoding="utf-8") as fh:
+                json.dump(desc, fh, indent=1)
+            if directory.exists():
+                old = Path(tempfile.mkdtemp(prefix=f".{directory.name}.", suffix=".old", dir=directory.parent))
+                os.replace(directory, old / "db")
+                os.replace(tmp, directory)
+                shutil.rmtree(old, ignore_errors=True)
+            else:
+                os.replace(tmp, directory)
+        except BaseException:
+            shutil.rmtree(tmp, ignore_errors=True)
+            raise
+        return directory
+
+    @classmethod
+    def open(cls, directory, mmap: bool = True) -> "MotionDatabase":
+        """Open a database written by :meth:`save`; arrays are memory-mapped read-only unless ``mmap=False``."""
+        directory = Path(directory)
+        desc_path = directory / _DESCRIPTION
+        if not desc_path.is_file():
+            raise MocapFormatError(directory, f"not a motion database (no {_DESCRIPTION})")
+        try:
+            with open(desc_path, encoding="utf-8") as fh:
+                desc = json.load(fh)
+        except (OSError, ValueError) as exc:
+            raise MocapFormatError(desc_path, f"unreadable database description ({exc})") from None
+        if desc.get("format") != "mocapkit-motion-database" or desc.get("format_version") != FORMAT_VERSION:
+            raise MocapFormatError(desc_path, f"not a mocapkit motion database of format version {FORMAT_VERSION}")
+        mode = "r" if mmap else None
+
+        def load(rel: str, shape_head: tuple) -> np.ndarray:
+            p = directory / rel
+            try:
+                a = np.load(p, mmap_mode=mode, allow_pickle=False)
+            except (OSError, ValueError) as exc:
+                raise MocapFormatError(p, f"unreadable array ({exc})") from None
+            if a.shape[: len(shape_head)] != shape_head:
+                raise MocapFormatError(p, f"expected shape {shape_head + ('...',)}, got {a.shape}")
+            return a
+
+        try:
+            N = int(desc["num_frames"])
+            skeletons = [_skeleton_from_json(s) for s in desc["skeletons"]]
+            clips = [ClipInfo(c["name"], c["source"], int(c["start"]), int(c["frames"]), int(c["skeleton"]), bool(c["mirrored"])) for c in desc["clips"]]
+            J = skeletons[0].num_joints
+            features = {n: load(f"features/{n}.npy", (N, int(d))) for n, d in desc["features"].items()}
+            tr = load("translations.npy", (N, J, 3)) if (directory / "translations.npy").exists() else None
+            return cls(
+                fps=float(desc["fps"]),
+                skeletons=skeletons,
+                clips=clips,
+                rotations=load("rotations.npy", (N, J, 4)),
+                root_positions=load("root_positions.npy", (N, 3)),
+                features=features,
+                translations=tr,
+                clip_ids=load("clip_ids.npy", (N,)),
+                path=directory,
+                info=desc.get("info", {}),
+            )
+        except (KeyError, TypeError, IndexError) as exc:
+            raise MocapFormatError(desc_path, f"incomplete database description ({exc!r})") from None
+        except ValueError as exc:
+            raise MocapFormatError(directory, f"inconsistent database ({exc})") from None
+
+    # -- summary -------------------------------------------------------------------------------------
+
+    def summary(self) -> dict:
+        """Sizes and contents as a JSON-friendly dict (what ``mocapkit db info`` prints)."""
+        sizes = np.array([c.frames for c in self.clips])
+        nbytes = self.rotations.nbytes + self.root_positions.nbytes + sum(f.nbytes for f in self.features.values())
+        return {
+            "path": None if self.path is None else str(self.path),
+            "clips": self.num_clips,
+            "mirrored_clips": sum(c.mirrored for c in self.clips),
+            "frames": self.num_frames,
+            "fps": self.fps,
+            "duration_s": round(self.duration, 3),
+            "joints": self.num_joints,
+            "skeletons": len(self.skeletons),
+            "features": {n: int(f.shape[1]) for n, f in self.features.items()},
+            "feature_unit": "cm",
+            "clip_frames_min_median_max": [int(sizes.min()), int(np.median(sizes)), int(sizes.max())],
+            "array_megabytes": round(nbytes / 2**20, 1),
+        }

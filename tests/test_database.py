@@ -1,0 +1,208 @@
+"""MotionDatabase: building, frame bookkeeping, saving/opening, executors, search."""
+
+import dataclasses
+import json
+
+import numpy as np
+import pytest
+
+import mocapkit
+from mocapkit import samples
+from mocapkit.database import MotionDatabase
+from mocapkit.errors import MocapFormatError
+from mocapkit.features import feature_set
+
+SNEAK_4 = "HDM_bk_sneak2StepsLStart_004_120"
+SNEAK_5 = "HDM_bk_sneak2StepsLStart_005_120"
+
+
+def test_frames_clips_and_lookups(small_db):
+    db = small_db
+    assert db.num_clips == 8 and sum(c.mirrored for c in db.clips) == 4
+    starts = [c.start for c in db.clips]
+    assert starts[0] == 0 and all(a.stop == b.start for a, b in zip(db.clips, db.clips[1:]))
+    assert db.clips[-1].stop == db.num_frames
+    # consecutive indices within a clip, a new clip id exactly at each start
+    ids = np.asarray(db.clip_ids)
+    assert np.all(np.diff(ids) >= 0)
+    assert set(np.flatnonzero(np.diff(ids)) + 1) == set(starts[1:])
+    for c, info in enumerate(db.clips):
+        for f in (0, info.frames - 1):
+            i = db.index_of(info.name, f)
+            assert db.locate(i) == (c, f)
+    clip, frame = db.locate(np.arange(db.num_frames))
+    np.testing.assert_array_equal(clip, ids)
+    with pytest.raises(IndexError):
+        db.locate(db.num_frames)
+    with pytest.raises(KeyError, match="no clip named"):
+        db.clip_number("nope")
+
+
+def test_clips_equal_the_resampled_files(small_db):
+    m = mocapkit.load(samples.path(SNEAK_4 + ".amc")).resample(30)
+    got = small_db.clip(SNEAK_4)
+    assert got.num_frames == m.num_frames and got.fps == 30
+    np.testing.assert_allclose(np.abs((got.rotations * m.rotations).sum(-1)), 1.0, atol=1e-6)
+    np.testing.assert_allclose(got.root_positions, m.root_positions, rtol=1e-6, atol=1e-5)
+    f = feature_set(m, "F15", scale_cm=True).values
+    a, b = small_db.clip_range(SNEAK_4)
+    np.testing.assert_allclose(small_db.features["F15"][a:b], f, atol=1e-9)
+    # the mirrored clip holds the mirror image
+    mir = small_db.clip(SNEAK_4 + " (mirrored)")
+    np.testing.assert_allclose(mir.global_positions(), m.mirror().global_positions(), atol=1e-4)
+
+
+def test_segment_cannot_cross_clips(small_db):
+    b = small_db.clips[0].stop
+    with pytest.raises(ValueError, match="crosses a clip boundary"):
+        small_db.segment(b - 2, b + 2)
+    assert small_db.segment(b - 2, b).num_frames == 2
+
+
+def test_other_skeleton_rejected_with_a_clear_message():
+    with pytest.raises(MocapFormatError, match=r"131_01\.bvh.*skeleton differs from the database's.*joint map"):
+        MotionDatabase.build([samples.path("12_walk.amc"), samples.path("131_01.bvh")], executor="serial", progress=False)
+
+
+def test_joint_map_retargets_renamed_skeleton():
+    m = mocapkit.load(samples.path("12_walk.amc"))
+    renamed = dataclasses.replace(m.skeleton, joint_names=tuple(f"j_{n}" for n in m.skeleton.joint_names))
+    other = dataclasses.replace(m, skeleton=renamed, name="renamed")
+    jm = {f"j_{n}": n for n in m.skeleton.joint_names}
+    db = MotionDatabase.build([m, other], fps=30, joint_map=jm, executor="serial", progress=False)
+    a, b = db.clip_range("12_walk")
+    c, d = db.clip_range("renamed")
+    np.testing.assert_array_equal(db.rotations[a:b], db.rotations[c:d])
+    np.testing.assert_array_equal(db.features["F15"][a:b], db.features["F15"][c:d])
+
+
+def test_bad_sources(tmp_path):
+    with pytest.raises(MocapFormatError, match="no such file"):
+        MotionDatabase.build([tmp_path / "missing.bvh"], progress=False)
+    with pytest.raises(MocapFormatError, match="holds no motion files"):
+        MotionDatabase.build([tmp_path], progress=False)
+    with pytest.raises(MocapFormatError, match="marker file|cannot go into"):
+        MotionDatabase.build([samples.path("Eb015pr.c3d")], progress=False)
+    with pytest.raises(ValueError, match="unknown feature set"):
+        MotionDatabase.build([samples.path("12_walk.amc")], features=("F16",), progress=False)
+
+
+def test_save_open_round_trip(small_db, tmp_path):
+    path = small_db.save(tmp_path / "db")
+    db = MotionDatabase.open(path)
+    assert isinstance(db.rotations, np.memmap) and isinstance(db.features["F15"], np.memmap)
+    assert not db.rotations.flags.writeable
+    assert db.clips == small_db.clips and db.fps == small_db.fps
+    assert [s.joint_names for s in db.skeletons] == [s.joint_names for s in small_db.skeletons]
+    for a, b in zip(db.skeletons, small_db.skeletons):
+        np.testing.assert_array_equal(a.offsets, b.offsets)
+        assert a.channels == b.channels and a.limits == b.limits and a.unit_cm == b.unit_cm
+    np.testing.assert_array_equal(db.rotations, small_db.rotations)
+    np.testing.assert_array_equal(db.clip_ids, small_db.clip_ids)
+    for n in small_db.feature_names:
+        np.testing.assert_array_equal(db.features[n], small_db.features[n])
+    q = np.asarray(small_db.features["F15"][::7])
+    d1, i1 = db.index("F15").query(q, k=8)
+    d2, i2 = small_db.index("F15").query(q, k=8)
+    np.testing.assert_array_equal(i1, i2)
+    np.testing.assert_array_equal(d1, d2)
+    query = small_db.clip(SNEAK_4)[10:40]
+    r1 = [r.as_dict() for r in db.search(query, k=3)]
+    r2 = [r.as_dict() for r in small_db.search(query, k=3)]
+    assert r1 == r2
+    m = db.clip(3)
+    assert m.rotations.dtype == np.float64 and m.skeleton.joint_names == small_db.skeletons[0].joint_names
+
+
+def test_save_refuses_existing_and_overwrites_atomically(small_db, tmp_path):
+    path = small_db.save(tmp_path / "db")
+    with pytest.raises(MocapFormatError, match="already exists"):
+        small_db.save(path)
+    small_db.save(path, overwrite=True)
+    assert MotionDatabase.open(path).num_frames == small_db.num_frames
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["db"]
+
+
+def test_interrupted_save_leaves_nothing(small_db, tmp_path, monkeypatch):
+    calls = []
+
+    def failing_save(*args, **kwargs):
+        calls.append(1)
+        if len(calls) == 3:
+            raise KeyboardInterrupt
+        return real_save(*args, **kwargs)
+
+    real_save = np.save
+    monkeypatch.setattr(np, "save", failing_save)
+    with pytest.raises(KeyboardInterrupt):
+        small_db.save(tmp_path / "db")
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_open_rejects_what_is_not_a_database(tmp_path, small_db):
+    with pytest.raises(MocapFormatError, match="not a motion database"):
+        MotionDatabase.open(tmp_path)
+    path = small_db.save(tmp_path / "db")
+    np.save(path / "features" / "F15.npy", np.zeros((3, 15)))
+    with pytest.raises(MocapFormatError, match=r"F15\.npy: expected shape"):
+        MotionDatabase.open(path)
+    desc = json.loads((path / "database.json").read_text())
+    desc["format_version"] = 99
+    (path / "database.json").write_text(json.dumps(desc))
+    with pytest.raises(MocapFormatError, match="format version"):
+        MotionDatabase.open(path)
+
+
+def _sample_paths():
+    return [samples.path(n) for n in ("12_walk.amc", SNEAK_4 + ".amc", SNEAK_5 + ".amc")]
+
+
+def test_process_pool_build_equals_serial():
+    a = MotionDatabase.build(_sample_paths(), executor="serial", progress=False)
+    b = MotionDatabase.build(_sample_paths(), executor="processes", progress=False)
+    assert a.clips == b.clips
+    np.testing.assert_array_equal(a.features["F15"], b.features["F15"])
+
+
+def test_dask_cluster_build_equals_serial():
+    distributed = pytest.importorskip("distributed")
+    a = MotionDatabase.build(_sample_paths(), executor="serial", progress=False)
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as cluster:
+        with distributed.Client(cluster) as client:
+            b = MotionDatabase.build(_sample_paths(), executor=client, progress=False)
+            c = MotionDatabase.build(_sample_paths(), executor=cluster.scheduler_address, progress=False)
+    for other in (b, c):
+        assert a.clips == other.clips
+        np.testing.assert_array_equal(a.rotations, other.rotations)
+
+
+def test_search_finds_the_query_itself_and_the_other_take(small_db):
+    query = small_db.clip(SNEAK_4)[5:35]
+    best = small_db.search(query, k=3)[0]
+    assert best.name == SNEAK_4 and best.start == 5 and best.end == 34
+    assert best.cost == pytest.approx(0.0, abs=1e-3)  # float32 storage of the rotations
+    # without its own clip, the query finds the other take of the same motion
+    a, b = small_db.clip_range(SNEAK_4)
+    for method in ("lng", "dtw"):
+        res = small_db.search(query, k=3, exclude=(a, b), method=method)
+        assert res[0].name == SNEAK_5, method
+        assert all(not (a <= r.match.start < b) for r in res)
+        assert [r.cost for r in res] == sorted(r.cost for r in res)
+
+
+def test_lng_search_equals_dtw_search_on_real_data(small_db):
+    query = small_db.clip(SNEAK_5)[20:50]
+    a, b = small_db.clip_range(SNEAK_5)
+    lng = small_db.search(query, k=1, exclude=(a, b), neighbors=small_db.num_frames)[0]
+    dtw = small_db.search(query, k=1, exclude=(a, b), method="dtw")[0]
+    assert (lng.name, lng.start, lng.end) == (dtw.name, dtw.start, dtw.end)
+    assert lng.cost == pytest.approx(dtw.cost, rel=1e-9)
+
+
+def test_logical_search_grows_the_result_set(small_db):
+    query = small_db.clip(SNEAK_4)[5:35]
+    numeric = small_db.search(query, k=2)
+    logical = small_db.logical_search(query, k=2, iterations=3)
+    assert len(logical) >= len(numeric)
+    for i, r in enumerate(logical):
+        assert not any(r.match.overlaps(o.match) for o in logical[i + 1 :])
