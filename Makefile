@@ -43,6 +43,10 @@ test: install-test
 bench: install-test
 	$(PIP) install -e '.[bench]'
 	$(PY) benchmarks/io_speed.py --json
+	$(PY) benchmarks/knn_speed.py --json
+	$(PY) benchmarks/lng_vs_dtw.py --json
+	$(PY) benchmarks/olng_update.py --json
+	$(PY) benchmarks/krueger_analysis.py --json
 
 clean:
 	rm -rf $(OUT) .pytest_cache

@@ -206,3 +206,14 @@ def test_logical_search_grows_the_result_set(small_db):
     assert len(logical) >= len(numeric)
     for i, r in enumerate(logical):
         assert not any(r.match.overlaps(o.match) for o in logical[i + 1 :])
+
+
+def test_lng_search_widens_small_neighbourhoods(small_db):
+    import mocapkit
+
+    other_rig = mocapkit.load(samples.path("131_01.bvh"))[240:360]  # 1 s of another skeleton, at 120 fps
+    res = small_db.search(other_rig, k=3, neighbors=2)
+    assert len(res) == 3
+    assert [r.cost for r in res] == sorted(r.cost for r in res)
+    fixed = small_db.search(other_rig, k=3, neighbors=2, max_neighbors=2)
+    assert len(fixed) < 3  # two neighbours per frame are not enough to chain 30 frames

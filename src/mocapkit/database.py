@@ -475,6 +475,7 @@ class MotionDatabase:
         neighbors: int = 128,
         method: str = "lng",
         exclude=None,
+        max_neighbors: int = 2048,
     ) -> list[SearchResult]:
         """Numerical similarity search: the ``k`` best non-overlapping segments similar to ``query``.
 
@@ -494,10 +495,15 @@ class MotionDatabase:
         features : str, optional
             Feature set (default: the database's first).
         neighbors : int
-            Neighbourhood size K of the graph.
+            Neighbourhood size K of the graph. When fewer than ``k`` matches
+            are found, K grows fourfold up to ``max_neighbors``: a query
+            unlike the database may have no chain of consecutive neighbours
+            at small K (the LNG finds only paths through reported neighbours).
         method : {"lng", "dtw"}
         exclude : (lo, hi), optional
             Half-open database range no result may use (e.g. the query's own clip).
+        max_neighbors : int
+            Largest neighbourhood the LNG may grow to.
         """
         from .search import dtw, lng
 
@@ -507,8 +513,15 @@ class MotionDatabase:
         if q.ndim != 2 or q.shape[1] != data.shape[1]:
             raise ValueError(f"query features: expected shape (M, {data.shape[1]}), got {q.shape}")
         if method == "lng":
-            dist, idx = self.index(name).query(q, k=min(neighbors, self.num_frames), exclude=exclude)
-            matches = lng.lazy_neighborhood_graph(idx, dist, self.clip_ids, k=k)
+            # A query unlike anything in the database can leave the neighbourhoods without a
+            # chain of consecutive frames: widen them (x4) until k matches exist or max_neighbors.
+            K = min(int(neighbors), self.num_frames)
+            while True:
+                dist, idx = self.index(name).query(q, k=K, exclude=exclude)
+                matches = lng.lazy_neighborhood_graph(idx, dist, self.clip_ids, k=k)
+                if len(matches) >= k or K >= min(max_neighbors, self.num_frames):
+                    break
+                K = min(4 * K, max_neighbors, self.num_frames)
         elif method == "dtw":
             mask = None
             if exclude is not None:
