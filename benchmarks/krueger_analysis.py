@@ -514,7 +514,7 @@ def main() -> None:
     print(f"Fig. 2 rank correlations: {pose_desc}")
     print("rows: feature set choosing the neighbours; columns: distance measure; entry: mean Spearman rho")
     print(format_matrix(corr["matrix"]))
-    print(f"PCA explained variance (8/16/25 components): " + ", ".join(f"{v:.3f}" for v in pd.pca_explained))
+    print("PCA explained variance (8/16/25 components): " + ", ".join(f"{v:.3f}" for v in pd.pca_explained))
     print(f"heat map: {fig_path}")
     print()
     print(

@@ -217,3 +217,15 @@ def test_lng_search_widens_small_neighbourhoods(small_db):
     assert [r.cost for r in res] == sorted(r.cost for r in res)
     fixed = small_db.search(other_rig, k=3, neighbors=2, max_neighbors=2)
     assert len(fixed) < 3  # two neighbours per frame are not enough to chain 30 frames
+
+
+def test_logical_search_iterates_past_a_zero_cost_self_match(small_db):
+    query = small_db.clip(SNEAK_4)[5:35]
+    numeric = small_db.search(query, k=3)
+    assert numeric[0].cost < 0.01  # round one finds the query itself
+    logical = small_db.logical_search(query, k=3, iterations=3)
+    assert logical[0].name == SNEAK_4
+    # the later rounds add segments the numerical search did not return, within the cost bound
+    bound = 2.0 * max(r.cost / 30 for r in numeric)
+    extra = [r for r in logical if not any(r.match.overlaps(n.match) for n in numeric)]
+    assert extra and all(r.cost / (r.match.path[-1, 0] + 1) <= bound + 1e-9 for r in extra)

@@ -544,28 +544,30 @@ class MotionDatabase:
         """Logical similarity search by iteration (Krüger sec. 5.1, after Kovar and Gleicher 2004).
 
         The segments found for the query become queries themselves, and so
-        on for ``iterations`` rounds; a segment is kept when its cost per
-        query frame is at most ``max_cost_ratio`` times the cost per frame of
-        the round-one best match that led to it. Returns all kept segments,
-        non-overlapping, ranked by cost per frame of the query that found them.
+        on for ``iterations`` rounds. Every round-one segment is kept; a later
+        segment is kept when its cost per query frame is at most
+        ``max_cost_ratio`` times the largest per-frame cost of round one (so a
+        round-one hit on the query itself, at cost 0, does not shut the door).
+        Returns all kept segments, non-overlapping, ranked by cost per frame
+        of the query that found them.
         """
         name = self._feature_name(features)
         q0 = self.query_features(query, name) if isinstance(query, Motion) else np.asarray(query, dtype=np.float64)
-        found: list[tuple[float, SearchResult]] = []
-        frontier = [(q0, None)]
         data = self.features[name]
-        for _ in range(max(1, iterations)):
+        found: list[tuple[float, SearchResult]] = []
+        frontier = [q0]
+        bound = np.inf
+        for round_ in range(max(1, iterations)):
             new_frontier = []
-            for q, bound in frontier:
+            for q in frontier:
                 for r in self.search(q, k=k, features=name, neighbors=neighbors):
                     per_frame = r.cost / max(len(q), 1)
-                    if bound is not None and per_frame > bound:
-                        continue
-                    if any(r.match.overlaps(f.match) for _, f in found):
+                    if per_frame > bound or any(r.match.overlaps(f.match) for _, f in found):
                         continue
                     found.append((per_frame, r))
-                    limit = max_cost_ratio * max(per_frame, 1e-9) if bound is None else bound
-                    new_frontier.append((np.asarray(data[r.match.start : r.match.end + 1]), limit))
+                    new_frontier.append(np.asarray(data[r.match.start : r.match.end + 1]))
+            if round_ == 0:
+                bound = max_cost_ratio * max([pf for pf, _ in found] + [1e-9])
             frontier = new_frontier
             if not frontier:
                 break

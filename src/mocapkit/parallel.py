@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import os
 from concurrent.futures import Executor, ProcessPoolExecutor, as_completed
-from typing import Callable, Iterable, Sequence
+from typing import Callable, Sequence
 
 from tqdm.auto import tqdm
 
