@@ -47,6 +47,7 @@ bench: install-test
 	$(PY) benchmarks/lng_vs_dtw.py --json
 	$(PY) benchmarks/olng_update.py --json
 	$(PY) benchmarks/krueger_analysis.py --json
+	$(PY) benchmarks/ssa_detection.py --json
 
 clean:
 	rm -rf $(OUT) .pytest_cache

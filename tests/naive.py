@@ -456,3 +456,51 @@ def naive_k_best(C, clip_ids=None, steps="classic", exclude=None, k=1, max_overl
         if all(min(e, e2) - max(s, s2) + 1 <= max_overlap for s2, e2, _, _ in out):
             out.append((s, e, cost, path))
     return out
+
+
+# -- Aristidou et al. 2018, appendix: constrained word DTW, by exhaustive path enumeration -------------
+
+
+def word_dtw_enumerate(C, min_width=11, max_run=3):
+    """Every admissible path of the appendix's constrained DTW, enumerated; the slow oracle.
+
+    Paths start at (0, 0), step (1, 0), (0, 1) or (1, 1), never take more
+    than ``max_run`` consecutive non-diagonal steps in one direction, and stop
+    the first time they reach the last row or the last column; the end must
+    have matched at least ``min_width`` frames of the other word. For every end
+    cell the path of least summed cost is kept; the result is the smallest
+    mean cost (sum / cells) over end cells, with that end cell.
+    """
+    C = np.asarray(C, dtype=float)
+    N, M = C.shape
+    best_sum = {}  # end cell -> (sum, length)
+
+    def walk(i, j, total, length, last, run):
+        total += C[i, j]
+        length += 1
+        if i == N - 1 or j == M - 1:
+            ok = (i == N - 1 and j >= min_width - 1) or (j == M - 1 and i >= min_width - 1)
+            if ok and ((i, j) not in best_sum or total < best_sum[(i, j)][0]):
+                best_sum[(i, j)] = (total, length)
+            return
+        for di, dj, kind in ((1, 1, "d"), (0, 1, "h"), (1, 0, "v")):
+            r = run + 1 if kind == last and kind != "d" else (1 if kind != "d" else 0)
+            if kind != "d" and r > max_run:
+                continue
+            walk(i + di, j + dj, total, length, kind, r)
+
+    walk(0, 0, 0.0, 0, "d", 0)
+    if not best_sum:
+        return np.inf, -1, -1
+    (i, j), (s, n) = min(best_sum.items(), key=lambda kv: kv[1][0] / kv[1][1])
+    return s / n, i, j
+
+
+def group_pose_distance_naive(a, b, members, drop):
+    """Eq. 1 between two poses (m, 4): sum of squared half-angles over ``members`` minus the ``drop`` largest."""
+    terms = []
+    for k in members:
+        d = min(abs(float(np.dot(a[k], b[k]))), 1.0)
+        terms.append(np.arccos(d) ** 2)
+    terms.sort()
+    return float(sum(terms[: len(terms) - drop])) if drop else float(sum(terms))

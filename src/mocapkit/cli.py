@@ -332,6 +332,114 @@ def search(
     console.print(table)
 
 
+def _load_context(paths: list[Path] | None):
+    """--context: motion files, or one database folder."""
+    from . import io
+    from .database import MotionDatabase
+    from .motion import Motion
+
+    if not paths:
+        return None
+    if len(paths) == 1 and paths[0].is_dir():
+        return MotionDatabase.open(paths[0])
+    out = []
+    for p in paths:
+        if p.is_dir():
+            raise MocapFormatError(p, "a database folder must be the only --context")
+        m = io.load(p)
+        if not isinstance(m, Motion):
+            raise MocapFormatError(p, "a marker file cannot be context; give motions")
+        out.append(m)
+    return out
+
+
+def _detect(m, context, threshold: float, progress: bool = True):
+    from .cleaning import ssa
+    from .errors import SkeletonError
+
+    try:
+        return ssa.detect(m, context, threshold=threshold, progress=progress)
+    except (ValueError, SkeletonError) as exc:
+        raise MocapError(f"{m.name or 'input'}: {exc}") from None
+
+
+@app.command()
+def detect(
+    inp: Path = typer.Argument(..., metavar="IN", help="Motion to check (.bvh, .amc, .npz)."),
+    out: Path = typer.Option(..., "--out", "-o", help="Detection file to write (.npz): MDM, flags, neighbours."),
+    context: Optional[list[Path]] = typer.Option(
+        None, "--context", help="Related clips (repeat the option) or one database folder; default: the clip itself."
+    ),
+    threshold: float = typer.Option(0.5, "--threshold", help="MDM value above which a joint is flagged (0-1)."),
+    png: Optional[Path] = typer.Option(None, "--png", help="Also draw the movement digression map here."),
+    as_json: bool = typer.Option(False, "--json", help="Print the flagged segments as JSON."),
+) -> None:
+    """Find erroneous joints by self-similarity (Aristidou et al. 2018): movement digression map + flags."""
+    from . import io
+    from .motion import Motion
+
+    _check_output(inp, out)
+    if png is not None:
+        _check_output(inp, png)
+    if out.suffix.lower() != ".npz":
+        raise MocapFormatError(out, "the detection is written as .npz")
+    m = io.load(inp)
+    if not isinstance(m, Motion):
+        raise MocapFormatError(inp, "a marker file cannot be checked; solve it to a skeleton first")
+    ctx = _load_context(context)
+    det = _detect(m, ctx, threshold, progress=not as_json)
+    det.save(out)
+    if png is not None:
+        from .report.plots import plot_mdm
+
+        plot_mdm(det.mdm, det.joint_names, det.fps, png, flags=det.flags, title=f"{inp.name}: movement digression map")
+    segs = det.segments()
+    if as_json:
+        print(json.dumps([{"joint": j, "start": a, "end": b, "start_s": a / m.fps, "end_s": b / m.fps} for j, a, b in segs]))
+        return
+    console.print(f"wrote {out}" + (f" and {png}" if png else "") + f": {len(segs)} flagged segments")
+    for j, a, b in segs[:50]:
+        console.print(f"  {j:16s} frames {a}-{b} ({a / m.fps:.2f}-{b / m.fps:.2f} s)")
+    if len(segs) > 50:
+        console.print(f"  ... and {len(segs) - 50} more")
+
+
+@app.command()
+def repair(
+    inp: Path = typer.Argument(..., metavar="IN", help="Motion to repair (.bvh, .amc, .npz)."),
+    out: Path = typer.Option(..., "--out", "-o", help="Repaired motion (.bvh or .npz)."),
+    context: Optional[list[Path]] = typer.Option(
+        None, "--context", help="Related clips (repeat the option) or one database folder; default: the clip itself."
+    ),
+    detection: Optional[Path] = typer.Option(
+        None, "--detection", help="Use this detection (from `mocapkit detect`, same --context) instead of detecting again."
+    ),
+    threshold: float = typer.Option(0.5, "--threshold", help="MDM value above which a joint is replaced (0-1)."),
+    foot_skate: bool = typer.Option(True, "--foot-skate/--no-foot-skate", help="Pin planted feet on repaired frames."),
+) -> None:
+    """Replace only the flagged joints in flagged frames by the median of their nearest motion words."""
+    from . import io
+    from .cleaning import ssa
+    from .motion import Motion
+
+    _check_output(inp, out)
+    m = io.load(inp)
+    if not isinstance(m, Motion):
+        raise MocapFormatError(inp, "a marker file cannot be repaired; solve it to a skeleton first")
+    ctx = _load_context(context)
+    if detection is not None:
+        det = ssa.Detection.load(detection).with_threshold(threshold)
+    else:
+        det = _detect(m, ctx, threshold)
+    try:
+        fixed = ssa.repair(m, det, ctx, foot_skate=foot_skate)
+    except ValueError as exc:
+        raise MocapError(f"{inp}: {exc}") from None
+    io.save(fixed, out)
+    n = int(det.flags.sum())
+    console.print(f"wrote {out}: {n} joint samples replaced in {int(det.flags.any(axis=1).sum())} of {m.num_frames} frames")
+
+
 def main(argv: list[str] | None = None) -> int:
     """Entry point of the console script: runs the app, turning user errors into one line and exit 2."""
     try:

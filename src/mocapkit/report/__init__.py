@@ -1,5 +1,5 @@
 """Pictures a person looks at: channel plots now; the MDM heat map and HTML viewer later."""
 
-from .plots import plot_channels
+from .plots import plot_channels, plot_mdm
 
-__all__ = ["plot_channels"]
+__all__ = ["plot_channels", "plot_mdm"]

@@ -10,7 +10,7 @@ import numpy as np
 from ..io import atomic_write
 from ..motion import Motion
 
-__all__ = ["plot_channels"]
+__all__ = ["plot_channels", "plot_mdm"]
 
 
 def plot_channels(
@@ -69,4 +69,193 @@ def plot_channels(
     with atomic_write(path, "wb") as fh:
         fig.savefig(fh, format="png", dpi=110)
     plt.close(fig)
+    return path
+
+
+# -- movement digression map (Aristidou et al. 2018, Fig. 1 bottom, Fig. 9) -----------
+
+_MDM_DPI = 100
+_MDM_ROW_IN = 0.2          # inches per joint row (capped total height below)
+_MDM_MAX_ROWS_IN = 24.0    # the joint rows never take more than this many inches
+_MDM_FRAMES_PER_IN = 80.0  # clip length -> axes width
+_MDM_AXES_W_IN = (4.0, 18.0)
+_MDM_TOP_IN, _MDM_BOTTOM_IN, _MDM_RIGHT_IN = 1.0, 0.6, 1.2
+
+
+def _mdm_layout(num_frames: int, joint_names: Sequence[str]) -> dict:
+    """Figure geometry in inches for an MDM of ``num_frames`` x ``len(joint_names)``.
+
+    The height grows with the number of joints (one row each, every name
+    readable), the width with the clip length up to a cap; the left margin
+    fits the longest joint name. ``size`` is the figure size in inches,
+    ``pixels`` the PNG's (width, height), whole pixels at 100 dpi.
+    """
+    J = max(len(joint_names), 1)
+    row = min(_MDM_ROW_IN, _MDM_MAX_ROWS_IN / J)
+    fontsize = float(np.clip(row * 72.0 * 0.6, 4.0, 8.0))
+    longest = max((len(str(n)) for n in joint_names), default=1)
+    left = 0.3 + 0.62 * longest * fontsize / 72.0
+    axes_w = float(np.clip(num_frames / _MDM_FRAMES_PER_IN, *_MDM_AXES_W_IN))
+    axes_h = max(row * J, 1.0)
+    pixels = (int(round((left + axes_w + _MDM_RIGHT_IN) * _MDM_DPI)),
+              int(round((_MDM_TOP_IN + axes_h + _MDM_BOTTOM_IN) * _MDM_DPI)))
+    size = (pixels[0] / _MDM_DPI, pixels[1] / _MDM_DPI)
+    return dict(size=size, pixels=pixels, left=left, axes_w=axes_w, axes_h=axes_h, fontsize=fontsize)
+
+
+def _mask_outline(mask: np.ndarray, x0: float) -> np.ndarray:
+    """Segments (N, 2, 2) in (frame, joint) data coordinates outlining the True cells of an (F, J) mask.
+
+    Edges between a True and a False (or outside) cell, merged into runs, so
+    a long flagged stretch is a handful of lines whatever its length.
+    """
+    P = np.pad(mask.astype(bool), 1)
+    segs = []
+    # vertical edges: between frames i-1 and i, along joints
+    V = P[1:, 1:-1] != P[:-1, 1:-1]  # (F + 1, J)
+    d = np.diff(np.pad(V, ((0, 0), (1, 1))).astype(np.int8), axis=1)
+    si, sj = np.nonzero(d == 1)
+    _, ej = np.nonzero(d == -1)
+    x = x0 + si - 0.5
+    segs.append(np.stack([np.stack([x, sj - 0.5], -1), np.stack([x, ej - 0.5], -1)], axis=1))
+    # horizontal edges: between joints i-1 and i, along frames
+    H = (P[1:-1, 1:] != P[1:-1, :-1]).T  # (J + 1, F)
+    d = np.diff(np.pad(H, ((0, 0), (1, 1))).astype(np.int8), axis=1)
+    si, sf = np.nonzero(d == 1)
+    _, ef = np.nonzero(d == -1)
+    y = si - 0.5
+    segs.append(np.stack([np.stack([x0 + sf - 0.5, y], -1), np.stack([x0 + ef - 0.5, y], -1)], axis=1))
+    return np.concatenate(segs).astype(np.float64)
+
+
+def _bin_max(a: np.ndarray, k: int) -> np.ndarray:
+    """Max over consecutive blocks of ``k`` frames of an (F, J) array, NaN only where a block is all NaN."""
+    F, J = a.shape
+    nb = -(-F // k)
+    pad = np.full((nb * k, J), np.nan)
+    pad[:F] = a
+    blocks = pad.reshape(nb, k, J)
+    finite = ~np.isnan(blocks)
+    out = np.where(finite, blocks, -np.inf).max(axis=1)
+    out[~finite.any(axis=1)] = np.nan
+    return out
+
+
+def plot_mdm(
+    mdm: np.ndarray,
+    joint_names: Sequence[str],
+    fps: float,
+    path,
+    flags: np.ndarray | None = None,
+    truth: np.ndarray | None = None,
+    title: str | None = None,
+    threshold: float | None = 0.5,
+    start_frame: int = 0,
+) -> Path:
+    """Draw a movement digression map as a heat map PNG (Aristidou et al. 2018, section 3.4, Fig. 1, Fig. 9).
+
+    ``mdm`` is (F, J) with values in [0, 1] (NaN: not analysed, drawn grey):
+    joints are rows, labelled with ``joint_names``; frames run left to right
+    with frame numbers below (counted from ``start_frame``) and seconds
+    (``frame / fps``) above. Colours run cold to hot ("inferno", fixed to
+    [0, 1]); the colorbar "digression" marks ``threshold`` (None: no mark).
+    ``flags`` (F, J) bool, e.g. the detector's output, are outlined in cyan;
+    ``truth`` (F, J) bool, e.g. the injected errors of a benchmark, in dashed
+    green. The figure is one 0.2 in row per joint (all rows within 24 in) and
+    about 80 frames per inch (4 to 18 in); clips longer than the axes has
+    pixels are shown by the maximum over each block of frames, so a
+    one-frame spike never disappears. Written atomically at 100 dpi; returns
+    the path. Bad shapes or values raise ``ValueError``.
+    """
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    from matplotlib.collections import LineCollection
+    from matplotlib.lines import Line2D
+    from matplotlib.patches import Patch
+    from matplotlib.ticker import MaxNLocator
+
+    joint_names = [str(n) for n in joint_names]
+    mdm = np.asarray(mdm, dtype=np.float64)
+    if mdm.ndim != 2:
+        raise ValueError(f"mdm must be a (frames, joints) array, got shape {mdm.shape}")
+    F, J = mdm.shape
+    if F == 0 or J == 0:
+        raise ValueError(f"mdm is empty: shape {mdm.shape}")
+    if J != len(joint_names):
+        raise ValueError(f"mdm has {J} joint columns but {len(joint_names)} joint names were given")
+    bad = ~np.isnan(mdm) & ~((mdm >= -1e-9) & (mdm <= 1.0 + 1e-9))
+    if bad.any():
+        f, j = (int(i[0]) for i in np.nonzero(bad))
+        raise ValueError(
+            f"mdm values must lie in [0, 1] (or be NaN); frame {f}, joint {joint_names[j]!r} is {mdm[f, j]!r}"
+        )
+    if not (np.isfinite(fps) and fps > 0):
+        raise ValueError(f"fps must be a positive number, got {fps!r}")
+    if threshold is not None and not 0.0 <= threshold <= 1.0:
+        raise ValueError(f"threshold must lie in [0, 1], got {threshold!r}")
+    masks = {}
+    for name, m in (("flags", flags), ("truth", truth)):
+        if m is not None:
+            m = np.asarray(m)
+            if m.shape != mdm.shape:
+                raise ValueError(f"{name} must have the shape of mdm {mdm.shape}, got {m.shape}")
+            masks[name] = m.astype(bool)
+
+    lay = _mdm_layout(F, joint_names)
+    w, h = lay["size"]
+    # half a pixel more so that matplotlib's truncation to whole pixels lands on ``pixels`` exactly
+    fig = plt.figure(figsize=((lay["pixels"][0] + 0.5) / _MDM_DPI, (lay["pixels"][1] + 0.5) / _MDM_DPI), dpi=_MDM_DPI)
+    try:
+        ax = fig.add_axes((lay["left"] / w, _MDM_BOTTOM_IN / h, lay["axes_w"] / w, lay["axes_h"] / h))
+        cax = fig.add_axes(((lay["left"] + lay["axes_w"] + 0.2) / w, _MDM_BOTTOM_IN / h, 0.18 / w, lay["axes_h"] / h))
+        x0 = float(start_frame)
+        k = max(1, int(np.ceil(F / (lay["axes_w"] * _MDM_DPI))))
+        img = _bin_max(mdm, k) if k > 1 else mdm
+        cmap = plt.get_cmap("inferno").with_extremes(bad="#9e9e9e")
+        extent = (x0 - 0.5, x0 - 0.5 + img.shape[0] * k, J - 0.5, -0.5)
+        im = ax.imshow(
+            np.ma.masked_invalid(img.T), cmap=cmap, vmin=0.0, vmax=1.0, aspect="auto",
+            interpolation="nearest", extent=extent,
+        )
+        ax.set_xlim(x0 - 0.5, x0 + F - 0.5)
+        ax.set_ylim(J - 0.5, -0.5)
+        ax.set_yticks(np.arange(J))
+        ax.set_yticklabels(joint_names, fontsize=lay["fontsize"])
+        ax.tick_params(axis="y", length=2, pad=2)
+        ax.xaxis.set_major_locator(MaxNLocator(nbins=max(int(lay["axes_w"] * 1.2), 4), integer=True))
+        ax.tick_params(axis="x", labelsize=8)
+        ax.set_xlabel("frame", fontsize=9)
+        sec = ax.secondary_xaxis("top", functions=(lambda f: f / fps, lambda s: s * fps))
+        sec.tick_params(labelsize=8)
+        sec.set_xlabel("time (s)", fontsize=9)
+        handles = []
+        styles = {"truth": dict(colors="#39ff14", linewidths=1.4, linestyles=(0, (3, 2))),
+                  "flags": dict(colors="#00e5ff", linewidths=1.1)}
+        labels = {"truth": "truth", "flags": "flagged"}
+        for name in ("truth", "flags"):
+            if name in masks and masks[name].any():
+                ax.add_collection(LineCollection(_mask_outline(masks[name], x0), **styles[name]))
+            if name in masks:
+                st = styles[name]
+                handles.append(Line2D([], [], color=st["colors"], lw=st["linewidths"],
+                                      linestyle=st.get("linestyles", "-"), label=labels[name]))
+        if np.isnan(mdm).any():
+            handles.append(Patch(facecolor="#9e9e9e", label="not analysed"))
+        cb = fig.colorbar(im, cax=cax)
+        cb.set_label("digression", fontsize=9)
+        cb.ax.tick_params(labelsize=8)
+        if threshold is not None:
+            cax.axhline(threshold, color="#00e5ff", lw=1.5)
+        if handles:
+            fig.legend(handles=handles, loc="upper right", ncol=len(handles), fontsize=8, frameon=False,
+                       bbox_to_anchor=(1.0, 1.0))
+        fig.text(0.01, 1.0 - 0.12 / h, title if title is not None else "movement digression map",
+                 ha="left", va="top", fontsize=10)
+        path = Path(path)
+        with atomic_write(path, "wb") as fh:
+            fig.savefig(fh, format="png", dpi=_MDM_DPI)
+    finally:
+        plt.close(fig)
     return path

@@ -1,0 +1,1 @@
+"""Cleaning: self-similarity detection and repair, filters, inverse kinematics."""

@@ -1,0 +1,1298 @@
+"""Self-similarity analysis for motion-capture cleaning (Aristidou, Cohen-Or, Hodgins, Shamir 2018).
+
+A clip's joint rotations over time form a *motion texture* (section 3.1):
+resampled to 24 fps, one row per joint, the root's heading removed so global
+pose does not matter. *Motion words* are windows of it on groups of joints
+(whole body, upper, lower, left, right): source words of 15 frames every 5
+frames, target words of 20 frames at every frame. Each source word is compared
+with every target word of a context (the clip itself, or related clips) by the
+constrained DTW of the appendix over the pose distance of eq. 1
+(:mod:`mocapkit.cleaning.word_dtw`); its K = 5 nearest neighbours are the K
+smallest local minima of that distance function (section 3.3). The matched
+part of each neighbour is resampled to the source word's length with a
+polyphase filter, the neighbours are averaged into a *mean motion word*, and
+overlapping mean words into the *mean motion texture*. Where a joint digresses
+from it, the *movement digression map* (MDM, section 3.4) is high: that is an
+error, or a motion the context has never seen.
+
+:func:`detect` returns the MDM and the flags (MDM above a threshold) at the
+input's frame rate; :func:`repair` replaces only flagged joints in flagged
+frames by the median (medoid) of their neighbour words, blended with a
+quadratic Savitzky-Golay filter (section 4).
+
+Departures from the paper, and why:
+
+- The MDM compares the input at its own frame rate with the mean texture
+  upsampled from 24 fps, so a one-frame spike at 120 fps is seen even though
+  the words are matched at 24 fps.
+- A joint's digression is the rotation angle between the input and the mean
+  texture; with several groups a joint belongs to, the group that explains it
+  best (smallest digression) counts, so a motion that only a sub-group of the
+  context repeats is not called an error (section 3.1's reason for groups).
+- Row normalisation: the paper divides each joint's row by its mean, which
+  puts every row's mean at the kernel's knee (``1 - e^-1 = 0.63 > 0.5``), so a
+  clean clip would be flagged everywhere at the paper's own threshold. Rows
+  are divided by ``row_scale`` times the row's median digression instead (the
+  median is not pulled up by the errors themselves), with a floor of
+  ``floor_deg`` so a joint that barely moves is not flagged for a
+  fraction of a degree. ``normalization="mean"`` gives the paper's rule.
+- "Median of the KNN": the medoid word (the neighbour closest to the others on
+  the flagged joints), an actual motion, as the paper requires.
+
+Examples
+--------
+>>> import mocapkit
+>>> from mocapkit import corrupt
+>>> from mocapkit.cleaning import ssa
+>>> walk = mocapkit.load(mocapkit.samples.path("131_01.bvh"))
+>>> bad, mask, records = corrupt.real_errors(walk, kinds=("flip",), n_errors=1, seed=3)
+>>> det = ssa.detect(bad)
+>>> det.mdm.shape == det.flags.shape == (walk.num_frames, walk.num_joints)
+True
+>>> j = walk.skeleton.index(records[0].joint)
+>>> bool(det.flags[records[0].start : records[0].end, j].any())
+True
+>>> fixed = ssa.repair(bad, det, foot_skate=False)   # foot_skate=True may also adjust planted legs
+>>> bool((fixed.rotations[~det.flags] == bad.rotations[~det.flags]).all())
+True
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Mapping, Sequence
+
+import numpy as np
+from scipy.signal import resample_poly, savgol_filter
+
+from .. import rotations as R
+from ..errors import SkeletonError
+from ..features import detect_up_axis
+from ..metrics import _word_starts
+from ..motion import Motion, _side_and_part, find_joint
+from . import word_dtw
+
+__all__ = [
+    "Contact",
+    "Detection",
+    "MotionTexture",
+    "detect",
+    "repair",
+    "reconstruct_sparse",
+    "motion_texture",
+    "motion_words",
+    "joint_groups",
+    "informative_joints",
+    "facing_aligned",
+    "word_distance",
+    "nearest_words",
+    "mean_motion_texture",
+    "movement_digression_map",
+    "DEFAULTS",
+]
+
+#: The paper's parameters (section 5, "Implementation").
+DEFAULTS = dict(
+    fps=24.0,
+    source_length=15,
+    stride=5,
+    target_length=20,
+    min_width=11,
+    max_run=3,
+    k=5,
+    joints=24,
+    row_scale=3.0,
+    floor_deg=20.0,
+)
+
+_LARGE_GROUP = 12  # groups with at least this many joints drop 3 joint terms, smaller ones 1
+
+
+# -- motion texture ------------------------------------------------------------------
+
+
+def _yaw(q: np.ndarray, up: np.ndarray) -> np.ndarray:
+    """Twist of ``q`` (..., 4) about the vertical axis ``up`` (3,): the heading."""
+    proj = (q[..., 1:] @ up)[..., None] * up
+    t = np.concatenate([q[..., :1], proj], axis=-1)
+    n = np.linalg.norm(t, axis=-1, keepdims=True)
+    ident = np.zeros_like(t)
+    ident[..., 0] = 1.0
+    return np.where(n > 1e-9, t / np.where(n > 1e-9, n, 1.0), ident)
+
+
+def facing_aligned(rotations: np.ndarray, up: np.ndarray) -> np.ndarray:
+    """Rotations (F, J, 4) with the root's heading (twist about ``up``) removed (section 3.2 footnote).
+
+    The root keeps its tilt (the remaining 2 DOF), so anomalies on it are
+    still visible; other joints are local rotations and unchanged.
+    """
+    out = np.array(rotations, dtype=np.float64)
+    out[:, 0] = R.quaternion_multiply(R.quaternion_conjugate(_yaw(out[:, 0], up)), out[:, 0])
+    return out
+
+
+def _moving_joints(skeleton) -> np.ndarray:
+    """(J,) joints with rotation channels that move a bone (a child or end site at a non-zero offset)."""
+    J = skeleton.num_joints
+    moves = np.zeros(J, dtype=bool)
+    for c in range(1, J):
+        moves[skeleton.parents[c]] |= np.linalg.norm(skeleton.offsets[c]) > 1e-9
+    for e, p in enumerate(skeleton.end_site_parents):
+        moves[p] |= np.linalg.norm(skeleton.end_site_offsets[e]) > 1e-9
+    has = np.array([bool(skeleton.rotation_order(j)) for j in range(J)])
+    out = moves & has
+    out[0] = True  # the root: its tilt is analysed (heading removed)
+    return out
+
+
+def informative_joints(motions: Sequence[Motion], count: int = 24) -> np.ndarray:
+    """The ``count`` most informative joints, sorted skeleton indices (section 5: "m = 24").
+
+    Joints with rotation channels that move a bone, ranked by how much they
+    rotate: the mean angle from their average rotation over all frames of
+    ``motions`` (sharing one skeleton). The root is always kept. Joints that
+    never move (fingers of most captures) come last.
+    """
+    sk = motions[0].skeleton
+    cand = np.flatnonzero(_moving_joints(sk))
+    spread = np.zeros(sk.num_joints)
+    for j in cand:
+        qs = np.concatenate([R.quaternion_continuity(np.asarray(m.rotations[:, j])) for m in motions])
+        qs = qs[np.all(np.isfinite(qs), axis=1)]
+        if len(qs) == 0:
+            continue
+        mean = qs.mean(axis=0)
+        if np.linalg.norm(mean) < 1e-9:
+            spread[j] = np.pi
+            continue
+        mean = mean / np.linalg.norm(mean)
+        spread[j] = float(np.mean(R.geodesic_angle(qs, mean)))
+    order = sorted(cand, key=lambda j: (j != 0, -spread[j], j))
+    return np.array(sorted(order[: int(count)]), dtype=np.int64)
+
+
+def joint_groups(skeleton, joints: Sequence[int] | None = None) -> dict[str, np.ndarray]:
+    """The paper's joint groups (section 3.1) as skeleton indices within ``joints``.
+
+    ``whole`` (all), ``upper`` (spine, head, arms), ``lower`` (root and legs),
+    ``left`` and ``right`` (root and the joints of that side). Legs are the
+    subtrees hanging from the root that hold the feet; sides come from joint
+    names (``l``/``left`` prefixes and the like, as :func:`mocapkit.motion.mirror_pairs`).
+    Groups with fewer than two joints are left out.
+    """
+    J = skeleton.num_joints
+    joints = np.arange(J) if joints is None else np.asarray(joints, dtype=np.int64)
+    parents = skeleton.parents
+    leg = np.zeros(J, dtype=bool)
+    for role in ("left_foot", "right_foot"):
+        try:
+            j = find_joint(skeleton, role)
+        except KeyError:
+            continue
+        top = j
+        while parents[top] > 0:
+            top = int(parents[top])
+        if parents[top] == 0 or top == j:
+            for c in range(J):  # mark the subtree under `top`
+                a = c
+                while a > 0 and a != top:
+                    a = int(parents[a])
+                leg[c] |= a == top
+    names = set(skeleton.joint_names)
+    side = np.array([_side_and_part(n, names)[0] or "" for n in skeleton.joint_names])
+    sel = np.zeros(J, dtype=bool)
+    sel[joints] = True
+    root = np.arange(J) == 0
+    groups = {
+        "whole": sel,
+        "upper": sel & ~leg & ~root,
+        "lower": sel & (leg | root),
+        "left": sel & ((side == "left") | root),
+        "right": sel & ((side == "right") | root),
+    }
+    return {k: np.flatnonzero(v) for k, v in groups.items() if v.sum() >= 2}
+
+
+@dataclass(frozen=True, eq=False)
+class MotionTexture:
+    """Joint rotations of one or more clips as one texture (section 3.1).
+
+    values : float (F, m, 4) unit quaternions, the root's heading removed,
+    hemisphere-continuous in time; fps : frames per second; joints : (m,)
+    skeleton indices of the rows; clip_starts : (C+1,) frame ranges of the clips
+    stacked in ``values``; clip_names : (C,).
+    """
+
+    values: np.ndarray
+    fps: float
+    joints: np.ndarray
+    clip_starts: np.ndarray
+    clip_names: tuple
+
+    @property
+    def num_frames(self) -> int:
+        return int(self.values.shape[0])
+
+    def clip_of(self, frames: np.ndarray) -> np.ndarray:
+        """Clip number of each frame index."""
+        return np.searchsorted(self.clip_starts, np.asarray(frames), side="right") - 1
+
+    def target_starts(self, length: int) -> np.ndarray:
+        """Every frame where a word of ``length`` frames fits inside one clip."""
+        out = [np.arange(a, b - length + 1) for a, b in zip(self.clip_starts[:-1], self.clip_starts[1:]) if b - a >= length]
+        return np.concatenate(out) if out else np.zeros(0, dtype=np.int64)
+
+
+def motion_texture(motions, fps: float = 24.0, joints: Sequence[int] | None = None, up=None) -> MotionTexture:
+    """Motion texture of one clip or of several clips stacked (same skeleton), resampled to ``fps``.
+
+    ``joints`` selects rows (default: all); ``up`` is the vertical axis
+    (default: :func:`mocapkit.features.detect_up_axis`).
+    """
+    if isinstance(motions, Motion):
+        motions = [motions]
+    motions = list(motions)
+    sk = motions[0].skeleton
+    up = detect_up_axis(sk) if up is None else np.asarray(up, dtype=np.float64)
+    joints = np.arange(sk.num_joints) if joints is None else np.asarray(joints, dtype=np.int64)
+    parts, starts = [], [0]
+    for m in motions:
+        r = m.resample(fps).rotations
+        r = facing_aligned(r, up)[:, joints]
+        parts.append(R.quaternion_continuity(r, axis=0))
+        starts.append(starts[-1] + len(r))
+    values = np.concatenate(parts) if parts else np.zeros((0, len(joints), 4))
+    return MotionTexture(values, float(fps), joints, np.array(starts), tuple(m.name for m in motions))
+
+
+def motion_words(num_frames: int, length: int = 15, stride: int = 5) -> np.ndarray:
+    """First frames of the source words: every ``stride`` frames, plus one flush with the end (section 5)."""
+    if num_frames < length:
+        raise ValueError(f"a clip of {num_frames} frames is shorter than one motion word ({length} frames)")
+    return _word_starts(num_frames, length, stride)
+
+
+def word_distance(a: np.ndarray, b: np.ndarray, drop: int = 3, min_width: int = 11, max_run: int = 3):
+    """Duration-invariant distance between two motion words (section 3.2 and appendix).
+
+    a : (N, m, 4) source word, b : (M, m, 4) target word (N <= M), quaternions
+    of the same joints. Returns ``(distance, i_end, j_end)``: the mean eq. 1
+    cost (squared half-angle radians, ``drop`` largest joint terms ignored) over
+    the matched frame pairs of the constrained DTW path, and where it ends.
+    """
+    a = np.asarray(a, dtype=np.float64)
+    b = np.asarray(b, dtype=np.float64)
+    D = word_dtw.group_pose_distances(a, b, np.ones((1, a.shape[1]), dtype=bool), [drop])[0]
+    return word_dtw.word_dtw(D, min_width=min_width, max_run=max_run)
+
+
+# -- nearest neighbour words ---------------------------------------------------------
+
+
+def _drop(members) -> int:
+    """Joint terms eq. 1 ignores for a group: 3 of a large (whole-body) word, 1 of a small one (section 5)."""
+    return 3 if len(members) >= _LARGE_GROUP else 1
+
+
+@dataclass
+class _Neighbors:
+    """K nearest target words per (group, source word): positions in the context texture, DTW ends, distances."""
+
+    pos: np.ndarray  # (G, W, K) int64, -1 = none
+    iend: np.ndarray  # (G, W, K) int16
+    jend: np.ndarray  # (G, W, K) int16
+    dist: np.ndarray  # (G, W, K) float32
+
+
+def _local_minima_knn(dist, tgt, k, exclude_center, half):
+    """K smallest local minima per row of ``dist`` (W, T) over target starts ``tgt`` (T,) (section 3.3)."""
+    W, T = dist.shape
+    d = dist.astype(np.float64, copy=True)
+    if exclude_center is not None:
+        near = np.abs(tgt[None, :] - exclude_center[:, None]) <= half
+        d[near] = np.inf
+    consecutive = np.zeros(T + 1, dtype=bool)
+    consecutive[1:-1] = tgt[1:] == tgt[:-1] + 1
+    left = np.full_like(d, np.inf)
+    right = np.full_like(d, np.inf)
+    left[:, 1:] = np.where(consecutive[None, 1:-1], d[:, :-1], np.inf)
+    right[:, :-1] = np.where(consecutive[None, 1:-1], d[:, 1:], np.inf)
+    is_min = (d <= left) & (d < right) & np.isfinite(d)
+    cand = np.where(is_min, d, np.inf)
+    kk = min(k, T)
+    idx = np.argpartition(cand, kk - 1, axis=1)[:, :kk] if T > kk else np.tile(np.arange(T), (W, 1))
+    vals = np.take_along_axis(cand, idx, axis=1)
+    order = np.argsort(vals, axis=1, kind="stable")
+    idx = np.take_along_axis(idx, order, axis=1)
+    vals = np.take_along_axis(vals, order, axis=1)
+    if kk < k:
+        pad = k - kk
+        idx = np.concatenate([idx, np.zeros((W, pad), dtype=idx.dtype)], axis=1)
+        vals = np.concatenate([vals, np.full((W, pad), np.inf)], axis=1)
+    return idx, vals
+
+
+def _descriptors(values: np.ndarray, starts: np.ndarray, members: np.ndarray, length: int) -> np.ndarray:
+    """Cheap word descriptors for the kd-tree prefilter: 6-D rotations of the group at 3 frames of the word."""
+    offs = np.array([0, length // 2, length - 1])
+    q = values[starts[:, None] + offs[None, :]][:, :, members]  # (P, 3, m, 4)
+    mats = R.quaternion_to_matrix(q)[..., :, :2]  # first two columns: continuous, no sign ambiguity
+    return mats.reshape(len(starts), -1)
+
+
+def nearest_words(
+    source: MotionTexture,
+    context: MotionTexture,
+    groups: Sequence[np.ndarray],
+    word_starts: np.ndarray,
+    k: int = 5,
+    source_length: int = 15,
+    target_length: int = 20,
+    min_width: int = 11,
+    max_run: int = 3,
+    self_clip: int | None = 0,
+    prefilter: bool = False,
+    candidates: int = 48,
+    chunk: int = 96,
+    progress=None,
+) -> _Neighbors:
+    """The K nearest target words of each source word, per joint group (section 3.3).
+
+    groups : list of (m_g,) row indices into the textures' joints. With
+    ``prefilter`` a kd-tree on cheap word descriptors (6-D rotations of three
+    frames, reduced by PCA) proposes ``candidates`` target positions per source
+    word and only those are ranked by DTW (section 7's suggestion); otherwise
+    every target position is compared, and the neighbours are the K smallest
+    local minima of the distance function. ``self_clip`` is the clip of
+    ``context`` that ``source`` is (its neighbours closer than N/2 frames to the
+    source word are excluded), or None.
+    """
+    N, M = source_length, target_length
+    G, W = len(groups), len(word_starts)
+    m = source.values.shape[1]
+    drops = np.array([_drop(g) for g in groups])
+    masks = np.zeros((G, m), dtype=bool)
+    for gi, g in enumerate(groups):
+        masks[gi, g] = True
+    out = _Neighbors(
+        np.full((G, W, k), -1, dtype=np.int64),
+        np.zeros((G, W, k), dtype=np.int16),
+        np.zeros((G, W, k), dtype=np.int16),
+        np.full((G, W, k), np.inf, dtype=np.float32),
+    )
+    tgt = context.target_starts(M)
+    if len(tgt) == 0 or W == 0:
+        return out
+    offset = int(context.clip_starts[self_clip]) if self_clip is not None else 0
+    half = N // 2
+    if prefilter:
+        from ..search.knn import KNNIndex
+
+        tclip = context.clip_of(tgt)
+        for gi in range(G):
+            desc_t = _descriptors(context.values, tgt, groups[gi], N)
+            desc_s = _descriptors(source.values, word_starts, groups[gi], N)
+            mean = desc_t.mean(axis=0)
+            sample = desc_t[:: max(1, len(desc_t) // 20000)] - mean
+            _, _, vt = np.linalg.svd(sample, full_matrices=False)
+            basis = vt[: min(24, vt.shape[0])].T
+            index = KNNIndex((desc_t - mean) @ basis)
+            kq = min(candidates, len(tgt))
+            _, cidx = index.query((desc_s - mean) @ basis, k=kq)
+            cidx = np.where(cidx < 0, 0, cidx)
+            src_rep = np.repeat(word_starts, kq)
+            d, ie, je = word_dtw.word_distance_pairs(
+                source.values, context.values, masks[gi], drops[gi], src_rep, tgt[cidx].ravel(), N, M, min_width, max_run
+            )
+            d = d.reshape(W, kq).astype(np.float64)
+            pos = tgt[cidx]
+            lo = word_starts + offset - half if self_clip is not None else np.full(W, -1)
+            hi = word_starts + offset + half + 1 if self_clip is not None else np.full(W, -1)
+            chosen = word_dtw.select_separated_minima(d, pos, tclip[cidx], k, half + 1, lo, hi)
+            for w in range(W):
+                for kk in range(k):
+                    p = chosen[w, kk]
+                    if p < 0:
+                        continue
+                    c = int(np.flatnonzero(pos[w] == p)[0])
+                    out.pos[gi, w, kk] = p
+                    out.iend[gi, w, kk] = ie[w * kq + c]
+                    out.jend[gi, w, kk] = je[w * kq + c]
+                    out.dist[gi, w, kk] = d[w, c]
+            if progress is not None:
+                progress.update(W)
+        return out
+    for c0 in range(0, W, chunk):
+        ws = word_starts[c0 : c0 + chunk]
+        f0, f1 = int(ws.min()), int(ws.max()) + N
+        D = word_dtw.group_pose_distances(source.values[f0:f1], context.values, masks, drops)
+        for gi in range(G):
+            dist, ie, je = word_dtw.word_distance_profile(D[gi], ws - f0, tgt, N, M, min_width, max_run)
+            excl = ws + offset if self_clip is not None else None
+            idx, vals = _local_minima_knn(dist, tgt, k, excl, half)
+            ok = np.isfinite(vals)
+            sl = slice(c0, c0 + len(ws))
+            out.pos[gi, sl] = np.where(ok, tgt[idx], -1)
+            out.iend[gi, sl] = np.take_along_axis(ie, idx, axis=1)
+            out.jend[gi, sl] = np.take_along_axis(je, idx, axis=1)
+            out.dist[gi, sl] = np.where(ok, vals, np.inf)
+        if progress is not None:
+            progress.update(len(ws) * G)
+    return out
+
+
+def _neighbor_word(
+    source_word, context: MotionTexture, members, drop, pos, N, M, min_width=11, out_rows=None
+) -> np.ndarray | None:
+    """A neighbour word time-warped onto the source word's N frames (section 3.2), (N, m_g, 4).
+
+    The constrained DTW path between ``source_word`` (N, m, 4) and the target
+    word at ``pos`` is recomputed; every source frame takes the mean of the
+    target frames matched to it (the time-warped target). When the target word
+    ran out first (path ending before the last source frame) the warped part
+    is resized to N frames with the polyphase filter ``scipy.signal.resample_poly``
+    as the paper does. Returns None when the target does not fit its clip.
+    ``out_rows`` warps other rows of the target along the path found on
+    ``members`` (sparse reconstruction: matched on a few joints, copied for all).
+    """
+    clip = int(context.clip_of(pos))
+    end = int(context.clip_starts[clip + 1])
+    if pos + M > end:
+        return None
+    rows = members if out_rows is None else out_rows
+    target = R.quaternion_continuity(context.values[pos : pos + M], axis=0)
+    src = source_word[:, members]
+    D = word_dtw.group_pose_distances(src, target[:, members], np.ones((1, len(members)), dtype=bool), [drop])[0]
+    _, path = word_dtw.word_dtw_path(D, min_width=min_width)
+    if len(path) == 0:
+        return None
+    target = target[:, rows]
+    i_end = int(path[-1, 0])
+    acc = np.zeros((i_end + 1, len(rows), 4))
+    ref = target[path[0, 1]]
+    for i, j in path:
+        acc[i] += _align(target[j], ref)
+    warped = R.quaternion_normalize(acc)
+    if i_end + 1 != N:
+        flat = R.quaternion_continuity(warped, axis=0).reshape(i_end + 1, -1)
+        warped = resample_poly(flat, N, i_end + 1, axis=0, padtype="line").reshape(N, len(rows), 4)
+    return R.quaternion_normalize(warped)
+
+
+def _align(q: np.ndarray, ref: np.ndarray) -> np.ndarray:
+    """``q`` with each quaternion's sign flipped into the hemisphere of ``ref``."""
+    s = np.sign(np.sum(q * ref, axis=-1, keepdims=True))
+    return q * np.where(s == 0, 1.0, s)
+
+
+def _robust_mean(words: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Mean word and spread of K hemisphere-aligned words (K, N, m, 4), robust to outlier neighbours.
+
+    Per cell the neighbours far from the cell's medoid (more than twice the
+    median distance to it, plus 5 degrees) are left out of the chordal mean:
+    a neighbour that overlaps an error of the clip itself (a long error
+    outlasts the N/2 exclusion zone of section 3.3) must not pull the mean
+    towards the error. The spread (N, m) is the RMS angle of the kept
+    neighbours from the mean, in radians.
+    """
+    K = words.shape[0]
+    if K == 1:
+        return words[0], np.zeros(words.shape[1:3])
+    pair = R.geodesic_angle(words[:, None], words[None, :])  # (K, K, N, m)
+    med = np.argmin(pair.sum(axis=1), axis=0)  # (N, m) medoid per cell
+    to_med = np.take_along_axis(pair, med[None, None], axis=1)[:, 0]  # (K, N, m)
+    keep = to_med <= 2.0 * np.median(to_med, axis=0) + np.radians(5.0)
+    mean = R.quaternion_normalize(np.sum(words * keep[..., None], axis=0))
+    dev = R.geodesic_angle(words, mean[None])
+    spread = np.sqrt(np.sum(np.where(keep, dev**2, 0.0), axis=0) / np.maximum(keep.sum(axis=0), 1))
+    return mean, spread
+
+
+def mean_motion_texture(
+    source: MotionTexture,
+    context: MotionTexture,
+    groups,
+    word_starts,
+    neighbors: _Neighbors,
+    source_length: int = 15,
+    target_length: int = 20,
+    return_spread: bool = False,
+    neighbor_ratio: float = 2.0,
+):
+    """Mean motion texture per group, (G, F, m, 4) (section 3.4).
+
+    Each source word's K neighbours (time-warped to N frames) are averaged into
+    a mean motion word; overlapping mean words are averaged per frame. Rows of
+    a group's non-members and frames no word covers are NaN. Averages of
+    quaternions are the normalised sums of hemisphere-aligned values (the
+    chordal mean), accurate for the nearby rotations averaged here.
+    Neighbours whose word distance exceeds ``neighbor_ratio`` times the best
+    one's (plus 0.001) are left out: when the context repeats a word only
+    twice, the other local minima are different motions, not examples of it. With
+    ``return_spread`` also the neighbours' spread (G, F, m): the RMS angle
+    (radians) of the K words from their mean, averaged like the texture.
+    """
+    N = source_length
+    G = len(groups)
+    F, m = source.values.shape[:2]
+    out = np.full((G, F, m, 4), np.nan)
+    spread = np.full((G, F, m), np.nan)
+    for gi, members in enumerate(groups):
+        acc = np.zeros((F, len(members), 4))
+        sacc = np.zeros((F, len(members)))
+        cnt = np.zeros(F)
+        for w, s in enumerate(word_starts):
+            words = []
+            dists = neighbors.dist[gi, w]
+            cutoff = neighbor_ratio * float(np.min(dists)) + 1e-3 if np.isfinite(dists).any() else np.inf
+            for kk in range(neighbors.pos.shape[2]):
+                p = neighbors.pos[gi, w, kk]
+                if p < 0 or dists[kk] > cutoff:
+                    continue
+                nw = _neighbor_word(source.values[s : s + N], context, members, _drop(members), p, N, target_length)
+                if nw is not None:
+                    # align with the first neighbour, not the source: a broken source joint may sit
+                    # 90 degrees away in quaternion space, where hemispheres are arbitrary
+                    words.append(_align(nw, words[0]) if words else nw)
+            if not words:
+                continue
+            mean_word, word_spread = _robust_mean(np.stack(words))
+            ref = np.where(np.linalg.norm(acc[s : s + N], axis=-1, keepdims=True) > 0, acc[s : s + N], mean_word)
+            acc[s : s + N] += _align(mean_word, ref)
+            sacc[s : s + N] += word_spread
+            cnt[s : s + N] += 1
+        ok = cnt > 0
+        vals = np.full((F, len(members), 4), np.nan)
+        vals[ok] = R.quaternion_normalize(acc[ok])
+        out[gi][:, members] = vals
+        sp = np.full((F, len(members)), np.nan)
+        sp[ok] = sacc[ok] / cnt[ok, None]
+        spread[gi][:, members] = sp
+    return (out, spread) if return_spread else out
+
+
+# -- the movement digression map --------------------------------------------------------
+
+
+def _upsample(q: np.ndarray, fps_from: float, n_out: int, fps_to: float) -> np.ndarray:
+    """Quaternion tracks (F, ..., 4) at ``fps_from`` sampled at ``n_out`` frames of ``fps_to`` by slerp."""
+    F = q.shape[0]
+    t = np.arange(n_out) * (fps_from / fps_to)
+    i0 = np.clip(np.floor(t).astype(np.int64), 0, F - 1)
+    i1 = np.minimum(i0 + 1, F - 1)
+    a = np.clip(t - i0, 0.0, 1.0).reshape((-1,) + (1,) * (q.ndim - 1))
+    a0, a1 = q[i0], q[i1]
+    a1 = _align(a1, a0)
+    out = R.quaternion_normalize(a0 * (1 - a) + a1 * a)  # nlerp: the frames are 1/24 s apart
+    return out
+
+
+def movement_digression_map(
+    digression: np.ndarray,
+    normalization: str = "median",
+    row_scale: float = 3.0,
+    floor_deg: float = 20.0,
+    z_scale: float = 2.5,
+) -> np.ndarray:
+    """MDM in [0, 1] from per-cell digressions (F, J) (section 3.4): ``1 - exp(-M^2)``.
+
+    ``normalization`` says what ``digression`` holds and how rows are scaled:
+
+    - ``"median"`` (default): angles in radians; each joint's row is divided by
+      ``max(row_scale * row median, floor_deg)``.
+    - ``"spread"``: digressions already divided by the neighbours' spread at
+      the cell (:func:`detect`); ``M = digression / z_scale``.
+    - ``"mean"``: angles; rows divided by their mean, as the paper writes it
+      (every row's mean then sits at ``1 - e^-1 = 0.63``, above the paper's
+      threshold of 0.5, so this flags a large share of any clip).
+
+    NaN digressions (not analysed) give 0.
+    """
+    d = np.asarray(digression, dtype=np.float64)
+    valid = np.isfinite(d)
+    filled = np.where(valid, d, np.nan)
+    any_valid = valid.any(axis=0)
+    scale = np.full(d.shape[1], np.inf)
+    if normalization == "spread":
+        scale[:] = z_scale
+    elif normalization == "mean":
+        scale[any_valid] = np.nanmean(filled[:, any_valid], axis=0)
+    elif normalization == "median":
+        scale[any_valid] = np.maximum(row_scale * np.nanmedian(filled[:, any_valid], axis=0), np.radians(floor_deg))
+    else:
+        raise ValueError(f"normalization must be 'spread', 'median' or 'mean', got {normalization!r}")
+    scale = np.where(np.isfinite(scale) & (scale > 0), scale, np.inf)
+    Mn = np.where(valid, d / scale, 0.0)
+    return 1.0 - np.exp(-(Mn**2))
+
+
+# -- detection ------------------------------------------------------------------------
+
+
+@dataclass(frozen=True, eq=False)
+class Detection:
+    """Result of :func:`detect`; everything (F, J) is at the input's frames and joint order.
+
+    mdm : float (F, J) movement digression map in [0, 1] (0 on joints not analysed);
+    flags : bool (F, J) ``mdm > threshold``; digression : float (F, J) angle in
+    radians between the input and the mean motion texture (NaN where not
+    analysed); best_group : int8 (F, J) the group whose neighbours explain the
+    cell best (-1 none). The rest records how the analysis was made so that
+    :func:`repair` can fetch the neighbour words again.
+    """
+
+    mdm: np.ndarray
+    flags: np.ndarray
+    digression: np.ndarray
+    best_group: np.ndarray
+    threshold: float
+    fps: float
+    joint_names: tuple
+    analysed: np.ndarray  # (J,) bool
+    texture_joints: np.ndarray  # (m,) skeleton indices
+    group_names: tuple
+    group_masks: np.ndarray  # (G, m) bool
+    word_starts: np.ndarray  # (W,) at the analysis rate
+    neighbor_pos: np.ndarray  # (G, W, K)
+    neighbor_iend: np.ndarray
+    neighbor_jend: np.ndarray
+    neighbor_dist: np.ndarray
+    context_clips: tuple  # ((name, frames at the analysis rate), ...) of the context texture, clip 0 = the input
+    params: dict = field(default_factory=dict)
+    notes: tuple = ()
+
+    @property
+    def num_frames(self) -> int:
+        return int(self.mdm.shape[0])
+
+    def segments(self) -> list[tuple[str, int, int]]:
+        """Flagged runs as ``(joint name, start frame, end frame)``, half-open, sorted by start."""
+        out = []
+        for j in np.flatnonzero(self.flags.any(axis=0)):
+            f = np.concatenate([[False], self.flags[:, j], [False]])
+            d = np.diff(f.astype(np.int8))
+            for a, b in zip(np.flatnonzero(d == 1), np.flatnonzero(d == -1)):
+                out.append((self.joint_names[j], int(a), int(b)))
+        return sorted(out, key=lambda s: (s[1], s[0]))
+
+    def with_threshold(self, threshold: float) -> "Detection":
+        """The same analysis flagged at another threshold."""
+        return dataclasses.replace(self, threshold=float(threshold), flags=self.mdm > threshold)
+
+    def save(self, path) -> Path:
+        """Write as ``.npz`` (no pickles) through a temporary file and a rename."""
+        from ..io import atomic_write
+
+        arrays = {f.name: getattr(self, f.name) for f in dataclasses.fields(self)}
+        meta = {
+            "threshold": self.threshold,
+            "fps": self.fps,
+            "joint_names": list(self.joint_names),
+            "group_names": list(self.group_names),
+            "context_clips": [list(c) for c in self.context_clips],
+            "params": self.params,
+            "notes": list(self.notes),
+        }
+        for key in meta:
+            arrays.pop(key)
+        arrays["meta"] = np.array(json.dumps(meta))
+        path = Path(path)
+        with atomic_write(path, "wb") as fh:
+            np.savez_compressed(fh, **arrays)
+        return path
+
+    @classmethod
+    def load(cls, path) -> "Detection":
+        """Read a detection written by :meth:`save`."""
+        from ..errors import MocapFormatError
+
+        path = Path(path)
+        try:
+            with np.load(path, allow_pickle=False) as z:
+                data = {k: z[k] for k in z.files}
+            meta = json.loads(str(data.pop("meta")))
+            return cls(
+                **data,
+                threshold=float(meta["threshold"]),
+                fps=float(meta["fps"]),
+                joint_names=tuple(meta["joint_names"]),
+                group_names=tuple(meta["group_names"]),
+                context_clips=tuple((str(n), int(f)) for n, f in meta["context_clips"]),
+                params=dict(meta["params"]),
+                notes=tuple(meta["notes"]),
+            )
+        except (OSError, ValueError, KeyError, TypeError) as e:
+            raise MocapFormatError(path, f"not a mocapkit detection file ({e})") from None
+
+
+def _context_motions(motion: Motion, context) -> tuple[list[Motion], list[str]]:
+    """Context as a list of Motions with the input's joints; clips that are the input itself are dropped."""
+    notes = []
+    if context is None:
+        return [], notes
+    from ..database import MotionDatabase
+
+    if isinstance(context, MotionDatabase):
+        motions = [context.clip(i) for i in range(context.num_clips)]
+    elif isinstance(context, Motion):
+        motions = [context]
+    else:
+        motions = list(context)
+    out = []
+    names = motion.skeleton.joint_names
+    for c in motions:
+        if not isinstance(c, Motion):
+            raise TypeError(f"context must hold Motions or be a MotionDatabase, got {type(c).__name__}")
+        if tuple(c.skeleton.joint_names) != tuple(names):
+            raise SkeletonError(
+                f"context clip {c.name!r}: its joints differ from {motion.name or 'the motion'}'s "
+                f"({len(c.skeleton.joint_names)} vs {len(names)} joints, first difference "
+                f"{next(((a, b) for a, b in zip(c.skeleton.joint_names, names) if a != b), ('-', '-'))}); "
+                "retarget it first (MotionDatabase.build(joint_map=...))"
+            )
+        if c.name and c.name == motion.name and abs(c.duration - motion.duration) < 1.5 / min(c.fps, motion.fps):
+            notes.append(f"context clip {c.name!r} is the input itself; left out")
+            continue
+        out.append(c)
+    return out, notes
+
+
+def _prepare(motion: Motion, context, fps, joints):
+    if not isinstance(motion, Motion):
+        raise TypeError(f"motion must be a Motion, got {type(motion).__name__}")
+    if not np.all(np.isfinite(motion.rotations)):
+        bad = np.flatnonzero(~np.all(np.isfinite(motion.rotations), axis=(1, 2)))
+        raise ValueError(
+            f"{motion.name or 'motion'}: {len(bad)} frames have missing rotations (first: {bad[0]}); fill the gaps first"
+        )
+    ctx, notes = _context_motions(motion, context)
+    if isinstance(joints, (int, np.integer)):
+        joints = informative_joints([motion] + ctx, int(joints))
+    else:
+        joints = np.array([motion.skeleton.index(j) if isinstance(j, str) else int(j) for j in joints])
+    up = detect_up_axis(motion.skeleton)
+    src = motion_texture(motion, fps, joints, up)
+    full = motion_texture([motion] + ctx, fps, joints, up) if ctx else src
+    return src, full, joints, up, notes
+
+
+def _group_rows(groups, texture_joints) -> tuple[list[str], list[np.ndarray]]:
+    pos = {int(j): i for i, j in enumerate(texture_joints)}
+    names, rows = [], []
+    for name, js in groups.items():
+        r = np.array([pos[int(j)] for j in js if int(j) in pos], dtype=np.int64)
+        if len(r) >= 2:
+            names.append(name)
+            rows.append(r)
+    return names, rows
+
+
+def _digression(motion, mean_tex, spread, texture_joints, up, fps_a, noise_deg):
+    """Per-group digression of the input (at its own rate) from the mean texture upsampled from ``fps_a``.
+
+    Returns ``(angle, z)``, both (G, F, m): the rotation angle in radians, and
+    that angle over the neighbours' spread at the cell, ``sqrt(spread^2 +
+    noise^2)`` with ``noise_deg`` the capture noise floor.
+    """
+    F = motion.num_frames
+    inp = facing_aligned(motion.rotations, up)[:, texture_joints]
+    G = mean_tex.shape[0]
+    ang = np.full((G, F, len(texture_joints)), np.nan)
+    z = np.full_like(ang, np.nan)
+    t = np.arange(F) * (fps_a / motion.fps)
+    src_t = np.arange(mean_tex.shape[1])
+    noise = np.radians(noise_deg)
+    for g in range(G):
+        up_q = _upsample(mean_tex[g], fps_a, F, motion.fps)
+        finite = np.isfinite(up_q).all(axis=-1)
+        a = np.full(finite.shape, np.nan)
+        a[finite] = R.geodesic_angle(inp[finite], up_q[finite])
+        ang[g] = a
+        sp = np.stack([np.interp(t, src_t, spread[g][:, c]) for c in range(spread.shape[2])], axis=1)
+        z[g] = a / np.sqrt(np.where(np.isfinite(sp), sp, 0.0) ** 2 + noise**2)
+    return ang, z
+
+
+def detect(
+    motion: Motion,
+    context=None,
+    threshold: float = 0.5,
+    *,
+    groups: Mapping[str, Sequence] | None = None,
+    joints: int | Sequence = 24,
+    fps: float = 24.0,
+    k: int = 5,
+    source_length: int = 15,
+    stride: int = 5,
+    target_length: int = 20,
+    two_stage: bool = False,
+    screen_threshold: float = 0.3,
+    prefilter: bool | None = None,
+    candidates: int = 48,
+    normalization: str = "median",
+    z_scale: float = 2.5,
+    noise_deg: float = 5.0,
+    row_scale: float = 3.0,
+    floor_deg: float = 20.0,
+    progress: bool = False,
+) -> Detection:
+    """Movement digression map and error flags of ``motion`` by self-similarity (sections 3 and 5).
+
+    Parameters
+    ----------
+    motion : Motion
+        The take to analyse (any frame rate; no missing frames).
+    context : None, list of Motions, or MotionDatabase
+        Where to look for similar words besides the clip itself: None is local
+        analysis; related clips (same joints) make a small or large context.
+        A context clip with the input's name and length is the input itself and
+        is left out.
+    threshold : float
+        MDM value above which a cell is flagged (0.5 in the paper).
+    groups : dict name -> joint names or indices, optional
+        Joint groups for motion words; default :func:`joint_groups` (whole,
+        upper, lower, left, right).
+    joints : int or sequence
+        Analyse the ``joints`` most informative joints (24), or exactly these.
+    two_stage : bool
+        Section 5's two stages: local analysis of the whole body first, then the
+        context with all groups only around words whose local MDM exceeds
+        ``screen_threshold``.
+    prefilter : bool or None
+        Rank only kd-tree candidates by DTW (None: when the context holds more
+        than 3,000 target words).
+    normalization, row_scale, floor_deg
+        MDM row normalisation (:func:`movement_digression_map`).
+    """
+    from tqdm.auto import tqdm
+
+    if not 0.0 < threshold < 1.0:
+        raise ValueError(f"threshold must be in (0, 1), got {threshold}")
+    N, M = int(source_length), int(target_length)
+    if not 2 <= N <= M:
+        raise ValueError(f"need 2 <= source_length <= target_length, got {N} and {M}")
+    min_width = min(11, N)
+    src, full, tex_joints, up, notes = _prepare(motion, context, fps, joints)
+    sk = motion.skeleton
+    if groups is None:
+        groups = joint_groups(sk, tex_joints)
+    else:
+        groups = {n: [sk.index(j) if isinstance(j, str) else int(j) for j in js] for n, js in groups.items()}
+    gnames, grows = _group_rows(groups, tex_joints)
+    if not gnames:
+        raise ValueError("no joint group has two analysed joints")
+    words = motion_words(src.num_frames, N, stride)
+    W, G, m = len(words), len(grows), len(tex_joints)
+    has_context = full is not src
+    if prefilter is None:
+        prefilter = has_context and len(full.target_starts(M)) > 3000
+    opts = dict(k=k, source_length=N, target_length=M, min_width=min_width, max_run=3, candidates=candidates)
+    neighbors = _Neighbors(
+        np.full((G, W, k), -1, dtype=np.int64),
+        np.zeros((G, W, k), dtype=np.int16),
+        np.zeros((G, W, k), dtype=np.int16),
+        np.full((G, W, k), np.inf, dtype=np.float32),
+    )
+    mean_tex = np.full((G, src.num_frames, m, 4), np.nan)
+    spread = np.full((G, src.num_frames, m), np.nan)
+    bar = tqdm(total=W * G * (2 if two_stage and has_context else 1), desc=f"ssa {motion.name or 'motion'}", disable=not progress, unit="word")
+    try:
+        if two_stage and has_context:
+            whole = [gnames.index("whole")] if "whole" in gnames else [int(np.argmax([len(r) for r in grows]))]
+            nb1 = nearest_words(src, src, [grows[i] for i in whole], words, self_clip=0, progress=bar, **opts)
+            mt1, sp1 = mean_motion_texture(src, src, [grows[i] for i in whole], words, nb1, N, M, return_spread=True)
+            a1, z1 = _digression(motion, mt1, sp1, tex_joints, up, fps, noise_deg)
+            mdm1 = movement_digression_map(z1[0] if normalization == "spread" else a1[0], normalization, row_scale, floor_deg, z_scale)
+            hot_frames = np.flatnonzero(mdm1.max(axis=1) > screen_threshold) * (fps / motion.fps)
+            distinct = np.zeros(W, dtype=bool)
+            for f in hot_frames:
+                distinct |= (words <= f) & (f < words + N)
+            # words overlapping the distinct ones, so every frame of the region keeps full word coverage
+            region = np.zeros(src.num_frames, dtype=bool)
+            for s in words[distinct]:
+                region[s : s + N] = True
+            redo = np.array([region[s : s + N].any() for s in words])
+            for gi in whole:
+                neighbors.pos[gi], neighbors.iend[gi] = nb1.pos[0], nb1.iend[0]
+                neighbors.jend[gi], neighbors.dist[gi] = nb1.jend[0], nb1.dist[0]
+                mean_tex[gi] = mt1[0]
+                spread[gi] = sp1[0]
+            if redo.any():
+                sub = words[redo]
+                nb2 = nearest_words(src, full, grows, sub, self_clip=0, prefilter=prefilter, progress=bar, **opts)
+                for a in ("pos", "iend", "jend", "dist"):
+                    getattr(neighbors, a)[:, redo] = getattr(nb2, a)
+                mt2, sp2 = mean_motion_texture(src, full, grows, sub, nb2, N, M, return_spread=True)
+                covered = np.zeros(src.num_frames, dtype=bool)
+                for s in sub:
+                    covered[s : s + N] = True
+                # region frames take the second stage; groups other than the whole body exist only there
+                mean_tex[:, region] = mt2[:, region]
+                spread[:, region] = sp2[:, region]
+                for gi in range(G):
+                    if gi not in whole:
+                        mean_tex[gi, ~region] = np.nan
+                        spread[gi, ~region] = np.nan
+            notes.append(f"two-stage: {int(redo.sum())} of {W} words re-analysed against the context")
+        else:
+            nb = nearest_words(src, full, grows, words, self_clip=0, prefilter=prefilter and has_context, progress=bar, **opts)
+            neighbors = nb
+            mean_tex, spread = mean_motion_texture(src, full, grows, words, nb, N, M, return_spread=True)
+    finally:
+        bar.close()
+    dig_g, z_g = _digression(motion, mean_tex, spread, tex_joints, up, fps, noise_deg)  # (G, F, m) each
+    F, J = motion.num_frames, sk.num_joints
+    filled = np.where(np.isnan(dig_g), np.inf, dig_g)
+    best = np.argmin(filled, axis=0)  # (F, m): the group whose mean texture is closest
+    dmin = np.take_along_axis(filled, best[None], axis=0)[0]
+    smin = np.take_along_axis(z_g if normalization == "spread" else filled, best[None], axis=0)[0]
+    smin = np.where(np.isfinite(dmin), smin, np.inf)
+    ok = np.isfinite(smin)
+    digression = np.full((F, J), np.nan)
+    digression[:, tex_joints] = np.where(ok, dmin, np.nan)
+    scores = np.full((F, J), np.nan)
+    scores[:, tex_joints] = np.where(ok, smin, np.nan)
+    best_group = np.full((F, J), -1, dtype=np.int8)
+    best_group[:, tex_joints] = np.where(ok, best, -1)
+    mdm = movement_digression_map(scores, normalization, row_scale, floor_deg, z_scale)
+    analysed = np.zeros(J, dtype=bool)
+    analysed[tex_joints] = True
+    masks = np.zeros((G, m), dtype=bool)
+    for gi, r in enumerate(grows):
+        masks[gi, r] = True
+    if not ok.all():
+        notes.append(f"{int((~ok).any(axis=1).sum())} frames have no neighbour words (context too short)")
+    clips = tuple((str(n), int(b - a)) for n, a, b in zip(full.clip_names, full.clip_starts[:-1], full.clip_starts[1:]))
+    params = dict(
+        fps=fps, k=k, source_length=N, stride=stride, target_length=M, two_stage=bool(two_stage and has_context),
+        prefilter=bool(prefilter and has_context), normalization=normalization, z_scale=z_scale, noise_deg=noise_deg,
+        row_scale=row_scale, floor_deg=floor_deg,
+    )
+    return Detection(
+        mdm=mdm, flags=mdm > threshold, digression=digression, best_group=best_group, threshold=float(threshold),
+        fps=motion.fps, joint_names=tuple(sk.joint_names), analysed=analysed, texture_joints=tex_joints,
+        group_names=tuple(gnames), group_masks=masks, word_starts=words, neighbor_pos=neighbors.pos,
+        neighbor_iend=neighbors.iend, neighbor_jend=neighbors.jend, neighbor_dist=neighbors.dist,
+        context_clips=clips, params=params, notes=tuple(notes),
+    )
+
+
+# -- repair ---------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class Contact:
+    """An end-effector contact the repair must respect (section 4, Fig. 7).
+
+    joint : name of the end effector (e.g. ``"lwrist"``); frames ``[start,
+    end)`` of the input; position : (3,) world position in the file's units.
+    """
+
+    joint: str
+    start: int
+    end: int
+    position: tuple
+
+    def target(self) -> np.ndarray:
+        return np.asarray(self.position, dtype=np.float64).reshape(3)
+
+
+def _medoid(words: list[np.ndarray], cols: np.ndarray) -> int:
+    """Index of the word closest to all others (sum of squared angles) on the rows ``cols``: the KNN's median."""
+    if len(words) == 1:
+        return 0
+    X = np.stack([w[:, cols] for w in words])  # (K, N, c, 4)
+    K = len(words)
+    cost = np.zeros((K, K))
+    for a in range(K):
+        for b in range(a + 1, K):
+            ang = R.geodesic_angle(X[a], X[b])
+            cost[a, b] = cost[b, a] = float(np.sum(ang**2))
+    return int(np.argmin(cost.sum(axis=1)))
+
+
+def _savgol_window(fps: float, seconds: float) -> int:
+    n = max(5, int(round(seconds * fps)))
+    return n + 1 - n % 2
+
+
+def _blend_runs(orig: np.ndarray, new: np.ndarray, flags: np.ndarray, window: int) -> np.ndarray:
+    """Smooth transitions into and out of replaced runs, changing only flagged frames (section 4).
+
+    ``orig``, ``new`` (F, 4) one joint's track; ``flags`` (F,). Each run's
+    replacement is first offset so that it meets the original at both ends
+    (a displacement blended linearly across the run), then the hybrid track is
+    filtered with a quadratic Savitzky-Golay filter of ``window`` frames, and
+    only the flagged frames take the filtered values.
+    """
+    F = len(orig)
+    out = np.array(orig)
+    track = np.array(orig)
+    f = np.concatenate([[False], flags, [False]])
+    d = np.diff(f.astype(np.int8))
+    for a, b in zip(np.flatnonzero(d == 1), np.flatnonzero(d == -1)):
+        rep = _align(new[a:b], np.broadcast_to(orig[a - 1] if a > 0 else new[a], new[a:b].shape))
+        rep = R.quaternion_continuity(rep, axis=0)
+        da = R.quaternion_log(R.quaternion_multiply(orig[a - 1], R.quaternion_inverse(rep[0]))) if a > 0 else np.zeros(3)
+        db = R.quaternion_log(R.quaternion_multiply(orig[b], R.quaternion_inverse(rep[-1]))) if b < F else da * 0
+        if a == 0:
+            da = db
+        if b == F:
+            db = da
+        u = (np.arange(a, b) - (a - 1)) / (b - (a - 1))
+        delta = (1 - u)[:, None] * da + u[:, None] * db
+        track[a:b] = R.quaternion_multiply(R.quaternion_exp(delta), rep)
+    cont = R.quaternion_continuity(track, axis=0)
+    if F >= window:
+        smooth = savgol_filter(cont, window, 2, axis=0, mode="interp")
+    else:
+        smooth = cont
+    smooth = R.quaternion_normalize(smooth)
+    out[flags] = _align(smooth[flags], orig[flags])
+    return out
+
+
+def repair(
+    motion: Motion,
+    detection: Detection,
+    context=None,
+    *,
+    contacts=None,
+    foot_skate: bool = True,
+    blend_s: float = 0.25,
+) -> Motion:
+    """Replace the flagged joints in flagged frames by the median of their KNN words (section 4).
+
+    For each flagged cell the source word around the frame gives K neighbour
+    words (in the group that explained the joint best); the medoid of them on
+    the word's flagged joints replaces the values, which are blended into the
+    untouched motion with a quadratic Savitzky-Golay filter (``blend_s``
+    seconds). Every unflagged value is bit-identical to the input, except, with
+    ``foot_skate``, the hip and knee of a leg whose joints were replaced in a
+    frame where its foot is planted (foot-skate cleanup, see
+    :func:`mocapkit.cleaning.ik.foot_skate_cleanup`). ``contacts`` (list of
+    :class:`mocapkit.cleaning.ik.Contact`) picks, instead of the medoid, the
+    neighbour word whose end effector comes closest to the contact point, and
+    finishes with inverse kinematics. ``context`` must be the one the
+    detection was made with.
+    """
+    if not isinstance(detection, Detection):
+        raise TypeError(f"detection must be a Detection, got {type(detection).__name__}")
+    if detection.num_frames != motion.num_frames or tuple(motion.skeleton.joint_names) != detection.joint_names:
+        raise ValueError(
+            f"{motion.name or 'motion'}: the detection was made on another clip "
+            f"({detection.num_frames} frames, {len(detection.joint_names)} joints vs "
+            f"{motion.num_frames} frames, {motion.num_joints} joints)"
+        )
+    flags = np.asarray(detection.flags, dtype=bool) & detection.analysed[None, :]
+    if not flags.any():
+        return motion
+    p = detection.params
+    fps_a, N = float(p["fps"]), int(p["source_length"])
+    src, full, _, up, _ = _prepare(motion, context, fps_a, detection.texture_joints)
+    clips = tuple((str(n), int(b - a)) for n, a, b in zip(full.clip_names, full.clip_starts[:-1], full.clip_starts[1:]))
+    if clips != detection.context_clips:
+        raise ValueError(
+            f"{motion.name or 'motion'}: repair needs the context the detection was made with "
+            f"({len(detection.context_clips) - 1} context clips, got {len(clips) - 1})"
+        )
+    tex_joints = detection.texture_joints
+    col = {int(j): i for i, j in enumerate(tex_joints)}
+    words = detection.word_starts
+    F, J = motion.num_frames, motion.num_joints
+    tau = np.arange(F) * (fps_a / motion.fps)  # analysis time of each input frame
+    centers = words + (N - 1) / 2.0
+    # the source word around each input frame: the one whose centre is nearest
+    word_of = np.argmin(np.abs(tau[:, None] - centers[None, :]), axis=1)
+    groups = [np.flatnonzero(detection.group_masks[g]) for g in range(len(detection.group_names))]
+    new = np.array(motion.rotations)
+    heading = _yaw(motion.rotations[:, 0], up)
+    flagged_frames_by_word: dict[tuple[int, int], list] = {}
+    fi, ji = np.nonzero(flags)
+    for f, j in zip(fi, ji):
+        g = int(detection.best_group[f, j])
+        if g < 0:
+            continue
+        flagged_frames_by_word.setdefault((g, int(word_of[f])), []).append((f, j))
+    cache: dict[tuple[int, int], np.ndarray] = {}
+    for (g, w), cells in flagged_frames_by_word.items():
+        members = groups[g]
+        words_k = []
+        for kk in range(detection.neighbor_pos.shape[2]):
+            pos = int(detection.neighbor_pos[g, w, kk])
+            if pos < 0:
+                continue
+            nw = _neighbor_word(src.values[words[w] : words[w] + N], full, members, _drop(members), pos, N, int(p["target_length"]))
+            if nw is not None:
+                words_k.append(nw)
+        if not words_k:
+            continue
+        flagged_cols = np.array(sorted({int(np.flatnonzero(members == col[j])[0]) for _, j in cells}))
+
+        def place(word, target):
+            for f, j in cells:
+                c = int(np.flatnonzero(members == col[j])[0])
+                x = np.clip(tau[f] - words[w], 0.0, N - 1.0)
+                i0 = int(np.floor(x))
+                i1 = min(i0 + 1, N - 1)
+                a = x - i0
+                q0, q1 = word[i0, c], _align(word[i1, c], word[i0, c])
+                q = R.quaternion_normalize(q0 * (1 - a) + q1 * a)
+                if j == 0:
+                    q = R.quaternion_multiply(heading[f], q)
+                target[f, j] = _align(q, motion.rotations[f, j])
+
+        choice = None
+        if contacts:
+            choice = _closest_to_contacts(motion, words_k, place, cells, contacts)
+        if choice is None:
+            choice = _medoid(words_k, flagged_cols)
+        place(words_k[choice], new)
+    window = _savgol_window(motion.fps, blend_s)
+    out_rot = np.array(motion.rotations)
+    for j in np.flatnonzero(flags.any(axis=0)):
+        out_rot[:, j] = _blend_runs(motion.rotations[:, j], new[:, j], flags[:, j], window)
+    out = dataclasses.replace(motion, rotations=out_rot)
+    if contacts:
+        from . import ik
+
+        for c in contacts:
+            frames = np.arange(max(c.start, 0), min(c.end, F))
+            if len(frames):
+                out = ik.two_bone_ik(out, c.joint, c.target(), frames=frames)
+    if foot_skate:
+        out = _foot_skate(motion, out, flags)
+    return out
+
+
+def _closest_to_contacts(motion, words_k, place, cells, contacts) -> int | None:
+    """The neighbour word whose end effectors come closest to the contact points (section 4), or None."""
+    frames = np.array(sorted({f for f, _ in cells}))
+    relevant = [c for c in contacts if np.any((frames >= c.start) & (frames < c.end))]
+    if not relevant:
+        return None
+    costs = []
+    for word in words_k:
+        trial = np.array(motion.rotations)
+        place(word, trial)
+        pos = dataclasses.replace(motion, rotations=trial).global_positions()
+        cost = 0.0
+        for c in relevant:
+            fr = frames[(frames >= c.start) & (frames < c.end)]
+            cost += float(np.sum(np.linalg.norm(pos[fr, motion.skeleton.index(c.joint)] - c.target(), axis=-1)))
+        costs.append(cost)
+    return int(np.argmin(costs))
+
+
+def _foot_skate(original: Motion, repaired: Motion, flags: np.ndarray) -> Motion:
+    """Foot-skate cleanup on frames where a leg joint was replaced (Lyard & Magnenat-Thalmann 2007)."""
+    try:
+        from . import ik
+    except ImportError:  # pragma: no cover
+        return repaired
+    sk = original.skeleton
+    leg_frames = np.zeros(original.num_frames, dtype=bool)
+    for role in ("left_foot", "right_foot"):
+        try:
+            foot = find_joint(sk, role)
+        except KeyError:
+            continue
+        chain = [foot]
+        while sk.parents[chain[-1]] > 0:
+            chain.append(int(sk.parents[chain[-1]]))
+        leg_frames |= flags[:, chain].any(axis=1)
+    if not leg_frames.any():
+        return repaired
+    try:
+        contacts = ik.foot_contacts(original)
+    except (KeyError, ValueError, SkeletonError):
+        return repaired
+    return ik.foot_skate_cleanup(repaired, frames=leg_frames, contacts=contacts)
+
+
+# -- sparse reconstruction ------------------------------------------------------------------
+
+
+def reconstruct_sparse(
+    sparse: Motion,
+    joints: Sequence,
+    context,
+    *,
+    fps: float = 24.0,
+    k: int = 5,
+    source_length: int = 15,
+    target_length: int = 20,
+    blend_s: float = 0.25,
+    progress: bool = False,
+) -> Motion:
+    """Full-body motion from a few joints' rotations and a context of full-body clips (section 4, Fig. 8).
+
+    ``sparse`` holds the skeleton and the rotations of ``joints`` (names or
+    indices; the other joints' values are ignored and may be NaN). Its words
+    (non-overlapping, ``source_length`` frames) are matched on those joints
+    against ``context`` (list of Motions or a MotionDatabase, same joints);
+    the first output word is the nearest neighbour of the first input word,
+    and each next one is the candidate among the next word's K neighbours
+    whose first frame is closest (eq. 1, all joints) to the last frame of the
+    word chosen before. The chain is upsampled to the input's frame rate,
+    its transitions smoothed with a quadratic Savitzky-Golay filter, and the
+    given joints keep their input values exactly. The root trajectory is the
+    input's where it is finite.
+    """
+    from tqdm.auto import tqdm
+
+    sk = sparse.skeleton
+    known = np.array(sorted({sk.index(j) if isinstance(j, str) else int(j) for j in joints}), dtype=np.int64)
+    if len(known) < 2:
+        raise ValueError("sparse reconstruction needs at least two known joints")
+    if not np.all(np.isfinite(sparse.rotations[:, known])):
+        raise ValueError(f"{sparse.name or 'motion'}: the known joints have missing rotations; fill the gaps first")
+    ctx, _ = _context_motions(sparse, context)
+    if not ctx:
+        raise ValueError("sparse reconstruction needs a context of full-body clips")
+    N, M = int(source_length), int(target_length)
+    up = detect_up_axis(sk)
+    all_rows = np.arange(sk.num_joints)
+    filled = np.array(sparse.rotations)
+    filled[:, np.setdiff1d(all_rows, known)] = R.identity()
+    src = motion_texture(dataclasses.replace(sparse, rotations=filled), fps, all_rows, up)
+    full = motion_texture(ctx, fps, all_rows, up)
+    if src.num_frames < N:
+        raise ValueError(f"a clip of {src.num_frames} frames at {fps:g} fps is shorter than one motion word")
+    words = _word_starts(src.num_frames, N, N)
+    nb = nearest_words(src, full, [known], words, k=k, source_length=N, target_length=M, min_width=min(11, N), self_clip=None)
+    drop = _drop(known)
+    out = np.array(src.values)
+    prev_last = None
+    for w, s in enumerate(tqdm(words, desc="sparse reconstruction", disable=not progress, unit="word")):
+        cands = []
+        for kk in range(k):
+            p = int(nb.pos[0, w, kk])
+            if p < 0:
+                continue
+            cw = _neighbor_word(src.values[s : s + N], full, known, drop, p, N, M, out_rows=all_rows)
+            if cw is not None:
+                cands.append((float(nb.dist[0, w, kk]), cw))
+        if not cands:
+            continue
+        if prev_last is None:
+            choice = min(cands, key=lambda c: c[0])[1]
+        else:
+            choice = min(cands, key=lambda c: float(np.sum(R.geodesic_angle(c[1][0], prev_last) ** 2)))[1]
+        # a last word flush with the end overlaps the one before: keep what is already placed
+        a = s if w == 0 else max(s, int(words[w - 1]) + N)
+        out[a : s + N] = choice[a - s :]
+        prev_last = choice[-1]
+    rot = _upsample(R.quaternion_continuity(out, axis=0), fps, sparse.num_frames, sparse.fps)
+    window = _savgol_window(sparse.fps, blend_s)
+    if sparse.num_frames >= window:
+        rot = R.quaternion_normalize(savgol_filter(R.quaternion_continuity(rot, axis=0), window, 2, axis=0, mode="interp"))
+    if 0 in known:
+        rot[:, 0] = R.quaternion_multiply(_yaw(sparse.rotations[:, 0], up), rot[:, 0])
+    rot[:, known] = sparse.rotations[:, known]
+    root = np.where(np.isfinite(sparse.root_positions), sparse.root_positions, 0.0)
+    return dataclasses.replace(sparse, rotations=rot, root_positions=root, name=(sparse.name or "motion") + "_reconstructed")

@@ -1,0 +1,216 @@
+"""Self-similarity analysis on real clips: detection finds injected errors on the right joint, repair
+touches only flagged cells, the analysis is exact where the answer is known (a twin context)."""
+
+import dataclasses
+
+import numpy as np
+import pytest
+
+import mocapkit
+from mocapkit import corrupt
+from mocapkit import rotations as R
+from mocapkit.cleaning import ssa
+from mocapkit.errors import SkeletonError
+from mocapkit.motion import concatenate
+
+
+@pytest.fixture(scope="module")
+def walk():
+    return mocapkit.load(mocapkit.samples.path("131_01.bvh"))
+
+
+@pytest.fixture(scope="module")
+def flipped(walk):
+    bad, mask, records = corrupt.real_errors(walk, kinds=("flip",), n_errors=1, seed=1, joints=["LeftKnee"])
+    return bad, mask, records, ssa.detect(bad)
+
+
+def test_shapes_and_range(walk, flipped):
+    det = flipped[3]
+    F, J = walk.num_frames, walk.num_joints
+    assert det.mdm.shape == det.flags.shape == (F, J)
+    assert np.all((det.mdm >= 0) & (det.mdm <= 1))
+    assert np.array_equal(det.flags, det.mdm > det.threshold)
+    assert det.joint_names == tuple(walk.skeleton.joint_names)
+    assert det.analysed.sum() == 24 and det.analysed[0]
+    assert np.all(det.mdm[:, ~det.analysed] == 0)
+
+
+def test_injected_flip_is_flagged_on_its_joint_and_not_its_neighbours(walk, flipped):
+    bad, mask, records, det = flipped
+    sk = walk.skeleton
+    r = records[0]
+    j = sk.index(r.joint)
+    window = slice(r.start, r.end)
+    assert det.flags[window, j].mean() > 0.9
+    assert not det.flags[window, sk.parents[j]].any()
+    for c in sk.children(j):
+        assert not det.flags[window, c].any()
+
+
+def test_twin_context_reproduces_the_clip(walk):
+    """With the clip's exact twin as context and K = 1, every word's neighbour is itself: no digression."""
+    twin = dataclasses.replace(walk, name="twin")
+    det = ssa.detect(walk, [twin], k=1)
+    d = np.degrees(det.digression[:, det.analysed])
+    assert np.nanmedian(d) < 0.5
+    assert np.nanpercentile(d, 95) < 2.0
+    # every word but the last (a 20-frame target cannot start within 20 frames of the end) finds itself
+    assert (det.neighbor_dist[:, :-2, 0] < 1e-9).all()
+
+
+def test_repeated_walk_is_mostly_below_threshold(walk):
+    """A walk played three times: every word has exact repeats; flags are rare (the CMU thumbs flip on their own)."""
+    rep = concatenate([walk, walk, walk], name="rep")
+    det = ssa.detect(rep)
+    assert det.flags.mean() < 0.01
+    body = [walk.skeleton.index(n) for n in ("LeftKnee", "RightKnee", "LeftHip", "RightHip", "Chest", "Neck")]
+    assert det.mdm[:, body].max() < det.threshold
+
+
+def test_repair_changes_only_flagged_cells_and_fixes_the_error(walk, flipped):
+    bad, mask, records, det = flipped
+    fixed = ssa.repair(bad, det, foot_skate=False)
+    keep = ~det.flags
+    assert np.array_equal(fixed.rotations[keep], bad.rotations[keep])
+    assert np.array_equal(fixed.root_positions, bad.root_positions)
+    r = records[0]
+    j = walk.skeleton.index(r.joint)
+    before = np.degrees(R.geodesic_angle(bad.rotations[r.start : r.end, j], walk.rotations[r.start : r.end, j]))
+    after = np.degrees(R.geodesic_angle(fixed.rotations[r.start : r.end, j], walk.rotations[r.start : r.end, j]))
+    assert before.mean() > 100 and after.mean() < 20
+    assert np.allclose(np.linalg.norm(fixed.rotations, axis=-1), 1.0)
+
+
+def test_repair_with_foot_skate_touches_only_legs(walk, flipped):
+    bad, mask, records, det = flipped
+    fixed = ssa.repair(bad, det)
+    changed = np.any(fixed.rotations != bad.rotations, axis=-1) & ~det.flags
+    legs = set()
+    for role in ("left_foot", "right_foot"):
+        j = mocapkit.motion.find_joint(walk.skeleton, role)
+        while j > 0:
+            legs.add(j)
+            j = int(walk.skeleton.parents[j])
+    assert set(np.flatnonzero(changed.any(axis=0))) <= legs
+
+
+def test_contact_constraint_is_met(walk, flipped):
+    bad, mask, records, det = flipped
+    r = records[0]
+    foot = "LeftAnkle"
+    target = walk.global_positions()[r.start + 5, walk.skeleton.index(foot)]
+    contact = ssa.Contact(foot, r.start, r.start + 10, tuple(target))
+    fixed = ssa.repair(bad, det, contacts=[contact], foot_skate=False)
+    got = fixed.global_positions()[r.start : r.start + 10, walk.skeleton.index(foot)]
+    reach = np.linalg.norm(got - target, axis=-1)
+    assert reach.max() < 1e-6 * np.linalg.norm(walk.skeleton.offsets[walk.skeleton.index(foot)]) + 1e-6 or reach.max() < 1.0
+
+
+def test_detection_round_trip(tmp_path, flipped):
+    det = flipped[3]
+    path = det.save(tmp_path / "det.npz")
+    back = ssa.Detection.load(path)
+    for f in dataclasses.fields(det):
+        a, b = getattr(det, f.name), getattr(back, f.name)
+        if isinstance(a, np.ndarray):
+            assert np.array_equal(a, b, equal_nan=a.dtype.kind == "f"), f.name
+        else:
+            assert a == b, f.name
+    assert list(tmp_path.iterdir()) == [path]
+
+
+def test_repair_refuses_another_context(walk, flipped):
+    bad, mask, records, det = flipped
+    with pytest.raises(ValueError, match="context"):
+        ssa.repair(bad, det, [dataclasses.replace(walk, name="other")])
+    with pytest.raises(ValueError, match="another clip"):
+        ssa.repair(bad[:100], det)
+
+
+def test_bad_inputs(walk):
+    hdm = mocapkit.load(mocapkit.samples.path("HDM_bk_sneak2StepsLStart_004_120.amc"))
+    with pytest.raises(SkeletonError, match="joints differ"):
+        ssa.detect(walk, [hdm])
+    with pytest.raises(ValueError, match="shorter than one motion word"):
+        ssa.detect(walk[:20])
+    holes = np.array(walk.rotations)
+    holes[5, 3] = np.nan
+    with pytest.raises(ValueError, match="missing rotations"):
+        ssa.detect(dataclasses.replace(walk, rotations=holes))
+    with pytest.raises(ValueError, match="threshold"):
+        ssa.detect(walk, threshold=1.5)
+
+
+def test_context_clip_equal_to_the_input_is_left_out(walk):
+    det = ssa.detect(walk[:400], [walk[:400]])
+    assert any("the input itself" in n for n in det.notes)
+    assert len(det.context_clips) == 1
+
+
+def test_small_context_and_prefilter_find_the_error():
+    """HDM05 sneak: one actor's take against another take of the same actor (bundled), kd-tree prefilter on."""
+    a = mocapkit.load(mocapkit.samples.path("HDM_bk_sneak2StepsLStart_004_120.amc"))
+    b = mocapkit.load(mocapkit.samples.path("HDM_bk_sneak2StepsLStart_005_120.amc"))
+    bad, mask, records = corrupt.real_errors(a, kinds=("flip",), n_errors=1, seed=2, joints=["rtibia"])
+    for prefilter in (False, True):
+        det = ssa.detect(bad, [b], prefilter=prefilter)
+        r = records[0]
+        assert det.flags[r.start : r.end, a.skeleton.index("rtibia")].mean() > 0.8
+        assert det.params["prefilter"] == prefilter
+
+
+def test_prefilter_agrees_with_exhaustive_search(walk):
+    ctx = [dataclasses.replace(walk[400:], name="rest")]
+    ex = ssa.detect(walk[:400], ctx, prefilter=False)
+    pf = ssa.detect(walk[:400], ctx, prefilter=True, candidates=64)
+    # the kd-tree proposes candidates, DTW ranks them: the best neighbour is found for most words
+    same = np.abs(ex.neighbor_dist[:, :, 0] - pf.neighbor_dist[:, :, 0]) <= 1e-6 + 0.05 * ex.neighbor_dist[:, :, 0]
+    assert same.mean() > 0.8
+
+
+def test_two_stage_matches_single_stage_on_the_error():
+    a = mocapkit.load(mocapkit.samples.path("HDM_bk_sneak2StepsLStart_004_120.amc"))
+    b = mocapkit.load(mocapkit.samples.path("HDM_bk_sneak2StepsLStart_005_120.amc"))
+    bad, mask, records = corrupt.real_errors(a, kinds=("flip",), n_errors=1, seed=2, joints=["rtibia"])
+    det = ssa.detect(bad, [b], two_stage=True)
+    r = records[0]
+    assert det.params["two_stage"]
+    assert det.flags[r.start : r.end, a.skeleton.index("rtibia")].mean() > 0.8
+
+
+def test_joint_groups_of_cmu_rig(walk):
+    g = ssa.joint_groups(walk.skeleton)
+    names = walk.skeleton.joint_names
+    assert set(g) == {"whole", "upper", "lower", "left", "right"}
+    assert "LeftKnee" in [names[j] for j in g["lower"]] and "LeftKnee" in [names[j] for j in g["left"]]
+    assert "LeftElbow" in [names[j] for j in g["upper"]] and "LeftElbow" not in [names[j] for j in g["right"]]
+    assert "Head" not in [names[j] for j in g["lower"]]
+
+
+def test_facing_aligned_removes_heading(walk, rng):
+    up = np.array([0.0, 1.0, 0.0])
+    turn = R.quaternion_from_axis_angle(up, rng.uniform(-np.pi, np.pi))
+    turned = np.array(walk.rotations)
+    turned[:, 0] = R.quaternion_multiply(turn, turned[:, 0])
+    a = ssa.facing_aligned(walk.rotations, up)
+    b = ssa.facing_aligned(turned, up)
+    assert np.allclose(R.geodesic_angle(a, b), 0.0, atol=1e-6)
+
+
+def test_sparse_reconstruction_from_nine_joints():
+    """Fig. 8: nine joints of a sneak take, the other take of the actor as context."""
+    a = mocapkit.load(mocapkit.samples.path("HDM_bk_sneak2StepsLStart_004_120.amc"))
+    b = mocapkit.load(mocapkit.samples.path("HDM_bk_sneak2StepsLStart_005_120.amc"))
+    nine = ["lowerneck", "lhumerus", "rhumerus", "lradius", "rradius", "lfemur", "rfemur", "ltibia", "rtibia"]
+    sparse = np.array(a.rotations)
+    known = [a.skeleton.index(n) for n in nine]
+    unknown = [j for j in range(a.num_joints) if j not in known and j != 0]
+    sparse[:, unknown] = np.nan
+    out = ssa.reconstruct_sparse(dataclasses.replace(a, rotations=sparse), nine, [b])
+    assert np.array_equal(out.rotations[:, known], a.rotations[:, known])
+    assert np.isfinite(out.rotations).all()
+    err = np.degrees(R.geodesic_angle(out.rotations[:, unknown], a.rotations[:, unknown]))
+    rest = np.degrees(R.geodesic_angle(np.broadcast_to(R.identity(), a.rotations[:, unknown].shape), a.rotations[:, unknown]))
+    moving = rest.mean(axis=0) > 5
+    assert err[:, moving].mean() < 0.5 * rest[:, moving].mean()
