@@ -48,6 +48,8 @@ bench: install-test
 	$(PY) benchmarks/olng_update.py --json
 	$(PY) benchmarks/krueger_analysis.py --json
 	$(PY) benchmarks/ssa_detection.py --json
+	$(PY) benchmarks/ssa_dtw.py --json
+	$(PY) benchmarks/ssa_repair.py --json
 
 clean:
 	rm -rf $(OUT) .pytest_cache
