@@ -41,7 +41,7 @@ import numpy as np
 
 from . import rotations as R
 from .errors import SkeletonError
-from .motion import Motion, find_joint, mirror_pairs, unit_scale_cm
+from .motion import Motion, bone_moving_joints, find_joint, mirror_pairs, unit_scale_cm
 
 __all__ = [
     "angular_noise",
@@ -547,11 +547,7 @@ def real_errors(
     F, J = motion.num_frames, sk.num_joints
     sel = _joint_set(motion, joints, include_root=False)
     has_dofs = np.array([bool(sk.rotation_order(j)) for j in range(J)])
-    moves_bone = np.zeros(J, dtype=bool)
-    for c in range(1, J):
-        moves_bone[sk.parents[c]] |= np.linalg.norm(sk.offsets[c]) > 1e-9
-    for e, p in enumerate(sk.end_site_parents):
-        moves_bone[p] |= np.linalg.norm(sk.end_site_offsets[e]) > 1e-9
+    moves_bone = bone_moving_joints(sk)
     candidates = np.flatnonzero(sel & has_dofs & moves_bone)
     if len(candidates) == 0:
         candidates = np.flatnonzero(sel & has_dofs)

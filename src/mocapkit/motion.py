@@ -701,6 +701,16 @@ ROLES: dict[str, tuple[str | None, tuple[str, ...]]] = {
 }
 
 
+def bone_moving_joints(skeleton: Skeleton) -> np.ndarray:
+    """(J,) bool: joints whose rotation moves a bone (a child joint or end site at a non-zero offset)."""
+    moves = np.zeros(skeleton.num_joints, dtype=bool)
+    for c in range(1, skeleton.num_joints):
+        moves[skeleton.parents[c]] |= np.linalg.norm(skeleton.offsets[c]) > 1e-9
+    for e, p in enumerate(skeleton.end_site_parents):
+        moves[p] |= np.linalg.norm(skeleton.end_site_offsets[e]) > 1e-9
+    return moves
+
+
 def find_joint(skeleton: Skeleton, role: str) -> int:
     """Index of the joint playing ``role`` (a key of :data:`ROLES`) on CMU, HDM05 and common BVH rigs.
 

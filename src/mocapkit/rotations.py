@@ -35,6 +35,7 @@ __all__ = [
     "quaternion_to_rotvec",
     "rotvec_to_quaternion",
     "quaternion_from_axis_angle",
+    "quaternion_twist",
     "geodesic_angle",
     "slerp",
     "euler_to_quaternion",
@@ -192,6 +193,21 @@ def quaternion_from_axis_angle(axis: np.ndarray, angle: np.ndarray) -> np.ndarra
     axis = axis / np.linalg.norm(axis, axis=-1, keepdims=True)
     half = 0.5 * np.asarray(angle, dtype=np.float64)[..., None]
     return np.concatenate([np.cos(half), np.sin(half) * axis], axis=-1)
+
+
+def quaternion_twist(q: np.ndarray, axis: np.ndarray) -> np.ndarray:
+    """Twist of ``q`` (..., 4) about the unit ``axis`` (3,) in the swing-twist decomposition.
+
+    The projection of ``q`` onto ``(w, axis)``, normalised; where that is zero
+    (a pure 180-degree swing) the identity. About the vertical axis this is a
+    root's heading, so ``conjugate(twist) * q`` is its tilt alone.
+    """
+    q = np.asarray(q, dtype=np.float64)
+    axis = np.asarray(axis, dtype=np.float64)
+    t = np.concatenate([q[..., :1], (q[..., 1:] @ axis)[..., None] * axis], axis=-1)
+    n = np.linalg.norm(t, axis=-1, keepdims=True)
+    ok = n > 1e-9
+    return np.where(ok, t / np.where(ok, n, 1.0), identity())
 
 
 def geodesic_angle(a: np.ndarray, b: np.ndarray) -> np.ndarray:

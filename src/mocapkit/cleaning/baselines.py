@@ -195,12 +195,7 @@ def _remove_facing(q: np.ndarray, up: np.ndarray) -> np.ndarray:
     The twist is the projection of the quaternion onto ``(w, up)`` (swing-twist
     decomposition); where it is undefined (a pure 180 deg swing) it is the identity.
     """
-    proj = (q[..., 1:] @ up)[..., None] * up
-    t = np.concatenate([q[..., :1], proj], axis=-1)
-    norm = np.linalg.norm(t, axis=-1, keepdims=True)
-    ok = norm > 1e-9
-    t = np.where(ok, t / np.where(ok, norm, 1.0), R.identity())
-    return R.quaternion_multiply(R.quaternion_conjugate(t), q)
+    return R.quaternion_multiply(R.quaternion_conjugate(R.quaternion_twist(q, up)), q)
 
 
 def _limit_rotations(motion: Motion, up: np.ndarray) -> np.ndarray:

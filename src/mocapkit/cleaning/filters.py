@@ -41,7 +41,9 @@ from scipy.ndimage import gaussian_filter1d
 from scipy.signal import savgol_filter
 
 from .. import rotations as R
+from ..corrupt import _joint_set
 from ..motion import Motion
+from .ik import contact_segments
 
 __all__ = ["gaussian_smooth", "savgol_smooth", "window_frames"]
 
@@ -60,31 +62,6 @@ def window_frames(window_s: float, fps: float, polyorder: int = 2) -> int:
     return n if n % 2 == 1 else n + 1
 
 
-def _joint_selection(motion: Motion, joints) -> np.ndarray:
-    """Boolean (J,) selection from None (all joints), a name, an index or a sequence of them."""
-    J = motion.num_joints
-    if joints is None:
-        return np.ones(J, dtype=bool)
-    if isinstance(joints, (str, int, np.integer)):
-        joints = [joints]
-    sel = np.zeros(J, dtype=bool)
-    for j in joints:
-        if isinstance(j, str):
-            sel[motion.skeleton.index(j)] = True
-        else:
-            j = int(j)
-            if not 0 <= j < J:
-                raise ValueError(f"joint index {j} out of range for {J} joints")
-            sel[j] = True
-    return sel
-
-
-def _runs(valid: np.ndarray) -> list[tuple[int, int]]:
-    """``[start, end)`` of each run of True in a (F,) mask."""
-    d = np.diff(np.concatenate([[0], valid.astype(np.int8), [0]]))
-    return list(zip(np.flatnonzero(d == 1).tolist(), np.flatnonzero(d == -1).tolist()))
-
-
 def _filter_tracks(x: np.ndarray, valid: np.ndarray, func: Callable[[np.ndarray], np.ndarray]) -> np.ndarray:
     """Apply ``func`` (filters axis 0) to tracks ``x`` (F, K, C) where ``valid`` (F, K); each observed run alone.
 
@@ -96,13 +73,13 @@ def _filter_tracks(x: np.ndarray, valid: np.ndarray, func: Callable[[np.ndarray]
     if full.any():
         out[:, full] = func(x[:, full])
     for k in np.flatnonzero(~full):
-        for s, e in _runs(valid[:, k]):
+        for s, e in contact_segments(valid[:, k]):
             out[s:e, k] = func(x[s:e, k])
     return out
 
 
 def _smooth(motion: Motion, func, joints, root: bool) -> Motion:
-    sel = _joint_selection(motion, joints)
+    sel = _joint_set(motion, joints, include_root=True)
     rot = np.array(motion.rotations)
     if motion.num_frames >= 2 and sel.any():
         src = motion.rotations[:, sel]

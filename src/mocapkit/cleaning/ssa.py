@@ -72,8 +72,10 @@ from .. import rotations as R
 from ..errors import SkeletonError
 from ..features import detect_up_axis
 from ..metrics import _word_starts
-from ..motion import Motion, _side_and_part, find_joint
+from ..motion import Motion, _side_and_part, bone_moving_joints, find_joint
 from . import word_dtw
+from .filters import window_frames
+from .ik import contact_segments
 
 __all__ = [
     "Contact",
@@ -114,16 +116,6 @@ _LARGE_GROUP = 12  # groups with at least this many joints drop 3 joint terms, s
 # -- motion texture ------------------------------------------------------------------
 
 
-def _yaw(q: np.ndarray, up: np.ndarray) -> np.ndarray:
-    """Twist of ``q`` (..., 4) about the vertical axis ``up`` (3,): the heading."""
-    proj = (q[..., 1:] @ up)[..., None] * up
-    t = np.concatenate([q[..., :1], proj], axis=-1)
-    n = np.linalg.norm(t, axis=-1, keepdims=True)
-    ident = np.zeros_like(t)
-    ident[..., 0] = 1.0
-    return np.where(n > 1e-9, t / np.where(n > 1e-9, n, 1.0), ident)
-
-
 def facing_aligned(rotations: np.ndarray, up: np.ndarray) -> np.ndarray:
     """Rotations (F, J, 4) with the root's heading (twist about ``up``) removed (section 3.2 footnote).
 
@@ -131,20 +123,14 @@ def facing_aligned(rotations: np.ndarray, up: np.ndarray) -> np.ndarray:
     still visible; other joints are local rotations and unchanged.
     """
     out = np.array(rotations, dtype=np.float64)
-    out[:, 0] = R.quaternion_multiply(R.quaternion_conjugate(_yaw(out[:, 0], up)), out[:, 0])
+    out[:, 0] = R.quaternion_multiply(R.quaternion_conjugate(R.quaternion_twist(out[:, 0], up)), out[:, 0])
     return out
 
 
 def _moving_joints(skeleton) -> np.ndarray:
     """(J,) joints with rotation channels that move a bone (a child or end site at a non-zero offset)."""
-    J = skeleton.num_joints
-    moves = np.zeros(J, dtype=bool)
-    for c in range(1, J):
-        moves[skeleton.parents[c]] |= np.linalg.norm(skeleton.offsets[c]) > 1e-9
-    for e, p in enumerate(skeleton.end_site_parents):
-        moves[p] |= np.linalg.norm(skeleton.end_site_offsets[e]) > 1e-9
-    has = np.array([bool(skeleton.rotation_order(j)) for j in range(J)])
-    out = moves & has
+    has = np.array([bool(skeleton.rotation_order(j)) for j in range(skeleton.num_joints)])
+    out = bone_moving_joints(skeleton) & has
     out[0] = True  # the root: its tilt is analysed (heading removed)
     return out
 
@@ -673,10 +659,7 @@ class Detection:
         """Flagged runs as ``(joint name, start frame, end frame)``, half-open, sorted by start."""
         out = []
         for j in np.flatnonzero(self.flags.any(axis=0)):
-            f = np.concatenate([[False], self.flags[:, j], [False]])
-            d = np.diff(f.astype(np.int8))
-            for a, b in zip(np.flatnonzero(d == 1), np.flatnonzero(d == -1)):
-                out.append((self.joint_names[j], int(a), int(b)))
+            out += [(self.joint_names[j], a, b) for a, b in contact_segments(self.flags[:, j])]
         return sorted(out, key=lambda s: (s[1], s[0]))
 
     def with_threshold(self, threshold: float) -> "Detection":
@@ -927,9 +910,6 @@ def detect(
                 for a in ("pos", "iend", "jend", "dist"):
                     getattr(neighbors, a)[:, redo] = getattr(nb2, a)
                 mt2, sp2 = mean_motion_texture(src, full, grows, sub, nb2, N, M, return_spread=True)
-                covered = np.zeros(src.num_frames, dtype=bool)
-                for s in sub:
-                    covered[s : s + N] = True
                 # region frames take the second stage; groups other than the whole body exist only there
                 mean_tex[:, region] = mt2[:, region]
                 spread[:, region] = sp2[:, region]
@@ -1015,11 +995,6 @@ def _medoid(words: list[np.ndarray], cols: np.ndarray) -> int:
     return int(np.argmin(cost.sum(axis=1)))
 
 
-def _savgol_window(fps: float, seconds: float) -> int:
-    n = max(5, int(round(seconds * fps)))
-    return n + 1 - n % 2
-
-
 def _blend_runs(orig: np.ndarray, new: np.ndarray, flags: np.ndarray, window: int) -> np.ndarray:
     """Smooth transitions into and out of replaced runs, changing only flagged frames (section 4).
 
@@ -1032,9 +1007,7 @@ def _blend_runs(orig: np.ndarray, new: np.ndarray, flags: np.ndarray, window: in
     F = len(orig)
     out = np.array(orig)
     track = np.array(orig)
-    f = np.concatenate([[False], flags, [False]])
-    d = np.diff(f.astype(np.int8))
-    for a, b in zip(np.flatnonzero(d == 1), np.flatnonzero(d == -1)):
+    for a, b in contact_segments(flags):
         rep = _align(new[a:b], np.broadcast_to(orig[a - 1] if a > 0 else new[a], new[a:b].shape))
         rep = R.quaternion_continuity(rep, axis=0)
         da = R.quaternion_log(R.quaternion_multiply(orig[a - 1], R.quaternion_inverse(rep[0]))) if a > 0 else np.zeros(3)
@@ -1103,14 +1076,14 @@ def repair(
     tex_joints = detection.texture_joints
     col = {int(j): i for i, j in enumerate(tex_joints)}
     words = detection.word_starts
-    F, J = motion.num_frames, motion.num_joints
+    F = motion.num_frames
     tau = np.arange(F) * (fps_a / motion.fps)  # analysis time of each input frame
     centers = words + (N - 1) / 2.0
     # the source word around each input frame: the one whose centre is nearest
     word_of = np.argmin(np.abs(tau[:, None] - centers[None, :]), axis=1)
     groups = [np.flatnonzero(detection.group_masks[g]) for g in range(len(detection.group_names))]
     new = np.array(motion.rotations)
-    heading = _yaw(motion.rotations[:, 0], up)
+    heading = R.quaternion_twist(motion.rotations[:, 0], up)
     flagged_frames_by_word: dict[tuple[int, int], list] = {}
     fi, ji = np.nonzero(flags)
     for f, j in zip(fi, ji):
@@ -1118,7 +1091,6 @@ def repair(
         if g < 0:
             continue
         flagged_frames_by_word.setdefault((g, int(word_of[f])), []).append((f, j))
-    cache: dict[tuple[int, int], np.ndarray] = {}
     for (g, w), cells in flagged_frames_by_word.items():
         members = groups[g]
         words_k = []
@@ -1152,7 +1124,7 @@ def repair(
         if choice is None:
             choice = _medoid(words_k, flagged_cols)
         place(words_k[choice], new)
-    window = _savgol_window(motion.fps, blend_s)
+    window = window_frames(blend_s, motion.fps, 2)
     out_rot = np.array(motion.rotations)
     for j in np.flatnonzero(flags.any(axis=0)):
         out_rot[:, j] = _blend_runs(motion.rotations[:, j], new[:, j], flags[:, j], window)
@@ -1288,11 +1260,11 @@ def reconstruct_sparse(
         out[a : s + N] = choice[a - s :]
         prev_last = choice[-1]
     rot = _upsample(R.quaternion_continuity(out, axis=0), fps, sparse.num_frames, sparse.fps)
-    window = _savgol_window(sparse.fps, blend_s)
+    window = window_frames(blend_s, sparse.fps, 2)
     if sparse.num_frames >= window:
         rot = R.quaternion_normalize(savgol_filter(R.quaternion_continuity(rot, axis=0), window, 2, axis=0, mode="interp"))
     if 0 in known:
-        rot[:, 0] = R.quaternion_multiply(_yaw(sparse.rotations[:, 0], up), rot[:, 0])
+        rot[:, 0] = R.quaternion_multiply(R.quaternion_twist(sparse.rotations[:, 0], up), rot[:, 0])
     rot[:, known] = sparse.rotations[:, known]
     root = np.where(np.isfinite(sparse.root_positions), sparse.root_positions, 0.0)
     return dataclasses.replace(sparse, rotations=rot, root_positions=root, name=(sparse.name or "motion") + "_reconstructed")
