@@ -17,7 +17,7 @@ import typer
 from rich.console import Console
 from rich.table import Table
 
-from .errors import MocapError, MocapFormatError
+from .errors import MocapError, MocapFormatError, SkeletonError
 
 app = typer.Typer(
     name="mocapkit",
@@ -188,25 +188,26 @@ def _record(r) -> dict:
 @app.command()
 def plot(
     reference: Path = typer.Argument(..., help="Reference motion (e.g. the clean clip)."),
-    other: Path = typer.Argument(..., help="Motion to compare (e.g. the corrupted clip)."),
+    others: list[Path] = typer.Argument(..., metavar="OTHER...", help="Motions to compare (e.g. noisy, then cleaned)."),
     joint: str = typer.Option(..., "--joint", help="Joint whose rotation channels are plotted."),
     out: Path = typer.Option(..., "-o", "--out", help="PNG to write."),
     mask: Optional[Path] = typer.Option(None, "--mask", help="A .mask.npz from `mocapkit corrupt` to shade."),
 ) -> None:
-    """Plot the rotation channels of one joint of two motions over time, as a PNG."""
+    """Plot the rotation channels of one joint of two or more motions over time, as a PNG."""
     from . import io
     from .report import plot_channels
 
-    a, b = io.load(reference), io.load(other)
+    motions = [io.load(reference)] + [io.load(p) for p in others]
+    other = others[0]
     mask_arr = None
     mask_path = mask or other.with_name(other.name[: -len(other.suffix)] + ".mask.npz")
     if mask_path.is_file():
         with np.load(mask_path, allow_pickle=False) as z:
             mask_arr = z["mask"]
-        if mask_arr.shape[0] != b.num_frames:
+        if mask_arr.shape[0] != motions[1].num_frames:
             mask_arr = None
     try:
-        plot_channels([a, b], joint, out, labels=[reference.stem, other.stem], mask=mask_arr)
+        plot_channels(motions, joint, out, labels=[reference.stem] + [p.stem for p in others], mask=mask_arr)
     except KeyError as exc:
         raise MocapError(str(exc.args[0])) from None
     console.print(f"wrote {out}")
@@ -438,6 +439,189 @@ def repair(
     io.save(fixed, out)
     n = int(det.flags.sum())
     console.print(f"wrote {out}: {n} joint samples replaced in {int(det.flags.any(axis=1).sum())} of {m.num_frames} frames")
+
+
+def _deep_motion(inp: Path):
+    from . import io
+    from .motion import Motion
+
+    m = io.load(inp)
+    if not isinstance(m, Motion):
+        raise MocapFormatError(inp, "a marker file has no joint angles; solve it to a skeleton first")
+    return m
+
+
+def _deep_model(path: Optional[Path], kind: str):
+    """The model file at ``path`` (checked here so its errors name it), or None for the shipped one."""
+    from .cleaning import deep
+
+    if path is None:
+        return None
+    model = deep.load_model(path)
+    if model.kind != kind:
+        raise MocapFormatError(path, f"an {model.kind.upper()} model, but this command needs an {kind.upper()}")
+    return model
+
+
+def _reference(ref_path: Path, like):
+    """The clean take at ``ref_path``, checked to have ``like``'s joints and frame count."""
+    ref = _deep_motion(ref_path)
+    if ref.num_frames != like.num_frames or ref.skeleton.joint_names != like.skeleton.joint_names:
+        raise MocapFormatError(ref_path, "the reference must have the input's joints and frame count")
+    return ref
+
+
+def _reference_report(ref_path: Optional[Path], before, after) -> str:
+    """' (RMS vs REF: a -> b deg)' over the non-root joint-angle channels, or '' without a reference."""
+    if ref_path is None:
+        return ""
+    from .metrics import joint_angle_rms
+
+    ref = _reference(ref_path, after)
+    a = joint_angle_rms(ref, before, include_root=False)
+    b = joint_angle_rms(ref, after, include_root=False)
+    return f"; joint-angle RMS against {ref_path.name}: {a:.2f} -> {b:.2f} deg"
+
+
+@app.command()
+def denoise(
+    inp: Path = typer.Argument(..., metavar="IN", help="Noisy motion (.bvh, .amc, .npz)."),
+    out: Path = typer.Option(..., "--out", "-o", help="Denoised motion (.bvh or .npz)."),
+    model: Optional[Path] = typer.Option(None, "--model", help="An EBF model file (default: the shipped one)."),
+    reference: Optional[Path] = typer.Option(None, "--reference", help="A clean take to report the error against."),
+) -> None:
+    """Denoise every joint angle with the EBF network (Mall et al. 2017); the root trajectory is kept."""
+    from . import io
+    from .cleaning import deep
+    from .metrics import joint_angle_rms
+
+    _check_output(inp, out)
+    m = _deep_motion(inp)
+    net = _deep_model(model, "ebf")
+    try:
+        cleaned = deep.denoise(m, net)
+    except SkeletonError as exc:
+        raise MocapError(f"{inp}: {exc}") from None
+    report = _reference_report(reference, m, cleaned)
+    io.save(cleaned, out)
+    change = joint_angle_rms(m, cleaned, include_root=False)
+    console.print(f"wrote {out}: {m.num_frames} frames denoised, mean change {change:.2f} deg RMS{report}")
+
+
+@app.command()
+def fill(
+    inp: Path = typer.Argument(..., metavar="IN", help="Motion with gaps (NaN joints in .npz; or any format)."),
+    out: Path = typer.Option(..., "--out", "-o", help="Filled motion (.bvh or .npz)."),
+    model: Optional[Path] = typer.Option(None, "--model", help="An EBD model file (default: the shipped one)."),
+    denoiser: Optional[Path] = typer.Option(None, "--denoiser", help="The EBF that smooths the filled entries."),
+    smooth: bool = typer.Option(True, "--smooth/--no-smooth", help="Run the EBF over the filled entries."),
+    reference: Optional[Path] = typer.Option(None, "--reference", help="A clean take to report the error against."),
+) -> None:
+    """Fill missing joints with the EBD network (+ EBF); observed values are kept bit-identical."""
+    from . import io
+    from .cleaning import deep
+
+    _check_output(inp, out)
+    m = _deep_motion(inp)
+    ebd, ebf = _deep_model(model, "ebd"), _deep_model(denoiser, "ebf")
+    n = int(m.missing().sum())
+    try:
+        filled = deep.fill_gaps(m, ebd, ebf, smooth=smooth)
+    except (SkeletonError, ValueError) as exc:
+        raise MocapError(f"{inp}: {exc}") from None
+    report = ""
+    if reference is not None and n:
+        from .metrics import geodesic_pose_distance
+
+        ref = _reference(reference, filled)
+        err = np.degrees(geodesic_pose_distance(ref, filled))[m.missing()]
+        report = f"; mean rotation error of the filled joints against {reference.name}: {err.mean():.2f} deg"
+    io.save(filled, out)
+    console.print(f"wrote {out}: {n} missing joint samples filled{report}" if n else f"wrote {out}: no gaps to fill")
+
+
+@app.command()
+def train(
+    what: str = typer.Argument(..., metavar="denoiser|gapfiller", help="Train the EBF denoiser or the EBD gap filler."),
+    sources: list[Path] = typer.Argument(..., metavar="CLIPS...", help="Motion files, folders or database folders."),
+    out: Path = typer.Option(..., "--out", "-o", help="Folder for checkpoint.pt and model.pt."),
+    holdout: Optional[list[str]] = typer.Option(
+        None, "--holdout", help="Validation clips: a name substring (repeat) or a count of random clips."
+    ),
+    folds: int = typer.Option(1, "--folds", min=1, help="Cross-validate on this many disjoint random holdouts (Mall: 5)."),
+    epochs: int = typer.Option(40, "--epochs", min=1),
+    steps: int = typer.Option(100, "--steps", min=1, help="Optimiser steps per epoch."),
+    minutes: Optional[float] = typer.Option(None, "--minutes", help="Stop after the epoch that passes this budget."),
+    hidden: Optional[int] = typer.Option(None, "--hidden", help="LSTM units per direction (EBF 126, EBD 32)."),
+    representation: str = typer.Option("euler", "--representation", help="euler (the file's angles) or rot6d."),
+    head: str = typer.Option("gaussian", "--head", help="EBF filter: gaussian or free (31 taps)."),
+    bias: bool = typer.Option(False, "--bias/--no-bias", help="EBF: also predict a per-channel bias."),
+    noise: Optional[list[str]] = typer.Option(
+        None, "--noise", help="Noise settings to train on (repeat): angular:A, uniform:A, spatial:CM, "
+        "bias-constant:A, bias-sinusoidal:A, clean (default: angular 0.1/0.5/0.9, uniform 0.5, spatial 0.5/1.0)."
+    ),
+    lr: float = typer.Option(2e-3, "--lr", help="Adam learning rate (halved on validation plateaus)."),
+    dropout: float = typer.Option(0.1, "--dropout", help="Dropout on the LSTM inputs (Mall: 0.5)."),
+    init: str = typer.Option("xavier", "--init", help="xavier (the shipped models') or paper (uniform [-0.5, 0.5])."),
+    seed: int = typer.Option(0, "--seed"),
+    resume: bool = typer.Option(True, "--resume/--restart", help="Continue from out/checkpoint.pt if present."),
+    executor: Optional[str] = typer.Option(None, "--executor", help="Where noisy pairs are made: processes, serial, dask or a scheduler address."),
+    device: str = typer.Option("auto", "--device", help="auto (a GPU when present), cpu or cuda."),
+) -> None:
+    """Train an EBF or EBD on noisy/clean pairs made on the fly with mocapkit.corrupt (Mall et al. 2017, 4).
+
+    Writes OUT/model.pt (the best epoch on the validation clips) and OUT/checkpoint.pt after every
+    epoch; running the same command again resumes. With --folds K, OUT/fold_1 ... OUT/fold_K.
+    """
+    from .cleaning.deep import training
+
+    kinds = {"denoiser": "ebf", "gapfiller": "ebd"}
+    if what not in kinds:
+        raise MocapError(f"train: expected denoiser or gapfiller, got {what!r}")
+    if representation not in ("euler", "rot6d") or head not in ("gaussian", "free") or init not in ("xavier", "paper"):
+        raise MocapError("train: --representation is euler or rot6d, --head gaussian or free, --init xavier or paper")
+    if noise:
+        from .cleaning.deep.training import _noisy
+
+        for spec in noise:
+            try:
+                _noisy(None, spec, 0, check_only=True)
+            except ValueError as exc:
+                raise MocapError(f"train: --noise: {exc}") from None
+    clips = training.load_clips(sources)
+    if not clips:
+        raise MocapError(f"train: no .bvh, .amc or .npz clips in {', '.join(map(str, sources))}")
+    if folds > 1:
+        size = int(holdout[0]) if holdout and len(holdout) == 1 and holdout[0].isdigit() else None
+        try:
+            splits = training.holdout_folds(clips, folds, size, seed=seed)
+        except ValueError as exc:
+            raise MocapError(f"train: {exc}") from None
+        outs = [out / f"fold_{k + 1}" for k in range(folds)]
+    else:
+        hold: list[str] | int = 0
+        if holdout:
+            hold = int(holdout[0]) if len(holdout) == 1 and holdout[0].isdigit() else list(holdout)
+        splits, outs = [training.split_holdout(clips, hold, seed=seed)], [out]
+    cfg = training.TrainConfig(
+        kind=kinds[what], representation=representation, hidden=hidden, head=head, bias=bias, epochs=epochs,
+        steps_per_epoch=steps, minutes=minutes, seed=seed, device=device, lr=lr, dropout=dropout, init=init,
+        **({"noise": tuple(noise)} if noise else {}),
+    )
+    bests = []
+    for (tr, val), o in zip(splits, outs):
+        if not tr:
+            raise MocapError("train: every clip is held out; nothing left to train on")
+        try:
+            model = training.train(tr, o, cfg, validation=val or None, resume=resume, executor=executor)
+        except (SkeletonError, ValueError) as exc:
+            raise MocapError(f"train: {exc}") from None
+        h = model.meta["history"]
+        bests.append(min(x["val_rmse"] for x in h))
+        what_rms = "validation" if val else "training"
+        console.print(f"wrote {o / 'model.pt'}: {len(tr)} clips, {len(h)} epochs, best {what_rms} RMS {bests[-1]:.3f}")
+    if folds > 1:
+        console.print(f"{folds} holdouts: validation RMS {np.mean(bests):.3f} +- {np.std(bests):.3f}")
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -1,0 +1,244 @@
+"""What the deep cleaners see: a Motion as per-frame joint-angle channels plus the root's angular velocity.
+
+Mall et al. 2017 (section 3) feed the networks "the vector of 126 joint
+angles x(t) ... plus the 3 global angular velocities of the root node", the
+latter "assumed to be clean and used only for disambiguation" (angular
+velocities rather than angles, so a heading change does not matter). This
+module turns a :class:`~mocapkit.motion.Motion` into those arrays and back:
+
+- ``representation="euler"`` (the paper's setting and the shipped models'):
+  the file's rotation channels of every non-root joint in degrees, as
+  :meth:`Motion.channel_values` gives them (for ASF skeletons the AMC degrees
+  of freedom), unwrapped along time so a +-180 wrap never looks like a jump;
+- ``representation="rot6d"``: the continuous 6-D representation (the first two
+  columns of each joint's local rotation matrix in its channel frame), which
+  has no wrap-around or gimbal branches; decoded by Gram-Schmidt and projected
+  back onto the joint's degrees of freedom.
+
+Root channels are never part of the model's channels: the root trajectory and
+rotation pass through unchanged, as in the paper ("we assume that the
+trajectory of the root of the skeleton is clean").
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass
+
+import numpy as np
+from numba import njit
+
+from ... import rotations as R
+from ...errors import SkeletonError
+from ...motion import Motion
+
+__all__ = ["ChannelLayout", "layout_for", "root_angular_velocity", "encode", "decode", "unwrap_degrees", "wrap_degrees"]
+
+REPRESENTATIONS = ("euler", "rot6d")
+
+
+@dataclass(frozen=True)
+class ChannelLayout:
+    """Which channels a model reads and writes.
+
+    ``names``: the model's channel names (``"joint.Xrotation"`` for Euler,
+    ``"joint.r6_k"`` for 6-D); ``joints``: joint names with rotation channels
+    (root excluded), in file order; ``representation``: "euler" or "rot6d".
+    """
+
+    names: tuple[str, ...]
+    joints: tuple[str, ...]
+    representation: str = "euler"
+
+    @property
+    def num_channels(self) -> int:
+        return len(self.names)
+
+    def check(self, motion: Motion, what: str | None = None) -> None:
+        """Raise :class:`SkeletonError` (one line, prefixed ``what: ``) when ``motion`` lacks the model's channels."""
+        have = layout_for(motion, self.representation)
+        if have.names != self.names:
+            missing = [n for n in self.names if n not in set(have.names)]
+            extra = [n for n in have.names if n not in set(self.names)]
+            detail = f"missing {missing[:4]}" if missing else f"unexpected {extra[:4]}"
+            raise SkeletonError(
+                f"{what + ': ' if what else ''}the model was trained on a skeleton with {self.num_channels} {self.representation} "
+                f"channels and this one has {have.num_channels} ({detail}); train a model on this rig "
+                f"with `mocapkit train`"
+            )
+
+
+def layout_for(motion_or_skeleton, representation: str = "euler") -> ChannelLayout:
+    """The :class:`ChannelLayout` of a Motion's (or Skeleton's) non-root rotation channels."""
+    if representation not in REPRESENTATIONS:
+        raise ValueError(f"representation must be one of {REPRESENTATIONS}, got {representation!r}")
+    sk = getattr(motion_or_skeleton, "skeleton", motion_or_skeleton)
+    names, joints = [], []
+    for j in range(1, sk.num_joints):
+        rot = [c for c in sk.joint_channels(j) if c.endswith("rotation")]
+        if not rot:
+            continue
+        joints.append(sk.joint_names[j])
+        if representation == "euler":
+            names += [f"{sk.joint_names[j]}.{c}" for c in rot]
+        else:
+            names += [f"{sk.joint_names[j]}.r6_{k}" for k in range(6)]
+    return ChannelLayout(tuple(names), tuple(joints), representation)
+
+
+def _euler_columns(motion_or_skeleton) -> np.ndarray:
+    """Columns of the file channels that are non-root rotations (the Euler model channels)."""
+    sk = getattr(motion_or_skeleton, "skeleton", motion_or_skeleton)
+    cols, c = [], 0
+    for j in range(sk.num_joints):
+        for ch in sk.joint_channels(j):
+            if j > 0 and ch.endswith("rotation"):
+                cols.append(c)
+            c += 1
+    return np.array(cols, dtype=np.int64)
+
+
+UNWRAP_ALPHA = 0.25  # reference follows the signal with a time constant of ~4 frames
+
+
+@njit(cache=True)
+def _unwrap_kernel(x, alpha):
+    F, C = x.shape
+    out = np.empty_like(x)
+    for c in range(C):
+        r = np.nan
+        for t in range(F):
+            v = x[t, c]
+            if np.isnan(v):
+                out[t, c] = np.nan
+                continue
+            if np.isnan(r):
+                r = v
+            u = r + ((v - r + 180.0) % 360.0 - 180.0)
+            out[t, c] = u
+            r = r + alpha * (u - r)
+    return out
+
+
+def unwrap_degrees(values: np.ndarray, alpha: float = UNWRAP_ALPHA) -> np.ndarray:
+    """Unwrap (F, C) angle channels along time against a causal running reference; NaN skipped.
+
+    ``np.unwrap`` compares each sample with the previous one, so on noisy
+    channels (0.9 noise on a channel of 100 deg std) a single noisy step of
+    more than 180 deg adds a spurious turn that then persists. Here each
+    sample is placed within +-180 of an exponential running mean of the
+    unwrapped signal (``r += alpha (u - r)``): noise never accumulates turns,
+    real wraps of a smooth channel are followed, and being causal it runs the
+    same way in a stream (:class:`~mocapkit.cleaning.deep.Denoiser`).
+    """
+    x = np.ascontiguousarray(values, dtype=np.float64)
+    if x.ndim != 2:
+        raise ValueError(f"expected (F, C) channels, got shape {x.shape}")
+    return _unwrap_kernel(x, float(alpha))
+
+
+def wrap_degrees(d):
+    """Angle differences wrapped to [-180, 180] (numpy arrays or torch tensors; the turn count has no gradient)."""
+    if isinstance(d, np.ndarray) or np.isscalar(d):
+        return d - 360.0 * np.round(np.asarray(d) / 360.0)
+    return d - 360.0 * (d / 360.0).round().detach()
+
+
+def _local_dof_rotations(motion: Motion, joint_ids: np.ndarray) -> np.ndarray:
+    """(F, n, 4) local rotations of ``joint_ids`` in their channel frame (ASF ``axis`` removed)."""
+    q = motion.rotations[:, joint_ids]
+    axes = motion.skeleton.axes
+    if axes is not None:
+        c = axes[joint_ids][None]
+        q = R.quaternion_multiply(R.quaternion_multiply(R.quaternion_conjugate(c), q), c)
+    return q
+
+
+def root_angular_velocity(root_rotations: np.ndarray, fps: float) -> np.ndarray:
+    """(F, 3) angular velocity of the root in its own frame, rad/s (Mall's 3 context channels).
+
+    omega_t = rotvec(q_{t-1}^-1 q_t) * fps, a backward difference so a
+    streaming run needs no extra frame; omega_0 = 0. Body-frame, so a heading
+    change leaves it unchanged. Missing root rotations give 0 (the context is
+    only for disambiguation). ``root_rotations``: (F, 4) quaternions.
+    """
+    q = np.asarray(root_rotations, dtype=np.float64)
+    w = np.zeros((len(q), 3))
+    if len(q) > 1:
+        rel = R.quaternion_multiply(R.quaternion_conjugate(q[:-1]), q[1:])
+        w[1:] = R.quaternion_to_rotvec(rel) * fps
+    return np.nan_to_num(w)
+
+
+def encode(motion: Motion, layout: ChannelLayout) -> tuple[np.ndarray, np.ndarray]:
+    """(values (F, C), context (F, 3)) for the model: channels in the layout's representation and root omega.
+
+    Euler values are degrees unwrapped along time; 6-D values are matrix
+    entries in [-1, 1]. Missing joints (NaN rotations) give NaN channels.
+    """
+    layout.check(motion)
+    ctx = root_angular_velocity(motion.rotations[:, 0], motion.fps)
+    if layout.representation == "euler":
+        vals = motion.channel_values()[:, _euler_columns(motion)]
+        return unwrap_degrees(vals), ctx
+    ids = np.array([motion.skeleton.index(n) for n in layout.joints], dtype=np.int64)
+    m = R.quaternion_to_matrix(_local_dof_rotations(motion, ids))  # (F, n, 3, 3)
+    vals = np.concatenate([m[..., :, 0], m[..., :, 1]], axis=-1)  # (F, n, 6)
+    return vals.reshape(len(vals), -1), ctx
+
+
+def _gram_schmidt(v: np.ndarray) -> np.ndarray:
+    """(..., 6) -> (..., 3, 3) rotation matrices (Zhou et al.'s 6-D decoding)."""
+    a, b = v[..., :3], v[..., 3:]
+    x = a / np.maximum(np.linalg.norm(a, axis=-1, keepdims=True), 1e-12)
+    b = b - np.sum(x * b, axis=-1, keepdims=True) * x
+    y = b / np.maximum(np.linalg.norm(b, axis=-1, keepdims=True), 1e-12)
+    z = np.cross(x, y)
+    return np.stack([x, y, z], axis=-1)
+
+
+def decode(values: np.ndarray, like: Motion, layout: ChannelLayout, keep: np.ndarray | None = None) -> Motion:
+    """A Motion like ``like`` whose non-root rotations come from ``values`` (F, C).
+
+    The root's rotation and trajectory, the skeleton, fps and name are
+    ``like``'s, bit-identical. Where ``keep`` (F, J) is True the joint's
+    rotation is also copied from ``like`` bit-identically (e.g. observed cells
+    when only gaps were filled). Quaternion signs follow ``like`` where it is
+    finite so no sign jumps appear.
+    """
+    F = like.num_frames
+    values = np.asarray(values, dtype=np.float64)
+    if values.shape != (F, layout.num_channels):
+        raise ValueError(f"values: expected shape ({F}, {layout.num_channels}), got {values.shape}")
+    sk = like.skeleton
+    if layout.representation == "euler":
+        full = like.channel_values()
+        cols = _euler_columns(like)
+        full[:, cols] = (values + 180.0) % 360.0 - 180.0
+        # Root channels may be NaN where the root is missing; from_channel_values needs numbers there.
+        new = Motion.from_channel_values(
+            sk, np.nan_to_num(full), like.fps, like.name, animated_offsets=like.translations is not None
+        )
+        rot = np.array(new.rotations)
+    else:
+        from ...corrupt import _project_to_dofs
+
+        ids = np.array([sk.index(n) for n in layout.joints], dtype=np.int64)
+        q = R.matrix_to_quaternion(_gram_schmidt(values.reshape(F, len(ids), 6)))
+        axes = sk.axes
+        if axes is not None:
+            c = axes[ids][None]
+            q = R.quaternion_multiply(R.quaternion_multiply(c, q), R.quaternion_conjugate(c))
+        rot = np.array(like.rotations)
+        for k, j in enumerate(ids):
+            rot[:, j] = _project_to_dofs(sk, int(j), q[:, k])
+    ref = like.rotations
+    finite = np.all(np.isfinite(ref), axis=-1, keepdims=True)
+    flip = finite & (np.sum(rot * np.nan_to_num(ref), axis=-1, keepdims=True) < 0.0)
+    rot = np.where(flip, -rot, rot)
+    in_layout = np.zeros(sk.num_joints, dtype=bool)
+    in_layout[[sk.index(n) for n in layout.joints]] = True
+    rot[:, ~in_layout] = ref[:, ~in_layout]  # the root and joints without rotation channels
+    if keep is not None:
+        rot = np.where(np.asarray(keep, dtype=bool)[..., None], ref, rot)
+    return dataclasses.replace(like, rotations=rot)

@@ -1,0 +1,474 @@
+"""Using the trained networks: load/save model files, offline denoising and gap filling, streaming denoising.
+
+A model file is untrusted input: it is read with ``torch.load(...,
+weights_only=True)`` (tensors, numbers and strings only, no pickled code) and
+every field is checked before use; anything else raises
+:class:`~mocapkit.errors.MocapFormatError` naming the file.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+from collections import deque
+from dataclasses import dataclass, field
+from functools import lru_cache
+from importlib import resources
+from pathlib import Path
+
+import numpy as np
+import torch
+
+from ... import rotations as R
+from ...errors import MocapFormatError
+from ...io import atomic_write
+from ...motion import Motion, Skeleton
+from .channels import UNWRAP_ALPHA, ChannelLayout, _euler_columns, decode, encode, layout_for, root_angular_velocity
+from .networks import EBD, EBF, HALF_WINDOW, gaussian_filter_frames, window_indices
+
+__all__ = [
+    "DeepModel",
+    "save_model",
+    "load_model",
+    "shipped_model",
+    "denoise",
+    "fill_gaps",
+    "denoise_channels",
+    "fill_channels",
+    "lerp_fill",
+    "Denoiser",
+    "denoise_rows",
+]
+
+FORMAT = "mocapkit.deep/1"
+SHIPPED = {"ebf": "ebf.pt", "ebd": "ebd.pt"}
+
+
+@dataclass(frozen=True)
+class DeepModel:
+    """A trained EBF or EBD with the channel layout and frame rate it was trained for."""
+
+    kind: str  # "ebf" or "ebd"
+    net: torch.nn.Module
+    layout: ChannelLayout
+    fps: float
+    meta: dict = field(default_factory=dict)
+
+    def __post_init__(self):
+        self.net.eval()
+
+
+def save_model(model: DeepModel, path) -> Path:
+    """Write ``model`` to ``path`` (temp file + rename): weights, config, layout, fps and metadata."""
+    path = Path(path)
+    payload = {
+        "format": FORMAT,
+        "kind": model.kind,
+        "config": json.dumps(model.net.config),
+        "layout": json.dumps(
+            {"names": list(model.layout.names), "joints": list(model.layout.joints),
+             "representation": model.layout.representation}
+        ),
+        "fps": float(model.fps),
+        "meta": json.dumps(model.meta),
+        "state": {k: v.detach().cpu().clone() for k, v in model.net.state_dict().items()},
+    }
+    with atomic_write(path, "wb") as fh:
+        torch.save(payload, fh)
+    return path
+
+
+def load_model(path) -> DeepModel:
+    """Read a model file written by :func:`save_model` (weights only; a bad file raises MocapFormatError)."""
+    path = Path(path)
+    try:
+        payload = torch.load(path, map_location="cpu", weights_only=True)
+    except FileNotFoundError:
+        raise MocapFormatError(path, "no such model file") from None
+    except Exception as exc:  # noqa: BLE001 - any unpickling failure is a format error
+        raise MocapFormatError(path, f"not a mocapkit model file ({type(exc).__name__})") from None
+    try:
+        if not isinstance(payload, dict) or payload.get("format") != FORMAT:
+            raise ValueError(f"format is not {FORMAT}")
+        kind = payload["kind"]
+        config = json.loads(payload["config"])
+        lay = json.loads(payload["layout"])
+        layout = ChannelLayout(tuple(lay["names"]), tuple(lay["joints"]), lay["representation"])
+        cls = {"ebf": EBF, "ebd": EBD}[kind]
+        if "lookahead" in config:
+            config["lookahead"] = tuple(config["lookahead"])
+        net = cls(**config)
+        net.load_state_dict(payload["state"], strict=True)
+        fps = float(payload["fps"])
+        meta = json.loads(payload.get("meta", "{}"))
+        if config["channels"] != layout.num_channels or not fps > 0:
+            raise ValueError("layout and network disagree")
+    except MocapFormatError:
+        raise
+    except Exception as exc:  # noqa: BLE001
+        raise MocapFormatError(path, f"malformed mocapkit model ({exc})") from None
+    return DeepModel(kind, net, layout, fps, meta)
+
+
+@lru_cache(maxsize=4)
+def shipped_model(kind: str = "ebf") -> DeepModel:
+    """The pretrained EBF or EBD inside the package (see docs/models.md)."""
+    if kind not in SHIPPED:
+        raise ValueError(f"kind must be one of {tuple(SHIPPED)}, got {kind!r}")
+    ref = resources.files("mocapkit") / "models" / SHIPPED[kind]
+    with resources.as_file(ref) as p:
+        return load_model(p)
+
+
+def _model(model, kind: str) -> DeepModel:
+    if model is None:
+        return shipped_model(kind)
+    if isinstance(model, (str, Path)):
+        model = load_model(model)
+    if not isinstance(model, DeepModel) or model.kind != kind:
+        raise ValueError(f"expected an {kind.upper()} model, got {getattr(model, 'kind', type(model).__name__)}")
+    return model
+
+
+# -- array level ---------------------------------------------------------------------
+
+
+def lerp_fill(values: np.ndarray) -> np.ndarray:
+    """Fill NaN runs of (F, C) channels by linear interpolation; ends hold the nearest value; all-NaN -> 0."""
+    x = np.array(values, dtype=np.float64)
+    miss = np.isnan(x)
+    if not miss.any():
+        return x
+    t = np.arange(len(x))
+    for c in np.flatnonzero(miss.any(axis=0)):
+        ok = ~miss[:, c]
+        x[:, c] = np.interp(t, t[ok], x[ok, c]) if ok.any() else 0.0
+    return x
+
+
+def _pad(x: np.ndarray, ctx: np.ndarray, half: int = HALF_WINDOW):
+    xp = np.concatenate([np.repeat(x[:1], half, 0), x, np.repeat(x[-1:], half, 0)], axis=0)
+    cp = np.concatenate([np.zeros((half, ctx.shape[1])), ctx, np.zeros((half, ctx.shape[1]))], axis=0)
+    return xp, cp
+
+
+@torch.inference_mode()
+def _run_ebf(net: EBF, xp: np.ndarray, cp: np.ndarray, chunk: int = 4096) -> np.ndarray:
+    """Offline EBF on padded (F + 30, C) channels: the trunk in one pass, head and filter in chunks.
+
+    The Gaussian head's filter runs in numba (:func:`gaussian_filter_frames`,
+    on float32 inputs as the network sees them) instead of building the
+    (F, C, 31) taps; the free-tap head uses the torch filter.
+    """
+    x = torch.as_tensor(xp, dtype=torch.float32)[None]
+    c = torch.as_tensor(cp, dtype=torch.float32)[None]
+    y2 = net._trunk(x, c)[:, HALF_WINDOW:]  # (1, F, 2H)
+    F = y2.shape[1]
+    x32 = x[0].numpy()
+    out = np.empty((F, net.channels))
+    for s in range(0, F, chunk):
+        p, b = net.filter_parameters(y2[:, s : s + chunk])
+        n = p.shape[1]
+        if net.head_kind == "gaussian":
+            y = gaussian_filter_frames(x32[s : s + n + 2 * HALF_WINDOW], p[0].numpy())
+        else:
+            win = x[:, s : s + n + 2 * HALF_WINDOW].unfold(1, 2 * HALF_WINDOW + 1, 1)
+            y = torch.sum(win * torch.softmax(p, dim=-1), dim=-1)[0].double().numpy()
+        if b is not None:
+            y = y - b[0].double().numpy()
+        out[s : s + n] = y
+    return out
+
+
+def _to_rate(values: np.ndarray, fps_from: float, fps_to: float, n_to: int | None = None) -> np.ndarray:
+    """Linear resampling of (F, C) along time from ``fps_from`` to ``fps_to`` (same start time)."""
+    F = len(values)
+    t_from = np.arange(F) / fps_from
+    if n_to is None:
+        n_to = int(np.floor((F - 1) * fps_to / fps_from + 1e-9)) + 1
+    t_to = np.minimum(np.arange(n_to) / fps_to, t_from[-1])
+    return np.stack([np.interp(t_to, t_from, values[:, c]) for c in range(values.shape[1])], axis=1)
+
+
+def denoise_channels(values: np.ndarray, context: np.ndarray, model=None, fps: float | None = None) -> np.ndarray:
+    """EBF on raw channels (F, C) (degrees, unwrapped) with root context (F, 3) rad/s -> (F, C).
+
+    ``fps``: the data's rate; when it differs from the model's the channels
+    are resampled to the model's rate and back. NaN entries are lerp-filled
+    for the network and NaN again in the result.
+    """
+    m = _model(model, "ebf")
+    x = np.asarray(values, dtype=np.float64)
+    if x.ndim != 2 or x.shape[1] != m.layout.num_channels:
+        raise ValueError(f"values: expected (F, {m.layout.num_channels}) channels, got {x.shape}")
+    if len(x) == 0:
+        return x.copy()
+    miss = np.isnan(x)
+    xf = lerp_fill(x)
+    ctx = np.nan_to_num(np.asarray(context, dtype=np.float64))
+    resample = fps is not None and abs(fps - m.fps) > 1e-6 * m.fps
+    if resample:
+        xf_m, ctx_m = _to_rate(xf, fps, m.fps), _to_rate(ctx, fps, m.fps)
+    else:
+        xf_m, ctx_m = xf, ctx
+    out = _run_ebf(m.net, *_pad(xf_m, ctx_m))
+    if resample:
+        out = _to_rate(out, m.fps, fps, n_to=len(x))
+    out[miss] = np.nan
+    return out
+
+
+@torch.inference_mode()
+def _run_ebd(net: EBD, filled: np.ndarray, mask: np.ndarray, ctx: np.ndarray, frames: np.ndarray, batch: int = 8192):
+    x = torch.as_tensor(filled, dtype=torch.float32)
+    mk = torch.as_tensor(mask, dtype=torch.float32)
+    c = torch.as_tensor(ctx, dtype=torch.float32)
+    out = np.empty((len(frames), net.channels))
+    for s in range(0, len(frames), batch):
+        idx = window_indices(torch.as_tensor(frames[s : s + batch]), len(x), net.half, net.stride)
+        out[s : s + len(idx)] = net(x[idx], mk[idx], c[idx]).double().numpy()
+    return out
+
+
+def fill_channels(
+    values: np.ndarray, context: np.ndarray, model=None, denoiser=None, fps: float | None = None, smooth: bool = True
+) -> np.ndarray:
+    """Fill the NaN entries of raw channels (F, C): lerp, then the EBD, then (``smooth``) the EBF on them.
+
+    Mall's gap pipeline: gaps are first linearly interpolated, the EBD replaces
+    only the gap entries, and the completed signal goes through the EBF; here
+    the EBF's output is kept on the gap entries only, so observed values are
+    returned bit-identical. ``model``/``denoiser``: EBD/EBF (None = shipped).
+    """
+    m = _model(model, "ebd")
+    x = np.asarray(values, dtype=np.float64)
+    if x.ndim != 2 or x.shape[1] != m.layout.num_channels:
+        raise ValueError(f"values: expected (F, {m.layout.num_channels}) channels, got {x.shape}")
+    miss = np.isnan(x)
+    if not miss.any() or len(x) == 0:
+        return x.copy()
+    if miss.all(axis=0).any():
+        bad = int(np.flatnonzero(miss.all(axis=0))[0])
+        raise ValueError(f"channel {m.layout.names[bad]} has no observed sample; nothing to fill it from")
+    ctx = np.nan_to_num(np.asarray(context, dtype=np.float64))
+    filled = lerp_fill(x)
+    resample = fps is not None and abs(fps - m.fps) > 1e-6 * m.fps
+    if resample:
+        f_m, c_m = _to_rate(filled, fps, m.fps), _to_rate(ctx, fps, m.fps)
+        k_m = _to_rate(miss.astype(np.float64), fps, m.fps) > 0.0
+    else:
+        f_m, c_m, k_m = filled, ctx, miss
+    frames = np.flatnonzero(k_m.any(axis=1))
+    pred = _run_ebd(m.net, f_m, k_m, c_m, frames)
+    f_m = f_m.copy()
+    sub = f_m[frames]
+    sub[k_m[frames]] = pred[k_m[frames]]
+    f_m[frames] = sub
+    if smooth:
+        f_m = np.where(k_m, denoise_channels(f_m, c_m, denoiser), f_m)
+    out = _to_rate(f_m, m.fps, fps, n_to=len(x)) if resample else f_m
+    return np.where(miss, out, x)
+
+
+# -- Motion level ----------------------------------------------------------------------
+
+
+def denoise(motion: Motion, model=None) -> Motion:
+    """Denoise every non-root joint of ``motion`` with the EBF (Mall 3); root trajectory and rotation kept.
+
+    ``model``: a :class:`DeepModel`, a model file, or None for the shipped
+    EBF. Frames and skeleton are the input's; missing joints stay missing.
+
+    >>> import mocapkit
+    >>> from mocapkit import corrupt, metrics
+    >>> from mocapkit.cleaning.deep import denoise
+    >>> clean = mocapkit.load(mocapkit.samples.path("12_walk.amc"))
+    >>> noisy, _ = corrupt.angular_noise(clean, amount=0.5, seed=1)
+    >>> out = denoise(noisy)
+    >>> bool(metrics.joint_angle_rms(clean, out, include_root=False) < 0.6 * metrics.joint_angle_rms(clean, noisy, include_root=False))
+    True
+    """
+    m = _model(model, "ebf")
+    values, ctx = encode(motion, m.layout)
+    out = denoise_channels(values, ctx, m, fps=motion.fps)
+    missing = motion.missing()
+    res = decode(np.nan_to_num(out), motion, m.layout, keep=missing)
+    return res
+
+
+def fill_gaps(motion: Motion, model=None, denoiser=None, smooth: bool = True) -> Motion:
+    """Fill missing joints (NaN rotations) with the EBD (+ EBF on the filled entries); observed cells unchanged.
+
+    Returns a Motion with the input's skeleton, frames and root trajectory;
+    every observed (frame, joint) rotation is bit-identical to the input's.
+    A missing root rotation or position is not the networks' to fill: it is
+    interpolated linearly (rotations by lerp of channels as well).
+    """
+    m = _model(model, "ebd")
+    values, ctx = encode(motion, m.layout)
+    missing = motion.missing()
+    if not missing.any():
+        return motion
+    out = fill_channels(values, ctx, m, denoiser, fps=motion.fps, smooth=smooth)
+    res = decode(out, motion, m.layout, keep=~missing)
+    rot = np.array(res.rotations)
+    for j in np.flatnonzero(missing[:, 1:].any(axis=0)) + 1:  # joints without channels hold one rotation
+        if np.isnan(rot[:, j]).any():
+            seen = np.flatnonzero(~missing[:, j])
+            rot[missing[:, j], j] = motion.rotations[seen[0], j] if len(seen) else R.identity()
+    res = dataclasses.replace(res, rotations=rot)
+    if missing[:, 0].any():
+        root_pos = lerp_fill(motion.root_positions)
+        rot = np.array(res.rotations)
+        q0 = R.quaternion_continuity(lerp_fill(R.quaternion_continuity(np.nan_to_num(motion.rotations[:, 0]))))
+        rot[:, 0] = np.where(missing[:, :1], R.quaternion_normalize(q0), motion.rotations[:, 0])
+        res = dataclasses.replace(res, rotations=rot, root_positions=root_pos)
+    return res
+
+
+# -- streaming -------------------------------------------------------------------------
+
+
+class Denoiser:
+    """Streaming EBF: ``push(row)`` a frame of file channels, get a cleaned frame 15 frames later.
+
+    A row is one line of a BVH MOTION block / AMC frame: all of the skeleton's
+    channels in file order (:meth:`Motion.channel_values`). The first push
+    emits nothing until 15 more frames have arrived; then each push returns the
+    cleaned row of the frame 15 earlier. :meth:`flush` returns the last 15.
+    The output equals :func:`denoise_rows` on the whole take frame for frame
+    (to float32 rounding). Root channels pass through unchanged.
+    """
+
+    def __init__(self, skeleton: Skeleton, fps: float, model=None):
+        m = _model(model, "ebf")
+        if m.layout.representation != "euler":
+            raise ValueError("streaming needs an Euler-channel model")
+        m.layout.check(skeleton, "skeleton")
+        if abs(fps - m.fps) > 1e-6 * m.fps:
+            raise ValueError(f"streaming runs at the model's rate ({m.fps:g} fps), got {fps:g} fps")
+        self.model = m
+        self.net: EBF = m.net
+        self.skeleton = skeleton
+        self.fps = float(fps)
+        self._cols = _euler_columns(skeleton)
+        self._root = _root_rotation_columns(skeleton)
+        self._n_file = sum(len(skeleton.joint_channels(j)) for j in range(skeleton.num_joints))
+        L1, L2 = self.net.lstm1.lookahead, self.net.lstm2.lookahead
+        self._L = (L1, L2)
+        self._codes: deque = deque(maxlen=L1 + 1)
+        self._y1: deque = deque(maxlen=L2 + 1)
+        self._x: deque = deque(maxlen=2 * HALF_WINDOW + 1)
+        self._rows: deque = deque(maxlen=HALF_WINDOW + 1)
+        self._s1 = self._s2 = None
+        self._p = 0  # padded positions processed
+        self._prev_q = None
+        self._ref = None
+        self._last_row = None
+        self._started = False
+
+    def _inputs(self, row: np.ndarray):
+        raw = row[self._cols]
+        if self._ref is None:
+            self._ref = raw.copy()
+        u = self._ref + (np.mod(raw - self._ref + 180.0, 360.0) - 180.0)  # as channels.unwrap_degrees
+        self._ref = self._ref + UNWRAP_ALPHA * (u - self._ref)
+        q = _root_quaternion(self.skeleton, row[None], self._root)[0]
+        w = np.zeros(3) if self._prev_q is None else root_angular_velocity(np.stack([self._prev_q, q]), self.fps)[1]
+        self._prev_q = q
+        return u, w
+
+    @torch.inference_mode()
+    def _step(self, x: np.ndarray, w: np.ndarray, row: np.ndarray):
+        net = self.net
+        L1, L2 = self._L
+        xt = torch.as_tensor(x, dtype=torch.float32)[None, None]
+        self._x.append(xt)
+        self._rows.append(row)
+        self._codes.append(net.encode(xt, torch.as_tensor(w, dtype=torch.float32)[None, None]))
+        p = self._p
+        self._p += 1
+        if p - L1 < 0:
+            return None
+        e = torch.cat(list(self._codes), dim=1)  # positions tau .. p
+        f1, self._s1 = net.lstm1.fwd(e[:, :1], self._s1)
+        b1, _ = net.lstm1.bwd(e.flip(1))
+        self._y1.append(torch.cat([f1, b1[:, -1:]], dim=-1))
+        if p - L1 - L2 < 0:
+            return None
+        y = torch.cat(list(self._y1), dim=1)
+        f2, self._s2 = net.lstm2.fwd(y[:, :1], self._s2)
+        b2, _ = net.lstm2.bwd(y.flip(1))
+        t = p - HALF_WINDOW
+        if t < HALF_WINDOW:
+            return None
+        p, b = net.filter_parameters(torch.cat([f2, b2[:, -1:]], dim=-1))
+        win = torch.cat(list(self._x), dim=1)  # positions t-15 .. t+15, (1, 31, C)
+        if net.head_kind == "gaussian":
+            out = gaussian_filter_frames(win[0].numpy(), p[0].numpy())[0]
+        else:
+            out = torch.sum(win.permute(0, 2, 1)[:, None] * torch.softmax(p, dim=-1), dim=-1)[0, 0].double().numpy()
+        if b is not None:
+            out = out - b[0, 0].double().numpy()
+        res = np.array(self._rows[0], dtype=np.float64)
+        res[self._cols] = (out + 180.0) % 360.0 - 180.0
+        return res
+
+    def push(self, row) -> np.ndarray | None:
+        """Add one frame of file channels (C_file,); returns the cleaned row 15 frames back, or None."""
+        row = np.asarray(row, dtype=np.float64)
+        if row.shape != (self._n_file,):
+            raise ValueError(f"a row has {self._n_file} channels (the skeleton's, in file order), got shape {row.shape}")
+        if not np.all(np.isfinite(row)):
+            raise ValueError("streaming input rows must be finite (fill gaps first)")
+        x, w = self._inputs(row)
+        if not self._started:
+            self._started = True
+            for _ in range(HALF_WINDOW):  # edge padding, as offline
+                self._step(x, np.zeros(3), row)
+        self._last = (x, row)
+        return self._step(x, w, row)
+
+    def flush(self) -> list[np.ndarray]:
+        """Emit the frames still waiting for look-ahead (end of take: the last frame is held)."""
+        if not self._started:
+            return []
+        x, row = self._last
+        out = []
+        for _ in range(HALF_WINDOW):
+            r = self._step(x, np.zeros(3), row)
+            if r is not None:
+                out.append(r)
+        return out
+
+
+def _root_rotation_columns(skeleton: Skeleton) -> np.ndarray:
+    chans = skeleton.joint_channels(0)
+    return np.array([k for k, c in enumerate(chans) if c.endswith("rotation")], dtype=np.int64)
+
+
+def _root_quaternion(skeleton: Skeleton, rows: np.ndarray, root_cols: np.ndarray) -> np.ndarray:
+    order = skeleton.rotation_order(0)
+    if not order:
+        return R.identity((len(rows),))
+    q = R.euler_to_quaternion(rows[:, root_cols], order)
+    if skeleton.axes is not None:
+        c = skeleton.axes[0]
+        q = R.quaternion_multiply(R.quaternion_multiply(c, q), R.quaternion_conjugate(c))
+    return q
+
+
+def denoise_rows(skeleton: Skeleton, rows: np.ndarray, fps: float, model=None) -> np.ndarray:
+    """Offline EBF on file-channel rows (F, C_file), the batch counterpart of :class:`Denoiser`."""
+    m = _model(model, "ebf")
+    m.layout.check(skeleton, "skeleton")
+    rows = np.asarray(rows, dtype=np.float64)
+    cols = _euler_columns(skeleton)
+    from .channels import unwrap_degrees
+
+    x = unwrap_degrees(rows[:, cols])
+    q = _root_quaternion(skeleton, rows, _root_rotation_columns(skeleton))
+    out = denoise_channels(x, root_angular_velocity(q, fps), m, fps=fps)
+    res = rows.copy()
+    res[:, cols] = (out + 180.0) % 360.0 - 180.0
+    return res

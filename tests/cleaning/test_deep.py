@@ -1,0 +1,309 @@
+"""Deep cleaning (Mall et al. 2017): filter layer maths, model files, streaming = offline, gap filling, training."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import torch
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+import mocapkit
+from mocapkit import corrupt, metrics
+from mocapkit.cleaning import deep
+from mocapkit.cleaning.deep import channels as ch
+from mocapkit.cleaning.deep import networks as nw
+from mocapkit.cleaning.deep import training
+from mocapkit.errors import MocapFormatError, SkeletonError
+
+
+@pytest.fixture(scope="module")
+def walk():
+    return mocapkit.load(mocapkit.samples.path("12_walk.amc"))
+
+
+@pytest.fixture(scope="module")
+def tiny_ebf(walk):
+    torch.manual_seed(0)
+    lay = deep.layout_for(walk)
+    net = deep.EBF(lay.num_channels, hidden=16, width=32)
+    return deep.DeepModel("ebf", net, lay, walk.fps)
+
+
+@pytest.fixture(scope="module")
+def tiny_ebd(walk):
+    torch.manual_seed(1)
+    lay = deep.layout_for(walk)
+    net = deep.EBD(lay.num_channels, hidden=8, width=32)
+    x, _ = ch.encode(walk, lay)
+    net.set_statistics(x.mean(0), np.maximum(x.std(0), 1.0), np.ones(3))
+    return deep.DeepModel("ebd", net, lay, walk.fps)
+
+
+# -- the filter layer ------------------------------------------------------------------
+
+
+@settings(max_examples=50, deadline=None)
+@given(st.lists(st.floats(1e-3, 50.0), min_size=1, max_size=8))
+def test_gaussian_taps_are_normalised(sigmas):
+    w = nw.gaussian_weights(torch.tensor(sigmas, dtype=torch.float64))
+    assert w.shape == (len(sigmas), 31)
+    assert torch.allclose(w.sum(-1), torch.ones(len(sigmas), dtype=torch.float64), atol=1e-12)
+    assert torch.all(w >= 0)
+    # symmetric about the centre tap, and the centre is the largest
+    assert torch.allclose(w, w.flip(-1), atol=1e-15)
+    assert torch.all(w.argmax(-1) == 15)
+
+
+def test_small_sigma_is_the_identity():
+    x = torch.randn(2, 60, 5, dtype=torch.float64)
+    taps = nw.gaussian_weights(torch.full((2, 30, 5), 1e-3, dtype=torch.float64))
+    y = nw.apply_filter(x, taps)
+    assert torch.equal(y, x[:, 15:45])
+
+
+def test_filter_matches_a_direct_weighted_average():
+    rng = np.random.default_rng(0)
+    x = rng.normal(size=(1, 40, 2))
+    sigma = rng.uniform(0.5, 6, size=(1, 10, 2))
+    y = nw.apply_filter(torch.tensor(x), nw.gaussian_weights(torch.tensor(sigma))).numpy()
+    k = np.arange(-15, 16)
+    for t in range(10):
+        for c in range(2):
+            w = np.exp(-(k**2) / (2 * sigma[0, t, c] ** 2))
+            assert y[0, t, c] == pytest.approx(np.sum(w * x[0, t : t + 31, c]) / w.sum(), abs=1e-12)
+
+
+def test_lookahead_lstm_backward_sees_only_its_window():
+    torch.manual_seed(0)
+    layer = nw.LookaheadLSTM(3, 4, lookahead=5).double()
+    x = torch.randn(1, 30, 3, dtype=torch.float64)
+    y, _ = layer(x)
+    assert y.shape == (1, 25, 8)
+    x2 = x.clone()
+    x2[0, 20:] += 1.0  # frames 20.. change: outputs before 15 must not
+    y2, _ = layer(x2)
+    assert torch.equal(y[0, :15], y2[0, :15])
+    assert not torch.equal(y[0, 15], y2[0, 15])
+
+
+# -- channels --------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("rep", ["euler", "rot6d"])
+def test_encode_decode_round_trip(walk, rep):
+    lay = deep.layout_for(walk, rep)
+    x, ctx = ch.encode(walk, lay)
+    assert x.shape == (walk.num_frames, lay.num_channels) and ctx.shape == (walk.num_frames, 3)
+    back = ch.decode(x, walk, lay)
+    assert np.array_equal(back.root_positions, walk.root_positions)
+    assert np.array_equal(back.rotations[:, 0], walk.rotations[:, 0])
+    assert metrics.pose_error(walk, back).max() < 1e-16
+
+
+def test_root_angular_velocity_ignores_heading(walk):
+    from mocapkit import rotations as R
+
+    q = walk.rotations[:, 0]
+    turn = R.quaternion_from_axis_angle(np.array([0.0, 1.0, 0.0]), np.array(1.3))
+    w1 = ch.root_angular_velocity(q, walk.fps)
+    w2 = ch.root_angular_velocity(R.quaternion_multiply(turn, q), walk.fps)
+    assert np.allclose(w1, w2, atol=1e-9)
+    assert np.all(w1[0] == 0) and np.abs(w1).max() > 0.1
+
+
+def test_unwrap_skips_gaps():
+    x = np.array([[170.0], [np.nan], [-175.0], [-170.0]])
+    assert np.allclose(ch.unwrap_degrees(x)[[0, 2, 3], 0], [170, 185, 190])
+
+
+def test_other_skeleton_is_refused(tiny_ebf):
+    bvh = mocapkit.load(mocapkit.samples.path("131_01.bvh"))
+    with pytest.raises(SkeletonError, match="trained on a skeleton"):
+        deep.denoise(bvh, tiny_ebf)
+
+
+# -- model files -----------------------------------------------------------------------
+
+
+def test_saved_model_loads_and_gives_identical_output(tmp_path, walk, tiny_ebf):
+    p = deep.save_model(tiny_ebf, tmp_path / "m.pt")
+    again = deep.load_model(p)
+    noisy, _ = corrupt.angular_noise(walk, 0.5, seed=0)
+    a, b = deep.denoise(noisy, tiny_ebf), deep.denoise(noisy, again)
+    assert np.array_equal(a.rotations, b.rotations)
+
+
+def test_bad_model_files_are_format_errors(tmp_path):
+    junk = tmp_path / "junk.pt"
+    junk.write_bytes(b"not a model")
+    with pytest.raises(MocapFormatError, match="junk.pt"):
+        deep.load_model(junk)
+    torch.save({"format": "something else"}, tmp_path / "other.pt")
+    with pytest.raises(MocapFormatError, match="malformed"):
+        deep.load_model(tmp_path / "other.pt")
+    with pytest.raises(MocapFormatError, match="no such model"):
+        deep.load_model(tmp_path / "missing.pt")
+
+
+def test_model_file_with_code_is_refused(tmp_path):
+    class Evil:
+        def __reduce__(self):
+            return (print, ("pwned",))
+
+    torch.save({"format": deep.inference.FORMAT, "x": Evil()}, tmp_path / "evil.pt")
+    with pytest.raises(MocapFormatError):
+        deep.load_model(tmp_path / "evil.pt")
+
+
+# -- streaming -------------------------------------------------------------------------
+
+
+def test_streaming_equals_offline(walk, tiny_ebf):
+    noisy, _ = corrupt.angular_noise(walk, 0.5, seed=3)
+    rows = noisy.channel_values()
+    offline = deep.denoise_rows(walk.skeleton, rows, walk.fps, tiny_ebf)
+    stream = deep.Denoiser(walk.skeleton, walk.fps, tiny_ebf)
+    out = []
+    for k, r in enumerate(rows):
+        o = stream.push(r)
+        assert (o is None) == (k < 15)
+        if o is not None:
+            out.append(o)
+    out += stream.flush()
+    out = np.array(out)
+    assert out.shape == rows.shape
+    d = out - offline
+    d = (d + 180.0) % 360.0 - 180.0
+    assert np.abs(d).max() < 1e-3  # float32 rounding only
+    assert np.array_equal(out[:, :6], rows[:, :6])  # root channels pass through
+
+
+def test_streaming_rejects_bad_rows(walk, tiny_ebf):
+    s = deep.Denoiser(walk.skeleton, walk.fps, tiny_ebf)
+    with pytest.raises(ValueError, match="channels"):
+        s.push(np.zeros(5))
+    with pytest.raises(ValueError, match="finite"):
+        s.push(np.full(62, np.nan))
+
+
+# -- gap filling -----------------------------------------------------------------------
+
+
+def test_fill_never_changes_observed_values(walk, tiny_ebd, tiny_ebf):
+    gapped, mask = corrupt.gaps(walk, start_prob=0.02, seed=0)
+    assert mask.any()
+    filled = deep.fill_gaps(gapped, tiny_ebd, tiny_ebf)
+    assert not np.isnan(filled.rotations).any()
+    obs = ~gapped.missing()
+    assert np.array_equal(filled.rotations[obs], walk.rotations[obs])
+    assert np.array_equal(filled.root_positions, walk.root_positions)
+
+
+def test_fill_channels_keeps_observed_entries_bit_identical(walk, tiny_ebd, tiny_ebf):
+    lay = tiny_ebd.layout
+    x, ctx = ch.encode(walk, lay)
+    rng = np.random.default_rng(0)
+    mask = training.gap_mask(x.shape, walk.fps, rng)
+    mask[100:300, 7] = True  # a long single-channel gap
+    out = deep.fill_channels(np.where(mask, np.nan, x), ctx, tiny_ebd, tiny_ebf)
+    assert np.array_equal(out[~mask], x[~mask])
+    assert np.isfinite(out).all()
+
+
+def test_fill_refuses_an_empty_channel(walk, tiny_ebd):
+    x, ctx = ch.encode(walk, tiny_ebd.layout)
+    x[:, 3] = np.nan
+    with pytest.raises(ValueError, match="no observed sample"):
+        deep.fill_channels(x, ctx, tiny_ebd)
+
+
+def test_lerp_fill():
+    x = np.array([[np.nan, 1.0], [0.0, np.nan], [np.nan, np.nan], [3.0, 4.0]])
+    assert np.array_equal(deep.lerp_fill(x), [[0.0, 1.0], [0.0, 2.0], [1.5, 3.0], [3.0, 4.0]])
+
+
+# -- training --------------------------------------------------------------------------
+
+
+def test_gap_mask_statistics():
+    rng = np.random.default_rng(0)
+    m = training.gap_mask((20000, 4), 120.0, rng, start_prob=1 / 120, mean_length_s=0.25)
+    runs = np.diff(np.r_[0, m[:, 0].astype(int), 0])
+    lengths = np.flatnonzero(runs == -1) - np.flatnonzero(runs == 1)
+    assert 22 < lengths.mean() < 38  # geometric with mean 30 frames
+    long = training.gap_mask((2000, 50), 120.0, rng, long=True)
+    per = long.sum(0)
+    assert per.max() <= 600 and np.all((per == 0) | (per >= 60))
+
+
+@pytest.mark.parametrize("kind,variant", [("ebf", {}), ("ebf", {"head": "free", "bias": True}), ("ebd", {})])
+def test_tiny_model_overfits_a_short_clip(tmp_path, walk, kind, variant):
+    clip = walk[:200]
+    cfg = training.TrainConfig(
+        kind=kind, hidden=16, epochs=6, steps_per_epoch=15, batch=8, crop=60, centres=16, lr=3e-3,
+        noise=("angular:0.5",) if kind == "ebf" else ("clean",), variants=1, long_gap_share=0.0, gap_rate=1.0,
+        observed_weight=0.0, **variant,
+    )
+    model = training.train([clip], tmp_path / kind, cfg, executor="serial", progress=False)
+    h = model.meta["history"]
+    assert min(x["train_rmse"] for x in h[-2:]) < 0.85 * h[0]["train_rmse"]
+    assert (tmp_path / kind / "model.pt").is_file() and (tmp_path / kind / "checkpoint.pt").is_file()
+
+
+def test_training_is_deterministic_and_resumable(tmp_path, walk):
+    clip = walk[:160]
+    cfg = training.TrainConfig(kind="ebf", hidden=8, epochs=3, steps_per_epoch=3, batch=4, crop=40,
+                               noise=("angular:0.5",), variants=1)
+    a = training.train([clip], tmp_path / "a", cfg, executor="serial", progress=False)
+    short = training.TrainConfig(**{**cfg.__dict__, "epochs": 2})
+    training.train([clip], tmp_path / "b", short, executor="serial", progress=False)
+    # the same config with more epochs continues from the checkpoint, exactly as an unbroken run
+    b = training.train([clip], tmp_path / "b", cfg, executor="serial", progress=False)
+    ha, hb = a.meta["history"], b.meta["history"]
+    assert len(hb) == 3
+    assert [h["train_rmse"] for h in ha] == [h["train_rmse"] for h in hb]
+    other = training.TrainConfig(**{**cfg.__dict__, "seed": 5})
+    c = training.train([clip], tmp_path / "b", other, executor="serial", progress=False)
+    assert c.meta["history"][0]["train_rmse"] != ha[0]["train_rmse"]  # a changed config restarts
+
+
+def test_lookahead_backward_equals_nn_lstm_on_every_window():
+    """The batched backward pass is the nn.LSTM cell run on each window x[t + L] .. x[t] (the slow oracle)."""
+    torch.manual_seed(3)
+    layer = nw.LookaheadLSTM(5, 6, lookahead=4).double()
+    x = torch.randn(2, 23, 5, dtype=torch.float64)
+    fast = layer.backward_outputs(x, chunk=6)  # several chunks
+    slow = torch.stack(
+        [torch.stack([layer.bwd(x[b : b + 1, t : t + 5].flip(1))[0][0, -1] for t in range(19)]) for b in range(2)]
+    )
+    assert fast.shape == (2, 19, 6)
+    assert torch.allclose(fast, slow, atol=1e-12)
+
+
+def test_holdout_folds_are_disjoint_and_cover_the_clips(walk):
+    import dataclasses
+
+    clips = [dataclasses.replace(walk[k * 20 : k * 20 + 40], name=f"clip{k}") for k in range(11)]
+    folds = training.holdout_folds(clips, 5, 2, seed=1)
+    assert len(folds) == 5
+    vals = [tuple(c.name for c in v) for _, v in folds]
+    assert all(len(v) == 2 for v in vals) and len({n for v in vals for n in v}) == 10
+    for tr, v in folds:
+        assert len(tr) == 9 and not {c.name for c in tr} & {c.name for c in v}
+    with pytest.raises(ValueError, match="need more than"):
+        training.holdout_folds(clips, 5, 3)
+
+
+@settings(max_examples=30, deadline=None)
+@given(st.integers(0, 10_000), st.floats(-6.0, 4.0))
+def test_numba_gaussian_filter_equals_the_torch_layer(seed, shift):
+    """The inference filter (two exponentials per output) is eq. 1 as the training layer computes it."""
+    rng = np.random.default_rng(seed)
+    x = rng.normal(size=(1, 45, 3)) * 30.0
+    log_sigma = np.clip(rng.normal(shift, 1.5, size=(1, 15, 3)), *nw.LOG_SIGMA_RANGE)
+    ref = nw.apply_filter(torch.tensor(x), nw.gaussian_weights(torch.exp(torch.tensor(log_sigma))))[0].numpy()
+    fast = nw.gaussian_filter_frames(x[0], log_sigma[0])
+    np.testing.assert_allclose(fast, ref, rtol=1e-9, atol=1e-9)
+    tiny = nw.gaussian_filter_frames(x[0], np.full((15, 3), nw.LOG_SIGMA_RANGE[0]))
+    assert np.array_equal(tiny, x[0, 15:30])  # sigma -> 0 is exactly the identity

@@ -1,0 +1,86 @@
+"""`mocapkit denoise`, `mocapkit fill` and `mocapkit train` on real clips, and their one-line errors."""
+
+import numpy as np
+
+import mocapkit
+from mocapkit import corrupt, metrics
+from tests.test_cli import one_error_line, run
+
+WALK = mocapkit.samples.path("12_walk.amc")
+
+
+def test_denoise_and_fill_commands(tmp_path):
+    clean = mocapkit.load(WALK)
+    noisy, _ = corrupt.angular_noise(clean, 0.5, seed=4)
+    inp = tmp_path / "noisy.npz"
+    mocapkit.save(noisy, inp)
+    out = tmp_path / "clean.npz"
+    code, stdout, err = run("denoise", str(inp), "-o", str(out), "--reference", str(WALK))
+    assert code == 0, err
+    assert "denoised" in stdout and "joint-angle RMS against 12_walk.amc" in " ".join(stdout.split())
+    den = mocapkit.load(out)
+    assert den.num_frames == clean.num_frames
+    assert np.array_equal(den.root_positions, clean.root_positions)
+    assert metrics.joint_angle_rms(clean, den, include_root=False) < 0.6 * metrics.joint_angle_rms(
+        clean, noisy, include_root=False
+    )
+    gapped, _ = corrupt.gaps(clean, seed=2, start_prob=0.01)
+    gin, gout = tmp_path / "gaps.npz", tmp_path / "filled.npz"
+    mocapkit.save(gapped, gin)
+    code, stdout, err = run("fill", str(gin), "-o", str(gout), "--reference", str(WALK))
+    assert code == 0, err
+    assert "mean rotation error of the filled joints" in " ".join(stdout.split())
+    filled = mocapkit.load(gout)
+    assert not filled.missing().any() and "filled" in stdout
+    obs = ~gapped.missing()
+    assert np.array_equal(filled.rotations[obs], gapped.rotations[obs])
+
+
+def test_deep_commands_fail_in_one_line(tmp_path):
+    bvh = mocapkit.samples.path("131_01.bvh")  # another rig than the shipped models'
+    code, _, err = run("denoise", str(bvh), "-o", str(tmp_path / "x.bvh"))
+    assert code == 2 and one_error_line(err) and "trained on a skeleton" in err and "131_01.bvh" in err
+    assert not (tmp_path / "x.bvh").exists()
+    bad = tmp_path / "model.pt"
+    bad.write_bytes(b"not a model")
+    code, _, err = run("denoise", str(WALK), "-o", str(tmp_path / "y.bvh"), "--model", str(bad))
+    assert code == 2 and one_error_line(err) and "model.pt" in err
+    code, _, err = run("fill", str(WALK), "-o", str(WALK))
+    assert code == 2 and one_error_line(err) and "overwrite" in err
+    short = tmp_path / "short.npz"
+    mocapkit.save(mocapkit.load(WALK)[:100], short)
+    code, _, err = run("denoise", str(WALK), "-o", str(tmp_path / "z.npz"), "--reference", str(short))
+    assert code == 2 and one_error_line(err) and "short.npz" in err and "frame count" in err
+    assert not (tmp_path / "z.npz").exists()
+    code, _, err = run("train", "nonsense", str(WALK), "-o", str(tmp_path / "m"))
+    assert code == 2 and one_error_line(err)
+    code, _, err = run("train", "denoiser", str(WALK), "-o", str(tmp_path / "m"), "--noise", "wobble:1")
+    assert code == 2 and one_error_line(err) and "unknown noise setting 'wobble:1'" in err
+    assert not (tmp_path / "m").exists()
+
+
+def test_train_command_writes_a_loadable_model(tmp_path):
+    from mocapkit.cleaning import deep
+
+    out = tmp_path / "ebf"
+    code, stdout, err = run("train", "denoiser", str(WALK), "-o", str(out), "--epochs", "2", "--steps", "2",
+                            "--hidden", "8", "--executor", "serial")
+    assert code == 0, err
+    model = deep.load_model(out / "model.pt")
+    assert model.kind == "ebf" and len(model.meta["history"]) == 2
+    clean = mocapkit.load(WALK)
+    den = deep.denoise(clean, model)
+    assert den.num_frames == clean.num_frames
+
+
+def test_train_command_cross_validates_on_folds(tmp_path):
+    clips = [str(mocapkit.samples.path(n)) for n in ("12_walk.amc", "HDM_bd_jogLeftCircle4StepsRstart_001_120.amc",
+                                                      "HDM_bk_sneak2StepsLStart_004_120.amc")]
+    out = tmp_path / "cv"
+    code, stdout, err = run("train", "gapfiller", *clips, "-o", str(out), "--folds", "2", "--holdout", "1",
+                            "--epochs", "1", "--steps", "1", "--hidden", "4", "--executor", "serial")
+    assert code == 0, err
+    assert (out / "fold_1" / "model.pt").is_file() and (out / "fold_2" / "model.pt").is_file()
+    assert "2 holdouts: validation RMS" in stdout
+    code, _, err = run("train", "gapfiller", *clips, "-o", str(out), "--folds", "3", "--holdout", "1")
+    assert code == 2 and one_error_line(err) and "need more than" in err
