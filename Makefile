@@ -7,6 +7,7 @@ PY := $(VENV)/bin/python
 PIP := $(PY) -m pip
 OUT := demo_out
 SAMPLE := src/mocapkit/data/131_01.bvh
+WALK := src/mocapkit/data/12_walk.amc
 
 .PHONY: demo test install install-test bench clean
 
@@ -35,6 +36,11 @@ demo: install
 	$(VENV)/bin/mocapkit corrupt $(OUT)/131_01_30fps.bvh $(OUT)/131_01_errors.bvh --kind errors --seed 7
 	$(VENV)/bin/mocapkit plot $(OUT)/131_01_30fps.bvh $(OUT)/131_01_noisy.bvh --joint LeftKnee -o $(OUT)/131_01_LeftKnee.png
 	$(VENV)/bin/mocapkit plot $(OUT)/131_01_30fps.bvh $(OUT)/131_01_errors.bvh --joint LeftElbow -o $(OUT)/131_01_errors_LeftElbow.png
+	$(VENV)/bin/mocapkit corrupt $(WALK) $(OUT)/12_walk_noisy.npz --kind noise --amount 0.5 --seed 7
+	$(VENV)/bin/mocapkit denoise $(OUT)/12_walk_noisy.npz -o $(OUT)/12_walk_denoised.bvh --reference $(WALK)
+	$(VENV)/bin/mocapkit plot $(WALK) $(OUT)/12_walk_noisy.npz $(OUT)/12_walk_denoised.bvh --joint ltibia -o $(OUT)/12_walk_denoised_ltibia.png
+	$(VENV)/bin/mocapkit corrupt $(WALK) $(OUT)/12_walk_gaps.npz --kind gaps --seed 7
+	$(VENV)/bin/mocapkit fill $(OUT)/12_walk_gaps.npz -o $(OUT)/12_walk_filled.bvh --reference $(WALK)
 	@echo "demo outputs written to $(OUT)/"
 
 test: install-test
@@ -50,6 +56,9 @@ bench: install-test
 	$(PY) benchmarks/ssa_detection.py --json
 	$(PY) benchmarks/ssa_dtw.py --json
 	$(PY) benchmarks/ssa_repair.py --json
+	$(PY) benchmarks/deep_denoise.py --json
+	$(PY) benchmarks/deep_gapfill.py --json
+	$(PY) benchmarks/deep_speed.py --json
 
 clean:
 	rm -rf $(OUT) .pytest_cache
