@@ -307,3 +307,18 @@ def test_numba_gaussian_filter_equals_the_torch_layer(seed, shift):
     np.testing.assert_allclose(fast, ref, rtol=1e-9, atol=1e-9)
     tiny = nw.gaussian_filter_frames(x[0], np.full((15, 3), nw.LOG_SIGMA_RANGE[0]))
     assert np.array_equal(tiny, x[0, 15:30])  # sigma -> 0 is exactly the identity
+
+
+def test_streaming_equals_offline_with_free_taps_and_bias(walk):
+    torch.manual_seed(7)
+    lay = deep.layout_for(walk)
+    net = deep.EBF(lay.num_channels, hidden=8, width=16, head="free", bias=True, init="xavier")
+    x, _ = ch.encode(walk, lay)
+    net.set_statistics(x.mean(0), np.maximum(x.std(0), 1.0), np.ones(3))
+    model = deep.DeepModel("ebf", net, lay, walk.fps)
+    rows = corrupt.angular_noise(walk, 0.5, seed=5)[0].channel_values()[:80]
+    offline = deep.denoise_rows(walk.skeleton, rows, walk.fps, model)
+    stream = deep.Denoiser(walk.skeleton, walk.fps, model)
+    out = [o for o in (stream.push(r) for r in rows) if o is not None] + stream.flush()
+    d = (np.array(out) - offline + 180.0) % 360.0 - 180.0
+    assert np.abs(d).max() < 1e-3
