@@ -322,3 +322,15 @@ def test_streaming_equals_offline_with_free_taps_and_bias(walk):
     out = [o for o in (stream.push(r) for r in rows) if o is not None] + stream.flush()
     d = (np.array(out) - offline + 180.0) % 360.0 - 180.0
     assert np.abs(d).max() < 1e-3
+
+
+def test_load_clips_from_files_folders_and_a_database(tmp_path, walk):
+    from mocapkit.database import MotionDatabase
+
+    db = MotionDatabase.build([walk], fps=120, features=("F15",))
+    db.save(tmp_path / "walk.db")
+    from_db = training.load_clips(tmp_path / "walk.db")
+    assert len(from_db) == 1 and from_db[0].num_frames == walk.num_frames
+    assert np.allclose(from_db[0].rotations, walk.rotations, atol=1e-6)  # stored as float32
+    files = training.load_clips([mocapkit.samples.path("12_walk.amc")])
+    assert len(files) == 1 and files[0].num_frames == walk.num_frames
