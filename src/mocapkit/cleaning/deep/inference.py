@@ -24,7 +24,7 @@ from ... import rotations as R
 from ...errors import MocapFormatError
 from ...io import atomic_write
 from ...motion import Motion, Skeleton
-from .channels import UNWRAP_ALPHA, ChannelLayout, _euler_columns, decode, encode, layout_for, root_angular_velocity
+from .channels import UNWRAP_ALPHA, ChannelLayout, _euler_columns, decode, encode, root_angular_velocity
 from .networks import EBD, EBF, HALF_WINDOW, LOG_SIGMA_RANGE, gaussian_filter_frames, window_indices
 
 __all__ = [
