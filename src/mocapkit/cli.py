@@ -591,17 +591,16 @@ def train(
     clips = training.load_clips(sources)
     if not clips:
         raise MocapError(f"train: no .bvh, .amc or .npz clips in {', '.join(map(str, sources))}")
+    # --holdout is a count of random clips (one number) or name substrings
+    count = int(holdout[0]) if holdout and len(holdout) == 1 and holdout[0].isdigit() else None
     if folds > 1:
-        size = int(holdout[0]) if holdout and len(holdout) == 1 and holdout[0].isdigit() else None
         try:
-            splits = training.holdout_folds(clips, folds, size, seed=seed)
+            splits = training.holdout_folds(clips, folds, count, seed=seed)
         except ValueError as exc:
             raise MocapError(f"train: {exc}") from None
         outs = [out / f"fold_{k + 1}" for k in range(folds)]
     else:
-        hold: list[str] | int = 0
-        if holdout:
-            hold = int(holdout[0]) if len(holdout) == 1 and holdout[0].isdigit() else list(holdout)
+        hold: list[str] | int = count if count is not None else list(holdout or []) or 0
         splits, outs = [training.split_holdout(clips, hold, seed=seed)], [out]
     cfg = training.TrainConfig(
         kind=kinds[what], representation=representation, hidden=hidden, head=head, bias=bias, epochs=epochs,

@@ -334,3 +334,26 @@ def test_load_clips_from_files_folders_and_a_database(tmp_path, walk):
     assert np.allclose(from_db[0].rotations, walk.rotations, atol=1e-6)  # stored as float32
     files = training.load_clips([mocapkit.samples.path("12_walk.amc")])
     assert len(files) == 1 and files[0].num_frames == walk.num_frames
+
+
+def test_plateau_rule_halves_after_patience_epochs_without_a_better_validation():
+    vals = [3.0, 2.0, 2.5, 2.6, 2.1, 2.2, 2.3, 1.0]
+    h = [{"val_rmse": v} for v in vals]
+    assert training._plateau_halvings(h, 2) == [False, False, False, True, False, True, False, False]
+    assert not any(training._plateau_halvings(h, 0))
+
+
+def test_resumed_training_follows_the_plateau_rule(tmp_path, walk):
+    clip = walk[:160]
+    cfg = training.TrainConfig(kind="ebf", hidden=8, epochs=4, steps_per_epoch=2, batch=4, crop=40,
+                               noise=("angular:0.5",), variants=1, lr_patience=1)
+    val = [walk[160:320]]
+    a = training.train([clip], tmp_path / "a", cfg, validation=val, executor="serial", progress=False)
+    training.train([clip], tmp_path / "b", training.TrainConfig(**{**cfg.__dict__, "epochs": 2}), validation=val,
+                   executor="serial", progress=False)
+    b = training.train([clip], tmp_path / "b", cfg, validation=val, executor="serial", progress=False)
+    ha, hb = a.meta["history"], b.meta["history"]
+    assert [(h["val_rmse"], h["lr"]) for h in ha] == [(h["val_rmse"], h["lr"]) for h in hb]
+    halved = training._plateau_halvings(ha, 1)
+    for k in range(1, len(ha)):
+        assert ha[k]["lr"] == ha[k - 1]["lr"] * (0.5 if halved[k - 1] else 1.0)

@@ -24,7 +24,15 @@ from ... import rotations as R
 from ...errors import MocapFormatError
 from ...io import atomic_write
 from ...motion import Motion, Skeleton
-from .channels import UNWRAP_ALPHA, ChannelLayout, _euler_columns, decode, encode, root_angular_velocity
+from .channels import (
+    UNWRAP_ALPHA,
+    ChannelLayout,
+    _euler_columns,
+    decode,
+    encode,
+    root_angular_velocity,
+    unwrap_degrees,
+)
 from .networks import EBD, EBF, HALF_WINDOW, LOG_SIGMA_RANGE, gaussian_filter_frames, window_indices
 
 __all__ = [
@@ -191,6 +199,11 @@ def _to_rate(values: np.ndarray, fps_from: float, fps_to: float, n_to: int | Non
     return np.stack([np.interp(t_to, t_from, values[:, c]) for c in range(values.shape[1])], axis=1)
 
 
+def _needs_resampling(fps: float | None, model_fps: float) -> bool:
+    """Whether data at ``fps`` (None: the model's own rate) must be resampled to the model's rate."""
+    return fps is not None and abs(fps - model_fps) > 1e-6 * model_fps
+
+
 def denoise_channels(values: np.ndarray, context: np.ndarray, model=None, fps: float | None = None) -> np.ndarray:
     """EBF on raw channels (F, C) (degrees, unwrapped) with root context (F, 3) rad/s -> (F, C).
 
@@ -207,7 +220,7 @@ def denoise_channels(values: np.ndarray, context: np.ndarray, model=None, fps: f
     miss = np.isnan(x)
     xf = lerp_fill(x)
     ctx = np.nan_to_num(np.asarray(context, dtype=np.float64))
-    resample = fps is not None and abs(fps - m.fps) > 1e-6 * m.fps
+    resample = _needs_resampling(fps, m.fps)
     if resample:
         xf_m, ctx_m = _to_rate(xf, fps, m.fps), _to_rate(ctx, fps, m.fps)
     else:
@@ -253,7 +266,7 @@ def fill_channels(
         raise ValueError(f"channel {m.layout.names[bad]} has no observed sample; nothing to fill it from")
     ctx = np.nan_to_num(np.asarray(context, dtype=np.float64))
     filled = lerp_fill(x)
-    resample = fps is not None and abs(fps - m.fps) > 1e-6 * m.fps
+    resample = _needs_resampling(fps, m.fps)
     if resample:
         f_m, c_m = _to_rate(filled, fps, m.fps), _to_rate(ctx, fps, m.fps)
         k_m = _to_rate(miss.astype(np.float64), fps, m.fps) > 0.0
@@ -293,8 +306,7 @@ def denoise(motion: Motion, model=None) -> Motion:
     values, ctx = encode(motion, m.layout)
     out = denoise_channels(values, ctx, m, fps=motion.fps)
     missing = motion.missing()
-    res = decode(np.nan_to_num(out), motion, m.layout, keep=missing)
-    return res
+    return decode(np.nan_to_num(out), motion, m.layout, keep=missing)
 
 
 def fill_gaps(motion: Motion, model=None, denoiser=None, smooth: bool = True) -> Motion:
@@ -349,7 +361,7 @@ class Denoiser:
         if m.layout.representation != "euler":
             raise ValueError("streaming needs an Euler-channel model")
         m.layout.check(skeleton, "skeleton")
-        if abs(fps - m.fps) > 1e-6 * m.fps:
+        if _needs_resampling(fps, m.fps):
             raise ValueError(f"streaming runs at the model's rate ({m.fps:g} fps), got {fps:g} fps")
         self.model = m
         self.net: EBF = m.net
@@ -365,13 +377,14 @@ class Denoiser:
         self._y1: deque = deque(maxlen=L2 + 1)
         self._gi2: deque = deque(maxlen=L2 + 1)
         self._k = _numpy_weights(self.net)
+        self._root_order = skeleton.rotation_order(0)
         self._x: deque = deque(maxlen=2 * HALF_WINDOW + 1)
         self._rows: deque = deque(maxlen=HALF_WINDOW + 1)
-        self._s1 = self._s2 = None
+        H = self.net.lstm1.hidden
+        self._s1 = self._s2 = (np.zeros(H), np.zeros(H))  # forward (h, c) of the two layers
         self._p = 0  # padded positions processed
         self._prev_q = None
         self._ref = None
-        self._last_row = None
         self._started = False
 
     def _inputs(self, row: np.ndarray):
@@ -380,7 +393,7 @@ class Denoiser:
             self._ref = raw.copy()
         u = self._ref + (np.mod(raw - self._ref + 180.0, 360.0) - 180.0)  # as channels.unwrap_degrees
         self._ref = self._ref + UNWRAP_ALPHA * (u - self._ref)
-        order = self.skeleton.rotation_order(0)
+        order = self._root_order
         q = R.euler_to_quaternion(row[self._root], order) if order else R.identity()
         if self.skeleton.axes is not None:
             q = _conjugated(self.skeleton.axes[0], q)
@@ -407,13 +420,15 @@ class Denoiser:
         self._p += 1
         if p - L1 < 0:
             return None
-        f1, self._s1 = _lstm_cell(_affine(k["f1"][0], self._codes[0], k["f1"][2]), self._s1, k["f1"][1])
+        self._s1 = _lstm_steps(_affine(k["f1"][0], self._codes[0], k["f1"][2])[None], *self._s1, k["f1"][1])
+        f1 = self._s1[0]
         y1 = np.concatenate([f1, _lstm_backward(self._gi1, k["b1"][1])])
         self._y1.append(y1)
         self._gi2.append(_affine(k["b2"][0], y1, k["b2"][2]))
         if p - L1 - L2 < 0:
             return None
-        f2, self._s2 = _lstm_cell(_affine(k["f2"][0], self._y1[0], k["f2"][2]), self._s2, k["f2"][1])
+        self._s2 = _lstm_steps(_affine(k["f2"][0], self._y1[0], k["f2"][2])[None], *self._s2, k["f2"][1])
+        f2 = self._s2[0]
         y2 = np.concatenate([f2, _lstm_backward(self._gi2, k["b2"][1])])
         t = p - HALF_WINDOW
         if t < HALF_WINDOW:
@@ -499,14 +514,14 @@ def _mlp_forward(layers, v: np.ndarray, last_tanh: bool) -> np.ndarray:
 
 
 @njit(cache=True)
-def _lstm_steps(gis: np.ndarray, h: np.ndarray, c: np.ndarray, w_hh: np.ndarray, fresh: bool):
-    """PyTorch's LSTM cell (gates i, f, g, o) over input gates ``gis`` (n, 4H) in order; returns (h, c).
+def _lstm_steps(gis: np.ndarray, h: np.ndarray, c: np.ndarray, w_hh: np.ndarray):
+    """PyTorch's LSTM cell (gates i, f, g, o) over input gates ``gis`` (n, 4H) in order from state (h, c).
 
-    ``fresh``: start from zero state (``h``, ``c`` ignored), as each backward run does.
+    Returns the new (h, c); the inputs are not modified.
     """
     H = w_hh.shape[1]
-    h = np.zeros(H) if fresh else h.copy()
-    c = np.zeros(H) if fresh else c.copy()
+    h = h.copy()
+    c = c.copy()
     g = np.empty(4 * H)
     for n in range(gis.shape[0]):
         for r in range(4 * H):
@@ -524,18 +539,10 @@ def _lstm_steps(gis: np.ndarray, h: np.ndarray, c: np.ndarray, w_hh: np.ndarray,
     return h, c
 
 
-def _lstm_cell(gi: np.ndarray, state, w_hh: np.ndarray):
-    """One LSTM step from input gates ``gi`` (4H,) and state (h, c), or None for zeros; returns (h, state)."""
-    if state is None:
-        h, c = _lstm_steps(gi[None], np.empty(0), np.empty(0), w_hh, True)
-    else:
-        h, c = _lstm_steps(gi[None], state[0], state[1], w_hh, False)
-    return h, (h, c)
-
-
 def _lstm_backward(gis, w_hh: np.ndarray) -> np.ndarray:
     """The backward direction's output at the window's first position: from zero state, last to first."""
-    return _lstm_steps(np.stack(gis)[::-1].copy(), np.empty(0), np.empty(0), w_hh, True)[0]
+    H = w_hh.shape[1]
+    return _lstm_steps(np.stack(gis)[::-1].copy(), np.zeros(H), np.zeros(H), w_hh)[0]
 
 
 def _root_rotation_columns(skeleton: Skeleton) -> np.ndarray:
@@ -588,8 +595,6 @@ def denoise_rows(skeleton: Skeleton, rows: np.ndarray, fps: float, model=None) -
     m.layout.check(skeleton, "skeleton")
     rows = np.asarray(rows, dtype=np.float64)
     cols = _euler_columns(skeleton)
-    from .channels import unwrap_degrees
-
     x = unwrap_degrees(rows[:, cols])
     q = _root_quaternion(skeleton, rows, _root_rotation_columns(skeleton))
     out = denoise_channels(x, root_angular_velocity(q, fps), m, fps=fps)

@@ -321,17 +321,25 @@ def _validate(net, kind: str, val: list[dict], layout: ChannelLayout, fps: float
     return math.sqrt(err / max(n, 1))
 
 
-def _stale_epochs(history: list[dict], patience: int) -> int:
-    """Epochs since the last best validation RMS, as the plateau rule in :func:`train` counts them."""
-    best, stale = math.inf, 0
+def _plateau_halvings(history: list[dict], patience: int) -> list[bool]:
+    """Per epoch of ``history``: does the plateau rule halve the learning rate after it?
+
+    The rule: an epoch that does not beat the best validation RMS so far adds
+    one to a count that a better epoch resets; when the count reaches
+    ``patience`` (0 = never) the learning rate halves and the count restarts.
+    Derived from the history alone, so a resumed run follows the same rule.
+    """
+    best, stale, out = math.inf, 0, []
     for h in history:
         if h["val_rmse"] < best:
             best, stale = h["val_rmse"], 0
         else:
             stale += 1
-            if patience and stale >= patience:
-                stale = 0
-    return stale
+        halve = bool(patience) and stale >= patience
+        if halve:
+            stale = 0
+        out.append(halve)
+    return out
 
 
 def train(
@@ -376,7 +384,7 @@ def train(
     opt = torch.optim.Adam(net.parameters(), lr=cfg.lr)
     ckpt_path = out_dir / "checkpoint.pt"
     history: list[dict] = []
-    start_epoch, best, stale = 0, math.inf, 0
+    start_epoch, best = 0, math.inf
     # A checkpoint continues when everything but the stopping rule and device matches.
     same = {k: v for k, v in dataclasses.asdict(cfg).items() if k not in ("epochs", "minutes", "device")}
     cfg_json = json.dumps(same, sort_keys=True)
@@ -387,7 +395,6 @@ def train(
             opt.load_state_dict(ck["optimizer"])
             start_epoch, best = int(ck["epoch"]) + 1, float(ck["best"])
             history = json.loads(ck["history"])
-            stale = _stale_epochs(history, cfg.lr_patience)
     net.to(dev)
     for st in opt.state.values():
         for k, v in st.items():
@@ -423,14 +430,11 @@ def train(
                 "validation_clips": [c.name for c in (validation or [])], "history": history,
                 "train_seconds": time.perf_counter() - t0, "torch": torch.__version__}
         if v < best:
-            best, stale = v, 0
+            best = v
             save_model(DeepModel(cfg.kind, net, layout, fps, meta), out_dir / "model.pt")
-        else:
-            stale += 1
-            if cfg.lr_patience and stale >= cfg.lr_patience:  # plateau: halve the learning rate
-                for g in opt.param_groups:
-                    g["lr"] *= 0.5
-                stale = 0
+        if _plateau_halvings(history, cfg.lr_patience)[-1]:
+            for g in opt.param_groups:
+                g["lr"] *= 0.5
         with atomic_write(ckpt_path, "wb") as fh:
             torch.save({"config": cfg_json, "state": net.state_dict(), "optimizer": opt.state_dict(),
                         "epoch": epoch, "best": best, "history": json.dumps(history)}, fh)
