@@ -36,7 +36,7 @@ def output_skeleton(db: MotionDatabase, skeleton: Skeleton | None) -> Skeleton:
         return db.skeletons[0]
     if not skeleton.is_compatible(db.skeletons[0]):
         raise ValueError(
-            f"skeleton {skeleton.name or ''!r} has a different joint layout from the database's; "
+            "the skeleton has a different joint layout from the database's; "
             "retarget it to the database skeleton first"
         )
     return skeleton
