@@ -1,0 +1,137 @@
+"""Control signals for reconstruction: marker trajectories from a marker file or a motion, in a database's units.
+
+The reconstruction methods take marker positions ``(F, M, 3)`` in the
+database's length units and coordinate frame, plus the joint (or end-site)
+name each marker sits on. Real files differ in both:
+
+* a **marker file** (C3D, or a mocapkit marker ``.npz``) has labels such as
+  ``LFHD`` and millimetres, usually with Z up; ``use`` maps its labels to
+  joints (``"LFHD=head,LWRA=lhand"``) and the positions are converted to the
+  database skeleton's unit (:func:`~mocapkit.motion.unit_scale_cm`) and
+  turned from the file's up axis to the skeleton's;
+* a **motion** (BVH, ASF/AMC, npz) gives simulated markers: the global
+  positions of the named joints, converted from its skeleton's unit. This is
+  how the benchmarks and the demo make a control signal from a clean take.
+"""
+
+from __future__ import annotations
+
+from typing import Sequence
+
+import numpy as np
+
+from ..features import _parse_up_axis, detect_up_axis, virtual_markers
+from ..io.c3d import MarkerSet
+from ..motion import Motion, Skeleton, unit_scale_cm
+
+__all__ = ["parse_use", "up_rotation", "control_markers"]
+
+
+def parse_use(text: str | Sequence[str]) -> list[tuple[str, str]]:
+    """``"LFHD=head,lhand"`` -> ``[("LFHD", "head"), ("lhand", "lhand")]``: marker label and the joint it sits on.
+
+    >>> parse_use("LFHD=head, lhand")
+    [('LFHD', 'head'), ('lhand', 'lhand')]
+    """
+    items = text.split(",") if isinstance(text, str) else list(text)
+    out = []
+    for item in items:
+        item = item.strip()
+        if not item:
+            continue
+        label, _, joint = item.partition("=")
+        label, joint = label.strip(), (joint.strip() or label.strip())
+        if not label:
+            raise ValueError(f"empty marker label in {item!r}; write LABEL or LABEL=JOINT")
+        out.append((label, joint))
+    if not out:
+        raise ValueError("no markers named; write LABEL[=JOINT],...")
+    labels = [a for a, _ in out]
+    dup = sorted({a for a in labels if labels.count(a) > 1})
+    if dup:
+        raise ValueError(f"marker label(s) named twice: {', '.join(dup)}")
+    return out
+
+
+def up_rotation(source_up, target_up) -> np.ndarray:
+    """The proper rotation matrix (3, 3) taking axis ``source_up`` to ``target_up`` by a cyclic axis permutation.
+
+    Both are axis specs as in :func:`mocapkit.features.root_frame` (``"z"``,
+    ``"-y"``, 1, ...). A cyclic permutation keeps the frame right-handed and
+    maps the horizontal axes onto horizontal axes (Z-up ``(x, y, z)`` ->
+    Y-up ``(y, z, x)``); a sign flip of the up axis turns about the first
+    horizontal axis.
+
+    >>> up_rotation("z", "y") @ np.array([0.0, 0.0, 1.0])
+    array([0., 1., 0.])
+    """
+    s = _parse_up_axis(source_up)
+    t = _parse_up_axis(target_up)
+    ks, kt = int(np.argmax(np.abs(s))), int(np.argmax(np.abs(t)))
+    shift = (kt - ks) % 3
+    P = np.roll(np.eye(3), shift, axis=0)  # P @ e_ks = e_kt
+    if np.sign(s[ks]) != np.sign(t[kt]):
+        # half turn about a horizontal axis of the target flips up to down, staying right-handed
+        h = (kt + 1) % 3
+        flip = -np.eye(3)
+        flip[h, h] = 1.0
+        P = flip @ P
+    return P
+
+
+def control_markers(
+    source: MarkerSet | Motion,
+    use: str | Sequence[str],
+    skeleton: Skeleton,
+    up_axis=None,
+) -> tuple[np.ndarray, list[str], float]:
+    """Marker trajectories of ``source`` for the joints named in ``use``, in ``skeleton``'s units and frame.
+
+    Parameters
+    ----------
+    source : MarkerSet or Motion
+        A marker file's trajectories, or a motion whose joints become markers.
+    use : str or sequence of str
+        ``LABEL[=JOINT]`` items (:func:`parse_use`). For a motion the label is
+        the joint or end-site name itself.
+    skeleton : Skeleton
+        The database skeleton: its unit (:func:`unit_scale_cm`) and vertical
+        axis (:func:`detect_up_axis`) are the output's.
+    up_axis : optional
+        The marker file's vertical axis; ``"z"`` (the C3D convention) when
+        None. Ignored for motions, whose own up axis is detected.
+
+    Returns
+    -------
+    positions : float array (F, M, 3)
+        In ``skeleton``'s length units; NaN where a marker was not seen.
+    joints : list of str (M,)
+    fps : float
+    """
+    pairs = parse_use(use)
+    to_unit = 1.0 / unit_scale_cm(skeleton)
+    target_up = detect_up_axis(skeleton)
+    joints = [j for _, j in pairs]
+    known = set(skeleton.joint_names) | set(skeleton.end_site_names)
+    unknown = [j for j in joints if j not in known]
+    if unknown:
+        raise ValueError(f"unknown joint(s) {', '.join(unknown)} on the database skeleton")
+    if isinstance(source, Motion):
+        msk = source.skeleton
+        names = set(msk.joint_names) | set(msk.end_site_names)
+        missing = [a for a, _ in pairs if a not in names]
+        if missing:
+            raise ValueError(f"the motion has no joint(s) {', '.join(missing)}")
+        pos = virtual_markers(source, [a for a, _ in pairs]) * (unit_scale_cm(msk) * to_unit)
+        P = up_rotation(detect_up_axis(msk), target_up)
+        return pos @ P.T, joints, float(source.fps)
+    if not isinstance(source, MarkerSet):
+        raise TypeError(f"source must be a MarkerSet or Motion, got {type(source).__name__}")
+    index = {label: i for i, label in enumerate(source.labels)}
+    missing = [a for a, _ in pairs if a not in index]
+    if missing:
+        shown = ", ".join(source.labels[:20]) + (" ..." if source.num_markers > 20 else "")
+        raise ValueError(f"no marker(s) {', '.join(missing)} in the file; it has {shown}")
+    pos = source.positions[:, [index[a] for a, _ in pairs]] * (source.unit_cm * to_unit)
+    P = up_rotation("z" if up_axis is None else up_axis, target_up)
+    return pos @ P.T, joints, float(source.fps)

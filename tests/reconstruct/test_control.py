@@ -1,0 +1,61 @@
+"""Control signals: marker files and motions turned into markers in a database skeleton's units and frame."""
+
+import itertools
+
+import numpy as np
+import pytest
+
+import mocapkit
+from mocapkit import samples
+from mocapkit.features import _parse_up_axis, virtual_markers
+from mocapkit.motion import unit_scale_cm
+from mocapkit.reconstruct.control import control_markers, parse_use, up_rotation
+
+AXES = ["x", "y", "z", "-x", "-y", "-z"]
+
+
+@pytest.mark.parametrize("src,dst", list(itertools.product(AXES, AXES)))
+def test_up_rotation_is_proper_and_maps_up_to_up(src, dst):
+    P = up_rotation(src, dst)
+    assert np.allclose(P @ P.T, np.eye(3)) and np.isclose(np.linalg.det(P), 1.0)
+    assert np.allclose(P @ _parse_up_axis(src), _parse_up_axis(dst))
+
+
+def test_parse_use_errors():
+    assert parse_use(["a=b", "c"]) == [("a", "b"), ("c", "c")]
+    for bad in ("", " , ", "=head", "a,a=b"):
+        with pytest.raises(ValueError):
+            parse_use(bad)
+
+
+def test_motion_markers_convert_units_between_rigs():
+    # the CMU walk's joints read on the HDM05 skeleton: same unit (1/0.45 inch), same Y up -> identical positions
+    walk = mocapkit.load(samples.path("12_walk.amc"))
+    hdm = mocapkit.load(samples.path("HDM_bk_sneak2StepsLStart_004_120.amc")).skeleton
+    pos, joints, fps = control_markers(walk, "lhand,head,root=root", hdm)
+    assert joints == ["lhand", "head", "root"] and fps == walk.fps
+    ref = virtual_markers(walk, ["lhand", "head", "root"]) * unit_scale_cm(walk.skeleton) / unit_scale_cm(hdm)
+    np.testing.assert_allclose(pos, ref, rtol=0, atol=1e-12)
+
+
+def test_c3d_markers_in_skeleton_units_and_y_up():
+    ms = mocapkit.load(samples.path("Eb015pr.c3d"))
+    sk = mocapkit.load(samples.path("HDM_bk_sneak2StepsLStart_004_120.amc")).skeleton
+    label = ms.labels[0]
+    pos, joints, fps = control_markers(ms, f"{label}=head", sk)
+    assert pos.shape == (ms.num_frames, 1, 3) and fps == ms.fps
+    raw = ms.positions[:, 0] * ms.unit_cm / unit_scale_cm(sk)
+    ok = np.isfinite(raw).all(axis=1)
+    # Z-up (x, y, z) -> Y-up (y, z, x): the file's height becomes the second coordinate
+    np.testing.assert_allclose(pos[ok, 0, 1], raw[ok, 2])
+    np.testing.assert_allclose(pos[ok, 0, 0], raw[ok, 1])
+    assert np.isnan(pos[~ok]).all()
+
+
+def test_bad_names_are_named():
+    ms = mocapkit.load(samples.path("Eb015pr.c3d"))
+    sk = mocapkit.load(samples.path("HDM_bk_sneak2StepsLStart_004_120.amc")).skeleton
+    with pytest.raises(ValueError, match="no marker"):
+        control_markers(ms, "NOPE=head", sk)
+    with pytest.raises(ValueError, match="unknown joint"):
+        control_markers(ms, f"{ms.labels[0]}=elbowz", sk)
