@@ -1,0 +1,106 @@
+"""`mocapkit reconstruct` with each control signal on bundled real clips, and its one-line errors."""
+
+import re
+
+import numpy as np
+import pytest
+
+import mocapkit
+from mocapkit import corrupt, metrics, samples
+from mocapkit.features import virtual_accelerometers
+from tests.test_cli import one_error_line, run
+
+QUERY = samples.path("HDM_bk_sneak2StepsLStart_005_120.amc")
+
+
+@pytest.fixture(scope="module")
+def db_dir(tmp_path_factory):
+    """A database of the other sneak take and the jog (not the query), at 30 fps."""
+    d = tmp_path_factory.mktemp("recon") / "db"
+    code, _, err = run("db", "build", str(d), str(samples.path("HDM_bk_sneak2StepsLStart_004_120.amc")),
+                       str(samples.path("HDM_bd_jogLeftCircle4StepsRstart_001_120.amc")), "--fps", "30", "--mirror",
+                       "--executor", "serial")
+    assert code == 0, err
+    return d
+
+
+@pytest.fixture(scope="module")
+def query():
+    return mocapkit.load(QUERY).resample(30)
+
+
+def _reported_cm(stdout: str) -> float:
+    m = re.search(r"\(root-relative\): ([0-9.]+) cm", " ".join(stdout.split()))
+    assert m, stdout
+    return float(m.group(1))
+
+
+def _still_pose_error(query) -> float:
+    """The error of standing still in the database's first pose: what any reconstruction must beat."""
+    still = mocapkit.Motion(query.skeleton, np.repeat(query.rotations[:1], query.num_frames, 0), query.root_positions, query.fps)
+    return metrics.joint_position_rms(query, still)
+
+
+def test_markers_from_a_motion(tmp_path, db_dir, query):
+    src = tmp_path / "query.npz"
+    mocapkit.save(query, src)
+    out = tmp_path / "rec.bvh"
+    code, stdout, err = run("reconstruct", "--db", str(db_dir), "--markers", str(src), "-o", str(out), "--reference", str(src))
+    assert code == 0, err
+    assert "6 markers" in stdout
+    rec = mocapkit.load(out)
+    assert rec.num_frames == query.num_frames and rec.skeleton.is_compatible(query.skeleton)
+    cm = _reported_cm(stdout)
+    assert cm == pytest.approx(metrics.joint_position_rms(query, rec), abs=0.05)
+    assert cm < 0.5 * _still_pose_error(query)
+
+
+def test_accelerometers_from_a_csv(tmp_path, db_dir, query):
+    from mocapkit.reconstruct.accelerometers import write_readings_csv
+
+    readings = virtual_accelerometers(query)
+    csv = tmp_path / "imu.csv"
+    write_readings_csv(csv, np.arange(query.num_frames) / query.fps, readings,
+                       ["left_wrist", "right_wrist", "left_ankle", "right_ankle"])
+    ref = tmp_path / "query.npz"
+    mocapkit.save(query, ref)
+    out = tmp_path / "rec.npz"
+    code, stdout, err = run("reconstruct", "--db", str(db_dir), "--accelerometers", str(csv), "-o", str(out),
+                            "--skeleton", str(ref), "--reference", str(ref))
+    assert code == 0, err
+    assert "4 accelerometers" in stdout
+    rec = mocapkit.load(out)
+    assert rec.num_frames == query.num_frames
+    assert _reported_cm(stdout) < _still_pose_error(query)
+
+
+def test_ssg_from_a_motion_with_gaps(tmp_path, db_dir, query):
+    gapped, _ = corrupt.gaps(query, seed=3, start_prob=0.02)
+    src = tmp_path / "gaps.npz"
+    mocapkit.save(gapped, src)
+    ref = tmp_path / "query.npz"
+    mocapkit.save(query, ref)
+    out = tmp_path / "rec.npz"
+    code, stdout, err = run("reconstruct", "--db", str(db_dir), "--ssg", str(src), "--use", "lhand,rhand,lfoot,rfoot",
+                            "-o", str(out), "--reference", str(ref))
+    assert code == 0, err
+    assert "4 markers" in stdout
+    assert _reported_cm(stdout) < 0.5 * _still_pose_error(query)
+
+
+def test_reconstruct_fails_in_one_line(tmp_path, db_dir):
+    c3d = samples.path("Eb015pr.c3d")
+    out = tmp_path / "o.bvh"
+    code, _, err = run("reconstruct", "--db", str(db_dir), "-o", str(out))
+    assert code == 2 and one_error_line(err) and "exactly one of" in err
+    code, _, err = run("reconstruct", "--db", str(db_dir), "--markers", str(c3d), "-o", str(out))
+    assert code == 2 and one_error_line(err) and "needs --use" in err
+    code, _, err = run("reconstruct", "--db", str(db_dir), "--markers", str(c3d), "--use", "NOPE=head", "-o", str(out))
+    assert code == 2 and one_error_line(err) and "no marker(s) NOPE" in err
+    code, _, err = run("reconstruct", "--db", str(db_dir), "--markers", str(QUERY), "-o", str(QUERY))
+    assert code == 2 and one_error_line(err) and "overwrite" in err
+    bad = tmp_path / "bad.csv"
+    bad.write_text("time,left_knee.x,left_knee.y,left_knee.z\n0,0,9.81,0\n0.01,0,9.81,0\n")
+    code, _, err = run("reconstruct", "--db", str(db_dir), "--accelerometers", str(bad), "-o", str(out))
+    assert code == 2 and one_error_line(err) and "left_knee" in err
+    assert not out.exists()
