@@ -1,0 +1,963 @@
+"""Multilinear motion models: HOSVD motion tensors of one motion class fitted to sparse accelerations (Tautges 2012, ch. 2).
+
+The clips of one motion class (e.g. HDM05 ``sneak2StepsLStart``) are put in
+temporal correspondence by DTW against a reference clip, resampled to a
+common length and stacked into two tensors (sec. 2.2.2): the joint rotations
+``Theta_q`` with modes DOF (4 quaternion components) x joint x frame x the
+natural modes (``("actor", "repetition")`` by default; the thesis has style x
+actor x repetition), and the root positions ``Theta_p`` with modes DOF (3) x
+frame x the natural modes. Both are decomposed by a (truncated) higher-order
+SVD (eq. 2.1). A new motion is synthesised from one weight vector per
+natural mode (eqs. 2.3/2.4/2.12)::
+
+    m(lambda) = Phi_t  x_{t+1} (lambda_{t+1} U_{t+1})  ...  x_{t+n} (lambda_{t+n} U_{t+n})
+
+and the weights are fitted to the global, gravity-free coordinate
+accelerations of a few sensors (eq. 2.8) under the rotation-invariant
+distance of eq. 2.10, whose optimal rotation about the vertical has a closed
+form (:func:`acceleration_distance`).
+
+Departures from the thesis, all stated where they happen:
+
+* each clip's root is normalised before stacking (ground-plane position of
+  the first aligned frame at the origin, its heading turned to the fixed
+  forward axis) and the quaternions are put in one hemisphere per joint
+  (against the reference clip), so that linear combinations of quaternion
+  components mean something; synthesised quaternions are renormalised;
+* the weights of each mode are affine (they sum to one): the optimiser works
+  on ``lambda_k = 1/d_k + N_k z_k`` with ``N_k`` an orthonormal basis of the
+  sum-zero vectors, so ``z = 0`` is the mean motion of the class and a small
+  ridge term pulls towards it; the thesis leaves the scale free;
+* timing: the recording is assumed to hold one instance of the class (the
+  thesis' pre-segmentation). The model's time axis is first mapped linearly
+  onto the recording; then, alternately, the weights are fitted and the time
+  map is re-estimated by DTW between the recording and the fitted model's
+  accelerations (accepted only when the eq. 2.10 distance drops). The model
+  accelerations are always computed on the recording's own time line and
+  frame rate (a slower performance has smaller accelerations).
+* HDM05 has no style mode and an unequal number of repetitions per actor;
+  the tensor grid is completed by ``missing="mean"`` (a missing cell gets the
+  mean of the same actor's repetitions) or made complete by
+  ``missing="drop"`` (only the repetitions every actor has).
+
+The thesis calls the approach restricted (sec. 2.6): one tensor per motion
+class, clips of the same "semantic length" (steps, repetitions), and the
+recording must be of that class too.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Sequence
+
+import numpy as np
+from scipy.interpolate import CubicSpline
+from scipy.ndimage import gaussian_filter1d
+from scipy.optimize import minimize
+from tqdm.auto import tqdm
+
+from .. import rotations as R
+from ..features import Sensor, default_sensors, detect_up_axis, feature_set, five_point_derivative, root_frame
+from ..features import _parse_up_axis, virtual_markers
+from ..motion import Motion, Skeleton, unit_scale_cm
+from ..search.dtw import dtw
+
+__all__ = [
+    "MotionTensor",
+    "hdm05_labels",
+    "motion_tensor",
+    "mode_product",
+    "unfold",
+    "hosvd",
+    "reconstruct_tensor",
+    "acceleration_distance",
+    "MultilinearModel",
+]
+
+#: Index of the first natural mode in the rotation tensor (DOF, joint, frame, natural...).
+_TECH_Q = 3
+#: Index of the first natural mode in the root tensor (DOF, frame, natural...).
+_TECH_P = 2
+
+
+# -- n-mode algebra (sec. 2.2.1) -----------------------------------------------------------
+
+
+def unfold(tensor: np.ndarray, mode: int) -> np.ndarray:
+    """Mode-``mode`` matricization (d_mode, prod of the other sizes): the mode-k vectors as columns."""
+    t = np.asarray(tensor, dtype=np.float64)
+    if not -t.ndim <= mode < t.ndim:
+        raise ValueError(f"mode {mode} out of range for a tensor of order {t.ndim}")
+    return np.moveaxis(t, mode, 0).reshape(t.shape[mode], -1)
+
+
+def mode_product(tensor: np.ndarray, matrix: np.ndarray, mode: int) -> np.ndarray:
+    """The mode-k product ``tensor x_k matrix`` (sec. 2.2.1): every mode-k vector ``v`` becomes ``matrix @ v``.
+
+    Parameters
+    ----------
+    tensor : float array (d_1, ..., d_N)
+    matrix : float array (e, d_k), or a row vector (d_k,) treated as (1, d_k)
+        (eq. 2.2's product with one row of a mode matrix).
+    mode : int
+        k, counted from 0.
+
+    Returns
+    -------
+    float array (d_1, ..., e, ..., d_N): mode k has size ``e`` (1 for a vector).
+
+    >>> t = np.arange(24.0).reshape(2, 3, 4)
+    >>> mode_product(t, np.ones((5, 3)), 1).shape
+    (2, 5, 4)
+    """
+    t = np.asarray(tensor, dtype=np.float64)
+    m = np.asarray(matrix, dtype=np.float64)
+    if m.ndim == 1:
+        m = m[None, :]
+    if m.ndim != 2:
+        raise ValueError(f"matrix: expected shape (e, d_k) or (d_k,), got {np.shape(matrix)}")
+    if not -t.ndim <= mode < t.ndim:
+        raise ValueError(f"mode {mode} out of range for a tensor of order {t.ndim}")
+    if m.shape[1] != t.shape[mode]:
+        raise ValueError(f"matrix has {m.shape[1]} columns but mode {mode} of the tensor has size {t.shape[mode]}")
+    return np.moveaxis(np.tensordot(m, t, axes=(1, mode)), 0, mode)
+
+
+def hosvd(tensor: np.ndarray, ranks=None) -> tuple[np.ndarray, list[np.ndarray]]:
+    """(Truncated) higher-order SVD ``tensor ~ core x_1 U_1 ... x_N U_N`` (eq. 2.1, Fig. 2.2).
+
+    ``U_k`` holds the leading ``r_k`` left singular vectors of the mode-k
+    unfolding (orthonormal columns); the core is ``tensor x_1 U_1^T ... x_N
+    U_N^T``. With full ranks the decomposition is exact. Truncation is the
+    plain truncated HOSVD of the thesis (no HOOI refinement).
+
+    Parameters
+    ----------
+    tensor : float array (d_1, ..., d_N)
+    ranks : sequence of N ints or None, optional
+        ``r_k`` per mode; None (or a None entry) keeps ``min(d_k, prod of the
+        other sizes)``, the full rank of that unfolding.
+
+    Returns
+    -------
+    core : float array (r_1, ..., r_N)
+    factors : list of N float arrays (d_k, r_k)
+    """
+    t = np.asarray(tensor, dtype=np.float64)
+    if not np.all(np.isfinite(t)):
+        raise ValueError("hosvd: the tensor has non-finite values")
+    if ranks is None:
+        ranks = [None] * t.ndim
+    ranks = list(ranks)
+    if len(ranks) != t.ndim:
+        raise ValueError(f"hosvd: {len(ranks)} ranks given for a tensor of order {t.ndim}")
+    factors = []
+    for k in range(t.ndim):
+        A = unfold(t, k)
+        r = min(A.shape) if ranks[k] is None else int(ranks[k])
+        if not 1 <= r <= t.shape[k]:
+            raise ValueError(f"hosvd: rank {ranks[k]} for mode {k} must be between 1 and its size {t.shape[k]}")
+        U, _, _ = np.linalg.svd(A, full_matrices=False)
+        if r > U.shape[1]:
+            # The unfolding has fewer columns than rows: complete U by an orthonormal complement
+            # (its core slices are zero, so the decomposition stays exact).
+            Q, _ = np.linalg.qr(np.concatenate([U, np.eye(t.shape[k])], axis=1))
+            U = np.concatenate([U, Q[:, U.shape[1] : t.shape[k]]], axis=1)
+        factors.append(U[:, :r])
+    core = t
+    for k, U in enumerate(factors):
+        core = mode_product(core, U.T, k)
+    return core, factors
+
+
+def reconstruct_tensor(core: np.ndarray, factors: Sequence[np.ndarray]) -> np.ndarray:
+    """``core x_1 U_1 x_2 ... x_N U_N`` (eq. 2.1)."""
+    out = np.asarray(core, dtype=np.float64)
+    if len(factors) != out.ndim:
+        raise ValueError(f"{len(factors)} factors for a core of order {out.ndim}")
+    for k, U in enumerate(factors):
+        out = mode_product(out, U, k)
+    return out
+
+
+# -- the rotation-invariant acceleration distance (eq. 2.10) -------------------------------
+
+
+def acceleration_distance(a: np.ndarray, b: np.ndarray, up_axis=(0.0, 1.0, 0.0)) -> tuple[float, float]:
+    """Eq. 2.10: ``min_theta sum_{f,s} |a_fs - T_theta b_fs|^2`` over rotations about the vertical, in closed form.
+
+    With ``u`` the unit up axis and ``T_theta v = cos(theta) v + sin(theta) u x v
+    + (1 - cos(theta)) (u.v) u`` (right-handed rotation by ``theta`` about
+    ``u``), ``sum a . T_theta b = A cos(theta) + B sin(theta) + C`` with
+    ``A = sum a.b - (u.a)(u.b)``, ``B = sum a.(u x b)``, ``C = sum (u.a)(u.b)``,
+    so the optimum is ``theta = atan2(B, A)`` and the distance is
+    ``sum |a|^2 + sum |b|^2 - 2 (sqrt(A^2 + B^2) + C)`` (Kovar et al. 2002's
+    2-D registration without the translation, which accelerations do not see).
+
+    Parameters
+    ----------
+    a, b : float arrays (F, S, 3) (any leading shape, the same for both)
+        Global coordinate accelerations, e.g. m/s^2. Cells where either is
+        non-finite are left out.
+    up_axis : axis spec or (3,) vector
+        The vertical (``"y"``, 1, ``(0, 1, 0)``).
+
+    Returns
+    -------
+    distance : float
+        The minimal sum of squared differences (units of ``a`` squared).
+    theta : float
+        Radians; ``T_theta b`` is the best match of ``a``.
+
+    >>> a = np.random.default_rng(0).normal(size=(10, 4, 3))
+    >>> q = R.quaternion_from_axis_angle(np.array([0.0, 1.0, 0.0]), 0.7)
+    >>> d, th = acceleration_distance(R.quaternion_rotate(q, a), a)
+    >>> round(d, 9), round(th, 6)
+    (0.0, 0.7)
+    """
+    a = np.asarray(a, dtype=np.float64)
+    b = np.asarray(b, dtype=np.float64)
+    if a.shape != b.shape or a.shape[-1:] != (3,):
+        raise ValueError(f"acceleration_distance: expected two arrays of one shape (..., 3), got {a.shape} and {b.shape}")
+    u = _unit_up(up_axis)
+    ok = np.all(np.isfinite(a), axis=-1) & np.all(np.isfinite(b), axis=-1)
+    a = a[ok]
+    b = b[ok]
+    ua = a @ u
+    ub = b @ u
+    C = float(ua @ ub)
+    A = float(np.sum(a * b)) - C
+    B = float(np.sum(a * np.cross(u, b)))
+    d = float(np.sum(a * a) + np.sum(b * b)) - 2.0 * (np.hypot(A, B) + C)
+    return max(d, 0.0), float(np.arctan2(B, A))
+
+
+def _unit_up(up_axis) -> np.ndarray:
+    if isinstance(up_axis, (str, int, np.integer)):
+        return _parse_up_axis(up_axis)
+    u = np.asarray(up_axis, dtype=np.float64).reshape(-1)
+    if u.shape != (3,) or not np.isfinite(u).all() or np.linalg.norm(u) == 0:
+        raise ValueError(f"up_axis: expected an axis name or a non-zero (3,) vector, got {up_axis!r}")
+    return u / np.linalg.norm(u)
+
+
+# -- motion tensors (sec. 2.2.2) ------------------------------------------------------------
+
+
+@dataclass(frozen=True, eq=False)
+class MotionTensor:
+    """Time-aligned clips of one motion class as the two tensors of sec. 2.2.2.
+
+    Attributes
+    ----------
+    rotations : float array (4, J, L, d_1, ..., d_n)
+        ``Theta_q``: DOF (w, x, y, z) x joint x frame x natural modes; local
+        joint rotations, one hemisphere per joint, root heading normalised.
+    root : float array (3, L, d_1, ..., d_n)
+        ``Theta_p``: root positions, file units, first aligned frame's
+        ground-plane position at the origin.
+    modes : tuple of str (n,)
+        Names of the natural modes.
+    entries : tuple of n tuples
+        The labels along each natural mode, sorted.
+    observed : bool array (d_1, ..., d_n)
+        Cells filled by a clip (False: filled by ``missing="mean"``).
+    skeleton : Skeleton
+        The reference clip's skeleton (all clips share its topology).
+    fps : float
+        Frame rate of the model time axis.
+    reference : str
+        Name of the clip every other clip was aligned to.
+    names : tuple of str
+        Clip name per observed cell, in ``np.argwhere(observed)`` order.
+    """
+
+    rotations: np.ndarray
+    root: np.ndarray
+    modes: tuple
+    entries: tuple
+    observed: np.ndarray
+    skeleton: Skeleton
+    fps: float
+    reference: str
+    names: tuple
+
+    @property
+    def num_frames(self) -> int:
+        return int(self.rotations.shape[2])
+
+    @property
+    def shape(self) -> tuple:
+        """Sizes of the natural modes."""
+        return tuple(self.rotations.shape[_TECH_Q:])
+
+    def clip(self, index: Sequence[int]) -> Motion:
+        """The aligned clip (or filled cell) at natural-mode ``index`` as a Motion at :attr:`fps`."""
+        idx = (Ellipsis,) + tuple(int(i) for i in index)
+        q = np.moveaxis(self.rotations[idx], (0, 1, 2), (2, 1, 0))
+        return Motion(self.skeleton, R.quaternion_normalize(q), self.root[idx].T, self.fps, name=f"cell{tuple(index)}")
+
+
+def hdm05_labels(clips: Sequence) -> list[tuple[str, int]]:
+    """``(actor, repetition ordinal)`` per clip from HDM05 names (``HDM_bk_sneak2StepsLStart_004_120``).
+
+    The repetition mode needs comparable entries across actors, so the file's
+    take number becomes its rank among that actor's clips (0, 1, ...).
+    """
+    parsed = []
+    for c in clips:
+        name = Path(c.name if isinstance(c, Motion) else str(c)).name
+        parts = name.split("_")
+        if len(parts) < 4 or parts[0] != "HDM" or not parts[-2].isdigit():
+            raise ValueError(f"{name!r} is not an HDM05 clip name (HDM_<actor>_<class>_<take>_<fps>); pass labels")
+        parsed.append((parts[1], int(parts[-2])))
+    out = []
+    for actor, take in parsed:
+        takes = sorted(t for a, t in parsed if a == actor)
+        out.append((actor, takes.index(take)))
+    return out
+
+
+def _sample(rotations: np.ndarray, root: np.ndarray, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Rotations (F, J, 4) and root (F, 3) at fractional frame times ``t`` (L,): slerp and lerp."""
+    F = rotations.shape[0]
+    t = np.clip(np.asarray(t, dtype=np.float64), 0.0, F - 1)
+    i0 = np.minimum(np.floor(t).astype(np.int64), F - 1)
+    i1 = np.minimum(i0 + 1, F - 1)
+    a = t - i0
+    rot = R.slerp(rotations[i0], rotations[i1], a[:, None])
+    pos = root[i0] * (1.0 - a)[:, None] + root[i1] * a[:, None]
+    return rot, pos
+
+
+def _time_map(path: np.ndarray, n_ref: int, sigma: float = 0.0) -> np.ndarray:
+    """Clip time (n_ref,) of every reference frame from a DTW path (L, 2) of (clip, reference) rows.
+
+    The mean clip frame per reference frame, Gaussian-smoothed with ``sigma``
+    reference frames and made non-decreasing. DTW paths are staircases, and a
+    time map with kinks puts its second derivative into every acceleration
+    (``d^2/ds^2 p(t(s)) = p'' t'^2 + p' t''``), so the smoothing matters.
+    The straight line between the end points is taken out before smoothing so
+    that the ends stay fixed.
+    """
+    sums = np.bincount(path[:, 1], weights=path[:, 0].astype(np.float64), minlength=n_ref)
+    counts = np.bincount(path[:, 1], minlength=n_ref)
+    seen = counts > 0
+    # Slope-limited steps skip frames; those get the time between their neighbours.
+    t = np.interp(np.arange(n_ref), np.flatnonzero(seen), sums[seen] / counts[seen])
+    if sigma > 0 and n_ref > 2:
+        line = np.linspace(t[0], t[-1], n_ref)
+        t = line + gaussian_filter1d(t - line, sigma, mode="nearest")
+    return np.maximum.accumulate(t)
+
+
+def _normalize_root(motion: Motion, up: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Rotations and root with the first frame's heading turned to the forward axis and its ground position at 0."""
+    heading, ground = root_frame(motion, up)
+    inv = R.quaternion_conjugate(heading[0])
+    rot = np.array(motion.rotations)
+    rot[:, 0] = R.quaternion_multiply(inv, rot[:, 0])
+    root = R.quaternion_rotate(inv, motion.root_positions - ground[0])
+    return rot, root
+
+
+def motion_tensor(
+    clips: Sequence[Motion],
+    labels: Sequence[Sequence] | None = None,
+    modes: Sequence[str] = ("actor", "repetition"),
+    fps: float = 30.0,
+    frames: int | None = None,
+    reference: int | None = None,
+    missing: str = "raise",
+    warp_smoothing: float = 0.1,
+    up_axis=None,
+    progress: bool = False,
+) -> MotionTensor:
+    """Stack time-aligned clips of one motion class into the tensors of sec. 2.2.2.
+
+    Each clip is resampled to ``fps``, aligned to the reference clip by
+    classic DTW on Krüger's F15 features (wrists, ankles, head in the root
+    frame, cm), the warping path is turned into a smooth monotone time map
+    (mean clip frame per reference frame, Gaussian-smoothed) and the clip
+    is sampled at the mapped times (slerp) on ``frames`` points of the
+    reference's time axis. Roots are normalised (first frame at the origin,
+    heading to the forward axis) and each joint's quaternions are put in the
+    reference's hemisphere.
+
+    Parameters
+    ----------
+    clips : sequence of Motion
+        One motion class, one skeleton topology (bone lengths may differ).
+    labels : sequence of tuples, optional
+        One tuple per clip with one label per natural mode; from
+        :func:`hdm05_labels` (actor, repetition ordinal) when None.
+    modes : sequence of str
+        Names of the natural modes (as many as each label tuple has entries).
+    fps : float
+        Frame rate of the model time axis.
+    frames : int, optional
+        Length of the model time axis; the reference's length at ``fps`` when None.
+    reference : int, optional
+        Index of the reference clip; the clip of median length when None.
+    missing : {"raise", "mean", "drop"}
+        What to do with grid cells no clip fills: raise; fill with the mean of
+        the observed cells along the last mode (e.g. the actor's other
+        repetitions; the mean of all clips if there are none); or drop the
+        entries of the last mode that are not observed everywhere.
+    warp_smoothing : float
+        Standard deviation in seconds of the Gaussian that smooths each DTW
+        time map (a kinked time map adds spurious accelerations).
+    up_axis : optional
+        The vertical; detected from the skeleton when None.
+    progress : bool
+        Show a progress bar over the clips.
+
+    Returns
+    -------
+    MotionTensor
+    """
+    clips = list(clips)
+    if len(clips) < 2:
+        raise ValueError(f"a motion tensor needs at least 2 clips, got {len(clips)}")
+    for c in clips:
+        if not isinstance(c, Motion):
+            raise ValueError(f"clips must be Motions, got {type(c).__name__}")
+    sk0 = clips[0].skeleton
+    for c in clips[1:]:
+        if not c.skeleton.is_compatible(sk0):
+            raise ValueError(
+                f"clip {c.name!r} has a different joint layout from {clips[0].name!r}; "
+                "a motion tensor needs one skeleton topology (retarget first)"
+            )
+    modes = tuple(str(m) for m in modes)
+    if not modes:
+        raise ValueError("a motion tensor needs at least one natural mode")
+    if labels is None:
+        labels = hdm05_labels(clips)
+    labels = [tuple(lab) if isinstance(lab, (tuple, list)) else (lab,) for lab in labels]
+    if len(labels) != len(clips):
+        raise ValueError(f"{len(labels)} labels for {len(clips)} clips")
+    for lab in labels:
+        if len(lab) != len(modes):
+            raise ValueError(f"label {lab!r} has {len(lab)} entries for the {len(modes)} modes {modes}")
+    if len(set(labels)) != len(labels):
+        dup = sorted({str(lab) for lab in labels if labels.count(lab) > 1})
+        raise ValueError(f"two clips share the labels {', '.join(dup)}; every grid cell holds one clip")
+    if missing not in ("raise", "mean", "drop"):
+        raise ValueError(f"missing must be 'raise', 'mean' or 'drop', got {missing!r}")
+    fps = float(fps)
+    if not np.isfinite(fps) or fps <= 0:
+        raise ValueError(f"fps must be a positive number, got {fps!r}")
+    for c in clips:
+        if c.num_frames < 2 or not (np.isfinite(c.rotations).all() and np.isfinite(c.root_positions).all()):
+            raise ValueError(f"clip {c.name!r} has fewer than 2 frames or missing (NaN) values; fill gaps first")
+    up = detect_up_axis(sk0) if up_axis is None else _parse_up_axis(up_axis)
+
+    res = [c.resample(fps) for c in clips]
+    lengths = np.array([m.num_frames for m in res])
+    if reference is None:
+        reference = int(np.argsort(lengths, kind="stable")[len(lengths) // 2])
+    if not 0 <= int(reference) < len(clips):
+        raise ValueError(f"reference {reference} out of range for {len(clips)} clips")
+    reference = int(reference)
+    n_ref = int(lengths[reference])
+    L = n_ref if frames is None else int(frames)
+    if L < 5:
+        raise ValueError(f"frames must be at least 5, got {frames}")
+    grid_t = np.linspace(0.0, n_ref - 1, L)
+    ref_feat = feature_set(res[reference], "F15", up_axis=up, scale_cm=True).values
+
+    aligned = []
+    for m in tqdm(res, desc="aligning clips", disable=not progress):
+        feat = feature_set(m, "F15", up_axis=up, scale_cm=True).values
+        _, path = dtw(feat, ref_feat)
+        t = np.interp(grid_t, np.arange(n_ref), _time_map(path, n_ref, warp_smoothing * fps))
+        rot, pos = _sample(R.quaternion_continuity(m.rotations), m.root_positions, t)
+        rot, pos = _normalize_root(Motion(m.skeleton, rot, pos, fps), up)
+        aligned.append((R.quaternion_continuity(rot), pos))
+    ref_rot = aligned[reference][0]
+    for i, (rot, pos) in enumerate(aligned):
+        sign = np.where(np.sum(rot * ref_rot, axis=(0, 2)) < 0.0, -1.0, 1.0)
+        aligned[i] = (rot * sign[None, :, None], pos)
+
+    entries = [tuple(sorted({lab[k] for lab in labels})) for k in range(len(modes))]
+    shape = tuple(len(e) for e in entries)
+    index = [tuple(entries[k].index(lab[k]) for k in range(len(modes))) for lab in labels]
+    J = sk0.num_joints
+    Q = np.zeros((4, J, L) + shape)
+    P = np.zeros((3, L) + shape)
+    observed = np.zeros(shape, dtype=bool)
+    for (rot, pos), idx in zip(aligned, index):
+        Q[(Ellipsis,) + idx] = np.transpose(rot, (2, 1, 0))
+        P[(Ellipsis,) + idx] = pos.T
+        observed[idx] = True
+    names_by_cell = {idx: clips[i].name for i, idx in enumerate(index)}
+
+    if not observed.all():
+        if missing == "raise":
+            absent = [tuple(entries[k][i] for k, i in enumerate(idx)) for idx in np.argwhere(~observed)]
+            raise ValueError(
+                f"{len(absent)} grid cells have no clip (e.g. {absent[0]}); pass missing='mean' or 'drop', "
+                "or give labels forming a full grid"
+            )
+        if missing == "drop":
+            keep = np.flatnonzero(observed.reshape(-1, shape[-1]).all(axis=0))
+            if keep.size == 0:
+                raise ValueError(f"no entry of mode {modes[-1]!r} is observed for every combination of the other modes")
+            Q, P, observed = Q[..., keep], P[..., keep], observed[..., keep]
+            old = entries[-1]
+            entries[-1] = tuple(old[i] for i in keep)
+            names_by_cell = {
+                idx[:-1] + (int(np.flatnonzero(keep == idx[-1])[0]),): n for idx, n in names_by_cell.items() if idx[-1] in keep
+            }
+        else:
+            all_q = Q[..., observed].mean(axis=-1)
+            all_p = P[..., observed].mean(axis=-1)
+            for idx in np.argwhere(~observed):
+                idx = tuple(idx)
+                line = observed[idx[:-1]]
+                cell = (Ellipsis,) + idx
+                if line.any():
+                    Q[cell] = Q[(Ellipsis,) + idx[:-1]][..., line].mean(axis=-1)
+                    P[cell] = P[(Ellipsis,) + idx[:-1]][..., line].mean(axis=-1)
+                else:
+                    Q[cell], P[cell] = all_q, all_p
+    names = tuple(names_by_cell[tuple(int(i) for i in idx)] for idx in np.argwhere(observed))
+    return MotionTensor(
+        rotations=Q,
+        root=P,
+        modes=modes,
+        entries=tuple(entries),
+        observed=observed,
+        skeleton=clips[reference].skeleton,
+        fps=fps,
+        reference=clips[reference].name,
+        names=names,
+    )
+
+
+# -- the model (secs. 2.2.3, 2.3) -----------------------------------------------------------
+
+
+def _sum_zero_basis(d: int) -> np.ndarray:
+    """Orthonormal basis (d, d-1) of the vectors whose entries sum to zero."""
+    if d == 1:
+        return np.zeros((1, 0))
+    Q, _ = np.linalg.qr(np.concatenate([np.ones((d, 1)), np.eye(d)[:, : d - 1]], axis=1))
+    return Q[:, 1:d]
+
+
+def _contract(B: np.ndarray, xs: Sequence[np.ndarray]) -> np.ndarray:
+    """``B`` times one row vector per trailing (natural) mode, those modes contracted away (eq. 2.12)."""
+    out = B
+    for x in reversed(xs):
+        out = out @ x  # the last axis is the last remaining natural mode
+    return out
+
+
+class MultilinearModel:
+    """A multilinear motion model of one motion class and its fit to sparse accelerations (Tautges 2012, ch. 2).
+
+    Parameters
+    ----------
+    ranks : dict, optional
+        Truncation rank per mode name: ``"dof"``, ``"joint"``, ``"frame"`` or a
+        natural mode (``"actor"``, ``"repetition"``); modes not named keep
+        their full size. The same ranks truncate the root tensor (its DOF mode
+        capped at 3). Natural-mode ranks larger than the mode raise.
+    modes : sequence of str
+        Natural modes (see :func:`motion_tensor`).
+    fps : float
+        Frame rate of the model time axis.
+    frames : int, optional
+        Length of the model time axis (the reference clip's when None).
+    missing : {"mean", "drop", "raise"}
+        Grid completion (see :func:`motion_tensor`).
+    regularization : float
+        Weight of the ridge term ``sum |z|^2`` (towards the mean motion)
+        added to the normalised eq. 2.10 distance.
+    warp_iterations : int
+        Rounds of "re-estimate the time map by DTW, refit the weights" after
+        the fit on the linear time map.
+    warp_smoothing : float
+        Seconds; Gaussian smoothing of every DTW time map (clip alignment and
+        the recording's time map).
+    starts : int
+        Besides the mean motion, the optimiser also starts from the weights of
+        the ``starts`` training clips whose accelerations fit best.
+    up_axis : optional
+        The vertical; detected from the skeleton when None.
+    progress : bool
+
+    Attributes (after :meth:`fit`)
+    ------------------------------
+    tensor_ : MotionTensor
+    core_q_, factors_q_ : core and factor matrices of the rotation tensor
+    core_p_, factors_p_ : the same for the root tensor
+    skeleton_ : Skeleton
+    modes_ : tuple of str
+    entries_ : tuple of tuples (the labels along each natural mode)
+    """
+
+    def __init__(
+        self,
+        ranks: dict | None = None,
+        modes: Sequence[str] = ("actor", "repetition"),
+        fps: float = 30.0,
+        frames: int | None = None,
+        missing: str = "mean",
+        regularization: float = 1e-3,
+        warp_iterations: int = 2,
+        warp_smoothing: float = 0.1,
+        starts: int = 3,
+        up_axis=None,
+        progress: bool = False,
+    ):
+        self.ranks = ranks
+        self.modes = modes
+        self.fps = fps
+        self.frames = frames
+        self.missing = missing
+        self.regularization = regularization
+        self.warp_iterations = warp_iterations
+        self.warp_smoothing = warp_smoothing
+        self.starts = starts
+        self.up_axis = up_axis
+        self.progress = progress
+
+    # -- fitting the model ---------------------------------------------------------------
+    def fit(self, clips: Sequence[Motion] | MotionTensor, labels: Sequence[Sequence] | None = None) -> "MultilinearModel":
+        """Build the motion tensors from ``clips`` (or take a :class:`MotionTensor`) and decompose them by HOSVD."""
+        if isinstance(clips, MotionTensor):
+            tensor = clips
+        else:
+            tensor = motion_tensor(
+                clips, labels, modes=self.modes, fps=self.fps, frames=self.frames, missing=self.missing,
+                warp_smoothing=self.warp_smoothing, up_axis=self.up_axis, progress=self.progress,
+            )
+        ranks = dict(self.ranks or {})
+        names_q = ("dof", "joint", "frame") + tensor.modes
+        unknown = set(ranks) - set(names_q)
+        if unknown:
+            raise ValueError(f"ranks name unknown modes {sorted(unknown)}; modes are {names_q}")
+        sizes_q = tensor.rotations.shape
+        for k, n in enumerate(names_q):
+            if n in ranks and not 1 <= int(ranks[n]) <= sizes_q[k]:
+                what = "clips" if k >= _TECH_Q else "entries"
+                raise ValueError(
+                    f"rank {ranks[n]} for mode {n!r} needs at least that many {what}; the tensor has {sizes_q[k]}"
+                )
+        if tensor.observed.sum() < 2:
+            raise ValueError("a multilinear model needs at least 2 observed clips")
+        self.tensor_ = tensor
+        self.skeleton_ = tensor.skeleton
+        self.modes_ = tensor.modes
+        self.entries_ = tensor.entries
+        self.up_ = detect_up_axis(tensor.skeleton) if self.up_axis is None else _parse_up_axis(self.up_axis)
+        rq = [ranks.get(n) for n in names_q]
+        names_p = ("dof", "frame") + tensor.modes
+        rp = [ranks.get(n) for n in names_p]
+        if rp[0] is not None:
+            rp[0] = min(int(rp[0]), 3)
+        self.core_q_, self.factors_q_ = hosvd(tensor.rotations, rq)
+        self.core_p_, self.factors_p_ = hosvd(tensor.root, rp)
+        # Phi_t of eq. 2.12: the core times all technical factor matrices, computed once.
+        Bq = self.core_q_
+        for k in range(_TECH_Q):
+            Bq = mode_product(Bq, self.factors_q_[k], k)
+        Bp = self.core_p_
+        for k in range(_TECH_P):
+            Bp = mode_product(Bp, self.factors_p_[k], k)
+        self.phi_q_ = Bq  # (4, J, L, r_1..r_n)
+        self.phi_p_ = Bp  # (3, L, r_1..r_n)
+        return self
+
+    def _check_fitted(self):
+        if not hasattr(self, "phi_q_"):
+            raise ValueError("this MultilinearModel is not fitted yet; call fit(clips) first")
+
+    # -- weights -----------------------------------------------------------------------
+    def _weights(self, weights) -> list[np.ndarray]:
+        self._check_fitted()
+        shape = self.tensor_.shape
+        if weights is None:
+            return [np.full(d, 1.0 / d) for d in shape]
+        if isinstance(weights, dict):
+            unknown = set(weights) - set(self.modes_)
+            if unknown:
+                raise ValueError(f"weights name unknown modes {sorted(unknown)}; modes are {self.modes_}")
+            weights = [weights.get(m, np.full(d, 1.0 / d)) for m, d in zip(self.modes_, shape)]
+        weights = list(weights)
+        if len(weights) != len(shape):
+            raise ValueError(f"{len(weights)} weight vectors for the {len(shape)} modes {self.modes_}")
+        out = []
+        for m, d, w in zip(self.modes_, shape, weights):
+            w = np.asarray(w, dtype=np.float64).reshape(-1)
+            if w.shape != (d,) or not np.isfinite(w).all():
+                raise ValueError(f"weights of mode {m!r}: expected {d} finite values, got shape {np.shape(w)}")
+            out.append(w)
+        return out
+
+    def clip_weights(self, index: Sequence[int] | Sequence) -> list[np.ndarray]:
+        """One-hot weights of a grid cell (eq. 2.2): ``index`` as positions or as labels per mode."""
+        self._check_fitted()
+        out = []
+        for k, (i, ent) in enumerate(zip(index, self.entries_)):
+            if i in ent:
+                pos = ent.index(i)
+            elif isinstance(i, (int, np.integer)):
+                pos = int(i)
+            else:
+                raise ValueError(f"no entry {i!r} in mode {self.modes_[k]!r}; entries are {ent}")
+            if not 0 <= pos < len(ent):
+                raise ValueError(f"entry {i!r} out of range for mode {self.modes_[k]!r} ({len(ent)} entries)")
+            w = np.zeros(len(ent))
+            w[pos] = 1.0
+            out.append(w)
+        return out
+
+    def _coefficients(self, weights: list[np.ndarray]):
+        """x_k = lambda_k U_k (eq. 2.4) for the rotation and the root tensor."""
+        xq = [w @ U for w, U in zip(weights, self.factors_q_[_TECH_Q:])]
+        xp = [w @ U for w, U in zip(weights, self.factors_p_[_TECH_P:])]
+        return xq, xp
+
+    def _synth_arrays(self, weights, phi_q=None, phi_p=None) -> tuple[np.ndarray, np.ndarray]:
+        """Rotations (L, J, 4) and root (L, 3) of eq. 2.12 (on the model time axis unless other Phi_t are given)."""
+        xq, xp = self._coefficients(weights)
+        q = _contract(self.phi_q_ if phi_q is None else phi_q, xq)  # (4, J, L)
+        p = _contract(self.phi_p_ if phi_p is None else phi_p, xp)  # (3, L)
+        q = np.transpose(q, (2, 1, 0))
+        n = np.linalg.norm(q, axis=-1, keepdims=True)
+        q = np.where(n > 1e-12, q / np.where(n > 1e-12, n, 1.0), R.identity())
+        return q, p.T
+
+    def synthesize(self, weights=None, skeleton: Skeleton | None = None) -> Motion:
+        """The motion of eq. 2.3 / 2.12 for one weight vector per natural mode, on the model time axis.
+
+        Parameters
+        ----------
+        weights : list of arrays (d_k,) or dict mode -> array, optional
+            lambda_k per natural mode; uniform (``1/d_k``: the mean motion of
+            the class) when None or for a mode a dict leaves out.
+        skeleton : Skeleton, optional
+            Same topology as the model's; the reference clip's when None.
+
+        Returns
+        -------
+        Motion with ``frames`` frames at the model fps, root normalised.
+        """
+        w = self._weights(weights)
+        q, p = self._synth_arrays(w)
+        return Motion(self._skeleton(skeleton), q, p, self.tensor_.fps, name="multilinear")
+
+    def _skeleton(self, skeleton):
+        if skeleton is None:
+            return self.skeleton_
+        if not skeleton.is_compatible(self.skeleton_):
+            raise ValueError("the skeleton has a different joint layout from the model's; retarget it first")
+        return skeleton
+
+    # -- fitting readings (secs. 2.3.1-2.3.3) ----------------------------------------------
+    def _warped_phi(self, u: np.ndarray):
+        """Phi_t sampled at fractional model times ``u`` (N,).
+
+        Synthesis is linear, so sampling Phi_t equals sampling the synthesised
+        motion. A natural cubic spline along the frame mode keeps the sampled
+        trajectories C2: linear interpolation would put acceleration spikes at
+        every model frame once the recording has a higher frame rate.
+        """
+        L = self.tensor_.num_frames
+        u = np.clip(np.asarray(u, dtype=np.float64), 0.0, L - 1)
+        W = CubicSpline(np.arange(L), np.eye(L), bc_type="natural")(u)  # (N, L)
+        phq = np.moveaxis(np.tensordot(W, self.phi_q_, axes=(1, 2)), 0, 2)
+        php = np.moveaxis(np.tensordot(W, self.phi_p_, axes=(1, 1)), 0, 1)
+        return phq, php
+
+    def _sensor_acc(self, q, p, sensors, skeleton, fps, scale):
+        m = Motion(skeleton, q, p, fps)
+        return five_point_derivative(_sensor_positions(m, sensors) * scale, fps, order=2, axis=0)
+
+    def fit_readings(
+        self,
+        accelerations: np.ndarray,
+        fps: float,
+        sensors: Sequence | None = None,
+        orientations: np.ndarray | None = None,
+        gravity: float = 9.81,
+        skeleton: Skeleton | None = None,
+        maxiter: int = 60,
+        return_info: bool = False,
+    ):
+        """Fit the mode weights to sparse accelerations (eq. 2.8 with the distance of eq. 2.10).
+
+        Parameters
+        ----------
+        accelerations : float array (N, S, 3)
+            Global, gravity-free coordinate accelerations of ``S`` sensors in
+            m/s^2 (eq. 2.7), in any world frame sharing the skeleton's up axis
+            (its heading is found by eq. 2.10). With ``orientations``: raw
+            accelerometer readings in each sensor's frame (specific force, as
+            :func:`~mocapkit.features.virtual_accelerometers` simulates); they
+            are turned into the global frame and gravity is removed
+            (sec. 2.3.1, eq. 2.6).
+        fps : float
+            Frame rate of the recording.
+        sensors : sequence of Sensor or joint/end-site names (S,), optional
+            Where the sensors sit on the model's skeleton;
+            :func:`~mocapkit.features.default_sensors` (forearms and shins
+            near wrists and ankles) when None.
+        orientations : float array (N, S, 4), optional
+            Global sensor orientations (w first), when ``accelerations`` are
+            sensor-frame readings.
+        gravity : float
+            m/s^2, removed from readings given with ``orientations``.
+        skeleton : Skeleton, optional
+            The performer's skeleton (same topology): the model is animated on
+            it, so its bone lengths shape the simulated accelerations.
+        maxiter : int
+            L-BFGS iterations per start.
+        return_info : bool
+            Also return a dict with the distance, heading and time map.
+
+        Returns
+        -------
+        weights : list of arrays (d_k,)
+            lambda per natural mode (affine: each sums to one).
+        motion : Motion
+            N frames at ``fps`` on the recording's time line, heading turned
+            into the recording's world frame (root translation starts at the
+            ground-plane origin: accelerations do not see it).
+        info : dict, only with ``return_info``
+            ``distance`` (eq. 2.10, (m/s^2)^2 summed), ``relative_distance``
+            (divided by the readings' sum of squares), ``theta`` (radians),
+            ``time_map`` (N,) model frame per recording frame, ``mean_distance``
+            (the mean motion's relative distance on the linear time map).
+        """
+        self._check_fitted()
+        fps = float(fps)
+        if not np.isfinite(fps) or fps <= 0:
+            raise ValueError(f"fps must be a positive number, got {fps!r}")
+        sk = self._skeleton(skeleton)
+        if sensors is None:
+            sensors = default_sensors(sk, up_axis=self.up_)
+        sensors = list(sensors)
+        a = np.asarray(accelerations, dtype=np.float64)
+        if a.ndim != 3 or a.shape[1:] != (len(sensors), 3):
+            raise ValueError(f"accelerations: expected shape (N, {len(sensors)}, 3) for {len(sensors)} sensors, got {a.shape}")
+        if a.shape[0] < 5:
+            raise ValueError(f"accelerations: need at least 5 frames, got {a.shape[0]}")
+        if orientations is not None:
+            o = np.asarray(orientations, dtype=np.float64)
+            if o.shape != a.shape[:2] + (4,):
+                raise ValueError(f"orientations: expected shape {a.shape[:2] + (4,)} (w first), got {o.shape}")
+            a = R.quaternion_rotate(o, a) - gravity * self.up_
+        if not np.isfinite(a).any():
+            raise ValueError("accelerations: no finite value")
+        N = a.shape[0]
+        L = self.tensor_.num_frames
+        scale = unit_scale_cm(sk) / 100.0
+        # The fit runs at the model's frame rate: the readings are low-passed (Gaussian, half a model
+        # frame) and sampled there. A model built at 30 fps cannot produce the jitter a 120 fps
+        # recording carries, and the fit is 4x cheaper.
+        rate = self.tensor_.fps
+        ratio = fps / rate
+        n_fit = max(int(np.floor((N - 1) / ratio + 1e-9)) + 1, 5)
+        r = np.minimum(np.arange(n_fit) * ratio, N - 1)  # recording frame of each fit frame
+        a_s = gaussian_filter1d(a, 0.5 * ratio, axis=0, mode="nearest") if ratio > 1 else a
+        a_fit = np.stack([[np.interp(r, np.arange(N), a_s[:, s_, c]) for c in range(3)] for s_ in range(a.shape[1])])
+        a_fit = np.transpose(a_fit, (2, 0, 1))
+        norm = float(np.nansum(a_fit * a_fit)) or 1.0
+        shape = self.tensor_.shape
+        bases = [_sum_zero_basis(d) for d in shape]
+        sizes = [b.shape[1] for b in bases]
+
+        def unpack(z):
+            out, i = [], 0
+            for d, B, s in zip(shape, bases, sizes):
+                out.append(1.0 / d + B @ z[i : i + s])
+                i += s
+            return out
+
+        def pack(weights):
+            return np.concatenate([B.T @ (w - 1.0 / d) for w, B, d in zip(weights, bases, shape)])
+
+        def simulate(w, phq, php):
+            q, p = self._synth_arrays(w, phq, php)
+            return self._sensor_acc(q, p, sensors, sk, rate, scale)
+
+        def distance(w, phq, php):
+            return acceleration_distance(a_fit, simulate(w, phq, php), self.up_)
+
+        def fit_weights(u, z_starts):
+            phq, php = self._warped_phi(u)
+            obj = lambda z: distance(unpack(z), phq, php)[0] / norm + self.regularization * float(z @ z)  # noqa: E731
+            best = None
+            for z0 in z_starts:
+                res = minimize(obj, z0, method="L-BFGS-B", options={"maxiter": int(maxiter)})
+                if best is None or res.fun < best.fun:
+                    best = res
+            return best.x, best.fun
+
+        # u: model frame of every fit frame; first the linear map of the model onto the recording.
+        u = np.linspace(0.0, L - 1, n_fit)
+        phq, php = self._warped_phi(u)
+        mean_rel = distance(unpack(np.zeros(sum(sizes))), phq, php)[0] / norm
+        # Starting points: the mean and the training clips that already fit best.
+        cells = np.argwhere(self.tensor_.observed)
+        cell_cost = [distance([np.eye(d)[i] for d, i in zip(shape, c)], phq, php)[0] for c in cells]
+        order = np.argsort(cell_cost)[: max(int(self.starts), 0)]
+        z_starts = [np.zeros(sum(sizes))] + [pack([np.eye(d)[i] for d, i in zip(shape, cells[j])]) for j in order]
+        z, f = fit_weights(u, z_starts)
+        target = np.nan_to_num(a_fit.reshape(n_fit, -1))
+        for _ in tqdm(range(int(self.warp_iterations)), desc="time warp", disable=not self.progress):
+            # Re-estimate the time map: DTW between the recording and the fitted model's accelerations
+            # (turned into the recording's frame by eq. 2.10's rotation) under the current map.
+            phq, php = self._warped_phi(u)
+            sim = simulate(unpack(z), phq, php)
+            _, theta = acceleration_distance(a_fit, sim, self.up_)
+            sim_r = R.quaternion_rotate(R.quaternion_from_axis_angle(self.up_, theta), sim).reshape(n_fit, -1)
+            _, path = dtw(target, sim_r, steps="tautges")
+            if path.shape[0] == 0:
+                break
+            t = _time_map(path[:, ::-1], n_fit, self.warp_smoothing * rate)
+            u_new = np.interp(t, np.arange(n_fit), u)
+            z_new, f_new = fit_weights(u_new, [z])
+            if f_new >= f:
+                break
+            u, z, f = u_new, z_new, f_new
+
+        w = unpack(z)
+        dist, theta = distance(w, *self._warped_phi(u))
+        # The output lives on the recording's own frames: the time map is carried over to them.
+        u_full = np.interp(np.arange(N), r, u)
+        q, p = self._synth_arrays(w, *self._warped_phi(u_full))
+        heading = R.quaternion_from_axis_angle(self.up_, theta)
+        q = np.array(q)
+        q[:, 0] = R.quaternion_multiply(heading, q[:, 0])
+        p = R.quaternion_rotate(heading, p)
+        motion = Motion(sk, q, p, fps, name="multilinear")
+        if not return_info:
+            return w, motion
+        info = {
+            "distance": dist,
+            "relative_distance": dist / norm,
+            "mean_distance": mean_rel,
+            "theta": theta,
+            "time_map": u_full,
+        }
+        return w, motion, info
+
+
+def _sensor_positions(motion: Motion, sensors: Sequence) -> np.ndarray:
+    """Global positions (F, S, 3), file units, of Sensors (joint frame + offset) or joint / end-site names."""
+    if all(isinstance(s, Sensor) for s in sensors):
+        sk = motion.skeleton
+        idx = [sk.index(s.joint) for s in sensors]
+        grot, gpos = motion.global_transforms()
+        offs = np.stack([s.offset for s in sensors])
+        return gpos[:, idx] + R.quaternion_rotate(grot[:, idx], offs)
+    if any(isinstance(s, Sensor) for s in sensors):
+        raise ValueError("sensors: give either Sensor objects or joint names, not a mix")
+    return virtual_markers(motion, list(sensors))
