@@ -377,7 +377,7 @@ def motion_tensor(
     """Stack time-aligned clips of one motion class into the tensors of sec. 2.2.2.
 
     Each clip is resampled to ``fps``, aligned to the reference clip by
-    classic DTW on Krüger's F15 features (wrists, ankles, head in the root
+    classic DTW on Krüger's F15 features (measured: Tautges' slope-limited steps give jerkier time maps here and a worse fit) (wrists, ankles, head in the root
     frame, cm), the warping path is turned into a smooth monotone time map
     (mean clip frame per reference frame, Gaussian-smoothed) and the clip
     is sampled at the mapped times (slerp) on ``frames`` points of the
@@ -788,6 +788,7 @@ class MultilinearModel:
         gravity: float = 9.81,
         skeleton: Skeleton | None = None,
         maxiter: int = 60,
+        optimize: bool = True,
         return_info: bool = False,
     ):
         """Fit the mode weights to sparse accelerations (eq. 2.8 with the distance of eq. 2.10).
@@ -818,6 +819,9 @@ class MultilinearModel:
             it, so its bone lengths shape the simulated accelerations.
         maxiter : int
             L-BFGS iterations per start.
+        optimize : bool
+            False keeps the mean motion (uniform weights) on the linear time
+            map, only its heading fitted by eq. 2.10: the baseline.
         return_info : bool
             Also return a dict with the distance, heading and time map.
 
@@ -883,19 +887,33 @@ class MultilinearModel:
         def pack(weights):
             return np.concatenate([B.T @ (w - 1.0 / d) for w, B, d in zip(weights, bases, shape)])
 
-        def simulate(w, phq, php):
-            q, p = self._synth_arrays(w, phq, php)
-            return self._sensor_acc(q, p, sensors, sk, rate, scale)
+        def simulate(ws, phq, php):
+            """Sensor accelerations (K, n_fit, S, 3) for K weight sets, one forward-kinematics pass."""
+            qs, ps = zip(*(self._synth_arrays(w, phq, php) for w in ws))
+            K = len(ws)
+            m = Motion(sk, np.concatenate(qs), np.concatenate(ps), rate)
+            pos = _sensor_positions(m, sensors).reshape(K, n_fit, len(sensors), 3)
+            return five_point_derivative(pos * scale, rate, order=2, axis=1)
 
         def distance(w, phq, php):
-            return acceleration_distance(a_fit, simulate(w, phq, php), self.up_)
+            return acceleration_distance(a_fit, simulate([w], phq, php)[0], self.up_)
 
         def fit_weights(u, z_starts):
             phq, php = self._warped_phi(u)
-            obj = lambda z: distance(unpack(z), phq, php)[0] / norm + self.regularization * float(z @ z)  # noqa: E731
+            n = sum(sizes)
+            step = 1e-6
+
+            def objective(z):
+                # Value and forward-difference gradient from one batched simulation of z and its n shifts.
+                zs = [z] + [z + step * e for e in np.eye(n)]
+                sims = simulate([unpack(zz) for zz in zs], phq, php)
+                f = np.array([acceleration_distance(a_fit, sim, self.up_)[0] / norm + self.regularization * float(zz @ zz)
+                              for sim, zz in zip(sims, zs)])
+                return f[0], (f[1:] - f[0]) / step
+
             best = None
             for z0 in z_starts:
-                res = minimize(obj, z0, method="L-BFGS-B", options={"maxiter": int(maxiter)})
+                res = minimize(objective, z0, jac=True, method="L-BFGS-B", options={"maxiter": int(maxiter)})
                 if best is None or res.fun < best.fun:
                     best = res
             return best.x, best.fun
@@ -904,9 +922,13 @@ class MultilinearModel:
         u = np.linspace(0.0, L - 1, n_fit)
         phq, php = self._warped_phi(u)
         mean_rel = distance(unpack(np.zeros(sum(sizes))), phq, php)[0] / norm
+        if not optimize:
+            z = np.zeros(sum(sizes))
+            return self._finish(unpack(z), distance, u, r, N, sk, fps, norm, mean_rel, return_info)
         # Starting points: the mean and the training clips that already fit best.
         cells = np.argwhere(self.tensor_.observed)
-        cell_cost = [distance([np.eye(d)[i] for d, i in zip(shape, c)], phq, php)[0] for c in cells]
+        sims = simulate([[np.eye(d)[i] for d, i in zip(shape, c)] for c in cells], phq, php)
+        cell_cost = [acceleration_distance(a_fit, sim, self.up_)[0] for sim in sims]
         order = np.argsort(cell_cost)[: max(int(self.starts), 0)]
         z_starts = [np.zeros(sum(sizes))] + [pack([np.eye(d)[i] for d, i in zip(shape, cells[j])]) for j in order]
         z, f = fit_weights(u, z_starts)
@@ -915,7 +937,7 @@ class MultilinearModel:
             # Re-estimate the time map: DTW between the recording and the fitted model's accelerations
             # (turned into the recording's frame by eq. 2.10's rotation) under the current map.
             phq, php = self._warped_phi(u)
-            sim = simulate(unpack(z), phq, php)
+            sim = simulate([unpack(z)], phq, php)[0]
             _, theta = acceleration_distance(a_fit, sim, self.up_)
             sim_r = R.quaternion_rotate(R.quaternion_from_axis_angle(self.up_, theta), sim).reshape(n_fit, -1)
             _, path = dtw(target, sim_r, steps="tautges")
@@ -928,9 +950,12 @@ class MultilinearModel:
                 break
             u, z, f = u_new, z_new, f_new
 
-        w = unpack(z)
+        return self._finish(unpack(z), distance, u, r, N, sk, fps, norm, mean_rel, return_info)
+
+    def _finish(self, w, distance, u, r, N, sk, fps, norm, mean_rel, return_info):
+        """The output of :meth:`fit_readings`: the motion on the recording's frames, turned to its heading."""
         dist, theta = distance(w, *self._warped_phi(u))
-        # The output lives on the recording's own frames: the time map is carried over to them.
+        # The time map is carried over from the fit frames to the recording's own frames.
         u_full = np.interp(np.arange(N), r, u)
         q, p = self._synth_arrays(w, *self._warped_phi(u_full))
         heading = R.quaternion_from_axis_angle(self.up_, theta)
