@@ -300,14 +300,14 @@ class MotionTensor:
 
 
 def hdm05_labels(clips: Sequence) -> list[tuple[str, int]]:
-    """``(actor, repetition ordinal)`` per clip from HDM05 names (``HDM_bk_sneak2StepsLStart_004_120``).
+    """``(actor, repetition ordinal)`` per clip (Motion, path or name) from HDM05 names (``HDM_bk_sneak2StepsLStart_004_120``).
 
     The repetition mode needs comparable entries across actors, so the file's
     take number becomes its rank among that actor's clips (0, 1, ...).
     """
     parsed = []
     for c in clips:
-        name = Path(c.name if isinstance(c, Motion) else str(c)).name
+        name = Path(str(getattr(c, "name", c))).name
         parts = name.split("_")
         if len(parts) < 4 or parts[0] != "HDM" or not parts[-2].isdigit():
             raise ValueError(f"{name!r} is not an HDM05 clip name (HDM_<actor>_<class>_<take>_<fps>); pass labels")
