@@ -1,0 +1,739 @@
+"""Full-body motion from a few markers: kNN local linear models and a per-frame fit (Krüger et al. 2010, sec. 5.2).
+
+Krüger et al. replace the neighbourhood graph of Chai & Hodgins (2005) by a
+kd-tree search on medium-dimensional features and reconstruct motions from six
+markers (hands, feet, head, root; Tables 3 and 4). For every frame ``t``:
+
+1. **Control features** (sec. 3.2): the observed markers in a *normalised root
+   frame* -- ground-plane translation removed and the heading turned to the
+   fixed forward axis. The root's orientation is not observed, so the frame is
+   *tracked*: the heading and ground translation of the previous reconstructed
+   frame give a first guess (the ground translation is the root marker's
+   ground projection whenever a root marker is given), and it is then refined
+   by the closed-form optimal rotation about the vertical plus ground
+   translation (Tautges 2012, eq. 4.3, :func:`align_about_vertical`) that maps
+   the nearest database frame's normalised markers onto the observed ones;
+   the search is repeated in the refined frame. The first frame (no
+   history) is aligned by brute force: eq. 4.3 against every database frame.
+   This keeps the heading in the database's own convention (the neighbours'
+   normalised frames), which is what the search compares with.
+2. **kNN** (sec. 4.1, :class:`~mocapkit.search.knn.KNNIndex`): the ``k``
+   database frames whose same markers, in their own normalised root frame,
+   are nearest. Missing markers (NaN) are filled, for the search only, with
+   the previous reconstructed frame's marker positions.
+3. **Local linear model** (Chai & Hodgins 2005, sec. 5): PCA of the
+   neighbours' poses. A pose is the stacked rotation vectors (radians) of
+   every joint relative to the neighbours' mean rotation (sign-aligned
+   quaternion average), the root's entry being its *tilt*
+   ``yaw^-1 * q_root`` (its orientation in the normalised frame). Components
+   are kept up to ``variance`` of the total, at most ``max_components``.
+4. **Per-frame optimisation** (the Chai-Hodgins energy):
+   ``E = sum_m |FK_m(z) - c_m|^2 + prior_weight * |u|^2
+   + smooth_weight * mean_j |p_j(t) - 2 p_j(t-1) + p_j(t-2)|^2`` in
+   centimetres, over ``z = (u, heading, root position)`` where ``u`` are the
+   whitened PCA coefficients (so ``|u|^2`` is the Mahalanobis distance of the
+   pose to the local model). The marker term drops missing markers; the
+   smoothness term runs on all joint positions (first order on the second
+   frame); the root position is free (pinned by the root marker when there is
+   one; otherwise a prior on its height above the ground, from the
+   neighbours, joins the prior term). It is solved by
+   :func:`scipy.optimize.least_squares` (Levenberg-Marquardt) from the
+   previous frame's pose projected into the new model, with a Jacobian by
+   forward differences computed as one batched forward-kinematics call.
+
+Forward kinematics runs on the performer's skeleton (``skeleton``), so bone
+lengths are the performer's; the database's skeletons only give the features
+and the pose statistics. Frames with no marker at all keep the previous local
+model and are carried by the prior and the smoothness term (a constant-
+acceleration-free extrapolation); frames before the first frame with three
+observed markers copy that frame's pose.
+
+Departures from the papers: Chai & Hodgins search neighbours of the previous
+synthesised poses in a precomputed graph, Krüger et al. (and this module)
+search the kd-tree directly; neither paper says how the unobserved heading
+enters the features -- here it is tracked and refined by eq. 4.3 as above.
+Weights were tuned on HDM05 (``benchmarks/reconstruct_markers.py``).
+
+>>> import mocapkit
+>>> from mocapkit.database import MotionDatabase
+>>> from mocapkit.features import virtual_markers
+>>> db = MotionDatabase.build([mocapkit.samples.path("HDM_bk_sneak2StepsLStart_004_120.amc")], fps=30,
+...                           executor="serial", progress=False)
+>>> truth = mocapkit.load(mocapkit.samples.path("HDM_bk_sneak2StepsLStart_005_120.amc")).resample(30)[:20]
+>>> joints = ["lhand", "rhand", "lfoot", "rfoot", "head", "root"]
+>>> out = reconstruct(virtual_markers(truth, joints), joints, db, fps=30)
+>>> out.num_frames, out.fps
+(20, 30.0)
+"""
+
+from __future__ import annotations
+
+import math
+import weakref
+from dataclasses import dataclass
+from typing import Sequence
+
+import numba
+import numpy as np
+from scipy.optimize import least_squares
+from tqdm.auto import tqdm
+
+from .. import rotations as R
+from ..database import MotionDatabase
+from ..features import _parse_up_axis, detect_up_axis, root_frame, virtual_markers
+from ..motion import Motion, Skeleton, unit_scale_cm
+from ..search.knn import KNNIndex
+from ._common import database_positions, output_skeleton, per_clip
+
+__all__ = ["reconstruct", "nearest_neighbor", "align_about_vertical", "marker_residuals"]
+
+_STEP = 1e-6  # forward-difference step of the Jacobian (whitened PCA units, radians, centimetres)
+_MIN_HEIGHT_STD_CM = 2.0  # floor of the neighbours' root-height spread in the height prior
+
+
+# -- closed-form alignment about the vertical (Tautges 2012, eq. 4.3) ------------------------
+
+
+def align_about_vertical(source: np.ndarray, target: np.ndarray, up: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Optimal rotation about ``up`` and ground translation mapping ``source`` points onto ``target`` (Tautges eq. 4.3).
+
+    Minimises ``sum_i |rotate(yaw(theta), a_i) + t - b_i|^2`` over the angle
+    ``theta`` and a translation ``t`` orthogonal to ``up``, in closed form:
+    with the points' ground-plane parts centred,
+    ``theta = atan2(sum up . (a_i x b_i), sum a_i . b_i)`` and
+    ``t = mean(b) - rotate(yaw(theta), mean(a))`` projected onto the ground.
+
+    Parameters
+    ----------
+    source : float array (..., M, 3)
+        Points ``a_i``, any leading dimensions (one alignment per leading index).
+    target : float array (M, 3) or (..., M, 3)
+        Points ``b_i``, broadcast against ``source``.
+    up : float array (3,)
+        Unit vertical axis.
+
+    Returns
+    -------
+    theta : float array (...)
+        Angle in radians about ``up`` (right-handed).
+    translation : float array (..., 3)
+        Ground-plane translation (no component along ``up``).
+    """
+    a = np.asarray(source, dtype=np.float64)
+    b = np.asarray(target, dtype=np.float64)
+    up = np.asarray(up, dtype=np.float64)
+    ha = a - (a @ up)[..., None] * up
+    hb = b - (b @ up)[..., None] * up
+    ma, mb = ha.mean(axis=-2), hb.mean(axis=-2)
+    ca, cb = ha - ma[..., None, :], hb - mb[..., None, :]
+    sin = np.sum(np.cross(ca, cb) @ up, axis=-1)
+    cos = np.sum(np.sum(ca * cb, axis=-1), axis=-1)
+    theta = np.arctan2(sin, cos)
+    t = mb - R.quaternion_rotate(R.quaternion_from_axis_angle(up, theta), ma)
+    t = t - (t @ up)[..., None] * up
+    return theta, t
+
+
+# -- what the database gives, cached per (database, markers) ----------------------------------
+
+
+@dataclass(frozen=True, eq=False)
+class _MarkerDatabase:
+    """Per-frame values of one database for one marker set."""
+
+    index: KNNIndex
+    features: np.ndarray  # (N, M, 3) markers in each frame's normalised root frame, file units
+    tilt: np.ndarray  # (N, 4) root rotation in the normalised frame, yaw^-1 * q_root
+    root: np.ndarray  # (N, 3) root position in the normalised frame (its height along up)
+
+
+_CACHE: "weakref.WeakKeyDictionary[MotionDatabase, dict]" = weakref.WeakKeyDictionary()
+
+
+def _marker_database(db: MotionDatabase, joints: tuple[str, ...], up: np.ndarray) -> _MarkerDatabase:
+    per_db = _CACHE.setdefault(db, {})
+    key = (joints, tuple(up.tolist()))
+    if key in per_db:
+        return per_db[key]
+
+    def frame(m: Motion) -> np.ndarray:
+        rot, tr = root_frame(m, up_axis=up)
+        return np.concatenate([rot, tr], axis=1)
+
+    fr = per_clip(db, frame)
+    yaw, ground = fr[:, :4], fr[:, 4:]
+    inv = R.quaternion_conjugate(yaw)
+    pos = database_positions(db, joints)
+    feats = R.quaternion_rotate(inv[:, None], pos - ground[:, None])
+    rot0 = np.asarray(db.rotations[:, 0], dtype=np.float64)
+    tilt = R.quaternion_normalize(R.quaternion_multiply(inv, rot0))
+    root = R.quaternion_rotate(inv, np.asarray(db.root_positions, dtype=np.float64) - ground)
+    out = _MarkerDatabase(KNNIndex(feats.reshape(len(feats), -1)), feats, tilt, root)
+    per_db[key] = out
+    return out
+
+
+# -- input checks ------------------------------------------------------------------------------
+
+
+def _marker_columns(sk: Skeleton, joints: Sequence[str]) -> tuple[np.ndarray, np.ndarray]:
+    """Per marker: the joint carrying it (M,) (an end site's parent) and its offset (M, 3) in that joint's frame."""
+    jl = {n: i for i, n in enumerate(sk.joint_names)}
+    el = {n: i for i, n in enumerate(sk.end_site_names)}
+    index = np.zeros(len(joints), dtype=np.int64)
+    offset = np.zeros((len(joints), 3))
+    for m, name in enumerate(joints):
+        if name in jl:
+            index[m] = jl[name]
+        else:
+            e = el[name]
+            index[m] = sk.end_site_parents[e]
+            offset[m] = sk.end_site_offsets[e]
+    return index, offset
+
+
+def _check(markers, joints, db, fps) -> tuple[np.ndarray, tuple[str, ...]]:
+    if not isinstance(db, MotionDatabase):
+        raise ValueError(f"db must be a MotionDatabase, got {type(db).__name__}")
+    if db.num_frames == 0:
+        raise ValueError("the database is empty: build it from at least one clip")
+    x = np.asarray(markers, dtype=np.float64)
+    if isinstance(joints, str):
+        raise ValueError("joints: expected a sequence of joint or end-site names, got a single string")
+    joints = tuple(str(j) for j in joints)
+    if x.ndim != 3 or x.shape[2] != 3 or x.shape[1] != len(joints):
+        raise ValueError(f"markers: expected shape (F, {len(joints)}, 3) for {len(joints)} joints, got {x.shape}")
+    if len(joints) < 3:
+        raise ValueError(f"need at least 3 markers to reconstruct a pose, got {len(joints)}")
+    if x.shape[0] == 0:
+        raise ValueError("markers: no frames")
+    if not np.all(np.isfinite(x) | np.isnan(x)):
+        raise ValueError("markers: infinite values; mark missing samples with NaN")
+    sk = db.skeletons[0]
+    known = set(sk.joint_names) | set(sk.end_site_names)
+    unknown = [j for j in joints if j not in known]
+    if unknown:
+        raise ValueError(
+            f"unknown joint or end-site name(s) {', '.join(map(repr, unknown))}; "
+            f"the database skeleton has joints {', '.join(sk.joint_names)} and end sites {', '.join(sk.end_site_names)}"
+        )
+    fps = float(fps)
+    if not np.isfinite(fps) or fps <= 0:
+        raise ValueError(f"fps must be a positive number, got {fps!r}")
+    return x, joints
+
+
+def _resample_markers(x: np.ndarray, fps: float, target_fps: float) -> np.ndarray:
+    """Markers (F, M, 3) at ``fps`` linearly interpolated to ``target_fps``, covering the whole clip (last sample held)."""
+    F = x.shape[0]
+    n = int(np.ceil((F - 1) * target_fps / fps - 1e-9)) + 1
+    t = np.minimum(np.arange(n) * (fps / target_fps), F - 1)
+    i0 = np.minimum(np.floor(t + 1e-9).astype(np.int64), F - 1)
+    i1 = np.minimum(i0 + 1, F - 1)
+    a = (t - i0)[:, None, None]
+    out = x[i0] * (1 - a) + x[i1] * a
+    exact = (a[:, 0, 0] <= 1e-9)
+    out[exact] = x[i0[exact]]  # a NaN neighbour does not spoil an exact sample
+    return out
+
+
+# -- batched forward kinematics of local-model poses (numba; the slow twin is Motion.global_transforms) --
+
+
+@numba.njit(cache=True)
+def _fk_model_poses(mean, rel, yaw, root, parents, offsets, mk_joint, mk_offset, gpos, mpos):
+    """Global joint and marker positions of poses ``mean[j] * exp(rel[b, j])`` with the root turned by ``yaw[b]``.
+
+    mean (J, 4) local rotations (root: tilt), rel (B, J, 3) rotation vectors
+    (radians) relative to them, yaw (B, 4) rotations about the vertical
+    applied to the root, root (B, 3) root positions; parents (J,), offsets
+    (J, 3); markers on joints ``mk_joint`` (M,) at ``mk_offset`` (M, 3) in the
+    joint's global frame. Writes gpos (B, J, 3) and mpos (B, M, 3).
+    """
+    B = rel.shape[0]
+    J = parents.shape[0]
+    g = np.empty((J, 4))
+    for b in range(B):
+        for j in range(J):
+            rx, ry, rz = rel[b, j, 0], rel[b, j, 1], rel[b, j, 2]
+            ang = math.sqrt(rx * rx + ry * ry + rz * rz)
+            s = math.sin(0.5 * ang) / ang if ang > 1e-12 else 0.5 - ang * ang / 48.0
+            e0, e1, e2, e3 = math.cos(0.5 * ang), rx * s, ry * s, rz * s
+            m0, m1, m2, m3 = mean[j, 0], mean[j, 1], mean[j, 2], mean[j, 3]
+            q0 = m0 * e0 - m1 * e1 - m2 * e2 - m3 * e3
+            q1 = m0 * e1 + m1 * e0 + m2 * e3 - m3 * e2
+            q2 = m0 * e2 - m1 * e3 + m2 * e0 + m3 * e1
+            q3 = m0 * e3 + m1 * e2 - m2 * e1 + m3 * e0
+            par = parents[j]
+            if par < 0:
+                a0, a1, a2, a3 = yaw[b, 0], yaw[b, 1], yaw[b, 2], yaw[b, 3]
+                gpos[b, j, 0], gpos[b, j, 1], gpos[b, j, 2] = root[b, 0], root[b, 1], root[b, 2]
+            else:
+                a0, a1, a2, a3 = g[par, 0], g[par, 1], g[par, 2], g[par, 3]
+                ox, oy, oz = offsets[j, 0], offsets[j, 1], offsets[j, 2]
+                # rotate (ox, oy, oz) by the parent's global rotation a
+                tx = 2.0 * (a2 * oz - a3 * oy)
+                ty = 2.0 * (a3 * ox - a1 * oz)
+                tz = 2.0 * (a1 * oy - a2 * ox)
+                gpos[b, j, 0] = gpos[b, par, 0] + ox + a0 * tx + (a2 * tz - a3 * ty)
+                gpos[b, j, 1] = gpos[b, par, 1] + oy + a0 * ty + (a3 * tx - a1 * tz)
+                gpos[b, j, 2] = gpos[b, par, 2] + oz + a0 * tz + (a1 * ty - a2 * tx)
+            g[j, 0] = a0 * q0 - a1 * q1 - a2 * q2 - a3 * q3
+            g[j, 1] = a0 * q1 + a1 * q0 + a2 * q3 - a3 * q2
+            g[j, 2] = a0 * q2 - a1 * q3 + a2 * q0 + a3 * q1
+            g[j, 3] = a0 * q3 + a1 * q2 - a2 * q1 + a3 * q0
+        for k in range(mk_joint.shape[0]):
+            j = mk_joint[k]
+            a0, a1, a2, a3 = g[j, 0], g[j, 1], g[j, 2], g[j, 3]
+            ox, oy, oz = mk_offset[k, 0], mk_offset[k, 1], mk_offset[k, 2]
+            tx = 2.0 * (a2 * oz - a3 * oy)
+            ty = 2.0 * (a3 * ox - a1 * oz)
+            tz = 2.0 * (a1 * oy - a2 * ox)
+            mpos[b, k, 0] = gpos[b, j, 0] + ox + a0 * tx + (a2 * tz - a3 * ty)
+            mpos[b, k, 1] = gpos[b, j, 1] + oy + a0 * ty + (a3 * tx - a1 * tz)
+            mpos[b, k, 2] = gpos[b, j, 2] + oz + a0 * tz + (a1 * ty - a2 * tx)
+
+
+# -- the per-frame model and its residuals -------------------------------------------------------
+
+
+@dataclass
+class _LocalModel:
+    """A local linear pose model: ``rotvec = mean_rotvec + basis @ (sqrt(lam) * u)`` relative to ``mean`` (J, 4)."""
+
+    mean: np.ndarray  # (J, 4) mean local rotations (root: mean tilt)
+    mu: np.ndarray  # (3J,) mean rotation vectors relative to ``mean``
+    basis: np.ndarray  # (3J, d) scaled by sqrt(lam): whitened coordinates
+    height: float  # mean root height along up, file units
+    height_std: float  # file units
+
+    @property
+    def dim(self) -> int:
+        return self.basis.shape[1]
+
+    def project(self, local: np.ndarray) -> np.ndarray:
+        """Whitened coordinates (d,) of a pose (J, 4) (least squares in the model's span)."""
+        r = R.quaternion_to_rotvec(R.quaternion_multiply(R.quaternion_conjugate(self.mean), local)).ravel()
+        if self.dim == 0:
+            return np.zeros(0)
+        u, *_ = np.linalg.lstsq(self.basis, r - self.mu, rcond=None)
+        return u
+
+    def decode(self, u: np.ndarray) -> np.ndarray:
+        """Local rotations (B, J, 4) (root = tilt) of whitened coordinates (B, d)."""
+        r = self.mu + u @ self.basis.T
+        J = self.mean.shape[0]
+        return R.quaternion_multiply(self.mean, R.rotvec_to_quaternion(r.reshape(len(u), J, 3)))
+
+
+def _local_model(rotations: np.ndarray, root_height: np.ndarray, variance: float, max_components: int) -> _LocalModel:
+    """PCA of neighbour poses (K, J, 4) (root = tilt) with their root heights (K,)."""
+    q = np.asarray(rotations, dtype=np.float64)
+    K, J, _ = q.shape
+    q = np.where(np.sum(q * q[:1], axis=-1, keepdims=True) < 0, -q, q)
+    mean = R.quaternion_normalize(q.mean(axis=0))
+    r = R.quaternion_to_rotvec(R.quaternion_multiply(R.quaternion_conjugate(mean), q)).reshape(K, -1)
+    mu = r.mean(axis=0)
+    d = 0
+    basis = np.zeros((3 * J, 0))
+    if K > 1:
+        _, s, vt = np.linalg.svd(r - mu, full_matrices=False)
+        lam = s**2 / (K - 1)
+        total = lam.sum()
+        if total > 0:
+            frac = np.cumsum(lam) / total
+            d = int(np.searchsorted(frac, variance - 1e-12) + 1)
+            d = min(d, max_components, int(np.sum(lam > 1e-10 * lam[0])))
+            basis = vt[:d].T * np.sqrt(lam[:d])
+    h = np.asarray(root_height, dtype=np.float64)
+    return _LocalModel(mean, mu, basis, float(h.mean()), float(h.std()))
+
+
+@dataclass
+class _Problem:
+    """Everything the residuals of one frame need."""
+
+    sk: Skeleton
+    model: _LocalModel
+    up: np.ndarray
+    scale: float  # cm per file unit
+    index: np.ndarray  # (M,) int64 joint carrying each marker (an end site's parent)
+    offset: np.ndarray  # (M, 3) marker offset in that joint's global frame (end-site offset or 0)
+    observed: np.ndarray  # (M,) bool
+    target: np.ndarray  # (M, 3) file units
+    prior: float  # sqrt of the prior weight
+    smooth: float  # sqrt of the smoothness weight per joint
+    history: np.ndarray  # (h, J, 3) previous global joint positions, newest first (h = 0, 1 or 2)
+    height_prior: bool
+    parents: np.ndarray  # (J,) int64
+    offsets: np.ndarray  # (J, 3) file units
+    heading: float  # the search frame's heading (eq. 4.3 against the nearest neighbour), radians
+    heading_std: float  # radians
+
+    def pose(self, z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Local rotations (B, J, 4) with the global root rotation and root positions (B, 3) of parameters (B, n)."""
+        d = self.model.dim
+        q = self.model.decode(z[:, :d])
+        yaw = R.quaternion_from_axis_angle(self.up, z[:, d])
+        q[:, 0] = R.quaternion_multiply(yaw, q[:, 0])
+        return q, z[:, d + 1 : d + 4] / self.scale
+
+    def positions(self, z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Global joint (B, J, 3) and marker (B, M, 3) positions of parameters (B, n), file units."""
+        d = self.model.dim
+        B, J = len(z), self.sk.num_joints
+        rel = (self.model.mu + z[:, :d] @ self.model.basis.T).reshape(B, J, 3)
+        yaw = R.quaternion_from_axis_angle(self.up, z[:, d])
+        root = np.ascontiguousarray(z[:, d + 1 : d + 4]) / self.scale
+        gpos = np.empty((B, J, 3))
+        mpos = np.empty((B, len(self.index), 3))
+        _fk_model_poses(self.model.mean, rel, yaw, root, self.parents, self.offsets, self.index, self.offset, gpos, mpos)
+        return gpos, mpos
+
+    def residuals(self, z: np.ndarray) -> np.ndarray:
+        """Residual vectors (B, n_res) of parameters (B, n): markers, prior, height prior, smoothness (cm)."""
+        gpos, p = self.positions(z)
+        parts = [((p[:, self.observed] - self.target[self.observed]) * self.scale).reshape(len(z), -1)]
+        parts.append(self.prior * z[:, : self.model.dim])
+        parts.append(((z[:, self.model.dim] - self.heading) / self.heading_std)[:, None])
+        if self.height_prior:
+            h = (z[:, self.model.dim + 1 : self.model.dim + 4] / self.scale) @ self.up
+            std = max(self.model.height_std, _MIN_HEIGHT_STD_CM / self.scale)
+            parts.append(((h - self.model.height) / std)[:, None])
+        if len(self.history) == 2:
+            acc = gpos - 2 * self.history[0] + self.history[1]
+            parts.append((self.smooth * self.scale * acc).reshape(len(z), -1))
+        elif len(self.history) == 1:
+            parts.append((self.smooth * self.scale * (gpos - self.history[0])).reshape(len(z), -1))
+        return np.concatenate(parts, axis=1)
+
+    def fun(self, z: np.ndarray) -> np.ndarray:
+        return self.residuals(z[None])[0]
+
+    def jac(self, z: np.ndarray) -> np.ndarray:
+        n = len(z)
+        batch = np.vstack([z, z + _STEP * np.eye(n)])
+        res = self.residuals(batch)
+        return ((res[1:] - res[0]) / _STEP).T
+
+
+def marker_residuals(motion: Motion, markers: np.ndarray, joints: Sequence[str]) -> np.ndarray:
+    """Distances (F, M) in cm between a motion's markers and the given ones (NaN where a marker is missing).
+
+    The fit residual of :func:`reconstruct`: how closely the reconstruction
+    passes through the markers the user gave.
+    """
+    p = virtual_markers(motion, list(joints))
+    x = np.asarray(markers, dtype=np.float64)
+    if x.shape != p.shape:
+        raise ValueError(f"markers: expected shape {p.shape}, got {x.shape}")
+    return np.linalg.norm(p - x, axis=-1) * unit_scale_cm(motion.skeleton)
+
+
+# -- the reconstruction --------------------------------------------------------------------------
+
+
+def _first_frame(mdb: _MarkerDatabase, obs: np.ndarray, seen: np.ndarray, up: np.ndarray) -> tuple[int, float, np.ndarray]:
+    """Brute-force start: eq. 4.3 against every database frame; (frame, heading, ground translation) of the best fit."""
+    a = mdb.features[:, seen]
+    b = obs[seen]
+    theta, t = align_about_vertical(a, b, up)
+    fitted = R.quaternion_rotate(R.quaternion_from_axis_angle(up, theta)[:, None], a) + t[:, None]
+    err = np.sum((fitted - b) ** 2, axis=(1, 2))
+    err[~np.isfinite(err)] = np.inf
+    n = int(np.argmin(err))
+    return n, float(theta[n]), t[n]
+
+
+def _normalised(points: np.ndarray, theta: float, ground: np.ndarray, up: np.ndarray) -> np.ndarray:
+    return R.quaternion_rotate(R.quaternion_from_axis_angle(up, -theta), points - ground)
+
+
+def _run(
+    markers,
+    joints,
+    db: MotionDatabase,
+    fps: float,
+    *,
+    k: int,
+    skeleton: Skeleton | None,
+    variance: float,
+    max_components: int,
+    prior_weight: float,
+    smooth_weight: float,
+    max_iterations: int,
+    heading_std: float,
+    root_joint: str | None,
+    up_axis,
+    solve: bool,
+    progress: bool,
+) -> Motion:
+    x, joints = _check(markers, joints, db, fps)
+    if int(k) != k or k < 1:
+        raise ValueError(f"k must be a positive integer, got {k}")
+    if not 0 < variance <= 1:
+        raise ValueError(f"variance must be in (0, 1], got {variance}")
+    if prior_weight < 0 or smooth_weight < 0:
+        raise ValueError("prior_weight and smooth_weight must be >= 0")
+    sk = output_skeleton(db, skeleton)
+    known = set(sk.joint_names) | set(sk.end_site_names)
+    if any(j not in known for j in joints):
+        raise ValueError("the output skeleton lacks some of the marker joints; pass a skeleton with the database's layout")
+    fps = float(fps)
+    F_in = x.shape[0]
+    run_fps = float(db.fps)
+    if run_fps != fps:
+        x = _resample_markers(x, fps, run_fps)
+    up = detect_up_axis(db.skeletons[0]) if up_axis is None else _parse_up_axis(up_axis)
+    mdb = _marker_database(db, joints, up)
+    scale = unit_scale_cm(sk)
+    index, offset = _marker_columns(sk, joints)
+    parents = np.asarray(sk.parents, dtype=np.int64)
+    offsets = np.ascontiguousarray(sk.offsets, dtype=np.float64)
+    root_name = sk.joint_names[0] if root_joint is None else root_joint
+    root_col = [m for m, j in enumerate(joints) if j == root_name]
+    root_col = root_col[0] if root_col else None
+    K = int(min(k, len(mdb.index)))
+    # the smoothness weight is stated per (cm / frame^2)^2 at 30 fps: the same acceleration costs the same
+    smooth = np.sqrt(smooth_weight / sk.num_joints) * (run_fps / 30.0) ** 2
+
+    F, J = x.shape[0], sk.num_joints
+    seen = np.isfinite(x).all(axis=2)
+    good = np.flatnonzero(seen.sum(axis=1) >= 3)
+    if len(good) == 0:
+        raise ValueError("no frame has 3 or more observed (finite) markers")
+    t0 = int(good[0])
+    local = np.zeros((F, J, 4))  # root entry: tilt
+    theta = np.zeros(F)
+    root = np.zeros((F, 3))
+    gpos = np.zeros((F, J, 3))
+    mpos = np.zeros((F, len(joints), 3))
+    model = None
+    for t in tqdm(range(t0, F), disable=not progress, desc="frames", unit="frame"):
+        obs, m_seen = x[t], seen[t]
+        n_seen = int(m_seen.sum())
+        if t == t0:
+            n, th, g = _first_frame(mdb, obs, m_seen, up)
+            first = True
+        else:
+            th = theta[t - 1]
+            g = root[t - 1] - (root[t - 1] @ up) * up
+            if root_col is not None and m_seen[root_col]:
+                g = obs[root_col] - (obs[root_col] @ up) * up
+            first = False
+        if n_seen > 0:
+            if first:
+                fill = R.quaternion_rotate(R.quaternion_from_axis_angle(up, th), mdb.features[n]) + g
+            else:
+                fill = mpos[t - 1]
+            query = np.where(m_seen[:, None], obs, fill)
+            for refine in range(1 if first else 2):
+                _, nn = mdb.index.query(_normalised(query, th, g, up).ravel(), k=K)
+                nn = nn[0][nn[0] >= 0]
+                if n_seen >= 2:
+                    th, g = align_about_vertical(mdb.features[nn[0]][m_seen], obs[m_seen], up)
+                    th = float(th)
+            neighbours = nn
+        yaw = R.quaternion_from_axis_angle(up, th)
+        if not solve:
+            # baseline: the nearest database pose, placed by the alignment (root on the root marker when seen)
+            n0 = neighbours[0]
+            local[t] = db.rotations[n0]
+            local[t, 0] = mdb.tilt[n0]
+            theta[t] = th
+            root[t] = R.quaternion_rotate(yaw, mdb.root[n0]) + g
+            if root_col is not None and m_seen[root_col]:
+                root[t] = obs[root_col]
+        else:
+            if n_seen > 0 or model is None:
+                rots = np.array(db.rotations[neighbours], dtype=np.float64)
+                rots[:, 0] = mdb.tilt[neighbours]
+                model = _local_model(rots, mdb.root[neighbours] @ up, variance, max_components)
+            if t == t0:
+                u0 = np.zeros(model.dim)
+                r0 = R.quaternion_rotate(yaw, mdb.root[neighbours[0]]) + g
+            else:
+                u0 = model.project(local[t - 1])
+                r0 = root[t - 1].copy()
+                if root_col is not None and m_seen[root_col]:
+                    r0 = obs[root_col].copy()
+            z0 = np.concatenate([u0, [th], r0 * scale])
+            hist = gpos[[t - 1, t - 2]] if t - 2 >= t0 else (gpos[[t - 1]] if t - 1 >= t0 else np.zeros((0, J, 3)))
+            problem = _Problem(
+                sk,
+                model,
+                up,
+                scale,
+                index,
+                offset,
+                m_seen,
+                np.nan_to_num(obs),
+                np.sqrt(prior_weight),
+                smooth,
+                hist,
+                root_col is None or not m_seen[root_col],
+                parents,
+                offsets,
+                th,
+                np.radians(heading_std),
+            )
+            sol = least_squares(problem.fun, z0, jac=problem.jac, method="lm", max_nfev=max_iterations)
+            z = sol.x
+            q, rp = problem.pose(z[None])
+            d = model.dim
+            theta[t] = z[d]
+            root[t] = rp[0]
+            local[t] = q[0]
+            local[t, 0] = R.quaternion_multiply(R.quaternion_conjugate(R.quaternion_from_axis_angle(up, z[d])), q[0, 0])
+        _fk_model_poses(
+            local[t],
+            np.zeros((1, J, 3)),
+            R.quaternion_from_axis_angle(up, theta[t : t + 1]),
+            root[t : t + 1],
+            parents,
+            offsets,
+            index,
+            offset,
+            gpos[t : t + 1],
+            mpos[t : t + 1],
+        )
+    glob = local.copy()
+    glob[:, 0] = R.quaternion_multiply(R.quaternion_from_axis_angle(up, theta), local[:, 0])
+    glob[:t0], root[:t0] = glob[t0], root[t0]
+    out = Motion(sk, R.quaternion_normalize(glob), root, run_fps, name="reconstruction")
+    if run_fps != fps:
+        out = out.resample(fps)[:F_in]
+    return out
+
+
+def reconstruct(
+    markers,
+    joints: Sequence[str],
+    db: MotionDatabase,
+    fps: float,
+    *,
+    k: int = 128,
+    skeleton: Skeleton | None = None,
+    variance: float = 0.9999,
+    max_components: int = 60,
+    prior_weight: float = 0.01,
+    smooth_weight: float = 0.01,
+    max_iterations: int = 20,
+    heading_std: float = 10.0,
+    root_joint: str | None = None,
+    up_axis=None,
+    progress: bool = False,
+) -> Motion:
+    """Full-body motion from a few marker trajectories (Krüger et al. 2010, sec. 5.2; Chai & Hodgins 2005).
+
+    Per frame: kNN of the markers in a tracked normalised root frame, PCA of
+    the neighbours' poses, and a least-squares fit of the markers under that
+    prior and a smoothness term (see the module docstring for the details).
+
+    Parameters
+    ----------
+    markers : float array (F, M, 3)
+        Global marker positions in the database's length units (file units),
+        NaN where a marker is occluded.
+    joints : sequence of str (M,)
+        The joints or end sites the markers sit on (HDM05/CMU:
+        ``"lhand"``, ``"rhand"``, ``"lfoot"``, ``"rfoot"``, ``"head"``,
+        ``"root"``, or end sites such as ``"ltoes_end"``); at least 3.
+    db : MotionDatabase
+        The knowledge base (any fps; the markers are resampled to it and the
+        result back).
+    fps : float
+        Frame rate of ``markers`` and of the result.
+    k : int
+        Neighbours per frame for the local model.
+    skeleton : Skeleton, optional
+        The performer's skeleton (the database's layout); the result is
+        written on it and the fit uses its bone lengths. Default: the
+        database's first skeleton.
+    variance : float
+        Fraction of the neighbours' pose variance the local model keeps.
+    max_components : int
+        At most this many principal components.
+    prior_weight : float
+        Weight of the Mahalanobis prior term (per unit of squared
+        whitened coordinate; the marker term is in cm^2).
+    smooth_weight : float
+        Weight of the mean squared joint acceleration (cm/frame^2 at 30 fps).
+    max_iterations : int
+        Residual evaluations per frame for the solver.
+    root_joint : str, optional
+        Which marker (if any) is the root marker; default the skeleton's root
+        joint name. A root marker pins the ground translation of the search
+        frame and the root position.
+    up_axis : optional
+        Vertical axis (as in :func:`mocapkit.features.root_frame`); detected
+        from the database skeleton by default.
+    progress : bool
+        Show a tqdm bar over frames.
+
+    Returns
+    -------
+    Motion
+        ``F`` frames at ``fps`` on ``skeleton``.
+
+    Raises
+    ------
+    ValueError
+        Unknown joint names, shape mismatches, fewer than 3 markers, an empty
+        database, no frame with 3 observed markers.
+    """
+    return _run(
+        markers,
+        joints,
+        db,
+        fps,
+        k=k,
+        skeleton=skeleton,
+        variance=variance,
+        max_components=max_components,
+        prior_weight=prior_weight,
+        smooth_weight=smooth_weight,
+        max_iterations=max_iterations,
+        heading_std=heading_std,
+        root_joint=root_joint,
+        up_axis=up_axis,
+        solve=True,
+        progress=progress,
+    )
+
+
+def nearest_neighbor(
+    markers,
+    joints: Sequence[str],
+    db: MotionDatabase,
+    fps: float,
+    *,
+    skeleton: Skeleton | None = None,
+    root_joint: str | None = None,
+    up_axis=None,
+    progress: bool = False,
+) -> Motion:
+    """The baseline of :func:`reconstruct`: each frame's nearest database pose, no local model, no optimisation.
+
+    The same tracked root frame and kd-tree search as :func:`reconstruct`;
+    the nearest frame's pose is placed by the eq. 4.3 alignment (the root on
+    the root marker when it is observed). Arguments as in :func:`reconstruct`.
+    """
+    return _run(
+        markers,
+        joints,
+        db,
+        fps,
+        k=1,
+        skeleton=skeleton,
+        variance=1.0,
+        max_components=0,
+        prior_weight=0.0,
+        smooth_weight=0.0,
+        max_iterations=1,
+        heading_std=1.0,
+        root_joint=root_joint,
+        up_axis=up_axis,
+        solve=False,
+        progress=progress,
+    )

@@ -1,0 +1,229 @@
+"""Full body from a few markers (Krüger et al. 2010, sec. 5.2): accuracy on real clips, fit, NaN, errors, the FK kernel."""
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+import mocapkit
+from mocapkit import rotations as R
+from mocapkit import samples
+from mocapkit.database import ClipInfo, MotionDatabase
+from mocapkit.features import virtual_markers
+from mocapkit.motion import Motion, unit_scale_cm
+from mocapkit.reconstruct.markers import (
+    _fk_model_poses,
+    _marker_columns,
+    align_about_vertical,
+    marker_residuals,
+    nearest_neighbor,
+    reconstruct,
+)
+
+MARKERS = ["lhand", "rhand", "lfoot", "rfoot", "head", "root"]
+UP = np.array([0.0, 1.0, 0.0])
+
+
+@pytest.fixture(scope="module")
+def db():
+    names = ["HDM_bk_sneak2StepsLStart_004_120.amc", "HDM_bd_jogLeftCircle4StepsRstart_001_120.amc"]
+    return MotionDatabase.build([samples.path(n) for n in names], fps=30, mirror=True, executor="serial", progress=False)
+
+
+@pytest.fixture(scope="module")
+def truth():
+    return mocapkit.load(samples.path("HDM_bk_sneak2StepsLStart_005_120.amc")).resample(30)
+
+
+def _noisy_markers(motion, joints, seed=0):
+    """Virtual markers with uniform noise within 1 mm per coordinate (Krüger sec. 5.2)."""
+    x = virtual_markers(motion, joints)
+    rng = np.random.default_rng(seed)
+    return x + rng.uniform(-0.1, 0.1, size=x.shape) / unit_scale_cm(motion.skeleton)
+
+
+def _error_cm(a, b):
+    """Mean per-joint Euclidean distance in cm over joints and frames (global positions)."""
+    return float(np.mean(np.linalg.norm(a.global_positions() - b.global_positions(), axis=-1)) * unit_scale_cm(b.skeleton))
+
+
+@pytest.fixture(scope="module")
+def result(db, truth):
+    x = _noisy_markers(truth, MARKERS)
+    return x, reconstruct(x, MARKERS, db, 30, skeleton=truth.skeleton)
+
+
+def test_reconstruction_beats_nearest_neighbour_and_mean_pose(db, truth, result):
+    x, out = result
+    err = _error_cm(out, truth)
+    base = _error_cm(nearest_neighbor(x, MARKERS, db, 30, skeleton=truth.skeleton), truth)
+    mean_pose = Motion(
+        truth.skeleton,
+        np.broadcast_to(R.quaternion_normalize(np.mean(db.rotations, axis=0, dtype=np.float64)), truth.rotations.shape),
+        x[:, -1],
+        30,
+    )
+    mean_err = _error_cm(mean_pose, truth)
+    assert err < 4.0, err
+    assert err < 0.75 * base, (err, base)
+    assert err < 0.5 * mean_err, (err, mean_err)
+
+
+def test_markers_are_matched_closely(truth, result):
+    x, out = result
+    res = marker_residuals(out, x, MARKERS)
+    assert res.shape == (truth.num_frames, len(MARKERS))
+    assert np.mean(res) < 0.5 and np.max(res) < 3.0, (np.mean(res), np.max(res))
+
+
+def test_output_skeleton_fps_and_frames(db, truth, result):
+    _, out = result
+    assert out.skeleton == truth.skeleton and out.fps == 30.0 and out.num_frames == truth.num_frames
+    assert np.all(np.isfinite(out.rotations)) and np.all(np.isfinite(out.root_positions))
+    assert np.allclose(np.linalg.norm(out.rotations, axis=-1), 1.0)
+
+
+def test_markers_at_another_rate_are_resampled_and_back(db):
+    truth120 = mocapkit.load(samples.path("HDM_bk_sneak2StepsLStart_005_120.amc"))[:121]
+    x = _noisy_markers(truth120, MARKERS)
+    out = reconstruct(x, MARKERS, db, 120.0, skeleton=truth120.skeleton)
+    assert out.fps == 120.0 and out.num_frames == 121
+    assert _error_cm(out, truth120) < 4.5
+    # default skeleton: the database's first
+    out2 = reconstruct(x[:40], MARKERS, db, 120.0)
+    assert out2.skeleton == db.skeletons[0] and out2.num_frames == 40
+
+
+def test_nan_markers_drop_their_term(db, truth):
+    x = _noisy_markers(truth, MARKERS)
+    x[10:40, 0] = np.nan  # left hand occluded for a second
+    x[50:53] = np.nan  # three frames with no marker at all
+    x[0, 2] = np.nan  # a gap on the first frame
+    out = reconstruct(x, MARKERS, db, 30, skeleton=truth.skeleton)
+    assert np.all(np.isfinite(out.rotations)) and np.all(np.isfinite(out.root_positions))
+    assert _error_cm(out, truth) < 4.5
+    res = marker_residuals(out, x, MARKERS)
+    assert np.all(np.isnan(res[10:40, 0])) and np.nanmean(res) < 0.5
+    # the carried frames stay near the truth (smoothness + previous pose)
+    gap = np.linalg.norm(out.global_positions()[50:53] - truth.global_positions()[50:53], axis=-1).mean()
+    assert gap * unit_scale_cm(truth.skeleton) < 10.0
+
+
+def test_leading_frames_without_markers_copy_the_first_reconstructed_pose(db, truth):
+    x = _noisy_markers(truth[:20], MARKERS)
+    x[:3] = np.nan
+    out = reconstruct(x, MARKERS, db, 30, skeleton=truth.skeleton)
+    assert np.allclose(out.rotations[0], out.rotations[3]) and np.allclose(out.root_positions[:3], out.root_positions[3])
+
+
+def test_without_root_marker_and_with_end_sites(db, truth):
+    joints = ["lhand", "rhand", "ltoes_end", "rtoes_end", "head"]
+    x = _noisy_markers(truth, joints)
+    out = reconstruct(x, joints, db, 30, skeleton=truth.skeleton)
+    err = _error_cm(out, truth)
+    base = _error_cm(nearest_neighbor(x, joints, db, 30, skeleton=truth.skeleton), truth)
+    # the root is unobserved and this database is tiny: a looser bound than with a root marker
+    assert err < 7.0 and err < 0.9 * base, (err, base)
+    assert np.mean(marker_residuals(out, x, joints)) < 0.5
+
+
+def test_three_markers_are_enough(db, truth):
+    joints = ["lhand", "rfoot", "head"]
+    out = reconstruct(_noisy_markers(truth[:30], joints), joints, db, 30, skeleton=truth.skeleton)
+    assert out.num_frames == 30 and np.all(np.isfinite(out.rotations))
+
+
+def test_bad_input(db, truth):
+    x = _noisy_markers(truth[:10], MARKERS)
+    with pytest.raises(ValueError, match="unknown joint"):
+        reconstruct(x, ["lhand", "rhand", "lfoot", "rfoot", "head", "tail"], db, 30)
+    with pytest.raises(ValueError, match="expected shape"):
+        reconstruct(x[:, :5], MARKERS, db, 30)
+    with pytest.raises(ValueError, match="expected shape"):
+        reconstruct(x[..., :2], MARKERS, db, 30)
+    with pytest.raises(ValueError, match="at least 3"):
+        reconstruct(x[:, :2], MARKERS[:2], db, 30)
+    with pytest.raises(ValueError, match="fps"):
+        reconstruct(x, MARKERS, db, 0)
+    with pytest.raises(ValueError, match="3 or more observed"):
+        reconstruct(np.full_like(x, np.nan), MARKERS, db, 30)
+    with pytest.raises(ValueError, match="MotionDatabase"):
+        reconstruct(x, MARKERS, "db", 30)
+    J = db.num_joints
+    empty = MotionDatabase(
+        fps=30,
+        skeletons=db.skeletons,
+        clips=[ClipInfo("empty", "", 0, 0, 0)],
+        rotations=np.zeros((0, J, 4), np.float32),
+        root_positions=np.zeros((0, 3), np.float32),
+        features={},
+    )
+    with pytest.raises(ValueError, match="empty"):
+        reconstruct(x, MARKERS, empty, 30)
+
+
+def test_fk_kernel_matches_motion_forward_kinematics(truth, rng):
+    """The numba kernel against its slow twin, Motion.global_transforms (incl. end-site markers)."""
+    sk = truth.skeleton
+    J, B = sk.num_joints, 5
+    mean = R.quaternion_normalize(rng.normal(size=(J, 4)))
+    rel = rng.normal(scale=0.5, size=(B, J, 3))
+    yaw = R.quaternion_from_axis_angle(UP, rng.uniform(-np.pi, np.pi, B))
+    root = rng.normal(size=(B, 3))
+    joints = ["lhand", "head", "ltoes_end", "rthumb_end"]
+    index, offset = _marker_columns(sk, joints)
+    gpos, mpos = np.empty((B, J, 3)), np.empty((B, len(joints), 3))
+    _fk_model_poses(mean, rel, yaw, root, np.asarray(sk.parents, np.int64), np.asarray(sk.offsets), index, offset, gpos, mpos)
+    q = R.quaternion_multiply(mean, R.rotvec_to_quaternion(rel))
+    q[:, 0] = R.quaternion_multiply(yaw, q[:, 0])
+    m = Motion(sk, q, root, 30.0)
+    assert np.allclose(gpos, m.global_positions(), atol=1e-10)
+    assert np.allclose(mpos, virtual_markers(m, joints), atol=1e-10)
+
+
+@settings(max_examples=40, deadline=None)
+@given(
+    theta=st.floats(-3.1, 3.1),
+    tx=st.floats(-50, 50),
+    tz=st.floats(-50, 50),
+    seed=st.integers(0, 2**31 - 1),
+)
+def test_alignment_recovers_a_known_rotation_and_translation(theta, tx, tz, seed):
+    rng = np.random.default_rng(seed)
+    a = rng.normal(scale=10.0, size=(6, 3))
+    b = R.quaternion_rotate(R.quaternion_from_axis_angle(UP, theta), a) + [tx, 0.0, tz]
+    th, t = align_about_vertical(a, b, UP)
+    assert abs(np.angle(np.exp(1j * (th - theta)))) < 1e-8
+    assert np.allclose(t, [tx, 0.0, tz], atol=1e-7)
+
+
+@settings(max_examples=25, deadline=None)
+@given(seed=st.integers(0, 2**31 - 1))
+def test_alignment_is_optimal_against_brute_force(seed):
+    """Eq. 4.3's closed form beats every angle of a fine grid (with that angle's best translation)."""
+    rng = np.random.default_rng(seed)
+    a, b = rng.normal(size=(5, 3)), rng.normal(size=(5, 3))
+
+    def cost(th):
+        ra = R.quaternion_rotate(R.quaternion_from_axis_angle(UP, th), a)
+        t = (b - ra).mean(axis=0)
+        t[1] = 0.0
+        return np.sum((ra + t - b) ** 2)
+
+    th, t = align_about_vertical(a, b, UP)
+    ra = R.quaternion_rotate(R.quaternion_from_axis_angle(UP, th), a)
+    best = np.sum((ra + t - b) ** 2)
+    grid = min(cost(g) for g in np.linspace(-np.pi, np.pi, 181))
+    assert best <= grid + 1e-9
+
+
+def test_held_out_actor_locomotion(shared_data):
+    """HDM05: a jog of actor mm from the other actors' locomotion clips, 6 markers, 1 mm noise."""
+    data = shared_data / "hdm05_asfamc"
+    db_paths = [p for p in sorted(data.glob("HDM_*_120.amc")) if not p.name.startswith("HDM_mm_") and ("jog" in p.name or "sneak" in p.name)]
+    db = MotionDatabase.build(db_paths, fps=30, executor="serial", progress=False)
+    truth = mocapkit.load(data / "HDM_mm_jogLeftCircle4StepsRstart_011_120.amc").resample(30)[:90]
+    x = _noisy_markers(truth, MARKERS)
+    err = _error_cm(reconstruct(x, MARKERS, db, 30, skeleton=truth.skeleton), truth)
+    base = _error_cm(nearest_neighbor(x, MARKERS, db, 30, skeleton=truth.skeleton), truth)
+    assert err < 3.0 and err < 0.6 * base, (err, base)
