@@ -23,8 +23,9 @@ of frames whose global error is below 5 cm. Baselines in the same run:
 
 * ``window_best``: every window's best subsequence concatenated with the same
   cross-fades (k = 1, no graph: the thesis's first, "not satisfying" outline);
-* ``nearest_pose``: markers linearly interpolated over gaps, then per frame the
-  database frame with the least eq. 4.3 cost, placed by its alignment.
+* ``nearest_pose``: :func:`mocapkit.reconstruct.ssg.framewise`, markers linearly
+  interpolated over gaps, then per frame the database frame with the least
+  eq. 4.3 cost, placed by its alignment.
 
 ``ratio`` = SSG error / baseline error (below 1 is better).
 
@@ -44,11 +45,9 @@ import numpy as np
 import _reconstruct as H
 
 import mocapkit  # noqa: E402
-from mocapkit import rotations as R  # noqa: E402
 from mocapkit.features import virtual_markers  # noqa: E402
 from mocapkit.motion import Motion, unit_scale_cm  # noqa: E402
 from mocapkit.reconstruct import ssg  # noqa: E402
-from mocapkit.reconstruct._common import database_positions  # noqa: E402
 
 SCENARIOS = {
     "hands_feet": dict(joints=("lhand", "rhand", "lfoot", "rfoot"), gaps=False, window=20, overlap=10, k=8, tw=1.0),
@@ -87,30 +86,6 @@ def errors(out: Motion, truth: Motion, cm: float) -> tuple[np.ndarray, np.ndarra
     glob = np.linalg.norm(a - b, axis=-1).mean(axis=1) * cm
     rel = np.linalg.norm((a - a[:, :1]) - (b - b[:, :1]), axis=-1)[:, 1:].mean(axis=1) * cm
     return glob, rel
-
-
-def nearest_pose(X: np.ndarray, joints, db, skeleton) -> Motion:
-    """Baseline: gaps interpolated per marker, then per frame the database frame of least eq. 4.3 cost."""
-    F = X.shape[0]
-    Xi = X.copy()
-    t = np.arange(F)
-    for j in range(X.shape[1]):
-        ok = np.isfinite(X[:, j]).all(axis=1)
-        if ok.any():
-            for c in range(3):
-                Xi[:, j, c] = np.interp(t, t[ok], X[ok, j, c])
-    P = database_positions(db, joints)
-    h = ssg._half_window(db.fps, 0.25)
-    C = ssg.point_cloud_cost_matrix(Xi, P, db.clip_ids, half_window=h)
-    best = np.argmin(C, axis=1)
-    rot = np.asarray(db.rotations[best], dtype=np.float64)
-    rot = R.quaternion_normalize(rot)
-    root = np.asarray(db.root_positions[best], dtype=np.float64)
-    for f in range(F):
-        _, T = ssg.point_cloud_distance(Xi[f], P[best[f]])
-        rot[f, 0] = R.quaternion_multiply(T.quaternion(), rot[f, 0])
-        root[f] = T.apply(root[f])
-    return Motion(skeleton, rot, root, db.fps, name="nearest pose")
 
 
 def main(argv=None) -> int:
@@ -165,7 +140,7 @@ def main(argv=None) -> int:
             runs = {
                 "ssg": lambda: ssg.reconstruct(X, sc["joints"], db, truth.fps, k=sc["k"], transition_weight=sc["tw"], **kw),
                 "window_best": lambda: ssg.reconstruct(X, sc["joints"], db, truth.fps, k=1, **kw),
-                "nearest_pose": lambda: nearest_pose(X, sc["joints"], db, truth.skeleton),
+                "nearest_pose": lambda: ssg.framewise(X, sc["joints"], db, truth.fps, skeleton=truth.skeleton),
             }
             for method, run in runs.items():
                 t = time.perf_counter()

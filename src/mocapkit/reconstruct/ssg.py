@@ -68,9 +68,13 @@ __all__ = [
     "cross_fade_weights",
     "cross_fade",
     "reconstruct",
+    "framewise",
 ]
 
 _UP = np.array([0.0, 1.0, 0.0])
+# added to a gap transition whose blend needs an extension that stands still at its clip's end:
+# such joins are taken only when no pair of subsequences can be joined otherwise
+_FROZEN_PENALTY = 1e6
 
 
 # -- eq. 4.3: point-cloud distance with the optimal vertical rotation and ground translation -----
@@ -500,6 +504,14 @@ class _Context:
         self.qc = _QueryClouds(markers, half_window)
         self.dc = _DatabaseClouds(db_markers, self.clip_ids, half_window)
 
+    def frozen(self, node: Subsequence, lo: int, hi: int) -> np.ndarray:
+        """(hi - lo,) bool: control frames where the node's extension is clamped to its clip's first or last frame."""
+        f = node.frames[lo - node.lo : hi - node.lo]
+        first, last = self.first[node.start], self.last[node.start]
+        t = np.arange(lo, hi)
+        outside = (t < node.window[0]) | (t >= node.window[1])
+        return outside & ((f <= first) | (f >= last))
+
     def node_positions(self, node: Subsequence, lo: int, hi: int) -> np.ndarray:
         """Aligned global joint positions (hi - lo, J, 3) of a node over control frames [lo, hi)."""
         f = node.frames[lo - node.lo : hi - node.lo]
@@ -641,6 +653,14 @@ def subsequence_graph(
             d = np.mean(np.sum((pu[:, None] - pv[None, :]) ** 2, axis=-1), axis=-1)  # (ku, kv, G)
             cs = np.cumsum(np.concatenate([np.zeros(d.shape[:2] + (1,)), d], axis=-1), axis=-1)
             run = (cs[..., ob:] - cs[..., :-ob]) / ob  # mean over each blend of ob frames
+            # an extension that ran into its clip's end stands still: a blend position is valid
+            # when u still moves up to the blend's end and v already moves from its start
+            fu = np.stack([ctx.frozen(u, g0, g1) for u in U])  # (ku, G)
+            fv = np.stack([ctx.frozen(v, g0, g1) for v in V])
+            nu = np.cumsum(fu, axis=1)[:, ob - 1 :] > 0  # u frozen somewhere in [g0, c + ob)
+            nv = np.cumsum(fv[:, ::-1], axis=1)[:, ::-1][:, : run.shape[-1]] > 0  # v frozen in [c, g1)
+            bad = nu[:, None, :] | nv[None, :, :]
+            run = run + np.where(bad, _FROZEN_PENALTY, 0.0)
             best = np.argmin(run, axis=-1)
             E[:] = np.take_along_axis(run, best[..., None], axis=-1)[..., 0]
             Bl[..., 0] = g0 + best
@@ -794,6 +814,31 @@ def _resample_markers(X: np.ndarray, fps: float, target: float) -> np.ndarray:
     return out
 
 
+def _check_input(markers, joints, db: MotionDatabase, fps) -> tuple[np.ndarray, list[str], float]:
+    """Validated markers (F, M, 3), marker joint names and frame rate of a public entry point."""
+    X = np.asarray(markers, dtype=np.float64)
+    names = [joints] if isinstance(joints, str) else list(joints)
+    if X.ndim != 3 or X.shape[2] != 3:
+        raise ValueError(f"markers: expected shape (F, M, 3), got {X.shape}")
+    if X.shape[1] != len(names) or not names:
+        raise ValueError(f"joints: expected {X.shape[1]} names, one per marker, got {len(names)}")
+    sk_db = db.skeletons[0]
+    known = set(sk_db.joint_names) | set(sk_db.end_site_names)
+    unknown = [n for n in names if n not in known]
+    if unknown:
+        raise ValueError(f"joints: {', '.join(map(repr, unknown))} not in the database skeleton (joints or end sites)")
+    fps = float(fps)
+    if not np.isfinite(fps) or fps <= 0:
+        raise ValueError(f"fps: expected a positive number, got {fps!r}")
+    if X.shape[0] < 2:
+        raise ValueError(f"markers: expected at least 2 frames, got {X.shape[0]}")
+    if np.isinf(X).any():
+        raise ValueError("markers: infinite values; mark unseen markers with NaN")
+    if not np.isfinite(X).all(axis=-1).any():
+        raise ValueError("markers: every value is NaN; at least one marker must be seen in one frame")
+    return X, names, fps
+
+
 def reconstruct(
     markers,
     joints,
@@ -852,26 +897,7 @@ def reconstruct(
         Wrong shapes, unknown joint names, no visible marker at all, fewer than
         two frames, bad parameters, or a database with no usable subsequence.
     """
-    X = np.asarray(markers, dtype=np.float64)
-    names = [joints] if isinstance(joints, str) else list(joints)
-    if X.ndim != 3 or X.shape[2] != 3:
-        raise ValueError(f"markers: expected shape (F, M, 3), got {X.shape}")
-    if X.shape[1] != len(names) or not names:
-        raise ValueError(f"joints: expected {X.shape[1]} names, one per marker, got {len(names)}")
-    sk_db = db.skeletons[0]
-    known = set(sk_db.joint_names) | set(sk_db.end_site_names)
-    unknown = [n for n in names if n not in known]
-    if unknown:
-        raise ValueError(f"joints: {', '.join(map(repr, unknown))} not in the database skeleton (joints or end sites)")
-    fps = float(fps)
-    if not np.isfinite(fps) or fps <= 0:
-        raise ValueError(f"fps: expected a positive number, got {fps!r}")
-    if X.shape[0] < 2:
-        raise ValueError(f"markers: expected at least 2 frames, got {X.shape[0]}")
-    if np.isinf(X).any():
-        raise ValueError("markers: infinite values; mark unseen markers with NaN")
-    if not np.isfinite(X).all(axis=-1).any():
-        raise ValueError("markers: every value is NaN; at least one marker must be seen in one frame")
+    X, names, fps = _check_input(markers, joints, db, fps)
     for name, v in (("window", window), ("overlap", overlap), ("cost_window", cost_window)):
         if not np.isfinite(v) or v < 0:
             raise ValueError(f"{name}: expected a non-negative number of seconds, got {v!r}")
@@ -886,6 +912,42 @@ def reconstruct(
     path = shortest_path(graph, transition_weight)
     rot, root = _synthesise(db, graph, path)
     out = Motion(out_sk, rot, root, db.fps, name="ssg reconstruction")
+    if fps != db.fps:
+        out = out.resample(fps)[: X.shape[0]]
+    return out
+
+
+def framewise(markers, joints, db: MotionDatabase, fps: float, *, cost_window: float = 0.25, skeleton: Skeleton | None = None) -> Motion:
+    """Baseline: per frame the database pose of least eq. 4.3 cost, placed by its alignment.
+
+    The frame-exact alternative that sec. 4.3.1 argues against for sparse,
+    gappy input: every marker's trajectory is linearly interpolated over its
+    gaps (held constant before its first and after its last sighting), then
+    each frame independently takes the database frame with the least
+    point-cloud cost (:func:`point_cloud_cost_matrix`) and that frame's pose,
+    rotated and shifted by the frame's optimal alignment. Same inputs and
+    output as :func:`reconstruct`.
+    """
+    X, names, fps = _check_input(markers, joints, db, fps)
+    out_sk = output_skeleton(db, skeleton)
+    Xd = np.array(_resample_markers(X, fps, db.fps))  # a copy: filled in place below
+    F = Xd.shape[0]
+    t = np.arange(F)
+    for j in range(Xd.shape[1]):
+        ok = np.isfinite(Xd[:, j]).all(axis=1)
+        if ok.any():
+            for c in range(3):
+                Xd[:, j, c] = np.interp(t, t[ok], Xd[ok, j, c])
+    P = database_positions(db, names)
+    C = point_cloud_cost_matrix(Xd, P, db.clip_ids, half_window=_half_window(db.fps, cost_window))
+    best = np.argmin(C, axis=1)
+    rot = R.quaternion_normalize(np.asarray(db.rotations[best], dtype=np.float64))
+    root = np.asarray(db.root_positions[best], dtype=np.float64)
+    for f in range(F):
+        _, T = point_cloud_distance(Xd[f], P[best[f]])
+        rot[f, 0] = R.quaternion_multiply(T.quaternion(), rot[f, 0])
+        root[f] = T.apply(root[f])
+    out = Motion(out_sk, rot, root, db.fps, name="framewise nearest pose")
     if fps != db.fps:
         out = out.resample(fps)[: X.shape[0]]
     return out
