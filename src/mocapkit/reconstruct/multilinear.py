@@ -229,7 +229,7 @@ def acceleration_distance(a: np.ndarray, b: np.ndarray, up_axis=(0.0, 1.0, 0.0))
     C = float(ua @ ub)
     A = float(np.sum(a * b)) - C
     B = float(np.sum(a * np.cross(u, b)))
-    d = float(np.sum(a * a) + np.sum(b * b)) - 2.0 * (np.hypot(A, B) + C)
+    d = float(np.sum(a * a) + np.sum(b * b)) - 2.0 * float(np.hypot(A, B) + C)
     return max(d, 0.0), float(np.arctan2(B, A))
 
 
