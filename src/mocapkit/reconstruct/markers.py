@@ -316,8 +316,8 @@ class _LocalModel:
         r = R.quaternion_to_rotvec(R.quaternion_multiply(R.quaternion_conjugate(self.mean), local)).ravel()
         if self.dim == 0:
             return np.zeros(0)
-        u, *_ = np.linalg.lstsq(self.basis, r - self.mu, rcond=None)
-        return u
+        # the basis columns are orthogonal with norms sqrt(lam): an orthogonal projection
+        return (self.basis.T @ (r - self.mu)) / np.sum(self.basis**2, axis=0)
 
     def decode(self, u: np.ndarray) -> np.ndarray:
         """Local rotations (B, J, 4) (root = tilt) of whitened coordinates (B, d)."""
@@ -337,8 +337,11 @@ def _local_model(rotations: np.ndarray, root_height: np.ndarray, variance: float
     d = 0
     basis = np.zeros((3 * J, 0))
     if K > 1:
-        _, s, vt = np.linalg.svd(r - mu, full_matrices=False)
-        lam = s**2 / (K - 1)
+        # eigh of the (3J, 3J) covariance rather than an SVD of the data: LAPACK's SVD of these small
+        # matrices is slow where OpenBLAS threads compete for busy cores
+        xc = r - mu
+        lam, v = np.linalg.eigh(xc.T @ xc / (K - 1))
+        lam, vt = np.clip(lam[::-1], 0.0, None), v[:, ::-1].T
         total = lam.sum()
         if total > 0:
             frac = np.cumsum(lam) / total
