@@ -234,8 +234,16 @@ def test_bad_input_raises(sneak):
     with pytest.raises(ValueError, match="no clip"):
         motion_tensor(sneak, labels=[("bk", 0), ("bd", 1)])
     filled = motion_tensor(sneak, labels=[("bk", 0), ("bd", 1)], missing="mean")
-    assert filled.observed.sum() == 2 and filled.shape == (2, 2)
-    np.testing.assert_allclose(filled.rotations[..., 1, 0], filled.rotations[..., 0, 0])  # bd's only rep fills bd
+    assert filled.entries == (("bd", "bk"), (0, 1))
+    assert filled.observed.tolist() == [[False, True], [True, False]]
+    # Each actor's missing repetition is that actor's mean (here its only clip), not the other actor's.
+    np.testing.assert_allclose(filled.rotations[..., 0, 0], filled.rotations[..., 0, 1])
+    np.testing.assert_allclose(filled.rotations[..., 1, 1], filled.rotations[..., 1, 0])
+    assert not np.allclose(filled.rotations[..., 0, 0], filled.rotations[..., 1, 0])
+    three = motion_tensor(sneak + sneak[:1], labels=[("bk", 0), ("bk", 1), ("bd", 0)], missing="mean")
+    np.testing.assert_allclose(three.rotations[..., 0, 1], three.rotations[..., 0, 0])  # bd's mean
+    dropped = motion_tensor(sneak + sneak[:1], labels=[("bk", 0), ("bk", 1), ("bd", 0)], missing="drop")
+    assert dropped.shape == (2, 1) and dropped.observed.all() and len(dropped.names) == 2
     with pytest.raises(ValueError, match="no entry"):
         motion_tensor(sneak, labels=[("bk", 0), ("bd", 1)], missing="drop")
     model = MultilinearModel().fit(sneak)

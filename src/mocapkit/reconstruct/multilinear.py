@@ -514,15 +514,15 @@ def motion_tensor(
         else:
             all_q = Q[..., observed].mean(axis=-1)
             all_p = P[..., observed].mean(axis=-1)
+            tq, tp = (slice(None),) * _TECH_Q, (slice(None),) * _TECH_P
             for idx in np.argwhere(~observed):
-                idx = tuple(idx)
-                line = observed[idx[:-1]]
-                cell = (Ellipsis,) + idx
+                idx = tuple(int(i) for i in idx)
+                line = observed[idx[:-1]]  # the observed cells along the last mode at these other entries
                 if line.any():
-                    Q[cell] = Q[(Ellipsis,) + idx[:-1]][..., line].mean(axis=-1)
-                    P[cell] = P[(Ellipsis,) + idx[:-1]][..., line].mean(axis=-1)
+                    Q[tq + idx] = Q[tq + idx[:-1]][..., line].mean(axis=-1)
+                    P[tp + idx] = P[tp + idx[:-1]][..., line].mean(axis=-1)
                 else:
-                    Q[cell], P[cell] = all_q, all_p
+                    Q[tq + idx], P[tp + idx] = all_q, all_p
     names = tuple(names_by_cell[tuple(int(i) for i in idx)] for idx in np.argwhere(observed))
     return MotionTensor(
         rotations=Q,
