@@ -47,8 +47,9 @@ Departures from the thesis, all documented where they happen:
 * The knowledge base keeps each clip's own skeleton (the thesis averages bone
   lengths); the output is posed on the database's first skeleton or the
   performer's (same topology).
-* K (neighbours) defaults to 1024, not 4096 (see :data:`DEFAULTS`), for the
-  10 ms per frame budget.
+* The number of paths kept, I, defaults to K / 16 (the thesis' 256 of
+  K = 4096): with small databases, where K is clamped to the database size,
+  a fixed I = 256 would average most of the database.
 
 Sampling rates. The synthesis runs at the database's rate. Readings at another
 rate are linearly interpolated onto the database's time grid as they arrive;
@@ -123,8 +124,8 @@ __all__ = [
 
 #: Default parameters of :class:`AccelerometerReconstructor` (weights of sec. 3.5.3).
 DEFAULTS: dict = {
-    "k": 1024,  # kNN per sample (thesis: 4096; see the module notes)
-    "n_paths": 256,  # I, the best OLNG paths kept (thesis: 256)
+    "k": 4096,  # kNN per sample (thesis: 4096)
+    "n_paths": None,  # I, the best OLNG paths kept; None: K / 16 (the thesis' 256 of 4096)
     "window": 13,  # OLNG window M (Fig. 3.19)
     "penalty_factor": 2.0,  # OLNG shortness penalty (Fig. 3.8)
     "extra_steps": True,  # OLNG steps of Fig. 3.10 c
@@ -849,6 +850,8 @@ def _check_params(params: dict) -> dict:
     p = {**DEFAULTS, **params}
     for name in ("k", "n_paths", "window", "max_components", "iterations"):
         v = p[name]
+        if name == "n_paths" and v is None:
+            continue
         if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < (0 if name == "iterations" else 1):
             raise ValueError(f"{name} must be a positive integer, got {v!r}")
         p[name] = int(v)
@@ -902,7 +905,8 @@ class AccelerometerReconstructor:
         self.rig = _Rig(self.skeleton, self.sensors)
         self.index = self.kb.index(self.params["backend"])
         self.k = min(self.params["k"], self.kb.num_frames)
-        self.n_paths = min(self.params["n_paths"], self.k)
+        n_paths = self.params["n_paths"]
+        self.n_paths = max(1, self.k // 16) if n_paths is None else min(n_paths, self.k)
         self.olng = OnlineLazyNeighborhoodGraph(
             self.kb.clip_ids, window=self.params["window"], extra_steps=self.params["extra_steps"],
             penalty_factor=self.params["penalty_factor"],

@@ -1,0 +1,301 @@
+"""Tests of reconstruction from four accelerometers (Tautges 2012, ch. 3) on real clips."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import mocapkit
+from mocapkit import metrics, samples
+from mocapkit import rotations as R
+from mocapkit.database import MotionDatabase
+from mocapkit.errors import MocapFormatError
+from mocapkit.features import default_sensors, virtual_accelerometers
+from mocapkit.reconstruct import accelerometers as A
+
+DB_CLIPS = ["12_walk.amc", "HDM_bd_jogLeftCircle4StepsRstart_001_120.amc", "HDM_bk_sneak2StepsLStart_004_120.amc"]
+TEST_CLIP = "HDM_bk_sneak2StepsLStart_005_120.amc"
+
+
+@pytest.fixture(scope="module")
+def db():
+    return MotionDatabase.build([samples.path(n) for n in DB_CLIPS], fps=25, mirror=True, executor="serial", progress=False)
+
+
+@pytest.fixture(scope="module")
+def test_motion():
+    return mocapkit.load(samples.path(TEST_CLIP)).resample(25)
+
+
+@pytest.fixture(scope="module")
+def readings(test_motion):
+    return virtual_accelerometers(test_motion)
+
+
+@pytest.fixture(scope="module")
+def result(db, readings):
+    return A.reconstruct(readings, db, 25)
+
+
+def test_reconstruction_beats_single_frame_nn(db, test_motion, readings, result):
+    assert result.num_frames == test_motion.num_frames and result.fps == 25
+    assert result.skeleton is db.skeletons[0]
+    err = metrics.joint_position_rms(result, test_motion, root_relative="frame")
+    nn = metrics.joint_position_rms(A.reconstruct_nearest_neighbor(readings, db, 25), test_motion, root_relative="frame")
+    assert np.isfinite(err) and err < 16.0  # cm; a different take of the same sneak is in the 374-frame database
+    assert err < nn
+
+
+def test_mahalanobis_baseline_runs_and_differs(db, test_motion, readings, result):
+    out = A.reconstruct_mahalanobis(readings, db, 25)
+    err = metrics.joint_position_rms(out, test_motion, root_relative="frame")
+    kernel = metrics.joint_position_rms(result, test_motion, root_relative="frame")
+    assert np.isfinite(err) and kernel < err  # the kernel priors beat the Gaussian ones (thesis Fig. 3.21)
+    assert not np.allclose(out.rotations, result.rotations)
+
+
+def test_online_push_equals_offline(db, readings, result):
+    rec = A.AccelerometerReconstructor(db, 25)
+    poses = [rec.push(r) for r in readings]
+    np.testing.assert_array_equal(np.stack([p.rotations for p in poses]), result.rotations)
+    np.testing.assert_array_equal(np.stack([p.root_position for p in poses]), result.root_positions)
+    assert not poses[3].rotations.flags.writeable
+    rec.reset()
+    again = [rec.push(r) for r in readings[:10]]
+    np.testing.assert_array_equal(np.stack([p.rotations for p in again]), result.rotations[:10])
+
+
+def test_knowledge_base_cached_and_consistent(db, test_motion):
+    kb = A.knowledge_base(db)
+    assert A.knowledge_base(db) is kb
+    assert A.knowledge_base(db, default_sensors(db.skeletons[0])) is kb  # equal sensors, same entry
+    assert kb.readings.shape == (db.num_frames, 12)
+    np.testing.assert_allclose(kb.readings[:5].reshape(5, 4, 3), virtual_accelerometers(db.clip(0))[:5])
+    # the reduced pose coordinates lose nothing
+    np.testing.assert_allclose(kb.pose_mean + kb.pose_coords @ kb.pose_basis.T, kb.poses, atol=1e-6)
+
+
+def test_fk_kernel_matches_motion_fk(test_motion):
+    """The numba root-frame FK equals Motion.global_transforms expressed in the heading frame."""
+    from mocapkit.features import detect_up_axis, root_frame
+
+    sk = test_motion.skeleton
+    sensors = default_sensors(sk)
+    up = detect_up_axis(sk)
+    vals = A._clip_values(test_motion, sensors, up)
+    J = sk.num_joints
+    poses = vals[:, 12:12 + 3 * J]
+    rig = A._Rig(sk, sensors)
+    pts, srot = rig.points(poses)
+    heading, _ = root_frame(test_motion, up_axis=up)
+    grot, gpos = test_motion.global_transforms()
+    hinv = R.quaternion_conjugate(heading)[:, None]
+    ref = R.quaternion_rotate(hinv, gpos[:, 1:] - gpos[:, :1]) * rig.scale
+    np.testing.assert_allclose(pts[:, :J - 1], ref, atol=1e-9)
+    # sensor orientations: the readings rotated back are the specific force in the heading frame
+    sj = [sk.index(s.joint) for s in sensors]
+    qs = R.quaternion_multiply(R.quaternion_multiply(R.quaternion_conjugate(heading)[:, None], grot[:, sj]),
+                               np.stack([s.rotation for s in sensors]))
+    np.testing.assert_allclose(np.abs(np.sum(srot * qs, axis=-1)), 1.0, atol=1e-9)
+
+
+def _random_problem(seed, d=5, n=40):
+    rng = np.random.default_rng(seed)
+    sk = mocapkit.load(samples.path(TEST_CLIP)).skeleton
+    sensors = default_sensors(sk)
+    rig = A._Rig(sk, sensors)
+    P = 3 * sk.num_joints
+    Q = rng.normal(scale=0.2, size=(n, P))
+    w = A.path_weights(rng.uniform(1, 5, n))
+    mu, B, lam, Z = A.weighted_pca(Q, w, 1.0, d)
+    rperp2 = np.maximum(np.sum((Q - mu) ** 2, 1) - np.sum(Z**2, 1), 0)
+    X0 = rig.points(mu[None])[0][0]
+    M, S = rig.M, rig.S
+    Xm = X0 + rng.normal(scale=3.0, size=(n, M, 3))
+    Acc = rng.normal(scale=200.0, size=(n, M, 3))
+    base = (-2 * X0 + X0) / 0.04**2
+    Xc = X0[M - S:] + rng.normal(scale=3.0, size=(n, S, 3))
+    return rig, w, mu, B, lam, Z, rperp2, Xm, Acc, base, Xc
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_numba_minimiser_matches_numpy_twin(seed):
+    rig, w, mu, B, lam, Z, rperp2, Xm, Acc, base, Xc = _random_problem(seed)
+    prob = A._Problem(rig, dict(A.DEFAULTS), "kernel", w, mu, B, lam, Z, rperp2, Xm, Acc, base, Xc, 0.04)
+    z0 = np.full(B.shape[1], 0.05)
+    z1, X1, E1, s1 = A._minimise(prob, z0, 12)
+    z2, X2, E2, s2 = A._minimise_numpy(prob, z0, 12)
+    E0 = prob.energy(z0, prob.fk(z0[None])[0])
+    assert E1 < E0 and E2 < E0
+    assert E1 == pytest.approx(prob.energy(z1, X1), rel=1e-9)
+    np.testing.assert_allclose(z1, z2, atol=1e-6)
+    assert E1 == pytest.approx(E2, rel=1e-7)
+
+
+def test_minimiser_reaches_a_local_minimum():
+    """No small move in PCA space lowers the energy the minimiser returns."""
+    rig, w, mu, B, lam, Z, rperp2, Xm, Acc, base, Xc = _random_problem(3)
+    prob = A._Problem(rig, dict(A.DEFAULTS), "kernel", w, mu, B, lam, Z, rperp2, Xm, Acc, base, Xc, 0.04)
+    z, X, E, _ = A._minimise(prob, np.zeros(B.shape[1]), 60)
+    rng = np.random.default_rng(0)
+    for _ in range(30):
+        zt = z + rng.normal(scale=1e-2, size=z.shape)
+        assert prob.energy(zt, prob.fk(zt[None])[0]) >= E - 1e-9
+
+
+def test_path_weights_eq_3_3():
+    w = A.path_weights(np.array([1.0, 2.0, 4.0]))
+    np.testing.assert_allclose(w, [3 / 5, 2 / 5, 0.0])
+    np.testing.assert_allclose(A.path_weights(np.array([2.0, 2.0])), [0.5, 0.5])
+
+
+def test_weighted_pca_keeps_variance():
+    rng = np.random.default_rng(4)
+    Q = rng.normal(size=(50, 3)) @ np.diag([10.0, 1.0, 0.01])
+    w = np.full(50, 1 / 50)
+    mu, B, lam, Z = A.weighted_pca(Q, w, 0.99, 10)
+    assert B.shape == (3, 2)
+    np.testing.assert_allclose(B.T @ B, np.eye(2), atol=1e-12)
+    np.testing.assert_allclose(Z, (Q - mu) @ B)
+
+
+def test_resampled_input_rate(db, test_motion):
+    m50 = mocapkit.load(samples.path(TEST_CLIP)).resample(50)
+    rd50 = virtual_accelerometers(m50)
+    out = A.reconstruct(rd50, db, 50)
+    assert out.fps == 50 and out.num_frames == m50.num_frames
+    err = metrics.joint_position_rms(out, m50, root_relative="frame")
+    assert np.isfinite(err) and err < 18.0
+    # the online path at 50 fps holds every database-rate pose for two input samples
+    rec = A.AccelerometerReconstructor(db, 50)
+    poses = [rec.push(r) for r in rd50[:9]]
+    np.testing.assert_array_equal(np.stack([p.rotations for p in poses]), out.rotations[:9])
+    assert rec._n_grid == 5  # grid times 0, .04, .08, .12, .16 s <= 8/50 s
+    np.testing.assert_array_equal(out.rotations[1], out.rotations[0])  # t = 0.02 s: no new grid step yet
+    np.testing.assert_array_equal(out.rotations[3], out.rotations[2])
+    assert not np.array_equal(out.rotations[2], out.rotations[1])
+    nn = A.reconstruct_nearest_neighbor(rd50, db, 50)
+    assert nn.num_frames == m50.num_frames and nn.fps == 50
+
+
+def test_nan_frames_hold_the_previous_pose(db, readings):
+    bad = readings.copy()
+    bad[10, 2, 1] = np.nan
+    bad[11] = np.inf
+    out = A.reconstruct(bad, db, 25)
+    np.testing.assert_array_equal(out.rotations[10], out.rotations[9])
+    np.testing.assert_array_equal(out.rotations[11], out.rotations[9])
+    np.testing.assert_array_equal(out.root_positions[11], out.root_positions[9])
+    assert np.all(np.isfinite(out.rotations))
+    # a stream starting with missing samples begins at the mean pose
+    rec = A.AccelerometerReconstructor(db, 25)
+    p0 = rec.push(np.full((4, 3), np.nan))
+    assert np.all(np.isfinite(p0.rotations))
+
+
+def test_bad_input(db, readings):
+    with pytest.raises(ValueError, match=r"shape \(F, S, 3\)"):
+        A.reconstruct(readings[:, :, :2], db, 25)
+    with pytest.raises(ValueError, match="3 sensors but 4"):
+        A.reconstruct(readings[:, :3], db, 25)
+    with pytest.raises(ValueError, match="4 sensors but 3"):
+        A.reconstruct(readings, db, 25, sensors=default_sensors(db.skeletons[0])[:3])
+    with pytest.raises(ValueError, match="fps"):
+        A.reconstruct(readings, db, 0)
+    with pytest.raises(ValueError, match="unknown parameter"):
+        A.reconstruct(readings, db, 25, K=5)
+    rec = A.AccelerometerReconstructor(db)
+    with pytest.raises(ValueError, match=r"expected shape \(4, 3\)"):
+        rec.push(np.zeros(12))
+    with pytest.raises(ValueError, match="MotionDatabase"):
+        A.knowledge_base(object())
+
+
+def test_empty_database_is_refused(db):
+    empty = MotionDatabase.__new__(MotionDatabase)
+    empty.__dict__.update(db.__dict__)
+    empty.rotations = np.zeros((0,) + db.rotations.shape[1:], dtype=np.float32)
+    with pytest.raises(ValueError, match="empty"):
+        A.knowledge_base(empty)
+
+
+def test_other_skeleton_is_used_for_output(db, readings):
+    sk = mocapkit.load(samples.path(TEST_CLIP)).skeleton
+    out = A.reconstruct(readings[:8], db, 25, skeleton=sk)
+    assert out.skeleton is sk
+
+
+# -- CSV ------------------------------------------------------------------------------------------
+
+
+def test_csv_round_trip(tmp_path, readings):
+    t = np.arange(len(readings)) / 25.0
+    path = A.write_readings_csv(tmp_path / "rec.csv", t, readings)
+    ts, rd, names = A.read_readings_csv(path)
+    assert names == ["left_wrist", "right_wrist", "left_ankle", "right_ankle"]
+    np.testing.assert_array_equal(ts, [float(f"{x:.6f}") for x in t])
+    np.testing.assert_array_equal(rd, np.vectorize(lambda v: float(f"{v:.9g}"))(readings))
+    header = path.read_text().splitlines()[0]
+    assert header.startswith("time,left_wrist.x,left_wrist.y,left_wrist.z,right_wrist.x")
+    assert not list(tmp_path.glob(".*part"))
+
+
+def test_csv_missing_values_and_irregular_times(tmp_path):
+    p = tmp_path / "irr.csv"
+    p.write_text("time,a.x,a.y,a.z\n0.0,1,2,3\n0.1,,nan,5\n0.25,4,5,6\n0.3,5,6,7\n0.4,6,7,8\n")
+    ts, rd, names = A.read_readings_csv(p)
+    assert names == ["a"]
+    np.testing.assert_allclose(ts, [0.0, 0.1, 0.2, 0.3, 0.4])  # median interval 0.1 s
+    np.testing.assert_allclose(rd[:, 0, 2], [3, 5, 5 + (6 - 5) * (0.1 / 0.15), 7, 8])
+    assert np.isnan(rd[1, 0, 0]) and np.isnan(rd[2, 0, 1])
+    ts, rd, _ = A.read_readings_csv(p, fps=20)
+    assert len(ts) == 9 and rd.shape == (9, 1, 3)
+
+
+@pytest.mark.parametrize(
+    "text, match",
+    [
+        ("", r"bad\.csv:1: empty file"),
+        ("t,a.x,a.y,a.z\n0,1,2,3\n", r"bad\.csv:1: the first column must be 'time'"),
+        ("time,a.x,a.y\n0,1,2\n", r"bad\.csv:1: expected 3 columns"),
+        ("time,a.x,a.z,a.y\n0,1,2,3\n", r"bad\.csv:1: columns 2-4"),
+        ("time,a.x,a.y,a.z,a.x,a.y,a.z\n0,1,2,3,4,5,6\n", r"bad\.csv:1: sensor 'a' appears twice"),
+        ("time,a.x,a.y,a.z\n0,1,2,3\n0.1,1,2\n", r"bad\.csv:3: expected 4 values, got 3"),
+        ("time,a.x,a.y,a.z\n0,1,2,3\n0.1,1,zwei,3\n", r"bad\.csv:3: not a number: 'zwei'"),
+        ("time,a.x,a.y,a.z\n0,1,2,3\n0,1,2,3\n", r"bad\.csv:3: time 0 s does not increase"),
+        ("time,a.x,a.y,a.z\nnan,1,2,3\n", r"bad\.csv:2: the time must be a finite number"),
+        ("time,a.x,a.y,a.z\n", r"bad\.csv: no data rows"),
+    ],
+)
+def test_csv_bad_files(tmp_path, text, match):
+    p = tmp_path / "bad.csv"
+    p.write_text(text)
+    with pytest.raises(MocapFormatError, match=match) as e:
+        A.read_readings_csv(p)
+    assert "\n" not in str(e.value)
+
+
+def test_csv_write_refuses_bad_input(tmp_path):
+    with pytest.raises(ValueError, match="increasing"):
+        A.write_readings_csv(tmp_path / "x.csv", [0.0, 0.0], np.zeros((2, 4, 3)))
+    with pytest.raises(ValueError, match="names"):
+        A.write_readings_csv(tmp_path / "x.csv", [0.0, 1.0], np.zeros((2, 4, 3)), ["a"])
+    assert not (tmp_path / "x.csv").exists()
+
+
+# -- real data ------------------------------------------------------------------------------------
+
+
+def test_hdm05_locomotion_other_actors(shared_data):
+    """An mm jog from a database of the other four actors' jogs and sneaks beats the single-frame NN."""
+    root = shared_data / "hdm05_asfamc"
+    classes = ("jogLeftCircle4StepsRstart", "sneak2StepsLStart")
+    paths = sorted(p for p in root.glob("HDM_*_120.amc") if any(c in p.name for c in classes))
+    dbp = [p for p in paths if not p.name.startswith("HDM_mm_")]
+    test = mocapkit.load([p for p in paths if p.name.startswith("HDM_mm_jog")][0]).resample(25)
+    big = MotionDatabase.build(dbp, fps=25, mirror=True, executor="serial", progress=False)
+    rd = virtual_accelerometers(test)
+    out = A.reconstruct(rd, big, 25)
+    err = metrics.joint_position_rms(out, test, root_relative="frame")
+    nn = metrics.joint_position_rms(A.reconstruct_nearest_neighbor(rd, big, 25), test, root_relative="frame")
+    assert err < nn and err < 20.0
