@@ -71,6 +71,8 @@ def main(argv=None) -> int:
     ap.add_argument("--json", action="store_true")
     ap.add_argument("--fps", type=float, default=30.0)
     ap.add_argument("--k", type=int, default=128)
+    ap.add_argument("--prior-weight", type=float, default=0.01)
+    ap.add_argument("--smooth-weight", type=float, default=0.01)
     ap.add_argument("--seed", type=int, default=0)
     args = ap.parse_args(argv)
     log = lambda *a: print(*a, file=sys.stderr, flush=True)  # noqa: E731
@@ -99,7 +101,9 @@ def main(argv=None) -> int:
         x = virtual_markers(truth, MARKERS)
         x = x + rng.uniform(-0.1, 0.1, size=x.shape) / unit_scale_cm(truth.skeleton)  # within 1 mm
         t0 = time.perf_counter()
-        out = M.reconstruct(x, MARKERS, db, args.fps, k=args.k, skeleton=truth.skeleton)
+        out = M.reconstruct(
+            x, MARKERS, db, args.fps, k=args.k, skeleton=truth.skeleton, prior_weight=args.prior_weight, smooth_weight=args.smooth_weight
+        )
         dt = time.perf_counter() - t0
         nn = M.nearest_neighbor(x, MARKERS, db, args.fps, skeleton=truth.skeleton)
         fit = M.marker_residuals(out, x, MARKERS)
@@ -149,6 +153,8 @@ def main(argv=None) -> int:
         "noise": "uniform within 1 mm per coordinate",
         "error": "mean (max over frames) of the per-frame average joint-position error, global, cm, on mm's skeleton",
         "k": args.k,
+        "prior_weight": args.prior_weight,
+        "smooth_weight": args.smooth_weight,
         "quick": args.quick,
         "locomotion": loco,
         "others": summary([r for r in rows if not r["locomotion"]]),

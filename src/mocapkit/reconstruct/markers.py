@@ -29,23 +29,35 @@ markers (hands, feet, head, root; Tables 3 and 4). For every frame ``t``:
    are kept up to ``variance`` of the total, at most ``max_components``.
 4. **Per-frame optimisation** (the Chai-Hodgins energy):
    ``E = sum_m |FK_m(z) - c_m|^2 + prior_weight * |u|^2
-   + smooth_weight * mean_j |p_j(t) - 2 p_j(t-1) + p_j(t-2)|^2`` in
-   centimetres, over ``z = (u, heading, root position)`` where ``u`` are the
-   whitened PCA coefficients (so ``|u|^2`` is the Mahalanobis distance of the
-   pose to the local model). The marker term drops missing markers; the
-   smoothness term runs on all joint positions (first order on the second
-   frame); the root position is free (pinned by the root marker when there is
-   one; otherwise a prior on its height above the ground, from the
-   neighbours, joins the prior term). It is solved by
+   + ((heading - heading_0) / heading_std)^2
+   + smooth_weight * mean_j |p_j(t) - 2 p_j(t-1) + p_j(t-2)|^2``, lengths
+   in centimetres, over ``z = (u, heading, root position)`` where ``u`` are
+   the whitened PCA coefficients (so ``|u|^2`` is the Mahalanobis distance of
+   the pose to the local model) and ``heading_0`` is the eq. 4.3 heading of
+   step 1. The marker term drops missing markers; the smoothness term runs on
+   all joint positions (first order on the second frame; its weight is per
+   30 fps frame and scaled to the database's rate); the root position is
+   free (pinned by the root marker when there is one; otherwise a prior on
+   its height above the ground, from the neighbours, joins in). The heading
+   term is not in Chai & Hodgins: without it the weak prior lets the pelvis
+   turn about the vertical while the limbs compensate (20-50 degrees on the
+   bundled sneak without a root marker). Solved by
    :func:`scipy.optimize.least_squares` (Levenberg-Marquardt) from the
    previous frame's pose projected into the new model, with a Jacobian by
-   forward differences computed as one batched forward-kinematics call.
+   forward differences evaluated as one batched forward-kinematics call
+   (numba, :func:`_fk_model_poses`).
+
+The defaults (``k=128`` neighbours, 99.99 % of the variance up to 60
+components, a weak prior 0.01) are what the held-out-actor benchmark
+preferred: neighbours from other performers rarely contain the exact pose,
+so a broad local model that the markers can pull on beats the tight
+10-20-component models (3-4 cm on the same clips).
 
 Forward kinematics runs on the performer's skeleton (``skeleton``), so bone
 lengths are the performer's; the database's skeletons only give the features
 and the pose statistics. Frames with no marker at all keep the previous local
-model and are carried by the prior and the smoothness term (a constant-
-acceleration-free extrapolation); frames before the first frame with three
+model and are carried by the prior and the smoothness term (an
+extrapolation at constant velocity); frames before the first frame with three
 observed markers copy that frame's pose.
 
 Departures from the papers: Chai & Hodgins search neighbours of the previous
@@ -53,6 +65,9 @@ synthesised poses in a precomputed graph, Krüger et al. (and this module)
 search the kd-tree directly; neither paper says how the unobserved heading
 enters the features -- here it is tracked and refined by eq. 4.3 as above.
 Weights were tuned on HDM05 (``benchmarks/reconstruct_markers.py``).
+The local PCA uses ``eigh`` of the covariance: OpenBLAS's threaded SVD of
+such small matrices is slow on a busy machine (also consider
+``OPENBLAS_NUM_THREADS=1``).
 
 >>> import mocapkit
 >>> from mocapkit.database import MotionDatabase
@@ -664,6 +679,9 @@ def reconstruct(
         Weight of the mean squared joint acceleration (cm/frame^2 at 30 fps).
     max_iterations : int
         Residual evaluations per frame for the solver.
+    heading_std : float
+        Standard deviation (degrees) of the prior tying the pelvis heading to
+        the eq. 4.3 heading of the search frame.
     root_joint : str, optional
         Which marker (if any) is the root marker; default the skeleton's root
         joint name. A root marker pins the ground translation of the search
