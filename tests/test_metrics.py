@@ -158,7 +158,21 @@ def test_d_pv_sees_a_turned_motion_and_position_rms_can_ignore_it(clip):
     assert M.joint_position_rms(clip, turned) > 1.0
     # ...but not in the root frame, nor for the local joints
     assert M.joint_position_rms(clip, turned, root_relative="frame") == pytest.approx(0.0, abs=1e-9)
+    assert M.joint_position_rms(clip, turned, root_relative="heading") == pytest.approx(0.0, abs=1e-9)
     assert np.all(M.geodesic_pose_distance(clip, turned)[:, 1:] < 1e-9)
+
+
+def test_heading_frame_rms_keeps_the_pelvis_tilt(clip):
+    # a forward tilt of the pelvis (about the left-right axis) is free in the root frame but an error once
+    # only the heading is removed
+    tilt = R.quaternion_from_axis_angle([1, 0, 0], np.radians(20))
+    rot = np.array(clip.rotations)
+    rot[:, 0] = R.quaternion_multiply(rot[:, 0], tilt)
+    tilted = dataclasses.replace(clip, rotations=rot)
+    assert M.joint_position_rms(clip, tilted, root_relative="frame") == pytest.approx(0.0, abs=1e-9)
+    assert M.joint_position_rms(clip, tilted, root_relative="heading") > 5.0
+    with pytest.raises(ValueError, match="heading"):
+        M.joint_position_rms(clip, tilted, root_relative="yaw")
 
 
 quats = arrays(np.float64, (6, 3, 4), elements=st.floats(-1, 1, allow_nan=False)).filter(

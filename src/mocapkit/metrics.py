@@ -128,14 +128,17 @@ def joint_position_rms(
     - ``"frame"``: positions in each motion's root frame (root position and
       rotation removed), as Tautges et al. evaluate reconstructions whose
       heading is free; the root is left out too;
+    - ``"heading"``: root position and heading (the rotation about the
+      vertical, :func:`mocapkit.features.root_frame`) removed, the root's tilt
+      kept: free heading, but a wrongly tilted pelvis counts;
     - False: global positions, all joints.
 
     Lengths are converted with ``scale_cm`` or :func:`unit_scale_cm` of
     ``a``'s skeleton. NaN joints are left out.
     """
     _check_pair(a, b)
-    if root_relative not in (True, False, "frame"):
-        raise ValueError(f"root_relative must be True, False or 'frame', got {root_relative!r}")
+    if root_relative not in (True, False, "frame", "heading"):
+        raise ValueError(f"root_relative must be True, False, 'frame' or 'heading', got {root_relative!r}")
     scale = unit_scale_cm(a.skeleton) if scale_cm is None else float(scale_cm)
     ga, pa = a.global_transforms()
     gb, pb = b.global_transforms()
@@ -145,6 +148,11 @@ def joint_position_rms(
         if root_relative == "frame":
             pa = R.quaternion_rotate(R.quaternion_conjugate(ga[:, :1]), pa)
             pb = R.quaternion_rotate(R.quaternion_conjugate(gb[:, :1]), pb)
+        elif root_relative == "heading":
+            from .features import root_frame
+
+            pa = R.quaternion_rotate(R.quaternion_conjugate(root_frame(a)[0][:, None]), pa)
+            pb = R.quaternion_rotate(R.quaternion_conjugate(root_frame(b)[0][:, None]), pb)
     d2 = np.sum((pa - pb) ** 2, axis=-1)
     return float(np.sqrt(_nanmean(d2)) * scale)
 
