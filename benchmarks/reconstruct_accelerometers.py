@@ -8,18 +8,28 @@ classes, resampled to 25 fps as in the thesis; the four default sensors
 * ``same_actor``: all classes of all five actors without the test clip
   (thesis scenario 1).
 
-Error: RMS joint-position error in cm in the root frame
-(``metrics.joint_position_rms(..., root_relative="frame")``). Baselines in the
-same run: the single-frame nearest neighbour of the readings, and the priors
-replaced by Mahalanobis terms (sec. 3.6.2). Time per frame: the online
-reconstructor's push, median and mean over frames; preprocessing: the
-knowledge base (readings, derivatives, kd-tree).
+Error: RMS joint-position error in cm relative to the root, in two frames:
+``frame`` (root position and rotation removed, ``metrics.joint_position_rms(...,
+root_relative="frame")``, the thesis' "relative to the skeleton root frame")
+and ``heading`` (root position and heading removed, the pelvis tilt kept).
+Baselines in the same run: the single-frame nearest neighbour of the readings,
+and the priors replaced by Mahalanobis terms (sec. 3.6.2). ``oracle`` is the
+database pose closest to the true pose in every frame (posed on the test
+actor's skeleton, heading frame): a floor for any method that retrieves poses
+from this database. ``thesis_k`` repeats the locomotion clips with the thesis'
+K = 4096. Time per frame: the online reconstructor's push, median and mean
+over frames; preprocessing: the knowledge base (readings, derivatives,
+kd-tree).
+
+``--validate`` sweeps K on the validation actor instead (database bd, bk, dg;
+test clips tr's locomotion), the run that chose :func:`default_k`; mm is never
+looked at there.
 
 OpenBLAS is limited to one thread (set before numpy loads): on this shared
 2-core machine its thread pool makes the per-frame 60x60 eigen-decompositions
 several times slower.
 
-    python benchmarks/reconstruct_accelerometers.py --json [--quick]
+    python benchmarks/reconstruct_accelerometers.py --json [--quick] [--validate]
 """
 
 from __future__ import annotations
@@ -29,18 +39,23 @@ import os
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 import argparse  # noqa: E402
+import dataclasses  # noqa: E402
 import json  # noqa: E402
 import sys  # noqa: E402
 import time  # noqa: E402
 
 import numpy as np  # noqa: E402
+from scipy.spatial import cKDTree  # noqa: E402
 
 import _reconstruct as B  # noqa: E402
 
 import mocapkit  # noqa: E402
 from mocapkit import metrics  # noqa: E402
-from mocapkit.features import virtual_accelerometers  # noqa: E402
+from mocapkit import rotations as R  # noqa: E402
+from mocapkit.features import root_frame, virtual_accelerometers  # noqa: E402
+from mocapkit.motion import unit_scale_cm  # noqa: E402
 from mocapkit.reconstruct import accelerometers as A  # noqa: E402
+from mocapkit.reconstruct._common import per_clip  # noqa: E402
 
 FPS = 25.0
 OTHERS = ("hopBothLegs1hops", "squat1Reps", "kickLFront1Reps", "grabHighR")
@@ -50,10 +65,30 @@ def log(*a):
     print(*a, file=sys.stderr, flush=True)
 
 
-def run_clip(db, path, params):
+def _heading_points(m):
+    """Joint positions (F, J-1, 3) in cm, root at the origin, heading removed."""
+    _, p = m.global_transforms()
+    rel = p[:, 1:] - p[:, :1]
+    return R.quaternion_rotate(R.quaternion_conjugate(root_frame(m)[0][:, None]), rel) * unit_scale_cm(m.skeleton)
+
+
+def oracle_rms(db, m) -> float:
+    """RMS (heading frame, cm) of the database pose closest to each true pose, posed on the test skeleton."""
+    D = per_clip(db, lambda c: _heading_points(dataclasses.replace(c, skeleton=m.skeleton))).reshape(db.num_frames, -1)
+    Q = _heading_points(m).reshape(len(m), -1)
+    d, _ = cKDTree(D).query(Q, k=1)
+    return float(np.sqrt(np.mean(d**2) / (m.num_joints - 1)))
+
+
+def _errors(out, m) -> dict:
+    return {"frame": metrics.joint_position_rms(out, m, root_relative="frame"),
+            "heading": metrics.joint_position_rms(out, m, root_relative="heading")}
+
+
+def run_clip(db, path, params, baselines=True, oracle=True):
     m = mocapkit.load(path).resample(FPS)
     rd = virtual_accelerometers(m)
-    rec = A.AccelerometerReconstructor(db, FPS, **params)
+    rec = A.AccelerometerReconstructor(db, FPS, skeleton=m.skeleton, **params)
     for r in rd[:3]:  # compile the numba kernels outside the timing
         rec.push(r)
     rec.reset()
@@ -63,36 +98,84 @@ def run_clip(db, path, params):
         poses.append(rec.push(r))
         times.append(time.perf_counter() - t0)
     out = A._motion_of(poses, rec.skeleton, FPS, "reconstruction")
-    err = metrics.joint_position_rms(out, m, root_relative="frame")
-    nn = metrics.joint_position_rms(A.reconstruct_nearest_neighbor(rd, db, FPS), m, root_relative="frame")
-    maha = metrics.joint_position_rms(A.reconstruct_mahalanobis(rd, db, FPS, **params), m, root_relative="frame")
-    return {"clip": path.name, "frames": len(rd), "rms_cm": err, "nn_rms_cm": nn, "mahalanobis_rms_cm": maha,
-            "ms_per_frame": [1e3 * t for t in times]}
+    row = {"clip": path.name, "frames": len(rd), "k": rec.k, "paths": rec.n_paths, "ours": _errors(out, m),
+           "ms_per_frame": [1e3 * t for t in times]}
+    if baselines:
+        row["nn"] = _errors(A.reconstruct_nearest_neighbor(rd, db, FPS, skeleton=m.skeleton), m)
+        row["mahalanobis"] = _errors(A.reconstruct_mahalanobis(rd, db, FPS, skeleton=m.skeleton, **params), m)
+    if oracle:
+        row["oracle_heading"] = oracle_rms(db, m)
+    return row
 
 
 def summarise(rows):
     out = {}
     for group in ("locomotion", "other"):
-        rs = [r for r in rows if (B.parse_name(r["clip"]) in B.LOCOMOTION) == (group == "locomotion")]
+        rs = [r for r in rows if (B.parse(r["clip"])[1] in B.LOCOMOTION) == (group == "locomotion")]
         if not rs:
             continue
-        e, nn, mh = (float(np.mean([r[k] for r in rs])) for k in ("rms_cm", "nn_rms_cm", "mahalanobis_rms_cm"))
-        out[group] = {"clips": len(rs), "rms_cm": e, "nn_rms_cm": nn, "mahalanobis_rms_cm": mh,
-                      "ratio_vs_nn": e / nn, "ratio_vs_mahalanobis": e / mh}
+        g = {"clips": len(rs)}
+        for method in ("ours", "nn", "mahalanobis"):
+            if method in rs[0]:
+                for frame in ("frame", "heading"):
+                    g[f"{method}_{frame}_cm"] = float(np.mean([r[method][frame] for r in rs]))
+        if "oracle_heading" in rs[0]:
+            g["oracle_heading_cm"] = float(np.mean([r["oracle_heading"] for r in rs]))
+        for frame in ("frame", "heading"):
+            for base in ("nn", "mahalanobis"):
+                if f"{base}_{frame}_cm" in g:
+                    g[f"ratio_vs_{base}_{frame}"] = g[f"ours_{frame}_cm"] / g[f"{base}_{frame}_cm"]
+        out[group] = g
     ms = np.concatenate([r["ms_per_frame"] for r in rows])
     out["ms_per_frame_median"] = float(np.median(ms))
     out["ms_per_frame_mean"] = float(np.mean(ms))
+    out["ms_per_frame_p95"] = float(np.percentile(ms, 95))
     return out
+
+
+def _strip(rows):
+    return [{k: v for k, v in r.items() if k != "ms_per_frame"} for r in rows]
+
+
+def validate(args) -> dict:
+    """K sweep on the validation actor tr (database bd, bk, dg): how default_k was chosen."""
+    db = B.database(B.clips(("bd", "bk", "dg")), FPS)
+    tests = B.clips(("tr",), B.LOCOMOTION)
+    if args.quick:
+        tests = tests[:2]
+    ks = (64, 128, 256, 1024, 4096)
+    sweep = {}
+    for k in ks:
+        rows = [run_clip(db, p, {"k": k}, baselines=False, oracle=False) for p in tests]
+        sweep[str(k)] = {f: float(np.mean([r["ours"][f] for r in rows])) for f in ("frame", "heading")}
+        sweep[str(k)]["ms_per_frame_median"] = float(np.median(np.concatenate([r["ms_per_frame"] for r in rows])))
+        log(f"validation K={k}: {sweep[str(k)]}")
+    return {"benchmark": "reconstruct_accelerometers", "mode": "validate", "db_frames": db.num_frames,
+            "test_clips": [p.name for p in tests], "default_k": A.default_k(db.num_frames), "sweep": sweep}
+
+
+def _log_row(scenario, r):
+    o = r["ours"]
+    extra = ""
+    if "nn" in r:
+        extra = (f" (nn {r['nn']['frame']:.2f}/{r['nn']['heading']:.2f}, mahalanobis "
+                 f"{r['mahalanobis']['frame']:.2f}/{r['mahalanobis']['heading']:.2f}, oracle {r['oracle_heading']:.2f})")
+    log(f"{scenario} {r['clip']}: frame/heading {o['frame']:.2f}/{o['heading']:.2f} cm{extra}, "
+        f"K={r['k']}, {np.median(r['ms_per_frame']):.2f} ms/frame")
 
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--json", action="store_true")
     ap.add_argument("--quick", action="store_true", help="2 locomotion clips and 1 other, fewer same-actor databases")
-    ap.add_argument("-k", type=int, default=A.DEFAULTS["k"])
+    ap.add_argument("--validate", action="store_true", help="the K sweep on validation actor tr instead")
+    ap.add_argument("-k", type=int, default=None, help="neighbours per sample (default: mocapkit's default_k)")
     args = ap.parse_args()
-    params = {"k": args.k}
-    B.parse_name = lambda name: B.parse(name)[1]
+    if args.validate:
+        result = validate(args)
+        print(json.dumps(result) if args.json else json.dumps(result, indent=2))
+        return
+    params = {} if args.k is None else {"k": args.k}
     classes = B.LOCOMOTION + OTHERS
     _, tests = B.scenario("mm", None)
     loco = [p for p in tests if B.parse(p)[1] in B.LOCOMOTION]
@@ -114,11 +197,15 @@ def main():
     rows = []
     for p in test_paths:
         rows.append(run_clip(db, p, params))
-        log(f"other_actors {p.name}: {rows[-1]['rms_cm']:.2f} cm (nn {rows[-1]['nn_rms_cm']:.2f}, "
-            f"mahalanobis {rows[-1]['mahalanobis_rms_cm']:.2f}), {np.median(rows[-1]['ms_per_frame']):.2f} ms/frame")
-    result["scenarios"]["other_actors"] = {"db_frames": db.num_frames, "preprocessing_s": pre,
-                                           "kb_build_s": kb.build_seconds, **summarise(rows),
-                                           "per_clip": [{k: v for k, v in r.items() if k != "ms_per_frame"} for r in rows]}
+        _log_row("other_actors", rows[-1])
+    result["scenarios"]["other_actors"] = {"db_frames": db.num_frames, "k": rows[0]["k"], "paths": rows[0]["paths"],
+                                           "preprocessing_s": pre, "kb_build_s": kb.build_seconds, **summarise(rows),
+                                           "per_clip": _strip(rows)}
+    # the thesis' K = 4096 on the same database, locomotion clips
+    rows_k = [run_clip(db, p, {**params, "k": 4096}, baselines=False, oracle=False) for p in loco]
+    for r in rows_k:
+        _log_row("thesis_k", r)
+    result["scenarios"]["thesis_k"] = {"k": 4096, **summarise(rows_k), "per_clip": _strip(rows_k)}
     # (b) same actor: all actors, never the test clip
     all_paths, _ = B.scenario("mm", None, same_actor=True)
     rows, pres, sizes = [], [], []
@@ -129,19 +216,14 @@ def main():
         pres.append(time.perf_counter() - t0)
         sizes.append(dbp.num_frames)
         rows.append(run_clip(dbp, p, params))
-        log(f"same_actor {p.name}: {rows[-1]['rms_cm']:.2f} cm (nn {rows[-1]['nn_rms_cm']:.2f}, "
-            f"mahalanobis {rows[-1]['mahalanobis_rms_cm']:.2f})")
+        _log_row("same_actor", rows[-1])
         A._KB_CACHE.pop(dbp, None)
     result["scenarios"]["same_actor"] = {"db_frames": int(np.mean(sizes)), "preprocessing_s": float(np.mean(pres)),
-                                         **summarise(rows),
-                                         "per_clip": [{k: v for k, v in r.items() if k != "ms_per_frame"} for r in rows]}
+                                         **summarise(rows), "per_clip": _strip(rows)}
     a = result["scenarios"]["other_actors"]
-    result["targets"] = {"locomotion_rms_cm<=5": a["locomotion"]["rms_cm"] <= 5.0,
+    result["targets"] = {"locomotion_rms_cm<=5": a["locomotion"]["ours_frame_cm"] <= 5.0,
                          "ms_per_frame<=10": a["ms_per_frame_median"] <= 10.0}
-    if args.json:
-        print(json.dumps(result))
-    else:
-        print(json.dumps(result, indent=2))
+    print(json.dumps(result) if args.json else json.dumps(result, indent=2))
 
 
 if __name__ == "__main__":

@@ -729,8 +729,11 @@ def reconstruct(
         ref = _deep_motion(reference)
         if ref.num_frames != result.num_frames or not ref.skeleton.is_compatible(result.skeleton):
             raise MocapFormatError(reference, f"the reference must have the database's joints and {result.num_frames} frames")
-        err = joint_position_rms(ref, result, root_relative=True)
-        report = f"; joint-position RMS against {reference.name} (root-relative): {err:.2f} cm"
+        # accelerometers see no heading: their error is measured with each motion's heading removed
+        frame = "heading" if kind == "accelerometers" else True
+        err = joint_position_rms(ref, result, root_relative=frame)
+        how = "root and heading removed" if kind == "accelerometers" else "root-relative"
+        report = f"; joint-position RMS against {reference.name} ({how}): {err:.2f} cm"
     io.save(result, out)
     console.print(f"wrote {out}: {result.num_frames} frames @ {result.fps:g} fps from {what}{report}")
 

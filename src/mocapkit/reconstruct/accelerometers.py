@@ -47,9 +47,11 @@ Departures from the thesis, all documented where they happen:
 * The knowledge base keeps each clip's own skeleton (the thesis averages bone
   lengths); the output is posed on the database's first skeleton or the
   performer's (same topology).
-* The number of paths kept, I, defaults to K / 16 (the thesis' 256 of
-  K = 4096): with small databases, where K is clamped to the database size,
-  a fixed I = 256 would average most of the database.
+* K, the neighbours per sample, defaults to 1 % of the database's frames
+  within [128, 4096] (:func:`default_k`; the thesis' 4096 is 0.7 % of its
+  560,000 frames), and I, the paths kept, to K / 16 (the thesis' 256 of
+  4096): on the small databases of ``../shared/data`` the thesis' fixed
+  values average poses from a third of the database.
 
 Sampling rates. The synthesis runs at the database's rate. Readings at another
 rate are linearly interpolated onto the database's time grid as they arrive;
@@ -111,6 +113,7 @@ from ._common import output_skeleton, per_clip
 
 __all__ = [
     "DEFAULTS",
+    "default_k",
     "KnowledgeBase",
     "knowledge_base",
     "Pose",
@@ -124,7 +127,7 @@ __all__ = [
 
 #: Default parameters of :class:`AccelerometerReconstructor` (weights of sec. 3.5.3).
 DEFAULTS: dict = {
-    "k": 4096,  # kNN per sample (thesis: 4096)
+    "k": None,  # kNN per sample; None: 1 % of the database's frames, clamped to [128, 4096] (see default_k)
     "n_paths": None,  # I, the best OLNG paths kept; None: K / 16 (the thesis' 256 of 4096)
     "window": 13,  # OLNG window M (Fig. 3.19)
     "penalty_factor": 2.0,  # OLNG shortness penalty (Fig. 3.8)
@@ -626,6 +629,24 @@ class _Rig:
 # -- per-frame synthesis (sec. 3.5) -----------------------------------------------------------
 
 
+def default_k(num_frames: int) -> int:
+    """The number of nearest neighbours per sample for a database of ``num_frames`` frames.
+
+    The thesis uses K = 4096 on about 560,000 frames (0.7 %). On databases of
+    a few ten thousand frames a fixed 4096 takes a third of the database into
+    every column, and the lazy neighbourhood graph then strings together
+    paths whose poses have little to do with the readings: on the HDM05
+    validation actor (tr, database bd/bk/dg, 9,000 frames at 25 fps) K = 4096
+    gave 25.9 cm, K = 128 16.9 cm (``benchmarks/reconstruct_accelerometers.py
+    --sweep``). Hence 1 % of the frames, at least 128 and at most the
+    thesis' 4096.
+
+    >>> default_k(12_000), default_k(560_000), default_k(1_000)
+    (128, 4096, 128)
+    """
+    return int(min(4096, max(128, round(0.01 * num_frames))))
+
+
 def path_weights(costs: np.ndarray) -> np.ndarray:
     """Normalised weights of eq. 3.3, ``(max C - c_i) / sum_j (max C - c_j)``; uniform if all costs are equal."""
     c = np.asarray(costs, dtype=np.float64)
@@ -850,7 +871,7 @@ def _check_params(params: dict) -> dict:
     p = {**DEFAULTS, **params}
     for name in ("k", "n_paths", "window", "max_components", "iterations"):
         v = p[name]
-        if name == "n_paths" and v is None:
+        if name in ("k", "n_paths") and v is None:
             continue
         if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < (0 if name == "iterations" else 1):
             raise ValueError(f"{name} must be a positive integer, got {v!r}")
@@ -904,7 +925,8 @@ class AccelerometerReconstructor:
         self.skeleton = output_skeleton(db, skeleton)
         self.rig = _Rig(self.skeleton, self.sensors)
         self.index = self.kb.index(self.params["backend"])
-        self.k = min(self.params["k"], self.kb.num_frames)
+        k = self.params["k"]
+        self.k = min(default_k(self.kb.num_frames) if k is None else k, self.kb.num_frames)
         n_paths = self.params["n_paths"]
         self.n_paths = max(1, self.k // 16) if n_paths is None else min(n_paths, self.k)
         self.olng = OnlineLazyNeighborhoodGraph(
