@@ -8,6 +8,8 @@ PIP := $(PY) -m pip
 OUT := demo_out
 SAMPLE := src/mocapkit/data/131_01.bvh
 WALK := src/mocapkit/data/12_walk.amc
+DATA := src/mocapkit/data
+SNEAK := $(DATA)/HDM_bk_sneak2StepsLStart_005_120.amc
 
 .PHONY: demo test install install-test bench clean
 
@@ -41,6 +43,9 @@ demo: install
 	$(VENV)/bin/mocapkit plot $(WALK) $(OUT)/12_walk_noisy.npz $(OUT)/12_walk_denoised.bvh --joint ltibia -o $(OUT)/12_walk_denoised_ltibia.png
 	$(VENV)/bin/mocapkit corrupt $(WALK) $(OUT)/12_walk_gaps.npz --kind gaps --seed 7
 	$(VENV)/bin/mocapkit fill $(OUT)/12_walk_gaps.npz -o $(OUT)/12_walk_filled.bvh --reference $(WALK)
+	$(VENV)/bin/mocapkit db build $(OUT)/hdm_db $(DATA)/HDM_bk_sneak2StepsLStart_004_120.amc $(DATA)/HDM_bd_jogLeftCircle4StepsRstart_001_120.amc --fps 30 --mirror --overwrite
+	$(VENV)/bin/mocapkit reconstruct --db $(OUT)/hdm_db --markers $(SNEAK) -o $(OUT)/sneak_from_6_markers.bvh --reference $(SNEAK)
+	$(VENV)/bin/mocapkit reconstruct --db $(OUT)/hdm_db --accelerometers $(SNEAK) -o $(OUT)/sneak_from_4_accelerometers.bvh --reference $(SNEAK)
 	@echo "demo outputs written to $(OUT)/"
 
 test: install-test
@@ -59,6 +64,10 @@ bench: install-test
 	$(PY) benchmarks/deep_denoise.py --json
 	$(PY) benchmarks/deep_gapfill.py --json
 	$(PY) benchmarks/deep_speed.py --json
+	$(PY) benchmarks/reconstruct_markers.py --json
+	$(PY) benchmarks/reconstruct_accelerometers.py --json
+	$(PY) benchmarks/reconstruct_ssg.py --json
+	$(PY) benchmarks/reconstruct_multilinear.py --json
 
 clean:
 	rm -rf $(OUT) .pytest_cache

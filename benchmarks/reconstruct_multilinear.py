@@ -225,7 +225,7 @@ def main():
         "method": "Tautges 2012 ch. 2: HOSVD motion tensor of one class, weights fitted to 4 accelerometers (eq. 2.10)",
         "test_actor": TEST,
         "train_actors": list(TRAIN),
-        "metric": "joint_position_rms cm, root frame (root position and heading removed), output on the recording's frames",
+        "metric": "joint_position_rms cm, root frame (root position and rotation removed; 'root': position only), output on the recording's frames",
         "classes": results,
         "multilinear_cm": float(np.mean([r["multilinear_cm"] for r in results])),
         "mean_cm": float(np.mean([r["mean_cm"] for r in results])),
