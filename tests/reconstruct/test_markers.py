@@ -14,7 +14,6 @@ from mocapkit.motion import Motion, unit_scale_cm
 from mocapkit.reconstruct.markers import (
     _fk_model_poses,
     _marker_columns,
-    align_about_vertical,
     marker_residuals,
     nearest_neighbor,
     reconstruct,
@@ -179,42 +178,6 @@ def test_fk_kernel_matches_motion_forward_kinematics(truth, rng):
     m = Motion(sk, q, root, 30.0)
     assert np.allclose(gpos, m.global_positions(), atol=1e-10)
     assert np.allclose(mpos, virtual_markers(m, joints), atol=1e-10)
-
-
-@settings(max_examples=25, deadline=None)
-@given(
-    theta=st.floats(-3.1, 3.1),
-    tx=st.floats(-50, 50),
-    tz=st.floats(-50, 50),
-    seed=st.integers(0, 2**31 - 1),
-)
-def test_alignment_recovers_a_known_rotation_and_translation(theta, tx, tz, seed):
-    rng = np.random.default_rng(seed)
-    a = rng.normal(scale=10.0, size=(6, 3))
-    b = R.quaternion_rotate(R.quaternion_from_axis_angle(UP, theta), a) + [tx, 0.0, tz]
-    th, t = align_about_vertical(a, b, UP)
-    assert abs(np.angle(np.exp(1j * (th - theta)))) < 1e-8
-    assert np.allclose(t, [tx, 0.0, tz], atol=1e-7)
-
-
-@settings(max_examples=15, deadline=None)
-@given(seed=st.integers(0, 2**31 - 1))
-def test_alignment_is_optimal_against_brute_force(seed):
-    """Eq. 4.3's closed form beats every angle of a fine grid (with that angle's best translation)."""
-    rng = np.random.default_rng(seed)
-    a, b = rng.normal(size=(5, 3)), rng.normal(size=(5, 3))
-
-    def cost(th):
-        ra = R.quaternion_rotate(R.quaternion_from_axis_angle(UP, th), a)
-        t = (b - ra).mean(axis=0)
-        t[1] = 0.0
-        return np.sum((ra + t - b) ** 2)
-
-    th, t = align_about_vertical(a, b, UP)
-    ra = R.quaternion_rotate(R.quaternion_from_axis_angle(UP, th), a)
-    best = np.sum((ra + t - b) ** 2)
-    grid = min(cost(g) for g in np.linspace(-np.pi, np.pi, 181))
-    assert best <= grid + 1e-9
 
 
 def test_held_out_actor_locomotion(shared_data):

@@ -11,7 +11,7 @@ markers (hands, feet, head, root; Tables 3 and 4). For every frame ``t``:
    frame give a first guess (the ground translation is the root marker's
    ground projection whenever a root marker is given), and it is then refined
    by the closed-form optimal rotation about the vertical plus ground
-   translation (Tautges 2012, eq. 4.3, :func:`align_about_vertical`) that maps
+   translation (Tautges 2012, eq. 4.3, :func:`._common.align_about_vertical`) that maps
    the nearest database frame's normalised markers onto the observed ones;
    the search is repeated in the refined frame. The first frame (no
    history) is aligned by brute force: eq. 4.3 against every database frame.
@@ -98,55 +98,15 @@ from ..database import MotionDatabase
 from ..features import _parse_up_axis, detect_up_axis, root_frame, virtual_markers
 from ..motion import Motion, Skeleton, unit_scale_cm
 from ..search.knn import KNNIndex
-from ._common import database_positions, output_skeleton, per_clip
+from ._common import align_about_vertical, database_positions, output_skeleton, per_clip
 
-__all__ = ["reconstruct", "nearest_neighbor", "align_about_vertical", "marker_residuals"]
+__all__ = ["reconstruct", "nearest_neighbor", "marker_residuals"]
 
 _STEP = 1e-6  # forward-difference step of the Jacobian (whitened PCA units, radians, centimetres)
 _MIN_HEIGHT_STD_CM = 2.0  # floor of the neighbours' root-height spread in the height prior
 
 
 # -- closed-form alignment about the vertical (Tautges 2012, eq. 4.3) ------------------------
-
-
-def align_about_vertical(source: np.ndarray, target: np.ndarray, up: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Optimal rotation about ``up`` and ground translation mapping ``source`` points onto ``target`` (Tautges eq. 4.3).
-
-    Minimises ``sum_i |rotate(yaw(theta), a_i) + t - b_i|^2`` over the angle
-    ``theta`` and a translation ``t`` orthogonal to ``up``, in closed form:
-    with the points' ground-plane parts centred,
-    ``theta = atan2(sum up . (a_i x b_i), sum a_i . b_i)`` and
-    ``t = mean(b) - rotate(yaw(theta), mean(a))`` projected onto the ground.
-
-    Parameters
-    ----------
-    source : float array (..., M, 3)
-        Points ``a_i``, any leading dimensions (one alignment per leading index).
-    target : float array (M, 3) or (..., M, 3)
-        Points ``b_i``, broadcast against ``source``.
-    up : float array (3,)
-        Unit vertical axis.
-
-    Returns
-    -------
-    theta : float array (...)
-        Angle in radians about ``up`` (right-handed).
-    translation : float array (..., 3)
-        Ground-plane translation (no component along ``up``).
-    """
-    a = np.asarray(source, dtype=np.float64)
-    b = np.asarray(target, dtype=np.float64)
-    up = np.asarray(up, dtype=np.float64)
-    ha = a - (a @ up)[..., None] * up
-    hb = b - (b @ up)[..., None] * up
-    ma, mb = ha.mean(axis=-2), hb.mean(axis=-2)
-    ca, cb = ha - ma[..., None, :], hb - mb[..., None, :]
-    sin = np.sum(np.cross(ca, cb) @ up, axis=-1)
-    cos = np.sum(np.sum(ca * cb, axis=-1), axis=-1)
-    theta = np.arctan2(sin, cos)
-    t = mb - R.quaternion_rotate(R.quaternion_from_axis_angle(up, theta), ma)
-    t = t - (t @ up)[..., None] * up
-    return theta, t
 
 
 # -- what the database gives, cached per (database, markers) ----------------------------------

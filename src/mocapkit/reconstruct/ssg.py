@@ -54,7 +54,7 @@ from .. import rotations as R
 from ..database import MotionDatabase
 from ..motion import Motion, Skeleton
 from ..search.dtw import subsequence_dtw
-from ._common import database_positions, output_skeleton, per_clip
+from ._common import align_about_vertical, database_positions, output_skeleton, per_clip
 
 __all__ = [
     "Alignment",
@@ -112,10 +112,12 @@ def point_cloud_distance(target, source, weights=None) -> tuple[float, Alignment
 
     Kovar et al.'s point-cloud distance: the y components are compared as they
     are, the x/z components after the best rotation about y and translation in
-    the ground plane (a weighted 2-D Procrustes fit without scaling). With the
+    the ground plane (a weighted 2-D Procrustes fit without scaling,
+    :func:`mocapkit.reconstruct._common.align_about_vertical`). With the
     weighted centroids removed, ``theta = atan2(S, C)`` with
     ``C = sum w (px qx + pz qz)`` and ``S = sum w (px qz - pz qx)``, and the
-    minimum is ``sum w |p|^2 + sum w |q|^2 - 2 sqrt(C^2 + S^2)`` (x/z part).
+    minimum is ``sum w |p|^2 + sum w |q|^2 - 2 sqrt(C^2 + S^2)`` (x/z part), the
+    expansion :func:`point_cloud_cost_matrix` evaluates for all pairs at once.
 
     Parameters
     ----------
@@ -155,20 +157,9 @@ def point_cloud_distance(target, source, weights=None) -> tuple[float, Alignment
     if not ok.any():
         return 0.0, Alignment()
     p, q, w = p[ok], q[ok], w[ok]
-    W = w.sum()
-    pc = (w @ p[:, [0, 2]]) / W
-    qc = (w @ q[:, [0, 2]]) / W
-    a = p[:, [0, 2]] - pc
-    b = q[:, [0, 2]] - qc
-    C = np.sum(w * (a[:, 0] * b[:, 0] + a[:, 1] * b[:, 1]))
-    S = np.sum(w * (a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]))
-    theta = float(np.arctan2(S, C))
-    xz = np.sum(w * np.sum(a * a, axis=1)) + np.sum(w * np.sum(b * b, axis=1)) - 2.0 * np.hypot(C, S)
-    y = np.sum(w * (p[:, 1] - q[:, 1]) ** 2)
-    c, s = np.cos(theta), np.sin(theta)
-    x0 = pc[0] - (c * qc[0] + s * qc[1])
-    z0 = pc[1] - (-s * qc[0] + c * qc[1])
-    return float(max(xz, 0.0) + y), Alignment(theta, float(x0), float(z0))
+    theta, t = align_about_vertical(q, p, _UP, weights=w)
+    T = Alignment(float(theta), float(t[0]), float(t[2]))
+    return float(np.sum(w * np.sum((p - T.apply(q)) ** 2, axis=1))), T
 
 
 def _gaussian_taps(half_window: int) -> np.ndarray:

@@ -1,0 +1,83 @@
+"""What the reconstruction methods share: per-clip database values, the output skeleton, eq. 4.3."""
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from mocapkit import rotations as R
+from mocapkit import samples
+from mocapkit.database import MotionDatabase
+from mocapkit.features import virtual_markers
+from mocapkit.reconstruct._common import align_about_vertical, database_positions, output_skeleton
+
+UP = np.array([0.0, 1.0, 0.0])
+
+
+@settings(max_examples=25, deadline=None)
+@given(
+    theta=st.floats(-3.1, 3.1),
+    tx=st.floats(-50, 50),
+    tz=st.floats(-50, 50),
+    seed=st.integers(0, 2**31 - 1),
+)
+def test_alignment_recovers_a_known_rotation_and_translation(theta, tx, tz, seed):
+    rng = np.random.default_rng(seed)
+    a = rng.normal(scale=10.0, size=(6, 3))
+    b = R.quaternion_rotate(R.quaternion_from_axis_angle(UP, theta), a) + [tx, 0.0, tz]
+    th, t = align_about_vertical(a, b, UP)
+    assert abs(np.angle(np.exp(1j * (th - theta)))) < 1e-8
+    assert np.allclose(t, [tx, 0.0, tz], atol=1e-7)
+
+
+@settings(max_examples=15, deadline=None)
+@given(seed=st.integers(0, 2**31 - 1))
+def test_alignment_is_optimal_against_brute_force(seed):
+    """Eq. 4.3's closed form beats every angle of a fine grid (with that angle's best translation)."""
+    rng = np.random.default_rng(seed)
+    a, b = rng.normal(size=(5, 3)), rng.normal(size=(5, 3))
+
+    def cost(th):
+        ra = R.quaternion_rotate(R.quaternion_from_axis_angle(UP, th), a)
+        t = (b - ra).mean(axis=0)
+        t[1] = 0.0
+        return np.sum((ra + t - b) ** 2)
+
+    th, t = align_about_vertical(a, b, UP)
+    ra = R.quaternion_rotate(R.quaternion_from_axis_angle(UP, th), a)
+    best = np.sum((ra + t - b) ** 2)
+    grid = min(cost(g) for g in np.linspace(-np.pi, np.pi, 181))
+    assert best <= grid + 1e-9
+
+
+@settings(max_examples=25, deadline=None)
+@given(seed=st.integers(0, 2**31 - 1), up=st.sampled_from([[0.0, 1.0, 0.0], [0.0, 0.0, 1.0], [-1.0, 0.0, 0.0]]))
+def test_weighted_alignment_is_the_fit_of_the_weighted_points(seed, up):
+    """Integer weights equal repeating the points; zero weights drop them (any up axis, batched rows)."""
+    up = np.array(up)
+    rng = np.random.default_rng(seed)
+    a, b = rng.normal(size=(2, 5, 3)), rng.normal(size=(2, 5, 3))
+    w = rng.integers(0, 4, size=(2, 5)).astype(float)
+    w[:, 0] = 1.0
+    th, t = align_about_vertical(a, b, up, weights=w)
+    for r in range(2):
+        rep = np.repeat(np.arange(5), w[r].astype(int))
+        th_r, t_r = align_about_vertical(a[r, rep], b[r, rep], up)
+        assert abs(np.angle(np.exp(1j * (th[r] - th_r)))) < 1e-9
+        assert np.allclose(t[r], t_r, atol=1e-9)
+    zero_th, zero_t = align_about_vertical(a[0], b[0], up, weights=np.zeros(5))
+    assert zero_th == 0.0 and np.all(zero_t == 0.0)
+
+
+def test_database_positions_are_per_clip_forward_kinematics():
+    db = MotionDatabase.build([samples.path("HDM_bk_sneak2StepsLStart_004_120.amc")], fps=30, mirror=True,
+                              executor="serial", progress=False)
+    pos = database_positions(db, ["lhand", "head"])
+    assert pos.shape == (db.num_frames, 2, 3)
+    a, b = db.clip_range(1)
+    np.testing.assert_allclose(pos[a:b], virtual_markers(db.clip(1), ["lhand", "head"]))
+    assert output_skeleton(db, None) is db.skeletons[0]
+    with pytest.raises(ValueError, match="joint layout"):
+        import mocapkit
+
+        output_skeleton(db, mocapkit.load(samples.path("131_01.bvh")).skeleton)
