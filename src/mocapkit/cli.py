@@ -749,6 +749,116 @@ def _sensors_named(names, db, path: Path):
     return [table[n] for n in names]
 
 
+_CLEAN_STEPS_HELP = "Comma-separated steps: fill, detect, repair, denoise (they always run in that order)."
+
+
+def _clean_steps(text: str) -> list[str]:
+    from .cleaning.pipeline import _steps
+
+    try:
+        return list(_steps(text))
+    except ValueError as exc:
+        raise MocapError(f"--steps: {exc}") from None
+
+
+@app.command()
+def clean(
+    inp: Path = typer.Argument(..., metavar="IN", help="Motion to clean (.bvh, .amc, .npz)."),
+    out: Path = typer.Option(..., "--out", "-o", help="Cleaned motion (.bvh or .npz); OUT's stem + .clean.npz is written beside it."),
+    context: Optional[list[Path]] = typer.Option(
+        None, "--context", help="Related clips (repeat the option) or one database folder; default: the clip itself."
+    ),
+    steps: str = typer.Option("fill,detect,repair,denoise", "--steps", help=_CLEAN_STEPS_HELP),
+    threshold: float = typer.Option(0.5, "--threshold", help="MDM value above which a joint is flagged and repaired (0-1)."),
+    report: Optional[Path] = typer.Option(None, "--report", help="Also write the self-contained HTML report here."),
+    png: Optional[Path] = typer.Option(None, "--png", help="Also write a static summary figure (MDM + before/after channels)."),
+    reference: Optional[Path] = typer.Option(None, "--reference", help="The clean take, to print the error before and after."),
+) -> None:
+    """Clean a take: fill gaps, detect and repair erroneous joints, denoise only the noisy cells.
+
+    Writes OUT and, beside it, OUT's stem + .clean.npz (MDM, flags, the cells each step changed and
+    a record per step); everything not missing, flagged or noisy stays bit-identical.
+    """
+    from .batch import clean_file, sigterm_as_interrupt
+    from .cleaning.pipeline import clean_path
+
+    sigterm_as_interrupt()
+    step_list = _clean_steps(steps)
+    ref = _deep_motion(reference) if reference is not None else None
+    original, res = clean_file(inp, out, context=context, steps=step_list, threshold=threshold, report=report, png=png, progress=True)
+    m = res.motion
+    F = res.num_frames
+    console.print(f"wrote {out} and {clean_path(out)}" + "".join(f" and {p}" for p in (report, png) if p is not None)
+                  + f": {F} frames @ {m.fps:g} fps, {int(res.changed.sum())} of {res.changed.size} joint samples changed "
+                  f"({100.0 * (1 - res.changed.mean()):.1f} % untouched)")
+    for line in res.summary():
+        console.print(f"  {line}", markup=False, soft_wrap=True)
+    if res.detection is not None:
+        segs = res.detection.segments()
+        for j, a, b in segs[:12]:
+            console.print(f"    flagged {j:16s} frames {a}-{b} ({a / m.fps:.2f}-{b / m.fps:.2f} s)", markup=False)
+        if len(segs) > 12:
+            console.print(f"    ... and {len(segs) - 12} more (all in {clean_path(out)})", markup=False)
+    if ref is not None:
+        from .cleaning import gapfill
+        from .metrics import joint_position_rms, pose_error
+
+        if ref.num_frames != F or tuple(ref.skeleton.joint_names) != res.joint_names:
+            raise MocapFormatError(reference, "the reference must have the input's joints and frame count")
+        # the input's gaps are filled linearly for the "before" figure (the error of a missing joint is undefined)
+        before = gapfill.fill_motion(original, "linear") if original.missing().any() else original
+        e0, e1 = float(np.nanmean(pose_error(ref, before))), float(np.nanmean(pose_error(ref, m)))
+        c0, c1 = joint_position_rms(ref, before), joint_position_rms(ref, m)
+        gaps = " (input gaps linearly filled)" if original.missing().any() else ""
+        console.print(f"  error against {reference.name}{gaps}: eq. 2 {e0:.4f} -> {e1:.4f} per frame; "
+                      f"joint positions {c0:.2f} -> {c1:.2f} cm RMS", markup=False)
+
+
+@app.command("clean-batch")
+def clean_batch(
+    in_dir: Path = typer.Argument(..., metavar="IN_DIR", help="Folder of takes (searched recursively)."),
+    out_dir: Path = typer.Argument(..., metavar="OUT_DIR", help="Folder for the cleaned takes (same layout)."),
+    context: Optional[list[Path]] = typer.Option(
+        None, "--context", help="Related clips (repeat the option) or one database folder; default: each clip itself."
+    ),
+    steps: str = typer.Option("fill,detect,repair,denoise", "--steps", help=_CLEAN_STEPS_HELP),
+    threshold: float = typer.Option(0.5, "--threshold", help="MDM value above which a joint is flagged (0-1)."),
+    executor: Optional[str] = typer.Option(
+        None, "--executor", help="processes (default), serial, dask (a local cluster) or a Dask scheduler address."
+    ),
+    report: bool = typer.Option(False, "--report", help="Also write STEM.report.html beside each output."),
+    png: bool = typer.Option(False, "--png", help="Also write STEM.summary.png beside each output."),
+    pattern: str = typer.Option("*.bvh,*.amc,*.npz", "--pattern", help="Comma-separated file name patterns to clean."),
+    fmt: str = typer.Option("auto", "--format", help="Output format: auto (.bvh and .npz kept, others -> .bvh), bvh or npz."),
+    as_json: bool = typer.Option(False, "--json", help="Print the per-take rows as JSON."),
+) -> None:
+    """Clean every take under IN_DIR into OUT_DIR: resumable, one failing take reported and skipped.
+
+    A take is complete when its output and STEM.clean.npz both exist (the record is written last);
+    complete takes are skipped, so running the command again resumes. Exits 1 if any take failed.
+    """
+    from .batch import clean_batch as run_batch
+    from .batch import sigterm_as_interrupt
+
+    sigterm_as_interrupt()
+    step_list = _clean_steps(steps)
+    patterns = tuple(p.strip() for p in pattern.split(",") if p.strip())
+    if not patterns:
+        raise MocapError("--pattern: give at least one file name pattern, e.g. '*.bvh,*.amc'")
+    summary = run_batch(in_dir, out_dir, context=context, steps=step_list, threshold=threshold, patterns=patterns,
+                        fmt=fmt, report=report, png=png, executor=executor, progress=not as_json)
+    if as_json:
+        print(json.dumps({"rows": summary.rows, "seconds": summary.seconds, "executor": summary.executor}))
+    else:
+        for r in summary.failed:
+            console.print(f"failed {r['input']}: {r['reason']}", markup=False)
+        n = len(summary.rows)
+        console.print(f"{n} takes on {summary.executor} in {summary.seconds:.1f} s: {summary.count('done')} cleaned, "
+                      f"{summary.count('skipped')} already complete, {summary.count('failed')} failed", markup=False)
+    if summary.failed:
+        raise typer.Exit(1)
+
+
 def main(argv: list[str] | None = None) -> int:
     """Entry point of the console script: runs the app, turning user errors into one line and exit 2."""
     try:
