@@ -49,6 +49,7 @@ demo: install
 	@echo "demo outputs written to $(OUT)/"
 
 test: install-test
+	@bash scripts/ensure-chromium.sh
 	$(PY) -m pytest -q -m "not slow"
 
 bench: install-test

@@ -1,0 +1,332 @@
+"""The cleaning report: one self-contained HTML page with a 3D stick-figure viewer.
+
+:func:`write_report` writes a single ``.html`` file that needs nothing else: the
+viewer's JavaScript and CSS (``viewer.js``, ``viewer.css`` beside this module,
+hand-written, no libraries) and the data are inlined, so the page opens from
+disk, offline, in any current browser, and can be mailed or archived as is.
+
+What the page holds
+-------------------
+- global joint (and end-site) positions of both motions in centimetres, from
+  forward kinematics, turned so that the skeleton's up axis is +y, quantised to
+  int16 on one shared grid (1 mm steps unless the take spans more than 65 m);
+- the movement digression map quantised to uint8, and one uint8 per cell with
+  bit 0 = flagged, bit 1 = changed by the cleaning, bit 2 / 3 = missing in the
+  original / cleaned motion;
+- the rotation channels (degrees, as the file gives them) before and after of
+  the joints the cleaning flagged or changed, int16 on a per-channel grid.
+
+Binary arrays travel as base64 of little-endian bytes inside one JSON block, so
+a 60 s take at 120 fps is a few MB. Above ``max_frames`` frames the viewer keeps
+every k-th frame (the heat map and the flags keep the maximum / any over each
+block of k frames, so a one-frame spike is not lost) and the page says so.
+"""
+
+from __future__ import annotations
+
+import base64
+import html as _html
+import json
+import math
+from importlib import resources
+from pathlib import Path
+
+import numpy as np
+
+from ..io import atomic_write
+from ..motion import Motion, find_joint, unit_scale_cm
+
+__all__ = ["write_report", "DEFAULT_MAX_FRAMES", "MAX_PLOT_JOINTS"]
+
+#: frames the viewer keeps by default: a 60 s take at 120 fps is shown at full rate.
+DEFAULT_MAX_FRAMES = 7200
+#: at most this many joints get before/after channel plots (those flagged or changed most).
+MAX_PLOT_JOINTS = 12
+
+_MISSING_I16 = -32768
+_BIT_FLAG, _BIT_CHANGED, _BIT_MISSING_ORIG, _BIT_MISSING_CLEAN = 1, 2, 4, 8
+
+
+def _b64(a: np.ndarray) -> str:
+    return base64.b64encode(np.ascontiguousarray(a).tobytes()).decode("ascii")
+
+
+def _quantise_i16(arrays, min_step: float):
+    """Quantise float arrays on one grid: ``value = lo + (q + 32767) * step``; NaN -> -32768.
+
+    Returns (lo, step, [int16 arrays]); the grid covers the finite values of all arrays.
+    """
+    finite = [a[np.isfinite(a)] for a in arrays]
+    finite = [f for f in finite if f.size]
+    if finite:
+        lo = float(min(f.min() for f in finite))
+        hi = float(max(f.max() for f in finite))
+    else:
+        lo = hi = 0.0
+    step = max(min_step, (hi - lo) / 65534.0)
+    out = []
+    for a in arrays:
+        q = np.full(a.shape, _MISSING_I16, dtype="<i2")
+        ok = np.isfinite(a)
+        q[ok] = (np.rint((a[ok] - lo) / step) - 32767).clip(-32767, 32767).astype("<i2")
+        out.append(q)
+    return lo, step, out
+
+
+def _up_rotation(motion: Motion) -> np.ndarray:
+    """Rotation matrix (3, 3) turning the skeleton's up axis (foot -> head at rest) into +y."""
+    sk = motion.skeleton
+    try:
+        rest = sk.rest_positions()
+        d = rest[find_joint(sk, "head")] - rest[find_joint(sk, "left_foot")]
+    except Exception:  # a rig without the standard roles: most files are y-up
+        return np.eye(3)
+    k = int(np.argmax(np.abs(d)))
+    u = np.zeros(3)
+    u[k] = np.sign(d[k]) or 1.0
+    y = np.array([0.0, 1.0, 0.0])
+    if np.allclose(u, y):
+        return np.eye(3)
+    if np.allclose(u, -y):
+        return np.diag([1.0, -1.0, -1.0])  # 180 deg about x
+    axis = np.cross(u, y)
+    axis /= np.linalg.norm(axis)
+    K = np.array([[0, -axis[2], axis[1]], [axis[2], 0, -axis[0]], [-axis[1], axis[0], 0]])
+    return np.eye(3) + K + K @ K  # Rodrigues, 90 deg
+
+
+def _cell_mask(a, name: str, shape: tuple[int, int]) -> np.ndarray | None:
+    if a is None:
+        return None
+    arr = np.asarray(a)
+    if arr.shape != shape:
+        raise ValueError(f"{name}: expected shape (F, J) = {shape}, got {arr.shape}")
+    if arr.dtype != bool:
+        if not np.issubdtype(arr.dtype, np.number) or not np.all(np.isin(arr, (0, 1))):
+            raise ValueError(f"{name}: expected a boolean (F, J) mask, got values of dtype {arr.dtype}")
+        arr = arr.astype(bool)
+    return arr
+
+
+def _block_reduce(a: np.ndarray, stride: int, how: str) -> np.ndarray:
+    """Reduce (F, ...) over blocks of ``stride`` frames starting at 0, stride, 2 stride, ..."""
+    if stride == 1:
+        return a
+    F = a.shape[0]
+    starts = np.arange(0, F, stride)
+    fn = np.maximum.reduceat if how == "max" else np.logical_or.reduceat
+    return fn(a, starts, axis=0)
+
+
+def _positions_cm(motion: Motion, scale: float, up: np.ndarray) -> np.ndarray:
+    pos = motion.global_positions(end_sites=True) * scale
+    return pos @ up.T
+
+
+def _channel_plots(original: Motion, cleaned: Motion, interest: np.ndarray, idx: np.ndarray):
+    """Rotation channels (deg) before/after of the joints with most flagged/changed cells."""
+    counts = interest.sum(axis=0)
+    order = [j for j in np.argsort(-counts, kind="stable") if counts[j] > 0]
+    names = original.channel_names()
+    per_joint = {}
+    for j in order:
+        prefix = f"{original.skeleton.joint_names[j]}."
+        cols = [c for c, n in enumerate(names) if n.startswith(prefix) and n.endswith("rotation")]
+        if cols:
+            per_joint[int(j)] = cols
+        if len(per_joint) == MAX_PLOT_JOINTS:
+            break
+    if not per_joint:
+        return []
+    with np.errstate(invalid="ignore"):
+        v_orig = original.channel_values()[idx]
+        v_clean = cleaned.channel_values()[idx]
+    plots = []
+    for j in sorted(per_joint):
+        cols = per_joint[j]
+        lo, step, (qo, qc) = _quantise_i16([v_orig[:, cols], v_clean[:, cols]], min_step=0.01)
+        plots.append({
+            "joint": j,
+            "channels": [names[c].split(".", 1)[1] for c in cols],
+            "lo": lo,
+            "step": step,
+            "original": _b64(qo),
+            "cleaned": _b64(qc),
+        })
+    return plots
+
+
+def _asset(name: str) -> str:
+    return resources.files(__package__).joinpath(name).read_text(encoding="utf-8")
+
+
+def _script_json(obj) -> str:
+    # inside <script>, "</script" or "<!--" must not appear: escape every "<"
+    return json.dumps(obj, separators=(",", ":"), allow_nan=False).replace("<", "\\u003c")
+
+
+def write_report(
+    path,
+    original: Motion,
+    cleaned: Motion,
+    *,
+    mdm=None,
+    flags=None,
+    changed=None,
+    title: str = "",
+    fps: float | None = None,
+    max_frames: int | None = None,
+) -> Path:
+    """Write the self-contained HTML cleaning report of ``original`` -> ``cleaned``.
+
+    Parameters
+    ----------
+    path : str or Path
+        The ``.html`` file to write (atomically: temp file + rename).
+    original, cleaned : Motion
+        The input and the cleaned motion: same skeleton, same frame count. NaN
+        (missing joints) is allowed in either and shows as gaps.
+    mdm : float array (F, J) in [0, 1], optional
+        Movement digression map (:attr:`mocapkit.cleaning.ssa.Detection.mdm`); NaN counts as 0.
+    flags : bool array (F, J), optional
+        Joints flagged as erroneous: drawn red on the skeleton, marked on the heat map.
+    changed : bool array (F, J), optional
+        Cells the cleaning changed.
+    title : str
+        Page title; defaults to the original's name.
+    fps : float, optional
+        Frame rate to show and play at; defaults to ``original.fps``.
+    max_frames : int, optional
+        Frames the viewer keeps (default :data:`DEFAULT_MAX_FRAMES`); longer takes
+        are shown at every k-th frame, which the page states.
+
+    Returns
+    -------
+    Path of the written file.
+
+    Examples
+    --------
+    >>> import tempfile, pathlib, mocapkit
+    >>> m = mocapkit.load(mocapkit.samples.path("12_walk.amc"))[:60]
+    >>> out = write_report(pathlib.Path(tempfile.mkdtemp()) / "r.html", m, m, title="walk")
+    >>> out.read_text().count("https://")
+    0
+    """
+    for name, m in (("original", original), ("cleaned", cleaned)):
+        if not isinstance(m, Motion):
+            raise TypeError(f"{name} must be a Motion, got {type(m).__name__}")
+    if not original.skeleton.is_compatible(cleaned.skeleton):
+        raise ValueError("original and cleaned must share one skeleton (same joints and parents)")
+    F, J = original.num_frames, original.num_joints
+    if cleaned.num_frames != F:
+        raise ValueError(f"original has {F} frames but cleaned has {cleaned.num_frames}; they must match")
+    if F == 0:
+        raise ValueError("the motions have no frames")
+    shape = (F, J)
+    mdm_arr = None
+    if mdm is not None:
+        mdm_arr = np.asarray(mdm, dtype=np.float64)
+        if mdm_arr.shape != shape:
+            raise ValueError(f"mdm: expected shape (F, J) = {shape}, got {mdm_arr.shape}")
+        finite = mdm_arr[np.isfinite(mdm_arr)]
+        if finite.size and (finite.min() < -1e-6 or finite.max() > 1 + 1e-6):
+            raise ValueError(f"mdm: values must lie in [0, 1], got [{finite.min():.3g}, {finite.max():.3g}]")
+        mdm_arr = np.nan_to_num(mdm_arr, nan=0.0).clip(0.0, 1.0)
+    flags_arr = _cell_mask(flags, "flags", shape)
+    changed_arr = _cell_mask(changed, "changed", shape)
+    if max_frames is None:
+        max_frames = DEFAULT_MAX_FRAMES
+    if int(max_frames) != max_frames or max_frames < 2:
+        raise ValueError(f"max_frames must be an integer >= 2, got {max_frames!r}")
+    show_fps = float(original.fps if fps is None else fps)
+    if not math.isfinite(show_fps) or show_fps <= 0:
+        raise ValueError(f"fps must be a positive number, got {fps!r}")
+
+    stride = max(1, math.ceil(F / int(max_frames)))
+    idx = np.arange(0, F, stride)
+    sk = original.skeleton
+    try:
+        scale = unit_scale_cm(sk)
+    except Exception:  # no human in any known unit: show file units as they are
+        scale = 1.0
+    up = _up_rotation(original)
+    with np.errstate(invalid="ignore"):
+        p_orig = _positions_cm(original[::stride], scale, up)
+        p_clean = _positions_cm(cleaned[::stride], scale, up)
+    # one grid for all three axes keeps the decoder trivial; 1 mm unless the take spans > 65 m
+    lo, step, (q_orig, q_clean) = _quantise_i16([p_orig, p_clean], min_step=0.1)
+
+    miss_o, miss_c = original.missing(), cleaned.missing()
+    bits = np.zeros(shape, dtype=np.uint8)
+    if flags_arr is not None:
+        bits |= flags_arr.astype(np.uint8) * _BIT_FLAG
+    if changed_arr is not None:
+        bits |= changed_arr.astype(np.uint8) * _BIT_CHANGED
+    bits |= miss_o.astype(np.uint8) * _BIT_MISSING_ORIG
+    bits |= miss_c.astype(np.uint8) * _BIT_MISSING_CLEAN
+    if stride > 1:
+        bits = np.bitwise_or.reduceat(bits, idx, axis=0)
+    mdm_q = None
+    if mdm_arr is not None:
+        mdm_q = np.rint(_block_reduce(mdm_arr, stride, "max") * 255).astype(np.uint8)
+
+    interest = np.zeros(shape, dtype=bool)
+    for a in (flags_arr, changed_arr):
+        if a is not None:
+            interest |= a
+    plots = _channel_plots(original, cleaned, interest, idx)
+
+    names = list(sk.joint_names) + list(sk.end_site_names)
+    parents = [int(p) for p in sk.parents] + [int(p) for p in sk.end_site_parents]
+    title = title or original.name or "mocapkit report"
+    data = {
+        "version": 1,
+        "title": title,
+        "fps": show_fps,
+        "frames": F,
+        "stride": stride,
+        "n": int(len(idx)),
+        "numJoints": J,
+        "names": names,
+        "parents": parents,
+        "unitCm": scale,
+        "pos": {"lo": lo, "step": step, "original": _b64(q_orig), "cleaned": _b64(q_clean)},
+        "mdm": None if mdm_q is None else _b64(mdm_q),
+        "bits": _b64(bits),
+        "has": {"mdm": mdm_q is not None, "flags": flags_arr is not None, "changed": changed_arr is not None},
+        "stats": {
+            "flagged": None if flags_arr is None else int(flags_arr.sum()),
+            "changed": None if changed_arr is None else int(changed_arr.sum()),
+            "missingOriginal": int(miss_o.sum()),
+            "missingCleaned": int(miss_c.sum()),
+            "flaggedJoints": None if flags_arr is None else [names[j] for j in np.flatnonzero(flags_arr.any(axis=0))],
+        },
+        "plots": plots,
+    }
+    esc = _html.escape(title)
+    page = f"""<!DOCTYPE html>
+<html lang="en">
+<head>
+<meta charset="utf-8">
+<meta http-equiv="Content-Security-Policy" content="default-src 'none'; script-src 'unsafe-inline'; style-src 'unsafe-inline'; img-src data:">
+<meta name="viewport" content="width=device-width, initial-scale=1">
+<meta name="generator" content="mocapkit">
+<title>{esc} - mocapkit report</title>
+<style>
+{_asset("viewer.css")}
+</style>
+</head>
+<body>
+<header><h1>{esc}</h1><p id="summary"></p></header>
+<main id="app"><noscript>This report needs JavaScript to draw the viewer.</noscript></main>
+<script type="application/json" id="mocapkit-data">{_script_json(data)}</script>
+<script>
+{_asset("viewer.js")}
+</script>
+</body>
+</html>
+"""
+    path = Path(path)
+    with atomic_write(path, "w", encoding="utf-8") as fh:
+        fh.write(page)
+    return path

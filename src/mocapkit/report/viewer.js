@@ -1,0 +1,617 @@
+/* mocapkit cleaning report: stick-figure viewer, MDM heat map and channel plots.
+ * Hand-written, no libraries, no network: everything comes from the JSON block
+ * #mocapkit-data that mocapkit.report.html.write_report inlines in the page.
+ * 2D canvas with a perspective projection of our own (orbit camera, y up).
+ */
+(function () {
+  "use strict";
+
+  var D = JSON.parse(document.getElementById("mocapkit-data").textContent);
+  var N = D.n, P = D.names.length, J = D.numJoints, STRIDE = D.stride;
+  var MISSING = -32768;
+  var BIT_FLAG = 1, BIT_CHANGED = 2, BIT_MISS_O = 4, BIT_MISS_C = 8;
+
+  // ---- decoding ---------------------------------------------------------
+  function bytes(b64) {
+    var s = atob(b64), out = new Uint8Array(s.length);
+    for (var i = 0; i < s.length; i++) out[i] = s.charCodeAt(i);
+    return out;
+  }
+  function dequant(b64, lo, step) {
+    var q = new Int16Array(bytes(b64).buffer), out = new Float32Array(q.length);
+    for (var i = 0; i < q.length; i++) out[i] = q[i] === MISSING ? NaN : lo + (q[i] + 32767) * step;
+    return out;
+  }
+  var POS = {
+    original: dequant(D.pos.original, D.pos.lo, D.pos.step),
+    cleaned: dequant(D.pos.cleaned, D.pos.lo, D.pos.step)
+  };
+  var MDM = D.mdm ? bytes(D.mdm) : null;   // (N, J) uint8, 255 = 1.0
+  var BITS = bytes(D.bits);                // (N, J)
+  var PLOTS = D.plots.map(function (p) {
+    return { joint: p.joint, channels: p.channels,
+             original: dequant(p.original, p.lo, p.step), cleaned: dequant(p.cleaned, p.lo, p.step) };
+  });
+  var plotOfJoint = {};
+  PLOTS.forEach(function (p, k) { plotOfJoint[p.joint] = k; });
+
+  // ---- state --------------------------------------------------------------
+  var S = {
+    index: 0, playing: false, speed: 1, overlay: false, follow: true, selected: -1,
+    yaw: 0.6, pitch: 0.25, dist: 450, drawCount: 0, pos: 0, lastT: null, dirty: true
+  };
+
+  // clip-wide figures for the camera and the floor
+  function clipStats() {
+    var a = POS.original, minY = [], sx = 0, sy = 0, sz = 0, n = 0;
+    var lo = [Infinity, Infinity, Infinity], hi = [-Infinity, -Infinity, -Infinity];
+    for (var i = 0; i < N; i++) {
+      var m = Infinity;
+      for (var p = 0; p < P; p++) {
+        var o = (i * P + p) * 3;
+        var x = a[o], y = a[o + 1], z = a[o + 2];
+        if (x !== x || y !== y || z !== z) continue;
+        if (y < m) m = y;
+        lo[0] = Math.min(lo[0], x); lo[1] = Math.min(lo[1], y); lo[2] = Math.min(lo[2], z);
+        hi[0] = Math.max(hi[0], x); hi[1] = Math.max(hi[1], y); hi[2] = Math.max(hi[2], z);
+        if (p === 0) { sx += x; sy += y; sz += z; n++; }
+      }
+      if (m < Infinity) minY.push(m);
+    }
+    minY.sort(function (u, v) { return u - v; });
+    var floor = minY.length ? minY[Math.floor(minY.length / 2)] : 0;
+    if (!n) { sx = sy = sz = 0; n = 1; }
+    var ext = isFinite(lo[0]) ? Math.max(hi[0] - lo[0], hi[2] - lo[2]) : 0;
+    return { floor: floor, centre: [sx / n, sy / n, sz / n], travel: ext,
+             height: isFinite(lo[1]) ? hi[1] - floor : 170 };
+  }
+  var CLIP = clipStats();
+  S.follow = CLIP.travel > 250;
+  S.dist = S.follow ? Math.max(300, CLIP.height * 2.2) : Math.max(300, CLIP.height * 2.2, CLIP.travel * 1.3);
+  var target = CLIP.centre.slice();
+
+  // ---- DOM ----------------------------------------------------------------
+  function el(tag, attrs, parent) {
+    var e = document.createElement(tag);
+    for (var k in attrs) {
+      if (k === "text") e.textContent = attrs[k]; else e.setAttribute(k, attrs[k]);
+    }
+    if (parent) parent.appendChild(e);
+    return e;
+  }
+  var app = document.getElementById("app");
+  app.textContent = "";
+  var summary = document.getElementById("summary");
+  (function () {
+    var st = D.stats, parts = [];
+    parts.push(D.frames + " frames at " + fmt(D.fps) + " fps (" + (D.frames / D.fps).toFixed(2) + " s), " + J + " joints");
+    if (st.flagged !== null) parts.push(st.flagged + " flagged cells in " + st.flaggedJoints.length + " joints" +
+      (st.flaggedJoints.length ? " (" + st.flaggedJoints.slice(0, 8).join(", ") + (st.flaggedJoints.length > 8 ? ", ..." : "") + ")" : ""));
+    if (st.changed !== null) parts.push(st.changed + " cells changed by the cleaning");
+    if (st.missingOriginal) parts.push(st.missingOriginal + " missing cells in the input");
+    summary.textContent = parts.join("; ") + ".";
+    if (STRIDE > 1) {
+      el("p", { "class": "note", id: "downsample-note",
+        text: "Long take: the viewer shows every " + STRIDE + "th frame (" + N + " of " + D.frames +
+              "); the heat map and the flags keep the maximum over each block of " + STRIDE + " frames." },
+        document.querySelector("header"));
+    }
+  })();
+  function fmt(x) { return Math.abs(x - Math.round(x)) < 1e-9 ? String(Math.round(x)) : x.toFixed(2); }
+
+  var viewSec = el("section", { "class": "viewer" }, app);
+  var bar = el("div", { "class": "toolbar" }, viewSec);
+  var playBtn = el("button", { id: "play", type: "button", text: "Play" }, bar);
+  var slider = el("input", { id: "scrub", type: "range", min: "0", max: String(Math.max(0, N - 1)), step: "1", value: "0",
+                             "aria-label": "frame" }, bar);
+  var frameLabel = el("span", { id: "frame-label", "class": "frame-label" }, bar);
+  var speedLbl = el("label", { text: "speed " }, bar);
+  var speedSel = el("select", { id: "speed" }, speedLbl);
+  [0.1, 0.25, 0.5, 1, 2, 4].forEach(function (v) {
+    var o = el("option", { value: String(v), text: v + "x" }, speedSel);
+    if (v === 1) o.selected = true;
+  });
+  var modeBtn = el("button", { id: "mode", type: "button", text: "Overlay" }, bar);
+  var followLbl = el("label", {}, bar);
+  var followBox = el("input", { id: "follow", type: "checkbox" }, followLbl);
+  followBox.checked = S.follow;
+  followLbl.appendChild(document.createTextNode(" follow"));
+  var resetBtn = el("button", { id: "reset-view", type: "button", text: "Reset view" }, bar);
+  var canvas = el("canvas", { id: "viewer", "class": "viewer-canvas" }, viewSec);
+  var legend = el("div", { "class": "legend" }, viewSec);
+  [["original", "input"], ["cleaned", "cleaned"], ["flag", "flagged joint (this frame)"], ["sel", "selected joint"]]
+    .forEach(function (x) { var s = el("span", {}, legend); el("i", { "class": "sw " + x[0] }, s); s.appendChild(document.createTextNode(x[1])); });
+  el("span", { "class": "hint", text: "drag: orbit, wheel: zoom, double-click: reset, space: play/pause, arrows: step" }, legend);
+
+  var heatSec = el("section", { "class": "heat" }, app);
+  el("h2", { text: "Movement digression map" }, heatSec);
+  var heatNote = el("p", { "class": "note" }, heatSec);
+  heatNote.textContent = (D.has.mdm ? "Colour: MDM (0 dark to 1 bright)" : "No MDM given") +
+    (D.has.flags ? "; red: flagged" : (D.has.changed ? "; red: changed by the cleaning" : "")) +
+    "; grey: missing in the input. Click a cell to jump to that frame and select that joint.";
+  var heat = el("canvas", { id: "heatmap", "class": "heat-canvas" }, heatSec);
+
+  var plotSec = el("section", { "class": "plots" }, app);
+  el("h2", { text: "Channels before / after" }, plotSec);
+  el("p", { "class": "note", text: PLOTS.length ?
+    "Rotation channels (degrees, as the file gives them) of the flagged or changed joints: input dashed, cleaned solid; shaded: flagged or changed frames. Click a plot to jump." :
+    "No joint was flagged or changed." }, plotSec);
+  var selPlotBox = el("div", { id: "selected-plot" }, plotSec);
+  var plotBox = el("div", { id: "plot-list" }, plotSec);
+  var plotCanvases = PLOTS.map(function (p, k) {
+    var wrap = el("div", { "class": "plot", "data-joint": D.names[p.joint] }, plotBox);
+    el("div", { "class": "plot-title", text: D.names[p.joint] + ": " + p.channels.join(", ") + " (deg)" }, wrap);
+    var c = el("canvas", { "class": "plot-canvas" }, wrap);
+    c.addEventListener("click", function (ev) { onPlotClick(ev, c, p.joint); });
+    return { wrap: wrap, canvas: c, cache: null };
+  });
+  var selPlot = null; // root-relative position plot of a selected joint that has no channel plot
+
+  // ---- camera and projection --------------------------------------------
+  function camera(w, h) {
+    var cp = Math.cos(S.pitch);
+    var eye = [target[0] + S.dist * cp * Math.sin(S.yaw), target[1] + S.dist * Math.sin(S.pitch),
+               target[2] + S.dist * cp * Math.cos(S.yaw)];
+    var f = norm([target[0] - eye[0], target[1] - eye[1], target[2] - eye[2]]);
+    var r = norm(cross(f, [0, 1, 0]));
+    var u = cross(r, f);
+    return { eye: eye, f: f, r: r, u: u, cx: w / 2, cy: h / 2, focal: 0.5 * h / Math.tan(Math.PI / 8) };
+  }
+  function norm(v) { var l = Math.hypot(v[0], v[1], v[2]) || 1; return [v[0] / l, v[1] / l, v[2] / l]; }
+  function cross(a, b) { return [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]; }
+  function project(cam, x, y, z, ox) {
+    var dx = x - cam.eye[0], dy = y - cam.eye[1], dz = z - cam.eye[2];
+    var zc = dx * cam.f[0] + dy * cam.f[1] + dz * cam.f[2];
+    if (!(zc > 1)) return null; // behind the camera, or NaN
+    var xc = dx * cam.r[0] + dy * cam.r[1] + dz * cam.r[2];
+    var yc = dx * cam.u[0] + dy * cam.u[1] + dz * cam.u[2];
+    return [ox + cam.cx + cam.focal * xc / zc, cam.cy - cam.focal * yc / zc, zc];
+  }
+
+  function updateTarget() {
+    if (!S.follow) { target = [CLIP.centre[0], CLIP.floor + CLIP.height * 0.5, CLIP.centre[2]]; return; }
+    var o = S.index * P * 3;
+    var a = POS.original, b = POS.cleaned;
+    var x = a[o], z = a[o + 2];
+    if (x !== x || z !== z) { x = b[o]; z = b[o + 2]; }
+    if (x === x && z === z) target = [x, CLIP.floor + CLIP.height * 0.5, z];
+  }
+
+  // ---- drawing: viewer -----------------------------------------------------
+  var COL = { original: "#3b6fc4", cleaned: "#2b9348", flag: "#e03131", sel: "#f59f00", grid: "#d0d4da" };
+
+  function innerWidth(sec) {
+    // content width of a section (its padding excluded), so canvases never overflow it
+    var cs = getComputedStyle(sec);
+    var w = sec.clientWidth - parseFloat(cs.paddingLeft || 0) - parseFloat(cs.paddingRight || 0);
+    return Math.max(200, Math.floor(w || 800));
+  }
+  function sizeCanvas(c, cssW, cssH) {
+    var dpr = window.devicePixelRatio || 1;
+    c.style.width = cssW + "px"; c.style.height = cssH + "px";
+    var w = Math.round(cssW * dpr), h = Math.round(cssH * dpr);
+    if (c.width !== w || c.height !== h) { c.width = w; c.height = h; }
+    var ctx = c.getContext("2d");
+    ctx.setTransform(dpr, 0, 0, dpr, 0, 0);
+    return ctx;
+  }
+
+  function drawGrid(ctx, cam, ox) {
+    var step = 50, span = 300;
+    var gx = Math.round(target[0] / step) * step, gz = Math.round(target[2] / step) * step, y = CLIP.floor;
+    ctx.strokeStyle = COL.grid; ctx.lineWidth = 1;
+    ctx.beginPath();
+    for (var k = -span; k <= span; k += step) {
+      seg(ctx, cam, ox, [gx + k, y, gz - span], [gx + k, y, gz + span]);
+      seg(ctx, cam, ox, [gx - span, y, gz + k], [gx + span, y, gz + k]);
+    }
+    ctx.stroke();
+  }
+  function seg(ctx, cam, ox, a, b) {
+    // split into pieces so that lines crossing near the camera stay sane
+    var n = 6, prev = null;
+    for (var t = 0; t <= n; t++) {
+      var s = t / n, p = project(cam, a[0] + (b[0] - a[0]) * s, a[1] + (b[1] - a[1]) * s, a[2] + (b[2] - a[2]) * s, ox);
+      if (p && prev) { ctx.moveTo(prev[0], prev[1]); ctx.lineTo(p[0], p[1]); }
+      prev = p;
+    }
+  }
+
+  function drawSkeleton(ctx, cam, ox, which, colour, alpha, dashed) {
+    var a = POS[which], base = S.index * P * 3, pts = new Array(P);
+    for (var p = 0; p < P; p++) {
+      var o = base + p * 3;
+      pts[p] = project(cam, a[o], a[o + 1], a[o + 2], ox);
+    }
+    var rowBits = S.index * J;
+    ctx.globalAlpha = alpha;
+    ctx.lineCap = "round";
+    ctx.setLineDash(dashed ? [6, 4] : []);
+    // bones: the bone from joint p's parent to p is moved by the parent's rotation
+    for (p = 1; p < P; p++) {
+      var q = D.parents[p];
+      if (q < 0 || !pts[p] || !pts[q]) continue; // missing joint: a gap, not a line to nowhere
+      var flagged = q < J && (BITS[rowBits + q] & BIT_FLAG);
+      ctx.strokeStyle = flagged ? COL.flag : colour;
+      ctx.lineWidth = flagged ? 4 : 3;
+      ctx.beginPath(); ctx.moveTo(pts[q][0], pts[q][1]); ctx.lineTo(pts[p][0], pts[p][1]); ctx.stroke();
+    }
+    ctx.setLineDash([]);
+    for (p = 0; p < J; p++) {
+      if (!pts[p]) continue;
+      var fl = BITS[rowBits + p] & BIT_FLAG;
+      ctx.fillStyle = fl ? COL.flag : colour;
+      ctx.beginPath(); ctx.arc(pts[p][0], pts[p][1], fl ? 5 : 2.5, 0, 2 * Math.PI); ctx.fill();
+    }
+    ctx.globalAlpha = 1;
+    if (S.selected >= 0 && pts[S.selected]) {
+      ctx.strokeStyle = COL.sel; ctx.lineWidth = 2.5;
+      ctx.beginPath(); ctx.arc(pts[S.selected][0], pts[S.selected][1], 10, 0, 2 * Math.PI); ctx.stroke();
+    }
+  }
+
+  function drawViewer() {
+    var w = innerWidth(viewSec), h = Math.max(280, Math.min(540, Math.round(w * 0.5)));
+    var ctx = sizeCanvas(canvas, w, h);
+    ctx.fillStyle = "#ffffff"; ctx.fillRect(0, 0, w, h);
+    updateTarget();
+    if (S.overlay) {
+      var cam = camera(w, h);
+      drawGrid(ctx, cam, 0);
+      drawSkeleton(ctx, cam, 0, "original", COL.original, 0.55, true);
+      drawSkeleton(ctx, cam, 0, "cleaned", COL.cleaned, 1, false);
+      label(ctx, 10, "input (dashed) + cleaned");
+    } else {
+      var half = w / 2, cam2 = camera(half, h);
+      ctx.save(); ctx.beginPath(); ctx.rect(0, 0, half, h); ctx.clip();
+      drawGrid(ctx, cam2, 0); drawSkeleton(ctx, cam2, 0, "original", COL.original, 1, false);
+      ctx.restore();
+      ctx.save(); ctx.beginPath(); ctx.rect(half, 0, half, h); ctx.clip();
+      drawGrid(ctx, cam2, half); drawSkeleton(ctx, cam2, half, "cleaned", COL.cleaned, 1, false);
+      ctx.restore();
+      ctx.strokeStyle = "#adb5bd"; ctx.beginPath(); ctx.moveTo(half, 0); ctx.lineTo(half, h); ctx.stroke();
+      label(ctx, 10, "input"); label(ctx, half + 10, "cleaned");
+    }
+    if (S.selected >= 0) {
+      ctx.fillStyle = COL.sel; ctx.font = "12px sans-serif";
+      ctx.fillText("selected: " + D.names[S.selected], 10, h - 10);
+    }
+    S.drawCount++;
+  }
+  function label(ctx, x, text) { ctx.fillStyle = "#495057"; ctx.font = "13px sans-serif"; ctx.fillText(text, x, 18); }
+
+  // ---- drawing: heat map ---------------------------------------------------
+  var H = { left: 0, top: 6, width: 0, height: 0, rowHeight: 10, cache: null, cssW: 0 };
+  var LUT = (function () { // a viridis-like ramp, 256 entries
+    var stops = [[68, 1, 84], [59, 82, 139], [33, 145, 140], [94, 201, 98], [253, 231, 37]], out = [];
+    for (var i = 0; i < 256; i++) {
+      var t = i / 255 * (stops.length - 1), k = Math.min(stops.length - 2, Math.floor(t)), f = t - k;
+      out.push([0, 1, 2].map(function (c) { return Math.round(stops[k][c] + (stops[k + 1][c] - stops[k][c]) * f); }));
+    }
+    return out;
+  })();
+
+  function layoutHeat() {
+    var w = innerWidth(heatSec);
+    H.rowHeight = Math.max(6, Math.min(14, Math.floor(360 / J)));
+    var fontPx = Math.min(11, H.rowHeight);
+    var m = heat.getContext("2d");
+    m.font = fontPx + "px sans-serif";
+    var lw = 0;
+    for (var j = 0; j < J; j++) lw = Math.max(lw, m.measureText(D.names[j]).width);
+    H.font = fontPx;
+    H.left = Math.ceil(lw) + 8;
+    H.width = Math.max(50, w - H.left - 10);
+    H.height = H.rowHeight * J;
+    H.cssW = w;
+    H.cssH = H.top + H.height + 30;
+    H.cache = buildHeatImage();
+  }
+
+  function buildHeatImage() {
+    var W = Math.max(1, Math.round(H.width)), off = document.createElement("canvas");
+    off.width = W; off.height = J;
+    var ctx = off.getContext("2d"), img = ctx.createImageData(W, J), px = img.data;
+    var red = D.has.flags ? BIT_FLAG : (D.has.changed ? BIT_CHANGED : 0);
+    for (var c = 0; c < W; c++) {
+      var i0 = Math.floor(c * N / W), i1 = Math.max(i0 + 1, Math.floor((c + 1) * N / W));
+      for (var j = 0; j < J; j++) {
+        var v = 0, b = 0;
+        for (var i = i0; i < i1; i++) {
+          if (MDM && MDM[i * J + j] > v) v = MDM[i * J + j];
+          b |= BITS[i * J + j];
+        }
+        var rgb = LUT[v];
+        if (red && (b & red)) rgb = [Math.round(rgb[0] * 0.2 + 224 * 0.8), Math.round(rgb[1] * 0.2 + 49 * 0.8), Math.round(rgb[2] * 0.2 + 49 * 0.8)];
+        else if ((b & BIT_MISS_O) && !v) rgb = [190, 190, 190];
+        var o = (j * W + c) * 4;
+        px[o] = rgb[0]; px[o + 1] = rgb[1]; px[o + 2] = rgb[2]; px[o + 3] = 255;
+      }
+    }
+    ctx.putImageData(img, 0, 0);
+    return off;
+  }
+
+  function niceStep(range, pixels, minGap) {
+    var raw = range * minGap / Math.max(1, pixels), p = Math.pow(10, Math.floor(Math.log10(Math.max(raw, 1e-9))));
+    var steps = [1, 2, 5, 10];
+    for (var k = 0; k < steps.length; k++) if (steps[k] * p >= raw) return steps[k] * p;
+    return 10 * p;
+  }
+
+  function drawHeat() {
+    if (!H.cache || H.cssW !== innerWidth(heatSec)) layoutHeat();
+    var ctx = sizeCanvas(heat, H.cssW, H.cssH);
+    ctx.fillStyle = "#fff"; ctx.fillRect(0, 0, H.cssW, H.cssH);
+    ctx.imageSmoothingEnabled = false;
+    ctx.drawImage(H.cache, H.left, H.top, H.width, H.height);
+    ctx.font = H.font + "px sans-serif"; ctx.textBaseline = "middle"; ctx.textAlign = "right";
+    var every = H.rowHeight >= 9 ? 1 : 2;
+    for (var j = 0; j < J; j += every) {
+      ctx.fillStyle = j === S.selected ? COL.sel : "#343a40";
+      ctx.fillText(D.names[j], H.left - 4, H.top + (j + 0.5) * H.rowHeight);
+    }
+    if (S.selected >= 0 && every > 1) {
+      ctx.fillStyle = COL.sel; ctx.fillText(D.names[S.selected], H.left - 4, H.top + (S.selected + 0.5) * H.rowHeight);
+    }
+    // frame ticks in the take's own frame numbers
+    ctx.textAlign = "center"; ctx.textBaseline = "top"; ctx.fillStyle = "#343a40"; ctx.strokeStyle = "#343a40";
+    var step = niceStep(D.frames, H.width, 70), y0 = H.top + H.height;
+    ctx.beginPath();
+    for (var f = 0; f < D.frames; f += step) {
+      var x = H.left + (f / STRIDE) / N * H.width;
+      ctx.moveTo(x, y0); ctx.lineTo(x, y0 + 4);
+      ctx.fillText(String(f), x, y0 + 6);
+    }
+    ctx.stroke();
+    ctx.textAlign = "left"; ctx.fillText("frame", H.left + H.width - 30, y0 + 18);
+    // highlights: selected row, current frame
+    if (S.selected >= 0) {
+      ctx.strokeStyle = COL.sel; ctx.lineWidth = 2;
+      ctx.strokeRect(H.left - 1, H.top + S.selected * H.rowHeight - 1, H.width + 2, H.rowHeight + 2);
+    }
+    var cx = H.left + (S.index + 0.5) / N * H.width;
+    ctx.strokeStyle = "#ffffff"; ctx.lineWidth = 3;
+    ctx.beginPath(); ctx.moveTo(cx, H.top); ctx.lineTo(cx, y0); ctx.stroke();
+    ctx.strokeStyle = "#000000"; ctx.lineWidth = 1;
+    ctx.beginPath(); ctx.moveTo(cx, H.top); ctx.lineTo(cx, y0); ctx.stroke();
+    if (S.selected >= 0) {
+      ctx.strokeStyle = COL.sel; ctx.lineWidth = 2;
+      var cw = Math.max(3, H.width / N);
+      ctx.strokeRect(cx - cw / 2, H.top + S.selected * H.rowHeight, cw, H.rowHeight);
+    }
+  }
+
+  function canvasXY(ev, c) {
+    var r = c.getBoundingClientRect();
+    return [ev.clientX - r.left, ev.clientY - r.top];
+  }
+  heat.addEventListener("click", function (ev) {
+    var xy = canvasXY(ev, heat);
+    var i = Math.floor((xy[0] - H.left) / H.width * N), j = Math.floor((xy[1] - H.top) / H.rowHeight);
+    if (i < 0 || i >= N || j < 0 || j >= J) return;
+    select(j);
+    setIndex(i);
+  });
+
+  // ---- drawing: channel plots ----------------------------------------------
+  var CH = ["#1c7ed6", "#e8590c", "#7048e8", "#0ca678", "#c2255c", "#495057"];
+
+  function renderPlot(series, joint, cssW, cssH) {
+    // series: {original: [Float32Array per channel], cleaned: [...], labels, wrap (degrees)}
+    var off = document.createElement("canvas"), dpr = window.devicePixelRatio || 1;
+    off.width = Math.round(cssW * dpr); off.height = Math.round(cssH * dpr);
+    var ctx = off.getContext("2d");
+    ctx.setTransform(dpr, 0, 0, dpr, 0, 0);
+    var L = 46, R = 8, T = 6, B = 18, pw = cssW - L - R, ph = cssH - T - B;
+    var lo = Infinity, hi = -Infinity;
+    [series.original, series.cleaned].forEach(function (set) {
+      set.forEach(function (a) { for (var i = 0; i < a.length; i++) if (a[i] === a[i]) { if (a[i] < lo) lo = a[i]; if (a[i] > hi) hi = a[i]; } });
+    });
+    if (!isFinite(lo)) { lo = -1; hi = 1; }
+    if (hi - lo < 1e-6) { lo -= 1; hi += 1; }
+    var pad = (hi - lo) * 0.06; lo -= pad; hi += pad;
+    ctx.fillStyle = "#fff"; ctx.fillRect(0, 0, cssW, cssH);
+    // flagged / changed frames of this joint
+    ctx.fillStyle = "rgba(224,49,49,0.13)";
+    for (var i = 0; i < N; i++) {
+      if (BITS[i * J + joint] & (BIT_FLAG | BIT_CHANGED)) ctx.fillRect(L + i / N * pw, T, Math.max(1, pw / N), ph);
+    }
+    ctx.strokeStyle = "#ced4da"; ctx.lineWidth = 1; ctx.strokeRect(L, T, pw, ph);
+    ctx.fillStyle = "#495057"; ctx.font = "10px sans-serif"; ctx.textAlign = "right"; ctx.textBaseline = "middle";
+    var ys = niceStep(hi - lo, ph, 28);
+    ctx.beginPath();
+    for (var v = Math.ceil(lo / ys) * ys; v <= hi; v += ys) {
+      var y = T + (hi - v) / (hi - lo) * ph;
+      ctx.fillText(String(Math.round(v * 100) / 100), L - 4, y);
+      ctx.moveTo(L, y); ctx.lineTo(L + 4, y);
+    }
+    ctx.stroke();
+    ctx.textAlign = "center"; ctx.textBaseline = "top";
+    var fs = niceStep(D.frames, pw, 70);
+    for (var f = 0; f < D.frames; f += fs) ctx.fillText(String(f), L + (f / STRIDE) / N * pw, T + ph + 3);
+    function line(a, colour, dashed, width) {
+      ctx.strokeStyle = colour; ctx.lineWidth = width; ctx.setLineDash(dashed ? [4, 3] : []);
+      ctx.beginPath();
+      var pen = false, prev = NaN;
+      for (var i = 0; i < a.length; i++) {
+        var v = a[i];
+        if (v !== v || (series.wrap && Math.abs(v - prev) > series.wrap)) { pen = v === v; if (pen) ctx.moveTo(L + (i + 0.5) / N * pw, T + (hi - v) / (hi - lo) * ph); prev = v; continue; }
+        var x = L + (i + 0.5) / N * pw, yv = T + (hi - v) / (hi - lo) * ph;
+        if (pen) ctx.lineTo(x, yv); else ctx.moveTo(x, yv);
+        pen = true; prev = v;
+      }
+      ctx.stroke();
+      ctx.setLineDash([]);
+    }
+    series.original.forEach(function (a, k) { line(a, CH[k % CH.length], true, 1.2); });
+    series.cleaned.forEach(function (a, k) { line(a, CH[k % CH.length], false, 1.6); });
+    ctx.textAlign = "left"; ctx.textBaseline = "top"; ctx.font = "10px sans-serif";
+    var lx = L + 6;
+    series.labels.forEach(function (name, k) {
+      ctx.fillStyle = CH[k % CH.length]; ctx.fillText(name, lx, T + 3); lx += ctx.measureText(name).width + 10;
+    });
+    ctx.fillStyle = "#868e96"; ctx.fillText("dashed: input, solid: cleaned", lx + 6, T + 3);
+    return { image: off, L: L, pw: pw, T: T, ph: ph, cssW: cssW, cssH: cssH };
+  }
+
+  function channelSeries(k) {
+    var p = PLOTS[k], C = p.channels.length, o = [], c = [];
+    for (var ch = 0; ch < C; ch++) {
+      var a = new Float32Array(N), b = new Float32Array(N);
+      for (var i = 0; i < N; i++) { a[i] = p.original[i * C + ch]; b[i] = p.cleaned[i * C + ch]; }
+      o.push(a); c.push(b);
+    }
+    return { original: o, cleaned: c, labels: p.channels, wrap: 180 };
+  }
+  function positionSeries(j) {
+    // the joint's position relative to the root (cm): errors show, walking does not
+    var o = [], c = [];
+    ["original", "cleaned"].forEach(function (which, w) {
+      var a = POS[which];
+      for (var ax = 0; ax < 3; ax++) {
+        var s = new Float32Array(N);
+        for (var i = 0; i < N; i++) s[i] = a[(i * P + j) * 3 + ax] - a[(i * P) * 3 + ax];
+        (w ? c : o).push(s);
+      }
+    });
+    return { original: o, cleaned: c, labels: ["x", "y (up)", "z"], wrap: 0 };
+  }
+
+  function drawPlotCursor(canvasEl, cache) {
+    var ctx = sizeCanvas(canvasEl, cache.cssW, cache.cssH);
+    ctx.drawImage(cache.image, 0, 0, cache.cssW, cache.cssH);
+    var x = cache.L + (S.index + 0.5) / N * cache.pw;
+    ctx.strokeStyle = "#000"; ctx.lineWidth = 1;
+    ctx.beginPath(); ctx.moveTo(x, cache.T); ctx.lineTo(x, cache.T + cache.ph); ctx.stroke();
+  }
+
+  var plotW = 0;
+  function drawPlots() {
+    var w = innerWidth(plotSec) - 2;
+    if (w !== plotW) { plotW = w; plotCanvases.forEach(function (pc) { pc.cache = null; }); if (selPlot) selPlot.cache = null; }
+    plotCanvases.forEach(function (pc, k) {
+      if (!pc.cache) pc.cache = renderPlot(channelSeries(k), PLOTS[k].joint, w, 130);
+      drawPlotCursor(pc.canvas, pc.cache);
+      pc.wrap.classList.toggle("selected", PLOTS[k].joint === S.selected);
+    });
+    if (selPlot) {
+      if (!selPlot.cache) selPlot.cache = renderPlot(positionSeries(selPlot.joint), selPlot.joint, w, 130);
+      drawPlotCursor(selPlot.canvas, selPlot.cache);
+    }
+  }
+  function onPlotClick(ev, c, joint) {
+    var pc = plotCanvases.filter(function (x) { return x.canvas === c; })[0];
+    var cache = pc ? pc.cache : selPlot && selPlot.cache;
+    if (!cache) return;
+    var xy = canvasXY(ev, c), i = Math.floor((xy[0] - cache.L) / cache.pw * N);
+    if (i >= 0 && i < N) { select(joint); setIndex(i); }
+  }
+
+  // ---- state changes -------------------------------------------------------
+  function select(j) {
+    if (j === S.selected) return;
+    S.selected = j;
+    selPlotBox.textContent = "";
+    selPlot = null;
+    if (j >= 0) {
+      var wrap = el("div", { "class": "plot selected", "data-joint": D.names[j] }, selPlotBox);
+      el("div", { "class": "plot-title", text: "selected " + D.names[j] + ": position relative to the root (cm)" }, wrap);
+      var c = el("canvas", { "class": "plot-canvas" }, wrap);
+      selPlot = { joint: j, canvas: c, cache: null };
+      c.addEventListener("click", function (ev) { onPlotClick(ev, c, j); });
+    }
+    invalidate();
+  }
+  function setIndex(i) {
+    i = Math.max(0, Math.min(N - 1, Math.round(Number(i)) || 0));
+    S.index = i; S.pos = i;
+    slider.value = String(i);
+    invalidate();
+  }
+  function invalidate() {
+    if (!S.dirty) { S.dirty = true; requestAnimationFrame(frame); }
+  }
+  function redraw() {
+    frameLabel.textContent = "frame " + (S.index * STRIDE) + " / " + (D.frames - 1) + "  (" + (S.index * STRIDE / D.fps).toFixed(2) + " s)";
+    drawViewer(); drawHeat(); drawPlots();
+    S.dirty = false;
+  }
+  function frame(t) {
+    if (S.playing) {
+      if (S.lastT !== null) {
+        S.pos += (t - S.lastT) / 1000 * D.fps / STRIDE * S.speed;
+        if (S.pos >= N) S.pos = S.pos % N;
+        S.index = Math.floor(S.pos);
+        slider.value = String(S.index);
+      }
+      S.lastT = t;
+      redraw();
+      requestAnimationFrame(frame);
+    } else if (S.dirty) {
+      redraw();
+    }
+  }
+  function play(on) {
+    if (on === S.playing) return;
+    S.playing = on; S.lastT = null;
+    playBtn.textContent = on ? "Pause" : "Play";
+    if (on) requestAnimationFrame(frame);
+  }
+
+  // ---- input ----------------------------------------------------------------
+  playBtn.addEventListener("click", function () { play(!S.playing); });
+  slider.addEventListener("input", function () { play(false); setIndex(slider.value); });
+  speedSel.addEventListener("change", function () { S.speed = Number(speedSel.value) || 1; });
+  modeBtn.addEventListener("click", function () {
+    S.overlay = !S.overlay; modeBtn.textContent = S.overlay ? "Side by side" : "Overlay"; invalidate();
+  });
+  followBox.addEventListener("change", function () { S.follow = followBox.checked; invalidate(); });
+  function resetView() { S.yaw = 0.6; S.pitch = 0.25; S.dist = S.follow ? Math.max(300, CLIP.height * 2.2) : Math.max(300, CLIP.height * 2.2, CLIP.travel * 1.3); invalidate(); }
+  resetBtn.addEventListener("click", resetView);
+  canvas.addEventListener("dblclick", resetView);
+  var drag = null;
+  canvas.addEventListener("pointerdown", function (ev) { drag = [ev.clientX, ev.clientY]; canvas.setPointerCapture(ev.pointerId); });
+  canvas.addEventListener("pointermove", function (ev) {
+    if (!drag) return;
+    S.yaw -= (ev.clientX - drag[0]) * 0.01;
+    S.pitch = Math.max(-1.45, Math.min(1.45, S.pitch + (ev.clientY - drag[1]) * 0.01));
+    drag = [ev.clientX, ev.clientY];
+    invalidate();
+  });
+  function endDrag() { drag = null; }
+  canvas.addEventListener("pointerup", endDrag);
+  canvas.addEventListener("pointercancel", endDrag);
+  canvas.addEventListener("wheel", function (ev) {
+    ev.preventDefault();
+    S.dist = Math.max(50, Math.min(20000, S.dist * Math.exp(ev.deltaY * 0.001)));
+    invalidate();
+  }, { passive: false });
+  document.addEventListener("keydown", function (ev) {
+    var tag = ev.target && ev.target.tagName;
+    if (tag === "INPUT" || tag === "SELECT" || tag === "BUTTON" || tag === "TEXTAREA") return;
+    if (ev.key === " ") { ev.preventDefault(); play(!S.playing); }
+    else if (ev.key === "ArrowRight") { play(false); setIndex(S.index + 1); }
+    else if (ev.key === "ArrowLeft") { play(false); setIndex(S.index - 1); }
+  });
+  window.addEventListener("resize", function () { H.cache = null; invalidate(); });
+
+  // ---- API for tests and for people at the console ----------------------------
+  window.mocapkitReport = {
+    frame: function () { return S.index * STRIDE; },         // frame number in the take
+    index: function () { return S.index; },                  // frame index in the viewer (take frame / stride)
+    setFrame: function (f) { play(false); setIndex(Number(f) / STRIDE); redraw(); },
+    setIndex: function (i) { play(false); setIndex(i); redraw(); },
+    selectedJoint: function () { return S.selected; },
+    selectedJointName: function () { return S.selected >= 0 ? D.names[S.selected] : null; },
+    select: function (j) { select(typeof j === "string" ? D.names.indexOf(j) : j); redraw(); },
+    drawCount: function () { return S.drawCount; },
+    play: function () { play(true); },
+    pause: function () { play(false); },
+    playing: function () { return S.playing; },
+    overlay: function (on) { if (on !== undefined) { S.overlay = !!on; redraw(); } return S.overlay; },
+    heatmapLayout: function () { return { left: H.left, top: H.top, width: H.width, height: H.height, rowHeight: H.rowHeight, frames: N, joints: J }; },
+    info: { frames: D.frames, shown: N, stride: STRIDE, fps: D.fps, joints: J, names: D.names.slice(0, J), plots: PLOTS.map(function (p) { return D.names[p.joint]; }) }
+  };
+  redraw();
+})();

@@ -1,0 +1,463 @@
+"""The self-contained HTML cleaning report: its file, its data, and the page in a real headless Chromium."""
+
+from __future__ import annotations
+
+import base64
+import dataclasses
+import json
+import os
+import re
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import mocapkit
+from mocapkit.cleaning import ssa
+from mocapkit.corrupt import real_errors
+from mocapkit.motion import concatenate, unit_scale_cm
+from mocapkit.report.html import DEFAULT_MAX_FRAMES, write_report
+
+CHROMIUM = os.environ.get("MOCAPKIT_CHROMIUM", "/usr/bin/chromium")
+CHROMIUM_ARGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-background-networking",
+                 "--disable-component-update", "--disable-sync", "--no-first-run"]
+
+
+# ---- real clip, real errors, real detection ----------------------------------------------------
+
+@pytest.fixture(scope="module")
+def walk():
+    return mocapkit.load(mocapkit.samples.path("12_walk.amc"))
+
+
+@pytest.fixture(scope="module")
+def cleaned_walk(walk):
+    """12_walk with injected real-style errors, the self-similarity detection and the repair."""
+    corrupted, mask, records = real_errors(walk, seed=3)
+    det = ssa.detect(corrupted)
+    repaired = ssa.repair(corrupted, det)
+    changed = np.any(np.abs(repaired.rotations - corrupted.rotations) > 1e-12, axis=-1)
+    assert det.flags.any() and changed.any()
+    return corrupted, repaired, det, changed
+
+
+@pytest.fixture(scope="module")
+def walk_report(tmp_path_factory, cleaned_walk):
+    corrupted, repaired, det, changed = cleaned_walk
+    path = tmp_path_factory.mktemp("report") / "walk.html"
+    out = write_report(path, corrupted, repaired, mdm=det.mdm, flags=det.flags, changed=changed,
+                       title="12_walk <cleaned>")
+    return out
+
+
+def page_data(path: Path) -> dict:
+    text = path.read_text(encoding="utf-8")
+    m = re.search(r'<script type="application/json" id="mocapkit-data">(.*?)</script>', text, re.S)
+    assert m, "the data block is missing"
+    return json.loads(m.group(1))
+
+
+def decode_i16(b64: str, lo: float, step: float) -> np.ndarray:
+    q = np.frombuffer(base64.b64decode(b64), dtype="<i2")
+    out = lo + (q.astype(np.float64) + 32767) * step
+    out[q == -32768] = np.nan
+    return out
+
+
+def with_nan(motion, rows, joint):
+    rot = np.array(motion.rotations)
+    rot[rows, joint] = np.nan
+    root = np.array(motion.root_positions)
+    root[rows.start + 40:rows.start + 43] = np.nan
+    return dataclasses.replace(motion, rotations=rot, root_positions=root)
+
+
+# ---- the file --------------------------------------------------------------------------------
+
+def test_report_is_self_contained(walk_report):
+    text = walk_report.read_text(encoding="utf-8")
+    assert text.startswith("<!DOCTYPE html>")
+    for needle in ("http://", "https://", "//cdn", "<link", "@import", "url("):
+        assert needle not in text, needle
+    assert not re.search(r"\bsrc\s*=", text), "a src= attribute would load something from outside"
+    assert not re.search(r"\bhref\s*=", text)
+    # the viewer code and the style are inline, the title escaped
+    assert "window.mocapkitReport" in text and ".viewer-canvas" in text
+    assert "12_walk &lt;cleaned&gt;" in text and "<cleaned>" not in text
+    assert text.count("</script>") == 2  # the data block cannot close its script early
+
+
+def test_report_data_matches_forward_kinematics(walk_report, cleaned_walk):
+    corrupted, repaired, det, changed = cleaned_walk
+    data = page_data(walk_report)
+    F, J = corrupted.num_frames, corrupted.num_joints
+    sk = corrupted.skeleton
+    assert data["frames"] == data["n"] == F and data["stride"] == 1 and data["numJoints"] == J
+    assert data["names"] == list(sk.joint_names) + list(sk.end_site_names)
+    assert data["parents"][:J] == [int(p) for p in sk.parents]
+    assert data["fps"] == corrupted.fps
+    P = len(data["names"])
+    scale = unit_scale_cm(sk)
+    assert scale == pytest.approx(2.54 / 0.45)
+    for which, motion in (("original", corrupted), ("cleaned", repaired)):
+        pos = decode_i16(data["pos"][which], data["pos"]["lo"], data["pos"]["step"]).reshape(F, P, 3)
+        ref = motion.global_positions(end_sites=True) * scale
+        # ASF is y-up already: the page keeps the axes, in cm, to half a quantisation step
+        assert np.nanmax(np.abs(pos - ref)) <= data["pos"]["step"] / 2 + 1e-6
+        assert data["pos"]["step"] <= 0.1 + 1e-12  # 1 mm
+    mdm = np.frombuffer(base64.b64decode(data["mdm"]), dtype=np.uint8).reshape(F, J)
+    np.testing.assert_array_equal(mdm, np.rint(det.mdm * 255).astype(np.uint8))
+    bits = np.frombuffer(base64.b64decode(data["bits"]), dtype=np.uint8).reshape(F, J)
+    np.testing.assert_array_equal(bits & 1 > 0, det.flags)
+    np.testing.assert_array_equal(bits & 2 > 0, changed)
+    assert data["stats"]["flagged"] == int(det.flags.sum())
+    # channel plots: the flagged or changed joints, their rotation channels before and after
+    plotted = {p["joint"] for p in data["plots"]}
+    assert plotted and plotted <= set(np.flatnonzero((det.flags | changed).any(axis=0)))
+    names = corrupted.channel_names()
+    for p in data["plots"]:
+        jn = sk.joint_names[p["joint"]]
+        cols = [names.index(f"{jn}.{c}") for c in p["channels"]]
+        for which, motion in (("original", corrupted), ("cleaned", repaired)):
+            got = decode_i16(p[which], p["lo"], p["step"]).reshape(F, len(cols))
+            np.testing.assert_allclose(got, motion.channel_values()[:, cols], atol=p["step"] / 2 + 1e-6)
+
+
+def test_atomic_write_leaves_no_temp_and_keeps_old_file_on_error(tmp_path, walk):
+    clip = walk[:50]
+    out = write_report(tmp_path / "r.html", clip, clip)
+    assert out == tmp_path / "r.html"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["r.html"]
+    before = out.read_bytes()
+    with pytest.raises(ValueError):
+        write_report(out, clip, clip, mdm=np.zeros((3, 3)))
+    assert out.read_bytes() == before
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["r.html"]
+
+
+def test_interrupted_write_leaves_nothing(tmp_path, walk, monkeypatch):
+    import mocapkit.report.html as h
+
+    clip = walk[:50]
+    real = h.atomic_write
+
+    class Boom(KeyboardInterrupt):
+        pass
+
+    from contextlib import contextmanager
+
+    @contextmanager
+    def interrupted(path, mode, **kw):
+        with real(path, mode, **kw) as fh:
+            fh.write("<!DOCTYPE html> half a page")
+            raise Boom()
+            yield fh  # pragma: no cover
+
+    monkeypatch.setattr(h, "atomic_write", interrupted)
+    with pytest.raises(Boom):
+        write_report(tmp_path / "r.html", clip, clip)
+    assert list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.parametrize("kwargs, message", [
+    (dict(mdm=np.zeros((50, 30))), r"mdm: expected shape \(F, J\) = \(50, 31\)"),
+    (dict(mdm=np.full((50, 31), 1.5)), r"mdm: values must lie in \[0, 1\]"),
+    (dict(flags=np.zeros((49, 31), bool)), r"flags: expected shape"),
+    (dict(changed=np.zeros(50, bool)), r"changed: expected shape"),
+    (dict(flags=np.full((50, 31), 0.3)), r"flags: expected a boolean"),
+    (dict(max_frames=1), r"max_frames must be an integer >= 2"),
+    (dict(fps=0), r"fps must be a positive number"),
+])
+def test_bad_arguments_raise_clear_errors(tmp_path, walk, kwargs, message):
+    clip = walk[:50]
+    with pytest.raises(ValueError, match=message):
+        write_report(tmp_path / "r.html", clip, clip, **kwargs)
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_mismatched_motions_raise(tmp_path, walk):
+    with pytest.raises(ValueError, match="50 frames but cleaned has 40"):
+        write_report(tmp_path / "r.html", walk[:50], walk[:40])
+    other = mocapkit.load(mocapkit.samples.path("131_01.bvh"))[:50]
+    with pytest.raises(ValueError, match="share one skeleton"):
+        write_report(tmp_path / "r.html", walk[:50], other)
+    with pytest.raises(TypeError, match="original must be a Motion"):
+        write_report(tmp_path / "r.html", walk.rotations, walk)
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_nan_input_becomes_gaps(tmp_path, walk):
+    clip = walk[:120]
+    j = clip.skeleton.index("lfemur")
+    gappy = with_nan(clip, slice(10, 30), j)
+    out = write_report(tmp_path / "nan.html", gappy, clip, flags=gappy.missing(), changed=gappy.missing())
+    data = page_data(out)
+    F, J, P = 120, clip.num_joints, len(data["names"])
+    pos = decode_i16(data["pos"]["original"], data["pos"]["lo"], data["pos"]["step"]).reshape(F, P, 3)
+    ref = gappy.global_positions(end_sites=True) * unit_scale_cm(clip.skeleton)
+    np.testing.assert_array_equal(np.isnan(pos), np.isnan(ref))
+    assert np.isnan(pos[15, clip.skeleton.index("ltibia")]).all()  # below the missing joint
+    assert np.isnan(pos[51]).all() and not np.isnan(pos[60]).any()  # root missing: the whole figure
+    bits = np.frombuffer(base64.b64decode(data["bits"]), dtype=np.uint8).reshape(F, J)
+    np.testing.assert_array_equal(bits & 4 > 0, gappy.missing())
+    assert not (bits & 8).any()
+    assert data["stats"]["missingOriginal"] == int(gappy.missing().sum())
+
+
+def test_long_take_is_downsampled_and_keeps_short_flags(tmp_path, walk):
+    F, J = walk.num_frames, walk.num_joints
+    flags = np.zeros((F, J), bool)
+    flags[5, 3] = True  # one frame, not on the kept grid 0, 4, 8, ...
+    mdm = np.zeros((F, J))
+    mdm[6, 3] = 0.8
+    out = write_report(tmp_path / "r.html", walk, walk, mdm=mdm, flags=flags, max_frames=100)
+    data = page_data(out)
+    assert data["stride"] == 4 and data["n"] == len(range(0, F, 4)) and data["frames"] == F
+    bits = np.frombuffer(base64.b64decode(data["bits"]), dtype=np.uint8).reshape(data["n"], J)
+    assert bits[1, 3] & 1 and (bits & 1).sum() == 1
+    q = np.frombuffer(base64.b64decode(data["mdm"]), dtype=np.uint8).reshape(data["n"], J)
+    assert q[1, 3] == round(0.8 * 255) and q.sum() == q[1, 3]
+    P = len(data["names"])
+    pos = decode_i16(data["pos"]["original"], data["pos"]["lo"], data["pos"]["step"]).reshape(-1, P, 3)
+    ref = walk[::4].global_positions(end_sites=True) * unit_scale_cm(walk.skeleton)
+    assert np.abs(pos - ref).max() <= data["pos"]["step"] / 2 + 1e-6
+
+
+def long_take(walk, seconds=60.0):
+    n = int(round(seconds * walk.fps))
+    reps = -(-n // walk.num_frames)
+    return concatenate([walk] * reps)[:n]
+
+
+def test_sixty_second_take_stays_a_few_megabytes(tmp_path, walk):
+    take = long_take(walk)
+    F, J = take.num_frames, take.num_joints
+    assert F == 7200 and F <= DEFAULT_MAX_FRAMES
+    rng = np.random.default_rng(0)
+    mdm = rng.random((F, J)) ** 4
+    flags = mdm > 0.6
+    t0 = time.perf_counter()
+    out = write_report(tmp_path / "long.html", take, take, mdm=mdm, flags=flags, changed=flags)
+    elapsed = time.perf_counter() - t0
+    size_mb = out.stat().st_size / 1e6
+    print(f"60 s at 120 fps: {size_mb:.2f} MB, written in {elapsed:.2f} s")
+    data = page_data(out)
+    assert data["stride"] == 1 and data["n"] == 7200  # full rate
+    assert size_mb < 8.0
+    assert elapsed < 10.0
+
+
+# ---- the page in a real headless Chromium ----------------------------------------------------
+
+@pytest.fixture(scope="module")
+def browser():
+    sync_api = pytest.importorskip("playwright.sync_api", reason="playwright is not installed (pip install -e '.[test]')")
+    if not os.access(CHROMIUM, os.X_OK):
+        pytest.skip(f"no Chromium executable at {CHROMIUM} (apt-get install chromium, or set MOCAPKIT_CHROMIUM)")
+    with sync_api.sync_playwright() as p:
+        b = p.chromium.launch(executable_path=CHROMIUM, args=CHROMIUM_ARGS)
+        try:
+            yield b
+        finally:
+            b.close()
+
+
+class Page:
+    """A report opened in a fresh page, with every console error and page error recorded."""
+
+    def __init__(self, browser, path: Path):
+        self.errors: list[str] = []
+        self.warnings: list[str] = []
+        self.requests: list[str] = []
+        self.page = browser.new_page(viewport={"width": 1280, "height": 900})
+        self.page.on("console", self._console)
+        self.page.on("pageerror", lambda e: self.errors.append(f"pageerror: {e}"))
+        self.page.on("request", lambda r: self.requests.append(r.url))
+        t0 = time.perf_counter()
+        self.page.goto(path.resolve().as_uri())
+        self.page.wait_for_function("window.mocapkitReport && window.mocapkitReport.drawCount() > 0", timeout=10000)
+        self.load_s = time.perf_counter() - t0
+        # warnings after this point may be the tests' own pixel readbacks (willReadFrequently)
+        self.warnings_at_load = list(self.warnings)
+
+    def _console(self, msg):
+        if msg.type == "error":
+            self.errors.append(f"console error: {msg.text}")
+        elif msg.type == "warning":
+            self.warnings.append(msg.text)
+
+    def js(self, expr, arg=None):
+        return self.page.evaluate(expr, arg)
+
+    def ink(self, canvas_id, rgb=None, region=None):
+        """Pixels of a canvas that are not white (or, with rgb, close to that colour)."""
+        return self.js("""([id, rgb, region]) => {
+            const c = document.getElementById(id);
+            const [x, y, w, h] = region || [0, 0, c.width, c.height];
+            const d = c.getContext('2d').getImageData(x, y, w, h).data;
+            let n = 0;
+            for (let i = 0; i < d.length; i += 4) {
+              if (rgb) { if (Math.abs(d[i]-rgb[0]) < 30 && Math.abs(d[i+1]-rgb[1]) < 30 && Math.abs(d[i+2]-rgb[2]) < 30) n++; }
+              else if (d[i] < 235 || d[i+1] < 235 || d[i+2] < 235) n++;
+            }
+            return n; }""", [canvas_id, rgb, region])
+
+    def close(self):
+        self.page.close()
+
+
+@pytest.fixture
+def open_page(browser):
+    pages = []
+
+    def _open(path):
+        pages.append(Page(browser, path))
+        return pages[-1]
+
+    yield _open
+    for p in pages:
+        p.close()
+
+
+SEL = (0xF5, 0x9F, 0x00)
+RED = (0xE0, 0x31, 0x31)
+
+
+def test_page_loads_draws_and_plays(open_page, walk_report, cleaned_walk):
+    pg = open_page(walk_report)
+    assert pg.errors == [] and pg.warnings_at_load == []
+    assert all(u.startswith("file://") for u in pg.requests), pg.requests
+    print(f"load + first draw: {pg.load_s * 1000:.0f} ms")
+    w, h = pg.js("[document.getElementById('viewer').width, document.getElementById('viewer').height]")
+    # side by side: both halves hold a figure (and the floor grid)
+    assert pg.ink("viewer", region=[0, 0, w // 2, h]) > 500
+    assert pg.ink("viewer", region=[w // 2, 0, w - w // 2, h]) > 500
+    assert pg.ink("heatmap") > 10000
+    assert pg.js("document.querySelectorAll('#plot-list canvas').length") == len(page_data(walk_report)["plots"]) > 0
+    # a frame with a flagged joint shows red on the skeleton; a clean frame does not
+    corrupted, repaired, det, changed = cleaned_walk
+    flagged_frame = int(np.flatnonzero(det.flags.any(axis=1))[0])
+    clean_frame = int(np.flatnonzero(~det.flags.any(axis=1))[0])
+    pg.js(f"window.mocapkitReport.setFrame({clean_frame})")
+    assert pg.ink("viewer", rgb=RED) == 0
+    pg.js(f"window.mocapkitReport.setFrame({flagged_frame})")
+    assert pg.ink("viewer", rgb=RED) > 20
+    # playing draws new frames and moves the frame on
+    pg.js("window.mocapkitReport.setFrame(0)")
+    n0, f0 = pg.js("[window.mocapkitReport.drawCount(), window.mocapkitReport.frame()]")
+    pg.page.click("#play")
+    pg.page.wait_for_timeout(400)
+    n1, f1, playing = pg.js("[window.mocapkitReport.drawCount(), window.mocapkitReport.frame(), window.mocapkitReport.playing()]")
+    assert playing and n1 >= n0 + 5 and f1 > f0
+    pg.page.click("#play")
+    assert not pg.js("window.mocapkitReport.playing()")
+    # overlay mode: one viewport, the cleaned figure drawn over the input
+    before = pg.js("document.getElementById('viewer').toDataURL()")
+    pg.page.click("#mode")
+    pg.page.wait_for_timeout(50)
+    assert pg.js("window.mocapkitReport.overlay()") is True
+    assert pg.js("document.getElementById('viewer').toDataURL()") != before
+    assert pg.errors == []
+
+
+def test_heatmap_click_jumps_to_frame_and_selects_joint(open_page, walk_report, cleaned_walk):
+    corrupted, repaired, det, changed = cleaned_walk
+    pg = open_page(walk_report)
+    layout = pg.js("window.mocapkitReport.heatmapLayout()")
+    assert layout["frames"] == corrupted.num_frames and layout["joints"] == corrupted.num_joints
+    assert layout["width"] / layout["frames"] >= 1  # one cell is at least a pixel wide here
+    assert pg.js("window.mocapkitReport.selectedJoint()") == -1
+    assert pg.ink("viewer", rgb=SEL) == 0
+    pg.page.locator("#heatmap").scroll_into_view_if_needed()
+    box = pg.page.locator("#heatmap").bounding_box()
+    # a flagged cell well inside the take
+    fj = np.argwhere(det.flags)
+    f, j = (int(v) for v in fj[len(fj) // 2])
+    x = box["x"] + layout["left"] + (f + 0.5) * layout["width"] / layout["frames"]
+    y = box["y"] + layout["top"] + (j + 0.5) * layout["rowHeight"]
+    pg.page.mouse.click(x, y)
+    pg.page.wait_for_timeout(50)
+    assert pg.js("window.mocapkitReport.frame()") == f
+    assert pg.js("window.mocapkitReport.selectedJoint()") == j
+    assert pg.js("window.mocapkitReport.selectedJointName()") == corrupted.skeleton.joint_names[j]
+    # the highlight shows in the viewer (a ring on the joint) and in the heat map (the row box)
+    assert pg.ink("viewer", rgb=SEL) > 20
+    assert pg.ink("heatmap", rgb=SEL) > 200
+    assert pg.js("document.querySelector('#selected-plot .plot').dataset.joint") == corrupted.skeleton.joint_names[j]
+    # another cell: another frame and joint
+    f2, j2 = 10, 0
+    pg.page.mouse.click(box["x"] + layout["left"] + (f2 + 0.5) * layout["width"] / layout["frames"],
+                        box["y"] + layout["top"] + (j2 + 0.5) * layout["rowHeight"])
+    assert pg.js("[window.mocapkitReport.frame(), window.mocapkitReport.selectedJoint()]") == [f2, j2]
+    assert pg.errors == []
+
+
+def test_slider_scrubs_and_mouse_orbits(open_page, walk_report, walk):
+    pg = open_page(walk_report)
+    slider = pg.page.locator("#scrub")
+    slider.focus()
+    pg.page.keyboard.press("End")
+    assert pg.js("window.mocapkitReport.frame()") == walk.num_frames - 1
+    pg.page.keyboard.press("Home")
+    for _ in range(3):
+        pg.page.keyboard.press("ArrowRight")
+    assert pg.js("window.mocapkitReport.frame()") == 3
+    box = slider.bounding_box()
+    pg.page.mouse.click(box["x"] + box["width"] * 0.5, box["y"] + box["height"] / 2)
+    mid = pg.js("window.mocapkitReport.frame()")
+    assert abs(mid - (walk.num_frames - 1) / 2) < 0.05 * walk.num_frames
+    assert f"frame {mid} /" in pg.page.inner_text("#frame-label")
+    # orbit by dragging and zoom by the wheel redraw the view differently
+    vb = pg.page.locator("#viewer").bounding_box()
+    shot0 = pg.js("document.getElementById('viewer').toDataURL()")
+    n0 = pg.js("window.mocapkitReport.drawCount()")
+    pg.page.mouse.move(vb["x"] + 200, vb["y"] + 200)
+    pg.page.mouse.down()
+    pg.page.mouse.move(vb["x"] + 320, vb["y"] + 230, steps=5)
+    pg.page.mouse.up()
+    pg.page.wait_for_timeout(50)
+    shot1 = pg.js("document.getElementById('viewer').toDataURL()")
+    assert shot1 != shot0 and pg.js("window.mocapkitReport.drawCount()") > n0
+    pg.page.mouse.wheel(0, -400)
+    pg.page.wait_for_timeout(50)
+    assert pg.js("document.getElementById('viewer').toDataURL()") != shot1
+    assert pg.errors == []
+
+
+def test_gappy_and_downsampled_pages_work(open_page, tmp_path, walk):
+    clip = walk[:200]
+    gappy = with_nan(clip, slice(10, 60), clip.skeleton.index("lhumerus"))
+    nan_page = write_report(tmp_path / "nan.html", gappy, clip, flags=gappy.missing())
+    pg = open_page(nan_page)
+    pg.js("window.mocapkitReport.setFrame(51)")  # root missing: the input half is empty
+    w, h = pg.js("[document.getElementById('viewer').width, document.getElementById('viewer').height]")
+    grid_only = pg.ink("viewer", region=[0, 0, w // 2, h])
+    pg.js("window.mocapkitReport.setFrame(20)")  # one arm missing: the rest is drawn
+    assert pg.ink("viewer", region=[0, 0, w // 2, h]) > grid_only + 200
+    pg.js("window.mocapkitReport.play()")
+    pg.page.wait_for_timeout(300)
+    pg.js("window.mocapkitReport.pause()")
+    assert pg.errors == []
+
+    long_page = write_report(tmp_path / "long.html", long_take(walk, 20.0), long_take(walk, 20.0), max_frames=600)
+    pg2 = open_page(long_page)
+    note = pg2.page.inner_text("#downsample-note")
+    assert "every 4th frame (600 of 2400)" in note
+    pg2.js("window.mocapkitReport.setFrame(1001)")
+    assert pg2.js("[window.mocapkitReport.index(), window.mocapkitReport.frame()]") == [250, 1000]
+    assert pg2.errors == []
+
+
+def test_sixty_second_page_loads_fast(open_page, tmp_path, walk):
+    take = long_take(walk)
+    mdm = np.random.default_rng(1).random((take.num_frames, take.num_joints)) ** 4
+    out = write_report(tmp_path / "long.html", take, take, mdm=mdm, flags=mdm > 0.7, changed=mdm > 0.7)
+    pg = open_page(out)
+    draw_ms = pg.js("""() => { const r = window.mocapkitReport, t = performance.now();
+        for (let i = 0; i < 20; i++) r.setIndex(i * 300);
+        return (performance.now() - t) / 20; }""")
+    print(f"60 s page: {out.stat().st_size / 1e6:.2f} MB, load + first draw {pg.load_s * 1000:.0f} ms, "
+          f"redraw {draw_ms:.1f} ms")
+    assert pg.load_s < 10 and draw_ms < 200
+    assert pg.errors == []
