@@ -140,6 +140,10 @@ class CleanResult:
     params: dict = field(default_factory=dict)
     detection: object = None
 
+    def __repr__(self) -> str:
+        return (f"CleanResult({self.motion!r}, {int(self.flags.sum())} flagged, {int(self.filled.sum())} filled, "
+                f"{int(self.repaired.sum())} repaired, {int(self.denoised.sum())} denoised joint samples)")
+
     @property
     def changed(self) -> np.ndarray:
         """(F, J) bool: cells any step changed."""

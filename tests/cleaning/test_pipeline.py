@@ -1,0 +1,193 @@
+"""mocapkit.cleaning.pipeline: clean() on real bundled clips with known corruption."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import pytest
+
+import mocapkit
+from mocapkit import corrupt, metrics, samples
+from mocapkit.cleaning import gapfill
+from mocapkit.cleaning.pipeline import CleanResult, clean, clean_path, noise_level, noisy_cells, plot_summary
+from mocapkit.errors import MocapError, MocapFormatError
+
+
+def _mixed(m, seed=0):
+    """Real-style errors + gaps + angular noise (0.5) on two joints over the middle third; masks of each."""
+    bad, err, _ = corrupt.real_errors(m, n_errors=4, seed=100 + seed)
+    gappy, gap = corrupt.gaps(bad, seed=200 + seed)
+    noise_joints = ["lfemur", "rhumerus"]
+    noisy, nmask = corrupt.angular_noise(gappy, amount=0.5, seed=300 + seed, joints=noise_joints)
+    F = m.num_frames
+    window = np.zeros(F, dtype=bool)
+    window[F // 3 : 2 * F // 3] = True
+    nmask = nmask & window[:, None] & ~gap & ~err
+    rot = np.where(nmask[..., None], noisy.rotations, gappy.rotations)
+    out = dataclasses.replace(gappy, rotations=rot)
+    return out, err, gap, nmask
+
+
+@pytest.fixture(scope="module")
+def walk():
+    return mocapkit.load(samples.path("12_walk.amc"))
+
+
+@pytest.fixture(scope="module")
+def cleaned(walk):
+    bad, err, gap, nmask = _mixed(walk)
+    return bad, err, gap, nmask, clean(bad)
+
+
+def test_clean_changes_only_gaps_flags_and_noise(walk, cleaned):
+    bad, err, gap, nmask, res = cleaned
+    out = res.motion
+    assert not out.missing().any()
+    assert np.array_equal(res.filled, bad.missing())
+    untouched = ~res.changed
+    assert np.array_equal(out.rotations[untouched], bad.rotations[untouched])  # bit-identical
+    assert np.array_equal(out.root_positions, bad.root_positions)
+    # repair changes flagged cells only (foot-skate cleanup off), denoise only cells over the noise level
+    assert not (res.repaired & ~res.flags).any()
+    assert res.denoised.any() and not (res.denoised & ~(res.noise > 1.0)).any()
+    corrupted = err | gap | nmask
+    share = float((~res.changed[~corrupted]).mean())
+    assert share > 0.9, share
+
+
+def test_clean_lowers_the_error(walk, cleaned):
+    bad, err, gap, nmask, res = cleaned
+    before = gapfill.fill_motion(bad, "linear")
+    e0, e1 = metrics.pose_error(walk, before).mean(), metrics.pose_error(walk, res.motion).mean()
+    assert e1 < 0.5 * e0, (e0, e1)
+    c0, c1 = metrics.joint_position_rms(walk, before), metrics.joint_position_rms(walk, res.motion)
+    assert c1 < c0
+    # the noise is found where it was added, and reduced there
+    assert res.denoised[nmask].mean() > 0.8
+    d0 = metrics.geodesic_pose_distance(walk, bad)[nmask].mean()
+    d1 = metrics.geodesic_pose_distance(walk, res.motion)[nmask].mean()
+    assert d1 < 0.7 * d0, (d0, d1)
+    # a good share of the injected errors is flagged (measured: 98 of 204 cells)
+    assert (res.flags & err).sum() > 0.35 * err.sum()
+
+
+def test_step_records(cleaned):
+    res = cleaned[-1]
+    assert [s.name for s in res.steps] == ["fill", "detect", "repair", "denoise"]
+    by = {s.name: s for s in res.steps}
+    assert by["fill"].method.startswith("EBD (shipped)") and by["fill"].cells == int(res.filled.sum())
+    assert by["repair"].cells == int(res.repaired.sum()) > 0
+    assert by["denoise"].method == "EBF (shipped)" and by["denoise"].cells == int(res.denoised.sum())
+    assert all(s.seconds >= 0 for s in res.steps)
+    assert res.detection is not None and res.detection.flags.shape == res.flags.shape
+    assert any("fill" in line for line in res.summary())
+
+
+def test_save_load_round_trip(cleaned, tmp_path):
+    res = cleaned[-1]
+    p = res.save(tmp_path / "take.clean.npz")
+    back = CleanResult.load(p, motion=res.motion)
+    for name in ("flags", "filled", "repaired", "denoised", "changed"):
+        assert np.array_equal(getattr(back, name), getattr(res, name)), name
+    assert np.allclose(back.mdm, res.mdm, atol=1e-6)
+    assert back.steps == res.steps and back.joint_names == res.joint_names and back.fps == res.fps
+    assert not list(tmp_path.glob(".*.part"))
+    np.savez(tmp_path / "other.npz", mdm=np.zeros(3))
+    with pytest.raises(MocapFormatError, match="not a mocapkit clean file"):
+        CleanResult.load(tmp_path / "other.npz")
+
+
+def test_clean_path():
+    assert clean_path("a/walk.bvh").as_posix() == "a/walk.clean.npz"
+    assert clean_path("walk.npz").name == "walk.clean.npz"
+
+
+def test_steps_subset_and_order(walk):
+    bad, err, gap, _ = _mixed(walk, seed=1)
+    res = clean(bad, steps="denoise,fill")  # any order: runs fill, then denoise
+    assert [s.name for s in res.steps] == ["fill", "denoise"]
+    assert res.detection is None and not res.repaired.any() and not res.flags.any()
+    with pytest.raises(MocapError, match="add the fill step"):
+        clean(bad, steps=("detect", "repair"))
+    with pytest.raises(ValueError, match="needs the detect step"):
+        clean(walk, steps=("repair",))
+    with pytest.raises(ValueError, match="unknown step"):
+        clean(walk, steps=("fill", "polish"))
+
+
+def test_clean_take_is_left_alone(walk):
+    res = clean(walk[:120], steps=("fill", "denoise"))
+    # a clean real take: no gap, (almost) nothing above the noise level
+    assert not res.filled.any()
+    assert res.denoised.mean() < 0.05
+    assert np.array_equal(res.motion.rotations[~res.denoised], walk[:120].rotations[~res.denoised])
+
+
+def test_another_rig_falls_back_with_notes():
+    m = mocapkit.load(samples.path("131_01.bvh"))[:240]
+    gappy, gap = corrupt.gaps(m, seed=4, start_prob=0.02)
+    noisy, _ = corrupt.angular_noise(gappy, amount=0.5, seed=5, joints=["LeftHip"])
+    res = clean(noisy, steps=("fill", "denoise"))
+    by = {s.name: s for s in res.steps}
+    assert by["fill"].method == "cubic spline" and "does not fit this rig" in by["fill"].note
+    assert by["denoise"].method.startswith("Savitzky-Golay") and "does not fit this rig" in by["denoise"].note
+    assert len(res.notes) == 2
+    assert not res.motion.missing().any() and np.array_equal(res.filled, noisy.missing())
+    assert res.denoised[:, m.skeleton.index("LeftHip")].mean() > 0.8
+    untouched = ~res.changed
+    assert np.array_equal(res.motion.rotations[untouched], noisy.rotations[untouched])
+
+
+def test_bad_and_tiny_inputs(walk):
+    nan = dataclasses.replace(walk[:50], rotations=np.full((50, walk.num_joints, 4), np.nan))
+    with pytest.raises(MocapError, match="every joint is missing"):
+        clean(nan)
+    with pytest.raises(MocapError, match="at least 2"):
+        clean(walk[0])
+    rot = np.array(walk.rotations[:100])
+    rot[:, 3] = np.nan
+    with pytest.raises(MocapError, match="missing in every frame"):
+        clean(dataclasses.replace(walk[:100], rotations=rot))
+    short = clean(walk[:40])  # 0.33 s: shorter than a motion word
+    assert any("shorter than one motion word" in n for n in short.notes)
+    assert [s.method for s in short.steps if s.name == "detect"] == ["skipped"]
+    assert "repair" not in [s.name for s in short.steps]
+    tiny = clean(walk[:5])
+    assert any("denoise skipped" in n for n in tiny.notes) and not tiny.changed.any()
+    with pytest.raises(ValueError, match="threshold"):
+        clean(walk, threshold=1.5)
+
+
+def test_context_is_used():
+    ctx = [mocapkit.load(samples.path("HDM_bk_sneak2StepsLStart_004_120.amc"))]
+    m = mocapkit.load(samples.path("HDM_bk_sneak2StepsLStart_005_120.amc"))
+    bad, err, _ = corrupt.real_errors(m, n_errors=2, seed=7)
+    res = clean(bad, ctx, steps=("detect", "repair"))
+    assert "1 context clips" in res.steps[0].method
+    assert res.repaired.any() and not (res.repaired & ~res.flags).any()
+    assert metrics.pose_error(m, res.motion).mean() < metrics.pose_error(m, bad).mean()
+
+
+def test_noise_level(walk):
+    lv = noise_level(walk)
+    assert lv.shape == (walk.num_frames, walk.num_joints)
+    moving = np.array([j > 0 and bool(walk.skeleton.rotation_order(j)) for j in range(walk.num_joints)])
+    assert np.percentile(lv[:, moving], 50) < 0.5
+    noisy, mask = corrupt.angular_noise(walk, amount=0.5, seed=0, joints=["lfemur", "ltibia"])
+    lv2 = noise_level(noisy)
+    j = walk.skeleton.index("lfemur")
+    assert np.median(lv2[:, j]) > 2.0 > np.median(lv[:, j])
+    still = dataclasses.replace(walk, rotations=np.broadcast_to(walk.rotations[:1], walk.rotations.shape))
+    assert np.nanmax(noise_level(still)) < 1e-6
+    cells, _ = noisy_cells(noisy)
+    assert not cells[:, 0].any()  # the root is never denoised
+    assert noise_level(walk[:4]).shape == (4, walk.num_joints) and np.isnan(noise_level(walk[:4])).all()
+
+
+def test_plot_summary(cleaned, tmp_path):
+    bad, *_, res = cleaned
+    p = plot_summary(res, bad, tmp_path / "summary.png")
+    data = p.read_bytes()
+    assert data[:8] == b"\x89PNG\r\n\x1a\n" and len(data) > 20_000
+    assert not list(tmp_path.glob(".*.part"))
