@@ -75,13 +75,16 @@ def _read_text(path: Path) -> str:
         raise MocapFormatError(path, f"cannot read: {exc.strerror or exc}") from None
 
 
-def _numbers(path: Path, tokens: list[str], line: int, what: str, n: int | None = None) -> list[float]:
+def _numbers(path: Path, tokens: list[str], line: int, what: str, n: int | None = None,
+             finite: bool = True) -> list[float]:
     try:
         vals = [float(t) for t in tokens]
     except ValueError:
         raise MocapFormatError(path, f"{what}: non-numeric value in {' '.join(tokens)!r}", line) from None
     if n is not None and len(vals) != n:
         raise MocapFormatError(path, f"{what}: expected {n} numbers, got {len(vals)}", line)
+    if finite and not all(np.isfinite(v) for v in vals):
+        raise MocapFormatError(path, f"{what}: values must be finite, got {' '.join(tokens)!r}", line)
     return vals
 
 
@@ -121,8 +124,8 @@ def _parse_asf(path: Path) -> tuple[Skeleton, _Layout]:
         if section == "units":
             if key == "length":
                 length_unit = _numbers(path, tok[1:], ln, "units length", 1)[0]
-                if not length_unit > 0:
-                    raise MocapFormatError(path, f"units length must be positive, got {tok[1]}", ln)
+                if not (length_unit > 0 and np.isfinite(2.54 / length_unit)):
+                    raise MocapFormatError(path, f"units length must be a positive number, got {tok[1]}", ln)
             elif key == "angle":
                 unit = tok[1].lower() if len(tok) > 1 else ""
                 if unit not in ("deg", "rad"):
@@ -221,7 +224,10 @@ def _parse_asf(path: Path) -> tuple[Skeleton, _Layout]:
     names = ["root"]
     parents = [-1]
     offsets = [np.zeros(3)]
-    axes = [R.euler_to_quaternion(deg(root_orientation), root_axis)]
+    with np.errstate(over="ignore", invalid="ignore"):
+        axes = [R.euler_to_quaternion(deg(root_orientation), root_axis)]
+    if not np.all(np.isfinite(axes[0])):
+        raise MocapFormatError(path, f"root orientation {root_orientation} gives no finite rotation")
     channels = [tuple(_POS_CHANNEL[a] for a in root_pos) + tuple(_ROT_CHANNEL[a] for a in reversed(root_rot))]
     limits = [tuple((-np.inf, np.inf) for _ in root_rot)]
     dofs = [tuple(root_order)]
@@ -240,15 +246,23 @@ def _parse_asf(path: Path) -> tuple[Skeleton, _Layout]:
         names.append(name)
         parents.append(parent)
         offsets.append(offset)
-        axes.append(R.euler_to_quaternion(deg(b["axis"]), b["axis_order"]))
+        with np.errstate(over="ignore", invalid="ignore"):
+            axes.append(R.euler_to_quaternion(deg(b["axis"]), b["axis_order"]))
         axes_of_dof = [d[1] for d in b["dof"]]
         channels.append(tuple(_ROT_CHANNEL[a] for a in reversed(axes_of_dof)))
         lim = b["limits"] or [(-np.inf, np.inf)] * len(axes_of_dof)
         if radians:
-            lim = [(float(np.degrees(lo)), float(np.degrees(hi))) for lo, hi in lim]
+            with np.errstate(over="ignore"):
+                lim = [(float(np.degrees(lo)), float(np.degrees(hi))) for lo, hi in lim]
         limits.append(tuple(reversed(lim)))
         dofs.append(tuple(b["dof"]))
-        tip = np.asarray(b["direction"], dtype=np.float64) * b["length"]
+        with np.errstate(over="ignore", invalid="ignore"):
+            tip = np.asarray(b["direction"], dtype=np.float64) * b["length"]
+            axis_q = axes[-1]
+        if not np.all(np.isfinite(tip)):
+            raise MocapFormatError(path, f"bone {name!r}: direction * length is not finite", b["line"])
+        if not np.all(np.isfinite(axis_q)):
+            raise MocapFormatError(path, f"bone {name!r}: axis angles {b['axis']} give no finite rotation", b["line"])
         kids = children.get(name, [])
         if not kids:
             end_parents.append(j)
@@ -278,7 +292,7 @@ def _limit_pairs(path: Path, text: str, line: int) -> list[tuple[float, float]]:
         raise MocapFormatError(path, f"limits must be pairs like (-10.0 170.0), got {text.strip()!r}", line)
     out = []
     for lo, hi in pairs:
-        a, b = _numbers(path, [lo, hi], line, "limits", 2)
+        a, b = _numbers(path, [lo, hi], line, "limits", 2, finite=False)  # (-inf inf) is common
         out.append((a, b))
     return out
 
@@ -522,6 +536,10 @@ def _parse_amc_body(path, body: bytes, first_line: int, skeleton: Skeleton, layo
         raise MocapFormatError(path, f"non-numeric value {tok!r}", where(ln))
     if counts.shape[0] < n_lines:
         counts = np.concatenate([counts, np.zeros(n_lines - counts.shape[0], dtype=counts.dtype)])
+    infinite = np.flatnonzero(np.isinf(values))
+    if infinite.size:  # NaN means missing; an infinite angle or translation means nothing
+        ln = int(np.searchsorted(np.cumsum(counts), infinite[0], side="right"))
+        raise MocapFormatError(path, f"infinite value {float(values[infinite[0]])!r}", where(ln))
     value_at = np.concatenate([[0], np.cumsum(counts)])[:-1]  # index of each line's first number
 
     frame_lines = np.flatnonzero(has_token & ~is_name)

@@ -97,9 +97,12 @@ def _parse_hierarchy(path: Path, text: str, motion_line: int | None):
             fail(f"{what} needs 3 numbers on its line", line)
         tok = tokens[j][0]
         try:
-            return float(tok)
+            v = float(tok)
         except ValueError:
             fail(f"{what}: {tok!r} is not a number", tokens[j][1])
+        if not np.isfinite(v):
+            fail(f"{what}: {tok!r} is not a finite number", tokens[j][1])
+        return v
 
     while i < ntok:
         tok, line, _ = tokens[i]
@@ -323,6 +326,9 @@ def read_bvh(path) -> Motion:
                 raise MocapFormatError(path, f"Frame Time {tm.group(1)!r} is not a number", line=line) from None
             if not (np.isfinite(frame_time) and frame_time > 0):
                 raise MocapFormatError(path, f"Frame Time must be a positive number, got {tm.group(1)}", line=line)
+            if not np.isfinite(1.0 / frame_time):
+                raise MocapFormatError(path, f"Frame Time {tm.group(1)} is too small: 1 / it is not a finite rate",
+                                       line=line)
     first_data_line = line + 1
     ncols = sum(len(c) for c in channels)
     if ncols == 0:
@@ -361,6 +367,15 @@ def read_bvh(path) -> Motion:
             path, f"more frame lines ({nframes}) than Frames: says ({frames_decl})", line=extra
         )
 
+    table = values.reshape(nframes, ncols)
+    infinite = np.flatnonzero(np.isinf(table).any(axis=1))
+    if infinite.size:  # NaN means missing; an infinite angle or position means nothing
+        f = int(infinite[0])
+        c = int(np.flatnonzero(np.isinf(table[f]))[0])
+        raise MocapFormatError(
+            path, f"infinite value {float(table[f, c])!r} in frame {f + 1} (column {c + 1}) of the motion data",
+            line=first_data_line + int(nonblank[f]),
+        )
     try:
         skeleton = Skeleton(
             joint_names=tuple(names),
@@ -372,7 +387,7 @@ def read_bvh(path) -> Motion:
         )
     except SkeletonError as e:
         raise MocapFormatError(path, str(e)) from None
-    return _motion_from_channels(skeleton, values.reshape(nframes, ncols), _fps_from_frame_time(ft_token), path.stem)
+    return _motion_from_channels(skeleton, table, _fps_from_frame_time(ft_token), path.stem)
 
 
 @njit(cache=True)

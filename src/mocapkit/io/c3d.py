@@ -11,6 +11,7 @@ the MarkerSet records which reader was used in ``reader``.
 from __future__ import annotations
 
 import dataclasses
+import struct
 import warnings
 from dataclasses import dataclass
 from pathlib import Path
@@ -171,20 +172,161 @@ def _read_c3d_package(path: Path) -> MarkerSet:
     )
 
 
+# Types ezc3d takes for granted (a char ANALOG:USED crashes it): parameters of another type or
+# without a value send the file to the pure-Python reader instead.
+_EXPECTED_TYPES = {
+    ("POINT", "USED"): (2,), ("POINT", "FRAMES"): (2, 4), ("POINT", "DATA_START"): (2,),
+    ("POINT", "SCALE"): (4,), ("POINT", "RATE"): (4,), ("POINT", "LABELS"): (-1,), ("POINT", "LABELS2"): (-1,),
+    ("POINT", "DESCRIPTIONS"): (-1,), ("POINT", "UNITS"): (-1,), ("ANALOG", "USED"): (2,),
+    ("ANALOG", "RATE"): (4,), ("ANALOG", "SCALE"): (4,), ("ANALOG", "GEN_SCALE"): (4,), ("ANALOG", "OFFSET"): (2,),
+    ("ANALOG", "LABELS"): (-1,), ("ANALOG", "UNITS"): (-1,), ("ANALOG", "FORMAT"): (-1,), ("ANALOG", "BITS"): (2,),
+    ("TRIAL", "ACTUAL_START_FIELD"): (2,), ("TRIAL", "ACTUAL_END_FIELD"): (2,), ("TRIAL", "CAMERA_RATE"): (4,),
+    ("FORCE_PLATFORM", "USED"): (2,), ("FORCE_PLATFORM", "TYPE"): (2,), ("FORCE_PLATFORM", "CHANNEL"): (2,),
+    ("FORCE_PLATFORM", "CORNERS"): (4,), ("FORCE_PLATFORM", "ORIGIN"): (4,), ("FORCE_PLATFORM", "ZERO"): (2,),
+}
+
+
+def _check_structure(path: Path, b: bytes) -> bool:
+    """Refuse a C3D whose header or parameter section is malformed, before any C++ reader sees it.
+
+    ezc3d (C++) crashes or loops on some malformed parameter sections and
+    allocates what the header claims; this walk checks, in Python and within
+    the file's size: the header key, the parameter section pointer and its
+    block count, every parameter record (name, type -1/1/2/4, at most 7
+    dimensions, its data and description inside the section, the pointer to
+    the next record moving forward) and that the data block the header
+    describes (points, analog samples, frames, integer or float) fits in the file.
+    Returns whether ezc3d may read the file: False when a parameter it relies on
+    has an unexpected type or no value (the pure-Python reader copes with those).
+    """
+    n = len(b)
+
+    def fail(reason: str):
+        raise MocapFormatError(path, reason)
+
+    if n < 512:
+        fail(f"not a C3D file: {n} bytes, shorter than the 512-byte header")
+    if b[1] != 0x50:
+        fail(f"not a C3D file: header key is {b[1]:#04x}, expected 0x50")
+    pblock = b[0]
+    start = (pblock - 1) * 512
+    if pblock < 2 or start + 4 > n:
+        fail(f"parameter section at block {pblock} is outside the file ({n} bytes)")
+    proc = b[start + 3]
+    if proc not in (84, 85, 86):
+        fail(f"unknown processor type {proc} in the parameter section (expected 84, 85 or 86)")
+    e = ">" if proc == 86 else "<"
+    nblocks = b[start + 2]
+    if start + nblocks * 512 > n:
+        fail(f"truncated file: the parameter section claims {nblocks} blocks, the file ends inside it")
+    end = n  # real files understate the block count (c3d.org's Dance, golfswing): records may run on
+    i = start + 4
+    groups: dict[int, str] = {}
+    used: set[int] = set()
+    typed: list[tuple[int, str, int, int]] = []  # (group id, name, type, data bytes)
+    count = 0
+    while nblocks and i + 2 <= end:
+        nlen = abs(struct.unpack_from("b", b, i)[0])
+        gid = struct.unpack_from("b", b, i + 1)[0]
+        if nlen == 0 or gid == 0:
+            break  # end of the parameters
+        name = b[i + 2 : i + 2 + nlen]
+        at = i + 2 + nlen
+        if at + 2 > end:
+            fail(f"parameter record at byte {i} runs past the parameter section")
+        if not all(32 <= c < 127 for c in name):
+            fail(f"parameter record at byte {i} has a malformed name {name!r}")
+        nxt = struct.unpack_from(e + "h", b, at)[0]
+        body = at + 2
+        if gid < 0:
+            groups[-gid] = name.decode().upper()
+            need = 1
+            if body + 1 <= end:
+                need += b[body]
+        else:
+            used.add(gid)
+            if body + 2 > end:
+                fail(f"parameter {name.decode()} runs past the parameter section")
+            typ = struct.unpack_from("b", b, body)[0]
+            ndim = b[body + 1]
+            if typ not in (-1, 1, 2, 4):
+                fail(f"parameter {name.decode()} has type {typ} (expected -1, 1, 2 or 4)")
+            if ndim > 7 or body + 2 + ndim > end:
+                fail(f"parameter {name.decode()} has {ndim} dimensions")
+            size = abs(typ)
+            for d in b[body + 2 : body + 2 + ndim]:
+                size *= d
+            typed.append((gid, name.decode().upper(), typ, size))
+            need = 2 + ndim + size + 1
+            if body + need <= end:
+                need += b[body + need - 1]
+        if body + need > end:
+            fail(f"parameter record {name.decode()} runs past the parameter section")
+        count += 1
+        if nxt == 0:
+            break
+        if nxt < 0 or nxt < need + 2:
+            fail(f"parameter record {name.decode()}: the offset to the next record ({nxt}) points backwards or inside it")
+        i = at + nxt
+    missing = used - set(groups)
+    if missing:
+        fail(f"parameters belong to group ids {sorted(missing)} that the parameter section does not define")
+    ezc3d_ok = True
+    for gid, name, typ, size in typed:
+        want = _EXPECTED_TYPES.get((groups[gid], name))
+        if want is not None and (typ not in want or (typ != -1 and size < abs(typ))):
+            ezc3d_ok = False
+    points, analog, first, last = struct.unpack_from(e + "4H", b, 2)
+    scale = struct.unpack_from(e + "f", b, 12)[0]
+    data_start = struct.unpack_from(e + "H", b, 16)[0]
+    if points == 0:
+        return ezc3d_ok  # some writers leave the header empty; the parameters decide (the fallback reader)
+    if last < first:
+        fail(f"header: last frame {last} comes before the first frame {first}")
+    if data_start < 2:
+        fail(f"header: data block at block {data_start}")
+    size = 4 if (proc == 85 or scale < 0 or not np.isfinite(scale)) else 2
+    frames = last - first + 1
+    need = (data_start - 1) * 512 + frames * (4 * points + analog) * (2 if size == 2 else 4)
+    if need > n and (data_start - 1) * 512 + frames * (4 * points + analog) * 2 > n:
+        fail(f"truncated file: {frames} frames of {points} points and {analog} analog samples need "
+             f"{need} bytes, the file has {n}")
+    return ezc3d_ok
+
+
+def _check_result(path: Path, markers: MarkerSet) -> MarkerSet:
+    if markers.num_markers == 0 or markers.num_frames == 0:
+        raise MocapFormatError(path, "C3D file holds no 3D points")
+    if not (np.isfinite(markers.fps) and markers.fps > 0):
+        raise MocapFormatError(path, f"point frame rate must be a positive number, got {markers.fps!r}")
+    inf = np.isinf(markers.positions)
+    if np.any(inf):
+        f, m, _ = np.argwhere(inf)[0]
+        raise MocapFormatError(path, f"infinite coordinate of marker {markers.labels[m]!r} in frame {f + 1}")
+    return markers
+
+
 def read_c3d(path) -> MarkerSet:
     """Read the 3D points of a C3D file; occluded samples (negative residual) become NaN.
 
-    Raises :class:`~mocapkit.errors.MocapFormatError` when neither ezc3d nor the
-    fallback reader can make sense of the file.
+    Raises :class:`~mocapkit.errors.MocapFormatError` for a malformed header or
+    parameter section (checked before any reader runs), a data block the file
+    is too short for, a non-positive frame rate, infinite coordinates, no
+    points, or when neither ezc3d nor the fallback reader can make sense of the file.
     """
     path = Path(path)
-    first_error = None
     try:
-        markers = _read_ezc3d(path)
-        if markers is not None:
-            return markers
-    except Exception as exc:  # ezc3d raises plain RuntimeError/ValueError on malformed files
-        first_error = exc
+        raw = path.read_bytes()
+    except OSError as exc:
+        raise MocapFormatError(path, f"cannot read: {exc.strerror or exc}") from None
+    first_error = None
+    if _check_structure(path, raw):
+        try:
+            markers = _read_ezc3d(path)
+            if markers is not None:
+                return _check_result(path, markers)
+        except Exception as exc:  # ezc3d raises plain RuntimeError/ValueError on malformed files
+            first_error = exc
     try:
         markers = _read_c3d_package(path)
     except MocapFormatError:
@@ -192,6 +334,4 @@ def read_c3d(path) -> MarkerSet:
     except Exception as exc:
         reason = f"not a readable C3D file ({first_error or exc})"
         raise MocapFormatError(path, reason.replace("\n", " ")) from exc
-    if markers.num_markers == 0 or markers.num_frames == 0:
-        raise MocapFormatError(path, "C3D file holds no 3D points")
-    return markers
+    return _check_result(path, markers)

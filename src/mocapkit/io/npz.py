@@ -8,7 +8,9 @@ fields (channels, limits) are stored as JSON strings. Files are read with
 from __future__ import annotations
 
 import json
+import struct
 import zipfile
+import zlib
 from pathlib import Path
 
 import numpy as np
@@ -64,57 +66,166 @@ def write_npz(obj, path, compress: bool = True) -> None:
         (np.savez_compressed if compress else np.savez)(fh, **arrays)
 
 
+def _load_arrays(path: Path) -> dict[str, np.ndarray]:
+    """Every array of the npz, refusing before any allocation an array whose header claims more bytes than it holds."""
+    out: dict[str, np.ndarray] = {}
+    with zipfile.ZipFile(path) as zf:
+        for info in zf.infolist():
+            if not info.filename.endswith(".npy"):
+                continue
+            key = info.filename[:-4]
+            with zf.open(info) as fh:
+                version = np.lib.format.read_magic(fh)
+                if version == (1, 0):
+                    shape, fortran, dtype = np.lib.format.read_array_header_1_0(fh)
+                elif version == (2, 0):
+                    shape, fortran, dtype = np.lib.format.read_array_header_2_0(fh)
+                else:
+                    raise ValueError(f"array {key!r}: unsupported .npy version {version}")
+                if dtype.hasobject:
+                    raise ValueError(f"array {key!r} holds Python objects (refused: they would need pickle)")
+                need = dtype.itemsize
+                for d in shape:
+                    need *= int(d)
+                held = info.file_size - fh.tell()
+                if need > held:
+                    raise ValueError(f"array {key!r} claims shape {shape} ({need} bytes) but holds {held} bytes")
+                fh.seek(0)
+                out[key] = np.lib.format.read_array(fh, allow_pickle=False)
+    return out
+
+
+def _scalar(path: Path, data: dict, key: str, kind: str):
+    """The 0-d array ``data[key]`` as a Python str / int / float (``kind`` 's', 'i' or 'f'), checked."""
+    a = data[key]
+    if a.ndim != 0:
+        raise MocapFormatError(path, f"npz array {key!r} must be a scalar, got shape {a.shape}")
+    ok = {"s": "U", "i": "iu", "f": "fiu"}[kind]
+    if a.dtype.kind not in ok:
+        raise MocapFormatError(path, f"npz array {key!r} has dtype {a.dtype}, expected {'a string' if kind == 's' else 'a number'}")
+    return {"s": str, "i": int, "f": float}[kind](a[()])
+
+
+def _real(path: Path, data: dict, key: str, integer: bool = False, finite: bool = False, optional: bool = False):
+    """``data[key]`` checked to be a real (integer) array without infinities (and NaN when ``finite``)."""
+    if optional and key not in data:
+        return None
+    a = data[key]
+    kinds = "iu" if integer else "fiu"
+    if a.dtype.kind not in kinds:
+        raise MocapFormatError(path, f"npz array {key!r} has dtype {a.dtype}, expected {'integers' if integer else 'real numbers'}")
+    if a.dtype.kind == "f":
+        bad = ~np.isfinite(a) if finite else np.isinf(a)
+        if np.any(bad):
+            raise MocapFormatError(path, f"npz array {key!r} holds {'non-finite' if finite else 'infinite'} values")
+    return a
+
+
+def _json(path: Path, data: dict, key: str):
+    text = _scalar(path, data, key, "s")
+    try:
+        return json.loads(text)
+    except (ValueError, RecursionError):
+        raise MocapFormatError(path, f"npz array {key!r} is not valid JSON") from None
+
+
+def _check_rotations(path: Path, q: np.ndarray) -> None:
+    """Each quaternion all NaN (missing) or of unit norm."""
+    if q.ndim != 3 or q.shape[-1] != 4:
+        return  # Motion reports the shape
+    nan = np.isnan(q)
+    if np.any(nan.any(-1) != nan.all(-1)):
+        raise MocapFormatError(path, "npz rotations: a quaternion is partly NaN")
+    if np.any(np.abs(np.where(nan, 0.0, q)) > 2.0):
+        raise MocapFormatError(path, "npz rotations are not unit quaternions (a component exceeds 1)")
+    norm = np.linalg.norm(np.where(nan, 0.0, q), axis=-1)
+    off = np.abs(norm - 1.0)[~nan.any(-1)]
+    if off.size and off.max() > 1e-6:
+        raise MocapFormatError(path, f"npz rotations are not unit quaternions (norm off by {off.max():.3g})")
+
+
 def read_npz(path):
-    """Read a file written by :func:`write_npz` (a Motion, or a MarkerSet for marker files)."""
+    """Read a file written by :func:`write_npz` (a Motion, or a MarkerSet for marker files).
+
+    Raises :class:`~mocapkit.errors.MocapFormatError` for anything else: not a
+    zip of ``.npy`` arrays, an array whose header claims more data than it
+    holds (refused before allocating), object arrays, a missing array, an array
+    of the wrong shape or dtype, infinite values, non-unit quaternions, a
+    non-positive frame rate.
+    """
     from .c3d import MarkerSet
 
     path = Path(path)
     try:
-        with np.load(path, allow_pickle=False) as z:
-            data = {k: z[k] for k in z.files}
-    except (zipfile.BadZipFile, OSError, ValueError, EOFError) as exc:
-        raise MocapFormatError(path, f"not a readable .npz file ({exc})") from None
-    kind = str(data.get("kind", ""))
-    version = int(data.get("format_version", -1))
-    if version != FORMAT_VERSION:
-        raise MocapFormatError(path, f"not a mocapkit npz (format_version {version}, expected {FORMAT_VERSION})")
+        data = _load_arrays(path)
+    except (zipfile.BadZipFile, zlib.error, OSError, ValueError, EOFError, struct.error, NotImplementedError) as exc:
+        raise MocapFormatError(path, f"not a readable .npz file ({exc})".replace("\n", " ")) from None
     try:
+        if "format_version" not in data:
+            raise MocapFormatError(path, "not a mocapkit npz (no format_version array)")
+        version = _scalar(path, data, "format_version", "i")
+        if version != FORMAT_VERSION:
+            raise MocapFormatError(path, f"not a mocapkit npz (format_version {version}, expected {FORMAT_VERSION})")
+        kind = _scalar(path, data, "kind", "s")
+        fps = _scalar(path, data, "fps", "f")
+        if not (np.isfinite(fps) and fps > 0):
+            raise MocapFormatError(path, f"fps must be a positive number, got {fps!r}")
+        name = _scalar(path, data, "name", "s")
         if kind == "markers":
+            labels = data["labels"]
+            if labels.ndim != 1 or labels.dtype.kind != "U":
+                raise MocapFormatError(path, f"npz labels must be a 1-D string array, got {labels.dtype} {labels.shape}")
+            positions = _real(path, data, "positions")
+            if positions.ndim != 3 or positions.shape[0] == 0:
+                raise MocapFormatError(path, f"npz positions must be (F, M, 3) with F >= 1, got {positions.shape}")
             return MarkerSet(
-                labels=tuple(str(s) for s in data["labels"]),
-                positions=data["positions"],
-                fps=float(data["fps"]),
-                units=str(data["units"]),
-                name=str(data["name"]),
+                labels=tuple(str(s) for s in labels),
+                positions=positions,
+                fps=fps,
+                units=_scalar(path, data, "units", "s"),
+                name=name,
                 reader="npz",
             )
         if kind != "motion":
             raise MocapFormatError(path, f"unknown npz kind {kind!r}")
-        channels = json.loads(str(data["channels"]))
-        limits = json.loads(str(data["limits"]))
-        unit_cm = float(data["unit_cm"])
+        channels = _json(path, data, "channels")
+        limits = _json(path, data, "limits")
+        unit_cm = _scalar(path, data, "unit_cm", "f")
+        if not (np.isnan(unit_cm) or (np.isfinite(unit_cm) and unit_cm > 0)):
+            raise MocapFormatError(path, f"unit_cm must be a positive number, got {unit_cm!r}")
+        joint_names = data["joint_names"]
+        if joint_names.ndim != 1 or joint_names.dtype.kind != "U":
+            raise MocapFormatError(path, f"npz joint_names must be a 1-D string array, got {joint_names.dtype} {joint_names.shape}")
+        rotations = _real(path, data, "rotations")
+        _check_rotations(path, rotations)
+        if rotations.ndim != 3 or rotations.shape[0] == 0:
+            raise MocapFormatError(path, f"npz rotations must be (F, J, 4) with F >= 1, got {rotations.shape}")
+        axes = _real(path, data, "axes", finite=True, optional=True)
+        if axes is not None and axes.ndim == 2 and axes.shape[-1] == 4:
+            if np.any(np.abs(np.linalg.norm(axes, axis=-1) - 1.0) > 1e-6):
+                raise MocapFormatError(path, "npz axes are not unit quaternions")
         skeleton = Skeleton(
-            joint_names=tuple(str(s) for s in data["joint_names"]),
-            parents=data["parents"],
-            offsets=data["offsets"],
-            end_site_parents=data["end_site_parents"],
-            end_site_offsets=data["end_site_offsets"],
+            joint_names=tuple(str(s) for s in joint_names),
+            parents=_real(path, data, "parents", integer=True),
+            offsets=_real(path, data, "offsets", finite=True),
+            end_site_parents=_real(path, data, "end_site_parents", integer=True),
+            end_site_offsets=_real(path, data, "end_site_offsets", finite=True),
             channels=None if channels is None else tuple(tuple(c) for c in channels),
-            axes=data.get("axes"),
+            axes=axes,
             limits=None if limits is None else tuple(tuple(tuple(p) for p in jl) for jl in limits),
             unit_cm=None if np.isnan(unit_cm) else unit_cm,
         )
         return Motion(
             skeleton=skeleton,
-            rotations=data["rotations"],
-            root_positions=data["root_positions"],
-            fps=float(data["fps"]),
-            name=str(data["name"]),
-            translations=data.get("translations"),
+            rotations=rotations,
+            root_positions=_real(path, data, "root_positions"),
+            fps=fps,
+            name=name,
+            translations=_real(path, data, "translations", optional=True),
         )
     except KeyError as exc:
         raise MocapFormatError(path, f"npz lacks the array {exc.args[0]!r}") from None
     except (ValueError, TypeError) as exc:
         if isinstance(exc, MocapFormatError):
             raise
-        raise MocapFormatError(path, f"inconsistent npz contents: {exc}") from None
+        raise MocapFormatError(path, f"inconsistent npz contents: {exc}".replace("\n", " ")) from None
