@@ -58,6 +58,18 @@ def page_data(path: Path) -> dict:
     return json.loads(m.group(1))
 
 
+def decode_positions(data: dict, which: str) -> np.ndarray:
+    """(N, P, 3) cm positions of 'original' or 'cleaned' as the page decodes them."""
+    pos = data["pos"]
+    shape = (data["n"], len(data["names"]), 3)
+    if which == "original" or "cleaned" in pos:
+        return decode_i16(pos[which], pos["lo"], pos["step"]).reshape(shape)
+    out = decode_positions(data, "original").reshape(-1, 3)
+    where = np.frombuffer(base64.b64decode(pos["cleanedPatch"]["index"]), dtype="<u4")
+    out[where] = decode_i16(pos["cleanedPatch"]["values"], pos["lo"], pos["step"]).reshape(-1, 3)
+    return out.reshape(shape)
+
+
 def decode_i16(b64: str, lo: float, step: float) -> np.ndarray:
     q = np.frombuffer(base64.b64decode(b64), dtype="<i2")
     out = lo + (q.astype(np.float64) + 32767) * step
@@ -97,11 +109,10 @@ def test_report_data_matches_forward_kinematics(walk_report, cleaned_walk):
     assert data["names"] == list(sk.joint_names) + list(sk.end_site_names)
     assert data["parents"][:J] == [int(p) for p in sk.parents]
     assert data["fps"] == corrupted.fps
-    P = len(data["names"])
     scale = unit_scale_cm(sk)
     assert scale == pytest.approx(2.54 / 0.45)
     for which, motion in (("original", corrupted), ("cleaned", repaired)):
-        pos = decode_i16(data["pos"][which], data["pos"]["lo"], data["pos"]["step"]).reshape(F, P, 3)
+        pos = decode_positions(data, which)
         ref = motion.global_positions(end_sites=True) * scale
         # ASF is y-up already: the page keeps the axes, in cm, to half a quantisation step
         assert np.nanmax(np.abs(pos - ref)) <= data["pos"]["step"] / 2 + 1e-6
@@ -193,8 +204,8 @@ def test_nan_input_becomes_gaps(tmp_path, walk):
     gappy = with_nan(clip, slice(10, 30), j)
     out = write_report(tmp_path / "nan.html", gappy, clip, flags=gappy.missing(), changed=gappy.missing())
     data = page_data(out)
-    F, J, P = 120, clip.num_joints, len(data["names"])
-    pos = decode_i16(data["pos"]["original"], data["pos"]["lo"], data["pos"]["step"]).reshape(F, P, 3)
+    F, J = 120, clip.num_joints
+    pos = decode_positions(data, "original")
     ref = gappy.global_positions(end_sites=True) * unit_scale_cm(clip.skeleton)
     np.testing.assert_array_equal(np.isnan(pos), np.isnan(ref))
     assert np.isnan(pos[15, clip.skeleton.index("ltibia")]).all()  # below the missing joint
@@ -218,8 +229,7 @@ def test_long_take_is_downsampled_and_keeps_short_flags(tmp_path, walk):
     assert bits[1, 3] & 1 and (bits & 1).sum() == 1
     q = np.frombuffer(base64.b64decode(data["mdm"]), dtype=np.uint8).reshape(data["n"], J)
     assert q[1, 3] == round(0.8 * 255) and q.sum() == q[1, 3]
-    P = len(data["names"])
-    pos = decode_i16(data["pos"]["original"], data["pos"]["lo"], data["pos"]["step"]).reshape(-1, P, 3)
+    pos = decode_positions(data, "original")
     ref = walk[::4].global_positions(end_sites=True) * unit_scale_cm(walk.skeleton)
     assert np.abs(pos - ref).max() <= data["pos"]["step"] / 2 + 1e-6
 
@@ -230,21 +240,39 @@ def long_take(walk, seconds=60.0):
     return concatenate([walk] * reps)[:n]
 
 
-def test_sixty_second_take_stays_a_few_megabytes(tmp_path, walk):
+def test_cleaned_travels_as_patch_or_whole(tmp_path, walk, cleaned_walk):
+    corrupted, repaired, det, changed = cleaned_walk
+    few = page_data(write_report(tmp_path / "few.html", corrupted, repaired, changed=changed))
+    assert "cleanedPatch" in few["pos"] and "cleaned" not in few["pos"]
+    rot = np.array(walk.rotations)
+    rot[:, 1:, 1] += 0.05  # every joint moved in every frame: a denoised take
+    moved = dataclasses.replace(walk, rotations=rot / np.linalg.norm(rot, axis=-1, keepdims=True))
+    many = page_data(write_report(tmp_path / "many.html", walk, moved))
+    assert "cleaned" in many["pos"] and "cleanedPatch" not in many["pos"]
+    ref = moved.global_positions(end_sites=True) * unit_scale_cm(walk.skeleton)
+    assert np.abs(decode_positions(many, "cleaned") - ref).max() <= many["pos"]["step"] / 2 + 1e-6
+
+
+def sixty_second_case(walk):
+    """A 60 s take at 120 fps (12_walk looped) with 24 real-style errors, cleaned back to the take."""
     take = long_take(walk)
-    F, J = take.num_frames, take.num_joints
+    corrupted, mask, _ = real_errors(take, n_errors=24, seed=1)
+    mdm = np.clip(np.random.default_rng(0).random(mask.shape) ** 6 + 0.7 * mask, 0, 1)
+    return corrupted, take, mdm, mdm > 0.5, mask
+
+
+def test_sixty_second_take_stays_a_few_megabytes(tmp_path, walk):
+    corrupted, take, mdm, flags, changed = sixty_second_case(walk)
+    F = take.num_frames
     assert F == 7200 and F <= DEFAULT_MAX_FRAMES
-    rng = np.random.default_rng(0)
-    mdm = rng.random((F, J)) ** 4
-    flags = mdm > 0.6
     t0 = time.perf_counter()
-    out = write_report(tmp_path / "long.html", take, take, mdm=mdm, flags=flags, changed=flags)
+    out = write_report(tmp_path / "long.html", corrupted, take, mdm=mdm, flags=flags, changed=changed)
     elapsed = time.perf_counter() - t0
     size_mb = out.stat().st_size / 1e6
     print(f"60 s at 120 fps: {size_mb:.2f} MB, written in {elapsed:.2f} s")
     data = page_data(out)
     assert data["stride"] == 1 and data["n"] == 7200  # full rate
-    assert size_mb < 8.0
+    assert size_mb < 6.0
     assert elapsed < 10.0
 
 
@@ -450,10 +478,17 @@ def test_gappy_and_downsampled_pages_work(open_page, tmp_path, walk):
 
 
 def test_sixty_second_page_loads_fast(open_page, tmp_path, walk):
-    take = long_take(walk)
-    mdm = np.random.default_rng(1).random((take.num_frames, take.num_joints)) ** 4
-    out = write_report(tmp_path / "long.html", take, take, mdm=mdm, flags=mdm > 0.7, changed=mdm > 0.7)
+    corrupted, take, mdm, flags, changed = sixty_second_case(walk)
+    out = write_report(tmp_path / "long.html", corrupted, take, mdm=mdm, flags=flags, changed=changed)
     pg = open_page(out)
+    # the page decodes both motions as forward kinematics gives them (the cleaned one from its patch)
+    scale = unit_scale_cm(take.skeleton)
+    rows = [0, 1234, 5000, 7199]
+    for which, motion in (("original", corrupted), ("cleaned", take)):
+        ref = motion[rows[0]:rows[-1] + 1].global_positions()[np.array(rows) - rows[0]] * scale
+        got = np.array([[pg.js(f"window.mocapkitReport.position('{which}', {f}, {j})") for j in range(0, 31, 5)]
+                        for f in rows], dtype=float)
+        assert np.abs(got - ref[:, 0:31:5]).max() < 0.06
     draw_ms = pg.js("""() => { const r = window.mocapkitReport, t = performance.now();
         for (let i = 0; i < 20; i++) r.setIndex(i * 300);
         return (performance.now() - t) / 20; }""")

@@ -10,6 +10,7 @@ What the page holds
 - global joint (and end-site) positions of both motions in centimetres, from
   forward kinematics, turned so that the skeleton's up axis is +y, quantised to
   int16 on one shared grid (1 mm steps unless the take spans more than 65 m);
+  the cleaned motion as a patch of the points that differ when fewer than half do;
 - the movement digression map quantised to uint8, and one uint8 per cell with
   bit 0 = flagged, bit 1 = changed by the cleaning, bit 2 / 3 = missing in the
   original / cleaned motion;
@@ -156,6 +157,26 @@ def _channel_plots(original: Motion, cleaned: Motion, interest: np.ndarray, idx:
     return plots
 
 
+def _positions_block(lo: float, step: float, q_orig: np.ndarray, q_clean: np.ndarray) -> dict:
+    """Both motions' quantised positions (N, P, 3); the cleaned one as a patch when that is smaller.
+
+    Cleaning usually moves a few joints (and what hangs below them) in a few frames: then the
+    cleaned motion travels as the points that differ from the original, flat indices (uint32)
+    into (N, P) plus their int16 (K, 3) values, 10 bytes a point instead of 6 for all of them.
+    """
+    block = {"lo": lo, "step": step, "original": _b64(q_orig)}
+    differ = np.any(q_clean != q_orig, axis=-1).ravel()
+    if differ.mean() < 0.5:
+        where = np.flatnonzero(differ)
+        block["cleanedPatch"] = {
+            "index": _b64(where.astype("<u4")),
+            "values": _b64(q_clean.reshape(-1, 3)[where]),
+        }
+    else:
+        block["cleaned"] = _b64(q_clean)
+    return block
+
+
 def _asset(name: str) -> str:
     return resources.files(__package__).joinpath(name).read_text(encoding="utf-8")
 
@@ -290,7 +311,7 @@ def write_report(
         "names": names,
         "parents": parents,
         "unitCm": scale,
-        "pos": {"lo": lo, "step": step, "original": _b64(q_orig), "cleaned": _b64(q_clean)},
+        "pos": _positions_block(lo, step, q_orig, q_clean),
         "mdm": None if mdm_q is None else _b64(mdm_q),
         "bits": _b64(bits),
         "has": {"mdm": mdm_q is not None, "flags": flags_arr is not None, "changed": changed_arr is not None},

@@ -6,7 +6,9 @@
 (function () {
   "use strict";
 
+  var T0 = performance.now(), TIMES = {};
   var D = JSON.parse(document.getElementById("mocapkit-data").textContent);
+  TIMES.parse = performance.now() - T0;
   var N = D.n, P = D.names.length, J = D.numJoints, STRIDE = D.stride;
   var MISSING = -32768;
   var BIT_FLAG = 1, BIT_CHANGED = 2, BIT_MISS_O = 4, BIT_MISS_C = 8;
@@ -22,16 +24,26 @@
     for (var i = 0; i < q.length; i++) out[i] = q[i] === MISSING ? NaN : lo + (q[i] + 32767) * step;
     return out;
   }
-  var POS = {
-    original: dequant(D.pos.original, D.pos.lo, D.pos.step),
-    cleaned: dequant(D.pos.cleaned, D.pos.lo, D.pos.step)
-  };
+  function cleanedPositions(orig) {
+    if (D.pos.cleaned) return dequant(D.pos.cleaned, D.pos.lo, D.pos.step);
+    // a patch: the points (flat index into (N, P)) where the cleaned motion differs
+    var out = new Float32Array(orig), patch = D.pos.cleanedPatch;
+    var where = new Uint32Array(bytes(patch.index).buffer), vals = dequant(patch.values, D.pos.lo, D.pos.step);
+    for (var k = 0; k < where.length; k++) {
+      var o = where[k] * 3;
+      out[o] = vals[k * 3]; out[o + 1] = vals[k * 3 + 1]; out[o + 2] = vals[k * 3 + 2];
+    }
+    return out;
+  }
+  var POS = { original: dequant(D.pos.original, D.pos.lo, D.pos.step) };
+  POS.cleaned = cleanedPositions(POS.original);
   var MDM = D.mdm ? bytes(D.mdm) : null;   // (N, J) uint8, 255 = 1.0
   var BITS = bytes(D.bits);                // (N, J)
   var PLOTS = D.plots.map(function (p) {
     return { joint: p.joint, channels: p.channels,
              original: dequant(p.original, p.lo, p.step), cleaned: dequant(p.cleaned, p.lo, p.step) };
   });
+  TIMES.decode = performance.now() - T0;
   var plotOfJoint = {};
   PLOTS.forEach(function (p, k) { plotOfJoint[p.joint] = k; });
 
@@ -134,7 +146,7 @@
   var plotSec = el("section", { "class": "plots" }, app);
   el("h2", { text: "Channels before / after" }, plotSec);
   el("p", { "class": "note", text: PLOTS.length ?
-    "Rotation channels (degrees, as the file gives them) of the flagged or changed joints: input dashed, cleaned solid; shaded: flagged or changed frames. Click a plot to jump." :
+    "Rotation channels (degrees, as the file gives them) of the flagged or changed joints: input wide and faint, cleaned thin; shaded: flagged or changed frames. Click a plot to jump." :
     "No joint was flagged or changed." }, plotSec);
   var selPlotBox = el("div", { id: "selected-plot" }, plotSec);
   var plotBox = el("div", { id: "plot-list" }, plotSec);
@@ -143,7 +155,7 @@
     el("div", { "class": "plot-title", text: D.names[p.joint] + ": " + p.channels.join(", ") + " (deg)" }, wrap);
     var c = el("canvas", { "class": "plot-canvas" }, wrap);
     c.addEventListener("click", function (ev) { onPlotClick(ev, c, p.joint); });
-    return { wrap: wrap, canvas: c, cache: null };
+    return { wrap: wrap, canvas: c, cache: null, joint: p.joint };
   });
   var selPlot = null; // root-relative position plot of a selected joint that has no channel plot
 
@@ -414,8 +426,12 @@
     ctx.fillStyle = "#fff"; ctx.fillRect(0, 0, cssW, cssH);
     // flagged / changed frames of this joint
     ctx.fillStyle = "rgba(224,49,49,0.13)";
-    for (var i = 0; i < N; i++) {
-      if (BITS[i * J + joint] & (BIT_FLAG | BIT_CHANGED)) ctx.fillRect(L + i / N * pw, T, Math.max(1, pw / N), ph);
+    for (var i = 0; i < N; i++) {  // one rectangle per run of marked frames
+      if (!(BITS[i * J + joint] & (BIT_FLAG | BIT_CHANGED))) continue;
+      var i1 = i;
+      while (i1 + 1 < N && (BITS[(i1 + 1) * J + joint] & (BIT_FLAG | BIT_CHANGED))) i1++;
+      ctx.fillRect(L + i / N * pw, T, Math.max(1, (i1 + 1 - i) / N * pw), ph);
+      i = i1;
     }
     ctx.strokeStyle = "#ced4da"; ctx.lineWidth = 1; ctx.strokeRect(L, T, pw, ph);
     ctx.fillStyle = "#495057"; ctx.font = "10px sans-serif"; ctx.textAlign = "right"; ctx.textBaseline = "middle";
@@ -430,29 +446,55 @@
     ctx.textAlign = "center"; ctx.textBaseline = "top";
     var fs = niceStep(D.frames, pw, 70);
     for (var f = 0; f < D.frames; f += fs) ctx.fillText(String(f), L + (f / STRIDE) / N * pw, T + ph + 3);
-    function line(a, colour, dashed, width) {
-      ctx.strokeStyle = colour; ctx.lineWidth = width; ctx.setLineDash(dashed ? [4, 3] : []);
+    function line(a, colour, faint, width) {
+      // the input is drawn faint and wide under the cleaned line: dashes on a 7200-point path
+      // cost Skia a second per page, and where the two agree the cleaned line covers the input
+      ctx.strokeStyle = colour; ctx.lineWidth = width; ctx.globalAlpha = faint ? 0.35 : 1;
       ctx.beginPath();
-      var pen = false, prev = NaN;
-      for (var i = 0; i < a.length; i++) {
-        var v = a[i];
-        if (v !== v || (series.wrap && Math.abs(v - prev) > series.wrap)) { pen = v === v; if (pen) ctx.moveTo(L + (i + 0.5) / N * pw, T + (hi - v) / (hi - lo) * ph); prev = v; continue; }
+      var keep = decimate(a, pw), pen = false, prev = NaN;
+      for (var k = 0; k < keep.length; k++) {
+        var i = keep[k], v = a[i];
+        if (v !== v) { pen = false; prev = v; continue; }
         var x = L + (i + 0.5) / N * pw, yv = T + (hi - v) / (hi - lo) * ph;
-        if (pen) ctx.lineTo(x, yv); else ctx.moveTo(x, yv);
+        // an Euler channel wrapping at +-180 deg is a jump, not a line across the plot
+        if (pen && !(series.wrap && Math.abs(v - prev) > series.wrap)) ctx.lineTo(x, yv); else ctx.moveTo(x, yv);
         pen = true; prev = v;
       }
       ctx.stroke();
-      ctx.setLineDash([]);
+      ctx.globalAlpha = 1;
     }
-    series.original.forEach(function (a, k) { line(a, CH[k % CH.length], true, 1.2); });
+    series.original.forEach(function (a, k) { line(a, CH[k % CH.length], true, 3); });
     series.cleaned.forEach(function (a, k) { line(a, CH[k % CH.length], false, 1.6); });
     ctx.textAlign = "left"; ctx.textBaseline = "top"; ctx.font = "10px sans-serif";
     var lx = L + 6;
     series.labels.forEach(function (name, k) {
       ctx.fillStyle = CH[k % CH.length]; ctx.fillText(name, lx, T + 3); lx += ctx.measureText(name).width + 10;
     });
-    ctx.fillStyle = "#868e96"; ctx.fillText("dashed: input, solid: cleaned", lx + 6, T + 3);
+    ctx.fillStyle = "#868e96"; ctx.fillText("wide faint: input, thin: cleaned", lx + 6, T + 3);
     return { image: off, L: L, pw: pw, T: T, ph: ph, cssW: cssW, cssH: cssH };
+  }
+
+  function decimate(a, pw) {
+    // indices to draw: all of them when there are few; else per pixel column the first, the
+    // lowest, the highest and the last sample (in time order) and every NaN boundary, so the
+    // envelope and the gaps look as with every sample, at a few points per pixel
+    var n = a.length, cols = Math.max(1, Math.floor(pw));
+    if (n <= 2 * cols) { var all = new Array(n); for (var q = 0; q < n; q++) all[q] = q; return all; }
+    var out = [];
+    for (var c = 0; c < cols; c++) {
+      var i0 = Math.floor(c * n / cols), i1 = Math.floor((c + 1) * n / cols);
+      var lo = -1, hi = -1, gap = false;
+      for (var i = i0; i < i1; i++) {
+        var v = a[i];
+        if (v !== v) { gap = true; continue; }
+        if (lo < 0 || v < a[lo]) lo = i;
+        if (hi < 0 || v > a[hi]) hi = i;
+      }
+      if (gap) { for (i = i0; i < i1; i++) out.push(i); continue; }
+      var pick = [i0, lo, hi, i1 - 1].sort(function (u, v) { return u - v; });
+      for (var k = 0; k < 4; k++) if (!k || pick[k] !== pick[k - 1]) out.push(pick[k]);
+    }
+    return out;
   }
 
   function channelSeries(k) {
@@ -490,15 +532,24 @@
   function drawPlots() {
     var w = innerWidth(plotSec) - 2;
     if (w !== plotW) { plotW = w; plotCanvases.forEach(function (pc) { pc.cache = null; }); if (selPlot) selPlot.cache = null; }
-    plotCanvases.forEach(function (pc, k) {
-      if (!pc.cache) pc.cache = renderPlot(channelSeries(k), PLOTS[k].joint, w, 130);
+    // rasterising a 7200-frame plot costs tens of ms in software: render the missing ones a few
+    // per animation frame (the selected joint's first) so the viewer shows without waiting for them
+    var t0 = performance.now(), pending = false;
+    function ensure(pc, series) {
+      if (!pc.cache) {
+        if (performance.now() - t0 > 40) { sizeCanvas(pc.canvas, w, 130); pending = true; return false; }
+        pc.cache = renderPlot(series(), pc.joint, w, 130);
+      }
       drawPlotCursor(pc.canvas, pc.cache);
+      return true;
+    }
+    if (selPlot) ensure(selPlot, function () { return positionSeries(selPlot.joint); });
+    plotCanvases.forEach(function (pc, k) {
+      ensure(pc, function () { return channelSeries(k); });
       pc.wrap.classList.toggle("selected", PLOTS[k].joint === S.selected);
     });
-    if (selPlot) {
-      if (!selPlot.cache) selPlot.cache = renderPlot(positionSeries(selPlot.joint), selPlot.joint, w, 130);
-      drawPlotCursor(selPlot.canvas, selPlot.cache);
-    }
+    if (pending) setTimeout(invalidate, 0);
+    else if (TIMES.plotsDone === undefined) TIMES.plotsDone = performance.now() - T0;
   }
   function onPlotClick(ev, c, joint) {
     var pc = plotCanvases.filter(function (x) { return x.canvas === c; })[0];
@@ -534,7 +585,14 @@
   }
   function redraw() {
     frameLabel.textContent = "frame " + (S.index * STRIDE) + " / " + (D.frames - 1) + "  (" + (S.index * STRIDE / D.fps).toFixed(2) + " s)";
-    drawViewer(); drawHeat(); drawPlots();
+    var t0 = performance.now();
+    drawViewer();
+    var t1 = performance.now();
+    drawHeat();
+    var t2 = performance.now();
+    drawPlots();
+    var t3 = performance.now();
+    if (TIMES.viewer === undefined) { TIMES.viewer = t1 - t0; TIMES.heat = t2 - t1; TIMES.plots = t3 - t2; }
     S.dirty = false;
   }
   function frame(t) {
@@ -610,8 +668,16 @@
     pause: function () { play(false); },
     playing: function () { return S.playing; },
     overlay: function (on) { if (on !== undefined) { S.overlay = !!on; redraw(); } return S.overlay; },
+    position: function (which, f, j) {                       // cm, y up, as drawn; NaN when missing
+      var o = ((Math.round(f / STRIDE) * P) + j) * 3, a = POS[which];
+      return [a[o], a[o + 1], a[o + 2]].map(function (v) { return v === v ? v : null; });
+    },
     heatmapLayout: function () { return { left: H.left, top: H.top, width: H.width, height: H.height, rowHeight: H.rowHeight, frames: N, joints: J }; },
+    timings: TIMES,                                          // ms since the script started
     info: { frames: D.frames, shown: N, stride: STRIDE, fps: D.fps, joints: J, names: D.names.slice(0, J), plots: PLOTS.map(function (p) { return D.names[p.joint]; }) }
   };
+  TIMES.setup = performance.now() - T0;
   redraw();
+  TIMES.firstDraw = performance.now() - T0;
+  TIMES.scriptStart = T0;                                    // ms since navigation start
 })();
