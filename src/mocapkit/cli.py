@@ -790,7 +790,7 @@ def clean(
     F = res.num_frames
     console.print(f"wrote {out} and {clean_path(out)}" + "".join(f" and {p}" for p in (report, png) if p is not None)
                   + f": {F} frames @ {m.fps:g} fps, {int(res.changed.sum())} of {res.changed.size} joint samples changed "
-                  f"({100.0 * (1 - res.changed.mean()):.1f} % untouched)")
+                  f"({100.0 * (1 - res.changed.mean()):.1f} % untouched)", soft_wrap=True)
     for line in res.summary():
         console.print(f"  {line}", markup=False, soft_wrap=True)
     if res.detection is not None:
@@ -811,7 +811,7 @@ def clean(
         c0, c1 = joint_position_rms(ref, before), joint_position_rms(ref, m)
         gaps = " (input gaps linearly filled)" if original.missing().any() else ""
         console.print(f"  error against {reference.name}{gaps}: eq. 2 {e0:.4f} -> {e1:.4f} per frame; "
-                      f"joint positions {c0:.2f} -> {c1:.2f} cm RMS", markup=False)
+                      f"joint positions {c0:.2f} -> {c1:.2f} cm RMS", markup=False, soft_wrap=True)
 
 
 @app.command("clean-batch")

@@ -1,0 +1,201 @@
+"""`mocapkit clean` and `mocapkit clean-batch`: outputs, records, resumption, failures, Dask, interrupts."""
+
+from __future__ import annotations
+
+import hashlib
+import os
+import re
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import mocapkit
+from mocapkit import corrupt, samples
+from mocapkit.cleaning.pipeline import CleanResult
+from mocapkit.cli import main
+from mocapkit.motion import concatenate
+
+
+def _hash(p: Path) -> str:
+    return hashlib.sha256(p.read_bytes()).hexdigest()
+
+
+def _tree(d: Path) -> dict:
+    return {str(p.relative_to(d)): _hash(p) for p in sorted(d.rglob("*")) if p.is_file()}
+
+
+@pytest.fixture(scope="module")
+def takes(tmp_path_factory):
+    d = tmp_path_factory.mktemp("takes")
+    m = mocapkit.load(samples.path("12_walk.amc"))
+    bad, _, _ = corrupt.real_errors(m, n_errors=3, seed=11)
+    gappy, _ = corrupt.gaps(bad, seed=12)
+    mocapkit.save(gappy, d / "walk_bad.npz")
+    mocapkit.save(m, d / "walk_ref.npz")
+    return d
+
+
+def test_clean_writes_output_and_record(takes, tmp_path, capsys):
+    inp = takes / "walk_bad.npz"
+    before = _hash(inp)
+    out = tmp_path / "walk.bvh"
+    rc = main(["clean", str(inp), "-o", str(out), "--reference", str(takes / "walk_ref.npz"), "--png", str(tmp_path / "s.png")])
+    text = capsys.readouterr().out
+    assert rc == 0, text
+    assert _hash(inp) == before
+    cleaned = mocapkit.load(out)
+    rec = CleanResult.load(tmp_path / "walk.clean.npz", motion=cleaned)
+    assert [s.name for s in rec.steps] == ["fill", "detect", "repair", "denoise"]
+    assert rec.filled.sum() == mocapkit.load(inp).missing().sum() > 0
+    assert not cleaned.missing().any() and cleaned.num_frames == rec.num_frames
+    assert (tmp_path / "s.png").read_bytes()[:4] == b"\x89PNG"
+    assert "fill" in text and "EBD (shipped)" in text and "flagged" in text
+    # the error before and after is printed; after is lower
+    found = re.search(r"eq\. 2 ([\d.]+) -> ([\d.]+) per frame; joint positions ([\d.]+) -> ([\d.]+) cm", text)
+    assert found, text
+    e0, e1, c0, c1 = map(float, found.groups())
+    assert e1 < e0 and c1 < c0, found.group(0)
+    assert not list(tmp_path.glob(".*.part"))
+
+
+def test_clean_refuses_bad_requests(takes, tmp_path, capsys):
+    inp = takes / "walk_bad.npz"
+    before = _hash(inp)
+    assert main(["clean", str(inp), "-o", str(inp)]) == 2
+    assert "refusing to overwrite the input" in capsys.readouterr().err
+    assert _hash(inp) == before
+    assert main(["clean", str(inp), "-o", str(tmp_path / "x.bvh"), "--steps", "detect,repair"]) == 2
+    err = capsys.readouterr().err
+    assert "add the fill step" in err and len(err.strip().splitlines()) == 1
+    assert main(["clean", str(inp), "-o", str(tmp_path / "x.bvh"), "--steps", "fill,shine"]) == 2
+    assert "unknown step" in capsys.readouterr().err
+    bogus = tmp_path / "bogus.bvh"
+    bogus.write_text("HIERARCHY\nROOT Hips\n{\n")
+    assert main(["clean", str(bogus), "-o", str(tmp_path / "y.bvh")]) == 2
+    assert "bogus.bvh" in capsys.readouterr().err
+    assert main(["clean", str(tmp_path / "missing.bvh"), "-o", str(tmp_path / "z.bvh")]) == 2
+    assert not [p.name for p in tmp_path.iterdir() if p.name not in ("bogus.bvh",)]
+
+
+def test_clean_report(takes, tmp_path):
+    pytest.importorskip("mocapkit.report.html")
+    out = tmp_path / "walk.npz"
+    assert main(["clean", str(takes / "walk_bad.npz"), "-o", str(out), "--report", str(tmp_path / "r.html")]) == 0
+    html = (tmp_path / "r.html").read_text(encoding="utf-8")
+    assert "<html" in html.lower() and "http://" not in html.split("<body", 1)[0].lower().replace("http://www.w3.org", "")
+
+
+def _corpus(d: Path) -> Path:
+    """Three short real takes in sub-folders and one broken file."""
+    src = d / "in"
+    (src / "cmu").mkdir(parents=True)
+    (src / "hdm" / "bk").mkdir(parents=True)
+    walk = mocapkit.load(samples.path("12_walk.amc"))
+    mocapkit.save(corrupt.real_errors(walk, n_errors=2, seed=1)[0], src / "cmu" / "walk.npz")
+    mocapkit.save(mocapkit.load(samples.path("131_01.bvh"))[:150], src / "cmu" / "131_01.bvh")
+    sneak = mocapkit.load(samples.path("HDM_bk_sneak2StepsLStart_004_120.amc"))[:200]
+    mocapkit.save(sneak, src / "hdm" / "bk" / "sneak.npz")
+    (src / "hdm" / "broken.bvh").write_text("HIERARCHY\nROOT\n")
+    return src
+
+
+def test_clean_batch_serial_resume_and_failure(tmp_path, capsys):
+    src = _corpus(tmp_path)
+    inputs = _tree(src)
+    out = tmp_path / "out"
+    rc = main(["clean-batch", str(src), str(out), "--executor", "serial", "--steps", "fill,denoise"])
+    text = capsys.readouterr().out
+    assert rc == 1, text  # one take failed
+    assert "failed" in text and "broken.bvh" in text and "3 cleaned" in text
+    for rel in ("cmu/walk.npz", "cmu/131_01.bvh", "hdm/bk/sneak.npz"):
+        assert (out / rel).is_file(), rel
+        stem = rel.rsplit(".", 1)[0]
+        assert (out / f"{stem}.clean.npz").is_file()
+    assert not (out / "hdm" / "broken.bvh").exists() and not list(out.rglob(".*.part"))
+    assert _tree(src) == inputs
+    stamp = (out / "cmu" / "walk.clean.npz").stat().st_mtime_ns
+    # resume: complete takes are skipped; a take without its record is done again
+    (out / "hdm" / "bk" / "sneak.clean.npz").unlink()
+    rc = main(["clean-batch", str(src), str(out), "--executor", "serial", "--steps", "fill,denoise"])
+    text = capsys.readouterr().out
+    assert rc == 1 and "1 cleaned, 2 already complete, 1 failed" in text, text
+    assert (out / "cmu" / "walk.clean.npz").stat().st_mtime_ns == stamp
+    assert (out / "hdm" / "bk" / "sneak.clean.npz").is_file()
+    # only the pattern's files
+    out2 = tmp_path / "out2"
+    assert main(["clean-batch", str(src), str(out2), "--executor", "serial", "--steps", "fill", "--pattern", "*.bvh"]) == 1
+    assert sorted(p.name for p in out2.rglob("*") if p.is_file()) == ["131_01.bvh", "131_01.clean.npz"]
+
+
+def test_clean_batch_on_local_dask_cluster(tmp_path, capsys):
+    distributed = pytest.importorskip("distributed")
+    src = _corpus(tmp_path)
+    (src / "hdm" / "broken.bvh").unlink()
+    out = tmp_path / "out"
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as cluster:
+        rc = main(["clean-batch", str(src), str(out), "--executor", cluster.scheduler_address, "--steps", "fill,denoise"])
+    text = capsys.readouterr().out
+    assert rc == 0, text
+    assert "3 cleaned" in text and "dask" in text
+    serial = tmp_path / "serial"
+    assert main(["clean-batch", str(src), str(serial), "--executor", "serial", "--steps", "fill,denoise"]) == 0
+    capsys.readouterr()
+    for rel in ("cmu/walk.npz", "cmu/131_01.bvh", "hdm/bk/sneak.npz"):
+        a, b = mocapkit.load(out / rel), mocapkit.load(serial / rel)
+        assert np.allclose(a.rotations, b.rotations, atol=1e-6), rel  # same result wherever it ran
+
+
+# -- interrupts -------------------------------------------------------------------------
+
+
+def _run_and_signal(args, sig, wait_s, tmp_path):
+    env = dict(os.environ, PYTHONUNBUFFERED="1")
+    proc = subprocess.Popen([sys.executable, "-m", "mocapkit.cli", *args], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                            env=env, cwd=tmp_path)
+    time.sleep(wait_s)
+    assert proc.poll() is None, "finished before the signal; make the take longer"
+    proc.send_signal(sig)
+    out, err = proc.communicate(timeout=180)
+    return proc.returncode, err.decode()
+
+
+@pytest.fixture(scope="module")
+def long_take(tmp_path_factory):
+    d = tmp_path_factory.mktemp("long")
+    m = mocapkit.load(samples.path("12_walk.amc"))
+    long = concatenate([m] * 8, name="walk_x8")  # 23 s
+    gappy, _ = corrupt.gaps(long, seed=3)
+    mocapkit.save(gappy, d / "long.npz")
+    return d / "long.npz"
+
+
+@pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM], ids=["SIGINT", "SIGTERM"])
+def test_interrupted_clean_leaves_no_output(long_take, tmp_path, sig):
+    before = _hash(long_take)
+    out = tmp_path / "o" / "clean.bvh"
+    rc, err = _run_and_signal(["clean", str(long_take), "-o", str(out), "--png", str(tmp_path / "o" / "s.png")], sig, 6.0, tmp_path)
+    assert rc == 130, err  # typer turns the KeyboardInterrupt (SIGTERM is made one) into exit 130
+    assert not out.exists() and not (tmp_path / "o" / "clean.clean.npz").exists()
+    assert not list(tmp_path.rglob(".*.part"))
+    assert _hash(long_take) == before
+
+
+@pytest.mark.slow  # ~60 s: the workers finish the take they are on before the batch exits
+def test_interrupted_batch_leaves_only_complete_takes(long_take, tmp_path):
+    src = tmp_path / "in"
+    src.mkdir()
+    for k in range(3):
+        (src / f"t{k}.npz").write_bytes(long_take.read_bytes())
+    inputs = _tree(src)
+    out = tmp_path / "out"
+    rc, err = _run_and_signal(["clean-batch", str(src), str(out)], signal.SIGTERM, 8.0, tmp_path)
+    assert rc == 130, err
+    assert _tree(src) == inputs
+    assert not list(tmp_path.rglob(".*.part"))
+    for k in range(3):  # each take is either complete (output + record) or absent
+        assert (out / f"t{k}.npz").exists() == (out / f"t{k}.clean.npz").exists()
