@@ -32,6 +32,10 @@ install-test: $(VENV)/.installed-test
 
 demo: install
 	@mkdir -p $(OUT)
+	@echo "== the main job: a real take with real-style capture errors, cleaned in one command, with a report"
+	$(VENV)/bin/mocapkit corrupt $(WALK) $(OUT)/12_walk_broken.npz --kind errors --seed 7
+	$(VENV)/bin/mocapkit clean $(OUT)/12_walk_broken.npz -o $(OUT)/12_walk_cleaned.bvh --reference $(WALK) --report $(OUT)/12_walk_report.html --png $(OUT)/12_walk_summary.png
+	@echo "== the single tools"
 	$(VENV)/bin/mocapkit info $(SAMPLE)
 	$(VENV)/bin/mocapkit convert $(SAMPLE) $(OUT)/131_01_30fps.bvh --fps 30
 	$(VENV)/bin/mocapkit corrupt $(OUT)/131_01_30fps.bvh $(OUT)/131_01_noisy.bvh --kind noise --amount 0.5 --seed 7
@@ -46,7 +50,7 @@ demo: install
 	$(VENV)/bin/mocapkit db build $(OUT)/hdm_db $(DATA)/HDM_bk_sneak2StepsLStart_004_120.amc $(DATA)/HDM_bd_jogLeftCircle4StepsRstart_001_120.amc --fps 30 --mirror --overwrite
 	$(VENV)/bin/mocapkit reconstruct --db $(OUT)/hdm_db --markers $(SNEAK) -o $(OUT)/sneak_from_6_markers.bvh --reference $(SNEAK)
 	$(VENV)/bin/mocapkit reconstruct --db $(OUT)/hdm_db --accelerometers $(SNEAK) -o $(OUT)/sneak_from_4_accelerometers.bvh --reference $(SNEAK)
-	@echo "demo outputs written to $(OUT)/"
+	@echo "demo outputs written to $(OUT)/; open $(OUT)/12_walk_report.html in a browser"
 
 test: install-test
 	@bash scripts/ensure-chromium.sh
