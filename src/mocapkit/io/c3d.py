@@ -239,6 +239,8 @@ def _check_structure(path: Path, b: bytes) -> bool:
         nxt = struct.unpack_from(e + "h", b, at)[0]
         body = at + 2
         if gid < 0:
+            if -gid in groups:
+                fail(f"parameter section defines group id {-gid} twice ({groups[-gid]}, {name.decode().upper()})")
             groups[-gid] = name.decode().upper()
             need = 1
             if body + 1 <= end:
@@ -256,7 +258,7 @@ def _check_structure(path: Path, b: bytes) -> bool:
             size = abs(typ)
             for d in b[body + 2 : body + 2 + ndim]:
                 size *= d
-            typed.append((gid, name.decode().upper(), typ, size))
+            typed.append((gid, name.decode().upper(), typ, size if typ != -1 or ndim else 0))
             need = 2 + ndim + size + 1
             if body + need <= end:
                 need += b[body + need - 1]
@@ -271,12 +273,19 @@ def _check_structure(path: Path, b: bytes) -> bool:
     missing = used - set(groups)
     if missing:
         fail(f"parameters belong to group ids {sorted(missing)} that the parameter section does not define")
-    ezc3d_ok = True
+    ezc3d_ok = len({(gid, name) for gid, name, _, _ in typed}) == len(typed)  # no parameter defined twice
     for gid, name, typ, size in typed:
         want = _EXPECTED_TYPES.get((groups[gid], name))
-        if want is not None and (typ not in want or (typ != -1 and size < abs(typ))):
+        if want is not None and (typ not in want or size < abs(typ)):
+            ezc3d_ok = False
+        if typ == -1 and size == 0:  # a string without dimensions (ezc3d: SIGSEGV)
             ezc3d_ok = False
     points, analog, first, last = struct.unpack_from(e + "4H", b, 2)
+    have = {(groups[gid], name) for gid, name, _, _ in typed}
+    if analog and not {("ANALOG", k) for k in ("USED", "OFFSET", "SCALE", "GEN_SCALE")} <= have:
+        ezc3d_ok = False  # analog samples without their scaling parameters (ezc3d: SIGSEGV)
+    if points and ("POINT", "USED") not in have:
+        ezc3d_ok = False
     scale = struct.unpack_from(e + "f", b, 12)[0]
     data_start = struct.unpack_from(e + "H", b, 16)[0]
     if points == 0:

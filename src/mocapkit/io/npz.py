@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import json
 import struct
+import tokenize
 import zipfile
 import zlib
 from pathlib import Path
@@ -158,7 +159,8 @@ def read_npz(path):
     path = Path(path)
     try:
         data = _load_arrays(path)
-    except (zipfile.BadZipFile, zlib.error, OSError, ValueError, EOFError, struct.error, NotImplementedError) as exc:
+    except (zipfile.BadZipFile, zlib.error, OSError, ValueError, EOFError, struct.error, NotImplementedError,
+            SyntaxError, tokenize.TokenError) as exc:  # the last two: a garbled .npy header
         raise MocapFormatError(path, f"not a readable .npz file ({exc})".replace("\n", " ")) from None
     try:
         if "format_version" not in data:
