@@ -371,3 +371,13 @@ def test_npz_garbled_npy_header(tmp_path):
         zf.writestr("format_version.npy", b"\x93NUMPY\x01\x00" + struct.pack("<H", len(hdr) + pad + 1) + hdr + b" " * pad + b"\n")
     with pytest.raises(MocapFormatError, match=r"m\.npz: not a readable \.npz file"):
         mocapkit.load(p)
+
+
+def test_c3d_group_id_out_of_range(tmp_path):
+    # POINT:LABELS' group byte 0x80: a group with id 128, SIGSEGV in ezc3d (dynamic.c3d #2000756)
+    b = _c3d_seed()
+    b[_param(b, "POINT", "LABELS")["record"] + 1] = 0x80
+    p = tmp_path / "m.c3d"
+    p.write_bytes(bytes(b))
+    out = _load_in_child(p)
+    assert out.startswith("MocapFormatError") and "group id 128 is out of range" in out, out

@@ -239,6 +239,8 @@ def _check_structure(path: Path, b: bytes) -> bool:
         nxt = struct.unpack_from(e + "h", b, at)[0]
         body = at + 2
         if gid < 0:
+            if gid == -128:
+                fail(f"parameter record at byte {i}: group id 128 is out of range (1 to 127)")
             if -gid in groups:
                 fail(f"parameter section defines group id {-gid} twice ({groups[-gid]}, {name.decode().upper()})")
             groups[-gid] = name.decode().upper()
