@@ -271,7 +271,9 @@ def read_bvh(path) -> Motion:
     ------
     MocapFormatError
         Naming the file, the line and the problem: malformed hierarchy,
-        missing or bad ``Frames:`` / ``Frame Time:``, non-numeric values,
+        a non-finite OFFSET, missing or bad ``Frames:`` / ``Frame Time:`` (a
+        frame time so small its rate is infinite included), non-numeric or
+        infinite values (``nan`` is read as missing),
         a line with the wrong number of channels, zero frames, or fewer or
         more data lines than ``Frames:`` says.
     """
