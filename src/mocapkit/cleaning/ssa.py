@@ -460,8 +460,7 @@ def _neighbor_word(
     i_end = int(path[-1, 0])
     acc = np.zeros((i_end + 1, len(rows), 4))
     ref = target[path[0, 1]]
-    for i, j in path:
-        acc[i] += _align(target[j], ref)
+    np.add.at(acc, path[:, 0], _align(target[path[:, 1]], ref[None]))
     warped = R.quaternion_normalize(acc)
     if i_end + 1 != N:
         flat = R.quaternion_continuity(warped, axis=0).reshape(i_end + 1, -1)

@@ -93,8 +93,7 @@ def _robust_sum(terms, members, drop) -> float:
     return s
 
 
-@njit(cache=True, parallel=True)
-def _group_pose_distances(A, B, members, offsets, drop):
+def _group_pose_distances_py(A, B, members, offsets, drop):
     Fa, Fb = A.shape[0], B.shape[0]
     m = A.shape[1]
     G = drop.shape[0]
@@ -119,6 +118,13 @@ def _group_pose_distances(A, B, members, offsets, drop):
                         continue
                 out[g, a, b] = _robust_sum(terms, members[offsets[g] : offsets[g + 1]], drop[g])
     return out
+
+
+# Two compilations of one kernel: threads pay off on long clips, but a word against a word (15 x 20
+# frames, called once per neighbour in mean_motion_texture) spends ~2 ms starting them for ~20 us of work.
+_group_pose_distances = njit(cache=True, parallel=True)(_group_pose_distances_py)
+_group_pose_distances_serial = njit(cache=True)(_group_pose_distances_py)
+_SERIAL_CELLS = 4096
 
 
 def _pack_groups(groups):
@@ -148,7 +154,8 @@ def group_pose_distances(A: np.ndarray, B: np.ndarray, groups: np.ndarray, drop)
     if len(drop) != len(groups) or np.any((drop < 0) | (drop > 3)):
         raise ValueError("drop must give 0..3 for every group")
     members, offsets = _pack_groups(groups)
-    return _group_pose_distances(A, B, members, offsets, drop)
+    kernel = _group_pose_distances_serial if A.shape[0] * B.shape[0] <= _SERIAL_CELLS else _group_pose_distances
+    return kernel(A, B, members, offsets, drop)
 
 
 # -- constrained DTW ---------------------------------------------------------
