@@ -10,6 +10,7 @@ folder and rename it, so a failed or interrupted write leaves no partial file.
 from __future__ import annotations
 
 import os
+import stat
 import tempfile
 from contextlib import contextmanager
 from pathlib import Path
@@ -62,12 +63,23 @@ def save(motion, path, **kwargs) -> Path:
     return path
 
 
+def _final_mode(path: Path) -> int:
+    try:
+        return stat.S_IMODE(path.stat().st_mode)
+    except OSError:
+        umask = os.umask(0)
+        os.umask(umask)
+        return 0o666 & ~umask
+
+
 @contextmanager
 def atomic_write(path, mode: str = "w", **open_kwargs):
     """Open a temporary file beside ``path`` for writing and rename it over ``path`` on success.
 
     On any exception (KeyboardInterrupt included) the temporary file is removed
-    and ``path`` is untouched.
+    and ``path`` is untouched. The file gets the permissions an ordinary
+    ``open(path, "w")`` would give it (those of the file it replaces, else
+    0o666 less the umask), not the temporary file's private 0o600.
     """
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
@@ -77,6 +89,7 @@ def atomic_write(path, mode: str = "w", **open_kwargs):
             yield fh
             fh.flush()
             os.fsync(fh.fileno())
+        os.chmod(tmp, _final_mode(path))
         os.replace(tmp, path)
     except BaseException:
         try:

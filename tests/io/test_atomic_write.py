@@ -1,0 +1,43 @@
+"""mocapkit.io.atomic_write: the rename is all-or-nothing and the result has ordinary permissions."""
+
+import os
+import stat
+
+import pytest
+
+import mocapkit
+from mocapkit.io import atomic_write
+
+
+def _mode(p):
+    return stat.S_IMODE(p.stat().st_mode)
+
+
+def test_new_files_get_the_umask_permissions_not_the_temp_files(tmp_path):
+    old = os.umask(0o022)
+    try:
+        out = tmp_path / "walk.bvh"
+        mocapkit.save(mocapkit.load(mocapkit.samples.path("12_walk.amc"))[:5], out)
+        assert _mode(out) == 0o644
+    finally:
+        os.umask(old)
+
+
+def test_a_replaced_file_keeps_its_permissions(tmp_path):
+    out = tmp_path / "a.txt"
+    out.write_text("old")
+    out.chmod(0o640)
+    with atomic_write(out) as fh:
+        fh.write("new")
+    assert out.read_text() == "new" and _mode(out) == 0o640
+
+
+def test_an_error_leaves_the_old_file_and_no_temp(tmp_path):
+    out = tmp_path / "a.txt"
+    out.write_text("old")
+    with pytest.raises(RuntimeError):
+        with atomic_write(out) as fh:
+            fh.write("half")
+            raise RuntimeError("boom")
+    assert out.read_text() == "old"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["a.txt"]
