@@ -73,6 +73,8 @@ bench: install-test
 	$(PY) benchmarks/reconstruct_accelerometers.py --json
 	$(PY) benchmarks/reconstruct_ssg.py --json
 	$(PY) benchmarks/reconstruct_multilinear.py --json
+	$(PY) benchmarks/clean_takes.py --json
+	$(PY) benchmarks/fuzz_readers.py --json
 
 clean:
 	rm -rf $(OUT) .pytest_cache
