@@ -334,24 +334,10 @@ def search(
 
 
 def _load_context(paths: list[Path] | None):
-    """--context: motion files, or one database folder."""
-    from . import io
-    from .database import MotionDatabase
-    from .motion import Motion
+    """--context: motion files, or one database folder (the same reader as clean-batch's)."""
+    from .batch import load_context
 
-    if not paths:
-        return None
-    if len(paths) == 1 and paths[0].is_dir():
-        return MotionDatabase.open(paths[0])
-    out = []
-    for p in paths:
-        if p.is_dir():
-            raise MocapFormatError(p, "a database folder must be the only --context")
-        m = io.load(p)
-        if not isinstance(m, Motion):
-            raise MocapFormatError(p, "a marker file cannot be context; give motions")
-        out.append(m)
-    return out
+    return load_context(paths)
 
 
 def _detect(m, context, threshold: float, progress: bool = True):
