@@ -109,7 +109,7 @@ from ..features import Sensor, _root_frame, default_sensors, detect_up_axis, fiv
 from ..motion import Motion, Skeleton, unit_scale_cm
 from ..search.knn import KNNIndex
 from ..search.lng import OnlineLazyNeighborhoodGraph
-from ._common import output_skeleton, per_clip
+from ._common import _qexp, _qmul, _qrot, output_skeleton, per_clip
 
 __all__ = [
     "DEFAULTS",
@@ -331,41 +331,13 @@ def knowledge_base(db: MotionDatabase, sensors: Sequence[Sensor] | None = None) 
 # -- forward kinematics in the root frame (numba) -------------------------------------------
 
 
-@numba.njit(cache=True, inline="always")
-def _qmul(a0, a1, a2, a3, b0, b1, b2, b3):
-    return (
-        a0 * b0 - a1 * b1 - a2 * b2 - a3 * b3,
-        a0 * b1 + a1 * b0 + a2 * b3 - a3 * b2,
-        a0 * b2 - a1 * b3 + a2 * b0 + a3 * b1,
-        a0 * b3 + a1 * b2 - a2 * b1 + a3 * b0,
-    )
-
-
-@numba.njit(cache=True, inline="always")
-def _qrot(q0, q1, q2, q3, x, y, z):
-    # v + 2 w (u x v) + 2 u x (u x v), u = (q1, q2, q3)
-    tx = 2.0 * (q2 * z - q3 * y)
-    ty = 2.0 * (q3 * x - q1 * z)
-    tz = 2.0 * (q1 * y - q2 * x)
-    return (x + q0 * tx + (q2 * tz - q3 * ty), y + q0 * ty + (q3 * tx - q1 * tz), z + q0 * tz + (q1 * ty - q2 * tx))
-
-
 @numba.njit(cache=True)
 def _fk_one(pose, parents, offsets, sens_joint, sens_off, sens_rot, pts, srot, g, p):
     """Forward kinematics of one pose vector (3J,) into ``pts`` (M, 3) and ``srot`` (S, 4); ``g``, ``p`` scratch."""
     J = parents.shape[0]
     S = sens_joint.shape[0]
     for j in range(J):
-        rx = pose[3 * j]
-        ry = pose[3 * j + 1]
-        rz = pose[3 * j + 2]
-        ang = math.sqrt(rx * rx + ry * ry + rz * rz)
-        half = 0.5 * ang
-        if ang > 1e-12:
-            s = math.sin(half) / ang
-        else:
-            s = 0.5 - ang * ang / 48.0
-        q0, q1, q2, q3 = math.cos(half), rx * s, ry * s, rz * s
+        q0, q1, q2, q3 = _qexp(pose[3 * j], pose[3 * j + 1], pose[3 * j + 2])
         par = parents[j]
         if par < 0:
             g[j, 0], g[j, 1], g[j, 2], g[j, 3] = q0, q1, q2, q3
@@ -788,11 +760,7 @@ def _gaussian(X: np.ndarray, w: np.ndarray):
 
 def _minimise(prob: _Problem, z0: np.ndarray, iterations: int):
     """Majorise-minimise / Gauss-Newton with a halving line search; returns ``(z, X, energy, steps)``."""
-    d = z0.size
-    z = z0.copy()
-    h = _FD_STEP
-    steps = 0
-    if d > 0 and prob.kind == "kernel":
+    if z0.size > 0 and prob.kind == "kernel":
         rig = prob.rig
         e0 = np.empty((1, 1, 3))
         use = np.array([prob.Xm is not None, prob.A is not None, prob.Xc is not None])
@@ -801,7 +769,7 @@ def _minimise(prob: _Problem, z0: np.ndarray, iterations: int):
             np.ascontiguousarray(z0, dtype=np.float64), prob.mu, np.ascontiguousarray(prob.B), np.ascontiguousarray(prob.Z),
             prob.rperp2, prob.w, e0 if prob.Xm is None else prob.Xm, e0 if prob.A is None else prob.A,
             np.zeros((1, 3)) if prob.base is None else prob.base, e0 if prob.Xc is None else prob.Xc, use, coef, prob.dt,
-            int(iterations), h, _EPS_POSE, _EPS_POS, rig.parents, rig.offsets, rig.sens_joint, rig.sens_off, rig.sens_rot,
+            int(iterations), _FD_STEP, _EPS_POSE, _EPS_POS, rig.parents, rig.offsets, rig.sens_joint, rig.sens_off, rig.sens_rot,
         )
     return _minimise_numpy(prob, z0, iterations)
 

@@ -83,7 +83,6 @@ such small matrices is slow on a busy machine (also consider
 
 from __future__ import annotations
 
-import math
 import weakref
 from dataclasses import dataclass
 from typing import Sequence
@@ -98,7 +97,7 @@ from ..database import MotionDatabase
 from ..features import _parse_up_axis, detect_up_axis, root_frame, virtual_markers
 from ..motion import Motion, Skeleton, unit_scale_cm
 from ..search.knn import KNNIndex
-from ._common import align_about_vertical, database_positions, output_skeleton, per_clip
+from ._common import _qexp, _qmul, _qrot, align_about_vertical, database_positions, output_skeleton, per_clip
 
 __all__ = ["reconstruct", "nearest_neighbor", "marker_residuals"]
 
@@ -230,43 +229,25 @@ def _fk_model_poses(mean, rel, yaw, root, parents, offsets, mk_joint, mk_offset,
     g = np.empty((J, 4))
     for b in range(B):
         for j in range(J):
-            rx, ry, rz = rel[b, j, 0], rel[b, j, 1], rel[b, j, 2]
-            ang = math.sqrt(rx * rx + ry * ry + rz * rz)
-            s = math.sin(0.5 * ang) / ang if ang > 1e-12 else 0.5 - ang * ang / 48.0
-            e0, e1, e2, e3 = math.cos(0.5 * ang), rx * s, ry * s, rz * s
-            m0, m1, m2, m3 = mean[j, 0], mean[j, 1], mean[j, 2], mean[j, 3]
-            q0 = m0 * e0 - m1 * e1 - m2 * e2 - m3 * e3
-            q1 = m0 * e1 + m1 * e0 + m2 * e3 - m3 * e2
-            q2 = m0 * e2 - m1 * e3 + m2 * e0 + m3 * e1
-            q3 = m0 * e3 + m1 * e2 - m2 * e1 + m3 * e0
+            e0, e1, e2, e3 = _qexp(rel[b, j, 0], rel[b, j, 1], rel[b, j, 2])
+            q0, q1, q2, q3 = _qmul(mean[j, 0], mean[j, 1], mean[j, 2], mean[j, 3], e0, e1, e2, e3)
             par = parents[j]
             if par < 0:
                 a0, a1, a2, a3 = yaw[b, 0], yaw[b, 1], yaw[b, 2], yaw[b, 3]
                 gpos[b, j, 0], gpos[b, j, 1], gpos[b, j, 2] = root[b, 0], root[b, 1], root[b, 2]
             else:
                 a0, a1, a2, a3 = g[par, 0], g[par, 1], g[par, 2], g[par, 3]
-                ox, oy, oz = offsets[j, 0], offsets[j, 1], offsets[j, 2]
-                # rotate (ox, oy, oz) by the parent's global rotation a
-                tx = 2.0 * (a2 * oz - a3 * oy)
-                ty = 2.0 * (a3 * ox - a1 * oz)
-                tz = 2.0 * (a1 * oy - a2 * ox)
-                gpos[b, j, 0] = gpos[b, par, 0] + ox + a0 * tx + (a2 * tz - a3 * ty)
-                gpos[b, j, 1] = gpos[b, par, 1] + oy + a0 * ty + (a3 * tx - a1 * tz)
-                gpos[b, j, 2] = gpos[b, par, 2] + oz + a0 * tz + (a1 * ty - a2 * tx)
-            g[j, 0] = a0 * q0 - a1 * q1 - a2 * q2 - a3 * q3
-            g[j, 1] = a0 * q1 + a1 * q0 + a2 * q3 - a3 * q2
-            g[j, 2] = a0 * q2 - a1 * q3 + a2 * q0 + a3 * q1
-            g[j, 3] = a0 * q3 + a1 * q2 - a2 * q1 + a3 * q0
+                ox, oy, oz = _qrot(a0, a1, a2, a3, offsets[j, 0], offsets[j, 1], offsets[j, 2])
+                gpos[b, j, 0] = gpos[b, par, 0] + ox
+                gpos[b, j, 1] = gpos[b, par, 1] + oy
+                gpos[b, j, 2] = gpos[b, par, 2] + oz
+            g[j, 0], g[j, 1], g[j, 2], g[j, 3] = _qmul(a0, a1, a2, a3, q0, q1, q2, q3)
         for k in range(mk_joint.shape[0]):
             j = mk_joint[k]
-            a0, a1, a2, a3 = g[j, 0], g[j, 1], g[j, 2], g[j, 3]
-            ox, oy, oz = mk_offset[k, 0], mk_offset[k, 1], mk_offset[k, 2]
-            tx = 2.0 * (a2 * oz - a3 * oy)
-            ty = 2.0 * (a3 * ox - a1 * oz)
-            tz = 2.0 * (a1 * oy - a2 * ox)
-            mpos[b, k, 0] = gpos[b, j, 0] + ox + a0 * tx + (a2 * tz - a3 * ty)
-            mpos[b, k, 1] = gpos[b, j, 1] + oy + a0 * ty + (a3 * tx - a1 * tz)
-            mpos[b, k, 2] = gpos[b, j, 2] + oz + a0 * tz + (a1 * ty - a2 * tx)
+            ox, oy, oz = _qrot(g[j, 0], g[j, 1], g[j, 2], g[j, 3], mk_offset[k, 0], mk_offset[k, 1], mk_offset[k, 2])
+            mpos[b, k, 0] = gpos[b, j, 0] + ox
+            mpos[b, k, 1] = gpos[b, j, 1] + oy
+            mpos[b, k, 2] = gpos[b, j, 2] + oz
 
 
 # -- the per-frame model and its residuals -------------------------------------------------------
