@@ -12,6 +12,7 @@ import io
 import struct
 import subprocess
 import sys
+import tempfile
 import zipfile
 from pathlib import Path
 
@@ -184,12 +185,12 @@ def test_asf_non_finite_geometry(tmp_path, old, new, message):
 
 
 def _npz_arrays(kind="motion"):
-    buf = io.BytesIO()
     obj = mocapkit.load(samples.path("131_01.bvh"))[:3] if kind == "motion" else mocapkit.load(samples.path("Eb015pr.c3d"))[:3]
-    p = Path(__import__("tempfile").mkdtemp()) / "x.npz"
-    write_npz(obj, p, compress=False)
-    with np.load(p) as z:
-        return {k: z[k] for k in z.files}
+    with tempfile.TemporaryDirectory() as d:
+        p = Path(d) / "x.npz"
+        write_npz(obj, p, compress=False)
+        with np.load(p) as z:
+            return {k: z[k] for k in z.files}
 
 
 def _save(tmp_path, arrays, compress=False) -> Path:

@@ -40,7 +40,6 @@ import re
 import resource
 import shutil
 import struct
-import sys
 import tempfile
 import time
 import traceback
@@ -501,7 +500,6 @@ def _c3d_mutation(rng: random.Random, b: bytearray) -> None:
 def _npz_mutation(rng: random.Random, data: bytes) -> bytes:
     """Rebuild the npz with one array changed, dropped or added; or craft a lying .npy header."""
     import io
-    import zipfile
 
     try:
         with np.load(io.BytesIO(data), allow_pickle=False) as z:

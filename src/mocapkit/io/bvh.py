@@ -75,7 +75,6 @@ def _parse_hierarchy(path: Path, text: str, motion_line: int | None):
     blocks: list[_Block] = []  # per joint
     end_parents: list[int] = []
     end_offsets: list[tuple[float, float, float]] = []
-    end_blocks: list[_Block] = []
     stack: list[_Block] = []
     pending: _Block | None = None  # declared, waiting for its "{"
     root_seen = False
