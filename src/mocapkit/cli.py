@@ -671,9 +671,9 @@ def reconstruct(
     _check_output(inp, out)
     io._suffix(out, io.WRITERS, "writing")
     db = MotionDatabase.open(db_dir)
-    if kind == "accelerometers" and inp.suffix.lower() == ".csv":
+    if kind == "accelerometers":
         from .reconstruct import accelerometers as acc
-
+    if kind == "accelerometers" and inp.suffix.lower() == ".csv":
         times, readings, names = acc.read_readings_csv(inp)
         source = None
         fps = (len(times) - 1) / (times[-1] - times[0]) if len(times) > 1 else db.fps
@@ -685,8 +685,6 @@ def reconstruct(
     performer = _performer_skeleton(skeleton, source, db)
     try:
         if kind == "accelerometers":
-            from .reconstruct import accelerometers as acc
-
             if source is not None:
                 from .features import virtual_accelerometers
 
