@@ -5,11 +5,12 @@ import dataclasses
 
 import numpy as np
 import pytest
+from scipy.signal import resample_poly
 
 import mocapkit
 from mocapkit import corrupt
 from mocapkit import rotations as R
-from mocapkit.cleaning import ssa
+from mocapkit.cleaning import ssa, word_dtw
 from mocapkit.errors import SkeletonError
 from mocapkit.motion import concatenate
 
@@ -214,3 +215,70 @@ def test_sparse_reconstruction_from_nine_joints():
     rest = np.degrees(R.geodesic_angle(np.broadcast_to(R.identity(), a.rotations[:, unknown].shape), a.rotations[:, unknown]))
     moving = rest.mean(axis=0) > 5
     assert err[:, moving].mean() < 0.5 * rest[:, moving].mean()
+
+
+# -- the batched neighbour-word warp against the one-word-at-a-time reference ---------------------
+
+
+def _reference_neighbor_word(
+    source_word, context, members, drop, pos, N, M, min_width=11, out_rows=None
+):
+    """The oracle of ``ssa._neighbor_words``: one neighbour word time-warped onto the source word's N frames (section 3.2), (N, m_g, 4).
+
+    The constrained DTW path between ``source_word`` (N, m, 4) and the target
+    word at ``pos`` is recomputed; every source frame takes the mean of the
+    target frames matched to it (the time-warped target). When the target word
+    ran out first (path ending before the last source frame) the warped part
+    is resized to N frames with the polyphase filter ``scipy.signal.resample_poly``
+    as the paper does. Returns None when the target does not fit its clip.
+    ``out_rows`` warps other rows of the target along the path found on
+    ``members`` (sparse reconstruction: matched on a few joints, copied for all).
+    """
+    clip = int(context.clip_of(pos))
+    end = int(context.clip_starts[clip + 1])
+    if pos + M > end:
+        return None
+    rows = members if out_rows is None else out_rows
+    target = R.quaternion_continuity(context.values[pos : pos + M], axis=0)
+    src = source_word[:, members]
+    D = word_dtw.group_pose_distances(src, target[:, members], np.ones((1, len(members)), dtype=bool), [drop])[0]
+    _, path = word_dtw.word_dtw_path(D, min_width=min_width)
+    if len(path) == 0:
+        return None
+    target = target[:, rows]
+    i_end = int(path[-1, 0])
+    acc = np.zeros((i_end + 1, len(rows), 4))
+    ref = target[path[0, 1]]
+    np.add.at(acc, path[:, 0], target[path[:, 1]] * np.where(np.sum(target[path[:, 1]] * ref[None], axis=-1, keepdims=True) < 0, -1.0, 1.0))
+    warped = R.quaternion_normalize(acc)
+    if i_end + 1 != N:
+        flat = R.quaternion_continuity(warped, axis=0).reshape(i_end + 1, -1)
+        warped = resample_poly(flat, N, i_end + 1, axis=0, padtype="line").reshape(N, len(rows), 4)
+    return R.quaternion_normalize(warped)
+
+
+
+
+@pytest.mark.parametrize("group", ["whole", "left"])
+def test_neighbor_words_equal_the_one_at_a_time_reference(walk, flipped, group):
+    det = flipped[3]
+    src, full, _, _, _ = ssa._prepare(flipped[0], None, 24.0, det.texture_joints)
+    g = det.group_names.index(group)
+    members = np.flatnonzero(det.group_masks[g])
+    wi, ki = np.nonzero(det.neighbor_pos[g] >= 0)
+    starts, pos = det.word_starts[wi], det.neighbor_pos[g][wi, ki]
+    pos = np.append(pos, full.num_frames - 5)  # a target that runs past its clip
+    starts = np.append(starts, 0)
+    words, ok = ssa._neighbor_words(src.values, full, members, ssa._drop(members), starts, pos, 15, 20)
+    resized = 0
+    for q in range(len(pos)):
+        ref = _reference_neighbor_word(src.values[starts[q] : starts[q] + 15], full, members, ssa._drop(members), int(pos[q]), 15, 20)
+        assert ok[q] == (ref is not None)
+        if ref is not None:
+            np.testing.assert_allclose(ssa._align(words[q], ref), ref, atol=1e-12)
+        else:
+            assert np.isnan(words[q]).all()
+    assert not ok[-1] and ok[:-1].all()
+    # some paths end on the target's last column, so the polyphase resize is exercised
+    _, iend = word_dtw.warp_target_words(src.values, full.values, members, ssa._drop(members), starts[:-1], pos[:-1])
+    assert np.any(iend < 14)

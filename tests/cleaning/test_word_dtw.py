@@ -7,7 +7,7 @@ from hypothesis import strategies as st
 
 from mocapkit import rotations as R
 from mocapkit.cleaning import word_dtw as W
-from tests.naive import group_pose_distance_naive, word_dtw_enumerate
+from tests.naive import group_pose_distance_naive, naive_local_minima_knn, word_dtw_enumerate
 
 
 @settings(max_examples=60, deadline=None)
@@ -98,3 +98,58 @@ def test_select_separated_minima():
     out = W.select_separated_minima(dist, pos, clips, 3, 7, np.array([95]), np.array([105]))
     # 100 is in the excluded zone; 12 is too close to 10; 40 next
     assert out.tolist() == [[10, 40, 60]]
+
+
+def _walk_texture(n_frames=160, seed=0):
+    """A quasi-periodic synthetic texture (F, 6, 4): smooth rotations whose pattern repeats with drift."""
+    rng = np.random.default_rng(seed)
+    t = np.arange(n_frames)[:, None]
+    axes = rng.normal(size=(6, 3))
+    axes /= np.linalg.norm(axes, axis=1, keepdims=True)
+    ang = 0.6 * np.sin(2 * np.pi * t / 23.0 + rng.uniform(0, 6, 6)) + 0.05 * rng.normal(size=(n_frames, 6))
+    q = np.concatenate([np.cos(ang / 2)[..., None], np.sin(ang / 2)[..., None] * axes[None]], axis=-1)
+    return q
+
+
+@pytest.mark.parametrize("exclude", [False, True])
+def test_knn_profile_equals_full_profile_minima(exclude):
+    A = _walk_texture(160, 1)
+    D = W.group_pose_distances(A, A, np.ones((1, 6), dtype=bool), [1])[0]
+    src = np.arange(0, 160 - 15, 5)
+    tgt = np.concatenate([np.arange(0, 70), np.arange(75, 141)])  # two "clips": a break in the starts
+    dist, ie, je = W.word_distance_profile(D, src, tgt)
+    center = src if exclude else None
+    want = naive_local_minima_knn(dist, tgt, 5, center, 7)
+    idx, d, i_end, j_end, ev = W.word_knn_profile(D, src, tgt, 5, center, 7, return_evaluated=True)
+    for w in range(len(src)):
+        got = [(float(d[w, q]), int(idx[w, q])) for q in range(5) if idx[w, q] >= 0]
+        assert [t for _, t in got] == [t for _, t in want[w]]
+        np.testing.assert_allclose([v for v, _ in got], [v for v, _ in want[w]], rtol=1e-6)
+        for q, (_, t) in enumerate(got):
+            assert (i_end[w, q], j_end[w, q]) == (ie[w, t], je[w, t])
+    assert ev.mean() < len(tgt)  # the bound pruned something
+
+
+def test_knn_profile_lower_bound_is_a_bound(rng):
+    A, B = _random_quats(rng, (40, 5)), _random_quats(rng, (60, 5))
+    D = W.group_pose_distances(A, B, np.ones((1, 5), dtype=bool), [0])[0]
+    src, tgt = np.arange(0, 26, 5), np.arange(0, 41)
+    for N, M, mw, run in ((15, 20, 11, 3), (10, 12, 8, 1), (15, 20, 11, 0)):
+        s = src[src + N <= 40]
+        dist, _, _ = W.word_distance_profile(D, s, tgt[tgt + M <= 60], N, M, mw, run)
+        lb = W.word_dtw_lower_bounds(D, s, tgt[tgt + M <= 60], N, M, mw, run)
+        fin = np.isfinite(dist)
+        assert np.all(lb[fin] <= dist[fin].astype(np.float64) * (1 + 1e-6))
+        assert np.mean(lb[fin] / dist[fin]) > 0.3  # and not a trivial one
+
+
+def test_knn_profile_few_minima_and_k_larger_than_targets():
+    A = _walk_texture(60, 2)
+    D = W.group_pose_distances(A, A, np.ones((1, 6), dtype=bool), [1])[0]
+    src, tgt = np.array([0, 20]), np.arange(0, 8)
+    dist, _, _ = W.word_distance_profile(D, src, tgt)
+    want = naive_local_minima_knn(dist, tgt, 20)
+    idx, d, _, _ = W.word_knn_profile(D, src, tgt, 20)
+    for w in range(2):
+        n = len(want[w])
+        assert idx[w, :n].tolist() == [t for _, t in want[w]] and (idx[w, n:] == -1).all() and np.isinf(d[w, n:]).all()

@@ -294,34 +294,6 @@ class _Neighbors:
     dist: np.ndarray  # (G, W, K) float32
 
 
-def _local_minima_knn(dist, tgt, k, exclude_center, half):
-    """K smallest local minima per row of ``dist`` (W, T) over target starts ``tgt`` (T,) (section 3.3)."""
-    W, T = dist.shape
-    d = dist.astype(np.float64, copy=True)
-    if exclude_center is not None:
-        near = np.abs(tgt[None, :] - exclude_center[:, None]) <= half
-        d[near] = np.inf
-    consecutive = np.zeros(T + 1, dtype=bool)
-    consecutive[1:-1] = tgt[1:] == tgt[:-1] + 1
-    left = np.full_like(d, np.inf)
-    right = np.full_like(d, np.inf)
-    left[:, 1:] = np.where(consecutive[None, 1:-1], d[:, :-1], np.inf)
-    right[:, :-1] = np.where(consecutive[None, 1:-1], d[:, 1:], np.inf)
-    is_min = (d <= left) & (d < right) & np.isfinite(d)
-    cand = np.where(is_min, d, np.inf)
-    kk = min(k, T)
-    idx = np.argpartition(cand, kk - 1, axis=1)[:, :kk] if T > kk else np.tile(np.arange(T), (W, 1))
-    vals = np.take_along_axis(cand, idx, axis=1)
-    order = np.argsort(vals, axis=1, kind="stable")
-    idx = np.take_along_axis(idx, order, axis=1)
-    vals = np.take_along_axis(vals, order, axis=1)
-    if kk < k:
-        pad = k - kk
-        idx = np.concatenate([idx, np.zeros((W, pad), dtype=idx.dtype)], axis=1)
-        vals = np.concatenate([vals, np.full((W, pad), np.inf)], axis=1)
-    return idx, vals
-
-
 def _descriptors(values: np.ndarray, starts: np.ndarray, members: np.ndarray, length: int) -> np.ndarray:
     """Cheap word descriptors for the kd-tree prefilter: 6-D rotations of the group at 3 frames of the word."""
     offs = np.array([0, length // 2, length - 1])
@@ -353,7 +325,10 @@ def nearest_words(
     frames, reduced by PCA) proposes ``candidates`` target positions per source
     word and only those are ranked by DTW (section 7's suggestion); otherwise
     every target position is compared, and the neighbours are the K smallest
-    local minima of the distance function. ``self_clip`` is the clip of
+    local minima of the distance function (found by
+    :func:`~mocapkit.cleaning.word_dtw.word_knn_profile`, which skips the
+    positions a lower bound proves too far: the same neighbours, about five
+    times faster). ``self_clip`` is the clip of
     ``context`` that ``source`` is (its neighbours closer than N/2 frames to the
     source word are excluded), or None.
     """
@@ -417,55 +392,60 @@ def nearest_words(
         f0, f1 = int(ws.min()), int(ws.max()) + N
         D = word_dtw.group_pose_distances(source.values[f0:f1], context.values, masks, drops)
         for gi in range(G):
-            dist, ie, je = word_dtw.word_distance_profile(D[gi], ws - f0, tgt, N, M, min_width, max_run)
             excl = ws + offset if self_clip is not None else None
-            idx, vals = _local_minima_knn(dist, tgt, k, excl, half)
-            ok = np.isfinite(vals)
+            idx, vals, ie, je = word_dtw.word_knn_profile(D[gi], ws - f0, tgt, k, excl, half, N, M, min_width, max_run)
             sl = slice(c0, c0 + len(ws))
-            out.pos[gi, sl] = np.where(ok, tgt[idx], -1)
-            out.iend[gi, sl] = np.take_along_axis(ie, idx, axis=1)
-            out.jend[gi, sl] = np.take_along_axis(je, idx, axis=1)
-            out.dist[gi, sl] = np.where(ok, vals, np.inf)
+            out.pos[gi, sl] = np.where(idx >= 0, tgt[np.maximum(idx, 0)], -1)
+            out.iend[gi, sl] = ie
+            out.jend[gi, sl] = je
+            out.dist[gi, sl] = vals
         if progress is not None:
             progress.update(len(ws) * G)
     return out
 
 
-def _neighbor_word(
-    source_word, context: MotionTexture, members, drop, pos, N, M, min_width=11, out_rows=None
-) -> np.ndarray | None:
-    """A neighbour word time-warped onto the source word's N frames (section 3.2), (N, m_g, 4).
+def _neighbor_words(
+    source_values, context: MotionTexture, members, drop, src_starts, pos, N, M, min_width=11, out_rows=None
+) -> tuple[np.ndarray, np.ndarray]:
+    """Neighbour words time-warped onto their source words' N frames (section 3.2), (P, N, m_g, 4).
 
-    The constrained DTW path between ``source_word`` (N, m, 4) and the target
-    word at ``pos`` is recomputed; every source frame takes the mean of the
-    target frames matched to it (the time-warped target). When the target word
-    ran out first (path ending before the last source frame) the warped part
-    is resized to N frames with the polyphase filter ``scipy.signal.resample_poly``
-    as the paper does. Returns None when the target does not fit its clip.
-    ``out_rows`` warps other rows of the target along the path found on
-    ``members`` (sparse reconstruction: matched on a few joints, copied for all).
+    For each pair the constrained DTW path between the source word at
+    ``src_starts[p]`` and the target word at ``pos[p]`` (on the rows
+    ``members``, ignoring ``drop`` largest joint terms) is found; every source
+    frame takes the mean of the target frames matched to it (the time-warped
+    target). When the target word ran out first (path ending before the last
+    source frame) the warped part is resized to N frames with the polyphase
+    filter ``scipy.signal.resample_poly``, as the paper does. ``out_rows``
+    warps other rows of the target along the path found on ``members``
+    (sparse reconstruction: matched on a few joints, copied for all).
+
+    Returns ``words`` (P, N, len(rows), 4) and ``ok`` (P,) bool (False where
+    the target word does not fit its clip or no admissible path exists; those
+    words are NaN). The DTW, path and warp run in one numba kernel
+    (:func:`mocapkit.cleaning.word_dtw.warp_target_words`); the warped parts
+    shorter than N frames are resized with ``resample_poly``, one call per length.
     """
-    clip = int(context.clip_of(pos))
-    end = int(context.clip_starts[clip + 1])
-    if pos + M > end:
-        return None
+    src_starts = np.asarray(src_starts, dtype=np.int64)
+    pos = np.asarray(pos, dtype=np.int64)
     rows = members if out_rows is None else out_rows
-    target = R.quaternion_continuity(context.values[pos : pos + M], axis=0)
-    src = source_word[:, members]
-    D = word_dtw.group_pose_distances(src, target[:, members], np.ones((1, len(members)), dtype=bool), [drop])[0]
-    _, path = word_dtw.word_dtw_path(D, min_width=min_width)
-    if len(path) == 0:
-        return None
-    target = target[:, rows]
-    i_end = int(path[-1, 0])
-    acc = np.zeros((i_end + 1, len(rows), 4))
-    ref = target[path[0, 1]]
-    np.add.at(acc, path[:, 0], _align(target[path[:, 1]], ref[None]))
-    warped = R.quaternion_normalize(acc)
-    if i_end + 1 != N:
-        flat = R.quaternion_continuity(warped, axis=0).reshape(i_end + 1, -1)
-        warped = resample_poly(flat, N, i_end + 1, axis=0, padtype="line").reshape(N, len(rows), 4)
-    return R.quaternion_normalize(warped)
+    clip = context.clip_of(pos)
+    fits = (pos >= 0) & (pos + M <= context.clip_starts[np.maximum(clip, 0) + 1])
+    idx = np.flatnonzero(fits)
+    words = np.full((len(pos), N, len(rows), 4), np.nan)
+    ok = np.zeros(len(pos), dtype=bool)
+    if len(idx) == 0:
+        return words, ok
+    warped, iend = word_dtw.warp_target_words(
+        source_values, context.values, members, drop, src_starts[idx], pos[idx], N, M, min_width, 3, rows
+    )
+    for L in np.unique(iend[(iend >= 0) & (iend + 1 != N)]) + 1:
+        sel = np.flatnonzero(iend + 1 == L)
+        part = R.quaternion_continuity(warped[sel, :L], axis=1).reshape(len(sel), L, -1)
+        warped[sel] = resample_poly(part, N, L, axis=1, padtype="line").reshape(len(sel), N, len(rows), 4)
+    good = iend >= 0
+    words[idx[good]] = R.quaternion_normalize(warped[good])
+    ok[idx[good]] = True
+    return words, ok
 
 
 def _align(q: np.ndarray, ref: np.ndarray) -> np.ndarray:
@@ -526,26 +506,28 @@ def mean_motion_texture(
     F, m = source.values.shape[:2]
     out = np.full((G, F, m, 4), np.nan)
     spread = np.full((G, F, m), np.nan)
+    K = neighbors.pos.shape[2]
     for gi, members in enumerate(groups):
         acc = np.zeros((F, len(members), 4))
         sacc = np.zeros((F, len(members)))
         cnt = np.zeros(F)
+        dists = neighbors.dist[gi]  # (W, K)
+        best = np.min(dists, axis=1, keepdims=True)
+        cutoff = np.where(np.isfinite(best), neighbor_ratio * best.astype(np.float64) + 1e-3, np.inf)
+        use = (neighbors.pos[gi] >= 0) & (dists <= cutoff)
+        wi, ki = np.nonzero(use)
+        nws, ok = _neighbor_words(
+            source.values, context, members, _drop(members), word_starts[wi], neighbors.pos[gi][wi, ki], N, target_length
+        )
+        by_word = np.split(np.flatnonzero(ok), np.searchsorted(wi[ok], np.arange(1, len(word_starts))))
         for w, s in enumerate(word_starts):
-            words = []
-            dists = neighbors.dist[gi, w]
-            cutoff = neighbor_ratio * float(np.min(dists)) + 1e-3 if np.isfinite(dists).any() else np.inf
-            for kk in range(neighbors.pos.shape[2]):
-                p = neighbors.pos[gi, w, kk]
-                if p < 0 or dists[kk] > cutoff:
-                    continue
-                nw = _neighbor_word(source.values[s : s + N], context, members, _drop(members), p, N, target_length)
-                if nw is not None:
-                    # align with the first neighbour, not the source: a broken source joint may sit
-                    # 90 degrees away in quaternion space, where hemispheres are arbitrary
-                    words.append(_align(nw, words[0]) if words else nw)
-            if not words:
+            sel = by_word[w]
+            if len(sel) == 0:
                 continue
-            mean_word, word_spread = _robust_mean(np.stack(words))
+            # align with the first neighbour, not the source: a broken source joint may sit
+            # 90 degrees away in quaternion space, where hemispheres are arbitrary
+            words = _align(nws[sel], nws[sel[0]][None])
+            mean_word, word_spread = _robust_mean(words)
             ref = np.where(np.linalg.norm(acc[s : s + N], axis=-1, keepdims=True) > 0, acc[s : s + N], mean_word)
             acc[s : s + N] += _align(mean_word, ref)
             sacc[s : s + N] += word_spread
@@ -1090,16 +1072,20 @@ def repair(
         if g < 0:
             continue
         flagged_frames_by_word.setdefault((g, int(word_of[f])), []).append((f, j))
+    # every neighbour word the repair needs, warped in one batch per group
+    K = detection.neighbor_pos.shape[2]
+    warped: dict[tuple[int, int], list[np.ndarray]] = {}
+    for g in sorted({g for g, _ in flagged_frames_by_word}):
+        ws = np.array(sorted({w for gg, w in flagged_frames_by_word if gg == g}), dtype=np.int64)
+        pos = detection.neighbor_pos[g, ws]  # (n, K)
+        wi, ki = np.nonzero(pos >= 0)
+        members = groups[g]
+        nws, ok = _neighbor_words(src.values, full, members, _drop(members), words[ws[wi]], pos[wi, ki], N, int(p["target_length"]))
+        for q in np.flatnonzero(ok):
+            warped.setdefault((g, int(ws[wi[q]])), []).append(nws[q])
     for (g, w), cells in flagged_frames_by_word.items():
         members = groups[g]
-        words_k = []
-        for kk in range(detection.neighbor_pos.shape[2]):
-            pos = int(detection.neighbor_pos[g, w, kk])
-            if pos < 0:
-                continue
-            nw = _neighbor_word(src.values[words[w] : words[w] + N], full, members, _drop(members), pos, N, int(p["target_length"]))
-            if nw is not None:
-                words_k.append(nw)
+        words_k = warped.get((g, w), [])
         if not words_k:
             continue
         flagged_cols = np.array(sorted({int(np.flatnonzero(members == col[j])[0]) for _, j in cells}))
@@ -1239,15 +1225,10 @@ def reconstruct_sparse(
     drop = _drop(known)
     out = np.array(src.values)
     prev_last = None
+    wi, ki = np.nonzero(nb.pos[0] >= 0)
+    nws, ok = _neighbor_words(src.values, full, known, drop, words[wi], nb.pos[0][wi, ki], N, M, min(11, N), out_rows=all_rows)
     for w, s in enumerate(tqdm(words, desc="sparse reconstruction", disable=not progress, unit="word")):
-        cands = []
-        for kk in range(k):
-            p = int(nb.pos[0, w, kk])
-            if p < 0:
-                continue
-            cw = _neighbor_word(src.values[s : s + N], full, known, drop, p, N, M, out_rows=all_rows)
-            if cw is not None:
-                cands.append((float(nb.dist[0, w, kk]), cw))
+        cands = [(float(nb.dist[0, w, ki[q]]), nws[q]) for q in np.flatnonzero((wi == w) & ok)]
         if not cands:
             continue
         if prev_last is None:

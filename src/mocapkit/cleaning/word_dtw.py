@@ -43,7 +43,10 @@ __all__ = [
     "word_dtw",
     "word_dtw_path",
     "word_distance_profile",
+    "word_knn_profile",
+    "word_dtw_lower_bounds",
     "word_distance_pairs",
+    "warp_target_words",
     "select_separated_minima",
     "NUM_STATES",
 ]
@@ -368,6 +371,277 @@ def word_distance_profile(D, src_starts, tgt_starts, N=15, M=20, min_width=11, m
     return dist, iend, jend
 
 
+# -- the K nearest words without the whole distance function ------------------------
+#
+# Section 3.3 keeps only the K smallest local minima of a source word's distance
+# function. Most target positions are far from the source word, and a cheap lower
+# bound of their DTW distance proves it: :func:`_knn_profile` evaluates the DTW in
+# increasing order of the bound and stops once the bound exceeds the K-th smallest
+# local minimum found, which leaves the answer exactly that of the full profile.
+#
+# The bound. An admissible path visits every row 0..i_end (i_end >= min_width - 1),
+# each with 1 to max_run + 1 cells (at most max_run horizontal steps in a row), and
+# row i only in columns 0..(max_run + 1)(i + 1) - 1. With r_i the smallest cost of
+# row i over those columns, the path's mean cost is at least the smallest weighted
+# mean of r_0..r_iend with weights in [1, max_run + 1]: weight max_run + 1 on the
+# smallest values, 1 on the others, the split tried at every rank. The DTW's
+# distance (the best mean over end cells of least-sum paths) is a path mean, so it
+# is bounded too.
+
+
+def _row_windows(N, M, max_run):
+    """Column window length of each source row, and the distinct lengths (the bound's row minima)."""
+    per_row = np.array([min(M, (max_run + 1) * (i + 1)) for i in range(N)], dtype=np.int64)
+    lens = np.unique(per_row)
+    level = np.searchsorted(lens, per_row).astype(np.int64)
+    return lens, level
+
+
+@njit(cache=True, parallel=True)
+def _row_minima(D, tgt, lens, out):
+    """out[l, r, t] = min(D[r, tgt[t] : tgt[t] + lens[l]]), the lens increasing."""
+    R = D.shape[0]
+    T = tgt.shape[0]
+    for r in prange(R):
+        for t in range(T):
+            v = _INF
+            j0 = 0
+            for l in range(lens.shape[0]):
+                for j in range(j0, lens[l]):
+                    c = D[r, tgt[t] + j]
+                    if c < v:
+                        v = c
+                out[l, r, t] = v
+                j0 = lens[l]
+
+
+@njit(cache=True, inline="always")
+def _bound(rowmin, level, s, t, N, min_width, wmax, buf):
+    """Lower bound of the word distance of the source word at row ``s`` and target ``t`` (see above)."""
+    best = _INF
+    n = 0
+    lo = min_width - 1 if min_width >= 1 else 0
+    for i in range(N):
+        v = rowmin[level[i], s + i, t]
+        if not v < _INF:
+            return best  # no finite path reaches past row i
+        # insertion into the sorted prefix buf[:n]
+        k = n
+        while k > 0 and buf[k - 1] > v:
+            buf[k] = buf[k - 1]
+            k -= 1
+        buf[k] = v
+        n += 1
+        if i >= lo:
+            total = 0.0
+            for q in range(n):
+                total += buf[q]
+            low = 0.0
+            for q in range(n + 1):  # the q smallest rows carry weight wmax
+                m = (wmax * low + (total - low)) / (wmax * q + (n - q))
+                if m < best:
+                    best = m
+                if q < n:
+                    low += buf[q]
+    return best
+
+
+@njit(cache=True)
+def _kth_confirmed(d, evaluated, lb, consec, ev, ne, k, vals):
+    """K-th smallest value among the evaluated positions proven to be local minima (inf if fewer)."""
+    T = d.shape[0]
+    n = 0
+    for e in range(ne):
+        t = ev[e]
+        v = d[t]
+        if not v < _INF:
+            continue
+        if n == k and v >= vals[k - 1]:
+            continue
+        if t > 0 and consec[t]:
+            if evaluated[t - 1]:
+                if not v <= d[t - 1]:
+                    continue
+            elif not lb[t - 1] >= v:
+                continue
+        if t + 1 < T and consec[t + 1]:
+            if evaluated[t + 1]:
+                if not v < d[t + 1]:
+                    continue
+            elif not lb[t + 1] > v:
+                continue
+        q = n if n < k else k - 1
+        while q > 0 and vals[q - 1] > v:
+            vals[q] = vals[q - 1]
+            q -= 1
+        vals[q] = v
+        if n < k:
+            n += 1
+    return vals[k - 1] if n == k else _INF
+
+
+@njit(cache=True, parallel=True)
+def _knn_profile(D, rowmin, level, src, tgt, consec, excl_lo, excl_hi, N, M, min_width, max_run, k, batch,
+                 out_idx, out_dist, out_iend, out_jend, out_evaluated):
+    W = src.shape[0]
+    T = tgt.shape[0]
+    wmax = float(max_run + 1)
+    for w in prange(W):
+        acc = np.empty((N, M, 7))
+        ln = np.empty((N, M, 7), dtype=np.int64)
+        buf = np.empty(N)
+        vals = np.empty(k)
+        lb = np.empty(T)
+        d = np.empty(T)
+        ie = np.zeros(T, dtype=np.int64)
+        je = np.zeros(T, dtype=np.int64)
+        evaluated = np.zeros(T, dtype=np.bool_)
+        ev = np.empty(T, dtype=np.int64)
+        ne = 0
+        for t in range(T):
+            if excl_lo[w] <= tgt[t] <= excl_hi[w]:
+                lb[t] = _INF
+                d[t] = _INF
+                evaluated[t] = True  # excluded: its distance counts as infinite
+            else:
+                lb[t] = _bound(rowmin, level, src[w], t, N, min_width, wmax, buf) * (1.0 - 1e-9)
+        order = np.argsort(lb, kind="mergesort")
+        tau = _INF
+        x = 0
+        while x < T:
+            t = order[x]
+            if not lb[t] <= tau:
+                break
+            x += 1
+            if evaluated[t]:
+                continue
+            dd, i, j = _word_dtw(D, src[w], tgt[t], N, M, min_width, max_run, acc, ln)
+            d[t] = dd
+            ie[t] = i
+            je[t] = j
+            evaluated[t] = True
+            ev[ne] = t
+            ne += 1
+            if ne % batch == 0:
+                tau = _kth_confirmed(d, evaluated, lb, consec, ev, ne, k, vals)
+        out_evaluated[w] = ne
+        # the K smallest proven local minima, ties to the earlier target
+        n = 0
+        picked = np.full(k, -1, dtype=np.int64)
+        for e in range(ne):
+            t = ev[e]
+            v = d[t]
+            if not v < _INF:
+                continue
+            if t > 0 and consec[t]:
+                if evaluated[t - 1]:
+                    if not v <= d[t - 1]:
+                        continue
+                elif not lb[t - 1] >= v:
+                    continue
+            if t + 1 < T and consec[t + 1]:
+                if evaluated[t + 1]:
+                    if not v < d[t + 1]:
+                        continue
+                elif not lb[t + 1] > v:
+                    continue
+            if n == k and (v > out_dist[w, k - 1] or (v == out_dist[w, k - 1] and t > picked[k - 1])):
+                continue
+            q = n if n < k else k - 1
+            while q > 0 and (out_dist[w, q - 1] > v or (out_dist[w, q - 1] == v and picked[q - 1] > t)):
+                out_dist[w, q] = out_dist[w, q - 1]
+                picked[q] = picked[q - 1]
+                q -= 1
+            out_dist[w, q] = v
+            picked[q] = t
+            if n < k:
+                n += 1
+        for q in range(k):
+            t = picked[q]
+            out_idx[w, q] = t
+            if t >= 0:
+                out_iend[w, q] = ie[t]
+                out_jend[w, q] = je[t]
+            else:
+                out_dist[w, q] = _INF
+                out_iend[w, q] = 0
+                out_jend[w, q] = 0
+
+
+def _check_starts(D, src, tgt, N, M):
+    if len(src) and (src.min() < 0 or src.max() + N > D.shape[0]):
+        raise ValueError("a source word runs past the end of the pose-distance matrix")
+    if len(tgt) and (tgt.min() < 0 or tgt.max() + M > D.shape[1]):
+        raise ValueError("a target word runs past the end of the pose-distance matrix")
+
+
+def word_dtw_lower_bounds(D, src_starts, tgt_starts, N=15, M=20, min_width=11, max_run=3):
+    """The lower bounds :func:`word_knn_profile` prunes with, (W, T) float64 (for tests and diagnostics).
+
+    Every entry is at most the corresponding :func:`word_distance_profile` distance.
+    """
+    D = np.asarray(D)
+    src = np.ascontiguousarray(src_starts, dtype=np.int64)
+    tgt = np.ascontiguousarray(tgt_starts, dtype=np.int64)
+    _check_starts(D, src, tgt, N, M)
+    lens, level = _row_windows(N, M, max_run)
+    rowmin = np.empty((len(lens), D.shape[0], len(tgt)), dtype=np.float32)
+    _row_minima(D, tgt, lens, rowmin)
+    buf = np.empty(N)
+    out = np.empty((len(src), len(tgt)))
+    for w in range(len(src)):
+        for t in range(len(tgt)):
+            out[w, t] = _bound(rowmin, level, int(src[w]), t, N, int(min_width), float(max_run + 1), buf)
+    return out
+
+
+def word_knn_profile(D, src_starts, tgt_starts, k=5, exclude_center=None, exclude_half=7, N=15, M=20,
+                     min_width=11, max_run=3, return_evaluated=False):
+    """The K smallest local minima of each source word's distance function, without computing all of it.
+
+    The same answer as :func:`word_distance_profile` followed by taking, per
+    row, the ``k`` smallest local minima over the target starts (section 3.3;
+    neighbouring entries are compared only where the starts are consecutive
+    frames), but the DTW runs only where a lower bound of the distance (see
+    the comment above :func:`_row_windows`) is below the K-th minimum found:
+    about one target position in seven on real clips. Target starts within
+    ``exclude_half`` frames of ``exclude_center[w]`` (the source word's own
+    place, or None) count as infinitely far. Ties go to the earlier target.
+
+    Returns ``idx`` int64 (W, k) indices into ``tgt_starts`` (-1: fewer than
+    ``k`` minima), ``dist`` float32 (W, k) ascending (inf where -1), ``i_end``,
+    ``j_end`` int16 (W, k), and with ``return_evaluated`` the number of DTWs run
+    per source word (W,).
+    """
+    D = np.asarray(D)
+    src = np.ascontiguousarray(src_starts, dtype=np.int64)
+    tgt = np.ascontiguousarray(tgt_starts, dtype=np.int64)
+    _check_starts(D, src, tgt, N, M)
+    if k < 1:
+        raise ValueError(f"k must be at least 1, got {k}")
+    W, T = len(src), len(tgt)
+    idx = np.full((W, k), -1, dtype=np.int64)
+    dist = np.full((W, k), np.inf)
+    iend = np.zeros((W, k), dtype=np.int64)
+    jend = np.zeros((W, k), dtype=np.int64)
+    evaluated = np.zeros(W, dtype=np.int64)
+    if W and T:
+        if exclude_center is None:
+            lo, hi = np.ones(W, dtype=np.int64), np.zeros(W, dtype=np.int64)
+        else:
+            c = np.asarray(exclude_center, dtype=np.int64).reshape(W)
+            lo, hi = c - int(exclude_half), c + int(exclude_half)
+        consec = np.zeros(T, dtype=np.bool_)
+        consec[1:] = tgt[1:] == tgt[:-1] + 1
+        lens, level = _row_windows(N, M, max_run)
+        rowmin = np.empty((len(lens), D.shape[0], T), dtype=np.float32)
+        _row_minima(D, tgt, lens, rowmin)
+        _knn_profile(D, rowmin, level, src, tgt, consec, lo, hi, N, M, int(min_width), int(max_run), int(k), 16,
+                     idx, dist, iend, jend, evaluated)
+    out = (idx, dist.astype(np.float32), iend.astype(np.int16), jend.astype(np.int16))
+    return out + (evaluated,) if return_evaluated else out
+
+
 @njit(cache=True, parallel=True)
 def _pairs(A, B, members, drop, src, tgt, N, M, min_width, max_run, dist, iend, jend):
     P = src.shape[0]
@@ -412,6 +686,85 @@ def word_distance_pairs(A, B, group, drop, src_starts, tgt_starts, N=15, M=20, m
     if len(src):
         _pairs(A, B, members, int(drop), src, tgt, N, M, int(min_width), int(max_run), dist, iend, jend)
     return dist, iend, jend
+
+
+@njit(cache=True, parallel=True)
+def _warp(S, T, members, rows, drop, src, tgt, N, M, min_width, max_run, out, iend):
+    P = src.shape[0]
+    m = members.shape[0]
+    R = rows.shape[0]
+    for p in prange(P):
+        C = np.empty((N, M))
+        terms = np.empty(S.shape[1])
+        acc = np.empty((N, M, 7))
+        ln = np.empty((N, M, 7), dtype=np.int64)
+        back = np.zeros((N, M, 7), dtype=np.int8)
+        for i in range(N):
+            for j in range(M):
+                finite = True
+                for kk in range(m):
+                    k = members[kk]
+                    v = _half_angle_sq(S[src[p] + i, k], T[tgt[p] + j, k])
+                    terms[k] = v
+                    if v == _INF:
+                        finite = False
+                # rounded as group_pose_distances rounds it, so the path is the one the search saw
+                C[i, j] = np.float32(_robust_sum(terms, members, drop)) if finite else _INF
+        d, bi, bj = _word_dtw(C, 0, 0, N, M, min_width, max_run, acc, ln, back)
+        iend[p] = bi
+        if bi < 0:
+            continue
+        path = _trace(acc, back, bi, bj)
+        w = np.zeros((bi + 1, R, 4))
+        t0 = tgt[p] + path[0, 1]
+        for n in range(path.shape[0]):
+            i = path[n, 0]
+            f = tgt[p] + path[n, 1]
+            for r in range(R):
+                k = rows[r]
+                dot = 0.0
+                for c in range(4):
+                    dot += T[f, k, c] * T[t0, k, c]
+                sgn = -1.0 if dot < 0.0 else 1.0
+                for c in range(4):
+                    w[i, r, c] += sgn * T[f, k, c]
+        for i in range(bi + 1):
+            for r in range(R):
+                nrm = math.sqrt(w[i, r, 0] ** 2 + w[i, r, 1] ** 2 + w[i, r, 2] ** 2 + w[i, r, 3] ** 2)
+                for c in range(4):
+                    out[p, i, r, c] = w[i, r, c] / nrm if nrm > 0.0 else np.nan
+
+
+def warp_target_words(S, T, members, drop, src_starts, tgt_starts, N=15, M=20, min_width=11, max_run=3, rows=None):
+    """Target words time-warped onto their source words' frames (section 3.2), many pairs in one call.
+
+    S : (Fs, m, 4) source texture, T : (Ft, m, 4) target texture
+    (hemisphere-continuous in time, as :func:`mocapkit.cleaning.ssa.motion_texture`
+    makes it); members : joint rows the DTW compares, ``drop`` of their largest
+    eq. 1 terms ignored; rows : joint rows to warp (default ``members``). For
+    each pair the constrained DTW path between the source word at
+    ``src_starts[p]`` and the target word at ``tgt_starts[p]`` is found, and
+    each matched source frame takes the normalised mean of the target frames
+    matched to it, signs aligned with the word's first target frame.
+
+    Returns ``warped`` float64 (P, N, len(rows), 4), valid in frames
+    ``0..i_end[p]`` (NaN after), and ``i_end`` int64 (P,) (-1: no admissible path).
+    """
+    S = np.ascontiguousarray(S, dtype=np.float64)
+    T = np.ascontiguousarray(T, dtype=np.float64)
+    members = np.ascontiguousarray(members, dtype=np.int64)
+    rows = members if rows is None else np.ascontiguousarray(rows, dtype=np.int64)
+    src = np.ascontiguousarray(src_starts, dtype=np.int64)
+    tgt = np.ascontiguousarray(tgt_starts, dtype=np.int64)
+    if src.shape != tgt.shape:
+        raise ValueError("src_starts and tgt_starts must have the same length")
+    if len(src) and (src.min() < 0 or src.max() + N > S.shape[0] or tgt.min() < 0 or tgt.max() + M > T.shape[0]):
+        raise ValueError("a word runs past the end of its texture")
+    out = np.full((len(src), N, len(rows), 4), np.nan)
+    iend = np.full(len(src), -1, dtype=np.int64)
+    if len(src):
+        _warp(S, T, members, rows, int(drop), src, tgt, int(N), int(M), int(min_width), int(max_run), out, iend)
+    return out, iend
 
 
 @njit(cache=True)
