@@ -282,3 +282,47 @@ def test_neighbor_words_equal_the_one_at_a_time_reference(walk, flipped, group):
     # some paths end on the target's last column, so the polyphase resize is exercised
     _, iend = word_dtw.warp_target_words(src.values, full.values, members, ssa._drop(members), starts[:-1], pos[:-1])
     assert np.any(iend < 14)
+
+
+def _reference_robust_mean(words: np.ndarray) :
+    """Mean word and spread of K hemisphere-aligned words (K, N, m, 4), robust to outlier neighbours.
+
+    Per cell the neighbours far from the cell's medoid (more than twice the
+    median distance to it, plus 5 degrees) are left out of the chordal mean:
+    a neighbour that overlaps an error of the clip itself (a long error
+    outlasts the N/2 exclusion zone of section 3.3) must not pull the mean
+    towards the error. The spread (N, m) is the RMS angle of the kept
+    neighbours from the mean, in radians.
+    """
+    K = words.shape[0]
+    if K == 1:
+        return words[0], np.zeros(words.shape[1:3])
+    pair = R.geodesic_angle(words[:, None], words[None, :])  # (K, K, N, m)
+    med = np.argmin(pair.sum(axis=1), axis=0)  # (N, m) medoid per cell
+    to_med = np.take_along_axis(pair, med[None, None], axis=1)[:, 0]  # (K, N, m)
+    keep = to_med <= 2.0 * np.median(to_med, axis=0) + np.radians(5.0)
+    mean = R.quaternion_normalize(np.sum(words * keep[..., None], axis=0))
+    dev = R.geodesic_angle(words, mean[None])
+    spread = np.sqrt(np.sum(np.where(keep, dev**2, 0.0), axis=0) / np.maximum(keep.sum(axis=0), 1))
+    return mean, spread
+
+
+def test_robust_word_means_equal_the_per_word_reference():
+    rng = np.random.default_rng(5)
+    W, K, N, m = 30, 5, 15, 4
+    base = R.quaternion_normalize(rng.normal(size=(N, m, 4)))
+    outlier = 0.8 * (rng.random((W, K, 1, 1, 1)) < 0.2)  # some neighbours far off: the rule must drop them
+    words = R.quaternion_normalize(base[None, None] + 0.08 * rng.normal(size=(W, K, N, m, 4)) + outlier)
+    words = ssa._align(words, base[None, None])
+    valid = rng.random((W, K)) < 0.7
+    valid[:, 0] |= ~valid.any(axis=1)
+    valid[0] = [False, False, True, False, False]  # a single neighbour is the mean
+    mean, spread = ssa._robust_means(np.where(valid[..., None, None, None], words, 0.0), valid)
+    dropped = 0
+    for w in range(W):
+        ref_mean, ref_spread = _reference_robust_mean(words[w][valid[w]])
+        np.testing.assert_allclose(mean[w], ref_mean, atol=1e-12)
+        np.testing.assert_allclose(spread[w], ref_spread, atol=1e-12)
+        dropped += np.abs(ref_mean - R.quaternion_normalize(words[w][valid[w]].sum(axis=0))).max() > 1e-6
+    assert np.array_equal(mean[0], words[0, 2]) and np.all(spread[0] == 0)
+    assert dropped > 0

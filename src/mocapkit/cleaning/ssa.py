@@ -454,27 +454,20 @@ def _align(q: np.ndarray, ref: np.ndarray) -> np.ndarray:
     return q * np.where(s == 0, 1.0, s)
 
 
-def _robust_mean(words: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Mean word and spread of K hemisphere-aligned words (K, N, m, 4), robust to outlier neighbours.
+def _robust_means(words: np.ndarray, valid: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Mean word and spread of each source word's hemisphere-aligned neighbours, robust to outliers.
 
-    Per cell the neighbours far from the cell's medoid (more than twice the
-    median distance to it, plus 5 degrees) are left out of the chordal mean:
-    a neighbour that overlaps an error of the clip itself (a long error
-    outlasts the N/2 exclusion zone of section 3.3) must not pull the mean
-    towards the error. The spread (N, m) is the RMS angle of the kept
-    neighbours from the mean, in radians.
+    words : (W, K, N, m, 4), valid : (W, K) which of the K are neighbours (at
+    least one per row). Per cell the neighbours far from the cell's medoid
+    (more than twice the median distance to it, plus 5 degrees) are left out of
+    the chordal mean: a neighbour that overlaps an error of the clip itself (a
+    long error outlasts the N/2 exclusion zone of section 3.3) must not pull
+    the mean towards the error. Returns the means (W, N, m, 4) and the spread
+    (W, N, m), the RMS angle of the kept neighbours from the mean in radians
+    (0 where a word has one neighbour, whose word is the mean). The cell loop
+    is :func:`mocapkit.cleaning.word_dtw.robust_word_means`.
     """
-    K = words.shape[0]
-    if K == 1:
-        return words[0], np.zeros(words.shape[1:3])
-    pair = R.geodesic_angle(words[:, None], words[None, :])  # (K, K, N, m)
-    med = np.argmin(pair.sum(axis=1), axis=0)  # (N, m) medoid per cell
-    to_med = np.take_along_axis(pair, med[None, None], axis=1)[:, 0]  # (K, N, m)
-    keep = to_med <= 2.0 * np.median(to_med, axis=0) + np.radians(5.0)
-    mean = R.quaternion_normalize(np.sum(words * keep[..., None], axis=0))
-    dev = R.geodesic_angle(words, mean[None])
-    spread = np.sqrt(np.sum(np.where(keep, dev**2, 0.0), axis=0) / np.maximum(keep.sum(axis=0), 1))
-    return mean, spread
+    return word_dtw.robust_word_means(words, valid, np.radians(5.0))
 
 
 def mean_motion_texture(
@@ -519,15 +512,26 @@ def mean_motion_texture(
         nws, ok = _neighbor_words(
             source.values, context, members, _drop(members), word_starts[wi], neighbors.pos[gi][wi, ki], N, target_length
         )
-        by_word = np.split(np.flatnonzero(ok), np.searchsorted(wi[ok], np.arange(1, len(word_starts))))
+        # (W, K, N, m_g, 4) in neighbour order, each word's aligned with its first neighbour, not the
+        # source: a broken source joint may sit 90 degrees away in quaternion space, where hemispheres
+        # are arbitrary
+        valid = np.zeros((len(word_starts), K), dtype=bool)
+        valid[wi[ok], ki[ok]] = True
+        stacked = np.zeros((len(word_starts), K, N, len(members), 4))
+        stacked[wi[ok], ki[ok]] = nws[ok]
+        has = valid.any(axis=1)
+        first = np.argmax(valid, axis=1)
+        stacked = _align(stacked, stacked[np.arange(len(word_starts)), first][:, None])
+        means = np.zeros((len(word_starts), N, len(members), 4))
+        spreads = np.zeros((len(word_starts), N, len(members)))
+        for c0 in range(0, len(word_starts), 256):
+            sl = np.flatnonzero(has[c0 : c0 + 256]) + c0
+            if len(sl):
+                means[sl], spreads[sl] = _robust_means(stacked[sl], valid[sl])
         for w, s in enumerate(word_starts):
-            sel = by_word[w]
-            if len(sel) == 0:
+            if not has[w]:
                 continue
-            # align with the first neighbour, not the source: a broken source joint may sit
-            # 90 degrees away in quaternion space, where hemispheres are arbitrary
-            words = _align(nws[sel], nws[sel[0]][None])
-            mean_word, word_spread = _robust_mean(words)
+            mean_word, word_spread = means[w], spreads[w]
             ref = np.where(np.linalg.norm(acc[s : s + N], axis=-1, keepdims=True) > 0, acc[s : s + N], mean_word)
             acc[s : s + N] += _align(mean_word, ref)
             sacc[s : s + N] += word_spread
@@ -968,11 +972,10 @@ def _medoid(words: list[np.ndarray], cols: np.ndarray) -> int:
         return 0
     X = np.stack([w[:, cols] for w in words])  # (K, N, c, 4)
     K = len(words)
+    a, b = np.triu_indices(K, 1)
+    pair = np.sum(R.geodesic_angle(X[a], X[b]) ** 2, axis=(1, 2))
     cost = np.zeros((K, K))
-    for a in range(K):
-        for b in range(a + 1, K):
-            ang = R.geodesic_angle(X[a], X[b])
-            cost[a, b] = cost[b, a] = float(np.sum(ang**2))
+    cost[a, b] = cost[b, a] = pair
     return int(np.argmin(cost.sum(axis=1)))
 
 
@@ -1088,20 +1091,24 @@ def repair(
         words_k = warped.get((g, w), [])
         if not words_k:
             continue
-        flagged_cols = np.array(sorted({int(np.flatnonzero(members == col[j])[0]) for _, j in cells}))
+        fs = np.array([f for f, _ in cells], dtype=np.int64)
+        js = np.array([j for _, j in cells], dtype=np.int64)
+        cs = np.searchsorted(members, [col[int(j)] for j in js])  # the cells' rows within the word
+        flagged_cols = np.unique(cs)
+        x = np.clip(tau[fs] - words[w], 0.0, N - 1.0)
+        i0 = np.floor(x).astype(np.int64)
+        i1 = np.minimum(i0 + 1, N - 1)
+        a = (x - i0)[:, None]
+        root = js == 0
 
-        def place(word, target):
-            for f, j in cells:
-                c = int(np.flatnonzero(members == col[j])[0])
-                x = np.clip(tau[f] - words[w], 0.0, N - 1.0)
-                i0 = int(np.floor(x))
-                i1 = min(i0 + 1, N - 1)
-                a = x - i0
-                q0, q1 = word[i0, c], _align(word[i1, c], word[i0, c])
-                q = R.quaternion_normalize(q0 * (1 - a) + q1 * a)
-                if j == 0:
-                    q = R.quaternion_multiply(heading[f], q)
-                target[f, j] = _align(q, motion.rotations[f, j])
+        def place(word, target, fs=fs, js=js, cs=cs, i0=i0, i1=i1, a=a, root=root):
+            """Write ``word`` (N, m_g, 4) into ``target`` at the flagged cells, interpolated to their frames."""
+            q0 = word[i0, cs]
+            q1 = _align(word[i1, cs], q0)
+            q = R.quaternion_normalize(q0 * (1 - a) + q1 * a)
+            if root.any():
+                q[root] = R.quaternion_multiply(heading[fs[root]], q[root])
+            target[fs, js] = _align(q, motion.rotations[fs, js])
 
         choice = None
         if contacts:

@@ -47,6 +47,7 @@ __all__ = [
     "word_dtw_lower_bounds",
     "word_distance_pairs",
     "warp_target_words",
+    "robust_word_means",
     "select_separated_minima",
     "NUM_STATES",
 ]
@@ -765,6 +766,112 @@ def warp_target_words(S, T, members, drop, src_starts, tgt_starts, N=15, M=20, m
     if len(src):
         _warp(S, T, members, rows, int(drop), src, tgt, int(N), int(M), int(min_width), int(max_run), out, iend)
     return out, iend
+
+
+@njit(cache=True, inline="always")
+def _angle(a, b):
+    """Rotation angle (radians) between unit quaternions a and b, as mocapkit.rotations.geodesic_angle."""
+    w = a[0] * b[0] + a[1] * b[1] + a[2] * b[2] + a[3] * b[3]
+    x = a[0] * b[1] - a[1] * b[0] - a[2] * b[3] + a[3] * b[2]
+    y = a[0] * b[2] + a[1] * b[3] - a[2] * b[0] - a[3] * b[1]
+    z = a[0] * b[3] - a[1] * b[2] + a[2] * b[1] - a[3] * b[0]
+    return 2.0 * math.atan2(math.sqrt(x * x + y * y + z * z), abs(w))
+
+
+@njit(cache=True, parallel=True)
+def _robust_means(words, valid, slack, mean, spread):
+    W, K, N, m = words.shape[:4]
+    for w in prange(W):
+        idx = np.empty(K, dtype=np.int64)
+        n = 0
+        for k in range(K):
+            if valid[w, k]:
+                idx[n] = k
+                n += 1
+        if n == 0:
+            continue
+        pair = np.zeros((K, K))
+        to_med = np.empty(K)
+        srt = np.empty(K)
+        keep = np.zeros(K, dtype=np.bool_)
+        for i in range(N):
+            for j in range(m):
+                if n == 1:
+                    for c in range(4):
+                        mean[w, i, j, c] = words[w, idx[0], i, j, c]
+                    spread[w, i, j] = 0.0
+                    continue
+                for a in range(n):
+                    for b in range(a + 1, n):
+                        v = _angle(words[w, idx[a], i, j], words[w, idx[b], i, j])
+                        pair[a, b] = v
+                        pair[b, a] = v
+                med = 0
+                best = _INF
+                for a in range(n):
+                    t = 0.0
+                    for b in range(n):
+                        if b != a:
+                            t += pair[a, b]
+                    if t < best:
+                        best = t
+                        med = a
+                for a in range(n):
+                    to_med[a] = 0.0 if a == med else pair[a, med]
+                    q = a
+                    while q > 0 and srt[q - 1] > to_med[a]:
+                        srt[q] = srt[q - 1]
+                        q -= 1
+                    srt[q] = to_med[a]
+                median = srt[n // 2] if n % 2 == 1 else 0.5 * (srt[n // 2 - 1] + srt[n // 2])
+                s0 = 0.0
+                s1 = 0.0
+                s2 = 0.0
+                s3 = 0.0
+                kept = 0
+                for a in range(n):
+                    keep[a] = to_med[a] <= 2.0 * median + slack
+                    if keep[a]:
+                        kept += 1
+                        s0 += words[w, idx[a], i, j, 0]
+                        s1 += words[w, idx[a], i, j, 1]
+                        s2 += words[w, idx[a], i, j, 2]
+                        s3 += words[w, idx[a], i, j, 3]
+                nrm = math.sqrt(s0 * s0 + s1 * s1 + s2 * s2 + s3 * s3)
+                mean[w, i, j, 0] = s0 / nrm
+                mean[w, i, j, 1] = s1 / nrm
+                mean[w, i, j, 2] = s2 / nrm
+                mean[w, i, j, 3] = s3 / nrm
+                dev = 0.0
+                for a in range(n):
+                    if keep[a]:
+                        v = _angle(words[w, idx[a], i, j], mean[w, i, j])
+                        dev += v * v
+                spread[w, i, j] = math.sqrt(dev / kept)
+
+
+def robust_word_means(words, valid, slack):
+    """Per cell of each source word: the chordal mean of its neighbour words near their medoid, and their spread.
+
+    words : (W, K, N, m, 4) hemisphere-aligned unit quaternions, valid : (W, K)
+    bool; slack : radians. For every (word, frame, joint) cell the medoid of
+    the valid neighbours (least summed angle to the others; ties to the first)
+    is found, the neighbours farther from it than ``2 * median + slack`` are
+    dropped, and the rest averaged (normalised sum). Returns ``mean`` (W, N, m, 4)
+    and ``spread`` (W, N, m), the RMS angle of the kept ones from the mean
+    (0 with a single neighbour, whose value is the mean); rows without a valid
+    neighbour stay NaN.
+    """
+    words = np.ascontiguousarray(words, dtype=np.float64)
+    valid = np.ascontiguousarray(valid, dtype=np.bool_)
+    W, K, N, m = words.shape[:4]
+    if valid.shape != (W, K):
+        raise ValueError(f"valid must be (W, K) = {(W, K)}, got {valid.shape}")
+    mean = np.full((W, N, m, 4), np.nan)
+    spread = np.full((W, N, m), np.nan)
+    if W:
+        _robust_means(words, valid, float(slack), mean, spread)
+    return mean, spread
 
 
 @njit(cache=True)
