@@ -36,6 +36,13 @@ Departures from the paper, and why:
   median is not pulled up by the errors themselves), with a floor of
   ``floor_deg`` so a joint that barely moves is not flagged for a
   fraction of a degree. ``normalization="mean"`` gives the paper's rule.
+- Timing tolerance: a joint's digression at a frame is its smallest angle
+  from the mean texture within ``shift_s`` (0.02 s) of that frame. The
+  neighbours are time-warped on the whole group, so a fast joint (a knee in
+  mid-swing) that leads or lags its group by a frame or two digresses by tens
+  of degrees without being wrong; on the detection benchmark most false flags
+  sat in the fastest quarter of each joint's motion. Spikes, flips and swaps
+  are not explained by a 0.02 s shift.
 - "Median of the KNN": the medoid word (the neighbour closest to the others on
   the flagged joints), an actual motion, as the paper requires.
 
@@ -294,6 +301,34 @@ class _Neighbors:
     dist: np.ndarray  # (G, W, K) float32
 
 
+def _local_minima_knn(dist, tgt, k, exclude_center, half):
+    """K smallest local minima per row of ``dist`` (W, T) over target starts ``tgt`` (T,) (section 3.3)."""
+    W, T = dist.shape
+    d = dist.astype(np.float64, copy=True)
+    if exclude_center is not None:
+        near = np.abs(tgt[None, :] - exclude_center[:, None]) <= half
+        d[near] = np.inf
+    consecutive = np.zeros(T + 1, dtype=bool)
+    consecutive[1:-1] = tgt[1:] == tgt[:-1] + 1
+    left = np.full_like(d, np.inf)
+    right = np.full_like(d, np.inf)
+    left[:, 1:] = np.where(consecutive[None, 1:-1], d[:, :-1], np.inf)
+    right[:, :-1] = np.where(consecutive[None, 1:-1], d[:, 1:], np.inf)
+    is_min = (d <= left) & (d < right) & np.isfinite(d)
+    cand = np.where(is_min, d, np.inf)
+    kk = min(k, T)
+    idx = np.argpartition(cand, kk - 1, axis=1)[:, :kk] if T > kk else np.tile(np.arange(T), (W, 1))
+    vals = np.take_along_axis(cand, idx, axis=1)
+    order = np.argsort(vals, axis=1, kind="stable")
+    idx = np.take_along_axis(idx, order, axis=1)
+    vals = np.take_along_axis(vals, order, axis=1)
+    if kk < k:
+        pad = k - kk
+        idx = np.concatenate([idx, np.zeros((W, pad), dtype=idx.dtype)], axis=1)
+        vals = np.concatenate([vals, np.full((W, pad), np.inf)], axis=1)
+    return idx, vals
+
+
 def _descriptors(values: np.ndarray, starts: np.ndarray, members: np.ndarray, length: int) -> np.ndarray:
     """Cheap word descriptors for the kd-tree prefilter: 6-D rotations of the group at 3 frames of the word."""
     offs = np.array([0, length // 2, length - 1])
@@ -317,6 +352,7 @@ def nearest_words(
     candidates: int = 48,
     chunk: int = 96,
     progress=None,
+    exhaustive: bool = False,
 ) -> _Neighbors:
     """The K nearest target words of each source word, per joint group (section 3.3).
 
@@ -328,7 +364,8 @@ def nearest_words(
     local minima of the distance function (found by
     :func:`~mocapkit.cleaning.word_dtw.word_knn_profile`, which skips the
     positions a lower bound proves too far: the same neighbours, about five
-    times faster). ``self_clip`` is the clip of
+    times faster; ``exhaustive=True`` computes the whole distance function
+    instead, the reference benchmarks/ssa_speed.py times it against). ``self_clip`` is the clip of
     ``context`` that ``source`` is (its neighbours closer than N/2 frames to the
     source word are excluded), or None.
     """
@@ -393,7 +430,15 @@ def nearest_words(
         D = word_dtw.group_pose_distances(source.values[f0:f1], context.values, masks, drops)
         for gi in range(G):
             excl = ws + offset if self_clip is not None else None
-            idx, vals, ie, je = word_dtw.word_knn_profile(D[gi], ws - f0, tgt, k, excl, half, N, M, min_width, max_run)
+            if exhaustive:
+                dist, ie, je = word_dtw.word_distance_profile(D[gi], ws - f0, tgt, N, M, min_width, max_run)
+                idx, vals = _local_minima_knn(dist, tgt, k, excl, half)
+                idx = np.where(np.isfinite(vals), idx, -1)
+                ie = np.take_along_axis(ie, np.maximum(idx, 0), axis=1)
+                je = np.take_along_axis(je, np.maximum(idx, 0), axis=1)
+                vals = np.where(idx >= 0, vals, np.inf).astype(np.float32)
+            else:
+                idx, vals, ie, je = word_dtw.word_knn_profile(D[gi], ws - f0, tgt, k, excl, half, N, M, min_width, max_run)
             sl = slice(c0, c0 + len(ws))
             out.pos[gi, sl] = np.where(idx >= 0, tgt[np.maximum(idx, 0)], -1)
             out.iend[gi, sl] = ie
@@ -759,8 +804,11 @@ def _group_rows(groups, texture_joints) -> tuple[list[str], list[np.ndarray]]:
     return names, rows
 
 
-def _digression(motion, mean_tex, spread, texture_joints, up, fps_a, noise_deg):
+def _digression(motion, mean_tex, spread, texture_joints, up, fps_a, noise_deg, shift_s=0.0):
     """Per-group digression of the input (at its own rate) from the mean texture upsampled from ``fps_a``.
+
+    With ``shift_s`` the angle at frame f is the smallest over the mean
+    texture's frames within ``shift_s`` seconds of f: a timing tolerance.
 
     Returns ``(angle, z)``, both (G, F, m): the rotation angle in radians, and
     that angle over the neighbours' spread at the cell, ``sqrt(spread^2 +
@@ -779,6 +827,13 @@ def _digression(motion, mean_tex, spread, texture_joints, up, fps_a, noise_deg):
         finite = np.isfinite(up_q).all(axis=-1)
         a = np.full(finite.shape, np.nan)
         a[finite] = R.geodesic_angle(inp[finite], up_q[finite])
+        shift = int(round(shift_s * motion.fps))
+        for dlt in range(-shift, shift + 1):  # timing tolerance: the mean texture a few frames earlier or later
+            if dlt == 0:
+                continue
+            idx = np.clip(np.arange(F) + dlt, 0, F - 1)
+            b = R.geodesic_angle(inp, up_q[idx])
+            a = np.fmin(a, np.where(finite[idx], b, np.nan))
         ang[g] = a
         sp = np.stack([np.interp(t, src_t, spread[g][:, c]) for c in range(spread.shape[2])], axis=1)
         z[g] = a / np.sqrt(np.where(np.isfinite(sp), sp, 0.0) ** 2 + noise**2)
@@ -804,6 +859,7 @@ def detect(
     normalization: str = "median",
     z_scale: float = 2.5,
     noise_deg: float = 5.0,
+    shift_s: float = 0.02,
     row_scale: float = 3.0,
     floor_deg: float = 20.0,
     progress: bool = False,
@@ -835,6 +891,9 @@ def detect(
         than 3,000 target words).
     normalization, row_scale, floor_deg
         MDM row normalisation (:func:`movement_digression_map`).
+    shift_s : float
+        Timing tolerance in seconds: the digression at a frame is the smallest
+        angle from the mean texture within this time (module docstring).
     """
     from tqdm.auto import tqdm
 
@@ -873,7 +932,7 @@ def detect(
             whole = [gnames.index("whole")] if "whole" in gnames else [int(np.argmax([len(r) for r in grows]))]
             nb1 = nearest_words(src, src, [grows[i] for i in whole], words, self_clip=0, progress=bar, **opts)
             mt1, sp1 = mean_motion_texture(src, src, [grows[i] for i in whole], words, nb1, N, M, return_spread=True)
-            a1, z1 = _digression(motion, mt1, sp1, tex_joints, up, fps, noise_deg)
+            a1, z1 = _digression(motion, mt1, sp1, tex_joints, up, fps, noise_deg, shift_s)
             mdm1 = movement_digression_map(z1[0] if normalization == "spread" else a1[0], normalization, row_scale, floor_deg, z_scale)
             hot_frames = np.flatnonzero(mdm1.max(axis=1) > screen_threshold) * (fps / motion.fps)
             distinct = np.zeros(W, dtype=bool)
@@ -909,7 +968,7 @@ def detect(
             mean_tex, spread = mean_motion_texture(src, full, grows, words, nb, N, M, return_spread=True)
     finally:
         bar.close()
-    dig_g, z_g = _digression(motion, mean_tex, spread, tex_joints, up, fps, noise_deg)  # (G, F, m) each
+    dig_g, z_g = _digression(motion, mean_tex, spread, tex_joints, up, fps, noise_deg, shift_s)  # (G, F, m) each
     F, J = motion.num_frames, sk.num_joints
     filled = np.where(np.isnan(dig_g), np.inf, dig_g)
     best = np.argmin(filled, axis=0)  # (F, m): the group whose mean texture is closest
@@ -934,7 +993,7 @@ def detect(
     clips = tuple((str(n), int(b - a)) for n, a, b in zip(full.clip_names, full.clip_starts[:-1], full.clip_starts[1:]))
     params = dict(
         fps=fps, k=k, source_length=N, stride=stride, target_length=M, two_stage=bool(two_stage and has_context),
-        prefilter=bool(prefilter and has_context), normalization=normalization, z_scale=z_scale, noise_deg=noise_deg,
+        prefilter=bool(prefilter and has_context), normalization=normalization, z_scale=z_scale, noise_deg=noise_deg, shift_s=shift_s,
         row_scale=row_scale, floor_deg=floor_deg,
     )
     return Detection(
