@@ -145,6 +145,8 @@ def main(argv=None):
     ap.add_argument("--noise-deg", type=float, default=5.0)
     ap.add_argument("--shift-s", type=float, default=None)
     ap.add_argument("--floor-deg", type=float, default=None)
+    ap.add_argument("--k", type=int, default=None)
+    ap.add_argument("--max-word-angle", type=float, default=None)
     ap.add_argument("--row-scale", type=float, default=None)
     ap.add_argument("--normalization", default="median", choices=["median", "spread", "mean"])
     args = ap.parse_args(argv)
@@ -173,7 +175,7 @@ def main(argv=None):
                 t0 = time.perf_counter()
                 det = ssa.detect(bad, ctx or None, threshold=args.threshold, z_scale=args.z_scale, noise_deg=args.noise_deg,
                                  normalization=args.normalization,
-                                 **{k: v for k, v in (('shift_s', args.shift_s), ('floor_deg', args.floor_deg), ('row_scale', args.row_scale)) if v is not None})
+                                 **{k: v for k, v in (('shift_s', args.shift_s), ('floor_deg', args.floor_deg), ('row_scale', args.row_scale), ('k', args.k), ('max_word_angle_deg', args.max_word_angle)) if v is not None})
                 dt = time.perf_counter() - t0
                 sc = score(det.flags, truth, clean.fps)
                 totals[(kind, c, "ssa")] = add(totals.get((kind, c, "ssa")), sc)

@@ -509,21 +509,21 @@ def group_pose_distance_naive(a, b, members, drop):
 def naive_local_minima_knn(dist, tgt, k, exclude_center=None, half=7):
     """Section 3.3 by the letter: per source word, the ``k`` smallest local minima of its distance function.
 
-    ``dist`` (W, T) over target starts ``tgt`` (T,); entries within ``half``
-    frames of ``exclude_center[w]`` count as infinite; neighbours are compared
+    ``dist`` (W, T) over target starts ``tgt`` (T,); neighbours are compared
     only across consecutive starts; a minimum is ``<=`` its left and ``<`` its
-    right neighbour. Returns, per row, a list of (value, index) ascending, ties
+    right neighbour; minima within ``half`` frames of ``exclude_center[w]`` are
+    then dropped. Returns, per row, a list of (value, index) ascending, ties
     to the earlier index.
     """
     out = []
     for w in range(dist.shape[0]):
         d = [float(x) for x in dist[w]]
-        if exclude_center is not None:
-            d = [math.inf if abs(int(t) - int(exclude_center[w])) <= half else x for t, x in zip(tgt, d)]
         minima = []
         for t in range(len(d)):
             left = d[t - 1] if t > 0 and tgt[t] == tgt[t - 1] + 1 else math.inf
             right = d[t + 1] if t + 1 < len(d) and tgt[t + 1] == tgt[t] + 1 else math.inf
+            if exclude_center is not None and abs(int(tgt[t]) - int(exclude_center[w])) <= half:
+                continue
             if math.isfinite(d[t]) and d[t] <= left and d[t] < right:
                 minima.append((d[t], t))
         out.append(sorted(minima)[:k])

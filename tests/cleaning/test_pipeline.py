@@ -9,6 +9,7 @@ import pytest
 
 import mocapkit
 from mocapkit import corrupt, metrics, samples
+from mocapkit import rotations as R
 from mocapkit.cleaning import gapfill
 from mocapkit.cleaning.pipeline import CleanResult, clean, clean_path, noise_level, noisy_cells, plot_summary
 from mocapkit.errors import MocapError, MocapFormatError
@@ -191,3 +192,23 @@ def test_plot_summary(cleaned, tmp_path):
     data = p.read_bytes()
     assert data[:8] == b"\x89PNG\r\n\x1a\n" and len(data) > 20_000
     assert not list(tmp_path.glob(".*.part"))
+
+
+def test_noise_level_stays_where_the_noise_is(walk):
+    """A noisy stretch is noisy and the frames around it are not; an isolated jump is not noise."""
+    j = walk.skeleton.index("ltibia")
+    noisy, _ = corrupt.angular_noise(walk, amount=0.5, seed=1, joints=["ltibia"])
+    rot = np.array(walk.rotations)
+    a, b = 100, 220
+    rot[a:b, j] = noisy.rotations[a:b, j]
+    spike = dataclasses.replace(walk, rotations=rot)
+    cells, _ = noisy_cells(spike)
+    assert cells[a + 10 : b - 10, j].mean() > 0.9
+    margin = int(0.05 * walk.fps)
+    outside = np.ones(walk.num_frames, dtype=bool)
+    outside[a - margin : b + margin] = False
+    assert not cells[outside, j].any()
+    jump = np.array(walk.rotations)
+    jump[300, j] = R.quaternion_multiply(R.quaternion_from_axis_angle([1.0, 0.0, 0.0], np.radians(40.0)), jump[300, j])
+    cells, _ = noisy_cells(dataclasses.replace(walk, rotations=jump))
+    assert not cells[:, j].any()

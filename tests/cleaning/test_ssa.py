@@ -13,6 +13,7 @@ from mocapkit import rotations as R
 from mocapkit.cleaning import ssa, word_dtw
 from mocapkit.errors import SkeletonError
 from mocapkit.motion import concatenate
+from tests.naive import naive_local_minima_knn
 
 
 @pytest.fixture(scope="module")
@@ -326,3 +327,23 @@ def test_robust_word_means_equal_the_per_word_reference():
         dropped += np.abs(ref_mean - R.quaternion_normalize(words[w][valid[w]].sum(axis=0))).max() > 1e-6
     assert np.array_equal(mean[0], words[0, 2]) and np.all(spread[0] == 0)
     assert dropped > 0
+
+
+def test_minima_are_those_of_the_whole_distance_function():
+    """Section 3.3: minima next to the source's own place are minima of the function, not of a masked one."""
+    tgt = np.arange(60)
+    dist = np.abs(tgt - 30.0)[None] * 0.1 + 1.0  # falls all the way into the source at 30: no minimum near it
+    dist[0, 50] = 0.5  # a real repetition
+    idx, vals = ssa._local_minima_knn(dist, tgt, 3, np.array([30]), 7)
+    got = [int(i) for i, v in zip(idx[0], vals[0]) if np.isfinite(v)]
+    assert got == [50]  # not 22 or 38, the edges of the excluded zone
+    assert naive_local_minima_knn(dist, tgt, 3, np.array([30]), 7)[0] == [(0.5, 50)]
+
+
+def test_unseen_words_are_not_judged(walk, flipped):
+    bad = flipped[0]
+    none = ssa.detect(bad, max_word_angle_deg=0.01)  # nothing in the clip is this close to anything else
+    assert not none.flags.any() and np.all(none.mdm == 0)
+    assert any("not judged" in n for n in none.notes)
+    loose = ssa.detect(bad, max_word_angle_deg=180.0)
+    assert np.array_equal(loose.mdm, flipped[3].mdm)

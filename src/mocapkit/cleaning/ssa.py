@@ -305,9 +305,6 @@ def _local_minima_knn(dist, tgt, k, exclude_center, half):
     """K smallest local minima per row of ``dist`` (W, T) over target starts ``tgt`` (T,) (section 3.3)."""
     W, T = dist.shape
     d = dist.astype(np.float64, copy=True)
-    if exclude_center is not None:
-        near = np.abs(tgt[None, :] - exclude_center[:, None]) <= half
-        d[near] = np.inf
     consecutive = np.zeros(T + 1, dtype=bool)
     consecutive[1:-1] = tgt[1:] == tgt[:-1] + 1
     left = np.full_like(d, np.inf)
@@ -315,6 +312,8 @@ def _local_minima_knn(dist, tgt, k, exclude_center, half):
     left[:, 1:] = np.where(consecutive[None, 1:-1], d[:, :-1], np.inf)
     right[:, :-1] = np.where(consecutive[None, 1:-1], d[:, 1:], np.inf)
     is_min = (d <= left) & (d < right) & np.isfinite(d)
+    if exclude_center is not None:  # minima of the whole function, then the source's own place left out
+        is_min &= np.abs(tgt[None, :] - exclude_center[:, None]) > half
     cand = np.where(is_min, d, np.inf)
     kk = min(k, T)
     idx = np.argpartition(cand, kk - 1, axis=1)[:, :kk] if T > kk else np.tile(np.arange(T), (W, 1))
@@ -361,11 +360,15 @@ def nearest_words(
     frames, reduced by PCA) proposes ``candidates`` target positions per source
     word and only those are ranked by DTW (section 7's suggestion); otherwise
     every target position is compared, and the neighbours are the K smallest
-    local minima of the distance function (found by
+    local minima of the distance function, minima within N/2 frames of the
+    source word in its own clip left out (found by
     :func:`~mocapkit.cleaning.word_dtw.word_knn_profile`, which skips the
     positions a lower bound proves too far: the same neighbours, about five
     times faster; ``exhaustive=True`` computes the whole distance function
-    instead, the reference benchmarks/ssa_speed.py times it against). ``self_clip`` is the clip of
+    instead, the reference benchmarks/ssa_speed.py times it against). With the
+    prefilter the source's own clip is left out a whole word either side,
+    since sparse candidates cannot tell a minimum from the slope down into the
+    source's own place. ``self_clip`` is the clip of
     ``context`` that ``source`` is (its neighbours closer than N/2 frames to the
     source word are excluded), or None.
     """
@@ -408,8 +411,10 @@ def nearest_words(
             )
             d = d.reshape(W, kq).astype(np.float64)
             pos = tgt[cidx]
-            lo = word_starts + offset - half if self_clip is not None else np.full(W, -1)
-            hi = word_starts + offset + half + 1 if self_clip is not None else np.full(W, -1)
+            # sparse candidates cannot tell a minimum from the slope into the source's own place, so the
+            # source's own clip is left out a whole word either side (not half a word, as with the full profile)
+            lo = word_starts + offset - N if self_clip is not None else np.full(W, -1)
+            hi = word_starts + offset + N + 1 if self_clip is not None else np.full(W, -1)
             chosen = word_dtw.select_separated_minima(d, pos, tclip[cidx], k, half + 1, lo, hi)
             for w in range(W):
                 for kk in range(k):
@@ -513,6 +518,30 @@ def _robust_means(words: np.ndarray, valid: np.ndarray) -> tuple[np.ndarray, np.
     is :func:`mocapkit.cleaning.word_dtw.robust_word_means`.
     """
     return word_dtw.robust_word_means(words, valid, np.radians(5.0))
+
+
+def _unseen_words(neighbors: _Neighbors, groups, max_word_angle_deg) -> np.ndarray:
+    """Drop, in place, the neighbours of source words the context has nothing like; returns (G, W) bool of them.
+
+    A word's nearest neighbour at eq. 1 distance ``d`` (the mean over matched
+    frames of the summed squared half-angles of the group's joints, the
+    ``drop`` largest left out) differs from it by an RMS joint angle of
+    ``2 sqrt(d / (m_g - drop))``; above ``max_word_angle_deg`` the neighbours
+    are other motions, their mean says nothing about errors, and the word is
+    not judged (section 7: self-similarity needs the motion to have been seen).
+    """
+    G, W = neighbors.pos.shape[:2]
+    unseen = np.zeros((G, W), dtype=bool)
+    if max_word_angle_deg is None:
+        return unseen
+    for gi, members in enumerate(groups):
+        terms = max(len(members) - _drop(members), 1)
+        best = neighbors.dist[gi, :, 0].astype(np.float64)
+        rms = np.degrees(2.0 * np.sqrt(np.maximum(best, 0.0) / terms))
+        unseen[gi] = np.isfinite(best) & (rms > max_word_angle_deg)
+    neighbors.pos[unseen] = -1
+    neighbors.dist[unseen] = np.inf
+    return unseen
 
 
 def mean_motion_texture(
@@ -860,6 +889,7 @@ def detect(
     z_scale: float = 2.5,
     noise_deg: float = 5.0,
     shift_s: float = 0.02,
+    max_word_angle_deg: float | None = None,
     row_scale: float = 3.0,
     floor_deg: float = 20.0,
     progress: bool = False,
@@ -894,6 +924,11 @@ def detect(
     shift_s : float
         Timing tolerance in seconds: the digression at a frame is the smallest
         angle from the mean texture within this time (module docstring).
+    max_word_angle_deg : float or None
+        Leave unjudged the words whose nearest neighbour differs by more than
+        this RMS joint angle (the context has nothing like them; their flags
+        would be guesses). None (the paper) judges every word;
+        :func:`mocapkit.cleaning.pipeline.clean` uses 8 degrees.
     """
     from tqdm.auto import tqdm
 
@@ -931,6 +966,7 @@ def detect(
         if two_stage and has_context:
             whole = [gnames.index("whole")] if "whole" in gnames else [int(np.argmax([len(r) for r in grows]))]
             nb1 = nearest_words(src, src, [grows[i] for i in whole], words, self_clip=0, progress=bar, **opts)
+            _unseen_words(nb1, [grows[i] for i in whole], max_word_angle_deg)
             mt1, sp1 = mean_motion_texture(src, src, [grows[i] for i in whole], words, nb1, N, M, return_spread=True)
             a1, z1 = _digression(motion, mt1, sp1, tex_joints, up, fps, noise_deg, shift_s)
             mdm1 = movement_digression_map(z1[0] if normalization == "spread" else a1[0], normalization, row_scale, floor_deg, z_scale)
@@ -951,6 +987,7 @@ def detect(
             if redo.any():
                 sub = words[redo]
                 nb2 = nearest_words(src, full, grows, sub, self_clip=0, prefilter=prefilter, progress=bar, **opts)
+                _unseen_words(nb2, grows, max_word_angle_deg)
                 for a in ("pos", "iend", "jend", "dist"):
                     getattr(neighbors, a)[:, redo] = getattr(nb2, a)
                 mt2, sp2 = mean_motion_texture(src, full, grows, sub, nb2, N, M, return_spread=True)
@@ -964,6 +1001,12 @@ def detect(
             notes.append(f"two-stage: {int(redo.sum())} of {W} words re-analysed against the context")
         else:
             nb = nearest_words(src, full, grows, words, self_clip=0, prefilter=prefilter and has_context, progress=bar, **opts)
+            unseen = _unseen_words(nb, grows, max_word_angle_deg)
+            if unseen.any():
+                notes.append(
+                    f"{int(unseen.any(axis=0).sum())} of {W} words have no neighbour within {max_word_angle_deg:g} deg "
+                    "(RMS joint angle) in some joint group: not judged there"
+                )
             neighbors = nb
             mean_tex, spread = mean_motion_texture(src, full, grows, words, nb, N, M, return_spread=True)
     finally:
@@ -994,6 +1037,7 @@ def detect(
     params = dict(
         fps=fps, k=k, source_length=N, stride=stride, target_length=M, two_stage=bool(two_stage and has_context),
         prefilter=bool(prefilter and has_context), normalization=normalization, z_scale=z_scale, noise_deg=noise_deg, shift_s=shift_s,
+        max_word_angle_deg=max_word_angle_deg,
         row_scale=row_scale, floor_deg=floor_deg,
     )
     return Detection(

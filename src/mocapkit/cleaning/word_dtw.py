@@ -448,14 +448,18 @@ def _bound(rowmin, level, s, t, N, min_width, wmax, buf):
 
 
 @njit(cache=True)
-def _kth_confirmed(d, evaluated, lb, consec, ev, ne, k, vals):
-    """K-th smallest value among the evaluated positions proven to be local minima (inf if fewer)."""
+def _kth_confirmed(d, evaluated, lb, consec, ev, ne, k, vals, tgt, lo, hi):
+    """K-th smallest value among the evaluated positions proven to be local minima (inf if fewer).
+
+    Positions whose start lies in ``[lo, hi]`` (the source word's own place) are
+    part of the distance function but never chosen.
+    """
     T = d.shape[0]
     n = 0
     for e in range(ne):
         t = ev[e]
         v = d[t]
-        if not v < _INF:
+        if not v < _INF or lo <= tgt[t] <= hi:
             continue
         if n == k and v >= vals[k - 1]:
             continue
@@ -499,13 +503,10 @@ def _knn_profile(D, rowmin, level, src, tgt, consec, excl_lo, excl_hi, N, M, min
         evaluated = np.zeros(T, dtype=np.bool_)
         ev = np.empty(T, dtype=np.int64)
         ne = 0
+        lo = excl_lo[w]
+        hi = excl_hi[w]
         for t in range(T):
-            if excl_lo[w] <= tgt[t] <= excl_hi[w]:
-                lb[t] = _INF
-                d[t] = _INF
-                evaluated[t] = True  # excluded: its distance counts as infinite
-            else:
-                lb[t] = _bound(rowmin, level, src[w], t, N, min_width, wmax, buf) * (1.0 - 1e-9)
+            lb[t] = _bound(rowmin, level, src[w], t, N, min_width, wmax, buf) * (1.0 - 1e-9)
         order = np.argsort(lb, kind="mergesort")
         tau = _INF
         x = 0
@@ -524,7 +525,7 @@ def _knn_profile(D, rowmin, level, src, tgt, consec, excl_lo, excl_hi, N, M, min
             ev[ne] = t
             ne += 1
             if ne % batch == 0:
-                tau = _kth_confirmed(d, evaluated, lb, consec, ev, ne, k, vals)
+                tau = _kth_confirmed(d, evaluated, lb, consec, ev, ne, k, vals, tgt, lo, hi)
         out_evaluated[w] = ne
         # the K smallest proven local minima, ties to the earlier target
         n = 0
@@ -532,7 +533,7 @@ def _knn_profile(D, rowmin, level, src, tgt, consec, excl_lo, excl_hi, N, M, min
         for e in range(ne):
             t = ev[e]
             v = d[t]
-            if not v < _INF:
+            if not v < _INF or lo <= tgt[t] <= hi:
                 continue
             if t > 0 and consec[t]:
                 if evaluated[t - 1]:
@@ -605,9 +606,12 @@ def word_knn_profile(D, src_starts, tgt_starts, k=5, exclude_center=None, exclud
     neighbouring entries are compared only where the starts are consecutive
     frames), but the DTW runs only where a lower bound of the distance (see
     the comment above :func:`_row_windows`) is below the K-th minimum found:
-    about one target position in seven on real clips. Target starts within
-    ``exclude_half`` frames of ``exclude_center[w]`` (the source word's own
-    place, or None) count as infinitely far. Ties go to the earlier target.
+    about one target position in seven on real clips. Minima whose start lies
+    within ``exclude_half`` frames of ``exclude_center[w]`` (the source word's
+    own place, or None) are not chosen; those positions still belong to the
+    distance function, so the slope down into the source's own place is not
+    mistaken for a minimum at the edge of the excluded zone (a "trivial match",
+    the source shifted by half a word). Ties go to the earlier target.
 
     Returns ``idx`` int64 (W, k) indices into ``tgt_starts`` (-1: fewer than
     ``k`` minima), ``dist`` float32 (W, k) ascending (inf where -1), ``i_end``,
