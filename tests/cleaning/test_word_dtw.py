@@ -153,3 +153,18 @@ def test_knn_profile_few_minima_and_k_larger_than_targets():
     for w in range(2):
         n = len(want[w])
         assert idx[w, :n].tolist() == [t for _, t in want[w]] and (idx[w, n:] == -1).all() and np.isinf(d[w, n:]).all()
+
+
+def test_shift_tolerant_angles_equal_the_numpy_reading(rng):
+    inp, ref = _random_quats(rng, (30, 4)), _random_quats(rng, (30, 4))
+    ref[5:8, 1] = np.nan
+    for shift in (0, 2):
+        got = W.shift_tolerant_angles(inp, ref, shift)
+        want = np.full((30, 4), np.inf)
+        for d in range(-shift, shift + 1):
+            g = np.clip(np.arange(30) + d, 0, 29)
+            a = R.geodesic_angle(inp, ref[g])
+            want = np.fmin(want, np.where(np.isnan(a), np.inf, a))
+        want[np.isinf(want)] = np.nan
+        np.testing.assert_allclose(got, want, atol=1e-12)
+    assert np.isnan(W.shift_tolerant_angles(inp, ref, 0)[6, 1]) and np.isfinite(W.shift_tolerant_angles(inp, ref, 2)[6, 1])

@@ -853,16 +853,8 @@ def _digression(motion, mean_tex, spread, texture_joints, up, fps_a, noise_deg, 
     noise = np.radians(noise_deg)
     for g in range(G):
         up_q = _upsample(mean_tex[g], fps_a, F, motion.fps)
-        finite = np.isfinite(up_q).all(axis=-1)
-        a = np.full(finite.shape, np.nan)
-        a[finite] = R.geodesic_angle(inp[finite], up_q[finite])
-        shift = int(round(shift_s * motion.fps))
-        for dlt in range(-shift, shift + 1):  # timing tolerance: the mean texture a few frames earlier or later
-            if dlt == 0:
-                continue
-            idx = np.clip(np.arange(F) + dlt, 0, F - 1)
-            b = R.geodesic_angle(inp, up_q[idx])
-            a = np.fmin(a, np.where(finite[idx], b, np.nan))
+        # timing tolerance: the smallest angle to the mean texture a few frames earlier or later
+        a = word_dtw.shift_tolerant_angles(inp, up_q, int(round(shift_s * motion.fps)))
         ang[g] = a
         sp = np.stack([np.interp(t, src_t, spread[g][:, c]) for c in range(spread.shape[2])], axis=1)
         z[g] = a / np.sqrt(np.where(np.isfinite(sp), sp, 0.0) ** 2 + noise**2)

@@ -48,6 +48,7 @@ __all__ = [
     "word_distance_pairs",
     "warp_target_words",
     "robust_word_means",
+    "shift_tolerant_angles",
     "select_separated_minima",
     "NUM_STATES",
 ]
@@ -876,6 +877,39 @@ def robust_word_means(words, valid, slack):
     if W:
         _robust_means(words, valid, float(slack), mean, spread)
     return mean, spread
+
+
+@njit(cache=True, parallel=True)
+def _shift_angles(inp, ref, shift, out):
+    F, m = inp.shape[:2]
+    for f in prange(F):
+        for j in range(m):
+            best = np.nan
+            for d in range(-shift, shift + 1):
+                g = min(max(f + d, 0), F - 1)
+                if not (ref[g, j, 0] == ref[g, j, 0]):  # NaN: no mean texture there
+                    continue
+                v = _angle(inp[f, j], ref[g, j])
+                if not (best <= v):  # also replaces the NaN start
+                    best = v
+            out[f, j] = best
+
+
+def shift_tolerant_angles(inp, ref, shift):
+    """Per cell the smallest rotation angle (radians) between ``inp[f]`` and ``ref[f + d]``, ``|d| <= shift``.
+
+    inp, ref : (F, m, 4) unit quaternions (``ref`` may hold NaN rows: skipped;
+    frames past either end are clamped). Returns (F, m), NaN where every
+    ``ref`` in reach is NaN. The MDM's timing tolerance (:func:`mocapkit.cleaning.ssa.detect`).
+    """
+    inp = np.ascontiguousarray(inp, dtype=np.float64)
+    ref = np.ascontiguousarray(ref, dtype=np.float64)
+    if inp.shape != ref.shape or inp.ndim != 3 or inp.shape[2] != 4:
+        raise ValueError(f"inp and ref must both be (F, m, 4), got {inp.shape} and {ref.shape}")
+    out = np.empty(inp.shape[:2])
+    if inp.shape[0]:
+        _shift_angles(inp, ref, int(shift), out)
+    return out
 
 
 @njit(cache=True)
