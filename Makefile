@@ -66,6 +66,7 @@ bench: install-test
 	$(PY) benchmarks/ssa_detection.py --json
 	$(PY) benchmarks/ssa_dtw.py --json
 	$(PY) benchmarks/ssa_repair.py --json
+	$(PY) benchmarks/ssa_speed.py --json
 	$(PY) benchmarks/deep_denoise.py --json
 	$(PY) benchmarks/deep_gapfill.py --json
 	$(PY) benchmarks/deep_speed.py --json

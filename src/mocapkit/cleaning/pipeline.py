@@ -345,8 +345,6 @@ def _check(motion: Motion) -> None:
 
 
 def _fill(motion: Motion, models: dict, notes: list) -> tuple[Motion, str, str]:
-    from . import deep, gapfill
-
     name = motion.name or "motion"
     missing = motion.missing()
     never = np.flatnonzero(missing.all(axis=0))
@@ -355,6 +353,8 @@ def _fill(motion: Motion, models: dict, notes: list) -> tuple[Motion, str, str]:
         raise MocapError(f"{name}: joint(s) {names} are missing in every frame; nothing to fill them from")
     if not missing.any():
         return motion, "nothing (no gaps)", ""
+    from . import deep, gapfill  # torch is imported only when there is something to fill
+
     ebd, src = _deep_model(models, "ebd")
     why = _fits(ebd, motion)
     if why is None:
