@@ -37,10 +37,11 @@ import numpy as np
 
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO / "src"))
+sys.path.insert(0, str(REPO / "benchmarks"))
 
 import mocapkit  # noqa: E402
+from clean_takes import long_take  # noqa: E402  (the same held-out HDM05 mm take)
 from mocapkit.cleaning import ssa  # noqa: E402
-from mocapkit.motion import concatenate  # noqa: E402
 
 DATA = REPO.parent / "shared" / "data"
 TARGETS = {"local_seconds": 2.0, "small_seconds_per_second": 1.0, "large_seconds": 120.0}
@@ -51,15 +52,7 @@ def log(*a):
 
 
 def take(seconds: float):
-    clips, total = [], 0.0
-    for p in sorted((DATA / "hdm05_asfamc").glob("HDM_mm_*.amc")):
-        c = mocapkit.load(p)
-        clips.append(c)
-        total += c.duration
-        if total >= seconds:
-            break
-    m = concatenate(clips, name="HDM_mm_concat")
-    return m[: int(round(seconds * m.fps))]
+    return long_take(seconds)[0]
 
 
 def contexts(clip_path: Path, seconds: float):

@@ -448,6 +448,29 @@ def _bound(rowmin, level, s, t, N, min_width, wmax, buf):
     return best
 
 
+@njit(cache=True, inline="always")
+def _proven_minimum(d, evaluated, lb, consec, t, v):
+    """Whether ``v = d[t]`` is a local minimum (``<=`` left, ``<`` right, across consecutive starts).
+
+    An unevaluated neighbour counts through its lower bound: the answer is
+    True only when the bound already proves it.
+    """
+    T = d.shape[0]
+    if t > 0 and consec[t]:
+        if evaluated[t - 1]:
+            if not v <= d[t - 1]:
+                return False
+        elif not lb[t - 1] >= v:
+            return False
+    if t + 1 < T and consec[t + 1]:
+        if evaluated[t + 1]:
+            if not v < d[t + 1]:
+                return False
+        elif not lb[t + 1] > v:
+            return False
+    return True
+
+
 @njit(cache=True)
 def _kth_confirmed(d, evaluated, lb, consec, ev, ne, k, vals, tgt, lo, hi):
     """K-th smallest value among the evaluated positions proven to be local minima (inf if fewer).
@@ -455,7 +478,6 @@ def _kth_confirmed(d, evaluated, lb, consec, ev, ne, k, vals, tgt, lo, hi):
     Positions whose start lies in ``[lo, hi]`` (the source word's own place) are
     part of the distance function but never chosen.
     """
-    T = d.shape[0]
     n = 0
     for e in range(ne):
         t = ev[e]
@@ -464,18 +486,8 @@ def _kth_confirmed(d, evaluated, lb, consec, ev, ne, k, vals, tgt, lo, hi):
             continue
         if n == k and v >= vals[k - 1]:
             continue
-        if t > 0 and consec[t]:
-            if evaluated[t - 1]:
-                if not v <= d[t - 1]:
-                    continue
-            elif not lb[t - 1] >= v:
-                continue
-        if t + 1 < T and consec[t + 1]:
-            if evaluated[t + 1]:
-                if not v < d[t + 1]:
-                    continue
-            elif not lb[t + 1] > v:
-                continue
+        if not _proven_minimum(d, evaluated, lb, consec, t, v):
+            continue
         q = n if n < k else k - 1
         while q > 0 and vals[q - 1] > v:
             vals[q] = vals[q - 1]
@@ -536,18 +548,8 @@ def _knn_profile(D, rowmin, level, src, tgt, consec, excl_lo, excl_hi, N, M, min
             v = d[t]
             if not v < _INF or lo <= tgt[t] <= hi:
                 continue
-            if t > 0 and consec[t]:
-                if evaluated[t - 1]:
-                    if not v <= d[t - 1]:
-                        continue
-                elif not lb[t - 1] >= v:
-                    continue
-            if t + 1 < T and consec[t + 1]:
-                if evaluated[t + 1]:
-                    if not v < d[t + 1]:
-                        continue
-                elif not lb[t + 1] > v:
-                    continue
+            if not _proven_minimum(d, evaluated, lb, consec, t, v):
+                continue
             if n == k and (v > out_dist[w, k - 1] or (v == out_dist[w, k - 1] and t > picked[k - 1])):
                 continue
             q = n if n < k else k - 1
@@ -649,21 +651,38 @@ def word_knn_profile(D, src_starts, tgt_starts, k=5, exclude_center=None, exclud
     return out + (evaluated,) if return_evaluated else out
 
 
+@njit(cache=True, inline="always")
+def _cost_block(A, B, members, drop, s0, t0, terms, C, as_float32):
+    """C[i, j] = eq. 1 between frames ``s0 + i`` of A and ``t0 + j`` of B on ``members`` (inf if one is NaN).
+
+    ``as_float32`` rounds each cost as :func:`group_pose_distances` stores it.
+    """
+    N, M = C.shape
+    for i in range(N):
+        for j in range(M):
+            finite = True
+            for k in members:
+                v = _half_angle_sq(A[s0 + i, k], B[t0 + j, k])
+                terms[k] = v
+                if v == _INF:
+                    finite = False
+            if not finite:
+                C[i, j] = _INF
+            elif as_float32:
+                C[i, j] = np.float32(_robust_sum(terms, members, drop))
+            else:
+                C[i, j] = _robust_sum(terms, members, drop)
+
+
 @njit(cache=True, parallel=True)
 def _pairs(A, B, members, drop, src, tgt, N, M, min_width, max_run, dist, iend, jend):
     P = src.shape[0]
-    m = members.shape[0]
     for p in prange(P):
         C = np.empty((N, M))
         terms = np.empty(A.shape[1])
         acc = np.empty((N, M, 7))
         ln = np.empty((N, M, 7), dtype=np.int64)
-        for i in range(N):
-            for j in range(M):
-                for kk in range(m):
-                    k = members[kk]
-                    terms[k] = _half_angle_sq(A[src[p] + i, k], B[tgt[p] + j, k])
-                C[i, j] = _robust_sum(terms, members, drop)
+        _cost_block(A, B, members, drop, src[p], tgt[p], terms, C, False)
         d, i, j = _word_dtw(C, 0, 0, N, M, min_width, max_run, acc, ln)
         dist[p] = d
         iend[p] = i
@@ -698,7 +717,6 @@ def word_distance_pairs(A, B, group, drop, src_starts, tgt_starts, N=15, M=20, m
 @njit(cache=True, parallel=True)
 def _warp(S, T, members, rows, drop, src, tgt, N, M, min_width, max_run, out, iend):
     P = src.shape[0]
-    m = members.shape[0]
     R = rows.shape[0]
     for p in prange(P):
         C = np.empty((N, M))
@@ -706,17 +724,8 @@ def _warp(S, T, members, rows, drop, src, tgt, N, M, min_width, max_run, out, ie
         acc = np.empty((N, M, 7))
         ln = np.empty((N, M, 7), dtype=np.int64)
         back = np.zeros((N, M, 7), dtype=np.int8)
-        for i in range(N):
-            for j in range(M):
-                finite = True
-                for kk in range(m):
-                    k = members[kk]
-                    v = _half_angle_sq(S[src[p] + i, k], T[tgt[p] + j, k])
-                    terms[k] = v
-                    if v == _INF:
-                        finite = False
-                # rounded as group_pose_distances rounds it, so the path is the one the search saw
-                C[i, j] = np.float32(_robust_sum(terms, members, drop)) if finite else _INF
+        # rounded as group_pose_distances rounds it, so the path is the one the search saw
+        _cost_block(S, T, members, drop, src[p], tgt[p], terms, C, True)
         d, bi, bj = _word_dtw(C, 0, 0, N, M, min_width, max_run, acc, ln, back)
         iend[p] = bi
         if bi < 0:
