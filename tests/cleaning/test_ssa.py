@@ -347,3 +347,19 @@ def test_unseen_words_are_not_judged(walk, flipped):
     assert any("not judged" in n for n in none.notes)
     loose = ssa.detect(bad, max_word_angle_deg=180.0)
     assert np.array_equal(loose.mdm, flipped[3].mdm)
+
+
+def test_a_flagged_run_without_neighbour_words_is_bridged_from_its_ends(walk, flipped):
+    """No neighbour to copy from: the run is slerped between its clean ends, not bent from its own values."""
+    bad, mask, records, det = flipped
+    j = walk.skeleton.index(records[0].joint)
+    cells = det.flags[:, j] & mask[:, j]
+    garbage = np.array(bad.rotations)
+    rng = np.random.default_rng(0)
+    garbage[cells, j] = R.quaternion_normalize(rng.normal(size=(int(cells.sum()), 4)))  # nothing to keep in there
+    garbage = dataclasses.replace(bad, rotations=garbage)
+    orphan = dataclasses.replace(det, neighbor_pos=np.full_like(det.neighbor_pos, -1))
+    fixed = ssa.repair(garbage, orphan, foot_skate=False)
+    assert np.array_equal(fixed.rotations[~det.flags], garbage.rotations[~det.flags])
+    after = np.degrees(R.geodesic_angle(walk.rotations[cells, j], fixed.rotations[cells, j]))
+    assert np.median(after) < 20 and after.max() < 45

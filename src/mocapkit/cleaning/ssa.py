@@ -1121,7 +1121,9 @@ def repair(
 
     For each flagged cell the source word around the frame gives K neighbour
     words (in the group that explained the joint best); the medoid of them on
-    the word's flagged joints replaces the values, which are blended into the
+    the word's flagged joints replaces the values (a flagged run no
+    neighbour word covers is bridged by slerp between its unflagged ends, as
+    a gap would be), which are blended into the
     untouched motion with a quadratic Savitzky-Golay filter (``blend_s``
     seconds). Every unflagged value is bit-identical to the input, except, with
     ``foot_skate``, the hip and knee of a leg whose joints were replaced in a
@@ -1162,6 +1164,7 @@ def repair(
     word_of = np.argmin(np.abs(tau[:, None] - centers[None, :]), axis=1)
     groups = [np.flatnonzero(detection.group_masks[g]) for g in range(len(detection.group_names))]
     new = np.array(motion.rotations)
+    placed = np.zeros(flags.shape, dtype=bool)  # the flagged cells a neighbour word was written into
     heading = R.quaternion_twist(motion.rotations[:, 0], up)
     flagged_frames_by_word: dict[tuple[int, int], list] = {}
     fi, ji = np.nonzero(flags)
@@ -1171,6 +1174,7 @@ def repair(
             continue
         flagged_frames_by_word.setdefault((g, int(word_of[f])), []).append((f, j))
     # every neighbour word the repair needs, warped in one batch per group
+    M = int(p["target_length"])
     K = detection.neighbor_pos.shape[2]
     warped: dict[tuple[int, int], list[np.ndarray]] = {}
     for g in sorted({g for g, _ in flagged_frames_by_word}):
@@ -1178,7 +1182,7 @@ def repair(
         pos = detection.neighbor_pos[g, ws]  # (n, K)
         wi, ki = np.nonzero(pos >= 0)
         members = groups[g]
-        nws, ok = _neighbor_words(src.values, full, members, _drop(members), words[ws[wi]], pos[wi, ki], N, int(p["target_length"]))
+        nws, ok = _neighbor_words(src.values, full, members, _drop(members), words[ws[wi]], pos[wi, ki], N, M)
         for q in np.flatnonzero(ok):
             warped.setdefault((g, int(ws[wi[q]])), []).append(nws[q])
     for (g, w), cells in flagged_frames_by_word.items():
@@ -1211,10 +1215,25 @@ def repair(
         if choice is None:
             choice = _medoid(words_k, flagged_cols)
         place(words_k[choice], new)
+        placed[fs, js] = True
+    # a flagged run no neighbour word was written into is bridged like a gap: slerp between its
+    # unflagged ends (blending its own values towards the ends would bend a 180-degree flip, not undo it)
+    F_all = motion.num_frames
+    for j in np.flatnonzero((flags & ~placed).any(axis=0)):
+        for a, b in contact_segments(flags[:, j] & ~placed[:, j]):
+            lo = motion.rotations[a - 1, j] if a > 0 else None
+            hi = motion.rotations[b, j] if b < F_all else None
+            if lo is None and hi is None:
+                continue
+            lo = hi if lo is None else lo
+            hi = lo if hi is None else hi
+            u = (np.arange(a, b) - (a - 1)) / (b - (a - 1))
+            new[a:b, j] = R.slerp(np.broadcast_to(lo, (b - a, 4)), np.broadcast_to(hi, (b - a, 4)), u)
+            placed[a:b, j] = True
     window = window_frames(blend_s, motion.fps, 2)
     out_rot = np.array(motion.rotations)
-    for j in np.flatnonzero(flags.any(axis=0)):
-        out_rot[:, j] = _blend_runs(motion.rotations[:, j], new[:, j], flags[:, j], window)
+    for j in np.flatnonzero(placed.any(axis=0)):
+        out_rot[:, j] = _blend_runs(motion.rotations[:, j], new[:, j], placed[:, j], window)
     out = dataclasses.replace(motion, rotations=out_rot)
     if contacts:
         from . import ik
