@@ -1122,8 +1122,8 @@ def repair(
     For each flagged cell the source word around the frame gives K neighbour
     words (in the group that explained the joint best); the medoid of them on
     the word's flagged joints replaces the values (a flagged run no
-    neighbour word covers is bridged by slerp between its unflagged ends, as
-    a gap would be), which are blended into the
+    neighbour word covers is bridged by slerp between its ends, unflagged
+    or already replaced, as a gap would be), which are blended into the
     untouched motion with a quadratic Savitzky-Golay filter (``blend_s``
     seconds). Every unflagged value is bit-identical to the input, except, with
     ``foot_skate``, the hip and knee of a leg whose joints were replaced in a
@@ -1216,13 +1216,13 @@ def repair(
             choice = _medoid(words_k, flagged_cols)
         place(words_k[choice], new)
         placed[fs, js] = True
-    # a flagged run no neighbour word was written into is bridged like a gap: slerp between its
-    # unflagged ends (blending its own values towards the ends would bend a 180-degree flip, not undo it)
-    F_all = motion.num_frames
+    # a flagged run no neighbour word was written into is bridged like a gap: slerp between its ends,
+    # unflagged or already replaced (blending its own values towards the ends would bend a 180-degree
+    # flip, not undo it)
     for j in np.flatnonzero((flags & ~placed).any(axis=0)):
         for a, b in contact_segments(flags[:, j] & ~placed[:, j]):
-            lo = motion.rotations[a - 1, j] if a > 0 else None
-            hi = motion.rotations[b, j] if b < F_all else None
+            lo = new[a - 1, j] if a > 0 else None
+            hi = new[b, j] if b < F else None
             if lo is None and hi is None:
                 continue
             lo = hi if lo is None else lo
