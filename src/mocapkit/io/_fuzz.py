@@ -302,69 +302,61 @@ def _word_mutation(rng: random.Random, text: bytes, words: list[bytes]) -> bytes
     return text[: m.start()] + new + text[m.end():]
 
 
+def _replace_field(rng: random.Random, text: bytes, pattern: bytes, values, group: int = 0, first: bool = False,
+                   flags: int = 0) -> bytes | None:
+    """``text`` with ``group`` of one match of ``pattern`` (a random one, or the first) set to one of ``values``.
+
+    None when the pattern does not occur (the caller falls back to a word mutation).
+    """
+    if first:
+        m = re.search(pattern, text, flags)
+    else:
+        ms = list(re.finditer(pattern, text, flags))
+        m = rng.choice(ms) if ms else None
+    if m is None:
+        return None
+    return text[: m.start(group)] + rng.choice(values) + text[m.end(group):]
+
+
+# Format-aware fields: (pattern, group, values, first match only), one per mutation kind.
+_BVH_FIELDS = [
+    (rb"CHANNELS[ \t]+(\d+)", 1, [b"0", b"1", b"2", b"5", b"6", b"7", b"-1", b"3.0", b"99", b"x", b""], False),
+    (rb"Frames:[ \t]*(\S*)", 1, [b"0", b"-1", b"1", b"11", b"13", b"24", b"1000000000", b"99999999999999999999", b"1e3",
+                               b"12.0", b"nan", b""], True),
+    (rb"Frame Time:[ \t]*(\S*)", 1, [b"0", b"-0.0083", b"1e-320", b"5e-324", b"1e-300", b"1e300", b"inf", b"nan",
+                                   b"0.0333667", b".0083333", b"1", b"x", b"", b"1e309"], True),
+    (rb"[XYZ](?:position|rotation)", 0, [b"Xposition", b"Yposition", b"Zposition", b"Xrotation", b"Yrotation",
+                                         b"Zrotation", b"xrotation", b"Wrotation", b""], False),
+    (rb"[{}]", 0, [b"", b"{", b"}", b"{ {", b"} }"], False),
+]
+_ASF_FIELDS = [
+    (rb"dof([^\n]*)", 1, [b" rx ry rz", b" rx rx", b" tx ry", b" l", b" rx ry rz rx", b"", b" rq", b" RZ RX",
+                          b" rz ry rx tx ty tz"], False),
+    (rb"(mass|length|angle)[ \t]+(\S+)", 2, [b"0", b"-0.45", b"1e-320", b"1e309", b"nan", b"inf", b"rad", b"deg",
+                                             b"grad", b""], True),
+    (rb"\b([XYZxyz]{3})\b", 1, [b"XYZ", b"ZYX", b"XXY", b"XY", b"XYZW", b"xyz", b"ABC"], False),
+    (rb"\(([^)\n]*)\)", 1, [b"-inf inf", b"1 2 3", b"", b"nan nan", b"1e309 -1e309", b"a b", b"(1 2", b"1,2"], False),
+]
+
+
 def _bvh_mutation(rng: random.Random, text: bytes) -> bytes:
-    op = rng.randrange(6)
-    if op == 0:  # CHANNELS count
-        ms = list(re.finditer(rb"CHANNELS[ \t]+(\d+)", text))
-        if ms:
-            m = rng.choice(ms)
-            v = rng.choice([b"0", b"1", b"2", b"5", b"6", b"7", b"-1", b"3.0", b"99", b"x", b""])
-            return text[: m.start(1)] + v + text[m.end(1):]
-    elif op == 1:  # Frames:
-        m = re.search(rb"Frames:[ \t]*(\S*)", text)
-        if m:
-            v = rng.choice([b"0", b"-1", b"1", b"11", b"13", b"24", b"1000000000", b"99999999999999999999", b"1e3",
-                            b"12.0", b"nan", b""])
-            return text[: m.start(1)] + v + text[m.end(1):]
-    elif op == 2:  # Frame Time:
-        m = re.search(rb"Frame Time:[ \t]*(\S*)", text)
-        if m:
-            v = rng.choice([b"0", b"-0.0083", b"1e-320", b"5e-324", b"1e-300", b"1e300", b"inf", b"nan", b"0.0333667",
-                            b".0083333", b"1", b"x", b"", b"1e309"])
-            return text[: m.start(1)] + v + text[m.end(1):]
-    elif op == 3:  # channel names
-        ms = list(re.finditer(rb"[XYZ](?:position|rotation)", text))
-        if ms:
-            m = rng.choice(ms)
-            v = rng.choice([b"Xposition", b"Yposition", b"Zposition", b"Xrotation", b"Yrotation", b"Zrotation",
-                            b"xrotation", b"Wrotation", b""])
-            return text[: m.start()] + v + text[m.end():]
-    elif op == 4:  # braces
-        ms = list(re.finditer(rb"[{}]", text))
-        if ms:
-            m = rng.choice(ms)
-            v = rng.choice([b"", b"{", b"}", b"{ {", b"} }"])
-            return text[: m.start()] + v + text[m.end():]
+    op = rng.randrange(len(_BVH_FIELDS) + 1)
+    if op < len(_BVH_FIELDS):  # CHANNELS count, Frames:, Frame Time:, channel names, braces
+        pattern, group, values, first = _BVH_FIELDS[op]
+        out = _replace_field(rng, text, pattern, values, group, first)
+        if out is not None:
+            return out
     return _word_mutation(rng, text, _BVH_WORDS)
 
 
 def _asf_mutation(rng: random.Random, text: bytes) -> bytes:
-    op = rng.randrange(5)
-    if op == 0:  # dof lists
-        ms = list(re.finditer(rb"dof([^\n]*)", text))
-        if ms:
-            m = rng.choice(ms)
-            v = rng.choice([b" rx ry rz", b" rx rx", b" tx ry", b" l", b" rx ry rz rx", b"", b" rq", b" RZ RX",
-                            b" rz ry rx tx ty tz"])
-            return text[: m.start(1)] + v + text[m.end(1):]
-    elif op == 1:  # :units
-        m = re.search(rb"(mass|length|angle)[ \t]+(\S+)", text)
-        if m:
-            v = rng.choice([b"0", b"-0.45", b"1e-320", b"1e309", b"nan", b"inf", b"rad", b"deg", b"grad", b""])
-            return text[: m.start(2)] + v + text[m.end(2):]
-    elif op == 2:  # axis orders
-        ms = list(re.finditer(rb"\b([XYZxyz]{3})\b", text))
-        if ms:
-            m = rng.choice(ms)
-            v = rng.choice([b"XYZ", b"ZYX", b"XXY", b"XY", b"XYZW", b"xyz", b"ABC"])
-            return text[: m.start(1)] + v + text[m.end(1):]
-    elif op == 3:  # limits
-        ms = list(re.finditer(rb"\(([^)\n]*)\)", text))
-        if ms:
-            m = rng.choice(ms)
-            v = rng.choice([b"-inf inf", b"1 2 3", b"", b"nan nan", b"1e309 -1e309", b"a b", b"(1 2", b"1,2"])
-            return text[: m.start(1)] + v + text[m.end(1):]
-    elif op == 4:  # hierarchy lines
+    op = rng.randrange(len(_ASF_FIELDS) + 1)
+    if op < len(_ASF_FIELDS):  # dof lists, :units, axis orders, limits
+        pattern, group, values, first = _ASF_FIELDS[op]
+        out = _replace_field(rng, text, pattern, values, group, first)
+        if out is not None:
+            return out
+    else:  # hierarchy lines
         m = re.search(rb":hierarchy(.*?)\n\s*end", text, re.S)
         if m:
             lines = m.group(1).split(b"\n")
@@ -384,11 +376,10 @@ def _asf_mutation(rng: random.Random, text: bytes) -> bytes:
 def _amc_mutation(rng: random.Random, text: bytes) -> bytes:
     op = rng.randrange(4)
     if op == 0:  # frame numbers
-        ms = list(re.finditer(rb"^(\d+)[ \t\r]*$", text, re.M))
-        if ms:
-            m = rng.choice(ms)
-            v = rng.choice([b"0", b"-1", b"1", b"3", b"1.5", b"99999999999999999999", b"1e5", b"nan", b"inf", b""])
-            return text[: m.start(1)] + v + text[m.end(1):]
+        out = _replace_field(rng, text, rb"^(\d+)[ \t\r]*$", [b"0", b"-1", b"1", b"3", b"1.5", b"99999999999999999999",
+                                                             b"1e5", b"nan", b"inf", b""], 1, flags=re.M)
+        if out is not None:
+            return out
     elif op == 1:  # bone names
         ms = list(re.finditer(rb"^([a-z]+) ", text, re.M))
         if len(ms) > 1:
