@@ -53,6 +53,9 @@ def main() -> None:
     ap.add_argument("--bias", action="store_true", help="EBF: also predict a per-channel bias (eq. 1's b)")
     ap.add_argument("--dropout", type=float, default=None, help="dropout on the LSTM inputs (default TrainConfig's)")
     ap.add_argument("--observed-weight", type=float, default=None, help="EBD: loss weight of observed entries")
+    ap.add_argument("--speed-range", type=float, nargs=2, default=None, metavar=("LO", "HI"),
+                    help="replay the training clips at a random speed in [LO, HI] (augmentation)")
+    ap.add_argument("--offset", type=float, default=None, help="EBF: random channel offsets, x channel std")
     ap.add_argument("--out", default=str(ROOT / "benchmarks" / "out" / "models"))
     ap.add_argument("--install", action="store_true", help="copy the model into src/mocapkit/models/")
     ap.add_argument("--json", action="store_true")
@@ -63,7 +66,8 @@ def main() -> None:
     clips = [mocapkit.load(f) for f in train_f]
     val = [mocapkit.load(f) for f in val_f]
     hidden = a.hidden or (64 if a.kind == "ebf" else 32)
-    extra = {k: v for k, v in (("dropout", a.dropout), ("observed_weight", a.observed_weight)) if v is not None}
+    extra = {k: v for k, v in (("dropout", a.dropout), ("observed_weight", a.observed_weight), ("offset", a.offset),
+                               ("speed_range", tuple(a.speed_range) if a.speed_range else None)) if v is not None}
     cfg = TrainConfig(kind=a.kind, hidden=hidden, epochs=a.epochs, steps_per_epoch=50, minutes=a.minutes, seed=0,
                       bias=a.kind == "ebf" and a.bias, **extra)
     out = Path(a.out) / a.kind

@@ -56,6 +56,8 @@ def test_deep_commands_fail_in_one_line(tmp_path):
     assert code == 2 and one_error_line(err)
     code, _, err = run("train", "denoiser", str(WALK), "-o", str(tmp_path / "m"), "--noise", "wobble:1")
     assert code == 2 and one_error_line(err) and "unknown noise setting 'wobble:1'" in err
+    code, _, err = run("train", "denoiser", str(WALK), "-o", str(tmp_path / "m"), "--speed", "1.4", "0.7")
+    assert code == 2 and one_error_line(err) and "--speed needs 0 < LO <= HI (got 1.4 0.7)" in err
     assert not (tmp_path / "m").exists()
 
 

@@ -548,6 +548,10 @@ def train(
     ),
     lr: float = typer.Option(2e-3, "--lr", help="Adam learning rate (halved on validation plateaus)."),
     dropout: float = typer.Option(0.1, "--dropout", help="Dropout on the LSTM inputs (Mall: 0.5)."),
+    speed: tuple[float, float] = typer.Option(
+        (1.0, 1.0), "--speed", help="Augmentation: replay the training clips at a random speed in LO HI (e.g. 0.7 1.4)."
+    ),
+    offset: float = typer.Option(0.0, "--offset", help="Denoiser augmentation: random channel offsets, x channel std."),
     init: str = typer.Option("xavier", "--init", help="xavier (the shipped models') or paper (uniform [-0.5, 0.5])."),
     seed: int = typer.Option(0, "--seed"),
     resume: bool = typer.Option(True, "--resume/--restart", help="Continue from out/checkpoint.pt if present."),
@@ -574,6 +578,8 @@ def train(
                 _noisy(None, spec, 0, check_only=True)
             except ValueError as exc:
                 raise MocapError(f"train: --noise: {exc}") from None
+    if not (0 < speed[0] <= speed[1]) or not offset >= 0:
+        raise MocapError(f"train: --speed needs 0 < LO <= HI (got {speed[0]:g} {speed[1]:g}) and --offset >= 0")
     clips = training.load_clips(sources)
     if not clips:
         raise MocapError(f"train: no .bvh, .amc or .npz clips in {', '.join(map(str, sources))}")
@@ -591,7 +597,7 @@ def train(
     cfg = training.TrainConfig(
         kind=kinds[what], representation=representation, hidden=hidden, head=head, bias=bias, epochs=epochs,
         steps_per_epoch=steps, minutes=minutes, seed=seed, device=device, lr=lr, dropout=dropout, init=init,
-        **({"noise": tuple(noise)} if noise else {}),
+        speed_range=(float(speed[0]), float(speed[1])), offset=offset, **({"noise": tuple(noise)} if noise else {}),
     )
     bests = []
     for (tr, val), o in zip(splits, outs):

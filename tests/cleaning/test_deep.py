@@ -357,3 +357,85 @@ def test_resumed_training_follows_the_plateau_rule(tmp_path, walk):
     halved = training._plateau_halvings(ha, 1)
     for k in range(1, len(ha)):
         assert ha[k]["lr"] == ha[k - 1]["lr"] * (0.5 if halved[k - 1] else 1.0)
+
+
+# -- augmentation ----------------------------------------------------------------------
+
+
+def _pool(walk, noise=("angular:0.5",)):
+    return [training.prepare_clip((walk[:300], deep.layout_for(walk), noise, 2, 3))]
+
+
+def test_resample_crop_reads_frames_at_the_given_speed():
+    a = np.arange(40, dtype=np.float32)[:, None] * np.array([[1.0, -2.0]], dtype=np.float32)
+    assert np.array_equal(training._resample_crop(a, 5, 1.0, 10), a[5:15])
+    assert np.array_equal(training._resample_crop(a, 4, 2.0, 10), a[4:24:2])
+    half = training._resample_crop(a, 3.0, 0.5, 9)
+    assert np.allclose(half[:, 0], 3.0 + 0.5 * np.arange(9))  # a ramp is interpolated exactly
+
+
+def test_unaugmented_batches_are_the_plain_crops(walk):
+    """speed_range (1, 1) and offset 0 draw the same crops as before augmentation existed."""
+    data = _pool(walk)
+    cfg = training.TrainConfig(batch=3, crop=60)
+    x, c, y = training._ebf_batch(data, cfg, np.random.default_rng(4), np.ones(data[0]["clean"].shape[1], np.float32))
+    rng = np.random.default_rng(4)
+    T = 90
+    lens = np.array([300.0])
+    pick = rng.choice([0], size=3, p=lens / lens.sum())
+    for b in range(3):
+        s = int(rng.integers(0, 300 - T + 1))
+        v = data[pick[b]]["noisy"][int(rng.integers(2))]
+        assert np.array_equal(x[b].numpy(), v[s : s + T])
+        assert np.array_equal(y[b].numpy(), data[0]["clean"][s + 15 : s + T - 15])
+        assert np.array_equal(c[b].numpy(), data[0]["ctx"][s : s + T])
+
+
+def test_augmented_crops_keep_the_noise_and_a_consistent_target(walk):
+    """Replayed crops: noisy - clean is the white noise of a real variant, the target is the replayed clean
+    motion (offsets included), and the speeds span the range."""
+    data = _pool(walk)
+    C = data[0]["clean"].shape[1]
+    std = np.full(C, 10.0, np.float32)
+    cfg = training.TrainConfig(batch=16, crop=60, speed_range=(0.7, 1.4), offset=0.5)
+    x, c, y = (a.numpy() for a in training._ebf_batch(data, cfg, np.random.default_rng(1), std))
+    noise = ch.wrap_degrees(x[:, 15:-15] - y)
+    ref = np.concatenate([ch.wrap_degrees(v - data[0]["clean"]) for v in data[0]["noisy"]])
+    # the same noise level as the variants it came from (0.5 x channel std), not smoothed by the resampling
+    assert np.allclose(noise.std(axis=(0, 1)), ref.std(axis=0), rtol=0.25)
+    lag1 = np.mean(noise[:, 1:] * noise[:, :-1]) / np.mean(noise**2)
+    assert abs(lag1) < 0.05
+    # the clean target moves as fast as the clip played at 0.7-1.4x: its frame-to-frame steps scale with speed
+    step = np.abs(np.diff(y, axis=1)).mean(axis=(1, 2))
+    base = np.abs(np.diff(data[0]["clean"], axis=0)).mean()
+    assert step.min() < 0.9 * base and step.max() > 1.15 * base
+    # offsets move input and target together; without them the target is a stretch of the clip
+    cfg0 = training.TrainConfig(batch=16, crop=60, speed_range=(0.7, 1.4), offset=0.0)
+    y0 = training._ebf_batch(data, cfg0, np.random.default_rng(1), std)[2].numpy()
+    off = (y - y0).reshape(-1, C)
+    assert np.allclose(off, off[0], atol=1e-3) is False  # differs per crop
+    assert np.allclose(y - y0, (y - y0)[:, :1], atol=1e-3)  # one offset per crop and channel
+    lo, hi = data[0]["clean"].min(0), data[0]["clean"].max(0)
+    assert np.all((y0 >= lo - 1e-3) & (y0 <= hi + 1e-3))
+
+
+
+def test_a_clip_too_short_to_replay_faster_is_replayed_at_the_speed_it_allows(walk):
+    data = [training.prepare_clip((walk[:90], deep.layout_for(walk), ("angular:0.5",), 1, 3))]
+    cfg = training.TrainConfig(batch=8, crop=60, speed_range=(1.4, 1.4))
+    x, _, y = training._ebf_batch(data, cfg, np.random.default_rng(0))
+    assert np.allclose(y.numpy(), data[0]["clean"][15:75], atol=1e-4)  # all 90 frames at speed 1
+    assert torch.isfinite(x).all()
+
+
+def test_ebd_batches_replay_the_clip_at_the_drawn_speed(walk):
+    data = _pool(walk)
+    net = deep.EBD(data[0]["clean"].shape[1], hidden=4, width=8)
+    cfg = training.TrainConfig(kind="ebd", batch=4, centres=8, speed_range=(0.5, 0.5), gap_rate=2.0)
+    x, m, c, y = (a.numpy() for a in training._ebd_batch(data, cfg, np.random.default_rng(2), net))
+    clean = data[0]["clean"]
+    halfway = np.concatenate([clean, (clean[:-1] + clean[1:]) / 2])  # every frame of the clip played at half speed
+    d = np.abs(y[:, None, :] - halfway[None]).max(axis=2).min(axis=1)
+    assert np.all(d < 1e-3)
+    assert np.any(np.abs(y[:, None, :] - clean[None]).max(axis=2).min(axis=1) > 0.1)  # some targets fall between frames
+    assert x.shape[1] == 31 and np.isfinite(x).all() and (m[:, 15] > 0.5).any(axis=1).all()

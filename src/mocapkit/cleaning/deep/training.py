@@ -72,6 +72,8 @@ class TrainConfig:
     long_gap_share: float = 0.2  # EBD: share of gap patterns that are 1-5 s gaps
     gap_rate: float = 0.2  # EBD: gap starts per second of observed motion, per channel or joint
     observed_weight: float = 0.1  # EBD: loss weight of the observed channels of a window centre
+    speed_range: tuple[float, float] = (1.0, 1.0)  # clips replayed at a random speed in this range (augmentation)
+    offset: float = 0.0  # EBF: random per-crop channel offsets, std in units of the channel's std
     minutes: float | None = None  # stop after the epoch that passes this budget
     device: str = "auto"
 
@@ -232,31 +234,78 @@ def _device(spec: str) -> torch.device:
     return torch.device(spec)
 
 
-def _ebf_batch(data, cfg: TrainConfig, rng: np.random.Generator):
+def _resample_crop(a: np.ndarray, start: float, speed: float, T: int) -> np.ndarray:
+    """``T`` frames of ``a`` (F, C) read from ``start`` at ``speed`` frames per output frame, linearly interpolated."""
+    pos = start + speed * np.arange(T)
+    i = np.minimum(pos.astype(np.int64), len(a) - 2)
+    f = (pos - i)[:, None].astype(a.dtype)
+    return (1 - f) * a[i] + f * a[i + 1]
+
+
+def _ebf_batch(data, cfg: TrainConfig, rng: np.random.Generator, std: np.ndarray | None = None):
+    """EBF crops (noisy (B, T, C), context (B, T, 3), clean centre (B, T - 30, C)), T = crop + 30.
+
+    With ``cfg.speed_range`` other than (1, 1) each crop's clean motion is
+    replayed at a speed drawn log-uniformly from the range (linear interpolation;
+    the root's angular velocity scaled to match) and the noise of a same-length
+    stretch of one noisy variant is added to it: the angular and uniform noise
+    is white, so this is the noise the clip would have had at that speed.
+    ``cfg.offset`` adds one random offset per channel (std ``offset`` x the
+    training set's channel std ``std``) to input and target alike. Both
+    augmentations keep the target exact for a linear filter and stop the
+    network from recognising the training actors by their tempo and poses.
+    """
     T = cfg.crop + 2 * HALF_WINDOW
     lens = np.array([len(d["clean"]) for d in data], dtype=np.float64)
     ok = np.flatnonzero(lens >= T)
     if not len(ok):
         raise ValueError(f"every training clip is shorter than a crop of {T} frames; lower crop")
     pick = rng.choice(ok, size=cfg.batch, p=lens[ok] / lens[ok].sum())
+    lo, hi = cfg.speed_range
     xs, cs, ys = [], [], []
     for i in pick:
         d = data[i]
-        s = int(rng.integers(0, len(d["clean"]) - T + 1))
+        n = len(d["clean"])
+        s = int(rng.integers(0, n - T + 1))
         v = d["noisy"][int(rng.integers(len(d["noisy"])))]
-        xs.append(v[s : s + T])
-        cs.append(d["ctx"][s : s + T])
-        ys.append(d["clean"][s + HALF_WINDOW : s + T - HALF_WINDOW])
-    return tuple(torch.as_tensor(np.stack(a)) for a in (xs, cs, ys))
+        if hi > lo or lo != 1.0:
+            speed = float(np.exp(rng.uniform(np.log(lo), np.log(hi))))
+            speed = min(speed, (n - 1.0) / (T - 1))  # a short clip cannot be replayed as fast
+            s0 = float(rng.uniform(0.0, max(n - 1.0 - speed * (T - 1), 0.0)))
+            clean = _resample_crop(d["clean"], s0, speed, T)
+            ctx = _resample_crop(d["ctx"], s0, speed, T) * np.float32(speed)
+            noisy = clean + _wrapped(v[s : s + T] - d["clean"][s : s + T], cfg)
+        else:
+            clean, ctx, noisy = d["clean"][s : s + T], d["ctx"][s : s + T], v[s : s + T]
+        xs.append(noisy)
+        cs.append(ctx)
+        ys.append(clean[HALF_WINDOW : T - HALF_WINDOW])
+    x, c, y = (np.stack(a).astype(np.float32) for a in (xs, cs, ys))
+    if cfg.offset > 0 and std is not None:  # drawn after the crops, so the crops do not depend on it
+        o = (rng.normal(size=(len(x), 1, x.shape[2])) * cfg.offset * std).astype(np.float32)
+        x, y = x + o, y + o
+    return torch.as_tensor(x), torch.as_tensor(c), torch.as_tensor(y)
 
 
 def _ebd_batch(data, cfg: TrainConfig, rng: np.random.Generator, net: EBD, groups: np.ndarray | None = None):
-    """EBD windows around gap frames: half the clips lose single channels, half whole joints (``groups``)."""
+    """EBD windows around gap frames: half the clips lose single channels, half whole joints (``groups``).
+
+    ``cfg.speed_range`` replays each clip at a random speed first, as :func:`_ebf_batch` does.
+    """
     xs, ms, cs, ys = [], [], [], []
+    lo, hi = cfg.speed_range
     for i in rng.integers(len(data), size=cfg.batch):
         d = data[i]
-        F, C = d["clean"].shape
         v = d["noisy"][int(rng.integers(len(d["noisy"])))]
+        clean, ctx = d["clean"], d["ctx"]
+        if hi > lo or lo != 1.0:  # the whole clip replayed at one speed, with the white noise of its variant
+            speed = float(np.exp(rng.uniform(np.log(lo), np.log(hi))))
+            n = int((len(clean) - 1) / speed) + 1
+            noise = _wrapped(v - clean, cfg)[np.arange(n) % len(clean)]
+            clean = _resample_crop(d["clean"], 0.0, speed, n)
+            ctx = _resample_crop(d["ctx"], 0.0, speed, n) * np.float32(speed)
+            v = (clean + noise).astype(np.float32)
+        F, C = clean.shape
         long = rng.random() < cfg.long_gap_share
         by_joint = groups is not None and rng.random() < 0.5
         mask = gap_mask((F, C), d["fps"], rng, start_prob=cfg.gap_rate / d["fps"], long=long,
@@ -270,8 +319,8 @@ def _ebd_batch(data, cfg: TrainConfig, rng: np.random.Generator, net: EBD, group
         idx = window_indices(torch.as_tensor(centres), F, net.half, net.stride).numpy()
         xs.append(filled[idx])
         ms.append(mask[idx].astype(np.float32))
-        cs.append(d["ctx"][idx])
-        ys.append(d["clean"][centres])
+        cs.append(ctx[idx])
+        ys.append(clean[centres])
     return tuple(torch.as_tensor(np.concatenate(a)) for a in (xs, ms, cs, ys))
 
 
@@ -378,7 +427,9 @@ def train(
     val = map_ordered(prepare_clip, val_jobs, executor=executor, progress=False) if val_jobs else []
     torch.manual_seed(cfg.seed)
     net = cfg.network(layout.num_channels)
-    net.set_statistics(*_statistics(data))
+    stats = _statistics(data)
+    net.set_statistics(*stats)
+    channel_std = stats[1].astype(np.float32)
     groups = channel_joints(layout)
     dev = _device(cfg.device)
     opt = torch.optim.Adam(net.parameters(), lr=cfg.lr)
@@ -411,7 +462,7 @@ def train(
         total = 0.0
         for _ in range(cfg.steps_per_epoch):
             if cfg.kind == "ebf":
-                x, c, y = (a.to(dev) for a in _ebf_batch(data, cfg, rng))
+                x, c, y = (a.to(dev) for a in _ebf_batch(data, cfg, rng, channel_std))
                 loss = torch.mean(_wrapped(net(x, c) - y, cfg) ** 2)
             else:
                 x, m, c, y = (a.to(dev) for a in _ebd_batch(data, cfg, rng, net, groups))
