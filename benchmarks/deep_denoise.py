@@ -21,7 +21,12 @@ noisy clips in the same run:
   ``savgol_best`` tuned on the test clips like ``gauss_best`` (windows 0.05-0.5 s);
 * ``ebd``: the shipped EBD run on every frame with no gap (a direct pose regressor,
   the "EBD" row of Mall's comparison);
-* ``noisy``: the input.
+* ``noisy``: the input;
+* ``oracle_gauss``: a bound, not a method: per channel and frame the Gaussian (std 1-12
+  frames) whose squared error against the *clean* clip is lowest over the surrounding
+  31 frames. It is the best an EBF with the Gaussian head could do if it predicted every
+  sigma right to within a quarter second, and says how far a filter of one channel at a
+  time can go at all.
 
 Error: RMS in degrees over all non-root joint-angle channels and frames of a clip
 (``metrics.joint_angle_rms(..., include_root=False)``, differences wrapped), averaged
@@ -49,6 +54,7 @@ from mocapkit.cleaning.deep.channels import decode, encode  # noqa: E402
 from mocapkit.cleaning.deep.inference import _run_ebd  # noqa: E402
 
 NOISES = ("angular:0.1", "angular:0.5", "angular:0.9", "spatial:0.5")
+ORACLE_SIGMAS = (1.0, 1.5, 2.0, 3.0, 4.0, 5.0, 7.0, 9.0, 12.0)  # frames
 GAUSS_SWEEP = (0.010, 0.015, 0.020, 0.030, 0.040, 0.058, 0.080, 0.125)
 SAVGOL_SWEEP = (0.05, 0.1, 0.15, 0.2, 0.3, 0.5)
 
@@ -58,6 +64,17 @@ def noisy_version(clean, spec: str, seed):
     if kind == "angular":
         return corrupt.angular_noise(clean, float(a), seed=seed)[0]
     return corrupt.spatial_noise(clean, std_cm=float(a), seed=seed)[0]
+
+
+def oracle_gaussian(x: np.ndarray, clean: np.ndarray, window: int = 31) -> np.ndarray:
+    """``oracle_gauss``: per (frame, channel) the Gaussian of ORACLE_SIGMAS with the least clean-referenced error
+    summed over ``window`` frames around it; (F, C) -> (F, C). Needs the clean channels, so it is only a bound."""
+    from scipy.ndimage import gaussian_filter1d, uniform_filter1d
+
+    cands = np.stack([gaussian_filter1d(x, s, axis=0, mode="nearest") for s in ORACLE_SIGMAS])
+    err = ((cands - clean + 180.0) % 360.0 - 180.0) ** 2
+    pick = uniform_filter1d(err, window, axis=1, mode="nearest").argmin(axis=0)
+    return np.take_along_axis(cands, pick[None], axis=0)[0]
 
 
 def main(argv=None) -> None:
@@ -77,6 +94,7 @@ def main(argv=None) -> None:
     for path in tqdm(clips, desc="clips", disable=a.json):
         clean = mocapkit.load(path)
         lay = ebf.layout
+        y, _ = encode(clean, lay)
         for seed in range(a.seeds):
             classes.append(motion_class(path))
             for spec in NOISES:
@@ -96,6 +114,7 @@ def main(argv=None) -> None:
                     row[f"savgol:{w}"] = err(as_motion(savgol(x, w, clean.fps)))
                 reg = _run_ebd(ebd.net, x, np.zeros_like(x), ctx, np.arange(len(x)))
                 row["ebd"] = err(as_motion(reg))
+                row["oracle_gauss"] = err(as_motion(oracle_gaussian(x, y)))
                 for k, v in row.items():
                     errors[spec].setdefault(k, []).append(v)
     seconds = time.perf_counter() - t0
@@ -111,16 +130,18 @@ def main(argv=None) -> None:
         table = {
             "noisy": e["noisy"], "ebf": e["ebf"], "gauss58": e["gauss:0.058"], "gauss125": e["gauss:0.125"],
             "gauss_best": e[f"gauss:{g_best}"], "savgol": e["savgol:0.2"], "savgol_best": e[f"savgol:{s_best}"],
-            "ebd": e["ebd"],
+            "ebd": e["ebd"], "oracle_gauss": e["oracle_gauss"],
         }
         means = {k: round(float(v.mean()), 3) for k, v in table.items()}
         better_g = min(means["gauss58"], means["gauss125"])
-        per_class = {c: {k: round(float(v[cls == c].mean()), 3) for k, v in table.items() if k in ("ebf", "gauss58", "gauss_best")}
+        per_class = {c: {k: round(float(v[cls == c].mean()), 3) for k, v in table.items()
+                         if k in ("ebf", "gauss58", "gauss_best", "oracle_gauss")}
                      for c in sorted(set(classes))}
         result["settings"][spec] = {
             "mean": means, "gauss_best_sigma_s": g_best, "savgol_best_window_s": s_best,
             "ratio_ebf_vs_better_gaussian": round(means["ebf"] / better_g, 3),
             "ratio_ebf_vs_gauss_best": round(means["ebf"] / means["gauss_best"], 3),
+            "ratio_oracle_gauss_vs_better_gaussian": round(means["oracle_gauss"] / better_g, 3),
             "ebf_wins_share": round(float(np.mean(table["ebf"] < table["gauss_best"])), 3),
             "per_class": per_class,
         }
@@ -130,7 +151,7 @@ def main(argv=None) -> None:
                                                         "spatial_0.5cm": {"gauss58": 4.36, "gauss125": 4.78, "ebf": 2.72}},
                   seconds=round(seconds, 1), machine=platform.processor() or platform.machine())
     if not a.json:
-        cols = ("noisy", "ebf", "gauss58", "gauss125", "gauss_best", "savgol", "savgol_best", "ebd")
+        cols = ("noisy", "ebf", "gauss58", "gauss125", "gauss_best", "savgol", "savgol_best", "ebd", "oracle_gauss")
         print(f"{'noise':<13}" + "".join(f"{c:>12}" for c in cols) + f"{'ebf/better G':>14}")
         for spec in NOISES:
             s = result["settings"][spec]
