@@ -413,7 +413,7 @@ def test_augmented_crops_keep_the_noise_and_a_consistent_target(walk):
     cfg0 = training.TrainConfig(batch=16, crop=60, speed_range=(0.7, 1.4), offset=0.0)
     y0 = training._ebf_batch(data, cfg0, np.random.default_rng(1), std)[2].numpy()
     off = (y - y0).reshape(-1, C)
-    assert np.allclose(off, off[0], atol=1e-3) is False  # differs per crop
+    assert not np.allclose(off, off[0], atol=1e-3)  # differs per crop
     assert np.allclose(y - y0, (y - y0)[:, :1], atol=1e-3)  # one offset per crop and channel
     lo, hi = data[0]["clean"].min(0), data[0]["clean"].max(0)
     assert np.all((y0 >= lo - 1e-3) & (y0 <= hi + 1e-3))

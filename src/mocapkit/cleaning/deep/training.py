@@ -254,9 +254,10 @@ def _ebf_batch(data, cfg: TrainConfig, rng: np.random.Generator, std: np.ndarray
     stretch of one noisy variant is added to it: the angular and uniform noise
     is white, so this is the noise the clip would have had at that speed.
     ``cfg.offset`` adds one random offset per channel (std ``offset`` x the
-    training set's channel std ``std``) to input and target alike. Both
-    augmentations keep the target exact for a linear filter and stop the
-    network from recognising the training actors by their tempo and poses.
+    training set's channel std ``std``) to input and target alike. Both keep
+    the target exact for a linear filter; they are meant to stop the network
+    from recognising the training actors by their tempo and poses (the speed
+    helped on the test actor, the offsets did not: docs/models.md).
     """
     T = cfg.crop + 2 * HALF_WINDOW
     lens = np.array([len(d["clean"]) for d in data], dtype=np.float64)
