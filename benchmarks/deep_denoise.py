@@ -50,7 +50,7 @@ from _deep import gaussian, motion_class, savgol, test_clips
 import mocapkit  # noqa: E402
 from mocapkit import corrupt, metrics  # noqa: E402
 from mocapkit.cleaning import deep  # noqa: E402
-from mocapkit.cleaning.deep.channels import decode, encode  # noqa: E402
+from mocapkit.cleaning.deep.channels import decode, encode, wrap_degrees  # noqa: E402
 from mocapkit.cleaning.deep.inference import _run_ebd  # noqa: E402
 
 NOISES = ("angular:0.1", "angular:0.5", "angular:0.9", "spatial:0.5")
@@ -72,7 +72,7 @@ def oracle_gaussian(x: np.ndarray, clean: np.ndarray, window: int = 31) -> np.nd
     from scipy.ndimage import gaussian_filter1d, uniform_filter1d
 
     cands = np.stack([gaussian_filter1d(x, s, axis=0, mode="nearest") for s in ORACLE_SIGMAS])
-    err = ((cands - clean + 180.0) % 360.0 - 180.0) ** 2
+    err = wrap_degrees(cands - clean) ** 2
     pick = uniform_filter1d(err, window, axis=1, mode="nearest").argmin(axis=0)
     return np.take_along_axis(cands, pick[None], axis=0)[0]
 

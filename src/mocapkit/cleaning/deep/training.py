@@ -245,6 +245,14 @@ def _resample_crop(a: np.ndarray, start: float, speed: float, T: int) -> np.ndar
     return (1 - f) * a[i] + f * a[i + 1]
 
 
+def _draw_speed(cfg: TrainConfig, rng: np.random.Generator) -> float | None:
+    """A replay speed drawn log-uniformly from ``cfg.speed_range``, or None when the augmentation is off."""
+    lo, hi = cfg.speed_range
+    if lo == hi == 1.0:
+        return None
+    return float(np.exp(rng.uniform(np.log(lo), np.log(hi))))
+
+
 def _ebf_batch(data, cfg: TrainConfig, rng: np.random.Generator, std: np.ndarray | None = None):
     """EBF crops (noisy (B, T, C), context (B, T, 3), clean centre (B, T - 30, C)), T = crop + 30.
 
@@ -264,16 +272,17 @@ def _ebf_batch(data, cfg: TrainConfig, rng: np.random.Generator, std: np.ndarray
     ok = np.flatnonzero(lens >= T)
     if not len(ok):
         raise ValueError(f"every training clip is shorter than a crop of {T} frames; lower crop")
+    if cfg.offset > 0 and std is None:
+        raise ValueError("offset augmentation needs the training set's channel std")
     pick = rng.choice(ok, size=cfg.batch, p=lens[ok] / lens[ok].sum())
-    lo, hi = cfg.speed_range
     xs, cs, ys = [], [], []
     for i in pick:
         d = data[i]
         n = len(d["clean"])
         s = int(rng.integers(0, n - T + 1))
         v = d["noisy"][int(rng.integers(len(d["noisy"])))]
-        if hi > lo or lo != 1.0:
-            speed = float(np.exp(rng.uniform(np.log(lo), np.log(hi))))
+        speed = _draw_speed(cfg, rng)
+        if speed is not None:
             speed = min(speed, (n - 1.0) / (T - 1))  # a short clip cannot be replayed as fast
             s0 = float(rng.uniform(0.0, max(n - 1.0 - speed * (T - 1), 0.0)))
             clean = _resample_crop(d["clean"], s0, speed, T)
@@ -285,7 +294,7 @@ def _ebf_batch(data, cfg: TrainConfig, rng: np.random.Generator, std: np.ndarray
         cs.append(ctx)
         ys.append(clean[HALF_WINDOW : T - HALF_WINDOW])
     x, c, y = (np.stack(a).astype(np.float32) for a in (xs, cs, ys))
-    if cfg.offset > 0 and std is not None:  # drawn after the crops, so the crops do not depend on it
+    if cfg.offset > 0:  # drawn after the crops, so the crops do not depend on it
         o = (rng.normal(size=(len(x), 1, x.shape[2])) * cfg.offset * std).astype(np.float32)
         x, y = x + o, y + o
     return torch.as_tensor(x), torch.as_tensor(c), torch.as_tensor(y)
@@ -297,13 +306,12 @@ def _ebd_batch(data, cfg: TrainConfig, rng: np.random.Generator, net: EBD, group
     ``cfg.speed_range`` replays each clip at a random speed first, as :func:`_ebf_batch` does.
     """
     xs, ms, cs, ys = [], [], [], []
-    lo, hi = cfg.speed_range
     for i in rng.integers(len(data), size=cfg.batch):
         d = data[i]
         v = d["noisy"][int(rng.integers(len(d["noisy"])))]
         clean, ctx = d["clean"], d["ctx"]
-        if hi > lo or lo != 1.0:  # the whole clip replayed at one speed, with the white noise of its variant
-            speed = float(np.exp(rng.uniform(np.log(lo), np.log(hi))))
+        speed = _draw_speed(cfg, rng)
+        if speed is not None:  # the whole clip replayed at one speed, with the white noise of its variant
             n = int((len(clean) - 1) / speed) + 1
             noise = _wrapped(v - clean, cfg)[np.arange(n) % len(clean)]
             clean = _resample_crop(d["clean"], 0.0, speed, n)
