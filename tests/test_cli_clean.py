@@ -155,8 +155,9 @@ def test_clean_batch_on_local_dask_cluster(tmp_path, capsys):
 
 def _run_and_signal(args, sig, wait_s, tmp_path):
     env = dict(os.environ, PYTHONUNBUFFERED="1")
+    # a shell runs background jobs with SIGINT ignored and children inherit that; give the CLI the default, as a terminal does
     proc = subprocess.Popen([sys.executable, "-m", "mocapkit.cli", *args], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-                            env=env, cwd=tmp_path)
+                            env=env, cwd=tmp_path, preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
     time.sleep(wait_s)
     assert proc.poll() is None, "finished before the signal; make the take longer"
     proc.send_signal(sig)

@@ -40,3 +40,21 @@ def test_detect_errors_are_one_line(tmp_path):
     assert code == 2 and one_error_line(err) and ".npz" in err
     code, _, err = run("repair", str(inp), "-o", str(tmp_path / "x.bvh"), "--detection", str(inp))
     assert code == 2 and one_error_line(err) and "not a mocapkit detection file" in err
+
+
+def test_detect_no_confirm_gives_the_papers_flags(tmp_path):
+    walk = mocapkit.load(mocapkit.samples.path("131_01.bvh"))[:600]
+    inp = tmp_path / "walk.npz"
+    mocapkit.save(walk, inp)
+    paths = {rule: tmp_path / f"{rule}.npz" for rule in ("confirm", "no-confirm")}
+    for rule, path in paths.items():
+        code, _, err = run("detect", str(inp), "--out", str(path), f"--{rule}", "--json")
+        assert code == 0, err
+    confirmed, paper = (ssa.Detection.load(p) for p in paths.values())
+    assert np.array_equal(confirmed.mdm, paper.mdm)
+    assert np.array_equal(paper.flags, paper.mdm > 0.5) and not paper.params["confirm"]
+    assert confirmed.params["confirm"] and (confirmed.flags <= paper.flags | (confirmed.mdm > 0.25)).all()
+    assert confirmed.flags.sum() < paper.flags.sum()  # the clean walk's unrepeated gestures are not errors
+    code, _, err = run("detect", str(inp), "--out", str(tmp_path / "bad.npz"), "--jump-deg", "-1")
+    assert code == 2 and one_error_line(err) and "jump_deg" in err
+    assert not (tmp_path / "bad.npz").exists()

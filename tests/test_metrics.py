@@ -232,3 +232,23 @@ def test_words_cover_the_clip_end_and_can_count_whole_words():
     assert (empty.precision, empty.recall) == (1.0, 1.0)
     with pytest.raises(ValueError, match="at least 1"):
         M.word_precision_recall(det, truth, stride=0)
+
+
+def test_ignored_cells_take_their_pairs_out_of_the_counts():
+    """Words are 0-14, 5-19, 10-24, 15-29, 17-31; a false flag at frame 2 of joint 0 falls in word 0 only, the error at frame 20 in words 10, 15 and 17."""
+    truth = np.zeros((32, 2), dtype=bool)
+    truth[20, 1] = True
+    det = np.zeros_like(truth)
+    det[2, 0] = det[20, 1] = True
+    assert (lambda s: (s.tp, s.fp, s.fn))(M.word_precision_recall(det, truth)) == (3, 1, 0)
+    ignore = np.zeros_like(truth)
+    ignore[3, 0] = True  # unknown truth in word 0 on joint 0: that pair is not scored either way
+    s = M.word_precision_recall(det, truth, ignore=ignore)
+    assert (s.tp, s.fp, s.fn) == (3, 0, 0)
+    assert M.word_precision_recall(det, truth, ignore=np.zeros_like(truth)) == M.word_precision_recall(det, truth)
+    whole = M.word_precision_recall(det, truth, per_joint=False, ignore=ignore)
+    assert (whole.tp, whole.fp, whole.fn) == (3, 0, 0)  # word 0 is left out as a whole
+    ignore[20, 1] = True  # ignoring the error's own cells leaves nothing to find on joint 1 in those words
+    assert (lambda s: (s.tp, s.fp, s.fn))(M.word_precision_recall(det, truth, ignore=ignore)) == (0, 0, 0)
+    with pytest.raises(ValueError, match="shape"):
+        M.word_precision_recall(det, truth, ignore=ignore[:, :1])

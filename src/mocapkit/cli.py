@@ -340,12 +340,12 @@ def _load_context(paths: list[Path] | None):
     return load_context(paths)
 
 
-def _detect(m, context, threshold: float, progress: bool = True):
+def _detect(m, context, threshold: float, progress: bool = True, confirm: bool = True, jump_deg: float = 8.0):
     from .cleaning import ssa
     from .errors import SkeletonError
 
     try:
-        return ssa.detect(m, context, threshold=threshold, progress=progress)
+        return ssa.detect(m, context, threshold=threshold, progress=progress, confirm=confirm, jump_deg=jump_deg)
     except (ValueError, SkeletonError) as exc:
         raise MocapError(f"{m.name or 'input'}: {exc}") from None
 
@@ -358,6 +358,11 @@ def detect(
         None, "--context", help="Related clips (repeat the option) or one database folder; default: the clip itself."
     ),
     threshold: float = typer.Option(0.5, "--threshold", help="MDM value above which a joint is flagged (0-1)."),
+    confirm: bool = typer.Option(
+        True, "--confirm/--no-confirm",
+        help="Flag a digression only where the joint's own trajectory breaks (a step or spike); --no-confirm: MDM > threshold alone.",
+    ),
+    jump_deg: float = typer.Option(8.0, "--jump-deg", help="Confirmation: steps over 2x this, spikes over this (degrees)."),
     png: Optional[Path] = typer.Option(None, "--png", help="Also draw the movement digression map here."),
     as_json: bool = typer.Option(False, "--json", help="Print the flagged segments as JSON."),
 ) -> None:
@@ -374,7 +379,7 @@ def detect(
     if not isinstance(m, Motion):
         raise MocapFormatError(inp, "a marker file cannot be checked; solve it to a skeleton first")
     ctx = _load_context(context)
-    det = _detect(m, ctx, threshold, progress=not as_json)
+    det = _detect(m, ctx, threshold, progress=not as_json, confirm=confirm, jump_deg=jump_deg)
     det.save(out)
     if png is not None:
         from .report.plots import plot_mdm
@@ -402,6 +407,10 @@ def repair(
         None, "--detection", help="Use this detection (from `mocapkit detect`, same --context) instead of detecting again."
     ),
     threshold: float = typer.Option(0.5, "--threshold", help="MDM value above which a joint is replaced (0-1)."),
+    confirm: bool = typer.Option(
+        True, "--confirm/--no-confirm", help="As for detect; ignored with --detection (the file's own rule is kept)."
+    ),
+    jump_deg: float = typer.Option(8.0, "--jump-deg", help="As for detect (degrees)."),
     foot_skate: bool = typer.Option(True, "--foot-skate/--no-foot-skate", help="Pin planted feet on repaired frames."),
 ) -> None:
     """Replace only the flagged joints in flagged frames by the median of their nearest motion words."""
@@ -417,7 +426,7 @@ def repair(
     if detection is not None:
         det = ssa.Detection.load(detection).with_threshold(threshold)
     else:
-        det = _detect(m, ctx, threshold)
+        det = _detect(m, ctx, threshold, confirm=confirm, jump_deg=jump_deg)
     try:
         fixed = ssa.repair(m, det, ctx, foot_skate=foot_skate)
     except ValueError as exc:

@@ -299,7 +299,12 @@ def _words(mask: np.ndarray, word_length: int, stride: int) -> np.ndarray:
 
 
 def word_precision_recall(
-    detected: np.ndarray, truth: np.ndarray, word_length: int = 15, stride: int = 5, per_joint: bool = True
+    detected: np.ndarray,
+    truth: np.ndarray,
+    word_length: int = 15,
+    stride: int = 5,
+    per_joint: bool = True,
+    ignore: np.ndarray | None = None,
 ) -> DetectionScore:
     """Precision and recall at motion-word level, as Aristidou et al. (section 6, Table 1) count them.
 
@@ -312,11 +317,16 @@ def word_precision_recall(
     (word, joint) pairs: a detection must name the right joint in the right
     word. With ``per_joint=False`` a word is one item, positive if any joint
     is, and a detection only has to find the right word.
+
+    ``ignore`` (F, J) bool marks cells whose ground truth is unknown (e.g. a
+    glitch already in the "clean" reference): the items (pairs, or words with
+    ``per_joint=False``) holding one are not counted either way.
     """
     detected, truth = _check_masks(detected, truth)
     if detected.ndim != 2:
         raise ValueError(f"masks must be (F, J), got shape {detected.shape}")
     wd, wt = _words(detected, word_length, stride), _words(truth, word_length, stride)
+    wi = np.zeros_like(wd) if ignore is None else _words(_check_masks(ignore, truth)[0], word_length, stride)
     if not per_joint:
-        wd, wt = wd.any(axis=1), wt.any(axis=1)
-    return precision_recall(wd, wt)
+        wd, wt, wi = wd.any(axis=1), wt.any(axis=1), wi.any(axis=1)
+    return precision_recall(wd[~wi], wt[~wi])

@@ -32,7 +32,10 @@ def test_shapes_and_range(walk, flipped):
     F, J = walk.num_frames, walk.num_joints
     assert det.mdm.shape == det.flags.shape == (F, J)
     assert np.all((det.mdm >= 0) & (det.mdm <= 1))
-    assert np.array_equal(det.flags, det.mdm > det.threshold)
+    assert det.params["confirm"]
+    assert np.array_equal(det.flags, ssa.confirm_flags(det.mdm, det.jumps, det.threshold, det.fps))
+    assert not (det.flags & (det.mdm <= det.threshold / 2)).any()
+    assert not det.jumps[:, ~det.analysed].any()
     assert det.joint_names == tuple(walk.skeleton.joint_names)
     assert det.analysed.sum() == 24 and det.analysed[0]
     assert np.all(det.mdm[:, ~det.analysed] == 0)
@@ -142,6 +145,10 @@ def test_bad_inputs(walk):
         ssa.detect(dataclasses.replace(walk, rotations=holes))
     with pytest.raises(ValueError, match="threshold"):
         ssa.detect(walk, threshold=1.5)
+    with pytest.raises(ValueError, match="jump_deg"):
+        ssa.detect(walk, jump_deg=0)
+    with pytest.raises(ValueError, match="confirm_margin_s"):
+        ssa.detect(walk, confirm_margin_s=-0.1)
 
 
 def test_context_clip_equal_to_the_input_is_left_out(walk):
@@ -363,3 +370,90 @@ def test_a_flagged_run_without_neighbour_words_is_bridged_from_its_ends(walk, fl
     assert np.array_equal(fixed.rotations[~det.flags], garbage.rotations[~det.flags])
     after = np.degrees(R.geodesic_angle(walk.rotations[cells, j], fixed.rotations[cells, j]))
     assert np.median(after) < 20 and after.max() < 45
+
+
+# -- confirmation by the joint's own discontinuities ---------------------------------------
+
+
+def _turned(motion, joint, frames, angle_deg):
+    """``motion`` with ``joint`` turned by ``angle_deg`` (scalar, or one per frame) about x on ``frames``."""
+    j = motion.skeleton.index(joint)
+    rot = np.array(motion.rotations)
+    ang = np.broadcast_to(np.radians(angle_deg), (len(frames),))
+    turn = R.quaternion_from_axis_angle(np.array([1.0, 0.0, 0.0]), ang)
+    rot[frames, j] = R.quaternion_multiply(rot[frames, j], turn)
+    return dataclasses.replace(motion, rotations=rot), j
+
+
+def test_discontinuities_mark_steps_and_spikes_not_smooth_motion(walk):
+    body = [walk.skeleton.index(n) for n in ("LeftHip", "LeftKnee", "RightKnee", "LeftShoulder", "LeftElbow", "Chest")]
+    assert not ssa.discontinuities(walk)[:, body].any()  # a real walk at 120 fps is smooth
+    stepped, j = _turned(walk, "LeftElbow", np.arange(300, walk.num_frames), 20.0)
+    jumps = ssa.discontinuities(stepped)
+    assert set(np.flatnonzero(jumps[:, j])) == {299, 300}  # both sides of the 20 deg step
+    assert np.array_equal(jumps[:, np.arange(walk.num_joints) != j], ssa.discontinuities(walk)[:, np.arange(walk.num_joints) != j])
+    small, j = _turned(walk, "LeftElbow", np.arange(300, walk.num_frames), 12.0)
+    assert not ssa.discontinuities(small)[:, j].any()  # a 12 deg step is under 2 x 8 deg
+    spiked, j = _turned(walk, "LeftElbow", np.array([400]), 10.0)
+    assert np.flatnonzero(ssa.discontinuities(spiked)[:, j]).tolist() == [400]
+    with pytest.raises(ValueError, match="jump_deg"):
+        ssa.discontinuities(walk, jump_deg=float("nan"))
+
+
+def test_confirm_flags_keep_whole_runs_that_reach_the_threshold_and_hold_a_break():
+    F, fps = 100, 100.0
+    mdm = np.zeros((F, 3))
+    mdm[10:30, 0] = 0.3
+    mdm[15:20, 0] = 0.8  # run 10-30 reaches 0.8; a break 4 frames before its start confirms it (margin 5 frames)
+    mdm[60:70, 0] = 0.9  # a clear digression with no break near: distinct motion, not an error
+    mdm[70:80, 1] = 0.4  # a break, but the run never exceeds the threshold
+    mdm[40:50, 2] = 0.9  # the break near it is on joint 0, not this one
+    jumps = np.zeros((F, 3), dtype=bool)
+    jumps[6, 0] = jumps[75, 1] = jumps[45, 0] = True
+    flags = ssa.confirm_flags(mdm, jumps, 0.5, fps, margin_s=0.05)
+    expect = np.zeros((F, 3), dtype=bool)
+    expect[10:30, 0] = True
+    assert np.array_equal(flags, expect)
+    assert not ssa.confirm_flags(mdm, jumps, 0.5, fps, margin_s=0.03)[:, 0].any()  # the break is 4 frames off
+    with pytest.raises(ValueError, match="shape"):
+        ssa.confirm_flags(mdm, jumps[:, :2], 0.5, fps)
+
+
+def test_a_smooth_distinct_gesture_is_flagged_only_without_confirmation(walk):
+    """A 70 deg elbow bump over 0.6 s, once in the take: the paper's rule flags it, confirmation does not (no break)."""
+    frames = np.arange(500, 572)
+    bump = 70.0 * np.sin(np.linspace(0.0, np.pi, len(frames))) ** 2
+    gesture, j = _turned(walk, "LeftElbow", frames, bump)
+    confirmed = ssa.detect(gesture)
+    paper = ssa.detect(gesture, confirm=False)
+    assert np.array_equal(confirmed.mdm, paper.mdm)
+    assert np.array_equal(paper.flags, paper.mdm > paper.threshold)
+    assert paper.flags[frames, j].mean() > 0.3
+    assert not confirmed.flags[frames, j].any()
+    # the same bump with a break in it (the second half held at zero: a dropout) is an error
+    broken, j = _turned(walk, "LeftElbow", frames[:36], bump[:36])
+    assert ssa.detect(broken).flags[frames[:36], j].mean() > 0.3
+
+
+def test_with_threshold_applies_the_detection_rule(flipped):
+    det = flipped[3]
+    assert np.array_equal(det.with_threshold(det.threshold).flags, det.flags)
+    low = det.with_threshold(0.3)
+    assert np.array_equal(low.flags, ssa.confirm_flags(det.mdm, det.jumps, 0.3, det.fps))
+    assert (low.flags >= det.flags).all()
+    plain = dataclasses.replace(det, params={**det.params, "confirm": False})
+    assert np.array_equal(plain.with_threshold(0.3).flags, det.mdm > 0.3)
+    with pytest.raises(ValueError, match="threshold"):
+        det.with_threshold(0.0)
+
+
+def test_a_detection_file_without_jumps_loads_with_none(tmp_path, flipped):
+    """Files written before confirmation existed have no jumps array; their flags were MDM > threshold."""
+    det = dataclasses.replace(flipped[3], params={**flipped[3].params, "confirm": False})
+    path = det.save(tmp_path / "det.npz")
+    with np.load(path, allow_pickle=False) as z:
+        arrays = {k: z[k] for k in z.files if k != "jumps"}
+    np.savez(tmp_path / "old.npz", **arrays)
+    back = ssa.Detection.load(tmp_path / "old.npz")
+    assert back.jumps.shape == det.mdm.shape and not back.jumps.any()
+    assert np.array_equal(back.with_threshold(0.4).flags, det.mdm > 0.4)
