@@ -248,7 +248,9 @@ def test_ignored_cells_take_their_pairs_out_of_the_counts():
     assert M.word_precision_recall(det, truth, ignore=np.zeros_like(truth)) == M.word_precision_recall(det, truth)
     whole = M.word_precision_recall(det, truth, per_joint=False, ignore=ignore)
     assert (whole.tp, whole.fp, whole.fn) == (3, 0, 0)  # word 0 is left out as a whole
-    ignore[20, 1] = True  # ignoring the error's own cells leaves nothing to find on joint 1 in those words
-    assert (lambda s: (s.tp, s.fp, s.fn))(M.word_precision_recall(det, truth, ignore=ignore)) == (0, 0, 0)
+    ignore[19, 1] = True  # next to the error: its words that hold the error still count, word 5-19 drops out
+    assert M.word_precision_recall(det, truth, ignore=ignore) == s
+    miss = M.word_precision_recall(np.zeros_like(det), truth, ignore=ignore)
+    assert (miss.tp, miss.fp, miss.fn) == (0, 0, 3)
     with pytest.raises(ValueError, match="shape"):
         M.word_precision_recall(det, truth, ignore=ignore[:, :1])

@@ -318,9 +318,11 @@ def word_precision_recall(
     word. With ``per_joint=False`` a word is one item, positive if any joint
     is, and a detection only has to find the right word.
 
-    ``ignore`` (F, J) bool marks cells whose ground truth is unknown (e.g. a
-    glitch already in the "clean" reference): the items (pairs, or words with
-    ``per_joint=False``) holding one are not counted either way.
+    ``ignore`` (F, J) bool marks cells whose ground truth is unknown or
+    indifferent (a glitch already in the "clean" reference, a cell an injected
+    error changed too little to see): the items (pairs, or words with
+    ``per_joint=False``) holding one and no ``truth`` cell are not counted
+    either way.
     """
     detected, truth = _check_masks(detected, truth)
     if detected.ndim != 2:
@@ -329,4 +331,5 @@ def word_precision_recall(
     wi = np.zeros_like(wd) if ignore is None else _words(_check_masks(ignore, truth)[0], word_length, stride)
     if not per_joint:
         wd, wt, wi = wd.any(axis=1), wt.any(axis=1), wi.any(axis=1)
-    return precision_recall(wd[~wi], wt[~wi])
+    keep = ~wi | wt
+    return precision_recall(wd[keep], wt[keep])

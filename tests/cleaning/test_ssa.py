@@ -33,9 +33,9 @@ def test_shapes_and_range(walk, flipped):
     assert det.mdm.shape == det.flags.shape == (F, J)
     assert np.all((det.mdm >= 0) & (det.mdm <= 1))
     assert det.params["confirm"]
-    assert np.array_equal(det.flags, ssa.confirm_flags(det.mdm, det.jumps, det.threshold, det.fps))
-    assert not (det.flags & (det.mdm <= det.threshold / 2)).any()
-    assert not det.jumps[:, ~det.analysed].any()
+    assert np.array_equal(det.flags, ssa.confirm_flags(det.mdm, det.jumps, det.threshold, det.fps) | det.holds)
+    assert not (det.flags & ~det.holds & (det.mdm <= det.threshold / 2)).any()
+    assert not det.jumps[:, ~det.analysed].any() and not det.holds[:, ~det.analysed].any()
     assert det.joint_names == tuple(walk.skeleton.joint_names)
     assert det.analysed.sum() == 24 and det.analysed[0]
     assert np.all(det.mdm[:, ~det.analysed] == 0)
@@ -149,6 +149,8 @@ def test_bad_inputs(walk):
         ssa.detect(walk, jump_deg=0)
     with pytest.raises(ValueError, match="confirm_margin_s"):
         ssa.detect(walk, confirm_margin_s=-0.1)
+    with pytest.raises(ValueError, match="hold_travel_deg"):
+        ssa.detect(walk, hold_travel_deg=0.0)
 
 
 def test_context_clip_equal_to_the_input_is_left_out(walk):
@@ -439,7 +441,7 @@ def test_with_threshold_applies_the_detection_rule(flipped):
     det = flipped[3]
     assert np.array_equal(det.with_threshold(det.threshold).flags, det.flags)
     low = det.with_threshold(0.3)
-    assert np.array_equal(low.flags, ssa.confirm_flags(det.mdm, det.jumps, 0.3, det.fps))
+    assert np.array_equal(low.flags, ssa.confirm_flags(det.mdm, det.jumps, 0.3, det.fps) | det.holds)
     assert (low.flags >= det.flags).all()
     plain = dataclasses.replace(det, params={**det.params, "confirm": False})
     assert np.array_equal(plain.with_threshold(0.3).flags, det.mdm > 0.3)
@@ -452,8 +454,62 @@ def test_a_detection_file_without_jumps_loads_with_none(tmp_path, flipped):
     det = dataclasses.replace(flipped[3], params={**flipped[3].params, "confirm": False})
     path = det.save(tmp_path / "det.npz")
     with np.load(path, allow_pickle=False) as z:
-        arrays = {k: z[k] for k in z.files if k != "jumps"}
+        arrays = {k: z[k] for k in z.files if k not in ("jumps", "holds")}
     np.savez(tmp_path / "old.npz", **arrays)
     back = ssa.Detection.load(tmp_path / "old.npz")
-    assert back.jumps.shape == det.mdm.shape and not back.jumps.any()
+    assert back.jumps.shape == back.holds.shape == det.mdm.shape and not (back.jumps.any() or back.holds.any())
     assert np.array_equal(back.with_threshold(0.4).flags, det.mdm > 0.4)
+
+
+def _swinging(walk, joint, angle_deg):
+    """``walk`` with ``joint`` set to a turn of ``angle_deg`` (one per frame) about x: a one-channel test signal."""
+    j = walk.skeleton.index(joint)
+    rot = np.array(walk.rotations)
+    rot[:, j] = R.quaternion_from_axis_angle(np.array([1.0, 0.0, 0.0]), np.radians(angle_deg))
+    return dataclasses.replace(walk, rotations=rot), j
+
+
+def test_held_joints_find_a_frozen_channel_and_leave_motion_alone(walk):
+    F = walk.num_frames
+    t = np.arange(F) / walk.fps
+    swing = 30.0 * np.sin(2 * np.pi * t)  # the joint swings +-30 deg once a second
+    frozen = swing.copy()
+    frozen[300:340] = swing[299]  # held for 1/3 s at a value inside its range
+    clamped = swing.copy()
+    clamped[frozen.argmin() - 10 : frozen.argmin() + 10] = swing.min()  # held at the bottom of its range: a joint limit
+    moving = np.full((F, walk.num_joints), 50.0)  # every joint analysed, its mean texture moving at 50 deg/s
+    for name, signal_deg in (("frozen", frozen), ("clamped", clamped)):
+        m, j = _swinging(walk, "LeftElbow", signal_deg)
+        moving[:, j] = 2 * np.pi * 30.0 * np.abs(np.cos(2 * np.pi * t))  # the unfrozen swing's speed, deg/s
+        held = ssa.held_joints(m, moving)
+        if name == "frozen":
+            assert np.flatnonzero(held[:, j]).tolist() == list(range(299, 340))
+        else:
+            assert not held.any()
+    m, j = _swinging(walk, "LeftElbow", frozen)
+    still_context = moving.copy()
+    still_context[:, j] = 0.0  # the similar motion holds there too: no error
+    assert not ssa.held_joints(m, still_context).any()
+    repeated = np.array(m.rotations)
+    repeated[300:340] = repeated[299]  # the whole pose held: a repeated frame, not one joint
+    assert not ssa.held_joints(dataclasses.replace(m, rotations=repeated), moving).any()
+    mostly, j = _swinging(walk, "LeftElbow", np.where(t < 0.6 * t[-1], 5.0, swing))  # still for 60 % of the take
+    assert not ssa.held_joints(mostly, moving).any()
+    with pytest.raises(ValueError, match="mean_speed"):
+        ssa.held_joints(m, moving[:, :3])
+    # the speeds come from a cheaper angle than rotations.geodesic_angle: the same to 1e-6 rad, also off unit length
+    q = walk.rotations * 1.001
+    assert np.allclose(ssa._step_angles(q), R.geodesic_angle(walk.rotations[1:], walk.rotations[:-1]), atol=1e-6)
+
+
+def test_detect_flags_a_freeze_from_its_first_held_frame(walk):
+    bad, mask, records = corrupt.real_errors(walk, kinds=("freeze",), n_errors=1, seed=4, joints=["RightElbow"])
+    r = records[0]
+    j = walk.skeleton.index(r.joint)
+    det = ssa.detect(bad)
+    assert det.holds[r.start : r.end, j].mean() > 0.9 and (det.flags >= det.holds).all()
+    assert det.flags[r.start : r.start + 5, j].all()  # where the held value is still close to the truth
+    paper = ssa.detect(bad, confirm=False)
+    assert not paper.flags[r.start : r.start + 5, j].any()
+    others = np.arange(walk.num_joints) != j
+    assert not det.holds[:, others].any()

@@ -54,6 +54,9 @@ Departures from the paper, and why:
   so the repair covers the error's whole extent. The price: an error that
   grows smoothly out of the motion and back (no step anywhere) is left
   unflagged; ``confirm=False`` finds it, with the false flags above.
+  Confirmation also flags held joints (:func:`held_joints`): a joint held
+  bit-still while its mean motion texture travels 10 degrees, a frozen
+  channel whose digression is still small where it starts.
 - "Median of the KNN": the medoid word (the neighbour closest to the others on
   the flagged joints), an actual motion, as the paper requires.
 
@@ -113,6 +116,7 @@ __all__ = [
     "movement_digression_map",
     "discontinuities",
     "confirm_flags",
+    "held_joints",
     "DEFAULTS",
 ]
 
@@ -751,6 +755,83 @@ def confirm_flags(
     return keep[labels]
 
 
+def _step_angles(q: np.ndarray) -> np.ndarray:
+    """Rotation angle in radians between consecutive frames of unit quaternions (F, ...) -> (F - 1, ...).
+
+    ``2 acos |q_f . q_f+1|`` over the norms: cheaper than
+    :func:`mocapkit.rotations.geodesic_angle`, accurate to about 1e-7 rad near 0.
+    """
+    norm = np.linalg.norm(q, axis=-1)
+    dot = np.abs(np.sum(q[1:] * q[:-1], axis=-1)) / (norm[1:] * norm[:-1])  # quaternions a little off unit length too
+    return 2.0 * np.arccos(np.clip(dot, 0.0, 1.0))
+
+
+def held_joints(
+    motion: Motion,
+    mean_speed: np.ndarray,
+    hold_deg_s: float = 0.5,
+    min_s: float = 0.05,
+    travel_deg: float = 10.0,
+) -> np.ndarray:
+    """(F, J) bool: joints held still where the mean motion texture says they move (a frozen channel).
+
+    A hold is a run of at least ``min_s`` seconds in which the joint turns
+    slower than ``hold_deg_s`` (a solver or tracker repeating the last value;
+    live motion is never that still for long while the body moves on). It is
+    flagged when the mean texture's speed ``mean_speed`` (F, J) deg/s at the
+    input's frames (NaN: not analysed) adds up to at least ``travel_deg`` over
+    it: the similar motion moves there, this joint does not. Holds that are
+    motion, not errors, are left out: a joint held in more than half the
+    take (it barely moves at all), frames where most analysed joints hold at
+    once (a repeated frame: timing, not one joint), and a held rotation at
+    the edge of the joint's range in the take, one of its rotation-vector
+    components (relative to the take's mean rotation, among those that vary
+    by more than a degree) at its minimum or maximum (a joint limit the
+    solver clamps at, such as a straight knee).
+    Where a frozen joint starts the digression is still small; this finds it
+    from the first held frame.
+    """
+    q = np.asarray(motion.rotations, dtype=np.float64)
+    F, J = q.shape[:2]
+    out = np.zeros((F, J), dtype=bool)
+    mean_speed = np.asarray(mean_speed, dtype=np.float64)
+    if mean_speed.shape != (F, J):
+        raise ValueError(f"mean_speed must be (F, J) = {(F, J)}, got {mean_speed.shape}")
+    if F < 2:
+        return out
+    from scipy import ndimage
+
+    analysed = np.isfinite(mean_speed).any(axis=0)
+    speed = np.degrees(_step_angles(q)) * motion.fps
+    still = (np.nan_to_num(speed, nan=np.inf) < hold_deg_s) & analysed[None, :]  # (F - 1, J) steps
+    if not still.any():
+        return out
+    pose_hold = still[:, analysed].mean(axis=1) >= 0.5
+    min_frames = max(2, int(np.ceil(min_s * motion.fps)))
+    travel = np.nan_to_num(mean_speed) / motion.fps  # degrees per frame
+    for j in np.flatnonzero(still.any(axis=0)):
+        if still[:, j].mean() > 0.5:
+            continue
+        labels, count = ndimage.label(still[:, j] & ~pose_hold)
+        if count == 0:
+            continue
+        qj = q[:, j] * np.where(q[:, j] @ q[0, j] < 0, -1.0, 1.0)[:, None]  # one hemisphere, so the mean is a rotation
+        mean = qj.mean(axis=0)
+        rel = R.quaternion_multiply(R.quaternion_conjugate(mean / np.linalg.norm(mean))[None], qj)
+        comps = R.quaternion_to_rotvec(rel)
+        low, high = comps.min(axis=0), comps.max(axis=0)
+        varies = high - low > np.radians(1.0)  # an ASF joint's unused components stay at 0: no edge to be at
+        for (run,) in ndimage.find_objects(labels):
+            a, b = run.start, run.stop + 1  # held frames a .. b - 1 (steps a .. b - 2)
+            if b - a < min_frames:
+                continue
+            if np.any(varies & ((comps[a] <= low) | (comps[a] >= high))):
+                continue
+            if travel[a:b, j].sum() >= travel_deg:
+                out[a:b, j] = True
+    return out
+
+
 # -- detection ------------------------------------------------------------------------
 
 
@@ -762,7 +843,8 @@ class Detection:
     flags : bool (F, J) the errors: ``mdm > threshold`` confirmed by ``jumps``
     (:func:`confirm_flags`), or ``mdm > threshold`` alone when the detection
     was made with ``confirm=False``; jumps : bool (F, J) the analysed joints'
-    :func:`discontinuities`; digression : float (F, J) angle in
+    :func:`discontinuities`; holds : bool (F, J) their :func:`held_joints`
+    (flagged with confirmation at any threshold); digression : float (F, J) angle in
     radians between the input and the mean motion texture (NaN where not
     analysed); best_group : int8 (F, J) the group whose neighbours explain the
     cell best (-1 none). The rest records how the analysis was made so that
@@ -787,6 +869,7 @@ class Detection:
     neighbor_dist: np.ndarray
     context_clips: tuple  # ((name, frames at the analysis rate), ...) of the context texture, clip 0 = the input
     jumps: np.ndarray  # (F, J) bool
+    holds: np.ndarray  # (F, J) bool
     params: dict = field(default_factory=dict)
     notes: tuple = ()
 
@@ -807,7 +890,7 @@ class Detection:
         if not 0.0 < threshold < 1.0:
             raise ValueError(f"threshold must be in (0, 1), got {threshold}")
         if self.params.get("confirm"):
-            flags = confirm_flags(self.mdm, self.jumps, threshold, self.fps, self.params["confirm_margin_s"])
+            flags = confirm_flags(self.mdm, self.jumps, threshold, self.fps, self.params["confirm_margin_s"]) | self.holds
         else:
             flags = self.mdm > threshold
         return dataclasses.replace(self, threshold=threshold, flags=flags)
@@ -844,8 +927,9 @@ class Detection:
             with np.load(path, allow_pickle=False) as z:
                 data = {k: z[k] for k in z.files}
             meta = json.loads(str(data.pop("meta")))
-            if "jumps" not in data:  # written before confirmation existed: its flags are MDM > threshold
-                data["jumps"] = np.zeros(data["mdm"].shape, dtype=bool)
+            for key in ("jumps", "holds"):  # written before confirmation existed: its flags are MDM > threshold
+                if key not in data:
+                    data[key] = np.zeros(data["mdm"].shape, dtype=bool)
             return cls(
                 **data,
                 threshold=float(meta["threshold"]),
@@ -922,7 +1006,7 @@ def _group_rows(groups, texture_joints) -> tuple[list[str], list[np.ndarray]]:
     return names, rows
 
 
-def _digression(motion, mean_tex, spread, texture_joints, up, fps_a, noise_deg, shift_s=0.0):
+def _digression(motion, mean_tex, spread, texture_joints, up, fps_a, noise_deg, shift_s=0.0, speeds=False):
     """Per-group digression of the input (at its own rate) from the mean texture upsampled from ``fps_a``.
 
     With ``shift_s`` the angle at frame f is the smallest over the mean
@@ -930,7 +1014,8 @@ def _digression(motion, mean_tex, spread, texture_joints, up, fps_a, noise_deg, 
 
     Returns ``(angle, z)``, both (G, F, m): the rotation angle in radians, and
     that angle over the neighbours' spread at the cell, ``sqrt(spread^2 +
-    noise^2)`` with ``noise_deg`` the capture noise floor.
+    noise^2)`` with ``noise_deg`` the capture noise floor. With ``speeds``
+    also the mean texture's angular speed at the input's frames, deg/s (G, F, m).
     """
     F = motion.num_frames
     inp = facing_aligned(motion.rotations, up)[:, texture_joints]
@@ -940,14 +1025,18 @@ def _digression(motion, mean_tex, spread, texture_joints, up, fps_a, noise_deg, 
     t = np.arange(F) * (fps_a / motion.fps)
     src_t = np.arange(mean_tex.shape[1])
     noise = np.radians(noise_deg)
+    speed = np.full_like(ang, np.nan) if speeds else None
     for g in range(G):
         up_q = _upsample(mean_tex[g], fps_a, F, motion.fps)
+        if speeds and F > 1:
+            step = np.degrees(_step_angles(up_q)) * motion.fps
+            speed[g] = np.concatenate([step, step[-1:]])
         # timing tolerance: the smallest angle to the mean texture a few frames earlier or later
         a = word_dtw.shift_tolerant_angles(inp, up_q, int(round(shift_s * motion.fps)))
         ang[g] = a
         sp = np.stack([np.interp(t, src_t, spread[g][:, c]) for c in range(spread.shape[2])], axis=1)
         z[g] = a / np.sqrt(np.where(np.isfinite(sp), sp, 0.0) ** 2 + noise**2)
-    return ang, z
+    return (ang, z, speed) if speeds else (ang, z)
 
 
 def detect(
@@ -976,6 +1065,7 @@ def detect(
     confirm: bool = True,
     jump_deg: float = 8.0,
     confirm_margin_s: float = 0.05,
+    hold_travel_deg: float = 10.0,
     progress: bool = False,
 ) -> Detection:
     """Movement digression map and error flags of ``motion`` by self-similarity (sections 3 and 5).
@@ -1018,6 +1108,8 @@ def detect(
         (:func:`discontinuities` above ``jump_deg``) within
         ``confirm_margin_s`` of it (:func:`confirm_flags`; module docstring).
         ``confirm=False`` gives the paper's flags, ``mdm > threshold``.
+        Confirmation also flags held joints (:func:`held_joints`): a joint
+        held still while its mean motion texture travels ``hold_travel_deg``.
     """
     from tqdm.auto import tqdm
 
@@ -1029,6 +1121,8 @@ def detect(
     min_width = min(11, N)
     if not (np.isfinite(confirm_margin_s) and confirm_margin_s >= 0):
         raise ValueError(f"confirm_margin_s must be >= 0 seconds, got {confirm_margin_s!r}")
+    if not (np.isfinite(hold_travel_deg) and hold_travel_deg > 0):
+        raise ValueError(f"hold_travel_deg must be a positive number of degrees, got {hold_travel_deg!r}")
     src, full, tex_joints, up, notes = _prepare(motion, context, fps, joints)
     jumps = discontinuities(motion, jump_deg)  # checks jump_deg before the analysis starts
     sk = motion.skeleton
@@ -1103,7 +1197,7 @@ def detect(
             mean_tex, spread = mean_motion_texture(src, full, grows, words, nb, N, M, return_spread=True)
     finally:
         bar.close()
-    dig_g, z_g = _digression(motion, mean_tex, spread, tex_joints, up, fps, noise_deg, shift_s)  # (G, F, m) each
+    dig_g, z_g, speed_g = _digression(motion, mean_tex, spread, tex_joints, up, fps, noise_deg, shift_s, speeds=True)  # (G, F, m)
     F, J = motion.num_frames, sk.num_joints
     filled = np.where(np.isnan(dig_g), np.inf, dig_g)
     best = np.argmin(filled, axis=0)  # (F, m): the group whose mean texture is closest
@@ -1117,11 +1211,14 @@ def detect(
     scores[:, tex_joints] = np.where(ok, smin, np.nan)
     best_group = np.full((F, J), -1, dtype=np.int8)
     best_group[:, tex_joints] = np.where(ok, best, -1)
+    mean_speed = np.full((F, J), np.nan)
+    mean_speed[:, tex_joints] = np.where(ok, np.take_along_axis(speed_g, best[None], axis=0)[0], np.nan)
     mdm = movement_digression_map(scores, normalization, row_scale, floor_deg, z_scale)
     analysed = np.zeros(J, dtype=bool)
     analysed[tex_joints] = True
     jumps &= analysed[None, :]
-    flags = confirm_flags(mdm, jumps, threshold, motion.fps, confirm_margin_s) if confirm else mdm > threshold
+    holds = held_joints(motion, mean_speed, travel_deg=hold_travel_deg) & analysed[None, :]
+    flags = (confirm_flags(mdm, jumps, threshold, motion.fps, confirm_margin_s) | holds) if confirm else mdm > threshold
     masks = np.zeros((G, m), dtype=bool)
     for gi, r in enumerate(grows):
         masks[gi, r] = True
@@ -1133,14 +1230,14 @@ def detect(
         prefilter=bool(prefilter and has_context), normalization=normalization, z_scale=z_scale, noise_deg=noise_deg, shift_s=shift_s,
         max_word_angle_deg=max_word_angle_deg,
         row_scale=row_scale, floor_deg=floor_deg, confirm=bool(confirm), jump_deg=float(jump_deg),
-        confirm_margin_s=float(confirm_margin_s),
+        confirm_margin_s=float(confirm_margin_s), hold_travel_deg=float(hold_travel_deg),
     )
     return Detection(
         mdm=mdm, flags=flags, digression=digression, best_group=best_group, threshold=float(threshold),
         fps=motion.fps, joint_names=tuple(sk.joint_names), analysed=analysed, texture_joints=tex_joints,
         group_names=tuple(gnames), group_masks=masks, word_starts=words, neighbor_pos=neighbors.pos,
         neighbor_iend=neighbors.iend, neighbor_jend=neighbors.jend, neighbor_dist=neighbors.dist,
-        context_clips=clips, jumps=jumps, params=params, notes=tuple(notes),
+        context_clips=clips, jumps=jumps, holds=holds, params=params, notes=tuple(notes),
     )
 
 
