@@ -258,9 +258,11 @@ def main(argv=None):
     result = {"benchmark": "ssa_detection", "targets": TARGETS, "visible_deg": args.visible_deg, "seeds": seeds,
               "errors_per_clip": args.errors, "results": summary,
               "scoring": "(word, joint) pairs: a detection must name the erroneous joint in the right word",
-              "flag_rules": {"ssa": "ssa.detect's default: MDM > threshold confirmed by a break in the joint's trajectory",
+              "flag_rules": {"ssa": "ssa.detect's default: MDM > threshold confirmed by a break in the joint's trajectory, "
+                                    "and held joints",
                              "ssa_paper": "the paper's MDM > threshold (confirm=False)"},
               "glitch_speed_deg_s": args.glitch_speed, "ignored_pairs": ignored,
+              "ignored_pairs_note": "(word, joint) pairs holding a clean-clip glitch, per kind/context, summed over the seeds",
               "word_level": word_level,
               "word_level_scoring": "words as items, positive if any joint's cell is (the paper's '1,000 words ... "
                                     "include at least one joint with erroneous rotations'); reported, not the target check",

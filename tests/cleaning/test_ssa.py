@@ -497,6 +497,8 @@ def test_held_joints_find_a_frozen_channel_and_leave_motion_alone(walk):
     assert not ssa.held_joints(mostly, moving).any()
     with pytest.raises(ValueError, match="mean_speed"):
         ssa.held_joints(m, moving[:, :3])
+    with pytest.raises(ValueError, match="travel_deg"):
+        ssa.held_joints(m, moving, travel_deg=0.0)
     # the speeds come from a cheaper angle than rotations.geodesic_angle: the same to 1e-6 rad, also off unit length
     q = walk.rotations * 1.001
     assert np.allclose(ssa._step_angles(q), R.geodesic_angle(walk.rotations[1:], walk.rotations[:-1]), atol=1e-6)

@@ -49,9 +49,9 @@ Departures from the paper, and why:
   within ``confirm_margin_s`` of it. Without it the flags are the paper's,
   ``MDM > threshold``, and they also fire on every motion the context does
   not repeat (a gesture made once): on the detection benchmark, 79-87 % of
-  its (word, joint) flags without a large context. A confirmed run is the connected
-  cells of ``MDM > threshold / 2`` that reach ``threshold`` and hold a break,
-  so the repair covers the error's whole extent. The price: an error that
+  its (word, joint) flags without a large context. A confirmed run is the
+  connected cells of ``MDM > threshold / 2`` that reach ``threshold`` and
+  hold a break, so the repair covers the error's whole extent. The price: an error that
   grows smoothly out of the motion and back (no step anywhere) is left
   unflagged; ``confirm=False`` finds it, with the false flags above.
   Confirmation also flags held joints (:func:`held_joints`): a joint held
@@ -797,6 +797,8 @@ def held_joints(
     mean_speed = np.asarray(mean_speed, dtype=np.float64)
     if mean_speed.shape != (F, J):
         raise ValueError(f"mean_speed must be (F, J) = {(F, J)}, got {mean_speed.shape}")
+    if not (hold_deg_s > 0 and min_s >= 0 and travel_deg > 0):
+        raise ValueError(f"need hold_deg_s > 0, min_s >= 0 and travel_deg > 0, got {hold_deg_s!r}, {min_s!r}, {travel_deg!r}")
     if F < 2:
         return out
     from scipy import ndimage
