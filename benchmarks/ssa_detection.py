@@ -37,9 +37,9 @@ scored either way unless they hold an injected error's visible cell
 
 Two flag rules are scored from the same analysis: ``ssa`` is what
 ``ssa.detect`` returns by default (digressions confirmed by a break in the
-joint's own trajectory, and held joints, ``confirm=True``), ``ssa_paper`` the
+joint's own trajectory, held joints and side swaps, ``confirm=True``), ``ssa_paper`` the
 paper's ``MDM > threshold`` (``confirm=False``). Confirmation's parameters
-(``jump_deg`` 8, runs down to half the threshold, the held-joint rules) and
+(``jump_deg`` 8, runs down to half the threshold, the held-joint and swap rules) and
 the glitch rule were chosen on these clips: there is no other set of clips
 with errors to choose them on.
 
@@ -259,7 +259,7 @@ def main(argv=None):
               "errors_per_clip": args.errors, "results": summary,
               "scoring": "(word, joint) pairs: a detection must name the erroneous joint in the right word",
               "flag_rules": {"ssa": "ssa.detect's default: MDM > threshold confirmed by a break in the joint's trajectory, "
-                                    "and held joints",
+                                    "held joints and side swaps",
                              "ssa_paper": "the paper's MDM > threshold (confirm=False)"},
               "glitch_speed_deg_s": args.glitch_speed, "ignored_pairs": ignored,
               "ignored_pairs_note": "(word, joint) pairs holding a clean-clip glitch, per kind/context, summed over the seeds",

@@ -33,9 +33,10 @@ def test_shapes_and_range(walk, flipped):
     assert det.mdm.shape == det.flags.shape == (F, J)
     assert np.all((det.mdm >= 0) & (det.mdm <= 1))
     assert det.params["confirm"]
-    assert np.array_equal(det.flags, ssa.confirm_flags(det.mdm, det.jumps, det.threshold, det.fps) | det.holds)
-    assert not (det.flags & ~det.holds & (det.mdm <= det.threshold / 2)).any()
-    assert not det.jumps[:, ~det.analysed].any() and not det.holds[:, ~det.analysed].any()
+    cues = det.holds | det.swaps
+    assert np.array_equal(det.flags, ssa.confirm_flags(det.mdm, det.jumps, det.threshold, det.fps) | cues)
+    assert not (det.flags & ~cues & (det.mdm <= det.threshold / 2)).any()
+    assert not (det.jumps | cues)[:, ~det.analysed].any()
     assert det.joint_names == tuple(walk.skeleton.joint_names)
     assert det.analysed.sum() == 24 and det.analysed[0]
     assert np.all(det.mdm[:, ~det.analysed] == 0)
@@ -441,7 +442,7 @@ def test_with_threshold_applies_the_detection_rule(flipped):
     det = flipped[3]
     assert np.array_equal(det.with_threshold(det.threshold).flags, det.flags)
     low = det.with_threshold(0.3)
-    assert np.array_equal(low.flags, ssa.confirm_flags(det.mdm, det.jumps, 0.3, det.fps) | det.holds)
+    assert np.array_equal(low.flags, ssa.confirm_flags(det.mdm, det.jumps, 0.3, det.fps) | det.holds | det.swaps)
     assert (low.flags >= det.flags).all()
     plain = dataclasses.replace(det, params={**det.params, "confirm": False})
     assert np.array_equal(plain.with_threshold(0.3).flags, det.mdm > 0.3)
@@ -454,10 +455,11 @@ def test_a_detection_file_without_jumps_loads_with_none(tmp_path, flipped):
     det = dataclasses.replace(flipped[3], params={**flipped[3].params, "confirm": False})
     path = det.save(tmp_path / "det.npz")
     with np.load(path, allow_pickle=False) as z:
-        arrays = {k: z[k] for k in z.files if k not in ("jumps", "holds")}
+        arrays = {k: z[k] for k in z.files if k not in ("jumps", "holds", "swaps")}
     np.savez(tmp_path / "old.npz", **arrays)
     back = ssa.Detection.load(tmp_path / "old.npz")
-    assert back.jumps.shape == back.holds.shape == det.mdm.shape and not (back.jumps.any() or back.holds.any())
+    assert back.jumps.shape == back.holds.shape == back.swaps.shape == det.mdm.shape
+    assert not (back.jumps.any() or back.holds.any() or back.swaps.any())
     assert np.array_equal(back.with_threshold(0.4).flags, det.mdm > 0.4)
 
 
@@ -515,3 +517,26 @@ def test_detect_flags_a_freeze_from_its_first_held_frame(walk):
     assert not paper.flags[r.start : r.start + 5, j].any()
     others = np.arange(walk.num_joints) != j
     assert not det.holds[:, others].any()
+
+
+def test_side_swaps_find_both_joints_of_a_label_swap_and_nothing_in_clean_takes(walk):
+    for name in ("131_01.bvh", "12_walk.amc", "HDM_bd_jogLeftCircle4StepsRstart_001_120.amc"):
+        assert not ssa.side_swaps(mocapkit.load(mocapkit.samples.path(name))).any(), name
+    bad, mask, records = corrupt.real_errors(walk, kinds=("swap",), n_errors=1, seed=2)
+    assert {r.kind for r in records} == {"swap"} and len(records) == 2
+    swaps = ssa.side_swaps(bad)
+    expect = np.zeros_like(swaps)
+    for r in records:
+        expect[r.start : r.end, walk.skeleton.index(r.joint)] = True
+    assert np.array_equal(swaps, expect)
+    one = records[0]
+    j = walk.skeleton.index(one.joint)
+    assert not ssa.side_swaps(bad, joints=np.arange(walk.num_joints) != j).any()  # the pair needs both joints
+    assert not ssa.side_swaps(bad, max_s=0.9 * (one.end - one.start) / walk.fps).any()  # breaks too far apart
+    # one side breaking alone (a step on one joint) is not a swap
+    stepped, _ = _turned(walk, one.joint, np.arange(one.start, one.end), 40.0)
+    assert not ssa.side_swaps(stepped).any()
+    with pytest.raises(ValueError, match="max_s"):
+        ssa.side_swaps(walk, max_s=0.0)
+    det = ssa.detect(bad)
+    assert np.array_equal(det.swaps, expect & det.analysed[None, :]) and (det.flags >= det.swaps).all()

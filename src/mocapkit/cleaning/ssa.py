@@ -56,7 +56,10 @@ Departures from the paper, and why:
   unflagged; ``confirm=False`` finds it, with the false flags above.
   Confirmation also flags held joints (:func:`held_joints`): a joint held
   bit-still while its mean motion texture travels 10 degrees, a frozen
-  channel whose digression is still small where it starts.
+  channel whose digression is still small where it starts; and left/right
+  label swaps (:func:`side_swaps`): a joint and its mirror partner breaking
+  at the same frame and again within a second, which a swapped limb in a
+  plausible pose shows though it hardly digresses.
 - "Median of the KNN": the medoid word (the neighbour closest to the others on
   the flagged joints), an actual motion, as the paper requires.
 
@@ -117,6 +120,7 @@ __all__ = [
     "discontinuities",
     "confirm_flags",
     "held_joints",
+    "side_swaps",
     "DEFAULTS",
 ]
 
@@ -706,8 +710,13 @@ def discontinuities(motion: Motion, jump_deg: float = 8.0) -> np.ndarray:
     """
     if not (np.isfinite(jump_deg) and jump_deg > 0):
         raise ValueError(f"jump_deg must be a positive number of degrees, got {jump_deg!r}")
-    q = np.asarray(motion.rotations, dtype=np.float64)
-    out = np.zeros(q.shape[:2], dtype=bool)
+    return _midpoint_residuals(motion.rotations) > np.radians(jump_deg)
+
+
+def _midpoint_residuals(rotations: np.ndarray) -> np.ndarray:
+    """(F, J) radians: angle between ``q[f]`` and the midpoint of ``q[f-1]``, ``q[f+1]``; 0 at the ends and where missing."""
+    q = np.asarray(rotations, dtype=np.float64)
+    out = np.zeros(q.shape[:2])
     if len(q) < 3:
         return out
     a, b, c = q[:-2], q[1:-1], q[2:]
@@ -717,7 +726,57 @@ def discontinuities(motion: Motion, jump_deg: float = 8.0) -> np.ndarray:
     with np.errstate(invalid="ignore", divide="ignore"):
         mid = mid / norm
         resid = R.geodesic_angle(b, mid)
-    out[1:-1] = np.nan_to_num(resid, nan=0.0) > np.radians(jump_deg)
+    out[1:-1] = np.nan_to_num(resid, nan=0.0)
+    return out
+
+
+def side_swaps(motion: Motion, jump_deg: float = 6.0, max_s: float = 1.0, joints=None) -> np.ndarray:
+    """(F, J) bool: left/right label swaps, a joint and its mirror partner breaking together, twice.
+
+    When the labels of the two sides swap, both joints of a left/right pair
+    (:func:`mocapkit.motion.mirror_pairs`) jump at the same frame, and again
+    when the labels swap back. A break here is a midpoint residual (see
+    :func:`discontinuities`) over ``jump_deg`` and over ten times the joint's
+    median residual in the take (at low frame rates fast motion has large
+    residuals of its own). Where both joints of a pair break within a frame of
+    each other, and again within ``max_s`` seconds, both are flagged from the
+    frame after the first break's first frame to the second break's first
+    frame (a step between frames f and f + 1 shows at both); the events pair
+    up in time order. No smooth
+    motion breaks like that, and no digression is needed: a swapped limb
+    often takes a plausible pose. ``joints`` (bool (J,), optional) limits the
+    pairs to those whose two joints it holds.
+    """
+    if not (np.isfinite(jump_deg) and jump_deg > 0 and max_s > 0):
+        raise ValueError(f"need jump_deg > 0 and max_s > 0, got {jump_deg!r} and {max_s!r}")
+    from scipy import ndimage
+
+    from ..motion import mirror_pairs
+
+    resid = _midpoint_residuals(motion.rotations)
+    F, J = resid.shape
+    out = np.zeros((F, J), dtype=bool)
+    use = np.ones(J, dtype=bool) if joints is None else np.asarray(joints, dtype=bool)
+    breaks = resid > np.maximum(np.radians(jump_deg), 10.0 * np.median(resid, axis=0))[None, :]
+    perm = mirror_pairs(motion.skeleton.joint_names)
+    longest = int(round(max_s * motion.fps))
+    for j in range(J):
+        p = int(perm[j])
+        if p <= j or not (use[j] and use[p]):
+            continue
+        both = ndimage.binary_dilation(breaks[:, j], structure=np.ones(3, dtype=bool)) & breaks[:, p]
+        frames = np.flatnonzero(both)
+        if len(frames) < 2:
+            continue
+        events = [run[0] for run in np.split(frames, np.flatnonzero(np.diff(frames) > 3) + 1)]
+        k = 0
+        while k + 1 < len(events):
+            a, b = events[k], events[k + 1]
+            if b - a <= longest:  # a step from f to f + 1 breaks at both: the swap holds frames a + 1 .. b
+                out[a + 1 : b + 1, j] = out[a + 1 : b + 1, p] = True
+                k += 2
+            else:
+                k += 1
     return out
 
 
@@ -845,8 +904,9 @@ class Detection:
     flags : bool (F, J) the errors: ``mdm > threshold`` confirmed by ``jumps``
     (:func:`confirm_flags`), or ``mdm > threshold`` alone when the detection
     was made with ``confirm=False``; jumps : bool (F, J) the analysed joints'
-    :func:`discontinuities`; holds : bool (F, J) their :func:`held_joints`
-    (flagged with confirmation at any threshold); digression : float (F, J) angle in
+    :func:`discontinuities`; holds, swaps : bool (F, J) their
+    :func:`held_joints` and :func:`side_swaps` (flagged with confirmation at
+    any threshold); digression : float (F, J) angle in
     radians between the input and the mean motion texture (NaN where not
     analysed); best_group : int8 (F, J) the group whose neighbours explain the
     cell best (-1 none). The rest records how the analysis was made so that
@@ -872,6 +932,7 @@ class Detection:
     context_clips: tuple  # ((name, frames at the analysis rate), ...) of the context texture, clip 0 = the input
     jumps: np.ndarray  # (F, J) bool
     holds: np.ndarray  # (F, J) bool
+    swaps: np.ndarray  # (F, J) bool
     params: dict = field(default_factory=dict)
     notes: tuple = ()
 
@@ -892,7 +953,8 @@ class Detection:
         if not 0.0 < threshold < 1.0:
             raise ValueError(f"threshold must be in (0, 1), got {threshold}")
         if self.params.get("confirm"):
-            flags = confirm_flags(self.mdm, self.jumps, threshold, self.fps, self.params["confirm_margin_s"]) | self.holds
+            flags = confirm_flags(self.mdm, self.jumps, threshold, self.fps, self.params["confirm_margin_s"])
+            flags |= self.holds | self.swaps
         else:
             flags = self.mdm > threshold
         return dataclasses.replace(self, threshold=threshold, flags=flags)
@@ -929,7 +991,7 @@ class Detection:
             with np.load(path, allow_pickle=False) as z:
                 data = {k: z[k] for k in z.files}
             meta = json.loads(str(data.pop("meta")))
-            for key in ("jumps", "holds"):  # written before confirmation existed: its flags are MDM > threshold
+            for key in ("jumps", "holds", "swaps"):  # written before confirmation existed: its flags are MDM > threshold
                 if key not in data:
                     data[key] = np.zeros(data["mdm"].shape, dtype=bool)
             return cls(
@@ -1111,7 +1173,8 @@ def detect(
         ``confirm_margin_s`` of it (:func:`confirm_flags`; module docstring).
         ``confirm=False`` gives the paper's flags, ``mdm > threshold``.
         Confirmation also flags held joints (:func:`held_joints`): a joint
-        held still while its mean motion texture travels ``hold_travel_deg``.
+        held still while its mean motion texture travels ``hold_travel_deg``;
+        and left/right label swaps (:func:`side_swaps`).
     """
     from tqdm.auto import tqdm
 
@@ -1220,7 +1283,11 @@ def detect(
     analysed[tex_joints] = True
     jumps &= analysed[None, :]
     holds = held_joints(motion, mean_speed, travel_deg=hold_travel_deg) & analysed[None, :]
-    flags = (confirm_flags(mdm, jumps, threshold, motion.fps, confirm_margin_s) | holds) if confirm else mdm > threshold
+    swaps = side_swaps(motion, joints=analysed)
+    if confirm:
+        flags = confirm_flags(mdm, jumps, threshold, motion.fps, confirm_margin_s) | holds | swaps
+    else:
+        flags = mdm > threshold
     masks = np.zeros((G, m), dtype=bool)
     for gi, r in enumerate(grows):
         masks[gi, r] = True
@@ -1239,7 +1306,7 @@ def detect(
         fps=motion.fps, joint_names=tuple(sk.joint_names), analysed=analysed, texture_joints=tex_joints,
         group_names=tuple(gnames), group_masks=masks, word_starts=words, neighbor_pos=neighbors.pos,
         neighbor_iend=neighbors.iend, neighbor_jend=neighbors.jend, neighbor_dist=neighbors.dist,
-        context_clips=clips, jumps=jumps, holds=holds, params=params, notes=tuple(notes),
+        context_clips=clips, jumps=jumps, holds=holds, swaps=swaps, params=params, notes=tuple(notes),
     )
 
 
