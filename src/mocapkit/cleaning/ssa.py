@@ -742,9 +742,8 @@ def side_swaps(motion: Motion, jump_deg: float = 6.0, max_s: float = 1.0, joints
     each other, and again within ``max_s`` seconds, both are flagged from the
     frame after the first break's first frame to the second break's first
     frame (a step between frames f and f + 1 shows at both); the events pair
-    up in time order. No smooth
-    motion breaks like that, and no digression is needed: a swapped limb
-    often takes a plausible pose. ``joints`` (bool (J,), optional) limits the
+    up in time order. No smooth motion breaks like that, and no digression is
+    needed: a swapped limb often takes a plausible pose. ``joints`` (bool (J,), optional) limits the
     pairs to those whose two joints it holds.
     """
     if not (np.isfinite(jump_deg) and jump_deg > 0 and max_s > 0):
@@ -902,8 +901,8 @@ class Detection:
 
     mdm : float (F, J) movement digression map in [0, 1] (0 on joints not analysed);
     flags : bool (F, J) the errors: ``mdm > threshold`` confirmed by ``jumps``
-    (:func:`confirm_flags`), or ``mdm > threshold`` alone when the detection
-    was made with ``confirm=False``; jumps : bool (F, J) the analysed joints'
+    (:func:`confirm_flags`), with ``holds`` and ``swaps``; or ``mdm >
+    threshold`` alone when the detection was made with ``confirm=False``; jumps : bool (F, J) the analysed joints'
     :func:`discontinuities`; holds, swaps : bool (F, J) their
     :func:`held_joints` and :func:`side_swaps` (flagged with confirmation at
     any threshold); digression : float (F, J) angle in
