@@ -64,7 +64,7 @@ import mocapkit  # noqa: E402
 from mocapkit import corrupt  # noqa: E402
 from mocapkit import rotations as R  # noqa: E402
 from mocapkit.cleaning import baselines, ssa  # noqa: E402
-from mocapkit.metrics import DetectionScore, _word_starts, word_precision_recall  # noqa: E402
+from mocapkit.metrics import DetectionScore, _words, word_precision_recall  # noqa: E402
 
 DATA = REPO.parent / "shared" / "data"
 TARGETS = {"locomotion": (0.985, 0.90), "dance": (0.95, 0.85)}
@@ -157,7 +157,7 @@ def score(flags, truth, fps, per_joint=True, ignore=None):
 
 def ignored_pairs(ignore, fps):
     n, s = int(round(15 * fps / 24)), int(round(5 * fps / 24))
-    return int(sum(ignore[a : a + n].any(axis=0).sum() for a in _word_starts(ignore.shape[0], n, s)))
+    return int(_words(ignore, n, s).sum())
 
 
 def add(a: DetectionScore | None, b: DetectionScore) -> DetectionScore:

@@ -374,6 +374,15 @@ def test_resample_crop_reads_frames_at_the_given_speed():
     assert np.allclose(half[:, 0], 3.0 + 0.5 * np.arange(9))  # a ramp is interpolated exactly
 
 
+def test_train_config_refuses_a_bad_speed_range_or_offset():
+    for bad in ((0.0, 2.0), (1.4, 0.7), (-1.0, 1.0)):
+        with pytest.raises(ValueError, match="speed_range"):
+            training.TrainConfig(speed_range=bad)
+    with pytest.raises(ValueError, match="offset"):
+        training.TrainConfig(offset=-0.1)
+    assert training.TrainConfig(speed_range=(0.5, 0.5)).speed_range == (0.5, 0.5)
+
+
 def test_unaugmented_batches_are_the_plain_crops(walk):
     """speed_range (1, 1) and offset 0 draw the same crops as before augmentation existed."""
     data = _pool(walk)

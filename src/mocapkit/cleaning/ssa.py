@@ -98,6 +98,7 @@ from ..features import detect_up_axis
 from ..metrics import _word_starts
 from ..motion import Motion, _side_and_part, bone_moving_joints, find_joint
 from . import word_dtw
+from .baselines import _mean_rotation
 from .filters import window_frames
 from .ik import contact_segments
 
@@ -708,9 +709,14 @@ def discontinuities(motion: Motion, jump_deg: float = 8.0) -> np.ndarray:
     than 16 deg and spikes of more than 8 deg. The first and last frames and
     missing cells are never marked. Used by :func:`confirm_flags`.
     """
+    return _breaks(_midpoint_residuals(motion.rotations), jump_deg)
+
+
+def _breaks(resid: np.ndarray, jump_deg: float) -> np.ndarray:
+    """:func:`discontinuities` on midpoint residuals already computed (:func:`_midpoint_residuals`)."""
     if not (np.isfinite(jump_deg) and jump_deg > 0):
         raise ValueError(f"jump_deg must be a positive number of degrees, got {jump_deg!r}")
-    return _midpoint_residuals(motion.rotations) > np.radians(jump_deg)
+    return resid > np.radians(jump_deg)
 
 
 def _midpoint_residuals(rotations: np.ndarray) -> np.ndarray:
@@ -730,7 +736,10 @@ def _midpoint_residuals(rotations: np.ndarray) -> np.ndarray:
     return out
 
 
-def side_swaps(motion: Motion, jump_deg: float = 6.0, max_s: float = 1.0, joints=None) -> np.ndarray:
+_SWAP_JUMP_DEG, _SWAP_MAX_S = 6.0, 1.0  # side_swaps' defaults, which detect uses
+
+
+def side_swaps(motion: Motion, jump_deg: float = _SWAP_JUMP_DEG, max_s: float = _SWAP_MAX_S, joints=None) -> np.ndarray:
     """(F, J) bool: left/right label swaps, a joint and its mirror partner breaking together, twice.
 
     When the labels of the two sides swap, both joints of a left/right pair
@@ -748,17 +757,21 @@ def side_swaps(motion: Motion, jump_deg: float = 6.0, max_s: float = 1.0, joints
     """
     if not (np.isfinite(jump_deg) and jump_deg > 0 and max_s > 0):
         raise ValueError(f"need jump_deg > 0 and max_s > 0, got {jump_deg!r} and {max_s!r}")
+    return _side_swaps(_midpoint_residuals(motion.rotations), motion.skeleton.joint_names, motion.fps, jump_deg, max_s, joints)
+
+
+def _side_swaps(resid, joint_names, fps, jump_deg, max_s, joints) -> np.ndarray:
+    """:func:`side_swaps` on midpoint residuals already computed (:func:`_midpoint_residuals`)."""
     from scipy import ndimage
 
     from ..motion import mirror_pairs
 
-    resid = _midpoint_residuals(motion.rotations)
     F, J = resid.shape
     out = np.zeros((F, J), dtype=bool)
     use = np.ones(J, dtype=bool) if joints is None else np.asarray(joints, dtype=bool)
     breaks = resid > np.maximum(np.radians(jump_deg), 10.0 * np.median(resid, axis=0))[None, :]
-    perm = mirror_pairs(motion.skeleton.joint_names)
-    longest = int(round(max_s * motion.fps))
+    perm = mirror_pairs(joint_names)
+    longest = int(round(max_s * fps))
     for j in range(J):
         p = int(perm[j])
         if p <= j or not (use[j] and use[p]):
@@ -867,6 +880,7 @@ def held_joints(
     if not still.any():
         return out
     pose_hold = still[:, analysed].mean(axis=1) >= 0.5
+    mean = _mean_rotation(q)  # (J, 4): the range edges are taken relative to each joint's mean rotation
     min_frames = max(2, int(np.ceil(min_s * motion.fps)))
     travel = np.nan_to_num(mean_speed) / motion.fps  # degrees per frame
     for j in np.flatnonzero(still.any(axis=0)):
@@ -875,9 +889,7 @@ def held_joints(
         labels, count = ndimage.label(still[:, j] & ~pose_hold)
         if count == 0:
             continue
-        qj = q[:, j] * np.where(q[:, j] @ q[0, j] < 0, -1.0, 1.0)[:, None]  # one hemisphere, so the mean is a rotation
-        mean = qj.mean(axis=0)
-        rel = R.quaternion_multiply(R.quaternion_conjugate(mean / np.linalg.norm(mean))[None], qj)
+        rel = R.quaternion_multiply(R.quaternion_conjugate(mean[j])[None], q[:, j])
         comps = R.quaternion_to_rotvec(rel)
         low, high = comps.min(axis=0), comps.max(axis=0)
         varies = high - low > np.radians(1.0)  # an ASF joint's unused components stay at 0: no edge to be at
@@ -1188,7 +1200,8 @@ def detect(
     if not (np.isfinite(hold_travel_deg) and hold_travel_deg > 0):
         raise ValueError(f"hold_travel_deg must be a positive number of degrees, got {hold_travel_deg!r}")
     src, full, tex_joints, up, notes = _prepare(motion, context, fps, joints)
-    jumps = discontinuities(motion, jump_deg)  # checks jump_deg before the analysis starts
+    resid = _midpoint_residuals(motion.rotations)  # for the breaks and the side swaps
+    jumps = _breaks(resid, jump_deg)  # checks jump_deg before the analysis starts
     sk = motion.skeleton
     if groups is None:
         groups = joint_groups(sk, tex_joints)
@@ -1282,7 +1295,7 @@ def detect(
     analysed[tex_joints] = True
     jumps &= analysed[None, :]
     holds = held_joints(motion, mean_speed, travel_deg=hold_travel_deg) & analysed[None, :]
-    swaps = side_swaps(motion, joints=analysed)
+    swaps = _side_swaps(resid, sk.joint_names, motion.fps, _SWAP_JUMP_DEG, _SWAP_MAX_S, analysed)
     if confirm:
         flags = confirm_flags(mdm, jumps, threshold, motion.fps, confirm_margin_s) | holds | swaps
     else:

@@ -80,6 +80,13 @@ class TrainConfig:
     minutes: float | None = None  # stop after the epoch that passes this budget
     device: str = "auto"
 
+    def __post_init__(self):
+        lo, hi = self.speed_range
+        if not 0 < lo <= hi:
+            raise ValueError(f"speed_range needs 0 < lo <= hi, got {self.speed_range!r}")
+        if not self.offset >= 0:
+            raise ValueError(f"offset must be >= 0, got {self.offset!r}")
+
     def network(self, channels: int) -> torch.nn.Module:
         if self.kind == "ebf":
             return EBF(channels, hidden=self.hidden or 126, head=self.head, bias=self.bias, dropout=self.dropout,
@@ -245,6 +252,14 @@ def _resample_crop(a: np.ndarray, start: float, speed: float, T: int) -> np.ndar
     return (1 - f) * a[i] + f * a[i + 1]
 
 
+def _replayed(d: dict, start: float, speed: float, T: int) -> tuple[np.ndarray, np.ndarray]:
+    """``T`` frames of a prepared clip's clean channels and root angular velocity replayed at ``speed`` from ``start``.
+
+    The angular velocity is per second, so it scales with the speed.
+    """
+    return _resample_crop(d["clean"], start, speed, T), _resample_crop(d["ctx"], start, speed, T) * np.float32(speed)
+
+
 def _draw_speed(cfg: TrainConfig, rng: np.random.Generator) -> float | None:
     """A replay speed drawn log-uniformly from ``cfg.speed_range``, or None when the augmentation is off."""
     lo, hi = cfg.speed_range
@@ -285,8 +300,7 @@ def _ebf_batch(data, cfg: TrainConfig, rng: np.random.Generator, std: np.ndarray
         if speed is not None:
             speed = min(speed, (n - 1.0) / (T - 1))  # a short clip cannot be replayed as fast
             s0 = float(rng.uniform(0.0, max(n - 1.0 - speed * (T - 1), 0.0)))
-            clean = _resample_crop(d["clean"], s0, speed, T)
-            ctx = _resample_crop(d["ctx"], s0, speed, T) * np.float32(speed)
+            clean, ctx = _replayed(d, s0, speed, T)
             noisy = clean + _wrapped(v[s : s + T] - d["clean"][s : s + T], cfg)
         else:
             clean, ctx, noisy = d["clean"][s : s + T], d["ctx"][s : s + T], v[s : s + T]
@@ -314,8 +328,7 @@ def _ebd_batch(data, cfg: TrainConfig, rng: np.random.Generator, net: EBD, group
         if speed is not None:  # the whole clip replayed at one speed, with the white noise of its variant
             n = int((len(clean) - 1) / speed) + 1
             noise = _wrapped(v - clean, cfg)[np.arange(n) % len(clean)]
-            clean = _resample_crop(d["clean"], 0.0, speed, n)
-            ctx = _resample_crop(d["ctx"], 0.0, speed, n) * np.float32(speed)
+            clean, ctx = _replayed(d, 0.0, speed, n)
             v = (clean + noise).astype(np.float32)
         F, C = clean.shape
         long = rng.random() < cfg.long_gap_share
