@@ -200,6 +200,23 @@ def test_joint_groups_of_cmu_rig(walk):
     assert "Head" not in [names[j] for j in g["lower"]]
 
 
+def test_informative_joints_take_left_and_right_partners_together():
+    """On the sneak take the right wrist rotates less than the head; its partner ranks high, so both come in."""
+    from mocapkit.motion import mirror_pairs
+
+    take = mocapkit.load(mocapkit.samples.path("HDM_bk_sneak2StepsLStart_004_120.amc"))
+    sk = take.skeleton
+    perm = mirror_pairs(sk.joint_names)
+    for count in (24, 9, 5):
+        sel = ssa.informative_joints([take], count)
+        assert len(sel) == count and 0 in sel
+        unpaired = [j for j in sel if perm[j] != j and perm[j] not in sel]
+        assert len(unpaired) <= 1, [sk.joint_names[j] for j in unpaired]  # only a last slot a pair could not fill
+    sel = ssa.informative_joints([take], 24)
+    assert sk.index("lwrist") in sel and sk.index("rwrist") in sel
+    assert np.array_equal(ssa.informative_joints([take.mirror()], 24), np.sort(perm[sel]))  # mirrored take: mirrored set
+
+
 def test_facing_aligned_removes_heading(walk, rng):
     up = np.array([0.0, 1.0, 0.0])
     turn = R.quaternion_from_axis_angle(up, rng.uniform(-np.pi, np.pi))
@@ -477,17 +494,21 @@ def test_held_joints_find_a_frozen_channel_and_leave_motion_alone(walk):
     swing = 30.0 * np.sin(2 * np.pi * t)  # the joint swings +-30 deg once a second
     frozen = swing.copy()
     frozen[300:340] = swing[299]  # held for 1/3 s at a value inside its range
-    clamped = swing.copy()
-    clamped[frozen.argmin() - 10 : frozen.argmin() + 10] = swing.min()  # held at the bottom of its range: a joint limit
+    clamped = np.maximum(swing, -20.0)  # held at -20 deg in every swing: a joint limit the solver clamps at
+    at_peak = swing.copy()
+    peak = int(np.argmax(swing[200:320])) + 200
+    at_peak[peak : peak + 40] = swing[peak]  # frozen once at the top of its swing, the edge of its range
     moving = np.full((F, walk.num_joints), 50.0)  # every joint analysed, its mean texture moving at 50 deg/s
-    for name, signal_deg in (("frozen", frozen), ("clamped", clamped)):
+    for name, signal_deg in (("frozen", frozen), ("clamped", clamped), ("at_peak", at_peak)):
         m, j = _swinging(walk, "LeftElbow", signal_deg)
         moving[:, j] = 2 * np.pi * 30.0 * np.abs(np.cos(2 * np.pi * t))  # the unfrozen swing's speed, deg/s
         held = ssa.held_joints(m, moving)
         if name == "frozen":
             assert np.flatnonzero(held[:, j]).tolist() == list(range(299, 340))
+        elif name == "at_peak":
+            assert np.flatnonzero(held[:, j]).tolist() == list(range(peak, peak + 40))
         else:
-            assert not held.any()
+            assert (clamped == -20.0).sum() > 100 and not held.any()
     m, j = _swinging(walk, "LeftElbow", frozen)
     still_context = moving.copy()
     still_context[:, j] = 0.0  # the similar motion holds there too: no error
@@ -501,6 +522,8 @@ def test_held_joints_find_a_frozen_channel_and_leave_motion_alone(walk):
         ssa.held_joints(m, moving[:, :3])
     with pytest.raises(ValueError, match="travel_deg"):
         ssa.held_joints(m, moving, travel_deg=0.0)
+    with pytest.raises(ValueError, match="recur_deg"):
+        ssa.held_joints(m, moving, recur_deg=-1.0)
     # the speeds come from a cheaper angle than rotations.geodesic_angle: the same to 1e-6 rad, also off unit length
     q = walk.rotations * 1.001
     assert np.allclose(ssa._step_angles(q), R.geodesic_angle(walk.rotations[1:], walk.rotations[:-1]), atol=1e-6)

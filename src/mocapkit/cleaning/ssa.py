@@ -98,7 +98,6 @@ from ..features import detect_up_axis
 from ..metrics import _word_starts
 from ..motion import Motion, _side_and_part, bone_moving_joints, find_joint
 from . import word_dtw
-from .baselines import _mean_rotation
 from .filters import window_frames
 from .ik import contact_segments
 
@@ -170,8 +169,16 @@ def informative_joints(motions: Sequence[Motion], count: int = 24) -> np.ndarray
     Joints with rotation channels that move a bone, ranked by how much they
     rotate: the mean angle from their average rotation over all frames of
     ``motions`` (sharing one skeleton). The root is always kept. Joints that
-    never move (fingers of most captures) come last.
+    never move (fingers of most captures) come last. Left/right partners
+    (:func:`mocapkit.motion.mirror_pairs`) are taken together, ranked by the
+    one that rotates more, so the set does not depend on which hand moved
+    more in the take and the left and right groups match (a swap, which
+    :func:`side_swaps` finds, needs both joints); a last slot that no pair
+    fits takes the next single joint, or else the half of a pair that
+    rotates more.
     """
+    from ..motion import mirror_pairs
+
     sk = motions[0].skeleton
     cand = np.flatnonzero(_moving_joints(sk))
     spread = np.zeros(sk.num_joints)
@@ -186,8 +193,18 @@ def informative_joints(motions: Sequence[Motion], count: int = 24) -> np.ndarray
             continue
         mean = mean / np.linalg.norm(mean)
         spread[j] = float(np.mean(R.geodesic_angle(qs, mean)))
-    order = sorted(cand, key=lambda j: (j != 0, -spread[j], j))
-    return np.array(sorted(order[: int(count)]), dtype=np.int64)
+    perm = mirror_pairs(sk.joint_names)
+    in_cand = np.zeros(sk.num_joints, dtype=bool)
+    in_cand[cand] = True
+    units = [(j,) if perm[j] == j or not in_cand[perm[j]] else (j, int(perm[j])) for j in cand if perm[j] >= j or not in_cand[perm[j]]]
+    units.sort(key=lambda u: (0 not in u, -max(spread[list(u)]), min(u)))
+    chosen: list[int] = []
+    for u in units:
+        if len(chosen) + len(u) <= int(count):
+            chosen.extend(u)
+    rest = sorted((j for j in cand if j not in chosen), key=lambda j: (-spread[j], j))
+    chosen.extend(rest[: max(int(count) - len(chosen), 0)])  # a slot no pair fits and no single is left for
+    return np.array(sorted(chosen), dtype=np.int64)
 
 
 def joint_groups(skeleton, joints: Sequence[int] | None = None) -> dict[str, np.ndarray]:
@@ -843,6 +860,7 @@ def held_joints(
     hold_deg_s: float = 0.5,
     min_s: float = 0.05,
     travel_deg: float = 10.0,
+    recur_deg: float = 1.0,
 ) -> np.ndarray:
     """(F, J) bool: joints held still where the mean motion texture says they move (a frozen channel).
 
@@ -854,13 +872,13 @@ def held_joints(
     it: the similar motion moves there, this joint does not. Holds that are
     motion, not errors, are left out: a joint held in more than half the
     take (it barely moves at all), frames where most analysed joints hold at
-    once (a repeated frame: timing, not one joint), and a held rotation at
-    the edge of the joint's range in the take, one of its rotation-vector
-    components (relative to the take's mean rotation, among those that vary
-    by more than a degree) at its minimum or maximum (a joint limit the
-    solver clamps at, such as a straight knee).
-    Where a frozen joint starts the digression is still small; this finds it
-    from the first held frame.
+    once (a repeated frame: timing, not one joint), and a hold that recurs:
+    the joint held again, in another hold of the take, within
+    ``recur_deg`` of the same rotation (a joint limit the solver clamps at,
+    such as a straight knee in every stride, or a rest pose). A frozen
+    channel repeats the one value it last had; a limit is met again and
+    again. Where a frozen joint starts the digression is still small; this
+    finds it from the first held frame.
     """
     q = np.asarray(motion.rotations, dtype=np.float64)
     F, J = q.shape[:2]
@@ -868,8 +886,11 @@ def held_joints(
     mean_speed = np.asarray(mean_speed, dtype=np.float64)
     if mean_speed.shape != (F, J):
         raise ValueError(f"mean_speed must be (F, J) = {(F, J)}, got {mean_speed.shape}")
-    if not (hold_deg_s > 0 and min_s >= 0 and travel_deg > 0):
-        raise ValueError(f"need hold_deg_s > 0, min_s >= 0 and travel_deg > 0, got {hold_deg_s!r}, {min_s!r}, {travel_deg!r}")
+    if not (hold_deg_s > 0 and min_s >= 0 and travel_deg > 0 and recur_deg >= 0):
+        raise ValueError(
+            f"need hold_deg_s > 0, min_s >= 0, travel_deg > 0 and recur_deg >= 0, "
+            f"got {hold_deg_s!r}, {min_s!r}, {travel_deg!r}, {recur_deg!r}"
+        )
     if F < 2:
         return out
     from scipy import ndimage
@@ -880,26 +901,22 @@ def held_joints(
     if not still.any():
         return out
     pose_hold = still[:, analysed].mean(axis=1) >= 0.5
-    mean = _mean_rotation(q)  # (J, 4): the range edges are taken relative to each joint's mean rotation
     min_frames = max(2, int(np.ceil(min_s * motion.fps)))
     travel = np.nan_to_num(mean_speed) / motion.fps  # degrees per frame
+    recur = np.radians(recur_deg)
     for j in np.flatnonzero(still.any(axis=0)):
         if still[:, j].mean() > 0.5:
             continue
         labels, count = ndimage.label(still[:, j] & ~pose_hold)
-        if count == 0:
+        runs = [(run.start, run.stop + 1) for (run,) in ndimage.find_objects(labels)]  # held frames a .. b - 1
+        runs = [(a, b) for a, b in runs if b - a >= min_frames]
+        if not runs:
             continue
-        rel = R.quaternion_multiply(R.quaternion_conjugate(mean[j])[None], q[:, j])
-        comps = R.quaternion_to_rotvec(rel)
-        low, high = comps.min(axis=0), comps.max(axis=0)
-        varies = high - low > np.radians(1.0)  # an ASF joint's unused components stay at 0: no edge to be at
-        for (run,) in ndimage.find_objects(labels):
-            a, b = run.start, run.stop + 1  # held frames a .. b - 1 (steps a .. b - 2)
-            if b - a < min_frames:
-                continue
-            if np.any(varies & ((comps[a] <= low) | (comps[a] >= high))):
-                continue
-            if travel[a:b, j].sum() >= travel_deg:
+        held = q[[a for a, _ in runs], j]  # (n, 4) the held rotations
+        near = R.geodesic_angle(held[:, None], held[None, :]) <= recur
+        np.fill_diagonal(near, False)
+        for (a, b), recurs in zip(runs, near.any(axis=1)):
+            if not recurs and travel[a:b, j].sum() >= travel_deg:
                 out[a:b, j] = True
     return out
 
@@ -1342,6 +1359,9 @@ class Contact:
         return np.asarray(self.position, dtype=np.float64).reshape(3)
 
 
+_NEAR_FACTOR = 2.0  # repair's medoid is taken among the neighbour words within this factor of the nearest's DTW distance
+
+
 def _medoid(words: list[np.ndarray], cols: np.ndarray) -> int:
     """Index of the word closest to all others (sum of squared angles) on the rows ``cols``: the KNN's median."""
     if len(words) == 1:
@@ -1401,8 +1421,11 @@ def repair(
     """Replace the flagged joints in flagged frames by the median of their KNN words (section 4).
 
     For each flagged cell the source word around the frame gives K neighbour
-    words (in the group that explained the joint best); the medoid of them on
-    the word's flagged joints replaces the values (a flagged run no
+    words (in the group that explained the joint best); the medoid of those
+    within twice the nearest one's DTW distance (the others are the next
+    best of a context that repeats the motion fewer than K times, and a
+    medoid of them picks a wrong motion) on the word's flagged joints
+    replaces the values (a flagged run no
     neighbour word covers is bridged by slerp between its ends, unflagged
     or already replaced, as a gap would be), which are blended into the
     untouched motion with a quadratic Savitzky-Golay filter (``blend_s``
@@ -1464,13 +1487,18 @@ def repair(
         wi, ki = np.nonzero(pos >= 0)
         members = groups[g]
         nws, ok = _neighbor_words(src.values, full, members, _drop(members), words[ws[wi]], pos[wi, ki], N, M)
+        dist = detection.neighbor_dist[g, ws][wi, ki]
         for q in np.flatnonzero(ok):
-            warped.setdefault((g, int(ws[wi[q]])), []).append(nws[q])
+            warped.setdefault((g, int(ws[wi[q]])), []).append((nws[q], float(dist[q])))
     for (g, w), cells in flagged_frames_by_word.items():
         members = groups[g]
-        words_k = warped.get((g, w), [])
-        if not words_k:
+        found = warped.get((g, w), [])
+        if not found:
             continue
+        # the neighbours that are near: a word several times farther than the nearest matched the source
+        # only because K words had to be found (the paper's K = 5 in a context that repeats it once)
+        nearest = min(d for _, d in found)
+        words_k = [nw for nw, d in found if d <= _NEAR_FACTOR * nearest]
         fs = np.array([f for f, _ in cells], dtype=np.int64)
         js = np.array([j for _, j in cells], dtype=np.int64)
         cs = np.searchsorted(members, [col[int(j)] for j in js])  # the cells' rows within the word
