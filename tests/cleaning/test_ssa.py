@@ -435,8 +435,31 @@ def test_confirm_flags_keep_whole_runs_that_reach_the_threshold_and_hold_a_break
     expect[10:30, 0] = True
     assert np.array_equal(flags, expect)
     assert not ssa.confirm_flags(mdm, jumps, 0.5, fps, margin_s=0.03)[:, 0].any()  # the break is 4 frames off
+    # a run holding two break events is cut to them (within the margin); with one it is kept whole
+    long = np.zeros((F, 1))
+    long[10:70, 0] = 0.8
+    steps = np.zeros((F, 1), dtype=bool)
+    steps[30:32, 0] = True  # a step marks the frames on both of its sides
+    assert np.flatnonzero(ssa.confirm_flags(long, steps, 0.5, fps)).tolist() == list(range(10, 70))
+    steps[50, 0] = True
+    assert np.flatnonzero(ssa.confirm_flags(long, steps, 0.5, fps)).tolist() == list(range(25, 56))
     with pytest.raises(ValueError, match="shape"):
         ssa.confirm_flags(mdm, jumps[:, :2], 0.5, fps)
+
+
+def test_an_error_between_two_breaks_is_flagged_and_repaired_between_them(walk):
+    """A 60 deg knee error of 0.25 s on the walk: its digression spreads over the words around it, the flags do not."""
+    frames = np.arange(300, 330)
+    bad, j = _turned(walk, "LeftKnee", frames, 60.0)
+    det = ssa.detect(bad)
+    margin = int(round(0.05 * walk.fps))
+    assert (det.mdm[:, j] > 0.25).sum() > 3 * len(frames)  # the digression is wider than the error
+    flagged = np.flatnonzero(det.flags[:, j])
+    assert flagged.min() >= frames[0] - 1 - margin and flagged.max() <= frames[-1] + 1 + margin
+    assert det.flags[frames, j].all()
+    rep = ssa.repair(bad, det)
+    err = np.degrees(R.geodesic_angle(rep.rotations[:, j], walk.rotations[:, j]))
+    assert err[frames].max() < 20.0 and err.max() < 20.0  # was 60 in the window; no clean frame pushed far off
 
 
 def test_a_smooth_distinct_gesture_is_flagged_only_without_confirmation(walk):

@@ -51,7 +51,9 @@ Departures from the paper, and why:
   not repeat (a gesture made once): on the detection benchmark, 79-87 % of
   its (word, joint) flags without a large context. A confirmed run is the
   connected cells of ``MDM > threshold / 2`` that reach ``threshold`` and
-  hold a break, so the repair covers the error's whole extent. The price: an error that
+  hold a break, so the repair covers the error's whole extent; a run with
+  two breaks or more is cut to the first and last of them, since beyond
+  them the digression is the error's wake in the neighbour words. The price: an error that
   grows smoothly out of the motion and back (no step anywhere) is left
   unflagged; ``confirm=False`` finds it, with the false flags above.
   Confirmation also flags held joints (:func:`held_joints`): a joint held
@@ -543,6 +545,9 @@ def _align(q: np.ndarray, ref: np.ndarray) -> np.ndarray:
     return q * np.where(s == 0, 1.0, s)
 
 
+_NEIGHBOR_RATIO = 2.0  # neighbour words farther than this times the nearest's distance (+ 0.001) are not examples of it
+
+
 def _robust_means(words: np.ndarray, valid: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Mean word and spread of each source word's hemisphere-aligned neighbours, robust to outliers.
 
@@ -592,7 +597,7 @@ def mean_motion_texture(
     source_length: int = 15,
     target_length: int = 20,
     return_spread: bool = False,
-    neighbor_ratio: float = 2.0,
+    neighbor_ratio: float = _NEIGHBOR_RATIO,
 ):
     """Mean motion texture per group, (G, F, m, 4) (section 3.4).
 
@@ -815,11 +820,21 @@ def confirm_flags(
     """Error flags (F, J) from an MDM confirmed by the joint's own discontinuities (see :func:`detect`).
 
     Per joint, a run is a connected stretch of frames with ``mdm > extent *
-    threshold``; it is flagged whole when it reaches ``mdm > threshold``
-    somewhere and one of its frames lies within ``margin_s`` seconds of a
-    ``jumps`` frame of the same joint. So every flagged cell digresses, and
-    every flagged run both digresses clearly and holds a break no smooth
-    motion makes. ``mdm`` float (F, J) in [0, 1]; ``jumps`` bool (F, J).
+    threshold`` or within ``margin_s`` seconds of a ``jumps`` frame of the
+    same joint (so the digression on the two sides of a break is one run);
+    its cells with ``mdm > extent * threshold`` are flagged when it reaches
+    ``mdm > threshold`` somewhere and one of them lies within the margin of
+    the break. So every flagged
+    run both digresses clearly and holds a break no smooth motion makes.
+    A run that holds two breaks or more (separate steps or spikes) is cut
+    to its first and last break, within ``margin_s``: an error starts and
+    ends with a break, and beyond them the digression comes from the
+    neighbour words the error itself led astray (a word spans 0.6 s), not
+    from more error; repairing there replaced clean frames (a 60 deg knee
+    error of 0.25 s on a walk flagged 1.7 s and the repair put clean frames
+    68 deg off). A run with one break (a drift that grows smoothly and ends
+    in a step) is kept whole. ``mdm`` float (F, J) in [0, 1]; ``jumps``
+    bool (F, J).
     """
     from scipy import ndimage
 
@@ -835,12 +850,22 @@ def confirm_flags(
     n = int(round(margin_s * fps))
     near = ndimage.binary_dilation(jumps, structure=np.ones((2 * n + 1, 1), dtype=bool)) if n > 0 else jumps
     along_time = np.array([[0, 1, 0], [0, 1, 0], [0, 1, 0]], dtype=bool)  # runs never join across joints
-    labels, count = ndimage.label(low, structure=along_time)
+    # a run takes in the frames within the margin of a break, so the digression on both sides of a break joins
+    labels, count = ndimage.label(low | near, structure=along_time)
     idx = np.arange(1, count + 1)
     peak = ndimage.maximum(mdm, labels, idx) > threshold
-    broken = ndimage.maximum(near, labels, idx).astype(bool)
+    broken = ndimage.maximum(near & low, labels, idx).astype(bool)  # a digressing frame within the margin of a break
     keep = np.concatenate([[False], peak & broken])
-    return keep[labels]
+    out = keep[labels] & low
+    for lab, (rows, cols) in enumerate(ndimage.find_objects(labels), start=1):
+        if not keep[lab]:
+            continue
+        a, j = rows.start, cols.start
+        at = np.flatnonzero(jumps[rows, j]) + a
+        if (np.diff(at) > 2).any():  # two break events or more (a step marks two adjacent frames)
+            out[a : at[0] - n, j] = False
+            out[at[-1] + n + 1 : rows.stop, j] = False
+    return out
 
 
 def _step_angles(q: np.ndarray) -> np.ndarray:
@@ -1359,9 +1384,6 @@ class Contact:
         return np.asarray(self.position, dtype=np.float64).reshape(3)
 
 
-_NEAR_FACTOR = 2.0  # repair's medoid is taken among the neighbour words within this factor of the nearest's DTW distance
-
-
 def _medoid(words: list[np.ndarray], cols: np.ndarray) -> int:
     """Index of the word closest to all others (sum of squared angles) on the rows ``cols``: the KNN's median."""
     if len(words) == 1:
@@ -1422,10 +1444,12 @@ def repair(
 
     For each flagged cell the source word around the frame gives K neighbour
     words (in the group that explained the joint best); the medoid of those
-    within twice the nearest one's DTW distance (the others are the next
-    best of a context that repeats the motion fewer than K times, and a
-    medoid of them picks a wrong motion) on the word's flagged joints
-    replaces the values (a flagged run no
+    within twice the nearest one's DTW distance, as for the mean texture
+    (the others are the next best of a context that repeats the motion
+    fewer than K times, and a medoid of them picks a wrong motion), and
+    never of a word of the take itself that spans a flagged cell of the
+    joints repaired (it would copy the error back), on the word's flagged
+    joints replaces the values (a flagged run no
     neighbour word covers is bridged by slerp between its ends, unflagged
     or already replaced, as a gap would be), which are blended into the
     untouched motion with a quadratic Savitzky-Golay filter (``blend_s``
@@ -1489,18 +1513,27 @@ def repair(
         nws, ok = _neighbor_words(src.values, full, members, _drop(members), words[ws[wi]], pos[wi, ki], N, M)
         dist = detection.neighbor_dist[g, ws][wi, ki]
         for q in np.flatnonzero(ok):
-            warped.setdefault((g, int(ws[wi[q]])), []).append((nws[q], float(dist[q])))
+            warped.setdefault((g, int(ws[wi[q]])), []).append((nws[q], float(dist[q]), int(pos[wi[q], ki[q]])))
+    # the take's own flagged cells at the analysis rate (+-1 frame): a neighbour word from the take that
+    # spans one of them on a joint to repair would copy the error back (the rest of a long error, a
+    # repeated glitch)
+    n_self = int(full.clip_starts[1])
+    flagged_a = np.zeros((n_self + 1, flags.shape[1]), dtype=bool)
+    np.logical_or.at(flagged_a, np.clip(np.round(tau).astype(np.int64), 0, n_self), flags)
+    flagged_a[1:] |= flagged_a[:-1].copy()
+    flagged_a[:-1] |= flagged_a[1:].copy()
     for (g, w), cells in flagged_frames_by_word.items():
         members = groups[g]
-        found = warped.get((g, w), [])
-        if not found:
-            continue
-        # the neighbours that are near: a word several times farther than the nearest matched the source
-        # only because K words had to be found (the paper's K = 5 in a context that repeats it once)
-        nearest = min(d for _, d in found)
-        words_k = [nw for nw, d in found if d <= _NEAR_FACTOR * nearest]
         fs = np.array([f for f, _ in cells], dtype=np.int64)
         js = np.array([j for _, j in cells], dtype=np.int64)
+        here = np.unique(js)
+        found = [(nw, d) for nw, d, q in warped.get((g, w), []) if not (q < n_self and flagged_a[q : q + M, here].any())]
+        if not found:
+            continue
+        # the neighbours that are near, by the mean texture's rule: a word several times farther than the
+        # nearest matched the source only because K words had to be found (a context that repeats it once)
+        nearest = min(d for _, d in found)
+        words_k = [nw for nw, d in found if d <= _NEIGHBOR_RATIO * nearest + 1e-3]
         cs = np.searchsorted(members, [col[int(j)] for j in js])  # the cells' rows within the word
         flagged_cols = np.unique(cs)
         x = np.clip(tau[fs] - words[w], 0.0, N - 1.0)
