@@ -201,7 +201,7 @@ def test_joint_groups_of_cmu_rig(walk):
 
 
 def test_informative_joints_take_left_and_right_partners_together():
-    """On the sneak take the right wrist rotates less than the head; its partner ranks high, so both come in."""
+    """On the sneak take the right hand alone ranked 25th (its partner made the 24); now the pair comes in together."""
     from mocapkit.motion import mirror_pairs
 
     take = mocapkit.load(mocapkit.samples.path("HDM_bk_sneak2StepsLStart_004_120.amc"))
@@ -213,7 +213,7 @@ def test_informative_joints_take_left_and_right_partners_together():
         unpaired = [j for j in sel if perm[j] != j and perm[j] not in sel]
         assert len(unpaired) <= 1, [sk.joint_names[j] for j in unpaired]  # only a last slot a pair could not fill
     sel = ssa.informative_joints([take], 24)
-    assert sk.index("lwrist") in sel and sk.index("rwrist") in sel
+    assert sk.index("lhand") in sel and sk.index("rhand") in sel
     assert np.array_equal(ssa.informative_joints([take.mirror()], 24), np.sort(perm[sel]))  # mirrored take: mirrored set
 
 
@@ -443,6 +443,11 @@ def test_confirm_flags_keep_whole_runs_that_reach_the_threshold_and_hold_a_break
     assert np.flatnonzero(ssa.confirm_flags(long, steps, 0.5, fps)).tolist() == list(range(10, 70))
     steps[50, 0] = True
     assert np.flatnonzero(ssa.confirm_flags(long, steps, 0.5, fps)).tolist() == list(range(25, 56))
+    early = np.zeros((F, 1))
+    early[0:70, 0] = 0.8  # a run from the first frame, its first break within the margin of it
+    first = np.zeros((F, 1), dtype=bool)
+    first[2, 0] = first[50, 0] = True
+    assert np.flatnonzero(ssa.confirm_flags(early, first, 0.5, fps)).tolist() == list(range(0, 56))
     with pytest.raises(ValueError, match="shape"):
         ssa.confirm_flags(mdm, jumps[:, :2], 0.5, fps)
 

@@ -198,7 +198,8 @@ def informative_joints(motions: Sequence[Motion], count: int = 24) -> np.ndarray
     perm = mirror_pairs(sk.joint_names)
     in_cand = np.zeros(sk.num_joints, dtype=bool)
     in_cand[cand] = True
-    units = [(j,) if perm[j] == j or not in_cand[perm[j]] else (j, int(perm[j])) for j in cand if perm[j] >= j or not in_cand[perm[j]]]
+    single = (perm == np.arange(sk.num_joints)) | ~in_cand[perm]
+    units = [(int(j),) if single[j] else (int(j), int(perm[j])) for j in cand if single[j] or perm[j] > j]
     units.sort(key=lambda u: (0 not in u, -max(spread[list(u)]), min(u)))
     chosen: list[int] = []
     for u in units:
@@ -835,8 +836,8 @@ def confirm_flags(
     same joint (so the digression on the two sides of a break is one run);
     its cells with ``mdm > extent * threshold`` are flagged when it reaches
     ``mdm > threshold`` somewhere and one of them lies within the margin of
-    the break. So every flagged
-    run both digresses clearly and holds a break no smooth motion makes.
+    the break. So every flagged run both digresses clearly and holds a
+    break no smooth motion makes.
     A run that holds two breaks or more (separate steps or spikes) is cut
     to its first and last break, within ``margin_s``: an error starts and
     ends with a break, and beyond them the digression comes from the
@@ -874,7 +875,7 @@ def confirm_flags(
         a, j = rows.start, cols.start
         at = np.flatnonzero(jumps[rows, j]) + a
         if (np.diff(at) > 2).any():  # two break events or more (a step marks two adjacent frames)
-            out[a : at[0] - n, j] = False
+            out[a : max(at[0] - n, a), j] = False  # (a negative stop would count from the end)
             out[at[-1] + n + 1 : rows.stop, j] = False
     return out
 
@@ -1515,7 +1516,7 @@ def repair(
     # every neighbour word the repair needs, warped in one batch per group
     M = int(p["target_length"])
     K = detection.neighbor_pos.shape[2]
-    warped: dict[tuple[int, int], list[np.ndarray]] = {}
+    warped: dict[tuple[int, int], list[tuple[np.ndarray, float, int]]] = {}  # (word, DTW distance, position)
     for g in sorted({g for g, _ in flagged_frames_by_word}):
         ws = np.array(sorted({w for gg, w in flagged_frames_by_word if gg == g}), dtype=np.int64)
         pos = detection.neighbor_pos[g, ws]  # (n, K)
