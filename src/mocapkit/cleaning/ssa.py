@@ -774,11 +774,8 @@ def side_swaps(motion: Motion, jump_deg: float = _SWAP_JUMP_DEG, max_s: float = 
     each other, and again within ``max_s`` seconds, both are flagged from the
     frame after the first break's first frame to the second break's first
     frame (a step between frames f and f + 1 shows at both); the events pair
-    up in time order. A first break within ``max_s`` of the take's start that
-    pairs with none is a swap already there in the first frame (flagged from
-    frame 0), and likewise a last one near the end. No smooth motion breaks
-    like that, and no digression is needed: a swapped limb often takes a
-    plausible pose. ``joints`` (bool (J,), optional) limits the
+    up in time order. No smooth motion breaks like that, and no digression is
+    needed: a swapped limb often takes a plausible pose. ``joints`` (bool (J,), optional) limits the
     pairs to those whose two joints it holds.
     """
     if not (np.isfinite(jump_deg) and jump_deg > 0 and max_s > 0):
@@ -807,22 +804,14 @@ def _side_swaps(resid, joint_names, fps, jump_deg, max_s, joints) -> np.ndarray:
         if len(frames) < 2:
             continue
         events = [run[0] for run in np.split(frames, np.flatnonzero(np.diff(frames) > 3) + 1)]
-        lone = []
         k = 0
-        while k < len(events):
-            a = events[k]
-            b = events[k + 1] if k + 1 < len(events) else None
-            if b is not None and b - a <= longest:  # a step from f to f + 1 breaks at both: the swap holds a + 1 .. b
+        while k + 1 < len(events):
+            a, b = events[k], events[k + 1]
+            if b - a <= longest:  # a step from f to f + 1 breaks at both: the swap holds frames a + 1 .. b
                 out[a + 1 : b + 1, j] = out[a + 1 : b + 1, p] = True
                 k += 2
             else:
-                lone.append(a)
                 k += 1
-        # a swap already there when the take starts, or still there when it ends, breaks once
-        if lone and lone[0] == events[0] and lone[0] < longest:
-            out[: lone[0] + 1, j] = out[: lone[0] + 1, p] = True
-        if lone and lone[-1] == events[-1] and lone[-1] > F - 1 - longest and not (len(events) == 1 and events[0] < longest):
-            out[lone[-1] + 1 :, j] = out[lone[-1] + 1 :, p] = True
     return out
 
 
