@@ -549,6 +549,16 @@ def _align(q: np.ndarray, ref: np.ndarray) -> np.ndarray:
 _NEIGHBOR_RATIO = 2.0  # neighbour words farther than this times the nearest's distance (+ 0.001) are not examples of it
 
 
+def _near_neighbors(dist, best, ratio: float = _NEIGHBOR_RATIO):
+    """Which word distances ``dist`` lie within ``ratio`` times the nearest one's, ``best`` (+ 0.001).
+
+    When the context repeats a word fewer than K times, the other local
+    minima are different motions, not examples of it: the mean texture
+    leaves them out, and so does the repair's medoid.
+    """
+    return dist <= ratio * best + 1e-3
+
+
 def _robust_means(words: np.ndarray, valid: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Mean word and spread of each source word's hemisphere-aligned neighbours, robust to outliers.
 
@@ -624,9 +634,8 @@ def mean_motion_texture(
         sacc = np.zeros((F, len(members)))
         cnt = np.zeros(F)
         dists = neighbors.dist[gi]  # (W, K)
-        best = np.min(dists, axis=1, keepdims=True)
-        cutoff = np.where(np.isfinite(best), neighbor_ratio * best.astype(np.float64) + 1e-3, np.inf)
-        use = (neighbors.pos[gi] >= 0) & (dists <= cutoff)
+        best = np.min(dists, axis=1, keepdims=True).astype(np.float64)  # inf where a word has none: all pass
+        use = (neighbors.pos[gi] >= 0) & _near_neighbors(dists, best, neighbor_ratio)
         wi, ki = np.nonzero(use)
         nws, ok = _neighbor_words(
             source.values, context, members, _drop(members), word_starts[wi], neighbors.pos[gi][wi, ki], N, target_length
@@ -869,6 +878,14 @@ def confirm_flags(
     return out
 
 
+def _flag_rule(mdm, jumps, holds, swaps, threshold: float, fps: float, confirm: bool, margin_s) -> np.ndarray:
+    """The flags of :func:`detect` and :meth:`Detection.with_threshold`: confirmed digressions, holds and swaps,
+    or the paper's ``mdm > threshold`` without confirmation."""
+    if confirm:
+        return confirm_flags(mdm, jumps, threshold, fps, margin_s) | holds | swaps
+    return mdm > threshold
+
+
 def _step_angles(q: np.ndarray) -> np.ndarray:
     """Rotation angle in radians between consecutive frames of unit quaternions (F, ...) -> (F - 1, ...).
 
@@ -1006,11 +1023,8 @@ class Detection:
         threshold = float(threshold)
         if not 0.0 < threshold < 1.0:
             raise ValueError(f"threshold must be in (0, 1), got {threshold}")
-        if self.params.get("confirm"):
-            flags = confirm_flags(self.mdm, self.jumps, threshold, self.fps, self.params["confirm_margin_s"])
-            flags |= self.holds | self.swaps
-        else:
-            flags = self.mdm > threshold
+        flags = _flag_rule(self.mdm, self.jumps, self.holds, self.swaps, threshold, self.fps,
+                           bool(self.params.get("confirm")), self.params.get("confirm_margin_s"))
         return dataclasses.replace(self, threshold=threshold, flags=flags)
 
     def save(self, path) -> Path:
@@ -1339,10 +1353,7 @@ def detect(
     jumps &= analysed[None, :]
     holds = held_joints(motion, mean_speed, travel_deg=hold_travel_deg) & analysed[None, :]
     swaps = _side_swaps(resid, sk.joint_names, motion.fps, _SWAP_JUMP_DEG, _SWAP_MAX_S, analysed)
-    if confirm:
-        flags = confirm_flags(mdm, jumps, threshold, motion.fps, confirm_margin_s) | holds | swaps
-    else:
-        flags = mdm > threshold
+    flags = _flag_rule(mdm, jumps, holds, swaps, threshold, motion.fps, confirm, confirm_margin_s)
     masks = np.zeros((G, m), dtype=bool)
     for gi, r in enumerate(grows):
         masks[gi, r] = True
@@ -1504,7 +1515,6 @@ def repair(
         flagged_frames_by_word.setdefault((g, int(word_of[f])), []).append((f, j))
     # every neighbour word the repair needs, warped in one batch per group
     M = int(p["target_length"])
-    K = detection.neighbor_pos.shape[2]
     warped: dict[tuple[int, int], list[tuple[np.ndarray, float, int]]] = {}  # (word, DTW distance, position)
     for g in sorted({g for g, _ in flagged_frames_by_word}):
         ws = np.array(sorted({w for gg, w in flagged_frames_by_word if gg == g}), dtype=np.int64)
@@ -1531,10 +1541,8 @@ def repair(
         found = [(nw, d) for nw, d, q in warped.get((g, w), []) if not (q < n_self and flagged_a[q : q + M, here].any())]
         if not found:
             continue
-        # the neighbours that are near, by the mean texture's rule: a word several times farther than the
-        # nearest matched the source only because K words had to be found (a context that repeats it once)
         nearest = min(d for _, d in found)
-        words_k = [nw for nw, d in found if d <= _NEIGHBOR_RATIO * nearest + 1e-3]
+        words_k = [nw for nw, d in found if _near_neighbors(d, nearest)]
         cs = np.searchsorted(members, [col[int(j)] for j in js])  # the cells' rows within the word
         flagged_cols = np.unique(cs)
         x = np.clip(tau[fs] - words[w], 0.0, N - 1.0)
