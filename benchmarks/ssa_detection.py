@@ -150,13 +150,18 @@ def glitches(clean, speed_deg_s):
     return ndimage.binary_dilation(cells, structure=np.ones((5, 1), dtype=bool))
 
 
+def word_frames(fps):
+    """The paper's words (15 frames every 5 at 24 fps) in frames at ``fps``: (length, stride)."""
+    return int(round(15 * fps / 24)), int(round(5 * fps / 24))
+
+
 def score(flags, truth, fps, per_joint=True, ignore=None):
-    n, s = int(round(15 * fps / 24)), int(round(5 * fps / 24))
+    n, s = word_frames(fps)
     return word_precision_recall(flags, truth, word_length=n, stride=s, per_joint=per_joint, ignore=ignore)
 
 
 def ignored_pairs(ignore, fps):
-    n, s = int(round(15 * fps / 24)), int(round(5 * fps / 24))
+    n, s = word_frames(fps)
     return int(_words(ignore, n, s).sum())
 
 
