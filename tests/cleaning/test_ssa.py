@@ -537,6 +537,13 @@ def test_held_joints_find_a_frozen_channel_and_leave_motion_alone(walk):
             assert np.flatnonzero(held[:, j]).tolist() == list(range(peak, peak + 40))
         else:
             assert (clamped == -20.0).sum() > 100 and not held.any()
+    rest = swing.copy()
+    rest[300:340] = 0.0  # held once at exactly the rest pose (a solver's straight knee), not frozen
+    m, j = _swinging(walk, "LeftElbow", rest)
+    assert not ssa.held_joints(m, moving).any()
+    rest[300:340] = 0.05  # the same hold a twentieth of a degree off the rest pose is a freeze
+    m, j = _swinging(walk, "LeftElbow", rest)
+    assert np.flatnonzero(ssa.held_joints(m, moving)[:, j]).tolist() == list(range(300, 340))
     m, j = _swinging(walk, "LeftElbow", frozen)
     still_context = moving.copy()
     still_context[:, j] = 0.0  # the similar motion holds there too: no error
@@ -552,6 +559,8 @@ def test_held_joints_find_a_frozen_channel_and_leave_motion_alone(walk):
         ssa.held_joints(m, moving, travel_deg=0.0)
     with pytest.raises(ValueError, match="recur_deg"):
         ssa.held_joints(m, moving, recur_deg=-1.0)
+    with pytest.raises(ValueError, match="rest_deg"):
+        ssa.held_joints(m, moving, rest_deg=-1.0)
     # the speeds come from a cheaper angle than rotations.geodesic_angle: the same to 1e-6 rad, also off unit length
     q = walk.rotations * 1.001
     assert np.allclose(ssa._step_angles(q), R.geodesic_angle(walk.rotations[1:], walk.rotations[:-1]), atol=1e-6)

@@ -904,6 +904,7 @@ def held_joints(
     min_s: float = 0.05,
     travel_deg: float = 10.0,
     recur_deg: float = 1.0,
+    rest_deg: float = 0.01,
 ) -> np.ndarray:
     """(F, J) bool: joints held still where the mean motion texture says they move (a frozen channel).
 
@@ -920,8 +921,13 @@ def held_joints(
     ``recur_deg`` of the same rotation (a joint limit the solver clamps at,
     such as a straight knee in every stride, or a rest pose). A frozen
     channel repeats the one value it last had; a limit is met again and
-    again. Where a frozen joint starts the digression is still small; this
-    finds it from the first held frame.
+    again. Also left alone: a hold at the skeleton's rest pose (the joint's
+    rotation within ``rest_deg`` of the identity, all its channels 0), where
+    the CMU and HDM05 solvers clamp a straight knee (the pirouette's standing
+    knee sits at exactly 0 for its last 2 s); a frozen channel repeats the
+    arbitrary last value it had, never exactly the rest pose. Where a frozen
+    joint starts the digression is still small; this finds it from the first
+    held frame.
     """
     q = np.asarray(motion.rotations, dtype=np.float64)
     F, J = q.shape[:2]
@@ -929,10 +935,10 @@ def held_joints(
     mean_speed = np.asarray(mean_speed, dtype=np.float64)
     if mean_speed.shape != (F, J):
         raise ValueError(f"mean_speed must be (F, J) = {(F, J)}, got {mean_speed.shape}")
-    if not (hold_deg_s > 0 and min_s >= 0 and travel_deg > 0 and recur_deg >= 0):
+    if not (hold_deg_s > 0 and min_s >= 0 and travel_deg > 0 and recur_deg >= 0 and rest_deg >= 0):
         raise ValueError(
-            f"need hold_deg_s > 0, min_s >= 0, travel_deg > 0 and recur_deg >= 0, "
-            f"got {hold_deg_s!r}, {min_s!r}, {travel_deg!r}, {recur_deg!r}"
+            f"need hold_deg_s > 0, min_s >= 0, travel_deg > 0, recur_deg >= 0 and rest_deg >= 0, "
+            f"got {hold_deg_s!r}, {min_s!r}, {travel_deg!r}, {recur_deg!r}, {rest_deg!r}"
         )
     if F < 2:
         return out
@@ -958,8 +964,9 @@ def held_joints(
         held = q[[a for a, _ in runs], j]  # (n, 4) the held rotations
         near = R.geodesic_angle(held[:, None], held[None, :]) <= recur
         np.fill_diagonal(near, False)
-        for (a, b), recurs in zip(runs, near.any(axis=1)):
-            if not recurs and travel[a:b, j].sum() >= travel_deg:
+        at_rest = R.geodesic_angle(held, R.identity()) <= np.radians(rest_deg)
+        for (a, b), exempt in zip(runs, near.any(axis=1) | at_rest):
+            if not exempt and travel[a:b, j].sum() >= travel_deg:
                 out[a:b, j] = True
     return out
 
