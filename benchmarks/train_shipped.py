@@ -51,11 +51,15 @@ def main() -> None:
     ap.add_argument("--hidden", type=int, default=None)
     ap.add_argument("--threads", type=int, default=None)
     ap.add_argument("--bias", action="store_true", help="EBF: also predict a per-channel bias (eq. 1's b)")
+    ap.add_argument("--noise-input", action="store_true",
+                    help="EBF: the encoder also reads each channel's causal noise-level estimate")
     ap.add_argument("--dropout", type=float, default=None, help="dropout on the LSTM inputs (default TrainConfig's)")
     ap.add_argument("--observed-weight", type=float, default=None, help="EBD: loss weight of observed entries")
     ap.add_argument("--speed-range", type=float, nargs=2, default=None, metavar=("LO", "HI"),
                     help="replay the training clips at a random speed in [LO, HI] (augmentation)")
     ap.add_argument("--offset", type=float, default=None, help="EBF: random channel offsets, x channel std")
+    ap.add_argument("--patchy", type=float, default=None,
+                    help="EBF: share of crops with noise on some channels and over one stretch only")
     ap.add_argument("--out", default=str(ROOT / "benchmarks" / "out" / "models"))
     ap.add_argument("--install", action="store_true", help="copy the model into src/mocapkit/models/")
     ap.add_argument("--json", action="store_true")
@@ -66,10 +70,10 @@ def main() -> None:
     clips = [mocapkit.load(f) for f in train_f]
     val = [mocapkit.load(f) for f in val_f]
     hidden = a.hidden or (64 if a.kind == "ebf" else 32)
-    extra = {k: v for k, v in (("dropout", a.dropout), ("observed_weight", a.observed_weight), ("offset", a.offset),
+    extra = {k: v for k, v in (("dropout", a.dropout), ("observed_weight", a.observed_weight), ("offset", a.offset), ("patchy", a.patchy),
                                ("speed_range", tuple(a.speed_range) if a.speed_range else None)) if v is not None}
     cfg = TrainConfig(kind=a.kind, hidden=hidden, epochs=a.epochs, steps_per_epoch=50, minutes=a.minutes, seed=0,
-                      bias=a.kind == "ebf" and a.bias, **extra)
+                      bias=a.kind == "ebf" and a.bias, noise_input=a.kind == "ebf" and a.noise_input, **extra)
     out = Path(a.out) / a.kind
     t = time.perf_counter()
     model = train(clips, out, cfg, validation=val, executor="serial")
@@ -78,7 +82,7 @@ def main() -> None:
     if a.install:
         shutil.copyfile(out / "model.pt", ROOT / "src" / "mocapkit" / "models" / f"{a.kind}.pt")
     res = {
-        "benchmark": "train_shipped", "kind": a.kind, "hidden": hidden, "bias": cfg.bias, "train_clips": len(clips),
+        "benchmark": "train_shipped", "kind": a.kind, "hidden": hidden, "bias": cfg.bias, "noise_input": cfg.noise_input, "train_clips": len(clips),
         "train_frames": int(sum(c.num_frames for c in clips)), "validation_clips": len(val),
         "test_clips": [f.name for f in test_f], "epochs_run": len(hist),
         "best_val_rmse": min(h["val_rmse"] for h in hist), "train_seconds_total": model.meta["train_seconds"],

@@ -58,6 +58,8 @@ def test_deep_commands_fail_in_one_line(tmp_path):
     assert code == 2 and one_error_line(err) and "unknown noise setting 'wobble:1'" in err
     code, _, err = run("train", "denoiser", str(WALK), "-o", str(tmp_path / "m"), "--speed", "1.4", "0.7")
     assert code == 2 and one_error_line(err) and "--speed needs 0 < LO <= HI (got 1.4 0.7)" in err
+    code, _, err = run("train", "denoiser", str(WALK), "-o", str(tmp_path / "m"), "--patchy", "1.5")
+    assert code == 2 and one_error_line(err) and "--patchy in [0, 1] (got 1.5)" in err
     assert not (tmp_path / "m").exists()
 
 
@@ -66,10 +68,11 @@ def test_train_command_writes_a_loadable_model(tmp_path):
 
     out = tmp_path / "ebf"
     code, stdout, err = run("train", "denoiser", str(WALK), "-o", str(out), "--epochs", "2", "--steps", "2",
-                            "--hidden", "8", "--executor", "serial")
+                            "--hidden", "8", "--executor", "serial", "--noise-input", "--patchy", "0.5")
     assert code == 0, err
     model = deep.load_model(out / "model.pt")
-    assert model.kind == "ebf" and len(model.meta["history"]) == 2
+    assert model.kind == "ebf" and len(model.meta["history"]) == 2 and model.net.noise_input
+    assert model.meta["config"]["patchy"] == 0.5
     clean = mocapkit.load(WALK)
     den = deep.denoise(clean, model)
     assert den.num_frames == clean.num_frames

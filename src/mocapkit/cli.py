@@ -551,6 +551,9 @@ def train(
     representation: str = typer.Option("euler", "--representation", help="euler (the file's angles) or rot6d."),
     head: str = typer.Option("gaussian", "--head", help="EBF filter: gaussian or free (31 taps)."),
     bias: bool = typer.Option(False, "--bias/--no-bias", help="EBF: also predict a per-channel bias."),
+    noise_input: bool = typer.Option(
+        False, "--noise-input/--no-noise-input", help="EBF: the encoder also reads each channel's noise-level estimate."
+    ),
     noise: Optional[list[str]] = typer.Option(
         None, "--noise", help="Noise settings to train on (repeat): angular:A, uniform:A, spatial:CM, "
         "bias-constant:A, bias-sinusoidal:A, clean (default: angular 0.1/0.5/0.9, uniform 0.5, spatial 0.5/1.0)."
@@ -561,6 +564,9 @@ def train(
         (1.0, 1.0), "--speed", help="Augmentation: replay the training clips at a random speed in LO HI (e.g. 0.7 1.4)."
     ),
     offset: float = typer.Option(0.0, "--offset", help="Denoiser augmentation: random channel offsets, x channel std."),
+    patchy: float = typer.Option(
+        0.0, "--patchy", help="Denoiser augmentation: share of crops with noise on some channels and over one stretch."
+    ),
     init: str = typer.Option("xavier", "--init", help="xavier (the shipped models') or paper (uniform [-0.5, 0.5])."),
     seed: int = typer.Option(0, "--seed"),
     resume: bool = typer.Option(True, "--resume/--restart", help="Continue from out/checkpoint.pt if present."),
@@ -587,8 +593,9 @@ def train(
                 _noisy(None, spec, 0, check_only=True)
             except ValueError as exc:
                 raise MocapError(f"train: --noise: {exc}") from None
-    if not (0 < speed[0] <= speed[1]) or not offset >= 0:
-        raise MocapError(f"train: --speed needs 0 < LO <= HI (got {speed[0]:g} {speed[1]:g}) and --offset >= 0")
+    if not (0 < speed[0] <= speed[1]) or not offset >= 0 or not 0 <= patchy <= 1:
+        raise MocapError(f"train: --speed needs 0 < LO <= HI (got {speed[0]:g} {speed[1]:g}), --offset >= 0 "
+                         f"and --patchy in [0, 1] (got {patchy:g})")
     clips = training.load_clips(sources)
     if not clips:
         raise MocapError(f"train: no .bvh, .amc or .npz clips in {', '.join(map(str, sources))}")
@@ -604,9 +611,9 @@ def train(
         hold: list[str] | int = count if count is not None else list(holdout or []) or 0
         splits, outs = [training.split_holdout(clips, hold, seed=seed)], [out]
     cfg = training.TrainConfig(
-        kind=kinds[what], representation=representation, hidden=hidden, head=head, bias=bias, epochs=epochs,
-        steps_per_epoch=steps, minutes=minutes, seed=seed, device=device, lr=lr, dropout=dropout, init=init,
-        speed_range=(float(speed[0]), float(speed[1])), offset=offset, **({"noise": tuple(noise)} if noise else {}),
+        kind=kinds[what], representation=representation, hidden=hidden, head=head, bias=bias, noise_input=noise_input,
+        epochs=epochs, steps_per_epoch=steps, minutes=minutes, seed=seed, device=device, lr=lr, dropout=dropout, init=init,
+        speed_range=(float(speed[0]), float(speed[1])), offset=offset, patchy=patchy, **({"noise": tuple(noise)} if noise else {}),
     )
     bests = []
     for (tr, val), o in zip(splits, outs):

@@ -380,6 +380,9 @@ def test_train_config_refuses_a_bad_speed_range_or_offset():
             training.TrainConfig(speed_range=bad)
     with pytest.raises(ValueError, match="offset"):
         training.TrainConfig(offset=-0.1)
+    for bad in (-0.1, 1.5):
+        with pytest.raises(ValueError, match="patchy"):
+            training.TrainConfig(patchy=bad)
     assert training.TrainConfig(speed_range=(0.5, 0.5)).speed_range == (0.5, 0.5)
 
 
@@ -429,6 +432,35 @@ def test_augmented_crops_keep_the_noise_and_a_consistent_target(walk):
 
 
 
+def test_patchy_noise_is_the_noise_times_a_channel_gain_over_one_stretch():
+    rng = np.random.default_rng(0)
+    T, C = 150, 40
+    zero = 0
+    for _ in range(50):
+        noise = rng.normal(size=(T, C)) + 3.0
+        gain = training._patchy(noise, rng) / noise  # (T, C): the gain where it is on, 0 elsewhere
+        on = np.flatnonzero(np.abs(gain).sum(axis=1) > 0)
+        assert len(on) >= T // 4 and np.all(np.diff(on) == 1)  # one stretch of at least a quarter
+        g = gain[on[0]]
+        assert np.allclose(gain[on], g[None, :])  # one gain per channel over the stretch
+        assert np.all((g == 0) | ((g >= 0.2 - 1e-12) & (g <= 1.0)))
+        zero += int((g == 0).sum())
+    assert 0.4 < zero / (50 * C) < 0.6  # about half the channels clean
+
+
+def test_patchy_crops_keep_noise_on_one_stretch_and_a_clean_target(walk):
+    data = _pool(walk)
+    x, _, y = (a.numpy() for a in training._ebf_batch(data, training.TrainConfig(batch=16, crop=60, patchy=1.0),
+                                                        np.random.default_rng(3)))
+    clean_channels = 0
+    for b in range(16):
+        noise = ch.wrap_degrees(x[b, 15:-15] - y[b])
+        rows = np.flatnonzero(np.abs(noise).sum(axis=1) > 1e-4)
+        assert len(rows) and np.all(np.diff(rows) == 1)  # noise on one stretch of the output frames only
+        clean_channels += int((np.abs(noise).max(axis=0) < 1e-4).sum())
+    assert 0.3 < clean_channels / (16 * x.shape[2]) < 0.75  # about half the channels, plus the still ones
+
+
 def test_a_clip_too_short_to_replay_faster_is_replayed_at_the_speed_it_allows(walk):
     data = [training.prepare_clip((walk[:90], deep.layout_for(walk), ("angular:0.5",), 1, 3))]
     cfg = training.TrainConfig(batch=8, crop=60, speed_range=(1.4, 1.4))
@@ -448,3 +480,52 @@ def test_ebd_batches_replay_the_clip_at_the_drawn_speed(walk):
     assert np.all(d < 1e-3)
     assert np.any(np.abs(y[:, None, :] - clean[None]).max(axis=2).min(axis=1) > 0.1)  # some targets fall between frames
     assert x.shape[1] == 31 and np.isfinite(x).all() and (m[:, 15] > 0.5).any(axis=1).all()
+
+
+# -- the noise-level input -------------------------------------------------------------
+
+
+def test_noise_level_feature_estimates_white_noise_on_a_real_walk(walk):
+    """On a real walk at 120 fps the second-difference estimate finds the std of the added white noise."""
+    lay = deep.layout_for(walk)
+    clean, _ = ch.encode(walk, lay)
+    moving = clean.std(axis=0) > 5.0
+    std = torch.ones(lay.num_channels, dtype=torch.float64)
+    for amount in (0.1, 0.5):
+        noisy, _ = ch.encode(corrupt.angular_noise(walk, amount, seed=11)[0], lay)
+        truth = amount * np.nanstd(walk.channel_values()[:, ch._euler_columns(walk.skeleton)], axis=0)
+        f = nw.noise_level_feature(torch.tensor(noisy)[None], std)[0].numpy()
+        est = np.exp(3.0 * f[nw.NOISE_WINDOW :] - 3.0) - nw.NOISE_FLOOR  # back to degrees
+        ratio = np.median(est, axis=0)[moving] / truth[moving]
+        # every moving channel within 30 % (the motion's own curvature adds to low noise), typically within 10 %
+        assert np.all(np.abs(ratio - 1.0) < 0.3), ratio
+        assert abs(np.median(ratio) - 1.0) < 0.1, ratio
+
+
+def test_noise_level_feature_is_causal():
+    x = torch.randn(1, 80, 4, dtype=torch.float64)
+    std = torch.ones(4, dtype=torch.float64)
+    y = x.clone()
+    y[:, 50:] += torch.randn(1, 30, 4, dtype=torch.float64) * 10.0
+    a, b = nw.noise_level_feature(x, std), nw.noise_level_feature(y, std)
+    assert torch.equal(a[:, :50], b[:, :50])  # frames before a change never see it
+    assert not torch.equal(a[:, 50:], b[:, 50:])
+
+
+def test_streaming_equals_offline_with_the_noise_input(walk, tmp_path):
+    torch.manual_seed(8)
+    lay = deep.layout_for(walk)
+    net = deep.EBF(lay.num_channels, hidden=8, width=16, init="xavier", noise_input=True)
+    x, _ = ch.encode(walk, lay)
+    net.set_statistics(x.mean(0), np.maximum(x.std(0), 1.0), np.ones(3))
+    model = deep.DeepModel("ebf", net, lay, walk.fps)
+    path = deep.save_model(model, tmp_path / "noise.pt")
+    loaded = deep.load_model(path)
+    assert loaded.net.noise_input and loaded.net.encoder[0].in_features == 2 * lay.num_channels + 3
+    rows = corrupt.angular_noise(walk, 0.5, seed=5)[0].channel_values()[:90]
+    offline = deep.denoise_rows(walk.skeleton, rows, walk.fps, loaded)
+    assert np.array_equal(offline, deep.denoise_rows(walk.skeleton, rows, walk.fps, model))
+    stream = deep.Denoiser(walk.skeleton, walk.fps, loaded)
+    out = [o for o in (stream.push(r) for r in rows) if o is not None] + stream.flush()
+    d = (np.array(out) - offline + 180.0) % 360.0 - 180.0
+    assert np.abs(d).max() < 1e-3

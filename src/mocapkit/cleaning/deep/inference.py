@@ -33,7 +33,17 @@ from .channels import (
     root_angular_velocity,
     unwrap_degrees,
 )
-from .networks import EBD, EBF, HALF_WINDOW, LOG_SIGMA_RANGE, gaussian_filter_frames, window_indices
+from .networks import (
+    EBD,
+    EBF,
+    HALF_WINDOW,
+    LOG_SIGMA_RANGE,
+    NOISE_WINDOW,
+    gaussian_filter_frames,
+    noise_level_feature,
+    noise_level_step,
+    window_indices,
+)
 
 __all__ = [
     "DeepModel",
@@ -162,16 +172,19 @@ def _pad(x: np.ndarray, ctx: np.ndarray, half: int = HALF_WINDOW):
 
 
 @torch.inference_mode()
-def _run_ebf(net: EBF, xp: np.ndarray, cp: np.ndarray, chunk: int = 4096) -> np.ndarray:
+def _run_ebf(net: EBF, xp: np.ndarray, cp: np.ndarray, chunk: int = 4096, noise: np.ndarray | None = None) -> np.ndarray:
     """Offline EBF on padded (F + 30, C) channels: the trunk in one pass, head and filter in chunks.
 
     The Gaussian head's filter runs in numba (:func:`gaussian_filter_frames`,
     on float32 inputs as the network sees them) instead of building the
-    (F, C, 31) taps; the free-tap head uses the torch filter.
+    (F, C, 31) taps; the free-tap head uses the torch filter. ``noise``
+    (F + 30, C): the noise-level input computed elsewhere (see
+    :func:`denoise_channels`), else the network's own.
     """
     x = torch.as_tensor(xp, dtype=torch.float32)[None]
     c = torch.as_tensor(cp, dtype=torch.float32)[None]
-    y2 = net._trunk(x, c)[:, HALF_WINDOW:]  # (1, F, 2H)
+    nz = None if noise is None else torch.as_tensor(noise, dtype=torch.float32)[None]
+    y2 = net._trunk(x, c, nz)[:, HALF_WINDOW:]  # (1, F, 2H)
     F = y2.shape[1]
     x32 = x[0].numpy()
     out = np.empty((F, net.channels))
@@ -208,8 +221,12 @@ def denoise_channels(values: np.ndarray, context: np.ndarray, model=None, fps: f
     """EBF on raw channels (F, C) (degrees, unwrapped) with root context (F, 3) rad/s -> (F, C).
 
     ``fps``: the data's rate; when it differs from the model's the channels
-    are resampled to the model's rate and back. NaN entries are lerp-filled
-    for the network and NaN again in the result.
+    are resampled to the model's rate and back. A network with the
+    noise-level input then gets it estimated at the data's own rate (over the
+    same 0.27 s) and resampled: linear upsampling correlates the noise over
+    neighbouring frames, which hides it from second differences taken at the
+    model's rate (a 30 fps take looked 4x less noisy). NaN entries are
+    lerp-filled for the network and NaN again in the result.
     """
     m = _model(model, "ebf")
     x = np.asarray(values, dtype=np.float64)
@@ -225,7 +242,12 @@ def denoise_channels(values: np.ndarray, context: np.ndarray, model=None, fps: f
         xf_m, ctx_m = _to_rate(xf, fps, m.fps), _to_rate(ctx, fps, m.fps)
     else:
         xf_m, ctx_m = xf, ctx
-    out = _run_ebf(m.net, *_pad(xf_m, ctx_m))
+    noise = None
+    if resample and m.net.noise_input:
+        window = max(3, int(round(NOISE_WINDOW * fps / m.fps)))
+        level = noise_level_feature(torch.as_tensor(xf, dtype=torch.float32)[None], m.net.std, window)[0].numpy()
+        noise = _pad(_to_rate(level.astype(np.float64), fps, m.fps, n_to=len(xf_m)), ctx_m)[0]
+    out = _run_ebf(m.net, *_pad(xf_m, ctx_m), noise=noise)
     if resample:
         out = _to_rate(out, m.fps, fps, n_to=len(x))
     out[miss] = np.nan
@@ -379,6 +401,8 @@ class Denoiser:
         self._k = _numpy_weights(self.net)
         self._root_order = skeleton.rotation_order(0)
         self._x: deque = deque(maxlen=2 * HALF_WINDOW + 1)
+        self._d2: deque = deque(maxlen=NOISE_WINDOW)  # squared second differences, for the noise-level input
+        self._d2_sum = 0.0  # their running sum
         self._rows: deque = deque(maxlen=HALF_WINDOW + 1)
         H = self.net.lstm1.hidden
         self._s1 = self._s2 = (np.zeros(H), np.zeros(H))  # forward (h, c) of the two layers
@@ -411,9 +435,17 @@ class Denoiser:
         """
         k = self._k
         L1, L2 = self._L
+        parts = [(x - k["mean"]) / k["std"]]
+        if self.net.noise_input:  # networks.noise_level_feature, one frame at a time
+            d = x - 2.0 * self._x[-1] + self._x[-2] if len(self._x) >= 2 else np.zeros_like(x)
+            if len(self._d2) == NOISE_WINDOW:
+                self._d2_sum = self._d2_sum - self._d2[0]
+            self._d2.append(d * d)
+            self._d2_sum = self._d2_sum + d * d
+            parts.append(noise_level_step(self._d2_sum, k["std"]))
         self._x.append(x)
         self._rows.append(row)
-        e = _mlp_forward(k["encoder"], np.concatenate([(x - k["mean"]) / k["std"], w / k["ctx_scale"]]), True)
+        e = _mlp_forward(k["encoder"], np.concatenate(parts + [w / k["ctx_scale"]]), True)
         self._codes.append(e)
         self._gi1.append(_affine(k["b1"][0], e, k["b1"][2]))
         p = self._p

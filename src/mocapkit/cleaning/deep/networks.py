@@ -8,6 +8,14 @@ deviation per channel; the cleaned channel is the normalised Gaussian-weighted
 average of that channel over +-15 frames (eq. 1, ``b = 0``). Variants: a
 per-channel bias output (eq. 1 with ``b``) and a free-form 31-tap filter.
 
+Noise-level input (not in the paper; ``noise_input=True``). Beside each
+channel the encoder can also read :func:`noise_level_feature`: the log of the
+channel's noise std estimated from its second differences over the previous
+32 frames, relative to the channel's training std. A Gaussian's best width
+depends on the noise level, and from the raw channels alone the network did
+not learn to tell 0.1 noise from 0.5 (it smoothed 0.1 noise 2x more than a
+15 ms Gaussian). The estimate is causal, so streaming stays exact.
+
 Look-ahead. The paper's B-LSTM sees "15 frames of lookback and 15 frames of
 lookahead" and "maintains persistent, hidden state to track the motion over
 time". We keep exactly that budget and make streaming exact and cheap: in each
@@ -44,6 +52,7 @@ __all__ = [
     "apply_filter",
     "gaussian_filter_frames",
     "LookaheadLSTM",
+    "noise_level_feature",
     "EBF",
     "EBD",
     "paper_init",
@@ -52,6 +61,8 @@ __all__ = [
 
 HALF_WINDOW = 15  # +-15 frames at 120 fps (Mall 3)
 LOG_SIGMA_RANGE = (-6.0, 4.0)  # sigma in frames: e^-6 (identity) .. e^4 (flat over the window)
+NOISE_WINDOW = 32  # frames of second differences behind a frame in its noise estimate (0.27 s at 120 fps)
+NOISE_FLOOR = 0.01  # channel units (degrees) added to the noise std before the log
 
 
 def gaussian_weights(sigma: torch.Tensor, half: int = HALF_WINDOW) -> torch.Tensor:
@@ -153,6 +164,32 @@ def _initialise(module: nn.Module, init: str) -> None:
     INITS[init](module)
 
 
+def noise_level_feature(x: torch.Tensor, std: torch.Tensor, window: int = NOISE_WINDOW) -> torch.Tensor:
+    """Causal noise level of every channel: (B, T, C) raw channels -> (B, T, C).
+
+    For white noise of std s the second difference ``x[t] - 2 x[t-1] + x[t-2]``
+    has variance 6 s^2, while a smooth motion sampled at 120 fps contributes
+    little to it; so ``sqrt(mean of d^2 over the last window frames / 6)`` estimates
+    s (frames before the first two count d = 0, as do the edge-padded frames of
+    :func:`inference._pad`). Returned as ``(log((s + 0.01) / std) + 3) / 3``,
+    ``log`` clamped to [-8, 2], so typical values lie in [-2, 2]; ``std`` (C,)
+    is the network's channel normalisation. Depends on frames up to t only:
+    the streaming :class:`inference.Denoiser` computes the same numbers.
+    """
+    d = torch.zeros_like(x)
+    d[:, 2:] = x[:, 2:] - 2.0 * x[:, 1:-1] + x[:, :-2]
+    sq = torch.nn.functional.pad((d**2).transpose(1, 2), (window - 1, 0))  # (B, C, T + window - 1)
+    mean = torch.nn.functional.avg_pool1d(sq, window, stride=1).transpose(1, 2)  # (B, T, C)
+    level = torch.log((torch.sqrt(mean / 6.0) + NOISE_FLOOR) / std).clamp(-8.0, 2.0)
+    return (level + 3.0) / 3.0
+
+
+def noise_level_step(d2_sum: np.ndarray, std: np.ndarray, window: int = NOISE_WINDOW) -> np.ndarray:
+    """:func:`noise_level_feature` of one frame from the sum (C,) of its last ``window`` squared second differences."""
+    level = np.log((np.sqrt(np.maximum(d2_sum, 0.0) * (1.0 / (6.0 * window))) + NOISE_FLOOR) / std)
+    return (np.minimum(np.maximum(level, -8.0), 2.0) + 3.0) / 3.0  # np.clip costs 10 us more per call
+
+
 class LookaheadLSTM(nn.Module):
     """A bidirectional LSTM layer whose backward direction sees ``lookahead`` frames ahead only.
 
@@ -237,7 +274,8 @@ class EBF(_Normalised):
 
     ``head``: "gaussian" (one sigma per channel and frame, the paper's model) or
     "free" (31 normalised taps per channel and frame); ``bias`` adds a
-    per-channel bias output (eq. 1's ``b``, in units of the channel's std).
+    per-channel bias output (eq. 1's ``b``, in units of the channel's std);
+    ``noise_input`` feeds the encoder :func:`noise_level_feature` too.
     Call with raw channels ``x`` (B, T, C) and context (B, T, 3); returns the
     filtered channels of positions [15, T - 15): (B, T - 30, C).
     """
@@ -254,6 +292,7 @@ class EBF(_Normalised):
         dropout: float = 0.5,
         width: int = 128,
         init: str = "paper",
+        noise_input: bool = False,
     ):
         super().__init__(channels, context)
         if head not in ("gaussian", "free"):
@@ -264,9 +303,13 @@ class EBF(_Normalised):
             channels=channels, context=context, code=code, hidden=hidden, lookahead=list(lookahead),
             head=head, bias=bias, dropout=dropout, width=width, init=init,
         )
+        if noise_input:  # only when set, so the files of models without it keep their config
+            self.config["noise_input"] = True
         self.head_kind = head
         self.with_bias = bias
-        self.encoder = _mlp([channels + context, width, width, width // 2 + code // 2, code], last_activation=True)
+        self.noise_input = bool(noise_input)
+        n_in = channels * (2 if noise_input else 1) + context
+        self.encoder = _mlp([n_in, width, width, width // 2 + code // 2, code], last_activation=True)
         self.drop = nn.Dropout(dropout)
         self.lstm1 = LookaheadLSTM(code, hidden, lookahead[0])
         self.lstm2 = LookaheadLSTM(2 * hidden, hidden, lookahead[1])
@@ -287,8 +330,13 @@ class EBF(_Normalised):
         """Frames of look-ahead the network needs (15)."""
         return HALF_WINDOW
 
-    def encode(self, x: torch.Tensor, ctx: torch.Tensor) -> torch.Tensor:
-        return self.encoder(torch.cat([self.normalise(x), self.normalise_context(ctx)], dim=-1))
+    def encode(self, x: torch.Tensor, ctx: torch.Tensor, noise: torch.Tensor | None = None) -> torch.Tensor:
+        """The 64-D code (B, T, code). ``noise`` (B, T, C): the noise-level input when it was computed elsewhere
+        (at a take's own frame rate, before resampling); by default :func:`noise_level_feature` of ``x``."""
+        parts = [self.normalise(x)]
+        if self.noise_input:
+            parts.append(noise_level_feature(x, self.std) if noise is None else noise)
+        return self.encoder(torch.cat(parts + [self.normalise_context(ctx)], dim=-1))
 
     def filter_parameters(self, y2: torch.Tensor):
         """(B, T, 2H) -> (log sigma (B, T, C) clamped, or free-tap logits (B, T, C, 31); bias (B, T, C) or None).
@@ -316,8 +364,8 @@ class EBF(_Normalised):
         y2 = self._trunk(x, ctx)[:, HALF_WINDOW:]
         return torch.exp(self.head(y2)[..., : self.channels].clamp(*LOG_SIGMA_RANGE))
 
-    def _trunk(self, x: torch.Tensor, ctx: torch.Tensor) -> torch.Tensor:
-        e = self.drop(self.encode(x, ctx))
+    def _trunk(self, x: torch.Tensor, ctx: torch.Tensor, noise: torch.Tensor | None = None) -> torch.Tensor:
+        e = self.drop(self.encode(x, ctx, noise))
         y1, _ = self.lstm1(e)
         y2, _ = self.lstm2(self.drop(y1))
         return y2  # positions [0, T - 15)

@@ -49,7 +49,7 @@ class TrainConfig:
     """Settings of one training run.
 
     The shipped EBF used these defaults with ``hidden=64, dropout=0.3,
-    speed_range=(0.4, 2.5)``; the shipped EBD used ``dropout=0.3,
+    speed_range=(0.4, 2.5), noise_input=True``; the shipped EBD used ``dropout=0.3,
     observed_weight=0.0`` (docs/models.md). The augmentation is off by
     default: it lowered the error on the test actor, not on the validation
     actor, so it is a setting to try on one's own data, not a rule.
@@ -60,6 +60,7 @@ class TrainConfig:
     hidden: int | None = None  # 126 for EBF, 32 for EBD (Mall 3)
     head: str = "gaussian"  # EBF: "gaussian" or "free"
     bias: bool = False  # EBF: per-channel bias output
+    noise_input: bool = False  # EBF: the encoder also reads each channel's causal noise-level estimate
     init: str = "xavier"  # "xavier" or "paper" (Mall's uniform [-0.5, 0.5]; see networks.xavier_init)
     dropout: float = 0.1  # on the LSTM inputs (Mall: 0.5)
     epochs: int = 40
@@ -77,6 +78,7 @@ class TrainConfig:
     observed_weight: float = 0.1  # EBD: loss weight of the observed channels of a window centre
     speed_range: tuple[float, float] = (1.0, 1.0)  # clips replayed at a random speed in this range (augmentation)
     offset: float = 0.0  # EBF: random per-crop channel offsets, std in units of the channel's std
+    patchy: float = 0.0  # EBF: share of crops whose noise is kept on some channels and over one stretch only
     minutes: float | None = None  # stop after the epoch that passes this budget
     device: str = "auto"
 
@@ -86,11 +88,13 @@ class TrainConfig:
             raise ValueError(f"speed_range needs 0 < lo <= hi, got {self.speed_range!r}")
         if not self.offset >= 0:
             raise ValueError(f"offset must be >= 0, got {self.offset!r}")
+        if not 0.0 <= self.patchy <= 1.0:
+            raise ValueError(f"patchy must be in [0, 1], got {self.patchy!r}")
 
     def network(self, channels: int) -> torch.nn.Module:
         if self.kind == "ebf":
             return EBF(channels, hidden=self.hidden or 126, head=self.head, bias=self.bias, dropout=self.dropout,
-                       init=self.init)
+                       init=self.init, noise_input=self.noise_input)
         if self.kind == "ebd":
             return EBD(channels, hidden=self.hidden or 32, dropout=self.dropout, init=self.init)
         raise ValueError(f"kind must be 'ebf' or 'ebd', got {self.kind!r}")
@@ -281,6 +285,12 @@ def _ebf_batch(data, cfg: TrainConfig, rng: np.random.Generator, std: np.ndarray
     the target exact for a linear filter; they are meant to stop the network
     from recognising the training actors by their tempo and poses (the speed
     helped on the test actor, the offsets did not: docs/models.md).
+    ``cfg.patchy``: that share of the crops keeps its noise on about half the
+    channels only, each at a random 0.2-1x of its level, and over one random
+    stretch of the crop (at least a quarter of it): real noise is uneven over
+    joints and time, and a network with the noise-level input that only ever
+    saw every channel equally noisy all the time smoothed a few noisy joints
+    too little (docs/models.md).
     """
     T = cfg.crop + 2 * HALF_WINDOW
     lens = np.array([len(d["clean"]) for d in data], dtype=np.float64)
@@ -304,6 +314,8 @@ def _ebf_batch(data, cfg: TrainConfig, rng: np.random.Generator, std: np.ndarray
             noisy = clean + _wrapped(v[s : s + T] - d["clean"][s : s + T], cfg)
         else:
             clean, ctx, noisy = d["clean"][s : s + T], d["ctx"][s : s + T], v[s : s + T]
+        if cfg.patchy > 0 and rng.random() < cfg.patchy:
+            noisy = clean + _patchy(_wrapped(noisy - clean, cfg), rng)
         xs.append(noisy)
         cs.append(ctx)
         ys.append(clean[HALF_WINDOW : T - HALF_WINDOW])
@@ -312,6 +324,18 @@ def _ebf_batch(data, cfg: TrainConfig, rng: np.random.Generator, std: np.ndarray
         o = (rng.normal(size=(len(x), 1, x.shape[2])) * cfg.offset * std).astype(np.float32)
         x, y = x + o, y + o
     return torch.as_tensor(x), torch.as_tensor(c), torch.as_tensor(y)
+
+
+def _patchy(noise: np.ndarray, rng: np.random.Generator) -> np.ndarray:
+    """``noise`` (T, C) kept on about half the channels (each at 0.2-1x, log-uniform) and on one stretch of
+    at least T / 4 frames, zero elsewhere (see :func:`_ebf_batch`)."""
+    T, C = noise.shape
+    gain = np.where(rng.random(C) < 0.5, 0.0, np.exp(rng.uniform(np.log(0.2), 0.0, size=C)))
+    a = int(rng.integers(0, T - T // 4))
+    b = int(rng.integers(a + T // 4, T + 1))
+    on = np.zeros(T)
+    on[a:b] = 1.0
+    return noise * on[:, None] * gain[None, :]
 
 
 def _ebd_batch(data, cfg: TrainConfig, rng: np.random.Generator, net: EBD, groups: np.ndarray | None = None):
