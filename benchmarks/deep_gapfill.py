@@ -2,7 +2,7 @@
 
 Usage::
 
-    python benchmarks/deep_gapfill.py [--seeds 5] [--quick] [--json]
+    python benchmarks/deep_gapfill.py [--seeds 5] [--quick] [--ebf MODEL.pt] [--json]
 
 Held-out clips (``_deep.test_clips``, never trained on), 0.5 angular noise, then two
 gap settings, each ``--seeds`` times per clip:
@@ -109,8 +109,10 @@ def main(argv=None) -> None:
     ap.add_argument("--seeds", type=int, default=5)
     ap.add_argument("--quick", action="store_true")
     ap.add_argument("--json", action="store_true")
+    ap.add_argument("--ebf", default=None, help="an EBF model file to use instead of the shipped one")
     a = ap.parse_args(argv)
-    ebf, ebd = deep.shipped_model("ebf"), deep.shipped_model("ebd")
+    ebf = deep.load_model(a.ebf) if a.ebf else deep.shipped_model("ebf")
+    ebd = deep.shipped_model("ebd")
     clips = test_clips(a.quick)
     res = {s: {m: {"all": [], "gap": []} for m in (METHODS if s == "ordinary" else LONG_METHODS)} for s in ("ordinary", "long")}
     database = PoseDatabase(ebf.layout)
