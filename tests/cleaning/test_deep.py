@@ -512,7 +512,7 @@ def test_noise_level_feature_is_causal():
     assert not torch.equal(a[:, 50:], b[:, 50:])
 
 
-def test_streaming_equals_offline_with_the_noise_input(walk, tmp_path):
+def test_streaming_equals_offline_with_the_noise_input(walk, tmp_path, tiny_ebd):
     torch.manual_seed(8)
     lay = deep.layout_for(walk)
     net = deep.EBF(lay.num_channels, hidden=8, width=16, init="xavier", noise_input=True)
@@ -529,3 +529,28 @@ def test_streaming_equals_offline_with_the_noise_input(walk, tmp_path):
     out = [o for o in (stream.push(r) for r in rows) if o is not None] + stream.flush()
     d = (np.array(out) - offline + 180.0) % 360.0 - 180.0
     assert np.abs(d).max() < 1e-3
+    # the paths that measure the level outside the network: gaps (observed samples only), another rate
+    gapped, _ = corrupt.gaps(walk, start_prob=0.02, seed=0)
+    filled = deep.fill_gaps(gapped, tiny_ebd, loaded)
+    obs = ~gapped.missing()
+    assert not np.isnan(filled.rotations).any() and np.array_equal(filled.rotations[obs], walk.rotations[obs])
+    w30 = walk.resample(30)
+    assert deep.denoise(w30, loaded).num_frames == w30.num_frames
+
+
+def test_noise_level_from_observed_samples_ignores_filled_gaps(walk):
+    """Around a gap the level is measured on observed samples: a lerp-filled stretch does not read as clean."""
+    lay = deep.layout_for(walk)
+    noisy, _ = ch.encode(corrupt.angular_noise(walk, 0.5, seed=2)[0], lay)
+    std = np.maximum(noisy.std(axis=0), 1.0)
+    every = nw.noise_level_observed(noisy, np.ones(noisy.shape, bool), std)
+    ref = nw.noise_level_feature(torch.tensor(noisy)[None], torch.tensor(std))[0].numpy()
+    assert np.allclose(every[nw.NOISE_WINDOW + 1 :], ref[nw.NOISE_WINDOW + 1 :], atol=1e-9)  # all observed: the same
+    missing = np.zeros(noisy.shape, bool)
+    missing[100:220, 5] = True
+    filled = deep.lerp_fill(np.where(missing, np.nan, noisy))
+    naive = nw.noise_level_feature(torch.tensor(filled)[None], torch.tensor(std))[0].numpy()
+    observed = nw.noise_level_observed(filled, ~missing, std)
+    assert naive[150:220, 5].max() < every[99, 5] - 1.0  # measured on the lerp, the gap looks noiseless
+    assert np.allclose(observed[100:222, 5], observed[99, 5])  # the last measured level carries through the gap
+    assert np.array_equal(observed[:, 4], every[:, 4])  # other channels untouched

@@ -40,7 +40,7 @@ from .networks import (
     LOG_SIGMA_RANGE,
     NOISE_WINDOW,
     gaussian_filter_frames,
-    noise_level_feature,
+    noise_level_observed,
     noise_level_step,
     window_indices,
 )
@@ -217,7 +217,9 @@ def _needs_resampling(fps: float | None, model_fps: float) -> bool:
     return fps is not None and abs(fps - model_fps) > 1e-6 * model_fps
 
 
-def denoise_channels(values: np.ndarray, context: np.ndarray, model=None, fps: float | None = None) -> np.ndarray:
+def denoise_channels(
+    values: np.ndarray, context: np.ndarray, model=None, fps: float | None = None, missing: np.ndarray | None = None
+) -> np.ndarray:
     """EBF on raw channels (F, C) (degrees, unwrapped) with root context (F, 3) rad/s -> (F, C).
 
     ``fps``: the data's rate; when it differs from the model's the channels
@@ -226,7 +228,10 @@ def denoise_channels(values: np.ndarray, context: np.ndarray, model=None, fps: f
     same 0.27 s) and resampled: linear upsampling correlates the noise over
     neighbouring frames, which hides it from second differences taken at the
     model's rate (a 30 fps take looked 4x less noisy). NaN entries are
-    lerp-filled for the network and NaN again in the result.
+    lerp-filled for the network and NaN again in the result. ``missing``
+    (F, C) bool: entries that are filled, not observed (the gap filler's
+    EBD values); the noise level is measured on the observed entries only
+    (:func:`networks.noise_level_observed`), as it is around NaN entries.
     """
     m = _model(model, "ebf")
     x = np.asarray(values, dtype=np.float64)
@@ -243,10 +248,11 @@ def denoise_channels(values: np.ndarray, context: np.ndarray, model=None, fps: f
     else:
         xf_m, ctx_m = xf, ctx
     noise = None
-    if resample and m.net.noise_input:
-        window = max(3, int(round(NOISE_WINDOW * fps / m.fps)))
-        level = noise_level_feature(torch.as_tensor(xf, dtype=torch.float32)[None], m.net.std, window)[0].numpy()
-        noise = _pad(_to_rate(level.astype(np.float64), fps, m.fps, n_to=len(xf_m)), ctx_m)[0]
+    filled = miss if missing is None else (miss | np.asarray(missing, dtype=bool))
+    if m.net.noise_input and (resample or filled.any()):  # else the network measures it itself, as streaming does
+        window = max(3, int(round(NOISE_WINDOW * fps / m.fps))) if resample else NOISE_WINDOW
+        level = noise_level_observed(xf, ~filled, m.net.std.numpy().astype(np.float64), window)
+        noise = _pad(_to_rate(level, fps, m.fps, n_to=len(xf_m)) if resample else level, ctx_m)[0]
     out = _run_ebf(m.net, *_pad(xf_m, ctx_m), noise=noise)
     if resample:
         out = _to_rate(out, m.fps, fps, n_to=len(x))
@@ -301,7 +307,7 @@ def fill_channels(
     sub[k_m[frames]] = pred[k_m[frames]]
     f_m[frames] = sub
     if smooth:
-        f_m = np.where(k_m, denoise_channels(f_m, c_m, denoiser), f_m)
+        f_m = np.where(k_m, denoise_channels(f_m, c_m, denoiser, missing=k_m), f_m)
     out = _to_rate(f_m, m.fps, fps, n_to=len(x)) if resample else f_m
     return np.where(miss, out, x)
 

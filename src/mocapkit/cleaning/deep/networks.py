@@ -53,6 +53,7 @@ __all__ = [
     "gaussian_filter_frames",
     "LookaheadLSTM",
     "noise_level_feature",
+    "noise_level_observed",
     "EBF",
     "EBD",
     "paper_init",
@@ -182,6 +183,39 @@ def noise_level_feature(x: torch.Tensor, std: torch.Tensor, window: int = NOISE_
     mean = torch.nn.functional.avg_pool1d(sq, window, stride=1).transpose(1, 2)  # (B, T, C)
     level = torch.log((torch.sqrt(mean / 6.0) + NOISE_FLOOR) / std).clamp(-8.0, 2.0)
     return (level + 3.0) / 3.0
+
+
+def noise_level_observed(x: np.ndarray, observed: np.ndarray, std: np.ndarray, window: int = NOISE_WINDOW) -> np.ndarray:
+    """:func:`noise_level_feature` of (F, C) channels from their observed samples only: (F, C).
+
+    A second difference counts only where its three frames are all ``observed``
+    (F, C) bool, and a frame's level is the mean over the counted ones in its
+    window; a frame whose own second difference does not count (in or next
+    to a gap) takes the level of the last frame whose does (before the first
+    one, the first one's). Filled gap entries are not measurements: their
+    lerp or EBD values, smooth by construction, would read as a channel
+    without noise.
+    """
+    x = np.asarray(x, dtype=np.float64)
+    ok = np.asarray(observed, dtype=bool)
+    d = np.zeros_like(x)
+    d[2:] = x[2:] - 2.0 * x[1:-1] + x[:-2]
+    valid = np.zeros_like(ok)
+    valid[2:] = ok[2:] & ok[1:-1] & ok[:-2]
+    sums = np.cumsum(np.where(valid, d * d, 0.0), axis=0)
+    counts = np.cumsum(valid, axis=0)
+    sums[window:] -= sums[:-window].copy()
+    counts[window:] -= counts[:-window].copy()
+    mean = np.zeros(x.shape)
+    np.divide(sums, counts, out=mean, where=counts > 0)
+    for c in np.flatnonzero(~valid.all(axis=0)):  # carry the last measured level through the gaps
+        seen = np.flatnonzero(valid[:, c])
+        if not len(seen):
+            continue
+        idx = np.maximum.accumulate(np.where(valid[:, c], np.arange(len(x)), -1))
+        mean[:, c] = mean[np.where(idx >= 0, idx, seen[0]), c]
+    level = np.log((np.sqrt(np.maximum(mean, 0.0) / 6.0) + NOISE_FLOOR) / std)
+    return (np.minimum(np.maximum(level, -8.0), 2.0) + 3.0) / 3.0
 
 
 def noise_level_step(d2_sum: np.ndarray, std: np.ndarray, window: int = NOISE_WINDOW) -> np.ndarray:
