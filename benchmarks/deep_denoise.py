@@ -34,11 +34,11 @@ noisy clips in the same run:
 * ``oracle_clip_linear``: not a bound but a yardstick for filters that use the other
   channels: a linear map from all channels (Gaussians of 2, 4 and 8 frames and their
   slopes) to the clean channels, fitted by ridge regression on three other noisy draws of
-  the *same test clip* against its clean version (the ridge chosen on a fourth draw), i.e. a cross-channel filter that has
-  memorised this very person and take (it corrects the 58 ms Gaussian, so a large ridge
-  gives that Gaussian; every noisy sample is first put on the clean channel's 360-degree
-  branch, which heavy noise near +-180 can otherwise flip). A network trained on other actors is not
-  expected to do better.
+  the *same test clip* against its clean version (the ridge chosen on a fourth draw), i.e.
+  a cross-channel filter that has memorised this very person and take (it corrects the
+  58 ms Gaussian, so a large ridge gives that Gaussian; every noisy sample is first put on
+  the clean channel's 360-degree branch, which heavy noise near +-180 can otherwise flip).
+  A network trained on other actors is not expected to do better.
 
 Error: RMS in degrees over all non-root joint-angle channels and frames of a clip
 (``metrics.joint_angle_rms(..., include_root=False)``, differences wrapped), averaged
@@ -153,8 +153,8 @@ def main(argv=None) -> None:
         clean = mocapkit.load(path)
         lay = ebf.layout
         y, _ = encode(clean, lay)
-        linear = {spec: clip_linear_oracle([encode(noisy_version(clean, spec, (100 + k, 12)), lay)[0] for k in range(4)], y)
-                  for spec in NOISES}
+        linear = {spec: clip_linear_oracle([encode(noisy_version(clean, spec, (100 + k, 12)), lay)[0]
+                                            for k in range(4)], y) for spec in NOISES}
         for seed in range(a.seeds):
             classes.append(motion_class(path))
             for spec in NOISES:

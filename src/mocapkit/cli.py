@@ -611,9 +611,10 @@ def train(
         hold: list[str] | int = count if count is not None else list(holdout or []) or 0
         splits, outs = [training.split_holdout(clips, hold, seed=seed)], [out]
     cfg = training.TrainConfig(
-        kind=kinds[what], representation=representation, hidden=hidden, head=head, bias=bias, noise_input=noise_input,
-        epochs=epochs, steps_per_epoch=steps, minutes=minutes, seed=seed, device=device, lr=lr, dropout=dropout, init=init,
-        speed_range=(float(speed[0]), float(speed[1])), offset=offset, patchy=patchy, **({"noise": tuple(noise)} if noise else {}),
+        kind=kinds[what], representation=representation, hidden=hidden, head=head, bias=bias,
+        noise_input=noise_input, epochs=epochs, steps_per_epoch=steps, minutes=minutes, seed=seed, device=device, lr=lr, dropout=dropout,
+        init=init, speed_range=(float(speed[0]), float(speed[1])), offset=offset, patchy=patchy,
+        **({"noise": tuple(noise)} if noise else {}),
     )
     bests = []
     for (tr, val), o in zip(splits, outs):

@@ -172,7 +172,9 @@ def _pad(x: np.ndarray, ctx: np.ndarray, half: int = HALF_WINDOW):
 
 
 @torch.inference_mode()
-def _run_ebf(net: EBF, xp: np.ndarray, cp: np.ndarray, chunk: int = 4096, noise: np.ndarray | None = None) -> np.ndarray:
+def _run_ebf(
+    net: EBF, xp: np.ndarray, cp: np.ndarray, chunk: int = 4096, noise: np.ndarray | None = None
+) -> np.ndarray:
     """Offline EBF on padded (F + 30, C) channels: the trunk in one pass, head and filter in chunks.
 
     The Gaussian head's filter runs in numba (:func:`gaussian_filter_frames`,

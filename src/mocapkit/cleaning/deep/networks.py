@@ -14,7 +14,9 @@ channel's noise std estimated from its second differences over the previous
 32 frames, relative to the channel's training std. A Gaussian's best width
 depends on the noise level, and from the raw channels alone the network did
 not learn to tell 0.1 noise from 0.5 (it smoothed 0.1 noise 2x more than a
-15 ms Gaussian). The estimate is causal, so streaming stays exact.
+15 ms Gaussian). The estimate is causal, so streaming stays exact. The shipped
+EBF does without it: better on noise that is even over a take, it was worse
+on noise that starts mid-take on a few joints (docs/models.md).
 
 Look-ahead. The paper's B-LSTM sees "15 frames of lookback and 15 frames of
 lookahead" and "maintains persistent, hidden state to track the motion over
@@ -185,7 +187,9 @@ def noise_level_feature(x: torch.Tensor, std: torch.Tensor, window: int = NOISE_
     return (level + 3.0) / 3.0
 
 
-def noise_level_observed(x: np.ndarray, observed: np.ndarray, std: np.ndarray, window: int = NOISE_WINDOW) -> np.ndarray:
+def noise_level_observed(
+    x: np.ndarray, observed: np.ndarray, std: np.ndarray, window: int = NOISE_WINDOW
+) -> np.ndarray:
     """:func:`noise_level_feature` of (F, C) channels from their observed samples only: (F, C).
 
     A second difference counts only where its three frames are all ``observed``

@@ -49,7 +49,7 @@ class TrainConfig:
     """Settings of one training run.
 
     The shipped EBF used these defaults with ``hidden=64, dropout=0.3,
-    speed_range=(0.4, 2.5), noise_input=True``; the shipped EBD used ``dropout=0.3,
+    speed_range=(0.4, 2.5)``; the shipped EBD used ``dropout=0.3,
     observed_weight=0.0`` (docs/models.md). The augmentation is off by
     default: it lowered the error on the test actor, not on the validation
     actor, so it is a setting to try on one's own data, not a rule.
