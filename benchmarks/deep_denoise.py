@@ -118,8 +118,8 @@ def clip_linear_oracle(draws: list[np.ndarray], clean: np.ndarray, ridges=(1e-4,
     def base(x):
         return gaussian(x, 0.058, 120.0)
 
-    A = np.concatenate([_linear_features(d) for d in draws[:-1]])
     draws = [clean + wrap_degrees(d - clean) for d in draws]  # each sample on the clean channel's unwrapping branch
+    A = np.concatenate([_linear_features(d) for d in draws[:-1]])
     B = np.concatenate([clean - base(d) for d in draws[:-1]])
     G, AB = A.T @ A, A.T @ B
     held = _linear_features(draws[-1])
