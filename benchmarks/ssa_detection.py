@@ -238,7 +238,7 @@ def main(argv=None):
                 ignored[f"{kind}/{c}"] = ignored.get(f"{kind}/{c}", 0) + ignored_pairs(ign, clean.fps)  # the glitches only
                 if c in clean_flags:  # the same scoring with the untouched take's own flags left out
                     sn = score(det.flags & ~clean_flags[c], truth, clean.fps, ignore=ign_seed)
-                    totals[(kind, c, "ssa_new")] = add(totals.get((kind, c, "ssa_new")), sn)
+                    totals[(kind, c, "ssa_take_flags_out")] = add(totals.get((kind, c, "ssa_take_flags_out")), sn)
                 sw = score(det.flags, truth, clean.fps, per_joint=False, ignore=ign_seed)
                 totals[(kind, c, "ssa_word")] = add(totals.get((kind, c, "ssa_word")), sw)
                 paper_flags = det.mdm > det.threshold  # the flags confirm=False gives, from the same analysis
@@ -261,7 +261,7 @@ def main(argv=None):
         if method.endswith("_word"):  # a word is one item, positive if any joint is: the detection need not name the joint
             word_level[f"{kind}/{method[:-5]}_{c}"] = row
             continue
-        if method == "ssa_new":  # a diagnostic, not the target check
+        if method == "ssa_take_flags_out":  # a diagnostic, not the target check
             clean_take[f"{kind}/ssa_{c}"] = row
             continue
         key = f"{kind}/{method}_{c}"

@@ -410,7 +410,6 @@ class Denoiser:
         self._root_order = skeleton.rotation_order(0)
         self._x: deque = deque(maxlen=2 * HALF_WINDOW + 1)
         self._d2: deque = deque(maxlen=NOISE_WINDOW)  # squared second differences, for the noise-level input
-        self._d2_sum = 0.0  # their running sum
         self._rows: deque = deque(maxlen=HALF_WINDOW + 1)
         H = self.net.lstm1.hidden
         self._s1 = self._s2 = (np.zeros(H), np.zeros(H))  # forward (h, c) of the two layers
@@ -446,11 +445,8 @@ class Denoiser:
         parts = [(x - k["mean"]) / k["std"]]
         if self.net.noise_input:  # networks.noise_level_feature, one frame at a time
             d = x - 2.0 * self._x[-1] + self._x[-2] if len(self._x) >= 2 else np.zeros_like(x)
-            if len(self._d2) == NOISE_WINDOW:
-                self._d2_sum = self._d2_sum - self._d2[0]
             self._d2.append(d * d)
-            self._d2_sum = self._d2_sum + d * d
-            parts.append(noise_level_step(self._d2_sum, k["std"]))
+            parts.append(noise_level_step(np.array(self._d2), k["std"]))
         self._x.append(x)
         self._rows.append(row)
         e = _mlp_forward(k["encoder"], np.concatenate(parts + [w / k["ctx_scale"]]), True)

@@ -218,13 +218,17 @@ def noise_level_observed(
             continue
         idx = np.maximum.accumulate(np.where(valid[:, c], np.arange(len(x)), -1))
         mean[:, c] = mean[np.where(idx >= 0, idx, seen[0]), c]
-    level = np.log((np.sqrt(np.maximum(mean, 0.0) / 6.0) + NOISE_FLOOR) / std)
-    return (np.minimum(np.maximum(level, -8.0), 2.0) + 3.0) / 3.0
+    return _noise_level(mean, std)
 
 
-def noise_level_step(d2_sum: np.ndarray, std: np.ndarray, window: int = NOISE_WINDOW) -> np.ndarray:
-    """:func:`noise_level_feature` of one frame from the sum (C,) of its last ``window`` squared second differences."""
-    level = np.log((np.sqrt(np.maximum(d2_sum, 0.0) * (1.0 / (6.0 * window))) + NOISE_FLOOR) / std)
+def noise_level_step(d2_window: np.ndarray, std: np.ndarray, window: int = NOISE_WINDOW) -> np.ndarray:
+    """:func:`noise_level_feature` of one frame from its last ``window`` squared second differences (<= window, C)."""
+    return _noise_level(d2_window.sum(axis=0) / window, std)
+
+
+def _noise_level(mean_d2: np.ndarray, std: np.ndarray) -> np.ndarray:
+    """The feature of :func:`noise_level_feature` from mean squared second differences, in numpy."""
+    level = np.log((np.sqrt(np.maximum(mean_d2, 0.0) / 6.0) + NOISE_FLOOR) / std)
     return (np.minimum(np.maximum(level, -8.0), 2.0) + 3.0) / 3.0  # np.clip costs 10 us more per call
 
 
