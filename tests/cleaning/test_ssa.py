@@ -33,7 +33,7 @@ def test_shapes_and_range(walk, flipped):
     assert det.mdm.shape == det.flags.shape == (F, J)
     assert np.all((det.mdm >= 0) & (det.mdm <= 1))
     assert det.params["confirm"]
-    cues = det.holds | det.swaps
+    cues = det.holds | det.swaps | det.offsets
     assert np.array_equal(det.flags, ssa.confirm_flags(det.mdm, det.jumps, det.threshold, det.fps) | cues)
     assert not (det.flags & ~cues & (det.mdm <= det.threshold / 2)).any()
     assert not (det.jumps | cues)[:, ~det.analysed].any()
@@ -370,7 +370,11 @@ def test_minima_are_those_of_the_whole_distance_function():
 def test_unseen_words_are_not_judged(walk, flipped):
     bad = flipped[0]
     none = ssa.detect(bad, max_word_angle_deg=0.01)  # nothing in the clip is this close to anything else
-    assert not none.flags.any() and np.all(none.mdm == 0)
+    assert np.all(none.mdm == 0) and not none.holds.any()
+    # steps off the path and back need no neighbour word: the flip is still found, and nothing else is
+    assert np.array_equal(none.flags, none.swaps | none.offsets)
+    r = flipped[2][0]
+    assert none.flags[r.start : r.end, walk.skeleton.index(r.joint)].all()
     assert any("not judged" in n for n in none.notes)
     loose = ssa.detect(bad, max_word_angle_deg=180.0)
     assert np.array_equal(loose.mdm, flipped[3].mdm)
@@ -487,7 +491,7 @@ def test_with_threshold_applies_the_detection_rule(flipped):
     det = flipped[3]
     assert np.array_equal(det.with_threshold(det.threshold).flags, det.flags)
     low = det.with_threshold(0.3)
-    assert np.array_equal(low.flags, ssa.confirm_flags(det.mdm, det.jumps, 0.3, det.fps) | det.holds | det.swaps)
+    assert np.array_equal(low.flags, ssa.confirm_flags(det.mdm, det.jumps, 0.3, det.fps) | det.holds | det.swaps | det.offsets)
     assert (low.flags >= det.flags).all()
     plain = dataclasses.replace(det, params={**det.params, "confirm": False})
     assert np.array_equal(plain.with_threshold(0.3).flags, det.mdm > 0.3)
@@ -500,11 +504,11 @@ def test_a_detection_file_without_jumps_loads_with_none(tmp_path, flipped):
     det = dataclasses.replace(flipped[3], params={**flipped[3].params, "confirm": False})
     path = det.save(tmp_path / "det.npz")
     with np.load(path, allow_pickle=False) as z:
-        arrays = {k: z[k] for k in z.files if k not in ("jumps", "holds", "swaps")}
+        arrays = {k: z[k] for k in z.files if k not in ("jumps", "holds", "swaps", "offsets")}
     np.savez(tmp_path / "old.npz", **arrays)
     back = ssa.Detection.load(tmp_path / "old.npz")
-    assert back.jumps.shape == back.holds.shape == back.swaps.shape == det.mdm.shape
-    assert not (back.jumps.any() or back.holds.any() or back.swaps.any())
+    assert back.jumps.shape == back.holds.shape == back.swaps.shape == back.offsets.shape == det.mdm.shape
+    assert not (back.jumps.any() or back.holds.any() or back.swaps.any() or back.offsets.any())
     assert np.array_equal(back.with_threshold(0.4).flags, det.mdm > 0.4)
 
 
@@ -600,3 +604,41 @@ def test_side_swaps_find_both_joints_of_a_label_swap_and_nothing_in_clean_takes(
         ssa.side_swaps(walk, max_s=0.0)
     det = ssa.detect(bad)
     assert np.array_equal(det.swaps, expect & det.analysed[None, :]) and (det.flags >= det.swaps).all()
+
+
+def test_transient_offsets_flag_exactly_a_drift_or_flip_between_its_two_steps(walk):
+    """A drift or flip steps off the joint's path and back: flagged from its first to its last frame, exactly."""
+    for kind, seed in (("drift", 0), ("drift", 2), ("flip", 1), ("flip", 3)):
+        bad, mask, records = corrupt.real_errors(walk, kinds=(kind,), n_errors=1, seed=seed)
+        r = records[0]
+        j = walk.skeleton.index(r.joint)
+        offsets = ssa.transient_offsets(bad)
+        assert np.flatnonzero(offsets[:, j]).tolist() == list(range(r.start, r.end)), (kind, seed)
+        clean_joints = np.arange(walk.num_joints) != j
+        assert np.array_equal(offsets[:, clean_joints], ssa.transient_offsets(walk)[:, clean_joints])
+        assert not ssa.transient_offsets(bad, max_s=0.9 * (r.end - r.start) / walk.fps)[:, j].any()  # steps too far apart
+        assert not ssa.transient_offsets(bad, joints=clean_joints)[:, j].any()
+        det = ssa.detect(bad)
+        assert (det.flags >= det.offsets).all() and det.offsets[r.start : r.end, j].all()
+
+
+def test_transient_offsets_leave_smooth_motion_spikes_and_one_way_steps_alone(walk):
+    for name in ("12_walk.amc", "HDM_bd_jogLeftCircle4StepsRstart_001_120.amc"):
+        assert not ssa.transient_offsets(mocapkit.load(mocapkit.samples.path(name))).any(), name
+    # the walk's own right-thumb glitches (180 deg turns in one frame and back) are the only ones in it
+    own = ssa.transient_offsets(walk)
+    assert set(np.flatnonzero(own.any(axis=0))) <= {walk.skeleton.index("RThumb")}
+    others = np.ones(walk.num_joints, dtype=bool)
+    others[walk.skeleton.index("RThumb")] = False
+    spiked, _, records = corrupt.real_errors(walk, kinds=("spike",), n_errors=1, seed=2)  # out and back in one event
+    assert not ssa.transient_offsets(spiked, joints=others).any()
+    # a step that never comes back, and two steps the same way, are not a transient offset
+    j = walk.skeleton.index("LeftElbow")
+    stepped, _ = _turned(walk, "LeftElbow", np.arange(400, walk.num_frames), 30.0)
+    assert not ssa.transient_offsets(stepped)[:, j].any()
+    twice, _ = _turned(stepped, "LeftElbow", np.arange(450, walk.num_frames), 30.0)
+    assert not ssa.transient_offsets(twice)[:, j].any()
+    back, _ = _turned(walk, "LeftElbow", np.arange(400, 450), 30.0)
+    assert np.flatnonzero(ssa.transient_offsets(back)[:, j]).tolist() == list(range(400, 450))
+    with pytest.raises(ValueError, match="max_s"):
+        ssa.transient_offsets(walk, max_s=0.0)

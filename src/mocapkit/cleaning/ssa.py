@@ -61,7 +61,12 @@ Departures from the paper, and why:
   channel whose digression is still small where it starts; and left/right
   label swaps (:func:`side_swaps`): a joint and its mirror partner breaking
   at the same frame and again within a second, which a swapped limb in a
-  plausible pose shows though it hardly digresses.
+  plausible pose shows though it hardly digresses; and transient offsets
+  (:func:`transient_offsets`): a joint that steps off its own path and back
+  by the opposite step within a second, a drift or flip between its two
+  steps, flagged even where the context holds poses like the wrong ones (a
+  drifted shoulder in a walk full of shoulder motion digressed under the
+  threshold).
 - "Median of the KNN": the medoid word (the neighbour closest to the others on
   the flagged joints), an actual motion, as the paper requires.
 
@@ -123,6 +128,7 @@ __all__ = [
     "confirm_flags",
     "held_joints",
     "side_swaps",
+    "transient_offsets",
     "DEFAULTS",
 ]
 
@@ -824,6 +830,93 @@ def _side_swaps(resid, joint_names, fps, jump_deg, max_s, joints) -> np.ndarray:
     return out
 
 
+_OFFSET_JUMP_DEG, _OFFSET_MAX_S, _OFFSET_MIN_DEG = 7.0, 1.0, 10.0  # transient_offsets' defaults, which detect uses
+
+
+def transient_offsets(
+    motion: Motion,
+    jump_deg: float = _OFFSET_JUMP_DEG,
+    max_s: float = _OFFSET_MAX_S,
+    min_offset_deg: float = _OFFSET_MIN_DEG,
+    joints=None,
+) -> np.ndarray:
+    """(F, J) bool: a joint that steps off its own path and steps back within ``max_s`` seconds.
+
+    A drift, a flip or a marker lost and found again starts and ends as a
+    step: the rotation leaves the path the previous frames were on by an
+    offset, and later jumps back by about the opposite offset. The frames
+    between the two steps are wrong whatever the digression says: a drifted
+    shoulder in a walk full of shoulder motion, or a flipped wrist where the
+    context's actors hold their wrists differently, can look like motion the
+    context has seen. A break event is a run of midpoint residuals
+    (:func:`discontinuities`) over ``jump_deg`` and over ten times the
+    joint's median residual in the take (at low frame rates fast motion has
+    large residuals of its own); at 120 fps 7 deg means an angular
+    acceleration of about 200,000 deg/s^2, ten times what a limb reaches.
+    Its step is the rotation from where constant-velocity extrapolation of
+    the two frames before the event puts the joint after it, to where the
+    joint is (parent frame, a rotation vector); a one-frame spike returns
+    within its event and has no step. Two successive events of a joint whose
+    steps both exceed ``min_offset_deg``, point in roughly opposite
+    directions (cosine at most -0.5; a half turn has no sign, so two steps
+    near 180 deg pair either way) and start at most ``max_s`` apart are
+    flagged from the frame after the first event's first frame to the second
+    event's first frame (a step between frames f and f + 1 shows at both).
+    Pairs are taken in time order, as in :func:`side_swaps`. ``joints`` (bool (J,),
+    optional) limits the joints looked at.
+    """
+    if not (np.isfinite(jump_deg) and jump_deg > 0 and max_s > 0 and min_offset_deg >= 0):
+        raise ValueError(
+            f"need jump_deg > 0, max_s > 0 and min_offset_deg >= 0, got {jump_deg!r}, {max_s!r} and {min_offset_deg!r}"
+        )
+    q = np.asarray(motion.rotations, dtype=np.float64)
+    return _transient_offsets(q, _midpoint_residuals(q), motion.fps, jump_deg, max_s, min_offset_deg, joints)
+
+
+def _event_step(q: np.ndarray, first: int, last: int) -> np.ndarray | None:
+    """Rotation vector (radians, parent frame) from the constant-velocity extrapolation of ``q[first - 2]``,
+    ``q[first - 1]`` to ``q[last + 1]``, to ``q[last + 1]``; None where the event touches the take's ends."""
+    if first < 2 or last + 1 >= len(q):
+        return None
+    a, b = q[first - 2], q[first - 1]
+    if np.dot(a, b) < 0:
+        a = -a
+    velocity = R.quaternion_multiply(b, R.quaternion_inverse(a))
+    pred = b
+    for _ in range(last + 2 - first):
+        pred = R.quaternion_multiply(velocity, pred)
+    return R.quaternion_to_rotvec(R.quaternion_multiply(q[last + 1], R.quaternion_inverse(pred)))
+
+
+def _transient_offsets(q, resid, fps, jump_deg, max_s, min_offset_deg, joints) -> np.ndarray:
+    """:func:`transient_offsets` on rotations ``q`` (F, J, 4) with their midpoint residuals already computed."""
+    F, J = resid.shape
+    out = np.zeros((F, J), dtype=bool)
+    use = np.ones(J, dtype=bool) if joints is None else np.asarray(joints, dtype=bool)
+    breaks = resid > np.maximum(np.radians(jump_deg), 10.0 * np.median(resid, axis=0))[None, :]
+    longest = int(round(max_s * fps))
+    half_turn = np.radians(150.0)
+    for j in np.flatnonzero(use & breaks.any(axis=0)):
+        frames = np.flatnonzero(breaks[:, j])
+        events = []
+        for run in np.split(frames, np.flatnonzero(np.diff(frames) > 3) + 1):
+            step = _event_step(q[:, j], int(run[0]), int(run[-1]))
+            if step is not None and np.linalg.norm(step) >= np.radians(min_offset_deg):
+                events.append((int(run[0]), step))
+        k = 0
+        while k + 1 < len(events):
+            (a, va), (b, vb) = events[k], events[k + 1]
+            na, nb = np.linalg.norm(va), np.linalg.norm(vb)
+            cos = float(np.dot(va, vb) / (na * nb)) if na > 0 and nb > 0 else 1.0
+            back = cos <= -0.5 or (max(na, nb) > half_turn and abs(cos) >= 0.5)
+            if b - a <= longest and back:
+                out[a + 1 : b + 1, j] = True
+                k += 2
+            else:
+                k += 1
+    return out
+
+
 def confirm_flags(
     mdm: np.ndarray, jumps: np.ndarray, threshold: float, fps: float, margin_s: float = 0.05, extent: float = 0.5
 ) -> np.ndarray:
@@ -878,11 +971,11 @@ def confirm_flags(
     return out
 
 
-def _flag_rule(mdm, jumps, holds, swaps, threshold: float, fps: float, confirm: bool, margin_s) -> np.ndarray:
-    """The flags of :func:`detect` and :meth:`Detection.with_threshold`: confirmed digressions, holds and swaps,
-    or the paper's ``mdm > threshold`` without confirmation."""
+def _flag_rule(mdm, jumps, holds, swaps, offsets, threshold: float, fps: float, confirm: bool, margin_s) -> np.ndarray:
+    """The flags of :func:`detect` and :meth:`Detection.with_threshold`: confirmed digressions, holds, swaps and
+    transient offsets, or the paper's ``mdm > threshold`` without confirmation."""
     if confirm:
-        return confirm_flags(mdm, jumps, threshold, fps, margin_s) | holds | swaps
+        return confirm_flags(mdm, jumps, threshold, fps, margin_s) | holds | swaps | offsets
     return mdm > threshold
 
 
@@ -980,11 +1073,11 @@ class Detection:
 
     mdm : float (F, J) movement digression map in [0, 1] (0 on joints not analysed);
     flags : bool (F, J) the errors: ``mdm > threshold`` confirmed by ``jumps``
-    (:func:`confirm_flags`), with ``holds`` and ``swaps``; or ``mdm >
+    (:func:`confirm_flags`), with ``holds``, ``swaps`` and ``offsets``; or ``mdm >
     threshold`` alone when the detection was made with ``confirm=False``; jumps : bool (F, J) the analysed joints'
-    :func:`discontinuities`; holds, swaps : bool (F, J) their
-    :func:`held_joints` and :func:`side_swaps` (flagged with confirmation at
-    any threshold); digression : float (F, J) angle in
+    :func:`discontinuities`; holds, swaps, offsets : bool (F, J) their
+    :func:`held_joints`, :func:`side_swaps` and :func:`transient_offsets`
+    (flagged with confirmation at any threshold); digression : float (F, J) angle in
     radians between the input and the mean motion texture (NaN where not
     analysed); best_group : int8 (F, J) the group whose neighbours explain the
     cell best (-1 none). The rest records how the analysis was made so that
@@ -1011,6 +1104,7 @@ class Detection:
     jumps: np.ndarray  # (F, J) bool
     holds: np.ndarray  # (F, J) bool
     swaps: np.ndarray  # (F, J) bool
+    offsets: np.ndarray  # (F, J) bool
     params: dict = field(default_factory=dict)
     notes: tuple = ()
 
@@ -1030,7 +1124,7 @@ class Detection:
         threshold = float(threshold)
         if not 0.0 < threshold < 1.0:
             raise ValueError(f"threshold must be in (0, 1), got {threshold}")
-        flags = _flag_rule(self.mdm, self.jumps, self.holds, self.swaps, threshold, self.fps,
+        flags = _flag_rule(self.mdm, self.jumps, self.holds, self.swaps, self.offsets, threshold, self.fps,
                            bool(self.params.get("confirm")), self.params.get("confirm_margin_s"))
         return dataclasses.replace(self, threshold=threshold, flags=flags)
 
@@ -1066,7 +1160,7 @@ class Detection:
             with np.load(path, allow_pickle=False) as z:
                 data = {k: z[k] for k in z.files}
             meta = json.loads(str(data.pop("meta")))
-            for key in ("jumps", "holds", "swaps"):  # written before confirmation existed: its flags are MDM > threshold
+            for key in ("jumps", "holds", "swaps", "offsets"):  # written before these rules existed
                 if key not in data:
                     data[key] = np.zeros(data["mdm"].shape, dtype=bool)
             return cls(
@@ -1249,7 +1343,8 @@ def detect(
         ``confirm=False`` gives the paper's flags, ``mdm > threshold``.
         Confirmation also flags held joints (:func:`held_joints`): a joint
         held still while its mean motion texture travels ``hold_travel_deg``;
-        and left/right label swaps (:func:`side_swaps`).
+        left/right label swaps (:func:`side_swaps`); and transient offsets
+        (:func:`transient_offsets`), a joint stepping off its path and back.
     """
     from tqdm.auto import tqdm
 
@@ -1360,7 +1455,10 @@ def detect(
     jumps &= analysed[None, :]
     holds = held_joints(motion, mean_speed, travel_deg=hold_travel_deg) & analysed[None, :]
     swaps = _side_swaps(resid, sk.joint_names, motion.fps, _SWAP_JUMP_DEG, _SWAP_MAX_S, analysed)
-    flags = _flag_rule(mdm, jumps, holds, swaps, threshold, motion.fps, confirm, confirm_margin_s)
+    offsets = _transient_offsets(
+        np.asarray(motion.rotations, dtype=np.float64), resid, motion.fps, _OFFSET_JUMP_DEG, _OFFSET_MAX_S, _OFFSET_MIN_DEG, analysed
+    )
+    flags = _flag_rule(mdm, jumps, holds, swaps, offsets, threshold, motion.fps, confirm, confirm_margin_s)
     masks = np.zeros((G, m), dtype=bool)
     for gi, r in enumerate(grows):
         masks[gi, r] = True
@@ -1379,7 +1477,7 @@ def detect(
         fps=motion.fps, joint_names=tuple(sk.joint_names), analysed=analysed, texture_joints=tex_joints,
         group_names=tuple(gnames), group_masks=masks, word_starts=words, neighbor_pos=neighbors.pos,
         neighbor_iend=neighbors.iend, neighbor_jend=neighbors.jend, neighbor_dist=neighbors.dist,
-        context_clips=clips, jumps=jumps, holds=holds, swaps=swaps, params=params, notes=tuple(notes),
+        context_clips=clips, jumps=jumps, holds=holds, swaps=swaps, offsets=offsets, params=params, notes=tuple(notes),
     )
 
 
