@@ -43,10 +43,12 @@ paper's ``MDM > threshold`` (``confirm=False``). Confirmation's parameters
 the glitch rule were chosen on these clips: there is no other set of clips
 with errors to choose them on.
 
-A diagnostic, not the target check (``without_clean_take_flags``): ``detect`` also
-runs on each untouched take, and the (word, joint) score is given again with the
-cells it flags there left out. Those are breaks of the take's own, whose truth is
-unknown: the figure says how much of the precision lost is theirs.
+Two diagnostics, not the target check: ``detect`` also runs on each untouched take,
+and the (word, joint) score is given again with the cells it flags there left out
+(``without_clean_take_flags``), and with the pairs holding such a cell not scored
+(``clean_take_pairs_unscored``, as the pairs at clean-take glitches are not). Those
+are breaks of the take's own, whose truth is unknown: the figures say how much of
+the precision lost is theirs.
 
     python benchmarks/ssa_detection.py --json            # full run
     python benchmarks/ssa_detection.py --quick --json    # two clips per kind, one seed
@@ -170,6 +172,54 @@ def ignored_pairs(ignore, fps):
     return int(_words(ignore, n, s).sum())
 
 
+def take_breaks(clean, flags):
+    """The runs ``detect`` flags on an untouched take, with what the motion does at each run's largest step.
+
+    Physical evidence, computed without the detector: the largest one-frame step of the joint's local
+    rotation near the run (degrees, and as a speed, against the 99th percentile of the joint's one-frame
+    speed over the take); how far the joint's distal end (its first child, or its end site) moves in
+    that frame, in the pelvis frame (cm); and how much the end of the joint's chain (its deepest
+    descendant) turns in the pelvis frame in that frame. ``twist exchange``: the distal end moves no
+    more than in 99 % of the take's frames and the chain's end turns less than a third of the step, so
+    a joint further down takes the step back (a solver trading twist between the upper arm and the
+    forearm, invisible in joint positions and in the hand's orientation); ``step``: the rest, where
+    the limb itself jumps."""
+    from scipy import ndimage
+
+    from mocapkit.motion import unit_scale_cm
+
+    sk = clean.skeleton
+    grot, gpos = clean.global_transforms()
+    ends = clean.global_positions(end_sites=True) * unit_scale_cm(sk)
+    inv_root = R.quaternion_inverse(grot[:, :1])
+    rel = R.quaternion_rotate(inv_root, ends - ends[:, :1])  # (F, J + E, 3) pelvis frame, cm
+    move = np.linalg.norm(np.diff(rel, axis=0), axis=-1)  # (F - 1, J + E)
+    rel_rot = R.quaternion_multiply(inv_root, grot)
+    turn = np.degrees(R.geodesic_angle(rel_rot[1:], rel_rot[:-1]))  # (F - 1, J)
+    step = np.degrees(R.geodesic_angle(clean.rotations[1:], clean.rotations[:-1]))
+    out = []
+    for j in np.flatnonzero(flags.any(axis=0)):
+        kids = sk.children(j)
+        sites = [sk.num_joints + e for e, p in enumerate(sk.end_site_parents) if p == j]
+        distal = kids[0] if kids else (sites[0] if sites else j)
+        chain_end = j
+        while sk.children(chain_end):
+            chain_end = sk.children(chain_end)[0]
+        labels, _ = ndimage.label(flags[:, j])
+        for (run,) in ndimage.find_objects(labels):
+            a, b = max(run.start - 6, 0), min(run.stop + 6, clean.num_frames - 1)
+            f = a + int(np.argmax(step[a:b, j]))
+            p99 = float(np.percentile(move[:, distal], 99))
+            twist = move[f, distal] <= p99 and chain_end != j and turn[f, chain_end] < step[f, j] / 3
+            out.append(dict(joint=sk.joint_names[j], start=int(run.start), end=int(run.stop), cells=int(run.stop - run.start),
+                            step_deg=round(float(step[f, j]), 1), speed_deg_s=round(float(step[f, j] * clean.fps)),
+                            speed_p99_deg_s=round(float(np.percentile(step[:, j], 99) * clean.fps)),
+                            distal_move_cm=round(float(move[f, distal]), 2), distal_move_p99_cm=round(p99, 2),
+                            chain_end_turn_deg=round(float(turn[f, chain_end]), 1),
+                            kind="twist exchange" if twist else "step"))
+    return out
+
+
 def add(a: DetectionScore | None, b: DetectionScore) -> DetectionScore:
     return b if a is None else DetectionScore(a.tp + b.tp, a.fp + b.fp, a.fn + b.fn)
 
@@ -209,6 +259,7 @@ def main(argv=None):
     times: dict = {}
     ignored: dict = {}
     rows = []
+    breaks_of_takes: dict = {}
     for kind, clip_path, small, large, local_ok in scenarios(args.quick):
         clean = load(clip_path.relative_to(DATA))
         ign = glitches(clean, args.glitch_speed) if args.glitch_speed > 0 else np.zeros((clean.num_frames, clean.num_joints), bool)
@@ -225,6 +276,8 @@ def main(argv=None):
             tuple(m.skeleton.joint_names) == tuple(clean.skeleton.joint_names) for m in pool) else None
         # what detect flags on the untouched take: breaks of its own, of unknown truth (a diagnostic, below)
         clean_flags = {c: run_detect(clean, ctx).flags for c, ctx in loaded.items()} if args.clean_flags else {}
+        if clean_flags:  # the first context's (local where the take is its own context)
+            breaks_of_takes[f"{kind}/{clip_path.name}"] = take_breaks(clean, next(iter(clean_flags.values())))
         for seed in range(seeds):
             bad, mask, records = corrupt.real_errors(clean, n_errors=args.errors, seed=1000 + seed, joints=inject)
             truth = truth_mask(clean, bad, mask, args.visible_deg)
@@ -239,6 +292,9 @@ def main(argv=None):
                 if c in clean_flags:  # the same scoring with the untouched take's own flags left out
                     sn = score(det.flags & ~clean_flags[c], truth, clean.fps, ignore=ign_seed)
                     totals[(kind, c, "ssa_take_flags_out")] = add(totals.get((kind, c, "ssa_take_flags_out")), sn)
+                    # ... and with the pairs that hold one not scored, as the glitches above are not
+                    su = score(det.flags, truth, clean.fps, ignore=ign_seed | clean_flags[c])
+                    totals[(kind, c, "ssa_take_pairs_unscored")] = add(totals.get((kind, c, "ssa_take_pairs_unscored")), su)
                 sw = score(det.flags, truth, clean.fps, per_joint=False, ignore=ign_seed)
                 totals[(kind, c, "ssa_word")] = add(totals.get((kind, c, "ssa_word")), sw)
                 paper_flags = det.mdm > det.threshold  # the flags confirm=False gives, from the same analysis
@@ -255,7 +311,7 @@ def main(argv=None):
                     totals[(kind, b, "baseline")] = add(totals.get((kind, b, "baseline")), score(flags, truth, clean.fps, ignore=ign_seed))
                     totals[(kind, b, "baseline_word")] = add(totals.get((kind, b, "baseline_word")),
                                                              score(flags, truth, clean.fps, per_joint=False, ignore=ign_seed))
-    summary, word_level, clean_take = {}, {}, {}
+    summary, word_level, clean_take, take_pairs = {}, {}, {}, {}
     for (kind, c, method), sc in sorted(totals.items()):
         row = {"recall": round(sc.recall, 4), "precision": round(sc.precision, 4), "tp": sc.tp, "fp": sc.fp, "fn": sc.fn}
         if method.endswith("_word"):  # a word is one item, positive if any joint is: the detection need not name the joint
@@ -263,6 +319,9 @@ def main(argv=None):
             continue
         if method == "ssa_take_flags_out":  # a diagnostic, not the target check
             clean_take[f"{kind}/ssa_{c}"] = row
+            continue
+        if method == "ssa_take_pairs_unscored":  # a diagnostic, not the target check
+            take_pairs[f"{kind}/ssa_{c}"] = row
             continue
         key = f"{kind}/{method}_{c}"
         summary[key] = row
@@ -293,6 +352,18 @@ def main(argv=None):
               "without_clean_take_flags_note": "detect's (word, joint) score with the cells it also flags on the untouched "
                                                "take left out: how much of the precision lost is the take's own breaks, "
                                                "whose truth is unknown; a diagnostic, not the target check",
+              "clean_take_breaks": breaks_of_takes,
+              "clean_take_breaks_cells": {k: {kind: sum(r["cells"] for r in v if r["kind"] == kind)
+                                              for kind in ("step", "twist exchange")}
+                                          for k, v in breaks_of_takes.items()},
+              "clean_take_breaks_note": "the runs detect flags on each untouched take (first context), with the "
+                                        "largest one-frame step near each and what the motion does there: see take_breaks",
+              "clean_take_pairs_unscored": take_pairs,
+              "clean_take_pairs_unscored_note": "detect's (word, joint) score with the pairs that hold a cell it also flags on "
+                                                "the untouched take (and no injected error's visible cell) not scored, as the "
+                                                "pairs at clean-take glitches are not: the take's own breaks move with the "
+                                                "corruption (other neighbour words), so leaving out their cells alone leaves "
+                                                "their shifted edges counted; a diagnostic, not the target check",
               "word_level_scoring": "words as items, positive if any joint's cell is (the paper's '1,000 words ... "
                                     "include at least one joint with erroneous rotations'); reported, not the target check",
               "baseline": "joint-limit / rate / both detectors learnt from the small-context clips (Table 1 bottom)"}
