@@ -642,3 +642,16 @@ def test_transient_offsets_leave_smooth_motion_spikes_and_one_way_steps_alone(wa
     assert np.flatnonzero(ssa.transient_offsets(back)[:, j]).tolist() == list(range(400, 450))
     with pytest.raises(ValueError, match="max_s"):
         ssa.transient_offsets(walk, max_s=0.0)
+
+
+def test_transient_offsets_at_30_fps_find_errors_and_leave_fast_motion_alone():
+    """At 30 fps fast motion breaks too: the untouched takes give nothing, a flip and a drift are found exactly."""
+    for name in ("12_walk.amc", "131_01.bvh", "HDM_bd_jogLeftCircle4StepsRstart_001_120.amc"):
+        assert not ssa.transient_offsets(mocapkit.load(mocapkit.samples.path(name)).resample(30.0)).any(), name
+    walk30 = mocapkit.load(mocapkit.samples.path("12_walk.amc")).resample(30.0)
+    for kind, seed in (("flip", 0), ("drift", 1)):
+        bad, _, records = corrupt.real_errors(walk30, kinds=(kind,), n_errors=1, seed=seed)
+        r = records[0]
+        offsets = ssa.transient_offsets(bad)
+        assert np.flatnonzero(offsets[:, walk30.skeleton.index(r.joint)]).tolist() == list(range(r.start, r.end)), kind
+        assert offsets.sum() == r.end - r.start

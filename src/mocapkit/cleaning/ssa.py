@@ -849,9 +849,12 @@ def transient_offsets(
     shoulder in a walk full of shoulder motion, or a flipped wrist where the
     context's actors hold their wrists differently, can look like motion the
     context has seen. A break event is a run of midpoint residuals
-    (:func:`discontinuities`) over ``jump_deg`` and over ten times the
-    joint's median residual in the take (at low frame rates fast motion has
-    large residuals of its own); at 120 fps 7 deg means an angular
+    (:func:`discontinuities`) over ``jump_deg``, over ten times the joint's
+    median residual in the take and over three times its 95th percentile
+    (taken below the 8 largest residuals in a take under 160 frames, so
+    that one error's breaks do not raise it): at low frame rates fast motion
+    has large residuals of its own (at 30 fps a dancer's toes push off by
+    25 deg in one frame and come back); at 120 fps 7 deg means an angular
     acceleration of about 200,000 deg/s^2, ten times what a limb reaches.
     Its step is the rotation from where constant-velocity extrapolation of
     the two frames before the event puts the joint after it, to where the
@@ -893,7 +896,9 @@ def _transient_offsets(q, resid, fps, jump_deg, max_s, min_offset_deg, joints) -
     F, J = resid.shape
     out = np.zeros((F, J), dtype=bool)
     use = np.ones(J, dtype=bool) if joints is None else np.asarray(joints, dtype=bool)
-    breaks = resid > np.maximum(np.radians(jump_deg), 10.0 * np.median(resid, axis=0))[None, :]
+    # what the joint's own motion reaches: 3x its 95th percentile, below the 8 largest residuals in a short take
+    usual = np.maximum(10.0 * np.median(resid, axis=0), 3.0 * np.percentile(resid, min(95.0, 100.0 * (1.0 - 8.0 / F)), axis=0))
+    breaks = resid > np.maximum(np.radians(jump_deg), usual)[None, :]
     longest = int(round(max_s * fps))
     half_turn = np.radians(150.0)
     for j in np.flatnonzero(use & breaks.any(axis=0)):
