@@ -850,12 +850,10 @@ def transient_offsets(
     context's actors hold their wrists differently, can look like motion the
     context has seen. A break event is a run of midpoint residuals
     (:func:`discontinuities`) over ``jump_deg``, over ten times the joint's
-    median residual in the take and over three times its 95th percentile
-    (taken below the 8 largest residuals in a take under 160 frames, so
-    that one error's breaks do not raise it): at low frame rates fast motion
-    has large residuals of its own (at 30 fps a dancer's toes push off by
-    25 deg in one frame and come back); at 120 fps 7 deg means an angular
-    acceleration of about 200,000 deg/s^2, ten times what a limb reaches.
+    median residual in the take and over what its own motion reaches
+    (:func:`_usual_residual`): at low frame rates fast motion has large
+    residuals of its own; at 120 fps 7 deg means an angular acceleration of
+    about 200,000 deg/s^2, ten times what a limb reaches.
     Its step is the rotation from where constant-velocity extrapolation of
     the two frames before the event puts the joint after it, to where the
     joint is (parent frame, a rotation vector); a one-frame spike returns
@@ -874,6 +872,23 @@ def transient_offsets(
         )
     q = np.asarray(motion.rotations, dtype=np.float64)
     return _transient_offsets(q, _midpoint_residuals(q), motion.fps, jump_deg, max_s, min_offset_deg, joints)
+
+
+def _usual_residual(resid: np.ndarray) -> np.ndarray:
+    """(J,) radians: what a joint's own motion reaches, three times its 95th-percentile midpoint residual.
+
+    In a take under 160 frames the percentile is taken below the 8 largest
+    residuals instead, so that one error's breaks (2 frames a step) do not
+    raise it. At 120 fps this stays under the break thresholds; at 30 fps
+    fast motion breaks too (a dancer's toes push off by 25 deg in one frame
+    and come back), and a break must stand out from the joint's own motion.
+    Used by :func:`transient_offsets` only: on a joint under heavy noise it
+    rises past a flip's 90 deg residuals (``clean_takes``' neck: 134-214
+    deg), and there confirmation by the digression still finds the error
+    from the plain breaks.
+    """
+    F = resid.shape[0]
+    return 3.0 * np.percentile(resid, min(95.0, 100.0 * (1.0 - 8.0 / F)), axis=0)
 
 
 def _event_step(q: np.ndarray, first: int, last: int) -> np.ndarray | None:
@@ -896,8 +911,7 @@ def _transient_offsets(q, resid, fps, jump_deg, max_s, min_offset_deg, joints) -
     F, J = resid.shape
     out = np.zeros((F, J), dtype=bool)
     use = np.ones(J, dtype=bool) if joints is None else np.asarray(joints, dtype=bool)
-    # what the joint's own motion reaches: 3x its 95th percentile, below the 8 largest residuals in a short take
-    usual = np.maximum(10.0 * np.median(resid, axis=0), 3.0 * np.percentile(resid, min(95.0, 100.0 * (1.0 - 8.0 / F)), axis=0))
+    usual = np.maximum(10.0 * np.median(resid, axis=0), _usual_residual(resid))
     breaks = resid > np.maximum(np.radians(jump_deg), usual)[None, :]
     longest = int(round(max_s * fps))
     half_turn = np.radians(150.0)
