@@ -39,9 +39,9 @@ Two flag rules are scored from the same analysis: ``ssa`` is what
 ``ssa.detect`` returns by default (digressions confirmed by a break in the
 joint's own trajectory, held joints, side swaps and transient offsets,
 ``confirm=True``), ``ssa_paper`` the paper's ``MDM > threshold``
-(``confirm=False``). Confirmation's parameters (``jump_deg`` 8 and the
-95th-percentile guard, runs down to half the threshold, the held-joint, swap
-and transient-offset rules) and the glitch rule were chosen on these clips:
+(``confirm=False``). Confirmation's parameters (``jump_deg`` 8, runs down to
+half the threshold, the held-joint and swap rules, the transient-offset rule
+with its 95th-percentile guard) and the glitch rule were chosen on these clips:
 there is no other set of clips with errors to choose them on.
 
 ``dance_30fps``: the same scoring on a dance captured at 30 fps (the Bandai
