@@ -209,15 +209,16 @@ def take_breaks(clean, flags):
         chain_end = j
         while sk.children(chain_end):
             chain_end = sk.children(chain_end)[0]
+        p99 = float(np.percentile(move[:, distal], 99))
+        speed_p99 = round(float(np.percentile(step[:, j], 99) * clean.fps))
         labels, _ = ndimage.label(flags[:, j])
         for (run,) in ndimage.find_objects(labels):
             a, b = max(run.start - 6, 0), min(run.stop + 6, clean.num_frames - 1)
             f = a + int(np.argmax(step[a:b, j]))
-            p99 = float(np.percentile(move[:, distal], 99))
             twist = move[f, distal] <= p99 and chain_end != j and turn[f, chain_end] < step[f, j] / 3
             out.append(dict(joint=sk.joint_names[j], start=int(run.start), end=int(run.stop), cells=int(run.stop - run.start),
                             step_deg=round(float(step[f, j]), 1), speed_deg_s=round(float(step[f, j] * clean.fps)),
-                            speed_p99_deg_s=round(float(np.percentile(step[:, j], 99) * clean.fps)),
+                            speed_p99_deg_s=speed_p99,
                             distal_move_cm=round(float(move[f, distal]), 2), distal_move_p99_cm=round(p99, 2),
                             chain_end_turn_deg=round(float(turn[f, chain_end]), 1),
                             kind="twist exchange" if twist else "step"))

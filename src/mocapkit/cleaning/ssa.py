@@ -818,16 +818,28 @@ def _side_swaps(resid, joint_names, fps, jump_deg, max_s, joints) -> np.ndarray:
         frames = np.flatnonzero(both)
         if len(frames) < 2:
             continue
-        events = [run[0] for run in np.split(frames, np.flatnonzero(np.diff(frames) > 3) + 1)]
-        k = 0
-        while k + 1 < len(events):
-            a, b = events[k], events[k + 1]
-            if b - a <= longest:  # a step from f to f + 1 breaks at both: the swap holds frames a + 1 .. b
-                out[a + 1 : b + 1, j] = out[a + 1 : b + 1, p] = True
-                k += 2
-            else:
-                k += 1
+        for a, b in _paired_events([run[0] for run in _break_events(frames)], longest):
+            out[a + 1 : b + 1, j] = out[a + 1 : b + 1, p] = True  # a step from f to f + 1 breaks at both
     return out
+
+
+def _break_events(frames: np.ndarray) -> list[np.ndarray]:
+    """Sorted break frames grouped into events: runs whose frames lie at most 3 apart."""
+    return np.split(frames, np.flatnonzero(np.diff(frames) > 3) + 1)
+
+
+def _paired_events(starts, longest: int, match=None) -> list[tuple[int, int]]:
+    """Successive events paired in time order, ``(start k, start k + 1)``, where the second starts at most
+    ``longest`` frames after the first and ``match(k, k + 1)`` holds (if given); a paired event is not paired
+    again (:func:`side_swaps`, :func:`transient_offsets`)."""
+    pairs, k = [], 0
+    while k + 1 < len(starts):
+        if starts[k + 1] - starts[k] <= longest and (match is None or match(k, k + 1)):
+            pairs.append((int(starts[k]), int(starts[k + 1])))
+            k += 2
+        else:
+            k += 1
+    return pairs
 
 
 _OFFSET_JUMP_DEG, _OFFSET_MAX_S, _OFFSET_MIN_DEG = 7.0, 1.0, 10.0  # transient_offsets' defaults, which detect uses
@@ -917,22 +929,20 @@ def _transient_offsets(q, resid, fps, jump_deg, max_s, min_offset_deg, joints) -
     half_turn = np.radians(150.0)
     for j in np.flatnonzero(use & breaks.any(axis=0)):
         frames = np.flatnonzero(breaks[:, j])
-        events = []
-        for run in np.split(frames, np.flatnonzero(np.diff(frames) > 3) + 1):
+        starts, steps = [], []
+        for run in _break_events(frames):
             step = _event_step(q[:, j], int(run[0]), int(run[-1]))
             if step is not None and np.linalg.norm(step) >= np.radians(min_offset_deg):
-                events.append((int(run[0]), step))
-        k = 0
-        while k + 1 < len(events):
-            (a, va), (b, vb) = events[k], events[k + 1]
-            na, nb = np.linalg.norm(va), np.linalg.norm(vb)
-            cos = float(np.dot(va, vb) / (na * nb)) if na > 0 and nb > 0 else 1.0
-            back = cos <= -0.5 or (max(na, nb) > half_turn and abs(cos) >= 0.5)
-            if b - a <= longest and back:
-                out[a + 1 : b + 1, j] = True
-                k += 2
-            else:
-                k += 1
+                starts.append(int(run[0]))
+                steps.append(step)
+
+        def back(k, m):  # the second step points roughly opposite the first (a half turn has no sign)
+            na, nb = np.linalg.norm(steps[k]), np.linalg.norm(steps[m])
+            cos = float(np.dot(steps[k], steps[m]) / (na * nb)) if na > 0 and nb > 0 else 1.0
+            return cos <= -0.5 or (max(na, nb) > half_turn and abs(cos) >= 0.5)
+
+        for a, b in _paired_events(starts, longest, back):
+            out[a + 1 : b + 1, j] = True
     return out
 
 
