@@ -101,13 +101,13 @@ def test_detect_up_axis_y_and_z():
 
 @pytest.mark.parametrize("spec,expected", [("y", [0, 1, 0]), ("-Z", [0, 0, -1]), ("+x", [1, 0, 0]), (2, [0, 0, 1])])
 def test_up_axis_override_spellings(spec, expected):
-    assert fe._parse_up_axis(spec).tolist() == expected
+    assert fe.parse_up_axis(spec).tolist() == expected
 
 
 @pytest.mark.parametrize("bad", ["w", 3, [1.0, 1.0, 0.0]])
 def test_up_axis_bad_spelling_raises(bad):
     with pytest.raises(ValueError, match="up_axis"):
-        fe._parse_up_axis(bad)
+        fe.parse_up_axis(bad)
 
 
 def test_root_frame_of_rest_pose_is_identity_and_ground_translation():

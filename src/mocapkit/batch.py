@@ -127,7 +127,7 @@ def clean_file(
     _check_paths(inp, [out, record, *extra])
     if out == record or len({out, record, *extra}) != 2 + len(extra):
         raise MocapFormatError(out, "the output, its .clean.npz record and the reports must be different files")
-    io._suffix(out, io.WRITERS, "writing")
+    io.suffix_kind(out, io.WRITERS, "writing")
     m = io.load(inp)
     if not isinstance(m, Motion):
         raise MocapFormatError(inp, "a marker file has no joint angles to clean; solve it to a skeleton first")
@@ -256,7 +256,7 @@ def clean_batch(
     are rows with a one-line reason. ``report``/``png``: also write
     ``<stem>.report.html`` / ``<stem>.summary.png`` beside each output.
     """
-    from .cleaning.pipeline import STEPS, _steps, clean_path
+    from .cleaning.pipeline import STEPS, parse_steps, clean_path
     from .parallel import describe_executor, map_ordered
 
     in_dir, out_dir = Path(in_dir), Path(out_dir)
@@ -266,7 +266,7 @@ def clean_batch(
         raise MocapFormatError(out_dir, "refusing to write into the input folder; choose another output folder")
     if fmt not in ("auto", "bvh", "npz"):
         raise MocapError(f"format must be auto, bvh or npz, got {fmt!r}")
-    steps = list(_steps(steps or STEPS))
+    steps = list(parse_steps(steps or STEPS))
     if context:
         load_context(context)  # fail early, in one line, on a bad context
     t0 = time.perf_counter()

@@ -586,11 +586,11 @@ def train(
     if representation not in ("euler", "rot6d") or head not in ("gaussian", "free") or init not in ("xavier", "paper"):
         raise MocapError("train: --representation is euler or rot6d, --head gaussian or free, --init xavier or paper")
     if noise:
-        from .cleaning.deep.training import _noisy
+        from .cleaning.deep.training import noisy_motion
 
         for spec in noise:
             try:
-                _noisy(None, spec, 0, check_only=True)
+                noisy_motion(None, spec, 0, check_only=True)
             except ValueError as exc:
                 raise MocapError(f"train: --noise: {exc}") from None
     if not (0 < speed[0] <= speed[1]) or not offset >= 0 or not 0 <= patchy <= 1:
@@ -692,7 +692,7 @@ def reconstruct(
         raise MocapError("give exactly one of --markers, --accelerometers or --ssg")
     kind, inp = given[0]
     _check_output(inp, out)
-    io._suffix(out, io.WRITERS, "writing")
+    io.suffix_kind(out, io.WRITERS, "writing")
     db = MotionDatabase.open(db_dir)
     if kind == "accelerometers":
         from .reconstruct import accelerometers as acc
@@ -760,10 +760,10 @@ _CLEAN_STEPS_HELP = "Comma-separated steps: fill, detect, repair, denoise (they 
 
 
 def _clean_steps(text: str) -> list[str]:
-    from .cleaning.pipeline import _steps
+    from .cleaning.pipeline import parse_steps
 
     try:
-        return list(_steps(text))
+        return list(parse_steps(text))
     except ValueError as exc:
         raise MocapError(f"--steps: {exc}") from None
 

@@ -67,7 +67,7 @@ def _rng(seed) -> np.random.Generator:
     return seed if isinstance(seed, np.random.Generator) else np.random.default_rng(seed)
 
 
-def _joint_set(motion: Motion, joints, include_root: bool) -> np.ndarray:
+def joint_set(motion: Motion, joints, include_root: bool) -> np.ndarray:
     """Boolean (J,) selection: all joints but the root (unless ``include_root``), or exactly ``joints``."""
     J = motion.num_joints
     if joints is None:
@@ -164,7 +164,7 @@ def _offset_channel(sk, j: int, q: np.ndarray, channel: int, delta_deg: np.ndarr
     return _same_hemisphere(_dof_frame(sk, j, R.euler_to_quaternion(ang, order), inverse=True), q)
 
 
-def _project_to_dofs(sk, j: int, q: np.ndarray) -> np.ndarray:
+def project_to_dofs(sk, j: int, q: np.ndarray) -> np.ndarray:
     """Nearest rotation (by Euler projection) the joint's channels can hold; 3-DOF joints unchanged."""
     order = sk.rotation_order(j)
     if len(order) >= 3:
@@ -190,7 +190,7 @@ def angular_noise(motion: Motion, amount: float = 0.5, seed=None, joints=None, i
     Returns ``(motion, mask)``.
     """
     rng = _rng(seed)
-    sel = _joint_set(motion, joints, include_root)
+    sel = joint_set(motion, joints, include_root)
     cols, _ = _rotation_columns(motion, sel)
     std = _channel_std(motion, cols)
     noise = rng.normal(size=(motion.num_frames, len(cols))) * (amount * std)
@@ -204,7 +204,7 @@ def uniform_noise(motion: Motion, amount: float = 0.5, seed=None, joints=None, i
     (Mall 4.1, "uniform noise"). Returns ``(motion, mask)``.
     """
     rng = _rng(seed)
-    sel = _joint_set(motion, joints, include_root)
+    sel = joint_set(motion, joints, include_root)
     cols, _ = _rotation_columns(motion, sel)
     half_width = np.sqrt(3.0) * amount * _channel_std(motion, cols)
     noise = rng.uniform(-1.0, 1.0, size=(motion.num_frames, len(cols))) * half_width
@@ -234,7 +234,7 @@ def bias(
     if not period_s > 0:
         raise ValueError(f"period_s must be positive, got {period_s!r}")
     rng = _rng(seed)
-    sel = _joint_set(motion, joints, include_root)
+    sel = joint_set(motion, joints, include_root)
     cols, _ = _rotation_columns(motion, sel)
     std = _channel_std(motion, cols)
     F = motion.num_frames
@@ -339,7 +339,7 @@ def spatial_noise(
             fix = _aim(cur, want, np.stack(_rest_offsets(sk, kids)))
             g_new = R.quaternion_multiply(fix, g)
             l_new = R.quaternion_multiply(R.quaternion_conjugate(parent_rot), g_new)
-            l_new = _same_hemisphere(R.quaternion_normalize(_project_to_dofs(sk, j, l_new)), local[:, j])
+            l_new = _same_hemisphere(R.quaternion_normalize(project_to_dofs(sk, j, l_new)), local[:, j])
             ok = np.all(np.isfinite(l_new), axis=-1)
             local[ok, j] = l_new[ok]
             g = R.quaternion_multiply(parent_rot, local[:, j])
@@ -449,7 +449,7 @@ def gaps(
     if not long and not (mean_length_s > 0 and max_length_s > 0):
         raise ValueError("mean_length_s and max_length_s must be positive")
     rng = _rng(seed)
-    sel = _joint_set(motion, joints, include_root=False)
+    sel = joint_set(motion, joints, include_root=False)
     F = motion.num_frames
     rot = np.array(motion.rotations)
     root = np.array(motion.root_positions)
@@ -545,7 +545,7 @@ def real_errors(
     rng = _rng(seed)
     sk = motion.skeleton
     F, J = motion.num_frames, sk.num_joints
-    sel = _joint_set(motion, joints, include_root=False)
+    sel = joint_set(motion, joints, include_root=False)
     has_dofs = np.array([bool(sk.rotation_order(j)) for j in range(J)])
     moves_bone = bone_moving_joints(sk)
     candidates = np.flatnonzero(sel & has_dofs & moves_bone)

@@ -40,7 +40,7 @@ import numpy as np
 
 from .errors import MocapError, MocapFormatError
 from .features import FEATURE_SETS, WINDOWED_SETS, feature_set
-from .motion import Motion, Skeleton, _readonly
+from .motion import Motion, Skeleton, readonly_view
 from .search.matches import Match
 
 __all__ = ["MotionDatabase", "ClipInfo", "SearchResult", "FORMAT_VERSION", "SUFFIXES"]
@@ -315,14 +315,14 @@ class MotionDatabase:
         for name, f in features.items():
             if f.ndim != 2 or f.shape[0] != N:
                 raise ValueError(f"features[{name!r}]: expected shape ({N}, D), got {f.shape}")
-        self.rotations = _readonly(rotations)
-        self.root_positions = _readonly(root_positions)
-        self.translations = None if translations is None else _readonly(translations)
-        self.features = {k: _readonly(v) for k, v in features.items()}
-        self.clip_starts = _readonly(starts)
+        self.rotations = readonly_view(rotations)
+        self.root_positions = readonly_view(root_positions)
+        self.translations = None if translations is None else readonly_view(translations)
+        self.features = {k: readonly_view(v) for k, v in features.items()}
+        self.clip_starts = readonly_view(starts)
         if clip_ids is None:
             clip_ids = np.repeat(np.arange(len(self.clips), dtype=np.int32), [c.frames for c in self.clips])
-        self.clip_ids = _readonly(clip_ids)
+        self.clip_ids = readonly_view(clip_ids)
         self.path = path
         self.info = dict(info or {})
         self._indexes: dict = {}

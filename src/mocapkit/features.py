@@ -45,7 +45,7 @@ import numpy as np
 
 from . import rotations as R
 from .errors import SkeletonError
-from .motion import Motion, Skeleton, _readonly, find_joint, unit_scale_cm
+from .motion import Motion, Skeleton, readonly_view, find_joint, unit_scale_cm
 
 __all__ = [
     "detect_up_axis",
@@ -70,7 +70,7 @@ __all__ = [
 _AXIS_LETTERS = {"x": 0, "y": 1, "z": 2}
 
 
-def _parse_up_axis(up_axis) -> np.ndarray:
+def parse_up_axis(up_axis) -> np.ndarray:
     """A signed coordinate axis from ``"y"``, ``"-z"``, ``"+x"``, ``1`` or a 3-vector along an axis."""
     if isinstance(up_axis, str):
         s = up_axis.strip().lower()
@@ -124,7 +124,7 @@ def detect_up_axis(skeleton: Skeleton) -> np.ndarray:
 
 
 def _up(skeleton: Skeleton, up_axis) -> np.ndarray:
-    return detect_up_axis(skeleton) if up_axis is None else _parse_up_axis(up_axis)
+    return detect_up_axis(skeleton) if up_axis is None else parse_up_axis(up_axis)
 
 
 def _forward_axis(up: np.ndarray) -> np.ndarray:
@@ -288,7 +288,7 @@ class Features:
         names = tuple(str(n) for n in self.names)
         if v.ndim != 2 or v.shape[1] != len(names):
             raise ValueError(f"values: expected shape (F, {len(names)}), got {v.shape}")
-        object.__setattr__(self, "values", _readonly(v))
+        object.__setattr__(self, "values", readonly_view(v))
         object.__setattr__(self, "names", names)
         object.__setattr__(self, "fps", float(self.fps))
 

@@ -282,7 +282,7 @@ def precision_recall(detected: np.ndarray, truth: np.ndarray) -> DetectionScore:
     )
 
 
-def _word_starts(F: int, word_length: int, stride: int) -> np.ndarray:
+def motion_word_starts(F: int, word_length: int, stride: int) -> np.ndarray:
     """Starts of words of ``word_length`` frames every ``stride`` frames, plus one flush with the end."""
     if word_length < 1 or stride < 1:
         raise ValueError(f"word_length and stride must be at least 1, got {word_length} and {stride}")
@@ -294,7 +294,7 @@ def _word_starts(F: int, word_length: int, stride: int) -> np.ndarray:
 
 
 def _words(mask: np.ndarray, word_length: int, stride: int) -> np.ndarray:
-    starts = _word_starts(mask.shape[0], word_length, stride)
+    starts = motion_word_starts(mask.shape[0], word_length, stride)
     return np.stack([mask[s : s + word_length].any(axis=0) for s in starts])
 
 

@@ -43,7 +43,7 @@ DEFAULT_JOINT_CHANNELS = ("Zrotation", "Yrotation", "Xrotation")
 _CHANNEL_NAMES = {"Xposition", "Yposition", "Zposition", "Xrotation", "Yrotation", "Zrotation"}
 
 
-def _readonly(a: np.ndarray) -> np.ndarray:
+def readonly_view(a: np.ndarray) -> np.ndarray:
     v = a.view()
     v.setflags(write=False)
     return v
@@ -54,7 +54,7 @@ def _as_float(a, name: str, shape_tail: tuple[int, ...], ndim: int) -> np.ndarra
     if arr.ndim != ndim or arr.shape[arr.ndim - len(shape_tail):] != shape_tail:
         tail = ", ".join(str(s) for s in shape_tail)
         raise SkeletonError(f"{name}: expected shape ({'N, ' * (ndim - len(shape_tail))}{tail}), got {arr.shape}")
-    return _readonly(arr)
+    return readonly_view(arr)
 
 
 @dataclass(frozen=True, eq=False)
@@ -114,7 +114,7 @@ class Skeleton:
             raise SkeletonError("the root must be joint 0 with parent -1")
         if J > 1 and np.any((parents[1:] < 0) | (parents[1:] >= np.arange(1, J))):
             raise SkeletonError("parents must be in topological order: 0 <= parents[j] < j for every j > 0")
-        object.__setattr__(self, "parents", _readonly(parents))
+        object.__setattr__(self, "parents", readonly_view(parents))
         offsets = _as_float(self.offsets, "offsets", (3,), 2)
         if offsets.shape[0] != J:
             raise SkeletonError(f"offsets: expected shape ({J}, 3), got {offsets.shape}")
@@ -122,7 +122,7 @@ class Skeleton:
         esp = np.asarray(self.end_site_parents, dtype=np.int64).reshape(-1)
         if np.any((esp < 0) | (esp >= J)):
             raise SkeletonError("end_site_parents must index joints")
-        object.__setattr__(self, "end_site_parents", _readonly(esp))
+        object.__setattr__(self, "end_site_parents", readonly_view(esp))
         eso = _as_float(np.asarray(self.end_site_offsets, dtype=np.float64).reshape(-1, 3), "end_site_offsets", (3,), 2)
         if eso.shape[0] != esp.shape[0]:
             raise SkeletonError("end_site_offsets and end_site_parents differ in length")
@@ -281,15 +281,15 @@ class Motion:
         fps = float(self.fps)
         if not np.isfinite(fps) or fps <= 0:
             raise SkeletonError(f"fps must be a positive number, got {self.fps!r}")
-        object.__setattr__(self, "rotations", _readonly(rot))
-        object.__setattr__(self, "root_positions", _readonly(root))
+        object.__setattr__(self, "rotations", readonly_view(rot))
+        object.__setattr__(self, "root_positions", readonly_view(root))
         object.__setattr__(self, "fps", fps)
         object.__setattr__(self, "name", str(self.name))
         if self.translations is not None:
             tr = np.asarray(self.translations, dtype=np.float64)
             if tr.shape != (F, J, 3):
                 raise SkeletonError(f"translations: expected shape ({F}, {J}, 3), got {tr.shape}")
-            object.__setattr__(self, "translations", _readonly(tr))
+            object.__setattr__(self, "translations", readonly_view(tr))
 
     # -- sizes -------------------------------------------------------------
     @property

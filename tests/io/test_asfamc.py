@@ -1,6 +1,7 @@
 """ASF/AMC reading: every real clip against an independent FK oracle, the AMC's own numbers,
 skeleton conversion, skeleton lookup, bad files, and a golden comparison with a BVH conversion."""
 
+from tests.shared import curated_files
 import dataclasses
 import re
 
@@ -57,7 +58,7 @@ def first_frame_line(lines: list[str]) -> int:
 
 
 def test_every_amc_in_shared_data_loads_and_matches_the_oracle(shared_data):
-    files = sorted(shared_data.rglob("*.amc"))
+    files = curated_files(shared_data, "*.amc")
     assert len(files) >= 280
     for f in files:
         m = mocapkit.load(f)  # the ASF is found automatically
@@ -83,7 +84,7 @@ def test_cmu_root_positions_and_units(shared_data):
     m = mocapkit.load(shared_data / "cmu_asfamc" / "01_01.amc")
     frames, _ = naive_amc_parse(shared_data / "cmu_asfamc" / "01_01.amc")
     np.testing.assert_array_equal(m.root_positions, [f["root"][:3] for f in frames])
-    for f in sorted(shared_data.rglob("*.asf")):
+    for f in curated_files(shared_data, "*.asf"):
         sk = read_asf(f)
         assert sk.unit_cm == pytest.approx(2.54 / 0.45, rel=1e-15), f.name
         assert unit_scale_cm(sk) == pytest.approx(2.54 / 0.45, rel=1e-15), f.name
@@ -516,7 +517,7 @@ def test_cmu_amc_equals_its_cgspeed_bvh_conversion(shared_data):
 
 
 def test_amc_motions_round_trip_through_bvh_and_npz(tmp_path, shared_data):
-    files = sorted(shared_data.rglob("*.amc"))[::25] + [mocapkit.samples.path("12_walk.amc")]
+    files = curated_files(shared_data, "*.amc")[::25] + [mocapkit.samples.path("12_walk.amc")]
     for f in files:
         m = mocapkit.load(f)
         ref = m.global_positions(end_sites=True)

@@ -7,7 +7,7 @@ import pytest
 
 import mocapkit
 from mocapkit import samples
-from mocapkit.features import _parse_up_axis, virtual_markers
+from mocapkit.features import parse_up_axis, virtual_markers
 from mocapkit.motion import unit_scale_cm
 from mocapkit.reconstruct.control import control_markers, parse_use, up_rotation
 
@@ -18,7 +18,7 @@ AXES = ["x", "y", "z", "-x", "-y", "-z"]
 def test_up_rotation_is_proper_and_maps_up_to_up(src, dst):
     P = up_rotation(src, dst)
     assert np.allclose(P @ P.T, np.eye(3)) and np.isclose(np.linalg.det(P), 1.0)
-    assert np.allclose(P @ _parse_up_axis(src), _parse_up_axis(dst))
+    assert np.allclose(P @ parse_up_axis(src), parse_up_axis(dst))
 
 
 def test_parse_use_errors():

@@ -41,7 +41,7 @@ from scipy.ndimage import gaussian_filter1d
 from scipy.signal import savgol_filter
 
 from .. import rotations as R
-from ..corrupt import _joint_set
+from ..corrupt import joint_set
 from ..motion import Motion
 from .ik import contact_segments
 
@@ -79,7 +79,7 @@ def _filter_tracks(x: np.ndarray, valid: np.ndarray, func: Callable[[np.ndarray]
 
 
 def _smooth(motion: Motion, func, joints, root: bool) -> Motion:
-    sel = _joint_set(motion, joints, include_root=True)
+    sel = joint_set(motion, joints, include_root=True)
     rot = np.array(motion.rotations)
     if motion.num_frames >= 2 and sel.any():
         src = motion.rotations[:, sel]

@@ -49,7 +49,7 @@ import numpy as np
 
 from .. import rotations as R
 from ..errors import SkeletonError
-from ..features import _parse_up_axis, detect_up_axis
+from ..features import parse_up_axis, detect_up_axis
 from ..motion import ROLES, Motion, Skeleton, find_joint, unit_scale_cm
 
 __all__ = ["two_bone_ik", "fabrik", "foot_contacts", "foot_skate_cleanup", "reach", "contact_segments"]
@@ -638,7 +638,7 @@ def foot_contacts(
         raise ValueError("foot_contacts: no feet given")
     if not (velocity_cm_s > 0 and height_cm > 0 and min_duration_s >= 0):
         raise ValueError("foot_contacts: velocity_cm_s and height_cm must be > 0, min_duration_s >= 0")
-    up = detect_up_axis(sk) if up_axis is None else _parse_up_axis(up_axis)
+    up = detect_up_axis(sk) if up_axis is None else parse_up_axis(up_axis)
     cm = unit_scale_cm(sk)
     if F == 0:
         return np.zeros((0, len(feet_idx)), dtype=bool)

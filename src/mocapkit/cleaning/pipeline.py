@@ -288,7 +288,7 @@ def noisy_cells(motion: Motion, noise_deg: float = NOISE_DEG) -> tuple[np.ndarra
 # -- the pipeline ----------------------------------------------------------------------------
 
 
-def _steps(steps) -> tuple[str, ...]:
+def parse_steps(steps) -> tuple[str, ...]:
     if isinstance(steps, str):
         steps = [s.strip() for s in steps.split(",") if s.strip()]
     steps = list(steps)
@@ -439,7 +439,7 @@ def clean(
     from . import ssa
 
     _check(motion)
-    steps = _steps(steps)
+    steps = parse_steps(steps)
     models = _models(models)
     if not 0.0 < threshold < 1.0:
         raise ValueError(f"threshold must be in (0, 1), got {threshold}")

@@ -102,7 +102,7 @@ from scipy.signal import resample_poly, savgol_filter
 from .. import rotations as R
 from ..errors import SkeletonError
 from ..features import detect_up_axis
-from ..metrics import _word_starts
+from ..metrics import motion_word_starts
 from ..motion import Motion, _side_and_part, bone_moving_joints, find_joint
 from . import word_dtw
 from .filters import window_frames
@@ -314,7 +314,7 @@ def motion_words(num_frames: int, length: int = 15, stride: int = 5) -> np.ndarr
     """First frames of the source words: every ``stride`` frames, plus one flush with the end (section 5)."""
     if num_frames < length:
         raise ValueError(f"a clip of {num_frames} frames is shorter than one motion word ({length} frames)")
-    return _word_starts(num_frames, length, stride)
+    return motion_word_starts(num_frames, length, stride)
 
 
 def word_distance(a: np.ndarray, b: np.ndarray, drop: int = 3, min_width: int = 11, max_run: int = 3):
@@ -1826,7 +1826,7 @@ def reconstruct_sparse(
     full = motion_texture(ctx, fps, all_rows, up)
     if src.num_frames < N:
         raise ValueError(f"a clip of {src.num_frames} frames at {fps:g} fps is shorter than one motion word")
-    words = _word_starts(src.num_frames, N, N)
+    words = motion_word_starts(src.num_frames, N, N)
     nb = nearest_words(src, full, [known], words, k=k, source_length=N, target_length=M, min_width=min(11, N), self_clip=None)
     drop = _drop(known)
     out = np.array(src.values)

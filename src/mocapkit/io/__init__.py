@@ -23,7 +23,7 @@ READERS = {".bvh": "bvh", ".amc": "asfamc", ".npz": "npz", ".c3d": "c3d"}
 WRITERS = {".bvh": "bvh", ".npz": "npz"}
 
 
-def _suffix(path: Path, table: dict, verb: str) -> str:
+def suffix_kind(path: Path, table: dict, verb: str) -> str:
     suf = path.suffix.lower()
     if suf not in table:
         known = ", ".join(sorted(table))
@@ -37,7 +37,7 @@ def load(path, **kwargs):
     Keyword arguments go to the format's reader (e.g. ``asf=`` and ``fps=`` for AMC).
     """
     path = Path(path)
-    kind = _suffix(path, READERS, "reading")
+    kind = suffix_kind(path, READERS, "reading")
     if not path.is_file():
         raise MocapFormatError(path, "no such file" if not path.exists() else "not a regular file")
     if kind == "bvh":
@@ -54,7 +54,7 @@ def load(path, **kwargs):
 def save(motion, path, **kwargs) -> Path:
     """Write ``motion`` to ``path`` (.bvh or .npz) atomically; returns the path."""
     path = Path(path)
-    kind = _suffix(path, WRITERS, "writing")
+    kind = suffix_kind(path, WRITERS, "writing")
     if kind == "bvh":
         from .bvh import write_bvh as writer
     else:

@@ -19,7 +19,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import MocapFormatError
-from ..motion import _readonly
+from ..motion import readonly_view
 
 __all__ = ["MarkerSet", "read_c3d"]
 
@@ -55,7 +55,7 @@ class MarkerSet:
         labels = tuple(str(label) for label in self.labels)
         if pos.ndim != 3 or pos.shape[1:] != (len(labels), 3):
             raise ValueError(f"positions: expected shape (F, {len(labels)}, 3), got {pos.shape}")
-        object.__setattr__(self, "positions", _readonly(pos))
+        object.__setattr__(self, "positions", readonly_view(pos))
         object.__setattr__(self, "labels", labels)
         object.__setattr__(self, "fps", float(self.fps))
 

@@ -20,7 +20,7 @@ from typing import Sequence
 
 import numpy as np
 
-from ..features import _parse_up_axis, detect_up_axis, virtual_markers
+from ..features import parse_up_axis, detect_up_axis, virtual_markers
 from ..io.c3d import MarkerSet
 from ..motion import Motion, Skeleton, unit_scale_cm
 
@@ -65,8 +65,8 @@ def up_rotation(source_up, target_up) -> np.ndarray:
     >>> up_rotation("z", "y") @ np.array([0.0, 0.0, 1.0])
     array([0., 1., 0.])
     """
-    s = _parse_up_axis(source_up)
-    t = _parse_up_axis(target_up)
+    s = parse_up_axis(source_up)
+    t = parse_up_axis(target_up)
     ks, kt = int(np.argmax(np.abs(s))), int(np.argmax(np.abs(t)))
     shift = (kt - ks) % 3
     P = np.roll(np.eye(3), shift, axis=0)  # P @ e_ks = e_kt

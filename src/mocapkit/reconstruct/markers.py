@@ -94,7 +94,7 @@ from tqdm.auto import tqdm
 
 from .. import rotations as R
 from ..database import MotionDatabase
-from ..features import _parse_up_axis, detect_up_axis, root_frame, virtual_markers
+from ..features import parse_up_axis, detect_up_axis, root_frame, virtual_markers
 from ..motion import Motion, Skeleton, unit_scale_cm
 from ..search.knn import KNNIndex
 from ._common import _qexp, _qmul, _qrot, align_about_vertical, database_positions, output_skeleton, per_clip
@@ -443,7 +443,7 @@ def _run(
     run_fps = float(db.fps)
     if run_fps != fps:
         x = _resample_markers(x, fps, run_fps)
-    up = detect_up_axis(db.skeletons[0]) if up_axis is None else _parse_up_axis(up_axis)
+    up = detect_up_axis(db.skeletons[0]) if up_axis is None else parse_up_axis(up_axis)
     mdb = _marker_database(db, joints, up)
     scale = unit_scale_cm(sk)
     index, offset = _marker_columns(sk, joints)

@@ -59,7 +59,7 @@ from tqdm.auto import tqdm
 
 from .. import rotations as R
 from ..features import Sensor, default_sensors, detect_up_axis, feature_set, five_point_derivative, root_frame
-from ..features import _parse_up_axis, virtual_markers
+from ..features import parse_up_axis, virtual_markers
 from ..motion import Motion, Skeleton, unit_scale_cm
 from ..search.dtw import dtw
 
@@ -235,7 +235,7 @@ def acceleration_distance(a: np.ndarray, b: np.ndarray, up_axis=(0.0, 1.0, 0.0))
 
 def _unit_up(up_axis) -> np.ndarray:
     if isinstance(up_axis, (str, int, np.integer)):
-        return _parse_up_axis(up_axis)
+        return parse_up_axis(up_axis)
     u = np.asarray(up_axis, dtype=np.float64).reshape(-1)
     if u.shape != (3,) or not np.isfinite(u).all() or np.linalg.norm(u) == 0:
         raise ValueError(f"up_axis: expected an axis name or a non-zero (3,) vector, got {up_axis!r}")
@@ -452,7 +452,7 @@ def motion_tensor(
     for c in clips:
         if c.num_frames < 2 or not (np.isfinite(c.rotations).all() and np.isfinite(c.root_positions).all()):
             raise ValueError(f"clip {c.name!r} has fewer than 2 frames or missing (NaN) values; fill gaps first")
-    up = detect_up_axis(sk0) if up_axis is None else _parse_up_axis(up_axis)
+    up = detect_up_axis(sk0) if up_axis is None else parse_up_axis(up_axis)
 
     res = [c.resample(fps) for c in clips]
     lengths = np.array([m.num_frames for m in res])
@@ -654,7 +654,7 @@ class MultilinearModel:
         self.skeleton_ = tensor.skeleton
         self.modes_ = tensor.modes
         self.entries_ = tensor.entries
-        self.up_ = detect_up_axis(tensor.skeleton) if self.up_axis is None else _parse_up_axis(self.up_axis)
+        self.up_ = detect_up_axis(tensor.skeleton) if self.up_axis is None else parse_up_axis(self.up_axis)
         rq = [ranks.get(n) for n in names_q]
         names_p = ("dof", "frame") + tensor.modes
         rp = [ranks.get(n) for n in names_p]

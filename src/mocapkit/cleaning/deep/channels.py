@@ -221,7 +221,7 @@ def decode(values: np.ndarray, like: Motion, layout: ChannelLayout, keep: np.nda
         )
         rot = np.array(new.rotations)
     else:
-        from ...corrupt import _project_to_dofs
+        from ...corrupt import project_to_dofs
 
         ids = np.array([sk.index(n) for n in layout.joints], dtype=np.int64)
         q = R.matrix_to_quaternion(_gram_schmidt(values.reshape(F, len(ids), 6)))
@@ -231,7 +231,7 @@ def decode(values: np.ndarray, like: Motion, layout: ChannelLayout, keep: np.nda
             q = R.quaternion_multiply(R.quaternion_multiply(c, q), R.quaternion_conjugate(c))
         rot = np.array(like.rotations)
         for k, j in enumerate(ids):
-            rot[:, j] = _project_to_dofs(sk, int(j), q[:, k])
+            rot[:, j] = project_to_dofs(sk, int(j), q[:, k])
     ref = like.rotations
     finite = np.all(np.isfinite(ref), axis=-1, keepdims=True)
     flip = finite & (np.sum(rot * np.nan_to_num(ref), axis=-1, keepdims=True) < 0.0)

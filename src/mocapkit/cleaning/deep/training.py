@@ -197,7 +197,7 @@ def channel_joints(layout: ChannelLayout) -> np.ndarray:
 NOISE_KINDS = ("angular", "uniform", "spatial", "bias-constant", "bias-sinusoidal", "clean")
 
 
-def _noisy(motion: Motion | None, spec: str, seed, check_only: bool = False) -> Motion | None:
+def noisy_motion(motion: Motion | None, spec: str, seed, check_only: bool = False) -> Motion | None:
     """``motion`` corrupted by one noise setting ``KIND:AMOUNT`` (see :data:`NOISE_KINDS`)."""
     kind, _, amount = spec.partition(":")
     try:
@@ -227,7 +227,7 @@ def prepare_clip(args) -> dict:
     noisy = []
     for k, spec in enumerate(noise):
         for v in range(variants):
-            x, _ = encode(_noisy(motion, spec, (seed, k, v)), layout)
+            x, _ = encode(noisy_motion(motion, spec, (seed, k, v)), layout)
             # Unwrapping can start on the other side of +-180: align each channel's turn count to the clean one.
             x = x - 360.0 * np.round(np.nanmedian(x - clean, axis=0) / 360.0)
             noisy.append(x.astype(np.float32))
