@@ -29,8 +29,6 @@ from __future__ import annotations
 
 import json
 import os
-import shutil
-import tempfile
 from dataclasses import dataclass
 from functools import partial
 from pathlib import Path
@@ -38,17 +36,17 @@ from typing import Iterable, Mapping, Sequence
 
 import numpy as np
 
+from .database_folder import FORMAT_VERSION, FPS_RANGE, Description, check_database_output, read_folder, skeleton_to_json, write_folder
 from .errors import MocapError, MocapFormatError
 from .features import FEATURE_SETS, WINDOWED_SETS, feature_set
+from .io.outputs import same_file
 from .motion import Motion, Skeleton, readonly_view
 from .search.matches import Match
 
-__all__ = ["MotionDatabase", "ClipInfo", "SearchResult", "FORMAT_VERSION", "SUFFIXES"]
+__all__ = ["MotionDatabase", "ClipInfo", "SearchResult", "FORMAT_VERSION", "FPS_RANGE", "SUFFIXES", "check_database_output"]
 
-FORMAT_VERSION = 1
 #: File suffixes a database is built from (C3D marker files hold no skeleton motion).
 SUFFIXES = (".bvh", ".amc", ".npz")
-_DESCRIPTION = "database.json"
 
 
 @dataclass(frozen=True)
@@ -92,35 +90,7 @@ class SearchResult:
         return {"clip": self.clip, "name": self.name, "start": self.start, "end": self.end, "cost": self.cost}
 
 
-# -- skeletons to and from JSON -------------------------------------------------------------
-
-
-def _skeleton_to_json(sk: Skeleton) -> dict:
-    return {
-        "joint_names": list(sk.joint_names),
-        "parents": sk.parents.tolist(),
-        "offsets": sk.offsets.tolist(),
-        "end_site_parents": sk.end_site_parents.tolist(),
-        "end_site_offsets": sk.end_site_offsets.tolist(),
-        "channels": None if sk.channels is None else [list(c) for c in sk.channels],
-        "axes": None if sk.axes is None else sk.axes.tolist(),
-        "limits": None if sk.limits is None else [[list(p) for p in jl] for jl in sk.limits],
-        "unit_cm": sk.unit_cm,
-    }
-
-
-def _skeleton_from_json(d: dict) -> Skeleton:
-    return Skeleton(
-        joint_names=tuple(d["joint_names"]),
-        parents=np.asarray(d["parents"], dtype=np.int64),
-        offsets=np.asarray(d["offsets"], dtype=np.float64).reshape(-1, 3),
-        end_site_parents=np.asarray(d["end_site_parents"], dtype=np.int64),
-        end_site_offsets=np.asarray(d["end_site_offsets"], dtype=np.float64).reshape(-1, 3),
-        channels=None if d["channels"] is None else tuple(tuple(c) for c in d["channels"]),
-        axes=None if d["axes"] is None else np.asarray(d["axes"], dtype=np.float64),
-        limits=None if d["limits"] is None else tuple(tuple(tuple(p) for p in jl) for jl in d["limits"]),
-        unit_cm=d["unit_cm"],
-    )
+# -- skeleton topology ----------------------------------------------------------------------------
 
 
 def _topology(sk: Skeleton) -> tuple:
@@ -604,8 +574,8 @@ class MotionDatabase:
         from .parallel import map_ordered
 
         fps = float(fps)
-        if not np.isfinite(fps) or fps <= 0:
-            raise ValueError(f"fps must be a positive number, got {fps!r}")
+        if not FPS_RANGE[0] <= fps <= FPS_RANGE[1]:
+            raise ValueError(f"fps must be between {FPS_RANGE[0]:g} and {FPS_RANGE[1]:g}, got {fps!r}")
         features = _check_features(features)
         items = _expand_sources(sources)
         first = _prepare(items[0], fps, features, mirror, None, joint_map)
@@ -639,7 +609,7 @@ class MotionDatabase:
         a = 0
         for e in entries:
             F = e["rotations"].shape[0]
-            key = json.dumps(_skeleton_to_json(e["skeleton"]), sort_keys=True)
+            key = json.dumps(skeleton_to_json(e["skeleton"]), sort_keys=True)
             if key not in keys:
                 keys[key] = len(skeletons)
                 skeletons.append(e["skeleton"])
@@ -661,107 +631,64 @@ class MotionDatabase:
 
     # -- saving and opening ---------------------------------------------------------------------
 
-    def save(self, directory, overwrite: bool = False) -> Path:
-        """Write the database to ``directory`` (created; atomically replaced with ``overwrite``).
+    def save(self, directory, overwrite: bool = False, inputs: Iterable = ()) -> Path:
+        """Write the database to the folder ``directory`` (created; replaced only with ``overwrite``).
 
-        Layout: ``database.json`` (frame rate, skeletons, clips, feature
-        names), ``rotations.npy``, ``root_positions.npy``, ``clip_ids.npy``,
-        ``features/<name>.npy`` and, when some clip animates joint offsets,
-        ``translations.npy``. Everything is written into a temporary folder
-        beside the target and renamed into place, so an interrupted save
-        leaves no partial database.
+        Layout (:mod:`mocapkit.database_folder`): ``database.json`` (frame
+        rate, skeletons, clips, feature sets), ``rotations.npy``,
+        ``root_positions.npy``, ``clip_ids.npy``, ``features/<name>.npy`` and,
+        when some clip animates joint offsets, ``translations.npy``.
+
+        ``directory`` is first checked by :func:`check_database_output`
+        against ``inputs`` (the paths the database was built from): it may not
+        be, lie in or hold an input, and an existing folder is replaced only
+        with ``overwrite`` and only when it is a mocapkit database. The folder
+        is written beside the target and renamed into place; an old database
+        is deleted only after the new one is in place, so an interrupted save
+        leaves the old or the new database, never a partial one. Returns the
+        resolved path written.
         """
-        directory = Path(directory)
-        if directory.exists() and not overwrite:
-            raise MocapFormatError(directory, "already exists; choose another folder or pass overwrite=True")
-        if self.path is not None and directory.resolve() == Path(self.path).resolve():
+        if self.path is not None and same_file(directory, self.path):
             raise MocapFormatError(directory, "cannot save a database over the folder it is opened from")
-        directory.parent.mkdir(parents=True, exist_ok=True)
-        tmp = Path(tempfile.mkdtemp(prefix=f".{directory.name}.", suffix=".part", dir=directory.parent))
-        try:
-            (tmp / "features").mkdir()
-            np.save(tmp / "rotations.npy", self.rotations)
-            np.save(tmp / "root_positions.npy", self.root_positions)
-            np.save(tmp / "clip_ids.npy", self.clip_ids)
-            if self.translations is not None:
-                np.save(tmp / "translations.npy", self.translations)
-            for name, f in self.features.items():
-                np.save(tmp / "features" / f"{name}.npy", f)
-            desc = {
-                "format": "mocapkit-motion-database",
-                "format_version": FORMAT_VERSION,
-                "fps": self.fps,
-                "num_frames": self.num_frames,
-                "feature_unit": "cm",
-                "features": {n: int(f.shape[1]) for n, f in self.features.items()},
-                "skeletons": [_skeleton_to_json(s) for s in self.skeletons],
-                "clips": [
-                    {"name": c.name, "source": c.source, "start": c.start, "frames": c.frames, "skeleton": c.skeleton, "mirrored": c.mirrored}
-                    for c in self.clips
-                ],
-                "info": self.info,
-            }
-            with open(tmp / _DESCRIPTION, "w", encoding="utf-8") as fh:
-                json.dump(desc, fh, indent=1)
-            if directory.exists():
-                old = Path(tempfile.mkdtemp(prefix=f".{directory.name}.", suffix=".old", dir=directory.parent))
-                os.replace(directory, old / "db")
-                os.replace(tmp, directory)
-                shutil.rmtree(old, ignore_errors=True)
-            else:
-                os.replace(tmp, directory)
-        except BaseException:
-            shutil.rmtree(tmp, ignore_errors=True)
-            raise
-        return directory
+        desc = Description(
+            fps=self.fps,
+            num_frames=self.num_frames,
+            skeletons=self.skeletons,
+            clips=tuple((c.name, c.source, c.start, c.frames, c.skeleton, c.mirrored) for c in self.clips),
+            features={n: int(f.shape[1]) for n, f in self.features.items()},
+            info=self.info,
+        )
+        arrays = {"rotations.npy": self.rotations, "root_positions.npy": self.root_positions, "clip_ids.npy": self.clip_ids}
+        if self.translations is not None:
+            arrays["translations.npy"] = self.translations
+        arrays.update({f"features/{n}.npy": f for n, f in self.features.items()})
+        return write_folder(directory, desc, arrays, inputs=inputs, overwrite=overwrite)
 
     @classmethod
     def open(cls, directory, mmap: bool = True) -> "MotionDatabase":
-        """Open a database written by :meth:`save`; arrays are memory-mapped read-only unless ``mmap=False``."""
+        """Open a database written by :meth:`save`; arrays are memory-mapped read-only unless ``mmap=False``.
+
+        The folder is checked in full before any array is mapped
+        (:func:`mocapkit.database_folder.read_folder`: the description's
+        size, nesting, version and every field, each ``.npy`` header against
+        the description and the file's size); any fault is one
+        :class:`~mocapkit.errors.MocapFormatError` line naming the file.
+        """
         directory = Path(directory)
-        desc_path = directory / _DESCRIPTION
-        if not desc_path.is_file():
-            raise MocapFormatError(directory, f"not a motion database (no {_DESCRIPTION})")
+        desc, arrays = read_folder(directory, mmap=mmap)
         try:
-            with open(desc_path, encoding="utf-8") as fh:
-                desc = json.load(fh)
-        except (OSError, ValueError) as exc:
-            raise MocapFormatError(desc_path, f"unreadable database description ({exc})") from None
-        if desc.get("format") != "mocapkit-motion-database" or desc.get("format_version") != FORMAT_VERSION:
-            raise MocapFormatError(desc_path, f"not a mocapkit motion database of format version {FORMAT_VERSION}")
-        mode = "r" if mmap else None
-
-        def load(rel: str, shape_head: tuple) -> np.ndarray:
-            p = directory / rel
-            try:
-                a = np.load(p, mmap_mode=mode, allow_pickle=False)
-            except (OSError, ValueError) as exc:
-                raise MocapFormatError(p, f"unreadable array ({exc})") from None
-            if a.shape[: len(shape_head)] != shape_head:
-                raise MocapFormatError(p, f"expected shape {shape_head + ('...',)}, got {a.shape}")
-            return a
-
-        try:
-            N = int(desc["num_frames"])
-            skeletons = [_skeleton_from_json(s) for s in desc["skeletons"]]
-            clips = [ClipInfo(c["name"], c["source"], int(c["start"]), int(c["frames"]), int(c["skeleton"]), bool(c["mirrored"])) for c in desc["clips"]]
-            J = skeletons[0].num_joints
-            features = {n: load(f"features/{n}.npy", (N, int(d))) for n, d in desc["features"].items()}
-            tr = load("translations.npy", (N, J, 3)) if (directory / "translations.npy").exists() else None
             return cls(
-                fps=float(desc["fps"]),
-                skeletons=skeletons,
-                clips=clips,
-                rotations=load("rotations.npy", (N, J, 4)),
-                root_positions=load("root_positions.npy", (N, 3)),
-                features=features,
-                translations=tr,
-                clip_ids=load("clip_ids.npy", (N,)),
+                fps=desc.fps,
+                skeletons=desc.skeletons,
+                clips=[ClipInfo(*c) for c in desc.clips],
+                rotations=arrays["rotations.npy"],
+                root_positions=arrays["root_positions.npy"],
+                features={n: arrays[f"features/{n}.npy"] for n in desc.features},
+                translations=arrays.get("translations.npy"),
+                clip_ids=arrays["clip_ids.npy"],
                 path=directory,
-                info=desc.get("info", {}),
+                info=desc.info,
             )
-        except (KeyError, TypeError, IndexError) as exc:
-            raise MocapFormatError(desc_path, f"incomplete database description ({exc!r})") from None
         except ValueError as exc:
             raise MocapFormatError(directory, f"inconsistent database ({exc})") from None
 

@@ -1,0 +1,485 @@
+"""The motion database folder on disk: its layout, the guard on writing it, the checks on opening it.
+
+A :class:`~mocapkit.database.MotionDatabase` is saved as a folder::
+
+    database.json         description: format, version, fps, frames, feature sets,
+                          skeletons, clips (name, source, start, frames, skeleton, mirrored), info
+    rotations.npy         float32 (N, J, 4), local rotations, w first
+    root_positions.npy    float32 (N, 3), file units of the clip's skeleton
+    clip_ids.npy          int32 (N,), clip number of each frame
+    translations.npy      float32 (N, J, 3), only when some clip animates joint offsets
+    features/<name>.npy   float64 (N, D), one per feature set, centimetres
+
+Writing must lose nothing (:func:`check_database_output`): the folder may not
+be, lie in or hold an input, and an existing folder is replaced only when the
+caller says so and it is a mocapkit database holding nothing else. The write
+goes to a temporary folder beside the target and is renamed into place.
+
+Opening trusts nothing (:func:`read_folder`): the description is bounded in
+size and nesting before it is parsed, every field's type and range is
+checked, feature names are plain identifiers of known feature sets (never
+paths), and every ``.npy`` header is compared with the description and the
+file's size before numpy maps it. Each failure is one
+:class:`~mocapkit.errors.MocapFormatError` line naming the file.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import re
+import shutil
+import tempfile
+from pathlib import Path
+from typing import Iterable, Mapping, NamedTuple, Sequence
+
+import numpy as np
+
+from .errors import MocapError, MocapFormatError
+from .features import FEATURE_SETS, WINDOWED_SETS
+from .io.outputs import inside, same_file
+from .motion import Skeleton
+
+__all__ = [
+    "FORMAT",
+    "FORMAT_VERSION",
+    "DESCRIPTION",
+    "FPS_RANGE",
+    "Description",
+    "check_database_output",
+    "skeleton_to_json",
+    "write_folder",
+    "read_folder",
+]
+
+FORMAT = "mocapkit-motion-database"
+FORMAT_VERSION = 1
+DESCRIPTION = "database.json"
+#: Frame rates (fps) a database may have: queries are resampled to it, so it bounds their size.
+FPS_RANGE = (1.0, 1000.0)
+#: dtype of each stored array, by file name ("features" for every features/<name>.npy).
+_ARRAY_DTYPES = {
+    "rotations.npy": np.dtype("<f4"),
+    "root_positions.npy": np.dtype("<f4"),
+    "translations.npy": np.dtype("<f4"),
+    "clip_ids.npy": np.dtype("<i4"),
+    "features": np.dtype("<f8"),
+}
+_MAX_DESCRIPTION_BYTES = 256 * 2**20  # about ten times that in memory once parsed
+_MAX_JSON_DEPTH = 32  # a saved description nests 5 deep (skeleton limits)
+_FEATURE_NAME = re.compile(r"[A-Za-z_][A-Za-z0-9_]{0,63}")
+_TOP_KEYS = ("format", "format_version", "fps", "num_frames", "feature_unit", "features", "skeletons", "clips")
+_SKELETON_KEYS = ("joint_names", "parents", "offsets", "end_site_parents", "end_site_offsets", "channels", "axes", "limits", "unit_cm")
+_CLIP_KEYS = ("name", "source", "start", "frames", "skeleton", "mirrored")
+
+
+class Description(NamedTuple):
+    """What ``database.json`` says, checked.
+
+    ``clips`` holds one ``(name, source, start, frames, skeleton, mirrored)``
+    tuple per clip (the fields of :class:`~mocapkit.database.ClipInfo`);
+    ``features`` maps each feature set to its number of columns.
+    """
+
+    fps: float
+    num_frames: int
+    skeletons: tuple[Skeleton, ...]
+    clips: tuple[tuple, ...]
+    features: dict[str, int]
+    info: dict
+
+
+# -- paths ---------------------------------------------------------------------------------------
+
+
+def _real(path) -> Path:
+    """``path`` made absolute with symlinks, ``.`` and ``..`` resolved."""
+    return Path(os.path.realpath(os.path.abspath(os.fspath(path))))
+
+
+def _named_inside(path, folder) -> bool:
+    """True when ``path`` is ``folder`` or below it by name: ``.`` and ``..`` removed, symlinks not followed."""
+    p, f = (Path(os.path.normpath(os.path.abspath(os.fspath(x)))) for x in (path, folder))
+    return p == f or f in p.parents
+
+
+# -- the description -----------------------------------------------------------------------------
+
+
+def skeleton_to_json(sk: Skeleton) -> dict:
+    """A skeleton as the JSON object ``database.json`` stores (lists, numbers, strings, null)."""
+    return {
+        "joint_names": list(sk.joint_names),
+        "parents": sk.parents.tolist(),
+        "offsets": sk.offsets.tolist(),
+        "end_site_parents": sk.end_site_parents.tolist(),
+        "end_site_offsets": sk.end_site_offsets.tolist(),
+        "channels": None if sk.channels is None else [list(c) for c in sk.channels],
+        "axes": None if sk.axes is None else sk.axes.tolist(),
+        "limits": None if sk.limits is None else [[list(p) for p in jl] for jl in sk.limits],
+        "unit_cm": sk.unit_cm,
+    }
+
+
+def _json_depth(text: str) -> int:
+    """Deepest nesting of ``[`` and ``{`` in JSON text, counted in linear time (strings skipped)."""
+    bare = re.sub(r'"(?:[^"\\]|\\.)*"', "", text).encode("utf-8", "surrogatepass")
+    b = np.frombuffer(bare, dtype=np.uint8)
+    step = np.isin(b, (ord("["), ord("{"))).astype(np.int64) - np.isin(b, (ord("]"), ord("}")))
+    return int(np.cumsum(step).max(initial=0))
+
+
+def _read_json(path: Path) -> dict:
+    """The parsed ``database.json``, bounded in size and depth before parsing; a JSON object."""
+    try:
+        size = path.stat().st_size
+        if size > _MAX_DESCRIPTION_BYTES:
+            raise MocapFormatError(path, f"database description of {size} bytes is over the {_MAX_DESCRIPTION_BYTES}-byte limit")
+        with open(path, encoding="utf-8") as fh:
+            text = fh.read(_MAX_DESCRIPTION_BYTES + 1)
+        depth = _json_depth(text)
+        if depth > _MAX_JSON_DEPTH:
+            raise MocapFormatError(path, f"database description nests {depth} deep (at most {_MAX_JSON_DEPTH})")
+        desc = json.loads(text)
+    except MocapFormatError:
+        raise
+    except (OSError, ValueError, RecursionError) as exc:
+        raise MocapFormatError(path, f"unreadable database description ({exc})") from None
+    if not isinstance(desc, dict):
+        raise MocapFormatError(path, f"the database description is a JSON {type(desc).__name__}, not an object")
+    return desc
+
+
+def _is_int(x) -> bool:
+    return isinstance(x, int) and not isinstance(x, bool)
+
+
+def _is_number(x, allow_inf: bool = False) -> bool:
+    return isinstance(x, (int, float)) and not isinstance(x, bool) and (math.isfinite(x) or (allow_inf and not math.isnan(x)))
+
+
+def _is_rows(x, width: int, allow_inf: bool = False) -> bool:
+    """True when ``x`` is a list of lists of ``width`` numbers each."""
+    return isinstance(x, list) and all(isinstance(r, list) and len(r) == width and all(_is_number(v, allow_inf) for v in r) for r in x)
+
+
+def _is_ints(x) -> bool:
+    return isinstance(x, list) and all(_is_int(v) for v in x)
+
+
+def _is_strings(x) -> bool:
+    return isinstance(x, list) and all(isinstance(v, str) for v in x)
+
+
+def _check_keys(d, keys: Sequence[str], optional: Sequence[str], where: str, path: Path) -> None:
+    """``d`` is a JSON object with every one of ``keys``, and nothing besides them and ``optional``."""
+    if not isinstance(d, dict):
+        raise MocapFormatError(path, f"{where}: expected a JSON object, got {type(d).__name__}")
+    missing = [k for k in keys if k not in d]
+    unknown = sorted(set(d) - set(keys) - set(optional))
+    if missing:
+        raise MocapFormatError(path, f"{where}: missing {', '.join(missing)}")
+    if unknown:
+        raise MocapFormatError(path, f"{where}: unknown field(s) {', '.join(map(repr, unknown))}")
+
+
+def _skeleton_from_json(d, where: str, path: Path) -> Skeleton:
+    """A skeleton from its JSON object, every field's type checked first (one line on failure)."""
+    _check_keys(d, _SKELETON_KEYS, (), where, path)
+    checks = {
+        "joint_names": _is_strings(d["joint_names"]) and len(d["joint_names"]) > 0,
+        "parents": _is_ints(d["parents"]),
+        "offsets": _is_rows(d["offsets"], 3),
+        "end_site_parents": _is_ints(d["end_site_parents"]),
+        "end_site_offsets": _is_rows(d["end_site_offsets"], 3),
+        "channels": d["channels"] is None or (isinstance(d["channels"], list) and all(_is_strings(c) for c in d["channels"])),
+        "axes": d["axes"] is None or _is_rows(d["axes"], 4),
+        "limits": d["limits"] is None or (isinstance(d["limits"], list) and all(_is_rows(jl, 2, allow_inf=True) for jl in d["limits"])),
+        "unit_cm": d["unit_cm"] is None or (_is_number(d["unit_cm"]) and d["unit_cm"] > 0),
+    }
+    bad = [k for k, ok in checks.items() if not ok]
+    if bad:
+        raise MocapFormatError(path, f"{where}: wrong type or value of {', '.join(bad)}")
+    try:
+        return Skeleton(
+            joint_names=tuple(d["joint_names"]),
+            parents=np.asarray(d["parents"], dtype=np.int64),
+            offsets=np.asarray(d["offsets"], dtype=np.float64).reshape(-1, 3),
+            end_site_parents=np.asarray(d["end_site_parents"], dtype=np.int64),
+            end_site_offsets=np.asarray(d["end_site_offsets"], dtype=np.float64).reshape(-1, 3),
+            channels=None if d["channels"] is None else tuple(tuple(c) for c in d["channels"]),
+            axes=None if d["axes"] is None else np.asarray(d["axes"], dtype=np.float64).reshape(-1, 4),
+            limits=None if d["limits"] is None else tuple(tuple(tuple(p) for p in jl) for jl in d["limits"]),
+            unit_cm=d["unit_cm"],
+        )
+    except (MocapError, ValueError, OverflowError) as exc:
+        raise MocapFormatError(path, f"{where}: {exc}") from None
+
+
+def _feature_columns(name: str) -> int:
+    """Columns of a known feature set: 3 per joint, times the window's samples."""
+    base, samples = (name, 1) if name in FEATURE_SETS else WINDOWED_SETS[name]
+    return 3 * len(FEATURE_SETS[base]) * samples
+
+
+def _check_features(feats, path: Path) -> dict[str, int]:
+    if not isinstance(feats, dict) or not feats:
+        raise MocapFormatError(path, "features: expected a non-empty JSON object of feature set -> columns")
+    for name, dims in feats.items():
+        if not _FEATURE_NAME.fullmatch(name):
+            raise MocapFormatError(path, f"feature name {name!r} is not a plain identifier")
+        if name not in FEATURE_SETS and name not in WINDOWED_SETS:
+            raise MocapFormatError(path, f"unknown feature set {name!r}; known: {', '.join(list(FEATURE_SETS) + list(WINDOWED_SETS))}")
+        if not _is_int(dims) or dims != _feature_columns(name):
+            raise MocapFormatError(path, f"feature set {name!r} has {_feature_columns(name)} columns, not {dims!r}")
+    return dict(feats)
+
+
+def _check_clips(raw, N: int, n_skeletons: int, path: Path) -> tuple[tuple, ...]:
+    """Clip records that tile frames ``0 .. N-1`` in order, with unique names and valid skeleton numbers."""
+    if not isinstance(raw, list) or not raw:
+        raise MocapFormatError(path, "clips: expected a non-empty list")
+    clips, names, start = [], set(), 0
+    for k, c in enumerate(raw):
+        _check_keys(c, _CLIP_KEYS, (), f"clip {k}", path)
+        if not (isinstance(c["name"], str) and isinstance(c["source"], str) and isinstance(c["mirrored"], bool)) or not all(
+            _is_int(c[f]) for f in ("start", "frames", "skeleton")
+        ):
+            raise MocapFormatError(path, f"clip {k}: wrong type (name, source: text; start, frames, skeleton: integers; mirrored: true/false)")
+        name = c["name"]
+        if c["start"] != start or c["frames"] < 1 or start + c["frames"] > N:
+            raise MocapFormatError(path, f"clip {k} ({name!r}): start {c['start']}, {c['frames']} frames; expected start {start} and 1 .. {N - start} frames")
+        if not 0 <= c["skeleton"] < n_skeletons:
+            raise MocapFormatError(path, f"clip {k} ({name!r}): skeleton {c['skeleton']} out of range 0 .. {n_skeletons - 1}")
+        if name in names:
+            raise MocapFormatError(path, f"clip {k}: name {name!r} repeats an earlier clip's")
+        names.add(name)
+        clips.append(tuple(c[f] for f in _CLIP_KEYS))
+        start += c["frames"]
+    if start != N:
+        raise MocapFormatError(path, f"the clips cover {start} frames, num_frames says {N}")
+    return tuple(clips)
+
+
+def _check_description(desc: dict, path: Path) -> Description:
+    """Every field of a parsed ``database.json``, its type and range."""
+    _check_keys(desc, _TOP_KEYS, ("info",), "database description", path)
+    if desc["format"] != FORMAT:
+        raise MocapFormatError(path, f"not a mocapkit motion database (format {desc['format']!r})")
+    if not _is_int(desc["format_version"]) or desc["format_version"] != FORMAT_VERSION:
+        raise MocapFormatError(path, f"format version {desc['format_version']!r}; this mocapkit reads version {FORMAT_VERSION}")
+    fps, N = desc["fps"], desc["num_frames"]
+    if not (_is_number(fps, allow_inf=True) and FPS_RANGE[0] <= fps <= FPS_RANGE[1]):
+        raise MocapFormatError(path, f"fps {fps!r} is not a frame rate between {FPS_RANGE[0]:g} and {FPS_RANGE[1]:g}")
+    if not (_is_int(N) and N >= 1):
+        raise MocapFormatError(path, f"num_frames {N!r} is not a positive integer")
+    if desc["feature_unit"] != "cm":
+        raise MocapFormatError(path, f"feature_unit {desc['feature_unit']!r}; databases store features in 'cm'")
+    info = desc.get("info", {})
+    if not isinstance(info, dict):
+        raise MocapFormatError(path, "info: expected a JSON object")
+    features = _check_features(desc["features"], path)
+    if not isinstance(desc["skeletons"], list) or not desc["skeletons"]:
+        raise MocapFormatError(path, "skeletons: expected a non-empty list")
+    skeletons = tuple(_skeleton_from_json(s, f"skeleton {k}", path) for k, s in enumerate(desc["skeletons"]))
+    for k, sk in enumerate(skeletons[1:], 1):
+        if sk.joint_names != skeletons[0].joint_names or not np.array_equal(sk.parents, skeletons[0].parents):
+            raise MocapFormatError(path, f"skeleton {k}: other joints or parents than skeleton 0 (a database has one topology)")
+    clips = _check_clips(desc["clips"], N, len(skeletons), path)
+    return Description(float(fps), N, skeletons, clips, features, info)
+
+
+# -- arrays --------------------------------------------------------------------------------------
+
+
+def _array_dtype(rel: str) -> np.dtype:
+    return _ARRAY_DTYPES[rel.split("/")[0]]
+
+
+def _load_array(directory: Path, rel: str, shape: tuple, mmap: bool) -> np.ndarray:
+    """A stored array after checking its file: inside the folder, header dtype and shape, size.
+
+    The header is read and the file's size compared with what it declares
+    before numpy maps or reads anything, so an empty, truncated or padded file
+    is one error line rather than a crash.
+    """
+    p = directory / rel
+    dtype = _array_dtype(rel)
+    if not p.is_file() or not inside(p, directory):
+        raise MocapFormatError(p, "missing, not a regular file, or a link out of the database folder")
+    try:
+        with open(p, "rb") as fh:
+            version = np.lib.format.read_magic(fh)
+            if version not in ((1, 0), (2, 0)):
+                raise ValueError(f".npy format version {version[0]}.{version[1]}, expected 1.0 or 2.0")
+            read_header = np.lib.format.read_array_header_1_0 if version == (1, 0) else np.lib.format.read_array_header_2_0
+            got_shape, fortran, got_dtype = read_header(fh)
+            offset = fh.tell()
+            size = os.fstat(fh.fileno()).st_size
+    except (OSError, ValueError, SyntaxError, TypeError) as exc:
+        raise MocapFormatError(p, f"unreadable array ({exc})") from None
+    if got_dtype != dtype or fortran:
+        raise MocapFormatError(p, f"expected a C-ordered {dtype} array, got a {'Fortran-ordered' if fortran else 'C-ordered'} {got_dtype} one")
+    if tuple(got_shape) != tuple(shape):
+        raise MocapFormatError(p, f"expected shape {tuple(shape)} (from {DESCRIPTION}), got {tuple(got_shape)}")
+    nbytes = math.prod(shape) * dtype.itemsize
+    if size != offset + nbytes:
+        raise MocapFormatError(p, f"holds {size - offset} bytes of data where its header declares {nbytes}: truncated or damaged")
+    try:
+        return np.load(p, mmap_mode="r" if mmap else None, allow_pickle=False)
+    except (OSError, ValueError) as exc:
+        raise MocapFormatError(p, f"unreadable array ({exc})") from None
+
+
+# -- writing and reading the folder ---------------------------------------------------------------
+
+
+def _not_a_database(folder: Path) -> str:
+    """Why an existing ``folder`` may not be replaced ("" when it is a mocapkit database or empty).
+
+    Only what :func:`write_folder` writes may be lost: ``database.json``
+    naming the format, the top-level ``.npy`` files and ``features/<name>.npy``,
+    all regular files (no links, no other files or folders).
+    """
+    if not folder.is_dir():
+        return "it is a file, not a database folder"
+    entries = {e.name: e for e in os.scandir(folder)}
+    if not entries:
+        return ""
+    if DESCRIPTION not in entries or not entries[DESCRIPTION].is_file(follow_symlinks=False):
+        return f"it is not a mocapkit database (no {DESCRIPTION})"
+    try:
+        kind = _read_json(folder / DESCRIPTION).get("format")
+    except MocapFormatError:
+        kind = None
+    if kind != FORMAT:
+        return f"it is not a mocapkit database ({DESCRIPTION} does not say so)"
+    for name, e in entries.items():
+        if name == "features" and e.is_dir(follow_symlinks=False):
+            for f in os.scandir(e.path):
+                if not (f.name.endswith(".npy") and _FEATURE_NAME.fullmatch(f.name[:-4]) and f.is_file(follow_symlinks=False)):
+                    return f"it holds features/{f.name}, which a database save does not write"
+        elif name not in _ARRAY_DTYPES and name != DESCRIPTION or not e.is_file(follow_symlinks=False):
+            return f"it holds {name}, which a database save does not write"
+    return ""
+
+
+def check_database_output(directory, inputs: Iterable = (), overwrite: bool = False) -> None:
+    """Refuse, before any work, a database folder whose writing could lose anything.
+
+    ``directory`` may not be an input, lie inside an input folder, or hold an
+    input (any input file or folder below it), compared both through
+    symlinks and by name. Its parent may not be a file. When it exists it is
+    replaced only with ``overwrite`` and only when it is a mocapkit database
+    (its ``database.json`` says so and it holds nothing but what a database
+    save writes) or an empty folder.
+
+    Parameters
+    ----------
+    directory : path of the database folder to write.
+    inputs : paths read to build it (files or folders); entries that are not
+        paths (``None``, Motions) are ignored.
+    overwrite : allow replacing an existing database folder.
+
+    Raises
+    ------
+    MocapFormatError
+        One line naming ``directory`` and what is wrong with it.
+    """
+    out = Path(directory)
+    for inp in inputs:
+        if not isinstance(inp, (str, os.PathLike)):
+            continue
+        if same_file(out, inp) or inside(out, inp) or _named_inside(out, inp):
+            raise MocapFormatError(out, f"refusing to write a database over or inside an input ({inp}); choose another folder")
+        if inside(inp, out) or _named_inside(inp, out):
+            raise MocapFormatError(out, f"refusing to replace a folder that holds an input ({inp}); choose another folder")
+    parent = _real(out).parent
+    while not parent.exists() and parent != parent.parent:
+        parent = parent.parent
+    if not parent.is_dir():
+        raise MocapFormatError(out, f"cannot create it: {parent} is a file, not a folder")
+    if not os.path.lexists(out):
+        return
+    if not overwrite:
+        raise MocapFormatError(out, "already exists; pass --overwrite to replace it")
+    why = _not_a_database(_real(out)) if out.exists() else "it is a broken symbolic link"
+    if why:
+        raise MocapFormatError(out, f"refusing to replace it: {why}")
+
+
+def write_folder(directory, description: Description, arrays: Mapping[str, np.ndarray], *, inputs: Iterable = (), overwrite: bool = False) -> Path:
+    """Write a database folder atomically after :func:`check_database_output`; returns its resolved path.
+
+    ``arrays`` maps each file of the layout (``"rotations.npy"``,
+    ``"features/F15.npy"``, ...) to its array, stored in the layout's dtype.
+    Everything is written into a temporary folder beside the target; an
+    existing database is moved aside, the new one renamed into place, and the
+    old one deleted only then (put back if the rename fails), so an
+    interrupted write leaves the old or the new database, never a mix.
+    """
+    inputs = list(inputs)
+    check_database_output(directory, inputs, overwrite=overwrite)
+    target = _real(directory)  # a symlinked folder: replace what it points to
+    target.parent.mkdir(parents=True, exist_ok=True)
+    desc = {
+        "format": FORMAT,
+        "format_version": FORMAT_VERSION,
+        "fps": description.fps,
+        "num_frames": description.num_frames,
+        "feature_unit": "cm",
+        "features": dict(description.features),
+        "skeletons": [skeleton_to_json(s) for s in description.skeletons],
+        "clips": [dict(zip(_CLIP_KEYS, c)) for c in description.clips],
+        "info": description.info,
+    }
+    tmp = Path(tempfile.mkdtemp(prefix=f".{target.name}.", suffix=".part", dir=target.parent))
+    try:
+        (tmp / "features").mkdir()
+        for rel, a in arrays.items():
+            np.save(tmp / rel, np.ascontiguousarray(a, dtype=_array_dtype(rel)))
+        with open(tmp / DESCRIPTION, "w", encoding="utf-8") as fh:
+            json.dump(desc, fh, indent=1)
+        check_database_output(directory, inputs, overwrite=overwrite)  # it may have changed meanwhile
+        if os.path.lexists(target):
+            old = Path(tempfile.mkdtemp(prefix=f".{target.name}.", suffix=".old", dir=target.parent))
+            os.replace(target, old / "db")
+            try:
+                os.replace(tmp, target)
+            except BaseException:
+                os.replace(old / "db", target)
+                old.rmdir()
+                raise
+            shutil.rmtree(old, ignore_errors=True)
+        else:
+            os.replace(tmp, target)
+    except BaseException:
+        shutil.rmtree(tmp, ignore_errors=True)
+        raise
+    return target
+
+
+def read_folder(directory, mmap: bool = True) -> tuple[Description, dict[str, np.ndarray]]:
+    """The checked description and arrays of a database folder (arrays keyed by file, as in :func:`write_folder`).
+
+    Arrays are memory-mapped read-only unless ``mmap=False``. Nothing is
+    mapped before the description and every ``.npy`` header have been checked
+    (see the module docstring); ``clip_ids.npy`` must agree with the clip
+    ranges.
+    """
+    directory = Path(directory)
+    desc_path = directory / DESCRIPTION
+    if not directory.is_dir() or not desc_path.is_file():
+        raise MocapFormatError(directory, f"not a motion database (no {DESCRIPTION})")
+    d = _check_description(_read_json(desc_path), desc_path)
+    N, J = d.num_frames, d.skeletons[0].num_joints
+    shapes = {"rotations.npy": (N, J, 4), "root_positions.npy": (N, 3), "clip_ids.npy": (N,)}
+    if os.path.lexists(directory / "translations.npy"):
+        shapes["translations.npy"] = (N, J, 3)
+    shapes.update({f"features/{n}.npy": (N, cols) for n, cols in d.features.items()})
+    arrays = {rel: _load_array(directory, rel, shape, mmap) for rel, shape in shapes.items()}
+    expected = np.repeat(np.arange(len(d.clips), dtype=np.int32), [c[3] for c in d.clips])
+    if not np.array_equal(arrays["clip_ids.npy"], expected):
+        raise MocapFormatError(directory / "clip_ids.npy", f"clip numbers disagree with the clip ranges in {DESCRIPTION}")
+    return d, arrays

@@ -1,0 +1,370 @@
+"""The database folder: writing it loses nothing, opening it trusts nothing.
+
+Every case saves a real database built from the bundled clips, then either
+puts something worth keeping where the database would go, or corrupts one
+thing in a copy of the folder and opens it: the answer must be one
+:class:`MocapFormatError` line naming the file, never a traceback or a crash.
+"""
+
+import json
+import math
+import os
+import shutil
+
+import numpy as np
+import pytest
+
+from mocapkit import samples
+from mocapkit.database import MotionDatabase, check_database_output
+from mocapkit.database_folder import FORMAT, read_folder
+from mocapkit.errors import MocapFormatError
+
+
+@pytest.fixture(scope="module")
+def saved(small_db, tmp_path_factory):
+    """A saved copy of ``small_db`` (never modified: tests corrupt copies of it)."""
+    return small_db.save(tmp_path_factory.mktemp("saved") / "db")
+
+
+@pytest.fixture
+def copy(saved, tmp_path):
+    return shutil.copytree(saved, tmp_path / "db")
+
+
+def _tree(folder):
+    """Every file below ``folder`` with its bytes (to show nothing changed)."""
+    return {str(p.relative_to(folder)): p.read_bytes() for p in sorted(folder.rglob("*")) if p.is_file()}
+
+
+def _refused(directory, match, **kwargs):
+    with pytest.raises(MocapFormatError, match=match) as info:
+        MotionDatabase.open(directory, **kwargs)
+    assert "\n" not in str(info.value)
+    return info.value
+
+
+# -- writing: the output guard -----------------------------------------------------------------
+
+
+@pytest.fixture
+def takes(tmp_path):
+    """The issue's folder p: p/takes holds a take (ASF + AMC), p/notes.txt a note."""
+    p = tmp_path / "p"
+    (p / "takes").mkdir(parents=True)
+    for name in ("12.asf", "12_walk.amc"):
+        shutil.copy(samples.path(name), p / "takes" / name)
+    (p / "notes.txt").write_text("x")
+    return p
+
+
+def test_overwrite_refuses_a_folder_holding_an_input(small_db, takes):
+    before = _tree(takes)
+    amc = takes / "takes" / "12_walk.amc"
+    with pytest.raises(MocapFormatError, match="holds an input"):
+        check_database_output(takes, [amc], overwrite=True)
+    with pytest.raises(MocapFormatError, match="holds an input"):
+        small_db.save(takes, overwrite=True, inputs=[amc])
+    # without being told the inputs, save still refuses: the folder is no database
+    with pytest.raises(MocapFormatError, match="not a mocapkit database"):
+        small_db.save(takes, overwrite=True)
+    assert _tree(takes) == before
+    assert sorted(p.name for p in takes.parent.iterdir()) == ["p"]  # no temporary folder left
+
+
+def test_output_may_not_be_or_lie_in_an_input(takes):
+    folder = takes / "takes"
+    for out, inp in ((folder, folder), (folder / "db", folder), (folder / "12_walk.amc", folder / "12_walk.amc")):
+        with pytest.raises(MocapFormatError, match="over or inside an input"):
+            check_database_output(out, [inp], overwrite=True)
+    # the same, reached through a symlink or through ".."
+    link = takes.parent / "link"
+    link.symlink_to(folder)
+    with pytest.raises(MocapFormatError, match="over or inside an input"):
+        check_database_output(link / "db", [folder])
+    with pytest.raises(MocapFormatError, match="holds an input"):
+        check_database_output(folder / ".." / "..", [link / "12_walk.amc"], overwrite=True)
+    # a symlink inside the output that points elsewhere is still an input the output holds
+    out = takes.parent / "out"
+    out.mkdir()
+    (out / "walk.amc").symlink_to(folder / "12_walk.amc")
+    with pytest.raises(MocapFormatError, match="holds an input"):
+        check_database_output(out, [out / "walk.amc"], overwrite=True)
+    check_database_output(takes.parent / "new", [folder, folder / "12_walk.amc"])  # elsewhere: fine
+
+
+def test_overwrite_replaces_only_a_database(small_db, saved, tmp_path):
+    # the issue's case: an existing folder of other things
+    other = tmp_path / "other"
+    other.mkdir()
+    (other / "notes.txt").write_text("x")
+    with pytest.raises(MocapFormatError, match="no database.json"):
+        small_db.save(other, overwrite=True)
+    # a database.json that is not ours
+    (other / "database.json").write_text(json.dumps({"format": "something-else"}))
+    with pytest.raises(MocapFormatError, match="does not say so"):
+        small_db.save(other, overwrite=True)
+    (other / "database.json").write_text("[" * 100000)
+    with pytest.raises(MocapFormatError, match="does not say so"):
+        small_db.save(other, overwrite=True)
+    assert (other / "notes.txt").read_text() == "x"
+    # a database with something added to it: the addition would be lost
+    for extra in ("notes.txt", "features/notes.txt", "takes/walk.amc"):
+        db = shutil.copytree(saved, tmp_path / f"db_{extra.replace('/', '_')}")
+        (db / extra).parent.mkdir(exist_ok=True)
+        (db / extra).write_text("x")
+        before = _tree(db)
+        with pytest.raises(MocapFormatError, match=f"holds {extra.split('/')[0]}"):
+            small_db.save(db, overwrite=True)
+        assert _tree(db) == before
+    # a database holding a link (deleting the folder would delete the link)
+    db = shutil.copytree(saved, tmp_path / "db_link")
+    (db / "features" / "F15.npy").unlink()
+    (db / "features" / "F15.npy").symlink_to(saved / "features" / "F15.npy")
+    with pytest.raises(MocapFormatError, match="holds features/F15.npy"):
+        small_db.save(db, overwrite=True)
+    # a file where the folder would go, and a folder below a file
+    (tmp_path / "file").write_text("x")
+    with pytest.raises(MocapFormatError, match="is a file"):
+        small_db.save(tmp_path / "file", overwrite=True)
+    with pytest.raises(MocapFormatError, match="is a file, not a folder"):
+        small_db.save(tmp_path / "file" / "db")
+    assert (tmp_path / "file").read_text() == "x"
+
+
+def test_existing_database_replaced_only_with_overwrite(small_db, saved, tmp_path):
+    db = shutil.copytree(saved, tmp_path / "db")
+    (db / "clip_ids.npy").write_bytes(b"")  # damaged: still only database files, so replaceable
+    with pytest.raises(MocapFormatError, match="already exists; pass --overwrite"):
+        small_db.save(db)
+    assert (db / "clip_ids.npy").read_bytes() == b""
+    assert small_db.save(db, overwrite=True) == db.resolve()
+    assert MotionDatabase.open(db).num_frames == small_db.num_frames
+    empty = tmp_path / "empty"
+    empty.mkdir()
+    with pytest.raises(MocapFormatError, match="already exists"):
+        small_db.save(empty)
+    small_db.save(empty, overwrite=True)  # an empty folder holds nothing to lose
+    assert MotionDatabase.open(empty).clips == small_db.clips
+    # a symlink to a database: the database it points to is replaced, the link stays
+    link = tmp_path / "link"
+    link.symlink_to(db)
+    small_db.save(link, overwrite=True)
+    assert link.is_symlink() and MotionDatabase.open(link).clips == small_db.clips
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["db", "empty", "link"]
+
+
+def test_replace_keeps_the_old_database_when_writing_fails(small_db, saved, tmp_path, monkeypatch):
+    db = shutil.copytree(saved, tmp_path / "db")
+    before = _tree(db)
+    real_save, calls = np.save, []
+
+    def failing_save(*args, **kwargs):
+        calls.append(1)
+        if len(calls) == 3:
+            raise OSError(28, "No space left on device")
+        return real_save(*args, **kwargs)
+
+    monkeypatch.setattr(np, "save", failing_save)
+    with pytest.raises(OSError, match="No space"):
+        small_db.save(db, overwrite=True)
+    monkeypatch.undo()
+    assert _tree(db) == before and sorted(p.name for p in tmp_path.iterdir()) == ["db"]
+    # the rename of the new folder into place fails: the old one is put back
+    real_replace = os.replace
+
+    def failing_replace(src, dst):
+        if str(src).endswith(".part"):
+            raise OSError(13, "Permission denied")
+        return real_replace(src, dst)
+
+    monkeypatch.setattr(os, "replace", failing_replace)
+    with pytest.raises(OSError, match="Permission denied"):
+        small_db.save(db, overwrite=True)
+    monkeypatch.undo()
+    assert _tree(db) == before and sorted(p.name for p in tmp_path.iterdir()) == ["db"]
+
+
+def test_save_refuses_the_folder_it_was_opened_from(saved, tmp_path):
+    db = MotionDatabase.open(shutil.copytree(saved, tmp_path / "db"))
+    with pytest.raises(MocapFormatError, match="opened from"):
+        db.save(tmp_path / "." / "db", overwrite=True)
+
+
+# -- opening: database.json ------------------------------------------------------------------------
+
+
+def _edit(folder, change):
+    desc = json.loads((folder / "database.json").read_text())
+    change(desc)
+    (folder / "database.json").write_text(json.dumps(desc))
+
+
+def _set(*keys_and_value):
+    *keys, value = keys_and_value
+
+    def change(desc):
+        d = desc
+        for k in keys[:-1]:
+            d = d[k]
+        d[keys[-1]] = value
+
+    return change
+
+
+@pytest.mark.parametrize(
+    "change, match",
+    [
+        (_set("fps", 0), "fps 0 is not a frame rate"),
+        (_set("fps", -30), "fps -30 is not a frame rate"),
+        (_set("fps", math.nan), "fps nan is not a frame rate"),
+        (_set("fps", math.inf), "fps inf is not a frame rate"),
+        (_set("fps", 1e9), "fps 1000000000.0 is not a frame rate"),
+        (_set("fps", "30"), "fps '30' is not a frame rate"),
+        (_set("fps", True), "fps True is not a frame rate"),
+        (_set("num_frames", "172"), "num_frames '172' is not a positive integer"),
+        (_set("num_frames", 10**12), "the clips cover|expected start"),
+        (_set("format_version", 2), "format version 2; this mocapkit reads version 1"),
+        (_set("format_version", "1"), "format version '1'"),
+        (_set("format", "other"), "not a mocapkit motion database"),
+        (_set("feature_unit", "m"), "feature_unit 'm'"),
+        (_set("info", []), "info: expected a JSON object"),
+        (_set("extra", 1), "unknown field.*'extra'"),
+        (lambda d: d.pop("clips"), "missing clips"),
+        (_set("features", {"../../secret": 15}), r"feature name '\.\./\.\./secret' is not a plain identifier"),
+        (_set("features", {"/etc/passwd": 15}), "not a plain identifier"),
+        (_set("features", {"F99": 15}), "unknown feature set 'F99'"),
+        (_set("features", {"F15": 16}), "'F15' has 15 columns, not 16"),
+        (_set("features", {}), "features: expected a non-empty"),
+        (_set("features", [["F15", 15]]), "features: expected"),
+        (_set("skeletons", []), "skeletons: expected a non-empty list"),
+        (_set("skeletons", 0, "parents", 3, 99), "skeleton 0: parents must be in topological order"),
+        (_set("skeletons", 0, "parents", 0, 0), "skeleton 0: the root must be joint 0"),
+        (_set("skeletons", 0, "end_site_parents", 0, 500), "skeleton 0: end_site_parents must index joints"),
+        (_set("skeletons", 0, "parents", 2, 1.5), "skeleton 0: wrong type or value of parents"),
+        (_set("skeletons", 0, "joint_names", 1, 7), "skeleton 0: wrong type or value of joint_names"),
+        (_set("skeletons", 0, "offsets", 1, ["a", 0, 0]), "wrong type or value of offsets"),
+        (_set("skeletons", 0, "offsets", 1, [math.nan, 0, 0]), "wrong type or value of offsets"),
+        (_set("skeletons", 0, "offsets", 1, [0, 0]), "wrong type or value of offsets"),
+        (_set("skeletons", 0, "offsets", [[0, 0, 0]]), r"skeleton 0: offsets: expected shape \(31, 3\)"),
+        (_set("skeletons", 0, "channels", 5), "wrong type or value of channels"),
+        (_set("skeletons", 0, "unit_cm", -1), "wrong type or value of unit_cm"),
+        (_set("skeletons", 0, "limits", 1, [["a", 1]]), "wrong type or value of limits"),
+        (lambda d: d["skeletons"].append({**d["skeletons"][0], "joint_names": d["skeletons"][0]["joint_names"][::-1]}), r"skeleton \d+: other joints or parents than skeleton 0"),
+        (_set("clips", {}), "clips: expected a non-empty list"),
+        (_set("clips", 0, "skeleton", 99), r"clip 0 \('12_walk'\): skeleton 99 out of range"),
+        (_set("clips", 0, "skeleton", -1), "skeleton -1 out of range"),
+        (_set("clips", 1, "start", 10**6), "clip 1 .*start 1000000"),
+        (_set("clips", 1, "frames", -5), "clip 1 .*-5 frames"),
+        (_set("clips", 7, "frames", 10**6), "clip 7 .*1000000 frames"),
+        (_set("clips", 1, "name", "12_walk"), "repeats an earlier clip's"),
+        (_set("clips", 1, "name", 5), "clip 1: wrong type"),
+        (_set("clips", 1, "mirrored", "yes"), "clip 1: wrong type"),
+        (_set("clips", 1, "start", 5.0), "clip 1: wrong type"),
+        (lambda d: d["clips"].pop(), "the clips cover .* frames, num_frames says"),
+        (lambda d: d["clips"][0].pop("source"), "clip 0: missing source"),
+        (_set("clips", 0, []), "clip 0: expected a JSON object"),
+    ],
+)
+def test_open_refuses_a_bad_description(copy, change, match):
+    _edit(copy, change)
+    err = _refused(copy, match)
+    assert err.path == str(copy / "database.json")
+
+
+def test_open_refuses_unparsable_descriptions(copy):
+    desc = copy / "database.json"
+    # nested 100,000 deep: refused by its depth before the parser recurses
+    desc.write_text('{"info": ' + "[" * 100000 + "]" * 100000 + "}")
+    _refused(copy, "nests 100001 deep")
+    for text, match in (("[1, 2]", "JSON list, not an object"), ("{", "unreadable database description"), ("", "unreadable")):
+        desc.write_text(text)
+        _refused(copy, match)
+    desc.write_bytes(b'{"format": "\xff"}')
+    _refused(copy, "unreadable")
+    desc.write_text('{"fps": NaN}')
+    _refused(copy, "missing")
+    with open(desc, "wb") as fh:  # sparse: takes no disk space
+        fh.truncate(300 * 2**20)
+    _refused(copy, "over the .*-byte limit")
+    desc.unlink()
+    _refused(copy, "not a motion database")
+
+
+def test_brackets_in_strings_do_not_count_as_depth(copy, small_db):
+    _edit(copy, _set("info", {"note": "[[[[{{{{" * 100}))
+    assert MotionDatabase.open(copy).info["note"].startswith("[[[[")
+
+
+# -- opening: the arrays ----------------------------------------------------------------------------
+
+
+def test_open_refuses_empty_truncated_and_padded_arrays(copy):
+    rot = copy / "rotations.npy"
+    data = rot.read_bytes()
+    rot.write_bytes(b"")
+    _refused(copy, r"rotations\.npy: unreadable array")
+    rot.write_bytes(data[:200])
+    _refused(copy, r"rotations\.npy: holds .* bytes of data where its header declares .*truncated")
+    rot.write_bytes(data[:-4])
+    _refused(copy, "truncated")
+    rot.write_bytes(data + b"\0" * 16)
+    _refused(copy, "truncated or damaged")
+    rot.write_bytes(b"not a numpy file at all")
+    _refused(copy, "unreadable array")
+    rot.write_bytes(data[:6] + b"\x03\x00" + data[8:])
+    _refused(copy, "format version 3.0")
+
+
+@pytest.mark.parametrize("mmap", [True, False])
+def test_open_refuses_arrays_that_disagree(copy, saved, small_db, mmap):
+    N, J = small_db.num_frames, small_db.num_joints
+    cases = [
+        ("features/F15.npy", np.zeros((3, 15)), r"F15\.npy: expected shape \(%d, 15\)" % N),
+        ("features/F15x3.npy", np.zeros((N, 15)), r"F15x3\.npy: expected shape"),
+        ("rotations.npy", np.zeros((N, J + 1, 4), np.float32), r"rotations\.npy: expected shape"),
+        ("root_positions.npy", np.zeros((N - 1, 3), np.float32), r"root_positions\.npy: expected shape"),
+        ("root_positions.npy", np.zeros((N, 3)), "expected a C-ordered float32 array, got a C-ordered float64"),
+        ("root_positions.npy", np.asfortranarray(np.zeros((N, 3), np.float32)), "Fortran-ordered"),
+        ("clip_ids.npy", np.zeros(N, np.int64), "expected a C-ordered int32"),
+        ("translations.npy", np.zeros((N, J, 4), np.float32), r"translations\.npy: expected shape"),
+    ]
+    for rel, array, match in cases:
+        np.save(copy / rel, array)
+        _refused(copy, match, mmap=mmap)
+        if (saved / rel).exists():
+            shutil.copy(saved / rel, copy / rel)
+        else:
+            (copy / rel).unlink()
+        MotionDatabase.open(copy, mmap=mmap)  # restored
+    np.save(copy / "features" / "F15.npy", np.array([object()] * N * 15).reshape(N, 15), allow_pickle=True)
+    _refused(copy, "expected a C-ordered float64 array, got a C-ordered object", mmap=mmap)
+
+
+def test_open_refuses_clip_ids_out_of_range(copy, small_db):
+    ids = np.load(copy / "clip_ids.npy")
+    for bad in (99, -1, 1):  # out of range, negative, in range but the wrong clip
+        wrong = ids.copy()
+        wrong[3] = bad
+        np.save(copy / "clip_ids.npy", wrong)
+        _refused(copy, r"clip_ids\.npy: clip numbers disagree with the clip ranges")
+
+
+def test_open_refuses_arrays_outside_the_folder(copy, tmp_path):
+    secret = tmp_path / "secret.npy"
+    shutil.copy(copy / "features" / "F15.npy", secret)
+    (copy / "features" / "F15.npy").unlink()
+    (copy / "features" / "F15.npy").symlink_to(secret)
+    _refused(copy, r"F15\.npy: missing, not a regular file, or a link out of the database folder")
+    (copy / "features" / "F15.npy").unlink()
+    _refused(copy, "missing")
+    (copy / "features" / "F15.npy").mkdir()
+    _refused(copy, "not a regular file")
+
+
+def test_a_checked_folder_reads_back_what_was_saved(saved, small_db):
+    desc, arrays = read_folder(saved)
+    assert desc.num_frames == small_db.num_frames and desc.fps == 30.0
+    assert desc.features == {"F15": 15, "F15x3": 45}
+    assert [c[0] for c in desc.clips] == list(small_db.clip_names)
+    assert sorted(arrays) == ["clip_ids.npy", "features/F15.npy", "features/F15x3.npy", "root_positions.npy", "rotations.npy"]
+    assert json.loads((saved / "database.json").read_text())["format"] == FORMAT
