@@ -43,7 +43,7 @@ from .io.outputs import same_file
 from .motion import Motion, Skeleton, readonly_view
 from .search.matches import Match
 
-__all__ = ["MotionDatabase", "ClipInfo", "SearchResult", "FORMAT_VERSION", "FPS_RANGE", "SUFFIXES", "check_database_output"]
+__all__ = ["MotionDatabase", "ClipInfo", "SearchResult", "FORMAT_VERSION", "FPS_RANGE", "SUFFIXES", "check_database_output", "expand_sources"]
 
 #: File suffixes a database is built from (C3D marker files hold no skeleton motion).
 SUFFIXES = (".bvh", ".amc", ".npz")
@@ -196,7 +196,14 @@ def _prepare(item, fps: float, features: tuple[str, ...], mirror: bool, ref_skel
     return out
 
 
-def _expand_sources(sources) -> list:
+def expand_sources(sources) -> list:
+    """The clips ``sources`` names: Motions as given, files checked, folders searched recursively.
+
+    ``sources`` is one path or Motion, or a sequence of them. Returns Motions
+    and paths of :data:`SUFFIXES` files (a folder's sorted by path); raises
+    :class:`~mocapkit.errors.MocapFormatError` for a missing path, a file of
+    another kind, or a folder without motion files.
+    """
     if isinstance(sources, (str, os.PathLike, Motion)):
         sources = [sources]
     items: list = []
@@ -577,7 +584,7 @@ class MotionDatabase:
         if not FPS_RANGE[0] <= fps <= FPS_RANGE[1]:
             raise ValueError(f"fps must be between {FPS_RANGE[0]:g} and {FPS_RANGE[1]:g}, got {fps!r}")
         features = _check_features(features)
-        items = _expand_sources(sources)
+        items = expand_sources(sources)
         first = _prepare(items[0], fps, features, mirror, None, joint_map)
         ref = first[0]["skeleton"]
         job = partial(_prepare, fps=fps, features=features, mirror=mirror, ref_skeleton=ref, joint_map=joint_map)

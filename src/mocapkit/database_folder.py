@@ -66,7 +66,7 @@ _ARRAY_DTYPES = {
     "clip_ids.npy": np.dtype("<i4"),
     "features": np.dtype("<f8"),
 }
-_MAX_DESCRIPTION_BYTES = 256 * 2**20  # about ten times that in memory once parsed
+_MAX_DESCRIPTION_BYTES = 64 * 2**20  # parsed, at most about 20 times that in memory; 2,000 clips take 1 MB
 _MAX_JSON_DEPTH = 32  # a saved description nests 5 deep (skeleton limits)
 _FEATURE_NAME = re.compile(r"[A-Za-z_][A-Za-z0-9_]{0,63}")
 _TOP_KEYS = ("format", "format_version", "fps", "num_frames", "feature_unit", "features", "skeletons", "clips")
@@ -344,10 +344,10 @@ def _not_a_database(folder: Path) -> str:
     """
     if not folder.is_dir():
         return "it is a file, not a database folder"
-    entries = {e.name: e for e in os.scandir(folder)}
-    if not entries:
-        return ""
-    if DESCRIPTION not in entries or not entries[DESCRIPTION].is_file(follow_symlinks=False):
+    with os.scandir(folder) as it:
+        if next(it, None) is None:
+            return ""
+    if not (folder / DESCRIPTION).is_file() or (folder / DESCRIPTION).is_symlink():
         return f"it is not a mocapkit database (no {DESCRIPTION})"
     try:
         kind = _read_json(folder / DESCRIPTION).get("format")
@@ -355,13 +355,15 @@ def _not_a_database(folder: Path) -> str:
         kind = None
     if kind != FORMAT:
         return f"it is not a mocapkit database ({DESCRIPTION} does not say so)"
-    for name, e in entries.items():
-        if name == "features" and e.is_dir(follow_symlinks=False):
-            for f in os.scandir(e.path):
-                if not (f.name.endswith(".npy") and _FEATURE_NAME.fullmatch(f.name[:-4]) and f.is_file(follow_symlinks=False)):
-                    return f"it holds features/{f.name}, which a database save does not write"
-        elif name not in _ARRAY_DTYPES and name != DESCRIPTION or not e.is_file(follow_symlinks=False):
-            return f"it holds {name}, which a database save does not write"
+    with os.scandir(folder) as entries:
+        for e in entries:
+            if e.name == "features" and e.is_dir(follow_symlinks=False):
+                with os.scandir(e.path) as features:
+                    for f in features:
+                        if not (f.name.endswith(".npy") and _FEATURE_NAME.fullmatch(f.name[:-4]) and f.is_file(follow_symlinks=False)):
+                            return f"it holds features/{f.name}, which a database save does not write"
+            elif e.name not in _ARRAY_DTYPES and e.name != DESCRIPTION or not e.is_file(follow_symlinks=False):
+                return f"it holds {e.name}, which a database save does not write"
     return ""
 
 

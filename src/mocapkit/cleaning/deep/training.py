@@ -103,7 +103,7 @@ class TrainConfig:
 def load_clips(sources) -> list[Motion]:
     """Motions from files, folders (every .bvh/.amc/.npz below) or a MotionDatabase directory/object."""
     from ... import io
-    from ...database import MotionDatabase, _expand_sources
+    from ...database import MotionDatabase, expand_sources
 
     if isinstance(sources, MotionDatabase):
         return [sources.clip(i) for i in range(sources.num_clips)]
@@ -115,7 +115,7 @@ def load_clips(sources) -> list[Motion]:
             db = MotionDatabase.open(p)
             out += [db.clip(i) for i in range(db.num_clips)]
             continue
-        for item in _expand_sources([s]):
+        for item in expand_sources([s]):
             out.append(item if isinstance(item, Motion) else io.load(item))
     return out
 
