@@ -14,7 +14,7 @@ import shutil
 import numpy as np
 import pytest
 
-from mocapkit import samples
+from mocapkit import database_folder, samples
 from mocapkit.database import MotionDatabase, check_database_output
 from mocapkit.database_folder import FORMAT, read_folder
 from mocapkit.errors import MocapFormatError
@@ -340,13 +340,22 @@ def test_open_refuses_arrays_that_disagree(copy, saved, small_db, mmap):
     _refused(copy, "expected a C-ordered float64 array, got a C-ordered object", mmap=mmap)
 
 
-def test_open_refuses_clip_ids_out_of_range(copy, small_db):
+def test_open_refuses_clip_ids_out_of_range(copy, small_db, monkeypatch):
     ids = np.load(copy / "clip_ids.npy")
     for bad in (99, -1, 1):  # out of range, negative, in range but the wrong clip
         wrong = ids.copy()
         wrong[3] = bad
         np.save(copy / "clip_ids.npy", wrong)
-        _refused(copy, r"clip_ids\.npy: clip numbers disagree with the clip ranges")
+        _refused(copy, r"clip_ids\.npy: clip numbers disagree with the clip ranges in database.json \(clip 0\)")
+    # compared a few frames at a time: every chunk is checked, a good folder still opens
+    monkeypatch.setattr(database_folder, "_CHUNK", 7)
+    np.save(copy / "clip_ids.npy", ids)
+    assert MotionDatabase.open(copy).clips == small_db.clips
+    last = small_db.clips[-1]
+    wrong = ids.copy()
+    wrong[last.stop - 1] = 0
+    np.save(copy / "clip_ids.npy", wrong)
+    _refused(copy, r"\(clip %d\)" % (small_db.num_clips - 1))
 
 
 def test_open_refuses_arrays_outside_the_folder(copy, tmp_path):

@@ -68,6 +68,8 @@ _ARRAY_DTYPES = {
 }
 _MAX_DESCRIPTION_BYTES = 64 * 2**20  # parsed, at most about 20 times that in memory; 2,000 clips take 1 MB
 _MAX_JSON_DEPTH = 32  # a saved description nests 5 deep (skeleton limits)
+_JSON_STRING = re.compile(r'"[^"\\]*(?:\\.[^"\\]*)*"')
+_CHUNK = 2**20  # frames of clip_ids compared at a time
 _FEATURE_NAME = re.compile(r"[A-Za-z_][A-Za-z0-9_]{0,63}")
 _TOP_KEYS = ("format", "format_version", "fps", "num_frames", "feature_unit", "features", "skeletons", "clips")
 _SKELETON_KEYS = ("joint_names", "parents", "offsets", "end_site_parents", "end_site_offsets", "channels", "axes", "limits", "unit_cm")
@@ -124,7 +126,7 @@ def skeleton_to_json(sk: Skeleton) -> dict:
 
 def _json_depth(text: str) -> int:
     """Deepest nesting of ``[`` and ``{`` in JSON text, counted in linear time (strings skipped)."""
-    bare = re.sub(r'"(?:[^"\\]|\\.)*"', "", text).encode("utf-8", "surrogatepass")
+    bare = _JSON_STRING.sub("", text).encode("utf-8", "surrogatepass")
     b = np.frombuffer(bare, dtype=np.uint8)
     step = np.isin(b, (ord("["), ord("{"))).astype(np.int64) - np.isin(b, (ord("]"), ord("}")))
     return int(np.cumsum(step).max(initial=0))
@@ -152,11 +154,11 @@ def _read_json(path: Path) -> dict:
 
 
 def _is_int(x) -> bool:
-    return isinstance(x, int) and not isinstance(x, bool)
+    return type(x) is int  # JSON integers; not bool
 
 
 def _is_number(x, allow_inf: bool = False) -> bool:
-    return isinstance(x, (int, float)) and not isinstance(x, bool) and (math.isfinite(x) or (allow_inf and not math.isnan(x)))
+    return (type(x) is int or type(x) is float) and (math.isfinite(x) or (allow_inf and not math.isnan(x)))
 
 
 def _is_rows(x, width: int, allow_inf: bool = False) -> bool:
@@ -174,6 +176,8 @@ def _is_strings(x) -> bool:
 
 def _check_keys(d, keys: Sequence[str], optional: Sequence[str], where: str, path: Path) -> None:
     """``d`` is a JSON object with every one of ``keys``, and nothing besides them and ``optional``."""
+    if type(d) is dict and len(d) == len(keys) and all(k in d for k in keys):
+        return
     if not isinstance(d, dict):
         raise MocapFormatError(path, f"{where}: expected a JSON object, got {type(d).__name__}")
     missing = [k for k in keys if k not in d]
@@ -481,7 +485,11 @@ def read_folder(directory, mmap: bool = True) -> tuple[Description, dict[str, np
         shapes["translations.npy"] = (N, J, 3)
     shapes.update({f"features/{n}.npy": (N, cols) for n, cols in d.features.items()})
     arrays = {rel: _load_array(directory, rel, shape, mmap) for rel, shape in shapes.items()}
-    expected = np.repeat(np.arange(len(d.clips), dtype=np.int32), [c[3] for c in d.clips])
-    if not np.array_equal(arrays["clip_ids.npy"], expected):
-        raise MocapFormatError(directory / "clip_ids.npy", f"clip numbers disagree with the clip ranges in {DESCRIPTION}")
+    ids, starts = arrays["clip_ids.npy"], np.array([c[2] for c in d.clips])
+    for a in range(0, N, _CHUNK):  # in chunks: memory stays bounded on any N
+        expected = np.searchsorted(starts, np.arange(a, min(a + _CHUNK, N)), side="right") - 1
+        wrong = np.flatnonzero(ids[a : a + _CHUNK] != expected)
+        if wrong.size:
+            k = int(expected[wrong[0]])
+            raise MocapFormatError(directory / "clip_ids.npy", f"clip numbers disagree with the clip ranges in {DESCRIPTION} (clip {k})")
     return d, arrays
