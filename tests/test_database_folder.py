@@ -165,7 +165,7 @@ def test_replace_keeps_the_old_database_when_writing_fails(small_db, saved, tmp_
         return real_save(*args, **kwargs)
 
     monkeypatch.setattr(np, "save", failing_save)
-    with pytest.raises(OSError, match="No space"):
+    with pytest.raises(MocapFormatError, match=r"db: cannot write the database \(No space left on device\)"):
         small_db.save(db, overwrite=True)
     monkeypatch.undo()
     assert _tree(db) == before and sorted(p.name for p in tmp_path.iterdir()) == ["db"]
@@ -178,10 +178,24 @@ def test_replace_keeps_the_old_database_when_writing_fails(small_db, saved, tmp_
         return real_replace(src, dst)
 
     monkeypatch.setattr(os, "replace", failing_replace)
-    with pytest.raises(OSError, match="Permission denied"):
+    with pytest.raises(MocapFormatError, match="Permission denied"):
         small_db.save(db, overwrite=True)
     monkeypatch.undo()
     assert _tree(db) == before and sorted(p.name for p in tmp_path.iterdir()) == ["db"]
+
+
+def test_feature_names_that_are_paths_are_never_written(small_db, tmp_path):
+    bad = MotionDatabase(
+        fps=small_db.fps,
+        skeletons=small_db.skeletons,
+        clips=small_db.clips,
+        rotations=small_db.rotations,
+        root_positions=small_db.root_positions,
+        features={"../../secret": small_db.features["F15"]},
+    )
+    with pytest.raises(ValueError, match="not a file of the database layout"):
+        bad.save(tmp_path / "db")
+    assert list(tmp_path.iterdir()) == []
 
 
 def test_save_refuses_the_folder_it_was_opened_from(saved, tmp_path):

@@ -67,7 +67,7 @@ _ARRAY_DTYPES = {
     "features": np.dtype("<f8"),
 }
 _MAX_DESCRIPTION_BYTES = 64 * 2**20  # parsed, at most about 20 times that in memory; 2,000 clips take 1 MB
-_MAX_JSON_DEPTH = 32  # a saved description nests 5 deep (skeleton limits)
+_MAX_JSON_DEPTH = 32  # a saved description nests 6 deep (a skeleton's limits); info may add a little
 _JSON_STRING = re.compile(r'"[^"\\]*(?:\\.[^"\\]*)*"')
 _CHUNK = 2**20  # frames of clip_ids compared at a time
 _FEATURE_NAME = re.compile(r"[A-Za-z_][A-Za-z0-9_]{0,63}")
@@ -423,12 +423,17 @@ def write_folder(directory, description: Description, arrays: Mapping[str, np.nd
     Everything is written into a temporary folder beside the target; an
     existing database is moved aside, the new one renamed into place, and the
     old one deleted only then (put back if the rename fails), so an
-    interrupted write leaves the old or the new database, never a mix.
+    interrupted write leaves the old or the new database, never a mix. A
+    failing write (disk full, no permission) is a one-line
+    :class:`~mocapkit.errors.MocapFormatError` naming ``directory``.
     """
+    for rel in arrays:
+        top, _, name = rel.partition("/")
+        if not (rel in _ARRAY_DTYPES or top == "features" and name.endswith(".npy") and _FEATURE_NAME.fullmatch(name[:-4])):
+            raise ValueError(f"{rel!r} is not a file of the database layout (feature names are plain identifiers)")
     inputs = list(inputs)
     check_database_output(directory, inputs, overwrite=overwrite)
     target = _real(directory)  # a symlinked folder: replace what it points to
-    target.parent.mkdir(parents=True, exist_ok=True)
     desc = {
         "format": FORMAT,
         "format_version": FORMAT_VERSION,
@@ -440,7 +445,11 @@ def write_folder(directory, description: Description, arrays: Mapping[str, np.nd
         "clips": [dict(zip(_CLIP_KEYS, c)) for c in description.clips],
         "info": description.info,
     }
-    tmp = Path(tempfile.mkdtemp(prefix=f".{target.name}.", suffix=".part", dir=target.parent))
+    try:
+        target.parent.mkdir(parents=True, exist_ok=True)
+        tmp = Path(tempfile.mkdtemp(prefix=f".{target.name}.", suffix=".part", dir=target.parent))
+    except OSError as exc:
+        raise MocapFormatError(directory, f"cannot write the database ({exc.strerror or exc})") from None
     try:
         (tmp / "features").mkdir()
         for rel, a in arrays.items():
@@ -460,8 +469,10 @@ def write_folder(directory, description: Description, arrays: Mapping[str, np.nd
             shutil.rmtree(old, ignore_errors=True)
         else:
             os.replace(tmp, target)
-    except BaseException:
+    except BaseException as exc:
         shutil.rmtree(tmp, ignore_errors=True)
+        if isinstance(exc, OSError):
+            raise MocapFormatError(directory, f"cannot write the database ({exc.strerror or exc})") from None
         raise
     return target
 
