@@ -316,7 +316,7 @@ def test_open_refuses_empty_truncated_and_padded_arrays(copy):
     rot = copy / "rotations.npy"
     data = rot.read_bytes()
     rot.write_bytes(b"")
-    _refused(copy, r"rotations\.npy: unreadable array")
+    _refused(copy, r"rotations\.npy: unreadable array header")
     rot.write_bytes(data[:200])
     _refused(copy, r"rotations\.npy: holds .* bytes of data where its header declares .*truncated")
     rot.write_bytes(data[:-4])
@@ -391,3 +391,34 @@ def test_a_checked_folder_reads_back_what_was_saved(saved, small_db):
     assert [c[0] for c in desc.clips] == list(small_db.clip_names)
     assert sorted(arrays) == ["clip_ids.npy", "features/F15.npy", "features/F15x3.npy", "root_positions.npy", "rotations.npy"]
     assert json.loads((saved / "database.json").read_text())["format"] == FORMAT
+
+
+def test_mutated_folders_open_or_fail_in_one_line(saved, tmp_path):
+    """Seeded byte-level damage to database.json and the array headers: a database or one error line."""
+    rng = np.random.default_rng(20)
+    files = ["database.json", "clip_ids.npy", "rotations.npy", "features/F15.npy"]
+    originals = {f: (saved / f).read_bytes() for f in files}
+    db = shutil.copytree(saved, tmp_path / "db")
+    outcomes = {"opened": 0, "refused": 0}
+    for trial in range(300):
+        name = files[trial % len(files)]
+        data = bytearray(originals[name])
+        span = len(data) if name == "database.json" else 128  # the .npy header
+        for _ in range(int(rng.integers(1, 4))):
+            i = int(rng.integers(0, span))
+            kind = rng.integers(0, 3)
+            if kind == 0:
+                data[i] = int(rng.integers(0, 256))
+            elif kind == 1:
+                del data[i : i + int(rng.integers(1, 8))]
+            else:
+                data[i:i] = bytes(rng.choice(list(b'[]{}",:0123456789-e.n'), size=int(rng.integers(1, 8))))
+        (db / name).write_bytes(bytes(data))
+        try:
+            MotionDatabase.open(db)
+            outcomes["opened"] += 1
+        except MocapFormatError as exc:
+            assert "\n" not in str(exc)
+            outcomes["refused"] += 1
+        (db / name).write_bytes(originals[name])
+    assert outcomes["refused"] > 200, outcomes

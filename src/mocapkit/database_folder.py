@@ -106,6 +106,11 @@ def _named_inside(path, folder) -> bool:
     return p == f or f in p.parents
 
 
+def _one_line(exc: BaseException) -> str:
+    """An exception's message on one line (numpy's and others' may span several)."""
+    return " ".join(str(exc).split())
+
+
 # -- the description -----------------------------------------------------------------------------
 
 
@@ -147,7 +152,7 @@ def _read_json(path: Path) -> dict:
     except MocapFormatError:
         raise
     except (OSError, ValueError, RecursionError) as exc:
-        raise MocapFormatError(path, f"unreadable database description ({exc})") from None
+        raise MocapFormatError(path, f"unreadable database description ({_one_line(exc)})") from None
     if not isinstance(desc, dict):
         raise MocapFormatError(path, f"the database description is a JSON {type(desc).__name__}, not an object")
     return desc
@@ -218,7 +223,7 @@ def _skeleton_from_json(d, where: str, path: Path) -> Skeleton:
             unit_cm=d["unit_cm"],
         )
     except (MocapError, ValueError, OverflowError) as exc:
-        raise MocapFormatError(path, f"{where}: {exc}") from None
+        raise MocapFormatError(path, f"{where}: {_one_line(exc)}") from None
 
 
 def _feature_columns(name: str) -> int:
@@ -321,8 +326,8 @@ def _load_array(directory: Path, rel: str, shape: tuple, mmap: bool) -> np.ndarr
             got_shape, fortran, got_dtype = read_header(fh)
             offset = fh.tell()
             size = os.fstat(fh.fileno()).st_size
-    except (OSError, ValueError, SyntaxError, TypeError) as exc:
-        raise MocapFormatError(p, f"unreadable array ({exc})") from None
+    except Exception as exc:  # numpy's header parser raises ValueError, SyntaxError, TokenError, ...
+        raise MocapFormatError(p, f"unreadable array header ({type(exc).__name__}: {_one_line(exc)})") from None
     if got_dtype != dtype or fortran:
         raise MocapFormatError(p, f"expected a C-ordered {dtype} array, got a {'Fortran-ordered' if fortran else 'C-ordered'} {got_dtype} one")
     if tuple(got_shape) != tuple(shape):
@@ -333,7 +338,7 @@ def _load_array(directory: Path, rel: str, shape: tuple, mmap: bool) -> np.ndarr
     try:
         return np.load(p, mmap_mode="r" if mmap else None, allow_pickle=False)
     except (OSError, ValueError) as exc:
-        raise MocapFormatError(p, f"unreadable array ({exc})") from None
+        raise MocapFormatError(p, f"unreadable array ({_one_line(exc)})") from None
 
 
 # -- writing and reading the folder ---------------------------------------------------------------
