@@ -652,8 +652,8 @@ class MotionDatabase:
         with ``overwrite`` and only when it is a mocapkit database. The folder
         is written beside the target and renamed into place; an old database
         is deleted only after the new one is in place, so an interrupted save
-        leaves the old or the new database, never a partial one. Returns the
-        resolved path written.
+        leaves the old or the new database, never a partial one. Returns
+        ``directory`` as a Path.
         """
         if self.path is not None and same_file(directory, self.path):
             raise MocapFormatError(directory, "cannot save a database over the folder it is opened from")
@@ -669,7 +669,8 @@ class MotionDatabase:
         if self.translations is not None:
             arrays["translations.npy"] = self.translations
         arrays.update({f"features/{n}.npy": f for n, f in self.features.items()})
-        return write_folder(directory, desc, arrays, inputs=inputs, overwrite=overwrite)
+        write_folder(directory, desc, arrays, inputs=inputs, overwrite=overwrite)
+        return Path(directory)
 
     @classmethod
     def open(cls, directory, mmap: bool = True) -> "MotionDatabase":
