@@ -66,7 +66,7 @@ _ARRAY_DTYPES = {
     "clip_ids.npy": np.dtype("<i4"),
     "features": np.dtype("<f8"),
 }
-_MAX_DESCRIPTION_BYTES = 64 * 2**20  # parsed, at most about 20 times that in memory; 2,000 clips take 1 MB
+_MAX_DESCRIPTION_BYTES = 16 * 2**20  # a 2,000-clip database's takes 0.3 MB; 16 MB of "{}," parse in 0.5 GB
 _MAX_JSON_DEPTH = 32  # a saved description nests 6 deep (a skeleton's limits); info may add a little
 _JSON_STRING = re.compile(r'"[^"\\]*(?:\\.[^"\\]*)*"')
 _CHUNK = 2**20  # frames of clip_ids compared at a time
@@ -133,8 +133,8 @@ def _json_depth(text: str) -> int:
     """Deepest nesting of ``[`` and ``{`` in JSON text, counted in linear time (strings skipped)."""
     bare = _JSON_STRING.sub("", text).encode("utf-8", "surrogatepass")
     b = np.frombuffer(bare, dtype=np.uint8)
-    step = np.isin(b, (ord("["), ord("{"))).astype(np.int64) - np.isin(b, (ord("]"), ord("}")))
-    return int(np.cumsum(step).max(initial=0))
+    step = np.isin(b, (ord("["), ord("{"))).astype(np.int32) - np.isin(b, (ord("]"), ord("}")))
+    return int(np.cumsum(step, dtype=np.int32).max(initial=0))
 
 
 def _read_json(path: Path) -> dict:
