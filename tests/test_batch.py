@@ -141,15 +141,16 @@ def test_output_that_resolves_to_an_input_through_a_link_is_refused(tmp_path, sh
     assert _tree(src) == before and _visible(out) == []  # refused before first.bvh (sorted first) was cleaned
 
 
-def test_output_that_is_a_hard_link_of_an_input_is_refused_even_with_overwrite(tmp_path, short_bvh):
+def test_output_that_is_a_hard_link_of_an_input_is_refused(tmp_path, short_bvh):
     src = tmp_path / "in"
     src.mkdir()
     shutil.copy(short_bvh, src / "walk.bvh")
     out = tmp_path / "out"
     out.mkdir()
     os.link(src / "walk.bvh", out / "walk.bvh")
-    with pytest.raises(MocapFormatError, match="refusing to write over an input"):
-        clean_batch(src, out, steps=STEPS, executor="serial", progress=False, overwrite=True)
+    for overwrite in (False, True):
+        with pytest.raises(MocapFormatError, match="refusing to write over an input"):
+            clean_batch(src, out, steps=STEPS, executor="serial", progress=False, overwrite=overwrite)
     assert (src / "walk.bvh").read_bytes() == short_bvh.read_bytes()
 
 
@@ -311,3 +312,30 @@ def test_kill_9_of_a_dask_client_writes_nothing_on_the_cluster(long_takes, tmp_p
         # the worker lives on and finishes cleaning; the cancelled take then removes its staging folder
         _wait_for(lambda: not _staging(out), "the cancelled take to give up")
     assert _visible(out) == []
+
+
+@pytest.mark.skipif(sys.platform == "win32", reason="kill -9")
+def test_kill_9_of_a_batch_on_its_own_dask_cluster_takes_the_cluster(long_takes, tmp_path):
+    pytest.importorskip("distributed")
+    psutil = pytest.importorskip("psutil")
+    out = tmp_path / "out"
+    proc = _start_batch(long_takes, out, "dask")
+    _wait_for(lambda: _staging(out), "the first take started on the local cluster", proc)
+    workers = [c.pid for c in psutil.Process(proc.pid).children(recursive=True)]
+    assert workers
+    proc.kill()
+    proc.wait()
+    _wait_for(lambda: all(_gone(pid) for pid in workers), "the Dask workers to die")
+    assert _visible(out) == []
+
+
+def test_a_complete_take_whose_output_is_an_input_is_refused_not_skipped(tmp_path, short_bvh):
+    src = tmp_path / "in"
+    (src / "a").mkdir(parents=True)
+    shutil.copy(short_bvh, src / "a" / "walk.bvh")
+    (src / "a" / "walk.clean.npz").write_bytes(b"a record from elsewhere")  # not an input (records are left out)
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "a").symlink_to(src / "a", target_is_directory=True)  # the take looks complete: its output is its input
+    with pytest.raises(MocapFormatError, match=r"walk\.bvh: refusing to write over an input"):
+        clean_batch(src, out, steps=STEPS, executor="serial", progress=False)

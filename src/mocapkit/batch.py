@@ -374,14 +374,16 @@ def _resolved(path) -> str:
     return os.path.realpath(os.path.abspath(os.fspath(path)))
 
 
-def _check_batch_outputs(todo: list[tuple[Path, dict]], inputs: list[Path], folders: list[Path], context: list[Path],
-                         overwrite: bool) -> None:
+def _check_batch_outputs(plans: list[dict], todo: list[tuple[Path, dict]], inputs: list[Path], folders: list[Path],
+                         context: list[Path], overwrite: bool) -> None:
     """Refuse the batch before any take is cleaned if one of its outputs would replace an input or another output.
 
-    Per take, :func:`mocapkit.io.outputs.check_outputs` against its own input,
-    the context and the input folders (existing files, folders, parents);
-    across takes, one index of every input (resolved path and inode) and of
-    the outputs so far, so a corpus of N takes costs O(N), not O(N^2).
+    First one index of every input (resolved path and inode) against every
+    take's files, complete takes included (an output that *is* an input means
+    OUT_DIR reaches into IN_DIR), and against each other; then, per take to
+    clean, :func:`mocapkit.io.outputs.check_outputs` against its own input,
+    the context and the input folder (existing files, folders, parents). A
+    corpus of N takes costs O(N), not O(N^2).
     """
     from .io.outputs import check_outputs
 
@@ -391,10 +393,8 @@ def _check_batch_outputs(todo: list[tuple[Path, dict]], inputs: list[Path], fold
         st = os.stat(p)
         by_inode[(st.st_dev, st.st_ino)] = p
     written: dict[str, Path] = {}
-    for inp, files in todo:
-        outs = [f for f in files.values() if f is not None]
-        check_outputs(outs, [inp, *context, *folders], overwrite=overwrite)
-        for out in outs:
+    for files in plans:
+        for out in (f for f in files.values() if f is not None):
             r = _resolved(out)
             hit = by_path.get(r)
             if hit is None and os.path.exists(r):
@@ -405,6 +405,8 @@ def _check_batch_outputs(todo: list[tuple[Path, dict]], inputs: list[Path], fold
             if r in written:
                 raise MocapFormatError(out, f"given as two outputs ({written[r]}); each output needs its own path")
             written[r] = out
+    for inp, files in todo:
+        check_outputs([f for f in files.values() if f is not None], [inp, *context, *folders], overwrite=overwrite)
 
 
 def clean_batch(
@@ -468,7 +470,7 @@ def clean_batch(
         else:
             todo.append((inp, files))
     folders = [] if below else [in_dir]
-    _check_batch_outputs(todo, inputs, folders, ctx, overwrite)
+    _check_batch_outputs(plans, todo, inputs, folders, ctx, overwrite)
     jobs = [{"input": str(inp), "output": str(files["output"]), "context": [str(c) for c in ctx], "steps": steps,
              "threshold": float(threshold), "report": str(files["report"]) if files["report"] else None,
              "png": str(files["png"]) if files["png"] else None} for inp, files in todo]

@@ -188,6 +188,9 @@ def owner_alive() -> bool:
             worker = get_worker()
         except (ImportError, ValueError):  # not inside a Dask task
             return True
+        status = getattr(getattr(worker, "status", None), "name", "running")
+        if status not in ("running", "paused"):  # closing: its scheduler (a local cluster's: this batch) is gone
+            return False
         key = worker.get_current_task()
         state = getattr(worker, "state", None)
         task = state.tasks.get(key) if state is not None and key is not None else None
