@@ -86,13 +86,6 @@ def sigterm_as_interrupt() -> None:
         pass
 
 
-def _temp_files(path: Path) -> list[Path]:
-    """Leftovers for ``path``: temporaries of :func:`mocapkit.io.atomic_write` and a worker's staging folders."""
-    if not path.parent.is_dir():
-        return []
-    return [p for p in path.parent.glob(f".{path.name}.*.part") if p.is_file() or p.is_dir()]
-
-
 @lru_cache(maxsize=4)
 def _context(paths: tuple[str, ...]):
     """Context clips (or one database folder), loaded once per process."""
@@ -487,12 +480,27 @@ def clean_batch(
 
 
 def _sweep(paths) -> None:
+    """Remove what a killed worker left beside ``paths``: ``.NAME.*.part`` temporaries and staging folders.
+
+    One listing per folder (not one glob per path): a corpus of N takes costs O(N).
+    """
+    by_folder: dict[Path, set] = {}
     for p in paths:
-        for tmp in _temp_files(Path(p)):
+        p = Path(p)
+        by_folder.setdefault(p.parent, set()).add(p.name)
+    for folder, names in by_folder.items():
+        try:
+            entries = list(os.scandir(folder))
+        except OSError:  # not made yet, or unreadable: nothing of ours there
+            continue
+        for entry in entries:
+            stem = entry.name[1:-len(".part")].rpartition(".")[0]  # .NAME.RANDOM.part -> NAME (RANDOM has no dot)
+            if not (entry.name.startswith(".") and entry.name.endswith(".part") and stem in names):
+                continue
             try:
-                if tmp.is_dir() and not tmp.is_symlink():
-                    shutil.rmtree(tmp)
+                if entry.is_dir(follow_symlinks=False):
+                    shutil.rmtree(entry.path)
                 else:
-                    os.unlink(tmp)
+                    os.unlink(entry.path)
             except OSError:
                 pass
