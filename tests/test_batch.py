@@ -339,3 +339,31 @@ def test_a_complete_take_whose_output_is_an_input_is_refused_not_skipped(tmp_pat
     (out / "a").symlink_to(src / "a", target_is_directory=True)  # the take looks complete: its output is its input
     with pytest.raises(MocapFormatError, match=r"walk\.bvh: refusing to write over an input"):
         clean_batch(src, out, steps=STEPS, executor="serial", progress=False)
+
+
+def test_failures_name_the_output_not_the_staging_folder(tmp_path, short_bvh):
+    from mocapkit import corrupt
+
+    src = tmp_path / "in"
+    src.mkdir()
+    gappy, _ = corrupt.gaps(mocapkit.load(short_bvh), seed=1)
+    assert gappy.missing().any()
+    mocapkit.save(gappy, src / "gappy.npz")
+    out = tmp_path / "out"
+    s = clean_batch(src, out, steps=["denoise"], fmt="bvh", executor="serial", progress=False)  # no fill: NaN cannot go to BVH
+    assert s.failed[0]["reason"].startswith(f"{out / 'gappy.bvh'}: "), s.failed[0]["reason"]
+    assert not list(out.rglob("*"))
+
+
+def test_leftovers_of_a_killed_worker_are_swept_and_nothing_else(tmp_path, short_bvh):
+    src = tmp_path / "in"
+    src.mkdir()
+    shutil.copy(short_bvh, src / "walk.bvh")
+    out = tmp_path / "out"
+    (out / ".walk.bvh.k1ll3d.part").mkdir(parents=True)  # a staging folder
+    (out / ".walk.bvh.k1ll3d.part" / "walk.bvh").write_text("half")
+    (out / ".walk.clean.npz.x_9.part").write_text("half")  # an atomic_write temporary
+    (out / ".mine.bvh.a.part").write_text("not of this batch")
+    (out / ".walk.bvh.bvh.b.part").write_text("not of this batch either")
+    assert clean_batch(src, out, steps=STEPS, executor="serial", progress=False).count("done") == 1
+    assert sorted(p.name for p in out.iterdir()) == [".mine.bvh.a.part", ".walk.bvh.bvh.b.part", "walk.bvh", "walk.clean.npz"]

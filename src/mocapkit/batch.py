@@ -304,10 +304,10 @@ def _batch_job(job: dict) -> dict:
         row.update(status="failed", reason=_GONE)
     except FileNotFoundError as exc:
         _remove(moved)
-        row.update(status="failed", reason=f"{exc.filename or exc}: no such file")
+        row.update(status="failed", reason=_unstaged(f"{exc.filename or exc}: no such file", stage, out.parent))
     except Exception as exc:  # one bad take must not stop the corpus: report it in one line
         _remove(moved)
-        row.update(status="failed", reason=_one_line(exc))
+        row.update(status="failed", reason=_unstaged(_one_line(exc), stage, out.parent))
     except BaseException:
         _remove(moved)  # an output without its record would pass for complete-but-unrecorded
         raise
@@ -316,6 +316,11 @@ def _batch_job(job: dict) -> dict:
             shutil.rmtree(stage, ignore_errors=True)
     row["seconds"] = time.perf_counter() - t
     return row
+
+
+def _unstaged(reason: str, stage: Path | None, folder: Path) -> str:
+    """``reason`` with the staging folder's path replaced by the output folder's: messages name the files the user asked for."""
+    return reason if stage is None else reason.replace(str(stage), str(folder))
 
 
 class _Orphaned(Exception):
