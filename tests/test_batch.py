@@ -50,9 +50,8 @@ def twins(tmp_path, short_bvh) -> Path:
     src.mkdir()
     shutil.copy(samples.path("12.asf"), src / "take.asf")
     lines = samples.path("12_walk.amc").read_text().splitlines(keepends=True)
-    head = next(k for k, line in enumerate(lines) if line.strip() == "1")  # header up to the first frame
-    frames = [k for k, line in enumerate(lines) if line.strip().isdigit()]
-    (src / "take.amc").write_text("".join(lines[head - head:frames[30]]))  # 30 frames
+    frames = [k for k, line in enumerate(lines) if line.strip().isdigit()]  # the frame-number lines
+    (src / "take.amc").write_text("".join(lines[:frames[30]]))  # the header and 30 frames
     shutil.copy(short_bvh, src / "take.bvh")
     return src
 

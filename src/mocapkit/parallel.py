@@ -312,7 +312,8 @@ def _run_dask(spec: str, fn, items, bar) -> list:
                 return _run(client, fn, items, bar, dask_as_completed)
     try:
         client = Client(spec, timeout=_PROBE_S * 2)
-    except OSError as exc:  # the probe passed but the connection did not come up
-        raise MocapError(f"--executor {spec}: cannot connect ({exc})") from None
+    except Exception as exc:  # it speaks Dask but is no scheduler (a worker, a nanny), or went away since the probe
+        reason = (str(exc).strip().splitlines() or [""])[0]
+        raise MocapError(f"--executor {spec}: cannot start a Dask client there ({type(exc).__name__}: {reason})") from None
     with client:
         return _run(client, fn, items, bar, dask_as_completed)
