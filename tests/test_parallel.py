@@ -147,6 +147,9 @@ def test_real_scheduler_passes():
         assert check_executor(cluster.scheduler_address) == cluster.scheduler_address
         assert map_ordered(square, [1, 2, 3], executor=cluster.scheduler_address, progress=False) == [1, 4, 9]
         assert map_ordered(worker_state, [0], executor=cluster.scheduler_address, progress=False)[0][1] is True  # the client waits
+        worker = next(iter(cluster.scheduler_info["workers"]))  # speaks Dask, but is no scheduler
+        with pytest.raises(MocapError, match="cannot start a Dask client there"):
+            map_ordered(square, [1, 2], executor=worker, progress=False)
 
 
 def test_owner_alive_here_and_in_pool_workers():
