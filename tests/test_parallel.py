@@ -27,11 +27,12 @@ def fail_on_three(x):
 
 
 def worker_state(_):
-    """(pid, owner_alive(), parent-death signal) as seen inside a worker."""
+    """(pid, owner_alive(), parent-death signal, a parent watcher runs) as seen inside a worker."""
     sig = ctypes.c_int(0)
     if sys.platform.startswith("linux"):
         ctypes.CDLL(None).prctl(2, ctypes.byref(sig), 0, 0, 0)  # PR_GET_PDEATHSIG
-    return os.getpid(), owner_alive(), sig.value
+    watched = any(t.name == "mocapkit-parent-watch" for t in threading.enumerate())
+    return os.getpid(), owner_alive(), sig.value, watched
 
 
 @pytest.mark.parametrize("executor", ["serial", "processes", None])
@@ -155,7 +156,7 @@ def test_real_scheduler_passes():
 def test_owner_alive_here_and_in_pool_workers():
     assert owner_alive()  # not a worker: the owner is this process
     states = map_ordered(worker_state, range(4), executor="processes", max_workers=2, progress=False)
-    assert all(alive for _, alive, _ in states)
-    assert {pid for pid, _, _ in states} != {os.getpid()}
+    assert all(alive and watched for _, alive, _, watched in states)  # every platform: a watcher of the parent pid
+    assert os.getpid() not in {pid for pid, _, _, _ in states}
     if sys.platform.startswith("linux"):
-        assert {sig for _, _, sig in states} == {int(signal.SIGKILL)}  # workers die with this process
+        assert {sig for _, _, sig, _ in states} == {int(signal.SIGKILL)}  # and on Linux the kernel's parent-death signal
