@@ -1,10 +1,19 @@
-"""map_ordered: the same results in input order on every executor; errors surface."""
+"""map_ordered: the same results in input order on every executor; errors surface; executors checked up front; workers tied to their parent."""
 
+from __future__ import annotations
+
+import ctypes
+import os
+import signal
+import socket
+import sys
+import threading
 from concurrent.futures import ThreadPoolExecutor
 
 import pytest
 
-from mocapkit.parallel import describe_executor, map_ordered
+from mocapkit.errors import MocapError
+from mocapkit.parallel import check_executor, describe_executor, map_ordered, owner_alive
 
 
 def square(x):
@@ -17,6 +26,15 @@ def fail_on_three(x):
     return x
 
 
+def worker_state(_):
+    """(pid, owner_alive(), parent-death signal, a parent watcher runs) as seen inside a worker."""
+    sig = ctypes.c_int(0)
+    if sys.platform.startswith("linux"):
+        ctypes.CDLL(None).prctl(2, ctypes.byref(sig), 0, 0, 0)  # PR_GET_PDEATHSIG
+    watched = any(t.name == "mocapkit-parent-watch" for t in threading.enumerate())
+    return os.getpid(), owner_alive(), sig.value, watched
+
+
 @pytest.mark.parametrize("executor", ["serial", "processes", None])
 def test_results_in_input_order(executor):
     assert map_ordered(square, range(20), executor=executor, progress=False) == [x * x for x in range(20)]
@@ -25,6 +43,7 @@ def test_results_in_input_order(executor):
 def test_any_executor_with_submit():
     with ThreadPoolExecutor(3) as pool:
         assert map_ordered(square, [3, 1, 2], executor=pool, progress=False) == [9, 1, 4]
+        assert check_executor(pool) is pool
 
 
 def test_first_error_is_raised():
@@ -34,6 +53,110 @@ def test_first_error_is_raised():
 
 def test_empty_and_bad_executor():
     assert map_ordered(square, [], progress=False) == []
-    with pytest.raises(ValueError, match="executor: expected"):
+    with pytest.raises(MocapError, match="--executor: expected .* got int 42"):
         map_ordered(square, [1, 2], executor=42, progress=False)
+    with pytest.raises(MocapError, match="--executor: expected"):
+        map_ordered(square, [], executor="garbage", progress=False)  # checked even when there is nothing to do
     assert "local processes" in describe_executor(None)
+
+
+@pytest.mark.parametrize("spec", [None, "processes", "serial"])
+def test_named_executors_pass(spec):
+    assert check_executor(spec) == spec
+
+
+@pytest.mark.parametrize("spec", ["garbage", "Processes", "tcp://", "tcp://host", "tcp://host:port", "http://127.0.0.1:8786",
+                                  "127.0.0.1:8786", "tcp://127.0.0.1:8786; rm -rf /", ""])
+def test_malformed_executor_is_one_line(spec):
+    with pytest.raises(MocapError, match="^--executor: expected processes, serial, dask or a Dask scheduler address tcp://HOST:PORT, got") as info:
+        check_executor(spec)
+    assert "\n" not in str(info.value)
+
+
+def test_port_out_of_range():
+    with pytest.raises(MocapError, match="port 99999 is out of range"):
+        check_executor("tcp://127.0.0.1:99999")
+
+
+def _free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def test_unreachable_scheduler_is_refused():
+    port = _free_port()  # bound and released: nothing listens there now
+    with pytest.raises(MocapError, match=f"--executor tcp://127.0.0.1:{port}: cannot connect"):
+        check_executor(f"tcp://127.0.0.1:{port}")
+
+
+class _Server:
+    """A loopback TCP server answering each connection with ``reply`` (then closing), or with nothing."""
+
+    def __init__(self, reply: bytes | None):
+        self.sock = socket.socket()
+        self.sock.bind(("127.0.0.1", 0))
+        self.sock.listen(4)
+        self.address = "tcp://127.0.0.1:%d" % self.sock.getsockname()[1]
+        self.reply, self.conns = reply, []
+        threading.Thread(target=self._serve, daemon=True).start()
+
+    def _serve(self):
+        while True:
+            try:
+                conn, _ = self.sock.accept()
+            except OSError:
+                return
+            self.conns.append(conn)
+            if self.reply is not None:
+                conn.sendall(self.reply)
+                conn.close()
+
+    def close(self):
+        self.sock.close()
+        for c in self.conns:
+            c.close()
+
+
+@pytest.mark.parametrize("reply, reason", [
+    (b"\xff" * 64, r"not a Dask scheduler \(its first message announces 18446744073709551615 bytes\)"),  # a huge length prefix
+    (b"HTTP/1.1 400 Bad Request\r\n\r\n", "not a Dask scheduler"),
+    ((40).to_bytes(8, "little") + b"x" * 40, r"not a Dask scheduler \(no Dask handshake\)"),  # framed, but not Dask's
+    (b"", "not a Dask scheduler .it closed the connection"),
+])
+def test_non_dask_peer_is_refused_without_reading_what_it_announces(reply, reason):
+    server = _Server(reply)
+    try:
+        with pytest.raises(MocapError, match=reason):
+            check_executor(server.address)
+    finally:
+        server.close()
+
+
+def test_silent_peer_times_out():
+    server = _Server(None)  # accepts, never speaks
+    try:
+        with pytest.raises(MocapError, match="no Dask scheduler answered within 0.5 s"):
+            check_executor(server.address, timeout=0.5)
+    finally:
+        server.close()
+
+
+def test_real_scheduler_passes():
+    distributed = pytest.importorskip("distributed")
+    with distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=True, dashboard_address=None) as cluster:
+        assert check_executor(cluster.scheduler_address) == cluster.scheduler_address
+        assert map_ordered(square, [1, 2, 3], executor=cluster.scheduler_address, progress=False) == [1, 4, 9]
+        assert map_ordered(worker_state, [0], executor=cluster.scheduler_address, progress=False)[0][1] is True  # the client waits
+        worker = next(iter(cluster.scheduler_info["workers"]))  # speaks Dask, but is no scheduler
+        with pytest.raises(MocapError, match="cannot start a Dask client there"):
+            map_ordered(square, [1, 2], executor=worker, progress=False)
+
+
+def test_owner_alive_here_and_in_pool_workers():
+    assert owner_alive()  # not a worker: the owner is this process
+    states = map_ordered(worker_state, range(4), executor="processes", max_workers=2, progress=False)
+    assert all(alive and watched for _, alive, _, watched in states)  # every platform: a watcher of the parent pid
+    assert os.getpid() not in {pid for pid, _, _, _ in states}
+    if sys.platform.startswith("linux"):
+        assert {sig for _, _, sig, _ in states} == {int(signal.SIGKILL)}  # and on Linux the kernel's parent-death signal

@@ -12,23 +12,52 @@ then ``OUT``, then the ``.clean.npz`` **last**: its presence is the completion
 marker. :func:`clean_batch` skips a take whose output and marker both exist,
 so an interrupted corpus run resumes where it stopped; a take interrupted
 after ``OUT`` was renamed but before its marker is removed again, so an
-interrupt never leaves an output without its record. Temporary files that a
-killed worker could not remove (``.NAME.*.part`` beside an expected output)
-are swept before and after a batch.
+interrupt never leaves an output without its record.
 
 Folder layout is mirrored: ``IN_DIR/a/b/take.amc`` -> ``OUT_DIR/a/b/take.bvh``
-(+ ``take.clean.npz``). One failing take is reported (file and a one-line
-reason) and skipped; the others go on. Work runs through
-:func:`mocapkit.parallel.map_ordered`: local processes by default, in this
-process (``"serial"``), on a local Dask cluster (``"dask"``) or on the Dask
-scheduler at an address.
+(+ ``take.clean.npz``). **Takes that would share a file** (``take.amc`` and
+``take.bvh`` in one folder both become ``take.bvh`` + ``take.clean.npz``;
+``take.bvh`` and ``take.npz`` share ``take.clean.npz``) **keep their input's
+suffix**, every one of them: ``take.amc.bvh`` + ``take.amc.clean.npz`` and
+``take.bvh.bvh`` + ``take.bvh.clean.npz``. Takes that would still share a
+file after that (an input literally named ``take.amc.bvh`` beside
+``take.amc`` and ``take.bvh``) refuse the batch, naming both inputs.
+
+**Nothing is cleaned until every output of the batch is checked**
+(:func:`mocapkit.io.outputs.check_outputs` and one index of all inputs):
+no output, record or report may resolve (symlinks, ``..``, hard links) to
+any input take or ``--context`` file, nor lie inside a ``--context`` folder
+or inside ``IN_DIR`` (an ``OUT_DIR`` below ``IN_DIR`` is allowed: it is left
+out of the inputs); two takes may not write one file; ``OUT_DIR`` may not be
+``IN_DIR``. A take is cleaned again only when it is not complete, and any of
+its files that already exists (an output without its record, a report left
+by another tool) is replaced only with ``overwrite``.
+
+**No write outlives the batch.** A worker cleans a take into a hidden
+staging folder beside its output (``.NAME.*.part``) and moves the files
+into place itself (reports, ``OUT``, record last), asking
+:func:`mocapkit.parallel.owner_alive` right before each rename: once the
+batch process is gone (``kill -9`` included) or, on Dask, the scheduler has
+cancelled the take because its client went away, nothing more is moved and
+what was moved for that take is removed. Local workers also die with the
+batch process (:mod:`mocapkit.parallel`). Staging folders and temporary
+files a killed worker could not remove are swept before and after a batch;
+a worker killed between the rename of ``OUT`` and of its record leaves an
+output without a record, which the next run refuses without ``overwrite``.
+
+One failing take is reported (file and a one-line reason) and skipped; the
+others go on. Work runs through :func:`mocapkit.parallel.map_ordered`: local
+processes by default, in this process (``"serial"``), on a local Dask
+cluster (``"dask"``) or on the Dask scheduler at an address.
 """
 
 from __future__ import annotations
 
 import fnmatch
 import os
+import shutil
 import signal
+import tempfile
 import threading
 import time
 from dataclasses import dataclass, field
@@ -38,7 +67,7 @@ from typing import Sequence
 
 from .errors import MocapError, MocapFormatError
 
-__all__ = ["clean_file", "clean_batch", "find_inputs", "BatchSummary", "sigterm_as_interrupt", "DEFAULT_PATTERNS"]
+__all__ = ["clean_file", "clean_batch", "find_inputs", "output_for", "BatchSummary", "sigterm_as_interrupt", "DEFAULT_PATTERNS"]
 
 DEFAULT_PATTERNS = ("*.bvh", "*.amc", "*.npz")
 
@@ -55,13 +84,6 @@ def sigterm_as_interrupt() -> None:
         signal.signal(signal.SIGTERM, handler)
     except (ValueError, OSError):  # not the main thread of the interpreter (embedded, some workers)
         pass
-
-
-def _temp_files(path: Path) -> list[Path]:
-    """Leftover temporaries of :func:`mocapkit.io.atomic_write` for ``path``."""
-    if not path.parent.is_dir():
-        return []
-    return [p for p in path.parent.glob(f".{path.name}.*.part") if p.is_file()]
 
 
 @lru_cache(maxsize=4)
@@ -186,23 +208,42 @@ def find_inputs(in_dir, patterns: Sequence[str] = DEFAULT_PATTERNS, exclude=None
     return out
 
 
-def output_for(inp: Path, in_dir: Path, out_dir: Path, fmt: str = "auto") -> Path:
-    """The mirrored output path: same sub-folder, suffix ``.bvh``/``.npz`` (``auto``: the input's if writable, else .bvh)."""
-    rel = inp.relative_to(in_dir)
+def output_for(inp: Path, in_dir: Path, out_dir: Path, fmt: str = "auto", keep_suffix: bool = False) -> Path:
+    """The mirrored output path of ``inp``: same sub-folder, suffix ``.bvh``/``.npz``.
+
+    ``fmt``: ``"bvh"``, ``"npz"`` or ``"auto"`` (the input's suffix if it can
+    be written, else ``.bvh``). ``keep_suffix``: append the output suffix to
+    the whole input name (``take.amc`` -> ``take.amc.bvh``), the name
+    :func:`clean_batch` gives takes that would otherwise share a file.
+
+    >>> output_for(Path("in/a/take.amc"), Path("in"), Path("out")).as_posix()
+    'out/a/take.bvh'
+    >>> output_for(Path("in/a/take.amc"), Path("in"), Path("out"), keep_suffix=True).as_posix()
+    'out/a/take.amc.bvh'
+    """
+    rel = Path(inp).relative_to(in_dir)
     if fmt == "auto":
-        suffix = inp.suffix.lower() if inp.suffix.lower() in (".bvh", ".npz") else ".bvh"
+        suffix = rel.suffix.lower() if rel.suffix.lower() in (".bvh", ".npz") else ".bvh"
     else:
         suffix = "." + fmt.lstrip(".").lower()
-    return out_dir / rel.with_suffix(suffix)
+    return Path(out_dir) / (rel.with_name(rel.name + suffix) if keep_suffix else rel.with_suffix(suffix))
 
 
 @dataclass
 class BatchSummary:
-    """What :func:`clean_batch` did: per-take rows and the totals."""
+    """What :func:`clean_batch` did: per-take rows and the totals.
 
-    rows: list = field(default_factory=list)  # dicts: input, output, status (done/skipped/failed), reason, seconds, cells...
+    ``rows``: one dict per take, sorted by input: ``input``, ``output``,
+    ``status`` (``done``/``skipped``/``failed``), ``reason`` (one line),
+    ``seconds`` and, for cleaned takes, the counts of cells changed.
+    ``renamed``: the inputs whose output keeps the input's suffix because
+    another take would have written the same file (module docstring).
+    """
+
+    rows: list = field(default_factory=list)
     seconds: float = 0.0
     executor: str = ""
+    renamed: list = field(default_factory=list)
 
     def count(self, status: str) -> int:
         return sum(r["status"] == status for r in self.rows)
@@ -218,22 +259,152 @@ def _one_line(exc: BaseException) -> str:
     return msg if isinstance(exc, MocapError) else f"{type(exc).__name__}: {msg}"
 
 
+_GONE = "not written: the batch that started this take is gone"
+
+
 def _batch_job(job: dict) -> dict:
-    """Worker: clean one take; never raises an Exception (failures come back as rows), interrupts propagate."""
+    """Worker: clean one take; never raises an Exception (failures come back as rows), interrupts propagate.
+
+    The take is cleaned into a staging folder beside its output, then its
+    files are renamed into place (reports, output, record last), each rename
+    only while :func:`mocapkit.parallel.owner_alive`; if the batch is gone,
+    what this take already moved is removed again.
+    """
+    from .cleaning.pipeline import clean_path
+    from .parallel import owner_alive
+
     sigterm_as_interrupt()
     t = time.perf_counter()
     row = {"input": job["input"], "output": job["output"], "status": "done", "reason": ""}
+    out = Path(job["output"])
+    finals = [Path(job[k]) for k in ("report", "png") if job.get(k)] + [out, clean_path(out)]
+    if not owner_alive():
+        row.update(status="failed", reason=_GONE, seconds=time.perf_counter() - t)
+        return row
+    moved: list[Path] = []
+    stage = None
     try:
-        _, res = clean_file(job["input"], job["output"], context=job["context"], steps=job["steps"],
-                            threshold=job["threshold"], report=job.get("report"), png=job.get("png"))
+        out.parent.mkdir(parents=True, exist_ok=True)
+        stage = Path(tempfile.mkdtemp(prefix=f".{out.name}.", suffix=".part", dir=out.parent))
+        staged = {f: stage / f.name for f in finals}
+        _, res = clean_file(job["input"], staged[out], context=job["context"], steps=job["steps"], threshold=job["threshold"],
+                            report=staged[Path(job["report"])] if job.get("report") else None,
+                            png=staged[Path(job["png"])] if job.get("png") else None)
+        for final in finals:  # the record last: the completion marker
+            if not owner_alive():
+                raise _Orphaned
+            if final.exists():
+                shutil.copymode(final, staged[final])
+            os.replace(staged[final], final)
+            moved.append(final)
         row.update(frames=res.num_frames, filled=int(res.filled.sum()), repaired=int(res.repaired.sum()),
                    denoised=int(res.denoised.sum()), flagged=int(res.flags.sum()), notes=list(res.notes))
+    except _Orphaned:
+        _remove(moved)
+        row.update(status="failed", reason=_GONE)
     except FileNotFoundError as exc:
-        row.update(status="failed", reason=f"{exc.filename or exc}: no such file")
+        _remove(moved)
+        row.update(status="failed", reason=_unstaged(f"{exc.filename or exc}: no such file", stage, out.parent))
     except Exception as exc:  # one bad take must not stop the corpus: report it in one line
-        row.update(status="failed", reason=_one_line(exc))
+        _remove(moved)
+        row.update(status="failed", reason=_unstaged(_one_line(exc), stage, out.parent))
+    except BaseException:
+        _remove(moved)  # an output without its record would pass for complete-but-unrecorded
+        raise
+    finally:
+        if stage is not None:
+            shutil.rmtree(stage, ignore_errors=True)
     row["seconds"] = time.perf_counter() - t
     return row
+
+
+def _unstaged(reason: str, stage: Path | None, folder: Path) -> str:
+    """``reason`` with the staging folder's path replaced by the output folder's: messages name the files the user asked for."""
+    return reason if stage is None else reason.replace(str(stage), str(folder))
+
+
+class _Orphaned(Exception):
+    """The process that started a take is gone: move nothing more into place."""
+
+
+def _remove(paths) -> None:
+    for p in paths:
+        try:
+            os.unlink(p)
+        except FileNotFoundError:
+            pass
+
+
+def _take_files(inp: Path, in_dir: Path, out_dir: Path, fmt: str, report: bool, png: bool, keep_suffix: bool) -> dict:
+    """The files one take writes: ``output``, ``record`` and optionally ``report``/``png`` (None when not asked)."""
+    from .cleaning.pipeline import clean_path
+
+    out = output_for(inp, in_dir, out_dir, fmt, keep_suffix=keep_suffix)
+    stem = out.name[: -len(out.suffix)]
+    return {"output": out, "record": clean_path(out),
+            "report": out.with_name(stem + ".report.html") if report else None,
+            "png": out.with_name(stem + ".summary.png") if png else None}
+
+
+def _plan(inputs: list[Path], in_dir: Path, out_dir: Path, fmt: str, report: bool, png: bool) -> tuple[list[dict], list[Path]]:
+    """Each input's files (module docstring: colliding takes keep their suffix); refuses takes that still share a file."""
+    plans = [_take_files(p, in_dir, out_dir, fmt, report, png, False) for p in inputs]
+    users: dict[str, list[int]] = {}
+    for k, files in enumerate(plans):
+        for f in files.values():
+            if f is not None:
+                users.setdefault(str(f), []).append(k)
+    clash = sorted({k for ks in users.values() if len(ks) > 1 for k in ks})
+    for k in clash:
+        plans[k] = _take_files(inputs[k], in_dir, out_dir, fmt, report, png, True)
+    owner: dict[str, int] = {}
+    for k, files in enumerate(plans):
+        for f in files.values():
+            if f is None:
+                continue
+            other = owner.setdefault(str(f), k)
+            if other != k:
+                raise MocapFormatError(inputs[k], f"would write {f}, as {inputs[other]} does; rename one of them")
+    return plans, [inputs[k] for k in clash]
+
+
+def _resolved(path) -> str:
+    return os.path.realpath(os.path.abspath(os.fspath(path)))
+
+
+def _check_batch_outputs(plans: list[dict], todo: list[tuple[Path, dict]], inputs: list[Path], folders: list[Path],
+                         context: list[Path], overwrite: bool) -> None:
+    """Refuse the batch before any take is cleaned if one of its outputs would replace an input or another output.
+
+    First one index of every input (resolved path and inode) against every
+    take's files, complete takes included (an output that *is* an input means
+    OUT_DIR reaches into IN_DIR), and against each other; then, per take to
+    clean, :func:`mocapkit.io.outputs.check_outputs` against its own input,
+    the context and the input folder (existing files, folders, parents). A
+    corpus of N takes costs O(N), not O(N^2).
+    """
+    from .io.outputs import check_outputs
+
+    by_path = {_resolved(p): p for p in inputs}
+    by_inode = {}
+    for p in inputs:
+        st = os.stat(p)
+        by_inode[(st.st_dev, st.st_ino)] = p
+    written: dict[str, Path] = {}
+    for files in plans:
+        for out in (f for f in files.values() if f is not None):
+            r = _resolved(out)
+            hit = by_path.get(r)
+            if hit is None and os.path.exists(r):
+                st = os.stat(r)
+                hit = by_inode.get((st.st_dev, st.st_ino))
+            if hit is not None:
+                raise MocapFormatError(out, f"refusing to write over an input ({hit}); choose another output folder")
+            if r in written:
+                raise MocapFormatError(out, f"given as two outputs ({written[r]}); each output needs its own path")
+            written[r] = out
+    for inp, files in todo:
+        check_outputs([f for f in files.values() if f is not None], [inp, *context, *folders], overwrite=overwrite)
 
 
 def clean_batch(
@@ -249,41 +420,59 @@ def clean_batch(
     png: bool = False,
     executor=None,
     progress: bool = True,
+    overwrite: bool = False,
 ) -> BatchSummary:
     """Clean every take under ``in_dir`` into the mirrored layout under ``out_dir`` (module docstring).
 
-    Complete outputs (output and ``.clean.npz`` present) are skipped; failures
+    Complete takes (output and ``.clean.npz`` present) are skipped; failures
     are rows with a one-line reason. ``report``/``png``: also write
     ``<stem>.report.html`` / ``<stem>.summary.png`` beside each output.
+    Takes that would share an output keep their input's suffix
+    (``take.amc`` -> ``take.amc.bvh``; listed in ``BatchSummary.renamed``).
+    Every output is checked before any take is cleaned: none may resolve to
+    an input, and an existing file that is not part of a complete take is
+    replaced only with ``overwrite``. Raises
+    :class:`~mocapkit.errors.MocapError` (one line) on a bad folder, format,
+    step list, context or executor (:func:`mocapkit.parallel.check_executor`)
+    and on a refused output; nothing is written then.
     """
-    from .cleaning.pipeline import STEPS, parse_steps, clean_path
-    from .parallel import describe_executor, map_ordered
+    from .cleaning.pipeline import STEPS, parse_steps
+    from .io.outputs import inside
+    from .parallel import check_executor, describe_executor, map_ordered
 
     in_dir, out_dir = Path(in_dir), Path(out_dir)
     if not in_dir.is_dir():
         raise MocapFormatError(in_dir, "not a folder")
-    if out_dir.exists() and out_dir.resolve() == in_dir.resolve():
+    if _resolved(out_dir) == _resolved(in_dir):
         raise MocapFormatError(out_dir, "refusing to write into the input folder; choose another output folder")
     if fmt not in ("auto", "bvh", "npz"):
         raise MocapError(f"format must be auto, bvh or npz, got {fmt!r}")
-    steps = list(parse_steps(steps or STEPS))
-    if context:
-        load_context(context)  # fail early, in one line, on a bad context
+    check_executor(executor)
+    try:
+        steps = list(parse_steps(steps or STEPS))
+    except ValueError as exc:
+        raise MocapError(f"steps: {exc}") from None
+    ctx = [Path(c) for c in (context or [])]
+    if ctx:
+        load_context(ctx)  # fail early, in one line, on a bad context
     t0 = time.perf_counter()
-    summary = BatchSummary(executor=describe_executor(executor))
-    jobs, expected = [], []
-    for inp in find_inputs(in_dir, patterns, exclude=out_dir):
-        out = output_for(inp, in_dir, out_dir, fmt)
-        record = clean_path(out)
-        stem = out.name[: -len(out.suffix)]
-        rep = out.with_name(stem + ".report.html") if report else None
-        pic = out.with_name(stem + ".summary.png") if png else None
-        expected += [p for p in (out, record, rep, pic) if p is not None]
-        if out.is_file() and record.is_file():
-            summary.rows.append({"input": str(inp), "output": str(out), "status": "skipped", "reason": "complete", "seconds": 0.0})
-            continue
-        jobs.append({"input": str(inp), "output": str(out), "context": [str(c) for c in (context or [])], "steps": steps,
-                     "threshold": float(threshold), "report": str(rep) if rep else None, "png": str(pic) if pic else None})
+    below = inside(out_dir, in_dir)  # an OUT_DIR below IN_DIR is left out of the inputs, IN_DIR itself is not
+    inputs = find_inputs(in_dir, patterns, exclude=out_dir if below else None)
+    plans, renamed = _plan(inputs, in_dir, out_dir, fmt, report, png)
+    summary = BatchSummary(executor=describe_executor(executor), renamed=[str(p) for p in renamed])
+    todo = []
+    for inp, files in zip(inputs, plans):
+        if files["output"].is_file() and files["record"].is_file():
+            summary.rows.append({"input": str(inp), "output": str(files["output"]), "status": "skipped",
+                                 "reason": "complete", "seconds": 0.0})
+        else:
+            todo.append((inp, files))
+    folders = [] if below else [in_dir]
+    _check_batch_outputs(plans, todo, inputs, folders, ctx, overwrite)
+    jobs = [{"input": str(inp), "output": str(files["output"]), "context": [str(c) for c in ctx], "steps": steps,
+             "threshold": float(threshold), "report": str(files["report"]) if files["report"] else None,
+             "png": str(files["png"]) if files["png"] else None} for inp, files in todo]
+    expected = [f for files in plans for f in files.values() if f is not None]
     _sweep(expected)
     try:
         rows = map_ordered(_batch_job, jobs, executor=executor, progress=progress, desc="clean") if jobs else []
@@ -296,9 +485,27 @@ def clean_batch(
 
 
 def _sweep(paths) -> None:
+    """Remove what a killed worker left beside ``paths``: ``.NAME.*.part`` temporaries and staging folders.
+
+    One listing per folder (not one glob per path): a corpus of N takes costs O(N).
+    """
+    by_folder: dict[Path, set] = {}
     for p in paths:
-        for tmp in _temp_files(Path(p)):
+        p = Path(p)
+        by_folder.setdefault(p.parent, set()).add(p.name)
+    for folder, names in by_folder.items():
+        try:
+            entries = list(os.scandir(folder))
+        except OSError:  # not made yet, or unreadable: nothing of ours there
+            continue
+        for entry in entries:
+            stem = entry.name[1:-len(".part")].rpartition(".")[0]  # .NAME.RANDOM.part -> NAME (RANDOM has no dot)
+            if not (entry.name.startswith(".") and entry.name.endswith(".part") and stem in names):
+                continue
             try:
-                os.unlink(tmp)
+                if entry.is_dir(follow_symlinks=False):
+                    shutil.rmtree(entry.path)
+                else:
+                    os.unlink(entry.path)
             except OSError:
                 pass

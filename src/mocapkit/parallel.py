@@ -13,17 +13,52 @@ through :func:`map_ordered`. ``executor`` chooses where it runs:
 
 Results come back in input order; progress is shown with tqdm. An
 interrupt (Ctrl-C) cancels what has not started and re-raises.
+
+:func:`check_executor` refuses anything else in one line
+(:class:`~mocapkit.errors.MocapError`) before any work starts; a scheduler
+address is probed first (connect and read the scheduler's opening handshake,
+at most 64 KiB, within a few seconds), so an unreachable address or a peer
+that does not speak the Dask protocol fails fast instead of hanging or
+allocating what a junk length prefix asks for.
+
+**Work dies with the process that handed it out.** Local worker processes
+get a parent-death signal (``prctl(PR_SET_PDEATHSIG, SIGKILL)`` on Linux) and
+a watcher thread that kills the worker once its parent pid changes (every
+platform); the workers of a local Dask cluster are children of this process
+and Dask stops them with it. Work that writes files calls :func:`owner_alive`
+right before each final rename and writes nothing once it is false: in a
+local worker, the parent is gone; in a Dask task, the scheduler has released
+the task because the client that submitted it went away (a remote cluster's
+workers live on). Work handed to an executor object given by the caller is
+not watched; there :func:`owner_alive` is always true.
 """
 
 from __future__ import annotations
 
 import os
+import re
+import signal
+import socket
+import struct
+import sys
+import threading
+import time
 from concurrent.futures import Executor, ProcessPoolExecutor, as_completed
 from typing import Callable, Sequence
 
 from tqdm.auto import tqdm
 
-__all__ = ["map_ordered", "describe_executor"]
+from .errors import MocapError
+
+__all__ = ["map_ordered", "describe_executor", "check_executor", "owner_alive"]
+
+EXECUTOR_NAMES = ("processes", "serial", "dask")
+_ADDRESS_RE = re.compile(r"^tcp://(?P<host>\[[0-9A-Fa-f:.]+\]|[A-Za-z0-9_.-]+):(?P<port>[0-9]{1,5})/?$")
+_ACCEPTED = "processes, serial, dask or a Dask scheduler address tcp://HOST:PORT"
+_HANDSHAKE_MAX = 64 * 1024  # bytes of the scheduler's opening message the probe will read
+_PROBE_S = 5.0  # seconds the whole probe (name lookup, connect, handshake) may take
+_WATCH_S = 0.5  # seconds between a local worker's checks of its parent pid
+_OWNER_PID: int | None = None  # set in local pool workers: the pid of the process that started them
 
 
 def describe_executor(executor) -> str:
@@ -33,6 +68,175 @@ def describe_executor(executor) -> str:
     if isinstance(executor, str):
         return "this process" if executor == "serial" else f"dask ({executor})"
     return type(executor).__name__
+
+
+def check_executor(executor, timeout: float = _PROBE_S):
+    """Return ``executor`` if :func:`map_ordered` can run on it; else raise :class:`MocapError` in one line.
+
+    Accepted: ``None``, ``"processes"``, ``"serial"``, ``"dask"`` (needs
+    ``distributed`` installed), a scheduler address ``"tcp://HOST:PORT"``, or an
+    object with a ``submit`` method (a :class:`concurrent.futures.Executor`, a
+    ``distributed.Client``). An address is probed within ``timeout`` seconds:
+    it must accept a TCP connection and open with a Dask handshake (read at
+    most 64 KiB), so unreachable and non-Dask peers are refused here.
+
+    >>> check_executor("serial")
+    'serial'
+    >>> try:
+    ...     check_executor("garbage")
+    ... except MocapError as exc:
+    ...     print(exc)
+    --executor: expected processes, serial, dask or a Dask scheduler address tcp://HOST:PORT, got 'garbage'
+    """
+    if executor is None or executor in ("processes", "serial"):
+        return executor
+    if isinstance(executor, str):
+        if executor == "dask":
+            try:
+                import distributed  # noqa: F401
+            except ImportError:
+                raise MocapError('--executor dask needs Dask: pip install "dask[distributed]"') from None
+            return executor
+        match = _ADDRESS_RE.match(executor.strip())
+        if match is None:
+            raise MocapError(f"--executor: expected {_ACCEPTED}, got {executor!r}")
+        port = int(match["port"])
+        if not 0 < port < 65536:
+            raise MocapError(f"--executor {executor}: port {port} is out of range (1-65535)")
+        try:
+            import distributed  # noqa: F401
+        except ImportError:
+            raise MocapError(f'--executor {executor}: a Dask scheduler needs Dask: pip install "dask[distributed]"') from None
+        _probe_scheduler(executor, match["host"].strip("[]"), port, timeout)
+        return executor
+    if callable(getattr(executor, "submit", None)):
+        return executor
+    raise MocapError(f"--executor: expected {_ACCEPTED} or an object with submit(), got {type(executor).__name__} {executor!r}")
+
+
+def _probe_scheduler(address: str, host: str, port: int, timeout: float) -> None:
+    """Connect to ``host:port`` and read the opening handshake a Dask server sends; MocapError if it does not."""
+    deadline = time.monotonic() + timeout
+    found: list = []
+
+    def lookup():  # getaddrinfo has no timeout of its own: run it where we can stop waiting
+        try:
+            found.append(socket.getaddrinfo(host, port, type=socket.SOCK_STREAM))
+        except OSError as exc:
+            found.append(exc)
+
+    worker = threading.Thread(target=lookup, daemon=True)
+    worker.start()
+    worker.join(timeout)
+    if not found:
+        raise MocapError(f"--executor {address}: cannot resolve {host!r} within {timeout:g} s")
+    if isinstance(found[0], OSError):
+        raise MocapError(f"--executor {address}: cannot resolve {host!r} ({found[0].strerror or found[0]})")
+    family, kind, proto, _, sockaddr = found[0][0]
+    sock = socket.socket(family, kind, proto)
+    try:
+        sock.settimeout(max(deadline - time.monotonic(), 0.1))
+        try:
+            sock.connect(sockaddr)
+            head = _recv_exactly(sock, 8, deadline)
+            (nbytes,) = struct.unpack("<Q", head)
+            if not 0 < nbytes <= _HANDSHAKE_MAX:
+                raise ValueError(f"its first message announces {nbytes} bytes")
+            body = _recv_exactly(sock, nbytes, deadline)
+        except (socket.timeout, TimeoutError):
+            raise MocapError(f"--executor {address}: no Dask scheduler answered within {timeout:g} s") from None
+        except ValueError as exc:
+            raise MocapError(f"--executor {address}: not a Dask scheduler ({exc})") from None
+        except OSError as exc:
+            raise MocapError(f"--executor {address}: cannot connect ({exc.strerror or exc})") from None
+        if b"pickle-protocol" not in body:
+            raise MocapError(f"--executor {address}: not a Dask scheduler (no Dask handshake)")
+    finally:
+        sock.close()
+
+
+def _recv_exactly(sock: socket.socket, n: int, deadline: float) -> bytes:
+    chunks, got = [], 0
+    while got < n:
+        left = deadline - time.monotonic()
+        if left <= 0:
+            raise TimeoutError
+        sock.settimeout(left)
+        chunk = sock.recv(min(n - got, 65536))
+        if not chunk:
+            raise ValueError("it closed the connection before a handshake")
+        chunks.append(chunk)
+        got += len(chunk)
+    return b"".join(chunks)
+
+
+def owner_alive() -> bool:
+    """True while the process that handed out the current work still wants its result.
+
+    Call it right before a final rename: once it is false, write nothing.
+    In a local pool worker of :func:`map_ordered`: the parent process is
+    alive. In a Dask task: the scheduler still has the task running for a
+    client (a client that dies has its tasks cancelled). Elsewhere (this
+    process, a caller's own executor): always true.
+    """
+    if _OWNER_PID is not None:
+        return os.getppid() == _OWNER_PID
+    if "distributed" in sys.modules:
+        try:
+            from distributed import get_worker
+
+            worker = get_worker()
+        except (ImportError, ValueError):  # not inside a Dask task
+            return True
+        status = getattr(getattr(worker, "status", None), "name", "running")
+        if status not in ("running", "paused"):  # closing: its scheduler (a local cluster's: this batch) is gone
+            return False
+        key = worker.get_current_task()
+        state = getattr(worker, "state", None)
+        task = state.tasks.get(key) if state is not None and key is not None else None
+        if task is not None:
+            return task.state in ("executing", "long-running")
+        return key is None  # a task the worker no longer knows has been released
+    return True
+
+
+def _die_with_parent(parent_pid: int) -> None:
+    """Pool initializer: this worker ends (SIGKILL) when ``parent_pid``, the process that started it, is gone."""
+    global _OWNER_PID
+    if sys.platform.startswith("linux"):
+        try:
+            import ctypes
+
+            libc = ctypes.CDLL(None, use_errno=True)
+            libc.prctl(1, int(signal.SIGKILL), 0, 0, 0)  # PR_SET_PDEATHSIG
+        except (OSError, AttributeError):  # no prctl: the watcher below still works
+            pass
+    _OWNER_PID = os.getppid()  # the parent (or, under forkserver, the server that dies with it)
+    if _OWNER_PID != parent_pid and not _pid_alive(parent_pid):
+        _kill_self()  # the parent died before the death signal was armed
+    threading.Thread(target=_watch_parent, name="mocapkit-parent-watch", daemon=True).start()
+
+
+def _pid_alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except OSError:  # exists, but not ours to signal
+        return True
+    return True
+
+
+def _watch_parent() -> None:
+    while os.getppid() == _OWNER_PID:
+        time.sleep(_WATCH_S)
+    _kill_self()
+
+
+def _kill_self() -> None:
+    if hasattr(signal, "SIGKILL"):
+        os.kill(os.getpid(), signal.SIGKILL)
+    os._exit(1)
 
 
 def _is_dask_client(executor) -> bool:
@@ -51,11 +255,13 @@ def map_ordered(
 
     ``fn`` and the items must be picklable for anything but ``"serial"``.
     The first exception raised by ``fn`` is re-raised here after the
-    remaining work is cancelled.
+    remaining work is cancelled. ``executor`` is checked first
+    (:func:`check_executor`): a bad one raises :class:`MocapError`.
 
     >>> map_ordered(abs, [-1, 2, -3], executor="serial", progress=False)
     [1, 2, 3]
     """
+    check_executor(executor)
     items = list(items)
     n = len(items)
     if n == 0:
@@ -70,7 +276,7 @@ def map_ordered(
             return out
         if executor in (None, "processes"):
             workers = min(n, max_workers or os.cpu_count() or 1)
-            with ProcessPoolExecutor(max_workers=workers) as pool:
+            with ProcessPoolExecutor(max_workers=workers, initializer=_die_with_parent, initargs=(os.getpid(),)) as pool:
                 return _run(pool, fn, items, bar, as_completed)
         if isinstance(executor, str):
             return _run_dask(executor, fn, items, bar)
@@ -78,9 +284,7 @@ def map_ordered(
             from distributed import as_completed as dask_as_completed
 
             return _run(executor, fn, items, bar, dask_as_completed)
-        if isinstance(executor, Executor) or hasattr(executor, "submit"):
-            return _run(executor, fn, items, bar, as_completed)
-        raise ValueError(f"executor: expected None, 'processes', 'serial', 'dask', a scheduler address or an executor, got {executor!r}")
+        return _run(executor, fn, items, bar, as_completed)
     finally:
         bar.close()
 
@@ -100,13 +304,16 @@ def _run(pool, fn, items, bar, completed) -> list:
 
 
 def _run_dask(spec: str, fn, items, bar) -> list:
-    try:
-        from distributed import Client, LocalCluster, as_completed as dask_as_completed
-    except ImportError:
-        raise ImportError('a Dask executor needs dask: pip install "dask[distributed]"') from None
+    from distributed import Client, LocalCluster, as_completed as dask_as_completed
+
     if spec == "dask":
         with LocalCluster(n_workers=os.cpu_count() or 1, threads_per_worker=1, processes=True, dashboard_address=None) as cluster:
             with Client(cluster) as client:
                 return _run(client, fn, items, bar, dask_as_completed)
-    with Client(spec) as client:
+    try:
+        client = Client(spec, timeout=_PROBE_S * 2)
+    except Exception as exc:  # it speaks Dask but is no scheduler (a worker, a nanny), or went away since the probe
+        reason = (str(exc).strip().splitlines() or [""])[0]
+        raise MocapError(f"--executor {spec}: cannot start a Dask client there ({type(exc).__name__}: {reason})") from None
+    with client:
         return _run(client, fn, items, bar, dask_as_completed)

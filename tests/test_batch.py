@@ -1,0 +1,368 @@
+"""clean_batch over folders: mirrored names, colliding takes, the output guard, overwrite, resume, and no write after the batch is gone."""
+
+from __future__ import annotations
+
+import hashlib
+import os
+import shutil
+import signal
+import subprocess
+import sys
+import textwrap
+import time
+from pathlib import Path
+
+import pytest
+
+import mocapkit
+from mocapkit import samples
+from mocapkit.batch import BatchSummary, clean_batch, find_inputs, output_for
+from mocapkit.errors import MocapError, MocapFormatError
+from mocapkit.motion import concatenate
+
+STEPS = ["fill"]  # the cheapest pipeline: these tests are about files, not about cleaning
+
+
+def _tree(d: Path) -> dict:
+    """Every file under ``d`` (hidden ones included) -> its sha256."""
+    return {str(p.relative_to(d)): hashlib.sha256(p.read_bytes()).hexdigest() for p in sorted(d.rglob("*")) if p.is_file()}
+
+
+def _visible(d: Path) -> list[str]:
+    """Files under ``d`` that are not hidden temporaries or staging folders."""
+    if not d.exists():
+        return []
+    return sorted(str(p.relative_to(d)) for p in d.rglob("*")
+                  if p.is_file() and not any(part.startswith(".") for part in p.relative_to(d).parts))
+
+
+@pytest.fixture(scope="module")
+def short_bvh(tmp_path_factory) -> Path:
+    p = tmp_path_factory.mktemp("short") / "short.bvh"
+    mocapkit.save(mocapkit.load(samples.path("131_01.bvh"))[:40], p)
+    return p
+
+
+@pytest.fixture
+def twins(tmp_path, short_bvh) -> Path:
+    """IN_DIR with take.amc (+ its ASF) and take.bvh: both map to take.bvh + take.clean.npz."""
+    src = tmp_path / "in"
+    src.mkdir()
+    shutil.copy(samples.path("12.asf"), src / "take.asf")
+    lines = samples.path("12_walk.amc").read_text().splitlines(keepends=True)
+    frames = [k for k, line in enumerate(lines) if line.strip().isdigit()]  # the frame-number lines
+    (src / "take.amc").write_text("".join(lines[:frames[30]]))  # the header and 30 frames
+    shutil.copy(short_bvh, src / "take.bvh")
+    return src
+
+
+# -- names -------------------------------------------------------------------------------
+
+
+def test_output_for_mirrors_folders_and_picks_the_suffix():
+    i, o = Path("in"), Path("out")
+    assert output_for(i / "a" / "b" / "walk.amc", i, o) == o / "a" / "b" / "walk.bvh"
+    assert output_for(i / "walk.NPZ", i, o) == o / "walk.npz"
+    assert output_for(i / "walk.bvh", i, o, fmt="npz") == o / "walk.npz"
+    assert output_for(i / "walk.v2.bvh", i, o, fmt="npz", keep_suffix=True) == o / "walk.v2.bvh.npz"
+
+
+def test_find_inputs_patterns_records_hidden_and_excluded(tmp_path):
+    for rel in ("a/walk.bvh", "a/walk.clean.npz", "a/walk.mask.npz", "a/.hidden.bvh", "b/run.amc", "b/run.asf",
+                "notes.txt", "out/old.bvh", "c/x.npz"):
+        (tmp_path / rel).parent.mkdir(parents=True, exist_ok=True)
+        (tmp_path / rel).write_text("x")
+    names = [p.relative_to(tmp_path).as_posix() for p in find_inputs(tmp_path, exclude=tmp_path / "out")]
+    assert names == ["a/walk.bvh", "b/run.amc", "c/x.npz"]
+    assert [p.name for p in find_inputs(tmp_path, ["*.BVH"])] == ["walk.bvh", "old.bvh"]
+
+
+# -- item 4: colliding takes ---------------------------------------------------------------
+
+
+def test_takes_sharing_a_name_keep_their_suffix_and_resume(twins, tmp_path):
+    out = tmp_path / "out"
+    s = clean_batch(twins, out, steps=STEPS, executor="serial", progress=False)
+    assert isinstance(s, BatchSummary) and s.count("done") == 2 and not s.failed, s.rows
+    assert sorted(Path(p).name for p in s.renamed) == ["take.amc", "take.bvh"]
+    assert _visible(out) == ["take.amc.bvh", "take.amc.clean.npz", "take.bvh.bvh", "take.bvh.clean.npz"]
+    a, b = mocapkit.load(out / "take.amc.bvh"), mocapkit.load(out / "take.bvh.bvh")
+    assert (a.num_frames, b.num_frames) == (30, 40)  # each output is its own take's
+    before = _tree(out)
+    again = clean_batch(twins, out, steps=STEPS, executor="serial", progress=False)
+    assert again.count("skipped") == 2 and again.count("done") == 0
+    assert _tree(out) == before
+
+
+def test_bvh_and_npz_of_one_name_share_the_record_so_both_keep_their_suffix(tmp_path, short_bvh):
+    src = tmp_path / "in"
+    src.mkdir()
+    shutil.copy(short_bvh, src / "take.bvh")
+    mocapkit.save(mocapkit.load(short_bvh), src / "take.npz")
+    shutil.copy(short_bvh, src / "other.bvh")
+    s = clean_batch(src, tmp_path / "out", steps=STEPS, executor="serial", progress=False)
+    assert s.count("done") == 3
+    assert _visible(tmp_path / "out") == ["other.bvh", "other.clean.npz", "take.bvh.bvh", "take.bvh.clean.npz",
+                                          "take.npz.clean.npz", "take.npz.npz"]
+
+
+def test_takes_that_still_collide_refuse_the_batch(twins, tmp_path):
+    (twins / "take.amc.bvh").write_text("not read: the batch is refused first")
+    out = tmp_path / "out"
+    with pytest.raises(MocapFormatError, match=r"take\.amc.*would write .*take\.amc\.bvh, as .*take\.amc(\.bvh)? does; rename one"):
+        clean_batch(twins, out, steps=STEPS, executor="serial", progress=False)
+    assert not out.exists()
+
+
+# -- item 4: the output guard, before any take is cleaned ----------------------------------------
+
+
+def test_out_dir_that_is_in_dir_through_a_link_is_refused(twins, tmp_path):
+    link = tmp_path / "link"
+    link.symlink_to(twins, target_is_directory=True)
+    before = _tree(twins)
+    with pytest.raises(MocapFormatError, match="refusing to write into the input folder"):
+        clean_batch(twins, link, steps=STEPS, executor="serial", progress=False)
+    assert _tree(twins) == before
+
+
+def test_output_that_resolves_to_an_input_through_a_link_is_refused(tmp_path, short_bvh):
+    src = tmp_path / "in"
+    (src / "a").mkdir(parents=True)
+    shutil.copy(short_bvh, src / "a" / "walk.bvh")
+    shutil.copy(short_bvh, src / "first.bvh")
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "a").symlink_to(src / "a", target_is_directory=True)  # out/a/walk.bvh is the input in/a/walk.bvh
+    before = _tree(src)
+    with pytest.raises(MocapFormatError, match=r"refusing to write over an input"):
+        clean_batch(src, out, steps=STEPS, executor="serial", progress=False)
+    assert _tree(src) == before and _visible(out) == []  # refused before first.bvh (sorted first) was cleaned
+
+
+def test_output_that_is_a_hard_link_of_an_input_is_refused(tmp_path, short_bvh):
+    src = tmp_path / "in"
+    src.mkdir()
+    shutil.copy(short_bvh, src / "walk.bvh")
+    out = tmp_path / "out"
+    out.mkdir()
+    os.link(src / "walk.bvh", out / "walk.bvh")
+    for overwrite in (False, True):
+        with pytest.raises(MocapFormatError, match="refusing to write over an input"):
+            clean_batch(src, out, steps=STEPS, executor="serial", progress=False, overwrite=overwrite)
+    assert (src / "walk.bvh").read_bytes() == short_bvh.read_bytes()
+
+
+def test_output_inside_in_dir_is_refused_unless_under_out_dir(tmp_path, short_bvh):
+    root = tmp_path / "root"
+    (root / "takes" / "takes").mkdir(parents=True)
+    shutil.copy(short_bvh, root / "takes" / "takes" / "x.bvh")
+    with pytest.raises(MocapFormatError, match="refusing to write over an input"):  # IN_DIR inside OUT_DIR: root/takes/x.bvh
+        clean_batch(root / "takes", root, steps=STEPS, executor="serial", progress=False)
+    assert _visible(root) == ["takes/takes/x.bvh"]
+    s = clean_batch(root, root / "cleaned", steps=STEPS, executor="serial", progress=False)  # OUT_DIR below IN_DIR: fine
+    assert s.count("done") == 1 and (root / "cleaned" / "takes" / "takes" / "x.bvh").is_file()
+    again = clean_batch(root, root / "cleaned", steps=STEPS, executor="serial", progress=False)
+    assert [r["status"] for r in again.rows] == ["skipped"]  # the outputs are not taken for inputs
+
+
+def test_context_file_is_never_an_output(tmp_path, short_bvh):
+    src = tmp_path / "in"
+    src.mkdir()
+    shutil.copy(short_bvh, src / "walk.bvh")
+    out = tmp_path / "out"
+    out.mkdir()
+    ctx = out / "walk.bvh"  # the context clip sits where the output would go
+    shutil.copy(short_bvh, ctx)
+    with pytest.raises(MocapFormatError, match="refusing to write over an input"):
+        clean_batch(src, out, context=[ctx], steps=STEPS, executor="serial", progress=False, overwrite=True)
+    assert ctx.read_bytes() == short_bvh.read_bytes()
+
+
+def test_existing_outputs_need_overwrite_but_complete_takes_resume(tmp_path, short_bvh):
+    src = tmp_path / "in"
+    src.mkdir()
+    for name in ("a.bvh", "b.bvh", "c.bvh"):
+        shutil.copy(short_bvh, src / name)
+    out = tmp_path / "out"
+    assert clean_batch(src, out, steps=STEPS, executor="serial", progress=False).count("done") == 3
+    (out / "b.clean.npz").unlink()  # b.bvh is now an output without its record: not a complete take
+    (out / "c.bvh").unlink()
+    (out / "c.bvh").write_text("someone else's file")
+    (out / "c.clean.npz").unlink()
+    before = _tree(out)
+    with pytest.raises(MocapFormatError, match=r"b\.bvh: already exists; pass --overwrite"):
+        clean_batch(src, out, steps=STEPS, executor="serial", progress=False)
+    assert _tree(out) == before  # refused before anything was cleaned
+    s = clean_batch(src, out, steps=STEPS, executor="serial", progress=False, overwrite=True)
+    assert [r["status"] for r in s.rows] == ["skipped", "done", "done"]
+    assert mocapkit.load(out / "c.bvh").num_frames == 40
+
+
+def test_bad_arguments_are_one_line_and_write_nothing(twins, tmp_path):
+    out = tmp_path / "out"
+    for kwargs, msg in [({"executor": "garbage"}, "--executor: expected"), ({"fmt": "c3d"}, "format must be"),
+                        ({"steps": ["fill", "nope"]}, "nope")]:
+        with pytest.raises(MocapError, match=msg):
+            clean_batch(twins, out, **{"steps": STEPS, "executor": "serial", "progress": False, **kwargs})
+    with pytest.raises(MocapFormatError, match="not a folder"):
+        clean_batch(twins / "take.bvh", out, steps=STEPS, executor="serial", progress=False)
+    assert not out.exists()
+
+
+def test_a_failing_take_is_a_row_and_the_others_go_on(tmp_path, short_bvh):
+    src = tmp_path / "in"
+    src.mkdir()
+    shutil.copy(short_bvh, src / "good.bvh")
+    (src / "broken.bvh").write_text("HIERARCHY\nROOT\n")
+    s = clean_batch(src, tmp_path / "out", steps=STEPS, executor="serial", progress=False)
+    assert [(Path(r["input"]).name, r["status"]) for r in s.rows] == [("broken.bvh", "failed"), ("good.bvh", "done")]
+    assert "broken.bvh" in s.failed[0]["reason"] and "\n" not in s.failed[0]["reason"]
+    assert _visible(tmp_path / "out") == ["good.bvh", "good.clean.npz"]
+    assert not [p for p in (tmp_path / "out").rglob(".*")]  # no staging folder or temporary left
+
+
+# -- item 5: no write after the batch is gone -----------------------------------------------
+
+
+def test_a_take_whose_batch_is_gone_moves_nothing_into_place(tmp_path, short_bvh, monkeypatch):
+    """The liveness token is asked before each rename; when it turns false mid-take, what was moved is removed."""
+    import mocapkit.parallel
+
+    src = tmp_path / "in"
+    src.mkdir()
+    shutil.copy(short_bvh, src / "walk.bvh")
+    answers = iter([True, True, False])  # take starts, the report is moved, then the batch is gone
+    monkeypatch.setattr(mocapkit.parallel, "owner_alive", lambda: next(answers))
+    out = tmp_path / "out"
+    s = clean_batch(src, out, steps=STEPS, executor="serial", progress=False, report=True)
+    assert s.failed and "the batch that started this take is gone" in s.failed[0]["reason"]
+    assert not [p for p in out.rglob("*") if p.is_file()] and not list(out.glob(".*"))
+
+
+def _start_batch(src: Path, out: Path, executor: str) -> subprocess.Popen:
+    code = textwrap.dedent(f"""
+        from mocapkit.batch import clean_batch
+        clean_batch({str(src)!r}, {str(out)!r}, steps=["fill", "denoise"], executor={executor!r}, progress=False)
+    """)
+    return subprocess.Popen([sys.executable, "-c", code], stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
+                            env=dict(os.environ, PYTHONPATH=os.pathsep.join(sys.path)))
+
+
+def _wait_for(predicate, what: str, proc: subprocess.Popen | None = None, limit_s: float = 600.0):
+    """Poll ``predicate`` until true; fail (naming ``what``) if ``proc`` ends first or after a generous limit."""
+    deadline = time.monotonic() + limit_s
+    while not predicate():
+        if proc is not None and proc.poll() is not None:
+            pytest.fail(f"the batch ended before {what}: {proc.stderr.read().decode()[-2000:]}")
+        if time.monotonic() > deadline:
+            pytest.fail(f"gave up waiting for {what}")
+        time.sleep(0.05)
+
+
+def _staging(out: Path) -> list[Path]:
+    return [p for p in out.rglob(".*.part") if p.is_dir()] if out.exists() else []
+
+
+@pytest.fixture(scope="module")
+def long_takes(tmp_path_factory) -> Path:
+    d = tmp_path_factory.mktemp("long")
+    m = mocapkit.load(samples.path("12_walk.amc"))
+    long = concatenate([m] * 6, name="walk_x6")
+    for k in range(3):
+        mocapkit.save(long, d / f"t{k}.npz")
+    return d
+
+
+def _gone(pid: int) -> bool:
+    psutil = pytest.importorskip("psutil")
+    try:
+        return psutil.Process(pid).status() == psutil.STATUS_ZOMBIE
+    except psutil.NoSuchProcess:
+        return True
+
+
+@pytest.mark.skipif(sys.platform == "win32", reason="kill -9")
+def test_kill_9_of_the_batch_takes_its_workers_and_their_writes(long_takes, tmp_path):
+    psutil = pytest.importorskip("psutil")
+    out = tmp_path / "out"
+    proc = _start_batch(long_takes, out, "processes")
+    _wait_for(lambda: _staging(out), "the first take started", proc)  # readiness: a worker made its staging folder
+    workers = [c.pid for c in psutil.Process(proc.pid).children(recursive=True)]
+    assert workers
+    proc.kill()
+    proc.wait()
+    _wait_for(lambda: all(_gone(pid) for pid in workers), "the workers to die")
+    assert _visible(out) == []  # nothing was moved into place, and no worker is left to do it
+
+
+@pytest.mark.skipif(sys.platform == "win32", reason="kill -9")
+def test_kill_9_of_a_dask_client_writes_nothing_on_the_cluster(long_takes, tmp_path):
+    distributed = pytest.importorskip("distributed")
+    src = tmp_path / "in"
+    src.mkdir()
+    shutil.copy(long_takes / "t0.npz", src / "t0.npz")
+    out = tmp_path / "out"
+    with distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=True, dashboard_address=None) as cluster:
+        proc = _start_batch(src, out, cluster.scheduler_address)
+        _wait_for(lambda: _staging(out), "the take started on the cluster", proc)
+        proc.kill()
+        proc.wait()
+        # the worker lives on and finishes cleaning; the cancelled take then removes its staging folder
+        _wait_for(lambda: not _staging(out), "the cancelled take to give up")
+    assert _visible(out) == []
+
+
+@pytest.mark.skipif(sys.platform == "win32", reason="kill -9")
+def test_kill_9_of_a_batch_on_its_own_dask_cluster_takes_the_cluster(long_takes, tmp_path):
+    pytest.importorskip("distributed")
+    psutil = pytest.importorskip("psutil")
+    out = tmp_path / "out"
+    proc = _start_batch(long_takes, out, "dask")
+    _wait_for(lambda: _staging(out), "the first take started on the local cluster", proc)
+    workers = [c.pid for c in psutil.Process(proc.pid).children(recursive=True)]
+    assert workers
+    proc.kill()
+    proc.wait()
+    _wait_for(lambda: all(_gone(pid) for pid in workers), "the Dask workers to die")
+    assert _visible(out) == []
+
+
+def test_a_complete_take_whose_output_is_an_input_is_refused_not_skipped(tmp_path, short_bvh):
+    src = tmp_path / "in"
+    (src / "a").mkdir(parents=True)
+    shutil.copy(short_bvh, src / "a" / "walk.bvh")
+    (src / "a" / "walk.clean.npz").write_bytes(b"a record from elsewhere")  # not an input (records are left out)
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "a").symlink_to(src / "a", target_is_directory=True)  # the take looks complete: its output is its input
+    with pytest.raises(MocapFormatError, match=r"walk\.bvh: refusing to write over an input"):
+        clean_batch(src, out, steps=STEPS, executor="serial", progress=False)
+
+
+def test_failures_name_the_output_not_the_staging_folder(tmp_path, short_bvh):
+    from mocapkit import corrupt
+
+    src = tmp_path / "in"
+    src.mkdir()
+    gappy, _ = corrupt.gaps(mocapkit.load(short_bvh), seed=1)
+    assert gappy.missing().any()
+    mocapkit.save(gappy, src / "gappy.npz")
+    out = tmp_path / "out"
+    s = clean_batch(src, out, steps=["denoise"], fmt="bvh", executor="serial", progress=False)  # no fill: NaN cannot go to BVH
+    assert s.failed[0]["reason"].startswith(f"{out / 'gappy.bvh'}: "), s.failed[0]["reason"]
+    assert not list(out.rglob("*"))
+
+
+def test_leftovers_of_a_killed_worker_are_swept_and_nothing_else(tmp_path, short_bvh):
+    src = tmp_path / "in"
+    src.mkdir()
+    shutil.copy(short_bvh, src / "walk.bvh")
+    out = tmp_path / "out"
+    (out / ".walk.bvh.k1ll3d.part").mkdir(parents=True)  # a staging folder
+    (out / ".walk.bvh.k1ll3d.part" / "walk.bvh").write_text("half")
+    (out / ".walk.clean.npz.x_9.part").write_text("half")  # an atomic_write temporary
+    (out / ".mine.bvh.a.part").write_text("not of this batch")
+    (out / ".walk.bvh.bvh.b.part").write_text("not of this batch either")
+    assert clean_batch(src, out, steps=STEPS, executor="serial", progress=False).count("done") == 1
+    assert sorted(p.name for p in out.iterdir()) == [".mine.bvh.a.part", ".walk.bvh.bvh.b.part", "walk.bvh", "walk.clean.npz"]
