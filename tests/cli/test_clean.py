@@ -67,7 +67,7 @@ def test_clean_refuses_bad_requests(takes, tmp_path, capsys):
     inp = takes / "walk_bad.npz"
     before = _hash(inp)
     assert main(["clean", str(inp), "-o", str(inp)]) == 2
-    assert "refusing to overwrite the input" in capsys.readouterr().err
+    assert "refusing to write over an input" in capsys.readouterr().err
     assert _hash(inp) == before
     assert main(["clean", str(inp), "-o", str(tmp_path / "x.bvh"), "--steps", "detect,repair"]) == 2
     err = capsys.readouterr().err

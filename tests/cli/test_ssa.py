@@ -5,7 +5,7 @@ import numpy as np
 import mocapkit
 from mocapkit import corrupt
 from mocapkit.cleaning import ssa
-from tests.test_cli import one_error_line, run
+from tests.cli.helpers import one_error_line, run
 
 
 def test_detect_and_repair(tmp_path):

@@ -8,7 +8,7 @@ import pytest
 import mocapkit
 from mocapkit import corrupt, metrics, samples
 from mocapkit.features import virtual_accelerometers
-from tests.test_cli import one_error_line, run
+from tests.cli.helpers import one_error_line, run
 
 QUERY = samples.path("HDM_bk_sneak2StepsLStart_005_120.amc")
 

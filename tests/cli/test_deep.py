@@ -4,7 +4,7 @@ import numpy as np
 
 import mocapkit
 from mocapkit import corrupt, metrics
-from tests.test_cli import one_error_line, run
+from tests.cli.helpers import one_error_line, run
 
 WALK = mocapkit.samples.path("12_walk.amc")
 
