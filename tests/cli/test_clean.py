@@ -8,7 +8,7 @@ import re
 import signal
 import subprocess
 import sys
-import time
+import threading
 from pathlib import Path
 
 import numpy as np
@@ -119,8 +119,9 @@ def test_clean_batch_serial_resume_and_failure(tmp_path, capsys):
     assert not (out / "hdm" / "broken.bvh").exists() and not list(out.rglob(".*.part"))
     assert _tree(src) == inputs
     stamp = (out / "cmu" / "walk.clean.npz").stat().st_mtime_ns
-    # resume: complete takes are skipped; a take without its record is done again
+    # resume: complete takes are skipped; a take not done yet (no output, no record) is done
     (out / "hdm" / "bk" / "sneak.clean.npz").unlink()
+    (out / "hdm" / "bk" / "sneak.npz").unlink()
     rc = main(["clean-batch", str(src), str(out), "--executor", "serial", "--steps", "fill,denoise"])
     text = capsys.readouterr().out
     assert rc == 1 and "1 cleaned, 2 already complete, 1 failed" in text, text
@@ -153,16 +154,33 @@ def test_clean_batch_on_local_dask_cluster(tmp_path, capsys):
 # -- interrupts -------------------------------------------------------------------------
 
 
-def _run_and_signal(args, sig, wait_s, tmp_path):
+def _run_and_signal(args, sig, ready, tmp_path, timeout=600.0):
+    """Start the CLI, wait until ``ready(stderr_so_far)`` is true (a readiness signal, not a sleep), then send ``sig``.
+
+    The timeout only bounds a hung run; nothing depends on how long a step takes.
+    """
     env = dict(os.environ, PYTHONUNBUFFERED="1")
     # a shell runs background jobs with SIGINT ignored and children inherit that; give the CLI the default, as a terminal does
     proc = subprocess.Popen([sys.executable, "-m", "mocapkit.cli", *args], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
                             env=env, cwd=tmp_path, preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
-    time.sleep(wait_s)
+    chunks: list[bytes] = []
+    reader = threading.Thread(target=lambda: chunks.extend(iter(lambda: proc.stderr.read1(4096), b"")), daemon=True)
+    reader.start()
+    seen = threading.Event()
+
+    def watch():
+        while proc.poll() is None and not ready(b"".join(chunks).decode(errors="replace")):
+            seen.wait(0.05)
+        seen.set()
+
+    watcher = threading.Thread(target=watch, daemon=True)
+    watcher.start()
+    assert seen.wait(timeout), "no readiness signal"
     assert proc.poll() is None, "finished before the signal; make the take longer"
     proc.send_signal(sig)
-    out, err = proc.communicate(timeout=180)
-    return proc.returncode, err.decode()
+    proc.wait(timeout=timeout)
+    reader.join(timeout)
+    return proc.returncode, b"".join(chunks).decode(errors="replace")
 
 
 @pytest.fixture(scope="module")
@@ -179,7 +197,9 @@ def long_take(tmp_path_factory):
 def test_interrupted_clean_leaves_no_output(long_take, tmp_path, sig):
     before = _hash(long_take)
     out = tmp_path / "o" / "clean.bvh"
-    rc, err = _run_and_signal(["clean", str(long_take), "-o", str(out), "--png", str(tmp_path / "o" / "s.png")], sig, 6.0, tmp_path)
+    # ready: detection has started (its progress bar), i.e. the gaps are filled and nothing is written yet
+    rc, err = _run_and_signal(["clean", str(long_take), "-o", str(out), "--png", str(tmp_path / "o" / "s.png")], sig,
+                              lambda err: "ssa walk_x8" in err, tmp_path)
     assert rc == 130, err  # typer turns the KeyboardInterrupt (SIGTERM is made one) into exit 130
     assert not out.exists() and not (tmp_path / "o" / "clean.clean.npz").exists()
     assert not list(tmp_path.rglob(".*.part"))
@@ -194,7 +214,9 @@ def test_interrupted_batch_leaves_only_complete_takes(long_take, tmp_path):
         (src / f"t{k}.npz").write_bytes(long_take.read_bytes())
     inputs = _tree(src)
     out = tmp_path / "out"
-    rc, err = _run_and_signal(["clean-batch", str(src), str(out)], signal.SIGTERM, 8.0, tmp_path)
+    # ready: the first take is complete, the others are under way
+    rc, err = _run_and_signal(["clean-batch", str(src), str(out)], signal.SIGTERM,
+                              lambda err: any(out.rglob("*.clean.npz")) if out.is_dir() else False, tmp_path)
     assert rc == 130, err
     assert _tree(src) == inputs
     assert not list(tmp_path.rglob(".*.part"))
