@@ -112,6 +112,12 @@ def test_clean_batch_serial_resume_and_failure(tmp_path, capsys):
     text = capsys.readouterr().out
     assert rc == 1, text  # one take failed
     assert "failed" in text and "broken.bvh" in text and "3 cleaned" in text
+    # one line per take: what was found and fixed, or why it failed
+    lines = text.splitlines()
+    assert sum(ln.startswith(("cleaned ", "failed ", "skipped ")) for ln in lines) == 4, text
+    walk_line = next(ln for ln in lines if ln.startswith("cleaned ") and "walk.npz" in ln)
+    assert "denoised" in walk_line or "nothing to change" in walk_line
+    assert any(ln.startswith("failed ") and "broken.bvh" in ln for ln in lines)
     for rel in ("cmu/walk.npz", "cmu/131_01.bvh", "hdm/bk/sneak.npz"):
         assert (out / rel).is_file(), rel
         stem = rel.rsplit(".", 1)[0]
@@ -222,3 +228,67 @@ def test_interrupted_batch_leaves_only_complete_takes(long_take, tmp_path):
     assert not list(tmp_path.rglob(".*.part"))
     for k in range(3):  # each take is either complete (output + record) or absent
         assert (out / f"t{k}.npz").exists() == (out / f"t{k}.clean.npz").exists()
+
+
+# -- checked before any work, nothing left behind ------------------------------------------------
+
+
+def test_reference_of_another_length_is_refused_before_anything_is_written(takes, tmp_path, capsys):
+    short = tmp_path / "ref" / "short.npz"
+    mocapkit.save(mocapkit.load(takes / "walk_ref.npz")[:50], short)
+    before = _tree(tmp_path)
+    out = tmp_path / "o" / "walk.bvh"
+    argv = ["clean", str(takes / "walk_bad.npz"), "-o", str(out), "--reference", str(short),
+            "--report", str(tmp_path / "o" / "r.html"), "--png", str(tmp_path / "o" / "s.png")]
+    assert main(argv) == 2
+    captured = capsys.readouterr()
+    assert "short.npz: the reference must have the input's joints and 343 frames (it has 50 frames)" in captured.err
+    assert "ssa" not in captured.err  # refused before detection started
+    assert _tree(tmp_path) == before and not (tmp_path / "o").exists()
+    other_rig = tmp_path / "ref" / "other.npz"
+    mocapkit.save(mocapkit.load(samples.path("131_01.bvh"))[:343], other_rig)
+    argv[argv.index(str(short))] = str(other_rig)
+    assert main(argv) == 2
+    assert "its joints differ" in capsys.readouterr().err and not (tmp_path / "o").exists()
+
+
+def test_a_run_that_fails_while_writing_leaves_no_report(takes, tmp_path, monkeypatch, capsys):
+    import errno
+
+    import mocapkit.io as mio
+
+    def disk_full(*args, **kwargs):
+        raise OSError(errno.ENOSPC, "No space left on device")
+
+    monkeypatch.setattr(mio, "save", disk_full)  # the take itself cannot be written, after the report and png were
+    keep = tmp_path / "o" / "s.png"
+    keep.parent.mkdir()
+    keep.write_bytes(b"an earlier figure")
+    out = tmp_path / "o" / "walk.bvh"
+    argv = ["clean", str(takes / "walk_bad.npz"), "-o", str(out), "--steps", "fill", "--report", str(tmp_path / "o" / "r.html"),
+            "--png", str(keep), "--overwrite"]
+    assert main(argv) == 2
+    assert "no space left on the device" in capsys.readouterr().err
+    # what this run created is gone; what existed before (replaced with --overwrite) is not deleted
+    assert sorted(p.name for p in (tmp_path / "o").iterdir()) == ["s.png"]
+
+
+def test_clean_overwrite_and_asf(takes, tmp_path, capsys):
+    import shutil
+
+    amc = tmp_path / "in" / "walk.amc"
+    amc.parent.mkdir()
+    shutil.copy(samples.path("12_walk.amc"), amc)
+    asf = tmp_path / "subject12.asf"
+    shutil.copy(samples.path("12.asf"), asf)
+    out = tmp_path / "new" / "walk.npz"  # a missing parent folder is created
+    argv = ["clean", str(amc), "--asf", str(asf), "-o", str(out), "--steps", "fill"]
+    assert main(argv) == 0
+    assert out.is_file() and "walk.clean.npz" in capsys.readouterr().out
+    record = tmp_path / "new" / "walk.clean.npz"
+    stamp = record.stat().st_mtime_ns
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert "already exists; pass --overwrite" in err and record.stat().st_mtime_ns == stamp
+    assert main(argv + ["--overwrite"]) == 0
+    np.testing.assert_array_equal(mocapkit.load(out).rotations, mocapkit.load(samples.path("12_walk.amc")).rotations)
