@@ -3,6 +3,7 @@
 
 import mocapkit
 from mocapkit.cli import main
+from tests.cli import helpers
 from tests.cli.helpers import SAMPLE, one_error_line, run
 
 
@@ -46,3 +47,46 @@ def test_db_errors_are_one_line(tmp_path):
     assert code == 2 and "Eb015pr.c3d" in err and one_error_line(err)
     code, _, err = run("search", str(db_dir), str(mocapkit.samples.path("12_walk.amc")), "--features", "F39")
     assert code == 2 and "no feature set 'F39'" in err and one_error_line(err)
+
+
+def test_clip_names_with_markup_print_as_they_are(tmp_path, capsys):
+    import dataclasses
+
+    walk = mocapkit.load(mocapkit.samples.path("12_walk.amc"))
+    clip = tmp_path / "clip.npz"
+    mocapkit.save(dataclasses.replace(walk, name="[/]"), clip)
+    db_dir = tmp_path / "db"
+    assert main(["db", "build", str(db_dir), str(clip), "--executor", "serial"]) == 0
+    capsys.readouterr()
+    assert main(["db", "info", str(db_dir), "--clips"]) == 0
+    assert "[/]" in capsys.readouterr().out
+    assert main(["search", str(db_dir), str(clip), "--k", "1", "--start", "0.5", "--end", "1.5"]) == 0
+    assert "[/]" in capsys.readouterr().out
+
+
+def test_db_build_overwrite_replaces_only_a_database_without_the_inputs(tmp_path, capsys):
+    import shutil
+
+    p = tmp_path / "p"
+    (p / "takes").mkdir(parents=True)
+    shutil.copy(mocapkit.samples.path("12_walk.amc"), p / "takes" / "walk.amc")
+    shutil.copy(mocapkit.samples.path("12.asf"), p / "takes" / "walk.asf")
+    (p / "notes.txt").write_text("x")
+    before = helpers.tree(p)
+    assert main(["db", "build", str(p), str(p / "takes" / "walk.amc"), "--overwrite", "--executor", "serial"]) == 2
+    assert one_error_line(capsys.readouterr().err)
+    assert helpers.tree(p) == before
+    db_dir = tmp_path / "db"
+    assert main(["db", "build", str(db_dir), str(p / "takes" / "walk.amc"), "--executor", "serial"]) == 0
+    assert main(["db", "build", str(db_dir), str(p / "takes" / "walk.amc"), "--executor", "serial", "--overwrite",
+                 "--mirror"]) == 0
+    assert "2 clips" in capsys.readouterr().out
+
+
+def test_executor_is_checked_before_any_work(tmp_path, capsys):
+    db_dir = tmp_path / "db"
+    assert main(["db", "build", str(db_dir), str(mocapkit.samples.path("12_walk.amc")), "--executor", "garbage"]) == 2
+    err = capsys.readouterr().err
+    assert one_error_line(err) and "garbage" in err and not db_dir.exists()
+    assert main(["clean-batch", str(tmp_path), str(tmp_path / "out"), "--executor", "garbage"]) == 2
+    assert "garbage" in capsys.readouterr().err and not (tmp_path / "out").exists()
