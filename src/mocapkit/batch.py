@@ -122,7 +122,7 @@ def clean_file(
     :class:`~mocapkit.errors.MocapError` (one line) on bad input.
     """
     from . import io
-    from .cleaning.pipeline import STEPS, clean, clean_path, plot_summary
+    from .cleaning.pipeline import STEPS, clean, clean_path
     from .io.outputs import check_outputs, removed_on_failure
     from .io.takes import check_asf, load_motion
 
@@ -152,6 +152,8 @@ def clean_file(
             write_report(report, m, cleaned, mdm=res.mdm, flags=res.flags, changed=res.changed,
                          title=f"{inp.name}: cleaned")
         if png is not None:
+            from .report.summary import plot_summary
+
             plot_summary(res, m, png, title=inp.name)
         io.save(cleaned, out)
         res.save(record)  # last: the completion marker

@@ -108,8 +108,10 @@ def clean_batch(
     """Clean every take under IN_DIR into OUT_DIR: resumable, one failing take reported and skipped.
 
     A take is complete when its output and STEM.clean.npz both exist (the record is written last);
-    complete takes are skipped, so running the command again resumes. Prints one line per take.
-    Exits 1 if any take failed.
+    complete takes are skipped, so running the command again resumes. Takes that would share a file
+    (take.amc and take.bvh in one folder) keep their input's suffix (take.amc.bvh). Every output is
+    checked against every input before any take is cleaned. Prints one line per take; exits 1 if any
+    take failed.
     """
     from ..batch import clean_batch as run_batch
     from ..batch import sigterm_as_interrupt

@@ -13,7 +13,7 @@ against the truth later (``mocapkit plot`` shades it). The file holds:
 >>> import tempfile, pathlib, numpy as np
 >>> p = pathlib.Path(tempfile.mkdtemp()) / "x.mask.npz"
 >>> _ = write_mask(p, np.eye(3, dtype=bool), ["a", "b", "c"], kind="noise", seed=1)
->>> read_mask(p).sum()
+>>> int(read_mask(p).sum())
 3
 """
 
