@@ -19,6 +19,7 @@ __all__ = [
     "guard",
     "plural",
     "print_fields",
+    "print_table",
     "overwrite_option",
     "asf_option",
     "context_option",
@@ -90,3 +91,11 @@ def print_fields(rows: Iterable[tuple[str, str]]) -> None:
     width = max((len(k) for k, _ in rows), default=0)
     for k, v in rows:
         console.print(f"{k:<{width}}  {v}")
+
+
+def print_table(header: Iterable[str], rows: Iterable[Iterable[str]]) -> None:
+    """Print a table as aligned columns, one line per row, cells whole (a long path is never cut or folded)."""
+    table = [list(map(str, header))] + [list(map(str, r)) for r in rows]
+    widths = [max(len(r[c]) for r in table) for c in range(len(table[0]))]
+    for r in table:
+        console.print("  ".join(cell.ljust(w) for cell, w in zip(r, widths)).rstrip())

@@ -9,7 +9,7 @@ from typing import Optional
 import typer
 
 from ..errors import MocapError, MocapFormatError
-from .common import asf_option, check_executor, console, executor_option, plural, print_fields
+from .common import asf_option, check_executor, console, executor_option, plural, print_fields, print_table
 
 db_app = typer.Typer(
     help="Build and inspect motion databases (the knowledge that search and cleaning compare against).",
@@ -71,8 +71,6 @@ def db_info(
     as_json: bool = typer.Option(False, "--json", help="Print JSON instead of a table."),
 ) -> None:
     """Print the size, frame rate, features and clips of the database in DIR."""
-    from rich.table import Table
-
     from ..database import MotionDatabase
 
     db = MotionDatabase.open(directory)
@@ -85,10 +83,8 @@ def db_info(
     print_fields((k.replace("_", " "), ", ".join(f"{a} ({b})" for a, b in v.items()) if isinstance(v, dict) else str(v))
                  for k, v in summary.items())
     if clips:
-        ct = Table("#", "clip", "first frame", "frames", "source")
-        for k, c in enumerate(db.clips):
-            ct.add_row(str(k), c.name, str(c.start), str(c.frames), c.source)
-        console.print(ct)
+        print_table(("#", "clip", "first frame", "frames", "source"),
+                    ((k, c.name, c.start, c.frames, c.source) for k, c in enumerate(db.clips)))
 
 
 def search(
@@ -104,8 +100,6 @@ def search(
     asf: Optional[Path] = asf_option(),
 ) -> None:
     """Rank the database segments most similar to QUERY (numerical similarity search)."""
-    from rich.table import Table
-
     from ..database import MotionDatabase
     from ..io.takes import check_asf, load_motion
 
@@ -126,9 +120,7 @@ def search(
     if not results:
         console.print("no match (try a larger --neighbors)")
         return
-    table = Table("#", "clip", "start", "end", "seconds", "cost", "cost/frame")
     qlen = int(round((b - a) / m.fps * db.fps))
-    for rank, r in enumerate(results, 1):
-        table.add_row(str(rank), r.name, str(r.start), str(r.end), f"{r.start / db.fps:.2f}-{r.end / db.fps:.2f}",
-                      f"{r.cost:.1f}", f"{r.cost / max(qlen, 1):.2f}")
-    console.print(table)
+    print_table(("#", "clip", "start", "end", "seconds", "cost", "cost/frame"),
+                ((rank, r.name, r.start, r.end, f"{r.start / db.fps:.2f}-{r.end / db.fps:.2f}", f"{r.cost:.1f}",
+                  f"{r.cost / max(qlen, 1):.2f}") for rank, r in enumerate(results, 1)))

@@ -8,7 +8,7 @@ from typing import Optional
 import typer
 
 from ..errors import MocapError, MocapFormatError
-from .common import asf_option, console, guard, overwrite_option, plural, print_fields
+from .common import asf_option, console, guard, overwrite_option, plural, print_fields, print_table
 
 
 def info(
@@ -52,13 +52,9 @@ def info(
              ("missing", f"{100.0 * miss.mean():.2f} % of joint samples, {plural(int(miss.any(axis=1).sum()), 'frame')} affected")]
     print_fields(rows)
     if joints:
-        from rich.table import Table
-
-        jt = Table("#", "joint", "parent", "channels")
-        for j, name in enumerate(sk.joint_names):
-            p = sk.parents[j]
-            jt.add_row(str(j), name, "-" if p < 0 else sk.joint_names[p], " ".join(sk.joint_channels(j)))
-        console.print(jt)
+        print_table(("#", "joint", "parent", "channels"),
+                    ((j, name, "-" if sk.parents[j] < 0 else sk.joint_names[sk.parents[j]], " ".join(sk.joint_channels(j)))
+                     for j, name in enumerate(sk.joint_names)))
 
 
 def convert(
