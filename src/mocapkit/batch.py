@@ -114,12 +114,6 @@ def load_context(paths: Sequence | None):
     return _context(tuple(str(p) for p in (paths or ())))
 
 
-def _check_paths(inp: Path, outs: Sequence[Path]) -> None:
-    for o in outs:
-        if o.exists() and inp.exists() and o.resolve() == inp.resolve():
-            raise MocapFormatError(o, "refusing to overwrite the input file; choose another output path")
-
-
 def clean_file(
     inp,
     out,
@@ -130,29 +124,37 @@ def clean_file(
     report=None,
     png=None,
     progress: bool = False,
+    asf=None,
+    overwrite: bool = False,
+    motion=None,
 ):
     """Clean the take at ``inp`` and write ``out``, its ``.clean.npz`` record and optional reports.
 
     Returns ``(original, result)``: the take as read and the
     :class:`~mocapkit.cleaning.pipeline.CleanResult`. ``context``: paths of
-    context clips or of one database folder. Raises
-    :class:`~mocapkit.errors.MocapError` (one line) on bad input; nothing is
-    written then, nor when interrupted.
+    context clips or of one database folder; ``asf``: the skeleton of an
+    ``.amc`` input; ``motion``: the take already read from ``inp`` (it is not
+    read again). ``overwrite``: replace existing outputs (never an input).
+
+    Every output is checked against every input
+    (:func:`mocapkit.io.outputs.check_outputs`) before anything is read; the
+    outputs are written after the take is cleaned, reports first and the
+    record last (the completion marker), and a failure or interrupt while
+    writing removes the outputs this call created. Raises
+    :class:`~mocapkit.errors.MocapError` (one line) on bad input.
     """
     from . import io
-    from .cleaning.pipeline import STEPS, clean, clean_path, plot_summary
-    from .motion import Motion
+    from .cleaning.pipeline import STEPS, clean, clean_path
+    from .io.outputs import check_outputs, removed_on_failure
+    from .io.takes import check_asf, load_motion
 
     inp, out = Path(inp), Path(out)
     record = clean_path(out)
-    extra = [Path(p) for p in (report, png) if p is not None]
-    _check_paths(inp, [out, record, *extra])
-    if out == record or len({out, record, *extra}) != 2 + len(extra):
-        raise MocapFormatError(out, "the output, its .clean.npz record and the reports must be different files")
+    outputs = [out, record, report, png]
+    check_outputs(outputs, [inp, asf, *(context or [])], overwrite=overwrite)
+    check_asf(asf, [inp])
     io.suffix_kind(out, io.WRITERS, "writing")
-    m = io.load(inp)
-    if not isinstance(m, Motion):
-        raise MocapFormatError(inp, "a marker file has no joint angles to clean; solve it to a skeleton first")
+    m = motion if motion is not None else load_motion(inp, asf, purpose="clean")
     ctx = load_context(context)
     try:
         res = clean(m, ctx, steps=steps or STEPS, threshold=threshold, progress=progress)
@@ -165,25 +167,18 @@ def clean_file(
     if out.suffix.lower() == ".bvh" and cleaned.missing().any():
         raise MocapFormatError(out, "the cleaned take still has missing joints (NaN), which BVH cannot hold; "
                                "add the fill step or write .npz")
-    if report is not None:
-        from .report.html import write_report  # lazy: the viewer is optional
+    with removed_on_failure(outputs):
+        if report is not None:
+            from .report.html import write_report  # lazy: the viewer is optional
 
-        write_report(report, m, cleaned, mdm=res.mdm, flags=res.flags, changed=res.changed,
-                     title=f"{inp.name}: cleaned")
-    if png is not None:
-        plot_summary(res, m, png, title=inp.name)
-    wrote_out = False
-    try:
+            write_report(report, m, cleaned, mdm=res.mdm, flags=res.flags, changed=res.changed,
+                         title=f"{inp.name}: cleaned")
+        if png is not None:
+            from .report.summary import plot_summary
+
+            plot_summary(res, m, png, title=inp.name)
         io.save(cleaned, out)
-        wrote_out = True
         res.save(record)  # last: the completion marker
-    except BaseException:
-        if wrote_out:  # an output without its record would pass for complete-but-unrecorded: remove it
-            try:
-                out.unlink()
-            except FileNotFoundError:
-                pass
-        raise
     return m, res
 
 

@@ -11,6 +11,10 @@ every path a command will write is checked against every path it reads:
 - missing parent folders are created only when the output is written
   (:func:`mocapkit.io.atomic_write` does that), never by the check.
 
+A command that writes several files writes them inside
+:func:`removed_on_failure`, so a run that fails half-way leaves none of the
+files it created (a report without its take, a take without its record).
+
 The check raises :class:`~mocapkit.errors.MocapFormatError` naming the output
 and the problem, which the CLI prints as one line.
 
@@ -29,12 +33,13 @@ refusing to write over an input
 from __future__ import annotations
 
 import os
+from contextlib import contextmanager
 from pathlib import Path
-from typing import Iterable
+from typing import Iterable, Iterator
 
 from ..errors import MocapFormatError
 
-__all__ = ["check_outputs", "same_file", "inside"]
+__all__ = ["check_outputs", "same_file", "inside", "removed_on_failure"]
 
 
 def _resolved(path: os.PathLike | str) -> Path:
@@ -101,3 +106,25 @@ def check_outputs(
             raise MocapFormatError(out, f"cannot create it: {parent} is a file, not a folder")
         if out.exists() and not overwrite:
             raise MocapFormatError(out, "already exists; pass --overwrite to replace it")
+
+
+@contextmanager
+def removed_on_failure(outputs: Iterable[os.PathLike | str | None]) -> Iterator[None]:
+    """Remove, if the block raises (interrupts included), every output it created; then re-raise.
+
+    Only files that did not exist when the block started are removed: an
+    output that existed before (replaced with ``overwrite``) is never deleted.
+    Each output is still written atomically, so a file is either complete or absent.
+    """
+    outs = [Path(o) for o in outputs if o is not None]
+    existed = {o for o in outs if os.path.lexists(o)}
+    try:
+        yield
+    except BaseException:
+        for o in outs:
+            if o not in existed:
+                try:
+                    o.unlink()
+                except (FileNotFoundError, IsADirectoryError, PermissionError):
+                    pass
+        raise

@@ -90,6 +90,12 @@ class TrainConfig:
             raise ValueError(f"offset must be >= 0, got {self.offset!r}")
         if not 0.0 <= self.patchy <= 1.0:
             raise ValueError(f"patchy must be in [0, 1], got {self.patchy!r}")
+        for name, allowed in (("kind", ("ebf", "ebd")), ("representation", ("euler", "rot6d")),
+                              ("head", ("gaussian", "free")), ("init", ("xavier", "paper"))):
+            if getattr(self, name) not in allowed:
+                raise ValueError(f"{name} is {' or '.join(allowed)}, got {getattr(self, name)!r}")
+        for spec in self.noise:
+            noisy_motion(None, spec, 0, check_only=True)
 
     def network(self, channels: int) -> torch.nn.Module:
         if self.kind == "ebf":

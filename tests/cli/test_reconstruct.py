@@ -8,7 +8,7 @@ import pytest
 import mocapkit
 from mocapkit import corrupt, metrics, samples
 from mocapkit.features import virtual_accelerometers
-from tests.test_cli import one_error_line, run
+from tests.cli.helpers import one_error_line, run
 
 QUERY = samples.path("HDM_bk_sneak2StepsLStart_005_120.amc")
 
@@ -56,7 +56,7 @@ def test_markers_from_a_motion(tmp_path, db_dir, query):
 
 
 def test_accelerometers_from_a_csv(tmp_path, db_dir, query):
-    from mocapkit.reconstruct.accelerometers import write_readings_csv
+    from mocapkit.io.readings import write_readings_csv
 
     readings = virtual_accelerometers(query)
     csv = tmp_path / "imu.csv"
@@ -101,7 +101,7 @@ def test_reconstruct_fails_in_one_line(tmp_path, db_dir):
     code, _, err = run("reconstruct", "--db", str(db_dir), "--markers", str(c3d), "--use", "NOPE=head", "-o", str(out))
     assert code == 2 and one_error_line(err) and "no marker(s) NOPE" in err
     code, _, err = run("reconstruct", "--db", str(db_dir), "--markers", str(QUERY), "-o", str(QUERY))
-    assert code == 2 and one_error_line(err) and "overwrite" in err
+    assert code == 2 and one_error_line(err) and "refusing to write over an input" in err
     bad = tmp_path / "bad.csv"
     bad.write_text("time,left_knee.x,left_knee.y,left_knee.z\n0,0,9.81,0\n0.01,0,9.81,0\n")
     code, _, err = run("reconstruct", "--db", str(db_dir), "--accelerometers", str(bad), "-o", str(out))

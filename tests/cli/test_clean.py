@@ -8,7 +8,7 @@ import re
 import signal
 import subprocess
 import sys
-import time
+import threading
 from pathlib import Path
 
 import numpy as np
@@ -67,7 +67,7 @@ def test_clean_refuses_bad_requests(takes, tmp_path, capsys):
     inp = takes / "walk_bad.npz"
     before = _hash(inp)
     assert main(["clean", str(inp), "-o", str(inp)]) == 2
-    assert "refusing to overwrite the input" in capsys.readouterr().err
+    assert "refusing to write over an input" in capsys.readouterr().err
     assert _hash(inp) == before
     assert main(["clean", str(inp), "-o", str(tmp_path / "x.bvh"), "--steps", "detect,repair"]) == 2
     err = capsys.readouterr().err
@@ -112,6 +112,12 @@ def test_clean_batch_serial_resume_and_failure(tmp_path, capsys):
     text = capsys.readouterr().out
     assert rc == 1, text  # one take failed
     assert "failed" in text and "broken.bvh" in text and "3 cleaned" in text
+    # one line per take: what was found and fixed, or why it failed
+    lines = text.splitlines()
+    assert sum(ln.startswith(("cleaned ", "failed ", "skipped ")) for ln in lines) == 4, text
+    walk_line = next(ln for ln in lines if ln.startswith("cleaned ") and "walk.npz" in ln)
+    assert "denoised" in walk_line or "nothing to change" in walk_line
+    assert any(ln.startswith("failed ") and "broken.bvh" in ln for ln in lines)
     for rel in ("cmu/walk.npz", "cmu/131_01.bvh", "hdm/bk/sneak.npz"):
         assert (out / rel).is_file(), rel
         stem = rel.rsplit(".", 1)[0]
@@ -119,8 +125,9 @@ def test_clean_batch_serial_resume_and_failure(tmp_path, capsys):
     assert not (out / "hdm" / "broken.bvh").exists() and not list(out.rglob(".*.part"))
     assert _tree(src) == inputs
     stamp = (out / "cmu" / "walk.clean.npz").stat().st_mtime_ns
-    # resume: complete takes are skipped; a take without its record is done again
+    # resume: complete takes are skipped; a take not done yet (no output, no record) is done
     (out / "hdm" / "bk" / "sneak.clean.npz").unlink()
+    (out / "hdm" / "bk" / "sneak.npz").unlink()
     rc = main(["clean-batch", str(src), str(out), "--executor", "serial", "--steps", "fill,denoise"])
     text = capsys.readouterr().out
     assert rc == 1 and "1 cleaned, 2 already complete, 1 failed" in text, text
@@ -153,16 +160,33 @@ def test_clean_batch_on_local_dask_cluster(tmp_path, capsys):
 # -- interrupts -------------------------------------------------------------------------
 
 
-def _run_and_signal(args, sig, wait_s, tmp_path):
+def _run_and_signal(args, sig, ready, tmp_path, timeout=600.0):
+    """Start the CLI, wait until ``ready(stderr_so_far)`` is true (a readiness signal, not a sleep), then send ``sig``.
+
+    The timeout only bounds a hung run; nothing depends on how long a step takes.
+    """
     env = dict(os.environ, PYTHONUNBUFFERED="1")
     # a shell runs background jobs with SIGINT ignored and children inherit that; give the CLI the default, as a terminal does
     proc = subprocess.Popen([sys.executable, "-m", "mocapkit.cli", *args], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
                             env=env, cwd=tmp_path, preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
-    time.sleep(wait_s)
+    chunks: list[bytes] = []
+    reader = threading.Thread(target=lambda: chunks.extend(iter(lambda: proc.stderr.read1(4096), b"")), daemon=True)
+    reader.start()
+    seen = threading.Event()
+
+    def watch():
+        while proc.poll() is None and not ready(b"".join(chunks).decode(errors="replace")):
+            seen.wait(0.05)
+        seen.set()
+
+    watcher = threading.Thread(target=watch, daemon=True)
+    watcher.start()
+    assert seen.wait(timeout), "no readiness signal"
     assert proc.poll() is None, "finished before the signal; make the take longer"
     proc.send_signal(sig)
-    out, err = proc.communicate(timeout=180)
-    return proc.returncode, err.decode()
+    proc.wait(timeout=timeout)
+    reader.join(timeout)
+    return proc.returncode, b"".join(chunks).decode(errors="replace")
 
 
 @pytest.fixture(scope="module")
@@ -179,7 +203,9 @@ def long_take(tmp_path_factory):
 def test_interrupted_clean_leaves_no_output(long_take, tmp_path, sig):
     before = _hash(long_take)
     out = tmp_path / "o" / "clean.bvh"
-    rc, err = _run_and_signal(["clean", str(long_take), "-o", str(out), "--png", str(tmp_path / "o" / "s.png")], sig, 6.0, tmp_path)
+    # ready: detection has started (its progress bar), i.e. the gaps are filled and nothing is written yet
+    rc, err = _run_and_signal(["clean", str(long_take), "-o", str(out), "--png", str(tmp_path / "o" / "s.png")], sig,
+                              lambda err: "ssa walk_x8" in err, tmp_path)
     assert rc == 130, err  # typer turns the KeyboardInterrupt (SIGTERM is made one) into exit 130
     assert not out.exists() and not (tmp_path / "o" / "clean.clean.npz").exists()
     assert not list(tmp_path.rglob(".*.part"))
@@ -194,9 +220,75 @@ def test_interrupted_batch_leaves_only_complete_takes(long_take, tmp_path):
         (src / f"t{k}.npz").write_bytes(long_take.read_bytes())
     inputs = _tree(src)
     out = tmp_path / "out"
-    rc, err = _run_and_signal(["clean-batch", str(src), str(out)], signal.SIGTERM, 8.0, tmp_path)
+    # ready: the first take is complete, the others are under way
+    rc, err = _run_and_signal(["clean-batch", str(src), str(out)], signal.SIGTERM,
+                              lambda err: any(out.rglob("*.clean.npz")) if out.is_dir() else False, tmp_path)
     assert rc == 130, err
     assert _tree(src) == inputs
     assert not list(tmp_path.rglob(".*.part"))
     for k in range(3):  # each take is either complete (output + record) or absent
         assert (out / f"t{k}.npz").exists() == (out / f"t{k}.clean.npz").exists()
+
+
+# -- checked before any work, nothing left behind ------------------------------------------------
+
+
+def test_reference_of_another_length_is_refused_before_anything_is_written(takes, tmp_path, capsys):
+    short = tmp_path / "ref" / "short.npz"
+    mocapkit.save(mocapkit.load(takes / "walk_ref.npz")[:50], short)
+    before = _tree(tmp_path)
+    out = tmp_path / "o" / "walk.bvh"
+    argv = ["clean", str(takes / "walk_bad.npz"), "-o", str(out), "--reference", str(short),
+            "--report", str(tmp_path / "o" / "r.html"), "--png", str(tmp_path / "o" / "s.png")]
+    assert main(argv) == 2
+    captured = capsys.readouterr()
+    assert "short.npz: the reference must have the input's joints and 343 frames (it has 50 frames)" in captured.err
+    assert "ssa" not in captured.err  # refused before detection started
+    assert _tree(tmp_path) == before and not (tmp_path / "o").exists()
+    other_rig = tmp_path / "ref" / "other.npz"
+    mocapkit.save(mocapkit.load(samples.path("131_01.bvh"))[:343], other_rig)
+    argv[argv.index(str(short))] = str(other_rig)
+    assert main(argv) == 2
+    assert "its joints differ" in capsys.readouterr().err and not (tmp_path / "o").exists()
+
+
+def test_a_run_that_fails_while_writing_leaves_no_report(takes, tmp_path, monkeypatch, capsys):
+    import errno
+
+    import mocapkit.io as mio
+
+    def disk_full(*args, **kwargs):
+        raise OSError(errno.ENOSPC, "No space left on device")
+
+    monkeypatch.setattr(mio, "save", disk_full)  # the take itself cannot be written, after the report and png were
+    keep = tmp_path / "o" / "s.png"
+    keep.parent.mkdir()
+    keep.write_bytes(b"an earlier figure")
+    out = tmp_path / "o" / "walk.bvh"
+    argv = ["clean", str(takes / "walk_bad.npz"), "-o", str(out), "--steps", "fill", "--report", str(tmp_path / "o" / "r.html"),
+            "--png", str(keep), "--overwrite"]
+    assert main(argv) == 2
+    assert "no space left on the device" in capsys.readouterr().err
+    # what this run created is gone; what existed before (replaced with --overwrite) is not deleted
+    assert sorted(p.name for p in (tmp_path / "o").iterdir()) == ["s.png"]
+
+
+def test_clean_overwrite_and_asf(takes, tmp_path, capsys):
+    import shutil
+
+    amc = tmp_path / "in" / "walk.amc"
+    amc.parent.mkdir()
+    shutil.copy(samples.path("12_walk.amc"), amc)
+    asf = tmp_path / "subject12.asf"
+    shutil.copy(samples.path("12.asf"), asf)
+    out = tmp_path / "new" / "walk.npz"  # a missing parent folder is created
+    argv = ["clean", str(amc), "--asf", str(asf), "-o", str(out), "--steps", "fill"]
+    assert main(argv) == 0
+    assert out.is_file() and "walk.clean.npz" in capsys.readouterr().out
+    record = tmp_path / "new" / "walk.clean.npz"
+    stamp = record.stat().st_mtime_ns
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert "already exists; pass --overwrite" in err and record.stat().st_mtime_ns == stamp
+    assert main(argv + ["--overwrite"]) == 0
+    np.testing.assert_array_equal(mocapkit.load(out).rotations, mocapkit.load(samples.path("12_walk.amc")).rotations)

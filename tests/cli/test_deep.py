@@ -4,7 +4,7 @@ import numpy as np
 
 import mocapkit
 from mocapkit import corrupt, metrics
-from tests.test_cli import one_error_line, run
+from tests.cli.helpers import one_error_line, run
 
 WALK = mocapkit.samples.path("12_walk.amc")
 
@@ -46,20 +46,20 @@ def test_deep_commands_fail_in_one_line(tmp_path):
     code, _, err = run("denoise", str(WALK), "-o", str(tmp_path / "y.bvh"), "--model", str(bad))
     assert code == 2 and one_error_line(err) and "model.pt" in err
     code, _, err = run("fill", str(WALK), "-o", str(WALK))
-    assert code == 2 and one_error_line(err) and "overwrite" in err
+    assert code == 2 and one_error_line(err) and "refusing to write over an input" in err
     short = tmp_path / "short.npz"
     mocapkit.save(mocapkit.load(WALK)[:100], short)
     code, _, err = run("denoise", str(WALK), "-o", str(tmp_path / "z.npz"), "--reference", str(short))
-    assert code == 2 and one_error_line(err) and "short.npz" in err and "frame count" in err
+    assert code == 2 and one_error_line(err) and "short.npz" in err and "343 frames (it has 100 frames)" in err
     assert not (tmp_path / "z.npz").exists()
     code, _, err = run("train", "nonsense", str(WALK), "-o", str(tmp_path / "m"))
     assert code == 2 and one_error_line(err)
     code, _, err = run("train", "denoiser", str(WALK), "-o", str(tmp_path / "m"), "--noise", "wobble:1")
     assert code == 2 and one_error_line(err) and "unknown noise setting 'wobble:1'" in err
     code, _, err = run("train", "denoiser", str(WALK), "-o", str(tmp_path / "m"), "--speed", "1.4", "0.7")
-    assert code == 2 and one_error_line(err) and "--speed needs 0 < LO <= HI (got 1.4 0.7)" in err
+    assert code == 2 and one_error_line(err) and "speed_range needs 0 < lo <= hi, got (1.4, 0.7)" in err
     code, _, err = run("train", "denoiser", str(WALK), "-o", str(tmp_path / "m"), "--patchy", "1.5")
-    assert code == 2 and one_error_line(err) and "--patchy in [0, 1] (got 1.5)" in err
+    assert code == 2 and one_error_line(err) and "patchy must be in [0, 1], got 1.5" in err
     assert not (tmp_path / "m").exists()
 
 

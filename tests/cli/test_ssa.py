@@ -5,7 +5,7 @@ import numpy as np
 import mocapkit
 from mocapkit import corrupt
 from mocapkit.cleaning import ssa
-from tests.test_cli import one_error_line, run
+from tests.cli.helpers import one_error_line, run
 
 
 def test_detect_and_repair(tmp_path):
@@ -52,9 +52,35 @@ def test_detect_no_confirm_gives_the_papers_flags(tmp_path):
         assert code == 0, err
     confirmed, paper = (ssa.Detection.load(p) for p in paths.values())
     assert np.array_equal(confirmed.mdm, paper.mdm)
-    assert np.array_equal(paper.flags, paper.mdm > 0.5) and not paper.params["confirm"]
-    assert confirmed.params["confirm"] and (confirmed.flags <= paper.flags | (confirmed.mdm > 0.25)).all()
+    assert np.array_equal(paper.flags, paper.mdm > 0.5) and not paper.params.confirm
+    assert confirmed.params.confirm and (confirmed.flags <= paper.flags | (confirmed.mdm > 0.25)).all()
     assert confirmed.flags.sum() < paper.flags.sum()  # the clean walk's unrepeated gestures are not errors
     code, _, err = run("detect", str(inp), "--out", str(tmp_path / "bad.npz"), "--jump-deg", "-1")
     assert code == 2 and one_error_line(err) and "jump_deg" in err
     assert not (tmp_path / "bad.npz").exists()
+
+
+def test_detect_prints_joint_names_with_markup_as_they_are(tmp_path):
+    import dataclasses
+
+    walk = mocapkit.load(mocapkit.samples.path("131_01.bvh"))
+    bad, _, _ = corrupt.real_errors(walk, kinds=("flip",), n_errors=1, seed=1, joints=["LeftKnee"])
+    names = tuple("[/b]" if n == "LeftKnee" else n for n in bad.skeleton.joint_names)
+    bad = dataclasses.replace(bad, skeleton=dataclasses.replace(bad.skeleton, joint_names=names), name="[/]")
+    inp = tmp_path / "[b]bad[_].npz"
+    mocapkit.save(bad, inp)
+    code, out, err = run("detect", str(inp), "--out", str(tmp_path / "det.npz"))
+    assert code == 0, err
+    assert "  [/b]" in out  # the flagged joint, printed as it is named
+
+
+def test_repair_refuses_a_detection_of_another_take(tmp_path):
+    inp = mocapkit.samples.path("131_01.bvh")
+    short = tmp_path / "short.npz"
+    mocapkit.save(mocapkit.load(inp)[:300], short)
+    det = tmp_path / "det.npz"
+    code, _, err = run("detect", str(short), "--out", str(det), "--json")
+    assert code == 0, err
+    code, _, err = run("repair", str(inp), "-o", str(tmp_path / "x.bvh"), "--detection", str(det))
+    assert code == 2 and one_error_line(err) and "det.npz: the detection is of 300 frames" in err
+    assert not (tmp_path / "x.bvh").exists()

@@ -1,0 +1,7 @@
+"""``python -m mocapkit``: the ``mocapkit`` command."""
+
+import sys
+
+from .cli import main
+
+sys.exit(main())

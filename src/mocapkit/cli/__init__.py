@@ -1,0 +1,158 @@
+"""The ``mocapkit`` command: thin wrappers that parse, call the library, and print.
+
+One module per command group: :mod:`.motion` (info, convert, corrupt, plot),
+:mod:`.db` (db build, db info, search), :mod:`.ssa` (detect, repair),
+:mod:`.deep` (denoise, fill, train), :mod:`.reconstruct` and :mod:`.clean`
+(clean, clean-batch); :mod:`.common` holds what they share.
+
+What every command guarantees:
+
+- every output is checked against every input before any work
+  (:func:`mocapkit.io.outputs.check_outputs`): no output may resolve to an
+  input or lie in an input folder; an existing output is replaced only with
+  ``--overwrite``; missing parent folders are created;
+- outputs are written atomically (temporary file + rename), and a run that
+  fails leaves none of the files it created;
+- every failure ends in one line on stderr, ``mocapkit: error: ...``, and exit
+  status 2 (1 for a batch with failed takes; 130 when interrupted), never a
+  traceback (:func:`main`).
+"""
+
+from __future__ import annotations
+
+import errno
+import re
+import sys
+
+import typer
+
+from ..errors import MocapError
+from . import clean as clean_cmds
+from . import db, deep, motion, reconstruct, ssa
+
+__all__ = ["app", "main", "version"]
+
+EXIT_BAD_INPUT = 2
+EXIT_INTERRUPTED = 130
+
+app = typer.Typer(
+    name="mocapkit",
+    help="Clean and reconstruct human motion-capture data (BVH, ASF/AMC, C3D, npz).",
+    no_args_is_help=True,
+    add_completion=False,
+    pretty_exceptions_enable=False,
+)
+
+
+def version() -> str:
+    """The installed package's version (package metadata), else the source tree's."""
+    from importlib.metadata import PackageNotFoundError
+    from importlib.metadata import version as dist_version
+
+    try:
+        return dist_version("mocapkit")
+    except PackageNotFoundError:
+        from .. import __version__
+
+        return __version__
+
+
+def _show_version(value: bool) -> None:
+    if value:
+        print(f"mocapkit {version()}")
+        raise typer.Exit(0)
+
+
+@app.callback()
+def _root(
+    show_version: bool = typer.Option(
+        False, "--version", callback=_show_version, is_eager=True, help="Print the version and exit."
+    ),
+) -> None:
+    """Clean and reconstruct human motion-capture data (BVH, ASF/AMC, C3D, npz)."""
+
+
+for _fn in (motion.info, motion.convert, motion.corrupt, motion.plot, db.search, ssa.detect, ssa.repair,
+            deep.denoise, deep.fill, deep.train, reconstruct.reconstruct, clean_cmds.clean):
+    app.command()(_fn)
+app.command("clean-batch")(clean_cmds.clean_batch)
+app.add_typer(db.db_app, name="db")
+
+# a temporary file of mocapkit.io.atomic_write: ".NAME.RANDOM.part" beside NAME
+_TEMP_NAME = re.compile(r"^(?P<dir>.*?)\.(?P<name>[^/]+)\.[^./]+\.part$")
+
+
+def _os_error_line(exc: OSError) -> str:
+    """``PATH: reason`` for a filesystem error, naming the output rather than its temporary file."""
+    name = exc.filename
+    if isinstance(name, str):
+        found = _TEMP_NAME.match(name)
+        if found:
+            name = found.group("dir") + found.group("name")
+    reason = exc.strerror or str(exc)
+    if exc.errno == errno.ENOSPC:
+        reason = "no space left on the device"
+    elif exc.errno == errno.EROFS:
+        reason = "read-only file system"
+    return f"{name}: {reason}" if name else reason
+
+
+def _fail(message: str, code: int = EXIT_BAD_INPUT) -> int:
+    text = " ".join(str(message).split())  # one line, whatever the message held
+    print(f"mocapkit: error: {text}", file=sys.stderr)
+    return code
+
+
+def _usage_error(exc: BaseException) -> int | None:
+    """Exit status for a command-line parsing error (typer's click exceptions), after printing it in one line."""
+    code, fmt = getattr(exc, "exit_code", None), getattr(exc, "format_message", None)
+    if not isinstance(code, int) or not callable(fmt) or isinstance(exc, MocapError):
+        return None
+    if type(exc).__name__ == "NoArgsIsHelpError":  # the help was printed while the error was made
+        message = fmt().strip()
+        if message:
+            print(message)
+        return code
+    ctx = getattr(exc, "ctx", None)
+    hint = f" (see '{ctx.command_path} --help')" if getattr(exc, "cmd", None) is not None or ctx is not None else ""
+    return _fail(f"{fmt()}{hint}", code)
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Entry point of the console script: runs the app and turns every failure into one line.
+
+    Returns the exit status: 0, 2 for any failure (bad input, usage, a
+    filesystem error, an unexpected exception: ``mocapkit: error: ...`` on
+    stderr, no traceback), 1 for a batch with failed takes (the command says
+    which), 130 when interrupted.
+    """
+    try:
+        result = app(args=argv, standalone_mode=False)
+    except BaseException as exc:  # noqa: BLE001 - every failure ends in one line and an exit status
+        return _exit_status(exc)
+    if result == EXIT_INTERRUPTED:  # typer turns an interrupt inside a command into Exit(130)
+        print("mocapkit: interrupted; no partial output was left", file=sys.stderr)
+    return result if isinstance(result, int) else 0
+
+
+def _exit_status(exc: BaseException) -> int:
+    """Print the one line for a failure and return the exit status (see :func:`main`)."""
+    if isinstance(exc, (KeyboardInterrupt, typer.Abort)):
+        print("mocapkit: interrupted; no partial output was left", file=sys.stderr)
+        return EXIT_INTERRUPTED
+    if isinstance(exc, SystemExit):
+        return exc.code if isinstance(exc.code, int) else (0 if exc.code is None else EXIT_BAD_INPUT)
+    if isinstance(exc, typer.Exit):
+        return exc.exit_code
+    if isinstance(exc, MocapError):
+        return _fail(str(exc))
+    usage = _usage_error(exc)
+    if usage is not None:
+        return usage
+    if isinstance(exc, FileNotFoundError):
+        return _fail(f"{exc.filename or exc}: no such file")
+    if isinstance(exc, OSError):
+        return _fail(_os_error_line(exc))
+    if not isinstance(exc, Exception):  # GeneratorExit and the like: not ours to swallow
+        raise exc
+    return _fail(f"{type(exc).__name__}: {exc}")  # anything unexpected: still one line, naming the exception

@@ -1,0 +1,7 @@
+"""``python -m mocapkit.cli``: the ``mocapkit`` command."""
+
+import sys
+
+from . import main
+
+sys.exit(main())

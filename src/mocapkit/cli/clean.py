@@ -1,0 +1,136 @@
+"""The main job: ``clean`` one take and ``clean-batch`` a folder of takes."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Optional
+
+import typer
+
+from ..errors import MocapError
+from .common import (STEPS_HELP, asf_option, check_executor, console, context_option, executor_option, guard,
+                     overwrite_option, plural)
+
+
+def _steps(text: str) -> list[str]:
+    from ..cleaning.pipeline import parse_steps
+
+    try:
+        return list(parse_steps(text))
+    except ValueError as exc:
+        raise MocapError(f"--steps: {exc}") from None
+
+
+def clean(
+    inp: Path = typer.Argument(..., metavar="IN", help="Motion to clean (.bvh, .amc, .npz)."),
+    out: Path = typer.Option(..., "--out", "-o", help="Cleaned motion (.bvh or .npz); OUT's stem + .clean.npz is written beside it."),
+    context: Optional[list[Path]] = context_option(),
+    steps: str = typer.Option("fill,detect,repair,denoise", "--steps", help=STEPS_HELP),
+    threshold: float = typer.Option(0.5, "--threshold", help="MDM value above which a joint is flagged and repaired (0-1)."),
+    report: Optional[Path] = typer.Option(None, "--report", help="Also write the self-contained HTML report here."),
+    png: Optional[Path] = typer.Option(None, "--png", help="Also write a static summary figure (MDM + before/after channels)."),
+    reference: Optional[Path] = typer.Option(None, "--reference", help="The clean take, to print the error before and after."),
+    asf: Optional[Path] = asf_option(),
+    overwrite: bool = overwrite_option(),
+) -> None:
+    """Clean a take: fill gaps, detect and repair erroneous joints, denoise only the noisy cells.
+
+    Writes OUT and, beside it, OUT's stem + .clean.npz (MDM, flags, the cells each step changed and
+    a record per step); everything not missing, flagged or noisy stays bit-identical.
+    """
+    from ..batch import clean_file, sigterm_as_interrupt
+    from ..cleaning.pipeline import clean_path
+    from ..io.takes import check_asf, load_motion
+    from ..reference import check_reference, clean_errors
+
+    sigterm_as_interrupt()
+    guard([out, clean_path(out), report, png], [inp, asf, context, reference], overwrite)
+    check_asf(asf, [inp])
+    step_list = _steps(steps)
+    take = load_motion(inp, asf, purpose="clean")
+    ref = None
+    if reference is not None:  # refused before cleaning, not after OUT is written
+        ref = check_reference(load_motion(reference, purpose="a reference"), reference, frames=take.num_frames,
+                              joint_names=take.skeleton.joint_names)
+    original, res = clean_file(inp, out, context=context, steps=step_list, threshold=threshold, report=report, png=png,
+                               progress=True, asf=asf, overwrite=overwrite, motion=take)
+    m = res.motion
+    console.print(f"wrote {out} and {clean_path(out)}" + "".join(f" and {p}" for p in (report, png) if p is not None)
+                  + f": {plural(res.num_frames, 'frame')} @ {m.fps:g} fps, {int(res.changed.sum())} of "
+                  f"{plural(res.changed.size, 'joint sample')} changed ({100.0 * (1 - res.changed.mean()):.1f} % untouched)")
+    for line in res.summary():
+        console.print(f"  {line}")
+    if res.detection is not None:
+        segs = res.detection.segments()
+        for j, a, b in segs[:12]:
+            console.print(f"    flagged {j:16s} frames {a}-{b} ({a / m.fps:.2f}-{b / m.fps:.2f} s)")
+        if len(segs) > 12:
+            console.print(f"    ... and {len(segs) - 12} more (all in {clean_path(out)})")
+    if ref is not None:
+        e = clean_errors(ref, original, m)
+        gaps = " (input gaps linearly filled)" if e["gaps_filled"] else ""
+        console.print(f"  error against {reference.name}{gaps}: eq. 2 {e['pose_before']:.4f} -> {e['pose_after']:.4f} "
+                      f"per frame; joint positions {e['cm_before']:.2f} -> {e['cm_after']:.2f} cm RMS")
+
+
+def _take_line(row: dict) -> str:
+    """One line per take of a batch: what was found and fixed, or why it failed or was skipped."""
+    if row["status"] == "failed":
+        return f"failed  {row['input']}: {row['reason']}"
+    if row["status"] == "skipped":
+        return f"skipped {row['input']}: {row.get('reason') or 'complete'}"
+    found = [plural(row[k], what) for k, what in (("filled", "filled sample"), ("flagged", "flagged sample"),
+                                                   ("repaired", "repaired sample"), ("denoised", "denoised sample"))
+             if row.get(k)]
+    what = ", ".join(found) if found else "nothing to change"
+    return f"cleaned {row['input']} -> {row['output']}: {what} ({row.get('seconds', 0.0):.1f} s)"
+
+
+def clean_batch(
+    in_dir: Path = typer.Argument(..., metavar="IN_DIR", help="Folder of takes (searched recursively)."),
+    out_dir: Path = typer.Argument(..., metavar="OUT_DIR", help="Folder for the cleaned takes (same layout)."),
+    context: Optional[list[Path]] = context_option("default: each clip itself"),
+    steps: str = typer.Option("fill,detect,repair,denoise", "--steps", help=STEPS_HELP),
+    threshold: float = typer.Option(0.5, "--threshold", help="MDM value above which a joint is flagged (0-1)."),
+    executor: Optional[str] = executor_option("takes are cleaned"),
+    report: bool = typer.Option(False, "--report", help="Also write STEM.report.html beside each output."),
+    png: bool = typer.Option(False, "--png", help="Also write STEM.summary.png beside each output."),
+    pattern: str = typer.Option("*.bvh,*.amc,*.npz", "--pattern", help="Comma-separated file name patterns to clean."),
+    fmt: str = typer.Option("auto", "--format", help="Output format: auto (.bvh and .npz kept, others -> .bvh), bvh or npz."),
+    as_json: bool = typer.Option(False, "--json", help="Print the per-take rows as JSON."),
+    overwrite: bool = typer.Option(
+        False, "--overwrite",
+        help="Replace existing outputs that are not complete takes of an earlier run (without it they are refused; "
+             "complete takes are skipped either way). Missing parent folders are created.",
+    ),
+) -> None:
+    """Clean every take under IN_DIR into OUT_DIR: resumable, one failing take reported and skipped.
+
+    A take is complete when its output and STEM.clean.npz both exist (the record is written last);
+    complete takes are skipped, so running the command again resumes. Takes that would share a file
+    (take.amc and take.bvh in one folder) keep their input's suffix (take.amc.bvh). Every output is
+    checked against every input before any take is cleaned. Prints one line per take; exits 1 if any
+    take failed.
+    """
+    from ..batch import clean_batch as run_batch
+    from ..batch import sigterm_as_interrupt
+
+    sigterm_as_interrupt()
+    check_executor(executor)
+    step_list = _steps(steps)
+    patterns = tuple(p.strip() for p in pattern.split(",") if p.strip())
+    if not patterns:
+        raise MocapError("--pattern: give at least one file name pattern, e.g. '*.bvh,*.amc'")
+    summary = run_batch(in_dir, out_dir, context=context, steps=step_list, threshold=threshold, patterns=patterns,
+                        fmt=fmt, report=report, png=png, executor=executor, progress=not as_json, overwrite=overwrite)
+    if as_json:
+        print(json.dumps({"rows": summary.rows, "seconds": summary.seconds, "executor": summary.executor}))
+    else:
+        for row in summary.rows:
+            console.print(_take_line(row))
+        console.print(f"{plural(len(summary.rows), 'take')} on {summary.executor} in {summary.seconds:.1f} s: "
+                      f"{summary.count('done')} cleaned, {summary.count('skipped')} already complete, "
+                      f"{summary.count('failed')} failed")
+    if summary.failed:
+        raise typer.Exit(1)

@@ -1,0 +1,101 @@
+"""What every command shares: the console, the output guard, option texts and small formatting helpers.
+
+The console prints with rich markup **off**: joint, clip and file names come
+from user files and may contain ``[/b]`` or ``[/]``, which rich would read as
+markup (and crash on, or hide). Nothing this package prints uses markup, so
+no user string needs escaping case by case. Lines are not wrapped or cut
+(``soft_wrap``), so a long path prints whole.
+"""
+
+from __future__ import annotations
+
+from typing import Iterable, Optional
+
+import typer
+from rich.console import Console
+
+__all__ = [
+    "console",
+    "guard",
+    "plural",
+    "print_fields",
+    "print_table",
+    "overwrite_option",
+    "asf_option",
+    "context_option",
+    "executor_option",
+    "check_executor",
+    "OVERWRITE_HELP",
+    "STEPS_HELP",
+]
+
+console = Console(markup=False, highlight=False, soft_wrap=True)
+
+OVERWRITE_HELP = ("Replace output files that already exist (without it they are refused; an input is never "
+                  "replaced). Missing parent folders are created.")
+STEPS_HELP = "Comma-separated steps: fill, detect, repair, denoise (they always run in that order)."
+
+
+def overwrite_option():
+    """The ``--overwrite`` option of every command that writes files."""
+    return typer.Option(False, "--overwrite", help=OVERWRITE_HELP)
+
+
+def asf_option():
+    """The ``--asf`` option of every command that reads AMC files."""
+    return typer.Option(None, "--asf", help="Skeleton (.asf) for the .amc input(s) (default: the ASF beside each AMC).")
+
+
+def context_option(default_help: str = "default: the clip itself"):
+    """The ``--context`` option of the self-similarity commands."""
+    return typer.Option(None, "--context", help=f"Related clips (repeat the option) or one database folder; {default_help}.")
+
+
+def executor_option(what: str):
+    """The ``--executor`` option (where ``what`` runs)."""
+    return typer.Option(None, "--executor", help=f"Where {what}: processes (default), serial (this process), dask "
+                                                 "(a local cluster) or a Dask scheduler address tcp://HOST:PORT.")
+
+
+def check_executor(spec: Optional[str]) -> None:
+    """Refuse an ``--executor`` value before any work (:func:`mocapkit.parallel.check_executor`)."""
+    from ..parallel import check_executor as check
+
+    check(spec)
+
+
+def guard(outputs: Iterable, inputs: Iterable, overwrite: bool = False) -> None:
+    """The output guard of every command, run before any work: :func:`mocapkit.io.outputs.check_outputs`.
+
+    ``inputs`` may hold lists (``--context``) and ``None`` entries.
+    """
+    from ..io.outputs import check_outputs
+
+    flat = []
+    for i in inputs:
+        if isinstance(i, (list, tuple)):
+            flat.extend(i)
+        else:
+            flat.append(i)
+    check_outputs(outputs, flat, overwrite=overwrite)
+
+
+def plural(n: int, word: str, many: str | None = None) -> str:
+    """``"1 joint"``, ``"2 joints"`` (``many``: an irregular plural)."""
+    return f"{n} {word if n == 1 else (many or word + 's')}"
+
+
+def print_fields(rows: Iterable[tuple[str, str]]) -> None:
+    """Print ``name  value`` lines, names aligned, values whole (never cut or wrapped)."""
+    rows = list(rows)
+    width = max((len(k) for k, _ in rows), default=0)
+    for k, v in rows:
+        console.print(f"{k:<{width}}  {v}")
+
+
+def print_table(header: Iterable[str], rows: Iterable[Iterable[str]]) -> None:
+    """Print a table as aligned columns, one line per row, cells whole (a long path is never cut or folded)."""
+    table = [list(map(str, header))] + [list(map(str, r)) for r in rows]
+    widths = [max(len(r[c]) for r in table) for c in range(len(table[0]))]
+    for r in table:
+        console.print("  ".join(cell.ljust(w) for cell, w in zip(r, widths)).rstrip())

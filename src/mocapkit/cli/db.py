@@ -1,0 +1,126 @@
+"""Databases and search: ``db build``, ``db info``, ``search``."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Optional
+
+import typer
+
+from ..errors import MocapError, MocapFormatError
+from .common import asf_option, check_executor, console, executor_option, plural, print_fields, print_table
+
+db_app = typer.Typer(
+    help="Build and inspect motion databases (the knowledge that search and cleaning compare against).",
+    no_args_is_help=True,
+)
+
+
+def _feature_list(text: str) -> tuple[str, ...]:
+    return tuple(t.strip() for t in text.split(",") if t.strip())
+
+
+def _read_joint_map(path: Path) -> dict:
+    """``--joint-map``: a JSON object {clip joint: database joint}, checked here so its errors name the file."""
+    try:
+        jm = json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, ValueError) as exc:
+        raise MocapFormatError(path, f"not a readable JSON joint map ({exc})") from None
+    if not isinstance(jm, dict) or not all(isinstance(k, str) and isinstance(v, str) for k, v in jm.items()):
+        raise MocapFormatError(path, "a joint map is a JSON object of joint name -> joint name")
+    return jm
+
+
+@db_app.command("build")
+def db_build(
+    out_dir: Path = typer.Argument(..., metavar="OUT_DIR", help="Folder to create for the database."),
+    files: list[Path] = typer.Argument(..., metavar="FILES...", help="Motion files (.bvh, .amc, .npz) or folders."),
+    fps: float = typer.Option(30.0, "--fps", help="Frame rate every clip is resampled to."),
+    mirror: bool = typer.Option(False, "--mirror", help="Also add every clip's left/right mirror image."),
+    features: str = typer.Option("F15", "--features", help="Comma-separated feature sets: F15, F30, F39, F15x3, F15x5, F30x3, F39x3."),
+    executor: Optional[str] = executor_option("clips are loaded"),
+    joint_map: Optional[Path] = typer.Option(None, "--joint-map", help="JSON object {clip joint: database joint} for clips of another skeleton."),
+    overwrite: bool = typer.Option(
+        False, "--overwrite",
+        help="Replace OUT_DIR if it is a mocapkit database holding none of the inputs (anything else is refused). "
+             "Missing parent folders are created.",
+    ),
+) -> None:
+    """Build a motion database from FILES and save it to OUT_DIR."""
+    from ..database import MotionDatabase, check_database_output
+    from ..parallel import describe_executor
+
+    check_database_output(out_dir, [*files, *([joint_map] if joint_map is not None else [])], overwrite=overwrite)
+    check_executor(executor)
+    jm = _read_joint_map(joint_map) if joint_map is not None else None
+    console.print(f"building from {plural(len(files), 'path')} on {describe_executor(executor)}")
+    try:
+        db = MotionDatabase.build(files, fps=fps, features=_feature_list(features), mirror=mirror, joint_map=jm, executor=executor)
+    except ValueError as exc:
+        raise MocapError(str(exc)) from None
+    db.save(out_dir, overwrite=overwrite)
+    console.print(f"wrote {out_dir}: {plural(db.num_clips, 'clip')}, {plural(db.num_frames, 'frame')} @ {db.fps:g} fps, "
+                  f"features {', '.join(db.feature_names)}")
+
+
+@db_app.command("info")
+def db_info(
+    directory: Path = typer.Argument(..., metavar="DIR", help="A database folder."),
+    clips: bool = typer.Option(False, "--clips", help="Also list every clip with its frame range."),
+    as_json: bool = typer.Option(False, "--json", help="Print JSON instead of a table."),
+) -> None:
+    """Print the size, frame rate, features and clips of the database in DIR."""
+    from ..database import MotionDatabase
+
+    db = MotionDatabase.open(directory)
+    summary = db.summary()
+    if as_json:
+        if clips:
+            summary["clip_list"] = [{"name": c.name, "start": c.start, "frames": c.frames, "source": c.source} for c in db.clips]
+        print(json.dumps(summary))
+        return
+    print_fields((k.replace("_", " "), ", ".join(f"{a} ({b})" for a, b in v.items()) if isinstance(v, dict) else str(v))
+                 for k, v in summary.items())
+    if clips:
+        print_table(("#", "clip", "first frame", "frames", "source"),
+                    ((k, c.name, c.start, c.frames, c.source) for k, c in enumerate(db.clips)))
+
+
+def search(
+    db_dir: Path = typer.Argument(..., metavar="DB_DIR", help="A database folder (`mocapkit db build`)."),
+    query: Path = typer.Argument(..., metavar="QUERY", help="Query motion (.bvh, .amc, .npz)."),
+    k: int = typer.Option(10, "--k", help="Number of matches."),
+    features: Optional[str] = typer.Option(None, "--features", help="Feature set (default: the database's first)."),
+    neighbors: int = typer.Option(128, "--neighbors", help="Nearest neighbours per query frame in the lazy neighbourhood graph."),
+    method: str = typer.Option("lng", "--method", help="lng (fast, Krüger 2010) or dtw (exact subsequence DTW)."),
+    start: Optional[float] = typer.Option(None, "--start", help="Use the query from this time (s)."),
+    end: Optional[float] = typer.Option(None, "--end", help="Use the query up to this time (s)."),
+    as_json: bool = typer.Option(False, "--json", help="Print the matches as JSON."),
+    asf: Optional[Path] = asf_option(),
+) -> None:
+    """Rank the database segments most similar to QUERY (numerical similarity search)."""
+    from ..database import MotionDatabase
+    from ..io.takes import check_asf, load_motion
+
+    check_asf(asf, [query])
+    db = MotionDatabase.open(db_dir)
+    m = load_motion(query, asf, purpose="a query")
+    a = 0 if start is None else int(round(start * m.fps))
+    b = m.num_frames if end is None else int(round(end * m.fps))
+    if not 0 <= a < b <= m.num_frames:
+        raise MocapFormatError(query, f"--start/--end select no frames (clip has {plural(m.num_frames, 'frame')}, {m.duration:.2f} s)")
+    try:
+        results = db.search(m[a:b], k=k, features=features, neighbors=neighbors, method=method)
+    except (KeyError, ValueError) as exc:
+        raise MocapError(f"{db_dir}: {exc.args[0] if exc.args else exc}") from None
+    if as_json:
+        print(json.dumps([dict(r.as_dict(), start_s=r.start / db.fps, end_s=r.end / db.fps) for r in results]))
+        return
+    if not results:
+        console.print("no match (try a larger --neighbors)")
+        return
+    qlen = int(round((b - a) / m.fps * db.fps))
+    print_table(("#", "clip", "start", "end", "seconds", "cost", "cost/frame"),
+                ((rank, r.name, r.start, r.end, f"{r.start / db.fps:.2f}-{r.end / db.fps:.2f}", f"{r.cost:.1f}",
+                  f"{r.cost / max(qlen, 1):.2f}") for rank, r in enumerate(results, 1)))

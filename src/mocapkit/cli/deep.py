@@ -1,0 +1,201 @@
+"""The deep models (Mall et al. 2017): ``denoise`` (EBF), ``fill`` (EBD) and ``train``."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Optional
+
+import typer
+
+from ..errors import MocapError, MocapFormatError, SkeletonError
+from .common import asf_option, check_executor, console, executor_option, guard, overwrite_option, plural
+
+
+def _model(path: Optional[Path], kind: str):
+    """The model file at ``path`` (checked here so its errors name it), or None for the shipped one."""
+    from ..cleaning import deep
+
+    if path is None:
+        return None
+    model = deep.load_model(path)
+    if model.kind != kind:
+        raise MocapFormatError(path, f"an {model.kind.upper()} model, but this needs an {kind.upper()}")
+    return model
+
+
+def _reference(path: Optional[Path], take):
+    """``--reference``, read and checked against ``take`` (same joints and frames) before any work."""
+    from ..io.takes import load_motion
+    from ..reference import check_reference
+
+    if path is None:
+        return None
+    return check_reference(load_motion(path, purpose="a reference"), path, frames=take.num_frames,
+                           joint_names=take.skeleton.joint_names)
+
+
+def denoise(
+    inp: Path = typer.Argument(..., metavar="IN", help="Noisy motion (.bvh, .amc, .npz)."),
+    out: Path = typer.Option(..., "--out", "-o", help="Denoised motion (.bvh or .npz)."),
+    model: Optional[Path] = typer.Option(None, "--model", help="An EBF model file (default: the shipped one)."),
+    reference: Optional[Path] = typer.Option(None, "--reference", help="A clean take to report the error against."),
+    asf: Optional[Path] = asf_option(),
+    overwrite: bool = overwrite_option(),
+) -> None:
+    """Denoise every joint angle with the EBF network (Mall et al. 2017); the root trajectory is kept."""
+    from .. import io
+    from ..cleaning import deep
+    from ..io.takes import check_asf, load_motion
+    from ..metrics import joint_angle_rms
+    from ..reference import joint_angle_errors
+
+    guard([out], [inp, asf, model, reference], overwrite)
+    check_asf(asf, [inp])
+    io.suffix_kind(out, io.WRITERS, "writing")
+    m = load_motion(inp, asf, purpose="denoise")
+    ref = _reference(reference, m)
+    net = _model(model, "ebf")
+    try:
+        cleaned = deep.denoise(m, net)
+    except SkeletonError as exc:
+        raise MocapError(f"{inp}: {exc}") from None
+    io.save(cleaned, out)
+    change = joint_angle_rms(m, cleaned, include_root=False)
+    line = f"wrote {out}: {plural(m.num_frames, 'frame')} denoised, mean change {change:.2f} deg RMS"
+    if ref is not None:
+        a, b = joint_angle_errors(ref, m, cleaned)
+        line += f"; joint-angle RMS against {reference.name}: {a:.2f} -> {b:.2f} deg"
+    console.print(line)
+
+
+def fill(
+    inp: Path = typer.Argument(..., metavar="IN", help="Motion with gaps (NaN joints in .npz; or any format)."),
+    out: Path = typer.Option(..., "--out", "-o", help="Filled motion (.bvh or .npz)."),
+    model: Optional[Path] = typer.Option(None, "--model", help="An EBD model file (default: the shipped one)."),
+    denoiser: Optional[Path] = typer.Option(None, "--denoiser", help="The EBF that smooths the filled entries."),
+    smooth: bool = typer.Option(True, "--smooth/--no-smooth", help="Run the EBF over the filled entries."),
+    reference: Optional[Path] = typer.Option(None, "--reference", help="A clean take to report the error against."),
+    asf: Optional[Path] = asf_option(),
+    overwrite: bool = overwrite_option(),
+) -> None:
+    """Fill missing joints with the EBD network (+ EBF); observed values are kept bit-identical."""
+    from .. import io
+    from ..cleaning import deep
+    from ..io.takes import check_asf, load_motion
+    from ..reference import filled_error_deg
+
+    guard([out], [inp, asf, model, denoiser, reference], overwrite)
+    check_asf(asf, [inp])
+    io.suffix_kind(out, io.WRITERS, "writing")
+    m = load_motion(inp, asf, purpose="fill")
+    ref = _reference(reference, m)
+    ebd, ebf = _model(model, "ebd"), _model(denoiser, "ebf")
+    missing = m.missing()
+    n = int(missing.sum())
+    try:
+        filled = deep.fill_gaps(m, ebd, ebf, smooth=smooth)
+    except (SkeletonError, ValueError) as exc:
+        raise MocapError(f"{inp}: {exc}") from None
+    io.save(filled, out)
+    if not n:
+        console.print(f"wrote {out}: no gaps to fill")
+        return
+    line = f"wrote {out}: {plural(n, 'missing joint sample')} filled"
+    if ref is not None:
+        line += (f"; mean rotation error of the filled joints against {reference.name}: "
+                 f"{filled_error_deg(ref, filled, missing):.2f} deg")
+    console.print(line)
+
+
+def train(
+    what: str = typer.Argument(..., metavar="denoiser|gapfiller", help="Train the EBF denoiser or the EBD gap filler."),
+    sources: list[Path] = typer.Argument(..., metavar="CLIPS...", help="Motion files, folders or database folders."),
+    out: Path = typer.Option(..., "--out", "-o", help="Folder for checkpoint.pt and model.pt (created; "
+                                                       "an existing one is resumed, see --resume)."),
+    holdout: Optional[list[str]] = typer.Option(
+        None, "--holdout", help="Validation clips: a name substring (repeat) or a count of random clips."
+    ),
+    folds: int = typer.Option(1, "--folds", min=1, help="Cross-validate on this many disjoint random holdouts (Mall: 5)."),
+    epochs: int = typer.Option(40, "--epochs", min=1),
+    steps: int = typer.Option(100, "--steps", min=1, help="Optimiser steps per epoch."),
+    minutes: Optional[float] = typer.Option(None, "--minutes", help="Stop after the epoch that passes this budget."),
+    hidden: Optional[int] = typer.Option(None, "--hidden", help="LSTM units per direction (EBF 126, EBD 32)."),
+    representation: str = typer.Option("euler", "--representation", help="euler (the file's angles) or rot6d."),
+    head: str = typer.Option("gaussian", "--head", help="EBF filter: gaussian or free (31 taps)."),
+    bias: bool = typer.Option(False, "--bias/--no-bias", help="EBF: also predict a per-channel bias."),
+    noise_input: bool = typer.Option(
+        False, "--noise-input/--no-noise-input", help="EBF: the encoder also reads each channel's noise-level estimate."
+    ),
+    noise: Optional[list[str]] = typer.Option(
+        None, "--noise", help="Noise settings to train on (repeat): angular:A, uniform:A, spatial:CM, "
+        "bias-constant:A, bias-sinusoidal:A, clean (default: angular 0.1/0.5/0.9, uniform 0.5, spatial 0.5/1.0)."
+    ),
+    lr: float = typer.Option(2e-3, "--lr", help="Adam learning rate (halved on validation plateaus)."),
+    dropout: float = typer.Option(0.1, "--dropout", help="Dropout on the LSTM inputs (Mall: 0.5)."),
+    speed: tuple[float, float] = typer.Option(
+        (1.0, 1.0), "--speed", help="Augmentation: replay the training clips at a random speed in LO HI (e.g. 0.7 1.4)."
+    ),
+    offset: float = typer.Option(0.0, "--offset", help="Denoiser augmentation: random channel offsets, x channel std."),
+    patchy: float = typer.Option(
+        0.0, "--patchy", help="Denoiser augmentation: share of crops with noise on some channels and over one stretch."
+    ),
+    init: str = typer.Option("xavier", "--init", help="xavier (the shipped models') or paper (uniform [-0.5, 0.5])."),
+    seed: int = typer.Option(0, "--seed"),
+    resume: bool = typer.Option(True, "--resume/--restart", help="Continue from out/checkpoint.pt if present."),
+    executor: Optional[str] = executor_option("noisy pairs are made"),
+    device: str = typer.Option("auto", "--device", help="auto (a GPU when present), cpu or cuda."),
+) -> None:
+    """Train an EBF or EBD on noisy/clean pairs made on the fly with mocapkit.corrupt (Mall et al. 2017, 4).
+
+    Writes OUT/model.pt (the best epoch on the validation clips) and OUT/checkpoint.pt after every
+    epoch; running the same command again resumes. With --folds K, OUT/fold_1 ... OUT/fold_K.
+    """
+    import numpy as np
+
+    from ..cleaning.deep import training
+
+    kinds = {"denoiser": "ebf", "gapfiller": "ebd"}
+    if what not in kinds:
+        raise MocapError(f"train: expected denoiser or gapfiller, got {what!r}")
+    # the model folder must not be, or lie inside, a source (a folder of takes, a database); its own files are
+    # resumed and replaced (--resume/--restart), so they are not refused for existing
+    guard([out / "model.pt", out / "checkpoint.pt"], sources, overwrite=True)
+    check_executor(executor)
+    try:  # every setting is checked by TrainConfig before a clip is read
+        cfg = training.TrainConfig(
+            kind=kinds[what], representation=representation, hidden=hidden, head=head, bias=bias,
+            noise_input=noise_input, epochs=epochs, steps_per_epoch=steps, minutes=minutes, seed=seed, device=device,
+            lr=lr, dropout=dropout, init=init, speed_range=(float(speed[0]), float(speed[1])), offset=offset,
+            patchy=patchy, **({"noise": tuple(noise)} if noise else {}),
+        )
+    except ValueError as exc:
+        raise MocapError(f"train: {exc}") from None
+    clips = training.load_clips(sources)
+    if not clips:
+        raise MocapError(f"train: no .bvh, .amc or .npz clips in {', '.join(map(str, sources))}")
+    # --holdout is a count of random clips (one number) or name substrings
+    count = int(holdout[0]) if holdout and len(holdout) == 1 and holdout[0].isdigit() else None
+    if folds > 1:
+        try:
+            splits = training.holdout_folds(clips, folds, count, seed=seed)
+        except ValueError as exc:
+            raise MocapError(f"train: {exc}") from None
+        outs = [out / f"fold_{k + 1}" for k in range(folds)]
+    else:
+        hold: list[str] | int = count if count is not None else list(holdout or []) or 0
+        splits, outs = [training.split_holdout(clips, hold, seed=seed)], [out]
+    bests = []
+    for (tr, val), o in zip(splits, outs):
+        if not tr:
+            raise MocapError("train: every clip is held out; nothing left to train on")
+        try:
+            model = training.train(tr, o, cfg, validation=val or None, resume=resume, executor=executor)
+        except (SkeletonError, ValueError) as exc:
+            raise MocapError(f"train: {exc}") from None
+        h = model.meta["history"]
+        bests.append(min(x["val_rmse"] for x in h))
+        what_rms = "validation" if val else "training"
+        console.print(f"wrote {o / 'model.pt'}: {plural(len(tr), 'clip')}, {plural(len(h), 'epoch')}, "
+                      f"best {what_rms} RMS {bests[-1]:.3f}")
+    if folds > 1:
+        console.print(f"{folds} holdouts: validation RMS {np.mean(bests):.3f} +- {np.std(bests):.3f}")

@@ -1,0 +1,167 @@
+"""Commands on one take: ``info``, ``convert``, ``corrupt``, ``plot``."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Optional
+
+import typer
+
+from ..errors import MocapError, MocapFormatError
+from .common import asf_option, console, guard, overwrite_option, plural, print_fields, print_table
+
+
+def info(
+    file: Path = typer.Argument(..., help="A .bvh, .amc, .c3d or .npz file."),
+    joints: bool = typer.Option(False, "--joints", help="Also list every joint with its parent and channels."),
+    asf: Optional[Path] = asf_option(),
+) -> None:
+    """Print the skeleton, frame count, frame rate, duration and missing data of FILE."""
+    from ..io.c3d import MarkerSet
+    from ..io.takes import check_asf, load_take
+    from ..motion import ROLES, standard_joints, unit_scale_cm
+
+    check_asf(asf, [file])
+    obj = load_take(file, asf)
+    rows = [("file", str(file))]
+    if isinstance(obj, MarkerSet):
+        rows += [("kind", f"markers (read with {obj.reader})"), ("markers", str(obj.num_markers)),
+                 ("frames", str(obj.num_frames)), ("fps", f"{obj.fps:g}"),
+                 ("duration", f"{obj.num_frames / obj.fps:.3f} s"), ("units", obj.units),
+                 ("missing", f"{100.0 * obj.missing().mean():.2f} % of marker samples")]
+        print_fields(rows)
+        if joints:
+            console.print(", ".join(obj.labels))
+        return
+    m, sk = obj, obj.skeleton
+    miss = m.missing()
+    rows += [("kind", "motion"), ("name", m.name),
+             ("joints", f"{plural(sk.num_joints, 'joint')} (+{plural(sk.num_end_sites, 'end site')}), root {sk.joint_names[0]!r}"),
+             ("frames", str(m.num_frames)), ("fps", f"{m.fps:g}"), ("duration", f"{m.duration:.3f} s")]
+    roles = standard_joints(sk)
+    missing_roles = [r for r in ROLES if r not in roles]
+    try:
+        scale = unit_scale_cm(sk)
+        rows.append(("length unit", f"{scale:.4g} cm" + (" (stated by the file)" if sk.unit_cm else " (from bone lengths)")))
+    except (MocapError, KeyError) as exc:  # KeyError: a rig without the human joints the estimate measures
+        reason = exc.args[0] if isinstance(exc, KeyError) and exc.args else exc
+        rows.append(("length unit", f"unknown ({reason})"))
+    rows.append(("human roles", f"{len(roles)} of {len(ROLES)} found"
+                 + (f"; missing: {', '.join(missing_roles)}" if missing_roles else "")))
+    rows += [("channels", str(len(m.channel_names()))),
+             ("missing", f"{100.0 * miss.mean():.2f} % of joint samples, {plural(int(miss.any(axis=1).sum()), 'frame')} affected")]
+    print_fields(rows)
+    if joints:
+        print_table(("#", "joint", "parent", "channels"),
+                    ((j, name, "-" if sk.parents[j] < 0 else sk.joint_names[sk.parents[j]], " ".join(sk.joint_channels(j)))
+                     for j, name in enumerate(sk.joint_names)))
+
+
+def convert(
+    inp: Path = typer.Argument(..., metavar="IN", help="Input take (.bvh, .amc, .npz, .c3d)."),
+    out: Path = typer.Argument(..., metavar="OUT", help="Output (.bvh or .npz), chosen by suffix."),
+    fps: Optional[float] = typer.Option(None, "--fps", help="Resample to this frame rate (slerp)."),
+    asf: Optional[Path] = asf_option(),
+    overwrite: bool = overwrite_option(),
+) -> None:
+    """Convert IN to OUT, optionally resampling to --fps."""
+    from .. import io
+    from ..io.takes import check_asf, load_take
+    from ..motion import Motion
+
+    guard([out], [inp, asf], overwrite)
+    check_asf(asf, [inp])
+    io.suffix_kind(out, io.WRITERS, "writing")
+    m = load_take(inp, asf)
+    if not isinstance(m, Motion):
+        if fps is not None or out.suffix.lower() != ".npz":
+            raise MocapFormatError(inp, "marker files convert to .npz only, without --fps")
+        io.save(m, out)
+        console.print(f"wrote {out}")
+        return
+    if fps is not None:
+        m = m.resample(fps)
+    io.save(m, out)
+    console.print(f"wrote {out} ({plural(m.num_frames, 'frame')} @ {m.fps:g} fps)")
+
+
+def corrupt(
+    inp: Path = typer.Argument(..., metavar="IN", help="Clean input take (.bvh, .amc, .npz)."),
+    out: Path = typer.Argument(..., metavar="OUT", help="Corrupted output (.bvh or .npz; gaps need .npz)."),
+    kind: str = typer.Option(..., "--kind", help="noise | uniform | bias | spatial | gaps | errors, or one error kind: spike | flip | freeze | drift | swap"),
+    amount: Optional[float] = typer.Option(
+        None, "--amount", help="noise: std as a fraction of each channel's std (0.1/0.5/0.9); spatial: std in cm."
+    ),
+    seed: int = typer.Option(0, "--seed", help="Random seed: the same seed gives the same corruption."),
+    mask_out: Optional[Path] = typer.Option(
+        None, "--mask", help="Ground-truth mask file (default: OUT with suffix .mask.npz)."
+    ),
+    asf: Optional[Path] = asf_option(),
+    overwrite: bool = overwrite_option(),
+) -> None:
+    """Corrupt IN with known ground truth; writes OUT and a .mask.npz of what changed."""
+    import numpy as np
+
+    from .. import corrupt as corrupt_mod
+    from .. import io
+    from ..io.masks import error_record, mask_path_for, write_mask
+    from ..io.outputs import removed_on_failure
+    from ..io.takes import check_asf, load_motion
+
+    mask_path = mask_out or mask_path_for(out)
+    guard([out, mask_path], [inp, asf], overwrite)
+    check_asf(asf, [inp])
+    io.suffix_kind(out, io.WRITERS, "writing")
+    m = load_motion(inp, asf, purpose="corrupt")
+    params = {} if amount is None else {"amount": amount}
+    try:
+        result = corrupt_mod.corrupt(m, kind=kind, seed=seed, **params)
+    except (TypeError, ValueError) as exc:
+        raise MocapError(f"corrupt --kind {kind}: {exc}") from None
+    bad, mask = result[0], result[1]
+    records = result[2] if len(result) > 2 else []
+    if np.isnan(bad.rotations).any() and out.suffix.lower() == ".bvh":
+        raise MocapFormatError(out, "this corruption leaves missing values (NaN), which BVH cannot hold; write .npz")
+    with removed_on_failure([out, mask_path]):
+        io.save(bad, out)
+        write_mask(mask_path, mask, m.skeleton.joint_names, kind=kind, seed=seed, params=params, records=records)
+    frames = int(mask.any(axis=1).sum())
+    console.print(f"wrote {out} and {mask_path}: {plural(int(mask.sum()), 'joint sample')} changed in "
+                  f"{frames} of {plural(m.num_frames, 'frame')}")
+    for r in records:
+        console.print(f"  {error_record(r)}")
+
+
+def plot(
+    reference: Path = typer.Argument(..., help="Reference take (e.g. the clean clip)."),
+    others: list[Path] = typer.Argument(..., metavar="OTHER...", help="Takes to compare (e.g. noisy, then cleaned)."),
+    joint: str = typer.Option(..., "--joint", help="Joint whose rotation channels are plotted."),
+    out: Path = typer.Option(..., "-o", "--out", help="PNG to write."),
+    mask: Optional[Path] = typer.Option(None, "--mask", help="A .mask.npz from `mocapkit corrupt` to shade (default: the first OTHER's, if present)."),
+    asf: Optional[Path] = asf_option(),
+    overwrite: bool = overwrite_option(),
+) -> None:
+    """Plot the rotation channels of one joint of two or more takes over time, as a PNG."""
+    from ..io.masks import mask_path_for, read_mask
+    from ..io.takes import check_asf, load_motion
+    from ..report import plot_channels
+
+    implicit = mask_path_for(others[0])
+    mask_path = mask if mask is not None else (implicit if implicit.is_file() else None)
+    guard([out], [reference, *others, asf, mask_path], overwrite)
+    check_asf(asf, [reference, *others])
+    if out.suffix.lower() != ".png":
+        raise MocapFormatError(out, "the plot is written as .png")
+    motions = [load_motion(p, asf, purpose="plot") for p in (reference, *others)]
+    mask_arr = None
+    if mask_path is not None:
+        try:
+            mask_arr = read_mask(mask_path, frames=motions[1].num_frames)
+        except MocapFormatError:
+            if mask is not None:  # asked for: its problem is an error; a mask merely found beside OTHER is skipped
+                raise
+    try:
+        plot_channels(motions, joint, out, labels=[reference.stem] + [p.stem for p in others], mask=mask_arr)
+    except KeyError as exc:
+        raise MocapError(str(exc.args[0])) from None
+    console.print(f"wrote {out}")

@@ -1,0 +1,150 @@
+"""``reconstruct``: full-body motion from sparse markers, accelerometers or gappy markers and a database."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Optional
+
+import typer
+
+from ..errors import MocapError, MocapFormatError
+from .common import asf_option, console, guard, overwrite_option, plural
+
+# Krüger's six markers (2010, sec. 5.2): the four end effectors, the head and the root
+SIX_MARKERS = ("left_hand", "right_hand", "left_foot", "right_foot", "head")
+
+
+def _default_use(sk) -> str:
+    from ..motion import find_joint
+
+    try:
+        return ",".join([sk.joint_names[find_joint(sk, role)] for role in SIX_MARKERS] + [sk.joint_names[0]])
+    except KeyError as exc:
+        raise MocapError(f"{exc.args[0]}; give the markers with --use LABEL=JOINT,...") from None
+
+
+def _performer_skeleton(path: Optional[Path], source, db):
+    """--skeleton, else the control motion's own skeleton when it fits the database, else None (the database's)."""
+    from .. import io
+    from ..io.asfamc import read_asf
+    from ..motion import Motion
+
+    if path is not None:
+        sk = read_asf(path) if path.suffix.lower() == ".asf" else io.load(path)
+        sk = sk.skeleton if isinstance(sk, Motion) else sk
+        if not hasattr(sk, "joint_names") or not sk.is_compatible(db.skeletons[0]):
+            raise MocapFormatError(path, "not a skeleton with the database's joints")
+        return sk
+    if isinstance(source, Motion) and source.skeleton.is_compatible(db.skeletons[0]):
+        return source.skeleton
+    return None
+
+
+def _sensors_named(names, db, path: Path):
+    """The database skeleton's default sensors in the CSV's column order."""
+    from ..features import default_sensors
+
+    table = {s.name: s for s in default_sensors(db.skeletons[0])}
+    unknown = [n for n in names if n not in table]
+    if unknown:
+        raise MocapFormatError(path, f"unknown sensor(s) {', '.join(unknown)}; known: {', '.join(table)}")
+    return [table[n] for n in names]
+
+
+def reconstruct(
+    db_dir: Path = typer.Option(..., "--db", help="The knowledge base: a database folder (`mocapkit db build`)."),
+    out: Path = typer.Option(..., "--out", "-o", help="Reconstructed full-body motion (.bvh or .npz)."),
+    markers: Optional[Path] = typer.Option(
+        None, "--markers", help="A few marker trajectories (.c3d, marker .npz, or a motion whose joints become markers): local linear models (Krüger 2010, 5.2)."
+    ),
+    accelerometers: Optional[Path] = typer.Option(
+        None, "--accelerometers", help="Accelerometer CSV (time,<sensor>.x,.y,.z,... in s and m/s^2), or a motion to simulate them on: online LNG + kernel priors (Tautges ch. 3)."
+    ),
+    ssg: Optional[Path] = typer.Option(
+        None, "--ssg", help="Marker trajectories with gaps (.c3d, marker .npz, or a motion): the subsequence graph (Tautges ch. 4)."
+    ),
+    use: Optional[str] = typer.Option(
+        None, "--use", help="Markers as LABEL[=JOINT],... (default for a motion: hands, feet, head and root)."
+    ),
+    up_axis: Optional[str] = typer.Option(None, "--up-axis", help="Vertical axis of a marker file (default z, the C3D convention)."),
+    skeleton: Optional[Path] = typer.Option(
+        None, "--skeleton", help="The performer's skeleton (.asf, or a motion file), same joints as the database; default: the input motion's, else the database's."
+    ),
+    reference: Optional[Path] = typer.Option(None, "--reference", help="The true motion, to report the joint-position error against."),
+    asf: Optional[Path] = asf_option(),
+    overwrite: bool = overwrite_option(),
+) -> None:
+    """Reconstruct full-body motion from sparse control signals and a motion database."""
+    from .. import io
+    from ..database import MotionDatabase
+    from ..io.c3d import MarkerSet
+    from ..io.takes import check_asf, load_motion, load_take
+    from ..motion import Motion
+    from ..reference import check_reference, position_error_cm
+
+    given = [(k, p) for k, p in (("markers", markers), ("accelerometers", accelerometers), ("ssg", ssg)) if p is not None]
+    if len(given) != 1:
+        raise MocapError("give exactly one of --markers, --accelerometers or --ssg")
+    kind, inp = given[0]
+    guard([out], [inp, db_dir, skeleton, reference, asf], overwrite)
+    check_asf(asf, [inp])
+    io.suffix_kind(out, io.WRITERS, "writing")
+    db = MotionDatabase.open(db_dir)
+    if kind == "accelerometers":
+        from ..reconstruct import accelerometers as acc
+    if kind == "accelerometers" and inp.suffix.lower() == ".csv":
+        from ..io.readings import read_readings_csv
+
+        times, readings, names = read_readings_csv(inp)
+        source = None
+        fps = (len(times) - 1) / (times[-1] - times[0]) if len(times) > 1 else db.fps
+        sensors = _sensors_named(names, db, inp)
+    else:
+        source = load_take(inp, asf)
+        if kind == "accelerometers" and not isinstance(source, Motion):
+            raise MocapFormatError(inp, "accelerometers come as a CSV (or a motion to simulate them on), not markers")
+    performer = _performer_skeleton(skeleton, source, db)
+    if kind == "accelerometers":
+        if source is not None:
+            from ..features import virtual_accelerometers
+
+            readings, fps, sensors = virtual_accelerometers(source), source.fps, None
+        what = plural(readings.shape[1], "accelerometer")
+        frames = readings.shape[0]
+    else:
+        from ..reconstruct.control import control_markers
+
+        if use is None and isinstance(source, MarkerSet):
+            raise MocapFormatError(inp, "a marker file needs --use LABEL=JOINT,... to say which joint each marker sits on")
+        spec = use if use is not None else _default_use(source.skeleton)
+        try:
+            pos, joints, fps = control_markers(source, spec, db.skeletons[0], up_axis=up_axis)
+        except ValueError as exc:
+            raise MocapError(f"{inp}: {exc}") from None
+        what = f"{plural(len(joints), 'marker')} ({', '.join(joints)})"
+        frames = pos.shape[0]
+    ref = None
+    if reference is not None:  # checked before the (long) reconstruction
+        ref = check_reference(load_motion(reference, purpose="a reference"), reference, frames=frames,
+                              skeleton=db.skeletons[0])
+    try:
+        if kind == "accelerometers":
+            result = acc.reconstruct(readings, db, fps, sensors, skeleton=performer, progress=True)
+        else:
+            if kind == "markers":
+                from ..reconstruct import markers as method
+            else:
+                from ..reconstruct import ssg as method
+            result = method.reconstruct(pos, joints, db, fps, skeleton=performer, progress=True)
+    except ValueError as exc:
+        raise MocapError(f"{inp}: {exc}") from None
+    report = ""
+    if ref is not None:
+        check_reference(ref, reference, frames=result.num_frames, skeleton=result.skeleton)
+        # accelerometers see no heading: their error is measured with each motion's heading removed
+        heading = kind == "accelerometers"
+        err = position_error_cm(ref, result, heading=heading)
+        how = "root and heading removed" if heading else "root-relative"
+        report = f"; joint-position RMS against {reference.name} ({how}): {err:.2f} cm"
+    io.save(result, out)
+    console.print(f"wrote {out}: {plural(result.num_frames, 'frame')} @ {result.fps:g} fps from {what}{report}")

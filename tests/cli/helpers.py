@@ -1,0 +1,35 @@
+"""Running the real command in tests: in a subprocess (exit status, stdout, stderr) or in-process via ``main``."""
+
+from __future__ import annotations
+
+import hashlib
+import subprocess
+import sys
+from pathlib import Path
+
+import mocapkit
+
+SAMPLE = str(mocapkit.samples.path("131_01.bvh"))
+WALK = mocapkit.samples.path("12_walk.amc")
+
+
+def run(*args, cwd=None):
+    """Run the console entry point (``python -m mocapkit.cli``) in a subprocess: exit code, stdout, stderr."""
+    p = subprocess.run([sys.executable, "-m", "mocapkit.cli", *map(str, args)], capture_output=True, text=True, cwd=cwd)
+    return p.returncode, p.stdout, p.stderr
+
+
+def one_error_line(err: str) -> bool:
+    """Exactly one error line (progress bars may precede it on stderr), and it is the last line; no traceback."""
+    lines = [ln for ln in err.splitlines() if ln.strip()]
+    return (bool(lines) and sum(ln.startswith("mocapkit: error:") for ln in lines) == 1
+            and lines[-1].startswith("mocapkit: error:") and "Traceback" not in err)
+
+
+def digest(p: Path) -> str:
+    return hashlib.sha256(Path(p).read_bytes()).hexdigest()
+
+
+def tree(d: Path) -> dict:
+    """{relative path: sha256} of every file under ``d``."""
+    return {str(p.relative_to(d)): digest(p) for p in sorted(Path(d).rglob("*")) if p.is_file()}

@@ -1,0 +1,92 @@
+"""`mocapkit db build`, `db info` and `search` on the bundled clips, and their one-line errors."""
+
+
+import mocapkit
+from mocapkit.cli import main
+from tests.cli import helpers
+from tests.cli.helpers import SAMPLE, one_error_line, run
+
+
+def _db_sources():
+    return [str(mocapkit.samples.path(n)) for n in ("12_walk.amc", "HDM_bk_sneak2StepsLStart_004_120.amc", "HDM_bk_sneak2StepsLStart_005_120.amc")]
+
+
+def test_db_build_info_and_search(tmp_path, capsys):
+    import json
+
+    db_dir = tmp_path / "db"
+    assert main(["db", "build", str(db_dir), *_db_sources(), "--mirror", "--features", "F15,F30", "--executor", "serial"]) == 0
+    assert "6 clips" in capsys.readouterr().out
+    assert main(["db", "info", str(db_dir), "--json"]) == 0
+    info = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
+    assert info["clips"] == 6 and info["mirrored_clips"] == 3 and info["features"] == {"F15": 15, "F30": 30}
+    query = mocapkit.samples.path("HDM_bk_sneak2StepsLStart_005_120.amc")
+    assert main(["search", str(db_dir), str(query), "--k", "2", "--start", "0.5", "--end", "1.5", "--json"]) == 0
+    res = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
+    assert res[0]["name"] == "HDM_bk_sneak2StepsLStart_005_120" and res[0]["start"] == 15 and res[0]["end"] == 44
+    assert res[0]["cost"] < 0.01 and res[1]["cost"] > res[0]["cost"]
+    assert main(["search", str(db_dir), str(query), "--k", "2", "--features", "F30", "--json"]) == 0
+    res = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
+    assert res[0]["name"] == "HDM_bk_sneak2StepsLStart_005_120"
+    # a query on another rig works: features are joint positions by role, in centimetres
+    assert main(["search", str(db_dir), SAMPLE, "--k", "1", "--start", "2", "--end", "3"]) == 0
+    assert "cost/frame" in capsys.readouterr().out
+
+
+def test_db_errors_are_one_line(tmp_path):
+    db_dir = tmp_path / "db"
+    code, _, err = run("db", "build", str(db_dir), str(mocapkit.samples.path("12_walk.amc")), SAMPLE, "--executor", "serial")
+    assert code == 2 and one_error_line(err) and "131_01.bvh" in err and "skeleton differs" in err
+    assert not db_dir.exists()
+    code, _, err = run("db", "info", str(tmp_path))
+    assert code == 2 and "not a motion database" in err and one_error_line(err)
+    assert main(["db", "build", str(db_dir), str(mocapkit.samples.path("12_walk.amc")), "--executor", "serial"]) == 0
+    code, _, err = run("db", "build", str(db_dir), str(mocapkit.samples.path("12_walk.amc")))
+    assert code == 2 and "already exists" in err
+    code, _, err = run("search", str(db_dir), str(mocapkit.samples.path("Eb015pr.c3d")))
+    assert code == 2 and "Eb015pr.c3d" in err and one_error_line(err)
+    code, _, err = run("search", str(db_dir), str(mocapkit.samples.path("12_walk.amc")), "--features", "F39")
+    assert code == 2 and "no feature set 'F39'" in err and one_error_line(err)
+
+
+def test_clip_names_with_markup_print_as_they_are(tmp_path, capsys):
+    import dataclasses
+
+    walk = mocapkit.load(mocapkit.samples.path("12_walk.amc"))
+    clip = tmp_path / "clip.npz"
+    mocapkit.save(dataclasses.replace(walk, name="[/]"), clip)
+    db_dir = tmp_path / "db"
+    assert main(["db", "build", str(db_dir), str(clip), "--executor", "serial"]) == 0
+    capsys.readouterr()
+    assert main(["db", "info", str(db_dir), "--clips"]) == 0
+    assert "[/]" in capsys.readouterr().out
+    assert main(["search", str(db_dir), str(clip), "--k", "1", "--start", "0.5", "--end", "1.5"]) == 0
+    assert "[/]" in capsys.readouterr().out
+
+
+def test_db_build_overwrite_replaces_only_a_database_without_the_inputs(tmp_path, capsys):
+    import shutil
+
+    p = tmp_path / "p"
+    (p / "takes").mkdir(parents=True)
+    shutil.copy(mocapkit.samples.path("12_walk.amc"), p / "takes" / "walk.amc")
+    shutil.copy(mocapkit.samples.path("12.asf"), p / "takes" / "walk.asf")
+    (p / "notes.txt").write_text("x")
+    before = helpers.tree(p)
+    assert main(["db", "build", str(p), str(p / "takes" / "walk.amc"), "--overwrite", "--executor", "serial"]) == 2
+    assert one_error_line(capsys.readouterr().err)
+    assert helpers.tree(p) == before
+    db_dir = tmp_path / "db"
+    assert main(["db", "build", str(db_dir), str(p / "takes" / "walk.amc"), "--executor", "serial"]) == 0
+    assert main(["db", "build", str(db_dir), str(p / "takes" / "walk.amc"), "--executor", "serial", "--overwrite",
+                 "--mirror"]) == 0
+    assert "2 clips" in capsys.readouterr().out
+
+
+def test_executor_is_checked_before_any_work(tmp_path, capsys):
+    db_dir = tmp_path / "db"
+    assert main(["db", "build", str(db_dir), str(mocapkit.samples.path("12_walk.amc")), "--executor", "garbage"]) == 2
+    err = capsys.readouterr().err
+    assert one_error_line(err) and "garbage" in err and not db_dir.exists()
+    assert main(["clean-batch", str(tmp_path), str(tmp_path / "out"), "--executor", "garbage"]) == 2
+    assert "garbage" in capsys.readouterr().err and not (tmp_path / "out").exists()

@@ -1,0 +1,242 @@
+"""The entry point: one error line and exit 2 for every failure, --version, --help."""
+
+
+import os
+
+import pytest
+
+import mocapkit
+from mocapkit.cli import main
+from tests.cli import helpers
+from tests.cli.helpers import SAMPLE, one_error_line, run
+
+
+def test_bad_input_is_one_line_and_exit_2(tmp_path):
+    bad = tmp_path / "broken.bvh"
+    bad.write_text("HIERARCHY\nROOT Hips\n{\n  OFFSET 0 0 0\n")
+    code, out, err = run("info", str(bad))
+    assert code == 2
+    lines = [line for line in err.splitlines() if line.strip()]
+    assert len(lines) == 1 and "broken.bvh" in lines[0]
+    code, _, err = run("info", str(tmp_path / "missing.bvh"))
+    assert code == 2 and "missing.bvh" in err
+    code, _, err = run("convert", SAMPLE, str(tmp_path / "x.fbx"))
+    assert code == 2 and "unknown suffix" in err and not (tmp_path / "x.fbx").exists()
+
+
+def test_never_overwrites_the_input(tmp_path):
+    src = tmp_path / "in.bvh"
+    src.write_bytes(open(SAMPLE, "rb").read())
+    before = src.read_bytes()
+    code, _, err = run("convert", str(src), str(src))
+    assert code == 2 and "refusing to write over an input" in err
+    assert src.read_bytes() == before
+
+
+def test_help_reads_well():
+    code, out, _ = run("--help")
+    assert code == 0
+    for cmd in ("info", "convert", "corrupt", "plot"):
+        assert cmd in out
+
+
+
+
+# -- --version -------------------------------------------------------------------------------
+
+
+def test_version_is_the_package_metadata(capsys):
+    from importlib.metadata import version
+
+    assert main(["--version"]) == 0
+    assert capsys.readouterr().out.strip() == f"mocapkit {version('mocapkit')}"
+    code, out, _ = run("--version")
+    assert code == 0 and out.strip() == f"mocapkit {version('mocapkit')}"
+
+
+# -- --overwrite, parent folders, the output guard --------------------------------------------
+
+
+def _commands():
+    """(name, click command) of every command, db's sub-commands included."""
+    import typer
+
+    from mocapkit.cli import app
+
+    root = typer.main.get_command(app)
+    for name, cmd in root.commands.items():
+        subs = getattr(cmd, "commands", None)
+        if subs:
+            yield from ((f"{name} {sub}", c) for sub, c in subs.items())
+        else:
+            yield name, cmd
+
+
+READ_ONLY_COMMANDS = {"info", "search", "db info", "train"}  # train resumes its folder (--resume/--restart)
+
+
+def test_every_writing_command_has_overwrite_and_says_what_it_does():
+    names = set()
+    for name, cmd in _commands():
+        names.add(name)
+        opts = {p.name: p for p in cmd.params}
+        if name in READ_ONLY_COMMANDS:
+            assert "overwrite" not in opts, name
+            continue
+        assert "overwrite" in opts, f"{name} has no --overwrite"
+        text = opts["overwrite"].help
+        assert "Missing parent folders are created" in text and "refused" in text, (name, text)
+    assert {"clean", "clean-batch", "convert", "corrupt", "plot", "detect", "repair", "denoise", "fill", "reconstruct",
+            "db build"} <= names
+
+
+def test_existing_output_is_refused_without_overwrite(tmp_path, capsys):
+    out = tmp_path / "new" / "deeper" / "walk.npz"  # missing parent folders are created
+    assert main(["convert", SAMPLE, str(out)]) == 0
+    first = out.read_bytes()
+    assert main(["convert", SAMPLE, str(out), "--fps", "30"]) == 2
+    err = capsys.readouterr().err
+    assert "already exists; pass --overwrite" in err and str(out) in err
+    assert out.read_bytes() == first
+    assert main(["convert", SAMPLE, str(out), "--fps", "30", "--overwrite"]) == 0
+    assert mocapkit.load(out).fps == 30
+
+
+def _inputs(tmp_path):
+    """A take, its ASF elsewhere, a context file and folder, a reference, a model, a mask and a detection file."""
+    import shutil
+
+    d = tmp_path / "in"
+    (d / "skel").mkdir(parents=True)
+    (d / "ctx_dir").mkdir()
+    amc = d / "walk.amc"
+    shutil.copy(mocapkit.samples.path("12_walk.amc"), amc)
+    shutil.copy(mocapkit.samples.path("12.asf"), d / "skel" / "other.asf")
+    for name in ("ctx.bvh", "ref.bvh", "ctx_dir/a.bvh"):
+        shutil.copy(SAMPLE, d / name)
+    for name in ("model.pt", "det.npz", "noisy.mask.npz", "map.json"):
+        (d / name).write_bytes(b"x")
+    return d
+
+
+def _guard_cases(d):
+    """(command line, the input its output names): every kind of input a command reads, reached several ways."""
+    take, asf, ref, ctx = str(d / "walk.amc"), str(d / "skel" / "other.asf"), str(d / "ref.bvh"), str(d / "ctx.bvh")
+    return [
+        (["convert", take, take], take),
+        (["convert", take, f"{d}/skel/../walk.amc"], take),  # ..
+        (["convert", take, f"{d}/./walk.amc"], take),  # ./
+        (["convert", take, str(d / "link.bvh"), "--overwrite"], take),  # a symlink to the input, even with --overwrite
+        (["convert", take, asf, "--asf", asf], asf),
+        (["clean", SAMPLE, "-o", ref, "--reference", ref], ref),
+        (["clean", SAMPLE, "-o", ctx, "--context", ctx], ctx),
+        (["clean", SAMPLE, "-o", str(d / "ctx_dir" / "out.bvh"), "--context", str(d / "ctx_dir")], d / "ctx_dir"),
+        (["clean", take, "-o", str(d / "o.bvh"), "--report", take], take),
+        (["clean", take, "-o", str(d / "o2.bvh"), "--png", asf, "--asf", asf], asf),
+        (["detect", take, "-o", str(d / "det.npz"), "--context", str(d / "det.npz")], d / "det.npz"),
+        (["repair", SAMPLE, "-o", str(d / "det.npz"), "--detection", str(d / "det.npz")], d / "det.npz"),
+        (["denoise", SAMPLE, "-o", str(d / "model.pt"), "--model", str(d / "model.pt")], d / "model.pt"),
+        (["fill", SAMPLE, "-o", str(d / "model.pt"), "--denoiser", str(d / "model.pt")], d / "model.pt"),
+        (["denoise", SAMPLE, "-o", ref, "--reference", ref], ref),
+        (["corrupt", take, str(d / "c.npz"), "--kind", "noise", "--mask", take], take),
+        (["plot", SAMPLE, ref, "--joint", "LeftKnee", "-o", str(d / "noisy.mask.npz"), "--mask", str(d / "noisy.mask.npz")],
+         d / "noisy.mask.npz"),
+        (["reconstruct", "--db", str(d / "nodb"), "--markers", take, "-o", take], take),
+        (["reconstruct", "--db", str(d / "nodb"), "--markers", SAMPLE, "-o", ref, "--skeleton", ref], ref),
+        (["reconstruct", "--db", str(d / "ctx_dir"), "--markers", SAMPLE, "-o", str(d / "ctx_dir" / "r.bvh")], d / "ctx_dir"),
+    ]
+
+
+def test_no_output_may_resolve_to_an_input(tmp_path, capsys):
+    d = _inputs(tmp_path)
+    (d / "link.bvh").symlink_to(d / "walk.amc")
+    before = helpers.tree(d)
+    for argv, victim in _guard_cases(d):
+        assert main(argv) == 2, argv
+        err = capsys.readouterr().err
+        assert "refusing to write over an input" in err and one_error_line(err), (argv, err)
+        assert str(victim) in err, (argv, err)
+        assert helpers.tree(d) == before, argv  # nothing written, nothing replaced
+
+
+def test_output_that_is_a_folder_or_under_a_file_is_refused(tmp_path, capsys):
+    folder = tmp_path / "out.npz"
+    folder.mkdir()
+    assert main(["convert", SAMPLE, str(folder), "--overwrite"]) == 2
+    err = capsys.readouterr().err
+    assert "is a folder" in err and one_error_line(err)
+    afile = tmp_path / "plain.txt"
+    afile.write_text("x")
+    assert main(["convert", SAMPLE, str(afile / "sub" / "out.npz")]) == 2
+    err = capsys.readouterr().err
+    assert "plain.txt is a file, not a folder" in err and one_error_line(err)
+    assert afile.read_text() == "x" and folder.is_dir() and not any(folder.iterdir())
+
+
+# -- one line, exit 2, whatever raised it -----------------------------------------------------
+
+
+def test_write_errors_are_one_line_naming_the_output(tmp_path, monkeypatch, capsys):
+    import errno
+    import tempfile
+
+    import mocapkit.io as mio
+
+    out = tmp_path / "ro" / "walk.npz"
+
+    def read_only(*args, **kwargs):  # what mkstemp raises in a read-only folder (tests may run as root, who may write)
+        raise PermissionError(errno.EACCES, "Permission denied", str(tmp_path / "ro" / ".walk.npz.k2j4h1x9.part"))
+
+    original = tempfile.mkstemp
+    monkeypatch.setattr(mio.tempfile, "mkstemp", read_only)
+    assert main(["convert", SAMPLE, str(out)]) == 2
+    err = capsys.readouterr().err
+    assert err.strip() == f"mocapkit: error: {out}: Permission denied"
+    monkeypatch.setattr(mio.tempfile, "mkstemp", original)
+
+    def disk_full(fd):
+        raise OSError(errno.ENOSPC, "No space left on device")
+
+    monkeypatch.setattr(mio.os, "fsync", disk_full)
+    assert main(["convert", SAMPLE, str(out)]) == 2
+    err = capsys.readouterr().err
+    assert "no space left on the device" in err and one_error_line(err)
+    assert not out.exists() and not list(out.parent.iterdir())  # the temporary file is gone too
+
+
+@pytest.mark.skipif(not hasattr(os, "geteuid") or os.geteuid() == 0, reason="root writes into read-only folders")
+def test_read_only_folder_for_real(tmp_path):
+    ro = tmp_path / "ro"
+    ro.mkdir()
+    ro.chmod(0o555)
+    try:
+        code, _, err = run("convert", SAMPLE, ro / "walk.npz")
+    finally:
+        ro.chmod(0o755)
+    assert code == 2 and one_error_line(err) and "walk.npz" in err and "Permission denied" in err
+
+
+def test_unexpected_exceptions_are_one_line_and_interrupts_130(monkeypatch, capsys, tmp_path):
+    import mocapkit.io.takes as takes
+
+    def boom(*args, **kwargs):
+        raise RuntimeError("boom\nsecond line")
+
+    monkeypatch.setattr(takes, "load_take", boom)
+    assert main(["info", SAMPLE]) == 2
+    err = capsys.readouterr().err
+    assert err.strip() == "mocapkit: error: RuntimeError: boom second line"
+
+    def interrupted(*args, **kwargs):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(takes, "load_take", interrupted)
+    assert main(["info", SAMPLE]) == 130
+
+
+def test_usage_errors_are_one_line(capsys):
+    assert main(["info", SAMPLE, "--no-such-option"]) == 2
+    err = capsys.readouterr().err
+    assert one_error_line(err) and "--no-such-option" in err
+    assert main(["no-such-command"]) == 2
+    assert one_error_line(capsys.readouterr().err)

@@ -1,0 +1,165 @@
+"""`mocapkit info`, `convert`, `corrupt` and `plot` on real takes."""
+
+import numpy as np
+
+import mocapkit
+from mocapkit.cli import main
+from tests.cli.helpers import SAMPLE, one_error_line, run
+
+
+def test_info_on_bvh_and_c3d(capsys):
+    assert main(["info", SAMPLE]) == 0
+    out = capsys.readouterr().out
+    assert "994" in out and "120" in out and "31" in out and "5.644 cm" in out
+    assert main(["info", str(mocapkit.samples.path("Eb015pr.c3d"))]) == 0
+    out = capsys.readouterr().out
+    assert "26" in out and "1.93 %" in out
+
+
+def test_convert_resamples_and_round_trips(tmp_path):
+    out = tmp_path / "clip30.npz"
+    assert main(["convert", SAMPLE, str(out), "--fps", "30"]) == 0
+    m = mocapkit.load(out)
+    ref = mocapkit.load(SAMPLE)
+    assert m.fps == 30 and m.num_frames == 249
+    np.testing.assert_array_equal(m.rotations, ref.rotations[::4])
+
+
+def test_corrupt_writes_motion_and_ground_truth(tmp_path):
+    out = tmp_path / "noisy.bvh"
+    assert main(["corrupt", SAMPLE, str(out), "--kind", "noise", "--amount", "0.5", "--seed", "3"]) == 0
+    mask_file = tmp_path / "noisy.mask.npz"
+    assert out.is_file() and mask_file.is_file()
+    with np.load(mask_file) as z:
+        mask = z["mask"]
+        assert z["joint_names"].tolist() == list(mocapkit.load(SAMPLE).skeleton.joint_names)
+    assert mask.shape == (994, 31) and mask.any()
+    bad = mocapkit.load(out)
+    ref = mocapkit.load(SAMPLE)
+    changed = np.degrees(mocapkit.rotations.geodesic_angle(bad.rotations, ref.rotations)) > 1e-3
+    assert not changed[~mask].any()
+
+
+def test_plot_writes_png(tmp_path):
+    noisy = tmp_path / "noisy.bvh"
+    assert main(["corrupt", SAMPLE, str(noisy), "--kind", "noise", "--seed", "1"]) == 0
+    png = tmp_path / "knee.png"
+    assert main(["plot", SAMPLE, str(noisy), "--joint", "LeftKnee", "-o", str(png)]) == 0
+    assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_gaps_cannot_go_to_bvh_and_leave_nothing(tmp_path):
+    out = tmp_path / "gappy.bvh"
+    code, _, err = run("corrupt", SAMPLE, str(out), "--kind", "gaps", "--seed", "1")
+    assert code == 2 and "NaN" in err
+    assert list(tmp_path.iterdir()) == []
+    out = tmp_path / "gappy.npz"
+    code, _, _ = run("corrupt", SAMPLE, str(out), "--kind", "gaps", "--seed", "1")
+    assert code == 0 and mocapkit.load(out).missing().any()
+
+
+
+
+# -- names through rich, rigs without human joints, long paths, --asf -----------------------------
+
+
+def _renamed(m, names: dict, clip: str):
+    """``m`` with joints renamed (old -> new) and the clip called ``clip``."""
+    import dataclasses
+
+    sk = dataclasses.replace(m.skeleton, joint_names=tuple(names.get(n, n) for n in m.skeleton.joint_names))
+    return dataclasses.replace(m, skeleton=sk, name=clip)
+
+
+def test_markup_in_names_is_printed_as_is(tmp_path, capsys):
+    m = _renamed(mocapkit.load(SAMPLE)[:120], {"LeftKnee": "[/b]", "Hips": "[bold]root"}, "[/]")
+    inp = tmp_path / "[red]take[/].npz"
+    mocapkit.save(m, inp)
+    assert main(["info", str(inp), "--joints"]) == 0
+    out = capsys.readouterr().out
+    assert "[/b]" in out and "[bold]root" in out and str(inp) in out and "[/]" in out
+    dest = tmp_path / "[/]out.npz"
+    assert main(["convert", str(inp), str(dest)]) == 0
+    assert str(dest) in capsys.readouterr().out and dest.is_file()
+
+
+def test_info_on_a_rig_without_human_joints(tmp_path, capsys):
+    from mocapkit.motion import ROLES, Motion, Skeleton
+
+    sk = Skeleton(("Base", "Link1", "Link2"), np.array([-1, 0, 1]), np.array([[0, 0, 0], [0, 1, 0], [0, 1, 0]], float))
+    rot = np.zeros((10, 3, 4))
+    rot[..., 0] = 1
+    inp = tmp_path / "arm.npz"
+    mocapkit.save(Motion(sk, rot, np.zeros((10, 3)), 30.0, "arm"), inp)
+    assert main(["info", str(inp), "--joints"]) == 0
+    out = capsys.readouterr().out
+    assert "3 joints" in out and "10" in out and "Link2" in out
+    # pelvis falls back to the root joint; every other role is named as missing
+    missing = [r for r in ROLES if r != "pelvis"]
+    assert f"human roles  1 of {len(ROLES)} found; missing: {', '.join(missing)}" in out
+    assert "length unit  unknown" in out
+
+
+def test_one_joint_is_singular(tmp_path, capsys):
+    from mocapkit.motion import Motion, Skeleton
+
+    sk = Skeleton(("Root",), np.array([-1]), np.zeros((1, 3)))
+    rot = np.zeros((1, 1, 4))
+    rot[..., 0] = 1
+    inp = tmp_path / "dot.npz"
+    mocapkit.save(Motion(sk, rot, np.zeros((1, 3)), 30.0, "dot"), inp)
+    assert main(["info", str(inp)]) == 0
+    out = capsys.readouterr().out
+    assert "1 joint (+0 end sites)" in out and "1 joints" not in out and "0 frames affected" in out
+
+
+def test_info_prints_long_paths_whole(tmp_path, capsys):
+    deep = tmp_path.joinpath(*(["a_rather_long_folder_name_for_a_take"] * 6))
+    deep.mkdir(parents=True)
+    inp = deep / "walk.npz"
+    mocapkit.save(mocapkit.load(SAMPLE)[:10], inp)
+    assert main(["info", str(inp)]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    assert f"file         {inp}" in lines  # on one line, not cut or wrapped
+
+
+def test_asf_option_reads_an_amc_whose_skeleton_is_elsewhere(tmp_path, capsys):
+    import shutil
+
+    (tmp_path / "takes").mkdir()
+    (tmp_path / "skeletons").mkdir()
+    amc = tmp_path / "takes" / "walk.amc"
+    shutil.copy(mocapkit.samples.path("12_walk.amc"), amc)
+    asf = tmp_path / "skeletons" / "subject.asf"
+    shutil.copy(mocapkit.samples.path("12.asf"), asf)
+    assert main(["info", str(amc)]) == 2
+    err = capsys.readouterr().err
+    assert "no skeleton" in err and one_error_line(err)
+    assert main(["info", str(amc), "--asf", str(asf)]) == 0
+    assert "31 joints" in capsys.readouterr().out
+    out = tmp_path / "walk.npz"
+    assert main(["convert", str(amc), str(out), "--asf", str(asf)]) == 0
+    ref = mocapkit.load(mocapkit.samples.path("12_walk.amc"))
+    np.testing.assert_array_equal(mocapkit.load(out).rotations, ref.rotations)
+    capsys.readouterr()
+    assert main(["corrupt", str(amc), str(tmp_path / "n.npz"), "--kind", "noise", "--asf", str(asf)]) == 0
+    capsys.readouterr()
+    assert main(["info", SAMPLE, "--asf", str(asf)]) == 2  # an ASF no input can use is an error, not ignored
+    err = capsys.readouterr().err
+    assert "no input is an .amc file" in err and one_error_line(err)
+    assert main(["info", str(amc), "--asf", str(tmp_path / "missing.asf")]) == 2
+    assert "missing.asf: no such file" in capsys.readouterr().err
+
+
+def test_plot_refuses_a_mask_of_another_take(tmp_path, capsys):
+    noisy = tmp_path / "noisy.npz"
+    assert main(["corrupt", SAMPLE, str(noisy), "--kind", "noise", "--seed", "1"]) == 0
+    short = tmp_path / "short.mask.npz"
+    from mocapkit.io.masks import write_mask
+
+    write_mask(short, np.zeros((5, 31), bool), mocapkit.load(SAMPLE).skeleton.joint_names, kind="noise", seed=0)
+    capsys.readouterr()
+    png = tmp_path / "p.png"
+    assert main(["plot", SAMPLE, str(noisy), "--joint", "LeftKnee", "-o", str(png), "--mask", str(short)]) == 2
+    err = capsys.readouterr().err
+    assert "short.mask.npz: the mask has 5 frames and the take 994" in err and not png.exists()

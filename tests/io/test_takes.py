@@ -1,0 +1,55 @@
+"""mocapkit.io.takes: any take with an explicit ASF for AMC files; motion only where joint angles are needed."""
+
+import shutil
+
+import numpy as np
+import pytest
+
+import mocapkit
+from mocapkit.errors import MocapFormatError
+from mocapkit.io.takes import check_asf, load_motion, load_take
+
+
+@pytest.fixture
+def amc_apart(tmp_path):
+    """12_walk.amc in one folder, its ASF under another name in another."""
+    (tmp_path / "takes").mkdir()
+    (tmp_path / "skel").mkdir()
+    amc = tmp_path / "takes" / "walk.amc"
+    shutil.copy(mocapkit.samples.path("12_walk.amc"), amc)
+    asf = tmp_path / "skel" / "actor.asf"
+    shutil.copy(mocapkit.samples.path("12.asf"), asf)
+    return amc, asf
+
+
+def test_asf_given_explicitly_reads_the_same_take(amc_apart):
+    amc, asf = amc_apart
+    with pytest.raises(MocapFormatError, match="no skeleton"):
+        load_take(amc)
+    m = load_motion(amc, asf)
+    ref = mocapkit.load(mocapkit.samples.path("12_walk.amc"))
+    np.testing.assert_array_equal(m.rotations, ref.rotations)
+    assert m.skeleton.joint_names == ref.skeleton.joint_names
+
+
+def test_asf_is_ignored_for_other_formats_but_must_serve_some_input(amc_apart):
+    amc, asf = amc_apart
+    bvh = mocapkit.samples.path("131_01.bvh")
+    assert load_take(bvh, asf).num_frames == 994  # one asf= for a list of mixed inputs
+    check_asf(asf, [bvh, amc, None])
+    with pytest.raises(MocapFormatError, match="no input is an .amc file") as err:
+        check_asf(asf, [bvh])
+    assert str(asf) in str(err.value)
+    with pytest.raises(MocapFormatError, match="no such file"):
+        check_asf(asf.with_name("missing.asf"), [amc])
+    with pytest.raises(MocapFormatError, match=r"\(\.asf\) is expected"):
+        check_asf(bvh, [amc])
+    check_asf(None, [])
+
+
+def test_a_marker_file_is_refused_where_joint_angles_are_needed():
+    c3d = mocapkit.samples.path("Eb015pr.c3d")
+    assert load_take(c3d).num_markers > 0
+    with pytest.raises(MocapFormatError, match="no joint angles, which clean needs") as err:
+        load_motion(c3d, purpose="clean")
+    assert "Eb015pr.c3d" in str(err.value) and "\n" not in str(err.value)

@@ -1,0 +1,45 @@
+"""mocapkit.reference: a reference take is checked before any work, and the figures match mocapkit.metrics."""
+
+import numpy as np
+import pytest
+
+import mocapkit
+from mocapkit import corrupt, metrics
+from mocapkit.errors import MocapFormatError
+from mocapkit.reference import check_reference, clean_errors, filled_error_deg, joint_angle_errors, position_error_cm
+
+WALK = mocapkit.samples.path("12_walk.amc")
+
+
+@pytest.fixture(scope="module")
+def walk():
+    return mocapkit.load(WALK)
+
+
+def test_check_reference_refuses_another_length_or_rig(walk):
+    names = walk.skeleton.joint_names
+    assert check_reference(walk, "ref.amc", frames=walk.num_frames, joint_names=names) is walk
+    with pytest.raises(MocapFormatError, match=r"ref\.amc: .* 100 frames \(it has 343 frames\)"):
+        check_reference(walk, "ref.amc", frames=100, joint_names=names)
+    other = mocapkit.load(mocapkit.samples.path("131_01.bvh"))[: walk.num_frames]
+    with pytest.raises(MocapFormatError, match="its joints differ"):
+        check_reference(other, "other.bvh", frames=walk.num_frames, joint_names=names)
+    with pytest.raises(MocapFormatError, match="its joints differ"):
+        check_reference(other, "other.bvh", frames=walk.num_frames, skeleton=walk.skeleton)
+
+
+def test_figures_are_the_metrics(walk):
+    noisy, _ = corrupt.angular_noise(walk, 0.5, seed=1)
+    gappy, _ = corrupt.gaps(noisy, seed=2, start_prob=0.01)
+    e = clean_errors(walk, gappy, noisy)
+    assert e["gaps_filled"] and e["pose_after"] == pytest.approx(float(np.nanmean(metrics.pose_error(walk, noisy))))
+    assert e["cm_after"] == pytest.approx(metrics.joint_position_rms(walk, noisy)) and e["cm_after"] > 0
+    assert clean_errors(walk, walk, walk)["pose_before"] == 0.0
+    a, b = joint_angle_errors(walk, noisy, walk)
+    assert b == 0.0 and a == pytest.approx(metrics.joint_angle_rms(walk, noisy, include_root=False))
+    missing = gappy.missing()
+    expected = np.degrees(metrics.geodesic_pose_distance(walk, noisy))[missing].mean()
+    assert filled_error_deg(walk, noisy, missing) == pytest.approx(expected)
+    assert filled_error_deg(walk, noisy, np.zeros_like(missing)) == 0.0
+    assert position_error_cm(walk, noisy, heading=True) == pytest.approx(
+        metrics.joint_position_rms(walk, noisy, root_relative="heading"))
