@@ -48,7 +48,7 @@ def parser(doc: str | None = None) -> argparse.ArgumentParser:
 
 
 def machine() -> dict:
-    """CPU model, core count, memory (GiB), OS and Python of the machine the figures come from."""
+    """CPU model, core count, memory (GiB), load average (1, 5, 15 min), OS and Python of the machine the figures come from."""
     cpu = platform.processor() or platform.machine()
     try:
         for line in Path("/proc/cpuinfo").read_text().splitlines():
@@ -62,7 +62,11 @@ def machine() -> dict:
         mem = round(os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES") / 2**30, 1)
     except (ValueError, OSError, AttributeError):
         pass
-    return {"cpu": cpu, "cores": os.cpu_count(), "memory_gib": mem, "os": platform.platform(),
+    try:
+        load = [round(x, 2) for x in os.getloadavg()]
+    except (OSError, AttributeError):
+        load = None
+    return {"cpu": cpu, "cores": os.cpu_count(), "memory_gib": mem, "load_average": load, "os": platform.platform(),
             "python": platform.python_version()}
 
 
