@@ -23,7 +23,7 @@ from typing import Iterable, Sequence
 import numpy as np
 
 from . import rotations as R
-from .errors import SkeletonError
+from .errors import MocapError, SkeletonError
 
 __all__ = [
     "Skeleton",
@@ -33,6 +33,9 @@ __all__ = [
     "find_joint",
     "standard_joints",
     "unit_scale_cm",
+    "check_fps",
+    "FPS_RANGE",
+    "RESAMPLE_LIMIT_BYTES",
     "ROLES",
     "DEFAULT_ROOT_CHANNELS",
     "DEFAULT_JOINT_CHANNELS",
@@ -41,6 +44,47 @@ __all__ = [
 DEFAULT_ROOT_CHANNELS = ("Xposition", "Yposition", "Zposition", "Zrotation", "Yrotation", "Xrotation")
 DEFAULT_JOINT_CHANNELS = ("Zrotation", "Yrotation", "Xrotation")
 _CHANNEL_NAMES = {"Xposition", "Yposition", "Zposition", "Xrotation", "Yrotation", "Zrotation"}
+
+FPS_RANGE = (1.0, 1000.0)
+"""Frame rates mocapkit accepts, in frames per second, both ends included.
+
+Human motion capture runs at 24-480 Hz; a rate far outside this range is a
+corrupt file (a BVH ``Frame Time: 1000`` is 0.001 fps), and resampling such a
+clip to a working rate would make millions of frames from a few hundred.
+Every reader and every :class:`Motion` refuses a rate outside it.
+"""
+
+RESAMPLE_LIMIT_BYTES = 256 * 2**20
+"""Largest rotation array (F_new * J * 4 float64, in bytes) :meth:`Motion.resample` makes.
+
+256 MiB is 270,000 frames of a 31-joint skeleton (37 minutes at 120 fps);
+resampling works through it in blocks, so its peak memory stays near twice
+this. A larger result is refused with the number of frames it would have.
+"""
+
+
+def check_fps(fps) -> float:
+    """``fps`` as a float when it is a frame rate within :data:`FPS_RANGE`, else ``SkeletonError``.
+
+    The one frame-rate check: readers call it (and re-raise naming the file),
+    and so do :class:`Motion`, :class:`~mocapkit.io.c3d.MarkerSet` and
+    :meth:`Motion.resample`.
+
+    >>> check_fps(120)
+    120.0
+    >>> check_fps(0.001)
+    Traceback (most recent call last):
+    ...
+    mocapkit.errors.SkeletonError: fps must be a positive number from 1 to 1000 (frames per second), got 0.001
+    """
+    try:
+        value = float(fps)
+    except (TypeError, ValueError):
+        value = float("nan")
+    lo, hi = FPS_RANGE
+    if not (np.isfinite(value) and lo <= value <= hi):
+        raise SkeletonError(f"fps must be a positive number from {lo:g} to {hi:g} (frames per second), got {fps!r}")
+    return value
 
 
 def readonly_view(a: np.ndarray) -> np.ndarray:
@@ -278,9 +322,7 @@ class Motion:
         root = np.asarray(self.root_positions, dtype=np.float64)
         if root.shape != (F, 3):
             raise SkeletonError(f"root_positions: expected shape ({F}, 3), got {root.shape}")
-        fps = float(self.fps)
-        if not np.isfinite(fps) or fps <= 0:
-            raise SkeletonError(f"fps must be a positive number, got {self.fps!r}")
+        fps = check_fps(self.fps)
         object.__setattr__(self, "rotations", readonly_view(rot))
         object.__setattr__(self, "root_positions", readonly_view(root))
         object.__setattr__(self, "fps", fps)
@@ -507,31 +549,41 @@ class Motion:
 
         Frame 0 is kept; the new frames are at times ``k / fps`` up to the last
         original frame. A NaN endpoint makes the interpolated sample NaN.
+        ``fps`` must lie in :data:`FPS_RANGE`, and a result whose rotations
+        would exceed :data:`RESAMPLE_LIMIT_BYTES` is refused (``MocapError``
+        naming the frames it would make) before anything is allocated; the
+        frames are interpolated in blocks, so temporaries stay small.
         """
-        fps = float(fps)
-        if not np.isfinite(fps) or fps <= 0:
-            raise ValueError(f"fps must be a positive number, got {fps!r}")
+        fps = check_fps(fps)
         if fps == self.fps:
             return self
-        F = self.num_frames
+        F, J = self.num_frames, self.num_joints
         n_new = int(np.floor((F - 1) * fps / self.fps + 1e-9)) + 1 if F > 0 else 0
-        t = np.arange(n_new) * (self.fps / fps)
-        i0 = np.minimum(np.floor(t + 1e-9).astype(np.int64), max(F - 1, 0))
-        i1 = np.minimum(i0 + 1, max(F - 1, 0))
-        a = np.clip(t - i0, 0.0, 1.0)
-        rot = R.slerp(self.rotations[i0], self.rotations[i1], a[:, None])
-        # Exact hits stay exact (no renormalisation round-off on kept frames).
-        exact = a == 0.0
-        rot[exact] = self.rotations[i0[exact]]
-        lerp = lambda x: x[i0] * (1 - a).reshape((-1,) + (1,) * (x.ndim - 1)) + x[i1] * a.reshape(
-            (-1,) + (1,) * (x.ndim - 1)
-        )
-        root = lerp(self.root_positions)
-        root[exact] = self.root_positions[i0[exact]]
-        tr = None
-        if self.translations is not None:
-            tr = lerp(self.translations)
-            tr[exact] = self.translations[i0[exact]]
+        need = n_new * J * 4 * 8
+        if need > RESAMPLE_LIMIT_BYTES:
+            raise MocapError(
+                f"resampling {F} frames from {self.fps:g} to {fps:g} fps would make {n_new:,} frames of "
+                f"{J} joints ({need / 2**20:,.0f} MiB of rotations), over the "
+                f"{RESAMPLE_LIMIT_BYTES / 2**20:,.0f} MiB limit; cut the clip or choose a lower rate"
+            )
+        rot = np.empty((n_new, J, 4))
+        root = np.empty((n_new, 3))
+        tr = None if self.translations is None else np.empty((n_new, J, 3))
+        block = max(1, 2**22 // max(J, 1))  # about 128 MiB of rotation temporaries per block
+        for s0 in range(0, n_new, block):
+            k = np.arange(s0, min(s0 + block, n_new))
+            t = k * (self.fps / fps)
+            i0 = np.minimum(np.floor(t + 1e-9).astype(np.int64), max(F - 1, 0))
+            i1 = np.minimum(i0 + 1, max(F - 1, 0))
+            a = np.clip(t - i0, 0.0, 1.0)
+            # Exact hits stay exact (no renormalisation round-off on kept frames).
+            exact = a == 0.0
+            r = R.slerp(self.rotations[i0], self.rotations[i1], a[:, None])
+            r[exact] = self.rotations[i0[exact]]
+            rot[k] = r
+            root[k] = _lerp(self.root_positions, i0, i1, a, exact)
+            if tr is not None:
+                tr[k] = _lerp(self.translations, i0, i1, a, exact)
         return dataclasses.replace(self, rotations=rot, root_positions=root, fps=fps, translations=tr)
 
     # -- mirroring -----------------------------------------------------------
@@ -585,6 +637,14 @@ class Motion:
         return dataclasses.replace(
             self, skeleton=new_sk, rotations=rot, root_positions=root, translations=tr, name=self.name + "_mirror"
         )
+
+
+def _lerp(x: np.ndarray, i0: np.ndarray, i1: np.ndarray, a: np.ndarray, exact: np.ndarray) -> np.ndarray:
+    """Linear interpolation of frames ``x[i0]`` to ``x[i1]`` (F, ...) by ``a`` (F,); ``exact`` rows copied as is."""
+    w = a.reshape((-1,) + (1,) * (x.ndim - 1))
+    out = x[i0] * (1 - w) + x[i1] * w
+    out[exact] = x[i0[exact]]
+    return out
 
 
 def concatenate(motions: Iterable[Motion], name: str | None = None) -> Motion:

@@ -527,3 +527,23 @@ def test_amc_motions_round_trip_through_bvh_and_npz(tmp_path, shared_data):
             got = back.global_positions(end_sites=True)
             tol = 1e-5 * size if suffix == ".bvh" else 0.0  # BVH holds 6 decimals; npz is exact
             np.testing.assert_allclose(got, ref, atol=tol, rtol=0, err_msg=f"{f.name} via {suffix}")
+
+
+def test_a_frame_rate_outside_1_to_1000_fps_is_refused(tmp_path):
+    amc = mocapkit.samples.path("12_walk.amc")
+    asf = mocapkit.samples.path("12.asf")
+    for fps in (0.01, 1e6):
+        with pytest.raises(MocapFormatError) as exc:
+            read_amc(amc, asf=asf, fps=fps)
+        assert str(exc.value) == (
+            f"{amc}: frame rate: fps must be a positive number from 1 to 1000 (frames per second), got {fps!r}"
+        )
+
+
+def test_missing_skeleton_says_how_to_name_one_on_the_command_line_and_in_python(tmp_path):
+    amc = tmp_path / "09_01.amc"
+    amc.write_bytes(mocapkit.samples.path("12_walk.amc").read_bytes())
+    with pytest.raises(MocapFormatError) as exc:
+        read_amc(amc)
+    msg = str(exc.value)
+    assert msg.endswith("name the skeleton with --asf FILE (command line) or asf=FILE (Python)") and "\n" not in msg

@@ -15,6 +15,7 @@ from mocapkit.io.bvh import read_bvh, write_bvh
 from mocapkit.motion import Motion, Skeleton
 from mocapkit.rotations import euler_to_quaternion, geodesic_angle, quaternion_normalize
 from tests.naive import naive_bvh_fk, naive_bvh_parse
+from tests.io.bounded import refusal_of_load
 
 
 def skeleton_size(m: Motion) -> float:
@@ -514,3 +515,19 @@ def test_unknown_suffix_and_missing_file(tmp_path):
         mocapkit.load("x.xyz")
     with pytest.raises(MocapFormatError, match="no such file"):
         mocapkit.load(tmp_path / "absent.bvh")
+
+
+def test_a_frame_rate_outside_1_to_1000_fps_is_refused_at_reading(tmp_path):
+    # 300 frames with "Frame Time: 1000" (0.001 fps): `clean` once resampled it to 7,176,001 frames (24 GB)
+    m = mocapkit.load(mocapkit.samples.path("131_01.bvh"))[:300]
+    good = tmp_path / "good.bvh"
+    write_bvh(m, good)
+    lines = good.read_text().split("\n")
+    k = next(i for i, s in enumerate(lines) if s.startswith("Frame Time:"))
+    for frame_time, bad in (("1000", "0.001"), ("0.0001", "10000.0")):
+        lines[k] = f"Frame Time: {frame_time}"
+        slow = tmp_path / f"rate_{frame_time}.bvh"
+        slow.write_text("\n".join(lines))
+        msg = refusal_of_load(slow)
+        assert msg.startswith(f"{slow}:{k + 1}: Frame Time {frame_time} s: fps must be a positive number from 1 to 1000")
+        assert msg.endswith(f"got {bad}")

@@ -55,3 +55,29 @@ def test_bad_c3d(tmp_path):
     cut.write_bytes(real[:1500])
     with pytest.raises(MocapFormatError, match="cut.c3d"):
         mocapkit.load(cut)
+
+
+def write_c3d(path, n_frames=20, n_markers=3, rate=100.0):
+    """A small C3D written by ezc3d: ``n_markers`` markers on smooth paths, every sample seen."""
+    import ezc3d
+
+    c = ezc3d.c3d()
+    c["parameters"]["POINT"]["RATE"]["value"] = np.array([rate])
+    c["parameters"]["POINT"]["LABELS"]["value"] = tuple(f"M{i}" for i in range(n_markers))
+    t = np.arange(n_frames)
+    pts = np.ones((4, n_markers, n_frames))
+    pts[:3] = (np.arange(n_markers)[None, :, None] * 100.0 + t[None, None, :]) * np.array([1.0, 2.0, 3.0])[:, None, None]
+    c["data"]["points"] = pts
+    c.write(str(path))
+    return path
+
+
+def test_a_point_rate_outside_1_to_1000_fps_is_refused(tmp_path):
+    assert read_c3d(write_c3d(tmp_path / "ok.c3d", rate=1000.0)).fps == 1000.0
+    for rate in (0.01, 20000.0):
+        bad = write_c3d(tmp_path / f"rate_{rate:g}.c3d", rate=rate)
+        with pytest.raises(MocapFormatError) as exc:
+            read_c3d(bad)
+        msg = str(exc.value)
+        assert msg.startswith(f"{bad}: point frame rate: fps must be a positive number from 1 to 1000"), msg
+        assert "\n" not in msg

@@ -6,6 +6,7 @@ from mocapkit.errors import MocapFormatError
 from mocapkit.io.c3d import read_c3d
 
 from ..test_motion import random_motion
+from .bounded import refusal_of_load
 
 
 @pytest.mark.parametrize("kw", [{}, {"with_axes": True}, {"with_translations": True}])
@@ -56,3 +57,17 @@ def test_bad_npz_files(tmp_path):
     cut.write_bytes(good.read_bytes()[:200])
     with pytest.raises(MocapFormatError, match="cut.npz"):
         mocapkit.load(cut)
+
+
+def test_a_frame_rate_outside_1_to_1000_fps_is_refused(tmp_path):
+    # `denoise` on an npz at fps 0.01 used 8 GB
+    m = random_motion(15, frames=300)
+    path = mocapkit.save(m, tmp_path / "m.npz")
+    with np.load(path) as z:
+        arrays = dict(z)
+    for fps in (0.01, 5000.0):
+        arrays["fps"] = np.array(fps)
+        bad = tmp_path / f"fps_{fps:g}.npz"
+        np.savez(bad, **arrays)
+        msg = refusal_of_load(bad)
+        assert msg == f"{bad}: fps must be a positive number from 1 to 1000 (frames per second), got {fps!r}"

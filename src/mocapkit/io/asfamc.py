@@ -40,8 +40,8 @@ from pathlib import Path
 import numpy as np
 
 from .. import rotations as R
-from ..errors import MocapFormatError
-from ..motion import Motion, Skeleton
+from ..errors import MocapFormatError, SkeletonError
+from ..motion import Motion, Skeleton, check_fps
 
 __all__ = ["read_asf", "read_amc", "find_asf", "fps_from_name", "DEFAULT_FPS"]
 
@@ -398,7 +398,7 @@ def find_asf(amc) -> Path:
     raise MocapFormatError(
         amc,
         f"no skeleton: looked for {wanted} (or another ASF named by a prefix of {amc.stem!r}) "
-        f"and found {found} there; pass asf=",
+        f"and found {found} there; name the skeleton with --asf FILE (command line) or asf=FILE (Python)",
     )
 
 
@@ -488,7 +488,10 @@ def read_amc(path, asf=None, fps: float | None = None) -> Motion:
     table = np.zeros((F, ncols))
     table.reshape(-1)[frames] = values
     rotations, root = _to_motion_arrays(table, skeleton, layout, radians)
-    rate = float(fps) if fps is not None else (fps_from_name(path.stem) or DEFAULT_FPS)
+    try:
+        rate = check_fps(fps if fps is not None else (fps_from_name(path.stem) or DEFAULT_FPS))
+    except SkeletonError as exc:
+        raise MocapFormatError(path, f"frame rate: {exc}") from None
     return Motion(skeleton=skeleton, rotations=rotations, root_positions=root, fps=rate, name=path.stem)
 
 

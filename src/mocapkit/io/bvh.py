@@ -24,7 +24,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import MocapFormatError, SkeletonError
-from ..motion import Motion, Skeleton
+from ..motion import Motion, Skeleton, check_fps
 from . import atomic_write
 from ._numparse import line_of_offset, parse_floats
 
@@ -330,6 +330,10 @@ def read_bvh(path) -> Motion:
             if not np.isfinite(1.0 / frame_time):
                 raise MocapFormatError(path, f"Frame Time {tm.group(1)} is too small: 1 / it is not a finite rate",
                                        line=line)
+            try:
+                fps = check_fps(_fps_from_frame_time(ft_token))
+            except SkeletonError as exc:
+                raise MocapFormatError(path, f"Frame Time {ft_token} s: {exc}", line=line) from None
     first_data_line = line + 1
     ncols = sum(len(c) for c in channels)
     if ncols == 0:
@@ -388,7 +392,7 @@ def read_bvh(path) -> Motion:
         )
     except SkeletonError as e:
         raise MocapFormatError(path, str(e)) from None
-    return _motion_from_channels(skeleton, table, _fps_from_frame_time(ft_token), path.stem)
+    return _motion_from_channels(skeleton, table, fps, path.stem)
 
 
 @njit(cache=True)

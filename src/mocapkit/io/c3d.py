@@ -18,8 +18,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import MocapFormatError
-from ..motion import readonly_view
+from ..errors import MocapFormatError, SkeletonError
+from ..motion import check_fps, readonly_view
 
 __all__ = ["MarkerSet", "read_c3d"]
 
@@ -57,7 +57,7 @@ class MarkerSet:
             raise ValueError(f"positions: expected shape (F, {len(labels)}, 3), got {pos.shape}")
         object.__setattr__(self, "positions", readonly_view(pos))
         object.__setattr__(self, "labels", labels)
-        object.__setattr__(self, "fps", float(self.fps))
+        object.__setattr__(self, "fps", check_fps(self.fps))
 
     @property
     def num_frames(self) -> int:
@@ -113,6 +113,14 @@ def _clean_labels(raw, n: int) -> tuple[str, ...]:
     return tuple(out)
 
 
+def _point_rate(path: Path, rate) -> float:
+    """The file's point frame rate, checked against :data:`~mocapkit.motion.FPS_RANGE`."""
+    try:
+        return check_fps(rate)
+    except SkeletonError as exc:
+        raise MocapFormatError(path, f"point frame rate: {exc}") from None
+
+
 def _read_ezc3d(path: Path) -> MarkerSet | None:
     import ezc3d
 
@@ -138,7 +146,7 @@ def _read_ezc3d(path: Path) -> MarkerSet | None:
     return MarkerSet(
         labels=_clean_labels(labels, n),
         positions=xyz,
-        fps=float(c["header"]["points"]["frame_rate"]),
+        fps=_point_rate(path, c["header"]["points"]["frame_rate"]),
         units=units or "mm",
         name=path.stem,
         reader="ezc3d",
@@ -159,7 +167,7 @@ def _read_c3d_package(path: Path) -> MarkerSet:
         labels = list(param.string_array) if param is not None else []
         unit_param = reader.get("POINT:UNITS")
         units = unit_param.string_value.strip() if unit_param is not None else ""
-        fps = float(reader.point_rate)
+        fps = _point_rate(path, reader.point_rate)
     xyz = data[..., :3].copy()
     xyz[data[..., 3] < 0] = np.nan
     return MarkerSet(
@@ -308,8 +316,6 @@ def _check_structure(path: Path, b: bytes) -> bool:
 def _check_result(path: Path, markers: MarkerSet) -> MarkerSet:
     if markers.num_markers == 0 or markers.num_frames == 0:
         raise MocapFormatError(path, "C3D file holds no 3D points")
-    if not (np.isfinite(markers.fps) and markers.fps > 0):
-        raise MocapFormatError(path, f"point frame rate must be a positive number, got {markers.fps!r}")
     inf = np.isinf(markers.positions)
     if np.any(inf):
         f, m, _ = np.argwhere(inf)[0]

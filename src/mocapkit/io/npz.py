@@ -16,8 +16,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import MocapFormatError
-from ..motion import Motion, Skeleton
+from ..errors import MocapFormatError, SkeletonError
+from ..motion import Motion, Skeleton, check_fps
 from . import atomic_write
 
 __all__ = ["read_npz", "write_npz", "FORMAT_VERSION"]
@@ -169,9 +169,10 @@ def read_npz(path):
         if version != FORMAT_VERSION:
             raise MocapFormatError(path, f"not a mocapkit npz (format_version {version}, expected {FORMAT_VERSION})")
         kind = _scalar(path, data, "kind", "s")
-        fps = _scalar(path, data, "fps", "f")
-        if not (np.isfinite(fps) and fps > 0):
-            raise MocapFormatError(path, f"fps must be a positive number, got {fps!r}")
+        try:
+            fps = check_fps(_scalar(path, data, "fps", "f"))
+        except SkeletonError as exc:
+            raise MocapFormatError(path, str(exc)) from None
         name = _scalar(path, data, "name", "s")
         if kind == "markers":
             labels = data["labels"]
