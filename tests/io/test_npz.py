@@ -71,3 +71,19 @@ def test_a_frame_rate_outside_1_to_1000_fps_is_refused(tmp_path):
         np.savez(bad, **arrays)
         msg = refusal_of_load(bad)
         assert msg == f"{bad}: fps must be a positive number from 1 to 1000 (frames per second), got {fps!r}"
+
+
+def test_names_npz_would_change_are_refused_and_others_round_trip(tmp_path):
+    import dataclasses
+
+    m = random_motion(16, frames=3)
+    names = list(m.skeleton.joint_names)
+    names[2] = "lone\ud800 tab\there"  # npz holds these
+    ok = dataclasses.replace(m, skeleton=dataclasses.replace(m.skeleton, joint_names=tuple(names)))
+    assert mocapkit.load(mocapkit.save(ok, tmp_path / "ok.npz")).skeleton.joint_names == tuple(names)
+    names[3] = "nul\x00"  # numpy drops trailing NULs
+    bad = dataclasses.replace(m, skeleton=dataclasses.replace(m.skeleton, joint_names=tuple(names)))
+    out = tmp_path / "bad.npz"
+    with pytest.raises(MocapFormatError, match=r"bad\.npz: joint 3 name 'nul\\x00' ends in a NUL character"):
+        mocapkit.save(bad, out)
+    assert not out.exists()

@@ -30,7 +30,7 @@ from ._numparse import line_of_offset, parse_floats
 
 from numba import njit
 
-__all__ = ["read_bvh", "write_bvh"]
+__all__ = ["read_bvh", "write_bvh", "check_bvh_names", "MAX_INDENT"]
 
 _CHANNELS = {c.lower(): c for c in ("Xposition", "Yposition", "Zposition", "Xrotation", "Yrotation", "Zrotation")}
 _MOTION_RE = re.compile(rb"^[ \t]*MOTION[ \t]*\r?$", re.M)
@@ -492,39 +492,71 @@ def _motion_from_channels(skeleton: Skeleton, values: np.ndarray, fps: float, na
 _POS3 = ("Xposition", "Yposition", "Zposition")
 _ZYX = ("Zrotation", "Yrotation", "Xrotation")
 
-
-def _rotates(q: np.ndarray) -> bool:
-    """Whether any (finite) quaternion of (F, 4) differs from the identity."""
-    v = np.abs(q[:, 1:])
-    return bool(np.any(v[np.isfinite(v)] > 1e-12))
+MAX_INDENT = 32
+"""Most tabs the writer puts before a line: a 100,000-deep chain would otherwise need 5e9 of them."""
 
 
-def _moves(local: np.ndarray, offset: np.ndarray, axes) -> bool:
-    """Whether any (finite) local offset (F, 3) differs from ``offset`` on the given axes."""
-    if not axes:
-        return False
-    d = np.abs(local[:, axes] - offset[axes])
-    return bool(np.any(d[np.isfinite(d)] > 0.0))
+def check_bvh_names(path, names) -> None:
+    """Refuse joint names a BVH file cannot hold, naming the first such joint.
+
+    A BVH name is the rest of its ``ROOT`` / ``JOINT`` line, read back as its
+    whitespace-separated words joined by one space. So a name must be
+    encodable as UTF-8 (no lone surrogates), non-empty, hold no brace, and
+    have no whitespace but single inner spaces (``"Bip01 L Thigh"`` is fine;
+    a tab, a newline, a double space or a leading space is not), or it would
+    not read back as itself.
+
+    Raises
+    ------
+    MocapFormatError
+        One line naming ``path``, the joint (``ascii()`` of its name) and the problem.
+    """
+    for j, name in enumerate(names):
+        problem = None
+        try:
+            name.encode("utf-8")
+        except UnicodeEncodeError:
+            problem = "is not encodable as UTF-8 (a lone surrogate?)"
+        else:
+            if not name:
+                problem = "is empty"
+            elif "{" in name or "}" in name:
+                problem = "holds a brace"
+            elif " ".join(name.split()) != name:
+                problem = "holds whitespace other than single spaces between words"
+        if problem is not None:
+            raise MocapFormatError(path, f"joint {j} name {ascii(name)} {problem}: BVH cannot hold it; rename the joint")
+
+
+def _rotating_joints(rotations: np.ndarray) -> np.ndarray:
+    """(J,) bool: joints with a (finite) quaternion of ``rotations`` (F, J, 4) away from the identity."""
+    v = np.abs(rotations[..., 1:])
+    return np.any(np.where(np.isfinite(v), v, 0.0) > 1e-12, axis=(0, 2))
+
+
+def _moving_axes(local: np.ndarray, offsets: np.ndarray) -> np.ndarray:
+    """(J, 3) bool: axes on which a (finite) local offset (F, J, 3) differs from the joint's ``offsets`` (J, 3)."""
+    d = np.abs(local - offsets)
+    return np.any(np.where(np.isfinite(d), d, 0.0) > 0.0, axis=0)
 
 
 def _write_channels(motion: Motion) -> tuple[tuple[str, ...], ...]:
     """Channel layout that represents ``motion`` exactly as BVH."""
     sk = motion.skeleton
     J = sk.num_joints
-    local = motion.local_offsets()
+    rotating = _rotating_joints(motion.rotations)
+    moving = _moving_axes(motion.local_offsets(), sk.offsets)
     out = []
     for j in range(J):
         if sk.axes is None:
             chans = list(sk.joint_channels(j))
-            if not sk.rotation_order(j) and _rotates(motion.rotations[:, j]):
+            if not sk.rotation_order(j) and rotating[j]:
                 chans += list(_ZYX)
         else:
-            has_rot = bool(sk.rotation_order(j)) or _rotates(motion.rotations[:, j])
+            has_rot = bool(sk.rotation_order(j)) or bool(rotating[j])
             chans = list(_POS3) if j == 0 else []
             chans += list(_ZYX) if has_rot else []
-        covered = [k for k in range(3) if _POS3[k] in chans]
-        uncovered = [k for k in range(3) if k not in covered]
-        if _moves(local[:, j], sk.offsets[j], uncovered):
+        if any(moving[j, k] and _POS3[k] not in chans for k in range(3)):
             chans = list(_POS3) + [c for c in chans if c.endswith("rotation")]
         out.append(tuple(chans))
     if not any(out):  # a BVH needs at least one channel per frame line
@@ -577,12 +609,15 @@ def write_bvh(motion: Motion, path, precision: int = 6, allow_nan: bool = False)
     Raises
     ------
     MocapFormatError
-        When the motion has NaN and ``allow_nan`` is False, or has no frames.
+        When the motion has NaN and ``allow_nan`` is False, has no frames, or
+        a joint name BVH cannot hold (:func:`check_bvh_names`); nothing is
+        written then.
     """
     path = Path(path)
     precision = int(precision)
     if precision < 0:
         raise ValueError(f"precision must be >= 0, got {precision}")
+    check_bvh_names(path, motion.skeleton.joint_names)
     F = motion.num_frames
     if F == 0:
         raise MocapFormatError(path, "motion has no frames; BVH needs at least one")
@@ -646,8 +681,17 @@ def _depth_first_order(sk: Skeleton) -> list[int]:
     return order
 
 
+def _indent(depth: int) -> str:
+    """Leading tabs of a line at nesting ``depth``, capped at :data:`MAX_INDENT` (readers ignore them)."""
+    return "\t" * min(depth, MAX_INDENT)
+
+
 def _hierarchy_text(sk: Skeleton, channels, order: list[int]) -> list[str]:
-    """The HIERARCHY section as a list of strings, joints written in depth-first ``order``."""
+    """The HIERARCHY section as a list of strings, joints written in depth-first ``order``.
+
+    Indentation is capped at :data:`MAX_INDENT` tabs, so the text grows
+    linearly with the number of joints however deep the hierarchy is.
+    """
     J = sk.num_joints
     ends: list[list[int]] = [[] for _ in range(J)]
     for e, p in enumerate(sk.end_site_parents):
@@ -657,13 +701,13 @@ def _hierarchy_text(sk: Skeleton, channels, order: list[int]) -> list[str]:
 
     def close() -> None:
         open_joints.pop()
-        parts.append("\t" * len(open_joints) + "}\n")
+        parts.append(_indent(len(open_joints)) + "}\n")
 
     for j in order:
         p = int(sk.parents[j])
         while open_joints and open_joints[-1] != p:
             close()
-        ind = "\t" * len(open_joints)
+        ind = _indent(len(open_joints))
         off = sk.offsets[j]
         chans = channels[j]
         parts.append(

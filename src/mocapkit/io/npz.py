@@ -26,9 +26,23 @@ FORMAT_VERSION = 1
 
 
 def write_npz(obj, path, compress: bool = True) -> None:
-    """Write a Motion or MarkerSet to ``path`` atomically (temp file + rename)."""
+    """Write a Motion or MarkerSet to ``path`` atomically (temp file + rename).
+
+    Names (joints, markers, the clip, the unit) are stored as numpy strings,
+    which hold any code point, lone surrogates included, but drop trailing
+    NUL characters: a name ending in one is refused (``MocapFormatError``
+    naming it) before anything is written.
+    """
     from .c3d import MarkerSet
 
+    path = Path(path)
+    if isinstance(obj, Motion):
+        _check_texts(path, "joint", obj.skeleton.joint_names)
+        _check_texts(path, "clip name", [obj.name])
+    elif isinstance(obj, MarkerSet):
+        _check_texts(path, "marker", obj.labels)
+        _check_texts(path, "clip name", [obj.name])
+        _check_texts(path, "unit", [obj.units])
     if isinstance(obj, Motion):
         sk = obj.skeleton
         arrays = {
@@ -65,6 +79,13 @@ def write_npz(obj, path, compress: bool = True) -> None:
         raise TypeError(f"write_npz takes a Motion or MarkerSet, got {type(obj).__name__}")
     with atomic_write(path, "wb") as fh:
         (np.savez_compressed if compress else np.savez)(fh, **arrays)
+
+
+def _check_texts(path: Path, what: str, texts) -> None:
+    """Refuse a name an npz string array would change: numpy drops trailing NUL characters."""
+    for k, text in enumerate(texts):
+        if text.endswith("\x00"):
+            raise MocapFormatError(path, f"{what} {k} name {ascii(text)} ends in a NUL character, which npz drops; rename it")
 
 
 def _load_arrays(path: Path) -> dict[str, np.ndarray]:
