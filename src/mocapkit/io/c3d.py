@@ -203,7 +203,9 @@ def _check_structure(path: Path, b: bytes) -> bool:
     block count, every parameter record (name, type -1/1/2/4, at most 7
     dimensions, its data and description inside the section, the pointer to
     the next record moving forward) and that the data block the header
-    describes (points, analog samples, frames, integer or float) fits in the file.
+    describes (points, analog samples, frames, integer or float) fits in the file,
+    and that an integer ``POINT:USED`` agrees with the header's point count (a
+    section claiming 32,767 markers against a header of 33 is refused, not read).
     Returns whether ezc3d may read the file: False when a parameter it relies on
     has an unexpected type or no value (the pure-Python reader copes with those).
     """
@@ -232,6 +234,7 @@ def _check_structure(path: Path, b: bytes) -> bool:
     groups: dict[int, str] = {}
     used: set[int] = set()
     typed: list[tuple[int, str, int, int]] = []  # (group id, name, type, data bytes)
+    value_at: dict[tuple[int, str], int] = {}  # (group id, name) -> byte offset of its data
     count = 0
     while nblocks and i + 2 <= end:
         nlen = abs(struct.unpack_from("b", b, i)[0])
@@ -269,6 +272,7 @@ def _check_structure(path: Path, b: bytes) -> bool:
             for d in b[body + 2 : body + 2 + ndim]:
                 size *= d
             typed.append((gid, name.decode().upper(), typ, size if typ != -1 or ndim else 0))
+            value_at[(gid, name.decode().upper())] = body + 2 + ndim
             need = 2 + ndim + size + 1
             if body + need <= end:
                 need += b[body + need - 1]
@@ -300,6 +304,10 @@ def _check_structure(path: Path, b: bytes) -> bool:
     data_start = struct.unpack_from(e + "H", b, 16)[0]
     if points == 0:
         return ezc3d_ok  # some writers leave the header empty; the parameters decide (the fallback reader)
+    used = _point_used(b, e, groups, typed, value_at)
+    if used is not None and used != points:
+        fail(f"the parameter section disagrees with the header: POINT:USED is {used} markers, "
+             f"the header says {points}")
     if last < first:
         fail(f"header: last frame {last} comes before the first frame {first}")
     if data_start < 2:
@@ -311,6 +319,14 @@ def _check_structure(path: Path, b: bytes) -> bool:
         fail(f"truncated file: {frames} frames of {points} points and {analog} analog samples need "
              f"{need} bytes, the file has {n}")
     return ezc3d_ok
+
+
+def _point_used(b: bytes, e: str, groups: dict, typed: list, value_at: dict) -> int | None:
+    """The first value of an integer ``POINT:USED`` parameter (read as unsigned, like the header's count), or None."""
+    for gid, name, typ, size in typed:
+        if groups.get(gid) == "POINT" and name == "USED" and typ == 2 and size >= 2:
+            return struct.unpack_from(e + "H", b, value_at[(gid, name)])[0]
+    return None
 
 
 def _check_result(path: Path, markers: MarkerSet) -> MarkerSet:
