@@ -64,8 +64,10 @@ this. A larger result is refused with the number of frames it would have.
 """
 
 
-def check_fps(fps) -> float:
+def check_fps(fps, what: str = "fps") -> float:
     """``fps`` as a float when it is a frame rate within :data:`FPS_RANGE`, else ``SkeletonError``.
+
+    ``what`` names the rate in the message (``"fps"``, ``"point frame rate"``).
 
     The one frame-rate check: readers call it (and re-raise naming the file),
     and so do :class:`Motion`, :class:`~mocapkit.io.c3d.MarkerSet` and
@@ -84,7 +86,7 @@ def check_fps(fps) -> float:
         value = float("nan")
     lo, hi = FPS_RANGE
     if not (np.isfinite(value) and lo <= value <= hi):
-        raise SkeletonError(f"fps must be a positive number from {lo:g} to {hi:g} (frames per second), got {fps!r}")
+        raise SkeletonError(f"{what} must be a positive number from {lo:g} to {hi:g} (frames per second), got {fps!r}")
     return value
 
 

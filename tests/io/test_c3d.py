@@ -81,7 +81,7 @@ def test_a_point_rate_outside_1_to_1000_fps_is_refused(tmp_path):
         with pytest.raises(MocapFormatError) as exc:
             read_c3d(bad)
         msg = str(exc.value)
-        assert msg.startswith(f"{bad}: point frame rate: fps must be a positive number from 1 to 1000"), msg
+        assert msg.startswith(f"{bad}: point frame rate must be a positive number from 1 to 1000"), msg
         assert "\n" not in msg
 
 

@@ -116,9 +116,9 @@ def _clean_labels(raw, n: int) -> tuple[str, ...]:
 def _point_rate(path: Path, rate) -> float:
     """The file's point frame rate, checked against :data:`~mocapkit.motion.FPS_RANGE`."""
     try:
-        return check_fps(rate)
+        return check_fps(rate, "point frame rate")
     except SkeletonError as exc:
-        raise MocapFormatError(path, f"point frame rate: {exc}") from None
+        raise MocapFormatError(path, str(exc)) from None
 
 
 def _read_ezc3d(path: Path) -> MarkerSet | None:
