@@ -661,10 +661,12 @@ def write_bvh(motion: Motion, path, precision: int = 6, allow_nan: bool = False)
     parts.append(f"MOTION\nFrames: {F}\nFrame Time: {_fmt(1.0 / motion.fps)}\n")
     C = values.shape[1]
     row = " ".join([f"%.{precision}f"] * C) + "\n"
-    body = (row * F) % tuple(values.ravel().tolist())
+    block = max(1, 2**18 // max(C, 1))  # frames formatted at once: a few MB of text, not the whole take
     with atomic_write(path, "w", encoding="utf-8", newline="\n") as fh:
         fh.write("".join(parts))
-        fh.write(body)
+        for f0 in range(0, F, block):
+            rows = values[f0 : f0 + block]
+            fh.write((row * rows.shape[0]) % tuple(rows.ravel().tolist()))
 
 
 def _depth_first_order(sk: Skeleton) -> list[int]:
