@@ -24,11 +24,13 @@ semantics, so the ASF is converted on reading:
 
 The AMC root line's translations become ``Motion.root_positions`` (ASF units).
 
-Reading is vectorised: the AMC body is scanned with numpy for the bone name
-starting each line, the names are blanked and every number is parsed in one
-pass (:func:`mocapkit.io._numparse.parse_floats`); the frame structure is then
-checked on arrays, and Euler angles become quaternions per group of joints
-sharing a dof order.
+Reading is vectorised and chunked: the AMC body is cut into pieces of about
+1 MiB of whole lines; in each, numpy finds the bone name starting each line,
+the names are blanked and every number is parsed in one pass
+(:func:`mocapkit.io._numparse.parse_floats`); the frame structure is checked on
+arrays (a frame straddling two pieces is carried over), and Euler angles
+become quaternions per group of joints sharing a dof order. Memory stays a
+small multiple of the file (the text, the value tables, the motion).
 """
 
 from __future__ import annotations
