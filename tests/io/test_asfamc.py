@@ -611,3 +611,14 @@ def test_reading_a_large_amc_holds_a_small_multiple_of_the_file(tmp_path, walk):
     frames, growth = map(int, res.stdout.split())
     assert frames == 12_000
     assert growth < 4 * size, growth / size  # the Motion itself is about 1.3x the text
+
+
+@pytest.mark.parametrize("new_name", ["x" * 2**20, "lhumérus✓"])
+def test_a_very_long_or_non_latin1_joint_name_is_looked_up_without_a_huge_table(new_name):
+    # names are matched through a (joints, longest name) byte table: 31 joints x 1 MiB would be 31 MiB per chunk
+    sk = read_asf(mocapkit.samples.path("12.asf"))
+    names = list(sk.joint_names)
+    names[names.index("lhumerus")] = new_name
+    renamed = dataclasses.replace(sk, joint_names=tuple(names))
+    with pytest.raises(MocapFormatError, match=r"12_walk\.amc:\d+: AMC names joint 'lhumerus' that the ASF skeleton lacks"):
+        read_amc(mocapkit.samples.path("12_walk.amc"), asf=renamed)

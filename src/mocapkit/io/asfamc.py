@@ -708,6 +708,14 @@ def _parse_chunk(path, body: bytes, first_line: int, skeleton: Skeleton, layout:
 _HASH_BASE = np.uint64(1099511628211)
 
 
+def _latin1(name: str) -> bytes:
+    """``name`` as the AMC's Latin-1 bytes; a name with other characters becomes b"\\0", which no token holds."""
+    try:
+        return name.encode("latin-1")
+    except UnicodeEncodeError:
+        return b"\0"
+
+
 def _token_ids(arr: np.ndarray, starts: np.ndarray, ends: np.ndarray, names: tuple[str, ...]) -> np.ndarray:
     """Index in ``names`` of each token ``arr[starts[i]:ends[i]]`` (-1 where none), vectorised.
 
@@ -718,8 +726,12 @@ def _token_ids(arr: np.ndarray, starts: np.ndarray, ends: np.ndarray, names: tup
     count = starts.shape[0]
     if count == 0:
         return np.zeros(0, dtype=np.int64)
-    known = [n.encode("latin-1") for n in names]
+    known = [_latin1(n) for n in names]
     width = max(len(k) for k in known)
+    if len(known) * width > 2**24:  # many joints or a very long name: a (J, width) table would not fit
+        lookup = {k: i for i, k in enumerate(known)}
+        raw = arr.tobytes()
+        return np.array([lookup.get(raw[a:b], -1) for a, b in zip(starts.tolist(), ends.tolist())], dtype=np.int64)
     table = np.zeros((len(known), width), dtype=np.uint8)
     for i, k in enumerate(known):
         table[i, : len(k)] = np.frombuffer(k, dtype=np.uint8)
