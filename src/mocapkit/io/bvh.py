@@ -53,23 +53,29 @@ class _Block:
         self.channels: tuple[str, ...] | None = None
 
 
+def _lines(text: str):
+    """(1-based line number, whitespace-separated tokens) of each line of ``text``, one line at a time."""
+    pos, ln, n = 0, 1, len(text)
+    while pos < n:
+        nl = text.find("\n", pos)
+        stop = n if nl < 0 else nl
+        toks = text[pos:stop].split()
+        if toks:
+            yield ln, toks
+        pos, ln = stop + 1, ln + 1
+
+
 def _parse_hierarchy(path: Path, text: str, motion_line: int | None):
-    """Parse the HIERARCHY section; returns (names, parents, offsets, channels, end_parents, end_offsets)."""
+    """Parse the HIERARCHY section; returns (names, parents, offsets, channels, end_parents, end_offsets).
+
+    Line by line, token by token: memory is the joints' own records, not a
+    list of every token (a 100,000-joint hierarchy took 24x its text that way).
+    """
 
     def fail(reason: str, line: int):
         raise MocapFormatError(path, reason, line=line)
 
-    lines = text.split("\n")
-    tokens: list[tuple[str, int, int]] = []  # (token, line number, index of the token on its line)
-    for ln, raw in enumerate(lines, start=1):
-        for k, tok in enumerate(raw.split()):
-            tokens.append((tok, ln, k))
-    last_line = max(1, len(lines) - (1 if lines and lines[-1] == "" else 0))
-    if not tokens:
-        fail("empty file: no HIERARCHY" if motion_line is None else "no HIERARCHY before MOTION", motion_line or 1)
-    if tokens[0][0] != "HIERARCHY":
-        fail(f"expected HIERARCHY, found {tokens[0][0]!r}", tokens[0][1])
-
+    last_line = max(1, text.count("\n") + (0 if text.endswith("\n") else 1))
     names: list[str] = []
     parents: list[int] = []
     blocks: list[_Block] = []  # per joint
@@ -78,137 +84,148 @@ def _parse_hierarchy(path: Path, text: str, motion_line: int | None):
     stack: list[_Block] = []
     pending: _Block | None = None  # declared, waiting for its "{"
     root_seen = False
-    ntok = len(tokens)
-    i = 1
+    seen_first = False
+    channel_sets: dict[tuple[str, ...], tuple[str, ...]] = {}  # one tuple per distinct layout
 
-    def rest_of_line(i: int) -> tuple[list[str], int]:
-        """Tokens after position i on the same line, excluding a trailing "{"; returns (tokens, next i)."""
-        line = tokens[i][1]
-        out = []
-        j = i + 1
-        while j < ntok and tokens[j][1] == line and tokens[j][0] != "{":
-            out.append(tokens[j][0])
+    def rest_of_line(toks: list[str], k: int) -> tuple[list[str], int]:
+        """Tokens after position k on the line, up to a "{"; returns (tokens, index of the next token)."""
+        j = k + 1
+        while j < len(toks) and toks[j] != "{":
             j += 1
-        return out, j
+        return toks[k + 1 : j], j
 
-    def number(j: int, what: str, line: int) -> float:
-        if j >= ntok or tokens[j][1] != line:
+    def number(toks: list[str], j: int, what: str, line: int) -> float:
+        if j >= len(toks):
             fail(f"{what} needs 3 numbers on its line", line)
-        tok = tokens[j][0]
+        tok = toks[j]
         try:
             v = float(tok)
         except ValueError:
-            fail(f"{what}: {tok!r} is not a number", tokens[j][1])
+            fail(f"{what}: {tok!r} is not a number", line)
         if not np.isfinite(v):
-            fail(f"{what}: {tok!r} is not a finite number", tokens[j][1])
+            fail(f"{what}: {tok!r} is not a finite number", line)
         return v
 
-    while i < ntok:
-        tok, line, _ = tokens[i]
-        if pending is not None and tok != "{":
-            fail(f"expected '{{' after {'End Site' if pending.kind == 'end' else repr(pending.name)}, found {tok!r}", line)
-        if tok in ("ROOT", "JOINT"):
-            if tok == "ROOT":
-                if root_seen:
-                    fail("a second ROOT: files with several skeletons are not supported", line)
-                if stack:
-                    fail("ROOT inside a joint", line)
-                root_seen = True
-            else:
+    done = False
+    for line, toks in _lines(text):
+        k = 0
+        if not seen_first:
+            if toks[0] != "HIERARCHY":
+                fail(f"expected HIERARCHY, found {toks[0]!r}", line)
+            seen_first = True
+            k = 1
+        while k < len(toks):
+            tok = toks[k]
+            if pending is not None and tok != "{":
+                fail(f"expected '{{' after {'End Site' if pending.kind == 'end' else repr(pending.name)}, found {tok!r}", line)
+            if tok in ("ROOT", "JOINT"):
+                if tok == "ROOT":
+                    if root_seen:
+                        fail("a second ROOT: files with several skeletons are not supported", line)
+                    if stack:
+                        fail("ROOT inside a joint", line)
+                    root_seen = True
+                else:
+                    if not stack:
+                        fail("JOINT outside the ROOT block" if root_seen else "expected ROOT before JOINT", line)
+                    if stack[-1].kind == "end":
+                        fail("JOINT inside an End Site", line)
+                words, k = rest_of_line(toks, k)
+                if not words:
+                    fail(f"{tok} without a name", line)
+                name = " ".join(words)
+                pending = _Block("joint", len(names), name, line)
+                names.append(name)
+                parents.append(stack[-1].index if stack else -1)
+                blocks.append(pending)
+                continue
+            if tok == "End":
                 if not stack:
-                    fail("JOINT outside the ROOT block" if root_seen else "expected ROOT before JOINT", line)
+                    fail("End Site outside the ROOT block", line)
                 if stack[-1].kind == "end":
-                    fail("JOINT inside an End Site", line)
-            words, i = rest_of_line(i)
-            if not words:
-                fail(f"{tok} without a name", line)
-            name = " ".join(words)
-            pending = _Block("joint", len(names), name, line)
-            names.append(name)
-            parents.append(stack[-1].index if stack else -1)
-            blocks.append(pending)
-            continue
-        if tok == "End":
-            if not stack:
-                fail("End Site outside the ROOT block", line)
-            if stack[-1].kind == "end":
-                fail("End Site inside an End Site", line)
-            words, i = rest_of_line(i)
-            if not words or words[0] != "Site":
-                fail("expected 'End Site'", line)
-            pending = _Block("end", stack[-1].index, "End Site", line)
-            continue
-        if tok == "{":
-            if pending is None:
-                fail("unexpected '{'", line)
-            stack.append(pending)
-            pending = None
-            i += 1
-            continue
-        if tok == "}":
-            if not stack:
-                fail("unbalanced '}'", line)
-            blk = stack.pop()
-            if blk.kind == "end":
-                if blk.offset is None:
-                    fail("End Site has no OFFSET", blk.line)
-                end_parents.append(blk.index)
-                end_offsets.append(blk.offset)
-            else:
-                if blk.channels is None:
-                    fail(f"joint {blk.name!r} has no CHANNELS", blk.line)
-                if blk.offset is None:
-                    if blk.index != 0:
-                        fail(f"joint {blk.name!r} has no OFFSET", blk.line)
-                    blk.offset = (0.0, 0.0, 0.0)
-            i += 1
-            continue
-        if tok == "OFFSET":
-            if not stack:
-                fail("OFFSET outside a joint", line)
-            blk = stack[-1]
-            if blk.offset is not None:
-                fail("a second OFFSET in the same block", line)
-            blk.offset = (number(i + 1, "OFFSET", line), number(i + 2, "OFFSET", line), number(i + 3, "OFFSET", line))
-            i += 4
-            if i < ntok and tokens[i][1] == line:
-                fail(f"OFFSET has more than 3 numbers ({tokens[i][0]!r})", line)
-            continue
-        if tok == "CHANNELS":
-            if not stack or stack[-1].kind == "end":
-                fail("CHANNELS outside a joint", line)
-            blk = stack[-1]
-            if blk.channels is not None:
-                fail(f"joint {blk.name!r} has a second CHANNELS line", line)
-            if blk.index + 1 < len(names):
-                fail(f"CHANNELS of joint {blk.name!r} must come before its child joints", line)
-            words, _ = rest_of_line(i)
-            if not words:
-                fail("CHANNELS without a count", line)
-            try:
-                count = int(words[0])
-            except ValueError:
-                fail(f"CHANNELS count {words[0]!r} is not an integer", line)
-            if not 0 <= count <= 6:
-                fail(f"CHANNELS count {count} is not between 0 and 6", line)
-            given = words[1:]
-            if len(given) != count:
-                fail(f"CHANNELS says {count} but names {len(given)}", line)
-            chans = []
-            for c in given:
-                canon = _CHANNELS.get(c.lower())
-                if canon is None:
-                    fail(f"unknown channel {c!r} (expected X/Y/Z position/rotation)", line)
-                if canon in chans:
-                    fail(f"channel {canon} repeated", line)
-                chans.append(canon)
-            blk.channels = tuple(chans)
-            i += 1 + len(words)
-            continue
-        if tok == "MOTION":
+                    fail("End Site inside an End Site", line)
+                words, k = rest_of_line(toks, k)
+                if not words or words[0] != "Site":
+                    fail("expected 'End Site'", line)
+                pending = _Block("end", stack[-1].index, "End Site", line)
+                continue
+            if tok == "{":
+                if pending is None:
+                    fail("unexpected '{'", line)
+                stack.append(pending)
+                pending = None
+                k += 1
+                continue
+            if tok == "}":
+                if not stack:
+                    fail("unbalanced '}'", line)
+                blk = stack.pop()
+                if blk.kind == "end":
+                    if blk.offset is None:
+                        fail("End Site has no OFFSET", blk.line)
+                    end_parents.append(blk.index)
+                    end_offsets.append(blk.offset)
+                else:
+                    if blk.channels is None:
+                        fail(f"joint {blk.name!r} has no CHANNELS", blk.line)
+                    if blk.offset is None:
+                        if blk.index != 0:
+                            fail(f"joint {blk.name!r} has no OFFSET", blk.line)
+                        blk.offset = (0.0, 0.0, 0.0)
+                k += 1
+                continue
+            if tok == "OFFSET":
+                if not stack:
+                    fail("OFFSET outside a joint", line)
+                blk = stack[-1]
+                if blk.offset is not None:
+                    fail("a second OFFSET in the same block", line)
+                blk.offset = (number(toks, k + 1, "OFFSET", line), number(toks, k + 2, "OFFSET", line),
+                              number(toks, k + 3, "OFFSET", line))
+                k += 4
+                if k < len(toks):
+                    fail(f"OFFSET has more than 3 numbers ({toks[k]!r})", line)
+                continue
+            if tok == "CHANNELS":
+                if not stack or stack[-1].kind == "end":
+                    fail("CHANNELS outside a joint", line)
+                blk = stack[-1]
+                if blk.channels is not None:
+                    fail(f"joint {blk.name!r} has a second CHANNELS line", line)
+                if blk.index + 1 < len(names):
+                    fail(f"CHANNELS of joint {blk.name!r} must come before its child joints", line)
+                words, _ = rest_of_line(toks, k)
+                if not words:
+                    fail("CHANNELS without a count", line)
+                try:
+                    count = int(words[0])
+                except ValueError:
+                    fail(f"CHANNELS count {words[0]!r} is not an integer", line)
+                if not 0 <= count <= 6:
+                    fail(f"CHANNELS count {count} is not between 0 and 6", line)
+                given = words[1:]
+                if len(given) != count:
+                    fail(f"CHANNELS says {count} but names {len(given)}", line)
+                chans = []
+                for c in given:
+                    canon = _CHANNELS.get(c.lower())
+                    if canon is None:
+                        fail(f"unknown channel {c!r} (expected X/Y/Z position/rotation)", line)
+                    if canon in chans:
+                        fail(f"channel {canon} repeated", line)
+                    chans.append(canon)
+                blk.channels = channel_sets.setdefault(tuple(chans), tuple(chans))
+                k += 1 + len(words)
+                continue
+            if tok == "MOTION":
+                done = True
+                break
+            fail(f"unexpected {tok!r} in the hierarchy", line)
+        if done:
             break
-        fail(f"unexpected {tok!r} in the hierarchy", line)
 
+    if not seen_first:
+        fail("empty file: no HIERARCHY" if motion_line is None else "no HIERARCHY before MOTION", motion_line or 1)
     if pending is not None or stack:
         open_name = (pending or stack[-1]).name
         where = last_line if motion_line is None else motion_line
@@ -220,7 +237,7 @@ def _parse_hierarchy(path: Path, text: str, motion_line: int | None):
         fail("no ROOT joint in the hierarchy", motion_line or last_line)
     if motion_line is None:
         fail("truncated file: no MOTION section after the hierarchy", last_line)
-    offsets = np.array([b.offset for b in blocks], dtype=np.float64)
+    offsets = np.array([b.offset for b in blocks], dtype=np.float64).reshape(-1, 3)
     channels = tuple(b.channels for b in blocks)
     return names, parents, offsets, channels, end_parents, end_offsets
 
