@@ -275,3 +275,13 @@ def test_resample_in_blocks_equals_per_frame_interpolation():
             np.testing.assert_array_equal(r.rotations[k], want)
             np.testing.assert_allclose(r.root_positions[k], m.root_positions[i0] * (1 - a) + m.root_positions[i1] * a)
     assert np.isnan(r.rotations[1666:1700, 3]).all() and not np.isnan(r.rotations[1700:, 3]).any()
+
+
+def test_messages_about_missing_joints_list_a_few_names_not_all():
+    sk = Skeleton(tuple(f"j{j}" for j in range(5000)), np.arange(-1, 4999), np.ones((5000, 3)))
+    with pytest.raises(KeyError) as exc:
+        find_joint(sk, "left_foot")
+    msg = exc.value.args[0]
+    assert "j0, j1," in msg and msg.endswith("j39, ... (4,960 more)") and len(msg) < 400
+    with pytest.raises(KeyError, match=r"no joint 'x'; joints are: j0, .*j39, \.\.\. \(4,960 more\)"):
+        sk.index("x")

@@ -222,7 +222,7 @@ class Skeleton:
         try:
             return self.joint_names.index(name)
         except ValueError:
-            raise KeyError(f"no joint {name!r}; joints are: {', '.join(self.joint_names)}") from None
+            raise KeyError(f"no joint {name!r}; joints are: {_some_names(self.joint_names)}") from None
 
     def children(self, j: int) -> list[int]:
         return [int(c) for c in np.flatnonzero(self.parents == j)]
@@ -696,6 +696,12 @@ def _fk_kernel(parents, lrot, local, grot, gpos):
             gpos[f, j, 2] = gpos[f, p, 2] + r2
 
 
+def _some_names(names: Sequence[str], shown: int = 40) -> str:
+    """The first ``shown`` names joined by commas, then how many more: messages stay one short line."""
+    head = ", ".join(names[:shown])
+    return head if len(names) <= shown else f"{head}, ... ({len(names) - shown:,} more)"
+
+
 def _lerp(x: np.ndarray, i0: np.ndarray, i1: np.ndarray, a: np.ndarray, exact: np.ndarray) -> np.ndarray:
     """Linear interpolation of frames ``x[i0]`` to ``x[i1]`` (F, ...) by ``a`` (F,); ``exact`` rows copied as is."""
     w = a.reshape((-1,) + (1,) * (x.ndim - 1))
@@ -852,7 +858,7 @@ def find_joint(skeleton: Skeleton, role: str) -> int:
                 return j
     if role == "pelvis":
         return 0
-    raise KeyError(f"no joint plays the role {role!r} in skeleton with joints: {', '.join(skeleton.joint_names)}")
+    raise KeyError(f"no joint plays the role {role!r} in skeleton with joints: {_some_names(skeleton.joint_names)}")
 
 
 def standard_joints(skeleton: Skeleton, roles: Iterable[str] | None = None) -> dict[str, int]:
