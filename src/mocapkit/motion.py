@@ -36,6 +36,7 @@ __all__ = [
     "unit_scale_cm",
     "check_fps",
     "FPS_RANGE",
+    "MAX_JOINTS",
     "RESAMPLE_LIMIT_BYTES",
     "ROLES",
     "DEFAULT_ROOT_CHANNELS",
@@ -54,6 +55,12 @@ corrupt file (a BVH ``Frame Time: 1000`` is 0.001 fps), and resampling such a
 clip to a working rate would make millions of frames from a few hundred.
 Every reader and every :class:`Motion` refuses a rate outside it.
 """
+
+MAX_JOINTS = 100_000
+"""Most joints a skeleton may have. Human rigs have tens to a few hundred; a file
+declaring more is refused while it is read (reading, forward kinematics and
+writing are linear in joints, but a 50 MB BVH could declare 600,000 and take a
+minute and 1.6 GB to convert)."""
 
 RESAMPLE_LIMIT_BYTES = 256 * 2**20
 """Largest rotation array (F_new * J * 4 float64, in bytes) :meth:`Motion.resample` makes.
@@ -151,6 +158,8 @@ class Skeleton:
         J = len(names)
         if J == 0:
             raise SkeletonError("a skeleton needs at least one joint")
+        if J > MAX_JOINTS:
+            raise SkeletonError(f"{J:,} joints, more than the {MAX_JOINTS:,} a skeleton may have")
         if len(set(names)) != J:
             seen: set[str] = set()
             dup = sorted({n for n in names if n in seen or seen.add(n)})

@@ -622,3 +622,14 @@ def test_a_very_long_or_non_latin1_joint_name_is_looked_up_without_a_huge_table(
     renamed = dataclasses.replace(sk, joint_names=tuple(names))
     with pytest.raises(MocapFormatError, match=r"12_walk\.amc:\d+: AMC names joint 'lhumerus' that the ASF skeleton lacks"):
         read_amc(mocapkit.samples.path("12_walk.amc"), asf=renamed)
+
+
+def test_an_asf_with_more_bones_than_a_skeleton_may_hold_is_refused(monkeypatch):
+    from mocapkit.io import asfamc
+
+    monkeypatch.setattr(asfamc, "MAX_JOINTS", 10)
+    asf = mocapkit.samples.path("12.asf")
+    begins = [i + 1 for i, s in enumerate(asf.read_text(encoding="latin-1").splitlines()) if s.strip() == "begin"]
+    with pytest.raises(MocapFormatError) as exc:
+        read_asf(asf)
+    assert str(exc.value) == f"{asf}:{begins[9]}: more than 9 bones: not a skeleton mocapkit reads"

@@ -637,3 +637,24 @@ def test_names_with_single_inner_spaces_round_trip(tmp_path):
 
     m = dataclasses.replace(m, skeleton=dataclasses.replace(m.skeleton, joint_names=tuple(names)))
     assert read_bvh(mocapkit.save(m, tmp_path / "spaces.bvh")).skeleton.joint_names == tuple(names)
+
+
+def test_a_hierarchy_over_max_joints_is_refused_at_the_joint_that_passes_it(tmp_path, monkeypatch):
+    import mocapkit.io.bvh as bvh_module
+    import mocapkit.motion as motion_module
+
+    assert motion_module.MAX_JOINTS == 100_000
+    monkeypatch.setattr(bvh_module, "MAX_JOINTS", 500)
+    monkeypatch.setattr(motion_module, "MAX_JOINTS", 500)
+    ok = tmp_path / "ok.bvh"
+    ok.write_text(chain_bvh_text(500))
+    assert read_bvh(ok).num_joints == 500
+    big = tmp_path / "big.bvh"
+    big.write_text(chain_bvh_text(501))
+    with pytest.raises(MocapFormatError) as exc:
+        read_bvh(big)
+    assert str(exc.value) == f"{big}:{6 + 4 * 499}: more than 500 joints: not a skeleton mocapkit reads"
+    from mocapkit.errors import SkeletonError
+
+    with pytest.raises(SkeletonError, match="501 joints, more than the 500 a skeleton may have"):
+        Skeleton(tuple(f"j{j}" for j in range(501)), np.arange(-1, 500), np.zeros((501, 3)))

@@ -43,7 +43,7 @@ import numpy as np
 
 from .. import rotations as R
 from ..errors import MocapFormatError, SkeletonError
-from ..motion import Motion, Skeleton, check_fps
+from ..motion import MAX_JOINTS, Motion, Skeleton, check_fps
 
 __all__ = ["read_asf", "read_amc", "find_asf", "fps_from_name", "DEFAULT_FPS"]
 
@@ -154,6 +154,8 @@ def _parse_asf(path: Path) -> tuple[Skeleton, _Layout]:
             if key == "begin":
                 if bone is not None:
                     raise MocapFormatError(path, "begin inside a bone block (missing end)", ln)
+                if len(bones) + 1 >= MAX_JOINTS:  # the root is a joint too
+                    raise MocapFormatError(path, f"more than {MAX_JOINTS - 1:,} bones: not a skeleton mocapkit reads", ln)
                 bone = {"line": ln, "dof": [], "limits": [], "axis": [0.0, 0.0, 0.0], "axis_order": "xyz",
                         "direction": None, "length": None}
                 in_limits = False

@@ -24,7 +24,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import MocapFormatError, SkeletonError
-from ..motion import Motion, Skeleton, check_fps
+from ..motion import MAX_JOINTS, Motion, Skeleton, check_fps
 from . import atomic_write
 from ._numparse import line_of_offset, parse_floats
 
@@ -133,6 +133,8 @@ def _parse_hierarchy(path: Path, text: str, motion_line: int | None):
                 words, k = rest_of_line(toks, k)
                 if not words:
                     fail(f"{tok} without a name", line)
+                if len(names) >= MAX_JOINTS:
+                    fail(f"more than {MAX_JOINTS:,} joints: not a skeleton mocapkit reads", line)
                 name = " ".join(words)
                 pending = _Block("joint", len(names), name, line)
                 names.append(name)
