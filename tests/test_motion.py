@@ -227,3 +227,61 @@ def test_unit_scale_checks_bone_lengths():
     tiny = dataclasses.replace(bvh, offsets=bvh.offsets * 1e-4)
     with pytest.raises(SkeletonError, match="cannot tell the length unit"):
         unit_scale_cm(tiny)
+
+
+def test_frame_rates_outside_the_range_are_refused():
+    from mocapkit.motion import FPS_RANGE, check_fps
+
+    assert FPS_RANGE == (1.0, 1000.0)
+    assert check_fps(1) == 1.0 and check_fps(1000) == 1000.0
+    m = random_motion(12, frames=5)
+    for bad in (0.01, 0.999, 1000.5, float("inf"), float("nan"), -30.0, "fast"):
+        with pytest.raises(SkeletonError, match=r"fps must be a positive number from 1 to 1000"):
+            Motion(m.skeleton, m.rotations, m.root_positions, bad)
+        with pytest.raises(SkeletonError, match=r"from 1 to 1000"):
+            m.resample(bad)
+
+
+def test_resample_refuses_a_result_over_the_limit_before_allocating():
+    from mocapkit.errors import MocapError
+    from mocapkit.motion import RESAMPLE_LIMIT_BYTES
+
+    # 300 frames at 1 fps made 1000 fps: 299,001 frames x 31 joints x 32 bytes = 296 MB > 256 MiB
+    m = dataclasses.replace(random_motion(13, frames=300, joints=31), fps=1.0)
+    assert 299_001 * 31 * 32 > RESAMPLE_LIMIT_BYTES
+    with pytest.raises(MocapError, match=r"from 1 to 1000 fps would make 299,001 frames of 31 joints"):
+        m.resample(1000)
+    assert m.resample(100).num_frames == 29_901  # under the limit it works
+
+
+def test_resample_in_blocks_equals_per_frame_interpolation():
+    # 2,000 joints make blocks of 2,097 frames: 3,301 new frames take two blocks
+    m = random_motion(14, frames=100, joints=2000, with_translations=True)
+    rot = np.array(m.rotations)
+    rot[50, 3] = np.nan
+    m = dataclasses.replace(m, rotations=rot)
+    r = m.resample(1000)
+    assert r.num_frames == 3301 and r.fps == 1000.0
+    for k in (0, 1, 1665, 2096, 2097, 2098, 3299, 3300):
+        t = k * (30.0 / 1000.0)  # as resample computes it
+        i0 = min(int(np.floor(t + 1e-9)), 99)
+        i1 = min(i0 + 1, 99)
+        a = t - i0
+        if a == 0.0:
+            np.testing.assert_array_equal(r.rotations[k], m.rotations[i0])
+            np.testing.assert_array_equal(r.translations[k], m.translations[i0])
+        else:
+            want = R.slerp(m.rotations[i0], m.rotations[i1], np.full(2000, a))
+            np.testing.assert_array_equal(r.rotations[k], want)
+            np.testing.assert_allclose(r.root_positions[k], m.root_positions[i0] * (1 - a) + m.root_positions[i1] * a)
+    assert np.isnan(r.rotations[1666:1700, 3]).all() and not np.isnan(r.rotations[1700:, 3]).any()
+
+
+def test_messages_about_missing_joints_list_a_few_names_not_all():
+    sk = Skeleton(tuple(f"j{j}" for j in range(5000)), np.arange(-1, 4999), np.ones((5000, 3)))
+    with pytest.raises(KeyError) as exc:
+        find_joint(sk, "left_foot")
+    msg = exc.value.args[0]
+    assert "j0, j1," in msg and msg.endswith("j39, ... (4,960 more)") and len(msg) < 400
+    with pytest.raises(KeyError, match=r"no joint 'x'; joints are: j0, .*j39, \.\.\. \(4,960 more\)"):
+        sk.index("x")

@@ -14,6 +14,7 @@ from mocapkit.io.asfamc import find_asf, fps_from_name, read_amc, read_asf
 from mocapkit.motion import Motion, unit_scale_cm
 from mocapkit.rotations import euler_to_quaternion, geodesic_angle
 from tests.naive import naive_amc_parse, naive_asf_parse, naive_asfamc_fk
+from tests.io.bounded import run_bounded
 
 SAMPLES = [
     ("12_walk.amc", "12.asf"),
@@ -527,3 +528,108 @@ def test_amc_motions_round_trip_through_bvh_and_npz(tmp_path, shared_data):
             got = back.global_positions(end_sites=True)
             tol = 1e-5 * size if suffix == ".bvh" else 0.0  # BVH holds 6 decimals; npz is exact
             np.testing.assert_allclose(got, ref, atol=tol, rtol=0, err_msg=f"{f.name} via {suffix}")
+
+
+def test_a_frame_rate_outside_1_to_1000_fps_is_refused(tmp_path):
+    amc = mocapkit.samples.path("12_walk.amc")
+    asf = mocapkit.samples.path("12.asf")
+    for fps in (0.01, 1e6):
+        with pytest.raises(MocapFormatError) as exc:
+            read_amc(amc, asf=asf, fps=fps)
+        assert str(exc.value) == (
+            f"{amc}: frame rate: fps must be a positive number from 1 to 1000 (frames per second), got {fps!r}"
+        )
+
+
+def test_missing_skeleton_says_how_to_name_one_on_the_command_line_and_in_python(tmp_path):
+    amc = tmp_path / "09_01.amc"
+    amc.write_bytes(mocapkit.samples.path("12_walk.amc").read_bytes())
+    with pytest.raises(MocapFormatError) as exc:
+        read_amc(amc)
+    msg = str(exc.value)
+    assert msg.endswith("name the skeleton with --asf FILE (command line) or asf=FILE (Python)") and "\n" not in msg
+
+
+@pytest.mark.parametrize("chunk", [300, 4096])
+def test_frames_straddling_chunks_read_as_one_piece(tmp_path, walk, monkeypatch, chunk):
+    # the body is parsed in pieces of about _CHUNK_BYTES; tiny pieces split frames and bone lines everywhere
+    from mocapkit.io import asfamc
+
+    lines, start, second = walk
+    asf = mocapkit.samples.path("12.asf")
+    text = list(lines)
+    text.insert(second + 3, "# a comment between two bone lines")
+    path = _write(tmp_path, "walk.amc", text)
+    whole = read_amc(path, asf=asf)
+    monkeypatch.setattr(asfamc, "_CHUNK_BYTES", chunk)
+    pieces = read_amc(path, asf=asf)
+    np.testing.assert_array_equal(pieces.rotations, whole.rotations)
+    np.testing.assert_array_equal(pieces.root_positions, whole.root_positions)
+    first_bone = lines[start + 2]
+    cases = [
+        ("twice.amc", _edit(lines, second + 20, first_bone), second + 21, r"appears twice in frame 2"),
+        ("gap.amc", _edit(lines, second, "5"), second + 1, r"frame 5 follows frame 1"),
+        ("unknown.amc", _edit(lines, second + 25, "tail 1 2 3"), second + 26, r"AMC names joint 'tail'"),
+    ]
+    for name, bad, line, message in cases:
+        with pytest.raises(MocapFormatError, match=rf"{re.escape(name)}:{line}: (.* )?{message}"):
+            read_amc(_write(tmp_path, name, bad), asf=asf)
+    with pytest.raises(MocapFormatError, match=r"trunc\.amc:\d+: truncated: the last frame \(2\) lists 4 of 29 joints"):
+        read_amc(_write(tmp_path, "trunc.amc", lines[: second + 5]), asf=asf)
+
+
+def test_an_overlong_line_is_refused_without_parsing_it(tmp_path, walk):
+    lines, start, second = walk
+    path = _write(tmp_path, "long.amc", lines[: second + 1] + ["lowerback " + "1 " * 600_000] + lines[second + 1 :])
+    with pytest.raises(MocapFormatError, match=rf"long\.amc:{second + 2}: line longer than 1,048,576 bytes"):
+        read_amc(path, asf=mocapkit.samples.path("12.asf"))
+
+
+def test_reading_a_large_amc_holds_a_small_multiple_of_the_file(tmp_path, walk):
+    # the reader held about 19x the file (its vectorised temporaries over the whole text) before checking lines
+    lines, start, second = walk
+    frame = lines[start + 1 : second]  # the bone lines of frame 1
+    out = lines[:start]
+    for k in range(1, 12_001):
+        out.append(str(k))
+        out.extend(frame)
+    path = _write(tmp_path, "long_take.amc", out)
+    size = path.stat().st_size
+    assert size > 8_000_000
+    code = f"""
+    import resource
+    import mocapkit
+    from mocapkit.io.asfamc import read_amc
+    asf = mocapkit.samples.path("12.asf")
+    read_amc(mocapkit.samples.path("12_walk.amc"), asf=asf)  # compiled and warmed up
+    before = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+    m = read_amc({str(path)!r}, asf=asf)
+    print(m.num_frames, (resource.getrusage(resource.RUSAGE_SELF).ru_maxrss - before) * 1024)
+    """
+    res = run_bounded(code)
+    assert res.returncode == 0, res.stderr[-2000:]
+    frames, growth = map(int, res.stdout.split())
+    assert frames == 12_000
+    assert growth < 4 * size, growth / size  # the Motion itself is about 1.3x the text
+
+
+@pytest.mark.parametrize("new_name", ["x" * 2**20, "lhumérus✓"])
+def test_a_very_long_or_non_latin1_joint_name_is_looked_up_without_a_huge_table(new_name):
+    # names are matched through a (joints, longest name) byte table: 31 joints x 1 MiB would be 31 MiB per chunk
+    sk = read_asf(mocapkit.samples.path("12.asf"))
+    names = list(sk.joint_names)
+    names[names.index("lhumerus")] = new_name
+    renamed = dataclasses.replace(sk, joint_names=tuple(names))
+    with pytest.raises(MocapFormatError, match=r"12_walk\.amc:\d+: AMC names joint 'lhumerus' that the ASF skeleton lacks"):
+        read_amc(mocapkit.samples.path("12_walk.amc"), asf=renamed)
+
+
+def test_an_asf_with_more_bones_than_a_skeleton_may_hold_is_refused(monkeypatch):
+    from mocapkit.io import asfamc
+
+    monkeypatch.setattr(asfamc, "MAX_JOINTS", 10)
+    asf = mocapkit.samples.path("12.asf")
+    begins = [i + 1 for i, s in enumerate(asf.read_text(encoding="latin-1").splitlines()) if s.strip() == "begin"]
+    with pytest.raises(MocapFormatError) as exc:
+        read_asf(asf)
+    assert str(exc.value) == f"{asf}:{begins[9]}: more than 9 bones: not a skeleton mocapkit reads"

@@ -15,6 +15,7 @@ from mocapkit.io.bvh import read_bvh, write_bvh
 from mocapkit.motion import Motion, Skeleton
 from mocapkit.rotations import euler_to_quaternion, geodesic_angle, quaternion_normalize
 from tests.naive import naive_bvh_fk, naive_bvh_parse
+from tests.io.bounded import refusal_of_load, run_bounded
 
 
 def skeleton_size(m: Motion) -> float:
@@ -514,3 +515,146 @@ def test_unknown_suffix_and_missing_file(tmp_path):
         mocapkit.load("x.xyz")
     with pytest.raises(MocapFormatError, match="no such file"):
         mocapkit.load(tmp_path / "absent.bvh")
+
+
+def test_a_frame_rate_outside_1_to_1000_fps_is_refused_at_reading(tmp_path):
+    # 300 frames with "Frame Time: 1000" (0.001 fps): `clean` once resampled it to 7,176,001 frames (24 GB)
+    m = mocapkit.load(mocapkit.samples.path("131_01.bvh"))[:300]
+    good = tmp_path / "good.bvh"
+    write_bvh(m, good)
+    lines = good.read_text().split("\n")
+    k = next(i for i, s in enumerate(lines) if s.startswith("Frame Time:"))
+    for frame_time, bad in (("1000", "0.001"), ("0.0001", "10000.0")):
+        lines[k] = f"Frame Time: {frame_time}"
+        slow = tmp_path / f"rate_{frame_time}.bvh"
+        slow.write_text("\n".join(lines))
+        msg = refusal_of_load(slow)
+        assert msg.startswith(f"{slow}:{k + 1}: Frame Time {frame_time} s: fps must be a positive number from 1 to 1000")
+        assert msg.endswith(f"got {bad}")
+
+
+def chain_bvh_text(depth: int, frames: int = 2) -> str:
+    """A BVH of one chain ``depth`` joints deep, no indentation, every rotation 0.5 degrees."""
+    lines = ["HIERARCHY", "ROOT j0", "{", "OFFSET 0 0 0", "CHANNELS 6 Xposition Yposition Zposition Zrotation Yrotation Xrotation"]
+    for j in range(1, depth):
+        lines += [f"JOINT j{j}", "{", "OFFSET 0 1 0", "CHANNELS 3 Zrotation Yrotation Xrotation"]
+    lines += ["End Site", "{", "OFFSET 0 1 0", "}"] + ["}"] * depth
+    lines += ["MOTION", f"Frames: {frames}", "Frame Time: 0.0333333"]
+    lines += [" ".join(["0.5"] * (3 + 3 * depth))] * frames
+    return "\n".join(lines) + "\n"
+
+
+def test_deep_chains_are_written_in_linear_size_and_read_back_identically(tmp_path):
+    # the writer indented each line by its depth: a 3,000-deep chain came out 41x its input, 100,000 deep ran out of memory
+    sizes = {}
+    for depth in (1500, 3000):
+        src = tmp_path / f"chain_{depth}.bvh"
+        src.write_text(chain_bvh_text(depth))
+        m = read_bvh(src)
+        out = tmp_path / f"chain_{depth}_out.bvh"
+        write_bvh(m, out)
+        sizes[depth] = out.stat().st_size
+        assert sizes[depth] < 4 * src.stat().st_size
+        back = read_bvh(out)
+        assert back.skeleton == m.skeleton and back.skeleton.channels == m.skeleton.channels
+        np.testing.assert_allclose(back.rotations, m.rotations, rtol=0, atol=1e-12)
+        np.testing.assert_array_equal(back.global_positions(), m.global_positions())
+    assert sizes[3000] < 2.05 * sizes[1500]  # linear, not quadratic, in depth
+
+
+def test_fk_of_a_deep_chain_matches_naive_matrices():
+    m = Motion(
+        Skeleton(tuple(f"j{j}" for j in range(2000)), np.arange(-1, 1999), np.tile([0.0, 1.0, 0.0], (2000, 1))),
+        quaternion_normalize(np.random.default_rng(3).normal(size=(2, 2000, 4))),
+        np.zeros((2, 3)),
+        fps=30.0,
+    )
+    gpos = m.global_positions()
+    # the naive product of rotation matrices along the chain, frame 1
+    from mocapkit.rotations import to_scipy
+
+    mats = to_scipy(m.rotations[1]).as_matrix()
+    pos = m.root_positions[1].copy()
+    rot = mats[0]
+    for j in range(1, 2000):
+        pos = pos + rot @ m.skeleton.offsets[j]
+        rot = rot @ mats[j]
+        if j in (1, 999, 1999):
+            np.testing.assert_allclose(gpos[1, j], pos, rtol=0, atol=1e-9 * j)
+
+
+def test_a_20_000_joint_chain_is_read_walked_and_written_within_2_gib(tmp_path):
+    src = tmp_path / "chain.bvh"
+    src.write_text(chain_bvh_text(20_000, frames=1))
+    code = f"""
+    from mocapkit.io.bvh import read_bvh, write_bvh
+    m = read_bvh({str(src)!r})
+    m.global_positions()
+    write_bvh(m, {str(tmp_path / 'out.bvh')!r})
+    back = read_bvh({str(tmp_path / 'out.bvh')!r})
+    print(back.num_joints, back.skeleton == m.skeleton)
+    """
+    res = run_bounded(code)
+    assert res.returncode == 0, res.stderr[-2000:]
+    assert res.stdout.split() == ["20000", "True"]
+    assert (tmp_path / "out.bvh").stat().st_size < 4 * src.stat().st_size
+
+
+@pytest.mark.parametrize(
+    "name, problem",
+    [
+        ("lone\ud800surrogate", "is not encodable as UTF-8"),
+        ("tab\tname", "holds whitespace"),
+        ("new\nline", "holds whitespace"),
+        ("two  spaces", "holds whitespace"),
+        (" leading", "holds whitespace"),
+        ("brace{", "holds a brace"),
+        ("}", "holds a brace"),
+        ("", "is empty"),
+    ],
+)
+def test_names_bvh_cannot_hold_are_refused_before_writing(tmp_path, name, problem):
+    m = mocapkit.load(mocapkit.samples.path("131_01.bvh"))[:3]
+    names = list(m.skeleton.joint_names)
+    names[5] = name
+    import dataclasses
+
+    m = dataclasses.replace(m, skeleton=dataclasses.replace(m.skeleton, joint_names=tuple(names)))
+    out = tmp_path / "named.bvh"
+    with pytest.raises(MocapFormatError) as exc:
+        write_bvh(m, out)
+    msg = str(exc.value)
+    assert msg.startswith(f"{out}: joint 5 name {ascii(name)} {problem}") and "\n" not in msg
+    msg.encode("utf-8")  # the message itself can be printed
+    assert not out.exists() and list(tmp_path.iterdir()) == []
+
+
+def test_names_with_single_inner_spaces_round_trip(tmp_path):
+    m = mocapkit.load(mocapkit.samples.path("131_01.bvh"))[:3]
+    names = list(m.skeleton.joint_names)
+    names[1:3] = ["Bip01 L Thigh", "Bip01 L Calf é"]
+    import dataclasses
+
+    m = dataclasses.replace(m, skeleton=dataclasses.replace(m.skeleton, joint_names=tuple(names)))
+    assert read_bvh(mocapkit.save(m, tmp_path / "spaces.bvh")).skeleton.joint_names == tuple(names)
+
+
+def test_a_hierarchy_over_max_joints_is_refused_at_the_joint_that_passes_it(tmp_path, monkeypatch):
+    import mocapkit.io.bvh as bvh_module
+    import mocapkit.motion as motion_module
+
+    assert motion_module.MAX_JOINTS == 100_000
+    monkeypatch.setattr(bvh_module, "MAX_JOINTS", 500)
+    monkeypatch.setattr(motion_module, "MAX_JOINTS", 500)
+    ok = tmp_path / "ok.bvh"
+    ok.write_text(chain_bvh_text(500))
+    assert read_bvh(ok).num_joints == 500
+    big = tmp_path / "big.bvh"
+    big.write_text(chain_bvh_text(501))
+    with pytest.raises(MocapFormatError) as exc:
+        read_bvh(big)
+    assert str(exc.value) == f"{big}:{6 + 4 * 499}: more than 500 joints: not a skeleton mocapkit reads"
+    from mocapkit.errors import SkeletonError
+
+    with pytest.raises(SkeletonError, match="501 joints, more than the 500 a skeleton may have"):
+        Skeleton(tuple(f"j{j}" for j in range(501)), np.arange(-1, 500), np.zeros((501, 3)))

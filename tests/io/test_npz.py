@@ -6,6 +6,7 @@ from mocapkit.errors import MocapFormatError
 from mocapkit.io.c3d import read_c3d
 
 from ..test_motion import random_motion
+from .bounded import refusal_of_load
 
 
 @pytest.mark.parametrize("kw", [{}, {"with_axes": True}, {"with_translations": True}])
@@ -56,3 +57,114 @@ def test_bad_npz_files(tmp_path):
     cut.write_bytes(good.read_bytes()[:200])
     with pytest.raises(MocapFormatError, match="cut.npz"):
         mocapkit.load(cut)
+
+
+def test_a_frame_rate_outside_1_to_1000_fps_is_refused(tmp_path):
+    # `denoise` on an npz at fps 0.01 used 8 GB
+    m = random_motion(15, frames=300)
+    path = mocapkit.save(m, tmp_path / "m.npz")
+    with np.load(path) as z:
+        arrays = dict(z)
+    for fps in (0.01, 5000.0):
+        arrays["fps"] = np.array(fps)
+        bad = tmp_path / f"fps_{fps:g}.npz"
+        np.savez(bad, **arrays)
+        msg = refusal_of_load(bad)
+        assert msg == f"{bad}: fps must be a positive number from 1 to 1000 (frames per second), got {fps!r}"
+
+
+def test_names_npz_would_change_are_refused_and_others_round_trip(tmp_path):
+    import dataclasses
+
+    m = random_motion(16, frames=3)
+    names = list(m.skeleton.joint_names)
+    names[2] = "lone\ud800 tab\there"  # npz holds these
+    ok = dataclasses.replace(m, skeleton=dataclasses.replace(m.skeleton, joint_names=tuple(names)))
+    assert mocapkit.load(mocapkit.save(ok, tmp_path / "ok.npz")).skeleton.joint_names == tuple(names)
+    names[3] = "nul\x00"  # numpy drops trailing NULs
+    bad = dataclasses.replace(m, skeleton=dataclasses.replace(m.skeleton, joint_names=tuple(names)))
+    out = tmp_path / "bad.npz"
+    with pytest.raises(MocapFormatError, match=r"bad\.npz: joint 3 name 'nul\\x00' ends in a NUL character"):
+        mocapkit.save(bad, out)
+    assert not out.exists()
+
+
+def _patch_declared_size(path, member: str, size: int) -> None:
+    """Make the zip's local and central headers of ``member`` declare ``size`` uncompressed bytes."""
+    import struct
+    import zipfile
+
+    data = bytearray(path.read_bytes())
+    with zipfile.ZipFile(path) as zf:
+        info = zf.getinfo(member)
+    struct.pack_into("<I", data, info.header_offset + 22, size)  # local header: uncompressed size
+    name = member.encode()
+    central = data.find(b"PK\x01\x02")
+    while data[central + 46 : central + 46 + len(name)] != name:  # the entry of ``member``
+        central = data.find(b"PK\x01\x02", central + 4)
+        assert central > 0
+    struct.pack_into("<I", data, central + 24, size)  # central directory: uncompressed size
+    path.write_bytes(bytes(data))
+
+
+def test_an_npz_bomb_is_refused_from_its_declared_shape_before_inflating(tmp_path):
+    # a 4.2 MB file holding a 4 GB array loaded (and was copied again: 9 GB); here the member's .npy header
+    # and the zip directory declare 3.5 GiB of float64 while the stream holds a little: it must be refused
+    # on the declaration, inside a 2 GiB address space
+    import struct
+    import zipfile
+
+    m = random_motion(17, frames=10)
+    path = mocapkit.save(m, tmp_path / "bomb.npz")
+    with np.load(path) as z:
+        arrays = dict(z)
+    n = 3584 * 2**20 // 8
+    hdr = np.lib.format.header_data_from_array_1_0(np.zeros(1))
+    hdr["shape"] = (n // 124, 31, 4)
+    import io
+
+    buf = io.BytesIO()
+    np.lib.format.write_array_header_1_0(buf, hdr)
+    raw = buf.getvalue() + bytes(2**20)
+    with zipfile.ZipFile(path, "w", compression=zipfile.ZIP_DEFLATED) as zf:
+        for key, a in arrays.items():
+            if key == "rotations":
+                zf.writestr("rotations.npy", raw)
+            else:
+                b = io.BytesIO()
+                np.save(b, a)
+                zf.writestr(f"{key}.npy", b.getvalue())
+    declared = len(buf.getvalue()) + (n // 124) * 124 * 8
+    _patch_declared_size(path, "rotations.npy", declared)
+    msg = refusal_of_load(path)
+    assert msg.startswith(f"{path}: array 'rotations' of shape ({n // 124}, 31, 4) and dtype float64 brings the arrays to")
+    assert msg.endswith("over the 536,870,912-byte limit (refused before inflating)")
+
+
+def test_load_arrays_counts_every_member_and_small_dtypes_as_float64(tmp_path):
+    from mocapkit.io.npz import load_arrays
+
+    path = tmp_path / "a.npz"
+    np.savez_compressed(path, a=np.zeros((1000, 100), dtype=np.int8), b=np.zeros(100))
+    assert set(load_arrays(path, max_bytes=1000 * 100 * 8 + 800)) == {"a", "b"}
+    with pytest.raises(MocapFormatError, match=r"a\.npz: array 'a' of shape \(1000, 100\) and dtype int8 brings the arrays to 800,000 bytes"):
+        load_arrays(path, max_bytes=799_999)
+    with pytest.raises(MocapFormatError, match=r"array 'b' .* 800,800 bytes, over the 800,799-byte limit"):
+        load_arrays(path, max_bytes=800_799)
+    obj = tmp_path / "obj.npz"
+    np.savez(obj, o=np.array([{"a": 1}], dtype=object))
+    with pytest.raises(MocapFormatError, match=r"obj\.npz: array 'o' holds Python objects"):
+        load_arrays(obj)
+
+
+def test_a_zip_listing_too_many_members_is_refused_before_its_directory_is_parsed(tmp_path):
+    import zipfile
+
+    from mocapkit.io.npz import load_arrays
+
+    path = tmp_path / "many.npz"
+    with zipfile.ZipFile(path, "w") as zf:
+        for i in range(300):
+            zf.writestr(f"m{i}.npy", b"")
+    with pytest.raises(MocapFormatError, match=r"many\.npz: the zip lists 300 members, more than the 200 an npz may have"):
+        load_arrays(path, max_members=200)

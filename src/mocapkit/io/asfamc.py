@@ -24,11 +24,13 @@ semantics, so the ASF is converted on reading:
 
 The AMC root line's translations become ``Motion.root_positions`` (ASF units).
 
-Reading is vectorised: the AMC body is scanned with numpy for the bone name
-starting each line, the names are blanked and every number is parsed in one
-pass (:func:`mocapkit.io._numparse.parse_floats`); the frame structure is then
-checked on arrays, and Euler angles become quaternions per group of joints
-sharing a dof order.
+Reading is vectorised and chunked: the AMC body is cut into pieces of about
+1 MiB of whole lines; in each, numpy finds the bone name starting each line,
+the names are blanked and every number is parsed in one pass
+(:func:`mocapkit.io._numparse.parse_floats`); the frame structure is checked on
+arrays (a frame straddling two pieces is carried over), and Euler angles
+become quaternions per group of joints sharing a dof order. Memory stays a
+small multiple of the file (the text, the value tables, the motion).
 """
 
 from __future__ import annotations
@@ -40,8 +42,8 @@ from pathlib import Path
 import numpy as np
 
 from .. import rotations as R
-from ..errors import MocapFormatError
-from ..motion import Motion, Skeleton
+from ..errors import MocapFormatError, SkeletonError
+from ..motion import MAX_JOINTS, Motion, Skeleton, check_fps
 
 __all__ = ["read_asf", "read_amc", "find_asf", "fps_from_name", "DEFAULT_FPS"]
 
@@ -152,6 +154,8 @@ def _parse_asf(path: Path) -> tuple[Skeleton, _Layout]:
             if key == "begin":
                 if bone is not None:
                     raise MocapFormatError(path, "begin inside a bone block (missing end)", ln)
+                if len(bones) + 1 >= MAX_JOINTS:  # the root is a joint too
+                    raise MocapFormatError(path, f"more than {MAX_JOINTS - 1:,} bones: not a skeleton mocapkit reads", ln)
                 bone = {"line": ln, "dof": [], "limits": [], "axis": [0.0, 0.0, 0.0], "axis_order": "xyz",
                         "direction": None, "length": None}
                 in_limits = False
@@ -398,7 +402,7 @@ def find_asf(amc) -> Path:
     raise MocapFormatError(
         amc,
         f"no skeleton: looked for {wanted} (or another ASF named by a prefix of {amc.stem!r}) "
-        f"and found {found} there; pass asf=",
+        f"and found {found} there; name the skeleton with --asf FILE (command line) or asf=FILE (Python)",
     )
 
 
@@ -484,30 +488,106 @@ def read_amc(path, asf=None, fps: float | None = None) -> Motion:
     body_at, first_line, radians = _amc_header(data)
     if radians is None:
         radians = layout.radians
-    values, frames, (F, ncols) = _parse_amc_body(path, data[body_at:], first_line, skeleton, layout, asf_name)
-    table = np.zeros((F, ncols))
-    table.reshape(-1)[frames] = values
-    rotations, root = _to_motion_arrays(table, skeleton, layout, radians)
-    rate = float(fps) if fps is not None else (fps_from_name(path.stem) or DEFAULT_FPS)
+    tables = _parse_amc_body(path, data, body_at, first_line, skeleton, layout, asf_name)
+    del data  # the text is no longer needed: free it before the rotations are made
+    F = sum(t.shape[0] for t in tables)
+    rotations = np.empty((F, skeleton.num_joints, 4))
+    root = np.empty((F, 3))
+    r0 = 0
+    while tables:  # chunk by chunk, each table freed once converted
+        t = tables.pop(0)
+        rotations[r0 : r0 + t.shape[0]], root[r0 : r0 + t.shape[0]] = _to_motion_arrays(t, skeleton, layout, radians)
+        r0 += t.shape[0]
+        del t
+    try:
+        rate = check_fps(fps if fps is not None else (fps_from_name(path.stem) or DEFAULT_FPS))
+    except SkeletonError as exc:
+        raise MocapFormatError(path, f"frame rate: {exc}") from None
     return Motion(skeleton=skeleton, rotations=rotations, root_positions=root, fps=rate, name=path.stem)
 
 
-def _parse_amc_body(path, body: bytes, first_line: int, skeleton: Skeleton, layout: _Layout, asf_name: str):
-    """Parse and check the frames; returns (values, flat table indices, (F, columns))."""
+_CHUNK_BYTES = 1 << 20
+"""The AMC body is parsed in pieces of about this many bytes (whole lines), so that the
+vectorised parser's temporaries (about 20 bytes per byte of text) stay a few tens of MB
+whatever the file's size; frames may straddle pieces."""
+
+_MAX_LINE_BYTES = 1 << 20
+"""An AMC line holds a bone name and a few numbers; a longer line is refused, not parsed
+(with chunks of at least this size such a line always spans a chunk's cut, where it is measured)."""
+
+
+@dataclass
+class _Frames:
+    """What the chunks have found so far: finished tables and the frame still open at a chunk's end."""
+
+    tables: list  # (F_c, columns) arrays, one per chunk that starts frames
+    count: int = 0  # frames started so far
+    last_number: float = 0.0  # frame number of the open (last) frame
+    open_seen: np.ndarray | None = None  # (J,) joints listed so far in the open frame
+    open_joints: int = 0  # joints with values listed so far in the open frame
+    most_joints: int = 0  # most joints with values in any finished frame
+
+
+def _parse_amc_body(path, data: bytes, body_at: int, first_line: int, skeleton: Skeleton, layout: _Layout,
+                    asf_name: str) -> list[np.ndarray]:
+    """Parse and check the frames chunk by chunk; returns the (F_c, columns) value tables in frame order.
+
+    Each chunk is whole lines of about :data:`_CHUNK_BYTES`; a frame that
+    straddles chunks is continued (its joints, duplicates and values carried
+    over), so memory is the tables plus one chunk's temporaries.
+    """
+    n = len(data)
+    J = skeleton.num_joints
+    ndof = np.array([len(d) for d in layout.dofs], dtype=np.int64)
+    col0 = np.concatenate([[0], np.cumsum(ndof)])
+    state = _Frames(tables=[], open_seen=np.zeros(J, dtype=bool))
+    pos, line = body_at, first_line
+    any_line = False
+    while pos < n:
+        cut = min(pos + _CHUNK_BYTES, n - 1)
+        end = data.find(b"\n", cut)
+        end = n if end < 0 else end + 1
+        # A line longer than the chunk size always spans the cut: that is the one line to measure.
+        cut_line_at = data.rfind(b"\n", pos, cut) + 1 or pos
+        if end - cut_line_at > _MAX_LINE_BYTES:
+            raise MocapFormatError(path, f"line longer than {_MAX_LINE_BYTES:,} bytes: not an AMC frame or bone line",
+                                   line + data.count(b"\n", pos, cut_line_at))
+        any_line = True
+        chunk = data[pos:end]
+        if b"#" in chunk:
+            chunk = re.sub(rb"#[^\n]*", b"", chunk)
+        _parse_chunk(path, chunk, line, skeleton, layout, asf_name, ndof, col0, state)
+        line += chunk.count(b"\n")
+        pos = end
+    if not any_line:
+        raise MocapFormatError(path, "no frames: the file holds a header only")
+    if state.count == 0:
+        raise MocapFormatError(path, "no frames: no frame-number line after the header")
+    last, most = state.open_joints, max(state.most_joints, state.open_joints)
+    if last < most or last == 0:
+        last_line = line - (1 if data.endswith(b"\n") else 0)
+        raise MocapFormatError(
+            path, f"truncated: the last frame ({state.last_number:.0f}) lists {last} of {most} joints", last_line
+        )
+    return state.tables
+
+
+def _parse_chunk(path, body: bytes, first_line: int, skeleton: Skeleton, layout: _Layout, asf_name: str,
+                 ndof: np.ndarray, col0: np.ndarray, state: _Frames) -> None:
+    """Parse whole lines ``body`` (1-based first line ``first_line``), check them and add their frames to ``state``."""
     from ._numparse import line_of_offset, parse_floats
 
-    if b"#" in body:
-        body = re.sub(rb"#[^\n]*", b"", body)
     arr = np.frombuffer(body, dtype=np.uint8)
     n = arr.shape[0]
     newlines = np.flatnonzero(arr == 10)
     n_lines = newlines.shape[0] + (1 if n and arr[-1] != 10 else 0)
     if n_lines == 0:
-        raise MocapFormatError(path, "no frames: the file holds a header only")
+        return
     line_starts = np.concatenate([[0], newlines + 1])[:n_lines]
     line_ends = np.concatenate([newlines, [n]])[:n_lines]
+    del newlines
 
-    def where(k: int) -> int:  # 1-based file line of body line k
+    def where(k: int) -> int:  # 1-based file line of chunk line k
         return first_line + int(k)
 
     # The first token of every line: a bone name starts with anything but a digit, sign or point.
@@ -515,6 +595,7 @@ def _parse_amc_body(path, body: bytes, first_line: int, skeleton: Skeleton, layo
     tok_start = np.flatnonzero(solid & ~np.concatenate([[False], solid[:-1]]))
     k = np.searchsorted(tok_start, line_starts)
     first = np.append(tok_start, n)[k]
+    del tok_start, k
     has_token = first < line_ends
     c0 = np.where(has_token, np.append(arr, np.uint8(32))[first], 48)
     numeric_start = ((c0 >= 48) & (c0 <= 57)) | (c0 == 43) | (c0 == 45) | (c0 == 46)
@@ -523,17 +604,20 @@ def _parse_amc_body(path, body: bytes, first_line: int, skeleton: Skeleton, layo
     name_starts = first[name_lines]
     gaps = np.flatnonzero(~solid)
     name_ends = np.append(gaps, n)[np.searchsorted(gaps, name_starts)]
+    del gaps, solid
     # Blank the names out and parse every remaining number at once.
     mark = np.zeros(n + 1, dtype=np.int8)
     mark[name_starts] = 1
     mark[name_ends] -= 1
     numbers = arr.copy()
     numbers[np.cumsum(mark[:n], dtype=np.int8).astype(bool)] = 32
+    del mark
     values, counts, err = parse_floats(numbers)
     if err >= 0:
         ln = line_of_offset(numbers, err)
         tok = body[err:].split(None, 1)[0].decode("latin-1")
         raise MocapFormatError(path, f"non-numeric value {tok!r}", where(ln))
+    del numbers
     if counts.shape[0] < n_lines:
         counts = np.concatenate([counts, np.zeros(n_lines - counts.shape[0], dtype=counts.dtype)])
     infinite = np.flatnonzero(np.isinf(values))
@@ -543,8 +627,6 @@ def _parse_amc_body(path, body: bytes, first_line: int, skeleton: Skeleton, layo
     value_at = np.concatenate([[0], np.cumsum(counts)])[:-1]  # index of each line's first number
 
     frame_lines = np.flatnonzero(has_token & ~is_name)
-    if frame_lines.shape[0] == 0:
-        raise MocapFormatError(path, "no frames: no frame-number line after the header")
     bad = frame_lines[counts[frame_lines] != 1]
     if bad.size:
         raise MocapFormatError(
@@ -555,16 +637,17 @@ def _parse_amc_body(path, body: bytes, first_line: int, skeleton: Skeleton, layo
     if nonint.size:
         i = nonint[0]
         raise MocapFormatError(path, f"frame number {numbers_of_frames[i]!r} is not an integer", where(frame_lines[i]))
-    if name_lines.size and name_lines[0] < frame_lines[0]:
+    carried = name_lines < (frame_lines[0] if frame_lines.size else len(line_starts))
+    if state.count == 0 and np.any(carried):
         raise MocapFormatError(path, "bone values before the first frame number", where(name_lines[0]))
-    jumps = np.flatnonzero(np.diff(numbers_of_frames) != 1)
+    chain = numbers_of_frames if state.count == 0 else np.concatenate([[state.last_number], numbers_of_frames])
+    jumps = np.flatnonzero(np.diff(chain) != 1)
     if jumps.size:
         i = jumps[0]
-        a, b = numbers_of_frames[i], numbers_of_frames[i + 1]
-        raise MocapFormatError(
-            path, f"frame {b:.0f} follows frame {a:.0f}: frame numbers must be consecutive", where(frame_lines[i + 1])
-        )
-    F = frame_lines.shape[0]
+        a, b = chain[i], chain[i + 1]
+        at = frame_lines[i + (0 if state.count == 0 else -1) + 1]
+        raise MocapFormatError(path, f"frame {b:.0f} follows frame {a:.0f}: frame numbers must be consecutive", where(at))
+    Fc = frame_lines.shape[0]
 
     # Bones: name -> joint, check the value counts.
     ids = _token_ids(arr, name_starts, name_ends, skeleton.joint_names)
@@ -573,7 +656,6 @@ def _parse_amc_body(path, body: bytes, first_line: int, skeleton: Skeleton, layo
         i = unknown[0]
         name = body[name_starts[i] : name_ends[i]].decode("latin-1")
         raise MocapFormatError(path, f"AMC names joint {name!r} that the ASF {asf_name} lacks", where(name_lines[i]))
-    ndof = np.array([len(d) for d in layout.dofs], dtype=np.int64)
     got = counts[name_lines]
     wrong = np.flatnonzero(got != ndof[ids])
     if wrong.size:
@@ -582,38 +664,58 @@ def _parse_amc_body(path, body: bytes, first_line: int, skeleton: Skeleton, layo
         raise MocapFormatError(
             path, f"joint {joint} needs {ndof[ids[i]]} values ({dofs}), got {got[i]}", where(name_lines[i])
         )
-    frame_of = np.searchsorted(frame_lines, name_lines) - 1
+    # Row 0 is the frame left open by the previous chunk; rows 1.. this chunk's frames.
+    row = np.searchsorted(frame_lines, name_lines)
     J = skeleton.num_joints
-    key = frame_of * J + ids
-    seen = np.bincount(key, minlength=F * J)
-    if np.any(seen > 1):
-        repeated = np.ones(key.shape[0], dtype=bool)
-        repeated[np.unique(key, return_index=True)[1]] = False
+    key = row * J + ids
+    repeated = np.ones(key.shape[0], dtype=bool)
+    repeated[np.unique(key, return_index=True)[1]] = False
+    repeated |= (row == 0) & state.open_seen[ids]
+    if np.any(repeated):
         i = int(np.flatnonzero(repeated)[0])
+        number = state.last_number if row[i] == 0 else numbers_of_frames[row[i] - 1]
         raise MocapFormatError(
-            path,
-            f"joint {skeleton.joint_names[ids[i]]} appears twice in frame {numbers_of_frames[frame_of[i]]:.0f}",
-            where(name_lines[i]),
+            path, f"joint {skeleton.joint_names[ids[i]]} appears twice in frame {number:.0f}", where(name_lines[i])
         )
-    per_frame = (seen.reshape(F, J) * (ndof > 0)).sum(axis=1)  # a bone line without values says nothing
-    if per_frame[-1] < per_frame.max() or per_frame[-1] == 0:
-        last, most = per_frame[-1], per_frame.max()
-        raise MocapFormatError(
-            path,
-            f"truncated: the last frame ({numbers_of_frames[-1]:.0f}) lists {last} of {most} joints",
-            where(line_ends.shape[0] - 1),
-        )
-    # Flat indices into the (F, columns) table, columns in AMC dof order joint after joint.
-    col0 = np.concatenate([[0], np.cumsum(ndof)])
+    seen = np.bincount(key, minlength=(Fc + 1) * J).reshape(Fc + 1, J).astype(bool)
+    seen[0] |= state.open_seen
+    per_frame = (seen * (ndof > 0)).sum(axis=1)  # a bone line without values says nothing
+    # Values into a (1 + Fc, columns) table, columns in AMC dof order joint after joint.
     ncols = int(col0[-1])
+    table = np.zeros((Fc + 1, ncols))
     total = int(got.sum())
     within = np.arange(total) - np.repeat(np.cumsum(got) - got, got)
     src = np.repeat(value_at[name_lines], got) + within
-    dst = np.repeat(frame_of * ncols + col0[ids], got) + within
-    return values[src], dst, (F, ncols)
+    dst = np.repeat(row * ncols + col0[ids], got) + within
+    table.reshape(-1)[dst] = values[src]
+    if state.count:  # finish the open frame in the previous chunk's table
+        touched = np.zeros(ncols, dtype=bool)
+        touched[dst[dst < ncols]] = True
+        state.tables[-1][-1, touched] = table[0, touched]
+    if Fc == 0:
+        state.open_seen = seen[0]
+        state.open_joints = int(per_frame[0])
+        return
+    if state.count:
+        state.most_joints = max(state.most_joints, int(per_frame[0]))
+    if Fc > 1:
+        state.most_joints = max(state.most_joints, int(per_frame[1:-1].max()))
+    state.tables.append(table[1:])
+    state.count += Fc
+    state.last_number = float(numbers_of_frames[-1])
+    state.open_seen = seen[-1]
+    state.open_joints = int(per_frame[-1])
 
 
 _HASH_BASE = np.uint64(1099511628211)
+
+
+def _latin1(name: str) -> bytes:
+    """``name`` as the AMC's Latin-1 bytes; a name with other characters becomes b"\\0", which no token holds."""
+    try:
+        return name.encode("latin-1")
+    except UnicodeEncodeError:
+        return b"\0"
 
 
 def _token_ids(arr: np.ndarray, starts: np.ndarray, ends: np.ndarray, names: tuple[str, ...]) -> np.ndarray:
@@ -626,8 +728,12 @@ def _token_ids(arr: np.ndarray, starts: np.ndarray, ends: np.ndarray, names: tup
     count = starts.shape[0]
     if count == 0:
         return np.zeros(0, dtype=np.int64)
-    known = [n.encode("latin-1") for n in names]
+    known = [_latin1(n) for n in names]
     width = max(len(k) for k in known)
+    if len(known) * width > 2**24:  # many joints or a very long name: a (J, width) table would not fit
+        lookup = {k: i for i, k in enumerate(known)}
+        raw = arr.tobytes()
+        return np.array([lookup.get(raw[a:b], -1) for a, b in zip(starts.tolist(), ends.tolist())], dtype=np.int64)
     table = np.zeros((len(known), width), dtype=np.uint8)
     for i, k in enumerate(known):
         table[i, : len(k)] = np.frombuffer(k, dtype=np.uint8)

@@ -24,13 +24,13 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import MocapFormatError, SkeletonError
-from ..motion import Motion, Skeleton
+from ..motion import MAX_JOINTS, Motion, Skeleton, check_fps
 from . import atomic_write
 from ._numparse import line_of_offset, parse_floats
 
 from numba import njit
 
-__all__ = ["read_bvh", "write_bvh"]
+__all__ = ["read_bvh", "write_bvh", "check_bvh_names", "MAX_INDENT"]
 
 _CHANNELS = {c.lower(): c for c in ("Xposition", "Yposition", "Zposition", "Xrotation", "Yrotation", "Zrotation")}
 _MOTION_RE = re.compile(rb"^[ \t]*MOTION[ \t]*\r?$", re.M)
@@ -53,23 +53,29 @@ class _Block:
         self.channels: tuple[str, ...] | None = None
 
 
+def _lines(text: str):
+    """(1-based line number, whitespace-separated tokens) of each line of ``text``, one line at a time."""
+    pos, ln, n = 0, 1, len(text)
+    while pos < n:
+        nl = text.find("\n", pos)
+        stop = n if nl < 0 else nl
+        toks = text[pos:stop].split()
+        if toks:
+            yield ln, toks
+        pos, ln = stop + 1, ln + 1
+
+
 def _parse_hierarchy(path: Path, text: str, motion_line: int | None):
-    """Parse the HIERARCHY section; returns (names, parents, offsets, channels, end_parents, end_offsets)."""
+    """Parse the HIERARCHY section; returns (names, parents, offsets, channels, end_parents, end_offsets).
+
+    Line by line, token by token: memory is the joints' own records, not a
+    list of every token (a 100,000-joint hierarchy took 24x its text that way).
+    """
 
     def fail(reason: str, line: int):
         raise MocapFormatError(path, reason, line=line)
 
-    lines = text.split("\n")
-    tokens: list[tuple[str, int, int]] = []  # (token, line number, index of the token on its line)
-    for ln, raw in enumerate(lines, start=1):
-        for k, tok in enumerate(raw.split()):
-            tokens.append((tok, ln, k))
-    last_line = max(1, len(lines) - (1 if lines and lines[-1] == "" else 0))
-    if not tokens:
-        fail("empty file: no HIERARCHY" if motion_line is None else "no HIERARCHY before MOTION", motion_line or 1)
-    if tokens[0][0] != "HIERARCHY":
-        fail(f"expected HIERARCHY, found {tokens[0][0]!r}", tokens[0][1])
-
+    last_line = max(1, text.count("\n") + (0 if text.endswith("\n") else 1))
     names: list[str] = []
     parents: list[int] = []
     blocks: list[_Block] = []  # per joint
@@ -78,137 +84,150 @@ def _parse_hierarchy(path: Path, text: str, motion_line: int | None):
     stack: list[_Block] = []
     pending: _Block | None = None  # declared, waiting for its "{"
     root_seen = False
-    ntok = len(tokens)
-    i = 1
+    seen_first = False
+    channel_sets: dict[tuple[str, ...], tuple[str, ...]] = {}  # one tuple per distinct layout
 
-    def rest_of_line(i: int) -> tuple[list[str], int]:
-        """Tokens after position i on the same line, excluding a trailing "{"; returns (tokens, next i)."""
-        line = tokens[i][1]
-        out = []
-        j = i + 1
-        while j < ntok and tokens[j][1] == line and tokens[j][0] != "{":
-            out.append(tokens[j][0])
+    def rest_of_line(toks: list[str], k: int) -> tuple[list[str], int]:
+        """Tokens after position k on the line, up to a "{"; returns (tokens, index of the next token)."""
+        j = k + 1
+        while j < len(toks) and toks[j] != "{":
             j += 1
-        return out, j
+        return toks[k + 1 : j], j
 
-    def number(j: int, what: str, line: int) -> float:
-        if j >= ntok or tokens[j][1] != line:
+    def number(toks: list[str], j: int, what: str, line: int) -> float:
+        if j >= len(toks):
             fail(f"{what} needs 3 numbers on its line", line)
-        tok = tokens[j][0]
+        tok = toks[j]
         try:
             v = float(tok)
         except ValueError:
-            fail(f"{what}: {tok!r} is not a number", tokens[j][1])
+            fail(f"{what}: {tok!r} is not a number", line)
         if not np.isfinite(v):
-            fail(f"{what}: {tok!r} is not a finite number", tokens[j][1])
+            fail(f"{what}: {tok!r} is not a finite number", line)
         return v
 
-    while i < ntok:
-        tok, line, _ = tokens[i]
-        if pending is not None and tok != "{":
-            fail(f"expected '{{' after {'End Site' if pending.kind == 'end' else repr(pending.name)}, found {tok!r}", line)
-        if tok in ("ROOT", "JOINT"):
-            if tok == "ROOT":
-                if root_seen:
-                    fail("a second ROOT: files with several skeletons are not supported", line)
-                if stack:
-                    fail("ROOT inside a joint", line)
-                root_seen = True
-            else:
+    done = False
+    for line, toks in _lines(text):
+        k = 0
+        if not seen_first:
+            if toks[0] != "HIERARCHY":
+                fail(f"expected HIERARCHY, found {toks[0]!r}", line)
+            seen_first = True
+            k = 1
+        while k < len(toks):
+            tok = toks[k]
+            if pending is not None and tok != "{":
+                fail(f"expected '{{' after {'End Site' if pending.kind == 'end' else repr(pending.name)}, found {tok!r}", line)
+            if tok in ("ROOT", "JOINT"):
+                if tok == "ROOT":
+                    if root_seen:
+                        fail("a second ROOT: files with several skeletons are not supported", line)
+                    if stack:
+                        fail("ROOT inside a joint", line)
+                    root_seen = True
+                else:
+                    if not stack:
+                        fail("JOINT outside the ROOT block" if root_seen else "expected ROOT before JOINT", line)
+                    if stack[-1].kind == "end":
+                        fail("JOINT inside an End Site", line)
+                words, k = rest_of_line(toks, k)
+                if not words:
+                    fail(f"{tok} without a name", line)
+                if len(names) >= MAX_JOINTS:
+                    fail(f"more than {MAX_JOINTS:,} joints: not a skeleton mocapkit reads", line)
+                name = " ".join(words)
+                pending = _Block("joint", len(names), name, line)
+                names.append(name)
+                parents.append(stack[-1].index if stack else -1)
+                blocks.append(pending)
+                continue
+            if tok == "End":
                 if not stack:
-                    fail("JOINT outside the ROOT block" if root_seen else "expected ROOT before JOINT", line)
+                    fail("End Site outside the ROOT block", line)
                 if stack[-1].kind == "end":
-                    fail("JOINT inside an End Site", line)
-            words, i = rest_of_line(i)
-            if not words:
-                fail(f"{tok} without a name", line)
-            name = " ".join(words)
-            pending = _Block("joint", len(names), name, line)
-            names.append(name)
-            parents.append(stack[-1].index if stack else -1)
-            blocks.append(pending)
-            continue
-        if tok == "End":
-            if not stack:
-                fail("End Site outside the ROOT block", line)
-            if stack[-1].kind == "end":
-                fail("End Site inside an End Site", line)
-            words, i = rest_of_line(i)
-            if not words or words[0] != "Site":
-                fail("expected 'End Site'", line)
-            pending = _Block("end", stack[-1].index, "End Site", line)
-            continue
-        if tok == "{":
-            if pending is None:
-                fail("unexpected '{'", line)
-            stack.append(pending)
-            pending = None
-            i += 1
-            continue
-        if tok == "}":
-            if not stack:
-                fail("unbalanced '}'", line)
-            blk = stack.pop()
-            if blk.kind == "end":
-                if blk.offset is None:
-                    fail("End Site has no OFFSET", blk.line)
-                end_parents.append(blk.index)
-                end_offsets.append(blk.offset)
-            else:
-                if blk.channels is None:
-                    fail(f"joint {blk.name!r} has no CHANNELS", blk.line)
-                if blk.offset is None:
-                    if blk.index != 0:
-                        fail(f"joint {blk.name!r} has no OFFSET", blk.line)
-                    blk.offset = (0.0, 0.0, 0.0)
-            i += 1
-            continue
-        if tok == "OFFSET":
-            if not stack:
-                fail("OFFSET outside a joint", line)
-            blk = stack[-1]
-            if blk.offset is not None:
-                fail("a second OFFSET in the same block", line)
-            blk.offset = (number(i + 1, "OFFSET", line), number(i + 2, "OFFSET", line), number(i + 3, "OFFSET", line))
-            i += 4
-            if i < ntok and tokens[i][1] == line:
-                fail(f"OFFSET has more than 3 numbers ({tokens[i][0]!r})", line)
-            continue
-        if tok == "CHANNELS":
-            if not stack or stack[-1].kind == "end":
-                fail("CHANNELS outside a joint", line)
-            blk = stack[-1]
-            if blk.channels is not None:
-                fail(f"joint {blk.name!r} has a second CHANNELS line", line)
-            if blk.index + 1 < len(names):
-                fail(f"CHANNELS of joint {blk.name!r} must come before its child joints", line)
-            words, _ = rest_of_line(i)
-            if not words:
-                fail("CHANNELS without a count", line)
-            try:
-                count = int(words[0])
-            except ValueError:
-                fail(f"CHANNELS count {words[0]!r} is not an integer", line)
-            if not 0 <= count <= 6:
-                fail(f"CHANNELS count {count} is not between 0 and 6", line)
-            given = words[1:]
-            if len(given) != count:
-                fail(f"CHANNELS says {count} but names {len(given)}", line)
-            chans = []
-            for c in given:
-                canon = _CHANNELS.get(c.lower())
-                if canon is None:
-                    fail(f"unknown channel {c!r} (expected X/Y/Z position/rotation)", line)
-                if canon in chans:
-                    fail(f"channel {canon} repeated", line)
-                chans.append(canon)
-            blk.channels = tuple(chans)
-            i += 1 + len(words)
-            continue
-        if tok == "MOTION":
+                    fail("End Site inside an End Site", line)
+                words, k = rest_of_line(toks, k)
+                if not words or words[0] != "Site":
+                    fail("expected 'End Site'", line)
+                pending = _Block("end", stack[-1].index, "End Site", line)
+                continue
+            if tok == "{":
+                if pending is None:
+                    fail("unexpected '{'", line)
+                stack.append(pending)
+                pending = None
+                k += 1
+                continue
+            if tok == "}":
+                if not stack:
+                    fail("unbalanced '}'", line)
+                blk = stack.pop()
+                if blk.kind == "end":
+                    if blk.offset is None:
+                        fail("End Site has no OFFSET", blk.line)
+                    end_parents.append(blk.index)
+                    end_offsets.append(blk.offset)
+                else:
+                    if blk.channels is None:
+                        fail(f"joint {blk.name!r} has no CHANNELS", blk.line)
+                    if blk.offset is None:
+                        if blk.index != 0:
+                            fail(f"joint {blk.name!r} has no OFFSET", blk.line)
+                        blk.offset = (0.0, 0.0, 0.0)
+                k += 1
+                continue
+            if tok == "OFFSET":
+                if not stack:
+                    fail("OFFSET outside a joint", line)
+                blk = stack[-1]
+                if blk.offset is not None:
+                    fail("a second OFFSET in the same block", line)
+                blk.offset = (number(toks, k + 1, "OFFSET", line), number(toks, k + 2, "OFFSET", line),
+                              number(toks, k + 3, "OFFSET", line))
+                k += 4
+                if k < len(toks):
+                    fail(f"OFFSET has more than 3 numbers ({toks[k]!r})", line)
+                continue
+            if tok == "CHANNELS":
+                if not stack or stack[-1].kind == "end":
+                    fail("CHANNELS outside a joint", line)
+                blk = stack[-1]
+                if blk.channels is not None:
+                    fail(f"joint {blk.name!r} has a second CHANNELS line", line)
+                if blk.index + 1 < len(names):
+                    fail(f"CHANNELS of joint {blk.name!r} must come before its child joints", line)
+                words, _ = rest_of_line(toks, k)
+                if not words:
+                    fail("CHANNELS without a count", line)
+                try:
+                    count = int(words[0])
+                except ValueError:
+                    fail(f"CHANNELS count {words[0]!r} is not an integer", line)
+                if not 0 <= count <= 6:
+                    fail(f"CHANNELS count {count} is not between 0 and 6", line)
+                given = words[1:]
+                if len(given) != count:
+                    fail(f"CHANNELS says {count} but names {len(given)}", line)
+                chans = []
+                for c in given:
+                    canon = _CHANNELS.get(c.lower())
+                    if canon is None:
+                        fail(f"unknown channel {c!r} (expected X/Y/Z position/rotation)", line)
+                    if canon in chans:
+                        fail(f"channel {canon} repeated", line)
+                    chans.append(canon)
+                blk.channels = channel_sets.setdefault(tuple(chans), tuple(chans))
+                k += 1 + len(words)
+                continue
+            if tok == "MOTION":
+                done = True
+                break
+            fail(f"unexpected {tok!r} in the hierarchy", line)
+        if done:
             break
-        fail(f"unexpected {tok!r} in the hierarchy", line)
 
+    if not seen_first:
+        fail("empty file: no HIERARCHY" if motion_line is None else "no HIERARCHY before MOTION", motion_line or 1)
     if pending is not None or stack:
         open_name = (pending or stack[-1]).name
         where = last_line if motion_line is None else motion_line
@@ -220,7 +239,7 @@ def _parse_hierarchy(path: Path, text: str, motion_line: int | None):
         fail("no ROOT joint in the hierarchy", motion_line or last_line)
     if motion_line is None:
         fail("truncated file: no MOTION section after the hierarchy", last_line)
-    offsets = np.array([b.offset for b in blocks], dtype=np.float64)
+    offsets = np.array([b.offset for b in blocks], dtype=np.float64).reshape(-1, 3)
     channels = tuple(b.channels for b in blocks)
     return names, parents, offsets, channels, end_parents, end_offsets
 
@@ -330,6 +349,10 @@ def read_bvh(path) -> Motion:
             if not np.isfinite(1.0 / frame_time):
                 raise MocapFormatError(path, f"Frame Time {tm.group(1)} is too small: 1 / it is not a finite rate",
                                        line=line)
+            try:
+                fps = check_fps(_fps_from_frame_time(ft_token))
+            except SkeletonError as exc:
+                raise MocapFormatError(path, f"Frame Time {ft_token} s: {exc}", line=line) from None
     first_data_line = line + 1
     ncols = sum(len(c) for c in channels)
     if ncols == 0:
@@ -388,7 +411,7 @@ def read_bvh(path) -> Motion:
         )
     except SkeletonError as e:
         raise MocapFormatError(path, str(e)) from None
-    return _motion_from_channels(skeleton, table, _fps_from_frame_time(ft_token), path.stem)
+    return _motion_from_channels(skeleton, table, fps, path.stem)
 
 
 @njit(cache=True)
@@ -488,39 +511,71 @@ def _motion_from_channels(skeleton: Skeleton, values: np.ndarray, fps: float, na
 _POS3 = ("Xposition", "Yposition", "Zposition")
 _ZYX = ("Zrotation", "Yrotation", "Xrotation")
 
-
-def _rotates(q: np.ndarray) -> bool:
-    """Whether any (finite) quaternion of (F, 4) differs from the identity."""
-    v = np.abs(q[:, 1:])
-    return bool(np.any(v[np.isfinite(v)] > 1e-12))
+MAX_INDENT = 32
+"""Most tabs the writer puts before a line: a 100,000-deep chain would otherwise need 5e9 of them."""
 
 
-def _moves(local: np.ndarray, offset: np.ndarray, axes) -> bool:
-    """Whether any (finite) local offset (F, 3) differs from ``offset`` on the given axes."""
-    if not axes:
-        return False
-    d = np.abs(local[:, axes] - offset[axes])
-    return bool(np.any(d[np.isfinite(d)] > 0.0))
+def check_bvh_names(path, names) -> None:
+    """Refuse joint names a BVH file cannot hold, naming the first such joint.
+
+    A BVH name is the rest of its ``ROOT`` / ``JOINT`` line, read back as its
+    whitespace-separated words joined by one space. So a name must be
+    encodable as UTF-8 (no lone surrogates), non-empty, hold no brace, and
+    have no whitespace but single inner spaces (``"Bip01 L Thigh"`` is fine;
+    a tab, a newline, a double space or a leading space is not), or it would
+    not read back as itself.
+
+    Raises
+    ------
+    MocapFormatError
+        One line naming ``path``, the joint (``ascii()`` of its name) and the problem.
+    """
+    for j, name in enumerate(names):
+        problem = None
+        try:
+            name.encode("utf-8")
+        except UnicodeEncodeError:
+            problem = "is not encodable as UTF-8 (a lone surrogate?)"
+        else:
+            if not name:
+                problem = "is empty"
+            elif "{" in name or "}" in name:
+                problem = "holds a brace"
+            elif " ".join(name.split()) != name:
+                problem = "holds whitespace other than single spaces between words"
+        if problem is not None:
+            raise MocapFormatError(path, f"joint {j} name {ascii(name)} {problem}: BVH cannot hold it; rename the joint")
+
+
+def _rotating_joints(rotations: np.ndarray) -> np.ndarray:
+    """(J,) bool: joints with a (finite) quaternion of ``rotations`` (F, J, 4) away from the identity."""
+    v = np.abs(rotations[..., 1:])
+    return np.any(np.where(np.isfinite(v), v, 0.0) > 1e-12, axis=(0, 2))
+
+
+def _moving_axes(local: np.ndarray, offsets: np.ndarray) -> np.ndarray:
+    """(J, 3) bool: axes on which a (finite) local offset (F, J, 3) differs from the joint's ``offsets`` (J, 3)."""
+    d = np.abs(local - offsets)
+    return np.any(np.where(np.isfinite(d), d, 0.0) > 0.0, axis=0)
 
 
 def _write_channels(motion: Motion) -> tuple[tuple[str, ...], ...]:
     """Channel layout that represents ``motion`` exactly as BVH."""
     sk = motion.skeleton
     J = sk.num_joints
-    local = motion.local_offsets()
+    rotating = _rotating_joints(motion.rotations)
+    moving = _moving_axes(motion.local_offsets(), sk.offsets)
     out = []
     for j in range(J):
         if sk.axes is None:
             chans = list(sk.joint_channels(j))
-            if not sk.rotation_order(j) and _rotates(motion.rotations[:, j]):
+            if not sk.rotation_order(j) and rotating[j]:
                 chans += list(_ZYX)
         else:
-            has_rot = bool(sk.rotation_order(j)) or _rotates(motion.rotations[:, j])
+            has_rot = bool(sk.rotation_order(j)) or bool(rotating[j])
             chans = list(_POS3) if j == 0 else []
             chans += list(_ZYX) if has_rot else []
-        covered = [k for k in range(3) if _POS3[k] in chans]
-        uncovered = [k for k in range(3) if k not in covered]
-        if _moves(local[:, j], sk.offsets[j], uncovered):
+        if any(moving[j, k] and _POS3[k] not in chans for k in range(3)):
             chans = list(_POS3) + [c for c in chans if c.endswith("rotation")]
         out.append(tuple(chans))
     if not any(out):  # a BVH needs at least one channel per frame line
@@ -573,12 +628,15 @@ def write_bvh(motion: Motion, path, precision: int = 6, allow_nan: bool = False)
     Raises
     ------
     MocapFormatError
-        When the motion has NaN and ``allow_nan`` is False, or has no frames.
+        When the motion has NaN and ``allow_nan`` is False, has no frames, or
+        a joint name BVH cannot hold (:func:`check_bvh_names`); nothing is
+        written then.
     """
     path = Path(path)
     precision = int(precision)
     if precision < 0:
         raise ValueError(f"precision must be >= 0, got {precision}")
+    check_bvh_names(path, motion.skeleton.joint_names)
     F = motion.num_frames
     if F == 0:
         raise MocapFormatError(path, "motion has no frames; BVH needs at least one")
@@ -622,10 +680,12 @@ def write_bvh(motion: Motion, path, precision: int = 6, allow_nan: bool = False)
     parts.append(f"MOTION\nFrames: {F}\nFrame Time: {_fmt(1.0 / motion.fps)}\n")
     C = values.shape[1]
     row = " ".join([f"%.{precision}f"] * C) + "\n"
-    body = (row * F) % tuple(values.ravel().tolist())
+    block = max(1, 2**18 // max(C, 1))  # frames formatted at once: a few MB of text, not the whole take
     with atomic_write(path, "w", encoding="utf-8", newline="\n") as fh:
         fh.write("".join(parts))
-        fh.write(body)
+        for f0 in range(0, F, block):
+            rows = values[f0 : f0 + block]
+            fh.write((row * rows.shape[0]) % tuple(rows.ravel().tolist()))
 
 
 def _depth_first_order(sk: Skeleton) -> list[int]:
@@ -642,8 +702,17 @@ def _depth_first_order(sk: Skeleton) -> list[int]:
     return order
 
 
+def _indent(depth: int) -> str:
+    """Leading tabs of a line at nesting ``depth``, capped at :data:`MAX_INDENT` (readers ignore them)."""
+    return "\t" * min(depth, MAX_INDENT)
+
+
 def _hierarchy_text(sk: Skeleton, channels, order: list[int]) -> list[str]:
-    """The HIERARCHY section as a list of strings, joints written in depth-first ``order``."""
+    """The HIERARCHY section as a list of strings, joints written in depth-first ``order``.
+
+    Indentation is capped at :data:`MAX_INDENT` tabs, so the text grows
+    linearly with the number of joints however deep the hierarchy is.
+    """
     J = sk.num_joints
     ends: list[list[int]] = [[] for _ in range(J)]
     for e, p in enumerate(sk.end_site_parents):
@@ -653,13 +722,13 @@ def _hierarchy_text(sk: Skeleton, channels, order: list[int]) -> list[str]:
 
     def close() -> None:
         open_joints.pop()
-        parts.append("\t" * len(open_joints) + "}\n")
+        parts.append(_indent(len(open_joints)) + "}\n")
 
     for j in order:
         p = int(sk.parents[j])
         while open_joints and open_joints[-1] != p:
             close()
-        ind = "\t" * len(open_joints)
+        ind = _indent(len(open_joints))
         off = sk.offsets[j]
         chans = channels[j]
         parts.append(

@@ -18,8 +18,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import MocapFormatError
-from ..motion import readonly_view
+from ..errors import MocapFormatError, SkeletonError
+from ..motion import check_fps, readonly_view
 
 __all__ = ["MarkerSet", "read_c3d"]
 
@@ -57,7 +57,7 @@ class MarkerSet:
             raise ValueError(f"positions: expected shape (F, {len(labels)}, 3), got {pos.shape}")
         object.__setattr__(self, "positions", readonly_view(pos))
         object.__setattr__(self, "labels", labels)
-        object.__setattr__(self, "fps", float(self.fps))
+        object.__setattr__(self, "fps", check_fps(self.fps))
 
     @property
     def num_frames(self) -> int:
@@ -113,6 +113,14 @@ def _clean_labels(raw, n: int) -> tuple[str, ...]:
     return tuple(out)
 
 
+def _point_rate(path: Path, rate) -> float:
+    """The file's point frame rate, checked against :data:`~mocapkit.motion.FPS_RANGE`."""
+    try:
+        return check_fps(rate, "point frame rate")
+    except SkeletonError as exc:
+        raise MocapFormatError(path, str(exc)) from None
+
+
 def _read_ezc3d(path: Path) -> MarkerSet | None:
     import ezc3d
 
@@ -138,7 +146,7 @@ def _read_ezc3d(path: Path) -> MarkerSet | None:
     return MarkerSet(
         labels=_clean_labels(labels, n),
         positions=xyz,
-        fps=float(c["header"]["points"]["frame_rate"]),
+        fps=_point_rate(path, c["header"]["points"]["frame_rate"]),
         units=units or "mm",
         name=path.stem,
         reader="ezc3d",
@@ -159,7 +167,7 @@ def _read_c3d_package(path: Path) -> MarkerSet:
         labels = list(param.string_array) if param is not None else []
         unit_param = reader.get("POINT:UNITS")
         units = unit_param.string_value.strip() if unit_param is not None else ""
-        fps = float(reader.point_rate)
+        fps = _point_rate(path, reader.point_rate)
     xyz = data[..., :3].copy()
     xyz[data[..., 3] < 0] = np.nan
     return MarkerSet(
@@ -195,7 +203,9 @@ def _check_structure(path: Path, b: bytes) -> bool:
     block count, every parameter record (name, type -1/1/2/4, at most 7
     dimensions, its data and description inside the section, the pointer to
     the next record moving forward) and that the data block the header
-    describes (points, analog samples, frames, integer or float) fits in the file.
+    describes (points, analog samples, frames, integer or float) fits in the file,
+    and that an integer ``POINT:USED`` agrees with the header's point count (a
+    section claiming 32,767 markers against a header of 33 is refused, not read).
     Returns whether ezc3d may read the file: False when a parameter it relies on
     has an unexpected type or no value (the pure-Python reader copes with those).
     """
@@ -224,6 +234,7 @@ def _check_structure(path: Path, b: bytes) -> bool:
     groups: dict[int, str] = {}
     used: set[int] = set()
     typed: list[tuple[int, str, int, int]] = []  # (group id, name, type, data bytes)
+    value_at: dict[tuple[int, str], int] = {}  # (group id, name) -> byte offset of its data
     count = 0
     while nblocks and i + 2 <= end:
         nlen = abs(struct.unpack_from("b", b, i)[0])
@@ -261,6 +272,7 @@ def _check_structure(path: Path, b: bytes) -> bool:
             for d in b[body + 2 : body + 2 + ndim]:
                 size *= d
             typed.append((gid, name.decode().upper(), typ, size if typ != -1 or ndim else 0))
+            value_at[(gid, name.decode().upper())] = body + 2 + ndim
             need = 2 + ndim + size + 1
             if body + need <= end:
                 need += b[body + need - 1]
@@ -292,6 +304,10 @@ def _check_structure(path: Path, b: bytes) -> bool:
     data_start = struct.unpack_from(e + "H", b, 16)[0]
     if points == 0:
         return ezc3d_ok  # some writers leave the header empty; the parameters decide (the fallback reader)
+    used = _point_used(b, e, groups, typed, value_at)
+    if used is not None and used != points:
+        fail(f"the parameter section disagrees with the header: POINT:USED is {used} markers, "
+             f"the header says {points}")
     if last < first:
         fail(f"header: last frame {last} comes before the first frame {first}")
     if data_start < 2:
@@ -305,11 +321,17 @@ def _check_structure(path: Path, b: bytes) -> bool:
     return ezc3d_ok
 
 
+def _point_used(b: bytes, e: str, groups: dict, typed: list, value_at: dict) -> int | None:
+    """The first value of an integer ``POINT:USED`` parameter (read as unsigned, like the header's count), or None."""
+    for gid, name, typ, size in typed:
+        if groups.get(gid) == "POINT" and name == "USED" and typ == 2 and size >= 2:
+            return struct.unpack_from(e + "H", b, value_at[(gid, name)])[0]
+    return None
+
+
 def _check_result(path: Path, markers: MarkerSet) -> MarkerSet:
     if markers.num_markers == 0 or markers.num_frames == 0:
         raise MocapFormatError(path, "C3D file holds no 3D points")
-    if not (np.isfinite(markers.fps) and markers.fps > 0):
-        raise MocapFormatError(path, f"point frame rate must be a positive number, got {markers.fps!r}")
     inf = np.isinf(markers.positions)
     if np.any(inf):
         f, m, _ = np.argwhere(inf)[0]

@@ -16,19 +16,33 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import MocapFormatError
-from ..motion import Motion, Skeleton
+from ..errors import MocapFormatError, SkeletonError
+from ..motion import Motion, Skeleton, check_fps
 from . import atomic_write
 
-__all__ = ["read_npz", "write_npz", "FORMAT_VERSION"]
+__all__ = ["read_npz", "write_npz", "load_arrays", "FORMAT_VERSION", "MAX_NPZ_BYTES", "MAX_NPZ_MEMBERS"]
 
 FORMAT_VERSION = 1
 
 
 def write_npz(obj, path, compress: bool = True) -> None:
-    """Write a Motion or MarkerSet to ``path`` atomically (temp file + rename)."""
+    """Write a Motion or MarkerSet to ``path`` atomically (temp file + rename).
+
+    Names (joints, markers, the clip, the unit) are stored as numpy strings,
+    which hold any code point, lone surrogates included, but drop trailing
+    NUL characters: a name ending in one is refused (``MocapFormatError``
+    naming it) before anything is written.
+    """
     from .c3d import MarkerSet
 
+    path = Path(path)
+    if isinstance(obj, Motion):
+        _check_texts(path, "joint", obj.skeleton.joint_names)
+        _check_texts(path, "clip name", [obj.name])
+    elif isinstance(obj, MarkerSet):
+        _check_texts(path, "marker", obj.labels)
+        _check_texts(path, "clip name", [obj.name])
+        _check_texts(path, "unit", [obj.units])
     if isinstance(obj, Motion):
         sk = obj.skeleton
         arrays = {
@@ -67,33 +81,124 @@ def write_npz(obj, path, compress: bool = True) -> None:
         (np.savez_compressed if compress else np.savez)(fh, **arrays)
 
 
-def _load_arrays(path: Path) -> dict[str, np.ndarray]:
-    """Every array of the npz, refusing before any allocation an array whose header claims more bytes than it holds."""
-    out: dict[str, np.ndarray] = {}
-    with zipfile.ZipFile(path) as zf:
-        for info in zf.infolist():
-            if not info.filename.endswith(".npy"):
-                continue
-            key = info.filename[:-4]
-            with zf.open(info) as fh:
-                version = np.lib.format.read_magic(fh)
-                if version == (1, 0):
-                    shape, fortran, dtype = np.lib.format.read_array_header_1_0(fh)
-                elif version == (2, 0):
-                    shape, fortran, dtype = np.lib.format.read_array_header_2_0(fh)
-                else:
-                    raise ValueError(f"array {key!r}: unsupported .npy version {version}")
-                if dtype.hasobject:
-                    raise ValueError(f"array {key!r} holds Python objects (refused: they would need pickle)")
-                need = dtype.itemsize
-                for d in shape:
-                    need *= int(d)
-                held = info.file_size - fh.tell()
-                if need > held:
-                    raise ValueError(f"array {key!r} claims shape {shape} ({need} bytes) but holds {held} bytes")
-                fh.seek(0)
-                out[key] = np.lib.format.read_array(fh, allow_pickle=False)
-    return out
+def _check_texts(path: Path, what: str, texts) -> None:
+    """Refuse a name an npz string array would change: numpy drops trailing NUL characters."""
+    for k, text in enumerate(texts):
+        if text.endswith("\x00"):
+            raise MocapFormatError(path, f"{what} {k} name {ascii(text)} ends in a NUL character, which npz drops; rename it")
+
+
+MAX_NPZ_BYTES = 512 * 2**20
+"""Default limit of :func:`load_arrays`: bytes the arrays of one npz may hold once loaded.
+
+Counted on the declared shapes, each element as at least 8 bytes (readers
+convert numbers to float64), before anything is inflated. 512 MiB is a
+75-minute, 31-joint take at 120 fps; checking it and building a Motion then
+stays well under 2 GB.
+"""
+
+MAX_NPZ_MEMBERS = 4096
+"""Most members an npz may list; the zip directory is counted before it is parsed."""
+
+_EOCD = b"PK\x05\x06"
+
+
+def _member_count(path: Path) -> int | None:
+    """Entries the zip's end-of-central-directory record declares (65535 for zip64), or None if none is found."""
+    with open(path, "rb") as fh:
+        fh.seek(0, 2)
+        size = fh.tell()
+        fh.seek(max(0, size - 22 - 65535))
+        tail = fh.read()
+    at = tail.rfind(_EOCD)
+    if at < 0 or at + 22 > len(tail):
+        return None
+    return struct.unpack_from("<H", tail, at + 10)[0]
+
+
+def load_arrays(path, max_bytes: int = MAX_NPZ_BYTES, max_members: int = MAX_NPZ_MEMBERS) -> dict[str, np.ndarray]:
+    """Every ``.npy`` array of an npz (a zip), checked before any of it is inflated.
+
+    The safe ``np.load`` for a user's npz: the zip directory's entry count is
+    read first (at most ``max_members``); then each member's ``.npy`` header
+    is read from its stream (a few hundred bytes inflated) and its declared
+    shape and dtype are checked: no object dtypes (they need pickle), no more
+    data than the member holds, and all arrays together at most ``max_bytes``
+    (each element counted as at least 8 bytes). Only then is each array read,
+    once, into its final buffer. Members not ending in ``.npy`` are skipped.
+
+    Parameters
+    ----------
+    path : str or path-like
+    max_bytes : int
+        Limit on the loaded arrays, in bytes (default :data:`MAX_NPZ_BYTES`).
+    max_members : int
+        Limit on the zip's entries (default :data:`MAX_NPZ_MEMBERS`).
+
+    Returns
+    -------
+    dict of str to numpy.ndarray
+        Keyed by member name without ``.npy``.
+
+    Raises
+    ------
+    MocapFormatError
+        One line naming the file: not a zip, too many members, an array over
+        the limit (its shape, dtype and bytes), object arrays, a garbled or
+        truncated member.
+    """
+    path = Path(path)
+    try:
+        count = _member_count(path)
+        if count is not None and count > max_members:
+            raise MocapFormatError(path, f"the zip lists {count} members, more than the {max_members} an npz may have")
+        with zipfile.ZipFile(path) as zf:
+            infos = [i for i in zf.infolist() if i.filename.endswith(".npy")]
+            if len(zf.infolist()) > max_members:
+                raise MocapFormatError(
+                    path, f"the zip lists {len(zf.infolist())} members, more than the {max_members} an npz may have"
+                )
+            headers = []
+            total = 0
+            for info in infos:
+                key = info.filename[:-4]
+                with zf.open(info) as fh:
+                    version = np.lib.format.read_magic(fh)
+                    if version == (1, 0):
+                        shape, fortran, dtype = np.lib.format.read_array_header_1_0(fh)
+                    elif version == (2, 0):
+                        shape, fortran, dtype = np.lib.format.read_array_header_2_0(fh)
+                    else:
+                        raise MocapFormatError(path, f"array {key!r}: unsupported .npy version {version}")
+                    if dtype.hasobject:
+                        raise MocapFormatError(path, f"array {key!r} holds Python objects (refused: they would need pickle)")
+                    count = 1
+                    for d in shape:
+                        count *= int(d)
+                    need = count * dtype.itemsize
+                    held = info.file_size - fh.tell()
+                    if need > held:
+                        raise MocapFormatError(
+                            path, f"array {key!r} claims shape {shape} ({need} bytes) but holds {held} bytes"
+                        )
+                    total += count * max(dtype.itemsize, 8)
+                    if total > max_bytes:
+                        raise MocapFormatError(
+                            path, f"array {key!r} of shape {shape} and dtype {dtype} brings the arrays to "
+                            f"{total:,} bytes, over the {max_bytes:,}-byte limit (refused before inflating)"
+                        )
+                headers.append((key, info))
+            out: dict[str, np.ndarray] = {}
+            for key, info in headers:
+                with zf.open(info) as fh:
+                    out[key] = np.lib.format.read_array(fh, allow_pickle=False)
+            return out
+    except MocapFormatError:
+        raise
+    except (zipfile.BadZipFile, zlib.error, OSError, ValueError, EOFError, struct.error, NotImplementedError,
+            SyntaxError, tokenize.TokenError, OverflowError, RuntimeError) as exc:
+        # SyntaxError, TokenError: a garbled .npy header; RuntimeError: zipfile on an encrypted member
+        raise MocapFormatError(path, f"not a readable .npz file ({exc})".replace("\n", " ")) from None
 
 
 def _scalar(path: Path, data: dict, key: str, kind: str):
@@ -149,19 +254,16 @@ def read_npz(path):
     """Read a file written by :func:`write_npz` (a Motion, or a MarkerSet for marker files).
 
     Raises :class:`~mocapkit.errors.MocapFormatError` for anything else: not a
-    zip of ``.npy`` arrays, an array whose header claims more data than it
-    holds (refused before allocating), object arrays, a missing array, an array
+    zip of ``.npy`` arrays, arrays over :data:`MAX_NPZ_BYTES` or a header that
+    claims more data than the member holds (both refused before inflating,
+    :func:`load_arrays`), object arrays, a missing array, an array
     of the wrong shape or dtype, infinite values, non-unit quaternions, a
     non-positive frame rate.
     """
     from .c3d import MarkerSet
 
     path = Path(path)
-    try:
-        data = _load_arrays(path)
-    except (zipfile.BadZipFile, zlib.error, OSError, ValueError, EOFError, struct.error, NotImplementedError,
-            SyntaxError, tokenize.TokenError) as exc:  # the last two: a garbled .npy header
-        raise MocapFormatError(path, f"not a readable .npz file ({exc})".replace("\n", " ")) from None
+    data = load_arrays(path)
     try:
         if "format_version" not in data:
             raise MocapFormatError(path, "not a mocapkit npz (no format_version array)")
@@ -169,9 +271,10 @@ def read_npz(path):
         if version != FORMAT_VERSION:
             raise MocapFormatError(path, f"not a mocapkit npz (format_version {version}, expected {FORMAT_VERSION})")
         kind = _scalar(path, data, "kind", "s")
-        fps = _scalar(path, data, "fps", "f")
-        if not (np.isfinite(fps) and fps > 0):
-            raise MocapFormatError(path, f"fps must be a positive number, got {fps!r}")
+        try:
+            fps = check_fps(_scalar(path, data, "fps", "f"))
+        except SkeletonError as exc:
+            raise MocapFormatError(path, str(exc)) from None
         name = _scalar(path, data, "name", "s")
         if kind == "markers":
             labels = data["labels"]
