@@ -31,7 +31,7 @@ def test_refusals_name_the_file(tmp_path):
         read_mask(path, frames=5)
     junk = tmp_path / "junk.mask.npz"
     junk.write_bytes(b"not a zip")
-    with pytest.raises(MocapFormatError, match="not a mocapkit mask file") as err:
+    with pytest.raises(MocapFormatError, match="not a readable .npz file") as err:
         read_mask(junk)
     assert "junk.mask.npz" in str(err.value)
 

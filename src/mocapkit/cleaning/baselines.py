@@ -147,29 +147,31 @@ class JointLimits:
     @classmethod
     def load(cls, path) -> "JointLimits":
         """Read limits written by :meth:`save`; a file that is not one raises ``ValueError``."""
-        with np.load(path, allow_pickle=False) as z:
-            need = {"joint_names", "mean", "low", "high", "max_speed", "up", "settings", "num_frames"}
-            missing = sorted(need - set(z.files))
-            if missing:
-                raise ValueError(f"{path}: not a JointLimits file (missing {', '.join(missing)})")
-            settings = z["settings"]
-            if settings.shape != (5,):
-                raise ValueError(f"{path}: not a JointLimits file (settings of shape {settings.shape})")
-            q, margin, rq, rm, floor = (float(x) for x in settings)
-            return cls(
-                joint_names=tuple(str(n) for n in z["joint_names"]),
-                mean=z["mean"],
-                low=z["low"],
-                high=z["high"],
-                max_speed=z["max_speed"],
-                up=z["up"],
-                quantile=q,
-                margin_deg=margin,
-                rate_quantile=rq,
-                rate_margin=rm,
-                min_speed=floor,
-                num_frames=int(z["num_frames"]),
-            )
+        from ..io.npz import load_arrays
+
+        z = load_arrays(path)  # checked before inflating
+        need = {"joint_names", "mean", "low", "high", "max_speed", "up", "settings", "num_frames"}
+        missing = sorted(need - set(z))
+        if missing:
+            raise ValueError(f"{path}: not a JointLimits file (missing {', '.join(missing)})")
+        settings = z["settings"]
+        if settings.shape != (5,):
+            raise ValueError(f"{path}: not a JointLimits file (settings of shape {settings.shape})")
+        q, margin, rq, rm, floor = (float(x) for x in settings)
+        return cls(
+            joint_names=tuple(str(n) for n in z["joint_names"]),
+            mean=z["mean"],
+            low=z["low"],
+            high=z["high"],
+            max_speed=z["max_speed"],
+            up=z["up"],
+            quantile=q,
+            margin_deg=margin,
+            rate_quantile=rq,
+            rate_margin=rm,
+            min_speed=floor,
+            num_frames=int(z["num_frames"]),
+        )
 
 
 # -- representation ------------------------------------------------------------------

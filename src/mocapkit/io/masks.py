@@ -72,10 +72,12 @@ def write_mask(path, mask: np.ndarray, joint_names: Sequence[str], *, kind: str,
 def read_mask(path, frames: int | None = None) -> np.ndarray:
     """The (F, J) bool mask of a ``.mask.npz``; ``frames``: refuse a mask of another length (one line)."""
     path = Path(path)
+    from .npz import load_arrays
+
+    arrays = load_arrays(path)  # checked before inflating: a zip bomb is refused in one line
     try:
-        with np.load(path, allow_pickle=False) as z:
-            mask = np.asarray(z["mask"], dtype=bool)
-    except (OSError, ValueError, KeyError) as exc:
+        mask = np.asarray(arrays["mask"], dtype=bool)
+    except (ValueError, KeyError) as exc:
         raise MocapFormatError(path, f"not a mocapkit mask file ({type(exc).__name__}: {exc})") from None
     if mask.ndim != 2:
         raise MocapFormatError(path, f"the mask must be (frames, joints), got shape {mask.shape}")
