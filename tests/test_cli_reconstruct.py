@@ -56,7 +56,7 @@ def test_markers_from_a_motion(tmp_path, db_dir, query):
 
 
 def test_accelerometers_from_a_csv(tmp_path, db_dir, query):
-    from mocapkit.reconstruct.accelerometers import write_readings_csv
+    from mocapkit.io.readings import write_readings_csv
 
     readings = virtual_accelerometers(query)
     csv = tmp_path / "imu.csv"

@@ -697,7 +697,9 @@ def reconstruct(
     if kind == "accelerometers":
         from .reconstruct import accelerometers as acc
     if kind == "accelerometers" and inp.suffix.lower() == ".csv":
-        times, readings, names = acc.read_readings_csv(inp)
+        from .io.readings import read_readings_csv
+
+        times, readings, names = read_readings_csv(inp)
         source = None
         fps = (len(times) - 1) / (times[-1] - times[0]) if len(times) > 1 else db.fps
         sensors = _sensors_named(names, db, inp)
