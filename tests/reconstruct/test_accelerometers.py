@@ -75,6 +75,14 @@ def test_knowledge_base_cached_and_consistent(db, test_motion):
     np.testing.assert_allclose(kb.pose_mean + kb.pose_coords @ kb.pose_basis.T, kb.poses, atol=1e-6)
 
 
+def test_clear_cache_forgets_the_knowledge_base(db):
+    kb = A.knowledge_base(db)
+    A.clear_cache(db)
+    again = A.knowledge_base(db)
+    assert again is not kb and A.knowledge_base(db) is again
+    np.testing.assert_array_equal(again.readings, kb.readings)
+
+
 def test_fk_kernel_matches_motion_fk(test_motion):
     """The numba root-frame FK equals Motion.global_transforms expressed in the heading frame."""
     from mocapkit.features import detect_up_axis, root_frame

@@ -33,12 +33,13 @@ Examples
 (True, 25.0)
 """
 
-from .knowledge import KnowledgeBase, knowledge_base
+from .knowledge import KnowledgeBase, clear_cache, knowledge_base
 from .synthesis import (
     DEFAULTS,
     AccelerometerReconstructor,
     Pose,
     default_k,
+    motion_of_poses,
     path_weights,
     reconstruct,
     reconstruct_mahalanobis,
@@ -53,9 +54,11 @@ __all__ = [
     "weighted_pca",
     "KnowledgeBase",
     "knowledge_base",
+    "clear_cache",
     "Pose",
     "AccelerometerReconstructor",
     "reconstruct",
     "reconstruct_nearest_neighbor",
     "reconstruct_mahalanobis",
+    "motion_of_poses",
 ]

@@ -31,7 +31,7 @@ from ...motion import Motion, Skeleton, unit_scale_cm
 from ...search.knn import KNNIndex
 from .._common import per_clip
 
-__all__ = ["KnowledgeBase", "knowledge_base", "clip_values", "check_sensors"]
+__all__ = ["KnowledgeBase", "knowledge_base", "clear_cache", "clip_values", "check_sensors"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -99,6 +99,14 @@ class KnowledgeBase:
 
 
 _KB_CACHE: "weakref.WeakKeyDictionary[MotionDatabase, dict]" = weakref.WeakKeyDictionary()
+
+
+def clear_cache(db: MotionDatabase | None = None) -> None:
+    """Forget the cached knowledge bases of ``db`` (of every database when None): the next call builds them again."""
+    if db is None:
+        _KB_CACHE.clear()
+    else:
+        _KB_CACHE.pop(db, None)
 
 
 def _sensor_key(sensors) -> tuple:

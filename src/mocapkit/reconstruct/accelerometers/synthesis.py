@@ -60,6 +60,7 @@ __all__ = [
     "reconstruct",
     "reconstruct_mahalanobis",
     "reconstruct_nearest_neighbor",
+    "motion_of_poses",
 ]
 
 #: Default parameters of :class:`AccelerometerReconstructor` (weights of sec. 3.5.3).
@@ -345,7 +346,8 @@ def _check_readings(readings, sensors) -> np.ndarray:
     return a
 
 
-def _motion_of(poses: list[Pose], skeleton: Skeleton, fps: float, name: str) -> Motion:
+def motion_of_poses(poses: list[Pose], skeleton: Skeleton, fps: float, name: str = "reconstruction") -> Motion:
+    """The Motion (F frames at ``fps`` on ``skeleton``) of the poses :meth:`AccelerometerReconstructor.push` returned."""
     J = skeleton.num_joints
     if not poses:
         return Motion(skeleton, np.zeros((0, J, 4)), np.zeros((0, 3)), fps, name)
@@ -380,7 +382,7 @@ def reconstruct(readings, db: MotionDatabase, fps: float, sensors=None, *, skele
     rec = AccelerometerReconstructor(db, fps, sensors, skeleton=skeleton, **params)
     a = _check_readings(readings, rec.sensors)
     poses = [rec.push(r) for r in tqdm(a, desc="frames", disable=not progress, leave=False)]
-    return _motion_of(poses, rec.skeleton, fps, "reconstruction")
+    return motion_of_poses(poses, rec.skeleton, fps, "reconstruction")
 
 
 def reconstruct_mahalanobis(readings, db: MotionDatabase, fps: float, sensors=None, *, skeleton=None,
