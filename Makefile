@@ -78,6 +78,7 @@ bench: install-test
 	$(PY) benchmarks/reconstruct_ssg.py --json
 	$(PY) benchmarks/reconstruct_multilinear.py --json
 	$(PY) benchmarks/clean_takes.py --json
+	$(PY) benchmarks/first_run.py --json
 	$(PY) benchmarks/fuzz_readers.py --json
 
 clean:
