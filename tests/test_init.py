@@ -51,7 +51,7 @@ def test_clean_passes_steps_and_threshold(broken):
         mocapkit.clean(broken[0], threshold=1.5)
 
 
-def test_clean_an_amc_with_its_asf_and_file_context(tmp_path):
+def test_clean_an_amc_with_its_asf_and_file_context():
     amc = samples.path("HDM_bk_sneak2StepsLStart_005_120.amc")
     res = mocapkit.clean(amc, [samples.path("HDM_bk_sneak2StepsLStart_004_120.amc")], steps="fill,detect",
                          asf=samples.path("HDM_bk.asf"))

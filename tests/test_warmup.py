@@ -19,7 +19,7 @@ def test_warm_up_runs_every_step_of_clean():
     assert cells["fill"] > 0 and cells["repair"] > 0 and cells["denoise"] > 0, cells  # each step had work: its kernels ran
 
 
-def test_main_refuses_arguments(capsys):
+def test_main_refuses_arguments():
     with pytest.raises(SystemExit) as e:
         main(["--bogus"])
     assert e.value.code == 2
