@@ -1,6 +1,8 @@
 # Two entry points for a fresh clone: `make demo` and `make test`.
 # Both create .venv when it is missing. torch is pinned to the CPU wheel that lies on disk
-# (pip install torch==2.13.0) so nothing pulls a CUDA build.
+# (pip install torch==2.13.0) before the package, which declares it, so nothing pulls a CUDA build.
+# Installing ends with `python -m mocapkit.warmup`: the numba kernels `mocapkit clean` needs are
+# compiled and cached once, so the first clean does not spend its time compiling.
 PYTHON ?= python3.11
 VENV := .venv
 PY := $(VENV)/bin/python
@@ -21,6 +23,7 @@ $(PY):
 $(VENV)/.installed: pyproject.toml | $(PY)
 	$(PIP) install torch==2.13.0
 	$(PIP) install -e .
+	$(PY) -m mocapkit.warmup
 	touch $@
 
 $(VENV)/.installed-test: pyproject.toml $(VENV)/.installed
@@ -75,6 +78,7 @@ bench: install-test
 	$(PY) benchmarks/reconstruct_ssg.py --json
 	$(PY) benchmarks/reconstruct_multilinear.py --json
 	$(PY) benchmarks/clean_takes.py --json
+	$(PY) benchmarks/first_run.py --json
 	$(PY) benchmarks/fuzz_readers.py --json
 
 clean:

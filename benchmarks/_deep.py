@@ -1,6 +1,6 @@
 """What the deep-cleaning benchmarks share: the held-out test clips and the channel-level baselines.
 
-The test clips are the ones the shipped EBF/EBD never saw (``train_shipped.TEST_HOLDOUT``):
+The test clips are the ones the shipped EBF/EBD never saw (``scripts/train_shipped.py``, ``TEST_HOLDOUT``):
 every HDM05 clip of actor ``mm`` (all 11 classes) and the CMU clips 11_01 (kick),
 12's walk and charleston2. Baselines work on the same joint-angle channels the networks
 see (:func:`mocapkit.cleaning.deep.channels.encode`: the file's non-root rotation
@@ -19,6 +19,7 @@ from scipy.signal import savgol_filter
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO / "src"))
 sys.path.insert(0, str(REPO / "benchmarks"))
+sys.path.insert(0, str(REPO / "scripts"))  # train_shipped: the split into training and held-out clips
 
 import train_shipped  # noqa: E402
 

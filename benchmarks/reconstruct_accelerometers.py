@@ -97,7 +97,7 @@ def run_clip(db, path, params, baselines=True, oracle=True):
         t0 = time.perf_counter()
         poses.append(rec.push(r))
         times.append(time.perf_counter() - t0)
-    out = A._motion_of(poses, rec.skeleton, FPS, "reconstruction")
+    out = A.motion_of_poses(poses, rec.skeleton, FPS, "reconstruction")
     row = {"clip": path.name, "frames": len(rd), "k": rec.k, "paths": rec.n_paths, "ours": _errors(out, m),
            "ms_per_frame": [1e3 * t for t in times]}
     if baselines:
@@ -190,7 +190,7 @@ def main():
     # (a) other actors: one database
     db_paths, _ = B.scenario("mm", None, same_actor=False)
     db = B.database(db_paths, FPS)
-    A._KB_CACHE.pop(db, None)
+    A.clear_cache(db)
     t0 = time.perf_counter()
     kb = A.knowledge_base(db)
     pre = time.perf_counter() - t0
@@ -217,7 +217,7 @@ def main():
         sizes.append(dbp.num_frames)
         rows.append(run_clip(dbp, p, params))
         _log_row("same_actor", rows[-1])
-        A._KB_CACHE.pop(dbp, None)
+        A.clear_cache(dbp)
     result["scenarios"]["same_actor"] = {"db_frames": int(np.mean(sizes)), "preprocessing_s": float(np.mean(pres)),
                                          **summarise(rows), "per_clip": _strip(rows)}
     a = result["scenarios"]["other_actors"]

@@ -4,7 +4,20 @@
 >>> m = mocapkit.load(mocapkit.samples.path("131_01.bvh"))
 >>> m.skeleton.joint_names[:3]
 ('Hips', 'LHipJoint', 'LeftHip')
+
+The main job, :func:`clean`, takes a file or a Motion:
+
+>>> res = mocapkit.clean(mocapkit.samples.path("12_walk.amc"), steps="fill,denoise")
+>>> res.motion.num_frames, [s.name for s in res.steps]
+(343, ['fill', 'denoise'])
+
+Importing the package is cheap: torch and the numba kernels load only in the
+functions that use them.
 """
+
+from __future__ import annotations
+
+import os
 
 from . import rotations, samples
 from .errors import MocapError, MocapFormatError, SkeletonError
@@ -19,9 +32,83 @@ __all__ = [
     "MocapError",
     "MocapFormatError",
     "SkeletonError",
+    "clean",
     "load",
     "save",
     "concatenate",
     "rotations",
     "samples",
 ]
+
+
+def clean(take, context=None, *, steps="fill,detect,repair,denoise", threshold: float = 0.5, asf=None,
+          progress: bool = False):
+    """Clean a take: fill gaps, detect and repair erroneous joints, denoise the noisy cells.
+
+    The main job of mocapkit, :func:`mocapkit.cleaning.pipeline.clean` on a
+    file or a Motion: every cell that is neither missing, flagged nor noisy
+    comes back bit-identical, and the result records what each step changed.
+
+    Parameters
+    ----------
+    take : Motion, str or os.PathLike
+        The take, or its file (.bvh, .amc, .npz; an AMC's skeleton is the
+        ``.asf`` beside it unless ``asf`` is given).
+    context : None, MotionDatabase, database folder, or list of Motions or motion files
+        What detection and repair compare with besides the clip itself (same
+        joints as the take); None: the clip itself (self-similarity).
+    steps : str or sequence of str
+        Any of "fill", "detect", "repair", "denoise" (comma-separated or a
+        list); they always run in that order, and "repair" needs "detect".
+    threshold : float
+        MDM value in (0, 1) above which a joint is flagged and repaired.
+    asf : str, os.PathLike or Skeleton, optional
+        The ASF skeleton of an AMC take (or of AMC context files).
+    progress : bool
+        Show detection's progress bar.
+
+    Returns
+    -------
+    CleanResult
+        ``motion`` (the cleaned take), the (F, J) cell masks ``filled``,
+        ``repaired``, ``denoised``, the detection, and one record per step
+        (see :class:`mocapkit.cleaning.pipeline.CleanResult`).
+
+    Raises
+    ------
+    MocapFormatError
+        A file that cannot be read as a motion (a marker file, a bad AMC/ASF pair, ...).
+    MocapError
+        A take the steps cannot clean (e.g. missing in every frame).
+    """
+    from .cleaning.pipeline import clean as clean_motion
+
+    motion = take if isinstance(take, Motion) else _load_motion(take, asf)
+    return clean_motion(motion, _load_context(context, asf), steps=steps, threshold=threshold, progress=progress)
+
+
+def _load_motion(path, asf) -> Motion:
+    """The Motion in ``path`` (``asf`` for an AMC file); a marker file or ``asf`` with another format is refused."""
+    if not isinstance(path, (str, os.PathLike)):
+        raise TypeError(f"expected a Motion or a file path, got {type(path).__name__}")
+    is_amc = os.fspath(path).lower().endswith(".amc")
+    if asf is not None and not is_amc:
+        raise MocapFormatError(path, "asf= applies to .amc files only")
+    out = load(path, asf=asf) if is_amc else load(path)
+    if not isinstance(out, Motion):
+        raise MocapFormatError(path, "holds marker trajectories, not a skeleton motion; clean takes .bvh, .amc or .npz motions")
+    return out
+
+
+def _load_context(context, asf):
+    """``context`` as :func:`mocapkit.cleaning.pipeline.clean` takes it: files loaded, a folder opened as a database."""
+    if context is None:
+        return None
+    if isinstance(context, (str, os.PathLike)):
+        from .database import MotionDatabase
+
+        return MotionDatabase.open(context)
+    if isinstance(context, (list, tuple)):
+        return [c if isinstance(c, Motion) else _load_motion(c, asf if os.fspath(c).lower().endswith(".amc") else None)
+                for c in context]
+    return context

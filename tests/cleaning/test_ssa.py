@@ -102,15 +102,26 @@ def test_repair_with_foot_skate_touches_only_legs(walk, flipped):
 
 
 def test_contact_constraint_is_met(walk, flipped):
+    """The contact's frames put the ankle on its target exactly: the two-bone IK is analytic, so the miss is the
+    target's distance beyond the leg's reach (zero here), up to round-off; without the contact it misses."""
     bad, mask, records, det = flipped
     r = records[0]
-    foot = "LeftAnkle"
-    target = walk.global_positions()[r.start + 5, walk.skeleton.index(foot)]
-    contact = ssa.Contact(foot, r.start, r.start + 10, tuple(target))
+    sk = walk.skeleton
+    foot = sk.index("LeftAnkle")
+    knee = int(sk.parents[foot])
+    hip = int(sk.parents[knee])
+    target = walk.global_positions()[r.start + 5, foot]
+    contact = ssa.Contact("LeftAnkle", r.start, r.start + 10, tuple(target))
     fixed = ssa.repair(bad, det, contacts=[contact], foot_skate=False)
-    got = fixed.global_positions()[r.start : r.start + 10, walk.skeleton.index(foot)]
-    reach = np.linalg.norm(got - target, axis=-1)
-    assert reach.max() < 1e-6 * np.linalg.norm(walk.skeleton.offsets[walk.skeleton.index(foot)]) + 1e-6 or reach.max() < 1.0
+    gp = fixed.global_positions()[r.start : r.start + 10]
+    reach = np.linalg.norm(gp[:, foot] - target, axis=-1)
+    thigh, shin = np.linalg.norm(sk.offsets[knee]), np.linalg.norm(sk.offsets[foot])
+    d = np.linalg.norm(target - gp[:, hip], axis=-1)
+    shortfall = np.maximum.reduce([np.zeros_like(d), d - (thigh + shin), abs(thigh - shin) - d])
+    assert np.all(shortfall == 0)  # the target is within the leg's reach in every contact frame
+    np.testing.assert_allclose(reach, shortfall, rtol=0, atol=1e-9 * (thigh + shin))
+    free = ssa.repair(bad, det, foot_skate=False).global_positions()[r.start : r.start + 10, foot]
+    assert np.linalg.norm(free - target, axis=-1).max() > 1e-3 * (thigh + shin)  # the contact is what moved the ankle
 
 
 def test_detection_round_trip(tmp_path, flipped):

@@ -9,9 +9,9 @@ import mocapkit
 from mocapkit import metrics, samples
 from mocapkit import rotations as R
 from mocapkit.database import MotionDatabase
-from mocapkit.errors import MocapFormatError
 from mocapkit.features import default_sensors, virtual_accelerometers
 from mocapkit.reconstruct import accelerometers as A
+from mocapkit.reconstruct.accelerometers import kernels, knowledge
 
 DB_CLIPS = ["12_walk.amc", "HDM_bd_jogLeftCircle4StepsRstart_001_120.amc", "HDM_bk_sneak2StepsLStart_004_120.amc"]
 TEST_CLIP = "HDM_bk_sneak2StepsLStart_005_120.amc"
@@ -75,6 +75,14 @@ def test_knowledge_base_cached_and_consistent(db, test_motion):
     np.testing.assert_allclose(kb.pose_mean + kb.pose_coords @ kb.pose_basis.T, kb.poses, atol=1e-6)
 
 
+def test_clear_cache_forgets_the_knowledge_base(db):
+    kb = A.knowledge_base(db)
+    A.clear_cache(db)
+    again = A.knowledge_base(db)
+    assert again is not kb and A.knowledge_base(db) is again
+    np.testing.assert_array_equal(again.readings, kb.readings)
+
+
 def test_fk_kernel_matches_motion_fk(test_motion):
     """The numba root-frame FK equals Motion.global_transforms expressed in the heading frame."""
     from mocapkit.features import detect_up_axis, root_frame
@@ -82,10 +90,10 @@ def test_fk_kernel_matches_motion_fk(test_motion):
     sk = test_motion.skeleton
     sensors = default_sensors(sk)
     up = detect_up_axis(sk)
-    vals = A._clip_values(test_motion, sensors, up)
+    vals = knowledge.clip_values(test_motion, sensors, up)
     J = sk.num_joints
     poses = vals[:, 12:12 + 3 * J]
-    rig = A._Rig(sk, sensors)
+    rig = kernels.Rig(sk, sensors)
     pts, srot = rig.points(poses)
     heading, _ = root_frame(test_motion, up_axis=up)
     grot, gpos = test_motion.global_transforms()
@@ -103,7 +111,7 @@ def _random_problem(seed, d=5, n=40):
     rng = np.random.default_rng(seed)
     sk = mocapkit.load(samples.path(TEST_CLIP)).skeleton
     sensors = default_sensors(sk)
-    rig = A._Rig(sk, sensors)
+    rig = kernels.Rig(sk, sensors)
     P = 3 * sk.num_joints
     Q = rng.normal(scale=0.2, size=(n, P))
     w = A.path_weights(rng.uniform(1, 5, n))
@@ -121,10 +129,10 @@ def _random_problem(seed, d=5, n=40):
 @pytest.mark.parametrize("seed", [0, 1, 2])
 def test_numba_minimiser_matches_numpy_twin(seed):
     rig, w, mu, B, lam, Z, rperp2, Xm, Acc, base, Xc = _random_problem(seed)
-    prob = A._Problem(rig, dict(A.DEFAULTS), "kernel", w, mu, B, lam, Z, rperp2, Xm, Acc, base, Xc, 0.04)
+    prob = kernels.FrameEnergy(rig, dict(A.DEFAULTS), "kernel", w, mu, B, lam, Z, rperp2, Xm, Acc, base, Xc, 0.04)
     z0 = np.full(B.shape[1], 0.05)
-    z1, X1, E1, s1 = A._minimise(prob, z0, 12)
-    z2, X2, E2, s2 = A._minimise_numpy(prob, z0, 12)
+    z1, X1, E1, s1 = kernels.minimise(prob, z0, 12)
+    z2, X2, E2, s2 = kernels.minimise_numpy(prob, z0, 12)
     E0 = prob.energy(z0, prob.fk(z0[None])[0])
     assert E1 < E0 and E2 < E0
     assert E1 == pytest.approx(prob.energy(z1, X1), rel=1e-9)
@@ -135,8 +143,8 @@ def test_numba_minimiser_matches_numpy_twin(seed):
 def test_minimiser_reaches_a_local_minimum():
     """No small move in PCA space lowers the energy the minimiser returns."""
     rig, w, mu, B, lam, Z, rperp2, Xm, Acc, base, Xc = _random_problem(3)
-    prob = A._Problem(rig, dict(A.DEFAULTS), "kernel", w, mu, B, lam, Z, rperp2, Xm, Acc, base, Xc, 0.04)
-    z, X, E, _ = A._minimise(prob, np.zeros(B.shape[1]), 60)
+    prob = kernels.FrameEnergy(rig, dict(A.DEFAULTS), "kernel", w, mu, B, lam, Z, rperp2, Xm, Acc, base, Xc, 0.04)
+    z, X, E, _ = kernels.minimise(prob, np.zeros(B.shape[1]), 60)
     rng = np.random.default_rng(0)
     for _ in range(30):
         zt = z + rng.normal(scale=1e-2, size=z.shape)
@@ -223,64 +231,6 @@ def test_other_skeleton_is_used_for_output(db, readings):
     sk = mocapkit.load(samples.path(TEST_CLIP)).skeleton
     out = A.reconstruct(readings[:8], db, 25, skeleton=sk)
     assert out.skeleton is sk
-
-
-# -- CSV ------------------------------------------------------------------------------------------
-
-
-def test_csv_round_trip(tmp_path, readings):
-    t = np.arange(len(readings)) / 25.0
-    path = A.write_readings_csv(tmp_path / "rec.csv", t, readings)
-    ts, rd, names = A.read_readings_csv(path)
-    assert names == ["left_wrist", "right_wrist", "left_ankle", "right_ankle"]
-    np.testing.assert_array_equal(ts, [float(f"{x:.6f}") for x in t])
-    np.testing.assert_array_equal(rd, np.vectorize(lambda v: float(f"{v:.9g}"))(readings))
-    header = path.read_text().splitlines()[0]
-    assert header.startswith("time,left_wrist.x,left_wrist.y,left_wrist.z,right_wrist.x")
-    assert not list(tmp_path.glob(".*part"))
-
-
-def test_csv_missing_values_and_irregular_times(tmp_path):
-    p = tmp_path / "irr.csv"
-    p.write_text("time,a.x,a.y,a.z\n0.0,1,2,3\n0.1,,nan,5\n0.25,4,5,6\n0.3,5,6,7\n0.4,6,7,8\n")
-    ts, rd, names = A.read_readings_csv(p)
-    assert names == ["a"]
-    np.testing.assert_allclose(ts, [0.0, 0.1, 0.2, 0.3, 0.4])  # median interval 0.1 s
-    np.testing.assert_allclose(rd[:, 0, 2], [3, 5, 5 + (6 - 5) * (0.1 / 0.15), 7, 8])
-    assert np.isnan(rd[1, 0, 0]) and np.isnan(rd[2, 0, 1])
-    ts, rd, _ = A.read_readings_csv(p, fps=20)
-    assert len(ts) == 9 and rd.shape == (9, 1, 3)
-
-
-@pytest.mark.parametrize(
-    "text, match",
-    [
-        ("", r"bad\.csv:1: empty file"),
-        ("t,a.x,a.y,a.z\n0,1,2,3\n", r"bad\.csv:1: the first column must be 'time'"),
-        ("time,a.x,a.y\n0,1,2\n", r"bad\.csv:1: expected 3 columns"),
-        ("time,a.x,a.z,a.y\n0,1,2,3\n", r"bad\.csv:1: columns 2-4"),
-        ("time,a.x,a.y,a.z,a.x,a.y,a.z\n0,1,2,3,4,5,6\n", r"bad\.csv:1: sensor 'a' appears twice"),
-        ("time,a.x,a.y,a.z\n0,1,2,3\n0.1,1,2\n", r"bad\.csv:3: expected 4 values, got 3"),
-        ("time,a.x,a.y,a.z\n0,1,2,3\n0.1,1,zwei,3\n", r"bad\.csv:3: not a number: 'zwei'"),
-        ("time,a.x,a.y,a.z\n0,1,2,3\n0,1,2,3\n", r"bad\.csv:3: time 0 s does not increase"),
-        ("time,a.x,a.y,a.z\nnan,1,2,3\n", r"bad\.csv:2: the time must be a finite number"),
-        ("time,a.x,a.y,a.z\n", r"bad\.csv: no data rows"),
-    ],
-)
-def test_csv_bad_files(tmp_path, text, match):
-    p = tmp_path / "bad.csv"
-    p.write_text(text)
-    with pytest.raises(MocapFormatError, match=match) as e:
-        A.read_readings_csv(p)
-    assert "\n" not in str(e.value)
-
-
-def test_csv_write_refuses_bad_input(tmp_path):
-    with pytest.raises(ValueError, match="increasing"):
-        A.write_readings_csv(tmp_path / "x.csv", [0.0, 0.0], np.zeros((2, 4, 3)))
-    with pytest.raises(ValueError, match="names"):
-        A.write_readings_csv(tmp_path / "x.csv", [0.0, 1.0], np.zeros((2, 4, 3)), ["a"])
-    assert not (tmp_path / "x.csv").exists()
 
 
 # -- real data ------------------------------------------------------------------------------------

@@ -7,7 +7,6 @@ import dataclasses
 import json
 import os
 import re
-import time
 from pathlib import Path
 
 import numpy as np
@@ -265,15 +264,18 @@ def test_sixty_second_take_stays_a_few_megabytes(tmp_path, walk):
     corrupted, take, mdm, flags, changed = sixty_second_case(walk)
     F = take.num_frames
     assert F == 7200 and F <= DEFAULT_MAX_FRAMES
-    t0 = time.perf_counter()
     out = write_report(tmp_path / "long.html", corrupted, take, mdm=mdm, flags=flags, changed=changed)
-    elapsed = time.perf_counter() - t0
     size_mb = out.stat().st_size / 1e6
-    print(f"60 s at 120 fps: {size_mb:.2f} MB, written in {elapsed:.2f} s")
+    print(f"60 s at 120 fps: {size_mb:.2f} MB")
     data = page_data(out)
     assert data["stride"] == 1 and data["n"] == 7200  # full rate
     assert size_mb < 6.0
-    assert elapsed < 10.0
+    # every frame of both motions is in the page (the cleaned one as a patch of the changed cells)
+    scale = unit_scale_cm(take.skeleton)
+    assert decode_positions(data, "original").shape[0] == 7200
+    rows = np.array([0, 3599, 7199])
+    np.testing.assert_allclose(decode_positions(data, "original")[rows],
+                               corrupted.global_positions(end_sites=True)[rows] * scale, atol=data["pos"]["step"] / 2 + 1e-6)
 
 
 # ---- the page in a real headless Chromium ----------------------------------------------------
@@ -302,10 +304,9 @@ class Page:
         self.page.on("console", self._console)
         self.page.on("pageerror", lambda e: self.errors.append(f"pageerror: {e}"))
         self.page.on("request", lambda r: self.requests.append(r.url))
-        t0 = time.perf_counter()
         self.page.goto(path.resolve().as_uri())
-        self.page.wait_for_function("window.mocapkitReport && window.mocapkitReport.drawCount() > 0", timeout=10000)
-        self.load_s = time.perf_counter() - t0
+        # readiness, not speed: a generous limit so that a busy machine does not fail the test
+        self.wait_for("() => window.mocapkitReport && window.mocapkitReport.drawCount() > 0")
         # warnings after this point may be the tests' own pixel readbacks (willReadFrequently)
         self.warnings_at_load = list(self.warnings)
 
@@ -317,6 +318,14 @@ class Page:
 
     def js(self, expr, arg=None):
         return self.page.evaluate(expr, arg)
+
+    def next_frames(self):
+        """Return after two animation frames: whatever an event scheduled for the next frame has been drawn."""
+        self.page.evaluate("() => new Promise(done => requestAnimationFrame(() => requestAnimationFrame(done)))")
+
+    def wait_for(self, condition: str, arg=None):
+        """Wait until the JavaScript function ``condition(arg)`` returns true (a readiness signal; fails after 60 s)."""
+        self.page.wait_for_function(condition, arg=arg, timeout=60000)
 
     def ink(self, canvas_id, rgb=None, region=None):
         """Pixels of a canvas that are not white (or, with rgb, close to that colour)."""
@@ -356,7 +365,6 @@ def test_page_loads_draws_and_plays(open_page, walk_report, cleaned_walk):
     pg = open_page(walk_report)
     assert pg.errors == [] and pg.warnings_at_load == []
     assert all(u.startswith("file://") for u in pg.requests), pg.requests
-    print(f"load + first draw: {pg.load_s * 1000:.0f} ms")
     w, h = pg.js("[document.getElementById('viewer').width, document.getElementById('viewer').height]")
     # side by side: both halves hold a figure (and the floor grid)
     assert pg.ink("viewer", region=[0, 0, w // 2, h]) > 500
@@ -375,7 +383,7 @@ def test_page_loads_draws_and_plays(open_page, walk_report, cleaned_walk):
     pg.js("window.mocapkitReport.setFrame(0)")
     n0, f0 = pg.js("[window.mocapkitReport.drawCount(), window.mocapkitReport.frame()]")
     pg.page.click("#play")
-    pg.page.wait_for_timeout(400)
+    pg.wait_for("([n, f]) => window.mocapkitReport.drawCount() >= n + 5 && window.mocapkitReport.frame() > f", [n0, f0])
     n1, f1, playing = pg.js("[window.mocapkitReport.drawCount(), window.mocapkitReport.frame(), window.mocapkitReport.playing()]")
     assert playing and n1 >= n0 + 5 and f1 > f0
     pg.page.click("#play")
@@ -383,7 +391,7 @@ def test_page_loads_draws_and_plays(open_page, walk_report, cleaned_walk):
     # overlay mode: one viewport, the cleaned figure drawn over the input
     before = pg.js("document.getElementById('viewer').toDataURL()")
     pg.page.click("#mode")
-    pg.page.wait_for_timeout(50)
+    pg.next_frames()
     assert pg.js("window.mocapkitReport.overlay()") is True
     assert pg.js("document.getElementById('viewer').toDataURL()") != before
     assert pg.errors == []
@@ -405,7 +413,7 @@ def test_heatmap_click_jumps_to_frame_and_selects_joint(open_page, walk_report, 
     x = box["x"] + layout["left"] + (f + 0.5) * layout["width"] / layout["frames"]
     y = box["y"] + layout["top"] + (j + 0.5) * layout["rowHeight"]
     pg.page.mouse.click(x, y)
-    pg.page.wait_for_timeout(50)
+    pg.next_frames()
     assert pg.js("window.mocapkitReport.frame()") == f
     assert pg.js("window.mocapkitReport.selectedJoint()") == j
     assert pg.js("window.mocapkitReport.selectedJointName()") == corrupted.skeleton.joint_names[j]
@@ -448,11 +456,11 @@ def test_slider_scrubs_and_mouse_orbits(open_page, walk_report, walk):
     pg.page.mouse.down()
     pg.page.mouse.move(vb["x"] + 320, vb["y"] + 230, steps=5)
     pg.page.mouse.up()
-    pg.page.wait_for_timeout(50)
+    pg.next_frames()
     shot1 = pg.js("document.getElementById('viewer').toDataURL()")
     assert shot1 != shot0 and pg.js("window.mocapkitReport.drawCount()") > n0
     pg.page.mouse.wheel(0, -400)
-    pg.page.wait_for_timeout(50)
+    pg.next_frames()
     assert pg.js("document.getElementById('viewer').toDataURL()") != shot1
     assert pg.errors == []
 
@@ -467,8 +475,9 @@ def test_gappy_and_downsampled_pages_work(open_page, tmp_path, walk):
     grid_only = pg.ink("viewer", region=[0, 0, w // 2, h])
     pg.js("window.mocapkitReport.setFrame(20)")  # one arm missing: the rest is drawn
     assert pg.ink("viewer", region=[0, 0, w // 2, h]) > grid_only + 200
+    n0 = pg.js("window.mocapkitReport.drawCount()")
     pg.js("window.mocapkitReport.play()")
-    pg.page.wait_for_timeout(300)
+    pg.wait_for("n => window.mocapkitReport.drawCount() >= n + 5", n0)  # plays through the missing frames
     pg.js("window.mocapkitReport.pause()")
     assert pg.errors == []
 
@@ -481,7 +490,7 @@ def test_gappy_and_downsampled_pages_work(open_page, tmp_path, walk):
     assert pg2.errors == []
 
 
-def test_sixty_second_page_loads_fast(open_page, tmp_path, walk):
+def test_sixty_second_page_loads_and_scrubs(open_page, tmp_path, walk):
     corrupted, take, mdm, flags, changed = sixty_second_case(walk)
     out = write_report(tmp_path / "long.html", corrupted, take, mdm=mdm, flags=flags, changed=changed)
     pg = open_page(out)
@@ -493,10 +502,12 @@ def test_sixty_second_page_loads_fast(open_page, tmp_path, walk):
         got = np.array([[pg.js(f"window.mocapkitReport.position('{which}', {f}, {j})") for j in range(0, 31, 5)]
                         for f in rows], dtype=float)
         assert np.abs(got - ref[:, 0:31:5]).max() < 0.06
-    draw_ms = pg.js("""() => { const r = window.mocapkitReport, t = performance.now();
-        for (let i = 0; i < 20; i++) r.setIndex(i * 300);
-        return (performance.now() - t) / 20; }""")
-    print(f"60 s page: {out.stat().st_size / 1e6:.2f} MB, load + first draw {pg.load_s * 1000:.0f} ms, "
-          f"redraw {draw_ms:.1f} ms")
-    assert pg.load_s < 10 and draw_ms < 200
+    # scrubbing across the whole take redraws each frame asked for (how fast is benchmarks' business)
+    n0 = pg.js("window.mocapkitReport.drawCount()")
+    seen = pg.js("""() => { const r = window.mocapkitReport, out = [];
+        for (let i = 0; i < 24; i++) { r.setIndex(i * 300); out.push([r.index(), r.frame()]); }
+        return out; }""")
+    assert seen == [[i * 300, i * 300] for i in range(24)]
+    pg.next_frames()
+    assert pg.js("window.mocapkitReport.drawCount()") > n0
     assert pg.errors == []

@@ -375,11 +375,11 @@ def _analysis_frames(motion: Motion) -> int:
 
 
 def _denoise(motion: Motion, noisy: np.ndarray, models: dict, notes: list) -> tuple[Motion, str, str]:
-    from . import deep
-    from .filters import savgol_smooth
-
     if not noisy.any():
         return motion, "nothing (no joint is noisy)", ""
+    from . import deep  # torch is imported only when there is something to denoise
+    from .filters import savgol_smooth
+
     ebf, src = _deep_model(models, "ebf")
     why = _fits(ebf, motion)
     if why is None:

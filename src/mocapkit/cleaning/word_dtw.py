@@ -127,7 +127,7 @@ def _group_pose_distances_py(A, B, members, offsets, drop):
 
 # Two compilations of one kernel: threads pay off on long clips, but a word against a word (15 x 20
 # frames, called once per neighbour in mean_motion_texture) spends ~2 ms starting them for ~20 us of work.
-_group_pose_distances = njit(cache=True, parallel=True)(_group_pose_distances_py)
+_group_pose_distances = njit(cache=True)(_group_pose_distances_py)
 _group_pose_distances_serial = njit(cache=True)(_group_pose_distances_py)
 _SERIAL_CELLS = 4096
 
@@ -336,7 +336,7 @@ def word_dtw_path(cost: np.ndarray, min_width: int = 11, max_run: int = 3):
     return float(d), _trace(acc, back, i, j)
 
 
-@njit(cache=True, parallel=True)
+@njit(cache=True)
 def _profile(D, src, tgt, N, M, min_width, max_run, dist, iend, jend):
     W = src.shape[0]
     T = tgt.shape[0]
@@ -399,7 +399,7 @@ def _row_windows(N, M, max_run):
     return lens, level
 
 
-@njit(cache=True, parallel=True)
+@njit(cache=True)
 def _row_minima(D, tgt, lens, out):
     """out[l, r, t] = min(D[r, tgt[t] : tgt[t] + lens[l]]), the lens increasing."""
     R = D.shape[0]
@@ -498,7 +498,7 @@ def _kth_confirmed(d, evaluated, lb, consec, ev, ne, k, vals, tgt, lo, hi):
     return vals[k - 1] if n == k else _INF
 
 
-@njit(cache=True, parallel=True)
+@njit(cache=True)
 def _knn_profile(D, rowmin, level, src, tgt, consec, excl_lo, excl_hi, N, M, min_width, max_run, k, batch,
                  out_idx, out_dist, out_iend, out_jend, out_evaluated):
     W = src.shape[0]
@@ -674,7 +674,7 @@ def _cost_block(A, B, members, drop, s0, t0, terms, C, as_float32):
                 C[i, j] = _robust_sum(terms, members, drop)
 
 
-@njit(cache=True, parallel=True)
+@njit(cache=True)
 def _pairs(A, B, members, drop, src, tgt, N, M, min_width, max_run, dist, iend, jend):
     P = src.shape[0]
     for p in prange(P):
@@ -714,7 +714,7 @@ def word_distance_pairs(A, B, group, drop, src_starts, tgt_starts, N=15, M=20, m
     return dist, iend, jend
 
 
-@njit(cache=True, parallel=True)
+@njit(cache=True)
 def _warp(S, T, members, rows, drop, src, tgt, N, M, min_width, max_run, out, iend):
     P = src.shape[0]
     R = rows.shape[0]
@@ -793,7 +793,7 @@ def _angle(a, b):
     return 2.0 * math.atan2(math.sqrt(x * x + y * y + z * z), abs(w))
 
 
-@njit(cache=True, parallel=True)
+@njit(cache=True)
 def _robust_means(words, valid, slack, mean, spread):
     W, K, N, m = words.shape[:4]
     for w in prange(W):
@@ -889,7 +889,7 @@ def robust_word_means(words, valid, slack):
     return mean, spread
 
 
-@njit(cache=True, parallel=True)
+@njit(cache=True)
 def _shift_angles(inp, ref, shift, out):
     F, m = inp.shape[:2]
     for f in prange(F):

@@ -2,10 +2,8 @@
 
 from __future__ import annotations
 
-import math
 from typing import Callable
 
-import numba
 import numpy as np
 
 from .. import rotations as R
@@ -102,34 +100,3 @@ def align_about_vertical(source: np.ndarray, target: np.ndarray, up: np.ndarray,
     t = t - (t @ up)[..., None] * up
     return theta, np.where((W > 0)[..., None], t, 0.0)
 
-
-# -- scalar quaternion helpers for the methods' numba forward-kinematics kernels (w first) --------
-
-
-@numba.njit(cache=True, inline="always")
-def _qmul(a0, a1, a2, a3, b0, b1, b2, b3):
-    """Hamilton product a * b of two quaternions given as scalars."""
-    return (
-        a0 * b0 - a1 * b1 - a2 * b2 - a3 * b3,
-        a0 * b1 + a1 * b0 + a2 * b3 - a3 * b2,
-        a0 * b2 - a1 * b3 + a2 * b0 + a3 * b1,
-        a0 * b3 + a1 * b2 - a2 * b1 + a3 * b0,
-    )
-
-
-@numba.njit(cache=True, inline="always")
-def _qrot(q0, q1, q2, q3, x, y, z):
-    """The vector (x, y, z) rotated by the unit quaternion q."""
-    # v + 2 w (u x v) + 2 u x (u x v), u = (q1, q2, q3)
-    tx = 2.0 * (q2 * z - q3 * y)
-    ty = 2.0 * (q3 * x - q1 * z)
-    tz = 2.0 * (q1 * y - q2 * x)
-    return (x + q0 * tx + (q2 * tz - q3 * ty), y + q0 * ty + (q3 * tx - q1 * tz), z + q0 * tz + (q1 * ty - q2 * tx))
-
-
-@numba.njit(cache=True, inline="always")
-def _qexp(rx, ry, rz):
-    """The unit quaternion of the rotation vector (rx, ry, rz), radians (a series near zero)."""
-    ang = math.sqrt(rx * rx + ry * ry + rz * rz)
-    s = math.sin(0.5 * ang) / ang if ang > 1e-12 else 0.5 - ang * ang / 48.0
-    return math.cos(0.5 * ang), rx * s, ry * s, rz * s

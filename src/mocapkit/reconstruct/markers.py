@@ -93,11 +93,12 @@ from scipy.optimize import least_squares
 from tqdm.auto import tqdm
 
 from .. import rotations as R
+from .._numba_quaternions import qexp, qmul, qrot
 from ..database import MotionDatabase
 from ..features import parse_up_axis, detect_up_axis, root_frame, virtual_markers
 from ..motion import Motion, Skeleton, unit_scale_cm
 from ..search.knn import KNNIndex
-from ._common import _qexp, _qmul, _qrot, align_about_vertical, database_positions, output_skeleton, per_clip
+from ._common import align_about_vertical, database_positions, output_skeleton, per_clip
 
 __all__ = ["reconstruct", "nearest_neighbor", "marker_residuals"]
 
@@ -229,22 +230,22 @@ def _fk_model_poses(mean, rel, yaw, root, parents, offsets, mk_joint, mk_offset,
     g = np.empty((J, 4))
     for b in range(B):
         for j in range(J):
-            e0, e1, e2, e3 = _qexp(rel[b, j, 0], rel[b, j, 1], rel[b, j, 2])
-            q0, q1, q2, q3 = _qmul(mean[j, 0], mean[j, 1], mean[j, 2], mean[j, 3], e0, e1, e2, e3)
+            e0, e1, e2, e3 = qexp(rel[b, j, 0], rel[b, j, 1], rel[b, j, 2])
+            q0, q1, q2, q3 = qmul(mean[j, 0], mean[j, 1], mean[j, 2], mean[j, 3], e0, e1, e2, e3)
             par = parents[j]
             if par < 0:
                 a0, a1, a2, a3 = yaw[b, 0], yaw[b, 1], yaw[b, 2], yaw[b, 3]
                 gpos[b, j, 0], gpos[b, j, 1], gpos[b, j, 2] = root[b, 0], root[b, 1], root[b, 2]
             else:
                 a0, a1, a2, a3 = g[par, 0], g[par, 1], g[par, 2], g[par, 3]
-                ox, oy, oz = _qrot(a0, a1, a2, a3, offsets[j, 0], offsets[j, 1], offsets[j, 2])
+                ox, oy, oz = qrot(a0, a1, a2, a3, offsets[j, 0], offsets[j, 1], offsets[j, 2])
                 gpos[b, j, 0] = gpos[b, par, 0] + ox
                 gpos[b, j, 1] = gpos[b, par, 1] + oy
                 gpos[b, j, 2] = gpos[b, par, 2] + oz
-            g[j, 0], g[j, 1], g[j, 2], g[j, 3] = _qmul(a0, a1, a2, a3, q0, q1, q2, q3)
+            g[j, 0], g[j, 1], g[j, 2], g[j, 3] = qmul(a0, a1, a2, a3, q0, q1, q2, q3)
         for k in range(mk_joint.shape[0]):
             j = mk_joint[k]
-            ox, oy, oz = _qrot(g[j, 0], g[j, 1], g[j, 2], g[j, 3], mk_offset[k, 0], mk_offset[k, 1], mk_offset[k, 2])
+            ox, oy, oz = qrot(g[j, 0], g[j, 1], g[j, 2], g[j, 3], mk_offset[k, 0], mk_offset[k, 1], mk_offset[k, 2])
             mpos[b, k, 0] = gpos[b, j, 0] + ox
             mpos[b, k, 1] = gpos[b, j, 1] + oy
             mpos[b, k, 2] = gpos[b, j, 2] + oz

@@ -1,12 +1,12 @@
 """Train the shipped EBF and EBD (docs/models.md) on the ASF/AMC clips of ../shared/data.
 
-Held out (never trained on, used by benchmarks/deep_*.py): every clip of
+Held out (never trained on; benchmarks/deep_*.py test on them through :func:`split`): every clip of
 HDM05 actor "mm" and the CMU clips 12 walk, charleston2 and 11_01 (kick).
 Validation for picking the best epoch: the HDM05 clips of actor "tr" (also
 not trained on). Writes ``<out>/{ebf,ebd}/model.pt`` and, with --install,
 copies them into src/mocapkit/models/. Prints one JSON object as the last line.
 
-    python benchmarks/train_shipped.py --kind ebf --minutes 30 --install --json
+    python scripts/train_shipped.py --kind ebf --minutes 30 --install --json
 """
 
 from __future__ import annotations

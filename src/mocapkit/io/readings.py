@@ -1,0 +1,191 @@
+"""Accelerometer recordings as CSV: the input of the accelerometer reconstruction.
+
+One header line, then one line per sample::
+
+    time,left_wrist.x,left_wrist.y,left_wrist.z,right_wrist.x,...,right_ankle.z
+    0.000000,1.234,-9.61,0.52,...
+
+``time`` then three columns ``<sensor>.x, <sensor>.y, <sensor>.z`` per
+sensor, in the sensor's local frame, m/s^2 (gravity included, as an
+accelerometer reads it); time in seconds, strictly increasing. Empty cells
+and ``nan`` are missing values. The default sensor names
+(:data:`DEFAULT_SENSOR_NAMES`) are those of
+:func:`mocapkit.features.default_sensors`. Irregular time stamps are
+resampled (linearly) to a uniform rate, the median sample interval.
+
+The readings feed :func:`mocapkit.reconstruct.accelerometers.reconstruct`
+(Tautges 2012, ch. 3), which expects them as an (F, S, 3) array at one rate.
+
+>>> import numpy as np, tempfile, pathlib
+>>> folder = pathlib.Path(tempfile.mkdtemp())
+>>> t = np.arange(3) / 100.0
+>>> path = write_readings_csv(folder / "rec.csv", t, np.full((3, 4, 3), 9.81))
+>>> times, readings, names = read_readings_csv(path)
+>>> readings.shape, names[0], float(readings[0, 0, 0])
+((3, 4, 3), 'left_wrist', 9.81)
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import MocapFormatError
+from . import atomic_write
+
+__all__ = ["DEFAULT_SENSOR_NAMES", "read_readings_csv", "write_readings_csv"]
+
+#: Sensor names of :func:`mocapkit.features.default_sensors`, in its order.
+DEFAULT_SENSOR_NAMES = ("left_wrist", "right_wrist", "left_ankle", "right_ankle")
+
+
+def _parse_cell(s: str) -> float:
+    s = s.strip()
+    if s == "":
+        return math.nan
+    return float(s)
+
+
+def read_readings_csv(path, fps: float | None = None):
+    """Read a recording of accelerometer readings (format in the module docstring).
+
+    Parameters
+    ----------
+    path : str or Path
+    fps : float, optional
+        Resample to this rate. When None, uniform time stamps are kept as
+        they are and irregular ones are resampled to the median interval.
+
+    Returns
+    -------
+    timestamps : float array (F,), seconds, uniform
+    readings : float array (F, S, 3), m/s^2
+    sensor_names : list of str (S,)
+
+    Raises
+    ------
+    MocapFormatError
+        ``"PATH:LINE: reason"`` for a bad header, a bad number, a wrong
+        number of values, non-increasing or non-finite time.
+    """
+    path = Path(path)
+    try:
+        text = path.read_text(encoding="utf-8-sig")
+    except (OSError, UnicodeDecodeError) as e:
+        raise MocapFormatError(path, f"cannot read the file: {e}") from None
+    lines = text.splitlines()
+    if not lines or not lines[0].strip():
+        raise MocapFormatError(path, "empty file; expected a header 'time,<sensor>.x,<sensor>.y,<sensor>.z,...'", 1)
+    head = [h.strip() for h in lines[0].split(",")]
+    if head[0].lower() != "time":
+        raise MocapFormatError(path, f"the first column must be 'time', got {head[0]!r}", 1)
+    cols = head[1:]
+    if not cols or len(cols) % 3:
+        raise MocapFormatError(path, f"expected 3 columns <sensor>.x,<sensor>.y,<sensor>.z per sensor after 'time', got {len(cols)}", 1)
+    names = []
+    for s in range(len(cols) // 3):
+        trio = cols[3 * s:3 * s + 3]
+        base = trio[0].rsplit(".", 1)[0] if "." in trio[0] else None
+        if base is None or trio != [f"{base}.x", f"{base}.y", f"{base}.z"] or not base:
+            raise MocapFormatError(path, f"columns {3 * s + 2}-{3 * s + 4} must be <sensor>.x,<sensor>.y,<sensor>.z, got {','.join(trio)}", 1)
+        if base in names:
+            raise MocapFormatError(path, f"sensor {base!r} appears twice in the header", 1)
+        names.append(base)
+    ncol = 1 + len(cols)
+    rows = []
+    lineno = []
+    for ln, line in enumerate(lines[1:], start=2):
+        if not line.strip():
+            continue
+        cells = line.split(",")
+        if len(cells) != ncol:
+            raise MocapFormatError(path, f"expected {ncol} values, got {len(cells)}", ln)
+        try:
+            vals = [_parse_cell(c) for c in cells]
+        except ValueError:
+            bad = next(c for c in cells if not _is_number(c))
+            raise MocapFormatError(path, f"not a number: {bad.strip()!r}", ln) from None
+        if not np.isfinite(vals[0]):
+            raise MocapFormatError(path, "the time must be a finite number", ln)
+        if rows and vals[0] <= rows[-1][0]:
+            raise MocapFormatError(path, f"time {vals[0]:g} s does not increase (previous {rows[-1][0]:g} s)", ln)
+        rows.append(vals)
+        lineno.append(ln)
+    if not rows:
+        raise MocapFormatError(path, "no data rows after the header")
+    data = np.array(rows, dtype=np.float64)
+    t = data[:, 0]
+    a = data[:, 1:].reshape(len(t), len(names), 3)
+    dt = np.diff(t)
+    if fps is None:
+        if dt.size == 0:
+            return t, a, names
+        step = float(np.median(dt))
+        if np.all(np.abs(dt - step) <= 1e-3 * step + 2e-6):
+            return t, a, names
+        fps = 1.0 / step
+    fps = float(fps)
+    if not np.isfinite(fps) or fps <= 0:
+        raise ValueError(f"fps must be a positive number, got {fps!r}")
+    G = int(np.floor((t[-1] - t[0]) * fps + 1e-9)) + 1
+    tg = t[0] + np.arange(G) / fps
+    flat = a.reshape(len(t), -1)
+    out = np.stack([np.interp(tg, t, flat[:, c]) for c in range(flat.shape[1])], axis=1)
+    return tg, out.reshape(G, len(names), 3), names
+
+
+def _is_number(s: str) -> bool:
+    try:
+        _parse_cell(s)
+        return True
+    except ValueError:
+        return False
+
+
+def write_readings_csv(path, timestamps, readings, sensor_names=None, digits: int = 9) -> Path:
+    """Write a recording (format in the module docstring), atomically (temp file + rename).
+
+    Parameters
+    ----------
+    path : str or Path
+    timestamps : float array (F,)
+        Seconds, finite and strictly increasing.
+    readings : float array (F, S, 3)
+        m/s^2 in each sensor's frame; NaN is written as ``nan``.
+    sensor_names : sequence of str (S,), optional
+        The first S of :data:`DEFAULT_SENSOR_NAMES`; ``sensor0, sensor1, ...`` for more than four sensors.
+    digits : int
+        Significant digits of the readings (time is written with 6 decimals,
+        microseconds).
+
+    Returns the path.
+    """
+    t = np.asarray(timestamps, dtype=np.float64)
+    a = np.asarray(readings, dtype=np.float64)
+    if a.ndim != 3 or a.shape[2] != 3:
+        raise ValueError(f"readings: expected shape (F, S, 3), got {a.shape}")
+    if t.shape != (a.shape[0],):
+        raise ValueError(f"timestamps: expected shape ({a.shape[0]},), got {t.shape}")
+    if not np.all(np.isfinite(t)) or np.any(np.diff(t) <= 0):
+        raise ValueError("timestamps must be finite and strictly increasing")
+    S = a.shape[1]
+    if sensor_names is None:
+        n = len(DEFAULT_SENSOR_NAMES)
+        sensor_names = DEFAULT_SENSOR_NAMES[:S] if S <= n else [f"sensor{i}" for i in range(S)]
+    names = [str(n) for n in sensor_names]
+    if len(names) != S:
+        raise ValueError(f"sensor_names: {len(names)} names for {S} sensors")
+    for n in names:
+        if not n or "," in n or "\n" in n:
+            raise ValueError(f"sensor name {n!r} cannot be written in a CSV header")
+    path = Path(path)
+    header = "time," + ",".join(f"{n}.{c}" for n in names for c in "xyz")
+    fmt = f"{{:.{int(digits)}g}}"
+    with atomic_write(path, "w", encoding="utf-8", newline="\n") as fh:
+        fh.write(header + "\n")
+        flat = a.reshape(len(t), -1)
+        for ti, row in zip(t, flat):
+            fh.write(f"{ti:.6f}," + ",".join(fmt.format(v) for v in row) + "\n")
+    return path

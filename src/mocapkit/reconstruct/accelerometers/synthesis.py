@@ -1,0 +1,448 @@
+"""Per-frame synthesis from accelerometer readings (Tautges 2012, secs. 3.4-3.6).
+
+**Search** (sec. 3.4): the K nearest readings of every new sample in the
+knowledge base (:mod:`.knowledge`) feed an
+:class:`~mocapkit.search.lng.OnlineLazyNeighborhoodGraph` (window M = 13);
+the I cheapest paths ending in the newest column give the poses ``Q^t`` and,
+by eq. 3.3, the weights ``W^t`` (:func:`path_weights`).
+
+**Synthesis** (sec. 3.5): the pose minimises the energy of eq. 3.4 in the
+weighted-PCA space of ``Q^t`` keeping 99 % of the variance
+(:func:`weighted_pca`, :mod:`.kernels`), starting from the previous pose.
+The root follows the weighted mean root motion of ``Q^t`` (sec. 3.6.4).
+
+Departures from the thesis:
+
+* The control term (eqs. 3.12/3.13) uses the neighbours' sensor velocities
+  ``v_i^{t+1}``; ``alpha^{t+1}`` is turned into the root frame by the sensor
+  orientations of the previous synthesised pose, and gravity is subtracted.
+* The output is posed on the database's first skeleton or the performer's
+  (same topology).
+* K, the neighbours per sample, defaults to 1 % of the database's frames
+  within [128, 4096] (:func:`default_k`; the thesis' 4096 is 0.7 % of its
+  560,000 frames), and I, the paths kept, to K / 16 (the thesis' 256 of
+  4096): on small databases the thesis' fixed values average poses from a
+  third of the database.
+
+Sampling rates. The synthesis runs at the database's rate. Readings at another
+rate are linearly interpolated onto the database's time grid as they arrive;
+the pose returned for a reading is the latest one synthesised at or before its
+time (a zero-order hold, at most one database frame late), so the output has
+one pose per input sample at the input's rate.
+
+Missing readings. A sample with any non-finite value holds the previous pose
+(state unchanged, the graph not updated); before the first valid sample the
+pose is the knowledge base's mean pose at the origin.
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numpy as np
+from tqdm.auto import tqdm
+
+from ... import rotations as R
+from ...database import MotionDatabase
+from ...motion import Motion, Skeleton, readonly_view, unit_scale_cm
+from ...search.lng import OnlineLazyNeighborhoodGraph
+from .._common import output_skeleton
+from .kernels import FrameEnergy, Rig, minimise
+from .knowledge import knowledge_base
+
+__all__ = [
+    "DEFAULTS",
+    "default_k",
+    "path_weights",
+    "weighted_pca",
+    "Pose",
+    "AccelerometerReconstructor",
+    "reconstruct",
+    "reconstruct_mahalanobis",
+    "reconstruct_nearest_neighbor",
+    "motion_of_poses",
+]
+
+#: Default parameters of :class:`AccelerometerReconstructor` (weights of sec. 3.5.3).
+DEFAULTS: dict = {
+    "k": None,  # kNN per sample; None: 1 % of the database's frames, clamped to [128, 4096] (see default_k)
+    "n_paths": None,  # I, the best OLNG paths kept; None: K / 16 (the thesis' 256 of 4096)
+    "window": 13,  # OLNG window M (Fig. 3.19)
+    "penalty_factor": 2.0,  # OLNG shortness penalty (Fig. 3.8)
+    "extra_steps": True,  # OLNG steps of Fig. 3.10 c
+    "w_contr": 1.0,
+    "w_prior": 5.0,
+    "w_pose": 0.6,
+    "w_motion": 0.2,
+    "w_smooth": 0.2,
+    "variance": 0.99,  # weighted-PCA variance kept (sec. 3.5.3)
+    "max_components": 24,
+    "iterations": 12,  # majorise-minimise / Gauss-Newton steps per frame
+    "prior": "kernel",  # "kernel" (eqs. 3.7-3.13) or "mahalanobis" (sec. 3.6.2 comparison)
+    "backend": "kdtree",  # KNNIndex backend ("kdtree" as the thesis; "brute" is faster for large K / small N)
+    "eps": 0.0,  # kd-tree approximation factor
+    "gravity": 9.81,  # m/s^2
+}
+
+
+def default_k(num_frames: int) -> int:
+    """The number of nearest neighbours per sample for a database of ``num_frames`` frames.
+
+    The thesis uses K = 4096 on about 560,000 frames (0.7 %). On databases of
+    a few ten thousand frames a fixed 4096 takes a third of the database into
+    every column, and the lazy neighbourhood graph then strings together
+    paths whose poses have little to do with the readings (the sweep of
+    ``benchmarks/reconstruct_accelerometers.py --sweep``). Hence 1 % of the
+    frames, at least 128 and at most the thesis' 4096.
+
+    >>> default_k(12_000), default_k(560_000), default_k(1_000)
+    (128, 4096, 128)
+    """
+    return int(min(4096, max(128, round(0.01 * num_frames))))
+
+
+def path_weights(costs: np.ndarray) -> np.ndarray:
+    """Normalised weights of eq. 3.3, ``(max C - c_i) / sum_j (max C - c_j)``; uniform if all costs are equal."""
+    c = np.asarray(costs, dtype=np.float64)
+    w = c.max() - c
+    total = w.sum()
+    if not total > 0:
+        return np.full(c.shape, 1.0 / c.size)
+    return w / total
+
+
+def weighted_pca(Q: np.ndarray, w: np.ndarray, variance: float = 0.99, max_components: int = 24):
+    """Weighted PCA of poses ``Q`` (I, P) with weights ``w`` (I,) summing to 1 (sec. 3.5.3).
+
+    Returns ``mean`` (P,), ``basis`` (P, d) orthonormal columns keeping
+    ``variance`` of the weighted variance (at most ``max_components``),
+    ``eigenvalues`` (d,) and ``coords`` (I, d) of the samples.
+    """
+    mu = w @ Q
+    D = Q - mu
+    Y = D * np.sqrt(w)[:, None]
+    lam, vec = np.linalg.eigh(Y.T @ Y)  # ascending
+    lam = np.maximum(lam[::-1], 0.0)
+    total = lam.sum()
+    if not total > 1e-24:
+        return mu, np.zeros((Q.shape[1], 0)), np.zeros(0), np.zeros((Q.shape[0], 0))
+    d = int(np.searchsorted(np.cumsum(lam) / total, variance - 1e-12) + 1)
+    d = max(1, min(d, max_components, lam.size))
+    B = np.ascontiguousarray(vec[:, ::-1][:, :d])
+    return mu, B, lam[:d], D @ B
+
+
+class Pose(NamedTuple):
+    """One synthesised frame: local joint rotations (J, 4), w first, and the root position (3,) in skeleton units.
+
+    Arrays are read-only. ``Motion`` frames of a reconstruction are stacks of these.
+    """
+
+    rotations: np.ndarray
+    root_position: np.ndarray
+
+
+def _check_params(params: dict) -> dict:
+    unknown = set(params) - set(DEFAULTS)
+    if unknown:
+        raise ValueError(f"unknown parameter(s) {', '.join(sorted(unknown))}; known: {', '.join(DEFAULTS)}")
+    p = {**DEFAULTS, **params}
+    for name in ("k", "n_paths", "window", "max_components", "iterations"):
+        v = p[name]
+        if name in ("k", "n_paths") and v is None:
+            continue
+        if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < (0 if name == "iterations" else 1):
+            raise ValueError(f"{name} must be a positive integer, got {v!r}")
+        p[name] = int(v)
+    for name in ("w_contr", "w_prior", "w_pose", "w_motion", "w_smooth", "penalty_factor", "eps", "gravity"):
+        v = float(p[name])
+        if not np.isfinite(v) or v < 0:
+            raise ValueError(f"{name} must be a finite number >= 0, got {p[name]!r}")
+        p[name] = v
+    if not 0 < float(p["variance"]) <= 1:
+        raise ValueError(f"variance must be in (0, 1], got {p['variance']!r}")
+    if p["prior"] not in ("kernel", "mahalanobis"):
+        raise ValueError(f"prior must be 'kernel' or 'mahalanobis', got {p['prior']!r}")
+    return p
+
+
+def _check_fps(fps, what="fps") -> float:
+    f = float(fps)
+    if not np.isfinite(f) or f <= 0:
+        raise ValueError(f"{what} must be a positive number, got {fps!r}")
+    return f
+
+
+class AccelerometerReconstructor:
+    """Online reconstruction from a stream of accelerometer readings (Tautges 2012, secs. 3.4-3.6).
+
+    Parameters
+    ----------
+    db : MotionDatabase
+        The knowledge base's motions (:func:`knowledge_base` is cached per db and sensors).
+    fps : float, optional
+        Rate of the readings; the database's when None. Another rate is
+        interpolated onto the database's time grid (see the module notes).
+    sensors : sequence of Sensor, optional
+        :func:`~mocapkit.features.default_sensors` of the database skeleton when None.
+    skeleton : Skeleton, optional
+        The performer's skeleton (same topology as the database's) to pose the output on.
+    **params
+        Overrides of :data:`DEFAULTS` (``k``, ``n_paths``, the weights ``w_*``, ``prior``, ...).
+
+    :meth:`push` takes one sample ``(S, 3)`` (m/s^2, sensor frames) and
+    returns a :class:`Pose`; :meth:`reset` starts a new stream.
+    """
+
+    def __init__(self, db: MotionDatabase, fps: float | None = None, sensors=None, *, skeleton: Skeleton | None = None, **params):
+        self.params = _check_params(params)
+        self.kb = knowledge_base(db, sensors)
+        self.sensors = self.kb.sensors
+        self.db_fps = float(db.fps)
+        self.fps = self.db_fps if fps is None else _check_fps(fps)
+        self.skeleton = output_skeleton(db, skeleton)
+        self.rig = Rig(self.skeleton, self.sensors)
+        self.index = self.kb.index(self.params["backend"])
+        k = self.params["k"]
+        self.k = min(default_k(self.kb.num_frames) if k is None else k, self.kb.num_frames)
+        n_paths = self.params["n_paths"]
+        self.n_paths = max(1, self.k // 16) if n_paths is None else min(n_paths, self.k)
+        self.olng = OnlineLazyNeighborhoodGraph(
+            self.kb.clip_ids, window=self.params["window"], extra_steps=self.params["extra_steps"],
+            penalty_factor=self.params["penalty_factor"],
+        )
+        self._mean_pose = self.kb.poses.mean(axis=0)
+        self.reset()
+
+    # -- state ------------------------------------------------------------------------------
+
+    def reset(self) -> None:
+        """Forget the stream: the next :meth:`push` is the first sample."""
+        self.olng.reset()
+        self._n_in = 0  # input samples pushed
+        self._n_grid = 0  # database-rate steps taken
+        self._last_in = None
+        self._p = None  # pose vector of the last synthesised frame
+        self._x = None  # its root-frame points (M, 3)
+        self._x2 = None  # the frame before's
+        self._srot = None  # its sensor orientations (S, 4)
+        self._heading = 0.0
+        self._ground = np.zeros(3)  # root position on the ground plane, cm
+        self._pose = self._make_pose(self._mean_pose, float(np.mean(self.kb.root_height)))
+        self.last_info: dict = {}
+
+    def __repr__(self) -> str:
+        return (f"AccelerometerReconstructor({self.kb.num_frames} frames @ {self.db_fps:g} fps, input {self.fps:g} fps, "
+                f"K={self.k}, I={self.n_paths}, prior={self.params['prior']!r}, pushed={self._n_in})")
+
+    @property
+    def pose(self) -> Pose:
+        """The pose returned by the last :meth:`push`."""
+        return self._pose
+
+    def _make_pose(self, p: np.ndarray, height: float) -> Pose:
+        J = self.rig.J
+        q = R.rotvec_to_quaternion(p.reshape(J, 3))
+        up = self.kb.up
+        h = R.quaternion_from_axis_angle(up, self._heading)
+        q[0] = R.quaternion_multiply(h, q[0])
+        root = (self._ground + height * up) / self.rig.scale
+        return Pose(readonly_view(q), readonly_view(root))
+
+    # -- input ------------------------------------------------------------------------------
+
+    def push(self, reading) -> Pose:
+        """Add one sample (S, 3) in m/s^2 (sensor frames) and return the pose at its time.
+
+        A sample with a non-finite value holds the previous pose.
+        """
+        a = np.asarray(reading, dtype=np.float64)
+        S = len(self.sensors)
+        if a.shape != (S, 3):
+            raise ValueError(f"reading: expected shape ({S}, 3) for {S} sensors, got {a.shape}")
+        n = self._n_in
+        if self.fps == self.db_fps:
+            self._step(a)
+        else:
+            # database-grid times k / db_fps in (t_{n-1}, t_n], linearly interpolated
+            t_n = n / self.fps
+            while self._n_grid / self.db_fps <= t_n + 1e-9:
+                tau = self._n_grid / self.db_fps
+                if n == 0 or self._last_in is None:
+                    v = a
+                else:
+                    t_prev = (n - 1) / self.fps
+                    f = min(max((tau - t_prev) * self.fps, 0.0), 1.0)
+                    v = a if f >= 1.0 else self._last_in * (1.0 - f) + a * f
+                self._step(v)
+            self._last_in = a.copy()
+        self._n_in += 1
+        return self._pose
+
+    def _step(self, a: np.ndarray) -> None:
+        """One database-rate frame of synthesis from the sample ``a`` (S, 3)."""
+        self._n_grid += 1
+        if not np.all(np.isfinite(a)):
+            self.last_info = {"held": True}
+            return
+        p, kb = self.params, self.kb
+        dt = 1.0 / self.db_fps
+        dist, idx = self.index.query(a.reshape(1, -1), k=self.k, eps=p["eps"])
+        costs = self.olng.push(idx[0], dist[0])
+        good = np.flatnonzero(np.isfinite(costs))
+        if good.size == 0:
+            self.last_info = {"held": True}
+            return
+        n = min(self.n_paths, good.size)
+        sel = good if n == good.size else good[np.argpartition(costs[good], n - 1)[:n]]
+        sel = sel[np.lexsort((idx[0, sel], costs[sel]))]
+        frames = idx[0, sel]
+        w = path_weights(costs[sel])
+        Q = kb.pose_coords[frames]
+        mu, B, lam, Z = weighted_pca(Q, w, p["variance"], p["max_components"])
+        rperp2 = np.maximum(np.sum((Q - mu) ** 2, axis=1) - np.sum(Z * Z, axis=1), 0.0)
+        mu = kb.pose_mean + kb.pose_basis @ mu  # back to full pose vectors
+        B = kb.pose_basis @ B
+        V = kb.velocities[frames].astype(np.float64)
+        A = kb.accelerations[frames].astype(np.float64)
+        Xm = Xc = As = base = None
+        if self._x is not None:
+            Xm = self._x + V * dt + 0.5 * A * dt * dt
+            # eq. 3.12: the reading turned into the root frame by the previous pose's sensor frames, gravity removed
+            f = R.quaternion_rotate(self._srot, a)
+            alpha = (f - p["gravity"] * kb.up) * 100.0  # cm/s^2
+            sens = slice(self.rig.J - 1, self.rig.M)
+            Xc = self._x[sens] + V[:, sens] * dt + 0.5 * alpha * dt * dt
+            if self._x2 is not None:
+                As = A
+                base = (-2.0 * self._x + self._x2) / dt**2
+        prob = FrameEnergy(self.rig, p, p["prior"], w, mu, B, lam, Z, rperp2, Xm, As, base, Xc, dt)
+        z0 = np.zeros(B.shape[1]) if self._p is None else (self._p - mu) @ B
+        z, X, E, steps = minimise(prob, z0, p["iterations"])
+        pose = prob.pose(z)
+        # sec. 3.6.4: the weighted mean root motion of Q^t
+        up = kb.up
+        v = w @ kb.root_velocity[frames]
+        v = v - (v @ up) * up
+        self._ground = self._ground + R.quaternion_rotate(R.quaternion_from_axis_angle(up, self._heading), v) * dt
+        self._heading += float(w @ kb.yaw_rate[frames]) * dt
+        height = float(w @ kb.root_height[frames])
+        srot = self.rig.points(pose[None])[1][0]
+        self._x2, self._x, self._srot, self._p = self._x, X, srot, pose
+        self._pose = self._make_pose(pose, height)
+        self.last_info = {"held": False, "energy": E, "steps": steps, "components": B.shape[1], "paths": n,
+                          "best_cost": float(costs[sel[0]]), "frames": frames, "weights": w, "mean_pose": mu}
+
+
+# -- offline -----------------------------------------------------------------------------------
+
+
+def _check_readings(readings, sensors) -> np.ndarray:
+    a = np.asarray(readings, dtype=np.float64)
+    if a.ndim != 3 or a.shape[2] != 3:
+        raise ValueError(f"readings: expected shape (F, S, 3), got {a.shape}")
+    if a.shape[1] != len(sensors):
+        raise ValueError(f"readings have {a.shape[1]} sensors but {len(sensors)} sensors were given")
+    return a
+
+
+def motion_of_poses(poses: list[Pose], skeleton: Skeleton, fps: float, name: str = "reconstruction") -> Motion:
+    """The Motion (F frames at ``fps`` on ``skeleton``) of the poses :meth:`AccelerometerReconstructor.push` returned."""
+    J = skeleton.num_joints
+    if not poses:
+        return Motion(skeleton, np.zeros((0, J, 4)), np.zeros((0, 3)), fps, name)
+    return Motion(skeleton, np.stack([p.rotations for p in poses]), np.stack([p.root_position for p in poses]), fps, name)
+
+
+def reconstruct(readings, db: MotionDatabase, fps: float, sensors=None, *, skeleton: Skeleton | None = None,
+                progress: bool = False, **params) -> Motion:
+    """Reconstruct a motion from accelerometer readings (Tautges 2012, ch. 3): :meth:`AccelerometerReconstructor.push` per sample.
+
+    Parameters
+    ----------
+    readings : float array (F, S, 3)
+        m/s^2 in each sensor's frame, as :func:`~mocapkit.features.virtual_accelerometers` gives them.
+    db : MotionDatabase
+    fps : float
+        Rate of the readings; the output has one frame per sample at this rate.
+    sensors : sequence of Sensor (S,), optional
+        :func:`~mocapkit.features.default_sensors` of the database skeleton when None.
+    skeleton : Skeleton, optional
+        Performer's skeleton for the output (same topology as the database's).
+    progress : bool
+        Show a tqdm bar.
+    **params
+        Overrides of :data:`DEFAULTS`.
+
+    Returns
+    -------
+    Motion (F frames at ``fps``) on ``skeleton`` or the database's first skeleton.
+    """
+    fps = _check_fps(fps)
+    rec = AccelerometerReconstructor(db, fps, sensors, skeleton=skeleton, **params)
+    a = _check_readings(readings, rec.sensors)
+    poses = [rec.push(r) for r in tqdm(a, desc="frames", disable=not progress, leave=False)]
+    return motion_of_poses(poses, rec.skeleton, fps, "reconstruction")
+
+
+def reconstruct_mahalanobis(readings, db: MotionDatabase, fps: float, sensors=None, *, skeleton=None,
+                            progress: bool = False, **params) -> Motion:
+    """Baseline of sec. 3.6.2: every prior and the control term as a weighted Gaussian (Mahalanobis), not kernels.
+
+    :func:`reconstruct` with ``prior="mahalanobis"``: the pose prior is the
+    Gaussian of the PCA space (``0.5 sum z_k^2 / lambda_k``), the motion,
+    smoothness and control terms Gaussians fitted (weighted, ridge-regularised)
+    to the same samples as the kernels use.
+    """
+    return reconstruct(readings, db, fps, sensors, skeleton=skeleton, progress=progress, **{**params, "prior": "mahalanobis"})
+
+
+def _grid_map(F: int, fps: float, db_fps: float):
+    """Database-grid readings times (G,) and, per input sample, the grid step it holds (F,), as the stream does."""
+    if F == 0:
+        return np.zeros(0), np.zeros(0, dtype=np.int64)
+    t_last = (F - 1) / fps
+    G = int(np.floor(t_last * db_fps + 1e-9 * db_fps)) + 1
+    tau = np.arange(G) / db_fps
+    held = np.floor((np.arange(F) / fps + 1e-9) * db_fps).astype(np.int64)
+    return tau, np.minimum(held, G - 1)
+
+
+def reconstruct_nearest_neighbor(readings, db: MotionDatabase, fps: float, sensors=None, *, skeleton=None) -> Motion:
+    """Baseline: each sample's single nearest database reading, its pose and root motion (no graph, no priors).
+
+    The same knowledge base, rate handling and root integration as
+    :func:`reconstruct`; a non-finite sample holds the previous pose.
+    """
+    fps = _check_fps(fps)
+    kb = knowledge_base(db, sensors)
+    a = _check_readings(readings, kb.sensors)
+    sk = output_skeleton(db, skeleton)
+    F = a.shape[0]
+    db_fps = float(db.fps)
+    if fps == db_fps:
+        g, held = a, np.arange(F)
+    else:
+        tau, held = _grid_map(F, fps, db_fps)
+        t = np.arange(F) / fps
+        flat = a.reshape(F, -1)
+        g = np.stack([np.interp(tau, t, flat[:, c]) for c in range(flat.shape[1])], axis=1).reshape(len(tau), -1, 3)
+    _, idx = kb.index("kdtree").query(g.reshape(len(g), -1), k=1)
+    idx = idx[:, 0]
+    J, up, dt = sk.num_joints, kb.up, 1.0 / db_fps
+    scale = unit_scale_cm(sk)
+    rot = np.empty((len(g), J, 4))
+    root = np.empty((len(g), 3))
+    p = kb.poses.mean(axis=0)
+    ground, heading, height = np.zeros(3), 0.0, float(np.mean(kb.root_height))
+    for k, i in enumerate(idx):
+        if i >= 0:
+            p = kb.poses[i]
+            v = kb.root_velocity[i] - (kb.root_velocity[i] @ up) * up
+            ground = ground + R.quaternion_rotate(R.quaternion_from_axis_angle(up, heading), v) * dt
+            heading += float(kb.yaw_rate[i]) * dt
+            height = float(kb.root_height[i])
+        q = R.rotvec_to_quaternion(p.reshape(J, 3))
+        q[0] = R.quaternion_multiply(R.quaternion_from_axis_angle(up, heading), q[0])
+        rot[k], root[k] = q, (ground + height * up) / scale
+    return Motion(sk, rot[held], root[held], fps, "nearest neighbour")

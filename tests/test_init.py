@@ -1,0 +1,77 @@
+"""Tests of the package's top level: ``mocapkit.clean`` on a file or a Motion, and a cheap import."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+import mocapkit
+from mocapkit import corrupt, samples
+from mocapkit.cleaning.pipeline import CleanResult
+
+
+@pytest.fixture(scope="module")
+def broken():
+    """The bundled walk with two real-style capture errors, and where they are (F, J) bool."""
+    m = mocapkit.load(samples.path("12_walk.amc"))
+    bad, mask, _ = corrupt.real_errors(m, n_errors=2, seed=3)
+    return bad, mask
+
+
+@pytest.fixture(scope="module")
+def cleaned(broken):
+    return mocapkit.clean(broken[0])
+
+
+def test_clean_a_motion_repairs_the_errors_and_keeps_the_rest(broken, cleaned):
+    bad, mask = broken
+    assert isinstance(cleaned, CleanResult)
+    assert [s.name for s in cleaned.steps] == ["fill", "detect", "repair", "denoise"]
+    assert cleaned.repaired.any() and (cleaned.flags & mask).any()
+    untouched = ~(cleaned.filled | cleaned.repaired | cleaned.denoised)
+    np.testing.assert_array_equal(cleaned.motion.rotations[untouched], bad.rotations[untouched])
+
+
+def test_clean_a_path_equals_cleaning_the_loaded_motion(tmp_path, broken, cleaned):
+    path = mocapkit.save(broken[0], tmp_path / "walk_broken.npz")
+    res = mocapkit.clean(str(path))
+    np.testing.assert_array_equal(res.motion.rotations, cleaned.motion.rotations)
+    np.testing.assert_array_equal(res.flags, cleaned.flags)
+    assert path.is_file() and not (tmp_path / "walk_broken.clean.npz").exists()  # the library writes nothing
+
+
+def test_clean_passes_steps_and_threshold(broken):
+    res = mocapkit.clean(broken[0], steps=["fill", "detect"], threshold=0.9)
+    assert [s.name for s in res.steps] == ["fill", "detect"]
+    assert res.params["threshold"] == 0.9 and not res.repaired.any()
+    with pytest.raises(ValueError, match="threshold"):
+        mocapkit.clean(broken[0], threshold=1.5)
+
+
+def test_clean_an_amc_with_its_asf_and_file_context():
+    amc = samples.path("HDM_bk_sneak2StepsLStart_005_120.amc")
+    res = mocapkit.clean(amc, [samples.path("HDM_bk_sneak2StepsLStart_004_120.amc")], steps="fill,detect",
+                         asf=samples.path("HDM_bk.asf"))
+    assert res.num_frames == mocapkit.load(amc).num_frames
+    assert "context" in res.steps[1].method
+
+
+def test_clean_refuses_what_is_not_a_motion(tmp_path):
+    with pytest.raises(mocapkit.MocapFormatError, match=r"Eb015pr\.c3d.*marker trajectories"):
+        mocapkit.clean(samples.path("Eb015pr.c3d"))
+    with pytest.raises(mocapkit.MocapFormatError, match=r"131_01\.bvh.*asf= applies to \.amc files only"):
+        mocapkit.clean(samples.path("131_01.bvh"), asf=samples.path("12.asf"))
+    with pytest.raises(mocapkit.MocapFormatError, match="nothing.npz"):
+        mocapkit.clean(tmp_path / "nothing.npz")
+    with pytest.raises(TypeError, match="Motion or a file path"):
+        mocapkit.clean(np.zeros((4, 3)))
+
+
+def test_import_is_cheap():
+    """Importing the package loads neither torch nor the cleaning pipeline (and so compiles no numba kernel)."""
+    code = "import sys, mocapkit; print(sorted(m for m in ('torch', 'numba', 'mocapkit.cleaning') if m in sys.modules))"
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == "[]"
