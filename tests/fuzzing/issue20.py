@@ -159,9 +159,22 @@ def _bvh(frames: int = TRIM_FRAMES) -> bytes:
     return _bundled("131_01.bvh", frames)
 
 
-def _motion_npz(frames: int = TRIM_FRAMES, **changes) -> bytes:
-    """The npz of the bundled BVH's first ``frames`` frames with ``changes`` to its arrays."""
-    with np.load(io.BytesIO(npz_of(readers.Seed("s.bvh", "bvh", _bvh(frames)))), allow_pickle=False) as z:
+def _walk_npz(frames: int) -> bytes:
+    """The npz of the bundled CMU walk (12_walk.amc, the shipped deep models' rig), first ``frames`` frames."""
+    from mocapkit.io import load
+    from mocapkit.io.npz import write_npz
+
+    with tempfile.TemporaryDirectory(prefix="mocapkit-fuzz-npz-") as d:
+        (Path(d) / "walk.amc").write_bytes(_bundled("12_walk.amc", frames))
+        (Path(d) / "walk.asf").write_bytes(_bundled("12.asf"))
+        write_npz(load(Path(d) / "walk.amc"), Path(d) / "walk.npz")
+        return (Path(d) / "walk.npz").read_bytes()
+
+
+def _motion_npz(frames: int = TRIM_FRAMES, walk: bool = False, **changes) -> bytes:
+    """The npz of the bundled BVH's (or with ``walk`` the CMU walk's) first ``frames`` frames, ``changes`` made to its arrays."""
+    raw = _walk_npz(frames) if walk else npz_of(readers.Seed("s.bvh", "bvh", _bvh(frames)))
+    with np.load(io.BytesIO(raw), allow_pickle=False) as z:
         arrays = {k: z[k] for k in z.files}
     for k, v in changes.items():
         arrays[k] = v(arrays) if callable(v) else v
@@ -274,7 +287,7 @@ def _build_fixed() -> dict[str, Callable[[], Case]]:
 
     @case("npz-fps-0.01", "denoise on an npz with fps 0.01 (used 8 GB)")
     def _():
-        return Case("", {"slow.npz": _motion_npz(300, fps=np.array(0.01))},
+        return Case("", {"slow.npz": _motion_npz(300, walk=True, fps=np.array(0.01))},
                     (Step(("denoise", "slow.npz", "-o", "out.bvh"), "any", ("out.bvh",)),), inputs=("slow.npz",))
 
     @case("npz-zip-bomb", "a 4 MB npz whose rotations member inflates to 4 GB (loaded and copied: 9 GB)")
