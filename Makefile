@@ -76,6 +76,7 @@ bench: install-test
 	$(PY) benchmarks/reconstruct_multilinear.py --json
 	$(PY) benchmarks/clean_takes.py --json
 	$(PY) benchmarks/fuzz_readers.py --json
+	$(PY) benchmarks/fuzz_commands.py --json
 
 clean:
 	rm -rf $(OUT) .pytest_cache

@@ -21,8 +21,8 @@ over_limit_runs, inputs_lost_or_changed, partial_outputs, orphan_processes,
 expectation_failures (fixed cases: valid input refused or bad input accepted, a
 blown-up output); also runs, cases, fixed_cases_failing, mean_run_cpu_s (its
 baseline: the unmutated seeds' mean), max_run_cpu_s, max_peak_rss_mb. Details:
-the CPU budgets, the failing fixed cases and their findings, the mutants'
-exit codes by command, the distinct
+the CPU budgets, the failing fixed cases and their findings, every fixed case's
+runs (exit, wall and CPU seconds, peak RSS), the mutants' exit codes by command, the distinct
 failure kinds with counts and an example case each, and up to 300 findings
 (case, command, kind, detail, wall, CPU, peak RSS). ``--keep-failures DIR``
 lays each failing mutant's files out in DIR/<case>/ with its command line in
@@ -137,6 +137,9 @@ def main() -> None:
         "workers": args.workers, "seeds": [s.name for s in seeds], "skipped": summary["skipped"],
         "failing_fixed_cases": failing_fixed,
         "passing_fixed_cases": [n for n in names if n not in failing_fixed and not fixed[n].skipped],
+        "fixed_case_runs": {n: [{"command": "mocapkit " + " ".join(s.argv), "exit": s.returncode, "signal": s.signal,
+                                 "wall_s": s.wall_s, "cpu_s": s.cpu_s, "peak_rss_mb": s.peak_rss_mb} for s in r.steps]
+                            for n, r in fixed.items()},
         "failure_kinds": [{"command": k[0], "kind": k[1], "detail": k[2], "count": v, "example": example[k]}
                           for k, v in kinds.most_common(60)],
         "mutant_exits": dict(collections.Counter(

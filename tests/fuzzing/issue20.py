@@ -393,11 +393,11 @@ def _build_fixed() -> dict[str, Callable[[], Case]]:
             Step(("clean-batch", "in", "out", "--executor", "garbage", "--steps", "fill"), "refuse", ("out",)),
         ), inputs=("a.bvh", "in"))
 
-    @case("executor-unreachable", "--executor tcp://127.0.0.1:1: must fail in one line within 10 s")
+    @case("executor-unreachable", "--executor tcp://127.0.0.1:1: must fail in one line (within 10 s: its wall time is in the benchmark's findings)")
     def _():
         return Case("", {"a.bvh": bvh(), "b.bvh": bvh()}, (
             Step(("db", "build", "db", "a.bvh", "b.bvh", "--executor", "tcp://127.0.0.1:1"), "refuse", ("db",)),
-        ), inputs=("a.bvh", "b.bvh"), wall_s=90.0)
+        ), inputs=("a.bvh", "b.bvh"))
 
     @case("output-in-readonly-folder", "convert a.bvh ro/out.bvh with ro read-only (traceback)")
     def _():
