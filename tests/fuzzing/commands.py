@@ -640,7 +640,9 @@ def file_findings(before: dict, after: dict, step: Step, res: StepResult, inputs
     parts = [rel for rel in after if _PARTIAL.search(Path(rel).name) and rel not in before]
     for rel in parts:
         found.append(Finding("partial_output", f"{rel} left behind"))
-    if res.returncode != 0:
+    # a batch that exits 1 cleaned some takes and reported the others: its outputs are results, not leftovers
+    failed = res.returncode != 0 and not (step.argv[:1] == ("clean-batch",) and res.returncode == 1)
+    if failed:
         new = sorted(rel for rel in after if rel not in before and rel not in parts)
         if new:
             found.append(Finding("failed_run_output", f"the failed run left {', '.join(new[:6])}"
