@@ -3,14 +3,15 @@
 Usage::
 
     python benchmarks/fuzz_commands.py --json [--count 500] [--workers 2] [--seed 0] [--mem-gb 2]
-        [--data DIR] [--no-fixed] [--keep-failures DIR]
+        [--data DIR] [--no-fixed] [--no-big] [--keep-failures DIR]
 
 Each run is ``mocapkit ...`` in a subprocess, in its own folder, under
 ``RLIMIT_AS = --mem-gb`` GiB and a CPU budget per command kind (3x its CPU time
 on the unmutated seed plus 10 s), killed with its process group after
 ``--wall`` seconds (``tests/fuzzing/commands.py``). Cases: the command kinds on
 unmutated seeds (the baseline), the hand-made cases of issue 20
-(``tests/fuzzing/issue20.py``) unless ``--no-fixed``, and ``--count`` mutants:
+(``tests/fuzzing/issue20.py``; with a 50 MB AMC unless ``--no-big``) unless
+``--no-fixed``, and ``--count`` mutants:
 ``mutant_case(seeds, seed * 10**6 + k)``, each a real file (bundled samples and,
 when ``--data`` is a folder, a few files of ``../shared/data``, trimmed to 150
 frames) through the readers' mutators or with hostile names, run by one command.
@@ -63,6 +64,7 @@ def main() -> None:
     ap.add_argument("--wall", type=float, default=300.0, help="wall-clock seconds before a run is killed (a hang)")
     ap.add_argument("--data", type=Path, default=DEFAULT_DATA)
     ap.add_argument("--no-fixed", action="store_true", help="skip the fixed cases of issue 20")
+    ap.add_argument("--no-big", action="store_true", help="skip the fixed cases with a 50 MB input")
     ap.add_argument("--keep-failures", type=Path, default=None, help="lay failing mutants out here")
     ap.add_argument("--no-progress", action="store_true")
     args = ap.parse_args()
@@ -78,9 +80,10 @@ def main() -> None:
         budgets = {k: round(CPU_FACTOR * v + CPU_SLACK_S, 1) for k, v in base_cpu.items() if v == v}
         budgets["default"] = max(budgets.values())
         limits = commands.Limits(mem_bytes=mem, cpu_s=budgets, wall_s=args.wall)
-        names = [] if args.no_fixed else list(issue20.FIXED_CASES)
+        registry = {**issue20.FIXED_CASES, **({} if args.no_big else issue20.BIG_CASES)}
+        names = [] if args.no_fixed else list(registry)
         first = args.seed * 10**6
-        cases = [issue20.FIXED_CASES[n] for n in names] + [partial(commands.mutant_case, seeds, first + k)
+        cases = [registry[n] for n in names] + [partial(commands.mutant_case, seeds, first + k)
                                                           for k in range(args.count)]
         bar = None
         if not args.no_progress:

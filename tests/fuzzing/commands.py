@@ -47,6 +47,7 @@ case's files out in a folder for a person to rerun the command.
 
 from __future__ import annotations
 
+import dataclasses
 import hashlib
 import io
 import os
@@ -141,7 +142,8 @@ class Case:
     the outputs are. ``readonly``: folders made read-only before the steps (the case is
     skipped when even that cannot stop this user writing there). ``check``: the case's
     own test of the folder after the last step, returning problems. ``wall_s``: a
-    tighter wall-clock limit per step than the default.
+    tighter wall-clock limit per step than the default; ``cpu_s``: the CPU budget of
+    every step, instead of its command kind's (a 50 MB input takes longer to read).
     """
 
     name: str
@@ -151,6 +153,7 @@ class Case:
     readonly: tuple[str, ...] = ()
     check: Callable[[Path, list], list[str]] | None = None
     wall_s: float | None = None
+    cpu_s: float | None = None
     about: str = ""
 
 
@@ -671,9 +674,10 @@ def run_case(case: Case, workdir: Path, limits: Limits, keep: bool = False) -> C
                 return result
         for k, step in enumerate(case.steps):
             before = snapshot(root)
-            res = run_step(step.argv, root, limits, wall_s=case.wall_s, capture=base / f"capture-{k}")
+            lim = limits if case.cpu_s is None else dataclasses.replace(limits, cpu_s={"default": case.cpu_s})
+            res = run_step(step.argv, root, lim, wall_s=case.wall_s, capture=base / f"capture-{k}")
             after = snapshot(root)
-            res.findings += judge(res, step, limits)
+            res.findings += judge(res, step, lim)
             res.findings += file_findings(before, after, step, res, case.inputs, root)
             result.steps.append(res)
         if case.check is not None:

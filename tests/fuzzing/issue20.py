@@ -29,7 +29,7 @@ import numpy as np
 from . import readers
 from .commands import TRIM_FRAMES, Case, Step, Symlink, npz_of
 
-__all__ = ["FIXED_CASES", "fixed_case", "about", "zip_bomb_npz", "crc32_of_zeros"]
+__all__ = ["FIXED_CASES", "BIG_CASES", "fixed_case", "about", "zip_bomb_npz", "crc32_of_zeros"]
 
 
 # -- the zip bomb --------------------------------------------------------------------------------
@@ -497,9 +497,50 @@ def _build_fixed() -> dict[str, Callable[[], Case]]:
 FIXED_CASES: dict[str, Callable[[], Case]] = _build_fixed()
 
 
+def _big_amc(megabytes: float = 50.0) -> bytes:
+    """The bundled CMU walk's AMC, its frames repeated (renumbered) to ``megabytes`` MB."""
+    text = _bundled("12_walk.amc").decode()
+    lines = text.split("\n")
+    first = next(i for i, ln in enumerate(lines) if ln.strip().isdigit())
+    header, body = lines[:first], lines[first:]
+    frames: list[list[str]] = []
+    for ln in body:
+        if ln.strip().isdigit():
+            frames.append([])
+        elif ln.strip() and frames:
+            frames[-1].append(ln)
+    out, size, k = header[:], 0, 0
+    target = int(megabytes * 1e6)
+    while size < target:
+        f = frames[k % len(frames)]
+        k += 1
+        chunk = "\n".join([str(k)] + f)
+        out.append(chunk)
+        size += len(chunk) + 1
+    return ("\n".join(out) + "\n").encode()
+
+
+def _build_big() -> dict[str, Callable[[], Case]]:
+    reg: dict[str, Callable[[], Case]] = {}
+
+    def big_amc() -> Case:
+        return Case("amc-50mb", {"big.amc": _big_amc(50.0), "big.asf": _bundled("12.asf")},
+                    (Step(("info", "big.amc"), "any"), Step(("convert", "big.amc", "out.npz"), "any", ("out.npz",))),
+                    inputs=("big.amc", "big.asf"), cpu_s=300.0,
+                    about="a 50 MB AMC (the reader held about 30x the file in memory): under 2 GB or refused")
+
+    big_amc.about = "a 50 MB AMC (the reader held about 30x the file in memory): under 2 GB or refused"
+    reg["amc-50mb"] = big_amc
+    return reg
+
+
+# Cases too slow for the quick test (a 50 MB file): the benchmark runs them.
+BIG_CASES: dict[str, Callable[[], Case]] = _build_big()
+
+
 def about(name: str) -> str:
     """What the fixed case ``name`` tries, and what went wrong before (one line)."""
-    return FIXED_CASES[name].about
+    return {**FIXED_CASES, **BIG_CASES}[name].about
 
 
 def fixed_case(name: str) -> Case:
