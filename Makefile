@@ -80,6 +80,7 @@ bench: install-test
 	$(PY) benchmarks/clean_takes.py --json
 	$(PY) benchmarks/first_run.py --json
 	$(PY) benchmarks/fuzz_readers.py --json
+	$(PY) benchmarks/fuzz_commands.py --json
 
 clean:
 	rm -rf $(OUT) .pytest_cache

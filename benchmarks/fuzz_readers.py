@@ -5,7 +5,7 @@ Usage::
     python benchmarks/fuzz_readers.py --json [--count 100000] [--workers 2] [--seed 0]
         [--timeout 5] [--mem-gb 2] [--data DIR] [--before REV] [--before-count 10000] [--quick]
 
-Seeds are real files trimmed to 12 frames (``mocapkit.io._fuzz.load_seeds``:
+Seeds are real files trimmed to 12 frames (``tests/fuzzing/readers.py``, ``load_seeds``:
 the bundled samples plus a few of ``../shared/data``); ``--count`` mutants are
 split across formats by :data:`SHARE` (BVH 25 %, AMC 25 %, ASF 10 %, C3D 25 %,
 npz 15 %), each format's seeds taken in turn. Mutant ``k`` of a seed is
@@ -21,17 +21,17 @@ mean mutant read time over it), and with ``--before REV`` the same fuzzing
 git revision REV (``git archive`` of ``src/`` into a temp folder, run in a
 child process): the crash count before the fixes.
 
-The last stdout line with ``--json`` is one JSON object: mutants, mutants_per_format,
-per_format (status counts), successes, format_errors, crashes, inconsistent,
-hangs, memory_failures, failures (up to 20, with the reproducing seed and
-mutant number), slowest_input_s, slowest_input, peak_worker_rss_mb, total_s,
-mutants_per_s, seed_read_mean_s, mutant_read_mean_s, ratio_mutant_vs_seed_read,
-before (the same figures at REV, when asked) and ok (no crash, hang or memory failure).
+The last stdout line is the JSON object of ``benchmarks/_harness.py``. Figures:
+mutants, successes, format_errors, crashes (inconsistent results included),
+inconsistent, hangs, memory_failures (targets: all three zero), slowest_input_s,
+peak_worker_rss_mb, mutants_per_s, mutant_read_mean_s (its baseline: the clean
+seeds' read time) and, with ``--before``, crashes_before (the baseline of crashes).
+Details: mutants and status counts per format, the distinct failure kinds, up to 20
+failures with the reproducing seed and mutant number, the slowest input.
 """
 
 from __future__ import annotations
 
-import argparse
 import collections
 import json
 import os
@@ -43,6 +43,12 @@ import time
 from pathlib import Path
 
 REPO = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(REPO))  # the fuzzer lives in tests/fuzzing (not in the installed package)
+sys.path.insert(0, str(REPO / "benchmarks"))
+
+import _harness as harness  # noqa: E402
+from tests.fuzzing import readers as fuzz_readers  # noqa: E402
+
 DEFAULT_DATA = REPO.parent / "shared" / "data"
 SHARE = {"bvh": 0.25, "amc": 0.25, "asf": 0.10, "c3d": 0.25, "npz": 0.15}
 FAIL = ("crash", "inconsistent", "hang", "memory", "killed")
@@ -72,19 +78,17 @@ def make_tasks(seeds, total: int, seed: int) -> list[tuple[int, int]]:
 
 
 def fuzz(args) -> dict:
-    from mocapkit.io import _fuzz
-
     t_start = time.perf_counter()
-    seeds = _fuzz.load_seeds(args.data if args.data and args.data.is_dir() else None)
+    seeds = fuzz_readers.load_seeds(args.data if args.data and args.data.is_dir() else None)
     # Baseline: the clean seeds, read in this process (warm) a few times each.
     work = Path(tempfile.mkdtemp(prefix="fuzz-bench-"))
     try:
-        _fuzz._warm_up(seeds)
+        fuzz_readers.warm_up(seeds)
         seed_times = []
         for s in seeds:
             best = float("inf")
             for _ in range(3):
-                out = _fuzz.execute(s.fmt, s.data, s.companion, work)
+                out = fuzz_readers.execute(s.fmt, s.data, s.companion, work)
                 if out.status != "ok":
                     raise SystemExit(f"seed {s.name} does not read cleanly: {out.status} {out.detail}")
                 best = min(best, out.elapsed)
@@ -93,7 +97,7 @@ def fuzz(args) -> dict:
         shutil.rmtree(work, ignore_errors=True)
 
     tasks = make_tasks(seeds, args.count, args.seed)
-    pool = _fuzz.FuzzPool(seeds, workers=args.workers, timeout=args.timeout, mem_bytes=int(args.mem_gb * (1 << 30)))
+    pool = fuzz_readers.FuzzPool(seeds, workers=args.workers, timeout=args.timeout, mem_bytes=int(args.mem_gb * (1 << 30)))
     per_format = {f: collections.Counter() for f in SHARE}
     failures = []
     failure_kinds = collections.Counter()
@@ -161,8 +165,6 @@ def fuzz(args) -> dict:
         "mutants_per_s": round(n_done / fuzz_s, 1),
         "seed_read_mean_s": round(seed_mean, 5),
         "mutant_read_mean_s": round(mutant_mean, 5),
-        "ratio_mutant_vs_seed_read": round(mutant_mean / seed_mean, 3),
-        "ok": totals["crash"] + totals["inconsistent"] + totals["hang"] + totals["memory"] + totals["killed"] == 0,
     }
 
 
@@ -173,9 +175,8 @@ def before(args) -> dict:
         archive = subprocess.run(["git", "-C", str(REPO), "archive", args.before, "src"], check=True,
                                  capture_output=True).stdout
         subprocess.run(["tar", "-x", "-C", str(tmp)], input=archive, check=True)
-        # the fuzzer itself is today's (it only uses the readers' public API)
-        shutil.copy(REPO / "src" / "mocapkit" / "io" / "_fuzz.py", tmp / "src" / "mocapkit" / "io" / "_fuzz.py")
-        cmd = [sys.executable, __file__, "--json", "--no-progress", "--count", str(args.before_count),
+        # the fuzzer itself is today's, from tests/fuzzing (it only uses the readers' public API)
+        cmd = [sys.executable, __file__, "--json", "--no-save", "--no-progress", "--count", str(args.before_count),
                "--workers", str(args.workers), "--seed", str(args.seed), "--timeout", str(args.timeout),
                "--mem-gb", str(args.mem_gb), "--data", str(args.data)]
         env = dict(os.environ, PYTHONPATH=str(tmp / "src"), NUMBA_CACHE_DIR=str(tmp / "numba-cache"))
@@ -184,16 +185,20 @@ def before(args) -> dict:
         if res.returncode != 0:
             return {"rev": args.before, "error": res.stderr[-2000:]}
         out = json.loads(res.stdout.strip().splitlines()[-1])
+        merged = {**out["details"], **out["figures"]}
         keep = ("mutants", "mutants_per_format", "successes", "format_errors", "crashes", "inconsistent", "hangs",
                 "memory_failures", "distinct_failures", "failure_kinds", "slowest_input_s", "peak_worker_rss_mb")
-        return {"rev": args.before, **{k: out[k] for k in keep}}
+        return {"rev": args.before, **{k: merged[k] for k in keep if k in merged}}
     finally:
         shutil.rmtree(tmp, ignore_errors=True)
 
 
+FIGURES = ("mutants", "successes", "format_errors", "crashes", "inconsistent", "hangs", "memory_failures",
+           "slowest_input_s", "peak_worker_rss_mb", "mutants_per_s", "mutant_read_mean_s")
+
+
 def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("--json", action="store_true", help="print one JSON object as the last line")
+    ap = harness.parser(__doc__)
     ap.add_argument("--count", type=int, default=100_000)
     ap.add_argument("--workers", type=int, default=2)
     ap.add_argument("--seed", type=int, default=0)
@@ -209,12 +214,15 @@ def main() -> None:
         args.count = min(args.count, 2000)
         args.before_count = min(args.before_count, 2000)
     result = fuzz(args)
+    figures = {k: result.pop(k) for k in FIGURES}
+    baselines = {"mutant_read_mean_s": result["seed_read_mean_s"]}
     if args.before:
         result["before"] = before(args)
-    if args.json:
-        print(json.dumps(result))
-    else:
-        print(json.dumps(result, indent=2))
+        if "crashes" in result["before"]:
+            figures["crashes_before"] = result["before"]["crashes"]
+            baselines["crashes"] = result["before"]["crashes"]
+    targets = {k: {"value": 0, "op": "<=", "of": "figures"} for k in ("crashes", "hangs", "memory_failures")}
+    harness.emit("fuzz_readers", args, figures=figures, baselines=baselines, targets=targets, details=result)
 
 
 if __name__ == "__main__":

@@ -1,7 +1,7 @@
 """Fuzzing the readers: mutants of real files raise MocapFormatError or read consistently; regressions of found crashes.
 
 The seeded fuzz runs a few thousand mutants in rlimited worker processes
-(``mocapkit.io._fuzz``); ``benchmarks/fuzz_readers.py`` runs 100,000. Each
+(``tests/fuzzing/readers.py``); ``benchmarks/fuzz_readers.py`` runs 100,000. Each
 regression test below is the minimal form of a mutant the fuzzer found, with
 what the reader did before the fix.
 """
@@ -22,9 +22,9 @@ import pytest
 import mocapkit
 from mocapkit import samples
 from mocapkit.errors import MocapFormatError
-from mocapkit.io import _fuzz
 from mocapkit.io.asfamc import read_amc, read_asf
 from mocapkit.io.npz import write_npz
+from tests.fuzzing import readers as fuzz_readers
 
 FAIL = ("crash", "inconsistent", "hang", "memory", "killed")
 
@@ -33,7 +33,7 @@ FAIL = ("crash", "inconsistent", "hang", "memory", "killed")
 def seeds(request):
     from tests.conftest import SHARED_DATA
 
-    return _fuzz.load_seeds(SHARED_DATA if SHARED_DATA.is_dir() else None)
+    return fuzz_readers.load_seeds(SHARED_DATA if SHARED_DATA.is_dir() else None)
 
 
 def _fuzz_run(seeds, per_format: dict[str, int], base: int):
@@ -44,7 +44,7 @@ def _fuzz_run(seeds, per_format: dict[str, int], base: int):
     for fmt, count in per_format.items():
         idx = by_fmt[fmt]
         tasks += [(idx[k % len(idx)], base + k // len(idx)) for k in range(count)]
-    pool = _fuzz.FuzzPool(seeds, workers=2, timeout=5.0, mem_bytes=2 << 30)
+    pool = fuzz_readers.FuzzPool(seeds, workers=2, timeout=5.0, mem_bytes=2 << 30)
     status: dict[str, dict[str, int]] = {f: {} for f in per_format}
     failures = []
     for idx, out, _ in pool.run(tasks):
@@ -57,27 +57,27 @@ def _fuzz_run(seeds, per_format: dict[str, int], base: int):
 
 
 def test_seeds_are_real_files_that_read_cleanly(seeds, tmp_path):
-    assert {s.fmt for s in seeds} == set(_fuzz.FORMATS)
+    assert {s.fmt for s in seeds} == set(fuzz_readers.FORMATS)
     for s in seeds:
-        out = _fuzz.execute(s.fmt, s.data, s.companion, tmp_path)
+        out = fuzz_readers.execute(s.fmt, s.data, s.companion, tmp_path)
         assert out.status == "ok", (s.name, out.detail)
     # trimmed, not invented: the BVH seed is the first frames of the bundled clip
     bvh = next(s for s in seeds if s.name == "131_01.bvh")
     (tmp_path / "t.bvh").write_bytes(bvh.data)
     short, full = mocapkit.load(tmp_path / "t.bvh"), mocapkit.load(samples.path("131_01.bvh"))
-    assert short.num_frames == _fuzz.TRIM_FRAMES
-    np.testing.assert_array_equal(short.rotations, full.rotations[: _fuzz.TRIM_FRAMES])
+    assert short.num_frames == fuzz_readers.TRIM_FRAMES
+    np.testing.assert_array_equal(short.rotations, full.rotations[: fuzz_readers.TRIM_FRAMES])
 
 
 def test_mutants_are_deterministic_and_differ(seeds):
     s = seeds[0]
-    assert _fuzz.mutate(s, 7, seeds) == _fuzz.mutate(s, 7, seeds)
-    assert len({_fuzz.mutate(s, n, seeds) for n in range(50)}) > 40
+    assert fuzz_readers.mutate(s, 7, seeds) == fuzz_readers.mutate(s, 7, seeds)
+    assert len({fuzz_readers.mutate(s, n, seeds) for n in range(50)}) > 40
 
 
 def test_oracle_flags_inconsistent_results():
     m = mocapkit.load(samples.path("131_01.bvh"))[:5]
-    assert _fuzz.consistency_problems(m) == []
+    assert fuzz_readers.consistency_problems(m) == []
     bad_root = np.array(m.root_positions)
     bad_root[2, 1] = np.inf
     bad_rot = np.array(m.rotations)
@@ -85,7 +85,7 @@ def test_oracle_flags_inconsistent_results():
     bad_rot[3, 4, 0] = np.nan
     import dataclasses
 
-    probs = _fuzz.consistency_problems(dataclasses.replace(m, root_positions=bad_root, rotations=bad_rot))
+    probs = fuzz_readers.consistency_problems(dataclasses.replace(m, root_positions=bad_root, rotations=bad_rot))
     assert "root_positions holds inf" in probs
     assert "a rotation is not a unit quaternion" in probs
     assert "a quaternion is partly NaN" in probs
@@ -114,7 +114,7 @@ def test_fuzz_readers_30000(seeds):
 
 
 def _bvh(tmp_path, edit) -> Path:
-    text = _fuzz.trim_bvh(samples.path("131_01.bvh").read_bytes(), 3).decode()
+    text = fuzz_readers.trim_bvh(samples.path("131_01.bvh").read_bytes(), 3).decode()
     p = tmp_path / "m.bvh"
     p.write_text(edit(text))
     return p
@@ -153,7 +153,7 @@ def test_bvh_infinite_channel_value(tmp_path):
 
 def test_amc_infinite_value(tmp_path):
     # was RuntimeWarning "invalid value encountered in cos" (an error under the test settings)
-    lines = _fuzz.trim_amc(samples.path("12_walk.amc").read_bytes(), 2).decode().split("\n")
+    lines = fuzz_readers.trim_amc(samples.path("12_walk.amc").read_bytes(), 2).decode().split("\n")
     lines[6] = "upperback 3.47255 inf 1.65684"
     p = tmp_path / "m.amc"
     p.write_text("\n".join(lines))
@@ -275,11 +275,11 @@ def test_npz_corrupt_deflate_stream(tmp_path):
 # C3D: ezc3d crashed the process (SIGSEGV) or looped on these; run each in a child process.
 
 def _c3d_seed() -> bytearray:
-    return bytearray(_fuzz.trim_c3d(samples.path("Eb015pr.c3d").read_bytes()))
+    return bytearray(fuzz_readers.trim_c3d(samples.path("Eb015pr.c3d").read_bytes()))
 
 
 def _param(b: bytes, group: str, name: str) -> dict:
-    return next(p for p in _fuzz.c3d_parameters(bytes(b)) if p["group"] == group and p["name"] == name)
+    return next(p for p in fuzz_readers.c3d_parameters(bytes(b)) if p["group"] == group and p["name"] == name)
 
 
 def _load_in_child(p: Path) -> str:

@@ -1,6 +1,9 @@
 """Mutation fuzzing of the readers: seeds, mutators, the oracle and a pool of rlimited workers.
 
-Used by ``tests/io/test_fuzz.py`` and ``benchmarks/fuzz_readers.py``; not part of the public API.
+Used by ``tests/io/test_fuzz.py``, ``benchmarks/fuzz_readers.py`` and the command
+fuzzer (``tests/fuzzing/commands.py``). It lives beside the tests, not in the
+installed package: it forks workers under ``RLIMIT_AS`` (POSIX only) and is of
+no use to a user of mocapkit.
 
 * **Seeds** (:func:`load_seeds`) are real files: the bundled samples and, when
   given, a few files of ``../shared/data``, trimmed to their first frames so a
@@ -51,6 +54,7 @@ import numpy as np
 
 __all__ = [
     "Seed", "load_seeds", "mutate", "execute", "consistency_problems", "FuzzPool", "FORMATS", "Outcome",
+    "warm_up", "reproduce", "trim_bvh", "trim_amc", "trim_c3d", "c3d_parameters", "hash_name",
 ]
 
 FORMATS = ("bvh", "amc", "asf", "c3d", "npz")
@@ -121,9 +125,9 @@ def trim_c3d(data: bytes, frames: int = TRIM_FRAMES) -> bytes:
 
 def load_seeds(shared_data: Path | None = None) -> list[Seed]:
     """Seeds from the bundled samples and, when ``shared_data`` is a folder, a few of its files."""
-    from .. import samples
-    from ..io import load
-    from .npz import write_npz
+    from mocapkit import samples
+    from mocapkit.io import load
+    from mocapkit.io.npz import write_npz
 
     seeds: list[Seed] = []
 
@@ -629,8 +633,8 @@ def consistency_problems(obj) -> list[str]:
     positive, no infinite position. A Skeleton (from read_asf): the skeleton
     checks.
     """
-    from ..motion import Motion, Skeleton
-    from .c3d import MarkerSet
+    from mocapkit.io.c3d import MarkerSet
+    from mocapkit.motion import Motion, Skeleton
 
     p: list[str] = []
 
@@ -706,9 +710,9 @@ class Outcome:
 
 def execute(fmt: str, data: bytes, companion: bytes | None, workdir: Path) -> Outcome:
     """Write the mutant under ``workdir`` and read it; classify what happens."""
-    from ..errors import MocapFormatError
-    from . import load
-    from .asfamc import read_amc, read_asf
+    from mocapkit.errors import MocapFormatError
+    from mocapkit.io import load
+    from mocapkit.io.asfamc import read_amc, read_asf
 
     workdir = Path(workdir)
     t0 = time.perf_counter()
@@ -812,7 +816,7 @@ class FuzzPool:
     def run(self, tasks: list[tuple[int, int]]):
         from multiprocessing.connection import wait
 
-        _warm_up(self.seeds)
+        warm_up(self.seeds)
         todo = list(enumerate(tasks))[::-1]
         slots = [self._spawn() for _ in range(max(1, min(self.workers, len(tasks))))]
         busy: dict[int, tuple[int, float]] = {}  # slot -> (task index, start time)
@@ -875,7 +879,7 @@ class FuzzPool:
         self.restarts += 1
 
 
-def _warm_up(seeds: list[Seed]) -> None:
+def warm_up(seeds: list[Seed]) -> None:
     """Read every format once in this process so forked workers inherit compiled numba kernels."""
     work = Path(tempfile.mkdtemp(prefix="mocapkit-fuzz-warm-"))
     try:
