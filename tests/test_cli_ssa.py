@@ -52,8 +52,8 @@ def test_detect_no_confirm_gives_the_papers_flags(tmp_path):
         assert code == 0, err
     confirmed, paper = (ssa.Detection.load(p) for p in paths.values())
     assert np.array_equal(confirmed.mdm, paper.mdm)
-    assert np.array_equal(paper.flags, paper.mdm > 0.5) and not paper.params["confirm"]
-    assert confirmed.params["confirm"] and (confirmed.flags <= paper.flags | (confirmed.mdm > 0.25)).all()
+    assert np.array_equal(paper.flags, paper.mdm > 0.5) and not paper.params.confirm
+    assert confirmed.params.confirm and (confirmed.flags <= paper.flags | (confirmed.mdm > 0.25)).all()
     assert confirmed.flags.sum() < paper.flags.sum()  # the clean walk's unrepeated gestures are not errors
     code, _, err = run("detect", str(inp), "--out", str(tmp_path / "bad.npz"), "--jump-deg", "-1")
     assert code == 2 and one_error_line(err) and "jump_deg" in err

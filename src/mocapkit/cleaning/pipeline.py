@@ -92,9 +92,6 @@ __all__ = ["STEPS", "CleanResult", "StepRecord", "clean", "noise_level", "noisy_
 
 STEPS = ("fill", "detect", "repair", "denoise")
 FORMAT = "mocapkit.clean/1"
-ANALYSIS_FPS = 24.0  # ssa.detect's default analysis rate
-WORD_FRAMES = 15  # ssa.detect's default source word length at that rate
-
 NOISE_FIT_S = 0.06  # cubic Savitzky-Golay fit whose residual is "noise"
 NOISE_FIT_MIN = 7  # frames
 NOISE_WINDOW_S = 0.5  # median window of the residual
@@ -370,8 +367,9 @@ def _fill(motion: Motion, models: dict, notes: list) -> tuple[Motion, str, str]:
     return gapfill.fill_motion(motion, "cubic"), "cubic spline", note
 
 
-def _analysis_frames(motion: Motion) -> int:
-    return int(np.floor((motion.num_frames - 1) * ANALYSIS_FPS / motion.fps + 1e-9)) + 1
+def _analysis_frames(motion: Motion, analysis_fps: float) -> int:
+    """Frames of ``motion`` resampled to ``analysis_fps`` (as :meth:`Motion.resample` makes them)."""
+    return int(np.floor((motion.num_frames - 1) * analysis_fps / motion.fps + 1e-9)) + 1
 
 
 def _denoise(motion: Motion, noisy: np.ndarray, models: dict, notes: list) -> tuple[Motion, str, str]:
@@ -440,6 +438,7 @@ def clean(
 
     _check(motion)
     steps = parse_steps(steps)
+    params = ssa.SSAParams(max_word_angle_deg=max_word_angle_deg)
     models = _models(models)
     if not 0.0 < threshold < 1.0:
         raise ValueError(f"threshold must be in (0, 1), got {threshold}")
@@ -467,16 +466,17 @@ def clean(
         if cur.missing().any():
             raise MocapError(f"{name}: {int(cur.missing().any(axis=1).sum())} frames have missing joints; detect needs "
                              "complete frames: add the fill step")
-        n_a = _analysis_frames(cur)
-        if n_a < WORD_FRAMES:
+        n_a = _analysis_frames(cur, params.analysis_fps)
+        N = params.source_length
+        if n_a < N:
             note = (f"detect and repair skipped: {F} frames ({cur.duration:.2f} s) is shorter than one motion word "
-                    f"({WORD_FRAMES} frames at {ANALYSIS_FPS:g} fps, {WORD_FRAMES / ANALYSIS_FPS:.3f} s)")
+                    f"({N} frames at {params.analysis_fps:g} fps, {N / params.analysis_fps:.3f} s)")
             notes.append(note)
             records.append(StepRecord("detect", time.perf_counter() - t, 0, "skipped", note))
             steps = tuple(s for s in steps if s != "repair")
         else:
             try:
-                det = ssa.detect(cur, context, threshold=threshold, progress=progress, max_word_angle_deg=max_word_angle_deg)
+                det = ssa.detect(cur, context, threshold=threshold, params=params, progress=progress)
             except (ValueError, SkeletonError) as exc:
                 raise MocapError(f"{name}: detect: {exc}") from None
             mdm, flags = np.nan_to_num(np.asarray(det.mdm, dtype=np.float64)), np.asarray(det.flags, dtype=bool)
@@ -490,7 +490,7 @@ def clean(
         t = time.perf_counter()
         before = cur.rotations
         try:
-            cur = ssa.repair(cur, det, context, foot_skate=foot_skate)
+            cur = ssa.repair(cur, det, foot_skate=foot_skate)  # on the take detect prepared
         except ValueError as exc:
             raise MocapError(f"{name}: repair: {exc}") from None
         repaired = _changed_cells(before, cur.rotations)

@@ -10,7 +10,8 @@ from scipy.signal import resample_poly
 import mocapkit
 from mocapkit import corrupt
 from mocapkit import rotations as R
-from mocapkit.cleaning import ssa, word_dtw
+from mocapkit.cleaning import ssa
+from mocapkit.cleaning.ssa import cues, neighbours, texture, word_dtw
 from mocapkit.errors import SkeletonError
 from mocapkit.motion import concatenate
 from tests.naive import naive_local_minima_knn
@@ -32,7 +33,7 @@ def test_shapes_and_range(walk, flipped):
     F, J = walk.num_frames, walk.num_joints
     assert det.mdm.shape == det.flags.shape == (F, J)
     assert np.all((det.mdm >= 0) & (det.mdm <= 1))
-    assert det.params["confirm"]
+    assert det.params.confirm
     cues = det.holds | det.swaps | det.offsets
     assert np.array_equal(det.flags, ssa.confirm_flags(det.mdm, det.jumps, det.threshold, det.fps) | cues)
     assert not (det.flags & ~cues & (det.mdm <= det.threshold / 2)).any()
@@ -117,7 +118,10 @@ def test_detection_round_trip(tmp_path, flipped):
     det = flipped[3]
     path = det.save(tmp_path / "det.npz")
     back = ssa.Detection.load(path)
+    assert det.analysis is not None and back.analysis is None  # the prepared take is not saved
     for f in dataclasses.fields(det):
+        if f.name == "analysis":
+            continue
         a, b = getattr(det, f.name), getattr(back, f.name)
         if isinstance(a, np.ndarray):
             assert np.array_equal(a, b, equal_nan=a.dtype.kind == "f"), f.name
@@ -169,7 +173,7 @@ def test_small_context_and_prefilter_find_the_error():
         det = ssa.detect(bad, [b], prefilter=prefilter)
         r = records[0]
         assert det.flags[r.start : r.end, a.skeleton.index("rtibia")].mean() > 0.8
-        assert det.params["prefilter"] == prefilter
+        assert det.params.prefilter == prefilter
 
 
 def test_prefilter_agrees_with_exhaustive_search(walk):
@@ -187,7 +191,7 @@ def test_two_stage_matches_single_stage_on_the_error():
     bad, mask, records = corrupt.real_errors(a, kinds=("flip",), n_errors=1, seed=2, joints=["rtibia"])
     det = ssa.detect(bad, [b], two_stage=True)
     r = records[0]
-    assert det.params["two_stage"]
+    assert det.params.two_stage
     assert det.flags[r.start : r.end, a.skeleton.index("rtibia")].mean() > 0.8
 
 
@@ -227,31 +231,13 @@ def test_facing_aligned_removes_heading(walk, rng):
     assert np.allclose(R.geodesic_angle(a, b), 0.0, atol=1e-6)
 
 
-def test_sparse_reconstruction_from_nine_joints():
-    """Fig. 8: nine joints of a sneak take, the other take of the actor as context."""
-    a = mocapkit.load(mocapkit.samples.path("HDM_bk_sneak2StepsLStart_004_120.amc"))
-    b = mocapkit.load(mocapkit.samples.path("HDM_bk_sneak2StepsLStart_005_120.amc"))
-    nine = ["lowerneck", "lhumerus", "rhumerus", "lradius", "rradius", "lfemur", "rfemur", "ltibia", "rtibia"]
-    sparse = np.array(a.rotations)
-    known = [a.skeleton.index(n) for n in nine]
-    unknown = [j for j in range(a.num_joints) if j not in known and j != 0]
-    sparse[:, unknown] = np.nan
-    out = ssa.reconstruct_sparse(dataclasses.replace(a, rotations=sparse), nine, [b])
-    assert np.array_equal(out.rotations[:, known], a.rotations[:, known])
-    assert np.isfinite(out.rotations).all()
-    err = np.degrees(R.geodesic_angle(out.rotations[:, unknown], a.rotations[:, unknown]))
-    rest = np.degrees(R.geodesic_angle(np.broadcast_to(R.identity(), a.rotations[:, unknown].shape), a.rotations[:, unknown]))
-    moving = rest.mean(axis=0) > 5
-    assert err[:, moving].mean() < 0.5 * rest[:, moving].mean()
-
-
 # -- the batched neighbour-word warp against the one-word-at-a-time reference ---------------------
 
 
 def _reference_neighbor_word(
     source_word, context, members, drop, pos, N, M, min_width=11, out_rows=None
 ):
-    """The oracle of ``ssa._neighbor_words``: one neighbour word time-warped onto the source word's N frames (section 3.2), (N, m_g, 4).
+    """The oracle of ``neighbours.neighbor_words``: one neighbour word time-warped onto the source word's N frames (section 3.2), (N, m_g, 4).
 
     The constrained DTW path between ``source_word`` (N, m, 4) and the target
     word at ``pos`` is recomputed; every source frame takes the mean of the
@@ -290,25 +276,26 @@ def _reference_neighbor_word(
 @pytest.mark.parametrize("group", ["whole", "left"])
 def test_neighbor_words_equal_the_one_at_a_time_reference(walk, flipped, group):
     det = flipped[3]
-    src, full, _, _, _ = ssa._prepare(flipped[0], None, 24.0, det.texture_joints)
+    an = ssa.prepare(flipped[0], None, joints=det.texture_joints)
+    src, full = an.source, an.texture
     g = det.group_names.index(group)
     members = np.flatnonzero(det.group_masks[g])
     wi, ki = np.nonzero(det.neighbor_pos[g] >= 0)
     starts, pos = det.word_starts[wi], det.neighbor_pos[g][wi, ki]
     pos = np.append(pos, full.num_frames - 5)  # a target that runs past its clip
     starts = np.append(starts, 0)
-    words, ok = ssa._neighbor_words(src.values, full, members, ssa._drop(members), starts, pos, 15, 20)
+    words, ok = neighbours.neighbor_words(src.values, full, members, neighbours.dropped_terms(members), starts, pos, 15, 20)
     resized = 0
     for q in range(len(pos)):
-        ref = _reference_neighbor_word(src.values[starts[q] : starts[q] + 15], full, members, ssa._drop(members), int(pos[q]), 15, 20)
+        ref = _reference_neighbor_word(src.values[starts[q] : starts[q] + 15], full, members, neighbours.dropped_terms(members), int(pos[q]), 15, 20)
         assert ok[q] == (ref is not None)
         if ref is not None:
-            np.testing.assert_allclose(ssa._align(words[q], ref), ref, atol=1e-12)
+            np.testing.assert_allclose(texture.align_hemisphere(words[q], ref), ref, atol=1e-12)
         else:
             assert np.isnan(words[q]).all()
     assert not ok[-1] and ok[:-1].all()
     # some paths end on the target's last column, so the polyphase resize is exercised
-    _, iend = word_dtw.warp_target_words(src.values, full.values, members, ssa._drop(members), starts[:-1], pos[:-1])
+    _, iend = word_dtw.warp_target_words(src.values, full.values, members, neighbours.dropped_terms(members), starts[:-1], pos[:-1])
     assert np.any(iend < 14)
 
 
@@ -341,11 +328,11 @@ def test_robust_word_means_equal_the_per_word_reference():
     base = R.quaternion_normalize(rng.normal(size=(N, m, 4)))
     outlier = 0.8 * (rng.random((W, K, 1, 1, 1)) < 0.2)  # some neighbours far off: the rule must drop them
     words = R.quaternion_normalize(base[None, None] + 0.08 * rng.normal(size=(W, K, N, m, 4)) + outlier)
-    words = ssa._align(words, base[None, None])
+    words = texture.align_hemisphere(words, base[None, None])
     valid = rng.random((W, K)) < 0.7
     valid[:, 0] |= ~valid.any(axis=1)
     valid[0] = [False, False, True, False, False]  # a single neighbour is the mean
-    mean, spread = ssa._robust_means(np.where(valid[..., None, None, None], words, 0.0), valid)
+    mean, spread = neighbours.robust_means(np.where(valid[..., None, None, None], words, 0.0), valid)
     dropped = 0
     for w in range(W):
         ref_mean, ref_spread = _reference_robust_mean(words[w][valid[w]])
@@ -361,7 +348,7 @@ def test_minima_are_those_of_the_whole_distance_function():
     tgt = np.arange(60)
     dist = np.abs(tgt - 30.0)[None] * 0.1 + 1.0  # falls all the way into the source at 30: no minimum near it
     dist[0, 50] = 0.5  # a real repetition
-    idx, vals = ssa._local_minima_knn(dist, tgt, 3, np.array([30]), 7)
+    idx, vals = neighbours.local_minima_knn(dist, tgt, 3, np.array([30]), 7)
     got = [int(i) for i, v in zip(idx[0], vals[0]) if np.isfinite(v)]
     assert got == [50]  # not 22 or 38, the edges of the excluded zone
     assert naive_local_minima_knn(dist, tgt, 3, np.array([30]), 7)[0] == [(0.5, 50)]
@@ -493,7 +480,7 @@ def test_with_threshold_applies_the_detection_rule(flipped):
     low = det.with_threshold(0.3)
     assert np.array_equal(low.flags, ssa.confirm_flags(det.mdm, det.jumps, 0.3, det.fps) | det.holds | det.swaps | det.offsets)
     assert (low.flags >= det.flags).all()
-    plain = dataclasses.replace(det, params={**det.params, "confirm": False})
+    plain = dataclasses.replace(det, params=det.params.replace(confirm=False))
     assert np.array_equal(plain.with_threshold(0.3).flags, det.mdm > 0.3)
     with pytest.raises(ValueError, match="threshold"):
         det.with_threshold(0.0)
@@ -501,7 +488,7 @@ def test_with_threshold_applies_the_detection_rule(flipped):
 
 def test_a_detection_file_without_jumps_loads_with_none(tmp_path, flipped):
     """Files written before confirmation existed have no jumps array; their flags were MDM > threshold."""
-    det = dataclasses.replace(flipped[3], params={**flipped[3].params, "confirm": False})
+    det = dataclasses.replace(flipped[3], params=flipped[3].params.replace(confirm=False))
     path = det.save(tmp_path / "det.npz")
     with np.load(path, allow_pickle=False) as z:
         arrays = {k: z[k] for k in z.files if k not in ("jumps", "holds", "swaps", "offsets")}
@@ -567,7 +554,7 @@ def test_held_joints_find_a_frozen_channel_and_leave_motion_alone(walk):
         ssa.held_joints(m, moving, rest_deg=-1.0)
     # the speeds come from a cheaper angle than rotations.geodesic_angle: the same to 1e-6 rad, also off unit length
     q = walk.rotations * 1.001
-    assert np.allclose(ssa._step_angles(q), R.geodesic_angle(walk.rotations[1:], walk.rotations[:-1]), atol=1e-6)
+    assert np.allclose(cues.step_angles(q), R.geodesic_angle(walk.rotations[1:], walk.rotations[:-1]), atol=1e-6)
 
 
 def test_detect_flags_a_freeze_from_its_first_held_frame(walk):
