@@ -118,7 +118,8 @@ def clean_file(
     written then, nor when interrupted.
     """
     from . import io
-    from .cleaning.pipeline import STEPS, clean, clean_path, plot_summary
+    from .cleaning.pipeline import STEPS, clean, clean_path
+    from .report.summary import plot_summary
     from .motion import Motion
 
     inp, out = Path(inp), Path(out)

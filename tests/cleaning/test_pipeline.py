@@ -11,7 +11,7 @@ import mocapkit
 from mocapkit import corrupt, metrics, samples
 from mocapkit import rotations as R
 from mocapkit.cleaning import gapfill
-from mocapkit.cleaning.pipeline import CleanResult, clean, clean_path, noise_level, noisy_cells, plot_summary
+from mocapkit.cleaning.pipeline import CleanResult, clean, clean_path, noise_level, noisy_cells
 from mocapkit.errors import MocapError, MocapFormatError
 
 
@@ -186,14 +186,6 @@ def test_noise_level(walk):
     cells, _ = noisy_cells(noisy)
     assert not cells[:, 0].any()  # the root is never denoised
     assert noise_level(walk[:4]).shape == (4, walk.num_joints) and np.isnan(noise_level(walk[:4])).all()
-
-
-def test_plot_summary(cleaned, tmp_path):
-    bad, *_, res = cleaned
-    p = plot_summary(res, bad, tmp_path / "summary.png")
-    data = p.read_bytes()
-    assert data[:8] == b"\x89PNG\r\n\x1a\n" and len(data) > 20_000
-    assert not list(tmp_path.glob(".*.part"))
 
 
 def test_noise_level_stays_where_the_noise_is(walk):

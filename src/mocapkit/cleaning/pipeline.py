@@ -88,7 +88,7 @@ from .. import rotations as R
 from ..errors import MocapError, MocapFormatError, SkeletonError
 from ..motion import Motion
 
-__all__ = ["STEPS", "CleanResult", "StepRecord", "clean", "noise_level", "noisy_cells", "clean_path", "plot_summary"]
+__all__ = ["STEPS", "CleanResult", "StepRecord", "clean", "noise_level", "noisy_cells", "clean_path", "parse_steps"]
 
 STEPS = ("fill", "detect", "repair", "denoise")
 FORMAT = "mocapkit.clean/1"
@@ -522,59 +522,3 @@ def clean(
         joint_names=tuple(motion.skeleton.joint_names), fps=float(motion.fps), steps=tuple(records),
         notes=tuple(notes), params=params, detection=det,
     )
-
-
-# -- the static summary figure -------------------------------------------------------------
-
-
-def plot_summary(result: CleanResult, original: Motion, path, joints: int = 2, title: str | None = None) -> Path:
-    """One PNG: the MDM heat map (flags outlined) over before/after channel plots of the most changed joints.
-
-    Draws with :func:`mocapkit.report.plots.plot_mdm` and
-    :func:`~mocapkit.report.plots.plot_channels` into temporary images and
-    stacks them into one figure (matplotlib Agg), written atomically.
-    """
-    import tempfile
-
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.image as mpimg
-    import matplotlib.pyplot as plt
-
-    from ..io import atomic_write
-    from ..report.plots import plot_channels, plot_mdm
-
-    if result.motion is None:
-        raise ValueError("plot_summary needs the cleaned motion (result.motion)")
-    sk = original.skeleton
-    changed = result.changed
-    # the joints with the most flagged cells, then the most changed ones, among joints with rotation channels
-    score = result.flags.sum(axis=0) * (F_ := max(result.num_frames, 1)) + changed.sum(axis=0)
-    order = [int(j) for j in np.argsort(-score, kind="stable") if score[j] > 0 and sk.rotation_order(int(j))]
-    picks = order[:joints] or [j for j in range(1, sk.num_joints) if sk.rotation_order(j)][:1]
-    label = title or (original.name or "take")
-    with tempfile.TemporaryDirectory() as tmp:
-        images = [plot_mdm(result.mdm, result.joint_names, result.fps, Path(tmp) / "mdm.png", flags=result.flags,
-                           title=f"{label}: movement digression map")]
-        for j in picks:
-            images.append(plot_channels([original, result.motion], sk.joint_names[j], Path(tmp) / f"j{j}.png",
-                                        labels=["input", "cleaned"], mask=changed[:, j],
-                                        title=f"{sk.joint_names[j]}: input vs cleaned ({int(changed[:, j].sum())} of {F_} frames changed)"))
-        arrays = [mpimg.imread(str(p)) for p in images]
-    width = max(a.shape[1] for a in arrays)
-    heights = [a.shape[0] * width / a.shape[1] for a in arrays]
-    dpi = 100
-    fig = plt.figure(figsize=(width / dpi, sum(heights) / dpi), dpi=dpi)
-    top = 1.0
-    for a, h in zip(arrays, heights):
-        frac = h / sum(heights)
-        ax = fig.add_axes([0.0, top - frac, 1.0, frac])
-        ax.imshow(a)
-        ax.axis("off")
-        top -= frac
-    path = Path(path)
-    with atomic_write(path, "wb") as fh:
-        fig.savefig(fh, format="png", dpi=dpi)
-    plt.close(fig)
-    return path

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import math
 from collections import deque
 from dataclasses import dataclass, field
 from functools import lru_cache
@@ -586,30 +587,18 @@ def _root_rotation_columns(skeleton: Skeleton) -> np.ndarray:
     return np.array([k for k, c in enumerate(chans) if c.endswith("rotation")], dtype=np.int64)
 
 
-@njit(cache=True)
-def _qmul(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    return np.array([
-        a[0] * b[0] - a[1] * b[1] - a[2] * b[2] - a[3] * b[3],
-        a[0] * b[1] + a[1] * b[0] + a[2] * b[3] - a[3] * b[2],
-        a[0] * b[2] - a[1] * b[3] + a[2] * b[0] + a[3] * b[1],
-        a[0] * b[3] + a[1] * b[2] - a[2] * b[1] + a[3] * b[0],
-    ])
-
-
-@njit(cache=True)
 def _conjugated(c: np.ndarray, q: np.ndarray) -> np.ndarray:
     """c q c^-1 for one unit quaternion (the ASF axis frame), as :func:`_root_quaternion` does for rows."""
-    return _qmul(_qmul(c, q), np.array([c[0], -c[1], -c[2], -c[3]]))
+    return R.quaternion_multiply(R.quaternion_multiply(c, q), R.quaternion_conjugate(c))
 
 
-@njit(cache=True)
 def _omega(prev: np.ndarray, q: np.ndarray, fps: float) -> np.ndarray:
     """:func:`root_angular_velocity` of one frame pair: rotvec(prev^-1 q) * fps, rad/s, (3,)."""
-    r = _qmul(np.array([prev[0], -prev[1], -prev[2], -prev[3]]), q)
+    r = R.quaternion_multiply(R.quaternion_conjugate(prev), q)
     if r[0] < 0.0:
         r = -r
-    s = np.sqrt(r[1] * r[1] + r[2] * r[2] + r[3] * r[3])
-    scale = np.arctan2(s, r[0]) / s if s > 1e-12 else 1.0 + s * s / 6.0
+    s = math.sqrt(r[1] * r[1] + r[2] * r[2] + r[3] * r[3])
+    scale = math.atan2(s, r[0]) / s if s > 1e-12 else 1.0 + s * s / 6.0
     out = 2.0 * fps * scale * r[1:]
     return np.zeros(3) if np.any(np.isnan(out)) else out
 
