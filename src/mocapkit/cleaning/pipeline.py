@@ -381,7 +381,7 @@ def _denoise(motion: Motion, noisy: np.ndarray, models: dict, notes: list) -> tu
     ebf, src = _deep_model(models, "ebf")
     why = _fits(ebf, motion)
     if why is None:
-        den = deep.denoise(motion, ebf)
+        den = deep.denoise(motion, ebf, cells=noisy)  # the EBF runs only as far as the noisy cells need
         method, note = f"EBF ({src})", ""
     else:
         joints = np.flatnonzero(noisy.any(axis=0))
