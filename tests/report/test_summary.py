@@ -1,6 +1,5 @@
 """The cleaning summary figure: one PNG drawn on one figure's axes, written atomically."""
 
-import numpy as np
 import pytest
 
 import mocapkit

@@ -9,7 +9,7 @@ import pytest
 
 import mocapkit
 from mocapkit.cleaning import pipeline, ssa
-from mocapkit.cleaning.ssa import SSAParams, cues, detect as _unused, neighbours, texture  # noqa: F401
+from mocapkit.cleaning.ssa import SSAParams, cues, neighbours, texture
 from mocapkit.reconstruct.sparse import reconstruct_sparse
 
 D = SSAParams()
