@@ -49,8 +49,9 @@ def test_denoise_cells_equals_the_whole_take_on_those_cells(noisy):
 
 def test_inference_restores_the_thread_count(noisy):
     before = torch.get_num_threads()
-    with inference.one_thread():
+    with inference.torch_threads(1):
         assert torch.get_num_threads() == 1
     assert torch.get_num_threads() == before
+    assert 1 <= inference.inference_threads() <= before
     deep.denoise(noisy[:100], deep.shipped_model("ebf"))
     assert torch.get_num_threads() == before

@@ -11,6 +11,7 @@ from __future__ import annotations
 import dataclasses
 import json
 import math
+import os
 from collections import deque
 from contextlib import contextmanager
 from dataclasses import dataclass, field
@@ -173,26 +174,39 @@ def _pad(x: np.ndarray, ctx: np.ndarray, half: int = HALF_WINDOW):
     return xp, cp
 
 
-@contextmanager
-def one_thread():
-    """Run torch in one thread inside the block, restoring the thread count after.
+def inference_threads() -> int:
+    """Torch threads for offline inference: the cores other processes leave idle, at least 1.
 
     Offline inference here is two LSTM recurrences over the take (sequential
-    in time, on 126-wide states) and small per-frame layers: threads buy
-    little, and on a machine whose cores are busy with other processes a
-    second torch thread spins waiting for a core (the EBF on a 60 s take at
-    120 fps took 5.4-8.9 s in two threads against 0.6-0.8 s in one on a
-    shared 2-core machine). The results are the same in any thread count.
+    in time, on 126-wide states) and small per-frame layers. On idle cores
+    threads help a little; on cores busy with other processes a torch thread
+    spins waiting for one (the EBF on a 60 s take at 120 fps took 5.4-8.9 s
+    in two threads against 0.6-0.8 s in one on a shared 2-core machine at a
+    load of 8). So: the usable cores less the 1-minute load average, within
+    [1, torch's own thread count]. The results are the same in any thread count.
     """
     n = torch.get_num_threads()
-    torch.set_num_threads(1)
+    try:
+        busy = os.getloadavg()[0]
+    except (OSError, AttributeError):  # no load average on this platform
+        return n
+    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
+    return int(max(1, min(n, cores - round(busy))))
+
+
+@contextmanager
+def torch_threads(threads: int | None = None):
+    """Run torch in ``threads`` threads inside the block (default :func:`inference_threads`), restoring the
+    thread count after."""
+    n = torch.get_num_threads()
+    torch.set_num_threads(inference_threads() if threads is None else int(threads))
     try:
         yield
     finally:
         torch.set_num_threads(n)
 
 
-@one_thread()
+@torch_threads()
 @torch.inference_mode()
 def _run_ebf(
     net: EBF, xp: np.ndarray, cp: np.ndarray, chunk: int = 4096, noise: np.ndarray | None = None
@@ -303,7 +317,7 @@ def denoise_channels(
     return out
 
 
-@one_thread()
+@torch_threads()
 @torch.inference_mode()
 def run_ebd(net: EBD, filled: np.ndarray, mask: np.ndarray, ctx: np.ndarray, frames: np.ndarray, batch: int = 8192):
     """The EBD's predictions (len(frames), C) at ``frames`` of lerp-filled channels (F, C) with their gap mask
