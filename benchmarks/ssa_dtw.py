@@ -86,7 +86,7 @@ import numba  # noqa: E402
 
 import mocapkit  # noqa: E402
 from mocapkit.cleaning import ssa  # noqa: E402
-from mocapkit.cleaning import word_dtw as K  # noqa: E402
+from mocapkit.cleaning.ssa import word_dtw as K  # noqa: E402
 
 DATA = REPO.parent / "shared" / "data"
 N, M, STRIDE, MIN_WIDTH, DROP = 15, 20, 5, 11, 3

@@ -80,9 +80,8 @@ def timed(fn, *a, **kw):
 
 def search_vs_exhaustive(motion, context) -> dict:
     """nearest_words pruned vs exhaustive on the textures ``detect`` builds; identical neighbours required."""
-    src, full, tex_joints, _, _ = ssa._prepare(motion, context, 24.0, 24)
-    names, rows = ssa._group_rows(ssa.joint_groups(motion.skeleton, tex_joints), tex_joints)
-    words = ssa.motion_words(src.num_frames, 15, 5)
+    an = ssa.prepare(motion, context)
+    src, full, rows, words = an.source, an.texture, list(an.group_rows), an.words
     opts = dict(k=5, source_length=15, target_length=20, min_width=11, max_run=3, self_clip=0)
     pruned, tp = timed(ssa.nearest_words, src, full, rows, words, **opts)
     exhaustive, te = timed(ssa.nearest_words, src, full, rows, words, exhaustive=True, **opts)
@@ -127,10 +126,10 @@ def main(argv=None) -> None:
     det, t = timed(ssa.detect, clip, large)
     ctx_s = sum(m.duration for m in large)
     res["large"] = {"clip": clip_path.name, "context_clips": len(large), "context_seconds": round(ctx_s, 1),
-                    "prefilter": bool(det.params["prefilter"]), "seconds": round(t, 2),
+                    "prefilter": bool(det.params.prefilter), "seconds": round(t, 2),
                     "target_seconds": TARGETS["large_seconds"], "ratio_to_target": round(t / TARGETS["large_seconds"], 3),
                     "paper_seconds": 3 * 3600}
-    log(f"large context ({len(large)} clips, {ctx_s:.0f} s, prefilter {det.params['prefilter']}): {t:.2f} s")
+    log(f"large context ({len(large)} clips, {ctx_s:.0f} s, prefilter {det.params.prefilter}): {t:.2f} s")
 
     res["search_local"] = search_vs_exhaustive(local, None)
     res["search_small"] = search_vs_exhaustive(clip, small)

@@ -31,6 +31,7 @@ __all__ = [
     "Motion",
     "concatenate",
     "mirror_pairs",
+    "joint_sides",
     "find_joint",
     "standard_joints",
     "unit_scale_cm",
@@ -809,6 +810,12 @@ def _side_and_part(name: str, names: set[str]) -> tuple[str | None, str]:
             return side, re.sub(pat, "", low)
     return None, low
 
+
+
+def joint_sides(joint_names: Sequence[str]) -> list[str | None]:
+    """``'left'``, ``'right'`` or None for each joint name: the side of a joint with a mirror partner by name."""
+    names = set(joint_names)
+    return [_side_and_part(n, names)[0] for n in joint_names]
 
 # Role -> ordered patterns on side-stripped lower-case names; the first pattern with a match wins.
 ROLES: dict[str, tuple[str | None, tuple[str, ...]]] = {

@@ -88,13 +88,10 @@ from .. import rotations as R
 from ..errors import MocapError, MocapFormatError, SkeletonError
 from ..motion import Motion
 
-__all__ = ["STEPS", "CleanResult", "StepRecord", "clean", "noise_level", "noisy_cells", "clean_path", "plot_summary"]
+__all__ = ["STEPS", "CleanResult", "StepRecord", "clean", "noise_level", "noisy_cells", "clean_path", "parse_steps"]
 
 STEPS = ("fill", "detect", "repair", "denoise")
 FORMAT = "mocapkit.clean/1"
-ANALYSIS_FPS = 24.0  # ssa.detect's default analysis rate
-WORD_FRAMES = 15  # ssa.detect's default source word length at that rate
-
 NOISE_FIT_S = 0.06  # cubic Savitzky-Golay fit whose residual is "noise"
 NOISE_FIT_MIN = 7  # frames
 NOISE_WINDOW_S = 0.5  # median window of the residual
@@ -370,8 +367,9 @@ def _fill(motion: Motion, models: dict, notes: list) -> tuple[Motion, str, str]:
     return gapfill.fill_motion(motion, "cubic"), "cubic spline", note
 
 
-def _analysis_frames(motion: Motion) -> int:
-    return int(np.floor((motion.num_frames - 1) * ANALYSIS_FPS / motion.fps + 1e-9)) + 1
+def _analysis_frames(motion: Motion, analysis_fps: float) -> int:
+    """Frames of ``motion`` resampled to ``analysis_fps`` (as :meth:`Motion.resample` makes them)."""
+    return int(np.floor((motion.num_frames - 1) * analysis_fps / motion.fps + 1e-9)) + 1
 
 
 def _denoise(motion: Motion, noisy: np.ndarray, models: dict, notes: list) -> tuple[Motion, str, str]:
@@ -383,7 +381,7 @@ def _denoise(motion: Motion, noisy: np.ndarray, models: dict, notes: list) -> tu
     ebf, src = _deep_model(models, "ebf")
     why = _fits(ebf, motion)
     if why is None:
-        den = deep.denoise(motion, ebf)
+        den = deep.denoise(motion, ebf, cells=noisy)  # the EBF runs only as far as the noisy cells need
         method, note = f"EBF ({src})", ""
     else:
         joints = np.flatnonzero(noisy.any(axis=0))
@@ -440,6 +438,7 @@ def clean(
 
     _check(motion)
     steps = parse_steps(steps)
+    params = ssa.SSAParams(max_word_angle_deg=max_word_angle_deg)
     models = _models(models)
     if not 0.0 < threshold < 1.0:
         raise ValueError(f"threshold must be in (0, 1), got {threshold}")
@@ -467,16 +466,17 @@ def clean(
         if cur.missing().any():
             raise MocapError(f"{name}: {int(cur.missing().any(axis=1).sum())} frames have missing joints; detect needs "
                              "complete frames: add the fill step")
-        n_a = _analysis_frames(cur)
-        if n_a < WORD_FRAMES:
+        n_a = _analysis_frames(cur, params.analysis_fps)
+        N = params.source_length
+        if n_a < N:
             note = (f"detect and repair skipped: {F} frames ({cur.duration:.2f} s) is shorter than one motion word "
-                    f"({WORD_FRAMES} frames at {ANALYSIS_FPS:g} fps, {WORD_FRAMES / ANALYSIS_FPS:.3f} s)")
+                    f"({N} frames at {params.analysis_fps:g} fps, {N / params.analysis_fps:.3f} s)")
             notes.append(note)
             records.append(StepRecord("detect", time.perf_counter() - t, 0, "skipped", note))
             steps = tuple(s for s in steps if s != "repair")
         else:
             try:
-                det = ssa.detect(cur, context, threshold=threshold, progress=progress, max_word_angle_deg=max_word_angle_deg)
+                det = ssa.detect(cur, context, threshold=threshold, params=params, progress=progress)
             except (ValueError, SkeletonError) as exc:
                 raise MocapError(f"{name}: detect: {exc}") from None
             mdm, flags = np.nan_to_num(np.asarray(det.mdm, dtype=np.float64)), np.asarray(det.flags, dtype=bool)
@@ -490,7 +490,7 @@ def clean(
         t = time.perf_counter()
         before = cur.rotations
         try:
-            cur = ssa.repair(cur, det, context, foot_skate=foot_skate)
+            cur = ssa.repair(cur, det, foot_skate=foot_skate)  # on the take detect prepared
         except ValueError as exc:
             raise MocapError(f"{name}: repair: {exc}") from None
         repaired = _changed_cells(before, cur.rotations)
@@ -522,59 +522,3 @@ def clean(
         joint_names=tuple(motion.skeleton.joint_names), fps=float(motion.fps), steps=tuple(records),
         notes=tuple(notes), params=params, detection=det,
     )
-
-
-# -- the static summary figure -------------------------------------------------------------
-
-
-def plot_summary(result: CleanResult, original: Motion, path, joints: int = 2, title: str | None = None) -> Path:
-    """One PNG: the MDM heat map (flags outlined) over before/after channel plots of the most changed joints.
-
-    Draws with :func:`mocapkit.report.plots.plot_mdm` and
-    :func:`~mocapkit.report.plots.plot_channels` into temporary images and
-    stacks them into one figure (matplotlib Agg), written atomically.
-    """
-    import tempfile
-
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.image as mpimg
-    import matplotlib.pyplot as plt
-
-    from ..io import atomic_write
-    from ..report.plots import plot_channels, plot_mdm
-
-    if result.motion is None:
-        raise ValueError("plot_summary needs the cleaned motion (result.motion)")
-    sk = original.skeleton
-    changed = result.changed
-    # the joints with the most flagged cells, then the most changed ones, among joints with rotation channels
-    score = result.flags.sum(axis=0) * (F_ := max(result.num_frames, 1)) + changed.sum(axis=0)
-    order = [int(j) for j in np.argsort(-score, kind="stable") if score[j] > 0 and sk.rotation_order(int(j))]
-    picks = order[:joints] or [j for j in range(1, sk.num_joints) if sk.rotation_order(j)][:1]
-    label = title or (original.name or "take")
-    with tempfile.TemporaryDirectory() as tmp:
-        images = [plot_mdm(result.mdm, result.joint_names, result.fps, Path(tmp) / "mdm.png", flags=result.flags,
-                           title=f"{label}: movement digression map")]
-        for j in picks:
-            images.append(plot_channels([original, result.motion], sk.joint_names[j], Path(tmp) / f"j{j}.png",
-                                        labels=["input", "cleaned"], mask=changed[:, j],
-                                        title=f"{sk.joint_names[j]}: input vs cleaned ({int(changed[:, j].sum())} of {F_} frames changed)"))
-        arrays = [mpimg.imread(str(p)) for p in images]
-    width = max(a.shape[1] for a in arrays)
-    heights = [a.shape[0] * width / a.shape[1] for a in arrays]
-    dpi = 100
-    fig = plt.figure(figsize=(width / dpi, sum(heights) / dpi), dpi=dpi)
-    top = 1.0
-    for a, h in zip(arrays, heights):
-        frac = h / sum(heights)
-        ax = fig.add_axes([0.0, top - frac, 1.0, frac])
-        ax.imshow(a)
-        ax.axis("off")
-        top -= frac
-    path = Path(path)
-    with atomic_write(path, "wb") as fh:
-        fig.savefig(fh, format="png", dpi=dpi)
-    plt.close(fig)
-    return path

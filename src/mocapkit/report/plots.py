@@ -10,7 +10,56 @@ import numpy as np
 from ..io import atomic_write
 from ..motion import Motion
 
-__all__ = ["plot_channels", "plot_mdm"]
+__all__ = ["plot_channels", "plot_mdm", "draw_channels", "draw_mdm", "channel_names"]
+
+
+def channel_names(motion: Motion, joint: str) -> list[str]:
+    """The rotation channels of ``joint`` as the file gives them (``"lknee.Xrotation"``, ...); ValueError if none."""
+    prefix = f"{joint}."
+    names = [n for n in motion.channel_names() if n.startswith(prefix) and n.endswith("rotation")]
+    if not names:
+        raise ValueError(f"joint {joint!r} has no rotation channels to plot")
+    return names
+
+
+def draw_channels(axes, motions: Sequence[Motion], joint: str, labels: Sequence[str] | None = None,
+                  mask: np.ndarray | None = None) -> None:
+    """Draw the rotation channels (degrees) of one joint for several motions on ``axes``, one per channel.
+
+    ``axes``: a sequence of matplotlib axes, one per rotation channel of ``joint``
+    (:func:`channel_names` of the first motion), sharing the time axis (seconds);
+    one line per motion; frames where ``mask`` (F,) or (F, J) marks the joint are
+    shaded, and missing samples show as gaps.
+    """
+    if not motions:
+        raise ValueError("plot_channels needs at least one motion")
+    labels = list(labels) if labels is not None else [m.name or f"motion {i}" for i, m in enumerate(motions)]
+    first = motions[0]
+    j = first.skeleton.index(joint)
+    names = channel_names(first, joint)
+    axes = list(axes)
+    if len(axes) != len(names):
+        raise ValueError(f"joint {joint!r} has {len(names)} rotation channels, got {len(axes)} axes")
+    styles = [dict(lw=1.6, color="#1f77b4"), dict(lw=1.0, color="#d62728", alpha=0.85), dict(lw=1.0, color="#2ca02c")]
+    for k, m in enumerate(motions):
+        values = m.channel_values()
+        cols = m.channel_names()
+        t = np.arange(m.num_frames) / m.fps
+        for row, name in enumerate(names):
+            axes[row].plot(t, values[:, cols.index(name)], label=labels[k], **styles[k % len(styles)])
+    if mask is not None:
+        mask = np.asarray(mask)
+        flagged = mask[:, j] if mask.ndim == 2 else mask
+        t = np.arange(len(flagged)) / first.fps
+        # shading every frame says nothing (dense noise): shade only when some frames are untouched
+        for row in range(len(names) if not flagged.all() else 0):
+            axes[row].fill_between(t, 0, 1, where=flagged, color="orange", alpha=0.25,
+                                   transform=axes[row].get_xaxis_transform(), label="changed" if row == 0 else None)
+    for row, name in enumerate(names):
+        axes[row].set_ylabel(f"{name.split('.')[-1]} (deg)")
+        axes[row].grid(alpha=0.3)
+    axes[0].legend(loc="upper right", fontsize=8)
+    axes[-1].set_xlabel("time (s)")
 
 
 def plot_channels(
@@ -21,7 +70,7 @@ def plot_channels(
     mask: np.ndarray | None = None,
     title: str | None = None,
 ) -> Path:
-    """Plot the rotation channels (degrees) of one joint for several motions over time.
+    """Plot the rotation channels (degrees) of one joint for several motions over time (:func:`draw_channels`).
 
     One subplot per rotation channel of ``joint`` (as the file gives them, see
     :meth:`Motion.channel_values`), one line per motion; frames where ``mask``
@@ -36,39 +85,17 @@ def plot_channels(
     if not motions:
         raise ValueError("plot_channels needs at least one motion")
     labels = list(labels) if labels is not None else [m.name or f"motion {i}" for i, m in enumerate(motions)]
-    first = motions[0]
-    j = first.skeleton.index(joint)
-    prefix = f"{joint}."
-    names = [n for n in first.channel_names() if n.startswith(prefix) and n.endswith("rotation")]
-    if not names:
-        raise ValueError(f"joint {joint!r} has no rotation channels to plot")
+    names = channel_names(motions[0], joint)
     fig, axes = plt.subplots(len(names), 1, figsize=(10, 2.2 * len(names) + 0.6), sharex=True, squeeze=False)
-    styles = [dict(lw=1.6, color="#1f77b4"), dict(lw=1.0, color="#d62728", alpha=0.85), dict(lw=1.0, color="#2ca02c")]
-    for k, m in enumerate(motions):
-        values = m.channel_values()
-        cols = m.channel_names()
-        t = np.arange(m.num_frames) / m.fps
-        for row, name in enumerate(names):
-            axes[row, 0].plot(t, values[:, cols.index(name)], label=labels[k], **styles[k % len(styles)])
-    if mask is not None:
-        mask = np.asarray(mask)
-        flagged = mask[:, j] if mask.ndim == 2 else mask
-        t = np.arange(len(flagged)) / first.fps
-        # shading every frame says nothing (dense noise): shade only when some frames are untouched
-        for row in range(len(names) if not flagged.all() else 0):
-            axes[row, 0].fill_between(t, 0, 1, where=flagged, color="orange", alpha=0.25,
-                                      transform=axes[row, 0].get_xaxis_transform(), label="changed" if row == 0 else None)
-    for row, name in enumerate(names):
-        axes[row, 0].set_ylabel(f"{name.split('.')[-1]} (deg)")
-        axes[row, 0].grid(alpha=0.3)
-    axes[0, 0].legend(loc="upper right", fontsize=8)
-    axes[-1, 0].set_xlabel("time (s)")
-    fig.suptitle(title or f"{joint}: " + " vs ".join(labels))
-    fig.tight_layout()
-    path = Path(path)
-    with atomic_write(path, "wb") as fh:
-        fig.savefig(fh, format="png", dpi=110)
-    plt.close(fig)
+    try:
+        draw_channels(axes[:, 0], motions, joint, labels, mask)
+        fig.suptitle(title or f"{joint}: " + " vs ".join(labels))
+        fig.tight_layout()
+        path = Path(path)
+        with atomic_write(path, "wb") as fh:
+            fig.savefig(fh, format="png", dpi=110)
+    finally:
+        plt.close(fig)
     return path
 
 
@@ -171,12 +198,101 @@ def plot_mdm(
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
+
+    joint_names = [str(n) for n in joint_names]
+    mdm, masks = _checked_mdm(mdm, joint_names, fps, threshold, flags, truth)
+    F = mdm.shape[0]
+    lay = _mdm_layout(F, joint_names)
+    w, h = lay["size"]
+    # half a pixel more so that matplotlib's truncation to whole pixels lands on ``pixels`` exactly
+    fig = plt.figure(figsize=((lay["pixels"][0] + 0.5) / _MDM_DPI, (lay["pixels"][1] + 0.5) / _MDM_DPI), dpi=_MDM_DPI)
+    try:
+        ax = fig.add_axes((lay["left"] / w, _MDM_BOTTOM_IN / h, lay["axes_w"] / w, lay["axes_h"] / h))
+        cax = fig.add_axes(((lay["left"] + lay["axes_w"] + 0.2) / w, _MDM_BOTTOM_IN / h, 0.18 / w, lay["axes_h"] / h))
+        handles = _draw_mdm(ax, cax, mdm, joint_names, fps, masks, threshold, start_frame, lay["axes_w"] * _MDM_DPI,
+                            lay["fontsize"], max(int(lay["axes_w"] * 1.2), 4))
+        if handles:
+            fig.legend(handles=handles, loc="upper right", ncol=len(handles), fontsize=8, frameon=False,
+                       bbox_to_anchor=(1.0, 1.0))
+        fig.text(0.01, 1.0 - 0.12 / h, title if title is not None else "movement digression map",
+                 ha="left", va="top", fontsize=10)
+        path = Path(path)
+        with atomic_write(path, "wb") as fh:
+            fig.savefig(fh, format="png", dpi=_MDM_DPI)
+    finally:
+        plt.close(fig)
+    return path
+
+
+def _draw_mdm(ax, cax, mdm, joint_names, fps, masks, threshold, start_frame, width_px, fontsize, nbins) -> list:
+    """Draw a checked MDM on ``ax`` with its colorbar in ``cax``; returns the legend handles."""
+    import matplotlib.pyplot as plt
     from matplotlib.collections import LineCollection
     from matplotlib.lines import Line2D
     from matplotlib.patches import Patch
     from matplotlib.ticker import MaxNLocator
 
+    F, J = mdm.shape
+    x0 = float(start_frame)
+    k = max(1, int(np.ceil(F / width_px)))
+    img = _bin_max(mdm, k) if k > 1 else mdm
+    cmap = plt.get_cmap("inferno").with_extremes(bad="#9e9e9e")
+    extent = (x0 - 0.5, x0 - 0.5 + img.shape[0] * k, J - 0.5, -0.5)
+    im = ax.imshow(
+        np.ma.masked_invalid(img.T), cmap=cmap, vmin=0.0, vmax=1.0, aspect="auto",
+        interpolation="nearest", extent=extent,
+    )
+    ax.set_xlim(x0 - 0.5, x0 + F - 0.5)
+    ax.set_ylim(J - 0.5, -0.5)
+    ax.set_yticks(np.arange(J))
+    ax.set_yticklabels(joint_names, fontsize=fontsize)
+    ax.tick_params(axis="y", length=2, pad=2)
+    ax.xaxis.set_major_locator(MaxNLocator(nbins=nbins, integer=True))
+    ax.tick_params(axis="x", labelsize=8)
+    ax.set_xlabel("frame", fontsize=9)
+    sec = ax.secondary_xaxis("top", functions=(lambda f: f / fps, lambda s: s * fps))
+    sec.tick_params(labelsize=8)
+    sec.set_xlabel("time (s)", fontsize=9)
+    handles = []
+    styles = {"truth": dict(colors="#39ff14", linewidths=1.4, linestyles=(0, (3, 2))),
+              "flags": dict(colors="#00e5ff", linewidths=1.1)}
+    labels = {"truth": "truth", "flags": "flagged"}
+    for name in ("truth", "flags"):
+        if name in masks and masks[name].any():
+            ax.add_collection(LineCollection(_mask_outline(masks[name], x0), **styles[name]))
+        if name in masks:
+            st = styles[name]
+            handles.append(Line2D([], [], color=st["colors"], lw=st["linewidths"],
+                                  linestyle=st.get("linestyles", "-"), label=labels[name]))
+    if np.isnan(mdm).any():
+        handles.append(Patch(facecolor="#9e9e9e", label="not analysed"))
+    cb = ax.figure.colorbar(im, cax=cax)
+    cb.set_label("digression", fontsize=9)
+    cb.ax.tick_params(labelsize=8)
+    if threshold is not None:
+        cax.axhline(threshold, color="#00e5ff", lw=1.5)
+    return handles
+
+
+def draw_mdm(ax, cax, mdm: np.ndarray, joint_names: Sequence[str], fps: float, flags: np.ndarray | None = None,
+             truth: np.ndarray | None = None, threshold: float | None = 0.5, start_frame: int = 0) -> list:
+    """Draw a movement digression map on the matplotlib axes ``ax``, its colorbar in ``cax``.
+
+    The same picture as :func:`plot_mdm` (same arguments and checks) on axes of
+    any figure; clips longer than the axes has pixels are shown by the maximum
+    over each block of frames. Returns the legend handles (flags, truth, not
+    analysed) for the caller's legend.
+    """
     joint_names = [str(n) for n in joint_names]
+    mdm, masks = _checked_mdm(mdm, joint_names, fps, threshold, flags, truth)
+    width_px = max(ax.get_position().width * ax.figure.get_figwidth() * ax.figure.dpi, 1.0)
+    fontsize = max(4.0, min(8.0, 72.0 * ax.get_position().height * ax.figure.get_figheight() / max(len(joint_names), 1) * 0.8))
+    return _draw_mdm(ax, cax, mdm, joint_names, fps, masks, threshold, start_frame, width_px, fontsize,
+                     max(int(width_px / _MDM_DPI * 1.2), 4))
+
+
+def _checked_mdm(mdm, joint_names, fps, threshold, flags, truth):
+    """``mdm`` as float64 (F, J) and the masks as bool, or ValueError naming what is wrong."""
     mdm = np.asarray(mdm, dtype=np.float64)
     if mdm.ndim != 2:
         raise ValueError(f"mdm must be a (frames, joints) array, got shape {mdm.shape}")
@@ -202,60 +318,4 @@ def plot_mdm(
             if m.shape != mdm.shape:
                 raise ValueError(f"{name} must have the shape of mdm {mdm.shape}, got {m.shape}")
             masks[name] = m.astype(bool)
-
-    lay = _mdm_layout(F, joint_names)
-    w, h = lay["size"]
-    # half a pixel more so that matplotlib's truncation to whole pixels lands on ``pixels`` exactly
-    fig = plt.figure(figsize=((lay["pixels"][0] + 0.5) / _MDM_DPI, (lay["pixels"][1] + 0.5) / _MDM_DPI), dpi=_MDM_DPI)
-    try:
-        ax = fig.add_axes((lay["left"] / w, _MDM_BOTTOM_IN / h, lay["axes_w"] / w, lay["axes_h"] / h))
-        cax = fig.add_axes(((lay["left"] + lay["axes_w"] + 0.2) / w, _MDM_BOTTOM_IN / h, 0.18 / w, lay["axes_h"] / h))
-        x0 = float(start_frame)
-        k = max(1, int(np.ceil(F / (lay["axes_w"] * _MDM_DPI))))
-        img = _bin_max(mdm, k) if k > 1 else mdm
-        cmap = plt.get_cmap("inferno").with_extremes(bad="#9e9e9e")
-        extent = (x0 - 0.5, x0 - 0.5 + img.shape[0] * k, J - 0.5, -0.5)
-        im = ax.imshow(
-            np.ma.masked_invalid(img.T), cmap=cmap, vmin=0.0, vmax=1.0, aspect="auto",
-            interpolation="nearest", extent=extent,
-        )
-        ax.set_xlim(x0 - 0.5, x0 + F - 0.5)
-        ax.set_ylim(J - 0.5, -0.5)
-        ax.set_yticks(np.arange(J))
-        ax.set_yticklabels(joint_names, fontsize=lay["fontsize"])
-        ax.tick_params(axis="y", length=2, pad=2)
-        ax.xaxis.set_major_locator(MaxNLocator(nbins=max(int(lay["axes_w"] * 1.2), 4), integer=True))
-        ax.tick_params(axis="x", labelsize=8)
-        ax.set_xlabel("frame", fontsize=9)
-        sec = ax.secondary_xaxis("top", functions=(lambda f: f / fps, lambda s: s * fps))
-        sec.tick_params(labelsize=8)
-        sec.set_xlabel("time (s)", fontsize=9)
-        handles = []
-        styles = {"truth": dict(colors="#39ff14", linewidths=1.4, linestyles=(0, (3, 2))),
-                  "flags": dict(colors="#00e5ff", linewidths=1.1)}
-        labels = {"truth": "truth", "flags": "flagged"}
-        for name in ("truth", "flags"):
-            if name in masks and masks[name].any():
-                ax.add_collection(LineCollection(_mask_outline(masks[name], x0), **styles[name]))
-            if name in masks:
-                st = styles[name]
-                handles.append(Line2D([], [], color=st["colors"], lw=st["linewidths"],
-                                      linestyle=st.get("linestyles", "-"), label=labels[name]))
-        if np.isnan(mdm).any():
-            handles.append(Patch(facecolor="#9e9e9e", label="not analysed"))
-        cb = fig.colorbar(im, cax=cax)
-        cb.set_label("digression", fontsize=9)
-        cb.ax.tick_params(labelsize=8)
-        if threshold is not None:
-            cax.axhline(threshold, color="#00e5ff", lw=1.5)
-        if handles:
-            fig.legend(handles=handles, loc="upper right", ncol=len(handles), fontsize=8, frameon=False,
-                       bbox_to_anchor=(1.0, 1.0))
-        fig.text(0.01, 1.0 - 0.12 / h, title if title is not None else "movement digression map",
-                 ha="left", va="top", fontsize=10)
-        path = Path(path)
-        with atomic_write(path, "wb") as fh:
-            fig.savefig(fh, format="png", dpi=_MDM_DPI)
-    finally:
-        plt.close(fig)
-    return path
+    return mdm, masks

@@ -10,7 +10,10 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import math
+import os
 from collections import deque
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from functools import lru_cache
 from importlib import resources
@@ -171,6 +174,39 @@ def _pad(x: np.ndarray, ctx: np.ndarray, half: int = HALF_WINDOW):
     return xp, cp
 
 
+def inference_threads() -> int:
+    """Torch threads for offline inference: the cores other processes leave idle, at least 1.
+
+    Offline inference here is two LSTM recurrences over the take (sequential
+    in time, on 126-wide states) and small per-frame layers. On idle cores
+    threads help a little; on cores busy with other processes a torch thread
+    spins waiting for one (the EBF on a 60 s take at 120 fps took 5.4-8.9 s
+    in two threads against 0.6-0.8 s in one on a shared 2-core machine at a
+    load of 8). So: the usable cores less the 1-minute load average, within
+    [1, torch's own thread count]. The results are the same in any thread count.
+    """
+    n = torch.get_num_threads()
+    try:
+        busy = os.getloadavg()[0]
+    except (OSError, AttributeError):  # no load average on this platform
+        return n
+    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
+    return int(max(1, min(n, cores - round(busy))))
+
+
+@contextmanager
+def torch_threads(threads: int | None = None):
+    """Run torch in ``threads`` threads inside the block (default :func:`inference_threads`), restoring the
+    thread count after."""
+    n = torch.get_num_threads()
+    torch.set_num_threads(inference_threads() if threads is None else int(threads))
+    try:
+        yield
+    finally:
+        torch.set_num_threads(n)
+
+
+@torch_threads()
 @torch.inference_mode()
 def _run_ebf(
     net: EBF, xp: np.ndarray, cp: np.ndarray, chunk: int = 4096, noise: np.ndarray | None = None
@@ -220,7 +256,12 @@ def _needs_resampling(fps: float | None, model_fps: float) -> bool:
 
 
 def denoise_channels(
-    values: np.ndarray, context: np.ndarray, model=None, fps: float | None = None, missing: np.ndarray | None = None
+    values: np.ndarray,
+    context: np.ndarray,
+    model=None,
+    fps: float | None = None,
+    missing: np.ndarray | None = None,
+    until: int | None = None,
 ) -> np.ndarray:
     """EBF on raw channels (F, C) (degrees, unwrapped) with root context (F, 3) rad/s -> (F, C).
 
@@ -234,6 +275,11 @@ def denoise_channels(
     (F, C) bool: entries that are filled, not observed (the gap filler's
     EBD values); the noise level is measured on the observed entries only
     (:func:`networks.noise_level_observed`), as it is around NaN entries.
+    ``until``: only the first ``until`` frames of the result are needed; the
+    network then runs on the frames they depend on and no further (the EBF
+    looks :data:`HALF_WINDOW` frames ahead and its noise level and forward
+    LSTM look back, so those frames are bit-identical to a run on the whole
+    take), and the frames from ``until`` on are NaN.
     """
     m = _model(model, "ebf")
     x = np.asarray(values, dtype=np.float64)
@@ -254,16 +300,28 @@ def denoise_channels(
     if m.net.noise_input and (resample or filled.any()):  # else the network measures it itself, as streaming does
         window = max(3, int(round(NOISE_WINDOW * fps / m.fps))) if resample else NOISE_WINDOW
         level = noise_level_observed(xf, ~filled, m.net.std.numpy().astype(np.float64), window)
-        noise = _pad(_to_rate(level, fps, m.fps, n_to=len(xf_m)) if resample else level, ctx_m)[0]
-    out = _run_ebf(m.net, *_pad(xf_m, ctx_m), noise=noise)
+        noise = _to_rate(level, fps, m.fps, n_to=len(xf_m)) if resample else level
+    end = len(xf_m)
+    if until is not None:  # the model-rate frames the first `until` frames interpolate from, and 15 frames of look-ahead
+        n_m = min(int(until), len(x)) if not resample else int(np.ceil(max(int(until) - 1, 0) * m.fps / fps)) + 2
+        end = min(len(xf_m), max(n_m, 1) + HALF_WINDOW + 1)
+    xp, cp = _pad(xf_m[:end], ctx_m[:end])
+    out = _run_ebf(m.net, xp, cp, noise=None if noise is None else _pad(noise[:end], ctx_m[:end])[0])
     if resample:
         out = _to_rate(out, m.fps, fps, n_to=len(x))
+    elif end < len(x):
+        out = np.concatenate([out, np.full((len(x) - end, out.shape[1]), np.nan)])
+    if until is not None:
+        out[int(until):] = np.nan
     out[miss] = np.nan
     return out
 
 
+@torch_threads()
 @torch.inference_mode()
-def _run_ebd(net: EBD, filled: np.ndarray, mask: np.ndarray, ctx: np.ndarray, frames: np.ndarray, batch: int = 8192):
+def run_ebd(net: EBD, filled: np.ndarray, mask: np.ndarray, ctx: np.ndarray, frames: np.ndarray, batch: int = 8192):
+    """The EBD's predictions (len(frames), C) at ``frames`` of lerp-filled channels (F, C) with their gap mask
+    (F, C) and root context (F, 3), at the model's rate, in batches of ``batch`` windows."""
     x = torch.as_tensor(filled, dtype=torch.float32)
     mk = torch.as_tensor(mask, dtype=torch.float32)
     c = torch.as_tensor(ctx, dtype=torch.float32)
@@ -303,13 +361,13 @@ def fill_channels(
     else:
         f_m, c_m, k_m = filled, ctx, miss
     frames = np.flatnonzero(k_m.any(axis=1))
-    pred = _run_ebd(m.net, f_m, k_m, c_m, frames)
+    pred = run_ebd(m.net, f_m, k_m, c_m, frames)
     f_m = f_m.copy()
     sub = f_m[frames]
     sub[k_m[frames]] = pred[k_m[frames]]
     f_m[frames] = sub
-    if smooth:
-        f_m = np.where(k_m, denoise_channels(f_m, c_m, denoiser, missing=k_m), f_m)
+    if smooth:  # the EBF's output is kept on the gap entries only: it runs up to the last of them
+        f_m = np.where(k_m, denoise_channels(f_m, c_m, denoiser, missing=k_m, until=int(frames[-1]) + 1), f_m)
     out = _to_rate(f_m, m.fps, fps, n_to=len(x)) if resample else f_m
     return np.where(miss, out, x)
 
@@ -317,11 +375,15 @@ def fill_channels(
 # -- Motion level ----------------------------------------------------------------------
 
 
-def denoise(motion: Motion, model=None) -> Motion:
+def denoise(motion: Motion, model=None, cells: np.ndarray | None = None) -> Motion:
     """Denoise every non-root joint of ``motion`` with the EBF (Mall 3); root trajectory and rotation kept.
 
     ``model``: a :class:`DeepModel`, a model file, or None for the shipped
     EBF. Frames and skeleton are the input's; missing joints stay missing.
+    ``cells`` (F, J) bool: denoise only these cells, the others are returned
+    bit-identical; the network then runs only up to the frames they need
+    (:func:`denoise_channels`' ``until``), and the denoised cells are the
+    same as a run on every cell gives.
 
     >>> import mocapkit
     >>> from mocapkit import corrupt, metrics
@@ -333,10 +395,20 @@ def denoise(motion: Motion, model=None) -> Motion:
     True
     """
     m = _model(model, "ebf")
+    keep = motion.missing()
+    until = None
+    if cells is not None:
+        cells = np.asarray(cells, dtype=bool)
+        if cells.shape != keep.shape:
+            raise ValueError(f"cells must be (F, J) = {keep.shape}, got {cells.shape}")
+        rows = np.flatnonzero(cells.any(axis=1))
+        if len(rows) == 0:
+            return motion
+        until = int(rows[-1]) + 1
+        keep = keep | ~cells
     values, ctx = encode(motion, m.layout)
-    out = denoise_channels(values, ctx, m, fps=motion.fps)
-    missing = motion.missing()
-    return decode(np.nan_to_num(out), motion, m.layout, keep=missing)
+    out = denoise_channels(values, ctx, m, fps=motion.fps, until=until)
+    return decode(np.nan_to_num(out), motion, m.layout, keep=keep)
 
 
 def fill_gaps(motion: Motion, model=None, denoiser=None, smooth: bool = True) -> Motion:
@@ -586,30 +658,18 @@ def _root_rotation_columns(skeleton: Skeleton) -> np.ndarray:
     return np.array([k for k, c in enumerate(chans) if c.endswith("rotation")], dtype=np.int64)
 
 
-@njit(cache=True)
-def _qmul(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    return np.array([
-        a[0] * b[0] - a[1] * b[1] - a[2] * b[2] - a[3] * b[3],
-        a[0] * b[1] + a[1] * b[0] + a[2] * b[3] - a[3] * b[2],
-        a[0] * b[2] - a[1] * b[3] + a[2] * b[0] + a[3] * b[1],
-        a[0] * b[3] + a[1] * b[2] - a[2] * b[1] + a[3] * b[0],
-    ])
-
-
-@njit(cache=True)
 def _conjugated(c: np.ndarray, q: np.ndarray) -> np.ndarray:
     """c q c^-1 for one unit quaternion (the ASF axis frame), as :func:`_root_quaternion` does for rows."""
-    return _qmul(_qmul(c, q), np.array([c[0], -c[1], -c[2], -c[3]]))
+    return R.quaternion_multiply(R.quaternion_multiply(c, q), R.quaternion_conjugate(c))
 
 
-@njit(cache=True)
 def _omega(prev: np.ndarray, q: np.ndarray, fps: float) -> np.ndarray:
     """:func:`root_angular_velocity` of one frame pair: rotvec(prev^-1 q) * fps, rad/s, (3,)."""
-    r = _qmul(np.array([prev[0], -prev[1], -prev[2], -prev[3]]), q)
+    r = R.quaternion_multiply(R.quaternion_conjugate(prev), q)
     if r[0] < 0.0:
         r = -r
-    s = np.sqrt(r[1] * r[1] + r[2] * r[2] + r[3] * r[3])
-    scale = np.arctan2(s, r[0]) / s if s > 1e-12 else 1.0 + s * s / 6.0
+    s = math.sqrt(r[1] * r[1] + r[2] * r[2] + r[3] * r[3])
+    scale = math.atan2(s, r[0]) / s if s > 1e-12 else 1.0 + s * s / 6.0
     out = 2.0 * fps * scale * r[1:]
     return np.zeros(3) if np.any(np.isnan(out)) else out
 

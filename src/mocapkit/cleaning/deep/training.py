@@ -35,7 +35,7 @@ from ... import corrupt
 from ...io import atomic_write
 from ...motion import Motion
 from .channels import ChannelLayout, encode, layout_for, wrap_degrees
-from .inference import DeepModel, denoise_channels, lerp_fill, save_model, _run_ebd
+from .inference import DeepModel, denoise_channels, lerp_fill, run_ebd, save_model
 from .networks import EBD, EBF, HALF_WINDOW, window_indices
 
 __all__ = ["TrainConfig", "load_clips", "split_holdout", "holdout_folds", "gap_mask", "channel_joints", "prepare_clip", "train"]
@@ -416,7 +416,7 @@ def _validate(net, kind: str, val: list[dict], layout: ChannelLayout, fps: float
                 continue
             filled = lerp_fill(np.where(mask, np.nan, x))
             frames = np.flatnonzero(mask.any(axis=1))
-            pred = _run_ebd(net, filled, mask, d["ctx"], frames)
+            pred = run_ebd(net, filled, mask, d["ctx"], frames)
             e = (pred - d["clean"][frames])[mask[frames]]
             e = wrap_degrees(e) if layout.representation == "euler" else e
         err += float(np.sum(e**2))

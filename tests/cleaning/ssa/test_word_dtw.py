@@ -6,7 +6,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from mocapkit import rotations as R
-from mocapkit.cleaning import word_dtw as W
+from mocapkit.cleaning.ssa import word_dtw as W
 from tests.naive import group_pose_distance_naive, naive_local_minima_knn, word_dtw_enumerate
 
 

@@ -1,0 +1,384 @@
+"""The cues that confirm a digression as an error, or find one a digression misses (see :mod:`mocapkit.cleaning.ssa`).
+
+A joint's own trajectory tells errors from unseen motion: :func:`discontinuities`
+(a step or a one-frame spike no smooth motion makes), :func:`held_joints` (a
+frozen channel), :func:`side_swaps` (left/right labels swapped and swapped
+back) and :func:`transient_offsets` (a joint stepping off its path and back).
+:func:`confirm_flags` keeps the digressions of the movement digression map that
+hold a break. All work on (F, J) arrays at the take's own frame rate.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ... import rotations as R
+from ...motion import Motion
+from .params import SSAParams
+
+__all__ = [
+    "discontinuities",
+    "midpoint_residuals",
+    "residual_breaks",
+    "side_swaps",
+    "swaps_from_residuals",
+    "transient_offsets",
+    "offsets_from_residuals",
+    "confirm_flags",
+    "flag_rule",
+    "held_joints",
+    "step_angles",
+]
+
+_D = SSAParams()
+
+def discontinuities(motion: Motion, jump_deg: float = _D.jump_deg) -> np.ndarray:
+    """(F, J) bool: frames where a joint's rotation leaves the smooth path through its two neighbours.
+
+    The residual at frame f is the rotation angle between ``q[f]`` and the
+    midpoint of ``q[f-1]`` and ``q[f+1]`` (their normalised sum). Smooth motion
+    makes it second order in time, ``|alpha| dt^2 / 2``: under a degree at
+    120 fps for a limb accelerating at 20,000 deg/s^2, about 11 deg at 30 fps.
+    A step of s degrees gives s/2 at the frames on both sides of it, a
+    one-frame spike its whole size; so ``jump_deg = 8`` marks steps of more
+    than 16 deg and spikes of more than 8 deg. The first and last frames and
+    missing cells are never marked. Used by :func:`confirm_flags`.
+    """
+    return residual_breaks(midpoint_residuals(motion.rotations), jump_deg)
+
+
+def residual_breaks(resid: np.ndarray, jump_deg: float) -> np.ndarray:
+    """:func:`discontinuities` on midpoint residuals already computed (:func:`midpoint_residuals`), (F, J) bool."""
+    if not (np.isfinite(jump_deg) and jump_deg > 0):
+        raise ValueError(f"jump_deg must be a positive number of degrees, got {jump_deg!r}")
+    return resid > np.radians(jump_deg)
+
+
+def midpoint_residuals(rotations: np.ndarray) -> np.ndarray:
+    """(F, J) radians: angle between ``q[f]`` and the midpoint of ``q[f-1]``, ``q[f+1]``; 0 at the ends and where missing."""
+    q = np.asarray(rotations, dtype=np.float64)
+    out = np.zeros(q.shape[:2])
+    if len(q) < 3:
+        return out
+    a, b, c = q[:-2], q[1:-1], q[2:]
+    c = np.where((np.sum(a * c, axis=-1) < 0)[..., None], -c, c)
+    mid = a + c
+    norm = np.linalg.norm(mid, axis=-1, keepdims=True)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        mid = mid / norm
+        resid = R.geodesic_angle(b, mid)
+    out[1:-1] = np.nan_to_num(resid, nan=0.0)
+    return out
+
+
+def side_swaps(motion: Motion, jump_deg: float = _D.swap_jump_deg, max_s: float = _D.swap_max_s, joints=None) -> np.ndarray:
+    """(F, J) bool: left/right label swaps, a joint and its mirror partner breaking together, twice.
+
+    When the labels of the two sides swap, both joints of a left/right pair
+    (:func:`mocapkit.motion.mirror_pairs`) jump at the same frame, and again
+    when the labels swap back. A break here is a midpoint residual (see
+    :func:`discontinuities`) over ``jump_deg`` and over ten times the joint's
+    median residual in the take (at low frame rates fast motion has large
+    residuals of its own). Where both joints of a pair break within a frame of
+    each other, and again within ``max_s`` seconds, both are flagged from the
+    frame after the first break's first frame to the second break's first
+    frame (a step between frames f and f + 1 shows at both); the events pair
+    up in time order. No smooth motion breaks like that, and no digression is
+    needed: a swapped limb often takes a plausible pose. ``joints`` (bool (J,), optional) limits the
+    pairs to those whose two joints it holds.
+    """
+    if not (np.isfinite(jump_deg) and jump_deg > 0 and max_s > 0):
+        raise ValueError(f"need jump_deg > 0 and max_s > 0, got {jump_deg!r} and {max_s!r}")
+    return swaps_from_residuals(midpoint_residuals(motion.rotations), motion.skeleton.joint_names, motion.fps, jump_deg, max_s, joints)
+
+
+def swaps_from_residuals(resid, joint_names, fps, jump_deg, max_s, joints) -> np.ndarray:
+    """:func:`side_swaps` on midpoint residuals already computed (:func:`midpoint_residuals`)."""
+    from scipy import ndimage
+
+    from ...motion import mirror_pairs
+
+    F, J = resid.shape
+    out = np.zeros((F, J), dtype=bool)
+    use = np.ones(J, dtype=bool) if joints is None else np.asarray(joints, dtype=bool)
+    breaks = resid > np.maximum(np.radians(jump_deg), 10.0 * np.median(resid, axis=0))[None, :]
+    perm = mirror_pairs(joint_names)
+    longest = int(round(max_s * fps))
+    for j in range(J):
+        p = int(perm[j])
+        if p <= j or not (use[j] and use[p]):
+            continue
+        both = ndimage.binary_dilation(breaks[:, j], structure=np.ones(3, dtype=bool)) & breaks[:, p]
+        frames = np.flatnonzero(both)
+        if len(frames) < 2:
+            continue
+        for a, b in _paired_events([run[0] for run in _break_events(frames)], longest):
+            out[a + 1 : b + 1, j] = out[a + 1 : b + 1, p] = True  # a step from f to f + 1 breaks at both
+    return out
+
+
+def _break_events(frames: np.ndarray) -> list[np.ndarray]:
+    """Sorted break frames grouped into events: runs whose frames lie at most 3 apart."""
+    return np.split(frames, np.flatnonzero(np.diff(frames) > 3) + 1)
+
+
+def _paired_events(starts, longest: int, match=None) -> list[tuple[int, int]]:
+    """Successive events paired in time order, ``(start k, start k + 1)``, where the second starts at most
+    ``longest`` frames after the first and ``match(k, k + 1)`` holds (if given); a paired event is not paired
+    again (:func:`side_swaps`, :func:`transient_offsets`)."""
+    pairs, k = [], 0
+    while k + 1 < len(starts):
+        if starts[k + 1] - starts[k] <= longest and (match is None or match(k, k + 1)):
+            pairs.append((int(starts[k]), int(starts[k + 1])))
+            k += 2
+        else:
+            k += 1
+    return pairs
+
+
+def transient_offsets(
+    motion: Motion,
+    jump_deg: float = _D.offset_jump_deg,
+    max_s: float = _D.offset_max_s,
+    min_offset_deg: float = _D.offset_min_deg,
+    joints=None,
+) -> np.ndarray:
+    """(F, J) bool: a joint that steps off its own path and steps back within ``max_s`` seconds.
+
+    A drift, a flip or a marker lost and found again starts and ends as a
+    step: the rotation leaves the path the previous frames were on by an
+    offset, and later jumps back by about the opposite offset. The frames
+    between the two steps are wrong whatever the digression says: a drifted
+    shoulder in a walk full of shoulder motion, or a flipped wrist where the
+    context's actors hold their wrists differently, can look like motion the
+    context has seen. A break event is a run of midpoint residuals
+    (:func:`discontinuities`) over ``jump_deg``, over ten times the joint's
+    median residual in the take and over what its own motion reaches
+    (:func:`_usual_residual`): at low frame rates fast motion has large
+    residuals of its own; at 120 fps 7 deg means an angular acceleration of
+    about 200,000 deg/s^2, ten times what a limb reaches.
+    Its step is the rotation from where constant-velocity extrapolation of
+    the two frames before the event puts the joint after it, to where the
+    joint is (parent frame, a rotation vector); a one-frame spike returns
+    within its event and has no step. Two successive events of a joint whose
+    steps both exceed ``min_offset_deg``, point in roughly opposite
+    directions (cosine at most -0.5; a half turn has no sign, so two steps
+    near 180 deg pair either way) and start at most ``max_s`` apart are
+    flagged from the frame after the first event's first frame to the second
+    event's first frame (a step between frames f and f + 1 shows at both).
+    Pairs are taken in time order, as in :func:`side_swaps`. ``joints`` (bool (J,),
+    optional) limits the joints looked at.
+    """
+    if not (np.isfinite(jump_deg) and jump_deg > 0 and max_s > 0 and min_offset_deg >= 0):
+        raise ValueError(
+            f"need jump_deg > 0, max_s > 0 and min_offset_deg >= 0, got {jump_deg!r}, {max_s!r} and {min_offset_deg!r}"
+        )
+    q = np.asarray(motion.rotations, dtype=np.float64)
+    return offsets_from_residuals(q, midpoint_residuals(q), motion.fps, jump_deg, max_s, min_offset_deg, joints)
+
+
+def _usual_residual(resid: np.ndarray) -> np.ndarray:
+    """(J,) radians: what a joint's own motion reaches, three times its 95th-percentile midpoint residual.
+
+    In a take under 160 frames the percentile is taken below the 8 largest
+    residuals instead, so that one error's breaks (2 frames a step) do not
+    raise it. At 120 fps this stays under the break thresholds; at 30 fps
+    fast motion breaks too (a dancer's toes push off by 25 deg in one frame
+    and come back), and a break must stand out from the joint's own motion.
+    Used by :func:`transient_offsets` only: on a joint under heavy noise it
+    rises past a flip's 90 deg residuals (``clean_takes``' neck: 134-214
+    deg), and there confirmation by the digression still finds the error
+    from the plain breaks.
+    """
+    F = resid.shape[0]
+    return 3.0 * np.percentile(resid, min(95.0, 100.0 * (1.0 - 8.0 / F)), axis=0)
+
+
+def _event_step(q: np.ndarray, first: int, last: int) -> np.ndarray | None:
+    """Rotation vector (radians, parent frame) from the constant-velocity extrapolation of ``q[first - 2]``,
+    ``q[first - 1]`` to ``q[last + 1]``, to ``q[last + 1]``; None where the event touches the take's ends."""
+    if first < 2 or last + 1 >= len(q):
+        return None
+    a, b = q[first - 2], q[first - 1]
+    if np.dot(a, b) < 0:
+        a = -a
+    velocity = R.quaternion_multiply(b, R.quaternion_inverse(a))
+    pred = b
+    for _ in range(last + 2 - first):
+        pred = R.quaternion_multiply(velocity, pred)
+    return R.quaternion_to_rotvec(R.quaternion_multiply(q[last + 1], R.quaternion_inverse(pred)))
+
+
+def offsets_from_residuals(q, resid, fps, jump_deg, max_s, min_offset_deg, joints) -> np.ndarray:
+    """:func:`transient_offsets` on rotations ``q`` (F, J, 4) with their midpoint residuals already computed."""
+    F, J = resid.shape
+    out = np.zeros((F, J), dtype=bool)
+    use = np.ones(J, dtype=bool) if joints is None else np.asarray(joints, dtype=bool)
+    usual = np.maximum(10.0 * np.median(resid, axis=0), _usual_residual(resid))
+    breaks = resid > np.maximum(np.radians(jump_deg), usual)[None, :]
+    longest = int(round(max_s * fps))
+    half_turn = np.radians(150.0)
+    for j in np.flatnonzero(use & breaks.any(axis=0)):
+        frames = np.flatnonzero(breaks[:, j])
+        starts, steps = [], []
+        for run in _break_events(frames):
+            step = _event_step(q[:, j], int(run[0]), int(run[-1]))
+            if step is not None and np.linalg.norm(step) >= np.radians(min_offset_deg):
+                starts.append(int(run[0]))
+                steps.append(step)
+
+        def back(k, m):  # the second step points roughly opposite the first (a half turn has no sign)
+            na, nb = np.linalg.norm(steps[k]), np.linalg.norm(steps[m])
+            cos = float(np.dot(steps[k], steps[m]) / (na * nb)) if na > 0 and nb > 0 else 1.0
+            return cos <= -0.5 or (max(na, nb) > half_turn and abs(cos) >= 0.5)
+
+        for a, b in _paired_events(starts, longest, back):
+            out[a + 1 : b + 1, j] = True
+    return out
+
+
+def confirm_flags(
+    mdm: np.ndarray, jumps: np.ndarray, threshold: float, fps: float, margin_s: float = _D.confirm_margin_s, extent: float = 0.5
+) -> np.ndarray:
+    """Error flags (F, J) from an MDM confirmed by the joint's own discontinuities (see :func:`detect`).
+
+    Per joint, a run is a connected stretch of frames with ``mdm > extent *
+    threshold`` or within ``margin_s`` seconds of a ``jumps`` frame of the
+    same joint (so the digression on the two sides of a break is one run);
+    its cells with ``mdm > extent * threshold`` are flagged when it reaches
+    ``mdm > threshold`` somewhere and one of them lies within the margin of
+    the break. So every flagged run both digresses clearly and holds a
+    break no smooth motion makes.
+    A run that holds two breaks or more (separate steps or spikes) is cut
+    to its first and last break, within ``margin_s``: an error starts and
+    ends with a break, and beyond them the digression comes from the
+    neighbour words the error itself led astray (a word spans 0.6 s), not
+    from more error; repairing there replaced clean frames (a 60 deg knee
+    error of 0.25 s on a walk flagged 1.7 s and the repair put clean frames
+    68 deg off). A run with one break (a drift that grows smoothly and ends
+    in a step) is kept whole. ``mdm`` float (F, J) in [0, 1]; ``jumps``
+    bool (F, J).
+    """
+    from scipy import ndimage
+
+    mdm = np.nan_to_num(np.asarray(mdm, dtype=np.float64))
+    jumps = np.asarray(jumps, dtype=bool)
+    if mdm.shape != jumps.shape or mdm.ndim != 2:
+        raise ValueError(f"mdm and jumps must be the same (F, J) shape, got {mdm.shape} and {jumps.shape}")
+    if not 0.0 < extent <= 1.0 or not margin_s >= 0:
+        raise ValueError(f"need 0 < extent <= 1 and margin_s >= 0, got {extent!r} and {margin_s!r}")
+    low = mdm > extent * threshold
+    if not low.any():
+        return low
+    n = int(round(margin_s * fps))
+    near = ndimage.binary_dilation(jumps, structure=np.ones((2 * n + 1, 1), dtype=bool)) if n > 0 else jumps
+    along_time = np.array([[0, 1, 0], [0, 1, 0], [0, 1, 0]], dtype=bool)  # runs never join across joints
+    # a run takes in the frames within the margin of a break, so the digression on both sides of a break joins
+    labels, count = ndimage.label(low | near, structure=along_time)
+    idx = np.arange(1, count + 1)
+    peak = ndimage.maximum(mdm, labels, idx) > threshold
+    broken = ndimage.maximum(near & low, labels, idx).astype(bool)  # a digressing frame within the margin of a break
+    keep = np.concatenate([[False], peak & broken])
+    out = keep[labels] & low
+    for lab, (rows, cols) in enumerate(ndimage.find_objects(labels), start=1):
+        if not keep[lab]:
+            continue
+        a, j = rows.start, cols.start
+        at = np.flatnonzero(jumps[rows, j]) + a
+        if (np.diff(at) > 2).any():  # two break events or more (a step marks two adjacent frames)
+            out[a : max(at[0] - n, a), j] = False  # (a negative stop would count from the end)
+            out[at[-1] + n + 1 : rows.stop, j] = False
+    return out
+
+
+def flag_rule(mdm, jumps, holds, swaps, offsets, threshold: float, fps: float, confirm: bool, margin_s) -> np.ndarray:
+    """The flags of :func:`detect` and :meth:`Detection.with_threshold`: confirmed digressions, holds, swaps and
+    transient offsets, or the paper's ``mdm > threshold`` without confirmation."""
+    if confirm:
+        return confirm_flags(mdm, jumps, threshold, fps, margin_s) | holds | swaps | offsets
+    return mdm > threshold
+
+
+def step_angles(q: np.ndarray) -> np.ndarray:
+    """Rotation angle in radians between consecutive frames of unit quaternions (F, ...) -> (F - 1, ...).
+
+    ``2 acos |q_f . q_f+1|`` over the norms: cheaper than
+    :func:`mocapkit.rotations.geodesic_angle`, accurate to about 1e-7 rad near 0.
+    """
+    norm = np.linalg.norm(q, axis=-1)
+    dot = np.abs(np.sum(q[1:] * q[:-1], axis=-1)) / (norm[1:] * norm[:-1])  # quaternions a little off unit length too
+    return 2.0 * np.arccos(np.clip(dot, 0.0, 1.0))
+
+
+def held_joints(
+    motion: Motion,
+    mean_speed: np.ndarray,
+    hold_deg_s: float = 0.5,
+    min_s: float = 0.05,
+    travel_deg: float = _D.hold_travel_deg,
+    recur_deg: float = 1.0,
+    rest_deg: float = 0.01,
+) -> np.ndarray:
+    """(F, J) bool: joints held still where the mean motion texture says they move (a frozen channel).
+
+    A hold is a run of at least ``min_s`` seconds in which the joint turns
+    slower than ``hold_deg_s`` (a solver or tracker repeating the last value;
+    live motion is never that still for long while the body moves on). It is
+    flagged when the mean texture's speed ``mean_speed`` (F, J) deg/s at the
+    input's frames (NaN: not analysed) adds up to at least ``travel_deg`` over
+    it: the similar motion moves there, this joint does not. Holds that are
+    motion, not errors, are left out: a joint held in more than half the
+    take (it barely moves at all), frames where most analysed joints hold at
+    once (a repeated frame: timing, not one joint), and a hold that recurs:
+    the joint held again, in another hold of the take, within
+    ``recur_deg`` of the same rotation (a joint limit the solver clamps at,
+    such as a straight knee in every stride, or a rest pose). A frozen
+    channel repeats the one value it last had; a limit is met again and
+    again. Also left alone: a hold at the skeleton's rest pose (the joint's
+    rotation within ``rest_deg`` of the identity, all its channels 0), where
+    the CMU and HDM05 solvers clamp a straight knee (the pirouette's standing
+    knee sits at exactly 0 for its last 2 s); a frozen channel repeats the
+    arbitrary last value it had, never exactly the rest pose. Where a frozen
+    joint starts the digression is still small; this finds it from the first
+    held frame.
+    """
+    q = np.asarray(motion.rotations, dtype=np.float64)
+    F, J = q.shape[:2]
+    out = np.zeros((F, J), dtype=bool)
+    mean_speed = np.asarray(mean_speed, dtype=np.float64)
+    if mean_speed.shape != (F, J):
+        raise ValueError(f"mean_speed must be (F, J) = {(F, J)}, got {mean_speed.shape}")
+    if not (hold_deg_s > 0 and min_s >= 0 and travel_deg > 0 and recur_deg >= 0 and rest_deg >= 0):
+        raise ValueError(
+            f"need hold_deg_s > 0, min_s >= 0, travel_deg > 0, recur_deg >= 0 and rest_deg >= 0, "
+            f"got {hold_deg_s!r}, {min_s!r}, {travel_deg!r}, {recur_deg!r}, {rest_deg!r}"
+        )
+    if F < 2:
+        return out
+    from scipy import ndimage
+
+    analysed = np.isfinite(mean_speed).any(axis=0)
+    speed = np.degrees(step_angles(q)) * motion.fps
+    still = (np.nan_to_num(speed, nan=np.inf) < hold_deg_s) & analysed[None, :]  # (F - 1, J) steps
+    if not still.any():
+        return out
+    pose_hold = still[:, analysed].mean(axis=1) >= 0.5
+    min_frames = max(2, int(np.ceil(min_s * motion.fps)))
+    travel = np.nan_to_num(mean_speed) / motion.fps  # degrees per frame
+    recur = np.radians(recur_deg)
+    for j in np.flatnonzero(still.any(axis=0)):
+        if still[:, j].mean() > 0.5:
+            continue
+        labels, count = ndimage.label(still[:, j] & ~pose_hold)
+        runs = [(run.start, run.stop + 1) for (run,) in ndimage.find_objects(labels)]  # held frames a .. b - 1
+        runs = [(a, b) for a, b in runs if b - a >= min_frames]
+        if not runs:
+            continue
+        held = q[[a for a, _ in runs], j]  # (n, 4) the held rotations
+        near = R.geodesic_angle(held[:, None], held[None, :]) <= recur
+        np.fill_diagonal(near, False)
+        at_rest = R.geodesic_angle(held, R.identity()) <= np.radians(rest_deg)
+        for (a, b), exempt in zip(runs, near.any(axis=1) | at_rest):
+            if not exempt and travel[a:b, j].sum() >= travel_deg:
+                out[a:b, j] = True
+    return out

@@ -1,0 +1,388 @@
+"""Detection: the movement digression map and the error flags of a take (sections 3.4 and 5).
+
+Where a joint digresses from the mean motion texture (:mod:`~mocapkit.cleaning.ssa.neighbours`),
+the *movement digression map* (MDM) is high: that is an error, or a motion the
+context has never seen. :func:`detect` returns the MDM and the flags at the
+input's frame rate, confirmed by the cues of :mod:`~mocapkit.cleaning.ssa.cues`.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Mapping, Sequence
+
+import numpy as np
+
+from ...motion import Motion
+from ..ik import contact_segments
+from . import word_dtw
+from .cues import (
+    flag_rule,
+    held_joints,
+    midpoint_residuals,
+    offsets_from_residuals,
+    residual_breaks,
+    step_angles,
+    swaps_from_residuals,
+)
+from .neighbours import Neighbors, mean_motion_texture, nearest_words, unseen_words
+from .params import SSAParams
+from .texture import Analysis, facing_aligned, prepare, upsample_quaternions
+
+__all__ = ["Detection", "detect", "detect_prepared", "movement_digression_map"]
+
+_D = SSAParams()
+
+
+def movement_digression_map(
+    digression: np.ndarray,
+    normalization: str = _D.normalization,
+    row_scale: float = _D.row_scale,
+    floor_deg: float = _D.floor_deg,
+    z_scale: float = _D.z_scale,
+) -> np.ndarray:
+    """MDM in [0, 1] from per-cell digressions (F, J) (section 3.4): ``1 - exp(-M^2)``.
+
+    ``normalization`` says what ``digression`` holds and how rows are scaled:
+
+    - ``"median"`` (default): angles in radians; each joint's row is divided by
+      ``max(row_scale * row median, floor_deg)``.
+    - ``"spread"``: digressions already divided by the neighbours' spread at
+      the cell (:func:`detect`); ``M = digression / z_scale``.
+    - ``"mean"``: angles; rows divided by their mean, as the paper writes it
+      (every row's mean then sits at ``1 - e^-1 = 0.63``, above the paper's
+      threshold of 0.5, so this flags a large share of any clip).
+
+    NaN digressions (not analysed) give 0.
+    """
+    d = np.asarray(digression, dtype=np.float64)
+    valid = np.isfinite(d)
+    filled = np.where(valid, d, np.nan)
+    any_valid = valid.any(axis=0)
+    scale = np.full(d.shape[1], np.inf)
+    if normalization == "spread":
+        scale[:] = z_scale
+    elif normalization == "mean":
+        scale[any_valid] = np.nanmean(filled[:, any_valid], axis=0)
+    elif normalization == "median":
+        scale[any_valid] = np.maximum(row_scale * np.nanmedian(filled[:, any_valid], axis=0), np.radians(floor_deg))
+    else:
+        raise ValueError(f"normalization must be 'spread', 'median' or 'mean', got {normalization!r}")
+    scale = np.where(np.isfinite(scale) & (scale > 0), scale, np.inf)
+    Mn = np.where(valid, d / scale, 0.0)
+    return 1.0 - np.exp(-(Mn**2))
+
+
+@dataclass(frozen=True, eq=False)
+class Detection:
+    """Result of :func:`detect`; everything (F, J) is at the input's frames and joint order.
+
+    mdm : float (F, J) movement digression map in [0, 1] (0 on joints not analysed);
+    flags : bool (F, J) the errors: ``mdm > threshold`` confirmed by ``jumps``
+    (:func:`confirm_flags`), with ``holds``, ``swaps`` and ``offsets``; or ``mdm >
+    threshold`` alone when the detection was made with ``confirm=False``; jumps : bool (F, J) the analysed joints'
+    :func:`discontinuities`; holds, swaps, offsets : bool (F, J) their
+    :func:`held_joints`, :func:`side_swaps` and :func:`transient_offsets`
+    (flagged with confirmation at any threshold); digression : float (F, J) angle in
+    radians between the input and the mean motion texture (NaN where not
+    analysed); best_group : int8 (F, J) the group whose neighbours explain the
+    cell best (-1 none). The rest records how the analysis was made so that
+    :func:`repair` can fetch the neighbour words again.
+    """
+
+    mdm: np.ndarray
+    flags: np.ndarray
+    digression: np.ndarray
+    best_group: np.ndarray
+    threshold: float
+    fps: float
+    joint_names: tuple
+    analysed: np.ndarray  # (J,) bool
+    texture_joints: np.ndarray  # (m,) skeleton indices
+    group_names: tuple
+    group_masks: np.ndarray  # (G, m) bool
+    word_starts: np.ndarray  # (W,) at the analysis rate
+    neighbor_pos: np.ndarray  # (G, W, K)
+    neighbor_iend: np.ndarray
+    neighbor_jend: np.ndarray
+    neighbor_dist: np.ndarray
+    context_clips: tuple  # ((name, frames at the analysis rate), ...) of the context texture, clip 0 = the input
+    jumps: np.ndarray  # (F, J) bool
+    holds: np.ndarray  # (F, J) bool
+    swaps: np.ndarray  # (F, J) bool
+    offsets: np.ndarray  # (F, J) bool
+    params: SSAParams = field(default_factory=SSAParams)
+    notes: tuple = ()
+    analysis: Analysis | None = field(default=None, repr=False)
+
+    @property
+    def num_frames(self) -> int:
+        return int(self.mdm.shape[0])
+
+    def segments(self) -> list[tuple[str, int, int]]:
+        """Flagged runs as ``(joint name, start frame, end frame)``, half-open, sorted by start."""
+        out = []
+        for j in np.flatnonzero(self.flags.any(axis=0)):
+            out += [(self.joint_names[j], a, b) for a, b in contact_segments(self.flags[:, j])]
+        return sorted(out, key=lambda s: (s[1], s[0]))
+
+    def with_threshold(self, threshold: float) -> "Detection":
+        """The same analysis flagged at another threshold (confirmed by the jumps if the detection was)."""
+        threshold = float(threshold)
+        if not 0.0 < threshold < 1.0:
+            raise ValueError(f"threshold must be in (0, 1), got {threshold}")
+        flags = flag_rule(self.mdm, self.jumps, self.holds, self.swaps, self.offsets, threshold, self.fps,
+                          self.params.confirm, self.params.confirm_margin_s)
+        return dataclasses.replace(self, threshold=threshold, flags=flags)
+
+    def save(self, path) -> Path:
+        """Write as ``.npz`` (no pickles) through a temporary file and a rename."""
+        from ...io import atomic_write
+
+        arrays = {f.name: getattr(self, f.name) for f in dataclasses.fields(self) if f.name != "analysis"}
+        meta = {
+            "threshold": self.threshold,
+            "fps": self.fps,
+            "joint_names": list(self.joint_names),
+            "group_names": list(self.group_names),
+            "context_clips": [list(c) for c in self.context_clips],
+            "params": self.params.as_dict(),
+            "notes": list(self.notes),
+        }
+        for key in meta:
+            arrays.pop(key)
+        arrays["meta"] = np.array(json.dumps(meta))
+        path = Path(path)
+        with atomic_write(path, "wb") as fh:
+            np.savez_compressed(fh, **arrays)
+        return path
+
+    @classmethod
+    def load(cls, path) -> "Detection":
+        """Read a detection written by :meth:`save`."""
+        from ...errors import MocapFormatError
+
+        path = Path(path)
+        try:
+            with np.load(path, allow_pickle=False) as z:
+                data = {k: z[k] for k in z.files}
+            meta = json.loads(str(data.pop("meta")))
+            for key in ("jumps", "holds", "swaps", "offsets"):  # written before these rules existed
+                if key not in data:
+                    data[key] = np.zeros(data["mdm"].shape, dtype=bool)
+            return cls(
+                **data,
+                threshold=float(meta["threshold"]),
+                fps=float(meta["fps"]),
+                joint_names=tuple(meta["joint_names"]),
+                group_names=tuple(meta["group_names"]),
+                context_clips=tuple((str(n), int(f)) for n, f in meta["context_clips"]),
+                params=SSAParams.from_dict(meta["params"]),
+                notes=tuple(meta["notes"]),
+            )
+        except (OSError, ValueError, KeyError, TypeError) as e:
+            raise MocapFormatError(path, f"not a mocapkit detection file ({e})") from None
+
+
+def _digression(motion, mean_tex, spread, texture_joints, up, fps_a, noise_deg, shift_s=0.0, speeds=False):
+    """Per-group digression of the input (at its own rate) from the mean texture upsampled from ``fps_a``.
+
+    With ``shift_s`` the angle at frame f is the smallest over the mean
+    texture's frames within ``shift_s`` seconds of f: a timing tolerance.
+
+    Returns ``(angle, z)``, both (G, F, m): the rotation angle in radians, and
+    that angle over the neighbours' spread at the cell, ``sqrt(spread^2 +
+    noise^2)`` with ``noise_deg`` the capture noise floor. With ``speeds``
+    also the mean texture's angular speed at the input's frames, deg/s (G, F, m).
+    """
+    F = motion.num_frames
+    inp = facing_aligned(motion.rotations, up)[:, texture_joints]
+    G = mean_tex.shape[0]
+    ang = np.full((G, F, len(texture_joints)), np.nan)
+    z = np.full_like(ang, np.nan)
+    t = np.arange(F) * (fps_a / motion.fps)
+    src_t = np.arange(mean_tex.shape[1])
+    noise = np.radians(noise_deg)
+    speed = np.full_like(ang, np.nan) if speeds else None
+    for g in range(G):
+        up_q = upsample_quaternions(mean_tex[g], fps_a, F, motion.fps)
+        if speeds and F > 1:
+            step = np.degrees(step_angles(up_q)) * motion.fps
+            speed[g] = np.concatenate([step, step[-1:]])
+        # timing tolerance: the smallest angle to the mean texture a few frames earlier or later
+        a = word_dtw.shift_tolerant_angles(inp, up_q, int(round(shift_s * motion.fps)))
+        ang[g] = a
+        sp = np.stack([np.interp(t, src_t, spread[g][:, c]) for c in range(spread.shape[2])], axis=1)
+        z[g] = a / np.sqrt(np.where(np.isfinite(sp), sp, 0.0) ** 2 + noise**2)
+    return (ang, z, speed) if speeds else (ang, z)
+
+
+def detect(
+    motion: Motion,
+    context=None,
+    threshold: float = 0.5,
+    *,
+    params: SSAParams | None = None,
+    groups: Mapping[str, Sequence] | None = None,
+    progress: bool = False,
+    **overrides,
+) -> Detection:
+    """Movement digression map and error flags of ``motion`` by self-similarity (sections 3 and 5).
+
+    Parameters
+    ----------
+    motion : Motion
+        The take to analyse (any frame rate; no missing frames).
+    context : None, list of Motions, or MotionDatabase
+        Where to look for similar words besides the clip itself: None is local
+        analysis; related clips (same joints) make a small or large context.
+        A context clip with the input's name and length is the input itself and
+        is left out.
+    threshold : float
+        MDM value above which a cell is flagged (0.5 in the paper).
+    params : SSAParams, optional
+        The analysis parameters (default ``SSAParams()``, the paper's and this
+        library's defaults; see :class:`SSAParams` for each).
+    groups : dict name -> joint names or indices, optional
+        Joint groups for motion words; default :func:`joint_groups` (whole,
+        upper, lower, left, right).
+    progress : bool
+        Show a progress bar over the words.
+    **overrides
+        Any field of :class:`SSAParams` (``k=1``, ``confirm=False``,
+        ``max_word_angle_deg=8.0``, ...) replacing the one in ``params``.
+
+    The detection keeps the prepared take (:attr:`Detection.analysis`), so
+    :func:`repair` does not resample the take and its context again.
+    """
+    if not 0.0 < threshold < 1.0:
+        raise ValueError(f"threshold must be in (0, 1), got {threshold}")
+    params = (SSAParams() if params is None else params).replace(**overrides)
+    return detect_prepared(prepare(motion, context, params, groups=groups), threshold, progress=progress)
+
+
+def detect_prepared(an: Analysis, threshold: float = 0.5, *, progress: bool = False) -> Detection:
+    """:func:`detect` on a take already prepared by :func:`prepare` (with its parameters and context)."""
+    from tqdm.auto import tqdm
+
+    motion, p = an.motion, an.params
+    N, M = int(p.source_length), int(p.target_length)
+    src, full, tex_joints, up = an.source, an.texture, an.joints, an.up
+    notes = list(an.notes)
+    fps = p.analysis_fps
+    normalization, row_scale, floor_deg, z_scale = p.normalization, p.row_scale, p.floor_deg, p.z_scale
+    max_word_angle_deg = p.max_word_angle_deg
+    resid = midpoint_residuals(motion.rotations)  # for the breaks and the side swaps
+    jumps = residual_breaks(resid, p.jump_deg)
+    sk = motion.skeleton
+    gnames, grows = list(an.group_names), list(an.group_rows)
+    words = an.words
+    W, G, m = len(words), len(grows), len(tex_joints)
+    k = p.k
+    has_context = an.has_context
+    two_stage = p.two_stage
+    prefilter = p.prefilter
+    if prefilter is None:
+        prefilter = has_context and len(full.target_starts(M)) > 3000
+    opts = dict(k=k, source_length=N, target_length=M, min_width=p.min_width, max_run=p.max_run, candidates=p.candidates)
+    neighbors = Neighbors(
+        np.full((G, W, k), -1, dtype=np.int64),
+        np.zeros((G, W, k), dtype=np.int16),
+        np.zeros((G, W, k), dtype=np.int16),
+        np.full((G, W, k), np.inf, dtype=np.float32),
+    )
+    mean_tex = np.full((G, src.num_frames, m, 4), np.nan)
+    spread = np.full((G, src.num_frames, m), np.nan)
+    bar = tqdm(total=W * G * (2 if two_stage and has_context else 1), desc=f"ssa {motion.name or 'motion'}", disable=not progress, unit="word")
+    try:
+        if two_stage and has_context:
+            whole = [gnames.index("whole")] if "whole" in gnames else [int(np.argmax([len(r) for r in grows]))]
+            nb1 = nearest_words(src, src, [grows[i] for i in whole], words, self_clip=0, progress=bar, **opts)
+            unseen_words(nb1, [grows[i] for i in whole], max_word_angle_deg)
+            mt1, sp1 = mean_motion_texture(src, src, [grows[i] for i in whole], words, nb1, N, M, return_spread=True)
+            a1, z1 = _digression(motion, mt1, sp1, tex_joints, up, fps, p.noise_deg, p.shift_s)
+            mdm1 = movement_digression_map(z1[0] if normalization == "spread" else a1[0], normalization, row_scale, floor_deg, z_scale)
+            hot_frames = np.flatnonzero(mdm1.max(axis=1) > p.screen_threshold) * (fps / motion.fps)
+            distinct = np.zeros(W, dtype=bool)
+            for f in hot_frames:
+                distinct |= (words <= f) & (f < words + N)
+            # words overlapping the distinct ones, so every frame of the region keeps full word coverage
+            region = np.zeros(src.num_frames, dtype=bool)
+            for s in words[distinct]:
+                region[s : s + N] = True
+            redo = np.array([region[s : s + N].any() for s in words])
+            for gi in whole:
+                neighbors.pos[gi], neighbors.iend[gi] = nb1.pos[0], nb1.iend[0]
+                neighbors.jend[gi], neighbors.dist[gi] = nb1.jend[0], nb1.dist[0]
+                mean_tex[gi] = mt1[0]
+                spread[gi] = sp1[0]
+            if redo.any():
+                sub = words[redo]
+                nb2 = nearest_words(src, full, grows, sub, self_clip=0, prefilter=prefilter, progress=bar, **opts)
+                unseen_words(nb2, grows, max_word_angle_deg)
+                for a in ("pos", "iend", "jend", "dist"):
+                    getattr(neighbors, a)[:, redo] = getattr(nb2, a)
+                mt2, sp2 = mean_motion_texture(src, full, grows, sub, nb2, N, M, return_spread=True)
+                # region frames take the second stage; groups other than the whole body exist only there
+                mean_tex[:, region] = mt2[:, region]
+                spread[:, region] = sp2[:, region]
+                for gi in range(G):
+                    if gi not in whole:
+                        mean_tex[gi, ~region] = np.nan
+                        spread[gi, ~region] = np.nan
+            notes.append(f"two-stage: {int(redo.sum())} of {W} words re-analysed against the context")
+        else:
+            nb = nearest_words(src, full, grows, words, self_clip=0, prefilter=prefilter and has_context, progress=bar, **opts)
+            unseen = unseen_words(nb, grows, max_word_angle_deg)
+            if unseen.any():
+                notes.append(
+                    f"{int(unseen.any(axis=0).sum())} of {W} words have no neighbour within {max_word_angle_deg:g} deg "
+                    "(RMS joint angle) in some joint group: not judged there"
+                )
+            neighbors = nb
+            mean_tex, spread = mean_motion_texture(src, full, grows, words, nb, N, M, return_spread=True)
+    finally:
+        bar.close()
+    dig_g, z_g, speed_g = _digression(motion, mean_tex, spread, tex_joints, up, fps, p.noise_deg, p.shift_s, speeds=True)  # (G, F, m)
+    F, J = motion.num_frames, sk.num_joints
+    filled = np.where(np.isnan(dig_g), np.inf, dig_g)
+    best = np.argmin(filled, axis=0)  # (F, m): the group whose mean texture is closest
+    dmin = np.take_along_axis(filled, best[None], axis=0)[0]
+    smin = np.take_along_axis(z_g if normalization == "spread" else filled, best[None], axis=0)[0]
+    smin = np.where(np.isfinite(dmin), smin, np.inf)
+    ok = np.isfinite(smin)
+    digression = np.full((F, J), np.nan)
+    digression[:, tex_joints] = np.where(ok, dmin, np.nan)
+    scores = np.full((F, J), np.nan)
+    scores[:, tex_joints] = np.where(ok, smin, np.nan)
+    best_group = np.full((F, J), -1, dtype=np.int8)
+    best_group[:, tex_joints] = np.where(ok, best, -1)
+    mean_speed = np.full((F, J), np.nan)
+    mean_speed[:, tex_joints] = np.where(ok, np.take_along_axis(speed_g, best[None], axis=0)[0], np.nan)
+    mdm = movement_digression_map(scores, normalization, row_scale, floor_deg, z_scale)
+    analysed = np.zeros(J, dtype=bool)
+    analysed[tex_joints] = True
+    jumps &= analysed[None, :]
+    holds = held_joints(motion, mean_speed, travel_deg=p.hold_travel_deg) & analysed[None, :]
+    swaps = swaps_from_residuals(resid, sk.joint_names, motion.fps, p.swap_jump_deg, p.swap_max_s, analysed)
+    offsets = offsets_from_residuals(
+        np.asarray(motion.rotations, dtype=np.float64), resid, motion.fps, p.offset_jump_deg, p.offset_max_s,
+        p.offset_min_deg, analysed,
+    )
+    flags = flag_rule(mdm, jumps, holds, swaps, offsets, threshold, motion.fps, p.confirm, p.confirm_margin_s)
+    masks = an.group_masks()
+    if not ok.all():
+        notes.append(f"{int((~ok).any(axis=1).sum())} frames have no neighbour words (context too short)")
+    clips = an.clips
+    params = p.replace(two_stage=bool(two_stage and has_context), prefilter=bool(prefilter and has_context))
+    return Detection(
+        mdm=mdm, flags=flags, digression=digression, best_group=best_group, threshold=float(threshold),
+        fps=motion.fps, joint_names=tuple(sk.joint_names), analysed=analysed, texture_joints=tex_joints,
+        group_names=tuple(gnames), group_masks=masks, word_starts=words, neighbor_pos=neighbors.pos,
+        neighbor_iend=neighbors.iend, neighbor_jend=neighbors.jend, neighbor_dist=neighbors.dist,
+        context_clips=clips, jumps=jumps, holds=holds, swaps=swaps, offsets=offsets, params=params, notes=tuple(notes),
+        analysis=an,
+    )

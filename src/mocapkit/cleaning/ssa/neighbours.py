@@ -1,0 +1,400 @@
+"""Nearest neighbour words and the mean motion texture (sections 3.2-3.4).
+
+*Motion words* are windows of the motion texture on groups of joints (whole
+body, upper, lower, left, right): source words of N = 15 frames every 5
+frames, target words of M = 20 frames at every frame. Each source word is
+compared with every target word of a context (the clip itself, or related
+clips) by the constrained DTW of the appendix over the pose distance of eq. 1
+(the kernels of :mod:`mocapkit.cleaning.ssa.word_dtw`); its K = 5 nearest
+neighbours are the K smallest local minima of that distance function (section
+3.3). The matched part of each neighbour is resampled to the source word's
+length with a polyphase filter, the neighbours are averaged into a *mean
+motion word*, and overlapping mean words into the *mean motion texture*.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Sequence
+
+import numpy as np
+from scipy.signal import resample_poly
+
+from ... import rotations as R
+from . import word_dtw
+from .params import SSAParams
+from .texture import MotionTexture, align_hemisphere
+
+__all__ = [
+    "Neighbors",
+    "NEIGHBOR_RATIO",
+    "nearest_words",
+    "neighbor_words",
+    "near_neighbors",
+    "mean_motion_texture",
+    "unseen_words",
+    "robust_means",
+    "dropped_terms",
+    "local_minima_knn",
+    "word_distance",
+]
+
+_D = SSAParams()
+
+_LARGE_GROUP = 12  # groups with at least this many joints drop 3 joint terms, smaller ones 1
+
+
+def word_distance(a: np.ndarray, b: np.ndarray, drop: int = 3, min_width: int = 11, max_run: int = 3):
+    """Duration-invariant distance between two motion words (section 3.2 and appendix).
+
+    a : (N, m, 4) source word, b : (M, m, 4) target word (N <= M), quaternions
+    of the same joints. Returns ``(distance, i_end, j_end)``: the mean eq. 1
+    cost (squared half-angle radians, ``drop`` largest joint terms ignored) over
+    the matched frame pairs of the constrained DTW path, and where it ends.
+    """
+    a = np.asarray(a, dtype=np.float64)
+    b = np.asarray(b, dtype=np.float64)
+    D = word_dtw.group_pose_distances(a, b, np.ones((1, a.shape[1]), dtype=bool), [drop])[0]
+    return word_dtw.word_dtw(D, min_width=min_width, max_run=max_run)
+
+
+
+def dropped_terms(members) -> int:
+    """Joint terms eq. 1 ignores for a group: 3 of a large (whole-body) word, 1 of a small one (section 5)."""
+    return 3 if len(members) >= _LARGE_GROUP else 1
+
+
+@dataclass
+class Neighbors:
+    """K nearest target words per (group, source word): positions in the context texture, DTW ends, distances."""
+
+    pos: np.ndarray  # (G, W, K) int64, -1 = none
+    iend: np.ndarray  # (G, W, K) int16
+    jend: np.ndarray  # (G, W, K) int16
+    dist: np.ndarray  # (G, W, K) float32
+
+
+def local_minima_knn(dist, tgt, k, exclude_center, half):
+    """K smallest local minima per row of ``dist`` (W, T) over target starts ``tgt`` (T,) (section 3.3)."""
+    W, T = dist.shape
+    d = dist.astype(np.float64, copy=True)
+    consecutive = np.zeros(T + 1, dtype=bool)
+    consecutive[1:-1] = tgt[1:] == tgt[:-1] + 1
+    left = np.full_like(d, np.inf)
+    right = np.full_like(d, np.inf)
+    left[:, 1:] = np.where(consecutive[None, 1:-1], d[:, :-1], np.inf)
+    right[:, :-1] = np.where(consecutive[None, 1:-1], d[:, 1:], np.inf)
+    is_min = (d <= left) & (d < right) & np.isfinite(d)
+    if exclude_center is not None:  # minima of the whole function, then the source's own place left out
+        is_min &= np.abs(tgt[None, :] - exclude_center[:, None]) > half
+    cand = np.where(is_min, d, np.inf)
+    kk = min(k, T)
+    idx = np.argpartition(cand, kk - 1, axis=1)[:, :kk] if T > kk else np.tile(np.arange(T), (W, 1))
+    vals = np.take_along_axis(cand, idx, axis=1)
+    order = np.argsort(vals, axis=1, kind="stable")
+    idx = np.take_along_axis(idx, order, axis=1)
+    vals = np.take_along_axis(vals, order, axis=1)
+    if kk < k:
+        pad = k - kk
+        idx = np.concatenate([idx, np.zeros((W, pad), dtype=idx.dtype)], axis=1)
+        vals = np.concatenate([vals, np.full((W, pad), np.inf)], axis=1)
+    return idx, vals
+
+
+def _descriptors(values: np.ndarray, starts: np.ndarray, members: np.ndarray, length: int) -> np.ndarray:
+    """Cheap word descriptors for the kd-tree prefilter: 6-D rotations of the group at 3 frames of the word."""
+    offs = np.array([0, length // 2, length - 1])
+    q = values[starts[:, None] + offs[None, :]][:, :, members]  # (P, 3, m, 4)
+    mats = R.quaternion_to_matrix(q)[..., :, :2]  # first two columns: continuous, no sign ambiguity
+    return mats.reshape(len(starts), -1)
+
+
+def nearest_words(
+    source: MotionTexture,
+    context: MotionTexture,
+    groups: Sequence[np.ndarray],
+    word_starts: np.ndarray,
+    k: int = 5,
+    source_length: int = 15,
+    target_length: int = 20,
+    min_width: int = 11,
+    max_run: int = 3,
+    self_clip: int | None = 0,
+    prefilter: bool = False,
+    candidates: int = 48,
+    chunk: int = 96,
+    progress=None,
+    exhaustive: bool = False,
+) -> Neighbors:
+    """The K nearest target words of each source word, per joint group (section 3.3).
+
+    groups : list of (m_g,) row indices into the textures' joints. With
+    ``prefilter`` a kd-tree on cheap word descriptors (6-D rotations of three
+    frames, reduced by PCA) proposes ``candidates`` target positions per source
+    word and only those are ranked by DTW (section 7's suggestion); otherwise
+    every target position is compared, and the neighbours are the K smallest
+    local minima of the distance function, minima within N/2 frames of the
+    source word in its own clip left out (found by
+    :func:`~mocapkit.cleaning.ssa.word_dtw.word_knn_profile`, which skips the
+    positions a lower bound proves too far: the same neighbours, 1.7x faster
+    on a 20 s take and more on longer ones; ``exhaustive=True`` computes the whole distance function
+    instead, the reference benchmarks/ssa_speed.py times it against). With the
+    prefilter the source's own clip is left out a whole word either side,
+    since sparse candidates cannot tell a minimum from the slope down into the
+    source's own place. ``self_clip`` is the clip of
+    ``context`` that ``source`` is (its neighbours closer than N/2 frames to the
+    source word are excluded), or None.
+    """
+    N, M = source_length, target_length
+    G, W = len(groups), len(word_starts)
+    m = source.values.shape[1]
+    drops = np.array([dropped_terms(g) for g in groups])
+    masks = np.zeros((G, m), dtype=bool)
+    for gi, g in enumerate(groups):
+        masks[gi, g] = True
+    out = Neighbors(
+        np.full((G, W, k), -1, dtype=np.int64),
+        np.zeros((G, W, k), dtype=np.int16),
+        np.zeros((G, W, k), dtype=np.int16),
+        np.full((G, W, k), np.inf, dtype=np.float32),
+    )
+    tgt = context.target_starts(M)
+    if len(tgt) == 0 or W == 0:
+        return out
+    offset = int(context.clip_starts[self_clip]) if self_clip is not None else 0
+    half = N // 2
+    if prefilter:
+        from ...search.knn import KNNIndex
+
+        tclip = context.clip_of(tgt)
+        for gi in range(G):
+            desc_t = _descriptors(context.values, tgt, groups[gi], N)
+            desc_s = _descriptors(source.values, word_starts, groups[gi], N)
+            mean = desc_t.mean(axis=0)
+            sample = desc_t[:: max(1, len(desc_t) // 20000)] - mean
+            _, _, vt = np.linalg.svd(sample, full_matrices=False)
+            basis = vt[: min(24, vt.shape[0])].T
+            index = KNNIndex((desc_t - mean) @ basis)
+            kq = min(candidates, len(tgt))
+            _, cidx = index.query((desc_s - mean) @ basis, k=kq)
+            cidx = np.where(cidx < 0, 0, cidx)
+            src_rep = np.repeat(word_starts, kq)
+            d, ie, je = word_dtw.word_distance_pairs(
+                source.values, context.values, masks[gi], drops[gi], src_rep, tgt[cidx].ravel(), N, M, min_width, max_run
+            )
+            d = d.reshape(W, kq).astype(np.float64)
+            pos = tgt[cidx]
+            # sparse candidates cannot tell a minimum from the slope into the source's own place, so the
+            # source's own clip is left out a whole word either side (not half a word, as with the full profile)
+            lo = word_starts + offset - N if self_clip is not None else np.full(W, -1)
+            hi = word_starts + offset + N + 1 if self_clip is not None else np.full(W, -1)
+            chosen = word_dtw.select_separated_minima(d, pos, tclip[cidx], k, half + 1, lo, hi)
+            for w in range(W):
+                for kk in range(k):
+                    p = chosen[w, kk]
+                    if p < 0:
+                        continue
+                    c = int(np.flatnonzero(pos[w] == p)[0])
+                    out.pos[gi, w, kk] = p
+                    out.iend[gi, w, kk] = ie[w * kq + c]
+                    out.jend[gi, w, kk] = je[w * kq + c]
+                    out.dist[gi, w, kk] = d[w, c]
+            if progress is not None:
+                progress.update(W)
+        return out
+    for c0 in range(0, W, chunk):
+        ws = word_starts[c0 : c0 + chunk]
+        f0, f1 = int(ws.min()), int(ws.max()) + N
+        D = word_dtw.group_pose_distances(source.values[f0:f1], context.values, masks, drops)
+        for gi in range(G):
+            excl = ws + offset if self_clip is not None else None
+            if exhaustive:
+                dist, ie, je = word_dtw.word_distance_profile(D[gi], ws - f0, tgt, N, M, min_width, max_run)
+                idx, vals = local_minima_knn(dist, tgt, k, excl, half)
+                idx = np.where(np.isfinite(vals), idx, -1)
+                ie = np.take_along_axis(ie, np.maximum(idx, 0), axis=1)
+                je = np.take_along_axis(je, np.maximum(idx, 0), axis=1)
+                vals = np.where(idx >= 0, vals, np.inf).astype(np.float32)
+            else:
+                idx, vals, ie, je = word_dtw.word_knn_profile(D[gi], ws - f0, tgt, k, excl, half, N, M, min_width, max_run)
+            sl = slice(c0, c0 + len(ws))
+            out.pos[gi, sl] = np.where(idx >= 0, tgt[np.maximum(idx, 0)], -1)
+            out.iend[gi, sl] = ie
+            out.jend[gi, sl] = je
+            out.dist[gi, sl] = vals
+        if progress is not None:
+            progress.update(len(ws) * G)
+    return out
+
+
+def neighbor_words(
+    source_values, context: MotionTexture, members, drop, src_starts, pos, N, M, min_width=_D.min_width, out_rows=None
+) -> tuple[np.ndarray, np.ndarray]:
+    """Neighbour words time-warped onto their source words' N frames (section 3.2), (P, N, m_g, 4).
+
+    For each pair the constrained DTW path between the source word at
+    ``src_starts[p]`` and the target word at ``pos[p]`` (on the rows
+    ``members``, ignoring ``drop`` largest joint terms) is found; every source
+    frame takes the mean of the target frames matched to it (the time-warped
+    target). When the target word ran out first (path ending before the last
+    source frame) the warped part is resized to N frames with the polyphase
+    filter ``scipy.signal.resample_poly``, as the paper does. ``out_rows``
+    warps other rows of the target along the path found on ``members``
+    (sparse reconstruction: matched on a few joints, copied for all).
+
+    Returns ``words`` (P, N, len(rows), 4) and ``ok`` (P,) bool (False where
+    the target word does not fit its clip or no admissible path exists; those
+    words are NaN). The DTW, path and warp run in one numba kernel
+    (:func:`mocapkit.cleaning.ssa.word_dtw.warp_target_words`); the warped parts
+    shorter than N frames are resized with ``resample_poly``, one call per length.
+    """
+    src_starts = np.asarray(src_starts, dtype=np.int64)
+    pos = np.asarray(pos, dtype=np.int64)
+    rows = members if out_rows is None else out_rows
+    clip = context.clip_of(pos)
+    fits = (pos >= 0) & (pos + M <= context.clip_starts[np.maximum(clip, 0) + 1])
+    idx = np.flatnonzero(fits)
+    words = np.full((len(pos), N, len(rows), 4), np.nan)
+    ok = np.zeros(len(pos), dtype=bool)
+    if len(idx) == 0:
+        return words, ok
+    warped, iend = word_dtw.warp_target_words(
+        source_values, context.values, members, drop, src_starts[idx], pos[idx], N, M, min_width, 3, rows
+    )
+    for L in np.unique(iend[(iend >= 0) & (iend + 1 != N)]) + 1:
+        sel = np.flatnonzero(iend + 1 == L)
+        part = R.quaternion_continuity(warped[sel, :L], axis=1).reshape(len(sel), L, -1)
+        warped[sel] = resample_poly(part, N, L, axis=1, padtype="line").reshape(len(sel), N, len(rows), 4)
+    good = iend >= 0
+    words[idx[good]] = R.quaternion_normalize(warped[good])
+    ok[idx[good]] = True
+    return words, ok
+
+
+
+NEIGHBOR_RATIO = 2.0  # neighbour words farther than this times the nearest's distance (+ 0.001) are not examples of it
+
+
+def near_neighbors(dist, best, ratio: float = NEIGHBOR_RATIO):
+    """Which word distances ``dist`` lie within ``ratio`` times the nearest one's, ``best`` (+ 0.001).
+
+    When the context repeats a word fewer than K times, the other local
+    minima are different motions, not examples of it: the mean texture
+    leaves them out, and so does the repair's medoid.
+    """
+    return dist <= ratio * best + 1e-3
+
+
+def robust_means(words: np.ndarray, valid: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Mean word and spread of each source word's hemisphere-aligned neighbours, robust to outliers.
+
+    words : (W, K, N, m, 4), valid : (W, K) which of the K are neighbours (at
+    least one per row). Per cell the neighbours far from the cell's medoid
+    (more than twice the median distance to it, plus 5 degrees) are left out of
+    the chordal mean: a neighbour that overlaps an error of the clip itself (a
+    long error outlasts the N/2 exclusion zone of section 3.3) must not pull
+    the mean towards the error. Returns the means (W, N, m, 4) and the spread
+    (W, N, m), the RMS angle of the kept neighbours from the mean in radians
+    (0 where a word has one neighbour, whose word is the mean). The cell loop
+    is :func:`mocapkit.cleaning.ssa.word_dtw.robust_word_means`.
+    """
+    return word_dtw.robust_word_means(words, valid, np.radians(5.0))
+
+
+def unseen_words(neighbors: Neighbors, groups, max_word_angle_deg) -> np.ndarray:
+    """Drop, in place, the neighbours of source words the context has nothing like; returns (G, W) bool of them.
+
+    A word's nearest neighbour at eq. 1 distance ``d`` (the mean over matched
+    frames of the summed squared half-angles of the group's joints, the
+    ``drop`` largest left out) differs from it by an RMS joint angle of
+    ``2 sqrt(d / (m_g - drop))``; above ``max_word_angle_deg`` the neighbours
+    are other motions, their mean says nothing about errors, and the word is
+    not judged (section 7: self-similarity needs the motion to have been seen).
+    """
+    G, W = neighbors.pos.shape[:2]
+    unseen = np.zeros((G, W), dtype=bool)
+    if max_word_angle_deg is None:
+        return unseen
+    for gi, members in enumerate(groups):
+        terms = max(len(members) - dropped_terms(members), 1)
+        best = neighbors.dist[gi, :, 0].astype(np.float64)
+        rms = np.degrees(2.0 * np.sqrt(np.maximum(best, 0.0) / terms))
+        unseen[gi] = np.isfinite(best) & (rms > max_word_angle_deg)
+    neighbors.pos[unseen] = -1
+    neighbors.dist[unseen] = np.inf
+    return unseen
+
+
+def mean_motion_texture(
+    source: MotionTexture,
+    context: MotionTexture,
+    groups,
+    word_starts,
+    neighbors: Neighbors,
+    source_length: int = 15,
+    target_length: int = 20,
+    return_spread: bool = False,
+    neighbor_ratio: float = NEIGHBOR_RATIO,
+):
+    """Mean motion texture per group, (G, F, m, 4) (section 3.4).
+
+    Each source word's K neighbours (time-warped to N frames) are averaged into
+    a mean motion word; overlapping mean words are averaged per frame. Rows of
+    a group's non-members and frames no word covers are NaN. Averages of
+    quaternions are the normalised sums of hemisphere-aligned values (the
+    chordal mean), accurate for the nearby rotations averaged here.
+    Neighbours whose word distance exceeds ``neighbor_ratio`` times the best
+    one's (plus 0.001) are left out: when the context repeats a word only
+    twice, the other local minima are different motions, not examples of it. With
+    ``return_spread`` also the neighbours' spread (G, F, m): the RMS angle
+    (radians) of the K words from their mean, averaged like the texture.
+    """
+    N = source_length
+    G = len(groups)
+    F, m = source.values.shape[:2]
+    out = np.full((G, F, m, 4), np.nan)
+    spread = np.full((G, F, m), np.nan)
+    K = neighbors.pos.shape[2]
+    for gi, members in enumerate(groups):
+        acc = np.zeros((F, len(members), 4))
+        sacc = np.zeros((F, len(members)))
+        cnt = np.zeros(F)
+        dists = neighbors.dist[gi]  # (W, K)
+        best = np.min(dists, axis=1, keepdims=True).astype(np.float64)  # inf where a word has none: all pass
+        use = (neighbors.pos[gi] >= 0) & near_neighbors(dists, best, neighbor_ratio)
+        wi, ki = np.nonzero(use)
+        nws, ok = neighbor_words(
+            source.values, context, members, dropped_terms(members), word_starts[wi], neighbors.pos[gi][wi, ki], N, target_length
+        )
+        # (W, K, N, m_g, 4) in neighbour order, each word's aligned with its first neighbour, not the
+        # source: a broken source joint may sit 90 degrees away in quaternion space, where hemispheres
+        # are arbitrary
+        valid = np.zeros((len(word_starts), K), dtype=bool)
+        valid[wi[ok], ki[ok]] = True
+        stacked = np.zeros((len(word_starts), K, N, len(members), 4))
+        stacked[wi[ok], ki[ok]] = nws[ok]
+        has = valid.any(axis=1)
+        first = np.argmax(valid, axis=1)
+        stacked = align_hemisphere(stacked, stacked[np.arange(len(word_starts)), first][:, None])
+        means = np.zeros((len(word_starts), N, len(members), 4))
+        spreads = np.zeros((len(word_starts), N, len(members)))
+        for c0 in range(0, len(word_starts), 256):
+            sl = np.flatnonzero(has[c0 : c0 + 256]) + c0
+            if len(sl):
+                means[sl], spreads[sl] = robust_means(stacked[sl], valid[sl])
+        for w, s in enumerate(word_starts):
+            if not has[w]:
+                continue
+            mean_word, word_spread = means[w], spreads[w]
+            ref = np.where(np.linalg.norm(acc[s : s + N], axis=-1, keepdims=True) > 0, acc[s : s + N], mean_word)
+            acc[s : s + N] += align_hemisphere(mean_word, ref)
+            sacc[s : s + N] += word_spread
+            cnt[s : s + N] += 1
+        ok = cnt > 0
+        vals = np.full((F, len(members), 4), np.nan)
+        vals[ok] = R.quaternion_normalize(acc[ok])
+        out[gi][:, members] = vals
+        sp = np.full((F, len(members)), np.nan)
+        sp[ok] = sacc[ok] / cnt[ok, None]
+        spread[gi][:, members] = sp
+    return (out, spread) if return_spread else out

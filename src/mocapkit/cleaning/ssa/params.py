@@ -1,0 +1,148 @@
+"""The parameters of the self-similarity analysis, in one frozen dataclass (Aristidou et al. 2018, section 5).
+
+:class:`SSAParams` is the one source of the analysis defaults: :func:`~mocapkit.cleaning.ssa.detect`,
+:func:`~mocapkit.cleaning.ssa.repair`, the cues' functions and :func:`mocapkit.cleaning.pipeline.clean`
+take theirs from it. A :class:`~mocapkit.cleaning.ssa.Detection` records the parameters it was made with
+(with ``prefilter`` and ``two_stage`` resolved to what ran), and its file stores them as a JSON object.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass
+from typing import Any, Mapping
+
+import numpy as np
+
+__all__ = ["SSAParams"]
+
+_NORMALIZATIONS = ("median", "spread", "mean")
+
+
+@dataclass(frozen=True)
+class SSAParams:
+    """Parameters of the self-similarity analysis; the defaults are the paper's (section 5) and this library's.
+
+    Words and neighbours (section 3):
+
+    analysis_fps : float
+        Frame rate the motion texture is resampled to (24 fps); word lengths count frames at this rate.
+    source_length, stride, target_length : int
+        Source words of ``source_length`` (N = 15) frames every ``stride`` (5) frames, target words of
+        ``target_length`` (M = 20) frames at every frame.
+    max_run : int
+        The DTW's slope constraint: at most this many consecutive non-diagonal steps (3).
+    k : int
+        Neighbour words per source word (K = 5).
+    joints : int or tuple
+        The ``joints`` most informative joints (24), or exactly these (names or indices).
+    two_stage, screen_threshold : bool, float
+        Section 5's two stages: local analysis of the whole body first, then the context with all groups
+        only around words whose local MDM exceeds ``screen_threshold``.
+    prefilter, candidates : bool or None, int
+        Rank only ``candidates`` kd-tree candidates per word by DTW (None: when the context holds more than
+        3,000 target words).
+    max_word_angle_deg : float or None
+        Leave unjudged the words whose nearest neighbour differs by more than this RMS joint angle (None:
+        judge every word, as the paper does).
+
+    The movement digression map (section 3.4):
+
+    normalization, row_scale, floor_deg, z_scale : str, float, degrees, float
+        Row normalisation (:func:`~mocapkit.cleaning.ssa.movement_digression_map`).
+    noise_deg : degrees
+        Capture noise floor added to the neighbours' spread (``normalization="spread"``).
+    shift_s : seconds
+        Timing tolerance: a joint's digression at a frame is its smallest angle from the mean texture
+        within this time.
+
+    Confirmation and the cues (:mod:`mocapkit.cleaning.ssa.cues`):
+
+    confirm, jump_deg, confirm_margin_s : bool, degrees, seconds
+        Flag a digression only where the joint's own trajectory breaks by more than ``jump_deg`` within
+        ``confirm_margin_s`` of it; ``confirm=False`` gives the paper's ``MDM > threshold``.
+    hold_travel_deg : degrees
+        A held joint is flagged where its mean motion texture travels this far.
+    swap_jump_deg, swap_max_s : degrees, seconds
+        Left/right swaps: both joints of a pair break by this much, twice within this time.
+    offset_jump_deg, offset_max_s, offset_min_deg : degrees, seconds, degrees
+        Transient offsets: a joint steps off its path by at least ``offset_min_deg`` and back within
+        ``offset_max_s``, at breaks over ``offset_jump_deg``.
+    """
+
+    analysis_fps: float = 24.0
+    source_length: int = 15
+    stride: int = 5
+    target_length: int = 20
+    max_run: int = 3
+    k: int = 5
+    joints: Any = 24
+    two_stage: bool = False
+    screen_threshold: float = 0.3
+    prefilter: bool | None = None
+    candidates: int = 48
+    max_word_angle_deg: float | None = None
+    normalization: str = "median"
+    row_scale: float = 3.0
+    floor_deg: float = 20.0
+    z_scale: float = 2.5
+    noise_deg: float = 5.0
+    shift_s: float = 0.02
+    confirm: bool = True
+    jump_deg: float = 8.0
+    confirm_margin_s: float = 0.05
+    hold_travel_deg: float = 10.0
+    swap_jump_deg: float = 6.0
+    swap_max_s: float = 1.0
+    offset_jump_deg: float = 7.0
+    offset_max_s: float = 1.0
+    offset_min_deg: float = 10.0
+
+    def __post_init__(self):
+        N, M = self.source_length, self.target_length
+        if not 2 <= N <= M:
+            raise ValueError(f"need 2 <= source_length <= target_length, got {N} and {M}")
+        if not (np.isfinite(self.analysis_fps) and self.analysis_fps > 0):
+            raise ValueError(f"analysis_fps must be a positive frame rate, got {self.analysis_fps!r}")
+        if not (self.stride >= 1 and self.k >= 1 and self.max_run >= 1):
+            raise ValueError(f"need stride, k and max_run >= 1, got {self.stride}, {self.k} and {self.max_run}")
+        if self.normalization not in _NORMALIZATIONS:
+            raise ValueError(f"normalization must be 'spread', 'median' or 'mean', got {self.normalization!r}")
+        if not (np.isfinite(self.jump_deg) and self.jump_deg > 0):
+            raise ValueError(f"jump_deg must be a positive number of degrees, got {self.jump_deg!r}")
+        if not (np.isfinite(self.confirm_margin_s) and self.confirm_margin_s >= 0):
+            raise ValueError(f"confirm_margin_s must be >= 0 seconds, got {self.confirm_margin_s!r}")
+        if not (np.isfinite(self.hold_travel_deg) and self.hold_travel_deg > 0):
+            raise ValueError(f"hold_travel_deg must be a positive number of degrees, got {self.hold_travel_deg!r}")
+        if not isinstance(self.joints, (int, np.integer)):
+            object.__setattr__(self, "joints", tuple(j if isinstance(j, str) else int(j) for j in self.joints))
+
+    @property
+    def min_width(self) -> int:
+        """The DTW's width constraint: a warped window longer than 10 frames (11), at most the source word."""
+        return min(11, int(self.source_length))
+
+    def replace(self, **changes) -> "SSAParams":
+        """A copy with ``changes``; an unknown name raises TypeError listing the known ones."""
+        known = {f.name for f in dataclasses.fields(self)}
+        bad = sorted(set(changes) - known)
+        if bad:
+            raise TypeError(f"unknown self-similarity parameter(s) {', '.join(bad)}; known: {', '.join(sorted(known))}")
+        return dataclasses.replace(self, **changes)
+
+    def as_dict(self) -> dict:
+        """The parameters as a JSON-ready dict (``joints`` a list when it names joints)."""
+        out = dataclasses.asdict(self)
+        if isinstance(out["joints"], tuple):
+            out["joints"] = list(out["joints"])
+        return out
+
+    @classmethod
+    def from_dict(cls, values: Mapping) -> "SSAParams":
+        """Parameters from :meth:`as_dict`'s output; files written before the rename give ``fps`` for
+        ``analysis_fps``, and keys this version does not know are ignored."""
+        values = dict(values)
+        if "fps" in values and "analysis_fps" not in values:
+            values["analysis_fps"] = values.pop("fps")
+        known = {f.name for f in dataclasses.fields(cls)}
+        return cls(**{k: v for k, v in values.items() if k in known})

@@ -1,0 +1,301 @@
+"""Repair: replace the flagged joints in flagged frames by the median of their neighbour words (section 4).
+
+Each flagged cell takes the medoid of its source word's neighbour words (the
+median of the KNN, an actual motion, as the paper requires) on the word's
+flagged joints, blended into the untouched motion with a quadratic
+Savitzky-Golay filter; every unflagged value stays bit-identical.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.signal import savgol_filter
+
+from ... import rotations as R
+from ...errors import SkeletonError
+from ...motion import Motion, find_joint
+from ..filters import window_frames
+from ..ik import contact_segments
+from .detect import Detection
+from .neighbours import dropped_terms, near_neighbors, neighbor_words
+from .texture import Analysis, align_hemisphere, prepare
+
+__all__ = ["Contact", "repair"]
+
+
+@dataclass(frozen=True)
+class Contact:
+    """An end-effector contact the repair must respect (section 4, Fig. 7).
+
+    joint : name of the end effector (e.g. ``"lwrist"``); frames ``[start,
+    end)`` of the input; position : (3,) world position in the file's units.
+    """
+
+    joint: str
+    start: int
+    end: int
+    position: tuple
+
+    def target(self) -> np.ndarray:
+        return np.asarray(self.position, dtype=np.float64).reshape(3)
+
+
+def _medoid(words: list[np.ndarray], cols: np.ndarray) -> int:
+    """Index of the word closest to all others (sum of squared angles) on the rows ``cols``: the KNN's median."""
+    if len(words) == 1:
+        return 0
+    X = np.stack([w[:, cols] for w in words])  # (K, N, c, 4)
+    K = len(words)
+    a, b = np.triu_indices(K, 1)
+    pair = np.sum(R.geodesic_angle(X[a], X[b]) ** 2, axis=(1, 2))
+    cost = np.zeros((K, K))
+    cost[a, b] = cost[b, a] = pair
+    return int(np.argmin(cost.sum(axis=1)))
+
+
+def _blend_runs(orig: np.ndarray, new: np.ndarray, flags: np.ndarray, window: int) -> np.ndarray:
+    """Smooth transitions into and out of replaced runs, changing only flagged frames (section 4).
+
+    ``orig``, ``new`` (F, 4) one joint's track; ``flags`` (F,). Each run's
+    replacement is first offset so that it meets the original at both ends
+    (a displacement blended linearly across the run), then the hybrid track is
+    filtered with a quadratic Savitzky-Golay filter of ``window`` frames, and
+    only the flagged frames take the filtered values.
+    """
+    F = len(orig)
+    out = np.array(orig)
+    track = np.array(orig)
+    for a, b in contact_segments(flags):
+        rep = align_hemisphere(new[a:b], np.broadcast_to(orig[a - 1] if a > 0 else new[a], new[a:b].shape))
+        rep = R.quaternion_continuity(rep, axis=0)
+        da = R.quaternion_log(R.quaternion_multiply(orig[a - 1], R.quaternion_inverse(rep[0]))) if a > 0 else np.zeros(3)
+        db = R.quaternion_log(R.quaternion_multiply(orig[b], R.quaternion_inverse(rep[-1]))) if b < F else da * 0
+        if a == 0:
+            da = db
+        if b == F:
+            db = da
+        u = (np.arange(a, b) - (a - 1)) / (b - (a - 1))
+        delta = (1 - u)[:, None] * da + u[:, None] * db
+        track[a:b] = R.quaternion_multiply(R.quaternion_exp(delta), rep)
+    cont = R.quaternion_continuity(track, axis=0)
+    if F >= window:
+        smooth = savgol_filter(cont, window, 2, axis=0, mode="interp")
+    else:
+        smooth = cont
+    smooth = R.quaternion_normalize(smooth)
+    out[flags] = align_hemisphere(smooth[flags], orig[flags])
+    return out
+
+
+def repair(
+    motion: Motion,
+    detection: Detection,
+    context=None,
+    *,
+    contacts=None,
+    foot_skate: bool = True,
+    blend_s: float = 0.25,
+) -> Motion:
+    """Replace the flagged joints in flagged frames by the median of their KNN words (section 4).
+
+    For each flagged cell the source word around the frame gives K neighbour
+    words (in the group that explained the joint best); the medoid of those
+    within twice the nearest one's DTW distance, as for the mean texture
+    (the others are the next best of a context that repeats the motion
+    fewer than K times, and a medoid of them picks a wrong motion), and
+    never of a word of the take itself that spans a flagged cell of the
+    joints repaired (it would copy the error back), on the word's flagged
+    joints replaces the values (a flagged run no
+    neighbour word covers is bridged by slerp between its ends, unflagged
+    or already replaced, as a gap would be), which are blended into the
+    untouched motion with a quadratic Savitzky-Golay filter (``blend_s``
+    seconds). Every unflagged value is bit-identical to the input, except, with
+    ``foot_skate``, the hip and knee of a leg whose joints were replaced in a
+    frame where its foot is planted (foot-skate cleanup, see
+    :func:`mocapkit.cleaning.ik.foot_skate_cleanup`). ``contacts`` (list of
+    :class:`mocapkit.cleaning.ik.Contact`) picks, instead of the medoid, the
+    neighbour word whose end effector comes closest to the contact point, and
+    finishes with inverse kinematics. ``context`` must be the one the
+    detection was made with; None takes the detection's own when it holds
+    its prepared take (:attr:`Detection.analysis`, made by :func:`detect` on
+    this motion), which is then reused as is: the take and its context are
+    not resampled again.
+    """
+    if not isinstance(detection, Detection):
+        raise TypeError(f"detection must be a Detection, got {type(detection).__name__}")
+    if detection.num_frames != motion.num_frames or tuple(motion.skeleton.joint_names) != detection.joint_names:
+        raise ValueError(
+            f"{motion.name or 'motion'}: the detection was made on another clip "
+            f"({detection.num_frames} frames, {len(detection.joint_names)} joints vs "
+            f"{motion.num_frames} frames, {motion.num_joints} joints)"
+        )
+    flags = np.asarray(detection.flags, dtype=bool) & detection.analysed[None, :]
+    if not flags.any():
+        return motion
+    p = detection.params
+    fps_a, N = float(p.analysis_fps), int(p.source_length)
+    an = _analysis(motion, detection, context)
+    src, full, up = an.source, an.texture, an.up
+    if an.clips != detection.context_clips:
+        raise ValueError(
+            f"{motion.name or 'motion'}: repair needs the context the detection was made with "
+            f"({len(detection.context_clips) - 1} context clips, got {len(an.clips) - 1})"
+        )
+    tex_joints = detection.texture_joints
+    col = {int(j): i for i, j in enumerate(tex_joints)}
+    words = detection.word_starts
+    F = motion.num_frames
+    tau = np.arange(F) * (fps_a / motion.fps)  # analysis time of each input frame
+    centers = words + (N - 1) / 2.0
+    # the source word around each input frame: the one whose centre is nearest
+    word_of = np.argmin(np.abs(tau[:, None] - centers[None, :]), axis=1)
+    groups = [np.flatnonzero(detection.group_masks[g]) for g in range(len(detection.group_names))]
+    new = np.array(motion.rotations)
+    placed = np.zeros(flags.shape, dtype=bool)  # the flagged cells a neighbour word was written into
+    heading = R.quaternion_twist(motion.rotations[:, 0], up)
+    flagged_frames_by_word: dict[tuple[int, int], list] = {}
+    fi, ji = np.nonzero(flags)
+    for f, j in zip(fi, ji):
+        g = int(detection.best_group[f, j])
+        if g < 0:
+            continue
+        flagged_frames_by_word.setdefault((g, int(word_of[f])), []).append((f, j))
+    # every neighbour word the repair needs, warped in one batch per group
+    M = int(p.target_length)
+    warped: dict[tuple[int, int], list[tuple[np.ndarray, float, int]]] = {}  # (word, DTW distance, position)
+    for g in sorted({g for g, _ in flagged_frames_by_word}):
+        ws = np.array(sorted({w for gg, w in flagged_frames_by_word if gg == g}), dtype=np.int64)
+        pos = detection.neighbor_pos[g, ws]  # (n, K)
+        wi, ki = np.nonzero(pos >= 0)
+        members = groups[g]
+        nws, ok = neighbor_words(src.values, full, members, dropped_terms(members), words[ws[wi]], pos[wi, ki], N, M)
+        dist = detection.neighbor_dist[g, ws][wi, ki]
+        for q in np.flatnonzero(ok):
+            warped.setdefault((g, int(ws[wi[q]])), []).append((nws[q], float(dist[q]), int(pos[wi[q], ki[q]])))
+    # the take's own flagged cells at the analysis rate (+-1 frame): a neighbour word from the take that
+    # spans one of them on a joint to repair would copy the error back (the rest of a long error, a
+    # repeated glitch)
+    n_self = int(full.clip_starts[1])
+    flagged_a = np.zeros((n_self + 1, flags.shape[1]), dtype=bool)
+    np.logical_or.at(flagged_a, np.clip(np.round(tau).astype(np.int64), 0, n_self), flags)
+    flagged_a[1:] |= flagged_a[:-1].copy()
+    flagged_a[:-1] |= flagged_a[1:].copy()
+    for (g, w), cells in flagged_frames_by_word.items():
+        members = groups[g]
+        fs = np.array([f for f, _ in cells], dtype=np.int64)
+        js = np.array([j for _, j in cells], dtype=np.int64)
+        here = np.unique(js)
+        found = [(nw, d) for nw, d, q in warped.get((g, w), []) if not (q < n_self and flagged_a[q : q + M, here].any())]
+        if not found:
+            continue
+        nearest = min(d for _, d in found)
+        words_k = [nw for nw, d in found if near_neighbors(d, nearest)]
+        cs = np.searchsorted(members, [col[int(j)] for j in js])  # the cells' rows within the word
+        flagged_cols = np.unique(cs)
+        x = np.clip(tau[fs] - words[w], 0.0, N - 1.0)
+        i0 = np.floor(x).astype(np.int64)
+        i1 = np.minimum(i0 + 1, N - 1)
+        a = (x - i0)[:, None]
+        root = js == 0
+
+        def place(word, target, fs=fs, js=js, cs=cs, i0=i0, i1=i1, a=a, root=root):
+            """Write ``word`` (N, m_g, 4) into ``target`` at the flagged cells, interpolated to their frames."""
+            q0 = word[i0, cs]
+            q1 = align_hemisphere(word[i1, cs], q0)
+            q = R.quaternion_normalize(q0 * (1 - a) + q1 * a)
+            if root.any():
+                q[root] = R.quaternion_multiply(heading[fs[root]], q[root])
+            target[fs, js] = align_hemisphere(q, motion.rotations[fs, js])
+
+        choice = None
+        if contacts:
+            choice = _closest_to_contacts(motion, words_k, place, cells, contacts)
+        if choice is None:
+            choice = _medoid(words_k, flagged_cols)
+        place(words_k[choice], new)
+        placed[fs, js] = True
+    # a flagged run no neighbour word was written into is bridged like a gap: slerp between its ends,
+    # unflagged or already replaced (blending its own values towards the ends would bend a 180-degree
+    # flip, not undo it)
+    for j in np.flatnonzero((flags & ~placed).any(axis=0)):
+        for a, b in contact_segments(flags[:, j] & ~placed[:, j]):
+            lo = new[a - 1, j] if a > 0 else None
+            hi = new[b, j] if b < F else None
+            if lo is None and hi is None:
+                continue
+            lo = hi if lo is None else lo
+            hi = lo if hi is None else hi
+            u = (np.arange(a, b) - (a - 1)) / (b - (a - 1))
+            new[a:b, j] = R.slerp(np.broadcast_to(lo, (b - a, 4)), np.broadcast_to(hi, (b - a, 4)), u)
+            placed[a:b, j] = True
+    window = window_frames(blend_s, motion.fps, 2)
+    out_rot = np.array(motion.rotations)
+    for j in np.flatnonzero(placed.any(axis=0)):
+        out_rot[:, j] = _blend_runs(motion.rotations[:, j], new[:, j], placed[:, j], window)
+    out = dataclasses.replace(motion, rotations=out_rot)
+    if contacts:
+        from .. import ik
+
+        for c in contacts:
+            frames = np.arange(max(c.start, 0), min(c.end, F))
+            if len(frames):
+                out = ik.two_bone_ik(out, c.joint, c.target(), frames=frames)
+    if foot_skate:
+        out = _foot_skate(motion, out, flags)
+    return out
+
+
+def _closest_to_contacts(motion, words_k, place, cells, contacts) -> int | None:
+    """The neighbour word whose end effectors come closest to the contact points (section 4), or None."""
+    frames = np.array(sorted({f for f, _ in cells}))
+    relevant = [c for c in contacts if np.any((frames >= c.start) & (frames < c.end))]
+    if not relevant:
+        return None
+    costs = []
+    for word in words_k:
+        trial = np.array(motion.rotations)
+        place(word, trial)
+        pos = dataclasses.replace(motion, rotations=trial).global_positions()
+        cost = 0.0
+        for c in relevant:
+            fr = frames[(frames >= c.start) & (frames < c.end)]
+            cost += float(np.sum(np.linalg.norm(pos[fr, motion.skeleton.index(c.joint)] - c.target(), axis=-1)))
+        costs.append(cost)
+    return int(np.argmin(costs))
+
+
+def _foot_skate(original: Motion, repaired: Motion, flags: np.ndarray) -> Motion:
+    """Foot-skate cleanup on frames where a leg joint was replaced (Lyard & Magnenat-Thalmann 2007)."""
+    from .. import ik
+
+    sk = original.skeleton
+    leg_frames = np.zeros(original.num_frames, dtype=bool)
+    for role in ("left_foot", "right_foot"):
+        try:
+            foot = find_joint(sk, role)
+        except KeyError:
+            continue
+        chain = [foot]
+        while sk.parents[chain[-1]] > 0:
+            chain.append(int(sk.parents[chain[-1]]))
+        leg_frames |= flags[:, chain].any(axis=1)
+    if not leg_frames.any():
+        return repaired
+    try:
+        contacts = ik.foot_contacts(original)
+    except (KeyError, ValueError, SkeletonError):
+        return repaired
+    return ik.foot_skate_cleanup(repaired, frames=leg_frames, contacts=contacts)
+
+
+
+def _analysis(motion: Motion, detection: Detection, context) -> Analysis:
+    """The detection's prepared take when it is of ``motion`` and ``context`` (None: the detection's own),
+    else ``motion`` and ``context`` prepared again with the detection's parameters and joints."""
+    an = detection.analysis
+    if an is not None and an.serves(motion) and (context is None or context is an.context_given):
+        return an
+    return prepare(motion, context, detection.params, joints=detection.texture_joints)

@@ -1,0 +1,375 @@
+"""The motion texture of a take and of its context, prepared once for detection and repair (section 3.1).
+
+A clip's joint rotations over time form a *motion texture*: resampled to the
+analysis rate (24 fps), one row per joint, the root's heading removed so global
+pose does not matter. :func:`prepare` builds, once per take, everything the
+analysis of :mod:`~mocapkit.cleaning.ssa.detect` and the repair of
+:mod:`~mocapkit.cleaning.ssa.repair` share: the joints analysed, the texture of
+the take and of the take stacked with its context, the joint groups and the
+source words (an :class:`Analysis`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Mapping, Sequence
+
+import numpy as np
+
+from ... import rotations as R
+from ...errors import SkeletonError
+from ...features import detect_up_axis
+from ...metrics import motion_word_starts
+from ...motion import Motion, bone_moving_joints, find_joint, joint_sides
+from .params import SSAParams
+
+__all__ = [
+    "Analysis",
+    "MotionTexture",
+    "prepare",
+    "motion_texture",
+    "motion_words",
+    "joint_groups",
+    "informative_joints",
+    "facing_aligned",
+    "context_motions",
+    "group_rows",
+    "align_hemisphere",
+    "upsample_quaternions",
+]
+
+_D = SSAParams()
+
+
+def facing_aligned(rotations: np.ndarray, up: np.ndarray) -> np.ndarray:
+    """Rotations (F, J, 4) with the root's heading (twist about ``up``) removed (section 3.2 footnote).
+
+    The root keeps its tilt (the remaining 2 DOF), so anomalies on it are
+    still visible; other joints are local rotations and unchanged.
+    """
+    out = np.array(rotations, dtype=np.float64)
+    out[:, 0] = R.quaternion_multiply(R.quaternion_conjugate(R.quaternion_twist(out[:, 0], up)), out[:, 0])
+    return out
+
+
+def _moving_joints(skeleton) -> np.ndarray:
+    """(J,) joints with rotation channels that move a bone (a child or end site at a non-zero offset)."""
+    has = np.array([bool(skeleton.rotation_order(j)) for j in range(skeleton.num_joints)])
+    out = bone_moving_joints(skeleton) & has
+    out[0] = True  # the root: its tilt is analysed (heading removed)
+    return out
+
+
+def informative_joints(motions: Sequence[Motion], count: int = _D.joints) -> np.ndarray:
+    """The ``count`` most informative joints, sorted skeleton indices (section 5: "m = 24").
+
+    Joints with rotation channels that move a bone, ranked by how much they
+    rotate: the mean angle from their average rotation over all frames of
+    ``motions`` (sharing one skeleton). The root is always kept. Joints that
+    never move (fingers of most captures) come last. Left/right partners
+    (:func:`mocapkit.motion.mirror_pairs`) are taken together, ranked by the
+    one that rotates more, so the set does not depend on which hand moved
+    more in the take and the left and right groups match (a swap, which
+    :func:`side_swaps` finds, needs both joints); a last slot that no pair
+    fits takes the next single joint, or else the half of a pair that
+    rotates more.
+    """
+    from ...motion import mirror_pairs
+
+    sk = motions[0].skeleton
+    cand = np.flatnonzero(_moving_joints(sk))
+    spread = np.zeros(sk.num_joints)
+    for j in cand:
+        qs = np.concatenate([R.quaternion_continuity(np.asarray(m.rotations[:, j])) for m in motions])
+        qs = qs[np.all(np.isfinite(qs), axis=1)]
+        if len(qs) == 0:
+            continue
+        mean = qs.mean(axis=0)
+        if np.linalg.norm(mean) < 1e-9:
+            spread[j] = np.pi
+            continue
+        mean = mean / np.linalg.norm(mean)
+        spread[j] = float(np.mean(R.geodesic_angle(qs, mean)))
+    perm = mirror_pairs(sk.joint_names)
+    in_cand = np.zeros(sk.num_joints, dtype=bool)
+    in_cand[cand] = True
+    single = (perm == np.arange(sk.num_joints)) | ~in_cand[perm]
+    units = [(int(j),) if single[j] else (int(j), int(perm[j])) for j in cand if single[j] or perm[j] > j]
+    units.sort(key=lambda u: (0 not in u, -max(spread[list(u)]), min(u)))
+    chosen: list[int] = []
+    for u in units:
+        if len(chosen) + len(u) <= int(count):
+            chosen.extend(u)
+    rest = sorted((j for j in cand if j not in chosen), key=lambda j: (-spread[j], j))
+    chosen.extend(rest[: max(int(count) - len(chosen), 0)])  # a slot no pair fits and no single is left for
+    return np.array(sorted(chosen), dtype=np.int64)
+
+
+def joint_groups(skeleton, joints: Sequence[int] | None = None) -> dict[str, np.ndarray]:
+    """The paper's joint groups (section 3.1) as skeleton indices within ``joints``.
+
+    ``whole`` (all), ``upper`` (spine, head, arms), ``lower`` (root and legs),
+    ``left`` and ``right`` (root and the joints of that side). Legs are the
+    subtrees hanging from the root that hold the feet; sides come from joint
+    names (``l``/``left`` prefixes and the like, as :func:`mocapkit.motion.mirror_pairs`).
+    Groups with fewer than two joints are left out.
+    """
+    J = skeleton.num_joints
+    joints = np.arange(J) if joints is None else np.asarray(joints, dtype=np.int64)
+    parents = skeleton.parents
+    leg = np.zeros(J, dtype=bool)
+    for role in ("left_foot", "right_foot"):
+        try:
+            j = find_joint(skeleton, role)
+        except KeyError:
+            continue
+        top = j
+        while parents[top] > 0:
+            top = int(parents[top])
+        if parents[top] == 0 or top == j:
+            for c in range(J):  # mark the subtree under `top`
+                a = c
+                while a > 0 and a != top:
+                    a = int(parents[a])
+                leg[c] |= a == top
+    side = np.array([s or "" for s in joint_sides(skeleton.joint_names)])
+    sel = np.zeros(J, dtype=bool)
+    sel[joints] = True
+    root = np.arange(J) == 0
+    groups = {
+        "whole": sel,
+        "upper": sel & ~leg & ~root,
+        "lower": sel & (leg | root),
+        "left": sel & ((side == "left") | root),
+        "right": sel & ((side == "right") | root),
+    }
+    return {k: np.flatnonzero(v) for k, v in groups.items() if v.sum() >= 2}
+
+
+@dataclass(frozen=True, eq=False)
+class MotionTexture:
+    """Joint rotations of one or more clips as one texture (section 3.1).
+
+    values : float (F, m, 4) unit quaternions, the root's heading removed,
+    hemisphere-continuous in time; analysis_fps : its frames per second; joints : (m,)
+    skeleton indices of the rows; clip_starts : (C+1,) frame ranges of the clips
+    stacked in ``values``; clip_names : (C,).
+    """
+
+    values: np.ndarray
+    analysis_fps: float
+    joints: np.ndarray
+    clip_starts: np.ndarray
+    clip_names: tuple
+
+    @property
+    def num_frames(self) -> int:
+        return int(self.values.shape[0])
+
+    def clip_of(self, frames: np.ndarray) -> np.ndarray:
+        """Clip number of each frame index."""
+        return np.searchsorted(self.clip_starts, np.asarray(frames), side="right") - 1
+
+    def target_starts(self, length: int) -> np.ndarray:
+        """Every frame where a word of ``length`` frames fits inside one clip."""
+        out = [np.arange(a, b - length + 1) for a, b in zip(self.clip_starts[:-1], self.clip_starts[1:]) if b - a >= length]
+        return np.concatenate(out) if out else np.zeros(0, dtype=np.int64)
+
+
+def motion_texture(motions, analysis_fps: float = _D.analysis_fps, joints: Sequence[int] | None = None, up=None) -> MotionTexture:
+    """Motion texture of one clip or of several clips stacked (same skeleton), resampled to ``analysis_fps``.
+
+    ``joints`` selects rows (default: all); ``up`` is the vertical axis
+    (default: :func:`mocapkit.features.detect_up_axis`).
+    """
+    if isinstance(motions, Motion):
+        motions = [motions]
+    motions = list(motions)
+    sk = motions[0].skeleton
+    up = detect_up_axis(sk) if up is None else np.asarray(up, dtype=np.float64)
+    joints = np.arange(sk.num_joints) if joints is None else np.asarray(joints, dtype=np.int64)
+    parts, starts = [], [0]
+    for m in motions:
+        r = m.resample(analysis_fps).rotations
+        r = facing_aligned(r, up)[:, joints]
+        parts.append(R.quaternion_continuity(r, axis=0))
+        starts.append(starts[-1] + len(r))
+    values = np.concatenate(parts) if parts else np.zeros((0, len(joints), 4))
+    return MotionTexture(values, float(analysis_fps), joints, np.array(starts), tuple(m.name for m in motions))
+
+
+def motion_words(num_frames: int, length: int = _D.source_length, stride: int = _D.stride) -> np.ndarray:
+    """First frames of the source words: every ``stride`` frames, plus one flush with the end (section 5)."""
+    if num_frames < length:
+        raise ValueError(f"a clip of {num_frames} frames is shorter than one motion word ({length} frames)")
+    return motion_word_starts(num_frames, length, stride)
+
+
+
+def align_hemisphere(q: np.ndarray, ref: np.ndarray) -> np.ndarray:
+    """``q`` with each quaternion's sign flipped into the hemisphere of ``ref``."""
+    s = np.sign(np.sum(q * ref, axis=-1, keepdims=True))
+    return q * np.where(s == 0, 1.0, s)
+
+
+
+def upsample_quaternions(q: np.ndarray, fps_from: float, n_out: int, fps_to: float) -> np.ndarray:
+    """Quaternion tracks (F, ..., 4) at ``fps_from`` sampled at ``n_out`` frames of ``fps_to`` by slerp."""
+    F = q.shape[0]
+    t = np.arange(n_out) * (fps_from / fps_to)
+    i0 = np.clip(np.floor(t).astype(np.int64), 0, F - 1)
+    i1 = np.minimum(i0 + 1, F - 1)
+    a = np.clip(t - i0, 0.0, 1.0).reshape((-1,) + (1,) * (q.ndim - 1))
+    a0, a1 = q[i0], q[i1]
+    a1 = align_hemisphere(a1, a0)
+    out = R.quaternion_normalize(a0 * (1 - a) + a1 * a)  # nlerp: the frames are 1/24 s apart
+    return out
+
+
+
+def context_motions(motion: Motion, context) -> tuple[list[Motion], list[str]]:
+    """Context as a list of Motions with the input's joints; clips that are the input itself are dropped."""
+    notes = []
+    if context is None:
+        return [], notes
+    from ...database import MotionDatabase
+
+    if isinstance(context, MotionDatabase):
+        motions = [context.clip(i) for i in range(context.num_clips)]
+    elif isinstance(context, Motion):
+        motions = [context]
+    else:
+        motions = list(context)
+    out = []
+    names = motion.skeleton.joint_names
+    for c in motions:
+        if not isinstance(c, Motion):
+            raise TypeError(f"context must hold Motions or be a MotionDatabase, got {type(c).__name__}")
+        if tuple(c.skeleton.joint_names) != tuple(names):
+            raise SkeletonError(
+                f"context clip {c.name!r}: its joints differ from {motion.name or 'the motion'}'s "
+                f"({len(c.skeleton.joint_names)} vs {len(names)} joints, first difference "
+                f"{next(((a, b) for a, b in zip(c.skeleton.joint_names, names) if a != b), ('-', '-'))}); "
+                "retarget it first (MotionDatabase.build(joint_map=...))"
+            )
+        if c.name and c.name == motion.name and abs(c.duration - motion.duration) < 1.5 / min(c.fps, motion.fps):
+            notes.append(f"context clip {c.name!r} is the input itself; left out")
+            continue
+        out.append(c)
+    return out, notes
+
+
+def group_rows(groups, texture_joints) -> tuple[list[str], list[np.ndarray]]:
+    """Names and texture rows of the groups (name -> skeleton indices) with at least two analysed joints."""
+    pos = {int(j): i for i, j in enumerate(texture_joints)}
+    names, rows = [], []
+    for name, js in groups.items():
+        r = np.array([pos[int(j)] for j in js if int(j) in pos], dtype=np.int64)
+        if len(r) >= 2:
+            names.append(name)
+            rows.append(r)
+    return names, rows
+
+
+@dataclass(frozen=True, eq=False)
+class Analysis:
+    """A take prepared once for self-similarity analysis; :func:`~mocapkit.cleaning.ssa.detect` makes it and
+    :func:`~mocapkit.cleaning.ssa.repair` reuses it (through :attr:`Detection.analysis`).
+
+    motion : the take; context : tuple of the context's Motions (the take itself left out);
+    params : :class:`SSAParams`; up : (3,) vertical axis; source : the take's
+    :class:`MotionTexture` at ``params.analysis_fps``; texture : the take and its context stacked
+    (clip 0 the take; ``source`` itself when there is no context); group_names, group_rows : the joint
+    groups with their rows in the textures; words : (W,) first frames of the source words at the
+    analysis rate; notes : what was left out and why; context_given : the ``context`` argument it was
+    prepared from (so that a repair handed the same object knows it).
+    """
+
+    motion: Motion
+    context: tuple
+    params: SSAParams
+    up: np.ndarray
+    source: MotionTexture
+    texture: MotionTexture
+    group_names: tuple
+    group_rows: tuple
+    words: np.ndarray
+    notes: tuple = ()
+    context_given: object = None
+
+    @property
+    def joints(self) -> np.ndarray:
+        """(m,) skeleton indices of the analysed joints (the textures' rows)."""
+        return self.source.joints
+
+    @property
+    def has_context(self) -> bool:
+        return self.texture is not self.source
+
+    @property
+    def clips(self) -> tuple:
+        """``((name, frames at the analysis rate), ...)`` of the stacked texture, clip 0 the take."""
+        t = self.texture
+        return tuple((str(n), int(b - a)) for n, a, b in zip(t.clip_names, t.clip_starts[:-1], t.clip_starts[1:]))
+
+    def group_masks(self) -> np.ndarray:
+        """(G, m) bool: the rows of each group."""
+        masks = np.zeros((len(self.group_rows), len(self.joints)), dtype=bool)
+        for gi, r in enumerate(self.group_rows):
+            masks[gi, r] = True
+        return masks
+
+    def serves(self, motion: Motion) -> bool:
+        """Whether this preparation is of ``motion`` (the same object, or the same skeleton, rate and rotations)."""
+        m = self.motion
+        if motion is m:
+            return True
+        return (motion.fps == m.fps and tuple(motion.skeleton.joint_names) == tuple(m.skeleton.joint_names)
+                and motion.rotations.shape == m.rotations.shape and np.array_equal(motion.rotations, m.rotations))
+
+
+def prepare(
+    motion: Motion,
+    context=None,
+    params: SSAParams | None = None,
+    *,
+    groups: Mapping[str, Sequence] | None = None,
+    joints: Sequence | None = None,
+) -> Analysis:
+    """Prepare ``motion`` (and ``context``) once for :func:`~mocapkit.cleaning.ssa.detect` and
+    :func:`~mocapkit.cleaning.ssa.repair`: the analysed joints, both motion textures, the groups and words.
+
+    ``context``: None, a Motion, a list of Motions with the take's joints, or a MotionDatabase; a clip
+    with the take's name and length is the take itself and is left out (noted). ``groups``: name ->
+    joint names or indices (default :func:`joint_groups`). ``joints``: exactly these joints (skeleton
+    indices, e.g. a saved detection's ``texture_joints``) instead of ``params.joints``. Raises
+    ValueError on missing rotations, a take shorter than one source word, or no group with two
+    analysed joints; :class:`~mocapkit.errors.SkeletonError` on a context clip with other joints.
+    """
+    params = SSAParams() if params is None else params
+    if not isinstance(motion, Motion):
+        raise TypeError(f"motion must be a Motion, got {type(motion).__name__}")
+    if not np.all(np.isfinite(motion.rotations)):
+        bad = np.flatnonzero(~np.all(np.isfinite(motion.rotations), axis=(1, 2)))
+        raise ValueError(
+            f"{motion.name or 'motion'}: {len(bad)} frames have missing rotations (first: {bad[0]}); fill the gaps first"
+        )
+    ctx, notes = context_motions(motion, context)
+    sk = motion.skeleton
+    chosen = params.joints if joints is None else joints
+    if isinstance(chosen, (int, np.integer)):
+        tex_joints = informative_joints([motion] + ctx, int(chosen))
+    else:
+        tex_joints = np.array([sk.index(j) if isinstance(j, str) else int(j) for j in chosen], dtype=np.int64)
+    up = detect_up_axis(sk)
+    src = motion_texture(motion, params.analysis_fps, tex_joints, up)
+    full = motion_texture([motion] + ctx, params.analysis_fps, tex_joints, up) if ctx else src
+    if groups is None:
+        groups = joint_groups(sk, tex_joints)
+    else:
+        groups = {n: [sk.index(j) if isinstance(j, str) else int(j) for j in js] for n, js in groups.items()}
+    gnames, grows = group_rows(groups, tex_joints)
+    if not gnames:
+        raise ValueError("no joint group has two analysed joints")
+    words = motion_words(src.num_frames, params.source_length, params.stride)
+    return Analysis(motion, tuple(ctx), params, up, src, full, tuple(gnames), tuple(grows), words, tuple(notes), context)

@@ -1,0 +1,201 @@
+"""Detection on real clips: injected errors flagged on the right joint, exact where the answer is known (a twin context)."""
+
+import dataclasses
+
+import numpy as np
+import pytest
+
+import mocapkit
+from mocapkit import corrupt
+from mocapkit.cleaning import ssa
+from mocapkit.cleaning.ssa import cues
+from mocapkit.errors import SkeletonError
+from mocapkit.motion import concatenate
+from tests.cleaning.ssa.helpers import turned
+
+
+def test_shapes_and_range(walk, flipped):
+    det = flipped[3]
+    F, J = walk.num_frames, walk.num_joints
+    assert det.mdm.shape == det.flags.shape == (F, J)
+    assert np.all((det.mdm >= 0) & (det.mdm <= 1))
+    assert det.params.confirm
+    cues = det.holds | det.swaps | det.offsets
+    assert np.array_equal(det.flags, ssa.confirm_flags(det.mdm, det.jumps, det.threshold, det.fps) | cues)
+    assert not (det.flags & ~cues & (det.mdm <= det.threshold / 2)).any()
+    assert not (det.jumps | cues)[:, ~det.analysed].any()
+    assert det.joint_names == tuple(walk.skeleton.joint_names)
+    assert det.analysed.sum() == 24 and det.analysed[0]
+    assert np.all(det.mdm[:, ~det.analysed] == 0)
+
+
+def test_injected_flip_is_flagged_on_its_joint_and_not_its_neighbours(walk, flipped):
+    bad, mask, records, det = flipped
+    sk = walk.skeleton
+    r = records[0]
+    j = sk.index(r.joint)
+    window = slice(r.start, r.end)
+    assert det.flags[window, j].mean() > 0.9
+    assert not det.flags[window, sk.parents[j]].any()
+    for c in sk.children(j):
+        assert not det.flags[window, c].any()
+
+
+def test_twin_context_reproduces_the_clip(walk):
+    """With the clip's exact twin as context and K = 1, every word's neighbour is itself: no digression."""
+    twin = dataclasses.replace(walk, name="twin")
+    det = ssa.detect(walk, [twin], k=1)
+    d = np.degrees(det.digression[:, det.analysed])
+    assert np.nanmedian(d) < 0.5
+    assert np.nanpercentile(d, 95) < 2.0
+    # every word but the last (a 20-frame target cannot start within 20 frames of the end) finds itself
+    assert (det.neighbor_dist[:, :-2, 0] < 1e-9).all()
+
+
+def test_repeated_walk_is_mostly_below_threshold(walk):
+    """A walk played three times: every word has exact repeats; flags are rare (the CMU thumbs flip on their own)."""
+    rep = concatenate([walk, walk, walk], name="rep")
+    det = ssa.detect(rep)
+    assert det.flags.mean() < 0.01
+    body = [walk.skeleton.index(n) for n in ("LeftKnee", "RightKnee", "LeftHip", "RightHip", "Chest", "Neck")]
+    assert det.mdm[:, body].max() < det.threshold
+
+
+def test_detection_round_trip(tmp_path, flipped):
+    det = flipped[3]
+    path = det.save(tmp_path / "det.npz")
+    back = ssa.Detection.load(path)
+    assert det.analysis is not None and back.analysis is None  # the prepared take is not saved
+    for f in dataclasses.fields(det):
+        if f.name == "analysis":
+            continue
+        a, b = getattr(det, f.name), getattr(back, f.name)
+        if isinstance(a, np.ndarray):
+            assert np.array_equal(a, b, equal_nan=a.dtype.kind == "f"), f.name
+        else:
+            assert a == b, f.name
+    assert list(tmp_path.iterdir()) == [path]
+
+
+def test_bad_inputs(walk):
+    hdm = mocapkit.load(mocapkit.samples.path("HDM_bk_sneak2StepsLStart_004_120.amc"))
+    with pytest.raises(SkeletonError, match="joints differ"):
+        ssa.detect(walk, [hdm])
+    with pytest.raises(ValueError, match="shorter than one motion word"):
+        ssa.detect(walk[:20])
+    holes = np.array(walk.rotations)
+    holes[5, 3] = np.nan
+    with pytest.raises(ValueError, match="missing rotations"):
+        ssa.detect(dataclasses.replace(walk, rotations=holes))
+    with pytest.raises(ValueError, match="threshold"):
+        ssa.detect(walk, threshold=1.5)
+    with pytest.raises(ValueError, match="jump_deg"):
+        ssa.detect(walk, jump_deg=0)
+    with pytest.raises(ValueError, match="confirm_margin_s"):
+        ssa.detect(walk, confirm_margin_s=-0.1)
+    with pytest.raises(ValueError, match="hold_travel_deg"):
+        ssa.detect(walk, hold_travel_deg=0.0)
+
+
+def test_context_clip_equal_to_the_input_is_left_out(walk):
+    det = ssa.detect(walk[:400], [walk[:400]])
+    assert any("the input itself" in n for n in det.notes)
+    assert len(det.context_clips) == 1
+
+
+def test_small_context_and_prefilter_find_the_error():
+    """HDM05 sneak: one actor's take against another take of the same actor (bundled), kd-tree prefilter on."""
+    a = mocapkit.load(mocapkit.samples.path("HDM_bk_sneak2StepsLStart_004_120.amc"))
+    b = mocapkit.load(mocapkit.samples.path("HDM_bk_sneak2StepsLStart_005_120.amc"))
+    bad, mask, records = corrupt.real_errors(a, kinds=("flip",), n_errors=1, seed=2, joints=["rtibia"])
+    for prefilter in (False, True):
+        det = ssa.detect(bad, [b], prefilter=prefilter)
+        r = records[0]
+        assert det.flags[r.start : r.end, a.skeleton.index("rtibia")].mean() > 0.8
+        assert det.params.prefilter == prefilter
+
+
+def test_prefilter_agrees_with_exhaustive_search(walk):
+    ctx = [dataclasses.replace(walk[400:], name="rest")]
+    ex = ssa.detect(walk[:400], ctx, prefilter=False)
+    pf = ssa.detect(walk[:400], ctx, prefilter=True, candidates=64)
+    # the kd-tree proposes candidates, DTW ranks them: the best neighbour is found for most words
+    same = np.abs(ex.neighbor_dist[:, :, 0] - pf.neighbor_dist[:, :, 0]) <= 1e-6 + 0.05 * ex.neighbor_dist[:, :, 0]
+    assert same.mean() > 0.8
+
+
+def test_two_stage_matches_single_stage_on_the_error():
+    a = mocapkit.load(mocapkit.samples.path("HDM_bk_sneak2StepsLStart_004_120.amc"))
+    b = mocapkit.load(mocapkit.samples.path("HDM_bk_sneak2StepsLStart_005_120.amc"))
+    bad, mask, records = corrupt.real_errors(a, kinds=("flip",), n_errors=1, seed=2, joints=["rtibia"])
+    det = ssa.detect(bad, [b], two_stage=True)
+    r = records[0]
+    assert det.params.two_stage
+    assert det.flags[r.start : r.end, a.skeleton.index("rtibia")].mean() > 0.8
+
+
+def test_unseen_words_are_not_judged(walk, flipped):
+    bad = flipped[0]
+    none = ssa.detect(bad, max_word_angle_deg=0.01)  # nothing in the clip is this close to anything else
+    assert np.all(none.mdm == 0) and not none.holds.any()
+    # steps off the path and back need no neighbour word: the flip is still found, and nothing else is
+    assert np.array_equal(none.flags, none.swaps | none.offsets)
+    r = flipped[2][0]
+    assert none.flags[r.start : r.end, walk.skeleton.index(r.joint)].all()
+    assert any("not judged" in n for n in none.notes)
+    loose = ssa.detect(bad, max_word_angle_deg=180.0)
+    assert np.array_equal(loose.mdm, flipped[3].mdm)
+
+
+def test_a_smooth_distinct_gesture_is_flagged_only_without_confirmation(walk):
+    """A 70 deg elbow bump over 0.6 s, once in the take: the paper's rule flags it, confirmation does not (no break)."""
+    frames = np.arange(500, 572)
+    bump = 70.0 * np.sin(np.linspace(0.0, np.pi, len(frames))) ** 2
+    gesture, j = turned(walk, "LeftElbow", frames, bump)
+    confirmed = ssa.detect(gesture)
+    paper = ssa.detect(gesture, confirm=False)
+    assert np.array_equal(confirmed.mdm, paper.mdm)
+    assert np.array_equal(paper.flags, paper.mdm > paper.threshold)
+    assert paper.flags[frames, j].mean() > 0.3
+    assert not confirmed.flags[frames, j].any()
+    # the same bump with a break in it (the second half held at zero: a dropout) is an error
+    broken, j = turned(walk, "LeftElbow", frames[:36], bump[:36])
+    assert ssa.detect(broken).flags[frames[:36], j].mean() > 0.3
+
+
+def test_with_threshold_applies_the_detection_rule(flipped):
+    det = flipped[3]
+    assert np.array_equal(det.with_threshold(det.threshold).flags, det.flags)
+    low = det.with_threshold(0.3)
+    assert np.array_equal(low.flags, ssa.confirm_flags(det.mdm, det.jumps, 0.3, det.fps) | det.holds | det.swaps | det.offsets)
+    assert (low.flags >= det.flags).all()
+    plain = dataclasses.replace(det, params=det.params.replace(confirm=False))
+    assert np.array_equal(plain.with_threshold(0.3).flags, det.mdm > 0.3)
+    with pytest.raises(ValueError, match="threshold"):
+        det.with_threshold(0.0)
+
+
+def test_a_detection_file_without_jumps_loads_with_none(tmp_path, flipped):
+    """Files written before confirmation existed have no jumps array; their flags were MDM > threshold."""
+    det = dataclasses.replace(flipped[3], params=flipped[3].params.replace(confirm=False))
+    path = det.save(tmp_path / "det.npz")
+    with np.load(path, allow_pickle=False) as z:
+        arrays = {k: z[k] for k in z.files if k not in ("jumps", "holds", "swaps", "offsets")}
+    np.savez(tmp_path / "old.npz", **arrays)
+    back = ssa.Detection.load(tmp_path / "old.npz")
+    assert back.jumps.shape == back.holds.shape == back.swaps.shape == back.offsets.shape == det.mdm.shape
+    assert not (back.jumps.any() or back.holds.any() or back.swaps.any() or back.offsets.any())
+    assert np.array_equal(back.with_threshold(0.4).flags, det.mdm > 0.4)
+
+
+def test_detect_flags_a_freeze_from_its_first_held_frame(walk):
+    bad, mask, records = corrupt.real_errors(walk, kinds=("freeze",), n_errors=1, seed=4, joints=["RightElbow"])
+    r = records[0]
+    j = walk.skeleton.index(r.joint)
+    det = ssa.detect(bad)
+    assert det.holds[r.start : r.end, j].mean() > 0.9 and (det.flags >= det.holds).all()
+    assert det.flags[r.start : r.start + 5, j].all()  # where the held value is still close to the truth
+    paper = ssa.detect(bad, confirm=False)
+    assert not paper.flags[r.start : r.start + 5, j].any()
+    others = np.arange(walk.num_joints) != j
+    assert not det.holds[:, others].any()

@@ -1,0 +1,128 @@
+"""Neighbour words and their means against one-at-a-time references (sections 3.2-3.4)."""
+
+import numpy as np
+import pytest
+from scipy.signal import resample_poly
+
+from mocapkit import rotations as R
+from mocapkit.cleaning import ssa
+from mocapkit.cleaning.ssa import neighbours, texture, word_dtw
+from tests.naive import naive_local_minima_knn
+
+
+def _reference_neighbor_word(
+    source_word, context, members, drop, pos, N, M, min_width=11, out_rows=None
+):
+    """The oracle of ``neighbours.neighbor_words``: one neighbour word time-warped onto the source word's N frames (section 3.2), (N, m_g, 4).
+
+    The constrained DTW path between ``source_word`` (N, m, 4) and the target
+    word at ``pos`` is recomputed; every source frame takes the mean of the
+    target frames matched to it (the time-warped target). When the target word
+    ran out first (path ending before the last source frame) the warped part
+    is resized to N frames with the polyphase filter ``scipy.signal.resample_poly``
+    as the paper does. Returns None when the target does not fit its clip.
+    ``out_rows`` warps other rows of the target along the path found on
+    ``members`` (sparse reconstruction: matched on a few joints, copied for all).
+    """
+    clip = int(context.clip_of(pos))
+    end = int(context.clip_starts[clip + 1])
+    if pos + M > end:
+        return None
+    rows = members if out_rows is None else out_rows
+    target = R.quaternion_continuity(context.values[pos : pos + M], axis=0)
+    src = source_word[:, members]
+    D = word_dtw.group_pose_distances(src, target[:, members], np.ones((1, len(members)), dtype=bool), [drop])[0]
+    _, path = word_dtw.word_dtw_path(D, min_width=min_width)
+    if len(path) == 0:
+        return None
+    target = target[:, rows]
+    i_end = int(path[-1, 0])
+    acc = np.zeros((i_end + 1, len(rows), 4))
+    ref = target[path[0, 1]]
+    np.add.at(acc, path[:, 0], target[path[:, 1]] * np.where(np.sum(target[path[:, 1]] * ref[None], axis=-1, keepdims=True) < 0, -1.0, 1.0))
+    warped = R.quaternion_normalize(acc)
+    if i_end + 1 != N:
+        flat = R.quaternion_continuity(warped, axis=0).reshape(i_end + 1, -1)
+        warped = resample_poly(flat, N, i_end + 1, axis=0, padtype="line").reshape(N, len(rows), 4)
+    return R.quaternion_normalize(warped)
+
+
+@pytest.mark.parametrize("group", ["whole", "left"])
+def test_neighbor_words_equal_the_one_at_a_time_reference(walk, flipped, group):
+    det = flipped[3]
+    an = ssa.prepare(flipped[0], None, joints=det.texture_joints)
+    src, full = an.source, an.texture
+    g = det.group_names.index(group)
+    members = np.flatnonzero(det.group_masks[g])
+    wi, ki = np.nonzero(det.neighbor_pos[g] >= 0)
+    starts, pos = det.word_starts[wi], det.neighbor_pos[g][wi, ki]
+    pos = np.append(pos, full.num_frames - 5)  # a target that runs past its clip
+    starts = np.append(starts, 0)
+    words, ok = neighbours.neighbor_words(src.values, full, members, neighbours.dropped_terms(members), starts, pos, 15, 20)
+    resized = 0
+    for q in range(len(pos)):
+        ref = _reference_neighbor_word(src.values[starts[q] : starts[q] + 15], full, members, neighbours.dropped_terms(members), int(pos[q]), 15, 20)
+        assert ok[q] == (ref is not None)
+        if ref is not None:
+            np.testing.assert_allclose(texture.align_hemisphere(words[q], ref), ref, atol=1e-12)
+        else:
+            assert np.isnan(words[q]).all()
+    assert not ok[-1] and ok[:-1].all()
+    # some paths end on the target's last column, so the polyphase resize is exercised
+    _, iend = word_dtw.warp_target_words(src.values, full.values, members, neighbours.dropped_terms(members), starts[:-1], pos[:-1])
+    assert np.any(iend < 14)
+
+
+def _reference_robust_mean(words: np.ndarray) :
+    """Mean word and spread of K hemisphere-aligned words (K, N, m, 4), robust to outlier neighbours.
+
+    Per cell the neighbours far from the cell's medoid (more than twice the
+    median distance to it, plus 5 degrees) are left out of the chordal mean:
+    a neighbour that overlaps an error of the clip itself (a long error
+    outlasts the N/2 exclusion zone of section 3.3) must not pull the mean
+    towards the error. The spread (N, m) is the RMS angle of the kept
+    neighbours from the mean, in radians.
+    """
+    K = words.shape[0]
+    if K == 1:
+        return words[0], np.zeros(words.shape[1:3])
+    pair = R.geodesic_angle(words[:, None], words[None, :])  # (K, K, N, m)
+    med = np.argmin(pair.sum(axis=1), axis=0)  # (N, m) medoid per cell
+    to_med = np.take_along_axis(pair, med[None, None], axis=1)[:, 0]  # (K, N, m)
+    keep = to_med <= 2.0 * np.median(to_med, axis=0) + np.radians(5.0)
+    mean = R.quaternion_normalize(np.sum(words * keep[..., None], axis=0))
+    dev = R.geodesic_angle(words, mean[None])
+    spread = np.sqrt(np.sum(np.where(keep, dev**2, 0.0), axis=0) / np.maximum(keep.sum(axis=0), 1))
+    return mean, spread
+
+
+def test_robust_word_means_equal_the_per_word_reference():
+    rng = np.random.default_rng(5)
+    W, K, N, m = 30, 5, 15, 4
+    base = R.quaternion_normalize(rng.normal(size=(N, m, 4)))
+    outlier = 0.8 * (rng.random((W, K, 1, 1, 1)) < 0.2)  # some neighbours far off: the rule must drop them
+    words = R.quaternion_normalize(base[None, None] + 0.08 * rng.normal(size=(W, K, N, m, 4)) + outlier)
+    words = texture.align_hemisphere(words, base[None, None])
+    valid = rng.random((W, K)) < 0.7
+    valid[:, 0] |= ~valid.any(axis=1)
+    valid[0] = [False, False, True, False, False]  # a single neighbour is the mean
+    mean, spread = neighbours.robust_means(np.where(valid[..., None, None, None], words, 0.0), valid)
+    dropped = 0
+    for w in range(W):
+        ref_mean, ref_spread = _reference_robust_mean(words[w][valid[w]])
+        np.testing.assert_allclose(mean[w], ref_mean, atol=1e-12)
+        np.testing.assert_allclose(spread[w], ref_spread, atol=1e-12)
+        dropped += np.abs(ref_mean - R.quaternion_normalize(words[w][valid[w]].sum(axis=0))).max() > 1e-6
+    assert np.array_equal(mean[0], words[0, 2]) and np.all(spread[0] == 0)
+    assert dropped > 0
+
+
+def test_minima_are_those_of_the_whole_distance_function():
+    """Section 3.3: minima next to the source's own place are minima of the function, not of a masked one."""
+    tgt = np.arange(60)
+    dist = np.abs(tgt - 30.0)[None] * 0.1 + 1.0  # falls all the way into the source at 30: no minimum near it
+    dist[0, 50] = 0.5  # a real repetition
+    idx, vals = neighbours.local_minima_knn(dist, tgt, 3, np.array([30]), 7)
+    got = [int(i) for i, v in zip(idx[0], vals[0]) if np.isfinite(v)]
+    assert got == [50]  # not 22 or 38, the edges of the excluded zone
+    assert naive_local_minima_knn(dist, tgt, 3, np.array([30]), 7)[0] == [(0.5, 50)]
