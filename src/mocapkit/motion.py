@@ -21,7 +21,6 @@ from dataclasses import dataclass, field
 from typing import Iterable, Sequence
 
 import numpy as np
-from numba import njit
 
 from . import rotations as R
 from .errors import MocapError, SkeletonError
@@ -405,7 +404,7 @@ class Motion:
     def global_transforms(self) -> tuple[np.ndarray, np.ndarray]:
         """Forward kinematics: global rotations (F, J, 4) and positions (F, J, 3) of all joints.
 
-        One compiled loop over joints and frames (:func:`_fk_kernel`), the
+        One compiled loop over joints and frames (:func:`mocapkit._numba_fk.fk_kernel`), the
         same arithmetic as ``rotations.quaternion_multiply`` and
         ``quaternion_rotate`` on whole arrays and bit for bit equal to them,
         without their per-joint overhead: a 100,000-joint chain takes
@@ -417,7 +416,9 @@ class Motion:
         grot[:, 0] = self.rotations[:, 0]
         gpos[:, 0] = self.root_positions
         local = self.skeleton.offsets[None] if self.translations is None else self.translations
-        _fk_kernel(
+        from ._numba_fk import fk_kernel  # lazy: importing mocapkit loads no numba
+
+        fk_kernel(
             np.ascontiguousarray(self.skeleton.parents),
             np.ascontiguousarray(self.rotations),
             np.ascontiguousarray(local),
@@ -662,48 +663,6 @@ class Motion:
         return dataclasses.replace(
             self, skeleton=new_sk, rotations=rot, root_positions=root, translations=tr, name=self.name + "_mirror"
         )
-
-
-@njit(cache=True)
-def _fk_kernel(parents, lrot, local, grot, gpos):
-    """Fill ``grot`` (F, J, 4) and ``gpos`` (F, J, 3) from their root column, joint by joint in parent order.
-
-    ``local`` is (F, J, 3), or (1, J, 3) for offsets shared by all frames.
-    The expressions are those of ``quaternion_multiply`` and of
-    ``quaternion_rotate`` (``v + w t + u x t`` with ``t = 2 u x v``, each
-    cross product as ``numpy.cross`` computes it), so results are bit-identical.
-    """
-    F = lrot.shape[0]
-    J = lrot.shape[1]
-    shared = local.shape[0] == 1
-    for j in range(1, J):
-        p = parents[j]
-        for f in range(F):
-            aw = grot[f, p, 0]
-            ax = grot[f, p, 1]
-            ay = grot[f, p, 2]
-            az = grot[f, p, 3]
-            bw = lrot[f, j, 0]
-            bx = lrot[f, j, 1]
-            by = lrot[f, j, 2]
-            bz = lrot[f, j, 3]
-            grot[f, j, 0] = aw * bw - ax * bx - ay * by - az * bz
-            grot[f, j, 1] = aw * bx + ax * bw + ay * bz - az * by
-            grot[f, j, 2] = aw * by - ax * bz + ay * bw + az * bx
-            grot[f, j, 3] = aw * bz + ax * by - ay * bx + az * bw
-            fo = 0 if shared else f
-            v0 = local[fo, j, 0]
-            v1 = local[fo, j, 1]
-            v2 = local[fo, j, 2]
-            t0 = 2.0 * (ay * v2 - az * v1)
-            t1 = 2.0 * (az * v0 - ax * v2)
-            t2 = 2.0 * (ax * v1 - ay * v0)
-            r0 = v0 + aw * t0 + (ay * t2 - az * t1)
-            r1 = v1 + aw * t1 + (az * t0 - ax * t2)
-            r2 = v2 + aw * t2 + (ax * t1 - ay * t0)
-            gpos[f, j, 0] = gpos[f, p, 0] + r0
-            gpos[f, j, 1] = gpos[f, p, 1] + r1
-            gpos[f, j, 2] = gpos[f, p, 2] + r2
 
 
 def _some_names(names: Sequence[str], shown: int = 40) -> str:
