@@ -1,4 +1,4 @@
-"""Self-similarity analysis time on real clips against issue 4's targets, with the exhaustive search in the same run.
+"""Self-similarity analysis time on real clips against its targets, with the exhaustive search in the same run.
 
 Usage::
 
