@@ -125,7 +125,7 @@ def render(script_docs: dict[str, str], found: dict[str, dict]) -> str:
            "baseline measured in the same run, their ratio (figure / baseline), the target where there is one,",
            "and whether it is met. Timings depend on the machine and on what else runs on it: compare figures",
            "from the same machine and date.", "",
-           "| benchmark | run | targets met |", "|---|---|---|"]
+           "| benchmark | run (flags other than the defaults) | targets met |", "|---|---|---|"]
     for n in names:
         r = found.get(n)
         if r is None:
@@ -133,8 +133,9 @@ def render(script_docs: dict[str, str], found: dict[str, dict]) -> str:
             continue
         met = r.get("met") or {}
         score = f"{sum(bool(v) for v in met.values())} of {len(met)}" if met else "no target"
-        quick = " (quick)" if "--quick" in str(r.get("command", "")) else ""
-        out.append(f"| [{n}](#{n}) | {str(r.get('date', ''))[:10]}{quick} | {score} |")
+        flags = [f for f in str(r.get("command", "")).split()[2:] if f != "--json"]
+        setting = f" (`{' '.join(flags)}`)" if flags else ""
+        out.append(f"| [{n}](#{n}) | {str(r.get('date', ''))[:10]}{setting} | {score} |")
     out.append("")
     for n in names:
         out += section(n, script_docs.get(n, ""), found.get(n))

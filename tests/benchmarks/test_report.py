@@ -44,7 +44,7 @@ def test_every_figure_and_every_script(tmp_path):
     assert "| found | - |  |  | >= 1 | no |" in text
     assert "`python benchmarks/fast.py --json --quick`" in text and "Test CPU, 2 cores" in text
     assert "Baseline: brute force, same run." in text
-    assert "| [fast](#fast) | 2026-01-02 (quick) | 0 of 2 |" in text
+    assert "| [fast](#fast) | 2026-01-02 (`--quick`) | 0 of 2 |" in text
     # every benchmark script in the folder without a result is listed with its command
     for script in sorted(BENCHMARKS.glob("[a-z]*.py")):
         if script.stem in report.NOT_BENCHMARKS:
