@@ -34,11 +34,7 @@ and ratio.
 
 from __future__ import annotations
 
-import argparse
 import dataclasses
-import json
-import os
-import platform
 import shutil
 import sys
 import tempfile
@@ -51,6 +47,7 @@ REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO / "src"))
 sys.path.insert(0, str(REPO / "benchmarks"))
 
+import _harness as harness  # noqa: E402
 import mocapkit  # noqa: E402
 from mocapkit import corrupt, metrics  # noqa: E402
 from mocapkit.cleaning import filters, gapfill  # noqa: E402
@@ -205,29 +202,38 @@ def batch(quick: bool) -> dict:
 
 
 def main(argv=None) -> None:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap = harness.parser(__doc__)
     ap.add_argument("--quick", action="store_true")
-    ap.add_argument("--json", action="store_true")
     ap.add_argument("--skip-speed", action="store_true")
     ap.add_argument("--skip-batch", action="store_true")
     a = ap.parse_args(argv)
     if not DATA.is_dir():
         sys.exit(f"{DATA}: not found (this benchmark needs ../shared/data)")
     t0 = time.perf_counter()
-    out = {"benchmark": "clean_takes", "quick": a.quick, "quality": quality(a.quick)}
+    q = quality(a.quick)
+    details = {"quick": a.quick, "quality": q,
+               "baseline": "Savitzky-Golay (0.2 s, quadratic) of the whole clip after a linear gap fill; "
+                           "one process for the batch"}
+    figures = dict(q["table"]["clean"])
+    figures["clean_cells_untouched_min"] = q["clean_cells_untouched_min"]
+    baselines = {k: v for k, v in q["table"]["savgol"].items()}
+    targets = {"clean_cells_untouched": {"value": 1.0, "op": ">=", "of": "figures"}}
     if not a.skip_speed:
-        out["speed"] = speed(a.quick)
+        sp = speed(a.quick)
+        details["speed"] = sp
+        figures["take_60s_clean_s" if not a.quick else "take_20s_clean_s"] = sp["clean_seconds"]
+        if not a.quick:
+            targets["take_60s_clean_s"] = {"value": 10.0, "op": "<=", "of": "figures"}
     if not a.skip_batch:
-        out["batch"] = batch(a.quick)
-    out["baseline"] = "Savitzky-Golay (0.2 s, quadratic) of the whole clip after a linear gap fill; one process for the batch"
-    out["seconds_total"] = round(time.perf_counter() - t0, 1)
-    out["machine"] = f"{platform.processor() or platform.machine()}, {os.cpu_count()} cores (shared)"
+        b = batch(a.quick)
+        details["batch"] = b
+        figures["batch_s"] = b["dask_2_workers_seconds"]
+        baselines["batch_s"] = b["serial_seconds"]
+    details["seconds_total"] = round(time.perf_counter() - t0, 1)
     if not a.json:
-        q = out["quality"]["table"]
-        for m, r in q.items():
+        for m, r in q["table"].items():
             log(f"{m:8s} " + "  ".join(f"{k} {v}" for k, v in r.items()))
-    print(json.dumps(out))
-
+    harness.emit("clean_takes", a, figures=figures, baselines=baselines, targets=targets, details=details)
 
 if __name__ == "__main__":
     main()

@@ -21,17 +21,14 @@ is warmed up before timing; the first call of this process is reported as
 ``first_call_s`` and a first call with an empty numba cache (run in a child
 process) as ``first_call_uncached_s``.
 
-The last line of stdout with ``--json`` is one JSON object: files,
-frames_total, mocapkit_s, loadtxt_s, ratio_vs_loadtxt (target <= 1.5), peers
-{name: seconds or null}, peer_files, peer_failures, speedup_vs_peer,
-fastest_peer, speedup_vs_fastest_peer (target >= 5), first_call_s,
-first_call_uncached_s and targets_met.
+The last line of stdout is the shared JSON object of ``benchmarks/_harness.py``:
+figure ``load_s`` (mocapkit, all files) against baseline ``load_s`` (loadtxt),
+target ratio <= 1.5; figure ``speedup_vs_fastest_peer``, target >= 5; the first
+calls; the per-peer times and failures in ``details``.
 """
 
 from __future__ import annotations
 
-import argparse
-import json
 import os
 import platform
 import subprocess
@@ -42,6 +39,8 @@ import warnings
 from pathlib import Path
 
 import numpy as np
+
+import _harness as harness
 
 REPO = Path(__file__).resolve().parents[1]
 DEFAULT_DATA = REPO.parent / "shared" / "data"
@@ -119,10 +118,9 @@ def _uncached_first_call(path: Path) -> float | None:
 
 
 def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap = harness.parser(__doc__)
     ap.add_argument("--data", type=Path, default=DEFAULT_DATA, help="folder searched recursively for .bvh files")
     ap.add_argument("--repeats", type=int, default=5, help="timed runs per file and contender (best is kept)")
-    ap.add_argument("--json", action="store_true", help="end stdout with one JSON line of results")
     ap.add_argument("--no-peers", action="store_true", help="time only mocapkit and loadtxt")
     args = ap.parse_args(argv)
 
@@ -218,28 +216,17 @@ def main(argv=None) -> int:
           + (f"{first_call_uncached:.2f} s with an empty numba cache" if first_call_uncached is not None
              else "uncached first call not measured"))
 
-    if args.json:
-        result = {
-            "files": len(files),
-            "frames_total": frames_total,
-            "repeats": repeats,
-            "mocapkit_s": mocapkit_s,
-            "loadtxt_s": loadtxt_s,
-            "ratio_vs_loadtxt": ratio,
-            "peers": peer_s,
-            "peer_files": peer_files,
-            "peer_failures": peer_fail,
-            "speedup_vs_peer": speedup,
-            "fastest_peer": fastest,
-            "speedup_vs_fastest_peer": fastest_speedup,
-            "first_call_s": first_call,
-            "first_call_uncached_s": first_call_uncached,
-            "targets_met": {
-                "ratio_vs_loadtxt": ratio <= RATIO_TARGET,
-                "speedup_vs_fastest_peer": fastest_speedup is not None and fastest_speedup >= SPEEDUP_TARGET,
-            },
-        }
-        print(json.dumps(result))
+    harness.emit(
+        "io_speed", args,
+        figures={"load_s": mocapkit_s, "speedup_vs_fastest_peer": fastest_speedup, "first_call_s": first_call,
+                 "first_call_uncached_s": first_call_uncached, "files": len(files), "frames_total": frames_total},
+        baselines={"load_s": loadtxt_s},
+        targets={"load_s": {"value": RATIO_TARGET, "op": "<=", "of": "ratios"},
+                 "speedup_vs_fastest_peer": {"value": SPEEDUP_TARGET, "op": ">=", "of": "figures"}},
+        details={"repeats": repeats, "baseline": "numpy.loadtxt of the MOTION block, same files, best of N",
+                 "peers_s": peer_s, "peer_files": peer_files, "peer_failures": peer_fail,
+                 "speedup_vs_peer": speedup, "fastest_peer": fastest},
+    )
     return 0
 
 

@@ -25,21 +25,20 @@ indices, or where distances tie to 1e-9, same distances). ε = 0.5
 approximate search and FAISS HNSW32 (recall against exact) are reported for
 F15 16-NN.
 
-The last line with ``--json`` is one JSON object; the acceptance figures are
-``ms_per_query_16nn_f15`` (target <= 0.05 ms), ``ms_per_query_bruteforce``
-(16-NN F15), ``speedup``, ``frames`` and ``identical``.
+The last line is the shared JSON object of ``benchmarks/_harness.py``: figure
+``ms_per_query_16nn_f15`` (target <= 0.05 ms) against baseline
+``ms_per_query_16nn_f15`` (numpy brute force), ``identical``, and every table in
+``details``.
 """
 
 from __future__ import annotations
 
-import argparse
-import json
 import os
-import platform
 import time
 
 import numpy as np
 
+import _harness as harness
 from _corpus import DEFAULT_DATA, describe, heldout_motions, large_database, real_database
 
 from mocapkit.search.knn import KNNIndex
@@ -102,12 +101,11 @@ def measure(db, queries: dict, n_queries: int, rng, with_brute: bool = True) -> 
 
 
 def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap = harness.parser(__doc__)
     ap.add_argument("--data", type=os.path.abspath, default=str(DEFAULT_DATA))
     ap.add_argument("--frames", type=int, default=1_000_000)
     ap.add_argument("--queries", type=int, default=10_000)
     ap.add_argument("--seed", type=int, default=0)
-    ap.add_argument("--json", action="store_true")
     args = ap.parse_args()
     from pathlib import Path
 
@@ -123,37 +121,26 @@ def main() -> None:
     large_held = measure(big, held_q, args.queries, rng)
     small_held = measure(real, held_q, args.queries, rng)
     head = large["F15_16nn"]
-    result = {
-        "benchmark": "knn_speed",
-        "database": describe(big, real),
-        "frames": big.num_frames,
-        "real_frames": real.num_frames,
-        "queries": args.queries,
-        "headline_queries": "in_database",
-        "held_out_frames": int(len(held_q["F15"])),
-        "held_out_ms_per_query_16nn_f15": large_held["F15_16nn"]["ms_per_query"],
-        "brute_force_queries": BRUTE_QUERIES,
-        "ms_per_query_16nn_f15": head["ms_per_query"],
-        "ms_per_query_bruteforce": head["ms_per_query_bruteforce"],
-        "speedup": head["speedup"],
-        "identical": all(v["identical"] for t in (large, small, large_held, small_held) for v in t.values()),
-        "target_ms": TARGET_MS,
-        "target_met": head["ms_per_query"] <= TARGET_MS,
-        "paper_ms_16nn_f15_cmu_1m": 1.65,
-        "large": large,
-        "real_only": small,
-        "large_held_out": large_held,
-        "real_only_held_out": small_held,
-        "threads": 1,
-        "machine": f"{platform.processor() or platform.machine()}, {os.cpu_count()} cores",
-    }
     if not args.json:
         for label, table in (("large", large), ("real only", small), ("large, held-out", large_held), ("real only, held-out", small_held)):
             print(f"{label}:")
             for k, v in table.items():
                 extra = f"  brute {v['ms_per_query_bruteforce']:.3f} ms  x{v['speedup']:.0f}  identical={v['identical']}" if "speedup" in v else ""
                 print(f"  {k:10s} {v['ms_per_query']:.4f} ms/query{extra}")
-    print(json.dumps(result))
+    harness.emit(
+        "knn_speed", args,
+        figures={"ms_per_query_16nn_f15": head["ms_per_query"],
+                 "held_out_ms_per_query_16nn_f15": large_held["F15_16nn"]["ms_per_query"],
+                 "frames": big.num_frames,
+                 "identical": all(v["identical"] for t in (large, small, large_held, small_held) for v in t.values())},
+        baselines={"ms_per_query_16nn_f15": head["ms_per_query_bruteforce"]},
+        targets={"ms_per_query_16nn_f15": {"value": TARGET_MS, "op": "<=", "of": "figures"}},
+        details={"baseline": f"numpy brute force (KNNIndex backend='brute') on {BRUTE_QUERIES} of the queries",
+                 "database": describe(big, real), "real_frames": real.num_frames, "queries": args.queries,
+                 "headline_queries": "in_database", "held_out_frames": int(len(held_q["F15"])),
+                 "paper_ms_16nn_f15_cmu_1m": 1.65, "threads": 1, "large": large, "real_only": small,
+                 "large_held_out": large_held, "real_only_held_out": small_held},
+    )
 
 
 if __name__ == "__main__":

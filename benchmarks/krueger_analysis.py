@@ -62,16 +62,14 @@ frames inside their K-neighbourhoods, so the LNG finds no path for them
 database.
 
 Writes ``--out`` (default ``benchmarks/out/``) ``krueger_fig2.png``, prints
-the tables, and with ``--json`` prints one JSON object as the last line.
+the tables, and ends with the shared JSON object of ``benchmarks/_harness.py``
+(an analysis: figures, no baseline or target).
 """
 
 from __future__ import annotations
 
-import argparse
 import dataclasses
-import json
 import os
-import platform
 import re
 import sys
 import time
@@ -80,6 +78,7 @@ from pathlib import Path
 import numpy as np
 from scipy.stats import rankdata, spearmanr
 
+import _harness as harness
 from _corpus import DEFAULT_DATA, heldout_motions, random_windows, real_database
 
 import mocapkit
@@ -465,7 +464,7 @@ def format_lng(res: dict) -> str:
 
 
 def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap = harness.parser(__doc__)
     ap.add_argument("--data", type=os.path.abspath, default=str(DEFAULT_DATA))
     ap.add_argument("--samples", type=int, default=1024, help="random frames for the rank correlations (paper: 1024)")
     ap.add_argument("--neighbors", type=int, default=256, help="nearest neighbours per random frame (paper: 256)")
@@ -474,7 +473,6 @@ def main() -> None:
     ap.add_argument("--lng-k", type=int, default=LNG_K, help="kNN per query frame for the LNG (paper/default: 128)")
     ap.add_argument("--out", type=os.path.abspath, default=str(Path(__file__).resolve().parent / "out"))
     ap.add_argument("--seed", type=int, default=0)
-    ap.add_argument("--json", action="store_true")
     args = ap.parse_args()
     if args.samples < 1 or args.neighbors < 2 or args.queries < 3 or args.lng_k < 1:
         raise SystemExit("--samples must be >= 1, --neighbors >= 2, --queries >= 3, --lng-k >= 1")
@@ -525,43 +523,45 @@ def main() -> None:
     print()
     print(f"runtime {runtime:.1f} s (sample database {t_build:.1f} s, correlations {t_corr:.1f} s, LNG/DTW {t_lng:.1f} s)")
 
-    if args.json:
-        m = corr["matrix"]
-        result = {
-            "benchmark": "krueger_analysis",
-            "pose": {
-                "database": pose_desc,
-                "clips": len(paths),
-                "classes": n_classes,
-                "frames": pd.num_frames,
-                "samples": corr["samples"],
-                "neighbors": args.neighbors,
-                "rows": list(FEATURE_ROWS),
-                "columns": list(MEASURE_COLUMNS),
-                "matrix": {
-                    row: {col: (float(m[r, c]) if np.isfinite(m[r, c]) else None) for c, col in enumerate(MEASURE_COLUMNS)}
-                    for r, row in enumerate(FEATURE_ROWS)
-                },
-                "pca_explained_variance": dict(zip(PCA_SIZES, pd.pca_explained)),
-                "knn_ms_per_query": corr["knn_ms_per_query"],
-                "wb_weights": WB_WEIGHTS,
-                "wb_velocity_weight_s2": WB_NU,
-                "figure": str(fig_path),
+    m = corr["matrix"]
+    result = {
+        "pose": {
+            "database": pose_desc,
+            "clips": len(paths),
+            "classes": n_classes,
+            "frames": pd.num_frames,
+            "samples": corr["samples"],
+            "neighbors": args.neighbors,
+            "rows": list(FEATURE_ROWS),
+            "columns": list(MEASURE_COLUMNS),
+            "matrix": {
+                row: {col: (float(m[r, c]) if np.isfinite(m[r, c]) else None) for c, col in enumerate(MEASURE_COLUMNS)}
+                for r, row in enumerate(FEATURE_ROWS)
             },
-            "lng_vs_dtw": {
-                "database": f"real CMU and HDM05 ASF/AMC clips at 30 fps without the held-out ones: {db.num_frames} frames, {db.num_clips} clips",
-                "frames": db.num_frames,
-                "queries": len(windows),
-                "query_lengths_s": [1, 3],
-                "neighbors": args.lng_k,
-                "per_feature": lng,
-            },
-            "runtime_s": runtime,
-            "runtime_parts_s": {"sample_database": t_build, "correlations": t_corr, "lng_vs_dtw": t_lng},
-            "threads": 1,
-            "machine": f"{platform.processor() or platform.machine()}, {os.cpu_count()} cores",
-        }
-        print(json.dumps(result))
+            "pca_explained_variance": dict(zip(PCA_SIZES, pd.pca_explained)),
+            "knn_ms_per_query": corr["knn_ms_per_query"],
+            "wb_weights": WB_WEIGHTS,
+            "wb_velocity_weight_s2": WB_NU,
+            "figure": str(fig_path),
+        },
+        "lng_vs_dtw": {
+            "database": f"real CMU and HDM05 ASF/AMC clips at 30 fps without the held-out ones: {db.num_frames} frames, {db.num_clips} clips",
+            "frames": db.num_frames,
+            "queries": len(windows),
+            "query_lengths_s": [1, 3],
+            "neighbors": args.lng_k,
+            "per_feature": lng,
+        },
+        "runtime_s": runtime,
+        "runtime_parts_s": {"sample_database": t_build, "correlations": t_corr, "lng_vs_dtw": t_lng},
+        "threads": 1,
+    }
+    pairs = (("F30", "F39"), ("F15x3", "F15x5"), ("F15", "F30"), ("Fpca16", "Fpca25"), ("Fpca8", "F15"))
+    figures = {}
+    for row, col in pairs:
+        v = m[FEATURE_ROWS.index(row), MEASURE_COLUMNS.index(col)]
+        figures[f"rank correlation {row} ~ {col}"] = float(v) if np.isfinite(v) else None
+    harness.emit("krueger_analysis", args, figures=figures, details=result)
 
 
 if __name__ == "__main__":

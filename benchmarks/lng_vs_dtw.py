@@ -39,16 +39,14 @@ The same figures on the real database alone are under ``real_only``.
 
 from __future__ import annotations
 
-import argparse
-import json
 import os
-import platform
 import time
 from pathlib import Path
 
 import numpy as np
 from scipy.stats import spearmanr
 
+import _harness as harness
 from _corpus import DEFAULT_DATA, describe, heldout_motions, large_database, random_windows, real_database
 
 from mocapkit.search.dtw import subsequence_dtw
@@ -118,13 +116,12 @@ def run(db, queries: list[tuple[np.ndarray, tuple[int, int] | None]], neighbors:
 
 
 def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap = harness.parser(__doc__)
     ap.add_argument("--data", type=os.path.abspath, default=str(DEFAULT_DATA))
     ap.add_argument("--frames", type=int, default=1_000_000)
     ap.add_argument("--queries", type=int, default=128, help="queries of each length (1 s and 3 s)")
     ap.add_argument("--neighbors", default="64,128,256")
     ap.add_argument("--seed", type=int, default=0)
-    ap.add_argument("--json", action="store_true")
     args = ap.parse_args()
     neighbors = sorted({int(k) for k in args.neighbors.split(",")} | {HEADLINE_K})
     data_dir = Path(args.data)
@@ -157,30 +154,22 @@ def main() -> None:
             sets[f"{label}/{qname}"] = run(db, qs, neighbors, progress)
     head = sets["large/in_database"]["per_k"][HEADLINE_K]
     held_head = sets["large/held_out"]["per_k"][HEADLINE_K]
-    result = {
-        "benchmark": "lng_vs_dtw",
-        "database": describe(big, real),
-        "frames": big.num_frames,
-        "features": "F15",
-        "queries": 2 * args.queries,
-        "query_lengths_s": [1, 3],
-        "headline_queries": "in_database (own frames excluded)",
-        "neighbors": HEADLINE_K,
-        "spearman": head["spearman"],
-        "same_best_share": head["same_best_share"],
-        "found_share": head["found_share"],
-        "speedup": head["speedup"],
-        "dtw_ms_per_query": sets["large/in_database"]["dtw_ms_per_query"],
-        "lng_ms_per_query": head["lng_ms_per_query"],
-        "held_out": {k: held_head[k] for k in ("spearman", "same_best_share", "found_share", "speedup")},
-        "targets": {"spearman": SPEARMAN_TARGET, "speedup": SPEEDUP_TARGET},
-        "targets_met": {"spearman": head["spearman"] >= SPEARMAN_TARGET, "speedup": head["speedup"] >= SPEEDUP_TARGET},
-        "details": sets,
-        "threads": 1,
-        "machine": f"{platform.processor() or platform.machine()}, {os.cpu_count()} cores",
-    }
-    print(json.dumps(result))
-
+    harness.emit(
+        "lng_vs_dtw", args,
+        figures={"spearman": head["spearman"], "same_best_share": head["same_best_share"],
+                 "found_share": head["found_share"], "speedup": head["speedup"],
+                 "ms_per_query": head["lng_ms_per_query"],
+                 "held_out_spearman": held_head["spearman"], "held_out_found_share": held_head["found_share"]},
+        baselines={"ms_per_query": sets["large/in_database"]["dtw_ms_per_query"]},
+        targets={"spearman": {"value": SPEARMAN_TARGET, "op": ">=", "of": "figures"},
+                 "speedup": {"value": SPEEDUP_TARGET, "op": ">=", "of": "figures"}},
+        details={"baseline": "subsequence DTW over the whole database, same queries, same run",
+                 "database": describe(big, real), "frames": big.num_frames, "features": "F15",
+                 "queries": 2 * args.queries, "query_lengths_s": [1, 3],
+                 "headline_queries": "in_database (own frames excluded)", "neighbors": HEADLINE_K,
+                 "held_out": {k: held_head[k] for k in ("spearman", "same_best_share", "found_share", "speedup")},
+                 "threads": 1, "sets": sets},
+    )
 
 if __name__ == "__main__":
     main()

@@ -24,15 +24,13 @@ the push's costs equal the rebuilt ones on those frames.
 
 from __future__ import annotations
 
-import argparse
-import json
 import os
-import platform
 import time
 from pathlib import Path
 
 import numpy as np
 
+import _harness as harness
 from _corpus import DEFAULT_DATA, describe, heldout_motions, large_database, real_database
 
 from mocapkit.search.lng import OnlineLazyNeighborhoodGraph, online_lng_costs
@@ -42,14 +40,13 @@ TAUTGES_MS = 12.0
 
 
 def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap = harness.parser(__doc__)
     ap.add_argument("--data", type=os.path.abspath, default=str(DEFAULT_DATA))
     ap.add_argument("--frames", type=int, default=1_000_000)
     ap.add_argument("--neighbors", type=int, default=4096)
     ap.add_argument("--window", type=int, default=13)
     ap.add_argument("--max-stream", type=int, default=3000, help="stop after this many streamed frames")
     ap.add_argument("--rebuild-every", type=int, default=25, help="compare with a from-scratch rebuild every N frames")
-    ap.add_argument("--json", action="store_true")
     args = ap.parse_args()
     data_dir = Path(args.data)
     real = real_database(data_dir)
@@ -95,31 +92,20 @@ def main() -> None:
     push_ms = float(np.mean(push_s) * 1e3)
     knn_ms = float(np.mean(knn_s) * 1e3)
     rebuild_ms = float(np.mean(rebuild_s) * 1e3)
-    result = {
-        "benchmark": "olng_update",
-        "database": describe(big, real),
-        "frames": big.num_frames,
-        "features": "F15",
-        "neighbors": K,
-        "window": W,
-        "streamed_frames": n,
-        "ms_per_update": push_ms,
-        "ms_per_update_p95": float(np.percentile(push_s, 95) * 1e3),
-        "ms_knn_per_frame": knn_ms,
-        "ms_per_update_with_knn": push_ms + knn_ms,
-        "ms_rebuild_from_scratch": rebuild_ms,
-        "speedup_vs_rebuild": rebuild_ms / push_ms,
-        "identical": identical,
-        "compared_frames": compared,
-        "target_ms": TARGET_MS,
-        "target_met": push_ms <= TARGET_MS,
-        "tautges_ms": TAUTGES_MS,
-        "threads": 1,
-        "machine": f"{platform.processor() or platform.machine()}, {os.cpu_count()} cores",
-    }
     if not args.json:
         print(f"push {push_ms:.3f} ms, kNN {knn_ms:.3f} ms, rebuild {rebuild_ms:.2f} ms, identical={identical}")
-    print(json.dumps(result))
+    harness.emit(
+        "olng_update", args,
+        figures={"ms_per_update": push_ms, "ms_per_update_p95": float(np.percentile(push_s, 95) * 1e3),
+                 "ms_knn_per_frame": knn_ms, "ms_per_update_with_knn": push_ms + knn_ms,
+                 "speedup_vs_rebuild": rebuild_ms / push_ms, "identical": identical},
+        baselines={"ms_per_update": rebuild_ms},
+        targets={"ms_per_update": {"value": TARGET_MS, "op": "<=", "of": "figures"}},
+        details={"baseline": "online_lng_costs: the window's graph rebuilt from scratch, on every "
+                             f"{args.rebuild_every}th frame", "database": describe(big, real),
+                 "frames": big.num_frames, "features": "F15", "neighbors": K, "window": W, "streamed_frames": n,
+                 "compared_frames": compared, "tautges_ms": TAUTGES_MS, "threads": 1},
+    )
 
 
 if __name__ == "__main__":

@@ -38,15 +38,14 @@ import os
 
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
-import argparse  # noqa: E402
 import dataclasses  # noqa: E402
-import json  # noqa: E402
 import sys  # noqa: E402
 import time  # noqa: E402
 
 import numpy as np  # noqa: E402
 from scipy.spatial import cKDTree  # noqa: E402
 
+import _harness as harness  # noqa: E402
 import _reconstruct as B  # noqa: E402
 
 import mocapkit  # noqa: E402
@@ -165,15 +164,16 @@ def _log_row(scenario, r):
 
 
 def main():
-    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--json", action="store_true")
+    ap = harness.parser(__doc__)
     ap.add_argument("--quick", action="store_true", help="2 locomotion clips and 1 other, fewer same-actor databases")
     ap.add_argument("--validate", action="store_true", help="the K sweep on validation actor tr instead")
     ap.add_argument("-k", type=int, default=None, help="neighbours per sample (default: mocapkit's default_k)")
     args = ap.parse_args()
     if args.validate:
         result = validate(args)
-        print(json.dumps(result) if args.json else json.dumps(result, indent=2))
+        result.pop("benchmark", None)
+        figures = {f"K={k} {key}": v for k, row in result["sweep"].items() for key, v in row.items()}
+        harness.emit("reconstruct_accelerometers_validate", args, figures=figures, details=result)
         return
     params = {} if args.k is None else {"k": args.k}
     classes = B.LOCOMOTION + OTHERS
@@ -185,7 +185,7 @@ def main():
         other = other[:1]
     test_paths = loco + other
     log(f"{len(test_paths)} test clips of mm; classes {classes}")
-    result = {"benchmark": "reconstruct_accelerometers", "fps": FPS, "mirrored": False, "params": {**A.DEFAULTS, **params},
+    result = {"fps": FPS, "mirrored": False, "params": {**A.DEFAULTS, **params},
               "test_clips": [p.name for p in test_paths], "scenarios": {}}
     # (a) other actors: one database
     db_paths, _ = B.scenario("mm", None, same_actor=False)
@@ -221,9 +221,21 @@ def main():
     result["scenarios"]["same_actor"] = {"db_frames": int(np.mean(sizes)), "preprocessing_s": float(np.mean(pres)),
                                          **summarise(rows), "per_clip": _strip(rows)}
     a = result["scenarios"]["other_actors"]
-    result["targets"] = {"locomotion_rms_cm<=5": a["locomotion"]["ours_frame_cm"] <= 5.0,
-                         "ms_per_frame<=10": a["ms_per_frame_median"] <= 10.0}
-    print(json.dumps(result) if args.json else json.dumps(result, indent=2))
+    same = result["scenarios"]["same_actor"]
+    result["baseline"] = "single-frame nearest neighbour of the readings (kd-tree), same database, same run"
+    figures = {"locomotion_rms_cm": a["locomotion"]["ours_frame_cm"],
+               "locomotion_heading_rms_cm": a["locomotion"]["ours_heading_cm"],
+               "same_actor_locomotion_rms_cm": same["locomotion"]["ours_frame_cm"],
+               "ms_per_frame": a["ms_per_frame_median"], "ms_per_frame_p95": a["ms_per_frame_p95"],
+               "oracle_heading_cm": a["locomotion"].get("oracle_heading_cm")}
+    baselines = {"locomotion_rms_cm": a["locomotion"].get("nn_frame_cm"),
+                 "locomotion_heading_rms_cm": a["locomotion"].get("nn_heading_cm"),
+                 "same_actor_locomotion_rms_cm": same["locomotion"].get("nn_frame_cm")}
+    harness.emit("reconstruct_accelerometers", args, figures=figures,
+                 baselines={k: v for k, v in baselines.items() if v is not None},
+                 targets={"locomotion_rms_cm": {"value": 5.0, "op": "<=", "of": "figures"},
+                          "ms_per_frame": {"value": 10.0, "op": "<=", "of": "figures"}},
+                 details=result)
 
 
 if __name__ == "__main__":

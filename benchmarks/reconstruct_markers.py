@@ -39,13 +39,12 @@ import os
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 os.environ.setdefault("OMP_NUM_THREADS", "1")
 
-import argparse  # noqa: E402
-import json  # noqa: E402
 import sys  # noqa: E402
 import time  # noqa: E402
 
 import numpy as np  # noqa: E402
 
+import _harness as harness  # noqa: E402
 import _reconstruct as B  # noqa: E402  (puts src/ on sys.path)
 
 import mocapkit  # noqa: E402
@@ -66,9 +65,8 @@ def errors(out, truth) -> dict:
 
 
 def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap = harness.parser(__doc__)
     ap.add_argument("--quick", action="store_true")
-    ap.add_argument("--json", action="store_true")
     ap.add_argument("--fps", type=float, default=30.0)
     ap.add_argument("--k", type=int, default=128)
     ap.add_argument("--prior-weight", type=float, default=0.01)
@@ -145,7 +143,6 @@ def main(argv=None) -> int:
 
     loco = summary([r for r in rows if r["locomotion"]])
     result = {
-        "benchmark": "reconstruct_markers",
         "paper": "Krüger et al. 2010, sec. 5.2, Table 3 (HDM05: 1.33-3.37 cm mean per joint)",
         "scenario": "database: HDM05 actors bd, bk, dg, tr, all 11 classes; test: actor mm",
         "database": {"clips": db.num_clips, "frames": db.num_frames, "fps": db.fps, "prep_s": prep_s},
@@ -159,14 +156,20 @@ def main(argv=None) -> int:
         "locomotion": loco,
         "others": summary([r for r in rows if not r["locomotion"]]),
         "all": summary(rows),
-        "target_locomotion_mean_cm": 2.0,
-        "target_met": bool(loco is not None and loco["mean_cm"] <= 2.0),
+        "baseline": "the database pose nearest to the marker features of each frame (kd-tree), same run",
         "clips": rows,
     }
-    if args.json:
-        print(json.dumps(result))
-    else:
-        print(json.dumps({k: v for k, v in result.items() if k != "clips"}, indent=2))
+    others = result["others"] or {}
+    figures = {"locomotion_mean_cm": loco["mean_cm"] if loco else None,
+               "locomotion_max_cm": loco["max_cm"] if loco else None,
+               "others_mean_cm": others.get("mean_cm"),
+               "ms_per_frame": result["all"]["ms_per_frame"] if result["all"] else None}
+    baselines = {"locomotion_mean_cm": loco["baseline_nn_mean_cm"] if loco else None,
+                 "locomotion_max_cm": loco["baseline_nn_max_cm"] if loco else None,
+                 "others_mean_cm": others.get("baseline_nn_mean_cm")}
+    harness.emit("reconstruct_markers", args, figures=figures,
+                 baselines={k: v for k, v in baselines.items() if v is not None},
+                 targets={"locomotion_mean_cm": {"value": 2.0, "op": "<=", "of": "figures"}}, details=result)
     return 0
 
 

@@ -43,13 +43,12 @@ Usage: ``python benchmarks/reconstruct_multilinear.py --json [--quick]``.
 
 from __future__ import annotations
 
-import argparse
-import json
 import sys
 import time
 
 import numpy as np
 
+import _harness as harness
 from _reconstruct import clips, database  # noqa: F401  (puts src/ on sys.path)
 
 import mocapkit  # noqa: E402
@@ -212,8 +211,7 @@ def run_class(cls: str, quick: bool) -> dict:
 
 
 def main():
-    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("--json", action="store_true", help="print one JSON object as the last line")
+    ap = harness.parser(__doc__)
     ap.add_argument("--quick", action="store_true", help="one class, two test clips, fewer optimiser iterations")
     ap.add_argument("--classes", nargs="*", default=None)
     args = ap.parse_args()
@@ -221,7 +219,6 @@ def main():
     t0 = time.perf_counter()
     results = [run_class(c, args.quick) for c in classes]
     out = {
-        "benchmark": "reconstruct_multilinear",
         "method": "Tautges 2012 ch. 2: HOSVD motion tensor of one class, weights fitted to 4 accelerometers (eq. 2.10)",
         "test_actor": TEST,
         "train_actors": list(TRAIN),
@@ -236,10 +233,13 @@ def main():
     out["ratio_vs_mean"] = out["multilinear_cm"] / out["mean_cm"]
     out["ratio_vs_nn"] = out["multilinear_cm"] / out["nn_cm"]
     out["ratio_vs_knn"] = out["multilinear_cm"] / out["knn_cm"] if out["knn_cm"] else None
-    if args.json:
-        print(json.dumps(out))
-    else:
-        print(json.dumps(out, indent=2))
+    out["baseline"] = "the class mean motion (all mode weights at the mean), same clips, same run"
+    figures = {f"{r['class']}_cm": r["multilinear_cm"] for r in results}
+    figures["all_cm"] = out["multilinear_cm"]
+    figures["in_sample_cm"] = float(np.mean([r["in_sample"]["frame"] for r in results]))
+    baselines = {f"{r['class']}_cm": r["mean_cm"] for r in results}
+    baselines["all_cm"] = out["mean_cm"]
+    harness.emit("reconstruct_multilinear", args, figures=figures, baselines=baselines, details=out)
 
 
 if __name__ == "__main__":

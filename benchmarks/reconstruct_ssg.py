@@ -34,7 +34,6 @@ of frames whose global error is below 5 cm. Baselines in the same run:
 
 from __future__ import annotations
 
-import argparse
 import json
 import sys
 import time
@@ -42,6 +41,7 @@ from pathlib import Path
 
 import numpy as np
 
+import _harness as harness
 import _reconstruct as H
 
 import mocapkit  # noqa: E402
@@ -89,8 +89,7 @@ def errors(out: Motion, truth: Motion, cm: float) -> tuple[np.ndarray, np.ndarra
 
 
 def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--json", action="store_true", help="print one JSON object as the last stdout line")
+    ap = harness.parser(__doc__)
     ap.add_argument("--quick", action="store_true", help="2 test clips")
     ap.add_argument("--fps", type=float, default=60.0)
     ap.add_argument("--seed", type=int, default=0)
@@ -166,10 +165,13 @@ def main(argv=None) -> int:
         result["scenarios"][name] = figs
         log(name, json.dumps(figs))
     result["seconds"] = round(time.perf_counter() - t0, 1)
-    if args.json:
-        print(json.dumps(result))
-    else:
-        print(json.dumps(result, indent=2))
+    result["baseline"] = "window_best: the best subsequence of each window (k = 1), no graph, same run"
+    sc = result["scenarios"]
+    figures = {f"{name}_cm": sc[name]["ssg"]["mean_error_cm"] for name in sc}
+    figures.update({f"{name}_root_relative_cm": sc[name]["ssg"]["mean_error_root_relative_cm"] for name in sc})
+    baselines = {f"{name}_cm": sc[name]["window_best"]["mean_error_cm"] for name in sc}
+    baselines.update({f"{name}_root_relative_cm": sc[name]["window_best"]["mean_error_root_relative_cm"] for name in sc})
+    harness.emit("reconstruct_ssg", args, figures=figures, baselines=baselines, details=result)
     return 0
 
 

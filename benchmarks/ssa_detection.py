@@ -60,8 +60,6 @@ the precision lost is theirs.
 
 from __future__ import annotations
 
-import argparse
-import json
 import sys
 import time
 from pathlib import Path
@@ -70,6 +68,9 @@ import numpy as np
 
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO / "src"))
+sys.path.insert(0, str(REPO / "benchmarks"))
+
+import _harness as harness  # noqa: E402
 
 import mocapkit  # noqa: E402
 from mocapkit import corrupt  # noqa: E402
@@ -258,8 +259,7 @@ def dance_at_30_fps(run_detect, seeds: int, errors: int, visible_deg: float, gli
 
 
 def main(argv=None):
-    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--json", action="store_true")
+    ap = harness.parser(__doc__)
     ap.add_argument("--quick", action="store_true")
     ap.add_argument("--seeds", type=int, default=3)
     ap.add_argument("--errors", type=int, default=4, help="errors injected per clip and seed")
@@ -372,7 +372,7 @@ def main(argv=None):
             print(f"{k:28s} recall {v['recall']:.3f} precision {v['precision']:.3f}" + (f"  target met: {v['target_met']}" if "target_met" in v else ""))
         for k, v in word_level.items():
             print(f"word level {k:28s} recall {v['recall']:.3f} precision {v['precision']:.3f}")
-    result = {"benchmark": "ssa_detection", "targets": TARGETS, "visible_deg": args.visible_deg, "seeds": seeds,
+    result = {"targets_recall_precision": TARGETS, "visible_deg": args.visible_deg, "seeds": seeds,
               "errors_per_clip": args.errors, "results": summary,
               "scoring": "(word, joint) pairs: a detection must name the erroneous joint in the right word",
               "flag_rules": {"ssa": "ssa.detect's default: MDM > threshold confirmed by a break in the joint's trajectory, "
@@ -410,7 +410,22 @@ def main(argv=None):
             kb = f"{kind}/baseline_c"
             if k in summary and kb in summary and summary[kb]["recall"] > 0:
                 result.setdefault("recall_ratio_vs_baseline_c", {})[k] = round(summary[k]["recall"] / summary[kb]["recall"], 3)
-    print(json.dumps(result))
+    figures, baselines, targets = {}, {}, {}
+    for kind in TARGETS:
+        r_target, p_target = TARGETS[kind]
+        base = summary.get(f"{kind}/baseline_b")
+        for c in contexts:
+            row = summary.get(f"{kind}/ssa_{c}")
+            if row is None:
+                continue
+            for what, value, target in (("recall", row["recall"], r_target), ("precision", row["precision"], p_target)):
+                name = f"{kind} {c} {what}"
+                figures[name] = value
+                targets[name] = {"value": target, "op": ">=", "of": "figures"}
+                if base is not None:
+                    baselines[name] = base[what]
+    result["baseline_figures"] = "rate-threshold detector (b) learnt from the small-context clips, same run"
+    harness.emit("ssa_detection", args, figures=figures, baselines=baselines, targets=targets, details=result)
 
 
 if __name__ == "__main__":

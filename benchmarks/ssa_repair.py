@@ -46,10 +46,6 @@ that jump by more than 90 degrees in one frame of the clean take.
 
 from __future__ import annotations
 
-import argparse
-import json
-import os
-import platform
 import sys
 import time
 from pathlib import Path
@@ -58,6 +54,9 @@ import numpy as np
 
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO / "src"))
+sys.path.insert(0, str(REPO / "benchmarks"))
+
+import _harness as harness  # noqa: E402
 
 import mocapkit  # noqa: E402
 from mocapkit import corrupt, metrics  # noqa: E402
@@ -136,11 +135,10 @@ def per_kind(clean, out, mask, records) -> dict:
 
 
 def main(argv=None) -> None:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap = harness.parser(__doc__)
     ap.add_argument("--seeds", type=int, default=5)
     ap.add_argument("--errors", type=int, default=4, help="errors injected per clip and seed")
     ap.add_argument("--quick", action="store_true", help="three clips, one seed")
-    ap.add_argument("--json", action="store_true")
     args = ap.parse_args(argv)
     seeds = 1 if args.quick else args.seeds
     t_start = time.perf_counter()
@@ -201,7 +199,6 @@ def main(argv=None) -> None:
     by_clip = {c: {m: [round(float(x), 4) for x in np.mean(v, axis=0)] for m, v in d.items()} for c, d in by_clip.items()}
     beats = {c: bool(all(table["ssa"][c] < table[f][c] for f in ("gaussian", "savgol"))) for c in COLUMNS}
     result = {
-        "benchmark": "ssa_repair",
         "clips": sorted({r["clip"] for r in runs}),
         "seeds": seeds,
         "errors_per_clip": args.errors,
@@ -220,7 +217,6 @@ def main(argv=None) -> None:
         "paper_note": "paper's clips, errors and log convention differ; compare orderings, not values",
         "seconds_per_clip_second": {m: round(seconds[m] / total_duration, 4) for m in METHODS},
         "seconds_total": round(time.perf_counter() - t_start, 1),
-        "machine": f"{platform.processor() or platform.machine()}, {os.cpu_count()} cores",
         "runs_detail": runs,
     }
     if not args.json:
@@ -236,7 +232,13 @@ def main(argv=None) -> None:
             print(f"ratio {f}/ssa: " + ", ".join(f"{c} {v:.2f}" for c, v in r.items() if v is not None))
         print("per-joint error by kind: " + "; ".join(
             f"{m}: " + ", ".join(f"{k} {v:.3f}" for k, v in by_kind[m].items()) for m in METHODS))
-    print(json.dumps(result))
+    cols = list(COLUMNS) + ["global_excl_artifacts_avg", "global_excl_artifacts_max"]
+    harness.emit(
+        "ssa_repair", args,
+        figures={c: round(table["ssa"][c], 4) for c in cols},
+        baselines={c: round(min(table["gaussian"][c], table["savgol"][c]), 4) for c in cols},
+        details={**result, "baseline_figures": "the better of whole-clip gaussian_smooth and savgol_smooth, per column"},
+    )
 
 
 if __name__ == "__main__":

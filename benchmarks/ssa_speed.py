@@ -1,4 +1,4 @@
-"""Self-similarity analysis time on real clips against issue 4's targets, with the exhaustive search in the same run.
+"""Self-similarity analysis time on real clips against its targets, with the exhaustive search in the same run.
 
 Usage::
 
@@ -26,9 +26,6 @@ function), same inputs, same run; the neighbours must be identical.
 
 from __future__ import annotations
 
-import argparse
-import json
-import platform
 import sys
 import time
 from pathlib import Path
@@ -39,6 +36,7 @@ REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO / "src"))
 sys.path.insert(0, str(REPO / "benchmarks"))
 
+import _harness as harness  # noqa: E402
 import mocapkit  # noqa: E402
 from clean_takes import long_take  # noqa: E402  (the same held-out HDM05 mm take)
 from mocapkit.cleaning import ssa  # noqa: E402
@@ -96,8 +94,7 @@ CLIP_JOINTS: tuple = ()
 
 def main(argv=None) -> None:
     global CLIP_JOINTS
-    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--json", action="store_true")
+    ap = harness.parser(__doc__)
     ap.add_argument("--quick", action="store_true", help="10 s take, 300 s large context")
     args = ap.parse_args(argv)
     local_s, large_s = (10.0, 300.0) if args.quick else (20.0, 600.0)
@@ -136,17 +133,20 @@ def main(argv=None) -> None:
     for k in ("search_local", "search_small"):
         r = res[k]
         log(f"{k}: pruned {r['pruned_seconds']} s, exhaustive {r['exhaustive_seconds']} s ({r['speedup']}x), identical {r['identical_neighbours']}")
-    out = {"benchmark": "ssa_speed", "machine": f"{platform.machine()}, {__import__('os').cpu_count()} cores",
-           "targets": TARGETS, "results": res,
-           "baseline": "nearest_words exhaustive (the whole distance function) in the same run",
-           "ratio": res["search_local"]["speedup"],
-           "targets_met": {"local": res["local"]["seconds"] <= TARGETS["local_seconds"],
-                           "small": res["small"]["seconds_per_second"] <= TARGETS["small_seconds_per_second"],
-                           "large": res["large"]["seconds"] <= TARGETS["large_seconds"]}}
-    if not args.json:
-        print(json.dumps(out, indent=1))
-    print(json.dumps(out))
-
+    harness.emit(
+        "ssa_speed", args,
+        figures={"local_s": res["local"]["seconds"], "small_s_per_s": res["small"]["seconds_per_second"],
+                 "large_s": res["large"]["seconds"],
+                 "search_local_s": res["search_local"]["pruned_seconds"],
+                 "search_small_s": res["search_small"]["pruned_seconds"]},
+        baselines={"search_local_s": res["search_local"]["exhaustive_seconds"],
+                   "search_small_s": res["search_small"]["exhaustive_seconds"]},
+        targets={"local_s": {"value": TARGETS["local_seconds"], "op": "<=", "of": "figures"},
+                 "small_s_per_s": {"value": TARGETS["small_seconds_per_second"], "op": "<=", "of": "figures"},
+                 "large_s": {"value": TARGETS["large_seconds"], "op": "<=", "of": "figures"}},
+        details={"baseline": "nearest_words exhaustive (the whole distance function) in the same run",
+                 "results": res},
+    )
 
 if __name__ == "__main__":
     main()

@@ -19,8 +19,6 @@ from the same takes in the same run.
 
 from __future__ import annotations
 
-import argparse
-import json
 import sys
 import time
 from pathlib import Path
@@ -31,6 +29,7 @@ REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO / "src"))
 sys.path.insert(0, str(REPO / "benchmarks"))
 
+import _harness as harness  # noqa: E402
 import mocapkit  # noqa: E402
 from mocapkit.cleaning import baselines, ssa  # noqa: E402
 from ssa_detection import take_breaks  # noqa: E402
@@ -48,9 +47,8 @@ def takes(data: Path):
 
 
 def main(argv=None) -> None:
-    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap = harness.parser(__doc__)
     ap.add_argument("--data", type=Path, default=REPO.parent / "shared" / "data")
-    ap.add_argument("--json", action="store_true")
     args = ap.parse_args(argv)
     t0 = time.perf_counter()
     summary: dict = {}
@@ -85,10 +83,14 @@ def main(argv=None) -> None:
             for r in rows:
                 print(f"  {key:70s} {r['joint']:12s} {r['start']:5d}-{r['end']:5d} step {r['step_deg']:6.1f} deg "
                       f"({r['speed_deg_s']} deg/s) distal {r['distal_move_cm']:.1f} cm  {r['kind']}")
-    print(json.dumps({"benchmark": "ssa_take_scan", "summary": summary, "flagged_cells_by_kind": kinds,
-                      "baseline": "cells whose one-frame step is faster than 5,000 deg/s, same takes",
-                      "runs": runs, "seconds_total": round(time.perf_counter() - t0, 1)}))
-
+    harness.emit(
+        "ssa_take_scan", args,
+        figures={f"{k} flagged share": v["flagged_share"] for k, v in summary.items()},
+        baselines={f"{k} flagged share": v["fast_share"] for k, v in summary.items()},
+        details={"summary": summary, "flagged_cells_by_kind": kinds,
+                 "baseline": "share of cells whose one-frame step is faster than 5,000 deg/s, same takes",
+                 "runs": runs, "seconds_total": round(time.perf_counter() - t0, 1)},
+    )
 
 if __name__ == "__main__":
     main()

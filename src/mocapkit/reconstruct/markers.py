@@ -40,18 +40,17 @@ markers (hands, feet, head, root; Tables 3 and 4). For every frame ``t``:
    free (pinned by the root marker when there is one; otherwise a prior on
    its height above the ground, from the neighbours, joins in). The heading
    term is not in Chai & Hodgins: without it the weak prior lets the pelvis
-   turn about the vertical while the limbs compensate (20-50 degrees on the
-   bundled sneak without a root marker). Solved by
+   turn about the vertical while the limbs compensate, most of all without a
+   root marker. Solved by
    :func:`scipy.optimize.least_squares` (Levenberg-Marquardt) from the
    previous frame's pose projected into the new model, with a Jacobian by
    forward differences evaluated as one batched forward-kinematics call
    (numba, :func:`_fk_model_poses`).
 
 The defaults (``k=128`` neighbours, 99.99 % of the variance up to 60
-components, a weak prior 0.01) are what the held-out-actor benchmark
-preferred: neighbours from other performers rarely contain the exact pose,
-so a broad local model that the markers can pull on beats the tight
-10-20-component models (3-4 cm on the same clips).
+components, a weak prior 0.01) favour a broad local model: neighbours from
+other performers rarely contain the exact pose, so a model the markers can
+pull on beats a tight one of 10-20 components.
 
 Forward kinematics runs on the performer's skeleton (``skeleton``), so bone
 lengths are the performer's; the database's skeletons only give the features
@@ -64,7 +63,7 @@ Departures from the papers: Chai & Hodgins search neighbours of the previous
 synthesised poses in a precomputed graph, Krüger et al. (and this module)
 search the kd-tree directly; neither paper says how the unobserved heading
 enters the features -- here it is tracked and refined by eq. 4.3 as above.
-Weights were tuned on HDM05 (``benchmarks/reconstruct_markers.py``).
+The weights were chosen on a held-out HDM05 actor (``benchmarks/reconstruct_markers.py``).
 The local PCA uses ``eigh`` of the covariance: OpenBLAS's threaded SVD of
 such small matrices is slow on a busy machine (also consider
 ``OPENBLAS_NUM_THREADS=1``).

@@ -377,8 +377,9 @@ def motion_tensor(
     """Stack time-aligned clips of one motion class into the tensors of sec. 2.2.2.
 
     Each clip is resampled to ``fps``, aligned to the reference clip by
-    classic DTW on Krüger's F15 features (measured: Tautges' slope-limited steps give jerkier time maps here and a worse fit) (wrists, ankles, head in the root
-    frame, cm), the warping path is turned into a smooth monotone time map
+    classic DTW on Krüger's F15 features (wrists, ankles, head in the root
+    frame, cm; Tautges' slope-limited steps give jerkier time maps and a
+    worse fit here), the warping path is turned into a smooth monotone time map
     (mean clip frame per reference frame, Gaussian-smoothed) and the clip
     is sampled at the mapped times (slerp) on ``frames`` points of the
     reference's time axis. Roots are normalised (first frame at the origin,

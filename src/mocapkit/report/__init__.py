@@ -1,4 +1,4 @@
-"""Pictures a person looks at: channel plots now; the MDM heat map and HTML viewer later."""
+"""Pictures a person looks at: channel plots, the MDM heat map (PNG) and the self-contained HTML report."""
 
 from .plots import plot_channels, plot_mdm
 

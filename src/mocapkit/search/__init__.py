@@ -4,7 +4,7 @@
   (kd-tree by default, brute force and FAISS behind the same interface).
 * :mod:`mocapkit.search.dtw` — dynamic time warping: classic, subsequence
   (Müller 2007) and the step-size/weight variant of Tautges eq. 4.2; the
-  reference that the graphs are measured against.
+  exact reference the graphs are checked against.
 * :mod:`mocapkit.search.lng` — the lazy neighbourhood graph (Krüger sec. 4.1)
   and its online variant (Tautges sec. 3.4.3).
 * :mod:`mocapkit.search.fatgraph` — fat-graph base poses (Krüger sec. 5.3).

@@ -12,11 +12,11 @@ Noise-level input (not in the paper; ``noise_input=True``). Beside each
 channel the encoder can also read :func:`noise_level_feature`: the log of the
 channel's noise std estimated from its second differences over the previous
 32 frames, relative to the channel's training std. A Gaussian's best width
-depends on the noise level, and from the raw channels alone the network did
-not learn to tell 0.1 noise from 0.5 (it smoothed 0.1 noise 2x more than a
-15 ms Gaussian). The estimate is causal, so streaming stays exact. The shipped
-EBF does without it: better on noise that is even over a take, it was worse
-on noise that starts mid-take on a few joints (docs/models.md).
+depends on the noise level, which the raw channels alone do not tell the
+network well (light noise gets smoothed too much). The estimate is causal, so
+streaming stays exact. The shipped EBF does without it: a level measured over
+the past 0.27 s lags behind noise that starts mid-take on a few joints, which
+is what real takes have (docs/models.md gives the reasons).
 
 Look-ahead. The paper's B-LSTM sees "15 frames of lookback and 15 frames of
 lookahead" and "maintains persistent, hidden state to track the motion over
