@@ -33,26 +33,26 @@ $(VENV)/.installed-test: pyproject.toml $(VENV)/.installed
 install: $(VENV)/.installed
 install-test: $(VENV)/.installed-test
 
-demo: install
+demo: install  # demo_out/ is the demo's own folder: a rerun replaces what the last run wrote there (--overwrite)
 	@mkdir -p $(OUT)
 	@echo "== the main job: a real take with real-style capture errors, cleaned in one command, with a report"
-	$(VENV)/bin/mocapkit corrupt $(WALK) $(OUT)/12_walk_broken.npz --kind errors --seed 7
-	$(VENV)/bin/mocapkit clean $(OUT)/12_walk_broken.npz -o $(OUT)/12_walk_cleaned.bvh --reference $(WALK) --report $(OUT)/12_walk_report.html --png $(OUT)/12_walk_summary.png
+	$(VENV)/bin/mocapkit corrupt $(WALK) $(OUT)/12_walk_broken.npz --kind errors --seed 7 --overwrite
+	$(VENV)/bin/mocapkit clean $(OUT)/12_walk_broken.npz -o $(OUT)/12_walk_cleaned.bvh --reference $(WALK) --report $(OUT)/12_walk_report.html --png $(OUT)/12_walk_summary.png --overwrite
 	@echo "== the single tools"
 	$(VENV)/bin/mocapkit info $(SAMPLE)
-	$(VENV)/bin/mocapkit convert $(SAMPLE) $(OUT)/131_01_30fps.bvh --fps 30
-	$(VENV)/bin/mocapkit corrupt $(OUT)/131_01_30fps.bvh $(OUT)/131_01_noisy.bvh --kind noise --amount 0.5 --seed 7
-	$(VENV)/bin/mocapkit corrupt $(OUT)/131_01_30fps.bvh $(OUT)/131_01_errors.bvh --kind errors --seed 7
-	$(VENV)/bin/mocapkit plot $(OUT)/131_01_30fps.bvh $(OUT)/131_01_noisy.bvh --joint LeftKnee -o $(OUT)/131_01_LeftKnee.png
-	$(VENV)/bin/mocapkit plot $(OUT)/131_01_30fps.bvh $(OUT)/131_01_errors.bvh --joint LeftElbow -o $(OUT)/131_01_errors_LeftElbow.png
-	$(VENV)/bin/mocapkit corrupt $(WALK) $(OUT)/12_walk_noisy.npz --kind noise --amount 0.5 --seed 7
-	$(VENV)/bin/mocapkit denoise $(OUT)/12_walk_noisy.npz -o $(OUT)/12_walk_denoised.bvh --reference $(WALK)
-	$(VENV)/bin/mocapkit plot $(WALK) $(OUT)/12_walk_noisy.npz $(OUT)/12_walk_denoised.bvh --joint ltibia -o $(OUT)/12_walk_denoised_ltibia.png
-	$(VENV)/bin/mocapkit corrupt $(WALK) $(OUT)/12_walk_gaps.npz --kind gaps --seed 7
-	$(VENV)/bin/mocapkit fill $(OUT)/12_walk_gaps.npz -o $(OUT)/12_walk_filled.bvh --reference $(WALK)
+	$(VENV)/bin/mocapkit convert $(SAMPLE) $(OUT)/131_01_30fps.bvh --fps 30 --overwrite
+	$(VENV)/bin/mocapkit corrupt $(OUT)/131_01_30fps.bvh $(OUT)/131_01_noisy.bvh --kind noise --amount 0.5 --seed 7 --overwrite
+	$(VENV)/bin/mocapkit corrupt $(OUT)/131_01_30fps.bvh $(OUT)/131_01_errors.bvh --kind errors --seed 7 --overwrite
+	$(VENV)/bin/mocapkit plot $(OUT)/131_01_30fps.bvh $(OUT)/131_01_noisy.bvh --joint LeftKnee -o $(OUT)/131_01_LeftKnee.png --overwrite
+	$(VENV)/bin/mocapkit plot $(OUT)/131_01_30fps.bvh $(OUT)/131_01_errors.bvh --joint LeftElbow -o $(OUT)/131_01_errors_LeftElbow.png --overwrite
+	$(VENV)/bin/mocapkit corrupt $(WALK) $(OUT)/12_walk_noisy.npz --kind noise --amount 0.5 --seed 7 --overwrite
+	$(VENV)/bin/mocapkit denoise $(OUT)/12_walk_noisy.npz -o $(OUT)/12_walk_denoised.bvh --reference $(WALK) --overwrite
+	$(VENV)/bin/mocapkit plot $(WALK) $(OUT)/12_walk_noisy.npz $(OUT)/12_walk_denoised.bvh --joint ltibia -o $(OUT)/12_walk_denoised_ltibia.png --overwrite
+	$(VENV)/bin/mocapkit corrupt $(WALK) $(OUT)/12_walk_gaps.npz --kind gaps --seed 7 --overwrite
+	$(VENV)/bin/mocapkit fill $(OUT)/12_walk_gaps.npz -o $(OUT)/12_walk_filled.bvh --reference $(WALK) --overwrite
 	$(VENV)/bin/mocapkit db build $(OUT)/hdm_db $(DATA)/HDM_bk_sneak2StepsLStart_004_120.amc $(DATA)/HDM_bd_jogLeftCircle4StepsRstart_001_120.amc --fps 30 --mirror --overwrite
-	$(VENV)/bin/mocapkit reconstruct --db $(OUT)/hdm_db --markers $(SNEAK) -o $(OUT)/sneak_from_6_markers.bvh --reference $(SNEAK)
-	$(VENV)/bin/mocapkit reconstruct --db $(OUT)/hdm_db --accelerometers $(SNEAK) -o $(OUT)/sneak_from_4_accelerometers.bvh --reference $(SNEAK)
+	$(VENV)/bin/mocapkit reconstruct --db $(OUT)/hdm_db --markers $(SNEAK) -o $(OUT)/sneak_from_6_markers.bvh --reference $(SNEAK) --overwrite
+	$(VENV)/bin/mocapkit reconstruct --db $(OUT)/hdm_db --accelerometers $(SNEAK) -o $(OUT)/sneak_from_4_accelerometers.bvh --reference $(SNEAK) --overwrite
 	@echo "demo outputs written to $(OUT)/; open $(OUT)/12_walk_report.html in a browser"
 
 test: install-test
@@ -70,6 +70,7 @@ bench: install-test
 	$(PY) benchmarks/ssa_dtw.py --json
 	$(PY) benchmarks/ssa_repair.py --json
 	$(PY) benchmarks/ssa_speed.py --json
+	$(PY) benchmarks/ssa_take_scan.py --json
 	$(PY) benchmarks/deep_denoise.py --json
 	$(PY) benchmarks/deep_gapfill.py --json
 	$(PY) benchmarks/deep_speed.py --json
@@ -81,6 +82,7 @@ bench: install-test
 	$(PY) benchmarks/first_run.py --json
 	$(PY) benchmarks/fuzz_readers.py --json
 	$(PY) benchmarks/fuzz_commands.py --json
+	$(PY) benchmarks/report.py
 
 clean:
 	rm -rf $(OUT) .pytest_cache
