@@ -300,7 +300,7 @@ def spatial_noise(
     F, J, E = motion.num_frames, sk.num_joints, sk.num_end_sites
     scale = unit_scale_cm(sk) if scale_cm is None else float(scale_cm)
     grot, gpos = motion.global_transforms()
-    end_pos = motion._end_sites(grot, gpos)
+    end_pos = motion.end_sites_from(grot, gpos)
     sigma = np.full(J + E, std_cm / scale)
     for role in ("left_hand", "right_hand", "left_foot", "right_foot"):
         try:

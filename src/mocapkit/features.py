@@ -530,7 +530,7 @@ def _frames_of(motion: Motion, names: Sequence) -> tuple[np.ndarray, np.ndarray]
             poss.append(gpos[:, jn[n]])
         elif n in en:
             if ends is None:
-                ends = motion._end_sites(grot, gpos)
+                ends = motion.end_sites_from(grot, gpos)
             e = en[n]
             rots.append(grot[:, sk.end_site_parents[e]])
             poss.append(ends[:, e])

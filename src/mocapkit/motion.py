@@ -436,14 +436,16 @@ class Motion:
         grot, gpos = self.global_transforms()
         if not end_sites:
             return gpos
-        return np.concatenate([gpos, self._end_sites(grot, gpos)], axis=1)
+        return np.concatenate([gpos, self.end_sites_from(grot, gpos)], axis=1)
 
     def end_site_positions(self) -> np.ndarray:
         """Global end-site positions (F, E, 3), in ``skeleton.end_site_names`` order."""
         grot, gpos = self.global_transforms()
-        return self._end_sites(grot, gpos)
+        return self.end_sites_from(grot, gpos)
 
-    def _end_sites(self, grot: np.ndarray, gpos: np.ndarray) -> np.ndarray:
+    def end_sites_from(self, grot: np.ndarray, gpos: np.ndarray) -> np.ndarray:
+        """End-site positions (F, E, 3) from global rotations (F, J, 4) and positions (F, J, 3) already computed
+        (:meth:`global_transforms`), so callers that need both pay for forward kinematics once."""
         sk = self.skeleton
         p = sk.end_site_parents
         return gpos[:, p] + R.quaternion_rotate(grot[:, p], sk.end_site_offsets)

@@ -32,7 +32,7 @@ from ... import rotations as R
 from ...errors import SkeletonError
 from ...motion import Motion
 
-__all__ = ["ChannelLayout", "layout_for", "root_angular_velocity", "encode", "decode", "unwrap_degrees", "wrap_degrees"]
+__all__ = ["ChannelLayout", "layout_for", "euler_columns", "root_angular_velocity", "encode", "decode", "unwrap_degrees", "wrap_degrees"]
 
 REPRESENTATIONS = ("euler", "rot6d")
 
@@ -86,7 +86,7 @@ def layout_for(motion_or_skeleton, representation: str = "euler") -> ChannelLayo
     return ChannelLayout(tuple(names), tuple(joints), representation)
 
 
-def _euler_columns(motion_or_skeleton) -> np.ndarray:
+def euler_columns(motion_or_skeleton) -> np.ndarray:
     """Columns of the file channels that are non-root rotations (the Euler model channels)."""
     sk = getattr(motion_or_skeleton, "skeleton", motion_or_skeleton)
     cols, c = [], 0
@@ -179,7 +179,7 @@ def encode(motion: Motion, layout: ChannelLayout) -> tuple[np.ndarray, np.ndarra
     layout.check(motion)
     ctx = root_angular_velocity(motion.rotations[:, 0], motion.fps)
     if layout.representation == "euler":
-        vals = motion.channel_values()[:, _euler_columns(motion)]
+        vals = motion.channel_values()[:, euler_columns(motion)]
         return unwrap_degrees(vals), ctx
     ids = np.array([motion.skeleton.index(n) for n in layout.joints], dtype=np.int64)
     m = R.quaternion_to_matrix(_local_dof_rotations(motion, ids))  # (F, n, 3, 3)
@@ -213,7 +213,7 @@ def decode(values: np.ndarray, like: Motion, layout: ChannelLayout, keep: np.nda
     sk = like.skeleton
     if layout.representation == "euler":
         full = like.channel_values()
-        cols = _euler_columns(like)
+        cols = euler_columns(like)
         full[:, cols] = (values + 180.0) % 360.0 - 180.0
         # Root channels may be NaN where the root is missing; from_channel_values needs numbers there.
         new = Motion.from_channel_values(

@@ -30,7 +30,7 @@ from ...motion import Motion, Skeleton
 from .channels import (
     UNWRAP_ALPHA,
     ChannelLayout,
-    _euler_columns,
+    euler_columns,
     decode,
     encode,
     root_angular_velocity,
@@ -469,7 +469,7 @@ class Denoiser:
         self.net: EBF = m.net
         self.skeleton = skeleton
         self.fps = float(fps)
-        self._cols = _euler_columns(skeleton)
+        self._cols = euler_columns(skeleton)
         self._root = _root_rotation_columns(skeleton)
         self._n_file = sum(len(skeleton.joint_channels(j)) for j in range(skeleton.num_joints))
         L1, L2 = self.net.lstm1.lookahead, self.net.lstm2.lookahead
@@ -690,7 +690,7 @@ def denoise_rows(skeleton: Skeleton, rows: np.ndarray, fps: float, model=None) -
     m = _model(model, "ebf")
     m.layout.check(skeleton, "skeleton")
     rows = np.asarray(rows, dtype=np.float64)
-    cols = _euler_columns(skeleton)
+    cols = euler_columns(skeleton)
     x = unwrap_degrees(rows[:, cols])
     q = _root_quaternion(skeleton, rows, _root_rotation_columns(skeleton))
     out = denoise_channels(x, root_angular_velocity(q, fps), m, fps=fps)
