@@ -229,3 +229,15 @@ def test_logical_search_iterates_past_a_zero_cost_self_match(small_db):
     bound = 2.0 * max(r.cost / 30 for r in numeric)
     extra = [r for r in logical if not any(r.match.overlaps(n.match) for n in numeric)]
     assert extra and all(r.cost / (r.match.path[-1, 0] + 1) <= bound + 1e-9 for r in extra)
+
+
+def test_values_beyond_float32_are_refused_not_stored_as_infinity():
+    """The database stores float32: a finite root position of 1e39 file units would become inf."""
+    m = mocapkit.load(samples.path("131_01.bvh"))[:40]
+    root = np.array(m.root_positions)
+    root[:, 1] = 1e39
+    huge = dataclasses.replace(m, root_positions=root)
+    with pytest.raises(MocapFormatError, match="root positions beyond"):
+        MotionDatabase.build([huge], fps=30, executor="serial", progress=False)
+    db = MotionDatabase.build([m], fps=30, executor="serial", progress=False)  # the same clip, in range, builds
+    assert np.isfinite(db.root_positions).all()

@@ -180,7 +180,7 @@ def _prepare(item, fps: float, features: tuple[str, ...], mirror: bool, ref_skel
             feats = {n: feature_set(mm, n, scale_cm=True).values for n in features}
         except MocapError as exc:
             raise MocapFormatError(source, f"cannot compute features: {exc}") from None
-        tr = None if mm.translations is None else mm.translations.astype(np.float32)
+        tr = None if mm.translations is None else _float32(mm.translations, "joint translations", source)
         out.append(
             {
                 "name": m.name + (" (mirrored)" if mirrored else ""),
@@ -188,11 +188,22 @@ def _prepare(item, fps: float, features: tuple[str, ...], mirror: bool, ref_skel
                 "mirrored": mirrored,
                 "skeleton": mm.skeleton,
                 "rotations": mm.rotations.astype(np.float32),
-                "root_positions": mm.root_positions.astype(np.float32),
+                "root_positions": _float32(mm.root_positions, "root positions", source),
                 "translations": tr,
                 "features": feats,
             }
         )
+    return out
+
+
+def _float32(values: np.ndarray, what: str, source) -> np.ndarray:
+    """``values`` as float32, the database's storage type; a finite value beyond float32's range is refused
+    (it would be stored as infinity) with one line naming the clip."""
+    with np.errstate(over="ignore"):
+        out = values.astype(np.float32)
+    if np.isinf(out).any() and not np.isinf(values[np.isinf(out)]).all():
+        raise MocapFormatError(source, f"{what} beyond {float(np.finfo(np.float32).max):.3g} file units: "
+                                       "not a motion a database can hold")
     return out
 
 
