@@ -410,7 +410,7 @@ def main(argv=None):
             kb = f"{kind}/baseline_c"
             if k in summary and kb in summary and summary[kb]["recall"] > 0:
                 result.setdefault("recall_ratio_vs_baseline_c", {})[k] = round(summary[k]["recall"] / summary[kb]["recall"], 3)
-    figures, baselines, targets = {}, {}, {}
+    figures, base_figures, targets = {}, {}, {}
     for kind in TARGETS:
         r_target, p_target = TARGETS[kind]
         base = summary.get(f"{kind}/baseline_b")
@@ -423,9 +423,9 @@ def main(argv=None):
                 figures[name] = value
                 targets[name] = {"value": target, "op": ">=", "of": "figures"}
                 if base is not None:
-                    baselines[name] = base[what]
+                    base_figures[name] = base[what]
     result["baseline_figures"] = "rate-threshold detector (b) learnt from the small-context clips, same run"
-    harness.emit("ssa_detection", args, figures=figures, baselines=baselines, targets=targets, details=result)
+    harness.emit("ssa_detection", args, figures=figures, baselines=base_figures, targets=targets, details=result)
 
 
 if __name__ == "__main__":
