@@ -18,11 +18,8 @@ whatever order the steps are named in:
    A word whose nearest neighbour differs from it by more than 8 degrees
    (RMS over the group's joints, ``max_word_angle_deg``) is not judged: the
    context holds nothing like it, and a repair from unlike motion does more
-   harm than the error. On held-out takes with no context (single
-   repetitions of a throw, a fall to the floor) judging every word flagged
-   and "repaired" whole limbs by up to 100 degrees; with the limit the
-   benchmark's error in centimetres fell from 6.9 to 5.0 and the share of
-   untouched clean cells rose from 95.6 to 99.0 % (benchmarks/clean_takes.py).
+   harm than the error: on a take with no context (a single throw, a fall
+   to the floor) judging every word would "repair" whole limbs.
 3. **repair** — only the flagged cells (:func:`mocapkit.cleaning.ssa.repair`).
    Foot-skate cleanup is off by default (``foot_skate=False``): it would also
    move the hip and knee of a leg whose foot is planted, cells nobody flagged.

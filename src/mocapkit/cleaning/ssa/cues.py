@@ -186,9 +186,8 @@ def _usual_residual(resid: np.ndarray) -> np.ndarray:
     fast motion breaks too (a dancer's toes push off by 25 deg in one frame
     and come back), and a break must stand out from the joint's own motion.
     Used by :func:`transient_offsets` only: on a joint under heavy noise it
-    rises past a flip's 90 deg residuals (``clean_takes``' neck: 134-214
-    deg), and there confirmation by the digression still finds the error
-    from the plain breaks.
+    can rise past a flip's 90 deg residuals, and there confirmation by the
+    digression still finds the error from the plain breaks.
     """
     F = resid.shape[0]
     return 3.0 * np.percentile(resid, min(95.0, 100.0 * (1.0 - 8.0 / F)), axis=0)
@@ -253,9 +252,7 @@ def confirm_flags(
     to its first and last break, within ``margin_s``: an error starts and
     ends with a break, and beyond them the digression comes from the
     neighbour words the error itself led astray (a word spans 0.6 s), not
-    from more error; repairing there replaced clean frames (a 60 deg knee
-    error of 0.25 s on a walk flagged 1.7 s and the repair put clean frames
-    68 deg off). A run with one break (a drift that grows smoothly and ends
+    from more error, and repairing there would replace clean frames. A run with one break (a drift that grows smoothly and ends
     in a step) is kept whole. ``mdm`` float (F, J) in [0, 1]; ``jumps``
     bool (F, J).
     """
