@@ -9,7 +9,8 @@ keeps the machine code on disk (beside the package's sources, or in
 
 which cleans the bundled CMU walk (``12_walk.amc``) with gaps, capture errors
 and noise, so that every step (the EBD gap filler, self-similarity detection
-and repair, the EBF denoiser) runs and compiles what it needs, then writes
+and repair, the EBF denoiser) runs and compiles what it needs (the serial and
+the parallel twin of each self-similarity kernel), then writes
 and reads the result as BVH and npz. It writes nothing but numba's cache (the
 files go to a temporary folder that is removed).
 """
@@ -46,15 +47,22 @@ def warm_up() -> dict:
     Returns a dict ``{"seconds": float, "steps": {step name: cells it changed}}``;
     fill, repair and denoise all change cells (repair only those detect
     flagged), so every step ran its kernels.
-    Short takes (under about 2.7 s) call a serial twin of the pose-distance
-    kernel, hence the second, short run.
+    The self-similarity kernels are compiled twice, serial and parallel
+    (:mod:`mocapkit.cleaning.ssa.twins`), and a call takes one or the other by
+    problem size: the bundled take alone would compile only the serial twins,
+    so detect and repair run a second time with every twin forced parallel
+    (what a long take uses), and a third time on a short piece (its shorter
+    word lists compile nothing new but check the small sizes run).
     """
     from . import load, save
     from .cleaning.pipeline import clean
+    from .cleaning.ssa.twins import forced
 
     t = time.perf_counter()
     take = _broken_walk()
     result = clean(take)
+    with forced("parallel"):
+        clean(take, steps="fill,detect,repair")
     clean(take[: int(2 * take.fps)], steps="fill,detect,repair")
     with tempfile.TemporaryDirectory() as tmp:
         for suffix in (".bvh", ".npz"):

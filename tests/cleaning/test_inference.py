@@ -55,3 +55,22 @@ def test_inference_restores_the_thread_count(noisy):
     assert 1 <= inference.inference_threads() <= before
     deep.denoise(noisy[:100], deep.shipped_model("ebf"))
     assert torch.get_num_threads() == before
+
+
+def test_threads_for_load_counts_the_caller():
+    # the caller's own share of the load average leaves every core to it on a quiet machine
+    assert inference.threads_for_load(0.0, 2, 2) == 2
+    assert inference.threads_for_load(1.1, 2, 2) == 2
+    assert inference.threads_for_load(1.6, 2, 2) == 1  # one other busy process
+    assert inference.threads_for_load(8.0, 2, 2) == 1  # a loaded machine: one thread, never fewer
+    assert inference.threads_for_load(0.2, 16, 4) == 4  # never more than torch's own count
+    assert inference.threads_for_load(3.0, 8, 8) == 6
+
+
+def test_inference_is_the_same_in_one_and_two_threads(noisy):
+    ebf = deep.shipped_model("ebf")
+    with inference.torch_threads(1):
+        one = deep.denoise(noisy[:200], ebf)
+    with inference.torch_threads(2):
+        two = deep.denoise(noisy[:200], ebf)
+    assert np.array_equal(one.rotations, two.rotations, equal_nan=True)

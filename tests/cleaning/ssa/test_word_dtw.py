@@ -7,6 +7,7 @@ from hypothesis import strategies as st
 
 from mocapkit import rotations as R
 from mocapkit.cleaning.ssa import word_dtw as W
+from mocapkit.cleaning.ssa.twins import PARALLEL_SUFFIX, Twins, forced
 from tests.naive import group_pose_distance_naive, naive_local_minima_knn, word_dtw_enumerate
 
 
@@ -168,3 +169,117 @@ def test_shift_tolerant_angles_equal_the_numpy_reading(rng):
         want[np.isinf(want)] = np.nan
         np.testing.assert_allclose(got, want, atol=1e-12)
     assert np.isnan(W.shift_tolerant_angles(inp, ref, 0)[6, 1]) and np.isfinite(W.shift_tolerant_angles(inp, ref, 2)[6, 1])
+
+
+# -- serial and parallel twins (mocapkit.cleaning.ssa.twins) ----------------------
+
+
+def _both(fn, *args, **kw):
+    """fn's result with every twin forced serial, and forced parallel."""
+    with forced("serial"):
+        s = fn(*args, **kw)
+    with forced("parallel"):
+        p = fn(*args, **kw)
+    return s, p
+
+
+def _assert_same(s, p):
+    s, p = (s, p) if isinstance(s, tuple) else ((s,), (p,))
+    for x, y in zip(s, p, strict=True):
+        assert x.dtype == y.dtype and np.array_equal(x, y, equal_nan=True)
+
+
+def test_every_prange_kernel_has_twins():
+    kernels = {name for name, v in vars(W).items() if isinstance(v, Twins)}
+    assert kernels == {"_group_pose_distances", "_profile", "_row_minima", "_knn_profile", "_pairs", "_warp",
+                       "_robust_means", "_shift_angles"}
+    for name in kernels:
+        t = getattr(W, name)
+        assert t.parallel.targetoptions.get("parallel") and not t.serial.targetoptions.get("parallel")
+        assert t.parallel.py_func.__qualname__ == t.serial.py_func.__qualname__ + PARALLEL_SUFFIX  # own cache files
+        assert t.pick(0) is t.serial and t.pick(t.threshold - 1) is t.serial and t.pick(t.threshold) is t.parallel
+
+
+def test_twins_equal_each_other_and_the_oracles(rng):
+    A, B = _random_quats(rng, (40, 7)), _random_quats(rng, (50, 7))
+    A[3, 2] = np.nan
+    groups = np.array([[True] * 7, [True, True, False, True, False, True, True]])
+    s, p = _both(W.group_pose_distances, A, B, groups, [3, 1])
+    _assert_same(s, p)
+    for g, dr in ((0, 3), (1, 1)):
+        members = np.flatnonzero(groups[g])
+        for a in (0, 3, 17):
+            for b in (0, 9, 49):
+                want = np.inf if a == 3 and 2 in members else group_pose_distance_naive(A[a], B[b], members, dr)
+                assert s[g, a, b] == pytest.approx(want, rel=1e-5, abs=1e-6)
+    D = s[0]
+    src, tgt = np.array([0, 5, 25]), np.arange(0, 31, 3)
+    prof = _both(W.word_distance_profile, D, src, tgt)
+    _assert_same(*prof)
+    d, i, j = W.word_dtw(D[5:20, 9:29].astype(np.float64))  # itself checked against word_dtw_enumerate above
+    assert prof[0][0][1, 3] == pytest.approx(d, rel=1e-6) and (prof[0][1][1, 3], prof[0][2][1, 3]) == (i, j)
+    ps, pt = np.repeat(src, len(tgt)), np.tile(tgt, len(src))
+    _assert_same(*_both(W.word_distance_pairs, A, B, groups[1], 1, ps, pt))
+    _assert_same(*_both(W.warp_target_words, A, B, np.arange(7), 3, ps, pt))
+    T = _walk_texture(160, 1)
+    DT = W.group_pose_distances(T, T, np.ones((1, 6), dtype=bool), [1])[0]
+    src, tgt = np.arange(0, 145, 5), np.arange(0, 141)
+    knn = _both(W.word_knn_profile, DT, src, tgt, 5, src, 7, return_evaluated=True)
+    _assert_same(*knn)
+    want = naive_local_minima_knn(W.word_distance_profile(DT, src, tgt)[0], tgt, 5, src, 7)
+    assert [[t for t in row if t >= 0] for row in knn[0][0].tolist()] == [[t for _, t in row] for row in want]
+    _assert_same(*_both(W.word_dtw_lower_bounds, DT, src, tgt))
+    words = _random_quats(rng, (6, 4, 15, 5))
+    valid = rng.random((6, 4)) < 0.7
+    _assert_same(*_both(W.robust_word_means, words, valid, 0.1))
+    inp, ref = _random_quats(rng, (30, 4)), _random_quats(rng, (30, 4))
+    ref[5:8, 1] = np.nan
+    _assert_same(*_both(W.shift_tolerant_angles, inp, ref, 2))
+
+
+_TWIN_MODULE = '''
+import numpy as np
+from numba import prange
+from mocapkit.cleaning.ssa.twins import twin_kernels
+
+@twin_kernels(100)
+def square(x, out):
+    for i in prange(x.shape[0]):
+        out[i] = x[i] * x[i]
+'''
+
+_TWIN_RUN = '''
+import sys, numpy as np
+sys.path.insert(0, {folder!r})
+import twinmod
+x = np.arange(200.0)
+for side in {sides!r}:
+    t = getattr(twinmod.square, side)
+    out = np.empty(200)
+    t(x, out)
+    assert np.array_equal(out, x * x)
+    st = t.stats
+    print(side, len(st.cache_hits), len(st.cache_misses))
+'''
+
+
+def test_twins_keep_their_own_cache_entries(tmp_path):
+    """Compiled serial only, then parallel in a fresh process: the parallel twin compiles (it does not load the
+    serial machine code); a third process loads both from the cache."""
+    import os
+    import subprocess
+    import sys
+
+    (tmp_path / "twinmod.py").write_text(_TWIN_MODULE)
+    env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path / "cache")}
+
+    def run(*sides):
+        code = _TWIN_RUN.format(folder=str(tmp_path), sides=sides)
+        out = subprocess.run([sys.executable, "-c", code], env=env, check=True, capture_output=True, text=True)
+        return {line.split()[0]: tuple(line.split()[1:3]) for line in out.stdout.splitlines()}
+
+    assert run("serial") == {"serial": ("0", "1")}  # compiled, saved
+    assert run("parallel") == {"parallel": ("0", "1")}  # not the serial entry: compiled, saved
+    assert run("serial", "parallel") == {"serial": ("1", "0"), "parallel": ("1", "0")}  # each loads its own
+    names = sorted(p.name.split("-")[0] for p in (tmp_path / "cache").rglob("*.nbi"))
+    assert names == ["twinmod.square", "twinmod.square" + PARALLEL_SUFFIX]

@@ -174,24 +174,34 @@ def _pad(x: np.ndarray, ctx: np.ndarray, half: int = HALF_WINDOW):
     return xp, cp
 
 
+def threads_for_load(load: float, cores: int, most: int) -> int:
+    """Torch threads to use when the 1-minute load average is ``load`` on ``cores`` usable cores, at most ``most``.
+
+    The load average counts the calling process itself (it is running while
+    it asks), so one unit of it is ours: the threads are the cores less the
+    load the *other* processes make, ``cores - max(0, round(load) - 1)``,
+    within ``[1, most]``. A quiet machine gets every core; one whose other
+    processes keep all cores busy gets a single thread, since a torch thread
+    that has to wait for a busy core spins and slows the whole recurrence.
+    """
+    others = max(0, round(load) - 1)
+    return int(max(1, min(most, cores - others)))
+
+
 def inference_threads() -> int:
-    """Torch threads for offline inference: the cores other processes leave idle, at least 1.
+    """Torch threads for offline inference: the cores other processes leave idle, at least 1 (:func:`threads_for_load`).
 
     Offline inference here is two LSTM recurrences over the take (sequential
-    in time, on 126-wide states) and small per-frame layers. On idle cores
-    threads help a little; on cores busy with other processes a torch thread
-    spins waiting for one (the EBF on a 60 s take at 120 fps took 5.4-8.9 s
-    in two threads against 0.6-0.8 s in one on a shared 2-core machine at a
-    load of 8). So: the usable cores less the 1-minute load average, within
-    [1, torch's own thread count]. The results are the same in any thread count.
+    in time, on 126-wide states) and small per-frame layers: threads help on
+    idle cores and hurt on busy ones. The results are the same in any thread count.
     """
     n = torch.get_num_threads()
     try:
-        busy = os.getloadavg()[0]
+        load = os.getloadavg()[0]
     except (OSError, AttributeError):  # no load average on this platform
         return n
     cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
-    return int(max(1, min(n, cores - round(busy))))
+    return threads_for_load(load, cores, n)
 
 
 @contextmanager

@@ -38,6 +38,8 @@ import math
 import numpy as np
 from numba import njit, prange
 
+from .twins import twin_kernels
+
 __all__ = [
     "group_pose_distances",
     "word_dtw",
@@ -55,6 +57,22 @@ __all__ = [
 
 NUM_STATES = 7  # 0: diagonal (or start); 1..3: 1-3 horizontal steps in a row; 4..6: 1-3 vertical steps in a row
 _INF = np.inf
+
+# Problem sizes from which each kernel runs its parallel twin (see mocapkit.cleaning.ssa.twins), in the
+# unit its caller passes to pick(). Each is set near 3-10 ms of serial work, measured on a 2-core machine:
+# below that, starting the threads (0.1-0.5 ms on idle cores, ~10 ms when the cores are busy with
+# other processes) eats the gain. On the bundled 3 s walk every call stays serial (the largest:
+# 69 x 69 pose-distance cells, 600 knn DTW positions, 23 warps), so a cold first clean compiles only
+# the serial twins; on a 60 s take the heavy calls (840 x 840 cells, ~135,000 knn positions,
+# 70-900 warps) run in parallel.
+_PARALLEL_CELLS = 16384  # Fa * Fb pose-distance cells, ~0.5 us each
+_PARALLEL_DTWS = 2048  # W * T word DTWs, ~3 us each
+_PARALLEL_ROW_MINIMA = 262144  # source rows * target starts, ~15 ns each
+_PARALLEL_KNN = 8192  # W * T target positions bounded (a share of them DTW'd), ~1 us each
+_PARALLEL_PAIRS = 256  # pairs, pose costs and DTW, ~20 us each
+_PARALLEL_WARPS = 64  # pairs, pose costs, DTW, trace and warp, ~50 us each
+_PARALLEL_MEAN_CELLS = 65536  # W * K * N * m neighbour cells, ~50 ns each
+_PARALLEL_SHIFT_CELLS = 65536  # F * m cells, ~30 ns each
 
 
 @njit(cache=True, inline="always")
@@ -98,7 +116,8 @@ def _robust_sum(terms, members, drop) -> float:
     return s
 
 
-def _group_pose_distances_py(A, B, members, offsets, drop):
+@twin_kernels(_PARALLEL_CELLS)
+def _group_pose_distances(A, B, members, offsets, drop):
     Fa, Fb = A.shape[0], B.shape[0]
     m = A.shape[1]
     G = drop.shape[0]
@@ -125,11 +144,6 @@ def _group_pose_distances_py(A, B, members, offsets, drop):
     return out
 
 
-# Two compilations of one kernel: threads pay off on long clips, but a word against a word (15 x 20
-# frames, called once per neighbour in mean_motion_texture) spends ~2 ms starting them for ~20 us of work.
-_group_pose_distances = njit(cache=True)(_group_pose_distances_py)
-_group_pose_distances_serial = njit(cache=True)(_group_pose_distances_py)
-_SERIAL_CELLS = 4096
 
 
 def _pack_groups(groups):
@@ -159,8 +173,7 @@ def group_pose_distances(A: np.ndarray, B: np.ndarray, groups: np.ndarray, drop)
     if len(drop) != len(groups) or np.any((drop < 0) | (drop > 3)):
         raise ValueError("drop must give 0..3 for every group")
     members, offsets = _pack_groups(groups)
-    kernel = _group_pose_distances_serial if A.shape[0] * B.shape[0] <= _SERIAL_CELLS else _group_pose_distances
-    return kernel(A, B, members, offsets, drop)
+    return _group_pose_distances.pick(A.shape[0] * B.shape[0])(A, B, members, offsets, drop)
 
 
 # -- constrained DTW ---------------------------------------------------------
@@ -336,7 +349,7 @@ def word_dtw_path(cost: np.ndarray, min_width: int = 11, max_run: int = 3):
     return float(d), _trace(acc, back, i, j)
 
 
-@njit(cache=True)
+@twin_kernels(_PARALLEL_DTWS)
 def _profile(D, src, tgt, N, M, min_width, max_run, dist, iend, jend):
     W = src.shape[0]
     T = tgt.shape[0]
@@ -369,7 +382,7 @@ def word_distance_profile(D, src_starts, tgt_starts, N=15, M=20, min_width=11, m
     iend = np.empty((len(src), len(tgt)), dtype=np.int16)
     jend = np.empty((len(src), len(tgt)), dtype=np.int16)
     if len(src) and len(tgt):
-        _profile(D, src, tgt, N, M, int(min_width), int(max_run), dist, iend, jend)
+        _profile.pick(len(src) * len(tgt))(D, src, tgt, N, M, int(min_width), int(max_run), dist, iend, jend)
     return dist, iend, jend
 
 
@@ -399,7 +412,7 @@ def _row_windows(N, M, max_run):
     return lens, level
 
 
-@njit(cache=True)
+@twin_kernels(_PARALLEL_ROW_MINIMA)
 def _row_minima(D, tgt, lens, out):
     """out[l, r, t] = min(D[r, tgt[t] : tgt[t] + lens[l]]), the lens increasing."""
     R = D.shape[0]
@@ -498,7 +511,7 @@ def _kth_confirmed(d, evaluated, lb, consec, ev, ne, k, vals, tgt, lo, hi):
     return vals[k - 1] if n == k else _INF
 
 
-@njit(cache=True)
+@twin_kernels(_PARALLEL_KNN)
 def _knn_profile(D, rowmin, level, src, tgt, consec, excl_lo, excl_hi, N, M, min_width, max_run, k, batch,
                  out_idx, out_dist, out_iend, out_jend, out_evaluated):
     W = src.shape[0]
@@ -591,7 +604,7 @@ def word_dtw_lower_bounds(D, src_starts, tgt_starts, N=15, M=20, min_width=11, m
     _check_starts(D, src, tgt, N, M)
     lens, level = _row_windows(N, M, max_run)
     rowmin = np.empty((len(lens), D.shape[0], len(tgt)), dtype=np.float32)
-    _row_minima(D, tgt, lens, rowmin)
+    _row_minima.pick(D.shape[0] * len(tgt))(D, tgt, lens, rowmin)
     buf = np.empty(N)
     out = np.empty((len(src), len(tgt)))
     for w in range(len(src)):
@@ -644,8 +657,8 @@ def word_knn_profile(D, src_starts, tgt_starts, k=5, exclude_center=None, exclud
         consec[1:] = tgt[1:] == tgt[:-1] + 1
         lens, level = _row_windows(N, M, max_run)
         rowmin = np.empty((len(lens), D.shape[0], T), dtype=np.float32)
-        _row_minima(D, tgt, lens, rowmin)
-        _knn_profile(D, rowmin, level, src, tgt, consec, lo, hi, N, M, int(min_width), int(max_run), int(k), 16,
+        _row_minima.pick(D.shape[0] * len(tgt))(D, tgt, lens, rowmin)
+        _knn_profile.pick(W * T)(D, rowmin, level, src, tgt, consec, lo, hi, N, M, int(min_width), int(max_run), int(k), 16,
                      idx, dist, iend, jend, evaluated)
     out = (idx, dist.astype(np.float32), iend.astype(np.int16), jend.astype(np.int16))
     return out + (evaluated,) if return_evaluated else out
@@ -674,7 +687,7 @@ def _cost_block(A, B, members, drop, s0, t0, terms, C, as_float32):
                 C[i, j] = _robust_sum(terms, members, drop)
 
 
-@njit(cache=True)
+@twin_kernels(_PARALLEL_PAIRS)
 def _pairs(A, B, members, drop, src, tgt, N, M, min_width, max_run, dist, iend, jend):
     P = src.shape[0]
     for p in prange(P):
@@ -710,11 +723,11 @@ def word_distance_pairs(A, B, group, drop, src_starts, tgt_starts, N=15, M=20, m
     iend = np.empty(len(src), dtype=np.int16)
     jend = np.empty(len(src), dtype=np.int16)
     if len(src):
-        _pairs(A, B, members, int(drop), src, tgt, N, M, int(min_width), int(max_run), dist, iend, jend)
+        _pairs.pick(len(src))(A, B, members, int(drop), src, tgt, N, M, int(min_width), int(max_run), dist, iend, jend)
     return dist, iend, jend
 
 
-@njit(cache=True)
+@twin_kernels(_PARALLEL_WARPS)
 def _warp(S, T, members, rows, drop, src, tgt, N, M, min_width, max_run, out, iend):
     P = src.shape[0]
     R = rows.shape[0]
@@ -779,7 +792,7 @@ def warp_target_words(S, T, members, drop, src_starts, tgt_starts, N=15, M=20, m
     out = np.full((len(src), N, len(rows), 4), np.nan)
     iend = np.full(len(src), -1, dtype=np.int64)
     if len(src):
-        _warp(S, T, members, rows, int(drop), src, tgt, int(N), int(M), int(min_width), int(max_run), out, iend)
+        _warp.pick(len(src))(S, T, members, rows, int(drop), src, tgt, int(N), int(M), int(min_width), int(max_run), out, iend)
     return out, iend
 
 
@@ -793,7 +806,7 @@ def _angle(a, b):
     return 2.0 * math.atan2(math.sqrt(x * x + y * y + z * z), abs(w))
 
 
-@njit(cache=True)
+@twin_kernels(_PARALLEL_MEAN_CELLS)
 def _robust_means(words, valid, slack, mean, spread):
     W, K, N, m = words.shape[:4]
     for w in prange(W):
@@ -885,11 +898,11 @@ def robust_word_means(words, valid, slack):
     mean = np.full((W, N, m, 4), np.nan)
     spread = np.full((W, N, m), np.nan)
     if W:
-        _robust_means(words, valid, float(slack), mean, spread)
+        _robust_means.pick(W * K * N * m)(words, valid, float(slack), mean, spread)
     return mean, spread
 
 
-@njit(cache=True)
+@twin_kernels(_PARALLEL_SHIFT_CELLS)
 def _shift_angles(inp, ref, shift, out):
     F, m = inp.shape[:2]
     for f in prange(F):
@@ -918,7 +931,7 @@ def shift_tolerant_angles(inp, ref, shift):
         raise ValueError(f"inp and ref must both be (F, m, 4), got {inp.shape} and {ref.shape}")
     out = np.empty(inp.shape[:2])
     if inp.shape[0]:
-        _shift_angles(inp, ref, int(shift), out)
+        _shift_angles.pick(inp.shape[0] * inp.shape[1])(inp, ref, int(shift), out)
     return out
 
 

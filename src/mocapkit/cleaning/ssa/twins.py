@@ -1,0 +1,92 @@
+"""Serial and parallel twins of a numba kernel: two compilations of one Python body, chosen by problem size.
+
+A kernel whose outer loop is a ``prange`` can be compiled with
+``parallel=True`` (the loop split over numba's threads) or without (``prange``
+is then ``range``). The parallel build pays on long takes but costs about
+twice the compile time and a thread start per call, which small problems (a
+few seconds of motion, a word against a word) never earn back; so each kernel
+is compiled both ways and :meth:`Twins.pick` takes the serial twin below a
+size threshold and the parallel one from it on. A cold first run on a short
+take then compiles only the serial twins.
+
+numba's on-disk cache names its index files after the function's
+``__qualname__`` and first line, and keys entries by signature and bytecode,
+not by the ``parallel`` flag: two dispatchers of one function object would
+load each other's machine code. The parallel twin is therefore a copy of the
+function (same code, globals, defaults and closure) whose ``__qualname__``
+ends in ``__parallel``.
+
+:func:`forced` makes every twin take one side inside a block, whatever the
+size: :mod:`mocapkit.warmup` uses it to compile the parallel twins on a short
+take, and the tests to compare the two.
+"""
+
+from __future__ import annotations
+
+import types
+from contextlib import contextmanager
+
+from numba import njit
+
+__all__ = ["Twins", "twin_kernels", "forced", "PARALLEL_SUFFIX"]
+
+PARALLEL_SUFFIX = "__parallel"
+_forced: list[str | None] = [None]  # "serial", "parallel" or None (by size)
+
+
+class Twins:
+    """A serial and a parallel numba dispatcher of one kernel and the problem size from which the parallel one runs."""
+
+    __slots__ = ("serial", "parallel", "threshold", "__name__")
+
+    def __init__(self, serial, parallel, threshold: int):
+        self.serial = serial
+        self.parallel = parallel
+        self.threshold = int(threshold)
+        self.__name__ = serial.py_func.__name__
+
+    def pick(self, size: int):
+        """The dispatcher for a problem of ``size`` (the kernel's own work measure): parallel from ``threshold`` on."""
+        side = _forced[0]
+        if side == "serial":
+            return self.serial
+        if side == "parallel":
+            return self.parallel
+        return self.parallel if size >= self.threshold else self.serial
+
+    def __repr__(self) -> str:
+        return f"<Twins {self.__name__} parallel from size {self.threshold}>"
+
+
+def twin_kernels(threshold: int, **options):
+    """Decorator: compile the function as :class:`Twins` (``njit(cache=True, **options)``, and with ``parallel=True``).
+
+    ``threshold`` is the problem size (in the unit the caller passes to
+    :meth:`Twins.pick`) from which the parallel twin runs.
+    """
+
+    def make(func):
+        serial = njit(cache=True, **options)(func)
+        copy = types.FunctionType(func.__code__, func.__globals__, func.__name__ + PARALLEL_SUFFIX,
+                                  func.__defaults__, func.__closure__)
+        copy.__qualname__ = func.__qualname__ + PARALLEL_SUFFIX
+        copy.__module__ = func.__module__
+        copy.__doc__ = func.__doc__
+        copy.__kwdefaults__ = func.__kwdefaults__
+        parallel = njit(cache=True, parallel=True, **options)(copy)
+        return Twins(serial, parallel, threshold)
+
+    return make
+
+
+@contextmanager
+def forced(side: str | None):
+    """Inside the block every :class:`Twins` picks ``side`` ("serial" or "parallel"; None: by size again)."""
+    if side not in ("serial", "parallel", None):
+        raise ValueError(f"side must be 'serial', 'parallel' or None, got {side!r}")
+    before = _forced[0]
+    _forced[0] = side
+    try:
+        yield
+    finally:
+        _forced[0] = before
