@@ -60,8 +60,8 @@ _INF = np.inf
 
 # Problem sizes from which each kernel runs its parallel twin (see mocapkit.cleaning.ssa.twins), in the
 # unit its caller passes to pick(). Each is set near 3-10 ms of serial work, measured on a 2-core machine:
-# below that, starting the threads (0.1-0.5 ms on idle cores, ~10 ms when the cores are busy with
-# other processes) eats the gain. On the bundled 3 s walk every call stays serial (the largest:
+# below that, starting the threads (more so when the cores are busy with other processes) eats the
+# gain. On the bundled 3 s walk every call stays serial (the largest:
 # 69 x 69 pose-distance cells, 600 knn DTW positions, 23 warps), so a cold first clean compiles only
 # the serial twins; on a 60 s take the heavy calls (840 x 840 cells, ~135,000 knn positions,
 # 70-900 warps) run in parallel.
