@@ -493,7 +493,7 @@ def test_noise_level_feature_estimates_white_noise_on_a_real_walk(walk):
     std = torch.ones(lay.num_channels, dtype=torch.float64)
     for amount in (0.1, 0.5):
         noisy, _ = ch.encode(corrupt.angular_noise(walk, amount, seed=11)[0], lay)
-        truth = amount * np.nanstd(walk.channel_values()[:, ch._euler_columns(walk.skeleton)], axis=0)
+        truth = amount * np.nanstd(walk.channel_values()[:, ch.euler_columns(walk.skeleton)], axis=0)
         f = nw.noise_level_feature(torch.tensor(noisy)[None], std)[0].numpy()
         est = np.exp(3.0 * f[nw.NOISE_WINDOW :] - 3.0) - nw.NOISE_FLOOR  # back to degrees
         ratio = np.median(est, axis=0)[moving] / truth[moving]
