@@ -200,6 +200,24 @@ def test_every_prange_kernel_has_twins():
         assert t.pick(0) is t.serial and t.pick(t.threshold - 1) is t.serial and t.pick(t.threshold) is t.parallel
 
 
+def test_worker_threads_get_the_serial_twin():
+    """A kernel called from a worker thread (a Dask worker's task pool) runs serial whatever its size; forced wins."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    t = W._knn_profile
+    big = t.threshold * 10
+    with ThreadPoolExecutor(1) as pool:
+        assert pool.submit(t.pick, big).result() is t.serial
+    assert t.pick(big) is t.parallel  # the main thread
+
+    def forced_pick():
+        with forced("parallel"):
+            return t.pick(0)
+
+    with ThreadPoolExecutor(1) as pool:
+        assert pool.submit(forced_pick).result() is t.parallel
+
+
 def test_twins_equal_each_other_and_the_oracles(rng):
     A, B = _random_quats(rng, (40, 7)), _random_quats(rng, (50, 7))
     A[3, 2] = np.nan

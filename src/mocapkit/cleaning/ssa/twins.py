@@ -23,6 +23,7 @@ take, and the tests to compare the two.
 
 from __future__ import annotations
 
+import threading
 import types
 from contextlib import contextmanager
 
@@ -46,12 +47,20 @@ class Twins:
         self.__name__ = serial.py_func.__name__
 
     def pick(self, size: int):
-        """The dispatcher for a problem of ``size`` (the kernel's own work measure): parallel from ``threshold`` on."""
+        """The dispatcher for a problem of ``size`` (the kernel's own work measure): parallel from ``threshold`` on.
+
+        Only the main thread runs the parallel twin: a kernel called from a worker thread (a Dask
+        worker runs its tasks in a thread pool, beside the other workers' processes) gets the serial
+        one, since numba's thread pool launched from such threads ran 15-30x slower than serial
+        code on a 2-core machine, where the other workers already keep the cores busy.
+        """
         side = _forced[0]
         if side == "serial":
             return self.serial
         if side == "parallel":
             return self.parallel
+        if threading.current_thread() is not threading.main_thread():
+            return self.serial
         return self.parallel if size >= self.threshold else self.serial
 
     def __repr__(self) -> str:
