@@ -363,10 +363,6 @@ def _plan(inputs: list[Path], in_dir: Path, out_dir: Path, fmt: str, report: boo
     return plans, [inputs[k] for k in clash]
 
 
-def _resolved(path) -> str:
-    return os.path.realpath(os.path.abspath(os.fspath(path)))
-
-
 def _check_batch_outputs(plans: list[dict], todo: list[tuple[Path, dict]], inputs: list[Path], folders: list[Path],
                          context: list[Path], overwrite: bool) -> None:
     """Refuse the batch before any take is cleaned if one of its outputs would replace an input or another output.
@@ -378,17 +374,17 @@ def _check_batch_outputs(plans: list[dict], todo: list[tuple[Path, dict]], input
     the context and the input folder (existing files, folders, parents). A
     corpus of N takes costs O(N), not O(N^2).
     """
-    from .io.outputs import check_outputs
+    from .io.outputs import check_outputs, resolved
 
-    by_path = {_resolved(p): p for p in inputs}
+    by_path = {resolved(p): p for p in inputs}
     by_inode = {}
     for p in inputs:
         st = os.stat(p)
         by_inode[(st.st_dev, st.st_ino)] = p
-    written: dict[str, Path] = {}
+    written: dict[Path, Path] = {}
     for files in plans:
         for out in (f for f in files.values() if f is not None):
-            r = _resolved(out)
+            r = resolved(out)
             hit = by_path.get(r)
             if hit is None and os.path.exists(r):
                 st = os.stat(r)
@@ -432,13 +428,13 @@ def clean_batch(
     and on a refused output; nothing is written then.
     """
     from .cleaning.pipeline import STEPS, parse_steps
-    from .io.outputs import inside
+    from .io.outputs import inside, resolved
     from .parallel import check_executor, describe_executor, map_ordered
 
     in_dir, out_dir = Path(in_dir), Path(out_dir)
     if not in_dir.is_dir():
         raise MocapFormatError(in_dir, "not a folder")
-    if _resolved(out_dir) == _resolved(in_dir):
+    if resolved(out_dir) == resolved(in_dir):
         raise MocapFormatError(out_dir, "refusing to write into the input folder; choose another output folder")
     if fmt not in ("auto", "bvh", "npz"):
         raise MocapError(f"format must be auto, bvh or npz, got {fmt!r}")

@@ -38,7 +38,7 @@ import numpy as np
 
 from .errors import MocapError, MocapFormatError
 from .features import FEATURE_SETS, WINDOWED_SETS
-from .io.outputs import inside, same_file
+from .io.outputs import inside, resolved, same_file
 from .motion import Skeleton
 
 __all__ = [
@@ -93,11 +93,6 @@ class Description(NamedTuple):
 
 
 # -- paths ---------------------------------------------------------------------------------------
-
-
-def _real(path) -> Path:
-    """``path`` made absolute with symlinks, ``.`` and ``..`` resolved."""
-    return Path(os.path.realpath(os.path.abspath(os.fspath(path))))
 
 
 def _named_inside(path, folder) -> bool:
@@ -406,7 +401,7 @@ def check_database_output(directory, inputs: Iterable = (), overwrite: bool = Fa
             raise MocapFormatError(out, f"refusing to write a database over or inside an input ({inp}); choose another folder")
         if inside(inp, out) or _named_inside(inp, out):
             raise MocapFormatError(out, f"refusing to replace a folder that holds an input ({inp}); choose another folder")
-    parent = _real(out).parent
+    parent = resolved(out).parent
     while not parent.exists() and parent != parent.parent:
         parent = parent.parent
     if not parent.is_dir():
@@ -415,7 +410,7 @@ def check_database_output(directory, inputs: Iterable = (), overwrite: bool = Fa
         return
     if not overwrite:
         raise MocapFormatError(out, "already exists; pass --overwrite to replace it")
-    why = _not_a_database(_real(out)) if out.exists() else "it is a broken symbolic link"
+    why = _not_a_database(resolved(out)) if out.exists() else "it is a broken symbolic link"
     if why:
         raise MocapFormatError(out, f"refusing to replace it: {why}")
 
@@ -438,7 +433,7 @@ def write_folder(directory, description: Description, arrays: Mapping[str, np.nd
             raise ValueError(f"{rel!r} is not a file of the database layout (feature names are plain identifiers)")
     inputs = list(inputs)
     check_database_output(directory, inputs, overwrite=overwrite)
-    target = _real(directory)  # a symlinked folder: replace what it points to
+    target = resolved(directory)  # a symlinked folder: replace what it points to
     desc = {
         "format": FORMAT,
         "format_version": FORMAT_VERSION,

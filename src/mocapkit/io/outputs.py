@@ -42,14 +42,14 @@ from ..errors import MocapFormatError
 __all__ = ["check_outputs", "same_file", "inside", "removed_on_failure"]
 
 
-def _resolved(path: os.PathLike | str) -> Path:
+def resolved(path: os.PathLike | str) -> Path:
     """The absolute path with symlinks, ``.`` and ``..`` resolved (also for paths that do not exist yet)."""
     return Path(os.path.realpath(os.path.abspath(os.fspath(path))))
 
 
 def same_file(a: os.PathLike | str, b: os.PathLike | str) -> bool:
     """True when ``a`` and ``b`` name one file: the same resolved path, or the same inode (hard links)."""
-    ra, rb = _resolved(a), _resolved(b)
+    ra, rb = resolved(a), resolved(b)
     if ra == rb:
         return True
     try:
@@ -60,7 +60,7 @@ def same_file(a: os.PathLike | str, b: os.PathLike | str) -> bool:
 
 def inside(path: os.PathLike | str, folder: os.PathLike | str) -> bool:
     """True when ``path`` resolves to ``folder`` itself or to something below it."""
-    rp, rf = _resolved(path), _resolved(folder)
+    rp, rf = resolved(path), resolved(folder)
     return rp == rf or rf in rp.parents
 
 
@@ -89,7 +89,7 @@ def check_outputs(
     seen: list[Path] = []
     for out in outs:
         for inp in ins:
-            if same_file(out, inp) or (_resolved(inp).is_dir() and inside(out, inp)):
+            if same_file(out, inp) or (resolved(inp).is_dir() and inside(out, inp)):
                 raise MocapFormatError(out, f"refusing to write over an input ({inp}); choose another output path")
             if out.exists() and out.is_dir() and inside(inp, out):
                 raise MocapFormatError(out, f"refusing to replace a folder that holds an input ({inp})")
