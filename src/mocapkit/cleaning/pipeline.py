@@ -192,10 +192,11 @@ class CleanResult:
     @classmethod
     def load(cls, path, motion: Motion | None = None) -> "CleanResult":
         """Read a file written by :meth:`save`; ``motion`` (e.g. the cleaned output) is attached as is."""
+        from ..io.npz import load_arrays
+
         path = Path(path)
         try:
-            with np.load(path, allow_pickle=False) as z:
-                data = {k: z[k] for k in z.files}
+            data = load_arrays(path)  # declared shapes checked before anything is inflated
             meta = json.loads(str(data["meta"]))
             if meta.get("format") != FORMAT:
                 raise ValueError(f"format {meta.get('format')!r}, expected {FORMAT!r}")

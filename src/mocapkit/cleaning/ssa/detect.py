@@ -165,10 +165,11 @@ class Detection:
         """Read a detection written by :meth:`save`."""
         from ...errors import MocapFormatError
 
+        from ...io.npz import load_arrays
+
         path = Path(path)
         try:
-            with np.load(path, allow_pickle=False) as z:
-                data = {k: z[k] for k in z.files}
+            data = load_arrays(path)  # declared shapes checked before anything is inflated
             meta = json.loads(str(data.pop("meta")))
             for key in ("jumps", "holds", "swaps", "offsets"):  # written before these rules existed
                 if key not in data:
