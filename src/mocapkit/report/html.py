@@ -8,14 +8,17 @@ disk, offline, in any current browser, and can be mailed or archived as is.
 What the page holds
 -------------------
 - global joint (and end-site) positions of both motions in centimetres, from
-  forward kinematics, turned so that the skeleton's up axis is +y, quantised to
+  forward kinematics, turned so that the take's up axis is +y, quantised to
   int16 on one shared grid (1 mm steps unless the take spans more than 65 m);
   the cleaned motion as a patch of the points that differ when fewer than half do;
 - the movement digression map quantised to uint8, and one uint8 per cell with
   bit 0 = flagged, bit 1 = changed by the cleaning, bit 2 / 3 = missing in the
   original / cleaned motion;
 - the rotation channels (degrees, as the file gives them) before and after of
-  the joints the cleaning flagged or changed, int16 on a per-channel grid.
+  the joints the cleaning flagged or changed, int16 on a per-channel grid;
+- the framing (:mod:`mocapkit.report.view`): floor height, camera target (fixed,
+  or a per-frame track following the body) and the camera distance at which
+  every point of every frame lies inside the panel, whatever the orbit angle.
 
 Binary arrays travel as base64 of little-endian bytes inside one JSON block, so
 a 60 s take at 120 fps is a few MB. Above ``max_frames`` frames the viewer keeps
@@ -35,7 +38,8 @@ from pathlib import Path
 import numpy as np
 
 from ..io import atomic_write
-from ..motion import Motion, find_joint, unit_scale_cm
+from ..motion import Motion, unit_scale_cm
+from .view import body_points, find_up_axis, fit_view, rotation_to_y
 
 __all__ = ["write_report", "DEFAULT_MAX_FRAMES", "MAX_PLOT_JOINTS"]
 
@@ -74,28 +78,6 @@ def _quantise_i16(arrays, min_step: float):
     return lo, step, out
 
 
-def _up_rotation(motion: Motion) -> np.ndarray:
-    """Rotation matrix (3, 3) turning the skeleton's up axis (foot -> head at rest) into +y."""
-    sk = motion.skeleton
-    try:
-        rest = sk.rest_positions()
-        d = rest[find_joint(sk, "head")] - rest[find_joint(sk, "left_foot")]
-    except Exception:  # a rig without the standard roles: most files are y-up
-        return np.eye(3)
-    k = int(np.argmax(np.abs(d)))
-    u = np.zeros(3)
-    u[k] = np.sign(d[k]) or 1.0
-    y = np.array([0.0, 1.0, 0.0])
-    if np.allclose(u, y):
-        return np.eye(3)
-    if np.allclose(u, -y):
-        return np.diag([1.0, -1.0, -1.0])  # 180 deg about x
-    axis = np.cross(u, y)
-    axis /= np.linalg.norm(axis)
-    K = np.array([[0, -axis[2], axis[1]], [axis[2], 0, -axis[0]], [-axis[1], axis[0], 0]])
-    return np.eye(3) + K + K @ K  # Rodrigues, 90 deg
-
-
 def _cell_mask(a, name: str, shape: tuple[int, int]) -> np.ndarray | None:
     if a is None:
         return None
@@ -117,11 +99,6 @@ def _block_reduce(a: np.ndarray, stride: int, how: str) -> np.ndarray:
     starts = np.arange(0, F, stride)
     fn = np.maximum.reduceat if how == "max" else np.logical_or.reduceat
     return fn(a, starts, axis=0)
-
-
-def _positions_cm(motion: Motion, scale: float, up: np.ndarray) -> np.ndarray:
-    pos = motion.global_positions(end_sites=True) * scale
-    return pos @ up.T
 
 
 def _channel_plots(original: Motion, cleaned: Motion, interest: np.ndarray, idx: np.ndarray):
@@ -197,6 +174,7 @@ def write_report(
     title: str = "",
     fps: float | None = None,
     max_frames: int | None = None,
+    up_axis=None,
 ) -> Path:
     """Write the self-contained HTML cleaning report of ``original`` -> ``cleaned``.
 
@@ -220,6 +198,11 @@ def write_report(
     max_frames : int, optional
         Frames the viewer keeps (default :data:`DEFAULT_MAX_FRAMES`); longer takes
         are shown at every k-th frame, which the page states.
+    up_axis : str, int or 3-vector, optional
+        The take's up axis (``"y"``, ``"z"``, ``"-z"``, ...); by default it is
+        found from the data (:func:`mocapkit.report.view.find_up_axis`). The page
+        turns it to its +y and frames the figure whole in every frame
+        (:func:`mocapkit.report.view.fit_view`).
 
     Returns
     -------
@@ -270,10 +253,13 @@ def write_report(
         scale = unit_scale_cm(sk)
     except Exception:  # no human in any known unit: show file units as they are
         scale = 1.0
-    up = _up_rotation(original)
     with np.errstate(invalid="ignore"):
-        p_orig = _positions_cm(original[::stride], scale, up)
-        p_clean = _positions_cm(cleaned[::stride], scale, up)
+        p_orig = original[::stride].global_positions(end_sites=True)
+        p_clean = cleaned[::stride].global_positions(end_sites=True)
+    turn = rotation_to_y(find_up_axis(sk, p_orig[:, :J], up_axis=up_axis)) * scale
+    body = body_points(sk, p_orig)  # in the rig's units, before the turn and the scale
+    p_orig, p_clean = p_orig @ turn.T, p_clean @ turn.T
+    framing = fit_view([p_orig, p_clean], fps=show_fps / stride, body=body)
     # one grid for all three axes keeps the decoder trivial; 1 mm unless the take spans > 65 m
     lo, step, (q_orig, q_clean) = _quantise_i16([p_orig, p_clean], min_step=0.1)
 
@@ -311,6 +297,7 @@ def write_report(
         "names": names,
         "parents": parents,
         "unitCm": scale,
+        "view": framing.to_page(),
         "pos": _positions_block(lo, step, q_orig, q_clean),
         "mdm": None if mdm_q is None else _b64(mdm_q),
         "bits": _b64(bits),

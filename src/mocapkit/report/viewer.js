@@ -53,34 +53,14 @@
     yaw: 0.6, pitch: 0.25, dist: 450, drawCount: 0, pos: 0, lastT: null, dirty: true
   };
 
-  // clip-wide figures for the camera and the floor
-  function clipStats() {
-    var a = POS.original, minY = [], sx = 0, sy = 0, sz = 0, n = 0;
-    var lo = [Infinity, Infinity, Infinity], hi = [-Infinity, -Infinity, -Infinity];
-    for (var i = 0; i < N; i++) {
-      var m = Infinity;
-      for (var p = 0; p < P; p++) {
-        var o = (i * P + p) * 3;
-        var x = a[o], y = a[o + 1], z = a[o + 2];
-        if (x !== x || y !== y || z !== z) continue;
-        if (y < m) m = y;
-        lo[0] = Math.min(lo[0], x); lo[1] = Math.min(lo[1], y); lo[2] = Math.min(lo[2], z);
-        hi[0] = Math.max(hi[0], x); hi[1] = Math.max(hi[1], y); hi[2] = Math.max(hi[2], z);
-        if (p === 0) { sx += x; sy += y; sz += z; n++; }
-      }
-      if (m < Infinity) minY.push(m);
-    }
-    minY.sort(function (u, v) { return u - v; });
-    var floor = minY.length ? minY[Math.floor(minY.length / 2)] : 0;
-    if (!n) { sx = sy = sz = 0; n = 1; }
-    var ext = isFinite(lo[0]) ? Math.max(hi[0] - lo[0], hi[2] - lo[2]) : 0;
-    return { floor: floor, centre: [sx / n, sy / n, sz / n], travel: ext,
-             height: isFinite(lo[1]) ? hi[1] - floor : 170 };
-  }
-  var CLIP = clipStats();
-  S.follow = CLIP.travel > 250;
-  S.dist = S.follow ? Math.max(300, CLIP.height * 2.2) : Math.max(300, CLIP.height * 2.2, CLIP.travel * 1.3);
-  var target = CLIP.centre.slice();
+  // framing, computed by mocapkit.report.view.fit_view: at the fitted distance every point of
+  // every frame lies in the panel (the focal length scales with the panel's smaller side)
+  var V = D.view, TRACK = new Float32Array(bytes(V.track).buffer), HIDDEN = {};
+  V.hidden.forEach(function (p) { HIDDEN[p] = true; });  // points off the body: a rig's floor reference
+  function fittedDist() { return V.distance[S.follow ? "follow" : "fixed"]; }
+  S.follow = V.follow;
+  S.dist = fittedDist();
+  var target = V.centre.slice();
 
   // ---- DOM ----------------------------------------------------------------
   function el(tag, attrs, parent) {
@@ -167,26 +147,22 @@
     var f = norm([target[0] - eye[0], target[1] - eye[1], target[2] - eye[2]]);
     var r = norm(cross(f, [0, 1, 0]));
     var u = cross(r, f);
-    return { eye: eye, f: f, r: r, u: u, cx: w / 2, cy: h / 2, focal: 0.5 * h / Math.tan(Math.PI / 8) };
+    return { eye: eye, f: f, r: r, u: u, cx: w / 2, cy: h / 2, focal: 0.5 * Math.min(w, h) / Math.tan(V.halfFov),
+             near: 0.01 * V.radius.fixed };
   }
   function norm(v) { var l = Math.hypot(v[0], v[1], v[2]) || 1; return [v[0] / l, v[1] / l, v[2] / l]; }
   function cross(a, b) { return [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]; }
   function project(cam, x, y, z, ox) {
     var dx = x - cam.eye[0], dy = y - cam.eye[1], dz = z - cam.eye[2];
     var zc = dx * cam.f[0] + dy * cam.f[1] + dz * cam.f[2];
-    if (!(zc > 1)) return null; // behind the camera, or NaN
+    if (!(zc > cam.near)) return null; // behind the camera, or NaN
     var xc = dx * cam.r[0] + dy * cam.r[1] + dz * cam.r[2];
     var yc = dx * cam.u[0] + dy * cam.u[1] + dz * cam.u[2];
     return [ox + cam.cx + cam.focal * xc / zc, cam.cy - cam.focal * yc / zc, zc];
   }
 
   function updateTarget() {
-    if (!S.follow) { target = [CLIP.centre[0], CLIP.floor + CLIP.height * 0.5, CLIP.centre[2]]; return; }
-    var o = S.index * P * 3;
-    var a = POS.original, b = POS.cleaned;
-    var x = a[o], z = a[o + 2];
-    if (x !== x || z !== z) { x = b[o]; z = b[o + 2]; }
-    if (x === x && z === z) target = [x, CLIP.floor + CLIP.height * 0.5, z];
+    target = S.follow ? [TRACK[2 * S.index], V.trackHeight, TRACK[2 * S.index + 1]] : V.centre.slice();
   }
 
   // ---- drawing: viewer -----------------------------------------------------
@@ -209,8 +185,8 @@
   }
 
   function drawGrid(ctx, cam, ox) {
-    var step = 50, span = 300;
-    var gx = Math.round(target[0] / step) * step, gz = Math.round(target[2] / step) * step, y = CLIP.floor;
+    var step = V.gridStep, span = V.gridSpan[S.follow ? "follow" : "fixed"];
+    var gx = Math.round(target[0] / step) * step, gz = Math.round(target[2] / step) * step, y = V.floor;
     ctx.strokeStyle = COL.grid; ctx.lineWidth = 1;
     ctx.beginPath();
     for (var k = -span; k <= span; k += step) {
@@ -233,7 +209,7 @@
     var a = POS[which], base = S.index * P * 3, pts = new Array(P);
     for (var p = 0; p < P; p++) {
       var o = base + p * 3;
-      pts[p] = project(cam, a[o], a[o + 1], a[o + 2], ox);
+      pts[p] = HIDDEN[p] ? null : project(cam, a[o], a[o + 1], a[o + 2], ox);
     }
     var rowBits = S.index * J;
     ctx.globalAlpha = alpha;
@@ -624,8 +600,8 @@
   modeBtn.addEventListener("click", function () {
     S.overlay = !S.overlay; modeBtn.textContent = S.overlay ? "Side by side" : "Overlay"; invalidate();
   });
-  followBox.addEventListener("change", function () { S.follow = followBox.checked; invalidate(); });
-  function resetView() { S.yaw = 0.6; S.pitch = 0.25; S.dist = S.follow ? Math.max(300, CLIP.height * 2.2) : Math.max(300, CLIP.height * 2.2, CLIP.travel * 1.3); invalidate(); }
+  followBox.addEventListener("change", function () { S.follow = followBox.checked; S.dist = fittedDist(); invalidate(); });
+  function resetView() { S.yaw = 0.6; S.pitch = 0.25; S.dist = fittedDist(); invalidate(); }
   resetBtn.addEventListener("click", resetView);
   canvas.addEventListener("dblclick", resetView);
   var drag = null;
@@ -642,7 +618,8 @@
   canvas.addEventListener("pointercancel", endDrag);
   canvas.addEventListener("wheel", function (ev) {
     ev.preventDefault();
-    S.dist = Math.max(50, Math.min(20000, S.dist * Math.exp(ev.deltaY * 0.001)));
+    var d0 = fittedDist();
+    S.dist = Math.max(0.2 * d0, Math.min(50 * d0, S.dist * Math.exp(ev.deltaY * 0.001)));
     invalidate();
   }, { passive: false });
   document.addEventListener("keydown", function (ev) {

@@ -1,0 +1,351 @@
+"""Framing of the report's stick-figure viewer: which way is up, where the floor is, where the camera looks.
+
+Takes come Y up or Z up, in centimetres, metres, inches or CMU units, and a
+game rig's rest pose may lie on its side (the Bandai Namco rig's spine points
+along x at rest; its motion stands it up). The report's page only draws: this
+module decides, in Python where it can be tested without a browser,
+
+- the **up axis** of the data (:func:`find_up_axis`): the signed coordinate axis
+  along which head - feet points in most frames, by joint roles
+  (:func:`mocapkit.motion.find_joint`); the rest pose when no frame has both; the
+  axis of largest extent when the rig has no head or feet;
+- the rotation turning it into the page's +y (:func:`rotation_to_y`);
+- the **framing** (:func:`fit_view`): the floor, a fixed camera target (the
+  take's bounding-box centre) or a target that follows the body across the floor,
+  and for each the camera distance at which a sphere holding every drawn point
+  of every frame fits in the panel with a margin, whatever the orbit angle.
+
+The bound behind the distance: the viewer's pinhole camera looks at the target
+with a half field of view ``HALF_FOV`` across the panel's smaller side; a sphere
+of radius ``r`` centred on the target, seen from distance ``d``, appears as a
+disc of half-angle ``asin(r / d)``. With ``d = r / sin(atan((1 - margin) *
+tan(HALF_FOV))`` that disc, and so every point inside the sphere, lies within
+``1 - margin`` of the panel's half-size in every frame and for every yaw and
+pitch. The page (``viewer.js``) uses the same ``HALF_FOV`` and scales its focal
+length by the panel's smaller side, so what is fitted here is what is drawn.
+"""
+
+from __future__ import annotations
+
+import base64
+import math
+import warnings
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..features import detect_up_axis, parse_up_axis
+from ..motion import Skeleton, find_joint
+
+__all__ = [
+    "HALF_FOV",
+    "MARGIN",
+    "Framing",
+    "find_up_axis",
+    "rotation_to_y",
+    "fit_view",
+    "camera_distance",
+    "body_points",
+]
+
+#: half field of view (radians) of the viewer's camera across the panel's smaller side.
+HALF_FOV = math.pi / 8
+#: share of the panel's half-size kept free around the figure.
+MARGIN = 0.08
+#: a take whose fixed framing would draw the figure this many times smaller than following it is followed.
+FOLLOW_RATIO = 1.5
+
+
+def _axis(k: int, sign: float) -> np.ndarray:
+    v = np.zeros(3)
+    v[k] = 1.0 if sign >= 0 else -1.0
+    return v
+
+
+def _roles(skeleton: Skeleton) -> tuple[int, list[int]] | None:
+    """(head, [feet]) joint indices, or None when the rig has no head or no foot."""
+    try:
+        head = find_joint(skeleton, "head")
+    except KeyError:
+        return None
+    feet = []
+    for role in ("left_foot", "right_foot"):
+        try:
+            feet.append(find_joint(skeleton, role))
+        except KeyError:
+            pass
+    return (head, feet) if feet else None
+
+
+def find_up_axis(skeleton: Skeleton, positions: np.ndarray | None = None, up_axis=None) -> np.ndarray:
+    """The signed coordinate axis (3,) that is up in a take, e.g. ``[0, 1, 0]`` or ``[0, 0, 1]``.
+
+    Parameters
+    ----------
+    skeleton : Skeleton
+        The take's rig; its joint names give the head and the feet.
+    positions : float array (F, >=J, 3), optional
+        Global joint positions (file units, any scale) of the take's frames, joints
+        first (end sites after them are ignored).
+    up_axis : str, int or 3-vector, optional
+        The caller's answer (``"y"``, ``"-z"``, ``2``, ...; see
+        :func:`mocapkit.features.parse_up_axis`): returned as given, nothing is guessed.
+
+    Each frame where the head and a foot are present votes for the axis along
+    which ``head - mean(feet)`` has its largest component, with that component's
+    sign; the most voted axis wins, so a handstand or a fall in a few frames does
+    not turn the take over. Without such frames the rest pose decides
+    (:func:`mocapkit.features.detect_up_axis`), which is wrong for rigs whose rest
+    pose is not standing (the Bandai Namco rig lies along x at rest). A rig
+    without a head or feet gets the axis along which the figure's extent is
+    largest in most frames, pointing +; a take with nothing to go on gets +y.
+    """
+    if up_axis is not None:
+        return parse_up_axis(up_axis)
+    roles = _roles(skeleton)
+    pos = None if positions is None else np.asarray(positions, dtype=np.float64)
+    if roles is not None and pos is not None and pos.shape[0]:
+        head, feet = roles
+        with warnings.catch_warnings():  # frames without a foot give NaN, not a warning
+            warnings.simplefilter("ignore", RuntimeWarning)
+            d = pos[:, head] - np.nanmean(pos[:, feet], axis=1)
+        ok = np.all(np.isfinite(d), axis=1) & np.any(d != 0, axis=1)
+        if ok.any():
+            d = d[ok]
+            k = np.argmax(np.abs(d), axis=1)
+            s = np.sign(d[np.arange(len(d)), k]) > 0
+            votes = np.bincount(k * 2 + s, minlength=6)
+            best = int(np.argmax(votes))
+            return _axis(best // 2, 1.0 if best % 2 else -1.0)
+    if roles is not None:
+        try:
+            return detect_up_axis(skeleton)
+        except ValueError:
+            pass
+    if pos is not None and pos.shape[0]:
+        with warnings.catch_warnings():  # frames without a point give NaN, not a warning
+            warnings.simplefilter("ignore", RuntimeWarning)
+            extent = np.nanmax(pos, axis=1) - np.nanmin(pos, axis=1)  # (F, 3)
+        ok = np.all(np.isfinite(extent), axis=1)
+        if ok.any():
+            k = np.bincount(np.argmax(extent[ok], axis=1), minlength=3)
+            return _axis(int(np.argmax(k)), 1.0)
+    return _axis(1, 1.0)
+
+
+def rotation_to_y(up: np.ndarray) -> np.ndarray:
+    """Proper rotation matrix (3, 3) taking the signed coordinate axis ``up`` to +y.
+
+    Identity for +y, 180 deg about x for -y, otherwise 90 deg about ``up x y``
+    (so +z up becomes +y and +y becomes -z: a right-handed turn, no mirror).
+    """
+    u = np.asarray(up, dtype=np.float64)
+    y = np.array([0.0, 1.0, 0.0])
+    if np.allclose(u, y):
+        return np.eye(3)
+    if np.allclose(u, -y):
+        return np.diag([1.0, -1.0, -1.0])
+    axis = np.cross(u, y)
+    axis /= np.linalg.norm(axis)
+    K = np.array([[0, -axis[2], axis[1]], [axis[2], 0, -axis[0]], [-axis[1], axis[0], 0]])
+    return np.eye(3) + K + K @ K  # Rodrigues at 90 deg: sin = 1, 1 - cos = 1
+
+
+def body_points(skeleton: Skeleton, positions: np.ndarray) -> np.ndarray:
+    """(P,) bool over joints then end sites: the points that hang together through rigid bones.
+
+    A bone whose length in the take strays by more than a fifth from its length
+    in the rig (the rest pose) is no body segment but a free link, which only
+    animated translations (BVH position channels) make: game rigs put a reference
+    joint on the floor (the Bandai Namco rig's ``joint_Root`` stays at the world
+    origin in some takes while ``Hips``, moved by its own position channels,
+    dances two metres away). Cutting the free links leaves components; the body
+    is the one with most points. The viewer neither draws nor frames the rest.
+
+    Parameters
+    ----------
+    skeleton : Skeleton
+        The rig: parents and rest-pose bone lengths.
+    positions : float array (N, P, 3)
+        Global positions of joints and end sites (``end_sites=True``) in the
+        rig's units; NaN where missing.
+    """
+    pos = np.asarray(positions, dtype=np.float64)
+    rest = skeleton.rest_positions(end_sites=True)
+    parents = [int(q) for q in skeleton.parents] + [int(q) for q in skeleton.end_site_parents]
+    P = len(parents)
+    if pos.ndim != 3 or pos.shape[1:] != (P, 3):
+        raise ValueError(f"positions: expected (N, {P}, 3) joints then end sites, got {pos.shape}")
+    size = float(np.ptp(rest, axis=0).max()) if P > 1 else 1.0
+    comp = list(range(P))
+
+    def find(a):
+        while comp[a] != a:
+            comp[a] = comp[comp[a]]
+            a = comp[a]
+        return a
+
+    for p, q in enumerate(parents):
+        if q < 0:
+            continue
+        rest_len = float(np.linalg.norm(rest[p] - rest[q]))
+        length = np.linalg.norm(pos[:, p] - pos[:, q], axis=-1)
+        length = length[np.isfinite(length)]
+        if not length.size or np.abs(length - rest_len).max() <= 0.2 * rest_len + 1e-6 * size:
+            comp[find(p)] = find(q)
+    roots = np.array([find(p) for p in range(P)])
+    return roots == int(np.argmax(np.bincount(roots, minlength=P)))
+
+
+def camera_distance(radius: float, half_fov: float = HALF_FOV, margin: float = MARGIN) -> float:
+    """Distance from which a sphere of ``radius``, looked at, fills ``1 - margin`` of the panel's half-size."""
+    return float(radius) / math.sin(math.atan((1.0 - margin) * math.tan(half_fov)))
+
+
+@dataclass(frozen=True)
+class Framing:
+    """How the viewer frames a take; lengths in the page's units (cm), +y up.
+
+    Attributes
+    ----------
+    floor : float
+        Height of the floor grid: the median over frames of the lowest drawn point.
+    centre : (3,) float
+        The fixed camera target: centre of the bounding box of every drawn point.
+    radius_fixed : float
+        Radius of the sphere about ``centre`` holding every drawn point of every frame.
+    track : (N, 2) float
+        The following camera target's (x, z) in each shown frame: the body's
+        centroid over the floor, averaged over about a second so the view does not shake.
+    track_height : float
+        The following target's (constant) height: mid-height of the take's vertical extent.
+    radius_follow : float
+        Radius of the sphere about the following target holding every drawn point of its frame.
+    follow : bool
+        Whether the view starts following (the fixed framing would draw the
+        figure over ``FOLLOW_RATIO`` times smaller).
+    grid_step : float
+        Spacing of the floor grid: a round number near a quarter of the figure's height.
+    hidden : (P,) bool
+        Points off the body (:func:`body_points`): neither drawn nor framed.
+    """
+
+    floor: float
+    centre: np.ndarray
+    radius_fixed: float
+    track: np.ndarray
+    track_height: float
+    radius_follow: float
+    follow: bool
+    grid_step: float
+    hidden: np.ndarray
+
+    def distance(self, follow: bool) -> float:
+        """Camera distance that keeps every drawn point in the panel (see the module docstring)."""
+        return camera_distance(self.radius_follow if follow else self.radius_fixed)
+
+    def to_page(self) -> dict:
+        """The JSON the page's viewer reads (the track as base64 little-endian float32 (N, 2))."""
+        return {
+            "halfFov": HALF_FOV,
+            "floor": self.floor,
+            "centre": [float(v) for v in self.centre],
+            "trackHeight": self.track_height,
+            "track": base64.b64encode(np.ascontiguousarray(self.track, dtype="<f4").tobytes()).decode("ascii"),
+            "follow": self.follow,
+            "distance": {"fixed": self.distance(False), "follow": self.distance(True)},
+            "radius": {"fixed": self.radius_fixed, "follow": self.radius_follow},
+            "hidden": [int(p) for p in np.flatnonzero(self.hidden)],
+            "gridStep": self.grid_step,
+            "gridSpan": {"fixed": self.grid_span(False), "follow": self.grid_span(True)},
+        }
+
+    def grid_span(self, follow: bool) -> float:
+        """Half-width of the floor grid drawn about the target: the framed sphere and a bit, in whole steps."""
+        r = self.radius_follow if follow else self.radius_fixed
+        return self.grid_step * max(2, math.ceil(1.3 * r / self.grid_step))
+
+
+def _round_step(x: float) -> float:
+    """A 1, 2 or 5 times a power of ten close to ``x`` (> 0)."""
+    e = 10.0 ** math.floor(math.log10(x))
+    return min((m * e for m in (1.0, 2.0, 5.0, 10.0)), key=lambda s: abs(math.log(s / x)))
+
+
+def _moving_average(a: np.ndarray, width: int) -> np.ndarray:
+    """Centred moving average of (N, C) over ``width`` rows; the ends repeat the first/last row."""
+    if width <= 1 or len(a) < 2:
+        return a
+    h = width // 2
+    padded = np.concatenate([np.repeat(a[:1], h, axis=0), a, np.repeat(a[-1:], h, axis=0)])
+    c = np.cumsum(np.concatenate([np.zeros((1, a.shape[1])), padded]), axis=0)
+    return (c[2 * h + 1:] - c[:-2 * h - 1]) / (2 * h + 1)
+
+
+def fit_view(positions, fps: float = 30.0, body=None) -> Framing:
+    """Frame the drawn points of a take so that the figure is whole in every frame.
+
+    Parameters
+    ----------
+    positions : sequence of float arrays (N, P, 3)
+        Every motion the viewer draws with one camera (the input and the cleaned
+        take), page units (cm), +y up; NaN (missing) points are ignored.
+    fps : float
+        Rate of the N shown frames; sets the track's smoothing (about 1 s).
+    body : bool array (P,), optional
+        The points on the body (:func:`body_points`); the others are left out of
+        the framing and marked hidden. Default: all.
+
+    A take without one finite point gets a 170 cm figure at the origin.
+    """
+    arrays = [np.asarray(p, dtype=np.float64) for p in positions]
+    if not arrays:
+        raise ValueError("fit_view needs at least one (N, P, 3) array")
+    N = arrays[0].shape[0]
+    for a in arrays:
+        if a.ndim != 3 or a.shape[-1] != 3 or a.shape[0] != N:
+            raise ValueError(f"positions must be (N, P, 3) arrays with one N; got {[x.shape for x in arrays]}")
+    P = arrays[0].shape[1]
+    body = np.ones(P, dtype=bool) if body is None else np.asarray(body, dtype=bool)
+    if body.shape != (P,):
+        raise ValueError(f"body: expected a ({P},) bool mask, got shape {body.shape}")
+    pts = np.concatenate([a[:, body] for a in arrays], axis=1)  # (N, P', 3): both motions' body points
+    finite = np.all(np.isfinite(pts), axis=-1)  # (N, P')
+    if not finite.any():
+        zero = np.zeros(3)
+        return Framing(0.0, zero + [0, 85, 0], 100.0, np.zeros((N, 2)), 85.0, 100.0, False, 50.0, ~body)
+    allp = pts[finite]
+    lo, hi = allp.min(axis=0), allp.max(axis=0)
+    centre = (lo + hi) / 2
+    radius_fixed = float(np.sqrt(((allp - centre) ** 2).sum(axis=1).max()))
+    y = np.where(finite, pts[..., 1], np.inf)
+    low = y.min(axis=1)
+    floor = float(np.median(low[np.isfinite(low)]))
+    # the follow target: the body's centroid over the floor, smoothed; frames without a point hold the nearest
+    cnt = finite.sum(axis=1)
+    have = cnt > 0
+    xz = np.zeros((N, 2))
+    xz[have] = np.stack([np.where(finite, pts[..., k], 0.0).sum(axis=1)[have] / cnt[have] for k in (0, 2)], axis=1)
+    idx = np.flatnonzero(have)
+    for k in range(2):
+        xz[:, k] = np.interp(np.arange(N), idx, xz[idx, k])
+    track = _moving_average(xz, int(round(max(fps, 1.0))) | 1)
+    track_height = float(centre[1])
+    target = np.concatenate([track[:, :1], np.full((N, 1), track_height), track[:, 1:]], axis=1)
+    d2 = ((pts - target[:, None, :]) ** 2).sum(axis=-1)
+    radius_follow = float(np.sqrt(np.where(finite, d2, 0.0).max()))
+    radius_fixed = max(radius_fixed, 1e-6)
+    radius_follow = max(radius_follow, 1e-6)
+    height = float(hi[1] - floor) if hi[1] > floor else float(hi[1] - lo[1])
+    grid_step = _round_step(max(height, 1e-6) / 4)
+    return Framing(
+        floor=floor,
+        centre=centre,
+        radius_fixed=radius_fixed,
+        track=track,
+        track_height=track_height,
+        radius_follow=radius_follow,
+        follow=radius_fixed > FOLLOW_RATIO * radius_follow,
+        grid_step=grid_step,
+        hidden=~body,
+    )
