@@ -511,3 +511,80 @@ def test_sixty_second_page_loads_and_scrubs(open_page, tmp_path, walk):
     pg.next_frames()
     assert pg.js("window.mocapkitReport.drawCount()") > n0
     assert pg.errors == []
+
+
+# ---- framing: any rig upright and whole ------------------------------------------------------
+
+FIGURE_JS = """([head, foot]) => {
+  // per panel (input left, cleaned right): bounding box of the figure's pixels (saturated colour:
+  // the blue / green / red strokes; the grid and the labels are grey), and the centre of the
+  // orange selection ring on the head, then on the foot, in the cleaned panel (no label there)
+  const c = document.getElementById('viewer'), W = c.width, H = c.height, half = Math.round(W / 2);
+  const R = window.mocapkitReport, panels = [[0, half - 1], [half + 1, W]];
+  function scan() {
+    const d = c.getContext('2d').getImageData(0, 0, W, H).data;
+    return panels.map(([x0, x1]) => {
+      const box = [Infinity, Infinity, -Infinity, -Infinity], ring = [0, 0, 0];
+      for (let y = 0; y < H; y++) for (let x = x0; x < x1; x++) {
+        const i = (y * W + x) * 4, r = d[i], g = d[i + 1], b = d[i + 2];
+        if (r > 200 && g > 120 && g < 190 && b < 80) { ring[0] += x - x0; ring[1] += y; ring[2]++; continue; }
+        if (Math.max(r, g, b) - Math.min(r, g, b) > 40) {
+          box[0] = Math.min(box[0], x - x0); box[1] = Math.min(box[1], y);
+          box[2] = Math.max(box[2], x - x0); box[3] = Math.max(box[3], y);
+        }
+      }
+      return { box: box, ring: ring[2] ? [ring[0] / ring[2], ring[1] / ring[2]] : null, width: x1 - x0, height: H };
+    });
+  }
+  R.select(-1);
+  const figure = scan();
+  R.select(head); const h = scan()[1].ring;
+  R.select(foot); const f = scan()[1].ring;
+  R.select(-1);
+  return { panels: figure, head: h, foot: f };
+}"""
+
+
+def framing_takes():
+    from tests.report.test_view import BANDAI, ZUP, turn_root_z_up
+
+    walk = mocapkit.load(mocapkit.samples.path("12_walk.amc"))[:160]  # walks 1.1 m: framed, not followed
+    return {
+        "acclaim": walk,  # Y up, CMU units (:units length 0.45)
+        "bandai": mocapkit.load(BANDAI),  # Y up, cm, rest pose lying along x, a floor reference joint
+        "zup_file": mocapkit.load(ZUP),  # Z up, inches
+        "zup_turned": turn_root_z_up(walk),  # Z up in the data, Y up in the rig's rest pose
+    }
+
+
+@pytest.mark.parametrize("name", ["acclaim", "bandai", "zup_file", "zup_turned"])
+def test_viewer_frames_any_rig_upright_and_whole(open_page, tmp_path, name):
+    from mocapkit.motion import find_joint
+
+    take = framing_takes()[name]
+    sk = take.skeleton
+    head, foot = sk.joint_names[find_joint(sk, "head")], sk.joint_names[find_joint(sk, "left_foot")]
+    out = write_report(tmp_path / f"{name}.html", take, take, title=name)
+    frames = np.unique(np.linspace(0, take.num_frames - 1, 8).round().astype(int))
+    for width in (1280, 360):  # a wide window and a phone-narrow one (panels 611 x 540 and 151 x 280)
+        pg = open_page(out)
+        pg.page.set_viewport_size({"width": width, "height": 900})
+        pg.next_frames()
+        for f in frames:
+            pg.js(f"window.mocapkitReport.setFrame({int(f)})")
+            got = pg.js(FIGURE_JS, [head, foot])
+            for side, p in zip(("input", "cleaned"), got["panels"]):
+                x0, y0, x1, y1 = p["box"]
+                where = f"{name}, {width} px window, frame {f}, {side} panel {p['width']}x{p['height']}: box {p['box']}"
+                assert x1 > x0 and y1 > y0, f"no figure drawn: {where}"
+                # whole: every figure pixel lies inside the panel, clear of its edges
+                m = max(2, 0.01 * min(p["width"], p["height"]))
+                assert x0 >= m and y0 >= m and x1 <= p["width"] - 1 - m and y1 <= p["height"] - 1 - m, where
+                # upright: a standing or stepping figure is taller than wide, and not a speck
+                assert y1 - y0 > x1 - x0, where
+                assert y1 - y0 > 0.3 * min(p["width"], p["height"]), where
+            # the head is drawn above the feet, by a good part of the figure's height
+            assert got["head"] and got["foot"], f"{name} frame {f}: no selection ring found"
+            box = got["panels"][1]["box"]
+            assert got["foot"][1] - got["head"][1] > 0.5 * (box[3] - box[1]), (name, width, f, got)
+        assert pg.errors == []
