@@ -99,6 +99,11 @@ def find_up_axis(skeleton: Skeleton, positions: np.ndarray | None = None, up_axi
     pose is not standing (the Bandai Namco rig lies along x at rest). A rig
     without a head or feet gets the axis along which the figure's extent is
     largest in most frames, pointing +; a take with nothing to go on gets +y.
+
+    >>> import mocapkit
+    >>> m = mocapkit.load(mocapkit.samples.path("131_01.bvh"))[:20]
+    >>> find_up_axis(m.skeleton, m.global_positions()).tolist()
+    [0.0, 1.0, 0.0]
     """
     if up_axis is not None:
         return parse_up_axis(up_axis)
