@@ -78,6 +78,23 @@ def test_up_axis_majority_survives_a_few_upside_down_frames(takes):
     assert find_up_axis(takes["acclaim"].skeleton, flipped).tolist() == [0, 1, 0]
 
 
+def test_mostly_lying_take_keeps_its_standing_rest_pose_up(takes):
+    """An actor lying on the floor in 70 % of the frames (HDM05's lieDownFloor takes) stays Y up."""
+    walk = takes["acclaim"]
+    q = np.array([math.cos(math.pi / 4), 0.0, 0.0, math.sin(math.pi / 4)])  # 90 deg about z: lying along -x
+    rot = np.array(walk.rotations)
+    rot[48:, 0] = quaternion_multiply(np.broadcast_to(q, rot[48:, 0].shape), rot[48:, 0])
+    lying = dataclasses.replace(walk, rotations=rot)
+    pos = lying.global_positions()
+    sk = lying.skeleton
+    d = pos[:, sk.index("head")] - pos[:, sk.index("lfoot")]
+    assert np.mean(np.argmax(np.abs(d), axis=1) == 0) > 0.6  # most frames vote for x
+    assert find_up_axis(sk, pos).tolist() == [0, 1, 0]
+    # lying in every frame, it is drawn as the votes say: the root turns the rig (see zup_turned)
+    rot[:, 0] = quaternion_multiply(np.broadcast_to(q, rot[:, 0].shape), np.asarray(walk.rotations)[:, 0])
+    assert find_up_axis(sk, dataclasses.replace(walk, rotations=rot).global_positions()).tolist() == [-1, 0, 0]
+
+
 def test_rig_without_head_or_feet_uses_its_tallest_extent(takes):
     m = takes["zup_file"]
     names = tuple(f"j{i}" for i in range(m.num_joints))

@@ -40,6 +40,7 @@ from ..motion import Skeleton, find_joint
 __all__ = [
     "HALF_FOV",
     "MARGIN",
+    "REST_POSE_MIN_SHARE",
     "Framing",
     "find_up_axis",
     "rotation_to_y",
@@ -77,6 +78,37 @@ def _roles(skeleton: Skeleton) -> tuple[int, list[int]] | None:
     return (head, feet) if feet else None
 
 
+#: a straight rest pose is up unless fewer than this share of the take's frames stand along it.
+REST_POSE_MIN_SHARE = 0.1
+
+
+def _standing_rest_axis(skeleton: Skeleton, head: int, feet: list[int]) -> int | None:
+    """Vote index (2 axis + (sign > 0)) of the rest pose's head - feet axis, if the rest pose stands straight.
+
+    Straight: head - mean(feet) is at least 0.7 of the bone path from a foot to
+    the head and lies within about 25 deg of one coordinate axis (T-pose, A-pose).
+    The Bandai Namco rig's rest pose folds its legs against its spine: not straight.
+    """
+    rest = skeleton.rest_positions()
+    d = rest[head] - rest[feet].mean(axis=0)
+
+    def chain(j):
+        out = [j]
+        while skeleton.parents[out[-1]] >= 0:
+            out.append(int(skeleton.parents[out[-1]]))
+        return out
+
+    a, b = chain(feet[0]), chain(head)
+    common = next(j for j in a if j in set(b))
+    path = sum(float(np.linalg.norm(rest[j] - rest[skeleton.parents[j]]))
+               for c in (a, b) for j in c[:c.index(common)])
+    n = float(np.linalg.norm(d))
+    k = int(np.argmax(np.abs(d)))
+    if path <= 0 or n < 0.7 * path or abs(d[k]) < 0.9 * n:
+        return None
+    return 2 * k + int(d[k] > 0)
+
+
 def find_up_axis(skeleton: Skeleton, positions: np.ndarray | None = None, up_axis=None) -> np.ndarray:
     """The signed coordinate axis (3,) that is up in a take, e.g. ``[0, 1, 0]`` or ``[0, 0, 1]``.
 
@@ -93,12 +125,18 @@ def find_up_axis(skeleton: Skeleton, positions: np.ndarray | None = None, up_axi
 
     Each frame where the head and a foot are present votes for the axis along
     which ``head - mean(feet)`` has its largest component, with that component's
-    sign; the most voted axis wins, so a handstand or a fall in a few frames does
-    not turn the take over. Without such frames the rest pose decides
-    (:func:`mocapkit.features.detect_up_axis`), which is wrong for rigs whose rest
-    pose is not standing (the Bandai Namco rig lies along x at rest). A rig
-    without a head or feet gets the axis along which the figure's extent is
-    largest in most frames, pointing +; a take with nothing to go on gets +y.
+    sign. Lying down is symmetric to standing up in these votes (an actor who
+    lies on the floor for most of a take outvotes the frames he stands in), so a
+    rest pose that stands straight (T-pose, A-pose: most mocap rigs) keeps its
+    axis unless fewer than ``REST_POSE_MIN_SHARE`` of the frames stand along it
+    (a file whose root turns a Y-up rig to Z up). A rest pose that does not stand
+    (the Bandai Namco rig's folds along x) leaves the decision to the most voted
+    axis. Without frames the rest pose decides
+    (:func:`mocapkit.features.detect_up_axis`). A rig without a head or feet gets
+    the axis along which the figure's extent is largest in most frames, pointing
+    +; a take with nothing to go on gets +y. A take that lies on the floor
+    throughout on a rig whose rest pose does not stand is drawn standing: pass
+    ``up_axis``.
 
     >>> import mocapkit
     >>> m = mocapkit.load(mocapkit.samples.path("131_01.bvh"))[:20]
@@ -121,6 +159,9 @@ def find_up_axis(skeleton: Skeleton, positions: np.ndarray | None = None, up_axi
             s = np.sign(d[np.arange(len(d)), k]) > 0
             votes = np.bincount(k * 2 + s, minlength=6)
             best = int(np.argmax(votes))
+            rest = _standing_rest_axis(skeleton, head, feet)
+            if rest is not None and votes[rest] >= REST_POSE_MIN_SHARE * votes.sum():
+                best = rest
             return _axis(best // 2, 1.0 if best % 2 else -1.0)
     if roles is not None:
         try:
