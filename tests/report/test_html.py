@@ -558,6 +558,33 @@ def framing_takes():
 
 
 @pytest.mark.parametrize("name", ["acclaim", "bandai", "zup_file", "zup_turned"])
+def test_page_data_stands_every_rig_up_in_centimetres(tmp_path, name):
+    """Without a browser: the page's points are cm with the head above the feet; the framing travels with them."""
+    from mocapkit.motion import find_joint
+    from mocapkit.report.view import camera_distance
+
+    take = framing_takes()[name]
+    sk = take.skeleton
+    data = page_data(write_report(tmp_path / "r.html", take, take))
+    pos = decode_positions(data, "original")
+    head, feet = find_joint(sk, "head"), [find_joint(sk, "left_foot"), find_joint(sk, "right_foot")]
+    rise = pos[:, head, 1] - pos[:, feet, 1].mean(axis=1)
+    assert np.all(rise > 100), rise.min()  # standing or stepping: the head over a metre above the feet
+    assert 120 < np.ptp(pos[0, :, 1]) < 230  # a person, in centimetres, whatever the file's unit
+    view = data["view"]
+    names = data["names"]
+    assert [names[p] for p in view["hidden"]] == (["joint_Root"] if name == "bandai" else [])
+    for mode in ("fixed", "follow"):
+        assert view["distance"][mode] == pytest.approx(camera_distance(view["radius"][mode]))
+    track = np.frombuffer(base64.b64decode(view["track"]), dtype="<f4").reshape(-1, 2)
+    assert track.shape == (data["n"], 2) and np.isfinite(track).all()
+    # the caller's up axis is taken as given: Y-up data declared Z up lies on its back
+    if name == "acclaim":
+        lying = decode_positions(page_data(write_report(tmp_path / "z.html", take, take, up_axis="z")), "original")
+        assert np.all(np.abs(lying[:, head, 1] - lying[:, feet, 1].mean(axis=1)) < 60)
+
+
+@pytest.mark.parametrize("name", ["acclaim", "bandai", "zup_file", "zup_turned"])
 def test_viewer_frames_any_rig_upright_and_whole(open_page, tmp_path, name):
     from mocapkit.motion import find_joint
 
