@@ -7,8 +7,10 @@ module decides, in Python where it can be tested without a browser,
 
 - the **up axis** of the data (:func:`find_up_axis`): the signed coordinate axis
   along which head - feet points in most frames, by joint roles
-  (:func:`mocapkit.motion.find_joint`); the rest pose when no frame has both; the
-  axis of largest extent when the rig has no head or feet;
+  (:func:`mocapkit.motion.find_joint`), unless a straight standing rest pose says
+  otherwise and the take stands along it often enough (lying down votes like
+  standing up); the rest pose when no frame has both; the axis of largest extent
+  when the rig has no head or feet;
 - the rotation turning it into the page's +y (:func:`rotation_to_y`);
 - the **framing** (:func:`fit_view`): the floor, a fixed camera target (the
   take's bounding-box centre) or a target that follows the body across the floor,
@@ -41,6 +43,7 @@ __all__ = [
     "HALF_FOV",
     "MARGIN",
     "REST_POSE_MIN_SHARE",
+    "FOLLOW_RATIO",
     "Framing",
     "find_up_axis",
     "rotation_to_y",
@@ -312,6 +315,12 @@ class Framing:
         return self.grid_step * max(2, math.ceil(1.3 * r / self.grid_step))
 
 
+def _frozen(a: np.ndarray) -> np.ndarray:
+    a = np.array(a)
+    a.setflags(write=False)
+    return a
+
+
 def _round_step(x: float) -> float:
     """A 1, 2 or 5 times a power of ten close to ``x`` (> 0)."""
     e = 10.0 ** math.floor(math.log10(x))
@@ -358,8 +367,8 @@ def fit_view(positions, fps: float = 30.0, body=None) -> Framing:
     pts = np.concatenate([a[:, body] for a in arrays], axis=1)  # (N, P', 3): both motions' body points
     finite = np.all(np.isfinite(pts), axis=-1)  # (N, P')
     if not finite.any():
-        zero = np.zeros(3)
-        return Framing(0.0, zero + [0, 85, 0], 100.0, np.zeros((N, 2)), 85.0, 100.0, False, 50.0, ~body)
+        return Framing(0.0, _frozen(np.array([0.0, 85.0, 0.0])), 100.0, _frozen(np.zeros((N, 2))), 85.0, 100.0,
+                       False, 50.0, _frozen(~body))
     allp = pts[finite]
     lo, hi = allp.min(axis=0), allp.max(axis=0)
     centre = (lo + hi) / 2
@@ -386,12 +395,12 @@ def fit_view(positions, fps: float = 30.0, body=None) -> Framing:
     grid_step = _round_step(max(height, 1e-6) / 4)
     return Framing(
         floor=floor,
-        centre=centre,
+        centre=_frozen(centre),
         radius_fixed=radius_fixed,
-        track=track,
+        track=_frozen(track),
         track_height=track_height,
         radius_follow=radius_follow,
         follow=radius_fixed > FOLLOW_RATIO * radius_follow,
         grid_step=grid_step,
-        hidden=~body,
+        hidden=_frozen(~body),
     )
