@@ -53,6 +53,7 @@ cluster (``"dask"``) or on the Dask scheduler at an address.
 
 from __future__ import annotations
 
+import dataclasses
 import fnmatch
 import os
 import shutil
@@ -127,6 +128,8 @@ def clean_file(
     asf=None,
     overwrite: bool = False,
     motion=None,
+    decisions=None,
+    record=None,
 ):
     """Clean the take at ``inp`` and write ``out``, its ``.clean.npz`` record and optional reports.
 
@@ -135,6 +138,11 @@ def clean_file(
     context clips or of one database folder; ``asf``: the skeleton of an
     ``.amc`` input; ``motion``: the take already read from ``inp`` (it is not
     read again). ``overwrite``: replace existing outputs (never an input).
+    ``decisions``: a decisions file (:mod:`mocapkit.cleaning.decisions`):
+    ``out`` then holds only the changes it accepts (the record still lists
+    every change); ``record``: the ``.clean.npz`` of an earlier run on this
+    take, used instead of cleaning again (needs ``decisions``; nothing but
+    ``out`` and the reports is written).
 
     Every output is checked against every input
     (:func:`mocapkit.io.outputs.check_outputs`) before anything is read; the
@@ -144,26 +152,44 @@ def clean_file(
     :class:`~mocapkit.errors.MocapError` (one line) on bad input.
     """
     from . import io
-    from .cleaning.pipeline import STEPS, clean, clean_path
+    from .cleaning import decisions as dec
+    from .cleaning.pipeline import STEPS, CleanResult, clean, clean_path
     from .io.outputs import check_outputs, removed_on_failure
     from .io.takes import check_asf, load_motion
 
     inp, out = Path(inp), Path(out)
-    record = clean_path(out)
-    outputs = [out, record, report, png]
-    check_outputs(outputs, [inp, asf, *(context or [])], overwrite=overwrite)
+    reuse = record is not None
+    if reuse and decisions is None:
+        raise MocapError(f"{record}: an earlier run's record is applied with decisions; give the decisions file")
+    record = Path(record) if reuse else clean_path(out)
+    outputs = [out, None if reuse else record, report, png]
+    check_outputs(outputs, [inp, asf, decisions, record if reuse else None, *(context or [])], overwrite=overwrite)
     check_asf(asf, [inp])
     io.suffix_kind(out, io.WRITERS, "writing")
+    doc = dec.read_decisions(decisions) if decisions is not None else None
     m = motion if motion is not None else load_motion(inp, asf, purpose="clean")
-    ctx = load_context(context)
-    try:
-        res = clean(m, ctx, steps=steps or STEPS, threshold=threshold, progress=progress)
-    except (ValueError, TypeError) as exc:
-        raise MocapError(f"{inp}: {exc}") from None
-    except MocapError as exc:
-        msg = str(exc)
-        raise MocapError(msg if str(inp) in msg else f"{inp}: {msg}") from None
-    cleaned = res.motion
+    if reuse:
+        res = CleanResult.load(record)
+    else:
+        ctx = load_context(context)
+        try:
+            res = clean(m, ctx, steps=steps or STEPS, threshold=threshold, progress=progress)
+        except (ValueError, TypeError) as exc:
+            raise MocapError(f"{inp}: {exc}") from None
+        except MocapError as exc:
+            msg = str(exc)
+            raise MocapError(msg if str(inp) in msg else f"{inp}: {msg}") from None
+    cleaned, changed = res.motion, res.changed
+    chosen = None
+    if doc is not None:
+        try:
+            chosen = dec.check_decisions(doc, decisions, m, res)
+            cleaned = dec.apply(m, res, chosen)
+        except MocapFormatError:
+            raise
+        except MocapError as exc:
+            raise MocapError(f"{record}: {exc}") from None
+        changed = dec.accepted_cells(res, chosen)
     if out.suffix.lower() == ".bvh" and cleaned.missing().any():
         raise MocapFormatError(out, "the cleaned take still has missing joints (NaN), which BVH cannot hold; "
                                "add the fill step or write .npz")
@@ -171,14 +197,16 @@ def clean_file(
         if report is not None:
             from .report.html import write_report  # lazy: the viewer is optional
 
-            write_report(report, m, cleaned, mdm=res.mdm, flags=res.flags, changed=res.changed,
-                         title=f"{inp.name}: cleaned")
+            write_report(report, m, cleaned, mdm=res.mdm, flags=res.flags, changed=changed,
+                         title=f"{inp.name}: cleaned" + (f" ({Path(decisions).name} applied)" if doc else ""),
+                         review=dec.review(m, res, take=inp.name, output=out.name, decisions=chosen))
         if png is not None:
             from .report.summary import plot_summary
 
-            plot_summary(res, m, png, title=inp.name)
+            plot_summary(dataclasses.replace(res, motion=cleaned), m, png, title=inp.name)
         io.save(cleaned, out)
-        res.save(record)  # last: the completion marker
+        if not reuse:
+            res.save(record)  # last: the completion marker
     return m, res
 
 

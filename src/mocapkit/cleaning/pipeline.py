@@ -127,7 +127,12 @@ class CleanResult:
     ``filled``/``repaired``/``denoised``: bool, the cells each step changed;
     ``noise``: float (F, J) the noise level of :func:`noise_level` in degrees
     (NaN when denoise did not run); ``steps``: :class:`StepRecord` per step
-    that ran; ``notes``: what fell back and why.
+    that ran; ``notes``: what fell back and why. ``samples`` (after
+    :meth:`load`; None for a record written without them): the cleaned
+    values of the changed cells, ``{"rotations": (K, 4), "root": (K0, 3)[,
+    "translations": (K, 3)]}`` with K = ``changed.sum()`` in row-major cell
+    order and K0 the frames whose root cell changed, so that
+    :mod:`mocapkit.cleaning.decisions` can apply a person's choices exactly.
     """
 
     motion: Motion | None
@@ -143,6 +148,7 @@ class CleanResult:
     notes: tuple = ()
     params: dict = field(default_factory=dict)
     detection: object = None
+    samples: dict | None = None
 
     def __repr__(self) -> str:
         return (f"CleanResult({self.motion!r}, {int(self.flags.sum())} flagged, {int(self.filled.sum())} filled, "
@@ -175,6 +181,13 @@ class CleanResult:
             "notes": list(self.notes),
             "params": self.params,
         }
+        samples = {}
+        if self.motion is not None:  # the cleaned values of the changed cells: decisions apply them exactly
+            cells = self.changed
+            samples = dict(cleaned_rotations=self.motion.rotations[cells],
+                           cleaned_root=self.motion.root_positions[cells[:, 0]])
+            if self.motion.translations is not None:
+                samples["cleaned_translations"] = self.motion.translations[cells]
         with atomic_write(path, "wb") as fh:
             np.savez_compressed(
                 fh,
@@ -186,6 +199,7 @@ class CleanResult:
                 changed=self.changed,
                 noise=self.noise.astype(np.float32),
                 meta=np.array(json.dumps(meta)),
+                **samples,
             )
         return path
 
@@ -213,12 +227,19 @@ class CleanResult:
                 steps=tuple(StepRecord(**s) for s in meta["steps"]),
                 notes=tuple(meta["notes"]),
                 params=dict(meta["params"]),
+                samples={k[len("cleaned_"):]: data[k].astype(np.float64) for k in
+                         ("cleaned_rotations", "cleaned_root", "cleaned_translations") if k in data} or None,
             )
         except (OSError, ValueError, KeyError, TypeError) as e:
             raise MocapFormatError(path, f"not a mocapkit clean file ({e})") from None
         shape = (res.num_frames, len(res.joint_names))
         if any(a.shape != shape for a in (res.mdm, res.flags, res.repaired, res.denoised, res.noise)):
             raise MocapFormatError(path, f"not a mocapkit clean file (arrays are not all {shape})")
+        k, k0 = int(res.changed.sum()), int(res.changed[:, 0].sum())
+        want = {"rotations": (k, 4), "root": (k0, 3), "translations": (k, 3)}
+        if res.samples is not None and ("rotations" not in res.samples or "root" not in res.samples
+                                        or any(v.shape != want[n] for n, v in res.samples.items())):
+            raise MocapFormatError(path, f"not a mocapkit clean file (the cleaned samples are not {k} changed cells)")
         return res
 
 

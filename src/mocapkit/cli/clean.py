@@ -26,18 +26,28 @@ def clean(
     inp: Path = typer.Argument(..., metavar="IN", help="Motion to clean (.bvh, .amc, .npz)."),
     out: Path = typer.Option(..., "--out", "-o", help="Cleaned motion (.bvh or .npz); OUT's stem + .clean.npz is written beside it."),
     context: Optional[list[Path]] = context_option(),
-    steps: str = typer.Option("fill,detect,repair,denoise", "--steps", help=STEPS_HELP),
+    steps: str = typer.Option("fill,detect,repair,denoise", "--steps",
+                              help=STEPS_HELP + " --steps detect is the review mode: flags, record and report; OUT "
+                                                "holds the input's samples unchanged."),
     threshold: float = typer.Option(0.5, "--threshold", help="MDM value above which a joint is flagged and repaired (0-1)."),
     report: Optional[Path] = typer.Option(None, "--report", help="Also write the self-contained HTML report here."),
     png: Optional[Path] = typer.Option(None, "--png", help="Also write a static summary figure (MDM + before/after channels)."),
     reference: Optional[Path] = typer.Option(None, "--reference", help="The clean take, to print the error before and after."),
+    decisions: Optional[Path] = typer.Option(
+        None, "--decisions", help="Accept/reject per change (the report's 'Download decisions'): OUT gets only the "
+                                  "accepted changes. The record of the earlier run (--record, else OUT's .clean.npz "
+                                  "if it exists) is reused; without one the take is cleaned first."),
+    record: Optional[Path] = typer.Option(None, "--record", help="With --decisions: the .clean.npz of the earlier run "
+                                                                 "(default: OUT's, if it exists)."),
     asf: Optional[Path] = asf_option(),
     overwrite: bool = overwrite_option(),
 ) -> None:
     """Clean a take: fill gaps, detect and repair erroneous joints, denoise only the noisy cells.
 
     Writes OUT and, beside it, OUT's stem + .clean.npz (MDM, flags, the cells each step changed and
-    a record per step); everything not missing, flagged or noisy stays bit-identical.
+    a record per step); everything not missing, flagged or noisy stays bit-identical. The report
+    (--report) lists every change for a person to accept or reject; --decisions then writes OUT
+    with only the accepted changes, every other sample bit-identical to IN.
     """
     from ..batch import clean_file, sigterm_as_interrupt
     from ..cleaning.pipeline import clean_path
@@ -45,7 +55,14 @@ def clean(
     from ..reference import check_reference, clean_errors
 
     sigterm_as_interrupt()
-    guard([out, clean_path(out), report, png], [inp, asf, context, reference], overwrite)
+    if record is not None and decisions is None:
+        raise MocapError("--record: the earlier run's record is read with --decisions; give the decisions file")
+    if decisions is not None and record is None and clean_path(out).is_file():
+        record = clean_path(out)  # the earlier run's record beside OUT: apply the decisions, clean nothing again
+    if record is not None:
+        guard([out, report, png], [inp, asf, context, reference, decisions, record], overwrite)
+    else:
+        guard([out, clean_path(out), report, png], [inp, asf, context, reference, decisions], overwrite)
     check_asf(asf, [inp])
     step_list = _steps(steps)
     take = load_motion(inp, asf, purpose="clean")
@@ -54,11 +71,18 @@ def clean(
         ref = check_reference(load_motion(reference, purpose="a reference"), reference, frames=take.num_frames,
                               joint_names=take.skeleton.joint_names)
     original, res = clean_file(inp, out, context=context, steps=step_list, threshold=threshold, report=report, png=png,
-                               progress=True, asf=asf, overwrite=overwrite, motion=take)
+                               progress=True, asf=asf, overwrite=overwrite, motion=take, decisions=decisions,
+                               record=record)
+    if decisions is not None:
+        _print_decided(inp, out, decisions, record, report, png, original, res)
+        return
     m = res.motion
+    review = [s for s in res.steps if s.name != "detect"] == [] and res.detection is not None
     console.print(f"wrote {out} and {clean_path(out)}" + "".join(f" and {p}" for p in (report, png) if p is not None)
-                  + f": {plural(res.num_frames, 'frame')} @ {m.fps:g} fps, {int(res.changed.sum())} of "
-                  f"{plural(res.changed.size, 'joint sample')} changed ({100.0 * (1 - res.changed.mean()):.1f} % untouched)")
+                  + f": {plural(res.num_frames, 'frame')} @ {m.fps:g} fps, "
+                  + ("review mode (--steps detect): flags only, the take unchanged" if review else
+                     f"{int(res.changed.sum())} of {plural(res.changed.size, 'joint sample')} changed "
+                     f"({100.0 * (1 - res.changed.mean()):.1f} % untouched)"))
     for line in res.summary():
         console.print(f"  {line}")
     if res.detection is not None:
@@ -72,6 +96,24 @@ def clean(
         gaps = " (input gaps linearly filled)" if e["gaps_filled"] else ""
         console.print(f"  error against {reference.name}{gaps}: eq. 2 {e['pose_before']:.4f} -> {e['pose_after']:.4f} "
                       f"per frame; joint positions {e['cm_before']:.2f} -> {e['cm_after']:.2f} cm RMS")
+
+
+def _print_decided(inp, out, decisions, record, report, png, original, res) -> None:
+    """The summary of ``clean --decisions``: what was reused, how many changes were accepted, what OUT holds."""
+    from ..cleaning import decisions as dec
+
+    doc = dec.read_decisions(decisions)
+    found = dec.changes(res, original)
+    rejected = sum(doc["decisions"].get(c.id) == dec.REJECT for c in found)
+    cells = dec.accepted_cells(res, doc["decisions"])
+    src = f"the record {record} (nothing cleaned again)" if record is not None else "a new cleaning"
+    console.print(f"wrote {out}" + "".join(f" and {p}" for p in (report, png) if p is not None)
+                  + f": {decisions} applied to {src}: {len(found) - rejected} of {plural(len(found), 'change')} "
+                  f"accepted, {rejected} rejected; {plural(int(cells.sum()), 'joint sample')} of {res.changed.size} "
+                  f"changed, every other sample is {inp.name}'s")
+    for c in found:
+        if doc["decisions"].get(c.id) == dec.REJECT:
+            console.print(f"  rejected {c}")
 
 
 def _take_line(row: dict) -> str:
