@@ -182,10 +182,10 @@ def _angles_deg(q0: np.ndarray, q1: np.ndarray) -> np.ndarray:
         return np.degrees(2.0 * np.arccos(np.clip(dot, 0.0, 1.0)))
 
 
-def _reason(result, step_code: int, j: int, a: int, b: int, original: Motion) -> str:
+def _reason(result, step_code: int, j: int, a: int, b: int, missing: np.ndarray) -> str:
     parts = []
     if step_code & 1:
-        n = int(original.missing()[a:b + 1, j].sum())
+        n = int(missing[a:b + 1, j].sum())
         parts.append(f"missing in {n} of {b - a + 1} frames")
     if step_code & 2:
         mdm = float(np.nanmax(result.mdm[a:b + 1, j])) if result.mdm.size else float("nan")
@@ -222,6 +222,7 @@ def changes(result, original: Motion) -> list[Change]:
     cleaned = np.full(original.rotations.shape, np.nan)
     cleaned[cells] = _cleaned(result)["rotations"]
     methods = {s.name: s.method for s in result.steps}
+    missing = original.missing()
     out = []
     for j, a, b, code in runs:
         ang = _angles_deg(original.rotations[a:b + 1, j], cleaned[a:b + 1, j])
@@ -230,7 +231,7 @@ def changes(result, original: Motion) -> list[Change]:
         out.append(Change(
             id=_change_id(result, j, a, b, code), joint=result.joint_names[j], joint_index=j, first=a, last=b,
             step="+".join(steps), method="; ".join(methods.get(s, s) for s in steps), max_deg=size,
-            reason=_reason(result, code, j, a, b, original),
+            reason=_reason(result, code, j, a, b, missing),
         ))
     return out
 
