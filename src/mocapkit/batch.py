@@ -168,6 +168,8 @@ def clean_file(
     io.suffix_kind(out, io.WRITERS, "writing")
     doc = dec.read_decisions(decisions) if decisions is not None else None
     m = motion if motion is not None else load_motion(inp, asf, purpose="clean")
+    if doc is not None:
+        dec.check_decisions(doc, decisions, m)  # decisions for another take: refused before any cleaning
     if reuse:
         res = CleanResult.load(record)
     else:

@@ -356,18 +356,21 @@ def read_decisions(path) -> dict:
     return doc
 
 
-def check_decisions(doc: dict, path, original: Motion, result) -> dict:
+def check_decisions(doc: dict, path, original: Motion, result=None) -> dict:
     """The choices of ``doc`` (from :func:`read_decisions`) after checking they fit this take and this record.
 
     Refused, in one line naming ``path``: decisions for another take (its
     digest differs from :func:`take_digest` of ``original``), or an id that is
-    not a change of ``result``.
+    not a change of ``result``. With ``result`` None only the take is checked
+    (before a cleaning, so that decisions for another take are refused first).
     """
     take = doc["take"]
     if take["sha256"] != take_digest(original):
         what = f"{take.get('name', '?')}, {take.get('frames', '?')} frames"
         raise MocapFormatError(path, f"decisions for another take ({what}), not {original.name or 'this take'} "
                                f"({original.num_frames} frames): its samples differ")
+    if result is None:
+        return dict(doc["decisions"])
     try:
         accepted_cells(result, doc["decisions"])
     except ValueError as exc:
