@@ -314,7 +314,7 @@ def _batch_job(job: dict) -> dict:
         staged = {f: stage / f.name for f in finals}
         _, res = clean_file(job["input"], staged[out], context=job["context"], steps=job["steps"], threshold=job["threshold"],
                             report=staged[Path(job["report"])] if job.get("report") else None,
-                            png=staged[Path(job["png"])] if job.get("png") else None)
+                            png=staged[Path(job["png"])] if job.get("png") else None, asf=job.get("asf"))
         for final in finals:  # the record last: the completion marker
             if not owner_alive():
                 raise _Orphaned
@@ -442,6 +442,7 @@ def clean_batch(
     executor=None,
     progress: bool = True,
     overwrite: bool = False,
+    asf=None,
 ) -> BatchSummary:
     """Clean every take under ``in_dir`` into the mirrored layout under ``out_dir`` (module docstring).
 
@@ -452,7 +453,8 @@ def clean_batch(
     (``take.amc`` -> ``take.amc.bvh``; listed in ``BatchSummary.renamed``).
     Every output is checked before any take is cleaned: none may resolve to
     an input, and an existing file that is not part of a complete take is
-    replaced only with ``overwrite``. Raises
+    replaced only with ``overwrite``. ``asf``: the skeleton of every ``.amc``
+    take (default: the ASF beside each AMC). Raises
     :class:`~mocapkit.errors.MocapError` (one line) on a bad folder, format,
     step list, context or executor (:func:`mocapkit.parallel.check_executor`)
     and on a refused output; nothing is written then.
@@ -479,6 +481,10 @@ def clean_batch(
     t0 = time.perf_counter()
     below = inside(out_dir, in_dir)  # an OUT_DIR below IN_DIR is left out of the inputs, IN_DIR itself is not
     inputs = find_inputs(in_dir, patterns, exclude=out_dir if below else None)
+    if asf is not None:
+        from .io.takes import check_asf
+
+        check_asf(asf, inputs)
     plans, renamed = _plan(inputs, in_dir, out_dir, fmt, report, png)
     summary = BatchSummary(executor=describe_executor(executor), renamed=[str(p) for p in renamed])
     todo = []
@@ -492,7 +498,8 @@ def clean_batch(
     _check_batch_outputs(plans, todo, inputs, folders, ctx, overwrite)
     jobs = [{"input": str(inp), "output": str(files["output"]), "context": [str(c) for c in ctx], "steps": steps,
              "threshold": float(threshold), "report": str(files["report"]) if files["report"] else None,
-             "png": str(files["png"]) if files["png"] else None} for inp, files in todo]
+             "png": str(files["png"]) if files["png"] else None,
+             "asf": str(asf) if asf is not None and inp.suffix.lower() == ".amc" else None} for inp, files in todo]
     expected = [f for files in plans for f in files.values() if f is not None]
     _sweep(expected)
     try:

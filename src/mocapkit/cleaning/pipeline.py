@@ -96,6 +96,11 @@ NOISE_DEG = 1.0  # default threshold
 MAX_WORD_ANGLE_DEG = 8.0  # words with no neighbour this close (RMS joint angle) are not judged
 
 
+def _count(n: int, word: str) -> str:
+    """``"1 joint"``, ``"2 joints"``: the counts of the summary lines."""
+    return f"{n} {word}{'' if n == 1 else 's'}"
+
+
 @dataclass(frozen=True)
 class StepRecord:
     """What one step did: its name, seconds, cells changed, the method used and why, and a note."""
@@ -112,7 +117,7 @@ class StepRecord:
     def __str__(self) -> str:
         s = f"{self.name} ({self.seconds:.2f} s): {self.method}"
         if self.name != "detect" and not self.method.startswith(("skipped", "nothing")):
-            s += f", {self.cells} joint samples changed"
+            s += f", {_count(self.cells, 'joint sample')} changed"
         return s + (f"; {self.note}" if self.note else "")
 
 
@@ -501,7 +506,7 @@ def clean(
             mdm, flags = np.nan_to_num(np.asarray(det.mdm, dtype=np.float64)), np.asarray(det.flags, dtype=bool)
             what = "the clip itself" if context is None else f"the clip and {len(det.context_clips) - 1} context clips"
             n_seg = len(det.segments())
-            note = f"{n_seg} flagged segments on {int(flags.any(axis=0).sum())} joints" + (
+            note = f"{_count(n_seg, 'flagged segment')} on {_count(int(flags.any(axis=0).sum()), 'joint')}" + (
                 f"; {'; '.join(det.notes)}" if det.notes else "")
             records.append(StepRecord("detect", time.perf_counter() - t, 0, f"self-similarity against {what}", note))
 
@@ -530,7 +535,8 @@ def clean(
             before = cur.rotations
             cur, method, note = _denoise(cur, noisy, models, notes)
             denoised = _changed_cells(before, cur.rotations)
-            extra = f"{int(noisy.sum())} noisy cells (level > {noise_deg:g} deg) on {int(noisy.any(axis=0).sum())} joints"
+            extra = (f"{_count(int(noisy.sum()), 'noisy cell')} (level > {noise_deg:g} deg) on "
+                     f"{_count(int(noisy.any(axis=0).sum()), 'joint')}")
             records.append(StepRecord("denoise", time.perf_counter() - t, int(denoised.sum()), method,
                                       extra + (f"; {note}" if note else "")))
 

@@ -63,15 +63,16 @@ def clean(
         guard([out, report, png], [inp, asf, context, reference, decisions, record], overwrite)
     else:
         guard([out, clean_path(out), report, png], [inp, asf, context, reference, decisions], overwrite)
-    check_asf(asf, [inp])
+    check_asf(asf, [inp, reference])
     step_list = _steps(steps)
     take = load_motion(inp, asf, purpose="clean")
     ref = None
     if reference is not None:  # refused before cleaning, not after OUT is written
-        ref = check_reference(load_motion(reference, purpose="a reference"), reference, frames=take.num_frames,
+        ref = check_reference(load_motion(reference, asf, purpose="a reference"), reference, frames=take.num_frames,
                               joint_names=take.skeleton.joint_names)
     original, res = clean_file(inp, out, context=context, steps=step_list, threshold=threshold, report=report, png=png,
-                               progress=True, asf=asf, overwrite=overwrite, motion=take, decisions=decisions,
+                               progress=True, asf=asf if inp.suffix.lower() == ".amc" else None, overwrite=overwrite,
+                               motion=take, decisions=decisions,
                                record=record)
     if decisions is not None:
         _print_decided(inp, out, decisions, record, report, png, original, res)
@@ -141,6 +142,7 @@ def clean_batch(
     pattern: str = typer.Option("*.bvh,*.amc,*.npz", "--pattern", help="Comma-separated file name patterns to clean."),
     fmt: str = typer.Option("auto", "--format", help="Output format: auto (.bvh and .npz kept, others -> .bvh), bvh or npz."),
     as_json: bool = typer.Option(False, "--json", help="Print the per-take rows as JSON."),
+    asf: Optional[Path] = asf_option(),
     overwrite: bool = typer.Option(
         False, "--overwrite",
         help="Replace existing outputs that are not complete takes of an earlier run (without it they are refused; "
@@ -165,7 +167,8 @@ def clean_batch(
     if not patterns:
         raise MocapError("--pattern: give at least one file name pattern, e.g. '*.bvh,*.amc'")
     summary = run_batch(in_dir, out_dir, context=context, steps=step_list, threshold=threshold, patterns=patterns,
-                        fmt=fmt, report=report, png=png, executor=executor, progress=not as_json, overwrite=overwrite)
+                        fmt=fmt, report=report, png=png, executor=executor, progress=not as_json, overwrite=overwrite,
+                        asf=asf)
     if as_json:
         print(json.dumps({"rows": summary.rows, "seconds": summary.seconds, "executor": summary.executor}))
     else:
