@@ -340,6 +340,8 @@ def read_decisions(path) -> dict:
         raise MocapFormatError(path, "a folder, not a decisions file") from None
     except (UnicodeDecodeError, json.JSONDecodeError) as exc:
         raise MocapFormatError(path, f"not JSON ({exc})") from None
+    except RecursionError:
+        raise MocapFormatError(path, "JSON nested too deeply; not a mocapkit decisions file") from None
     fmt = doc.get("format") if isinstance(doc, dict) else None
     if not isinstance(fmt, str) or not fmt.startswith("mocapkit.decisions/"):
         raise MocapFormatError(path, f"not a mocapkit decisions file (no \"format\": \"{FORMAT}\")")

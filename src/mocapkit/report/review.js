@@ -60,11 +60,13 @@
   }
 
   function paint(k) { rows[k].tr.className = rows[k].box.checked ? "" : "rejected"; }
-  function set(k, accept) {
+  function set(k, accept, bulk) {
     doc.decisions[list[k].id] = accept ? "accept" : "reject";
     rows[k].box.checked = accept;
-    paint(k); tally();
+    paint(k);
+    if (!bulk) tally();
   }
+  function setAll(accept) { list.forEach(function (c, k) { set(k, accept, true); }); tally(); }
   function tally() {
     var rej = 0;
     list.forEach(function (c) { if (doc.decisions[c.id] === "reject") rej++; });
@@ -94,8 +96,8 @@
     document.body.removeChild(a);
     setTimeout(function () { URL.revokeObjectURL(url); }, 10000);
   }
-  allAcc.addEventListener("click", function () { list.forEach(function (c, k) { set(k, true); }); });
-  allRej.addEventListener("click", function () { list.forEach(function (c, k) { set(k, false); }); });
+  allAcc.addEventListener("click", function () { setAll(true); });
+  allRej.addEventListener("click", function () { setAll(false); });
   dl.addEventListener("click", download);
   tally();
 
