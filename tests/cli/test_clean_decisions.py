@@ -38,6 +38,7 @@ def cleaned(tmp_path_factory):
     bad, _, _ = corrupt.real_errors(m, n_errors=4, seed=11)
     inp = d / "walk_bad.npz"
     mocapkit.save(bad, inp)
+    mocapkit.save(m, d / "walk_ref.npz")
     assert main(["clean", str(inp), "-o", str(d / "walk.npz"), "--report", str(d / "walk.html")]) == 0
     return d, inp
 
@@ -102,8 +103,12 @@ def test_decisions_with_an_explicit_record_and_a_report(cleaned, tmp_path, capsy
     dec, ids = _decide(cleaned, tmp_path, reject=(0, 1))
     out, rep = tmp_path / "final.npz", tmp_path / "final.html"
     rc = main(["clean", str(inp), "-o", str(out), "--decisions", str(dec), "--record", str(d / "walk.clean.npz"),
-               "--report", str(rep)])
-    assert rc == 0, capsys.readouterr()
+               "--report", str(rep), "--reference", str(d / "walk_ref.npz")])
+    text = capsys.readouterr().out
+    assert rc == 0, text
+    assert f"wrote {out} and {rep}: " in text
+    before, after = map(float, re.search(r"error against walk_ref.npz: eq\. 2 ([\d.]+) -> ([\d.]+)", text).groups())
+    assert after < before  # the accepted changes still repair
     assert not (tmp_path / "final.clean.npz").exists()  # no new cleaning, no new record
     _check_output(out, inp, d / "walk.clean.npz", {ids[0]: D.REJECT, ids[1]: D.REJECT})
     block = review_block(rep)  # the new report starts from the decisions taken
@@ -117,7 +122,7 @@ def test_decisions_without_a_record_clean_first(cleaned, tmp_path, capsys):
     rc = main(["clean", str(inp), "-o", str(out), "--decisions", str(dec)])
     text = capsys.readouterr().out
     assert rc == 0, text
-    assert "a new cleaning" in text
+    assert f"wrote {out} and {tmp_path / 'fresh.clean.npz'}: " in text and "a new cleaning" in text
     record = tmp_path / "fresh.clean.npz"
     assert [c.id for c in D.changes(CleanResult.load(record), mocapkit.load(inp))] == ids  # same changes again
     take, got = mocapkit.load(inp), mocapkit.load(out)

@@ -52,7 +52,7 @@ def clean(
     from ..batch import clean_file, sigterm_as_interrupt
     from ..cleaning.pipeline import clean_path
     from ..io.takes import check_asf, load_motion
-    from ..reference import check_reference, clean_errors
+    from ..reference import check_reference
 
     sigterm_as_interrupt()
     if record is not None and decisions is None:
@@ -75,7 +75,8 @@ def clean(
                                motion=take, decisions=decisions,
                                record=record)
     if decisions is not None:
-        _print_decided(inp, out, decisions, record, report, png, original, res)
+        m = _print_decided(inp, out, decisions, record, report, png, original, res)
+        _print_reference(ref, reference, original, m)
         return
     m = res.motion
     review = [s for s in res.steps if s.name != "detect"] == [] and res.detection is not None
@@ -92,29 +93,41 @@ def clean(
             console.print(f"    flagged {j:16s} frames {a}-{b} ({a / m.fps:.2f}-{b / m.fps:.2f} s)")
         if len(segs) > 12:
             console.print(f"    ... and {len(segs) - 12} more (all in {clean_path(out)})")
-    if ref is not None:
-        e = clean_errors(ref, original, m)
-        gaps = " (input gaps linearly filled)" if e["gaps_filled"] else ""
-        console.print(f"  error against {reference.name}{gaps}: eq. 2 {e['pose_before']:.4f} -> {e['pose_after']:.4f} "
-                      f"per frame; joint positions {e['cm_before']:.2f} -> {e['cm_after']:.2f} cm RMS")
+    _print_reference(ref, reference, original, m)
 
 
-def _print_decided(inp, out, decisions, record, report, png, original, res) -> None:
-    """The summary of ``clean --decisions``: what was reused, how many changes were accepted, what OUT holds."""
+def _print_reference(ref, reference, original, m) -> None:
+    """The error against ``--reference`` before and after (nothing without one)."""
+    from ..reference import clean_errors
+
+    if ref is None:
+        return
+    e = clean_errors(ref, original, m)
+    gaps = " (input gaps linearly filled)" if e["gaps_filled"] else ""
+    console.print(f"  error against {reference.name}{gaps}: eq. 2 {e['pose_before']:.4f} -> {e['pose_after']:.4f} "
+                  f"per frame; joint positions {e['cm_before']:.2f} -> {e['cm_after']:.2f} cm RMS")
+
+
+def _print_decided(inp, out, decisions, record, report, png, original, res):
+    """The summary of ``clean --decisions``: what was reused, how many changes were accepted; returns OUT's take."""
     from ..cleaning import decisions as dec
+    from ..cleaning.pipeline import clean_path
 
-    doc = dec.read_decisions(decisions)
+    choice = dec.read_decisions(decisions)["decisions"]
     found = dec.changes(res, original)
-    rejected = sum(doc["decisions"].get(c.id) == dec.REJECT for c in found)
-    cells = dec.accepted_cells(res, doc["decisions"])
+    rejected = [c for c in found if choice.get(c.id) == dec.REJECT]
+    cells = dec.accepted_cells(res, choice)
+    written = [out] + ([clean_path(out)] if record is None else []) + [p for p in (report, png) if p is not None]
     src = f"the record {record} (nothing cleaned again)" if record is not None else "a new cleaning"
-    console.print(f"wrote {out}" + "".join(f" and {p}" for p in (report, png) if p is not None)
-                  + f": {decisions} applied to {src}: {len(found) - rejected} of {plural(len(found), 'change')} "
-                  f"accepted, {rejected} rejected; {plural(int(cells.sum()), 'joint sample')} of {res.changed.size} "
-                  f"changed, every other sample is {inp.name}'s")
-    for c in found:
-        if doc["decisions"].get(c.id) == dec.REJECT:
-            console.print(f"  rejected {c}")
+    console.print(f"wrote {' and '.join(map(str, written))}: {decisions} applied to {src}: "
+                  f"{len(found) - len(rejected)} of {plural(len(found), 'change')} accepted, {len(rejected)} rejected; "
+                  f"{plural(int(cells.sum()), 'joint sample')} of {res.changed.size} changed, every other sample is "
+                  f"{inp.name}'s")
+    for c in rejected[:12]:
+        console.print(f"  rejected {c}")
+    if len(rejected) > 12:
+        console.print(f"  ... and {len(rejected) - 12} more rejected")
+    return dec.apply(original, res, choice)
 
 
 def _take_line(row: dict) -> str:
