@@ -53,6 +53,7 @@ cluster (``"dask"``) or on the Dask scheduler at an address.
 
 from __future__ import annotations
 
+import dataclasses
 import fnmatch
 import os
 import shutil
@@ -127,6 +128,8 @@ def clean_file(
     asf=None,
     overwrite: bool = False,
     motion=None,
+    decisions=None,
+    record=None,
 ):
     """Clean the take at ``inp`` and write ``out``, its ``.clean.npz`` record and optional reports.
 
@@ -135,6 +138,11 @@ def clean_file(
     context clips or of one database folder; ``asf``: the skeleton of an
     ``.amc`` input; ``motion``: the take already read from ``inp`` (it is not
     read again). ``overwrite``: replace existing outputs (never an input).
+    ``decisions``: a decisions file (:mod:`mocapkit.cleaning.decisions`):
+    ``out`` then holds only the changes it accepts (the record still lists
+    every change); ``record``: the ``.clean.npz`` of an earlier run on this
+    take, used instead of cleaning again (needs ``decisions``; nothing but
+    ``out`` and the reports is written).
 
     Every output is checked against every input
     (:func:`mocapkit.io.outputs.check_outputs`) before anything is read; the
@@ -144,26 +152,46 @@ def clean_file(
     :class:`~mocapkit.errors.MocapError` (one line) on bad input.
     """
     from . import io
-    from .cleaning.pipeline import STEPS, clean, clean_path
+    from .cleaning import decisions as dec
+    from .cleaning.pipeline import STEPS, CleanResult, clean, clean_path
     from .io.outputs import check_outputs, removed_on_failure
     from .io.takes import check_asf, load_motion
 
     inp, out = Path(inp), Path(out)
-    record = clean_path(out)
-    outputs = [out, record, report, png]
-    check_outputs(outputs, [inp, asf, *(context or [])], overwrite=overwrite)
+    reuse = record is not None
+    if reuse and decisions is None:
+        raise MocapError(f"{record}: an earlier run's record is applied with decisions; give the decisions file")
+    record = Path(record) if reuse else clean_path(out)
+    outputs = [out, None if reuse else record, report, png]
+    check_outputs(outputs, [inp, asf, decisions, record if reuse else None, *(context or [])], overwrite=overwrite)
     check_asf(asf, [inp])
     io.suffix_kind(out, io.WRITERS, "writing")
+    doc = dec.read_decisions(decisions) if decisions is not None else None
     m = motion if motion is not None else load_motion(inp, asf, purpose="clean")
-    ctx = load_context(context)
-    try:
-        res = clean(m, ctx, steps=steps or STEPS, threshold=threshold, progress=progress)
-    except (ValueError, TypeError) as exc:
-        raise MocapError(f"{inp}: {exc}") from None
-    except MocapError as exc:
-        msg = str(exc)
-        raise MocapError(msg if str(inp) in msg else f"{inp}: {msg}") from None
-    cleaned = res.motion
+    if doc is not None:
+        dec.check_decisions(doc, decisions, m)  # decisions for another take: refused before any cleaning
+    if reuse:
+        res = CleanResult.load(record)
+    else:
+        ctx = load_context(context)
+        try:
+            res = clean(m, ctx, steps=steps or STEPS, threshold=threshold, progress=progress)
+        except (ValueError, TypeError) as exc:
+            raise MocapError(f"{inp}: {exc}") from None
+        except MocapError as exc:
+            msg = str(exc)
+            raise MocapError(msg if str(inp) in msg else f"{inp}: {msg}") from None
+    cleaned, changed = res.motion, res.changed
+    chosen = None
+    if doc is not None:
+        try:
+            chosen = dec.check_decisions(doc, decisions, m, res)
+            cleaned = dec.apply(m, res, chosen)
+        except MocapFormatError:
+            raise
+        except MocapError as exc:
+            raise MocapError(f"{record}: {exc}") from None
+        changed = dec.accepted_cells(res, chosen)
     if out.suffix.lower() == ".bvh" and cleaned.missing().any():
         raise MocapFormatError(out, "the cleaned take still has missing joints (NaN), which BVH cannot hold; "
                                "add the fill step or write .npz")
@@ -171,14 +199,16 @@ def clean_file(
         if report is not None:
             from .report.html import write_report  # lazy: the viewer is optional
 
-            write_report(report, m, cleaned, mdm=res.mdm, flags=res.flags, changed=res.changed,
-                         title=f"{inp.name}: cleaned")
+            write_report(report, m, cleaned, mdm=res.mdm, flags=res.flags, changed=changed,
+                         title=f"{inp.name}: cleaned" + (f" ({Path(decisions).name} applied)" if doc else ""),
+                         review=dec.review(m, res, take=inp.name, output=out.name, decisions=chosen))
         if png is not None:
             from .report.summary import plot_summary
 
-            plot_summary(res, m, png, title=inp.name)
+            plot_summary(dataclasses.replace(res, motion=cleaned), m, png, title=inp.name)
         io.save(cleaned, out)
-        res.save(record)  # last: the completion marker
+        if not reuse:
+            res.save(record)  # last: the completion marker
     return m, res
 
 
@@ -284,7 +314,7 @@ def _batch_job(job: dict) -> dict:
         staged = {f: stage / f.name for f in finals}
         _, res = clean_file(job["input"], staged[out], context=job["context"], steps=job["steps"], threshold=job["threshold"],
                             report=staged[Path(job["report"])] if job.get("report") else None,
-                            png=staged[Path(job["png"])] if job.get("png") else None)
+                            png=staged[Path(job["png"])] if job.get("png") else None, asf=job.get("asf"))
         for final in finals:  # the record last: the completion marker
             if not owner_alive():
                 raise _Orphaned
@@ -412,6 +442,7 @@ def clean_batch(
     executor=None,
     progress: bool = True,
     overwrite: bool = False,
+    asf=None,
 ) -> BatchSummary:
     """Clean every take under ``in_dir`` into the mirrored layout under ``out_dir`` (module docstring).
 
@@ -422,7 +453,8 @@ def clean_batch(
     (``take.amc`` -> ``take.amc.bvh``; listed in ``BatchSummary.renamed``).
     Every output is checked before any take is cleaned: none may resolve to
     an input, and an existing file that is not part of a complete take is
-    replaced only with ``overwrite``. Raises
+    replaced only with ``overwrite``. ``asf``: the skeleton of every ``.amc``
+    take (default: the ASF beside each AMC). Raises
     :class:`~mocapkit.errors.MocapError` (one line) on a bad folder, format,
     step list, context or executor (:func:`mocapkit.parallel.check_executor`)
     and on a refused output; nothing is written then.
@@ -449,6 +481,10 @@ def clean_batch(
     t0 = time.perf_counter()
     below = inside(out_dir, in_dir)  # an OUT_DIR below IN_DIR is left out of the inputs, IN_DIR itself is not
     inputs = find_inputs(in_dir, patterns, exclude=out_dir if below else None)
+    if asf is not None:
+        from .io.takes import check_asf
+
+        check_asf(asf, inputs)
     plans, renamed = _plan(inputs, in_dir, out_dir, fmt, report, png)
     summary = BatchSummary(executor=describe_executor(executor), renamed=[str(p) for p in renamed])
     todo = []
@@ -462,7 +498,8 @@ def clean_batch(
     _check_batch_outputs(plans, todo, inputs, folders, ctx, overwrite)
     jobs = [{"input": str(inp), "output": str(files["output"]), "context": [str(c) for c in ctx], "steps": steps,
              "threshold": float(threshold), "report": str(files["report"]) if files["report"] else None,
-             "png": str(files["png"]) if files["png"] else None} for inp, files in todo]
+             "png": str(files["png"]) if files["png"] else None,
+             "asf": str(asf) if asf is not None and inp.suffix.lower() == ".amc" else None} for inp, files in todo]
     expected = [f for files in plans for f in files.values() if f is not None]
     _sweep(expected)
     try:

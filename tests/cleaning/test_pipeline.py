@@ -224,3 +224,22 @@ def test_clean_equals_its_steps_run_the_slow_way(cleaned):
     expected = np.where(noisy[..., None], whole.rotations, repaired.rotations)
     assert res.denoised.any() and res.repaired.any()
     assert np.array_equal(res.motion.rotations, expected)
+
+
+def test_summary_counts_say_1_joint_not_1_joints():
+    from mocapkit.cleaning.pipeline import StepRecord
+
+    assert str(StepRecord("repair", 0.1, 1, "medoid")) == "repair (0.10 s): medoid, 1 joint sample changed"
+    assert str(StepRecord("repair", 0.1, 2, "medoid")) == "repair (0.10 s): medoid, 2 joint samples changed"
+
+
+def test_one_flagged_segment_on_one_joint_is_said_in_the_singular(walk):
+    singular = False
+    for seed in range(6):  # one real-style error: most seeds flag one segment on one joint
+        bad, _, _ = corrupt.real_errors(walk, n_errors=1, seed=seed)
+        res = clean(bad, steps="detect")
+        n_seg, n_joint = len(res.detection.segments()), int(res.flags.any(axis=0).sum())
+        assert res.steps[0].note.startswith(f"{n_seg} flagged segment{'' if n_seg == 1 else 's'} on "
+                                            f"{n_joint} joint{'' if n_joint == 1 else 's'}")
+        singular |= n_seg == 1 and n_joint == 1
+    assert singular  # the case the rule is about was met

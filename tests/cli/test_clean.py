@@ -292,3 +292,27 @@ def test_clean_overwrite_and_asf(takes, tmp_path, capsys):
     assert "already exists; pass --overwrite" in err and record.stat().st_mtime_ns == stamp
     assert main(argv + ["--overwrite"]) == 0
     np.testing.assert_array_equal(mocapkit.load(out).rotations, mocapkit.load(samples.path("12_walk.amc")).rotations)
+
+
+def test_asf_serves_clean_batch_and_the_reference(tmp_path, capsys):
+    """AMC takes whose ASF is elsewhere: clean-batch --asf cleans them, clean --asf also reads an AMC reference."""
+    src = tmp_path / "amc"
+    src.mkdir()
+    amc = samples.path("12_walk.amc")
+    (src / "walk.amc").write_bytes(amc.read_bytes())  # no ASF beside it
+    asf = samples.path("12.asf")
+    assert main(["clean-batch", str(src), str(tmp_path / "no_asf"), "--executor", "serial", "--steps", "detect"]) == 1
+    assert "failed" in capsys.readouterr().out
+    rc = main(["clean-batch", str(src), str(tmp_path / "out"), "--executor", "serial", "--steps", "detect", "--asf", str(asf)])
+    text = capsys.readouterr().out
+    assert rc == 0, text
+    assert any(ln.startswith("cleaned ") and "walk.amc" in ln for ln in text.splitlines()), text
+    assert (tmp_path / "out" / "walk.bvh").is_file()
+    m = mocapkit.load(amc)
+    bad, _, _ = corrupt.real_errors(m, n_errors=2, seed=5)
+    mocapkit.save(bad, tmp_path / "bad.npz")
+    rc = main(["clean", str(tmp_path / "bad.npz"), "-o", str(tmp_path / "c.npz"), "--reference", str(src / "walk.amc"),
+               "--asf", str(asf), "--steps", "detect,repair"])
+    text = capsys.readouterr().out
+    assert rc == 0, text
+    assert "error against walk.amc" in text

@@ -96,6 +96,11 @@ NOISE_DEG = 1.0  # default threshold
 MAX_WORD_ANGLE_DEG = 8.0  # words with no neighbour this close (RMS joint angle) are not judged
 
 
+def _count(n: int, word: str) -> str:
+    """``"1 joint"``, ``"2 joints"``: the counts of the summary lines."""
+    return f"{n} {word}{'' if n == 1 else 's'}"
+
+
 @dataclass(frozen=True)
 class StepRecord:
     """What one step did: its name, seconds, cells changed, the method used and why, and a note."""
@@ -112,7 +117,7 @@ class StepRecord:
     def __str__(self) -> str:
         s = f"{self.name} ({self.seconds:.2f} s): {self.method}"
         if self.name != "detect" and not self.method.startswith(("skipped", "nothing")):
-            s += f", {self.cells} joint samples changed"
+            s += f", {_count(self.cells, 'joint sample')} changed"
         return s + (f"; {self.note}" if self.note else "")
 
 
@@ -127,7 +132,12 @@ class CleanResult:
     ``filled``/``repaired``/``denoised``: bool, the cells each step changed;
     ``noise``: float (F, J) the noise level of :func:`noise_level` in degrees
     (NaN when denoise did not run); ``steps``: :class:`StepRecord` per step
-    that ran; ``notes``: what fell back and why.
+    that ran; ``notes``: what fell back and why. ``samples`` (after
+    :meth:`load`; None for a record written without them): the cleaned
+    values of the changed cells, ``{"rotations": (K, 4), "root": (K0, 3)[,
+    "translations": (K, 3)]}`` with K = ``changed.sum()`` in row-major cell
+    order and K0 the frames whose root cell changed, so that
+    :mod:`mocapkit.cleaning.decisions` can apply a person's choices exactly.
     """
 
     motion: Motion | None
@@ -143,6 +153,7 @@ class CleanResult:
     notes: tuple = ()
     params: dict = field(default_factory=dict)
     detection: object = None
+    samples: dict | None = None
 
     def __repr__(self) -> str:
         return (f"CleanResult({self.motion!r}, {int(self.flags.sum())} flagged, {int(self.filled.sum())} filled, "
@@ -175,6 +186,13 @@ class CleanResult:
             "notes": list(self.notes),
             "params": self.params,
         }
+        samples = {}
+        if self.motion is not None:  # the cleaned values of the changed cells: decisions apply them exactly
+            cells = self.changed
+            samples = dict(cleaned_rotations=self.motion.rotations[cells],
+                           cleaned_root=self.motion.root_positions[cells[:, 0]])
+            if self.motion.translations is not None:
+                samples["cleaned_translations"] = self.motion.translations[cells]
         with atomic_write(path, "wb") as fh:
             np.savez_compressed(
                 fh,
@@ -186,6 +204,7 @@ class CleanResult:
                 changed=self.changed,
                 noise=self.noise.astype(np.float32),
                 meta=np.array(json.dumps(meta)),
+                **samples,
             )
         return path
 
@@ -213,12 +232,19 @@ class CleanResult:
                 steps=tuple(StepRecord(**s) for s in meta["steps"]),
                 notes=tuple(meta["notes"]),
                 params=dict(meta["params"]),
+                samples={k[len("cleaned_"):]: data[k].astype(np.float64) for k in
+                         ("cleaned_rotations", "cleaned_root", "cleaned_translations") if k in data} or None,
             )
         except (OSError, ValueError, KeyError, TypeError) as e:
             raise MocapFormatError(path, f"not a mocapkit clean file ({e})") from None
         shape = (res.num_frames, len(res.joint_names))
         if any(a.shape != shape for a in (res.mdm, res.flags, res.repaired, res.denoised, res.noise)):
             raise MocapFormatError(path, f"not a mocapkit clean file (arrays are not all {shape})")
+        k, k0 = int(res.changed.sum()), int(res.changed[:, 0].sum())
+        want = {"rotations": (k, 4), "root": (k0, 3), "translations": (k, 3)}
+        if res.samples is not None and ("rotations" not in res.samples or "root" not in res.samples
+                                        or any(v.shape != want[n] for n, v in res.samples.items())):
+            raise MocapFormatError(path, f"not a mocapkit clean file (the cleaned samples are not {k} changed cells)")
         return res
 
 
@@ -480,7 +506,7 @@ def clean(
             mdm, flags = np.nan_to_num(np.asarray(det.mdm, dtype=np.float64)), np.asarray(det.flags, dtype=bool)
             what = "the clip itself" if context is None else f"the clip and {len(det.context_clips) - 1} context clips"
             n_seg = len(det.segments())
-            note = f"{n_seg} flagged segments on {int(flags.any(axis=0).sum())} joints" + (
+            note = f"{_count(n_seg, 'flagged segment')} on {_count(int(flags.any(axis=0).sum()), 'joint')}" + (
                 f"; {'; '.join(det.notes)}" if det.notes else "")
             records.append(StepRecord("detect", time.perf_counter() - t, 0, f"self-similarity against {what}", note))
 
@@ -509,7 +535,8 @@ def clean(
             before = cur.rotations
             cur, method, note = _denoise(cur, noisy, models, notes)
             denoised = _changed_cells(before, cur.rotations)
-            extra = f"{int(noisy.sum())} noisy cells (level > {noise_deg:g} deg) on {int(noisy.any(axis=0).sum())} joints"
+            extra = (f"{_count(int(noisy.sum()), 'noisy cell')} (level > {noise_deg:g} deg) on "
+                     f"{_count(int(noisy.any(axis=0).sum()), 'joint')}")
             records.append(StepRecord("denoise", time.perf_counter() - t, int(denoised.sum()), method,
                                       extra + (f"; {note}" if note else "")))
 

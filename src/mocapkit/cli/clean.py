@@ -26,39 +26,65 @@ def clean(
     inp: Path = typer.Argument(..., metavar="IN", help="Motion to clean (.bvh, .amc, .npz)."),
     out: Path = typer.Option(..., "--out", "-o", help="Cleaned motion (.bvh or .npz); OUT's stem + .clean.npz is written beside it."),
     context: Optional[list[Path]] = context_option(),
-    steps: str = typer.Option("fill,detect,repair,denoise", "--steps", help=STEPS_HELP),
+    steps: str = typer.Option("fill,detect,repair,denoise", "--steps",
+                              help=STEPS_HELP + " --steps detect is the review mode: flags, record and report; OUT "
+                                                "holds the input's samples unchanged."),
     threshold: float = typer.Option(0.5, "--threshold", help="MDM value above which a joint is flagged and repaired (0-1)."),
     report: Optional[Path] = typer.Option(None, "--report", help="Also write the self-contained HTML report here."),
     png: Optional[Path] = typer.Option(None, "--png", help="Also write a static summary figure (MDM + before/after channels)."),
     reference: Optional[Path] = typer.Option(None, "--reference", help="The clean take, to print the error before and after."),
+    decisions: Optional[Path] = typer.Option(
+        None, "--decisions", help="Accept/reject per change (the report's 'Download decisions'): OUT gets only the "
+                                  "accepted changes. The record of the earlier run (--record, else OUT's .clean.npz "
+                                  "if it exists) is reused; without one the take is cleaned first."),
+    record: Optional[Path] = typer.Option(None, "--record", help="With --decisions: the .clean.npz of the earlier run "
+                                                                 "(default: OUT's, if it exists)."),
     asf: Optional[Path] = asf_option(),
     overwrite: bool = overwrite_option(),
 ) -> None:
     """Clean a take: fill gaps, detect and repair erroneous joints, denoise only the noisy cells.
 
     Writes OUT and, beside it, OUT's stem + .clean.npz (MDM, flags, the cells each step changed and
-    a record per step); everything not missing, flagged or noisy stays bit-identical.
+    a record per step); everything not missing, flagged or noisy stays bit-identical. The report
+    (--report) lists every change for a person to accept or reject; --decisions then writes OUT
+    with only the accepted changes, every other sample bit-identical to IN.
     """
     from ..batch import clean_file, sigterm_as_interrupt
     from ..cleaning.pipeline import clean_path
     from ..io.takes import check_asf, load_motion
-    from ..reference import check_reference, clean_errors
+    from ..reference import check_reference
 
     sigterm_as_interrupt()
-    guard([out, clean_path(out), report, png], [inp, asf, context, reference], overwrite)
-    check_asf(asf, [inp])
+    if record is not None and decisions is None:
+        raise MocapError("--record: the earlier run's record is read with --decisions; give the decisions file")
+    if decisions is not None and record is None and clean_path(out).is_file():
+        record = clean_path(out)  # the earlier run's record beside OUT: apply the decisions, clean nothing again
+    if record is not None:
+        guard([out, report, png], [inp, asf, context, reference, decisions, record], overwrite)
+    else:
+        guard([out, clean_path(out), report, png], [inp, asf, context, reference, decisions], overwrite)
+    check_asf(asf, [inp, reference])
     step_list = _steps(steps)
     take = load_motion(inp, asf, purpose="clean")
     ref = None
     if reference is not None:  # refused before cleaning, not after OUT is written
-        ref = check_reference(load_motion(reference, purpose="a reference"), reference, frames=take.num_frames,
+        ref = check_reference(load_motion(reference, asf, purpose="a reference"), reference, frames=take.num_frames,
                               joint_names=take.skeleton.joint_names)
     original, res = clean_file(inp, out, context=context, steps=step_list, threshold=threshold, report=report, png=png,
-                               progress=True, asf=asf, overwrite=overwrite, motion=take)
+                               progress=True, asf=asf if inp.suffix.lower() == ".amc" else None, overwrite=overwrite,
+                               motion=take, decisions=decisions,
+                               record=record)
+    if decisions is not None:
+        m = _print_decided(inp, out, decisions, record, report, png, original, res)
+        _print_reference(ref, reference, original, m)
+        return
     m = res.motion
+    review = [s for s in res.steps if s.name != "detect"] == [] and res.detection is not None
     console.print(f"wrote {out} and {clean_path(out)}" + "".join(f" and {p}" for p in (report, png) if p is not None)
-                  + f": {plural(res.num_frames, 'frame')} @ {m.fps:g} fps, {int(res.changed.sum())} of "
-                  f"{plural(res.changed.size, 'joint sample')} changed ({100.0 * (1 - res.changed.mean()):.1f} % untouched)")
+                  + f": {plural(res.num_frames, 'frame')} @ {m.fps:g} fps, "
+                  + ("review mode (--steps detect): flags only, the take unchanged" if review else
+                     f"{int(res.changed.sum())} of {plural(res.changed.size, 'joint sample')} changed "
+                     f"({100.0 * (1 - res.changed.mean()):.1f} % untouched)"))
     for line in res.summary():
         console.print(f"  {line}")
     if res.detection is not None:
@@ -67,11 +93,41 @@ def clean(
             console.print(f"    flagged {j:16s} frames {a}-{b} ({a / m.fps:.2f}-{b / m.fps:.2f} s)")
         if len(segs) > 12:
             console.print(f"    ... and {len(segs) - 12} more (all in {clean_path(out)})")
-    if ref is not None:
-        e = clean_errors(ref, original, m)
-        gaps = " (input gaps linearly filled)" if e["gaps_filled"] else ""
-        console.print(f"  error against {reference.name}{gaps}: eq. 2 {e['pose_before']:.4f} -> {e['pose_after']:.4f} "
-                      f"per frame; joint positions {e['cm_before']:.2f} -> {e['cm_after']:.2f} cm RMS")
+    _print_reference(ref, reference, original, m)
+
+
+def _print_reference(ref, reference, original, m) -> None:
+    """The error against ``--reference`` before and after (nothing without one)."""
+    from ..reference import clean_errors
+
+    if ref is None:
+        return
+    e = clean_errors(ref, original, m)
+    gaps = " (input gaps linearly filled)" if e["gaps_filled"] else ""
+    console.print(f"  error against {reference.name}{gaps}: eq. 2 {e['pose_before']:.4f} -> {e['pose_after']:.4f} "
+                  f"per frame; joint positions {e['cm_before']:.2f} -> {e['cm_after']:.2f} cm RMS")
+
+
+def _print_decided(inp, out, decisions, record, report, png, original, res):
+    """The summary of ``clean --decisions``: what was reused, how many changes were accepted; returns OUT's take."""
+    from ..cleaning import decisions as dec
+    from ..cleaning.pipeline import clean_path
+
+    choice = dec.read_decisions(decisions)["decisions"]
+    found = dec.changes(res, original)
+    rejected = [c for c in found if choice.get(c.id) == dec.REJECT]
+    cells = dec.accepted_cells(res, choice)
+    written = [out] + ([clean_path(out)] if record is None else []) + [p for p in (report, png) if p is not None]
+    src = f"the record {record} (nothing cleaned again)" if record is not None else "a new cleaning"
+    console.print(f"wrote {' and '.join(map(str, written))}: {decisions} applied to {src}: "
+                  f"{len(found) - len(rejected)} of {plural(len(found), 'change')} accepted, {len(rejected)} rejected; "
+                  f"{plural(int(cells.sum()), 'joint sample')} of {res.changed.size} changed, every other sample is "
+                  f"{inp.name}'s")
+    for c in rejected[:12]:
+        console.print(f"  rejected {c}")
+    if len(rejected) > 12:
+        console.print(f"  ... and {len(rejected) - 12} more rejected")
+    return dec.apply(original, res, choice)
 
 
 def _take_line(row: dict) -> str:
@@ -99,6 +155,7 @@ def clean_batch(
     pattern: str = typer.Option("*.bvh,*.amc,*.npz", "--pattern", help="Comma-separated file name patterns to clean."),
     fmt: str = typer.Option("auto", "--format", help="Output format: auto (.bvh and .npz kept, others -> .bvh), bvh or npz."),
     as_json: bool = typer.Option(False, "--json", help="Print the per-take rows as JSON."),
+    asf: Optional[Path] = asf_option(),
     overwrite: bool = typer.Option(
         False, "--overwrite",
         help="Replace existing outputs that are not complete takes of an earlier run (without it they are refused; "
@@ -123,7 +180,8 @@ def clean_batch(
     if not patterns:
         raise MocapError("--pattern: give at least one file name pattern, e.g. '*.bvh,*.amc'")
     summary = run_batch(in_dir, out_dir, context=context, steps=step_list, threshold=threshold, patterns=patterns,
-                        fmt=fmt, report=report, png=png, executor=executor, progress=not as_json, overwrite=overwrite)
+                        fmt=fmt, report=report, png=png, executor=executor, progress=not as_json, overwrite=overwrite,
+                        asf=asf)
     if as_json:
         print(json.dumps({"rows": summary.rows, "seconds": summary.seconds, "executor": summary.executor}))
     else:

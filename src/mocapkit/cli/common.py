@@ -43,7 +43,7 @@ def overwrite_option():
 
 def asf_option():
     """The ``--asf`` option of every command that reads AMC files."""
-    return typer.Option(None, "--asf", help="Skeleton (.asf) for the .amc input(s) (default: the ASF beside each AMC).")
+    return typer.Option(None, "--asf", help="Skeleton (.asf) for the .amc input(s) and reference (default: the ASF beside each AMC).")
 
 
 def context_option(default_help: str = "default: the clip itself"):

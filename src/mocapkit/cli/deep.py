@@ -23,14 +23,14 @@ def _model(path: Optional[Path], kind: str):
     return model
 
 
-def _reference(path: Optional[Path], take):
+def _reference(path: Optional[Path], take, asf: Optional[Path] = None):
     """``--reference``, read and checked against ``take`` (same joints and frames) before any work."""
     from ..io.takes import load_motion
     from ..reference import check_reference
 
     if path is None:
         return None
-    return check_reference(load_motion(path, purpose="a reference"), path, frames=take.num_frames,
+    return check_reference(load_motion(path, asf, purpose="a reference"), path, frames=take.num_frames,
                            joint_names=take.skeleton.joint_names)
 
 
@@ -50,10 +50,10 @@ def denoise(
     from ..reference import joint_angle_errors
 
     guard([out], [inp, asf, model, reference], overwrite)
-    check_asf(asf, [inp])
+    check_asf(asf, [inp, reference])
     io.suffix_kind(out, io.WRITERS, "writing")
     m = load_motion(inp, asf, purpose="denoise")
-    ref = _reference(reference, m)
+    ref = _reference(reference, m, asf)
     net = _model(model, "ebf")
     try:
         cleaned = deep.denoise(m, net)
@@ -85,10 +85,10 @@ def fill(
     from ..reference import filled_error_deg
 
     guard([out], [inp, asf, model, denoiser, reference], overwrite)
-    check_asf(asf, [inp])
+    check_asf(asf, [inp, reference])
     io.suffix_kind(out, io.WRITERS, "writing")
     m = load_motion(inp, asf, purpose="fill")
-    ref = _reference(reference, m)
+    ref = _reference(reference, m, asf)
     ebd, ebf = _model(model, "ebd"), _model(denoiser, "ebf")
     missing = m.missing()
     n = int(missing.sum())

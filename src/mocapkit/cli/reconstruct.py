@@ -87,7 +87,7 @@ def reconstruct(
         raise MocapError("give exactly one of --markers, --accelerometers or --ssg")
     kind, inp = given[0]
     guard([out], [inp, db_dir, skeleton, reference, asf], overwrite)
-    check_asf(asf, [inp])
+    check_asf(asf, [inp, reference])
     io.suffix_kind(out, io.WRITERS, "writing")
     db = MotionDatabase.open(db_dir)
     if kind == "accelerometers":
@@ -125,7 +125,7 @@ def reconstruct(
         frames = pos.shape[0]
     ref = None
     if reference is not None:  # checked before the (long) reconstruction
-        ref = check_reference(load_motion(reference, purpose="a reference"), reference, frames=frames,
+        ref = check_reference(load_motion(reference, asf, purpose="a reference"), reference, frames=frames,
                               skeleton=db.skeletons[0])
     try:
         if kind == "accelerometers":

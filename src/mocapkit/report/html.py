@@ -19,6 +19,9 @@ What the page holds
 - the framing (:mod:`mocapkit.report.view`): floor height, camera target (fixed,
   or a per-frame track following the body) and the camera distance at which
   every point of every frame lies inside the panel, whatever the orbit angle.
+- with ``review`` (:mod:`mocapkit.cleaning.decisions`), the list of changes,
+  each with accept/reject and a "jump to frame" link, and a button that
+  downloads the decisions JSON (its own JSON block and ``review.js``).
 
 Binary arrays travel as base64 of little-endian bytes inside one JSON block, so
 a 60 s take at 120 fps is a few MB. Above ``max_frames`` frames the viewer keeps
@@ -163,6 +166,17 @@ def _script_json(obj) -> str:
     return json.dumps(obj, separators=(",", ":"), allow_nan=False).replace("<", "\\u003c")
 
 
+def _review_parts(review: dict | None) -> tuple[str, str, str]:
+    """CSS, JSON block and script of the changes list (all empty without ``review``)."""
+    if review is None:
+        return "", "", ""
+    if not isinstance(review, dict) or not isinstance(review.get("changes"), list) or \
+            not isinstance(review.get("decisions"), dict):
+        raise ValueError("review: expected {'changes': [...], 'decisions': {...}} (mocapkit.cleaning.decisions)")
+    block = f'\n<script type="application/json" id="mocapkit-review">{_script_json(review)}</script>'
+    return "\n" + _asset("review.css"), block, "\n" + _asset("review.js")
+
+
 def write_report(
     path,
     original: Motion,
@@ -175,6 +189,7 @@ def write_report(
     fps: float | None = None,
     max_frames: int | None = None,
     up_axis=None,
+    review: dict | None = None,
 ) -> Path:
     """Write the self-contained HTML cleaning report of ``original`` -> ``cleaned``.
 
@@ -203,6 +218,11 @@ def write_report(
         found from the data (:func:`mocapkit.report.view.find_up_axis`). The page
         turns it to its +y and frames the figure whole in every frame
         (:func:`mocapkit.report.view.fit_view`).
+    review : dict, optional
+        ``{"changes": [Change.as_dict(), ...], "decisions": document}``
+        (:func:`mocapkit.cleaning.decisions.changes` and
+        :func:`~mocapkit.cleaning.decisions.template`): the page lists the
+        changes for a person to accept or reject and download the decisions.
 
     Returns
     -------
@@ -312,6 +332,7 @@ def write_report(
         "plots": plots,
     }
     esc = _html.escape(title)
+    review_css, review_block, review_js = _review_parts(review)
     page = f"""<!DOCTYPE html>
 <html lang="en">
 <head>
@@ -321,15 +342,15 @@ def write_report(
 <meta name="generator" content="mocapkit">
 <title>{esc} - mocapkit report</title>
 <style>
-{_asset("viewer.css")}
+{_asset("viewer.css")}{review_css}
 </style>
 </head>
 <body>
 <header><h1>{esc}</h1><p id="summary"></p></header>
 <main id="app"><noscript>This report needs JavaScript to draw the viewer.</noscript></main>
-<script type="application/json" id="mocapkit-data">{_script_json(data)}</script>
+<script type="application/json" id="mocapkit-data">{_script_json(data)}</script>{review_block}
 <script>
-{_asset("viewer.js")}
+{_asset("viewer.js")}{review_js}
 </script>
 </body>
 </html>

@@ -1,0 +1,390 @@
+"""A person decides: the changes ``clean`` made, one by one, and the take with only the accepted ones.
+
+:func:`mocapkit.cleaning.pipeline.clean` records which (frame, joint) cells
+each step changed (``filled``, ``repaired``, ``denoised``). This module turns
+that record into a list of :class:`Change` objects a person can review (in the
+HTML report, or in Python), reads the person's choices from a small JSON
+decisions file, and applies them.
+
+Changes
+-------
+A change is one contiguous run of frames of one joint changed by the same
+step or steps: the changed cells of each joint, split wherever the set of
+steps that changed a cell differs. Where two steps changed the same cells (a
+repaired stretch that was also denoised) the change names both
+(``"repair+denoise"``): the record holds only the final value of a cell, so
+those cells are accepted or rejected together. The changes therefore
+partition the changed cells: each cell belongs to exactly one change. Its id,
+``STEP:JOINT:FIRST-LAST``, depends only on the record, so the same cleaning of
+the same take gives the same ids on every run.
+
+Applying decisions
+------------------
+:func:`apply` starts from the input take and, for every accepted change, puts
+the cleaned values of its cells in: the joint's rotation, the root position
+for the root joint, the joint's offset for files that animate offsets. Every
+other sample (unchanged cells and the cells of rejected changes) is the
+input's, bit for bit: rejecting every change gives the input back, accepting
+every change gives the cleaned take. Adjacent changes of one joint with
+different decisions meet at a frame boundary; nothing is blended across it,
+so the take can jump there, as it did in the input. The cleaned values come
+from the record (:attr:`CleanResult.samples`, float64 as the pipeline made
+them) or, for a record without them, from ``result.motion``.
+
+The decisions file
+------------------
+Small JSON, written by the report's "download decisions" button
+(:func:`template` makes the same document in Python)::
+
+    {"format": "mocapkit.decisions/1", "mocapkit": "0.1.0",
+     "take": {"name": "walk.amc", "frames": 523, "joints": 31, "sha256": "..."},
+     "output": "walk_clean.bvh",
+     "decisions": {"repair:lfemur:120-145": "reject", ...}}
+
+``take.sha256`` is :func:`take_digest` of the input take: decisions made for
+another take are refused. A change the file does not name is accepted (the
+report's default); an id that is not a change of this cleaning is refused.
+Every refusal is one line naming the file
+(:class:`~mocapkit.errors.MocapFormatError`).
+
+Examples
+--------
+>>> import mocapkit
+>>> from mocapkit import corrupt
+>>> from mocapkit.cleaning.pipeline import clean
+>>> m = mocapkit.load(mocapkit.samples.path("12_walk.amc"))
+>>> bad, _, _ = corrupt.real_errors(m, n_errors=2, seed=3)
+>>> res = clean(bad, steps="detect,repair")
+>>> found = changes(res, bad)
+>>> out = apply(bad, res, {c.id: "reject" for c in found})
+>>> bool(np.array_equal(out.rotations, bad.rotations))
+True
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+import json
+import math
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Mapping
+
+import numpy as np
+
+from ..errors import MocapError, MocapFormatError
+from ..motion import Motion
+
+__all__ = ["FORMAT", "ACCEPT", "REJECT", "Change", "changes", "apply", "take_digest", "template", "read_decisions",
+           "check_decisions", "accepted_cells", "review"]
+
+FORMAT = "mocapkit.decisions/1"
+ACCEPT, REJECT = "accept", "reject"
+MAX_FILE_BYTES = 32 * 2**20  # a decisions file lists ids and words; anything larger is not one
+_STEPS = ("fill", "repair", "denoise")  # the steps that change cells, in the order they run
+
+
+@dataclass(frozen=True)
+class Change:
+    """One contiguous edit of one joint: frames ``first``..``last`` (inclusive) changed by ``step``.
+
+    ``step``: ``"fill"``, ``"repair"``, ``"denoise"``, or several joined by
+    ``"+"`` where more than one step changed these cells; ``method``: how the
+    step(s) did it (from the record); ``max_deg``: the largest rotation change
+    of the joint over these frames in degrees (geodesic angle between input
+    and cleaned rotation; NaN where the input was missing in every frame of
+    the change); ``reason``: why the step changed the cells (missing, flagged
+    with its MDM, noise level).
+    """
+
+    id: str
+    joint: str
+    joint_index: int
+    first: int
+    last: int
+    step: str
+    method: str
+    max_deg: float
+    reason: str
+
+    @property
+    def frames(self) -> int:
+        return self.last - self.first + 1
+
+    def as_dict(self) -> dict:
+        d = dataclasses.asdict(self)
+        d["max_deg"] = None if math.isnan(self.max_deg) else round(self.max_deg, 3)
+        return d
+
+    def __str__(self) -> str:
+        size = "was missing" if math.isnan(self.max_deg) else f"{self.max_deg:.1f} deg"
+        return f"{self.id}: {self.joint} frames {self.first}-{self.last} ({self.step}, {size})"
+
+
+def _runs(result) -> list[tuple[int, int, int, int]]:
+    """``(joint, first, last, code)`` of every run of equal non-zero step code, by first frame then joint."""
+    masks = (result.filled, result.repaired, result.denoised)
+    code = sum(np.asarray(m, dtype=np.int64) << k for k, m in enumerate(masks))  # (F, J): bit k = step k changed it
+    F, J = code.shape
+    out = []
+    for j in range(J):
+        col = code[:, j]
+        if not col.any():
+            continue
+        edges = np.flatnonzero(np.diff(col)) + 1
+        starts = np.concatenate([[0], edges])
+        ends = np.concatenate([edges, [F]]) - 1
+        out.extend((j, int(a), int(b), int(col[a])) for a, b in zip(starts, ends) if col[a])
+    out.sort(key=lambda r: (r[1], r[0]))
+    return out
+
+
+def _step_name(code: int) -> str:
+    return "+".join(s for k, s in enumerate(_STEPS) if code >> k & 1)
+
+
+def _change_id(result, j: int, a: int, b: int, code: int) -> str:
+    return f"{_step_name(code)}:{result.joint_names[j]}:{a}-{b}"
+
+
+def _cleaned(result) -> dict:
+    """The cleaned values of the changed cells, as :attr:`CleanResult.samples` holds them."""
+    if result.samples is not None:
+        return result.samples
+    m = result.motion
+    if m is None:
+        raise MocapError("the clean record holds no cleaned samples (written by an older mocapkit) and no cleaned "
+                         "take was given; clean the take again")
+    cells = result.changed
+    out = {"rotations": np.asarray(m.rotations)[cells], "root": np.asarray(m.root_positions)[cells[:, 0]]}
+    if m.translations is not None:
+        out["translations"] = np.asarray(m.translations)[cells]
+    return out
+
+
+def _check_take(original: Motion, result) -> None:
+    if not isinstance(original, Motion):
+        raise TypeError(f"original must be a mocapkit Motion, got {type(original).__name__}")
+    name = original.name or "the take"
+    if tuple(original.skeleton.joint_names) != tuple(result.joint_names):
+        raise MocapError(f"{name}: the clean record is of another rig ({len(result.joint_names)} joints "
+                         f"{', '.join(result.joint_names[:3])}, ...), not this take's")
+    if original.num_frames != result.num_frames or not math.isclose(original.fps, result.fps):
+        raise MocapError(f"{name}: the clean record is of another take ({result.num_frames} frames at "
+                         f"{result.fps:g} fps; this take has {original.num_frames} at {original.fps:g})")
+
+
+def _angles_deg(q0: np.ndarray, q1: np.ndarray) -> np.ndarray:
+    """Geodesic angle (degrees) between unit quaternions (..., 4); NaN where either is missing."""
+    dot = np.abs(np.sum(q0 * q1, axis=-1))
+    with np.errstate(invalid="ignore"):
+        return np.degrees(2.0 * np.arccos(np.clip(dot, 0.0, 1.0)))
+
+
+def _reason(result, step_code: int, j: int, a: int, b: int, missing: np.ndarray) -> str:
+    parts = []
+    if step_code & 1:
+        n = int(missing[a:b + 1, j].sum())
+        parts.append(f"missing in {n} of {b - a + 1} frames")
+    if step_code & 2:
+        mdm = float(np.nanmax(result.mdm[a:b + 1, j])) if result.mdm.size else float("nan")
+        flagged = bool(result.flags[a:b + 1, j].any())
+        parts.append(f"flagged by self-similarity (MDM up to {mdm:.2f})" if flagged else "repaired with a flagged joint")
+    if step_code & 4:
+        level = result.noise[a:b + 1, j]
+        level = level[np.isfinite(level)]
+        limit = result.params.get("noise_deg")
+        parts.append(f"noisy: level up to {level.max():.2f} deg" + (f" (limit {limit:g})" if limit else "")
+                     if level.size else "noisy")
+    return "; ".join(parts)
+
+
+def changes(result, original: Motion) -> list[Change]:
+    """Every change of a clean record, by first frame then joint (module docstring).
+
+    Parameters
+    ----------
+    result : CleanResult
+        From :func:`~mocapkit.cleaning.pipeline.clean` or :meth:`CleanResult.load`.
+    original : Motion
+        The take as it was before cleaning (the sizes in degrees compare with it).
+
+    Returns
+    -------
+    list of Change, one per contiguous run of cells of one joint changed by the same step(s).
+    """
+    _check_take(original, result)
+    runs = _runs(result)
+    if not runs:
+        return []
+    cells = result.changed
+    cleaned = np.full(original.rotations.shape, np.nan)
+    cleaned[cells] = _cleaned(result)["rotations"]
+    methods = {s.name: s.method for s in result.steps}
+    missing = original.missing()
+    out = []
+    for j, a, b, code in runs:
+        ang = _angles_deg(original.rotations[a:b + 1, j], cleaned[a:b + 1, j])
+        size = float(np.nanmax(ang)) if np.isfinite(ang).any() else float("nan")
+        steps = _step_name(code).split("+")
+        out.append(Change(
+            id=_change_id(result, j, a, b, code), joint=result.joint_names[j], joint_index=j, first=a, last=b,
+            step="+".join(steps), method="; ".join(methods.get(s, s) for s in steps), max_deg=size,
+            reason=_reason(result, code, j, a, b, missing),
+        ))
+    return out
+
+
+def accepted_cells(result, decisions: Mapping[str, str]) -> np.ndarray:
+    """(F, J) bool: the cells of the changes ``decisions`` accepts (a change it does not name is accepted).
+
+    Raises ValueError for an id that is not a change of ``result`` or a choice other than accept/reject.
+    """
+    runs = _runs(result)
+    ids = {_change_id(result, *r): r for r in runs}
+    unknown = [k for k in decisions if k not in ids]
+    if unknown:
+        raise ValueError(f"{len(unknown)} change id(s) are not changes of this cleaning: "
+                         f"{', '.join(map(repr, unknown[:3]))}{', ...' if len(unknown) > 3 else ''}")
+    bad = {v for v in decisions.values() if v not in (ACCEPT, REJECT)}
+    if bad:
+        raise ValueError(f"a decision is 'accept' or 'reject', got {', '.join(map(repr, sorted(map(str, bad))))}")
+    out = np.zeros(result.changed.shape, dtype=bool)
+    for cid, (j, a, b, _) in ids.items():
+        if decisions.get(cid, ACCEPT) == ACCEPT:
+            out[a:b + 1, j] = True
+    return out
+
+
+def apply(original: Motion, result, decisions: Mapping[str, str]) -> Motion:
+    """The input take with only the accepted changes; every other sample bit-identical to ``original``.
+
+    Parameters
+    ----------
+    original : Motion
+        The take before cleaning (same joints, frames and rate as the record).
+    result : CleanResult
+        The record of the cleaning, with its cleaned samples (:attr:`CleanResult.samples`) or its ``motion``.
+    decisions : mapping of change id to "accept" or "reject"
+        Changes not named are accepted. :func:`read_decisions` reads a decisions file into one.
+
+    Returns
+    -------
+    Motion with the input's skeleton, rate and name: rotations, root positions
+    and animated offsets are the cleaned values in the cells of accepted
+    changes and the input's everywhere else.
+    """
+    _check_take(original, result)
+    acc = accepted_cells(result, decisions)
+    cells = result.changed
+    vals = _cleaned(result)
+    rot = np.array(original.rotations)
+    rot[acc] = vals["rotations"][acc[cells]]  # both in row-major cell order
+    root = np.array(original.root_positions)
+    root[acc[:, 0]] = vals["root"][acc[cells[:, 0], 0]]
+    tr = original.translations
+    if tr is not None and "translations" in vals:
+        tr = np.array(tr)
+        tr[acc] = vals["translations"][acc[cells]]
+    return dataclasses.replace(original, rotations=rot, root_positions=root, translations=tr)
+
+
+# -- the decisions file ------------------------------------------------------------------------
+
+
+def take_digest(motion: Motion) -> str:
+    """SHA-256 (hex) of a take's samples: joint names, rate, rotations, root positions, animated offsets.
+
+    Two reads of the same file give the same digest; any change of a sample changes it.
+    """
+    h = hashlib.sha256()
+    h.update(json.dumps([list(motion.skeleton.joint_names), float(motion.fps)]).encode())
+    arrays = [motion.rotations, motion.root_positions] + ([motion.translations] if motion.translations is not None else [])
+    for a in arrays:
+        a = np.ascontiguousarray(a, dtype="<f8")
+        h.update(np.where(np.isnan(a), np.nan, a).tobytes())  # one bit pattern for every NaN
+    return h.hexdigest()
+
+
+def template(original: Motion, found: list[Change], take: str = "", output: str = "",
+             decisions: Mapping[str, str] | None = None) -> dict:
+    """The decisions document for ``found`` (every change "accept" unless ``decisions`` says otherwise)."""
+    from .. import __version__
+
+    chosen = dict(decisions or {})
+    return {
+        "format": FORMAT,
+        "mocapkit": __version__,
+        "take": {"name": take or original.name, "frames": original.num_frames, "joints": original.num_joints,
+                 "sha256": take_digest(original)},
+        "output": output,
+        "decisions": {c.id: chosen.get(c.id, ACCEPT) for c in found},
+    }
+
+
+def read_decisions(path) -> dict:
+    """Read and check a decisions file's form; returns the document (see :func:`template`).
+
+    Raises :class:`~mocapkit.errors.MocapFormatError` naming the file: not JSON,
+    not a decisions file, another format version, a choice other than accept/reject.
+    """
+    path = Path(path)
+    try:
+        if path.stat().st_size > MAX_FILE_BYTES:
+            raise MocapFormatError(path, f"over {MAX_FILE_BYTES >> 20} MB; not a mocapkit decisions file")
+        doc = json.loads(path.read_text(encoding="utf-8"))
+    except FileNotFoundError:
+        raise MocapFormatError(path, "no such file") from None
+    except IsADirectoryError:
+        raise MocapFormatError(path, "a folder, not a decisions file") from None
+    except (UnicodeDecodeError, json.JSONDecodeError) as exc:
+        raise MocapFormatError(path, f"not JSON ({exc})") from None
+    except RecursionError:
+        raise MocapFormatError(path, "JSON nested too deeply; not a mocapkit decisions file") from None
+    fmt = doc.get("format") if isinstance(doc, dict) else None
+    if not isinstance(fmt, str) or not fmt.startswith("mocapkit.decisions/"):
+        raise MocapFormatError(path, f"not a mocapkit decisions file (no \"format\": \"{FORMAT}\")")
+    if fmt != FORMAT:
+        raise MocapFormatError(path, f"decisions format {fmt!r}; this mocapkit reads {FORMAT!r}")
+    take, dec = doc.get("take"), doc.get("decisions")
+    if not isinstance(take, dict) or not isinstance(take.get("sha256"), str):
+        raise MocapFormatError(path, "no \"take\" with the \"sha256\" of the take the decisions are for")
+    if not isinstance(dec, dict):
+        raise MocapFormatError(path, "\"decisions\" must map change ids to \"accept\" or \"reject\"")
+    bad = [k for k, v in dec.items() if v not in (ACCEPT, REJECT)]
+    if bad:
+        raise MocapFormatError(path, f"change {bad[0]!r}: {dec[bad[0]]!r}; a decision is \"accept\" or \"reject\"")
+    return doc
+
+
+def check_decisions(doc: dict, path, original: Motion, result=None) -> dict:
+    """The choices of ``doc`` (from :func:`read_decisions`) after checking they fit this take and this record.
+
+    Refused, in one line naming ``path``: decisions for another take (its
+    digest differs from :func:`take_digest` of ``original``), or an id that is
+    not a change of ``result``. With ``result`` None only the take is checked
+    (before a cleaning, so that decisions for another take are refused first).
+    """
+    take = doc["take"]
+    if take["sha256"] != take_digest(original):
+        what = f"{take.get('name', '?')}, {take.get('frames', '?')} frames"
+        raise MocapFormatError(path, f"decisions for another take ({what}), not {original.name or 'this take'} "
+                               f"({original.num_frames} frames): its samples differ")
+    if result is None:
+        return dict(doc["decisions"])
+    try:
+        accepted_cells(result, doc["decisions"])
+    except ValueError as exc:
+        raise MocapFormatError(path, f"{exc} (decisions made for another cleaning of the take?)") from None
+    return dict(doc["decisions"])
+
+
+def review(original: Motion, result, take: str = "", output: str = "", decisions: Mapping[str, str] | None = None) -> dict:
+    """What the HTML report needs to let a person decide: ``{"changes": [...], "decisions": document}``.
+
+    ``changes``: :meth:`Change.as_dict` of :func:`changes`; ``decisions``: :func:`template`
+    with the choices of ``decisions`` (every other change accepted).
+    """
+    found = changes(result, original)
+    return {"changes": [c.as_dict() for c in found], "decisions": template(original, found, take, output, decisions)}

@@ -1,0 +1,112 @@
+/* mocapkit cleaning report: the changes the cleaning made, each accepted or rejected by a person.
+ * Reads the JSON block #mocapkit-review (mocapkit.cleaning.decisions: the changes and the
+ * decisions document); absent, it does nothing. Each change has accept/reject (default accept)
+ * and a link that moves the viewer to its first frame and selects its joint. The "Download
+ * decisions" button saves the decisions document (a Blob download, no server) for
+ * `mocapkit clean IN -o OUT --decisions FILE.json`.
+ */
+(function () {
+  "use strict";
+  var block = document.getElementById("mocapkit-review");
+  if (!block) return;
+  var R = JSON.parse(block.textContent);
+  var doc = R.decisions, list = R.changes;
+
+  function el(tag, attrs, parent) {
+    var e = document.createElement(tag);
+    for (var k in attrs) {
+      if (k === "text") e.textContent = attrs[k]; else e.setAttribute(k, attrs[k]);
+    }
+    if (parent) parent.appendChild(e);
+    return e;
+  }
+  var sec = el("section", { "class": "changes", id: "changes" }, document.getElementById("app") || document.body);
+  el("h2", { text: "Changes (" + list.length + ")" }, sec);
+  el("p", { "class": "note", text: "Every change the cleaning made, one joint over a run of frames. Accept or " +
+    "reject each one, then download the decisions and run: mocapkit clean " + (doc.take.name || "IN") +
+    " -o OUT --decisions " + fileName() + " (rejected changes get the input's samples back exactly)." }, sec);
+  var bar = el("div", { "class": "toolbar" }, sec);
+  var allAcc = el("button", { type: "button", id: "accept-all", text: "Accept all" }, bar);
+  var allRej = el("button", { type: "button", id: "reject-all", text: "Reject all" }, bar);
+  var dl = el("button", { type: "button", id: "download-decisions", text: "Download decisions" }, bar);
+  var count = el("span", { id: "decision-count", "class": "note" }, bar);
+
+  var rows = [];
+  if (list.length) {
+    var table = el("table", {}, sec), head = el("tr", {}, el("thead", {}, table));
+    ["", "joint", "frames", "step", "max change", "why", ""].forEach(function (h) { el("th", { text: h }, head); });
+    var body = el("tbody", {}, table);
+    list.forEach(function (c, k) {
+      var tr = el("tr", { "data-change": c.id }, body);
+      var td = el("td", { "class": "choice" }, tr);
+      var lab = el("label", {}, td);
+      var box = el("input", { type: "checkbox", "class": "accept", "data-index": String(k), "aria-label": "accept " + c.id }, lab);
+      lab.appendChild(document.createTextNode(" accept"));
+      box.checked = doc.decisions[c.id] !== "reject";
+      box.addEventListener("change", function () { set(k, box.checked); });
+      el("td", { text: c.joint }, tr);
+      el("td", { "class": "num", text: c.first === c.last ? String(c.first) : c.first + "-" + c.last }, tr);
+      el("td", { text: c.step, title: c.method }, tr);
+      el("td", { "class": "num", text: c.max_deg === null ? "was missing" : c.max_deg.toFixed(1) + " deg" }, tr);
+      el("td", { "class": "reason", text: c.reason }, tr);
+      var jt = el("td", { "class": "jump" }, tr);
+      var jb = el("button", { type: "button", "class": "jump", "data-index": String(k), text: "jump to frame " + c.first }, jt);
+      jb.addEventListener("click", function () { jump(k); });
+      rows.push({ tr: tr, box: box });
+      paint(k);
+    });
+  } else {
+    el("p", { text: "The cleaning changed nothing." }, sec);
+  }
+
+  function paint(k) { rows[k].tr.className = rows[k].box.checked ? "" : "rejected"; }
+  function set(k, accept, bulk) {
+    doc.decisions[list[k].id] = accept ? "accept" : "reject";
+    rows[k].box.checked = accept;
+    paint(k);
+    if (!bulk) tally();
+  }
+  function setAll(accept) { list.forEach(function (c, k) { set(k, accept, true); }); tally(); }
+  function tally() {
+    var rej = 0;
+    list.forEach(function (c) { if (doc.decisions[c.id] === "reject") rej++; });
+    count.textContent = (list.length - rej) + " accepted, " + rej + " rejected";
+  }
+  function jump(k) {
+    var api = window.mocapkitReport, c = list[k];
+    if (!api) return;
+    api.select(c.joint_index);
+    api.setFrame(c.first);
+    var v = document.querySelector(".viewer");
+    if (v && v.scrollIntoView) v.scrollIntoView({ block: "nearest" });
+  }
+  function fileName() {
+    var stem = String(doc.take.name || "take").replace(/\.[^.\/]*$/, "").replace(/[^A-Za-z0-9._-]+/g, "_");
+    return stem + ".decisions.json";
+  }
+  function text() { return JSON.stringify(doc, null, 1) + "\n"; }
+  function download() {
+    var blob = new Blob([text()], { type: "application/json" });
+    var url = URL.createObjectURL(blob), a = document.createElement("a");
+    a.setAttribute("href", url);
+    a.setAttribute("download", fileName());
+    a.style.display = "none";
+    document.body.appendChild(a);
+    a.click();
+    document.body.removeChild(a);
+    setTimeout(function () { URL.revokeObjectURL(url); }, 10000);
+  }
+  allAcc.addEventListener("click", function () { setAll(true); });
+  allRej.addEventListener("click", function () { setAll(false); });
+  dl.addEventListener("click", download);
+  tally();
+
+  // for tests and for people at the console
+  window.mocapkitReview = {
+    changes: function () { return list.map(function (c) { return c.id; }); },
+    decisions: function () { return JSON.parse(text()); },
+    set: function (id, choice) { var k = list.map(function (c) { return c.id; }).indexOf(id); if (k >= 0) set(k, choice === "accept"); },
+    jump: jump,
+    fileName: fileName
+  };
+})();

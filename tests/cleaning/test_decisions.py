@@ -1,0 +1,252 @@
+"""mocapkit.cleaning.decisions: the changes of a real cleaning, a person's choices, and the take they give."""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+
+import numpy as np
+import pytest
+
+import mocapkit
+from mocapkit import corrupt, samples
+from mocapkit.cleaning import decisions as D
+from mocapkit.cleaning.pipeline import CleanResult, clean
+from mocapkit.errors import MocapError, MocapFormatError
+
+ROOT_GAP = slice(200, 212)  # frames whose root position is missing in the input
+
+
+def _same_bits(a, b) -> bool:
+    """Bit for bit, NaN included (``array_equal`` would call -0.0 and 0.0 equal and cannot compare NaN payloads)."""
+    a, b = np.ascontiguousarray(a), np.ascontiguousarray(b)
+    return a.shape == b.shape and a.dtype == b.dtype and a.tobytes() == b.tobytes()
+
+
+@pytest.fixture(scope="module")
+def take():
+    """12_walk with real-style errors, gaps, angular noise on two joints and a gap of the root position."""
+    m = mocapkit.load(samples.path("12_walk.amc"))
+    bad, _, _ = corrupt.real_errors(m, n_errors=4, seed=100)
+    gappy, _ = corrupt.gaps(bad, seed=200)
+    noisy, nmask = corrupt.angular_noise(gappy, amount=0.5, seed=300, joints=["lfemur", "rhumerus"])
+    window = np.zeros(m.num_frames, dtype=bool)
+    window[m.num_frames // 3: 2 * m.num_frames // 3] = True
+    nmask &= window[:, None] & ~gappy.missing()
+    rot = np.where(nmask[..., None], noisy.rotations, gappy.rotations)
+    root = np.array(gappy.root_positions)
+    root[ROOT_GAP] = np.nan
+    return dataclasses.replace(gappy, rotations=rot, root_positions=root)
+
+
+@pytest.fixture(scope="module")
+def result(take):
+    res = clean(take)
+    # the corruption reaches every step: the list below then covers fill, repair and denoise
+    assert res.filled.any() and res.repaired.any() and res.denoised.any()
+    return res
+
+
+@pytest.fixture(scope="module")
+def found(result, take):
+    return D.changes(result, take)
+
+
+def test_changes_partition_the_changed_cells(result, take, found):
+    cover = np.zeros(result.changed.shape, dtype=int)
+    masks = {"fill": result.filled, "repair": result.repaired, "denoise": result.denoised}
+    for c in found:
+        assert 0 <= c.first <= c.last < take.num_frames and c.joint == take.skeleton.joint_names[c.joint_index]
+        cover[c.first:c.last + 1, c.joint_index] += 1
+        steps = c.step.split("+")
+        for name, mask in masks.items():  # every cell of the change was changed by exactly its steps
+            assert mask[c.first:c.last + 1, c.joint_index].all() == (name in steps)
+            assert mask[c.first:c.last + 1, c.joint_index].any() == (name in steps)
+        assert c.id == f"{c.step}:{c.joint}:{c.first}-{c.last}"
+    assert np.array_equal(cover, result.changed.astype(int))  # each changed cell in exactly one change
+    assert len({c.id for c in found}) == len(found)
+    assert [(c.first, c.joint_index) for c in found] == sorted((c.first, c.joint_index) for c in found)
+    assert {s for c in found for s in c.step.split("+")} == {"fill", "repair", "denoise"}
+
+
+def test_change_sizes_and_reasons(result, take, found):
+    cleaned = result.motion
+    for c in found:
+        q0, q1 = take.rotations[c.first:c.last + 1, c.joint_index], cleaned.rotations[c.first:c.last + 1, c.joint_index]
+        ok = ~np.isnan(q0).any(axis=-1)
+        if ok.any():
+            dot = np.clip(np.abs(np.sum(q0[ok] * q1[ok], axis=-1)), 0, 1)
+            assert c.max_deg == pytest.approx(np.degrees(2 * np.arccos(dot)).max(), abs=1e-9)
+        else:
+            assert np.isnan(c.max_deg) and c.as_dict()["max_deg"] is None and "was missing" in str(c)
+        if "fill" in c.step:
+            assert "missing in" in c.reason
+        if "repair" in c.step:
+            assert "self-similarity" in c.reason or "flagged joint" in c.reason
+        if "denoise" in c.step:
+            assert "noisy" in c.reason
+    json.dumps([c.as_dict() for c in found], allow_nan=False)  # the report embeds them as JSON
+
+
+def test_all_accept_gives_the_cleaned_take_and_all_reject_the_input(result, take, found):
+    acc = D.apply(take, result, {})
+    assert _same_bits(acc.rotations, result.motion.rotations)
+    assert _same_bits(acc.root_positions, result.motion.root_positions)
+    acc2 = D.apply(take, result, {c.id: D.ACCEPT for c in found})
+    assert _same_bits(acc2.rotations, result.motion.rotations)
+    rej = D.apply(take, result, {c.id: D.REJECT for c in found})
+    assert _same_bits(rej.rotations, take.rotations) and _same_bits(rej.root_positions, take.root_positions)
+    assert rej.skeleton == take.skeleton and rej.fps == take.fps and rej.name == take.name
+
+
+def _check_cells(out, take, cleaned, acc):
+    """Accepted cells hold the cleaned sample, every other cell the input's, bit for bit (root position too)."""
+    for f, j in zip(*np.nonzero(np.ones(acc.shape, dtype=bool))):
+        want = cleaned if acc[f, j] else take
+        assert _same_bits(out.rotations[f, j], want.rotations[f, j]), (f, j)
+    want_root = np.where(acc[:, :1], cleaned.root_positions, take.root_positions)
+    assert _same_bits(out.root_positions, want_root)
+
+
+def test_mixed_decisions_bit_identical_outside_accepted_changes(result, take, found):
+    choice = {c.id: (D.ACCEPT if k % 2 else D.REJECT) for k, c in enumerate(found)}
+    out = D.apply(take, result, choice)
+    acc = np.zeros(result.changed.shape, dtype=bool)
+    for c in found:
+        acc[c.first:c.last + 1, c.joint_index] = choice[c.id] == D.ACCEPT
+    assert np.array_equal(acc, D.accepted_cells(result, choice))
+    assert acc.any() and (result.changed & ~acc).any()
+    _check_cells(out, take, result.motion, acc)
+
+
+def test_seam_between_an_accepted_and_a_rejected_change_of_one_joint(result, take, found):
+    by_joint = {}
+    for c in found:
+        by_joint.setdefault(c.joint_index, []).append(c)
+    pairs = [(a, b) for cs in by_joint.values() for a, b in zip(cs, cs[1:]) if b.first == a.last + 1]
+    assert pairs, "the corrupted take has two changes of one joint that touch"
+    for first_accepted in (True, False):
+        a, b = pairs[0]
+        choice = {a.id: D.ACCEPT if first_accepted else D.REJECT, b.id: D.REJECT if first_accepted else D.ACCEPT}
+        out = D.apply(take, result, choice)
+        j, seam = a.joint_index, b.first
+        left, right = (result.motion, take) if first_accepted else (take, result.motion)
+        assert _same_bits(out.rotations[a.first:seam, j], left.rotations[a.first:seam, j])
+        assert _same_bits(out.rotations[seam:b.last + 1, j], right.rotations[seam:b.last + 1, j])
+
+
+def test_root_translation_follows_the_root_change(result, take, found):
+    root_changes = [c for c in found if c.joint_index == 0 and c.first <= ROOT_GAP.start <= c.last]
+    assert root_changes and "fill" in root_changes[0].step
+    c = root_changes[0]
+    assert np.isnan(take.root_positions[ROOT_GAP]).all() and np.isfinite(result.motion.root_positions[ROOT_GAP]).all()
+    rej = D.apply(take, result, {c.id: D.REJECT})
+    assert _same_bits(rej.root_positions, take.root_positions)  # the gap comes back as it was (NaN)
+    assert _same_bits(rej.rotations[c.first:c.last + 1, 0], take.rotations[c.first:c.last + 1, 0])
+    acc = D.apply(take, result, {c.id: D.ACCEPT})
+    assert _same_bits(acc.root_positions, result.motion.root_positions)
+
+
+def test_record_file_applies_the_same_and_ids_are_stable(result, take, found, tmp_path):
+    path = result.save(tmp_path / "walk.clean.npz")
+    rec = CleanResult.load(path)
+    assert rec.motion is None and rec.samples is not None
+    assert [c.id for c in D.changes(rec, take)] == [c.id for c in found]
+    choice = {c.id: (D.REJECT if k % 3 == 0 else D.ACCEPT) for k, c in enumerate(found)}
+    a, b = D.apply(take, rec, choice), D.apply(take, result, choice)
+    assert _same_bits(a.rotations, b.rotations) and _same_bits(a.root_positions, b.root_positions)
+    # a record attached to a cleaned take read back from a lossy file still applies its own float64 samples
+    blurred = dataclasses.replace(result.motion, rotations=np.round(result.motion.rotations, 3))
+    rec2 = CleanResult.load(path, motion=blurred)
+    assert _same_bits(D.apply(take, rec2, {}).rotations, result.motion.rotations)
+
+
+def test_ids_are_the_same_on_a_second_run():
+    m = mocapkit.load(samples.path("12_walk.amc"))
+    bad, _, _ = corrupt.real_errors(m, n_errors=3, seed=11)
+    runs = [[c.id for c in D.changes(clean(bad, steps="detect,repair"), bad)] for _ in range(2)]
+    assert runs[0] and runs[0] == runs[1]
+
+
+def test_a_record_without_samples_and_without_a_take_is_refused(result, take, tmp_path):
+    path = dataclasses.replace(result, motion=None).save(tmp_path / "old.clean.npz")
+    rec = CleanResult.load(path)
+    assert rec.samples is None
+    with pytest.raises(MocapError, match="no cleaned samples"):
+        D.apply(take, rec, {})
+
+
+def test_a_record_of_another_take_is_refused(result, take):
+    with pytest.raises(MocapError, match="another take"):
+        D.apply(take[:-1], result, {})
+    with pytest.raises(MocapError, match="another rig"):
+        D.changes(result, mocapkit.load(samples.path("131_01.bvh"))[: take.num_frames])
+
+
+def test_unknown_ids_and_bad_choices_are_refused(result, take, found):
+    with pytest.raises(ValueError, match="not changes of this cleaning: 'repair:nosuchjoint:1-2'"):
+        D.apply(take, result, {"repair:nosuchjoint:1-2": D.REJECT})
+    with pytest.raises(ValueError, match="'accept' or 'reject'"):
+        D.apply(take, result, {found[0].id: "maybe"})
+
+
+# ---- the decisions file --------------------------------------------------------------------------
+
+
+def _write(path, doc):
+    path.write_text(json.dumps(doc), encoding="utf-8")
+    return path
+
+
+def test_template_round_trips_through_a_file(result, take, found, tmp_path):
+    doc = D.template(take, found, take="walk.amc", output="walk.bvh", decisions={found[0].id: D.REJECT})
+    assert doc["format"] == D.FORMAT and doc["mocapkit"] == mocapkit.__version__ and doc["output"] == "walk.bvh"
+    assert doc["take"] == {"name": "walk.amc", "frames": take.num_frames, "joints": take.num_joints,
+                           "sha256": D.take_digest(take)}
+    assert list(doc["decisions"]) == [c.id for c in found]
+    assert doc["decisions"][found[0].id] == D.REJECT and set(list(doc["decisions"].values())[1:]) == {D.ACCEPT}
+    path = _write(tmp_path / "d.json", doc)
+    choice = D.check_decisions(D.read_decisions(path), path, take, result)
+    out = D.apply(take, result, choice)
+    c = found[0]
+    assert _same_bits(out.rotations[c.first:c.last + 1, c.joint_index], take.rotations[c.first:c.last + 1, c.joint_index])
+    review = D.review(take, result, take="walk.amc", output="walk.bvh")
+    assert [x["id"] for x in review["changes"]] == [c.id for c in found]
+    assert set(review["decisions"]["decisions"].values()) == {D.ACCEPT}
+
+
+def test_take_digest_tells_takes_apart(take):
+    assert D.take_digest(take) == D.take_digest(dataclasses.replace(take))
+    rot = np.array(take.rotations)
+    rot[5, 3, 1] = np.nextafter(rot[5, 3, 1], 1.0)  # one bit of one sample
+    assert D.take_digest(dataclasses.replace(take, rotations=rot)) != D.take_digest(take)
+
+
+@pytest.mark.parametrize("content, message", [
+    ("{not json", "not JSON"),
+    ('["a list"]', "not a mocapkit decisions file"),
+    ('{"format": "mocapkit.decisions/9", "take": {"sha256": "x"}, "decisions": {}}', "this mocapkit reads"),
+    ('{"format": "mocapkit.decisions/1", "decisions": {}}', "no \"take\""),
+    ('{"format": "mocapkit.decisions/1", "take": {"sha256": "x"}, "decisions": []}', "must map change ids"),
+    ('{"format": "mocapkit.decisions/1", "take": {"sha256": "x"}, "decisions": {"a": "yes"}}', "is \"accept\" or"),
+])
+def test_malformed_decisions_files_are_refused_in_one_line(tmp_path, content, message):
+    path = tmp_path / "bad.json"
+    path.write_text(content, encoding="utf-8")
+    with pytest.raises(MocapFormatError, match=message) as err:
+        D.read_decisions(path)
+    assert str(path) in str(err.value) and "\n" not in str(err.value)
+
+
+def test_decisions_for_another_take_or_another_cleaning_are_refused(result, take, found, tmp_path):
+    other = dataclasses.replace(take, rotations=np.where(np.isnan(take.rotations), np.nan, take.rotations[::-1]))
+    path = _write(tmp_path / "other.json", D.template(other, found, take="other.amc"))
+    with pytest.raises(MocapFormatError, match=r"decisions for another take \(other.amc") as err:
+        D.check_decisions(D.read_decisions(path), path, take, result)
+    assert str(path) in str(err.value)
+    doc = D.template(take, found)
+    doc["decisions"]["repair:lfemur:0-9999"] = D.REJECT
+    path = _write(tmp_path / "stale.json", doc)
+    with pytest.raises(MocapFormatError, match="not changes of this cleaning") as err:
+        D.check_decisions(D.read_decisions(path), path, take, result)
+    assert str(path) in str(err.value) and "\n" not in str(err.value)

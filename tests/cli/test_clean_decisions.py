@@ -1,0 +1,179 @@
+"""`mocapkit clean --decisions`: a person's accept/reject per change applied to the take; `--steps detect` reviews only."""
+
+from __future__ import annotations
+
+import json
+import re
+
+import numpy as np
+import pytest
+
+import mocapkit
+from mocapkit import corrupt, samples
+from mocapkit.cleaning import decisions as D
+from mocapkit.cleaning.pipeline import CleanResult
+from mocapkit.cli import main
+
+from .helpers import digest, one_error_line
+
+
+def _same_bits(a, b) -> bool:
+    a, b = np.ascontiguousarray(a), np.ascontiguousarray(b)
+    return a.shape == b.shape and a.tobytes() == b.tobytes()
+
+
+def review_block(report) -> dict:
+    """The changes list and decisions document the report embeds for the page."""
+    found = re.search(r'<script type="application/json" id="mocapkit-review">(.*?)</script>',
+                      report.read_text(encoding="utf-8"), re.S)
+    assert found, "the report has no changes list"
+    return json.loads(found.group(1))
+
+
+@pytest.fixture(scope="module")
+def cleaned(tmp_path_factory):
+    """walk_bad.npz (12_walk with real-style errors), cleaned by the command with its report."""
+    d = tmp_path_factory.mktemp("decide")
+    m = mocapkit.load(samples.path("12_walk.amc"))
+    bad, _, _ = corrupt.real_errors(m, n_errors=4, seed=11)
+    inp = d / "walk_bad.npz"
+    mocapkit.save(bad, inp)
+    mocapkit.save(m, d / "walk_ref.npz")
+    assert main(["clean", str(inp), "-o", str(d / "walk.npz"), "--report", str(d / "walk.html")]) == 0
+    return d, inp
+
+
+def _decide(cleaned, tmp_path, reject=(0,)):
+    """A decisions file from the report's document, rejecting the changes at the positions ``reject``."""
+    d, inp = cleaned
+    doc = review_block(d / "walk.html")["decisions"]
+    ids = list(doc["decisions"])
+    for k in reject:
+        doc["decisions"][ids[k]] = D.REJECT
+    path = tmp_path / "walk.decisions.json"
+    path.write_text(json.dumps(doc), encoding="utf-8")
+    return path, ids
+
+
+def _check_output(out, inp, record, choice):
+    """OUT holds the cleaned samples in the accepted cells and the input's, bit for bit, everywhere else."""
+    take, res = mocapkit.load(inp), CleanResult.load(record)
+    got = mocapkit.load(out)
+    acc = D.accepted_cells(res, choice)
+    want = D.apply(take, res, choice)
+    assert _same_bits(got.rotations, want.rotations) and _same_bits(got.root_positions, want.root_positions)
+    assert _same_bits(got.rotations[~acc], take.rotations[~acc])
+    assert acc.any() and (res.changed & ~acc).any()
+    return acc
+
+
+def test_report_lists_every_change_with_a_decisions_document(cleaned):
+    d, inp = cleaned
+    block = review_block(d / "walk.html")
+    res = CleanResult.load(d / "walk.clean.npz")
+    take = mocapkit.load(inp)
+    assert [c["id"] for c in block["changes"]] == [c.id for c in D.changes(res, take)] != []
+    doc = block["decisions"]
+    assert doc["take"]["name"] == "walk_bad.npz" and doc["take"]["sha256"] == D.take_digest(take)
+    assert doc["output"] == "walk.npz" and set(doc["decisions"].values()) == {D.ACCEPT}
+    for c in block["changes"]:
+        assert {"joint", "first", "last", "step", "max_deg", "reason"} <= set(c)
+
+
+def test_decisions_reuse_the_record_beside_out(cleaned, tmp_path, capsys):
+    d, inp = cleaned
+    dec, ids = _decide(cleaned, tmp_path)
+    record = d / "walk.clean.npz"
+    before = digest(record), digest(inp)
+    out = d / "walk.npz"
+    capsys.readouterr()
+    assert main(["clean", str(inp), "-o", str(out), "--decisions", str(dec)]) == 2  # OUT exists: --overwrite
+    assert "--overwrite" in capsys.readouterr().err
+    rc = main(["clean", str(inp), "-o", str(out), "--decisions", str(dec), "--overwrite"])
+    text = capsys.readouterr().out
+    assert rc == 0, text
+    assert "nothing cleaned again" in text and f"{len(ids) - 1} of {len(ids)} changes accepted, 1 rejected" in text
+    assert f"rejected {ids[0]}" in text and "ssa" not in text
+    assert (digest(record), digest(inp)) == before  # the record of the earlier run is read, not rewritten
+    _check_output(out, inp, record, {ids[0]: D.REJECT})
+
+
+def test_decisions_with_an_explicit_record_and_a_report(cleaned, tmp_path, capsys):
+    d, inp = cleaned
+    dec, ids = _decide(cleaned, tmp_path, reject=(0, 1))
+    out, rep = tmp_path / "final.npz", tmp_path / "final.html"
+    rc = main(["clean", str(inp), "-o", str(out), "--decisions", str(dec), "--record", str(d / "walk.clean.npz"),
+               "--report", str(rep), "--reference", str(d / "walk_ref.npz")])
+    text = capsys.readouterr().out
+    assert rc == 0, text
+    assert f"wrote {out} and {rep}: " in text
+    before, after = map(float, re.search(r"error against walk_ref.npz: eq\. 2 ([\d.]+) -> ([\d.]+)", text).groups())
+    assert after < before  # the accepted changes still repair
+    assert not (tmp_path / "final.clean.npz").exists()  # no new cleaning, no new record
+    _check_output(out, inp, d / "walk.clean.npz", {ids[0]: D.REJECT, ids[1]: D.REJECT})
+    block = review_block(rep)  # the new report starts from the decisions taken
+    assert [block["decisions"]["decisions"][i] for i in ids[:3]] == [D.REJECT, D.REJECT, D.ACCEPT]
+
+
+def test_decisions_without_a_record_clean_first(cleaned, tmp_path, capsys):
+    d, inp = cleaned
+    dec, ids = _decide(cleaned, tmp_path)
+    out = tmp_path / "fresh.bvh"
+    rc = main(["clean", str(inp), "-o", str(out), "--decisions", str(dec)])
+    text = capsys.readouterr().out
+    assert rc == 0, text
+    assert f"wrote {out} and {tmp_path / 'fresh.clean.npz'}: " in text and "a new cleaning" in text
+    record = tmp_path / "fresh.clean.npz"
+    assert [c.id for c in D.changes(CleanResult.load(record), mocapkit.load(inp))] == ids  # same changes again
+    take, got = mocapkit.load(inp), mocapkit.load(out)
+    acc = D.accepted_cells(CleanResult.load(record), {ids[0]: D.REJECT})
+    # BVH holds the channels as text (6 decimals, the writer's channel order): outside the accepted cells the
+    # rotations are the input's to that precision, inside them the cleaned ones
+    cleaned = D.apply(take, CleanResult.load(record), {})
+    dot = np.abs(np.sum(got.rotations * np.where(acc[..., None], cleaned.rotations, take.rotations), axis=-1))
+    assert np.degrees(2 * np.arccos(np.clip(dot, 0, 1))).max() < 1e-3
+    moved = np.abs(np.sum(take.rotations * cleaned.rotations, axis=-1))
+    assert np.degrees(2 * np.arccos(np.clip(moved[acc], 0, 1))).max() > 1.0  # the accepted changes are there
+
+
+def test_decisions_for_another_take_are_refused_and_nothing_is_written(cleaned, tmp_path, capsys):
+    d, inp = cleaned
+    dec, ids = _decide(cleaned, tmp_path)
+    other = tmp_path / "other.npz"
+    bad, _, _ = corrupt.real_errors(mocapkit.load(samples.path("12_walk.amc")), n_errors=4, seed=12)
+    mocapkit.save(bad, other)  # the same clip with other errors: same frames and joints, other samples
+    out = tmp_path / "o.npz"
+    for args in (["clean", str(other), "-o", str(out), "--decisions", str(dec), "--record", str(d / "walk.clean.npz")],
+                 ["clean", str(other), "-o", str(out), "--decisions", str(dec)]):
+        assert main(args) == 2
+        err = capsys.readouterr().err
+        assert one_error_line(err) and str(dec) in err and "decisions for another take (walk_bad.npz" in err, err
+        assert not out.exists() and not (tmp_path / "o.clean.npz").exists()
+
+
+def test_unknown_ids_and_misuse_are_refused(cleaned, tmp_path, capsys):
+    d, inp = cleaned
+    dec, ids = _decide(cleaned, tmp_path)
+    doc = json.loads(dec.read_text())
+    doc["decisions"]["repair:nosuchjoint:1-2"] = D.REJECT
+    dec.write_text(json.dumps(doc))
+    out = tmp_path / "o.npz"
+    assert main(["clean", str(inp), "-o", str(out), "--decisions", str(dec), "--record", str(d / "walk.clean.npz")]) == 2
+    err = capsys.readouterr().err
+    assert one_error_line(err) and "'repair:nosuchjoint:1-2'" in err and str(dec) in err
+    assert main(["clean", str(inp), "-o", str(out), "--record", str(d / "walk.clean.npz")]) == 2
+    assert "--record" in capsys.readouterr().err and not out.exists()
+
+
+def test_steps_detect_is_the_review_mode(cleaned, tmp_path, capsys):
+    d, inp = cleaned
+    out = tmp_path / "review.npz"
+    rc = main(["clean", str(inp), "-o", str(out), "--steps", "detect", "--report", str(tmp_path / "r.html")])
+    text = capsys.readouterr().out
+    assert rc == 0, text
+    assert "review mode (--steps detect): flags only, the take unchanged" in text and "flagged" in text
+    take, got = mocapkit.load(inp), mocapkit.load(out)
+    assert _same_bits(got.rotations, take.rotations) and _same_bits(got.root_positions, take.root_positions)
+    rec = CleanResult.load(tmp_path / "review.clean.npz")
+    assert rec.flags.any() and not rec.changed.any()
+    assert review_block(tmp_path / "r.html")["changes"] == []

@@ -1,0 +1,117 @@
+"""The report's changes list (review.js) end to end in headless Chromium: reject a change, download, apply."""
+
+from __future__ import annotations
+
+import json
+import os
+
+import numpy as np
+import pytest
+
+import mocapkit
+from mocapkit import corrupt, samples
+from mocapkit.cleaning import decisions as D
+from mocapkit.cleaning.pipeline import CleanResult
+from mocapkit.cli import main
+
+CHROMIUM = os.environ.get("MOCAPKIT_CHROMIUM", "/usr/bin/chromium")
+CHROMIUM_ARGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-background-networking",
+                 "--disable-component-update", "--disable-sync", "--no-first-run"]
+
+
+@pytest.fixture(scope="module")
+def browser():
+    sync_api = pytest.importorskip("playwright.sync_api", reason="playwright is not installed (pip install -e '.[test]')")
+    if not os.access(CHROMIUM, os.X_OK):
+        pytest.skip(f"no Chromium executable at {CHROMIUM} (apt-get install chromium, or set MOCAPKIT_CHROMIUM)")
+    with sync_api.sync_playwright() as p:
+        b = p.chromium.launch(executable_path=CHROMIUM, args=CHROMIUM_ARGS)
+        try:
+            yield b
+        finally:
+            b.close()
+
+
+@pytest.fixture(scope="module")
+def cleaned(tmp_path_factory):
+    """12_walk with real-style errors, cleaned by `mocapkit clean` with its report."""
+    d = tmp_path_factory.mktemp("review")
+    bad, _, _ = corrupt.real_errors(mocapkit.load(samples.path("12_walk.amc")), n_errors=4, seed=11)
+    inp = d / "walk_bad.npz"
+    mocapkit.save(bad, inp)
+    assert main(["clean", str(inp), "-o", str(d / "walk.npz"), "--report", str(d / "walk.html")]) == 0
+    return d, inp
+
+
+@pytest.fixture
+def page(browser, cleaned):
+    d, _ = cleaned
+    ctx = browser.new_context(accept_downloads=True, viewport={"width": 1280, "height": 900})
+    pg = ctx.new_page()
+    errors = []
+    pg.on("pageerror", lambda e: errors.append(str(e)))
+    pg.on("console", lambda m: errors.append(m.text) if m.type == "error" else None)
+    pg.goto((d / "walk.html").resolve().as_uri())
+    pg.wait_for_function("() => window.mocapkitReport && window.mocapkitReview && window.mocapkitReport.drawCount() > 0",
+                         timeout=60000)
+    yield pg
+    ctx.close()
+    assert errors == []
+
+
+def test_page_lists_every_change_with_accept_and_jump(page, cleaned):
+    d, inp = cleaned
+    found = D.changes(CleanResult.load(d / "walk.clean.npz"), mocapkit.load(inp))
+    rows = page.locator("#changes tbody tr")
+    assert rows.count() == len(found) > 1
+    for k, c in enumerate(found):
+        cells = rows.nth(k).locator("td")
+        assert rows.nth(k).get_attribute("data-change") == c.id
+        assert cells.nth(1).inner_text() == c.joint and cells.nth(3).inner_text() == c.step
+        assert cells.nth(2).inner_text() == f"{c.first}-{c.last}"
+        assert cells.nth(4).inner_text() == f"{c.max_deg:.1f} deg"
+        assert rows.nth(k).locator("input.accept").is_checked()  # accepted by default
+    assert page.inner_text("#decision-count") == f"{len(found)} accepted, 0 rejected"
+    c = found[-1]
+    rows.nth(len(found) - 1).locator("button.jump").click()
+    assert page.evaluate("() => window.mocapkitReport.frame()") == c.first
+    assert page.evaluate("() => window.mocapkitReport.selectedJointName()") == c.joint
+
+
+def test_reject_download_and_apply(page, cleaned, tmp_path, capsys):
+    d, inp = cleaned
+    ids = page.evaluate("() => window.mocapkitReview.changes()")
+    rejected = ids[1]
+    page.locator(f'#changes tr[data-change="{rejected}"] input.accept').uncheck()
+    assert page.locator(f'#changes tr[data-change="{rejected}"]').get_attribute("class") == "rejected"
+    assert page.inner_text("#decision-count") == f"{len(ids) - 1} accepted, 1 rejected"
+    with page.expect_download() as info:
+        page.click("#download-decisions")
+    download = info.value
+    assert download.suggested_filename == "walk_bad.decisions.json"
+    path = tmp_path / download.suggested_filename
+    download.save_as(path)
+    doc = json.loads(path.read_text(encoding="utf-8"))
+    assert doc["format"] == D.FORMAT and doc["take"]["name"] == "walk_bad.npz"
+    assert doc["decisions"] == {i: (D.REJECT if i == rejected else D.ACCEPT) for i in ids}
+
+    out = tmp_path / "walk_final.npz"
+    rc = main(["clean", str(inp), "-o", str(out), "--decisions", str(path), "--record", str(d / "walk.clean.npz")])
+    assert rc == 0, capsys.readouterr()
+    take, res, got = mocapkit.load(inp), CleanResult.load(d / "walk.clean.npz"), mocapkit.load(out)
+    acc = D.accepted_cells(res, {rejected: D.REJECT})
+    c = next(c for c in D.changes(res, take) if c.id == rejected)
+    assert not acc[c.first:c.last + 1, c.joint_index].any() and acc.sum() == res.changed.sum() - c.frames
+    full = D.apply(take, res, {})
+    want = np.where(acc[..., None], full.rotations, take.rotations)
+    assert np.ascontiguousarray(got.rotations).tobytes() == want.tobytes()
+    assert np.ascontiguousarray(got.root_positions).tobytes() == np.ascontiguousarray(take.root_positions).tobytes()
+
+
+def test_reject_all_and_accept_all(page):
+    ids = page.evaluate("() => window.mocapkitReview.changes()")
+    page.click("#reject-all")
+    assert set(page.evaluate("() => window.mocapkitReview.decisions().decisions").values()) == {D.REJECT}
+    assert page.locator("#changes input.accept:checked").count() == 0
+    page.click("#accept-all")
+    assert page.locator("#changes input.accept:checked").count() == len(ids)
