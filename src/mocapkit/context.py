@@ -83,7 +83,7 @@ BUILD_FPS = 24.0
 BUILD_FEATURES = ("F15",)
 #: Largest angle (degrees) between a bone's rest direction on the take's and on the context's
 #: skeleton for the context to serve the take by topology.
-REST_TOLERANCE_DEG = 20.0
+REST_TOLERANCE_DEG = 30.0
 _OFF = ("none", "off")
 _RECORDS = (".clean.npz", ".mask.npz")
 _STALE_S = 24 * 3600.0  # a staging folder older than this is a build that was killed
@@ -367,16 +367,16 @@ def _rest_directions(sk) -> np.ndarray:
 def _same_rest(a, b) -> str:
     """Empty when skeletons ``a`` and ``b`` share parents and rest bone directions, else why not."""
     if len(a.joint_names) != len(b.joint_names):
-        return f"{len(a.joint_names)} joints, the context's skeleton {len(b.joint_names)}"
+        return f"{len(a.joint_names)} joints, the context's {len(b.joint_names)}"
     if not np.array_equal(np.asarray(a.parents), np.asarray(b.parents)):
-        return "another hierarchy (parents) than the context's skeleton"
+        return "another hierarchy (parents)"
     da, db_ = _rest_directions(a), _rest_directions(b)
     both = (np.linalg.norm(da, axis=1) > 0) & (np.linalg.norm(db_, axis=1) > 0)
     cos = np.clip(np.sum(da * db_, axis=1), -1.0, 1.0)
     worst = np.degrees(np.arccos(cos[both])).max(initial=0.0)
     if worst > REST_TOLERANCE_DEG:
         j = int(np.flatnonzero(both)[np.argmax(np.degrees(np.arccos(cos[both])))])
-        return f"its rest pose differs from the context's (bone {a.joint_names[j]!r} by {worst:.0f} deg)"
+        return f"another rest pose: the bone to {a.joint_names[j]!r} points {worst:.0f} deg away"
     return ""
 
 
@@ -417,8 +417,9 @@ def fit_context(motion, context):
     label = context_label(context)
     if why:
         if context.info.get("default"):
-            return None, f"{label} not used: this take's skeleton has {why}; judged against the clip itself"
-        raise MocapError(f"{motion.name or 'take'}: the context ({label}) cannot serve this take: its skeleton has {why}")
+            return None, f"{label} not used: this take's joints differ from its skeleton's ({why}); judged against the clip itself"
+        raise MocapError(f"{motion.name or 'take'}: its joints differ from the skeleton of the context, {label} ({why}); "
+                         "give a context on this take's skeleton")
     renamed = [dataclasses.replace(s, joint_names=names) for s in context.skeletons]
     out = MotionDatabase(fps=context.fps, skeletons=renamed, clips=context.clips, rotations=context.rotations,
                          root_positions=context.root_positions, features=context.features,
