@@ -62,6 +62,9 @@ def analyse(take, ctx) -> dict:
     res = clean(take, fitted, steps=("detect",))
     seconds = time.perf_counter() - t
     det = res.detection
+    if det is None:  # a take shorter than one motion word: nothing is judged
+        return {"judged_frames": 0, "frames": int(take.num_frames), "seconds": seconds, "flags": 0, "segments": 0,
+                "context": context_label(fitted), "note": "; ".join(res.notes)}
     judged = np.isfinite(det.digression[:, det.analysed]).all(axis=1)
     return {"judged_frames": int(judged.sum()), "frames": int(take.num_frames), "seconds": seconds,
             "flags": int(det.flags.sum()), "segments": len(det.segments()),
