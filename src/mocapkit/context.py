@@ -417,8 +417,8 @@ def fit_context(motion, context):
     label = context_label(context)
     if why:
         if context.info.get("default"):
-            return None, f"{label} not used: this take's joints differ from its skeleton's ({why}); judged against the clip itself"
-        raise MocapError(f"{motion.name or 'take'}: its joints differ from the skeleton of the context, {label} ({why}); "
+            return None, f"{label} not used: this take's joints differ from the context's ({why}); the take is judged against itself"
+        raise MocapError(f"{motion.name or 'take'}: its joints differ from those of the context, {label} ({why}); "
                          "give a context on this take's skeleton")
     renamed = [dataclasses.replace(s, joint_names=names) for s in context.skeletons]
     out = MotionDatabase(fps=context.fps, skeletons=renamed, clips=context.clips, rotations=context.rotations,
