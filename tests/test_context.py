@@ -203,3 +203,22 @@ def test_the_build_script_selects_what_is_shipped(shared_data):
     assert [p.name for p in chosen] == desc["info"]["sources"]
     assert [c["name"] for c in desc["clips"]] == [p.stem for p in chosen]
     assert not set(p.name for p in chosen) & set(mod.BENCHMARK_QUERIES)
+
+
+def test_two_processes_building_one_key_at_once(takes, tmp_path):
+    """Real concurrent builds of the same folder: both succeed, one complete entry stays, nothing half-written."""
+    import subprocess
+    import sys
+
+    cache = tmp_path / "cache"
+    code = ("import sys; from mocapkit import context as C; "
+            "db = C.resolve_context(sys.argv[1], cache_dir=sys.argv[2]); print(db.path.name, db.num_clips)")
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join(sys.path)}
+    procs = [subprocess.Popen([sys.executable, "-c", code, str(takes), str(cache)], stdout=subprocess.PIPE,
+                              stderr=subprocess.PIPE, text=True, env=env) for _ in range(2)]
+    outs = [p.communicate(timeout=300) for p in procs]
+    assert all(p.returncode == 0 for p in procs), [e for _, e in outs]
+    names = {o.split()[0] for o, _ in outs}
+    assert len(names) == 1 and all(o.split()[1] == "3" for o, _ in outs)
+    assert [p.name for p in cache.iterdir()] == list(names)
+    assert MotionDatabase.open(cache / names.pop()).num_clips == 3
