@@ -117,8 +117,10 @@ def clean_file(
     """Clean the take at ``inp`` and write ``out``, its ``.clean.npz`` record and optional reports.
 
     Returns ``(original, result)``: the take as read and the
-    :class:`~mocapkit.cleaning.pipeline.CleanResult`. ``context``: paths of
-    context clips or of one database folder; ``asf``: the skeleton of an
+    :class:`~mocapkit.cleaning.pipeline.CleanResult`. ``context``: what
+    ``--context`` gives (:func:`load_context`; empty: the bundled default
+    context, fitted to the take by :func:`mocapkit.context.fit_context`, whose
+    note joins the result's notes); ``asf``: the skeleton of an
     ``.amc`` input; ``motion``: the take already read from ``inp`` (it is not
     read again). ``overwrite``: replace existing outputs (never an input).
 
