@@ -29,3 +29,18 @@ def small_db():
 
     names = ["12_walk.amc", "HDM_bd_jogLeftCircle4StepsRstart_001_120.amc", "HDM_bk_sneak2StepsLStart_004_120.amc", "HDM_bk_sneak2StepsLStart_005_120.amc"]
     return MotionDatabase.build([samples.path(n) for n in names], fps=30, features=("F15", "F15x3"), mirror=True, executor="serial", progress=False)
+
+
+@pytest.fixture(scope="session", autouse=True)
+def context_cache(tmp_path_factory):
+    """Contexts built from folders or files are cached here, never in the user's ``~/.cache`` (mocapkit.context)."""
+    import os
+
+    path = tmp_path_factory.mktemp("mocapkit-cache")
+    old = os.environ.get("MOCAPKIT_CACHE_DIR")
+    os.environ["MOCAPKIT_CACHE_DIR"] = str(path)
+    yield path
+    if old is None:
+        os.environ.pop("MOCAPKIT_CACHE_DIR", None)
+    else:
+        os.environ["MOCAPKIT_CACHE_DIR"] = old

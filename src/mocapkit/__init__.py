@@ -17,6 +17,7 @@ functions that use them.
 
 from __future__ import annotations
 
+import dataclasses
 import os
 
 from . import rotations, samples
@@ -54,16 +55,19 @@ def clean(take, context=None, *, steps="fill,detect,repair,denoise", threshold: 
     take : Motion, str or os.PathLike
         The take, or its file (.bvh, .amc, .npz; an AMC's skeleton is the
         ``.asf`` beside it unless ``asf`` is given).
-    context : None, MotionDatabase, database folder, or list of Motions or motion files
-        What detection and repair compare with besides the clip itself (same
-        joints as the take); None: the clip itself (self-similarity).
+    context : None, False, "none", MotionDatabase, database folder, folder of takes, or list of Motions or files
+        What detection and repair compare with besides the clip itself
+        (:func:`mocapkit.context.resolve_context`): a folder of takes or a
+        list of files is built into a database once and cached; None: the
+        bundled default context (skipped, with a note, for a take on another
+        skeleton); False or "none": the clip itself alone.
     steps : str or sequence of str
         Any of "fill", "detect", "repair", "denoise" (comma-separated or a
         list); they always run in that order, and "repair" needs "detect".
     threshold : float
         MDM value in (0, 1) above which a joint is flagged and repaired.
     asf : str, os.PathLike or Skeleton, optional
-        The ASF skeleton of an AMC take (or of AMC context files).
+        The ASF skeleton of an AMC take (context AMC files use the ASF beside them).
     progress : bool
         Show detection's progress bar.
 
@@ -84,7 +88,9 @@ def clean(take, context=None, *, steps="fill,detect,repair,denoise", threshold: 
     from .cleaning.pipeline import clean as clean_motion
 
     motion = take if isinstance(take, Motion) else _load_motion(take, asf)
-    return clean_motion(motion, _load_context(context, asf), steps=steps, threshold=threshold, progress=progress)
+    ctx, note = _load_context(context, motion)
+    res = clean_motion(motion, ctx, steps=steps, threshold=threshold, progress=progress)
+    return dataclasses.replace(res, notes=res.notes + (note,)) if note else res
 
 
 def _load_motion(path, asf) -> Motion:
@@ -100,15 +106,9 @@ def _load_motion(path, asf) -> Motion:
     return out
 
 
-def _load_context(context, asf):
-    """``context`` as :func:`mocapkit.cleaning.pipeline.clean` takes it: files loaded, a folder opened as a database."""
-    if context is None:
-        return None
-    if isinstance(context, (str, os.PathLike)):
-        from .database import MotionDatabase
+def _load_context(context, motion):
+    """``context`` as :func:`mocapkit.cleaning.pipeline.clean` takes it (:func:`mocapkit.context.resolve_context`),
+    fitted to ``motion``'s skeleton (:func:`mocapkit.context.fit_context`); returns ``(context, note)``."""
+    from .context import fit_context, resolve_context
 
-        return MotionDatabase.open(context)
-    if isinstance(context, (list, tuple)):
-        return [c if isinstance(c, Motion) else _load_motion(c, asf if os.fspath(c).lower().endswith(".amc") else None)
-                for c in context]
-    return context
+    return fit_context(motion, resolve_context(context))

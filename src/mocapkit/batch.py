@@ -61,7 +61,7 @@ import signal
 import tempfile
 import threading
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from functools import lru_cache
 from pathlib import Path
 from typing import Sequence
@@ -88,31 +88,17 @@ def sigterm_as_interrupt() -> None:
 
 
 @lru_cache(maxsize=4)
-def _context(paths: tuple[str, ...]):
-    """Context clips (or one database folder), loaded once per process."""
-    from . import io
-    from .database import MotionDatabase
-    from .motion import Motion
+def _context(paths: tuple[str, ...], default: bool, progress: bool):
+    """The context ``paths`` name (:func:`mocapkit.context.resolve_context`), resolved once per process."""
+    from .context import resolve_context
 
-    if not paths:
-        return None
-    ps = [Path(p) for p in paths]
-    if len(ps) == 1 and ps[0].is_dir():
-        return MotionDatabase.open(ps[0])
-    out = []
-    for p in ps:
-        if p.is_dir():
-            raise MocapFormatError(p, "a database folder must be the only --context")
-        m = io.load(p)
-        if not isinstance(m, Motion):
-            raise MocapFormatError(p, "a marker file cannot be context; give motions")
-        out.append(m)
-    return out
+    return resolve_context(list(paths), default=default, progress=progress)
 
 
-def load_context(paths: Sequence | None):
-    """``--context``: motion files, or one database folder (None or empty: the clip itself)."""
-    return _context(tuple(str(p) for p in (paths or ())))
+def load_context(paths: Sequence | None, *, default: bool = True, progress: bool = False):
+    """``--context``: a database folder, a folder of takes or motion files (built once and cached), ``none``;
+    None or empty: the bundled default context (with ``default``), else the clip itself."""
+    return _context(tuple(str(p) for p in (paths or ())), default, progress)
 
 
 def clean_file(
@@ -134,8 +120,10 @@ def clean_file(
     """Clean the take at ``inp`` and write ``out``, its ``.clean.npz`` record and optional reports.
 
     Returns ``(original, result)``: the take as read and the
-    :class:`~mocapkit.cleaning.pipeline.CleanResult`. ``context``: paths of
-    context clips or of one database folder; ``asf``: the skeleton of an
+    :class:`~mocapkit.cleaning.pipeline.CleanResult`. ``context``: what
+    ``--context`` gives (:func:`load_context`; empty: the bundled default
+    context, fitted to the take by :func:`mocapkit.context.fit_context`, whose
+    note joins the result's notes); ``asf``: the skeleton of an
     ``.amc`` input; ``motion``: the take already read from ``inp`` (it is not
     read again). ``overwrite``: replace existing outputs (never an input).
     ``decisions``: a decisions file (:mod:`mocapkit.cleaning.decisions`):
@@ -173,9 +161,13 @@ def clean_file(
     if reuse:
         res = CleanResult.load(record)
     else:
-        ctx = load_context(context)
+        from .context import fit_context
+
+        ctx, ctx_note = fit_context(m, load_context(context, progress=progress))
         try:
             res = clean(m, ctx, steps=steps or STEPS, threshold=threshold, progress=progress)
+            if ctx_note:
+                res = replace(res, notes=res.notes + (ctx_note,))
         except (ValueError, TypeError) as exc:
             raise MocapError(f"{inp}: {exc}") from None
         except MocapError as exc:
@@ -477,7 +469,7 @@ def clean_batch(
         raise MocapError(f"steps: {exc}") from None
     ctx = [Path(c) for c in (context or [])]
     if ctx:
-        load_context(ctx)  # fail early, in one line, on a bad context
+        load_context(ctx, progress=progress)  # fail early, in one line, on a bad context; a folder is built and cached once
     t0 = time.perf_counter()
     below = inside(out_dir, in_dir)  # an OUT_DIR below IN_DIR is left out of the inputs, IN_DIR itself is not
     inputs = find_inputs(in_dir, patterns, exclude=out_dir if below else None)

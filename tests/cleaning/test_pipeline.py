@@ -167,7 +167,7 @@ def test_context_is_used():
     # the context repeats the sneak once: of the K neighbour words only one is near, and a medoid of all
     # of them put the femur 42 degrees off (repair now takes the medoid among the near ones)
     res = clean(bad, ctx, steps=("detect", "repair"))
-    assert "1 context clips" in res.steps[0].method
+    assert "1 context clip" in res.steps[0].method
     assert res.repaired.any() and not (res.repaired & ~res.flags).any()
     assert metrics.pose_error(m, res.motion).mean() < metrics.pose_error(m, bad).mean()
 

@@ -84,3 +84,25 @@ def test_repair_refuses_a_detection_of_another_take(tmp_path):
     code, _, err = run("repair", str(inp), "-o", str(tmp_path / "x.bvh"), "--detection", str(det))
     assert code == 2 and one_error_line(err) and "det.npz: the detection is of 300 frames" in err
     assert not (tmp_path / "x.bvh").exists()
+
+
+def test_detect_context_forms(tmp_path):
+    """--context: a folder of takes (built once, cached), none (the clip alone), nothing (the bundled default)."""
+    import shutil
+
+    take = mocapkit.samples.path("HDM_bk_sneak2StepsLStart_005_120.amc")
+    folder = tmp_path / "ctx"
+    folder.mkdir()
+    for n in ("HDM_bk.asf", "HDM_bk_sneak2StepsLStart_004_120.amc"):
+        shutil.copy(mocapkit.samples.path(n), folder / n)
+    out = tmp_path / "d.npz"
+    code, text, err = run("detect", take, "-o", out, "--context", folder)
+    assert code == 0, err
+    assert f"judged against the takes of {folder} (1 clip, " in text
+    assert ssa.Detection.load(out).context_clips[1][0] == "HDM_bk_sneak2StepsLStart_004_120"
+    code, text, err = run("detect", take, "-o", out, "--overwrite", "--context", "none")
+    assert code == 0 and "judged against the clip itself" in text and len(ssa.Detection.load(out).context_clips) == 1
+    code, text, err = run("detect", take, "-o", out, "--overwrite")
+    assert code == 0 and "judged against the bundled default context (" in text
+    assert len(ssa.Detection.load(out).context_clips) > 20
+    assert sorted(p.name for p in folder.iterdir()) == ["HDM_bk.asf", "HDM_bk_sneak2StepsLStart_004_120.amc"]

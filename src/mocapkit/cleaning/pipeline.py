@@ -417,6 +417,12 @@ def _denoise(motion: Motion, noisy: np.ndarray, models: dict, notes: list) -> tu
     return dataclasses.replace(motion, rotations=rot), method, note
 
 
+def _context_label(context) -> str:
+    from ..context import context_label
+
+    return context_label(context)
+
+
 def clean(
     motion: Motion,
     context=None,
@@ -504,7 +510,7 @@ def clean(
             except (ValueError, SkeletonError) as exc:
                 raise MocapError(f"{name}: detect: {exc}") from None
             mdm, flags = np.nan_to_num(np.asarray(det.mdm, dtype=np.float64)), np.asarray(det.flags, dtype=bool)
-            what = "the clip itself" if context is None else f"the clip and {len(det.context_clips) - 1} context clips"
+            what = "the clip itself" if context is None else f"the clip and {_context_label(context)}"
             n_seg = len(det.segments())
             note = f"{_count(n_seg, 'flagged segment')} on {_count(int(flags.any(axis=0).sum()), 'joint')}" + (
                 f"; {'; '.join(det.notes)}" if det.notes else "")
@@ -541,7 +547,7 @@ def clean(
                                       extra + (f"; {note}" if note else "")))
 
     params = dict(steps=list(steps), threshold=float(threshold), noise_deg=float(noise_deg), foot_skate=bool(foot_skate),
-                  context="none" if context is None else type(context).__name__)
+                  context="none" if context is None else _context_label(context))
     return CleanResult(
         motion=cur, mdm=mdm, flags=flags, filled=filled, repaired=repaired, denoised=denoised, noise=noise,
         joint_names=tuple(motion.skeleton.joint_names), fps=float(motion.fps), steps=tuple(records),

@@ -146,7 +146,7 @@ def _take_line(row: dict) -> str:
 def clean_batch(
     in_dir: Path = typer.Argument(..., metavar="IN_DIR", help="Folder of takes (searched recursively)."),
     out_dir: Path = typer.Argument(..., metavar="OUT_DIR", help="Folder for the cleaned takes (same layout)."),
-    context: Optional[list[Path]] = context_option("default: each clip itself"),
+    context: Optional[list[Path]] = context_option(),
     steps: str = typer.Option("fill,detect,repair,denoise", "--steps", help=STEPS_HELP),
     threshold: float = typer.Option(0.5, "--threshold", help="MDM value above which a joint is flagged (0-1)."),
     executor: Optional[str] = executor_option("takes are cleaned"),

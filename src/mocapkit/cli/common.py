@@ -23,6 +23,7 @@ __all__ = [
     "overwrite_option",
     "asf_option",
     "context_option",
+    "CONTEXT_HELP",
     "executor_option",
     "check_executor",
     "OVERWRITE_HELP",
@@ -46,9 +47,16 @@ def asf_option():
     return typer.Option(None, "--asf", help="Skeleton (.asf) for the .amc input(s) and reference (default: the ASF beside each AMC).")
 
 
-def context_option(default_help: str = "default: the clip itself"):
-    """The ``--context`` option of the self-similarity commands."""
-    return typer.Option(None, "--context", help=f"Related clips (repeat the option) or one database folder; {default_help}.")
+CONTEXT_HELP = ("What the take is compared with: a motion database folder, a folder of takes or motion files "
+                "(repeat the option; built into a database once and cached under $MOCAPKIT_CACHE_DIR/contexts or "
+                "~/.cache/mocapkit/contexts), or 'none' for the clip alone. Default: the bundled default context "
+                "(common human motion on the CMU/HDM05 Acclaim skeleton; takes on another skeleton are judged against "
+                "themselves).")
+
+
+def context_option():
+    """The ``--context`` option of the self-similarity commands (:func:`mocapkit.context.resolve_context`)."""
+    return typer.Option(None, "--context", help=CONTEXT_HELP)
 
 
 def executor_option(what: str):

@@ -39,6 +39,7 @@ def detect(
     import json
 
     from ..batch import load_context
+    from ..context import context_label, fit_context
     from ..io.outputs import removed_on_failure
     from ..io.takes import check_asf, load_motion
 
@@ -49,7 +50,7 @@ def detect(
     if png is not None and png.suffix.lower() != ".png":
         raise MocapFormatError(png, "the map is written as .png")
     m = load_motion(inp, asf, purpose="detect")
-    ctx = load_context(context)
+    ctx, note = fit_context(m, load_context(context, progress=not as_json))
     det = _detect(m, ctx, threshold, progress=not as_json, confirm=confirm, jump_deg=jump_deg)
     with removed_on_failure([out, png]):
         det.save(out)
@@ -61,7 +62,10 @@ def detect(
     if as_json:
         print(json.dumps([{"joint": j, "start": a, "end": b, "start_s": a / m.fps, "end_s": b / m.fps} for j, a, b in segs]))
         return
-    console.print(f"wrote {out}" + (f" and {png}" if png else "") + f": {plural(len(segs), 'flagged segment')}")
+    console.print(f"wrote {out}" + (f" and {png}" if png else "") + f": {plural(len(segs), 'flagged segment')}"
+                  f" (judged against {context_label(ctx)})")
+    for line in ([note] if note else []) + list(det.notes):
+        console.print(f"  note: {line}")
     for j, a, b in segs[:50]:
         console.print(f"  {j:16s} frames {a}-{b} ({a / m.fps:.2f}-{b / m.fps:.2f} s)")
     if len(segs) > 50:
@@ -88,6 +92,7 @@ def repair(
     from .. import io
     from ..batch import load_context
     from ..cleaning import ssa
+    from ..context import fit_context
     from ..io.takes import check_asf, load_motion
 
     guard([out], [inp, asf, context, detection], overwrite)
@@ -100,7 +105,9 @@ def repair(
         if det.flags.shape != (m.num_frames, m.skeleton.num_joints):
             raise MocapFormatError(detection, f"the detection is of {det.flags.shape[0]} frames x {det.flags.shape[1]} joints, "
                                               f"the take {m.num_frames} x {m.skeleton.num_joints}; detect this take again")
-    ctx = load_context(context)
+    ctx, note = fit_context(m, load_context(context, progress=True))
+    if note:
+        console.print(f"note: {note}")
     if det is None:
         det = _detect(m, ctx, threshold, confirm=confirm, jump_deg=jump_deg)
     try:

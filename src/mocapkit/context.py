@@ -1,0 +1,429 @@
+"""What a take is compared with: ``--context`` resolved to a motion database, built once and cached.
+
+Self-similarity cleaning (Aristidou et al. 2018, "Self-similarity analysis for
+motion capture cleaning", Computer Graphics Forum 37(2), section 3.3) judges a
+take's motion words by their nearest neighbours in a *context*: the clip
+itself, related clips, or a large database. A word with no neighbour close
+enough is left unjudged, so a take the context has never seen the like of is
+mostly unjudged. This module turns what a user gives into that context:
+
+* **a database folder** (written by ``mocapkit db build`` or
+  :meth:`MotionDatabase.save`): opened as it is;
+* **a folder of takes** (searched recursively for ``.bvh``, ``.amc`` and
+  ``.npz`` motions; ``.clean.npz`` and ``.mask.npz`` records left out) **or a
+  list of files**: built into a database once (:func:`build_context`) and
+  cached (:func:`cached_context`), so the next run opens it in milliseconds;
+* **nothing**: the **default context** bundled with the package
+  (:func:`default_context`, ``mocapkit/data/context/``; rebuilt by
+  ``scripts/build_default_context.py``), or no context at all when the user
+  says ``none`` (``--context none``, ``context=False`` or ``"none"``).
+
+**The cache** lives under ``$MOCAPKIT_CACHE_DIR/contexts/`` (or
+``~/.cache/mocapkit/contexts/``), one database folder per key. The key hashes
+each file's resolved path, size and modification time (and, for an AMC, those
+of the ASF beside it, which the reader uses), the build settings and the
+database format, so an edited, added or removed file makes a new key. A build
+is written into a hidden staging folder and renamed into place in one step:
+two processes building one key at once both succeed (the first rename wins,
+the other's copy is discarded), and an interrupted build leaves only a hidden
+``.build-*`` folder, never something that looks complete (such leftovers are
+swept after a day). The cache holds copies made from the user's files, never
+the files themselves, and nothing in it replaces them.
+
+**Rigs.** A database holds one skeleton topology. Takes of a folder on
+another topology than the majority's are left out of the build with one note
+naming them. A database serves a take (:func:`fit_context`) when the joint
+names agree, or when the topology (parents) agrees and every bone's rest
+direction agrees within :data:`REST_TOLERANCE_DEG`: then local rotations mean
+the same on both skeletons (mocapkit reads ASF rotations as ``C M C^-1`` about
+the ASF's rest directions, so the CMU ASF/AMC takes and their cgspeed BVH
+conversions, ``lfemur``/``LeftUpLeg``/``LeftHip``, hold identical rotations)
+and the context's joints are renamed to the take's. Otherwise an explicit
+context is refused with the reason, and the default context is skipped with
+one note (the take is judged against itself).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+import json
+import os
+import shutil
+import time
+import uuid
+from pathlib import Path
+from typing import Sequence
+
+import numpy as np
+
+from .errors import MocapError, MocapFormatError
+
+__all__ = [
+    "BUILD_FPS",
+    "BUILD_FEATURES",
+    "REST_TOLERANCE_DEG",
+    "cache_root",
+    "context_files",
+    "context_key",
+    "build_context",
+    "cached_context",
+    "default_context",
+    "default_context_path",
+    "resolve_context",
+    "fit_context",
+    "context_label",
+    "is_off",
+]
+
+#: Frame rate contexts are built at (fps): the self-similarity analysis rate
+#: (:class:`mocapkit.cleaning.ssa.SSAParams`, 24 fps), so nothing is lost and no clip is resampled twice.
+BUILD_FPS = 24.0
+#: Feature sets stored with a built context (a database needs one; F15, Krüger et al. 2010).
+BUILD_FEATURES = ("F15",)
+#: Largest angle (degrees) between a bone's rest direction on the take's and on the context's
+#: skeleton for the context to serve the take by topology.
+REST_TOLERANCE_DEG = 30.0
+_OFF = ("none", "off")
+_RECORDS = (".clean.npz", ".mask.npz")
+_STALE_S = 24 * 3600.0  # a staging folder older than this is a build that was killed
+
+
+def is_off(spec) -> bool:
+    """True when ``spec`` turns the context off: ``False``, ``"none"``/``"off"`` (any case), or a list of just that."""
+    if spec is False:
+        return True
+    if isinstance(spec, (list, tuple)) and len(spec) == 1:
+        spec = spec[0]
+    return isinstance(spec, (str, os.PathLike)) and os.fspath(spec).strip().lower() in _OFF
+
+
+def cache_root() -> Path:
+    """Folder of cached contexts: ``$MOCAPKIT_CACHE_DIR/contexts`` or ``~/.cache/mocapkit/contexts``."""
+    base = os.environ.get("MOCAPKIT_CACHE_DIR")
+    return (Path(base).expanduser() if base else Path.home() / ".cache" / "mocapkit") / "contexts"
+
+
+def default_context_path() -> Path:
+    """The bundled default context's database folder (``mocapkit/data/context``)."""
+    from importlib import resources
+
+    return Path(str(resources.files("mocapkit") / "data" / "context"))
+
+
+def _is_database(p: Path) -> bool:
+    from .database_folder import DESCRIPTION
+
+    return p.is_dir() and (p / DESCRIPTION).is_file()
+
+
+def context_files(spec) -> list[Path]:
+    """The motion files a folder or list of paths names, in a stable order.
+
+    Folders are searched recursively for ``.bvh``, ``.amc`` and ``.npz`` files
+    (hidden files and cleaning records ``*.clean.npz``/``*.mask.npz`` left
+    out), sorted by path; files are taken as given. Raises
+    :class:`~mocapkit.errors.MocapFormatError` naming a missing path, a file of
+    another kind, a database folder among other paths, or a folder without
+    motion files.
+    """
+    from .database import SUFFIXES
+
+    paths = [Path(spec)] if isinstance(spec, (str, os.PathLike)) else [Path(p) for p in spec]
+    out: list[Path] = []
+    for p in paths:
+        if _is_database(p):
+            raise MocapFormatError(p, "a motion database folder must be the only --context")
+        if p.is_dir():
+            found = sorted(q for q in p.rglob("*") if q.suffix.lower() in SUFFIXES and not q.name.startswith(".")
+                           and not q.name.lower().endswith(_RECORDS) and q.is_file())
+            if not found:
+                raise MocapFormatError(p, f"the folder holds no motion files ({', '.join(SUFFIXES)}) to use as context")
+            out.extend(found)
+        elif p.is_file():
+            if p.suffix.lower() not in SUFFIXES:
+                raise MocapFormatError(p, f"cannot be context (expected {', '.join(SUFFIXES)} motion files or a folder)")
+            out.append(p)
+        else:
+            raise MocapFormatError(p, "no such file or folder (--context takes a database folder, a folder of takes or files)")
+    seen, unique = set(), []
+    for p in out:
+        r = p.resolve()
+        if r not in seen:
+            seen.add(r)
+            unique.append(p)
+    return unique
+
+
+def _stamp(p: Path) -> list:
+    st = p.stat()
+    return [str(p.resolve()), st.st_size, st.st_mtime_ns]
+
+
+def context_key(files: Sequence, fps: float = BUILD_FPS, features: Sequence[str] = BUILD_FEATURES) -> str:
+    """The cache key of a context built from ``files``: a hex digest of every file's resolved path, size and
+    mtime (an AMC's also of the ASF beside it), the settings and the database format version."""
+    from .database_folder import FORMAT_VERSION
+    from .io.asfamc import find_asf
+
+    stamps = []
+    for f in files:
+        p = Path(f)
+        row = _stamp(p)
+        if p.suffix.lower() == ".amc":
+            try:
+                row.append(_stamp(find_asf(p)))
+            except MocapError:
+                row.append(None)  # the build refuses it, naming the file
+        stamps.append(row)
+    text = json.dumps({"files": stamps, "fps": float(fps), "features": list(features), "format": FORMAT_VERSION,
+                       "layout": 1}, sort_keys=True)
+    return hashlib.sha256(text.encode("utf-8")).hexdigest()[:32]
+
+
+def _progress(total: int, enabled: bool):
+    """A rich progress bar on stderr (a no-op when not ``enabled``)."""
+    from rich.console import Console
+    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeRemainingColumn
+
+    return Progress(TextColumn("building context"), BarColumn(), MofNCompleteColumn(), TimeRemainingColumn(),
+                    TextColumn("{task.description}"), console=Console(stderr=True), disable=not enabled, transient=True)
+
+
+def build_context(files: Sequence, *, fps: float = BUILD_FPS, features: Sequence[str] = BUILD_FEATURES,
+                  progress: bool = False, label: str | None = None):
+    """Build a context database from motion files; returns ``(database, notes)``.
+
+    Every file is read (an AMC with the ASF beside it, as the readers find
+    it), resampled to ``fps`` and featurised. The database takes the skeleton
+    topology (joint names and parents) that holds the most clips; files on
+    another topology are left out and named in one note. An unreadable file
+    is refused (:class:`~mocapkit.errors.MocapFormatError` naming it).
+    ``progress`` shows a rich progress bar on stderr. ``label`` is stored in
+    the database's ``info`` (what the summary says judged a take).
+    """
+    from .database import MotionDatabase
+    from .io.takes import load_motion
+
+    files = [Path(f) for f in files]
+    if not files:
+        raise MocapError("no context files given")
+    motions, topo = [], []
+    with _progress(len(files), progress) as bar:
+        task = bar.add_task("", total=len(files))
+        for p in files:
+            bar.update(task, description=p.name)
+            m = load_motion(p, purpose="context")
+            if m.num_frames == 0:
+                raise MocapFormatError(p, "the take has no frames; it cannot be context")
+            if not np.all(np.isfinite(m.rotations)):
+                raise MocapFormatError(p, "the take has missing joints (NaN); fill it before using it as context")
+            m = m.resample(fps)
+            motions.append(m if m.name else dataclasses.replace(m, name=p.stem))
+            topo.append((tuple(m.skeleton.joint_names), tuple(int(x) for x in m.skeleton.parents)))
+            bar.advance(task)
+    counts: dict = {}
+    for t in topo:
+        counts[t] = counts.get(t, 0) + 1
+    best = max(counts, key=lambda t: (counts[t], -topo.index(t)))
+    keep = [m for m, t in zip(motions, topo) if t == best]
+    left = [p for p, t in zip(files, topo) if t != best]
+    notes = []
+    if left:
+        names = ", ".join(p.name for p in left[:5]) + (f" and {len(left) - 5} more" if len(left) > 5 else "")
+        notes.append(f"context: left out {len(left)} of {len(files)} takes on another skeleton than the "
+                     f"{len(best[0])}-joint one of the others ({names})")
+    db = MotionDatabase.build(keep, fps=fps, features=tuple(features), progress=False, executor="serial")
+    db.info["label"] = label or "the context files"
+    db.info["notes"] = notes
+    return db, notes
+
+
+def _sweep(root: Path) -> None:
+    """Remove staging folders of builds killed long ago (hidden ``.build-*`` folders older than a day)."""
+    try:
+        entries = list(root.iterdir())
+    except OSError:
+        return
+    now = time.time()
+    for e in entries:
+        try:
+            if e.name.startswith(".build-") and e.is_dir() and now - e.stat().st_mtime > _STALE_S:
+                shutil.rmtree(e, ignore_errors=True)
+        except OSError:
+            pass
+
+
+def cached_context(files: Sequence, *, cache_dir=None, fps: float = BUILD_FPS, features: Sequence[str] = BUILD_FEATURES,
+                   progress: bool = False, label: str | None = None):
+    """The context database of ``files``, built once into the cache and opened from it afterwards.
+
+    ``cache_dir``: the cache folder (default :func:`cache_root`). The build
+    goes into a hidden staging folder beside the entry and is renamed into
+    place; when another process put the same key in place first, its copy is
+    used and this one discarded. A cached entry that no longer opens (a disk
+    fault) is rebuilt. Returns a :class:`~mocapkit.database.MotionDatabase`
+    (memory-mapped) whose ``info`` holds ``label`` and the build's notes.
+    """
+    from .database import MotionDatabase
+
+    files = [Path(f) for f in files]
+    root = Path(cache_dir) if cache_dir is not None else cache_root()
+    key = context_key(files, fps, features)
+    entry = root / key
+    if entry.is_dir():
+        try:
+            return _labelled(MotionDatabase.open(entry), label)
+        except MocapFormatError:
+            shutil.rmtree(entry, ignore_errors=True)  # our own entry, damaged: build it again
+    db, _ = build_context(files, fps=fps, features=features, progress=progress, label=label)
+    try:
+        root.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise MocapFormatError(root, f"cannot create the context cache ({exc.strerror or exc}); set MOCAPKIT_CACHE_DIR") from None
+    _sweep(root)
+    staging = root / f".build-{key}-{os.getpid()}-{uuid.uuid4().hex[:8]}"
+    try:
+        db.save(staging / "db")
+        try:
+            os.rename(staging / "db", entry)
+        except OSError:
+            if not _is_database(entry):  # not another process's finished copy: a real failure
+                raise
+    except OSError as exc:
+        raise MocapFormatError(entry, f"cannot write the context cache ({exc.strerror or exc}); set MOCAPKIT_CACHE_DIR") from None
+    finally:
+        shutil.rmtree(staging, ignore_errors=True)
+    return _labelled(MotionDatabase.open(entry), label)
+
+
+def _labelled(db, label):
+    if label:
+        db.info["label"] = label
+    return db
+
+
+def default_context():
+    """The bundled default context (:class:`~mocapkit.database.MotionDatabase`), or None when the package lacks it."""
+    from .database import MotionDatabase
+
+    p = default_context_path()
+    if not _is_database(p):
+        return None
+    db = MotionDatabase.open(p)
+    db.info["label"] = "the bundled default context"
+    db.info["default"] = True
+    return db
+
+
+def _describe(paths: list[Path]) -> str:
+    if len(paths) == 1 and paths[0].is_dir():
+        return f"the takes of {paths[0]}"
+    return "the context files" if len(paths) > 1 else f"the context file {paths[0]}"
+
+
+def resolve_context(spec, *, default: bool = True, cache_dir=None, progress: bool = False):
+    """What ``--context`` (or ``context=``) names, as the analysis takes it.
+
+    ``spec`` may be None or empty (the bundled default context when
+    ``default``, else None), ``False``/``"none"`` (None: the clip itself), a
+    :class:`~mocapkit.database.MotionDatabase` or Motions (returned as they
+    are), a database folder (opened), or a folder of takes and/or a list of
+    motion files (built once and cached, :func:`cached_context`). Returns a
+    MotionDatabase, a list of Motions, or None.
+    """
+    from .database import MotionDatabase
+    from .motion import Motion
+
+    if is_off(spec):
+        return None
+    if spec is None or (isinstance(spec, (list, tuple)) and len(spec) == 0):
+        return default_context() if default else None
+    if isinstance(spec, MotionDatabase):
+        return spec
+    if isinstance(spec, Motion):
+        return [spec]
+    items = [spec] if isinstance(spec, (str, os.PathLike)) else list(spec)
+    if all(isinstance(c, Motion) for c in items):
+        return items
+    if not all(isinstance(c, (str, os.PathLike)) for c in items):
+        raise TypeError("context must be a MotionDatabase, Motions, or paths of files and folders (not a mix)")
+    paths = [Path(c) for c in items]
+    if len(paths) == 1 and _is_database(paths[0]):
+        db = MotionDatabase.open(paths[0])
+        db.info["label"] = f"the database {paths[0]}"
+        return db
+    files = context_files(paths)
+    return cached_context(files, cache_dir=cache_dir, progress=progress, label=_describe(paths))
+
+
+def _rest_directions(sk) -> np.ndarray:
+    """(J, 3) unit rest offsets (zero rows for joints at their parent)."""
+    o = np.asarray(sk.offsets, dtype=np.float64)
+    n = np.linalg.norm(o, axis=1, keepdims=True)
+    return np.where(n > 1e-9 * max(float(n.max()), 1e-12), o / np.where(n > 0, n, 1.0), 0.0)
+
+
+def _same_rest(a, b) -> str:
+    """Empty when skeletons ``a`` and ``b`` share parents and rest bone directions, else why not."""
+    if len(a.joint_names) != len(b.joint_names):
+        return f"{len(a.joint_names)} joints, the context's {len(b.joint_names)}"
+    if not np.array_equal(np.asarray(a.parents), np.asarray(b.parents)):
+        return "another hierarchy (parents)"
+    da, db_ = _rest_directions(a), _rest_directions(b)
+    both = (np.linalg.norm(da, axis=1) > 0) & (np.linalg.norm(db_, axis=1) > 0)
+    cos = np.clip(np.sum(da * db_, axis=1), -1.0, 1.0)
+    worst = np.degrees(np.arccos(cos[both])).max(initial=0.0)
+    if worst > REST_TOLERANCE_DEG:
+        j = int(np.flatnonzero(both)[np.argmax(np.degrees(np.arccos(cos[both])))])
+        return f"another rest pose: the bone to {a.joint_names[j]!r} points {worst:.0f} deg away"
+    return ""
+
+
+def context_label(context) -> str:
+    """What judged a take, for its summary: ``"the clip itself"``, ``"2 context clips"``, or the database's
+    label with its size (``"the bundled default context (31 clips, 79 s)"``)."""
+    if context is None:
+        return "the clip itself"
+    info = getattr(context, "info", None)
+    if info is None:
+        n = len(context) if isinstance(context, (list, tuple)) else 1
+        return f"{n} context clip{'s' if n != 1 else ''}"
+    size = f"{context.num_clips} clip{'s' if context.num_clips != 1 else ''}, {context.duration:.0f} s"
+    return f"{info['label']} ({size})" if info.get("label") else f"a database of {size}"
+
+
+def fit_context(motion, context):
+    """``context`` made to serve ``motion``; returns ``(context, note)`` (note: one line, or "").
+
+    A list of Motions and a database on the take's joint names come back as
+    they are. A database on the same topology and rest pose under other joint
+    names (module docstring) comes back with its joints renamed to the take's
+    (arrays shared, nothing copied) and a note saying so. Otherwise the
+    bundled default context is dropped (``(None, note)``: the take is judged
+    against itself) and any other context is refused with
+    :class:`~mocapkit.errors.MocapError` giving the reason.
+    """
+    from .database import MotionDatabase
+
+    if not isinstance(context, MotionDatabase):
+        return context, ""
+    built = "; ".join(str(n) for n in context.info.get("notes", ()) if isinstance(n, str))
+    names = tuple(motion.skeleton.joint_names)
+    ref = context.skeletons[0]
+    if tuple(ref.joint_names) == names:
+        return context, built
+    why = _same_rest(motion.skeleton, ref)
+    label = context_label(context)
+    if why:
+        if context.info.get("default"):
+            return None, f"{label} not used: this take's joints differ from the context's ({why}); the take is judged against itself"
+        raise MocapError(f"{motion.name or 'take'}: its joints differ from those of the context, {label} ({why}); "
+                         "give a context on this take's skeleton")
+    renamed = [dataclasses.replace(s, joint_names=names) for s in context.skeletons]
+    out = MotionDatabase(fps=context.fps, skeletons=renamed, clips=context.clips, rotations=context.rotations,
+                         root_positions=context.root_positions, features=context.features,
+                         translations=context.translations, clip_ids=context.clip_ids, path=context.path,
+                         info=context.info)
+    note = f"{context.info.get('label') or 'the context'}: joints matched by hierarchy and rest pose ({ref.joint_names[1]!r} -> {names[1]!r}, ...)"
+    return out, "; ".join(n for n in (built, note) if n)

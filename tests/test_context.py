@@ -1,0 +1,224 @@
+"""mocapkit.context: --context resolved to a database (opened, built and cached, or the bundled default)."""
+
+import dataclasses
+import json
+import os
+import shutil
+
+import numpy as np
+import pytest
+
+import mocapkit
+from mocapkit import context as C
+from mocapkit.database import MotionDatabase
+from mocapkit.errors import MocapError, MocapFormatError
+from mocapkit.motion import Motion, Skeleton
+
+
+@pytest.fixture
+def takes(tmp_path):
+    """A folder of three small Acclaim takes, each AMC beside its ASF, in two subfolders."""
+    d = tmp_path / "takes"
+    (d / "cmu").mkdir(parents=True)
+    (d / "hdm").mkdir()
+    for n in ("12.asf", "12_walk.amc"):
+        shutil.copy(mocapkit.samples.path(n), d / "cmu" / n)
+    for n in ("HDM_bk.asf", "HDM_bk_sneak2StepsLStart_004_120.amc", "HDM_bk_sneak2StepsLStart_005_120.amc"):
+        shutil.copy(mocapkit.samples.path(n), d / "hdm" / n)
+    return d
+
+
+def _other_rig_take(path):
+    """A short BVH on a three-joint chain (another rig than the Acclaim takes)."""
+    sk = Skeleton(joint_names=("hips", "spine", "head"), parents=np.array([-1, 0, 1]),
+                  offsets=np.array([[0.0, 0, 0], [0, 10, 0], [0, 10, 0]]),
+                  end_site_parents=np.array([2]), end_site_offsets=np.array([[0.0, 5, 0]]))
+    rot = np.zeros((40, 3, 4))
+    rot[..., 0] = 1.0
+    mocapkit.save(Motion(sk, rot, np.zeros((40, 3)), 30.0, "chain"), path)
+
+
+def test_none_false_and_off_turn_the_context_off():
+    for spec in (False, "none", "NONE", ["none"], ("off",)):
+        assert C.is_off(spec) and C.resolve_context(spec) is None
+    assert C.resolve_context(None, default=False) is None and C.resolve_context([], default=False) is None
+
+
+def test_the_default_context_is_bundled_small_and_named():
+    db = C.resolve_context(None)
+    assert isinstance(db, MotionDatabase) and db.info.get("default") is True
+    assert db.fps == C.BUILD_FPS and db.num_clips >= 20 and db.duration >= 60.0
+    size = sum(p.stat().st_size for p in C.default_context_path().rglob("*") if p.is_file())
+    assert size < 20 * 2**20
+    sources = db.info["sources"]
+    assert not [s for s in sources if s.startswith("HDM_mm_") or s.startswith("131_")]
+    assert C.context_label(db).startswith("the bundled default context (") and f"{db.num_clips} clips" in C.context_label(db)
+
+
+def test_a_folder_is_built_once_then_reused_and_a_changed_file_makes_a_new_key(takes, tmp_path, monkeypatch):
+    cache = tmp_path / "cache"
+    db = C.resolve_context(takes, cache_dir=cache)
+    assert db.num_clips == 3 and db.fps == C.BUILD_FPS
+    assert C.context_label(db).startswith(f"the takes of {takes} (3 clips")
+    entries = [p for p in cache.iterdir()]
+    assert len(entries) == 1 and (entries[0] / "database.json").is_file()  # no staging folder left
+    built = []
+    monkeypatch.setattr(C, "build_context", lambda *a, **k: built.append(1) or pytest.fail("rebuilt"))
+    again = C.resolve_context(takes, cache_dir=cache)  # opened from the cache, not built
+    assert again.path == entries[0] and not built and np.array_equal(again.rotations, db.rotations)
+    monkeypatch.undo()
+    amc = takes / "cmu" / "12_walk.amc"
+    st = amc.stat()
+    os.utime(amc, ns=(st.st_atime_ns, st.st_mtime_ns + 10**9))  # edited (same size, newer)
+    C.resolve_context(takes, cache_dir=cache)
+    assert len(list(cache.iterdir())) == 2
+    shutil.copy(amc, takes / "cmu" / "12_walk2.amc")  # added
+    assert C.resolve_context(takes, cache_dir=cache).num_clips == 4 and len(list(cache.iterdir())) == 3
+
+
+def test_the_key_covers_files_settings_and_the_asf(takes):
+    files = C.context_files(takes)
+    k = C.context_key(files)
+    assert k == C.context_key(list(files)) and k != C.context_key(files[:-1]) and k != C.context_key(files, fps=30)
+    asf = takes / "hdm" / "HDM_bk.asf"
+    st = asf.stat()
+    os.utime(asf, ns=(st.st_atime_ns, st.st_mtime_ns + 10**9))
+    assert C.context_key(files) != k
+
+
+def test_a_list_of_files_is_built_like_a_folder(takes, tmp_path):
+    files = [takes / "hdm" / "HDM_bk_sneak2StepsLStart_004_120.amc", takes / "cmu" / "12_walk.amc"]
+    db = C.resolve_context([str(f) for f in files], cache_dir=tmp_path / "cache")
+    assert db.clip_names == ("HDM_bk_sneak2StepsLStart_004_120", "12_walk")
+
+
+def test_two_builders_of_one_key_both_get_a_complete_database(takes, tmp_path, monkeypatch):
+    cache = tmp_path / "cache"
+    real = C.build_context
+    calls = []
+
+    def racing(files, **kw):  # another process finishes the same key while this one builds
+        calls.append(1)
+        if len(calls) == 1:
+            C.cached_context(files, cache_dir=cache)
+        return real(files, **kw)
+
+    monkeypatch.setattr(C, "build_context", racing)
+    db = C.cached_context(C.context_files(takes), cache_dir=cache)
+    assert len(calls) == 2 and db.num_clips == 3
+    assert [p.name for p in cache.iterdir()] == [db.path.name]  # the loser's copy is gone
+
+
+def test_an_interrupted_build_leaves_nothing_that_looks_complete(takes, tmp_path, monkeypatch):
+    cache = tmp_path / "cache"
+
+    def killed(self, directory, **kw):
+        os.makedirs(directory)
+        (directory / "rotations.npy").write_bytes(b"partial")
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(MotionDatabase, "save", killed)
+    with pytest.raises(KeyboardInterrupt):
+        C.cached_context(C.context_files(takes), cache_dir=cache)
+    assert list(cache.iterdir()) == []
+    monkeypatch.undo()
+    assert C.cached_context(C.context_files(takes), cache_dir=cache).num_clips == 3
+
+
+def test_takes_on_another_rig_are_left_out_with_one_note(takes, tmp_path):
+    _other_rig_take(takes / "chain.bvh")
+    db, notes = C.build_context(C.context_files(takes))
+    assert db.num_clips == 3 and len(notes) == 1 and "chain.bvh" in notes[0] and "1 of 4" in notes[0]
+    cached = C.resolve_context(takes, cache_dir=tmp_path / "cache")
+    walk = mocapkit.load(takes / "cmu" / "12_walk.amc")
+    assert C.fit_context(walk, cached)[1] == notes[0]  # said again on every run that uses it
+
+
+def test_cleaning_records_and_hidden_files_are_not_context(takes):
+    (takes / "x.clean.npz").write_bytes(b"")
+    (takes / ".hidden.bvh").write_bytes(b"")
+    assert all(not p.name.endswith(".clean.npz") and not p.name.startswith(".") for p in C.context_files(takes))
+
+
+def test_bad_context_paths_are_refused_naming_the_file(takes, tmp_path, small_db):
+    with pytest.raises(MocapFormatError, match="no such file"):
+        C.context_files([tmp_path / "missing"])
+    (tmp_path / "notes.txt").write_text("x")
+    with pytest.raises(MocapFormatError, match="notes.txt"):
+        C.context_files([tmp_path / "notes.txt"])
+    (tmp_path / "empty").mkdir()
+    with pytest.raises(MocapFormatError, match="no motion files"):
+        C.context_files([tmp_path / "empty"])
+    small_db.save(tmp_path / "db")
+    with pytest.raises(MocapFormatError, match="only --context"):
+        C.resolve_context([tmp_path / "db", takes], cache_dir=tmp_path / "cache")
+    assert C.resolve_context(tmp_path / "db").num_clips == small_db.num_clips
+    lone = tmp_path / "lone"
+    lone.mkdir()
+    shutil.copy(takes / "cmu" / "12_walk.amc", lone / "12_walk.amc")  # its ASF is not beside it
+    with pytest.raises(MocapFormatError, match="12_walk.amc"):
+        C.resolve_context(lone, cache_dir=tmp_path / "cache")
+    assert not (tmp_path / "cache").exists() or not any((tmp_path / "cache").iterdir())
+
+
+def test_fit_context_renames_a_database_on_the_same_rig_and_refuses_another():
+    walk = mocapkit.load(mocapkit.samples.path("12_walk.amc"))
+    db = C.default_context()
+    same, note = C.fit_context(walk, db)  # same joint names
+    assert same is db and note == ""
+    sk = walk.skeleton
+    renamed_take = dataclasses.replace(walk, skeleton=dataclasses.replace(sk, joint_names=tuple(n.upper() for n in sk.joint_names)))
+    served, note = C.fit_context(renamed_take, db)
+    assert served.skeletons[0].joint_names == renamed_take.skeleton.joint_names and "matched by hierarchy" in note
+    assert np.shares_memory(served.rotations, db.rotations)
+    bvh = mocapkit.load(mocapkit.samples.path("131_01.bvh"))  # the 3dsMax conversion: arms at another rest pose
+    none, note = C.fit_context(bvh, db)
+    assert none is None and "not used" in note and "rest pose" in note
+    explicit = MotionDatabase(fps=db.fps, skeletons=db.skeletons, clips=db.clips, rotations=db.rotations,
+                              root_positions=db.root_positions, features=db.features, info={"label": "mine"})
+    with pytest.raises(MocapError, match="joints differ"):
+        C.fit_context(bvh, explicit)
+    motions = [walk]
+    assert C.fit_context(bvh, motions) == (motions, "")  # lists go to the analysis as they are
+
+
+def test_mocapkit_clean_uses_the_default_and_says_so():
+    take = mocapkit.load(mocapkit.samples.path("HDM_bk_sneak2StepsLStart_005_120.amc"))
+    res = mocapkit.clean(take, steps="detect")
+    assert "the bundled default context" in res.steps[0].method and res.params["context"].startswith("the bundled")
+    alone = mocapkit.clean(take, context=False, steps="detect")
+    assert "the clip itself" in alone.steps[0].method and alone.params["context"] == "none"
+    other = mocapkit.clean(mocapkit.load(mocapkit.samples.path("131_01.bvh"))[1:200], steps="detect")
+    assert "the clip itself" in other.steps[0].method and any("not used" in n for n in other.notes)
+
+
+def test_the_build_script_selects_what_is_shipped(shared_data):
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location("build_default_context", C.default_context_path().parents[3] / "scripts" / "build_default_context.py")
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    chosen = mod.select(shared_data, 3)
+    desc = json.loads((C.default_context_path() / "database.json").read_text())
+    assert [p.name for p in chosen] == desc["info"]["sources"]
+    assert [c["name"] for c in desc["clips"]] == [p.stem for p in chosen]
+    assert not set(p.name for p in chosen) & set(mod.BENCHMARK_QUERIES)
+
+
+def test_two_processes_building_one_key_at_once(takes, tmp_path):
+    """Real concurrent builds of the same folder: both succeed, one complete entry stays, nothing half-written."""
+    import subprocess
+    import sys
+
+    cache = tmp_path / "cache"
+    code = ("import sys; from mocapkit import context as C; "
+            "db = C.resolve_context(sys.argv[1], cache_dir=sys.argv[2]); print(db.path.name, db.num_clips)")
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join(sys.path)}
+    procs = [subprocess.Popen([sys.executable, "-c", code, str(takes), str(cache)], stdout=subprocess.PIPE,
+                              stderr=subprocess.PIPE, text=True, env=env) for _ in range(2)]
+    outs = [p.communicate(timeout=300) for p in procs]
+    assert all(p.returncode == 0 for p in procs), [e for _, e in outs]
+    names = {o.split()[0] for o, _ in outs}
+    assert len(names) == 1 and all(o.split()[1] == "3" for o, _ in outs)
+    assert [p.name for p in cache.iterdir()] == list(names)
+    assert MotionDatabase.open(cache / names.pop()).num_clips == 3
