@@ -198,7 +198,7 @@ def clean_file(
             from .report.summary import plot_summary
 
             plot_summary(dataclasses.replace(res, motion=cleaned), m, png, title=inp.name)
-        io.save(cleaned, out)
+        io.save(cleaned, out, like=inp)
         if not reuse:
             res.save(record)  # last: the completion marker
     return m, res

@@ -316,3 +316,13 @@ def test_asf_serves_clean_batch_and_the_reference(tmp_path, capsys):
     text = capsys.readouterr().out
     assert rc == 0, text
     assert "error against walk.amc" in text
+
+
+def test_review_mode_gives_a_bvh_take_back_byte_for_byte(tmp_path):
+    """``--steps detect`` changes nothing, so the written BVH is the input file, byte for byte (the 3dsMax CMU
+    conversion and a Bandai Namco take: values the writer would otherwise reformat and unwrap)."""
+    bandai = Path(__file__).resolve().parents[1] / "data" / "bandai_dance-short_normal_001_first60.bvh"
+    for src in (Path(mocapkit.__file__).parent / "data" / "131_01.bvh", bandai):
+        out = tmp_path / f"{src.stem}_review.bvh"
+        assert main(["clean", str(src), "-o", str(out), "--steps", "detect", "--context", "none"]) == 0
+        assert out.read_bytes() == src.read_bytes()

@@ -1,6 +1,8 @@
 """BVH reading and writing: real files, round trips, an independent FK oracle, edge cases, bad files."""
 
 from tests.shared import curated_files
+import dataclasses
+from pathlib import Path
 import os
 import re
 
@@ -13,7 +15,7 @@ import mocapkit
 from mocapkit.errors import MocapFormatError
 from mocapkit.io.bvh import read_bvh, write_bvh
 from mocapkit.motion import Motion, Skeleton
-from mocapkit.rotations import euler_to_quaternion, geodesic_angle, quaternion_normalize
+from mocapkit.rotations import euler_to_quaternion, geodesic_angle, quaternion_multiply, quaternion_normalize
 from tests.naive import naive_bvh_fk, naive_bvh_parse
 from tests.io.bounded import refusal_of_load, run_bounded
 
@@ -658,3 +660,65 @@ def test_a_hierarchy_over_max_joints_is_refused_at_the_joint_that_passes_it(tmp_
 
     with pytest.raises(SkeletonError, match="501 joints, more than the 500 a skeleton may have"):
         Skeleton(tuple(f"j{j}" for j in range(501)), np.arange(-1, 500), np.zeros((501, 3)))
+
+
+# -- writing with like=: the source file's text kept where nothing changed --------------------
+
+BUNDLED = Path(mocapkit.__file__).parent / "data" / "131_01.bvh"
+BANDAI = Path(__file__).resolve().parents[1] / "data" / "bandai_dance-short_normal_001_first60.bvh"
+
+
+def _data_lines(path: Path) -> list[str]:
+    lines = path.read_text().splitlines()
+    at = next(i for i, t in enumerate(lines) if t.startswith("Frame Time"))
+    return [t for t in lines[at + 1:] if t.strip()]
+
+
+@pytest.mark.parametrize("src", [BUNDLED, BANDAI], ids=["cmu-3dsmax", "bandai"])
+def test_unchanged_take_written_like_its_file_is_the_same_file(src, tmp_path):
+    m = read_bvh(src)
+    out = tmp_path / "same.bvh"
+    write_bvh(m, out, like=src)
+    assert out.read_bytes() == src.read_bytes()  # line endings (CRLF in 131_01) included
+    plain = tmp_path / "plain.bvh"
+    write_bvh(m, plain)  # without like= the writer formats every value itself (and may differ in text)
+    assert np.array_equal(read_bvh(plain).rotations.shape, m.rotations.shape)
+
+
+@pytest.mark.parametrize("src", [BUNDLED, BANDAI], ids=["cmu-3dsmax", "bandai"])
+def test_only_changed_cells_change_their_text(src, tmp_path):
+    m = read_bvh(src)
+    rot = np.array(m.rotations)
+    j, frames = 5, slice(10, 20)
+    turn = euler_to_quaternion(np.array([0.0, 0.0, 30.0]), "XYZ")
+    rot[frames, j] = quaternion_multiply(rot[frames, j], turn)
+    edited = dataclasses.replace(m, rotations=rot)
+    out = tmp_path / "edited.bvh"
+    write_bvh(edited, out, like=src)
+    before, after = _data_lines(src), _data_lines(out)
+    assert len(before) == len(after)
+    starts = np.cumsum([0] + [len(c) for c in m.skeleton.channels])
+    for f, (a, b) in enumerate(zip(before, after)):
+        ta, tb = a.split(), b.split()
+        differ = {c for c in range(len(ta)) if ta[c] != tb[c]}
+        if 10 <= f < 20:
+            assert differ and differ <= set(range(starts[j], starts[j + 1]))
+        else:
+            assert a == b
+    back = read_bvh(out)
+    assert geodesic_angle(back.rotations[frames, j], rot[frames, j]).max() < 1e-3
+    keep = np.ones(m.num_frames, bool)
+    keep[frames] = False
+    assert np.array_equal(back.rotations[keep], m.rotations[keep])
+
+
+def test_like_of_another_rig_or_length_writes_as_without(tmp_path):
+    m = read_bvh(BUNDLED)
+    out1, out2 = tmp_path / "a.bvh", tmp_path / "b.bvh"
+    short = m[:50]
+    write_bvh(short, out1, like=BUNDLED)  # another frame count: the file's text cannot serve
+    write_bvh(short, out2)
+    assert out1.read_bytes() == out2.read_bytes()
+    write_bvh(m, out1, like=BANDAI)  # another rig
+    write_bvh(m, out2)
+    assert out1.read_bytes() == out2.read_bytes()

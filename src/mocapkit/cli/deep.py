@@ -59,7 +59,7 @@ def denoise(
         cleaned = deep.denoise(m, net)
     except SkeletonError as exc:
         raise MocapError(f"{inp}: {exc}") from None
-    io.save(cleaned, out)
+    io.save(cleaned, out, like=inp)
     change = joint_angle_rms(m, cleaned, include_root=False)
     line = f"wrote {out}: {plural(m.num_frames, 'frame')} denoised, mean change {change:.2f} deg RMS"
     if ref is not None:
@@ -96,7 +96,7 @@ def fill(
         filled = deep.fill_gaps(m, ebd, ebf, smooth=smooth)
     except (SkeletonError, ValueError) as exc:
         raise MocapError(f"{inp}: {exc}") from None
-    io.save(filled, out)
+    io.save(filled, out, like=inp)
     if not n:
         console.print(f"wrote {out}: no gaps to fill")
         return

@@ -51,15 +51,24 @@ def load(path, **kwargs):
     return reader(path, **kwargs)
 
 
-def save(motion, path, **kwargs) -> Path:
-    """Write ``motion`` to ``path`` (.bvh or .npz) atomically; returns the path."""
+def save(motion, path, like=None, **kwargs) -> Path:
+    """Write ``motion`` to ``path`` (.bvh or .npz) atomically; returns the path.
+
+    ``like``: the file ``motion`` was read from. A BVH written from a BVH keeps
+    that file's text wherever the motion did not change (see
+    :func:`mocapkit.io.bvh.write_bvh`), so an untouched take comes back the
+    same file; other pairs of formats ignore it.
+    """
     path = Path(path)
     kind = suffix_kind(path, WRITERS, "writing")
     if kind == "bvh":
-        from .bvh import write_bvh as writer
+        from .bvh import write_bvh
+
+        write_bvh(motion, path, like=like, **kwargs)
     else:
-        from .npz import write_npz as writer
-    writer(motion, path, **kwargs)
+        from .npz import write_npz
+
+        write_npz(motion, path, **kwargs)
     return path
 
 

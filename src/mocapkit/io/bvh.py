@@ -18,6 +18,7 @@ unwrapped over time so written channels have no spurious 360-degree jumps.
 from __future__ import annotations
 
 import re
+from dataclasses import dataclass
 from decimal import Decimal, InvalidOperation
 from pathlib import Path
 
@@ -603,7 +604,7 @@ def _fmt(x: float) -> str:
     return repr(float(x))
 
 
-def write_bvh(motion: Motion, path, precision: int = 6, allow_nan: bool = False) -> None:
+def write_bvh(motion: Motion, path, precision: int = 6, allow_nan: bool = False, like=None) -> None:
     """Write ``motion`` as a BVH file (atomically: a failed write leaves no file).
 
     Parameters
@@ -624,6 +625,16 @@ def write_bvh(motion: Motion, path, precision: int = 6, allow_nan: bool = False)
     allow_nan : bool
         Write missing values as ``nan`` (which :func:`read_bvh` reads back)
         instead of raising.
+    like : str or path-like, optional
+        The BVH file ``motion`` was read from (and then cleaned, denoised,
+        ...). Where the two agree on joints, channels and frame count, every
+        (frame, joint) cell whose rotation, position and offset are bit for bit
+        what the file gives keeps the file's own text (a frame with no changed
+        cell is the file's line, byte for byte, with its line ending; the header too when the
+        skeleton and rate are the file's), and a changed rotation channel is
+        written on the file's 360-degree branch. So a take that comes back
+        unchanged is the same file, and a change touches only its own
+        numbers. Ignored when ``like`` is not such a file.
 
     Raises
     ------
@@ -676,6 +687,10 @@ def write_bvh(motion: Motion, path, precision: int = 6, allow_nan: bool = False)
     if order != list(range(sk.num_joints)):
         starts = np.cumsum([0] + [len(c) for c in channels])
         values = values[:, [k for j in order for k in range(starts[j], starts[j + 1])]]
+    source = _like_source(like, out_motion, order) if like is not None else None
+    if source is not None:
+        _write_like(path, out_motion, values, channels, source, precision)
+        return
     parts = _hierarchy_text(sk, channels, order)
     parts.append(f"MOTION\nFrames: {F}\nFrame Time: {_fmt(1.0 / motion.fps)}\n")
     C = values.shape[1]
@@ -686,6 +701,85 @@ def write_bvh(motion: Motion, path, precision: int = 6, allow_nan: bool = False)
         for f0 in range(0, F, block):
             rows = values[f0 : f0 + block]
             fh.write((row * rows.shape[0]) % tuple(rows.ravel().tolist()))
+
+
+@dataclass(frozen=True)
+class _LikeSource:
+    """What :func:`write_bvh` keeps of the file a motion was read from: its header and data lines, and which cells changed."""
+
+    header: list[str] | None  # the lines up to Frame Time (line endings kept), when the skeleton and rate are the file's
+    lines: list[str]  # the F data lines, as the file gives them (line endings kept)
+    changed: np.ndarray  # (F, J) bool: cells whose rotation, position or offset differ from the file's
+
+
+def _differs(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Elementwise "not the same float" (NaN equals NaN), reduced over the last axis."""
+    return np.any((a != b) & ~(np.isnan(a) & np.isnan(b)), axis=-1)
+
+
+def _like_source(like, motion: Motion, order: list[int]) -> _LikeSource | None:
+    """The source BVH's lines and changed cells, or None when ``like`` is not the file ``motion`` came from."""
+    like = Path(like)
+    if like.suffix.lower() != ".bvh" or not like.is_file() or order != list(range(motion.skeleton.num_joints)):
+        return None
+    try:
+        ref = read_bvh(like)
+    except MocapFormatError:
+        return None
+    sk, rsk = motion.skeleton, ref.skeleton
+    if (rsk.joint_names != sk.joint_names or not np.array_equal(rsk.parents, sk.parents)
+            or tuple(map(tuple, rsk.channels)) != tuple(map(tuple, sk.channels)) or ref.num_frames != motion.num_frames):
+        return None
+    lines = like.read_bytes().decode("utf-8", errors="replace").splitlines(keepends=True)
+    at = next((i for i, t in enumerate(lines) if t.lstrip().startswith("Frame Time")), None)
+    if at is None:
+        return None
+    data = [t for t in lines[at + 1:] if t.strip()]
+    if len(data) != motion.num_frames:
+        return None
+    changed = _differs(motion.rotations, ref.rotations) | _differs(motion.local_offsets(), ref.local_offsets())
+    same_header = (ref.fps == motion.fps and np.array_equal(rsk.offsets, sk.offsets)
+                   and np.array_equal(rsk.end_site_parents, sk.end_site_parents)
+                   and np.array_equal(rsk.end_site_offsets, sk.end_site_offsets))
+    return _LikeSource(lines[: at + 1] if same_header else None, data, changed)
+
+
+def _write_like(path: Path, motion: Motion, values: np.ndarray, channels, source: _LikeSource, precision: int) -> None:
+    """Write ``values`` (F, C) keeping ``source``'s text wherever a cell did not change."""
+    sk = motion.skeleton
+    F = motion.num_frames
+    starts = np.cumsum([0] + [len(c) for c in channels])
+    is_rot = np.array([c.endswith("rotation") for cs in channels for c in cs], dtype=bool)
+    fmt = f"%.{precision}f"
+    with atomic_write(path, "w", encoding="utf-8", newline="") as fh:
+        if source.header is not None:
+            fh.write("".join(source.header))
+        else:
+            parts = _hierarchy_text(sk, channels, list(range(sk.num_joints)))
+            parts.append(f"MOTION\nFrames: {F}\nFrame Time: {_fmt(1.0 / motion.fps)}\n")
+            fh.write("".join(parts))
+        for f in range(F):
+            line = source.lines[f]
+            if source.header is None and not line.endswith("\n"):
+                line += "\n"
+            joints = np.flatnonzero(source.changed[f])
+            if joints.size == 0:
+                fh.write(line)
+                continue
+            body = line.rstrip("\r\n")
+            tokens = body.split()
+            for j in joints:
+                for c in range(starts[j], starts[j + 1]):
+                    v = float(values[f, c])
+                    if is_rot[c]:
+                        try:
+                            old = float(tokens[c])
+                        except ValueError:
+                            old = float("nan")
+                        if np.isfinite(old) and np.isfinite(v):
+                            v += 360.0 * round((old - v) / 360.0)  # the file's branch of the angle
+                    tokens[c] = fmt % v
+            fh.write(" ".join(tokens) + (line[len(body):] or "\n"))
 
 
 def _depth_first_order(sk: Skeleton) -> list[int]:
