@@ -107,14 +107,18 @@ def _c3d_package_parameters(reader) -> dict:
         for pname, param in group.param_items():
             typ = {-1: -1, 1: 1, 2: 2, 4: 4}.get(param.bytes_per_element, 1)
             try:
+                scalar = len(param.dimensions) == 0
                 if typ == -1:
-                    value = [s.strip() for s in param.string_array.reshape(-1)] if param.dimensions else [param.string_value.strip()]
+                    if len(param.dimensions) > 1:
+                        value = [s.strip() for s in param.string_array.reshape(-1)]
+                    else:
+                        value = [param.string_value.strip()]
                 elif typ == 4:
-                    value = np.asarray(param.float_array, dtype=np.float64)
+                    value = np.atleast_1d(np.asarray(param.float_value if scalar else param.float_array, dtype=np.float64))
                 elif typ == 2:
-                    value = np.asarray(param.int16_array, dtype=int)
+                    value = np.atleast_1d(np.asarray(param.int16_value if scalar else param.int16_array, dtype=int))
                 else:
-                    value = np.asarray(param.int8_array, dtype=int)
+                    value = np.atleast_1d(np.asarray(param.int8_value if scalar else param.int8_array, dtype=int))
             except Exception:  # a parameter the package cannot shape: not kept
                 continue
             g[pname] = {"type": typ, "description": _text(param.desc), "is_locked": False, "value": value}
@@ -142,7 +146,10 @@ def _read_c3d_package(path: Path):
         param = reader.get("POINT:LABELS")
         labels = list(param.string_array) if param is not None else []
         unit_param = reader.get("POINT:UNITS")
-        units = unit_param.string_value.strip() if unit_param is not None else ""
+        units = ""
+        if unit_param is not None:  # one unit, or one per point (ezc3d-testFiles Optotrak.c3d): the first
+            units = (list(unit_param.string_array.reshape(-1)) or [""])[0] if len(unit_param.dimensions) > 1 else unit_param.string_value
+            units = str(units).strip()
         fps = _point_rate(path, reader.point_rate)
         try:
             parameters = _c3d_package_parameters(reader)
@@ -184,7 +191,7 @@ _EXPECTED_TYPES = {
 }
 
 _PER_CHANNEL = {
-    ("POINT", "LABELS"), ("POINT", "LABELS2"), ("POINT", "DESCRIPTIONS"), ("ANALOG", "LABELS"), ("ANALOG", "UNITS"),
+    ("POINT", "LABELS"), ("POINT", "LABELS2"), ("POINT", "DESCRIPTIONS"), ("POINT", "UNITS"), ("ANALOG", "LABELS"), ("ANALOG", "UNITS"), ("ANALOG", "DESCRIPTIONS"),
     ("ANALOG", "SCALE"), ("ANALOG", "OFFSET"), ("ANALOG", "BITS"), ("ANALOG", "FORMAT"), ("FORCE_PLATFORM", "TYPE"),
     ("FORCE_PLATFORM", "CHANNEL"), ("FORCE_PLATFORM", "CORNERS"), ("FORCE_PLATFORM", "ORIGIN"),
 }
@@ -226,6 +233,7 @@ def _check_structure(path: Path, b: bytes) -> bool:
     if start + nblocks * 512 > n:
         fail(f"truncated file: the parameter section claims {nblocks} blocks, the file ends inside it")
     end = n  # real files understate the block count (c3d.org's Dance, golfswing): records may run on
+    section_end = start + nblocks * 512
     i = start + 4
     groups: dict[int, str] = {}
     used: set[int] = set()
@@ -242,6 +250,8 @@ def _check_structure(path: Path, b: bytes) -> bool:
         if at + 2 > end:
             fail(f"parameter record at byte {i} runs past the parameter section")
         if not all(32 <= c < 127 for c in name):
+            if i >= section_end:
+                break  # past the section's stated blocks, this is data, not a record (c3d.org sgi_int.c3d)
             fail(f"parameter record at byte {i} has a malformed name {name!r}")
         nxt = struct.unpack_from(e + "h", b, at)[0]
         body = at + 2
@@ -261,6 +271,8 @@ def _check_structure(path: Path, b: bytes) -> bool:
             typ = struct.unpack_from("b", b, body)[0]
             ndim = b[body + 1]
             if typ not in (-1, 1, 2, 4):
+                if i >= section_end:
+                    break
                 fail(f"parameter {name.decode()} has type {typ} (expected -1, 1, 2 or 4)")
             if ndim > 7 or body + 2 + ndim > end:
                 fail(f"parameter {name.decode()} has {ndim} dimensions")
@@ -283,13 +295,15 @@ def _check_structure(path: Path, b: bytes) -> bool:
     # Parameters of a group id the section never defines (c3d.org TYPE-2.C3D, TYPE-4.C3D) are
     # ignored, as ezc3d and the c3d package ignore them.
     typed = [t for t in typed if t[0] in groups]
-    ezc3d_ok = len({(gid, name) for gid, name, _, _ in typed}) == len(typed)  # no parameter defined twice
+    # A parameter defined twice (Vicon's PiG_Calibration files: PROCESSING:BODYMASS) is read by
+    # ezc3d, which keeps the first; the c3d package refuses it.
+    ezc3d_ok = True
     points, analog, first, last = struct.unpack_from(e + "4H", b, 2)
     for gid, name, typ, size in typed:
         want = _EXPECTED_TYPES.get((groups[gid], name))
         # a per-channel list may be empty (ezc3d writes them so) when there are no such channels
         empty_ok = size == 0 and ((groups[gid], name) in _PER_CHANNEL) and not (
-            groups[gid] == "ANALOG" and analog and name not in ("FORMAT", "BITS"))
+            groups[gid] == "ANALOG" and analog and name not in ("FORMAT", "BITS", "UNITS", "DESCRIPTIONS"))
         if want is not None and (typ not in want or (size < abs(typ) and not empty_ok)):
             ezc3d_ok = False
         if typ == -1 and size < 0:  # a string without dimensions (ezc3d: SIGSEGV)
@@ -303,7 +317,12 @@ def _check_structure(path: Path, b: bytes) -> bool:
     data_start = struct.unpack_from(e + "H", b, 16)[0]
     if points == 0:
         return ezc3d_ok  # some writers leave the header empty; the parameters decide (the fallback reader)
-    used = _point_used(b, e, groups, typed, value_at)
+    used = _int_parameter(b, e, groups, typed, value_at, "POINT", "USED")
+    if analog and (("ANALOG", "RATE") not in have or _int_parameter(b, e, groups, typed, value_at, "ANALOG", "USED") == 0):
+        # analog samples in the header's frames but no ANALOG:RATE (or ANALOG:USED 0): ezc3d then takes
+        # 0 analog samples per frame and reads the data block with the wrong frame size (c3d.org
+        # sample28/type1.C3D: markers jump a metre per frame); the c3d package follows the header
+        ezc3d_ok = False
     if used is not None and used != points:
         fail(f"the parameter section disagrees with the header: POINT:USED is {used} markers, "
              f"the header says {points}")
@@ -315,16 +334,21 @@ def _check_structure(path: Path, b: bytes) -> bool:
     frames = last - first + 1
     need = (data_start - 1) * 512 + frames * (4 * points + analog) * (2 if size == 2 else 4)
     if need > n and (data_start - 1) * 512 + frames * (4 * points + analog) * 2 > n:
-        fail(f"truncated file: {frames} frames of {points} points and {analog} analog samples need "
-             f"{need} bytes, the file has {n}")
+        frame_bytes = (4 * points + analog) * (2 if size == 2 else 4)
+        if (data_start - 1) * 512 + frame_bytes > n:
+            fail(f"truncated file: {frames} frames of {points} points and {analog} analog samples need "
+                 f"{need} bytes, the file has {n}, not even one whole frame")
+        # Cut short (ezc3d-testFiles Optotrak.c3d): the frames that are there are read, as
+        # ezc3d and the c3d package read them, by the pure-Python reader that stops at the end.
+        return False
     return ezc3d_ok
 
 
-def _point_used(b: bytes, e: str, groups: dict, typed: list, value_at: dict) -> int | None:
-    """The first value of an integer ``POINT:USED`` parameter (read as unsigned, like the header's count), or None."""
-    for gid, name, typ, size in typed:
-        if groups.get(gid) == "POINT" and name == "USED" and typ == 2 and size >= 2:
-            return struct.unpack_from(e + "H", b, value_at[(gid, name)])[0]
+def _int_parameter(b: bytes, e: str, groups: dict, typed: list, value_at: dict, group: str, name: str) -> int | None:
+    """The first value of an integer parameter GROUP:NAME (read as unsigned, like the header's counts), or None."""
+    for gid, pname, typ, size in typed:
+        if groups.get(gid) == group and pname == name and typ == 2 and size >= 2:
+            return struct.unpack_from(e + "H", b, value_at[(gid, pname)])[0]
     return None
 
 
@@ -338,7 +362,7 @@ def _check_result(path: Path, markers: MarkerSet) -> MarkerSet:
     return markers
 
 
-def apply_zero_gaps(path, labels, xyz, resid, unit_cm: float, zeros_as_gaps, modelled=()):
+def apply_zero_gaps(labels, xyz, resid, unit_cm: float, zeros_as_gaps, modelled=()):
     """Turn samples stored as exact (0, 0, 0) into gaps (NaN, residual -1) in place; returns how many.
 
     ``zeros_as_gaps``: True turns every exact-zero sample of a marker into a gap,
@@ -410,7 +434,7 @@ def read_c3d(path, zeros_as_gaps: bool | None = None) -> MarkerSet:
     labels, xyz, resid, fps, units, reader, source, modelled = got
     units = units or "mm"
     unit_cm = checked_unit_cm(path, units)
-    zeros = apply_zero_gaps(path, labels, xyz, resid, unit_cm, zeros_as_gaps, modelled)
+    zeros = apply_zero_gaps(labels, xyz, resid, unit_cm, zeros_as_gaps, modelled)
     markers = MarkerSet(labels=labels, positions=xyz, fps=fps, units=units, name=path.stem, reader=reader,
                         residuals=resid, source=source, zero_gaps=zeros)
     return _check_result(path, markers)
@@ -452,8 +476,11 @@ def _c3d_object(markers: MarkerSet, source: MarkerSource | None):
             del point[k]
         elif k.startswith("DESCRIPTIONS") and (k != "DESCRIPTIONS" or np.size(point[k]["value"]) != M):
             del point[k]
+    # Float data (a negative scale); its magnitude is the residuals' resolution, kept from the source.
+    old_scale = np.ravel(point.get("SCALE", {}).get("value", [])) if source is not None else []
+    scale = -abs(float(old_scale[0])) if len(old_scale) and np.isfinite(old_scale[0]) and old_scale[0] != 0 else -1.0
     for key, typ, value in (("LABELS", -1, list(markers.labels)), ("RATE", 4, np.array([markers.fps])),
-                            ("UNITS", -1, [markers.units]), ("SCALE", 4, np.array([-1.0]))):
+                            ("UNITS", -1, [markers.units]), ("SCALE", 4, np.array([scale]))):
         old = point.get(key, {})
         point[key] = {"type": typ, "description": old.get("description", ""), "is_locked": old.get("is_locked", False),
                       "value": value}
@@ -513,6 +540,9 @@ def write_c3d(markers: MarkerSet, path, *, like=None) -> None:
             c.write(str(tmp_file))
         except Exception as exc:  # ezc3d raises plain RuntimeError/ValueError
             raise MocapFormatError(path, f"cannot write C3D: {exc}".replace("\n", " ")) from None
-        data = tmp_file.read_bytes()
+        data = bytearray(tmp_file.read_bytes())
+    # ezc3d writes -1 as the header's scale whatever POINT:SCALE says; readers that check the two
+    # agree (the c3d package) refuse the mismatch, so the header gets POINT:SCALE (Intel byte order).
+    struct.pack_into("<f", data, 12, float(c["parameters"]["POINT"]["SCALE"]["value"][0]))
     with atomic_write(path, "wb") as fh:
         fh.write(data)

@@ -129,7 +129,7 @@ def read_trc(path, zeros_as_gaps: bool | None = None) -> MarkerSet:
     xyz = data.reshape(len(rows), m, 3)
     xyz[np.any(np.isnan(xyz), axis=-1)] = np.nan  # a sample with one empty coordinate is not seen
     labels = _labels(labels_raw, m)
-    zeros = apply_zero_gaps(path, labels, xyz, None, unit_cm, zeros_as_gaps)
+    zeros = apply_zero_gaps(labels, xyz, None, unit_cm, zeros_as_gaps)
     source = MarkerSource(format="trc", parameters={"PathFileType": first[3].strip() if len(first) > 3 else "", **header},
                           first_frame=numbers[0])
     return MarkerSet(labels=labels, positions=xyz, fps=fps, units=units, name=path.stem, reader="trc",
