@@ -10,6 +10,7 @@ the MarkerSet records which reader was used in ``reader``.
 
 from __future__ import annotations
 
+import re
 import struct
 import warnings
 from pathlib import Path
@@ -429,7 +430,13 @@ def read_c3d(path, zeros_as_gaps: bool | None = None) -> MarkerSet:
         except MocapFormatError:
             raise
         except Exception as exc:
-            reason = f"not a readable C3D file ({first_error or exc})"
+            scales = re.search(r"inconsistent scale factor! (\S+) header != (\S+) POINT:SCALE", str(exc))
+            if scales:
+                reason = (f"the header's point scale {float(scales[1]):.6g} disagrees with POINT:SCALE "
+                          f"{float(scales[2]):.6g}, so the integer coordinates cannot be scaled with confidence; "
+                          "re-export the file from the capture software")
+            else:
+                reason = f"not a readable C3D file ({first_error or exc})"
             raise MocapFormatError(path, reason.replace("\n", " ")) from exc
     labels, xyz, resid, fps, units, reader, source, modelled = got
     units = units or "mm"
