@@ -100,3 +100,18 @@ def test_the_bundled_sample_has_residuals_and_its_analogs():
     assert np.all(ms.residuals[~ms.missing()] >= 0)
     assert ms.source.format == "c3d" and ms.source.analogs.shape == (16, 1800) and ms.zero_gaps == 0
     assert "POINT" in ms.source.parameters and "ANALOG" in ms.source.parameters
+
+
+def test_a_frame_slice_written_to_c3d_keeps_frame_numbers_and_analogs_in_step(shared_data, tmp_path):
+    from mocapkit.io import load_markers, save_markers
+
+    ms = load_markers(shared_data / "c3d_markers" / "PiG_Motion-FlatFoot-Full.c3d")
+    part = ms[10:110]
+    back = load_markers(save_markers(part, tmp_path / "part.c3d"))
+    assert back.num_frames == 100 and back.source.first_frame == ms.source.first_frame + 10
+    trial = back.source.parameters["TRIAL"]
+    assert list(trial["ACTUAL_START_FIELD"]["value"]) == [back.source.first_frame, 0]
+    assert list(trial["ACTUAL_END_FIELD"]["value"]) == [back.source.first_frame + 99, 0]
+    ratio = ms.source.analog_ratio(ms.num_frames)
+    assert np.array_equal(back.source.analogs, ms.source.analogs[:, 10 * ratio : 110 * ratio].astype(np.float32))
+    assert np.array_equal(back.positions, part.positions.astype(np.float32), equal_nan=True)

@@ -78,6 +78,9 @@ def load_markers(path, **kwargs) -> MarkerSet:
         obj = read_npz(path)
         if not isinstance(obj, MarkerSet):
             raise MocapFormatError(path, "this npz holds a motion (joint angles), not marker trajectories")
+        from .c3d import checked_unit_cm
+
+        checked_unit_cm(path, obj.units)
         return obj
     if kind == "trc":
         from .trc import read_trc

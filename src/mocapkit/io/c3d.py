@@ -508,6 +508,11 @@ def _c3d_object(markers: MarkerSet, source: MarkerSource | None):
         analog[key] = {"type": typ, "description": old.get("description", ""), "is_locked": old.get("is_locked", False),
                        "value": value}
     data_analogs = np.zeros((1, 0, F)) if analogs is None else analogs[None]
+    trial = c["parameters"].get("TRIAL", {}) if "TRIAL" in c["parameters"] else {}
+    first = max(int(source.first_frame), 1) if source is not None else 1
+    for key, frame in (("ACTUAL_START_FIELD", first), ("ACTUAL_END_FIELD", first + F - 1)):
+        if key in trial:  # a 32-bit frame number in two 16-bit words (Vicon), kept in step with the frames written
+            trial[key] = dict(trial[key], type=2, value=np.array([frame & 0xFFFF, frame >> 16]))
     pts = np.ones((4, M, F))
     pts[:3] = np.transpose(markers.positions, (2, 1, 0))
     c["data"]["points"] = pts
