@@ -1,11 +1,19 @@
-"""C3D optical marker files: a :class:`MarkerSet` of labelled 3D trajectories, NaN where occluded.
+"""C3D optical marker files: read into a :class:`~mocapkit.markerset.MarkerSet`, written back with ezc3d.
 
 Read with ezc3d, the reference C3D library. A few real files in circulation
 have parameter-section quirks ezc3d refuses (c3d.org's PhoeniX samples: "OFFSET
-parameter is not an INT"), a header that claims no points (the PhaseSpace
-sample) or no ``POINT:DATA_START`` parameter, which makes ezc3d read the data
-block from the wrong offset (c3d.org sample28); for those the pure-Python ``c3d`` package reads the data block, and
-the MarkerSet records which reader was used in ``reader``.
+parameter is not an INT"; big-endian SGI files), a header that claims no points
+(the PhaseSpace sample), no ``POINT:DATA_START`` parameter, or analog samples
+in the header's frames without ``ANALOG:RATE``, which make ezc3d read the data
+block from the wrong offset or with the wrong frame size (c3d.org sample28), or
+a data block cut short (ezc3d-testFiles Optotrak.c3d); for those the
+pure-Python ``c3d`` package reads the data block, and the MarkerSet records
+which reader was used in ``reader``. Samples stored as exact (0, 0, 0) gaps
+are read as missing (:func:`~mocapkit.markerset.zero_gap_mask`).
+
+:func:`write_c3d` writes float point data with ezc3d and keeps every other
+parameter group and the analog channels of the file read. C3D format: Motion
+Lab Systems, "The C3D File Format User Guide" (c3d.org).
 """
 
 from __future__ import annotations
@@ -21,7 +29,8 @@ from ..errors import MocapFormatError, SkeletonError
 from ..markerset import MarkerSet, MarkerSource, length_unit_cm, zero_gap_mask
 from ..motion import check_fps
 
-__all__ = ["MarkerSet", "read_c3d", "write_c3d"]
+__all__ = ["MarkerSet", "read_c3d", "write_c3d", "apply_zero_gaps", "checked_unit_cm"]
+
 
 def _clean_labels(raw, n: int) -> tuple[str, ...]:
     labels = [str(s).strip() for s in list(raw)[:n]]

@@ -101,7 +101,7 @@ def read_trc(path, zeros_as_gaps: bool | None = None) -> MarkerSet:
             f.pop()
         try:
             frame = int(float(f[0]))
-        except ValueError:
+        except (ValueError, OverflowError):
             raise MocapFormatError(path, f"frame number {f[0][:20]!r} is not a number", line=n) from None
         vals = np.full(len(f) - 2 if len(f) > 2 else 0, np.nan)
         for j, v in enumerate(f[2:]):
@@ -122,7 +122,11 @@ def read_trc(path, zeros_as_gaps: bool | None = None) -> MarkerSet:
         raise MocapFormatError(path, f"header field NumMarkers is {header['NumMarkers']!r}, not a marker count", line=3)
     # NumMarkers decides when stated (fields past it are ignored, as BTK and OpenSim read them);
     # a file stating 0 gets as many markers as its widest row holds.
-    m = int(stated) or max(max((len(r) + 2) // 3 for r in rows), len(labels_raw))
+    present = max(max((len(r) + 2) // 3 for r in rows), len(labels_raw))
+    if stated > present + 1000:
+        raise MocapFormatError(path, f"header field NumMarkers says {int(stated)} markers, the file names and holds "
+                               f"at most {present}", line=3)
+    m = int(stated) or present
     data = np.full((len(rows), 3 * m), np.nan)
     for i, r in enumerate(rows):
         data[i, : min(len(r), 3 * m)] = r[: 3 * m]
