@@ -162,7 +162,7 @@ def test_labels_trc_cannot_hold_are_refused(tmp_path):
 def test_a_marker_count_the_file_does_not_hold_is_refused(tmp_path):
     path = tmp_path / "n.trc"
     path.write_text("PathFileType\t4\t(X/Y/Z)\tx\nDataRate\tNumMarkers\tUnits\n100\t999999999\tmm\n"
-                    "Frame#\tTime\tA\n\t\tX1\tY1\tZ1\n\n1\t0\t1\t2\t3\ninf\t0\t1\t2\t3\n")
+                    "Frame#\tTime\tA\n\t\tX1\tY1\tZ1\n\n1\t0\t1\t2\t3\n")
     with pytest.raises(MocapFormatError, match="NumMarkers says 999999999 markers, the file names and holds at most 1"):
         read_trc(path)
     path.write_text("PathFileType\t4\t(X/Y/Z)\tx\nDataRate\tUnits\n100\tmm\nFrame#\tTime\tA\n\t\tX1\tY1\tZ1\n\n"
