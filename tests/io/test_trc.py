@@ -169,3 +169,55 @@ def test_a_marker_count_the_file_does_not_hold_is_refused(tmp_path):
                     "1\t0\t1\t2\t3\ninf\t0\t1\t2\t3\n")
     with pytest.raises(MocapFormatError, match="frame number 'inf' is not a number"):
         read_trc(path)
+
+
+def _mutants(text: str, count: int, seed: int = 0):
+    """``count`` deterministic mutants of a TRC text: lines dropped, doubled or swapped, fields replaced, cut short."""
+    import random
+
+    rng = random.Random(seed)
+    tokens = ["", "0", "-0", "nan", "inf", "-inf", "1e308", "1e-320", "abc", "\t", " ", "999999999", "-1",
+              "3.5", "PathFileType", "Frame#", "\x00", "é", "1,5"]
+    for _ in range(count):
+        lines = text.split("\n")
+        for _ in range(rng.choice([1, 1, 2, 3])):
+            i = rng.randrange(len(lines))
+            kind = rng.randrange(5)
+            if kind == 0:
+                del lines[i]
+            elif kind == 1:
+                lines.insert(i, lines[i])
+            elif kind == 2:
+                j = rng.randrange(len(lines))
+                lines[i], lines[j] = lines[j], lines[i]
+            elif kind == 3:
+                fields = lines[i].split("\t")
+                fields[rng.randrange(len(fields))] = rng.choice(tokens)
+                lines[i] = "\t".join(fields)
+            else:
+                lines = lines[: max(1, i)]
+                lines[-1] = lines[-1][: rng.randrange(len(lines[-1]) + 1)]
+        yield "\n".join(lines)
+        if not lines:
+            break
+
+
+def test_mutated_trc_files_read_sanely_or_are_refused_in_one_line(tmp_path):
+    ms = _markers(frames=8, markers=3)
+    write_trc(ms, tmp_path / "seed.trc")
+    seed = (tmp_path / "seed.trc").read_text()
+    path = tmp_path / "mutant.trc"
+    outcomes = {"ok": 0, "refused": 0}
+    for text in _mutants(seed, 400):
+        path.write_text(text, encoding="utf-8")
+        try:
+            got = read_trc(path)
+        except MocapFormatError as exc:
+            assert str(exc).startswith(str(path)) and "\n" not in str(exc), text
+            outcomes["refused"] += 1
+            continue
+        assert got.num_frames >= 1 and got.num_markers >= 1, text
+        assert got.positions.shape == (got.num_frames, got.num_markers, 3)
+        assert not np.isinf(got.positions).any() and got.fps > 0 and got.unit_cm > 0
+        outcomes["ok"] += 1
+    assert outcomes["ok"] > 50 and outcomes["refused"] > 50  # both paths exercised
