@@ -243,7 +243,8 @@ def zero_gap_mask(positions, unit_cm: float, skip=()) -> np.ndarray:
     if not zero.any():
         return out
     far = ZERO_GAP_DISTANCE_CM / float(unit_cm)
-    dist = np.linalg.norm(pos, axis=-1)
+    with np.errstate(invalid="ignore"):  # hypot: no overflow on huge coordinates (NaN stays NaN)
+        dist = np.hypot(np.hypot(pos[..., 0], pos[..., 1]), pos[..., 2])
     seen = ~np.any(np.isnan(pos), axis=-1) & ~zero
     skip = set(skip)
     for m in np.flatnonzero(zero.any(axis=0)):
