@@ -373,3 +373,20 @@ def test_every_peer_marker_file_reads_or_is_refused_in_one_line(shared_data):
         "mocap36.c3d", "MACsample.c3d", "1123x01EMG.c3d", "C3DRotationExample.c3d", "Kistler.c3d",
     }
     assert read == len(files) - len(refused)
+
+
+def test_selected_markers_drop_the_descriptions_of_others_and_trc_frame_numbers_survive(tmp_path):
+    from mocapkit.io import load_markers, save_markers
+
+    src = load_markers(mocapkit.samples.path("Eb015pr.c3d"))
+    assert len(_params(src)["POINT"]["DESCRIPTIONS"]["value"]) == 20  # for 26 markers
+    back = load_markers(save_markers(src.select(["LFT1", "RFT1"]), tmp_path / "two.c3d"))
+    assert back.labels == ("LFT1", "RFT1")
+    assert list(_params(back)["POINT"]["DESCRIPTIONS"]["value"]) in ([], ["", ""])
+    same = load_markers(save_markers(src, tmp_path / "all.c3d"))
+    assert list(_params(same)["POINT"]["DESCRIPTIONS"]["value"]) == list(_params(src)["POINT"]["DESCRIPTIONS"]["value"]) + [""] * 6
+    part = src[100:200]
+    trc = load_markers(save_markers(part, tmp_path / "part.trc"))
+    assert trc.source.first_frame == 101
+    again = load_markers(save_markers(trc, tmp_path / "part.c3d"))
+    assert again.source.first_frame == 101

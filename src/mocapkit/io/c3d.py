@@ -482,16 +482,26 @@ def _c3d_object(markers: MarkerSet, source: MarkerSource | None):
         ratio = source.analog_ratio(F)
         if ratio and source.analogs.shape[1] == F * ratio:
             analogs = source.analogs
-        c["header"]["points"]["first_frame"] = max(int(source.first_frame) - 1, 0)
+    # the take's own frame numbers (a TRC's Frame# column included), 1-based; ezc3d's header counts from 0
+    first = max(int(markers.source.first_frame), 1) if markers.source is not None else 1
+    c["header"]["points"]["first_frame"] = first - 1
     for group in ("POINT", "ANALOG"):
         if group not in c["parameters"]:
             c["parameters"][group] = copy.deepcopy(dict(ezc3d.c3d()["parameters"][group]))
     point = c["parameters"]["POINT"]
+    old_labels = []
+    for k in ["LABELS"] + [f"LABELS{i}" for i in range(2, 100)]:
+        if k in point:
+            old_labels += [str(v).strip() for v in np.ravel(point[k]["value"])]
+    same_markers = old_labels[:M] == list(markers.labels)
     for k in list(point):
         if k.startswith("LABELS") and k != "LABELS" or k in ("DATA_START",):
             del point[k]
-        elif k.startswith("DESCRIPTIONS") and (k != "DESCRIPTIONS" or np.size(point[k]["value"]) != M):
-            del point[k]
+        elif k.startswith("DESCRIPTIONS") and (k != "DESCRIPTIONS" or not same_markers):
+            del point[k]  # per-marker descriptions only while the markers are the file's, in its order
+        elif k == "DESCRIPTIONS":  # one per marker (Eb015pr.c3d has 20 for 26 markers)
+            texts = [str(v) for v in np.ravel(point[k]["value"])][:M]
+            point[k] = dict(point[k], type=-1, value=texts + [""] * (M - len(texts)))
     # Float data (a negative scale); its magnitude is the residuals' resolution, kept from the source.
     old_scale = np.ravel(point.get("SCALE", {}).get("value", [])) if source is not None else []
     scale = -abs(float(old_scale[0])) if len(old_scale) and np.isfinite(old_scale[0]) and old_scale[0] != 0 else -1.0
@@ -518,7 +528,6 @@ def _c3d_object(markers: MarkerSet, source: MarkerSource | None):
                        "value": value}
     data_analogs = np.zeros((1, 0, F)) if analogs is None else analogs[None]
     trial = c["parameters"].get("TRIAL", {}) if "TRIAL" in c["parameters"] else {}
-    first = max(int(source.first_frame), 1) if source is not None else 1
     for key, frame in (("ACTUAL_START_FIELD", first), ("ACTUAL_END_FIELD", first + F - 1)):
         if key in trial:  # a 32-bit frame number in two 16-bit words (Vicon), kept in step with the frames written
             trial[key] = dict(trial[key], type=2, value=np.array([frame & 0xFFFF, frame >> 16]))
