@@ -60,6 +60,10 @@ def _point_rate(path: Path, rate) -> float:
 _MODELLED = ("ANGLES", "FORCES", "MOMENTS", "POWERS", "SCALARS", "REACTIONS")
 
 
+class _NoPoints(Exception):
+    """ezc3d read the file and found no 3D points; the message says what it holds instead."""
+
+
 def _ezc3d_parameters(c) -> dict:
     """The parameter section as plain nested dicts (group -> name -> {type, description, is_locked, value})."""
     out = {}
@@ -74,12 +78,13 @@ def _read_ezc3d(path: Path):
     c = ezc3d.c3d(str(path))
     pts = c["data"]["points"]  # (4, M, F)
     n = pts.shape[1]
+    params = c["parameters"]["POINT"]
     if n == 0 or pts.shape[2] == 0:
+        # the fallback reader may still find points (the PhaseSpace sample's header claims none)
         frames = max(pts.shape[2], c["header"]["points"]["last_frame"] - c["header"]["points"]["first_frame"] + 1)
         analogs = c["data"]["analogs"].shape[1]
-        raise MocapFormatError(path, f"C3D file holds no 3D points ({frames} frames, {analogs} analog channels"
-                               + (", rotations only)" if c["header"]["rotations"]["size"] else ")"))
-    params = c["parameters"]["POINT"]
+        raise _NoPoints(f"C3D file holds no 3D points ({frames} frames, {analogs} analog channels"
+                        + (", rotations only)" if c["header"]["rotations"]["size"] else ")"))
     start = params["DATA_START"]["value"] if "DATA_START" in params else []
     if len(start) == 0 or int(start[0]) < 2:
         # Without POINT:DATA_START ezc3d reads the data block from the wrong place
@@ -200,10 +205,13 @@ _EXPECTED_TYPES = {
     ("FORCE_PLATFORM", "CORNERS"): (4,), ("FORCE_PLATFORM", "ORIGIN"): (4,), ("FORCE_PLATFORM", "ZERO"): (2,),
 }
 
+# One entry per point, channel or plate: an empty list is well formed when there are none (ezc3d
+# writes them so), and ezc3d reads it.
 _PER_CHANNEL = {
-    ("POINT", "LABELS"), ("POINT", "LABELS2"), ("POINT", "DESCRIPTIONS"), ("POINT", "UNITS"), ("ANALOG", "LABELS"), ("ANALOG", "UNITS"), ("ANALOG", "DESCRIPTIONS"),
-    ("ANALOG", "SCALE"), ("ANALOG", "OFFSET"), ("ANALOG", "BITS"), ("ANALOG", "FORMAT"), ("FORCE_PLATFORM", "TYPE"),
-    ("FORCE_PLATFORM", "CHANNEL"), ("FORCE_PLATFORM", "CORNERS"), ("FORCE_PLATFORM", "ORIGIN"),
+    ("POINT", "LABELS"), ("POINT", "LABELS2"), ("POINT", "DESCRIPTIONS"), ("POINT", "UNITS"),
+    ("ANALOG", "LABELS"), ("ANALOG", "UNITS"), ("ANALOG", "DESCRIPTIONS"), ("ANALOG", "SCALE"),
+    ("ANALOG", "OFFSET"), ("ANALOG", "BITS"), ("ANALOG", "FORMAT"),
+    ("FORCE_PLATFORM", "TYPE"), ("FORCE_PLATFORM", "CHANNEL"), ("FORCE_PLATFORM", "CORNERS"), ("FORCE_PLATFORM", "ORIGIN"),
 }
 
 
@@ -246,7 +254,6 @@ def _check_structure(path: Path, b: bytes) -> bool:
     section_end = start + nblocks * 512
     i = start + 4
     groups: dict[int, str] = {}
-    used: set[int] = set()
     typed: list[tuple[int, str, int, int]] = []  # (group id, name, type, data bytes)
     value_at: dict[tuple[int, str], int] = {}  # (group id, name) -> byte offset of its data
     count = 0
@@ -275,7 +282,6 @@ def _check_structure(path: Path, b: bytes) -> bool:
             if body + 1 <= end:
                 need += b[body]
         else:
-            used.add(gid)
             if body + 2 > end:
                 fail(f"parameter {name.decode()} runs past the parameter section")
             typ = struct.unpack_from("b", b, body)[0]
@@ -426,19 +432,24 @@ def read_c3d(path, zeros_as_gaps: bool | None = None) -> MarkerSet:
         raise MocapFormatError(path, f"cannot read: {exc.strerror or exc}") from None
     first_error = None
     got = None
+    no_points = None
     if _check_structure(path, raw):
         try:
             got = _read_ezc3d(path)
         except MocapFormatError:
             raise
+        except _NoPoints as exc:
+            no_points = str(exc)
         except Exception as exc:  # ezc3d raises plain RuntimeError/ValueError on malformed files
             first_error = exc
     if got is None:
         try:
             got = _read_c3d_package(path)
-        except MocapFormatError:
-            raise
+        except MocapFormatError as exc:
+            raise MocapFormatError(path, no_points) if no_points else exc from None
         except Exception as exc:
+            if no_points:
+                raise MocapFormatError(path, no_points) from None
             scales = re.search(r"inconsistent scale factor! (\S+) header != (\S+) POINT:SCALE", str(exc))
             if scales:
                 reason = (f"the header's point scale {float(scales[1]):.6g} disagrees with POINT:SCALE "
