@@ -4,38 +4,40 @@ The shipped EBF and EBD (Mall et al. 2017) read the Euler degrees of
 freedom of the Acclaim ASF skeleton of the CMU and HDM05 databases
 (``lfemur.Zrotation`` ...). The same skeleton also comes spelled otherwise:
 Bruce Hahne's CMU BVH conversions name its joints ``LeftUpLeg`` or
-``LeftHip``, give every joint three ``Zrotation Yrotation Xrotation``
-channels in world-aligned frames where the ASF has one to three degrees of
-freedom in a per-bone ``axis`` frame, and (3dsMax release) hang the arms
-down in the rest pose where the ASF holds them out.
+``LeftHip`` and give every joint three ``Zrotation Yrotation Xrotation``
+channels in world-aligned frames, where the ASF has one to three degrees of
+freedom in a per-bone ``axis`` frame.
 
 :func:`served_by` is the one rule: a take is served **directly** when it has
-the model's channels (any ASF/AMC of that skeleton), **through a joint map**
+the model's channels (any ASF/AMC of that skeleton); **through a joint map**
 when its rig family (:mod:`mocapkit.rigs`) plays every role the model's
-joints play with the same tree, and otherwise not at all, with the reason
-in words. Through a joint map, :func:`encode` gives the model what an ASF
-take of the same pose would give it and :func:`decode` maps the model's
-output back onto the take's own joints:
+joints play, with the same tree, and its rest pose is the Acclaim one (every
+mapped bone within :data:`SAME_REST_DEG` of the Acclaim direction, Y up:
+a subject's calibration moves bones by a few degrees, another rest
+convention, such as the 3dsMax release's arms hanging down, by 90);
+otherwise not at all, with the reason in words. Through a joint map,
+:func:`encode` gives the model what an ASF take of the same pose gives it and
+:func:`decode` maps the model's output back onto the take's joints:
 
-1. the rotation between two mapped joints (the product of the take's local
-   rotations along the chain, so joints the model does not know, e.g.
-   ``LHipJoint``, are kept in the chain) is expressed in the canonical
-   Acclaim frames: ``L = S_p^-1 (W P W^-1) S_j`` with ``W`` the rotation
-   from the take's world axes to the Acclaim ones (Y up, X to the left) and
-   ``S_j`` the rest-pose correction of joint ``j``'s bone (identity where the
-   take's rest bone lies within :data:`SAME_REST_DEG` of the Acclaim one: a
-   subject's calibration moves bones by a few degrees, a rest convention
-   such as arms down by 90);
+1. the rotation from a mapped joint's model parent to the joint is the
+   product of the take's local rotations along the chain between them
+   (joints the model does not know, e.g. ``LHipJoint``, stay in the chain);
 2. ``M = C^-1 L C`` with ``C`` the Acclaim ``axis`` of the joint
    (:data:`ACCLAIM_AXES`, the same in every CMU and HDM05 ASF), and the
-   degrees of freedom are ``M``'s Euler angles in the model's channel order
-   (as :meth:`Motion.channel_values` reads an AMC);
-3. back: the model's new angles replace the degrees of freedom and the part
-   of ``M`` they do not span (the third axis of a two-dof joint) is kept, so
-   a rotation the network leaves unchanged comes back as it was; cells whose
+   degrees of freedom are ``M``'s Euler angles in the model's channel order,
+   as :meth:`Motion.channel_values` reads an AMC;
+3. back: the model's new angles replace the degrees of freedom and the
+   part of ``M`` they do not span (the other axes of a one- or two-dof
+   joint) is kept, or smoothed by a function the caller gives, so a
+   rotation the network leaves unchanged comes back as it was. Cells whose
    channels the network did not change, and every joint the model does not
-   cover (the root, ``LHipJoint``, fingers of richer rigs), are copied
+   cover (the root, ``LHipJoint``, the fingers of richer rigs), are copied
    bit-identically from the take.
+
+On the CMU 01_01 take, whose ASF/AMC and MotionBuilder-release BVH are both
+at hand, the BVH's encoded channels equal the AMC's to 1e-4 degrees (the
+AMC's printed precision) and denoising and gap filling give the same
+rotations on both spellings.
 """
 
 from __future__ import annotations
@@ -67,7 +69,7 @@ ACCLAIM_AXES: dict[str, tuple[float, float, float]] = {
 }
 
 # Rest direction of each Acclaim joint's bone (to its child along the role tree), CMU subject 12's ASF rounded
-# (Y up, X to the subject's left, Z forward); only compared with a take's rest bones within SAME_REST_DEG.
+# (Y up, X to the subject's left, Z forward); a take's rest bones must lie within SAME_REST_DEG of them.
 _ACCLAIM_BONES: dict[str, tuple[float, float, float]] = {
     "lfemur": (0.34, -0.94, 0), "ltibia": (0.34, -0.94, 0), "lfoot": (0.05, -0.13, 0.99), "ltoes": (0, 0, 1),
     "rfemur": (-0.34, -0.94, 0), "rtibia": (-0.34, -0.94, 0), "rfoot": (-0.05, -0.12, 0.99), "rtoes": (0, 0, 1),
@@ -79,7 +81,7 @@ _ACCLAIM_BONES: dict[str, tuple[float, float, float]] = {
     "rhand": (-1, 0, 0), "rfingers": (-1, 0, 0), "rthumb": (-0.71, 0, 0.71),
 }
 
-#: A take's rest bone within this angle (degrees) of the Acclaim one is taken as the same rest pose.
+#: A take's rest bone within this angle (degrees) of the Acclaim one counts as the same rest pose.
 SAME_REST_DEG = 30.0
 
 # the child role whose direction is a joint's bone (the role tree's main chain)
@@ -101,8 +103,7 @@ class Serving:
     from model joint ``parent[k]`` (-1: the pelvis) to ``k``, top down, ending
     with ``joints[k]``; ``pelvis_chain`` the take joints from the root to the
     pelvis; ``orders[k]`` the intrinsic Euler order of the model's channels;
-    ``axes`` (n, 4) the Acclaim axis frames; ``rest`` (n, 4) the rest
-    corrections ``S``; ``world`` (4,) the quaternion ``W``.
+    ``axes`` (n, 4) the Acclaim axis frames.
     """
 
     model: object
@@ -114,8 +115,6 @@ class Serving:
     pelvis_chain: tuple[int, ...] = ()
     orders: tuple[str, ...] = ()
     axes: np.ndarray | None = None
-    rest: np.ndarray | None = None
-    world: np.ndarray | None = None
 
     @property
     def layout(self) -> ChannelLayout:
@@ -155,41 +154,38 @@ def _chain(sk: Skeleton, top: int, j: int) -> tuple[int, ...] | None:
     return tuple(reversed(out))
 
 
-def _between(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """The smallest rotation taking unit vector ``a`` to ``b`` (3,) -> (4,)."""
-    c = np.cross(a, b)
-    d = float(np.dot(a, b))
-    if d < -1 + 1e-9:  # opposite: any perpendicular axis
-        axis = np.cross(a, [1.0, 0.0, 0.0] if abs(a[0]) < 0.9 else [0.0, 1.0, 0.0])
-        return R.quaternion_from_axis_angle(axis / np.linalg.norm(axis), np.pi)
-    q = np.array([1.0 + d, *c])
-    return q / np.linalg.norm(q)
-
-
 def _unit(v: np.ndarray) -> np.ndarray | None:
     n = float(np.linalg.norm(v))
     return v / n if n > 1e-9 else None
 
 
-def _world(sk: Skeleton, found: dict[str, int]) -> np.ndarray:
-    """W: the take's rest up (pelvis -> head) and left (right thigh -> left thigh) onto Acclaim's +Y and +X.
+def _angle_deg(a: np.ndarray, b: np.ndarray) -> float:
+    return float(np.degrees(np.arccos(np.clip(np.dot(a, b), -1.0, 1.0))))
 
-    Identity when the take's axes are within :data:`SAME_REST_DEG` of Acclaim's.
-    """
-    rest = sk.rest_positions()
+
+def _rest_differences(sk: Skeleton, found: dict[str, int], names, model_roles) -> list[tuple[str, float]]:
+    """(take joint, degrees) for every mapped bone (and the up axis) further than SAME_REST_DEG from Acclaim's."""
+    rest = sk.rest_positions(end_sites=True)
+    out = []
     up = _unit(rest[found["head"]] - rest[found["pelvis"]])
-    left = _unit(rest[found["left_thigh"]] - rest[found["right_thigh"]])
-    if up is None or left is None:
-        return R.identity()
-    left = _unit(left - np.dot(left, up) * up)
-    if left is None:
-        return R.identity()
-    fwd = np.cross(left, up)
-    m = np.stack([left, up, fwd])  # rows: the take's axes; m @ v gives Acclaim coordinates
-    w = R.matrix_to_quaternion(m)
-    if np.degrees(R.geodesic_angle(w, R.identity())) < SAME_REST_DEG:
-        return R.identity()
-    return w
+    if up is not None and _angle_deg(up, np.array([0.0, 1.0, 0.0])) >= SAME_REST_DEG:
+        out.append(("the up axis (pelvis to head)", _angle_deg(up, np.array([0.0, 1.0, 0.0]))))
+    for name, role in zip(names, model_roles):
+        j = found[role]
+        child = _BONE_CHILD.get(role)
+        tip = found.get(child) if child else None
+        if tip is None:  # a leaf of the role tree: its first child or end site
+            kids = sk.children(j)
+            ends = np.flatnonzero(sk.end_site_parents == j)
+            tip = kids[0] if kids else (sk.num_joints + int(ends[0]) if len(ends) else None)
+        bone = None if tip is None else _unit(rest[tip] - rest[j])
+        if bone is None:  # a zero-length bone has no direction to compare
+            continue
+        want = np.asarray(_ACCLAIM_BONES[name], dtype=np.float64)
+        d = _angle_deg(want / np.linalg.norm(want), bone)
+        if d >= SAME_REST_DEG:
+            out.append((sk.joint_names[j], d))
+    return out
 
 
 def served_by(motion_or_skeleton, model) -> Serving | str:
@@ -249,32 +245,14 @@ def _map(model, sk: Skeleton, family: str, found: dict[str, int], model_roles: l
         parent.append(-1 if up in (None, "pelvis") else index[up])
         chains.append(chain)
         orders.append("".join(c.split(".")[1][0] for c in layout.names if c.split(".")[0] == name))
-    pelvis_chain = _chain(sk, -1, pelvis)
-    world = _world(sk, found)
-    rest_pos = sk.rest_positions(end_sites=True)
-    rest = np.empty((len(joints), 4))
-    for k, (name, role) in enumerate(zip(layout.joints, model_roles)):
-        rest[k] = R.identity() if parent[k] < 0 else rest[parent[k]]
-        child = _BONE_CHILD.get(role)
-        tip = found.get(child) if child else None
-        if tip is None:  # a leaf of the role tree: its first child or end site
-            kids = sk.children(found[role])
-            ends = np.flatnonzero(sk.end_site_parents == found[role])
-            tip = kids[0] if kids else (sk.num_joints + int(ends[0]) if len(ends) else None)
-        if tip is None:
-            continue
-        bone = _unit(R.quaternion_rotate(world, rest_pos[tip] - rest_pos[found[role]]))
-        if bone is None:
-            continue
-        want = np.asarray(_ACCLAIM_BONES[name], dtype=np.float64)
-        want = want / np.linalg.norm(want)
-        if np.degrees(np.arccos(np.clip(np.dot(want, bone), -1.0, 1.0))) < SAME_REST_DEG:
-            rest[k] = R.identity()
-        else:
-            rest[k] = _between(want, bone)
+    far = _rest_differences(sk, found, layout.joints, model_roles)
+    if far:
+        listed = ", ".join(f"{n} by {d:.0f} deg" for n, d in far[:3]) + (", ..." if len(far) > 3 else "")
+        return (f"the model was trained on the Acclaim rest pose and this {family} rig's rest pose differs "
+                f"({listed}); train a model on this rig with `mocapkit train`")
     axes = np.stack([R.euler_to_quaternion(np.array(ACCLAIM_AXES[n], dtype=np.float64), "xyz") for n in layout.joints])
-    return Serving(model, family, False, tuple(joints), tuple(parent), tuple(chains), pelvis_chain, tuple(orders),
-                   axes, rest, world)
+    return Serving(model, family, False, tuple(joints), tuple(parent), tuple(chains), _chain(sk, -1, pelvis),
+                   tuple(orders), axes)
 
 
 def _product(rot: np.ndarray, chain: tuple[int, ...]) -> np.ndarray:
@@ -295,15 +273,13 @@ def _dof_rotations(motion: Motion, s: Serving) -> np.ndarray:
     rot = motion.rotations
     out = np.empty((motion.num_frames, len(s.joints), 4))
     for k, chain in enumerate(s.chains):
-        p = _conj(s.world, _product(rot, chain))
-        sp = R.identity() if s.parent[k] < 0 else s.rest[s.parent[k]]
-        local = R.quaternion_multiply(R.quaternion_multiply(R.quaternion_conjugate(sp), p), s.rest[k])
+        local = _product(rot, chain)
         out[:, k] = R.quaternion_multiply(R.quaternion_multiply(R.quaternion_conjugate(s.axes[k]), local), s.axes[k])
     return out
 
 
 def _pelvis_rotation(motion: Motion, s: Serving) -> np.ndarray:
-    return _conj(s.world, _product(motion.rotations, s.pelvis_chain))
+    return _product(motion.rotations, s.pelvis_chain)
 
 
 def _full_angles(m: np.ndarray, order: str) -> tuple[np.ndarray, str]:
@@ -375,10 +351,7 @@ def decode(values: np.ndarray, like: Motion, serving: Serving, keep: np.ndarray 
         for i, a in enumerate(order):
             ang[:, full.index(a)] = (new[:, i] + 180.0) % 360.0 - 180.0
         mk = R.euler_to_quaternion(ang, full)
-        local = _conj(serving.axes[k], mk)
-        sp = R.identity() if serving.parent[k] < 0 else serving.rest[serving.parent[k]]
-        p = R.quaternion_multiply(R.quaternion_multiply(sp, local), R.quaternion_conjugate(serving.rest[k]))
-        p = _conj(R.quaternion_conjugate(serving.world), p)
+        p = _conj(serving.axes[k], mk)
         chain = serving.chains[k]
         if len(chain) > 1:
             above = _product(like.rotations, chain[:-1])
