@@ -131,8 +131,8 @@ def test_another_rig_falls_back_with_notes():
     noisy, _ = corrupt.angular_noise(gappy, amount=0.5, seed=5, joints=["LeftHip"])
     res = clean(noisy, steps=("fill", "denoise"))
     by = {s.name: s for s in res.steps}
-    assert by["fill"].method == "cubic spline" and "does not fit this rig" in by["fill"].note
-    assert by["denoise"].method.startswith("Savitzky-Golay") and "does not fit this rig" in by["denoise"].note
+    assert by["fill"].method == "cubic spline" and "does not serve this rig" in by["fill"].note
+    assert by["denoise"].method.startswith("Savitzky-Golay") and "does not serve this rig" in by["denoise"].note
     assert len(res.notes) == 2
     assert not res.motion.missing().any() and np.array_equal(res.filled, noisy.missing())
     assert res.denoised[:, m.skeleton.index("LeftHip")].mean() > 0.8
