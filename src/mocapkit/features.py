@@ -900,6 +900,16 @@ def _metres_per_unit(motion: Motion, unit_cm: float | None) -> float:
     return (unit_scale_cm(motion.skeleton) if unit_cm is None else float(unit_cm)) / 100.0
 
 
+def _sensor_up(sk: Skeleton, gpos: np.ndarray, up_axis) -> np.ndarray:
+    """The up axis of :func:`virtual_accelerometers`: given, the straight rest pose's, or the frames' (:func:`find_up_axis`)."""
+    if up_axis is not None:
+        return parse_up_axis(up_axis)
+    roles = _head_and_feet(sk)
+    if roles is not None and _standing_rest_axis(sk, *roles) is not None:
+        return detect_up_axis(sk)
+    return find_up_axis(sk, gpos)
+
+
 def virtual_accelerometers(
     motion: Motion,
     sensors: Sequence[Sensor] | None = None,
@@ -925,7 +935,10 @@ def virtual_accelerometers(
     gravity : float
         Magnitude of g in m/s^2.
     up_axis : optional
-        As in :func:`root_frame`; found from the frames when None (also for the default sensors).
+        The direction gravity pulls against; when None the rest pose's
+        (:func:`detect_up_axis`) if it stands straight (T-pose, A-pose), else
+        found from the frames (:func:`find_up_axis`: a rig whose rest pose lies
+        down, as the Bandai Namco rig's); also for the default sensors.
     unit_cm : float, optional
         Centimetres per file unit; from :func:`~mocapkit.motion.unit_scale_cm` when None.
 
@@ -936,7 +949,7 @@ def virtual_accelerometers(
     """
     sk = motion.skeleton
     grot, gpos = motion.global_transforms()
-    up = find_up_axis(sk, gpos, up_axis)
+    up = _sensor_up(sk, gpos, up_axis)
     if sensors is None:
         sensors = default_sensors(sk, up_axis=up)
     sensors = list(sensors)
