@@ -23,7 +23,9 @@ kd-tree rebuilt over the readings.
 
 Test: ``--takes`` held-out takes (evenly spread over the held-out list, both
 datasets), each its first ``--frames`` frames (evaluation time only; the split
-is by style). The four default sensors (wrists, ankles) are simulated on them
+is by style). Parameters: K = 256 neighbours and I = 4 paths
+(:data:`VALIDATED`, chosen by ``--validate``); mocapkit's defaults (K = 1 %
+of the frames, I = K / 16) are reported beside them. The four default sensors (wrists, ankles) are simulated on them
 (:func:`mocapkit.features.virtual_accelerometers`). Error: RMS joint-position
 error of the body below the pelvis, pelvis position and heading removed, the
 pelvis tilt kept (``metrics.joint_position_rms(..., root_relative="heading")``),
@@ -32,6 +34,10 @@ readings (baseline), and the oracle: the knowledge-base pose closest to each
 true pose (posed on the test skeleton, heading frame, exact search), a floor
 for any method that retrieves poses from this database. Time per frame: the
 online reconstructor's push, median and 95th percentile.
+
+``--validate`` sweeps K and I on a validation style instead: dataset-2
+``exhausted``, left out of its knowledge base as well; the test styles are
+never looked at there.
 
 OpenBLAS is limited to one thread (set before numpy loads), as in
 ``reconstruct_accelerometers.py``.
@@ -68,6 +74,7 @@ from mocapkit.reconstruct._common import body_motion  # noqa: E402
 
 FPS = 30.0
 HELD_OUT_D2 = ("elderly",)
+VALIDATION_D2 = "exhausted"
 CACHE = Path.home() / ".cache" / "mocapkit" / "accel_bandai"
 
 
@@ -123,7 +130,7 @@ def oracle_rms(db, m, chunk: int = 64) -> float:
     return float(np.sqrt(np.mean(best) / Q.shape[1] * 3))
 
 
-def run_take(db, take, frames: int, params: dict) -> dict:
+def run_take(db, take, frames: int, params: dict, oracle: bool = True, defaults: bool = False) -> dict:
     m = mocapkit.load(take.path)
     m = m[: min(frames, len(m))]
     rd = virtual_accelerometers(m)
@@ -138,20 +145,24 @@ def run_take(db, take, frames: int, params: dict) -> dict:
         times.append(time.perf_counter() - t0)
     out = A.motion_of_poses(poses, rec.skeleton, FPS, "reconstruction", up=rec.kb.up)
     nn = A.reconstruct_nearest_neighbor(rd, db, FPS, skeleton=m.skeleton)
+    extra = {}
+    if defaults:  # mocapkit's default K and I, for comparison
+        d = A.reconstruct(rd, db, FPS, skeleton=m.skeleton)
+        extra = {"default_heading_cm": metrics.joint_position_rms(d, m, root_relative="heading")}
     return {"take": take.path.name, "dataset": take.dataset, "style": take.style, "content": take.content,
             "frames": len(m), "k": rec.k, "paths": rec.n_paths,
             "ours_heading_cm": metrics.joint_position_rms(out, m, root_relative="heading"),
             "ours_frame_cm": metrics.joint_position_rms(out, m, root_relative="frame"),
             "nn_heading_cm": metrics.joint_position_rms(nn, m, root_relative="heading"),
             "nn_frame_cm": metrics.joint_position_rms(nn, m, root_relative="frame"),
-            "oracle_heading_cm": oracle_rms(db, m),
+            "oracle_heading_cm": oracle_rms(db, m) if oracle else None, **extra,
             "ms_per_frame": [1e3 * t for t in times]}
 
 
-def build(train, workers_note: dict, reuse: bool):
+def build(train, reuse: bool, cache: Path = CACHE):
     """The database and knowledge base of ``train`` (built, saved, reopened memory-mapped), with timings and memory."""
-    db_dir, kb_dir = CACHE / "database", CACHE / "knowledge"
-    info: dict = {"cache": str(CACHE)}
+    db_dir, kb_dir = cache / "database", cache / "knowledge"
+    info: dict = {"cache": str(cache)}
     if not (reuse and db_dir.is_dir()):
         t0 = time.perf_counter()
         db = MotionDatabase.build([t.path for t in train], fps=FPS, progress=False)
@@ -186,28 +197,61 @@ def build(train, workers_note: dict, reuse: bool):
     return db, kb, info
 
 
+#: K and I chosen by ``--validate`` (dataset-2 exhausted): the lowest validation error of the sweep.
+VALIDATED = {"k": 256, "n_paths": 4}
+#: (K, I) pairs of the validation sweep; None: mocapkit's default.
+SWEEP = ((None, None), (1024, None), (256, None), (None, 16), (1024, 8), (256, 4), (128, None), (64, None), (512, 4), (128, 4), (64, 4), (256, 2), (256, 8))
+
+
+def validate(args, train) -> None:
+    """K (neighbours) and I (paths) swept on the validation style; the test styles are never looked at."""
+    fit = [t for t in train if not (t.dataset == 2 and t.style == VALIDATION_D2)]
+    val = [t for t in train if t.dataset == 2 and t.style == VALIDATION_D2]
+    db, kb, info = build(fit, args.reuse, CACHE / "validate")
+    picks = [val[int(i)] for i in np.unique(np.linspace(0, len(val) - 1, args.takes).round().astype(int))]
+    sweep = {}
+    for k, n in SWEEP:
+        params = {"k": k, "n_paths": n}
+        rows = [run_take(db, t, args.frames, params, oracle=False) for t in picks]
+        name = f"K={rows[0]['k']} I={rows[0]['paths']}"
+        sweep[name] = {"heading_cm": float(np.mean([r["ours_heading_cm"] for r in rows])),
+                       "nn_heading_cm": float(np.mean([r["nn_heading_cm"] for r in rows])),
+                       "ms_per_frame": float(np.median(np.concatenate([r["ms_per_frame"] for r in rows])))}
+        log(f"validation {name}: {sweep[name]}")
+    figures = {f"{name} {key}": v for name, row in sweep.items() for key, v in row.items()}
+    harness.emit("reconstruct_accelerometers_bandai_validate", args, figures=figures,
+                 details={"validation_style": f"dataset-2 {VALIDATION_D2}", "db_frames": info["db_frames"],
+                          "takes": [t.path.name for t in picks], "frames_per_take": args.frames, "sweep": sweep})
+
+
 def main():
     ap = harness.parser(__doc__)
     ap.add_argument("--quick", action="store_true", help="4 held-out takes of 120 frames")
     ap.add_argument("--takes", type=int, default=12, help="held-out takes tested (evenly spread)")
     ap.add_argument("--frames", type=int, default=240, help="frames per tested take (from its start)")
     ap.add_argument("--reuse", action="store_true", help="reuse a database already built in the cache folder")
+    ap.add_argument("--validate", action="store_true",
+                    help="the parameter sweep on validation style dataset-2 exhausted instead (held out of its knowledge base too)")
     ap.add_argument("-k", type=int, default=None, help="neighbours per sample (default: mocapkit's default_k)")
+    ap.add_argument("--paths", type=int, default=None, help="OLNG paths kept, I (default: K / 16)")
     args = ap.parse_args()
     if args.quick:
         args.takes, args.frames = 4, 120
-    params = {} if args.k is None else {"k": args.k}
+    params = {**VALIDATED, **{key: v for key, v in (("k", args.k), ("n_paths", args.paths)) if v is not None}}
     takes = bandai_takes()
     train, held = split(takes)
     log(f"{len(train)} knowledge-base takes, {len(held)} held out")
-    db, kb, info = build(train, {}, args.reuse)
+    if args.validate:
+        validate(args, train)
+        return
+    db, kb, info = build(train, args.reuse)
     log(f"built: {info}")
     picks = [held[int(i)] for i in np.unique(np.linspace(0, len(held) - 1, args.takes).round().astype(int))]
     rows = []
     for t in picks:
-        rows.append(run_take(db, t, args.frames, params))
+        rows.append(run_take(db, t, args.frames, params, defaults=True))
         r = rows[-1]
-        log(f"{r['take']}: heading ours {r['ours_heading_cm']:.2f} nn {r['nn_heading_cm']:.2f} oracle {r['oracle_heading_cm']:.2f} cm, "
+        log(f"{r['take']}: heading ours {r['ours_heading_cm']:.2f} (defaults {r['default_heading_cm']:.2f}) nn {r['nn_heading_cm']:.2f} oracle {r['oracle_heading_cm']:.2f} cm, "
             f"{np.median(r['ms_per_frame']):.1f} ms/frame, K={r['k']}")
     ms = np.concatenate([r["ms_per_frame"] for r in rows])
 
@@ -218,9 +262,9 @@ def main():
     for name, rs in (("dataset2_elderly", [r for r in rows if r["dataset"] == 2]),
                      ("dataset1_styles", [r for r in rows if r["dataset"] == 1])):
         if rs:
-            groups[name] = {"takes": len(rs), **{k: mean(k, rs) for k in ("ours_heading_cm", "nn_heading_cm", "oracle_heading_cm", "ours_frame_cm")}}
+            groups[name] = {"takes": len(rs), **{k: mean(k, rs) for k in ("ours_heading_cm", "default_heading_cm", "nn_heading_cm", "oracle_heading_cm", "ours_frame_cm")}}
     figures = {"heading_rms_cm": mean("ours_heading_cm"), "frame_rms_cm": mean("ours_frame_cm"),
-               "oracle_heading_cm": mean("oracle_heading_cm"),
+               "oracle_heading_cm": mean("oracle_heading_cm"), "default_params_heading_rms_cm": mean("default_heading_cm"),
                "ms_per_frame": float(np.median(ms)), "ms_per_frame_p95": float(np.percentile(ms, 95)),
                "db_frames": info["db_frames"], "kb_build_s": info["kb_build_s"],
                "open_s": info["open_db_s"] + info["open_kb_s"] + info["kdtree_rebuild_s"]}
