@@ -209,10 +209,21 @@ def database_up(db: MotionDatabase, clips: int = 16) -> np.ndarray:
     return find_up_axis(db.skeletons[0], pos)
 
 
-def _clip_block(clips: range, sensors, up, database: str) -> np.ndarray:
-    """:func:`clip_values` of the clips ``clips`` of the database saved at ``database`` (a worker's share)."""
+def _split_values(vals: np.ndarray, S: int, J: int) -> tuple:
+    """:func:`clip_values` columns as (readings, poses, velocities, accelerations, rest): float64, float64, float32 (F, M, 3) twice, float64 (F, 5)."""
+    M = J - 1 + S
+    F = vals.shape[0]
+    rd, pose, vel, acc, rest = np.split(vals, np.cumsum([3 * S, 3 * J, 3 * M, 3 * M]), axis=1)
+    return (np.ascontiguousarray(rd), np.ascontiguousarray(pose), vel.reshape(F, M, 3).astype(np.float32),
+            acc.reshape(F, M, 3).astype(np.float32), np.ascontiguousarray(rest))
+
+
+def _clip_block(clips: range, sensors, up, database: str) -> tuple:
+    """:func:`_split_values` of the clips ``clips`` of the database saved at ``database`` (a worker's share)."""
     db = MotionDatabase.open(database)
-    return np.concatenate([clip_values(db.clip(c), sensors, up) for c in clips], axis=0)
+    J = body_skeleton(db.skeletons[0]).num_joints
+    parts = [_split_values(clip_values(db.clip(c), sensors, up), len(sensors), J) for c in clips]
+    return tuple(np.concatenate(p, axis=0) for p in zip(*parts))
 
 
 _ARRAYS = ("readings", "poses", "pose_mean", "pose_basis", "pose_coords", "velocities", "accelerations",
@@ -253,18 +264,22 @@ def knowledge_base(db: MotionDatabase, sensors: Sequence[Sensor] | None = None, 
             return found
     t0 = time.perf_counter()
     S, J = len(sensors), sk0.num_joints
-    M = J - 1 + S
     if db.path is not None and executor != "serial" and db.num_clips > 1:
+        # workers return float32 derivatives: a third of the float64 block each, so the parent's peak stays low
         chunks = [range(a, min(a + 64, db.num_clips)) for a in range(0, db.num_clips, 64)]
         job = partial(_clip_block, sensors=sensors, up=up, database=str(db.path))
-        vals = np.concatenate(map_ordered(job, chunks, executor=executor, progress=progress, desc="knowledge base"), axis=0)
+        blocks = map_ordered(job, chunks, executor=executor, progress=progress, desc="knowledge base")
     else:
-        vals = np.concatenate([clip_values(db.clip(c), sensors, up) for c in range(db.num_clips)], axis=0)
-    if vals.shape[0] != db.num_frames:
-        raise ValueError(f"the knowledge base has {vals.shape[0]} frames for a database of {db.num_frames}")
-    cuts = np.cumsum([3 * S, 3 * J, 3 * M, 3 * M, 3, 1])
-    rd, pose, vel, acc, rvel, yaw, height = np.split(vals, cuts, axis=1)
-    N = db.num_frames
+        blocks = [_split_values(clip_values(db.clip(c), sensors, up), S, J) for c in range(db.num_clips)]
+    fields = []
+    for k in range(5):  # concatenate field by field, freeing each field's blocks as it goes
+        fields.append(np.concatenate([b[k] for b in blocks], axis=0))
+        blocks = [tuple(None if i == k else x for i, x in enumerate(b)) for b in blocks]
+    del blocks
+    rd, pose, vel, acc, rest = fields
+    del fields
+    if rd.shape[0] != db.num_frames:
+        raise ValueError(f"the knowledge base has {rd.shape[0]} frames for a database of {db.num_frames}")
     good = np.isfinite(pose).all(axis=1)
     pmean = pose[good].mean(axis=0)
     lam, vec = np.linalg.eigh(np.cov((pose[good] - pmean).T, bias=True).reshape(pose.shape[1], pose.shape[1]))
@@ -273,21 +288,21 @@ def knowledge_base(db: MotionDatabase, sensors: Sequence[Sensor] | None = None, 
     kb = KnowledgeBase(
         sensors=sensors,
         up=up,
-        readings=np.ascontiguousarray(rd),
-        poses=np.ascontiguousarray(pose),
+        readings=rd,
+        poses=pose,
         pose_mean=pmean,
         pose_basis=pbasis,
         pose_coords=np.ascontiguousarray((pose - pmean) @ pbasis),
-        velocities=vel.reshape(N, M, 3).astype(np.float32),
-        accelerations=acc.reshape(N, M, 3).astype(np.float32),
-        root_velocity=np.ascontiguousarray(rvel),
-        yaw_rate=yaw[:, 0].copy(),
-        root_height=height[:, 0].copy(),
+        velocities=vel,
+        accelerations=acc,
+        root_velocity=np.ascontiguousarray(rest[:, :3]),
+        yaw_rate=rest[:, 3].copy(),
+        root_height=rest[:, 4].copy(),
         clip_ids=np.asarray(db.clip_ids, dtype=np.int64),
         fps=db.fps,
         build_seconds=0.0,
     )
-    del vals, rd, pose, vel, acc
+    del rest
     kb.index("kdtree")
     object.__setattr__(kb, "build_seconds", time.perf_counter() - t0)
     if cache_dir is not None:
