@@ -604,7 +604,12 @@ class Denoiser:
         m = _model(model, "ebf")
         if m.layout.representation != "euler":
             raise ValueError("streaming needs an Euler-channel model")
-        m.layout.check(skeleton, "skeleton")
+        sv = served_by(skeleton, m)
+        if isinstance(sv, str):
+            raise SkeletonError(f"skeleton: {sv}")
+        if not sv.direct:
+            raise SkeletonError(f"skeleton: streaming needs the model's own channels; this {sv.family} rig is "
+                                f"served offline only (deep.denoise)")
         if _needs_resampling(fps, m.fps):
             raise ValueError(f"streaming runs at the model's rate ({m.fps:g} fps), got {fps:g} fps")
         self.model = m
