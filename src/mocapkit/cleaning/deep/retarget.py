@@ -211,13 +211,13 @@ def served_by(motion_or_skeleton, model) -> Serving | str:
                 f"train a model on this rig with `mocapkit train`")
     family = rigs.rig_family(sk)
     if family is None:
-        return (f"{trained} (the Acclaim rig) and no joint map is known for this one (joints "
-                f"{', '.join(sk.joint_names[:4])}, ...); train a model on this rig with `mocapkit train`")
+        return (f"{trained}, the Acclaim rig, and no joint map is known for this one, whose joints are "
+                f"{', '.join(sk.joint_names[:4])}, ...; train a model on this rig with `mocapkit train`")
     found = rigs.roles(sk)
     lacking = [n for n, r in zip(layout.joints, model_roles) if r not in found]
     if lacking:
-        return (f"{trained} (the Acclaim rig); this {family} rig has no joint for {len(lacking)} of its "
-                f"{len(layout.joints)} joints ({', '.join(lacking[:4])}{', ...' if len(lacking) > 4 else ''}); "
+        return (f"{trained}, the Acclaim rig; this {family} rig has no joint for {len(lacking)} of its "
+                f"{len(layout.joints)} joints: {', '.join(lacking[:4])}{', ...' if len(lacking) > 4 else ''}; "
                 f"train a model on this rig with `mocapkit train`")
     return _map(model, sk, family, found, model_roles)
 
@@ -248,8 +248,8 @@ def _map(model, sk: Skeleton, family: str, found: dict[str, int], model_roles: l
     far = _rest_differences(sk, found, layout.joints, model_roles)
     if far:
         listed = ", ".join(f"{n} by {d:.0f} deg" for n, d in far[:3]) + (", ..." if len(far) > 3 else "")
-        return (f"the model was trained on the Acclaim rest pose and this {family} rig's rest pose differs "
-                f"({listed}); train a model on this rig with `mocapkit train`")
+        return (f"the model was trained on the Acclaim rest pose and this {family} rig's rest pose differs: "
+                f"{listed}; train a model on this rig with `mocapkit train`")
     axes = np.stack([R.euler_to_quaternion(np.array(ACCLAIM_AXES[n], dtype=np.float64), "xyz") for n in layout.joints])
     return Serving(model, family, False, tuple(joints), tuple(parent), tuple(chains), _chain(sk, -1, pelvis),
                    tuple(orders), axes)
