@@ -196,8 +196,9 @@ def served_by(motion_or_skeleton, model) -> Serving | str:
     trained on) is served directly. An Euler model of the Acclaim skeleton
     also serves a take whose rig family (:func:`mocapkit.rigs.rig_family`)
     plays every role its joints play, each below the joint of its parent
-    role (the CMU BVH conversions, both releases). Anything else: a one-line
-    reason naming what is missing.
+    role, in the Acclaim rest pose (the CMU BVH conversions of the
+    MotionBuilder-friendly release). Anything else: a one-line reason naming
+    what is missing or different.
     """
     sk = getattr(motion_or_skeleton, "skeleton", motion_or_skeleton)
     layout = model.layout
@@ -240,7 +241,9 @@ def _map(model, sk: Skeleton, family: str, found: dict[str, int], model_roles: l
         top = found["pelvis"] if up in (None, "pelvis") else found[up]
         chain = _chain(sk, top, found[role])
         if chain is None:
-            return f"joint {sk.joint_names[found[role]]} does not hang below {sk.joint_names[top]} as {name} does in the Acclaim rig"
+            return (f"this {family} rig's joint {sk.joint_names[found[role]]} does not hang below "
+                    f"{sk.joint_names[top]} as {name} does in the Acclaim rig; train a model on this rig with "
+                    f"`mocapkit train`")
         joints.append(found[role])
         parent.append(-1 if up in (None, "pelvis") else index[up])
         chains.append(chain)
