@@ -224,3 +224,17 @@ def test_clean_equals_its_steps_run_the_slow_way(cleaned):
     expected = np.where(noisy[..., None], whole.rotations, repaired.rotations)
     assert res.denoised.any() and res.repaired.any()
     assert np.array_equal(res.motion.rotations, expected)
+
+
+def test_the_cmu_bvh_spelling_is_cleaned_by_the_networks(walk):
+    """clean applies deep.served_by like denoise and fill: the BVH spelling of the walk gets the EBD and EBF."""
+    from tests.cleaning.test_retarget import motionbuilder_spelling
+
+    bvh = motionbuilder_spelling(walk[:240])
+    gappy, _ = corrupt.gaps(bvh, seed=4, start_prob=0.02)
+    res = clean(gappy, steps=("fill", "denoise"))
+    by = {s.name: s for s in res.steps}
+    assert by["fill"].method == "EBD (shipped, via the cmu_bvh_motionbuilder joint map) + EBF"
+    assert not res.notes and not res.motion.missing().any()
+    untouched = ~res.changed
+    assert np.array_equal(res.motion.rotations[untouched], gappy.rotations[untouched])

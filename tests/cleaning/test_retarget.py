@@ -155,3 +155,20 @@ def test_cmu_01_01_as_bvh_is_served_as_well_as_as_asf(shared_data):
     miss = gapped.missing()
     f_asf, f_bvh = _rms(asf, deep.fill_gaps(gapped), miss), _rms(bvh, deep.fill_gaps(g_bvh), miss)
     assert abs(f_bvh - f_asf) < 0.02 * f_asf
+
+
+def test_gaps_in_the_root_and_in_joints_the_map_does_not_cover(walk):
+    import dataclasses
+
+    bvh = motionbuilder_spelling(walk)
+    rot = np.array(bvh.rotations)
+    rot[100:110, 0] = np.nan  # the root's rotation
+    rot[150:160, bvh.skeleton.index("LHipJoint")] = np.nan  # a joint the networks do not read
+    rot[150:160, bvh.skeleton.index("LeftUpLeg")] = np.nan  # below it, a joint they do
+    gapped = dataclasses.replace(bvh, rotations=rot)
+    out = deep.fill_gaps(gapped)
+    miss = gapped.missing()
+    assert not out.missing().any() and np.array_equal(out.rotations[~miss], gapped.rotations[~miss])
+    # the root interpolated between its neighbours, the thigh filled near the truth (the walk's own motion)
+    assert np.degrees(R.geodesic_angle(out.rotations[100:110, 0], walk.rotations[100:110, 0])).max() < 5
+    assert np.degrees(R.geodesic_angle(out.rotations[150:160, 2], walk.rotations[150:160, 2])).max() < 15

@@ -491,8 +491,14 @@ def fill_gaps(motion: Motion, model=None, denoiser=None, smooth: bool = True) ->
     if missing[:, 0].any():
         root_pos = lerp_fill(motion.root_positions)
         rot = np.array(res.rotations)
-        q0 = R.quaternion_continuity(lerp_fill(R.quaternion_continuity(np.nan_to_num(motion.rotations[:, 0]))))
-        rot[:, 0] = np.where(missing[:, :1], R.quaternion_normalize(q0), motion.rotations[:, 0])
+        q0 = np.array(motion.rotations[:, 0])
+        seen = ~missing[:, 0]
+        if seen.any():  # the observed root rotations in one hemisphere, then each component interpolated
+            q0[seen] = R.quaternion_continuity(q0[seen])
+            q0 = R.quaternion_normalize(lerp_fill(q0))
+        else:
+            q0 = R.identity((len(q0),))
+        rot[:, 0] = np.where(missing[:, :1], q0, motion.rotations[:, 0])
         res = dataclasses.replace(res, rotations=rot, root_positions=root_pos)
     return res
 
@@ -604,7 +610,12 @@ class Denoiser:
         m = _model(model, "ebf")
         if m.layout.representation != "euler":
             raise ValueError("streaming needs an Euler-channel model")
-        m.layout.check(skeleton, "skeleton")
+        sv = served_by(skeleton, m)
+        if isinstance(sv, str):
+            raise SkeletonError(f"skeleton: {sv}")
+        if not sv.direct:
+            raise SkeletonError(f"skeleton: streaming needs the model's own channels; this {sv.family} rig is "
+                                f"served offline only (deep.denoise)")
         if _needs_resampling(fps, m.fps):
             raise ValueError(f"streaming runs at the model's rate ({m.fps:g} fps), got {fps:g} fps")
         self.model = m

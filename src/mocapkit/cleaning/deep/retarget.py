@@ -196,8 +196,9 @@ def served_by(motion_or_skeleton, model) -> Serving | str:
     trained on) is served directly. An Euler model of the Acclaim skeleton
     also serves a take whose rig family (:func:`mocapkit.rigs.rig_family`)
     plays every role its joints play, each below the joint of its parent
-    role (the CMU BVH conversions, both releases). Anything else: a one-line
-    reason naming what is missing.
+    role, in the Acclaim rest pose (the CMU BVH conversions of the
+    MotionBuilder-friendly release). Anything else: a one-line reason naming
+    what is missing or different.
     """
     sk = getattr(motion_or_skeleton, "skeleton", motion_or_skeleton)
     layout = model.layout
@@ -211,13 +212,13 @@ def served_by(motion_or_skeleton, model) -> Serving | str:
                 f"train a model on this rig with `mocapkit train`")
     family = rigs.rig_family(sk)
     if family is None:
-        return (f"{trained} (the Acclaim rig) and no joint map is known for this one (joints "
-                f"{', '.join(sk.joint_names[:4])}, ...); train a model on this rig with `mocapkit train`")
+        return (f"{trained}, the Acclaim rig, and no joint map is known for this one, whose joints are "
+                f"{', '.join(sk.joint_names[:4])}, ...; train a model on this rig with `mocapkit train`")
     found = rigs.roles(sk)
     lacking = [n for n, r in zip(layout.joints, model_roles) if r not in found]
     if lacking:
-        return (f"{trained} (the Acclaim rig); this {family} rig has no joint for {len(lacking)} of its "
-                f"{len(layout.joints)} joints ({', '.join(lacking[:4])}{', ...' if len(lacking) > 4 else ''}); "
+        return (f"{trained}, the Acclaim rig; this {family} rig has no joint for {len(lacking)} of its "
+                f"{len(layout.joints)} joints: {', '.join(lacking[:4])}{', ...' if len(lacking) > 4 else ''}; "
                 f"train a model on this rig with `mocapkit train`")
     return _map(model, sk, family, found, model_roles)
 
@@ -240,7 +241,9 @@ def _map(model, sk: Skeleton, family: str, found: dict[str, int], model_roles: l
         top = found["pelvis"] if up in (None, "pelvis") else found[up]
         chain = _chain(sk, top, found[role])
         if chain is None:
-            return f"joint {sk.joint_names[found[role]]} does not hang below {sk.joint_names[top]} as {name} does in the Acclaim rig"
+            return (f"this {family} rig's joint {sk.joint_names[found[role]]} does not hang below "
+                    f"{sk.joint_names[top]} as {name} does in the Acclaim rig; train a model on this rig with "
+                    f"`mocapkit train`")
         joints.append(found[role])
         parent.append(-1 if up in (None, "pelvis") else index[up])
         chains.append(chain)
@@ -248,8 +251,8 @@ def _map(model, sk: Skeleton, family: str, found: dict[str, int], model_roles: l
     far = _rest_differences(sk, found, layout.joints, model_roles)
     if far:
         listed = ", ".join(f"{n} by {d:.0f} deg" for n, d in far[:3]) + (", ..." if len(far) > 3 else "")
-        return (f"the model was trained on the Acclaim rest pose and this {family} rig's rest pose differs "
-                f"({listed}); train a model on this rig with `mocapkit train`")
+        return (f"the model was trained on the Acclaim rest pose and this {family} rig's rest pose differs: "
+                f"{listed}; train a model on this rig with `mocapkit train`")
     axes = np.stack([R.euler_to_quaternion(np.array(ACCLAIM_AXES[n], dtype=np.float64), "xyz") for n in layout.joints])
     return Serving(model, family, False, tuple(joints), tuple(parent), tuple(chains), _chain(sk, -1, pelvis),
                    tuple(orders), axes)
