@@ -537,3 +537,24 @@ def test_hdm05_jog_accelerometers_have_plausible_magnitudes():
     # the joints playing Krüger's roles exist on the HDM05 rig
     for role in fe.FEATURE_SETS["F39"]:
         find_joint(m.skeleton, role)
+
+
+def test_up_axis_of_a_take_whose_rest_pose_lies_along_x_comes_from_its_frames():
+    """Bandai Namco: the rest pose folds along x (the rest-pose rule says x); the data stand along y."""
+    from pathlib import Path
+
+    from mocapkit.report import view
+
+    m = mocapkit.load(Path(__file__).resolve().parent / "data" / "bandai_dance-short_normal_001_first60.bvh")
+    assert fe.detect_up_axis(m.skeleton).tolist() == [1.0, 0.0, 0.0]
+    assert fe.find_up_axis(m.skeleton, m.global_positions()).tolist() == [0.0, 1.0, 0.0]
+    assert view.find_up_axis is fe.find_up_axis
+    # normalisation turns about y and keeps the pelvis height: the frame's translation lies in the floor
+    rot, trans = fe.root_frame(m)
+    axis = rot[:, 1:] / np.linalg.norm(rot[:, 1:], axis=1, keepdims=True).clip(1e-12)
+    assert np.all(np.abs(axis[:, [0, 2]]) < 1e-9)
+    np.testing.assert_allclose(trans[:, 1], 0.0, atol=1e-9)
+    # gravity along y: a still sensor reads +9.81 along the world's y
+    rd = fe.virtual_accelerometers(m)
+    assert np.all(np.isfinite(rd)) and rd.shape == (len(m), 4, 3)
+    np.testing.assert_array_equal(rd, fe.virtual_accelerometers(m, up_axis="y"))

@@ -254,3 +254,23 @@ def test_ignored_cells_take_their_pairs_out_of_the_counts():
     assert (miss.tp, miss.fp, miss.fn) == (0, 0, 3)
     with pytest.raises(ValueError, match="shape"):
         M.word_precision_recall(det, truth, ignore=ignore[:, :1])
+
+
+def test_root_relative_errors_are_about_the_pelvis_by_role():
+    """On the Bandai Namco rig the root stays on the floor and Hips moves: moving the root (and Hips back) changes nothing."""
+    from pathlib import Path
+
+    m = mocapkit.load(Path(__file__).resolve().parent / "data" / "bandai_dance-short_normal_001_first60.bvh")
+    shift = np.array([150.0, 0.0, -80.0])
+    tr = np.array(m.translations)
+    tr[:, 1] -= shift  # joint_Root has identity rotation: Hips stays where it was
+    assert np.allclose(m.rotations[:, 0], [1, 0, 0, 0])
+    moved = dataclasses.replace(m, root_positions=m.root_positions + shift, translations=tr)
+    np.testing.assert_allclose(moved.global_positions()[:, 1:], m.global_positions()[:, 1:], atol=1e-9)
+    for rel in (True, "frame", "heading"):
+        assert M.joint_position_rms(moved, m, root_relative=rel) < 1e-9
+    assert M.joint_position_rms(moved, m, root_relative=False) > 10.0
+    # a wrong arm counts
+    rot = np.array(m.rotations)
+    rot[:, m.skeleton.index("UpperArm_L")] = R.quaternion_from_axis_angle(np.array([0.0, 0.0, 1.0]), 0.5)
+    assert M.joint_position_rms(dataclasses.replace(m, rotations=rot), m, root_relative="heading") > 1.0

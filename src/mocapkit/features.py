@@ -26,8 +26,11 @@ Units. Positions and features stay in the file's length units unless
 ``unit_cm`` (centimetres per unit of its values). Accelerations are always in
 m/s^2.
 
-The vertical axis is detected from the rest pose (head above the feet, see
-:func:`detect_up_axis`) and can be overridden with ``up_axis`` (``"y"``,
+The vertical axis of a motion is found from its frames (:func:`find_up_axis`:
+the axis along which head - feet points in most frames, unless a straight
+standing rest pose says otherwise; right on every Bandai Namco take, whose rest
+pose lies along x, where the rest-pose rule :func:`detect_up_axis` is not; a
+skeleton without frames uses the rest pose) and can be overridden with ``up_axis`` (``"y"``,
 ``"-z"``, ``1``, ...). After normalisation, for an up axis ``k`` the body faces
 ``+axis (k + 1) % 3`` and its left is ``+axis (k + 2) % 3``: for Y-up data
 (CMU, HDM05, most BVH) forward is +Z and left is +X, the height stays in Y.
@@ -38,6 +41,7 @@ affected frames NaN and nothing else.
 
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass, field
 from typing import Iterable, Sequence
 
@@ -49,6 +53,8 @@ from .motion import Motion, Skeleton, readonly_view, find_joint, unit_scale_cm
 
 __all__ = [
     "detect_up_axis",
+    "find_up_axis",
+    "REST_POSE_MIN_SHARE",
     "root_frame",
     "normalize_positions",
     "FEATURE_SETS",
@@ -127,6 +133,128 @@ def _up(skeleton: Skeleton, up_axis) -> np.ndarray:
     return detect_up_axis(skeleton) if up_axis is None else parse_up_axis(up_axis)
 
 
+def _axis(k: int, sign: float) -> np.ndarray:
+    v = np.zeros(3)
+    v[k] = 1.0 if sign >= 0 else -1.0
+    return v
+
+
+def _head_and_feet(skeleton: Skeleton) -> tuple[int, list[int]] | None:
+    """(head, [feet]) joint indices, or None when the rig has no head or no foot."""
+    try:
+        head = find_joint(skeleton, "head")
+    except KeyError:
+        return None
+    feet = []
+    for role in ("left_foot", "right_foot"):
+        try:
+            feet.append(find_joint(skeleton, role))
+        except KeyError:
+            pass
+    return (head, feet) if feet else None
+
+
+#: a straight rest pose is up unless fewer than this share of the take's frames stand along it.
+REST_POSE_MIN_SHARE = 0.1
+
+
+def _standing_rest_axis(skeleton: Skeleton, head: int, feet: list[int]) -> int | None:
+    """Vote index (2 axis + (sign > 0)) of the rest pose's head - feet axis, if the rest pose stands straight.
+
+    Straight: head - mean(feet) is at least 0.7 of the bone path from a foot to
+    the head and lies within about 25 deg of one coordinate axis (T-pose, A-pose).
+    The Bandai Namco rig's rest pose folds its legs against its spine: not straight.
+    """
+    rest = skeleton.rest_positions()
+    d = rest[head] - rest[feet].mean(axis=0)
+
+    def chain(j):
+        out = [j]
+        while skeleton.parents[out[-1]] >= 0:
+            out.append(int(skeleton.parents[out[-1]]))
+        return out
+
+    a, b = chain(feet[0]), chain(head)
+    common = next(j for j in a if j in set(b))
+    path = sum(float(np.linalg.norm(rest[j] - rest[skeleton.parents[j]]))
+               for c in (a, b) for j in c[:c.index(common)])
+    n = float(np.linalg.norm(d))
+    k = int(np.argmax(np.abs(d)))
+    if path <= 0 or n < 0.7 * path or abs(d[k]) < 0.9 * n:
+        return None
+    return 2 * k + int(d[k] > 0)
+
+
+def find_up_axis(skeleton: Skeleton, positions: np.ndarray | None = None, up_axis=None) -> np.ndarray:
+    """The signed coordinate axis (3,) that is up in a take, e.g. ``[0, 1, 0]`` or ``[0, 0, 1]``.
+
+    Parameters
+    ----------
+    skeleton : Skeleton
+        The take's rig; its joint names give the head and the feet.
+    positions : float array (F, >=J, 3), optional
+        Global joint positions (file units, any scale) of the take's frames, joints
+        first (end sites after them are ignored).
+    up_axis : str, int or 3-vector, optional
+        The caller's answer (``"y"``, ``"-z"``, ``2``, ...; see
+        :func:`mocapkit.features.parse_up_axis`): returned as given, nothing is guessed.
+
+    Each frame where the head and a foot are present votes for the axis along
+    which ``head - mean(feet)`` has its largest component, with that component's
+    sign. Lying down is symmetric to standing up in these votes (an actor who
+    lies on the floor for most of a take outvotes the frames he stands in), so a
+    rest pose that stands straight (T-pose, A-pose: most mocap rigs) keeps its
+    axis unless fewer than ``REST_POSE_MIN_SHARE`` of the frames stand along it
+    (a file whose root turns a Y-up rig to Z up). A rest pose that does not stand
+    (the Bandai Namco rig's folds along x) leaves the decision to the most voted
+    axis. Without frames the rest pose decides
+    (:func:`detect_up_axis`). A rig without a head or feet gets
+    the axis along which the figure's extent is largest in most frames, pointing
+    +; a take with nothing to go on gets +y. A take that lies on the floor
+    throughout on a rig whose rest pose does not stand is drawn standing: pass
+    ``up_axis``.
+
+    >>> import mocapkit
+    >>> m = mocapkit.load(mocapkit.samples.path("131_01.bvh"))[:20]
+    >>> find_up_axis(m.skeleton, m.global_positions()).tolist()
+    [0.0, 1.0, 0.0]
+    """
+    if up_axis is not None:
+        return parse_up_axis(up_axis)
+    roles = _head_and_feet(skeleton)
+    pos = None if positions is None else np.asarray(positions, dtype=np.float64)
+    if roles is not None and pos is not None and pos.shape[0]:
+        head, feet = roles
+        with warnings.catch_warnings():  # frames without a foot give NaN, not a warning
+            warnings.simplefilter("ignore", RuntimeWarning)
+            d = pos[:, head] - np.nanmean(pos[:, feet], axis=1)
+        ok = np.all(np.isfinite(d), axis=1) & np.any(d != 0, axis=1)
+        if ok.any():
+            d = d[ok]
+            k = np.argmax(np.abs(d), axis=1)
+            s = np.sign(d[np.arange(len(d)), k]) > 0
+            votes = np.bincount(k * 2 + s, minlength=6)
+            best = int(np.argmax(votes))
+            rest = _standing_rest_axis(skeleton, head, feet)
+            if rest is not None and votes[rest] >= REST_POSE_MIN_SHARE * votes.sum():
+                best = rest
+            return _axis(best // 2, 1.0 if best % 2 else -1.0)
+    if roles is not None:
+        try:
+            return detect_up_axis(skeleton)
+        except ValueError:
+            pass
+    if pos is not None and pos.shape[0]:
+        with warnings.catch_warnings():  # frames without a point give NaN, not a warning
+            warnings.simplefilter("ignore", RuntimeWarning)
+            extent = np.nanmax(pos, axis=1) - np.nanmin(pos, axis=1)  # (F, 3)
+        ok = np.all(np.isfinite(extent), axis=1)
+        if ok.any():
+            k = np.bincount(np.argmax(extent[ok], axis=1), minlength=3)
+            return _axis(int(np.argmax(k)), 1.0)
+    return _axis(1, 1.0)
+
+
 def _forward_axis(up: np.ndarray) -> np.ndarray:
     """The fixed facing direction of the normalised frame: +axis ``(k + 1) % 3`` for up axis ``k``."""
     k = int(np.flatnonzero(up)[0])
@@ -175,8 +303,8 @@ def root_frame(motion: Motion, up_axis=None) -> tuple[np.ndarray, np.ndarray]:
     ----------
     motion : Motion
     up_axis : str, int or array, optional
-        The vertical axis (``"y"``, ``"-z"``, 1, ...); detected from the rest
-        pose by :func:`detect_up_axis` when None.
+        The vertical axis (``"y"``, ``"-z"``, 1, ...); found from the motion's
+        frames by :func:`find_up_axis` when None.
 
     Returns
     -------
@@ -190,7 +318,7 @@ def root_frame(motion: Motion, up_axis=None) -> tuple[np.ndarray, np.ndarray]:
     A global point ``p`` is ``rotate(rotation, p_local) + translation``.
     """
     grot, gpos = motion.global_transforms()
-    return _root_frame(motion.skeleton, grot, gpos, _up(motion.skeleton, up_axis))
+    return _root_frame(motion.skeleton, grot, gpos, find_up_axis(motion.skeleton, gpos, up_axis))
 
 
 def _root_frame(sk: Skeleton, grot: np.ndarray, gpos: np.ndarray, up: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -380,7 +508,7 @@ def feature_set(motion: Motion, name: str = "F15", up_axis=None, scale_cm: bool 
     idx = [find_joint(sk, r) for r in roles]
     factor, unit_cm = _scale(motion, scale_cm)
     grot, gpos = motion.global_transforms()
-    frame = _root_frame(sk, grot, gpos, _up(sk, up_axis))
+    frame = _root_frame(sk, grot, gpos, find_up_axis(sk, gpos, up_axis))
     local = normalize_positions(motion, gpos[:, idx], frame=frame) * factor
     F = motion.num_frames
     frame_names = [f"{r}.{c}" for r in roles for c in "xyz"]
@@ -400,7 +528,7 @@ def _base_values(motion: Motion, base: str, up_axis, scale_cm: bool) -> np.ndarr
     if base == "joint_positions":
         factor, _ = _scale(motion, scale_cm)
         grot, gpos = motion.global_transforms()
-        frame = _root_frame(motion.skeleton, grot, gpos, _up(motion.skeleton, up_axis))
+        frame = _root_frame(motion.skeleton, grot, gpos, find_up_axis(motion.skeleton, gpos, up_axis))
         local = normalize_positions(motion, gpos, frame=frame) * factor
         return local.reshape(motion.num_frames, -1)
     return feature_set(motion, base, up_axis, scale_cm).values
@@ -772,6 +900,16 @@ def _metres_per_unit(motion: Motion, unit_cm: float | None) -> float:
     return (unit_scale_cm(motion.skeleton) if unit_cm is None else float(unit_cm)) / 100.0
 
 
+def _sensor_up(sk: Skeleton, gpos: np.ndarray, up_axis) -> np.ndarray:
+    """The up axis of :func:`virtual_accelerometers`: given, the straight rest pose's, or the frames' (:func:`find_up_axis`)."""
+    if up_axis is not None:
+        return parse_up_axis(up_axis)
+    roles = _head_and_feet(sk)
+    if roles is not None and _standing_rest_axis(sk, *roles) is not None:
+        return detect_up_axis(sk)
+    return find_up_axis(sk, gpos)
+
+
 def virtual_accelerometers(
     motion: Motion,
     sensors: Sequence[Sensor] | None = None,
@@ -797,7 +935,10 @@ def virtual_accelerometers(
     gravity : float
         Magnitude of g in m/s^2.
     up_axis : optional
-        As in :func:`root_frame`; detected from the rest pose when None.
+        The direction gravity pulls against; when None the rest pose's
+        (:func:`detect_up_axis`) if it stands straight (T-pose, A-pose), else
+        found from the frames (:func:`find_up_axis`: a rig whose rest pose lies
+        down, as the Bandai Namco rig's); also for the default sensors.
     unit_cm : float, optional
         Centimetres per file unit; from :func:`~mocapkit.motion.unit_scale_cm` when None.
 
@@ -807,13 +948,13 @@ def virtual_accelerometers(
     only within three frames of it.
     """
     sk = motion.skeleton
+    grot, gpos = motion.global_transforms()
+    up = _sensor_up(sk, gpos, up_axis)
     if sensors is None:
-        sensors = default_sensors(sk, up_axis=up_axis)
+        sensors = default_sensors(sk, up_axis=up)
     sensors = list(sensors)
-    up = _up(sk, up_axis)
     scale = _metres_per_unit(motion, unit_cm)
     joints = [sk.index(s.joint) for s in sensors]
-    grot, gpos = motion.global_transforms()
     F = motion.num_frames
     if not sensors:
         return np.zeros((F, 0, 3))

@@ -28,6 +28,7 @@ import numpy as np
 
 from . import rotations as R
 from .errors import SkeletonError
+from .rigs import pelvis_index
 from .motion import Motion, unit_scale_cm
 
 __all__ = [
@@ -115,6 +116,17 @@ def joint_angle_rms(a: Motion, b: Motion, per_frame: bool = False, include_root:
     return float(np.sqrt(_nanmean(d**2)))
 
 
+def _below_pelvis(skeleton) -> tuple[int, np.ndarray]:
+    """The pelvis (by role) and the joints (K,) below it, in skeleton order."""
+    p = pelvis_index(skeleton)
+    inside = np.zeros(skeleton.num_joints, dtype=bool)
+    inside[p] = True
+    for j in range(p + 1, skeleton.num_joints):
+        inside[j] = inside[skeleton.parents[j]]
+    inside[p] = False
+    return p, np.flatnonzero(inside)
+
+
 def joint_position_rms(
     a: Motion, b: Motion, scale_cm: float | None = None, root_relative: bool | str = True
 ) -> float:
@@ -122,14 +134,17 @@ def joint_position_rms(
 
     ``root_relative``:
 
-    - True (default): each motion's root position is subtracted first, so a
-      root trajectory error does not dominate; the root joint itself (always
-      zero then) is left out of the mean;
-    - ``"frame"``: positions in each motion's root frame (root position and
-      rotation removed), as Tautges et al. evaluate reconstructions whose
-      heading is free; the root is left out too;
-    - ``"heading"``: root position and heading (the rotation about the
-      vertical, :func:`mocapkit.features.root_frame`) removed, the root's tilt
+    - True (default): each motion's pelvis position is subtracted first, so a
+      root trajectory error does not dominate; the pelvis itself (always zero
+      then) and the joints above it are left out of the mean. The pelvis is
+      found by its role (:func:`mocapkit.rigs.pelvis_index`): the root on
+      Acclaim and most BVH rigs, ``Hips`` on the Bandai Namco rig, whose root
+      stays on the floor;
+    - ``"frame"``: positions in each motion's pelvis frame (pelvis position
+      and rotation removed), as Tautges et al. evaluate reconstructions whose
+      heading is free; the pelvis and above are left out too;
+    - ``"heading"``: pelvis position and heading (the rotation about the
+      vertical, :func:`mocapkit.features.root_frame`) removed, the pelvis's tilt
       kept: free heading, but a wrongly tilted pelvis counts;
     - False: global positions, all joints.
 
@@ -143,11 +158,12 @@ def joint_position_rms(
     ga, pa = a.global_transforms()
     gb, pb = b.global_transforms()
     if root_relative is not False:
-        pa = pa[:, 1:] - pa[:, :1]
-        pb = pb[:, 1:] - pb[:, :1]
+        p, below = _below_pelvis(a.skeleton)
+        pa = pa[:, below] - pa[:, p : p + 1]
+        pb = pb[:, below] - pb[:, p : p + 1]
         if root_relative == "frame":
-            pa = R.quaternion_rotate(R.quaternion_conjugate(ga[:, :1]), pa)
-            pb = R.quaternion_rotate(R.quaternion_conjugate(gb[:, :1]), pb)
+            pa = R.quaternion_rotate(R.quaternion_conjugate(ga[:, p : p + 1]), pa)
+            pb = R.quaternion_rotate(R.quaternion_conjugate(gb[:, p : p + 1]), pb)
         elif root_relative == "heading":
             from .features import root_frame
 

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -249,3 +251,84 @@ def test_hdm05_locomotion_other_actors(shared_data):
     err = metrics.joint_position_rms(out, test, root_relative="frame")
     nn = metrics.joint_position_rms(A.reconstruct_nearest_neighbor(rd, big, 25), test, root_relative="frame")
     assert err < nn and err < 20.0
+
+
+# -- a rig whose pelvis is not the root (Bandai Namco: joint_Root on the floor, Hips moves) -------------------
+
+@pytest.fixture(scope="module")
+def bandai_clip():
+    return mocapkit.load(Path(__file__).resolve().parents[1] / "data" / "bandai_dance-short_normal_001_first60.bvh")
+
+
+@pytest.fixture(scope="module")
+def bandai_db(bandai_clip):
+    return MotionDatabase.build([bandai_clip], fps=30, executor="serial", progress=False)
+
+
+def test_bandai_knowledge_base_is_about_the_pelvis_with_y_up(bandai_db, bandai_clip):
+    kb = A.knowledge_base(bandai_db)
+    # the rest pose lies along x; the data stand along y
+    assert kb.up.tolist() == [0.0, 1.0, 0.0]
+    hips = bandai_clip.global_positions()[:, bandai_clip.skeleton.index("Hips")]
+    np.testing.assert_allclose(kb.root_height, hips[:, 1], atol=1e-3)
+    # the body (Hips and below: 21 joints) is posed, not the floor-bound root
+    assert kb.poses.shape[1] == 3 * 21
+    assert [s.joint for s in kb.sensors] == ["LowerArm_L", "LowerArm_R", "LowerLeg_L", "LowerLeg_R"]
+
+
+def test_bandai_nearest_neighbour_of_its_own_readings_is_exact(bandai_db, bandai_clip):
+    m = bandai_db.clip(0)
+    out = A.reconstruct_nearest_neighbor(virtual_accelerometers(m), bandai_db, 30, skeleton=m.skeleton)
+    assert out.skeleton.joint_names == m.skeleton.joint_names
+    assert metrics.joint_position_rms(out, m, root_relative="heading") < 1e-3
+    # the pelvis stands at its height above the ground under it, the root lies on the floor under the pelvis
+    hips = m.skeleton.index("Hips")
+    g, gt = out.global_positions(), m.global_positions()
+    np.testing.assert_allclose(g[:, hips, 1], gt[:, hips, 1], atol=1e-3)
+    np.testing.assert_allclose(g[:, 0, 1], 0.0, atol=1e-9)
+    np.testing.assert_allclose(g[:, 0, [0, 2]], g[:, hips, [0, 2]], atol=1e-9)
+
+
+def test_bandai_reconstruction_keeps_the_pelvis_on_the_body(bandai_db, bandai_clip):
+    m = bandai_db.clip(0)
+    out = A.reconstruct(virtual_accelerometers(m), bandai_db, 30, skeleton=m.skeleton)
+    hips = m.skeleton.index("Hips")
+    g, gt = out.global_positions(), m.global_positions()
+    assert np.all(np.abs(g[:, hips, 1] - gt[:, hips, 1]) < 10.0)  # cm
+    assert metrics.joint_position_rms(out, m, root_relative="heading") < 5.0
+
+
+def test_knowledge_base_saved_opens_memory_mapped_and_reconstructs_the_same(db, readings, tmp_path):
+    kb = A.knowledge_base(db)
+    A.save_knowledge_base(kb, tmp_path / "kb")
+    back = A.open_knowledge_base(tmp_path / "kb")
+    assert isinstance(back.readings, np.memmap) and back.path == tmp_path / "kb"
+    for name in ("readings", "poses", "pose_mean", "pose_basis", "pose_coords", "velocities", "accelerations",
+                 "root_velocity", "yaw_rate", "root_height", "clip_ids"):
+        np.testing.assert_array_equal(np.asarray(getattr(back, name)), getattr(kb, name), err_msg=name)
+    assert [s.name for s in back.sensors] == [s.name for s in kb.sensors]
+    np.testing.assert_array_equal(back.up, kb.up)
+
+
+def test_knowledge_base_cache_dir_reuses_a_matching_folder_only(db, bandai_db, readings, tmp_path):
+    A.clear_cache(db)
+    built = A.knowledge_base(db, cache_dir=tmp_path / "kb")
+    assert built.path is None and (tmp_path / "kb" / "knowledge.json").is_file()
+    A.clear_cache(db)
+    opened = A.knowledge_base(db, cache_dir=tmp_path / "kb")
+    assert opened.path == tmp_path / "kb"
+    a = A.reconstruct(readings[:40], db, 25)
+    A.clear_cache(db)
+    b = A.reconstruct(readings[:40], db, 25)  # built in memory again
+    np.testing.assert_allclose(a.rotations, b.rotations, atol=1e-9)
+    # another database is not served from that folder
+    A.clear_cache(bandai_db)
+    other = A.knowledge_base(bandai_db, cache_dir=tmp_path / "kb")
+    assert other.path is None and other.num_frames == bandai_db.num_frames
+
+
+def test_open_knowledge_base_names_a_bad_folder(tmp_path):
+    from mocapkit.errors import MocapFormatError
+
+    with pytest.raises(MocapFormatError, match="knowledge base"):
+        A.open_knowledge_base(tmp_path)

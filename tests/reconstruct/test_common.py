@@ -1,15 +1,26 @@
 """What the reconstruction methods share: per-clip database values, the output skeleton, eq. 4.3."""
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+import mocapkit
 from mocapkit import rotations as R
 from mocapkit import samples
 from mocapkit.database import MotionDatabase
 from mocapkit.features import virtual_markers
-from mocapkit.reconstruct._common import align_about_vertical, database_positions, output_skeleton
+from mocapkit.reconstruct._common import (
+    align_about_vertical,
+    body_joints,
+    body_motion,
+    body_skeleton,
+    database_positions,
+    output_skeleton,
+    whole_motion,
+)
 
 UP = np.array([0.0, 1.0, 0.0])
 
@@ -81,3 +92,27 @@ def test_database_positions_are_per_clip_forward_kinematics():
         import mocapkit
 
         output_skeleton(db, mocapkit.load(samples.path("131_01.bvh")).skeleton)
+
+
+BANDAI = Path(__file__).resolve().parents[1] / "data" / "bandai_dance-short_normal_001_first60.bvh"
+
+
+def test_body_motion_reroots_at_the_pelvis_and_keeps_every_body_position():
+    m = mocapkit.load(BANDAI)
+    idx = body_joints(m.skeleton)
+    assert m.skeleton.joint_names[idx[0]] == "Hips" and 0 not in idx and idx.size == m.num_joints - 1
+    b = body_motion(m)
+    assert b.skeleton.joint_names[0] == "Hips" and b.skeleton.parents[0] == -1
+    np.testing.assert_allclose(b.global_positions(), m.global_positions()[:, idx], atol=1e-9)
+    # and back: the body where it was, the floor-bound root on the ground under the pelvis
+    w = whole_motion(b, m.skeleton, UP)
+    g = w.global_positions()
+    np.testing.assert_allclose(g[:, idx], m.global_positions()[:, idx], atol=1e-9)
+    np.testing.assert_allclose(g[:, 0, 1], 0.0, atol=1e-12)
+    np.testing.assert_allclose(g[:, 0, [0, 2]], g[:, idx[0], [0, 2]], atol=1e-9)
+
+
+def test_body_motion_of_a_pelvis_rooted_rig_is_the_motion_itself():
+    m = mocapkit.load(samples.path("12_walk.amc"))[:10]
+    assert body_motion(m) is m and body_skeleton(m.skeleton) is m.skeleton
+    assert whole_motion(m, m.skeleton, UP) is m

@@ -1,4 +1,12 @@
-"""What every reconstruction method needs from a MotionDatabase: per-frame values computed clip by clip."""
+"""What every reconstruction method needs from a MotionDatabase: per-frame values computed clip by clip, and the body below the pelvis.
+
+Rigs differ above the pelvis: on Acclaim and most BVH rigs the pelvis is the
+root, on the Bandai Namco game rig the root ``joint_Root`` stays on the floor
+and ``Hips`` carries the translation. Reconstruction works on the *body*: the
+pelvis (found by its role, :func:`mocapkit.rigs.pelvis_index`) and the joints
+below it, re-rooted so the pelvis is joint 0 (:func:`body_motion`), and puts
+the joints above it back on output (:func:`whole_motion`).
+"""
 
 from __future__ import annotations
 
@@ -10,6 +18,7 @@ from .. import rotations as R
 from ..database import MotionDatabase
 from ..features import virtual_markers
 from ..motion import Motion, Skeleton
+from ..rigs import pelvis_index
 
 
 def per_clip(db: MotionDatabase, fn: Callable[[Motion], np.ndarray]) -> np.ndarray:
@@ -100,3 +109,95 @@ def align_about_vertical(source: np.ndarray, target: np.ndarray, up: np.ndarray,
     t = t - (t @ up)[..., None] * up
     return theta, np.where((W > 0)[..., None], t, 0.0)
 
+
+
+def body_joints(skeleton: Skeleton) -> np.ndarray:
+    """Indices (B,) of the pelvis (:func:`mocapkit.rigs.pelvis_index`) and every joint below it, in skeleton order, pelvis first."""
+    p = pelvis_index(skeleton)
+    inside = np.zeros(skeleton.num_joints, dtype=bool)
+    inside[p] = True
+    for j in range(p + 1, skeleton.num_joints):
+        inside[j] = inside[skeleton.parents[j]]
+    return np.flatnonzero(inside)
+
+
+def body_skeleton(skeleton: Skeleton) -> Skeleton:
+    """The pelvis's subtree of ``skeleton`` as a skeleton rooted at the pelvis (``skeleton`` itself when the pelvis is the root).
+
+    Offsets, end sites, channels, ASF axes and limits are those of the kept
+    joints; the new root's offset is zero and it gets position channels if it
+    had none.
+    """
+    idx = body_joints(skeleton)
+    if idx[0] == 0:
+        return skeleton
+    new = np.full(skeleton.num_joints, -1, dtype=np.int64)
+    new[idx] = np.arange(idx.size)
+    parents = np.array([-1] + [new[skeleton.parents[j]] for j in idx[1:]], dtype=np.int64)
+    offsets = np.array(skeleton.offsets[idx], dtype=np.float64)
+    offsets[0] = 0.0
+    keep_es = np.flatnonzero(new[skeleton.end_site_parents] >= 0) if skeleton.num_end_sites else np.zeros(0, dtype=np.int64)
+    channels = None
+    if skeleton.channels is not None:
+        channels = [skeleton.channels[j] for j in idx]
+        if not any(c.endswith("position") for c in channels[0]):
+            channels[0] = ("Xposition", "Yposition", "Zposition", *channels[0])
+    return Skeleton(
+        tuple(skeleton.joint_names[j] for j in idx), parents, offsets,
+        new[skeleton.end_site_parents[keep_es]], skeleton.end_site_offsets[keep_es], channels,
+        None if skeleton.axes is None else skeleton.axes[idx],
+        None if skeleton.limits is None else tuple(skeleton.limits[j] for j in idx),
+        skeleton.unit_cm,
+    )
+
+
+def body_motion(m: Motion) -> Motion:
+    """``m`` on :func:`body_skeleton`: the pelvis's global rotation and position become the root's (``m`` itself when the pelvis is the root).
+
+    Every body joint keeps its global transform, so joint positions agree with
+    ``m``'s exactly; animated translations of the kept joints are kept.
+    """
+    sk = m.skeleton
+    idx = body_joints(sk)
+    if idx[0] == 0:
+        return m
+    grot, gpos = m.global_transforms()
+    rot = np.array(m.rotations[:, idx])
+    rot[:, 0] = grot[:, idx[0]]
+    tr = None
+    if m.translations is not None:
+        tr = np.array(m.translations[:, idx])
+        tr[:, 0] = 0.0
+    return Motion(body_skeleton(sk), rot, gpos[:, idx[0]], m.fps, m.name, tr)
+
+
+def whole_motion(body: Motion, skeleton: Skeleton, up: np.ndarray) -> Motion:
+    """The inverse of :func:`body_motion`: ``body`` (on ``body_skeleton(skeleton)``) back on ``skeleton``.
+
+    The joints above the pelvis keep their rest rotations (identity). When the
+    pelvis has position channels (a game rig whose root stays on the floor),
+    the root is put on the ground plane (orthogonal to the unit ``up``) under
+    the pelvis and the pelvis's translation lifts it; otherwise the root sits
+    where the pelvis's rest offset puts the pelvis in place.
+    """
+    idx = body_joints(skeleton)
+    if idx[0] == 0:
+        return body if body.skeleton is skeleton else Motion(skeleton, body.rotations, body.root_positions, body.fps, body.name, body.translations)
+    F, J, p = body.num_frames, skeleton.num_joints, int(idx[0])
+    rot = np.zeros((F, J, 4))
+    rot[..., 0] = 1.0
+    rot[:, idx] = body.rotations
+    rest = skeleton.rest_positions()
+    pelvis = np.asarray(body.root_positions, dtype=np.float64)
+    moves = skeleton.channels is not None and any(c.endswith("position") for c in skeleton.channels[p])
+    tr = None
+    if moves or body.translations is not None:
+        tr = np.broadcast_to(skeleton.offsets, (F, J, 3)).copy()
+        if body.translations is not None:
+            tr[:, idx[1:]] = body.translations[:, 1:]
+    if moves:
+        root = pelvis - (pelvis @ up)[:, None] * up
+        tr[:, p] = pelvis - root - (rest[skeleton.parents[p]] - rest[0])
+    else:
+        root = pelvis - (rest[p] - rest[0])
+    return Motion(skeleton, rot, root, body.fps, body.name, tr)

@@ -5,7 +5,7 @@ game rig's rest pose may lie on its side (the Bandai Namco rig's spine points
 along x at rest; its motion stands it up). The report's page only draws: this
 module decides, in Python where it can be tested without a browser,
 
-- the **up axis** of the data (:func:`find_up_axis`): the signed coordinate axis
+- the **up axis** of the data (:func:`find_up_axis`, kept here from :mod:`mocapkit.features`, where the rule lives): the signed coordinate axis
   along which head - feet points in most frames, by joint roles
   (:func:`mocapkit.motion.find_joint`), unless a straight standing rest pose says
   otherwise and the take stands along it often enough (lying down votes like
@@ -31,13 +31,12 @@ from __future__ import annotations
 
 import base64
 import math
-import warnings
 from dataclasses import dataclass
 
 import numpy as np
 
-from ..features import detect_up_axis, parse_up_axis
-from ..motion import Skeleton, find_joint
+from ..features import REST_POSE_MIN_SHARE, find_up_axis
+from ..motion import Skeleton
 
 __all__ = [
     "HALF_FOV",
@@ -60,126 +59,6 @@ MARGIN = 0.08
 FOLLOW_RATIO = 1.5
 
 
-def _axis(k: int, sign: float) -> np.ndarray:
-    v = np.zeros(3)
-    v[k] = 1.0 if sign >= 0 else -1.0
-    return v
-
-
-def _roles(skeleton: Skeleton) -> tuple[int, list[int]] | None:
-    """(head, [feet]) joint indices, or None when the rig has no head or no foot."""
-    try:
-        head = find_joint(skeleton, "head")
-    except KeyError:
-        return None
-    feet = []
-    for role in ("left_foot", "right_foot"):
-        try:
-            feet.append(find_joint(skeleton, role))
-        except KeyError:
-            pass
-    return (head, feet) if feet else None
-
-
-#: a straight rest pose is up unless fewer than this share of the take's frames stand along it.
-REST_POSE_MIN_SHARE = 0.1
-
-
-def _standing_rest_axis(skeleton: Skeleton, head: int, feet: list[int]) -> int | None:
-    """Vote index (2 axis + (sign > 0)) of the rest pose's head - feet axis, if the rest pose stands straight.
-
-    Straight: head - mean(feet) is at least 0.7 of the bone path from a foot to
-    the head and lies within about 25 deg of one coordinate axis (T-pose, A-pose).
-    The Bandai Namco rig's rest pose folds its legs against its spine: not straight.
-    """
-    rest = skeleton.rest_positions()
-    d = rest[head] - rest[feet].mean(axis=0)
-
-    def chain(j):
-        out = [j]
-        while skeleton.parents[out[-1]] >= 0:
-            out.append(int(skeleton.parents[out[-1]]))
-        return out
-
-    a, b = chain(feet[0]), chain(head)
-    common = next(j for j in a if j in set(b))
-    path = sum(float(np.linalg.norm(rest[j] - rest[skeleton.parents[j]]))
-               for c in (a, b) for j in c[:c.index(common)])
-    n = float(np.linalg.norm(d))
-    k = int(np.argmax(np.abs(d)))
-    if path <= 0 or n < 0.7 * path or abs(d[k]) < 0.9 * n:
-        return None
-    return 2 * k + int(d[k] > 0)
-
-
-def find_up_axis(skeleton: Skeleton, positions: np.ndarray | None = None, up_axis=None) -> np.ndarray:
-    """The signed coordinate axis (3,) that is up in a take, e.g. ``[0, 1, 0]`` or ``[0, 0, 1]``.
-
-    Parameters
-    ----------
-    skeleton : Skeleton
-        The take's rig; its joint names give the head and the feet.
-    positions : float array (F, >=J, 3), optional
-        Global joint positions (file units, any scale) of the take's frames, joints
-        first (end sites after them are ignored).
-    up_axis : str, int or 3-vector, optional
-        The caller's answer (``"y"``, ``"-z"``, ``2``, ...; see
-        :func:`mocapkit.features.parse_up_axis`): returned as given, nothing is guessed.
-
-    Each frame where the head and a foot are present votes for the axis along
-    which ``head - mean(feet)`` has its largest component, with that component's
-    sign. Lying down is symmetric to standing up in these votes (an actor who
-    lies on the floor for most of a take outvotes the frames he stands in), so a
-    rest pose that stands straight (T-pose, A-pose: most mocap rigs) keeps its
-    axis unless fewer than ``REST_POSE_MIN_SHARE`` of the frames stand along it
-    (a file whose root turns a Y-up rig to Z up). A rest pose that does not stand
-    (the Bandai Namco rig's folds along x) leaves the decision to the most voted
-    axis. Without frames the rest pose decides
-    (:func:`mocapkit.features.detect_up_axis`). A rig without a head or feet gets
-    the axis along which the figure's extent is largest in most frames, pointing
-    +; a take with nothing to go on gets +y. A take that lies on the floor
-    throughout on a rig whose rest pose does not stand is drawn standing: pass
-    ``up_axis``.
-
-    >>> import mocapkit
-    >>> m = mocapkit.load(mocapkit.samples.path("131_01.bvh"))[:20]
-    >>> find_up_axis(m.skeleton, m.global_positions()).tolist()
-    [0.0, 1.0, 0.0]
-    """
-    if up_axis is not None:
-        return parse_up_axis(up_axis)
-    roles = _roles(skeleton)
-    pos = None if positions is None else np.asarray(positions, dtype=np.float64)
-    if roles is not None and pos is not None and pos.shape[0]:
-        head, feet = roles
-        with warnings.catch_warnings():  # frames without a foot give NaN, not a warning
-            warnings.simplefilter("ignore", RuntimeWarning)
-            d = pos[:, head] - np.nanmean(pos[:, feet], axis=1)
-        ok = np.all(np.isfinite(d), axis=1) & np.any(d != 0, axis=1)
-        if ok.any():
-            d = d[ok]
-            k = np.argmax(np.abs(d), axis=1)
-            s = np.sign(d[np.arange(len(d)), k]) > 0
-            votes = np.bincount(k * 2 + s, minlength=6)
-            best = int(np.argmax(votes))
-            rest = _standing_rest_axis(skeleton, head, feet)
-            if rest is not None and votes[rest] >= REST_POSE_MIN_SHARE * votes.sum():
-                best = rest
-            return _axis(best // 2, 1.0 if best % 2 else -1.0)
-    if roles is not None:
-        try:
-            return detect_up_axis(skeleton)
-        except ValueError:
-            pass
-    if pos is not None and pos.shape[0]:
-        with warnings.catch_warnings():  # frames without a point give NaN, not a warning
-            warnings.simplefilter("ignore", RuntimeWarning)
-            extent = np.nanmax(pos, axis=1) - np.nanmin(pos, axis=1)  # (F, 3)
-        ok = np.all(np.isfinite(extent), axis=1)
-        if ok.any():
-            k = np.bincount(np.argmax(extent[ok], axis=1), minlength=3)
-            return _axis(int(np.argmax(k)), 1.0)
-    return _axis(1, 1.0)
 
 
 def rotation_to_y(up: np.ndarray) -> np.ndarray:

@@ -33,7 +33,7 @@ Examples
 (True, 25.0)
 """
 
-from .knowledge import KnowledgeBase, clear_cache, knowledge_base
+from .knowledge import KnowledgeBase, clear_cache, database_up, knowledge_base, open_knowledge_base, save_knowledge_base
 from .synthesis import (
     DEFAULTS,
     AccelerometerReconstructor,
@@ -55,6 +55,9 @@ __all__ = [
     "KnowledgeBase",
     "knowledge_base",
     "clear_cache",
+    "database_up",
+    "save_knowledge_base",
+    "open_knowledge_base",
     "Pose",
     "AccelerometerReconstructor",
     "reconstruct",

@@ -9,29 +9,50 @@ and sensors in the root frame (five-point stencils, eqs. 3.1/3.2, cm/s and
 cm/s^2) and the root motion (sec. 3.6.4). It is computed clip by clip, so no
 derivative runs across a clip boundary, and cached per (database, sensors).
 
-The *root frame*: root at the origin, heading (rotation about the vertical)
-removed, the root's tilt kept (:func:`mocapkit.features.root_frame`);
-lengths in centimetres. Departure from the thesis: the knowledge base keeps
-each clip's own skeleton (the thesis averages bone lengths).
+The *root frame*: pelvis at the origin, heading (rotation about the vertical)
+removed, the pelvis's tilt kept (:func:`mocapkit.features.root_frame`);
+lengths in centimetres. Everything is computed on the *body*
+(:func:`~mocapkit.reconstruct._common.body_motion`): the pelvis, found by its
+role (:func:`mocapkit.rigs.pelvis_index`), and the joints below it, so a game
+rig whose root stays on the floor (Bandai Namco) is handled like an Acclaim
+skeleton. The vertical axis is found from the database's frames
+(:func:`mocapkit.features.find_up_axis`), not from the rest pose.
+
+A knowledge base of a large database (the Bandai Namco takes: about 360,000
+frames) is built once, in parallel over local processes when the database
+was opened from disk (:mod:`mocapkit.parallel`), and saved
+(:func:`save_knowledge_base`) as ``.npy`` arrays that
+:func:`open_knowledge_base` memory-maps; the kd-tree over the readings is
+rebuilt on first use. ``knowledge_base(db, cache_dir=...)`` does both.
+
+Departure from the thesis: the knowledge base keeps each clip's own skeleton
+(the thesis averages bone lengths).
 """
 
 from __future__ import annotations
 
+import json
+import os
 import time
 import weakref
 from dataclasses import dataclass
+from functools import partial
+from pathlib import Path
 from typing import Sequence
 
 import numpy as np
 
 from ... import rotations as R
 from ...database import MotionDatabase
-from ...features import Sensor, default_sensors, detect_up_axis, five_point_derivative, root_frame, virtual_accelerometers
+from ...errors import MocapFormatError
+from ...features import Sensor, default_sensors, find_up_axis, five_point_derivative, root_frame, virtual_accelerometers
 from ...motion import Motion, Skeleton, unit_scale_cm
+from ...parallel import map_ordered
 from ...search.knn import KNNIndex
-from .._common import per_clip
+from .._common import body_motion, body_skeleton
 
-__all__ = ["KnowledgeBase", "knowledge_base", "clear_cache", "clip_values", "check_sensors"]
+__all__ = ["KnowledgeBase", "knowledge_base", "clear_cache", "clip_values", "check_sensors", "database_up",
+           "save_knowledge_base", "open_knowledge_base"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -46,8 +67,9 @@ class KnowledgeBase:
     readings : float array (N, 3S)
         Simulated accelerometer readings, m/s^2, sensor frames.
     poses : float array (N, 3J)
-        Pose vectors: root tilt (heading removed) and the local rotations of
-        joints 1..J-1 as rotation vectors, radians.
+        Pose vectors of the body (J joints, pelvis first): pelvis tilt (heading
+        removed) and the local rotations of body joints 1..J-1 as rotation
+        vectors, radians.
     pose_mean : float array (3J,), pose_basis : float array (3J, P)
         The directions in which the database's pose vectors vary at all
         (global PCA, variance above 1e-12 of the largest), orthonormal.
@@ -56,18 +78,20 @@ class KnowledgeBase:
         constant directions (joints without degrees of freedom), for a
         cheaper per-frame PCA.
     velocities, accelerations : float32 arrays (N, M, 3)
-        Of the points (joints 1..J-1, then the S sensors) in the root frame,
+        Of the points (body joints 1..J-1, then the S sensors) in the root frame,
         cm/s and cm/s^2 (eqs. 3.1/3.2, per clip).
     root_velocity : float array (N, 3)
-        Root velocity in the heading frame, cm/s.
+        Pelvis velocity in the heading frame, cm/s.
     yaw_rate : float array (N,)
         Heading angular velocity, rad/s.
     root_height : float array (N,)
-        Root height above the origin along ``up``, cm.
+        Pelvis height above the origin along ``up``, cm.
     clip_ids : int array (N,)
     fps : float
     build_seconds : float
         Time it took to build (readings, derivatives, index).
+    path : Path or None
+        The folder it was opened from (:func:`open_knowledge_base`); its arrays are then memory-mapped.
     """
 
     sensors: tuple
@@ -85,6 +109,7 @@ class KnowledgeBase:
     clip_ids: np.ndarray
     fps: float
     build_seconds: float
+    path: Path | None = None
 
     @property
     def num_frames(self) -> int:
@@ -113,13 +138,15 @@ def _sensor_key(sensors) -> tuple:
     return tuple((s.name, s.joint, tuple(np.round(s.rotation, 12)), tuple(np.round(s.offset, 12))) for s in sensors)
 
 
-def check_sensors(db_skeleton: Skeleton, sensors) -> tuple:
+def check_sensors(db_skeleton: Skeleton, sensors, up=None) -> tuple:
     """``sensors`` as a tuple of :class:`~mocapkit.features.Sensor` on joints of ``db_skeleton`` (default sensors when None).
 
-    Raises ValueError naming the sensor and what is wrong with it.
+    ``up``: the vertical axis the default sensors are oriented by (the rest
+    pose's when None). Raises ValueError naming the sensor and what is wrong
+    with it.
     """
     if sensors is None:
-        sensors = default_sensors(db_skeleton)
+        sensors = default_sensors(db_skeleton, up_axis=up)
     sensors = tuple(sensors)
     if not sensors:
         raise ValueError("sensors: at least one sensor is needed")
@@ -139,13 +166,15 @@ def _heading_angle(h: np.ndarray, up: np.ndarray) -> np.ndarray:
 def clip_values(m: Motion, sensors, up: np.ndarray) -> np.ndarray:
     """Per-frame knowledge-base values of one clip ``m`` as one (F, D) block, the columns in this order.
 
-    Readings (3S, m/s^2, sensor frames), pose vector (3J, radians: root tilt,
-    then joints 1..J-1 as rotation vectors), velocities and accelerations of
-    joints 1..J-1 and the sensors in the root frame (3M each, cm/s and
-    cm/s^2, M = J - 1 + S), root velocity in the heading frame (3, cm/s),
-    heading rate (1, rad/s), root height along ``up`` (1, cm); see
-    :func:`knowledge_base`.
+    Readings (3S, m/s^2, sensor frames), pose vector (3J, radians: pelvis
+    tilt, then body joints 1..J-1 as rotation vectors), velocities and
+    accelerations of body joints 1..J-1 and the sensors in the root frame (3M
+    each, cm/s and cm/s^2, M = J - 1 + S), pelvis velocity in the heading
+    frame (3, cm/s), heading rate (1, rad/s), pelvis height along ``up`` (1,
+    cm); J counts the body's joints (:func:`~mocapkit.reconstruct._common.body_motion`).
+    See :func:`knowledge_base`.
     """
+    m = body_motion(m)
     sk = m.skeleton
     scale = unit_scale_cm(sk)
     J = sk.num_joints
@@ -173,31 +202,84 @@ def clip_values(m: Motion, sensors, up: np.ndarray) -> np.ndarray:
     )
 
 
-def knowledge_base(db: MotionDatabase, sensors: Sequence[Sensor] | None = None) -> KnowledgeBase:
+def database_up(db: MotionDatabase, clips: int = 16) -> np.ndarray:
+    """The vertical axis (3,) of ``db``'s motion: :func:`~mocapkit.features.find_up_axis` over the frames of up to ``clips`` clips spread over it."""
+    picks = np.unique(np.linspace(0, db.num_clips - 1, min(clips, db.num_clips)).round().astype(int))
+    pos = np.concatenate([db.clip(int(c)).global_positions() for c in picks], axis=0)
+    return find_up_axis(db.skeletons[0], pos)
+
+
+def _split_values(vals: np.ndarray, S: int, J: int) -> tuple:
+    """:func:`clip_values` columns as (readings, poses, velocities, accelerations, rest): float64, float64, float32 (F, M, 3) twice, float64 (F, 5)."""
+    M = J - 1 + S
+    F = vals.shape[0]
+    rd, pose, vel, acc, rest = np.split(vals, np.cumsum([3 * S, 3 * J, 3 * M, 3 * M]), axis=1)
+    return (np.ascontiguousarray(rd), np.ascontiguousarray(pose), vel.reshape(F, M, 3).astype(np.float32),
+            acc.reshape(F, M, 3).astype(np.float32), np.ascontiguousarray(rest))
+
+
+def _clip_block(clips: range, sensors, up, database: str) -> tuple:
+    """:func:`_split_values` of the clips ``clips`` of the database saved at ``database`` (a worker's share)."""
+    db = MotionDatabase.open(database)
+    J = body_skeleton(db.skeletons[0]).num_joints
+    parts = [_split_values(clip_values(db.clip(c), sensors, up), len(sensors), J) for c in clips]
+    return tuple(np.concatenate(p, axis=0) for p in zip(*parts))
+
+
+_ARRAYS = ("readings", "poses", "pose_mean", "pose_basis", "pose_coords", "velocities", "accelerations",
+           "root_velocity", "yaw_rate", "root_height", "clip_ids")
+
+
+def knowledge_base(db: MotionDatabase, sensors: Sequence[Sensor] | None = None, *, cache_dir=None,
+                   executor=None, progress: bool = False) -> KnowledgeBase:
     """The knowledge base of ``db`` for ``sensors`` (default: :func:`default_sensors`), cached per (db, sensors).
 
-    Computed clip by clip (:func:`~mocapkit.reconstruct._common.per_clip`), so
-    no derivative runs across a clip boundary. The kNN index is built on first
-    use (:meth:`KnowledgeBase.index`) and kept with it.
+    Computed clip by clip, so no derivative runs across a clip boundary: in
+    this process for a database in memory, on ``executor``
+    (:func:`mocapkit.parallel.map_ordered`, local processes by default) for
+    one opened from disk (:meth:`MotionDatabase.open`), whose workers
+    memory-map it. The kNN index is built on first use
+    (:meth:`KnowledgeBase.index`) and kept with it.
+
+    ``cache_dir``: a folder for the knowledge base on disk. When it holds one
+    of this database (same frames, clips and sensors) it is opened
+    memory-mapped (:func:`open_knowledge_base`); otherwise the knowledge base
+    is built and saved there (:func:`save_knowledge_base`).
     """
     if not isinstance(db, MotionDatabase):
         raise ValueError(f"db: expected a MotionDatabase, got {type(db).__name__}")
     if db.num_frames == 0:
         raise ValueError("the database is empty (0 frames); build it from at least one clip")
-    sk0 = db.skeletons[0]
-    sensors = check_sensors(sk0, sensors)
+    sk0 = body_skeleton(db.skeletons[0])
+    up = database_up(db)
+    sensors = check_sensors(sk0, sensors, up)
     key = _sensor_key(sensors)
     per_db = _KB_CACHE.setdefault(db, {})
     if key in per_db:
         return per_db[key]
+    if cache_dir is not None:
+        found = _open_matching(Path(cache_dir), db, key)
+        if found is not None:
+            per_db[key] = found
+            return found
     t0 = time.perf_counter()
-    up = detect_up_axis(sk0)
     S, J = len(sensors), sk0.num_joints
-    M = J - 1 + S
-    vals = per_clip(db, lambda m: clip_values(m, sensors, up))
-    cuts = np.cumsum([3 * S, 3 * J, 3 * M, 3 * M, 3, 1])
-    rd, pose, vel, acc, rvel, yaw, height = np.split(vals, cuts, axis=1)
-    N = db.num_frames
+    if db.path is not None and executor != "serial" and db.num_clips > 1:
+        # workers return float32 derivatives: a third of the float64 block each, so the parent's peak stays low
+        chunks = [range(a, min(a + 64, db.num_clips)) for a in range(0, db.num_clips, 64)]
+        job = partial(_clip_block, sensors=sensors, up=up, database=str(db.path))
+        blocks = map_ordered(job, chunks, executor=executor, progress=progress, desc="knowledge base")
+    else:
+        blocks = [_split_values(clip_values(db.clip(c), sensors, up), S, J) for c in range(db.num_clips)]
+    fields = []
+    for k in range(5):  # concatenate field by field, freeing each field's blocks as it goes
+        fields.append(np.concatenate([b[k] for b in blocks], axis=0))
+        blocks = [tuple(None if i == k else x for i, x in enumerate(b)) for b in blocks]
+    del blocks
+    rd, pose, vel, acc, rest = fields
+    del fields
+    if rd.shape[0] != db.num_frames:
+        raise ValueError(f"the knowledge base has {rd.shape[0]} frames for a database of {db.num_frames}")
     good = np.isfinite(pose).all(axis=1)
     pmean = pose[good].mean(axis=0)
     lam, vec = np.linalg.eigh(np.cov((pose[good] - pmean).T, bias=True).reshape(pose.shape[1], pose.shape[1]))
@@ -206,21 +288,98 @@ def knowledge_base(db: MotionDatabase, sensors: Sequence[Sensor] | None = None) 
     kb = KnowledgeBase(
         sensors=sensors,
         up=up,
-        readings=np.ascontiguousarray(rd),
-        poses=np.ascontiguousarray(pose),
+        readings=rd,
+        poses=pose,
         pose_mean=pmean,
         pose_basis=pbasis,
         pose_coords=np.ascontiguousarray((pose - pmean) @ pbasis),
-        velocities=vel.reshape(N, M, 3).astype(np.float32),
-        accelerations=acc.reshape(N, M, 3).astype(np.float32),
-        root_velocity=np.ascontiguousarray(rvel),
-        yaw_rate=yaw[:, 0].copy(),
-        root_height=height[:, 0].copy(),
+        velocities=vel,
+        accelerations=acc,
+        root_velocity=np.ascontiguousarray(rest[:, :3]),
+        yaw_rate=rest[:, 3].copy(),
+        root_height=rest[:, 4].copy(),
         clip_ids=np.asarray(db.clip_ids, dtype=np.int64),
         fps=db.fps,
         build_seconds=0.0,
     )
+    del rest
     kb.index("kdtree")
     object.__setattr__(kb, "build_seconds", time.perf_counter() - t0)
+    if cache_dir is not None:
+        save_knowledge_base(kb, cache_dir, _fingerprint(db))
     per_db[key] = kb
     return kb
+
+
+def _fingerprint(db: MotionDatabase) -> dict:
+    return {"frames": int(db.num_frames), "clips": [[c.name, int(c.frames)] for c in db.clips], "fps": float(db.fps)}
+
+
+def _sensor_json(sensors) -> list:
+    return [{"name": s.name, "joint": s.joint, "rotation": [float(x) for x in s.rotation],
+             "offset": [float(x) for x in s.offset]} for s in sensors]
+
+
+def save_knowledge_base(kb: KnowledgeBase, directory, database: dict | None = None) -> Path:
+    """Write ``kb`` to the folder ``directory``: ``knowledge.json`` (sensors, up, fps, build time) and one ``.npy`` per array.
+
+    ``database`` (optional, JSON-friendly) identifies the database it was
+    built from; :func:`knowledge_base` compares it before reusing the folder.
+    The folder is written beside the target and renamed into place, so an
+    interrupted save never leaves a partial knowledge base. Returns the folder.
+    """
+    directory = Path(directory)
+    directory.parent.mkdir(parents=True, exist_ok=True)
+    tmp = directory.with_name(directory.name + f".writing-{os.getpid()}")
+    tmp.mkdir()
+    for name in _ARRAYS:
+        np.save(tmp / f"{name}.npy", np.ascontiguousarray(getattr(kb, name)))
+    meta = {"format": 1, "sensors": _sensor_json(kb.sensors), "up": [float(x) for x in kb.up], "fps": float(kb.fps),
+            "build_seconds": float(kb.build_seconds), "database": database}
+    (tmp / "knowledge.json").write_text(json.dumps(meta))
+    if directory.exists():
+        old = directory.with_name(directory.name + f".old-{os.getpid()}")
+        os.replace(directory, old)
+        os.replace(tmp, directory)
+        for p in old.iterdir():
+            p.unlink()
+        old.rmdir()
+    else:
+        os.replace(tmp, directory)
+    return directory
+
+
+def open_knowledge_base(directory, mmap: bool = True) -> KnowledgeBase:
+    """Open a knowledge base written by :func:`save_knowledge_base`; its arrays are memory-mapped read-only unless ``mmap=False``.
+
+    Opening reads only the description and the ``.npy`` headers; the pages
+    are read as the synthesis touches them and shared between processes. The
+    kd-tree over the readings is rebuilt on first use
+    (:meth:`KnowledgeBase.index`). A missing or inconsistent folder raises
+    :class:`~mocapkit.errors.MocapFormatError` naming it.
+    """
+    directory = Path(directory)
+    try:
+        meta = json.loads((directory / "knowledge.json").read_text())
+        arrays = {n: np.load(directory / f"{n}.npy", mmap_mode="r" if mmap else None, allow_pickle=False) for n in _ARRAYS}
+        sensors = tuple(Sensor(d["name"], d["joint"], np.asarray(d["rotation"]), np.asarray(d["offset"])) for d in meta["sensors"])
+        up = np.asarray(meta["up"], dtype=np.float64)
+        fps, built = float(meta["fps"]), float(meta["build_seconds"])
+    except (OSError, ValueError, KeyError, TypeError) as exc:
+        raise MocapFormatError(directory, f"not a readable knowledge base ({exc})") from None
+    N = arrays["readings"].shape[0]
+    if any(arrays[n].shape[0] != N for n in _ARRAYS if n not in ("pose_mean", "pose_basis")):
+        raise MocapFormatError(directory, "inconsistent knowledge base: its arrays differ in frame count")
+    return KnowledgeBase(sensors=sensors, up=up, fps=fps, build_seconds=built, path=directory, **arrays)
+
+
+def _open_matching(directory: Path, db: MotionDatabase, key: tuple) -> KnowledgeBase | None:
+    """The knowledge base in ``directory`` if it was built from ``db`` with the sensors of ``key``, else None."""
+    try:
+        meta = json.loads((directory / "knowledge.json").read_text())
+    except (OSError, ValueError):
+        return None
+    if meta.get("database") != json.loads(json.dumps(_fingerprint(db))):
+        return None
+    kb = open_knowledge_base(directory)
+    return kb if _sensor_key(kb.sensors) == key else None

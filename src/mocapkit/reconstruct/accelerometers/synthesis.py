@@ -30,6 +30,12 @@ the pose returned for a reading is the latest one synthesised at or before its
 time (a zero-order hold, at most one database frame late), so the output has
 one pose per input sample at the input's rate.
 
+Rigs. The synthesis poses the body: the pelvis (found by its role,
+:func:`mocapkit.rigs.pelvis_index`) and the joints below it
+(:func:`~mocapkit.reconstruct._common.body_motion`); joints above the pelvis
+(the floor-bound root of a game rig) are put back on output, the root on the
+ground under the pelvis (:func:`~mocapkit.reconstruct._common.whole_motion`).
+
 Missing readings. A sample with any non-finite value holds the previous pose
 (state unchanged, the graph not updated); before the first valid sample the
 pose is the knowledge base's mean pose at the origin.
@@ -44,9 +50,10 @@ from tqdm.auto import tqdm
 
 from ... import rotations as R
 from ...database import MotionDatabase
+from ...features import find_up_axis
 from ...motion import Motion, Skeleton, readonly_view, unit_scale_cm
 from ...search.lng import OnlineLazyNeighborhoodGraph
-from .._common import output_skeleton
+from .._common import body_skeleton, output_skeleton, whole_motion
 from .kernels import FrameEnergy, Rig, minimise
 from .knowledge import knowledge_base
 
@@ -133,9 +140,11 @@ def weighted_pca(Q: np.ndarray, w: np.ndarray, variance: float = 0.99, max_compo
 
 
 class Pose(NamedTuple):
-    """One synthesised frame: local joint rotations (J, 4), w first, and the root position (3,) in skeleton units.
+    """One synthesised frame of the body: local rotations (B, 4) of the pelvis and the joints below it, w first, and the pelvis position (3,) in skeleton units.
 
-    Arrays are read-only. ``Motion`` frames of a reconstruction are stacks of these.
+    On a rig whose pelvis is the root (B = J) these are the skeleton's joints
+    and root position. Arrays are read-only. :func:`motion_of_poses` stacks
+    them into a ``Motion`` on the whole skeleton.
     """
 
     rotations: np.ndarray
@@ -201,7 +210,8 @@ class AccelerometerReconstructor:
         self.db_fps = float(db.fps)
         self.fps = self.db_fps if fps is None else _check_fps(fps)
         self.skeleton = output_skeleton(db, skeleton)
-        self.rig = Rig(self.skeleton, self.sensors)
+        self.body = body_skeleton(self.skeleton)
+        self.rig = Rig(self.body, self.sensors)
         self.index = self.kb.index(self.params["backend"])
         k = self.params["k"]
         self.k = min(default_k(self.kb.num_frames) if k is None else k, self.kb.num_frames)
@@ -346,12 +356,23 @@ def _check_readings(readings, sensors) -> np.ndarray:
     return a
 
 
-def motion_of_poses(poses: list[Pose], skeleton: Skeleton, fps: float, name: str = "reconstruction") -> Motion:
-    """The Motion (F frames at ``fps`` on ``skeleton``) of the poses :meth:`AccelerometerReconstructor.push` returned."""
-    J = skeleton.num_joints
+def motion_of_poses(poses: list[Pose], skeleton: Skeleton, fps: float, name: str = "reconstruction", up=None) -> Motion:
+    """The Motion (F frames at ``fps`` on ``skeleton``) of the poses :meth:`AccelerometerReconstructor.push` returned.
+
+    Poses of the body of a rig whose pelvis is not the root are put back on
+    the whole skeleton (:func:`~mocapkit.reconstruct._common.whole_motion`),
+    the root on the ground plane orthogonal to ``up`` (found from the poses
+    when None).
+    """
+    body = body_skeleton(skeleton)
     if not poses:
-        return Motion(skeleton, np.zeros((0, J, 4)), np.zeros((0, 3)), fps, name)
-    return Motion(skeleton, np.stack([p.rotations for p in poses]), np.stack([p.root_position for p in poses]), fps, name)
+        return Motion(skeleton, np.zeros((0, skeleton.num_joints, 4)), np.zeros((0, 3)), fps, name)
+    m = Motion(body, np.stack([p.rotations for p in poses]), np.stack([p.root_position for p in poses]), fps, name)
+    if body is skeleton:
+        return m
+    if up is None:
+        up = find_up_axis(body, m.global_positions())
+    return whole_motion(m, skeleton, np.asarray(up, dtype=np.float64))
 
 
 def reconstruct(readings, db: MotionDatabase, fps: float, sensors=None, *, skeleton: Skeleton | None = None,
@@ -382,7 +403,7 @@ def reconstruct(readings, db: MotionDatabase, fps: float, sensors=None, *, skele
     rec = AccelerometerReconstructor(db, fps, sensors, skeleton=skeleton, **params)
     a = _check_readings(readings, rec.sensors)
     poses = [rec.push(r) for r in tqdm(a, desc="frames", disable=not progress, leave=False)]
-    return motion_of_poses(poses, rec.skeleton, fps, "reconstruction")
+    return motion_of_poses(poses, rec.skeleton, fps, "reconstruction", up=rec.kb.up)
 
 
 def reconstruct_mahalanobis(readings, db: MotionDatabase, fps: float, sensors=None, *, skeleton=None,
@@ -417,7 +438,8 @@ def reconstruct_nearest_neighbor(readings, db: MotionDatabase, fps: float, senso
     fps = _check_fps(fps)
     kb = knowledge_base(db, sensors)
     a = _check_readings(readings, kb.sensors)
-    sk = output_skeleton(db, skeleton)
+    whole = output_skeleton(db, skeleton)
+    sk = body_skeleton(whole)
     F = a.shape[0]
     db_fps = float(db.fps)
     if fps == db_fps:
@@ -445,4 +467,4 @@ def reconstruct_nearest_neighbor(readings, db: MotionDatabase, fps: float, senso
         q = R.rotvec_to_quaternion(p.reshape(J, 3))
         q[0] = R.quaternion_multiply(R.quaternion_from_axis_angle(up, heading), q[0])
         rot[k], root[k] = q, (ground + height * up) / scale
-    return Motion(sk, rot[held], root[held], fps, "nearest neighbour")
+    return whole_motion(Motion(sk, rot[held], root[held], fps, "nearest neighbour"), whole, up)
