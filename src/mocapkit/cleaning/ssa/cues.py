@@ -20,7 +20,9 @@ __all__ = [
     "discontinuities",
     "midpoint_residuals",
     "residual_breaks",
+    "own_breaks",
     "side_swaps",
+    "mirrored_rotations",
     "swaps_from_residuals",
     "transient_offsets",
     "offsets_from_residuals",
@@ -54,6 +56,25 @@ def residual_breaks(resid: np.ndarray, jump_deg: float) -> np.ndarray:
     return resid > np.radians(jump_deg)
 
 
+def own_breaks(resid: np.ndarray, jump_deg: float) -> np.ndarray:
+    """(F, J) bool: midpoint residuals over ``jump_deg`` *and* over what the joint's own motion reaches.
+
+    What a joint's motion reaches is ten times its median residual in the
+    take or three times its 95th percentile (:func:`_usual_residual`),
+    whichever is larger. At 120 fps this stays under the break thresholds, so
+    the breaks are those of :func:`residual_breaks`; at 30 fps the midpoint
+    residual of fast real motion is second order in a frame time four times
+    as long (16 times as large: a dancer's arms swinging both ways at once, a
+    foot strike), and a break must stand out from the joint's own motion to
+    be an error. Used for the confirmation of digressions, the side swaps and
+    the transient offsets.
+    """
+    if not (np.isfinite(jump_deg) and jump_deg > 0):
+        raise ValueError(f"jump_deg must be a positive number of degrees, got {jump_deg!r}")
+    usual = np.maximum(10.0 * np.median(resid, axis=0), _usual_residual(resid))
+    return resid > np.maximum(np.radians(jump_deg), usual)[None, :]
+
+
 def midpoint_residuals(rotations: np.ndarray) -> np.ndarray:
     """(F, J) radians: angle between ``q[f]`` and the midpoint of ``q[f-1]``, ``q[f+1]``; 0 at the ends and where missing."""
     q = np.asarray(rotations, dtype=np.float64)
@@ -77,23 +98,45 @@ def side_swaps(motion: Motion, jump_deg: float = _D.swap_jump_deg, max_s: float 
     When the labels of the two sides swap, both joints of a left/right pair
     (:func:`mocapkit.motion.mirror_pairs`) jump at the same frame, and again
     when the labels swap back. A break here is a midpoint residual (see
-    :func:`discontinuities`) over ``jump_deg`` and over ten times the joint's
-    median residual in the take (at low frame rates fast motion has large
-    residuals of its own). Where both joints of a pair break within a frame of
+    :func:`discontinuities`) over ``jump_deg`` and over what the joint's own
+    motion reaches (:func:`own_breaks`: at low frame rates fast motion has
+    large residuals of its own, and a dance swinging both arms at once breaks
+    both sides together). Where both joints of a pair break within a frame of
     each other, and again within ``max_s`` seconds, both are flagged from the
     frame after the first break's first frame to the second break's first
     frame (a step between frames f and f + 1 shows at both); the events pair
-    up in time order. No smooth motion breaks like that, and no digression is
-    needed: a swapped limb often takes a plausible pose. ``joints`` (bool (J,), optional) limits the
+    up in time order. Each event must also step both joints onto their
+    partner's mirror image (:func:`_swap_step`), as a label swap does and a
+    mirror-symmetric move of both limbs does not. No smooth motion breaks like
+    that, and no digression is needed: a swapped limb often takes a plausible
+    pose. ``joints`` (bool (J,), optional) limits the
     pairs to those whose two joints it holds.
     """
     if not (np.isfinite(jump_deg) and jump_deg > 0 and max_s > 0):
         raise ValueError(f"need jump_deg > 0 and max_s > 0, got {jump_deg!r} and {max_s!r}")
-    return swaps_from_residuals(midpoint_residuals(motion.rotations), motion.skeleton.joint_names, motion.fps, jump_deg, max_s, joints)
+    q = np.asarray(motion.rotations, dtype=np.float64)
+    return swaps_from_residuals(midpoint_residuals(q), motion.skeleton.joint_names, motion.fps, jump_deg, max_s, joints,
+                                rotations=q, mirrored=mirrored_rotations(motion))
 
 
-def swaps_from_residuals(resid, joint_names, fps, jump_deg, max_s, joints) -> np.ndarray:
-    """:func:`side_swaps` on midpoint residuals already computed (:func:`midpoint_residuals`)."""
+def mirrored_rotations(motion: Motion) -> np.ndarray | None:
+    """(F, J, 4) the rotations of ``motion.mirror()`` (each joint takes its partner's reflected rotation), or None
+    on a rig that cannot be mirrored (no left/right pairs by name)."""
+    from ...errors import SkeletonError
+
+    try:
+        return np.asarray(motion.mirror().rotations, dtype=np.float64)
+    except SkeletonError:
+        return None
+
+
+def swaps_from_residuals(resid, joint_names, fps, jump_deg, max_s, joints, rotations=None, mirrored=None) -> np.ndarray:
+    """:func:`side_swaps` on midpoint residuals already computed (:func:`midpoint_residuals`).
+
+    With ``rotations`` (F, J, 4) and ``mirrored`` (the take's
+    :meth:`~mocapkit.motion.Motion.mirror` rotations, F, J, 4) each break
+    event must also look like a swap (:func:`_swap_step`).
+    """
     from scipy import ndimage
 
     from ...motion import mirror_pairs
@@ -101,7 +144,7 @@ def swaps_from_residuals(resid, joint_names, fps, jump_deg, max_s, joints) -> np
     F, J = resid.shape
     out = np.zeros((F, J), dtype=bool)
     use = np.ones(J, dtype=bool) if joints is None else np.asarray(joints, dtype=bool)
-    breaks = resid > np.maximum(np.radians(jump_deg), 10.0 * np.median(resid, axis=0))[None, :]
+    breaks = own_breaks(resid, jump_deg)
     perm = mirror_pairs(joint_names)
     longest = int(round(max_s * fps))
     for j in range(J):
@@ -112,9 +155,33 @@ def swaps_from_residuals(resid, joint_names, fps, jump_deg, max_s, joints) -> np
         frames = np.flatnonzero(both)
         if len(frames) < 2:
             continue
-        for a, b in _paired_events([run[0] for run in _break_events(frames)], longest):
+        starts = [int(run[0]) for run in _break_events(frames)]
+        if rotations is not None and mirrored is not None:
+            starts = [f for f in starts if _swap_step(rotations, mirrored, f, j) and _swap_step(rotations, mirrored, f, p)]
+        for a, b in _paired_events(starts, longest):
             out[a + 1 : b + 1, j] = out[a + 1 : b + 1, p] = True  # a step from f to f + 1 breaks at both
     return out
+
+
+def _swap_step(q: np.ndarray, mirrored: np.ndarray, f: int, j: int, ratio: float = 0.5) -> bool:
+    """Whether joint ``j`` steps at ``f -> f + 1`` (or ``f + 1 -> f + 2``) onto its partner's mirrored rotation.
+
+    When labels swap (or swap back), the joint's new rotation is the mirror
+    image of its partner's rotation just before: it lies within ``ratio`` of
+    the step's size of ``mirrored[f, j]``. A dance move that swings both arms
+    at once in mirror symmetry breaks both sides together too, but there the
+    partner's mirror image is the joint's own pose, as far from the new
+    rotation as the step itself.
+    """
+    F = len(q)
+    for a in (f, f + 1):
+        if a + 1 >= F:
+            break
+        own = float(R.geodesic_angle(q[a + 1, j], q[a, j]))
+        partner = float(R.geodesic_angle(q[a + 1, j], mirrored[a, j]))
+        if partner < ratio * own:
+            return True
+    return False
 
 
 def _break_events(frames: np.ndarray) -> list[np.ndarray]:
@@ -185,9 +252,8 @@ def _usual_residual(resid: np.ndarray) -> np.ndarray:
     raise it. At 120 fps this stays under the break thresholds; at 30 fps
     fast motion breaks too (a dancer's toes push off by 25 deg in one frame
     and come back), and a break must stand out from the joint's own motion.
-    Used by :func:`transient_offsets` only: on a joint under heavy noise it
-    can rise past a flip's 90 deg residuals, and there confirmation by the
-    digression still finds the error from the plain breaks.
+    Used through :func:`own_breaks`: on a joint under heavy noise it can rise
+    past a flip's 90 deg residuals (the noise itself is the denoise step's).
     """
     F = resid.shape[0]
     return 3.0 * np.percentile(resid, min(95.0, 100.0 * (1.0 - 8.0 / F)), axis=0)
@@ -213,8 +279,7 @@ def offsets_from_residuals(q, resid, fps, jump_deg, max_s, min_offset_deg, joint
     F, J = resid.shape
     out = np.zeros((F, J), dtype=bool)
     use = np.ones(J, dtype=bool) if joints is None else np.asarray(joints, dtype=bool)
-    usual = np.maximum(10.0 * np.median(resid, axis=0), _usual_residual(resid))
-    breaks = resid > np.maximum(np.radians(jump_deg), usual)[None, :]
+    breaks = own_breaks(resid, jump_deg)
     longest = int(round(max_s * fps))
     half_turn = np.radians(150.0)
     for j in np.flatnonzero(use & breaks.any(axis=0)):
