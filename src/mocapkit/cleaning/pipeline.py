@@ -28,10 +28,11 @@ whatever order the steps are named in:
    the *level*, the rotation left over after a cubic Savitzky-Golay fit over
    0.06 s (at least 7 frames), i.e. the part of the motion no smooth curve
    explains, as a median in degrees over a sliding 0.5 s window, must exceed
-   ``noise_deg`` (1.0 deg by default); and the residual must look like noise
-   rather than motion: over each run of frames above that level, the
-   frame-to-frame rotation steps must turn back on each other (the median
-   cosine between consecutive steps below ``NOISE_REVERSAL``, -0.2). Independent per-frame errors give a
+   ``noise_deg`` (1.0 deg by default) over a run of at least 0.4 s
+   (``NOISE_MIN_RUN_S``); and the residual must look like noise rather than
+   motion: over the run, the frame-to-frame rotation steps must turn back on
+   each other (the median cosine between consecutive steps below
+   ``NOISE_REVERSAL``, -0.2). Independent per-frame errors give a
    cosine near -0.5 (the steps of white noise are anti-correlated), while
    real motion, however fast and however coarsely sampled, keeps its
    direction from one frame to the next. The level alone calls fast clean
@@ -112,6 +113,7 @@ NOISE_FIT_MIN = 7  # frames
 NOISE_WINDOW_S = 0.5  # median window of the residual
 NOISE_DEG = 1.0  # default threshold
 NOISE_REVERSAL = -0.2  # median cosine of consecutive steps over a run below which its residual is noise
+NOISE_MIN_RUN_S = 0.4  # shorter runs above the level are local events (a toe flick), not sustained noise
 MAX_WORD_ANGLE_DEG = 8.0  # words with no neighbour this close (RMS joint angle) are not judged
 
 
@@ -330,11 +332,16 @@ def noisy_cells(motion: Motion, noise_deg: float = NOISE_DEG, filled: np.ndarray
     """``(noisy (F, J) bool, level (F, J))``: cells of joints with rotation channels that are noisy.
 
     Per joint, each run of frames whose :func:`noise_level` exceeds
-    ``noise_deg`` is noisy as a whole when the median over the run of its
+    ``noise_deg`` is noisy as a whole when it lasts at least
+    ``NOISE_MIN_RUN_S`` (0.4 s) and the median over the run of its
     :func:`noise_direction` is below ``NOISE_REVERSAL`` (the residual is
     jitter, not fast motion; module docstring, step 4), and left alone
     otherwise. Judging the run, not a window around each frame, keeps the
     edges of a noisy stretch (where a window holds clean frames too) with it.
+    The level is a median over 0.5 s, so sustained noise gives runs about
+    that long; a shorter run is a local event whose residual the cubic fit
+    spread over a few frames (a toe flicking down and back at 30 fps, a
+    foot strike), which turns back too but is motion.
     ``filled`` (F, J) bool, optional: cells a gap filler made up (smooth by
     construction, so no evidence either way), left out of the median.
     """
@@ -345,11 +352,14 @@ def noisy_cells(motion: Motion, noise_deg: float = NOISE_DEG, filled: np.ndarray
     has_dofs = np.array([j > 0 and bool(sk.rotation_order(j)) for j in range(sk.num_joints)])
     high = (np.nan_to_num(level) > noise_deg) & has_dofs[None, :]
     noisy = np.zeros_like(high)
+    min_run = int(np.ceil(NOISE_MIN_RUN_S * motion.fps))
     if high.any():
         cos = noise_direction(motion)
         for j in np.flatnonzero(high.any(axis=0)):
             seen = np.ones(len(cos), dtype=bool) if filled is None else ~np.asarray(filled, dtype=bool)[:, j]
             for a, b in contact_segments(high[:, j]):
+                if b - a < min_run:
+                    continue
                 c = cos[a:b, j][seen[a:b]]  # missing cells are never high
                 if len(c) and np.median(c) < NOISE_REVERSAL:
                     noisy[a:b, j] = True
