@@ -213,3 +213,17 @@ def test_a_mirror_symmetric_step_of_both_limbs_is_not_a_swap(walk):
     both = cues.own_breaks(cues.midpoint_residuals(sym.rotations), 6.0)
     assert both[:, sk.index("LeftShoulder")].any() and both[:, sk.index("RightShoulder")].any()
     assert not ssa.side_swaps(sym).any()
+
+
+def test_a_limb_stepping_off_and_back_at_once_is_not_a_transient_offset(walk):
+    """Hip and knee of one leg step off their path and back at the same frames: motion of the limb, not an
+    error of one joint; either joint alone is an offset, and so is a joint with its mirror partner (a swap)."""
+    frames = np.arange(400, 450)
+    hip, knee = walk.skeleton.index("LeftHip"), walk.skeleton.index("LeftKnee")
+    one, _ = turned(walk, "LeftHip", frames, 30.0)
+    assert np.flatnonzero(ssa.transient_offsets(one)[:, hip]).tolist() == list(range(400, 450))
+    both, _ = turned(one, "LeftKnee", frames, 30.0)
+    offsets = ssa.transient_offsets(both)
+    assert not offsets[:, hip].any() and not offsets[:, knee].any()
+    pair, _ = turned(one, "RightHip", frames, 30.0)
+    assert ssa.transient_offsets(pair)[:, hip].sum() == 50

@@ -233,7 +233,10 @@ def transient_offsets(
     near 180 deg pair either way) and start at most ``max_s`` apart are
     flagged from the frame after the first event's first frame to the second
     event's first frame (a step between frames f and f + 1 shows at both).
-    Pairs are taken in time order, as in :func:`side_swaps`. ``joints`` (bool (J,),
+    Pairs are taken in time order, as in :func:`side_swaps`. A pair whose two
+    steps another joint (not the mirror partner) takes at the same frames is
+    left out (:func:`_single_joint_offsets`): a limb moving at once is
+    motion, an error moves one joint. ``joints`` (bool (J,),
     optional) limits the joints looked at.
     """
     if not (np.isfinite(jump_deg) and jump_deg > 0 and max_s > 0 and min_offset_deg >= 0):
@@ -241,7 +244,8 @@ def transient_offsets(
             f"need jump_deg > 0, max_s > 0 and min_offset_deg >= 0, got {jump_deg!r}, {max_s!r} and {min_offset_deg!r}"
         )
     q = np.asarray(motion.rotations, dtype=np.float64)
-    return offsets_from_residuals(q, midpoint_residuals(q), motion.fps, jump_deg, max_s, min_offset_deg, joints)
+    return offsets_from_residuals(q, midpoint_residuals(q), motion.fps, jump_deg, max_s, min_offset_deg, joints,
+                                  motion.skeleton.joint_names)
 
 
 def _usual_residual(resid: np.ndarray) -> np.ndarray:
@@ -274,10 +278,17 @@ def _event_step(q: np.ndarray, first: int, last: int) -> np.ndarray | None:
     return R.quaternion_to_rotvec(R.quaternion_multiply(q[last + 1], R.quaternion_inverse(pred)))
 
 
-def offsets_from_residuals(q, resid, fps, jump_deg, max_s, min_offset_deg, joints) -> np.ndarray:
-    """:func:`transient_offsets` on rotations ``q`` (F, J, 4) with their midpoint residuals already computed."""
+def offsets_from_residuals(q, resid, fps, jump_deg, max_s, min_offset_deg, joints, joint_names=None) -> np.ndarray:
+    """:func:`transient_offsets` on rotations ``q`` (F, J, 4) with their midpoint residuals already computed.
+
+    ``joint_names`` (optional) name the mirror partners (:func:`mocapkit.motion.mirror_pairs`) that
+    :func:`_single_joint_offsets` does not count as sharing a joint's steps.
+    """
+    from ...motion import mirror_pairs
+
     F, J = resid.shape
-    out = np.zeros((F, J), dtype=bool)
+    partner = None if joint_names is None else mirror_pairs(joint_names)
+    pairs: dict = {}
     use = np.ones(J, dtype=bool) if joints is None else np.asarray(joints, dtype=bool)
     breaks = own_breaks(resid, jump_deg)
     longest = int(round(max_s * fps))
@@ -296,8 +307,31 @@ def offsets_from_residuals(q, resid, fps, jump_deg, max_s, min_offset_deg, joint
             cos = float(np.dot(steps[k], steps[m]) / (na * nb)) if na > 0 and nb > 0 else 1.0
             return cos <= -0.5 or (max(na, nb) > half_turn and abs(cos) >= 0.5)
 
-        for a, b in _paired_events(starts, longest, back):
-            out[a + 1 : b + 1, j] = True
+        pairs[j] = _paired_events(starts, longest, back)
+    return _single_joint_offsets(pairs, F, J, partner)
+
+
+def _single_joint_offsets(pairs: dict, F: int, J: int, partner: np.ndarray | None) -> np.ndarray:
+    """(F, J) bool from each joint's paired events ``{j: [(a, b), ...]}``, leaving out the pairs another joint
+    (not its mirror partner) shares: both its steps within a frame of this joint's two steps.
+
+    A drift, a flip or a lost marker moves one joint's rotation; a limb or a
+    body that steps off and back at once (the hip, knee and ankle of a leg
+    bouncing at the bottom of a squat, the upper arm and wrist of a throw)
+    moves several joints at the same frames, and that is motion. A mirror
+    partner stepping with it is left to :func:`side_swaps`.
+    """
+    out = np.zeros((F, J), dtype=bool)
+    for j, pj in pairs.items():
+        for a, b in pj:
+            shared = any(
+                abs(a - a2) <= 1 and abs(b - b2) <= 1
+                for k, pk in pairs.items()
+                if k != j and (partner is None or k != partner[j])
+                for a2, b2 in pk
+            )
+            if not shared:
+                out[a + 1 : b + 1, j] = True  # a step from f to f + 1 breaks at both
     return out
 
 

@@ -374,7 +374,7 @@ def detect_prepared(an: Analysis, threshold: float = 0.5, *, progress: bool = Fa
                                  rotations=q, mirrored=mirrored_rotations(motion))
     offsets = offsets_from_residuals(
         np.asarray(motion.rotations, dtype=np.float64), resid, motion.fps, p.offset_jump_deg, p.offset_max_s,
-        p.offset_min_deg, analysed,
+        p.offset_min_deg, analysed, sk.joint_names,
     )
     flags = flag_rule(mdm, jumps, holds, swaps, offsets, threshold, motion.fps, p.confirm, p.confirm_margin_s)
     masks = an.group_masks()
