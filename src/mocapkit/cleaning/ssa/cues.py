@@ -33,6 +33,7 @@ __all__ = [
 ]
 
 _D = SSAParams()
+MAX_ACCEL_DEG_S2 = 60_000.0  # three times the 20,000 deg/s^2 a fast limb reaches (discontinuities)
 
 def discontinuities(motion: Motion, jump_deg: float = _D.jump_deg) -> np.ndarray:
     """(F, J) bool: frames where a joint's rotation leaves the smooth path through its two neighbours.
@@ -56,7 +57,7 @@ def residual_breaks(resid: np.ndarray, jump_deg: float) -> np.ndarray:
     return resid > np.radians(jump_deg)
 
 
-def own_breaks(resid: np.ndarray, jump_deg: float) -> np.ndarray:
+def own_breaks(resid: np.ndarray, jump_deg: float, fps: float | None = None) -> np.ndarray:
     """(F, J) bool: midpoint residuals over ``jump_deg`` *and* over what the joint's own motion reaches.
 
     What a joint's motion reaches is ten times its median residual in the
@@ -66,12 +67,18 @@ def own_breaks(resid: np.ndarray, jump_deg: float) -> np.ndarray:
     residual of fast real motion is second order in a frame time four times
     as long (16 times as large: a dancer's arms swinging both ways at once, a
     foot strike), and a break must stand out from the joint's own motion to
-    be an error. Used for the confirmation of digressions, the side swaps and
-    the transient offsets.
+    be an error. With ``fps`` that level is capped at the residual the
+    fastest limb motion can make at that rate, ``MAX_ACCEL_DEG_S2 / (2 fps^2)``
+    (2.1 deg at 120 fps, 33 deg at 30 fps): where heavy noise raises a
+    joint's residuals, its breaks still confirm an error's digression (used
+    so for the confirmation; the side swaps and transient offsets take the
+    uncapped level).
     """
     if not (np.isfinite(jump_deg) and jump_deg > 0):
         raise ValueError(f"jump_deg must be a positive number of degrees, got {jump_deg!r}")
     usual = np.maximum(10.0 * np.median(resid, axis=0), _usual_residual(resid))
+    if fps is not None:
+        usual = np.minimum(usual, np.radians(MAX_ACCEL_DEG_S2 / (2.0 * float(fps) ** 2)))
     return resid > np.maximum(np.radians(jump_deg), usual)[None, :]
 
 

@@ -278,7 +278,7 @@ def detect_prepared(an: Analysis, threshold: float = 0.5, *, progress: bool = Fa
     normalization, row_scale, floor_deg, z_scale = p.normalization, p.row_scale, p.floor_deg, p.z_scale
     max_word_angle_deg = p.max_word_angle_deg
     resid = midpoint_residuals(motion.rotations)  # for the breaks and the side swaps
-    jumps = own_breaks(resid, p.jump_deg)  # breaks that stand out from the joint's own motion (30 fps too)
+    jumps = own_breaks(resid, p.jump_deg, motion.fps)  # breaks that stand out from the joint's own motion (30 fps too)
     sk = motion.skeleton
     gnames, grows = list(an.group_names), list(an.group_rows)
     words = an.words
