@@ -7,9 +7,9 @@ too: the CMU BVH conversions (cgspeed) put a T-pose at frame 0, one frame
 before the motion starts. Such frames are not motion: they share no motion
 word with the rest of the take, and the jump from the pose into the first
 pose of the motion is a break no smooth motion makes. Left in the analysis,
-they are flagged and "repaired" (and the break confirms digressions of the
-frames after it): :func:`mocapkit.cleaning.pipeline.clean` rewrote the CMU
-01_01 T-pose and ``LeftForeArm`` over its next 90 frames by up to 114 deg.
+they are flagged and "repaired", and the break confirms digressions of the
+frames after it (a word spans 0.6 s), so the first second of the motion is
+rewritten too.
 
 :func:`calibration_poses` finds them from joint *positions* of joints found by
 role (:func:`mocapkit.motion.find_joint`: shoulders, elbows, hands, hips,

@@ -32,14 +32,14 @@ whatever order the steps are named in:
    (``NOISE_MIN_RUN_S``); and the residual must look like noise rather than
    motion: over the run, the frame-to-frame rotation steps must turn back on
    each other (the median cosine between consecutive steps below
-   ``NOISE_REVERSAL``, -0.2). Independent per-frame errors give a
-   cosine near -0.5 (the steps of white noise are anti-correlated), while
-   real motion, however fast and however coarsely sampled, keeps its
+   ``NOISE_REVERSAL``, -0.2). Independent per-frame errors (the Gaussian
+   noise on each channel of Mall et al.'s noise model, :mod:`mocapkit.corrupt`)
+   give a cosine near -0.5 (the steps of white noise are anti-correlated),
+   while real motion, however fast and however coarsely sampled, keeps its
    direction from one frame to the next. The level alone calls fast clean
    motion at 30 fps noisy (a cubic over 7 frames spans 0.23 s there, and a
-   foot strike or a dance hit leaves a residual of several degrees: 13 % of
-   the cells of a clean Bandai Namco dance); the direction test keeps such
-   motion. Tuned on Bandai Namco dataset-1 and HDM05 actors other than mm
+   foot strike or a dance hit leaves a residual of several degrees); the
+   direction test keeps such motion. Tuned on Bandai Namco dataset-1 and HDM05 actors other than mm
    (``benchmarks/clean_untouched.py``), checked on the rest. Noisy cells take
    the EBF's output (:func:`mocapkit.cleaning.deep.denoise`); on a rig the
    EBF does not fit, a quadratic Savitzky-Golay filter over 0.1 s on those
