@@ -71,8 +71,8 @@ def own_breaks(resid: np.ndarray, jump_deg: float, fps: float | None = None) -> 
     fastest limb motion can make at that rate, ``MAX_ACCEL_DEG_S2 / (2 fps^2)``
     (2.1 deg at 120 fps, 33 deg at 30 fps): where heavy noise raises a
     joint's residuals, its breaks still confirm an error's digression (used
-    so for the confirmation; the side swaps and transient offsets take the
-    uncapped level).
+    so for the confirmation and the side swaps; the transient offsets take
+    the uncapped level).
     """
     if not (np.isfinite(jump_deg) and jump_deg > 0):
         raise ValueError(f"jump_deg must be a positive number of degrees, got {jump_deg!r}")
@@ -151,7 +151,7 @@ def swaps_from_residuals(resid, joint_names, fps, jump_deg, max_s, joints, rotat
     F, J = resid.shape
     out = np.zeros((F, J), dtype=bool)
     use = np.ones(J, dtype=bool) if joints is None else np.asarray(joints, dtype=bool)
-    breaks = own_breaks(resid, jump_deg)
+    breaks = own_breaks(resid, jump_deg, fps)
     perm = mirror_pairs(joint_names)
     longest = int(round(max_s * fps))
     for j in range(J):
