@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import dataclasses
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -11,7 +12,7 @@ import mocapkit
 from mocapkit import corrupt, metrics, samples
 from mocapkit import rotations as R
 from mocapkit.cleaning import gapfill
-from mocapkit.cleaning.pipeline import CleanResult, clean, clean_path, noise_level, noisy_cells
+from mocapkit.cleaning.pipeline import CleanResult, clean, clean_path, noise_direction, noise_level, noisy_cells
 from mocapkit.errors import MocapError, MocapFormatError
 
 
@@ -243,6 +244,8 @@ def test_one_flagged_segment_on_one_joint_is_said_in_the_singular(walk):
                                             f"{n_joint} joint{'' if n_joint == 1 else 's'}")
         singular |= n_seg == 1 and n_joint == 1
     assert singular  # the case the rule is about was met
+
+
 def test_the_cmu_bvh_spelling_is_cleaned_by_the_networks(walk):
     """clean applies deep.served_by like denoise and fill: the BVH spelling of the walk gets the EBD and EBF."""
     from tests.cleaning.test_retarget import motionbuilder_spelling
@@ -255,3 +258,43 @@ def test_the_cmu_bvh_spelling_is_cleaned_by_the_networks(walk):
     assert not res.notes and not res.motion.missing().any()
     untouched = ~res.changed
     assert np.array_equal(res.motion.rotations[untouched], gappy.rotations[untouched])
+
+
+TEST_DATA = Path(__file__).resolve().parents[1] / "data"
+
+
+def test_clean_leaves_a_calibration_pose_alone_and_names_it(tmp_path):
+    """CMU 01_01 (cgspeed BVH): frame 0 is the converter's T-pose; clean neither flags, repairs nor denoises it,
+    the jump out of it confirms no flag next to it, and the summary says so."""
+    m = mocapkit.load(TEST_DATA / "cmu_01_01_start.bvh")
+    res = clean(m)
+    assert [str(c) for c in res.calibration] == ["frame 0: calibration T-pose, left alone"]
+    assert res.summary()[0] == "frame 0: calibration T-pose, left alone"
+    assert res.params["analysed"] == [1, m.num_frames]
+    assert np.array_equal(res.motion.rotations[0], m.rotations[0]) and not res.flags[0].any()
+    assert not res.changed.any()  # the motion after it is clean too
+    assert res.detection is not None and res.detection.flags.shape == (m.num_frames, m.num_joints)
+    back = CleanResult.load(res.save(tmp_path / "r.clean.npz"))
+    assert back.calibration == res.calibration
+
+
+def test_clean_30_fps_studio_take_changes_at_most_1_percent():
+    """Bandai Namco run (30 fps, game rig, post-processed studio data): a clean take stays (almost) untouched."""
+    m = mocapkit.load(TEST_DATA / "dataset-2_run_active_049.bvh")
+    assert noise_level(m)[:, 1:].max() > 1.0  # the level alone calls fast clean motion at 30 fps noisy
+    res = clean(m)
+    assert res.changed.mean() <= 0.01, res.summary()
+    untouched = ~res.changed
+    assert np.array_equal(res.motion.rotations[untouched], m.rotations[untouched])
+
+
+def test_noise_direction_tells_jitter_from_fast_motion():
+    """Steps of white noise turn back (median cosine near -0.5); fast real motion at 30 fps keeps its direction."""
+    m = mocapkit.load(TEST_DATA / "dataset-2_run_active_049.bvh")
+    j = m.skeleton.index("UpperArm_R")
+    assert np.median(noise_direction(m)[:, j]) > 0.5
+    noisy, nmask = corrupt.angular_noise(m, amount=0.5, seed=1, joints=["UpperArm_R"])
+    assert -0.7 < np.median(noise_direction(noisy)[:, j]) < -0.3
+    found, _ = noisy_cells(noisy)
+    assert found[:, j].mean() > 0.9 and not found[:, np.arange(m.num_joints) != j].any()
+    assert not noisy_cells(m)[0].any()

@@ -33,3 +33,20 @@ def test_plot_summary_needs_the_cleaned_motion(cleaned, tmp_path):
     with pytest.raises(ValueError, match="cleaned motion"):
         plot_summary(dataclasses.replace(res, motion=None), bad, tmp_path / "s.png")
     assert not list(tmp_path.iterdir())
+
+
+def test_plot_summary_names_and_shades_a_calibration_pose(tmp_path, monkeypatch):
+    """CMU 01_01's converter T-pose (frame 0): named in the map's title, its frames shaded."""
+    from pathlib import Path
+
+    import matplotlib.axes
+
+    take = mocapkit.load(Path(__file__).resolve().parents[1] / "data" / "cmu_01_01_start.bvh")
+    res = clean(take, steps="detect,repair")
+    titles, spans = [], []
+    real_title, real_span = matplotlib.axes.Axes.set_title, matplotlib.axes.Axes.axvspan
+    monkeypatch.setattr(matplotlib.axes.Axes, "set_title", lambda self, t, *a, **k: titles.append(t) or real_title(self, t, *a, **k))
+    monkeypatch.setattr(matplotlib.axes.Axes, "axvspan", lambda self, x0, x1, *a, **k: spans.append((x0, x1)) or real_span(self, x0, x1, *a, **k))
+    plot_summary(res, take, tmp_path / "s.png", title="01_01")
+    assert titles[0] == "01_01: movement digression map (frame 0: calibration T-pose, left alone)"
+    assert spans == [(-0.5, 0.5)]

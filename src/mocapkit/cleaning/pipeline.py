@@ -24,19 +24,37 @@ whatever order the steps are named in:
 3. **repair** — only the flagged cells (:func:`mocapkit.cleaning.ssa.repair`).
    Foot-skate cleanup is off by default (``foot_skate=False``): it would also
    move the hip and knee of a leg whose foot is planted, cells nobody flagged.
-4. **denoise** — only where the take is noisy. The criterion (see
-   :func:`noise_level`): for every joint, the rotation left over after a cubic
-   Savitzky-Golay fit over 0.06 s (at least 7 frames), i.e. the part of the
-   motion no smooth curve explains, as a median in degrees over a sliding
-   0.5 s window (a median, so that a noisy stretch does not spill into the
-   clean frames around it and an isolated jump is not noise). Cells whose
-   level exceeds ``noise_deg`` (1.0 deg by default) are noisy. Calibrated on
-   held-out 120 fps clips: on clean HDM05 takes of actor mm no cell exceeds
-   1 deg, on CMU takes 0.2-0.5 %, while Mall et al.'s "0.5 noise" gives a
-   median level of 1-4 deg on the joints it moves. Noisy cells take the EBF's output
-   (:func:`mocapkit.cleaning.deep.denoise`); on a rig the EBF does not serve, a
-   quadratic Savitzky-Golay filter over 0.1 s on those cells, with a note
-   (:func:`mocapkit.cleaning.deep.denoise_or_fallback`, as ``mocapkit denoise``).
+4. **denoise** — only where the take is noisy. Two tests, both on each
+   joint's own track (see :func:`noise_level` and :func:`noise_direction`):
+   the *level*, the rotation left over after a cubic Savitzky-Golay fit over
+   0.06 s (at least 7 frames), i.e. the part of the motion no smooth curve
+   explains, as a median in degrees over a sliding 0.5 s window, must exceed
+   ``noise_deg`` (1.0 deg by default) over a run of at least 0.4 s
+   (``NOISE_MIN_RUN_S``); and the residual must look like noise rather than
+   motion: over the run, the frame-to-frame rotation steps must turn back on
+   each other (the median cosine between consecutive steps below
+   ``NOISE_REVERSAL``, -0.2). Independent per-frame errors (the Gaussian
+   noise on each channel of Mall et al.'s noise model, :mod:`mocapkit.corrupt`)
+   give a cosine near -0.5 (the steps of white noise are anti-correlated),
+   while real motion, however fast and however coarsely sampled, keeps its
+   direction from one frame to the next. The level alone calls fast clean
+   motion at 30 fps noisy (a cubic over 7 frames spans 0.23 s there, and a
+   foot strike or a dance hit leaves a residual of several degrees); the
+   direction test keeps such motion. Tuned on Bandai Namco dataset-1 and HDM05 actors other than mm
+   (``benchmarks/clean_untouched.py``), checked on the rest. Noisy cells take
+   the EBF's output (:func:`mocapkit.cleaning.deep.denoise`); on a rig the
+   EBF does not serve, a quadratic Savitzky-Golay filter over 0.1 s on those
+   cells, with a note (:func:`mocapkit.cleaning.deep.denoise_or_fallback`, as
+   ``mocapkit denoise``).
+
+**Calibration poses.** T-pose and A-pose frames opening or closing the take
+(the CMU BVH converter's frame 0, a standing calibration pose held before the
+motion) and their transition into the motion are found after fill
+(:func:`mocapkit.cleaning.calibration.calibration_poses`, by joint positions,
+any humanoid rig) and left out of detect, repair and denoise: those run on the
+frames between, so the poses are neither flagged, repaired nor denoised, and
+the jump from a pose into the motion is no evidence for flags next to it. The
+summary names them ("frames 0-1: calibration T-pose, left alone").
 
 Every cell that is neither missing, flagged nor noisy is returned
 bit-identical to the input (the root trajectory too, unless it had gaps). The
@@ -86,8 +104,9 @@ import numpy as np
 from .. import rotations as R
 from ..errors import MocapError, MocapFormatError, SkeletonError
 from ..motion import Motion
+from .calibration import CalibrationPose, calibration_mask, calibration_poses
 
-__all__ = ["STEPS", "CleanResult", "StepRecord", "clean", "noise_level", "noisy_cells", "clean_path", "parse_steps"]
+__all__ = ["STEPS", "CleanResult", "StepRecord", "clean", "noise_level", "noise_direction", "noisy_cells", "clean_path", "parse_steps"]
 
 STEPS = ("fill", "detect", "repair", "denoise")
 FORMAT = "mocapkit.clean/1"
@@ -95,6 +114,8 @@ NOISE_FIT_S = 0.06  # cubic Savitzky-Golay fit whose residual is "noise"
 NOISE_FIT_MIN = 7  # frames
 NOISE_WINDOW_S = 0.5  # median window of the residual
 NOISE_DEG = 1.0  # default threshold
+NOISE_REVERSAL = -0.2  # median cosine of consecutive steps over a run below which its residual is noise
+NOISE_MIN_RUN_S = 0.4  # shorter runs above the level are local events (a toe flick), not sustained noise
 MAX_WORD_ANGLE_DEG = 8.0  # words with no neighbour this close (RMS joint angle) are not judged
 
 
@@ -134,7 +155,12 @@ class CleanResult:
     ``filled``/``repaired``/``denoised``: bool, the cells each step changed;
     ``noise``: float (F, J) the noise level of :func:`noise_level` in degrees
     (NaN when denoise did not run); ``steps``: :class:`StepRecord` per step
-    that ran; ``notes``: what fell back and why. ``samples`` (after
+    that ran; ``notes``: what fell back and why; ``calibration``: the
+    :class:`~mocapkit.cleaning.calibration.CalibrationPose` opening or closing
+    the take, left alone by every step. When there is one, detect ran on the
+    frames between (``params["analysed"]``, ``[lo, hi)``): the detection's
+    (F, J) arrays are padded back to the take's frames, its word and neighbour
+    arrays count from ``lo``. ``samples`` (after
     :meth:`load`; None for a record written without them): the cleaned
     values of the changed cells, ``{"rotations": (K, 4), "root": (K0, 3)[,
     "translations": (K, 3)]}`` with K = ``changed.sum()`` in row-major cell
@@ -156,6 +182,7 @@ class CleanResult:
     params: dict = field(default_factory=dict)
     detection: object = None
     samples: dict | None = None
+    calibration: tuple = ()
 
     def __repr__(self) -> str:
         return (f"CleanResult({self.motion!r}, {int(self.flags.sum())} flagged, {int(self.filled.sum())} filled, "
@@ -171,9 +198,10 @@ class CleanResult:
         return int(self.filled.shape[0])
 
     def summary(self) -> list[str]:
-        """One line per step, then the notes."""
+        """One line per calibration pose, one per step, then the notes."""
         said = " ".join(s.note for s in self.steps)
-        return [str(s) for s in self.steps] + [f"note: {n}" for n in self.notes if n not in said]
+        return ([str(c) for c in self.calibration] + [str(s) for s in self.steps]
+                + [f"note: {n}" for n in self.notes if n not in said])
 
     def save(self, path) -> Path:
         """Write the MDM, flags, per-step masks and records as ``.npz`` (no pickles), atomically."""
@@ -187,6 +215,7 @@ class CleanResult:
             "steps": [s.as_dict() for s in self.steps],
             "notes": list(self.notes),
             "params": self.params,
+            "calibration": [dataclasses.asdict(c) for c in self.calibration],
         }
         samples = {}
         if self.motion is not None:  # the cleaned values of the changed cells: decisions apply them exactly
@@ -236,6 +265,7 @@ class CleanResult:
                 params=dict(meta["params"]),
                 samples={k[len("cleaned_"):]: data[k].astype(np.float64) for k in
                          ("cleaned_rotations", "cleaned_root", "cleaned_translations") if k in data} or None,
+                calibration=tuple(CalibrationPose(**c) for c in meta.get("calibration", [])),
             )
         except (OSError, ValueError, KeyError, TypeError) as e:
             raise MocapFormatError(path, f"not a mocapkit clean file ({e})") from None
@@ -298,13 +328,69 @@ def noise_level(motion: Motion, fit_s: float = NOISE_FIT_S, window_s: float = NO
     return level
 
 
-def noisy_cells(motion: Motion, noise_deg: float = NOISE_DEG) -> tuple[np.ndarray, np.ndarray]:
-    """``(noisy (F, J) bool, level (F, J))``: cells of joints with rotation channels whose level exceeds ``noise_deg``."""
+def noise_direction(motion: Motion) -> np.ndarray:
+    """(F, J) cosine between the rotation steps into and out of each frame: +1 keeps turning, -1 turns back.
+
+    The step into frame t is the difference of the hemisphere-continuous unit
+    quaternions of frames t and t-1 (for the small steps of a track, the
+    rotation's direction and size). White noise added to a track gives
+    anti-correlated steps (each error enters two steps with opposite signs: an
+    expected cosine of -0.5), while captured motion at 30 or 120 fps keeps its
+    direction over consecutive frames (cosines near +1) except at the few
+    frames where it reverses. The first and last frames take their
+    neighbour's value; a joint that does not move (zero steps) gives 0;
+    missing cells are NaN; a clip under 3 frames gives NaN everywhere.
+    """
+    F, J = motion.num_frames, motion.num_joints
+    if F < 3:
+        return np.full((F, J), np.nan)
+    q = np.array(motion.rotations)
+    miss = ~np.all(np.isfinite(q), axis=-1)
+    q[miss] = R.identity()
+    q = R.quaternion_continuity(q, axis=0)
+    d = np.diff(q, axis=0)  # (F-1, J, 4)
+    n = np.linalg.norm(d, axis=-1)
+    cos = np.sum(d[1:] * d[:-1], axis=-1) / np.maximum(n[1:] * n[:-1], 1e-12)  # at frames 1 .. F-2
+    cos = np.concatenate([cos[:1], cos, cos[-1:]], axis=0)
+    cos[miss] = np.nan
+    return cos
+
+
+def noisy_cells(motion: Motion, noise_deg: float = NOISE_DEG, filled: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """``(noisy (F, J) bool, level (F, J))``: cells of joints with rotation channels that are noisy.
+
+    Per joint, each run of frames whose :func:`noise_level` exceeds
+    ``noise_deg`` is noisy as a whole when it lasts at least
+    ``NOISE_MIN_RUN_S`` (0.4 s) and the median over the run of its
+    :func:`noise_direction` is below ``NOISE_REVERSAL`` (the residual is
+    jitter, not fast motion; module docstring, step 4), and left alone
+    otherwise. Judging the run, not a window around each frame, keeps the
+    edges of a noisy stretch (where a window holds clean frames too) with it.
+    The level is a median over 0.5 s, so sustained noise gives runs about
+    that long; a shorter run is a local event whose residual the cubic fit
+    spread over a few frames (a toe flicking down and back at 30 fps, a
+    foot strike), which turns back too but is motion.
+    ``filled`` (F, J) bool, optional: cells a gap filler made up (smooth by
+    construction, so no evidence either way), left out of the median.
+    """
+    from .ik import contact_segments
+
     level = noise_level(motion)
     sk = motion.skeleton
     has_dofs = np.array([j > 0 and bool(sk.rotation_order(j)) for j in range(sk.num_joints)])
-    noisy = np.nan_to_num(level) > noise_deg
-    noisy &= has_dofs[None, :]
+    high = (np.nan_to_num(level) > noise_deg) & has_dofs[None, :]
+    noisy = np.zeros_like(high)
+    min_run = int(np.ceil(NOISE_MIN_RUN_S * motion.fps))
+    if high.any():
+        cos = noise_direction(motion)
+        for j in np.flatnonzero(high.any(axis=0)):
+            seen = np.ones(len(cos), dtype=bool) if filled is None else ~np.asarray(filled, dtype=bool)[:, j]
+            for a, b in contact_segments(high[:, j]):
+                if b - a < min_run:
+                    continue
+                c = cos[a:b, j][seen[a:b]]  # missing cells are never high
+                if len(c) and np.median(c) < NOISE_REVERSAL:
+                    noisy[a:b, j] = True
     return noisy, level
 
 
@@ -402,6 +488,31 @@ def _context_label(context) -> str:
     return context_label(context)
 
 
+def _motion_span(poses, F: int) -> tuple[int, int]:
+    """``(lo, hi)``: the frames between the calibration poses (the whole take when there is none)."""
+    keep = ~calibration_mask(poses, F)
+    if not keep.any():
+        return 0, 0
+    idx = np.flatnonzero(keep)
+    return int(idx[0]), int(idx[-1]) + 1
+
+
+def _pad(a: np.ndarray, lo: int, F: int, fill) -> np.ndarray:
+    """(F, J) holding ``a`` (Fs, J) at frames ``lo .. lo + Fs`` and ``fill`` elsewhere."""
+    out = np.full((F,) + a.shape[1:], fill, dtype=a.dtype)
+    out[lo : lo + a.shape[0]] = a
+    return out
+
+
+def _padded_detection(det, lo: int, F: int):
+    """``det`` with its (F, J) arrays put back at the take's frames (nothing flagged on calibration frames)."""
+    pads = {"mdm": 0.0, "flags": False, "digression": np.nan, "best_group": -1, "jumps": False, "holds": False,
+            "swaps": False, "offsets": False}
+    return dataclasses.replace(det, **{k: _pad(np.asarray(getattr(det, k)), lo, F, v) for k, v in pads.items()},
+                               notes=tuple(det.notes) + (f"analysed frames {lo}-{lo + det.num_frames - 1} (calibration "
+                                                         "poses left out); word starts count from there",))
+
+
 def clean(
     motion: Motion,
     context=None,
@@ -456,8 +567,7 @@ def clean(
     name = motion.name or "motion"
     F, J = motion.num_frames, motion.num_joints
     zeros = np.zeros((F, J), dtype=bool)
-    filled, repaired, denoised = zeros, zeros, zeros
-    mdm, flags, noise = np.zeros((F, J)), zeros, np.full((F, J), np.nan)
+    filled = zeros
     records: list[StepRecord] = []
     notes: list[str] = []
     det = None
@@ -470,6 +580,17 @@ def clean(
         filled = _changed_cells(before, cur.rotations) | (motion.missing() & ~cur.missing())
         records.append(StepRecord("fill", time.perf_counter() - t, int(filled.sum()), method, note))
 
+    # calibration poses opening or closing the take are left out of every later step (module docstring)
+    poses = calibration_poses(cur) if any(s in steps for s in ("detect", "repair", "denoise")) else ()
+    lo, hi = _motion_span(poses, F)
+    full, cur = cur, cur[lo:hi]
+    Fs = hi - lo
+    if poses and Fs == 0:
+        notes.append("detect, repair and denoise skipped: the whole take is a calibration pose")
+        steps = tuple(s for s in steps if s == "fill")
+    sub_mdm, sub_flags = np.zeros((Fs, J)), np.zeros((Fs, J), dtype=bool)
+    sub_rep, sub_den, sub_noise = sub_flags, sub_flags, np.full((Fs, J), np.nan)
+
     if "detect" in steps:
         t = time.perf_counter()
         if cur.missing().any():
@@ -478,7 +599,7 @@ def clean(
         n_a = _analysis_frames(cur, params.analysis_fps)
         N = params.source_length
         if n_a < N:
-            note = (f"detect and repair skipped: {F} frames ({cur.duration:.2f} s) is shorter than one motion word "
+            note = (f"detect and repair skipped: {Fs} frames ({cur.duration:.2f} s) is shorter than one motion word "
                     f"({N} frames at {params.analysis_fps:g} fps, {N / params.analysis_fps:.3f} s)")
             notes.append(note)
             records.append(StepRecord("detect", time.perf_counter() - t, 0, "skipped", note))
@@ -488,10 +609,11 @@ def clean(
                 det = ssa.detect(cur, context, threshold=threshold, params=params, progress=progress)
             except (ValueError, SkeletonError) as exc:
                 raise MocapError(f"{name}: detect: {exc}") from None
-            mdm, flags = np.nan_to_num(np.asarray(det.mdm, dtype=np.float64)), np.asarray(det.flags, dtype=bool)
+            sub_mdm = np.nan_to_num(np.asarray(det.mdm, dtype=np.float64))
+            sub_flags = np.asarray(det.flags, dtype=bool)
             what = "the clip itself" if context is None else f"the clip and {_context_label(context)}"
             n_seg = len(det.segments())
-            note = f"{_count(n_seg, 'flagged segment')} on {_count(int(flags.any(axis=0).sum()), 'joint')}" + (
+            note = f"{_count(n_seg, 'flagged segment')} on {_count(int(sub_flags.any(axis=0).sum()), 'joint')}" + (
                 f"; {'; '.join(det.notes)}" if det.notes else "")
             records.append(StepRecord("detect", time.perf_counter() - t, 0, f"self-similarity against {what}", note))
 
@@ -502,33 +624,45 @@ def clean(
             cur = ssa.repair(cur, det, foot_skate=foot_skate)  # on the take detect prepared
         except ValueError as exc:
             raise MocapError(f"{name}: repair: {exc}") from None
-        repaired = _changed_cells(before, cur.rotations)
-        note = "" if flags.any() else "nothing flagged"
-        records.append(StepRecord("repair", time.perf_counter() - t, int(repaired.sum()),
+        sub_rep = _changed_cells(before, cur.rotations)
+        note = "" if sub_flags.any() else "nothing flagged"
+        records.append(StepRecord("repair", time.perf_counter() - t, int(sub_rep.sum()),
                                   "medoid of the nearest motion words" + (" + foot-skate cleanup" if foot_skate else ""), note))
 
     if "denoise" in steps:
         t = time.perf_counter()
         w = max(NOISE_FIT_MIN, int(round(NOISE_FIT_S * cur.fps)) | 1)
-        if F < w:
-            note = f"denoise skipped: {F} frames is shorter than the noise criterion's fit ({w} frames)"
+        if Fs < w:
+            note = f"denoise skipped: {Fs} frames is shorter than the noise criterion's fit ({w} frames)"
             notes.append(note)
             records.append(StepRecord("denoise", time.perf_counter() - t, 0, "skipped", note))
         else:
-            noisy, noise = noisy_cells(cur, noise_deg)
+            noisy, sub_noise = noisy_cells(cur, noise_deg, filled=filled[lo:hi])
             noisy &= ~cur.missing()
             before = cur.rotations
             cur, method, note = _denoise(cur, noisy, models, notes)
-            denoised = _changed_cells(before, cur.rotations)
+            sub_den = _changed_cells(before, cur.rotations)
             extra = (f"{_count(int(noisy.sum()), 'noisy cell')} (level > {noise_deg:g} deg) on "
                      f"{_count(int(noisy.any(axis=0).sum()), 'joint')}")
-            records.append(StepRecord("denoise", time.perf_counter() - t, int(denoised.sum()), method,
+            records.append(StepRecord("denoise", time.perf_counter() - t, int(sub_den.sum()), method,
                                       extra + (f"; {note}" if note else "")))
 
+    # back to the whole take: calibration frames as they came out of fill
+    mdm, flags = _pad(sub_mdm, lo, F, 0.0), _pad(sub_flags, lo, F, False)
+    repaired, denoised, noise = _pad(sub_rep, lo, F, False), _pad(sub_den, lo, F, False), _pad(sub_noise, lo, F, np.nan)
+    if poses:
+        rot, pos = np.array(full.rotations), np.array(full.root_positions)
+        rot[lo:hi], pos[lo:hi] = cur.rotations, cur.root_positions
+        cur = dataclasses.replace(full, rotations=rot, root_positions=pos)
+        if det is not None:
+            det = _padded_detection(det, lo, F)
+    else:
+        cur = dataclasses.replace(full, rotations=cur.rotations, root_positions=cur.root_positions)
+
     params = dict(steps=list(steps), threshold=float(threshold), noise_deg=float(noise_deg), foot_skate=bool(foot_skate),
-                  context="none" if context is None else _context_label(context))
+                  context="none" if context is None else _context_label(context), analysed=[int(lo), int(hi)])
     return CleanResult(
         motion=cur, mdm=mdm, flags=flags, filled=filled, repaired=repaired, denoised=denoised, noise=noise,
         joint_names=tuple(motion.skeleton.joint_names), fps=float(motion.fps), steps=tuple(records),
-        notes=tuple(notes), params=params, detection=det,
+        notes=tuple(notes), params=params, detection=det, calibration=tuple(poses),
     )

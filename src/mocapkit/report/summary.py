@@ -19,7 +19,9 @@ def plot_summary(result, original: Motion, path, joints: int = 2, title: str | N
     ``result``: a :class:`~mocapkit.cleaning.pipeline.CleanResult` holding the
     cleaned motion; ``original``: the take it was cleaned from. The joints
     shown (``joints`` of them, among those with rotation channels) are those
-    with the most flagged cells, then the most changed ones. Drawn on the axes
+    with the most flagged cells, then the most changed ones. Calibration poses
+    the cleaning left alone (``result.calibration``) are shaded on the map and
+    named in its title. Drawn on the axes
     of one matplotlib figure (:func:`~mocapkit.report.plots.draw_mdm`,
     :func:`~mocapkit.report.plots.draw_channels`), written atomically.
     """
@@ -48,7 +50,12 @@ def plot_summary(result, original: Motion, path, joints: int = 2, title: str | N
                                 left=0.12, right=0.95, top=1.0 - 1.0 / (sum(heights) + gaps), bottom=0.5 / (sum(heights) + gaps))
         ax = fig.add_subplot(grid[0, 0])
         handles = draw_mdm(ax, fig.add_subplot(grid[0, 1]), result.mdm, result.joint_names, result.fps, flags=result.flags)
-        ax.set_title(f"{label}: movement digression map", loc="left", fontsize=10, pad=28)
+        calib = tuple(getattr(result, "calibration", ()) or ())
+        for c in calib:
+            a, b = c.frames
+            ax.axvspan(a - 0.5, b - 0.5, color="0.5", alpha=0.3, lw=0)  # the map's x axis counts frames
+        said = "; ".join(str(c) for c in calib)
+        ax.set_title(f"{label}: movement digression map" + (f" ({said})" if said else ""), loc="left", fontsize=10, pad=28)
         if handles:
             ax.legend(handles=handles, loc="lower right", bbox_to_anchor=(1.0, 1.0), ncol=len(handles), fontsize=8,
                       frameon=False)

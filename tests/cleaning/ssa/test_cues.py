@@ -1,6 +1,7 @@
 """The cues that confirm a digression or find an error: breaks, held joints, side swaps, transient offsets."""
 
 import dataclasses
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -182,3 +183,47 @@ def test_transient_offsets_at_30_fps_find_errors_and_leave_fast_motion_alone():
         offsets = ssa.transient_offsets(bad)
         assert np.flatnonzero(offsets[:, walk30.skeleton.index(r.joint)]).tolist() == list(range(r.start, r.end)), kind
         assert offsets.sum() == r.end - r.start
+
+
+BANDAI_RUN = Path(__file__).resolve().parents[2] / "data" / "dataset-2_run_active_049.bvh"
+
+
+def test_side_swaps_at_30_fps_only_where_labels_swap():
+    """Bandai Namco run, 30 fps (a clean studio take): no side swap; a real swap there is found exactly."""
+    run = mocapkit.load(BANDAI_RUN)
+    assert not ssa.side_swaps(run).any()
+    bad, _, records = corrupt.real_errors(run, kinds=("swap",), n_errors=1, seed=0)
+    expect = np.zeros((run.num_frames, run.num_joints), dtype=bool)
+    for r in records:
+        expect[r.start : r.end, run.skeleton.index(r.joint)] = True
+    assert np.array_equal(ssa.side_swaps(bad), expect)
+
+
+def test_a_mirror_symmetric_step_of_both_limbs_is_not_a_swap(walk):
+    """Both arms step out together and back (the same turn mirrored): breaks on both sides, twice, but each joint
+    steps away from its partner's mirror image, not onto it."""
+    mirrored = cues.mirrored_rotations(walk)
+    assert mirrored is not None
+    sk = walk.skeleton
+    frames = np.arange(400, 450)
+    a, _ = turned(walk, "LeftShoulder", frames, 40.0)
+    rot = np.array(a.rotations)
+    rot[:, sk.index("RightShoulder")] = a.mirror().rotations[:, sk.index("RightShoulder")]  # right = mirror of left
+    sym = dataclasses.replace(walk, rotations=rot)
+    both = cues.own_breaks(cues.midpoint_residuals(sym.rotations), 6.0)
+    assert both[:, sk.index("LeftShoulder")].any() and both[:, sk.index("RightShoulder")].any()
+    assert not ssa.side_swaps(sym).any()
+
+
+def test_a_limb_stepping_off_and_back_at_once_is_not_a_transient_offset(walk):
+    """Hip and knee of one leg step off their path and back at the same frames: motion of the limb, not an
+    error of one joint; either joint alone is an offset, and so is a joint with its mirror partner (a swap)."""
+    frames = np.arange(400, 450)
+    hip, knee = walk.skeleton.index("LeftHip"), walk.skeleton.index("LeftKnee")
+    one, _ = turned(walk, "LeftHip", frames, 30.0)
+    assert np.flatnonzero(ssa.transient_offsets(one)[:, hip]).tolist() == list(range(400, 450))
+    both, _ = turned(one, "LeftKnee", frames, 30.0)
+    offsets = ssa.transient_offsets(both)
+    assert not offsets[:, hip].any() and not offsets[:, knee].any()
+    pair, _ = turned(one, "RightHip", frames, 30.0)
+    assert ssa.transient_offsets(pair)[:, hip].sum() == 50

@@ -20,7 +20,9 @@ __all__ = [
     "discontinuities",
     "midpoint_residuals",
     "residual_breaks",
+    "own_breaks",
     "side_swaps",
+    "mirrored_rotations",
     "swaps_from_residuals",
     "transient_offsets",
     "offsets_from_residuals",
@@ -31,6 +33,7 @@ __all__ = [
 ]
 
 _D = SSAParams()
+MAX_ACCEL_DEG_S2 = 60_000.0  # three times the 20,000 deg/s^2 a fast limb reaches (discontinuities)
 
 def discontinuities(motion: Motion, jump_deg: float = _D.jump_deg) -> np.ndarray:
     """(F, J) bool: frames where a joint's rotation leaves the smooth path through its two neighbours.
@@ -52,6 +55,31 @@ def residual_breaks(resid: np.ndarray, jump_deg: float) -> np.ndarray:
     if not (np.isfinite(jump_deg) and jump_deg > 0):
         raise ValueError(f"jump_deg must be a positive number of degrees, got {jump_deg!r}")
     return resid > np.radians(jump_deg)
+
+
+def own_breaks(resid: np.ndarray, jump_deg: float, fps: float | None = None) -> np.ndarray:
+    """(F, J) bool: midpoint residuals over ``jump_deg`` *and* over what the joint's own motion reaches.
+
+    What a joint's motion reaches is ten times its median residual in the
+    take or three times its 95th percentile (:func:`_usual_residual`),
+    whichever is larger. At 120 fps this stays under the break thresholds, so
+    the breaks are those of :func:`residual_breaks`; at 30 fps the midpoint
+    residual of fast real motion is second order in a frame time four times
+    as long (16 times as large: a dancer's arms swinging both ways at once, a
+    foot strike), and a break must stand out from the joint's own motion to
+    be an error. With ``fps`` that level is capped at the residual the
+    fastest limb motion can make at that rate, ``MAX_ACCEL_DEG_S2 / (2 fps^2)``
+    (2.1 deg at 120 fps, 33 deg at 30 fps): where heavy noise raises a
+    joint's residuals, its breaks still confirm an error's digression (used
+    so for the confirmation and the side swaps; the transient offsets take
+    the uncapped level).
+    """
+    if not (np.isfinite(jump_deg) and jump_deg > 0):
+        raise ValueError(f"jump_deg must be a positive number of degrees, got {jump_deg!r}")
+    usual = np.maximum(10.0 * np.median(resid, axis=0), _usual_residual(resid))
+    if fps is not None:
+        usual = np.minimum(usual, np.radians(MAX_ACCEL_DEG_S2 / (2.0 * float(fps) ** 2)))
+    return resid > np.maximum(np.radians(jump_deg), usual)[None, :]
 
 
 def midpoint_residuals(rotations: np.ndarray) -> np.ndarray:
@@ -77,23 +105,45 @@ def side_swaps(motion: Motion, jump_deg: float = _D.swap_jump_deg, max_s: float 
     When the labels of the two sides swap, both joints of a left/right pair
     (:func:`mocapkit.motion.mirror_pairs`) jump at the same frame, and again
     when the labels swap back. A break here is a midpoint residual (see
-    :func:`discontinuities`) over ``jump_deg`` and over ten times the joint's
-    median residual in the take (at low frame rates fast motion has large
-    residuals of its own). Where both joints of a pair break within a frame of
+    :func:`discontinuities`) over ``jump_deg`` and over what the joint's own
+    motion reaches (:func:`own_breaks`: at low frame rates fast motion has
+    large residuals of its own, and a dance swinging both arms at once breaks
+    both sides together). Where both joints of a pair break within a frame of
     each other, and again within ``max_s`` seconds, both are flagged from the
     frame after the first break's first frame to the second break's first
     frame (a step between frames f and f + 1 shows at both); the events pair
-    up in time order. No smooth motion breaks like that, and no digression is
-    needed: a swapped limb often takes a plausible pose. ``joints`` (bool (J,), optional) limits the
+    up in time order. Each event must also step both joints onto their
+    partner's mirror image (:func:`_swap_step`), as a label swap does and a
+    mirror-symmetric move of both limbs does not. No smooth motion breaks like
+    that, and no digression is needed: a swapped limb often takes a plausible
+    pose. ``joints`` (bool (J,), optional) limits the
     pairs to those whose two joints it holds.
     """
     if not (np.isfinite(jump_deg) and jump_deg > 0 and max_s > 0):
         raise ValueError(f"need jump_deg > 0 and max_s > 0, got {jump_deg!r} and {max_s!r}")
-    return swaps_from_residuals(midpoint_residuals(motion.rotations), motion.skeleton.joint_names, motion.fps, jump_deg, max_s, joints)
+    q = np.asarray(motion.rotations, dtype=np.float64)
+    return swaps_from_residuals(midpoint_residuals(q), motion.skeleton.joint_names, motion.fps, jump_deg, max_s, joints,
+                                rotations=q, mirrored=mirrored_rotations(motion))
 
 
-def swaps_from_residuals(resid, joint_names, fps, jump_deg, max_s, joints) -> np.ndarray:
-    """:func:`side_swaps` on midpoint residuals already computed (:func:`midpoint_residuals`)."""
+def mirrored_rotations(motion: Motion) -> np.ndarray | None:
+    """(F, J, 4) the rotations of ``motion.mirror()`` (each joint takes its partner's reflected rotation), or None
+    on a rig that cannot be mirrored (no left/right pairs by name)."""
+    from ...errors import SkeletonError
+
+    try:
+        return np.asarray(motion.mirror().rotations, dtype=np.float64)
+    except SkeletonError:
+        return None
+
+
+def swaps_from_residuals(resid, joint_names, fps, jump_deg, max_s, joints, rotations=None, mirrored=None) -> np.ndarray:
+    """:func:`side_swaps` on midpoint residuals already computed (:func:`midpoint_residuals`).
+
+    With ``rotations`` (F, J, 4) and ``mirrored`` (the take's
+    :meth:`~mocapkit.motion.Motion.mirror` rotations, F, J, 4) each break
+    event must also look like a swap (:func:`_swap_step`).
+    """
     from scipy import ndimage
 
     from ...motion import mirror_pairs
@@ -101,7 +151,7 @@ def swaps_from_residuals(resid, joint_names, fps, jump_deg, max_s, joints) -> np
     F, J = resid.shape
     out = np.zeros((F, J), dtype=bool)
     use = np.ones(J, dtype=bool) if joints is None else np.asarray(joints, dtype=bool)
-    breaks = resid > np.maximum(np.radians(jump_deg), 10.0 * np.median(resid, axis=0))[None, :]
+    breaks = own_breaks(resid, jump_deg, fps)
     perm = mirror_pairs(joint_names)
     longest = int(round(max_s * fps))
     for j in range(J):
@@ -112,9 +162,33 @@ def swaps_from_residuals(resid, joint_names, fps, jump_deg, max_s, joints) -> np
         frames = np.flatnonzero(both)
         if len(frames) < 2:
             continue
-        for a, b in _paired_events([run[0] for run in _break_events(frames)], longest):
+        starts = [int(run[0]) for run in _break_events(frames)]
+        if rotations is not None and mirrored is not None:
+            starts = [f for f in starts if _swap_step(rotations, mirrored, f, j) and _swap_step(rotations, mirrored, f, p)]
+        for a, b in _paired_events(starts, longest):
             out[a + 1 : b + 1, j] = out[a + 1 : b + 1, p] = True  # a step from f to f + 1 breaks at both
     return out
+
+
+def _swap_step(q: np.ndarray, mirrored: np.ndarray, f: int, j: int, ratio: float = 0.5) -> bool:
+    """Whether joint ``j`` steps at ``f -> f + 1`` (or ``f + 1 -> f + 2``) onto its partner's mirrored rotation.
+
+    When labels swap (or swap back), the joint's new rotation is the mirror
+    image of its partner's rotation just before: it lies within ``ratio`` of
+    the step's size of ``mirrored[f, j]``. A dance move that swings both arms
+    at once in mirror symmetry breaks both sides together too, but there the
+    partner's mirror image is the joint's own pose, as far from the new
+    rotation as the step itself.
+    """
+    F = len(q)
+    for a in (f, f + 1):
+        if a + 1 >= F:
+            break
+        own = float(R.geodesic_angle(q[a + 1, j], q[a, j]))
+        partner = float(R.geodesic_angle(q[a + 1, j], mirrored[a, j]))
+        if partner < ratio * own:
+            return True
+    return False
 
 
 def _break_events(frames: np.ndarray) -> list[np.ndarray]:
@@ -166,7 +240,10 @@ def transient_offsets(
     near 180 deg pair either way) and start at most ``max_s`` apart are
     flagged from the frame after the first event's first frame to the second
     event's first frame (a step between frames f and f + 1 shows at both).
-    Pairs are taken in time order, as in :func:`side_swaps`. ``joints`` (bool (J,),
+    Pairs are taken in time order, as in :func:`side_swaps`. A pair whose two
+    steps another joint (not the mirror partner) takes at the same frames is
+    left out (:func:`_single_joint_offsets`): a limb moving at once is
+    motion, an error moves one joint. ``joints`` (bool (J,),
     optional) limits the joints looked at.
     """
     if not (np.isfinite(jump_deg) and jump_deg > 0 and max_s > 0 and min_offset_deg >= 0):
@@ -174,7 +251,8 @@ def transient_offsets(
             f"need jump_deg > 0, max_s > 0 and min_offset_deg >= 0, got {jump_deg!r}, {max_s!r} and {min_offset_deg!r}"
         )
     q = np.asarray(motion.rotations, dtype=np.float64)
-    return offsets_from_residuals(q, midpoint_residuals(q), motion.fps, jump_deg, max_s, min_offset_deg, joints)
+    return offsets_from_residuals(q, midpoint_residuals(q), motion.fps, jump_deg, max_s, min_offset_deg, joints,
+                                  motion.skeleton.joint_names)
 
 
 def _usual_residual(resid: np.ndarray) -> np.ndarray:
@@ -185,9 +263,8 @@ def _usual_residual(resid: np.ndarray) -> np.ndarray:
     raise it. At 120 fps this stays under the break thresholds; at 30 fps
     fast motion breaks too (a dancer's toes push off by 25 deg in one frame
     and come back), and a break must stand out from the joint's own motion.
-    Used by :func:`transient_offsets` only: on a joint under heavy noise it
-    can rise past a flip's 90 deg residuals, and there confirmation by the
-    digression still finds the error from the plain breaks.
+    Used through :func:`own_breaks`: on a joint under heavy noise it can rise
+    past a flip's 90 deg residuals (the noise itself is the denoise step's).
     """
     F = resid.shape[0]
     return 3.0 * np.percentile(resid, min(95.0, 100.0 * (1.0 - 8.0 / F)), axis=0)
@@ -208,13 +285,19 @@ def _event_step(q: np.ndarray, first: int, last: int) -> np.ndarray | None:
     return R.quaternion_to_rotvec(R.quaternion_multiply(q[last + 1], R.quaternion_inverse(pred)))
 
 
-def offsets_from_residuals(q, resid, fps, jump_deg, max_s, min_offset_deg, joints) -> np.ndarray:
-    """:func:`transient_offsets` on rotations ``q`` (F, J, 4) with their midpoint residuals already computed."""
+def offsets_from_residuals(q, resid, fps, jump_deg, max_s, min_offset_deg, joints, joint_names=None) -> np.ndarray:
+    """:func:`transient_offsets` on rotations ``q`` (F, J, 4) with their midpoint residuals already computed.
+
+    ``joint_names`` (optional) name the mirror partners (:func:`mocapkit.motion.mirror_pairs`) that
+    :func:`_single_joint_offsets` does not count as sharing a joint's steps.
+    """
+    from ...motion import mirror_pairs
+
     F, J = resid.shape
-    out = np.zeros((F, J), dtype=bool)
+    partner = None if joint_names is None else mirror_pairs(joint_names)
+    pairs: dict = {}
     use = np.ones(J, dtype=bool) if joints is None else np.asarray(joints, dtype=bool)
-    usual = np.maximum(10.0 * np.median(resid, axis=0), _usual_residual(resid))
-    breaks = resid > np.maximum(np.radians(jump_deg), usual)[None, :]
+    breaks = own_breaks(resid, jump_deg)
     longest = int(round(max_s * fps))
     half_turn = np.radians(150.0)
     for j in np.flatnonzero(use & breaks.any(axis=0)):
@@ -231,8 +314,31 @@ def offsets_from_residuals(q, resid, fps, jump_deg, max_s, min_offset_deg, joint
             cos = float(np.dot(steps[k], steps[m]) / (na * nb)) if na > 0 and nb > 0 else 1.0
             return cos <= -0.5 or (max(na, nb) > half_turn and abs(cos) >= 0.5)
 
-        for a, b in _paired_events(starts, longest, back):
-            out[a + 1 : b + 1, j] = True
+        pairs[j] = _paired_events(starts, longest, back)
+    return _single_joint_offsets(pairs, F, J, partner)
+
+
+def _single_joint_offsets(pairs: dict, F: int, J: int, partner: np.ndarray | None) -> np.ndarray:
+    """(F, J) bool from each joint's paired events ``{j: [(a, b), ...]}``, leaving out the pairs another joint
+    (not its mirror partner) shares: both its steps within a frame of this joint's two steps.
+
+    A drift, a flip or a lost marker moves one joint's rotation; a limb or a
+    body that steps off and back at once (the hip, knee and ankle of a leg
+    bouncing at the bottom of a squat, the upper arm and wrist of a throw)
+    moves several joints at the same frames, and that is motion. A mirror
+    partner stepping with it is left to :func:`side_swaps`.
+    """
+    out = np.zeros((F, J), dtype=bool)
+    for j, pj in pairs.items():
+        for a, b in pj:
+            shared = any(
+                abs(a - a2) <= 1 and abs(b - b2) <= 1
+                for k, pk in pairs.items()
+                if k != j and (partner is None or k != partner[j])
+                for a2, b2 in pk
+            )
+            if not shared:
+                out[a + 1 : b + 1, j] = True  # a step from f to f + 1 breaks at both
     return out
 
 

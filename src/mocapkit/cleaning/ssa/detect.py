@@ -23,8 +23,9 @@ from .cues import (
     flag_rule,
     held_joints,
     midpoint_residuals,
+    mirrored_rotations,
+    own_breaks,
     offsets_from_residuals,
-    residual_breaks,
     step_angles,
     swaps_from_residuals,
 )
@@ -277,7 +278,7 @@ def detect_prepared(an: Analysis, threshold: float = 0.5, *, progress: bool = Fa
     normalization, row_scale, floor_deg, z_scale = p.normalization, p.row_scale, p.floor_deg, p.z_scale
     max_word_angle_deg = p.max_word_angle_deg
     resid = midpoint_residuals(motion.rotations)  # for the breaks and the side swaps
-    jumps = residual_breaks(resid, p.jump_deg)
+    jumps = own_breaks(resid, p.jump_deg, motion.fps)  # breaks that stand out from the joint's own motion (30 fps too)
     sk = motion.skeleton
     gnames, grows = list(an.group_names), list(an.group_rows)
     words = an.words
@@ -368,10 +369,12 @@ def detect_prepared(an: Analysis, threshold: float = 0.5, *, progress: bool = Fa
     analysed[tex_joints] = True
     jumps &= analysed[None, :]
     holds = held_joints(motion, mean_speed, travel_deg=p.hold_travel_deg) & analysed[None, :]
-    swaps = swaps_from_residuals(resid, sk.joint_names, motion.fps, p.swap_jump_deg, p.swap_max_s, analysed)
+    q = np.asarray(motion.rotations, dtype=np.float64)
+    swaps = swaps_from_residuals(resid, sk.joint_names, motion.fps, p.swap_jump_deg, p.swap_max_s, analysed,
+                                 rotations=q, mirrored=mirrored_rotations(motion))
     offsets = offsets_from_residuals(
         np.asarray(motion.rotations, dtype=np.float64), resid, motion.fps, p.offset_jump_deg, p.offset_max_s,
-        p.offset_min_deg, analysed,
+        p.offset_min_deg, analysed, sk.joint_names,
     )
     flags = flag_rule(mdm, jumps, holds, swaps, offsets, threshold, motion.fps, p.confirm, p.confirm_margin_s)
     masks = an.group_masks()
