@@ -144,6 +144,35 @@ def test_knn_profile_lower_bound_is_a_bound(rng):
         assert np.mean(lb[fin] / dist[fin]) > 0.3  # and not a trivial one
 
 
+@pytest.mark.parametrize("frames", [1, 2, 37, 38])
+def test_self_pose_distances_equal_the_full_matrix_bit_for_bit(rng, frames):
+    """Half the cells computed and mirrored: the same float32 array as group_pose_distances(A, A), NaN frames too."""
+    A = _random_quats(rng, (frames, 7))
+    if frames > 5:
+        A[4, 2] = np.nan
+    groups = np.array([[True] * 7, [True, True, False, True, False, True, True], [False, True] * 3 + [False]])
+    want = W.group_pose_distances(A, A, groups, [3, 1, 0])
+    for got in _both(W.self_pose_distances, A, groups, [3, 1, 0]):
+        assert got.dtype == np.float32 and np.array_equal(got, want)
+
+
+def test_mean_exceeds_only_when_every_path_mean_does(rng):
+    """The knn profile's test before a DTW: True means the word distance is above lam, never a wrong skip."""
+    row = np.empty(20)
+    said, seen = 0, 0
+    for trial in range(300):
+        C = rng.random((15, 20)) ** 3
+        if trial % 7 == 0:
+            C[rng.integers(15), rng.integers(20)] = np.inf
+        d, _, _ = W.word_dtw(C)
+        for lam in (0.0, 0.5 * d, 0.9 * d, d, 1.1 * d):
+            seen += 1
+            if W._mean_exceeds(C, 0, 0, 15, 20, 11, lam, row):
+                said += 1
+                assert d > lam
+    assert said > seen // 3  # and it does skip: lam well under the distance is proven
+
+
 def test_knn_profile_few_minima_and_k_larger_than_targets():
     A = _walk_texture(60, 2)
     D = W.group_pose_distances(A, A, np.ones((1, 6), dtype=bool), [1])[0]
@@ -191,8 +220,8 @@ def _assert_same(s, p):
 
 def test_every_prange_kernel_has_twins():
     kernels = {name for name, v in vars(W).items() if isinstance(v, Twins)}
-    assert kernels == {"_group_pose_distances", "_profile", "_row_minima", "_knn_profile", "_pairs", "_warp",
-                       "_robust_means", "_shift_angles"}
+    assert kernels == {"_group_pose_distances", "_self_pose_distances", "_profile", "_row_minima", "_knn_profile",
+                       "_pairs", "_warp", "_robust_means", "_shift_angles"}
     for name in kernels:
         t = getattr(W, name)
         assert t.parallel.targetoptions.get("parallel") and not t.serial.targetoptions.get("parallel")

@@ -42,6 +42,7 @@ __all__ = [
 _D = SSAParams()
 
 _LARGE_GROUP = 12  # groups with at least this many joints drop 3 joint terms, smaller ones 1
+_SELF_MATRIX_BYTES = 128 << 20  # a take's self-distance matrices up to this size (~100 s at 24 fps) are computed whole
 
 
 def word_distance(a: np.ndarray, b: np.ndarray, drop: int = 3, min_width: int = 11, max_run: int = 3):
@@ -202,10 +203,16 @@ def nearest_words(
             if progress is not None:
                 progress.update(W)
         return out
+    whole = None  # the clip against itself: the symmetric matrix once, half its cells computed
+    if context.values is source.values and G * source.num_frames**2 * 4 <= _SELF_MATRIX_BYTES:
+        whole = word_dtw.self_pose_distances(source.values, masks, drops)
     for c0 in range(0, W, chunk):
         ws = word_starts[c0 : c0 + chunk]
         f0, f1 = int(ws.min()), int(ws.max()) + N
-        D = word_dtw.group_pose_distances(source.values[f0:f1], context.values, masks, drops)
+        if whole is not None:
+            D = whole[:, f0:f1]
+        else:
+            D = word_dtw.group_pose_distances(source.values[f0:f1], context.values, masks, drops)
         for gi in range(G):
             excl = ws + offset if self_clip is not None else None
             if exhaustive:

@@ -42,6 +42,7 @@ from .twins import twin_kernels
 
 __all__ = [
     "group_pose_distances",
+    "self_pose_distances",
     "word_dtw",
     "word_dtw_path",
     "word_distance_profile",
@@ -146,6 +147,38 @@ def _group_pose_distances(A, B, members, offsets, drop):
 
 
 
+@twin_kernels(_PARALLEL_CELLS)
+def _self_pose_distances(A, members, offsets, drop, out):
+    F = A.shape[0]
+    m = A.shape[1]
+    G = drop.shape[0]
+    for h in prange((F + 1) // 2):
+        terms = np.empty(m)
+        top = np.int64(h)
+        for side in range(2):  # a long row and a short one per step, so the threads share the triangle evenly
+            a = top if side == 0 else F - 1 - top
+            if side == 1 and a == top:
+                break
+            for b in range(a, F):
+                finite = True
+                for k in range(m):
+                    v = _half_angle_sq(A[a, k], A[b, k])
+                    terms[k] = v
+                    if v == _INF:
+                        finite = False
+                for g in range(G):
+                    val = _INF
+                    bad = False
+                    if not finite:
+                        for k in members[offsets[g] : offsets[g + 1]]:
+                            if terms[k] == _INF:
+                                bad = True
+                    if not bad:
+                        val = _robust_sum(terms, members[offsets[g] : offsets[g + 1]], drop[g])
+                    out[g, a, b] = val
+                    out[g, b, a] = val
+
+
 def _pack_groups(groups):
     """(G, m) boolean group masks -> (members, offsets) CSR arrays for the kernels."""
     groups = np.asarray(groups, dtype=bool)
@@ -174,6 +207,30 @@ def group_pose_distances(A: np.ndarray, B: np.ndarray, groups: np.ndarray, drop)
         raise ValueError("drop must give 0..3 for every group")
     members, offsets = _pack_groups(groups)
     return _group_pose_distances.pick(A.shape[0] * B.shape[0])(A, B, members, offsets, drop)
+
+
+def self_pose_distances(A: np.ndarray, groups: np.ndarray, drop) -> np.ndarray:
+    """:func:`group_pose_distances` of ``A`` against itself, (G, F, F) float32, computing only half the cells.
+
+    Eq. 1 is symmetric (every joint term is the same for frames ``(a, b)`` and
+    ``(b, a)``, bit for bit), so each cell of the upper triangle is computed
+    once and mirrored: the same array as ``group_pose_distances(A, A, ...)``
+    at half the cost (the self-distance matrix of the motion words, Aristidou
+    et al. 2018, section 3.3).
+    """
+    A = np.ascontiguousarray(A, dtype=np.float64)
+    if A.ndim != 3 or A.shape[2] != 4:
+        raise ValueError(f"A must be (F, m, 4), got {A.shape}")
+    groups = np.asarray(groups, dtype=bool).reshape(-1, A.shape[1])
+    drop = np.asarray(drop, dtype=np.int64).reshape(-1)
+    if len(drop) != len(groups) or np.any((drop < 0) | (drop > 3)):
+        raise ValueError("drop must give 0..3 for every group")
+    members, offsets = _pack_groups(groups)
+    F = A.shape[0]
+    out = np.empty((len(groups), F, F), dtype=np.float32)
+    if F:
+        _self_pose_distances.pick(F * F // 2)(A, members, offsets, drop, out)
+    return out
 
 
 # -- constrained DTW ---------------------------------------------------------
@@ -402,6 +459,14 @@ def word_distance_profile(D, src_starts, tgt_starts, N=15, M=20, min_width=11, m
 # smallest values, 1 on the others, the split tried at every rank. The DTW's
 # distance (the best mean over end cells of least-sum paths) is a path mean, so it
 # is bounded too.
+#
+# A second test runs before each DTW once a K-th minimum ``tau`` is known: the word
+# distance exceeds ``tau`` when every admissible path's sum of ``c - tau`` is positive,
+# which a one-state DP with the slope limit relaxed proves (:func:`_mean_exceeds`, a
+# seventh of the DTW's work). A position it rules out keeps ``tau`` as a strict bound
+# (``d > tau``) and is not evaluated; the proof of a local minimum next to it reads
+# that bound. Every position with ``d <= tau`` is still evaluated, so the answer is
+# unchanged, bit for bit.
 
 
 def _row_windows(N, M, max_run):
@@ -462,11 +527,12 @@ def _bound(rowmin, level, s, t, N, min_width, wmax, buf):
 
 
 @njit(cache=True, inline="always")
-def _proven_minimum(d, evaluated, lb, consec, t, v):
+def _proven_minimum(d, evaluated, lb, strict, consec, t, v):
     """Whether ``v = d[t]`` is a local minimum (``<=`` left, ``<`` right, across consecutive starts).
 
-    An unevaluated neighbour counts through its lower bound: the answer is
-    True only when the bound already proves it.
+    An unevaluated neighbour counts through its lower bound (``d >= lb``, or
+    ``d > lb`` where ``strict``): the answer is True only when the bound
+    already proves it.
     """
     T = d.shape[0]
     if t > 0 and consec[t]:
@@ -479,13 +545,54 @@ def _proven_minimum(d, evaluated, lb, consec, t, v):
         if evaluated[t + 1]:
             if not v < d[t + 1]:
                 return False
-        elif not lb[t + 1] > v:
+        elif not (lb[t + 1] > v or (strict[t + 1] and lb[t + 1] >= v)):
             return False
     return True
 
 
 @njit(cache=True)
-def _kth_confirmed(d, evaluated, lb, consec, ev, ne, k, vals, tgt, lo, hi):
+def _mean_exceeds(D, si, tj, N, M, min_width, lam, row):
+    """Whether every admissible path of the block ``D[si:si+N, tj:tj+M]`` has a mean cost above ``lam``.
+
+    A path's mean exceeds ``lam`` exactly when its sum of ``c - lam`` is
+    positive; the least such sum over all monotone paths from ``(0, 0)`` to an
+    admissible end cell (constraints (a)-(c) and (e); the slope limit (d)
+    relaxed, so the paths of :func:`_word_dtw` are among them) takes one
+    state per cell instead of seven. True only when that least sum is
+    positive by more than its round-off; then the word distance exceeds
+    ``lam``. ``row`` is an (M,) scratch buffer.
+    """
+    lo = min_width - 1 if min_width >= 1 else 0
+    best = _INF
+    cmax = lam
+    for i in range(N):
+        diag = _INF
+        for j in range(M):
+            c = D[si + i, tj + j]
+            if c < _INF and c > cmax:
+                cmax = c
+            if i == 0 and j == 0:
+                prev = 0.0
+            else:
+                prev = _INF
+                if i > 0:
+                    prev = row[j]  # (i - 1, j)
+                    if diag < prev:
+                        prev = diag  # (i - 1, j - 1)
+                if j > 0 and row[j - 1] < prev:
+                    prev = row[j - 1]  # (i, j - 1), already this row
+            up = row[j]
+            v = prev + (c - lam)
+            row[j] = v
+            diag = up
+            if (i == N - 1 and j >= lo) or (j == M - 1 and i >= lo):
+                if v < best:
+                    best = v
+    return best > 1e-12 * (N + M) * cmax
+
+
+@njit(cache=True)
+def _kth_confirmed(d, evaluated, lb, strict, consec, ev, ne, k, vals, tgt, lo, hi):
     """K-th smallest value among the evaluated positions proven to be local minima (inf if fewer).
 
     Positions whose start lies in ``[lo, hi]`` (the source word's own place) are
@@ -499,7 +606,7 @@ def _kth_confirmed(d, evaluated, lb, consec, ev, ne, k, vals, tgt, lo, hi):
             continue
         if n == k and v >= vals[k - 1]:
             continue
-        if not _proven_minimum(d, evaluated, lb, consec, t, v):
+        if not _proven_minimum(d, evaluated, lb, strict, consec, t, v):
             continue
         q = n if n < k else k - 1
         while q > 0 and vals[q - 1] > v:
@@ -527,6 +634,8 @@ def _knn_profile(D, rowmin, level, src, tgt, consec, excl_lo, excl_hi, N, M, min
         ie = np.zeros(T, dtype=np.int64)
         je = np.zeros(T, dtype=np.int64)
         evaluated = np.zeros(T, dtype=np.bool_)
+        strict = np.zeros(T, dtype=np.bool_)
+        row = np.empty(M)
         ev = np.empty(T, dtype=np.int64)
         ne = 0
         lo = excl_lo[w]
@@ -543,6 +652,10 @@ def _knn_profile(D, rowmin, level, src, tgt, consec, excl_lo, excl_hi, N, M, min
             x += 1
             if evaluated[t]:
                 continue
+            if tau < _INF and _mean_exceeds(D, src[w], tgt[t], N, M, min_width, tau * (1.0 + 1e-9), row):
+                lb[t] = tau  # the distance exceeds tau: a strict bound, no DTW needed
+                strict[t] = True
+                continue
             dd, i, j = _word_dtw(D, src[w], tgt[t], N, M, min_width, max_run, acc, ln)
             d[t] = dd
             ie[t] = i
@@ -551,7 +664,7 @@ def _knn_profile(D, rowmin, level, src, tgt, consec, excl_lo, excl_hi, N, M, min
             ev[ne] = t
             ne += 1
             if ne % batch == 0:
-                tau = _kth_confirmed(d, evaluated, lb, consec, ev, ne, k, vals, tgt, lo, hi)
+                tau = _kth_confirmed(d, evaluated, lb, strict, consec, ev, ne, k, vals, tgt, lo, hi)
         out_evaluated[w] = ne
         # the K smallest proven local minima, ties to the earlier target
         n = 0
@@ -561,7 +674,7 @@ def _knn_profile(D, rowmin, level, src, tgt, consec, excl_lo, excl_hi, N, M, min
             v = d[t]
             if not v < _INF or lo <= tgt[t] <= hi:
                 continue
-            if not _proven_minimum(d, evaluated, lb, consec, t, v):
+            if not _proven_minimum(d, evaluated, lb, strict, consec, t, v):
                 continue
             if n == k and (v > out_dist[w, k - 1] or (v == out_dist[w, k - 1] and t > picked[k - 1])):
                 continue
@@ -658,7 +771,7 @@ def word_knn_profile(D, src_starts, tgt_starts, k=5, exclude_center=None, exclud
         lens, level = _row_windows(N, M, max_run)
         rowmin = np.empty((len(lens), D.shape[0], T), dtype=np.float32)
         _row_minima.pick(D.shape[0] * len(tgt))(D, tgt, lens, rowmin)
-        _knn_profile.pick(W * T)(D, rowmin, level, src, tgt, consec, lo, hi, N, M, int(min_width), int(max_run), int(k), 16,
+        _knn_profile.pick(W * T)(D, rowmin, level, src, tgt, consec, lo, hi, N, M, int(min_width), int(max_run), int(k), 4,
                      idx, dist, iend, jend, evaluated)
     out = (idx, dist.astype(np.float32), iend.astype(np.int16), jend.astype(np.int16))
     return out + (evaluated,) if return_evaluated else out
