@@ -341,7 +341,6 @@ def _word_dtw(C, si, tj, N, M, min_width, max_run, acc, ln, back=None):
                     bj = j
     return best_mean, bi, bj
 
-
 @njit(cache=True)
 def _trace(acc, back, bi, bj):
     """Warping path (p, 2) of (source, target) frames ending at (bi, bj), from the predecessor states."""
