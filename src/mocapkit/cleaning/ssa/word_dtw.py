@@ -520,8 +520,9 @@ def _bound(rowmin, level, s, t, N, min_width, wmax, buf):
                 m = (wmax * low + (total - low)) / (wmax * q + (n - q))
                 if m < best:
                     best = m
-                if q < n:
-                    low += buf[q]
+                if q == n or buf[q] >= m:
+                    break  # weighting the next row more raises the mean from here on (the rows are sorted)
+                low += buf[q]
     return best
 
 
@@ -623,6 +624,7 @@ def _knn_profile(D, rowmin, level, src, tgt, consec, excl_lo, excl_hi, N, M, min
     W = src.shape[0]
     T = tgt.shape[0]
     wmax = float(max_run + 1)
+    first = min(T, 64)
     for w in prange(W):
         acc = np.empty((N, M, 7))
         ln = np.empty((N, M, 7), dtype=np.int64)
@@ -641,29 +643,35 @@ def _knn_profile(D, rowmin, level, src, tgt, consec, excl_lo, excl_hi, N, M, min
         hi = excl_hi[w]
         for t in range(T):
             lb[t] = _bound(rowmin, level, src[w], t, N, min_width, wmax, buf) * (1.0 - 1e-9)
-        order = np.argsort(lb, kind="mergesort")
         tau = _INF
-        x = 0
-        while x < T:
-            t = order[x]
-            if not lb[t] <= tau:
-                break
-            x += 1
-            if evaluated[t]:
-                continue
-            if tau < _INF and _mean_exceeds(D, src[w], tgt[t], N, M, min_width, tau * (1.0 + 1e-9), row):
-                lb[t] = tau  # the distance exceeds tau: a strict bound, no DTW needed
-                strict[t] = True
-                continue
-            dd, i, j = _word_dtw(D, src[w], tgt[t], N, M, min_width, max_run, acc, ln)
-            d[t] = dd
-            ie[t] = i
-            je[t] = j
-            evaluated[t] = True
-            ev[ne] = t
-            ne += 1
-            if ne % batch == 0:
-                tau = _kth_confirmed(d, evaluated, lb, strict, consec, ev, ne, k, vals, tgt, lo, hi)
+        for phase in range(2):
+            # in increasing order of the bound: first the `first` lowest, then, once tau is known, only the
+            # positions whose bound is at most tau (a few hundred of a long take's thousands need sorting)
+            if phase == 0:
+                cut = np.partition(lb, first - 1)[first - 1] if first < T else _INF
+                cand = np.flatnonzero(lb <= cut)
+            else:
+                cand = np.flatnonzero((lb <= tau) & ~evaluated & ~strict)
+            order = cand[np.argsort(lb[cand], kind="mergesort")]
+            for x in range(order.shape[0]):
+                t = order[x]
+                if not lb[t] <= tau:
+                    break
+                if evaluated[t] or strict[t]:
+                    continue
+                if tau < _INF and _mean_exceeds(D, src[w], tgt[t], N, M, min_width, tau * (1.0 + 1e-9), row):
+                    lb[t] = tau  # the distance exceeds tau: a strict bound, no DTW needed
+                    strict[t] = True
+                    continue
+                dd, i, j = _word_dtw(D, src[w], tgt[t], N, M, min_width, max_run, acc, ln)
+                d[t] = dd
+                ie[t] = i
+                je[t] = j
+                evaluated[t] = True
+                ev[ne] = t
+                ne += 1
+                if ne % batch == 0:
+                    tau = _kth_confirmed(d, evaluated, lb, strict, consec, ev, ne, k, vals, tgt, lo, hi)
         out_evaluated[w] = ne
         # the K smallest proven local minima, ties to the earlier target
         n = 0
