@@ -478,18 +478,37 @@ def _row_windows(N, M, max_run):
 
 @twin_kernels(_PARALLEL_ROW_MINIMA)
 def _row_minima(D, tgt, lens, out):
-    """out[l, r, t] = min(D[r, tgt[t] : tgt[t] + lens[l]]), the lens increasing."""
+    """out[l, r, t] = min(D[r, tgt[t] : tgt[t] + lens[l]]), the lens increasing.
+
+    The minima of every block of ``lens[0]`` columns are taken once per row, so
+    a window that grows by that step costs one comparison, not one per column.
+    """
     R = D.shape[0]
     T = tgt.shape[0]
+    Fb = D.shape[1]
+    step = lens[0]
     for r in prange(R):
+        block = np.empty(max(Fb - step + 1, 1))
+        for x in range(Fb - step + 1):
+            v = _INF
+            for j in range(x, x + step):
+                c = D[r, j]
+                if c < v:
+                    v = c
+            block[x] = v
         for t in range(T):
             v = _INF
             j0 = 0
             for l in range(lens.shape[0]):
-                for j in range(j0, lens[l]):
-                    c = D[r, tgt[t] + j]
+                if lens[l] - j0 == step:
+                    c = block[tgt[t] + j0]
                     if c < v:
                         v = c
+                else:
+                    for j in range(j0, lens[l]):
+                        c = D[r, tgt[t] + j]
+                        if c < v:
+                            v = c
                 out[l, r, t] = v
                 j0 = lens[l]
 
