@@ -144,7 +144,11 @@ def nearest_words(
     since sparse candidates cannot tell a minimum from the slope down into the
     source's own place. ``self_clip`` is the clip of
     ``context`` that ``source`` is (its neighbours closer than N/2 frames to the
-    source word are excluded), or None.
+    source word are excluded), or None. When ``context`` is ``source`` itself
+    (local analysis) the pose distances are its symmetric self-distance
+    matrix, computed once with half the cells
+    (:func:`~mocapkit.cleaning.ssa.word_dtw.self_pose_distances`) while it
+    stays under 128 MiB (about 100 s of take), else chunk by chunk.
     """
     N, M = source_length, target_length
     G, W = len(groups), len(word_starts)
