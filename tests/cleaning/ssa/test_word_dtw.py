@@ -219,11 +219,12 @@ def _assert_same(s, p):
 
 
 def test_every_prange_kernel_has_twins():
-    kernels = {name for name, v in vars(W).items() if isinstance(v, Twins)}
-    assert kernels == {"_group_pose_distances", "_self_pose_distances", "_profile", "_row_minima", "_knn_profile",
-                       "_pairs", "_warp", "_robust_means", "_shift_angles"}
-    for name in kernels:
-        t = getattr(W, name)
+    from mocapkit.cleaning.ssa import word_means
+
+    kernels = {name: v for mod in (W, word_means) for name, v in vars(mod).items() if isinstance(v, Twins)}
+    assert set(kernels) == {"_group_pose_distances", "_self_pose_distances", "_profile", "_row_minima", "_knn_profile",
+                            "_pairs", "_warp", "_robust_means", "_shift_angles"}
+    for name, t in kernels.items():
         assert t.parallel.targetoptions.get("parallel") and not t.serial.targetoptions.get("parallel")
         assert t.parallel.py_func.__qualname__ == t.serial.py_func.__qualname__ + PARALLEL_SUFFIX  # own cache files
         assert t.pick(0) is t.serial and t.pick(t.threshold - 1) is t.serial and t.pick(t.threshold) is t.parallel

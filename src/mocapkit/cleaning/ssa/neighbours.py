@@ -21,7 +21,7 @@ import numpy as np
 from scipy.signal import resample_poly
 
 from ... import rotations as R
-from . import word_dtw
+from . import word_dtw, word_means
 from .params import SSAParams
 from .texture import MotionTexture, align_hemisphere
 
@@ -193,7 +193,7 @@ def nearest_words(
             # source's own clip is left out a whole word either side (not half a word, as with the full profile)
             lo = word_starts + offset - N if self_clip is not None else np.full(W, -1)
             hi = word_starts + offset + N + 1 if self_clip is not None else np.full(W, -1)
-            chosen = word_dtw.select_separated_minima(d, pos, tclip[cidx], k, half + 1, lo, hi)
+            chosen = word_means.select_separated_minima(d, pos, tclip[cidx], k, half + 1, lo, hi)
             for w in range(W):
                 for kk in range(k):
                     p = chosen[w, kk]
@@ -307,9 +307,9 @@ def robust_means(words: np.ndarray, valid: np.ndarray) -> tuple[np.ndarray, np.n
     the mean towards the error. Returns the means (W, N, m, 4) and the spread
     (W, N, m), the RMS angle of the kept neighbours from the mean in radians
     (0 where a word has one neighbour, whose word is the mean). The cell loop
-    is :func:`mocapkit.cleaning.ssa.word_dtw.robust_word_means`.
+    is :func:`mocapkit.cleaning.ssa.word_means.robust_word_means`.
     """
-    return word_dtw.robust_word_means(words, valid, np.radians(5.0))
+    return word_means.robust_word_means(words, valid, np.radians(5.0))
 
 
 def unseen_words(neighbors: Neighbors, groups, max_word_angle_deg) -> np.ndarray:
