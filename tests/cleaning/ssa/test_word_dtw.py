@@ -92,15 +92,6 @@ def test_profile_and_pairs_equal_single_dtw(rng):
     np.testing.assert_allclose(d2.reshape(dist.shape), dist, rtol=1e-5)
 
 
-def test_select_separated_minima():
-    dist = np.array([[0.1, 0.2, 0.3, 0.05, 0.4, 0.5]])
-    pos = np.array([[10, 12, 40, 100, 60, 80]])
-    clips = np.array([[0, 0, 0, 0, 1, 0]])
-    out = W.select_separated_minima(dist, pos, clips, 3, 7, np.array([95]), np.array([105]))
-    # 100 is in the excluded zone; 12 is too close to 10; 40 next
-    assert out.tolist() == [[10, 40, 60]]
-
-
 def _walk_texture(n_frames=160, seed=0):
     """A quasi-periodic synthetic texture (F, 6, 4): smooth rotations whose pattern repeats with drift."""
     rng = np.random.default_rng(seed)
@@ -183,21 +174,6 @@ def test_knn_profile_few_minima_and_k_larger_than_targets():
     for w in range(2):
         n = len(want[w])
         assert idx[w, :n].tolist() == [t for _, t in want[w]] and (idx[w, n:] == -1).all() and np.isinf(d[w, n:]).all()
-
-
-def test_shift_tolerant_angles_equal_the_numpy_reading(rng):
-    inp, ref = _random_quats(rng, (30, 4)), _random_quats(rng, (30, 4))
-    ref[5:8, 1] = np.nan
-    for shift in (0, 2):
-        got = W.shift_tolerant_angles(inp, ref, shift)
-        want = np.full((30, 4), np.inf)
-        for d in range(-shift, shift + 1):
-            g = np.clip(np.arange(30) + d, 0, 29)
-            a = R.geodesic_angle(inp, ref[g])
-            want = np.fmin(want, np.where(np.isnan(a), np.inf, a))
-        want[np.isinf(want)] = np.nan
-        np.testing.assert_allclose(got, want, atol=1e-12)
-    assert np.isnan(W.shift_tolerant_angles(inp, ref, 0)[6, 1]) and np.isfinite(W.shift_tolerant_angles(inp, ref, 2)[6, 1])
 
 
 # -- serial and parallel twins (mocapkit.cleaning.ssa.twins) ----------------------
