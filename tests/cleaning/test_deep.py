@@ -101,6 +101,35 @@ def test_encode_decode_round_trip(walk, rep):
     assert metrics.pose_error(walk, back).max() < 1e-16
 
 
+def test_euler_decode_converts_only_changed_cells_bit_for_bit(walk):
+    """decode converts only the cells not kept, joint by joint: the same bits as converting every file channel
+    back (Motion.from_channel_values) and then copying the kept cells, NaN and out-of-range values too."""
+    import dataclasses
+
+    from mocapkit.motion import Motion
+
+    lay = deep.layout_for(walk, "euler")
+    x, _ = ch.encode(walk, lay)
+    rng = np.random.default_rng(4)
+    x = x + rng.normal(scale=3.0, size=x.shape)
+    x[5, 3], x[7, 0] = np.nan, 400.0
+    like = dataclasses.replace(walk, rotations=np.where((np.arange(walk.num_frames) == 9)[:, None, None], np.nan,
+                                                        walk.rotations))
+    keep = rng.random((walk.num_frames, walk.num_joints)) < 0.7
+    full = like.channel_values()
+    full[:, ch.euler_columns(like)] = (x + 180.0) % 360.0 - 180.0
+    rot = np.array(Motion.from_channel_values(like.skeleton, np.nan_to_num(full), like.fps, like.name).rotations)
+    ref = like.rotations
+    flip = np.all(np.isfinite(ref), axis=-1, keepdims=True) & (np.sum(rot * np.nan_to_num(ref), axis=-1, keepdims=True) < 0)
+    rot = np.where(flip, -rot, rot)
+    in_layout = np.isin(np.arange(walk.num_joints), [walk.skeleton.index(n) for n in lay.joints])
+    rot[:, ~in_layout] = ref[:, ~in_layout]
+    for k in (None, keep):
+        want = rot if k is None else np.where(k[..., None], ref, rot)
+        got = ch.decode(x, like, lay, keep=k).rotations
+        assert np.array_equal(got, want, equal_nan=True)
+
+
 def test_root_angular_velocity_ignores_heading(walk):
     from mocapkit import rotations as R
 

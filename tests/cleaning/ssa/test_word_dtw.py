@@ -92,15 +92,6 @@ def test_profile_and_pairs_equal_single_dtw(rng):
     np.testing.assert_allclose(d2.reshape(dist.shape), dist, rtol=1e-5)
 
 
-def test_select_separated_minima():
-    dist = np.array([[0.1, 0.2, 0.3, 0.05, 0.4, 0.5]])
-    pos = np.array([[10, 12, 40, 100, 60, 80]])
-    clips = np.array([[0, 0, 0, 0, 1, 0]])
-    out = W.select_separated_minima(dist, pos, clips, 3, 7, np.array([95]), np.array([105]))
-    # 100 is in the excluded zone; 12 is too close to 10; 40 next
-    assert out.tolist() == [[10, 40, 60]]
-
-
 def _walk_texture(n_frames=160, seed=0):
     """A quasi-periodic synthetic texture (F, 6, 4): smooth rotations whose pattern repeats with drift."""
     rng = np.random.default_rng(seed)
@@ -144,6 +135,35 @@ def test_knn_profile_lower_bound_is_a_bound(rng):
         assert np.mean(lb[fin] / dist[fin]) > 0.3  # and not a trivial one
 
 
+@pytest.mark.parametrize("frames", [1, 2, 37, 38])
+def test_self_pose_distances_equal_the_full_matrix_bit_for_bit(rng, frames):
+    """Half the cells computed and mirrored: the same float32 array as group_pose_distances(A, A), NaN frames too."""
+    A = _random_quats(rng, (frames, 7))
+    if frames > 5:
+        A[4, 2] = np.nan
+    groups = np.array([[True] * 7, [True, True, False, True, False, True, True], [False, True] * 3 + [False]])
+    want = W.group_pose_distances(A, A, groups, [3, 1, 0])
+    for got in _both(W.self_pose_distances, A, groups, [3, 1, 0]):
+        assert got.dtype == np.float32 and np.array_equal(got, want)
+
+
+def test_mean_exceeds_only_when_every_path_mean_does(rng):
+    """The knn profile's test before a DTW: True means the word distance is above lam, never a wrong skip."""
+    row = np.empty(20)
+    said, seen = 0, 0
+    for trial in range(300):
+        C = rng.random((15, 20)) ** 3
+        if trial % 7 == 0:
+            C[rng.integers(15), rng.integers(20)] = np.inf
+        d, _, _ = W.word_dtw(C)
+        for lam in (0.0, 0.5 * d, 0.9 * d, d, 1.1 * d):
+            seen += 1
+            if W._mean_exceeds(C, 0, 0, 15, 20, 11, lam, row):
+                said += 1
+                assert d > lam
+    assert said > seen // 3  # and it does skip: lam well under the distance is proven
+
+
 def test_knn_profile_few_minima_and_k_larger_than_targets():
     A = _walk_texture(60, 2)
     D = W.group_pose_distances(A, A, np.ones((1, 6), dtype=bool), [1])[0]
@@ -154,21 +174,6 @@ def test_knn_profile_few_minima_and_k_larger_than_targets():
     for w in range(2):
         n = len(want[w])
         assert idx[w, :n].tolist() == [t for _, t in want[w]] and (idx[w, n:] == -1).all() and np.isinf(d[w, n:]).all()
-
-
-def test_shift_tolerant_angles_equal_the_numpy_reading(rng):
-    inp, ref = _random_quats(rng, (30, 4)), _random_quats(rng, (30, 4))
-    ref[5:8, 1] = np.nan
-    for shift in (0, 2):
-        got = W.shift_tolerant_angles(inp, ref, shift)
-        want = np.full((30, 4), np.inf)
-        for d in range(-shift, shift + 1):
-            g = np.clip(np.arange(30) + d, 0, 29)
-            a = R.geodesic_angle(inp, ref[g])
-            want = np.fmin(want, np.where(np.isnan(a), np.inf, a))
-        want[np.isinf(want)] = np.nan
-        np.testing.assert_allclose(got, want, atol=1e-12)
-    assert np.isnan(W.shift_tolerant_angles(inp, ref, 0)[6, 1]) and np.isfinite(W.shift_tolerant_angles(inp, ref, 2)[6, 1])
 
 
 # -- serial and parallel twins (mocapkit.cleaning.ssa.twins) ----------------------
@@ -190,11 +195,12 @@ def _assert_same(s, p):
 
 
 def test_every_prange_kernel_has_twins():
-    kernels = {name for name, v in vars(W).items() if isinstance(v, Twins)}
-    assert kernels == {"_group_pose_distances", "_profile", "_row_minima", "_knn_profile", "_pairs", "_warp",
-                       "_robust_means", "_shift_angles"}
-    for name in kernels:
-        t = getattr(W, name)
+    from mocapkit.cleaning.ssa import word_means
+
+    kernels = {name: v for mod in (W, word_means) for name, v in vars(mod).items() if isinstance(v, Twins)}
+    assert set(kernels) == {"_group_pose_distances", "_self_pose_distances", "_profile", "_row_minima", "_knn_profile",
+                            "_pairs", "_warp", "_robust_means", "_shift_angles"}
+    for name, t in kernels.items():
         assert t.parallel.targetoptions.get("parallel") and not t.serial.targetoptions.get("parallel")
         assert t.parallel.py_func.__qualname__ == t.serial.py_func.__qualname__ + PARALLEL_SUFFIX  # own cache files
         assert t.pick(0) is t.serial and t.pick(t.threshold - 1) is t.serial and t.pick(t.threshold) is t.parallel

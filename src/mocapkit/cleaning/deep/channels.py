@@ -211,15 +211,24 @@ def decode(values: np.ndarray, like: Motion, layout: ChannelLayout, keep: np.nda
     if values.shape != (F, layout.num_channels):
         raise ValueError(f"values: expected shape ({F}, {layout.num_channels}), got {values.shape}")
     sk = like.skeleton
+    in_layout = np.zeros(sk.num_joints, dtype=bool)
+    in_layout[[sk.index(n) for n in layout.joints]] = True
     if layout.representation == "euler":
-        full = like.channel_values()
-        cols = euler_columns(like)
-        full[:, cols] = (values + 180.0) % 360.0 - 180.0
-        # Root channels may be NaN where the root is missing; from_channel_values needs numbers there.
-        new = Motion.from_channel_values(
-            sk, np.nan_to_num(full), like.fps, like.name, animated_offsets=like.translations is not None
-        )
-        rot = np.array(new.rotations)
+        # only the cells that change (a layout joint, not kept) go from degrees to quaternions, joint by joint
+        # with the conversions Motion.from_channel_values makes (elementwise: the same bits as converting all)
+        wrapped = np.nan_to_num((values + 180.0) % 360.0 - 180.0)
+        rot = np.array(like.rotations)
+        col = 0
+        for j in range(sk.num_joints):
+            n = sum(1 for ch in sk.joint_channels(j) if ch.endswith("rotation")) if j > 0 else 0
+            frames = np.flatnonzero(~np.asarray(keep[:, j], dtype=bool)) if keep is not None else np.arange(F)
+            if n and in_layout[j] and len(frames):
+                q = R.euler_to_quaternion(wrapped[frames, col : col + n], sk.rotation_order(j))
+                if sk.axes is not None:
+                    c = sk.axes[j]
+                    q = R.quaternion_multiply(R.quaternion_multiply(c, q), R.quaternion_conjugate(c))
+                rot[frames, j] = q
+            col += n
     else:
         from ...corrupt import project_to_dofs
 
@@ -236,8 +245,6 @@ def decode(values: np.ndarray, like: Motion, layout: ChannelLayout, keep: np.nda
     finite = np.all(np.isfinite(ref), axis=-1, keepdims=True)
     flip = finite & (np.sum(rot * np.nan_to_num(ref), axis=-1, keepdims=True) < 0.0)
     rot = np.where(flip, -rot, rot)
-    in_layout = np.zeros(sk.num_joints, dtype=bool)
-    in_layout[[sk.index(n) for n in layout.joints]] = True
     rot[:, ~in_layout] = ref[:, ~in_layout]  # the root and joints without rotation channels
     if keep is not None:
         rot = np.where(np.asarray(keep, dtype=bool)[..., None], ref, rot)

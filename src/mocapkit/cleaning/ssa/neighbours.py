@@ -21,7 +21,7 @@ import numpy as np
 from scipy.signal import resample_poly
 
 from ... import rotations as R
-from . import word_dtw
+from . import word_dtw, word_means
 from .params import SSAParams
 from .texture import MotionTexture, align_hemisphere
 
@@ -42,6 +42,7 @@ __all__ = [
 _D = SSAParams()
 
 _LARGE_GROUP = 12  # groups with at least this many joints drop 3 joint terms, smaller ones 1
+_SELF_MATRIX_BYTES = 128 << 20  # a take's self-distance matrices up to this size (~100 s at 24 fps) are computed whole
 
 
 def word_distance(a: np.ndarray, b: np.ndarray, drop: int = 3, min_width: int = 11, max_run: int = 3):
@@ -143,7 +144,11 @@ def nearest_words(
     since sparse candidates cannot tell a minimum from the slope down into the
     source's own place. ``self_clip`` is the clip of
     ``context`` that ``source`` is (its neighbours closer than N/2 frames to the
-    source word are excluded), or None.
+    source word are excluded), or None. When ``context`` is ``source`` itself
+    (local analysis) the pose distances are its symmetric self-distance
+    matrix, computed once with half the cells
+    (:func:`~mocapkit.cleaning.ssa.word_dtw.self_pose_distances`) while it
+    stays under 128 MiB (about 100 s of take), else chunk by chunk.
     """
     N, M = source_length, target_length
     G, W = len(groups), len(word_starts)
@@ -188,7 +193,7 @@ def nearest_words(
             # source's own clip is left out a whole word either side (not half a word, as with the full profile)
             lo = word_starts + offset - N if self_clip is not None else np.full(W, -1)
             hi = word_starts + offset + N + 1 if self_clip is not None else np.full(W, -1)
-            chosen = word_dtw.select_separated_minima(d, pos, tclip[cidx], k, half + 1, lo, hi)
+            chosen = word_means.select_separated_minima(d, pos, tclip[cidx], k, half + 1, lo, hi)
             for w in range(W):
                 for kk in range(k):
                     p = chosen[w, kk]
@@ -202,10 +207,16 @@ def nearest_words(
             if progress is not None:
                 progress.update(W)
         return out
+    whole = None  # the clip against itself: the symmetric matrix once, half its cells computed
+    if context.values is source.values and G * source.num_frames**2 * 4 <= _SELF_MATRIX_BYTES:
+        whole = word_dtw.self_pose_distances(source.values, masks, drops)
     for c0 in range(0, W, chunk):
         ws = word_starts[c0 : c0 + chunk]
         f0, f1 = int(ws.min()), int(ws.max()) + N
-        D = word_dtw.group_pose_distances(source.values[f0:f1], context.values, masks, drops)
+        if whole is not None:
+            D = whole[:, f0:f1]
+        else:
+            D = word_dtw.group_pose_distances(source.values[f0:f1], context.values, masks, drops)
         for gi in range(G):
             excl = ws + offset if self_clip is not None else None
             if exhaustive:
@@ -296,9 +307,9 @@ def robust_means(words: np.ndarray, valid: np.ndarray) -> tuple[np.ndarray, np.n
     the mean towards the error. Returns the means (W, N, m, 4) and the spread
     (W, N, m), the RMS angle of the kept neighbours from the mean in radians
     (0 where a word has one neighbour, whose word is the mean). The cell loop
-    is :func:`mocapkit.cleaning.ssa.word_dtw.robust_word_means`.
+    is :func:`mocapkit.cleaning.ssa.word_means.robust_word_means`.
     """
-    return word_dtw.robust_word_means(words, valid, np.radians(5.0))
+    return word_means.robust_word_means(words, valid, np.radians(5.0))
 
 
 def unseen_words(neighbors: Neighbors, groups, max_word_angle_deg) -> np.ndarray:

@@ -39,9 +39,11 @@ import numpy as np
 from numba import njit, prange
 
 from .twins import twin_kernels
+from .word_means import robust_word_means, select_separated_minima, shift_tolerant_angles  # re-exported
 
 __all__ = [
     "group_pose_distances",
+    "self_pose_distances",
     "word_dtw",
     "word_dtw_path",
     "word_distance_profile",
@@ -71,8 +73,6 @@ _PARALLEL_ROW_MINIMA = 262144  # source rows * target starts, ~15 ns each
 _PARALLEL_KNN = 8192  # W * T target positions bounded (a share of them DTW'd), ~1 us each
 _PARALLEL_PAIRS = 256  # pairs, pose costs and DTW, ~20 us each
 _PARALLEL_WARPS = 64  # pairs, pose costs, DTW, trace and warp, ~50 us each
-_PARALLEL_MEAN_CELLS = 65536  # W * K * N * m neighbour cells, ~50 ns each
-_PARALLEL_SHIFT_CELLS = 65536  # F * m cells, ~30 ns each
 
 
 @njit(cache=True, inline="always")
@@ -146,6 +146,38 @@ def _group_pose_distances(A, B, members, offsets, drop):
 
 
 
+@twin_kernels(_PARALLEL_CELLS)
+def _self_pose_distances(A, members, offsets, drop, out):
+    F = A.shape[0]
+    m = A.shape[1]
+    G = drop.shape[0]
+    for h in prange((F + 1) // 2):
+        terms = np.empty(m)
+        top = np.int64(h)
+        for side in range(2):  # a long row and a short one per step, so the threads share the triangle evenly
+            a = top if side == 0 else F - 1 - top
+            if side == 1 and a == top:
+                break
+            for b in range(a, F):
+                finite = True
+                for k in range(m):
+                    v = _half_angle_sq(A[a, k], A[b, k])
+                    terms[k] = v
+                    if v == _INF:
+                        finite = False
+                for g in range(G):
+                    val = _INF
+                    bad = False
+                    if not finite:
+                        for k in members[offsets[g] : offsets[g + 1]]:
+                            if terms[k] == _INF:
+                                bad = True
+                    if not bad:
+                        val = _robust_sum(terms, members[offsets[g] : offsets[g + 1]], drop[g])
+                    out[g, a, b] = val
+                    out[g, b, a] = val
+
+
 def _pack_groups(groups):
     """(G, m) boolean group masks -> (members, offsets) CSR arrays for the kernels."""
     groups = np.asarray(groups, dtype=bool)
@@ -174,6 +206,30 @@ def group_pose_distances(A: np.ndarray, B: np.ndarray, groups: np.ndarray, drop)
         raise ValueError("drop must give 0..3 for every group")
     members, offsets = _pack_groups(groups)
     return _group_pose_distances.pick(A.shape[0] * B.shape[0])(A, B, members, offsets, drop)
+
+
+def self_pose_distances(A: np.ndarray, groups: np.ndarray, drop) -> np.ndarray:
+    """:func:`group_pose_distances` of ``A`` against itself, (G, F, F) float32, computing only half the cells.
+
+    Eq. 1 is symmetric (every joint term is the same for frames ``(a, b)`` and
+    ``(b, a)``, bit for bit), so each cell of the upper triangle is computed
+    once and mirrored: the same array as ``group_pose_distances(A, A, ...)``
+    at half the cost (the self-distance matrix of the motion words, Aristidou
+    et al. 2018, section 3.3).
+    """
+    A = np.ascontiguousarray(A, dtype=np.float64)
+    if A.ndim != 3 or A.shape[2] != 4:
+        raise ValueError(f"A must be (F, m, 4), got {A.shape}")
+    groups = np.asarray(groups, dtype=bool).reshape(-1, A.shape[1])
+    drop = np.asarray(drop, dtype=np.int64).reshape(-1)
+    if len(drop) != len(groups) or np.any((drop < 0) | (drop > 3)):
+        raise ValueError("drop must give 0..3 for every group")
+    members, offsets = _pack_groups(groups)
+    F = A.shape[0]
+    out = np.empty((len(groups), F, F), dtype=np.float32)
+    if F:
+        _self_pose_distances.pick(F * F // 2)(A, members, offsets, drop, out)
+    return out
 
 
 # -- constrained DTW ---------------------------------------------------------
@@ -283,7 +339,6 @@ def _word_dtw(C, si, tj, N, M, min_width, max_run, acc, ln, back=None):
                     bi = i
                     bj = j
     return best_mean, bi, bj
-
 
 @njit(cache=True)
 def _trace(acc, back, bi, bj):
@@ -402,6 +457,14 @@ def word_distance_profile(D, src_starts, tgt_starts, N=15, M=20, min_width=11, m
 # smallest values, 1 on the others, the split tried at every rank. The DTW's
 # distance (the best mean over end cells of least-sum paths) is a path mean, so it
 # is bounded too.
+#
+# A second test runs before each DTW once a K-th minimum ``tau`` is known: the word
+# distance exceeds ``tau`` when every admissible path's sum of ``c - tau`` is positive,
+# which a one-state DP with the slope limit relaxed proves (:func:`_mean_exceeds`, a
+# seventh of the DTW's work). A position it rules out keeps ``tau`` as a strict bound
+# (``d > tau``) and is not evaluated; the proof of a local minimum next to it reads
+# that bound. Every position with ``d <= tau`` is still evaluated, so the answer is
+# unchanged, bit for bit.
 
 
 def _row_windows(N, M, max_run):
@@ -414,18 +477,37 @@ def _row_windows(N, M, max_run):
 
 @twin_kernels(_PARALLEL_ROW_MINIMA)
 def _row_minima(D, tgt, lens, out):
-    """out[l, r, t] = min(D[r, tgt[t] : tgt[t] + lens[l]]), the lens increasing."""
+    """out[l, r, t] = min(D[r, tgt[t] : tgt[t] + lens[l]]), the lens increasing.
+
+    The minima of every block of ``lens[0]`` columns are taken once per row, so
+    a window that grows by that step costs one comparison, not one per column.
+    """
     R = D.shape[0]
     T = tgt.shape[0]
+    Fb = D.shape[1]
+    step = lens[0]
     for r in prange(R):
+        block = np.empty(max(Fb - step + 1, 1))
+        for x in range(Fb - step + 1):
+            v = _INF
+            for j in range(x, x + step):
+                c = D[r, j]
+                if c < v:
+                    v = c
+            block[x] = v
         for t in range(T):
             v = _INF
             j0 = 0
             for l in range(lens.shape[0]):
-                for j in range(j0, lens[l]):
-                    c = D[r, tgt[t] + j]
+                if lens[l] - j0 == step:
+                    c = block[tgt[t] + j0]
                     if c < v:
                         v = c
+                else:
+                    for j in range(j0, lens[l]):
+                        c = D[r, tgt[t] + j]
+                        if c < v:
+                            v = c
                 out[l, r, t] = v
                 j0 = lens[l]
 
@@ -456,17 +538,19 @@ def _bound(rowmin, level, s, t, N, min_width, wmax, buf):
                 m = (wmax * low + (total - low)) / (wmax * q + (n - q))
                 if m < best:
                     best = m
-                if q < n:
-                    low += buf[q]
+                if q == n or buf[q] >= m:
+                    break  # weighting the next row more raises the mean from here on (the rows are sorted)
+                low += buf[q]
     return best
 
 
 @njit(cache=True, inline="always")
-def _proven_minimum(d, evaluated, lb, consec, t, v):
+def _proven_minimum(d, evaluated, lb, strict, consec, t, v):
     """Whether ``v = d[t]`` is a local minimum (``<=`` left, ``<`` right, across consecutive starts).
 
-    An unevaluated neighbour counts through its lower bound: the answer is
-    True only when the bound already proves it.
+    An unevaluated neighbour counts through its lower bound (``d >= lb``, or
+    ``d > lb`` where ``strict``): the answer is True only when the bound
+    already proves it.
     """
     T = d.shape[0]
     if t > 0 and consec[t]:
@@ -479,13 +563,54 @@ def _proven_minimum(d, evaluated, lb, consec, t, v):
         if evaluated[t + 1]:
             if not v < d[t + 1]:
                 return False
-        elif not lb[t + 1] > v:
+        elif not (lb[t + 1] > v or (strict[t + 1] and lb[t + 1] >= v)):
             return False
     return True
 
 
 @njit(cache=True)
-def _kth_confirmed(d, evaluated, lb, consec, ev, ne, k, vals, tgt, lo, hi):
+def _mean_exceeds(D, si, tj, N, M, min_width, lam, row):
+    """Whether every admissible path of the block ``D[si:si+N, tj:tj+M]`` has a mean cost above ``lam``.
+
+    A path's mean exceeds ``lam`` exactly when its sum of ``c - lam`` is
+    positive; the least such sum over all monotone paths from ``(0, 0)`` to an
+    admissible end cell (constraints (a)-(c) and (e); the slope limit (d)
+    relaxed, so the paths of :func:`_word_dtw` are among them) takes one
+    state per cell instead of seven. True only when that least sum is
+    positive by more than its round-off; then the word distance exceeds
+    ``lam``. ``row`` is an (M,) scratch buffer.
+    """
+    lo = min_width - 1 if min_width >= 1 else 0
+    best = _INF
+    cmax = lam
+    for i in range(N):
+        diag = _INF
+        for j in range(M):
+            c = D[si + i, tj + j]
+            if c < _INF and c > cmax:
+                cmax = c
+            if i == 0 and j == 0:
+                prev = 0.0
+            else:
+                prev = _INF
+                if i > 0:
+                    prev = row[j]  # (i - 1, j)
+                    if diag < prev:
+                        prev = diag  # (i - 1, j - 1)
+                if j > 0 and row[j - 1] < prev:
+                    prev = row[j - 1]  # (i, j - 1), already this row
+            up = row[j]
+            v = prev + (c - lam)
+            row[j] = v
+            diag = up
+            if (i == N - 1 and j >= lo) or (j == M - 1 and i >= lo):
+                if v < best:
+                    best = v
+    return best > 1e-12 * (N + M) * cmax
+
+
+@njit(cache=True)
+def _kth_confirmed(d, evaluated, lb, strict, consec, ev, ne, k, vals, tgt, lo, hi):
     """K-th smallest value among the evaluated positions proven to be local minima (inf if fewer).
 
     Positions whose start lies in ``[lo, hi]`` (the source word's own place) are
@@ -499,7 +624,7 @@ def _kth_confirmed(d, evaluated, lb, consec, ev, ne, k, vals, tgt, lo, hi):
             continue
         if n == k and v >= vals[k - 1]:
             continue
-        if not _proven_minimum(d, evaluated, lb, consec, t, v):
+        if not _proven_minimum(d, evaluated, lb, strict, consec, t, v):
             continue
         q = n if n < k else k - 1
         while q > 0 and vals[q - 1] > v:
@@ -517,6 +642,7 @@ def _knn_profile(D, rowmin, level, src, tgt, consec, excl_lo, excl_hi, N, M, min
     W = src.shape[0]
     T = tgt.shape[0]
     wmax = float(max_run + 1)
+    first = min(T, 64)
     for w in prange(W):
         acc = np.empty((N, M, 7))
         ln = np.empty((N, M, 7), dtype=np.int64)
@@ -527,31 +653,43 @@ def _knn_profile(D, rowmin, level, src, tgt, consec, excl_lo, excl_hi, N, M, min
         ie = np.zeros(T, dtype=np.int64)
         je = np.zeros(T, dtype=np.int64)
         evaluated = np.zeros(T, dtype=np.bool_)
+        strict = np.zeros(T, dtype=np.bool_)
+        row = np.empty(M)
         ev = np.empty(T, dtype=np.int64)
         ne = 0
         lo = excl_lo[w]
         hi = excl_hi[w]
         for t in range(T):
             lb[t] = _bound(rowmin, level, src[w], t, N, min_width, wmax, buf) * (1.0 - 1e-9)
-        order = np.argsort(lb, kind="mergesort")
         tau = _INF
-        x = 0
-        while x < T:
-            t = order[x]
-            if not lb[t] <= tau:
-                break
-            x += 1
-            if evaluated[t]:
-                continue
-            dd, i, j = _word_dtw(D, src[w], tgt[t], N, M, min_width, max_run, acc, ln)
-            d[t] = dd
-            ie[t] = i
-            je[t] = j
-            evaluated[t] = True
-            ev[ne] = t
-            ne += 1
-            if ne % batch == 0:
-                tau = _kth_confirmed(d, evaluated, lb, consec, ev, ne, k, vals, tgt, lo, hi)
+        for phase in range(2):
+            # in increasing order of the bound: first the `first` lowest, then, once tau is known, only the
+            # positions whose bound is at most tau (a few hundred of a long take's thousands need sorting)
+            if phase == 0:
+                cut = np.partition(lb, first - 1)[first - 1] if first < T else _INF
+                cand = np.flatnonzero(lb <= cut)
+            else:
+                cand = np.flatnonzero((lb <= tau) & ~evaluated & ~strict)
+            order = cand[np.argsort(lb[cand], kind="mergesort")]
+            for x in range(order.shape[0]):
+                t = order[x]
+                if not lb[t] <= tau:
+                    break
+                if evaluated[t] or strict[t]:
+                    continue
+                if tau < _INF and _mean_exceeds(D, src[w], tgt[t], N, M, min_width, tau * (1.0 + 1e-9), row):
+                    lb[t] = tau  # the distance exceeds tau: a strict bound, no DTW needed
+                    strict[t] = True
+                    continue
+                dd, i, j = _word_dtw(D, src[w], tgt[t], N, M, min_width, max_run, acc, ln)
+                d[t] = dd
+                ie[t] = i
+                je[t] = j
+                evaluated[t] = True
+                ev[ne] = t
+                ne += 1
+                if ne % batch == 0:
+                    tau = _kth_confirmed(d, evaluated, lb, strict, consec, ev, ne, k, vals, tgt, lo, hi)
         out_evaluated[w] = ne
         # the K smallest proven local minima, ties to the earlier target
         n = 0
@@ -561,7 +699,7 @@ def _knn_profile(D, rowmin, level, src, tgt, consec, excl_lo, excl_hi, N, M, min
             v = d[t]
             if not v < _INF or lo <= tgt[t] <= hi:
                 continue
-            if not _proven_minimum(d, evaluated, lb, consec, t, v):
+            if not _proven_minimum(d, evaluated, lb, strict, consec, t, v):
                 continue
             if n == k and (v > out_dist[w, k - 1] or (v == out_dist[w, k - 1] and t > picked[k - 1])):
                 continue
@@ -658,7 +796,7 @@ def word_knn_profile(D, src_starts, tgt_starts, k=5, exclude_center=None, exclud
         lens, level = _row_windows(N, M, max_run)
         rowmin = np.empty((len(lens), D.shape[0], T), dtype=np.float32)
         _row_minima.pick(D.shape[0] * len(tgt))(D, tgt, lens, rowmin)
-        _knn_profile.pick(W * T)(D, rowmin, level, src, tgt, consec, lo, hi, N, M, int(min_width), int(max_run), int(k), 16,
+        _knn_profile.pick(W * T)(D, rowmin, level, src, tgt, consec, lo, hi, N, M, int(min_width), int(max_run), int(k), 4,
                      idx, dist, iend, jend, evaluated)
     out = (idx, dist.astype(np.float32), iend.astype(np.int16), jend.astype(np.int16))
     return out + (evaluated,) if return_evaluated else out
@@ -794,190 +932,3 @@ def warp_target_words(S, T, members, drop, src_starts, tgt_starts, N=15, M=20, m
     if len(src):
         _warp.pick(len(src))(S, T, members, rows, int(drop), src, tgt, int(N), int(M), int(min_width), int(max_run), out, iend)
     return out, iend
-
-
-@njit(cache=True, inline="always")
-def _angle(a, b):
-    """Rotation angle (radians) between unit quaternions a and b, as mocapkit.rotations.geodesic_angle."""
-    w = a[0] * b[0] + a[1] * b[1] + a[2] * b[2] + a[3] * b[3]
-    x = a[0] * b[1] - a[1] * b[0] - a[2] * b[3] + a[3] * b[2]
-    y = a[0] * b[2] + a[1] * b[3] - a[2] * b[0] - a[3] * b[1]
-    z = a[0] * b[3] - a[1] * b[2] + a[2] * b[1] - a[3] * b[0]
-    return 2.0 * math.atan2(math.sqrt(x * x + y * y + z * z), abs(w))
-
-
-@twin_kernels(_PARALLEL_MEAN_CELLS)
-def _robust_means(words, valid, slack, mean, spread):
-    W, K, N, m = words.shape[:4]
-    for w in prange(W):
-        idx = np.empty(K, dtype=np.int64)
-        n = 0
-        for k in range(K):
-            if valid[w, k]:
-                idx[n] = k
-                n += 1
-        if n == 0:
-            continue
-        pair = np.zeros((K, K))
-        to_med = np.empty(K)
-        srt = np.empty(K)
-        keep = np.zeros(K, dtype=np.bool_)
-        for i in range(N):
-            for j in range(m):
-                if n == 1:
-                    for c in range(4):
-                        mean[w, i, j, c] = words[w, idx[0], i, j, c]
-                    spread[w, i, j] = 0.0
-                    continue
-                for a in range(n):
-                    for b in range(a + 1, n):
-                        v = _angle(words[w, idx[a], i, j], words[w, idx[b], i, j])
-                        pair[a, b] = v
-                        pair[b, a] = v
-                med = 0
-                best = _INF
-                for a in range(n):
-                    t = 0.0
-                    for b in range(n):
-                        if b != a:
-                            t += pair[a, b]
-                    if t < best:
-                        best = t
-                        med = a
-                for a in range(n):
-                    to_med[a] = 0.0 if a == med else pair[a, med]
-                    q = a
-                    while q > 0 and srt[q - 1] > to_med[a]:
-                        srt[q] = srt[q - 1]
-                        q -= 1
-                    srt[q] = to_med[a]
-                median = srt[n // 2] if n % 2 == 1 else 0.5 * (srt[n // 2 - 1] + srt[n // 2])
-                s0 = 0.0
-                s1 = 0.0
-                s2 = 0.0
-                s3 = 0.0
-                kept = 0
-                for a in range(n):
-                    keep[a] = to_med[a] <= 2.0 * median + slack
-                    if keep[a]:
-                        kept += 1
-                        s0 += words[w, idx[a], i, j, 0]
-                        s1 += words[w, idx[a], i, j, 1]
-                        s2 += words[w, idx[a], i, j, 2]
-                        s3 += words[w, idx[a], i, j, 3]
-                nrm = math.sqrt(s0 * s0 + s1 * s1 + s2 * s2 + s3 * s3)
-                mean[w, i, j, 0] = s0 / nrm
-                mean[w, i, j, 1] = s1 / nrm
-                mean[w, i, j, 2] = s2 / nrm
-                mean[w, i, j, 3] = s3 / nrm
-                dev = 0.0
-                for a in range(n):
-                    if keep[a]:
-                        v = _angle(words[w, idx[a], i, j], mean[w, i, j])
-                        dev += v * v
-                spread[w, i, j] = math.sqrt(dev / kept)
-
-
-def robust_word_means(words, valid, slack):
-    """Per cell of each source word: the chordal mean of its neighbour words near their medoid, and their spread.
-
-    words : (W, K, N, m, 4) hemisphere-aligned unit quaternions, valid : (W, K)
-    bool; slack : radians. For every (word, frame, joint) cell the medoid of
-    the valid neighbours (least summed angle to the others; ties to the first)
-    is found, the neighbours farther from it than ``2 * median + slack`` are
-    dropped, and the rest averaged (normalised sum). Returns ``mean`` (W, N, m, 4)
-    and ``spread`` (W, N, m), the RMS angle of the kept ones from the mean
-    (0 with a single neighbour, whose value is the mean); rows without a valid
-    neighbour stay NaN.
-    """
-    words = np.ascontiguousarray(words, dtype=np.float64)
-    valid = np.ascontiguousarray(valid, dtype=np.bool_)
-    W, K, N, m = words.shape[:4]
-    if valid.shape != (W, K):
-        raise ValueError(f"valid must be (W, K) = {(W, K)}, got {valid.shape}")
-    mean = np.full((W, N, m, 4), np.nan)
-    spread = np.full((W, N, m), np.nan)
-    if W:
-        _robust_means.pick(W * K * N * m)(words, valid, float(slack), mean, spread)
-    return mean, spread
-
-
-@twin_kernels(_PARALLEL_SHIFT_CELLS)
-def _shift_angles(inp, ref, shift, out):
-    F, m = inp.shape[:2]
-    for f in prange(F):
-        for j in range(m):
-            best = np.nan
-            for d in range(-shift, shift + 1):
-                g = min(max(f + d, 0), F - 1)
-                if not (ref[g, j, 0] == ref[g, j, 0]):  # NaN: no mean texture there
-                    continue
-                v = _angle(inp[f, j], ref[g, j])
-                if not (best <= v):  # also replaces the NaN start
-                    best = v
-            out[f, j] = best
-
-
-def shift_tolerant_angles(inp, ref, shift):
-    """Per cell the smallest rotation angle (radians) between ``inp[f]`` and ``ref[f + d]``, ``|d| <= shift``.
-
-    inp, ref : (F, m, 4) unit quaternions (``ref`` may hold NaN rows: skipped;
-    frames past either end are clamped). Returns (F, m), NaN where every
-    ``ref`` in reach is NaN. The MDM's timing tolerance (:func:`mocapkit.cleaning.ssa.detect`).
-    """
-    inp = np.ascontiguousarray(inp, dtype=np.float64)
-    ref = np.ascontiguousarray(ref, dtype=np.float64)
-    if inp.shape != ref.shape or inp.ndim != 3 or inp.shape[2] != 4:
-        raise ValueError(f"inp and ref must both be (F, m, 4), got {inp.shape} and {ref.shape}")
-    out = np.empty(inp.shape[:2])
-    if inp.shape[0]:
-        _shift_angles.pick(inp.shape[0] * inp.shape[1])(inp, ref, int(shift), out)
-    return out
-
-
-@njit(cache=True)
-def _select(dist, pos, clip, k, separation, excl_lo, excl_hi, out):
-    W = dist.shape[0]
-    picked_clip = np.empty(k, dtype=np.int64)
-    for w in range(W):
-        order = np.argsort(dist[w])
-        n = 0
-        for c in order:
-            if n >= k or not dist[w, c] < _INF:
-                break
-            p = pos[w, c]
-            if excl_lo[w] <= p < excl_hi[w]:
-                continue
-            ok = True
-            for q in range(n):
-                if picked_clip[q] == clip[w, c] and abs(p - out[w, q]) < separation:
-                    ok = False
-                    break
-            if ok:
-                out[w, n] = p
-                picked_clip[n] = clip[w, c]
-                n += 1
-    return out
-
-
-def select_separated_minima(dist, positions, clips, k, separation, exclude_lo, exclude_hi):
-    """Greedy choice of the ``k`` best candidates per row, pairwise ``separation`` frames apart within a clip.
-
-    The sparse counterpart of "the K smallest local minima" (section 3.3) for
-    candidates gathered by a kd-tree: dist, positions, clips are (W, C); a
-    candidate whose position lies in ``[exclude_lo[w], exclude_hi[w])`` (the
-    source word's own neighbourhood) is skipped. Returns (W, k) positions, -1
-    where fewer than ``k`` candidates qualify.
-    """
-    dist = np.ascontiguousarray(dist, dtype=np.float64)
-    out = np.full((dist.shape[0], k), -1, dtype=np.int64)
-    return _select(
-        dist,
-        np.ascontiguousarray(positions, dtype=np.int64),
-        np.ascontiguousarray(clips, dtype=np.int64),
-        int(k),
-        int(separation),
-        np.ascontiguousarray(exclude_lo, dtype=np.int64),
-        np.ascontiguousarray(exclude_hi, dtype=np.int64),
-        out,
-    )
