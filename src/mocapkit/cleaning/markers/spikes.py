@@ -1,0 +1,124 @@
+"""Find spikes: short runs of marker samples that jump off the trajectory and back.
+
+An optical system that briefly tracks a reflection, or fits a marker to the
+wrong blob, gives a few samples far from where the marker really was. A
+marker's trajectory at 100+ Hz is smooth over a few frames, so a run of
+``L`` samples (1 <= L <= ``max_len``) is a spike when every one of them lies
+far from the cubic fitted through the ``context`` samples on either side of
+the run. Testing every run start and every length finds a spike of any
+length up to ``max_len`` exactly: windows that also cover good samples fail
+the "every sample far" test, and windows whose context holds spike samples
+predict the spike and do not flag. This is the "remove and re-fill"
+outlier test of robust smoothing (e.g. Woltring 1986 on marker data, and
+Aristidou et al. 2018's idea of judging a sample by what the rest of the
+motion predicts), made exact for short runs by trying each run.
+
+The threshold is ``threshold_mm`` millimetres, or more for a marker whose
+single-frame prediction error is naturally large (eight robust standard
+deviations of it), so that a noisy marker does not lose good samples.
+Positions are (F, M, 3), frames first, NaN for unseen samples.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = ["spike_mask", "prediction_matrix"]
+
+
+def prediction_matrix(length: int, context: int = 3, degree: int = 3) -> np.ndarray:
+    """(length, 2 * context) least-squares weights predicting a run of ``length`` samples from ``context`` on each side.
+
+    The run occupies times 0..length-1, the context -context..-1 and
+    length..length+context-1; a polynomial of ``degree`` is fitted to the
+    context and evaluated on the run.
+    """
+    tc = np.concatenate([np.arange(-context, 0), np.arange(length, length + context)]).astype(np.float64)
+    tr = np.arange(length, dtype=np.float64)
+    centre = (length - 1) / 2.0
+    vc = np.vander(tc - centre, degree + 1)
+    vr = np.vander(tr - centre, degree + 1)
+    return vr @ np.linalg.pinv(vc)
+
+
+def _run_deviation(x: np.ndarray, length: int, context: int) -> np.ndarray:
+    """(S, M) smallest distance between each run's samples and their prediction, for run starts s = context..F-length-context.
+
+    NaN where a sample of the run or its context is unseen.
+    """
+    f = x.shape[0]
+    n = f - length - 2 * context + 1
+    if n <= 0:
+        return np.full((0, x.shape[1]), np.nan)
+    w = prediction_matrix(length, context)
+    offs = np.concatenate([np.arange(0, context), np.arange(context + length, 2 * context + length)])
+    ctx = np.stack([x[o:o + n] for o in offs], axis=0)  # (2c, S, M, 3)
+    dev = None
+    for j in range(length):
+        pred = np.tensordot(w[j], ctx, axes=1)
+        d = np.linalg.norm(x[context + j:context + j + n] - pred, axis=-1)
+        dev = d if dev is None else np.minimum(dev, d)
+    return dev
+
+
+def spike_mask(positions: np.ndarray, unit_mm: float = 1.0, *, threshold_mm: float = 15.0, max_len: int = 5,
+               context: int = 3, noise_factor: float = 8.0) -> np.ndarray:
+    """Boolean (F, M) mask of spike samples.
+
+    Parameters
+    ----------
+    positions : float array (F, M, 3)
+        Marker positions, NaN where unseen.
+    unit_mm : float
+        Millimetres per unit of ``positions``.
+    threshold_mm : float
+        A run is a spike when each of its samples is at least this far from
+        the cubic through its context (raised per marker by ``noise_factor``
+        robust standard deviations of the single-sample prediction error).
+    max_len : int
+        Longest spike, in frames.
+    context : int
+        Seen samples used on each side of a run.
+    """
+    x = np.asarray(positions, dtype=np.float64)
+    f, m = x.shape[:2]
+    mask = np.zeros((f, m), dtype=bool)
+    if f < 2 * context + 1:
+        return mask
+    d1 = _run_deviation(x, 1, context)
+    with np.errstate(all="ignore"):
+        import warnings
+
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", RuntimeWarning)
+            scale = 1.4826 * np.nanmedian(d1, axis=0)
+    thr = np.maximum(threshold_mm / unit_mm, noise_factor * np.nan_to_num(scale, nan=0.0))  # (M,)
+    hits = np.zeros((f, m), dtype=bool)
+    for length in range(1, max_len + 1):
+        dev = d1 if length == 1 else _run_deviation(x, length, context)
+        st, mk = np.nonzero(np.nan_to_num(dev, nan=0.0) > thr)
+        for j in range(length):
+            hits[st + context + j, mk] = True
+    # Windows whose context holds spike samples flag good samples too: settle each
+    # flagged region greedily, most certain run first, removing it before looking again.
+    pad = context + max_len
+    for mk in np.flatnonzero(hits.any(axis=0)):
+        grown = np.convolve(hits[:, mk].astype(np.int8), np.ones(2 * pad + 1, dtype=np.int8), mode="same") > 0
+        d = np.diff(np.concatenate([[0], grown.astype(np.int8), [0]]))
+        for lo, hi in zip(np.flatnonzero(d == 1), np.flatnonzero(d == -1)):
+            lo, hi = max(lo - pad, 0), min(hi + pad, f)
+            seg = x[lo:hi, mk][:, None, :].copy()
+            while True:
+                best, where = 1.0, None
+                for length in range(1, max_len + 1):
+                    dev = _run_deviation(seg, length, context)[:, 0]
+                    if dev.size == 0 or np.all(np.isnan(dev)):
+                        continue
+                    k = int(np.nanargmax(dev))
+                    if dev[k] / thr[mk] > best:
+                        best, where = dev[k] / thr[mk], (k + context, length)
+                if where is None:
+                    break
+                seg[where[0]:where[0] + where[1]] = np.nan
+                mask[lo + where[0]:lo + where[0] + where[1], mk] = True
+    return mask
