@@ -1,0 +1,16 @@
+"""Clean optical marker captures: swapped labels, spikes and gaps.
+
+One module per concept: ``rigid`` (donor frames, inter-marker distances),
+``lowrank`` (Gløersen-Federolf PCA fill), ``gaps`` (model-averaged
+donor-frame fill), ``spikes``, ``swaps``, and ``clean`` (the pipeline and
+its record, :func:`clean_markers`).
+"""
+
+from .clean import STEPS, MarkerCleanResult, MarkerFix, clean_markers, violations
+from .gaps import GapFill, fill_gaps, gap_runs
+from .lowrank import fill_lowrank
+from .spikes import spike_mask
+from .swaps import Swap, undo_swaps
+
+__all__ = ["STEPS", "MarkerCleanResult", "MarkerFix", "clean_markers", "violations", "GapFill", "fill_gaps",
+           "gap_runs", "fill_lowrank", "spike_mask", "Swap", "undo_swaps"]
