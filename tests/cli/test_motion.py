@@ -163,3 +163,48 @@ def test_plot_refuses_a_mask_of_another_take(tmp_path, capsys):
     assert main(["plot", SAMPLE, str(noisy), "--joint", "LeftKnee", "-o", str(png), "--mask", str(short)]) == 2
     err = capsys.readouterr().err
     assert "short.mask.npz: the mask has 5 frames and the take 994" in err and not png.exists()
+
+
+def test_convert_marker_files_between_c3d_trc_and_npz(tmp_path, capsys):
+    from mocapkit.io import load_markers
+
+    c3d = str(mocapkit.samples.path("Eb015pr.c3d"))
+    src = load_markers(c3d)
+    for name in ("m.trc", "m.npz", "m.c3d"):
+        assert main(["convert", c3d, str(tmp_path / name)]) == 0
+        assert "26 markers, 450 frames @ 50 fps" in capsys.readouterr().out
+        back = load_markers(tmp_path / name)
+        assert back.labels == src.labels and np.array_equal(back.missing(), src.missing())
+    # TRC -> C3D -> TRC keeps the values at the TRC's 5 decimals
+    assert main(["convert", str(tmp_path / "m.trc"), str(tmp_path / "t.c3d")]) == 0
+    assert main(["convert", str(tmp_path / "t.c3d"), str(tmp_path / "t.trc")]) == 0
+    a, b = load_markers(tmp_path / "m.trc"), load_markers(tmp_path / "t.trc")
+    assert np.allclose(a.positions, b.positions, atol=1e-4, equal_nan=True)
+    assert main(["info", str(tmp_path / "m.trc")]) == 0
+    assert "read with trc" in capsys.readouterr().out
+
+
+def test_convert_states_zero_gaps_and_keeps_them_on_request(tmp_path, capsys):
+    from mocapkit.io import load_markers, save_markers
+    from mocapkit.markerset import MarkerSet
+
+    ms = load_markers(mocapkit.samples.path("Eb015pr.c3d"))
+    zeros = MarkerSet(labels=ms.labels, positions=np.nan_to_num(ms.positions, nan=0.0), fps=ms.fps)
+    save_markers(zeros, tmp_path / "z.trc")
+    assert main(["convert", str(tmp_path / "z.trc"), str(tmp_path / "a.npz")]) == 0
+    n = int(ms.missing().sum())
+    assert f"read {n} samples stored as exact (0, 0, 0) as gaps" in capsys.readouterr().out
+    assert np.array_equal(load_markers(tmp_path / "a.npz").missing(), ms.missing())
+    assert main(["convert", str(tmp_path / "z.trc"), str(tmp_path / "b.npz"), "--keep-zeros"]) == 0
+    assert not load_markers(tmp_path / "b.npz").missing().any()
+
+
+def test_convert_refuses_marker_to_motion_and_fps_for_markers(tmp_path):
+    c3d = str(mocapkit.samples.path("Eb015pr.c3d"))
+    code, _, err = run("convert", c3d, tmp_path / "x.bvh")
+    assert code == 2 and one_error_line(err) and "unknown suffix '.bvh' for writing markers" in err
+    code, _, err = run("convert", c3d, tmp_path / "x.trc", "--fps", "25")
+    assert code == 2 and one_error_line(err) and "--fps resamples joint angles" in err
+    assert not (tmp_path / "x.trc").exists() and not (tmp_path / "x.bvh").exists()
+    code, _, err = run("convert", SAMPLE, tmp_path / "x.c3d")
+    assert code == 2 and one_error_line(err)

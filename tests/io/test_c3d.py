@@ -124,3 +124,252 @@ def test_point_used_disagreeing_with_the_header_is_refused(tmp_path):
     assert msg == (
         f"{bad}: the parameter section disagrees with the header: POINT:USED is 32767 markers, the header says 33"
     )
+
+
+# --- writing, round trips, reader fixes on the peer files, zeros as gaps ------------------------------
+
+
+def _params(markers):
+    return markers.source.parameters
+
+
+def test_round_trip_keeps_points_residuals_labels_rate_units_and_analogs(tmp_path):
+    from mocapkit.io import load_markers, save_markers
+
+    src = load_markers(mocapkit.samples.path("Eb015pr.c3d"))
+    out = save_markers(src, tmp_path / "copy.c3d")
+    back = load_markers(out)
+    assert back.labels == src.labels and back.fps == src.fps and back.units == src.units
+    assert np.array_equal(back.missing(), src.missing())
+    # float C3D: coordinates exact at float32
+    assert np.array_equal(back.positions, src.positions.astype(np.float32).astype(np.float64), equal_nan=True)
+    seen = ~src.missing()
+    assert np.array_equal(back.residuals[seen], src.residuals[seen]) and np.all(back.residuals[~seen] == -1)
+    # the 16 analog channels at 4 samples per frame, values and labels kept
+    assert back.source.analogs.shape == (16, 1800)
+    assert np.array_equal(back.source.analogs, src.source.analogs.astype(np.float32).astype(np.float64))
+    assert list(_params(back)["ANALOG"]["LABELS"]["value"]) == list(_params(src)["ANALOG"]["LABELS"]["value"])[:16]
+    # every parameter group of the input is still there, with POINT:USED and POINT:FRAMES consistent
+    assert set(_params(src)) <= set(_params(back))
+    for group in set(_params(src)) - {"POINT", "ANALOG"}:
+        for name, p in _params(src)[group].items():
+            if name != "__METADATA__":
+                assert np.array_equal(np.ravel(p["value"]), np.ravel(_params(back)[group][name]["value"])), (group, name)
+    assert int(_params(back)["POINT"]["USED"]["value"][0]) == 26
+    assert int(_params(back)["POINT"]["FRAMES"]["value"][0]) == 450
+
+
+def test_a_cleaned_take_written_back_changes_only_its_points(tmp_path):
+    from mocapkit.io import load_markers, save_markers
+
+    src = load_markers(mocapkit.samples.path("Eb015pr.c3d"))
+    filled = np.where(np.isnan(src.positions), 1.0, src.positions)
+    cleaned = src.with_positions(filled)
+    back = load_markers(save_markers(cleaned, tmp_path / "clean.c3d"))
+    assert not back.missing().any()
+    assert np.all(back.positions[src.missing()] == 1.0)
+    # filled samples get residual 0 (C3D: interpolated); the others keep theirs
+    assert np.all(back.residuals[src.missing()] == 0.0)
+    assert np.array_equal(back.residuals[~src.missing()], src.residuals[~src.missing()])
+    assert back.source.analogs.shape == src.source.analogs.shape
+
+
+def test_every_shared_c3d_round_trips_at_float32(shared_data, tmp_path):
+    from mocapkit.io import load_markers, save_markers
+
+    files = sorted((shared_data / "c3d_markers").glob("*.c3d")) + sorted((shared_data / "c3d_markers_recovery").glob("*.c3d"))
+    for f in files:
+        src = load_markers(f)
+        back = load_markers(save_markers(src, tmp_path / f.name))
+        assert back.reader == "ezc3d", f.name  # what ezc3d writes, ezc3d reads back
+        assert back.labels == src.labels and back.fps == pytest.approx(src.fps) and back.num_frames == src.num_frames, f.name
+        assert np.array_equal(back.positions, src.positions.astype(np.float32).astype(np.float64), equal_nan=True), f.name
+        assert back.source.first_frame == src.source.first_frame, f.name
+        if src.source.analogs is not None:
+            assert np.array_equal(back.source.analogs, src.source.analogs.astype(np.float32)), f.name
+
+
+def test_the_c3d_package_reads_what_the_writer_writes(tmp_path):
+    import c3d
+
+    src = mocapkit.load(mocapkit.samples.path("Eb015pr.c3d"))
+    out = tmp_path / "w.c3d"
+    from mocapkit.io.c3d import write_c3d
+
+    write_c3d(src, out)
+    with open(out, "rb") as fh:
+        reader = c3d.Reader(fh)
+        frames = np.array([p for _, p, _ in reader.read_frames()])
+    assert frames.shape == (450, 26, 5)
+    invalid = frames[..., 3] < 0
+    assert np.array_equal(invalid, src.missing())
+    assert np.all(frames[..., :3][invalid] == 0.0)  # ezc3d stores invalid points as 0 with residual -1
+    assert np.allclose(frames[..., :3][~invalid], src.positions[~invalid], atol=1e-3)
+
+
+def test_a_file_ezc3d_writes_with_a_point_scale_is_read(tmp_path):
+    import ezc3d
+
+    c = ezc3d.c3d()
+    c["parameters"]["POINT"]["RATE"]["value"] = np.array([100.0])
+    c["parameters"]["POINT"]["LABELS"]["value"] = ("A", "B")
+    c["parameters"]["POINT"]["SCALE"]["value"] = np.array([-0.1])  # header scale -1, POINT:SCALE -0.1
+    pts = np.ones((4, 2, 10))
+    pts[:3] = np.arange(60).reshape(3, 2, 10) * 10.0
+    c["data"]["points"] = pts
+    c.write(str(tmp_path / "s.c3d"))
+    ms = read_c3d(tmp_path / "s.c3d")
+    assert ms.reader == "ezc3d" and ms.num_frames == 10
+    assert np.array_equal(ms.positions, np.transpose(pts[:3], (2, 1, 0)))
+
+
+def test_units_as_files_state_them(shared_data):
+    from mocapkit.markerset import length_unit_cm
+
+    fp1 = read_c3d(shared_data / "peer_files/BTKData/Input/C3DSamples/c3d.org/sample15/FP1.C3D")
+    assert fp1.units == "mete" and fp1.unit_cm == 100.0
+    assert length_unit_cm(" MM ") == 0.1 and length_unit_cm("inches") == 2.54
+    with pytest.raises(ValueError, match="furlong"):
+        length_unit_cm("furlong")
+
+
+def test_an_unknown_unit_is_refused_at_read_time(tmp_path):
+    import ezc3d
+
+    c = ezc3d.c3d()
+    c["parameters"]["POINT"]["RATE"]["value"] = np.array([100.0])
+    c["parameters"]["POINT"]["LABELS"]["value"] = ("A",)
+    c["parameters"]["POINT"]["UNITS"]["value"] = ("px",)
+    c["data"]["points"] = np.ones((4, 1, 5))
+    c.write(str(tmp_path / "px.c3d"))
+    msg = refusal_of_load(tmp_path / "px.c3d")
+    assert msg.startswith(f"{tmp_path / 'px.c3d'}: unknown length unit 'px'") and "\n" not in msg
+
+
+PEER = "peer_files"
+
+
+def _peer(shared_data, rel):
+    path = shared_data / PEER / rel
+    if not path.is_file():
+        pytest.skip(f"{rel} not present")
+    return path
+
+
+@pytest.mark.parametrize("rel, frames, points", [
+    ("BTKData/Input/C3DSamples/PiG/PiG_Calibration-FlatFoot-Full.c3d", 94, 137),  # BODYMASS defined twice
+    ("BTKData/Input/C3DSamples/PiG/PiG_Calibration-FlatFoot-Hole.c3d", 300, 203),
+    ("BTKData/Input/C3DSamples/PiG/PiG_Calibration-FlatFoot-One.c3d", 1, 138),
+    ("BTKData/Input/C3DSamples/PiG/PiG_Motion-FlatFoot-One.c3d", 255, 193),
+    ("BTKData/Input/C3DSamples/c3d.org/sample10/TYPE-2.C3D", 199, 13),  # parameters of an undefined group
+    ("BTKData/Input/C3DSamples/c3d.org/sample10/TYPE-4.C3D", 199, 13),
+    ("BTKData/Input/C3DSamples/c3d.org/sample02/sgi_int.c3d", 89, 36),  # big-endian, 11-block section
+    ("BTKData/Input/C3DSamples/c3d.org/sample02/sgi_real.c3d", 89, 36),
+    ("pyomeca+ezc3d-testFiles/Optotrak.c3d", 29, 54),  # truncated: the frames that are there
+    ("BTKData/Input/C3DSamples/c3d.org/sample28/type1.C3D", 296, 28),
+    ("BTKData/Input/C3DSamples/c3d.org/sample15/FP1.C3D", 480, 8),
+])
+def test_files_a_peer_reads_are_read_as_the_peer_reads_them(shared_data, rel, frames, points):
+    ms = read_c3d(_peer(shared_data, rel))
+    assert (ms.num_frames, ms.num_markers) == (frames, points)
+    step = np.linalg.norm(np.diff(ms.positions, axis=0), axis=-1) * ms.unit_cm
+    if frames > 1:
+        assert np.nanmedian(step) < 5.0  # smooth trajectories (type1 was read a metre per frame apart)
+
+
+def test_the_sgi_files_hold_the_same_data_as_the_pc_ones(shared_data):
+    pc = read_c3d(_peer(shared_data, "BTKData/Input/C3DSamples/c3d.org/sample02/pc_real.c3d"))
+    for name in ("sgi_real.c3d", "sgi_int.c3d"):
+        sgi = read_c3d(_peer(shared_data, f"BTKData/Input/C3DSamples/c3d.org/sample02/{name}"))
+        assert sgi.labels == pc.labels
+        assert np.allclose(sgi.positions, pc.positions, atol=0.5, equal_nan=True)
+
+
+def test_type1_matches_its_sibling_dynamic(shared_data):
+    # sample28's type1.C3D and dynamic.C3D are the same trial; type1 holds a subset of the markers
+    t1 = read_c3d(_peer(shared_data, "BTKData/Input/C3DSamples/c3d.org/sample28/type1.C3D"))
+    dyn = read_c3d(_peer(shared_data, "BTKData/Input/C3DSamples/c3d.org/sample28/dynamic.C3D"))
+    # the same markers, named "RASI" in one and "r asis" in the other
+    names = {label.replace(" ", "").lower(): label for label in dyn.labels}
+    common = [label for label in t1.labels if label.lower() in names]
+    assert len(common) >= 8
+    a, b = t1.select(common).positions, dyn.select([names[label.lower()] for label in common]).positions
+    both = ~np.isnan(a) & ~np.isnan(b)
+    assert np.max(np.abs(a[both] - b[both])) < 1.0
+
+
+@pytest.mark.parametrize("rel, reason", [
+    ("pyomeca+ezc3d-testFiles/C3DRotationExample.c3d", "C3D file holds no 3D points (340 frames, 0 analog channels, rotations only)"),
+    ("pyomeca+ezc3d-testFiles/Kistler.c3d", "C3D file holds no 3D points (3969 frames, 16 analog channels)"),
+    ("BTKData/Input/C3DSamples/others/Empty.c3d", "not a C3D file: 0 bytes, shorter than the 512-byte header"),
+    ("BTKData/Input/C3DSamples/c3d.org/sample06/MACsample.c3d",
+     "the header's point scale 0.0551136 disagrees with POINT:SCALE 0.0215412, so the integer coordinates "
+     "cannot be scaled with confidence; re-export the file from the capture software"),
+])
+def test_files_without_points_are_refused_with_a_reason(shared_data, rel, reason):
+    # (the c3d package said "only 0-dimensional arrays can be converted to Python scalars" for the first)
+    path = _peer(shared_data, rel)
+    assert refusal_of_load(path) == f"{path}: {reason}"
+
+
+def test_zeros_stored_as_gaps_are_read_as_missing(shared_data):
+    path = shared_data / "c3d_markers_recovery" / "03_rolling.c3d"
+    auto = read_c3d(path)
+    kept = read_c3d(path, zeros_as_gaps=False)
+    forced = read_c3d(path, zeros_as_gaps=True)
+    zeros = np.all(kept.positions == 0.0, axis=-1)
+    assert zeros.mean() == pytest.approx(0.2295, abs=1e-4)  # the README: 23 % of the samples
+    assert auto.zero_gaps == int(zeros.sum()) == forced.zero_gaps and kept.zero_gaps == 0
+    assert np.array_equal(auto.missing(), zeros) and not kept.missing().any()
+    assert np.all(auto.residuals[zeros] == -1)
+    # the gaps were jumps to the origin: after them the trajectories are smooth
+    step = np.linalg.norm(np.diff(auto.positions, axis=0), axis=-1)
+    assert np.nanmax(step) < 100.0 < np.nanmax(np.linalg.norm(np.diff(kept.positions, axis=0), axis=-1))
+
+
+def test_zeros_are_kept_where_a_trajectory_reaches_the_origin_gradually():
+    from mocapkit.markerset import zero_gap_mask
+
+    t = np.linspace(-1.0, 1.0, 41)
+    pos = np.zeros((41, 2, 3))
+    pos[:, 0, 0] = t * 50.0  # passes smoothly through (0, 0, 0) at frame 20 (mm)
+    pos[:, 1] = [500.0, 200.0, 900.0]
+    pos[10:13, 1] = 0.0  # jumps 1 m to the origin and back: a stored gap
+    mask = zero_gap_mask(pos, unit_cm=0.1)
+    assert not mask[:, 0].any()
+    assert mask[10:13, 1].all() and mask[:, 1].sum() == 3
+    assert not zero_gap_mask(pos, unit_cm=0.1, skip=[1]).any()
+
+
+def test_every_peer_marker_file_reads_or_is_refused_in_one_line(shared_data):
+    """Walk the peer files: each C3D and TRC gives a sane MarkerSet or a one-line MocapFormatError."""
+    from mocapkit.io import load_markers
+
+    root = shared_data / PEER
+    if not root.is_dir():
+        pytest.skip("peer_files not present")
+    files = sorted(p for p in root.rglob("*") if p.suffix.lower() in (".c3d", ".trc"))
+    assert len(files) >= 80
+    read, refused = 0, set()
+    for f in files:
+        try:
+            ms = load_markers(f)
+        except MocapFormatError as exc:
+            assert str(exc).startswith(str(f)) and "\n" not in str(exc), f
+            refused.add(f.name)
+            continue
+        assert ms.num_frames >= 1 and ms.num_markers >= 1, f
+        assert not np.isinf(ms.positions).any(), f
+        ms.unit_cm  # a known unit
+        if ms.num_frames > 5 and (~ms.missing()).sum() > 10:
+            step = np.linalg.norm(np.diff(ms.positions, axis=0), axis=-1) * ms.unit_cm
+            if np.isfinite(step).any():
+                assert np.nanmedian(step) < 5.0, f  # no data block read from the wrong place
+        read += 1
+    # refused, each for a reason the peers share: empty or truncated, parameter records pointing
+    # backwards, a header scale disagreeing with POINT:SCALE, no 3D points at all
+    assert refused == {
+        "Empty.c3d", "Empty.trc", "Truncated.trc", "bad_parameter_section.c3d", "badParameterOffset.c3d",
+        "mocap36.c3d", "MACsample.c3d", "1123x01EMG.c3d", "C3DRotationExample.c3d", "Kistler.c3d",
+    }
+    assert read == len(files) - len(refused)

@@ -58,27 +58,42 @@ def info(
 
 
 def convert(
-    inp: Path = typer.Argument(..., metavar="IN", help="Input take (.bvh, .amc, .npz, .c3d)."),
-    out: Path = typer.Argument(..., metavar="OUT", help="Output (.bvh or .npz), chosen by suffix."),
-    fps: Optional[float] = typer.Option(None, "--fps", help="Resample to this frame rate (slerp)."),
+    inp: Path = typer.Argument(..., metavar="IN", help="Input take (.bvh, .amc, .npz) or marker file (.c3d, .trc, marker .npz)."),
+    out: Path = typer.Argument(..., metavar="OUT", help="Output, chosen by suffix: .bvh or .npz for a motion; .c3d, .trc or .npz for markers."),
+    fps: Optional[float] = typer.Option(None, "--fps", help="Resample a motion to this frame rate (slerp)."),
+    zeros_as_gaps: Optional[bool] = typer.Option(
+        None, "--zeros-as-gaps/--keep-zeros",
+        help="Marker files: read samples at exactly (0, 0, 0) as gaps, or keep them (default: decided from the data)."),
     asf: Optional[Path] = asf_option(),
     overwrite: bool = overwrite_option(),
 ) -> None:
-    """Convert IN to OUT, optionally resampling to --fps."""
+    """Convert IN to OUT: a motion between BVH, AMC and npz (optionally resampled to --fps), markers between C3D, TRC and npz."""
     from .. import io
     from ..io.takes import check_asf, load_take
     from ..motion import Motion
 
     guard([out], [inp, asf], overwrite)
     check_asf(asf, [inp])
-    io.suffix_kind(out, io.WRITERS, "writing")
-    m = load_take(inp, asf)
+    marker_input = inp.suffix.lower() in (".c3d", ".trc")
+    if marker_input:
+        io.suffix_kind(out, io.MARKER_FORMATS, "writing markers")
+    else:
+        io.suffix_kind(out, {**io.WRITERS, **io.MARKER_FORMATS} if inp.suffix.lower() == ".npz" else io.WRITERS, "writing")
+    m = io.load_markers(inp, zeros_as_gaps=zeros_as_gaps) if marker_input else load_take(inp, asf)
     if not isinstance(m, Motion):
-        if fps is not None or out.suffix.lower() != ".npz":
-            raise MocapFormatError(inp, "marker files convert to .npz only, without --fps")
-        io.save(m, out)
-        console.print(f"wrote {out}")
+        if fps is not None:
+            raise MocapFormatError(inp, "--fps resamples joint angles; a marker file converts at its own rate")
+        io.suffix_kind(out, io.MARKER_FORMATS, "writing markers")
+        io.save_markers(m, out)
+        console.print(f"wrote {out} ({plural(m.num_markers, 'marker')}, {plural(m.num_frames, 'frame')} @ {m.fps:g} fps, "
+                      f"{100.0 * m.missing().mean():.2f} % missing)")
+        if m.zero_gaps:
+            console.print(f"read {plural(m.zero_gaps, 'sample')} stored as exact (0, 0, 0) as gaps "
+                          "(--keep-zeros keeps them as positions)")
         return
+    if zeros_as_gaps is not None:
+        raise MocapError("--zeros-as-gaps/--keep-zeros apply to marker files; IN is a motion")
+    io.suffix_kind(out, io.WRITERS, "writing")
     if fps is not None:
         m = m.resample(fps)
     io.save(m, out)

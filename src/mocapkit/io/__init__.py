@@ -1,7 +1,8 @@
 """Readers and writers; ``load`` and ``save`` choose the format by the file suffix.
 
-Readers return a :class:`~mocapkit.motion.Motion` (C3D: a
-:class:`~mocapkit.io.c3d.MarkerSet`), writers take one. Every reader raises
+Readers return a :class:`~mocapkit.motion.Motion` (C3D and TRC: a
+:class:`~mocapkit.markerset.MarkerSet`), writers take one. ``load_markers``
+and ``save_markers`` are the marker-file entry points (.c3d, .trc, marker .npz). Every reader raises
 :class:`~mocapkit.errors.MocapFormatError` naming the file, the line when
 known, and the problem. Writers write to a temporary file in the target
 folder and rename it, so a failed or interrupted write leaves no partial file.
@@ -17,10 +18,14 @@ from pathlib import Path
 
 from ..errors import MocapFormatError
 
-__all__ = ["load", "save", "atomic_write", "READERS", "WRITERS"]
+from ..markerset import MarkerSet
 
-READERS = {".bvh": "bvh", ".amc": "asfamc", ".npz": "npz", ".c3d": "c3d"}
+__all__ = ["load", "save", "load_markers", "save_markers", "atomic_write", "MarkerSet",
+           "READERS", "WRITERS", "MARKER_FORMATS"]
+
+READERS = {".bvh": "bvh", ".amc": "asfamc", ".npz": "npz", ".c3d": "c3d", ".trc": "trc"}
 WRITERS = {".bvh": "bvh", ".npz": "npz"}
+MARKER_FORMATS = {".c3d": "c3d", ".trc": "trc", ".npz": "npz"}
 
 
 def suffix_kind(path: Path, table: dict, verb: str) -> str:
@@ -32,7 +37,7 @@ def suffix_kind(path: Path, table: dict, verb: str) -> str:
 
 
 def load(path, **kwargs):
-    """Read a motion file, choosing the format by suffix (.bvh, .amc, .npz; .c3d gives a MarkerSet).
+    """Read a motion file, choosing the format by suffix (.bvh, .amc, .npz; .c3d and .trc give a MarkerSet).
 
     Keyword arguments go to the format's reader (e.g. ``asf=`` and ``fps=`` for AMC).
     """
@@ -46,9 +51,71 @@ def load(path, **kwargs):
         from .asfamc import read_amc as reader
     elif kind == "npz":
         from .npz import read_npz as reader
+    elif kind == "trc":
+        from .trc import read_trc as reader
     else:
         from .c3d import read_c3d as reader
     return reader(path, **kwargs)
+
+
+def load_markers(path, **kwargs) -> MarkerSet:
+    """Read a marker file (.c3d, .trc, or an npz written from a MarkerSet) as a :class:`MarkerSet`.
+
+    Keyword arguments go to the reader: ``zeros_as_gaps`` (True, False, or
+    None to decide from the data) for .c3d and .trc. Raises
+    :class:`~mocapkit.errors.MocapFormatError` for an unknown suffix, a file
+    that is not a marker file (an npz holding a Motion) or any reader error.
+    """
+    path = Path(path)
+    kind = suffix_kind(path, MARKER_FORMATS, "reading markers")
+    if not path.is_file():
+        raise MocapFormatError(path, "no such file" if not path.exists() else "not a regular file")
+    if kind == "npz":
+        from .npz import read_npz
+
+        if kwargs:
+            raise TypeError(f"marker npz files take no reader options, got {', '.join(kwargs)}")
+        obj = read_npz(path)
+        if not isinstance(obj, MarkerSet):
+            raise MocapFormatError(path, "this npz holds a motion (joint angles), not marker trajectories")
+        from .c3d import checked_unit_cm
+
+        checked_unit_cm(path, obj.units)
+        return obj
+    if kind == "trc":
+        from .trc import read_trc
+
+        return read_trc(path, **kwargs)
+    from .c3d import read_c3d
+
+    return read_c3d(path, **kwargs)
+
+
+def save_markers(markers: MarkerSet, path, *, like=None) -> Path:
+    """Write ``markers`` to ``path`` (.c3d, .trc or .npz, by suffix) atomically; returns the path.
+
+    ``like`` (a MarkerSet or a file of the same format) supplies the file
+    contents other than the trajectories to keep: a C3D's parameter groups and
+    analog channels, a TRC's header fields. Without it, those of the file
+    ``markers`` was read from are kept when it had the same format.
+    """
+    path = Path(path)
+    kind = suffix_kind(path, MARKER_FORMATS, "writing markers")
+    if not isinstance(markers, MarkerSet):
+        raise TypeError(f"save_markers takes a MarkerSet, got {type(markers).__name__}")
+    if kind == "npz":
+        from .npz import write_npz
+
+        write_npz(markers, path)
+    elif kind == "trc":
+        from .trc import write_trc
+
+        write_trc(markers, path, like=like)
+    else:
+        from .c3d import write_c3d
+
+        write_c3d(markers, path, like=like)
+    return path
 
 
 def save(motion, path, **kwargs) -> Path:

@@ -1,102 +1,35 @@
-"""C3D optical marker files: a :class:`MarkerSet` of labelled 3D trajectories, NaN where occluded.
+"""C3D optical marker files: read into a :class:`~mocapkit.markerset.MarkerSet`, written back with ezc3d.
 
 Read with ezc3d, the reference C3D library. A few real files in circulation
 have parameter-section quirks ezc3d refuses (c3d.org's PhoeniX samples: "OFFSET
-parameter is not an INT"), a header that claims no points (the PhaseSpace
-sample) or no ``POINT:DATA_START`` parameter, which makes ezc3d read the data
-block from the wrong offset (c3d.org sample28); for those the pure-Python ``c3d`` package reads the data block, and
-the MarkerSet records which reader was used in ``reader``.
+parameter is not an INT"; big-endian SGI files), a header that claims no points
+(the PhaseSpace sample), no ``POINT:DATA_START`` parameter, or analog samples
+in the header's frames without ``ANALOG:RATE``, which make ezc3d read the data
+block from the wrong offset or with the wrong frame size (c3d.org sample28), or
+a data block cut short (ezc3d-testFiles Optotrak.c3d); for those the
+pure-Python ``c3d`` package reads the data block, and the MarkerSet records
+which reader was used in ``reader``. Samples stored as exact (0, 0, 0) gaps
+are read as missing (:func:`~mocapkit.markerset.zero_gap_mask`).
+
+:func:`write_c3d` writes float point data with ezc3d and keeps every other
+parameter group and the analog channels of the file read. C3D format: Motion
+Lab Systems, "The C3D File Format User Guide" (c3d.org).
 """
 
 from __future__ import annotations
 
-import dataclasses
+import re
 import struct
 import warnings
-from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
 from ..errors import MocapFormatError, SkeletonError
-from ..motion import check_fps, readonly_view
+from ..markerset import MarkerSet, MarkerSource, length_unit_cm, zero_gap_mask
+from ..motion import check_fps
 
-__all__ = ["MarkerSet", "read_c3d"]
-
-_UNIT_CM = {"mm": 0.1, "cm": 1.0, "m": 100.0, "dm": 10.0, "in": 2.54, "inch": 2.54}
-
-
-@dataclass(frozen=True, eq=False)
-class MarkerSet:
-    """Labelled marker trajectories.
-
-    Attributes
-    ----------
-    labels : tuple of str, (M,)
-    positions : float array (F, M, 3)
-        Marker positions in ``units``; NaN where the marker was not seen.
-    fps : float
-    units : str
-        Length unit as the file states it ("mm" when it states none).
-    name : str
-    reader : str
-        "ezc3d" or "c3d" (the fallback for quirky files).
-    """
-
-    labels: tuple[str, ...]
-    positions: np.ndarray
-    fps: float
-    units: str = "mm"
-    name: str = ""
-    reader: str = "ezc3d"
-
-    def __post_init__(self):
-        pos = np.asarray(self.positions, dtype=np.float64)
-        labels = tuple(str(label) for label in self.labels)
-        if pos.ndim != 3 or pos.shape[1:] != (len(labels), 3):
-            raise ValueError(f"positions: expected shape (F, {len(labels)}, 3), got {pos.shape}")
-        object.__setattr__(self, "positions", readonly_view(pos))
-        object.__setattr__(self, "labels", labels)
-        object.__setattr__(self, "fps", check_fps(self.fps))
-
-    @property
-    def num_frames(self) -> int:
-        return int(self.positions.shape[0])
-
-    @property
-    def num_markers(self) -> int:
-        return len(self.labels)
-
-    @property
-    def unit_cm(self) -> float:
-        """Centimetres per unit of ``positions``."""
-        try:
-            return _UNIT_CM[self.units.lower()]
-        except KeyError:
-            raise ValueError(f"unknown C3D length unit {self.units!r}") from None
-
-    def missing(self) -> np.ndarray:
-        """Boolean (F, M) mask of occluded samples."""
-        return np.any(np.isnan(self.positions), axis=-1)
-
-    def select(self, labels) -> "MarkerSet":
-        """The markers named in ``labels``, in that order."""
-        idx = []
-        for label in labels:
-            if label not in self.labels:
-                raise KeyError(f"no marker {label!r}; markers are: {', '.join(self.labels)}")
-            idx.append(self.labels.index(label))
-        return dataclasses.replace(self, labels=tuple(labels), positions=self.positions[:, idx])
-
-    def __getitem__(self, key) -> "MarkerSet":
-        if not isinstance(key, slice):
-            raise TypeError("a MarkerSet is sliced by frames: markers[a:b]")
-        step = 1 if key.step is None else int(key.step)
-        return dataclasses.replace(self, positions=self.positions[key], fps=self.fps / step)
-
-    def __repr__(self) -> str:
-        miss = 100.0 * self.missing().mean() if self.positions.size else 0.0
-        return f"MarkerSet({self.name!r}, {self.num_frames} frames @ {self.fps:g} fps, {self.num_markers} markers, {miss:.1f}% missing)"
+__all__ = ["MarkerSet", "read_c3d", "write_c3d", "apply_zero_gaps", "checked_unit_cm"]
 
 
 def _clean_labels(raw, n: int) -> tuple[str, ...]:
@@ -121,14 +54,31 @@ def _point_rate(path: Path, rate) -> float:
         raise MocapFormatError(path, str(exc)) from None
 
 
-def _read_ezc3d(path: Path) -> MarkerSet | None:
+# Vicon writes modelled quantities (joint angles, forces, moments, powers) as
+# points and lists them in these POINT parameters; they are not markers, and a
+# zero there is a value, never a gap.
+_MODELLED = ("ANGLES", "FORCES", "MOMENTS", "POWERS", "SCALARS", "REACTIONS")
+
+
+def _ezc3d_parameters(c) -> dict:
+    """The parameter section as plain nested dicts (group -> name -> {type, description, is_locked, value})."""
+    out = {}
+    for group in c["parameters"]:
+        out[group] = {name: dict(param) for name, param in c["parameters"][group].items()}
+    return out
+
+
+def _read_ezc3d(path: Path):
     import ezc3d
 
     c = ezc3d.c3d(str(path))
     pts = c["data"]["points"]  # (4, M, F)
     n = pts.shape[1]
     if n == 0 or pts.shape[2] == 0:
-        return None
+        frames = max(pts.shape[2], c["header"]["points"]["last_frame"] - c["header"]["points"]["first_frame"] + 1)
+        analogs = c["data"]["analogs"].shape[1]
+        raise MocapFormatError(path, f"C3D file holds no 3D points ({frames} frames, {analogs} analog channels"
+                               + (", rotations only)" if c["header"]["rotations"]["size"] else ")"))
     params = c["parameters"]["POINT"]
     start = params["DATA_START"]["value"] if "DATA_START" in params else []
     if len(start) == 0 or int(start[0]) < 2:
@@ -136,48 +86,105 @@ def _read_ezc3d(path: Path) -> MarkerSet | None:
         # (seen on c3d.org sample28); the fallback uses the header's pointer.
         return None
     labels = list(params["LABELS"]["value"]) if "LABELS" in params else []
-    for extra in ("LABELS2", "LABELS3", "LABELS4"):
-        if extra in params:
-            labels += list(params[extra]["value"])
+    for k in range(2, 100):
+        if f"LABELS{k}" not in params:
+            break
+        labels += list(params[f"LABELS{k}"]["value"])
     units = params["UNITS"]["value"][0].strip() if "UNITS" in params and len(params["UNITS"]["value"]) else ""
     xyz = np.transpose(pts[:3], (2, 1, 0)).astype(np.float64)
-    resid = c["data"]["meta_points"]["residuals"][0].T  # (F, M)
+    resid = np.array(c["data"]["meta_points"]["residuals"][0].T, dtype=np.float64)  # (F, M)
     xyz[resid < 0] = np.nan
-    return MarkerSet(
-        labels=_clean_labels(labels, n),
-        positions=xyz,
-        fps=_point_rate(path, c["header"]["points"]["frame_rate"]),
-        units=units or "mm",
-        name=path.stem,
-        reader="ezc3d",
+    modelled = set()
+    for key in _MODELLED:
+        if key in params and params[key]["type"] == -1:
+            modelled.update(str(v).strip() for v in np.ravel(params[key]["value"]))
+    analogs = np.asarray(c["data"]["analogs"], dtype=np.float64)
+    source = MarkerSource(
+        format="c3d",
+        parameters=_ezc3d_parameters(c),
+        analogs=analogs[0] if analogs.size else None,
+        first_frame=int(c["header"]["points"]["first_frame"]) + 1,
     )
+    fps = _point_rate(path, c["header"]["points"]["frame_rate"])
+    return _clean_labels(labels, n), xyz, resid, fps, units, "ezc3d", source, modelled
 
 
-def _read_c3d_package(path: Path) -> MarkerSet:
+def _c3d_package_parameters(reader) -> dict:
+    """The parameter section read by the ``c3d`` package, in ezc3d's layout (see :func:`_ezc3d_parameters`)."""
+    out = {}
+    for gname, group in reader.group_items():
+        g = {"__METADATA__": {"DESCRIPTION": _text(group.desc), "IS_LOCKED": False}}
+        for pname, param in group.param_items():
+            typ = {-1: -1, 1: 1, 2: 2, 4: 4}.get(param.bytes_per_element, 1)
+            try:
+                scalar = len(param.dimensions) == 0
+                if typ == -1:
+                    if len(param.dimensions) > 1:
+                        value = [s.strip() for s in param.string_array.reshape(-1)]
+                    else:
+                        value = [param.string_value.strip()]
+                elif typ == 4:
+                    value = np.atleast_1d(np.asarray(param.float_value if scalar else param.float_array, dtype=np.float64))
+                elif typ == 2:
+                    value = np.atleast_1d(np.asarray(param.int16_value if scalar else param.int16_array, dtype=int))
+                else:
+                    value = np.atleast_1d(np.asarray(param.int8_value if scalar else param.int8_array, dtype=int))
+            except Exception:  # a parameter the package cannot shape: not kept
+                continue
+            g[pname] = {"type": typ, "description": _text(param.desc), "is_locked": False, "value": value}
+        out[gname] = g
+    return out
+
+
+def _text(raw) -> str:
+    return raw.decode("latin-1").strip() if isinstance(raw, bytes) else str(raw or "").strip()
+
+
+def _read_c3d_package(path: Path):
     import c3d
 
     with open(path, "rb") as fh, warnings.catch_warnings():
         warnings.simplefilter("ignore")
         reader = c3d.Reader(fh)
-        frames = [points for _, points, _ in reader.read_frames()]
+        frames, analog = [], []
+        for _, points, analogs in reader.read_frames():
+            frames.append(points)
+            analog.append(analogs)
         if not frames:
             raise MocapFormatError(path, "C3D file holds no point frames")
         data = np.asarray(frames, dtype=np.float64)  # (F, M, 5): x y z residual cameras
         param = reader.get("POINT:LABELS")
         labels = list(param.string_array) if param is not None else []
         unit_param = reader.get("POINT:UNITS")
-        units = unit_param.string_value.strip() if unit_param is not None else ""
+        units = ""
+        if unit_param is not None:  # one unit, or one per point (ezc3d-testFiles Optotrak.c3d): the first
+            units = (list(unit_param.string_array.reshape(-1)) or [""])[0] if len(unit_param.dimensions) > 1 else unit_param.string_value
+            units = str(units).strip()
         fps = _point_rate(path, reader.point_rate)
+        try:
+            parameters = _c3d_package_parameters(reader)
+        except Exception:
+            parameters = {}
+        modelled = set()
+        for key in _MODELLED:
+            p = reader.get(f"POINT:{key}")
+            if p is not None and p.bytes_per_element == -1:
+                try:
+                    modelled.update(s.strip() for s in p.string_array.reshape(-1))
+                except Exception:
+                    pass
+        first = int(reader.first_frame)
+    if data.shape[1] == 0:
+        raise MocapFormatError(path, "C3D file holds no 3D points")
     xyz = data[..., :3].copy()
-    xyz[data[..., 3] < 0] = np.nan
-    return MarkerSet(
-        labels=_clean_labels(labels, xyz.shape[1]),
-        positions=xyz,
-        fps=fps,
-        units=units or "mm",
-        name=path.stem,
-        reader="c3d",
-    )
+    resid = data[..., 3].copy()
+    xyz[resid < 0] = np.nan
+    analogs = None
+    if analog and np.asarray(analog[0]).size:
+        a = np.asarray(analog, dtype=np.float64)  # (F, A, ratio)
+        analogs = a.transpose(1, 0, 2).reshape(a.shape[1], -1)
+    source = MarkerSource(format="c3d", parameters=parameters, analogs=analogs, first_frame=max(first, 1))
+    return _clean_labels(labels, xyz.shape[1]), xyz, resid, fps, units, "c3d", source, modelled
 
 
 # Types ezc3d takes for granted (a char ANALOG:USED crashes it): parameters of another type or
@@ -191,6 +198,12 @@ _EXPECTED_TYPES = {
     ("TRIAL", "ACTUAL_START_FIELD"): (2,), ("TRIAL", "ACTUAL_END_FIELD"): (2,), ("TRIAL", "CAMERA_RATE"): (4,),
     ("FORCE_PLATFORM", "USED"): (2,), ("FORCE_PLATFORM", "TYPE"): (2,), ("FORCE_PLATFORM", "CHANNEL"): (2,),
     ("FORCE_PLATFORM", "CORNERS"): (4,), ("FORCE_PLATFORM", "ORIGIN"): (4,), ("FORCE_PLATFORM", "ZERO"): (2,),
+}
+
+_PER_CHANNEL = {
+    ("POINT", "LABELS"), ("POINT", "LABELS2"), ("POINT", "DESCRIPTIONS"), ("POINT", "UNITS"), ("ANALOG", "LABELS"), ("ANALOG", "UNITS"), ("ANALOG", "DESCRIPTIONS"),
+    ("ANALOG", "SCALE"), ("ANALOG", "OFFSET"), ("ANALOG", "BITS"), ("ANALOG", "FORMAT"), ("FORCE_PLATFORM", "TYPE"),
+    ("FORCE_PLATFORM", "CHANNEL"), ("FORCE_PLATFORM", "CORNERS"), ("FORCE_PLATFORM", "ORIGIN"),
 }
 
 
@@ -230,6 +243,7 @@ def _check_structure(path: Path, b: bytes) -> bool:
     if start + nblocks * 512 > n:
         fail(f"truncated file: the parameter section claims {nblocks} blocks, the file ends inside it")
     end = n  # real files understate the block count (c3d.org's Dance, golfswing): records may run on
+    section_end = start + nblocks * 512
     i = start + 4
     groups: dict[int, str] = {}
     used: set[int] = set()
@@ -246,6 +260,8 @@ def _check_structure(path: Path, b: bytes) -> bool:
         if at + 2 > end:
             fail(f"parameter record at byte {i} runs past the parameter section")
         if not all(32 <= c < 127 for c in name):
+            if i >= section_end:
+                break  # past the section's stated blocks, this is data, not a record (c3d.org sgi_int.c3d)
             fail(f"parameter record at byte {i} has a malformed name {name!r}")
         nxt = struct.unpack_from(e + "h", b, at)[0]
         body = at + 2
@@ -265,13 +281,15 @@ def _check_structure(path: Path, b: bytes) -> bool:
             typ = struct.unpack_from("b", b, body)[0]
             ndim = b[body + 1]
             if typ not in (-1, 1, 2, 4):
+                if i >= section_end:
+                    break
                 fail(f"parameter {name.decode()} has type {typ} (expected -1, 1, 2 or 4)")
             if ndim > 7 or body + 2 + ndim > end:
                 fail(f"parameter {name.decode()} has {ndim} dimensions")
             size = abs(typ)
             for d in b[body + 2 : body + 2 + ndim]:
                 size *= d
-            typed.append((gid, name.decode().upper(), typ, size if typ != -1 or ndim else 0))
+            typed.append((gid, name.decode().upper(), typ, size if typ != -1 or ndim else -1))
             value_at[(gid, name.decode().upper())] = body + 2 + ndim
             need = 2 + ndim + size + 1
             if body + need <= end:
@@ -284,17 +302,22 @@ def _check_structure(path: Path, b: bytes) -> bool:
         if nxt < 0 or nxt < need + 2:
             fail(f"parameter record {name.decode()}: the offset to the next record ({nxt}) points backwards or inside it")
         i = at + nxt
-    missing = used - set(groups)
-    if missing:
-        fail(f"parameters belong to group ids {sorted(missing)} that the parameter section does not define")
-    ezc3d_ok = len({(gid, name) for gid, name, _, _ in typed}) == len(typed)  # no parameter defined twice
+    # Parameters of a group id the section never defines (c3d.org TYPE-2.C3D, TYPE-4.C3D) are
+    # ignored, as ezc3d and the c3d package ignore them.
+    typed = [t for t in typed if t[0] in groups]
+    # A parameter defined twice (Vicon's PiG_Calibration files: PROCESSING:BODYMASS) is read by
+    # ezc3d, which keeps the first; the c3d package refuses it.
+    ezc3d_ok = True
+    points, analog, first, last = struct.unpack_from(e + "4H", b, 2)
     for gid, name, typ, size in typed:
         want = _EXPECTED_TYPES.get((groups[gid], name))
-        if want is not None and (typ not in want or size < abs(typ)):
+        # a per-channel list may be empty (ezc3d writes them so) when there are no such channels
+        empty_ok = size == 0 and ((groups[gid], name) in _PER_CHANNEL) and not (
+            groups[gid] == "ANALOG" and analog and name not in ("FORMAT", "BITS", "UNITS", "DESCRIPTIONS"))
+        if want is not None and (typ not in want or (size < abs(typ) and not empty_ok)):
             ezc3d_ok = False
-        if typ == -1 and size == 0:  # a string without dimensions (ezc3d: SIGSEGV)
+        if typ == -1 and size < 0:  # a string without dimensions (ezc3d: SIGSEGV)
             ezc3d_ok = False
-    points, analog, first, last = struct.unpack_from(e + "4H", b, 2)
     have = {(groups[gid], name) for gid, name, _, _ in typed}
     if analog and not {("ANALOG", k) for k in ("USED", "OFFSET", "SCALE", "GEN_SCALE")} <= have:
         ezc3d_ok = False  # analog samples without their scaling parameters (ezc3d: SIGSEGV)
@@ -304,7 +327,12 @@ def _check_structure(path: Path, b: bytes) -> bool:
     data_start = struct.unpack_from(e + "H", b, 16)[0]
     if points == 0:
         return ezc3d_ok  # some writers leave the header empty; the parameters decide (the fallback reader)
-    used = _point_used(b, e, groups, typed, value_at)
+    used = _int_parameter(b, e, groups, typed, value_at, "POINT", "USED")
+    if analog and (("ANALOG", "RATE") not in have or _int_parameter(b, e, groups, typed, value_at, "ANALOG", "USED") == 0):
+        # analog samples in the header's frames but no ANALOG:RATE (or ANALOG:USED 0): ezc3d then takes
+        # 0 analog samples per frame and reads the data block with the wrong frame size (c3d.org
+        # sample28/type1.C3D: markers jump a metre per frame); the c3d package follows the header
+        ezc3d_ok = False
     if used is not None and used != points:
         fail(f"the parameter section disagrees with the header: POINT:USED is {used} markers, "
              f"the header says {points}")
@@ -316,16 +344,21 @@ def _check_structure(path: Path, b: bytes) -> bool:
     frames = last - first + 1
     need = (data_start - 1) * 512 + frames * (4 * points + analog) * (2 if size == 2 else 4)
     if need > n and (data_start - 1) * 512 + frames * (4 * points + analog) * 2 > n:
-        fail(f"truncated file: {frames} frames of {points} points and {analog} analog samples need "
-             f"{need} bytes, the file has {n}")
+        frame_bytes = (4 * points + analog) * (2 if size == 2 else 4)
+        if (data_start - 1) * 512 + frame_bytes > n:
+            fail(f"truncated file: {frames} frames of {points} points and {analog} analog samples need "
+                 f"{need} bytes, the file has {n}, not even one whole frame")
+        # Cut short (ezc3d-testFiles Optotrak.c3d): the frames that are there are read, as
+        # ezc3d and the c3d package read them, by the pure-Python reader that stops at the end.
+        return False
     return ezc3d_ok
 
 
-def _point_used(b: bytes, e: str, groups: dict, typed: list, value_at: dict) -> int | None:
-    """The first value of an integer ``POINT:USED`` parameter (read as unsigned, like the header's count), or None."""
-    for gid, name, typ, size in typed:
-        if groups.get(gid) == "POINT" and name == "USED" and typ == 2 and size >= 2:
-            return struct.unpack_from(e + "H", b, value_at[(gid, name)])[0]
+def _int_parameter(b: bytes, e: str, groups: dict, typed: list, value_at: dict, group: str, name: str) -> int | None:
+    """The first value of an integer parameter GROUP:NAME (read as unsigned, like the header's counts), or None."""
+    for gid, pname, typ, size in typed:
+        if groups.get(gid) == group and pname == name and typ == 2 and size >= 2:
+            return struct.unpack_from(e + "H", b, value_at[(gid, pname)])[0]
     return None
 
 
@@ -339,13 +372,52 @@ def _check_result(path: Path, markers: MarkerSet) -> MarkerSet:
     return markers
 
 
-def read_c3d(path) -> MarkerSet:
+def apply_zero_gaps(labels, xyz, resid, unit_cm: float, zeros_as_gaps, modelled=()):
+    """Turn samples stored as exact (0, 0, 0) into gaps (NaN, residual -1) in place; returns how many.
+
+    ``zeros_as_gaps``: True turns every exact-zero sample of a marker into a gap,
+    False keeps them all, None decides from the data (:func:`~mocapkit.markerset.zero_gap_mask`).
+    Labels in ``modelled`` (modelled angles, forces, ...) are never touched.
+    """
+    if zeros_as_gaps is False:
+        return 0
+    skip = [m for m, label in enumerate(labels) if label in modelled]
+    if zeros_as_gaps is None:
+        mask = zero_gap_mask(xyz, unit_cm, skip=skip)
+    elif zeros_as_gaps is True:
+        mask = np.all(xyz == 0.0, axis=-1)
+        mask[:, skip] = False
+    else:
+        raise TypeError(f"zeros_as_gaps must be True, False or None, got {zeros_as_gaps!r}")
+    xyz[mask] = np.nan
+    if resid is not None:
+        resid[mask] = -1.0
+    return int(mask.sum())
+
+
+def checked_unit_cm(path, units: str) -> float:
+    """Centimetres per unit of a file's stated length unit; a one-line MocapFormatError for one not known."""
+    try:
+        return length_unit_cm(units)
+    except ValueError as exc:
+        raise MocapFormatError(path, f"{exc}; the file's coordinates cannot be put on a length scale") from None
+
+
+def read_c3d(path, zeros_as_gaps: bool | None = None) -> MarkerSet:
     """Read the 3D points of a C3D file; occluded samples (negative residual) become NaN.
+
+    ``zeros_as_gaps`` (None: decide from the data; True; False): whether
+    samples stored as exact (0, 0, 0), as Qualisys exports write gaps, are
+    read as missing (see :func:`~mocapkit.markerset.zero_gap_mask`); the
+    MarkerSet's ``zero_gaps`` says how many were. The result keeps the
+    residuals and, in ``source``, the parameter section and analog channels
+    :func:`write_c3d` writes back.
 
     Raises :class:`~mocapkit.errors.MocapFormatError` for a malformed header or
     parameter section (checked before any reader runs), a data block the file
     is too short for, a non-positive frame rate, infinite coordinates, no
-    points, or when neither ezc3d nor the fallback reader can make sense of the file.
+    points, a length unit that is not one, or when neither ezc3d nor the
+    fallback reader can make sense of the file.
     """
     path = Path(path)
     try:
@@ -353,18 +425,145 @@ def read_c3d(path) -> MarkerSet:
     except OSError as exc:
         raise MocapFormatError(path, f"cannot read: {exc.strerror or exc}") from None
     first_error = None
+    got = None
     if _check_structure(path, raw):
         try:
-            markers = _read_ezc3d(path)
-            if markers is not None:
-                return _check_result(path, markers)
+            got = _read_ezc3d(path)
+        except MocapFormatError:
+            raise
         except Exception as exc:  # ezc3d raises plain RuntimeError/ValueError on malformed files
             first_error = exc
-    try:
-        markers = _read_c3d_package(path)
-    except MocapFormatError:
-        raise
-    except Exception as exc:
-        reason = f"not a readable C3D file ({first_error or exc})"
-        raise MocapFormatError(path, reason.replace("\n", " ")) from exc
+    if got is None:
+        try:
+            got = _read_c3d_package(path)
+        except MocapFormatError:
+            raise
+        except Exception as exc:
+            scales = re.search(r"inconsistent scale factor! (\S+) header != (\S+) POINT:SCALE", str(exc))
+            if scales:
+                reason = (f"the header's point scale {float(scales[1]):.6g} disagrees with POINT:SCALE "
+                          f"{float(scales[2]):.6g}, so the integer coordinates cannot be scaled with confidence; "
+                          "re-export the file from the capture software")
+            else:
+                reason = f"not a readable C3D file ({first_error or exc})"
+            raise MocapFormatError(path, reason.replace("\n", " ")) from exc
+    labels, xyz, resid, fps, units, reader, source, modelled = got
+    units = units or "mm"
+    unit_cm = checked_unit_cm(path, units)
+    zeros = apply_zero_gaps(labels, xyz, resid, unit_cm, zeros_as_gaps, modelled)
+    markers = MarkerSet(labels=labels, positions=xyz, fps=fps, units=units, name=path.stem, reader=reader,
+                        residuals=resid, source=source, zero_gaps=zeros)
     return _check_result(path, markers)
+
+
+def _c3d_like(markers: MarkerSet, like) -> MarkerSource | None:
+    """The C3D metadata to keep: ``like``'s (a MarkerSet, or a C3D file read for it), else the take's own."""
+    if like is not None:
+        if not isinstance(like, MarkerSet):
+            like = read_c3d(like, zeros_as_gaps=False)
+        source = like.source
+    else:
+        source = markers.source
+    return source if source is not None and source.format == "c3d" else None
+
+
+def _c3d_object(markers: MarkerSet, source: MarkerSource | None):
+    """An ezc3d ``c3d`` holding ``markers`` and the parameter groups and analogs of ``source``."""
+    import copy
+
+    import ezc3d
+
+    c = ezc3d.c3d()
+    F, M = markers.num_frames, markers.num_markers
+    analogs = None
+    if source is not None:
+        for group, params in source.parameters.items():
+            c["parameters"][group] = copy.deepcopy(dict(params))
+        ratio = source.analog_ratio(F)
+        if ratio and source.analogs.shape[1] == F * ratio:
+            analogs = source.analogs
+        c["header"]["points"]["first_frame"] = max(int(source.first_frame) - 1, 0)
+    for group in ("POINT", "ANALOG"):
+        if group not in c["parameters"]:
+            c["parameters"][group] = copy.deepcopy(dict(ezc3d.c3d()["parameters"][group]))
+    point = c["parameters"]["POINT"]
+    for k in list(point):
+        if k.startswith("LABELS") and k != "LABELS" or k in ("DATA_START",):
+            del point[k]
+        elif k.startswith("DESCRIPTIONS") and (k != "DESCRIPTIONS" or np.size(point[k]["value"]) != M):
+            del point[k]
+    # Float data (a negative scale); its magnitude is the residuals' resolution, kept from the source.
+    old_scale = np.ravel(point.get("SCALE", {}).get("value", [])) if source is not None else []
+    scale = -abs(float(old_scale[0])) if len(old_scale) and np.isfinite(old_scale[0]) and old_scale[0] != 0 else -1.0
+    for key, typ, value in (("LABELS", -1, list(markers.labels)), ("RATE", 4, np.array([markers.fps])),
+                            ("UNITS", -1, [markers.units]), ("SCALE", 4, np.array([scale]))):
+        old = point.get(key, {})
+        point[key] = {"type": typ, "description": old.get("description", ""), "is_locked": old.get("is_locked", False),
+                      "value": value}
+    analog = c["parameters"]["ANALOG"]
+    A = 0 if analogs is None else analogs.shape[0]
+    for key in ("LABELS", "DESCRIPTIONS", "UNITS"):  # one text per channel written, LABELS2... folded in
+        values = []
+        for k in [key] + [f"{key}{i}" for i in range(2, 100)]:
+            if k in analog:
+                values += [str(v) for v in np.ravel(analog.pop(k)["value"])]
+        if key == "LABELS" or values:
+            values = (values + [f"Analog{i + 1}" if key == "LABELS" else "" for i in range(len(values), A)])[:A]
+            analog[key] = {"type": -1, "description": "", "is_locked": False, "value": values}
+    # ezc3d writes analog values as floats already scaled: the stored scale is then 1, offset 0
+    for key, typ, value in (("SCALE", 4, np.ones(A)), ("OFFSET", 2, np.zeros(A, dtype=int)), ("GEN_SCALE", 4, np.array([1.0])),
+                            ("RATE", 4, np.array([markers.fps * (1 if analogs is None else analogs.shape[1] // F)]))):
+        old = analog.get(key, {})
+        analog[key] = {"type": typ, "description": old.get("description", ""), "is_locked": old.get("is_locked", False),
+                       "value": value}
+    data_analogs = np.zeros((1, 0, F)) if analogs is None else analogs[None]
+    trial = c["parameters"].get("TRIAL", {}) if "TRIAL" in c["parameters"] else {}
+    first = max(int(source.first_frame), 1) if source is not None else 1
+    for key, frame in (("ACTUAL_START_FIELD", first), ("ACTUAL_END_FIELD", first + F - 1)):
+        if key in trial:  # a 32-bit frame number in two 16-bit words (Vicon), kept in step with the frames written
+            trial[key] = dict(trial[key], type=2, value=np.array([frame & 0xFFFF, frame >> 16]))
+    pts = np.ones((4, M, F))
+    pts[:3] = np.transpose(markers.positions, (2, 1, 0))
+    c["data"]["points"] = pts
+    c["data"]["meta_points"] = {"residuals": markers.residual_or_default().T[None].astype(np.float64)}
+    c["data"]["analogs"] = data_analogs
+    return c
+
+
+def write_c3d(markers: MarkerSet, path, *, like=None) -> None:
+    """Write ``markers`` to a float C3D file with ezc3d, atomically (temp file + rename).
+
+    Points are written as float32 (POINT:SCALE -1), missing samples with
+    residual -1 (and NaN coordinates, which ezc3d and the ``c3d`` package both
+    read back as missing), seen ones with the take's residuals (0 for a sample
+    a cleaner changed or filled: "interpolated" in C3D's convention). Labels,
+    rate and units come from ``markers``; every other parameter group and the
+    analog channels come from ``like`` (a MarkerSet or a C3D file) or, by
+    default, from the file ``markers`` was read from (``markers.source``), with
+    POINT:USED and the frame counts made consistent by ezc3d. Analogs are
+    kept when they span the same frames as the points.
+    """
+    import tempfile
+
+    from . import atomic_write
+
+    path = Path(path)
+    if markers.num_markers == 0 or markers.num_frames == 0:
+        raise MocapFormatError(path, "a C3D file needs at least one marker and one frame")
+    bad = [label for label in markers.labels if not label.isprintable() or not label.isascii()]
+    if bad:
+        raise MocapFormatError(path, f"marker label {bad[0]!r} is not printable ASCII, which C3D labels must be")
+    checked_unit_cm(path, markers.units)
+    c = _c3d_object(markers, _c3d_like(markers, like))
+    with tempfile.TemporaryDirectory(prefix="mocapkit-c3d-") as tmp:
+        tmp_file = Path(tmp) / "out.c3d"
+        try:
+            c.write(str(tmp_file))
+        except Exception as exc:  # ezc3d raises plain RuntimeError/ValueError
+            raise MocapFormatError(path, f"cannot write C3D: {exc}".replace("\n", " ")) from None
+        data = bytearray(tmp_file.read_bytes())
+    # ezc3d writes -1 as the header's scale whatever POINT:SCALE says; readers that check the two
+    # agree (the c3d package) refuse the mismatch, so the header gets POINT:SCALE (Intel byte order).
+    struct.pack_into("<f", data, 12, float(c["parameters"]["POINT"]["SCALE"]["value"][0]))
+    with atomic_write(path, "wb") as fh:
+        fh.write(data)

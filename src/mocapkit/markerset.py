@@ -1,0 +1,266 @@
+"""Optical marker trajectories: the :class:`MarkerSet` container every marker reader returns.
+
+A MarkerSet holds labelled 3D trajectories, frames first (F, M, 3), NaN where a
+marker was not seen, with the per-sample residuals the capture system stated
+and the file metadata (:class:`MarkerSource`) a writer needs to write a
+cleaned take back in the form it came in (every C3D parameter group and analog
+channel kept). Readers live in :mod:`mocapkit.io` (C3D, TRC, npz).
+
+Gaps stored as exact zeros: some exporters (Qualisys among them) write an
+unseen marker as the sample (0, 0, 0) with a non-negative residual instead of
+flagging it (C3D: residual -1; TRC: empty fields). :func:`zero_gap_mask` finds
+those samples from the data, so that readers can turn them into gaps.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass
+from types import MappingProxyType
+from typing import Any, Mapping
+
+import numpy as np
+
+from .motion import check_fps, readonly_view
+
+__all__ = ["MarkerSet", "MarkerSource", "length_unit_cm", "zero_gap_mask", "ZERO_GAP_DISTANCE_CM"]
+
+# Length units as files state them (lower case, stripped). C3D's POINT:UNITS is
+# a 4-character field in many writers, so metres arrive as "mete" (c3d.org FP1.C3D).
+_UNIT_CM = {
+    "mm": 0.1, "millimeter": 0.1, "millimeters": 0.1, "millimetre": 0.1, "millimetres": 0.1, "mill": 0.1,
+    "cm": 1.0, "centimeter": 1.0, "centimeters": 1.0, "centimetre": 1.0, "centimetres": 1.0, "cent": 1.0,
+    "dm": 10.0, "decimeter": 10.0, "decimeters": 10.0, "decimetre": 10.0, "decimetres": 10.0,
+    "m": 100.0, "meter": 100.0, "meters": 100.0, "metre": 100.0, "metres": 100.0, "mete": 100.0, "metr": 100.0,
+    "in": 2.54, "inch": 2.54, "inches": 2.54, "ft": 30.48, "foot": 30.48, "feet": 30.48,
+}
+
+# A real marker trajectory that is interrupted by an exact (0, 0, 0) sample
+# jumps there from at least this far away: the lab origin is not a place a
+# marker teleports to and from.
+ZERO_GAP_DISTANCE_CM = 10.0
+
+
+def length_unit_cm(units: str) -> float:
+    """Centimetres per unit for a length unit as a file states it ("mm", "m", "mete", "inches", ...).
+
+    Raises ValueError naming the unit when it is not a known length unit;
+    readers turn that into a one-line :class:`~mocapkit.errors.MocapFormatError`.
+    """
+    key = str(units).strip().lower()
+    try:
+        return _UNIT_CM[key]
+    except KeyError:
+        known = "mm, cm, dm, m, in, ft (and their spelled-out forms)"
+        raise ValueError(f"unknown length unit {str(units)!r}; known: {known}") from None
+
+
+@dataclass(frozen=True, eq=False)
+class MarkerSource:
+    """What a marker file held besides the trajectories, kept so a writer can write it back.
+
+    Attributes
+    ----------
+    format : str
+        "c3d" or "trc": the format the take was read from.
+    parameters : mapping
+        C3D: the parameter section as ezc3d parses it (group -> parameter ->
+        {"type", "description", "is_locked", "value"}, plus each group's
+        "__METADATA__"). TRC: the header fields (name -> text). Read-only by
+        convention; writers copy it.
+    analogs : float array (A, F * ratio) or None
+        C3D analog channels at the analog rate (``ratio`` samples per point
+        frame), in the file's scaled units; None when the file has none.
+    first_frame : int
+        Number of the first frame in the file (C3D header, TRC Frame# column), 1-based.
+    """
+
+    format: str
+    parameters: Mapping[str, Any] = dataclasses.field(default_factory=dict)
+    analogs: np.ndarray | None = None
+    first_frame: int = 1
+
+    def __post_init__(self):
+        object.__setattr__(self, "parameters", MappingProxyType(dict(self.parameters)))
+        if self.analogs is not None:
+            a = np.asarray(self.analogs, dtype=np.float64)
+            if a.ndim != 2:
+                raise ValueError(f"analogs: expected shape (A, N), got {a.shape}")
+            object.__setattr__(self, "analogs", readonly_view(a))
+
+    def analog_ratio(self, num_frames: int) -> int:
+        """Analog samples per point frame (0 without analogs)."""
+        if self.analogs is None or self.analogs.shape[0] == 0 or num_frames == 0:
+            return 0
+        return self.analogs.shape[1] // num_frames
+
+
+@dataclass(frozen=True, eq=False)
+class MarkerSet:
+    """Labelled marker trajectories.
+
+    Attributes
+    ----------
+    labels : tuple of str, (M,)
+    positions : float array (F, M, 3)
+        Marker positions in ``units``; NaN where the marker was not seen.
+    fps : float
+        Point frame rate, frames per second.
+    units : str
+        Length unit as the file states it ("mm" when it states none); see
+        :func:`length_unit_cm` for the accepted spellings.
+    name : str
+    reader : str
+        Which reader produced it: "ezc3d", "c3d" (the pure-Python fallback for
+        quirky C3D files), "trc" or "npz".
+    residuals : float array (F, M) or None
+        The capture system's per-sample residual (>= 0 where seen; 0 means
+        interpolated or filtered in C3D's convention) and -1 where missing.
+        None when the file has none (TRC, npz); :meth:`residual_or_default`
+        then gives 0 where seen.
+    source : MarkerSource or None
+        File metadata a writer keeps (C3D parameters and analogs, TRC header).
+    zero_gaps : int
+        How many samples the reader found stored as exact (0, 0, 0) gaps and
+        read as missing (see :func:`zero_gap_mask`); 0 when none or when asked to keep them.
+    """
+
+    labels: tuple[str, ...]
+    positions: np.ndarray
+    fps: float
+    units: str = "mm"
+    name: str = ""
+    reader: str = "ezc3d"
+    residuals: np.ndarray | None = None
+    source: MarkerSource | None = None
+    zero_gaps: int = 0
+
+    def __post_init__(self):
+        pos = np.asarray(self.positions, dtype=np.float64)
+        labels = tuple(str(label) for label in self.labels)
+        if pos.ndim != 3 or pos.shape[1:] != (len(labels), 3):
+            raise ValueError(f"positions: expected shape (F, {len(labels)}, 3), got {pos.shape}")
+        object.__setattr__(self, "positions", readonly_view(pos))
+        object.__setattr__(self, "labels", labels)
+        object.__setattr__(self, "fps", check_fps(self.fps))
+        if self.residuals is not None:
+            res = np.array(self.residuals, dtype=np.float64)
+            if res.shape != pos.shape[:2]:
+                raise ValueError(f"residuals: expected shape {pos.shape[:2]}, got {res.shape}")
+            res[np.any(np.isnan(pos), axis=-1)] = -1.0
+            res[np.isnan(res)] = -1.0
+            object.__setattr__(self, "residuals", readonly_view(res))
+
+    @property
+    def num_frames(self) -> int:
+        return int(self.positions.shape[0])
+
+    @property
+    def num_markers(self) -> int:
+        return len(self.labels)
+
+    @property
+    def unit_cm(self) -> float:
+        """Centimetres per unit of ``positions`` (ValueError for a unit :func:`length_unit_cm` does not know)."""
+        return length_unit_cm(self.units)
+
+    def missing(self) -> np.ndarray:
+        """Boolean (F, M) mask of samples where the marker was not seen."""
+        return np.any(np.isnan(self.positions), axis=-1)
+
+    def residual_or_default(self) -> np.ndarray:
+        """(F, M) residuals: the file's, or 0 where seen and -1 where missing when it had none."""
+        if self.residuals is not None:
+            return self.residuals
+        return np.where(self.missing(), -1.0, 0.0)
+
+    def with_positions(self, positions, residuals=None) -> "MarkerSet":
+        """A copy with new ``positions`` (F, M, 3) of the same shape, e.g. a cleaned take.
+
+        Residuals follow C3D's convention unless given: a sample that was seen
+        and is unchanged keeps its residual, a changed or newly filled sample
+        gets 0 (interpolated), a sample now NaN gets -1. The labels, rate,
+        units and :class:`MarkerSource` are kept, so writing the result with
+        the same writer keeps the file's other contents.
+        """
+        new = np.asarray(positions, dtype=np.float64)
+        if new.shape != self.positions.shape:
+            raise ValueError(f"positions: expected shape {self.positions.shape}, got {new.shape}")
+        if residuals is None and self.residuals is not None:
+            res = np.array(self.residuals)
+            changed = np.any(~((new == self.positions) | (np.isnan(new) & np.isnan(self.positions))), axis=-1)
+            res[changed] = 0.0
+            residuals = res
+        return dataclasses.replace(self, positions=new, residuals=residuals)
+
+    def select(self, labels) -> "MarkerSet":
+        """The markers named in ``labels``, in that order."""
+        idx = []
+        for label in labels:
+            if label not in self.labels:
+                raise KeyError(f"no marker {label!r}; markers are: {', '.join(self.labels)}")
+            idx.append(self.labels.index(label))
+        res = None if self.residuals is None else self.residuals[:, idx]
+        return dataclasses.replace(self, labels=tuple(labels), positions=self.positions[:, idx], residuals=res)
+
+    def __getitem__(self, key) -> "MarkerSet":
+        if not isinstance(key, slice):
+            raise TypeError("a MarkerSet is sliced by frames: markers[a:b]")
+        start, stop, step = key.indices(self.num_frames)
+        res = None if self.residuals is None else self.residuals[key]
+        source = self.source
+        if source is not None:
+            ratio = source.analog_ratio(self.num_frames)
+            analogs = None
+            if ratio and step == 1:
+                analogs = source.analogs[:, start * ratio : max(start, stop) * ratio]
+            source = dataclasses.replace(source, analogs=analogs, first_frame=source.first_frame + start)
+        return dataclasses.replace(self, positions=self.positions[key], fps=self.fps / step, residuals=res, source=source)
+
+    def __repr__(self) -> str:
+        miss = 100.0 * self.missing().mean() if self.positions.size else 0.0
+        return f"MarkerSet({self.name!r}, {self.num_frames} frames @ {self.fps:g} fps, {self.num_markers} markers, {miss:.1f}% missing)"
+
+
+def zero_gap_mask(positions, unit_cm: float, skip=()) -> np.ndarray:
+    """Boolean (F, M) mask of samples that are gaps stored as exact (0, 0, 0).
+
+    A sample is a zero gap when all three coordinates are exactly 0.0 and the
+    marker's observed samples right before and after each such run lie at least
+    :data:`ZERO_GAP_DISTANCE_CM` from the origin: the marker jumps to the lab
+    origin and back, which a tracked marker does not do, while a trajectory
+    that really passes through the origin (or a modelled quantity such as a
+    ground reaction force that rises from zero) approaches it gradually. A
+    marker at (0, 0, 0) in every frame is a marker never seen. Markers whose
+    index is in ``skip`` (e.g. a Vicon file's modelled angles and forces,
+    listed in POINT:ANGLES, FORCES, MOMENTS, POWERS, SCALARS) are left alone.
+
+    positions : (F, M, 3) in the file's units; unit_cm : centimetres per unit.
+    """
+    pos = np.asarray(positions, dtype=np.float64)
+    zero = np.all(pos == 0.0, axis=-1)
+    out = np.zeros(zero.shape, dtype=bool)
+    if not zero.any():
+        return out
+    far = ZERO_GAP_DISTANCE_CM / float(unit_cm)
+    with np.errstate(invalid="ignore"):  # hypot: no overflow on huge coordinates (NaN stays NaN)
+        dist = np.hypot(np.hypot(pos[..., 0], pos[..., 1]), pos[..., 2])
+    seen = ~np.any(np.isnan(pos), axis=-1) & ~zero
+    skip = set(skip)
+    for m in np.flatnonzero(zero.any(axis=0)):
+        if m in skip:
+            continue
+        z = zero[:, m]
+        edges = np.flatnonzero(np.diff(np.concatenate([[0], z.astype(np.int8), [0]])))
+        ok = True
+        for a, b in zip(edges[::2], edges[1::2]):  # zero run [a, b)
+            before = np.flatnonzero(seen[:a, m])
+            after = np.flatnonzero(seen[b:, m])
+            near = [dist[before[-1], m]] if len(before) else []
+            near += [dist[b + after[0], m]] if len(after) else []
+            if any(d < far for d in near):
+                ok = False
+                break
+        if ok:
+            out[:, m] = z
+    return out

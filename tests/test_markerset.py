@@ -1,0 +1,117 @@
+import numpy as np
+import pytest
+
+import mocapkit
+from mocapkit.io import MarkerSet as IoMarkerSet
+from mocapkit.io.c3d import MarkerSet as C3dMarkerSet
+from mocapkit.markerset import MarkerSet, MarkerSource, length_unit_cm, zero_gap_mask
+
+
+def _ms(residuals=True, analogs=True):
+    pos = np.arange(10 * 2 * 3, dtype=float).reshape(10, 2, 3)
+    pos[2, 1] = np.nan
+    res = np.full((10, 2), 0.5) if residuals else None
+    source = MarkerSource("c3d", {"POINT": {}}, analogs=np.arange(3 * 40, dtype=float).reshape(3, 40) if analogs else None)
+    return MarkerSet(labels=("a", "b"), positions=pos, fps=100.0, residuals=res, source=source)
+
+
+def test_the_container_is_importable_from_io_and_io_c3d():
+    assert IoMarkerSet is MarkerSet and C3dMarkerSet is MarkerSet
+
+
+def test_residuals_are_minus_one_where_missing_and_read_only():
+    ms = _ms()
+    assert ms.residuals[2, 1] == -1.0 and ms.residuals[2, 0] == 0.5
+    assert ms.missing()[2, 1] and ms.missing().sum() == 1
+    with pytest.raises(ValueError):
+        ms.residuals[0, 0] = 3.0
+    with pytest.raises(ValueError):
+        ms.positions[0, 0, 0] = 3.0
+    with pytest.raises(ValueError, match="residuals"):
+        MarkerSet(labels=("a",), positions=np.zeros((4, 1, 3)), fps=30.0, residuals=np.zeros((3, 1)))
+    no = _ms(residuals=False)
+    assert no.residuals is None and no.residual_or_default()[2, 1] == -1 and no.residual_or_default()[0, 0] == 0
+
+
+def test_with_positions_is_an_immutable_update_that_marks_changed_samples_interpolated():
+    ms = _ms()
+    new = np.array(ms.positions)
+    new[2, 1] = [1.0, 2.0, 3.0]  # a filled gap
+    new[5, 0] += 1.0  # a moved sample
+    new[7, 0] = np.nan  # a sample removed
+    out = ms.with_positions(new)
+    assert out is not ms and ms.missing()[2, 1] and not out.missing()[2, 1]
+    assert out.residuals[2, 1] == 0.0 and out.residuals[5, 0] == 0.0 and out.residuals[7, 0] == -1.0
+    assert out.residuals[6, 0] == 0.5 and out.residuals[6, 1] == 0.5  # untouched samples keep theirs
+    assert out.labels == ms.labels and out.source is ms.source and out.fps == ms.fps
+    with pytest.raises(ValueError, match="shape"):
+        ms.with_positions(new[:5])
+
+
+def test_select_and_slices_keep_residuals_and_analogs_aligned():
+    ms = _ms()
+    b = ms.select(["b"])
+    assert b.residuals.shape == (10, 1) and b.residuals[2, 0] == -1
+    part = ms[2:5]
+    assert part.num_frames == 3 and part.residuals.shape == (3, 2) and part.residuals[0, 1] == -1
+    # 4 analog samples per frame: frames 2..4 are analog samples 8..19; the first frame number moves
+    assert part.source.analogs.shape == (3, 12) and part.source.analogs[0, 0] == 8.0
+    assert part.source.first_frame == 3
+    assert ms[::2].source.analogs is None and ms[::2].fps == 50.0
+
+
+def test_source_is_read_only():
+    src = _ms().source
+    with pytest.raises(TypeError):
+        src.parameters["X"] = 1
+    with pytest.raises(ValueError):
+        src.analogs[0, 0] = 1.0
+    assert src.analog_ratio(10) == 4 and MarkerSource("trc").analog_ratio(10) == 0
+
+
+@pytest.mark.parametrize("unit, cm", [("mm", 0.1), ("MM ", 0.1), ("cm", 1.0), ("m", 100.0), ("mete", 100.0),
+                                      ("meters", 100.0), ("in", 2.54), ("dm", 10.0)])
+def test_length_units(unit, cm):
+    assert length_unit_cm(unit) == cm
+    assert MarkerSet(labels=("a",), positions=np.zeros((1, 1, 3)), fps=30, units=unit).unit_cm == cm
+
+
+def test_an_unknown_unit_names_itself():
+    with pytest.raises(ValueError, match="unknown length unit 'deg'"):
+        length_unit_cm("deg")
+
+
+def test_zero_gap_mask_rules():
+    pos = np.full((20, 3, 3), 800.0)
+    pos[:, 0] = 0.0  # a marker never seen, stored as zeros throughout
+    pos[5:8, 1] = 0.0  # a jump to the origin and back
+    pos[:, 2] = np.linspace(-30.0, 30.0, 20)[:, None]  # passes within 10 cm of the origin...
+    pos[10, 2] = 0.0  # ...and is at exactly 0 once, next to samples 3 mm away: a value, not a gap
+    mask = zero_gap_mask(pos, unit_cm=0.1)
+    assert mask[:, 0].all() and mask[5:8, 1].all() and mask[:, 1].sum() == 3 and not mask[:, 2].any()
+    # the same trajectory in metres: 0.8 m away is still far
+    assert zero_gap_mask(pos / 1000.0, unit_cm=100.0)[5:8, 1].all()
+    assert not zero_gap_mask(np.full((5, 1, 3), 1.0), unit_cm=0.1).any()
+
+
+def test_the_bundled_sample_has_residuals_and_its_analogs():
+    ms = mocapkit.load(mocapkit.samples.path("Eb015pr.c3d"))
+    assert ms.residuals.shape == (450, 26) and np.all(ms.residuals[ms.missing()] == -1)
+    assert np.all(ms.residuals[~ms.missing()] >= 0)
+    assert ms.source.format == "c3d" and ms.source.analogs.shape == (16, 1800) and ms.zero_gaps == 0
+    assert "POINT" in ms.source.parameters and "ANALOG" in ms.source.parameters
+
+
+def test_a_frame_slice_written_to_c3d_keeps_frame_numbers_and_analogs_in_step(shared_data, tmp_path):
+    from mocapkit.io import load_markers, save_markers
+
+    ms = load_markers(shared_data / "c3d_markers" / "PiG_Motion-FlatFoot-Full.c3d")
+    part = ms[10:110]
+    back = load_markers(save_markers(part, tmp_path / "part.c3d"))
+    assert back.num_frames == 100 and back.source.first_frame == ms.source.first_frame + 10
+    trial = back.source.parameters["TRIAL"]
+    assert list(trial["ACTUAL_START_FIELD"]["value"]) == [back.source.first_frame, 0]
+    assert list(trial["ACTUAL_END_FIELD"]["value"]) == [back.source.first_frame + 99, 0]
+    ratio = ms.source.analog_ratio(ms.num_frames)
+    assert np.array_equal(back.source.analogs, ms.source.analogs[:, 10 * ratio : 110 * ratio].astype(np.float32))
+    assert np.array_equal(back.positions, part.positions.astype(np.float32), equal_nan=True)
