@@ -196,7 +196,7 @@ def clean_markers(markers, *, steps=STEPS, spike_mm: float = 15.0, swap_mm: floa
                 fixes.append(MarkerFix(labels[r.marker], a, b, "gap", size * unit_mm))
     # a spike no fill reached stays missing rather than wrong
     fixes.sort(key=lambda x: (x.start, x.marker, x.kind))
-    cleaned = dataclasses.replace(markers, positions=y)
+    cleaned = markers.with_positions(y) if hasattr(markers, "with_positions") else dataclasses.replace(markers, positions=y)
     return MarkerCleanResult(markers=cleaned, original=markers, filled=filled, spikes=spikes, swapped=swapped,
                              fixes=tuple(fixes), never_seen=tuple(labels[i] for i in np.flatnonzero(never)))
 

@@ -52,8 +52,10 @@ class GapFill:
     start, end : int
         The gap's frames, ``start <= f < end``.
     method : str
-        ``"donors"`` (model-averaged moving-frame interpolation), ``"lowrank"``
-        or ``"linear"`` (no donor seen: straight line).
+        ``"donors"`` (model-averaged moving-frame interpolation; the best
+        model used donors), ``"cubic"`` (the best model was the cubic in room
+        coordinates), ``"lowrank"`` or ``"linear"`` (too little seen around
+        the gap for the others).
     donors : tuple of int
         The donors of the best model (empty for the other methods).
     expected_error : float
@@ -75,50 +77,71 @@ def gap_runs(missing: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return np.flatnonzero(d == 1), np.flatnonzero(d == -1)
 
 
-def _donor_fill(pos: np.ndarray, m: int, a: int, b: int, donors) -> np.ndarray | None:
-    """Fill frames a..b-1 of marker m by linear interpolation in the donors' moving frame.
+def _donor_fill(pos: np.ndarray, m: int, a: int, b: int, donors, cubic: bool = False) -> np.ndarray | None:
+    """Fill frames a..b-1 of marker m by interpolation in the donors' moving frame.
 
     The marker's coordinates in the frame of ``donors`` at the last seen
     frame before the gap (a - 1) and the first after it (b) are interpolated
-    linearly over the gap (held where the gap touches the take's first or
-    last frame) and mapped back through the donors' frame of each gap frame.
-    None where the donors are not all seen from a - 1 to b, the marker is
-    seen at neither end, or the donors' shape is degenerate (collinear).
+    over the gap, linearly or (``cubic``) by the cubic Hermite curve whose
+    end tangents are the one-frame differences at a - 2 and b + 1, and
+    mapped back through the donors' frame of each gap frame; held where the
+    gap touches the take's first or last frame. With no donors (an empty
+    group) the room coordinates are interpolated. None where the donors are
+    not all seen from a - 1 to b (a - 2 to b + 1 for ``cubic``), the marker
+    is seen at neither end, or the donors' shape is degenerate (collinear).
     """
     f = pos.shape[0]
+    n = b - a
     ends = [t for t in (a - 1, b) if 0 <= t < f and not np.any(np.isnan(pos[t, m]))]
     if not ends:
         return None
-    frames = np.concatenate([np.arange(a, b), ends])
-    d = pos[frames][:, list(donors)]
-    if np.any(np.isnan(d)):
+    outer = [a - 2, b + 1]
+    if cubic and (len(ends) < 2 or outer[0] < 0 or outer[1] >= f or np.any(np.isnan(pos[outer, m]))):
         return None
-    ref = d[-1]
-    sv = np.linalg.svd(ref - ref.mean(axis=0), compute_uv=False)
-    if sv[1] <= 1e-3 * sv[0]:
-        return None
-    rot, origin = local_frames(d, ref)
-    n = b - a
-    loc = to_local(pos[ends, m], rot[n:], origin[n:])
+    frames = np.concatenate([np.arange(a, b), ends, outer if cubic else []]).astype(int)
+    donors = list(donors)
+    if donors:
+        d = pos[frames][:, donors]
+        if np.any(np.isnan(d)):
+            return None
+        ref = d[n]
+        sv = np.linalg.svd(ref - ref.mean(axis=0), compute_uv=False)
+        if sv[1] <= 1e-3 * sv[0]:
+            return None
+        rot, origin = local_frames(d, ref)
+        loc = to_local(pos[frames[n:], m], rot[n:], origin[n:])
+    else:
+        loc = pos[frames[n:], m]
     if len(ends) == 1:
         est = np.broadcast_to(loc[0], (n, 3))
     else:
         u = (np.arange(1, n + 1) / (n + 1))[:, None]
-        est = (1.0 - u) * loc[0] + u * loc[1]
-    return from_local(est, rot[:n], origin[:n])
+        if cubic:
+            t0 = (loc[0] - loc[2]) * (n + 1)  # tangents per unit u (the gap spans n + 1 frames)
+            t1 = (loc[3] - loc[1]) * (n + 1)
+            est = ((2 * u ** 3 - 3 * u ** 2 + 1) * loc[0] + (u ** 3 - 2 * u ** 2 + u) * t0
+                   + (-2 * u ** 3 + 3 * u ** 2) * loc[1] + (u ** 3 - u ** 2) * t1)
+        else:
+            est = (1.0 - u) * loc[0] + u * loc[1]
+    return from_local(est, rot[:n], origin[:n]) if donors else est
 
 
-def _models(pos: np.ndarray, m: int, a: int, b: int, order: np.ndarray, candidates: int) -> list[tuple[int, ...]]:
-    """Donor groups for marker m's gap a..b-1: triples of the most rigid markers seen throughout, and the first 4 and 5."""
+def _models(pos: np.ndarray, m: int, a: int, b: int, order: np.ndarray, candidates: int) -> list[tuple[tuple[int, ...], bool]]:
+    """Fill models (donor group, cubic) for marker m's gap a..b-1.
+
+    Linear in the frame of every triple of the most rigid markers seen
+    throughout, and of the first 4, 5, ...; cubic in the frame of the most
+    rigid triple and of all candidates; cubic in room coordinates.
+    """
     f = pos.shape[0]
     span = slice(max(a - 1, 0), min(b + 1, f))
     seen = np.all(~np.any(np.isnan(pos[span]), axis=-1), axis=0)
     cand = [int(d) for d in order[m] if d != m and seen[d]][:candidates]
     if len(cand) < 3:
-        return []
+        return [((), True)]
     groups = [tuple(c) for c in combinations(cand, 3)]
     groups += [tuple(cand[:k]) for k in range(4, len(cand) + 1)]
-    return groups
+    return [(g, False) for g in groups] + [(g, True) for g in groups[:1] + groups[-1:]] + [((), True)]
 
 
 def _validation_spans(pos: np.ndarray, m: int, a: int, b: int, count: int = 3) -> list[tuple[int, int]]:
@@ -204,13 +227,13 @@ def _fill_one(pos, out, m, a, b, order, stats, candidates, keep) -> GapFill | No
     groups = _models(pos, m, a, b, order, candidates)
     fills, errors = [], []
     spans = _validation_spans(pos, m, a, b)
-    for g in groups:
-        est = _donor_fill(pos, m, a, b, g)
+    for g, cubic in groups:
+        est = _donor_fill(pos, m, a, b, g, cubic)
         if est is None:
             continue
         err = []
         for s, e in spans:
-            v = _donor_fill(pos, m, s, e, g)
+            v = _donor_fill(pos, m, s, e, g, cubic)
             if v is not None:
                 err.append(np.mean(np.sum((v - pos[s:e, m]) ** 2, axis=-1)))
         fills.append((g, est))
@@ -228,7 +251,7 @@ def _fill_one(pos, out, m, a, b, order, stats, candidates, keep) -> GapFill | No
         est = np.tensordot(w / w.sum(), np.stack([fills[i][1] for i in best]), axes=1)
         out[a:b, m] = est
         expected = float(errs[best[0]]) if np.isfinite(errs[best[0]]) else float("nan")
-        return GapFill(m, a, b, "donors", fills[best[0]][0], expected)
+        return GapFill(m, a, b, "donors" if fills[best[0]][0] else "cubic", fills[best[0]][0], expected)
     est = _lowrank_fill(pos, m, a, b, order, stats)
     if est is not None:
         out[a:b, m] = est

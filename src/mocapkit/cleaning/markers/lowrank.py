@@ -7,11 +7,12 @@ take is close to low rank; the coordinates of a missing marker follow from
 the others through the principal components. They normalise every
 coordinate, weight markers by their distance to the missing one (near
 markers count more), and reconstruct the missing entries from the leading
-components. :func:`fill_lowrank` does that iteratively (Federolf 2013's
-"iterate until the reconstruction stops changing"): start from linear
-interpolation, then alternate a rank-r reconstruction of the weighted,
-normalised matrix and re-imputing the missing entries only; the observed
-entries are never changed.
+components. :func:`fill_lowrank` takes the components of the frames where
+every marker is seen and gives each gapped frame's missing coordinates from
+the least-squares scores of its observed ones; with too few complete frames
+it iterates instead (Federolf 2013): start from linear interpolation, then
+alternate a rank-r reconstruction and re-imputing the missing entries. The
+observed entries are never changed.
 
 Used whole-take as the benchmark's Gløersen-Federolf baseline, and on a
 window around a gap over the gap marker's nearest markers as one of the
@@ -81,20 +82,54 @@ def fill_lowrank(positions: np.ndarray, weights: np.ndarray | None = None, energ
     z = (x - mean) / std * wc
     z[:, never] = 0.0
     fill = miss & ~never
+    complete = ~np.any(fill, axis=1)
+    if np.count_nonzero(complete) >= max(10, 2 * _rank_cap(max_rank, m)):
+        out = _project(z, fill, complete, energy, max_rank)
+    else:
+        out = _iterate(z, fill, energy, max_rank, iterations, tol)
+    out = out / wc * std + mean
+    out = np.where(fill, out, x)
+    out[:, never] = np.nan
+    return out.reshape(f, m, 3)
+
+
+def _rank_cap(max_rank: int | None, markers: int) -> int:
+    """The largest rank allowed: ``max_rank`` or 3 per marker."""
+    return 3 * markers if max_rank is None else max_rank
+
+
+def _rank(s: np.ndarray, energy: float, max_rank: int | None) -> int:
+    e = np.cumsum(s ** 2)
+    r = int(np.searchsorted(e, energy * e[-1]) + 1) if e[-1] > 0 else 1
+    return r if max_rank is None else min(r, max_rank)
+
+
+def _project(z: np.ndarray, fill: np.ndarray, complete: np.ndarray, energy: float, max_rank: int | None) -> np.ndarray:
+    """Gløersen-Federolf: principal components of the complete frames; each gapped frame's missing
+    coordinates from the least-squares scores of its observed ones."""
+    _, s, vt = np.linalg.svd(z[complete], full_matrices=False)
+    out = z.copy()
+    rows = np.flatnonzero(np.any(fill, axis=1))
+    patterns, inverse = np.unique(fill[rows], axis=0, return_inverse=True)
+    for k, pat in enumerate(patterns):
+        sel = rows[inverse.ravel() == k]
+        obs = ~pat
+        r = min(_rank(s, energy, max_rank), max(int(obs.sum()) - 1, 1))
+        v = vt[:r].T  # (C, r)
+        scores, *_ = np.linalg.lstsq(v[obs], z[np.ix_(sel, obs)].T, rcond=None)
+        out[np.ix_(sel, pat)] = (v[pat] @ scores).T
+    return out
+
+
+def _iterate(z: np.ndarray, fill: np.ndarray, energy: float, max_rank: int | None, iterations: int, tol: float) -> np.ndarray:
+    """Too few complete frames: start from linear interpolation and alternate a low-rank reconstruction and re-imputing."""
     cur = _interp_columns(np.where(fill, np.nan, z))
-    cur[:, never] = 0.0
     for _ in range(iterations):
         u, s, vt = np.linalg.svd(cur, full_matrices=False)
-        e = np.cumsum(s ** 2)
-        r = int(np.searchsorted(e, energy * e[-1]) + 1) if e[-1] > 0 else 1
-        if max_rank is not None:
-            r = min(r, max_rank)
+        r = _rank(s, energy, max_rank)
         rec = (u[:, :r] * s[:r]) @ vt[:r]
         change = np.sqrt(np.mean((rec[fill] - cur[fill]) ** 2))
         cur[fill] = rec[fill]
         if change < tol:
             break
-    out = cur / wc * std + mean
-    out = np.where(fill, out, x)
-    out[:, never] = np.nan
-    return out.reshape(f, m, 3)
+    return cur
