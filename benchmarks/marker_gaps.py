@@ -116,8 +116,9 @@ def fill_pca(y, fps, stats):
     rows = np.flatnonzero(miss.any(axis=1))
     lo, hi = max(0, rows[0] - int(10 * fps)), min(f, rows[-1] + 1 + int(10 * fps))
     gapped = np.flatnonzero(miss.any(axis=0))
-    d = np.nanmin(stats.median[gapped], axis=0)
-    d[gapped] = 0.0
+    med = stats.median[gapped].copy()
+    med[:, gapped] = 0.0  # the diagonal (NaN) and the gapped markers themselves: weight 1
+    d = np.nanmin(med, axis=0)
     w = np.exp(-np.nan_to_num(d, nan=np.nanmax(d)) / max(np.nanmedian(d), 1e-9))
     out = y.copy()
     out[lo:hi] = fill_lowrank(y[lo:hi], weights=w)

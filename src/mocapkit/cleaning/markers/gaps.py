@@ -144,7 +144,7 @@ def _models(pos: np.ndarray, m: int, a: int, b: int, order: np.ndarray, candidat
     return [(g, False) for g in groups] + [(g, True) for g in groups[:1] + groups[-1:]] + [((), True)]
 
 
-def _validation_spans(pos: np.ndarray, m: int, a: int, b: int, count: int = 3) -> list[tuple[int, int]]:
+def _validation_spans(pos: np.ndarray, m: int, a: int, b: int, count: int = 2) -> list[tuple[int, int]]:
     """Up to ``count`` spans of b - a frames where marker m is seen (with one seen frame either side), near the gap."""
     f = pos.shape[0]
     length = b - a
@@ -176,7 +176,7 @@ def _lowrank_fill(pos: np.ndarray, m: int, a: int, b: int, order: np.ndarray, st
     return None if np.any(np.isnan(out)) else out
 
 
-def fill_gaps(positions: np.ndarray, *, stats: DistanceStats | None = None, candidates: int = 5, keep: int = 3,
+def fill_gaps(positions: np.ndarray, *, stats: DistanceStats | None = None, candidates: int = 4, keep: int = 3,
               max_gap: int | None = None) -> tuple[np.ndarray, list[GapFill]]:
     """Fill every gap of every marker that is seen at least once.
 

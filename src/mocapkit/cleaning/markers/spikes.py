@@ -61,6 +61,55 @@ def _run_deviation(x: np.ndarray, length: int, context: int) -> np.ndarray:
     return dev
 
 
+def _settle(seg: np.ndarray, thr: float, max_len: int, context: int) -> list[tuple[int, int]]:
+    """Spike runs (start, length) of one marker's samples ``seg`` (n, 3), most certain first.
+
+    Each round tries every run of 1..max_len seen samples against the cubic
+    through the ``context`` nearest seen samples on either side (skipping
+    removed ones, within ``max_len`` extra frames), takes the run whose
+    smallest deviation is largest, and removes it; it stops when no run's
+    samples are all further than ``thr``.
+    """
+    n = seg.shape[0]
+    runs = []
+    weights: dict[tuple, np.ndarray] = {}  # context offsets -> least-squares prediction weights
+    while True:
+        seen = ~np.any(np.isnan(seg), axis=-1)
+        idx = np.flatnonzero(seen)
+        best, where = 1.0, None
+        for length in range(1, max_len + 1):
+            fast = np.full(n - length + 1, np.nan)
+            dev = _run_deviation(seg[:, None, :], length, context)[:, 0]  # runs with a whole context
+            fast[context:context + dev.size] = dev
+            if np.any(fast > best * thr):
+                a = int(np.nanargmax(fast))
+                best, where = fast[a] / thr, (a, length)
+            run_seen = np.convolve(seen.astype(np.int8), np.ones(length, dtype=np.int8), mode="valid") == length
+            for a in np.flatnonzero(np.isnan(fast) & run_seen):  # runs whose context skips removed samples
+                b = a + length
+                k0 = np.searchsorted(idx, a)
+                k1 = np.searchsorted(idx, b)
+                before, after = idx[max(k0 - context, 0):k0], idx[k1:k1 + context]
+                if len(before) < context or len(after) < context:
+                    continue
+                if a - before[0] > context + max_len or after[-1] - (b - 1) > context + max_len:
+                    continue
+                ctx = np.concatenate([before, after])
+                key = (length, *(ctx - a))
+                w = weights.get(key)
+                if w is None:
+                    centre = (a + b - 1) / 2.0
+                    w = weights[key] = np.vander(np.arange(a, b) - centre, 4) @ np.linalg.pinv(np.vander(ctx - centre, 4))
+                pred = w @ seg[ctx]
+                score = np.min(np.linalg.norm(seg[a:b] - pred, axis=-1)) / thr
+                if score > best:
+                    best, where = score, (a, length)
+        if where is None:
+            return runs
+        runs.append(where)
+        seg[where[0]:where[0] + where[1]] = np.nan
+
+
 def spike_mask(positions: np.ndarray, unit_mm: float = 1.0, *, threshold_mm: float = 15.0, max_len: int = 5,
                context: int = 3, noise_factor: float = 8.0) -> np.ndarray:
     """Boolean (F, M) mask of spike samples.
@@ -100,25 +149,14 @@ def spike_mask(positions: np.ndarray, unit_mm: float = 1.0, *, threshold_mm: flo
         for j in range(length):
             hits[st + context + j, mk] = True
     # Windows whose context holds spike samples flag good samples too: settle each
-    # flagged region greedily, most certain run first, removing it before looking again.
+    # flagged region greedily, most certain run first, removing it before looking again
+    # (the context then skips the removed samples).
     pad = context + max_len
     for mk in np.flatnonzero(hits.any(axis=0)):
         grown = np.convolve(hits[:, mk].astype(np.int8), np.ones(2 * pad + 1, dtype=np.int8), mode="same") > 0
         d = np.diff(np.concatenate([[0], grown.astype(np.int8), [0]]))
         for lo, hi in zip(np.flatnonzero(d == 1), np.flatnonzero(d == -1)):
             lo, hi = max(lo - pad, 0), min(hi + pad, f)
-            seg = x[lo:hi, mk][:, None, :].copy()
-            while True:
-                best, where = 1.0, None
-                for length in range(1, max_len + 1):
-                    dev = _run_deviation(seg, length, context)[:, 0]
-                    if dev.size == 0 or np.all(np.isnan(dev)):
-                        continue
-                    k = int(np.nanargmax(dev))
-                    if dev[k] / thr[mk] > best:
-                        best, where = dev[k] / thr[mk], (k + context, length)
-                if where is None:
-                    break
-                seg[where[0]:where[0] + where[1]] = np.nan
-                mask[lo + where[0]:lo + where[0] + where[1], mk] = True
+            for a, length in _settle(x[lo:hi, mk].copy(), thr[mk], max_len, context):
+                mask[lo + a:lo + a + length, mk] = True
     return mask
