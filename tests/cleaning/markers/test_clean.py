@@ -122,3 +122,23 @@ def test_real_gaps_filled_and_never_seen_marker_kept_missing(tmp_path):
 def test_unknown_step_refused(cmu):
     with pytest.raises(ValueError, match="unknown step"):
         clean_markers(cmu, steps="gaps,smooth")
+
+
+def test_soft_constraints_pull_filled_samples_into_range_and_leave_observed_alone(cmu):
+    from mocapkit.cleaning.markers import constraint_violation, enforce_distances
+    from mocapkit.cleaning.markers.rigid import donor_order
+
+    x = np.asarray(cmu.positions)
+    stats = distance_stats(x)
+    order = donor_order(stats)
+    free = np.zeros(x.shape[:2], bool)
+    free[200:260, 5] = True
+    y = x.copy()
+    y[free] += np.array([60.0, -40.0, 30.0])  # a fill 80 mm off
+    before = constraint_violation(y, stats, order, free)
+    z = enforce_distances(y, free, stats, order)
+    assert before > 0.8
+    assert constraint_violation(z, stats, order, free) < before - 0.1
+    assert np.array_equal(z[~free], x[~free])
+    err = lambda p: np.sqrt(np.mean(np.sum((p[free] - x[free]) ** 2, -1)))  # noqa: E731
+    assert err(z) < 0.75 * err(y)

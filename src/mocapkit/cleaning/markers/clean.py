@@ -24,7 +24,7 @@ from .rigid import distance_stats
 from .spikes import spike_mask
 from .swaps import undo_swaps
 
-__all__ = ["MarkerFix", "MarkerCleanResult", "clean_markers", "STEPS", "violations"]
+__all__ = ["MarkerFix", "MarkerCleanResult", "clean_markers", "STEPS"]
 
 STEPS = ("swaps", "spikes", "gaps")
 
@@ -111,26 +111,8 @@ class MarkerCleanResult:
         return path
 
 
-def violations(positions: np.ndarray, stats, pairs: np.ndarray, mask: np.ndarray | None = None) -> float:
-    """Share of (frame, pair) distances outside the pair's usual range [1st, 99th percentile].
-
-    ``pairs`` is (P, 2) marker indices; ``mask`` (F, M) restricts to frames
-    where either marker of the pair is in the mask (e.g. the filled samples).
-    Soft-constraint violation in the sense of Tits et al. (2018).
-    """
-    p = np.asarray(positions)
-    i, j = pairs[:, 0], pairs[:, 1]
-    d = np.linalg.norm(p[:, i] - p[:, j], axis=-1)  # (F, P)
-    lo, hi = stats.low[i, j], stats.high[i, j]
-    bad = (d < lo) | (d > hi)
-    sel = ~np.isnan(d)
-    if mask is not None:
-        sel &= mask[:, i] | mask[:, j]
-    return float(bad[sel].mean()) if np.any(sel) else float("nan")
-
-
 def clean_markers(markers, *, steps=STEPS, spike_mm: float = 15.0, swap_mm: float = 15.0,
-                  max_gap_s: float | None = None) -> MarkerCleanResult:
+                  max_gap_s: float | None = None, constrain: bool = True) -> MarkerCleanResult:
     """Clean a :class:`MarkerSet`: undo label swaps, remove spikes, fill gaps.
 
     Parameters
@@ -143,6 +125,9 @@ def clean_markers(markers, *, steps=STEPS, spike_mm: float = 15.0, swap_mm: floa
         Detection thresholds in millimetres (see :func:`spike_mask`, :func:`undo_swaps`).
     max_gap_s : float, optional
         Gaps longer than this are left missing.
+    constrain : bool
+        Pull filled samples to their usual distances from their rigid
+        neighbours (soft constraints, :mod:`~mocapkit.cleaning.markers.constraints`).
 
     Returns
     -------
@@ -175,7 +160,7 @@ def clean_markers(markers, *, steps=STEPS, spike_mm: float = 15.0, swap_mm: floa
     if "gaps" in steps or np.any(spikes):
         stats = distance_stats(y)
         max_gap = None if max_gap_s is None else int(round(max_gap_s * markers.fps))
-        out, records = fill_gaps(y, stats=stats, max_gap=max_gap)
+        out, records = fill_gaps(y, stats=stats, max_gap=max_gap, constrain=constrain)
         for r in records:
             run = slice(r.start, r.end)
             is_spike = bool(np.all(spikes[run, r.marker]))

@@ -20,7 +20,9 @@ averaged with weights from their error on the same marker's *observed*
 data: gaps of the same length are cut just before and just after the real
 one (where the marker and the model's donors are seen), each model fills
 them, and the best ``keep`` models are averaged with weights
-1 / error^2. A gap with fewer than 3 donors seen throughout is filled by
+1 / error^2. The filled samples are then pulled to their usual
+distances from their rigid neighbours (Tits et al.'s soft constraints,
+:mod:`mocapkit.cleaning.markers.constraints`). A gap with fewer than 3 donors seen throughout is filled by
 the low-rank model of the nearest markers (Gløersen and Federolf 2016,
 :mod:`mocapkit.cleaning.markers.lowrank`) over a window around it, or, with
 nothing seen at all, left missing.
@@ -35,6 +37,7 @@ from itertools import combinations
 
 import numpy as np
 
+from .constraints import enforce_distances
 from .lowrank import fill_lowrank
 from .rigid import DistanceStats, distance_stats, donor_order, from_local, local_frames, to_local
 
@@ -177,7 +180,7 @@ def _lowrank_fill(pos: np.ndarray, m: int, a: int, b: int, order: np.ndarray, st
 
 
 def fill_gaps(positions: np.ndarray, *, stats: DistanceStats | None = None, candidates: int = 4, keep: int = 3,
-              max_gap: int | None = None) -> tuple[np.ndarray, list[GapFill]]:
+              max_gap: int | None = None, constrain: bool = True) -> tuple[np.ndarray, list[GapFill]]:
     """Fill every gap of every marker that is seen at least once.
 
     Parameters
@@ -192,6 +195,9 @@ def fill_gaps(positions: np.ndarray, *, stats: DistanceStats | None = None, cand
         How many of the best donor groups are averaged.
     max_gap : int, optional
         Gaps longer than this many frames are left missing.
+    constrain : bool
+        Finally pull the filled samples to their usual distances from their
+        rigid neighbours (:func:`~mocapkit.cleaning.markers.constraints.enforce_distances`).
 
     Returns
     -------
@@ -219,6 +225,11 @@ def fill_gaps(positions: np.ndarray, *, stats: DistanceStats | None = None, cand
             rec = _fill_one(pos, out, int(m), a, b, order, stats, candidates, keep)
             if rec is not None:
                 records.append(rec)
+    if constrain and records:
+        filled = np.zeros(missing.shape, dtype=bool)
+        for r in records:
+            filled[r.start:r.end, r.marker] = True
+        out = enforce_distances(out, filled, stats, order)
     return out, records
 
 
