@@ -50,17 +50,18 @@ def violation(positions: np.ndarray, stats: DistanceStats, order: np.ndarray, ma
 
 
 def enforce_distances(positions: np.ndarray, free: np.ndarray, stats: DistanceStats, order: np.ndarray, *,
-                      neighbours: int = 4, iterations: int = 10) -> np.ndarray:
+                      neighbours: int = 4, iterations: int = 10, margin: float = 0.0) -> np.ndarray:
     """Move the samples in ``free`` (F, M) so their distances to rigid neighbours fall in the usual range.
 
-    Returns a copy of ``positions``; samples outside ``free`` are
-    bit-identical, NaN samples are left alone.
+    ``margin`` widens each range by that many times the pair's spread on
+    both sides (0: the 1-99 % range). Returns a copy of ``positions``;
+    samples outside ``free`` are bit-identical, NaN samples are left alone.
     """
     pos = np.array(positions, dtype=np.float64)
     t, i, d = constraint_pairs(free, stats, order, neighbours)
     if t.size == 0:
         return pos
-    lo, hi = stats.low[i, d], stats.high[i, d]
+    lo, hi = stats.low[i, d] - margin * stats.spread[i, d], stats.high[i, d] + margin * stats.spread[i, d]
     both = free[t, d]
     share = np.where(both, 0.5, 1.0)
     for _ in range(iterations):

@@ -15,7 +15,8 @@ motion predicts), made exact for short runs by trying each run.
 
 The threshold is ``threshold_mm`` millimetres, or more for a marker whose
 single-frame prediction error is naturally large (eight robust standard
-deviations of it), so that a noisy marker does not lose good samples.
+deviations of it, or twice its 99th percentile), so that a noisy marker
+or a low-rate capture does not lose good samples.
 Positions are (F, M, 3), frames first, NaN for unseen samples.
 """
 
@@ -111,7 +112,7 @@ def _settle(seg: np.ndarray, thr: float, max_len: int, context: int) -> list[tup
 
 
 def spike_mask(positions: np.ndarray, unit_mm: float = 1.0, *, threshold_mm: float = 15.0, max_len: int = 5,
-               context: int = 3, noise_factor: float = 8.0) -> np.ndarray:
+               context: int = 3, noise_factor: float = 8.0, tail_factor: float = 2.0) -> np.ndarray:
     """Boolean (F, M) mask of spike samples.
 
     Parameters
@@ -128,6 +129,12 @@ def spike_mask(positions: np.ndarray, unit_mm: float = 1.0, *, threshold_mm: flo
         Longest spike, in frames.
     context : int
         Seen samples used on each side of a run.
+    noise_factor, tail_factor : float
+        The per-marker threshold is at least ``noise_factor`` robust standard
+        deviations (1.4826 x median) and ``tail_factor`` times the 99th
+        percentile of the marker's single-sample prediction error: a marker
+        whose motion the cubic predicts poorly (a low frame rate, a noisy
+        system) needs a larger departure to count as a spike.
     """
     x = np.asarray(positions, dtype=np.float64)
     f, m = x.shape[:2]
@@ -141,7 +148,9 @@ def spike_mask(positions: np.ndarray, unit_mm: float = 1.0, *, threshold_mm: flo
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", RuntimeWarning)
             scale = 1.4826 * np.nanmedian(d1, axis=0)
+            tail = np.nanpercentile(d1, 99.0, axis=0) if d1.size else np.zeros(m)
     thr = np.maximum(threshold_mm / unit_mm, noise_factor * np.nan_to_num(scale, nan=0.0))  # (M,)
+    thr = np.maximum(thr, tail_factor * np.nan_to_num(tail, nan=0.0))
     hits = np.zeros((f, m), dtype=bool)
     for length in range(1, max_len + 1):
         dev = d1 if length == 1 else _run_deviation(x, length, context)
