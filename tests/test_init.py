@@ -59,9 +59,13 @@ def test_clean_an_amc_with_its_asf_and_file_context():
     assert "context" in res.steps[1].method
 
 
+def test_clean_takes_a_marker_capture_to_the_marker_cleaner():
+    res = mocapkit.clean(samples.path("Eb015pr.c3d"))
+    assert type(res).__name__ == "MarkerCleanResult"
+    assert not res.markers.missing().any() and res.original.missing().any()
+
+
 def test_clean_refuses_what_is_not_a_motion(tmp_path):
-    with pytest.raises(mocapkit.MocapFormatError, match=r"Eb015pr\.c3d.*marker trajectories"):
-        mocapkit.clean(samples.path("Eb015pr.c3d"))
     with pytest.raises(mocapkit.MocapFormatError, match=r"131_01\.bvh.*asf= applies to \.amc files only"):
         mocapkit.clean(samples.path("131_01.bvh"), asf=samples.path("12.asf"))
     with pytest.raises(mocapkit.MocapFormatError, match="nothing.npz"):

@@ -52,9 +52,13 @@ def clean(take, context=None, *, steps="fill,detect,repair,denoise", threshold: 
 
     Parameters
     ----------
-    take : Motion, str or os.PathLike
+    take : Motion, MarkerSet, str or os.PathLike
         The take, or its file (.bvh, .amc, .npz; an AMC's skeleton is the
-        ``.asf`` beside it unless ``asf`` is given).
+        ``.asf`` beside it unless ``asf`` is given). A marker capture
+        (MarkerSet, .c3d, .trc, marker .npz) goes to
+        :func:`mocapkit.cleaning.markers.clean_markers` (label swaps, spikes,
+        gaps), which returns a ``MarkerCleanResult``; the other parameters
+        apply to motions only.
     context : None, False, "none", MotionDatabase, database folder, folder of takes, or list of Motions or files
         What detection and repair compare with besides the clip itself
         (:func:`mocapkit.context.resolve_context`): a folder of takes or a
@@ -81,12 +85,21 @@ def clean(take, context=None, *, steps="fill,detect,repair,denoise", threshold: 
     Raises
     ------
     MocapFormatError
-        A file that cannot be read as a motion (a marker file, a bad AMC/ASF pair, ...).
+        A file that cannot be read (a bad AMC/ASF pair, ...).
     MocapError
         A take the steps cannot clean (e.g. missing in every frame).
     """
     from .cleaning.pipeline import clean as clean_motion
+    from .markerset import MarkerSet
 
+    if isinstance(take, (str, os.PathLike)) and os.fspath(take).lower().endswith((".c3d", ".trc", ".npz")):
+        from .io.takes import load_take
+
+        take = load_take(take)
+    if isinstance(take, MarkerSet):
+        from .cleaning.markers import clean_markers
+
+        return clean_markers(take)
     motion = take if isinstance(take, Motion) else _load_motion(take, asf)
     ctx, note = _load_context(context, motion)
     res = clean_motion(motion, ctx, steps=steps, threshold=threshold, progress=progress)

@@ -68,9 +68,9 @@ from typing import Sequence
 
 from .errors import MocapError, MocapFormatError
 
-__all__ = ["clean_file", "clean_batch", "find_inputs", "output_for", "BatchSummary", "sigterm_as_interrupt", "DEFAULT_PATTERNS"]
+__all__ = ["clean_file", "clean_marker_file", "clean_batch", "find_inputs", "output_for", "BatchSummary", "sigterm_as_interrupt", "DEFAULT_PATTERNS"]
 
-DEFAULT_PATTERNS = ("*.bvh", "*.amc", "*.npz")
+DEFAULT_PATTERNS = ("*.bvh", "*.amc", "*.npz", "*.c3d", "*.trc")
 
 
 def sigterm_as_interrupt() -> None:
@@ -143,9 +143,12 @@ def clean_file(
     from .cleaning import decisions as dec
     from .cleaning.pipeline import STEPS, CleanResult, clean, clean_path
     from .io.outputs import check_outputs, removed_on_failure
-    from .io.takes import check_asf, load_motion
+    from .io.takes import check_asf, load_motion, load_take
+    from .markerset import MarkerSet
 
     inp, out = Path(inp), Path(out)
+    if isinstance(motion, MarkerSet) or (motion is None and inp.suffix.lower() in (".c3d", ".trc")):
+        return clean_marker_file(inp, out, report=report, png=png, overwrite=overwrite, markers=motion)
     reuse = record is not None
     if reuse and decisions is None:
         raise MocapError(f"{record}: an earlier run's record is applied with decisions; give the decisions file")
@@ -153,6 +156,8 @@ def clean_file(
     outputs = [out, None if reuse else record, report, png]
     check_outputs(outputs, [inp, asf, decisions, record if reuse else None, *(context or [])], overwrite=overwrite)
     check_asf(asf, [inp])
+    if motion is None and inp.suffix.lower() == ".npz" and isinstance(take := load_take(inp), MarkerSet):
+        return clean_marker_file(inp, out, report=report, png=png, overwrite=overwrite, markers=take)
     io.suffix_kind(out, io.WRITERS, "writing")
     doc = dec.read_decisions(decisions) if decisions is not None else None
     m = motion if motion is not None else load_motion(inp, asf, purpose="clean")
@@ -204,6 +209,44 @@ def clean_file(
     return m, res
 
 
+def clean_marker_file(inp, out, *, report=None, png=None, overwrite: bool = False, markers=None, steps=None):
+    """Clean the marker capture at ``inp`` (.c3d, .trc, marker .npz) into ``out`` (.c3d, .trc or .npz).
+
+    :func:`mocapkit.cleaning.markers.clean_markers`, then the reports (HTML
+    marker viewer, per-marker PNG), ``out`` written like the input
+    (``save_markers(..., like=input)``: a C3D keeps its parameters and
+    analogs) and the ``.clean.npz`` record last. Returns ``(original, result)``.
+    """
+    from .cleaning.markers import STEPS as MARKER_STEPS
+    from .cleaning.markers import clean_markers
+    from .cleaning.pipeline import clean_path
+    from .io import MARKER_FORMATS, load_markers, save_markers, suffix_kind
+    from .io.outputs import check_outputs, removed_on_failure
+
+    inp, out = Path(inp), Path(out)
+    record = clean_path(out)
+    outputs = [out, record, report, png]
+    check_outputs(outputs, [inp], overwrite=overwrite)
+    suffix_kind(out, MARKER_FORMATS, "writing markers")
+    ms = markers if markers is not None else load_markers(inp)
+    try:
+        res = clean_markers(ms, steps=steps or MARKER_STEPS)
+    except ValueError as exc:
+        raise MocapError(f"{inp}: {exc}") from None
+    with removed_on_failure(outputs):
+        if report is not None:
+            from .report.markers import write_marker_report
+
+            write_marker_report(report, res, title=f"{inp.name}: cleaned")
+        if png is not None:
+            from .report.markers import plot_marker_fixes
+
+            plot_marker_fixes(png, res, title=f"{inp.name}: before (grey) and after")
+        save_markers(res.markers, out, like=ms)
+        res.save(record)  # last: the completion marker
+    return ms, res
+
+
 # -- corpora -------------------------------------------------------------------------------
 
 
@@ -240,7 +283,9 @@ def output_for(inp: Path, in_dir: Path, out_dir: Path, fmt: str = "auto", keep_s
     """
     rel = Path(inp).relative_to(in_dir)
     if fmt == "auto":
-        suffix = rel.suffix.lower() if rel.suffix.lower() in (".bvh", ".npz") else ".bvh"
+        suffix = rel.suffix.lower() if rel.suffix.lower() in (".bvh", ".npz", ".c3d", ".trc") else ".bvh"
+    elif rel.suffix.lower() in (".c3d", ".trc") and fmt.lstrip(".").lower() == "bvh":
+        suffix = rel.suffix.lower()  # marker captures have no joint angles to write as BVH: they keep their format
     else:
         suffix = "." + fmt.lstrip(".").lower()
     return Path(out_dir) / (rel.with_name(rel.name + suffix) if keep_suffix else rel.with_suffix(suffix))
@@ -314,8 +359,12 @@ def _batch_job(job: dict) -> dict:
                 shutil.copymode(final, staged[final])
             os.replace(staged[final], final)
             moved.append(final)
-        row.update(frames=res.num_frames, filled=int(res.filled.sum()), repaired=int(res.repaired.sum()),
-                   denoised=int(res.denoised.sum()), flagged=int(res.flags.sum()), notes=list(res.notes))
+        if hasattr(res, "fixes"):  # a marker capture (cleaning.markers.MarkerCleanResult)
+            row.update(frames=res.markers.num_frames, filled=int((res.filled & ~res.spikes).sum()),
+                       spikes=int(res.spikes.sum()), swapped=int(res.swapped.sum()), notes=res.summary()[1:])
+        else:
+            row.update(frames=res.num_frames, filled=int(res.filled.sum()), repaired=int(res.repaired.sum()),
+                       denoised=int(res.denoised.sum()), flagged=int(res.flags.sum()), notes=list(res.notes))
     except _Orphaned:
         _remove(moved)
         row.update(status="failed", reason=_GONE)

@@ -23,8 +23,8 @@ def _steps(text: str) -> list[str]:
 
 
 def clean(
-    inp: Path = typer.Argument(..., metavar="IN", help="Motion to clean (.bvh, .amc, .npz)."),
-    out: Path = typer.Option(..., "--out", "-o", help="Cleaned motion (.bvh or .npz); OUT's stem + .clean.npz is written beside it."),
+    inp: Path = typer.Argument(..., metavar="IN", help="Motion (.bvh, .amc, .npz) or marker capture (.c3d, .trc, marker .npz) to clean."),
+    out: Path = typer.Option(..., "--out", "-o", help="Cleaned take (.bvh or .npz; a marker capture: .c3d, .trc or .npz); OUT's stem + .clean.npz is written beside it."),
     context: Optional[list[Path]] = context_option(),
     steps: str = typer.Option("fill,detect,repair,denoise", "--steps",
                               help=STEPS_HELP + " --steps detect is the review mode: flags, record and report; OUT "
@@ -47,7 +47,9 @@ def clean(
     Writes OUT and, beside it, OUT's stem + .clean.npz (MDM, flags, the cells each step changed and
     a record per step); everything not missing, flagged or noisy stays bit-identical. The report
     (--report) lists every change for a person to accept or reject; --decisions then writes OUT
-    with only the accepted changes, every other sample bit-identical to IN.
+    with only the accepted changes, every other sample bit-identical to IN. A marker
+    capture (.c3d, .trc) gets swapped labels undone, spikes removed and gaps filled instead
+    (--steps, --threshold, --context do not apply to it); every other sample stays bit-identical.
     """
     from ..batch import clean_file, sigterm_as_interrupt
     from ..cleaning.pipeline import clean_path
@@ -64,6 +66,9 @@ def clean(
     else:
         guard([out, clean_path(out), report, png], [inp, asf, context, reference, decisions], overwrite)
     check_asf(asf, [inp, reference])
+    if decisions is None and _clean_marker_take(inp, out, report=report, png=png, overwrite=overwrite,
+                                                 reference=reference):
+        return
     step_list = _steps(steps)
     take = load_motion(inp, asf, purpose="clean")
     ref = None
@@ -130,6 +135,35 @@ def _print_decided(inp, out, decisions, record, report, png, original, res):
     return dec.apply(original, res, choice)
 
 
+def _clean_marker_take(inp: Path, out: Path, *, report, png, overwrite: bool, reference) -> bool:
+    """Clean ``inp`` as a marker capture when it is one (writing OUT, its record and reports); False for a motion."""
+    from ..batch import clean_marker_file
+    from ..cleaning.pipeline import clean_path
+    from ..io.takes import load_take
+    from ..markerset import MarkerSet
+
+    if inp.suffix.lower() not in (".c3d", ".trc", ".npz"):
+        return False
+    take = load_take(inp)
+    if not isinstance(take, MarkerSet):
+        return False
+    if reference is not None:
+        raise MocapError("--reference compares skeletal takes; it does not apply to a marker capture")
+    _, res = clean_marker_file(inp, out, report=report, png=png, overwrite=overwrite, markers=take)
+    extra = "".join(f" and {x}" for x in (report, png) if x is not None)
+    console.print(f"wrote {out} and {clean_path(out)}{extra}: {plural(take.num_frames, 'frame')} x "
+                  f"{plural(take.num_markers, 'marker')}, {int(res.changed.sum())} of "
+                  f"{plural(res.changed.size, 'marker sample')} changed")
+    for line in res.summary():
+        console.print(f"  {line}")
+    for fix in res.fixes[:12]:
+        other = f" with {fix.other}" if fix.other else ""
+        console.print(f"    {fix.kind:5s} {fix.marker:16s} frames {fix.start}-{fix.end - 1}{other} ({fix.size_mm:.1f} mm)")
+    if len(res.fixes) > 12:
+        console.print(f"    ... and {len(res.fixes) - 12} more (all in {clean_path(out)})")
+    return True
+
+
 def _take_line(row: dict) -> str:
     """One line per take of a batch: what was found and fixed, or why it failed or was skipped."""
     if row["status"] == "failed":
@@ -137,7 +171,8 @@ def _take_line(row: dict) -> str:
     if row["status"] == "skipped":
         return f"skipped {row['input']}: {row.get('reason') or 'complete'}"
     found = [plural(row[k], what) for k, what in (("filled", "filled sample"), ("flagged", "flagged sample"),
-                                                   ("repaired", "repaired sample"), ("denoised", "denoised sample"))
+                                                   ("repaired", "repaired sample"), ("denoised", "denoised sample"),
+                                                   ("spikes", "spike sample"), ("swapped", "re-labelled sample"))
              if row.get(k)]
     what = ", ".join(found) if found else "nothing to change"
     return f"cleaned {row['input']} -> {row['output']}: {what} ({row.get('seconds', 0.0):.1f} s)"
@@ -152,7 +187,7 @@ def clean_batch(
     executor: Optional[str] = executor_option("takes are cleaned"),
     report: bool = typer.Option(False, "--report", help="Also write STEM.report.html beside each output."),
     png: bool = typer.Option(False, "--png", help="Also write STEM.summary.png beside each output."),
-    pattern: str = typer.Option("*.bvh,*.amc,*.npz", "--pattern", help="Comma-separated file name patterns to clean."),
+    pattern: str = typer.Option("*.bvh,*.amc,*.npz,*.c3d,*.trc", "--pattern", help="Comma-separated file name patterns to clean."),
     fmt: str = typer.Option("auto", "--format", help="Output format: auto (.bvh and .npz kept, others -> .bvh), bvh or npz."),
     as_json: bool = typer.Option(False, "--json", help="Print the per-take rows as JSON."),
     asf: Optional[Path] = asf_option(),

@@ -1,0 +1,187 @@
+"""Clean a marker capture: undo swapped labels, remove spikes, fill gaps; record every change.
+
+The marker counterpart of :func:`mocapkit.cleaning.pipeline.clean`. The
+steps run in this order because each needs the one before: a swap makes
+two large jumps that would look like spikes, and removed spikes become
+short gaps the fill closes. Every observed sample that is not an error
+comes back bit-identical; a swapped sample comes back re-labelled (its
+values unchanged); spike samples and gaps are filled
+(:mod:`~mocapkit.cleaning.markers.gaps`). A marker missing in the whole take
+stays missing and is listed in ``never_seen``.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from .gaps import fill_gaps
+from .rigid import distance_stats
+from .spikes import spike_mask
+from .swaps import undo_swaps
+
+__all__ = ["MarkerFix", "MarkerCleanResult", "clean_markers", "STEPS"]
+
+STEPS = ("swaps", "spikes", "gaps")
+
+
+@dataclass(frozen=True)
+class MarkerFix:
+    """One change: ``kind`` "gap", "spike" or "swap" on marker ``marker`` for frames ``start <= f < end``.
+
+    ``size_mm``: for a gap, the largest distance between the fill and the
+    straight line between its ends; for a spike, the largest distance of a
+    removed sample from its fill; for a swap, the distance between the two
+    markers where it starts. ``other``: the marker it swapped with.
+    """
+
+    marker: str
+    start: int
+    end: int
+    kind: str
+    size_mm: float
+    other: str = ""
+
+
+@dataclass(frozen=True)
+class MarkerCleanResult:
+    """What :func:`clean_markers` returns.
+
+    Attributes
+    ----------
+    markers : MarkerSet
+        The cleaned capture (same labels, rate, unit).
+    original : MarkerSet
+        The input.
+    filled, spikes, swapped : bool arrays (F, M)
+        Samples filled (gaps and removed spikes), found to be spikes, re-labelled.
+    fixes : tuple of MarkerFix
+    never_seen : tuple of str
+        Markers missing in the whole take (still missing).
+    """
+
+    markers: object
+    original: object
+    filled: np.ndarray
+    spikes: np.ndarray
+    swapped: np.ndarray
+    fixes: tuple[MarkerFix, ...]
+    never_seen: tuple[str, ...]
+
+    @property
+    def changed(self) -> np.ndarray:
+        """(F, M) samples whose values differ from the input (NaN-aware)."""
+        a, b = self.original.positions, self.markers.positions
+        same = (a == b) | (np.isnan(a) & np.isnan(b))
+        return ~np.all(same, axis=-1)
+
+    def summary(self) -> list[str]:
+        """A few lines for a terminal."""
+        counts = {k: sum(1 for x in self.fixes if x.kind == k) for k in ("gap", "spike", "swap")}
+        lines = [f"{counts['gap']} gaps filled ({int(self.filled.sum() - self.spikes.sum())} samples), "
+                 f"{counts['spike']} spikes removed ({int(self.spikes.sum())} samples), "
+                 f"{counts['swap']} label swaps undone ({int(self.swapped.sum())} samples)"]
+        left = int(np.sum(self.markers.missing()))
+        if left:
+            lines.append(f"{left} samples still missing")
+        if self.never_seen:
+            lines.append(f"missing in the whole take, left missing: {', '.join(self.never_seen)}")
+        return lines
+
+    def save(self, path) -> Path:
+        """Write the masks and the list of fixes as ``.npz`` (no pickles), atomically."""
+        from ...io import atomic_write
+
+        path = Path(path)
+        labels = list(self.markers.labels)
+        fixes = [dataclasses.asdict(x) for x in self.fixes]
+        with atomic_write(path, "wb") as fh:
+            np.savez_compressed(
+                fh,
+                filled=self.filled, spikes=self.spikes, swapped=self.swapped, changed=self.changed,
+                labels=np.array(labels, dtype=str),
+                fixes=np.array(json.dumps(fixes)),
+                never_seen=np.array(list(self.never_seen), dtype=str),
+                kind=np.array("markers"),
+            )
+        return path
+
+
+def clean_markers(markers, *, steps=STEPS, spike_mm: float = 15.0, swap_mm: float = 15.0,
+                  max_gap_s: float | None = None, constrain: bool = True) -> MarkerCleanResult:
+    """Clean a :class:`MarkerSet`: undo label swaps, remove spikes, fill gaps.
+
+    Parameters
+    ----------
+    markers : MarkerSet
+        The capture (positions (F, M, 3), NaN where unseen).
+    steps : sequence of str or str
+        Any of "swaps", "spikes", "gaps" (comma-separated or a list); they run in that order.
+    spike_mm, swap_mm : float
+        Detection thresholds in millimetres (see :func:`spike_mask`, :func:`undo_swaps`).
+    max_gap_s : float, optional
+        Gaps longer than this are left missing.
+    constrain : bool
+        Pull filled samples to their usual distances from their rigid
+        neighbours (soft constraints, :mod:`~mocapkit.cleaning.markers.constraints`).
+
+    Returns
+    -------
+    MarkerCleanResult
+    """
+    if isinstance(steps, str):
+        steps = [s.strip() for s in steps.split(",") if s.strip()]
+    unknown = [s for s in steps if s not in STEPS]
+    if unknown:
+        raise ValueError(f"unknown step(s) {', '.join(unknown)}; steps are {', '.join(STEPS)}")
+    unit_mm = 10.0 * markers.unit_cm
+    x = np.asarray(markers.positions, dtype=np.float64)
+    f, m = x.shape[:2]
+    labels = markers.labels
+    fixes: list[MarkerFix] = []
+    y = x.copy()
+    swapped = np.zeros((f, m), dtype=bool)
+    if "swaps" in steps:
+        y, swaps = undo_swaps(y, unit_mm, threshold_mm=swap_mm)
+        for s in swaps:
+            swapped[s.start:s.end, [s.a, s.b]] = True
+            fixes.append(MarkerFix(labels[s.a], s.start, s.end, "swap", s.distance * unit_mm, labels[s.b]))
+    spikes = np.zeros((f, m), dtype=bool)
+    if "spikes" in steps:
+        spikes = spike_mask(y, unit_mm, threshold_mm=spike_mm)
+    before_fill = y.copy()
+    y[spikes] = np.nan
+    filled = np.zeros((f, m), dtype=bool)
+    never = np.all(np.isnan(y), axis=(0, 2))
+    if "gaps" in steps or np.any(spikes):
+        stats = distance_stats(y)
+        max_gap = None if max_gap_s is None else int(round(max_gap_s * markers.fps))
+        out, records = fill_gaps(y, stats=stats, max_gap=max_gap, constrain=constrain)
+        for r in records:
+            run = slice(r.start, r.end)
+            is_spike = bool(np.all(spikes[run, r.marker]))
+            if not is_spike and "gaps" not in steps:
+                continue
+            y[run, r.marker] = out[run, r.marker]
+            filled[run, r.marker] = True
+            if is_spike:
+                size = float(np.max(np.linalg.norm(before_fill[run, r.marker] - out[run, r.marker], axis=-1)))
+                fixes.append(MarkerFix(labels[r.marker], r.start, r.end, "spike", size * unit_mm))
+            else:
+                a, b = r.start, r.end
+                ends = [t for t in (a - 1, b) if 0 <= t < f]
+                ref = out[ends, r.marker]
+                u = (np.arange(1, b - a + 1) / (b - a + 1))[:, None]
+                line = (1 - u) * ref[0] + u * ref[-1]
+                size = float(np.max(np.linalg.norm(out[run, r.marker] - line, axis=-1)))
+                fixes.append(MarkerFix(labels[r.marker], a, b, "gap", size * unit_mm))
+    # a spike no fill reached stays missing rather than wrong
+    fixes.sort(key=lambda x: (x.start, x.marker, x.kind))
+    cleaned = markers.with_positions(y) if hasattr(markers, "with_positions") else dataclasses.replace(markers, positions=y)
+    return MarkerCleanResult(markers=cleaned, original=markers, filled=filled, spikes=spikes, swapped=swapped,
+                             fixes=tuple(fixes), never_seen=tuple(labels[i] for i in np.flatnonzero(never)))
+

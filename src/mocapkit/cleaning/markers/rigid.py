@@ -1,0 +1,151 @@
+"""Rigid frames from groups of markers, and the distances between markers.
+
+Optical markers on one body segment keep their distances (a rigid cluster);
+markers on neighbouring segments keep them nearly. Gløersen and Federolf
+(2016, PLoS ONE 11(3): e0152616) exploit the inter-correlations of all
+markers; Tits, Tilmanne and Dutoit (2018, PLoS ONE 13(7): e0199744) keep
+inter-marker distances near their usual values ("soft skeleton
+constraints"). This module gives both ingredients:
+
+- :func:`distance_stats`: the usual distance between every pair of markers
+  and how much it varies (a low spread marks a rigid pair), over the frames
+  where both are seen;
+- :func:`donor_order`: for every marker, the others sorted from most to least
+  rigidly attached;
+- :func:`local_frames`: the per-frame rotation and origin of a donor group
+  (Kabsch 1976 / Arun et al. 1987 least-squares fit to a reference shape),
+  which turns a marker's trajectory into coordinates in the donors' moving
+  frame, where it varies far less than in the room.
+
+Positions are (F, M, 3) arrays, frames first, in the capture's length unit;
+NaN marks an unseen sample.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+__all__ = ["DistanceStats", "distance_stats", "donor_order", "local_frames", "to_local", "from_local"]
+
+
+@dataclass(frozen=True)
+class DistanceStats:
+    """Usual inter-marker distances of one take.
+
+    Attributes
+    ----------
+    median, low, high, spread : float arrays (M, M)
+        Median, 1st and 99th percentile and robust spread (half the
+        10-90 % range) of the distance between markers i and j over the frames
+        where both are seen, in the capture's unit; NaN for pairs never seen
+        together (and on the diagonal).
+    count : int array (M, M)
+        Frames where both are seen.
+    """
+
+    median: np.ndarray
+    low: np.ndarray
+    high: np.ndarray
+    spread: np.ndarray
+    count: np.ndarray
+
+
+def distance_stats(positions: np.ndarray, max_frames: int = 600) -> DistanceStats:
+    """Inter-marker distance statistics from at most ``max_frames`` evenly spaced frames.
+
+    ``positions`` is (F, M, 3) with NaN for unseen samples. Subsampling keeps
+    the cost at O(max_frames * M^2) whatever the take's length.
+    """
+    pos = np.asarray(positions, dtype=np.float64)
+    f, m = pos.shape[:2]
+    idx = np.unique(np.linspace(0, f - 1, min(f, max_frames)).round().astype(int)) if f else np.zeros(0, int)
+    sub = pos[idx]
+    d = np.linalg.norm(sub[:, :, None, :] - sub[:, None, :, :], axis=-1)  # (S, M, M), NaN where either unseen
+    count = np.sum(~np.isnan(d), axis=0)
+    out = np.full((4, m, m), np.nan)
+    seen = count > 0
+    if np.any(seen):
+        with np.errstate(all="ignore"):
+            import warnings
+
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore", RuntimeWarning)
+                q = np.nanpercentile(d, [50, 1, 99, 10, 90], axis=0)
+        out[0], out[1], out[2] = q[0], q[1], q[2]
+        out[3] = 0.5 * (q[4] - q[3])
+    for k in range(4):
+        np.fill_diagonal(out[k], np.nan)
+    return DistanceStats(median=out[0], low=out[1], high=out[2], spread=out[3], count=count)
+
+
+def donor_order(stats: DistanceStats, min_count: int = 10) -> np.ndarray:
+    """(M, M-1) int array: for each marker, the other markers from most to least rigidly attached.
+
+    Rigidity is the spread of the pair's distance, plus a tenth of the
+    median distance so that near markers win among equally rigid ones;
+    pairs seen together in fewer than ``min_count`` sampled frames come last.
+    """
+    m = stats.median.shape[0]
+    score = stats.spread + 0.1 * stats.median
+    score = np.where((stats.count >= min_count) & np.isfinite(score), score, np.inf)
+    np.fill_diagonal(score, np.inf)
+    order = np.argsort(score, axis=1, kind="stable")
+    return order[:, : max(m - 1, 0)]
+
+
+def _kabsch(ref: np.ndarray, cur: np.ndarray) -> np.ndarray:
+    """Rotations (T, 3, 3) taking the centred reference shape ``ref`` (K, 3) onto the centred shapes ``cur`` (T, K, 3)."""
+    h = np.einsum("ki,tkj->tij", ref, cur)  # (T, 3, 3) = sum_k ref_k cur_k^T
+    u, _, vt = np.linalg.svd(h)
+    det = np.sign(np.linalg.det(np.einsum("tji,tkj->tik", vt, u)))
+    det[det == 0] = 1.0
+    d = np.ones((h.shape[0], 3))
+    d[:, 2] = det
+    # R = V diag(1, 1, det) U^T, so that cur ~ R ref
+    return np.einsum("tji,tj,tkj->tik", vt, d, u)
+
+
+def local_frames(donors: np.ndarray, reference: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """Per-frame rotation and origin of a donor group.
+
+    Parameters
+    ----------
+    donors : float array (T, K, 3)
+        Positions of K >= 3 donor markers (NaN rows give NaN frames).
+    reference : float array (K, 3), optional
+        The donors' reference shape; default: their positions in the first
+        frame where all are seen.
+
+    Returns
+    -------
+    rot : float array (T, 3, 3)
+        Rotation taking reference (centred) coordinates to the room, so that
+        ``donors[t] ~ rot[t] @ (reference - mean) + origin[t]``.
+    origin : float array (T, 3)
+        The donors' centroid.
+    """
+    donors = np.asarray(donors, dtype=np.float64)
+    t = donors.shape[0]
+    ok = ~np.any(np.isnan(donors), axis=(1, 2))
+    rot = np.full((t, 3, 3), np.nan)
+    origin = donors.mean(axis=1)
+    if not np.any(ok):
+        return rot, origin
+    if reference is None:
+        reference = donors[np.argmax(ok)]
+    ref = reference - reference.mean(axis=0)
+    cur = donors[ok] - origin[ok][:, None, :]
+    rot[ok] = _kabsch(ref, cur)
+    return rot, origin
+
+
+def to_local(points: np.ndarray, rot: np.ndarray, origin: np.ndarray) -> np.ndarray:
+    """Room points (T, 3) in the moving frame: ``rot[t]^T (points[t] - origin[t])``."""
+    return np.einsum("tji,tj->ti", rot, points - origin)
+
+
+def from_local(local: np.ndarray, rot: np.ndarray, origin: np.ndarray) -> np.ndarray:
+    """Moving-frame points (T, 3) back in the room: ``rot[t] local[t] + origin[t]``."""
+    return np.einsum("tij,tj->ti", rot, local) + origin

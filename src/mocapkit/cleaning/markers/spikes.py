@@ -1,0 +1,171 @@
+"""Find spikes: short runs of marker samples that jump off the trajectory and back.
+
+An optical system that briefly tracks a reflection, or fits a marker to the
+wrong blob, gives a few samples far from where the marker really was. A
+marker's trajectory at 100+ Hz is smooth over a few frames, so a run of
+``L`` samples (1 <= L <= ``max_len``) is a spike when every one of them lies
+far from the cubic fitted through the ``context`` samples on either side of
+the run. Testing every run start and every length finds a spike of any
+length up to ``max_len`` exactly: windows that also cover good samples fail
+the "every sample far" test, and windows whose context holds spike samples
+predict the spike and do not flag. This is the "remove and re-fill"
+outlier test of robust smoothing (e.g. Woltring 1986 on marker data, and
+Aristidou et al. 2018's idea of judging a sample by what the rest of the
+motion predicts), made exact for short runs by trying each run.
+
+The threshold is ``threshold_mm`` millimetres, or more for a marker whose
+single-frame prediction error is naturally large (eight robust standard
+deviations of it, or twice its 99th percentile), so that a noisy marker
+or a low-rate capture does not lose good samples.
+Positions are (F, M, 3), frames first, NaN for unseen samples.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = ["spike_mask", "prediction_matrix"]
+
+
+def prediction_matrix(length: int, context: int = 3, degree: int = 3) -> np.ndarray:
+    """(length, 2 * context) least-squares weights predicting a run of ``length`` samples from ``context`` on each side.
+
+    The run occupies times 0..length-1, the context -context..-1 and
+    length..length+context-1; a polynomial of ``degree`` is fitted to the
+    context and evaluated on the run.
+    """
+    tc = np.concatenate([np.arange(-context, 0), np.arange(length, length + context)]).astype(np.float64)
+    tr = np.arange(length, dtype=np.float64)
+    centre = (length - 1) / 2.0
+    vc = np.vander(tc - centre, degree + 1)
+    vr = np.vander(tr - centre, degree + 1)
+    return vr @ np.linalg.pinv(vc)
+
+
+def _run_deviation(x: np.ndarray, length: int, context: int) -> np.ndarray:
+    """(S, M) smallest distance between each run's samples and their prediction, for run starts s = context..F-length-context.
+
+    NaN where a sample of the run or its context is unseen.
+    """
+    f = x.shape[0]
+    n = f - length - 2 * context + 1
+    if n <= 0:
+        return np.full((0, x.shape[1]), np.nan)
+    w = prediction_matrix(length, context)
+    offs = np.concatenate([np.arange(0, context), np.arange(context + length, 2 * context + length)])
+    ctx = np.stack([x[o:o + n] for o in offs], axis=0)  # (2c, S, M, 3)
+    dev = None
+    for j in range(length):
+        pred = np.tensordot(w[j], ctx, axes=1)
+        d = np.linalg.norm(x[context + j:context + j + n] - pred, axis=-1)
+        dev = d if dev is None else np.minimum(dev, d)
+    return dev
+
+
+def _settle(seg: np.ndarray, thr: float, max_len: int, context: int) -> list[tuple[int, int]]:
+    """Spike runs (start, length) of one marker's samples ``seg`` (n, 3), most certain first.
+
+    Each round tries every run of 1..max_len seen samples against the cubic
+    through the ``context`` nearest seen samples on either side (skipping
+    removed ones, within ``max_len`` extra frames), takes the run whose
+    smallest deviation is largest, and removes it; it stops when no run's
+    samples are all further than ``thr``.
+    """
+    n = seg.shape[0]
+    runs = []
+    weights: dict[tuple, np.ndarray] = {}  # context offsets -> least-squares prediction weights
+    while True:
+        seen = ~np.any(np.isnan(seg), axis=-1)
+        idx = np.flatnonzero(seen)
+        best, where = 1.0, None
+        for length in range(1, max_len + 1):
+            fast = np.full(n - length + 1, np.nan)
+            dev = _run_deviation(seg[:, None, :], length, context)[:, 0]  # runs with a whole context
+            fast[context:context + dev.size] = dev
+            if np.any(fast > best * thr):
+                a = int(np.nanargmax(fast))
+                best, where = fast[a] / thr, (a, length)
+            run_seen = np.convolve(seen.astype(np.int8), np.ones(length, dtype=np.int8), mode="valid") == length
+            for a in np.flatnonzero(np.isnan(fast) & run_seen):  # runs whose context skips removed samples
+                b = a + length
+                k0 = np.searchsorted(idx, a)
+                k1 = np.searchsorted(idx, b)
+                before, after = idx[max(k0 - context, 0):k0], idx[k1:k1 + context]
+                if len(before) < context or len(after) < context:
+                    continue
+                if a - before[0] > context + max_len or after[-1] - (b - 1) > context + max_len:
+                    continue
+                ctx = np.concatenate([before, after])
+                key = (length, *(ctx - a))
+                w = weights.get(key)
+                if w is None:
+                    centre = (a + b - 1) / 2.0
+                    w = weights[key] = np.vander(np.arange(a, b) - centre, 4) @ np.linalg.pinv(np.vander(ctx - centre, 4))
+                pred = w @ seg[ctx]
+                score = np.min(np.linalg.norm(seg[a:b] - pred, axis=-1)) / thr
+                if score > best:
+                    best, where = score, (a, length)
+        if where is None:
+            return runs
+        runs.append(where)
+        seg[where[0]:where[0] + where[1]] = np.nan
+
+
+def spike_mask(positions: np.ndarray, unit_mm: float = 1.0, *, threshold_mm: float = 15.0, max_len: int = 5,
+               context: int = 3, noise_factor: float = 8.0, tail_factor: float = 2.0) -> np.ndarray:
+    """Boolean (F, M) mask of spike samples.
+
+    Parameters
+    ----------
+    positions : float array (F, M, 3)
+        Marker positions, NaN where unseen.
+    unit_mm : float
+        Millimetres per unit of ``positions``.
+    threshold_mm : float
+        A run is a spike when each of its samples is at least this far from
+        the cubic through its context (raised per marker by ``noise_factor``
+        robust standard deviations of the single-sample prediction error).
+    max_len : int
+        Longest spike, in frames.
+    context : int
+        Seen samples used on each side of a run.
+    noise_factor, tail_factor : float
+        The per-marker threshold is at least ``noise_factor`` robust standard
+        deviations (1.4826 x median) and ``tail_factor`` times the 99th
+        percentile of the marker's single-sample prediction error: a marker
+        whose motion the cubic predicts poorly (a low frame rate, a noisy
+        system) needs a larger departure to count as a spike.
+    """
+    x = np.asarray(positions, dtype=np.float64)
+    f, m = x.shape[:2]
+    mask = np.zeros((f, m), dtype=bool)
+    if f < 2 * context + 1:
+        return mask
+    d1 = _run_deviation(x, 1, context)
+    with np.errstate(all="ignore"):
+        import warnings
+
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", RuntimeWarning)
+            scale = 1.4826 * np.nanmedian(d1, axis=0)
+            tail = np.nanpercentile(d1, 99.0, axis=0) if d1.size else np.zeros(m)
+    thr = np.maximum(threshold_mm / unit_mm, noise_factor * np.nan_to_num(scale, nan=0.0))  # (M,)
+    thr = np.maximum(thr, tail_factor * np.nan_to_num(tail, nan=0.0))
+    hits = np.zeros((f, m), dtype=bool)
+    for length in range(1, max_len + 1):
+        dev = d1 if length == 1 else _run_deviation(x, length, context)
+        st, mk = np.nonzero(np.nan_to_num(dev, nan=0.0) > thr)
+        for j in range(length):
+            hits[st + context + j, mk] = True
+    # Windows whose context holds spike samples flag good samples too: settle each
+    # flagged region greedily, most certain run first, removing it before looking again
+    # (the context then skips the removed samples).
+    pad = context + max_len
+    for mk in np.flatnonzero(hits.any(axis=0)):
+        grown = np.convolve(hits[:, mk].astype(np.int8), np.ones(2 * pad + 1, dtype=np.int8), mode="same") > 0
+        d = np.diff(np.concatenate([[0], grown.astype(np.int8), [0]]))
+        for lo, hi in zip(np.flatnonzero(d == 1), np.flatnonzero(d == -1)):
+            lo, hi = max(lo - pad, 0), min(hi + pad, f)
+            for a, length in _settle(x[lo:hi, mk].copy(), thr[mk], max_len, context):
+                mask[lo + a:lo + a + length, mk] = True
+    return mask

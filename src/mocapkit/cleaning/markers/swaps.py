@@ -1,0 +1,112 @@
+"""Find and undo swapped labels: two nearby markers that trade trajectories for a while.
+
+When two markers pass close, the labelling of an optical system may give
+each the other's name (MotionBuilder's "swap with marker" and Vicon's
+"exchange labels" fix it by hand). Each of the two trajectories then jumps
+at the start of the swap by about the distance between the markers, and
+jumps back at its end. :func:`undo_swaps` walks the take once: at every
+frame where two or more markers jump (their sample is far from the
+constant-velocity prediction of the two frames before), it tries exchanging
+each pair of jumping markers from that frame on, and keeps the exchange
+when it explains both jumps (both predictions then met within the
+threshold, and the total miss cut to under a third). An exchange that
+starts a swap is undone by the one that ends it, so the corrected
+trajectories are the recorded samples, re-labelled: the values stay
+bit-identical.
+
+Positions are (F, M, 3), frames first, NaN for unseen samples.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+__all__ = ["Swap", "undo_swaps"]
+
+
+@dataclass(frozen=True)
+class Swap:
+    """Markers ``a`` and ``b`` exchanged their labels for frames ``start <= f < end``; ``distance`` between them at ``start`` (capture unit)."""
+
+    a: int
+    b: int
+    start: int
+    end: int
+    distance: float
+
+
+def _miss(y: np.ndarray, t: int) -> np.ndarray:
+    """(M,) distance of frame t's samples from the constant-velocity prediction of frames t-2 and t-1 (NaN where unseen)."""
+    return np.linalg.norm(y[t] - (2.0 * y[t - 1] - y[t - 2]), axis=-1)
+
+
+def undo_swaps(positions: np.ndarray, unit_mm: float = 1.0, *, threshold_mm: float = 15.0,
+               max_distance_mm: float = 400.0) -> tuple[np.ndarray, list[Swap]]:
+    """Re-label swapped samples.
+
+    Parameters
+    ----------
+    positions : float array (F, M, 3)
+        Marker positions, NaN where unseen.
+    unit_mm : float
+        Millimetres per unit of ``positions``.
+    threshold_mm : float
+        A sample "jumps" when it is this far from its constant-velocity
+        prediction.
+    max_distance_mm : float
+        Only markers closer than this (at the jump) are considered for an exchange.
+
+    Returns
+    -------
+    corrected : float array (F, M, 3)
+        The samples with swapped labels exchanged back (the same values, re-labelled).
+    swaps : list of Swap
+        One per swapped interval (a swap that never ends runs to the last frame).
+    """
+    x = np.asarray(positions, dtype=np.float64)
+    f = x.shape[0]
+    y = x.copy()
+    if f < 3:
+        return y, []
+    thr = threshold_mm / unit_mm
+    far = max_distance_mm / unit_mm
+    with np.errstate(invalid="ignore"):
+        raw = np.linalg.norm(x[2:] - (2.0 * x[1:-1] - x[:-2]), axis=-1)  # (F-2, M)
+        jumping = np.nan_to_num(raw, nan=0.0) > thr
+    frames = np.flatnonzero(jumping.sum(axis=1) >= 2) + 2
+    open_swaps: dict[tuple[int, int], tuple[int, float]] = {}
+    swaps: list[Swap] = []
+    for t in frames:
+        miss = _miss(y, t)
+        jump = np.flatnonzero(np.nan_to_num(miss, nan=0.0) > thr)
+        if jump.size < 2:
+            continue
+        pred = 2.0 * y[t - 1] - y[t - 2]
+        pairs = []
+        for i in range(jump.size):
+            for j in range(i + 1, jump.size):
+                a, b = int(jump[i]), int(jump[j])
+                if np.linalg.norm(y[t, a] - y[t, b]) > far:
+                    continue
+                ma = np.linalg.norm(y[t, b] - pred[a])
+                mb = np.linalg.norm(y[t, a] - pred[b])
+                if ma <= thr and mb <= thr and ma + mb < (miss[a] + miss[b]) / 3.0:
+                    pairs.append((ma + mb, a, b))
+        used: set[int] = set()
+        for _, a, b in sorted(pairs):
+            if a in used or b in used:
+                continue
+            used.update((a, b))
+            y[t:, [a, b]] = y[t:, [b, a]]
+            key = (a, b)
+            if key in open_swaps:
+                s, dist = open_swaps.pop(key)
+                swaps.append(Swap(a, b, s, int(t), dist))
+            else:
+                open_swaps[key] = (int(t), float(np.linalg.norm(x[t, a] - x[t, b])))
+    for (a, b), (s, dist) in open_swaps.items():
+        swaps.append(Swap(a, b, s, f, dist))
+    swaps.sort(key=lambda s: (s.start, s.a, s.b))
+    return y, swaps

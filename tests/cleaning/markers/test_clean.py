@@ -1,0 +1,144 @@
+"""clean_markers and its parts on real captures: a complete CMU capture (tests/data/85_02.c3d) and the shipped Eb015pr.c3d."""
+
+from __future__ import annotations
+
+import dataclasses
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from mocapkit.cleaning.gapfill import fill_channels
+from mocapkit.cleaning.markers import clean_markers, fill_gaps, spike_mask, undo_swaps
+from mocapkit.cleaning.markers.rigid import distance_stats, from_local, local_frames, to_local
+from mocapkit.cleaning.markers.spikes import prediction_matrix
+from mocapkit.io.c3d import read_c3d
+from mocapkit import samples
+
+CMU = Path(__file__).resolve().parents[2] / "data" / "85_02.c3d"
+
+
+@pytest.fixture(scope="module")
+def cmu():
+    return read_c3d(CMU)
+
+
+def test_local_frames_recover_a_rigid_motion():
+    rng = np.random.default_rng(0)
+    ref = rng.normal(size=(4, 3)) * 100
+    from scipy.spatial.transform import Rotation
+
+    rots = Rotation.random(20, random_state=1).as_matrix()
+    shift = rng.normal(size=(20, 3)) * 500
+    donors = np.einsum("tij,kj->tki", rots, ref - ref.mean(0)) + shift[:, None]
+    rot, origin = local_frames(donors, ref)
+    assert np.allclose(rot, rots, atol=1e-9)
+    p = rng.normal(size=(20, 3))
+    assert np.allclose(from_local(to_local(p, rot, origin), rot, origin), p)
+
+
+def test_prediction_matrix_reproduces_cubics():
+    w = prediction_matrix(3, 3)
+    t = np.r_[-3:0, 3:6].astype(float)
+    poly = lambda u: 2 - u + 0.5 * u ** 2 - 0.1 * u ** 3  # noqa: E731
+    assert np.allclose(w @ poly(t), poly(np.arange(3.0)))
+
+
+def test_gap_fill_beats_linear_on_cut_gaps(cmu):
+    x = np.asarray(cmu.positions)
+    rng = np.random.default_rng(3)
+    y = x.copy()
+    mask = np.zeros(x.shape[:2], bool)
+    for k in rng.choice(x.shape[1], 4, replace=False):
+        a = int(rng.integers(150, 500))
+        mask[a:a + 120, k] = True  # 1 s gaps
+    y[mask] = np.nan
+    filled, records = fill_gaps(y)
+    lin = fill_channels(y.reshape(len(y), -1), "linear").reshape(y.shape)
+    err = np.sqrt(np.mean(np.sum((filled[mask] - x[mask]) ** 2, -1)))
+    err_lin = np.sqrt(np.mean(np.sum((lin[mask] - x[mask]) ** 2, -1)))
+    assert err < 0.5 * err_lin
+    assert len(records) == 4
+    assert np.array_equal(filled[~mask], x[~mask])  # observed samples bit-identical
+
+
+def test_spikes_are_found_and_replaced(cmu):
+    x = np.asarray(cmu.positions)
+    y = x.copy()
+    truth = np.zeros(x.shape[:2], bool)
+    rng = np.random.default_rng(5)
+    for k, (start, length) in enumerate([(100, 1), (250, 3), (400, 5), (600, 2)]):
+        v = rng.normal(size=3)
+        y[start:start + length, 7 * k + 3] += 40 * v / np.linalg.norm(v)
+        truth[start:start + length, 7 * k + 3] = True
+    found = spike_mask(y)
+    assert np.array_equal(found, truth)
+    res = clean_markers(dataclasses.replace(cmu, positions=y))
+    assert np.array_equal(res.spikes, truth)
+    got = res.markers.positions
+    assert np.sqrt(np.mean(np.sum((got[truth] - x[truth]) ** 2, -1))) < 2.0
+    assert np.array_equal(got[~truth], x[~truth])
+    assert {f.kind for f in res.fixes} == {"spike"}
+
+
+def test_swaps_are_undone(cmu):
+    x = np.asarray(cmu.positions)
+    stats = distance_stats(x)
+    i = 0
+    j = int(np.nanargmin(stats.median[i]))
+    y = x.copy()
+    y[300:420, [i, j]] = y[300:420, [j, i]]
+    z, swaps = undo_swaps(y)
+    assert [(s.a, s.b, s.start, s.end) for s in swaps] == [(min(i, j), max(i, j), 300, 420)]
+    assert np.array_equal(z, x)
+
+
+def test_complete_capture_comes_back_bit_identical(cmu):
+    res = clean_markers(cmu)
+    assert not res.changed.any()
+    assert np.array_equal(res.markers.positions, cmu.positions)
+    assert res.fixes == ()
+
+
+def test_real_gaps_filled_and_never_seen_marker_kept_missing(tmp_path):
+    ms = read_c3d(samples.path("Eb015pr.c3d"))
+    pos = np.array(ms.positions)
+    pos[:, 2] = np.nan  # a marker missing in the whole take
+    ms = dataclasses.replace(ms, positions=pos)
+    res = clean_markers(ms, steps="gaps")
+    assert res.never_seen == (ms.labels[2],)
+    assert np.all(np.isnan(res.markers.positions[:, 2]))
+    others = np.ones(ms.num_markers, bool)
+    others[2] = False
+    missing_before = ms.missing()[:, others].sum()
+    assert missing_before > 0
+    assert res.markers.missing()[:, others].sum() < missing_before
+    assert any("whole take" in line for line in res.summary())
+    path = res.save(tmp_path / "r.clean.npz")
+    with np.load(path) as z:
+        assert z["filled"].shape == pos.shape[:2] and str(z["kind"]) == "markers"
+
+
+def test_unknown_step_refused(cmu):
+    with pytest.raises(ValueError, match="unknown step"):
+        clean_markers(cmu, steps="gaps,smooth")
+
+
+def test_soft_constraints_pull_filled_samples_into_range_and_leave_observed_alone(cmu):
+    from mocapkit.cleaning.markers import constraint_violation, enforce_distances
+    from mocapkit.cleaning.markers.rigid import donor_order
+
+    x = np.asarray(cmu.positions)
+    stats = distance_stats(x)
+    order = donor_order(stats)
+    free = np.zeros(x.shape[:2], bool)
+    free[200:260, 5] = True
+    y = x.copy()
+    y[free] += np.array([60.0, -40.0, 30.0])  # a fill 80 mm off
+    before = constraint_violation(y, stats, order, free)
+    z = enforce_distances(y, free, stats, order)
+    assert before > 0.8
+    assert constraint_violation(z, stats, order, free) < before - 0.1
+    assert np.array_equal(z[~free], x[~free])
+    err = lambda p: np.sqrt(np.mean(np.sum((p[free] - x[free]) ** 2, -1)))  # noqa: E731
+    assert err(z) < 0.75 * err(y)
