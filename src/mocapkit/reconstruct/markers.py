@@ -47,10 +47,12 @@ markers (hands, feet, head, root; Tables 3 and 4). For every frame ``t``:
    forward differences evaluated as one batched forward-kinematics call
    (numba, :func:`_fk_model_poses`).
 
-The defaults (``k=128`` neighbours, 99.99 % of the variance up to 60
+The defaults (``k=256`` neighbours, 99.99 % of the variance up to 60
 components, a weak prior 0.01) favour a broad local model: neighbours from
 other performers rarely contain the exact pose, so a model the markers can
-pull on beats a tight one of 10-20 components.
+pull on beats a tight one of 10-20 components. ``k=256`` was chosen over 64,
+128 and 512 on three of the five HDM05 leave-one-actor-out folds (bd, dg, mm
+held out; ``benchmarks/reconstruct_markers.py --leave-one-out``).
 
 Forward kinematics runs on the performer's skeleton (``skeleton``), so bone
 lengths are the performer's; the database's skeletons only give the features
@@ -63,7 +65,7 @@ Departures from the papers: Chai & Hodgins search neighbours of the previous
 synthesised poses in a precomputed graph, Krüger et al. (and this module)
 search the kd-tree directly; neither paper says how the unobserved heading
 enters the features -- here it is tracked and refined by eq. 4.3 as above.
-The weights were chosen on a held-out HDM05 actor (``benchmarks/reconstruct_markers.py``).
+The weights were chosen on held-out HDM05 actors (``benchmarks/reconstruct_markers.py``).
 The local PCA uses ``eigh`` of the covariance: OpenBLAS's threaded SVD of
 such small matrices is slow on a busy machine (also consider
 ``OPENBLAS_NUM_THREADS=1``).
@@ -571,7 +573,7 @@ def reconstruct(
     db: MotionDatabase,
     fps: float,
     *,
-    k: int = 128,
+    k: int = 256,
     skeleton: Skeleton | None = None,
     variance: float = 0.9999,
     max_components: int = 60,
