@@ -119,7 +119,7 @@ def test_unwrap_skips_gaps():
 
 def test_other_skeleton_is_refused(tiny_ebf):
     bvh = mocapkit.load(mocapkit.samples.path("131_01.bvh"))
-    with pytest.raises(SkeletonError, match="trained on a skeleton"):
+    with pytest.raises(SkeletonError, match="the model was trained on the Acclaim rest pose"):
         deep.denoise(bvh, tiny_ebf)
 
 

@@ -131,8 +131,8 @@ def test_another_rig_falls_back_with_notes():
     noisy, _ = corrupt.angular_noise(gappy, amount=0.5, seed=5, joints=["LeftHip"])
     res = clean(noisy, steps=("fill", "denoise"))
     by = {s.name: s for s in res.steps}
-    assert by["fill"].method == "cubic spline" and "does not fit this rig" in by["fill"].note
-    assert by["denoise"].method.startswith("Savitzky-Golay") and "does not fit this rig" in by["denoise"].note
+    assert by["fill"].method == "cubic spline" and "does not serve this rig" in by["fill"].note
+    assert by["denoise"].method.startswith("Savitzky-Golay") and "does not serve this rig" in by["denoise"].note
     assert len(res.notes) == 2
     assert not res.motion.missing().any() and np.array_equal(res.filled, noisy.missing())
     assert res.denoised[:, m.skeleton.index("LeftHip")].mean() > 0.8
@@ -243,3 +243,17 @@ def test_one_flagged_segment_on_one_joint_is_said_in_the_singular(walk):
                                             f"{n_joint} joint{'' if n_joint == 1 else 's'}")
         singular |= n_seg == 1 and n_joint == 1
     assert singular  # the case the rule is about was met
+
+
+def test_the_cmu_bvh_spelling_is_cleaned_by_the_networks(walk):
+    """clean applies deep.served_by like denoise and fill: the BVH spelling of the walk gets the EBD and EBF."""
+    from tests.cleaning.test_retarget import motionbuilder_spelling
+
+    bvh = motionbuilder_spelling(walk[:240])
+    gappy, _ = corrupt.gaps(bvh, seed=4, start_prob=0.02)
+    res = clean(gappy, steps=("fill", "denoise"))
+    by = {s.name: s for s in res.steps}
+    assert by["fill"].method == "EBD (shipped, via the cmu_bvh_motionbuilder joint map) + EBF"
+    assert not res.notes and not res.motion.missing().any()
+    untouched = ~res.changed
+    assert np.array_equal(res.motion.rotations[untouched], gappy.rotations[untouched])

@@ -1,5 +1,7 @@
 """`mocapkit denoise`, `mocapkit fill` and `mocapkit train` on real clips, and their one-line errors."""
 
+from pathlib import Path
+
 import numpy as np
 
 import mocapkit
@@ -7,6 +9,78 @@ from mocapkit import corrupt, metrics
 from tests.cli.helpers import one_error_line, run
 
 WALK = mocapkit.samples.path("12_walk.amc")
+BVH = mocapkit.samples.path("131_01.bvh")  # the Acclaim skeleton spelled as CMU's 3dsMax-friendly BVH
+BANDAI = Path(__file__).resolve().parents[1] / "data" / "dataset-1_dash_normal_001.bvh"  # a rig nothing ships for
+
+
+def _gappy(motion, path, seed=2):
+    gapped, _ = corrupt.gaps(motion, seed=seed, start_prob=0.01)
+    mocapkit.save(gapped, path)
+    return gapped
+
+
+def test_the_three_commands_agree_on_a_rig_the_networks_do_not_serve(tmp_path):
+    """denoise, fill and clean on the Bandai Namco rig: the same fallbacks, the same message, exit 0."""
+    take = mocapkit.load(BANDAI)
+    gin = tmp_path / "gaps.npz"
+    gapped = _gappy(take, gin)
+    code, out_d, err = run("denoise", str(BANDAI), "-o", str(tmp_path / "d.bvh"))
+    assert code == 0, err
+    text = " ".join(out_d.split())
+    assert f"warning: {BANDAI}: Savitzky-Golay: the shipped EBF does not serve this rig" in text
+    assert "Savitzky-Golay (0.1 s)" in text and (tmp_path / "d.bvh").is_file()
+    code, out_f, err = run("fill", str(gin), "-o", str(tmp_path / "f.npz"))
+    assert code == 0, err
+    text = " ".join(out_f.split())
+    assert f"warning: {gin}: cubic spline: the shipped EBD does not serve this rig" in text
+    filled = mocapkit.load(tmp_path / "f.npz")
+    obs = ~gapped.missing()
+    assert not filled.missing().any() and np.array_equal(filled.rotations[obs], gapped.rotations[obs])
+    code, out_c, err = run("clean", str(gin), "-o", str(tmp_path / "c.npz"), "--steps", "fill,denoise")
+    assert code == 0, err
+    text = " ".join(out_c.split())
+    assert "cubic spline: the shipped EBD does not serve this rig" in text
+    # the reason is the same words in all three
+    why = text.split("does not serve this rig (")[1].split(")")[0]
+    assert why in " ".join(out_f.split()) and why in " ".join(out_d.split())
+    code, _, err = run("fill", str(gin), "-o", str(tmp_path / "g.npz"), "--no-fallback")
+    assert code == 2 and one_error_line(err) and str(gin) in err and why in " ".join(err.split())
+    assert not (tmp_path / "g.npz").exists()
+
+
+def test_fill_without_gaps_says_so(tmp_path):
+    for take in (BVH, BANDAI):  # whichever the rig, "no gaps" comes first
+        out = tmp_path / f"{take.stem}.bvh"
+        code, stdout, err = run("fill", str(take), "-o", str(out))
+        assert code == 0, err
+        assert f"no gaps in {take}; nothing to fill" in " ".join(stdout.split()) and not out.exists()
+    code, stdout, err = run("fill", str(BVH), "-o", str(tmp_path / "w.npz"), "--always-write")
+    assert code == 0, err
+    assert np.array_equal(mocapkit.load(tmp_path / "w.npz").rotations, mocapkit.load(BVH).rotations)
+
+
+def test_the_networks_serve_the_cmu_bvh_spelling(tmp_path):
+    from tests.cleaning.test_retarget import motionbuilder_spelling
+
+    take = motionbuilder_spelling(mocapkit.load(WALK))  # the walk as the CMU MotionBuilder-release BVH spells it
+    noisy, _ = corrupt.angular_noise(take, 0.5, seed=4)
+    inp, out = tmp_path / "noisy.bvh", tmp_path / "den.bvh"
+    mocapkit.save(noisy, inp)
+    code, stdout, err = run("denoise", str(inp), "-o", str(out))
+    assert code == 0, err
+    assert "EBF (shipped, via the cmu_bvh_motionbuilder joint map)" in " ".join(stdout.split())
+    assert "warning" not in stdout
+    den = mocapkit.load(out)
+    assert metrics.joint_angle_rms(take, den, include_root=False) < 0.6 * metrics.joint_angle_rms(
+        take, noisy, include_root=False)
+    gin, gout = tmp_path / "gaps.npz", tmp_path / "filled.npz"
+    gapped = _gappy(take, gin)
+    code, stdout, err = run("fill", str(gin), "-o", str(gout))
+    assert code == 0, err
+    assert "EBD (shipped, via the cmu_bvh_motionbuilder joint map) + EBF" in " ".join(stdout.split())
+    filled = mocapkit.load(gout)
+    obs = ~gapped.missing()
+    assert not filled.missing().any() and np.array_equal(filled.rotations[obs], gapped.rotations[obs])
 
 
 def test_denoise_and_fill_commands(tmp_path):
@@ -37,9 +111,8 @@ def test_denoise_and_fill_commands(tmp_path):
 
 
 def test_deep_commands_fail_in_one_line(tmp_path):
-    bvh = mocapkit.samples.path("131_01.bvh")  # another rig than the shipped models'
-    code, _, err = run("denoise", str(bvh), "-o", str(tmp_path / "x.bvh"))
-    assert code == 2 and one_error_line(err) and "trained on a skeleton" in err and "131_01.bvh" in err
+    code, _, err = run("denoise", str(BANDAI), "-o", str(tmp_path / "x.bvh"), "--no-fallback")
+    assert code == 2 and one_error_line(err) and "does not serve this rig" in err and BANDAI.name in err
     assert not (tmp_path / "x.bvh").exists()
     bad = tmp_path / "model.pt"
     bad.write_bytes(b"not a model")

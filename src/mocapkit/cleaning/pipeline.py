@@ -3,12 +3,13 @@
 :func:`clean` chains the cleaners of :mod:`mocapkit.cleaning` in a fixed order,
 whatever order the steps are named in:
 
-1. **fill** — the missing (NaN) joints. With a rig the gap-filling network fits
-   (the shipped EBD is trained on the Acclaim ASF/AMC rig of CMU and HDM05) the
-   EBD fills the gap entries and the EBF smooths them
-   (:func:`mocapkit.cleaning.deep.fill_gaps`); on any other rig the cubic
-   interpolating spline of :mod:`mocapkit.cleaning.gapfill` does, with a note
-   saying why. A context (clips or a database) is not used to fill gaps: it
+1. **fill** — the missing (NaN) joints. On a rig the networks serve
+   (:func:`mocapkit.cleaning.deep.served_by`: the Acclaim ASF/AMC rig of CMU
+   and HDM05 they were trained on, and its CMU BVH spellings through a joint
+   map) the EBD fills the gap entries and the EBF smooths them; on any other
+   rig the cubic interpolating spline of :mod:`mocapkit.cleaning.gapfill`
+   does, with a note saying why (:func:`mocapkit.cleaning.deep.fill_or_fallback`,
+   the rule ``mocapkit fill`` applies too). A context (clips or a database) is not used to fill gaps: it
    feeds detection and repair. Fill comes first because self-similarity
    analysis needs every frame.
 2. **detect** — erroneous joints by self-similarity
@@ -33,8 +34,9 @@ whatever order the steps are named in:
    held-out 120 fps clips: on clean HDM05 takes of actor mm no cell exceeds
    1 deg, on CMU takes 0.2-0.5 %, while Mall et al.'s "0.5 noise" gives a
    median level of 1-4 deg on the joints it moves. Noisy cells take the EBF's output
-   (:func:`mocapkit.cleaning.deep.denoise`); on a rig the EBF does not fit, a
-   quadratic Savitzky-Golay filter over 0.1 s on those cells, with a note.
+   (:func:`mocapkit.cleaning.deep.denoise`); on a rig the EBF does not serve, a
+   quadratic Savitzky-Golay filter over 0.1 s on those cells, with a note
+   (:func:`mocapkit.cleaning.deep.denoise_or_fallback`, as ``mocapkit denoise``).
 
 Every cell that is neither missing, flagged nor noisy is returned
 bit-identical to the input (the root trajectory too, unless it had gaps). The
@@ -340,15 +342,6 @@ def _deep_model(models: dict, kind: str):
     return m, "given"
 
 
-def _fits(model, motion: Motion) -> str | None:
-    """None when ``model`` fits the rig, else the reason in words."""
-    try:
-        model.layout.check(motion)
-    except SkeletonError as exc:
-        return str(exc)
-    return None
-
-
 def _changed_cells(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """(F, J) bool where two rotation arrays differ (NaN == NaN counts as unchanged)."""
     same = (a == b) | (np.isnan(a) & np.isnan(b))
@@ -374,21 +367,14 @@ def _fill(motion: Motion, models: dict, notes: list) -> tuple[Motion, str, str]:
         raise MocapError(f"{name}: joint(s) {names} are missing in every frame; nothing to fill them from")
     if not missing.any():
         return motion, "nothing (no gaps)", ""
-    from . import deep, gapfill  # torch is imported only when there is something to fill
+    from . import deep  # torch is imported only when there is something to fill
 
     ebd, src = _deep_model(models, "ebd")
-    why = _fits(ebd, motion)
-    if why is None:
-        ebf, _ = _deep_model(models, "ebf")
-        smooth = _fits(ebf, motion) is None
-        try:
-            out = deep.fill_gaps(motion, ebd, ebf if smooth else None, smooth=smooth)
-            return out, f"EBD ({src})" + (" + EBF" if smooth else ""), ""
-        except ValueError as exc:
-            why = str(exc)
-    note = f"cubic spline: the {'shipped' if src == 'shipped' else 'given'} EBD does not fit this rig ({why})"
-    notes.append(note)
-    return gapfill.fill_motion(motion, "cubic"), "cubic spline", note
+    ebf, _ = _deep_model(models, "ebf")
+    out, method, note = deep.fill_or_fallback(motion, ebd, ebf, label=src)  # the rule every command applies
+    if note:
+        notes.append(note)
+    return out, method, note
 
 
 def _analysis_frames(motion: Motion, analysis_fps: float) -> int:
@@ -400,18 +386,11 @@ def _denoise(motion: Motion, noisy: np.ndarray, models: dict, notes: list) -> tu
     if not noisy.any():
         return motion, "nothing (no joint is noisy)", ""
     from . import deep  # torch is imported only when there is something to denoise
-    from .filters import savgol_smooth
 
     ebf, src = _deep_model(models, "ebf")
-    why = _fits(ebf, motion)
-    if why is None:
-        den = deep.denoise(motion, ebf, cells=noisy)  # the EBF runs only as far as the noisy cells need
-        method, note = f"EBF ({src})", ""
-    else:
-        joints = np.flatnonzero(noisy.any(axis=0))
-        den = savgol_smooth(motion, window_s=0.1, polyorder=2, joints=joints, root=False)
-        method = "Savitzky-Golay (0.1 s)"
-        note = f"Savitzky-Golay: the {'shipped' if src == 'shipped' else 'given'} EBF does not fit this rig ({why})"
+    # the EBF runs only as far as the noisy cells need; the rule and fallback every command applies
+    den, method, note = deep.denoise_or_fallback(motion, ebf, cells=noisy, label=src)
+    if note:
         notes.append(note)
     rot = np.where(noisy[..., None], den.rotations, motion.rotations)
     return dataclasses.replace(motion, rotations=rot), method, note

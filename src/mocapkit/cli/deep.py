@@ -34,15 +34,36 @@ def _reference(path: Optional[Path], take, asf: Optional[Path] = None):
                            joint_names=take.skeleton.joint_names)
 
 
+def _no_fallback_option():
+    return typer.Option(False, "--no-fallback", help="Fail (exit 2) instead of falling back when the network does "
+                                                     "not serve this rig (see docs/guide/deep-models.md).")
+
+
+def _served(inp: Path, motion, net, kind: str, no_fallback: bool):
+    """With ``--no-fallback``, the one-line error naming ``inp`` when the network does not serve the take."""
+    from ..cleaning import deep
+
+    if no_fallback:
+        sv = deep.served_by(motion, net if net is not None else deep.shipped_model(kind))
+        if isinstance(sv, str):
+            raise MocapError(f"{inp}: the {'given' if net is not None else 'shipped'} {kind.upper()} does not serve "
+                             f"this rig ({sv})")
+
+
 def denoise(
     inp: Path = typer.Argument(..., metavar="IN", help="Noisy motion (.bvh, .amc, .npz)."),
     out: Path = typer.Option(..., "--out", "-o", help="Denoised motion (.bvh or .npz)."),
     model: Optional[Path] = typer.Option(None, "--model", help="An EBF model file (default: the shipped one)."),
     reference: Optional[Path] = typer.Option(None, "--reference", help="A clean take to report the error against."),
+    no_fallback: bool = _no_fallback_option(),
     asf: Optional[Path] = asf_option(),
     overwrite: bool = overwrite_option(),
 ) -> None:
-    """Denoise every joint angle with the EBF network (Mall et al. 2017); the root trajectory is kept."""
+    """Denoise every joint angle with the EBF network (Mall et al. 2017); the root trajectory is kept.
+
+    On a rig the network does not serve, a Savitzky-Golay filter (0.1 s) denoises instead, with a warning
+    line (as `clean` does); --no-fallback makes that an error.
+    """
     from .. import io
     from ..cleaning import deep
     from ..io.takes import check_asf, load_motion
@@ -55,13 +76,16 @@ def denoise(
     m = load_motion(inp, asf, purpose="denoise")
     ref = _reference(reference, m, asf)
     net = _model(model, "ebf")
+    _served(inp, m, net, "ebf", no_fallback)
     try:
-        cleaned = deep.denoise(m, net)
+        cleaned, method, note = deep.denoise_or_fallback(m, net, label="shipped" if net is None else "given")
     except SkeletonError as exc:
         raise MocapError(f"{inp}: {exc}") from None
     io.save(cleaned, out, like=inp)
+    if note:
+        console.print(f"warning: {inp}: {note}")
     change = joint_angle_rms(m, cleaned, include_root=False)
-    line = f"wrote {out}: {plural(m.num_frames, 'frame')} denoised, mean change {change:.2f} deg RMS"
+    line = f"wrote {out}: {plural(m.num_frames, 'frame')} denoised by {method}, mean change {change:.2f} deg RMS"
     if ref is not None:
         a, b = joint_angle_errors(ref, m, cleaned)
         line += f"; joint-angle RMS against {reference.name}: {a:.2f} -> {b:.2f} deg"
@@ -75,14 +99,24 @@ def fill(
     denoiser: Optional[Path] = typer.Option(None, "--denoiser", help="The EBF that smooths the filled entries."),
     smooth: bool = typer.Option(True, "--smooth/--no-smooth", help="Run the EBF over the filled entries."),
     reference: Optional[Path] = typer.Option(None, "--reference", help="A clean take to report the error against."),
+    always_write: bool = typer.Option(False, "--always-write", help="Write OUT even when IN has no gaps "
+                                                                     "(IN in OUT's format)."),
+    no_fallback: bool = _no_fallback_option(),
     asf: Optional[Path] = asf_option(),
     overwrite: bool = overwrite_option(),
 ) -> None:
-    """Fill missing joints with the EBD network (+ EBF); observed values are kept bit-identical."""
+    """Fill missing joints with the EBD network (+ EBF); observed values are kept bit-identical.
+
+    On a rig the network does not serve, a cubic spline fills the gaps instead, with a warning line (as
+    `clean` does); --no-fallback makes that an error. A take without gaps is reported and OUT is not
+    written unless --always-write.
+    """
     from .. import io
     from ..cleaning import deep
     from ..io.takes import check_asf, load_motion
     from ..reference import filled_error_deg
+
+    import numpy as np
 
     guard([out], [inp, asf, model, denoiser, reference], overwrite)
     check_asf(asf, [inp, reference])
@@ -92,15 +126,26 @@ def fill(
     ebd, ebf = _model(model, "ebd"), _model(denoiser, "ebf")
     missing = m.missing()
     n = int(missing.sum())
+    if not n:
+        if always_write:
+            io.save(m, out, like=inp)
+            console.print(f"no gaps in {inp}; nothing to fill; wrote it unchanged to {out}")
+        else:
+            console.print(f"no gaps in {inp}; nothing to fill (nothing written; --always-write writes it)")
+        return
+    never = [m.skeleton.joint_names[j] for j in np.flatnonzero(missing.all(axis=0))]
+    if never:
+        raise MocapError(f"{inp}: joint(s) {', '.join(never[:4])} are missing in every frame; nothing to fill them from")
+    _served(inp, m, ebd, "ebd", no_fallback)
     try:
-        filled = deep.fill_gaps(m, ebd, ebf, smooth=smooth)
+        filled, method, note = deep.fill_or_fallback(m, ebd, ebf, smooth=smooth,
+                                                     label="shipped" if ebd is None else "given")
     except (SkeletonError, ValueError) as exc:
         raise MocapError(f"{inp}: {exc}") from None
     io.save(filled, out, like=inp)
-    if not n:
-        console.print(f"wrote {out}: no gaps to fill")
-        return
-    line = f"wrote {out}: {plural(n, 'missing joint sample')} filled"
+    if note:
+        console.print(f"warning: {inp}: {note}")
+    line = f"wrote {out}: {plural(n, 'missing joint sample')} filled by {method}"
     if ref is not None:
         line += (f"; mean rotation error of the filled joints against {reference.name}: "
                  f"{filled_error_deg(ref, filled, missing):.2f} deg")

@@ -1,6 +1,9 @@
 """Deep cleaning (Mall et al. 2017): the EBF denoiser and EBD gap filler, trained here and shipped pretrained.
 
 - :func:`denoise` / :func:`fill_gaps`: Motion in, Motion out (shipped models by default);
+- :func:`served_by`: the one rule for which takes a model serves (directly, or through a joint map onto the
+  Acclaim skeleton: :mod:`.retarget`); :func:`denoise_or_fallback` / :func:`fill_or_fallback` apply it with the
+  fallbacks every command shares;
 - :class:`Denoiser`: streaming EBF, one frame of file channels at a time;
 - :mod:`.networks`: the EBF and EBD modules; :mod:`.channels`: what they see;
 - :mod:`.training`: noisy/clean pairs made on the fly with :mod:`mocapkit.corrupt`, Adam, checkpoints.
@@ -8,21 +11,32 @@
 
 from .channels import ChannelLayout, layout_for
 from .inference import (
+    FALLBACK_DENOISE,
+    FALLBACK_FILL,
     DeepModel,
     Denoiser,
     denoise,
     denoise_channels,
+    denoise_or_fallback,
     denoise_rows,
     fill_channels,
     fill_gaps,
+    fill_or_fallback,
     lerp_fill,
     load_model,
     save_model,
     shipped_model,
 )
 from .networks import EBD, EBF
+from .retarget import Serving, served_by
 
 __all__ = [
+    "FALLBACK_DENOISE",
+    "FALLBACK_FILL",
+    "Serving",
+    "served_by",
+    "denoise_or_fallback",
+    "fill_or_fallback",
     "ChannelLayout",
     "layout_for",
     "DeepModel",

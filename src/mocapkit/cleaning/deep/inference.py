@@ -24,18 +24,19 @@ import torch
 from numba import njit
 
 from ... import rotations as R
-from ...errors import MocapFormatError
+from ...errors import MocapFormatError, SkeletonError
 from ...io import atomic_write
 from ...motion import Motion, Skeleton
 from .channels import (
     UNWRAP_ALPHA,
     ChannelLayout,
     euler_columns,
-    decode,
-    encode,
     root_angular_velocity,
     unwrap_degrees,
 )
+from .retarget import Serving, served_by
+from .retarget import decode as decode_served
+from .retarget import encode as encode_served
 from .networks import (
     EBD,
     EBF,
@@ -60,6 +61,11 @@ __all__ = [
     "lerp_fill",
     "Denoiser",
     "denoise_rows",
+    "serving",
+    "denoise_or_fallback",
+    "fill_or_fallback",
+    "FALLBACK_DENOISE",
+    "FALLBACK_FILL",
 ]
 
 FORMAT = "mocapkit.deep/1"
@@ -143,6 +149,8 @@ def shipped_model(kind: str = "ebf") -> DeepModel:
 
 
 def _model(model, kind: str) -> DeepModel:
+    if isinstance(model, Serving):
+        model = model.model
     if model is None:
         return shipped_model(kind)
     if isinstance(model, (str, Path)):
@@ -150,6 +158,21 @@ def _model(model, kind: str) -> DeepModel:
     if not isinstance(model, DeepModel) or model.kind != kind:
         raise ValueError(f"expected an {kind.upper()} model, got {getattr(model, 'kind', type(model).__name__)}")
     return model
+
+
+def serving(motion: Motion, model, kind: str) -> Serving:
+    """The :class:`Serving` of ``motion`` by ``model`` (a Serving, DeepModel, model file or None: shipped).
+
+    Raises :class:`SkeletonError` with :func:`served_by`'s one-line reason
+    when the model does not serve the take.
+    """
+    if isinstance(model, Serving):
+        return model
+    m = _model(model, kind)
+    s = served_by(motion, m)
+    if isinstance(s, str):
+        raise SkeletonError(s)
+    return s
 
 
 # -- array level ---------------------------------------------------------------------
@@ -404,7 +427,8 @@ def denoise(motion: Motion, model=None, cells: np.ndarray | None = None) -> Moti
     >>> bool(metrics.joint_angle_rms(clean, out, include_root=False) < 0.6 * metrics.joint_angle_rms(clean, noisy, include_root=False))
     True
     """
-    m = _model(model, "ebf")
+    sv = serving(motion, model, "ebf")
+    m = sv.model
     keep = motion.missing()
     until = None
     if cells is not None:
@@ -416,9 +440,29 @@ def denoise(motion: Motion, model=None, cells: np.ndarray | None = None) -> Moti
             return motion
         until = int(rows[-1]) + 1
         keep = keep | ~cells
-    values, ctx = encode(motion, m.layout)
+    values, ctx = encode_served(motion, sv)
     out = denoise_channels(values, ctx, m, fps=motion.fps, until=until)
-    return decode(np.nan_to_num(out), motion, m.layout, keep=keep)
+    if sv.direct:
+        return decode_served(np.nan_to_num(out), motion, sv, keep=keep)
+    out = np.where(np.isnan(out), values, out)  # a NaN channel (a missing joint on a mapped chain) stays as it is
+    return decode_served(np.nan_to_num(out), motion, sv, keep=keep, residual=_residual_filter(motion.fps))
+
+
+def _residual_filter(fps: float):
+    """The fallback's quadratic Savitzky-Golay filter over 0.1 s along time, for the part of a mapped joint's
+    rotation outside the Acclaim degrees of freedom (which the EBF does not see)."""
+    from scipy.signal import savgol_filter
+
+    from ..filters import window_frames
+
+    window = window_frames(0.1, fps, 2)
+
+    def smooth(x: np.ndarray) -> np.ndarray:
+        if len(x) < window:
+            return x
+        return savgol_filter(x, window, 2, axis=0, mode="interp")
+
+    return smooth
 
 
 def fill_gaps(motion: Motion, model=None, denoiser=None, smooth: bool = True) -> Motion:
@@ -429,13 +473,15 @@ def fill_gaps(motion: Motion, model=None, denoiser=None, smooth: bool = True) ->
     A missing root rotation or position is not the networks' to fill: it is
     interpolated linearly (rotations by lerp of channels as well).
     """
-    m = _model(model, "ebd")
-    values, ctx = encode(motion, m.layout)
+    sv = serving(motion, model, "ebd")
+    m = sv.model
     missing = motion.missing()
     if not missing.any():
         return motion
+    src = motion if sv.direct else _hold_unmapped(motion, sv, missing)
+    values, ctx = encode_served(src, sv)
     out = fill_channels(values, ctx, m, denoiser, fps=motion.fps, smooth=smooth)
-    res = decode(out, motion, m.layout, keep=~missing)
+    res = decode_served(out, src, sv, keep=~missing)
     rot = np.array(res.rotations)
     for j in np.flatnonzero(missing[:, 1:].any(axis=0)) + 1:  # joints without channels hold one rotation
         if np.isnan(rot[:, j]).any():
@@ -445,10 +491,102 @@ def fill_gaps(motion: Motion, model=None, denoiser=None, smooth: bool = True) ->
     if missing[:, 0].any():
         root_pos = lerp_fill(motion.root_positions)
         rot = np.array(res.rotations)
-        q0 = R.quaternion_continuity(lerp_fill(R.quaternion_continuity(np.nan_to_num(motion.rotations[:, 0]))))
-        rot[:, 0] = np.where(missing[:, :1], R.quaternion_normalize(q0), motion.rotations[:, 0])
+        q0 = np.array(motion.rotations[:, 0])
+        seen = ~missing[:, 0]
+        if seen.any():  # the observed root rotations in one hemisphere, then each component interpolated
+            q0[seen] = R.quaternion_continuity(q0[seen])
+            q0 = R.quaternion_normalize(lerp_fill(q0))
+        else:
+            q0 = R.identity((len(q0),))
+        rot[:, 0] = np.where(missing[:, :1], q0, motion.rotations[:, 0])
         res = dataclasses.replace(res, rotations=rot, root_positions=root_pos)
     return res
+
+
+#: What replaces the networks on a take they do not serve (the same in ``clean``, ``denoise`` and ``fill``).
+FALLBACK_FILL = "cubic spline"
+FALLBACK_DENOISE = "Savitzky-Golay (0.1 s)"
+
+
+def _fallback_note(method: str, kind: str, label: str, why: str) -> str:
+    return f"{method}: the {label} {kind.upper()} does not serve this rig ({why})"
+
+
+def _method(kind: str, label: str, sv: Serving) -> str:
+    via = "" if sv.direct else f", via the {sv.family} joint map"
+    return f"{kind.upper()} ({label}{via})"
+
+
+def fill_or_fallback(motion: Motion, model=None, denoiser=None, smooth: bool = True, label: str = "shipped"):
+    """Fill the gaps of ``motion`` with the EBD (+ EBF) where they serve it, else with the cubic spline.
+
+    The rule is :func:`served_by` (direct, or through a joint map). Where
+    the EBD serves the take, :func:`fill_gaps` fills it (smoothed by the EBF
+    when ``smooth`` and the EBF serves it too); where it does not, or a
+    channel the network needs is never observed, the cubic interpolating
+    spline of :func:`mocapkit.cleaning.gapfill.fill_motion` fills every gap.
+    Returns ``(motion, method, note)``: ``note`` is "" with the networks, else
+    one line saying which fallback ran and why. ``label`` names the model in
+    both ("shipped", a file name). A take without gaps is returned as is.
+    """
+    from ..gapfill import fill_motion
+
+    if not motion.missing().any():
+        return motion, "nothing (no gaps)", ""
+    sv = served_by(motion, _model(model, "ebd"))
+    if not isinstance(sv, str):
+        ebf = served_by(motion, _model(denoiser, "ebf")) if smooth else "not asked"
+        smooth = not isinstance(ebf, str)
+        try:
+            out = fill_gaps(motion, sv, ebf if smooth else None, smooth=smooth)
+            return out, _method("ebd", label, sv) + (" + EBF" if smooth else ""), ""
+        except ValueError as exc:
+            why = str(exc)
+    else:
+        why = sv
+    return fill_motion(motion, "cubic"), FALLBACK_FILL, _fallback_note(FALLBACK_FILL, "ebd", label, why)
+
+
+def denoise_or_fallback(motion: Motion, model=None, cells: np.ndarray | None = None, label: str = "shipped"):
+    """Denoise ``motion`` (only ``cells`` (F, J) when given) with the EBF where it serves the take, else by a
+    quadratic Savitzky-Golay filter over 0.1 s (:func:`mocapkit.cleaning.filters.savgol_smooth`).
+
+    The rule is :func:`served_by`. Without ``cells`` every non-root joint is
+    denoised. Returns ``(motion, method, note)`` as :func:`fill_or_fallback`;
+    cells outside ``cells`` (and the root) are bit-identical to the input.
+    """
+    from ..filters import savgol_smooth
+
+    sv = served_by(motion, _model(model, "ebf"))
+    if not isinstance(sv, str):
+        return denoise(motion, sv, cells=cells), _method("ebf", label, sv), ""
+    J = motion.skeleton.num_joints
+    if cells is None:
+        cells = np.zeros((motion.num_frames, J), dtype=bool)
+        cells[:, 1:] = True
+    cells = np.asarray(cells, dtype=bool)
+    joints = np.flatnonzero(cells.any(axis=0))
+    den = savgol_smooth(motion, window_s=0.1, polyorder=2, joints=joints, root=False)
+    rot = np.where(cells[..., None], den.rotations, motion.rotations)
+    out = dataclasses.replace(motion, rotations=rot)
+    return out, FALLBACK_DENOISE, _fallback_note("Savitzky-Golay", "ebf", label, sv)
+
+
+def _hold_unmapped(motion: Motion, sv: Serving, missing: np.ndarray) -> Motion:
+    """``motion`` with the missing cells of non-root joints the joint map does not cover (e.g. ``LHipJoint``)
+    set to the joint's rotation in the nearest observed frame, so the chains through them are complete."""
+    rot = np.array(motion.rotations)
+    mapped = set(sv.joints)
+    t = np.arange(motion.num_frames)
+    for j in np.flatnonzero(missing[:, 1:].any(axis=0)) + 1:
+        seen = np.flatnonzero(~missing[:, j])
+        if int(j) in mapped or not len(seen):
+            continue
+        k = np.clip(np.searchsorted(seen, t), 1, len(seen) - 1) if len(seen) > 1 else np.zeros_like(t)
+        if len(seen) > 1:
+            k = np.where(np.abs(seen[k - 1] - t) <= np.abs(seen[k] - t), k - 1, k)
+        rot[missing[:, j], j] = motion.rotations[seen[k[missing[:, j]]], j]
+    return dataclasses.replace(motion, rotations=rot)
 
 
 # -- streaming -------------------------------------------------------------------------
@@ -472,7 +610,12 @@ class Denoiser:
         m = _model(model, "ebf")
         if m.layout.representation != "euler":
             raise ValueError("streaming needs an Euler-channel model")
-        m.layout.check(skeleton, "skeleton")
+        sv = served_by(skeleton, m)
+        if isinstance(sv, str):
+            raise SkeletonError(f"skeleton: {sv}")
+        if not sv.direct:
+            raise SkeletonError(f"skeleton: streaming needs the model's own channels; this {sv.family} rig is "
+                                f"served offline only (deep.denoise)")
         if _needs_resampling(fps, m.fps):
             raise ValueError(f"streaming runs at the model's rate ({m.fps:g} fps), got {fps:g} fps")
         self.model = m

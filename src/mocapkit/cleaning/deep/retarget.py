@@ -1,0 +1,371 @@
+"""Which takes the deep models serve, and how a take on another spelling of their skeleton is fed to them.
+
+The shipped EBF and EBD (Mall et al. 2017) read the Euler degrees of
+freedom of the Acclaim ASF skeleton of the CMU and HDM05 databases
+(``lfemur.Zrotation`` ...). The same skeleton also comes spelled otherwise:
+Bruce Hahne's CMU BVH conversions name its joints ``LeftUpLeg`` or
+``LeftHip`` and give every joint three ``Zrotation Yrotation Xrotation``
+channels in world-aligned frames, where the ASF has one to three degrees of
+freedom in a per-bone ``axis`` frame.
+
+:func:`served_by` is the one rule: a take is served **directly** when it has
+the model's channels (any ASF/AMC of that skeleton); **through a joint map**
+when its rig family (:mod:`mocapkit.rigs`) plays every role the model's
+joints play, with the same tree, and its rest pose is the Acclaim one (every
+mapped bone within :data:`SAME_REST_DEG` of the Acclaim direction, Y up:
+a subject's calibration moves bones by a few degrees, another rest
+convention, such as the 3dsMax release's arms hanging down, by 90);
+otherwise not at all, with the reason in words. Through a joint map,
+:func:`encode` gives the model what an ASF take of the same pose gives it and
+:func:`decode` maps the model's output back onto the take's joints:
+
+1. the rotation from a mapped joint's model parent to the joint is the
+   product of the take's local rotations along the chain between them
+   (joints the model does not know, e.g. ``LHipJoint``, stay in the chain);
+2. ``M = C^-1 L C`` with ``C`` the Acclaim ``axis`` of the joint
+   (:data:`ACCLAIM_AXES`, the same in every CMU and HDM05 ASF), and the
+   degrees of freedom are ``M``'s Euler angles in the model's channel order,
+   as :meth:`Motion.channel_values` reads an AMC;
+3. back: the model's new angles replace the degrees of freedom and the
+   part of ``M`` they do not span (the other axes of a one- or two-dof
+   joint) is kept, or smoothed by a function the caller gives, so a
+   rotation the network leaves unchanged comes back as it was. Cells whose
+   channels the network did not change, and every joint the model does not
+   cover (the root, ``LHipJoint``, the fingers of richer rigs), are copied
+   bit-identically from the take.
+
+On the CMU 01_01 take, whose ASF/AMC and MotionBuilder-release BVH are both
+at hand, the BVH's encoded channels equal the AMC's to 1e-4 degrees (the
+AMC's printed precision) and denoising and gap filling give the same
+rotations on both spellings.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass
+
+import numpy as np
+
+from ... import rigs
+from ... import rotations as R
+from ...motion import Motion, Skeleton
+from .channels import ChannelLayout, encode as encode_direct, decode as decode_direct, layout_for
+from .channels import root_angular_velocity, unwrap_degrees
+
+__all__ = ["ACCLAIM_AXES", "SAME_REST_DEG", "Serving", "served_by", "encode", "decode"]
+
+#: The Acclaim ``axis`` (degrees, order ``XYZ``, extrinsic) of each joint of the CMU/HDM05 ASF skeleton; every
+#: ASF of both databases has these (up to 1e-13 degrees).
+ACCLAIM_AXES: dict[str, tuple[float, float, float]] = {
+    "lfemur": (0, 0, 20), "ltibia": (0, 0, 20), "lfoot": (-90, 0, 20), "ltoes": (-90, 0, 20),
+    "rfemur": (0, 0, -20), "rtibia": (0, 0, -20), "rfoot": (-90, 0, -20), "rtoes": (-90, 0, -20),
+    "lowerback": (0, 0, 0), "upperback": (0, 0, 0), "thorax": (0, 0, 0), "lowerneck": (0, 0, 0),
+    "upperneck": (0, 0, 0), "head": (0, 0, 0),
+    "lclavicle": (0, 0, 0), "lhumerus": (180, -30, -90), "lradius": (180, -30, -90), "lwrist": (0, 90, 90),
+    "lhand": (0, 90, 90), "lfingers": (0, 90, 90), "lthumb": (-90, 45, 0),
+    "rclavicle": (0, 0, 0), "rhumerus": (180, 30, 90), "rradius": (180, 30, 90), "rwrist": (0, -90, -90),
+    "rhand": (0, -90, -90), "rfingers": (0, -90, -90), "rthumb": (-90, -45, 0),
+}
+
+# Rest direction of each Acclaim joint's bone (to its child along the role tree), CMU subject 12's ASF rounded
+# (Y up, X to the subject's left, Z forward); a take's rest bones must lie within SAME_REST_DEG of them.
+_ACCLAIM_BONES: dict[str, tuple[float, float, float]] = {
+    "lfemur": (0.34, -0.94, 0), "ltibia": (0.34, -0.94, 0), "lfoot": (0.05, -0.13, 0.99), "ltoes": (0, 0, 1),
+    "rfemur": (-0.34, -0.94, 0), "rtibia": (-0.34, -0.94, 0), "rfoot": (-0.05, -0.12, 0.99), "rtoes": (0, 0, 1),
+    "lowerback": (-0.06, 0.98, -0.17), "upperback": (0.01, 1, 0.08), "thorax": (0.04, 0.99, 0.16),
+    "lowerneck": (-0.01, 1, 0.07), "upperneck": (0.03, 0.98, -0.18), "head": (0.01, 1, -0.07),
+    "lclavicle": (0.97, 0.21, -0.11), "lhumerus": (1, 0, 0), "lradius": (1, 0, 0), "lwrist": (1, 0, 0),
+    "lhand": (1, 0, 0), "lfingers": (1, 0, 0), "lthumb": (0.71, 0, 0.71),
+    "rclavicle": (-0.98, 0.13, -0.12), "rhumerus": (-1, 0, 0), "rradius": (-1, 0, 0), "rwrist": (-1, 0, 0),
+    "rhand": (-1, 0, 0), "rfingers": (-1, 0, 0), "rthumb": (-0.71, 0, 0.71),
+}
+
+#: A take's rest bone within this angle (degrees) of the Acclaim one counts as the same rest pose.
+SAME_REST_DEG = 30.0
+
+# the child role whose direction is a joint's bone (the role tree's main chain)
+_BONE_CHILD = {"pelvis": "spine", "spine": "spine_mid", "spine_mid": "chest", "chest": "neck", "neck": "neck_upper",
+               "neck_upper": "head"}
+for _s in ("left", "right"):
+    _BONE_CHILD.update({f"{_s}_thigh": f"{_s}_shin", f"{_s}_shin": f"{_s}_foot", f"{_s}_foot": f"{_s}_toe",
+                        f"{_s}_clavicle": f"{_s}_upper_arm", f"{_s}_upper_arm": f"{_s}_forearm",
+                        f"{_s}_forearm": f"{_s}_hand", f"{_s}_hand": f"{_s}_palm", f"{_s}_palm": f"{_s}_fingers"})
+
+
+@dataclass(frozen=True)
+class Serving:
+    """How a model serves a take (from :func:`served_by`; arrays over the model's joints, layout order).
+
+    ``direct``: the take has the model's channels and no mapping is needed.
+    Otherwise ``joints[k]`` is the take joint playing model joint ``k``;
+    ``chains[k]`` the take joints whose local rotations make the rotation
+    from model joint ``parent[k]`` (-1: the pelvis) to ``k``, top down, ending
+    with ``joints[k]``; ``pelvis_chain`` the take joints from the root to the
+    pelvis; ``orders[k]`` the intrinsic Euler order of the model's channels;
+    ``axes`` (n, 4) the Acclaim axis frames.
+    """
+
+    model: object
+    family: str | None
+    direct: bool
+    joints: tuple[int, ...] = ()
+    parent: tuple[int, ...] = ()
+    chains: tuple[tuple[int, ...], ...] = ()
+    pelvis_chain: tuple[int, ...] = ()
+    orders: tuple[str, ...] = ()
+    axes: np.ndarray | None = None
+
+    @property
+    def layout(self) -> ChannelLayout:
+        return self.model.layout
+
+    def describe(self) -> str:
+        """How the take is served, in words (for notes and messages)."""
+        if self.direct:
+            return "its own channels"
+        return f"a joint map from the {self.family} rig onto the Acclaim skeleton"
+
+
+def _acclaim_role(name: str) -> str | None:
+    for role, names in rigs.FAMILIES["acclaim"].items():
+        if name in names:
+            return role
+    return None
+
+
+def _complete_order(order: str) -> str:
+    """A 3-axis intrinsic order containing a 1- or 2-axis ``order`` (as :func:`rotations.quaternion_to_euler`)."""
+    if len(order) == 3:
+        return order
+    missing = [a for a in "XYZ" if a not in order]
+    return order[0] + missing[0] + order[1] if len(order) == 2 else order + missing[0] + missing[1]
+
+
+def _chain(sk: Skeleton, top: int, j: int) -> tuple[int, ...] | None:
+    """Joints from just below ``top`` down to ``j`` (top down); None when ``top`` is not above ``j``."""
+    out = []
+    a = j
+    while a != top:
+        if a < 0:
+            return None
+        out.append(a)
+        a = int(sk.parents[a])
+    return tuple(reversed(out))
+
+
+def _unit(v: np.ndarray) -> np.ndarray | None:
+    n = float(np.linalg.norm(v))
+    return v / n if n > 1e-9 else None
+
+
+def _angle_deg(a: np.ndarray, b: np.ndarray) -> float:
+    return float(np.degrees(np.arccos(np.clip(np.dot(a, b), -1.0, 1.0))))
+
+
+def _rest_differences(sk: Skeleton, found: dict[str, int], names, model_roles) -> list[tuple[str, float]]:
+    """(take joint, degrees) for every mapped bone (and the up axis) further than SAME_REST_DEG from Acclaim's."""
+    rest = sk.rest_positions(end_sites=True)
+    out = []
+    up = _unit(rest[found["head"]] - rest[found["pelvis"]])
+    if up is not None and _angle_deg(up, np.array([0.0, 1.0, 0.0])) >= SAME_REST_DEG:
+        out.append(("the up axis (pelvis to head)", _angle_deg(up, np.array([0.0, 1.0, 0.0]))))
+    for name, role in zip(names, model_roles):
+        j = found[role]
+        child = _BONE_CHILD.get(role)
+        tip = found.get(child) if child else None
+        if tip is None:  # a leaf of the role tree: its first child or end site
+            kids = sk.children(j)
+            ends = np.flatnonzero(sk.end_site_parents == j)
+            tip = kids[0] if kids else (sk.num_joints + int(ends[0]) if len(ends) else None)
+        bone = None if tip is None else _unit(rest[tip] - rest[j])
+        if bone is None:  # a zero-length bone has no direction to compare
+            continue
+        want = np.asarray(_ACCLAIM_BONES[name], dtype=np.float64)
+        d = _angle_deg(want / np.linalg.norm(want), bone)
+        if d >= SAME_REST_DEG:
+            out.append((sk.joint_names[j], d))
+    return out
+
+
+def served_by(motion_or_skeleton, model) -> Serving | str:
+    """Whether ``model`` (a :class:`DeepModel`) serves the take: a :class:`Serving`, or the reason it does not.
+
+    The one rule every command and the cleaning pipeline apply. A take with
+    exactly the model's channels (an ASF/AMC take of the skeleton it was
+    trained on) is served directly. An Euler model of the Acclaim skeleton
+    also serves a take whose rig family (:func:`mocapkit.rigs.rig_family`)
+    plays every role its joints play, each below the joint of its parent
+    role, in the Acclaim rest pose (the CMU BVH conversions of the
+    MotionBuilder-friendly release). Anything else: a one-line reason naming
+    what is missing or different.
+    """
+    sk = getattr(motion_or_skeleton, "skeleton", motion_or_skeleton)
+    layout = model.layout
+    have = layout_for(sk, layout.representation)
+    if have.names == layout.names:
+        return Serving(model, rigs.rig_family(sk), True)
+    trained = f"the model was trained on a skeleton with {layout.num_channels} {layout.representation} channels"
+    model_roles = [_acclaim_role(n) for n in layout.joints]
+    if layout.representation != "euler" or None in model_roles:
+        return (f"{trained} and this one has {have.num_channels} ({_difference(layout, have)}); "
+                f"train a model on this rig with `mocapkit train`")
+    family = rigs.rig_family(sk)
+    if family is None:
+        return (f"{trained}, the Acclaim rig, and no joint map is known for this one, whose joints are "
+                f"{', '.join(sk.joint_names[:4])}, ...; train a model on this rig with `mocapkit train`")
+    found = rigs.roles(sk)
+    lacking = [n for n, r in zip(layout.joints, model_roles) if r not in found]
+    if lacking:
+        return (f"{trained}, the Acclaim rig; this {family} rig has no joint for {len(lacking)} of its "
+                f"{len(layout.joints)} joints: {', '.join(lacking[:4])}{', ...' if len(lacking) > 4 else ''}; "
+                f"train a model on this rig with `mocapkit train`")
+    return _map(model, sk, family, found, model_roles)
+
+
+def _difference(layout: ChannelLayout, have: ChannelLayout) -> str:
+    missing = [n for n in layout.names if n not in set(have.names)]
+    extra = [n for n in have.names if n not in set(layout.names)]
+    return f"missing {missing[:4]}" if missing else f"unexpected {extra[:4]}"
+
+
+def _map(model, sk: Skeleton, family: str, found: dict[str, int], model_roles: list[str]) -> Serving | str:
+    layout = model.layout
+    pelvis = found["pelvis"]
+    index = {r: k for k, r in enumerate(model_roles)}
+    joints, parent, chains, orders = [], [], [], []
+    for k, (name, role) in enumerate(zip(layout.joints, model_roles)):
+        up = rigs.PARENT_ROLE.get(role)
+        while up is not None and up not in index and up != "pelvis":
+            up = rigs.PARENT_ROLE.get(up)
+        top = found["pelvis"] if up in (None, "pelvis") else found[up]
+        chain = _chain(sk, top, found[role])
+        if chain is None:
+            return (f"this {family} rig's joint {sk.joint_names[found[role]]} does not hang below "
+                    f"{sk.joint_names[top]} as {name} does in the Acclaim rig; train a model on this rig with "
+                    f"`mocapkit train`")
+        joints.append(found[role])
+        parent.append(-1 if up in (None, "pelvis") else index[up])
+        chains.append(chain)
+        orders.append("".join(c.split(".")[1][0] for c in layout.names if c.split(".")[0] == name))
+    far = _rest_differences(sk, found, layout.joints, model_roles)
+    if far:
+        listed = ", ".join(f"{n} by {d:.0f} deg" for n, d in far[:3]) + (", ..." if len(far) > 3 else "")
+        return (f"the model was trained on the Acclaim rest pose and this {family} rig's rest pose differs: "
+                f"{listed}; train a model on this rig with `mocapkit train`")
+    axes = np.stack([R.euler_to_quaternion(np.array(ACCLAIM_AXES[n], dtype=np.float64), "xyz") for n in layout.joints])
+    return Serving(model, family, False, tuple(joints), tuple(parent), tuple(chains), _chain(sk, -1, pelvis),
+                   tuple(orders), axes)
+
+
+def _product(rot: np.ndarray, chain: tuple[int, ...]) -> np.ndarray:
+    """(F, 4): the product of the local rotations ``rot[:, chain]`` top down."""
+    q = rot[:, chain[0]]
+    for j in chain[1:]:
+        q = R.quaternion_multiply(q, rot[:, j])
+    return q
+
+
+def _conj(a: np.ndarray, q: np.ndarray) -> np.ndarray:
+    """a q a^-1."""
+    return R.quaternion_multiply(R.quaternion_multiply(a, q), R.quaternion_conjugate(a))
+
+
+def _dof_rotations(motion: Motion, s: Serving) -> np.ndarray:
+    """(F, n, 4): each model joint's rotation M in its Acclaim axis frame."""
+    rot = motion.rotations
+    out = np.empty((motion.num_frames, len(s.joints), 4))
+    for k, chain in enumerate(s.chains):
+        local = _product(rot, chain)
+        out[:, k] = R.quaternion_multiply(R.quaternion_multiply(R.quaternion_conjugate(s.axes[k]), local), s.axes[k])
+    return out
+
+
+def _pelvis_rotation(motion: Motion, s: Serving) -> np.ndarray:
+    return _product(motion.rotations, s.pelvis_chain)
+
+
+def _full_angles(m: np.ndarray, order: str) -> tuple[np.ndarray, str]:
+    """Euler angles (F, 3) of M in the 3-axis order completing ``order``; the dofs sit at ``order``'s axes."""
+    full = _complete_order(order)
+    return R.quaternion_to_euler(m, full), full
+
+
+def encode(motion: Motion, serving: Serving) -> tuple[np.ndarray, np.ndarray]:
+    """(values (F, C), context (F, 3)) the model reads for ``motion``: its degrees (unwrapped) and root omega.
+
+    Direct serving is :func:`channels.encode`. Through a joint map the
+    values are the Acclaim degrees of freedom of each mapped joint (module
+    docstring) and the context is the pelvis' angular velocity in its own
+    frame (rad/s). A NaN rotation anywhere on a joint's chain gives NaN
+    channels for it.
+    """
+    if serving.direct:
+        return encode_direct(motion, serving.layout)
+    m = _dof_rotations(motion, serving)
+    cols = []
+    for k, order in enumerate(serving.orders):
+        ang, full = _full_angles(m[:, k], order)
+        cols += [ang[:, full.index(a)] for a in order]
+    values = np.stack(cols, axis=1)
+    ctx = root_angular_velocity(_pelvis_rotation(motion, serving), motion.fps)
+    return unwrap_degrees(values), ctx
+
+
+def decode(values: np.ndarray, like: Motion, serving: Serving, keep: np.ndarray | None = None,
+           residual=None) -> Motion:
+    """A Motion like ``like`` whose model-covered rotations come from the model's ``values`` (F, C) in degrees.
+
+    Direct serving is :func:`channels.decode`. Through a joint map, each
+    mapped joint's new rotation keeps the part of its Acclaim rotation the
+    degrees of freedom do not span, and is written back through its chain
+    (joints on the chain that the model does not cover keep their rotation).
+    A cell is copied bit-identically from ``like`` where ``keep`` (F, J) is
+    True, where the joint is not mapped, and where the model left every one
+    of its channels exactly as :func:`encode` gave them. ``residual``: an
+    optional function applied to each joint's residual angles (F, 3 - dofs),
+    degrees unwrapped along time, before they are recombined (the denoiser
+    smooths them: the network cannot see them).
+    """
+    if serving.direct:
+        return decode_direct(values, like, serving.layout, keep=keep)
+    values = np.asarray(values, dtype=np.float64)
+    F = like.num_frames
+    if values.shape != (F, serving.layout.num_channels):
+        raise ValueError(f"values: expected shape ({F}, {serving.layout.num_channels}), got {values.shape}")
+    before, _ = encode(like, serving)
+    m = _dof_rotations(like, serving)
+    rot = np.array(like.rotations)
+    same = np.ones((F, like.skeleton.num_joints), dtype=bool)
+    c = 0
+    for k, order in enumerate(serving.orders):
+        n = len(order)
+        new, old = values[:, c:c + n], before[:, c:c + n]
+        c += n
+        changed = ~np.all((new == old) | (np.isnan(new) & np.isnan(old)), axis=1)
+        ang, full = _full_angles(m[:, k], order)
+        ang = np.nan_to_num(ang)  # a missing cell has no residual to keep: its rotation is the dofs alone
+        rest_axes = [full.index(a) for a in full if a not in order]
+        if residual is not None and rest_axes:
+            r0 = ang[:, rest_axes]
+            r1 = residual(unwrap_degrees(r0))
+            changed |= np.any(np.abs(((r1 - r0) + 180.0) % 360.0 - 180.0) > 0.0, axis=1)
+            ang[:, rest_axes] = r1
+        for i, a in enumerate(order):
+            ang[:, full.index(a)] = (new[:, i] + 180.0) % 360.0 - 180.0
+        mk = R.euler_to_quaternion(ang, full)
+        p = _conj(serving.axes[k], mk)
+        chain = serving.chains[k]
+        if len(chain) > 1:
+            above = _product(like.rotations, chain[:-1])
+            p = R.quaternion_multiply(R.quaternion_conjugate(above), p)
+        j = serving.joints[k]
+        ref = like.rotations[:, j]
+        flip = np.sum(p * np.nan_to_num(ref), axis=-1, keepdims=True) < 0.0
+        p = np.where(flip, -p, p)
+        rot[:, j] = np.where(changed[:, None], p, ref)
+        same[:, j] = ~changed
+    if keep is not None:
+        same |= np.asarray(keep, dtype=bool)
+    rot = np.where(same[..., None], like.rotations, rot)
+    return dataclasses.replace(like, rotations=rot)

@@ -1,0 +1,278 @@
+"""Humanoid rigs: standard joint roles, the names each known rig family gives them, and where the pelvis is.
+
+Motion-capture files spell the same human skeleton in many ways: the CMU
+and HDM05 Acclaim ASF calls the thigh ``lfemur``, Bruce Hahne's CMU BVH
+conversions call it ``LeftUpLeg`` (MotionBuilder-friendly release) or
+``LeftHip`` (3dsMax-friendly release), the Bandai Namco game rig
+``UpperLeg_L``, MotionBuilder/HumanIK ``LeftUpLeg`` and Mixamo
+``mixamorig:LeftUpLeg``. Code that needs "the left thigh" or "the pelvis"
+asks this module instead of matching names itself.
+
+A **role** names the joint whose rotation moves a body segment (BVH
+semantics: the joint sits at the segment's start), e.g. ``left_thigh`` is
+the hip joint that swings the femur and ``left_hand`` the wrist. The roles
+form a tree (:data:`PARENT_ROLE`, the Acclaim topology, the richest of the
+known rigs); a rig plays a subset of them, possibly with joints between two
+roles that play none (``Spine2`` on a four-segment HumanIK spine).
+
+A **family** is a naming convention: a table role -> candidate joint names
+(:data:`FAMILIES`). :func:`rig_family` picks the family whose names cover
+most of a skeleton's joints; :func:`roles` maps each role that family names
+to a joint index. Names are matched exactly (case-sensitive, as the files
+write them), so ``LeftShoulder`` is the clavicle on a HumanIK rig and the
+upper arm on the 3dsMax CMU conversions, decided by the family, never by
+guessing from a substring.
+
+The **pelvis** (:func:`pelvis_index`) is the joint that carries the hips'
+translation: the root on Acclaim and most BVH rigs, but ``Hips`` on the
+Bandai Namco rig, whose root ``joint_Root`` stays on the floor. On a rig of
+no known family it is the first joint below the root where the hierarchy
+branches (legs and spine part there).
+
+Pure functions of a :class:`~mocapkit.motion.Skeleton`; nothing here reads
+files or depends on frame data.
+"""
+
+from __future__ import annotations
+
+from types import MappingProxyType
+
+from .motion import Skeleton
+
+__all__ = [
+    "ROLES",
+    "PARENT_ROLE",
+    "FAMILIES",
+    "rig_family",
+    "roles",
+    "pelvis_index",
+    "role_names",
+]
+
+
+def _sided(base: str) -> tuple[str, str]:
+    return f"left_{base}", f"right_{base}"
+
+
+#: Every standard role, root first, in the Acclaim skeleton's depth-first order.
+ROLES: tuple[str, ...] = (
+    "root",  # a ground reference above the pelvis (game rigs); absent where the pelvis is the root
+    "pelvis",
+    *_sided("hip_bone"),  # pelvis centre -> hip socket (Acclaim lhipjoint)
+    *_sided("thigh"), *_sided("shin"), *_sided("foot"), *_sided("toe"),
+    "spine", "spine_mid", "chest", "neck", "neck_upper", "head",
+    *_sided("clavicle"), *_sided("upper_arm"), *_sided("forearm"), *_sided("hand"),
+    *_sided("palm"), *_sided("fingers"), *_sided("thumb"),
+)
+
+_PARENT = {
+    "pelvis": "root",
+    "spine": "pelvis", "spine_mid": "spine", "chest": "spine_mid", "neck": "chest", "neck_upper": "neck",
+    "head": "neck_upper",
+}
+for _s in ("left", "right"):
+    _PARENT.update({
+        f"{_s}_hip_bone": "pelvis", f"{_s}_thigh": f"{_s}_hip_bone", f"{_s}_shin": f"{_s}_thigh",
+        f"{_s}_foot": f"{_s}_shin", f"{_s}_toe": f"{_s}_foot",
+        f"{_s}_clavicle": "chest", f"{_s}_upper_arm": f"{_s}_clavicle", f"{_s}_forearm": f"{_s}_upper_arm",
+        f"{_s}_hand": f"{_s}_forearm", f"{_s}_palm": f"{_s}_hand", f"{_s}_fingers": f"{_s}_palm",
+        f"{_s}_thumb": f"{_s}_hand",
+    })
+
+#: The parent role of every role but ``root`` (the Acclaim topology). A rig that lacks a role in between
+#: (no ``spine_mid``) hangs the child on the nearest role above that it has.
+PARENT_ROLE = MappingProxyType(_PARENT)
+
+
+def _both(table: dict[str, tuple[str, ...]], left: dict[str, tuple[str, ...]], swap) -> dict[str, tuple[str, ...]]:
+    """``table`` plus the left-side entries and their right-side mirror (names through ``swap``)."""
+    out = dict(table)
+    for role, names in left.items():
+        out[f"left_{role}"] = names
+        out[f"right_{role}"] = tuple(swap(n) for n in names)
+    return out
+
+
+def _lr(name: str) -> str:
+    """Left -> right in the CMU/HumanIK spellings: ``Left``/``L`` prefixes, ``l`` for Acclaim."""
+    if name.startswith("Left"):
+        return "Right" + name[4:]
+    if name.startswith("L") and name[1:2].isupper():
+        return "R" + name[1:]
+    if name.startswith("l"):
+        return "r" + name[1:]
+    return name
+
+
+def _suffix_lr(name: str) -> str:
+    return name[:-2] + "_R" if name.endswith("_L") else name
+
+
+_ACCLAIM = _both(
+    {"pelvis": ("root",), "spine": ("lowerback",), "spine_mid": ("upperback",), "chest": ("thorax",),
+     "neck": ("lowerneck",), "neck_upper": ("upperneck",), "head": ("head",)},
+    {"hip_bone": ("lhipjoint",), "thigh": ("lfemur",), "shin": ("ltibia",), "foot": ("lfoot",), "toe": ("ltoes",),
+     "clavicle": ("lclavicle",), "upper_arm": ("lhumerus",), "forearm": ("lradius",), "hand": ("lwrist",),
+     "palm": ("lhand",), "fingers": ("lfingers",), "thumb": ("lthumb",)},
+    _lr,
+)
+
+_CMU_MOTIONBUILDER = _both(  # cgspeed "MotionBuilder-friendly" CMU BVH (also the CMU BVH of pybvh, bvh11 ...)
+    {"pelvis": ("Hips",), "spine": ("LowerBack",), "spine_mid": ("Spine",), "chest": ("Spine1",),
+     "neck": ("Neck",), "neck_upper": ("Neck1",), "head": ("Head",)},
+    {"hip_bone": ("LHipJoint",), "thigh": ("LeftUpLeg",), "shin": ("LeftLeg",), "foot": ("LeftFoot",),
+     "toe": ("LeftToeBase",), "clavicle": ("LeftShoulder",), "upper_arm": ("LeftArm",), "forearm": ("LeftForeArm",),
+     "hand": ("LeftHand",), "palm": ("LeftFingerBase",), "fingers": ("LFingers", "LeftHandIndex1"),
+     "thumb": ("LThumb",)},
+    _lr,
+)
+
+_CMU_3DSMAX = _both(  # cgspeed "3dsMax-friendly" CMU BVH: Collar = clavicle, Shoulder = upper arm, Hip = thigh
+    {"pelvis": ("Hips",), "spine": ("lowerback",), "spine_mid": ("Chest",), "chest": ("Chest2",),
+     "neck": ("lowerneck",), "neck_upper": ("Neck",), "head": ("Head",)},
+    {"hip_bone": ("LHipJoint",), "thigh": ("LeftHip",), "shin": ("LeftKnee",), "foot": ("LeftAnkle",),
+     "toe": ("LeftToe",), "clavicle": ("LeftCollar",), "upper_arm": ("LeftShoulder",), "forearm": ("LeftElbow",),
+     "hand": ("LeftWrist",), "palm": ("lhand",), "fingers": ("LFingers",), "thumb": ("LThumb",)},
+    _lr,
+)
+
+_BANDAI_NAMCO = _both(  # Bandai Namco Research Motiondataset game rig (root on the floor, Hips moves)
+    {"root": ("joint_Root",), "pelvis": ("Hips",), "spine": ("Spine",), "chest": ("Chest",), "neck": ("Neck",),
+     "head": ("Head",)},
+    {"thigh": ("UpperLeg_L",), "shin": ("LowerLeg_L",), "foot": ("Foot_L",), "toe": ("Toes_L",),
+     "clavicle": ("Shoulder_L",), "upper_arm": ("UpperArm_L",), "forearm": ("LowerArm_L",), "hand": ("Hand_L",)},
+    _suffix_lr,
+)
+
+# HumanIK (MotionBuilder's character rig): Spine, Spine1 ... Spine9 and Neck, Neck1 ... Neck9; the chest is the
+# highest spine joint present (resolved first), the middle spine the lowest one left.
+_SPINES = tuple(f"Spine{k}" for k in range(9, 0, -1))
+_HUMANIK = _both(
+    {"pelvis": ("Hips",), "spine": ("Spine",), "chest": _SPINES, "spine_mid": _SPINES[::-1],
+     "neck": ("Neck",), "neck_upper": tuple(f"Neck{k}" for k in range(1, 10)), "head": ("Head",)},
+    {"thigh": ("LeftUpLeg",), "shin": ("LeftLeg",), "foot": ("LeftFoot",), "toe": ("LeftToeBase",),
+     "clavicle": ("LeftShoulder",), "upper_arm": ("LeftArm",), "forearm": ("LeftForeArm",), "hand": ("LeftHand",),
+     "fingers": ("LeftHandIndex1",), "thumb": ("LeftHandThumb1",)},
+    _lr,
+)
+
+_MIXAMO_PREFIX = "mixamorig:"
+_MIXAMO = {role: tuple(_MIXAMO_PREFIX + n for n in names) for role, names in _HUMANIK.items()}
+
+#: Role -> candidate joint names, per rig family. For each role the first candidate the skeleton has wins.
+FAMILIES = MappingProxyType({
+    "acclaim": MappingProxyType(_ACCLAIM),
+    "humanik": MappingProxyType(_HUMANIK),
+    "mixamo": MappingProxyType(_MIXAMO),
+    "cmu_bvh_motionbuilder": MappingProxyType(_CMU_MOTIONBUILDER),
+    "cmu_bvh_3dsmax": MappingProxyType(_CMU_3DSMAX),
+    "bandai_namco": MappingProxyType(_BANDAI_NAMCO),
+})
+
+# the roles a skeleton must play for a family to be recognised at all
+_CORE = ("pelvis", "left_thigh", "right_thigh", "left_shin", "right_shin", "left_upper_arm", "right_upper_arm", "head")
+
+# resolution order: the chest before the middle spine (HumanIK's candidates overlap), otherwise ROLES order
+_ORDER = tuple(sorted(ROLES, key=lambda r: (r == "spine_mid", ROLES.index(r))))
+
+
+def _resolve(skeleton: Skeleton, family: str) -> dict[str, int]:
+    table = FAMILIES[family]
+    index = {n: j for j, n in enumerate(skeleton.joint_names)}
+    out: dict[str, int] = {}
+    taken: set[int] = set()
+    for role in _ORDER:
+        for name in table.get(role, ()):
+            j = index.get(name)
+            if j is not None and j not in taken:
+                out[role] = j
+                taken.add(j)
+                break
+    return out
+
+
+def _covers(skeleton: Skeleton, found: dict[str, int]) -> bool:
+    """The core roles are all found, and each role's joint lies below its parent role's joint."""
+    if not all(r in found for r in _CORE):
+        return False
+    parents = skeleton.parents
+    for role, j in found.items():
+        up = PARENT_ROLE.get(role)
+        while up is not None and up not in found:
+            up = PARENT_ROLE.get(up)
+        if up is None:
+            continue
+        a, p = int(parents[j]), found[up]
+        while a >= 0 and a != p:
+            a = int(parents[a])
+        if a != p:
+            return False
+    return True
+
+
+def rig_family(skeleton: Skeleton) -> str | None:
+    """The name (a key of :data:`FAMILIES`) of the family whose names cover most of ``skeleton``'s joints.
+
+    A family counts only when its core roles (pelvis, thighs, shins, upper
+    arms, head) are all found and every role it finds hangs below its parent
+    role's joint. Ties go to the family listed first in :data:`FAMILIES` (HumanIK
+    before the CMU conversions, whose names it shares: a rig that has none of
+    the CMU-only joints is read as HumanIK).
+    None when no family fits.
+
+    >>> import mocapkit
+    >>> rig_family(mocapkit.load(mocapkit.samples.path("131_01.bvh")).skeleton)
+    'cmu_bvh_3dsmax'
+    """
+    best, best_n = None, 0
+    for family in FAMILIES:
+        found = _resolve(skeleton, family)
+        if len(found) > best_n and _covers(skeleton, found):
+            best, best_n = family, len(found)
+    return best
+
+
+def roles(skeleton: Skeleton) -> dict[str, int]:
+    """Role -> joint index for every role ``skeleton`` plays under its family (:func:`rig_family`).
+
+    Roles the family does not name, or the skeleton lacks, are absent; a
+    skeleton of no known family gives only ``{"pelvis": pelvis_index(...)}``.
+    The result is in :data:`ROLES` order.
+
+    >>> import mocapkit
+    >>> sk = mocapkit.load(mocapkit.samples.path("131_01.bvh")).skeleton
+    >>> r = roles(sk)
+    >>> sk.joint_names[r["left_upper_arm"]], sk.joint_names[r["left_clavicle"]]
+    ('LeftShoulder', 'LeftCollar')
+    """
+    family = rig_family(skeleton)
+    if family is None:
+        return {"pelvis": pelvis_index(skeleton)}
+    found = _resolve(skeleton, family)
+    return {r: found[r] for r in ROLES if r in found}
+
+
+def pelvis_index(skeleton: Skeleton) -> int:
+    """Index of the joint that carries the hips' translation (the pelvis).
+
+    The ``pelvis`` role of the skeleton's family (``root`` on Acclaim,
+    ``Hips`` on the CMU BVH, HumanIK and Mixamo rigs, and ``Hips`` on the
+    Bandai Namco rig, whose root ``joint_Root`` stays on the floor). On a rig
+    of no known family: the first joint, from the root down a chain of single
+    children, that has more than one child (the legs and the spine part
+    there), or the root when the chain never branches.
+    """
+    family = rig_family(skeleton)
+    if family is not None:
+        return _resolve(skeleton, family)["pelvis"]
+    j = 0
+    while True:
+        kids = skeleton.children(j)
+        if len(kids) != 1:
+            return j if len(kids) > 1 else 0
+        j = kids[0]
+
+
+def role_names(skeleton: Skeleton) -> dict[str, str]:
+    """Role -> joint name for :func:`roles` (for messages and ``mocapkit info``)."""
+    return {r: skeleton.joint_names[j] for r, j in roles(skeleton).items()}

@@ -1,0 +1,121 @@
+"""mocapkit.rigs: families, roles and the pelvis on the real files of every rig in ../shared/data."""
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import mocapkit
+from mocapkit import rigs, samples
+from mocapkit.io.asfamc import read_asf
+from mocapkit.motion import Skeleton
+from tests.shared import curated_files
+
+# the joint each family names for a few roles (what the files write, not what the code says)
+EXPECTED = {
+    "acclaim": {"pelvis": "root", "left_thigh": "lfemur", "left_hip_bone": "lhipjoint", "chest": "thorax",
+                "right_upper_arm": "rhumerus", "left_hand": "lwrist", "left_thumb": "lthumb"},
+    "cmu_bvh_motionbuilder": {"pelvis": "Hips", "left_thigh": "LeftUpLeg", "left_hip_bone": "LHipJoint",
+                              "left_shin": "LeftLeg", "left_forearm": "LeftForeArm", "left_clavicle": "LeftShoulder",
+                              "spine": "LowerBack", "chest": "Spine1", "left_palm": "LeftFingerBase"},
+    "cmu_bvh_3dsmax": {"pelvis": "Hips", "left_thigh": "LeftHip", "left_shin": "LeftKnee",
+                       "left_upper_arm": "LeftShoulder", "left_clavicle": "LeftCollar", "spine": "lowerback",
+                       "chest": "Chest2"},
+    "bandai_namco": {"root": "joint_Root", "pelvis": "Hips", "left_thigh": "UpperLeg_L",
+                     "right_forearm": "LowerArm_R", "left_clavicle": "Shoulder_L", "chest": "Chest"},
+    "mixamo": {"pelvis": "mixamorig:Hips", "left_thigh": "mixamorig:LeftUpLeg", "chest": "mixamorig:Spine2",
+               "spine_mid": "mixamorig:Spine1", "left_clavicle": "mixamorig:LeftShoulder"},
+    "humanik": {"pelvis": "Hips", "spine": "Spine", "chest": "Spine3", "spine_mid": "Spine1",
+                "left_upper_arm": "LeftArm", "left_clavicle": "LeftShoulder"},
+}
+
+
+def _skeleton(path):
+    return read_asf(path) if path.suffix == ".asf" else mocapkit.load(path).skeleton
+
+
+def _check(sk, family):
+    assert rigs.rig_family(sk) == family
+    r = rigs.roles(sk)
+    names = {role: sk.joint_names[j] for role, j in r.items()}
+    for role, name in EXPECTED[family].items():
+        assert names[role] == name, (family, role)
+    assert len(set(r.values())) == len(r)  # one joint per role
+    assert list(r) == [x for x in rigs.ROLES if x in r]
+    for role, j in r.items():  # each role hangs below its nearest present parent role
+        up = rigs.PARENT_ROLE.get(role)
+        while up is not None and up not in r:
+            up = rigs.PARENT_ROLE.get(up)
+        if up is not None:
+            a = int(sk.parents[j])
+            while a not in (-1, r[up]):
+                a = int(sk.parents[a])
+            assert a == r[up], (family, role)
+    return r
+
+
+def test_every_curated_rig_is_recognised(shared_data):
+    seen = {}
+    for path in curated_files(shared_data, "*.asf") + curated_files(shared_data, "*.bvh"):
+        sk = _skeleton(path)
+        family = rigs.rig_family(sk)
+        seen.setdefault(family, []).append(path.name)
+        r = _check(sk, family)
+        # the pelvis carries the hips' translation: the root, except on the Bandai Namco rig
+        expect = "Hips" if family == "bandai_namco" else sk.joint_names[0]
+        assert sk.joint_names[rigs.pelvis_index(sk)] == expect
+        if family in ("acclaim", "cmu_bvh_motionbuilder", "cmu_bvh_3dsmax"):
+            assert len(r) == 31  # every joint of the CMU skeleton plays a role
+    assert None not in seen
+    assert set(seen) == {"acclaim", "cmu_bvh_motionbuilder", "cmu_bvh_3dsmax", "bandai_namco"}
+    assert {"01_01.bvh"} <= set(seen["cmu_bvh_motionbuilder"]) and {"131_01.bvh"} <= set(seen["cmu_bvh_3dsmax"])
+
+
+def test_peer_rigs_mixamo_humanik_and_unknown(shared_data):
+    peer = shared_data / "peer_files"
+    _check(_skeleton(peer / "20tab+bvh-python/tests/test_freebvh.bvh"), "mixamo")
+    _check(_skeleton(peer / "VictorS-67+pybvh/bvh_data/standard_skeleton.bvh"), "humanik")
+    assert rigs.rig_family(_skeleton(peer / "VictorS-67+pybvh/bvh_data/cmu_12_01_walk.bvh")) == "cmu_bvh_motionbuilder"
+    sk = _skeleton(peer / "Wasserwecken+bvhio/bvhio/tests/example.bvh")  # LeftUpArm/LeftLowArm: no known family
+    assert rigs.rig_family(sk) is None and rigs.roles(sk) == {"pelvis": 0}
+
+
+def test_bandai_pelvis_is_hips_not_the_floor_root():
+    path = Path(__file__).parent / "data" / "dataset-1_dash_normal_001.bvh"
+    m = mocapkit.load(path)
+    sk = m.skeleton
+    assert sk.joint_names[0] == "joint_Root" and rigs.rig_family(sk) == "bandai_namco"
+    p = rigs.pelvis_index(sk)
+    assert sk.joint_names[p] == "Hips"
+    pos = m.global_positions()
+    # the Hips travel and stay about a metre up (cm, Y up); joint_Root is the floor projection
+    assert np.ptp(pos[:, p, 2]) > 100 or np.ptp(pos[:, p, 0]) > 100
+    assert pos[:, p, 1].min() > 60 and abs(pos[:, 0, 1]).max() < 1
+
+
+def test_samples_and_an_unknown_rig_by_topology():
+    assert rigs.rig_family(mocapkit.load(samples.path("12_walk.amc")).skeleton) == "acclaim"
+    assert rigs.rig_family(mocapkit.load(samples.path("131_01.bvh")).skeleton) == "cmu_bvh_3dsmax"
+    # a rig of made-up names: a floor root, then a branching joint
+    sk = Skeleton(("ground", "pelvis_x", "legA", "legB", "trunk"), np.array([-1, 0, 1, 1, 1]), np.zeros((5, 3)))
+    assert rigs.rig_family(sk) is None and rigs.pelvis_index(sk) == 1
+    chain = Skeleton(("a", "b", "c"), np.array([-1, 0, 1]), np.zeros((3, 3)))
+    assert rigs.pelvis_index(chain) == 0
+
+
+def test_a_wrong_tree_is_not_a_family():
+    """Acclaim names on the wrong joints (thigh and upper arm exchanged): no role may hang below the wrong parent."""
+    sk = read_asf(samples.path("12.asf"))
+    assert rigs.rig_family(sk) == "acclaim"
+    swapped = list(sk.joint_names)
+    i, k = swapped.index("lfemur"), swapped.index("lhumerus")
+    swapped[i], swapped[k] = swapped[k], swapped[i]
+    assert rigs.rig_family(Skeleton(tuple(swapped), np.array(sk.parents), sk.offsets)) is None
+
+
+@pytest.mark.parametrize("family", list(rigs.FAMILIES))
+def test_family_tables_name_only_known_roles(family):
+    table = rigs.FAMILIES[family]
+    assert set(table) <= set(rigs.ROLES)
+    for core in ("pelvis", "left_thigh", "right_thigh", "head"):
+        assert core in table
