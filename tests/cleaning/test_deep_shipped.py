@@ -1,4 +1,4 @@
-"""The shipped EBF and EBD (docs/models.md) on a real clip they never saw: CMU subject 12's walk."""
+"""The shipped EBF and EBD (docs/models.md) on real clips they never saw: CMU subject 12's walk; the Bandai Namco pair on the game rig."""
 
 from __future__ import annotations
 
