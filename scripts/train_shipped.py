@@ -1,12 +1,25 @@
-"""Train the shipped EBF and EBD (docs/models.md) on the ASF/AMC clips of ../shared/data.
+"""Train the shipped EBF and EBD (docs/models.md), one pair per rig family.
 
-Held out (never trained on; benchmarks/deep_*.py test on them through :func:`split`): every clip of
-HDM05 actor "mm" and the CMU clips 12 walk, charleston2 and 11_01 (kick).
-Validation for picking the best epoch: the HDM05 clips of actor "tr" (also
-not trained on). Writes ``<out>/{ebf,ebd}/model.pt`` and, with --install,
-copies them into src/mocapkit/models/. Prints one JSON object as the last line.
+``--rig acclaim`` (default): the ASF/AMC clips of ../shared/data. Held out
+(never trained on; benchmarks/deep_*.py test on them through :func:`split`):
+every clip of HDM05 actor "mm" and the CMU clips 12 walk, charleston2 and
+11_01 (kick). Validation for picking the best epoch: the HDM05 clips of actor
+"tr". Installs as ``ebf.pt`` / ``ebd.pt``.
+
+``--rig bandai``: the Bandai Namco Research Motiondataset 1 and 2 takes
+(22-joint game rig, 30 fps; ``benchmarks/_bandai.py`` unpacks them outside the
+repository), held out by whole styles (:func:`bandai_split`): test = every
+take of dataset-2 style ``elderly`` and of dataset-1 styles ``old``, ``sad``
+and ``proud``; validation = dataset-1 styles ``tired`` and ``childish``;
+training = every other take. Installs as ``ebf_bandai.pt`` / ``ebd_bandai.pt``
+(CC BY-NC 4.0, as the data: non-commercial).
+
+Writes ``<out>/<rig>/{ebf,ebd}/model.pt`` (checkpoint beside it; a rerun of the
+same command resumes) and, with --install, copies the model into
+src/mocapkit/models/. Prints one JSON object as the last line.
 
     python scripts/train_shipped.py --kind ebf --minutes 30 --install --json
+    python scripts/train_shipped.py --rig bandai --kind ebf --minutes 25 --threads 1 --install
 """
 
 from __future__ import annotations
@@ -24,6 +37,13 @@ ROOT = Path(__file__).resolve().parents[1]
 DATA = ROOT.parent / "shared" / "data"
 TEST_HOLDOUT = ("HDM_mm_", "12_from_examples", "charleston2", "11_01")
 VALIDATION = ("HDM_tr_",)
+#: Bandai Namco styles held out, as (dataset, style): never trained on, never cut.
+BANDAI_TEST = ((2, "elderly"), (1, "old"), (1, "sad"), (1, "proud"))
+BANDAI_VALIDATION = ((1, "tired"), (1, "childish"))
+BANDAI_LICENCE = ("CC BY-NC 4.0: trained on the Bandai Namco Research Motiondataset "
+                  "(Bandai Namco Research Inc.); non-commercial use only")
+INSTALL_NAME = {("acclaim", "ebf"): "ebf.pt", ("acclaim", "ebd"): "ebd.pt",
+                ("bandai", "ebf"): "ebf_bandai.pt", ("bandai", "ebd"): "ebd_bandai.pt"}
 
 
 def corpus():
@@ -40,12 +60,30 @@ def split(files):
     return train, val, test
 
 
+def bandai_split(takes):
+    """(train, validation, test) lists of :class:`_bandai.BandaiTake`, by whole style (module docstring)."""
+    test = [t for t in takes if (t.dataset, t.style) in BANDAI_TEST]
+    val = [t for t in takes if (t.dataset, t.style) in BANDAI_VALIDATION]
+    train = [t for t in takes if t not in test and t not in val]
+    return train, val, test
+
+
+def bandai_takes():
+    sys.path.insert(0, str(ROOT / "benchmarks"))
+    from _bandai import bandai_takes as takes
+
+    return takes()
+
+
 def main() -> None:
     import mocapkit
     from mocapkit.cleaning.deep.training import TrainConfig, train
 
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--kind", choices=("ebf", "ebd"), required=True)
+    ap.add_argument("--rig", choices=("acclaim", "bandai"), default="acclaim",
+                    help="which rig family's corpus and split (module docstring)")
+    ap.add_argument("--every", type=int, default=1, help="train on every N-th training take only (smaller pools)")
     ap.add_argument("--minutes", type=float, default=30.0)
     ap.add_argument("--epochs", type=int, default=400)
     ap.add_argument("--hidden", type=int, default=None)
@@ -66,7 +104,12 @@ def main() -> None:
     a = ap.parse_args()
     if a.threads:
         torch.set_num_threads(a.threads)
-    train_f, val_f, test_f = split(corpus())
+    if a.rig == "bandai":
+        train_t, val_t, test_t = bandai_split(bandai_takes())
+        train_f, val_f, test_f = [t.path for t in train_t], [t.path for t in val_t], [t.path for t in test_t]
+    else:
+        train_f, val_f, test_f = split(corpus())
+    train_f = train_f[::a.every]
     clips = [mocapkit.load(f) for f in train_f]
     val = [mocapkit.load(f) for f in val_f]
     hidden = a.hidden or (64 if a.kind == "ebf" else 32)
@@ -74,15 +117,16 @@ def main() -> None:
                                ("speed_range", tuple(a.speed_range) if a.speed_range else None)) if v is not None}
     cfg = TrainConfig(kind=a.kind, hidden=hidden, epochs=a.epochs, steps_per_epoch=50, minutes=a.minutes, seed=0,
                       bias=a.kind == "ebf" and a.bias, noise_input=a.kind == "ebf" and a.noise_input, **extra)
-    out = Path(a.out) / a.kind
+    out = Path(a.out) / a.kind if a.rig == "acclaim" else Path(a.out) / a.rig / a.kind
     t = time.perf_counter()
-    model = train(clips, out, cfg, validation=val, executor="serial")
+    meta = {"rig": a.rig, "licence": BANDAI_LICENCE} if a.rig == "bandai" else {"rig": a.rig}
+    model = train(clips, out, cfg, validation=val, executor="serial", meta=meta)
     seconds = time.perf_counter() - t
     hist = model.meta["history"]
     if a.install:
-        shutil.copyfile(out / "model.pt", ROOT / "src" / "mocapkit" / "models" / f"{a.kind}.pt")
+        shutil.copyfile(out / "model.pt", ROOT / "src" / "mocapkit" / "models" / INSTALL_NAME[a.rig, a.kind])
     res = {
-        "benchmark": "train_shipped", "kind": a.kind, "hidden": hidden, "bias": cfg.bias, "noise_input": cfg.noise_input, "train_clips": len(clips),
+        "benchmark": "train_shipped", "rig": a.rig, "kind": a.kind, "every": a.every, "hidden": hidden, "bias": cfg.bias, "noise_input": cfg.noise_input, "train_clips": len(clips),
         "train_frames": int(sum(c.num_frames for c in clips)), "validation_clips": len(val),
         "test_clips": [f.name for f in test_f], "epochs_run": len(hist),
         "best_val_rmse": min(h["val_rmse"] for h in hist), "train_seconds_total": model.meta["train_seconds"],

@@ -583,3 +583,15 @@ def test_noise_level_from_observed_samples_ignores_filled_gaps(walk):
     assert naive[150:220, 5].max() < every[99, 5] - 1.0  # measured on the lerp, the gap looks noiseless
     assert np.allclose(observed[100:222, 5], observed[99, 5])  # the last measured level carries through the gap
     assert np.array_equal(observed[:, 4], every[:, 4])  # other channels untouched
+
+
+def test_training_metadata_carries_the_rig_and_licence_into_the_model_file(tmp_path, walk):
+    """A model inherits its training data's licence: ``train(meta=...)`` puts it in the saved file."""
+    cfg = training.TrainConfig(kind="ebf", hidden=8, epochs=1, steps_per_epoch=2, batch=2, crop=40,
+                               noise=("angular:0.5",), variants=1)
+    m = training.train([walk[:160]], tmp_path, cfg, executor="serial", progress=False,
+                       meta={"rig": "bandai", "licence": "CC BY-NC 4.0: non-commercial"})
+    again = deep.load_model(tmp_path / "model.pt")
+    assert m.meta["rig"] == again.meta["rig"] == "bandai"
+    assert deep.licence_note(again) == "the EBF used is CC BY-NC 4.0: non-commercial; --model picks another"
+    assert deep.licence_note(deep.shipped_model("ebf")) == ""  # the Acclaim models carry no restriction

@@ -1,6 +1,9 @@
-"""The shipped EBF and EBD (docs/models.md) on a real clip they never saw: CMU subject 12's walk."""
+"""The shipped EBF and EBD (docs/models.md) on real clips they never saw: CMU subject 12's walk; the Bandai Namco pair on the game rig."""
 
 from __future__ import annotations
+
+import dataclasses
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -99,3 +102,53 @@ def test_shipped_fill_gaps_on_a_motion(walk):
     # the filled joints are close to the truth: mean rotation error on the gap cells well under 10 degrees
     err = np.degrees(metrics.geodesic_pose_distance(walk, out))[mask]
     assert err.mean() < 10.0
+
+
+# -- the Bandai Namco game rig's own models (ebf_bandai.pt, ebd_bandai.pt) ---------------------------------
+
+BANDAI_DATA = Path(__file__).resolve().parents[1] / "data"
+HELD_OUT_STYLES = ("_elderly_", "_old_", "_sad_", "_proud_")  # scripts/train_shipped.py BANDAI_TEST
+
+
+@pytest.fixture(scope="module")
+def dance():
+    """60 frames (2 s, 30 fps) of a dataset-1 dance take: the game rig, 22 joints, Hips carrying the translation."""
+    return mocapkit.load(BANDAI_DATA / "bandai_dance-short_normal_001_first60.bvh")
+
+
+def test_a_bandai_take_gets_the_bandai_models_held_out_by_style_and_non_commercial(dance, walk):
+    for kind in ("ebf", "ebd"):
+        m = deep.shipped_model(kind, dance)
+        assert m.fps == 30.0 and m.meta["rig"] == "bandai" and "CC BY-NC 4.0" in m.meta["licence"]
+        assert not isinstance(deep.served_by(dance, m), str)
+        train, val = m.meta["train_clips"], m.meta["validation_clips"]
+        assert len(train) > 1000 and len(val) > 10
+        assert not any(s in n for n in train + val for s in HELD_OUT_STYLES)  # whole styles kept for the test
+        assert all("_tired_" in n or "_childish_" in n for n in val) and not set(val) & set(train)
+        assert deep.shipped_model(kind, walk) is deep.shipped_model(kind)  # the Acclaim take keeps the Acclaim model
+
+
+def test_bandai_ebf_denoises_and_its_note_names_the_licence(dance):
+    noisy, _ = corrupt.angular_noise(dance, 0.5, seed=7)
+    out, method, note = deep.denoise_or_fallback(noisy)
+    assert method == "EBF (shipped, bandai_namco)" and "CC BY-NC 4.0" in note and "--model" in note
+    before = metrics.joint_angle_rms(dance, noisy, include_root=False)
+    assert metrics.joint_angle_rms(dance, out, include_root=False) < 0.75 * before
+    assert np.array_equal(out.rotations[:, 0], noisy.rotations[:, 0])  # joint_Root untouched
+    # --model picks another: the Acclaim EBF, which does not serve this rig, falls back
+    _, method, note = deep.denoise_or_fallback(noisy, deep.shipped_model("ebf"), label="given")
+    assert method == deep.FALLBACK_DENOISE and "CC BY-NC" not in note
+
+
+def test_bandai_ebd_fills_a_whole_joint_gap_and_keeps_the_observed_cells(dance):
+    rot = np.array(dance.rotations)
+    j = dance.skeleton.joint_names.index("LowerLeg_L")
+    rot[15:45, j] = np.nan  # a 1 s gap of the knee
+    gapped = dataclasses.replace(dance, rotations=rot)
+    out, method, note = deep.fill_or_fallback(gapped)
+    assert method == "EBD (shipped, bandai_namco) + EBF" and "CC BY-NC 4.0" in note
+    assert not out.missing().any()
+    obs = ~gapped.missing()
+    assert np.array_equal(out.rotations[obs], gapped.rotations[obs])
+    err = np.degrees(mocapkit.rotations.geodesic_angle(out.rotations[15:45, j], dance.rotations[15:45, j]))
+    assert float(np.sqrt(np.mean(err**2))) < 20.0

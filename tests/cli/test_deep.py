@@ -10,7 +10,8 @@ from tests.cli.helpers import one_error_line, run
 
 WALK = mocapkit.samples.path("12_walk.amc")
 BVH = mocapkit.samples.path("131_01.bvh")  # the Acclaim skeleton spelled as CMU's 3dsMax-friendly BVH
-BANDAI = Path(__file__).resolve().parents[1] / "data" / "dataset-1_dash_normal_001.bvh"  # a rig nothing ships for
+BANDAI = Path(__file__).resolve().parents[1] / "data" / "dataset-1_dash_normal_001.bvh"  # the Bandai models serve it
+OTHER = Path(__file__).resolve().parents[1] / "data" / "pybvh_test1_zup.bvh"  # a rig nothing ships for
 
 
 def _gappy(motion, path, seed=2):
@@ -20,14 +21,14 @@ def _gappy(motion, path, seed=2):
 
 
 def test_the_three_commands_agree_on_a_rig_the_networks_do_not_serve(tmp_path):
-    """denoise, fill and clean on the Bandai Namco rig: the same fallbacks, the same message, exit 0."""
-    take = mocapkit.load(BANDAI)
+    """denoise, fill and clean on a rig nothing ships for: the same fallbacks, the same message, exit 0."""
+    take = mocapkit.load(OTHER)
     gin = tmp_path / "gaps.npz"
     gapped = _gappy(take, gin)
-    code, out_d, err = run("denoise", str(BANDAI), "-o", str(tmp_path / "d.bvh"))
+    code, out_d, err = run("denoise", str(OTHER), "-o", str(tmp_path / "d.bvh"))
     assert code == 0, err
     text = " ".join(out_d.split())
-    assert f"warning: {BANDAI}: Savitzky-Golay: the shipped EBF does not serve this rig" in text
+    assert f"warning: {OTHER}: Savitzky-Golay: the shipped EBF does not serve this rig" in text
     assert "Savitzky-Golay (0.1 s)" in text and (tmp_path / "d.bvh").is_file()
     code, out_f, err = run("fill", str(gin), "-o", str(tmp_path / "f.npz"))
     assert code == 0, err
@@ -111,8 +112,8 @@ def test_denoise_and_fill_commands(tmp_path):
 
 
 def test_deep_commands_fail_in_one_line(tmp_path):
-    code, _, err = run("denoise", str(BANDAI), "-o", str(tmp_path / "x.bvh"), "--no-fallback")
-    assert code == 2 and one_error_line(err) and "does not serve this rig" in err and BANDAI.name in err
+    code, _, err = run("denoise", str(OTHER), "-o", str(tmp_path / "x.bvh"), "--no-fallback")
+    assert code == 2 and one_error_line(err) and "does not serve this rig" in err and OTHER.name in err
     assert not (tmp_path / "x.bvh").exists()
     bad = tmp_path / "model.pt"
     bad.write_bytes(b"not a model")
@@ -162,3 +163,19 @@ def test_train_command_cross_validates_on_folds(tmp_path):
     assert "2 holdouts: validation RMS" in stdout
     code, _, err = run("train", "gapfiller", *clips, "-o", str(out), "--folds", "3", "--holdout", "1")
     assert code == 2 and one_error_line(err) and "need more than" in err
+
+
+def test_a_bandai_take_is_denoised_by_the_bandai_ebf_with_its_licence_line(tmp_path):
+    """The rig family picks the shipped model; its licence (CC BY-NC) is said where it is used; --model overrides."""
+    noisy, _ = corrupt.angular_noise(mocapkit.load(BANDAI), 0.5, seed=3)
+    src = tmp_path / "noisy.bvh"
+    mocapkit.save(noisy, src)
+    code, out, err = run("denoise", str(src), "-o", str(tmp_path / "d.bvh"))
+    assert code == 0, err
+    text = " ".join(out.split())
+    assert "denoised by EBF (shipped, bandai_namco)" in text and "CC BY-NC 4.0" in text and "--model" in text
+    acclaim = Path(mocapkit.__file__).parent / "models" / "ebf.pt"
+    code, out, err = run("denoise", str(src), "-o", str(tmp_path / "e.bvh"), "--model", str(acclaim))
+    assert code == 0, err
+    text = " ".join(out.split())
+    assert "Savitzky-Golay" in text and "CC BY-NC" not in text

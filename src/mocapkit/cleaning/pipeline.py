@@ -421,8 +421,8 @@ def _deep_model(models: dict, kind: str):
     from . import deep
 
     m = models.get(kind)
-    if m is None:
-        return deep.shipped_model(kind), "shipped"
+    if m is None:  # the shipped model for the take's rig family (deep.shipped_model), chosen by deep.served_by
+        return None, "shipped"
     if isinstance(m, (str, Path)):
         return deep.load_model(m), Path(m).name
     return m, "given"

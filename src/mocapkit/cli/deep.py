@@ -44,7 +44,7 @@ def _served(inp: Path, motion, net, kind: str, no_fallback: bool):
     from ..cleaning import deep
 
     if no_fallback:
-        sv = deep.served_by(motion, net if net is not None else deep.shipped_model(kind))
+        sv = deep.served_by(motion, net if net is not None else deep.shipped_model(kind, motion))
         if isinstance(sv, str):
             raise MocapError(f"{inp}: the {'given' if net is not None else 'shipped'} {kind.upper()} does not serve "
                              f"this rig ({sv})")

@@ -13,6 +13,7 @@ from .channels import ChannelLayout, layout_for
 from .inference import (
     FALLBACK_DENOISE,
     FALLBACK_FILL,
+    SHIPPED_FOR_RIG,
     DeepModel,
     Denoiser,
     denoise,
@@ -23,6 +24,7 @@ from .inference import (
     fill_gaps,
     fill_or_fallback,
     lerp_fill,
+    licence_note,
     load_model,
     save_model,
     shipped_model,
@@ -33,6 +35,8 @@ from .retarget import Serving, served_by
 __all__ = [
     "FALLBACK_DENOISE",
     "FALLBACK_FILL",
+    "SHIPPED_FOR_RIG",
+    "licence_note",
     "Serving",
     "served_by",
     "denoise_or_fallback",

@@ -54,6 +54,8 @@ __all__ = [
     "save_model",
     "load_model",
     "shipped_model",
+    "SHIPPED_FOR_RIG",
+    "licence_note",
     "denoise",
     "fill_gaps",
     "denoise_channels",
@@ -70,6 +72,8 @@ __all__ = [
 
 FORMAT = "mocapkit.deep/1"
 SHIPPED = {"ebf": "ebf.pt", "ebd": "ebd.pt"}
+#: The shipped models of the other rig families (docs/models.md), offered after the Acclaim ones.
+SHIPPED_FOR_RIG = {"bandai_namco": {"ebf": "ebf_bandai.pt", "ebd": "ebd_bandai.pt"}}
 
 
 @dataclass(frozen=True)
@@ -138,21 +142,46 @@ def load_model(path) -> DeepModel:
     return DeepModel(kind, net, layout, fps, meta)
 
 
-@lru_cache(maxsize=4)
-def shipped_model(kind: str = "ebf") -> DeepModel:
-    """The pretrained EBF or EBD inside the package (see docs/models.md)."""
-    if kind not in SHIPPED:
-        raise ValueError(f"kind must be one of {tuple(SHIPPED)}, got {kind!r}")
-    ref = resources.files("mocapkit") / "models" / SHIPPED[kind]
+@lru_cache(maxsize=8)
+def _packaged(name: str) -> DeepModel:
+    ref = resources.files("mocapkit") / "models" / name
     with resources.as_file(ref) as p:
         return load_model(p)
 
 
-def _model(model, kind: str) -> DeepModel:
+def shipped_model(kind: str = "ebf", take=None) -> DeepModel:
+    """The pretrained EBF or EBD inside the package (see docs/models.md) for ``take``'s rig.
+
+    Without ``take`` (a Motion or Skeleton): the Acclaim-rig model (``ebf.pt``
+    / ``ebd.pt``). With it: the first shipped model of ``kind`` that
+    :func:`served_by` says serves the take (the Acclaim one, directly or
+    through its joint map, then each rig family's own model in
+    :data:`SHIPPED_FOR_RIG`, e.g. ``ebf_bandai.pt`` for the Bandai Namco game
+    rig); the Acclaim one when none does, so the fallback's reason is its.
+    """
+    if kind not in SHIPPED:
+        raise ValueError(f"kind must be one of {tuple(SHIPPED)}, got {kind!r}")
+    first = _packaged(SHIPPED[kind])
+    if take is None or not isinstance(served_by(take, first), str):
+        return first
+    for files in SHIPPED_FOR_RIG.values():
+        other = _packaged(files[kind])
+        if not isinstance(served_by(take, other), str):
+            return other
+    return first
+
+
+def licence_note(model: DeepModel) -> str:
+    """One line naming a model's licence when it restricts use (a model inherits its training data's), else ""."""
+    lic = model.meta.get("licence", "") if isinstance(model.meta, dict) else ""
+    return f"the {model.kind.upper()} used is {lic}; --model picks another" if lic else ""
+
+
+def _model(model, kind: str, take=None) -> DeepModel:
     if isinstance(model, Serving):
         model = model.model
     if model is None:
-        return shipped_model(kind)
+        return shipped_model(kind, take)
     if isinstance(model, (str, Path)):
         model = load_model(model)
     if not isinstance(model, DeepModel) or model.kind != kind:
@@ -168,7 +197,7 @@ def serving(motion: Motion, model, kind: str) -> Serving:
     """
     if isinstance(model, Serving):
         return model
-    m = _model(model, kind)
+    m = _model(model, kind, motion)
     s = served_by(motion, m)
     if isinstance(s, str):
         raise SkeletonError(s)
@@ -480,6 +509,8 @@ def fill_gaps(motion: Motion, model=None, denoiser=None, smooth: bool = True) ->
         return motion
     src = motion if sv.direct else _hold_unmapped(motion, sv, missing)
     values, ctx = encode_served(src, sv)
+    if smooth:  # the shipped EBF for this take's rig when none is given
+        denoiser = _model(denoiser, "ebf", motion)
     out = fill_channels(values, ctx, m, denoiser, fps=motion.fps, smooth=smooth)
     res = decode_served(out, src, sv, keep=~missing)
     rot = np.array(res.rotations)
@@ -513,7 +544,8 @@ def _fallback_note(method: str, kind: str, label: str, why: str) -> str:
 
 
 def _method(kind: str, label: str, sv: Serving) -> str:
-    via = "" if sv.direct else f", via the {sv.family} joint map"
+    rig = sv.model.meta.get("rig", "acclaim") if isinstance(sv.model.meta, dict) else "acclaim"
+    via = (f", {sv.family}" if rig != "acclaim" else "") if sv.direct else f", via the {sv.family} joint map"
     return f"{kind.upper()} ({label}{via})"
 
 
@@ -525,21 +557,24 @@ def fill_or_fallback(motion: Motion, model=None, denoiser=None, smooth: bool = T
     when ``smooth`` and the EBF serves it too); where it does not, or a
     channel the network needs is never observed, the cubic interpolating
     spline of :func:`mocapkit.cleaning.gapfill.fill_motion` fills every gap.
-    Returns ``(motion, method, note)``: ``note`` is "" with the networks, else
-    one line saying which fallback ran and why. ``label`` names the model in
+    Returns ``(motion, method, note)``: ``note`` is "" with the networks
+    (or one line naming a restrictive licence of the model used, e.g. the
+    non-commercial Bandai Namco models: :func:`licence_note`), else one line
+    saying which fallback ran and why. ``label`` names the model in
     both ("shipped", a file name). A take without gaps is returned as is.
     """
     from ..gapfill import fill_motion
 
     if not motion.missing().any():
         return motion, "nothing (no gaps)", ""
-    sv = served_by(motion, _model(model, "ebd"))
+    sv = served_by(motion, _model(model, "ebd", motion))
     if not isinstance(sv, str):
-        ebf = served_by(motion, _model(denoiser, "ebf")) if smooth else "not asked"
+        ebf = served_by(motion, _model(denoiser, "ebf", motion)) if smooth else "not asked"
         smooth = not isinstance(ebf, str)
         try:
             out = fill_gaps(motion, sv, ebf if smooth else None, smooth=smooth)
-            return out, _method("ebd", label, sv) + (" + EBF" if smooth else ""), ""
+            notes = dict.fromkeys(n for n in (licence_note(sv.model), licence_note(ebf.model) if smooth else "") if n)
+            return out, _method("ebd", label, sv) + (" + EBF" if smooth else ""), "; ".join(notes)
         except ValueError as exc:
             why = str(exc)
     else:
@@ -557,9 +592,9 @@ def denoise_or_fallback(motion: Motion, model=None, cells: np.ndarray | None = N
     """
     from ..filters import savgol_smooth
 
-    sv = served_by(motion, _model(model, "ebf"))
+    sv = served_by(motion, _model(model, "ebf", motion))
     if not isinstance(sv, str):
-        return denoise(motion, sv, cells=cells), _method("ebf", label, sv), ""
+        return denoise(motion, sv, cells=cells), _method("ebf", label, sv), licence_note(sv.model)
     J = motion.skeleton.num_joints
     if cells is None:
         cells = np.zeros((motion.num_frames, J), dtype=bool)
@@ -607,7 +642,7 @@ class Denoiser:
     """
 
     def __init__(self, skeleton: Skeleton, fps: float, model=None):
-        m = _model(model, "ebf")
+        m = _model(model, "ebf", skeleton)
         if m.layout.representation != "euler":
             raise ValueError("streaming needs an Euler-channel model")
         sv = served_by(skeleton, m)
@@ -840,7 +875,7 @@ def _root_quaternion(skeleton: Skeleton, rows: np.ndarray, root_cols: np.ndarray
 
 def denoise_rows(skeleton: Skeleton, rows: np.ndarray, fps: float, model=None) -> np.ndarray:
     """Offline EBF on file-channel rows (F, C_file), the batch counterpart of :class:`Denoiser`."""
-    m = _model(model, "ebf")
+    m = _model(model, "ebf", skeleton)
     m.layout.check(skeleton, "skeleton")
     rows = np.asarray(rows, dtype=np.float64)
     cols = euler_columns(skeleton)

@@ -454,13 +454,16 @@ def train(
     resume: bool = True,
     executor=None,
     progress: bool = True,
+    meta: dict | None = None,
 ) -> DeepModel:
     """Train an EBF or EBD on ``clips``; returns the best model (also written to ``out_dir/model.pt``).
 
     ``out_dir/checkpoint.pt`` holds the weights, optimiser state and history
     after each epoch; with ``resume`` an existing checkpoint of the same
     config continues where it stopped. ``executor``: where the noisy pools are
-    made (:func:`mocapkit.parallel.map_ordered`).
+    made (:func:`mocapkit.parallel.map_ordered`). ``meta``: extra entries for
+    the model's metadata (e.g. ``{"rig": "bandai", "licence": "CC BY-NC 4.0 ..."}``:
+    a model inherits the licence of the takes it was trained on).
     """
     from ...parallel import map_ordered
 
@@ -534,7 +537,7 @@ def train(
                         "lr": opt.param_groups[0]["lr"], "seconds": time.perf_counter() - te})
         meta = {"config": dataclasses.asdict(cfg), "train_clips": [c.name for c in clips],
                 "validation_clips": [c.name for c in (validation or [])], "history": history,
-                "train_seconds": time.perf_counter() - t0, "torch": torch.__version__}
+                "train_seconds": time.perf_counter() - t0, "torch": torch.__version__, **(meta or {})}
         if v < best:
             best = v
             save_model(DeepModel(cfg.kind, net, layout, fps, meta), out_dir / "model.pt")
