@@ -390,3 +390,23 @@ def test_selected_markers_drop_the_descriptions_of_others_and_trc_frame_numbers_
     assert trc.source.first_frame == 101
     again = load_markers(save_markers(trc, tmp_path / "part.c3d"))
     assert again.source.first_frame == 101
+
+
+def test_a_non_standard_file_does_not_make_ezc3d_take_gigabytes(shared_data):
+    """c3d.org sample22 BKINtechnologies.c3d (583 KB): ezc3d touched 12 GB before refusing it; under the
+    address-space budget its allocation fails at once and the fallback reader reads the 5,065 frames."""
+    f = shared_data / PEER / "BTKData/Input/C3DSamples/c3d.org/sample22/BKINtechnologies.c3d"
+    if not f.is_file():
+        pytest.skip("peer_files not present")
+    code = f"""
+    from mocapkit.io import load_markers
+    ms = load_markers({str(f)!r})
+    hwm = [int(l.split()[1]) for l in open('/proc/self/status') if l.startswith('VmHWM')][0]
+    print(ms.num_frames, ms.num_markers, ms.reader, hwm // 1024)
+    """
+    from tests.io.bounded import run_bounded
+
+    res = run_bounded(code, limit=64 * 2**30)  # a cap far above what the budget allows: the budget must hold
+    frames, markers, reader, peak_mb = res.stdout.split()
+    assert (int(frames), int(markers), reader) == (5065, 2, "c3d"), res.stderr
+    assert int(peak_mb) < 1024, f"peak resident memory {peak_mb} MB"

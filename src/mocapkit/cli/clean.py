@@ -92,6 +92,10 @@ def clean(
                      f"({100.0 * (1 - res.changed.mean()):.1f} % untouched)"))
     for line in res.summary():
         console.print(f"  {line}")
+    said = " ".join(s.note for s in res.steps)
+    for note in res.notes:  # the fallbacks, word for word as denoise and fill say them
+        if note in said:
+            console.print(f"warning: {inp}: {note}")
     if res.detection is not None:
         segs = res.detection.segments()
         for j, a, b in segs[:12]:

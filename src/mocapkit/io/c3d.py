@@ -21,6 +21,7 @@ from __future__ import annotations
 import re
 import struct
 import warnings
+from contextlib import contextmanager
 from pathlib import Path
 
 import numpy as np
@@ -72,10 +73,44 @@ def _ezc3d_parameters(c) -> dict:
     return out
 
 
+@contextmanager
+def _address_space_budget(extra: int):
+    """Cap this process's address space at its current size + ``extra`` bytes while the block runs (Linux).
+
+    ezc3d (C++) allocates what a non-standard file's fields claim before it
+    finds the file malformed: a 583 KB c3d.org sample (sample22
+    BKINtechnologies.c3d) made it touch 12 GB before it gave up. Under the cap
+    such an allocation fails at once (``bad_alloc``, a Python exception) and
+    the file goes to the fallback reader. Where the limit cannot be read or
+    set, nothing is capped.
+    """
+    try:
+        import resource
+
+        soft, hard = resource.getrlimit(resource.RLIMIT_AS)
+        with open("/proc/self/statm") as fh:
+            size = int(fh.read().split()[0]) * resource.getpagesize()
+        cap = size + int(extra)
+        if soft != resource.RLIM_INFINITY and soft <= cap:
+            cap = None
+        elif hard != resource.RLIM_INFINITY:
+            cap = min(cap, hard)
+        if cap is not None:
+            resource.setrlimit(resource.RLIMIT_AS, (cap, hard))
+    except (ImportError, OSError, ValueError):
+        cap = None
+    try:
+        yield
+    finally:
+        if cap is not None:
+            resource.setrlimit(resource.RLIMIT_AS, (soft, hard))
+
+
 def _read_ezc3d(path: Path):
     import ezc3d
 
-    c = ezc3d.c3d(str(path))
+    with _address_space_budget(max(1 << 30, 64 * path.stat().st_size)):
+        c = ezc3d.c3d(str(path))
     pts = c["data"]["points"]  # (4, M, F)
     n = pts.shape[1]
     params = c["parameters"]["POINT"]
