@@ -133,7 +133,8 @@ def main(argv=None) -> int:
 
     # database preparation (features, root frames, kd-tree) is cached per (db, markers): time it once
     t0 = time.perf_counter()
-    M._marker_database(db, tuple(MARKERS), np.array([0.0, 1.0, 0.0]))
+    # on the performer's skeleton, as reconstruct(skeleton=...) uses it (every mm clip has mm's ASF)
+    M._marker_database(db, tuple(MARKERS), np.array([0.0, 1.0, 0.0]), mocapkit.load(chosen[0]).skeleton)
     prep_s = time.perf_counter() - t0
 
     rows = []
