@@ -23,7 +23,7 @@ from pathlib import Path
 REPO = Path(__file__).resolve().parents[1]
 ARCHIVE = REPO.parent / "shared" / "data" / "bandai_namco_full" / "bandai_namco.tar.xz"
 
-__all__ = ["BandaiTake", "bandai_root", "bandai_takes"]
+__all__ = ["BandaiTake", "bandai_root", "bandai_takes", "split_by_style", "HELD_OUT_D2"]
 
 
 @dataclass(frozen=True)
@@ -77,3 +77,15 @@ def bandai_takes(root: Path | None = None) -> list[BandaiTake]:
     if not out:
         raise SystemExit(f"{root}: no Bandai Namco takes found under dataset/*/data/")
     return out
+
+
+#: dataset-2 styles held out of the large database (with every dataset-1 style that dataset-2 lacks)
+HELD_OUT_D2 = ("elderly",)
+
+
+def split_by_style(takes):
+    """(database takes, held-out takes): dataset-2 ``elderly`` and the dataset-1 styles absent from dataset-2 held out."""
+    d2_styles = {t.style for t in takes if t.dataset == 2}
+    held = [t for t in takes if (t.dataset == 2 and t.style in HELD_OUT_D2) or (t.dataset == 1 and t.style not in d2_styles)]
+    held_set = {t.path for t in held}
+    return [t for t in takes if t.path not in held_set], held

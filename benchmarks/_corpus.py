@@ -23,13 +23,15 @@ from __future__ import annotations
 import dataclasses
 import hashlib
 import json
+import os
 import sys
 from pathlib import Path
 
 import numpy as np
 
 REPO = Path(__file__).resolve().parents[1]
-DEFAULT_DATA = REPO.parent / "shared" / "data"
+# the real data beside the repository; $MOCAPKIT_SHARED_DATA for a checkout elsewhere (a git worktree)
+DEFAULT_DATA = Path(os.environ.get("MOCAPKIT_SHARED_DATA", REPO.parent / "shared" / "data"))
 CACHE = REPO / "benchmarks" / ".cache"
 
 sys.path.insert(0, str(REPO / "src"))

@@ -23,8 +23,10 @@ kd-tree rebuilt over the readings.
 
 Test: ``--takes`` held-out takes (evenly spread over the held-out list, both
 datasets), each its first ``--frames`` frames (evaluation time only; the split
-is by style). Parameters: K = 256 neighbours and I = 4 paths
-(:data:`VALIDATED`, chosen by ``--validate``); mocapkit's defaults (K = 1 %
+is by style). Parameters: K = 256 neighbours, I = 2 paths, approximate
+kd-tree search (eps = 1), the thesis' one-sample search key (:data:`VALIDATED`,
+chosen by ``--validate``; a key with 0.3 s of history did not do better there);
+mocapkit's defaults (K = 1 %
 of the frames, I = K / 16) are reported beside them. The four default sensors (wrists, ankles) are simulated on them
 (:func:`mocapkit.features.virtual_accelerometers`). Error: RMS joint-position
 error of the body below the pelvis, pelvis position and heading removed, the
@@ -61,7 +63,7 @@ from pathlib import Path  # noqa: E402
 import numpy as np  # noqa: E402
 
 import _harness as harness  # noqa: E402
-from _bandai import bandai_takes  # noqa: E402
+from _bandai import bandai_takes, split_by_style  # noqa: E402
 
 import mocapkit  # noqa: E402
 from mocapkit import metrics  # noqa: E402
@@ -73,7 +75,6 @@ from mocapkit.reconstruct import accelerometers as A  # noqa: E402
 from mocapkit.reconstruct._common import body_motion  # noqa: E402
 
 FPS = 30.0
-HELD_OUT_D2 = ("elderly",)
 VALIDATION_D2 = "exhausted"
 CACHE = Path.home() / ".cache" / "mocapkit" / "accel_bandai"
 
@@ -84,10 +85,7 @@ def log(*a):
 
 def split(takes):
     """(knowledge-base takes, held-out takes): dataset-2 ``elderly`` and dataset-1 styles absent from dataset-2 held out."""
-    d2_styles = {t.style for t in takes if t.dataset == 2}
-    held = [t for t in takes if (t.dataset == 2 and t.style in HELD_OUT_D2) or (t.dataset == 1 and t.style not in d2_styles)]
-    held_set = {t.path for t in held}
-    return [t for t in takes if t.path not in held_set], held
+    return split_by_style(takes)
 
 
 def peak_rss_mb() -> dict:
@@ -189,7 +187,7 @@ def build(train, reuse: bool, cache: Path = CACHE):
     t1 = time.perf_counter()
     kb = A.knowledge_base(db, cache_dir=kb_dir)
     t2 = time.perf_counter()
-    kb.index("kdtree")
+    kb.index("kdtree", VALIDATED.get("history", (0,)))
     t3 = time.perf_counter()
     info["open_db_s"], info["open_kb_s"], info["kdtree_rebuild_s"] = t1 - t0, t2 - t1, t3 - t2
     info["kb_memory_mapped"] = isinstance(kb.readings, np.memmap)
@@ -197,10 +195,19 @@ def build(train, reuse: bool, cache: Path = CACHE):
     return db, kb, info
 
 
-#: K and I chosen by ``--validate`` (dataset-2 exhausted): the lowest validation error of the sweep.
-VALIDATED = {"k": 256, "n_paths": 4}
-#: (K, I) pairs of the validation sweep; None: mocapkit's default.
-SWEEP = ((None, None), (1024, None), (256, None), (None, 16), (1024, 8), (256, 4), (128, None), (64, None), (512, 4), (128, 4), (64, 4), (256, 2), (256, 8))
+#: K, I, the search key's history and the kd-tree's eps chosen by ``--validate`` (dataset-2 exhausted): the lowest validation error of the sweep.
+VALIDATED = {"k": 256, "n_paths": 2, "eps": 1.0}
+#: The validation sweep: overrides of mocapkit's defaults (K = 1 % of the frames, I = K / 16, one-sample key, exact search).
+SWEEP = ({}, {"k": 1024}, {"k": 256}, {"n_paths": 16}, {"k": 1024, "n_paths": 8}, {"k": 256, "n_paths": 4},
+         {"k": 128}, {"k": 64}, {"k": 512, "n_paths": 4}, {"k": 128, "n_paths": 4}, {"k": 64, "n_paths": 4},
+         {"k": 256, "n_paths": 2}, {"k": 256, "n_paths": 8},
+         # the search key with 0.3 s of history (approximate kd-tree search: exact search in 48-D is 10x slower)
+         {"k": 256, "n_paths": 4, "eps": 1.0}, {"k": 256, "n_paths": 2, "eps": 1.0},
+         {"k": 256, "n_paths": 4, "history": (0, 3, 6, 9), "eps": 1.0},
+         {"k": 256, "n_paths": 2, "history": (0, 3, 6, 9), "eps": 1.0},
+         {"k": 256, "n_paths": 1, "history": (0, 3, 6, 9), "eps": 1.0},
+         {"k": 256, "n_paths": 2, "history": (0, 5, 10), "eps": 1.0},
+         {"k": 256, "n_paths": 1, "history": (0, 4, 8), "eps": 1.0})
 
 
 def validate(args, train) -> None:
@@ -210,10 +217,9 @@ def validate(args, train) -> None:
     db, kb, info = build(fit, args.reuse, CACHE / "validate")
     picks = [val[int(i)] for i in np.unique(np.linspace(0, len(val) - 1, args.takes).round().astype(int))]
     sweep = {}
-    for k, n in SWEEP:
-        params = {"k": k, "n_paths": n}
+    for params in SWEEP:
         rows = [run_take(db, t, args.frames, params, oracle=False) for t in picks]
-        name = f"K={rows[0]['k']} I={rows[0]['paths']}"
+        name = f"K={rows[0]['k']} I={rows[0]['paths']}" + "".join(f" {key}={v}" for key, v in params.items() if key not in ("k", "n_paths"))
         sweep[name] = {"heading_cm": float(np.mean([r["ours_heading_cm"] for r in rows])),
                        "nn_heading_cm": float(np.mean([r["nn_heading_cm"] for r in rows])),
                        "ms_per_frame": float(np.median(np.concatenate([r["ms_per_frame"] for r in rows])))}

@@ -3,14 +3,16 @@
 Usage::
 
     python benchmarks/reconstruct_markers_loo.py [--quick] [--json] [--k 256] [--clips-per-class 2] [--max-frames 150]
+        [--bandai-styles elderly,angry,...] [--bandai-takes 2]
 
 The same as ``python benchmarks/reconstruct_markers.py --leave-one-out``
 (see that script for the scenario, the figures and the baselines): each of
 the five HDM05 actors held out in turn, the database the other four actors'
 clips of all 11 classes; per held-out actor the mean error on locomotion (jog,
 sneak, hop) and on all classes, beside the nearest-neighbour baseline and the
-previous default ``k=128`` in the same run. Target: <= 2.0 cm on locomotion
-for every held-out actor.
+previous default ``k=128`` in the same run; then held-out Bandai Namco styles
+with the large database (the figure per style). Target: <= 2.0 cm on
+locomotion for every held-out actor and style.
 """
 
 from __future__ import annotations

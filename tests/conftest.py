@@ -1,11 +1,13 @@
 """Shared fixtures: where the curated real data lives, and a small random motion for maths tests."""
 
+import os
 from pathlib import Path
 
 import numpy as np
 import pytest
 
-SHARED_DATA = Path(__file__).resolve().parents[1].parent / "shared" / "data"
+# ../shared/data beside the checkout; $MOCAPKIT_SHARED_DATA for a checkout elsewhere (a git worktree)
+SHARED_DATA = Path(os.environ.get("MOCAPKIT_SHARED_DATA", Path(__file__).resolve().parents[1].parent / "shared" / "data"))
 
 
 @pytest.fixture(scope="session")

@@ -107,3 +107,22 @@ def test_reconstruct_fails_in_one_line(tmp_path, db_dir):
     code, _, err = run("reconstruct", "--db", str(db_dir), "--accelerometers", str(bad), "-o", str(out))
     assert code == 2 and one_error_line(err) and "left_knee" in err
     assert not out.exists()
+
+
+def test_markers_on_the_bandai_rig(tmp_path):
+    """The sixth default marker is the pelvis by its role (Hips), and the result is the take's body."""
+    from pathlib import Path
+
+    from mocapkit.reconstruct._common import body_motion
+
+    clip = Path(__file__).resolve().parents[1] / "data" / "bandai_dance-short_normal_001_first60.bvh"
+    d = tmp_path / "db"
+    code, _, err = run("db", "build", str(d), str(clip), "--fps", "30", "--executor", "serial")
+    assert code == 0, err
+    out = tmp_path / "rec.bvh"
+    code, stdout, err = run("reconstruct", "--db", str(d), "--markers", str(clip), "-o", str(out))
+    assert code == 0, err
+    assert "6 markers" in stdout
+    rec, take = mocapkit.load(out), mocapkit.load(clip)
+    a, b = body_motion(rec).global_positions(), body_motion(take).global_positions()
+    assert np.linalg.norm(a - b, axis=-1).mean() < 2.0  # cm: its own frames are in the database

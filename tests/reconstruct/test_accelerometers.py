@@ -332,3 +332,35 @@ def test_open_knowledge_base_names_a_bad_folder(tmp_path):
 
     with pytest.raises(MocapFormatError, match="knowledge base"):
         A.open_knowledge_base(tmp_path)
+
+
+# -- the search key with history -----------------------------------------------------------------------------
+
+
+def test_stacked_readings_clamp_lags_at_each_clip_start():
+    rd = np.arange(30, dtype=np.float64).reshape(10, 3)
+    cid = np.array([0, 0, 0, 0, 1, 1, 1, 1, 1, 1])
+    out = knowledge.stacked_readings(rd, cid, (0, 2))
+    assert out.shape == (10, 6)
+    np.testing.assert_array_equal(out[:, :3], rd)
+    np.testing.assert_array_equal(out[:, 3:], rd[[0, 0, 0, 1, 4, 4, 4, 5, 6, 7]])
+    np.testing.assert_array_equal(knowledge.stacked_readings(rd, None, (0, 2))[:, 3:], rd[[0, 0, 0, 1, 2, 3, 4, 5, 6, 7]])
+
+
+def test_history_key_of_a_database_clip_finds_its_own_frames(db):
+    """The stream's key (this sample, 3 and 6 database frames back, its first sample before that) is the knowledge base's."""
+    a, b = db.clip_range(1)
+    rec = A.AccelerometerReconstructor(db, 25, k=8, n_paths=2, history=(0, 3, 6))
+    own = np.asarray(rec.kb.readings[a:b]).reshape(b - a, -1, 3)
+    for t in range(12):
+        rec.push(own[t])
+        key = np.concatenate([own[max(t - g, 0)].ravel() for g in (0, 3, 6)])
+        dist, idx = rec.index.query(key[None], k=1)
+        assert idx[0, 0] == a + t and dist[0, 0] < 1e-9
+        assert a + t in rec.last_info["frames"]
+
+
+def test_history_must_be_lags():
+    for bad in ((), (0, -1), "03", (0, 1.5)):
+        with pytest.raises(ValueError, match="history"):
+            A.synthesis._check_params({"history": bad})

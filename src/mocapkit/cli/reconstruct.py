@@ -16,9 +16,11 @@ SIX_MARKERS = ("left_hand", "right_hand", "left_foot", "right_foot", "head")
 
 def _default_use(sk) -> str:
     from ..motion import find_joint
+    from ..rigs import pelvis_index
 
     try:
-        return ",".join([sk.joint_names[find_joint(sk, role)] for role in SIX_MARKERS] + [sk.joint_names[0]])
+        # the sixth marker on the pelvis by its role (Bandai Namco: Hips, not the floor-bound joint_Root)
+        return ",".join([sk.joint_names[find_joint(sk, role)] for role in SIX_MARKERS] + [sk.joint_names[pelvis_index(sk)]])
     except KeyError as exc:
         raise MocapError(f"{exc.args[0]}; give the markers with --use LABEL=JOINT,...") from None
 

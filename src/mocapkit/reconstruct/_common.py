@@ -16,7 +16,7 @@ import numpy as np
 
 from .. import rotations as R
 from ..database import MotionDatabase
-from ..features import virtual_markers
+from ..features import find_up_axis, virtual_markers
 from ..motion import Motion, Skeleton
 from ..rigs import pelvis_index
 
@@ -38,6 +38,13 @@ def database_positions(db: MotionDatabase, names) -> np.ndarray:
     """Global positions (N, M, 3) of joints or end sites ``names`` in every database frame, file units."""
     names = list(names)
     return per_clip(db, lambda m: virtual_markers(m, names))
+
+
+def database_up(db: MotionDatabase, clips: int = 16) -> np.ndarray:
+    """The vertical axis (3,) of ``db``'s motion, not of its rest pose (a game rig's T-pose may lie along another axis): :func:`~mocapkit.features.find_up_axis` over the frames of up to ``clips`` clips spread over it."""
+    picks = np.unique(np.linspace(0, db.num_clips - 1, min(clips, db.num_clips)).round().astype(int))
+    pos = np.concatenate([db.clip(int(c)).global_positions() for c in picks], axis=0)
+    return find_up_axis(db.skeletons[0], pos)
 
 
 def output_skeleton(db: MotionDatabase, skeleton: Skeleton | None) -> Skeleton:
@@ -201,3 +208,4 @@ def whole_motion(body: Motion, skeleton: Skeleton, up: np.ndarray) -> Motion:
     else:
         root = pelvis - (rest[p] - rest[0])
     return Motion(skeleton, rot, root, body.fps, body.name, tr)
+

@@ -55,8 +55,20 @@ pull on beats a tight one of 10-20 components. ``k=256`` was chosen over 64,
 held out; ``benchmarks/reconstruct_markers.py --leave-one-out``).
 
 Forward kinematics runs on the performer's skeleton (``skeleton``), so bone
-lengths are the performer's; the database's skeletons only give the features
-and the pose statistics. Frames with no marker at all keep the previous local
+lengths are the performer's. When ``skeleton`` is given, the database's
+control features are those of its poses *on the performer's bones*
+(:func:`retarget_clip`: the local rotations kept, the pelvis height scaled by
+the ratio of the rest-pose pelvis heights), so a tall performer's markers are
+compared with database poses struck by a body of his size; the pose
+statistics are the database's local rotations.
+
+Rigs: the method works on the *body*, the pelvis (found by its role,
+:func:`mocapkit.rigs.pelvis_index`) and the joints below it
+(:func:`._common.body_motion`); on the Bandai Namco game rig, whose root
+``joint_Root`` stays on the floor while ``Hips`` carries the translation, the
+joints above the pelvis are put back on output (the root on the ground under
+the pelvis, :func:`._common.whole_motion`). The vertical axis comes from the
+database's frames (:func:`._common.database_up`), not from the rest pose. Frames with no marker at all keep the previous local
 model and are carried by the prior and the smoothness term (an
 extrapolation at constant velocity); frames before the first frame with three
 observed markers copy that frame's pose.
@@ -96,10 +108,12 @@ from tqdm.auto import tqdm
 from .. import rotations as R
 from .._numba_quaternions import qexp, qmul, qrot
 from ..database import MotionDatabase
-from ..features import parse_up_axis, detect_up_axis, root_frame, virtual_markers
+from ..features import parse_up_axis, root_frame, virtual_markers
 from ..motion import Motion, Skeleton, unit_scale_cm
 from ..search.knn import KNNIndex
-from ._common import align_about_vertical, database_positions, output_skeleton, per_clip
+from ..rigs import pelvis_index
+from ._common import (align_about_vertical, database_up, body_joints, body_motion, body_skeleton, output_skeleton, per_clip,
+                      whole_motion)
 
 __all__ = ["reconstruct", "nearest_neighbor", "marker_residuals"]
 
@@ -115,36 +129,78 @@ _MIN_HEIGHT_STD_CM = 2.0  # floor of the neighbours' root-height spread in the h
 
 @dataclass(frozen=True, eq=False)
 class _MarkerDatabase:
-    """Per-frame values of one database for one marker set."""
+    """Per-frame values of one database for one marker set (and one performer skeleton, when retargeted)."""
 
     index: KNNIndex
     features: np.ndarray  # (N, M, 3) markers in each frame's normalised root frame, file units
     tilt: np.ndarray  # (N, 4) root rotation in the normalised frame, yaw^-1 * q_root
     root: np.ndarray  # (N, 3) root position in the normalised frame (its height along up)
+    rotations: np.ndarray  # (N, B, 4) local rotations of the body joints (pelvis first; its entry unused)
 
 
 _CACHE: "weakref.WeakKeyDictionary[MotionDatabase, dict]" = weakref.WeakKeyDictionary()
 
 
-def _marker_database(db: MotionDatabase, joints: tuple[str, ...], up: np.ndarray) -> _MarkerDatabase:
+def pelvis_height(skeleton: Skeleton, up: np.ndarray) -> float:
+    """Rest-pose height (file units) of the pelvis above the lowest joint or end site along the unit ``up``.
+
+    The leg length that sets how high a performer carries the pelvis: the
+    scale of the root height when database poses are put on another
+    performer's skeleton (:func:`retarget_clip`).
+    """
+    rest = skeleton.rest_positions(end_sites=True)
+    p = pelvis_index(skeleton)
+    return float(np.max((rest[p] - rest) @ up))
+
+
+def retarget_clip(m: Motion, skeleton: Skeleton | None, up: np.ndarray) -> Motion:
+    """A database clip's body (:func:`._common.body_motion`) posed on the body of the performer's ``skeleton``.
+
+    The local rotations are kept; the bone offsets are the performer's
+    (animated non-root offsets are dropped), and the pelvis height above the
+    floor (the plane through the origin orthogonal to ``up``) is scaled by the
+    ratio of the two skeletons' :func:`pelvis_height`: the pose a performer of
+    the other proportions would strike, as Krüger et al.'s features need to
+    compare performers of other sizes (their HDM05 actors differ by up to 15 %
+    in leg length). With ``skeleton`` None the body as it is.
+    """
+    b = body_motion(m)
+    if skeleton is None:
+        return b
+    target = body_skeleton(skeleton)
+    h0, h1 = pelvis_height(b.skeleton, up), pelvis_height(target, up)
+    ratio = h1 / h0 if h0 > 0 and h1 > 0 else 1.0
+    root = np.asarray(b.root_positions, dtype=np.float64)
+    root = root + (ratio - 1.0) * (root @ up)[:, None] * up
+    return Motion(target, b.rotations, root, b.fps, b.name)
+
+
+def _marker_database(db: MotionDatabase, joints: tuple[str, ...], up: np.ndarray, skeleton: Skeleton | None = None) -> _MarkerDatabase:
+    """The per-frame values of ``db`` for markers ``joints``, on the performer's ``skeleton`` when given (cached)."""
     per_db = _CACHE.setdefault(db, {})
-    key = (joints, tuple(up.tolist()))
+    key = (joints, tuple(up.tolist()), None if skeleton is None else (skeleton.offsets.tobytes(), skeleton.end_site_offsets.tobytes()))
     if key in per_db:
         return per_db[key]
 
-    def frame(m: Motion) -> np.ndarray:
-        rot, tr = root_frame(m, up_axis=up)
-        return np.concatenate([rot, tr], axis=1)
+    def values(m: Motion) -> np.ndarray:
+        b = retarget_clip(m, skeleton, up)
+        rot, tr = root_frame(b, up_axis=up)
+        pos = virtual_markers(b, list(joints))
+        return np.concatenate([rot, tr, np.asarray(b.root_positions), pos.reshape(len(pos), -1)], axis=1)
 
-    fr = per_clip(db, frame)
-    yaw, ground = fr[:, :4], fr[:, 4:]
+    vals = per_clip(db, values)
+    yaw, ground, root_pos = vals[:, :4], vals[:, 4:7], vals[:, 7:10]
+    pos = vals[:, 10:].reshape(len(vals), len(joints), 3)
     inv = R.quaternion_conjugate(yaw)
-    pos = database_positions(db, joints)
     feats = R.quaternion_rotate(inv[:, None], pos - ground[:, None])
-    rot0 = np.asarray(db.rotations[:, 0], dtype=np.float64)
+    if body_joints(db.skeletons[0])[0] == 0:
+        rotations = db.rotations  # the pelvis is the root: the database's own (memory-mapped) array
+    else:
+        rotations = per_clip(db, lambda m: body_motion(m).rotations)
+    rot0 = np.asarray(rotations[:, 0], dtype=np.float64)
     tilt = R.quaternion_normalize(R.quaternion_multiply(inv, rot0))
-    root = R.quaternion_rotate(inv, np.asarray(db.root_positions, dtype=np.float64) - ground)
-    out = _MarkerDatabase(KNNIndex(feats.reshape(len(feats), -1)), feats, tilt, root)
+    root = R.quaternion_rotate(inv, root_pos - ground)
+    out = _MarkerDatabase(KNNIndex(feats.reshape(len(feats), -1)), feats, tilt, root, rotations)
     per_db[key] = out
     return out
 
@@ -436,17 +492,21 @@ def _run(
         raise ValueError(f"variance must be in (0, 1], got {variance}")
     if prior_weight < 0 or smooth_weight < 0:
         raise ValueError("prior_weight and smooth_weight must be >= 0")
-    sk = output_skeleton(db, skeleton)
+    whole = output_skeleton(db, skeleton)
+    sk = body_skeleton(whole)  # the pelvis and the joints below it (the whole skeleton on Acclaim rigs)
     known = set(sk.joint_names) | set(sk.end_site_names)
     if any(j not in known for j in joints):
-        raise ValueError("the output skeleton lacks some of the marker joints; pass a skeleton with the database's layout")
+        raise ValueError(
+            "the output skeleton lacks some of the marker joints, or they lie above the pelvis; "
+            "pass a skeleton with the database's layout"
+        )
     fps = float(fps)
     F_in = x.shape[0]
     run_fps = float(db.fps)
     if run_fps != fps:
         x = _resample_markers(x, fps, run_fps)
-    up = detect_up_axis(db.skeletons[0]) if up_axis is None else parse_up_axis(up_axis)
-    mdb = _marker_database(db, joints, up)
+    up = database_up(db) if up_axis is None else parse_up_axis(up_axis)
+    mdb = _marker_database(db, joints, up, skeleton)
     scale = unit_scale_cm(sk)
     index, offset = _marker_columns(sk, joints)
     parents = np.asarray(sk.parents, dtype=np.int64)
@@ -499,7 +559,7 @@ def _run(
         if not solve:
             # baseline: the nearest database pose, placed by the alignment (root on the root marker when seen)
             n0 = neighbours[0]
-            local[t] = db.rotations[n0]
+            local[t] = mdb.rotations[n0]
             local[t, 0] = mdb.tilt[n0]
             theta[t] = th
             root[t] = R.quaternion_rotate(yaw, mdb.root[n0]) + g
@@ -507,7 +567,7 @@ def _run(
                 root[t] = obs[root_col]
         else:
             if n_seen > 0 or model is None:
-                rots = np.array(db.rotations[neighbours], dtype=np.float64)
+                rots = np.array(mdb.rotations[neighbours], dtype=np.float64)
                 rots[:, 0] = mdb.tilt[neighbours]
                 model = _local_model(rots, mdb.root[neighbours] @ up, variance, max_components)
             if t == t0:
@@ -561,7 +621,7 @@ def _run(
     glob = local.copy()
     glob[:, 0] = R.quaternion_multiply(R.quaternion_from_axis_angle(up, theta), local[:, 0])
     glob[:t0], root[:t0] = glob[t0], root[t0]
-    out = Motion(sk, R.quaternion_normalize(glob), root, run_fps, name="reconstruction")
+    out = whole_motion(Motion(sk, R.quaternion_normalize(glob), root, run_fps, name="reconstruction"), whole, up)
     if run_fps != fps:
         out = out.resample(fps)[:F_in]
     return out
@@ -626,8 +686,8 @@ def reconstruct(
         Standard deviation (degrees) of the prior tying the pelvis heading to
         the eq. 4.3 heading of the search frame.
     root_joint : str, optional
-        Which marker (if any) is the root marker; default the skeleton's root
-        joint name. A root marker pins the ground translation of the search
+        Which marker (if any) is the root marker; default the pelvis's name
+        (the root on Acclaim rigs, ``Hips`` on the Bandai Namco rig). A root marker pins the ground translation of the search
         frame and the root position.
     up_axis : optional
         Vertical axis (as in :func:`mocapkit.features.root_frame`); detected

@@ -49,9 +49,9 @@ from ...features import Sensor, default_sensors, find_up_axis, five_point_deriva
 from ...motion import Motion, Skeleton, unit_scale_cm
 from ...parallel import map_ordered
 from ...search.knn import KNNIndex
-from .._common import body_motion, body_skeleton
+from .._common import body_motion, body_skeleton, database_up
 
-__all__ = ["KnowledgeBase", "knowledge_base", "clear_cache", "clip_values", "check_sensors", "database_up",
+__all__ = ["KnowledgeBase", "knowledge_base", "clear_cache", "clip_values", "check_sensors", "database_up", "stacked_readings",
            "save_knowledge_base", "open_knowledge_base"]
 
 
@@ -115,12 +115,34 @@ class KnowledgeBase:
     def num_frames(self) -> int:
         return int(self.readings.shape[0])
 
-    def index(self, backend: str = "kdtree") -> KNNIndex:
-        """The kNN index over :attr:`readings` (built once per backend)."""
+    def index(self, backend: str = "kdtree", lags: Sequence[int] = (0,)) -> KNNIndex:
+        """The kNN index over the readings stacked at ``lags`` frames back (:func:`stacked_readings`; built once per backend and lags)."""
         cache = self.__dict__.setdefault("_indexes", {})
-        if backend not in cache:
-            cache[backend] = KNNIndex(self.readings, backend=backend)
-        return cache[backend]
+        key = (backend, tuple(int(g) for g in lags))
+        if key not in cache:
+            data = self.readings if key[1] == (0,) else stacked_readings(self.readings, self.clip_ids, key[1])
+            cache[key] = KNNIndex(data, backend=backend)
+        return cache[key]
+
+
+def stacked_readings(readings: np.ndarray, clip_ids: np.ndarray | None, lags: Sequence[int]) -> np.ndarray:
+    """Each frame's readings beside those ``lags`` frames earlier: (N, 3S) -> (N, 3S * len(lags)).
+
+    A lag reaching before the first frame of the frame's clip (``clip_ids``,
+    N; one clip when None) takes that first frame, as a stream's first
+    samples do (:class:`~.synthesis.AccelerometerReconstructor`). The search
+    key of the synthesis: twelve numbers of one instant say little about a
+    pose, the last 0.3 s of them much more.
+    """
+    rd = np.asarray(readings, dtype=np.float64)
+    n = np.arange(len(rd))
+    if clip_ids is None:
+        start = np.zeros(len(rd), dtype=np.int64)
+    else:
+        cid = np.asarray(clip_ids)
+        first = np.r_[0, np.flatnonzero(np.diff(cid) != 0) + 1]
+        start = first[np.searchsorted(first, n, side="right") - 1]
+    return np.concatenate([rd[np.maximum(n - int(g), start)] for g in lags], axis=1)
 
 
 _KB_CACHE: "weakref.WeakKeyDictionary[MotionDatabase, dict]" = weakref.WeakKeyDictionary()
@@ -200,13 +222,6 @@ def clip_values(m: Motion, sensors, up: np.ndarray) -> np.ndarray:
         [readings.reshape(F, -1), pose, vel.reshape(F, -1), acc.reshape(F, -1), rvel, yaw[:, None], height[:, None]],
         axis=1,
     )
-
-
-def database_up(db: MotionDatabase, clips: int = 16) -> np.ndarray:
-    """The vertical axis (3,) of ``db``'s motion: :func:`~mocapkit.features.find_up_axis` over the frames of up to ``clips`` clips spread over it."""
-    picks = np.unique(np.linspace(0, db.num_clips - 1, min(clips, db.num_clips)).round().astype(int))
-    pos = np.concatenate([db.clip(int(c)).global_positions() for c in picks], axis=0)
-    return find_up_axis(db.skeletons[0], pos)
 
 
 def _split_values(vals: np.ndarray, S: int, J: int) -> tuple:

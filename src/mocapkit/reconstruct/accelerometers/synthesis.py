@@ -1,6 +1,6 @@
 """Per-frame synthesis from accelerometer readings (Tautges 2012, secs. 3.4-3.6).
 
-**Search** (sec. 3.4): the K nearest readings of every new sample in the
+**Search** (sec. 3.4): the K nearest readings of every new sample (with its recent past, below) in the
 knowledge base (:mod:`.knowledge`) feed an
 :class:`~mocapkit.search.lng.OnlineLazyNeighborhoodGraph` (window M = 13);
 the I cheapest paths ending in the newest column give the poses ``Q^t`` and,
@@ -13,6 +13,16 @@ The root follows the weighted mean root motion of ``Q^t`` (sec. 3.6.4).
 
 Departures from the thesis:
 
+* Optionally (``history``), the kd-tree key is not one sample's readings
+  but the readings now and some database frames back (e.g. ``(0, 3, 6, 9)``:
+  0.3 s at 30 fps; :func:`~.knowledge.stacked_readings`, lags clamped at a
+  clip's or the stream's first sample). The thesis searches one sample and
+  leaves time to the lazy neighbourhood graph (the default, ``(0,)``). On
+  the Bandai Namco knowledge base (280,000 frames) the single-sample
+  neighbours are so ambiguous that the graph's paths barely beat the nearest
+  neighbour; a 0.3 s key cuts the nearest neighbour's own error by a sixth
+  (``benchmarks/reconstruct_accelerometers_bandai.py --validate``, on a
+  validation style).
 * The control term (eqs. 3.12/3.13) uses the neighbours' sensor velocities
   ``v_i^{t+1}``; ``alpha^{t+1}`` is turned into the root frame by the sensor
   orientations of the previous synthesised pose, and gravity is subtracted.
@@ -74,6 +84,7 @@ __all__ = [
 DEFAULTS: dict = {
     "k": None,  # kNN per sample; None: 1 % of the database's frames, clamped to [128, 4096] (see default_k)
     "n_paths": None,  # I, the best OLNG paths kept; None: K / 16 (the thesis' 256 of 4096)
+    "history": (0,),  # search key: the readings now and these many database frames back; (0,) is the thesis' one sample
     "window": 13,  # OLNG window M (Fig. 3.19)
     "penalty_factor": 2.0,  # OLNG shortness penalty (Fig. 3.8)
     "extra_steps": True,  # OLNG steps of Fig. 3.10 c
@@ -170,6 +181,11 @@ def _check_params(params: dict) -> dict:
         p[name] = v
     if not 0 < float(p["variance"]) <= 1:
         raise ValueError(f"variance must be in (0, 1], got {p['variance']!r}")
+    h = p["history"]
+    if (isinstance(h, (str, bytes)) or not hasattr(h, "__len__") or len(h) == 0
+            or any(isinstance(g, bool) or not isinstance(g, (int, np.integer)) or g < 0 for g in h)):
+        raise ValueError(f"history must be a non-empty sequence of lags (integers >= 0, database frames), got {h!r}")
+    p["history"] = tuple(int(g) for g in h)
     if p["prior"] not in ("kernel", "mahalanobis"):
         raise ValueError(f"prior must be 'kernel' or 'mahalanobis', got {p['prior']!r}")
     return p
@@ -212,7 +228,8 @@ class AccelerometerReconstructor:
         self.skeleton = output_skeleton(db, skeleton)
         self.body = body_skeleton(self.skeleton)
         self.rig = Rig(self.body, self.sensors)
-        self.index = self.kb.index(self.params["backend"])
+        self.lags = self.params["history"]
+        self.index = self.kb.index(self.params["backend"], self.lags)
         k = self.params["k"]
         self.k = min(default_k(self.kb.num_frames) if k is None else k, self.kb.num_frames)
         n_paths = self.params["n_paths"]
@@ -232,6 +249,7 @@ class AccelerometerReconstructor:
         self._n_in = 0  # input samples pushed
         self._n_grid = 0  # database-rate steps taken
         self._last_in = None
+        self._recent: list = []  # the last max(lags) + 1 valid database-rate samples, oldest first
         self._p = None  # pose vector of the last synthesised frame
         self._x = None  # its root-frame points (M, 3)
         self._x2 = None  # the frame before's
@@ -297,7 +315,10 @@ class AccelerometerReconstructor:
             return
         p, kb = self.params, self.kb
         dt = 1.0 / self.db_fps
-        dist, idx = self.index.query(a.reshape(1, -1), k=self.k, eps=p["eps"])
+        self._recent = (self._recent + [a])[-(max(self.lags) + 1):]
+        # the search key: this sample and those ``lags`` frames back, the stream's first where it is shorter
+        key = np.concatenate([self._recent[max(len(self._recent) - 1 - g, 0)].ravel() for g in self.lags])
+        dist, idx = self.index.query(key[None], k=self.k, eps=p["eps"])
         costs = self.olng.push(idx[0], dist[0])
         good = np.flatnonzero(np.isfinite(costs))
         if good.size == 0:
