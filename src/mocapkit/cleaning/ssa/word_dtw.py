@@ -636,6 +636,47 @@ def _kth_confirmed(d, evaluated, lb, strict, consec, ev, ne, k, vals, tgt, lo, h
     return vals[k - 1] if n == k else _INF
 
 
+@njit(cache=True)
+def _kth_smallest(x, k, heap):
+    """The ``k``-th smallest value of ``x`` (1-based), what ``np.partition(x, k - 1)[k - 1]`` gives.
+
+    A max-heap of the ``k`` smallest values in ``heap`` (a (k,) scratch
+    buffer), O(len(x) log k). NaN sorts last, as in numpy: fewer than ``k``
+    values that are not NaN give NaN. Written out rather than calling
+    ``np.partition``, whose numba implementation takes seconds to compile.
+    """
+    n = 0
+    for v in x:
+        if v != v:
+            continue
+        if n < k:  # sift up
+            c = n
+            heap[c] = v
+            n += 1
+            while c > 0:
+                parent = (c - 1) // 2
+                if heap[parent] >= heap[c]:
+                    break
+                heap[parent], heap[c] = heap[c], heap[parent]
+                c = parent
+        elif v < heap[0]:  # replace the largest, sift down
+            heap[0] = v
+            c = 0
+            while True:
+                big = c
+                a = 2 * c + 1
+                b = a + 1
+                if a < k and heap[a] > heap[big]:
+                    big = a
+                if b < k and heap[b] > heap[big]:
+                    big = b
+                if big == c:
+                    break
+                heap[big], heap[c] = heap[c], heap[big]
+                c = big
+    return heap[0] if n == k else np.nan
+
+
 @twin_kernels(_PARALLEL_KNN)
 def _knn_profile(D, rowmin, level, src, tgt, consec, excl_lo, excl_hi, N, M, min_width, max_run, k, batch,
                  out_idx, out_dist, out_iend, out_jend, out_evaluated):
@@ -656,6 +697,7 @@ def _knn_profile(D, rowmin, level, src, tgt, consec, excl_lo, excl_hi, N, M, min
         strict = np.zeros(T, dtype=np.bool_)
         row = np.empty(M)
         ev = np.empty(T, dtype=np.int64)
+        heap = np.empty(first)
         ne = 0
         lo = excl_lo[w]
         hi = excl_hi[w]
@@ -666,7 +708,7 @@ def _knn_profile(D, rowmin, level, src, tgt, consec, excl_lo, excl_hi, N, M, min
             # in increasing order of the bound: first the `first` lowest, then, once tau is known, only the
             # positions whose bound is at most tau (a few hundred of a long take's thousands need sorting)
             if phase == 0:
-                cut = np.partition(lb, first - 1)[first - 1] if first < T else _INF
+                cut = _kth_smallest(lb, first, heap) if first < T else _INF
                 cand = np.flatnonzero(lb <= cut)
             else:
                 cand = np.flatnonzero((lb <= tau) & ~evaluated & ~strict)
