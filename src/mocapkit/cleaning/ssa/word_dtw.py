@@ -677,6 +677,48 @@ def _kth_smallest(x, k, heap):
     return heap[0] if n == k else np.nan
 
 
+@njit(cache=True)
+def _sort_by_key(idx, key, tmp):
+    """``idx`` (n,) int64 reordered in place so that ``key[idx]`` increases, ties in their order (a stable sort).
+
+    What ``idx[np.argsort(key[idx], kind="mergesort")]`` gives for keys that
+    are not NaN; a bottom-up merge sort with ``tmp`` (n,) as scratch, written
+    out because numba's ``argsort`` takes most of a second to compile.
+    """
+    n = idx.shape[0]
+    width = 1
+    src = idx
+    dst = tmp
+    in_tmp = False
+    while width < n:
+        for lo in range(0, n, 2 * width):
+            mid = min(lo + width, n)
+            hi = min(lo + 2 * width, n)
+            a, b, o = lo, mid, lo
+            while a < mid and b < hi:
+                if key[src[b]] < key[src[a]]:
+                    dst[o] = src[b]
+                    b += 1
+                else:
+                    dst[o] = src[a]
+                    a += 1
+                o += 1
+            while a < mid:
+                dst[o] = src[a]
+                a += 1
+                o += 1
+            while b < hi:
+                dst[o] = src[b]
+                b += 1
+                o += 1
+        src, dst = dst, src
+        in_tmp = not in_tmp
+        width *= 2
+    if in_tmp:
+        for q in range(n):  # a loop: numba's slice assignment alone takes a second to compile
+            idx[q] = tmp[q]
+
+
 @twin_kernels(_PARALLEL_KNN)
 def _knn_profile(D, rowmin, level, src, tgt, consec, excl_lo, excl_hi, N, M, min_width, max_run, k, batch,
                  out_idx, out_dist, out_iend, out_jend, out_evaluated):
@@ -712,7 +754,8 @@ def _knn_profile(D, rowmin, level, src, tgt, consec, excl_lo, excl_hi, N, M, min
                 cand = np.flatnonzero(lb <= cut)
             else:
                 cand = np.flatnonzero((lb <= tau) & ~evaluated & ~strict)
-            order = cand[np.argsort(lb[cand], kind="mergesort")]
+            order = cand
+            _sort_by_key(order, lb, np.empty_like(cand))
             for x in range(order.shape[0]):
                 t = order[x]
                 if not lb[t] <= tau:
