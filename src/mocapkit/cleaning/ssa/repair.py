@@ -64,26 +64,7 @@ def _blend_runs(orig: np.ndarray, new: np.ndarray, flags: np.ndarray, window: in
     (a displacement blended linearly across the run), then the hybrid track is
     filtered with a quadratic Savitzky-Golay filter of ``window`` frames, and
     only the flagged frames take the filtered values.
-
-    Only the span from ``window`` frames before the first flagged frame to
-    ``window`` frames after the last is processed: the filter's output on a
-    flagged frame reads the hybrid track within half a window of it, and the
-    track's continuity pass over the span gives the whole take's values or
-    all of them negated, which the filter carries through linearly and the
-    final hemisphere alignment undoes; the flagged frames come out bit-identical
-    to a pass over the whole take, at the cost of the flagged span.
     """
-    out = np.array(orig)
-    rows = np.flatnonzero(flags)
-    if len(rows) == 0:
-        return out
-    s, e = max(0, int(rows[0]) - window), min(len(orig), int(rows[-1]) + 1 + window)
-    out[s:e] = _blend_span(np.asarray(orig)[s:e], np.asarray(new)[s:e], np.asarray(flags)[s:e], window)
-    return out
-
-
-def _blend_span(orig: np.ndarray, new: np.ndarray, flags: np.ndarray, window: int) -> np.ndarray:
-    """:func:`_blend_runs` on a span of the track whose ends are the take's or ``window`` frames from a flag."""
     F = len(orig)
     out = np.array(orig)
     track = np.array(orig)
