@@ -3,9 +3,11 @@
 The take is :func:`clean_takes.long_take` (HDM05 actor mm clips concatenated, cut at 60 s, 7200
 frames) with clean_takes' mixed corruption (``mixed(take, 7)``: 4 real-style errors, gaps, Mall's
 0.5 angular noise on 3 joints), saved once as npz. Two worker processes load it, one importing this
-tree's ``src`` and one the baseline's (``--base``, default ``acea330``, the code before issue 23's
-data-flow work, extracted with ``git archive`` into a temporary folder; or ``--baseline-src DIR``).
-Each warms up (shipped models loaded, numba kernels compiled or loaded, one clean of a short clip),
+tree's ``src`` and one the baseline's (``--base``, default ``314138e``: main with issue 21's rule
+changes, before issue 23's data-flow merge f7358ba, so the outputs can be compared bit for bit;
+extracted with ``git archive`` into a temporary folder; or ``--baseline-src DIR``). Each warms up
+as ``make install`` leaves an installation (``mocapkit.warmup.warm_up()``: every kernel compiled or
+loaded, serial and parallel twins), then cleans a short clip once (shipped models loaded),
 then the workers clean the take alternately, ``--runs`` times each after one untimed run, so both
 see the same machine load. Figures: the median wall-clock seconds of ``mocapkit.cleaning.pipeline.clean``
 (and the CPU seconds of the same runs, and per step), baseline the same of the other tree; target
@@ -18,7 +20,7 @@ choice): the comparison is of the data flow, not of how many threads a busy mach
 numba's threads are left as they are unless ``--numba-threads`` is given (1: the work alone, without
 the parallel kernels, the least load-sensitive comparison on a shared machine).
 
-    python benchmarks/clean_speed.py --json [--runs 5] [--base acea330 | --baseline-src DIR] [--torch-threads 1]
+    python benchmarks/clean_speed.py --json [--runs 5] [--base 314138e | --baseline-src DIR] [--torch-threads 1]
                                      [--numba-threads N]
 """
 
@@ -50,6 +52,8 @@ if threads:
     torch.set_num_threads(threads)
 import mocapkit
 from mocapkit.cleaning.pipeline import clean
+from mocapkit.warmup import warm_up
+warm_up()
 take, warm = mocapkit.load(sys.argv[1]), mocapkit.load(sys.argv[2])
 clean(warm)
 print("ready", flush=True)
@@ -90,7 +94,7 @@ def identical(a: Path, b: Path) -> dict:
 def main() -> None:
     ap = harness.parser(__doc__)
     ap.add_argument("--runs", type=int, default=5, help="timed runs per tree (default 5), after one untimed")
-    ap.add_argument("--base", default="acea330", help="commit to compare with (default acea330)")
+    ap.add_argument("--base", default="314138e", help="commit to compare with (default 314138e)")
     ap.add_argument("--baseline-src", type=Path, default=None, help="a source tree to compare with instead of --base")
     ap.add_argument("--torch-threads", type=int, default=1, help="torch threads in both workers (0: each tree's own)")
     ap.add_argument("--numba-threads", type=int, default=0, help="NUMBA_NUM_THREADS in both workers (0: as set)")

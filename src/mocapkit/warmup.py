@@ -8,10 +8,10 @@ keeps the machine code on disk (beside the package's sources, or in
     python -m mocapkit.warmup
 
 which cleans the bundled CMU walk (``12_walk.amc``) with gaps, capture errors
-and noise, so that every step (the EBD gap filler, self-similarity detection
-and repair, the EBF denoiser) runs and compiles what it needs (the serial and
-the parallel twin of each self-similarity kernel), then writes
-and reads the result as BVH and npz. It writes nothing but numba's cache (the
+and noise, against the bundled default context and alone, so that every step
+(the EBD gap filler, self-similarity detection and repair, the EBF denoiser)
+runs and compiles what it needs (the serial and the parallel twin of each
+self-similarity kernel), then writes and reads the result as BVH and npz. It writes nothing but numba's cache (the
 files go to a temporary folder that is removed).
 """
 
@@ -44,26 +44,36 @@ def _broken_walk():
 def warm_up() -> dict:
     """Run every step of :func:`mocapkit.clean` on a bundled take (and on a short piece of it) once.
 
+    The take is cleaned against the bundled default context, as ``mocapkit
+    clean`` does, and against itself alone (``--context none``), which calls
+    other kernels (the self-distance matrix of one clip against the pose
+    distances of the clip against a database).
+
     Returns a dict ``{"seconds": float, "steps": {step name: cells it changed}}``;
     fill, repair and denoise all change cells (repair only those detect
     flagged), so every step ran its kernels.
     The self-similarity kernels are compiled twice, serial and parallel
     (:mod:`mocapkit.cleaning.ssa.twins`), and a call takes one or the other by
     problem size: the bundled take alone would compile only the serial twins,
-    so detect and repair run a second time with every twin forced parallel
-    (what a long take uses), and a third time on a short piece (its shorter
-    word lists compile nothing new but check the small sizes run).
+    so detect and repair run again with every twin forced parallel (what a
+    long take uses, and any take once the parallel twins are cached), and on a
+    short piece (its shorter word lists compile nothing new but check the
+    small sizes run).
     """
     from . import load, save
     from .cleaning.pipeline import clean
     from .cleaning.ssa.twins import forced
+    from .context import fit_context, resolve_context
 
     t = time.perf_counter()
     take = _broken_walk()
-    result = clean(take)
+    context, _ = fit_context(take, resolve_context(None))  # what `mocapkit clean` compares with by default
+    result = clean(take, context)
+    clean(take, steps="fill,detect,repair")  # the clip alone (context "none"): other kernels
     with forced("parallel"):
-        clean(take, steps="fill,detect,repair")
-    clean(take[: int(2 * take.fps)], steps="fill,detect,repair")
+        for ctx in (context, None):
+            clean(take, ctx, steps="fill,detect,repair")
+    clean(take[: int(2 * take.fps)], context, steps="fill,detect,repair")
     with tempfile.TemporaryDirectory() as tmp:
         for suffix in (".bvh", ".npz"):
             path = save(result.motion, Path(tmp) / f"walk{suffix}")

@@ -7,7 +7,7 @@ from hypothesis import strategies as st
 
 from mocapkit import rotations as R
 from mocapkit.cleaning.ssa import word_dtw as W
-from mocapkit.cleaning.ssa.twins import PARALLEL_SUFFIX, Twins, forced
+from mocapkit.cleaning.ssa.twins import COLD_FACTOR, PARALLEL_SUFFIX, Twins, forced
 from tests.naive import group_pose_distance_naive, naive_local_minima_knn, word_dtw_enumerate
 
 
@@ -203,7 +203,9 @@ def test_every_prange_kernel_has_twins():
     for name, t in kernels.items():
         assert t.parallel.targetoptions.get("parallel") and not t.serial.targetoptions.get("parallel")
         assert t.parallel.py_func.__qualname__ == t.serial.py_func.__qualname__ + PARALLEL_SUFFIX  # own cache files
-        assert t.pick(0) is t.serial and t.pick(t.threshold - 1) is t.serial and t.pick(t.threshold) is t.parallel
+        assert t.pick(0) is t.serial and t.pick(t.threshold - 1) is t.serial
+        assert t.pick(t.threshold) is (t.parallel if t.parallel_ready() else t.serial)
+        assert t.pick(COLD_FACTOR * t.threshold) is t.parallel
 
 
 def test_worker_threads_get_the_serial_twin():
@@ -211,7 +213,7 @@ def test_worker_threads_get_the_serial_twin():
     from concurrent.futures import ThreadPoolExecutor
 
     t = W._knn_profile
-    big = t.threshold * 10
+    big = t.threshold * COLD_FACTOR
     with ThreadPoolExecutor(1) as pool:
         assert pool.submit(t.pick, big).result() is t.serial
     assert t.pick(big) is t.parallel  # the main thread
@@ -307,3 +309,34 @@ def test_twins_keep_their_own_cache_entries(tmp_path):
     assert run("serial", "parallel") == {"serial": ("1", "0"), "parallel": ("1", "0")}  # each loads its own
     names = sorted(p.name.split("-")[0] for p in (tmp_path / "cache").rglob("*.nbi"))
     assert names == ["twinmod.square", "twinmod.square" + PARALLEL_SUFFIX]
+
+
+_PICK_RUN = '''
+import sys, numpy as np
+sys.path.insert(0, {folder!r})
+import twinmod
+from mocapkit.cleaning.ssa.twins import COLD_FACTOR
+t = twinmod.square
+before = (t.pick(99) is t.serial, t.pick(100) is t.parallel, t.pick(100 * COLD_FACTOR) is t.parallel)
+t.parallel(np.arange(3.0), np.empty(3))
+print(*before, t.pick(100) is t.parallel)
+'''
+
+
+def test_a_parallel_twin_not_compiled_nor_cached_runs_only_on_very_large_problems(tmp_path):
+    """With an empty cache a size over the threshold still gets the serial twin (compiling the parallel one would
+    cost more than it saves), up to COLD_FACTOR x the threshold; once compiled, and in a later process that finds it
+    in the cache, the threshold alone decides."""
+    import os
+    import subprocess
+    import sys
+
+    (tmp_path / "twinmod.py").write_text(_TWIN_MODULE)
+    env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path / "cache")}
+    code = _PICK_RUN.format(folder=str(tmp_path))
+
+    def run():
+        return subprocess.run([sys.executable, "-c", code], env=env, check=True, capture_output=True, text=True).stdout.split()
+
+    assert run() == ["True", "False", "True", "True"]  # cold: serial at the threshold; compiled: parallel
+    assert run() == ["True", "True", "True", "True"]  # cached: parallel at the threshold before any call

@@ -6,8 +6,16 @@ is then ``range``). The parallel build pays on long takes but costs about
 twice the compile time and a thread start per call, which small problems (a
 few seconds of motion, a word against a word) never earn back; so each kernel
 is compiled both ways and :meth:`Twins.pick` takes the serial twin below a
-size threshold and the parallel one from it on. A cold first run on a short
-take then compiles only the serial twins.
+size threshold and the parallel one from it on.
+
+A parallel twin that is neither compiled in this process nor in numba's
+on-disk cache costs its compilation (seconds) on top of the work, which a
+single call earns back only on a very large problem. Until it is ready, the
+serial twin runs below ``COLD_FACTOR`` times the threshold: a first clean
+with an empty cache (a bundled walk against the default context is above
+the thresholds) compiles only the serial twins, and ``python -m
+mocapkit.warmup`` (run at install) compiles and caches both, after which the
+size alone decides. Either twin gives the same result, bit for bit.
 
 numba's on-disk cache names its index files after the function's
 ``__qualname__`` and first line, and keys entries by signature and bytecode,
@@ -23,31 +31,53 @@ take, and the tests to compare the two.
 
 from __future__ import annotations
 
+import os
 import threading
 import types
 from contextlib import contextmanager
 
 from numba import njit
 
-__all__ = ["Twins", "twin_kernels", "forced", "PARALLEL_SUFFIX"]
+__all__ = ["Twins", "twin_kernels", "forced", "PARALLEL_SUFFIX", "COLD_FACTOR"]
 
 PARALLEL_SUFFIX = "__parallel"
+# A parallel twin not yet compiled runs only from COLD_FACTOR x its threshold: the thresholds sit near
+# 3-10 ms of serial work, so this is 6-20 s of serial work, about what compiling the parallel twin costs.
+COLD_FACTOR = 2000
 _forced: list[str | None] = [None]  # "serial", "parallel" or None (by size)
 
 
 class Twins:
     """A serial and a parallel numba dispatcher of one kernel and the problem size from which the parallel one runs."""
 
-    __slots__ = ("serial", "parallel", "threshold", "__name__")
+    __slots__ = ("serial", "parallel", "threshold", "__name__", "_ready")
 
     def __init__(self, serial, parallel, threshold: int):
         self.serial = serial
         self.parallel = parallel
         self.threshold = int(threshold)
         self.__name__ = serial.py_func.__name__
+        self._ready = False
+
+    def parallel_ready(self) -> bool:
+        """Whether the parallel twin runs without compiling: compiled in this process, or in numba's disk cache.
+
+        The cache is read through numba's cache object of the dispatcher (its
+        index file, one per function, lists the compiled signatures); where
+        that object is not there (caching off, another numba) the twin counts
+        as ready, as it did before this check.
+        """
+        if self._ready or self.parallel.overloads:
+            self._ready = True
+            return True
+        index = getattr(getattr(getattr(self.parallel, "_cache", None), "_cache_file", None), "_index_path", None)
+        if index is None or os.path.exists(index):
+            self._ready = True
+        return self._ready
 
     def pick(self, size: int):
-        """The dispatcher for a problem of ``size`` (the kernel's own work measure): parallel from ``threshold`` on.
+        """The dispatcher for a problem of ``size`` (the kernel's own work measure): parallel from ``threshold`` on
+        (from ``COLD_FACTOR * threshold`` while the parallel twin is not compiled or cached, see the module docstring).
 
         Only the main thread runs the parallel twin: a kernel called from a worker thread (a Dask
         worker runs its tasks in a thread pool, beside the other workers' processes) gets the serial
@@ -59,9 +89,11 @@ class Twins:
             return self.serial
         if side == "parallel":
             return self.parallel
-        if threading.current_thread() is not threading.main_thread():
+        if threading.current_thread() is not threading.main_thread() or size < self.threshold:
             return self.serial
-        return self.parallel if size >= self.threshold else self.serial
+        if size >= COLD_FACTOR * self.threshold or self.parallel_ready():
+            return self.parallel
+        return self.serial
 
     def __repr__(self) -> str:
         return f"<Twins {self.__name__} parallel from size {self.threshold}>"

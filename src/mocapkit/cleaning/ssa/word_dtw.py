@@ -38,6 +38,7 @@ import math
 import numpy as np
 from numba import njit, prange
 
+from .ordering import kth_smallest, sort_by_key
 from .twins import twin_kernels
 from .word_means import robust_word_means, select_separated_minima, shift_tolerant_angles  # re-exported
 
@@ -656,6 +657,7 @@ def _knn_profile(D, rowmin, level, src, tgt, consec, excl_lo, excl_hi, N, M, min
         strict = np.zeros(T, dtype=np.bool_)
         row = np.empty(M)
         ev = np.empty(T, dtype=np.int64)
+        heap = np.empty(first)
         ne = 0
         lo = excl_lo[w]
         hi = excl_hi[w]
@@ -666,11 +668,12 @@ def _knn_profile(D, rowmin, level, src, tgt, consec, excl_lo, excl_hi, N, M, min
             # in increasing order of the bound: first the `first` lowest, then, once tau is known, only the
             # positions whose bound is at most tau (a few hundred of a long take's thousands need sorting)
             if phase == 0:
-                cut = np.partition(lb, first - 1)[first - 1] if first < T else _INF
+                cut = kth_smallest(lb, first, heap) if first < T else _INF
                 cand = np.flatnonzero(lb <= cut)
             else:
                 cand = np.flatnonzero((lb <= tau) & ~evaluated & ~strict)
-            order = cand[np.argsort(lb[cand], kind="mergesort")]
+            order = cand
+            sort_by_key(order, lb, np.empty_like(cand))
             for x in range(order.shape[0]):
                 t = order[x]
                 if not lb[t] <= tau:
