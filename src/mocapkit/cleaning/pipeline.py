@@ -507,7 +507,7 @@ def _pad(a: np.ndarray, lo: int, F: int, fill) -> np.ndarray:
 def _padded_detection(det, lo: int, F: int):
     """``det`` with its (F, J) arrays put back at the take's frames (nothing flagged on calibration frames)."""
     pads = {"mdm": 0.0, "flags": False, "digression": np.nan, "best_group": -1, "jumps": False, "holds": False,
-            "swaps": False, "offsets": False}
+            "swaps": False, "offsets": False, "agreement": np.nan, "consistency": np.nan}
     return dataclasses.replace(det, **{k: _pad(np.asarray(getattr(det, k)), lo, F, v) for k, v in pads.items()},
                                notes=tuple(det.notes) + (f"analysed frames {lo}-{lo + det.num_frames - 1} (calibration "
                                                          "poses left out); word starts count from there",))
