@@ -54,7 +54,7 @@ def drift_case(F=100, fps=100.0):
 def test_smooth_drift_flags_whole_excursions_where_the_body_agrees():
     jumps, agreement, consistency, fps = drift_case()
     flags = smooth_drift_flags(jumps, agreement, consistency, fps, repeat_deg=5.0, z_min=3.0, min_s=0.25)
-    assert np.flatnonzero(flags[:, 0]).tolist() == list(range(30, 70))  # the whole excursion, down to z = 1
+    assert np.flatnonzero(flags[:, 0]).tolist() == list(range(30, 70))  # the whole excursion, down to z = 0.5
     assert not flags[:, 1:].any()
     strong = int((consistency[:, 0] >= 3.0).sum())
     # too short: fewer strong cells than min_s asks
@@ -74,7 +74,7 @@ def test_smooth_drift_flags_whole_excursions_where_the_body_agrees():
     with pytest.raises(ValueError, match="same"):
         smooth_drift_flags(jumps[:, :2], agreement, consistency, fps)
     with pytest.raises(ValueError, match="z_min"):
-        smooth_drift_flags(jumps, agreement, consistency, fps, z_min=0.5)
+        smooth_drift_flags(jumps, agreement, consistency, fps, z_min=0.4)  # below the run's extent
 
 
 @pytest.fixture(scope="module")
@@ -91,12 +91,12 @@ def test_detect_flags_a_smooth_drift_against_a_context_that_repeats_the_motion(w
     (r,) = records
     j = walk.skeleton.index(r.joint)
     assert not ssa.discontinuities(bad)[:, j].any()  # no break: confirmation alone never flags it
-    det = ssa.detect(bad, [twin])
+    det = ssa.detect(bad, [twin], drift=True)
     visible = mask[:, j] & (det.digression[:, j] > np.radians(10.0))
     assert det.flags[visible, j].all()
     assert np.array_equal(det.flags, (det.flags & ~det.drifts()) | det.drifts())
     assert not det.drifts()[:, np.arange(walk.num_joints) != j].any()
-    assert not ssa.detect(bad, [twin], drift=False).flags[:, j].any()
-    assert not ssa.detect(walk, [twin]).drifts().any()  # the clean take: nothing
-    assert not ssa.detect(bad).drifts().any()  # analysed alone: no evidence that the motion repeats
+    assert not ssa.detect(bad, [twin]).flags[:, j].any()  # the rule is off by default
+    assert not ssa.detect(walk, [twin], drift=True).drifts().any()  # the clean take: nothing
+    assert not ssa.detect(bad, drift=True).drifts().any()  # analysed alone: no evidence that the motion repeats
     assert det.with_threshold(0.3).flags[visible, j].all()

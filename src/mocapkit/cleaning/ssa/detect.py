@@ -139,11 +139,11 @@ class Detection:
             out += [(self.joint_names[j], a, b) for a, b in contact_segments(self.flags[:, j])]
         return sorted(out, key=lambda s: (s[1], s[0]))
 
-    def drifts(self) -> np.ndarray | None:
-        """(F, J) bool smooth drifts (:func:`smooth_drift_flags`; any threshold), or None where ``params.drift`` is off."""
+    def drifts(self) -> np.ndarray:
+        """(F, J) bool smooth drifts (:func:`smooth_drift_flags`; any threshold), none where ``params.drift`` is off."""
         p = self.params
         if not p.drift:
-            return None
+            return np.zeros(self.mdm.shape, dtype=bool)
         return smooth_drift_flags(self.jumps, self.agreement, self.consistency, self.fps,
                                   p.drift_repeat_deg, p.drift_z, p.drift_min_s, p.confirm_margin_s, p.drift_extent)
 

@@ -76,7 +76,7 @@ def smooth_drift_flags(
     z_min: float = 3.0,
     min_s: float = 0.25,
     margin_s: float = 0.05,
-    extent: float = 1.0,
+    extent: float = 0.5,
 ) -> np.ndarray:
     """(F, J) bool: the smooth drifts of a take (module docstring).
 

@@ -73,7 +73,8 @@ class SSAParams:
         for at least ``drift_min_s``, the other joints sit within ``drift_repeat_deg`` (median) of the
         neighbours' mean (the context repeats the motion) and the joint's angle is ``drift_z`` times the
         neighbours' spread and noise; the flagged run extends while that ratio exceeds ``drift_extent``;
-        ``drift=False`` leaves breakless digressions unflagged.
+        off by default (``drift=True``, ``mocapkit detect --drifts`` / ``clean --drifts``): only a context that
+        repeats the take's motion makes the evidence mean a drift.
     """
 
     analysis_fps: float = 24.0
@@ -103,7 +104,7 @@ class SSAParams:
     offset_jump_deg: float = 7.0
     offset_max_s: float = 1.0
     offset_min_deg: float = 10.0
-    drift: bool = True
+    drift: bool = False
     drift_repeat_deg: float = 5.0
     drift_z: float = 3.0
     drift_min_s: float = 0.25
