@@ -313,8 +313,15 @@ def main(argv=None):
                     baselines[f"bandai dance {c} {what}"] = dance["local"]["ssa"][what]
     summary = {}
     for k, v in stats.items():
-        summary[k] = ({"median": round(float(np.median(v)), 2), "p10": round(float(np.percentile(v, 10)), 2),
-                       "p90": round(float(np.percentile(v, 90)), 2), "n": len(v)} if isinstance(v, list) else v)
+        if isinstance(v, list):  # NaN: a drift on a joint the analysis left out (not among the informative joints)
+            v = np.asarray(v, dtype=float)
+            ok = v[np.isfinite(v)]
+            summary[k] = {"median": round(float(np.median(ok)), 2) if len(ok) else None,
+                          "p10": round(float(np.percentile(ok, 10)), 2) if len(ok) else None,
+                          "p90": round(float(np.percentile(ok, 90)), 2) if len(ok) else None,
+                          "n": int(len(ok)), "not_analysed": int(len(v) - len(ok))}
+        else:
+            summary[k] = v
     details = {"results": results, "statistic": summary, "cases": rows, "dance_big_context": dance,
                "cpu_s_per_take": {k: round(float(np.mean(v)), 2) for k, v in cpu.items()},
                "params": ssa.SSAParams().replace(**opts).as_dict(),
