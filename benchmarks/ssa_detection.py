@@ -79,6 +79,8 @@ from mocapkit.cleaning import baselines, ssa  # noqa: E402
 from mocapkit.metrics import DetectionScore, _words, word_precision_recall  # noqa: E402
 
 DATA = REPO.parent / "shared" / "data"
+if not DATA.is_dir():  # a worktree beside the main checkout
+    DATA = Path("/work/shared/data")
 TARGETS = {"locomotion": (0.985, 0.90), "dance": (0.95, 0.85)}
 PAPER = {"locomotion": {"local": (0.985, 0.875), "small": (0.985, 0.919), "large": (0.988, 0.936)},
          "dance": {"local": (0.947, 0.785), "small": (0.952, 0.832), "large": (0.968, 0.896)}}

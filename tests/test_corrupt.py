@@ -389,6 +389,42 @@ def test_real_errors_avoid_missing_data_and_respect_joint_choice():
         C.real_errors(m, kinds=("wobble",))
 
 
+@pytest.mark.parametrize("seed", range(4))
+def test_smooth_drifts_rise_to_the_peak_and_back_without_a_step(clip, seed):
+    bad, mask, records = C.smooth_drifts(clip, n_drifts=3, peak_deg=35.0, duration_s=(0.5, 1.0), seed=seed)
+    sk = clip.skeleton
+    assert records and {r.kind for r in records} == {"smooth_drift"}
+    angle = np.degrees(R.geodesic_angle(clip.rotations, bad.rotations))
+    covered = np.zeros_like(mask)
+    for r in records:
+        j = sk.index(r.joint)
+        assert j != 0 and not covered[max(r.start - 1, 0) : r.end + 1, j].any()
+        covered[r.start : r.end, j] = True
+        n = r.end - r.start
+        assert 0.5 * clip.fps - 1 <= n <= 1.0 * clip.fps + 1
+        t = (np.arange(n) + 0.5) / n
+        want = 35.0 * 0.5 * (1.0 - np.cos(2.0 * np.pi * t))  # one Euler channel: the geodesic change is the offset
+        assert np.allclose(angle[r.start : r.end, j], want, atol=1e-6)
+        # no step: the added angle changes by at most pi * peak / n per frame, far below any break
+        assert np.abs(np.diff(angle[r.start - 1 : r.end + 1, j])).max() <= np.pi * 35.0 / n + 1e-6
+    assert not (mask & ~covered).any() and mask[covered].mean() > 0.9
+    assert np.array_equal(bad.rotations[~covered], clip.rotations[~covered])
+
+
+def test_smooth_drifts_respect_joints_missing_data_and_refuse_bad_input():
+    m = toy_motion()
+    bad, mask, records = C.smooth_drifts(m, n_drifts=2, joints=["LeftKnee"], duration_s=(0.2, 0.3), seed=0)
+    assert {r.joint for r in records} == {"LeftKnee"}
+    assert set(np.flatnonzero(mask.any(0))) == {m.skeleton.index("LeftKnee")}
+    gappy, gap_mask = C.gaps(m, start_prob=0.01, seed=0)
+    _, mask, _ = C.smooth_drifts(gappy, n_drifts=4, duration_s=(0.1, 0.2), seed=1)
+    assert not (mask & gap_mask).any()
+    with pytest.raises(ValueError, match="peak_deg"):
+        C.smooth_drifts(m, peak_deg=0.0)
+    with pytest.raises(ValueError, match="duration_s"):
+        C.smooth_drifts(m, duration_s=(2.0, 1.0))
+
+
 def test_umbrella_dispatch_and_errors():
     m = toy_motion()
     bad, mask, records = C.corrupt(m, "flip", seed=0, n_errors=2)

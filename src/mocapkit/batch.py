@@ -116,6 +116,7 @@ def clean_file(
     motion=None,
     decisions=None,
     record=None,
+    drifts: bool = False,
 ):
     """Clean the take at ``inp`` and write ``out``, its ``.clean.npz`` record and optional reports.
 
@@ -130,7 +131,8 @@ def clean_file(
     ``out`` then holds only the changes it accepts (the record still lists
     every change); ``record``: the ``.clean.npz`` of an earlier run on this
     take, used instead of cleaning again (needs ``decisions``; nothing but
-    ``out`` and the reports is written).
+    ``out`` and the reports is written). ``drifts``: also flag smooth drifts
+    (:func:`mocapkit.cleaning.pipeline.clean`).
 
     Every output is checked against every input
     (:func:`mocapkit.io.outputs.check_outputs`) before anything is read; the
@@ -170,7 +172,7 @@ def clean_file(
 
         ctx, ctx_note = fit_context(m, load_context(context, progress=progress))
         try:
-            res = clean(m, ctx, steps=steps or STEPS, threshold=threshold, progress=progress)
+            res = clean(m, ctx, steps=steps or STEPS, threshold=threshold, progress=progress, drifts=drifts)
             if ctx_note:
                 res = replace(res, notes=res.notes + (ctx_note,))
         except (ValueError, TypeError) as exc:

@@ -50,6 +50,7 @@ __all__ = [
     "spatial_noise",
     "gaps",
     "real_errors",
+    "smooth_drifts",
     "corrupt",
     "ErrorRecord",
     "KINDS",
@@ -646,6 +647,73 @@ def real_errors(
             rot[s:e, j] = new
             busy[s:e, j] = True
             records.append(ErrorRecord(kind, sk.joint_names[j], s, e))
+            break
+    out = dataclasses.replace(motion, rotations=rot)
+    records.sort(key=lambda r: (r.start, r.joint))
+    return out, _changed(motion, rot), records
+
+
+def smooth_drifts(
+    motion: Motion,
+    n_drifts: int = 2,
+    peak_deg: float = 35.0,
+    duration_s: tuple[float, float] = (1.0, 2.0),
+    seed=None,
+    joints=None,
+):
+    """Smooth there-and-back drifts: one rotation channel leaves its path and comes back with no step anywhere.
+
+    Each drift adds a raised cosine ``peak_deg * (1 - cos(2 pi t / T)) / 2``
+    to one rotation channel of one joint over a window of ``T`` seconds drawn
+    from ``duration_s`` (so the joint is ``peak_deg`` away at the window's
+    middle, after ``T / 2`` of smooth travel, and back at its end), with a
+    random sign and channel. The added angle is 0 at both ends and its rate
+    at most ``pi * peak_deg / T`` deg/s, so no frame-to-frame step shows it:
+    what a slipping marker cluster or a drifting inertial sensor does, and what
+    the self-similarity analysis exists to see (Aristidou et al. 2018,
+    section 3.4). Unlike :func:`real_errors`' ``drift`` (a linear ramp that
+    starts at ``min_angle_deg`` and ends in a step) the changed cells start
+    and end near 0 deg, so a score counts only the visible ones.
+
+    ``joints``: names or indices that may carry a drift (default: every joint
+    with rotation channels that moves a bone, never the root). Drifts never
+    overlap or touch on one joint, and windows avoid missing frames. Returns
+    ``(motion, mask, records)`` as :func:`real_errors` does, with kind
+    ``"smooth_drift"``; ``mask`` is True on the cells whose rotation changed.
+    """
+    if not (np.isfinite(peak_deg) and 0 < peak_deg < 180):
+        raise ValueError(f"peak_deg must be in (0, 180) degrees, got {peak_deg!r}")
+    if not 0 < duration_s[0] <= duration_s[1]:
+        raise ValueError(f"duration_s must be (min, max) seconds with 0 < min <= max, got {duration_s!r}")
+    rng = _rng(seed)
+    sk = motion.skeleton
+    F, J = motion.num_frames, sk.num_joints
+    sel = joint_set(motion, joints, include_root=False)
+    has_dofs = np.array([bool(sk.rotation_order(j)) for j in range(J)])
+    candidates = np.flatnonzero(sel & has_dofs & bone_moving_joints(sk))
+    if len(candidates) == 0:
+        raise ValueError("no selected joint has rotation channels that move a bone")
+    src = motion.rotations
+    finite = np.all(np.isfinite(src), axis=-1)
+    rot = np.array(src)
+    busy = np.zeros((F, J), dtype=bool)
+    records: list[ErrorRecord] = []
+    for _ in range(int(n_drifts)):
+        for _attempt in range(100):
+            n = max(int(round(rng.uniform(*duration_s) * motion.fps)), 3)
+            if n + 2 > F:
+                break
+            s = int(rng.integers(1, F - n))
+            e = s + n
+            j = int(rng.choice(candidates))
+            if busy[max(s - 1, 0) : e + 1, j].any() or not finite[s:e, j].all():
+                continue
+            t = (np.arange(n) + 0.5) / n
+            delta = peak_deg * 0.5 * (1.0 - np.cos(2.0 * np.pi * t)) * rng.choice([-1.0, 1.0])
+            order = sk.rotation_order(j)
+            rot[s:e, j] = _offset_channel(sk, j, src[s:e, j], int(rng.integers(len(order))), delta)
+            busy[s:e, j] = True
+            records.append(ErrorRecord("smooth_drift", sk.joint_names[j], s, e))
             break
     out = dataclasses.replace(motion, rotations=rot)
     records.sort(key=lambda r: (r.start, r.joint))

@@ -173,6 +173,21 @@ def test_context_is_used():
     assert metrics.pose_error(m, res.motion).mean() < metrics.pose_error(m, bad).mean()
 
 
+def test_drifts_are_repaired_only_when_asked_for_against_a_repeating_context():
+    """A smooth 35 degree drift of one knee, the take's own twin as context: repaired with drifts=True only."""
+    m = mocapkit.load(samples.path("HDM_bk_sneak2StepsLStart_004_120.amc"))
+    twin = dataclasses.replace(m, name="twin")
+    bad, mask, records = corrupt.smooth_drifts(m, n_drifts=1, duration_s=(1.0, 1.0), seed=0, joints=["ltibia"])
+    j = m.skeleton.index("ltibia")
+    off = clean(bad, [twin], steps=("detect", "repair"))
+    assert not off.flags[:, j].any() and not off.changed.any()
+    on = clean(bad, [twin], steps=("detect", "repair"), drifts=True)
+    assert on.flags[mask[:, j], j].mean() > 0.8 and not (on.repaired & ~on.flags).any()
+    err = lambda x: np.degrees(R.geodesic_angle(x.rotations[:, j], m.rotations[:, j])).max()  # noqa: E731
+    assert err(on.motion) < err(bad) / 3
+    assert not clean(m, [twin], steps=("detect", "repair"), drifts=True).changed.any()  # the clean take: untouched
+
+
 def test_noise_level(walk):
     lv = noise_level(walk)
     assert lv.shape == (walk.num_frames, walk.num_joints)

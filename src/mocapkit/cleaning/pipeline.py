@@ -507,7 +507,7 @@ def _pad(a: np.ndarray, lo: int, F: int, fill) -> np.ndarray:
 def _padded_detection(det, lo: int, F: int):
     """``det`` with its (F, J) arrays put back at the take's frames (nothing flagged on calibration frames)."""
     pads = {"mdm": 0.0, "flags": False, "digression": np.nan, "best_group": -1, "jumps": False, "holds": False,
-            "swaps": False, "offsets": False}
+            "swaps": False, "offsets": False, "agreement": np.nan, "consistency": np.nan}
     return dataclasses.replace(det, **{k: _pad(np.asarray(getattr(det, k)), lo, F, v) for k, v in pads.items()},
                                notes=tuple(det.notes) + (f"analysed frames {lo}-{lo + det.num_frames - 1} (calibration "
                                                          "poses left out); word starts count from there",))
@@ -524,6 +524,7 @@ def clean(
     foot_skate: bool = False,
     progress: bool = False,
     max_word_angle_deg: float | None = MAX_WORD_ANGLE_DEG,
+    drifts: bool = False,
 ) -> CleanResult:
     """Clean ``motion``: fill gaps, detect and repair erroneous joints, denoise the noisy cells (module docstring).
 
@@ -549,6 +550,10 @@ def clean(
         Words whose nearest neighbour in the context differs by more than this
         RMS joint angle are not judged (module docstring, step 2); None judges
         every word, as the paper does.
+    drifts : bool
+        Also flag (and repair) smooth drifts, digressions with no break, where ``context`` repeats the
+        take's motion (:mod:`mocapkit.cleaning.ssa.drifts`; ``docs/guide/cleaning.md``). Off by default:
+        against a context that does not repeat the motion a performer's style looks the same.
 
     Returns
     -------
@@ -558,7 +563,7 @@ def clean(
 
     _check(motion)
     steps = parse_steps(steps)
-    params = ssa.SSAParams(max_word_angle_deg=max_word_angle_deg)
+    params = ssa.SSAParams(max_word_angle_deg=max_word_angle_deg, drift=bool(drifts))
     models = _models(models)
     if not 0.0 < threshold < 1.0:
         raise ValueError(f"threshold must be in (0, 1), got {threshold}")

@@ -30,6 +30,11 @@ def clean(
                               help=STEPS_HELP + " --steps detect is the review mode: flags, record and report; OUT "
                                                 "holds the input's samples unchanged."),
     threshold: float = typer.Option(0.5, "--threshold", help="MDM value above which a joint is flagged and repaired (0-1)."),
+    drifts: bool = typer.Option(
+        False, "--drifts",
+        help="Also flag and repair smooth drifts (no break) where the --context repeats the take's motion "
+             "(docs/guide/cleaning.md).",
+    ),
     report: Optional[Path] = typer.Option(None, "--report", help="Also write the self-contained HTML report here."),
     png: Optional[Path] = typer.Option(None, "--png", help="Also write a static summary figure (MDM + before/after channels)."),
     reference: Optional[Path] = typer.Option(None, "--reference", help="The clean take, to print the error before and after."),
@@ -77,7 +82,7 @@ def clean(
                               joint_names=take.skeleton.joint_names)
     original, res = clean_file(inp, out, context=context, steps=step_list, threshold=threshold, report=report, png=png,
                                progress=True, asf=asf if inp.suffix.lower() == ".amc" else None, overwrite=overwrite,
-                               motion=take, decisions=decisions,
+                               motion=take, drifts=drifts, decisions=decisions,
                                record=record)
     if decisions is not None:
         m = _print_decided(inp, out, decisions, record, report, png, original, res)

@@ -11,11 +11,13 @@ from ..errors import MocapError, MocapFormatError, SkeletonError
 from .common import asf_option, console, context_option, guard, overwrite_option, plural
 
 
-def _detect(m, context, threshold: float, progress: bool = True, confirm: bool = True, jump_deg: float = 8.0):
+def _detect(m, context, threshold: float, progress: bool = True, confirm: bool = True, jump_deg: float = 8.0,
+            drifts: bool = False):
     from ..cleaning import ssa
 
     try:
-        return ssa.detect(m, context, threshold=threshold, progress=progress, confirm=confirm, jump_deg=jump_deg)
+        return ssa.detect(m, context, threshold=threshold, progress=progress, confirm=confirm, jump_deg=jump_deg,
+                          drift=drifts)
     except (ValueError, SkeletonError) as exc:
         raise MocapError(f"{m.name or 'input'}: {exc}") from None
 
@@ -30,6 +32,10 @@ def detect(
         help="Flag a digression only where the joint's own trajectory breaks (a step or spike); --no-confirm: MDM > threshold alone.",
     ),
     jump_deg: float = typer.Option(8.0, "--jump-deg", help="Confirmation: steps over 2x this, spikes over this (degrees)."),
+    drifts: bool = typer.Option(
+        False, "--drifts",
+        help="Also flag smooth drifts (no break) where the --context repeats the take's motion (docs/guide/cleaning.md).",
+    ),
     png: Optional[Path] = typer.Option(None, "--png", help="Also draw the movement digression map here."),
     as_json: bool = typer.Option(False, "--json", help="Print the flagged segments as JSON."),
     asf: Optional[Path] = asf_option(),
@@ -51,7 +57,7 @@ def detect(
         raise MocapFormatError(png, "the map is written as .png")
     m = load_motion(inp, asf, purpose="detect")
     ctx, note = fit_context(m, load_context(context, progress=not as_json))
-    det = _detect(m, ctx, threshold, progress=not as_json, confirm=confirm, jump_deg=jump_deg)
+    det = _detect(m, ctx, threshold, progress=not as_json, confirm=confirm, jump_deg=jump_deg, drifts=drifts)
     with removed_on_failure([out, png]):
         det.save(out)
         if png is not None:

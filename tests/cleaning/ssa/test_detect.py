@@ -20,7 +20,7 @@ def test_shapes_and_range(walk, flipped):
     assert det.mdm.shape == det.flags.shape == (F, J)
     assert np.all((det.mdm >= 0) & (det.mdm <= 1))
     assert det.params.confirm
-    cues = det.holds | det.swaps | det.offsets
+    cues = det.holds | det.swaps | det.offsets | det.drifts()
     assert np.array_equal(det.flags, ssa.confirm_flags(det.mdm, det.jumps, det.threshold, det.fps) | cues)
     assert not (det.flags & ~cues & (det.mdm <= det.threshold / 2)).any()
     assert not (det.jumps | cues)[:, ~det.analysed].any()
@@ -167,7 +167,8 @@ def test_with_threshold_applies_the_detection_rule(flipped):
     det = flipped[3]
     assert np.array_equal(det.with_threshold(det.threshold).flags, det.flags)
     low = det.with_threshold(0.3)
-    assert np.array_equal(low.flags, ssa.confirm_flags(det.mdm, det.jumps, 0.3, det.fps) | det.holds | det.swaps | det.offsets)
+    assert np.array_equal(low.flags, ssa.confirm_flags(det.mdm, det.jumps, 0.3, det.fps) | det.holds | det.swaps | det.offsets
+                          | det.drifts())
     assert (low.flags >= det.flags).all()
     plain = dataclasses.replace(det, params=det.params.replace(confirm=False))
     assert np.array_equal(plain.with_threshold(0.3).flags, det.mdm > 0.3)

@@ -8,6 +8,8 @@ The package, by step of the method:
 - :mod:`~mocapkit.cleaning.ssa.neighbours`: nearest neighbour words and the mean motion texture,
   on the word-DTW kernels of :mod:`~mocapkit.cleaning.ssa.word_dtw`;
 - :mod:`~mocapkit.cleaning.ssa.cues`: discontinuities, held joints, side swaps, transient offsets;
+- :mod:`~mocapkit.cleaning.ssa.drifts`: smooth drifts, flagged with no break where a chosen context
+  repeats the motion;
 - :mod:`~mocapkit.cleaning.ssa.detect`: the movement digression map and the flags;
 - :mod:`~mocapkit.cleaning.ssa.repair`: the flagged cells replaced by their neighbour words.
 
@@ -104,6 +106,7 @@ True
 
 from . import word_dtw
 from .cues import confirm_flags, discontinuities, held_joints, side_swaps, transient_offsets
+from .drifts import body_agreement, smooth_drift_flags
 from .detect import Detection, detect, detect_prepared, movement_digression_map
 from .neighbours import mean_motion_texture, nearest_words, word_distance
 from .params import SSAParams
@@ -143,5 +146,7 @@ __all__ = [
     "held_joints",
     "side_swaps",
     "transient_offsets",
+    "body_agreement",
+    "smooth_drift_flags",
     "word_dtw",
 ]

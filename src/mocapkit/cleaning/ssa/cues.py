@@ -394,11 +394,14 @@ def confirm_flags(
     return out
 
 
-def flag_rule(mdm, jumps, holds, swaps, offsets, threshold: float, fps: float, confirm: bool, margin_s) -> np.ndarray:
-    """The flags of :func:`detect` and :meth:`Detection.with_threshold`: confirmed digressions, holds, swaps and
-    transient offsets, or the paper's ``mdm > threshold`` without confirmation."""
+def flag_rule(mdm, jumps, holds, swaps, offsets, threshold: float, fps: float, confirm: bool, margin_s,
+              drifts=None) -> np.ndarray:
+    """The flags of :func:`detect` and :meth:`Detection.with_threshold`: confirmed digressions, holds, swaps,
+    transient offsets and smooth drifts (``drifts``, bool (F, J) or None: none), or the paper's
+    ``mdm > threshold`` without confirmation."""
     if confirm:
-        return confirm_flags(mdm, jumps, threshold, fps, margin_s) | holds | swaps | offsets
+        out = confirm_flags(mdm, jumps, threshold, fps, margin_s) | holds | swaps | offsets
+        return out if drifts is None else out | drifts
     return mdm > threshold
 
 

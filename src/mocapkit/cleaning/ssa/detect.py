@@ -17,6 +17,7 @@ from typing import Mapping, Sequence
 import numpy as np
 
 from ...motion import Motion
+from ...rigs import pelvis_index
 from ..ik import contact_segments
 from . import word_dtw
 from .cues import (
@@ -29,6 +30,7 @@ from .cues import (
     step_angles,
     swaps_from_residuals,
 )
+from .drifts import body_agreement, smooth_drift_flags
 from .neighbours import Neighbors, mean_motion_texture, nearest_words, unseen_words
 from .params import SSAParams
 from .texture import Analysis, facing_aligned, prepare, upsample_quaternions
@@ -87,7 +89,12 @@ class Detection:
     threshold`` alone when the detection was made with ``confirm=False``; jumps : bool (F, J) the analysed joints'
     :func:`discontinuities`; holds, swaps, offsets : bool (F, J) their
     :func:`held_joints`, :func:`side_swaps` and :func:`transient_offsets`
-    (flagged with confirmation at any threshold); digression : float (F, J) angle in
+    (flagged with confirmation at any threshold); agreement : float (F, J)
+    the median angle in radians of the other analysed joints from the mean
+    texture (:func:`body_agreement`), consistency : float (F, J) the joint's
+    angle over the neighbours' spread and noise: the evidence of the smooth
+    drifts (:func:`smooth_drift_flags`, flagged with confirmation where
+    ``params.drift``); digression : float (F, J) angle in
     radians between the input and the mean motion texture (NaN where not
     analysed); best_group : int8 (F, J) the group whose neighbours explain the
     cell best (-1 none). The rest records how the analysis was made so that
@@ -115,6 +122,8 @@ class Detection:
     holds: np.ndarray  # (F, J) bool
     swaps: np.ndarray  # (F, J) bool
     offsets: np.ndarray  # (F, J) bool
+    agreement: np.ndarray  # (F, J) float, radians
+    consistency: np.ndarray  # (F, J) float
     params: SSAParams = field(default_factory=SSAParams)
     notes: tuple = ()
     analysis: Analysis | None = field(default=None, repr=False)
@@ -130,13 +139,21 @@ class Detection:
             out += [(self.joint_names[j], a, b) for a, b in contact_segments(self.flags[:, j])]
         return sorted(out, key=lambda s: (s[1], s[0]))
 
+    def drifts(self) -> np.ndarray:
+        """(F, J) bool smooth drifts (:func:`smooth_drift_flags`; any threshold), none where ``params.drift`` is off."""
+        p = self.params
+        if not p.drift:
+            return np.zeros(self.mdm.shape, dtype=bool)
+        return smooth_drift_flags(self.jumps, self.agreement, self.consistency, self.fps,
+                                  p.drift_repeat_deg, p.drift_z, p.drift_min_s, p.confirm_margin_s, p.drift_extent)
+
     def with_threshold(self, threshold: float) -> "Detection":
         """The same analysis flagged at another threshold (confirmed by the jumps if the detection was)."""
         threshold = float(threshold)
         if not 0.0 < threshold < 1.0:
             raise ValueError(f"threshold must be in (0, 1), got {threshold}")
         flags = flag_rule(self.mdm, self.jumps, self.holds, self.swaps, self.offsets, threshold, self.fps,
-                          self.params.confirm, self.params.confirm_margin_s)
+                          self.params.confirm, self.params.confirm_margin_s, self.drifts())
         return dataclasses.replace(self, threshold=threshold, flags=flags)
 
     def save(self, path) -> Path:
@@ -175,6 +192,9 @@ class Detection:
             for key in ("jumps", "holds", "swaps", "offsets"):  # written before these rules existed
                 if key not in data:
                     data[key] = np.zeros(data["mdm"].shape, dtype=bool)
+            for key in ("agreement", "consistency"):  # written before the drift rule: no evidence
+                if key not in data:
+                    data[key] = np.full(data["mdm"].shape, np.nan)
             return cls(
                 **data,
                 threshold=float(meta["threshold"]),
@@ -365,6 +385,8 @@ def detect_prepared(an: Analysis, threshold: float = 0.5, *, progress: bool = Fa
     mean_speed = np.full((F, J), np.nan)
     mean_speed[:, tex_joints] = np.where(ok, np.take_along_axis(speed_g, best[None], axis=0)[0], np.nan)
     mdm = movement_digression_map(scores, normalization, row_scale, floor_deg, z_scale)
+    consistency = np.full((F, J), np.nan)
+    consistency[:, tex_joints] = np.where(ok, np.take_along_axis(z_g, best[None], axis=0)[0], np.nan)
     analysed = np.zeros(J, dtype=bool)
     analysed[tex_joints] = True
     jumps &= analysed[None, :]
@@ -376,7 +398,16 @@ def detect_prepared(an: Analysis, threshold: float = 0.5, *, progress: bool = Fa
         np.asarray(motion.rotations, dtype=np.float64), resid, motion.fps, p.offset_jump_deg, p.offset_max_s,
         p.offset_min_deg, analysed, sk.joint_names,
     )
-    flags = flag_rule(mdm, jumps, holds, swaps, offsets, threshold, motion.fps, p.confirm, p.confirm_margin_s)
+    # smooth-drift evidence only against a context beyond the take that the caller chose (not the bundled default
+    # context, a general sample that repeats no take's motion), and never on the pelvis or the root, whose rotation
+    # carries the path's heading (module docstring of :mod:`~mocapkit.cleaning.ssa.drifts`)
+    info = getattr(an.context_given, "info", None)
+    chosen = has_context and not (isinstance(info, dict) and info.get("default"))
+    agreement = body_agreement(digression, analysed) if chosen else np.full((F, J), np.nan)
+    agreement[:, [0, pelvis_index(sk)]] = np.nan
+    drifts = (smooth_drift_flags(jumps, agreement, consistency, motion.fps, p.drift_repeat_deg, p.drift_z,
+                                 p.drift_min_s, p.confirm_margin_s, p.drift_extent) if p.drift else None)
+    flags = flag_rule(mdm, jumps, holds, swaps, offsets, threshold, motion.fps, p.confirm, p.confirm_margin_s, drifts)
     masks = an.group_masks()
     if not ok.all():
         notes.append(f"{int((~ok).any(axis=1).sum())} frames have no neighbour words (context too short)")
@@ -387,6 +418,7 @@ def detect_prepared(an: Analysis, threshold: float = 0.5, *, progress: bool = Fa
         fps=motion.fps, joint_names=tuple(sk.joint_names), analysed=analysed, texture_joints=tex_joints,
         group_names=tuple(gnames), group_masks=masks, word_starts=words, neighbor_pos=neighbors.pos,
         neighbor_iend=neighbors.iend, neighbor_jend=neighbors.jend, neighbor_dist=neighbors.dist,
-        context_clips=clips, jumps=jumps, holds=holds, swaps=swaps, offsets=offsets, params=params, notes=tuple(notes),
+        context_clips=clips, jumps=jumps, holds=holds, swaps=swaps, offsets=offsets,
+        agreement=agreement, consistency=consistency, params=params, notes=tuple(notes),
         analysis=an,
     )

@@ -68,6 +68,13 @@ class SSAParams:
     offset_jump_deg, offset_max_s, offset_min_deg : degrees, seconds, degrees
         Transient offsets: a joint steps off its path by at least ``offset_min_deg`` and back within
         ``offset_max_s``, at breaks over ``offset_jump_deg``.
+    drift, drift_repeat_deg, drift_z, drift_min_s, drift_extent : bool, degrees, ratio, seconds, ratio
+        Smooth drifts (:mod:`mocapkit.cleaning.ssa.drifts`): a digression with no break is flagged where,
+        for at least ``drift_min_s``, the other joints sit within ``drift_repeat_deg`` (median) of the
+        neighbours' mean (the context repeats the motion) and the joint's angle is ``drift_z`` times the
+        neighbours' spread and noise; the flagged run extends while that ratio exceeds ``drift_extent``;
+        off by default (``drift=True``, ``mocapkit detect --drifts`` / ``clean --drifts``): only a context that
+        repeats the take's motion makes the evidence mean a drift.
     """
 
     analysis_fps: float = 24.0
@@ -97,6 +104,11 @@ class SSAParams:
     offset_jump_deg: float = 7.0
     offset_max_s: float = 1.0
     offset_min_deg: float = 10.0
+    drift: bool = False
+    drift_repeat_deg: float = 5.0
+    drift_z: float = 3.0
+    drift_min_s: float = 0.25
+    drift_extent: float = 0.5
 
     def __post_init__(self):
         N, M = self.source_length, self.target_length

@@ -1,0 +1,102 @@
+"""Smooth drifts: the agreement statistic, the run rule, and detect on a walk against a context that repeats it."""
+
+import dataclasses
+
+import numpy as np
+import pytest
+
+from mocapkit import corrupt
+from mocapkit.cleaning import ssa
+from mocapkit.cleaning.ssa.drifts import body_agreement, smooth_drift_flags
+
+
+def slow_agreement(d, analysed):
+    """Reference: cell by cell, the median of the other analysed joints' finite values."""
+    F, J = d.shape
+    out = np.full((F, J), np.nan)
+    cols = np.flatnonzero(analysed)
+    if len(cols) < 2:
+        return out
+    for f in range(F):
+        for j in cols:
+            rest = [d[f, k] for k in cols if k != j and np.isfinite(d[f, k])]
+            if rest:
+                out[f, j] = np.median(rest)
+    return out
+
+
+def test_body_agreement_is_the_median_of_the_other_analysed_joints():
+    rng = np.random.default_rng(0)
+    d = rng.uniform(0, 1, size=(40, 7))
+    d[rng.uniform(size=d.shape) < 0.1] = np.nan
+    analysed = np.array([True, True, False, True, True, True, False])
+    got = body_agreement(d, analysed)
+    assert np.allclose(got, slow_agreement(d, analysed), equal_nan=True)
+    assert np.isnan(got[:, ~analysed]).all()
+    # a joint's own digression never lowers (or raises) its own evidence
+    d2 = d.copy()
+    d2[:, 0] = 100.0
+    assert np.allclose(body_agreement(d2, analysed)[:, 0], got[:, 0], equal_nan=True)
+    assert np.isnan(body_agreement(d, np.eye(7, dtype=bool)[0])).all()  # one analysed joint: no other joints
+    with pytest.raises(ValueError, match="analysed"):
+        body_agreement(d, analysed[:3])
+
+
+def drift_case(F=100, fps=100.0):
+    """A 40-frame excursion on joint 0 (consistency up to 6), the body agreeing (1 deg) everywhere."""
+    jumps = np.zeros((F, 3), dtype=bool)
+    agreement = np.full((F, 3), np.radians(1.0))
+    consistency = np.full((F, 3), 0.5)
+    consistency[30:70, 0] = 1.0 + 5.0 * np.sin(np.linspace(0, np.pi, 42)[1:-1])
+    return jumps, agreement, consistency, fps
+
+
+def test_smooth_drift_flags_whole_excursions_where_the_body_agrees():
+    jumps, agreement, consistency, fps = drift_case()
+    flags = smooth_drift_flags(jumps, agreement, consistency, fps, repeat_deg=5.0, z_min=3.0, min_s=0.25)
+    assert np.flatnonzero(flags[:, 0]).tolist() == list(range(30, 70))  # the whole excursion, down to z = 0.5
+    assert not flags[:, 1:].any()
+    strong = int((consistency[:, 0] >= 3.0).sum())
+    # too short: fewer strong cells than min_s asks
+    assert not smooth_drift_flags(jumps, agreement, consistency, fps, min_s=(strong + 1) / fps).any()
+    assert smooth_drift_flags(jumps, agreement, consistency, fps, min_s=strong / fps)[:, 0].any()
+    # the rest of the body far from its neighbours: the context does not repeat the motion
+    far = np.full_like(agreement, np.radians(8.0))
+    assert not smooth_drift_flags(jumps, far, consistency, fps, repeat_deg=5.0).any()
+    assert smooth_drift_flags(jumps, far, consistency, fps, repeat_deg=10.0)[:, 0].any()
+    # no evidence (NaN: no context, or the pelvis) is never flagged
+    assert not smooth_drift_flags(jumps, np.full_like(agreement, np.nan), consistency, fps).any()
+    # a break in the run or within the margin: confirmation's business, not a smooth drift
+    broken = jumps.copy()
+    broken[72, 0] = True
+    assert not smooth_drift_flags(broken, agreement, consistency, fps, margin_s=0.05).any()
+    assert smooth_drift_flags(broken, agreement, consistency, fps, margin_s=0.01)[:, 0].any()
+    with pytest.raises(ValueError, match="same"):
+        smooth_drift_flags(jumps[:, :2], agreement, consistency, fps)
+    with pytest.raises(ValueError, match="z_min"):
+        smooth_drift_flags(jumps, agreement, consistency, fps, z_min=0.4)  # below the run's extent
+
+
+@pytest.fixture(scope="module")
+def drifted(walk):
+    bad, mask, records = corrupt.smooth_drifts(walk, n_drifts=1, peak_deg=35.0, duration_s=(1.0, 1.0), seed=3,
+                                               joints=["LeftElbow"])
+    return bad, mask, records
+
+
+def test_detect_flags_a_smooth_drift_against_a_context_that_repeats_the_motion(walk, drifted):
+    """The walk's twin as context: the neighbours match every joint, so the drifting elbow alone digresses."""
+    bad, mask, records = drifted
+    twin = dataclasses.replace(walk, name="twin")
+    (r,) = records
+    j = walk.skeleton.index(r.joint)
+    assert not ssa.discontinuities(bad)[:, j].any()  # no break: confirmation alone never flags it
+    det = ssa.detect(bad, [twin], drift=True)
+    visible = mask[:, j] & (det.digression[:, j] > np.radians(10.0))
+    assert det.flags[visible, j].all()
+    assert np.array_equal(det.flags, (det.flags & ~det.drifts()) | det.drifts())
+    assert not det.drifts()[:, np.arange(walk.num_joints) != j].any()
+    assert not ssa.detect(bad, [twin]).flags[:, j].any()  # the rule is off by default
+    assert not ssa.detect(walk, [twin], drift=True).drifts().any()  # the clean take: nothing
+    assert not ssa.detect(bad, drift=True).drifts().any()  # analysed alone: no evidence that the motion repeats
+    assert det.with_threshold(0.3).flags[visible, j].all()
