@@ -8,12 +8,7 @@ sample and its ``neighbours`` most rigidly attached markers form pairs
 whose usual range is the 1st-99th percentile of their distance over the
 take (:class:`~mocapkit.cleaning.markers.rigid.DistanceStats`); a pair
 outside its range pulls the filled sample along the line between the two
-onto the nearest bound (half each when both are filled). A gap whose
-marker was seen, just before or just after it, at a distance outside that
-range (a marker that slipped, a pair that is not rigid in this part of the
-take) widens the pair's range for that gap to include the distance seen
-there: the constraint keeps the fill consistent with the take, and never
-pulls it away from where its own ends put it. The corrections
+onto the nearest bound (half each when both are filled). The corrections
 of all pairs are averaged and applied, ``iterations`` times (a Jacobi
 projection, as in position-based dynamics). Observed samples never move.
 
@@ -27,7 +22,7 @@ import numpy as np
 
 from .rigid import DistanceStats
 
-__all__ = ["constraint_pairs", "end_distances", "enforce_distances", "violation"]
+__all__ = ["constraint_pairs", "enforce_distances", "violation"]
 
 
 def constraint_pairs(mask: np.ndarray, stats: DistanceStats, order: np.ndarray, neighbours: int = 4):
@@ -54,45 +49,19 @@ def violation(positions: np.ndarray, stats: DistanceStats, order: np.ndarray, ma
     return float(out[ok].mean())
 
 
-def end_distances(positions: np.ndarray, free: np.ndarray, t: np.ndarray, i: np.ndarray, d: np.ndarray):
-    """Distances between markers i and d at the last frame before and the first after sample (t, i)'s run of ``free`` frames.
-
-    ``free`` is (F, M); ``t``, ``i``, ``d`` are pair index arrays (as from
-    :func:`constraint_pairs`). Returns two float arrays (NaN where the run
-    touches the take's start or end, or a sample there is unseen).
-    """
-    f, m = free.shape
-    frames = np.arange(f)[:, None]
-    prev = np.maximum.accumulate(np.where(free, -1, frames), axis=0)  # last non-free frame at or before t
-    nxt = np.minimum.accumulate(np.where(free, f, frames)[::-1], axis=0)[::-1]  # first non-free at or after t
-    out = []
-    for e in (prev[t, i], nxt[t, i]):
-        ok = (e >= 0) & (e < f)
-        ec = np.clip(e, 0, f - 1)
-        dist = np.linalg.norm(positions[ec, i] - positions[ec, d], axis=-1)
-        out.append(np.where(ok, dist, np.nan))
-    return out[0], out[1]
-
-
 def enforce_distances(positions: np.ndarray, free: np.ndarray, stats: DistanceStats, order: np.ndarray, *,
                       neighbours: int = 4, iterations: int = 10, margin: float = 0.0) -> np.ndarray:
     """Move the samples in ``free`` (F, M) so their distances to rigid neighbours fall in the usual range.
 
     ``margin`` widens each range by that many times the pair's spread on
-    both sides (0: the 1-99 % range); each free run's range is further
-    widened to include the pair's distances at the run's two ends
-    (:func:`end_distances`). Returns a copy of ``positions``; samples
-    outside ``free`` are bit-identical, NaN samples are left alone.
+    both sides (0: the 1-99 % range). Returns a copy of ``positions``;
+    samples outside ``free`` are bit-identical, NaN samples are left alone.
     """
     pos = np.array(positions, dtype=np.float64)
     t, i, d = constraint_pairs(free, stats, order, neighbours)
     if t.size == 0:
         return pos
     lo, hi = stats.low[i, d] - margin * stats.spread[i, d], stats.high[i, d] + margin * stats.spread[i, d]
-    before, after = end_distances(pos, free, t, i, d)
-    with np.errstate(invalid="ignore"):
-        lo = np.fmin(lo, np.fmin(before, after))
-        hi = np.fmax(hi, np.fmax(before, after))
     both = free[t, d]
     share = np.where(both, 0.5, 1.0)
     for _ in range(iterations):
