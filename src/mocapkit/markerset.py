@@ -23,7 +23,11 @@ import numpy as np
 
 from .motion import check_fps, readonly_view
 
-__all__ = ["MarkerSet", "MarkerSource", "length_unit_cm", "zero_gap_mask", "ZERO_GAP_DISTANCE_CM"]
+__all__ = ["MarkerSet", "MarkerSource", "length_unit_cm", "zero_gap_mask", "ZERO_GAP_DISTANCE_CM", "MODELLED_GROUPS"]
+
+# Vicon writes modelled quantities (joint angles, forces, moments, powers) as
+# C3D points and lists them in these POINT parameters; they are not markers.
+MODELLED_GROUPS = ("ANGLES", "FORCES", "MOMENTS", "POWERS", "SCALARS", "REACTIONS")
 
 # Length units as files state them (lower case, stripped). C3D's POINT:UNITS is
 # a 4-character field in many writers, so metres arrive as "mete" (c3d.org FP1.C3D).
@@ -167,6 +171,22 @@ class MarkerSet:
     def missing(self) -> np.ndarray:
         """Boolean (F, M) mask of samples where the marker was not seen."""
         return np.any(np.isnan(self.positions), axis=-1)
+
+    def modelled(self) -> np.ndarray:
+        """Boolean (M,) mask of points that are modelled quantities, not markers.
+
+        Vicon writes joint angles, forces, moments and powers as C3D points and
+        lists their labels in POINT:ANGLES, FORCES, MOMENTS, POWERS, SCALARS and
+        REACTIONS (:data:`MODELLED_GROUPS`); cleaning leaves them alone. All
+        False for a take without such a list (TRC, npz).
+        """
+        names: set[str] = set()
+        point = self.source.parameters.get("POINT", {}) if self.source is not None else {}
+        for key in MODELLED_GROUPS:
+            param = point.get(key)
+            if isinstance(param, Mapping) and param.get("type") == -1:
+                names.update(str(v).strip() for v in np.ravel(param.get("value", [])))
+        return np.array([label in names for label in self.labels], dtype=bool)
 
     def residual_or_default(self) -> np.ndarray:
         """(F, M) residuals: the file's, or 0 where seen and -1 where missing when it had none."""

@@ -27,7 +27,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import MocapFormatError, SkeletonError
-from ..markerset import MarkerSet, MarkerSource, length_unit_cm, zero_gap_mask
+from ..markerset import MODELLED_GROUPS, MarkerSet, MarkerSource, length_unit_cm, zero_gap_mask
 from ..motion import check_fps
 
 __all__ = ["MarkerSet", "read_c3d", "write_c3d", "apply_zero_gaps", "checked_unit_cm"]
@@ -55,10 +55,9 @@ def _point_rate(path: Path, rate) -> float:
         raise MocapFormatError(path, str(exc)) from None
 
 
-# Vicon writes modelled quantities (joint angles, forces, moments, powers) as
-# points and lists them in these POINT parameters; they are not markers, and a
-# zero there is a value, never a gap.
-_MODELLED = ("ANGLES", "FORCES", "MOMENTS", "POWERS", "SCALARS", "REACTIONS")
+# Modelled quantities (markerset.MODELLED_GROUPS) are not markers, and a zero
+# there is a value, never a gap.
+_MODELLED = MODELLED_GROUPS
 
 
 class _NoPoints(Exception):

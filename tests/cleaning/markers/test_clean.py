@@ -142,3 +142,16 @@ def test_soft_constraints_pull_filled_samples_into_range_and_leave_observed_alon
     assert np.array_equal(z[~free], x[~free])
     err = lambda p: np.sqrt(np.mean(np.sum((p[free] - x[free]) ** 2, -1)))  # noqa: E731
     assert err(z) < 0.75 * err(y)
+
+
+def test_modelled_points_are_left_alone(shared_data):
+    # Vicon's PiG file holds joint angles, forces, moments and powers as points (POINT:ANGLES, ...):
+    # not markers, so clean neither flags their jumps as spikes nor fills them.
+    ms = read_c3d(shared_data / "c3d_markers" / "PiG_Motion-FlatFoot-Full.c3d")
+    modelled = ms.modelled()
+    assert modelled.sum() == 80 and "LAnkleMoment" in [ms.labels[i] for i in np.flatnonzero(modelled)]
+    res = clean_markers(ms)
+    assert not res.changed[:, modelled].any()
+    assert not (res.filled | res.spikes | res.swapped)[:, modelled].any()
+    assert res.filled[:, ~modelled].any()  # the markers' gaps are filled
+    assert not any(f.marker in {ms.labels[i] for i in np.flatnonzero(modelled)} for f in res.fixes)

@@ -7,7 +7,9 @@ short gaps the fill closes. Every observed sample that is not an error
 comes back bit-identical; a swapped sample comes back re-labelled (its
 values unchanged); spike samples and gaps are filled
 (:mod:`~mocapkit.cleaning.markers.gaps`). A marker missing in the whole take
-stays missing and is listed in ``never_seen``.
+stays missing and is listed in ``never_seen``. Points a C3D lists as
+modelled quantities (Vicon's joint angles, forces, moments, powers:
+:meth:`MarkerSet.modelled`) are not markers and come back as they are.
 """
 
 from __future__ import annotations
@@ -139,9 +141,12 @@ def clean_markers(markers, *, steps=STEPS, spike_mm: float = 15.0, swap_mm: floa
     if unknown:
         raise ValueError(f"unknown step(s) {', '.join(unknown)}; steps are {', '.join(STEPS)}")
     unit_mm = 10.0 * markers.unit_cm
-    x = np.asarray(markers.positions, dtype=np.float64)
+    full = np.asarray(markers.positions, dtype=np.float64)
+    modelled = markers.modelled() if hasattr(markers, "modelled") else np.zeros(full.shape[1], dtype=bool)
+    work = np.flatnonzero(~modelled)  # the markers; modelled angles, forces, ... are left as they are
+    x = full[:, work]
     f, m = x.shape[:2]
-    labels = markers.labels
+    labels = [markers.labels[i] for i in work]
     fixes: list[MarkerFix] = []
     y = x.copy()
     swapped = np.zeros((f, m), dtype=bool)
@@ -181,7 +186,16 @@ def clean_markers(markers, *, steps=STEPS, spike_mm: float = 15.0, swap_mm: floa
                 fixes.append(MarkerFix(labels[r.marker], a, b, "gap", size * unit_mm))
     # a spike no fill reached stays missing rather than wrong
     fixes.sort(key=lambda x: (x.start, x.marker, x.kind))
-    cleaned = markers.with_positions(y) if hasattr(markers, "with_positions") else dataclasses.replace(markers, positions=y)
-    return MarkerCleanResult(markers=cleaned, original=markers, filled=filled, spikes=spikes, swapped=swapped,
-                             fixes=tuple(fixes), never_seen=tuple(labels[i] for i in np.flatnonzero(never)))
+    out = full.copy()
+    out[:, work] = y
+
+    def expand(sub):
+        mask = np.zeros(full.shape[:2], dtype=bool)
+        mask[:, work] = sub
+        return mask
+
+    cleaned = markers.with_positions(out) if hasattr(markers, "with_positions") else dataclasses.replace(markers, positions=out)
+    return MarkerCleanResult(markers=cleaned, original=markers, filled=expand(filled), spikes=expand(spikes),
+                             swapped=expand(swapped), fixes=tuple(fixes),
+                             never_seen=tuple(labels[i] for i in np.flatnonzero(never)))
 

@@ -1,30 +1,48 @@
 """Find spikes: short runs of marker samples that jump off the trajectory and back.
 
 An optical system that briefly tracks a reflection, or fits a marker to the
-wrong blob, gives a few samples far from where the marker really was. A
-marker's trajectory at 100+ Hz is smooth over a few frames, so a run of
-``L`` samples (1 <= L <= ``max_len``) is a spike when every one of them lies
-far from the cubic fitted through the ``context`` samples on either side of
-the run. Testing every run start and every length finds a spike of any
-length up to ``max_len`` exactly: windows that also cover good samples fail
-the "every sample far" test, and windows whose context holds spike samples
-predict the spike and do not flag. This is the "remove and re-fill"
-outlier test of robust smoothing (e.g. Woltring 1986 on marker data, and
-Aristidou et al. 2018's idea of judging a sample by what the rest of the
-motion predicts), made exact for short runs by trying each run.
+wrong blob, gives a few samples far from where the marker really was. Two
+independent predictions of a sample must both miss it for it to count as an
+error:
+
+* **in time**: a marker's trajectory at 100+ Hz is smooth over a few frames,
+  so a run of ``L`` samples (1 <= L <= ``max_len``) is a candidate when
+  every one of them lies far from the cubic fitted through the ``context``
+  samples on either side of the run. Testing every run start and every
+  length finds a candidate of any length up to ``max_len`` exactly: windows
+  that also cover good samples fail the "every sample far" test, and windows
+  whose context holds spike samples predict the spike and do not flag. This
+  is the "remove and re-fill" outlier test of robust smoothing (e.g. Woltring
+  1986 on marker data, and Aristidou et al. 2018's idea of judging a sample
+  by what the rest of the motion predicts), made exact for short runs by
+  trying each run.
+* **in space**: a marker rides on a body segment with other markers. The
+  candidate run is predicted from the moving frame of rigidly attached
+  markers (:func:`rigid_deviation`: its coordinates in the frame of each
+  triple of its 4 most rigid neighbours, interpolated across the run and
+  mapped back, the short-gap case of the rigid-body fill of
+  :mod:`~mocapkit.cleaning.markers.gaps`). A fast strike or an impact moves
+  the whole segment, so its markers leave the cubic together and the
+  neighbours explain it; a reflection moves one marker. A candidate some
+  neighbour triple predicts within the threshold is real motion and stays.
+  Tits, Tilmanne and Dutoit (2018, PLoS ONE 13(7): e0199744) use the same
+  inter-marker relations as soft constraints on recovered markers.
 
 The threshold is ``threshold_mm`` millimetres, or more for a marker whose
-single-frame prediction error is naturally large (eight robust standard
-deviations of it, or twice its 99th percentile), so that a noisy marker
-or a low-rate capture does not lose good samples.
-Positions are (F, M, 3), frames first, NaN for unseen samples.
+single-frame prediction error is naturally large (``noise_factor`` robust
+standard deviations of it), so that a noisy marker does not lose good
+samples. Positions are (F, M, 3), frames first, NaN for unseen samples.
 """
 
 from __future__ import annotations
 
+from itertools import combinations
+
 import numpy as np
 
-__all__ = ["spike_mask", "prediction_matrix"]
+from .rigid import distance_stats, donor_order, from_local, local_frames, to_local
+
+__all__ = ["spike_mask", "prediction_matrix", "rigid_deviation"]
 
 
 def prediction_matrix(length: int, context: int = 3, degree: int = 3) -> np.ndarray:
@@ -111,8 +129,53 @@ def _settle(seg: np.ndarray, thr: float, max_len: int, context: int) -> list[tup
         seg[where[0]:where[0] + where[1]] = np.nan
 
 
+def rigid_deviation(positions: np.ndarray, good: np.ndarray, marker: int, start: int, end: int,
+                    order: np.ndarray, candidates: int = 4, reach: int = 8) -> float:
+    """How far the run of ``marker`` (frames ``start <= f < end``) lies from what its rigid neighbours predict.
+
+    ``positions`` (F, M, 3) are the recorded samples (NaN where unseen);
+    ``good`` (F,) marks the frames of ``marker`` taken as right (its
+    suspected runs excluded). For every triple of the first ``candidates``
+    markers of ``order[marker]`` (most rigid first) seen from the marker's
+    last good frame before the run to its first good frame after it, the
+    marker's coordinates in the triple's moving frame (Kabsch fit,
+    :func:`~mocapkit.cleaning.markers.rigid.local_frames`) at those two
+    frames are interpolated linearly across the run and mapped back to the
+    room. The neighbours' recorded samples are used even where they are
+    suspected too: a segment whose markers all leave the cubic together is
+    motion (or one glitch of the whole segment, which nothing here could
+    undo). Returns the smallest, over triples, of the run's smallest distance
+    to that prediction (capture unit): large only when every sample of the
+    run is far from every triple's prediction. ``inf`` when it cannot be
+    judged: no good frame within ``reach`` frames on a side, or fewer than 3
+    neighbours seen.
+    """
+    f = positions.shape[0]
+    before = np.flatnonzero(good[max(start - reach, 0):start])
+    after = np.flatnonzero(good[end:min(end + reach, f)])
+    if before.size == 0 or after.size == 0:
+        return float("inf")
+    p, q = max(start - reach, 0) + int(before[-1]), end + int(after[0])
+    span = positions[p:q + 1]
+    ok = ~np.any(np.isnan(span), axis=(0, 2))
+    cand = [int(d) for d in order[marker] if d != marker and ok[d]][:candidates]
+    if len(cand) < 3:
+        return float("inf")
+    u = ((np.arange(start, end) - p) / (q - p))[:, None]
+    run = slice(start - p, end - p)
+    best = float("inf")
+    for g in combinations(cand, 3):
+        d = span[:, list(g)]
+        rot, origin = local_frames(d, d[0])
+        loc = to_local(span[[0, -1], marker], rot[[0, -1]], origin[[0, -1]])
+        pred = from_local((1.0 - u) * loc[0] + u * loc[1], rot[run], origin[run])
+        best = min(best, float(np.min(np.linalg.norm(positions[start:end, marker] - pred, axis=-1))))
+    return best
+
+
 def spike_mask(positions: np.ndarray, unit_mm: float = 1.0, *, threshold_mm: float = 15.0, max_len: int = 5,
-               context: int = 3, noise_factor: float = 8.0, tail_factor: float = 2.0) -> np.ndarray:
+               context: int = 3, noise_factor: float = 8.0, rigid: bool = True,
+               order: np.ndarray | None = None) -> np.ndarray:
     """Boolean (F, M) mask of spike samples.
 
     Parameters
@@ -124,17 +187,23 @@ def spike_mask(positions: np.ndarray, unit_mm: float = 1.0, *, threshold_mm: flo
     threshold_mm : float
         A run is a spike when each of its samples is at least this far from
         the cubic through its context (raised per marker by ``noise_factor``
-        robust standard deviations of the single-sample prediction error).
+        robust standard deviations of the single-sample prediction error)
+        and, with ``rigid``, at least as far from what every triple of its
+        rigid neighbours predicts (:func:`rigid_deviation`).
     max_len : int
         Longest spike, in frames.
     context : int
         Seen samples used on each side of a run.
-    noise_factor, tail_factor : float
+    noise_factor : float
         The per-marker threshold is at least ``noise_factor`` robust standard
-        deviations (1.4826 x median) and ``tail_factor`` times the 99th
-        percentile of the marker's single-sample prediction error: a marker
-        whose motion the cubic predicts poorly (a low frame rate, a noisy
-        system) needs a larger departure to count as a spike.
+        deviations (1.4826 x median) of the marker's single-sample prediction
+        error: a marker whose motion the cubic predicts poorly (a noisy
+        system, a low frame rate) needs a larger departure to count.
+    rigid : bool
+        Keep only candidates that the marker's rigid neighbours do not explain.
+    order : int array (M, M-1), optional
+        Each marker's neighbours, most rigid first
+        (:func:`~mocapkit.cleaning.markers.rigid.donor_order`); computed when not given.
     """
     x = np.asarray(positions, dtype=np.float64)
     f, m = x.shape[:2]
@@ -148,9 +217,7 @@ def spike_mask(positions: np.ndarray, unit_mm: float = 1.0, *, threshold_mm: flo
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", RuntimeWarning)
             scale = 1.4826 * np.nanmedian(d1, axis=0)
-            tail = np.nanpercentile(d1, 99.0, axis=0) if d1.size else np.zeros(m)
     thr = np.maximum(threshold_mm / unit_mm, noise_factor * np.nan_to_num(scale, nan=0.0))  # (M,)
-    thr = np.maximum(thr, tail_factor * np.nan_to_num(tail, nan=0.0))
     hits = np.zeros((f, m), dtype=bool)
     for length in range(1, max_len + 1):
         dev = d1 if length == 1 else _run_deviation(x, length, context)
@@ -161,6 +228,7 @@ def spike_mask(positions: np.ndarray, unit_mm: float = 1.0, *, threshold_mm: flo
     # flagged region greedily, most certain run first, removing it before looking again
     # (the context then skips the removed samples).
     pad = context + max_len
+    runs = []
     for mk in np.flatnonzero(hits.any(axis=0)):
         grown = np.convolve(hits[:, mk].astype(np.int8), np.ones(2 * pad + 1, dtype=np.int8), mode="same") > 0
         d = np.diff(np.concatenate([[0], grown.astype(np.int8), [0]]))
@@ -168,4 +236,12 @@ def spike_mask(positions: np.ndarray, unit_mm: float = 1.0, *, threshold_mm: flo
             lo, hi = max(lo - pad, 0), min(hi + pad, f)
             for a, length in _settle(x[lo:hi, mk].copy(), thr[mk], max_len, context):
                 mask[lo + a:lo + a + length, mk] = True
+                runs.append((int(mk), int(lo + a), int(lo + a + length)))
+    if rigid and runs:
+        if order is None:
+            order = donor_order(distance_stats(x))
+        good = ~mask & ~np.any(np.isnan(x), axis=-1)
+        for mk, a, b in runs:
+            if rigid_deviation(x, good[:, mk], mk, a, b, order, reach=pad) <= thr[mk]:
+                mask[a:b, mk] = False
     return mask
