@@ -26,6 +26,7 @@ from .cues import (
     mirrored_rotations,
     own_breaks,
     offsets_from_residuals,
+    spike_breaks,
     step_angles,
     swaps_from_residuals,
 )
@@ -90,8 +91,10 @@ class Detection:
     (flagged with confirmation at any threshold); digression : float (F, J) angle in
     radians between the input and the mean motion texture (NaN where not
     analysed); best_group : int8 (F, J) the group whose neighbours explain the
-    cell best (-1 none). The rest records how the analysis was made so that
-    :func:`repair` can fetch the neighbour words again.
+    cell best (-1 none); spikes : bool (F, J) the ``jumps`` that are spikes
+    (:func:`~mocapkit.cleaning.ssa.cues.spike_breaks`; None for a detection
+    saved before they were told apart). The rest records how the analysis
+    was made so that :func:`repair` can fetch the neighbour words again.
     """
 
     mdm: np.ndarray
@@ -118,6 +121,7 @@ class Detection:
     params: SSAParams = field(default_factory=SSAParams)
     notes: tuple = ()
     analysis: Analysis | None = field(default=None, repr=False)
+    spikes: np.ndarray | None = None
 
     @property
     def num_frames(self) -> int:
@@ -136,14 +140,15 @@ class Detection:
         if not 0.0 < threshold < 1.0:
             raise ValueError(f"threshold must be in (0, 1), got {threshold}")
         flags = flag_rule(self.mdm, self.jumps, self.holds, self.swaps, self.offsets, threshold, self.fps,
-                          self.params.confirm, self.params.confirm_margin_s)
+                          self.params.confirm, self.params.confirm_margin_s, self.spikes)
         return dataclasses.replace(self, threshold=threshold, flags=flags)
 
     def save(self, path) -> Path:
         """Write as ``.npz`` (no pickles) through a temporary file and a rename."""
         from ...io import atomic_write
 
-        arrays = {f.name: getattr(self, f.name) for f in dataclasses.fields(self) if f.name != "analysis"}
+        arrays = {f.name: getattr(self, f.name) for f in dataclasses.fields(self)
+                  if f.name != "analysis" and getattr(self, f.name) is not None}
         meta = {
             "threshold": self.threshold,
             "fps": self.fps,
@@ -374,9 +379,10 @@ def detect_prepared(an: Analysis, threshold: float = 0.5, *, progress: bool = Fa
                                  rotations=q, mirrored=mirrored_rotations(motion))
     offsets = offsets_from_residuals(
         np.asarray(motion.rotations, dtype=np.float64), resid, motion.fps, p.offset_jump_deg, p.offset_max_s,
-        p.offset_min_deg, analysed, sk.joint_names,
+        p.offset_min_deg, analysed, sk.joint_names, sk.parents,
     )
-    flags = flag_rule(mdm, jumps, holds, swaps, offsets, threshold, motion.fps, p.confirm, p.confirm_margin_s)
+    spikes = spike_breaks(q, resid, jumps)
+    flags = flag_rule(mdm, jumps, holds, swaps, offsets, threshold, motion.fps, p.confirm, p.confirm_margin_s, spikes)
     masks = an.group_masks()
     if not ok.all():
         notes.append(f"{int((~ok).any(axis=1).sum())} frames have no neighbour words (context too short)")
@@ -388,5 +394,5 @@ def detect_prepared(an: Analysis, threshold: float = 0.5, *, progress: bool = Fa
         group_names=tuple(gnames), group_masks=masks, word_starts=words, neighbor_pos=neighbors.pos,
         neighbor_iend=neighbors.iend, neighbor_jend=neighbors.jend, neighbor_dist=neighbors.dist,
         context_clips=clips, jumps=jumps, holds=holds, swaps=swaps, offsets=offsets, params=params, notes=tuple(notes),
-        analysis=an,
+        analysis=an, spikes=spikes,
     )
