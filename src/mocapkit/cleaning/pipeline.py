@@ -116,6 +116,7 @@ NOISE_WINDOW_S = 0.5  # median window of the residual
 NOISE_DEG = 1.0  # default threshold
 NOISE_REVERSAL = -0.2  # median cosine of consecutive steps over a run below which its residual is noise
 NOISE_MIN_RUN_S = 0.4  # shorter runs above the level are local events (a toe flick), not sustained noise
+NOISE_STEP_RATIO = 1.0  # median frame-to-frame step over a run, in units of its median level, that noise reaches
 MAX_WORD_ANGLE_DEG = 8.0  # words with no neighbour this close (RMS joint angle) are not judged
 
 
@@ -369,9 +370,16 @@ def noisy_cells(motion: Motion, noise_deg: float = NOISE_DEG, filled: np.ndarray
     The level is a median over 0.5 s, so sustained noise gives runs about
     that long; a shorter run is a local event whose residual the cubic fit
     spread over a few frames (a toe flicking down and back at 30 fps, a
-    foot strike), which turns back too but is motion.
+    foot strike), which turns back too but is motion. Third, noise moves
+    the joint at every frame: the median frame-to-frame rotation step over
+    the run must reach ``NOISE_STEP_RATIO`` (1.0) times the run's median
+    level (white noise makes steps about twice its level, at 30 and 120
+    fps). A joint that flicks and is still between flicks (a toe pushing off
+    in every stride of a dash at 30 fps, two or three frames each) has a
+    high level from the flicks, and its steps turn back, but between the
+    flicks it hardly moves: the median step is a third of the level or less.
     ``filled`` (F, J) bool, optional: cells a gap filler made up (smooth by
-    construction, so no evidence either way), left out of the median.
+    construction, so no evidence either way), left out of the medians.
     """
     from .ik import contact_segments
 
@@ -383,13 +391,19 @@ def noisy_cells(motion: Motion, noise_deg: float = NOISE_DEG, filled: np.ndarray
     min_run = int(np.ceil(NOISE_MIN_RUN_S * motion.fps))
     if high.any():
         cos = noise_direction(motion)
+        q = np.asarray(motion.rotations, dtype=np.float64)
+        step = np.zeros(high.shape)
+        step[1:] = np.degrees(R.geodesic_angle(q[1:], q[:-1]))  # into each frame (NaN next to missing cells)
+        step[0] = step[1]
         for j in np.flatnonzero(high.any(axis=0)):
             seen = np.ones(len(cos), dtype=bool) if filled is None else ~np.asarray(filled, dtype=bool)[:, j]
             for a, b in contact_segments(high[:, j]):
                 if b - a < min_run:
                     continue
-                c = cos[a:b, j][seen[a:b]]  # missing cells are never high
-                if len(c) and np.median(c) < NOISE_REVERSAL:
+                ok = seen[a:b]  # missing cells are never high
+                c, s, lv = cos[a:b, j][ok], step[a:b, j][ok], level[a:b, j][ok]
+                if (len(c) and np.median(c) < NOISE_REVERSAL
+                        and np.nanmedian(s) >= NOISE_STEP_RATIO * np.median(lv)):
                     noisy[a:b, j] = True
     return noisy, level
 
@@ -508,6 +522,8 @@ def _padded_detection(det, lo: int, F: int):
     """``det`` with its (F, J) arrays put back at the take's frames (nothing flagged on calibration frames)."""
     pads = {"mdm": 0.0, "flags": False, "digression": np.nan, "best_group": -1, "jumps": False, "holds": False,
             "swaps": False, "offsets": False}
+    if getattr(det, "spikes", None) is not None:
+        pads["spikes"] = False
     return dataclasses.replace(det, **{k: _pad(np.asarray(getattr(det, k)), lo, F, v) for k, v in pads.items()},
                                notes=tuple(det.notes) + (f"analysed frames {lo}-{lo + det.num_frames - 1} (calibration "
                                                          "poses left out); word starts count from there",))
