@@ -279,6 +279,9 @@ def test_a_turn_the_joint_chain_undoes_is_not_a_transient_offset(walk):
     assert breaks[[399, 400, 449, 450], j].all()  # the lower back does step off and back
     offsets = ssa.transient_offsets(shared)
     assert not offsets[:, j].any() and not offsets[:, c].any()
+    assert not cues.uncompensated_breaks(shared.rotations, sk.parents, breaks)[:, [j, c]].any()
+    det = ssa.detect(shared)  # the breaks confirm no digression either
+    assert not det.jumps[:, [j, c]].any() and not det.flags[:, [j, c]].any()
     alone, _ = turned(walk, "lowerback", frames, 30.0)
     assert np.flatnonzero(ssa.transient_offsets(alone)[:, j]).tolist() == list(range(400, 450))
 

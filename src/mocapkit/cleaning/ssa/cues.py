@@ -31,6 +31,7 @@ __all__ = [
     "held_joints",
     "spike_breaks",
     "step_angles",
+    "uncompensated_breaks",
 ]
 
 _D = SSAParams()
@@ -471,6 +472,23 @@ def flag_rule(mdm, jumps, holds, swaps, offsets, threshold: float, fps: float, c
     if confirm:
         return confirm_flags(mdm, jumps, threshold, fps, margin_s, spikes=spikes) | holds | swaps | offsets
     return mdm > threshold
+
+
+def uncompensated_breaks(q: np.ndarray, parents, breaks: np.ndarray) -> np.ndarray:
+    """``breaks`` (F, J) bool without the break events whose turn the joint's chain undoes (:func:`_compensated`).
+
+    A solver that shares a spine's bend between the lower back and the
+    thorax another way from one frame to the next breaks both joints'
+    tracks while the body does not move: no evidence of an error, so such
+    breaks confirm no digression. ``q`` (F, J, 4) local rotations,
+    ``parents`` (J,); events are grouped as :func:`_break_events` does.
+    """
+    out = np.array(breaks, dtype=bool)
+    for j in np.flatnonzero(out.any(axis=0)):
+        for run in _break_events(np.flatnonzero(out[:, j])):
+            if _compensated(q, parents, int(j), int(run[0]), int(run[-1])):
+                out[run, j] = False
+    return out
 
 
 def spike_breaks(q: np.ndarray, resid: np.ndarray, breaks: np.ndarray, ratio: float = 0.5) -> np.ndarray:

@@ -28,6 +28,7 @@ from .cues import (
     offsets_from_residuals,
     spike_breaks,
     step_angles,
+    uncompensated_breaks,
     swaps_from_residuals,
 )
 from .neighbours import Neighbors, mean_motion_texture, nearest_words, unseen_words
@@ -86,7 +87,7 @@ class Detection:
     flags : bool (F, J) the errors: ``mdm > threshold`` confirmed by ``jumps``
     (:func:`confirm_flags`), with ``holds``, ``swaps`` and ``offsets``; or ``mdm >
     threshold`` alone when the detection was made with ``confirm=False``; jumps : bool (F, J) the analysed joints'
-    :func:`discontinuities`; holds, swaps, offsets : bool (F, J) their
+    :func:`discontinuities` (less the turns their chain undoes, :func:`~mocapkit.cleaning.ssa.cues.uncompensated_breaks`); holds, swaps, offsets : bool (F, J) their
     :func:`held_joints`, :func:`side_swaps` and :func:`transient_offsets`
     (flagged with confirmation at any threshold); digression : float (F, J) angle in
     radians between the input and the mean motion texture (NaN where not
@@ -284,6 +285,8 @@ def detect_prepared(an: Analysis, threshold: float = 0.5, *, progress: bool = Fa
     max_word_angle_deg = p.max_word_angle_deg
     resid = midpoint_residuals(motion.rotations)  # for the breaks and the side swaps
     jumps = own_breaks(resid, p.jump_deg, motion.fps)  # breaks that stand out from the joint's own motion (30 fps too)
+    # a turn the joint's chain undoes (a solver sharing a bend another way) is no evidence of an error
+    jumps = uncompensated_breaks(np.asarray(motion.rotations, dtype=np.float64), motion.skeleton.parents, jumps)
     sk = motion.skeleton
     gnames, grows = list(an.group_names), list(an.group_rows)
     words = an.words
