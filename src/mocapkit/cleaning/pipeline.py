@@ -24,7 +24,7 @@ whatever order the steps are named in:
 3. **repair** — only the flagged cells (:func:`mocapkit.cleaning.ssa.repair`).
    Foot-skate cleanup is off by default (``foot_skate=False``): it would also
    move the hip and knee of a leg whose foot is planted, cells nobody flagged.
-4. **denoise** — only where the take is noisy. Two tests, both on each
+4. **denoise** — only where the take is noisy. Tests on each
    joint's own track (see :func:`noise_level` and :func:`noise_direction`):
    the *level*, the rotation left over after a cubic Savitzky-Golay fit over
    0.06 s (at least 7 frames), i.e. the part of the motion no smooth curve
@@ -40,7 +40,9 @@ whatever order the steps are named in:
    direction from one frame to the next. The level alone calls fast clean
    motion at 30 fps noisy (a cubic over 7 frames spans 0.23 s there, and a
    foot strike or a dance hit leaves a residual of several degrees); the
-   direction test keeps such motion. Tuned on Bandai Namco dataset-1 and HDM05 actors other than mm
+   direction test keeps such motion; and the run's median frame-to-frame step
+   must reach its median level (:func:`noisy_cells`: a toe flicking between
+   still frames turns back too). Tuned on Bandai Namco dataset-1 and HDM05 actors other than mm
    (``benchmarks/clean_untouched.py``), checked on the rest. Noisy cells take
    the EBF's output (:func:`mocapkit.cleaning.deep.denoise`); on a rig the
    EBF does not serve, a quadratic Savitzky-Golay filter over 0.1 s on those
