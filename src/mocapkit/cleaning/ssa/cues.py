@@ -313,12 +313,16 @@ def _compensated(q: np.ndarray, parents, j: int, first: int, last: int, depth: i
     levels at most each way) does not. An error in one joint turns every
     such composed rotation as much as the joint itself; here some turns
     less than ``ratio`` times as much. ``q`` (F, J, 4) local rotations,
-    ``parents`` (J,); the turn is taken from frame ``first - 1`` to
-    ``last + 1``.
+    ``parents`` (J,); a turn is the largest angle from frame ``first - 1``
+    to any frame up to ``last + 1`` (so a spike, back on its path after
+    the event, turns by its size).
     """
     parents = np.asarray(parents)
     f0, f1 = max(first - 1, 0), min(last + 1, len(q) - 1)
-    own = float(R.geodesic_angle(q[f1, j], q[f0, j]))
+    frames = np.arange(f0 + 1, f1 + 1)
+    if len(frames) == 0:
+        return False
+    own = float(R.geodesic_angle(q[frames, j], q[f0, j][None]).max())
     if own <= 0:
         return False
     ups = [j]  # ancestors of j (and j), nearest first
@@ -332,19 +336,17 @@ def _compensated(q: np.ndarray, parents, j: int, first: int, last: int, depth: i
     for _ in range(depth):
         frontier = [(c, path + [c]) for k, path in frontier for c in children.get(k, [])]
         downs += frontier
+    at = np.concatenate([[f0], frames])
     for n_up in range(len(ups)):
         chain_up = ups[n_up::-1]  # ancestor .. j, root side first
         for _d, below in downs:
             if n_up == 0 and not below:
                 continue
             chain = chain_up + below
-            turn = []
-            for f in (f0, f1):
-                c = q[f, chain[0]]
-                for k in chain[1:]:
-                    c = R.quaternion_multiply(c, q[f, k])
-                turn.append(c)
-            if float(R.geodesic_angle(turn[1], turn[0])) < ratio * own:
+            c = q[at, chain[0]]
+            for k in chain[1:]:
+                c = R.quaternion_multiply(c, q[at, k])
+            if float(R.geodesic_angle(c[1:], c[:1]).max()) < ratio * own:
                 return True
     return False
 
