@@ -4,9 +4,11 @@ Usage::
 
     python benchmarks/clean_untouched.py [--json] [--bandai N | --all] [--workers W] [--quick]
 
-Every take is cleaned by :func:`mocapkit.cleaning.pipeline.clean` with its
-defaults (no context given, so whatever context ``clean`` uses by default;
-default steps). A cell is *changed* when any rotation channel of that joint at
+Every take is cleaned by :func:`mocapkit.clean` with its defaults, as
+``mocapkit clean IN -o OUT`` does: no context given, so the bundled default
+context where it fits the take's skeleton (the Acclaim rig of CMU and HDM05;
+a take the context holds is left out of its own context by detect) and the
+clip itself elsewhere; default steps. A cell is *changed* when any rotation channel of that joint at
 that frame differs from the input at all (for the root, its position too).
 The takes are clean captures, so every changed cell is harm.
 
@@ -33,6 +35,14 @@ input turns more than 90 degrees between two frames somewhere in the take (a
 thumb or hand flipping by 180 degrees in 1/120 s, as the CMU and HDM05 captures
 do): there a change may be the repair of the capture's own glitch, not harm.
 The targets count every changed cell all the same.
+
+And ``at_glitch``: the changed cells in runs (one joint, consecutive frames)
+where the input turns that joint faster than ``GLITCH_DEG_S`` (5,000 deg/s,
+42 deg in one frame at 120 fps; the glitch rule of
+``benchmarks/ssa_detection.py``) between two frames within 2 frames of the
+run: the repair of a glitch of the capture's own, shown take by take in
+``changed_takes`` (each changed run with the largest one-frame turn of the
+input next to it), so a reader can tell a fix from harm.
 
 Baseline, in the same run: the share of cells the level-only noise rule (a
 cubic residual above 1 deg, without the direction test of
@@ -61,6 +71,7 @@ if not DATA.is_dir():  # a worktree beside the main checkout
 TARGET_COLLECTION = 0.001
 TARGET_TAKE = 0.01
 GLITCH_DEG = 90.0  # a joint turning this far between two frames glitches (10,800 deg/s at 120 fps)
+GLITCH_DEG_S = 5000.0  # a one-frame turn faster than this next to a changed run: the run repairs a glitch
 
 
 def log(*a):
@@ -111,13 +122,13 @@ def measure(item: tuple[str, str, str]) -> dict:
 
     warnings.simplefilter("ignore")
     import mocapkit
-    from mocapkit.cleaning.pipeline import NOISE_DEG, clean, noise_level
+    from mocapkit.cleaning.pipeline import NOISE_DEG, noise_level
 
     coll, path, split = item
     p = Path(path)
     m = mocapkit.load(p)  # an AMC finds its ASF beside it (io.asfamc.find_asf)
     t = time.perf_counter()
-    res = clean(m)
+    res = mocapkit.clean(m)  # the defaults of `mocapkit clean`: the bundled context where it fits
     secs = time.perf_counter() - t
     a, b = m.rotations, res.motion.rotations
     same = (a == b) | (np.isnan(a) & np.isnan(b))
@@ -132,11 +143,24 @@ def measure(item: tuple[str, str, str]) -> dict:
     step = np.degrees(R.geodesic_angle(a[1:], a[:-1])) if m.num_frames > 1 else np.zeros((0, m.num_joints))
     glitching = np.nan_to_num(step).max(axis=0, initial=0.0) > GLITCH_DEG  # (J,) a one-frame turn no limb makes
     calib = [str(c) for c in getattr(res, "calibration", ()) or ()]
+    from scipy import ndimage
+
+    per_frame = GLITCH_DEG_S / m.fps
+    runs, at_glitch = [], 0
+    for j in np.flatnonzero(changed.any(axis=0)):
+        labels, _ = ndimage.label(changed[:, j])
+        for (sl,) in ndimage.find_objects(labels):
+            lo, hi = sl.start, sl.stop
+            near = np.nan_to_num(step[max(lo - 2, 0) : hi + 2, j]).max(initial=0.0)  # turns f -> f + 1 within 2 frames
+            at_glitch += (hi - lo) * bool(near > per_frame)
+            runs.append(dict(joint=sk.joint_names[j], frames=[int(lo), int(hi - 1)], largest_turn_deg=round(float(near), 1)))
+    runs.sort(key=lambda r: r["frames"][1] - r["frames"][0], reverse=True)
+    context = next((n for n in res.notes if "context" in n), "")
     return dict(collection=coll, take=p.name, split=split, frames=m.num_frames, joints=m.num_joints, fps=float(m.fps),
                 cells=int(changed.size), changed=int(changed.sum()), filled=int(res.filled.sum()),
                 repaired=int(res.repaired.sum()), denoised=int(res.denoised.sum()), level_only=level_only,
-                on_glitching=int(changed[:, glitching].sum()),
-                seconds=round(secs, 3), calibration=calib)
+                on_glitching=int(changed[:, glitching].sum()), at_glitch=int(at_glitch), runs=runs[:12],
+                seconds=round(secs, 3), calibration=calib, context_note=context)
 
 
 def main() -> None:
@@ -173,6 +197,8 @@ def main() -> None:
                           filled=sum(r["filled"] for r in rs), repaired=sum(r["repaired"] for r in rs),
                           denoised=sum(r["denoised"] for r in rs),
                           on_glitching_joints=sum(r["on_glitching"] for r in rs),
+                          at_glitch=sum(r["at_glitch"] for r in rs),
+                          share_not_at_glitch=round(sum(r["changed"] - r["at_glitch"] for r in rs) / cells, 6),
                           level_only_share=round(sum(r["level_only"] for r in rs) / cells, 6),
                           worst_take=worst["take"], worst_share=round(worst["changed"] / worst["cells"], 6),
                           takes_over_1pct=sum(r["changed"] / r["cells"] > TARGET_TAKE for r in rs),
@@ -192,7 +218,7 @@ def main() -> None:
         tune=table([r for r in rows if r["split"] == "tune"]),
         check=table([r for r in rows if r["split"] == "check"]),
         changed_takes=[{k: r[k] for k in ("collection", "take", "frames", "changed", "repaired", "denoised", "filled",
-                                          "on_glitching")}
+                                          "on_glitching", "at_glitch", "runs")}
                        for r in rows if r["changed"]],
         calibration=[{"take": r["take"], "poses": r["calibration"]} for r in rows if r["calibration"]],
         bandai="all" if args.all else f"stratified sample of {sum(r['collection'] == 'bandai' for r in rows)}, seed {args.seed}",

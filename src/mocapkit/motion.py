@@ -757,9 +757,13 @@ def _lateral_axis(sk: Skeleton, perm: np.ndarray) -> int:
 
 
 def _side_and_part(name: str, names: set[str]) -> tuple[str | None, str]:
-    """('left'|'right'|None, body-part name lower-cased without its side marker)."""
+    """('left'|'right'|None, body-part name lower-cased without its side marker or namespace).
+
+    A namespace (``mixamorig:`` in ``mixamorig:LeftArm``, as FBX exports and
+    MotionBuilder write them) is dropped before the side and part are read.
+    """
     partner = _partner_name(name, names)
-    low = name.lower()
+    low = name.lower().rsplit(":", 1)[-1]
     if partner is None:
         return None, re.sub(r"^joint_", "", low)
     for pat, side in (

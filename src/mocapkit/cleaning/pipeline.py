@@ -24,7 +24,7 @@ whatever order the steps are named in:
 3. **repair** — only the flagged cells (:func:`mocapkit.cleaning.ssa.repair`).
    Foot-skate cleanup is off by default (``foot_skate=False``): it would also
    move the hip and knee of a leg whose foot is planted, cells nobody flagged.
-4. **denoise** — only where the take is noisy. Two tests, both on each
+4. **denoise** — only where the take is noisy. Tests on each
    joint's own track (see :func:`noise_level` and :func:`noise_direction`):
    the *level*, the rotation left over after a cubic Savitzky-Golay fit over
    0.06 s (at least 7 frames), i.e. the part of the motion no smooth curve
@@ -40,7 +40,9 @@ whatever order the steps are named in:
    direction from one frame to the next. The level alone calls fast clean
    motion at 30 fps noisy (a cubic over 7 frames spans 0.23 s there, and a
    foot strike or a dance hit leaves a residual of several degrees); the
-   direction test keeps such motion. Tuned on Bandai Namco dataset-1 and HDM05 actors other than mm
+   direction test keeps such motion; and the run's median frame-to-frame step
+   must reach its median level (:func:`noisy_cells`: a toe flicking between
+   still frames turns back too). Tuned on Bandai Namco dataset-1 and HDM05 actors other than mm
    (``benchmarks/clean_untouched.py``), checked on the rest. Noisy cells take
    the EBF's output (:func:`mocapkit.cleaning.deep.denoise`); on a rig the
    EBF does not serve, a quadratic Savitzky-Golay filter over 0.1 s on those
@@ -116,6 +118,7 @@ NOISE_WINDOW_S = 0.5  # median window of the residual
 NOISE_DEG = 1.0  # default threshold
 NOISE_REVERSAL = -0.2  # median cosine of consecutive steps over a run below which its residual is noise
 NOISE_MIN_RUN_S = 0.4  # shorter runs above the level are local events (a toe flick), not sustained noise
+NOISE_STEP_RATIO = 1.0  # median frame-to-frame step over a run, in units of its median level, that noise reaches
 MAX_WORD_ANGLE_DEG = 8.0  # words with no neighbour this close (RMS joint angle) are not judged
 
 
@@ -369,9 +372,16 @@ def noisy_cells(motion: Motion, noise_deg: float = NOISE_DEG, filled: np.ndarray
     The level is a median over 0.5 s, so sustained noise gives runs about
     that long; a shorter run is a local event whose residual the cubic fit
     spread over a few frames (a toe flicking down and back at 30 fps, a
-    foot strike), which turns back too but is motion.
+    foot strike), which turns back too but is motion. Third, noise moves
+    the joint at every frame: the median frame-to-frame rotation step over
+    the run must reach ``NOISE_STEP_RATIO`` (1.0) times the run's median
+    level (white noise makes steps about twice its level, at 30 and 120
+    fps). A joint that flicks and is still between flicks (a toe pushing off
+    in every stride of a dash at 30 fps, two or three frames each) has a
+    high level from the flicks, and its steps turn back, but between the
+    flicks it hardly moves: the median step is a third of the level or less.
     ``filled`` (F, J) bool, optional: cells a gap filler made up (smooth by
-    construction, so no evidence either way), left out of the median.
+    construction, so no evidence either way), left out of the medians.
     """
     from .ik import contact_segments
 
@@ -383,13 +393,19 @@ def noisy_cells(motion: Motion, noise_deg: float = NOISE_DEG, filled: np.ndarray
     min_run = int(np.ceil(NOISE_MIN_RUN_S * motion.fps))
     if high.any():
         cos = noise_direction(motion)
+        q = np.asarray(motion.rotations, dtype=np.float64)
+        step = np.zeros(high.shape)
+        step[1:] = np.degrees(R.geodesic_angle(q[1:], q[:-1]))  # into each frame (NaN next to missing cells)
+        step[0] = step[1]
         for j in np.flatnonzero(high.any(axis=0)):
             seen = np.ones(len(cos), dtype=bool) if filled is None else ~np.asarray(filled, dtype=bool)[:, j]
             for a, b in contact_segments(high[:, j]):
                 if b - a < min_run:
                     continue
-                c = cos[a:b, j][seen[a:b]]  # missing cells are never high
-                if len(c) and np.median(c) < NOISE_REVERSAL:
+                ok = seen[a:b]  # missing cells are never high
+                c, s, lv = cos[a:b, j][ok], step[a:b, j][ok], level[a:b, j][ok]
+                if (len(c) and np.median(c) < NOISE_REVERSAL
+                        and np.nanmedian(s) >= NOISE_STEP_RATIO * np.median(lv)):
                     noisy[a:b, j] = True
     return noisy, level
 
@@ -508,6 +524,8 @@ def _padded_detection(det, lo: int, F: int):
     """``det`` with its (F, J) arrays put back at the take's frames (nothing flagged on calibration frames)."""
     pads = {"mdm": 0.0, "flags": False, "digression": np.nan, "best_group": -1, "jumps": False, "holds": False,
             "swaps": False, "offsets": False, "agreement": np.nan, "consistency": np.nan}
+    if getattr(det, "spikes", None) is not None:
+        pads["spikes"] = False
     return dataclasses.replace(det, **{k: _pad(np.asarray(getattr(det, k)), lo, F, v) for k, v in pads.items()},
                                notes=tuple(det.notes) + (f"analysed frames {lo}-{lo + det.num_frames - 1} (calibration "
                                                          "poses left out); word starts count from there",))

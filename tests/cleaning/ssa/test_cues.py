@@ -52,6 +52,11 @@ def test_confirm_flags_keep_whole_runs_that_reach_the_threshold_and_hold_a_break
     assert np.flatnonzero(ssa.confirm_flags(long, steps, 0.5, fps)).tolist() == list(range(10, 70))
     steps[50, 0] = True
     assert np.flatnonzero(ssa.confirm_flags(long, steps, 0.5, fps)).tolist() == list(range(25, 56))
+    one = np.zeros((F, 1), dtype=bool)
+    one[30:33, 0] = True  # one break event: kept whole as a step, cut to it (within the margin) as a spike
+    assert np.flatnonzero(ssa.confirm_flags(long, one, 0.5, fps)).tolist() == list(range(10, 70))
+    assert np.flatnonzero(ssa.confirm_flags(long, one, 0.5, fps, spikes=one)).tolist() == list(range(25, 38))
+    assert np.flatnonzero(ssa.confirm_flags(long, one, 0.5, fps, spikes=~one)).tolist() == list(range(10, 70))
     early = np.zeros((F, 1))
     early[0:70, 0] = 0.8  # a run from the first frame, its first break within the margin of it
     first = np.zeros((F, 1), dtype=bool)
@@ -227,3 +232,79 @@ def test_a_limb_stepping_off_and_back_at_once_is_not_a_transient_offset(walk):
     assert not offsets[:, hip].any() and not offsets[:, knee].any()
     pair, _ = turned(one, "RightHip", frames, 30.0)
     assert ssa.transient_offsets(pair)[:, hip].sum() == 50
+
+
+def test_spike_breaks_tell_a_spike_from_a_step(walk):
+    """A one-frame spike leaves the joint on its path (a spike); a step, or a drift's end, moves it to another."""
+    spiked, j = turned(walk, "LeftElbow", np.array([400]), 30.0)
+    q = np.asarray(spiked.rotations)
+    resid = cues.midpoint_residuals(q)
+    breaks = cues.own_breaks(resid, 8.0)
+    assert np.flatnonzero(breaks[:, j]).tolist() == [399, 400, 401]
+    assert np.array_equal(cues.spike_breaks(q, resid, breaks)[:, j], breaks[:, j])
+    stepped, j = turned(walk, "LeftElbow", np.arange(400, walk.num_frames), 30.0)
+    q = np.asarray(stepped.rotations)
+    resid = cues.midpoint_residuals(q)
+    breaks = cues.own_breaks(resid, 8.0)
+    assert np.flatnonzero(breaks[:, j]).tolist() == [399, 400]
+    assert not cues.spike_breaks(q, resid, breaks)[:, j].any()
+
+
+def test_a_spike_is_flagged_on_its_own_frames_not_on_the_digression_around_it(walk):
+    """The digression around a spike spans the neighbour words (0.6 s); the error is the spike's frames."""
+    spiked, j = turned(walk, "LeftElbow", np.array([400]), 40.0)
+    det = ssa.detect(spiked)
+    flagged = np.flatnonzero(det.flags[:, j])
+    margin = int(round(det.params.confirm_margin_s * walk.fps))
+    assert 400 in flagged and flagged.min() >= 399 - margin and flagged.max() <= 401 + margin
+    assert det.spikes[399:402, j].all()
+
+
+def test_a_turn_the_joint_chain_undoes_is_not_a_transient_offset(walk):
+    """A solver may share a turn between two joints of a chain and, for a while, share it another way (HDM05's
+    lower back turns 17 deg in one frame and its thorax turns back: the upper body does not move). One joint
+    steps off its path and back, but the chain's composed rotation does not move: no error. The same turn on
+    the joint alone is one."""
+    sk = walk.skeleton
+    j, c = sk.index("lowerback"), sk.index("Chest")
+    frames = np.arange(400, 450)
+    turn = R.quaternion_from_axis_angle(np.array([0.0, 1.0, 0.0]), np.radians(30.0))
+    rot = np.array(walk.rotations)
+    rot[frames, j] = R.quaternion_multiply(rot[frames, j], turn)
+    rot[frames, c] = R.quaternion_multiply(R.quaternion_inverse(turn), rot[frames, c])
+    shared = dataclasses.replace(walk, rotations=rot)
+    assert np.allclose(R.geodesic_angle(R.quaternion_multiply(rot[:, j], rot[:, c]),
+                                        R.quaternion_multiply(walk.rotations[:, j], walk.rotations[:, c])), 0.0, atol=1e-7)
+    breaks = cues.own_breaks(cues.midpoint_residuals(shared.rotations), 7.0)
+    assert breaks[[399, 400, 449, 450], j].all()  # the lower back does step off and back
+    offsets = ssa.transient_offsets(shared)
+    assert not offsets[:, j].any() and not offsets[:, c].any()
+    assert not cues.uncompensated_breaks(shared.rotations, sk.parents, breaks)[:, [j, c]].any()
+    det = ssa.detect(shared)  # the breaks confirm no digression either
+    assert not det.jumps[:, [j, c]].any() and not det.flags[:, [j, c]].any()
+    alone, _ = turned(walk, "lowerback", frames, 30.0)
+    assert np.flatnonzero(ssa.transient_offsets(alone)[:, j]).tolist() == list(range(400, 450))
+
+
+def test_a_joint_that_stops_dead_is_not_a_step(walk):
+    """A joint that stops in one frame and later starts back the way it came (a kink at each end: the paths
+    before and after meet at the event) is not a transient offset; the step rule of the constant-velocity
+    extrapolation alone would have called the two kinks opposite steps."""
+    j = walk.skeleton.index("LeftElbow")
+    rot = np.array(walk.rotations)
+    # the elbow turns at 10 deg per frame about x from frame 380, stops dead at 400, turns back from 450 to 470
+    t = np.arange(walk.num_frames, dtype=np.float64)
+    ang = np.clip(10.0 * (t - 380), 0.0, 200.0) - np.clip(10.0 * (t - 450), 0.0, 200.0)
+    turn = R.quaternion_from_axis_angle(np.array([1.0, 0.0, 0.0]), np.radians(ang))
+    rot[:, j] = R.quaternion_multiply(np.broadcast_to(rot[300, j], turn.shape), turn)
+    kinked = dataclasses.replace(walk, rotations=rot)
+    assert np.flatnonzero(cues.own_breaks(cues.midpoint_residuals(kinked.rotations), 4.0)[:, j]).tolist() == [
+        380, 400, 450, 470]
+    assert not ssa.transient_offsets(kinked, jump_deg=4.0, min_offset_deg=3.0)[:, j].any()
+    # the same hold entered and left by steps (the joint jumps onto it and off it) is one
+    held = np.array(rot)
+    held[400:450, j] = R.quaternion_multiply(held[400:450, j], R.quaternion_from_axis_angle(np.array([1.0, 0.0, 0.0]),
+                                                                                          np.radians(20.0)))
+    stepped = dataclasses.replace(walk, rotations=held)
+    assert np.flatnonzero(ssa.transient_offsets(stepped, jump_deg=4.0, min_offset_deg=3.0)[:, j]).tolist() == list(
+        range(400, 450))

@@ -21,7 +21,7 @@ def test_shapes_and_range(walk, flipped):
     assert np.all((det.mdm >= 0) & (det.mdm <= 1))
     assert det.params.confirm
     cues = det.holds | det.swaps | det.offsets | det.drifts()
-    assert np.array_equal(det.flags, ssa.confirm_flags(det.mdm, det.jumps, det.threshold, det.fps) | cues)
+    assert np.array_equal(det.flags, ssa.confirm_flags(det.mdm, det.jumps, det.threshold, det.fps, spikes=det.spikes) | cues)
     assert not (det.flags & ~cues & (det.mdm <= det.threshold / 2)).any()
     assert not (det.jumps | cues)[:, ~det.analysed].any()
     assert det.joint_names == tuple(walk.skeleton.joint_names)
@@ -167,8 +167,8 @@ def test_with_threshold_applies_the_detection_rule(flipped):
     det = flipped[3]
     assert np.array_equal(det.with_threshold(det.threshold).flags, det.flags)
     low = det.with_threshold(0.3)
-    assert np.array_equal(low.flags, ssa.confirm_flags(det.mdm, det.jumps, 0.3, det.fps) | det.holds | det.swaps | det.offsets
-                          | det.drifts())
+    assert np.array_equal(low.flags, ssa.confirm_flags(det.mdm, det.jumps, 0.3, det.fps, spikes=det.spikes)
+                          | det.holds | det.swaps | det.offsets | det.drifts())
     assert (low.flags >= det.flags).all()
     plain = dataclasses.replace(det, params=det.params.replace(confirm=False))
     assert np.array_equal(plain.with_threshold(0.3).flags, det.mdm > 0.3)
@@ -181,11 +181,12 @@ def test_a_detection_file_without_jumps_loads_with_none(tmp_path, flipped):
     det = dataclasses.replace(flipped[3], params=flipped[3].params.replace(confirm=False))
     path = det.save(tmp_path / "det.npz")
     with np.load(path, allow_pickle=False) as z:
-        arrays = {k: z[k] for k in z.files if k not in ("jumps", "holds", "swaps", "offsets")}
+        arrays = {k: z[k] for k in z.files if k not in ("jumps", "holds", "swaps", "offsets", "spikes")}
     np.savez(tmp_path / "old.npz", **arrays)
     back = ssa.Detection.load(tmp_path / "old.npz")
     assert back.jumps.shape == back.holds.shape == back.swaps.shape == back.offsets.shape == det.mdm.shape
     assert not (back.jumps.any() or back.holds.any() or back.swaps.any() or back.offsets.any())
+    assert back.spikes is None  # written before spikes were told apart: runs with one break are kept whole
     assert np.array_equal(back.with_threshold(0.4).flags, det.mdm > 0.4)
 
 

@@ -29,7 +29,9 @@ __all__ = [
     "confirm_flags",
     "flag_rule",
     "held_joints",
+    "spike_breaks",
     "step_angles",
+    "uncompensated_breaks",
 ]
 
 _D = SSAParams()
@@ -252,7 +254,7 @@ def transient_offsets(
         )
     q = np.asarray(motion.rotations, dtype=np.float64)
     return offsets_from_residuals(q, midpoint_residuals(q), motion.fps, jump_deg, max_s, min_offset_deg, joints,
-                                  motion.skeleton.joint_names)
+                                  motion.skeleton.joint_names, motion.skeleton.parents)
 
 
 def _usual_residual(resid: np.ndarray) -> np.ndarray:
@@ -271,25 +273,91 @@ def _usual_residual(resid: np.ndarray) -> np.ndarray:
 
 
 def _event_step(q: np.ndarray, first: int, last: int) -> np.ndarray | None:
-    """Rotation vector (radians, parent frame) from the constant-velocity extrapolation of ``q[first - 2]``,
-    ``q[first - 1]`` to ``q[last + 1]``, to ``q[last + 1]``; None where the event touches the take's ends."""
-    if first < 2 or last + 1 >= len(q):
+    """Rotation vector (radians, parent frame) from the joint's path before the event to its path after it.
+
+    Each path is the constant-velocity line through the two frames on its
+    side (``q[first - 2]``, ``q[first - 1]`` and ``q[last + 1]``,
+    ``q[last + 2]``), and both are taken at the event's middle. A step (the
+    joint jumps onto a parallel path, as a drift or flip starts and ends)
+    gives its size; a kink (the joint stops or turns sharply, the paths
+    meeting inside the event) gives about nothing, and constant acceleration
+    cancels exactly, however coarse the frame rate. None where the event
+    touches the take's ends.
+    """
+    if first < 2 or last + 2 >= len(q):
         return None
-    a, b = q[first - 2], q[first - 1]
+    a, b, c, d = (np.array(q[i], dtype=np.float64) for i in (first - 2, first - 1, last + 1, last + 2))
     if np.dot(a, b) < 0:
         a = -a
-    velocity = R.quaternion_multiply(b, R.quaternion_inverse(a))
-    pred = b
-    for _ in range(last + 2 - first):
-        pred = R.quaternion_multiply(velocity, pred)
-    return R.quaternion_to_rotvec(R.quaternion_multiply(q[last + 1], R.quaternion_inverse(pred)))
+    if np.dot(c, d) < 0:
+        d = -d
+    half = 0.5 * (last + 2 - first)  # frames from first - 1 (and from last + 1) to the middle
+    before = R.quaternion_multiply(R.rotvec_to_quaternion(half * _velocity(a, b)), b)
+    after = R.quaternion_multiply(R.rotvec_to_quaternion(-half * _velocity(c, d)), c)
+    return R.quaternion_to_rotvec(R.quaternion_multiply(after, R.quaternion_inverse(before)))
 
 
-def offsets_from_residuals(q, resid, fps, jump_deg, max_s, min_offset_deg, joints, joint_names=None) -> np.ndarray:
+def _velocity(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Rotation vector (radians per frame, parent frame) of the step from ``a`` to ``b``."""
+    return R.quaternion_to_rotvec(R.quaternion_multiply(b, R.quaternion_inverse(a)))
+
+
+def _compensated(q: np.ndarray, parents, j: int, first: int, last: int, depth: int = 3, ratio: float = 0.5) -> bool:
+    """Whether joint ``j``'s turn across an event is undone within its chain: a representation jump, not an error.
+
+    Some solvers share one turn between the joints of a chain and, from
+    one frame to the next, share it another way (the HDM05 spine: the
+    lower back turns 17 deg in one frame and the thorax turns back, so the
+    upper body does not move). The joint's own rotation jumps, but the
+    chain's composed rotation from an ancestor to a descendant (``depth``
+    levels at most each way) does not. An error in one joint turns every
+    such composed rotation as much as the joint itself; here some turns
+    less than ``ratio`` times as much. ``q`` (F, J, 4) local rotations,
+    ``parents`` (J,); a turn is the largest angle from frame ``first - 1``
+    to any frame up to ``last + 1`` (so a spike, back on its path after
+    the event, turns by its size).
+    """
+    parents = np.asarray(parents)
+    f0, f1 = max(first - 1, 0), min(last + 1, len(q) - 1)
+    frames = np.arange(f0 + 1, f1 + 1)
+    if len(frames) == 0:
+        return False
+    own = float(R.geodesic_angle(q[frames, j], q[f0, j][None]).max())
+    if own <= 0:
+        return False
+    ups = [j]  # ancestors of j (and j), nearest first
+    while len(ups) <= depth and parents[ups[-1]] >= 0:
+        ups.append(int(parents[ups[-1]]))
+    children: dict = {}
+    for k, p in enumerate(parents):
+        children.setdefault(int(p), []).append(k)
+    downs = [(j, [])]  # (descendant, path below j to it)
+    frontier = [(j, [])]
+    for _ in range(depth):
+        frontier = [(c, path + [c]) for k, path in frontier for c in children.get(k, [])]
+        downs += frontier
+    at = np.concatenate([[f0], frames])
+    for n_up in range(len(ups)):
+        chain_up = ups[n_up::-1]  # ancestor .. j, root side first
+        for _d, below in downs:
+            if n_up == 0 and not below:
+                continue
+            chain = chain_up + below
+            c = q[at, chain[0]]
+            for k in chain[1:]:
+                c = R.quaternion_multiply(c, q[at, k])
+            if float(R.geodesic_angle(c[1:], c[:1]).max()) < ratio * own:
+                return True
+    return False
+
+
+def offsets_from_residuals(q, resid, fps, jump_deg, max_s, min_offset_deg, joints, joint_names=None,
+                           parents=None) -> np.ndarray:
     """:func:`transient_offsets` on rotations ``q`` (F, J, 4) with their midpoint residuals already computed.
 
     ``joint_names`` (optional) name the mirror partners (:func:`mocapkit.motion.mirror_pairs`) that
-    :func:`_single_joint_offsets` does not count as sharing a joint's steps.
+    :func:`_single_joint_offsets` does not count as sharing a joint's steps; ``parents`` (optional, (J,))
+    lets :func:`_compensated` leave out the steps the joint's chain undoes.
     """
     from ...motion import mirror_pairs
 
@@ -305,7 +373,9 @@ def offsets_from_residuals(q, resid, fps, jump_deg, max_s, min_offset_deg, joint
         starts, steps = [], []
         for run in _break_events(frames):
             step = _event_step(q[:, j], int(run[0]), int(run[-1]))
-            if step is not None and np.linalg.norm(step) >= np.radians(min_offset_deg):
+            if step is None or np.linalg.norm(step) < np.radians(min_offset_deg):
+                continue
+            if parents is None or not _compensated(q, parents, int(j), int(run[0]), int(run[-1])):
                 starts.append(int(run[0]))
                 steps.append(step)
 
@@ -343,7 +413,8 @@ def _single_joint_offsets(pairs: dict, F: int, J: int, partner: np.ndarray | Non
 
 
 def confirm_flags(
-    mdm: np.ndarray, jumps: np.ndarray, threshold: float, fps: float, margin_s: float = _D.confirm_margin_s, extent: float = 0.5
+    mdm: np.ndarray, jumps: np.ndarray, threshold: float, fps: float, margin_s: float = _D.confirm_margin_s, extent: float = 0.5,
+    spikes: np.ndarray | None = None,
 ) -> np.ndarray:
     """Error flags (F, J) from an MDM confirmed by the joint's own discontinuities (see :func:`detect`).
 
@@ -388,21 +459,61 @@ def confirm_flags(
             continue
         a, j = rows.start, cols.start
         at = np.flatnonzero(jumps[rows, j]) + a
-        if (np.diff(at) > 2).any():  # two break events or more (a step marks two adjacent frames)
+        if (np.diff(at) > 2).any() or (spikes is not None and len(at) and spikes[at, j].all()):
+            # two break events or more (a step marks two adjacent frames), or only spikes
             out[a : max(at[0] - n, a), j] = False  # (a negative stop would count from the end)
             out[at[-1] + n + 1 : rows.stop, j] = False
     return out
 
 
 def flag_rule(mdm, jumps, holds, swaps, offsets, threshold: float, fps: float, confirm: bool, margin_s,
-              drifts=None) -> np.ndarray:
+              drifts=None, spikes=None) -> np.ndarray:
     """The flags of :func:`detect` and :meth:`Detection.with_threshold`: confirmed digressions, holds, swaps,
     transient offsets and smooth drifts (``drifts``, bool (F, J) or None: none), or the paper's
-    ``mdm > threshold`` without confirmation."""
+    ``mdm > threshold`` without confirmation. ``spikes``: :func:`spike_breaks` of the take (None: runs with
+    one break are kept whole, as detections made before it were)."""
     if confirm:
-        out = confirm_flags(mdm, jumps, threshold, fps, margin_s) | holds | swaps | offsets
+        out = confirm_flags(mdm, jumps, threshold, fps, margin_s, spikes=spikes) | holds | swaps | offsets
         return out if drifts is None else out | drifts
     return mdm > threshold
+
+
+def uncompensated_breaks(q: np.ndarray, parents, breaks: np.ndarray) -> np.ndarray:
+    """``breaks`` (F, J) bool without the break events whose turn the joint's chain undoes (:func:`_compensated`).
+
+    A solver that shares a spine's bend between the lower back and the
+    thorax another way from one frame to the next breaks both joints'
+    tracks while the body does not move: no evidence of an error, so such
+    breaks confirm no digression. ``q`` (F, J, 4) local rotations,
+    ``parents`` (J,); events are grouped as :func:`_break_events` does.
+    """
+    out = np.array(breaks, dtype=bool)
+    for j in np.flatnonzero(out.any(axis=0)):
+        for run in _break_events(np.flatnonzero(out[:, j])):
+            if _compensated(q, parents, int(j), int(run[0]), int(run[-1])):
+                out[run, j] = False
+    return out
+
+
+def spike_breaks(q: np.ndarray, resid: np.ndarray, breaks: np.ndarray, ratio: float = 0.5) -> np.ndarray:
+    """(F, J) bool: the break events (``breaks``, grouped as :func:`_break_events` does) that are spikes.
+
+    A spike leaves the joint on the path it was on: the step across its
+    event (:func:`_event_step`, from the path before to the path after) is
+    under ``ratio`` times the event's largest midpoint residual ``resid``.
+    A step of s degrees between two frames leaves residuals of s / 2 and
+    a step of s, a ratio of 2; a one-frame spike of s degrees a residual of s
+    and no step. Events touching the take's ends are not called spikes.
+    ``q`` (F, J, 4) rotations, ``resid`` (F, J) radians, ``breaks`` (F, J) bool.
+    """
+    out = np.zeros(breaks.shape, dtype=bool)
+    for j in np.flatnonzero(breaks.any(axis=0)):
+        for run in _break_events(np.flatnonzero(breaks[:, j])):
+            a, b = int(run[0]), int(run[-1])
+            step = _event_step(q[:, j], a, b)
+            if step is not None and np.linalg.norm(step) < ratio * float(resid[a : b + 1, j].max()):
+                out[run, j] = True
+    return out
 
 
 def step_angles(q: np.ndarray) -> np.ndarray:

@@ -27,7 +27,9 @@ from .cues import (
     mirrored_rotations,
     own_breaks,
     offsets_from_residuals,
+    spike_breaks,
     step_angles,
+    uncompensated_breaks,
     swaps_from_residuals,
 )
 from .drifts import body_agreement, smooth_drift_flags
@@ -87,7 +89,7 @@ class Detection:
     flags : bool (F, J) the errors: ``mdm > threshold`` confirmed by ``jumps``
     (:func:`confirm_flags`), with ``holds``, ``swaps`` and ``offsets``; or ``mdm >
     threshold`` alone when the detection was made with ``confirm=False``; jumps : bool (F, J) the analysed joints'
-    :func:`discontinuities`; holds, swaps, offsets : bool (F, J) their
+    :func:`discontinuities` (less the turns their chain undoes, :func:`~mocapkit.cleaning.ssa.cues.uncompensated_breaks`); holds, swaps, offsets : bool (F, J) their
     :func:`held_joints`, :func:`side_swaps` and :func:`transient_offsets`
     (flagged with confirmation at any threshold); agreement : float (F, J)
     the median angle in radians of the other analysed joints from the mean
@@ -97,8 +99,10 @@ class Detection:
     ``params.drift``); digression : float (F, J) angle in
     radians between the input and the mean motion texture (NaN where not
     analysed); best_group : int8 (F, J) the group whose neighbours explain the
-    cell best (-1 none). The rest records how the analysis was made so that
-    :func:`repair` can fetch the neighbour words again.
+    cell best (-1 none); spikes : bool (F, J) the ``jumps`` that are spikes
+    (:func:`~mocapkit.cleaning.ssa.cues.spike_breaks`; None for a detection
+    saved before they were told apart). The rest records how the analysis
+    was made so that :func:`repair` can fetch the neighbour words again.
     """
 
     mdm: np.ndarray
@@ -127,6 +131,7 @@ class Detection:
     params: SSAParams = field(default_factory=SSAParams)
     notes: tuple = ()
     analysis: Analysis | None = field(default=None, repr=False)
+    spikes: np.ndarray | None = None
 
     @property
     def num_frames(self) -> int:
@@ -153,14 +158,15 @@ class Detection:
         if not 0.0 < threshold < 1.0:
             raise ValueError(f"threshold must be in (0, 1), got {threshold}")
         flags = flag_rule(self.mdm, self.jumps, self.holds, self.swaps, self.offsets, threshold, self.fps,
-                          self.params.confirm, self.params.confirm_margin_s, self.drifts())
+                          self.params.confirm, self.params.confirm_margin_s, self.drifts(), self.spikes)
         return dataclasses.replace(self, threshold=threshold, flags=flags)
 
     def save(self, path) -> Path:
         """Write as ``.npz`` (no pickles) through a temporary file and a rename."""
         from ...io import atomic_write
 
-        arrays = {f.name: getattr(self, f.name) for f in dataclasses.fields(self) if f.name != "analysis"}
+        arrays = {f.name: getattr(self, f.name) for f in dataclasses.fields(self)
+                  if f.name != "analysis" and getattr(self, f.name) is not None}
         meta = {
             "threshold": self.threshold,
             "fps": self.fps,
@@ -299,6 +305,8 @@ def detect_prepared(an: Analysis, threshold: float = 0.5, *, progress: bool = Fa
     max_word_angle_deg = p.max_word_angle_deg
     resid = midpoint_residuals(motion.rotations)  # for the breaks and the side swaps
     jumps = own_breaks(resid, p.jump_deg, motion.fps)  # breaks that stand out from the joint's own motion (30 fps too)
+    # a turn the joint's chain undoes (a solver sharing a bend another way) is no evidence of an error
+    jumps = uncompensated_breaks(np.asarray(motion.rotations, dtype=np.float64), motion.skeleton.parents, jumps)
     sk = motion.skeleton
     gnames, grows = list(an.group_names), list(an.group_rows)
     words = an.words
@@ -396,7 +404,7 @@ def detect_prepared(an: Analysis, threshold: float = 0.5, *, progress: bool = Fa
                                  rotations=q, mirrored=mirrored_rotations(motion))
     offsets = offsets_from_residuals(
         np.asarray(motion.rotations, dtype=np.float64), resid, motion.fps, p.offset_jump_deg, p.offset_max_s,
-        p.offset_min_deg, analysed, sk.joint_names,
+        p.offset_min_deg, analysed, sk.joint_names, sk.parents,
     )
     # smooth-drift evidence only against a context beyond the take that the caller chose (not the bundled default
     # context, a general sample that repeats no take's motion), and never on the pelvis or the root, whose rotation
@@ -407,7 +415,9 @@ def detect_prepared(an: Analysis, threshold: float = 0.5, *, progress: bool = Fa
     agreement[:, [0, pelvis_index(sk)]] = np.nan
     drifts = (smooth_drift_flags(jumps, agreement, consistency, motion.fps, p.drift_repeat_deg, p.drift_z,
                                  p.drift_min_s, p.confirm_margin_s, p.drift_extent) if p.drift else None)
-    flags = flag_rule(mdm, jumps, holds, swaps, offsets, threshold, motion.fps, p.confirm, p.confirm_margin_s, drifts)
+    spikes = spike_breaks(q, resid, jumps)
+    flags = flag_rule(mdm, jumps, holds, swaps, offsets, threshold, motion.fps, p.confirm, p.confirm_margin_s, drifts,
+                      spikes)
     masks = an.group_masks()
     if not ok.all():
         notes.append(f"{int((~ok).any(axis=1).sum())} frames have no neighbour words (context too short)")
@@ -420,5 +430,5 @@ def detect_prepared(an: Analysis, threshold: float = 0.5, *, progress: bool = Fa
         neighbor_iend=neighbors.iend, neighbor_jend=neighbors.jend, neighbor_dist=neighbors.dist,
         context_clips=clips, jumps=jumps, holds=holds, swaps=swaps, offsets=offsets,
         agreement=agreement, consistency=consistency, params=params, notes=tuple(notes),
-        analysis=an,
+        analysis=an, spikes=spikes,
     )
