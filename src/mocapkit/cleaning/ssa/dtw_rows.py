@@ -6,8 +6,9 @@ constrained DTW on a hundred or more target positions per source word and
 needs only its distance and end cell, never the path. The full kernel fills
 (N, M, 7) tables of cumulative cost and path length; a cell depends only on
 its own row and the row above, so two rows of (M, 7) suffice: about a
-seventh of the memory written per DTW (it stays in the first-level cache),
-and the state initialisation of every cell goes away.
+seventh of the memory per DTW (it stays in the first-level cache), and each
+state of a cell is written once, from registers, instead of set to ``inf``
+and then overwritten.
 
 Every cumulative cost, path length, comparison and tie-break is done in the
 order of ``_word_dtw`` (same states, same ``<`` tests, the last-row end cells
