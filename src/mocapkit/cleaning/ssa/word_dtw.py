@@ -38,6 +38,8 @@ import math
 import numpy as np
 from numba import njit, prange
 
+from .dtw_rows import word_dtw_rows
+from .word_bounds import cheap_bound
 from .ordering import kth_smallest, sort_by_key
 from .twins import twin_kernels
 from .word_means import robust_word_means, select_separated_minima, shift_tolerant_angles  # re-exported
@@ -457,7 +459,10 @@ def word_distance_profile(D, src_starts, tgt_starts, N=15, M=20, min_width=11, m
 # mean of r_0..r_iend with weights in [1, max_run + 1]: weight max_run + 1 on the
 # smallest values, 1 on the others, the split tried at every rank. The DTW's
 # distance (the best mean over end cells of least-sum paths) is a path mean, so it
-# is bounded too.
+# is bounded too. The bounds cascade, cheapest first (the UCR suite's order,
+# Rakthanmanon et al. 2012): every position gets the sort-free bound of
+# :mod:`mocapkit.cleaning.ssa.word_bounds`, and only those it leaves under ``tau`` this
+# sorting one; the DTW runs row by row (:mod:`mocapkit.cleaning.ssa.dtw_rows`).
 #
 # A second test runs before each DTW once a K-th minimum ``tau`` is known: the word
 # distance exceeds ``tau`` when every admissible path's sum of ``c - tau`` is positive,
@@ -645,8 +650,10 @@ def _knn_profile(D, rowmin, level, src, tgt, consec, excl_lo, excl_hi, N, M, min
     wmax = float(max_run + 1)
     first = min(T, 64)
     for w in prange(W):
-        acc = np.empty((N, M, 7))
-        ln = np.empty((N, M, 7), dtype=np.int64)
+        acc = np.empty((2, M, 7))
+        ln = np.empty((2, M, 7), dtype=np.int64)
+        col_best = np.empty(N)
+        col_len = np.empty(N, dtype=np.int64)
         buf = np.empty(N)
         vals = np.empty(k)
         lb = np.empty(T)
@@ -655,6 +662,7 @@ def _knn_profile(D, rowmin, level, src, tgt, consec, excl_lo, excl_hi, N, M, min
         je = np.zeros(T, dtype=np.int64)
         evaluated = np.zeros(T, dtype=np.bool_)
         strict = np.zeros(T, dtype=np.bool_)
+        refined = np.zeros(T, dtype=np.bool_)
         row = np.empty(M)
         ev = np.empty(T, dtype=np.int64)
         heap = np.empty(first)
@@ -662,7 +670,7 @@ def _knn_profile(D, rowmin, level, src, tgt, consec, excl_lo, excl_hi, N, M, min
         lo = excl_lo[w]
         hi = excl_hi[w]
         for t in range(T):
-            lb[t] = _bound(rowmin, level, src[w], t, N, min_width, wmax, buf) * (1.0 - 1e-9)
+            lb[t] = cheap_bound(rowmin, level, src[w], t, N, min_width, wmax) * (1.0 - 1e-9)
         tau = _INF
         for phase in range(2):
             # in increasing order of the bound: first the `first` lowest, then, once tau is known, only the
@@ -680,11 +688,16 @@ def _knn_profile(D, rowmin, level, src, tgt, consec, excl_lo, excl_hi, N, M, min
                     break
                 if evaluated[t] or strict[t]:
                     continue
+                if tau < _INF and not refined[t]:  # the sorting bound, only where the cheap one is not enough
+                    lb[t] = max(lb[t], _bound(rowmin, level, src[w], t, N, min_width, wmax, buf) * (1.0 - 1e-9))
+                    refined[t] = True
+                    if not lb[t] <= tau:
+                        continue
                 if tau < _INF and _mean_exceeds(D, src[w], tgt[t], N, M, min_width, tau * (1.0 + 1e-9), row):
                     lb[t] = tau  # the distance exceeds tau: a strict bound, no DTW needed
                     strict[t] = True
                     continue
-                dd, i, j = _word_dtw(D, src[w], tgt[t], N, M, min_width, max_run, acc, ln)
+                dd, i, j = word_dtw_rows(D, src[w], tgt[t], N, M, min_width, max_run, acc, ln, col_best, col_len)
                 d[t] = dd
                 ie[t] = i
                 je[t] = j
