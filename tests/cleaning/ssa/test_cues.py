@@ -308,3 +308,60 @@ def test_a_joint_that_stops_dead_is_not_a_step(walk):
     stepped = dataclasses.replace(walk, rotations=held)
     assert np.flatnonzero(ssa.transient_offsets(stepped, jump_deg=4.0, min_offset_deg=3.0)[:, j]).tolist() == list(
         range(400, 450))
+
+
+def _compensated_reference(q, parents, j, first, last, depth=3, ratio=0.5):
+    """The chain test written plainly: every chain composed joint by joint, one chain at a time."""
+    f0, f1 = max(first - 1, 0), min(last + 1, len(q) - 1)
+    frames = np.arange(f0 + 1, f1 + 1)
+    if len(frames) == 0:
+        return False
+    own = float(R.geodesic_angle(q[frames, j], q[f0, j][None]).max())
+    if own <= 0:
+        return False
+    ups = [j]
+    while len(ups) <= depth and parents[ups[-1]] >= 0:
+        ups.append(int(parents[ups[-1]]))
+    children = {}
+    for k, p in enumerate(parents):
+        children.setdefault(int(p), []).append(k)
+    downs, frontier = [(j, [])], [(j, [])]
+    for _ in range(depth):
+        frontier = [(c, path + [c]) for k, path in frontier for c in children.get(k, [])]
+        downs += frontier
+    at = np.concatenate([[f0], frames])
+    for n_up in range(len(ups)):
+        for _d, below in downs:
+            if n_up == 0 and not below:
+                continue
+            chain = ups[n_up::-1] + below
+            c = q[at, chain[0]]
+            for k in chain[1:]:
+                c = R.quaternion_multiply(c, q[at, k])
+            if float(R.geodesic_angle(c[1:], c[:1]).max()) < ratio * own:
+                return True
+    return False
+
+
+def test_uncompensated_breaks_matches_the_plain_chain_test(walk):
+    """The chains composed all at once (:func:`cues.chain_table`) decide every break event of a real take with
+    spine turns shared another way and real-style errors as the plain one-chain-at-a-time test does."""
+    sk = walk.skeleton
+    parents = np.asarray(sk.parents)
+    bad, _mask, _rec = corrupt.real_errors(walk, n_errors=6, seed=3)
+    rot = np.array(bad.rotations, dtype=np.float64)
+    j, c = sk.index("lowerback"), sk.index("Chest")
+    turn = R.quaternion_from_axis_angle(np.array([0.0, 1.0, 0.0]), np.radians(30.0))
+    rot[400:450, j] = R.quaternion_multiply(rot[400:450, j], turn)
+    rot[400:450, c] = R.quaternion_multiply(R.quaternion_inverse(turn), rot[400:450, c])
+    breaks = cues.own_breaks(cues.midpoint_residuals(rot), 7.0)
+    want = np.array(breaks)
+    for jj in np.flatnonzero(breaks.any(axis=0)):
+        for run in cues._break_events(np.flatnonzero(breaks[:, jj])):
+            if _compensated_reference(rot, parents, int(jj), int(run[0]), int(run[-1])):
+                want[run, jj] = False
+    got = cues.uncompensated_breaks(rot, parents, breaks)
+    assert np.array_equal(got, want)
+    assert (breaks & ~got).any() and got.any()  # both kinds of event are present
+    table = cues.chain_table(parents, j)
+    assert (table[:, 0] >= 0).all() and ((table == j).sum(axis=1) == 1).all()

@@ -32,6 +32,7 @@ __all__ = [
     "spike_breaks",
     "step_angles",
     "uncompensated_breaks",
+    "chain_table",
 ]
 
 _D = SSAParams()
@@ -317,7 +318,6 @@ def _compensated(q: np.ndarray, parents, j: int, first: int, last: int, depth: i
     to any frame up to ``last + 1`` (so a spike, back on its path after
     the event, turns by its size).
     """
-    parents = np.asarray(parents)
     f0, f1 = max(first - 1, 0), min(last + 1, len(q) - 1)
     frames = np.arange(f0 + 1, f1 + 1)
     if len(frames) == 0:
@@ -325,30 +325,38 @@ def _compensated(q: np.ndarray, parents, j: int, first: int, last: int, depth: i
     own = float(R.geodesic_angle(q[frames, j], q[f0, j][None]).max())
     if own <= 0:
         return False
+    chains = chain_table(parents, j, depth)
+    at = np.asarray(q[np.concatenate([[f0], frames])], dtype=np.float64)  # (T, J, 4)
+    composed = at[:, chains[:, 0]]  # (T, C, 4): each chain's rotation from its root-side joint down
+    for i in range(1, chains.shape[1]):
+        on = chains[:, i] >= 0
+        composed[:, on] = R.quaternion_multiply(composed[:, on], at[:, chains[on, i]])
+    turns = R.geodesic_angle(composed[1:], composed[:1]).max(axis=0)  # (C,)
+    return bool((turns < ratio * own).any())
+
+
+def chain_table(parents, j: int, depth: int = 3) -> np.ndarray:
+    """(C, L) int: the chains through joint ``j`` that :func:`_compensated` composes, root side first, -1 padded.
+
+    A chain runs from ``j`` or one of its ancestors (``depth`` levels up
+    at most) down through ``j`` to ``j`` or one of its descendants
+    (``depth`` levels down at most); the chain of ``j`` alone is left out.
+    """
+    parents = np.asarray(parents)
     ups = [j]  # ancestors of j (and j), nearest first
     while len(ups) <= depth and parents[ups[-1]] >= 0:
         ups.append(int(parents[ups[-1]]))
-    children: dict = {}
-    for k, p in enumerate(parents):
-        children.setdefault(int(p), []).append(k)
-    downs = [(j, [])]  # (descendant, path below j to it)
-    frontier = [(j, [])]
+    downs, frontier = [[]], [(j, [])]  # paths below j
     for _ in range(depth):
-        frontier = [(c, path + [c]) for k, path in frontier for c in children.get(k, [])]
-        downs += frontier
-    at = np.concatenate([[f0], frames])
-    for n_up in range(len(ups)):
-        chain_up = ups[n_up::-1]  # ancestor .. j, root side first
-        for _d, below in downs:
-            if n_up == 0 and not below:
-                continue
-            chain = chain_up + below
-            c = q[at, chain[0]]
-            for k in chain[1:]:
-                c = R.quaternion_multiply(c, q[at, k])
-            if float(R.geodesic_angle(c[1:], c[:1]).max()) < ratio * own:
-                return True
-    return False
+        frontier = [(int(c), path + [int(c)]) for k, path in frontier for c in np.flatnonzero(parents == k)]
+        downs += [path for _c, path in frontier]
+    chains = [ups[n_up::-1] + below for n_up in range(len(ups)) for below in downs if n_up or below]
+    if not chains:
+        return np.zeros((0, 1), dtype=np.intp)
+    table = np.full((len(chains), max(map(len, chains))), -1, dtype=np.intp)
+    for i, c in enumerate(chains):
+        table[i, : len(c)] = c
+    return table
 
 
 def offsets_from_residuals(q, resid, fps, jump_deg, max_s, min_offset_deg, joints, joint_names=None,
