@@ -491,6 +491,17 @@ class ErrorRecord:
     partner: str | None = None
 
 
+def _error_setup(motion: Motion, joints, duration_s, seed):
+    """What :func:`real_errors` and :func:`smooth_drifts` start from: the checked error lengths, the generator,
+    the skeleton, (F, J), the selected joints (J,) bool and the joints with rotation channels (J,) bool."""
+    if not 0 < duration_s[0] <= duration_s[1]:
+        raise ValueError(f"duration_s must be (min, max) seconds with 0 < min <= max, got {duration_s!r}")
+    sk = motion.skeleton
+    sel = joint_set(motion, joints, include_root=False)
+    has_dofs = np.array([bool(sk.rotation_order(j)) for j in range(sk.num_joints)])
+    return _rng(seed), sk, motion.num_frames, sk.num_joints, sel, has_dofs
+
+
 def real_errors(
     motion: Motion,
     kinds=ERROR_KINDS,
@@ -541,13 +552,7 @@ def real_errors(
     bad = [k for k in kinds if k not in ERROR_KINDS]
     if bad or not kinds:
         raise ValueError(f"unknown error kind(s) {bad or kinds!r}; kinds are {', '.join(ERROR_KINDS)}")
-    if not 0 < duration_s[0] <= duration_s[1]:
-        raise ValueError(f"duration_s must be (min, max) seconds with 0 < min <= max, got {duration_s!r}")
-    rng = _rng(seed)
-    sk = motion.skeleton
-    F, J = motion.num_frames, sk.num_joints
-    sel = joint_set(motion, joints, include_root=False)
-    has_dofs = np.array([bool(sk.rotation_order(j)) for j in range(J)])
+    rng, sk, F, J, sel, has_dofs = _error_setup(motion, joints, duration_s, seed)
     moves_bone = bone_moving_joints(sk)
     candidates = np.flatnonzero(sel & has_dofs & moves_bone)
     if len(candidates) == 0:
@@ -683,13 +688,7 @@ def smooth_drifts(
     """
     if not (np.isfinite(peak_deg) and 0 < peak_deg < 180):
         raise ValueError(f"peak_deg must be in (0, 180) degrees, got {peak_deg!r}")
-    if not 0 < duration_s[0] <= duration_s[1]:
-        raise ValueError(f"duration_s must be (min, max) seconds with 0 < min <= max, got {duration_s!r}")
-    rng = _rng(seed)
-    sk = motion.skeleton
-    F, J = motion.num_frames, sk.num_joints
-    sel = joint_set(motion, joints, include_root=False)
-    has_dofs = np.array([bool(sk.rotation_order(j)) for j in range(J)])
+    rng, sk, F, J, sel, has_dofs = _error_setup(motion, joints, duration_s, seed)
     candidates = np.flatnonzero(sel & has_dofs & bone_moving_joints(sk))
     if len(candidates) == 0:
         raise ValueError("no selected joint has rotation channels that move a bone")
