@@ -353,7 +353,8 @@ def _batch_job(job: dict) -> dict:
         staged = {f: stage / f.name for f in finals}
         _, res = clean_file(job["input"], staged[out], context=job["context"], steps=job["steps"], threshold=job["threshold"],
                             report=staged[Path(job["report"])] if job.get("report") else None,
-                            png=staged[Path(job["png"])] if job.get("png") else None, asf=job.get("asf"))
+                            png=staged[Path(job["png"])] if job.get("png") else None, asf=job.get("asf"),
+                            drifts=bool(job.get("drifts")))
         for final in finals:  # the record last: the completion marker
             if not owner_alive():
                 raise _Orphaned
@@ -486,6 +487,7 @@ def clean_batch(
     progress: bool = True,
     overwrite: bool = False,
     asf=None,
+    drifts: bool = False,
 ) -> BatchSummary:
     """Clean every take under ``in_dir`` into the mirrored layout under ``out_dir`` (module docstring).
 
@@ -497,7 +499,8 @@ def clean_batch(
     Every output is checked before any take is cleaned: none may resolve to
     an input, and an existing file that is not part of a complete take is
     replaced only with ``overwrite``. ``asf``: the skeleton of every ``.amc``
-    take (default: the ASF beside each AMC). Raises
+    take (default: the ASF beside each AMC). ``drifts``: also flag smooth
+    drifts in every take (:func:`mocapkit.cleaning.pipeline.clean`). Raises
     :class:`~mocapkit.errors.MocapError` (one line) on a bad folder, format,
     step list, context or executor (:func:`mocapkit.parallel.check_executor`)
     and on a refused output; nothing is written then.
@@ -540,7 +543,8 @@ def clean_batch(
     folders = [] if below else [in_dir]
     _check_batch_outputs(plans, todo, inputs, folders, ctx, overwrite)
     jobs = [{"input": str(inp), "output": str(files["output"]), "context": [str(c) for c in ctx], "steps": steps,
-             "threshold": float(threshold), "report": str(files["report"]) if files["report"] else None,
+             "threshold": float(threshold), "drifts": bool(drifts),
+             "report": str(files["report"]) if files["report"] else None,
              "png": str(files["png"]) if files["png"] else None,
              "asf": str(asf) if asf is not None and inp.suffix.lower() == ".amc" else None} for inp, files in todo]
     expected = [f for files in plans for f in files.values() if f is not None]

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import hashlib
 import os
 import re
@@ -326,3 +327,24 @@ def test_review_mode_gives_a_bvh_take_back_byte_for_byte(tmp_path):
         out = tmp_path / f"{src.stem}_review.bvh"
         assert main(["clean", str(src), "-o", str(out), "--steps", "detect", "--context", "none"]) == 0
         assert out.read_bytes() == src.read_bytes()
+
+
+def test_clean_batch_drifts_flags_a_smooth_drift_only_when_asked(tmp_path, capsys):
+    """clean-batch --drifts passes the smooth-drift rule to every take, as clean --drifts does: a 35 degree knee
+    drift with no break, the clean take as context, is flagged and repaired with it and left alone without it."""
+    m = mocapkit.load(samples.path("HDM_bk_sneak2StepsLStart_004_120.amc"))
+    bad, mask, _ = corrupt.smooth_drifts(m, n_drifts=1, duration_s=(1.0, 1.0), seed=0, joints=["ltibia"])
+    j = m.skeleton.index("ltibia")
+    src, ctx = tmp_path / "in", tmp_path / "ctx.npz"
+    src.mkdir()
+    mocapkit.save(bad, src / "sneak.npz")
+    mocapkit.save(dataclasses.replace(m, name="twin"), ctx)  # another take of the same motion
+    records = {}
+    for name, extra in (("off", []), ("on", ["--drifts"])):
+        out = tmp_path / name
+        rc = main(["clean-batch", str(src), str(out), "--executor", "serial", "--steps", "detect,repair",
+                   "--context", str(ctx), *extra])
+        assert rc == 0, capsys.readouterr().out
+        records[name] = CleanResult.load(out / "sneak.clean.npz")
+    assert not records["off"].flags[:, j].any()
+    assert records["on"].flags[mask[:, j], j].mean() > 0.8

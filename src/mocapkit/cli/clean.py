@@ -193,6 +193,11 @@ def clean_batch(
     context: Optional[list[Path]] = context_option(),
     steps: str = typer.Option("fill,detect,repair,denoise", "--steps", help=STEPS_HELP),
     threshold: float = typer.Option(0.5, "--threshold", help="MDM value above which a joint is flagged (0-1)."),
+    drifts: bool = typer.Option(
+        False, "--drifts",
+        help="Also flag and repair smooth drifts (no break) where the --context repeats the takes' motion "
+             "(docs/guide/cleaning.md).",
+    ),
     executor: Optional[str] = executor_option("takes are cleaned"),
     report: bool = typer.Option(False, "--report", help="Also write STEM.report.html beside each output."),
     png: bool = typer.Option(False, "--png", help="Also write STEM.summary.png beside each output."),
@@ -225,7 +230,7 @@ def clean_batch(
         raise MocapError("--pattern: give at least one file name pattern, e.g. '*.bvh,*.amc'")
     summary = run_batch(in_dir, out_dir, context=context, steps=step_list, threshold=threshold, patterns=patterns,
                         fmt=fmt, report=report, png=png, executor=executor, progress=not as_json, overwrite=overwrite,
-                        asf=asf)
+                        asf=asf, drifts=drifts)
     if as_json:
         print(json.dumps({"rows": summary.rows, "seconds": summary.seconds, "executor": summary.executor}))
     else:
