@@ -23,8 +23,9 @@ statistic, per cell ``(f, j)``:
 A run of cells that digress by more than the capture noise and holds no
 break is a smooth drift when, for at least ``min_s`` seconds of it,
 ``agreement <= repeat_deg`` and ``consistency >= z_min``: the whole
-excursion is flagged, down to where the joint is back among its neighbours. Where the context does not repeat the motion (the
-rest of the body digresses too) nothing is flagged here: a lone joint's
+excursion is flagged, down to where the joint is back among its
+neighbours. Where the context does not repeat the motion (the rest of the
+body digresses too) nothing is flagged here: a lone joint's
 digression is then indistinguishable from motion the context lacks. For the
 same reason :func:`~mocapkit.cleaning.ssa.detect` looks for smooth drifts only
 against a context beyond the take itself: analysed alone, a take that raises
@@ -85,8 +86,8 @@ def smooth_drift_flags(
     :func:`detect` (NaN: no evidence, never flagged). Per joint, a run is a
     connected stretch of cells with ``consistency > extent``: the joint
     outside its neighbours' spread and the capture noise (``extent`` 1), the
-    whole excursion down to where it is back among them. The run is flagged whole when no break lies
-    within ``margin_s`` seconds of it (runs with a break are
+    whole excursion down to where it is back among them. The run is flagged
+    whole when no break lies within ``margin_s`` seconds of it (runs with a break are
     :func:`confirm_flags`' to judge) and at least ``min_s`` seconds of its
     cells have ``agreement <= repeat_deg`` (degrees: the context repeats the
     motion there) and ``consistency >= z_min`` (the neighbours agree the joint
