@@ -22,9 +22,26 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-__all__ = ["word_dtw_rows"]
+__all__ = ["best_state", "word_dtw_rows"]
 
 _INF = np.inf
+
+
+@njit(cache=True, inline="always")
+def best_state(acc, ln, r, j):
+    """The lowest accumulated cost over the 7 states of cell ``(r, j)`` and its path length (1 where all are inf).
+
+    ``acc`` float (R, M, 7), ``ln`` int (R, M, 7): the rows of :func:`word_dtw_rows` or the whole matrix of
+    the full word DTW. Ties keep the lowest state, as every reader of the states does.
+    """
+    best = _INF
+    bl = 1
+    for s in range(7):
+        v = acc[r, j, s]
+        if v < best:
+            best = v
+            bl = ln[r, j, s]
+    return best, bl
 
 
 @njit(cache=True)
@@ -63,13 +80,7 @@ def word_dtw_rows(C, si, tj, N, M, min_width, max_run, acc, ln, col_best, col_le
                 l0 = 1
             else:
                 if i > 0 and j > 0:  # diagonal from any state of (i-1, j-1)
-                    best = _INF
-                    bl = 0
-                    for s in range(7):
-                        v = acc[prv, j - 1, s]
-                        if v < best:
-                            best = v
-                            bl = ln[prv, j - 1, s]
+                    best, bl = best_state(acc, ln, prv, j - 1)
                     if best < _INF:
                         a0 = best + c
                         l0 = bl + 1
@@ -130,13 +141,7 @@ def word_dtw_rows(C, si, tj, N, M, min_width, max_run, acc, ln, col_best, col_le
             ln[cur, j, 5] = l5
             ln[cur, j, 6] = l6
         # this row's last-column cell, an end cell when the target word finishes here
-        best = _INF
-        bl = 1
-        for s in range(7):
-            v = acc[cur, M - 1, s]
-            if v < best:
-                best = v
-                bl = ln[cur, M - 1, s]
+        best, bl = best_state(acc, ln, cur, M - 1)
         col_best[i] = best
         col_len[i] = bl
     best_mean = _INF
@@ -145,13 +150,7 @@ def word_dtw_rows(C, si, tj, N, M, min_width, max_run, acc, ln, col_best, col_le
     last = (N - 1) & 1
     lo = min_width - 1
     for x in range(max(lo, 0), M):  # ends on the last row (source finished)
-        best = _INF
-        bl = 1
-        for s in range(7):
-            v = acc[last, x, s]
-            if v < best:
-                best = v
-                bl = ln[last, x, s]
+        best, bl = best_state(acc, ln, last, x)
         if best < _INF:
             mean = best / bl
             if mean < best_mean:

@@ -38,7 +38,7 @@ import math
 import numpy as np
 from numba import njit, prange
 
-from .dtw_rows import word_dtw_rows
+from .dtw_rows import best_state, word_dtw_rows
 from .word_bounds import cheap_bound
 from .ordering import kth_smallest, sort_by_key
 from .twins import twin_kernels
@@ -328,13 +328,7 @@ def _word_dtw(C, si, tj, N, M, min_width, max_run, acc, ln, back=None):
         for x in range(max(lo, 0), hi):
             i = N - 1 if e == 0 else x
             j = x if e == 0 else M - 1
-            best = _INF
-            bl = 1
-            for s in range(7):
-                v = acc[i, j, s]
-                if v < best:
-                    best = v
-                    bl = ln[i, j, s]
+            best, bl = best_state(acc, ln, i, j)
             if best < _INF:
                 mean = best / bl
                 if mean < best_mean:
