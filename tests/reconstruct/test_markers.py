@@ -247,3 +247,61 @@ def test_bandai_rig_is_reconstructed_about_the_pelvis(bandai_clip):
     assert np.max(marker_residuals(out, x, BANDAI)) < 1.0  # cm
     err = np.linalg.norm(body_motion(out).global_positions() - b, axis=-1).mean()
     assert err < 2.0, err
+
+
+# -- the database's joint ranges -----------------------------------------------------------------------
+
+
+def test_joint_ranges_hold_the_database_frames_and_measure_what_leaves_them(db):
+    from mocapkit.reconstruct.markers import joint_ranges
+
+    q = np.asarray(db.rotations, dtype=np.float64)
+    ranges = joint_ranges(q)
+    ex = ranges.excess(q)
+    assert ex.shape == q.shape[:2] + (3,)
+    assert np.all(ex >= 0)
+    assert np.mean(ex > 0) < 0.002  # percentiles 0.1 / 99.9, widened by the margin: all but rare glitches inside
+    # a rotation past the upper end of joint j's first axis by 0.3 rad leaves the range by 0.3 rad there only
+    j = 5
+    v = ranges.axes[j, 0] * (ranges.hi[j, 0] + 0.3)
+    out = ranges.mean.copy()
+    out[j] = R.quaternion_multiply(ranges.mean[j], R.rotvec_to_quaternion(v))
+    e = ranges.excess(out)
+    np.testing.assert_allclose(e[j, 0], 0.3, atol=1e-9)
+    assert np.all(np.delete(e.reshape(-1), 3 * j) < 1e-12)
+    # the sign of a quaternion does not matter
+    np.testing.assert_allclose(ranges.excess(-out), e, atol=1e-12)
+
+
+def test_limbs_do_not_bend_beyond_what_the_database_does(shared_data):
+    """Bandai Namco: a happy run from ten other takes. Six markers leave a knee's swivel free; without
+    the joint-range term the fit bends a knee tens of degrees past any database frame."""
+    from mocapkit.features import root_frame
+    from mocapkit.reconstruct._common import body_motion, database_up
+    from mocapkit.reconstruct.markers import _marker_database
+
+    data = shared_data / "secondary_bandai_namco_CC-BY-NC"
+    query = "dataset-1_run_happy_001.bvh"
+    db = MotionDatabase.build([p for p in sorted(data.glob("*.bvh")) if p.name != query], fps=30, executor="serial",
+                              progress=False)
+    truth = mocapkit.load(data / query)[:120]
+    x = virtual_markers(truth, BANDAI)
+    up = database_up(db)
+    ranges = _marker_database(db, tuple(BANDAI), up, truth.skeleton).ranges
+
+    def worst(out):
+        b = body_motion(out)
+        q = np.array(b.rotations)
+        yaw, _ = root_frame(b, up_axis=up)
+        q[:, 0] = R.quaternion_multiply(R.quaternion_conjugate(yaw), q[:, 0])  # the pelvis by its tilt
+        return np.degrees(ranges.excess(q).max())
+
+    def error(out):
+        return np.linalg.norm(body_motion(out).global_positions() - body_motion(truth).global_positions(), axis=-1).mean()
+
+    free = reconstruct(x, BANDAI, db, 30, skeleton=truth.skeleton, limit_weight=0.0)
+    held = reconstruct(x, BANDAI, db, 30, skeleton=truth.skeleton)
+    assert worst(free) > 30.0  # what the term is for
+    assert worst(held) < 1.0
+    assert error(held) < error(free)
+    assert np.max(marker_residuals(held, x, BANDAI)) < 1.0  # cm: the markers are still met

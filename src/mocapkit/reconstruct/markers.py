@@ -46,6 +46,15 @@ markers (hands, feet, head, root; Tables 3 and 4). For every frame ``t``:
    previous frame's pose projected into the new model, with a Jacobian by
    forward differences evaluated as one batched forward-kinematics call
    (numba, :func:`_fk_model_poses`).
+5. **Joint ranges** (not in the papers): ``E`` also holds
+   ``limit_weight * excess`` for every joint and principal axis, the radians
+   by which the pose leaves the range the database's frames give that joint
+   (:func:`joint_ranges`; zero inside). Six markers leave each limb's swivel
+   about the line from its root to its end unobserved, and the fit, which
+   only has to place the ankle, can bend a knee backwards and keep it so
+   frame after frame (the smoothness term holds it there). When the fit from
+   the previous pose ends beyond a range, a second fit starts from the
+   neighbours' mean pose (``u = 0``) and the lower energy wins.
 
 The defaults (``k=256`` neighbours, 99.99 % of the variance up to 60
 components, a weak prior 0.01) favour a broad local model: neighbours from
@@ -119,6 +128,9 @@ __all__ = ["reconstruct", "nearest_neighbor", "marker_residuals"]
 
 _STEP = 1e-6  # forward-difference step of the Jacobian (whitened PCA units, radians, centimetres)
 _MIN_HEIGHT_STD_CM = 2.0  # floor of the neighbours' root-height spread in the height prior
+_RANGE_PERCENTILES = (0.1, 99.9)  # the database's range of each joint axis, robust to its rare glitches
+_RANGE_MARGIN = np.radians(10.0)  # beyond the database's range before the joint-range term starts
+_RANGE_FRAMES = 50_000  # at most this many evenly spaced database frames give the ranges
 
 
 # -- closed-form alignment about the vertical (Tautges 2012, eq. 4.3) ------------------------
@@ -136,6 +148,63 @@ class _MarkerDatabase:
     tilt: np.ndarray  # (N, 4) root rotation in the normalised frame, yaw^-1 * q_root
     root: np.ndarray  # (N, 3) root position in the normalised frame (its height along up)
     rotations: np.ndarray  # (N, B, 4) local rotations of the body joints (pelvis first; its entry unused)
+    ranges: "_JointRanges"  # what each body joint does in the database (pelvis: its tilt)
+
+
+@dataclass(frozen=True)
+class _JointRanges:
+    """The range of each joint's local rotation over a database, along the joint's principal axes.
+
+    A rotation ``q`` of joint ``j`` is ``mean[j] * exp(v)``; ``axes[j] @ v``
+    (radians) lies in ``[lo[j], hi[j]]`` on the database's frames (robust
+    percentiles, widened by a margin). A knee bends one way and an elbow
+    does not bend backwards: six markers leave a limb's swivel about the line
+    from its root to its end unobserved, and a fit that only has to place
+    the hand or the ankle can bend the joint the other way, which no frame
+    of the database does.
+    """
+
+    mean: np.ndarray  # (B, 4)
+    axes: np.ndarray  # (B, 3, 3) rows: principal axes of the rotation vectors
+    lo: np.ndarray  # (B, 3) radians
+    hi: np.ndarray  # (B, 3) radians
+
+    def excess(self, q: np.ndarray) -> np.ndarray:
+        """Radians (..., B, 3) by which local rotations ``q`` (..., B, 4) leave the ranges, 0 inside."""
+        v = R.quaternion_to_rotvec(_same_hemisphere(R.quaternion_multiply(R.quaternion_conjugate(self.mean), q)))
+        c = np.einsum("jab,...jb->...ja", self.axes, v)
+        return np.maximum(c - self.hi, 0.0) + np.maximum(self.lo - c, 0.0)
+
+
+def _same_hemisphere(q: np.ndarray) -> np.ndarray:
+    """``q`` with ``w >= 0``: the rotation vector of the shorter way round."""
+    return np.where(q[..., :1] < 0, -q, q)
+
+
+def joint_ranges(rotations: np.ndarray) -> _JointRanges:
+    """The :class:`_JointRanges` of local rotations (N, B, 4) (the root's entry: its tilt).
+
+    Per joint: the sign-aligned mean rotation, the principal axes of the
+    rotation vectors relative to it (eigenvectors of their 3x3 covariance),
+    and along each axis the 0.1 and 99.9 percentiles of the frames, widened
+    by 10 degrees on either side. At most 50,000 evenly spaced frames are
+    read (a memory-mapped database stays mostly on disk).
+    """
+    q = np.asarray(rotations)
+    step = max(1, -(-len(q) // _RANGE_FRAMES))
+    q = np.array(q[::step], dtype=np.float64)
+    q = np.where(np.sum(q * q[:1], axis=-1, keepdims=True) < 0, -q, q)
+    mean = R.quaternion_normalize(q.mean(axis=0))
+    v = R.quaternion_to_rotvec(_same_hemisphere(R.quaternion_multiply(R.quaternion_conjugate(mean), q)))
+    B = q.shape[1]
+    axes, lo, hi = np.zeros((B, 3, 3)), np.zeros((B, 3)), np.zeros((B, 3))
+    for j in range(B):
+        vj = v[:, j]
+        _, vec = np.linalg.eigh(np.cov(vj.T) if len(vj) > 1 else np.eye(3))
+        axes[j] = vec[:, ::-1].T
+        c = vj @ axes[j].T
+        lo[j], hi[j] = np.percentile(c, _RANGE_PERCENTILES, axis=0)
+    return _JointRanges(mean, axes, lo - _RANGE_MARGIN, hi + _RANGE_MARGIN)
 
 
 _CACHE: "weakref.WeakKeyDictionary[MotionDatabase, dict]" = weakref.WeakKeyDictionary()
@@ -200,7 +269,10 @@ def _marker_database(db: MotionDatabase, joints: tuple[str, ...], up: np.ndarray
     rot0 = np.asarray(rotations[:, 0], dtype=np.float64)
     tilt = R.quaternion_normalize(R.quaternion_multiply(inv, rot0))
     root = R.quaternion_rotate(inv, root_pos - ground)
-    out = _MarkerDatabase(KNNIndex(feats.reshape(len(feats), -1)), feats, tilt, root, rotations)
+    step = max(1, -(-len(tilt) // _RANGE_FRAMES))  # read only the frames joint_ranges uses
+    rng_rot = np.array(rotations[::step], dtype=np.float64)
+    rng_rot[:, 0] = tilt[::step]  # the pelvis by its tilt, as the local models hold it
+    out = _MarkerDatabase(KNNIndex(feats.reshape(len(feats), -1)), feats, tilt, root, rotations, joint_ranges(rng_rot))
     per_db[key] = out
     return out
 
@@ -386,6 +458,8 @@ class _Problem:
     offsets: np.ndarray  # (J, 3) file units
     heading: float  # the search frame's heading (eq. 4.3 against the nearest neighbour), radians
     heading_std: float  # radians
+    ranges: _JointRanges | None = None  # the database's joint ranges; None: no joint-range term
+    limit: float = 0.0  # cm of residual per radian beyond a joint's range
 
     def pose(self, z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Local rotations (B, J, 4) with the global root rotation and root positions (B, 3) of parameters (B, n)."""
@@ -417,6 +491,8 @@ class _Problem:
             h = (z[:, self.model.dim + 1 : self.model.dim + 4] / self.scale) @ self.up
             std = max(self.model.height_std, _MIN_HEIGHT_STD_CM / self.scale)
             parts.append(((h - self.model.height) / std)[:, None])
+        if self.ranges is not None and self.limit > 0:
+            parts.append(self.limit * self.ranges.excess(self.model.decode(z[:, : self.model.dim])).reshape(len(z), -1))
         if len(self.history) == 2:
             acc = gpos - 2 * self.history[0] + self.history[1]
             parts.append((self.smooth * self.scale * acc).reshape(len(z), -1))
@@ -426,6 +502,12 @@ class _Problem:
 
     def fun(self, z: np.ndarray) -> np.ndarray:
         return self.residuals(z[None])[0]
+
+    def leaves_range(self, z: np.ndarray) -> bool:
+        """Whether the pose of parameters (n,) takes a joint beyond its database range (:class:`_JointRanges`)."""
+        if self.ranges is None or self.limit <= 0:
+            return False
+        return bool(np.any(self.ranges.excess(self.model.decode(z[None, : self.model.dim])) > 0))
 
     def jac(self, z: np.ndarray) -> np.ndarray:
         n = len(z)
@@ -480,6 +562,7 @@ def _run(
     smooth_weight: float,
     max_iterations: int,
     heading_std: float,
+    limit_weight: float,
     root_joint: str | None,
     up_axis,
     solve: bool,
@@ -490,8 +573,8 @@ def _run(
         raise ValueError(f"k must be a positive integer, got {k}")
     if not 0 < variance <= 1:
         raise ValueError(f"variance must be in (0, 1], got {variance}")
-    if prior_weight < 0 or smooth_weight < 0:
-        raise ValueError("prior_weight and smooth_weight must be >= 0")
+    if prior_weight < 0 or smooth_weight < 0 or limit_weight < 0:
+        raise ValueError("prior_weight, smooth_weight and limit_weight must be >= 0")
     whole = output_skeleton(db, skeleton)
     sk = body_skeleton(whole)  # the pelvis and the joints below it (the whole skeleton on Acclaim rigs)
     known = set(sk.joint_names) | set(sk.end_site_names)
@@ -597,8 +680,19 @@ def _run(
                 offsets,
                 th,
                 np.radians(heading_std),
+                mdb.ranges,
+                limit_weight,
             )
             sol = least_squares(problem.fun, z0, jac=problem.jac, method="lm", max_nfev=max_iterations)
+            if t > t0 and problem.leaves_range(sol.x):
+                # the fit from the previous pose ends with a joint bent beyond what the database does (a
+                # knee or an elbow bent backwards stays so frame after frame: a local minimum the swivel
+                # the markers leave free gets into); start again from the neighbours' mean pose and keep
+                # the better of the two
+                z1 = np.concatenate([np.zeros(model.dim), [th], r0 * scale])
+                other = least_squares(problem.fun, z1, jac=problem.jac, method="lm", max_nfev=max_iterations)
+                if other.cost < sol.cost:
+                    sol = other
             z = sol.x
             q, rp = problem.pose(z[None])
             d = model.dim
@@ -641,6 +735,7 @@ def reconstruct(
     smooth_weight: float = 0.01,
     max_iterations: int = 20,
     heading_std: float = 10.0,
+    limit_weight: float = 100.0,
     root_joint: str | None = None,
     up_axis=None,
     progress: bool = False,
@@ -685,6 +780,10 @@ def reconstruct(
     heading_std : float
         Standard deviation (degrees) of the prior tying the pelvis heading to
         the eq. 4.3 heading of the search frame.
+    limit_weight : float
+        Centimetres of residual per radian by which a joint leaves the range
+        the database's frames give it (:func:`joint_ranges`; 0 turns the term
+        off). Within the range the term is zero.
     root_joint : str, optional
         Which marker (if any) is the root marker; default the pelvis's name
         (the root on Acclaim rigs, ``Hips`` on the Bandai Namco rig). A root marker pins the ground translation of the search
@@ -719,6 +818,7 @@ def reconstruct(
         smooth_weight=smooth_weight,
         max_iterations=max_iterations,
         heading_std=heading_std,
+        limit_weight=limit_weight,
         root_joint=root_joint,
         up_axis=up_axis,
         solve=True,
@@ -756,6 +856,7 @@ def nearest_neighbor(
         smooth_weight=0.0,
         max_iterations=1,
         heading_std=1.0,
+        limit_weight=0.0,
         root_joint=root_joint,
         up_axis=up_axis,
         solve=False,
