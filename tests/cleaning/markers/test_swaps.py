@@ -61,3 +61,41 @@ def test_unrelated_jumps_are_not_exchanged():
     z, swaps = undo_swaps(x)
     assert swaps == []
     assert np.array_equal(z, x)
+
+
+def _thigh_and_knee():
+    # LTHI and LKNE (216 mm apart): their distances to the hip and shin markers differ, so the
+    # rigid neighbours tell the two labellings apart (markers placed symmetrically about their
+    # neighbours, such as the toe and fifth metatarsal about the heel and ankle, they cannot).
+    ms = read_c3d(CMU)
+    return np.asarray(ms.positions), ms.labels.index("Male:LTHI"), ms.labels.index("Male:LKNE")
+
+
+def test_a_swap_that_starts_as_a_marker_comes_back_from_an_occlusion_is_undone():
+    # Marker i is hidden for frames 250-299 and comes back under j's label (and j under i's):
+    # nothing predicts i at frame 300, so only the swap's end at 420 shows as two jumps. Its
+    # distances to its rigid neighbours stay constant only with 300-419 exchanged.
+    x, i, j = _thigh_and_knee()
+    y = x.copy()
+    y[250:300, i] = np.nan
+    y[300:420, [i, j]] = y[300:420, [j, i]]
+    z, swaps = undo_swaps(y)
+    assert [(s.a, s.b, s.start, s.end) for s in swaps] == [(i, j, 300, 420)]
+    truth = x.copy()
+    truth[250:300, i] = np.nan
+    assert np.array_equal(z, truth, equal_nan=True)
+
+
+def test_a_swap_that_ends_as_a_marker_is_occluded_is_undone():
+    # The swap starts in plain view at 300; marker i vanishes at 420 and comes back at 470 under
+    # its own label, so the end never shows as two jumps: without the rigid neighbours' verdict
+    # the exchange would run to the end of the take.
+    x, i, j = _thigh_and_knee()
+    y = x.copy()
+    y[300:420, [i, j]] = y[300:420, [j, i]]
+    y[420:470, i] = np.nan
+    z, swaps = undo_swaps(y)
+    assert [(s.a, s.b, s.start, s.end) for s in swaps] == [(i, j, 300, 420)]
+    truth = x.copy()
+    truth[420:470, i] = np.nan
+    assert np.array_equal(z, truth, equal_nan=True)
