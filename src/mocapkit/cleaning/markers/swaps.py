@@ -63,7 +63,11 @@ class Swap:
 
 
 def _predictions(y: np.ndarray, t: int) -> np.ndarray:
-    """(P, M, 3) predictions of frame t: constant velocity from t-2, t-1 and, where t >= 3, constant acceleration from t-3..t-1."""
+    """(P, M, 3) predictions of frame t.
+
+    Constant velocity from frames t-2 and t-1 and, where t >= 3, constant
+    acceleration from t-3 to t-1.
+    """
     cv = 2.0 * y[t - 1] - y[t - 2]
     if t < 3:
         return cv[None]
@@ -256,9 +260,23 @@ def _constancy(p: np.ndarray, a: int, b: int, nbrs: tuple[list[int], list[int]],
 
 def _neighbours(order: np.ndarray, stats, a: int, b: int, floor: float,
                 count: int = 4) -> tuple[tuple[list[int], list[int]], np.ndarray]:
-    """The ``count`` most rigid neighbours of a and of b (the other of the pair left out), and (M, M) usual spreads (at least ``floor``)."""
+    """The ``count`` most rigid neighbours of a and of b (the other of the pair left out).
+
+    Also returns the (M, M) usual spreads of the distances, at least ``floor``.
+    """
     pick = lambda k, o: [int(n) for n in order[k] if n != o and np.isfinite(stats.median[k, n])][:count]  # noqa: E731
     return (pick(a, b), pick(b, a)), np.maximum(np.nan_to_num(stats.spread, nan=np.inf), floor)
+
+
+def _local(y: np.ndarray, lo: int, hi: int, a: int, b: int, nbrs: tuple[list[int], list[int]], scale: np.ndarray):
+    """Frames lo..hi-1 of a and b (as columns 0 and 1) and of their neighbours only.
+
+    Returns those positions, the neighbour lists and the (K, K) scales renumbered to match.
+    """
+    cols = [a, b] + sorted((set(nbrs[0]) | set(nbrs[1])) - {a, b})
+    pos = {c: k for k, c in enumerate(cols)}
+    return (y[lo:hi][:, cols], ([pos[n] for n in nbrs[0]], [pos[n] for n in nbrs[1]]),
+            scale[np.ix_(cols, cols)])
 
 
 def _hidden_start(y: np.ndarray, a: int, b: int, t: int, lo: int, hi: int, thr: float, stats, order: np.ndarray,
@@ -281,16 +299,14 @@ def _hidden_start(y: np.ndarray, a: int, b: int, t: int, lo: int, hi: int, thr: 
     starts = starts[(starts > lo) & (starts < t)]  # from lo, it would only exchange the whole stretch
     if starts.size == 0:
         return None
-    nbrs, scale = _neighbours(order, stats, a, b, floor)
-    win = y[lo:hi].copy()
+    win, nbrs, scale = _local(y, lo, hi, a, b, *_neighbours(order, stats, a, b, floor))
     after = win.copy()
-    after[t - lo:, [a, b]] = after[t - lo:, [b, a]]
-    base = _constancy(after, a, b, nbrs, scale)
-    best, where = ratio * base, None
+    after[t - lo:, [0, 1]] = after[t - lo:, [1, 0]]
+    best, where = ratio * _constancy(after, 0, 1, nbrs, scale), None
     for s in starts:
         q = win.copy()
-        q[s - lo:t - lo, [a, b]] = q[s - lo:t - lo, [b, a]]
-        c = _constancy(q, a, b, nbrs, scale)
+        q[s - lo:t - lo, [0, 1]] = q[s - lo:t - lo, [1, 0]]
+        c = _constancy(q, 0, 1, nbrs, scale)
         if c < best:
             best, where = c, int(s)
     return where
@@ -310,13 +326,12 @@ def _hidden_end(y: np.ndarray, a: int, b: int, t: int, lo: int, thr: float, stat
     ends = ends[(ends > t) & (ends < f)]
     if ends.size == 0:
         return f
-    nbrs, scale = _neighbours(order, stats, a, b, floor)
-    win = y[lo:]
-    best, where = ratio * _constancy(win, a, b, nbrs, scale), f
+    win, nbrs, scale = _local(y, lo, f, a, b, *_neighbours(order, stats, a, b, floor))
+    best, where = ratio * _constancy(win, 0, 1, nbrs, scale), f
     for e in ends:
         q = win.copy()
-        q[e - lo:, [a, b]] = q[e - lo:, [b, a]]
-        c = _constancy(q, a, b, nbrs, scale)
+        q[e - lo:, [0, 1]] = q[e - lo:, [1, 0]]
+        c = _constancy(q, 0, 1, nbrs, scale)
         if c < best:
             best, where = c, int(e)
     return where
