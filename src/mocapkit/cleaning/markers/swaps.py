@@ -1,18 +1,41 @@
-"""Find and undo swapped labels: two nearby markers that trade trajectories for a while.
+"""Find and undo swapped labels: two markers that trade trajectories for a while.
 
 When two markers pass close, the labelling of an optical system may give
 each the other's name (MotionBuilder's "swap with marker" and Vicon's
 "exchange labels" fix it by hand). Each of the two trajectories then jumps
-at the start of the swap by about the distance between the markers, and
-jumps back at its end. :func:`undo_swaps` walks the take once: at every
-frame where two or more markers jump (their sample is far from the
-constant-velocity prediction of the two frames before), it tries exchanging
+at the start of the swap by the distance between the markers, and jumps
+back at its end. :func:`undo_swaps` walks the take once: at every frame
+where two or more markers jump (their sample is far from both the
+constant-velocity prediction of the two frames before and the
+constant-acceleration prediction of the three before), it tries exchanging
 each pair of jumping markers from that frame on, and keeps the exchange
-when it explains both jumps (both predictions then met within the
-threshold, and the total miss cut to under a third). An exchange that
-starts a swap is undone by the one that ends it, so the corrected
+when it explains both jumps (each marker's new sample then meets one of its
+predictions within the threshold, and the total miss is cut to under a
+third). The constant-acceleration prediction keeps a fast, curving marker
+(a golf club head at 108 Hz misses its constant-velocity prediction by
+20-30 mm in every frame of the downswing) from hiding a swap. How far apart
+the two markers are does not matter: the test asks that each lands where
+the other was going, which two unrelated jumps almost never do. An exchange
+that starts a swap is undone by the one that ends it, so the corrected
 trajectories are the recorded samples, re-labelled: the values stay
 bit-identical.
+
+One end of a swap can be hidden from the jump test: a marker that comes
+back from an occlusion under the other's label has no prediction to miss,
+and two markers that pass within the threshold of each other make no jump
+worth the name. An exchange seen at one end only is then either the start
+of a swap that runs to a hidden end, or the end of one that began at a
+hidden start. Each candidate hidden boundary (the first and the last frame
+of an occlusion of either marker, the closest approach of a near pass) is
+judged by the rigid-cluster consistency of the two labellings over the
+whole stretch: the labelling under which the pair's distances to their
+most rigidly attached markers (:mod:`~mocapkit.cleaning.markers.rigid`)
+stay most constant wins, whichever of the two holds in most of the frames
+(distances kept near their usual values are the soft skeleton constraints
+of Tits, Tilmanne and Dutoit 2018, PLoS ONE 13(7): e0199744). Without such
+evidence (two markers placed symmetrically about their neighbours, or with
+no rigid neighbours), a swap seen only at its start runs to the end of the
+take, as before.
 
 Positions are (F, M, 3), frames first, NaN for unseen samples.
 """
@@ -22,6 +45,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+
+from .rigid import distance_stats, donor_order
 
 __all__ = ["Swap", "undo_swaps"]
 
@@ -37,13 +62,28 @@ class Swap:
     distance: float
 
 
-def _miss(y: np.ndarray, t: int) -> np.ndarray:
-    """(M,) distance of frame t's samples from the constant-velocity prediction of frames t-2 and t-1 (NaN where unseen)."""
-    return np.linalg.norm(y[t] - (2.0 * y[t - 1] - y[t - 2]), axis=-1)
+def _predictions(y: np.ndarray, t: int) -> np.ndarray:
+    """(P, M, 3) predictions of frame t.
+
+    Constant velocity from frames t-2 and t-1 and, where t >= 3, constant
+    acceleration from t-3 to t-1.
+    """
+    cv = 2.0 * y[t - 1] - y[t - 2]
+    if t < 3:
+        return cv[None]
+    return np.stack([cv, 3.0 * y[t - 1] - 3.0 * y[t - 2] + y[t - 3]])
+
+
+def _miss(pred: np.ndarray, samples: np.ndarray) -> np.ndarray:
+    """(M,) distance of ``samples`` (M, 3) from the nearest of the predictions ``pred`` (P, M, 3).
+
+    A prediction that needs an unseen frame is skipped; NaN where none can be made or the sample is unseen.
+    """
+    return np.fmin.reduce(np.linalg.norm(samples[None] - pred, axis=-1), axis=0)
 
 
 def undo_swaps(positions: np.ndarray, unit_mm: float = 1.0, *, threshold_mm: float = 15.0,
-               max_distance_mm: float = 400.0) -> tuple[np.ndarray, list[Swap]]:
+               ratio: float = 0.8) -> tuple[np.ndarray, list[Swap]]:
     """Re-label swapped samples.
 
     Parameters
@@ -53,17 +93,21 @@ def undo_swaps(positions: np.ndarray, unit_mm: float = 1.0, *, threshold_mm: flo
     unit_mm : float
         Millimetres per unit of ``positions``.
     threshold_mm : float
-        A sample "jumps" when it is this far from its constant-velocity
-        prediction.
-    max_distance_mm : float
-        Only markers closer than this (at the jump) are considered for an exchange.
+        A sample "jumps" when it is this far from both its constant-velocity
+        and its constant-acceleration prediction.
+    ratio : float
+        A swap seen at one end only gets a hidden other end (an occlusion,
+        or the two markers within the threshold) when its distances to the
+        rigid neighbours then stay more constant than with the walk's
+        default: under ``ratio`` times its cost (:func:`_constancy`).
 
     Returns
     -------
     corrected : float array (F, M, 3)
         The samples with swapped labels exchanged back (the same values, re-labelled).
     swaps : list of Swap
-        One per swapped interval (a swap that never ends runs to the last frame).
+        One per swapped interval (a swap seen only at its start whose end
+        nothing shows runs to the last frame).
     """
     x = np.asarray(positions, dtype=np.float64)
     f = x.shape[0]
@@ -71,27 +115,29 @@ def undo_swaps(positions: np.ndarray, unit_mm: float = 1.0, *, threshold_mm: flo
     if f < 3:
         return y, []
     thr = threshold_mm / unit_mm
-    far = max_distance_mm / unit_mm
+    floor = 2.0 / unit_mm  # the smallest spread a distance is judged by (2 mm)
     with np.errstate(invalid="ignore"):
         raw = np.linalg.norm(x[2:] - (2.0 * x[1:-1] - x[:-2]), axis=-1)  # (F-2, M)
-        jumping = np.nan_to_num(raw, nan=0.0) > thr
+        acc = np.full_like(raw, np.nan)
+        acc[1:] = np.linalg.norm(x[3:] - (3.0 * x[2:-1] - 3.0 * x[1:-2] + x[:-3]), axis=-1)
+        jumping = np.nan_to_num(np.fmin(raw, acc), nan=0.0) > thr
     frames = np.flatnonzero(jumping.sum(axis=1) >= 2) + 2
     open_swaps: dict[tuple[int, int], tuple[int, float]] = {}
     swaps: list[Swap] = []
+    last: dict[int, int] = {}  # marker -> the frame of its latest exchange
+    stats = order = None
     for t in frames:
-        miss = _miss(y, t)
+        pred = _predictions(y, t)
+        miss = _miss(pred, y[t])
         jump = np.flatnonzero(np.nan_to_num(miss, nan=0.0) > thr)
         if jump.size < 2:
             continue
-        pred = 2.0 * y[t - 1] - y[t - 2]
         pairs = []
         for i in range(jump.size):
             for j in range(i + 1, jump.size):
                 a, b = int(jump[i]), int(jump[j])
-                if np.linalg.norm(y[t, a] - y[t, b]) > far:
-                    continue
-                ma = np.linalg.norm(y[t, b] - pred[a])
-                mb = np.linalg.norm(y[t, a] - pred[b])
+                ma = _miss(pred[:, [a]], y[t, [b]])[0]
+                mb = _miss(pred[:, [b]], y[t, [a]])[0]
                 if ma <= thr and mb <= thr and ma + mb < (miss[a] + miss[b]) / 3.0:
                     pairs.append((ma + mb, a, b))
         used: set[int] = set()
@@ -99,14 +145,193 @@ def undo_swaps(positions: np.ndarray, unit_mm: float = 1.0, *, threshold_mm: flo
             if a in used or b in used:
                 continue
             used.update((a, b))
-            y[t:, [a, b]] = y[t:, [b, a]]
             key = (a, b)
-            if key in open_swaps:
+            if key in open_swaps:  # the end of a swap whose start was seen
+                y[t:, [a, b]] = y[t:, [b, a]]
                 s, dist = open_swaps.pop(key)
                 swaps.append(Swap(a, b, s, int(t), dist))
-            else:
-                open_swaps[key] = (int(t), float(np.linalg.norm(x[t, a] - x[t, b])))
-    for (a, b), (s, dist) in open_swaps.items():
-        swaps.append(Swap(a, b, s, f, dist))
+                last[a] = last[b] = int(t)
+                continue
+            if stats is None:
+                stats = distance_stats(x)
+                order = donor_order(stats)
+            after = np.flatnonzero(jumping[t + 1:, [a, b]].any(axis=1)) + t + 3  # jumping[k] is frame k + 2
+            hi = int(after[0]) if after.size else f
+            start = _hidden_start(y, a, b, int(t), max(last.get(a, 0), last.get(b, 0)), hi, thr, stats, order, ratio,
+                                  floor)
+            if start is not None:  # the end of a swap whose start was hidden
+                y[start:t, [a, b]] = y[start:t, [b, a]]
+                swaps.append(Swap(a, b, start, int(t), _first_distance(y, a, b, start, int(t), x)))
+                last[a] = last[b] = int(t)
+                continue
+            y[t:, [a, b]] = y[t:, [b, a]]
+            open_swaps[key] = (int(t), float(np.linalg.norm(x[t, a] - x[t, b])))
+            last[a] = last[b] = int(t)
+    for (a, b), (t, dist) in sorted(open_swaps.items(), key=lambda kv: kv[1][0]):
+        if stats is None:
+            stats = distance_stats(x)
+            order = donor_order(stats)
+        later = max(last.get(a, 0), last.get(b, 0)) > t  # a later exchange was found in this labelling
+        lo = max([sw.end for sw in swaps if {sw.a, sw.b} & {a, b} and sw.end <= t] + [0])
+        end = f if later else _hidden_end(y, a, b, t, lo, thr, stats, order, ratio, floor)
+        if end < f:  # the exchange is undone from a hidden end on
+            y[end:, [a, b]] = y[end:, [b, a]]
+        swaps.append(Swap(a, b, t, end, dist))
     swaps.sort(key=lambda s: (s.start, s.a, s.b))
     return y, swaps
+
+
+def _hidden_boundaries(p: np.ndarray, a: int, b: int, thr: float) -> np.ndarray:
+    """(F+1,) bool: an exchange of a and b from frame u on would not show as two jumps.
+
+    True at the take's ends, where either marker is unseen at u-2, u-1 or u
+    (no prediction to miss: a marker often comes back from an occlusion under
+    the wrong label), and where the two are closer than ``thr`` (the jump is
+    no bigger than noise).
+    """
+    f = p.shape[0]
+    unseen = np.any(np.isnan(p[:, [a, b]]), axis=(1, 2))
+    with np.errstate(invalid="ignore"):
+        near = np.linalg.norm(p[:, a] - p[:, b], axis=-1) < thr
+    blind = unseen.copy()  # unseen at u, u-1 or u-2
+    blind[1:] |= unseen[:-1]
+    blind[2:] |= unseen[:-2]
+    hidden = np.ones(f + 1, dtype=bool)
+    hidden[1:f] = (blind | near)[1:]
+    return hidden
+
+
+def _first_distance(y: np.ndarray, a: int, b: int, start: int, end: int, fallback: np.ndarray) -> float:
+    """Distance between markers a and b at the first frame of start..end-1 where both are seen."""
+    d = np.linalg.norm(y[start:end, a] - y[start:end, b], axis=-1)
+    seen = np.flatnonzero(~np.isnan(d))
+    return float(d[seen[0]]) if seen.size else float(np.linalg.norm(fallback[start, a] - fallback[start, b]))
+
+
+def _candidates(p: np.ndarray, a: int, b: int, thr: float, offset: int) -> np.ndarray:
+    """One hidden boundary per run of them (:func:`_hidden_boundaries` of ``p``, frames numbered from ``offset``).
+
+    In a run caused by an occlusion there are two: its first unseen frame
+    and the first frame after its last unseen one (a marker comes back
+    under the wrong label there); in a run where the two markers pass
+    within ``thr``, their closest approach; at the ends of ``p``, the end
+    itself.
+    """
+    f = p.shape[0]
+    hidden = _hidden_boundaries(p, a, b, thr)
+    unseen = np.any(np.isnan(p[:, [a, b]]), axis=(1, 2))
+    with np.errstate(invalid="ignore"):
+        dist = np.nan_to_num(np.linalg.norm(p[:, a] - p[:, b], axis=-1), nan=np.inf)
+    d = np.diff(np.concatenate([[0], hidden.astype(np.int8), [0]]))
+    out = []
+    for lo, hi in zip(np.flatnonzero(d == 1), np.flatnonzero(d == -1)):
+        ends = [u for u, edge in ((0, lo == 0), (f, hi == f + 1)) if edge]
+        out += ends
+        inner = slice(max(lo, 1), min(hi, f))
+        gone = np.flatnonzero(unseen[inner]) + inner.start
+        if gone.size:  # the labels may change as the occlusion starts or as it ends
+            out += [int(gone[0]), int(gone[-1]) + 1]
+        elif not ends:
+            out.append(inner.start + int(np.argmin(dist[inner])))
+    return np.unique(np.asarray(out, dtype=int)) + offset
+
+
+def _constancy(p: np.ndarray, a: int, b: int, nbrs: tuple[list[int], list[int]], scale: np.ndarray) -> float:
+    """How much the distances of a and b to their rigid neighbours vary over ``p``'s frames.
+
+    Each distance's mean absolute deviation from its median over the
+    frames, in units of its usual spread ``scale`` (M, M), summed. The
+    labelling of a and b under which these distances stay most constant
+    over a stretch of the take is the right one, whichever of the two
+    labellings holds in most of its frames.
+    """
+    total = 0.0
+    for k, ns in zip((a, b), nbrs):
+        d = np.linalg.norm(p[:, [k]] - p[:, ns], axis=-1)
+        with np.errstate(all="ignore"):
+            import warnings
+
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore", RuntimeWarning)
+                dev = np.nanmean(np.abs(d - np.nanmedian(d, axis=0)), axis=0)
+        total += float(np.nansum(dev / scale[k, ns]))
+    return total
+
+
+def _neighbours(order: np.ndarray, stats, a: int, b: int, floor: float,
+                count: int = 4) -> tuple[tuple[list[int], list[int]], np.ndarray]:
+    """The ``count`` most rigid neighbours of a and of b (the other of the pair left out).
+
+    Also returns the (M, M) usual spreads of the distances, at least ``floor``.
+    """
+    pick = lambda k, o: [int(n) for n in order[k] if n != o and np.isfinite(stats.median[k, n])][:count]  # noqa: E731
+    return (pick(a, b), pick(b, a)), np.maximum(np.nan_to_num(stats.spread, nan=np.inf), floor)
+
+
+def _local(y: np.ndarray, lo: int, hi: int, a: int, b: int, nbrs: tuple[list[int], list[int]], scale: np.ndarray):
+    """Frames lo..hi-1 of a and b (as columns 0 and 1) and of their neighbours only.
+
+    Returns those positions, the neighbour lists and the (K, K) scales renumbered to match.
+    """
+    cols = [a, b] + sorted((set(nbrs[0]) | set(nbrs[1])) - {a, b})
+    pos = {c: k for k, c in enumerate(cols)}
+    return (y[lo:hi][:, cols], ([pos[n] for n in nbrs[0]], [pos[n] for n in nbrs[1]]),
+            scale[np.ix_(cols, cols)])
+
+
+def _hidden_start(y: np.ndarray, a: int, b: int, t: int, lo: int, hi: int, thr: float, stats, order: np.ndarray,
+                  ratio: float, floor: float) -> int | None:
+    """Where a swap of a and b that ends at t began, if its start was hidden and the rigid neighbours say so.
+
+    An exchange seen at t with no open swap of the pair either starts a swap
+    (the usual case) or ends one whose start the jump test could not see
+    (:func:`_hidden_boundaries`: a marker back from an occlusion under the
+    other's label, or the two passing within the threshold). ``y`` holds
+    frames ``lo`` (the pair's latest exchange) to t corrected and the
+    recorded frames from t on; ``hi`` is the next frame where a or b jumps.
+    For each candidate start s (:func:`_candidates`), the labelling with
+    s..t-1 exchanged is set against the one with t..hi-1 exchanged, over
+    lo..hi-1, by how constant the pair's distances to their rigid
+    neighbours stay (:func:`_constancy`); the best start is taken when its
+    cost is under ``ratio`` times the other's. None: a swap starts at t.
+    """
+    starts = _candidates(y[lo:t], a, b, thr, lo)
+    starts = starts[(starts > lo) & (starts < t)]  # from lo, it would only exchange the whole stretch
+    if starts.size == 0:
+        return None
+    win, nbrs, scale = _local(y, lo, hi, a, b, *_neighbours(order, stats, a, b, floor))
+    after = win.copy()
+    after[t - lo:, [0, 1]] = after[t - lo:, [1, 0]]
+    best, where = ratio * _constancy(after, 0, 1, nbrs, scale), None
+    for s in starts:
+        q = win.copy()
+        q[s - lo:t - lo, [0, 1]] = q[s - lo:t - lo, [1, 0]]
+        c = _constancy(q, 0, 1, nbrs, scale)
+        if c < best:
+            best, where = c, int(s)
+    return where
+
+
+def _hidden_end(y: np.ndarray, a: int, b: int, t: int, lo: int, thr: float, stats, order: np.ndarray,
+                ratio: float, floor: float) -> int:
+    """Where a swap of a and b that started at t and never showed its end ends: the take's end, or a hidden boundary.
+
+    ``y`` holds the exchange from t on; ``lo`` is the pair's exchange before
+    t. Each candidate end e after t (:func:`_candidates`) is set against the
+    take's end over lo..F-1 by :func:`_constancy`; the best is taken when
+    its cost is under ``ratio`` times the other's.
+    """
+    f = y.shape[0]
+    ends = _candidates(y[t:], a, b, thr, t)
+    ends = ends[(ends > t) & (ends < f)]
+    if ends.size == 0:
+        return f
+    win, nbrs, scale = _local(y, lo, f, a, b, *_neighbours(order, stats, a, b, floor))
+    best, where = ratio * _constancy(win, 0, 1, nbrs, scale), f
+    for e in ends:
+        q = win.copy()
+        q[e - lo:, [0, 1]] = q[e - lo:, [1, 0]]
+        c = _constancy(q, 0, 1, nbrs, scale)
+        if c < best:
+            best, where = c, int(e)
+    return where
