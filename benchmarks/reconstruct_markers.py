@@ -107,6 +107,7 @@ def main(argv=None) -> int:
     ap.add_argument("--fps", type=float, default=30.0)
     ap.add_argument("--k", type=int, default=256)
     ap.add_argument("--prior-weight", type=float, default=0.01)
+    ap.add_argument("--limit-weight", type=float, default=100.0, help="joint-range term (0: off)")
     ap.add_argument("--smooth-weight", type=float, default=0.01)
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--leave-one-out", action="store_true", help="hold out each HDM05 actor in turn")
@@ -146,7 +147,8 @@ def main(argv=None) -> int:
         x = x + rng.uniform(-0.1, 0.1, size=x.shape) / unit_scale_cm(truth.skeleton)  # within 1 mm
         t0 = time.perf_counter()
         out = M.reconstruct(
-            x, MARKERS, db, args.fps, k=args.k, skeleton=truth.skeleton, prior_weight=args.prior_weight, smooth_weight=args.smooth_weight
+            x, MARKERS, db, args.fps, k=args.k, skeleton=truth.skeleton, prior_weight=args.prior_weight, smooth_weight=args.smooth_weight,
+            limit_weight=args.limit_weight,
         )
         dt = time.perf_counter() - t0
         nn = M.nearest_neighbor(x, MARKERS, db, args.fps, skeleton=truth.skeleton)
@@ -197,6 +199,7 @@ def main(argv=None) -> int:
         "error": "mean (max over frames) of the per-frame average joint-position error, global, cm, on mm's skeleton",
         "k": args.k,
         "prior_weight": args.prior_weight,
+        "limit_weight": args.limit_weight,
         "smooth_weight": args.smooth_weight,
         "quick": args.quick,
         "locomotion": loco,
@@ -242,7 +245,8 @@ def leave_one_out(args, log) -> int:
         for path in chosen:
             truth = mocapkit.load(path).resample(args.fps)[:max_frames]
             x = _noisy_markers(truth, rng)
-            common = dict(skeleton=truth.skeleton, prior_weight=args.prior_weight, smooth_weight=args.smooth_weight)
+            common = dict(skeleton=truth.skeleton, prior_weight=args.prior_weight, smooth_weight=args.smooth_weight,
+                          limit_weight=args.limit_weight)
             t0 = time.perf_counter()
             out = M.reconstruct(x, MARKERS, db, args.fps, k=args.k, **common)
             dt = time.perf_counter() - t0
@@ -288,6 +292,7 @@ def leave_one_out(args, log) -> int:
         "noise": "uniform within 1 mm per coordinate",
         "error": "frame-weighted mean of the per-frame average global joint-position error, cm, on the actor's own skeleton",
         "k": args.k, "previous_k": PREVIOUS_K, "prior_weight": args.prior_weight, "smooth_weight": args.smooth_weight,
+        "limit_weight": args.limit_weight,
         "baseline": "nearest database pose per frame (markers.nearest_neighbor), same run",
         "actors": actors, "clips": rows,
     }
@@ -344,7 +349,8 @@ def bandai_folds(args, rng, log) -> dict:
             x = x + rng.uniform(-0.1, 0.1, size=x.shape) / unit_scale_cm(truth.skeleton)  # within 1 mm
             t1 = time.perf_counter()
             out = M.reconstruct(x, BANDAI_MARKERS, db, args.fps, k=args.k, skeleton=truth.skeleton,
-                                prior_weight=args.prior_weight, smooth_weight=args.smooth_weight)
+                                prior_weight=args.prior_weight, smooth_weight=args.smooth_weight,
+                                limit_weight=args.limit_weight)
             dt = time.perf_counter() - t1
             nn = M.nearest_neighbor(x, BANDAI_MARKERS, db, args.fps, skeleton=truth.skeleton)
             row = {"style": style, "take": take.path.name, "content": take.content, "frames": truth.num_frames,
