@@ -115,3 +115,15 @@ def test_regression_models_help_on_long_gaps_of_a_real_capture(cmu):
     with_regression, _ = fill_gaps(y, constrain=False)
     without, _ = fill_gaps(y, constrain=False, predictors=0)
     assert _err(with_regression, cmu, mask) < 0.9 * _err(without, cmu, mask)
+
+
+def test_a_gap_at_the_end_of_the_take_is_validated_from_one_end(cmu):
+    # Hidden up to the last frame, the marker can only be carried from its last seen pose, and its validation
+    # gaps are filled that way too: their error is that of a hold, well above the two-ended fill one frame earlier.
+    f = len(cmu)
+    at_end, inside = cmu.copy(), cmu.copy()
+    at_end[f - 150:, 20] = np.nan
+    inside[f - 151:f - 1, 20] = np.nan
+    (end_record,) = fill_gaps(at_end)[1]
+    (inside_record,) = fill_gaps(inside)[1]
+    assert end_record.expected_error > 2 * inside_record.expected_error

@@ -28,8 +28,10 @@ PLoS ONE 13(7): e0199744) do, the models are averaged with weights from
 their error on the same marker's *observed* data: gaps of the same length
 are cut just before and just after the real one (where the marker is seen;
 in a short take, where a gap of that length does not fit, the longest
-stretches that do, down to a fifth of it), each model fills them, and the
-best ``keep`` models are averaged with weights 1 / error^2. The averaged
+stretches that do, down to a fifth of it), each model fills them (from
+one end only where the real gap touches the take's first or last frame, as
+the real gap must be), and the best ``keep`` models are averaged with
+weights 1 / error^2. The averaged
 fill is then pulled to its usual distances from its rigid neighbours
 (Tits et al.'s soft constraints,
 :mod:`mocapkit.cleaning.markers.constraints`) where that brought the
@@ -101,7 +103,7 @@ def gap_runs(missing: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return np.flatnonzero(d == 1), np.flatnonzero(d == -1)
 
 
-def _donor_fill(pos: np.ndarray, m: int, a: int, b: int, donors, cubic: bool = False) -> np.ndarray | None:
+def _donor_fill(pos: np.ndarray, m: int, a: int, b: int, donors, cubic: bool = False, side: int = 0) -> np.ndarray | None:
     """Fill frames a..b-1 of marker m by interpolation in the donors' moving frame.
 
     The marker's coordinates in the frame of ``donors`` at the last seen
@@ -113,10 +115,12 @@ def _donor_fill(pos: np.ndarray, m: int, a: int, b: int, donors, cubic: bool = F
     group) the room coordinates are interpolated. None where the donors are
     not all seen from a - 1 to b (a - 2 to b + 1 for ``cubic``), the marker
     is seen at neither end, or the donors' shape is degenerate (collinear).
+    ``side`` -1 (+1) uses only the end before (after) the gap, as a gap
+    touching the take's last (first) frame must.
     """
     f = pos.shape[0]
     n = b - a
-    ends = [t for t in (a - 1, b) if 0 <= t < f and not np.any(np.isnan(pos[t, m]))]
+    ends = [t for t, k in ((a - 1, -1), (b, 1)) if 0 <= t < f and side != -k and not np.any(np.isnan(pos[t, m]))]
     if not ends:
         return None
     outer = [a - 2, b + 1]
@@ -255,12 +259,19 @@ def _models(pos: np.ndarray, m: int, a: int, b: int, order: np.ndarray, candidat
     return out
 
 
-def _fills(pos: np.ndarray, m: int, a: int, b: int, models, order: np.ndarray, stats: DistanceStats) -> list[np.ndarray | None]:
-    """Each model's fill (b - a, 3) of marker m's frames a..b-1, None where the model cannot fill them."""
+def _fills(pos: np.ndarray, m: int, a: int, b: int, models, order: np.ndarray, stats: DistanceStats,
+           side: int = 0) -> list[np.ndarray | None]:
+    """Each model's fill (b - a, 3) of marker m's frames a..b-1, None where the model cannot fill them.
+
+    ``side`` -1 (+1): fill from the end before (after) the frames only, as
+    for a gap that touches the take's last (first) frame.
+    """
     out: list[np.ndarray | None] = []
     regressed: dict = {}
     for g, kind, extra in models:
-        if kind == "regress":
+        if kind == "regress" and side:
+            out.append(None)
+        elif kind == "regress":
             key = (g, extra[0])
             if key not in regressed:
                 regressed[key] = _regress_fill(pos, m, a, b, g, extra[0], RIDGES)
@@ -269,7 +280,7 @@ def _fills(pos: np.ndarray, m: int, a: int, b: int, models, order: np.ndarray, s
         elif kind == "lowrank":
             out.append(_lowrank_fill(pos, m, a, b, order, stats))
         else:
-            out.append(_donor_fill(pos, m, a, b, g, kind == "cubic"))
+            out.append(_donor_fill(pos, m, a, b, g, kind == "cubic", side))
     return out
 
 
@@ -429,7 +440,8 @@ def _fill_one(pos, out, m, a, b, order, stats, candidates, keep, predictors, con
         models += extra
         fills += _fills(pos, m, a, b, extra, order, stats)
     spans = _validation_spans(pos, m, a, b)
-    checks = [_fills(pos, m, s, e, models, order, stats) for s, e in spans]
+    side = -1 if b == pos.shape[0] else (1 if a == 0 else 0)  # a gap at the take's end is validated from one end too
+    checks = [_fills(pos, m, s, e, models, order, stats, side) for s, e in spans]
     usable = [i for i, est in enumerate(fills) if est is not None]
     if usable:
         errs = np.full(len(models), np.inf)
