@@ -28,10 +28,11 @@ def _err(filled, truth, mask):
     return float(np.sqrt(np.mean(np.sum((filled[mask] - truth[mask]) ** 2, axis=-1))))
 
 
-def test_regression_fill_recovers_a_marker_on_the_next_segment():
-    # A rigid "pelvis" (3 markers) moves through the room; a "knee" swings about a hip point fixed in the
-    # pelvis; a "thigh" marker sits 30 % of the way from hip to knee, so in the pelvis' frame its coordinates
-    # are a linear function of the knee's: the regression fill recovers it, interpolation in the frame cannot.
+def _thigh_take():
+    """A rigid "pelvis" (3 markers) moving through the room; a "knee" swinging about a hip point fixed in the pelvis;
+    a "thigh" marker 30 % of the way from hip to knee, so in the pelvis' frame its coordinates are a linear function
+    of the knee's. Returns the (900, 5, 3) positions in mm and distance statistics that make the pelvis the thigh
+    marker's most rigid neighbours."""
     f = 900
     t = np.arange(f) / 120.0
     pelvis = np.array([[0.0, 0, 0], [120, 0, 0], [60, 80, 10]])
@@ -47,9 +48,16 @@ def test_regression_fill_recovers_a_marker_on_the_next_segment():
     spread = stats.spread.copy()
     spread[4, :3] = spread[:3, 4] = 0.0  # the pelvis is what the thigh marker's fills hang from
     spread[4, 3] = spread[3, 4] = 1e3
-    stats = dataclasses.replace(stats, spread=spread)
+    return x, dataclasses.replace(stats, spread=spread)
+
+
+@pytest.mark.parametrize("start, end", [(300, 540), (660, 900)])
+def test_regression_fill_recovers_a_marker_on_the_next_segment(start, end):
+    # The regression fill recovers the thigh marker over 2 s, inside the take (misfit interpolated between the
+    # ends) and up to its last frame (misfit held from the one end); interpolation in the pelvis' frame cannot.
+    x, stats = _thigh_take()
     mask = np.zeros(x.shape[:2], dtype=bool)
-    mask[300:540, 4] = True  # 2 s
+    mask[start:end, 4] = True
     y = x.copy()
     y[mask] = np.nan
     with_regression, records = fill_gaps(y, stats=stats, constrain=False)
@@ -117,13 +125,18 @@ def test_regression_models_help_on_long_gaps_of_a_real_capture(cmu):
     assert _err(with_regression, cmu, mask) < 0.9 * _err(without, cmu, mask)
 
 
-def test_a_gap_at_the_end_of_the_take_is_validated_from_one_end(cmu):
-    # Hidden up to the last frame, the marker can only be carried from its last seen pose, and its validation
-    # gaps are filled that way too: their error is that of a hold, well above the two-ended fill one frame earlier.
-    f = len(cmu)
-    at_end, inside = cmu.copy(), cmu.copy()
-    at_end[f - 150:, 20] = np.nan
-    inside[f - 151:f - 1, 20] = np.nan
-    (end_record,) = fill_gaps(at_end)[1]
-    (inside_record,) = fill_gaps(inside)[1]
-    assert end_record.expected_error > 2 * inside_record.expected_error
+def test_a_gap_at_the_end_of_the_take_is_validated_from_one_end():
+    # Two markers, too few for a moving frame: a marker moving at constant velocity is filled exactly by a straight
+    # line between its two ends, but hidden up to the last frame it can only be held at its last position, and its
+    # validation gaps are filled that way too, so the error expected of the fill is the hold's, not zero.
+    f = 600
+    t = np.arange(f, dtype=float)[:, None]
+    x = np.stack([np.hstack([2.0 * t, 0.5 * t, 0 * t + 900]), np.hstack([300 + 0.002 * t ** 2, 0 * t, 0 * t + 900])], axis=1)
+    at_end, inside = x.copy(), x.copy()
+    at_end[500:, 0] = np.nan
+    inside[400:500, 0] = np.nan
+    filled, (end_record,) = fill_gaps(at_end, constrain=False)
+    _, (inside_record,) = fill_gaps(inside, constrain=False)
+    assert inside_record.expected_error < 1e-6
+    assert end_record.expected_error > 10.0  # mm: the marker moves 2 mm a frame
+    assert np.all(np.isfinite(filled))

@@ -167,7 +167,7 @@ def _interpolate(loc: np.ndarray, n: int, ends: int, cubic: bool) -> np.ndarray:
             + (-2 * u ** 3 + 3 * u ** 2) * loc[1] + (u ** 3 - u ** 2) * t1)
 
 
-def _regress_fill(pos: np.ndarray, m: int, a: int, b: int, donors, predictors, ridges) -> list[np.ndarray] | None:
+def _regress_fill(pos: np.ndarray, m: int, a: int, b: int, donors, predictors, ridges, side: int = 0) -> list[np.ndarray] | None:
     """Fill frames a..b-1 of marker m by regression on its neighbours in the donors' moving frame.
 
     In the moving frame of ``donors`` (a rigid triple, e.g. the pelvis
@@ -180,19 +180,23 @@ def _regress_fill(pos: np.ndarray, m: int, a: int, b: int, donors, predictors, r
     each ridge of ``ridges`` giving one fill (the ridge is relative: a
     multiple of the mean eigenvalue of the centred predictors' scatter); the
     residual at the last seen frame before the gap and the first after is
-    interpolated linearly across it, so the fill meets both ends. This is
-    the relational / kinematic fill of Qualisys and Vicon generalised to
-    any neighbours, and the inter-marker correlations of Gløersen and
-    Federolf (2016) taken in a moving frame. None where the gap touches the
-    take's ends, the donors or predictors are not all seen from a - 1 to b,
-    the donors are collinear or fewer than 30 frames train the fit.
+    interpolated linearly across it, so the fill meets both ends (held from
+    the one end where the gap touches the take's first or last frame, or
+    ``side`` -1 (+1) asks for the end before (after) only). This is the
+    relational / kinematic fill of Qualisys and Vicon generalised to any
+    neighbours, and the inter-marker correlations of Gløersen and Federolf
+    (2016) taken in a moving frame. None where the donors or predictors are
+    not all seen over the gap and its ends, the marker is not seen at an end
+    used, the donors are collinear or fewer than 30 frames train the fit.
     """
     f = pos.shape[0]
     n = b - a
-    if a < 1 or b >= f:
+    first = a - 1 if a >= 1 and side != 1 else a  # the frames from the end before to the end after, those used
+    last = b if b < f and side != -1 else b - 1
+    if first == a and last == b - 1:
         return None
-    side = max(3 * n, 600)
-    lo, hi = max(0, a - side), min(f, b + side)
+    reach = max(3 * n, 600)
+    lo, hi = max(0, a - reach), min(f, b + reach)
     donors, predictors = list(donors), [p for p in predictors if p != m]
     d = pos[lo:hi][:, donors]
     okd = ~np.any(np.isnan(d), axis=(1, 2))
@@ -200,9 +204,9 @@ def _regress_fill(pos: np.ndarray, m: int, a: int, b: int, donors, predictors, r
     okp = okd & ~np.any(np.isnan(pr), axis=(1, 2))
     tgt = pos[lo:hi, m]
     okm = okp & ~np.any(np.isnan(tgt), axis=-1)
-    if not (np.all(okp[a - 1 - lo:b + 1 - lo]) and okm[a - 1 - lo] and okm[b - lo]):
+    if not (np.all(okp[first - lo:last + 1 - lo]) and (first == a or okm[first - lo]) and (last < b or okm[last - lo])):
         return None
-    ref = pos[a - 1, donors]
+    ref = pos[first if first < a else last, donors]
     sv = np.linalg.svd(ref - ref.mean(axis=0), compute_uv=False)
     if sv[1] <= 1e-3 * sv[0]:
         return None
@@ -219,15 +223,21 @@ def _regress_fill(pos: np.ndarray, m: int, a: int, b: int, donors, predictors, r
     xm, ym = locp[tr].mean(axis=0), loct[tr].mean(axis=0)
     xc, yc = locp[tr] - xm, loct[tr] - ym
     g = xc.T @ xc
-    rows = at[a - 1 - lo:b + 1 - lo]
+    rows = at[first - lo:last + 1 - lo]
+    gap = rows[int(first < a):len(rows) - int(last >= b)]
     u = (np.arange(1, n + 1) / (n + 1))[:, None]
     out = []
     for ridge in ridges:
         w = np.linalg.solve(g + ridge * np.trace(g) / g.shape[0] * np.eye(g.shape[0]), xc.T @ yc)
         pred = (locp[rows] - xm) @ w + ym
         r0, r1 = loct[rows[0]] - pred[0], loct[rows[-1]] - pred[-1]
-        est = pred[1:-1] + (1.0 - u) * r0 + u * r1
-        out.append(from_local(est, rot[rows[1:-1]], origin[rows[1:-1]]))
+        if first < a and last >= b:
+            est = pred[1:-1] + (1.0 - u) * r0 + u * r1
+        elif first < a:
+            est = pred[1:] + r0
+        else:
+            est = pred[:-1] + r1
+        out.append(from_local(est, rot[gap], origin[gap]))
     return out
 
 
@@ -269,12 +279,10 @@ def _fills(pos: np.ndarray, m: int, a: int, b: int, models, order: np.ndarray, s
     out: list[np.ndarray | None] = []
     regressed: dict = {}
     for g, kind, extra in models:
-        if kind == "regress" and side:
-            out.append(None)
-        elif kind == "regress":
+        if kind == "regress":
             key = (g, extra[0])
             if key not in regressed:
-                regressed[key] = _regress_fill(pos, m, a, b, g, extra[0], RIDGES)
+                regressed[key] = _regress_fill(pos, m, a, b, g, extra[0], RIDGES, side)
             fits = regressed[key]
             out.append(None if fits is None else fits[RIDGES.index(extra[1])])
         elif kind == "lowrank":
