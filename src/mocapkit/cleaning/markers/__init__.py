@@ -1,8 +1,8 @@
 """Clean optical marker captures: swapped labels, spikes and gaps.
 
 One module per concept: ``rigid`` (donor frames, inter-marker distances),
-``lowrank`` (Gløersen-Federolf PCA fill), ``gaps`` (model-averaged
-donor-frame fill), ``constraints`` (soft inter-marker distance constraints), ``spikes``, ``swaps``, and ``clean`` (the pipeline and
+``lowrank`` (Gløersen-Federolf PCA fill), ``gaps`` (self-validated average
+of donor-frame and regression fills), ``constraints`` (soft inter-marker distance constraints), ``spikes``, ``swaps``, and ``clean`` (the pipeline and
 its record, :func:`clean_markers`).
 """
 

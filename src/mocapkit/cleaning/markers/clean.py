@@ -129,7 +129,8 @@ def clean_markers(markers, *, steps=STEPS, spike_mm: float = 15.0, swap_mm: floa
         Gaps longer than this are left missing.
     constrain : bool
         Pull filled samples to their usual distances from their rigid
-        neighbours (soft constraints, :mod:`~mocapkit.cleaning.markers.constraints`).
+        neighbours (soft constraints, :mod:`~mocapkit.cleaning.markers.constraints`),
+        in the gaps where that brought the fill's validation gaps nearer the truth.
 
     Returns
     -------

@@ -1,4 +1,4 @@
-"""Fill marker gaps: interpolation in the moving frame of rigidly attached donors, model-averaged.
+"""Fill marker gaps: fills in the moving frame of rigidly attached donors, model-averaged by self-validation.
 
 A marker hidden for two seconds on a walking subject moves a metre in the
 room, so interpolating its room coordinates (linear, spline) fails; in the
@@ -7,25 +7,43 @@ neighbouring one) it barely moves, so interpolating *there* and mapping back
 works. That is the classic rigid-body fill (Vicon Nexus; the ``gapfill``
 package) generalised: the fill interpolates the marker's coordinates in the
 donors' frame between the last sample before and the first after the gap,
-so it meets both ends exactly, keeps the distances to the donors near their
-usual values (Tits, Tilmanne and Dutoit 2018's soft skeleton constraints),
-and still follows a marker that is not rigid with its donors.
+so it meets both ends exactly and still follows a marker that is not rigid
+with its donors. A marker on the next segment (a thigh marker in the
+pelvis' frame) moves in that frame with the other markers of its own
+segment (the knee): the *regression* fill predicts its local coordinates
+from theirs by a ridge regression fitted on the take's other frames (the
+relational fill of Qualisys and Vicon, and Gløersen and Federolf's
+inter-marker correlations, taken in a moving frame), and interpolates the
+residual across the gap so it meets both ends too.
 
 Which donors? Candidates are the markers whose distance to the gap marker
 varies least over the take (:func:`mocapkit.cleaning.markers.rigid.donor_order`)
 and that are seen throughout the gap. Every triple of the first
-``candidates`` of them, and the groups of the first 4 and 5, is a fill
-model. As Tits et al. (2018, PLoS ONE 13(7): e0199744) do, the models are
-averaged with weights from their error on the same marker's *observed*
-data: gaps of the same length are cut just before and just after the real
-one (where the marker and the model's donors are seen), each model fills
-them, and the best ``keep`` models are averaged with weights
-1 / error^2. The filled samples are then pulled to their usual
-distances from their rigid neighbours (Tits et al.'s soft constraints,
-:mod:`mocapkit.cleaning.markers.constraints`). A gap with fewer than 3 donors seen throughout is filled by
-the low-rank model of the nearest markers (Gløersen and Federolf 2016,
-:mod:`mocapkit.cleaning.markers.lowrank`) over a window around it, or, with
-nothing seen at all, left missing.
+``candidates`` of them, and the groups of the first 4 and 5, is a linear
+fill model; the cubic in the frame of the first triple and of all
+candidates, the cubic in room coordinates and the regression on the first
+``predictors`` candidates in the frame of the first triple (a weakly and a
+strongly shrunk fit) are models too. As Tits, Tilmanne and Dutoit (2018,
+PLoS ONE 13(7): e0199744) do, the models are averaged with weights from
+their error on the same marker's *observed* data: gaps of the same length
+are cut just before and just after the real one (where the marker is seen;
+in a short take, where a gap of that length does not fit, the longest
+stretches that do, down to a fifth of it), each model fills them (from
+one end only where the real gap touches the take's first or last frame, as
+the real gap must be), and the best ``keep`` models are averaged with
+weights 1 / error^2. The averaged
+fill is then pulled to its usual distances from its rigid neighbours
+(Tits et al.'s soft constraints,
+:mod:`mocapkit.cleaning.markers.constraints`) where that brought the
+validation gaps nearer the truth, their usual distances taken from the rest
+of the take as the real gap's are; those distances come from the frames the
+gap does not hide, and a gap hiding poses the rest of the take does not show
+is better left unconstrained. Where no donor group can fill (fewer than 3
+seen throughout, or collinear), room-coordinate interpolation, the offset
+from one of the two nearest markers (pattern fill) and the low-rank model of
+the nearest markers (Gløersen and Federolf 2016,
+:mod:`mocapkit.cleaning.markers.lowrank`) over a window around the gap
+compete in the same way; with nothing seen at all the gap stays missing.
 
 Positions are (F, M, 3), frames first, in the capture's unit; NaN is unseen.
 """
@@ -55,15 +73,19 @@ class GapFill:
     start, end : int
         The gap's frames, ``start <= f < end``.
     method : str
-        ``"donors"`` (model-averaged moving-frame interpolation; the best
-        model used donors), ``"cubic"`` (the best model was the cubic in room
-        coordinates), ``"lowrank"`` or ``"linear"`` (too little seen around
-        the gap for the others).
+        The best of the averaged models: ``"donors"`` (interpolation in the
+        donors' moving frame, or the offset from one donor),
+        ``"regression"`` (regression on the neighbours in the donors'
+        frame), ``"cubic"`` or ``"linear"`` (in room coordinates), or
+        ``"lowrank"``.
     donors : tuple of int
-        The donors of the best model (empty for the other methods).
+        The donors of the best model (empty for the room and low-rank fills).
     expected_error : float
         RMS error of the fill on the validation gaps cut into the marker's
         observed data, in the capture's unit (NaN when there were none).
+    constrained : bool
+        Whether the soft distance constraints were applied to the gap (they
+        brought the validation gaps nearer the truth).
     """
 
     marker: int
@@ -72,6 +94,7 @@ class GapFill:
     method: str
     donors: tuple[int, ...] = ()
     expected_error: float = float("nan")
+    constrained: bool = False
 
 
 def gap_runs(missing: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -80,7 +103,7 @@ def gap_runs(missing: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return np.flatnonzero(d == 1), np.flatnonzero(d == -1)
 
 
-def _donor_fill(pos: np.ndarray, m: int, a: int, b: int, donors, cubic: bool = False) -> np.ndarray | None:
+def _donor_fill(pos: np.ndarray, m: int, a: int, b: int, donors, cubic: bool = False, side: int = 0) -> np.ndarray | None:
     """Fill frames a..b-1 of marker m by interpolation in the donors' moving frame.
 
     The marker's coordinates in the frame of ``donors`` at the last seen
@@ -92,10 +115,12 @@ def _donor_fill(pos: np.ndarray, m: int, a: int, b: int, donors, cubic: bool = F
     group) the room coordinates are interpolated. None where the donors are
     not all seen from a - 1 to b (a - 2 to b + 1 for ``cubic``), the marker
     is seen at neither end, or the donors' shape is degenerate (collinear).
+    ``side`` -1 (+1) uses only the end before (after) the gap, as a gap
+    touching the take's last (first) frame must.
     """
     f = pos.shape[0]
     n = b - a
-    ends = [t for t in (a - 1, b) if 0 <= t < f and not np.any(np.isnan(pos[t, m]))]
+    ends = [t for t, k in ((a - 1, -1), (b, 1)) if 0 <= t < f and side != -k and not np.any(np.isnan(pos[t, m]))]
     if not ends:
         return None
     outer = [a - 2, b + 1]
@@ -103,6 +128,12 @@ def _donor_fill(pos: np.ndarray, m: int, a: int, b: int, donors, cubic: bool = F
         return None
     frames = np.concatenate([np.arange(a, b), ends, outer if cubic else []]).astype(int)
     donors = list(donors)
+    if len(donors) == 1:  # pattern fill: the offset from one donor, interpolated
+        d = pos[frames, donors[0]]
+        if np.any(np.isnan(d)):
+            return None
+        est = _interpolate(pos[frames[n:], m] - d[n:], n, len(ends), cubic)
+        return est + d[:n]
     if donors:
         d = pos[frames][:, donors]
         if np.any(np.isnan(d)):
@@ -115,40 +146,160 @@ def _donor_fill(pos: np.ndarray, m: int, a: int, b: int, donors, cubic: bool = F
         loc = to_local(pos[frames[n:], m], rot[n:], origin[n:])
     else:
         loc = pos[frames[n:], m]
-    if len(ends) == 1:
-        est = np.broadcast_to(loc[0], (n, 3))
-    else:
-        u = (np.arange(1, n + 1) / (n + 1))[:, None]
-        if cubic:
-            t0 = (loc[0] - loc[2]) * (n + 1)  # tangents per unit u (the gap spans n + 1 frames)
-            t1 = (loc[3] - loc[1]) * (n + 1)
-            est = ((2 * u ** 3 - 3 * u ** 2 + 1) * loc[0] + (u ** 3 - 2 * u ** 2 + u) * t0
-                   + (-2 * u ** 3 + 3 * u ** 2) * loc[1] + (u ** 3 - u ** 2) * t1)
-        else:
-            est = (1.0 - u) * loc[0] + u * loc[1]
+    est = _interpolate(loc, n, len(ends), cubic)
     return from_local(est, rot[:n], origin[:n]) if donors else est
 
 
-def _models(pos: np.ndarray, m: int, a: int, b: int, order: np.ndarray, candidates: int) -> list[tuple[tuple[int, ...], bool]]:
-    """Fill models (donor group, cubic) for marker m's gap a..b-1.
+def _interpolate(loc: np.ndarray, n: int, ends: int, cubic: bool) -> np.ndarray:
+    """(n, 3) values across a gap of n frames from ``loc``: the values at its ends (then, for ``cubic``, one frame further out).
+
+    One end: held. Two: linear, or the cubic Hermite curve whose end
+    tangents are the one-frame differences.
+    """
+    if ends == 1:
+        return np.broadcast_to(loc[0], (n, 3)).copy()
+    u = (np.arange(1, n + 1) / (n + 1))[:, None]
+    if not cubic:
+        return (1.0 - u) * loc[0] + u * loc[1]
+    t0 = (loc[0] - loc[2]) * (n + 1)  # tangents per unit u (the gap spans n + 1 frames)
+    t1 = (loc[3] - loc[1]) * (n + 1)
+    return ((2 * u ** 3 - 3 * u ** 2 + 1) * loc[0] + (u ** 3 - 2 * u ** 2 + u) * t0
+            + (-2 * u ** 3 + 3 * u ** 2) * loc[1] + (u ** 3 - u ** 2) * t1)
+
+
+def _regress_fill(pos: np.ndarray, m: int, a: int, b: int, donors, predictors, ridges, side: int = 0) -> list[np.ndarray] | None:
+    """Fill frames a..b-1 of marker m by regression on its neighbours in the donors' moving frame.
+
+    In the moving frame of ``donors`` (a rigid triple, e.g. the pelvis
+    markers) a marker on a neighbouring segment (the thigh) moves with that
+    segment, and so do the other markers of the segment that stay seen (the
+    knee): its local coordinates (3,) are close to a linear function of the
+    ``predictors``' local coordinates (3P,). The function is fitted by ridge
+    regression on the frames of a window around the gap (600 frames or three
+    gap lengths either side) where all are seen, frames a..b-1 left out,
+    each ridge of ``ridges`` giving one fill (the ridge is relative: a
+    multiple of the mean eigenvalue of the centred predictors' scatter); the
+    residual at the last seen frame before the gap and the first after is
+    interpolated linearly across it, so the fill meets both ends (held from
+    the one end where the gap touches the take's first or last frame, or
+    ``side`` -1 (+1) asks for the end before (after) only). This is the
+    relational / kinematic fill of Qualisys and Vicon generalised to any
+    neighbours, and the inter-marker correlations of Gløersen and Federolf
+    (2016) taken in a moving frame. None where the donors or predictors are
+    not all seen over the gap and its ends, the marker is not seen at an end
+    used, the donors are collinear or fewer than 30 frames train the fit.
+    """
+    f = pos.shape[0]
+    n = b - a
+    first = a - 1 if a >= 1 and side != 1 else a  # the frames from the end before to the end after, those used
+    last = b if b < f and side != -1 else b - 1
+    if first == a and last == b - 1:
+        return None
+    reach = max(3 * n, 600)
+    lo, hi = max(0, a - reach), min(f, b + reach)
+    donors, predictors = list(donors), [p for p in predictors if p != m]
+    d = pos[lo:hi][:, donors]
+    okd = ~np.any(np.isnan(d), axis=(1, 2))
+    pr = pos[lo:hi][:, predictors]  # (W, P, 3)
+    okp = okd & ~np.any(np.isnan(pr), axis=(1, 2))
+    tgt = pos[lo:hi, m]
+    okm = okp & ~np.any(np.isnan(tgt), axis=-1)
+    if not (np.all(okp[first - lo:last + 1 - lo]) and (first == a or okm[first - lo]) and (last < b or okm[last - lo])):
+        return None
+    ref = pos[first if first < a else last, donors]
+    sv = np.linalg.svd(ref - ref.mean(axis=0), compute_uv=False)
+    if sv[1] <= 1e-3 * sv[0]:
+        return None
+    train = okm.copy()
+    train[a - lo:b - lo] = False
+    if np.count_nonzero(train) < max(30, 3 * len(predictors) + 5):
+        return None
+    use = okp  # frames whose moving frame is needed: training and the gap with its ends
+    rot, origin = local_frames(d[use], ref)
+    locp = np.einsum("tji,tpj->tpi", rot, pr[use] - origin[:, None, :]).reshape(len(rot), -1)
+    loct = to_local(np.where(okm[use][:, None], tgt[use], 0.0), rot, origin)
+    at = np.cumsum(use) - 1  # row of each window frame among the used ones
+    tr = train[use]
+    xm, ym = locp[tr].mean(axis=0), loct[tr].mean(axis=0)
+    xc, yc = locp[tr] - xm, loct[tr] - ym
+    g = xc.T @ xc
+    rows = at[first - lo:last + 1 - lo]
+    gap = rows[int(first < a):len(rows) - int(last >= b)]
+    u = (np.arange(1, n + 1) / (n + 1))[:, None]
+    out = []
+    for ridge in ridges:
+        w = np.linalg.solve(g + ridge * np.trace(g) / g.shape[0] * np.eye(g.shape[0]), xc.T @ yc)
+        pred = (locp[rows] - xm) @ w + ym
+        r0, r1 = loct[rows[0]] - pred[0], loct[rows[-1]] - pred[-1]
+        if first < a and last >= b:
+            est = pred[1:-1] + (1.0 - u) * r0 + u * r1
+        elif first < a:
+            est = pred[1:] + r0
+        else:
+            est = pred[:-1] + r1
+        out.append(from_local(est, rot[gap], origin[gap]))
+    return out
+
+
+RIDGES = (1e-3, 1e-1)  # the regression fills' relative ridges: one trusting the fit, one shrinking it
+
+
+def _models(pos: np.ndarray, m: int, a: int, b: int, order: np.ndarray, candidates: int, predictors: int):
+    """Fill models (donor group, kind, extra) for marker m's gap a..b-1.
 
     Linear in the frame of every triple of the most rigid markers seen
     throughout, and of the first 4, 5, ...; cubic in the frame of the most
-    rigid triple and of all candidates; cubic in room coordinates.
+    rigid triple and of all candidates; cubic in room coordinates; and the
+    regression on the ``predictors`` most rigid markers seen throughout in
+    the frame of the most rigid triple, once per ridge of ``RIDGES``
+    (``extra`` is then (predictors, ridge)).
     """
     f = pos.shape[0]
     span = slice(max(a - 1, 0), min(b + 1, f))
     seen = np.all(~np.any(np.isnan(pos[span]), axis=-1), axis=0)
-    cand = [int(d) for d in order[m] if d != m and seen[d]][:candidates]
+    near = [int(d) for d in order[m] if d != m and seen[d]]
+    cand = near[:candidates]
     if len(cand) < 3:
-        return [((), True)]
+        return [((), "cubic", None)]
     groups = [tuple(c) for c in combinations(cand, 3)]
     groups += [tuple(cand[:k]) for k in range(4, len(cand) + 1)]
-    return [(g, False) for g in groups] + [(g, True) for g in groups[:1] + groups[-1:]] + [((), True)]
+    out = [(g, "linear", None) for g in groups] + [(g, "cubic", None) for g in groups[:1] + groups[-1:]] + [((), "cubic", None)]
+    if predictors:
+        out += [(groups[0], "regress", (tuple(near[:predictors]), r)) for r in RIDGES]
+    return out
+
+
+def _fills(pos: np.ndarray, m: int, a: int, b: int, models, order: np.ndarray, stats: DistanceStats,
+           side: int = 0) -> list[np.ndarray | None]:
+    """Each model's fill (b - a, 3) of marker m's frames a..b-1, None where the model cannot fill them.
+
+    ``side`` -1 (+1): fill from the end before (after) the frames only, as
+    for a gap that touches the take's last (first) frame.
+    """
+    out: list[np.ndarray | None] = []
+    regressed: dict = {}
+    for g, kind, extra in models:
+        if kind == "regress":
+            key = (g, extra[0])
+            if key not in regressed:
+                regressed[key] = _regress_fill(pos, m, a, b, g, extra[0], RIDGES, side)
+            fits = regressed[key]
+            out.append(None if fits is None else fits[RIDGES.index(extra[1])])
+        elif kind == "lowrank":
+            out.append(_lowrank_fill(pos, m, a, b, order, stats))
+        else:
+            out.append(_donor_fill(pos, m, a, b, g, kind == "cubic", side))
+    return out
 
 
 def _validation_spans(pos: np.ndarray, m: int, a: int, b: int, count: int = 2) -> list[tuple[int, int]]:
-    """Up to ``count`` spans of b - a frames where marker m is seen (with one seen frame either side), near the gap."""
+    """Up to ``count`` spans of b - a frames where marker m is seen (with one seen frame either side), near the gap.
+
+    When fewer than ``count`` such spans fit (a long gap in a short take),
+    the seen stretches nearest the gap give spans as long as they allow (at
+    least a fifth of the gap), ending (starting) next to the gap: shorter
+    spans understate every model's error, but still rank the models.
+    """
     f = pos.shape[0]
     length = b - a
     seen = ~np.any(np.isnan(pos[:, m]), axis=-1)
@@ -160,16 +311,29 @@ def _validation_spans(pos: np.ndarray, m: int, a: int, b: int, count: int = 2) -
                 out.append((s, e))
         if len(out) >= count:
             break
+    if len(out) < count:
+        starts, ends = gap_runs(seen)
+        runs = sorted(zip(starts, ends), key=lambda r: min(abs(r[1] - a), abs(r[0] - b)))
+        for r0, r1 in runs:
+            n = min(length, r1 - r0 - 2)
+            if n < max(1, length // 5):
+                continue
+            s = r1 - 1 - n if r1 <= a else r0 + 1
+            if (s, s + n) not in out and not any(s < e2 and s2 < s + n for s2, e2 in out):
+                out.append((int(s), int(s + n)))
+            if len(out) >= count:
+                break
     return out[:count]
 
 
 def _lowrank_fill(pos: np.ndarray, m: int, a: int, b: int, order: np.ndarray, stats: DistanceStats) -> np.ndarray | None:
-    """Low-rank fill of marker m's gap from its 12 most rigid neighbours on a window around it."""
+    """Low-rank fill of marker m's frames a..b-1 (hidden if seen) from its 12 most rigid neighbours on a window around them."""
     f = pos.shape[0]
     side = max(2 * (b - a), 60)
     lo, hi = max(0, a - side), min(f, b + side)
     near = [m] + [int(d) for d in order[m][:12]]
     sub = pos[lo:hi, near]
+    sub[a - lo:b - lo, 0] = np.nan
     if np.all(np.isnan(sub[:, 0])):
         return None
     med = stats.median[m, near[1:]]
@@ -180,7 +344,7 @@ def _lowrank_fill(pos: np.ndarray, m: int, a: int, b: int, order: np.ndarray, st
 
 
 def fill_gaps(positions: np.ndarray, *, stats: DistanceStats | None = None, candidates: int = 4, keep: int = 3,
-              max_gap: int | None = None, constrain: bool = True) -> tuple[np.ndarray, list[GapFill]]:
+              max_gap: int | None = None, constrain: bool = True, predictors: int = 6) -> tuple[np.ndarray, list[GapFill]]:
     """Fill every gap of every marker that is seen at least once.
 
     Parameters
@@ -192,12 +356,16 @@ def fill_gaps(positions: np.ndarray, *, stats: DistanceStats | None = None, cand
     candidates : int
         How many of the most rigidly attached markers the donor groups are drawn from.
     keep : int
-        How many of the best donor groups are averaged.
+        How many of the best models are averaged.
     max_gap : int, optional
         Gaps longer than this many frames are left missing.
     constrain : bool
-        Finally pull the filled samples to their usual distances from their
-        rigid neighbours (:func:`~mocapkit.cleaning.markers.constraints.enforce_distances`).
+        Pull the filled samples of the gaps where that helped on the
+        validation spans to their usual distances from their rigid
+        neighbours (:func:`~mocapkit.cleaning.markers.constraints.enforce_distances`).
+    predictors : int
+        How many of the most rigidly attached markers the regression fills
+        use (0: no regression fills).
 
     Returns
     -------
@@ -222,47 +390,90 @@ def fill_gaps(positions: np.ndarray, *, stats: DistanceStats | None = None, cand
             a, b = int(a), int(b)
             if max_gap is not None and b - a > max_gap:
                 continue
-            rec = _fill_one(pos, out, int(m), a, b, order, stats, candidates, keep)
+            rec = _fill_one(pos, out, int(m), a, b, order, stats, candidates, keep, predictors, constrain)
             if rec is not None:
                 records.append(rec)
-    if constrain and records:
-        filled = np.zeros(missing.shape, dtype=bool)
+    if constrain and any(r.constrained for r in records):
+        free = np.zeros(missing.shape, dtype=bool)
         for r in records:
-            filled[r.start:r.end, r.marker] = True
-        out = enforce_distances(out, filled, stats, order)
+            free[r.start:r.end, r.marker] = r.constrained
+        out = enforce_distances(out, free, stats, order)
     return out, records
 
 
-def _fill_one(pos, out, m, a, b, order, stats, candidates, keep) -> GapFill | None:
+def _constraint_helps(pos: np.ndarray, m: int, checks, stats: DistanceStats, order: np.ndarray) -> bool:
+    """Whether the soft constraints brought the fills of the validation spans nearer the truth.
+
+    ``checks`` holds (s, e, fill) for each validation span. Each span is
+    constrained as the real gap would be, with marker m's usual distances to
+    its rigid neighbours taken from the frames outside the span (as the
+    gap's are taken from the frames outside the gap). False without spans:
+    no evidence, no change.
+    """
+    if not checks:
+        return False
+    near = [int(d) for d in order[m][:4]]
+    seen_m = ~np.any(np.isnan(pos[:, m]), axis=-1)
+    err = np.zeros(2)
+    for s, e, est in checks:
+        low, high = stats.low.copy(), stats.high.copy()
+        keep = seen_m.copy()
+        keep[s:e] = False
+        for d in near:
+            dist = np.linalg.norm(pos[keep, m] - pos[keep, d], axis=-1)
+            dist = dist[~np.isnan(dist)]
+            if dist.size >= 10:
+                low[m, d], high[m, d] = np.percentile(dist, [1, 99])
+            else:
+                low[m, d] = high[m, d] = np.nan
+            low[d, m], high[d, m] = low[m, d], high[m, d]
+        sub = pos[s:e].copy()
+        sub[:, m] = est
+        free = np.zeros(sub.shape[:2], dtype=bool)
+        free[:, m] = True
+        con = enforce_distances(sub, free, DistanceStats(stats.median, low, high, stats.spread, stats.count), order)
+        truth = pos[s:e, m]
+        err += [np.sum((est - truth) ** 2), np.sum((con[:, m] - truth) ** 2)]
+    return bool(err[1] < err[0])
+
+
+def _fill_one(pos, out, m, a, b, order, stats, candidates, keep, predictors, constrain) -> GapFill | None:
     """Fill marker m's gap a..b-1 of ``pos`` into ``out``; the record, or None when nothing could fill it."""
-    groups = _models(pos, m, a, b, order, candidates)
-    fills, errors = [], []
+    models = _models(pos, m, a, b, order, candidates, predictors)
+    fills = _fills(pos, m, a, b, models, order, stats)
+    if not any(est is not None and g for (g, _, _), est in zip(models, fills)):
+        # no donor group could fill (too few seen, or degenerate): the room-coordinate and low-rank fills compete
+        near = [int(d) for d in order[m][:2]]
+        extra = [((), "linear", None), ((), "lowrank", None)] + [((d,), "linear", None) for d in near]
+        models += extra
+        fills += _fills(pos, m, a, b, extra, order, stats)
     spans = _validation_spans(pos, m, a, b)
-    for g, cubic in groups:
-        est = _donor_fill(pos, m, a, b, g, cubic)
-        if est is None:
-            continue
-        err = []
-        for s, e in spans:
-            v = _donor_fill(pos, m, s, e, g, cubic)
-            if v is not None:
-                err.append(np.mean(np.sum((v - pos[s:e, m]) ** 2, axis=-1)))
-        fills.append((g, est))
-        errors.append(np.sqrt(np.mean(err)) if err else np.nan)
-    if fills:
-        errs = np.asarray(errors)
-        if np.all(np.isnan(errs)):
-            best = [0]
-            w = np.ones(1)
+    side = -1 if b == pos.shape[0] else (1 if a == 0 else 0)  # a gap at the take's end is validated from one end too
+    checks = [_fills(pos, m, s, e, models, order, stats, side) for s, e in spans]
+    usable = [i for i, est in enumerate(fills) if est is not None]
+    if usable:
+        errs = np.full(len(models), np.inf)
+        for i in usable:
+            err = [np.mean(np.sum((c[i] - pos[s:e, m]) ** 2, axis=-1)) for (s, e), c in zip(spans, checks) if c[i] is not None]
+            if err:
+                errs[i] = np.sqrt(np.mean(err))
+        if np.all(np.isinf(errs)):
+            best, w = [usable[0]], np.ones(1)
         else:
-            errs = np.where(np.isnan(errs), np.inf, errs)
-            best = list(np.argsort(errs, kind="stable")[:keep])
-            best = [i for i in best if np.isfinite(errs[i])]
+            best = [int(i) for i in np.argsort(errs, kind="stable")[:keep] if np.isfinite(errs[i])]
             w = 1.0 / np.maximum(errs[best], 1e-6) ** 2
-        est = np.tensordot(w / w.sum(), np.stack([fills[i][1] for i in best]), axes=1)
-        out[a:b, m] = est
+        out[a:b, m] = np.tensordot(w / w.sum(), np.stack([fills[i] for i in best]), axes=1)
+        validated = []
+        for (s, e), c in zip(spans, checks):
+            have = [k for k, i in enumerate(best) if c[i] is not None]
+            if have:
+                wk = w[have] / w[have].sum()
+                validated.append((s, e, np.tensordot(wk, np.stack([c[best[k]] for k in have]), axes=1)))
+        g, kind, _ = models[best[0]]
+        method = {"regress": "regression", "lowrank": "lowrank"}.get(kind, "donors" if g else kind)
         expected = float(errs[best[0]]) if np.isfinite(errs[best[0]]) else float("nan")
-        return GapFill(m, a, b, "donors" if fills[best[0]][0] else "cubic", fills[best[0]][0], expected)
+        helps = constrain and _constraint_helps(pos, m, validated, stats, order)
+        return GapFill(m, a, b, method, g, expected, helps)
     est = _lowrank_fill(pos, m, a, b, order, stats)
     if est is not None:
         out[a:b, m] = est
