@@ -44,6 +44,7 @@ from .synthesis import (
     reconstruct,
     reconstruct_mahalanobis,
     reconstruct_nearest_neighbor,
+    unwrap_rotvecs,
     weighted_pca,
 )
 
@@ -51,6 +52,7 @@ __all__ = [
     "DEFAULTS",
     "default_k",
     "path_weights",
+    "unwrap_rotvecs",
     "weighted_pca",
     "KnowledgeBase",
     "knowledge_base",

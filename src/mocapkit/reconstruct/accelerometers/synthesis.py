@@ -71,6 +71,7 @@ __all__ = [
     "DEFAULTS",
     "default_k",
     "path_weights",
+    "unwrap_rotvecs",
     "weighted_pca",
     "Pose",
     "AccelerometerReconstructor",
@@ -96,7 +97,10 @@ DEFAULTS: dict = {
     "variance": 0.99,  # weighted-PCA variance kept (sec. 3.5.3)
     "max_components": 24,
     "iterations": 12,  # majorise-minimise / Gauss-Newton steps per frame
+    "synthesis": "energy",  # "energy": minimise eq. 3.4; "mean": the weighted mean pose of Q^t (no optimisation)
     "prior": "kernel",  # "kernel" (eqs. 3.7-3.13) or "mahalanobis" (sec. 3.6.2 comparison)
+    "standardise": False,  # search on readings at unit spread per sensor axis (KnowledgeBase.reading_scale)
+    "weights": "cost",  # neighbour weights: "cost" (eq. 3.3) or "uniform" over the I paths kept
     "backend": "kdtree",  # KNNIndex backend ("kdtree" as the thesis; "brute" is faster for large K / small N)
     "eps": 0.0,  # kd-tree approximation factor
     "gravity": 9.81,  # m/s^2
@@ -127,6 +131,30 @@ def path_weights(costs: np.ndarray) -> np.ndarray:
     if not total > 0:
         return np.full(c.shape, 1.0 / c.size)
     return w / total
+
+
+def unwrap_rotvecs(poses: np.ndarray, ref: np.ndarray) -> np.ndarray:
+    """Pose vectors (I, 3J) re-expressed joint by joint in the chart of rotation vectors nearest ``ref`` (3J,).
+
+    A rotation by ``theta`` about ``n`` is also the rotation vector
+    ``(theta - 2 pi) n``; near ``theta = pi`` the two lie on opposite sides
+    of the sphere of radius pi, so neighbouring rotations can have rotation
+    vectors 2 pi apart. Per joint the one of ``v`` and ``v (1 - 2 pi / |v|)``
+    closer to ``ref``'s is kept: the same rotations, in a chart where means,
+    PCA and distances between the neighbours mean what they say (radians).
+
+    >>> v = np.array([[0.0, 0.0, np.pi - 0.1]]); r = np.array([0.0, 0.0, -(np.pi - 0.1)])
+    >>> np.round(unwrap_rotvecs(v, r), 4).tolist()
+    [[0.0, 0.0, -3.3416]]
+    """
+    Q = np.asarray(poses, dtype=np.float64)
+    I, D = Q.shape
+    V = Q.reshape(I, D // 3, 3)
+    r = np.asarray(ref, dtype=np.float64).reshape(1, D // 3, 3)
+    th = np.linalg.norm(V, axis=2, keepdims=True)
+    alt = V * (1.0 - 2.0 * np.pi / np.maximum(th, 1e-12))
+    use = (np.sum((alt - r) ** 2, axis=2) < np.sum((V - r) ** 2, axis=2)) & (th[..., 0] > 1e-12)
+    return np.where(use[..., None], alt, V).reshape(I, D)
 
 
 def weighted_pca(Q: np.ndarray, w: np.ndarray, variance: float = 0.99, max_components: int = 24):
@@ -186,6 +214,11 @@ def _check_params(params: dict) -> dict:
             or any(isinstance(g, bool) or not isinstance(g, (int, np.integer)) or g < 0 for g in h)):
         raise ValueError(f"history must be a non-empty sequence of lags (integers >= 0, database frames), got {h!r}")
     p["history"] = tuple(int(g) for g in h)
+    if p["synthesis"] not in ("energy", "mean"):
+        raise ValueError(f"synthesis must be 'energy' or 'mean', got {p['synthesis']!r}")
+    if p["weights"] not in ("cost", "uniform"):
+        raise ValueError(f"weights must be 'cost' or 'uniform', got {p['weights']!r}")
+    p["standardise"] = bool(p["standardise"])
     if p["prior"] not in ("kernel", "mahalanobis"):
         raise ValueError(f"prior must be 'kernel' or 'mahalanobis', got {p['prior']!r}")
     return p
@@ -229,7 +262,8 @@ class AccelerometerReconstructor:
         self.body = body_skeleton(self.skeleton)
         self.rig = Rig(self.body, self.sensors)
         self.lags = self.params["history"]
-        self.index = self.kb.index(self.params["backend"], self.lags)
+        self.index = self.kb.index(self.params["backend"], self.lags, self.params["standardise"])
+        self._key_scale = np.tile(self.kb.reading_scale, len(self.lags)) if self.params["standardise"] else None
         k = self.params["k"]
         self.k = min(default_k(self.kb.num_frames) if k is None else k, self.kb.num_frames)
         n_paths = self.params["n_paths"]
@@ -318,6 +352,8 @@ class AccelerometerReconstructor:
         self._recent = (self._recent + [a])[-(max(self.lags) + 1):]
         # the search key: this sample and those ``lags`` frames back, the stream's first where it is shorter
         key = np.concatenate([self._recent[max(len(self._recent) - 1 - g, 0)].ravel() for g in self.lags])
+        if self._key_scale is not None:
+            key = key * self._key_scale
         dist, idx = self.index.query(key[None], k=self.k, eps=p["eps"])
         costs = self.olng.push(idx[0], dist[0])
         good = np.flatnonzero(np.isfinite(costs))
@@ -328,12 +364,12 @@ class AccelerometerReconstructor:
         sel = good if n == good.size else good[np.argpartition(costs[good], n - 1)[:n]]
         sel = sel[np.lexsort((idx[0, sel], costs[sel]))]
         frames = idx[0, sel]
-        w = path_weights(costs[sel])
-        Q = kb.pose_coords[frames]
+        w = path_weights(costs[sel]) if p["weights"] == "cost" else np.full(n, 1.0 / n)
+        # one chart for all neighbours: a joint turned by about pi (the game rig's thighs) has rotation
+        # vectors on both sides of the sphere of radius pi, whose mean and PCA would be meaningless
+        Q = unwrap_rotvecs(kb.poses[frames], kb.poses[frames[0]])
         mu, B, lam, Z = weighted_pca(Q, w, p["variance"], p["max_components"])
         rperp2 = np.maximum(np.sum((Q - mu) ** 2, axis=1) - np.sum(Z * Z, axis=1), 0.0)
-        mu = kb.pose_mean + kb.pose_basis @ mu  # back to full pose vectors
-        B = kb.pose_basis @ B
         V = kb.velocities[frames].astype(np.float64)
         A = kb.accelerations[frames].astype(np.float64)
         Xm = Xc = As = base = None
@@ -348,8 +384,12 @@ class AccelerometerReconstructor:
                 As = A
                 base = (-2.0 * self._x + self._x2) / dt**2
         prob = FrameEnergy(self.rig, p, p["prior"], w, mu, B, lam, Z, rperp2, Xm, As, base, Xc, dt)
-        z0 = np.zeros(B.shape[1]) if self._p is None else (self._p - mu) @ B
-        z, X, E, steps = minimise(prob, z0, p["iterations"])
+        if p["synthesis"] == "mean":
+            z = np.zeros(B.shape[1])
+            X, E, steps = prob.fk(z[None])[0], float("nan"), 0
+        else:
+            z0 = np.zeros(B.shape[1]) if self._p is None else (unwrap_rotvecs(self._p[None], mu)[0] - mu) @ B
+            z, X, E, steps = minimise(prob, z0, p["iterations"])
         pose = prob.pose(z)
         # sec. 3.6.4: the weighted mean root motion of Q^t
         up = kb.up
