@@ -23,6 +23,20 @@ Departures from the thesis:
   neighbour; a 0.3 s key cuts the nearest neighbour's own error by a sixth
   (``benchmarks/reconstruct_accelerometers_bandai.py --validate``, on a
   validation style).
+* The neighbours' pose vectors are put in one chart of rotation vectors
+  (:func:`unwrap_rotvecs`, around the cheapest path's pose) before the
+  weighted PCA: a joint turned by about pi (a game rig's thighs) otherwise
+  has neighbours whose rotation vectors lie 2 pi apart.
+* Optionally (``standardise``), the search runs on readings scaled to unit
+  spread per sensor axis (:attr:`~.knowledge.KnowledgeBase.reading_scale`),
+  so that the sensors that swing most (the wrists) do not decide the
+  neighbours alone; the graph's node costs are these distances.
+* Optionally (``weights="uniform"``), the I paths get equal weights instead
+  of eq. 3.3's, which gives the costliest path kept weight 0 (with I = 2 the
+  synthesis then sees a single pose).
+* Optionally (``synthesis="mean"``), the pose is the weighted mean of ``Q^t``
+  (the weighted-PCA mean) instead of the minimiser of eq. 3.4: a kNN
+  regression in pose space, with no priors and no control term.
 * The control term (eqs. 3.12/3.13) uses the neighbours' sensor velocities
   ``v_i^{t+1}``; ``alpha^{t+1}`` is turned into the root frame by the sensor
   orientations of the previous synthesised pose, and gravity is subtracted.
@@ -144,8 +158,8 @@ def unwrap_rotvecs(poses: np.ndarray, ref: np.ndarray) -> np.ndarray:
     PCA and distances between the neighbours mean what they say (radians).
 
     >>> v = np.array([[0.0, 0.0, np.pi - 0.1]]); r = np.array([0.0, 0.0, -(np.pi - 0.1)])
-    >>> np.round(unwrap_rotvecs(v, r), 4).tolist()
-    [[0.0, 0.0, -3.3416]]
+    >>> (np.round(unwrap_rotvecs(v, r), 4) + 0.0).tolist()
+    [[0.0, 0.0, -3.2416]]
     """
     Q = np.asarray(poses, dtype=np.float64)
     I, D = Q.shape
@@ -368,6 +382,33 @@ class AccelerometerReconstructor:
         # one chart for all neighbours: a joint turned by about pi (the game rig's thighs) has rotation
         # vectors on both sides of the sphere of radius pi, whose mean and PCA would be meaningless
         Q = unwrap_rotvecs(kb.poses[frames], kb.poses[frames[0]])
+        if p["synthesis"] == "mean":  # the weighted mean pose of Q^t: no PCA, no energy
+            pose = mu = w @ Q
+            X, srot = (x[0] for x in self.rig.points(pose[None]))
+            E, steps, d = float("nan"), 0, 0
+        else:
+            pose, mu, X, E, steps, d = self._minimise_energy(a, Q, w, frames, dt)
+            srot = self.rig.points(pose[None])[1][0]
+        # sec. 3.6.4: the weighted mean root motion of Q^t
+        up = kb.up
+        v = w @ kb.root_velocity[frames]
+        v = v - (v @ up) * up
+        self._ground = self._ground + R.quaternion_rotate(R.quaternion_from_axis_angle(up, self._heading), v) * dt
+        self._heading += float(w @ kb.yaw_rate[frames]) * dt
+        height = float(w @ kb.root_height[frames])
+        self._x2, self._x, self._srot, self._p = self._x, X, srot, pose
+        self._pose = self._make_pose(pose, height)
+        self.last_info = {"held": False, "energy": E, "steps": steps, "components": d, "paths": n,
+                          "best_cost": float(costs[sel[0]]), "frames": frames, "weights": w, "mean_pose": mu}
+
+
+    def _minimise_energy(self, a: np.ndarray, Q: np.ndarray, w: np.ndarray, frames: np.ndarray, dt: float):
+        """Eq. 3.4 minimised in the weighted-PCA space of the neighbour poses ``Q`` (I, 3J), from the previous pose.
+
+        Returns the pose vector (3J,), the weighted-PCA mean (3J,), the root-frame
+        points (M, 3, cm), the energy, the steps taken and the PCA dimension.
+        """
+        p, kb = self.params, self.kb
         mu, B, lam, Z = weighted_pca(Q, w, p["variance"], p["max_components"])
         rperp2 = np.maximum(np.sum((Q - mu) ** 2, axis=1) - np.sum(Z * Z, axis=1), 0.0)
         V = kb.velocities[frames].astype(np.float64)
@@ -384,25 +425,9 @@ class AccelerometerReconstructor:
                 As = A
                 base = (-2.0 * self._x + self._x2) / dt**2
         prob = FrameEnergy(self.rig, p, p["prior"], w, mu, B, lam, Z, rperp2, Xm, As, base, Xc, dt)
-        if p["synthesis"] == "mean":
-            z = np.zeros(B.shape[1])
-            X, E, steps = prob.fk(z[None])[0], float("nan"), 0
-        else:
-            z0 = np.zeros(B.shape[1]) if self._p is None else (unwrap_rotvecs(self._p[None], mu)[0] - mu) @ B
-            z, X, E, steps = minimise(prob, z0, p["iterations"])
-        pose = prob.pose(z)
-        # sec. 3.6.4: the weighted mean root motion of Q^t
-        up = kb.up
-        v = w @ kb.root_velocity[frames]
-        v = v - (v @ up) * up
-        self._ground = self._ground + R.quaternion_rotate(R.quaternion_from_axis_angle(up, self._heading), v) * dt
-        self._heading += float(w @ kb.yaw_rate[frames]) * dt
-        height = float(w @ kb.root_height[frames])
-        srot = self.rig.points(pose[None])[1][0]
-        self._x2, self._x, self._srot, self._p = self._x, X, srot, pose
-        self._pose = self._make_pose(pose, height)
-        self.last_info = {"held": False, "energy": E, "steps": steps, "components": B.shape[1], "paths": n,
-                          "best_cost": float(costs[sel[0]]), "frames": frames, "weights": w, "mean_pose": mu}
+        z0 = np.zeros(B.shape[1]) if self._p is None else (unwrap_rotvecs(self._p[None], mu)[0] - mu) @ B
+        z, X, E, steps = minimise(prob, z0, p["iterations"])
+        return prob.pose(z), mu, X, E, steps, B.shape[1]
 
 
 # -- offline -----------------------------------------------------------------------------------
