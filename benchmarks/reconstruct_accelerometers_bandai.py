@@ -27,9 +27,9 @@ is by style). Parameters (:data:`VALIDATED`, chosen by ``--validate``): K =
 1024 neighbours of the one-sample search key on standardised readings (every
 sensor axis at unit spread), approximate kd-tree search (eps = 1), the I = 16
 cheapest paths of the lazy neighbourhood graph, and their eq. 3.3-weighted
-mean pose (``synthesis="mean"``; the eq. 3.4 energy did worse there);
-mocapkit's defaults (K = 1 %
-of the frames, I = K / 16) are reported beside them. The four default sensors (wrists, ankles) are simulated on them
+mean pose (mocapkit's defaults but K and eps; the thesis' eq. 3.4 energy
+did worse there); mocapkit's defaults (K = 1 %
+of the frames, exact search) are reported beside them. The four default sensors (wrists, ankles) are simulated on them
 (:func:`mocapkit.features.virtual_accelerometers`). Error: RMS joint-position
 error of the body below the pelvis, pelvis position and heading removed, the
 pelvis tilt kept (``metrics.joint_position_rms(..., root_relative="heading")``),
@@ -197,7 +197,8 @@ def build(train, reuse: bool, cache: Path = CACHE, mirror: bool = False):
     t1 = time.perf_counter()
     kb = A.knowledge_base(db, cache_dir=kb_dir)
     t2 = time.perf_counter()
-    kb.index("kdtree", VALIDATED.get("history", (0,)), VALIDATED.get("standardise", False))
+    chosen = {**A.DEFAULTS, **VALIDATED}
+    kb.index("kdtree", chosen["history"], chosen["standardise"])
     t3 = time.perf_counter()
     info["open_db_s"], info["open_kb_s"], info["kdtree_rebuild_s"] = t1 - t0, t2 - t1, t3 - t2
     info["kb_memory_mapped"] = isinstance(kb.readings, np.memmap)
@@ -206,28 +207,34 @@ def build(train, reuse: bool, cache: Path = CACHE, mirror: bool = False):
 
 
 #: K, I and the search and synthesis options chosen by ``--validate`` (dataset-2 exhausted): the lowest validation error of the sweep.
-VALIDATED = {"k": 1024, "n_paths": 16, "eps": 1.0, "standardise": True, "synthesis": "mean"}
-#: The validation sweep: overrides of mocapkit's defaults (K = 1 % of the frames, I = K / 16, one-sample key, exact search,
-#: raw readings, eq. 3.3 weights, eq. 3.4 energy). The previous choice (K = 256, I = 2: in effect the best path's pose) first.
-SWEEP = ({"k": 256, "n_paths": 2, "eps": 1.0},
-         {"k": 1024, "n_paths": 16, "eps": 1.0, "standardise": True, "weights": "uniform"},
-         {"k": 1024, "n_paths": 16, "eps": 1.0, "standardise": True, "weights": "uniform", "w_motion": 0.0, "w_smooth": 0.0},
-         {"k": 1024, "n_paths": 16, "eps": 1.0, "weights": "uniform", "synthesis": "mean"},
-         {"k": 1024, "n_paths": 16, "eps": 1.0, "standardise": True, "weights": "uniform", "synthesis": "mean"},
-         {"k": 1024, "n_paths": 16, "eps": 1.0, "standardise": True, "synthesis": "mean"},
-         {"k": 1024, "n_paths": 32, "eps": 1.0, "standardise": True, "weights": "uniform", "synthesis": "mean"},
-         {"k": 256, "n_paths": 16, "eps": 1.0, "standardise": True, "weights": "uniform", "synthesis": "mean"},
-         {"k": 2048, "n_paths": 16, "eps": 1.0, "standardise": True, "weights": "uniform", "synthesis": "mean"},
+VALIDATED = {"k": 1024, "n_paths": 16, "eps": 1.0}
+#: The thesis' search and synthesis (raw readings, eq. 3.4 energy), which the sweep's first entries keep.
+THESIS = {"standardise": False, "synthesis": "energy"}
+#: The validation sweep: overrides of mocapkit's defaults (K = 1 % of the frames, I = 16, one-sample key, exact search,
+#: standardised readings, eq. 3.3 weights, mean pose). The previous choice (K = 256, I = 2 with the thesis' search and
+#: synthesis: in effect the cheapest path's pose) first.
+SWEEP = ({**THESIS, "k": 256, "n_paths": 2, "eps": 1.0},
+         {**THESIS, "k": 1024, "n_paths": 16, "eps": 1.0},
+         {"k": 1024, "n_paths": 16, "eps": 1.0, "synthesis": "energy", "weights": "uniform"},
+         {"k": 1024, "n_paths": 16, "eps": 1.0, "synthesis": "energy", "weights": "uniform", "w_motion": 0.0, "w_smooth": 0.0},
+         {"k": 1024, "n_paths": 16, "eps": 1.0, "synthesis": "energy", "w_motion": 0.0, "w_smooth": 0.0},
+         {"k": 1024, "n_paths": 16, "eps": 1.0, "standardise": False, "weights": "uniform"},
+         {"k": 1024, "n_paths": 16, "eps": 1.0, "weights": "uniform"},
+         {"k": 1024, "n_paths": 16, "eps": 1.0},
+         {"k": 1024, "n_paths": 16, "eps": 1.0, "standardise": False},
+         {"k": 1024, "n_paths": 32, "eps": 1.0, "weights": "uniform"},
+         {"k": 256, "n_paths": 16, "eps": 1.0, "weights": "uniform"},
+         {"k": 2048, "n_paths": 16, "eps": 1.0, "weights": "uniform"},
+         {"k": 1024, "n_paths": 8, "eps": 1.0},
+         {"k": 2048, "n_paths": 32, "eps": 1.0},
+         {}, {"eps": 1.0},
          # around the choice: the OLNG window (frames at 30 fps), its shortness penalty, the search key's history
-         {"k": 1024, "n_paths": 8, "eps": 1.0, "standardise": True, "synthesis": "mean"},
-         {"k": 2048, "n_paths": 32, "eps": 1.0, "standardise": True, "synthesis": "mean"},
-         {"k": 1024, "n_paths": 16, "eps": 1.0, "standardise": True, "synthesis": "mean", "window": 20},
-         {"k": 1024, "n_paths": 16, "eps": 1.0, "standardise": True, "synthesis": "mean", "window": 30},
-         {"k": 1024, "n_paths": 16, "eps": 1.0, "standardise": True, "synthesis": "mean", "window": 8},
-         {"k": 1024, "n_paths": 16, "eps": 1.0, "standardise": True, "synthesis": "mean", "penalty_factor": 4.0},
-         {"k": 1024, "n_paths": 16, "eps": 1.0, "standardise": True, "synthesis": "mean", "penalty_factor": 1.0},
-         {"k": 1024, "n_paths": 16, "eps": 1.0, "standardise": True, "synthesis": "mean", "history": (0, 5, 10)},
-         {"k": 1024, "n_paths": 16, "eps": 1.0, "standardise": True, "synthesis": "energy", "w_motion": 0.0, "w_smooth": 0.0})
+         {"k": 1024, "n_paths": 16, "eps": 1.0, "window": 20},
+         {"k": 1024, "n_paths": 16, "eps": 1.0, "window": 30},
+         {"k": 1024, "n_paths": 16, "eps": 1.0, "window": 8},
+         {"k": 1024, "n_paths": 16, "eps": 1.0, "penalty_factor": 4.0},
+         {"k": 1024, "n_paths": 16, "eps": 1.0, "penalty_factor": 1.0},
+         {"k": 1024, "n_paths": 16, "eps": 1.0, "history": (0, 5, 10)})
 
 
 def validate(args, train) -> None:
@@ -257,7 +264,7 @@ def _frame_errors(P: np.ndarray, T: np.ndarray) -> np.ndarray:
 
 
 #: The configurations --diagnose follows frame by frame: the previous choice and :data:`VALIDATED`.
-DIAGNOSED = {"K=256 I=2 (previous)": {"k": 256, "n_paths": 2, "eps": 1.0}, "validated": VALIDATED}
+DIAGNOSED = {"K=256 I=2 (previous)": {**THESIS, "k": 256, "n_paths": 2, "eps": 1.0}, "validated": VALIDATED}
 
 
 def diagnose(args, train) -> None:
