@@ -23,11 +23,13 @@ kd-tree rebuilt over the readings.
 
 Test: ``--takes`` held-out takes (evenly spread over the held-out list, both
 datasets), each its first ``--frames`` frames (evaluation time only; the split
-is by style). Parameters: K = 256 neighbours, I = 2 paths, approximate
-kd-tree search (eps = 1), the thesis' one-sample search key (:data:`VALIDATED`,
-chosen by ``--validate``; a key with 0.3 s of history did not do better there);
-mocapkit's defaults (K = 1 %
-of the frames, I = K / 16) are reported beside them. The four default sensors (wrists, ankles) are simulated on them
+is by style). Parameters (:data:`VALIDATED`, chosen by ``--validate``): K =
+1024 neighbours of the one-sample search key on standardised readings (every
+sensor axis at unit spread), approximate kd-tree search (eps = 1), the I = 16
+cheapest paths of the lazy neighbourhood graph, and their eq. 3.3-weighted
+mean pose (mocapkit's defaults but K and eps; the thesis' eq. 3.4 energy
+did worse there); mocapkit's defaults (K = 1 %
+of the frames, exact search) are reported beside them. The four default sensors (wrists, ankles) are simulated on them
 (:func:`mocapkit.features.virtual_accelerometers`). Error: RMS joint-position
 error of the body below the pelvis, pelvis position and heading removed, the
 pelvis tilt kept (``metrics.joint_position_rms(..., root_relative="heading")``),
@@ -37,14 +39,20 @@ true pose (posed on the test skeleton, heading frame, exact search), a floor
 for any method that retrieves poses from this database. Time per frame: the
 online reconstructor's push, median and 95th percentile.
 
-``--validate`` sweeps K and I on a validation style instead: dataset-2
+``--validate`` sweeps K, I and the search and synthesis options (:data:`SWEEP`) on a validation style instead: dataset-2
 ``exhausted``, left out of its knowledge base as well; the test styles are
 never looked at there.
 
 OpenBLAS is limited to one thread (set before numpy loads), as in
 ``reconstruct_accelerometers.py``.
 
-    python benchmarks/reconstruct_accelerometers_bandai.py --json [--quick] [--takes N] [--frames F] [--reuse]
+``--diagnose`` follows retrieval and synthesis frame by frame on the
+validation style (:func:`diagnose`).
+
+``--mirror`` adds every take's left/right mirror image to the knowledge base
+(560,000 frames, the thesis' size); ``--cache`` puts the database elsewhere.
+
+    python benchmarks/reconstruct_accelerometers_bandai.py --json [--quick] [--takes N] [--frames F] [--reuse] [--mirror] [--cache DIR]
 """
 
 from __future__ import annotations
@@ -72,7 +80,9 @@ from mocapkit.database import MotionDatabase  # noqa: E402
 from mocapkit.features import root_frame, virtual_accelerometers  # noqa: E402
 from mocapkit.motion import unit_scale_cm  # noqa: E402
 from mocapkit.reconstruct import accelerometers as A  # noqa: E402
-from mocapkit.reconstruct._common import body_motion  # noqa: E402
+from mocapkit.reconstruct._common import body_motion, body_skeleton  # noqa: E402
+from mocapkit.reconstruct.accelerometers.kernels import Rig  # noqa: E402
+from mocapkit.reconstruct.accelerometers.knowledge import clip_values  # noqa: E402
 
 FPS = 30.0
 VALIDATION_D2 = "exhausted"
@@ -157,13 +167,13 @@ def run_take(db, take, frames: int, params: dict, oracle: bool = True, defaults:
             "ms_per_frame": [1e3 * t for t in times]}
 
 
-def build(train, reuse: bool, cache: Path = CACHE):
+def build(train, reuse: bool, cache: Path = CACHE, mirror: bool = False):
     """The database and knowledge base of ``train`` (built, saved, reopened memory-mapped), with timings and memory."""
     db_dir, kb_dir = cache / "database", cache / "knowledge"
     info: dict = {"cache": str(cache)}
     if not (reuse and db_dir.is_dir()):
         t0 = time.perf_counter()
-        db = MotionDatabase.build([t.path for t in train], fps=FPS, progress=False)
+        db = MotionDatabase.build([t.path for t in train], fps=FPS, mirror=mirror, progress=False)
         info["db_build_s"] = time.perf_counter() - t0
         t0 = time.perf_counter()
         shutil.rmtree(kb_dir, ignore_errors=True)
@@ -187,7 +197,8 @@ def build(train, reuse: bool, cache: Path = CACHE):
     t1 = time.perf_counter()
     kb = A.knowledge_base(db, cache_dir=kb_dir)
     t2 = time.perf_counter()
-    kb.index("kdtree", VALIDATED.get("history", (0,)))
+    chosen = {**A.DEFAULTS, **VALIDATED}
+    kb.index("kdtree", chosen["history"], chosen["standardise"])
     t3 = time.perf_counter()
     info["open_db_s"], info["open_kb_s"], info["kdtree_rebuild_s"] = t1 - t0, t2 - t1, t3 - t2
     info["kb_memory_mapped"] = isinstance(kb.readings, np.memmap)
@@ -195,26 +206,42 @@ def build(train, reuse: bool, cache: Path = CACHE):
     return db, kb, info
 
 
-#: K, I, the search key's history and the kd-tree's eps chosen by ``--validate`` (dataset-2 exhausted): the lowest validation error of the sweep.
-VALIDATED = {"k": 256, "n_paths": 2, "eps": 1.0}
-#: The validation sweep: overrides of mocapkit's defaults (K = 1 % of the frames, I = K / 16, one-sample key, exact search).
-SWEEP = ({}, {"k": 1024}, {"k": 256}, {"n_paths": 16}, {"k": 1024, "n_paths": 8}, {"k": 256, "n_paths": 4},
-         {"k": 128}, {"k": 64}, {"k": 512, "n_paths": 4}, {"k": 128, "n_paths": 4}, {"k": 64, "n_paths": 4},
-         {"k": 256, "n_paths": 2}, {"k": 256, "n_paths": 8},
-         # the search key with 0.3 s of history (approximate kd-tree search: exact search in 48-D is 10x slower)
-         {"k": 256, "n_paths": 4, "eps": 1.0}, {"k": 256, "n_paths": 2, "eps": 1.0},
-         {"k": 256, "n_paths": 4, "history": (0, 3, 6, 9), "eps": 1.0},
-         {"k": 256, "n_paths": 2, "history": (0, 3, 6, 9), "eps": 1.0},
-         {"k": 256, "n_paths": 1, "history": (0, 3, 6, 9), "eps": 1.0},
-         {"k": 256, "n_paths": 2, "history": (0, 5, 10), "eps": 1.0},
-         {"k": 256, "n_paths": 1, "history": (0, 4, 8), "eps": 1.0})
+#: K, I and the search and synthesis options chosen by ``--validate`` (dataset-2 exhausted): the lowest validation error of the sweep.
+VALIDATED = {"k": 1024, "n_paths": 16, "eps": 1.0}
+#: The thesis' search and synthesis (raw readings, eq. 3.4 energy), which the sweep's first entries keep.
+THESIS = {"standardise": False, "synthesis": "energy"}
+#: The validation sweep: overrides of mocapkit's defaults (K = 1 % of the frames, I = 16, one-sample key, exact search,
+#: standardised readings, eq. 3.3 weights, mean pose). The previous choice (K = 256, I = 2 with the thesis' search and
+#: synthesis: in effect the cheapest path's pose) first.
+SWEEP = ({**THESIS, "k": 256, "n_paths": 2, "eps": 1.0},
+         {**THESIS, "k": 1024, "n_paths": 16, "eps": 1.0},
+         {"k": 1024, "n_paths": 16, "eps": 1.0, "synthesis": "energy", "weights": "uniform"},
+         {"k": 1024, "n_paths": 16, "eps": 1.0, "synthesis": "energy", "weights": "uniform", "w_motion": 0.0, "w_smooth": 0.0},
+         {"k": 1024, "n_paths": 16, "eps": 1.0, "synthesis": "energy", "w_motion": 0.0, "w_smooth": 0.0},
+         {"k": 1024, "n_paths": 16, "eps": 1.0, "standardise": False, "weights": "uniform"},
+         {"k": 1024, "n_paths": 16, "eps": 1.0, "weights": "uniform"},
+         {"k": 1024, "n_paths": 16, "eps": 1.0},
+         {"k": 1024, "n_paths": 16, "eps": 1.0, "standardise": False},
+         {"k": 1024, "n_paths": 32, "eps": 1.0, "weights": "uniform"},
+         {"k": 256, "n_paths": 16, "eps": 1.0, "weights": "uniform"},
+         {"k": 2048, "n_paths": 16, "eps": 1.0, "weights": "uniform"},
+         {"k": 1024, "n_paths": 8, "eps": 1.0},
+         {"k": 2048, "n_paths": 32, "eps": 1.0},
+         {}, {"eps": 1.0},
+         # around the choice: the OLNG window (frames at 30 fps), its shortness penalty, the search key's history
+         {"k": 1024, "n_paths": 16, "eps": 1.0, "window": 20},
+         {"k": 1024, "n_paths": 16, "eps": 1.0, "window": 30},
+         {"k": 1024, "n_paths": 16, "eps": 1.0, "window": 8},
+         {"k": 1024, "n_paths": 16, "eps": 1.0, "penalty_factor": 4.0},
+         {"k": 1024, "n_paths": 16, "eps": 1.0, "penalty_factor": 1.0},
+         {"k": 1024, "n_paths": 16, "eps": 1.0, "history": (0, 5, 10)})
 
 
 def validate(args, train) -> None:
     """K (neighbours) and I (paths) swept on the validation style; the test styles are never looked at."""
     fit = [t for t in train if not (t.dataset == 2 and t.style == VALIDATION_D2)]
     val = [t for t in train if t.dataset == 2 and t.style == VALIDATION_D2]
-    db, kb, info = build(fit, args.reuse, CACHE / "validate")
+    db, kb, info = build(fit, args.reuse, args.cache / ("validate-mirror" if args.mirror else "validate"), args.mirror)
     picks = [val[int(i)] for i in np.unique(np.linspace(0, len(val) - 1, args.takes).round().astype(int))]
     sweep = {}
     for params in SWEEP:
@@ -225,9 +252,90 @@ def validate(args, train) -> None:
                        "ms_per_frame": float(np.median(np.concatenate([r["ms_per_frame"] for r in rows])))}
         log(f"validation {name}: {sweep[name]}")
     figures = {f"{name} {key}": v for name, row in sweep.items() for key, v in row.items()}
-    harness.emit("reconstruct_accelerometers_bandai_validate", args, figures=figures,
+    harness.emit("reconstruct_accelerometers_bandai_validate" + ("_mirror" if args.mirror else ""), args, figures=figures,
                  details={"validation_style": f"dataset-2 {VALIDATION_D2}", "db_frames": info["db_frames"],
                           "takes": [t.path.name for t in picks], "frames_per_take": args.frames, "sweep": sweep})
+
+
+def _frame_errors(P: np.ndarray, T: np.ndarray) -> np.ndarray:
+    """Per-pose RMS distance (cm) of root-frame joint points ``P`` (n, B-1, 3) to one true frame ``T`` (B-1, 3)."""
+    d = P - T[None]
+    return np.sqrt(np.mean(np.einsum("nbc,nbc->nb", d, d), axis=1))
+
+
+#: The configurations --diagnose follows frame by frame: the previous choice and :data:`VALIDATED`.
+DIAGNOSED = {"K=256 I=2 (previous)": {**THESIS, "k": 256, "n_paths": 2, "eps": 1.0}, "validated": VALIDATED}
+
+
+def diagnose(args, train) -> None:
+    """Where the error comes from, frame by frame on the validation style (the test styles are never looked at).
+
+    Per frame, RMS over the body's joints in the root frame (pelvis at the
+    origin, heading removed, tilt kept; cm), for each configuration of
+    :data:`DIAGNOSED`: the synthesised pose, the pose at the end of the
+    cheapest OLNG path, the best of the K retrieved poses, the best of the I
+    paths kept, and the database oracle; the length of the cheapest path
+    (columns of the window it covers); and the rank, by search distance, of
+    the oracle's frame among all database frames.
+    """
+    fit = [t for t in train if not (t.dataset == 2 and t.style == VALIDATION_D2)]
+    val = [t for t in train if t.dataset == 2 and t.style == VALIDATION_D2]
+    db, kb, info = build(fit, args.reuse, args.cache / "validate")
+    picks = [val[int(i)] for i in np.unique(np.linspace(0, len(val) - 1, args.takes).round().astype(int))]
+    S = len(kb.sensors)
+    rows: dict = {name: [] for name in DIAGNOSED}
+    for t in picks:
+        m = mocapkit.load(t.path)
+        m = m[: min(args.frames, len(m))]
+        rd = virtual_accelerometers(m)
+        rig = Rig(body_skeleton(m.skeleton), kb.sensors)
+        B = rig.J
+        P = np.empty((kb.num_frames, B - 1, 3), np.float32)  # every database pose on the test skeleton
+        for a in range(0, kb.num_frames, 20000):
+            P[a:a + 20000] = rig.points(np.asarray(kb.poses[a:a + 20000]))[0][:, :B - 1]
+        T = rig.points(clip_values(m, kb.sensors, kb.up)[:, 3 * S:3 * S + 3 * B])[0][:, :B - 1]
+        oracle = [_frame_errors(P, T[f]) for f in range(len(m))]
+        for name, params in DIAGNOSED.items():
+            rec = A.AccelerometerReconstructor(db, FPS, skeleton=m.skeleton, **params)
+            scale = kb.reading_scale if rec.params["standardise"] else np.ones(3 * S)
+            for f in range(len(m)):
+                rec.push(rd[f])
+                info_f = rec.last_info
+                if info_f.get("held", True):
+                    continue
+                nodes, costs = rec.olng.current_nodes, rec.olng.costs
+                ok = (nodes >= 0) & np.isfinite(costs)
+                ek = _frame_errors(P[nodes[ok]], T[f])
+                out = rig.points(rec._p[None])[0][0, :B - 1]
+                o = int(np.argmin(oracle[f]))
+                dr = np.sqrt(np.sum(((np.asarray(kb.readings) - rd[f].ravel()) * scale) ** 2, axis=1))
+                rows[name].append({
+                    "out": float(np.sqrt(np.mean(np.sum((out - T[f]) ** 2, axis=-1)))),
+                    "best_path": float(ek[np.argmin(costs[ok])]),
+                    "best_of_K": float(ek.min()), "mean_of_K": float(ek.mean()),
+                    "best_of_I": float(_frame_errors(P[info_f["frames"]], T[f]).min()),
+                    "oracle": float(oracle[f][o]),
+                    "best_path_columns": int(np.sum(rec.olng.best_paths(1)[0].frames >= 0)),
+                    "oracle_search_rank": int(np.sum(dr < dr[o]))})
+        log(f"{t.path.name}: done")
+    figures, details = {}, {}
+    for name, rs in rows.items():
+        keys = ("out", "best_path", "best_of_K", "mean_of_K", "best_of_I", "oracle", "best_path_columns")
+        d = {k: float(np.mean([r[k] for r in rs])) for k in keys}
+        d["oracle_search_rank_median"] = float(np.median([r["oracle_search_rank"] for r in rs]))
+        d["oracle_in_K_fraction"] = float(np.mean([r["oracle_search_rank"] < DIAGNOSED[name]["k"] for r in rs]))
+        for x in (4.0, 6.0):
+            for k in ("best_of_K", "best_of_I", "best_path", "out"):
+                d[f"{k}_within_{x:g}cm"] = float(np.mean([r[k] < x for r in rs]))
+        details[name] = {"frames": len(rs), **d}
+        figures.update({f"{name} {k}": v for k, v in d.items() if k in ("out", "best_path", "best_of_K", "best_of_I", "oracle")})
+        log(f"{name}: {details[name]}")
+    harness.emit("reconstruct_accelerometers_bandai_diagnose", args, figures=figures,
+                 details={"validation_style": f"dataset-2 {VALIDATION_D2}", "db_frames": info["db_frames"],
+                          "takes": [t.path.name for t in picks], "frames_per_take": args.frames,
+                          "configs": {k: {**v} for k, v in DIAGNOSED.items()},
+                          "units": "cm, per-frame RMS over the body's joints, root frame (heading removed, tilt kept)",
+                          "per_config": details})
 
 
 def main():
@@ -238,6 +346,10 @@ def main():
     ap.add_argument("--reuse", action="store_true", help="reuse a database already built in the cache folder")
     ap.add_argument("--validate", action="store_true",
                     help="the parameter sweep on validation style dataset-2 exhausted instead (held out of its knowledge base too)")
+    ap.add_argument("--diagnose", action="store_true",
+                    help="per-frame diagnosis of retrieval and synthesis on the validation style instead")
+    ap.add_argument("--cache", type=Path, default=CACHE, help=f"folder for the database and knowledge base (default {CACHE})")
+    ap.add_argument("--mirror", action="store_true", help="the knowledge base holds every take and its left/right mirror image")
     ap.add_argument("-k", type=int, default=None, help="neighbours per sample (default: mocapkit's default_k)")
     ap.add_argument("--paths", type=int, default=None, help="OLNG paths kept, I (default: K / 16)")
     args = ap.parse_args()
@@ -250,7 +362,10 @@ def main():
     if args.validate:
         validate(args, train)
         return
-    db, kb, info = build(train, args.reuse)
+    if args.diagnose:
+        diagnose(args, train)
+        return
+    db, kb, info = build(train, args.reuse, args.cache / "mirror" if args.mirror else args.cache, args.mirror)
     log(f"built: {info}")
     picks = [held[int(i)] for i in np.unique(np.linspace(0, len(held) - 1, args.takes).round().astype(int))]
     rows = []

@@ -48,12 +48,13 @@ def test_reconstruction_beats_single_frame_nn(db, test_motion, readings, result)
     assert err < nn
 
 
-def test_mahalanobis_baseline_runs_and_differs(db, test_motion, readings, result):
+def test_mahalanobis_baseline_runs_and_differs(db, test_motion, readings):
     out = A.reconstruct_mahalanobis(readings, db, 25)
+    energy = A.reconstruct(readings, db, 25, synthesis="energy")
     err = metrics.joint_position_rms(out, test_motion, root_relative="frame")
-    kernel = metrics.joint_position_rms(result, test_motion, root_relative="frame")
+    kernel = metrics.joint_position_rms(energy, test_motion, root_relative="frame")
     assert np.isfinite(err) and kernel < err  # the kernel priors beat the Gaussian ones (thesis Fig. 3.21)
-    assert not np.allclose(out.rotations, result.rotations)
+    assert not np.allclose(out.rotations, energy.rotations)
 
 
 def test_online_push_equals_offline(db, readings, result):
@@ -350,7 +351,7 @@ def test_stacked_readings_clamp_lags_at_each_clip_start():
 def test_history_key_of_a_database_clip_finds_its_own_frames(db):
     """The stream's key (this sample, 3 and 6 database frames back, its first sample before that) is the knowledge base's."""
     a, b = db.clip_range(1)
-    rec = A.AccelerometerReconstructor(db, 25, k=8, n_paths=2, history=(0, 3, 6))
+    rec = A.AccelerometerReconstructor(db, 25, k=8, n_paths=2, history=(0, 3, 6), standardise=False)
     own = np.asarray(rec.kb.readings[a:b]).reshape(b - a, -1, 3)
     for t in range(12):
         rec.push(own[t])
@@ -364,3 +365,53 @@ def test_history_must_be_lags():
     for bad in ((), (0, -1), "03", (0, 1.5)):
         with pytest.raises(ValueError, match="history"):
             A.synthesis._check_params({"history": bad})
+
+
+def test_unwrap_rotvecs_keeps_the_rotations_and_makes_their_mean_meaningful():
+    """Two rotations 0.2 rad apart about z, either side of pi: their rotation vectors are nearly opposite."""
+    a, b = np.pi - 0.1, -(np.pi - 0.1)
+    Q = np.array([[0.0, 0.0, a, 0.3, 0.0, 0.0], [0.0, 0.0, b, 0.2, 0.0, 0.0]])
+    assert np.linalg.norm(Q.mean(axis=0)[:3]) < 1e-12  # the naive mean is the identity: wrong
+    U = A.unwrap_rotvecs(Q, Q[0])
+    qa = R.rotvec_to_quaternion(Q.reshape(2, 2, 3))
+    qu = R.rotvec_to_quaternion(U.reshape(2, 2, 3))
+    np.testing.assert_allclose(np.abs(np.sum(qa * qu, axis=-1)), 1.0, atol=1e-12)  # same rotations
+    np.testing.assert_allclose(U[:, 3:], Q[:, 3:])  # a joint far from pi is left alone
+    np.testing.assert_allclose(U.mean(axis=0)[:3], [0.0, 0.0, np.pi], atol=1e-12)  # the rotation half-way between them
+
+
+def test_reading_scale_standardises_every_axis(db):
+    kb = A.knowledge_base(db)
+    scaled = np.asarray(kb.readings) * kb.reading_scale
+    np.testing.assert_allclose(scaled.std(axis=0), 1.0, rtol=1e-9)
+    a = 17
+    dist, idx = kb.index("kdtree", (0,), True).query(scaled[a][None], k=1)
+    assert idx[0, 0] == a and dist[0, 0] < 1e-9
+
+
+def test_mean_synthesis_is_the_uniform_mean_of_the_neighbours_in_one_chart(db, readings):
+    rec = A.AccelerometerReconstructor(db, 25, k=32, n_paths=8, standardise=True, weights="uniform", synthesis="mean")
+    for r in readings[:6]:
+        rec.push(r)
+    info = rec.last_info
+    np.testing.assert_allclose(info["weights"], 1.0 / len(info["frames"]))
+    frames = info["frames"]
+    expect = A.unwrap_rotvecs(rec.kb.poses[frames], rec.kb.poses[frames[0]]).mean(axis=0)
+    np.testing.assert_allclose(rec._p, expect, atol=1e-12)
+
+
+def test_standardised_search_changes_the_neighbours_only_by_scaling(db, readings):
+    plain = A.AccelerometerReconstructor(db, 25, k=16, n_paths=4)
+    std = A.AccelerometerReconstructor(db, 25, k=16, n_paths=4, standardise=True)
+    plain.push(readings[0])
+    std.push(readings[0])
+    s = std.kb.reading_scale
+    d = np.sqrt(np.sum(((np.asarray(std.kb.readings) - readings[0].ravel()) * s) ** 2, axis=1))
+    np.testing.assert_array_equal(np.sort(std.olng.current_nodes), np.sort(np.argsort(d)[:16]))
+
+
+def test_weights_and_synthesis_must_be_known():
+    with pytest.raises(ValueError, match="weights"):
+        A.synthesis._check_params({"weights": "softmax"})
+    with pytest.raises(ValueError, match="synthesis"):
+        A.synthesis._check_params({"synthesis": "median"})

@@ -60,7 +60,7 @@ def reconstruct(
         None, "--markers", help="A few marker trajectories (.c3d, marker .npz, or a motion whose joints become markers): local linear models (Krüger 2010, 5.2)."
     ),
     accelerometers: Optional[Path] = typer.Option(
-        None, "--accelerometers", help="Accelerometer CSV (time,<sensor>.x,.y,.z,... in s and m/s^2), or a motion to simulate them on: online LNG + kernel priors (Tautges ch. 3)."
+        None, "--accelerometers", help="Accelerometer CSV (time,<sensor>.x,.y,.z,... in s and m/s^2), or a motion to simulate them on: online LNG, the mean pose of its best paths (Tautges ch. 3)."
     ),
     ssg: Optional[Path] = typer.Option(
         None, "--ssg", help="Marker trajectories with gaps (.c3d, marker .npz, or a motion): the subsequence graph (Tautges ch. 4)."

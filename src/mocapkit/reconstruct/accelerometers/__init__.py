@@ -12,7 +12,8 @@ three parts, one module each:
 2. :mod:`.synthesis` — search and synthesis (secs. 3.4-3.6,
    :class:`AccelerometerReconstructor`, :func:`reconstruct`): the online lazy
    neighbourhood graph over the nearest readings of each sample, then the
-   pose that minimises eq. 3.4 in the weighted-PCA space of the neighbours.
+   weighted mean pose of its best paths (by default) or the pose that
+   minimises eq. 3.4 in the weighted-PCA space of the neighbours.
 3. :mod:`.kernels` — the energy of eq. 3.4 with the square-root kernel priors
    and its minimiser (numba, with a numpy twin).
 
@@ -44,6 +45,7 @@ from .synthesis import (
     reconstruct,
     reconstruct_mahalanobis,
     reconstruct_nearest_neighbor,
+    unwrap_rotvecs,
     weighted_pca,
 )
 
@@ -51,6 +53,7 @@ __all__ = [
     "DEFAULTS",
     "default_k",
     "path_weights",
+    "unwrap_rotvecs",
     "weighted_pca",
     "KnowledgeBase",
     "knowledge_base",

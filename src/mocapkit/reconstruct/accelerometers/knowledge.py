@@ -115,12 +115,36 @@ class KnowledgeBase:
     def num_frames(self) -> int:
         return int(self.readings.shape[0])
 
-    def index(self, backend: str = "kdtree", lags: Sequence[int] = (0,)) -> KNNIndex:
-        """The kNN index over the readings stacked at ``lags`` frames back (:func:`stacked_readings`; built once per backend and lags)."""
+    @property
+    def reading_scale(self) -> np.ndarray:
+        """Per-column weights (3S,) of the readings, ``1 / std`` over the knowledge base (s^2/m), computed once.
+
+        Multiplying readings by it standardises every sensor axis: raw m/s^2
+        let the axes that swing most (the wrists' dynamic accelerations,
+        twice the ankles' spread) decide the neighbours alone, while the
+        quieter axes (each segment's tilt against gravity) say as much
+        about the pose (:func:`~.synthesis.DEFAULTS` ``standardise``).
+        """
+        scale = self.__dict__.get("_reading_scale")
+        if scale is None:
+            rd = np.asarray(self.readings, dtype=np.float64)
+            sd = rd.std(axis=0)
+            scale = 1.0 / np.maximum(sd, 1e-6 * max(float(sd.max()), 1e-300) + 1e-12)
+            self.__dict__["_reading_scale"] = scale
+        return scale
+
+    def index(self, backend: str = "kdtree", lags: Sequence[int] = (0,), standardise: bool = False) -> KNNIndex:
+        """The kNN index over the readings stacked at ``lags`` frames back (:func:`stacked_readings`), built once per (backend, lags, standardise).
+
+        ``standardise``: the readings times :attr:`reading_scale` (every
+        axis at unit spread); a query must be scaled the same way.
+        """
         cache = self.__dict__.setdefault("_indexes", {})
-        key = (backend, tuple(int(g) for g in lags))
+        key = (backend, tuple(int(g) for g in lags), bool(standardise))
         if key not in cache:
             data = self.readings if key[1] == (0,) else stacked_readings(self.readings, self.clip_ids, key[1])
+            if key[2]:
+                data = np.asarray(data, dtype=np.float64) * np.tile(self.reading_scale, len(key[1]))
             cache[key] = KNNIndex(data, backend=backend)
         return cache[key]
 
