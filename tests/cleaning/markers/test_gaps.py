@@ -93,14 +93,20 @@ def test_a_long_gap_in_a_short_take_is_still_validated(cmu):
     assert len(records) == 1 and np.isfinite(records[0].expected_error)
 
 
-def test_soft_constraints_touch_only_the_gaps_they_helped_on(cmu):
-    rng = np.random.default_rng(7)
-    y = cmu.copy()
-    mask = np.zeros(cmu.shape[:2], dtype=bool)
-    for k in rng.choice(cmu.shape[1], 8, replace=False):
-        a, n = int(rng.integers(100, 500)), int(rng.integers(5, 240))
+def _cut_gaps(x, seed, markers, starts, lengths):
+    """``x`` with one gap on each of ``markers`` random markers (start and length drawn from the ranges)."""
+    rng = np.random.default_rng(seed)
+    y = x.copy()
+    mask = np.zeros(x.shape[:2], dtype=bool)
+    for k in rng.choice(x.shape[1], markers, replace=False):
+        a, n = int(rng.integers(*starts)), int(rng.integers(*lengths))
         mask[a:a + n, k] = True
     y[mask] = np.nan
+    return y, mask
+
+
+def test_soft_constraints_touch_only_the_gaps_they_helped_on(cmu):
+    y, mask = _cut_gaps(cmu, 7, 8, (100, 500), (5, 240))
     con, records = fill_gaps(y)
     free, _ = fill_gaps(y, constrain=False)
     flags = {r.constrained for r in records}
@@ -113,13 +119,7 @@ def test_soft_constraints_touch_only_the_gaps_they_helped_on(cmu):
 
 def test_regression_models_help_on_long_gaps_of_a_real_capture(cmu):
     # 1.5-2.5 s gaps on four markers at once, in the capture's varied second half.
-    rng = np.random.default_rng(11)
-    y = cmu.copy()
-    mask = np.zeros(cmu.shape[:2], dtype=bool)
-    for k in rng.choice(cmu.shape[1], 4, replace=False):
-        a, n = int(rng.integers(300, 450)), int(rng.integers(180, 300))
-        mask[a:a + n, k] = True
-    y[mask] = np.nan
+    y, mask = _cut_gaps(cmu, 11, 4, (300, 450), (180, 300))
     with_regression, _ = fill_gaps(y, constrain=False)
     without, _ = fill_gaps(y, constrain=False, predictors=0)
     assert _err(with_regression, cmu, mask) < 0.9 * _err(without, cmu, mask)
