@@ -42,6 +42,7 @@ Positions are (F, M, 3), frames first, NaN for unseen samples.
 
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass
 
 import numpy as np
@@ -248,12 +249,9 @@ def _constancy(p: np.ndarray, a: int, b: int, nbrs: tuple[list[int], list[int]],
     total = 0.0
     for k, ns in zip((a, b), nbrs):
         d = np.linalg.norm(p[:, [k]] - p[:, ns], axis=-1)
-        with np.errstate(all="ignore"):
-            import warnings
-
-            with warnings.catch_warnings():
-                warnings.simplefilter("ignore", RuntimeWarning)
-                dev = np.nanmean(np.abs(d - np.nanmedian(d, axis=0)), axis=0)
+        with np.errstate(all="ignore"), warnings.catch_warnings():
+            warnings.simplefilter("ignore", RuntimeWarning)  # a neighbour unseen throughout: all-NaN columns
+            dev = np.nanmean(np.abs(d - np.nanmedian(d, axis=0)), axis=0)
         total += float(np.nansum(dev / scale[k, ns]))
     return total
 
