@@ -297,6 +297,24 @@ def test_training_is_deterministic_and_resumable(tmp_path, walk):
     assert c.meta["history"][0]["train_rmse"] != ha[0]["train_rmse"]  # a changed config restarts
 
 
+def test_ebd_forward_at_equals_forward_on_the_gathered_windows(walk, tiny_ebd):
+    """Encoding each frame once and gathering the codes is the EBD run on each window (the slow oracle),
+    at the take's ends (clamped windows) and inside it."""
+    net = tiny_ebd.net.double().eval()
+    x, ctx = ch.encode(walk, tiny_ebd.layout)
+    rng = np.random.default_rng(5)
+    mask = (rng.random(x.shape) < 0.2).astype(np.float64)
+    X, MK, C = (torch.as_tensor(a, dtype=torch.float64) for a in (x, mask, ctx))
+    centres = torch.as_tensor(np.r_[0, 1, 3, 40, 41, 42, 200, len(x) - 2, len(x) - 1])
+    idx = nw.window_indices(centres, len(X), net.half, net.stride)
+    with torch.no_grad():
+        slow = net(X[idx], MK[idx], C[idx])
+        fast = net.forward_at(X, MK, C, centres)
+    tiny_ebd.net.float()
+    assert fast.shape == (len(centres), x.shape[1])
+    assert torch.allclose(fast, slow, rtol=0, atol=1e-12)
+
+
 def test_lookahead_backward_equals_nn_lstm_on_every_window():
     """The batched backward pass is the nn.LSTM cell run on each window x[t + L] .. x[t] (the slow oracle)."""
     torch.manual_seed(3)

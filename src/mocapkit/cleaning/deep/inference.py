@@ -46,7 +46,6 @@ from .networks import (
     gaussian_filter_frames,
     noise_level_observed,
     noise_level_step,
-    window_indices,
 )
 
 __all__ = [
@@ -389,8 +388,8 @@ def run_ebd(net: EBD, filled: np.ndarray, mask: np.ndarray, ctx: np.ndarray, fra
     c = torch.as_tensor(ctx, dtype=torch.float32)
     out = np.empty((len(frames), net.channels))
     for s in range(0, len(frames), batch):
-        idx = window_indices(torch.as_tensor(frames[s : s + batch]), len(x), net.half, net.stride)
-        out[s : s + len(idx)] = net(x[idx], mk[idx], c[idx]).double().numpy()
+        centres = torch.as_tensor(frames[s : s + batch])
+        out[s : s + len(centres)] = net.forward_at(x, mk, c, centres).double().numpy()
     return out
 
 

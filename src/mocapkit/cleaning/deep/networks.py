@@ -463,6 +463,23 @@ class EBD(_Normalised):
         corr = self.decoder(y[:, self.half])
         return (xn[:, self.half] + corr) * self.std + self.mean
 
+    def forward_at(self, x: torch.Tensor, mask: torch.Tensor, ctx: torch.Tensor, centres: torch.Tensor) -> torch.Tensor:
+        """:meth:`forward` on the windows around ``centres`` (N,) of whole tracks -> (N, C), each frame encoded once.
+
+        ``x`` (F, C) lerp-filled raw channels, ``mask`` (F, C) float, ``ctx``
+        (F, 3). The encoder sees one frame at a time, so the windows of
+        neighbouring centres, which share most of their frames (a gap of n
+        frames asks for n windows of 31), share those frames' codes: the
+        encoder runs once per distinct frame instead of 31 times per centre,
+        and only the LSTM and decoder run per window.
+        """
+        idx = window_indices(centres, len(x), self.half, self.stride)
+        used, inv = torch.unique(idx, return_inverse=True)
+        e = self.encoder(torch.cat([self.normalise(x[used]), mask[used], self.normalise_context(ctx[used])], dim=-1))
+        y, _ = self.lstm(self.drop(e[inv]))
+        corr = self.decoder(y[:, self.half])
+        return (self.normalise(x[idx[:, self.half]]) + corr) * self.std + self.mean
+
 
 def window_indices(centres: torch.Tensor, length: int, half: int = HALF_WINDOW, stride: int = 4) -> torch.Tensor:
     """(N, 2 half + 1) frame indices centres + stride k, k in [-half, half], clamped to [0, length)."""
