@@ -283,7 +283,7 @@ def _run_ebf(
     x = torch.as_tensor(xp, dtype=torch.float32)[None]
     c = torch.as_tensor(cp, dtype=torch.float32)[None]
     nz = None if noise is None else torch.as_tensor(noise, dtype=torch.float32)[None]
-    y2 = net._trunk(x, c, nz)[:, HALF_WINDOW:]  # (1, F, 2H)
+    y2 = net.trunk(x, c, nz)[:, HALF_WINDOW:]  # (1, F, 2H)
     F = y2.shape[1]
     x32 = x[0].numpy()
     out = np.empty((F, net.channels))

@@ -403,17 +403,20 @@ class EBF(_Normalised):
         """Predicted Gaussian sigmas (B, T - 30, C) in frames (Gaussian head only)."""
         if self.head_kind != "gaussian":
             raise ValueError("sigma() needs the Gaussian head")
-        y2 = self._trunk(x, ctx)[:, HALF_WINDOW:]
+        y2 = self.trunk(x, ctx)[:, HALF_WINDOW:]
         return torch.exp(self.head(y2)[..., : self.channels].clamp(*LOG_SIGMA_RANGE))
 
-    def _trunk(self, x: torch.Tensor, ctx: torch.Tensor, noise: torch.Tensor | None = None) -> torch.Tensor:
+    def trunk(self, x: torch.Tensor, ctx: torch.Tensor, noise: torch.Tensor | None = None) -> torch.Tensor:
+        """The encoder and both look-ahead LSTM layers: (B, T, C) channels, (B, T, 3) context -> (B, T - 15, 2 H)
+        features of positions [0, T - 15), the input the filter head reads (``noise``: the noise-level input,
+        else the network's own)."""
         e = self.drop(self.encode(x, ctx, noise))
         y1, _ = self.lstm1(e)
         y2, _ = self.lstm2(self.drop(y1))
         return y2  # positions [0, T - 15)
 
     def forward(self, x: torch.Tensor, ctx: torch.Tensor) -> torch.Tensor:
-        y2 = self._trunk(x, ctx)[:, HALF_WINDOW:]  # positions [15, T - 15)
+        y2 = self.trunk(x, ctx)[:, HALF_WINDOW:]  # positions [15, T - 15)
         taps, b = self.head_outputs(y2)
         out = apply_filter(x, taps)
         return out - b if b is not None else out
