@@ -20,11 +20,30 @@ how the networks generalise (``deep_denoise`` and ``deep_gapfill`` do that on he
 * ``fill_*``: the same gaps (``corrupt.gaps`` defaults) in both spellings, filled by EBD + EBF:
   RMS on the filled cells (target ratio <= 1.02).
 
+Rigs on another rest pose or with fewer joints (``served_by`` retargets them, module docstring of
+``cleaning.deep.retarget``), each against the fallback it got before (Savitzky-Golay, 0.1 s, quadratic:
+the baseline, same run), 0.5 noise on the rig's own channels, ``--seeds`` draws:
+
+* ``retarget_3dsmax_body``: the CMU 3dsMax-friendly BVH takes (``cmu_bvh/131_0*.bvh``, arms hanging
+  down at rest, 10 bones retargeted), RMS over every joint but the thumbs; ``retarget_3dsmax_thumbs``
+  the thumbs alone (their rest twist is not the Acclaim one, and the takes' thumbs flip by 150 deg
+  within a frame, which any filter smears);
+* ``retarget_mixamo``: CMU 01_01's BVH under Mixamo's names (no middle spine, no palms: held at the
+  model's means; the spine's lower two segments read as one), the noise on the joints a Mixamo rig
+  has, against the same noisy take through the MotionBuilder-release map (the ratio to that, target
+  <= 1.1) and the fallback (in ``details``);
+* ``retarget_pybvh``: another project's clip (VictorS-67/pybvh, HumanIK names, Z up: its body frame
+  turned; no hands below the wrist), 30 fps;
+* ``retarget_bandai``: Bandai Namco takes through the Acclaim networks' joint map (``--model
+  ebf.pt``; body frame turned, 27 bones retargeted, 8 joints held), beside the rig's own EBF
+  (``details``), every 400th take of the set when it is unpacked (``benchmarks/_bandai.py``).
+
 ``details.rigs`` lists the decision of ``served_by`` for every BVH and ASF rig in ``../shared/data``.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import sys
 import time
 from pathlib import Path
@@ -38,7 +57,7 @@ sys.path.insert(0, str(REPO / "benchmarks"))
 import _harness as harness  # noqa: E402
 
 import mocapkit  # noqa: E402
-from mocapkit import corrupt  # noqa: E402
+from mocapkit import corrupt, rigs  # noqa: E402
 from mocapkit import rotations as R  # noqa: E402
 from mocapkit.cleaning import deep  # noqa: E402
 from mocapkit.cleaning.deep import channels as ch  # noqa: E402
@@ -56,6 +75,71 @@ def rms(ref: Motion, m: Motion, cells=None) -> float:
 
 def spelled(bvh: Motion, like: Motion) -> Motion:
     return Motion(bvh.skeleton, like.rotations, bvh.root_positions, bvh.fps, bvh.name)
+
+
+def mixamo_spelling(bvh: Motion) -> Motion:
+    """A MotionBuilder-release CMU BVH under Mixamo's names (tests/cleaning/test_retarget.py does the same)."""
+    hik = {"LFingers": "LeftHandIndex1", "RFingers": "RightHandIndex1", "LThumb": "LeftHandThumb1",
+           "RThumb": "RightHandThumb1"}
+    sk = bvh.skeleton
+    names = tuple("mixamorig:" + hik.get(n, n) for n in sk.joint_names)
+    mix = dataclasses.replace(sk, joint_names=names)
+    return dataclasses.replace(bvh, skeleton=mix)
+
+
+def retargeted(ebf, seeds: int) -> tuple[dict, dict, dict]:
+    """The retargeted rigs' figures, baselines and details (module docstring)."""
+    rows: dict[str, list] = {}
+
+    def add(key, value):
+        rows.setdefault(key, []).append(value)
+
+    def versus_fallback(name, take, cells=None, model=None, joints=None):
+        for seed in range(seeds):
+            noisy, _ = corrupt.angular_noise(take, 0.5, seed=seed, joints=joints)
+            add(f"{name}_input", rms(take, noisy, cells))
+            add(name, rms(take, deep.denoise(noisy, model), cells))
+            add(f"{name}_fallback", rms(take, savgol_smooth(noisy, window_s=0.1, polyorder=2, root=False), cells))
+
+    three = [mocapkit.load(p) for p in sorted((DATA / "cmu_bvh").glob("131_0*.bvh"))]
+    for take in three:
+        thumbs = np.zeros((take.num_frames, take.num_joints), dtype=bool)
+        thumbs[:, [take.skeleton.index(n) for n in ("LThumb", "RThumb")]] = True
+        versus_fallback("retarget_3dsmax_body", take, ~thumbs)
+        versus_fallback("retarget_3dsmax_thumbs", take, thumbs)
+    bvh = mocapkit.load(DATA / "cmu_bvh" / "01_01.bvh")[1:]
+    mix = mixamo_spelling(bvh)
+    own = sorted(rigs.roles(mix.skeleton).values())  # the joints a Mixamo rig has (not LowerBack, LHipJoint ...)
+    names = [mix.skeleton.joint_names[j] for j in own if j > 0]
+    versus_fallback("retarget_mixamo", mix, joints=names)
+    for seed in range(seeds):
+        noisy, _ = corrupt.angular_noise(mix, 0.5, seed=seed, joints=names)
+        add("retarget_mixamo_mb", rms(bvh, deep.denoise(dataclasses.replace(noisy, skeleton=bvh.skeleton))))
+    versus_fallback("retarget_pybvh", mocapkit.load(REPO / "tests" / "data" / "pybvh_test1_zup.bvh"))
+    from _bandai import bandai_takes
+
+    try:
+        bandai = [mocapkit.load(t.path) for t in bandai_takes()[::400]]
+    except (FileNotFoundError, SystemExit):
+        bandai = []
+    for take in bandai:
+        versus_fallback("retarget_bandai", take, model=ebf)
+        for seed in range(seeds):
+            noisy, _ = corrupt.angular_noise(take, 0.5, seed=seed)
+            add("retarget_bandai_own", rms(take, deep.denoise(noisy)))
+    mean = {k: float(np.mean(v)) for k, v in rows.items()}
+    names = ["retarget_3dsmax_body", "retarget_3dsmax_thumbs", "retarget_mixamo", "retarget_pybvh"]
+    names += ["retarget_bandai"] if bandai else []
+    figures = {n: mean[n] for n in names}
+    baselines = {n: mean[f"{n}_fallback"] for n in names}
+    baselines["retarget_mixamo"] = mean["retarget_mixamo_mb"]
+    details = {"retarget_means": mean, "retarget_takes": {
+        "3dsmax": [t.name for t in three], "mixamo": "CMU 01_01 (BVH) renamed", "pybvh": "pybvh_test1_zup",
+        "bandai": [t.name for t in bandai]},
+        "retarget_serving": {"3dsmax": deep.served_by(three[0], ebf).describe(),
+                             "mixamo": deep.served_by(mix, ebf).describe(),
+                             "bandai": deep.served_by(bandai[0], ebf).describe() if bandai else None}}
+    return figures, baselines, details
 
 
 def rig_decisions(ebf) -> dict:
@@ -114,12 +198,20 @@ def main() -> None:
         "own_noise_bvh": {"value": 1.0, "op": "<=", "of": "ratios"},
         "fill_bvh": {"value": 1.02, "op": "<=", "of": "ratios"},
     }
+    r_fig, r_base, r_det = retargeted(ebf, args.seeds)
+    figures.update(r_fig)
+    baselines.update(r_base)
+    targets.update({n: {"value": 1.0, "op": "<=", "of": "ratios"} for n in r_fig if n != "retarget_mixamo"})
+    targets["retarget_mixamo"] = {"value": 1.1, "op": "<=", "of": "ratios"}
     details = {
+        **r_det,
         "take": "CMU 01_01 (training take of the shipped models)", "frames": n, "seeds": args.seeds,
         "serving": serving.describe(), "per_seed": rows, "seconds": round(time.perf_counter() - t0, 1),
         "baselines_are": {"same_noise_bvh": "the ASF spelling, same noisy rotations",
                           "own_noise_bvh": "Savitzky-Golay 0.1 s (the fallback)",
-                          "fill_bvh": "the ASF spelling, same gaps"},
+                          "fill_bvh": "the ASF spelling, same gaps",
+                          "retarget_*": "Savitzky-Golay 0.1 s (the fallback those rigs got before)",
+                          "retarget_mixamo": "the same noisy take through the MotionBuilder-release map"},
         "rigs": rig_decisions(ebf),
     }
     harness.emit("deep_rigs", args, figures=figures, baselines=baselines, targets=targets, details=details)

@@ -14,6 +14,7 @@ from mocapkit import rotations as R
 from mocapkit.cleaning import gapfill
 from mocapkit.cleaning.pipeline import CleanResult, clean, clean_path, noise_direction, noise_level, noisy_cells
 from mocapkit.errors import MocapError, MocapFormatError
+from tests.shared import unknown_rig
 
 
 def _mixed(m, seed=0):
@@ -126,17 +127,39 @@ def test_clean_take_is_left_alone(walk):
     assert np.array_equal(res.motion.rotations[~res.denoised], walk[:120].rotations[~res.denoised])
 
 
-def test_another_rig_falls_back_with_notes():
-    m = mocapkit.load(samples.path("131_01.bvh"))[:240]
+def test_another_rig_falls_back_with_notes(tmp_path):
+    m = unknown_rig(tmp_path / "odd.bvh")  # a real take on a rig of no known family
     gappy, gap = corrupt.gaps(m, seed=4, start_prob=0.02)
-    noisy, _ = corrupt.angular_noise(gappy, amount=0.5, seed=5, joints=["LeftHip"])
+    noisy, _ = corrupt.angular_noise(gappy, amount=0.5, seed=5, joints=["bone16"])
     res = clean(noisy, steps=("fill", "denoise"))
     by = {s.name: s for s in res.steps}
     assert by["fill"].method == "cubic spline" and "does not serve this rig" in by["fill"].note
     assert by["denoise"].method.startswith("Savitzky-Golay") and "does not serve this rig" in by["denoise"].note
     assert len(res.notes) == 2
     assert not res.motion.missing().any() and np.array_equal(res.filled, noisy.missing())
-    assert res.denoised[:, m.skeleton.index("LeftHip")].mean() > 0.8
+    assert res.denoised[:, m.skeleton.index("bone16")].mean() > 0.5  # most of a 2.5 s take's noisy joint
+    untouched = ~res.changed
+    assert np.array_equal(res.motion.rotations[untouched], noisy.rotations[untouched])
+
+
+def test_a_retargeted_rig_gets_the_networks():
+    """The CMU 3dsMax-friendly conversion (arms down at rest): the Acclaim networks through the joint map."""
+    m = mocapkit.load(samples.path("131_01.bvh"))[:240]
+    gappy, gap = corrupt.gaps(m, seed=4, start_prob=0.02)
+    noisy, _ = corrupt.angular_noise(gappy, amount=0.5, seed=5, joints=["LeftHip"])
+    res = clean(noisy, steps=("fill", "denoise"))
+    by = {s.name: s for s in res.steps}
+    assert by["fill"].method == "EBD (shipped, via the cmu_bvh_3dsmax joint map) + EBF" and not by["fill"].note
+    assert by["denoise"].method == "EBF (shipped, via the cmu_bvh_3dsmax joint map)" and not res.notes
+    assert not res.motion.missing().any() and np.array_equal(res.filled, noisy.missing())
+    hip = m.skeleton.index("LeftHip")
+    assert res.denoised[:, hip].mean() > 0.8
+    seen = ~noisy.missing()[:, hip]
+
+    def rms(x):
+        return np.sqrt(np.mean(np.degrees(R.geodesic_angle(x.rotations[seen, hip], m.rotations[seen, hip])) ** 2))
+
+    assert rms(res.motion) < 0.5 * rms(noisy)
     untouched = ~res.changed
     assert np.array_equal(res.motion.rotations[untouched], noisy.rotations[untouched])
 

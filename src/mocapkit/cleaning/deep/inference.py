@@ -153,20 +153,26 @@ def shipped_model(kind: str = "ebf", take=None) -> DeepModel:
 
     Without ``take`` (a Motion or Skeleton): the Acclaim-rig model (``ebf.pt``
     / ``ebd.pt``). With it: the first shipped model of ``kind`` that
-    :func:`served_by` says serves the take (the Acclaim one, directly or
-    through its joint map, then each rig family's own model in
-    :data:`SHIPPED_FOR_RIG`, e.g. ``ebf_bandai.pt`` for the Bandai Namco game
-    rig); the Acclaim one when none does, so the fallback's reason is its.
+    :func:`served_by` says serves the take on its own channels (the Acclaim
+    one, then each rig family's own model in :data:`SHIPPED_FOR_RIG`, e.g.
+    ``ebf_bandai.pt`` for the Bandai Namco game rig), else the first that
+    serves it through a joint map (the Acclaim one: the CMU BVH
+    conversions, HumanIK and Mixamo rigs); the Acclaim one when none does,
+    so the fallback's reason is its.
     """
     if kind not in SHIPPED:
         raise ValueError(f"kind must be one of {tuple(SHIPPED)}, got {kind!r}")
     first = _packaged(SHIPPED[kind])
-    if take is None or not isinstance(served_by(take, first), str):
+    if take is None:
         return first
-    for files in SHIPPED_FOR_RIG.values():
-        other = _packaged(files[kind])
-        if not isinstance(served_by(take, other), str):
-            return other
+    models = [first] + [_packaged(files[kind]) for files in SHIPPED_FOR_RIG.values()]
+    served = [served_by(take, m) for m in models]
+    for m, s in zip(models, served):
+        if not isinstance(s, str) and s.direct:
+            return m
+    for m, s in zip(models, served):
+        if not isinstance(s, str):
+            return m
     return first
 
 
@@ -473,7 +479,17 @@ def denoise(motion: Motion, model=None, cells: np.ndarray | None = None) -> Moti
     if sv.direct:
         return decode_served(np.nan_to_num(out), motion, sv, keep=keep)
     out = np.where(np.isnan(out), values, out)  # a NaN channel (a missing joint on a mapped chain) stays as it is
-    return decode_served(np.nan_to_num(out), motion, sv, keep=keep, residual=_residual_filter(motion.fps))
+    res = decode_served(np.nan_to_num(out), motion, sv, keep=keep, residual=_residual_filter(motion.fps))
+    if not sv.held:
+        return res
+    # the rig's joints the network reads at its means (it never saw them move) get the fallback's filter
+    from ..filters import savgol_smooth
+
+    held = np.zeros(keep.shape, dtype=bool)
+    held[:, list(sv.held)] = True
+    held &= ~keep
+    smooth = savgol_smooth(motion, window_s=0.1, polyorder=2, joints=list(sv.held), root=False)
+    return dataclasses.replace(res, rotations=np.where(held[..., None], smooth.rotations, res.rotations))
 
 
 def _residual_filter(fps: float):

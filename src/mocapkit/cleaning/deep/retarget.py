@@ -11,22 +11,42 @@ freedom in a per-bone ``axis`` frame.
 :func:`served_by` is the one rule: a take is served **directly** when it has
 the model's channels (any ASF/AMC of that skeleton); **through a joint map**
 when its rig family (:mod:`mocapkit.rigs`) plays every role the model's
-joints play, with the same tree, and its rest pose is the Acclaim one (every
-mapped bone within :data:`SAME_REST_DEG` of the Acclaim direction, Y up:
-a subject's calibration moves bones by a few degrees, another rest
-convention, such as the 3dsMax release's arms hanging down, by 90);
-otherwise not at all, with the reason in words. Through a joint map,
-:func:`encode` gives the model what an ASF take of the same pose gives it and
-:func:`decode` maps the model's output back onto the take's joints:
+joints play but a few it can do without (:data:`OPTIONAL_ROLES`: the upper
+neck, the middle spine, palms, fingers, thumbs and toes, which HumanIK,
+Mixamo and game rigs often lack), with the same tree, Y up; otherwise not
+at all, with the reason in words. Through a joint map, :func:`encode` gives
+the model what an ASF take of the same pose gives it and :func:`decode`
+maps the model's output back onto the take's joints:
 
 1. the rotation from a mapped joint's model parent to the joint is the
-   product of the take's local rotations along the chain between them
+   product ``L`` of the take's local rotations along the chain between them
    (joints the model does not know, e.g. ``LHipJoint``, stay in the chain);
-2. ``M = C^-1 L C`` with ``C`` the Acclaim ``axis`` of the joint
+2. a rig whose rest pose is not the Acclaim one (a bone further than
+   :data:`SAME_REST_DEG` from the Acclaim direction: the 3dsMax release's
+   arms hang down, an A-pose rig holds them at 45 deg; a subject's own
+   calibration moves bones by a few degrees and is left as it is) is
+   **retargeted**: each such bone gets the constant rotation ``A`` that
+   turns the Acclaim rest bone onto the rig's (the shortest arc), and the
+   rotation the model reads is ``A_parent^-1 L A``: the same pose on the
+   Acclaim rest skeleton (the bone's world direction is kept; its twist
+   about the bone is the shortest arc's);
+3. ``M = C^-1 L C`` with ``C`` the Acclaim ``axis`` of the joint
    (:data:`ACCLAIM_AXES`, the same in every CMU and HDM05 ASF), and the
    degrees of freedom are ``M``'s Euler angles in the model's channel order,
-   as :meth:`Motion.channel_values` reads an AMC;
-3. back: the model's new angles replace the degrees of freedom and the
+   as :meth:`Motion.channel_values` reads an AMC. A spine or neck segment
+   the rig lacks (a three-segment spine has no middle one, many rigs no
+   upper neck) takes half of the turn between the mapped joints around it
+   and the one below it the other half (``L = h h``); on the way back the
+   two new halves make the new turn. Any other joint the rig lacks (palms,
+   fingers, thumbs, toes) is shown to the network at its training mean,
+   and its output is dropped; so is a joint whose channels never moved in
+   the training takes (their spread at the normalisation floor, 1 deg: the
+   Acclaim fingers, fixed at 7.125 deg in every CMU and HDM05 take), which
+   the rig's joint keeps as it is (denoising smooths it with the
+   fallback's filter): a HumanIK index finger bends, which the network
+   never saw, and a channel tens of spreads from anything it learnt
+   disturbs every channel it filters;
+4. back: the model's new angles replace the degrees of freedom and the
    part of ``M`` they do not span (the other axes of a one- or two-dof
    joint) is kept, or smoothed by a function the caller gives, so a
    rotation the network leaves unchanged comes back as it was. Cells whose
@@ -53,7 +73,7 @@ from ...motion import Motion, Skeleton
 from .channels import ChannelLayout, encode as encode_direct, decode as decode_direct, layout_for
 from .channels import root_angular_velocity, unwrap_degrees
 
-__all__ = ["ACCLAIM_AXES", "SAME_REST_DEG", "Serving", "served_by", "encode", "decode"]
+__all__ = ["ACCLAIM_AXES", "SAME_REST_DEG", "OPTIONAL_ROLES", "Serving", "served_by", "encode", "decode"]
 
 #: The Acclaim ``axis`` (degrees, order ``XYZ``, extrinsic) of each joint of the CMU/HDM05 ASF skeleton; every
 #: ASF of both databases has these (up to 1e-13 degrees).
@@ -81,8 +101,18 @@ _ACCLAIM_BONES: dict[str, tuple[float, float, float]] = {
     "rhand": (-1, 0, 0), "rfingers": (-1, 0, 0), "rthumb": (-0.71, 0, 0.71),
 }
 
-#: A take's rest bone within this angle (degrees) of the Acclaim one counts as the same rest pose.
+#: A take's rest bone within this angle (degrees) of the Acclaim one counts as the same rest pose; further, the
+#: bone is retargeted (module docstring, step 2).
 SAME_REST_DEG = 30.0
+
+#: Roles of model joints a rig may lack and still be served (module docstring, step 3): their absence leaves the
+#: chains above and below them whole.
+# the lacking joints between two mapped ones that take half of the turn between them (module docstring, step 3);
+# a lacking palm does not: below it a Mixamo hand has a finger's own bend, which the Acclaim fingers never make
+_SPLIT_ROLES = frozenset({"spine_mid", "neck_upper"})
+
+OPTIONAL_ROLES = frozenset({"spine_mid", "neck_upper", "left_palm", "right_palm", "left_fingers", "right_fingers",
+                            "left_thumb", "right_thumb", "left_toe", "right_toe"})
 
 # the child role whose direction is a joint's bone (the role tree's main chain)
 _BONE_CHILD = {"pelvis": "spine", "spine": "spine_mid", "spine_mid": "chest", "chest": "neck", "neck": "neck_upper",
@@ -98,12 +128,21 @@ class Serving:
     """How a model serves a take (from :func:`served_by`; arrays over the model's joints, layout order).
 
     ``direct``: the take has the model's channels and no mapping is needed.
-    Otherwise ``joints[k]`` is the take joint playing model joint ``k``;
-    ``chains[k]`` the take joints whose local rotations make the rotation
-    from model joint ``parent[k]`` (-1: the pelvis) to ``k``, top down, ending
-    with ``joints[k]``; ``pelvis_chain`` the take joints from the root to the
-    pelvis; ``orders[k]`` the intrinsic Euler order of the model's channels;
-    ``axes`` (n, 4) the Acclaim axis frames.
+    Otherwise ``joints[k]`` is the take joint playing model joint ``k`` (-1:
+    the rig lacks it, see :data:`OPTIONAL_ROLES`); ``chains[k]`` the take
+    joints whose local rotations make the rotation from model joint
+    ``parent[k]`` (-1: the pelvis) to ``k``, top down, ending with
+    ``joints[k]`` (empty for a lacking joint); ``pelvis_chain`` the take
+    joints from the root to the pelvis; ``orders[k]`` the intrinsic Euler
+    order of the model's channels; ``axes`` (n, 4) the Acclaim axis frames;
+    ``rest`` (n, 4) each joint's retargeting rotation ``A`` (identity where
+    the rest bones agree); ``body`` (4,) the pelvis' (the rest body frame's
+    turn, identity on a Y-up rig); ``shares[k]`` the lacking model joint
+    between joint ``k`` and its mapped parent whose turn ``k``'s chain
+    carries (-1: none); ``held`` the rig's joints that play a model joint
+    the network never saw move (read at its means, left to the fallback's
+    filter when denoising); ``filler`` (C,) the channel values a lacking joint
+    is shown as (the model's training means, degrees).
     """
 
     model: object
@@ -115,6 +154,24 @@ class Serving:
     pelvis_chain: tuple[int, ...] = ()
     orders: tuple[str, ...] = ()
     axes: np.ndarray | None = None
+    rest: np.ndarray | None = None
+    filler: np.ndarray | None = None
+    body: np.ndarray | None = None
+    shares: tuple[int, ...] = ()
+    held: tuple[int, ...] = ()
+
+    @property
+    def retargeted(self) -> tuple[int, ...]:
+        """Indices of the model joints whose rest bone the rig holds otherwise (retargeted, step 2)."""
+        if self.rest is None:
+            return ()
+        return tuple(int(k) for k in np.flatnonzero(np.abs(self.rest[:, 0]) < 1.0))
+
+    @property
+    def lacking(self) -> tuple[int, ...]:
+        """Indices of the model joints the network reads at its training means: those the rig does not have, and
+        those that never moved in the training takes (module docstring, step 3)."""
+        return tuple(k for k, j in enumerate(self.joints) if j < 0)
 
     @property
     def layout(self) -> ChannelLayout:
@@ -124,7 +181,10 @@ class Serving:
         """How the take is served, in words (for notes and messages)."""
         if self.direct:
             return "its own channels"
-        return f"a joint map from the {self.family} rig onto the Acclaim skeleton"
+        how = f"a joint map from the {self.family} rig onto the Acclaim skeleton"
+        extra = [f"{len(self.retargeted)} bones retargeted from its rest pose"] if self.retargeted else []
+        extra += [f"{len(self.lacking)} joints held at the model's means"] if self.lacking else []
+        return how + (f" ({'; '.join(extra)})" if extra else "")
 
 
 def _acclaim_role(name: str) -> str | None:
@@ -163,29 +223,83 @@ def _angle_deg(a: np.ndarray, b: np.ndarray) -> float:
     return float(np.degrees(np.arccos(np.clip(np.dot(a, b), -1.0, 1.0))))
 
 
-def _rest_differences(sk: Skeleton, found: dict[str, int], names, model_roles) -> list[tuple[str, float]]:
-    """(take joint, degrees) for every mapped bone (and the up axis) further than SAME_REST_DEG from Acclaim's."""
+def _rest_bone(sk: Skeleton, rest: np.ndarray, found: dict[str, int], role: str, j: int) -> np.ndarray | None:
+    """Unit rest direction of joint ``j``'s bone (``rest``: the rig's rest positions with end sites): towards
+    the first joint down the role's main chain that the rig has and that lies apart from ``j`` (a lacking palm,
+    or one at the wrist, passes to the fingers), else its first child or end site apart from it; None if none."""
+    tips = []
+    child = _BONE_CHILD.get(role)
+    while child is not None:
+        if child in found:
+            tips.append(found[child])
+        child = _BONE_CHILD.get(child)
+    tips += list(sk.children(j)) + [sk.num_joints + int(e) for e in np.flatnonzero(sk.end_site_parents == j)]
+    for tip in tips:
+        bone = _unit(rest[tip] - rest[j])
+        if bone is not None:
+            return bone
+    return None
+
+
+def _shortest_arc(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """The unit quaternion (w first) of the smallest rotation taking unit vector ``a`` onto unit vector ``b``."""
+    c = float(np.dot(a, b))
+    if c < -1.0 + 1e-9:  # opposite: half a turn about any axis perpendicular to a
+        axis = np.cross(a, [1.0, 0.0, 0.0] if abs(a[0]) < 0.9 else [0.0, 1.0, 0.0])
+        return np.r_[0.0, axis / np.linalg.norm(axis)]
+    q = np.r_[1.0 + c, np.cross(a, b)]
+    return q / np.linalg.norm(q)
+
+
+def _body_frame(sk: Skeleton, found: dict[str, int]) -> np.ndarray:
+    """The unit quaternion ``B`` turning the Acclaim rest body frame (X to the subject's left, Y up, Z forward)
+    onto the rig's (up: pelvis to head; left: right thigh to left thigh, square to up); identity when the two lie
+    within SAME_REST_DEG (a Y-up rig), or the rig gives no frame."""
     rest = sk.rest_positions(end_sites=True)
-    out = []
     up = _unit(rest[found["head"]] - rest[found["pelvis"]])
-    if up is not None and _angle_deg(up, np.array([0.0, 1.0, 0.0])) >= SAME_REST_DEG:
-        out.append(("the up axis (pelvis to head)", _angle_deg(up, np.array([0.0, 1.0, 0.0]))))
-    for name, role in zip(names, model_roles):
-        j = found[role]
-        child = _BONE_CHILD.get(role)
-        tip = found.get(child) if child else None
-        if tip is None:  # a leaf of the role tree: its first child or end site
-            kids = sk.children(j)
-            ends = np.flatnonzero(sk.end_site_parents == j)
-            tip = kids[0] if kids else (sk.num_joints + int(ends[0]) if len(ends) else None)
-        bone = None if tip is None else _unit(rest[tip] - rest[j])
-        if bone is None:  # a zero-length bone has no direction to compare
-            continue
-        want = np.asarray(_ACCLAIM_BONES[name], dtype=np.float64)
-        d = _angle_deg(want / np.linalg.norm(want), bone)
-        if d >= SAME_REST_DEG:
-            out.append((sk.joint_names[j], d))
-    return out
+    side = rest[found["left_thigh"]] - rest[found["right_thigh"]]
+    if up is None:
+        return np.array([1.0, 0.0, 0.0, 0.0])
+    left = _unit(side - np.dot(side, up) * up)
+    if left is None:
+        return np.array([1.0, 0.0, 0.0, 0.0])
+    frame = np.stack([left, up, np.cross(left, up)], axis=1)  # columns: the images of Acclaim's X, Y, Z
+    b = R.matrix_to_quaternion(frame)
+    return b if np.degrees(2.0 * np.arccos(min(1.0, abs(float(b[0]))))) >= SAME_REST_DEG else np.array([1.0, 0.0, 0.0, 0.0])
+
+
+def _rest_alignment(sk: Skeleton, found: dict[str, int], names, model_roles, parent) -> tuple[np.ndarray, np.ndarray]:
+    """``(A (n, 4), B (4,))``: each model joint's retargeting rotation and the body frame's (:func:`_body_frame`).
+
+    A joint inherits its model parent's ``A`` (the pelvis' is ``B``), so a
+    chain turned at its top stays turned below it with the same twist; where
+    the inherited turn leaves the Acclaim rest bone SAME_REST_DEG or more from
+    the rig's (arms hanging down, an A pose), the shortest arc ``S`` between
+    the two is added: ``A = S A_parent``. A joint the rig lacks, or one with
+    no bone to compare, keeps its parent's.
+    """
+    rest = sk.rest_positions(end_sites=True)
+    body = _body_frame(sk, found)
+    A = np.empty((len(names), 4))
+    done = np.zeros(len(names), dtype=bool)
+
+    def align(k: int) -> np.ndarray:
+        if not done[k]:
+            up = body if parent[k] < 0 else align(parent[k])
+            A[k] = up
+            j = found.get(model_roles[k])
+            bone = None if j is None else _rest_bone(sk, rest, found, model_roles[k], j)
+            if bone is not None:
+                want = np.asarray(_ACCLAIM_BONES[names[k]], dtype=np.float64)
+                want = R.quaternion_rotate(up, want / np.linalg.norm(want))
+                if _angle_deg(want, bone) >= SAME_REST_DEG:
+                    A[k] = R.quaternion_multiply(_shortest_arc(want, bone), up)
+            done[k] = True
+        return A[k]
+
+    for k in range(len(names)):
+        align(k)
+    return A, body
 
 
 def served_by(motion_or_skeleton, model) -> Serving | str:
@@ -197,8 +311,11 @@ def served_by(motion_or_skeleton, model) -> Serving | str:
     also serves a take whose rig family (:func:`mocapkit.rigs.rig_family`)
     plays every role its joints play, each below the joint of its parent
     role, in the Acclaim rest pose (the CMU BVH conversions of the
-    MotionBuilder-friendly release). Anything else: a one-line reason naming
-    what is missing or different.
+    MotionBuilder-friendly release), or may lack a few of them
+    (:data:`OPTIONAL_ROLES`: HumanIK and Mixamo rigs), in the Acclaim rest
+    pose or retargeted from another (the 3dsMax-friendly release's arms hang
+    down; module docstring). Anything else: a one-line reason naming what is
+    missing or different.
     """
     sk = getattr(motion_or_skeleton, "skeleton", motion_or_skeleton)
     layout = model.layout
@@ -215,7 +332,7 @@ def served_by(motion_or_skeleton, model) -> Serving | str:
         return (f"{trained}, the Acclaim rig, and no joint map is known for this one, whose joints are "
                 f"{', '.join(sk.joint_names[:4])}, ...; train a model on this rig with `mocapkit train`")
     found = rigs.roles(sk)
-    lacking = [n for n, r in zip(layout.joints, model_roles) if r not in found]
+    lacking = [n for n, r in zip(layout.joints, model_roles) if r not in found and r not in OPTIONAL_ROLES]
     if lacking:
         return (f"{trained}, the Acclaim rig; this {family} rig has no joint for {len(lacking)} of its "
                 f"{len(layout.joints)} joints: {', '.join(lacking[:4])}{', ...' if len(lacking) > 4 else ''}; "
@@ -232,30 +349,45 @@ def _difference(layout: ChannelLayout, have: ChannelLayout) -> str:
 def _map(model, sk: Skeleton, family: str, found: dict[str, int], model_roles: list[str]) -> Serving | str:
     layout = model.layout
     pelvis = found["pelvis"]
-    index = {r: k for k, r in enumerate(model_roles)}
-    joints, parent, chains, orders = [], [], [], []
+    index = {r: k for k, r in enumerate(model_roles) if r in found}
+    joints, parent, chains, orders, held = [], [], [], [], []
     for k, (name, role) in enumerate(zip(layout.joints, model_roles)):
+        orders.append("".join(c.split(".")[1][0] for c in layout.names if c.split(".")[0] == name))
         up = rigs.PARENT_ROLE.get(role)
         while up is not None and up not in index and up != "pelvis":
             up = rigs.PARENT_ROLE.get(up)
+        parent.append(-1 if up in (None, "pelvis") else index[up])
+        if role not in found:  # an optional joint the rig lacks
+            joints.append(-1)
+            chains.append(())
+            continue
         top = found["pelvis"] if up in (None, "pelvis") else found[up]
         chain = _chain(sk, top, found[role])
         if chain is None:
             return (f"this {family} rig's joint {sk.joint_names[found[role]]} does not hang below "
                     f"{sk.joint_names[top]} as {name} does in the Acclaim rig; train a model on this rig with "
                     f"`mocapkit train`")
+        cols = [i for i, c in enumerate(layout.names) if c.split(".")[0] == name]
+        if np.all(np.asarray(model.net.std, dtype=np.float64)[cols] <= 1.0):  # never moved in training: held
+            joints.append(-1)
+            chains.append(())
+            held.append(found[role])
+            continue
         joints.append(found[role])
-        parent.append(-1 if up in (None, "pelvis") else index[up])
         chains.append(chain)
-        orders.append("".join(c.split(".")[1][0] for c in layout.names if c.split(".")[0] == name))
-    far = _rest_differences(sk, found, layout.joints, model_roles)
-    if far:
-        listed = ", ".join(f"{n} by {d:.0f} deg" for n, d in far[:3]) + (", ..." if len(far) > 3 else "")
-        return (f"the model was trained on the Acclaim rest pose and this {family} rig's rest pose differs: "
-                f"{listed}; train a model on this rig with `mocapkit train`")
+    rest, body = _rest_alignment(sk, found, layout.joints, model_roles, parent)
+    roles_index = {r: k for k, r in enumerate(model_roles)}
+    shares = []
+    for k, role in enumerate(model_roles):  # one lacking model joint right above a mapped one: it carries its turn
+        up = rigs.PARENT_ROLE.get(role)
+        while up is not None and up not in roles_index and up != "pelvis":
+            up = rigs.PARENT_ROLE.get(up)
+        m = roles_index.get(up, -1) if role in found and up in _SPLIT_ROLES else -1
+        shares.append(m if m >= 0 and joints[m] < 0 and m not in shares else -1)
     axes = np.stack([R.euler_to_quaternion(np.array(ACCLAIM_AXES[n], dtype=np.float64), "xyz") for n in layout.joints])
+    filler = np.asarray(model.net.mean, dtype=np.float64).reshape(-1)
     return Serving(model, family, False, tuple(joints), tuple(parent), tuple(chains), _chain(sk, -1, pelvis),
-                   tuple(orders), axes)
+                   tuple(orders), axes, rest, filler, body, tuple(shares), tuple(held))
 
 
 def _product(rot: np.ndarray, chain: tuple[int, ...]) -> np.ndarray:
@@ -271,18 +403,56 @@ def _conj(a: np.ndarray, q: np.ndarray) -> np.ndarray:
     return R.quaternion_multiply(R.quaternion_multiply(a, q), R.quaternion_conjugate(a))
 
 
+def _retargeted(local: np.ndarray, s: Serving, k: int) -> np.ndarray:
+    """``A_parent^-1 L A_k``: the rotation ``local`` (F, 4) of the rig's chain to model joint ``k`` as the Acclaim
+    rest skeleton has it (module docstring, step 2); ``local`` itself where neither bone is retargeted."""
+    a_k = s.rest[k]
+    a_p = s.rest[s.parent[k]] if s.parent[k] >= 0 else s.body
+    if a_p[0] != 1.0:
+        local = R.quaternion_multiply(R.quaternion_conjugate(a_p), local)
+    if a_k[0] != 1.0:
+        local = R.quaternion_multiply(local, a_k)
+    return local
+
+
+def _unretargeted(local: np.ndarray, s: Serving, k: int) -> np.ndarray:
+    """The inverse of :func:`_retargeted`: ``A_parent L A_k^-1``."""
+    a_k = s.rest[k]
+    a_p = s.rest[s.parent[k]] if s.parent[k] >= 0 else s.body
+    if a_p[0] != 1.0:
+        local = R.quaternion_multiply(a_p, local)
+    if a_k[0] != 1.0:
+        local = R.quaternion_multiply(local, R.quaternion_conjugate(a_k))
+    return local
+
+
+def _half(q: np.ndarray) -> np.ndarray:
+    """(F, 4) the rotation about the same axis by half the angle (``h h = q``)."""
+    return R.quaternion_exp(0.5 * R.quaternion_log(q))
+
+
 def _dof_rotations(motion: Motion, s: Serving) -> np.ndarray:
-    """(F, n, 4): each model joint's rotation M in its Acclaim axis frame."""
+    """(F, n, 4): each model joint's rotation M in its Acclaim axis frame (identity for a joint the rig lacks,
+    half the turn below it for one a mapped joint's chain carries)."""
     rot = motion.rotations
-    out = np.empty((motion.num_frames, len(s.joints), 4))
+    out = np.tile(np.array([1.0, 0.0, 0.0, 0.0]), (motion.num_frames, len(s.joints), 1))
+    shares = s.shares or (-1,) * len(s.joints)
     for k, chain in enumerate(s.chains):
-        local = _product(rot, chain)
+        if not chain:
+            continue
+        local = _retargeted(_product(rot, chain), s, k)
+        m = shares[k]
+        if m >= 0:
+            local = _half(local)
+            out[:, m] = R.quaternion_multiply(R.quaternion_multiply(R.quaternion_conjugate(s.axes[m]), local), s.axes[m])
         out[:, k] = R.quaternion_multiply(R.quaternion_multiply(R.quaternion_conjugate(s.axes[k]), local), s.axes[k])
     return out
 
 
 def _pelvis_rotation(motion: Motion, s: Serving) -> np.ndarray:
-    return _product(motion.rotations, s.pelvis_chain)
+    """(F, 4) the pelvis' world rotation as the Acclaim rest skeleton has it (turned by the body frame)."""
+    q = _product(motion.rotations, s.pelvis_chain)
+    return q if s.body[0] == 1.0 else R.quaternion_multiply(q, s.body)
 
 
 def _full_angles(m: np.ndarray, order: str) -> tuple[np.ndarray, str]:
@@ -298,15 +468,24 @@ def encode(motion: Motion, serving: Serving) -> tuple[np.ndarray, np.ndarray]:
     values are the Acclaim degrees of freedom of each mapped joint (module
     docstring) and the context is the pelvis' angular velocity in its own
     frame (rad/s). A NaN rotation anywhere on a joint's chain gives NaN
-    channels for it.
+    channels for it; a joint the rig lacks gives half the turn below it
+    (module docstring, step 3), or at a chain's end its channels' training
+    means at every frame.
     """
     if serving.direct:
         return encode_direct(motion, serving.layout)
     m = _dof_rotations(motion, serving)
     cols = []
+    c = 0
+    carried = set(serving.shares) - {-1}
     for k, order in enumerate(serving.orders):
+        if serving.joints[k] < 0 and k not in carried:  # a joint the rig lacks: the network sees its training mean
+            cols += [np.full(motion.num_frames, serving.filler[c + i]) for i in range(len(order))]
+            c += len(order)
+            continue
         ang, full = _full_angles(m[:, k], order)
         cols += [ang[:, full.index(a)] for a in order]
+        c += len(order)
     values = np.stack(cols, axis=1)
     ctx = root_angular_velocity(_pelvis_rotation(motion, serving), motion.fps)
     return unwrap_degrees(values), ctx
@@ -337,34 +516,45 @@ def decode(values: np.ndarray, like: Motion, serving: Serving, keep: np.ndarray 
     m = _dof_rotations(like, serving)
     rot = np.array(like.rotations)
     same = np.ones((F, like.skeleton.num_joints), dtype=bool)
+    shares = serving.shares or (-1,) * len(serving.joints)
+    carried = set(shares) - {-1}
+    new_local, changed = {}, {}
     c = 0
-    for k, order in enumerate(serving.orders):
+    for k, order in enumerate(serving.orders):  # each joint's new Acclaim rotation and where it changed
         n = len(order)
         new, old = values[:, c:c + n], before[:, c:c + n]
         c += n
-        changed = ~np.all((new == old) | (np.isnan(new) & np.isnan(old)), axis=1)
+        if serving.joints[k] < 0 and k not in carried:  # the output for a joint the rig lacks has nowhere to go
+            continue
+        changed[k] = ~np.all((new == old) | (np.isnan(new) & np.isnan(old)), axis=1)
         ang, full = _full_angles(m[:, k], order)
         ang = np.nan_to_num(ang)  # a missing cell has no residual to keep: its rotation is the dofs alone
         rest_axes = [full.index(a) for a in full if a not in order]
         if residual is not None and rest_axes:
             r0 = ang[:, rest_axes]
             r1 = residual(unwrap_degrees(r0))
-            changed |= np.any(np.abs(((r1 - r0) + 180.0) % 360.0 - 180.0) > 0.0, axis=1)
+            changed[k] |= np.any(np.abs(((r1 - r0) + 180.0) % 360.0 - 180.0) > 0.0, axis=1)
             ang[:, rest_axes] = r1
         for i, a in enumerate(order):
             ang[:, full.index(a)] = (new[:, i] + 180.0) % 360.0 - 180.0
-        mk = R.euler_to_quaternion(ang, full)
-        p = _conj(serving.axes[k], mk)
+        new_local[k] = _conj(serving.axes[k], R.euler_to_quaternion(ang, full))
+    for k, j in enumerate(serving.joints):
+        if j < 0:
+            continue
+        p, moved = new_local[k], changed[k]
+        if shares[k] >= 0:  # the two halves make the chain's turn
+            p = R.quaternion_multiply(new_local[shares[k]], p)
+            moved = moved | changed[shares[k]]
+        p = _unretargeted(p, serving, k)
         chain = serving.chains[k]
         if len(chain) > 1:
             above = _product(like.rotations, chain[:-1])
             p = R.quaternion_multiply(R.quaternion_conjugate(above), p)
-        j = serving.joints[k]
         ref = like.rotations[:, j]
         flip = np.sum(p * np.nan_to_num(ref), axis=-1, keepdims=True) < 0.0
         p = np.where(flip, -p, p)
-        rot[:, j] = np.where(changed[:, None], p, ref)
-        same[:, j] = ~changed
+        rot[:, j] = np.where(moved[:, None], p, ref)
+        same[:, j] = ~moved
     if keep is not None:
         same |= np.asarray(keep, dtype=bool)
     rot = np.where(same[..., None], like.rotations, rot)
