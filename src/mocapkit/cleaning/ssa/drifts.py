@@ -22,9 +22,22 @@ statistic, per cell ``(f, j)``:
 
 A run of cells that digress by more than the capture noise and holds no
 break is a smooth drift when, for at least ``min_s`` seconds of it,
-``agreement <= repeat_deg`` and ``consistency >= z_min``: the whole
-excursion is flagged, down to where the joint is back among its
-neighbours. Where the context does not repeat the motion (the rest of the
+``agreement <= repeat_deg`` and ``consistency >= z_min`` while at most
+``others`` other joints digress that strongly at the same frame
+(:func:`other_joints_level`): the whole excursion is flagged, down to where
+the joint is back among its neighbours. One joint drifts; two may at once.
+A take whose style the context lacks moves several joints together away
+from their neighbours (both arms of a bow held otherwise, an arm and its
+hand), and that is no drift of any one of them.
+
+A drift leaves the joint's path and comes back. A run cut by the take's
+first or last frame must show the part the take cuts: between that edge and
+the run's peak the joint comes back to within ``edge_ratio`` of the peak's
+consistency. A run that starts (or ends) at its peak is a pose held from
+before the take began (or after it ends): the idle poses at a take's
+edges, where styles differ most, are not what the context is asked about.
+
+Where the context does not repeat the motion (the rest of the
 body digresses too) nothing is flagged here: a lone joint's
 digression is then indistinguishable from motion the context lacks. For the
 same reason :func:`~mocapkit.cleaning.ssa.detect` looks for smooth drifts only
@@ -32,14 +45,18 @@ against a context beyond the take itself: analysed alone, a take that raises
 one arm once (a wave, a reach) shows exactly what a drift shows, the arm far
 from neighbour words (the take's other moments) that match the rest of the
 body. Nor on the pelvis or the root, whose rotation carries the path's heading
-on rigs whose root stays on the floor.
+on rigs whose root stays on the floor. Nor can any statistic here tell a
+drift from a joint whose style the context lacks when that joint alone
+differs, smoothly and once, inside the take (a take of a style no context
+take shares, the arms of a dancing walk): the context cannot confirm what it
+does not repeat, and such cells are flagged.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["body_agreement", "smooth_drift_flags"]
+__all__ = ["body_agreement", "other_joints_level", "smooth_drift_flags"]
 
 
 def body_agreement(digression: np.ndarray, analysed: np.ndarray) -> np.ndarray:
@@ -68,6 +85,30 @@ def body_agreement(digression: np.ndarray, analysed: np.ndarray) -> np.ndarray:
     return out
 
 
+def other_joints_level(consistency: np.ndarray, judged: np.ndarray, others: int = 1) -> np.ndarray:
+    """(F, J) the ``others + 1``-th largest ``consistency`` among the *other* judged joints at each frame.
+
+    ``consistency`` float (F, J) (NaN: no value, never counted); ``judged``
+    bool (F, J), the cells whose joint may carry a drift (the others are left
+    out of every count). The value at ``(f, j)`` leaves ``j`` itself out: it
+    is below ``z`` where at most ``others`` other joints digress by ``z`` or
+    more at frame ``f``. ``-inf`` where fewer than ``others + 1`` other
+    joints have a value.
+    """
+    c = np.asarray(consistency, dtype=np.float64)
+    judged = np.asarray(judged, dtype=bool)
+    if c.ndim != 2 or judged.shape != c.shape:
+        raise ValueError(f"need consistency and judged of one (F, J) shape, got {c.shape} and {judged.shape}")
+    if int(others) != others or others < 0:
+        raise ValueError(f"others must be a whole number >= 0, got {others!r}")
+    k = int(others)
+    v = np.where(judged & np.isfinite(c), c, -np.inf)
+    pad = np.full((v.shape[0], k + 2), -np.inf)
+    top = -np.sort(-np.concatenate([v, pad], axis=1), axis=1)[:, : k + 2]  # descending, at least k + 2 columns
+    # j among the k + 1 largest: the others' (k + 1)-th largest is the (k + 2)-th of all; else the (k + 1)-th
+    return np.where(v >= top[:, [k]], top[:, [k + 1]], top[:, [k]])
+
+
 def smooth_drift_flags(
     jumps: np.ndarray,
     agreement: np.ndarray,
@@ -78,6 +119,8 @@ def smooth_drift_flags(
     min_s: float = 0.25,
     margin_s: float = 0.05,
     extent: float = 0.5,
+    others: int | None = 1,
+    edge_ratio: float = 0.3,
 ) -> np.ndarray:
     """(F, J) bool: the smooth drifts of a take (module docstring).
 
@@ -90,8 +133,12 @@ def smooth_drift_flags(
     whole when no break lies within ``margin_s`` seconds of it (runs with a break are
     :func:`confirm_flags`' to judge) and at least ``min_s`` seconds of its
     cells have ``agreement <= repeat_deg`` (degrees: the context repeats the
-    motion there) and ``consistency >= z_min`` (the neighbours agree the joint
-    is elsewhere).
+    motion there), ``consistency >= z_min`` (the neighbours agree the joint
+    is elsewhere) and at most ``others`` other joints at ``z_min`` or more
+    (:func:`other_joints_level` over the joints with an ``agreement``; None:
+    not asked). A run touching the first (last) frame is flagged only if,
+    between that frame and its peak, its consistency comes down to
+    ``edge_ratio`` times the peak's (1: not asked; module docstring).
     """
     from scipy import ndimage
 
@@ -106,9 +153,15 @@ def smooth_drift_flags(
     if not (margin_s >= 0 and min_s >= 0 and repeat_deg >= 0 and 0 < extent <= z_min and fps > 0):
         raise ValueError(f"need margin_s, min_s, repeat_deg >= 0, 0 < extent <= z_min and fps > 0, got "
                          f"{margin_s!r}, {min_s!r}, {repeat_deg!r}, {extent!r}, {z_min!r} and {fps!r}")
+    if not 0 < edge_ratio <= 1:
+        raise ValueError(f"edge_ratio must be in (0, 1], got {edge_ratio!r}")
     with np.errstate(invalid="ignore"):
         low = consistency > extent
         strong = low & (agreement <= np.radians(repeat_deg)) & (consistency >= z_min)
+    if others is not None and strong.any():
+        # the joints that may carry a drift: those with evidence (agreement is NaN on the root, the pelvis and
+        # joints not analysed)
+        strong &= other_joints_level(consistency, np.isfinite(agreement), others) < z_min
     if not strong.any():
         return np.zeros(jumps.shape, dtype=bool)
     n = int(round(margin_s * fps))
@@ -120,4 +173,17 @@ def smooth_drift_flags(
     evidence = ndimage.sum(strong, labels, idx)
     need = max(int(np.ceil(min_s * fps)), 1)
     keep = np.concatenate([[False], (~broken) & (evidence >= need)])
+    if edge_ratio < 1:
+        F = jumps.shape[0]
+        boxes = ndimage.find_objects(labels)
+        for i in np.flatnonzero(keep[1:]) + 1:
+            rows, cols = boxes[i - 1]
+            a, b = rows.start, rows.stop
+            if a > 0 and b < F:
+                continue
+            c = consistency[a:b, cols.start]
+            m = int(np.argmax(c))
+            cut = edge_ratio * c[m]
+            if (a == 0 and c[: m + 1].min() > cut) or (b == F and c[m:].min() > cut):
+                keep[i] = False
     return keep[labels]
