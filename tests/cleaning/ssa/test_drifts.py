@@ -7,7 +7,7 @@ import pytest
 
 from mocapkit import corrupt
 from mocapkit.cleaning import ssa
-from mocapkit.cleaning.ssa.drifts import body_agreement, other_joints_level, smooth_drift_flags
+from mocapkit.cleaning.ssa.drifts import body_agreement, excursions, other_joints_level, smooth_drift_flags
 
 
 def slow_agreement(d, analysed):
@@ -154,19 +154,69 @@ def test_smooth_drift_flags_a_run_cut_by_the_take_must_show_the_joint_leave_or_c
     held[:, 0] = 0.5
     held[:30, 0] = bump[10:]  # 4.4 at the first frame, the peak 9 frames later
     assert not smooth_drift_flags(jumps, agreement, held, fps, min_s=0.2).any()
-    assert smooth_drift_flags(jumps, agreement, held, fps, min_s=0.2, edge_ratio=1.0)[:, 0].any()
+    assert smooth_drift_flags(jumps, agreement, held, fps, min_s=0.2, return_ratio=1.0)[:, 0].any()
     # the take starts inside the excursion but before its peak: the joint is seen leaving, flagged
     rising = consistency.copy()
     rising[:, 0] = 0.5
     rising[:39, 0] = bump[1:]
     assert 0.5 < rising[0, 0] <= 0.3 * bump.max()
     assert np.flatnonzero(smooth_drift_flags(jumps, agreement, rising, fps)[:, 0]).tolist() == list(range(39))
-    assert not smooth_drift_flags(jumps, agreement, rising, fps, edge_ratio=0.25).any()
+    assert not smooth_drift_flags(jumps, agreement, rising, fps, return_ratio=0.25).any()
     # the same at the take's end
     end = consistency.copy()
     end[:, 0] = 0.5
     end[-30:, 0] = bump[:30]
     assert not smooth_drift_flags(jumps, agreement, end, fps, min_s=0.2).any()
-    assert smooth_drift_flags(jumps, agreement, end, fps, min_s=0.2, edge_ratio=1.0)[:, 0].any()
-    with pytest.raises(ValueError, match="edge_ratio"):
-        smooth_drift_flags(jumps, agreement, consistency, fps, edge_ratio=0.0)
+    assert smooth_drift_flags(jumps, agreement, end, fps, min_s=0.2, return_ratio=1.0)[:, 0].any()
+    with pytest.raises(ValueError, match="return_ratio"):
+        smooth_drift_flags(jumps, agreement, consistency, fps, return_ratio=0.0)
+
+
+def slow_excursions(c, r):
+    """Reference: recursive cuts at the deepest valley left of the peak, else right of it."""
+    def rec(a, b):
+        p = a + int(np.argmax(c[a:b]))
+        left = [(c[v], v) for v in range(a + 1, p)]
+        if left:
+            v = min(left)[1]
+            if c[v] <= r * min(c[p], max(c[a:v])):
+                return rec(a, v + 1) + rec(v, b)
+        right = [(c[v], v) for v in range(p + 1, b - 1)]
+        if right:
+            v = min(right)[1]
+            if c[v] <= r * min(c[p], max(c[v + 1 : b])):
+                return rec(a, v + 1) + rec(v, b)
+        return [(a, b)]
+    return rec(0, len(c))
+
+
+def test_excursions_cut_where_the_joint_comes_back_between_two_peaks():
+    bump = np.sin(np.linspace(0, np.pi, 12)[1:-1])  # ten frames up and down
+    two = np.concatenate([6 * bump, [0.6], 4 * bump])
+    assert excursions(two, 0.3) == [(0, 11), (10, 21)]  # 0.6 <= 0.3 * 4: back among the neighbours in between
+    assert excursions(two, 0.1) == [(0, 21)]  # 0.6 > 0.1 * 4: one excursion with a dip
+    three = np.concatenate([two, [0.5], 5 * bump])
+    assert excursions(three, 0.3) == [(0, 11), (10, 22), (21, 32)]
+    rng = np.random.default_rng(1)
+    for _ in range(200):
+        c = rng.uniform(0.5, 8.0, size=int(rng.integers(1, 40)))
+        for r in (0.2, 0.3, 0.6, 1.0):
+            got = excursions(c, r)
+            assert got == sorted(slow_excursions(c, r))
+            assert got[0][0] == 0 and got[-1][1] == len(c)
+            assert all(b0 - 1 == a1 for (_, b0), (a1, _) in zip(got, got[1:]))  # consecutive, sharing the valley
+    with pytest.raises(ValueError, match="return_ratio"):
+        excursions(two, 0.0)
+
+
+def test_smooth_drift_flags_judge_each_excursion_of_a_run_alone():
+    jumps, agreement, consistency, fps = drift_case(F=160)
+    bump = consistency[30:70, 0].copy()
+    # a style digression next to the drift, with the joint back among its neighbours (z 1) between them, and the
+    # rest of the body far from its neighbours there: the drift alone is flagged
+    consistency[70:72, 0] = 1.0
+    consistency[72:112, 0] = bump
+    agreement[72:112] = np.radians(8.0)
+    flags = smooth_drift_flags(jumps, agreement, consistency, fps)
+    assert np.flatnonzero(flags[:, 0]).tolist() == list(range(30, 71))
+    assert np.flatnonzero(smooth_drift_flags(jumps, agreement, consistency, fps, return_ratio=1.0)[:, 0]).tolist() == list(range(30, 112))

@@ -21,21 +21,25 @@ statistic, per cell ``(f, j)``:
   noise^2)`` (the ``"spread"`` z-score of :func:`detect`).
 
 A run of cells that digress by more than the capture noise and holds no
-break is a smooth drift when, for at least ``min_s`` seconds of it,
-``agreement <= repeat_deg`` and ``consistency >= z_min`` while at most
-``others`` other joints digress that strongly at the same frame
-(:func:`other_joints_level`): the whole excursion is flagged, down to where
+break is cut into excursions (:func:`excursions`): the joint leaves its
+neighbours, peaks and comes back, and where it comes back to within
+``return_ratio`` of a peak's consistency before leaving again, a new
+excursion begins. An excursion is a smooth drift when, for at least
+``min_s`` seconds of it, ``agreement <= repeat_deg`` and ``consistency >=
+z_min`` while at most ``others`` other joints digress that strongly at the
+same frame (:func:`other_joints_level`): it is flagged whole, down to where
 the joint is back among its neighbours. One joint drifts; two may at once.
 A take whose style the context lacks moves several joints together away
 from their neighbours (both arms of a bow held otherwise, an arm and its
-hand), and that is no drift of any one of them.
+hand), and that is no drift of any one of them. Nor is a digression of a
+style next to a drift part of the drift: each excursion is judged alone.
 
-A drift leaves the joint's path and comes back. A run cut by the take's
-first or last frame must show the part the take cuts: between that edge and
-the run's peak the joint comes back to within ``edge_ratio`` of the peak's
-consistency. A run that starts (or ends) at its peak is a pose held from
-before the take began (or after it ends): the idle poses at a take's
-edges, where styles differ most, are not what the context is asked about.
+An excursion cut by the take's first or last frame must show the part the
+take cuts: between that edge and its peak the joint comes back to within
+``return_ratio`` of the peak's consistency. One that starts (or ends) at its
+peak is a pose held from before the take began (or after it ended): the
+idle poses at a take's edges, where styles differ most, are not what the
+context is asked about.
 
 Where the context does not repeat the motion (the rest of the
 body digresses too) nothing is flagged here: a lone joint's
@@ -56,7 +60,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["body_agreement", "other_joints_level", "smooth_drift_flags"]
+__all__ = ["body_agreement", "excursions", "other_joints_level", "smooth_drift_flags"]
 
 
 def body_agreement(digression: np.ndarray, analysed: np.ndarray) -> np.ndarray:
@@ -109,6 +113,43 @@ def other_joints_level(consistency: np.ndarray, judged: np.ndarray, others: int 
     return np.where(v >= top[:, [k]], top[:, [k + 1]], top[:, [k]])
 
 
+def excursions(c: np.ndarray, return_ratio: float = 0.3) -> list[tuple[int, int]]:
+    """Half-open ``(a, b)`` excursions of a run of positive values ``c`` (1-D), in order.
+
+    A segment is cut at its deepest valley on either side of its peak when
+    that valley is at most ``return_ratio`` times the lower of the two peaks
+    it separates (the joint came back close to its neighbours between them),
+    and each part is cut again the same way; the valley frame ends one
+    excursion and starts the next. ``return_ratio`` 1 cuts at every valley
+    below the lower peak, and values near 0 cut nowhere.
+    """
+    c = np.asarray(c, dtype=np.float64)
+    if c.ndim != 1:
+        raise ValueError(f"need a 1-D run, got shape {c.shape}")
+    if not 0 < return_ratio <= 1:
+        raise ValueError(f"return_ratio must be in (0, 1], got {return_ratio!r}")
+    out, todo = [], [(0, len(c))]
+    while todo:
+        a, b = todo.pop()
+        p = a + int(np.argmax(c[a:b])) if b > a else a
+        cut = None
+        # the deepest valley strictly inside the segment on either side of the peak (its end frames may be valleys
+        # shared with the neighbouring excursions), with a peak of its own beyond it
+        if p > a + 1:
+            v = a + 1 + int(np.argmin(c[a + 1 : p]))
+            if c[v] <= return_ratio * min(c[p], c[a:v].max()):
+                cut = v
+        if cut is None and b - 1 > p + 1:
+            v = p + 1 + int(np.argmin(c[p + 1 : b - 1]))
+            if c[v] <= return_ratio * min(c[p], c[v + 1 : b].max()):
+                cut = v
+        if cut is None:
+            out.append((a, b))
+        else:
+            todo += [(cut, b), (a, cut + 1)]
+    return sorted(out)
+
+
 def smooth_drift_flags(
     jumps: np.ndarray,
     agreement: np.ndarray,
@@ -120,7 +161,7 @@ def smooth_drift_flags(
     margin_s: float = 0.05,
     extent: float = 0.5,
     others: int | None = 1,
-    edge_ratio: float = 0.3,
+    return_ratio: float = 0.3,
 ) -> np.ndarray:
     """(F, J) bool: the smooth drifts of a take (module docstring).
 
@@ -129,16 +170,18 @@ def smooth_drift_flags(
     :func:`detect` (NaN: no evidence, never flagged). Per joint, a run is a
     connected stretch of cells with ``consistency > extent``: the joint
     outside its neighbours' spread and the capture noise (``extent`` 1), the
-    whole excursion down to where it is back among them. The run is flagged
-    whole when no break lies within ``margin_s`` seconds of it (runs with a break are
-    :func:`confirm_flags`' to judge) and at least ``min_s`` seconds of its
+    whole excursion down to where it is back among them. Runs with a break
+    within ``margin_s`` seconds are :func:`confirm_flags`' to judge; the
+    others are cut into excursions (:func:`excursions`, ``return_ratio``),
+    and an excursion is flagged whole when at least ``min_s`` seconds of its
     cells have ``agreement <= repeat_deg`` (degrees: the context repeats the
     motion there), ``consistency >= z_min`` (the neighbours agree the joint
     is elsewhere) and at most ``others`` other joints at ``z_min`` or more
     (:func:`other_joints_level` over the joints with an ``agreement``; None:
-    not asked). A run touching the first (last) frame is flagged only if,
-    between that frame and its peak, its consistency comes down to
-    ``edge_ratio`` times the peak's (1: not asked; module docstring).
+    not asked), and, if it touches the first (last) frame, its consistency
+    comes down to ``return_ratio`` times its peak's between that frame and
+    the peak (module docstring). ``return_ratio`` 1 judges whole runs as they
+    are.
     """
     from scipy import ndimage
 
@@ -153,8 +196,8 @@ def smooth_drift_flags(
     if not (margin_s >= 0 and min_s >= 0 and repeat_deg >= 0 and 0 < extent <= z_min and fps > 0):
         raise ValueError(f"need margin_s, min_s, repeat_deg >= 0, 0 < extent <= z_min and fps > 0, got "
                          f"{margin_s!r}, {min_s!r}, {repeat_deg!r}, {extent!r}, {z_min!r} and {fps!r}")
-    if not 0 < edge_ratio <= 1:
-        raise ValueError(f"edge_ratio must be in (0, 1], got {edge_ratio!r}")
+    if not 0 < return_ratio <= 1:
+        raise ValueError(f"return_ratio must be in (0, 1], got {return_ratio!r}")
     with np.errstate(invalid="ignore"):
         low = consistency > extent
         strong = low & (agreement <= np.radians(repeat_deg)) & (consistency >= z_min)
@@ -172,18 +215,22 @@ def smooth_drift_flags(
     broken = ndimage.maximum(near, labels, idx).astype(bool)
     evidence = ndimage.sum(strong, labels, idx)
     need = max(int(np.ceil(min_s * fps)), 1)
-    keep = np.concatenate([[False], (~broken) & (evidence >= need)])
-    if edge_ratio < 1:
-        F = jumps.shape[0]
-        boxes = ndimage.find_objects(labels)
-        for i in np.flatnonzero(keep[1:]) + 1:
-            rows, cols = boxes[i - 1]
-            a, b = rows.start, rows.stop
-            if a > 0 and b < F:
+    out = np.zeros(jumps.shape, dtype=bool)
+    F = jumps.shape[0]
+    boxes = ndimage.find_objects(labels)
+    for i in np.flatnonzero(~broken & (evidence >= need)):
+        rows, cols = boxes[i]
+        A, B, j = rows.start, rows.stop, cols.start
+        c = consistency[A:B, j]
+        parts = excursions(c, return_ratio) if return_ratio < 1 else [(0, B - A)]
+        for a, b in parts:
+            if strong[A + a : A + b, j].sum() < need:
                 continue
-            c = consistency[a:b, cols.start]
-            m = int(np.argmax(c))
-            cut = edge_ratio * c[m]
-            if (a == 0 and c[: m + 1].min() > cut) or (b == F and c[m:].min() > cut):
-                keep[i] = False
-    return keep[labels]
+            if return_ratio < 1:
+                e = c[a:b]
+                m = int(np.argmax(e))
+                back = return_ratio * e[m]
+                if (A + a == 0 and e[: m + 1].min() > back) or (A + b == F and e[m:].min() > back):
+                    continue  # never seen leaving (or coming back): a pose held from before (or after) the take
+            out[A + a : A + b, j] = True
+    return out
