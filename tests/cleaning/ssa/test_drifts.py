@@ -7,7 +7,7 @@ import pytest
 
 from mocapkit import corrupt
 from mocapkit.cleaning import ssa
-from mocapkit.cleaning.ssa.drifts import body_agreement, smooth_drift_flags
+from mocapkit.cleaning.ssa.drifts import body_agreement, excursions, other_joints_level, smooth_drift_flags
 
 
 def slow_agreement(d, analysed):
@@ -42,11 +42,11 @@ def test_body_agreement_is_the_median_of_the_other_analysed_joints():
         body_agreement(d, analysed[:3])
 
 
-def drift_case(F=100, fps=100.0):
+def drift_case(F=100, fps=100.0, J=3):
     """A 40-frame excursion on joint 0 (consistency up to 6), the body agreeing (1 deg) everywhere."""
-    jumps = np.zeros((F, 3), dtype=bool)
-    agreement = np.full((F, 3), np.radians(1.0))
-    consistency = np.full((F, 3), 0.5)
+    jumps = np.zeros((F, J), dtype=bool)
+    agreement = np.full((F, J), np.radians(1.0))
+    consistency = np.full((F, J), 0.5)
     consistency[30:70, 0] = 1.0 + 5.0 * np.sin(np.linspace(0, np.pi, 42)[1:-1])
     return jumps, agreement, consistency, fps
 
@@ -100,3 +100,123 @@ def test_detect_flags_a_smooth_drift_against_a_context_that_repeats_the_motion(w
     assert not ssa.detect(walk, [twin], drift=True).drifts().any()  # the clean take: nothing
     assert not ssa.detect(bad, drift=True).drifts().any()  # analysed alone: no evidence that the motion repeats
     assert det.with_threshold(0.3).flags[visible, j].all()
+
+
+def slow_other_level(c, judged, others):
+    """Reference: cell by cell, the (others + 1)-th largest finite value among the other judged joints."""
+    F, J = c.shape
+    out = np.full((F, J), -np.inf)
+    for f in range(F):
+        for j in range(J):
+            rest = sorted((c[f, k] for k in range(J) if k != j and judged[f, k] and np.isfinite(c[f, k])), reverse=True)
+            if len(rest) > others:
+                out[f, j] = rest[others]
+    return out
+
+
+@pytest.mark.parametrize("others", [0, 1, 2])
+def test_other_joints_level_counts_the_other_judged_joints(others):
+    rng = np.random.default_rng(others)
+    c = rng.uniform(0, 8, size=(30, 6)).round(0)  # ties included
+    c[rng.uniform(size=c.shape) < 0.1] = np.nan
+    judged = rng.uniform(size=c.shape) < 0.8
+    got = other_joints_level(c, judged, others)
+    assert np.array_equal(got, slow_other_level(c, judged, others))
+    with pytest.raises(ValueError, match="others"):
+        other_joints_level(c, judged, -1)
+    with pytest.raises(ValueError, match="shape"):
+        other_joints_level(c, judged[:, :3], 1)
+
+
+def test_smooth_drift_flags_one_joint_drifts_two_may_at_once_several_are_a_style():
+    jumps, agreement, consistency, fps = drift_case(J=4)
+    assert smooth_drift_flags(jumps, agreement, consistency, fps)[:, 0].any()
+    two = consistency.copy()
+    two[:, 1] = consistency[:, 0]  # a second joint drifting at the same time: both flagged
+    flags = smooth_drift_flags(jumps, agreement, two, fps, others=1)
+    assert flags[:, 0].any() and flags[:, 1].any()
+    assert not smooth_drift_flags(jumps, agreement, two, fps, others=0).any()
+    three = two.copy()
+    three[:, 2] = consistency[:, 0]  # three joints away from their neighbours together: not a drift of one
+    assert not smooth_drift_flags(jumps, agreement, three, fps, others=1).any()
+    assert smooth_drift_flags(jumps, agreement, three, fps, others=None)[:, :3].any(axis=0).all()
+    # a joint without evidence (the pelvis: agreement NaN) is never counted among the others
+    no_ev = agreement.copy()
+    no_ev[:, 1:3] = np.nan
+    assert smooth_drift_flags(jumps, no_ev, three, fps, others=0)[:, 0].any()
+
+
+def test_smooth_drift_flags_a_run_cut_by_the_take_must_show_the_joint_leave_or_come_back():
+    jumps, agreement, consistency, fps = drift_case()
+    bump = consistency[30:70, 0].copy()
+    # the take starts at the peak of the excursion (a pose held from before the take): not a drift
+    held = consistency.copy()
+    held[:, 0] = 0.5
+    held[:30, 0] = bump[10:]  # 4.4 at the first frame, the peak 9 frames later
+    assert not smooth_drift_flags(jumps, agreement, held, fps, min_s=0.2).any()
+    assert smooth_drift_flags(jumps, agreement, held, fps, min_s=0.2, return_ratio=1.0)[:, 0].any()
+    # the take starts inside the excursion but before its peak: the joint is seen leaving, flagged
+    rising = consistency.copy()
+    rising[:, 0] = 0.5
+    rising[:39, 0] = bump[1:]
+    assert 0.5 < rising[0, 0] <= 0.3 * bump.max()
+    assert np.flatnonzero(smooth_drift_flags(jumps, agreement, rising, fps)[:, 0]).tolist() == list(range(39))
+    assert not smooth_drift_flags(jumps, agreement, rising, fps, return_ratio=0.25).any()
+    # the same at the take's end
+    end = consistency.copy()
+    end[:, 0] = 0.5
+    end[-30:, 0] = bump[:30]
+    assert not smooth_drift_flags(jumps, agreement, end, fps, min_s=0.2).any()
+    assert smooth_drift_flags(jumps, agreement, end, fps, min_s=0.2, return_ratio=1.0)[:, 0].any()
+    with pytest.raises(ValueError, match="return_ratio"):
+        smooth_drift_flags(jumps, agreement, consistency, fps, return_ratio=0.0)
+
+
+def slow_excursions(c, r):
+    """Reference: recursive cuts at the deepest valley left of the peak, else right of it."""
+    def rec(a, b):
+        p = a + int(np.argmax(c[a:b]))
+        left = [(c[v], v) for v in range(a + 1, p)]
+        if left:
+            v = min(left)[1]
+            if c[v] <= r * min(c[p], max(c[a:v])):
+                return rec(a, v + 1) + rec(v, b)
+        right = [(c[v], v) for v in range(p + 1, b - 1)]
+        if right:
+            v = min(right)[1]
+            if c[v] <= r * min(c[p], max(c[v + 1 : b])):
+                return rec(a, v + 1) + rec(v, b)
+        return [(a, b)]
+    return rec(0, len(c))
+
+
+def test_excursions_cut_where_the_joint_comes_back_between_two_peaks():
+    bump = np.sin(np.linspace(0, np.pi, 12)[1:-1])  # ten frames up and down
+    two = np.concatenate([6 * bump, [0.6], 4 * bump])
+    assert excursions(two, 0.3) == [(0, 11), (10, 21)]  # 0.6 <= 0.3 * 4: back among the neighbours in between
+    assert excursions(two, 0.1) == [(0, 21)]  # 0.6 > 0.1 * 4: one excursion with a dip
+    three = np.concatenate([two, [0.5], 5 * bump])
+    assert excursions(three, 0.3) == [(0, 11), (10, 22), (21, 32)]
+    rng = np.random.default_rng(1)
+    for _ in range(200):
+        c = rng.uniform(0.5, 8.0, size=int(rng.integers(1, 40)))
+        for r in (0.2, 0.3, 0.6, 1.0):
+            got = excursions(c, r)
+            assert got == sorted(slow_excursions(c, r))
+            assert got[0][0] == 0 and got[-1][1] == len(c)
+            assert all(b0 - 1 == a1 for (_, b0), (a1, _) in zip(got, got[1:]))  # consecutive, sharing the valley
+    with pytest.raises(ValueError, match="return_ratio"):
+        excursions(two, 0.0)
+
+
+def test_smooth_drift_flags_judge_each_excursion_of_a_run_alone():
+    jumps, agreement, consistency, fps = drift_case(F=160)
+    bump = consistency[30:70, 0].copy()
+    # a style digression next to the drift, with the joint back among its neighbours (z 1) between them, and the
+    # rest of the body far from its neighbours there: the drift alone is flagged
+    consistency[70:72, 0] = 1.0
+    consistency[72:112, 0] = bump
+    agreement[72:112] = np.radians(8.0)
+    flags = smooth_drift_flags(jumps, agreement, consistency, fps)
+    assert np.flatnonzero(flags[:, 0]).tolist() == list(range(30, 71))
+    assert np.flatnonzero(smooth_drift_flags(jumps, agreement, consistency, fps, return_ratio=1.0)[:, 0]).tolist() == list(range(30, 112))

@@ -150,7 +150,8 @@ class Detection:
         if not p.drift:
             return np.zeros(self.mdm.shape, dtype=bool)
         return smooth_drift_flags(self.jumps, self.agreement, self.consistency, self.fps,
-                                  p.drift_repeat_deg, p.drift_z, p.drift_min_s, p.confirm_margin_s, p.drift_extent)
+                                  p.drift_repeat_deg, p.drift_z, p.drift_min_s, p.confirm_margin_s, p.drift_extent,
+                                  p.drift_others, p.drift_return_ratio)
 
     def with_threshold(self, threshold: float) -> "Detection":
         """The same analysis flagged at another threshold (confirmed by the jumps if the detection was)."""
@@ -414,7 +415,8 @@ def detect_prepared(an: Analysis, threshold: float = 0.5, *, progress: bool = Fa
     agreement = body_agreement(digression, analysed) if chosen else np.full((F, J), np.nan)
     agreement[:, [0, pelvis_index(sk)]] = np.nan
     drifts = (smooth_drift_flags(jumps, agreement, consistency, motion.fps, p.drift_repeat_deg, p.drift_z,
-                                 p.drift_min_s, p.confirm_margin_s, p.drift_extent) if p.drift else None)
+                                 p.drift_min_s, p.confirm_margin_s, p.drift_extent, p.drift_others, p.drift_return_ratio)
+              if p.drift else None)
     spikes = spike_breaks(q, resid, jumps)
     flags = flag_rule(mdm, jumps, holds, swaps, offsets, threshold, motion.fps, p.confirm, p.confirm_margin_s, drifts,
                       spikes)

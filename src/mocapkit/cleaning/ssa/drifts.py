@@ -21,10 +21,27 @@ statistic, per cell ``(f, j)``:
   noise^2)`` (the ``"spread"`` z-score of :func:`detect`).
 
 A run of cells that digress by more than the capture noise and holds no
-break is a smooth drift when, for at least ``min_s`` seconds of it,
-``agreement <= repeat_deg`` and ``consistency >= z_min``: the whole
-excursion is flagged, down to where the joint is back among its
-neighbours. Where the context does not repeat the motion (the rest of the
+break is cut into excursions (:func:`excursions`): the joint leaves its
+neighbours, peaks and comes back, and where it comes back to within
+``return_ratio`` of a peak's consistency before leaving again, a new
+excursion begins. An excursion is a smooth drift when, for at least
+``min_s`` seconds of it, ``agreement <= repeat_deg`` and ``consistency >=
+z_min`` while at most ``others`` other joints digress that strongly at the
+same frame (:func:`other_joints_level`): it is flagged whole, down to where
+the joint is back among its neighbours. One joint drifts; two may at once.
+A take whose style the context lacks moves several joints together away
+from their neighbours (both arms of a bow held otherwise, an arm and its
+hand), and that is no drift of any one of them. Nor is a digression of a
+style next to a drift part of the drift: each excursion is judged alone.
+
+An excursion cut by the take's first or last frame must show the part the
+take cuts: between that edge and its peak the joint comes back to within
+``return_ratio`` of the peak's consistency. One that starts (or ends) at its
+peak is a pose held from before the take began (or after it ended): the
+idle poses at a take's edges, where styles differ most, are not what the
+context is asked about.
+
+Where the context does not repeat the motion (the rest of the
 body digresses too) nothing is flagged here: a lone joint's
 digression is then indistinguishable from motion the context lacks. For the
 same reason :func:`~mocapkit.cleaning.ssa.detect` looks for smooth drifts only
@@ -32,14 +49,18 @@ against a context beyond the take itself: analysed alone, a take that raises
 one arm once (a wave, a reach) shows exactly what a drift shows, the arm far
 from neighbour words (the take's other moments) that match the rest of the
 body. Nor on the pelvis or the root, whose rotation carries the path's heading
-on rigs whose root stays on the floor.
+on rigs whose root stays on the floor. Nor can any statistic here tell a
+drift from a joint whose style the context lacks when that joint alone
+differs, smoothly and once, inside the take (a take of a style no context
+take shares, the arms of a dancing walk): the context cannot confirm what it
+does not repeat, and such cells are flagged.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["body_agreement", "smooth_drift_flags"]
+__all__ = ["body_agreement", "excursions", "other_joints_level", "smooth_drift_flags"]
 
 
 def body_agreement(digression: np.ndarray, analysed: np.ndarray) -> np.ndarray:
@@ -68,6 +89,67 @@ def body_agreement(digression: np.ndarray, analysed: np.ndarray) -> np.ndarray:
     return out
 
 
+def other_joints_level(consistency: np.ndarray, judged: np.ndarray, others: int = 1) -> np.ndarray:
+    """(F, J) the ``others + 1``-th largest ``consistency`` among the *other* judged joints at each frame.
+
+    ``consistency`` float (F, J) (NaN: no value, never counted); ``judged``
+    bool (F, J), the cells whose joint may carry a drift (the others are left
+    out of every count). The value at ``(f, j)`` leaves ``j`` itself out: it
+    is below ``z`` where at most ``others`` other joints digress by ``z`` or
+    more at frame ``f``. ``-inf`` where fewer than ``others + 1`` other
+    joints have a value.
+    """
+    c = np.asarray(consistency, dtype=np.float64)
+    judged = np.asarray(judged, dtype=bool)
+    if c.ndim != 2 or judged.shape != c.shape:
+        raise ValueError(f"need consistency and judged of one (F, J) shape, got {c.shape} and {judged.shape}")
+    if int(others) != others or others < 0:
+        raise ValueError(f"others must be a whole number >= 0, got {others!r}")
+    k = int(others)
+    v = np.where(judged & np.isfinite(c), c, -np.inf)
+    pad = np.full((v.shape[0], k + 2), -np.inf)
+    top = -np.sort(-np.concatenate([v, pad], axis=1), axis=1)[:, : k + 2]  # descending, at least k + 2 columns
+    # j among the k + 1 largest: the others' (k + 1)-th largest is the (k + 2)-th of all; else the (k + 1)-th
+    return np.where(v >= top[:, [k]], top[:, [k + 1]], top[:, [k]])
+
+
+def excursions(c: np.ndarray, return_ratio: float = 0.3) -> list[tuple[int, int]]:
+    """Half-open ``(a, b)`` excursions of a run of positive values ``c`` (1-D), in order.
+
+    A segment is cut at its deepest valley on either side of its peak when
+    that valley is at most ``return_ratio`` times the lower of the two peaks
+    it separates (the joint came back close to its neighbours between them),
+    and each part is cut again the same way; the valley frame ends one
+    excursion and starts the next. ``return_ratio`` 1 cuts at every valley
+    below the lower peak, and values near 0 cut nowhere.
+    """
+    c = np.asarray(c, dtype=np.float64)
+    if c.ndim != 1:
+        raise ValueError(f"need a 1-D run, got shape {c.shape}")
+    if not 0 < return_ratio <= 1:
+        raise ValueError(f"return_ratio must be in (0, 1], got {return_ratio!r}")
+    out, todo = [], [(0, len(c))]
+    while todo:
+        a, b = todo.pop()
+        p = a + int(np.argmax(c[a:b])) if b > a else a
+        cut = None
+        # the deepest valley strictly inside the segment on either side of the peak (its end frames may be valleys
+        # shared with the neighbouring excursions), with a peak of its own beyond it
+        if p > a + 1:
+            v = a + 1 + int(np.argmin(c[a + 1 : p]))
+            if c[v] <= return_ratio * min(c[p], c[a:v].max()):
+                cut = v
+        if cut is None and b - 1 > p + 1:
+            v = p + 1 + int(np.argmin(c[p + 1 : b - 1]))
+            if c[v] <= return_ratio * min(c[p], c[v + 1 : b].max()):
+                cut = v
+        if cut is None:
+            out.append((a, b))
+        else:
+            todo += [(cut, b), (a, cut + 1)]
+    return sorted(out)
+
+
 def smooth_drift_flags(
     jumps: np.ndarray,
     agreement: np.ndarray,
@@ -78,6 +160,8 @@ def smooth_drift_flags(
     min_s: float = 0.25,
     margin_s: float = 0.05,
     extent: float = 0.5,
+    others: int | None = 1,
+    return_ratio: float = 0.3,
 ) -> np.ndarray:
     """(F, J) bool: the smooth drifts of a take (module docstring).
 
@@ -86,12 +170,18 @@ def smooth_drift_flags(
     :func:`detect` (NaN: no evidence, never flagged). Per joint, a run is a
     connected stretch of cells with ``consistency > extent``: the joint
     outside its neighbours' spread and the capture noise (``extent`` 1), the
-    whole excursion down to where it is back among them. The run is flagged
-    whole when no break lies within ``margin_s`` seconds of it (runs with a break are
-    :func:`confirm_flags`' to judge) and at least ``min_s`` seconds of its
+    whole excursion down to where it is back among them. Runs with a break
+    within ``margin_s`` seconds are :func:`confirm_flags`' to judge; the
+    others are cut into excursions (:func:`excursions`, ``return_ratio``),
+    and an excursion is flagged whole when at least ``min_s`` seconds of its
     cells have ``agreement <= repeat_deg`` (degrees: the context repeats the
-    motion there) and ``consistency >= z_min`` (the neighbours agree the joint
-    is elsewhere).
+    motion there), ``consistency >= z_min`` (the neighbours agree the joint
+    is elsewhere) and at most ``others`` other joints at ``z_min`` or more
+    (:func:`other_joints_level` over the joints with an ``agreement``; None:
+    not asked), and, if it touches the first (last) frame, its consistency
+    comes down to ``return_ratio`` times its peak's between that frame and
+    the peak (module docstring). ``return_ratio`` 1 judges whole runs as they
+    are.
     """
     from scipy import ndimage
 
@@ -106,9 +196,15 @@ def smooth_drift_flags(
     if not (margin_s >= 0 and min_s >= 0 and repeat_deg >= 0 and 0 < extent <= z_min and fps > 0):
         raise ValueError(f"need margin_s, min_s, repeat_deg >= 0, 0 < extent <= z_min and fps > 0, got "
                          f"{margin_s!r}, {min_s!r}, {repeat_deg!r}, {extent!r}, {z_min!r} and {fps!r}")
+    if not 0 < return_ratio <= 1:
+        raise ValueError(f"return_ratio must be in (0, 1], got {return_ratio!r}")
     with np.errstate(invalid="ignore"):
         low = consistency > extent
         strong = low & (agreement <= np.radians(repeat_deg)) & (consistency >= z_min)
+    if others is not None and strong.any():
+        # the joints that may carry a drift: those with evidence (agreement is NaN on the root, the pelvis and
+        # joints not analysed)
+        strong &= other_joints_level(consistency, np.isfinite(agreement), others) < z_min
     if not strong.any():
         return np.zeros(jumps.shape, dtype=bool)
     n = int(round(margin_s * fps))
@@ -119,5 +215,22 @@ def smooth_drift_flags(
     broken = ndimage.maximum(near, labels, idx).astype(bool)
     evidence = ndimage.sum(strong, labels, idx)
     need = max(int(np.ceil(min_s * fps)), 1)
-    keep = np.concatenate([[False], (~broken) & (evidence >= need)])
-    return keep[labels]
+    out = np.zeros(jumps.shape, dtype=bool)
+    F = jumps.shape[0]
+    boxes = ndimage.find_objects(labels)
+    for i in np.flatnonzero(~broken & (evidence >= need)):
+        rows, cols = boxes[i]
+        A, B, j = rows.start, rows.stop, cols.start
+        c = consistency[A:B, j]
+        parts = excursions(c, return_ratio) if return_ratio < 1 else [(0, B - A)]
+        for a, b in parts:
+            if strong[A + a : A + b, j].sum() < need:
+                continue
+            if return_ratio < 1:
+                e = c[a:b]
+                m = int(np.argmax(e))
+                back = return_ratio * e[m]
+                if (A + a == 0 and e[: m + 1].min() > back) or (A + b == F and e[m:].min() > back):
+                    continue  # never seen leaving (or coming back): a pose held from before (or after) the take
+            out[A + a : A + b, j] = True
+    return out

@@ -73,6 +73,12 @@ class SSAParams:
         for at least ``drift_min_s``, the other joints sit within ``drift_repeat_deg`` (median) of the
         neighbours' mean (the context repeats the motion) and the joint's angle is ``drift_z`` times the
         neighbours' spread and noise; the flagged run extends while that ratio exceeds ``drift_extent``;
+    drift_others, drift_return_ratio : int or None, ratio
+        At most ``drift_others`` other joints may digress by ``drift_z`` at the same frames (one joint
+        drifts, two may at once; a style the context lacks moves several); a run is judged excursion by
+        excursion, cut where the joint comes back to ``drift_return_ratio`` of a peak's ratio before leaving
+        again, and an excursion cut by the take's first or last frame must come back that far between the
+        edge and its peak (the joint seen leaving its path, not a pose held from before the take);
         off by default (``drift=True``, ``mocapkit detect --drifts`` / ``clean --drifts``): only a context that
         repeats the take's motion makes the evidence mean a drift.
     """
@@ -109,6 +115,8 @@ class SSAParams:
     drift_z: float = 3.0
     drift_min_s: float = 0.25
     drift_extent: float = 0.5
+    drift_others: int | None = 1
+    drift_return_ratio: float = 0.3
 
     def __post_init__(self):
         N, M = self.source_length, self.target_length
@@ -126,6 +134,10 @@ class SSAParams:
             raise ValueError(f"confirm_margin_s must be >= 0 seconds, got {self.confirm_margin_s!r}")
         if not (np.isfinite(self.hold_travel_deg) and self.hold_travel_deg > 0):
             raise ValueError(f"hold_travel_deg must be a positive number of degrees, got {self.hold_travel_deg!r}")
+        if self.drift_others is not None and not (int(self.drift_others) == self.drift_others >= 0):
+            raise ValueError(f"drift_others must be None or a whole number >= 0, got {self.drift_others!r}")
+        if not 0 < self.drift_return_ratio <= 1:
+            raise ValueError(f"drift_return_ratio must be in (0, 1], got {self.drift_return_ratio!r}")
         if not isinstance(self.joints, (int, np.integer)):
             object.__setattr__(self, "joints", tuple(j if isinstance(j, str) else int(j) for j in self.joints))
 
