@@ -280,6 +280,7 @@ def leave_one_out(args, log) -> int:
         loco = [r for r in mine if r["locomotion"]]
         actors[actor] = {
             "database": {"clips": db.num_clips, "frames": db.num_frames},
+            "k": args.k if args.k is not None else M.default_neighbours(db.num_frames),
             "clips": len(mine), "frames": int(sum(r["frames"] for r in mine)),
             **{f"{part}_{key}": avg(sel, key) for part, sel in (("locomotion", loco), ("all", mine))
                for key in ("method_cm", "previous_cm", "baseline_nn_cm")},
@@ -303,7 +304,8 @@ def leave_one_out(args, log) -> int:
         "clips_per_class": per_clip, "max_frames": max_frames, "markers": MARKERS,
         "noise": "uniform within 1 mm per coordinate",
         "error": "frame-weighted mean of the per-frame average global joint-position error, cm, on the actor's own skeleton",
-        "k": args.k if args.k is not None else "markers.default_neighbours (about 240)", "head_weight": args.head_weight,
+        "k": args.k if args.k is not None else "markers.default_neighbours of each database (see actors)",
+        "head_weight": args.head_weight,
         "previous": {"k": PREVIOUS["k"], "head_weight": 1.0}, "prior_weight": args.prior_weight, "smooth_weight": args.smooth_weight,
         "limit_weight": args.limit_weight,
         "baseline": "nearest database pose per frame (markers.nearest_neighbor), same run",

@@ -257,8 +257,9 @@ def default_neighbours(num_frames: int) -> int:
     """The default ``k`` of :func:`reconstruct` for a database of ``num_frames`` frames: ``max(256, round(2 sqrt(N)))``.
 
     At least 256: a local model of up to 60 components needs several times
-    as many poses, and 256 was the best of 64, 128, 256 and 512 on the HDM05
-    leave-one-actor-out folds (a database of about 14,000 frames). Beyond
+    as many poses, and 256 was chosen over 64, 128 and 512 on the HDM05
+    leave-one-actor-out folds, a database of about 14,000 frames (512 is a
+    little better on four folds and 0.35 cm worse on the fifth). Beyond
     16,384 frames the neighbourhood grows with the k-nearest-neighbour rule
     of thumb ``k ~ sqrt(N)``: more frames in it as the database grows, a
     smaller part of the database. About 1,060 neighbours for the Bandai Namco
