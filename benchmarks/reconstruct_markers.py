@@ -2,7 +2,7 @@
 
 Usage::
 
-    python benchmarks/reconstruct_markers.py [--quick] [--json] [--fps 30] [--k 256]
+    python benchmarks/reconstruct_markers.py [--quick] [--json] [--fps 30] [--k K] [--head-weight 1.5]
     python benchmarks/reconstruct_markers.py --leave-one-out [--quick] [--json]
 
 Scenario "other actors" (``_reconstruct.scenario``): the database holds every
@@ -39,9 +39,11 @@ of every class, the first ``--max-frames`` frames (default 150 = 5 s;
 (``jogLeftCircle4StepsRstart``, ``sneak2StepsLStart``, ``hopBothLegs1hops``);
 "all" is all 11 classes. Per held-out actor: the frame-weighted mean error on
 locomotion and on all classes of ``reconstruct`` with the chosen settings
-(``--k``), of ``reconstruct`` as it was before (``k=128``, reported as
-``previous_k128``), and of the nearest-neighbour baseline, all in the same
-run. Target: <= 2.0 cm on locomotion for every held-out actor.
+(``--k``, default ``markers.default_neighbours`` of the database size;
+``--head-weight``, the head marker's weight in the neighbour search), of
+``reconstruct`` with the previous defaults (``k=256``, every marker weighted 1
+in the search; reported as ``previous``), and of the nearest-neighbour
+baseline, all in the same run. Target: <= 2.0 cm on locomotion for every held-out actor.
 
 The leave-one-out run also holds out Bandai Namco styles with the large
 database (:func:`bandai_folds`; ``--bandai-styles``, default
@@ -83,7 +85,7 @@ from mocapkit.reconstruct._common import body_motion  # noqa: E402
 MARKERS = ["lhand", "rhand", "lfoot", "rfoot", "head", "root"]
 OTHERS = ("grabHighR", "kickLFront1Reps", "squat1Reps")
 LOO_LOCOMOTION = B.LOCOMOTION + ("hopBothLegs1hops",)
-PREVIOUS_K = 128  # the default before the leave-one-out study
+PREVIOUS = {"k": 256, "search_weights": (1.0,) * 6}  # the defaults before the head weight and the size-dependent k
 #: held-out Bandai Namco styles of the leave-one-out run (dataset-2 elderly and dataset-1 styles dataset-2 lacks)
 BANDAI_STYLES = ("elderly", "angry", "giant", "old", "proud", "tired")
 
@@ -105,7 +107,9 @@ def main(argv=None) -> int:
     ap = harness.parser(__doc__)
     ap.add_argument("--quick", action="store_true")
     ap.add_argument("--fps", type=float, default=30.0)
-    ap.add_argument("--k", type=int, default=256)
+    ap.add_argument("--k", type=int, default=None, help="neighbours (default: markers.default_neighbours of the database size)")
+    ap.add_argument("--head-weight", type=float, default=M.HEAD_SEARCH_WEIGHT,
+                    help="weight of the head marker in the neighbour search (the others 1)")
     ap.add_argument("--prior-weight", type=float, default=0.01)
     ap.add_argument("--limit-weight", type=float, default=100.0, help="joint-range term (0: off)")
     ap.add_argument("--smooth-weight", type=float, default=0.01)
@@ -135,7 +139,8 @@ def main(argv=None) -> int:
     # database preparation (features, root frames, kd-tree) is cached per (db, markers): time it once
     t0 = time.perf_counter()
     # on the performer's skeleton, as reconstruct(skeleton=...) uses it (every mm clip has mm's ASF)
-    M._marker_database(db, tuple(MARKERS), np.array([0.0, 1.0, 0.0]), mocapkit.load(chosen[0]).skeleton)
+    M._marker_database(db, tuple(MARKERS), np.array([0.0, 1.0, 0.0]), mocapkit.load(chosen[0]).skeleton,
+                       np.array(_weights(MARKERS, args)))
     prep_s = time.perf_counter() - t0
 
     rows = []
@@ -147,11 +152,12 @@ def main(argv=None) -> int:
         x = x + rng.uniform(-0.1, 0.1, size=x.shape) / unit_scale_cm(truth.skeleton)  # within 1 mm
         t0 = time.perf_counter()
         out = M.reconstruct(
-            x, MARKERS, db, args.fps, k=args.k, skeleton=truth.skeleton, prior_weight=args.prior_weight, smooth_weight=args.smooth_weight,
+            x, MARKERS, db, args.fps, k=args.k, skeleton=truth.skeleton, search_weights=_weights(MARKERS, args),
+            prior_weight=args.prior_weight, smooth_weight=args.smooth_weight,
             limit_weight=args.limit_weight,
         )
         dt = time.perf_counter() - t0
-        nn = M.nearest_neighbor(x, MARKERS, db, args.fps, skeleton=truth.skeleton)
+        nn = M.nearest_neighbor(x, MARKERS, db, args.fps, skeleton=truth.skeleton, search_weights=_weights(MARKERS, args))
         fit = M.marker_residuals(out, x, MARKERS)
         _, cls, rep = B.parse(path)
         row = {
@@ -197,7 +203,8 @@ def main(argv=None) -> int:
         "markers": MARKERS,
         "noise": "uniform within 1 mm per coordinate",
         "error": "mean (max over frames) of the per-frame average joint-position error, global, cm, on mm's skeleton",
-        "k": args.k,
+        "k": args.k if args.k is not None else M.default_neighbours(db.num_frames),
+        "head_weight": args.head_weight,
         "prior_weight": args.prior_weight,
         "limit_weight": args.limit_weight,
         "smooth_weight": args.smooth_weight,
@@ -220,6 +227,11 @@ def main(argv=None) -> int:
                  baselines={k: v for k, v in baselines.items() if v is not None},
                  targets={"locomotion_mean_cm": {"value": 2.0, "op": "<=", "of": "figures"}}, details=result)
     return 0
+
+
+def _weights(markers, args) -> tuple:
+    """Search weights of ``markers`` (the six, head fifth): ``--head-weight`` on the head, 1 elsewhere."""
+    return tuple(args.head_weight if i == 4 else 1.0 for i in range(len(markers)))
 
 
 def _noisy_markers(truth, rng):
@@ -248,17 +260,17 @@ def leave_one_out(args, log) -> int:
             common = dict(skeleton=truth.skeleton, prior_weight=args.prior_weight, smooth_weight=args.smooth_weight,
                           limit_weight=args.limit_weight)
             t0 = time.perf_counter()
-            out = M.reconstruct(x, MARKERS, db, args.fps, k=args.k, **common)
+            out = M.reconstruct(x, MARKERS, db, args.fps, k=args.k, search_weights=_weights(MARKERS, args), **common)
             dt = time.perf_counter() - t0
-            before = M.reconstruct(x, MARKERS, db, args.fps, k=PREVIOUS_K, **common)
-            nn = M.nearest_neighbor(x, MARKERS, db, args.fps, skeleton=truth.skeleton)
+            before = M.reconstruct(x, MARKERS, db, args.fps, **PREVIOUS, **common)
+            nn = M.nearest_neighbor(x, MARKERS, db, args.fps, skeleton=truth.skeleton, search_weights=_weights(MARKERS, args))
             cls = B.parse(path)[1]
             row = {"actor": actor, "clip": path.stem, "class": cls, "locomotion": cls in LOO_LOCOMOTION,
                    "frames": truth.num_frames, "method_cm": errors(out, truth)["mean_cm"],
-                   "previous_k128_cm": errors(before, truth)["mean_cm"], "baseline_nn_cm": errors(nn, truth)["mean_cm"],
+                   "previous_cm": errors(before, truth)["mean_cm"], "baseline_nn_cm": errors(nn, truth)["mean_cm"],
                    "ms_per_frame": 1000.0 * dt / truth.num_frames}
             rows.append(row)
-            log(f"{actor} {path.stem}: {row['method_cm']:.2f} cm (k={PREVIOUS_K}: {row['previous_k128_cm']:.2f}, "
+            log(f"{actor} {path.stem}: {row['method_cm']:.2f} cm (previous defaults: {row['previous_cm']:.2f}, "
                 f"nn {row['baseline_nn_cm']:.2f}), {row['ms_per_frame']:.1f} ms/frame")
         mine = [r for r in rows if r["actor"] == actor]
 
@@ -268,9 +280,10 @@ def leave_one_out(args, log) -> int:
         loco = [r for r in mine if r["locomotion"]]
         actors[actor] = {
             "database": {"clips": db.num_clips, "frames": db.num_frames},
+            "k": args.k if args.k is not None else M.default_neighbours(db.num_frames),
             "clips": len(mine), "frames": int(sum(r["frames"] for r in mine)),
             **{f"{part}_{key}": avg(sel, key) for part, sel in (("locomotion", loco), ("all", mine))
-               for key in ("method_cm", "previous_k128_cm", "baseline_nn_cm")},
+               for key in ("method_cm", "previous_cm", "baseline_nn_cm")},
             "ms_per_frame": avg(mine, "ms_per_frame"),
         }
         log(f"held out {actor}: locomotion {actors[actor]['locomotion_method_cm']:.2f} cm, all {actors[actor]['all_method_cm']:.2f} cm")
@@ -280,7 +293,7 @@ def leave_one_out(args, log) -> int:
         for part in ("locomotion", "all"):
             figures[f"{actor}_{part}_mean_cm"] = a[f"{part}_method_cm"]
             baselines[f"{actor}_{part}_mean_cm"] = a[f"{part}_baseline_nn_cm"]
-            figures[f"{actor}_{part}_previous_k128_cm"] = a[f"{part}_previous_k128_cm"]
+            figures[f"{actor}_{part}_previous_cm"] = a[f"{part}_previous_cm"]
         targets[f"{actor}_locomotion_mean_cm"] = {"value": 2.0, "op": "<=", "of": "figures"}
     figures["worst_locomotion_mean_cm"] = max(a["locomotion_method_cm"] for a in actors.values())
     figures["ms_per_frame"] = float(np.average([r["ms_per_frame"] for r in rows], weights=[r["frames"] for r in rows]))
@@ -291,7 +304,9 @@ def leave_one_out(args, log) -> int:
         "clips_per_class": per_clip, "max_frames": max_frames, "markers": MARKERS,
         "noise": "uniform within 1 mm per coordinate",
         "error": "frame-weighted mean of the per-frame average global joint-position error, cm, on the actor's own skeleton",
-        "k": args.k, "previous_k": PREVIOUS_K, "prior_weight": args.prior_weight, "smooth_weight": args.smooth_weight,
+        "k": args.k if args.k is not None else "markers.default_neighbours of each database (see actors)",
+        "head_weight": args.head_weight,
+        "previous": {"k": PREVIOUS["k"], "head_weight": 1.0}, "prior_weight": args.prior_weight, "smooth_weight": args.smooth_weight,
         "limit_weight": args.limit_weight,
         "baseline": "nearest database pose per frame (markers.nearest_neighbor), same run",
         "actors": actors, "clips": rows,
@@ -301,6 +316,7 @@ def leave_one_out(args, log) -> int:
         details["bandai"] = bandai
         for style, a in bandai["styles"].items():
             figures[f"bandai_{style}_locomotion_mean_cm"] = a["locomotion_method_cm"]
+            figures[f"bandai_{style}_locomotion_previous_cm"] = a["locomotion_previous_cm"]
             baselines[f"bandai_{style}_locomotion_mean_cm"] = a["locomotion_baseline_nn_cm"]
             targets[f"bandai_{style}_locomotion_mean_cm"] = {"value": 2.0, "op": "<=", "of": "figures"}
         figures["bandai_worst_locomotion_mean_cm"] = max(a["locomotion_method_cm"] for a in bandai["styles"].values())
@@ -348,25 +364,32 @@ def bandai_folds(args, rng, log) -> dict:
             x = virtual_markers(truth, BANDAI_MARKERS)
             x = x + rng.uniform(-0.1, 0.1, size=x.shape) / unit_scale_cm(truth.skeleton)  # within 1 mm
             t1 = time.perf_counter()
-            out = M.reconstruct(x, BANDAI_MARKERS, db, args.fps, k=args.k, skeleton=truth.skeleton,
-                                prior_weight=args.prior_weight, smooth_weight=args.smooth_weight,
-                                limit_weight=args.limit_weight)
+            common = dict(skeleton=truth.skeleton, prior_weight=args.prior_weight, smooth_weight=args.smooth_weight,
+                          limit_weight=args.limit_weight)
+            out = M.reconstruct(x, BANDAI_MARKERS, db, args.fps, k=args.k, search_weights=_weights(BANDAI_MARKERS, args),
+                                **common)
             dt = time.perf_counter() - t1
-            nn = M.nearest_neighbor(x, BANDAI_MARKERS, db, args.fps, skeleton=truth.skeleton)
+            before = M.reconstruct(x, BANDAI_MARKERS, db, args.fps, **PREVIOUS, **common)
+            nn = M.nearest_neighbor(x, BANDAI_MARKERS, db, args.fps, skeleton=truth.skeleton,
+                                    search_weights=_weights(BANDAI_MARKERS, args))
             row = {"style": style, "take": take.path.name, "content": take.content, "frames": truth.num_frames,
-                   "method_cm": errors(out, truth)["mean_cm"], "baseline_nn_cm": errors(nn, truth)["mean_cm"],
+                   "method_cm": errors(out, truth)["mean_cm"], "previous_cm": errors(before, truth)["mean_cm"],
+                   "baseline_nn_cm": errors(nn, truth)["mean_cm"],
                    "ms_per_frame": 1000.0 * dt / truth.num_frames}
             rows.append(row)
-            log(f"bandai {style} {take.path.name}: {row['method_cm']:.2f} cm (nn {row['baseline_nn_cm']:.2f}), {row['ms_per_frame']:.1f} ms/frame")
+            log(f"bandai {style} {take.path.name}: {row['method_cm']:.2f} cm (previous defaults {row['previous_cm']:.2f}, "
+                f"nn {row['baseline_nn_cm']:.2f}), {row['ms_per_frame']:.1f} ms/frame")
         sel = [r for r in rows if r["style"] == style]
         w = [r["frames"] for r in sel]
         styles[style] = {"takes": len(sel), "frames": int(sum(w)),
                          "locomotion_method_cm": float(np.average([r["method_cm"] for r in sel], weights=w)),
+                         "locomotion_previous_cm": float(np.average([r["previous_cm"] for r in sel], weights=w)),
                          "locomotion_baseline_nn_cm": float(np.average([r["baseline_nn_cm"] for r in sel], weights=w))}
         log(f"held out Bandai style {style}: locomotion {styles[style]['locomotion_method_cm']:.2f} cm")
     return {"scenario": "Bandai Namco styles held out (dataset-2 elderly, dataset-1 styles not in dataset-2); "
                         "database every other take at 30 fps, memory-mapped",
             "database": {"takes": len(train), "frames": db.num_frames, "open_or_build_s": build_s},
+            "k": args.k if args.k is not None else M.default_neighbours(db.num_frames),
             "markers": BANDAI_MARKERS, "locomotion_contents": list(BANDAI_LOCOMOTION),
             "takes_per_style": args.bandai_takes, "max_frames": max_frames, "styles": styles, "takes": rows}
 

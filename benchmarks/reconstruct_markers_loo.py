@@ -2,7 +2,7 @@
 
 Usage::
 
-    python benchmarks/reconstruct_markers_loo.py [--quick] [--json] [--k 256] [--clips-per-class 2] [--max-frames 150]
+    python benchmarks/reconstruct_markers_loo.py [--quick] [--json] [--k K] [--head-weight 1.5] [--clips-per-class 2] [--max-frames 150]
         [--bandai-styles elderly,angry,...] [--bandai-takes 2]
 
 The same as ``python benchmarks/reconstruct_markers.py --leave-one-out``
@@ -10,7 +10,7 @@ The same as ``python benchmarks/reconstruct_markers.py --leave-one-out``
 the five HDM05 actors held out in turn, the database the other four actors'
 clips of all 11 classes; per held-out actor the mean error on locomotion (jog,
 sneak, hop) and on all classes, beside the nearest-neighbour baseline and the
-previous default ``k=128`` in the same run; then held-out Bandai Namco styles
+previous defaults (``k=256``, no head weight in the search) in the same run; then held-out Bandai Namco styles
 with the large database (the figure per style). Target: <= 2.0 cm on
 locomotion for every held-out actor and style.
 """

@@ -305,3 +305,48 @@ def test_limbs_do_not_bend_beyond_what_the_database_does(shared_data):
     assert worst(held) < 1.0
     assert error(held) < error(free)
     assert np.max(marker_residuals(held, x, BANDAI)) < 1.0  # cm: the markers are still met
+
+
+# -- the neighbour search: its size and the markers' weights ---------------------------------------------------
+
+
+def test_default_neighbours_is_256_up_to_16384_frames_then_twice_the_square_root():
+    from mocapkit.reconstruct.markers import default_neighbours
+
+    assert default_neighbours(0) == 256 and default_neighbours(276) == 256 and default_neighbours(16_384) == 256
+    assert default_neighbours(280_000) == round(2 * np.sqrt(280_000)) == 1058
+    ks = [default_neighbours(n) for n in range(0, 400_000, 997)]
+    assert all(a <= b for a, b in zip(ks, ks[1:]))
+
+
+def test_search_weights_single_out_the_head_by_its_role(truth):
+    from mocapkit.reconstruct.markers import HEAD_SEARCH_WEIGHT, search_weights
+
+    sk = truth.skeleton
+    w = search_weights(sk, MARKERS)
+    assert w.tolist() == [1.0, 1.0, 1.0, 1.0, HEAD_SEARCH_WEIGHT, 1.0]
+    # an end site on the head counts as the head marker; other end sites do not
+    head_ends = [n for n, p in zip(sk.end_site_names, sk.end_site_parents) if sk.joint_names[p] == "head"]
+    if head_ends:
+        assert search_weights(sk, ["lhand", head_ends[0], "root"]).tolist() == [1.0, HEAD_SEARCH_WEIGHT, 1.0]
+    assert search_weights(sk, ["lhand", "ltoes_end", "root"]).tolist() == [1.0, 1.0, 1.0]
+
+
+def test_search_weights_steer_the_neighbours(db, truth):
+    """A marker weighted far above the others is the one the nearest database pose matches best."""
+    x = _noisy_markers(truth, MARKERS)
+    plain = nearest_neighbor(x, MARKERS, db, 30, skeleton=truth.skeleton, search_weights=[1.0] * 6)
+    heavy = nearest_neighbor(x, MARKERS, db, 30, skeleton=truth.skeleton, search_weights=[1.0, 1.0, 1.0, 1.0, 30.0, 1.0])
+    head_plain = marker_residuals(plain, x, MARKERS)[:, 4].mean()
+    head_heavy = marker_residuals(heavy, x, MARKERS)[:, 4].mean()
+    assert head_heavy < 0.8 * head_plain, (head_heavy, head_plain)
+    # the default is the head's weight of 1.5, not the unweighted search
+    default = nearest_neighbor(x, MARKERS, db, 30, skeleton=truth.skeleton)
+    assert not np.allclose(default.rotations, plain.rotations)
+
+
+def test_bad_search_weights(db, truth):
+    x = _noisy_markers(truth[:10], MARKERS)
+    for bad in ([1.0] * 5, [1.0, 1.0, 1.0, 1.0, 0.0, 1.0], [1.0, 1.0, 1.0, 1.0, np.nan, 1.0]):
+        with pytest.raises(ValueError, match="search_weights"):
+            reconstruct(x, MARKERS, db, 30, search_weights=bad)

@@ -19,8 +19,10 @@ markers (hands, feet, head, root; Tables 3 and 4). For every frame ``t``:
    normalised frames), which is what the search compares with.
 2. **kNN** (sec. 4.1, :class:`~mocapkit.search.knn.KNNIndex`): the ``k``
    database frames whose same markers, in their own normalised root frame,
-   are nearest. Missing markers (NaN) are filled, for the search only, with
-   the previous reconstructed frame's marker positions.
+   are nearest, each marker's coordinates scaled by its search weight (the
+   head's 1.5, :func:`search_weights`; not in the paper, whose distance
+   weighs every marker alike). Missing markers (NaN) are filled, for the
+   search only, with the previous reconstructed frame's marker positions.
 3. **Local linear model** (Chai & Hodgins 2005, sec. 5): PCA of the
    neighbours' poses. A pose is the stacked rotation vectors (radians) of
    every joint relative to the neighbours' mean rotation (sign-aligned
@@ -56,12 +58,17 @@ markers (hands, feet, head, root; Tables 3 and 4). For every frame ``t``:
    the previous pose ends beyond a range, a second fit starts from the
    neighbours' mean pose (``u = 0``) and the lower energy wins.
 
-The defaults (``k=256`` neighbours, 99.99 % of the variance up to 60
-components, a weak prior 0.01) favour a broad local model: neighbours from
-other performers rarely contain the exact pose, so a model the markers can
-pull on beats a tight one of 10-20 components. ``k=256`` was chosen over 64,
+The defaults (``k`` = :func:`default_neighbours`: 256 neighbours up to a
+database of 16,384 frames, ``2 sqrt(N)`` beyond; 99.99 % of the variance up
+to 60 components, a weak prior 0.01) favour a broad local model: neighbours
+from other performers rarely contain the exact pose, so a model the markers
+can pull on beats a tight one of 10-20 components. 256 was chosen over 64,
 128 and 512 on three of the five HDM05 leave-one-actor-out folds (bd, dg, mm
-held out; ``benchmarks/reconstruct_markers.py --leave-one-out``).
+held out; ``benchmarks/reconstruct_markers.py --leave-one-out``); the
+growth with the database's size and the head marker's weight of 1.5 in the
+search (:func:`search_weights`) on all five folds and six held-out Bandai
+Namco styles, and checked on held-out Bandai Namco takes the benchmark does
+not use.
 
 Forward kinematics runs on the performer's skeleton (``skeleton``), so bone
 lengths are the performer's. When ``skeleton`` is given, the database's
@@ -120,17 +127,18 @@ from ..database import MotionDatabase
 from ..features import parse_up_axis, root_frame, virtual_markers
 from ..motion import Motion, Skeleton, unit_scale_cm
 from ..search.knn import KNNIndex
-from ..rigs import pelvis_index
+from ..rigs import pelvis_index, roles
 from ._common import (align_about_vertical, database_up, body_joints, body_motion, body_skeleton, output_skeleton, per_clip,
                       whole_motion)
 
-__all__ = ["reconstruct", "nearest_neighbor", "marker_residuals"]
+__all__ = ["reconstruct", "nearest_neighbor", "marker_residuals", "default_neighbours", "search_weights"]
 
 _STEP = 1e-6  # forward-difference step of the Jacobian (whitened PCA units, radians, centimetres)
 _MIN_HEIGHT_STD_CM = 2.0  # floor of the neighbours' root-height spread in the height prior
 _RANGE_PERCENTILES = (0.1, 99.9)  # the database's range of each joint axis, robust to its rare glitches
 _RANGE_MARGIN = np.radians(10.0)  # beyond the database's range before the joint-range term starts
 _RANGE_FRAMES = 50_000  # at most this many evenly spaced database frames give the ranges
+HEAD_SEARCH_WEIGHT = 1.5  # weight of the head marker in the neighbour search (the others: 1)
 
 
 # -- closed-form alignment about the vertical (Tautges 2012, eq. 4.3) ------------------------
@@ -149,6 +157,7 @@ class _MarkerDatabase:
     root: np.ndarray  # (N, 3) root position in the normalised frame (its height along up)
     rotations: np.ndarray  # (N, B, 4) local rotations of the body joints (pelvis first; its entry unused)
     ranges: "_JointRanges"  # what each body joint does in the database (pelvis: its tilt)
+    weights: np.ndarray  # (M,) each marker's weight in the kd-tree's coordinates
 
 
 @dataclass(frozen=True)
@@ -244,10 +253,56 @@ def retarget_clip(m: Motion, skeleton: Skeleton | None, up: np.ndarray) -> Motio
     return Motion(target, b.rotations, root, b.fps, b.name)
 
 
-def _marker_database(db: MotionDatabase, joints: tuple[str, ...], up: np.ndarray, skeleton: Skeleton | None = None) -> _MarkerDatabase:
-    """The per-frame values of ``db`` for markers ``joints``, on the performer's ``skeleton`` when given (cached)."""
+def default_neighbours(num_frames: int) -> int:
+    """The default ``k`` of :func:`reconstruct` for a database of ``num_frames`` frames: ``max(256, round(2 sqrt(N)))``.
+
+    At least 256: a local model of up to 60 components needs several times
+    as many poses, and 256 was chosen over 64, 128 and 512 on the HDM05
+    leave-one-actor-out folds, a database of about 14,000 frames (512 is a
+    little better on four folds and 0.35 cm worse on the fifth). Beyond
+    16,384 frames the neighbourhood grows with the k-nearest-neighbour rule
+    of thumb ``k ~ sqrt(N)``: more frames in it as the database grows, a
+    smaller part of the database. About 1,060 neighbours for the Bandai Namco
+    takes (280,000 frames at 30 fps).
+    """
+    return max(256, int(round(2.0 * np.sqrt(max(int(num_frames), 0)))))
+
+
+def search_weights(skeleton: Skeleton, joints: Sequence[str]) -> np.ndarray:
+    """Default per-marker weights (M,) of the neighbour search: :data:`HEAD_SEARCH_WEIGHT` for a marker on the head, 1 elsewhere.
+
+    The head marker is the one on the joint of the head role
+    (:func:`mocapkit.rigs.roles`) or on an end site of it. Relative to the
+    root marker it carries the trunk's lean and crouch, which six markers
+    otherwise see nowhere; in an unweighted distance the hands and feet,
+    which swing by tens of centimetres through a stride, outvote it, and
+    the neighbours' spines, shoulders and elbows follow the limbs' phase
+    rather than the performer's carriage.
+    """
+    head = roles(skeleton).get("head")
+    w = np.ones(len(joints))
+    if head is None:
+        return w
+    jl = {n: i for i, n in enumerate(skeleton.joint_names)}
+    el = {n: i for i, n in enumerate(skeleton.end_site_names)}
+    for m, name in enumerate(joints):
+        j = jl[name] if name in jl else (skeleton.end_site_parents[el[name]] if name in el else -1)
+        if j == head:
+            w[m] = HEAD_SEARCH_WEIGHT
+    return w
+
+
+def _marker_database(db: MotionDatabase, joints: tuple[str, ...], up: np.ndarray, skeleton: Skeleton | None = None,
+                     weights: np.ndarray | None = None) -> _MarkerDatabase:
+    """The per-frame values of ``db`` for markers ``joints``, on the performer's ``skeleton`` when given (cached).
+
+    ``weights`` (M,) scale each marker's coordinates in the kd-tree (default 1);
+    ``features`` stay unweighted.
+    """
+    w = np.ones(len(joints)) if weights is None else np.asarray(weights, dtype=np.float64)
     per_db = _CACHE.setdefault(db, {})
-    key = (joints, tuple(up.tolist()), None if skeleton is None else (skeleton.offsets.tobytes(), skeleton.end_site_offsets.tobytes()))
+    key = (joints, tuple(up.tolist()), w.tobytes(),
+           None if skeleton is None else (skeleton.offsets.tobytes(), skeleton.end_site_offsets.tobytes()))
     if key in per_db:
         return per_db[key]
 
@@ -272,7 +327,8 @@ def _marker_database(db: MotionDatabase, joints: tuple[str, ...], up: np.ndarray
     step = max(1, -(-len(tilt) // _RANGE_FRAMES))  # read only the frames joint_ranges uses
     rng_rot = np.array(rotations[::step], dtype=np.float64)
     rng_rot[:, 0] = tilt[::step]  # the pelvis by its tilt, as the local models hold it
-    out = _MarkerDatabase(KNNIndex(feats.reshape(len(feats), -1)), feats, tilt, root, rotations, joint_ranges(rng_rot))
+    out = _MarkerDatabase(KNNIndex((feats * w[:, None]).reshape(len(feats), -1)), feats, tilt, root, rotations,
+                          joint_ranges(rng_rot), w)
     per_db[key] = out
     return out
 
@@ -554,8 +610,9 @@ def _run(
     db: MotionDatabase,
     fps: float,
     *,
-    k: int,
+    k: int | None,
     skeleton: Skeleton | None,
+    weights,
     variance: float,
     max_components: int,
     prior_weight: float,
@@ -569,6 +626,8 @@ def _run(
     progress: bool,
 ) -> Motion:
     x, joints = _check(markers, joints, db, fps)
+    if k is None:
+        k = default_neighbours(db.num_frames)
     if int(k) != k or k < 1:
         raise ValueError(f"k must be a positive integer, got {k}")
     if not 0 < variance <= 1:
@@ -589,7 +648,12 @@ def _run(
     if run_fps != fps:
         x = _resample_markers(x, fps, run_fps)
     up = database_up(db) if up_axis is None else parse_up_axis(up_axis)
-    mdb = _marker_database(db, joints, up, skeleton)
+    if weights is None:
+        weights = search_weights(sk, joints)
+    weights = np.asarray(weights, dtype=np.float64)
+    if weights.shape != (len(joints),) or not np.all(np.isfinite(weights)) or np.any(weights <= 0):
+        raise ValueError(f"search_weights: expected {len(joints)} positive finite weights, got {weights!r}")
+    mdb = _marker_database(db, joints, up, skeleton, weights)
     scale = unit_scale_cm(sk)
     index, offset = _marker_columns(sk, joints)
     parents = np.asarray(sk.parents, dtype=np.int64)
@@ -632,7 +696,7 @@ def _run(
                 fill = mpos[t - 1]
             query = np.where(m_seen[:, None], obs, fill)
             for refine in range(1 if first else 2):
-                _, nn = mdb.index.query(_normalised(query, th, g, up).ravel(), k=K)
+                _, nn = mdb.index.query((_normalised(query, th, g, up) * mdb.weights[:, None]).ravel(), k=K)
                 nn = nn[0][nn[0] >= 0]
                 if n_seen >= 2:
                     th, g = align_about_vertical(mdb.features[nn[0]][m_seen], obs[m_seen], up)
@@ -727,8 +791,9 @@ def reconstruct(
     db: MotionDatabase,
     fps: float,
     *,
-    k: int = 256,
+    k: int | None = None,
     skeleton: Skeleton | None = None,
+    search_weights: Sequence[float] | None = None,
     variance: float = 0.9999,
     max_components: int = 60,
     prior_weight: float = 0.01,
@@ -760,12 +825,17 @@ def reconstruct(
         result back).
     fps : float
         Frame rate of ``markers`` and of the result.
-    k : int
-        Neighbours per frame for the local model.
+    k : int, optional
+        Neighbours per frame for the local model; default
+        :func:`default_neighbours` of the database's frame count.
     skeleton : Skeleton, optional
         The performer's skeleton (the database's layout); the result is
         written on it and the fit uses its bone lengths. Default: the
         database's first skeleton.
+    search_weights : sequence of float (M,), optional
+        Weight of each marker in the neighbour search (its coordinates are
+        scaled by it in the kd-tree's distance); default
+        :func:`search_weights` (1.5 for the head marker, 1 elsewhere).
     variance : float
         Fraction of the neighbours' pose variance the local model keeps.
     max_components : int
@@ -812,6 +882,7 @@ def reconstruct(
         fps,
         k=k,
         skeleton=skeleton,
+        weights=search_weights,
         variance=variance,
         max_components=max_components,
         prior_weight=prior_weight,
@@ -833,6 +904,7 @@ def nearest_neighbor(
     fps: float,
     *,
     skeleton: Skeleton | None = None,
+    search_weights: Sequence[float] | None = None,
     root_joint: str | None = None,
     up_axis=None,
     progress: bool = False,
@@ -850,6 +922,7 @@ def nearest_neighbor(
         fps,
         k=1,
         skeleton=skeleton,
+        weights=search_weights,
         variance=1.0,
         max_components=0,
         prior_weight=0.0,
