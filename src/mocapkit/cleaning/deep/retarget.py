@@ -346,6 +346,14 @@ def _difference(layout: ChannelLayout, have: ChannelLayout) -> str:
     return f"missing {missing[:4]}" if missing else f"unexpected {extra[:4]}"
 
 
+def _role_above(role: str, known) -> str | None:
+    """The nearest role above ``role`` (:data:`mocapkit.rigs.PARENT_ROLE`) that is in ``known`` or is the pelvis."""
+    up = rigs.PARENT_ROLE.get(role)
+    while up is not None and up not in known and up != "pelvis":
+        up = rigs.PARENT_ROLE.get(up)
+    return up
+
+
 def _map(model, sk: Skeleton, family: str, found: dict[str, int], model_roles: list[str]) -> Serving | str:
     layout = model.layout
     pelvis = found["pelvis"]
@@ -353,9 +361,7 @@ def _map(model, sk: Skeleton, family: str, found: dict[str, int], model_roles: l
     joints, parent, chains, orders, held = [], [], [], [], []
     for k, (name, role) in enumerate(zip(layout.joints, model_roles)):
         orders.append("".join(c.split(".")[1][0] for c in layout.names if c.split(".")[0] == name))
-        up = rigs.PARENT_ROLE.get(role)
-        while up is not None and up not in index and up != "pelvis":
-            up = rigs.PARENT_ROLE.get(up)
+        up = _role_above(role, index)
         parent.append(-1 if up in (None, "pelvis") else index[up])
         if role not in found:  # an optional joint the rig lacks
             joints.append(-1)
@@ -379,9 +385,7 @@ def _map(model, sk: Skeleton, family: str, found: dict[str, int], model_roles: l
     roles_index = {r: k for k, r in enumerate(model_roles)}
     shares = []
     for k, role in enumerate(model_roles):  # one lacking model joint right above a mapped one: it carries its turn
-        up = rigs.PARENT_ROLE.get(role)
-        while up is not None and up not in roles_index and up != "pelvis":
-            up = rigs.PARENT_ROLE.get(up)
+        up = _role_above(role, roles_index)
         m = roles_index.get(up, -1) if role in found and up in _SPLIT_ROLES else -1
         shares.append(m if m >= 0 and joints[m] < 0 and m not in shares else -1)
     axes = np.stack([R.euler_to_quaternion(np.array(ACCLAIM_AXES[n], dtype=np.float64), "xyz") for n in layout.joints])
@@ -474,21 +478,24 @@ def encode(motion: Motion, serving: Serving) -> tuple[np.ndarray, np.ndarray]:
     """
     if serving.direct:
         return encode_direct(motion, serving.layout)
-    m = _dof_rotations(motion, serving)
+    ctx = root_angular_velocity(_pelvis_rotation(motion, serving), motion.fps)
+    return _channels(_dof_rotations(motion, serving), serving), ctx
+
+
+def _channels(m: np.ndarray, serving: Serving) -> np.ndarray:
+    """(F, C) the model's channels (degrees, unwrapped) from the joints' rotations ``m`` (F, n, 4)."""
     cols = []
     c = 0
     carried = set(serving.shares) - {-1}
     for k, order in enumerate(serving.orders):
         if serving.joints[k] < 0 and k not in carried:  # a joint the rig lacks: the network sees its training mean
-            cols += [np.full(motion.num_frames, serving.filler[c + i]) for i in range(len(order))]
+            cols += [np.full(len(m), serving.filler[c + i]) for i in range(len(order))]
             c += len(order)
             continue
         ang, full = _full_angles(m[:, k], order)
         cols += [ang[:, full.index(a)] for a in order]
         c += len(order)
-    values = np.stack(cols, axis=1)
-    ctx = root_angular_velocity(_pelvis_rotation(motion, serving), motion.fps)
-    return unwrap_degrees(values), ctx
+    return unwrap_degrees(np.stack(cols, axis=1))
 
 
 def decode(values: np.ndarray, like: Motion, serving: Serving, keep: np.ndarray | None = None,
@@ -512,8 +519,8 @@ def decode(values: np.ndarray, like: Motion, serving: Serving, keep: np.ndarray 
     F = like.num_frames
     if values.shape != (F, serving.layout.num_channels):
         raise ValueError(f"values: expected shape ({F}, {serving.layout.num_channels}), got {values.shape}")
-    before, _ = encode(like, serving)
     m = _dof_rotations(like, serving)
+    before = _channels(m, serving)
     rot = np.array(like.rotations)
     same = np.ones((F, like.skeleton.num_joints), dtype=bool)
     shares = serving.shares or (-1,) * len(serving.joints)
