@@ -1,4 +1,5 @@
-"""The curated real takes of ``../shared/data`` that golden I/O tests walk.
+"""Real takes several test modules share: the curated takes of ``../shared/data`` that golden I/O tests
+walk, and a real take on a rig of no known family (:func:`unknown_rig`).
 
 ``peer_files/`` (other projects' test files, many deliberately odd) and
 ``bandai_namco_full/`` (an archive to unpack) are not curated takes: the I/O
