@@ -34,6 +34,9 @@ the baseline, same run), 0.5 noise on the rig's own channels, ``--seeds`` draws:
   <= 1.1) and the fallback (in ``details``);
 * ``retarget_pybvh``: another project's clip (VictorS-67/pybvh, HumanIK names, Z up: its body frame
   turned; no hands below the wrist), 30 fps;
+* ``retarget_biovision``: another project's take (20tab/bvh-python ``test_mocapbank.bvh``, 455 frames at
+  30 fps: ``Hips, Chest, Chest2, Neck, Head``, limbs to the wrists; its missing lower back and lower
+  neck share the turns of the segments below them);
 * ``retarget_bandai``: Bandai Namco takes through the Acclaim networks' joint map (``--model
   ebf.pt``; body frame turned, 27 bones retargeted, 8 joints held), beside the rig's own EBF
   (``details``), every 400th take of the set when it is unpacked (``benchmarks/_bandai.py``).
@@ -116,6 +119,8 @@ def retargeted(ebf, seeds: int) -> tuple[dict, dict, dict]:
         noisy, _ = corrupt.angular_noise(mix, 0.5, seed=seed, joints=names)
         add("retarget_mixamo_mb", rms(bvh, deep.denoise(dataclasses.replace(noisy, skeleton=bvh.skeleton))))
     versus_fallback("retarget_pybvh", mocapkit.load(REPO / "tests" / "data" / "pybvh_test1_zup.bvh"))
+    versus_fallback("retarget_biovision", mocapkit.load(DATA / "peer_files" / "20tab+bvh-python" / "tests" /
+                                                        "test_mocapbank.bvh"))
     from _bandai import bandai_takes
 
     try:
@@ -128,7 +133,7 @@ def retargeted(ebf, seeds: int) -> tuple[dict, dict, dict]:
             noisy, _ = corrupt.angular_noise(take, 0.5, seed=seed)
             add("retarget_bandai_own", rms(take, deep.denoise(noisy)))
     mean = {k: float(np.mean(v)) for k, v in rows.items()}
-    names = ["retarget_3dsmax_body", "retarget_3dsmax_thumbs", "retarget_mixamo", "retarget_pybvh"]
+    names = ["retarget_3dsmax_body", "retarget_3dsmax_thumbs", "retarget_mixamo", "retarget_pybvh", "retarget_biovision"]
     names += ["retarget_bandai"] if bandai else []
     figures = {n: mean[n] for n in names}
     baselines = {n: mean[f"{n}_fallback"] for n in names}

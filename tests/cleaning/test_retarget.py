@@ -33,18 +33,18 @@ def motionbuilder_spelling(motion: Motion, order: str = "ZYX") -> Motion:
     return Motion(bvh, motion.rotations, motion.root_positions, motion.fps, motion.name)
 
 
-def arms_down(motion: Motion) -> Motion:
-    """``motion`` (a BVH spelling, arms held out at rest) on a rest pose whose arms hang down, every joint where it
-    was: each arm's bones (upper arm down to the fingertips) turned by ``P`` (the shortest arc from out to down,
-    about the forward axis), their child offsets by ``P``, and their rotations so the world pose is the same
-    (``L P^-1`` at the upper arm, ``P L P^-1`` below it), as the CMU 3dsMax-friendly release holds its arms."""
+def arms_down(motion: Motion, degrees: float = 90.0) -> Motion:
+    """``motion`` (a BVH spelling, arms held out at rest) on a rest pose whose arms hang ``degrees`` down, every
+    joint where it was: each arm's bones (upper arm down to the fingertips) turned by ``P`` (about the forward
+    axis), their child offsets by ``P``, and their rotations so the world pose is the same (``L P^-1`` at the
+    upper arm, ``P L P^-1`` below it): 90 as the CMU 3dsMax-friendly release holds its arms, 45 an A pose."""
     sk = motion.skeleton
     rot = np.array(motion.rotations)
     offsets = np.array(sk.offsets)
     ends = np.array(sk.end_site_offsets)
     for side, sign in (("left", 1.0), ("right", -1.0)):
         top = rigs.roles(sk)[f"{side}_upper_arm"]
-        p = R.quaternion_from_axis_angle([0.0, 0.0, 1.0], -sign * np.pi / 2)  # +-X -> -Y
+        p = R.quaternion_from_axis_angle([0.0, 0.0, 1.0], -sign * np.radians(degrees))  # +-X towards -Y
         below = [j for j in range(sk.num_joints) if j != top and top in _ancestors(sk, j)]
         for j in [top] + below:
             for c in sk.children(j):
@@ -168,10 +168,12 @@ def test_the_rule_refuses_other_rigs_with_the_reason(walk, ebf):
         deep.denoise(no_forearm, ebf)
 
 
-def test_a_rest_pose_with_the_arms_down_is_retargeted(walk, ebf):
-    """The same pose on a rig whose arms hang down at rest: the model reads the same channels (step 2)."""
+@pytest.mark.parametrize("degrees", [90.0, 45.0])
+def test_a_rest_pose_with_the_arms_down_is_retargeted(walk, ebf, degrees):
+    """The same pose on a rig whose arms hang down at rest (90 deg, or an A pose): the model reads the same
+    channels (step 2)."""
     bvh = motionbuilder_spelling(walk)
-    down = arms_down(bvh)
+    down = arms_down(bvh, degrees)
     assert np.allclose(down.global_positions(end_sites=True), bvh.global_positions(end_sites=True), atol=1e-9)
     s = deep.served_by(down, ebf)
     assert isinstance(s, deep.Serving) and "retargeted" in s.describe()
@@ -185,7 +187,7 @@ def test_a_rest_pose_with_the_arms_down_is_retargeted(walk, ebf):
     # denoised on either rest pose: the same body
     noisy, _ = corrupt.angular_noise(bvh, 0.5, seed=3, joints=["LeftArm", "LeftForeArm", "RightUpLeg"])
     a = deep.denoise(noisy)
-    b = deep.denoise(arms_down(noisy))
+    b = deep.denoise(arms_down(noisy, degrees))
     assert np.abs(a.global_positions() - b.global_positions()).max() < 1e-6 * np.abs(a.global_positions()).max()
 
 
@@ -223,6 +225,57 @@ def test_a_mixamo_rig_lacking_joints_is_served(walk, ebf):
     obs = ~gapped.missing()
     assert method.startswith("EBD") and not filled.missing().any()
     assert np.array_equal(filled.rotations[obs], gapped.rotations[obs])
+
+
+def biovision_spelling(bvh: Motion) -> Motion:
+    """A MotionBuilder-release CMU BVH under the 3dsMax/Biovision names (``Chest``, ``Chest2``, ``Neck``,
+    ``LeftHip`` ...), its lower back and lower neck under names no role claims: a trunk of four segments."""
+    mb = rigs.FAMILIES["cmu_bvh_motionbuilder"]
+    bio = rigs.FAMILIES["cmu_bvh_3dsmax"]
+    rename = {mb[r][0]: bio[r][0] for r in mb if r in bio and r not in ("spine", "neck")}
+    rename.update({"LowerBack": "Waist", "Neck": "NeckBase"})
+    sk = bvh.skeleton
+    return Motion(Skeleton(tuple(rename.get(n, n) for n in sk.joint_names), np.array(sk.parents), sk.offsets,
+                           sk.end_site_parents, sk.end_site_offsets, channels=sk.channels),
+                  bvh.rotations, bvh.root_positions, bvh.fps, bvh.name)
+
+
+def test_a_trunk_lacking_segments_shares_their_turns(walk, ebf):
+    """A four-segment trunk (no lower back, no lower neck): each lacking segment takes half the turn of the
+    segment mapped right below it; two lacking in a row are refused."""
+    bvh = motionbuilder_spelling(walk)
+    bio = biovision_spelling(bvh)
+    assert rigs.rig_family(bio.skeleton) == "cmu_bvh_3dsmax"
+    s = deep.served_by(bio, ebf)
+    assert isinstance(s, deep.Serving)
+    names = ebf.layout.joints
+    assert {names[k] for k in s.lacking} >= {"lowerback", "lowerneck"}
+    assert s.shares[names.index("upperback")] == names.index("lowerback")
+    assert s.shares[names.index("upperneck")] == names.index("lowerneck")
+    values, _ = retarget.encode(bio, s)
+    mb_values, _ = retarget.encode(bvh, deep.served_by(bvh, ebf))
+    limbs = [i for i, c in enumerate(ebf.layout.names) if c.split(".")[0][1:] in ("femur", "tibia", "humerus", "radius")]
+    assert np.abs(values[:, limbs] - mb_values[:, limbs]).max() < 1e-6
+    assert np.array_equal(retarget.decode(values, bio, s).rotations, bio.rotations)
+    noisy, _ = corrupt.angular_noise(bio, 0.5, seed=7)
+    assert _rms(bio, deep.denoise(noisy)) < 0.6 * _rms(bio, noisy)
+    sk = bio.skeleton  # without Chest too, the lower and middle back lack in a row
+    names2 = tuple("Loin" if n == "Chest" else n for n in sk.joint_names)
+    two = Motion(Skeleton(names2, np.array(sk.parents), sk.offsets, sk.end_site_parents, sk.end_site_offsets,
+                          channels=sk.channels), bio.rotations, bio.root_positions, bio.fps)
+    why = deep.served_by(two, ebf)
+    assert isinstance(why, str) and "lacks lowerback" in why
+
+
+def test_a_biovision_take_from_another_project_is_served_better_than_the_fallback(shared_data, ebf):
+    """20tab/bvh-python's test take: Hips, Chest, Chest2, Neck, Head and limbs to the wrists, 30 fps."""
+    take = mocapkit.load(shared_data / "peer_files" / "20tab+bvh-python" / "tests" / "test_mocapbank.bvh")
+    s = deep.served_by(take, ebf)
+    assert isinstance(s, deep.Serving) and s.family == "cmu_bvh_3dsmax"
+    from mocapkit.cleaning.filters import savgol_smooth
+
+    noisy, _ = corrupt.angular_noise(take, 0.5, seed=8)
+    assert _rms(take, deep.denoise(noisy)) < _rms(take, savgol_smooth(noisy, 0.1, 2, root=False))
 
 
 def test_a_z_up_humanik_rig_from_another_project_is_served(ebf):

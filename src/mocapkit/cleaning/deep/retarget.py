@@ -11,9 +11,9 @@ freedom in a per-bone ``axis`` frame.
 :func:`served_by` is the one rule: a take is served **directly** when it has
 the model's channels (any ASF/AMC of that skeleton); **through a joint map**
 when its rig family (:mod:`mocapkit.rigs`) plays every role the model's
-joints play but a few it can do without (:data:`OPTIONAL_ROLES`: the upper
-neck, the middle spine, palms, fingers, thumbs and toes, which HumanIK,
-Mixamo and game rigs often lack), with the same tree, Y up; otherwise not
+joints play but a few it can do without (:data:`OPTIONAL_ROLES`: a trunk
+segment here and there, palms, fingers, thumbs and toes, which HumanIK,
+Mixamo, Biovision and game rigs often lack), with the same tree, Y up; otherwise not
 at all, with the reason in words. Through a joint map, :func:`encode` gives
 the model what an ASF take of the same pose gives it and :func:`decode`
 maps the model's output back onto the take's joints:
@@ -34,10 +34,11 @@ maps the model's output back onto the take's joints:
    (:data:`ACCLAIM_AXES`, the same in every CMU and HDM05 ASF), and the
    degrees of freedom are ``M``'s Euler angles in the model's channel order,
    as :meth:`Motion.channel_values` reads an AMC. A spine or neck segment
-   the rig lacks (a three-segment spine has no middle one, many rigs no
-   upper neck) takes half of the turn between the mapped joints around it
-   and the one below it the other half (``L = h h``); on the way back the
-   two new halves make the new turn. Any other joint the rig lacks (palms,
+   the rig lacks (a three-segment spine has no middle one, a Biovision
+   ``Hips, Chest, Chest2, Neck, Head`` trunk no lower back and lower neck)
+   takes half of the turn between the mapped joints around it and the one
+   below it the other half (``L = h h``); on the way back the two new
+   halves make the new turn. Two lacking in a row are not served. Any other joint the rig lacks (palms,
    fingers, thumbs, toes) is shown to the network at its training mean,
    and its output is dropped; so is a joint whose channels never moved in
    the training takes (their spread at the normalisation floor, 1 deg: the
@@ -105,14 +106,14 @@ _ACCLAIM_BONES: dict[str, tuple[float, float, float]] = {
 #: bone is retargeted (module docstring, step 2).
 SAME_REST_DEG = 30.0
 
-#: Roles of model joints a rig may lack and still be served (module docstring, step 3): their absence leaves the
-#: chains above and below them whole.
-# the lacking joints between two mapped ones that take half of the turn between them (module docstring, step 3);
-# a lacking palm does not: below it a Mixamo hand has a finger's own bend, which the Acclaim fingers never make
-_SPLIT_ROLES = frozenset({"spine_mid", "neck_upper"})
+# the trunk's segments: one a rig lacks between two it has takes half of the turn between them (module docstring,
+# step 3); a lacking palm does not: below it a Mixamo hand has a finger's own bend, which the Acclaim fingers never make
+_SPLIT_ROLES = frozenset({"spine", "spine_mid", "chest", "neck", "neck_upper"})
 
-OPTIONAL_ROLES = frozenset({"spine_mid", "neck_upper", "left_palm", "right_palm", "left_fingers", "right_fingers",
-                            "left_thumb", "right_thumb", "left_toe", "right_toe"})
+#: Roles of model joints a rig may lack and still be served (module docstring, step 3): their absence leaves the
+#: chains above and below them whole (a trunk segment only where the next one below it on the trunk is mapped).
+OPTIONAL_ROLES = _SPLIT_ROLES | frozenset({"left_palm", "right_palm", "left_fingers", "right_fingers", "left_thumb",
+                                           "right_thumb", "left_toe", "right_toe"})
 
 # the child role whose direction is a joint's bone (the role tree's main chain)
 _BONE_CHILD = {"pelvis": "spine", "spine": "spine_mid", "spine_mid": "chest", "chest": "neck", "neck": "neck_upper",
@@ -386,8 +387,13 @@ def _map(model, sk: Skeleton, family: str, found: dict[str, int], model_roles: l
     shares = []
     for k, role in enumerate(model_roles):  # one lacking model joint right above a mapped one: it carries its turn
         up = _role_above(role, roles_index)
-        m = roles_index.get(up, -1) if role in found and up in _SPLIT_ROLES else -1
+        m = roles_index.get(up, -1) if joints[k] >= 0 and up in _SPLIT_ROLES else -1
         shares.append(m if m >= 0 and joints[m] < 0 and m not in shares else -1)
+    alone = [layout.joints[k] for k, r in enumerate(model_roles) if r in _SPLIT_ROLES and r not in found and k not in shares]
+    if alone:
+        return (f"the model was trained on the Acclaim rig, whose trunk has six segments; this {family} rig lacks "
+                f"{', '.join(alone)} with no mapped segment right below to share the turn with; train a model on this "
+                f"rig with `mocapkit train`")
     axes = np.stack([R.euler_to_quaternion(np.array(ACCLAIM_AXES[n], dtype=np.float64), "xyz") for n in layout.joints])
     filler = np.asarray(model.net.mean, dtype=np.float64).reshape(-1)
     return Serving(model, family, False, tuple(joints), tuple(parent), tuple(chains), _chain(sk, -1, pelvis),
