@@ -227,6 +227,20 @@ def test_a_mixamo_rig_lacking_joints_is_served(walk, ebf):
     assert np.array_equal(filled.rotations[obs], gapped.rotations[obs])
 
 
+def test_joints_the_map_does_not_cover_get_the_fallback_filter(walk):
+    """Denoising a mapped rig: a joint no role claims (the Mixamo spelling's LowerBack) is smoothed as the
+    fallback would, the joints above the pelvis and the root are not touched."""
+    from mocapkit.cleaning.filters import savgol_smooth
+
+    mix = mixamo_spelling(motionbuilder_spelling(walk))
+    back = mix.skeleton.index("mixamorig:LowerBack")
+    noisy, _ = corrupt.angular_noise(mix, 0.5, seed=9, joints=["mixamorig:LowerBack", "mixamorig:LeftUpLeg"])
+    out = deep.denoise(noisy)
+    smooth = savgol_smooth(noisy, window_s=0.1, polyorder=2, joints=[back], root=False)
+    assert np.array_equal(out.rotations[:, back], smooth.rotations[:, back])
+    assert np.array_equal(out.rotations[:, 0], noisy.rotations[:, 0])
+
+
 def biovision_spelling(bvh: Motion) -> Motion:
     """A MotionBuilder-release CMU BVH under the 3dsMax/Biovision names (``Chest``, ``Chest2``, ``Neck``,
     ``LeftHip`` ...), its lower back and lower neck under names no role claims: a trunk of four segments."""

@@ -480,16 +480,21 @@ def denoise(motion: Motion, model=None, cells: np.ndarray | None = None) -> Moti
         return decode_served(np.nan_to_num(out), motion, sv, keep=keep)
     out = np.where(np.isnan(out), values, out)  # a NaN channel (a missing joint on a mapped chain) stays as it is
     res = decode_served(np.nan_to_num(out), motion, sv, keep=keep, residual=_residual_filter(motion.fps))
-    if not sv.held:
+    # the rig's joints the network does not filter get the fallback's filter: those it reads at its means (it
+    # never saw them move) and those the map does not cover (Chest3 on a five-segment trunk), but the root and
+    # the joints above the pelvis, whose rotation is the body's (kept, as the root's is)
+    sk = motion.skeleton
+    covered = set(sv.joints) | set(sv.pelvis_chain) | {0}
+    others = [j for j in range(1, sk.num_joints) if j not in covered and sk.rotation_order(j)]
+    if not others:
         return res
-    # the rig's joints the network reads at its means (it never saw them move) get the fallback's filter
     from ..filters import savgol_smooth
 
-    held = np.zeros(keep.shape, dtype=bool)
-    held[:, list(sv.held)] = True
-    held &= ~keep
-    smooth = savgol_smooth(motion, window_s=0.1, polyorder=2, joints=list(sv.held), root=False)
-    return dataclasses.replace(res, rotations=np.where(held[..., None], smooth.rotations, res.rotations))
+    cells = np.zeros(keep.shape, dtype=bool)
+    cells[:, others] = True
+    cells &= ~keep
+    smooth = savgol_smooth(motion, window_s=0.1, polyorder=2, joints=others, root=False)
+    return dataclasses.replace(res, rotations=np.where(cells[..., None], smooth.rotations, res.rotations))
 
 
 def _residual_filter(fps: float):
