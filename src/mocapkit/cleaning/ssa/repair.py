@@ -63,23 +63,32 @@ def _blend_runs(orig: np.ndarray, new: np.ndarray, flags: np.ndarray, window: in
     replacement is first offset so that it meets the original at both ends
     (a displacement blended linearly across the run), then the hybrid track is
     filtered with a quadratic Savitzky-Golay filter of ``window`` frames, and
-    only the flagged frames take the filtered values.
+    only the flagged frames take the filtered values. All runs are offset at
+    once: :func:`_run_continuity` makes each run hemisphere-continuous on its own.
     """
     F = len(orig)
     out = np.array(orig)
     track = np.array(orig)
-    for a, b in contact_segments(flags):
-        rep = align_hemisphere(new[a:b], np.broadcast_to(orig[a - 1] if a > 0 else new[a], new[a:b].shape))
-        rep = R.quaternion_continuity(rep, axis=0)
-        da = R.quaternion_log(R.quaternion_multiply(orig[a - 1], R.quaternion_inverse(rep[0]))) if a > 0 else np.zeros(3)
-        db = R.quaternion_log(R.quaternion_multiply(orig[b], R.quaternion_inverse(rep[-1]))) if b < F else da * 0
-        if a == 0:
-            da = db
-        if b == F:
-            db = da
-        u = (np.arange(a, b) - (a - 1)) / (b - (a - 1))
-        delta = (1 - u)[:, None] * da + u[:, None] * db
-        track[a:b] = R.quaternion_multiply(R.quaternion_exp(delta), rep)
+    runs = np.array(contact_segments(flags), dtype=np.int64).reshape(-1, 2)
+    if len(runs):
+        a, b = runs[:, 0], runs[:, 1]
+        n = b - a
+        run_of = np.repeat(np.arange(len(runs)), n)  # the run of each flagged frame
+        first = np.concatenate([[0], np.cumsum(n)[:-1]])  # each run's first row among the flagged frames
+        idx = np.flatnonzero(flags)  # the flagged frames, run after run
+        ref = np.where((a > 0)[:, None], orig[np.maximum(a - 1, 0)], new[a])
+        rep = _run_continuity(align_hemisphere(new[idx], ref[run_of]), first, run_of)
+        da = np.zeros((len(runs), 3))
+        before = a > 0
+        da[before] = R.quaternion_log(R.quaternion_multiply(orig[a[before] - 1], R.quaternion_inverse(rep[first[before]])))
+        db = da * 0
+        after = b < F
+        db[after] = R.quaternion_log(R.quaternion_multiply(orig[b[after]], R.quaternion_inverse(rep[(first + n - 1)[after]])))
+        da = np.where(before[:, None], da, db)  # a run at either end takes the other end's displacement
+        db = np.where(after[:, None], db, da)
+        u = (idx - (a - 1)[run_of]) / (b - (a - 1))[run_of]
+        delta = (1 - u)[:, None] * da[run_of] + u[:, None] * db[run_of]
+        track[idx] = R.quaternion_multiply(R.quaternion_exp(delta), rep)
     cont = R.quaternion_continuity(track, axis=0)
     if F >= window:
         smooth = savgol_filter(cont, window, 2, axis=0, mode="interp")
@@ -88,6 +97,25 @@ def _blend_runs(orig: np.ndarray, new: np.ndarray, flags: np.ndarray, window: in
     smooth = R.quaternion_normalize(smooth)
     out[flags] = align_hemisphere(smooth[flags], orig[flags])
     return out
+
+
+def _run_continuity(q: np.ndarray, first: np.ndarray, run_of: np.ndarray) -> np.ndarray:
+    """:func:`mocapkit.rotations.quaternion_continuity` of each run of ``q`` (K, 4) on its own.
+
+    The runs are consecutive rows; ``first`` (n,) their first rows, ``run_of``
+    (K,) the run of each row. Signs flip where consecutive rows of a run lie in
+    opposite hemispheres (NaN rows bridged, as there); the first row of each
+    run keeps its sign.
+    """
+    pos = np.arange(len(q))
+    valid = np.all(np.isfinite(q), axis=-1)
+    last = np.maximum.accumulate(np.where(valid, pos, first[run_of]))  # the last valid row of the run so far
+    filled = q[last]
+    flips = np.zeros(len(q), dtype=np.int64)
+    flips[1:] = np.sum(filled[1:] * filled[:-1], axis=-1) < 0.0
+    parity = np.cumsum(flips)
+    parity -= parity[first][run_of]
+    return q * np.where(parity % 2 == 1, -1.0, 1.0)[:, None]
 
 
 def repair(
