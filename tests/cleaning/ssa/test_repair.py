@@ -149,3 +149,31 @@ def test_blend_runs_equal_the_one_run_at_a_time_reference(walk, seed):
     got = rp._blend_runs(orig, new, flags, window)
     assert np.array_equal(got, _reference_blend_runs(orig, new, flags, window))
     assert np.array_equal(got[~flags], orig[~flags])
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_bridge_equals_the_one_run_at_a_time_slerp(walk, seed):
+    import importlib
+
+    from mocapkit.cleaning.ik import contact_segments
+
+    rp = importlib.import_module("mocapkit.cleaning.ssa.repair")
+    rng = np.random.default_rng(seed)
+    track = np.array(walk.rotations[:, 3 + seed])
+    F = len(track)
+    mask = rng.random(F) < [0.1, 0.5, 0.9, 1.0][seed]
+    mask[:2] = seed % 2 == 1  # runs at the ends, or not
+    want = np.array(track)
+    for a, b in contact_segments(mask):  # the plain loop: slerp between the frames around each run
+        lo = want[a - 1] if a > 0 else None
+        hi = want[b] if b < F else None
+        if lo is None and hi is None:
+            continue
+        lo = hi if lo is None else lo
+        hi = lo if hi is None else hi
+        u = (np.arange(a, b) - (a - 1)) / (b - (a - 1))
+        want[a:b] = R.slerp(np.broadcast_to(lo, (b - a, 4)), np.broadcast_to(hi, (b - a, 4)), u)
+    got = np.array(track)
+    bridged = rp._bridge(got, mask)
+    assert np.array_equal(got, want)
+    assert np.array_equal(bridged, mask if seed < 3 else np.zeros(F, dtype=bool))  # a run over all is left alone

@@ -118,6 +118,30 @@ def _run_continuity(q: np.ndarray, first: np.ndarray, run_of: np.ndarray) -> np.
     return q * np.where(parity % 2 == 1, -1.0, 1.0)[:, None]
 
 
+def _bridge(track: np.ndarray, mask: np.ndarray) -> np.ndarray:
+    """Slerp each run of ``mask`` (F,) in ``track`` (F, 4, changed in place) between its ends; the frames bridged.
+
+    A run's ends are the frames just before and after it (a run at either
+    end of the take takes the other end's value on both sides; a run over the
+    whole track is left alone). Runs are maximal, so their ends lie outside
+    every run and all runs are bridged at once.
+    """
+    F = len(track)
+    runs = np.array(contact_segments(mask), dtype=np.int64).reshape(-1, 2)
+    runs = runs[(runs[:, 0] > 0) | (runs[:, 1] < F)]
+    a, b = runs[:, 0], runs[:, 1]
+    lo = track[np.where(a > 0, a - 1, np.minimum(b, F - 1))]
+    hi = np.where((b < F)[:, None], track[np.minimum(b, F - 1)], lo)
+    n = b - a
+    run_of = np.repeat(np.arange(len(runs)), n)
+    idx = np.repeat(a, n) + np.arange(int(n.sum())) - np.repeat(np.cumsum(n) - n, n)  # the frames of the runs
+    u = (idx - (a - 1)[run_of]) / (b - (a - 1))[run_of]
+    track[idx] = R.slerp(lo[run_of], hi[run_of], u)
+    out = np.zeros(F, dtype=bool)
+    out[idx] = True
+    return out
+
+
 def repair(
     motion: Motion,
     detection: Detection,
@@ -249,16 +273,8 @@ def repair(
     # unflagged or already replaced (blending its own values towards the ends would bend a 180-degree
     # flip, not undo it)
     for j in np.flatnonzero((flags & ~placed).any(axis=0)):
-        for a, b in contact_segments(flags[:, j] & ~placed[:, j]):
-            lo = new[a - 1, j] if a > 0 else None
-            hi = new[b, j] if b < F else None
-            if lo is None and hi is None:
-                continue
-            lo = hi if lo is None else lo
-            hi = lo if hi is None else hi
-            u = (np.arange(a, b) - (a - 1)) / (b - (a - 1))
-            new[a:b, j] = R.slerp(np.broadcast_to(lo, (b - a, 4)), np.broadcast_to(hi, (b - a, 4)), u)
-            placed[a:b, j] = True
+        bridged = _bridge(new[:, j], flags[:, j] & ~placed[:, j])
+        placed[bridged, j] = True
     window = window_frames(blend_s, motion.fps, 2)
     out_rot = np.array(motion.rotations)
     for j in np.flatnonzero(placed.any(axis=0)):
