@@ -415,3 +415,26 @@ def test_clean_leaves_a_take_alone_on_other_names_joint_order_rate_and_up_axis(w
     found = mocapkit.clean(bad)
     j = take.skeleton.index(records[0].joint)
     assert found.repaired[records[0].start : records[0].end, j].mean() > 0.5, found.summary()
+
+
+def test_noise_level_is_the_running_median_of_the_cubic_fit_residual(walk):
+    """The level against its definition: a (window, 1) median over the residual of a cubic fit, gaps NaN."""
+    from scipy.ndimage import median_filter
+    from scipy.signal import savgol_filter
+
+    noisy, _ = corrupt.angular_noise(walk, amount=0.5, seed=4, joints=["lfemur", "rhumerus"])
+    gappy, gap = corrupt.gaps(noisy, seed=5)
+    for m in (noisy, gappy, gappy[:40]):
+        q = np.array(m.rotations)
+        miss = ~np.all(np.isfinite(q), axis=-1)
+        q[miss] = R.identity()
+        q = R.quaternion_continuity(q, axis=0)
+        w = max(7, int(round(0.06 * m.fps)) | 1)
+        fit = savgol_filter(q, w, 3, axis=0, mode="interp")
+        fit /= np.maximum(np.linalg.norm(fit, axis=-1, keepdims=True), 1e-12)
+        res = np.degrees(4.0 * np.arcsin(np.clip(np.linalg.norm(q - fit, axis=-1) / 2.0, 0.0, 1.0)))
+        res[miss] = 0.0
+        ref = median_filter(res, size=(max(3, int(round(0.5 * m.fps)) | 1), 1), mode="nearest")
+        ref[miss] = np.nan
+        assert np.array_equal(noise_level(m), ref, equal_nan=True)
+    assert gap.any()

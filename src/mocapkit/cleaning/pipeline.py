@@ -307,6 +307,19 @@ def noise_level(motion: Motion, fit_s: float = NOISE_FIT_S, window_s: float = NO
     spike, the onset of a flip) leaves are not called noise. Missing cells are
     NaN; a clip shorter than the fit gives NaN everywhere.
     """
+    return _level(motion, *_continuous_tracks(motion), fit_s, window_s)
+
+
+def _continuous_tracks(motion: Motion) -> tuple[np.ndarray, np.ndarray]:
+    """``(q (F, J, 4), miss (F, J))``: hemisphere-continuous tracks, missing cells as the identity."""
+    q = np.array(motion.rotations)
+    miss = ~np.all(np.isfinite(q), axis=-1)
+    q[miss] = R.identity()
+    return R.quaternion_continuity(q, axis=0), miss
+
+
+def _level(motion: Motion, q: np.ndarray, miss: np.ndarray, fit_s: float, window_s: float) -> np.ndarray:
+    """:func:`noise_level` from the tracks of :func:`_continuous_tracks`."""
     from scipy.ndimage import median_filter
     from scipy.signal import savgol_filter
 
@@ -315,10 +328,6 @@ def noise_level(motion: Motion, fit_s: float = NOISE_FIT_S, window_s: float = NO
     out = np.full((F, J), np.nan)
     if F < w:
         return out
-    q = np.array(motion.rotations)
-    miss = ~np.all(np.isfinite(q), axis=-1)
-    q[miss] = R.identity()
-    q = R.quaternion_continuity(q, axis=0)
     fit = savgol_filter(q, w, 3, axis=0, mode="interp")
     fit /= np.maximum(np.linalg.norm(fit, axis=-1, keepdims=True), 1e-12)
     # the angle between unit quaternions from their chord, stable near 0 (unlike arccos of the dot product)
@@ -326,7 +335,9 @@ def noise_level(motion: Motion, fit_s: float = NOISE_FIT_S, window_s: float = NO
     res = np.degrees(4.0 * np.arcsin(chord))  # |q - q'| = 2 sin(a / 2) for the 4-D angle a; rotation angle 2a
     res[miss] = 0.0
     L = max(3, int(round(window_s * motion.fps)) | 1)
-    level = median_filter(res, size=(L, 1), mode="nearest")
+    level = np.empty_like(res)
+    for j in range(J):  # scipy's 1-D running median is much faster than its (L, 1) footprint; same values
+        level[:, j] = median_filter(res[:, j], size=L, mode="nearest")
     level[miss] = np.nan
     return level
 
@@ -344,13 +355,14 @@ def noise_direction(motion: Motion) -> np.ndarray:
     neighbour's value; a joint that does not move (zero steps) gives 0;
     missing cells are NaN; a clip under 3 frames gives NaN everywhere.
     """
-    F, J = motion.num_frames, motion.num_joints
+    return _direction(*_continuous_tracks(motion))
+
+
+def _direction(q: np.ndarray, miss: np.ndarray) -> np.ndarray:
+    """:func:`noise_direction` from the tracks of :func:`_continuous_tracks`."""
+    F, J = miss.shape
     if F < 3:
         return np.full((F, J), np.nan)
-    q = np.array(motion.rotations)
-    miss = ~np.all(np.isfinite(q), axis=-1)
-    q[miss] = R.identity()
-    q = R.quaternion_continuity(q, axis=0)
     d = np.diff(q, axis=0)  # (F-1, J, 4)
     n = np.linalg.norm(d, axis=-1)
     cos = np.sum(d[1:] * d[:-1], axis=-1) / np.maximum(n[1:] * n[:-1], 1e-12)  # at frames 1 .. F-2
@@ -385,17 +397,18 @@ def noisy_cells(motion: Motion, noise_deg: float = NOISE_DEG, filled: np.ndarray
     """
     from .ik import contact_segments
 
-    level = noise_level(motion)
+    q, miss = _continuous_tracks(motion)  # once for the level and the direction
+    level = _level(motion, q, miss, NOISE_FIT_S, NOISE_WINDOW_S)
     sk = motion.skeleton
     has_dofs = np.array([j > 0 and bool(sk.rotation_order(j)) for j in range(sk.num_joints)])
     high = (np.nan_to_num(level) > noise_deg) & has_dofs[None, :]
     noisy = np.zeros_like(high)
     min_run = int(np.ceil(NOISE_MIN_RUN_S * motion.fps))
     if high.any():
-        cos = noise_direction(motion)
-        q = np.asarray(motion.rotations, dtype=np.float64)
+        cos = _direction(q, miss)
+        rot = np.asarray(motion.rotations, dtype=np.float64)
         step = np.zeros(high.shape)
-        step[1:] = np.degrees(R.geodesic_angle(q[1:], q[:-1]))  # into each frame (NaN next to missing cells)
+        step[1:] = np.degrees(R.geodesic_angle(rot[1:], rot[:-1]))  # into each frame (NaN next to missing cells)
         step[0] = step[1]
         for j in np.flatnonzero(high.any(axis=0)):
             seen = np.ones(len(cos), dtype=bool) if filled is None else ~np.asarray(filled, dtype=bool)[:, j]

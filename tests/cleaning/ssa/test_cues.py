@@ -365,3 +365,51 @@ def test_uncompensated_breaks_matches_the_plain_chain_test(walk):
     assert (breaks & ~got).any() and got.any()  # both kinds of event are present
     table = cues.chain_table(parents, j)
     assert (table[:, 0] >= 0).all() and ((table == j).sum(axis=1) == 1).all()
+
+
+def _event_step_reference(q, first, last):
+    """The step across one event written plainly (None where it touches the take's ends)."""
+    if first < 2 or last + 2 >= len(q):
+        return None
+    a, b, c, d = (np.array(q[i], dtype=np.float64) for i in (first - 2, first - 1, last + 1, last + 2))
+    if np.dot(a, b) < 0:
+        a = -a
+    if np.dot(c, d) < 0:
+        d = -d
+    half = 0.5 * (last + 2 - first)
+
+    def velocity(x, y):
+        return R.quaternion_to_rotvec(R.quaternion_multiply(y, R.quaternion_inverse(x)))
+
+    before = R.quaternion_multiply(R.rotvec_to_quaternion(half * velocity(a, b)), b)
+    after = R.quaternion_multiply(R.rotvec_to_quaternion(-half * velocity(c, d)), c)
+    return R.quaternion_to_rotvec(R.quaternion_multiply(after, R.quaternion_inverse(before)))
+
+
+def test_event_steps_and_spikes_equal_the_one_event_at_a_time_reference(walk):
+    """All of a joint's events at once (:func:`cues._event_steps`, :func:`cues.spike_breaks`) give, bit for bit,
+    what one event at a time gives, on a real take with real-style errors and events at both ends."""
+    bad, _mask, _rec = corrupt.real_errors(walk, n_errors=8, seed=5)
+    rot = np.array(bad.rotations, dtype=np.float64)
+    rot[1, 5] = R.quaternion_multiply(rot[1, 5], R.quaternion_from_axis_angle(np.array([1.0, 0.0, 0.0]), 1.0))
+    rot[-2, 5] = -rot[-2, 5]  # a sign flip is no break; a spike at the last frames is
+    rot[-2, 6] = R.quaternion_multiply(rot[-2, 6], R.quaternion_from_axis_angle(np.array([0.0, 1.0, 0.0]), 1.0))
+    resid = cues.midpoint_residuals(rot)
+    breaks = cues.own_breaks(resid, 7.0)
+    want = np.zeros(breaks.shape, dtype=bool)
+    n_events = n_none = 0
+    for j in np.flatnonzero(breaks.any(axis=0)):
+        runs = cues._break_events(np.flatnonzero(breaks[:, j]))
+        got = cues._event_steps(rot[:, j], [r[0] for r in runs], [r[-1] for r in runs])
+        for run, g in zip(runs, got):
+            ref = _event_step_reference(rot[:, j], int(run[0]), int(run[-1]))
+            n_events += 1
+            if ref is None:
+                n_none += 1
+                assert np.isnan(g).all()
+                continue
+            assert np.array_equal(g, ref)
+            if np.linalg.norm(ref) < 0.5 * float(resid[run[0] : run[-1] + 1, j].max()):
+                want[run, j] = True
+    assert n_events > 20 and n_none >= 2 and want.any() and (breaks & ~want).any()
+    assert np.array_equal(cues.spike_breaks(rot, resid, breaks), want)

@@ -201,3 +201,37 @@ def test_detect_flags_a_freeze_from_its_first_held_frame(walk):
     assert not paper.flags[r.start : r.start + 5, j].any()
     others = np.arange(walk.num_joints) != j
     assert not det.holds[:, others].any()
+
+
+def test_digression_on_the_groups_joints_equals_it_on_every_joint(flipped):
+    """:func:`detect._digression` computes only the columns a group's mean texture holds; the other joints'
+    texture is NaN throughout, so the angles, scores and speeds equal those of every column, bit for bit."""
+    import importlib
+
+    from mocapkit.cleaning.ssa import word_dtw
+    from mocapkit.cleaning.ssa.cues import step_angles
+    from mocapkit.cleaning.ssa.neighbours import Neighbors, mean_motion_texture
+    from mocapkit.cleaning.ssa.texture import facing_aligned, upsample_quaternions
+
+    D = importlib.import_module("mocapkit.cleaning.ssa.detect")
+    det = flipped[3]
+    an, p = det.analysis, det.params
+    nb = Neighbors(det.neighbor_pos, det.neighbor_iend, det.neighbor_jend, det.neighbor_dist)
+    mean_tex, spread = mean_motion_texture(an.source, an.texture, list(an.group_rows), an.words, nb,
+                                           p.source_length, p.target_length, return_spread=True)
+    assert np.isnan(mean_tex).all(axis=(1, 3)).any()  # some groups leave joints out
+    motion, fps_a, joints = an.motion, p.analysis_fps, an.joints
+    got = D._digression(motion, mean_tex, spread, joints, an.up, fps_a, p.noise_deg, p.shift_s, speeds=True)
+    F, G = motion.num_frames, len(mean_tex)
+    inp = facing_aligned(motion.rotations, an.up)[:, joints]
+    want = [np.full((G, F, len(joints)), np.nan) for _ in range(3)]
+    t, src_t = np.arange(F) * (fps_a / motion.fps), np.arange(mean_tex.shape[1])
+    for g in range(G):  # every column, as one call per group
+        up_q = upsample_quaternions(mean_tex[g], fps_a, F, motion.fps)
+        step = np.degrees(step_angles(up_q)) * motion.fps
+        want[2][g] = np.concatenate([step, step[-1:]])
+        want[0][g] = word_dtw.shift_tolerant_angles(inp, up_q, int(round(p.shift_s * motion.fps)))
+        sp = np.stack([np.interp(t, src_t, spread[g][:, c]) for c in range(len(joints))], axis=1)
+        want[1][g] = want[0][g] / np.sqrt(np.where(np.isfinite(sp), sp, 0.0) ** 2 + np.radians(p.noise_deg) ** 2)
+    for a, b in zip(got, want):
+        assert np.array_equal(a, b, equal_nan=True)

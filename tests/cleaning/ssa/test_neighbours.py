@@ -126,3 +126,33 @@ def test_minima_are_those_of_the_whole_distance_function():
     got = [int(i) for i, v in zip(idx[0], vals[0]) if np.isfinite(v)]
     assert got == [50]  # not 22 or 38, the edges of the excluded zone
     assert naive_local_minima_knn(dist, tgt, 3, np.array([30]), 7)[0] == [(0.5, 50)]
+
+
+def _reference_overlap_sums(F, starts, means, spreads):
+    """The mean words added one word at a time, as section 3.4 averages overlapping words."""
+    n, N, m = means.shape[:3]
+    acc, sacc, cnt = np.zeros((F, m, 4)), np.zeros((F, m)), np.zeros(F)
+    for s, mean_word, word_spread in zip(starts, means, spreads):
+        ref = np.where(np.linalg.norm(acc[s : s + N], axis=-1, keepdims=True) > 0, acc[s : s + N], mean_word)
+        acc[s : s + N] += texture.align_hemisphere(mean_word, ref)
+        sacc[s : s + N] += word_spread
+        cnt[s : s + N] += 1
+    return acc, sacc, cnt
+
+
+@pytest.mark.parametrize("order", ["stride", "shuffled"])
+def test_overlap_sums_equal_the_one_word_at_a_time_reference(walk, order):
+    """Words added in rounds give, bit for bit, the sums of one word at a time (any word order, sign flips)."""
+    rng = np.random.default_rng(1)
+    q = np.asarray(walk.rotations[:200, 1:7], dtype=np.float64)  # real rotations, (200, 6, 4)
+    starts = np.append(np.arange(0, 186, 5), [185, 40])  # a word flush with the end, one repeated
+    if order == "shuffled":
+        starts = rng.permutation(starts)
+    means = np.stack([q[s : s + 15] for s in starts]) * rng.choice([-1.0, 1.0], (len(starts), 15, 6, 1))
+    means += rng.normal(0.0, 0.01, means.shape)
+    spreads = rng.random((len(starts), 15, 6))
+    got = neighbours._overlap_sums(230, starts, means, spreads)
+    want = _reference_overlap_sums(230, starts, means, spreads)
+    for g, w in zip(got, want):
+        assert np.array_equal(g, w)
+    assert got[2].max() == 4 and got[2][205:].sum() == 0

@@ -98,3 +98,82 @@ def test_an_error_between_two_breaks_is_flagged_and_repaired_between_them(walk):
     rep = ssa.repair(bad, det)
     err = np.degrees(R.geodesic_angle(rep.rotations[:, j], walk.rotations[:, j]))
     assert err[frames].max() < 20.0 and err.max() < 20.0  # was 60 in the window; no clean frame pushed far off
+
+
+def _reference_blend_runs(orig, new, flags, window):
+    """The blend of :func:`repair._blend_runs` one run at a time, as section 4 describes it."""
+    from scipy.signal import savgol_filter
+
+    from mocapkit.cleaning.ik import contact_segments
+    from mocapkit.cleaning.ssa.texture import align_hemisphere
+
+    F = len(orig)
+    out, track = np.array(orig), np.array(orig)
+    for a, b in contact_segments(flags):
+        rep = align_hemisphere(new[a:b], np.broadcast_to(orig[a - 1] if a > 0 else new[a], new[a:b].shape))
+        rep = R.quaternion_continuity(rep, axis=0)
+        da = R.quaternion_log(R.quaternion_multiply(orig[a - 1], R.quaternion_inverse(rep[0]))) if a > 0 else np.zeros(3)
+        db = R.quaternion_log(R.quaternion_multiply(orig[b], R.quaternion_inverse(rep[-1]))) if b < F else da * 0
+        if a == 0:
+            da = db
+        if b == F:
+            db = da
+        u = (np.arange(a, b) - (a - 1)) / (b - (a - 1))
+        delta = (1 - u)[:, None] * da + u[:, None] * db
+        track[a:b] = R.quaternion_multiply(R.quaternion_exp(delta), rep)
+    cont = R.quaternion_continuity(track, axis=0)
+    smooth = savgol_filter(cont, window, 2, axis=0, mode="interp") if F >= window else cont
+    smooth = R.quaternion_normalize(smooth)
+    out[flags] = align_hemisphere(smooth[flags], orig[flags])
+    return out
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_blend_runs_equal_the_one_run_at_a_time_reference(walk, seed):
+    import importlib
+
+    rp = importlib.import_module("mocapkit.cleaning.ssa.repair")  # the package's name repair is the function
+    rng = np.random.default_rng(seed)
+    j = 1 + seed % (walk.num_joints - 1)
+    orig = np.array(walk.rotations[:, j])
+    F = len(orig)
+    new = R.quaternion_normalize(orig + rng.normal(0.0, 0.3, orig.shape))
+    new *= np.where(rng.random(F) < 0.3, -1.0, 1.0)[:, None]  # sign flips inside runs
+    flags = rng.random(F) < [0.05, 0.3, 0.6, 0.9, 0.02, 0.5][seed]
+    flags[:3] = seed % 2 == 0  # runs touching the first and last frames, or not
+    flags[-2:] = seed % 3 == 0
+    flags[F // 2] = True  # at least one run
+    if seed == 5:
+        flags[:] = True  # one run over the whole track
+    window = 31 if seed != 4 else F + 1
+    got = rp._blend_runs(orig, new, flags, window)
+    assert np.array_equal(got, _reference_blend_runs(orig, new, flags, window))
+    assert np.array_equal(got[~flags], orig[~flags])
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_bridge_equals_the_one_run_at_a_time_slerp(walk, seed):
+    import importlib
+
+    from mocapkit.cleaning.ik import contact_segments
+
+    rp = importlib.import_module("mocapkit.cleaning.ssa.repair")
+    rng = np.random.default_rng(seed)
+    track = np.array(walk.rotations[:, 3 + seed])
+    F = len(track)
+    mask = rng.random(F) < [0.1, 0.5, 0.9, 1.0][seed]
+    mask[:2] = seed % 2 == 1  # runs at the ends, or not
+    want = np.array(track)
+    for a, b in contact_segments(mask):  # the plain loop: slerp between the frames around each run
+        lo = want[a - 1] if a > 0 else None
+        hi = want[b] if b < F else None
+        if lo is None and hi is None:
+            continue
+        lo = hi if lo is None else lo
+        hi = lo if hi is None else hi
+        u = (np.arange(a, b) - (a - 1)) / (b - (a - 1))
+        want[a:b] = R.slerp(np.broadcast_to(lo, (b - a, 4)), np.broadcast_to(hi, (b - a, 4)), u)
+    got = np.array(track)
+    bridged = rp._bridge(got, mask)
+    assert np.array_equal(got, want)
+    assert np.array_equal(bridged, mask if seed < 3 else np.zeros(F, dtype=bool))  # a run over all is left alone

@@ -199,6 +199,16 @@ def _break_events(frames: np.ndarray) -> list[np.ndarray]:
     return np.split(frames, np.flatnonzero(np.diff(frames) > 3) + 1)
 
 
+def _event_bounds(frames: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``(first, last, event)``: the events of :func:`_break_events` as arrays, their first and last frames
+    (n,) and the event of each of ``frames`` (sorted break frames, at least one)."""
+    cut = np.flatnonzero(np.diff(frames) > 3) + 1
+    event = np.zeros(len(frames), dtype=np.int64)
+    event[cut] = 1
+    event = np.cumsum(event)
+    return frames[np.concatenate([[0], cut])], frames[np.concatenate([cut - 1, [len(frames) - 1]])], event
+
+
 def _paired_events(starts, longest: int, match=None) -> list[tuple[int, int]]:
     """Successive events paired in time order, ``(start k, start k + 1)``, where the second starts at most
     ``longest`` frames after the first and ``match(k, k + 1)`` holds (if given); a paired event is not paired
@@ -273,29 +283,49 @@ def _usual_residual(resid: np.ndarray) -> np.ndarray:
     return 3.0 * np.percentile(resid, min(95.0, 100.0 * (1.0 - 8.0 / F)), axis=0)
 
 
-def _event_step(q: np.ndarray, first: int, last: int) -> np.ndarray | None:
-    """Rotation vector (radians, parent frame) from the joint's path before the event to its path after it.
+def _event_steps(q: np.ndarray, first: np.ndarray, last: np.ndarray) -> np.ndarray:
+    """(n, 3) rotation vectors (radians, parent frame) from a joint's path before each event to its path after it.
 
-    Each path is the constant-velocity line through the two frames on its
-    side (``q[first - 2]``, ``q[first - 1]`` and ``q[last + 1]``,
+    ``q`` (F, 4) the joint's track; event i spans frames ``first[i] ..
+    last[i]``. Each path is the constant-velocity line through the two frames
+    on its side (``q[first - 2]``, ``q[first - 1]`` and ``q[last + 1]``,
     ``q[last + 2]``), and both are taken at the event's middle. A step (the
     joint jumps onto a parallel path, as a drift or flip starts and ends)
     gives its size; a kink (the joint stops or turns sharply, the paths
     meeting inside the event) gives about nothing, and constant acceleration
-    cancels exactly, however coarse the frame rate. None where the event
-    touches the take's ends.
+    cancels exactly, however coarse the frame rate. NaN rows where the event
+    touches the take's ends. All events at once, row by row the values of
+    one event at a time.
     """
-    if first < 2 or last + 2 >= len(q):
-        return None
-    a, b, c, d = (np.array(q[i], dtype=np.float64) for i in (first - 2, first - 1, last + 1, last + 2))
-    if np.dot(a, b) < 0:
-        a = -a
-    if np.dot(c, d) < 0:
-        d = -d
-    half = 0.5 * (last + 2 - first)  # frames from first - 1 (and from last + 1) to the middle
+    first, last = np.asarray(first, dtype=np.int64), np.asarray(last, dtype=np.int64)
+    out = np.full((len(first), 3), np.nan)
+    ok = (first >= 2) & (last + 2 < len(q))
+    if not ok.any():
+        return out
+    f, l = first[ok], last[ok]
+    a, b, c, d = (np.array(q[i], dtype=np.float64) for i in (f - 2, f - 1, l + 1, l + 2))
+    a = np.where((_row_dots(a, b) < 0)[:, None], -a, a)
+    d = np.where((_row_dots(c, d) < 0)[:, None], -d, d)
+    half = (0.5 * (l + 2 - f))[:, None]  # frames from first - 1 (and from last + 1) to the middle
     before = R.quaternion_multiply(R.rotvec_to_quaternion(half * _velocity(a, b)), b)
     after = R.quaternion_multiply(R.rotvec_to_quaternion(-half * _velocity(c, d)), c)
-    return R.quaternion_to_rotvec(R.quaternion_multiply(after, R.quaternion_inverse(before)))
+    out[ok] = R.quaternion_to_rotvec(R.quaternion_multiply(after, R.quaternion_inverse(before)))
+    return out
+
+
+def _row_dots(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """(n,) ``np.dot(a[i], b[i])`` of (n, k) rows, for sign tests: summed at once, and by ``np.dot`` itself
+    (whose BLAS sum may round otherwise) where the sum is too near 0 for its sign to be sure."""
+    out = np.sum(a * b, axis=-1)
+    for i in np.flatnonzero(np.abs(out) < 1e-9):
+        out[i] = np.dot(a[i], b[i])
+    return out
+
+
+def _norms(v: np.ndarray) -> np.ndarray:
+    """(n,) ``np.linalg.norm(v[i])`` of (n, k) rows, each by the 1-D call (the square root of a BLAS dot
+    product, which a sum along the rows may round otherwise); NaN rows NaN."""
+    return np.array([np.linalg.norm(r) for r in v], dtype=np.float64)
 
 
 def _velocity(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -303,8 +333,8 @@ def _velocity(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return R.quaternion_to_rotvec(R.quaternion_multiply(b, R.quaternion_inverse(a)))
 
 
-def _compensated(q: np.ndarray, parents, j: int, first: int, last: int, depth: int = 3, ratio: float = 0.5) -> bool:
-    """Whether joint ``j``'s turn across an event is undone within its chain: a representation jump, not an error.
+def _compensated(q: np.ndarray, parents, j: int, first, last, depth: int = 3, ratio: float = 0.5) -> np.ndarray:
+    """(n,) bool: whether joint ``j``'s turn across each event is undone within its chain: a representation jump.
 
     Some solvers share one turn between the joints of a chain and, from
     one frame to the next, share it another way (the HDM05 spine: the
@@ -314,25 +344,35 @@ def _compensated(q: np.ndarray, parents, j: int, first: int, last: int, depth: i
     levels at most each way) does not. An error in one joint turns every
     such composed rotation as much as the joint itself; here some turns
     less than ``ratio`` times as much. ``q`` (F, J, 4) local rotations,
-    ``parents`` (J,); a turn is the largest angle from frame ``first - 1``
-    to any frame up to ``last + 1`` (so a spike, back on its path after
-    the event, turns by its size).
+    ``parents`` (J,); event i spans frames ``first[i] .. last[i]`` (n,); a
+    turn is the largest angle from frame ``first - 1`` to any frame up to
+    ``last + 1`` (so a spike, back on its path after the event, turns by its
+    size). All of the joint's events at once: their frames are stacked, and
+    the largest angles taken per event.
     """
-    f0, f1 = max(first - 1, 0), min(last + 1, len(q) - 1)
-    frames = np.arange(f0 + 1, f1 + 1)
-    if len(frames) == 0:
-        return False
-    own = float(R.geodesic_angle(q[frames, j], q[f0, j][None]).max())
-    if own <= 0:
-        return False
+    first, last = np.asarray(first, dtype=np.int64), np.asarray(last, dtype=np.int64)
+    f0, f1 = np.maximum(first - 1, 0), np.minimum(last + 1, len(q) - 1)
+    out = np.zeros(len(first), dtype=bool)
     chains = chain_table(parents, j, depth)
-    at = np.asarray(q[np.concatenate([[f0], frames])], dtype=np.float64)  # (T, J, 4)
+    has = f1 > f0
+    if not has.any() or not len(chains):
+        return out
+    f0, n = f0[has], f1[has] - f0[has] + 1  # frames f0 .. f1 of each event, f0 the reference
+    start = np.concatenate([[0], np.cumsum(n)[:-1]])
+    event = np.repeat(np.arange(len(n)), n)
+    at = np.asarray(q[f0[event] + np.arange(len(event)) - start[event]], dtype=np.float64)  # (T, J, 4)
+    later = np.ones(len(event), dtype=bool)
+    later[start] = False  # the rows after each event's reference frame
+    ref = start[event[later]]
+    firsts = start - np.arange(len(n))  # each event's first row among the later ones
+    own = np.maximum.reduceat(R.geodesic_angle(at[later, j], at[ref, j]), firsts)
     composed = at[:, chains[:, 0]]  # (T, C, 4): each chain's rotation from its root-side joint down
     for i in range(1, chains.shape[1]):
         on = chains[:, i] >= 0
         composed[:, on] = R.quaternion_multiply(composed[:, on], at[:, chains[on, i]])
-    turns = R.geodesic_angle(composed[1:], composed[:1]).max(axis=0)  # (C,)
-    return bool((turns < ratio * own).any())
+    turns = np.maximum.reduceat(R.geodesic_angle(composed[later], composed[ref]), firsts, axis=0)  # (n, C)
+    out[has] = (own > 0) & (turns < ratio * own[:, None]).any(axis=1)
+    return out
 
 
 def chain_table(parents, j: int, depth: int = 3) -> np.ndarray:
@@ -377,15 +417,12 @@ def offsets_from_residuals(q, resid, fps, jump_deg, max_s, min_offset_deg, joint
     longest = int(round(max_s * fps))
     half_turn = np.radians(150.0)
     for j in np.flatnonzero(use & breaks.any(axis=0)):
-        frames = np.flatnonzero(breaks[:, j])
-        starts, steps = [], []
-        for run in _break_events(frames):
-            step = _event_step(q[:, j], int(run[0]), int(run[-1]))
-            if step is None or np.linalg.norm(step) < np.radians(min_offset_deg):
-                continue
-            if parents is None or not _compensated(q, parents, int(j), int(run[0]), int(run[-1])):
-                starts.append(int(run[0]))
-                steps.append(step)
+        first, last, _ = _event_bounds(np.flatnonzero(breaks[:, j]))
+        step = _event_steps(q[:, j], first, last)
+        keep = _norms(step) >= np.radians(min_offset_deg)  # NaN (ends of the take): not kept
+        if parents is not None and keep.any():
+            keep[keep] = ~_compensated(q, parents, int(j), first[keep], last[keep])
+        starts, steps = [int(f) for f in first[keep]], list(step[keep])
 
         def back(k, m):  # the second step points roughly opposite the first (a half turn has no sign)
             na, nb = np.linalg.norm(steps[k]), np.linalg.norm(steps[m])
@@ -497,9 +534,9 @@ def uncompensated_breaks(q: np.ndarray, parents, breaks: np.ndarray) -> np.ndarr
     """
     out = np.array(breaks, dtype=bool)
     for j in np.flatnonzero(out.any(axis=0)):
-        for run in _break_events(np.flatnonzero(out[:, j])):
-            if _compensated(q, parents, int(j), int(run[0]), int(run[-1])):
-                out[run, j] = False
+        frames = np.flatnonzero(out[:, j])
+        first, last, event = _event_bounds(frames)
+        out[frames[_compensated(q, parents, int(j), first, last)[event]], j] = False
     return out
 
 
@@ -507,7 +544,7 @@ def spike_breaks(q: np.ndarray, resid: np.ndarray, breaks: np.ndarray, ratio: fl
     """(F, J) bool: the break events (``breaks``, grouped as :func:`_break_events` does) that are spikes.
 
     A spike leaves the joint on the path it was on: the step across its
-    event (:func:`_event_step`, from the path before to the path after) is
+    event (:func:`_event_steps`, from the path before to the path after) is
     under ``ratio`` times the event's largest midpoint residual ``resid``.
     A step of s degrees between two frames leaves residuals of s / 2 and
     a step of s, a ratio of 2; a one-frame spike of s degrees a residual of s
@@ -516,11 +553,14 @@ def spike_breaks(q: np.ndarray, resid: np.ndarray, breaks: np.ndarray, ratio: fl
     """
     out = np.zeros(breaks.shape, dtype=bool)
     for j in np.flatnonzero(breaks.any(axis=0)):
-        for run in _break_events(np.flatnonzero(breaks[:, j])):
-            a, b = int(run[0]), int(run[-1])
-            step = _event_step(q[:, j], a, b)
-            if step is not None and np.linalg.norm(step) < ratio * float(resid[a : b + 1, j].max()):
-                out[run, j] = True
+        frames = np.flatnonzero(breaks[:, j])
+        first, last, event = _event_bounds(frames)
+        n = last - first + 1
+        start = np.concatenate([[0], np.cumsum(n)[:-1]])
+        span = np.repeat(first - start, n) + np.arange(int(n.sum()))  # the frames first .. last of each event
+        peak = np.maximum.reduceat(resid[span, j], start)
+        spike = _norms(_event_steps(q[:, j], first, last)) < ratio * peak  # NaN (ends of the take): no spike
+        out[frames[spike[event]], j] = True
     return out
 
 

@@ -237,15 +237,19 @@ def _digression(motion, mean_tex, spread, texture_joints, up, fps_a, noise_deg, 
     noise = np.radians(noise_deg)
     speed = np.full_like(ang, np.nan) if speeds else None
     for g in range(G):
-        up_q = upsample_quaternions(mean_tex[g], fps_a, F, motion.fps)
+        # the group's joints; the others' mean texture is NaN throughout, and so would be all they give
+        live = np.flatnonzero(~np.isnan(mean_tex[g]).all(axis=(0, 2)))
+        if not len(live):
+            continue
+        up_q = upsample_quaternions(mean_tex[g][:, live], fps_a, F, motion.fps)
         if speeds and F > 1:
             step = np.degrees(step_angles(up_q)) * motion.fps
-            speed[g] = np.concatenate([step, step[-1:]])
+            speed[g][:, live] = np.concatenate([step, step[-1:]])
         # timing tolerance: the smallest angle to the mean texture a few frames earlier or later
-        a = word_dtw.shift_tolerant_angles(inp, up_q, int(round(shift_s * motion.fps)))
-        ang[g] = a
-        sp = np.stack([np.interp(t, src_t, spread[g][:, c]) for c in range(spread.shape[2])], axis=1)
-        z[g] = a / np.sqrt(np.where(np.isfinite(sp), sp, 0.0) ** 2 + noise**2)
+        a = word_dtw.shift_tolerant_angles(inp[:, live], up_q, int(round(shift_s * motion.fps)))
+        ang[g][:, live] = a
+        sp = np.stack([np.interp(t, src_t, spread[g][:, c]) for c in live], axis=1)
+        z[g][:, live] = a / np.sqrt(np.where(np.isfinite(sp), sp, 0.0) ** 2 + noise**2)
     return (ang, z, speed) if speeds else (ang, z)
 
 

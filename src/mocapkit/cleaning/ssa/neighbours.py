@@ -367,9 +367,6 @@ def mean_motion_texture(
     spread = np.full((G, F, m), np.nan)
     K = neighbors.pos.shape[2]
     for gi, members in enumerate(groups):
-        acc = np.zeros((F, len(members), 4))
-        sacc = np.zeros((F, len(members)))
-        cnt = np.zeros(F)
         dists = neighbors.dist[gi]  # (W, K)
         best = np.min(dists, axis=1, keepdims=True).astype(np.float64)  # inf where a word has none: all pass
         use = (neighbors.pos[gi] >= 0) & near_neighbors(dists, best, neighbor_ratio)
@@ -393,14 +390,7 @@ def mean_motion_texture(
             sl = np.flatnonzero(has[c0 : c0 + 256]) + c0
             if len(sl):
                 means[sl], spreads[sl] = robust_means(stacked[sl], valid[sl])
-        for w, s in enumerate(word_starts):
-            if not has[w]:
-                continue
-            mean_word, word_spread = means[w], spreads[w]
-            ref = np.where(np.linalg.norm(acc[s : s + N], axis=-1, keepdims=True) > 0, acc[s : s + N], mean_word)
-            acc[s : s + N] += align_hemisphere(mean_word, ref)
-            sacc[s : s + N] += word_spread
-            cnt[s : s + N] += 1
+        acc, sacc, cnt = _overlap_sums(F, word_starts[has], means[has], spreads[has])
         ok = cnt > 0
         vals = np.full((F, len(members), 4), np.nan)
         vals[ok] = R.quaternion_normalize(acc[ok])
@@ -409,3 +399,41 @@ def mean_motion_texture(
         sp[ok] = sacc[ok] / cnt[ok, None]
         spread[gi][:, members] = sp
     return (out, spread) if return_spread else out
+
+
+def _overlap_sums(F: int, starts: np.ndarray, means: np.ndarray, spreads: np.ndarray):
+    """Mean words added up where they overlap: ``(acc (F, m, 4), sacc (F, m), cnt (F,))``.
+
+    ``means`` (n, N, m, 4) and ``spreads`` (n, N, m) of the words at frames
+    ``starts`` (n,). Per frame the words are added in ``starts`` order, each
+    aligned with the hemisphere of the sum so far (of itself where the sum is
+    still zero), their spreads summed and counted. The cells go in rounds,
+    round k adding every frame's k-th word, so the sums are those of one word
+    at a time.
+    """
+    n, N, m = means.shape[:3]
+    acc, sacc, cnt = np.zeros((F, m, 4)), np.zeros((F, m)), np.zeros(F)
+    frames, rounds = _word_cells(starts, N)
+    mw, sw = means.reshape(-1, m, 4), spreads.reshape(-1, m)
+    for k in range(int(rounds.max(initial=-1)) + 1):
+        c = np.flatnonzero(rounds == k)
+        f = frames[c]  # distinct frames
+        so_far = acc[f]
+        ref = np.where(np.linalg.norm(so_far, axis=-1, keepdims=True) > 0, so_far, mw[c])
+        acc[f] = so_far + align_hemisphere(mw[c], ref)
+        sacc[f] = sacc[f] + sw[c]
+        cnt[f] = cnt[f] + 1
+    return acc, sacc, cnt
+
+
+def _word_cells(starts: np.ndarray, N: int) -> tuple[np.ndarray, np.ndarray]:
+    """``(frames, rounds)``, both (n * N,) in word-major order: the frame of each cell of the words of ``N``
+    frames at ``starts`` (n,), and how many earlier words (in ``starts`` order) cover that frame too."""
+    frames = (np.asarray(starts, dtype=np.int64)[:, None] + np.arange(N)).ravel()
+    order = np.argsort(frames, kind="stable")  # by frame, word order kept
+    f = frames[order]
+    pos = np.arange(len(f))
+    first = np.maximum.accumulate(np.where(np.concatenate([[True], f[1:] != f[:-1]]), pos, 0))
+    rounds = np.empty(len(f), dtype=np.int64)
+    rounds[order] = pos - first
+    return frames, rounds

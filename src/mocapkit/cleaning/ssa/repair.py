@@ -63,23 +63,32 @@ def _blend_runs(orig: np.ndarray, new: np.ndarray, flags: np.ndarray, window: in
     replacement is first offset so that it meets the original at both ends
     (a displacement blended linearly across the run), then the hybrid track is
     filtered with a quadratic Savitzky-Golay filter of ``window`` frames, and
-    only the flagged frames take the filtered values.
+    only the flagged frames take the filtered values. All runs are offset at
+    once: :func:`_run_continuity` makes each run hemisphere-continuous on its own.
     """
     F = len(orig)
     out = np.array(orig)
     track = np.array(orig)
-    for a, b in contact_segments(flags):
-        rep = align_hemisphere(new[a:b], np.broadcast_to(orig[a - 1] if a > 0 else new[a], new[a:b].shape))
-        rep = R.quaternion_continuity(rep, axis=0)
-        da = R.quaternion_log(R.quaternion_multiply(orig[a - 1], R.quaternion_inverse(rep[0]))) if a > 0 else np.zeros(3)
-        db = R.quaternion_log(R.quaternion_multiply(orig[b], R.quaternion_inverse(rep[-1]))) if b < F else da * 0
-        if a == 0:
-            da = db
-        if b == F:
-            db = da
-        u = (np.arange(a, b) - (a - 1)) / (b - (a - 1))
-        delta = (1 - u)[:, None] * da + u[:, None] * db
-        track[a:b] = R.quaternion_multiply(R.quaternion_exp(delta), rep)
+    runs = np.array(contact_segments(flags), dtype=np.int64).reshape(-1, 2)
+    if len(runs):
+        a, b = runs[:, 0], runs[:, 1]
+        n = b - a
+        run_of = np.repeat(np.arange(len(runs)), n)  # the run of each flagged frame
+        first = np.concatenate([[0], np.cumsum(n)[:-1]])  # each run's first row among the flagged frames
+        idx = np.flatnonzero(flags)  # the flagged frames, run after run
+        ref = np.where((a > 0)[:, None], orig[np.maximum(a - 1, 0)], new[a])
+        rep = _run_continuity(align_hemisphere(new[idx], ref[run_of]), first, run_of)
+        da = np.zeros((len(runs), 3))
+        before = a > 0
+        da[before] = R.quaternion_log(R.quaternion_multiply(orig[a[before] - 1], R.quaternion_inverse(rep[first[before]])))
+        db = da * 0
+        after = b < F
+        db[after] = R.quaternion_log(R.quaternion_multiply(orig[b[after]], R.quaternion_inverse(rep[(first + n - 1)[after]])))
+        da = np.where(before[:, None], da, db)  # a run at either end takes the other end's displacement
+        db = np.where(after[:, None], db, da)
+        u = (idx - (a - 1)[run_of]) / (b - (a - 1))[run_of]
+        delta = (1 - u)[:, None] * da[run_of] + u[:, None] * db[run_of]
+        track[idx] = R.quaternion_multiply(R.quaternion_exp(delta), rep)
     cont = R.quaternion_continuity(track, axis=0)
     if F >= window:
         smooth = savgol_filter(cont, window, 2, axis=0, mode="interp")
@@ -87,6 +96,49 @@ def _blend_runs(orig: np.ndarray, new: np.ndarray, flags: np.ndarray, window: in
         smooth = cont
     smooth = R.quaternion_normalize(smooth)
     out[flags] = align_hemisphere(smooth[flags], orig[flags])
+    return out
+
+
+def _run_continuity(q: np.ndarray, first: np.ndarray, run_of: np.ndarray) -> np.ndarray:
+    """:func:`mocapkit.rotations.quaternion_continuity` of each run of ``q`` (K, 4) on its own.
+
+    The runs are consecutive rows; ``first`` (n,) their first rows, ``run_of``
+    (K,) the run of each row. Signs flip where consecutive rows of a run lie in
+    opposite hemispheres (NaN rows bridged, as there); the first row of each
+    run keeps its sign.
+    """
+    pos = np.arange(len(q))
+    valid = np.all(np.isfinite(q), axis=-1)
+    last = np.maximum.accumulate(np.where(valid, pos, first[run_of]))  # the last valid row of the run so far
+    filled = q[last]
+    flips = np.zeros(len(q), dtype=np.int64)
+    flips[1:] = np.sum(filled[1:] * filled[:-1], axis=-1) < 0.0
+    parity = np.cumsum(flips)
+    parity -= parity[first][run_of]
+    return q * np.where(parity % 2 == 1, -1.0, 1.0)[:, None]
+
+
+def _bridge(track: np.ndarray, mask: np.ndarray) -> np.ndarray:
+    """Slerp each run of ``mask`` (F,) in ``track`` (F, 4, changed in place) between its ends; the frames bridged.
+
+    A run's ends are the frames just before and after it (a run at either
+    end of the take takes the other end's value on both sides; a run over the
+    whole track is left alone). Runs are maximal, so their ends lie outside
+    every run and all runs are bridged at once.
+    """
+    F = len(track)
+    runs = np.array(contact_segments(mask), dtype=np.int64).reshape(-1, 2)
+    runs = runs[(runs[:, 0] > 0) | (runs[:, 1] < F)]
+    a, b = runs[:, 0], runs[:, 1]
+    lo = track[np.where(a > 0, a - 1, np.minimum(b, F - 1))]
+    hi = np.where((b < F)[:, None], track[np.minimum(b, F - 1)], lo)
+    n = b - a
+    run_of = np.repeat(np.arange(len(runs)), n)
+    idx = np.repeat(a, n) + np.arange(int(n.sum())) - np.repeat(np.cumsum(n) - n, n)  # the frames of the runs
+    u = (idx - (a - 1)[run_of]) / (b - (a - 1))[run_of]
+    track[idx] = R.slerp(lo[run_of], hi[run_of], u)
+    out = np.zeros(F, dtype=bool)
+    out[idx] = True
     return out
 
 
@@ -221,16 +273,8 @@ def repair(
     # unflagged or already replaced (blending its own values towards the ends would bend a 180-degree
     # flip, not undo it)
     for j in np.flatnonzero((flags & ~placed).any(axis=0)):
-        for a, b in contact_segments(flags[:, j] & ~placed[:, j]):
-            lo = new[a - 1, j] if a > 0 else None
-            hi = new[b, j] if b < F else None
-            if lo is None and hi is None:
-                continue
-            lo = hi if lo is None else lo
-            hi = lo if hi is None else hi
-            u = (np.arange(a, b) - (a - 1)) / (b - (a - 1))
-            new[a:b, j] = R.slerp(np.broadcast_to(lo, (b - a, 4)), np.broadcast_to(hi, (b - a, 4)), u)
-            placed[a:b, j] = True
+        bridged = _bridge(new[:, j], flags[:, j] & ~placed[:, j])
+        placed[bridged, j] = True
     window = window_frames(blend_s, motion.fps, 2)
     out_rot = np.array(motion.rotations)
     for j in np.flatnonzero(placed.any(axis=0)):
