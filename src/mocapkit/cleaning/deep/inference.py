@@ -165,15 +165,15 @@ def shipped_model(kind: str = "ebf", take=None) -> DeepModel:
     first = _packaged(SHIPPED[kind])
     if take is None:
         return first
-    models = [first] + [_packaged(files[kind]) for files in SHIPPED_FOR_RIG.values()]
-    served = [served_by(take, m) for m in models]
-    for m, s in zip(models, served):
+    mapped = None
+    for name in [SHIPPED[kind]] + [files[kind] for files in SHIPPED_FOR_RIG.values()]:
+        m = _packaged(name)  # loaded only when the ones before do not serve the take directly
+        s = served_by(take, m)
         if not isinstance(s, str) and s.direct:
             return m
-    for m, s in zip(models, served):
-        if not isinstance(s, str):
-            return m
-    return first
+        if mapped is None and not isinstance(s, str):
+            mapped = m
+    return first if mapped is None else mapped
 
 
 def licence_note(model: DeepModel) -> str:
