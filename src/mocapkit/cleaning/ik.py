@@ -52,7 +52,7 @@ from ..errors import SkeletonError
 from ..features import parse_up_axis, detect_up_axis
 from ..motion import ROLES, Motion, Skeleton, find_joint, unit_scale_cm
 
-__all__ = ["two_bone_ik", "fabrik", "foot_contacts", "foot_skate_cleanup", "reach", "contact_segments"]
+__all__ = ["two_bone_ik", "fabrik", "foot_contacts", "foot_skate_cleanup", "reach", "contact_segments", "segment_frames"]
 
 _TINY = 1e-12  # relative size below which a direction or a plane is taken as degenerate
 _NEAR_STRAIGHT = np.radians(10.0)  # below this bend the limb's plane comes (partly) from its usual hinge
@@ -561,6 +561,25 @@ def contact_segments(mask: np.ndarray) -> list[tuple[int, int]]:
     m = np.asarray(mask, dtype=bool).astype(np.int8)
     d = np.diff(np.concatenate([[0], m, [0]]))
     return [(int(s), int(e)) for s, e in zip(np.flatnonzero(d == 1), np.flatnonzero(d == -1))]
+
+
+def segment_frames(starts, lengths) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Segments laid end to end: ``(frames, segment, first)``.
+
+    Segment ``i`` covers frames ``starts[i] .. starts[i] + lengths[i] - 1``;
+    ``frames`` (sum of lengths,) are all of them in segment order, ``segment``
+    the segment of each, and ``first`` (n,) each segment's first position
+    among them: the index arrays that treat many runs at once.
+
+    >>> frames, segment, first = segment_frames([1, 4], [2, 3])
+    >>> frames.tolist(), segment.tolist(), first.tolist()
+    ([1, 2, 4, 5, 6], [0, 0, 1, 1, 1], [0, 2])
+    """
+    starts = np.asarray(starts, dtype=np.int64)
+    lengths = np.asarray(lengths, dtype=np.int64)
+    first = np.cumsum(lengths) - lengths
+    segment = np.repeat(np.arange(len(lengths)), lengths)
+    return starts[segment] + np.arange(len(segment)) - first[segment], segment, first
 
 
 def _clean_runs(mask: np.ndarray, min_frames: int) -> np.ndarray:

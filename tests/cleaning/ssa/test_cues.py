@@ -310,6 +310,11 @@ def test_a_joint_that_stops_dead_is_not_a_step(walk):
         range(400, 450))
 
 
+def _break_events(frames: np.ndarray) -> list[np.ndarray]:
+    """The events as the reference groups them: runs of sorted break frames at most 3 apart."""
+    return np.split(frames, np.flatnonzero(np.diff(frames) > 3) + 1)
+
+
 def _compensated_reference(q, parents, j, first, last, depth=3, ratio=0.5):
     """The chain test written plainly: every chain composed joint by joint, one chain at a time."""
     f0, f1 = max(first - 1, 0), min(last + 1, len(q) - 1)
@@ -357,7 +362,7 @@ def test_uncompensated_breaks_matches_the_plain_chain_test(walk):
     breaks = cues.own_breaks(cues.midpoint_residuals(rot), 7.0)
     want = np.array(breaks)
     for jj in np.flatnonzero(breaks.any(axis=0)):
-        for run in cues._break_events(np.flatnonzero(breaks[:, jj])):
+        for run in _break_events(np.flatnonzero(breaks[:, jj])):
             if _compensated_reference(rot, parents, int(jj), int(run[0]), int(run[-1])):
                 want[run, jj] = False
     got = cues.uncompensated_breaks(rot, parents, breaks)
@@ -399,7 +404,7 @@ def test_event_steps_and_spikes_equal_the_one_event_at_a_time_reference(walk):
     want = np.zeros(breaks.shape, dtype=bool)
     n_events = n_none = 0
     for j in np.flatnonzero(breaks.any(axis=0)):
-        runs = cues._break_events(np.flatnonzero(breaks[:, j]))
+        runs = _break_events(np.flatnonzero(breaks[:, j]))
         got = cues._event_steps(rot[:, j], [r[0] for r in runs], [r[-1] for r in runs])
         for run, g in zip(runs, got):
             ref = _event_step_reference(rot[:, j], int(run[0]), int(run[-1]))

@@ -14,6 +14,7 @@ import numpy as np
 
 from ... import rotations as R
 from ...motion import Motion
+from ..ik import segment_frames
 from .params import SSAParams
 
 __all__ = [
@@ -165,7 +166,7 @@ def swaps_from_residuals(resid, joint_names, fps, jump_deg, max_s, joints, rotat
         frames = np.flatnonzero(both)
         if len(frames) < 2:
             continue
-        starts = [int(run[0]) for run in _break_events(frames)]
+        starts = [int(f) for f in _event_bounds(frames)[0]]
         if rotations is not None and mirrored is not None:
             starts = [f for f in starts if _swap_step(rotations, mirrored, f, j) and _swap_step(rotations, mirrored, f, p)]
         for a, b in _paired_events(starts, longest):
@@ -194,14 +195,9 @@ def _swap_step(q: np.ndarray, mirrored: np.ndarray, f: int, j: int, ratio: float
     return False
 
 
-def _break_events(frames: np.ndarray) -> list[np.ndarray]:
-    """Sorted break frames grouped into events: runs whose frames lie at most 3 apart."""
-    return np.split(frames, np.flatnonzero(np.diff(frames) > 3) + 1)
-
-
 def _event_bounds(frames: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """``(first, last, event)``: the events of :func:`_break_events` as arrays, their first and last frames
-    (n,) and the event of each of ``frames`` (sorted break frames, at least one)."""
+    """Sorted break frames (at least one) grouped into events, runs whose frames lie at most 3 apart:
+    ``(first, last, event)``, the events' first and last frames (n,) and the event of each of ``frames``."""
     cut = np.flatnonzero(np.diff(frames) > 3) + 1
     event = np.zeros(len(frames), dtype=np.int64)
     event[cut] = 1
@@ -357,14 +353,12 @@ def _compensated(q: np.ndarray, parents, j: int, first, last, depth: int = 3, ra
     has = f1 > f0
     if not has.any() or not len(chains):
         return out
-    f0, n = f0[has], f1[has] - f0[has] + 1  # frames f0 .. f1 of each event, f0 the reference
-    start = np.concatenate([[0], np.cumsum(n)[:-1]])
-    event = np.repeat(np.arange(len(n)), n)
-    at = np.asarray(q[f0[event] + np.arange(len(event)) - start[event]], dtype=np.float64)  # (T, J, 4)
+    frames, event, start = segment_frames(f0[has], f1[has] - f0[has] + 1)  # f0 .. f1 of each event, f0 the reference
+    at = np.asarray(q[frames], dtype=np.float64)  # (T, J, 4)
     later = np.ones(len(event), dtype=bool)
     later[start] = False  # the rows after each event's reference frame
     ref = start[event[later]]
-    firsts = start - np.arange(len(n))  # each event's first row among the later ones
+    firsts = start - np.arange(len(start))  # each event's first row among the later ones
     own = np.maximum.reduceat(R.geodesic_angle(at[later, j], at[ref, j]), firsts)
     composed = at[:, chains[:, 0]]  # (T, C, 4): each chain's rotation from its root-side joint down
     for i in range(1, chains.shape[1]):
@@ -530,7 +524,7 @@ def uncompensated_breaks(q: np.ndarray, parents, breaks: np.ndarray) -> np.ndarr
     thorax another way from one frame to the next breaks both joints'
     tracks while the body does not move: no evidence of an error, so such
     breaks confirm no digression. ``q`` (F, J, 4) local rotations,
-    ``parents`` (J,); events are grouped as :func:`_break_events` does.
+    ``parents`` (J,); events are grouped as :func:`_event_bounds` does.
     """
     out = np.array(breaks, dtype=bool)
     for j in np.flatnonzero(out.any(axis=0)):
@@ -541,7 +535,7 @@ def uncompensated_breaks(q: np.ndarray, parents, breaks: np.ndarray) -> np.ndarr
 
 
 def spike_breaks(q: np.ndarray, resid: np.ndarray, breaks: np.ndarray, ratio: float = 0.5) -> np.ndarray:
-    """(F, J) bool: the break events (``breaks``, grouped as :func:`_break_events` does) that are spikes.
+    """(F, J) bool: the break events (``breaks``, grouped as :func:`_event_bounds` does) that are spikes.
 
     A spike leaves the joint on the path it was on: the step across its
     event (:func:`_event_steps`, from the path before to the path after) is
@@ -555,9 +549,7 @@ def spike_breaks(q: np.ndarray, resid: np.ndarray, breaks: np.ndarray, ratio: fl
     for j in np.flatnonzero(breaks.any(axis=0)):
         frames = np.flatnonzero(breaks[:, j])
         first, last, event = _event_bounds(frames)
-        n = last - first + 1
-        start = np.concatenate([[0], np.cumsum(n)[:-1]])
-        span = np.repeat(first - start, n) + np.arange(int(n.sum()))  # the frames first .. last of each event
+        span, _, start = segment_frames(first, last - first + 1)  # the frames first .. last of each event
         peak = np.maximum.reduceat(resid[span, j], start)
         spike = _norms(_event_steps(q[:, j], first, last)) < ratio * peak  # NaN (ends of the take): no spike
         out[frames[spike[event]], j] = True

@@ -18,7 +18,7 @@ from ... import rotations as R
 from ...errors import SkeletonError
 from ...motion import Motion, find_joint
 from ..filters import window_frames
-from ..ik import contact_segments
+from ..ik import contact_segments, segment_frames
 from .detect import Detection
 from .neighbours import dropped_terms, near_neighbors, neighbor_words
 from .texture import Analysis, align_hemisphere, prepare
@@ -73,9 +73,7 @@ def _blend_runs(orig: np.ndarray, new: np.ndarray, flags: np.ndarray, window: in
     if len(runs):
         a, b = runs[:, 0], runs[:, 1]
         n = b - a
-        run_of = np.repeat(np.arange(len(runs)), n)  # the run of each flagged frame
-        first = np.concatenate([[0], np.cumsum(n)[:-1]])  # each run's first row among the flagged frames
-        idx = np.flatnonzero(flags)  # the flagged frames, run after run
+        idx, run_of, first = segment_frames(a, n)  # the flagged frames run after run, their runs, each run's first
         ref = np.where((a > 0)[:, None], orig[np.maximum(a - 1, 0)], new[a])
         rep = _run_continuity(align_hemisphere(new[idx], ref[run_of]), first, run_of)
         da = np.zeros((len(runs), 3))
@@ -132,9 +130,7 @@ def _bridge(track: np.ndarray, mask: np.ndarray) -> np.ndarray:
     a, b = runs[:, 0], runs[:, 1]
     lo = track[np.where(a > 0, a - 1, np.minimum(b, F - 1))]
     hi = np.where((b < F)[:, None], track[np.minimum(b, F - 1)], lo)
-    n = b - a
-    run_of = np.repeat(np.arange(len(runs)), n)
-    idx = np.repeat(a, n) + np.arange(int(n.sum())) - np.repeat(np.cumsum(n) - n, n)  # the frames of the runs
+    idx, run_of, _ = segment_frames(a, b - a)  # the frames of the runs
     u = (idx - (a - 1)[run_of]) / (b - (a - 1))[run_of]
     track[idx] = R.slerp(lo[run_of], hi[run_of], u)
     out = np.zeros(F, dtype=bool)
