@@ -146,12 +146,9 @@ class Detection:
 
     def drifts(self) -> np.ndarray:
         """(F, J) bool smooth drifts (:func:`smooth_drift_flags`; any threshold), none where ``params.drift`` is off."""
-        p = self.params
-        if not p.drift:
+        if not self.params.drift:
             return np.zeros(self.mdm.shape, dtype=bool)
-        return smooth_drift_flags(self.jumps, self.agreement, self.consistency, self.fps,
-                                  p.drift_repeat_deg, p.drift_z, p.drift_min_s, p.confirm_margin_s, p.drift_extent,
-                                  p.drift_others, p.drift_return_ratio)
+        return _drifts(self.jumps, self.agreement, self.consistency, self.fps, self.params)
 
     def with_threshold(self, threshold: float) -> "Detection":
         """The same analysis flagged at another threshold (confirmed by the jumps if the detection was)."""
@@ -214,6 +211,12 @@ class Detection:
             )
         except (OSError, ValueError, KeyError, TypeError) as e:
             raise MocapFormatError(path, f"not a mocapkit detection file ({e})") from None
+
+
+def _drifts(jumps, agreement, consistency, fps: float, p: SSAParams) -> np.ndarray:
+    """:func:`smooth_drift_flags` with the drift parameters of ``p``."""
+    return smooth_drift_flags(jumps, agreement, consistency, fps, p.drift_repeat_deg, p.drift_z, p.drift_min_s,
+                              p.confirm_margin_s, p.drift_extent, p.drift_others, p.drift_return_ratio)
 
 
 def _digression(motion, mean_tex, spread, texture_joints, up, fps_a, noise_deg, shift_s=0.0, speeds=False):
@@ -418,9 +421,7 @@ def detect_prepared(an: Analysis, threshold: float = 0.5, *, progress: bool = Fa
     chosen = has_context and not (isinstance(info, dict) and info.get("default"))
     agreement = body_agreement(digression, analysed) if chosen else np.full((F, J), np.nan)
     agreement[:, [0, pelvis_index(sk)]] = np.nan
-    drifts = (smooth_drift_flags(jumps, agreement, consistency, motion.fps, p.drift_repeat_deg, p.drift_z,
-                                 p.drift_min_s, p.confirm_margin_s, p.drift_extent, p.drift_others, p.drift_return_ratio)
-              if p.drift else None)
+    drifts = _drifts(jumps, agreement, consistency, motion.fps, p) if p.drift else None
     spikes = spike_breaks(q, resid, jumps)
     flags = flag_rule(mdm, jumps, holds, swaps, offsets, threshold, motion.fps, p.confirm, p.confirm_margin_s, drifts,
                       spikes)
