@@ -140,10 +140,8 @@ class Serving:
     the rest bones agree); ``body`` (4,) the pelvis' (the rest body frame's
     turn, identity on a Y-up rig); ``shares[k]`` the lacking model joint
     between joint ``k`` and its mapped parent whose turn ``k``'s chain
-    carries (-1: none); ``held`` the rig's joints that play a model joint
-    the network never saw move (read at its means, left to the fallback's
-    filter when denoising); ``filler`` (C,) the channel values a lacking joint
-    is shown as (the model's training means, degrees).
+    carries (-1: none); ``filler`` (C,) the channel values a joint the
+    network reads at its means is shown as (the training means, degrees).
     """
 
     model: object
@@ -159,7 +157,6 @@ class Serving:
     filler: np.ndarray | None = None
     body: np.ndarray | None = None
     shares: tuple[int, ...] = ()
-    held: tuple[int, ...] = ()
 
     @property
     def retargeted(self) -> tuple[int, ...]:
@@ -359,7 +356,7 @@ def _map(model, sk: Skeleton, family: str, found: dict[str, int], model_roles: l
     layout = model.layout
     pelvis = found["pelvis"]
     index = {r: k for k, r in enumerate(model_roles) if r in found}
-    joints, parent, chains, orders, held = [], [], [], [], []
+    joints, parent, chains, orders = [], [], [], []
     for k, (name, role) in enumerate(zip(layout.joints, model_roles)):
         orders.append("".join(c.split(".")[1][0] for c in layout.names if c.split(".")[0] == name))
         up = _role_above(role, index)
@@ -378,7 +375,6 @@ def _map(model, sk: Skeleton, family: str, found: dict[str, int], model_roles: l
         if np.all(np.asarray(model.net.std, dtype=np.float64)[cols] <= 1.0):  # never moved in training: held
             joints.append(-1)
             chains.append(())
-            held.append(found[role])
             continue
         joints.append(found[role])
         chains.append(chain)
@@ -397,7 +393,7 @@ def _map(model, sk: Skeleton, family: str, found: dict[str, int], model_roles: l
     axes = np.stack([R.euler_to_quaternion(np.array(ACCLAIM_AXES[n], dtype=np.float64), "xyz") for n in layout.joints])
     filler = np.asarray(model.net.mean, dtype=np.float64).reshape(-1)
     return Serving(model, family, False, tuple(joints), tuple(parent), tuple(chains), _chain(sk, -1, pelvis),
-                   tuple(orders), axes, rest, filler, body, tuple(shares), tuple(held))
+                   tuple(orders), axes, rest, filler, body, tuple(shares))
 
 
 def _product(rot: np.ndarray, chain: tuple[int, ...]) -> np.ndarray:
