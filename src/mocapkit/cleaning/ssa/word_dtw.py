@@ -664,7 +664,10 @@ def _knn_profile(D, rowmin, level, src, tgt, consec, excl_lo, excl_hi, N, M, min
         lo = excl_lo[w]
         hi = excl_hi[w]
         for t in range(T):
-            lb[t] = cheap_bound(rowmin, level, src[w], t, N, min_width, wmax) * (1.0 - 1e-9)
+            if lo < tgt[t] < hi:  # inside the source's own place: never chosen, never a chosen one's neighbour
+                lb[t] = _INF
+            else:
+                lb[t] = cheap_bound(rowmin, level, src[w], t, N, min_width, wmax) * (1.0 - 1e-9)
         tau = _INF
         for phase in range(2):
             # in increasing order of the bound: first the `first` lowest, then, once tau is known, only the
@@ -680,7 +683,7 @@ def _knn_profile(D, rowmin, level, src, tgt, consec, excl_lo, excl_hi, N, M, min
                 t = order[x]
                 if not lb[t] <= tau:
                     break
-                if evaluated[t] or strict[t]:
+                if evaluated[t] or strict[t] or lo < tgt[t] < hi:
                     continue
                 if tau < _INF and not refined[t]:  # the sorting bound, only where the cheap one is not enough
                     lb[t] = max(lb[t], _bound(rowmin, level, src[w], t, N, min_width, wmax, buf) * (1.0 - 1e-9))
