@@ -163,6 +163,7 @@ def clean_file(
     io.suffix_kind(out, io.WRITERS, "writing")
     doc = dec.read_decisions(decisions) if decisions is not None else None
     m = motion if motion is not None else load_motion(inp, asf, purpose="clean")
+    io.check_writable(m, out)
     if doc is not None:
         dec.check_decisions(doc, decisions, m)  # decisions for another take: refused before any cleaning
     if reuse:
@@ -191,9 +192,9 @@ def clean_file(
         except MocapError as exc:
             raise MocapError(f"{record}: {exc}") from None
         changed = dec.accepted_cells(res, chosen)
-    if out.suffix.lower() == ".bvh" and cleaned.missing().any():
-        raise MocapFormatError(out, "the cleaned take still has missing joints (NaN), which BVH cannot hold; "
-                               "add the fill step or write .npz")
+    if out.suffix.lower() in (".bvh", ".amc") and cleaned.missing().any():
+        raise MocapFormatError(out, f"the cleaned take still has missing joints (NaN), which {out.suffix[1:].upper()} "
+                               "cannot hold; add the fill step or write .npz")
     with removed_on_failure(outputs):
         if report is not None:
             from .report.html import write_report  # lazy: the viewer is optional
@@ -271,10 +272,12 @@ def find_inputs(in_dir, patterns: Sequence[str] = DEFAULT_PATTERNS, exclude=None
 
 
 def output_for(inp: Path, in_dir: Path, out_dir: Path, fmt: str = "auto", keep_suffix: bool = False) -> Path:
-    """The mirrored output path of ``inp``: same sub-folder, suffix ``.bvh``/``.npz``.
+    """The mirrored output path of ``inp``: same sub-folder, suffix ``.bvh``/``.amc``/``.npz``.
 
-    ``fmt``: ``"bvh"``, ``"npz"`` or ``"auto"`` (the input's suffix if it can
-    be written, else ``.bvh``). ``keep_suffix``: append the output suffix to
+    ``fmt``: ``"bvh"``, ``"amc"``, ``"npz"`` or ``"auto"`` (the input's suffix
+    for .bvh, .npz, .c3d and .trc; .bvh for an AMC, which then needs no ASF
+    beside it to be read; ``"amc"`` writes AMC takes as AMC, read back with
+    their ASF). ``keep_suffix``: append the output suffix to
     the whole input name (``take.amc`` -> ``take.amc.bvh``), the name
     :func:`clean_batch` gives takes that would otherwise share a file.
 
@@ -286,7 +289,7 @@ def output_for(inp: Path, in_dir: Path, out_dir: Path, fmt: str = "auto", keep_s
     rel = Path(inp).relative_to(in_dir)
     if fmt == "auto":
         suffix = rel.suffix.lower() if rel.suffix.lower() in (".bvh", ".npz", ".c3d", ".trc") else ".bvh"
-    elif rel.suffix.lower() in (".c3d", ".trc") and fmt.lstrip(".").lower() == "bvh":
+    elif rel.suffix.lower() in (".c3d", ".trc") and fmt.lstrip(".").lower() in ("bvh", "amc"):
         suffix = rel.suffix.lower()  # marker captures have no joint angles to write as BVH: they keep their format
     else:
         suffix = "." + fmt.lstrip(".").lower()
@@ -514,8 +517,8 @@ def clean_batch(
         raise MocapFormatError(in_dir, "not a folder")
     if resolved(out_dir) == resolved(in_dir):
         raise MocapFormatError(out_dir, "refusing to write into the input folder; choose another output folder")
-    if fmt not in ("auto", "bvh", "npz"):
-        raise MocapError(f"format must be auto, bvh or npz, got {fmt!r}")
+    if fmt not in ("auto", "bvh", "amc", "npz"):
+        raise MocapError(f"format must be auto, bvh, amc or npz, got {fmt!r}")
     check_executor(executor)
     try:
         steps = list(parse_steps(steps or STEPS))

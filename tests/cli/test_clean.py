@@ -329,6 +329,47 @@ def test_review_mode_gives_a_bvh_take_back_byte_for_byte(tmp_path):
         assert out.read_bytes() == src.read_bytes()
 
 
+def test_clean_amc_to_amc_keeps_every_unchanged_frame_as_the_input_has_it(tmp_path, capsys):
+    """An AMC cleaned into an AMC (read back with the same ASF): frames with no change are the input's lines."""
+    from mocapkit.cleaning.pipeline import clean_path
+    from mocapkit.io.asfamc import read_amc
+
+    amc, asf = samples.path("12_walk.amc"), samples.path("12.asf")
+    m = mocapkit.load(amc)
+    bad, _, _ = corrupt.real_errors(m, n_errors=3, seed=11)
+    src = tmp_path / "walk_bad.amc"
+    mocapkit.save(bad, src)
+    out = tmp_path / "walk_clean.amc"
+    assert main(["clean", str(src), "--asf", str(asf), "-o", str(out)]) == 0
+    given = read_amc(src, asf)
+    res = CleanResult.load(clean_path(out))
+    assert res.changed.any() and not res.changed.all(axis=1).any()
+
+    def frames(p):
+        blocks, cur = [], None
+        for ln in p.read_text().splitlines():
+            if ln.strip().isdigit():
+                cur = [ln]
+                blocks.append(cur)
+            elif cur is not None:
+                cur.append(ln)
+        return blocks
+
+    a, b = frames(src), frames(out)
+    assert len(a) == len(b) == m.num_frames
+    same = ~res.changed.any(axis=1)
+    assert all((a[f] == b[f]) == bool(same[f]) for f in range(m.num_frames))
+    back = read_amc(out, asf)
+    np.testing.assert_array_equal(back.rotations[same], given.rotations[same])
+    # the cleaned cells as the record holds them, on the bones' dofs (a blend of two rotations a bone can
+    # make may leave its dofs by a few thousandths of a degree, which the AMC cannot hold)
+    assert np.degrees(mocapkit.rotations.geodesic_angle(back.rotations[res.changed], res.samples["rotations"])).max() < 0.05
+    capsys.readouterr()
+    before = sorted(p.name for p in tmp_path.iterdir())
+    assert main(["denoise", str(samples.path("131_01.bvh")), "-o", str(tmp_path / "walk.amc")]) == 2
+    assert "ASF" in capsys.readouterr().err and sorted(p.name for p in tmp_path.iterdir()) == before
+
+
 def test_clean_batch_drifts_flags_a_smooth_drift_only_when_asked(tmp_path, capsys):
     """clean-batch --drifts passes the smooth-drift rule to every take, as clean --drifts does: a 35 degree knee
     drift with no break, the clean take as context, is flagged and repaired with it and left alone without it."""

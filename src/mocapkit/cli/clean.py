@@ -24,7 +24,7 @@ def _steps(text: str) -> list[str]:
 
 def clean(
     inp: Path = typer.Argument(..., metavar="IN", help="Motion (.bvh, .amc, .npz) or marker capture (.c3d, .trc, marker .npz) to clean."),
-    out: Path = typer.Option(..., "--out", "-o", help="Cleaned take (.bvh or .npz; a marker capture: .c3d, .trc or .npz); OUT's stem + .clean.npz is written beside it."),
+    out: Path = typer.Option(..., "--out", "-o", help="Cleaned take (.bvh, .amc for a take read from ASF/AMC, or .npz; a marker capture: .c3d, .trc or .npz); OUT's stem + .clean.npz is written beside it."),
     context: Optional[list[Path]] = context_option(),
     steps: str = typer.Option("fill,detect,repair,denoise", "--steps",
                               help=STEPS_HELP + " --steps detect is the review mode: flags, record and report; OUT "
@@ -202,7 +202,7 @@ def clean_batch(
     report: bool = typer.Option(False, "--report", help="Also write STEM.report.html beside each output."),
     png: bool = typer.Option(False, "--png", help="Also write STEM.summary.png beside each output."),
     pattern: str = typer.Option("*.bvh,*.amc,*.npz,*.c3d,*.trc", "--pattern", help="Comma-separated file name patterns to clean."),
-    fmt: str = typer.Option("auto", "--format", help="Output format: auto (.bvh and .npz kept, others -> .bvh), bvh or npz."),
+    fmt: str = typer.Option("auto", "--format", help="Output format: auto (.bvh and .npz kept, others -> .bvh), bvh, amc (ASF/AMC takes, read back with their ASF) or npz."),
     as_json: bool = typer.Option(False, "--json", help="Print the per-take rows as JSON."),
     asf: Optional[Path] = asf_option(),
     overwrite: bool = typer.Option(

@@ -52,7 +52,7 @@ def _served(inp: Path, motion, net, kind: str, no_fallback: bool):
 
 def denoise(
     inp: Path = typer.Argument(..., metavar="IN", help="Noisy motion (.bvh, .amc, .npz)."),
-    out: Path = typer.Option(..., "--out", "-o", help="Denoised motion (.bvh or .npz)."),
+    out: Path = typer.Option(..., "--out", "-o", help="Denoised motion (.bvh, .amc for a take read from ASF/AMC, or .npz)."),
     model: Optional[Path] = typer.Option(None, "--model", help="An EBF model file (default: the shipped one)."),
     reference: Optional[Path] = typer.Option(None, "--reference", help="A clean take to report the error against."),
     no_fallback: bool = _no_fallback_option(),
@@ -74,6 +74,7 @@ def denoise(
     check_asf(asf, [inp, reference])
     io.suffix_kind(out, io.WRITERS, "writing")
     m = load_motion(inp, asf, purpose="denoise")
+    io.check_writable(m, out)
     ref = _reference(reference, m, asf)
     net = _model(model, "ebf")
     _served(inp, m, net, "ebf", no_fallback)
@@ -94,7 +95,7 @@ def denoise(
 
 def fill(
     inp: Path = typer.Argument(..., metavar="IN", help="Motion with gaps (NaN joints in .npz; or any format)."),
-    out: Path = typer.Option(..., "--out", "-o", help="Filled motion (.bvh or .npz)."),
+    out: Path = typer.Option(..., "--out", "-o", help="Filled motion (.bvh, .amc for a take read from ASF/AMC, or .npz)."),
     model: Optional[Path] = typer.Option(None, "--model", help="An EBD model file (default: the shipped one)."),
     denoiser: Optional[Path] = typer.Option(None, "--denoiser", help="The EBF that smooths the filled entries."),
     smooth: bool = typer.Option(True, "--smooth/--no-smooth", help="Run the EBF over the filled entries."),
@@ -122,6 +123,7 @@ def fill(
     check_asf(asf, [inp, reference])
     io.suffix_kind(out, io.WRITERS, "writing")
     m = load_motion(inp, asf, purpose="fill")
+    io.check_writable(m, out)
     ref = _reference(reference, m, asf)
     ebd, ebf = _model(model, "ebd"), _model(denoiser, "ebf")
     missing = m.missing()

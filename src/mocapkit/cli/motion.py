@@ -59,7 +59,7 @@ def info(
 
 def convert(
     inp: Path = typer.Argument(..., metavar="IN", help="Input take (.bvh, .amc, .npz) or marker file (.c3d, .trc, marker .npz)."),
-    out: Path = typer.Argument(..., metavar="OUT", help="Output, chosen by suffix: .bvh or .npz for a motion; .c3d, .trc or .npz for markers."),
+    out: Path = typer.Argument(..., metavar="OUT", help="Output, chosen by suffix: .bvh, .amc (a take read from ASF/AMC) or .npz for a motion; .c3d, .trc or .npz for markers."),
     fps: Optional[float] = typer.Option(None, "--fps", help="Resample a motion to this frame rate (slerp)."),
     zeros_as_gaps: Optional[bool] = typer.Option(
         None, "--zeros-as-gaps/--keep-zeros",
@@ -93,7 +93,7 @@ def convert(
         return
     if zeros_as_gaps is not None:
         raise MocapError("--zeros-as-gaps/--keep-zeros apply to marker files; IN is a motion")
-    io.suffix_kind(out, io.WRITERS, "writing")
+    io.check_writable(m, out)
     if fps is not None:
         m = m.resample(fps)
     io.save(m, out)
@@ -102,7 +102,7 @@ def convert(
 
 def corrupt(
     inp: Path = typer.Argument(..., metavar="IN", help="Clean input take (.bvh, .amc, .npz)."),
-    out: Path = typer.Argument(..., metavar="OUT", help="Corrupted output (.bvh or .npz; gaps need .npz)."),
+    out: Path = typer.Argument(..., metavar="OUT", help="Corrupted output (.bvh, .amc or .npz; gaps need .npz)."),
     kind: str = typer.Option(..., "--kind", help="noise | uniform | bias | spatial | gaps | errors, or one error kind: spike | flip | freeze | drift | swap"),
     amount: Optional[float] = typer.Option(
         None, "--amount", help="noise: std as a fraction of each channel's std (0.1/0.5/0.9); spatial: std in cm."
@@ -128,6 +128,7 @@ def corrupt(
     check_asf(asf, [inp])
     io.suffix_kind(out, io.WRITERS, "writing")
     m = load_motion(inp, asf, purpose="corrupt")
+    io.check_writable(m, out)
     params = {} if amount is None else {"amount": amount}
     try:
         result = corrupt_mod.corrupt(m, kind=kind, seed=seed, **params)
@@ -135,8 +136,9 @@ def corrupt(
         raise MocapError(f"corrupt --kind {kind}: {exc}") from None
     bad, mask = result[0], result[1]
     records = result[2] if len(result) > 2 else []
-    if np.isnan(bad.rotations).any() and out.suffix.lower() == ".bvh":
-        raise MocapFormatError(out, "this corruption leaves missing values (NaN), which BVH cannot hold; write .npz")
+    if np.isnan(bad.rotations).any() and out.suffix.lower() in (".bvh", ".amc"):
+        raise MocapFormatError(out, f"this corruption leaves missing values (NaN), which {out.suffix[1:].upper()} "
+                               "cannot hold; write .npz")
     with removed_on_failure([out, mask_path]):
         io.save(bad, out)
         write_mask(mask_path, mask, m.skeleton.joint_names, kind=kind, seed=seed, params=params, records=records)

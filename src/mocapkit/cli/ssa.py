@@ -80,7 +80,7 @@ def detect(
 
 def repair(
     inp: Path = typer.Argument(..., metavar="IN", help="Motion to repair (.bvh, .amc, .npz)."),
-    out: Path = typer.Option(..., "--out", "-o", help="Repaired motion (.bvh or .npz)."),
+    out: Path = typer.Option(..., "--out", "-o", help="Repaired motion (.bvh, .amc for a take read from ASF/AMC, or .npz)."),
     context: Optional[list[Path]] = context_option(),
     detection: Optional[Path] = typer.Option(
         None, "--detection", help="Use this detection (from `mocapkit detect`, same --context) instead of detecting again."
@@ -105,6 +105,7 @@ def repair(
     check_asf(asf, [inp])
     io.suffix_kind(out, io.WRITERS, "writing")
     m = load_motion(inp, asf, purpose="repair")
+    io.check_writable(m, out)
     det = None
     if detection is not None:
         det = ssa.Detection.load(detection).with_threshold(threshold)

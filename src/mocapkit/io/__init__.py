@@ -20,11 +20,11 @@ from ..errors import MocapFormatError
 
 from ..markerset import MarkerSet
 
-__all__ = ["load", "save", "load_markers", "save_markers", "atomic_write", "MarkerSet",
+__all__ = ["load", "save", "check_writable", "load_markers", "save_markers", "atomic_write", "MarkerSet",
            "READERS", "WRITERS", "MARKER_FORMATS"]
 
 READERS = {".bvh": "bvh", ".amc": "asfamc", ".npz": "npz", ".c3d": "c3d", ".trc": "trc"}
-WRITERS = {".bvh": "bvh", ".npz": "npz"}
+WRITERS = {".bvh": "bvh", ".amc": "amc", ".npz": "npz"}
 MARKER_FORMATS = {".c3d": "c3d", ".trc": "trc", ".npz": "npz"}
 
 
@@ -119,12 +119,14 @@ def save_markers(markers: MarkerSet, path, *, like=None) -> Path:
 
 
 def save(motion, path, like=None, **kwargs) -> Path:
-    """Write ``motion`` to ``path`` (.bvh or .npz) atomically; returns the path.
+    """Write ``motion`` to ``path`` (.bvh, .amc or .npz) atomically; returns the path.
 
-    ``like``: the file ``motion`` was read from. A BVH written from a BVH keeps
-    that file's text wherever the motion did not change (see
-    :func:`mocapkit.io.bvh.write_bvh`), so an untouched take comes back the
-    same file; other pairs of formats ignore it.
+    ``like``: the file ``motion`` was read from. A BVH written from a BVH, or
+    an AMC from an AMC, keeps that file's text wherever the motion did not
+    change (see :func:`mocapkit.io.bvh.write_bvh` and
+    :func:`mocapkit.io.amc_writer.write_amc`), so an untouched take comes back
+    the same file; other pairs of formats ignore it. An AMC is written only for
+    a take on an ASF skeleton (read with the same ASF).
     """
     path = Path(path)
     kind = suffix_kind(path, WRITERS, "writing")
@@ -132,11 +134,30 @@ def save(motion, path, like=None, **kwargs) -> Path:
         from .bvh import write_bvh
 
         write_bvh(motion, path, like=like, **kwargs)
+    elif kind == "amc":
+        from .amc_writer import write_amc
+
+        write_amc(motion, path, like=like, **kwargs)
     else:
         from .npz import write_npz
 
         write_npz(motion, path, **kwargs)
     return path
+
+
+def check_writable(motion, path) -> None:
+    """Raise :class:`~mocapkit.errors.MocapFormatError` when ``path``'s format cannot hold ``motion`` at all.
+
+    Called before a command's work, so that a take is refused before it is
+    cleaned, not after: an unknown suffix, or an AMC for a take that has no ASF
+    skeleton (:func:`mocapkit.io.amc_writer.check_amc_writable`; missing values
+    are left to the writer, since the work may fill them).
+    """
+    path = Path(path)
+    if suffix_kind(path, WRITERS, "writing") == "amc":
+        from .amc_writer import check_amc_writable
+
+        check_amc_writable(motion, path, missing_ok=True)
 
 
 def _final_mode(path: Path) -> int:

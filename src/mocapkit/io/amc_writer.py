@@ -1,0 +1,244 @@
+"""Writing AMC: a take on an ASF skeleton back into the Acclaim format it came from.
+
+An AMC holds, per frame, a frame-number line and one line per bone, ``name
+v1 v2 ...`` in the bone's dof order (the ASF's ``dof`` list; the root's
+``order``, translations included). It has no skeleton of its own: it is read
+with the ASF the take was read with, so only a motion whose skeleton came from
+an ASF (``Skeleton.axes`` set, rotation channels only below the root) can be
+written, and its joints' rotations are written on that skeleton's dofs.
+
+The inverse of :mod:`mocapkit.io.asfamc`'s reading: the local rotation
+``q = C M C^-1`` (``C`` the bone's ``axis`` frame) gives ``M = C^-1 q C``,
+decomposed into the bone's dof angles, extrinsic in dof order
+(:func:`mocapkit.rotations.quaternion_to_euler`; for a bone with one or two
+dofs the rotation about the others is dropped, which is exact for any
+rotation the bone's dofs can make). Angles are unwrapped over frames.
+
+Written like the file the take was read from (``like``): every frame whose
+cells did not change is that file's text, byte for byte, and a changed cell
+rewrites only its bone's numbers on that line (on the file's 360-degree
+branch), so an untouched take comes back the same file, as
+:func:`mocapkit.io.bvh.write_bvh` does for BVH.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from .. import rotations as R
+from ..errors import MocapFormatError
+from ..motion import Motion, Skeleton
+
+__all__ = ["write_amc", "check_amc_writable", "amc_dofs"]
+
+_FRAME_LINE = re.compile(r"^\s*\d+\s*$")
+
+
+def amc_dofs(skeleton: Skeleton) -> tuple[tuple[str, ...], ...]:
+    """Each joint's AMC numbers in file order: ``("tx", ..., "rz", ...)`` per joint (root translations first).
+
+    Derived from the skeleton's BVH-style channels, whose rotations are the
+    ASF dof order reversed (see :mod:`mocapkit.io.asfamc`).
+    """
+    dofs = []
+    for j in range(skeleton.num_joints):
+        chans = skeleton.joint_channels(j)
+        pos = ["t" + c[0].lower() for c in chans if c.endswith("position")]
+        rot = ["r" + c[0].lower() for c in chans if c.endswith("rotation")][::-1]
+        dofs.append(tuple(pos + rot))
+    return tuple(dofs)
+
+
+def check_amc_writable(motion: Motion, path, missing_ok: bool = False) -> None:
+    """Raise :class:`MocapFormatError` naming ``path`` when ``motion`` cannot be written as AMC.
+
+    AMC needs the take's own ASF skeleton (the file has none of its own):
+    ``skeleton.axes`` from an ASF, translations only on the root, no joint
+    turning that has no dof in the ASF, at least one frame, and no missing
+    values (unless ``missing_ok``: a check made before gaps are filled).
+    """
+    path = Path(path)
+    sk = motion.skeleton
+    if sk.axes is None:
+        raise MocapFormatError(path, "AMC is written for a take read from ASF/AMC (the ASF is its skeleton); "
+                               "this take has no ASF skeleton: write .bvh or .npz")
+    dofs = amc_dofs(sk)
+    if any(d.startswith("t") for j in range(1, sk.num_joints) for d in dofs[j]):
+        raise MocapFormatError(path, "AMC holds translations on the root only; write .bvh or .npz")
+    if motion.translations is not None and motion.num_frames:
+        tr = np.asarray(motion.translations)[:, 1:]
+        if np.any((tr != sk.offsets[1:]) & np.isfinite(tr)):
+            raise MocapFormatError(path, "the take moves joints other than the root, which AMC cannot hold; "
+                                   "write .bvh or .npz")
+    v = np.abs(np.asarray(motion.rotations)[..., 1:])
+    turning = np.any(np.where(np.isfinite(v), v, 0.0) > 1e-12, axis=(0, 2))
+    still = [sk.joint_names[j] for j in np.flatnonzero(turning) if not any(d.startswith("r") for d in dofs[j])]
+    if still:
+        raise MocapFormatError(path, f"joint {still[0]!r} turns but its ASF bone has no rotation dof; "
+                               "write .bvh or .npz")
+    bad = np.any(np.isnan(motion.rotations), axis=(1, 2)) | np.any(np.isnan(motion.root_positions), axis=1)
+    if np.any(bad) and not missing_ok:
+        raise MocapFormatError(path, f"the take has missing values (NaN) in {int(bad.sum())} frames, which AMC "
+                               "cannot hold; fill them or write .npz")
+    if motion.num_frames == 0:
+        raise MocapFormatError(path, "the take has no frames; AMC needs at least one")
+
+
+def _values(motion: Motion, dofs, radians: bool) -> list[np.ndarray | None]:
+    """Per joint the (F, n_j) numbers of its AMC line (degrees or radians, unwrapped), None without dofs."""
+    sk = motion.skeleton
+    out: list[np.ndarray | None] = []
+    period = 2.0 * math.pi if radians else 360.0
+    for j, d in enumerate(dofs):
+        if not d:
+            out.append(None)
+            continue
+        cols = []
+        rot = "".join(x[1] for x in d if x[0] == "r")
+        if rot:
+            c = np.broadcast_to(sk.axes[j], motion.rotations[:, j].shape)
+            m = R.quaternion_multiply(R.quaternion_multiply(R.quaternion_conjugate(c), motion.rotations[:, j]), c)
+            ang = R.quaternion_to_euler(m, rot, degrees=not radians)
+            if ang.shape[0] > 1:
+                ang = np.unwrap(ang, period=period, axis=0)
+        k = 0
+        for x in d:
+            if x[0] == "t":
+                cols.append(np.asarray(motion.root_positions)[:, "xyz".index(x[1])])
+            else:
+                cols.append(ang[:, k])
+                k += 1
+        out.append(np.stack(cols, axis=1))
+    return out
+
+
+def write_amc(motion: Motion, path, precision: int = 6, like=None) -> None:
+    """Write ``motion`` as an AMC file for its ASF skeleton (atomically: a failed write leaves no file).
+
+    motion : a take whose skeleton came from an ASF (:func:`check_amc_writable`
+    says why another cannot be written); path : the ``.amc`` file, read back
+    with the same ASF; precision : decimals of every number; like : the AMC
+    file ``motion`` was read from. Where it is that file (same skeleton, same
+    frame count, its units stated in its header), every frame whose rotations
+    and root position are bit for bit the file's is copied as the file has it,
+    and a changed cell rewrites only its bone's numbers, on the file's branch of
+    each angle; otherwise the file is written whole, ``:FULLY-SPECIFIED`` and
+    ``:DEGREES``, frames numbered from 1, every bone with dofs on its own line.
+    """
+    from . import atomic_write
+
+    path = Path(path)
+    precision = int(precision)
+    if precision < 0:
+        raise ValueError(f"precision must be >= 0, got {precision}")
+    check_amc_writable(motion, path)
+    dofs = amc_dofs(motion.skeleton)
+    source = _like_source(like, motion) if like is not None else None
+    if source is not None:
+        _write_like(path, motion, dofs, source, precision)
+        return
+    values = _values(motion, dofs, radians=False)
+    names = motion.skeleton.joint_names
+    joints = [j for j in range(len(dofs)) if dofs[j]]
+    row = "%d\n" + "".join(f"{names[j]} " + " ".join([f"%.{precision}f"] * len(dofs[j])) + "\n" for j in joints)
+    table = np.concatenate([np.arange(1, motion.num_frames + 1, dtype=np.float64)[:, None]]
+                           + [values[j] for j in joints], axis=1)
+    block = max(1, 2**18 // table.shape[1])
+    with atomic_write(path, "w", encoding="utf-8", newline="\n") as fh:
+        fh.write(":FULLY-SPECIFIED\n:DEGREES\n")
+        for f0 in range(0, table.shape[0], block):
+            rows = table[f0 : f0 + block]
+            fh.write((row * rows.shape[0]) % tuple(rows.ravel().tolist()))
+
+
+@dataclass(frozen=True)
+class _LikeSource:
+    """The AMC a take was read from: its header, its frames' lines, its units and which cells changed."""
+
+    header: list[str]  # the lines before the first frame (line endings kept)
+    frames: list[list[str]]  # per frame its lines, the frame-number line first (line endings kept)
+    radians: bool
+    changed: np.ndarray  # (F, J) bool
+
+
+def _like_source(like, motion: Motion) -> _LikeSource | None:
+    """The source AMC's lines and changed cells, or None when ``like`` is not the file ``motion`` came from."""
+    from .asfamc import read_amc
+
+    like = Path(like)
+    if like.suffix.lower() != ".amc" or not like.is_file():
+        return None
+    try:
+        text = like.read_bytes().decode("latin-1")
+        ref = read_amc(like, asf=motion.skeleton, fps=motion.fps)
+    except (MocapFormatError, OSError):
+        return None
+    if ref.num_frames != motion.num_frames:
+        return None
+    lines = text.splitlines(keepends=True)
+    header, frames, radians = [], [], None
+    for line in lines:
+        bare = line.split("#", 1)[0].strip()
+        if _FRAME_LINE.match(bare):
+            frames.append([line])
+        elif frames:
+            frames[-1].append(line)
+        else:
+            header.append(line)
+            word = bare.split()[0].upper() if bare else ""
+            radians = True if word == ":RADIANS" else False if word == ":DEGREES" else radians
+    if radians is None or len(frames) != motion.num_frames:
+        return None  # units left to the ASF: the file is written whole, its units stated
+    changed = np.any((motion.rotations != ref.rotations), axis=-1)
+    changed[:, 0] |= np.any(np.asarray(motion.root_positions) != ref.root_positions, axis=-1)
+    return _LikeSource(header, frames, radians, changed)
+
+
+def _write_like(path: Path, motion: Motion, dofs, source: _LikeSource, precision: int) -> None:
+    """Write the take keeping ``source``'s text wherever a frame or a bone's line did not change."""
+    from . import atomic_write
+
+    names = motion.skeleton.joint_names
+    period = 2.0 * math.pi if source.radians else 360.0
+    values = _values(motion, dofs, radians=source.radians)
+    fmt = f"%.{precision}f"
+    with atomic_write(path, "w", encoding="latin-1", newline="") as fh:
+        fh.write("".join(source.header))
+        for f, block in enumerate(source.frames):
+            joints = [j for j in np.flatnonzero(source.changed[f]) if dofs[j]]
+            if not joints:
+                fh.write("".join(block))
+                continue
+            block = list(block)
+            at = {}
+            for i, line in enumerate(block[1:], start=1):
+                tok = line.split("#", 1)[0].split()
+                if tok:
+                    at[tok[0]] = i
+            ending = "\r\n" if block[0].endswith("\r\n") else "\n"
+            for j in joints:
+                new = values[j][f]
+                i = at.get(names[j])
+                if i is None:  # the frame did not list the bone (read as the identity): it is listed now
+                    block.append(names[j] + " " + " ".join(fmt % v for v in new) + ending)
+                    continue
+                line = block[i]
+                body = line.rstrip("\r\n")
+                tok = body.split("#", 1)[0].split()
+                rot = [x[0] == "r" for x in dofs[j]]
+                for k, v in enumerate(new):
+                    if rot[k]:
+                        try:
+                            old = float(tok[k + 1])
+                        except (ValueError, IndexError):
+                            old = float("nan")
+                        if math.isfinite(old):
+                            v += period * round((old - v) / period)  # the file's branch of the angle
+                    tok[k + 1] = fmt % v
+                block[i] = " ".join(tok) + (line[len(body):] or ending)
+            fh.write("".join(block))

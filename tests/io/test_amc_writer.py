@@ -1,0 +1,165 @@
+"""AMC writing: golden round trips on real clips, the source file's text kept where nothing changed, refusals."""
+
+import dataclasses
+
+import numpy as np
+import pytest
+
+import mocapkit
+from mocapkit import io
+from mocapkit import rotations as R
+from mocapkit.errors import MocapFormatError
+from mocapkit.io.amc_writer import amc_dofs, check_amc_writable, write_amc
+from mocapkit.io.asfamc import find_asf, read_amc
+from tests.shared import curated_files
+
+SAMPLES = [
+    ("12_walk.amc", "12.asf"),
+    ("HDM_bd_jogLeftCircle4StepsRstart_001_120.amc", "HDM_bd.asf"),
+    ("HDM_bk_sneak2StepsLStart_004_120.amc", "HDM_bk.asf"),
+]
+
+
+def _sample(name):
+    amc, asf = (mocapkit.samples.path(n) for n in name)
+    return amc, asf, read_amc(amc, asf)
+
+
+def _turned(m, f, joint, deg):
+    """``m`` with joint ``joint`` at frame ``f`` turned by ``deg`` about the bone frame's first dof axis."""
+    j = m.skeleton.joint_names.index(joint)
+    rot = np.array(m.rotations)
+    axis = amc_dofs(m.skeleton)[j][0][1]
+    c = m.skeleton.axes[j]
+    extra = R.quaternion_multiply(R.quaternion_multiply(c, R.euler_to_quaternion([deg], axis)), R.quaternion_conjugate(c))
+    rot[f, j] = R.quaternion_multiply(rot[f, j], extra)
+    return dataclasses.replace(m, rotations=rot)
+
+
+def _assert_same_motion(a, b, deg=1e-4):
+    assert np.degrees(R.geodesic_angle(a.rotations, b.rotations)).max() < deg
+    np.testing.assert_allclose(a.root_positions, b.root_positions, atol=1e-5)
+
+
+@pytest.mark.parametrize("name", SAMPLES)
+def test_bundled_clip_written_like_itself_is_the_same_file(name, tmp_path):
+    amc, asf, m = _sample(name)
+    out = tmp_path / "same.amc"
+    io.save(m, out, like=amc)
+    assert out.read_bytes() == amc.read_bytes()
+
+
+@pytest.mark.parametrize("name", SAMPLES)
+def test_fresh_write_reads_back_with_the_same_asf(name, tmp_path):
+    amc, asf, m = _sample(name)
+    out = tmp_path / "fresh.amc"
+    write_amc(m, out)
+    text = out.read_text()
+    assert text.startswith(":FULLY-SPECIFIED\n:DEGREES\n1\nroot ")
+    back = read_amc(out, asf)
+    assert back.num_frames == m.num_frames and back.skeleton.joint_names == m.skeleton.joint_names
+    _assert_same_motion(m, back)
+
+
+def test_every_amc_in_shared_data_round_trips(shared_data, tmp_path):
+    files = curated_files(shared_data, "**/*.amc")
+    assert files
+    for amc in files:
+        m = mocapkit.load(amc)
+        out = tmp_path / "x.amc"
+        io.save(m, out, like=amc)
+        assert out.read_bytes() == amc.read_bytes(), amc
+        write_amc(m, out)
+        _assert_same_motion(m, read_amc(out, find_asf(amc)))
+
+
+def test_a_changed_cell_rewrites_only_its_bone_line(tmp_path):
+    amc, asf, m = _sample(SAMPLES[0])
+    edited = _turned(m, 10, "rfemur", 5.0)
+    out = tmp_path / "one.amc"
+    io.save(edited, out, like=amc)
+    a, b = amc.read_text().splitlines(), out.read_text().splitlines()
+    assert len(a) == len(b)
+    diff = [i for i, (x, y) in enumerate(zip(a, b)) if x != y]
+    assert len(diff) == 1 and b[diff[0]].startswith("rfemur ")
+    back = read_amc(out, asf)
+    _assert_same_motion(edited, back)
+    changed = np.degrees(R.geodesic_angle(m.rotations, back.rotations)) > 1e-9
+    assert changed.sum() == 1 and changed[10, m.skeleton.joint_names.index("rfemur")]
+
+
+def test_changed_angles_stay_on_the_file_branch(tmp_path):
+    amc, asf, m = _sample(SAMPLES[0])
+    line = [ln for ln in amc.read_text().splitlines() if ln.startswith("lfemur ")][20]
+    text = amc.read_text().replace(line, "lfemur " + " ".join(f"{float(v) + 360.0:.6f}" for v in line.split()[1:]), 1)
+    src = tmp_path / "wrapped.amc"
+    src.write_text(text)  # the same rotations, every angle of one line 360 degrees up
+    m = read_amc(src, asf)
+    edited = _turned(m, 20, "lfemur", 1.0)  # frame 20: every frame lists lfemur
+    out = tmp_path / "out.amc"
+    io.save(edited, out, like=src)
+    new = [ln for ln in out.read_text().splitlines() if ln.startswith("lfemur ")][20]
+    old = [ln for ln in text.splitlines() if ln.startswith("lfemur ")][20]
+    assert new != old
+    assert all(abs(float(x) - float(y)) < 5.0 for x, y in zip(new.split()[1:], old.split()[1:]))
+    _assert_same_motion(edited, read_amc(out, asf))
+
+
+def test_a_bone_the_frame_did_not_list_is_added(tmp_path):
+    amc, asf, m = _sample(SAMPLES[0])
+    lines = amc.read_text().splitlines(keepends=True)
+    at = [i for i, ln in enumerate(lines) if ln.startswith("rtibia ")][3]
+    src = tmp_path / "short.amc"
+    src.write_text("".join(lines[:at] + lines[at + 1:]))  # frame 4 omits rtibia: read as the identity
+    m = read_amc(src, asf)
+    edited = _turned(m, 3, "rtibia", 20.0)
+    out = tmp_path / "out.amc"
+    io.save(edited, out, like=src)
+    back = read_amc(out, asf)
+    _assert_same_motion(edited, back)
+    assert out.read_text().count("\nrtibia ") == src.read_text().count("\nrtibia ") + 1
+
+
+def test_radians_file_keeps_its_units(tmp_path):
+    amc, asf, m = _sample(SAMPLES[0])
+    plain = tmp_path / "deg.amc"
+    write_amc(m, plain)
+    dofs = dict(zip(m.skeleton.joint_names, amc_dofs(m.skeleton)))
+    out_lines = []
+    for ln in plain.read_text().splitlines():
+        tok = ln.split()
+        if ln == ":DEGREES":
+            ln = ":RADIANS"
+        elif tok and tok[0] in dofs:
+            ln = " ".join([tok[0]] + [f"{np.radians(float(v)):.9f}" if d[0] == "r" else v
+                                      for d, v in zip(dofs[tok[0]], tok[1:])])
+        out_lines.append(ln)
+    src = tmp_path / "rad.amc"
+    src.write_text("\n".join(out_lines) + "\n")
+    m = read_amc(src, asf)
+    edited = _turned(m, 5, "lhumerus", 10.0)
+    out = tmp_path / "out.amc"
+    io.save(edited, out, like=src)
+    assert ":RADIANS" in out.read_text()
+    _assert_same_motion(edited, read_amc(out, asf))
+
+
+def test_refusals_name_the_file_and_write_nothing(tmp_path):
+    bvh = mocapkit.load(mocapkit.samples.path("131_01.bvh"))
+    out = tmp_path / "x.amc"
+    with pytest.raises(MocapFormatError, match=r"x\.amc.*ASF"):
+        io.save(bvh, out)
+    amc, asf, m = _sample(SAMPLES[0])
+    rot = np.array(m.rotations)
+    rot[3, 5] = np.nan
+    with pytest.raises(MocapFormatError, match="NaN"):
+        write_amc(dataclasses.replace(m, rotations=rot), out)
+    check_amc_writable(dataclasses.replace(m, rotations=rot), out, missing_ok=True)  # before a fill: allowed
+    still = next(j for j, d in enumerate(amc_dofs(m.skeleton)) if j and not d)
+    rot = np.array(m.rotations)
+    rot[:, still] = R.euler_to_quaternion(np.array([[30.0, 0.0, 0.0]]), "XYZ")
+    with pytest.raises(MocapFormatError, match="no rotation dof"):
+        write_amc(dataclasses.replace(m, rotations=rot), out)
+    with pytest.raises(MocapFormatError, match="ASF"):
+        io.check_writable(bvh, out)
+    assert list(tmp_path.iterdir()) == []
