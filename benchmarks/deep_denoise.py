@@ -61,7 +61,7 @@ import mocapkit  # noqa: E402
 from mocapkit import corrupt, metrics  # noqa: E402
 from mocapkit.cleaning import deep  # noqa: E402
 from mocapkit.cleaning.deep.channels import decode, encode, wrap_degrees  # noqa: E402
-from mocapkit.cleaning.deep.inference import _run_ebd  # noqa: E402
+from mocapkit.cleaning.deep.inference import run_ebd  # noqa: E402
 
 NOISES = ("angular:0.1", "angular:0.5", "angular:0.9", "spatial:0.5")
 ORACLE_SIGMAS = (1.0, 1.5, 2.0, 3.0, 4.0, 5.0, 7.0, 9.0, 12.0)  # frames
@@ -169,7 +169,7 @@ def main(argv=None) -> None:
                     row[f"gauss:{s}"] = err(as_motion(gaussian(x, s, clean.fps)))
                 for w in SAVGOL_SWEEP:
                     row[f"savgol:{w}"] = err(as_motion(savgol(x, w, clean.fps)))
-                reg = _run_ebd(ebd.net, x, np.zeros_like(x), ctx, np.arange(len(x)))
+                reg = run_ebd(ebd.net, x, np.zeros_like(x), ctx, np.arange(len(x)))
                 row["ebd"] = err(as_motion(reg))
                 row["oracle_gauss"] = err(as_motion(oracle_gaussian(x, y)))
                 row["oracle_wiener"] = err(as_motion(oracle_wiener(x, y)))

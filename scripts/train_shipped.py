@@ -93,6 +93,8 @@ def main() -> None:
                     help="EBF: the encoder also reads each channel's causal noise-level estimate")
     ap.add_argument("--dropout", type=float, default=None, help="dropout on the LSTM inputs (default TrainConfig's)")
     ap.add_argument("--observed-weight", type=float, default=None, help="EBD: loss weight of observed entries")
+    ap.add_argument("--lr-patience", type=int, default=None,
+                    help="halve the learning rate after this many epochs without a better validation RMS")
     ap.add_argument("--speed-range", type=float, nargs=2, default=None, metavar=("LO", "HI"),
                     help="replay the training clips at a random speed in [LO, HI] (augmentation)")
     ap.add_argument("--offset", type=float, default=None, help="EBF: random channel offsets, x channel std")
@@ -114,6 +116,7 @@ def main() -> None:
     val = [mocapkit.load(f) for f in val_f]
     hidden = a.hidden or (64 if a.kind == "ebf" else 32)
     extra = {k: v for k, v in (("dropout", a.dropout), ("observed_weight", a.observed_weight), ("offset", a.offset), ("patchy", a.patchy),
+                               ("lr_patience", a.lr_patience),
                                ("speed_range", tuple(a.speed_range) if a.speed_range else None)) if v is not None}
     cfg = TrainConfig(kind=a.kind, hidden=hidden, epochs=a.epochs, steps_per_epoch=50, minutes=a.minutes, seed=0,
                       bias=a.kind == "ebf" and a.bias, noise_input=a.kind == "ebf" and a.noise_input, **extra)
