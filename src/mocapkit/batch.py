@@ -206,7 +206,7 @@ def clean_file(
             from .report.summary import plot_summary
 
             plot_summary(dataclasses.replace(res, motion=cleaned), m, png, title=inp.name)
-        io.save(cleaned, out, like=inp)
+        io.save(cleaned, out, like=inp, asf=asf)
         if not reuse:
             res.save(record)  # last: the completion marker
     return m, res

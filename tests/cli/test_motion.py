@@ -208,3 +208,18 @@ def test_convert_refuses_marker_to_motion_and_fps_for_markers(tmp_path):
     assert not (tmp_path / "x.trc").exists() and not (tmp_path / "x.bvh").exists()
     code, _, err = run("convert", SAMPLE, tmp_path / "x.c3d")
     assert code == 2 and one_error_line(err)
+
+
+def test_convert_amc_to_amc_and_bvh_to_amc_refused(tmp_path, capsys):
+    from mocapkit import rotations as R
+    from mocapkit.io.asfamc import read_amc
+
+    walk = mocapkit.samples.path("12_walk.amc")
+    out = tmp_path / "walk60.amc"
+    assert main(["convert", str(walk), str(out), "--fps", "60"]) == 0
+    back, ref = read_amc(out, mocapkit.samples.path("12.asf"), fps=60), mocapkit.load(walk).resample(60)
+    assert back.num_frames == ref.num_frames
+    assert np.degrees(R.geodesic_angle(back.rotations, ref.rotations)).max() < 1e-4
+    capsys.readouterr()
+    assert main(["convert", SAMPLE, str(tmp_path / "x.amc")]) == 2
+    assert "ASF" in capsys.readouterr().err and not (tmp_path / "x.amc").exists()

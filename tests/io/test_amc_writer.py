@@ -163,3 +163,28 @@ def test_refusals_name_the_file_and_write_nothing(tmp_path):
     with pytest.raises(MocapFormatError, match="ASF"):
         io.check_writable(bvh, out)
     assert list(tmp_path.iterdir()) == []
+
+
+def test_an_asf_listing_root_rotations_first_gets_its_own_order(tmp_path):
+    amc, asf, m = _sample(SAMPLES[0])
+    text = asf.read_text()
+    assert "order TX TY TZ RX RY RZ" in text
+    other = tmp_path / "subject.asf"
+    other.write_text(text.replace("order TX TY TZ RX RY RZ", "order RX RY RZ TX TY TZ"))
+    lines = []
+    for ln in amc.read_text().splitlines(keepends=True):  # the same frames with the root line in that order
+        if ln.startswith("root "):
+            v = ln.split()[1:]
+            ln = "root " + " ".join(v[3:] + v[:3]) + "\n"
+        lines.append(ln)
+    src = tmp_path / "subject_walk.amc"
+    src.write_text("".join(lines))
+    m = read_amc(src, other)
+    _assert_same_motion(m, read_amc(amc, asf), deg=1e-9)
+    out = tmp_path / "same.amc"
+    io.save(m, out, like=src, asf=other)
+    assert out.read_bytes() == src.read_bytes()
+    edited = _turned(m, 7, "rfemur", 5.0)
+    for like in (src, None):  # kept like the source, or written whole in the ASF's order
+        io.save(edited, out, like=like, asf=other)
+        _assert_same_motion(edited, read_amc(out, other))

@@ -82,7 +82,7 @@ def denoise(
         cleaned, method, note = deep.denoise_or_fallback(m, net, label="shipped" if net is None else "given")
     except SkeletonError as exc:
         raise MocapError(f"{inp}: {exc}") from None
-    io.save(cleaned, out, like=inp)
+    io.save(cleaned, out, like=inp, asf=asf)
     if note:
         console.print(f"warning: {inp}: {note}")
     change = joint_angle_rms(m, cleaned, include_root=False)
@@ -130,7 +130,7 @@ def fill(
     n = int(missing.sum())
     if not n:
         if always_write:
-            io.save(m, out, like=inp)
+            io.save(m, out, like=inp, asf=asf)
             console.print(f"no gaps in {inp}; nothing to fill; wrote it unchanged to {out}")
         else:
             console.print(f"no gaps in {inp}; nothing to fill (nothing written; --always-write writes it)")
@@ -144,7 +144,7 @@ def fill(
                                                      label="shipped" if ebd is None else "given")
     except (SkeletonError, ValueError) as exc:
         raise MocapError(f"{inp}: {exc}") from None
-    io.save(filled, out, like=inp)
+    io.save(filled, out, like=inp, asf=asf)
     if note:
         console.print(f"warning: {inp}: {note}")
     line = f"wrote {out}: {plural(n, 'missing joint sample')} filled by {method}"

@@ -69,7 +69,7 @@ def convert(
 ) -> None:
     """Convert IN to OUT: a motion between BVH, AMC and npz (optionally resampled to --fps), markers between C3D, TRC and npz."""
     from .. import io
-    from ..io.takes import check_asf, load_take
+    from ..io.takes import asf_of, check_asf, load_take
     from ..motion import Motion
 
     guard([out], [inp, asf], overwrite)
@@ -96,7 +96,7 @@ def convert(
     io.check_writable(m, out)
     if fps is not None:
         m = m.resample(fps)
-    io.save(m, out)
+    io.save(m, out, asf=asf_of(inp, asf))
     console.print(f"wrote {out} ({plural(m.num_frames, 'frame')} @ {m.fps:g} fps)")
 
 
@@ -121,7 +121,7 @@ def corrupt(
     from .. import io
     from ..io.masks import error_record, mask_path_for, write_mask
     from ..io.outputs import removed_on_failure
-    from ..io.takes import check_asf, load_motion
+    from ..io.takes import asf_of, check_asf, load_motion
 
     mask_path = mask_out or mask_path_for(out)
     guard([out, mask_path], [inp, asf], overwrite)
@@ -140,7 +140,7 @@ def corrupt(
         raise MocapFormatError(out, f"this corruption leaves missing values (NaN), which {out.suffix[1:].upper()} "
                                "cannot hold; write .npz")
     with removed_on_failure([out, mask_path]):
-        io.save(bad, out)
+        io.save(bad, out, asf=asf_of(inp, asf))
         write_mask(mask_path, mask, m.skeleton.joint_names, kind=kind, seed=seed, params=params, records=records)
     frames = int(mask.any(axis=1).sum())
     console.print(f"wrote {out} and {mask_path}: {plural(int(mask.sum()), 'joint sample')} changed in "

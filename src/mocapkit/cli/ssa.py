@@ -121,7 +121,7 @@ def repair(
         fixed = ssa.repair(m, det, ctx, foot_skate=foot_skate)
     except ValueError as exc:
         raise MocapError(f"{inp}: {exc}") from None
-    io.save(fixed, out, like=inp)
+    io.save(fixed, out, like=inp, asf=asf)
     n = int(det.flags.sum())
     console.print(f"wrote {out}: {plural(n, 'joint sample')} replaced in {int(det.flags.any(axis=1).sum())} of "
                   f"{plural(m.num_frames, 'frame')}")

@@ -118,7 +118,7 @@ def save_markers(markers: MarkerSet, path, *, like=None) -> Path:
     return path
 
 
-def save(motion, path, like=None, **kwargs) -> Path:
+def save(motion, path, like=None, asf=None, **kwargs) -> Path:
     """Write ``motion`` to ``path`` (.bvh, .amc or .npz) atomically; returns the path.
 
     ``like``: the file ``motion`` was read from. A BVH written from a BVH, or
@@ -126,7 +126,9 @@ def save(motion, path, like=None, **kwargs) -> Path:
     change (see :func:`mocapkit.io.bvh.write_bvh` and
     :func:`mocapkit.io.amc_writer.write_amc`), so an untouched take comes back
     the same file; other pairs of formats ignore it. An AMC is written only for
-    a take on an ASF skeleton (read with the same ASF).
+    a take on an ASF skeleton (read with the same ASF); ``asf``, that ASF when
+    it is not beside ``like``, sets the order of the root's numbers (other
+    formats ignore it).
     """
     path = Path(path)
     kind = suffix_kind(path, WRITERS, "writing")
@@ -137,7 +139,7 @@ def save(motion, path, like=None, **kwargs) -> Path:
     elif kind == "amc":
         from .amc_writer import write_amc
 
-        write_amc(motion, path, like=like, **kwargs)
+        write_amc(motion, path, like=like, asf=asf, **kwargs)
     else:
         from .npz import write_npz
 

@@ -117,13 +117,37 @@ def _values(motion: Motion, dofs, radians: bool) -> list[np.ndarray | None]:
     return out
 
 
-def write_amc(motion: Motion, path, precision: int = 6, like=None) -> None:
+def _file_dofs(motion: Motion, asf, like) -> tuple[tuple[str, ...], ...]:
+    """The AMC layout to write: the ASF's own (``asf``, else the one :func:`find_asf` finds beside ``like``) where
+    it is this skeleton's, with the root's numbers in its ``order``; else the skeleton's (root translations first)."""
+    from .asfamc import asf_dofs, find_asf
+
+    dofs = amc_dofs(motion.skeleton)
+    if asf is None and like is not None and Path(like).suffix.lower() == ".amc":
+        try:
+            asf = find_asf(like)
+        except MocapFormatError:
+            asf = None
+    if asf is None or not Path(asf).is_file():
+        return dofs
+    try:
+        given = asf_dofs(asf)
+    except MocapFormatError:
+        return dofs
+    if len(given) != len(dofs) or any(sorted(a) != sorted(b) for a, b in zip(given, dofs)):
+        return dofs  # another skeleton's ASF
+    return tuple(tuple(d) for d in given)
+
+
+def write_amc(motion: Motion, path, precision: int = 6, like=None, asf=None) -> None:
     """Write ``motion`` as an AMC file for its ASF skeleton (atomically: a failed write leaves no file).
 
     motion : a take whose skeleton came from an ASF (:func:`check_amc_writable`
     says why another cannot be written); path : the ``.amc`` file, read back
-    with the same ASF; precision : decimals of every number; like : the AMC
-    file ``motion`` was read from. Where it is that file (same skeleton, same
+    with the same ASF; precision : decimals of every number; asf : the ASF the
+    take was read with (by default the one beside ``like``), whose ``:root
+    order`` the root's line follows; like : the AMC file ``motion`` was read
+    from. Where it is that file (same skeleton, same
     frame count, its units stated in its header), every frame whose rotations
     and root position are bit for bit the file's is copied as the file has it,
     and a changed cell rewrites only its bone's numbers, on the file's branch of
@@ -137,8 +161,8 @@ def write_amc(motion: Motion, path, precision: int = 6, like=None) -> None:
     if precision < 0:
         raise ValueError(f"precision must be >= 0, got {precision}")
     check_amc_writable(motion, path)
-    dofs = amc_dofs(motion.skeleton)
-    source = _like_source(like, motion) if like is not None else None
+    dofs = _file_dofs(motion, asf, like)
+    source = _like_source(like, motion, dofs) if like is not None else None
     if source is not None:
         _write_like(path, motion, dofs, source, precision)
         return
@@ -166,7 +190,7 @@ class _LikeSource:
     changed: np.ndarray  # (F, J) bool
 
 
-def _like_source(like, motion: Motion) -> _LikeSource | None:
+def _like_source(like, motion: Motion, dofs) -> _LikeSource | None:
     """The source AMC's lines and changed cells, or None when ``like`` is not the file ``motion`` came from."""
     from .asfamc import read_amc
 
@@ -175,7 +199,7 @@ def _like_source(like, motion: Motion) -> _LikeSource | None:
         return None
     try:
         text = like.read_bytes().decode("latin-1")
-        ref = read_amc(like, asf=motion.skeleton, fps=motion.fps)
+        ref = read_amc(like, asf=motion.skeleton, fps=motion.fps, dofs=dofs)
     except (MocapFormatError, OSError):
         return None
     if ref.num_frames != motion.num_frames:

@@ -45,7 +45,7 @@ from .. import rotations as R
 from ..errors import MocapFormatError, SkeletonError
 from ..motion import MAX_JOINTS, Motion, Skeleton, check_fps
 
-__all__ = ["read_asf", "read_amc", "find_asf", "fps_from_name", "DEFAULT_FPS"]
+__all__ = ["read_asf", "read_amc", "asf_dofs", "find_asf", "fps_from_name", "DEFAULT_FPS"]
 
 DEFAULT_FPS = 120.0
 """Frame rate used when neither ``fps=`` nor the file name gives one (CMU captured at 120 Hz)."""
@@ -342,6 +342,15 @@ def read_asf(path) -> Skeleton:
     return _parse_asf(Path(path))[0]
 
 
+def asf_dofs(path) -> tuple[tuple[str, ...], ...]:
+    """Each joint's AMC numbers in the order the ASF lists them (``"tx"`` ... ``"rz"``; the root's ``order`` as written).
+
+    The skeleton keeps the root's translations before its rotations whatever
+    the ASF's ``:root order``; an AMC line follows the ASF, which this gives.
+    """
+    return _parse_asf(Path(path))[1].dofs
+
+
 def _layout_from_skeleton(skeleton: Skeleton) -> _Layout:
     """AMC column layout of a skeleton given directly: root positions first, then dofs in ASF order."""
     dofs = []
@@ -441,7 +450,7 @@ def _amc_header(data: bytes) -> tuple[int, int, bool | None]:
     return n, line, radians
 
 
-def read_amc(path, asf=None, fps: float | None = None) -> Motion:
+def read_amc(path, asf=None, fps: float | None = None, dofs=None) -> Motion:
     """Read an AMC motion with its ASF skeleton.
 
     Parameters
@@ -457,6 +466,10 @@ def read_amc(path, asf=None, fps: float | None = None) -> Motion:
     fps : float, optional
         Frame rate; by default the number ending the file stem when plausible
         (:func:`fps_from_name`), else 120.
+    dofs : tuple, optional
+        With a Skeleton given as ``asf``: each joint's numbers in file order
+        (:func:`asf_dofs` of its ASF), where the root's ``order`` puts
+        rotations before translations.
 
     Returns
     -------
@@ -475,6 +488,8 @@ def read_amc(path, asf=None, fps: float | None = None) -> Motion:
     path = Path(path)
     if isinstance(asf, Skeleton):
         skeleton, layout, asf_name = asf, _layout_from_skeleton(asf), "skeleton"
+        if dofs is not None:
+            layout = _Layout(dofs=tuple(tuple(d) for d in dofs), radians=False)
     else:
         asf_path = Path(asf) if asf is not None else find_asf(path)
         if not asf_path.is_file():

@@ -27,7 +27,7 @@ from typing import Iterable
 
 from ..errors import MocapFormatError
 
-__all__ = ["load_take", "load_motion", "check_asf"]
+__all__ = ["load_take", "load_motion", "check_asf", "asf_of"]
 
 
 def _is_amc(path: os.PathLike | str) -> bool:
@@ -49,6 +49,20 @@ def check_asf(asf: os.PathLike | str | None, inputs: Iterable[os.PathLike | str 
         raise MocapFormatError(asf, "no such file" if not asf.exists() else "not a regular file")
     if not any(_is_amc(p) for p in inputs if p is not None):
         raise MocapFormatError(asf, "--asf is the skeleton of an .amc input, and no input is an .amc file")
+
+
+def asf_of(path: os.PathLike | str, asf: os.PathLike | str | None = None) -> Path | None:
+    """The ASF an AMC take at ``path`` is read with: ``asf`` when given, else the one beside it; None otherwise."""
+    if not _is_amc(path):
+        return None
+    if asf is not None:
+        return Path(asf)
+    from .asfamc import find_asf
+
+    try:
+        return find_asf(path)
+    except MocapFormatError:
+        return None
 
 
 def load_take(path: os.PathLike | str, asf: os.PathLike | str | None = None):
