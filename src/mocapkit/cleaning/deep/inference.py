@@ -11,7 +11,6 @@ from __future__ import annotations
 import dataclasses
 import json
 import math
-import os
 from collections import deque
 from contextlib import contextmanager
 from dataclasses import dataclass, field
@@ -231,42 +230,20 @@ def _pad(x: np.ndarray, ctx: np.ndarray, half: int = HALF_WINDOW):
     return xp, cp
 
 
-def threads_for_load(load: float, cores: int, most: int) -> int:
-    """Torch threads to use when the 1-minute load average is ``load`` on ``cores`` usable cores, at most ``most``.
-
-    The load average counts the calling process itself (it is running while
-    it asks), so one unit of it is ours: the threads are the cores less the
-    load the *other* processes make, ``cores - max(0, round(load) - 1)``,
-    within ``[1, most]``. A quiet machine gets every core; one whose other
-    processes keep all cores busy gets a single thread, since a torch thread
-    that has to wait for a busy core spins and slows the whole recurrence.
-    """
-    others = max(0, round(load) - 1)
-    return int(max(1, min(most, cores - others)))
-
-
-def inference_threads() -> int:
-    """Torch threads for offline inference: the cores other processes leave idle, at least 1 (:func:`threads_for_load`).
-
-    Offline inference here is two LSTM recurrences over the take (sequential
-    in time, on 126-wide states) and small per-frame layers: threads help on
-    idle cores and hurt on busy ones. The results are the same in any thread count.
-    """
-    n = torch.get_num_threads()
-    try:
-        load = os.getloadavg()[0]
-    except (OSError, AttributeError):  # no load average on this platform
-        return n
-    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
-    return threads_for_load(load, cores, n)
+INFERENCE_THREADS = 1
+"""Torch threads of offline inference. One: in two, the EBD and EBF results varied in their last bits from
+process to process (about one run in seven of a 60 s take's fill on a 2-core machine), so the same take
+cleaned twice could differ; in one thread they are the same on every run and every machine. Offline
+inference is two LSTM recurrences over the take and small per-frame layers, where a second thread saved
+about a fifth of the time on an idle machine and cost more on a busy one."""
 
 
 @contextmanager
-def torch_threads(threads: int | None = None):
-    """Run torch in ``threads`` threads inside the block (default :func:`inference_threads`), restoring the
+def torch_threads(threads: int = INFERENCE_THREADS):
+    """Run torch in ``threads`` threads inside the block (default :data:`INFERENCE_THREADS`), restoring the
     thread count after."""
     n = torch.get_num_threads()
-    torch.set_num_threads(inference_threads() if threads is None else int(threads))
+    torch.set_num_threads(int(threads))
     try:
         yield
     finally:
