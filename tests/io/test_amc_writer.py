@@ -9,8 +9,8 @@ import mocapkit
 from mocapkit import io
 from mocapkit import rotations as R
 from mocapkit.errors import MocapFormatError
-from mocapkit.io.amc_writer import amc_dofs, check_amc_writable, write_amc
-from mocapkit.io.asfamc import find_asf, read_amc
+from mocapkit.io.amc_writer import check_amc_writable, write_amc
+from mocapkit.io.asfamc import amc_dofs, find_asf, read_amc
 from tests.shared import curated_files
 
 SAMPLES = [

@@ -32,26 +32,12 @@ import numpy as np
 
 from .. import rotations as R
 from ..errors import MocapFormatError
-from ..motion import Motion, Skeleton
+from ..motion import Motion
+from .asfamc import amc_dofs
 
-__all__ = ["write_amc", "check_amc_writable", "amc_dofs"]
+__all__ = ["write_amc", "check_amc_writable"]
 
 _FRAME_LINE = re.compile(r"^\s*\d+\s*$")
-
-
-def amc_dofs(skeleton: Skeleton) -> tuple[tuple[str, ...], ...]:
-    """Each joint's AMC numbers in file order: ``("tx", ..., "rz", ...)`` per joint (root translations first).
-
-    Derived from the skeleton's BVH-style channels, whose rotations are the
-    ASF dof order reversed (see :mod:`mocapkit.io.asfamc`).
-    """
-    dofs = []
-    for j in range(skeleton.num_joints):
-        chans = skeleton.joint_channels(j)
-        pos = ["t" + c[0].lower() for c in chans if c.endswith("position")]
-        rot = ["r" + c[0].lower() for c in chans if c.endswith("rotation")][::-1]
-        dofs.append(tuple(pos + rot))
-    return tuple(dofs)
 
 
 def check_amc_writable(motion: Motion, path, missing_ok: bool = False) -> None:

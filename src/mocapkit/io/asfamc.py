@@ -45,7 +45,7 @@ from .. import rotations as R
 from ..errors import MocapFormatError, SkeletonError
 from ..motion import MAX_JOINTS, Motion, Skeleton, check_fps
 
-__all__ = ["read_asf", "read_amc", "asf_dofs", "find_asf", "fps_from_name", "DEFAULT_FPS"]
+__all__ = ["read_asf", "read_amc", "asf_dofs", "amc_dofs", "find_asf", "fps_from_name", "DEFAULT_FPS"]
 
 DEFAULT_FPS = 120.0
 """Frame rate used when neither ``fps=`` nor the file name gives one (CMU captured at 120 Hz)."""
@@ -351,15 +351,25 @@ def asf_dofs(path) -> tuple[tuple[str, ...], ...]:
     return _parse_asf(Path(path))[1].dofs
 
 
-def _layout_from_skeleton(skeleton: Skeleton) -> _Layout:
-    """AMC column layout of a skeleton given directly: root positions first, then dofs in ASF order."""
+def amc_dofs(skeleton: Skeleton) -> tuple[tuple[str, ...], ...]:
+    """Each joint's AMC numbers of a skeleton given directly: ``("tx", ..., "rz", ...)``, root translations first.
+
+    Derived from the skeleton's BVH-style channels, whose rotations are the
+    ASF dof order reversed (module docstring); :func:`asf_dofs` gives an
+    ASF's own order.
+    """
     dofs = []
     for j in range(skeleton.num_joints):
         chans = skeleton.joint_channels(j)
         pos = ["t" + c[0].lower() for c in chans if c.endswith("position")]
         rot = ["r" + c[0].lower() for c in chans if c.endswith("rotation")][::-1]
         dofs.append(tuple(pos + rot))
-    return _Layout(dofs=tuple(dofs), radians=False)
+    return tuple(dofs)
+
+
+def _layout_from_skeleton(skeleton: Skeleton) -> _Layout:
+    """AMC column layout of a skeleton given directly: root positions first, then dofs in ASF order."""
+    return _Layout(dofs=amc_dofs(skeleton), radians=False)
 
 
 # -- finding the skeleton, the frame rate -----------------------------------------------
