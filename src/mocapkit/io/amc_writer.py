@@ -104,16 +104,14 @@ def _values(motion: Motion, dofs, radians: bool) -> list[np.ndarray | None]:
 
 
 def _file_dofs(motion: Motion, asf, like) -> tuple[tuple[str, ...], ...]:
-    """The AMC layout to write: the ASF's own (``asf``, else the one :func:`find_asf` finds beside ``like``) where
-    it is this skeleton's, with the root's numbers in its ``order``; else the skeleton's (root translations first)."""
-    from .asfamc import asf_dofs, find_asf
+    """The AMC layout to write: the ASF's own (``asf``, else the one beside an AMC ``like``) where it is this
+    skeleton's, with the root's numbers in its ``order``; else the skeleton's (root translations first)."""
+    from .asfamc import asf_dofs
+    from .takes import asf_of
 
     dofs = amc_dofs(motion.skeleton)
-    if asf is None and like is not None and Path(like).suffix.lower() == ".amc":
-        try:
-            asf = find_asf(like)
-        except MocapFormatError:
-            asf = None
+    if asf is None and like is not None:
+        asf = asf_of(like)
     if asf is None or not Path(asf).is_file():
         return dofs
     try:
@@ -170,7 +168,7 @@ def write_amc(motion: Motion, path, precision: int = 6, like=None, asf=None) -> 
 class _LikeSource:
     """The AMC a take was read from: its header, its frames' lines, its units and which cells changed."""
 
-    header: list[str]  # the lines before the first frame (line endings kept)
+    header: str  # the text before the first frame
     frames: list[list[str]]  # per frame its lines, the frame-number line first (line endings kept)
     radians: bool
     changed: np.ndarray  # (F, J) bool
@@ -178,32 +176,30 @@ class _LikeSource:
 
 def _like_source(like, motion: Motion, dofs) -> _LikeSource | None:
     """The source AMC's lines and changed cells, or None when ``like`` is not the file ``motion`` came from."""
-    from .asfamc import read_amc
+    from .asfamc import amc_header, read_amc
 
     like = Path(like)
     if like.suffix.lower() != ".amc" or not like.is_file():
         return None
     try:
-        text = like.read_bytes().decode("latin-1")
+        data = like.read_bytes()
         ref = read_amc(like, asf=motion.skeleton, fps=motion.fps, dofs=dofs)
     except (MocapFormatError, OSError):
         return None
-    if ref.num_frames != motion.num_frames:
-        return None
-    lines = text.splitlines(keepends=True)
-    header, frames, radians = [], [], None
-    for line in lines:
-        bare = line.split("#", 1)[0].strip()
-        if _FRAME_LINE.match(bare):
+    body_at, _, radians = amc_header(data)  # the reader's rule for where the frames start and the units
+    if ref.num_frames != motion.num_frames or radians is None:
+        return None  # radians None: units left to the ASF; the file is written whole, its units stated
+    frames: list[list[str]] = []
+    for line in data[body_at:].decode("latin-1").splitlines(keepends=True):
+        if _FRAME_LINE.match(line.split("#", 1)[0]):
             frames.append([line])
         elif frames:
             frames[-1].append(line)
         else:
-            header.append(line)
-            word = bare.split()[0].upper() if bare else ""
-            radians = True if word == ":RADIANS" else False if word == ":DEGREES" else radians
-    if radians is None or len(frames) != motion.num_frames:
-        return None  # units left to the ASF: the file is written whole, its units stated
+            return None  # the body does not open with a frame number
+    if len(frames) != motion.num_frames:
+        return None
+    header = data[:body_at].decode("latin-1")
     changed = np.any((motion.rotations != ref.rotations), axis=-1)
     changed[:, 0] |= np.any(np.asarray(motion.root_positions) != ref.root_positions, axis=-1)
     return _LikeSource(header, frames, radians, changed)
@@ -218,7 +214,7 @@ def _write_like(path: Path, motion: Motion, dofs, source: _LikeSource, precision
     values = _values(motion, dofs, radians=source.radians)
     fmt = f"%.{precision}f"
     with atomic_write(path, "w", encoding="latin-1", newline="") as fh:
-        fh.write("".join(source.header))
+        fh.write(source.header)
         for f, block in enumerate(source.frames):
             joints = [j for j in np.flatnonzero(source.changed[f]) if dofs[j]]
             if not joints:

@@ -45,7 +45,7 @@ from .. import rotations as R
 from ..errors import MocapFormatError, SkeletonError
 from ..motion import MAX_JOINTS, Motion, Skeleton, check_fps
 
-__all__ = ["read_asf", "read_amc", "asf_dofs", "amc_dofs", "find_asf", "fps_from_name", "DEFAULT_FPS"]
+__all__ = ["read_asf", "read_amc", "asf_dofs", "amc_dofs", "amc_header", "find_asf", "fps_from_name", "DEFAULT_FPS"]
 
 DEFAULT_FPS = 120.0
 """Frame rate used when neither ``fps=`` nor the file name gives one (CMU captured at 120 Hz)."""
@@ -367,11 +367,6 @@ def amc_dofs(skeleton: Skeleton) -> tuple[tuple[str, ...], ...]:
     return tuple(dofs)
 
 
-def _layout_from_skeleton(skeleton: Skeleton) -> _Layout:
-    """AMC column layout of a skeleton given directly: root positions first, then dofs in ASF order."""
-    return _Layout(dofs=amc_dofs(skeleton), radians=False)
-
-
 # -- finding the skeleton, the frame rate -----------------------------------------------
 
 
@@ -437,7 +432,7 @@ def fps_from_name(stem: str) -> float | None:
 # -- AMC -------------------------------------------------------------------------------
 
 
-def _amc_header(data: bytes) -> tuple[int, int, bool | None]:
+def amc_header(data: bytes) -> tuple[int, int, bool | None]:
     """(byte offset of the body, its 1-based first line, radians flag or None if unstated)."""
     pos = 0
     line = 1
@@ -497,9 +492,8 @@ def read_amc(path, asf=None, fps: float | None = None, dofs=None) -> Motion:
     """
     path = Path(path)
     if isinstance(asf, Skeleton):
-        skeleton, layout, asf_name = asf, _layout_from_skeleton(asf), "skeleton"
-        if dofs is not None:
-            layout = _Layout(dofs=tuple(tuple(d) for d in dofs), radians=False)
+        order = amc_dofs(asf) if dofs is None else tuple(tuple(d) for d in dofs)
+        skeleton, layout, asf_name = asf, _Layout(dofs=order, radians=False), "skeleton"
     else:
         asf_path = Path(asf) if asf is not None else find_asf(path)
         if not asf_path.is_file():
@@ -510,7 +504,7 @@ def read_amc(path, asf=None, fps: float | None = None, dofs=None) -> Motion:
         data = path.read_bytes()
     except OSError as exc:
         raise MocapFormatError(path, f"cannot read: {exc.strerror or exc}") from None
-    body_at, first_line, radians = _amc_header(data)
+    body_at, first_line, radians = amc_header(data)
     if radians is None:
         radians = layout.radians
     tables = _parse_amc_body(path, data, body_at, first_line, skeleton, layout, asf_name)
