@@ -1,10 +1,8 @@
 """EBF inference only where its output is used: the same numbers as a run on the whole take."""
 
-import dataclasses
 
 import numpy as np
 import pytest
-import torch
 
 import mocapkit
 from mocapkit import corrupt
@@ -47,43 +45,3 @@ def test_denoise_cells_equals_the_whole_take_on_those_cells(noisy):
     assert deep.denoise(noisy, ebf, cells=np.zeros_like(cells)) is noisy
     with pytest.raises(ValueError, match="cells"):
         deep.denoise(noisy, ebf, cells=cells[:10])
-
-
-def test_inference_restores_the_thread_count(noisy):
-    before = torch.get_num_threads()
-    with inference.torch_threads(1):
-        assert torch.get_num_threads() == 1
-    assert torch.get_num_threads() == before
-    deep.denoise(noisy[:100], deep.shipped_model("ebf"))
-    assert torch.get_num_threads() == before
-
-
-def test_offline_inference_runs_in_one_thread_whatever_the_process_has(noisy, monkeypatch):
-    """Two threads made the results differ from run to run in their last bits; one thread is the same every time."""
-    seen = []
-    tanh = torch.tanh
-
-    def spy(*a, **k):
-        seen.append(torch.get_num_threads())
-        return tanh(*a, **k)
-
-    before = torch.get_num_threads()
-    torch.set_num_threads(2)
-    try:
-        monkeypatch.setattr(torch, "tanh", spy)
-        deep.denoise(noisy[:100], deep.shipped_model("ebf"))
-        gappy = np.array(noisy[:100].rotations)
-        gappy[40:60, 5] = np.nan
-        deep.fill_gaps(dataclasses.replace(noisy[:100], rotations=gappy), deep.shipped_model("ebd"))
-    finally:
-        torch.set_num_threads(before)
-    assert seen and set(seen) == {1}
-
-
-def test_inference_is_the_same_in_one_and_two_threads(noisy):
-    ebf = deep.shipped_model("ebf")
-    with inference.torch_threads(1):
-        one = deep.denoise(noisy[:200], ebf)
-    with inference.torch_threads(2):
-        two = deep.denoise(noisy[:200], ebf)
-    assert np.array_equal(one.rotations, two.rotations, equal_nan=True)

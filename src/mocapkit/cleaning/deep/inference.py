@@ -12,7 +12,6 @@ import dataclasses
 import json
 import math
 from collections import deque
-from contextlib import contextmanager
 from dataclasses import dataclass, field
 from functools import lru_cache
 from importlib import resources
@@ -34,6 +33,7 @@ from .channels import (
     unwrap_degrees,
 )
 from .retarget import Serving, served_by
+from .threads import INFERENCE_PARTS, torch_threads
 from .retarget import decode as decode_served
 from .retarget import encode as encode_served
 from .networks import (
@@ -230,26 +230,6 @@ def _pad(x: np.ndarray, ctx: np.ndarray, half: int = HALF_WINDOW):
     return xp, cp
 
 
-INFERENCE_THREADS = 1
-"""Torch threads of offline inference. One: in two, the EBD and EBF results varied in their last bits from
-process to process (about one run in seven of a 60 s take's fill on a 2-core machine), so the same take
-cleaned twice could differ; in one thread they are the same on every run and every machine. Offline
-inference is two LSTM recurrences over the take and small per-frame layers, where a second thread saved
-about a fifth of the time on an idle machine and cost more on a busy one."""
-
-
-@contextmanager
-def torch_threads(threads: int = INFERENCE_THREADS):
-    """Run torch in ``threads`` threads inside the block (default :data:`INFERENCE_THREADS`), restoring the
-    thread count after."""
-    n = torch.get_num_threads()
-    torch.set_num_threads(int(threads))
-    try:
-        yield
-    finally:
-        torch.set_num_threads(n)
-
-
 @torch_threads()
 @torch.inference_mode()
 def _run_ebf(
@@ -266,7 +246,7 @@ def _run_ebf(
     x = torch.as_tensor(xp, dtype=torch.float32)[None]
     c = torch.as_tensor(cp, dtype=torch.float32)[None]
     nz = None if noise is None else torch.as_tensor(noise, dtype=torch.float32)[None]
-    y2 = net.trunk(x, c, nz)[:, HALF_WINDOW:]  # (1, F, 2H)
+    y2 = net.trunk(x, c, nz, parts=INFERENCE_PARTS)[:, HALF_WINDOW:]  # (1, F, 2H)
     F = y2.shape[1]
     x32 = x[0].numpy()
     out = np.empty((F, net.channels))
@@ -372,7 +352,7 @@ def run_ebd(net: EBD, filled: np.ndarray, mask: np.ndarray, ctx: np.ndarray, fra
     out = np.empty((len(frames), net.channels))
     for s in range(0, len(frames), batch):
         centres = torch.as_tensor(frames[s : s + batch])
-        out[s : s + len(centres)] = net.forward_at(x, mk, c, centres).double().numpy()
+        out[s : s + len(centres)] = net.forward_at(x, mk, c, centres, parts=INFERENCE_PARTS).double().numpy()
     return out
 
 

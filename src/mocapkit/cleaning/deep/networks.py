@@ -48,6 +48,8 @@ import torch
 from numba import njit
 from torch import nn
 
+from .threads import run_in_parts
+
 __all__ = [
     "HALF_WINDOW",
     "gaussian_weights",
@@ -247,7 +249,7 @@ class LookaheadLSTM(nn.Module):
         self.fwd = nn.LSTM(input_size, hidden, batch_first=True)
         self.bwd = nn.LSTM(input_size, hidden, batch_first=True)
 
-    def backward_outputs(self, x: torch.Tensor, chunk: int = 8192) -> torch.Tensor:
+    def backward_outputs(self, x: torch.Tensor, chunk: int = 8192, parts: int = 1) -> torch.Tensor:
         """(B, T, I) -> (B, T - L, H): the backward direction at every position with a full look-ahead.
 
         Position t's backward output is an LSTM run from zero state over
@@ -256,6 +258,9 @@ class LookaheadLSTM(nn.Module):
         sequence and the L + 1 recurrent steps of all windows run batched;
         this is the ``nn.LSTM`` cell (same weights, same gate order i, f, g, o)
         at about half the cost of running ``self.bwd`` on every window.
+        ``parts``: the positions are cut into this many parts run
+        concurrently (:func:`mocapkit.cleaning.deep.threads.run_in_parts`;
+        the same result).
         """
         B, T, I = x.shape
         L, H = self.lookahead, self.hidden
@@ -265,27 +270,32 @@ class LookaheadLSTM(nn.Module):
         lstm = self.bwd
         gi = torch.nn.functional.linear(x, lstm.weight_ih_l0, lstm.bias_ih_l0 + lstm.bias_hh_l0)  # (B, T, 4H)
         w_hh = lstm.weight_hh_l0
-        out = []
         step = max(1, chunk // max(B, 1))
-        for s in range(0, n, step):
-            m = min(step, n - s)
-            h = c = None
-            for k in range(L, -1, -1):  # x[t + L] first, x[t] last
-                g = gi[:, s + k : s + k + m]
-                if h is not None:
-                    g = g + torch.matmul(h, w_hh.t())
-                i, f, gg, o = g.chunk(4, dim=-1)
-                i, o, gg = torch.sigmoid(i), torch.sigmoid(o), torch.tanh(gg)
-                c = i * gg if c is None else torch.sigmoid(f) * c + i * gg
-                h = o * torch.tanh(c)
-            out.append(h)
-        return torch.cat(out, dim=1)
 
-    def forward(self, x: torch.Tensor, state=None):
-        """(B, T, I) -> ((B, T - L, 2 H), forward state after the last of those positions)."""
+        def positions(lo: int, hi: int) -> list[torch.Tensor]:
+            out = []
+            for s in range(lo, hi, step):
+                m = min(step, hi - s)
+                h = c = None
+                for k in range(L, -1, -1):  # x[t + L] first, x[t] last
+                    g = gi[:, s + k : s + k + m]
+                    if h is not None:
+                        g = g + torch.matmul(h, w_hh.t())
+                    i, f, gg, o = g.chunk(4, dim=-1)
+                    i, o, gg = torch.sigmoid(i), torch.sigmoid(o), torch.tanh(gg)
+                    c = i * gg if c is None else torch.sigmoid(f) * c + i * gg
+                    h = o * torch.tanh(c)
+                out.append(h)
+            return out
+
+        return torch.cat([h for part in run_in_parts(positions, n, parts) for h in part], dim=1)
+
+    def forward(self, x: torch.Tensor, state=None, parts: int = 1):
+        """(B, T, I) -> ((B, T - L, 2 H), forward state after the last of those positions); ``parts``: see
+        :meth:`backward_outputs`."""
         n = x.shape[1] - self.lookahead
         f, st = self.fwd(x[:, : max(n, 0)], state) if n > 0 else (x.new_zeros((x.shape[0], 0, self.hidden)), state)
-        return torch.cat([f, self.backward_outputs(x)], dim=-1), st
+        return torch.cat([f, self.backward_outputs(x, parts=parts)], dim=-1), st
 
 
 class _Normalised(nn.Module):
@@ -406,13 +416,14 @@ class EBF(_Normalised):
         y2 = self.trunk(x, ctx)[:, HALF_WINDOW:]
         return torch.exp(self.head(y2)[..., : self.channels].clamp(*LOG_SIGMA_RANGE))
 
-    def trunk(self, x: torch.Tensor, ctx: torch.Tensor, noise: torch.Tensor | None = None) -> torch.Tensor:
+    def trunk(self, x: torch.Tensor, ctx: torch.Tensor, noise: torch.Tensor | None = None,
+              parts: int = 1) -> torch.Tensor:
         """The encoder and both look-ahead LSTM layers: (B, T, C) channels, (B, T, 3) context -> (B, T - 15, 2 H)
         features of positions [0, T - 15), the input the filter head reads (``noise``: the noise-level input,
-        else the network's own)."""
+        else the network's own; ``parts``: see :meth:`LookaheadLSTM.backward_outputs`)."""
         e = self.drop(self.encode(x, ctx, noise))
-        y1, _ = self.lstm1(e)
-        y2, _ = self.lstm2(self.drop(y1))
+        y1, _ = self.lstm1(e, parts=parts)
+        y2, _ = self.lstm2(self.drop(y1), parts=parts)
         return y2  # positions [0, T - 15)
 
     def forward(self, x: torch.Tensor, ctx: torch.Tensor) -> torch.Tensor:
@@ -466,7 +477,8 @@ class EBD(_Normalised):
         corr = self.decoder(y[:, self.half])
         return (xn[:, self.half] + corr) * self.std + self.mean
 
-    def forward_at(self, x: torch.Tensor, mask: torch.Tensor, ctx: torch.Tensor, centres: torch.Tensor) -> torch.Tensor:
+    def forward_at(self, x: torch.Tensor, mask: torch.Tensor, ctx: torch.Tensor, centres: torch.Tensor,
+                   parts: int = 1) -> torch.Tensor:
         """:meth:`forward` on the windows around ``centres`` (N,) of whole tracks -> (N, C), each frame encoded once.
 
         ``x`` (F, C) lerp-filled raw channels, ``mask`` (F, C) float, ``ctx``
@@ -474,14 +486,20 @@ class EBD(_Normalised):
         neighbouring centres, which share most of their frames (a gap of n
         frames asks for n windows of 31), share those frames' codes: the
         encoder runs once per distinct frame instead of 31 times per centre,
-        and only the LSTM and decoder run per window.
+        and only the LSTM and decoder run per window. ``parts``: the centres
+        are cut into this many parts run concurrently
+        (:func:`mocapkit.cleaning.deep.threads.run_in_parts`; the same result).
         """
-        idx = window_indices(centres, len(x), self.half, self.stride)
-        used, inv = torch.unique(idx, return_inverse=True)
-        e = self.encoder(torch.cat([self.normalise(x[used]), mask[used], self.normalise_context(ctx[used])], dim=-1))
-        y, _ = self.lstm(self.drop(e[inv]))
-        corr = self.decoder(y[:, self.half])
-        return (self.normalise(x[idx[:, self.half]]) + corr) * self.std + self.mean
+
+        def windows(lo: int, hi: int) -> torch.Tensor:
+            idx = window_indices(centres[lo:hi], len(x), self.half, self.stride)
+            used, inv = torch.unique(idx, return_inverse=True)
+            e = self.encoder(torch.cat([self.normalise(x[used]), mask[used], self.normalise_context(ctx[used])], dim=-1))
+            y, _ = self.lstm(self.drop(e[inv]))
+            corr = self.decoder(y[:, self.half])
+            return (self.normalise(x[idx[:, self.half]]) + corr) * self.std + self.mean
+
+        return torch.cat(run_in_parts(windows, len(centres), parts))
 
 
 def window_indices(centres: torch.Tensor, length: int, half: int = HALF_WINDOW, stride: int = 4) -> torch.Tensor:
