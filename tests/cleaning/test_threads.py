@@ -117,3 +117,24 @@ def test_torch_threads_restores_the_thread_count():
     with threads.torch_threads(1):
         assert torch.get_num_threads() == 1
     assert torch.get_num_threads() == before
+
+
+def _parts_in_child(queue):
+    queue.put(threads.run_in_parts(lambda lo, hi: hi - lo, 3000, min_rows=10))
+
+
+def test_a_forked_child_runs_parts_on_threads_of_its_own():
+    """A local process pool forks after the parent's inference made the worker threads; the child has none."""
+    import multiprocessing
+
+    assert threads.run_in_parts(lambda lo, hi: hi - lo, 3000, min_rows=10) == [1500, 1500]  # the pool exists
+    ctx = multiprocessing.get_context("fork")
+    queue = ctx.Queue()
+    child = ctx.Process(target=_parts_in_child, args=(queue,))
+    child.start()
+    child.join(60)
+    alive = child.is_alive()
+    if alive:
+        child.kill()
+    assert not alive, "the child waited for threads it does not have"
+    assert queue.get(timeout=5) == [1500, 1500]

@@ -16,6 +16,7 @@ one core or many.
 
 from __future__ import annotations
 
+import os
 from concurrent.futures import ThreadPoolExecutor
 from contextlib import contextmanager
 from typing import Callable, TypeVar
@@ -35,7 +36,10 @@ MIN_PART_ROWS = 512
 
 T = TypeVar("T")
 
-_POOL: list[ThreadPoolExecutor] = []  # created on first use, shared by every call (threads are reused)
+_POOL: list[tuple[int, ThreadPoolExecutor]] = []  # (workers, pool): made on first use, its threads reused
+# A forked child (a local process pool of clean-batch) inherits the pool but not its threads: it would queue
+# work for threads that do not exist there, so the child starts without one.
+os.register_at_fork(after_in_child=_POOL.clear)
 
 
 @contextmanager
@@ -59,9 +63,9 @@ def part_bounds(n: int, parts: int = INFERENCE_PARTS, min_rows: int = MIN_PART_R
 
 
 def _pool(workers: int) -> ThreadPoolExecutor:
-    if not _POOL or _POOL[0]._max_workers < workers:  # noqa: SLF001 (the executor's own size)
-        _POOL[:] = [ThreadPoolExecutor(max_workers=workers, thread_name_prefix="mocapkit-inference")]
-    return _POOL[0]
+    if not _POOL or _POOL[0][0] < workers:
+        _POOL[:] = [(workers, ThreadPoolExecutor(max_workers=workers, thread_name_prefix="mocapkit-inference"))]
+    return _POOL[0][1]
 
 
 def run_in_parts(fn: Callable[[int, int], T], n: int, parts: int = INFERENCE_PARTS,
