@@ -64,6 +64,8 @@ def part_bounds(n: int, parts: int = INFERENCE_PARTS, min_rows: int = MIN_PART_R
 
 def _pool(workers: int) -> ThreadPoolExecutor:
     if not _POOL or _POOL[0][0] < workers:
+        if _POOL:
+            _POOL[0][1].shutdown(wait=False)  # a bigger one replaces it; its idle threads end
         _POOL[:] = [(workers, ThreadPoolExecutor(max_workers=workers, thread_name_prefix="mocapkit-inference"))]
     return _POOL[0][1]
 
