@@ -15,8 +15,11 @@ ratio <= 0.5 (2x faster). The outputs of the last run of each are compared bit f
 rotations and root trajectory, the MDM, the flags, the filled/repaired/denoised masks and the noise
 level (``identical``, True only if every array is equal, NaN where NaN).
 
-Torch runs one thread in both workers by default (``--torch-threads``; 0 leaves each tree its own
-choice): the comparison is of the data flow, not of how many threads a busy machine gives the LSTMs.
+Torch runs one intra-op thread in both workers by default (``--torch-threads``; 0 leaves each tree its
+own choice, which for the baseline is two threads on an idle 2-core machine). This tree's offline
+inference also cuts the networks' rows into two fixed parts run on two threads of one torch thread each
+(:mod:`mocapkit.cleaning.deep.threads`: the one-thread result, bit for bit), which the pin does not
+stop; run with ``--torch-threads 0`` to compare against the baseline's own threads as well.
 numba's threads are left as they are unless ``--numba-threads`` is given (1: the work alone, without
 the parallel kernels, the least load-sensitive comparison on a shared machine).
 
