@@ -33,6 +33,7 @@ from .channels import (
     unwrap_degrees,
 )
 from .retarget import Serving, served_by
+from .sure import BLOCK_S, block_edges, calibrated_log_sigma, scoring_stride
 from .threads import INFERENCE_PARTS, torch_threads
 from .retarget import decode as decode_served
 from .retarget import encode as encode_served
@@ -233,15 +234,21 @@ def _pad(x: np.ndarray, ctx: np.ndarray, half: int = HALF_WINDOW):
 @torch_threads()
 @torch.inference_mode()
 def _run_ebf(
-    net: EBF, xp: np.ndarray, cp: np.ndarray, chunk: int = 4096, noise: np.ndarray | None = None
+    net: EBF, xp: np.ndarray, cp: np.ndarray, chunk: int = 4096, noise: np.ndarray | None = None,
+    observed: np.ndarray | None = None, edges: np.ndarray | None = None, stride: int = 1,
 ) -> np.ndarray:
-    """Offline EBF on padded (F + 30, C) channels: the trunk in one pass, head and filter in chunks.
+    """Offline EBF on padded (F + 30, C) channels: the trunk in one pass, the head in chunks, then the filter.
 
     The Gaussian head's filter runs in numba (:func:`gaussian_filter_frames`,
     on float32 inputs as the network sees them) instead of building the
     (F, C, 31) taps; the free-tap head uses the torch filter. ``noise``
     (F + 30, C): the noise-level input computed elsewhere (see
-    :func:`denoise_channels`), else the network's own.
+    :func:`denoise_channels`), else the network's own. ``observed`` (F, C)
+    bool: calibrate the Gaussian head's widths per channel and block
+    (``edges``: block starts and the end, over the F frames) by Stein's risk
+    estimate on these samples (every ``stride``-th frame of a block scored)
+    (:func:`mocapkit.cleaning.deep.sure.calibrated_log_sigma`); None keeps
+    the network's widths.
     """
     x = torch.as_tensor(xp, dtype=torch.float32)[None]
     c = torch.as_tensor(cp, dtype=torch.float32)[None]
@@ -250,14 +257,20 @@ def _run_ebf(
     F = y2.shape[1]
     x32 = x[0].numpy()
     out = np.empty((F, net.channels))
+    if net.head_kind == "gaussian":
+        heads = [net.filter_parameters(y2[:, s : s + chunk]) for s in range(0, F, chunk)]
+        log_sigma = np.concatenate([p[0].numpy() for p, _ in heads]) if heads else np.zeros((0, net.channels), np.float32)
+        if observed is not None:
+            log_sigma = calibrated_log_sigma(x32, log_sigma, observed, edges, HALF_WINDOW, stride)
+        out = gaussian_filter_frames(x32, log_sigma)
+        if net.with_bias:
+            out = out - np.concatenate([b[0].double().numpy() for _, b in heads])
+        return out
     for s in range(0, F, chunk):
         p, b = net.filter_parameters(y2[:, s : s + chunk])
         n = p.shape[1]
-        if net.head_kind == "gaussian":
-            y = gaussian_filter_frames(x32[s : s + n + 2 * HALF_WINDOW], p[0].numpy())
-        else:
-            win = x[:, s : s + n + 2 * HALF_WINDOW].unfold(1, 2 * HALF_WINDOW + 1, 1)
-            y = torch.sum(win * torch.softmax(p, dim=-1), dim=-1)[0].double().numpy()
+        win = x[:, s : s + n + 2 * HALF_WINDOW].unfold(1, 2 * HALF_WINDOW + 1, 1)
+        y = torch.sum(win * torch.softmax(p, dim=-1), dim=-1)[0].double().numpy()
         if b is not None:
             y = y - b[0].double().numpy()
         out[s : s + n] = y
@@ -286,6 +299,7 @@ def denoise_channels(
     fps: float | None = None,
     missing: np.ndarray | None = None,
     until: int | None = None,
+    calibrate: bool = True,
 ) -> np.ndarray:
     """EBF on raw channels (F, C) (degrees, unwrapped) with root context (F, 3) rad/s -> (F, C).
 
@@ -304,6 +318,12 @@ def denoise_channels(
     looks :data:`HALF_WINDOW` frames ahead and its noise level and forward
     LSTM look back, so those frames are bit-identical to a run on the whole
     take), and the frames from ``until`` on are NaN.
+    ``calibrate``: scale the Gaussian head's widths per channel and
+    :data:`~mocapkit.cleaning.deep.sure.BLOCK_S` seconds by Stein's risk
+    estimate on the observed samples (:mod:`.sure`: clean motion and light
+    noise get a light touch); only at the model's own rate (a resampled take's
+    noise is correlated from frame to frame). False: the network's widths, as
+    the streaming :class:`Denoiser` uses them.
     """
     m = _model(model, "ebf")
     x = np.asarray(values, dtype=np.float64)
@@ -325,12 +345,18 @@ def denoise_channels(
         window = max(3, int(round(NOISE_WINDOW * fps / m.fps))) if resample else NOISE_WINDOW
         level = noise_level_observed(xf, ~filled, m.net.std.numpy().astype(np.float64), window)
         noise = _to_rate(level, fps, m.fps, n_to=len(xf_m)) if resample else level
+    calibrate = calibrate and not resample and m.net.head_kind == "gaussian"
+    edges = block_edges(len(xf_m), int(round(BLOCK_S * m.fps)))  # the calibration blocks of the whole take
     end = len(xf_m)
     if until is not None:  # the model-rate frames the first `until` frames interpolate from, and 15 frames of look-ahead
         n_m = min(int(until), len(x)) if not resample else int(np.ceil(max(int(until) - 1, 0) * m.fps / fps)) + 2
+        if calibrate:  # and the rest of their calibration block, scored as in a whole run
+            n_m = int(edges[np.searchsorted(edges, max(n_m, 1), side="left")])
         end = min(len(xf_m), max(n_m, 1) + HALF_WINDOW + 1)
     xp, cp = _pad(xf_m[:end], ctx_m[:end])
-    out = _run_ebf(m.net, xp, cp, noise=None if noise is None else _pad(noise[:end], ctx_m[:end])[0])
+    observed = ~filled[:end] if calibrate else None
+    out = _run_ebf(m.net, xp, cp, noise=None if noise is None else _pad(noise[:end], ctx_m[:end])[0],
+                   observed=observed, edges=np.append(edges[edges < end], end), stride=scoring_stride(m.fps))
     if resample:
         out = _to_rate(out, m.fps, fps, n_to=len(x))
     elif end < len(x):
@@ -365,6 +391,8 @@ def fill_channels(
     only the gap entries, and the completed signal goes through the EBF; here
     the EBF's output is kept on the gap entries only, so observed values are
     returned bit-identical. ``model``/``denoiser``: EBD/EBF (None = shipped).
+    The EBF here keeps the network's own filter widths (no
+    :mod:`.sure` calibration: the entries it smooths are filled, not measured).
     """
     m = _model(model, "ebd")
     x = np.asarray(values, dtype=np.float64)
@@ -391,7 +419,8 @@ def fill_channels(
     sub[k_m[frames]] = pred[k_m[frames]]
     f_m[frames] = sub
     if smooth:  # the EBF's output is kept on the gap entries only: it runs up to the last of them
-        f_m = np.where(k_m, denoise_channels(f_m, c_m, denoiser, missing=k_m, until=int(frames[-1]) + 1), f_m)
+        f_m = np.where(k_m, denoise_channels(f_m, c_m, denoiser, missing=k_m, until=int(frames[-1]) + 1,
+                                             calibrate=False), f_m)
     out = _to_rate(f_m, m.fps, fps, n_to=len(x)) if resample else f_m
     return np.where(miss, out, x)
 
@@ -851,14 +880,15 @@ def _root_quaternion(skeleton: Skeleton, rows: np.ndarray, root_cols: np.ndarray
 
 
 def denoise_rows(skeleton: Skeleton, rows: np.ndarray, fps: float, model=None) -> np.ndarray:
-    """Offline EBF on file-channel rows (F, C_file), the batch counterpart of :class:`Denoiser`."""
+    """Offline EBF on file-channel rows (F, C_file), the batch counterpart of :class:`Denoiser`: the network's own
+    filter widths (no calibration, which needs the block ahead), so the same numbers as streaming."""
     m = _model(model, "ebf", skeleton)
     m.layout.check(skeleton, "skeleton")
     rows = np.asarray(rows, dtype=np.float64)
     cols = euler_columns(skeleton)
     x = unwrap_degrees(rows[:, cols])
     q = _root_quaternion(skeleton, rows, _root_rotation_columns(skeleton))
-    out = denoise_channels(x, root_angular_velocity(q, fps), m, fps=fps)
+    out = denoise_channels(x, root_angular_velocity(q, fps), m, fps=fps, calibrate=False)  # as streaming runs
     res = rows.copy()
     res[:, cols] = (out + 180.0) % 360.0 - 180.0
     return res

@@ -1,0 +1,204 @@
+"""The EBF's filter width calibrated per channel by Stein's unbiased risk estimate (SURE).
+
+The EBF (Mall et al. 2017, section 3, eq. 1) outputs, for every channel and
+frame, a normalised Gaussian average of the noisy channel over 31 frames; the
+network predicts its width ``sigma``. Trained on a mix of noise levels, it
+smooths light noise and clean motion far more than they need: the width it
+predicts is right in its shape over time (wider where the motion is slow) but
+not in its scale for the take at hand. Stein's lemma (Stein 1981) gives that
+scale without the clean motion: for an estimate ``y_hat = S x`` of ``y`` from
+``x = y + n``, ``n`` white with standard deviation ``s``,
+
+    E ||y_hat - y||^2 = E ||y_hat - x||^2 + 2 s^2 tr(S) - N s^2,
+
+and the diagonal of ``S`` is each output's centre tap ``w0 = 1 / z`` (the
+weight of a frame's own sample in its Gaussian average, the widths taken as
+given). For each channel and block of :data:`BLOCK_S` seconds the widths are
+scaled by the factor of :data:`SCALES` with the least estimated risk, ``s``
+estimated from the block's second differences (white noise of std ``s``
+gives them variance ``6 s^2``; a smooth motion adds little at the rates the
+networks run). Clean motion then gets the narrowest width (a light touch),
+heavy noise about the network's own. Only observed samples count: filled gap
+entries hold no noise to measure. The block is long enough for the estimate
+to be steady and short enough to follow noise that changes over a take; its
+edges depend only on the take's length, so a run that stops early (offline
+inference's ``until``) scores every block it keeps the same as a whole run.
+
+Limits: the estimate assumes noise independent from frame to frame, as
+capture noise at the networks' own rate is; a take resampled to a model's
+rate correlates it, so only takes at the model's rate are calibrated
+(:func:`mocapkit.cleaning.deep.denoise_channels`). The streaming
+:class:`mocapkit.cleaning.deep.Denoiser` cannot see a block ahead and keeps
+the network's widths.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+__all__ = ["SCALES", "BLOCK_S", "MIN_GAIN", "SCORE_HZ", "scoring_stride", "block_edges", "noise_std", "risk_terms", "calibrated_log_sigma"]
+
+SCALES = 2.0 ** (np.arange(-6, 3) / 2.0)
+"""Factors tried on the network's widths: 1/8 to 2 in steps of sqrt(2) (1: the network's own; the steps of
+sqrt(2) are what :func:`risk_terms` relies on to compute one exponential per frame)."""
+
+BLOCK_S = 4.0
+"""Seconds per block over which one factor per channel is chosen."""
+
+MIN_GAIN = 0.5
+"""A factor other than 1 is taken only where it lowers the estimated risk by this share of the squared change
+the network's own width makes plus twice the noise variance times its centre taps. The estimate is noisy, and
+biased where the noise level varies within a block (the network narrows its filter where the signal looks
+rough), and at heavy noise the network's widths are about right: chosen on clips of the training actors at
+0, 0.1, 0.5 and 0.9 of Mall's noise, where it keeps the network's error at 0.5 and 0.9 and most of the gain at
+0 and 0.1."""
+
+SCORE_HZ = 30.0
+"""Frames scored per second of a block (all of them at 30 fps, every fourth at 120 fps): the risk of a block is
+estimated from a regular sample of its frames, which keeps the estimate unbiased at a quarter of the cost."""
+
+
+def scoring_stride(fps: float) -> int:
+    """Every how many frames a block is scored at ``fps`` (:data:`SCORE_HZ` per second, at least every frame)."""
+    return max(1, int(round(float(fps) / SCORE_HZ)))
+
+
+def block_edges(num_frames: int, block: int) -> np.ndarray:
+    """Block starts and the end, ``[0, block, 2 block, ..., num_frames]``: blocks of ``block`` frames, a last
+    block shorter than half of one joined to the one before; a function of the take's length only."""
+    F, b = int(num_frames), max(int(block), 1)
+    edges = list(range(0, F, b)) + [F]
+    if len(edges) > 2 and edges[-1] - edges[-2] < b / 2:
+        del edges[-2]
+    return np.asarray(edges if F else [0, 0], dtype=np.int64)
+
+
+def noise_std(x: np.ndarray, observed: np.ndarray, edges: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Per block and channel, the white-noise std ``sqrt(mean d^2 / 6)`` of the second differences ``d`` whose
+    three samples are observed and in the block, and how many there are: ((B, C), (B, C) int).
+
+    ``x`` (F, C) channels, ``observed`` (F, C) bool.
+    """
+    x = np.asarray(x, dtype=np.float64)
+    ok = np.asarray(observed, dtype=bool)
+    d = np.zeros_like(x)
+    d[2:] = x[2:] - 2.0 * x[1:-1] + x[:-2]
+    valid = np.zeros_like(ok)
+    valid[2:] = ok[2:] & ok[1:-1] & ok[:-2]
+    B, C = len(edges) - 1, x.shape[1]
+    sq = np.zeros((B, C))
+    n = np.zeros((B, C), dtype=np.int64)
+    for b in range(B):
+        lo, hi = int(edges[b]), int(edges[b + 1])
+        lo2 = max(lo, 2)  # a second difference needs the two samples before it: at the take's start, not there
+        v = valid[lo2:hi]
+        sq[b] = np.where(v, d[lo2:hi] ** 2, 0.0).sum(axis=0)
+        n[b] = v.sum(axis=0)
+    s = np.sqrt(np.divide(sq, 6.0 * n, out=np.zeros_like(sq), where=n > 0))
+    return s, n
+
+
+@njit(cache=True)
+def _risk_terms(xp, log_sigma, observed, edges, log_scales, half, stride, change, centre, count):
+    C = log_sigma.shape[1]
+    A, B = log_scales.shape[0], edges.shape[0] - 1
+    for c in range(C):
+        pair = np.empty(half + 1)  # pair[k] = x[t - k] + x[t + k], shared by every factor
+        for b in range(B):
+            for t in range(edges[b], edges[b + 1], stride):
+                if not observed[t, c]:
+                    continue
+                count[b, c] += 1.0
+                x0 = np.float64(xp[t + half, c])
+                for k in range(1, half + 1):
+                    pair[k] = np.float64(xp[t + half - k, c]) + np.float64(xp[t + half + k, c])
+                ls0 = np.float64(log_sigma[t, c])
+                # the factors rise by sqrt(2), so each one's r = exp(-1 / (2 sigma^2)) squares into the one below:
+                # one exponential per frame unless the range clamps a width
+                chain = ls0 + log_scales[0] >= -6.0 and ls0 + log_scales[A - 1] <= 4.0
+                r_top = math.exp(-0.5 * math.exp(-2.0 * (ls0 + log_scales[A - 1]))) if chain else 0.0
+                for a in range(A - 1, -1, -1):
+                    if chain:
+                        r = r_top
+                        r_top = r_top * r_top
+                    else:
+                        ls = min(max(ls0 + log_scales[a], -6.0), 4.0)
+                        r = math.exp(-0.5 * math.exp(-2.0 * ls))  # the taps' ratios: w_k = w_{k-1} r q^{k-1}
+                    q = r * r
+                    w, z = 1.0, 1.0
+                    acc = x0
+                    for k in range(1, half + 1):
+                        w *= r
+                        if w < 1e-17:  # below a double's resolution of the sum
+                            break
+                        r *= q
+                        acc += w * pair[k]
+                        z += 2.0 * w
+                    dv = acc / z - x0
+                    change[a, b, c] += dv * dv
+                    centre[a, b, c] += 1.0 / z
+
+
+def risk_terms(xp: np.ndarray, log_sigma: np.ndarray, observed: np.ndarray, edges: np.ndarray,
+               log_scales: np.ndarray, half: int, stride: int = 1):
+    """For every factor, block and channel: the sum over observed scored frames of the squared change the
+    scaled Gaussian makes, of its centre taps, and how many frames they are; ((A, B, C), (A, B, C), (B, C)).
+
+    ``xp`` (F + 2 half, C) padded channels (float32, as the network sees
+    them), ``log_sigma`` (F, C) the network's log widths in frames,
+    ``observed`` (F, C) bool, ``edges`` (B + 1,) block edges, ``log_scales``
+    (A,) the log factors; every ``stride``-th frame of a block from its start
+    is scored (a sample of the block: the estimate stays unbiased). The
+    filter is the one of
+    :func:`mocapkit.cleaning.deep.networks.gaussian_filter_frames`, the same
+    recurrence for the taps.
+    """
+    F, C = log_sigma.shape
+    edges = np.asarray(edges, dtype=np.int64)
+    log_scales = np.asarray(log_scales, dtype=np.float64)
+    A, B = len(log_scales), len(edges) - 1
+    change, centre, count = np.zeros((A, B, C)), np.zeros((A, B, C)), np.zeros((B, C))
+    stride = max(int(stride), 1)
+    _risk_terms(np.ascontiguousarray(xp), np.ascontiguousarray(log_sigma),
+                np.ascontiguousarray(observed, dtype=np.bool_), edges, log_scales, int(half), stride, change, centre,
+                count)
+    return change, centre, count
+
+
+def calibrated_log_sigma(xp: np.ndarray, log_sigma: np.ndarray, observed: np.ndarray, edges: np.ndarray,
+                         half: int, stride: int = 1) -> np.ndarray:
+    """The network's log widths (F, C) plus, per block and channel, the log of the factor of :data:`SCALES`
+    with the least Stein risk estimate, clamped to the network's range (-6, 4); float32 like the input.
+
+    ``xp`` (F + 2 half, C) padded channels, ``observed`` (F, C) bool (filled
+    gap entries False), ``edges`` (B + 1,) the blocks' starts and ``F``
+    (:func:`block_edges`); ``stride``: score every ``stride``-th frame of a
+    block (:func:`scoring_stride`). A block and channel without an observed
+    second difference, or where no factor gains :data:`MIN_GAIN`, keeps
+    factor 1.
+    """
+    log_sigma = np.asarray(log_sigma)
+    F, C = log_sigma.shape
+    if F == 0:
+        return log_sigma.copy()
+    edges = np.asarray(edges, dtype=np.int64)
+    if edges[0] != 0 or edges[-1] != F or np.any(np.diff(edges) <= 0):
+        raise ValueError(f"edges must rise from 0 to {F}, got {edges[:3]}..{edges[-2:]}")
+    obs = np.ascontiguousarray(observed, dtype=np.bool_)
+    x = np.asarray(xp[half : half + F], dtype=np.float64)
+    s, n_d = noise_std(x, obs, edges)
+    log_scales = np.log(SCALES)
+    change, centre, counts = risk_terms(xp, log_sigma, obs, edges, log_scales, int(half), stride)
+    risk = change + 2.0 * s**2 * centre - counts * s**2  # (A, B, C)
+    pick = np.argmin(risk, axis=0)
+    one = int(np.argmin(np.abs(SCALES - 1.0)))
+    best = np.take_along_axis(risk, pick[None], 0)[0]
+    spread = change[one] + 2.0 * s**2 * centre[one]  # the risk at factor 1 without its constant: its scale
+    pick[((risk[one] - best) < MIN_GAIN * np.maximum(spread, 1e-12)) | (n_d == 0)] = one
+    add = log_scales[pick]  # (B, C)
+    per_frame = np.repeat(add, np.diff(edges), axis=0)  # (F, C)
+    out = np.where(per_frame == 0.0, log_sigma, np.clip(log_sigma.astype(np.float64) + per_frame, -6.0, 4.0))
+    return out.astype(log_sigma.dtype)
