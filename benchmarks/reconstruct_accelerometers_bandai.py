@@ -249,7 +249,9 @@ SWEEP = ({**THESIS, "k": 256, "n_paths": 2, "eps": 1.0},
          {"k": 4096, "n_paths": 16, "eps": 1.0, "synthesis": "regression", "regression_n": 1024},
          {"k": 2048, "n_paths": 16, "eps": 1.0, "synthesis": "regression", "regression_n": 512, "regression_lags": (0, 3, 6, 9)},
          {"k": 2048, "n_paths": 16, "eps": 1.0, "synthesis": "regression", "regression_n": 512, "smoothing": 0.3},
-         {"k": 2048, "n_paths": 16, "eps": 1.0, "synthesis": "regression", "regression_n": 512, "smoothing": 0.5})
+         {"k": 2048, "n_paths": 16, "eps": 1.0, "synthesis": "regression", "regression_n": 512, "smoothing": 0.5},
+         {"k": 2048, "n_paths": 16, "eps": 1.0, "synthesis": "regression", "regression_n": 512, "smoothing": 0.3, "regression_cap": None},
+         {"k": 2048, "n_paths": 16, "eps": 1.0, "synthesis": "regression", "regression_n": 512, "smoothing": 0.3, "regression_cap": 0.5})
 
 
 def validate(args, train) -> None:

@@ -439,6 +439,22 @@ def test_regression_pose_recovers_a_linear_relation_and_tends_to_the_mean_under_
     assert np.all(np.isfinite(A.regression_pose(Q[:3], X[:3], np.full(3, 1 / 3), 1e-4)))
 
 
+def test_regression_cap_bounds_the_move_from_the_mean_along_its_direction():
+    rng = np.random.default_rng(5)
+    X = rng.normal(size=(30, 3)) + 6.0  # the query (X = 0) lies far outside the candidates' readings
+    Q = 0.1 + X @ rng.normal(size=(3, 4))
+    w = np.full(30, 1 / 30)
+    mean = w @ Q
+    spread = np.sqrt(w @ np.sum((Q - mean) ** 2, axis=1))
+    free = A.regression_pose(Q, X, w, 0.0)
+    assert np.linalg.norm(free - mean) > 2 * spread  # extrapolated far beyond the candidates
+    capped = A.regression_pose(Q, X, w, 0.0, cap=1.0)
+    np.testing.assert_allclose(np.linalg.norm(capped - mean), spread, rtol=1e-12)
+    np.testing.assert_allclose((capped - mean) / spread, (free - mean) / np.linalg.norm(free - mean), atol=1e-12)
+    np.testing.assert_allclose(A.regression_pose(Q, X, w, 0.0, cap=0.0), mean, atol=1e-12)
+    np.testing.assert_array_equal(A.regression_pose(Q, X, w, 0.0, cap=1e9), free)  # a loose cap changes nothing
+
+
 def test_regression_synthesis_regresses_over_the_cheapest_nodes_with_clip_clamped_lags(db, readings):
     lags = (0, 2, 5)
     rec = A.AccelerometerReconstructor(db, 25, k=32, n_paths=4, synthesis="regression", regression_n=12,
@@ -456,7 +472,7 @@ def test_regression_synthesis_regresses_over_the_cheapest_nodes_with_clip_clampe
     key = np.concatenate([readings[max(3 - g, 0)].ravel() for g in lags])
     X = (knowledge.stacked_readings(kb.readings, kb.clip_ids, lags)[frames] - key) * scale
     Q = A.unwrap_rotvecs(kb.poses[frames], kb.poses[rec.last_info["frames"][0]])
-    np.testing.assert_allclose(rec._p, A.regression_pose(Q, X, w / w.sum(), 1e-3), atol=1e-9)
+    np.testing.assert_allclose(rec._p, A.regression_pose(Q, X, w / w.sum(), 1e-3, 1.0), atol=1e-9)
 
 
 def test_regression_synthesis_beats_single_frame_nn(db, test_motion, readings):
@@ -475,6 +491,9 @@ def test_regression_parameters_are_checked():
             A.synthesis._check_params({"regression_n": bad})
     with pytest.raises(ValueError, match="ridge"):
         A.synthesis._check_params({"ridge": -1.0})
+    with pytest.raises(ValueError, match="regression_cap"):
+        A.synthesis._check_params({"regression_cap": -0.5})
+    assert A.synthesis._check_params({"regression_cap": None})["regression_cap"] is None
     assert A.synthesis._check_params({"synthesis": "regression"})["synthesis"] == "regression"
 
 

@@ -53,7 +53,8 @@ Departures from the thesis:
   graph column with the lowest path costs (weights
   ``exp(-(c - c_min) / median)``), a weighted ridge regression of their pose
   vectors on their standardised readings now and ``regression_lags`` frames
-  back, evaluated at the stream's. The mean of neighbours whose readings lie
+  back, evaluated at the stream's, and moved from the candidates' weighted
+  mean by at most their RMS spread (``regression_cap``). The mean of neighbours whose readings lie
   around the query's on one side is biased; the local linear trend corrects
   it to first order. On the Bandai Namco knowledge base (280,000 frames) the
   graph's ranking picks a pose within 4 cm of the truth in a sixth of the
@@ -144,6 +145,7 @@ DEFAULTS: dict = {
     "regression_n": 256,  # candidates of the regression: the graph's cheapest nodes
     "regression_lags": (0, 3, 6),  # its inputs: the readings now and these many database frames back
     "ridge": 4e-4,  # its ridge, in squared standardised reading units
+    "regression_cap": 1.0,  # its pose moves from the candidates' mean by at most this times their RMS spread; None: no bound
     "smoothing": 0.0,  # a in [0, 1): each synthesised pose vector becomes a * previous + (1 - a) * new (causal)
     "prior": "kernel",  # "kernel" (eqs. 3.7-3.13) or "mahalanobis" (sec. 3.6.2 comparison)
     "standardise": True,  # search on readings at unit spread per sensor axis (KnowledgeBase.reading_scale); the thesis: False
@@ -225,7 +227,7 @@ def weighted_pca(Q: np.ndarray, w: np.ndarray, variance: float = 0.99, max_compo
     return mu, B, lam[:d], D @ B
 
 
-def regression_pose(Q: np.ndarray, X: np.ndarray, w: np.ndarray, ridge: float) -> np.ndarray:
+def regression_pose(Q: np.ndarray, X: np.ndarray, w: np.ndarray, ridge: float, cap: float | None = None) -> np.ndarray:
     """The pose (P,) a locally weighted linear regression of the poses ``Q`` (n, P) on inputs ``X`` (n, d) predicts at ``X = 0``.
 
     ``X`` holds each candidate's inputs minus the query's (standardised
@@ -236,7 +238,11 @@ def regression_pose(Q: np.ndarray, X: np.ndarray, w: np.ndarray, ridge: float) -
     query's readings are. ``ridge`` (squared standardised reading units)
     keeps ``beta`` finite where the candidates' readings span fewer than
     ``d`` directions; with ``ridge`` large the result tends to the
-    weighted mean ``w @ Q``.
+    weighted mean ``w @ Q``. ``cap`` (if given) bounds how far the result
+    may move from that mean: at most ``cap`` times the candidates' weighted
+    RMS distance to it (same units as ``Q``), the move shortened along its
+    direction otherwise. A query whose readings lie outside the candidates'
+    would otherwise be extrapolated to a pose none of them is near.
 
     A departure from Tautges 2012, whose synthesis (sec. 3.5) fits a local
     linear model too (the weighted PCA of the neighbours' poses) but
@@ -257,7 +263,15 @@ def regression_pose(Q: np.ndarray, X: np.ndarray, w: np.ndarray, ridge: float) -
         beta = np.linalg.solve(G, DW.T @ Q)
     except np.linalg.LinAlgError:
         beta = np.linalg.lstsq(G, DW.T @ Q, rcond=None)[0]
-    return beta[0]
+    if cap is None:
+        return beta[0]
+    mean = w @ Q
+    shift = beta[0] - mean
+    spread = float(np.sqrt(w @ np.sum((Q - mean) ** 2, axis=1)))
+    norm = float(np.linalg.norm(shift))
+    if norm <= cap * spread:
+        return beta[0]
+    return mean + shift * (cap * spread / norm)
 
 
 class Pose(NamedTuple):
@@ -293,6 +307,11 @@ def _check_params(params: dict) -> dict:
         if not np.isfinite(v) or v < 0:
             raise ValueError(f"{name} must be a finite number >= 0, got {p[name]!r}")
         p[name] = v
+    if p["regression_cap"] is not None:
+        v = float(p["regression_cap"])
+        if not np.isfinite(v) or v < 0:
+            raise ValueError(f"regression_cap must be a finite number >= 0 or None, got {p['regression_cap']!r}")
+        p["regression_cap"] = v
     if not 0 <= p["smoothing"] < 1:
         raise ValueError(f"smoothing must be in [0, 1), got {p['smoothing']!r}")
     if not 0 < float(p["variance"]) <= 1:
@@ -512,7 +531,7 @@ class AccelerometerReconstructor:
             (np.asarray(kb.readings[np.maximum(frames - g, start)], dtype=np.float64)
              - self._recent[max(len(self._recent) - 1 - g, 0)].ravel()) * scale
             for g in p["regression_lags"]], axis=1)
-        return regression_pose(unwrap_rotvecs(kb.poses[frames], ref), X, w, p["ridge"])
+        return regression_pose(unwrap_rotvecs(kb.poses[frames], ref), X, w, p["ridge"], p["regression_cap"])
 
     def _minimise_energy(self, a: np.ndarray, Q: np.ndarray, w: np.ndarray, frames: np.ndarray, dt: float):
         """Eq. 3.4 minimised in the weighted-PCA space of the neighbour poses ``Q`` (I, 3J), from the previous pose.
