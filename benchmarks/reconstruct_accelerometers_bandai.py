@@ -24,12 +24,14 @@ kd-tree rebuilt over the readings.
 Test: ``--takes`` held-out takes (evenly spread over the held-out list, both
 datasets), each its first ``--frames`` frames (evaluation time only; the split
 is by style). Parameters (:data:`VALIDATED`, chosen by ``--validate``): K =
-1024 neighbours of the one-sample search key on standardised readings (every
-sensor axis at unit spread), approximate kd-tree search (eps = 1), the I = 16
-cheapest paths of the lazy neighbourhood graph, and their eq. 3.3-weighted
-mean pose (mocapkit's defaults but K and eps; the thesis' eq. 3.4 energy
-did worse there); mocapkit's defaults (K = 1 %
-of the frames, exact search) are reported beside them. The four default sensors (wrists, ankles) are simulated on them
+2048 neighbours of the one-sample search key on standardised readings (every
+sensor axis at unit spread), approximate kd-tree search (eps = 1), the lazy
+neighbourhood graph, and the pose regressed (``synthesis="regression"``) on
+the readings now, 3 and 6 frames back over the graph's 512 cheapest nodes,
+smoothed causally (``smoothing=0.3``); the root motion from the I = 16
+cheapest paths. The mean pose of those paths (the previous choice, K = 1024)
+and the thesis' eq. 3.4 energy did worse there. mocapkit's defaults (K = 1 %
+of the frames, exact search, mean pose) are reported beside them. The four default sensors (wrists, ankles) are simulated on them
 (:func:`mocapkit.features.virtual_accelerometers`). Error: RMS joint-position
 error of the body below the pelvis, pelvis position and heading removed, the
 pelvis tilt kept (``metrics.joint_position_rms(..., root_relative="heading")``),
@@ -207,7 +209,7 @@ def build(train, reuse: bool, cache: Path = CACHE, mirror: bool = False):
 
 
 #: K, I and the search and synthesis options chosen by ``--validate`` (dataset-2 exhausted): the lowest validation error of the sweep.
-VALIDATED = {"k": 1024, "n_paths": 16, "eps": 1.0}
+VALIDATED = {"k": 2048, "n_paths": 16, "eps": 1.0, "synthesis": "regression", "regression_n": 512, "smoothing": 0.3}
 #: The thesis' search and synthesis (raw readings, eq. 3.4 energy), which the sweep's first entries keep.
 THESIS = {"standardise": False, "synthesis": "energy"}
 #: The validation sweep: overrides of mocapkit's defaults (K = 1 % of the frames, I = 16, one-sample key, exact search,
@@ -234,7 +236,22 @@ SWEEP = ({**THESIS, "k": 256, "n_paths": 2, "eps": 1.0},
          {"k": 1024, "n_paths": 16, "eps": 1.0, "window": 8},
          {"k": 1024, "n_paths": 16, "eps": 1.0, "penalty_factor": 4.0},
          {"k": 1024, "n_paths": 16, "eps": 1.0, "penalty_factor": 1.0},
-         {"k": 1024, "n_paths": 16, "eps": 1.0, "history": (0, 5, 10)})
+         {"k": 1024, "n_paths": 16, "eps": 1.0, "history": (0, 5, 10)},
+         # the locally weighted regression of the pose on the recent readings over the graph's cheapest nodes
+         {"k": 1024, "n_paths": 16, "eps": 1.0, "synthesis": "regression"},
+         {"k": 1024, "n_paths": 16, "eps": 1.0, "synthesis": "regression", "regression_n": 128},
+         {"k": 1024, "n_paths": 16, "eps": 1.0, "synthesis": "regression", "regression_n": 512},
+         {"k": 1024, "n_paths": 16, "eps": 1.0, "synthesis": "regression", "regression_lags": (0,)},
+         {"k": 1024, "n_paths": 16, "eps": 1.0, "synthesis": "regression", "regression_lags": (0, 3, 6, 9)},
+         {"k": 1024, "n_paths": 16, "eps": 1.0, "synthesis": "regression", "ridge": 4e-3},
+         {"k": 2048, "n_paths": 16, "eps": 1.0, "synthesis": "regression", "regression_n": 512},
+         {"k": 2048, "n_paths": 16, "eps": 1.0, "synthesis": "regression", "regression_n": 1024},
+         {"k": 4096, "n_paths": 16, "eps": 1.0, "synthesis": "regression", "regression_n": 1024},
+         {"k": 2048, "n_paths": 16, "eps": 1.0, "synthesis": "regression", "regression_n": 512, "regression_lags": (0, 3, 6, 9)},
+         {"k": 2048, "n_paths": 16, "eps": 1.0, "synthesis": "regression", "regression_n": 512, "smoothing": 0.3},
+         {"k": 2048, "n_paths": 16, "eps": 1.0, "synthesis": "regression", "regression_n": 512, "smoothing": 0.5},
+         {"k": 2048, "n_paths": 16, "eps": 1.0, "synthesis": "regression", "regression_n": 512, "smoothing": 0.3, "regression_cap": None},
+         {"k": 2048, "n_paths": 16, "eps": 1.0, "synthesis": "regression", "regression_n": 512, "smoothing": 0.3, "regression_cap": 0.5})
 
 
 def validate(args, train) -> None:
@@ -264,7 +281,8 @@ def _frame_errors(P: np.ndarray, T: np.ndarray) -> np.ndarray:
 
 
 #: The configurations --diagnose follows frame by frame: the previous choice and :data:`VALIDATED`.
-DIAGNOSED = {"K=256 I=2 (previous)": {**THESIS, "k": 256, "n_paths": 2, "eps": 1.0}, "validated": VALIDATED}
+DIAGNOSED = {"K=256 I=2 (previous)": {**THESIS, "k": 256, "n_paths": 2, "eps": 1.0},
+             "K=1024 I=16 mean (previous)": {"k": 1024, "n_paths": 16, "eps": 1.0}, "validated": VALIDATED}
 
 
 def diagnose(args, train) -> None:

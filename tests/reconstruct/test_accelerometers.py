@@ -415,3 +415,99 @@ def test_weights_and_synthesis_must_be_known():
         A.synthesis._check_params({"weights": "softmax"})
     with pytest.raises(ValueError, match="synthesis"):
         A.synthesis._check_params({"synthesis": "median"})
+
+
+# -- the locally weighted regression synthesis ------------------------------------------------------------------
+
+
+def test_clip_starts_are_each_frames_first_frame_of_its_clip():
+    np.testing.assert_array_equal(knowledge.clip_starts(np.array([3, 3, 7, 7, 7, 1])), [0, 0, 2, 2, 2, 5])
+    assert knowledge.clip_starts(np.zeros(0, dtype=np.int64)).shape == (0,)
+
+
+def test_regression_pose_recovers_a_linear_relation_and_tends_to_the_mean_under_a_large_ridge():
+    rng = np.random.default_rng(3)
+    X = rng.normal(size=(40, 5))
+    a, Bm = rng.normal(size=7), rng.normal(size=(5, 7))
+    Q = a + X @ Bm
+    w = rng.uniform(0.1, 1.0, 40)
+    w /= w.sum()
+    np.testing.assert_allclose(A.regression_pose(Q, X, w, 0.0), a, atol=1e-10)
+    assert not np.allclose(w @ Q, a, atol=1e-2)  # the weighted mean alone misses it
+    np.testing.assert_allclose(A.regression_pose(Q, X, w, 1e12), w @ Q, atol=1e-8)
+    # fewer candidates than inputs: the ridge keeps it finite
+    assert np.all(np.isfinite(A.regression_pose(Q[:3], X[:3], np.full(3, 1 / 3), 1e-4)))
+
+
+def test_regression_cap_bounds_the_move_from_the_mean_along_its_direction():
+    rng = np.random.default_rng(5)
+    X = rng.normal(size=(30, 3)) + 6.0  # the query (X = 0) lies far outside the candidates' readings
+    Q = 0.1 + X @ rng.normal(size=(3, 4))
+    w = np.full(30, 1 / 30)
+    mean = w @ Q
+    spread = np.sqrt(w @ np.sum((Q - mean) ** 2, axis=1))
+    free = A.regression_pose(Q, X, w, 0.0)
+    assert np.linalg.norm(free - mean) > 2 * spread  # extrapolated far beyond the candidates
+    capped = A.regression_pose(Q, X, w, 0.0, cap=1.0)
+    np.testing.assert_allclose(np.linalg.norm(capped - mean), spread, rtol=1e-12)
+    np.testing.assert_allclose((capped - mean) / spread, (free - mean) / np.linalg.norm(free - mean), atol=1e-12)
+    np.testing.assert_allclose(A.regression_pose(Q, X, w, 0.0, cap=0.0), mean, atol=1e-12)
+    np.testing.assert_array_equal(A.regression_pose(Q, X, w, 0.0, cap=1e9), free)  # a loose cap changes nothing
+
+
+def test_regression_synthesis_regresses_over_the_cheapest_nodes_with_clip_clamped_lags(db, readings):
+    lags = (0, 2, 5)
+    rec = A.AccelerometerReconstructor(db, 25, k=32, n_paths=4, synthesis="regression", regression_n=12,
+                                       regression_lags=lags, ridge=1e-3)
+    for r in readings[:4]:  # fewer samples than the longest lag: the stream's first sample stands in
+        rec.push(r)
+    kb = rec.kb
+    nodes, costs = rec.olng.current_nodes, rec.olng.costs
+    ok = np.flatnonzero((nodes >= 0) & np.isfinite(costs))
+    order = ok[np.lexsort((nodes[ok], costs[ok]))][:12]
+    frames = nodes[order]
+    c = costs[order] - costs[order[0]]
+    w = np.exp(-c / np.median(c))
+    scale = np.tile(kb.reading_scale, len(lags))
+    key = np.concatenate([readings[max(3 - g, 0)].ravel() for g in lags])
+    X = (knowledge.stacked_readings(kb.readings, kb.clip_ids, lags)[frames] - key) * scale
+    Q = A.unwrap_rotvecs(kb.poses[frames], kb.poses[rec.last_info["frames"][0]])
+    np.testing.assert_allclose(rec._p, A.regression_pose(Q, X, w / w.sum(), 1e-3, 1.0), atol=1e-9)
+
+
+def test_regression_synthesis_beats_single_frame_nn(db, test_motion, readings):
+    out = A.reconstruct(readings, db, 25, synthesis="regression")
+    err = metrics.joint_position_rms(out, test_motion, root_relative="frame")
+    nn = metrics.joint_position_rms(A.reconstruct_nearest_neighbor(readings, db, 25), test_motion, root_relative="frame")
+    assert np.isfinite(err) and err < nn
+
+
+def test_regression_parameters_are_checked():
+    for bad in ((), (0, -2), "0"):
+        with pytest.raises(ValueError, match="regression_lags"):
+            A.synthesis._check_params({"regression_lags": bad})
+    for bad in (0, 2.5, True):
+        with pytest.raises(ValueError, match="regression_n"):
+            A.synthesis._check_params({"regression_n": bad})
+    with pytest.raises(ValueError, match="ridge"):
+        A.synthesis._check_params({"ridge": -1.0})
+    with pytest.raises(ValueError, match="regression_cap"):
+        A.synthesis._check_params({"regression_cap": -0.5})
+    assert A.synthesis._check_params({"regression_cap": None})["regression_cap"] is None
+    assert A.synthesis._check_params({"synthesis": "regression"})["synthesis"] == "regression"
+
+
+def test_smoothing_is_a_causal_exponential_filter_of_the_pose_vectors(db, readings):
+    raw = A.AccelerometerReconstructor(db, 25, k=32, n_paths=8)
+    smooth = A.AccelerometerReconstructor(db, 25, k=32, n_paths=8, smoothing=0.4)
+    raw.push(readings[0])
+    smooth.push(readings[0])
+    np.testing.assert_array_equal(smooth._p, raw._p)  # nothing to smooth with yet
+    for r in readings[1:8]:
+        before = smooth._p.copy()
+        raw.push(r)
+        smooth.push(r)
+        expect = 0.4 * A.unwrap_rotvecs(before[None], raw._p)[0] + 0.6 * raw._p
+        np.testing.assert_allclose(smooth._p, expect, atol=1e-12)
+    with pytest.raises(ValueError, match="smoothing"):
+        A.synthesis._check_params({"smoothing": 1.0})

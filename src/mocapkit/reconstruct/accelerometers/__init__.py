@@ -45,6 +45,7 @@ from .synthesis import (
     reconstruct,
     reconstruct_mahalanobis,
     reconstruct_nearest_neighbor,
+    regression_pose,
     unwrap_rotvecs,
     weighted_pca,
 )
@@ -55,6 +56,7 @@ __all__ = [
     "path_weights",
     "unwrap_rotvecs",
     "weighted_pca",
+    "regression_pose",
     "KnowledgeBase",
     "knowledge_base",
     "clear_cache",

@@ -51,7 +51,7 @@ from ...parallel import map_ordered
 from ...search.knn import KNNIndex
 from .._common import body_motion, body_skeleton, database_up
 
-__all__ = ["KnowledgeBase", "knowledge_base", "clear_cache", "clip_values", "check_sensors", "database_up", "stacked_readings",
+__all__ = ["KnowledgeBase", "knowledge_base", "clear_cache", "clip_values", "check_sensors", "database_up", "stacked_readings", "clip_starts",
            "save_knowledge_base", "open_knowledge_base"]
 
 
@@ -160,13 +160,21 @@ def stacked_readings(readings: np.ndarray, clip_ids: np.ndarray | None, lags: Se
     """
     rd = np.asarray(readings, dtype=np.float64)
     n = np.arange(len(rd))
-    if clip_ids is None:
-        start = np.zeros(len(rd), dtype=np.int64)
-    else:
-        cid = np.asarray(clip_ids)
-        first = np.r_[0, np.flatnonzero(np.diff(cid) != 0) + 1]
-        start = first[np.searchsorted(first, n, side="right") - 1]
+    start = np.zeros(len(rd), dtype=np.int64) if clip_ids is None else clip_starts(clip_ids)
     return np.concatenate([rd[np.maximum(n - int(g), start)] for g in lags], axis=1)
+
+
+def clip_starts(clip_ids: np.ndarray) -> np.ndarray:
+    """The first frame (N,) of each frame's clip, for clip ids ``clip_ids`` (N,) that run in blocks.
+
+    >>> clip_starts(np.array([0, 0, 0, 1, 1, 2])).tolist()
+    [0, 0, 0, 3, 3, 5]
+    """
+    cid = np.asarray(clip_ids)
+    if cid.size == 0:
+        return np.zeros(0, dtype=np.int64)
+    first = np.r_[0, np.flatnonzero(np.diff(cid) != 0) + 1]
+    return first[np.searchsorted(first, np.arange(cid.size), side="right") - 1].astype(np.int64)
 
 
 _KB_CACHE: "weakref.WeakKeyDictionary[MotionDatabase, dict]" = weakref.WeakKeyDictionary()
