@@ -126,3 +126,31 @@ def test_markers_on_the_bandai_rig(tmp_path):
     rec, take = mocapkit.load(out), mocapkit.load(clip)
     a, b = body_motion(rec).global_positions(), body_motion(take).global_positions()
     assert np.linalg.norm(a - b, axis=-1).mean() < 2.0  # cm: its own frames are in the database
+
+
+def test_accelerometer_options_reach_the_method(tmp_path, db_dir, query):
+    """--synthesis/--neighbours/--smoothing change the result as the library's parameters do; bad values and other
+    signals are refused in one line before anything is written."""
+    from mocapkit.database import MotionDatabase
+    from mocapkit.reconstruct import accelerometers as acc
+
+    src = tmp_path / "query.npz"
+    mocapkit.save(query[:90], src)
+    out = tmp_path / "reg.npz"
+    code, _, err = run("reconstruct", "--db", str(db_dir), "--accelerometers", str(src), "-o", str(out),
+                       "--synthesis", "regression", "--neighbours", "200", "--smoothing", "0.3")
+    assert code == 0, err
+    want = acc.reconstruct(virtual_accelerometers(query[:90]), MotionDatabase.open(db_dir), query.fps,
+                           skeleton=query.skeleton, synthesis="regression", k=200, smoothing=0.3)
+    assert np.allclose(mocapkit.load(out).rotations, want.rotations, atol=1e-9)
+    plain = tmp_path / "mean.npz"
+    assert run("reconstruct", "--db", str(db_dir), "--accelerometers", str(src), "-o", str(plain))[0] == 0
+    assert not np.allclose(mocapkit.load(plain).rotations, want.rotations, atol=1e-6)
+    for bad, words in ((["--synthesis", "median"], "mean, regression or energy"), (["--smoothing", "1"], "[0, 1)"),
+                       (["--neighbours", "0"], "at least 1")):
+        o = tmp_path / "bad.npz"
+        code, _, err = run("reconstruct", "--db", str(db_dir), "--accelerometers", str(src), "-o", str(o), *bad)
+        assert code == 2 and one_error_line(err) and words in err and not o.exists()
+    code, _, err = run("reconstruct", "--db", str(db_dir), "--markers", str(src), "-o", str(tmp_path / "m.npz"),
+                       "--synthesis", "regression")
+    assert code == 2 and one_error_line(err) and "--accelerometers only" in err

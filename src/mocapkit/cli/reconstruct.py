@@ -73,6 +73,11 @@ def reconstruct(
         None, "--skeleton", help="The performer's skeleton (.asf, or a motion file), same joints as the database; default: the input motion's, else the database's."
     ),
     reference: Optional[Path] = typer.Option(None, "--reference", help="The true motion, to report the joint-position error against."),
+    synthesis: Optional[str] = typer.Option(
+        None, "--synthesis", help="Accelerometers: the pose from the candidates: mean (default; small databases), regression (on the recent readings; better on large ones), energy (Tautges eq. 3.4)."
+    ),
+    neighbours: Optional[int] = typer.Option(None, "--neighbours", help="Accelerometers: K nearest database frames per sample (default 1 % of the database's frames, 128-4096)."),
+    smoothing: Optional[float] = typer.Option(None, "--smoothing", help="Accelerometers: causal pose smoothing a in [0, 1) (default 0)."),
     asf: Optional[Path] = asf_option(),
     overwrite: bool = overwrite_option(),
 ) -> None:
@@ -88,6 +93,15 @@ def reconstruct(
     if len(given) != 1:
         raise MocapError("give exactly one of --markers, --accelerometers or --ssg")
     kind, inp = given[0]
+    acc_params = {k: v for k, v in (("synthesis", synthesis), ("k", neighbours), ("smoothing", smoothing)) if v is not None}
+    if acc_params and kind != "accelerometers":
+        raise MocapError("--synthesis, --neighbours and --smoothing apply to --accelerometers only")
+    if synthesis is not None and synthesis not in ("mean", "regression", "energy"):
+        raise MocapError(f"--synthesis must be mean, regression or energy, not {synthesis!r}")
+    if neighbours is not None and neighbours < 1:
+        raise MocapError(f"--neighbours must be at least 1, not {neighbours}")
+    if smoothing is not None and not 0.0 <= smoothing < 1.0:
+        raise MocapError(f"--smoothing must lie in [0, 1), not {smoothing}")
     guard([out], [inp, db_dir, skeleton, reference, asf], overwrite)
     check_asf(asf, [inp, reference])
     io.suffix_kind(out, io.WRITERS, "writing")
@@ -131,7 +145,7 @@ def reconstruct(
                               skeleton=db.skeletons[0])
     try:
         if kind == "accelerometers":
-            result = acc.reconstruct(readings, db, fps, sensors, skeleton=performer, progress=True)
+            result = acc.reconstruct(readings, db, fps, sensors, skeleton=performer, progress=True, **acc_params)
         else:
             if kind == "markers":
                 from ..reconstruct import markers as method
