@@ -241,3 +241,17 @@ def test_values_beyond_float32_are_refused_not_stored_as_infinity():
         MotionDatabase.build([huge], fps=30, executor="serial", progress=False)
     db = MotionDatabase.build([m], fps=30, executor="serial", progress=False)  # the same clip, in range, builds
     assert np.isfinite(db.root_positions).all()
+
+
+def test_mirroring_a_rig_whose_frames_differ_by_side_is_refused_naming_the_file(tmp_path):
+    """A mirrored clip's rotations are reused on the database skeleton: on a rig no reflection maps onto itself
+    they would pose another body, so the build stops with one line (before any work on the clip) instead of
+    storing such clips; a symmetric rig mirrors as before."""
+    from tests.test_motion import SIDED_FRAMES_BVH
+
+    path = tmp_path / "sided.bvh"
+    path.write_text(SIDED_FRAMES_BVH)
+    with pytest.raises(MocapFormatError, match=r"sided\.bvh: cannot mirror this rig.*without --mirror"):
+        MotionDatabase.build([path], fps=30, mirror=True, progress=False, executor="serial")
+    assert MotionDatabase.build([samples.path("12_walk.amc")], fps=30, mirror=True, progress=False,
+                                executor="serial").num_clips == 2

@@ -8,7 +8,17 @@ from hypothesis import strategies as st
 import mocapkit
 from mocapkit import rotations as R
 from mocapkit.errors import SkeletonError
-from mocapkit.motion import Motion, Skeleton, concatenate, find_joint, mirror_pairs, standard_joints, unit_scale_cm
+from mocapkit.motion import (
+    MIRROR_MISMATCH_MAX,
+    Motion,
+    Skeleton,
+    concatenate,
+    find_joint,
+    mirror_mismatch,
+    mirror_pairs,
+    standard_joints,
+    unit_scale_cm,
+)
 
 
 def random_motion(seed=0, frames=20, joints=7, with_axes=False, with_translations=False):
@@ -148,6 +158,74 @@ def test_mirror_reflects_and_swaps_exactly():
     # mirroring twice gives the original back
     back = mm.mirror()
     np.testing.assert_allclose(back.global_positions(), p, atol=1e-9)
+
+
+SIDED_FRAMES_BVH = """HIERARCHY
+ROOT Hips
+{
+  OFFSET 0 90 0
+  CHANNELS 6 Xposition Yposition Zposition Zrotation Xrotation Yrotation
+  JOINT Spine
+  {
+    OFFSET 15 0 0
+    CHANNELS 3 Zrotation Xrotation Yrotation
+    End Site
+    {
+      OFFSET 15 0 0
+    }
+  }
+  JOINT UpperLeg_L
+  {
+    OFFSET 0 0 10
+    CHANNELS 3 Zrotation Xrotation Yrotation
+    JOINT LowerLeg_L
+    {
+      OFFSET 40 0 0
+      CHANNELS 3 Zrotation Xrotation Yrotation
+      End Site
+      {
+        OFFSET 40 0 0
+      }
+    }
+  }
+  JOINT UpperLeg_R
+  {
+    OFFSET 0 0 -10
+    CHANNELS 3 Zrotation Xrotation Yrotation
+    JOINT LowerLeg_R
+    {
+      OFFSET -40 0 0
+      CHANNELS 3 Zrotation Xrotation Yrotation
+      End Site
+      {
+        OFFSET -40 0 0
+      }
+    }
+  }
+}
+MOTION
+Frames: 2
+Frame Time: 0.0333333
+0 90 0 0 0 90 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0
+1 90 0 0 0 90 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0
+"""
+
+
+def test_mirror_mismatch_tells_rigs_whose_frames_differ_by_side(tmp_path):
+    """Bones along each joint's own axis, the right side's pointing the other way (as on game rigs): no reflection
+    maps the skeleton onto itself, though mirroring stays exact for positions."""
+    for name in ("131_01.bvh", "12_walk.amc"):
+        assert mirror_mismatch(mocapkit.load(mocapkit.samples.path(name)).skeleton) < 0.05
+    path = tmp_path / "sided.bvh"
+    path.write_text(SIDED_FRAMES_BVH)
+    m = mocapkit.load(path)
+    assert mirror_mismatch(m.skeleton) > MIRROR_MISMATCH_MAX
+    perm = mirror_pairs(m.skeleton.joint_names)
+    for axis in range(3):
+        flip = np.ones(3)
+        flip[axis] = -1.0
+        np.testing.assert_allclose(m.mirror(axis).global_positions(), m.global_positions()[:, perm] * flip, atol=1e-9)
+        assert mirror_mismatch(m.skeleton, axis) > MIRROR_MISMATCH_MAX
 
 
 def test_mirror_pairs_on_common_rigs():

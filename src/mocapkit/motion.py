@@ -30,6 +30,8 @@ __all__ = [
     "Motion",
     "concatenate",
     "mirror_pairs",
+    "mirror_mismatch",
+    "MIRROR_MISMATCH_MAX",
     "joint_sides",
     "find_joint",
     "standard_joints",
@@ -745,6 +747,35 @@ def mirror_pairs(joint_names: Sequence[str]) -> np.ndarray:
         if p is not None and _partner_name(p, known) == n:
             perm[i] = pos[p]
     return perm
+
+
+MIRROR_MISMATCH_MAX = 0.1
+"""Largest :func:`mirror_mismatch` at which a mirrored take's rotations are taken to fit the skeleton itself
+(captured actors' skeletons lie at 0.02-0.04, rigs whose joints' rest frames differ by side at 0.2)."""
+
+
+def mirror_mismatch(skeleton: Skeleton, axis: int | None = None) -> float:
+    """How far :meth:`Motion.mirror`'s skeleton lies from ``skeleton`` itself: the summed distance between
+    each joint's offset and its partner's reflected offset, over twice the summed offset lengths (0: left/right
+    symmetric).
+
+    :meth:`Motion.mirror` is exact for positions on any rig (it mirrors the
+    skeleton too), but its rotations fit the *original* skeleton, as a
+    database of mirrored clips or a swap check assumes, only where the
+    reflection maps the skeleton onto itself. That holds on rigs whose rest
+    frames are the world's (Acclaim, the CMU and most BVH conversions: a
+    skeleton captured from one actor, a few per cent off), and not on rigs
+    whose bones lie along each joint's own axis with frames that differ by
+    side (the Bandai Namco game rig: about 0.2).
+    """
+    perm = mirror_pairs(skeleton.joint_names)
+    if axis is None:
+        axis = _lateral_axis(skeleton, perm)
+    flip = np.ones(3)
+    flip[axis] = -1.0
+    off = np.asarray(skeleton.offsets, dtype=np.float64)
+    total = 2.0 * float(np.abs(off).sum())
+    return float(np.abs(off[perm] * flip - off).sum()) / total if total > 0 else 0.0
 
 
 def _lateral_axis(sk: Skeleton, perm: np.ndarray) -> int:
