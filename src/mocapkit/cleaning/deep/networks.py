@@ -58,6 +58,7 @@ __all__ = [
     "LookaheadLSTM",
     "noise_level_feature",
     "noise_level_observed",
+    "observed_second_differences",
     "EBF",
     "EBD",
     "paper_init",
@@ -189,6 +190,19 @@ def noise_level_feature(x: torch.Tensor, std: torch.Tensor, window: int = NOISE_
     return (level + 3.0) / 3.0
 
 
+def observed_second_differences(x: np.ndarray, observed: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Second differences ``x[t] - 2 x[t-1] + x[t-2]`` of (F, C) channels (0 at t < 2) and where all three
+    samples are ``observed`` (F, C) bool: ((F, C) float64, (F, C) bool). For white noise of std s they have
+    variance 6 s^2."""
+    x = np.asarray(x, dtype=np.float64)
+    ok = np.asarray(observed, dtype=bool)
+    d = np.zeros_like(x)
+    d[2:] = x[2:] - 2.0 * x[1:-1] + x[:-2]
+    valid = np.zeros_like(ok)
+    valid[2:] = ok[2:] & ok[1:-1] & ok[:-2]
+    return d, valid
+
+
 def noise_level_observed(
     x: np.ndarray, observed: np.ndarray, std: np.ndarray, window: int = NOISE_WINDOW
 ) -> np.ndarray:
@@ -203,11 +217,7 @@ def noise_level_observed(
     without noise.
     """
     x = np.asarray(x, dtype=np.float64)
-    ok = np.asarray(observed, dtype=bool)
-    d = np.zeros_like(x)
-    d[2:] = x[2:] - 2.0 * x[1:-1] + x[:-2]
-    valid = np.zeros_like(ok)
-    valid[2:] = ok[2:] & ok[1:-1] & ok[:-2]
+    d, valid = observed_second_differences(x, observed)
     sums = np.cumsum(np.where(valid, d * d, 0.0), axis=0)
     counts = np.cumsum(valid, axis=0)
     sums[window:] -= sums[:-window].copy()

@@ -39,6 +39,8 @@ import math
 import numpy as np
 from numba import njit
 
+from .networks import observed_second_differences
+
 __all__ = ["SCALES", "BLOCK_S", "MIN_GAIN", "SCORE_HZ", "scoring_stride", "block_edges", "noise_std", "risk_terms", "calibrated_log_sigma"]
 
 SCALES = 2.0 ** (np.arange(-6, 3) / 2.0)
@@ -82,20 +84,14 @@ def noise_std(x: np.ndarray, observed: np.ndarray, edges: np.ndarray) -> tuple[n
 
     ``x`` (F, C) channels, ``observed`` (F, C) bool.
     """
-    x = np.asarray(x, dtype=np.float64)
-    ok = np.asarray(observed, dtype=bool)
-    d = np.zeros_like(x)
-    d[2:] = x[2:] - 2.0 * x[1:-1] + x[:-2]
-    valid = np.zeros_like(ok)
-    valid[2:] = ok[2:] & ok[1:-1] & ok[:-2]
-    B, C = len(edges) - 1, x.shape[1]
+    d, valid = observed_second_differences(x, observed)  # none at the take's first two frames
+    B, C = len(edges) - 1, d.shape[1]
     sq = np.zeros((B, C))
     n = np.zeros((B, C), dtype=np.int64)
     for b in range(B):
         lo, hi = int(edges[b]), int(edges[b + 1])
-        lo2 = max(lo, 2)  # a second difference needs the two samples before it: at the take's start, not there
-        v = valid[lo2:hi]
-        sq[b] = np.where(v, d[lo2:hi] ** 2, 0.0).sum(axis=0)
+        v = valid[lo:hi]
+        sq[b] = np.where(v, d[lo:hi] ** 2, 0.0).sum(axis=0)
         n[b] = v.sum(axis=0)
     s = np.sqrt(np.divide(sq, 6.0 * n, out=np.zeros_like(sq), where=n > 0))
     return s, n
