@@ -245,7 +245,7 @@ def test_values_beyond_float32_are_refused_not_stored_as_infinity():
 
 def test_mirroring_a_rig_whose_frames_differ_by_side_is_refused_naming_the_file(tmp_path):
     """A mirrored clip's rotations are reused on the database skeleton: on a rig no reflection maps onto itself
-    they would pose another body, so the build stops with one line (before any work on the clip) instead of
+    they would pose another body, so the build stops with one line (before the clip's features are computed) instead of
     storing such clips; a symmetric rig mirrors as before."""
     from tests.test_motion import SIDED_FRAMES_BVH
 

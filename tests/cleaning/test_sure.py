@@ -121,3 +121,18 @@ def test_a_resampled_take_keeps_the_networks_widths(long_walk):
     x, ctx = encode(w60, ebf.layout)
     assert np.array_equal(inference.denoise_channels(x, ctx, ebf, fps=60.0),
                           inference.denoise_channels(x, ctx, ebf, fps=60.0, calibrate=False), equal_nan=True)
+
+
+def test_risk_terms_are_the_same_for_any_set_of_factors():
+    """The fast path for SCALES' sqrt(2) steps gives the terms each factor gives on its own."""
+    y, x = _smooth_and_noisy(F=600, s=0.5)
+    xp = np.concatenate([np.repeat(x[:1], HALF_WINDOW, 0), x, np.repeat(x[-1:], HALF_WINDOW, 0)]).astype(np.float32)
+    log_sigma = np.random.default_rng(1).normal(0.5, 0.8, x.shape).astype(np.float32)  # some widths clamp
+    obs = np.ones(x.shape, bool)
+    edges = sure.block_edges(len(x), 240)
+    together = sure.risk_terms(xp, log_sigma, obs, edges, np.log(sure.SCALES), HALF_WINDOW, 2)
+    for a, f in enumerate(sure.SCALES):
+        alone = sure.risk_terms(xp, log_sigma, obs, edges, np.array([np.log(f)]), HALF_WINDOW, 2)
+        np.testing.assert_allclose(together[0][a], alone[0][0], rtol=1e-9, atol=1e-12)
+        np.testing.assert_allclose(together[1][a], alone[1][0], rtol=1e-9, atol=1e-12)
+        np.testing.assert_array_equal(together[2], alone[2])

@@ -256,7 +256,6 @@ def _run_ebf(
     y2 = net.trunk(x, c, nz, parts=INFERENCE_PARTS)[:, HALF_WINDOW:]  # (1, F, 2H)
     F = y2.shape[1]
     x32 = x[0].numpy()
-    out = np.empty((F, net.channels))
     if net.head_kind == "gaussian":
         heads = [net.filter_parameters(y2[:, s : s + chunk]) for s in range(0, F, chunk)]
         log_sigma = np.concatenate([p[0].numpy() for p, _ in heads]) if heads else np.zeros((0, net.channels), np.float32)
@@ -266,6 +265,7 @@ def _run_ebf(
         if net.with_bias:
             out = out - np.concatenate([b[0].double().numpy() for _, b in heads])
         return out
+    out = np.empty((F, net.channels))
     for s in range(0, F, chunk):
         p, b = net.filter_parameters(y2[:, s : s + chunk])
         n = p.shape[1]

@@ -14,11 +14,12 @@ scale without the clean motion: for an estimate ``y_hat = S x`` of ``y`` from
 and the diagonal of ``S`` is each output's centre tap ``w0 = 1 / z`` (the
 weight of a frame's own sample in its Gaussian average, the widths taken as
 given). For each channel and block of :data:`BLOCK_S` seconds the widths are
-scaled by the factor of :data:`SCALES` with the least estimated risk, ``s``
-estimated from the block's second differences (white noise of std ``s``
-gives them variance ``6 s^2``; a smooth motion adds little at the rates the
-networks run). Clean motion then gets the narrowest width (a light touch),
-heavy noise about the network's own. Only observed samples count: filled gap
+scaled by the factor of :data:`SCALES` with the least estimated risk, where
+it gains enough over the network's own (:data:`MIN_GAIN`), ``s`` estimated
+from the block's second differences (white noise of std ``s`` gives them
+variance ``6 s^2``; a smooth motion adds little at the rates the networks
+run). Clean motion and light noise then get a narrower width (a light
+touch), heavy noise the network's own. Only observed samples count: filled gap
 entries hold no noise to measure. The block is long enough for the estimate
 to be steady and short enough to follow noise that changes over a take; its
 edges depend only on the take's length, so a run that stops early (offline
@@ -60,7 +61,8 @@ rough), and at heavy noise the network's widths are about right: chosen on clips
 
 SCORE_HZ = 30.0
 """Frames scored per second of a block (all of them at 30 fps, every fourth at 120 fps): the risk of a block is
-estimated from a regular sample of its frames, which keeps the estimate unbiased at a quarter of the cost."""
+estimated from a regular sample of its frames, which keeps the estimate unbiased (at 120 fps for a quarter of the
+cost)."""
 
 
 def scoring_stride(fps: float) -> int:
@@ -98,7 +100,7 @@ def noise_std(x: np.ndarray, observed: np.ndarray, edges: np.ndarray) -> tuple[n
 
 
 @njit(cache=True)
-def _risk_terms(xp, log_sigma, observed, edges, log_scales, half, stride, change, centre, count):
+def _risk_terms(xp, log_sigma, observed, edges, log_scales, half, stride, sqrt2_steps, change, centre, count):
     C = log_sigma.shape[1]
     A, B = log_scales.shape[0], edges.shape[0] - 1
     for c in range(C):
@@ -112,9 +114,9 @@ def _risk_terms(xp, log_sigma, observed, edges, log_scales, half, stride, change
                 for k in range(1, half + 1):
                     pair[k] = np.float64(xp[t + half - k, c]) + np.float64(xp[t + half + k, c])
                 ls0 = np.float64(log_sigma[t, c])
-                # the factors rise by sqrt(2), so each one's r = exp(-1 / (2 sigma^2)) squares into the one below:
-                # one exponential per frame unless the range clamps a width
-                chain = ls0 + log_scales[0] >= -6.0 and ls0 + log_scales[A - 1] <= 4.0
+                # where the factors rise by sqrt(2), each one's r = exp(-1 / (2 sigma^2)) squares into the one
+                # below: one exponential per frame unless the range clamps a width
+                chain = sqrt2_steps and ls0 + log_scales[0] >= -6.0 and ls0 + log_scales[A - 1] <= 4.0
                 r_top = math.exp(-0.5 * math.exp(-2.0 * (ls0 + log_scales[A - 1]))) if chain else 0.0
                 for a in range(A - 1, -1, -1):
                     if chain:
@@ -146,7 +148,8 @@ def risk_terms(xp: np.ndarray, log_sigma: np.ndarray, observed: np.ndarray, edge
     ``xp`` (F + 2 half, C) padded channels (float32, as the network sees
     them), ``log_sigma`` (F, C) the network's log widths in frames,
     ``observed`` (F, C) bool, ``edges`` (B + 1,) block edges, ``log_scales``
-    (A,) the log factors; every ``stride``-th frame of a block from its start
+    (A,) the log factors, rising (steps of ``log sqrt 2``, as :data:`SCALES`,
+    take the fast path); every ``stride``-th frame of a block from its start
     is scored (a sample of the block: the estimate stays unbiased). The
     filter is the one of
     :func:`mocapkit.cleaning.deep.networks.gaussian_filter_frames`, the same
@@ -158,9 +161,10 @@ def risk_terms(xp: np.ndarray, log_sigma: np.ndarray, observed: np.ndarray, edge
     A, B = len(log_scales), len(edges) - 1
     change, centre, count = np.zeros((A, B, C)), np.zeros((A, B, C)), np.zeros((B, C))
     stride = max(int(stride), 1)
+    sqrt2_steps = bool(np.allclose(np.diff(log_scales), 0.5 * math.log(2.0), rtol=0.0, atol=1e-12))
     _risk_terms(np.ascontiguousarray(xp), np.ascontiguousarray(log_sigma),
-                np.ascontiguousarray(observed, dtype=np.bool_), edges, log_scales, int(half), stride, change, centre,
-                count)
+                np.ascontiguousarray(observed, dtype=np.bool_), edges, log_scales, int(half), stride, sqrt2_steps,
+                change, centre, count)
     return change, centre, count
 
 

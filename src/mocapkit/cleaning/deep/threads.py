@@ -26,7 +26,8 @@ import torch
 __all__ = ["INFERENCE_THREADS", "INFERENCE_PARTS", "MIN_PART_ROWS", "torch_threads", "part_bounds", "run_in_parts"]
 
 INFERENCE_THREADS = 1
-"""Torch intra-op threads of offline inference (see the module docstring: more varied the last bits)."""
+"""Torch intra-op threads of offline inference: one (with two, the results' last bits varied from run to run;
+see the module docstring)."""
 
 INFERENCE_PARTS = 2
 """Row parts offline inference runs concurrently, each in its own thread with :data:`INFERENCE_THREADS`."""
