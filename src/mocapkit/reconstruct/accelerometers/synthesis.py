@@ -56,11 +56,10 @@ Departures from the thesis:
   back, evaluated at the stream's, and moved from the candidates' weighted
   mean by at most their RMS spread (``regression_cap``). The mean of neighbours whose readings lie
   around the query's on one side is biased; the local linear trend corrects
-  it to first order. On the Bandai Namco knowledge base (280,000 frames) the
-  graph's ranking picks a pose within 4 cm of the truth in a sixth of the
-  frames while the best of its K candidates is that close in three fifths;
-  regressing over 512 of 2,048 candidates recovers part of that gap
-  (``benchmarks/reconstruct_accelerometers_bandai.py --validate``). On small
+  it to first order. On a large knowledge base the graph's ranking often
+  passes over candidates closer to the truth than the pose it picks, which
+  a regression over many of them partly recovers
+  (``benchmarks/reconstruct_accelerometers_bandai.py --validate``); on small
   databases (a few hundred frames) the regression has too few candidates
   per input and the mean does better, hence not the default.
 * Optionally (``smoothing``), the synthesised pose vector is smoothed
