@@ -290,17 +290,13 @@ def _check_params(params: dict) -> dict:
     if unknown:
         raise ValueError(f"unknown parameter(s) {', '.join(sorted(unknown))}; known: {', '.join(DEFAULTS)}")
     p = {**DEFAULTS, **params}
-    for name in ("k", "n_paths", "window", "max_components", "iterations"):
+    for name in ("k", "n_paths", "window", "max_components", "iterations", "regression_n"):
         v = p[name]
         if name in ("k", "n_paths") and v is None:
             continue
         if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < (0 if name == "iterations" else 1):
             raise ValueError(f"{name} must be a positive integer, got {v!r}")
         p[name] = int(v)
-    v = p["regression_n"]
-    if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < 1:
-        raise ValueError(f"regression_n must be a positive integer, got {v!r}")
-    p["regression_n"] = int(v)
     for name in ("w_contr", "w_prior", "w_pose", "w_motion", "w_smooth", "penalty_factor", "eps", "gravity", "ridge", "smoothing"):
         v = float(p[name])
         if not np.isfinite(v) or v < 0:
@@ -477,22 +473,19 @@ class AccelerometerReconstructor:
         # one chart for all neighbours: a joint turned by about pi (the game rig's thighs) has rotation
         # vectors on both sides of the sphere of radius pi, whose mean and PCA would be meaningless
         Q = unwrap_rotvecs(kb.poses[frames], kb.poses[frames[0]])
-        if p["synthesis"] == "mean":  # the weighted mean pose of Q^t: no PCA, no energy
-            pose = mu = w @ Q
-            X, srot = (x[0] for x in self.rig.points(pose[None]))
-            E, steps, d = float("nan"), 0, 0
-        elif p["synthesis"] == "regression":
-            pose = self._regression(idx[0], costs, good, kb.poses[frames[0]])
-            mu = w @ Q
-            X, srot = (x[0] for x in self.rig.points(pose[None]))
-            E, steps, d = float("nan"), 0, 0
-        else:
+        X = None  # the synthesised pose's root-frame points, where the synthesis gives them
+        if p["synthesis"] == "energy":
             pose, mu, X, E, steps, d = self._minimise_energy(a, Q, w, frames, dt)
-            srot = self.rig.points(pose[None])[1][0]
+        else:  # the weighted mean pose of Q^t, or the regression's: no PCA, no energy
+            mu = w @ Q
+            pose = mu if p["synthesis"] == "mean" else self._regression(idx[0], costs, good, kb.poses[frames[0]])
+            E, steps, d = float("nan"), 0, 0
         a_s = p["smoothing"]
         if a_s > 0 and self._p is not None:  # exponential smoothing of the pose vector, in the new pose's chart
             pose = a_s * unwrap_rotvecs(self._p[None], pose)[0] + (1.0 - a_s) * pose
-            X, srot = (x[0] for x in self.rig.points(pose[None]))
+            X = None
+        points, srot = (x[0] for x in self.rig.points(pose[None]))
+        X = points if X is None else X
         # sec. 3.6.4: the weighted mean root motion of Q^t
         up = kb.up
         v = w @ kb.root_velocity[frames]
