@@ -346,7 +346,7 @@ def denoise_channels(
         level = noise_level_observed(xf, ~filled, m.net.std.numpy().astype(np.float64), window)
         noise = _to_rate(level, fps, m.fps, n_to=len(xf_m)) if resample else level
     calibrate = calibrate and not resample and m.net.head_kind == "gaussian"
-    edges = block_edges(len(xf_m), int(round(BLOCK_S * m.fps)))  # the calibration blocks of the whole take
+    edges = block_edges(len(xf_m), int(round(BLOCK_S * m.fps))) if calibrate else None  # of the whole take
     end = len(xf_m)
     if until is not None:  # the model-rate frames the first `until` frames interpolate from, and 15 frames of look-ahead
         n_m = min(int(until), len(x)) if not resample else int(np.ceil(max(int(until) - 1, 0) * m.fps / fps)) + 2
@@ -355,8 +355,9 @@ def denoise_channels(
         end = min(len(xf_m), max(n_m, 1) + HALF_WINDOW + 1)
     xp, cp = _pad(xf_m[:end], ctx_m[:end])
     observed = ~filled[:end] if calibrate else None
+    run_edges = np.append(edges[edges < end], end) if calibrate else None  # the blocks this run holds
     out = _run_ebf(m.net, xp, cp, noise=None if noise is None else _pad(noise[:end], ctx_m[:end])[0],
-                   observed=observed, edges=np.append(edges[edges < end], end), stride=scoring_stride(m.fps))
+                   observed=observed, edges=run_edges, stride=scoring_stride(m.fps))
     if resample:
         out = _to_rate(out, m.fps, fps, n_to=len(x))
     elif end < len(x):
