@@ -20,6 +20,7 @@ src/mocapkit/models/. Prints one JSON object as the last line.
 
     python scripts/train_shipped.py --kind ebf --minutes 30 --install --json
     python scripts/train_shipped.py --rig bandai --kind ebf --minutes 25 --threads 1 --install
+    python scripts/train_shipped.py --rig bandai --kind ebd --prior-only --install   # the EBD's gap prior only
 """
 
 from __future__ import annotations
@@ -102,8 +103,13 @@ def main() -> None:
                     help="EBF: share of crops with noise on some channels and over one stretch only")
     ap.add_argument("--out", default=str(ROOT / "benchmarks" / "out" / "models"))
     ap.add_argument("--install", action="store_true", help="copy the model into src/mocapkit/models/")
+    ap.add_argument("--prior-only", action="store_true",
+                    help="EBD: fit only the Gaussian gap prior on the training clips and attach it to the installed "
+                         "EBD (the network unchanged)")
     ap.add_argument("--json", action="store_true")
     a = ap.parse_args()
+    if a.prior_only and a.kind != "ebd":
+        ap.error("--prior-only is for --kind ebd")
     if a.threads:
         torch.set_num_threads(a.threads)
     if a.rig == "bandai":
@@ -114,6 +120,8 @@ def main() -> None:
     train_f = train_f[::a.every]
     clips = [mocapkit.load(f) for f in train_f]
     val = [mocapkit.load(f) for f in val_f]
+    if a.prior_only:
+        return attach_prior(a, clips, train_f, test_f)
     hidden = a.hidden or (64 if a.kind == "ebf" else 32)
     extra = {k: v for k, v in (("dropout", a.dropout), ("observed_weight", a.observed_weight), ("offset", a.offset), ("patchy", a.patchy),
                                ("lr_patience", a.lr_patience),
@@ -135,6 +143,35 @@ def main() -> None:
         "best_val_rmse": min(h["val_rmse"] for h in hist), "train_seconds_total": model.meta["train_seconds"],
         "wall_seconds_this_run": seconds, "threads": torch.get_num_threads(), "device": "cpu",
     }
+    print(json.dumps(res) if a.json else json.dumps(res, indent=1))
+
+
+def attach_prior(a, clips, train_f, test_f) -> None:
+    """Fit the EBD's Gaussian gap prior (mocapkit.cleaning.deep.prior) on the training clips' clean channels and
+    write the installed EBD with it (to <out>/.../model_prior.pt; with --install over the installed file)."""
+    import dataclasses
+
+    from mocapkit.cleaning.deep import fit_gap_prior, load_model, save_model
+    from mocapkit.cleaning.deep.channels import encode
+
+    installed = ROOT / "src" / "mocapkit" / "models" / INSTALL_NAME[a.rig, "ebd"]
+    model = load_model(installed)
+    t = time.perf_counter()
+    bad = [c.name for c in clips if abs(c.fps - model.fps) > 1e-6]
+    if bad:
+        sys.exit(f"{bad[0]}: not at the model's {model.fps:g} fps")
+    prior = fit_gap_prior([encode(c, model.layout)[0] for c in clips], model.fps)
+    meta = dict(model.meta, gap_prior={"train_clips": len(clips), "frames": prior.frames,
+                                       "lags_frames": prior.lags.tolist(), "ridge": prior.ridge,
+                                       "fit_seconds": round(time.perf_counter() - t, 1)})
+    model = dataclasses.replace(model, meta=meta, prior=prior)
+    out = Path(a.out) / ("ebd" if a.rig == "acclaim" else f"{a.rig}/ebd") / "model_prior.pt"
+    out.parent.mkdir(parents=True, exist_ok=True)
+    save_model(model, out)
+    if a.install:
+        shutil.copyfile(out, installed)
+    res = {"benchmark": "train_shipped", "rig": a.rig, "kind": "ebd prior", "train_clips": len(clips),
+           "prior_frames": prior.frames, "test_clips": [f.name for f in test_f], **meta["gap_prior"]}
     print(json.dumps(res) if a.json else json.dumps(res, indent=1))
 
 

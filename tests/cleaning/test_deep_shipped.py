@@ -148,7 +148,7 @@ def test_bandai_ebd_fills_a_whole_joint_gap_and_keeps_the_observed_cells(dance):
     rot[15:45, j] = np.nan  # a 1 s gap of the knee
     gapped = dataclasses.replace(dance, rotations=rot)
     out, method, note = deep.fill_or_fallback(gapped)
-    assert method == "EBD (shipped, bandai_namco) + EBF" and "CC BY-NC 4.0" in note
+    assert method == "EBD's gap prior (shipped, bandai_namco) + EBF" and "CC BY-NC 4.0" in note
     assert not out.missing().any()
     obs = ~gapped.missing()
     assert np.array_equal(out.rotations[obs], gapped.rotations[obs])

@@ -55,7 +55,7 @@ def test_clean_writes_output_and_record(takes, tmp_path, capsys):
     assert rec.filled.sum() == mocapkit.load(inp).missing().sum() > 0
     assert not cleaned.missing().any() and cleaned.num_frames == rec.num_frames
     assert (tmp_path / "s.png").read_bytes()[:4] == b"\x89PNG"
-    assert "fill" in text and "EBD (shipped)" in text and "flagged" in text
+    assert "fill" in text and "EBD's gap prior (shipped)" in text and "flagged" in text
     # the error before and after is printed; after is lower
     found = re.search(r"eq\. 2 ([\d.]+) -> ([\d.]+) per frame; joint positions ([\d.]+) -> ([\d.]+) cm", text)
     assert found, text

@@ -79,7 +79,7 @@ def test_the_networks_serve_the_cmu_bvh_spelling(tmp_path):
     gapped = _gappy(take, gin)
     code, stdout, err = run("fill", str(gin), "-o", str(gout))
     assert code == 0, err
-    assert "EBD (shipped, via the cmu_bvh_motionbuilder joint map) + EBF" in " ".join(stdout.split())
+    assert "EBD's gap prior (shipped, via the cmu_bvh_motionbuilder joint map) + EBF" in " ".join(stdout.split())
     filled = mocapkit.load(gout)
     obs = ~gapped.missing()
     assert not filled.missing().any() and np.array_equal(filled.rotations[obs], gapped.rotations[obs])

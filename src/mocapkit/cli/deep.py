@@ -99,6 +99,8 @@ def fill(
     model: Optional[Path] = typer.Option(None, "--model", help="An EBD model file (default: the shipped one)."),
     denoiser: Optional[Path] = typer.Option(None, "--denoiser", help="The EBF that smooths the filled entries."),
     smooth: bool = typer.Option(True, "--smooth/--no-smooth", help="Run the EBF over the filled entries."),
+    by: str = typer.Option("auto", "--by", help="What fills the gaps: prior (the EBD model's Gaussian gap prior), "
+                                                "ebd (the network), auto (the prior when the model has one)."),
     reference: Optional[Path] = typer.Option(None, "--reference", help="A clean take to report the error against."),
     always_write: bool = typer.Option(False, "--always-write", help="Write OUT even when IN has no gaps "
                                                                      "(IN in OUT's format)."),
@@ -106,7 +108,7 @@ def fill(
     asf: Optional[Path] = asf_option(),
     overwrite: bool = overwrite_option(),
 ) -> None:
-    """Fill missing joints with the EBD network (+ EBF); observed values are kept bit-identical.
+    """Fill missing joints with the EBD model (its gap prior or the network, + EBF); observed values are kept bit-identical.
 
     On a rig the network does not serve, a cubic spline fills the gaps instead, with a warning line (as
     `clean` does); --no-fallback makes that an error. A take without gaps is reported and OUT is not
@@ -119,6 +121,8 @@ def fill(
 
     import numpy as np
 
+    if by not in deep.FILL_METHODS:
+        raise MocapError(f"--by must be one of {', '.join(deep.FILL_METHODS)}, got {by!r}")
     guard([out], [inp, asf, model, denoiser, reference], overwrite)
     check_asf(asf, [inp, reference])
     io.suffix_kind(out, io.WRITERS, "writing")
@@ -141,7 +145,7 @@ def fill(
     _served(inp, m, ebd, "ebd", no_fallback)
     try:
         filled, method, note = deep.fill_or_fallback(m, ebd, ebf, smooth=smooth,
-                                                     label="shipped" if ebd is None else "given")
+                                                     label="shipped" if ebd is None else "given", method=by)
     except (SkeletonError, ValueError) as exc:
         raise MocapError(f"{inp}: {exc}") from None
     io.save(filled, out, like=inp, asf=asf)

@@ -6,6 +6,7 @@
   fallbacks every command shares;
 - :class:`Denoiser`: streaming EBF, one frame of file channels at a time;
 - :mod:`.networks`: the EBF and EBD modules; :mod:`.channels`: what they see;
+- :mod:`.prior`: the Gaussian gap prior an EBD model carries (its conditional mean fills gaps by default);
 - :mod:`.training`: noisy/clean pairs made on the fly with :mod:`mocapkit.corrupt`, Adam, checkpoints.
 """
 
@@ -13,6 +14,7 @@ from .channels import ChannelLayout, layout_for
 from .inference import (
     FALLBACK_DENOISE,
     FALLBACK_FILL,
+    FILL_METHODS,
     SHIPPED_FOR_RIG,
     DeepModel,
     Denoiser,
@@ -30,12 +32,17 @@ from .inference import (
     shipped_model,
 )
 from .networks import EBD, EBF
+from .prior import GapPrior, conditional_fill, fit_gap_prior
 from .retarget import Serving, served_by
 
 __all__ = [
     "FALLBACK_DENOISE",
     "FALLBACK_FILL",
+    "FILL_METHODS",
     "SHIPPED_FOR_RIG",
+    "GapPrior",
+    "conditional_fill",
+    "fit_gap_prior",
     "licence_note",
     "Serving",
     "served_by",

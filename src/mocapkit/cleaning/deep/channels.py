@@ -32,7 +32,7 @@ from ... import rotations as R
 from ...errors import SkeletonError
 from ...motion import Motion
 
-__all__ = ["ChannelLayout", "layout_for", "euler_columns", "root_angular_velocity", "encode", "decode", "unwrap_degrees", "wrap_degrees"]
+__all__ = ["ChannelLayout", "layout_for", "euler_columns", "root_angular_velocity", "encode", "decode", "unwrap_degrees", "wrap_degrees", "lerp_fill"]
 
 REPRESENTATIONS = ("euler", "rot6d")
 
@@ -249,3 +249,16 @@ def decode(values: np.ndarray, like: Motion, layout: ChannelLayout, keep: np.nda
     if keep is not None:
         rot = np.where(np.asarray(keep, dtype=bool)[..., None], ref, rot)
     return dataclasses.replace(like, rotations=rot)
+
+
+def lerp_fill(values: np.ndarray) -> np.ndarray:
+    """Fill NaN runs of (F, C) channels by linear interpolation; ends hold the nearest value; all-NaN -> 0."""
+    x = np.array(values, dtype=np.float64)
+    miss = np.isnan(x)
+    if not miss.any():
+        return x
+    t = np.arange(len(x))
+    for c in np.flatnonzero(miss.any(axis=0)):
+        ok = ~miss[:, c]
+        x[:, c] = np.interp(t, t[ok], x[ok, c]) if ok.any() else 0.0
+    return x

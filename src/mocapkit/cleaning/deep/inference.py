@@ -29,9 +29,11 @@ from .channels import (
     UNWRAP_ALPHA,
     ChannelLayout,
     euler_columns,
+    lerp_fill,
     root_angular_velocity,
     unwrap_degrees,
 )
+from .prior import GapPrior, conditional_fill
 from .retarget import Serving, served_by
 from .sure import BLOCK_S, block_edges, calibrated_log_sigma, scoring_stride
 from .threads import INFERENCE_PARTS, torch_threads
@@ -59,6 +61,7 @@ __all__ = [
     "fill_gaps",
     "denoise_channels",
     "fill_channels",
+    "FILL_METHODS",
     "lerp_fill",
     "Denoiser",
     "denoise_rows",
@@ -84,6 +87,7 @@ class DeepModel:
     layout: ChannelLayout
     fps: float
     meta: dict = field(default_factory=dict)
+    prior: GapPrior | None = None  # an EBD's Gaussian gap prior, fitted on its training clips (:mod:`.prior`)
 
     def __post_init__(self):
         self.net.eval()
@@ -104,6 +108,8 @@ def save_model(model: DeepModel, path) -> Path:
         "meta": json.dumps(model.meta),
         "state": {k: v.detach().cpu().clone() for k, v in model.net.state_dict().items()},
     }
+    if model.prior is not None:
+        payload["prior"] = {k: torch.from_numpy(np.array(v)) for k, v in model.prior.to_arrays().items()}
     with atomic_write(path, "wb") as fh:
         torch.save(payload, fh)
     return path
@@ -134,11 +140,16 @@ def load_model(path) -> DeepModel:
         meta = json.loads(payload.get("meta", "{}"))
         if config["channels"] != layout.num_channels or not fps > 0:
             raise ValueError("layout and network disagree")
+        prior = None
+        if payload.get("prior") is not None:
+            prior = GapPrior.from_arrays({k: v.numpy() for k, v in payload["prior"].items()})
+            if kind != "ebd" or prior.num_channels != layout.num_channels:
+                raise ValueError("the gap prior does not fit the model's channels")
     except MocapFormatError:
         raise
     except Exception as exc:  # noqa: BLE001
         raise MocapFormatError(path, f"malformed mocapkit model ({exc})") from None
-    return DeepModel(kind, net, layout, fps, meta)
+    return DeepModel(kind, net, layout, fps, meta, prior)
 
 
 @lru_cache(maxsize=8)
@@ -210,19 +221,6 @@ def serving(motion: Motion, model, kind: str) -> Serving:
 
 
 # -- array level ---------------------------------------------------------------------
-
-
-def lerp_fill(values: np.ndarray) -> np.ndarray:
-    """Fill NaN runs of (F, C) channels by linear interpolation; ends hold the nearest value; all-NaN -> 0."""
-    x = np.array(values, dtype=np.float64)
-    miss = np.isnan(x)
-    if not miss.any():
-        return x
-    t = np.arange(len(x))
-    for c in np.flatnonzero(miss.any(axis=0)):
-        ok = ~miss[:, c]
-        x[:, c] = np.interp(t, t[ok], x[ok, c]) if ok.any() else 0.0
-    return x
 
 
 def _pad(x: np.ndarray, ctx: np.ndarray, half: int = HALF_WINDOW):
@@ -383,19 +381,34 @@ def run_ebd(net: EBD, filled: np.ndarray, mask: np.ndarray, ctx: np.ndarray, fra
     return out
 
 
+FILL_METHODS = ("auto", "prior", "ebd")
+
+
 def fill_channels(
-    values: np.ndarray, context: np.ndarray, model=None, denoiser=None, fps: float | None = None, smooth: bool = True
+    values: np.ndarray, context: np.ndarray, model=None, denoiser=None, fps: float | None = None, smooth: bool = True,
+    method: str = "auto",
 ) -> np.ndarray:
-    """Fill the NaN entries of raw channels (F, C): lerp, then the EBD, then (``smooth``) the EBF on them.
+    """Fill the NaN entries of raw channels (F, C): a fill of the gap entries, then (``smooth``) the EBF on them.
 
     Mall's gap pipeline: gaps are first linearly interpolated, the EBD replaces
     only the gap entries, and the completed signal goes through the EBF; here
     the EBF's output is kept on the gap entries only, so observed values are
     returned bit-identical. ``model``/``denoiser``: EBD/EBF (None = shipped).
-    The EBF here keeps the network's own filter widths (no
-    :mod:`.sure` calibration: the entries it smooths are filled, not measured).
+    ``method``: what fills the gap entries: ``"ebd"`` the network, ``"prior"``
+    the conditional mean of the model's Gaussian gap prior
+    (:mod:`.prior`, fitted on the EBD's training clips), ``"auto"`` the prior
+    when the model carries one (the shipped ones do: it left less error than
+    the EBD on held-out actors and styles, short and long gaps, both rigs;
+    docs/models.md), else the EBD. The EBF here keeps the network's own
+    filter widths (no :mod:`.sure` calibration: the entries it smooths are
+    filled, not measured).
     """
     m = _model(model, "ebd")
+    if method not in FILL_METHODS:
+        raise ValueError(f"method must be one of {FILL_METHODS}, got {method!r}")
+    if method == "prior" and m.prior is None:
+        raise ValueError("this EBD model carries no gap prior; fill with method='ebd' or fit one (mocapkit train)")
+    use_prior = m.prior is not None and method != "ebd"
     x = np.asarray(values, dtype=np.float64)
     if x.ndim != 2 or x.shape[1] != m.layout.num_channels:
         raise ValueError(f"values: expected (F, {m.layout.num_channels}) channels, got {x.shape}")
@@ -414,11 +427,14 @@ def fill_channels(
     else:
         f_m, c_m, k_m = filled, ctx, miss
     frames = np.flatnonzero(k_m.any(axis=1))
-    pred = run_ebd(m.net, f_m, k_m, c_m, frames)
-    f_m = f_m.copy()
-    sub = f_m[frames]
-    sub[k_m[frames]] = pred[k_m[frames]]
-    f_m[frames] = sub
+    if use_prior:
+        f_m = conditional_fill(np.where(k_m, np.nan, f_m), m.prior, m.fps)
+    else:
+        pred = run_ebd(m.net, f_m, k_m, c_m, frames)
+        f_m = f_m.copy()
+        sub = f_m[frames]
+        sub[k_m[frames]] = pred[k_m[frames]]
+        f_m[frames] = sub
     if smooth:  # the EBF's output is kept on the gap entries only: it runs up to the last of them
         f_m = np.where(k_m, denoise_channels(f_m, c_m, denoiser, missing=k_m, until=int(frames[-1]) + 1,
                                              calibrate=False), f_m)
@@ -501,9 +517,10 @@ def _residual_filter(fps: float):
     return smooth
 
 
-def fill_gaps(motion: Motion, model=None, denoiser=None, smooth: bool = True) -> Motion:
-    """Fill missing joints (NaN rotations) with the EBD (+ EBF on the filled entries); observed cells unchanged.
+def fill_gaps(motion: Motion, model=None, denoiser=None, smooth: bool = True, method: str = "auto") -> Motion:
+    """Fill missing joints (NaN rotations) with the EBD model (+ EBF on the filled entries); observed cells unchanged.
 
+    ``method``: the EBD network or the model's gap prior (:func:`fill_channels`).
     Returns a Motion with the input's skeleton, frames and root trajectory;
     every observed (frame, joint) rotation is bit-identical to the input's.
     A missing root rotation or position is not the networks' to fill: it is
@@ -518,7 +535,7 @@ def fill_gaps(motion: Motion, model=None, denoiser=None, smooth: bool = True) ->
     values, ctx = encode_served(src, sv)
     if smooth:  # the shipped EBF for this take's rig when none is given
         denoiser = _model(denoiser, "ebf", motion)
-    out = fill_channels(values, ctx, m, denoiser, fps=motion.fps, smooth=smooth)
+    out = fill_channels(values, ctx, m, denoiser, fps=motion.fps, smooth=smooth, method=method)
     res = decode_served(out, src, sv, keep=~missing)
     rot = np.array(res.rotations)
     for j in np.flatnonzero(missing[:, 1:].any(axis=0)) + 1:  # joints without channels hold one rotation
@@ -550,17 +567,19 @@ def _fallback_note(method: str, kind: str, label: str, why: str) -> str:
     return f"{method}: the {label} {kind.upper()} does not serve this rig ({why})"
 
 
-def _method(kind: str, label: str, sv: Serving) -> str:
+def _method(kind: str, label: str, sv: Serving, name: str | None = None) -> str:
     rig = sv.model.meta.get("rig", "acclaim") if isinstance(sv.model.meta, dict) else "acclaim"
     via = (f", {sv.family}" if rig != "acclaim" else "") if sv.direct else f", via the {sv.family} joint map"
-    return f"{kind.upper()} ({label}{via})"
+    return f"{name or kind.upper()} ({label}{via})"
 
 
-def fill_or_fallback(motion: Motion, model=None, denoiser=None, smooth: bool = True, label: str = "shipped"):
-    """Fill the gaps of ``motion`` with the EBD (+ EBF) where they serve it, else with the cubic spline.
+def fill_or_fallback(motion: Motion, model=None, denoiser=None, smooth: bool = True, label: str = "shipped",
+                     method: str = "auto"):
+    """Fill the gaps of ``motion`` with the EBD model (+ EBF) where they serve it, else with the cubic spline.
 
     The rule is :func:`served_by` (direct, or through a joint map). Where
-    the EBD serves the take, :func:`fill_gaps` fills it (smoothed by the EBF
+    the EBD serves the take, :func:`fill_gaps` fills it (by the network or
+    its gap prior, ``method`` as :func:`fill_channels`; smoothed by the EBF
     when ``smooth`` and the EBF serves it too); where it does not, or a
     channel the network needs is never observed, the cubic interpolating
     spline of :func:`mocapkit.cleaning.gapfill.fill_motion` fills every gap.
@@ -579,9 +598,11 @@ def fill_or_fallback(motion: Motion, model=None, denoiser=None, smooth: bool = T
         ebf = served_by(motion, _model(denoiser, "ebf", motion)) if smooth else "not asked"
         smooth = not isinstance(ebf, str)
         try:
-            out = fill_gaps(motion, sv, ebf if smooth else None, smooth=smooth)
+            out = fill_gaps(motion, sv, ebf if smooth else None, smooth=smooth, method=method)
             notes = dict.fromkeys(n for n in (licence_note(sv.model), licence_note(ebf.model) if smooth else "") if n)
-            return out, _method("ebd", label, sv) + (" + EBF" if smooth else ""), "; ".join(notes)
+            by_prior = sv.model.prior is not None and method != "ebd"
+            name = "EBD's gap prior" if by_prior else None
+            return out, _method("ebd", label, sv, name) + (" + EBF" if smooth else ""), "; ".join(notes)
         except ValueError as exc:
             why = str(exc)
     else:

@@ -37,6 +37,7 @@ from ...motion import Motion
 from .channels import ChannelLayout, encode, layout_for, wrap_degrees
 from .inference import DeepModel, denoise_channels, lerp_fill, run_ebd, save_model
 from .networks import EBD, EBF, HALF_WINDOW, window_indices
+from .prior import fit_gap_prior
 
 __all__ = ["TrainConfig", "load_clips", "split_holdout", "holdout_folds", "gap_mask", "channel_joints", "prepare_clip", "train"]
 
@@ -556,5 +557,8 @@ def train(
 
     best_model = load_model(out_dir / "model.pt")
     best_model.meta.update(history=history, train_seconds=time.perf_counter() - t0)
+    if cfg.kind == "ebd":  # the gap prior on the same clean clips (seconds: one covariance)
+        best_model = dataclasses.replace(best_model, prior=fit_gap_prior([d["clean"] for d in data], fps))
     save_model(best_model, out_dir / "model.pt")  # the whole history, not only up to the best epoch
     return best_model
+
