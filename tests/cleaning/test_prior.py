@@ -156,3 +156,16 @@ def test_training_an_ebd_fits_its_prior(tmp_path, walk):
     assert m.prior is not None and again.prior is not None and again.prior.frames == m.prior.frames
     x, _ = encode(walk[:200], again.layout)
     assert np.allclose(again.prior.mean[again.prior.num_channels : 2 * again.prior.num_channels], x[::4].mean(0))
+
+
+def test_whole_frames_missing_fall_back_to_a_ramp_between_the_gap_ends():
+    """With every channel missing around the gap nothing is read: the mean pose, offset to meet both ends, is
+    the straight line between the (smoothed) samples either side."""
+    x = _coupled(300, 8)
+    prior = P.fit_gap_prior([_coupled(2000, 9)], 30.0)
+    g = x.copy()
+    g[100:130] = np.nan
+    out = P.conditional_fill(g, prior, 30.0)
+    base = gaussian_filter1d(deep.lerp_fill(g), P.SMOOTH_S * 30.0, axis=0, mode="nearest")
+    r = (np.arange(100, 130) - 99)[:, None] / 31.0
+    assert np.allclose(out[100:130], (1 - r) * base[99] + r * base[130], atol=1e-9)
