@@ -32,6 +32,7 @@ __all__ = [
     "mirror_pairs",
     "mirror_mismatch",
     "MIRROR_MISMATCH_MAX",
+    "lateral_axis",
     "joint_sides",
     "find_joint",
     "standard_joints",
@@ -776,6 +777,13 @@ def mirror_mismatch(skeleton: Skeleton, axis: int | None = None) -> float:
     off = np.asarray(skeleton.offsets, dtype=np.float64)
     total = 2.0 * float(np.abs(off).sum())
     return float(np.abs(off[perm] * flip - off).sum()) / total if total > 0 else 0.0
+
+
+def lateral_axis(skeleton: Skeleton) -> int:
+    """The lateral axis (0, 1, 2) of ``skeleton``: the one separating left/right paired joints
+    (:func:`mirror_pairs`) most in the rest pose, summed over the pairs; the axis :meth:`Motion.mirror`
+    reflects along by default. ``SkeletonError`` when no joint has a partner."""
+    return _lateral_axis(skeleton, mirror_pairs(skeleton.joint_names))
 
 
 def _lateral_axis(sk: Skeleton, perm: np.ndarray) -> int:
