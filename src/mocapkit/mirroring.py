@@ -36,25 +36,31 @@ reflection of its partner's: ``K_j = M C_j`` is the fixed improper map with
 limbs of a game rig mirrored with reversed bone axes have ``K = -I`` (all
 three axes of the right frame reversed from the left's).
 
-``C_j`` from the rest pose, parents before children:
+``C_j`` from the rest pose:
 
-* children at two or more directions (non-collinear offsets): the rotation
-  taking the offsets ``o_c`` best onto ``o'_c`` (Kabsch; exact where the
-  partner bones are as long);
+* children at two or more directions (a branching joint: non-collinear
+  offsets): the rotation taking the offsets ``o_c`` best onto ``o'_c``
+  (Kabsch; exact where the partner bones are as long);
 * one direction (a single child, a chain): the shortest rotation ``S``
   taking ``B o_c`` onto ``o'_c`` after a reference ``B``, ``C_j = S B``. The
   bone fixes ``C_j`` only up to a twist about it; the reference fixes the
-  twist: ``B = C_par``, the parent's correction (no twist added at the joint),
-  or, where the parent's corrected bone points away from the mirrored one
-  (the bone reverses direction by side), the parent's correction turned half
-  a turn about the parent's lateral axis, ``B = H(M l_par) C_par`` with
-  ``l_par`` the axis of ``K_par``'s rotoreflection (its eigenvector of
-  eigenvalue -1: the normal of the parent's mirror plane). Of the two, the
-  one whose remaining swing ``S`` is smaller. Reversing a bone that lies in
-  the parent's mirror plane by that half turn gives ``K_j = -I``, the
-  reversed-axes mirror; the shortest swing alone would leave the half turn's
-  axis undetermined;
+  twist. It is the correction of the branching joint the chain of single
+  bones leads down to (the spine takes the chest's twist, so the chest's
+  local rotation keeps its angle), else (a limb's chain that ends in an end
+  effector) the parent's, parents before children. Where the reference's
+  corrected bone points away from the mirrored one (the bone reverses
+  direction by side) the reference is also tried turned half a turn about its
+  lateral axis, ``B = H(M l) C_ref`` with ``l`` the axis of ``K_ref``'s
+  rotoreflection (its eigenvector of eigenvalue -1: the normal of its mirror
+  plane), and the one whose remaining swing ``S`` is smaller kept. Reversing a
+  bone that lies in the reference's mirror plane by that half turn gives
+  ``K_j = -I``, the reversed-axes mirror; the shortest swing alone would leave
+  the half turn's axis undetermined;
 * no child (an end effector): ``C_j = C_par``.
+
+Where a joint and its parent share their mirror relation (``K_j = K_par``),
+``L*_j = K^-1 L_p K`` turns by the same angle as the partner's rotation: the
+mirror moves no rotation about into another joint.
 
 Joints whose offset is animated (translations that change during the take,
 such as a game rig's hips under a fixed root) are placed by their mirrored
@@ -65,10 +71,11 @@ The construction is symmetric: the partner gets ``C_p = M C_j^-1 M``, so the
 mirror of the mirror is the take itself (rotations and positions), and a
 joint without a partner gets an improper involution ``K_j``.
 
-On the Bandai Namco rig this rule gives ``K = -I`` on every limb joint, the
-relation its takes show: in near-symmetric poses (the bows) ``L_p^-1 K_par L_j``
-lies within the poses' own asymmetry of ``-I`` and about half a turn from the
-``K = M`` of the plain mirror.
+On the Bandai Namco rig this gives ``K = -I`` on every limb joint and the
+chest's plane reflection on the spine, neck and head: the relations its takes
+show. In near-symmetric poses (the bows) ``L_p^-1 K_par L_j`` lies within the
+poses' own asymmetry of them, and about half a turn from the ``K = M`` of the
+plain mirror.
 """
 
 from __future__ import annotations
@@ -105,38 +112,52 @@ def mirror_corrections(skeleton: Skeleton, axis: int | None = None, bones: np.nd
     bones = np.ones(J, dtype=bool) if bones is None else np.asarray(bones, dtype=bool)
     mirrored = _mirrored_skeleton(sk, axis)
     scale = max(float(np.abs(sk.offsets).max(initial=0.0)), float(np.abs(sk.end_site_offsets).max(initial=0.0)), 1e-300)
-    kids: list[list[tuple[np.ndarray, np.ndarray]]] = [[] for _ in range(J)]
+    kids: list[list[tuple[np.ndarray, np.ndarray, int]]] = [[] for _ in range(J)]  # (o_c, o'_c, joint or -1)
     for c in range(1, J):
         if bones[c]:
-            kids[sk.parents[c]].append((sk.offsets[c], mirrored.offsets[c]))
+            kids[sk.parents[c]].append((sk.offsets[c], mirrored.offsets[c], c))
     for e, p in enumerate(sk.end_site_parents.tolist()):
-        kids[p].append((sk.end_site_offsets[e], mirrored.end_site_offsets[e]))
+        kids[p].append((sk.end_site_offsets[e], mirrored.end_site_offsets[e], -1))
+    tiny = 1e-9 * scale
+    kids = [[k for k in ks if np.linalg.norm(k[0]) > tiny and np.linalg.norm(k[1]) > tiny] for ks in kids]
     C = np.empty((J, 3, 3))
     lat = np.empty((J, 3))  # each joint's lateral axis, the axis of K_j = M C_j
+    bone = np.full(J, -1)  # a chain joint's bone: its longest child (a joint, or -1 for an end site)
+    branch = np.zeros(J, dtype=bool)
     for j in range(J):
+        if not kids[j]:
+            continue
+        u = np.array([k[0] for k in kids[j]])
+        dirs = u / np.linalg.norm(u, axis=1, keepdims=True)
+        s = np.linalg.svd(dirs, compute_uv=False)
+        if len(s) > 1 and s[1] > _COLLINEAR * s[0]:  # children at two or more directions fix the rotation
+            branch[j] = True
+            C[j] = _kabsch(u, np.array([k[1] for k in kids[j]]))
+            lat[j] = _lateral(M @ C[j], np.eye(3)[axis])
+        else:
+            bone[j] = kids[j][int(np.argmax(np.linalg.norm(u, axis=1)))][2]
+    for j in range(J):
+        if branch[j]:
+            continue
         par = int(sk.parents[j])
-        ref = np.eye(3) if par < 0 else C[par]
-        ref_lat = np.eye(3)[axis] if par < 0 else lat[par]  # the mirror axis at the root
-        pairs = [(u, v) for u, v in kids[j] if np.linalg.norm(u) > 1e-9 * scale and np.linalg.norm(v) > 1e-9 * scale]
-        if not pairs:
+        below = _branch_below(j, bone, kids, branch)
+        if below >= 0:  # the twist of the branching joint the chain leads to
+            ref, ref_lat = C[below], lat[below]
+        elif par >= 0:  # else the parent's
+            ref, ref_lat = C[par], lat[par]
+        else:
+            ref, ref_lat = np.eye(3), np.eye(3)[axis]
+        if not kids[j]:
             C[j] = ref
         else:
-            u = np.array([a for a, _ in pairs])
-            v = np.array([b for _, b in pairs])
-            dirs = u / np.linalg.norm(u, axis=1, keepdims=True)
-            s = np.linalg.svd(dirs, compute_uv=False)
-            if len(s) > 1 and s[1] > _COLLINEAR * s[0]:
-                C[j] = _kabsch(u, v)
-            else:
-                # one direction: the longest child's bone; the reference fixes the twist
-                k = int(np.argmax(np.linalg.norm(u, axis=1)))
-                b, sw = ref, _shortest(ref @ u[k], v[k])
-                if _angle(sw) > np.pi / 2:  # the bone reverses by side: try the half turn about the lateral axis
-                    half = _half_turn(M @ ref_lat) @ ref
-                    sw_half = _shortest(half @ u[k], v[k])
-                    if _angle(sw_half) < _angle(sw):
-                        b, sw = half, sw_half
-                C[j] = sw @ b
+            u, v, _ = max(kids[j], key=lambda k: np.linalg.norm(k[0]))
+            b, sw = ref, _shortest(ref @ u, v)
+            if _angle(sw) > np.pi / 2:  # the bone reverses by side: try the half turn about the lateral axis
+                half = _half_turn(M @ ref_lat) @ ref
+                sw_half = _shortest(half @ u, v)
+                if _angle(sw_half) < _angle(sw):
+                    b, sw = half, sw_half
+            C[j] = sw @ b
         lat[j] = _lateral(M @ C[j], ref_lat)
     return R.matrix_to_quaternion(C)
 
@@ -185,6 +206,14 @@ def mirror_for_rig(motion: Motion, axis: int | None = None) -> Motion:
     if mirror_mismatch(motion.skeleton, axis) <= MIRROR_MISMATCH_MAX:
         return motion.mirror(axis)
     return mirror_keeping_skeleton(motion, axis)
+
+
+def _branch_below(j: int, bone: np.ndarray, kids: list, branch: np.ndarray) -> int:
+    """The first branching joint down the chain of single bones from joint ``j`` (-1 if it ends first)."""
+    c = int(bone[j]) if kids[j] else -1
+    while c >= 0 and not branch[c]:
+        c = int(bone[c]) if kids[c] else -1
+    return c
 
 
 def _mirrored_skeleton(sk: Skeleton, axis: int) -> Skeleton:
