@@ -178,11 +178,17 @@ def test_mirror_for_rig_keeps_the_plain_mirror_where_the_rig_reflects_onto_itsel
             walk.skeleton, joint_names=tuple(f"j{i}" for i in range(walk.num_joints)))))
 
 
-def test_missing_rotations_stay_missing_on_the_partner():
+def test_missing_rotations_stay_missing_on_the_partner_and_change_nothing_else():
     m = bandai(BANDAI[1])
     rot = np.array(m.rotations)
+    tr = np.array(m.translations)
     j = m.skeleton.index("LowerArm_L")
     rot[10:15, j] = np.nan
-    mm = mirror_keeping_skeleton(dataclasses.replace(m, rotations=rot))
+    tr[20:25, j] = np.nan  # a gap in a joint's translation does not make its bone animated
+    mm = mirror_keeping_skeleton(dataclasses.replace(m, rotations=rot, translations=tr))
     p = mirror_pairs(m.skeleton.joint_names)[j]
     assert np.isnan(mm.rotations[10:15, p]).all() and not np.isnan(mm.rotations[:10]).any()
+    full = mirror_keeping_skeleton(m)
+    keep = np.ones(m.num_frames, dtype=bool)
+    keep[10:15] = False
+    np.testing.assert_array_equal(np.delete(mm.rotations[keep], p, axis=1), np.delete(full.rotations[keep], p, axis=1))

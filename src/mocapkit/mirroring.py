@@ -81,6 +81,7 @@ plain mirror.
 from __future__ import annotations
 
 import dataclasses
+import warnings
 
 import numpy as np
 
@@ -179,8 +180,10 @@ def mirror_keeping_skeleton(motion: Motion, axis: int | None = None) -> Motion:
     if motion.translations is not None and motion.num_frames:
         tr = motion.translations
         tol = _STATIC * max(float(np.abs(sk.offsets).max(initial=0.0)), 1e-300)
-        with np.errstate(invalid="ignore"):
-            bones = np.all(np.isfinite(tr), axis=(0, 2)) & np.all(np.abs(tr - tr[:1]) <= tol, axis=(0, 2))
+        with warnings.catch_warnings():  # a joint missing in every frame: NaN spread, not a bone
+            warnings.simplefilter("ignore", RuntimeWarning)
+            spread = np.nanmax(tr, axis=0) - np.nanmin(tr, axis=0)  # missing frames (NaN) left out
+        bones = np.all(spread <= tol, axis=1)
         bones = bones & bones[mirror_pairs(sk.joint_names)]  # partners alike, so mirroring twice undoes itself
     cq = mirror_corrections(sk, axis, bones)
     par = sk.parents.copy()
