@@ -366,6 +366,34 @@ def test_real_errors_are_visible_where_masked_and_nowhere_else(clip, seed):
     assert np.all(angle[~mask] == 0.0)
 
 
+def test_a_swap_on_a_rig_whose_frames_differ_by_side_is_a_real_swap():
+    """Bandai Namco game rig (a real take): a swapped joint under an unpaired parent points its bone where the
+    partner's bone points, reflected across the parent's mirror plane (the plane between the two sockets), as
+    when the labels of a symmetric body swap; the plain mirror's rotations would point it elsewhere."""
+    from pathlib import Path
+
+    run = mocapkit.load(Path(__file__).resolve().parent / "data" / "dataset-2_run_active_049.bvh")
+    sk = run.skeleton
+    perm = mirror_pairs(sk.joint_names)
+    seen = set()
+    for seed in range(6):
+        bad, mask, records = C.real_errors(run, kinds=("swap",), n_errors=1, seed=seed)
+        r = records[0]
+        j, p = sk.index(r.joint), sk.index(r.partner)
+        par = int(sk.parents[j])
+        if perm[par] != par:
+            continue
+        seen.add(sk.joint_names[par])
+        n = (sk.offsets[j] - sk.offsets[p]) / np.linalg.norm(sk.offsets[j] - sk.offsets[p])
+        reflect = np.eye(3) - 2.0 * np.outer(n, n)
+        c = sk.children(j)[0]
+        bone = R.quaternion_rotate(bad.rotations[r.start : r.end, j], sk.offsets[c])
+        partner = R.quaternion_rotate(run.rotations[r.start : r.end, p], sk.offsets[perm[c]]) @ reflect.T
+        cos = np.sum(bone * partner, axis=-1) / np.linalg.norm(bone, axis=-1) / np.linalg.norm(partner, axis=-1)
+        assert np.degrees(np.arccos(np.clip(cos, -1.0, 1.0))).max() < 0.1, (seed, r.joint)
+    assert seen == {"Chest", "Hips"}
+
+
 def test_real_errors_stay_within_asf_degrees_of_freedom(amc):
     for seed in range(5):
         bad, mask, _ = C.real_errors(amc, n_errors=8, seed=seed)

@@ -243,15 +243,23 @@ def test_values_beyond_float32_are_refused_not_stored_as_infinity():
     assert np.isfinite(db.root_positions).all()
 
 
-def test_mirroring_a_rig_whose_frames_differ_by_side_is_refused_naming_the_file(tmp_path):
-    """A mirrored clip's rotations are reused on the database skeleton: on a rig no reflection maps onto itself
-    they would pose another body, so the build stops with one line (before the clip's features are computed) instead of
-    storing such clips; a symmetric rig mirrors as before."""
-    from tests.test_motion import SIDED_FRAMES_BVH
+def test_a_mirrored_clip_of_a_rig_whose_frames_differ_by_side_lands_on_the_reflected_take():
+    """A mirrored clip's rotations are reused on the database skeleton: on the Bandai Namco game rig (no
+    reflection maps it onto itself) the mirror image keeps the clip's own skeleton, so the mirrored clip posed on
+    the database skeleton lands where the reflected take lands; a symmetric rig mirrors as before."""
+    from pathlib import Path
 
-    path = tmp_path / "sided.bvh"
-    path.write_text(SIDED_FRAMES_BVH)
-    with pytest.raises(MocapFormatError, match=r"sided\.bvh: cannot mirror this rig.*without --mirror"):
-        MotionDatabase.build([path], fps=30, mirror=True, progress=False, executor="serial")
+    from mocapkit.motion import MIRROR_MISMATCH_MAX, mirror_mismatch
+
+    path = Path(__file__).resolve().parent / "data" / "dataset-2_run_active_049.bvh"
+    take = mocapkit.load(path)
+    assert mirror_mismatch(take.skeleton) > MIRROR_MISMATCH_MAX
+    db = MotionDatabase.build([path], fps=30, mirror=True, progress=False, executor="serial")
+    assert [c.mirrored for c in db.clips] == [False, True] and len(db.skeletons) == 1
+    assert db.skeletons[0] == take.skeleton
+    posed = db.clip(1)
+    want = take.mirror().global_positions()
+    err = np.linalg.norm(posed.global_positions() - want, axis=-1)
+    assert err.max() < 0.01  # centimetres: float32 storage
     assert MotionDatabase.build([samples.path("12_walk.amc")], fps=30, mirror=True, progress=False,
                                 executor="serial").num_clips == 2

@@ -41,6 +41,7 @@ import numpy as np
 
 from . import rotations as R
 from .errors import SkeletonError
+from .mirroring import mirror_for_rig
 from .motion import Motion, bone_moving_joints, find_joint, mirror_pairs, unit_scale_cm
 
 __all__ = [
@@ -526,7 +527,9 @@ def real_errors(
     - ``drift``: one rotation channel drifts away linearly, from
       ``min_angle_deg`` at the window's first frame to 25-40 deg at its last;
     - ``swap``: a joint and its left/right partner (:func:`mirror_pairs`) take
-      each other's mirrored rotations, as when marker labels swap sides; the
+      each other's mirrored rotations (the take's mirror image on its own
+      skeleton, :func:`mocapkit.mirroring.mirror_for_rig`), as when marker
+      labels swap sides; the
       window is chosen where the two sides differ by ``min_angle_deg`` at
       every frame.
 
@@ -603,7 +606,7 @@ def real_errors(
                 k = int(perm[j])
                 if mirrored is None:
                     try:
-                        mirrored = motion.mirror().rotations
+                        mirrored = mirror_for_rig(motion).rotations
                     except SkeletonError:
                         pairs = []
                         break

@@ -40,7 +40,8 @@ from .database_folder import FORMAT_VERSION, FPS_RANGE, Description, check_datab
 from .errors import MocapError, MocapFormatError
 from .features import FEATURE_SETS, WINDOWED_SETS, feature_set
 from .io.outputs import same_file
-from .motion import MIRROR_MISMATCH_MAX, Motion, Skeleton, mirror_mismatch, readonly_view
+from .mirroring import mirror_for_rig
+from .motion import Motion, Skeleton, readonly_view
 from .search.matches import Match
 
 __all__ = ["MotionDatabase", "ClipInfo", "SearchResult", "FORMAT_VERSION", "FPS_RANGE", "SUFFIXES", "check_database_output", "expand_sources"]
@@ -173,16 +174,11 @@ def _prepare(item, fps: float, features: tuple[str, ...], mirror: bool, ref_skel
                 )
             m = _retarget(m, ref_skeleton, joint_map, source)
     m = m.resample(fps)
-    if mirror:  # a mirrored clip's rotations must fit the skeleton that every clip's poses are reused on
-        mismatch = mirror_mismatch(m.skeleton)
-        if mismatch > MIRROR_MISMATCH_MAX:
-            raise MocapFormatError(
-                source, f"cannot mirror this rig: its joints' rest frames differ by side ({mismatch:.0%} of the bone "
-                "offsets do not reflect onto their partners), so a mirrored clip's rotations would not fit the "
-                "skeleton; build without --mirror")
     out = []
     for mirrored in (False, True) if mirror else (False,):
-        mm = m.mirror() if mirrored else m
+        # a mirrored clip's rotations must fit the skeleton every clip's poses are reused on: on a rig whose
+        # joints' rest frames differ by side the mirror image keeps the clip's own skeleton
+        mm = mirror_for_rig(m) if mirrored else m
         try:
             feats = {n: feature_set(mm, n, scale_cm=True).values for n in features}
         except MocapError as exc:

@@ -32,6 +32,7 @@ __all__ = [
     "mirror_pairs",
     "mirror_mismatch",
     "MIRROR_MISMATCH_MAX",
+    "lateral_axis",
     "joint_sides",
     "find_joint",
     "standard_joints",
@@ -619,7 +620,9 @@ class Motion:
         Pairs are found by name (:func:`mirror_pairs`); ``axis`` is the lateral
         axis (0, 1, 2), by default the one separating paired joints in the rest
         pose. The skeleton is mirrored too, so ``mirror().global_positions()``
-        is the reflected, pair-swapped ``global_positions()`` exactly.
+        is the reflected, pair-swapped ``global_positions()`` exactly. For
+        rotations that pose the take's own skeleton (a rig whose joints' rest
+        frames differ by side) see :func:`mocapkit.mirroring.mirror_keeping_skeleton`.
         """
         sk = self.skeleton
         perm = mirror_pairs(sk.joint_names)
@@ -751,7 +754,8 @@ def mirror_pairs(joint_names: Sequence[str]) -> np.ndarray:
 
 MIRROR_MISMATCH_MAX = 0.1
 """Largest :func:`mirror_mismatch` at which a mirrored take's rotations are taken to fit the skeleton itself
-(captured actors' skeletons lie at 0.02-0.04, rigs whose joints' rest frames differ by side at 0.2)."""
+(captured actors' skeletons lie at 0.02-0.04, rigs whose joints' rest frames differ by side at 0.1-0.2); above
+it :func:`mocapkit.mirroring.mirror_for_rig` poses the mirror image on the take's own skeleton instead."""
 
 
 def mirror_mismatch(skeleton: Skeleton, axis: int | None = None) -> float:
@@ -766,7 +770,8 @@ def mirror_mismatch(skeleton: Skeleton, axis: int | None = None) -> float:
     frames are the world's (Acclaim, the CMU and most BVH conversions: a
     skeleton captured from one actor, a few per cent off), and not on rigs
     whose bones lie along each joint's own axis with frames that differ by
-    side (the Bandai Namco game rig: about 0.2).
+    side (the Bandai Namco game rig: 0.1-0.2); there
+    :func:`mocapkit.mirroring.mirror_keeping_skeleton` gives rotations that do.
     """
     perm = mirror_pairs(skeleton.joint_names)
     if axis is None:
@@ -776,6 +781,13 @@ def mirror_mismatch(skeleton: Skeleton, axis: int | None = None) -> float:
     off = np.asarray(skeleton.offsets, dtype=np.float64)
     total = 2.0 * float(np.abs(off).sum())
     return float(np.abs(off[perm] * flip - off).sum()) / total if total > 0 else 0.0
+
+
+def lateral_axis(skeleton: Skeleton) -> int:
+    """The lateral axis (0, 1, 2) of ``skeleton``: the one separating left/right paired joints
+    (:func:`mirror_pairs`) most in the rest pose, summed over the pairs; the axis :meth:`Motion.mirror`
+    reflects along by default. ``SkeletonError`` when no joint has a partner."""
+    return _lateral_axis(skeleton, mirror_pairs(skeleton.joint_names))
 
 
 def _lateral_axis(sk: Skeleton, perm: np.ndarray) -> int:

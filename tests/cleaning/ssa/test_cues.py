@@ -194,14 +194,24 @@ BANDAI_RUN = Path(__file__).resolve().parents[2] / "data" / "dataset-2_run_activ
 
 
 def test_side_swaps_at_30_fps_only_where_labels_swap():
-    """Bandai Namco run, 30 fps (a clean studio take): no side swap; a real swap there is found exactly."""
+    """Bandai Namco run, 30 fps (a clean studio take on a rig whose joints' frames differ by side): no side swap;
+    a real swap there (each joint takes its partner's mirror image on the take's own skeleton) is found exactly,
+    flagged by ``detect`` and undone by ``repair``."""
     run = mocapkit.load(BANDAI_RUN)
     assert not ssa.side_swaps(run).any()
-    bad, _, records = corrupt.real_errors(run, kinds=("swap",), n_errors=1, seed=0)
-    expect = np.zeros((run.num_frames, run.num_joints), dtype=bool)
-    for r in records:
-        expect[r.start : r.end, run.skeleton.index(r.joint)] = True
-    assert np.array_equal(ssa.side_swaps(bad), expect)
+    for seed in (0, 3):
+        bad, _, records = corrupt.real_errors(run, kinds=("swap",), n_errors=1, seed=seed)
+        expect = np.zeros((run.num_frames, run.num_joints), dtype=bool)
+        for r in records:
+            expect[r.start : r.end, run.skeleton.index(r.joint)] = True
+        assert np.array_equal(ssa.side_swaps(bad), expect), seed
+        det = ssa.detect(bad)
+        assert np.array_equal(det.swaps, expect) and (det.flags >= expect).all(), seed
+        fixed = ssa.repair(bad, det)
+        cells = np.nonzero(expect)
+        before = np.degrees(R.geodesic_angle(bad.rotations[cells], run.rotations[cells])).mean()
+        after = np.degrees(R.geodesic_angle(fixed.rotations[cells], run.rotations[cells])).mean()
+        assert after < 0.3 * before, (seed, before, after)
 
 
 def test_a_mirror_symmetric_step_of_both_limbs_is_not_a_swap(walk):

@@ -131,12 +131,14 @@ def side_swaps(motion: Motion, jump_deg: float = _D.swap_jump_deg, max_s: float 
 
 
 def mirrored_rotations(motion: Motion) -> np.ndarray | None:
-    """(F, J, 4) the rotations of ``motion.mirror()`` (each joint takes its partner's reflected rotation), or None
-    on a rig that cannot be mirrored (no left/right pairs by name)."""
+    """(F, J, 4) the rotations of the take's mirror image on its own skeleton (each joint takes its partner's
+    reflected rotation: :func:`mocapkit.mirroring.mirror_for_rig`, which is ``motion.mirror()`` on rigs that
+    reflect onto themselves), or None on a rig that cannot be mirrored (no left/right pairs by name)."""
     from ...errors import SkeletonError
+    from ...mirroring import mirror_for_rig
 
     try:
-        return np.asarray(motion.mirror().rotations, dtype=np.float64)
+        return np.asarray(mirror_for_rig(motion).rotations, dtype=np.float64)
     except SkeletonError:
         return None
 
