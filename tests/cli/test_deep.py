@@ -182,3 +182,29 @@ def test_a_bandai_take_is_denoised_by_the_bandai_ebf_with_its_licence_line(tmp_p
     assert code == 0, err
     text = " ".join(out.split())  # the Acclaim EBF serves the game rig through its joint map
     assert "EBF (given, via the bandai_namco joint map)" in text and "CC BY-NC" not in text
+
+
+def test_fill_by_the_network_or_the_prior(tmp_path):
+    """--by picks what fills the gaps; a model without a prior asked for one is an error, not a fallback."""
+    import dataclasses
+
+    from mocapkit.cleaning import deep
+
+    gin = tmp_path / "gaps.npz"
+    gapped = _gappy(mocapkit.load(WALK), gin)
+    outs = {}
+    for by, name in (("ebd", "EBD (shipped) + EBF"), ("prior", "EBD's gap prior (shipped) + EBF")):
+        outs[by] = tmp_path / f"{by}.npz"
+        code, stdout, err = run("fill", str(gin), "-o", str(outs[by]), "--by", by)
+        assert code == 0, err
+        assert f"filled by {name}" in " ".join(stdout.split())
+    a, b = mocapkit.load(outs["ebd"]), mocapkit.load(outs["prior"])
+    obs = ~gapped.missing()
+    assert np.array_equal(a.rotations[obs], b.rotations[obs]) and not np.array_equal(a.rotations, b.rotations)
+    bare = tmp_path / "bare.pt"
+    deep.save_model(dataclasses.replace(deep.shipped_model("ebd"), prior=None), bare)
+    out = tmp_path / "x.npz"
+    code, _, err = run("fill", str(gin), "-o", str(out), "--model", str(bare), "--by", "prior")
+    assert code != 0 and one_error_line(err) and "no gap prior" in err and not out.exists()
+    code, _, err = run("fill", str(gin), "-o", str(out), "--by", "spline")
+    assert code != 0 and one_error_line(err) and "--by" in err and not out.exists()

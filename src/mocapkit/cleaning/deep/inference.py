@@ -595,6 +595,8 @@ def fill_or_fallback(motion: Motion, model=None, denoiser=None, smooth: bool = T
         return motion, "nothing (no gaps)", ""
     sv = served_by(motion, _model(model, "ebd", motion))
     if not isinstance(sv, str):
+        if method == "prior" and sv.model.prior is None:  # asked for by name: an error, not a fallback
+            raise ValueError("this EBD model carries no gap prior; fill with method='ebd' or fit one (mocapkit train)")
         ebf = served_by(motion, _model(denoiser, "ebf", motion)) if smooth else "not asked"
         smooth = not isinstance(ebf, str)
         try:

@@ -14,8 +14,8 @@ channel's expected value is the Gaussian's conditional mean,
 in standardised units (each entry of ``v`` minus its training mean, over its training
 standard deviation plus one degree), ``lambda`` a ridge that keeps the solve stable and
 stands for the noise of the observed channels. The fill then meets the observed samples at
-both ends of the gap by a linear ramp of the prediction's offsets there (the way Mall's
-lerp start is anchored), so a gap closes without a step.
+both ends of the gap by a linear ramp of the prediction's offsets there, so a gap closes
+without a step (with nothing to condition on, that ramp is the linear fill).
 
 A :class:`GapPrior` belongs to an EBD model (fitted on the same training clips, saved in
 the same file, :func:`fit_gap_prior`); :func:`~mocapkit.cleaning.deep.inference.fill_channels`
@@ -35,8 +35,8 @@ __all__ = ["GapPrior", "fit_gap_prior", "conditional_fill", "lagged", "LAG_S", "
 
 SMOOTH_S = 0.058
 """Std (s) of the Gaussian that smooths the observed channels before they are read as evidence (Mall's 58 ms
-baseline filter): the regression reads the motion, not the capture noise. The filled values come from the
-prediction, never from this smoothing."""
+baseline filter): the regression reads the motion, not the capture noise. The filled values are the
+prediction, offset to meet these smoothed samples on either side of the gap."""
 
 
 @dataclass(frozen=True)
