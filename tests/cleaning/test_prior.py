@@ -169,3 +169,23 @@ def test_whole_frames_missing_fall_back_to_a_ramp_between_the_gap_ends():
     base = gaussian_filter1d(deep.lerp_fill(g), P.SMOOTH_S * 30.0, axis=0, mode="nearest")
     r = (np.arange(100, 130) - 99)[:, None] / 31.0
     assert np.allclose(out[100:130], (1 - r) * base[99] + r * base[130], atol=1e-9)
+
+
+def test_the_precision_route_is_the_conditional_mean_formula():
+    """conditional_fill solves the precision's few unobserved entries; the textbook formula solves the observed
+    block, S_mo (S_oo + ridge I)^-1 (v_o - mu_o): the same numbers (a slow reference)."""
+    x = _coupled(300, 10)
+    prior = P.fit_gap_prior([_coupled(2000, 11), _coupled(2000, 12)], 30.0)
+    g = x.copy()
+    g[100:160, 1] = np.nan
+    out = P.conditional_fill(g, prior, 30.0)
+    base = gaussian_filter1d(deep.lerp_fill(g), P.SMOOTH_S * 30.0, axis=0, mode="nearest")
+    z = (P.lagged(base, prior.lags) - prior.mean) / prior.scale
+    C, L = 3, len(prior.lags)
+    keep = np.tile(np.array([True, False, True]), L)
+    tgt = 1 + C * int(np.flatnonzero(prior.lags == 0)[0])
+    a = prior.cov[np.ix_(keep, keep)] + prior.ridge * np.eye(int(keep.sum()))
+    pred = (z[99:161][:, keep] @ np.linalg.solve(a, prior.cov[keep, tgt])) * prior.scale[tgt] + prior.mean[tgt]
+    r = (np.arange(100, 160) - 99) / 61.0
+    slow = pred[1:-1] + (1 - r) * (base[99, 1] - pred[0]) + r * (base[160, 1] - pred[-1])
+    assert np.allclose(out[100:160, 1], slow, rtol=0, atol=1e-9)

@@ -25,6 +25,7 @@ uses it where it validated better than the network (see that function).
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 from scipy.ndimage import gaussian_filter1d
@@ -60,6 +61,13 @@ class GapPrior:
     @property
     def num_channels(self) -> int:
         return len(self.mean) // len(self.lags)
+
+    @cached_property
+    def precision(self) -> np.ndarray:
+        """``(cov + ridge I)^-1``: with it the conditional mean of the entries ``u`` not observed is
+        ``-P_uu^-1 P_uo v_o`` (the same as ``S_uo (S_oo + ridge I)^-1 v_o``), a solve of the few unobserved
+        entries instead of the many observed ones."""
+        return np.linalg.inv(self.cov + self.ridge * np.eye(len(self.cov)))
 
     def to_arrays(self) -> dict:
         """The prior as plain arrays (for a model file)."""
@@ -156,9 +164,11 @@ def conditional_fill(values: np.ndarray, prior: GapPrior, fps: float) -> np.ndar
         tgt = np.asarray(chans) + lag0 * C
         key = keep.tobytes() + np.asarray(chans, dtype=np.int64).tobytes()
         w = solved.get(key)
-        if w is None:
-            a = prior.cov[np.ix_(keep, keep)] + prior.ridge * np.eye(int(keep.sum()))
-            w = np.linalg.solve(a, prior.cov[np.ix_(keep, tgt)])  # (kept entries, targets)
+        if w is None:  # (kept entries, targets): S_ok (S_oo + ridge I)^-1 through the precision's unobserved block
+            p = prior.precision
+            unseen = np.flatnonzero(~keep)
+            rows = np.searchsorted(unseen, tgt)
+            w = -np.linalg.solve(p[np.ix_(unseen, unseen)], p[np.ix_(unseen, np.flatnonzero(keep))])[rows].T
             solved[key] = w
         f0, f1 = max(s - 1, 0), min(e + 1, F)  # the gap and its observed neighbours
         pred = (z[f0:f1][:, keep] @ w) * prior.scale[tgt] + prior.mean[tgt]
