@@ -192,9 +192,7 @@ def clean_file(
         except MocapError as exc:
             raise MocapError(f"{record}: {exc}") from None
         changed = dec.accepted_cells(res, chosen)
-    if out.suffix.lower() in (".bvh", ".amc") and cleaned.missing().any():
-        raise MocapFormatError(out, f"the cleaned take still has missing joints (NaN), which {out.suffix[1:].upper()} "
-                               "cannot hold; add the fill step or write .npz")
+    io.check_complete(cleaned, out, "the cleaned take still has missing joints (NaN)", "add the fill step or write .npz")
     with removed_on_failure(outputs):
         if report is not None:
             from .report.html import write_report  # lazy: the viewer is optional

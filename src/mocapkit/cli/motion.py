@@ -115,8 +115,6 @@ def corrupt(
     overwrite: bool = overwrite_option(),
 ) -> None:
     """Corrupt IN with known ground truth; writes OUT and a .mask.npz of what changed."""
-    import numpy as np
-
     from .. import corrupt as corrupt_mod
     from .. import io
     from ..io.masks import error_record, mask_path_for, write_mask
@@ -136,9 +134,7 @@ def corrupt(
         raise MocapError(f"corrupt --kind {kind}: {exc}") from None
     bad, mask = result[0], result[1]
     records = result[2] if len(result) > 2 else []
-    if np.isnan(bad.rotations).any() and out.suffix.lower() in (".bvh", ".amc"):
-        raise MocapFormatError(out, f"this corruption leaves missing values (NaN), which {out.suffix[1:].upper()} "
-                               "cannot hold; write .npz")
+    io.check_complete(bad, out, "this corruption leaves missing values (NaN)", "write .npz")
     with removed_on_failure([out, mask_path]):
         io.save(bad, out, asf=asf_of(inp, asf))
         write_mask(mask_path, mask, m.skeleton.joint_names, kind=kind, seed=seed, params=params, records=records)

@@ -20,7 +20,7 @@ from ..errors import MocapFormatError
 
 from ..markerset import MarkerSet
 
-__all__ = ["load", "save", "check_writable", "load_markers", "save_markers", "atomic_write", "MarkerSet",
+__all__ = ["load", "save", "check_writable", "check_complete", "load_markers", "save_markers", "atomic_write", "MarkerSet",
            "READERS", "WRITERS", "MARKER_FORMATS"]
 
 READERS = {".bvh": "bvh", ".amc": "asfamc", ".npz": "npz", ".c3d": "c3d", ".trc": "trc"}
@@ -160,6 +160,18 @@ def check_writable(motion, path) -> None:
         from .amc_writer import check_amc_writable
 
         check_amc_writable(motion, path, missing_ok=True)
+
+
+def check_complete(motion, path, what: str, hint: str) -> None:
+    """Raise :class:`~mocapkit.errors.MocapFormatError` (``what, which BVH cannot hold; hint``) when ``path`` is
+    a BVH or AMC file and ``motion`` still has missing values (NaN rotations): those formats have no way to
+    say a sample is missing, and the writer would refuse it only after the work. ``what`` names the cause
+    ("the cleaned take still has missing joints (NaN)"), ``hint`` the way out ("write .npz")."""
+    import numpy as np
+
+    path = Path(path)
+    if path.suffix.lower() in (".bvh", ".amc") and np.isnan(motion.rotations).any():
+        raise MocapFormatError(path, f"{what}, which {path.suffix[1:].upper()} cannot hold; {hint}")
 
 
 def _final_mode(path: Path) -> int:
