@@ -84,7 +84,7 @@ def test_shipped_ebd_fills_a_long_gap_better_than_lerp(walk):
     xg[60:240, c] = np.nan  # 1.5 s
     gap = np.isnan(xg)
     lerp_gauss = gaussian_filter1d(deep.lerp_fill(xg), 0.058 * 120, axis=0, mode="nearest")
-    filled = deep.fill_channels(xg, ctx, ebd, smooth=False)
+    filled = deep.fill_channels(xg, ctx, ebd, smooth=False, method="ebd")  # the network (the prior: test_prior.py)
     assert np.array_equal(filled[~gap], xg[~gap])  # observed entries bit-identical
     ours = deep.denoise_channels(filled, ctx, ebf)
     assert _wrapped_rms(ours, y, gap) < 0.8 * _wrapped_rms(lerp_gauss, y, gap)  # measured 19.1 vs 26.8 deg

