@@ -122,6 +122,10 @@ def test_a_model_file_keeps_its_prior_and_fill_chooses_by_method(tmp_path, walk)
         deep.fill_channels(x, ctx, bare, method="prior")
     with pytest.raises(ValueError, match="method"):
         deep.fill_channels(x, ctx, ebd, method="spline")
+    gappy, _ = corrupt.gaps(walk, seed=2, start_prob=0.01)
+    for bad, model in (("spline", None), ("prior", bare)):  # a bad request is an error, never the spline fallback
+        with pytest.raises(ValueError, match="method|no gap prior"):
+            deep.fill_or_fallback(gappy, model, method=bad)
 
 
 def test_the_shipped_prior_fills_a_long_knee_gap_better_than_lerp(walk):

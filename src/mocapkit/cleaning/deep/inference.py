@@ -384,6 +384,16 @@ def run_ebd(net: EBD, filled: np.ndarray, mask: np.ndarray, ctx: np.ndarray, fra
 FILL_METHODS = ("auto", "prior", "ebd")
 
 
+def _fills_by_prior(model: DeepModel, method: str) -> bool:
+    """Whether ``method`` (:data:`FILL_METHODS`) fills gaps with ``model``'s gap prior rather than its network;
+    ValueError for an unknown method, or "prior" asked of a model that carries none (an error, not a fallback)."""
+    if method not in FILL_METHODS:
+        raise ValueError(f"method must be one of {FILL_METHODS}, got {method!r}")
+    if method == "prior" and model.prior is None:
+        raise ValueError("this EBD model carries no gap prior; fill with method='ebd' or fit one (mocapkit train)")
+    return model.prior is not None and method != "ebd"
+
+
 def fill_channels(
     values: np.ndarray, context: np.ndarray, model=None, denoiser=None, fps: float | None = None, smooth: bool = True,
     method: str = "auto",
@@ -404,11 +414,7 @@ def fill_channels(
     filled, not measured).
     """
     m = _model(model, "ebd")
-    if method not in FILL_METHODS:
-        raise ValueError(f"method must be one of {FILL_METHODS}, got {method!r}")
-    if method == "prior" and m.prior is None:
-        raise ValueError("this EBD model carries no gap prior; fill with method='ebd' or fit one (mocapkit train)")
-    use_prior = m.prior is not None and method != "ebd"
+    use_prior = _fills_by_prior(m, method)
     x = np.asarray(values, dtype=np.float64)
     if x.ndim != 2 or x.shape[1] != m.layout.num_channels:
         raise ValueError(f"values: expected (F, {m.layout.num_channels}) channels, got {x.shape}")
@@ -595,14 +601,12 @@ def fill_or_fallback(motion: Motion, model=None, denoiser=None, smooth: bool = T
         return motion, "nothing (no gaps)", ""
     sv = served_by(motion, _model(model, "ebd", motion))
     if not isinstance(sv, str):
-        if method == "prior" and sv.model.prior is None:  # asked for by name: an error, not a fallback
-            raise ValueError("this EBD model carries no gap prior; fill with method='ebd' or fit one (mocapkit train)")
+        by_prior = _fills_by_prior(sv.model, method)  # raises before the try: a bad request is no reason to fall back
         ebf = served_by(motion, _model(denoiser, "ebf", motion)) if smooth else "not asked"
         smooth = not isinstance(ebf, str)
         try:
             out = fill_gaps(motion, sv, ebf if smooth else None, smooth=smooth, method=method)
             notes = dict.fromkeys(n for n in (licence_note(sv.model), licence_note(ebf.model) if smooth else "") if n)
-            by_prior = sv.model.prior is not None and method != "ebd"
             name = "EBD's gap prior" if by_prior else None
             return out, _method("ebd", label, sv, name) + (" + EBF" if smooth else ""), "; ".join(notes)
         except ValueError as exc:

@@ -35,6 +35,7 @@ from functools import cached_property
 import numpy as np
 from scipy.ndimage import gaussian_filter1d
 
+from ..markers.gaps import gap_runs
 from .channels import lerp_fill
 
 __all__ = ["GapPrior", "fit_gap_prior", "conditional_fill", "lagged", "LAG_S", "RIDGE", "PRIOR_S"]
@@ -72,7 +73,7 @@ class GapPrior:
         """``(cov + ridge I)^-1``: with it the conditional mean of the entries ``u`` not observed is
         ``-P_uu^-1 P_uo v_o`` (the same as ``S_uo (S_oo + ridge I)^-1 v_o``), a solve of the few unobserved
         entries instead of the many observed ones."""
-        return np.linalg.inv(self.cov + self.ridge * np.eye(len(self.cov)))
+        return _precision(self.cov, self.ridge)
 
     def to_arrays(self) -> dict:
         """The prior as plain arrays (for a model file)."""
@@ -132,10 +133,9 @@ def fit_gap_prior(takes, fps: float, lag_s: float = LAG_S, ridge: float = RIDGE)
     return GapPrior(lags, mean, scale, cov, float(ridge), len(v))
 
 
-def _runs(mask: np.ndarray) -> list[tuple[int, int]]:
-    """[start, stop) of each run of True in a (F,) mask."""
-    d = np.diff(np.concatenate([[0], mask.astype(np.int8), [0]]))
-    return list(zip(np.flatnonzero(d == 1).tolist(), np.flatnonzero(d == -1).tolist()))
+def _precision(cov: np.ndarray, ridge: float) -> np.ndarray:
+    """``(cov + ridge I)^-1``, the precision of the standardised entries (observed ones read with ``ridge``)."""
+    return np.linalg.inv(cov + ridge * np.eye(len(cov)))
 
 
 def _take_update(z: np.ndarray, miss: np.ndarray, prior: GapPrior, n0: float):
@@ -189,13 +189,13 @@ def conditional_fill(values: np.ndarray, prior: GapPrior, fps: float, prior_s: f
     lag0 = int(np.flatnonzero(prior.lags == 0)[0])
     events: dict[tuple[int, int], list[int]] = {}
     for c in np.flatnonzero(miss.any(axis=0)):
-        for s, e in _runs(miss[:, c]):
-            events.setdefault((s, e), []).append(int(c))
+        for s, e in zip(*gap_runs(miss[:, c])):
+            events.setdefault((int(s), int(e)), []).append(int(c))
     solved: dict[bytes, np.ndarray] = {}
     shift, cov = _take_update(z, miss, prior, prior_s * fps)
     z = z - shift
     mean = prior.mean + shift * prior.scale
-    prec = prior.precision if cov is None else np.linalg.inv(cov + prior.ridge * np.eye(len(cov)))
+    prec = prior.precision if cov is None else _precision(cov, prior.ridge)
     for (s, e), chans in sorted(events.items()):
         lo, hi = max(0, s - 1 - reach), min(F, e + 1 + reach)
         read = ~miss[lo:hi].any(axis=0)
@@ -204,10 +204,9 @@ def conditional_fill(values: np.ndarray, prior: GapPrior, fps: float, prior_s: f
         key = keep.tobytes() + np.asarray(chans, dtype=np.int64).tobytes()
         w = solved.get(key)
         if w is None:  # (kept entries, targets): S_ok (S_oo + ridge I)^-1 through the precision's unobserved block
-            p = prec
             unseen = np.flatnonzero(~keep)
             rows = np.searchsorted(unseen, tgt)
-            w = -np.linalg.solve(p[np.ix_(unseen, unseen)], p[np.ix_(unseen, np.flatnonzero(keep))])[rows].T
+            w = -np.linalg.solve(prec[np.ix_(unseen, unseen)], prec[np.ix_(unseen, np.flatnonzero(keep))])[rows].T
             solved[key] = w
         f0, f1 = max(s - 1, 0), min(e + 1, F)  # the gap and its observed neighbours
         pred = (z[f0:f1][:, keep] @ w) * prior.scale[tgt] + mean[tgt]
