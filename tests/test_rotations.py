@@ -161,3 +161,57 @@ def test_bad_shapes_name_the_fix():
         R.euler_to_quaternion([1.0, 2.0, 3.0], "ABC")
     with pytest.raises(ValueError, match="mixes cases"):
         R.euler_to_quaternion([1.0, 2.0, 3.0], "Xyz")
+
+
+vecs = arrays(np.float64, (3,), elements=st.floats(-10, 10)).filter(lambda v: np.linalg.norm(v) > 1e-3)
+
+
+@given(u=vecs, v=vecs)
+def test_shortest_arc_turns_u_onto_v_about_their_common_normal(u, v):
+    q = R.shortest_arc(u, v)
+    np.testing.assert_allclose(np.linalg.norm(q), 1.0, atol=1e-12)
+    un, vn = u / np.linalg.norm(u), v / np.linalg.norm(v)
+    np.testing.assert_allclose(R.quaternion_rotate(q, un), vn, atol=1e-9)
+    # the smallest such rotation: its angle is the angle between the two directions
+    angle = 2.0 * np.arctan2(np.linalg.norm(q[1:]), abs(q[0]))
+    np.testing.assert_allclose(angle, np.arccos(np.clip(un @ vn, -1.0, 1.0)), atol=1e-6)
+
+
+def test_shortest_arc_opposite_zero_and_batched():
+    u = np.array([[0.0, 2.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 0.0], [1.0, 1.0, 0.0]])
+    v = np.array([[0.0, -3.0, 0.0], [1.0, 0.0, 0.0], [1.0, 0.0, 0.0], [-1.0, 1.0, 0.0]])
+    q = R.shortest_arc(u, v)
+    assert q.shape == (4, 4)
+    # opposite: a half turn about an axis square to u
+    assert abs(q[0, 0]) < 1e-12 and abs(q[0, 1:] @ [0.0, 1.0, 0.0]) < 1e-12
+    np.testing.assert_allclose(R.quaternion_rotate(q[0], [0.0, 1.0, 0.0]), [0.0, -1.0, 0.0], atol=1e-12)
+    np.testing.assert_array_equal(q[1], [1.0, 0.0, 0.0, 0.0])  # the same direction
+    np.testing.assert_array_equal(q[2], [1.0, 0.0, 0.0, 0.0])  # a zero vector: the identity
+    np.testing.assert_allclose(R.quaternion_rotate(q[3], [1.0, 1.0, 0.0]) / np.sqrt(2), [-1.0, 1.0, 0.0] / np.sqrt(2),
+                               atol=1e-12)
+    # batched rows are the rows computed one at a time, bit for bit
+    for i in range(4):
+        np.testing.assert_array_equal(R.shortest_arc(u[i], v[i]), q[i])
+
+
+@given(q=quats)
+@settings(max_examples=50)
+def test_kabsch_recovers_the_rotation_of_a_point_set(q):
+    rng = np.random.default_rng(1)
+    ref = rng.normal(size=(6, 3))
+    cur = ref @ R.quaternion_to_matrix(q).T
+    m = R.kabsch(ref, cur)
+    np.testing.assert_allclose(m, R.quaternion_to_matrix(q), atol=1e-9)
+    # one reference per set gives the same, and noise never yields a reflection
+    noisy = cur[None] + 0.3 * rng.normal(size=(4, 6, 3))
+    per_set = R.kabsch(np.broadcast_to(ref, noisy.shape), noisy)
+    np.testing.assert_allclose(per_set, R.kabsch(ref, noisy), atol=1e-12)
+    np.testing.assert_allclose(np.linalg.det(per_set), 1.0, atol=1e-9)
+
+
+def test_kabsch_never_reflects_a_mirrored_set():
+    ref = np.array([[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0], [1.0, 1.0, 0.0]])
+    mirrored = ref * [-1.0, 1.0, 1.0]
+    m = R.kabsch(ref, mirrored)
+    np.testing.assert_allclose(np.linalg.det(m), 1.0, atol=1e-12)
+    np.testing.assert_allclose(m @ m.T, np.eye(3), atol=1e-12)

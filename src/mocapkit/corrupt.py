@@ -370,34 +370,12 @@ def _aim(cur: np.ndarray, want: np.ndarray, rest: np.ndarray) -> np.ndarray:
         a = np.sum(cur * sign[None, :, None], axis=1)
         b = np.sum(want / np.linalg.norm(want, axis=-1, keepdims=True)
                    * np.linalg.norm(cur, axis=-1, keepdims=True) * sign[None, :, None], axis=1)
-        return _swing(a, b)
-    h = np.einsum("fki,fkj->fij", cur, want)  # cross-covariance: maximise sum want . (S cur)
-    good = np.all(np.isfinite(h), axis=(1, 2))
+        return R.shortest_arc(a, b)
+    good = np.all(np.isfinite(cur), axis=(1, 2)) & np.all(np.isfinite(want), axis=(1, 2))
     out = np.full((cur.shape[0], 4), np.nan)
     if np.any(good):
-        u, _, vt = np.linalg.svd(h[good])
-        d = np.sign(np.linalg.det(np.einsum("fji,fkj->fik", vt, u)))  # det(V U^T)
-        diag = np.ones((len(d), 3))
-        diag[:, 2] = d
-        m = np.einsum("fji,fj,fkj->fik", vt, diag, u)  # V diag(1,1,d) U^T
-        out[good] = R.matrix_to_quaternion(m)
+        out[good] = R.matrix_to_quaternion(R.kabsch(cur[good], want[good]))
     return out
-
-
-def _swing(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Minimal-arc rotations (N, 4) taking directions a (N, 3) to b (N, 3); 180 deg about a perpendicular if opposite."""
-    a = a / np.linalg.norm(a, axis=-1, keepdims=True)
-    b = b / np.linalg.norm(b, axis=-1, keepdims=True)
-    w = 1.0 + np.sum(a * b, axis=-1, keepdims=True)
-    v = np.cross(a, b)
-    opposite = (w[:, 0] < 1e-12) & np.all(np.isfinite(a), axis=-1)
-    if np.any(opposite):
-        perp = np.cross(a[opposite], [1.0, 0.0, 0.0])
-        small = np.linalg.norm(perp, axis=-1) < 1e-6
-        perp[small] = np.cross(a[opposite][small], [0.0, 1.0, 0.0])
-        v[opposite] = perp
-        w[opposite] = 0.0
-    return R.quaternion_normalize(np.concatenate([w, v], axis=-1))
 
 
 # -- gaps (Mall et al. 2017, section 4) -------------------------------------------

@@ -752,19 +752,6 @@ class Sensor:
         object.__setattr__(self, "offset", o)
 
 
-def _min_rotation_matrix(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Smallest rotation (3, 3) taking unit vector ``a`` to unit vector ``b``."""
-    axis = np.cross(a, b)
-    s, c = np.linalg.norm(axis), float(np.dot(a, b))
-    if s < 1e-9:
-        if c > 0:
-            return np.eye(3)
-        # Opposite vectors: half turn about any axis perpendicular to a.
-        perp = np.cross(a, np.eye(3)[int(np.argmin(np.abs(a)))])
-        return R.quaternion_to_matrix(R.quaternion_from_axis_angle(perp, np.pi))
-    return R.quaternion_to_matrix(R.quaternion_from_axis_angle(axis, np.arctan2(s, c)))
-
-
 def default_sensors(skeleton: Skeleton, fraction: float = 0.9, up_axis=None) -> list[Sensor]:
     """Four sensors on the lower arms and lower legs next to the wrists and ankles (Tautges 2012, Fig. 3.3).
 
@@ -809,7 +796,7 @@ def default_sensors(skeleton: Skeleton, fraction: float = 0.9, up_axis=None) -> 
         x = bone / length
         if kind == "arm":
             outward = side * left
-            z = _min_rotation_matrix(x, outward).T @ up
+            z = R.quaternion_to_matrix(R.shortest_arc(x, outward)).T @ up
         else:
             z = forward
         z = z - np.dot(z, x) * x

@@ -133,7 +133,7 @@ def mirror_corrections(skeleton: Skeleton, axis: int | None = None, bones: np.nd
         s = np.linalg.svd(dirs, compute_uv=False)
         if len(s) > 1 and s[1] > _COLLINEAR * s[0]:  # children at two or more directions fix the rotation
             branch[j] = True
-            C[j] = _kabsch(u, np.array([k[1] for k in kids[j]]))
+            C[j] = R.kabsch(u, np.array([k[1] for k in kids[j]]))
             lat[j] = _lateral(M @ C[j], np.eye(3)[axis])
         else:
             bone[j] = kids[j][int(np.argmax(np.linalg.norm(u, axis=1)))][2]
@@ -152,10 +152,10 @@ def mirror_corrections(skeleton: Skeleton, axis: int | None = None, bones: np.nd
             C[j] = ref
         else:
             u, v, _ = max(kids[j], key=lambda k: np.linalg.norm(k[0]))
-            b, sw = ref, _shortest(ref @ u, v)
+            b, sw = ref, R.quaternion_to_matrix(R.shortest_arc(ref @ u, v))
             if _angle(sw) > np.pi / 2:  # the bone reverses by side: try the half turn about the lateral axis
                 half = _half_turn(M @ ref_lat) @ ref
-                sw_half = _shortest(half @ u, v)
+                sw_half = R.quaternion_to_matrix(R.shortest_arc(half @ u, v))
                 if _angle(sw_half) < _angle(sw):
                     b, sw = half, sw_half
             C[j] = sw @ b
@@ -223,30 +223,6 @@ def _mirrored_skeleton(sk: Skeleton, axis: int) -> Skeleton:
     """The skeleton :meth:`Motion.mirror` gives ``sk`` (offsets ``M o_p``, end sites alike)."""
     one = Motion(sk, R.identity((1, sk.num_joints)), np.zeros((1, 3)), 30.0)
     return one.mirror(axis).skeleton
-
-
-def _kabsch(u: np.ndarray, v: np.ndarray) -> np.ndarray:
-    """The rotation (3, 3) taking the rows of ``u`` (n, 3) best onto those of ``v`` (least squares)."""
-    h = u.T @ v
-    a, _, bt = np.linalg.svd(h)
-    d = np.sign(np.linalg.det(bt.T @ a.T)) or 1.0
-    return bt.T @ np.diag([1.0, 1.0, d]) @ a.T
-
-
-def _shortest(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """The shortest rotation (3, 3) turning the direction of ``a`` onto that of ``b``; for opposite
-    directions a half turn about an axis perpendicular to ``a`` (then ``_angle`` is 180 degrees)."""
-    a = a / np.linalg.norm(a)
-    b = b / np.linalg.norm(b)
-    axis = np.cross(a, b)
-    s = np.linalg.norm(axis)
-    c = float(np.dot(a, b))
-    if s < 1e-12:
-        if c > 0:
-            return np.eye(3)
-        perp = np.cross(a, np.eye(3)[int(np.argmin(np.abs(a)))])
-        return _half_turn(perp)
-    return R.quaternion_to_matrix(R.quaternion_from_axis_angle(axis / s, np.arctan2(s, c)))
 
 
 def _half_turn(axis: np.ndarray) -> np.ndarray:

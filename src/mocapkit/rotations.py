@@ -36,6 +36,8 @@ __all__ = [
     "rotvec_to_quaternion",
     "quaternion_from_axis_angle",
     "quaternion_twist",
+    "shortest_arc",
+    "kabsch",
     "geodesic_angle",
     "slerp",
     "euler_to_quaternion",
@@ -208,6 +210,63 @@ def quaternion_twist(q: np.ndarray, axis: np.ndarray) -> np.ndarray:
     n = np.linalg.norm(t, axis=-1, keepdims=True)
     ok = n > 1e-9
     return np.where(ok, t / np.where(ok, n, 1.0), identity())
+
+
+def shortest_arc(u: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """The smallest rotations (..., 4) taking the directions of ``u`` (..., 3) onto those of ``v`` (..., 3).
+
+    The half-angle form ``q ~ (1 + u.v, u x v)`` for unit ``u, v``; opposite
+    directions turn by pi about a perpendicular axis (``u`` crossed with the
+    coordinate axis it is least along); the identity where either vector is
+    zero. Used to swing a bone onto a direction: inverse kinematics, rest-pose
+    retargeting, mirroring and sensor placement.
+    """
+    uu, oku = _unit_rows(np.asarray(u, dtype=np.float64))
+    vv, okv = _unit_rows(np.asarray(v, dtype=np.float64))
+    w = 1.0 + np.sum(uu * vv, axis=-1)
+    q = np.concatenate([w[..., None], np.cross(uu, vv)], axis=-1)
+    anti = w < 1e-12
+    if np.any(anti):
+        k = np.argmin(np.abs(uu[anti]), axis=-1)
+        perp, ok = _unit_rows(np.cross(uu[anti], np.eye(3)[k]))
+        perp = np.where(ok[..., None], perp, np.array([1.0, 0.0, 0.0]))
+        q[anti] = np.concatenate([np.zeros((int(anti.sum()), 1)), perp], axis=-1)
+    q = q / np.linalg.norm(q, axis=-1)[..., None]
+    q[~(oku & okv)] = np.array([1.0, 0.0, 0.0, 0.0])
+    return q
+
+
+def _unit_rows(v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Unit rows of ``v`` (..., 3) and a mask of the nonzero ones (zero rows stay zero)."""
+    n = np.linalg.norm(v, axis=-1)
+    ok = n > 0.0
+    safe = np.where(ok, n, 1.0)
+    return np.where(ok[..., None], v / safe[..., None], 0.0), ok
+
+
+def kabsch(ref: np.ndarray, cur: np.ndarray) -> np.ndarray:
+    """Rotation matrices (..., 3, 3) taking the points ``ref`` best onto ``cur`` (..., K, 3) (Kabsch 1976).
+
+    ``ref`` (K, 3) for one reference shape, or (..., K, 3) like ``cur`` for one
+    per set. Least squares over the K points as given (centre both first for a
+    rigid fit): ``cur_k ~ R ref_k``; a reflection is never returned (the
+    smallest singular direction is flipped instead).
+    """
+    ref = np.asarray(ref, dtype=np.float64)
+    cur = np.asarray(cur, dtype=np.float64)
+    shape = cur.shape[:-2]
+    cur = cur.reshape((-1,) + cur.shape[-2:])
+    if ref.ndim == 2:
+        h = np.einsum("ki,tkj->tij", ref, cur)  # (T, 3, 3) = sum_k ref_k cur_k^T
+    else:
+        h = np.einsum("tki,tkj->tij", ref.reshape(cur.shape), cur)
+    u, _, vt = np.linalg.svd(h)
+    det = np.sign(np.linalg.det(np.einsum("tji,tkj->tik", vt, u)))
+    det[det == 0] = 1.0
+    d = np.ones((h.shape[0], 3))
+    d[:, 2] = det
+    # R = V diag(1, 1, det) U^T
+    return np.einsum("tji,tj,tkj->tik", vt, d, u).reshape(shape + (3, 3))
 
 
 def geodesic_angle(a: np.ndarray, b: np.ndarray) -> np.ndarray:

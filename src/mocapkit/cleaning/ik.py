@@ -166,24 +166,6 @@ def _axis_angle(axis: np.ndarray, angle: np.ndarray) -> np.ndarray:
     return np.concatenate([np.cos(half)[..., None], np.sin(half)[..., None] * axis], axis=-1)
 
 
-def _swing(u: np.ndarray, v: np.ndarray) -> np.ndarray:
-    """Minimal rotation (n, 4) taking the direction of ``u`` to that of ``v``; identity where either is zero.
-
-    ``q ~ (1 + u.v, u x v)`` for unit ``u, v`` (the half-angle form); opposite
-    directions turn by pi about any perpendicular axis.
-    """
-    uu, oku = _unit(u)
-    vv, okv = _unit(v)
-    w = 1.0 + _dot(uu, vv)
-    q = np.concatenate([w[..., None], np.cross(uu, vv)], axis=-1)
-    anti = w < 1e-12
-    if np.any(anti):
-        q[anti] = np.concatenate([np.zeros((int(anti.sum()), 1)), _any_perpendicular(uu[anti])], axis=-1)
-    q = q / _norm(q)[..., None]
-    q[~(oku & okv)] = np.array([1.0, 0.0, 0.0, 0.0])
-    return q
-
-
 def _same_hemisphere(new: np.ndarray, old: np.ndarray) -> np.ndarray:
     """Unit ``new`` with its sign chosen to lie in ``old``'s hemisphere (keeps quaternion continuity)."""
     new = new / _norm(new)[..., None]
@@ -371,7 +353,7 @@ def two_bone_ik(motion: Motion, end_joint, targets, frames=None, pole=None) -> M
     # 2. swing the (unchanged) direction a -> c onto a -> t.
     d, d_ok = _unit(ta, eps)
     d = np.where(d_ok[:, None], d, ca_u)
-    r_s = _swing(ca, d)
+    r_s = R.shortest_arc(ca, d)
     q1 = R.quaternion_multiply(r_s, r_a)
 
     # 3. with a pole, twist about a -> t so the middle joint turns toward it.
@@ -513,7 +495,7 @@ def fabrik(
         j, child = js[i], js[i + 1]
         q_cur = R.quaternion_multiply(q_parent, rot[idx, j])
         bone = R.quaternion_rotate(q_cur, local_off[:, child])
-        q_new = R.quaternion_multiply(_swing(bone, P_new[:, i + 1] - pos), q_cur)
+        q_new = R.quaternion_multiply(R.shortest_arc(bone, P_new[:, i + 1] - pos), q_cur)
         local = R.quaternion_multiply(R.quaternion_conjugate(q_parent), q_new)
         rot[idx, j] = _same_hemisphere(local, rot[idx, j])
         q_parent = R.quaternion_multiply(q_parent, rot[idx, j])

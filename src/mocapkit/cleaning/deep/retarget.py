@@ -239,16 +239,6 @@ def _rest_bone(sk: Skeleton, rest: np.ndarray, found: dict[str, int], role: str,
     return None
 
 
-def _shortest_arc(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """The unit quaternion (w first) of the smallest rotation taking unit vector ``a`` onto unit vector ``b``."""
-    c = float(np.dot(a, b))
-    if c < -1.0 + 1e-9:  # opposite: half a turn about any axis perpendicular to a
-        axis = np.cross(a, [1.0, 0.0, 0.0] if abs(a[0]) < 0.9 else [0.0, 1.0, 0.0])
-        return np.r_[0.0, axis / np.linalg.norm(axis)]
-    q = np.r_[1.0 + c, np.cross(a, b)]
-    return q / np.linalg.norm(q)
-
-
 def _body_frame(sk: Skeleton, found: dict[str, int]) -> np.ndarray:
     """The unit quaternion ``B`` turning the Acclaim rest body frame (X to the subject's left, Y up, Z forward)
     onto the rig's (up: pelvis to head; left: right thigh to left thigh, square to up); identity when the two lie
@@ -291,7 +281,7 @@ def _rest_alignment(sk: Skeleton, found: dict[str, int], names, model_roles, par
                 want = np.asarray(_ACCLAIM_BONES[names[k]], dtype=np.float64)
                 want = R.quaternion_rotate(up, want / np.linalg.norm(want))
                 if _angle_deg(want, bone) >= SAME_REST_DEG:
-                    A[k] = R.quaternion_multiply(_shortest_arc(want, bone), up)
+                    A[k] = R.quaternion_multiply(R.shortest_arc(want, bone), up)
             done[k] = True
         return A[k]
 

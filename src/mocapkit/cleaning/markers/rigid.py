@@ -27,6 +27,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ... import rotations as R
+
 __all__ = ["DistanceStats", "distance_stats", "donor_order", "local_frames", "to_local", "from_local"]
 
 
@@ -95,18 +97,6 @@ def donor_order(stats: DistanceStats, min_count: int = 10) -> np.ndarray:
     return order[:, : max(m - 1, 0)]
 
 
-def _kabsch(ref: np.ndarray, cur: np.ndarray) -> np.ndarray:
-    """Rotations (T, 3, 3) taking the centred reference shape ``ref`` (K, 3) onto the centred shapes ``cur`` (T, K, 3)."""
-    h = np.einsum("ki,tkj->tij", ref, cur)  # (T, 3, 3) = sum_k ref_k cur_k^T
-    u, _, vt = np.linalg.svd(h)
-    det = np.sign(np.linalg.det(np.einsum("tji,tkj->tik", vt, u)))
-    det[det == 0] = 1.0
-    d = np.ones((h.shape[0], 3))
-    d[:, 2] = det
-    # R = V diag(1, 1, det) U^T, so that cur ~ R ref
-    return np.einsum("tji,tj,tkj->tik", vt, d, u)
-
-
 def local_frames(donors: np.ndarray, reference: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Per-frame rotation and origin of a donor group.
 
@@ -137,7 +127,7 @@ def local_frames(donors: np.ndarray, reference: np.ndarray | None = None) -> tup
         reference = donors[np.argmax(ok)]
     ref = reference - reference.mean(axis=0)
     cur = donors[ok] - origin[ok][:, None, :]
-    rot[ok] = _kabsch(ref, cur)
+    rot[ok] = R.kabsch(ref, cur)
     return rot, origin
 
 
