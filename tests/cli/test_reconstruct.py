@@ -146,8 +146,9 @@ def test_accelerometer_options_reach_the_method(tmp_path, db_dir, query):
     plain = tmp_path / "mean.npz"
     assert run("reconstruct", "--db", str(db_dir), "--accelerometers", str(src), "-o", str(plain))[0] == 0
     assert not np.allclose(mocapkit.load(plain).rotations, want.rotations, atol=1e-6)
-    for bad, words in ((["--synthesis", "median"], "mean, regression or energy"), (["--smoothing", "1"], "[0, 1)"),
-                       (["--neighbours", "0"], "at least 1")):
+    for bad, words in ((["--synthesis", "median"], "--synthesis: synthesis must be 'energy', 'mean' or 'regression'"),
+                       (["--smoothing", "1"], "--smoothing: smoothing must be in [0, 1)"),
+                       (["--neighbours", "0"], "--neighbours: k must be a positive integer")):
         o = tmp_path / "bad.npz"
         code, _, err = run("reconstruct", "--db", str(db_dir), "--accelerometers", str(src), "-o", str(o), *bad)
         assert code == 2 and one_error_line(err) and words in err and not o.exists()

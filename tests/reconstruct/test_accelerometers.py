@@ -364,7 +364,7 @@ def test_history_key_of_a_database_clip_finds_its_own_frames(db):
 def test_history_must_be_lags():
     for bad in ((), (0, -1), "03", (0, 1.5)):
         with pytest.raises(ValueError, match="history"):
-            A.synthesis._check_params({"history": bad})
+            A.check_params({"history": bad})
 
 
 def test_unwrap_rotvecs_keeps_the_rotations_and_makes_their_mean_meaningful():
@@ -412,9 +412,9 @@ def test_standardised_search_changes_the_neighbours_only_by_scaling(db, readings
 
 def test_weights_and_synthesis_must_be_known():
     with pytest.raises(ValueError, match="weights"):
-        A.synthesis._check_params({"weights": "softmax"})
+        A.check_params({"weights": "softmax"})
     with pytest.raises(ValueError, match="synthesis"):
-        A.synthesis._check_params({"synthesis": "median"})
+        A.check_params({"synthesis": "median"})
 
 
 # -- the locally weighted regression synthesis ------------------------------------------------------------------
@@ -485,16 +485,16 @@ def test_regression_synthesis_beats_single_frame_nn(db, test_motion, readings):
 def test_regression_parameters_are_checked():
     for bad in ((), (0, -2), "0"):
         with pytest.raises(ValueError, match="regression_lags"):
-            A.synthesis._check_params({"regression_lags": bad})
+            A.check_params({"regression_lags": bad})
     for bad in (0, 2.5, True):
         with pytest.raises(ValueError, match="regression_n"):
-            A.synthesis._check_params({"regression_n": bad})
+            A.check_params({"regression_n": bad})
     with pytest.raises(ValueError, match="ridge"):
-        A.synthesis._check_params({"ridge": -1.0})
+        A.check_params({"ridge": -1.0})
     with pytest.raises(ValueError, match="regression_cap"):
-        A.synthesis._check_params({"regression_cap": -0.5})
-    assert A.synthesis._check_params({"regression_cap": None})["regression_cap"] is None
-    assert A.synthesis._check_params({"synthesis": "regression"})["synthesis"] == "regression"
+        A.check_params({"regression_cap": -0.5})
+    assert A.check_params({"regression_cap": None})["regression_cap"] is None
+    assert A.check_params({"synthesis": "regression"})["synthesis"] == "regression"
 
 
 def test_smoothing_is_a_causal_exponential_filter_of_the_pose_vectors(db, readings):
@@ -510,4 +510,4 @@ def test_smoothing_is_a_causal_exponential_filter_of_the_pose_vectors(db, readin
         expect = 0.4 * A.unwrap_rotvecs(before[None], raw._p)[0] + 0.6 * raw._p
         np.testing.assert_allclose(smooth._p, expect, atol=1e-12)
     with pytest.raises(ValueError, match="smoothing"):
-        A.synthesis._check_params({"smoothing": 1.0})
+        A.check_params({"smoothing": 1.0})

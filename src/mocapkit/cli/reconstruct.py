@@ -93,15 +93,18 @@ def reconstruct(
     if len(given) != 1:
         raise MocapError("give exactly one of --markers, --accelerometers or --ssg")
     kind, inp = given[0]
-    acc_params = {k: v for k, v in (("synthesis", synthesis), ("k", neighbours), ("smoothing", smoothing)) if v is not None}
+    given_acc = [(o, k, v) for o, k, v in (("--synthesis", "synthesis", synthesis), ("--neighbours", "k", neighbours),
+                                           ("--smoothing", "smoothing", smoothing)) if v is not None]
+    acc_params = {k: v for _, k, v in given_acc}
     if acc_params and kind != "accelerometers":
         raise MocapError("--synthesis, --neighbours and --smoothing apply to --accelerometers only")
-    if synthesis is not None and synthesis not in ("mean", "regression", "energy"):
-        raise MocapError(f"--synthesis must be mean, regression or energy, not {synthesis!r}")
-    if neighbours is not None and neighbours < 1:
-        raise MocapError(f"--neighbours must be at least 1, not {neighbours}")
-    if smoothing is not None and not 0.0 <= smoothing < 1.0:
-        raise MocapError(f"--smoothing must lie in [0, 1), not {smoothing}")
+    if given_acc:
+        from ..reconstruct.accelerometers import check_params
+    for option, key, value in given_acc:  # the method's own rule, before anything is read or written
+        try:
+            check_params({key: value})
+        except ValueError as e:
+            raise MocapError(f"{option}: {e}") from None
     guard([out], [inp, db_dir, skeleton, reference, asf], overwrite)
     check_asf(asf, [inp, reference])
     io.suffix_kind(out, io.WRITERS, "writing")

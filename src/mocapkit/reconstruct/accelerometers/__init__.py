@@ -39,6 +39,7 @@ from .synthesis import (
     DEFAULTS,
     AccelerometerReconstructor,
     Pose,
+    check_params,
     default_k,
     motion_of_poses,
     path_weights,
@@ -52,6 +53,7 @@ from .synthesis import (
 
 __all__ = [
     "DEFAULTS",
+    "check_params",
     "default_k",
     "path_weights",
     "unwrap_rotvecs",

@@ -110,6 +110,7 @@ from .knowledge import clip_starts, knowledge_base
 
 __all__ = [
     "DEFAULTS",
+    "check_params",
     "default_k",
     "path_weights",
     "unwrap_rotvecs",
@@ -285,7 +286,9 @@ class Pose(NamedTuple):
     root_position: np.ndarray
 
 
-def _check_params(params: dict) -> dict:
+def check_params(params: dict) -> dict:
+    """The method's parameters: :data:`DEFAULTS` updated by ``params``, each checked; ValueError naming the first
+    bad one (an unknown name included)."""
     unknown = set(params) - set(DEFAULTS)
     if unknown:
         raise ValueError(f"unknown parameter(s) {', '.join(sorted(unknown))}; known: {', '.join(DEFAULTS)}")
@@ -356,7 +359,7 @@ class AccelerometerReconstructor:
     """
 
     def __init__(self, db: MotionDatabase, fps: float | None = None, sensors=None, *, skeleton: Skeleton | None = None, **params):
-        self.params = _check_params(params)
+        self.params = check_params(params)
         self.kb = knowledge_base(db, sensors)
         self.sensors = self.kb.sensors
         self.db_fps = float(db.fps)
