@@ -29,6 +29,24 @@ def test_discontinuities_mark_steps_and_spikes_not_smooth_motion(walk):
         ssa.discontinuities(walk, jump_deg=float("nan"))
 
 
+def test_a_break_the_context_did_not_judge_confirms_nothing():
+    """A take's last frames that no neighbour word covers have no digression (NaN): a break there says nothing
+    about the digressing frames before it (a fast motion seen once, then a twist flip at the end)."""
+    F, fps = 60, 30.0
+    mdm = np.zeros((F, 2))
+    mdm[30:45, :] = 0.9  # digressing up to frame 44 on both joints
+    jumps = np.zeros((F, 2), dtype=bool)
+    jumps[45:47, :] = True  # a step right after, within the margin (0.05 s at 30 fps: 2 frames)
+    judged = np.ones((F, 2), dtype=bool)
+    judged[45:, 0] = False  # joint 0: frames 45 on were not judged
+    none = np.zeros((F, 2), dtype=bool)
+    args = (none, none, none, 0.5, fps, True, 0.05)
+    flags = cues.flag_rule(mdm, jumps, *args, judged=judged)
+    assert not flags[:, 0].any()
+    assert np.flatnonzero(flags[:, 1]).tolist() == list(range(30, 45))
+    assert np.array_equal(cues.flag_rule(mdm, jumps, *args), np.repeat(flags[:, 1:], 2, axis=1))  # judged=None: all
+
+
 def test_confirm_flags_keep_whole_runs_that_reach_the_threshold_and_hold_a_break():
     F, fps = 100, 100.0
     mdm = np.zeros((F, 3))

@@ -508,13 +508,17 @@ def confirm_flags(
 
 
 def flag_rule(mdm, jumps, holds, swaps, offsets, threshold: float, fps: float, confirm: bool, margin_s,
-              drifts=None, spikes=None) -> np.ndarray:
+              drifts=None, spikes=None, judged=None) -> np.ndarray:
     """The flags of :func:`detect` and :meth:`Detection.with_threshold`: confirmed digressions, holds, swaps,
     transient offsets and smooth drifts (``drifts``, bool (F, J) or None: none), or the paper's
     ``mdm > threshold`` without confirmation. ``spikes``: :func:`spike_breaks` of the take (None: runs with
-    one break are kept whole, as detections made before it were)."""
+    one break are kept whole, as detections made before it were). ``judged`` (F, J) bool, the cells the
+    context judged (a finite digression; None: all): a break outside them confirms no digression. The
+    digression beside such a break (at a take's end that no neighbour word covers) says nothing about the
+    break, and repairing it would change the frames before an error and leave the error."""
     if confirm:
-        out = confirm_flags(mdm, jumps, threshold, fps, margin_s, spikes=spikes) | holds | swaps | offsets
+        breaks = jumps if judged is None else np.asarray(jumps, dtype=bool) & np.asarray(judged, dtype=bool)
+        out = confirm_flags(mdm, breaks, threshold, fps, margin_s, spikes=spikes) | holds | swaps | offsets
         return out if drifts is None else out | drifts
     return mdm > threshold
 

@@ -156,7 +156,8 @@ class Detection:
         if not 0.0 < threshold < 1.0:
             raise ValueError(f"threshold must be in (0, 1), got {threshold}")
         flags = flag_rule(self.mdm, self.jumps, self.holds, self.swaps, self.offsets, threshold, self.fps,
-                          self.params.confirm, self.params.confirm_margin_s, self.drifts(), self.spikes)
+                          self.params.confirm, self.params.confirm_margin_s, self.drifts(), self.spikes,
+                          np.isfinite(self.digression))
         return dataclasses.replace(self, threshold=threshold, flags=flags)
 
     def save(self, path) -> Path:
@@ -424,7 +425,7 @@ def detect_prepared(an: Analysis, threshold: float = 0.5, *, progress: bool = Fa
     drifts = _drifts(jumps, agreement, consistency, motion.fps, p) if p.drift else None
     spikes = spike_breaks(q, resid, jumps)
     flags = flag_rule(mdm, jumps, holds, swaps, offsets, threshold, motion.fps, p.confirm, p.confirm_margin_s, drifts,
-                      spikes)
+                      spikes, np.isfinite(digression))
     masks = an.group_masks()
     if not ok.all():
         notes.append(f"{int((~ok).any(axis=1).sum())} frames have no neighbour words (context too short)")
