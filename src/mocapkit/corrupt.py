@@ -370,7 +370,9 @@ def _aim(cur: np.ndarray, want: np.ndarray, rest: np.ndarray) -> np.ndarray:
         a = np.sum(cur * sign[None, :, None], axis=1)
         b = np.sum(want / np.linalg.norm(want, axis=-1, keepdims=True)
                    * np.linalg.norm(cur, axis=-1, keepdims=True) * sign[None, :, None], axis=1)
-        return R.shortest_arc(a, b)
+        out = R.shortest_arc(a, b)
+        out[~(np.isfinite(a).all(axis=-1) & np.isfinite(b).all(axis=-1))] = np.nan  # a missing bone: no rotation
+        return out
     good = np.all(np.isfinite(cur), axis=(1, 2)) & np.all(np.isfinite(want), axis=(1, 2))
     out = np.full((cur.shape[0], 4), np.nan)
     if np.any(good):
