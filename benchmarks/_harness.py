@@ -94,10 +94,13 @@ def met_of(targets: dict, figures: dict, ratios: dict) -> dict:
 
 
 def _command(name: str) -> str:
+    """The command that reproduces the run: the script that ran (a script may keep a variant's result under
+    another ``name``, e.g. ``--all``) and its flags, with ``--json``."""
     flags = [a for a in sys.argv[1:] if a != "--no-save"]
     if "--json" not in flags:
         flags.append("--json")
-    return " ".join(["python", f"benchmarks/{name}.py", *flags])
+    script = Path(sys.argv[0]).name if sys.argv and sys.argv[0].endswith(".py") else f"{name}.py"
+    return " ".join(["python", f"benchmarks/{script}", *flags])
 
 
 def emit(name: str, args=None, *, figures: dict, baselines: dict | None = None, targets: dict | None = None,

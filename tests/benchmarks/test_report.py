@@ -53,3 +53,12 @@ def test_every_figure_and_every_script(tmp_path):
         assert f"## {script.stem}\n" in text
         assert f"python benchmarks/{script.stem}.py --json" in text
     assert "broken" not in text
+
+
+def test_the_command_names_the_script_that_ran(monkeypatch):
+    """A script that keeps a variant's result under another name (clean_untouched --all) still records itself."""
+    harness = load("_harness")
+    monkeypatch.setattr("sys.argv", ["benchmarks/clean_untouched.py", "--all", "--no-save"])
+    assert harness._command("clean_untouched_all") == "python benchmarks/clean_untouched.py --all --json"
+    monkeypatch.setattr("sys.argv", ["benchmarks/deep_speed.py", "--json"])
+    assert harness._command("deep_speed") == "python benchmarks/deep_speed.py --json"
