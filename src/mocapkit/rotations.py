@@ -218,8 +218,8 @@ def shortest_arc(u: np.ndarray, v: np.ndarray) -> np.ndarray:
     The half-angle form ``q ~ (1 + u.v, u x v)`` for unit ``u, v``; opposite
     directions turn by pi about a perpendicular axis (``u`` crossed with the
     coordinate axis it is least along); the identity where either vector is
-    zero. Used to swing a bone onto a direction: inverse kinematics, rest-pose
-    retargeting, mirroring and sensor placement.
+    zero or not finite. Used to swing a bone onto a direction: inverse
+    kinematics, rest-pose retargeting, mirroring and sensor placement.
     """
     uu, oku = _unit_rows(np.asarray(u, dtype=np.float64))
     vv, okv = _unit_rows(np.asarray(v, dtype=np.float64))
