@@ -463,3 +463,18 @@ def test_umbrella_dispatch_and_errors():
         C.corrupt(m, "fire", seed=0)
     with pytest.raises(ValueError, match="does not apply"):
         C.corrupt(m, "gaps", seed=0, amount=0.5)
+
+
+def test_aim_gives_no_rotation_for_a_bone_with_a_missing_end():
+    """The swing that re-aims a bone after spatial noise: a NaN end gives NaN, never the identity."""
+    rest = np.array([[1.0, 0.0, 0.0]])  # one bone: the minimal-arc branch
+    cur = np.array([[[1.0, 0.0, 0.0]], [[np.nan, 0.0, 0.0]]])
+    want = np.array([[[0.0, 1.0, 0.0]], [[0.0, 1.0, 0.0]]])
+    q = C._aim(cur, want, rest)
+    np.testing.assert_allclose(R.quaternion_rotate(q[0], [1.0, 0.0, 0.0]), [0.0, 1.0, 0.0], atol=1e-12)
+    assert np.isnan(q[1]).all()
+    two = np.array([[1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])  # two bones at an angle: the Kabsch branch
+    cur2 = np.stack([two, two * np.nan])
+    q2 = C._aim(cur2, np.stack([two, two]), two)
+    np.testing.assert_allclose(np.abs(q2[0, 0]), 1.0, atol=1e-12)  # the same bones: no turn
+    assert np.isnan(q2[1]).all()
