@@ -561,4 +561,3 @@ def train(
         best_model = dataclasses.replace(best_model, prior=fit_gap_prior([d["clean"] for d in data], fps))
     save_model(best_model, out_dir / "model.pt")  # the whole history, not only up to the best epoch
     return best_model
-
