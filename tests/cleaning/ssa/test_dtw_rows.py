@@ -6,12 +6,12 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from mocapkit.cleaning.ssa import word_dtw as W
-from mocapkit.cleaning.ssa.dtw_rows import word_dtw_rows
+from mocapkit.cleaning.ssa.dtw_rows import ROW_STATES, word_dtw_rows
 from tests.naive import word_dtw_enumerate
 
 
 def _rows(C, si, tj, N, M, min_width, max_run):
-    acc, ln = np.empty((2, M, 7)), np.empty((2, M, 7), dtype=np.int64)
+    acc, ln = np.empty((2, M, ROW_STATES)), np.empty((2, M, ROW_STATES), dtype=np.int64)
     return word_dtw_rows(C, si, tj, N, M, min_width, max_run, acc, ln, np.empty(N), np.empty(N, dtype=np.int64))
 
 

@@ -38,7 +38,7 @@ import math
 import numpy as np
 from numba import njit, prange
 
-from .dtw_rows import best_state, word_dtw_rows
+from .dtw_rows import ROW_STATES, best_state, word_dtw_rows
 from .word_bounds import cheap_bound
 from .ordering import kth_smallest, sort_by_key
 from .twins import twin_kernels
@@ -644,8 +644,8 @@ def _knn_profile(D, rowmin, level, src, tgt, consec, excl_lo, excl_hi, N, M, min
     wmax = float(max_run + 1)
     first = min(T, 64)
     for w in prange(W):
-        acc = np.empty((2, M, 7))
-        ln = np.empty((2, M, 7), dtype=np.int64)
+        acc = np.empty((2, M, ROW_STATES))
+        ln = np.empty((2, M, ROW_STATES), dtype=np.int64)
         col_best = np.empty(N)
         col_len = np.empty(N, dtype=np.int64)
         buf = np.empty(N)
