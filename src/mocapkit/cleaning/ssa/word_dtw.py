@@ -91,29 +91,47 @@ def _half_angle_sq(a, b) -> float:
 
 @njit(cache=True, inline="always")
 def _robust_sum(terms, members, drop) -> float:
-    """Sum of ``terms[members]`` without its ``drop`` (<= 3) largest values."""
+    """Sum of ``terms[members]`` without its ``drop`` (<= 3) largest values.
+
+    The sum runs in ``members`` order and the dropped values are subtracted
+    from it afterwards, largest first; only as many of the largest are
+    tracked as are dropped.
+    """
     s = 0.0
-    t0 = -1.0
-    t1 = -1.0
-    t2 = -1.0
-    for k in members:
-        v = terms[k]
-        s += v
-        if v > t0:
-            t2 = t1
-            t1 = t0
-            t0 = v
-        elif v > t1:
-            t2 = t1
-            t1 = v
-        elif v > t2:
-            t2 = v
-    if drop >= 1 and t0 > 0.0:
-        s -= t0
-    if drop >= 2 and t1 > 0.0:
-        s -= t1
-    if drop >= 3 and t2 > 0.0:
-        s -= t2
+    if drop == 0:
+        for k in members:
+            s += terms[k]
+    elif drop == 1:
+        t0 = -1.0
+        for k in members:
+            v = terms[k]
+            s += v
+            if v > t0:
+                t0 = v
+        if t0 > 0.0:
+            s -= t0
+    else:
+        t0 = -1.0
+        t1 = -1.0
+        t2 = -1.0
+        for k in members:
+            v = terms[k]
+            s += v
+            if v > t0:
+                t2 = t1
+                t1 = t0
+                t0 = v
+            elif v > t1:
+                t2 = t1
+                t1 = v
+            elif v > t2:
+                t2 = v
+        if t0 > 0.0:
+            s -= t0
+        if t1 > 0.0:
+            s -= t1
+        if drop >= 3 and t2 > 0.0:
+            s -= t2
     if s < 0.0:  # round-off
         s = 0.0
     return s
@@ -178,7 +196,20 @@ def _self_pose_distances(A, members, offsets, drop, out):
                     if not bad:
                         val = _robust_sum(terms, members[offsets[g] : offsets[g + 1]], drop[g])
                     out[g, a, b] = val
-                    out[g, b, a] = val
+
+
+@njit(cache=True)
+def _mirror_upper(out):
+    """``out[g, r, c] = out[g, c, r]`` below the diagonal, in 64 x 64 blocks (a column-wise write per cell
+    would miss the cache on every one)."""
+    G, F = out.shape[0], out.shape[1]
+    B = 64
+    for g in range(G):
+        for r0 in range(0, F, B):
+            for c0 in range(0, r0 + 1, B):
+                for r in range(r0, min(r0 + B, F)):
+                    for c in range(c0, min(c0 + B, r)):
+                        out[g, r, c] = out[g, c, r]
 
 
 def _pack_groups(groups):
@@ -231,7 +262,8 @@ def self_pose_distances(A: np.ndarray, groups: np.ndarray, drop) -> np.ndarray:
     F = A.shape[0]
     out = np.empty((len(groups), F, F), dtype=np.float32)
     if F:
-        _self_pose_distances.pick(F * F // 2)(A, members, offsets, drop, out)
+        _self_pose_distances.pick(F * F // 2)(A, members, offsets, drop, out)  # the upper triangle
+        _mirror_upper(out)
     return out
 
 
