@@ -73,6 +73,10 @@ class Neighbors:
     iend: np.ndarray  # (G, W, K) int16
     jend: np.ndarray  # (G, W, K) int16
     dist: np.ndarray  # (G, W, K) float32
+    # the take's self pose-distance matrices (G, F, F) float32 when the search computed them whole (context = the
+    # take), with the groups' rows they are of: the warps of the mean texture read them instead of computing again
+    self_costs: np.ndarray | None = None
+    self_groups: tuple = ()
 
 
 def local_minima_knn(dist, tgt, k, exclude_center, half):
@@ -210,6 +214,7 @@ def nearest_words(
     whole = None  # the clip against itself: the symmetric matrix once, half its cells computed
     if context.values is source.values and G * source.num_frames**2 * 4 <= _SELF_MATRIX_BYTES:
         whole = word_dtw.self_pose_distances(source.values, masks, drops)
+        out.self_costs, out.self_groups = whole, tuple(np.asarray(g) for g in groups)
     for c0 in range(0, W, chunk):
         ws = word_starts[c0 : c0 + chunk]
         f0, f1 = int(ws.min()), int(ws.max()) + N
@@ -239,7 +244,8 @@ def nearest_words(
 
 
 def neighbor_words(
-    source_values, context: MotionTexture, members, drop, src_starts, pos, N, M, min_width=_D.min_width, out_rows=None
+    source_values, context: MotionTexture, members, drop, src_starts, pos, N, M, min_width=_D.min_width, out_rows=None,
+    costs=None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Neighbour words time-warped onto their source words' N frames (section 3.2), (P, N, m_g, 4).
 
@@ -252,6 +258,9 @@ def neighbor_words(
     filter ``scipy.signal.resample_poly``, as the paper does. ``out_rows``
     warps other rows of the target along the path found on ``members``
     (sparse reconstruction: matched on a few joints, copied for all).
+    ``costs``: the search's pose distances of the source against the context
+    on ``members`` (float32, source frames x context frames), read instead of
+    computed again.
 
     Returns ``words`` (P, N, len(rows), 4) and ``ok`` (P,) bool (False where
     the target word does not fit its clip or no admissible path exists; those
@@ -270,7 +279,7 @@ def neighbor_words(
     if len(idx) == 0:
         return words, ok
     warped, iend = word_dtw.warp_target_words(
-        source_values, context.values, members, drop, src_starts[idx], pos[idx], N, M, min_width, 3, rows
+        source_values, context.values, members, drop, src_starts[idx], pos[idx], N, M, min_width, 3, rows, costs
     )
     for L in np.unique(iend[(iend >= 0) & (iend + 1 != N)]) + 1:
         sel = np.flatnonzero(iend + 1 == L)
@@ -371,8 +380,13 @@ def mean_motion_texture(
         best = np.min(dists, axis=1, keepdims=True).astype(np.float64)  # inf where a word has none: all pass
         use = (neighbors.pos[gi] >= 0) & near_neighbors(dists, best, neighbor_ratio)
         wi, ki = np.nonzero(use)
+        costs = None
+        if (neighbors.self_costs is not None and context.values is source.values and gi < len(neighbors.self_groups)
+                and np.array_equal(neighbors.self_groups[gi], members)):
+            costs = neighbors.self_costs[gi]
         nws, ok = neighbor_words(
-            source.values, context, members, dropped_terms(members), word_starts[wi], neighbors.pos[gi][wi, ki], N, target_length
+            source.values, context, members, dropped_terms(members), word_starts[wi], neighbors.pos[gi][wi, ki], N, target_length,
+            costs=costs,
         )
         # (W, K, N, m_g, 4) in neighbour order, each word's aligned with its first neighbour, not the
         # source: a broken source joint may sit 90 degrees away in quaternion space, where hemispheres

@@ -911,17 +911,22 @@ def word_distance_pairs(A, B, group, drop, src_starts, tgt_starts, N=15, M=20, m
 
 
 @twin_kernels(_PARALLEL_WARPS)
-def _warp(S, T, members, rows, drop, src, tgt, N, M, min_width, max_run, out, iend):
+def _warp(S, T, members, rows, drop, src, tgt, N, M, min_width, max_run, costs, out, iend):
     P = src.shape[0]
     R = rows.shape[0]
+    given = costs.shape[0] > 0
     for p in prange(P):
         C = np.empty((N, M))
         terms = np.empty(S.shape[1])
         acc = np.empty((N, M, 7))
         ln = np.empty((N, M, 7), dtype=np.int64)
         back = np.zeros((N, M, 7), dtype=np.int8)
-        # rounded as group_pose_distances rounds it, so the path is the one the search saw
-        _cost_block(S, T, members, drop, src[p], tgt[p], terms, C, True)
+        if given:  # the search's own pose distances
+            for i in range(N):
+                for j in range(M):
+                    C[i, j] = costs[src[p] + i, tgt[p] + j]
+        else:  # rounded as group_pose_distances rounds it, so the path is the one the search saw
+            _cost_block(S, T, members, drop, src[p], tgt[p], terms, C, True)
         d, bi, bj = _word_dtw(C, 0, 0, N, M, min_width, max_run, acc, ln, back)
         iend[p] = bi
         if bi < 0:
@@ -947,7 +952,8 @@ def _warp(S, T, members, rows, drop, src, tgt, N, M, min_width, max_run, out, ie
                     out[p, i, r, c] = w[i, r, c] / nrm if nrm > 0.0 else np.nan
 
 
-def warp_target_words(S, T, members, drop, src_starts, tgt_starts, N=15, M=20, min_width=11, max_run=3, rows=None):
+def warp_target_words(S, T, members, drop, src_starts, tgt_starts, N=15, M=20, min_width=11, max_run=3, rows=None,
+                      costs=None):
     """Target words time-warped onto their source words' frames (section 3.2), many pairs in one call.
 
     S : (Fs, m, 4) source texture, T : (Ft, m, 4) target texture
@@ -958,6 +964,10 @@ def warp_target_words(S, T, members, drop, src_starts, tgt_starts, N=15, M=20, m
     ``src_starts[p]`` and the target word at ``tgt_starts[p]`` is found, and
     each matched source frame takes the normalised mean of the target frames
     matched to it, signs aligned with the word's first target frame.
+
+    ``costs``: the pose distances of ``S`` against ``T`` on ``members`` (Fs, Ft), as
+    :func:`group_pose_distances` or :func:`self_pose_distances` computed them for
+    the search; read instead of computed again (the same float32 values).
 
     Returns ``warped`` float64 (P, N, len(rows), 4), valid in frames
     ``0..i_end[p]`` (NaN after), and ``i_end`` int64 (P,) (-1: no admissible path).
@@ -972,8 +982,13 @@ def warp_target_words(S, T, members, drop, src_starts, tgt_starts, N=15, M=20, m
         raise ValueError("src_starts and tgt_starts must have the same length")
     if len(src) and (src.min() < 0 or src.max() + N > S.shape[0] or tgt.min() < 0 or tgt.max() + M > T.shape[0]):
         raise ValueError("a word runs past the end of its texture")
+    if costs is None:
+        costs = np.zeros((0, 0), dtype=np.float32)
+    elif costs.shape != (S.shape[0], T.shape[0]) or costs.dtype != np.float32:
+        raise ValueError(f"costs must be float32 ({S.shape[0]}, {T.shape[0]}), got {costs.dtype} {costs.shape}")
     out = np.full((len(src), N, len(rows), 4), np.nan)
     iend = np.full(len(src), -1, dtype=np.int64)
     if len(src):
-        _warp.pick(len(src))(S, T, members, rows, int(drop), src, tgt, int(N), int(M), int(min_width), int(max_run), out, iend)
+        _warp.pick(len(src))(S, T, members, rows, int(drop), src, tgt, int(N), int(M), int(min_width), int(max_run), costs,
+                             out, iend)
     return out, iend
