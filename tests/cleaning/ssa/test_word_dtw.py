@@ -147,6 +147,25 @@ def test_self_pose_distances_equal_the_full_matrix_bit_for_bit(rng, frames):
         assert got.dtype == np.float32 and np.array_equal(got, want)
 
 
+def test_warps_reading_the_search_costs_equal_warps_computing_them(rng):
+    """The mean texture hands the self-distance matrix to the warps: the same paths and warped words, bit for bit."""
+    T = _walk_texture(160, 1)
+    T[70, 2] = np.nan  # a non-finite frame: impassable either way
+    groups = np.array([[True] * 6, [True, False, True, True, False, False]])
+    D = W.self_pose_distances(T, groups, [3, 1])
+    src, tgt = np.repeat(np.arange(0, 145, 20), 6), np.tile(np.arange(0, 141, 25), 8)
+    for g, drop in ((0, 3), (1, 1)):
+        members = np.flatnonzero(groups[g])
+        want = _both(W.warp_target_words, T, T, members, drop, src, tgt)
+        got = _both(W.warp_target_words, T, T, members, drop, src, tgt, costs=D[g])
+        _assert_same(*want)
+        _assert_same(want[0], got[0])
+        _assert_same(want[1], got[1])
+        assert (want[0][1] == -1).any() and (want[0][1] >= 0).any()
+    with pytest.raises(ValueError, match="costs must be float32"):
+        W.warp_target_words(T, T, members, 1, src, tgt, costs=D[1].astype(np.float64))
+
+
 def test_mean_exceeds_only_when_every_path_mean_does(rng):
     """The knn profile's test before a DTW: True means the word distance is above lam, never a wrong skip."""
     row = np.empty(20)
