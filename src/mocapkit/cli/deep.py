@@ -201,13 +201,13 @@ def train(
     Writes OUT/model.pt (the best epoch on the validation clips) and OUT/checkpoint.pt after every
     epoch; running the same command again resumes. With --folds K, OUT/fold_1 ... OUT/fold_K.
     """
+    kinds = {"denoiser": "ebf", "gapfiller": "ebd"}
+    if what not in kinds:  # before torch is imported: a mistyped command fails at once
+        raise MocapError(f"train: expected denoiser or gapfiller, got {what!r}")
     import numpy as np
 
     from ..cleaning.deep import training
 
-    kinds = {"denoiser": "ebf", "gapfiller": "ebd"}
-    if what not in kinds:
-        raise MocapError(f"train: expected denoiser or gapfiller, got {what!r}")
     # the model folder must not be, or lie inside, a source (a folder of takes, a database); its own files are
     # resumed and replaced (--resume/--restart), so they are not refused for existing
     guard([out / "model.pt", out / "checkpoint.pt"], sources, overwrite=True)
