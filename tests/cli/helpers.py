@@ -14,6 +14,32 @@ WALK = mocapkit.samples.path("12_walk.amc")
 
 
 def run(*args, cwd=None):
+    """Run the command in this process (:func:`mocapkit.cli.main`, what the console script calls): exit status,
+    stdout, stderr.
+
+    The same code path as ``mocapkit ARGS`` after start-up, without a new interpreter importing torch and the
+    kernels for every command (about 3 s each). :func:`run_process` runs the real console entry point where a
+    test needs a process of its own.
+    """
+    import contextlib
+    import io
+    import os
+
+    from mocapkit.cli import main
+
+    out, err = io.StringIO(), io.StringIO()
+    here = os.getcwd()
+    try:
+        if cwd is not None:
+            os.chdir(cwd)
+        with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+            code = main([str(a) for a in args])
+    finally:
+        os.chdir(here)
+    return code, out.getvalue(), err.getvalue()
+
+
+def run_process(*args, cwd=None):
     """Run the console entry point (``python -m mocapkit.cli``) in a subprocess: exit code, stdout, stderr."""
     p = subprocess.run([sys.executable, "-m", "mocapkit.cli", *map(str, args)], capture_output=True, text=True, cwd=cwd)
     return p.returncode, p.stdout, p.stderr

@@ -6,7 +6,7 @@ import numpy as np
 
 import mocapkit
 from mocapkit import corrupt, metrics
-from tests.cli.helpers import one_error_line, run
+from tests.cli.helpers import one_error_line, run, run_process
 from tests.shared import unknown_rig
 
 WALK = mocapkit.samples.path("12_walk.amc")
@@ -115,7 +115,7 @@ def test_denoise_and_fill_commands(tmp_path):
 def test_deep_commands_fail_in_one_line(tmp_path):
     odd = tmp_path / "odd.bvh"
     unknown_rig(odd)
-    code, _, err = run("denoise", str(odd), "-o", str(tmp_path / "x.bvh"), "--no-fallback")
+    code, _, err = run_process("denoise", str(odd), "-o", str(tmp_path / "x.bvh"), "--no-fallback")  # the real entry point
     assert code == 2 and one_error_line(err) and "does not serve this rig" in err and odd.name in err
     assert not (tmp_path / "x.bvh").exists()
     bad = tmp_path / "model.pt"

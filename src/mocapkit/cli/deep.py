@@ -65,7 +65,6 @@ def denoise(
     line (as `clean` does); --no-fallback makes that an error.
     """
     from .. import io
-    from ..cleaning import deep
     from ..io.takes import check_asf, load_motion
     from ..metrics import joint_angle_rms
     from ..reference import joint_angle_errors
@@ -76,6 +75,8 @@ def denoise(
     m = load_motion(inp, asf, purpose="denoise")
     io.check_writable(m, out)
     ref = _reference(reference, m, asf)
+    from ..cleaning import deep  # torch: only once the input is read (a bad file fails at once)
+
     net = _model(model, "ebf")
     _served(inp, m, net, "ebf", no_fallback)
     try:
