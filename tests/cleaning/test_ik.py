@@ -7,7 +7,7 @@ from functools import lru_cache
 
 import numpy as np
 import pytest
-from hypothesis import given, settings
+from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
 import mocapkit
@@ -235,6 +235,7 @@ def test_two_bone_rejects_bad_input():
     scale=st.floats(0.05, 0.5),
     seed=st.integers(0, 2**32 - 1),
 )
+@example(side="l", start=15, scale=0.34375, seed=1010)  # slow: 1.7e-3 from the target after 50 passes, 9.9e-4 after 100
 def test_fabrik_converges_on_spine_to_wrist(side, start, scale, seed):
     m = clip("12_walk.amc")[start : start + 60]
     sk = m.skeleton
@@ -243,7 +244,8 @@ def test_fabrik_converges_on_spine_to_wrist(side, start, scale, seed):
     names = [sk.joint_names[j] for j in js]
     assert names == ["lowerback", "upperback", "thorax"] + [f"{side}{b}" for b in ("clavicle", "humerus", "radius", "wrist")]
     target = perturb(m, js[:-1], scale, seed).global_positions()[:, js[-1]]
-    out = fabrik(m, chain, target, iterations=50, tolerance=1e-3)
+    # the test asks for convergence, not its speed: FABRIK can need more than 50 passes (the example above)
+    out = fabrik(m, chain, target, iterations=200, tolerance=1e-3)
     err = np.linalg.norm(out.global_positions()[:, js[-1]] - target, axis=1)
     assert err.max() <= 1e-3 * (1 + 1e-9)
     np.testing.assert_allclose(bone_lengths(out), bone_lengths(m), rtol=0, atol=1e-9)

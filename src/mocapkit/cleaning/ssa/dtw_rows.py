@@ -43,8 +43,8 @@ ROW_STATES = 4
 def best_state(acc, ln, r, j):
     """The lowest accumulated cost over the 7 states of cell ``(r, j)`` and its path length (1 where all are inf).
 
-    ``acc`` float (R, M, 7), ``ln`` int (R, M, 7): the rows of :func:`word_dtw_rows` or the whole matrix of
-    the full word DTW. Ties keep the lowest state, as every reader of the states does.
+    ``acc`` float (R, M, 7), ``ln`` int (R, M, 7): the tables of the full word DTW (``word_dtw._word_dtw``).
+    Ties keep the lowest state, as every reader of the states does.
     """
     best = _INF
     bl = 1
