@@ -94,8 +94,8 @@ def _robust_sum(terms, members, drop) -> float:
     """Sum of ``terms[members]`` without its ``drop`` (<= 3) largest values.
 
     The sum runs in ``members`` order and the dropped values are subtracted
-    from it afterwards, largest first (the same float for every ``drop``
-    path); dropping none only sums, dropping one tracks only the largest.
+    from it afterwards, largest first; dropping none only sums, dropping one
+    tracks only the largest value.
     """
     s = 0.0
     if drop == 0:
