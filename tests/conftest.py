@@ -5,6 +5,14 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from hypothesis import settings
+
+# Property tests draw the same examples on every run (`make test` is a gate: a run passes or fails for the code, not
+# for the draw); HYPOTHESIS_PROFILE=explore draws new ones, as a search for failing examples (keep any it finds
+# with @example).
+settings.register_profile("gate", derandomize=True)
+settings.register_profile("explore", derandomize=False)
+settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "gate"))
 
 # ../shared/data beside the checkout; $MOCAPKIT_SHARED_DATA for a checkout elsewhere (a git worktree)
 SHARED_DATA = Path(os.environ.get("MOCAPKIT_SHARED_DATA", Path(__file__).resolve().parents[1].parent / "shared" / "data"))
