@@ -2,12 +2,15 @@
 
 from __future__ import annotations
 
+import contextlib
 import hashlib
+import io
 import subprocess
 import sys
 from pathlib import Path
 
 import mocapkit
+from mocapkit.cli import main
 
 SAMPLE = str(mocapkit.samples.path("131_01.bvh"))
 WALK = mocapkit.samples.path("12_walk.amc")
@@ -21,21 +24,10 @@ def run(*args, cwd=None):
     kernels for every command (about 3 s each). :func:`run_process` runs the real console entry point where a
     test needs a process of its own.
     """
-    import contextlib
-    import io
-    import os
-
-    from mocapkit.cli import main
-
     out, err = io.StringIO(), io.StringIO()
-    here = os.getcwd()
-    try:
-        if cwd is not None:
-            os.chdir(cwd)
-        with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
-            code = main([str(a) for a in args])
-    finally:
-        os.chdir(here)
+    where = contextlib.chdir(cwd) if cwd is not None else contextlib.nullcontext()
+    with where, contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+        code = main([str(a) for a in args])
     return code, out.getvalue(), err.getvalue()
 
 
