@@ -24,10 +24,10 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["warm_up"]
+__all__ = ["warm_up", "broken_walk"]
 
 
-def _broken_walk():
+def broken_walk():
     """The bundled walk with gaps, capture errors and noise on two joints (a Motion with every defect ``clean`` treats)."""
     import dataclasses
 
@@ -66,7 +66,7 @@ def warm_up() -> dict:
     from .context import fit_context, resolve_context
 
     t = time.perf_counter()
-    take = _broken_walk()
+    take = broken_walk()
     context, _ = fit_context(take, resolve_context(None))  # what `mocapkit clean` compares with by default
     result = clean(take, context)
     clean(take, steps="fill,detect,repair")  # the clip alone (context "none"): other kernels

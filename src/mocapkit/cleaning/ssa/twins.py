@@ -31,14 +31,13 @@ take, and the tests to compare the two.
 
 from __future__ import annotations
 
-import os
 import threading
 import types
 from contextlib import contextmanager
 
 from numba import njit
 
-__all__ = ["Twins", "twin_kernels", "forced", "PARALLEL_SUFFIX", "COLD_FACTOR"]
+__all__ = ["Twins", "twin_kernels", "forced", "on_disk", "PARALLEL_SUFFIX", "COLD_FACTOR"]
 
 PARALLEL_SUFFIX = "__parallel"
 # A parallel twin not yet compiled runs only from COLD_FACTOR x its threshold: the thresholds sit near
@@ -60,18 +59,9 @@ class Twins:
         self._ready = False
 
     def parallel_ready(self) -> bool:
-        """Whether the parallel twin runs without compiling: compiled in this process, or in numba's disk cache.
-
-        The cache is read through numba's cache object of the dispatcher (its
-        index file, one per function, lists the compiled signatures); where
-        that object is not there (caching off, another numba) the twin counts
-        as ready, as it did before this check.
-        """
-        if self._ready or self.parallel.overloads:
-            self._ready = True
-            return True
-        index = getattr(getattr(getattr(self.parallel, "_cache", None), "_cache_file", None), "_index_path", None)
-        if index is None or os.path.exists(index):
+        """Whether the parallel twin runs without compiling: compiled in this process, or in numba's disk cache
+        (:func:`on_disk`; where that cannot be told the twin counts as ready)."""
+        if self._ready or self.parallel.overloads or on_disk(self.parallel) is not False:
             self._ready = True
         return self._ready
 
@@ -97,6 +87,24 @@ class Twins:
 
     def __repr__(self) -> str:
         return f"<Twins {self.__name__} parallel from size {self.threshold}>"
+
+
+def on_disk(dispatcher) -> bool | None:
+    """Whether numba's disk cache holds machine code of ``dispatcher`` (a numba dispatcher) for the current source.
+
+    Read from the dispatcher's cache index (one file per function, listing the
+    compiled signatures, void when the source changed since): True when it
+    lists one, False when it is missing, stale or empty, None where numba's
+    cache object is not there to ask (caching off, another numba).
+    """
+    cache_file = getattr(getattr(dispatcher, "_cache", None), "_cache_file", None)
+    load_index = getattr(cache_file, "_load_index", None)
+    if load_index is None:
+        return None
+    try:
+        return bool(load_index())
+    except Exception:  # an unreadable index: numba compiles again, as for a missing one
+        return False
 
 
 def twin_kernels(threshold: int, **options):
