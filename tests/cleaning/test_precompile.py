@@ -7,6 +7,8 @@ import os
 import subprocess
 import sys
 
+import pytest
+
 from mocapkit.cleaning import precompile
 from mocapkit.cleaning.ssa.twins import on_disk
 
@@ -61,6 +63,14 @@ def test_the_helper_is_needed_only_with_a_cold_cache_and_when_not_switched_off(m
     assert precompile.needed() == (len(os.sched_getaffinity(0)) >= 2)  # one core: nothing to run it beside
     monkeypatch.setenv("MOCAPKIT_PRECOMPILE", "0")
     assert not precompile.needed()
+
+
+def test_kernels_for_names_what_the_steps_call_in_the_helpers_order():
+    assert precompile.kernels_for(["fill", "detect"]) == ("knn_callees", "row_minima", "shift_angles")
+    assert precompile.kernels_for(["detect", "repair", "denoise"]) == precompile.KERNELS
+    assert precompile.kernels_for(["denoise"]) == ("risk_terms",)
+    with pytest.raises(ValueError, match="unknown kernels"):
+        precompile.start(["warp", "everything"])
 
 
 def test_compile_kernels_stops_when_asked():

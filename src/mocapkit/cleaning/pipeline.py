@@ -594,8 +594,8 @@ def clean(
 
     _check(motion)
     steps = parse_steps(steps)
-    if "detect" in steps:
-        precompile.start()  # with an empty numba cache, later steps' kernels compile beside the first steps
+    if "detect" in steps:  # with an empty numba cache, later steps' kernels compile beside the first steps
+        precompile.start(precompile.kernels_for(steps))
     params = ssa.SSAParams(max_word_angle_deg=max_word_angle_deg, drift=bool(drifts))
     models = _models(models)
     if not 0.0 < threshold < 1.0:

@@ -18,8 +18,10 @@ argument types, so the results are the same bit for bit. numba's cache is
 made to be shared by processes (files are written whole under a temporary
 name and renamed into place).
 
-The helper starts only where it can help: ``clean`` is asked to detect, the
-word-DTW row kernel has no machine code for the current source in the cache
+The helper compiles only the kernels of the steps asked for
+(:func:`kernels_for`; ``mocapkit detect`` starts it for detection's). It
+starts only where it can help: the word-DTW row kernel has no machine code
+for the current source in the cache
 (:func:`mocapkit.cleaning.ssa.twins.on_disk`), the process was not itself
 started by :mod:`multiprocessing` (a worker of ``clean-batch`` or of a Dask
 cluster: the other workers keep the cores busy), at least two cores are
@@ -31,8 +33,8 @@ has ended.
 The kernels are compiled through their public wrappers on tiny inputs (which
 fix the argument types as ``clean``'s calls do) or, for kernels only other
 kernels call, with the argument types those calls pass. A test checks that a
-``clean`` of the bundled take after :func:`compile_kernels` compiles none of
-these kernels again.
+``clean`` of the bundled take after the helper ran compiles none of these
+kernels again.
 """
 
 from __future__ import annotations
@@ -45,11 +47,13 @@ from collections.abc import Callable
 
 import numpy as np
 
-__all__ = ["compile_kernels", "needed", "start", "KERNELS"]
+__all__ = ["compile_kernels", "kernels_for", "needed", "start", "KERNELS"]
 
 # About in the order clean first calls them on a take; the kNN search's callees come first, as clean compiles
 # the row minima (0.5 s) before the helper has started, and the callees a second or two later.
 KERNELS = ("knn_callees", "row_minima", "shift_angles", "warp", "robust_means", "risk_terms")
+_STEP = {"knn_callees": "detect", "row_minima": "detect", "shift_angles": "detect", "warp": "repair",
+         "robust_means": "repair", "risk_terms": "denoise"}
 _started: list = []  # the helper this process started (kept so that it is not garbage-collected while it runs)
 
 
@@ -114,6 +118,11 @@ _COMPILE: dict[str, Callable[[], None]] = {
 }
 
 
+def kernels_for(steps) -> tuple[str, ...]:
+    """The names of :data:`KERNELS` that ``steps`` (clean's step names: "detect", "repair", "denoise") call."""
+    return tuple(name for name in KERNELS if _STEP[name] in steps)
+
+
 def compile_kernels(names=KERNELS, stop: Callable[[], bool] = lambda: False) -> list[str]:
     """Compile (or load from numba's disk cache) the kernels ``names`` (of :data:`KERNELS`), in that order.
 
@@ -145,29 +154,34 @@ def needed() -> bool:
             and multiprocessing.parent_process() is None and _cores() >= 2 and on_disk(word_dtw_rows) is False)
 
 
-def start() -> subprocess.Popen | None:
-    """Launch the helper process when :func:`needed`; returns it, or None when it was not needed.
+def start(names=KERNELS) -> subprocess.Popen | None:
+    """Launch the helper process to compile ``names`` (of :data:`KERNELS`) when :func:`needed`; returns it, or None
+    when it was not needed.
 
     The helper inherits the environment (``NUMBA_CACHE_DIR`` included, so
     both processes use one cache), imports this copy of mocapkit (its folder
     first on ``PYTHONPATH``) and is told this process's id, to stop once it
     has ended.
     """
+    unknown = set(names) - set(KERNELS)
+    if unknown:
+        raise ValueError(f"unknown kernels {sorted(unknown)}; expected some of {KERNELS}")
     if not needed():
         return None
     here = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))  # the folder holding mocapkit
     env = {**os.environ, "PYTHONPATH": os.pathsep.join(filter(None, [here, os.environ.get("PYTHONPATH")]))}
-    helper = subprocess.Popen([sys.executable, "-m", __name__, str(os.getpid())], env=env, stdin=subprocess.DEVNULL,
+    helper = subprocess.Popen([sys.executable, "-m", __name__, str(os.getpid()), *names], env=env, stdin=subprocess.DEVNULL,
                               stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True)
     _started.append(helper)
     return helper
 
 
 def main(argv=None) -> int:
-    """``python -m mocapkit.cleaning.precompile [PARENT_PID]``: compile :data:`KERNELS`, stopping if PARENT_PID ends."""
+    """``python -m mocapkit.cleaning.precompile [PARENT_PID [NAME ...]]``: compile the kernels NAME (default
+    :data:`KERNELS`), stopping once the process PARENT_PID is no longer this one's parent."""
     argv = sys.argv[1:] if argv is None else argv
     parent = int(argv[0]) if argv else None
-    compile_kernels(stop=lambda: parent is not None and os.getppid() != parent)
+    compile_kernels(argv[1:] or KERNELS, stop=lambda: parent is not None and os.getppid() != parent)
     return 0
 
 

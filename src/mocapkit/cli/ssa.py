@@ -45,6 +45,7 @@ def detect(
     import json
 
     from ..batch import load_context
+    from ..cleaning import precompile
     from ..context import context_label, fit_context
     from ..io.outputs import removed_on_failure
     from ..io.takes import check_asf, load_motion
@@ -56,6 +57,7 @@ def detect(
     if png is not None and png.suffix.lower() != ".png":
         raise MocapFormatError(png, "the map is written as .png")
     m = load_motion(inp, asf, purpose="detect")
+    precompile.start(precompile.kernels_for(["detect"]))  # with an empty numba cache: beside the context's loading
     ctx, note = fit_context(m, load_context(context, progress=not as_json))
     det = _detect(m, ctx, threshold, progress=not as_json, confirm=confirm, jump_deg=jump_deg, drifts=drifts)
     with removed_on_failure([out, png]):
