@@ -170,8 +170,9 @@ def start(names=KERNELS) -> subprocess.Popen | None:
         return None
     here = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))  # the folder holding mocapkit
     env = {**os.environ, "PYTHONPATH": os.pathsep.join(filter(None, [here, os.environ.get("PYTHONPATH")]))}
-    helper = subprocess.Popen([sys.executable, "-m", __name__, str(os.getpid()), *names], env=env, stdin=subprocess.DEVNULL,
-                              stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True)
+    helper = subprocess.Popen([sys.executable, "-m", __name__, str(os.getpid()), *names], env=env,
+                              stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+                              start_new_session=True)
     _started.append(helper)
     return helper
 
