@@ -10,8 +10,8 @@ imports, compiling or loading the numba kernels, cleaning, writing):
 Runs alternate cold and warm (``--runs`` each); the figures are medians of wall-clock seconds, with
 the CPU seconds of the same processes beside them (wall time on a shared machine grows with its
 load, reported per run). A cold clean starts a helper process that compiles later steps' kernels on
-a second core (:mod:`mocapkit.cleaning.precompile`); its CPU seconds are not in ``cpu_s``, which
-counts the clean's process. ``--baseline-src DIR`` times another source tree (e.g. an earlier
+a second core (:mod:`mocapkit.cleaning.precompile`); the clean waits for it at exit, so its CPU
+seconds count in ``cpu_s``: a cold run's CPU exceeds its wall time. ``--baseline-src DIR`` times another source tree (e.g. an earlier
 commit's ``src``: ``git archive COMMIT src | tar -x -C /tmp/base``) in the same runs, alternately,
 as the baseline. Targets: cold <= 15 s, warm <= 3 s.
 

@@ -42,6 +42,21 @@ def small_db():
 
 
 @pytest.fixture(scope="session", autouse=True)
+def no_precompile_helper():
+    """No clean in the tests starts numba's compile helper (mocapkit.cleaning.precompile) behind their back, as it
+    would after an edit of a kernel's source; tests/cleaning/test_precompile.py turns it on where it tests it."""
+    import os
+
+    old = os.environ.get("MOCAPKIT_PRECOMPILE")
+    os.environ["MOCAPKIT_PRECOMPILE"] = "0"
+    yield
+    if old is None:
+        os.environ.pop("MOCAPKIT_PRECOMPILE", None)
+    else:
+        os.environ["MOCAPKIT_PRECOMPILE"] = old
+
+
+@pytest.fixture(scope="session", autouse=True)
 def context_cache(tmp_path_factory):
     """Contexts built from folders or files are cached here, never in the user's ``~/.cache`` (mocapkit.context)."""
     import os

@@ -91,7 +91,7 @@ def test_the_helper_fills_an_empty_cache_with_what_clean_then_loads(tmp_path):
     process then finds them there (and would not start it again), and a clean of the bundled walk with every defect
     (fill, detect, repair and denoise all change cells), the helper switched off, loads them: numba saves none of
     them again, so the helper compiled each with the argument types clean calls it with."""
-    env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path / "cache")}
+    env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path / "cache"), "MOCAPKIT_PRECOMPILE": "1"}
     code = ("from mocapkit.cleaning import precompile\n"
             "assert precompile.needed()\n"
             "p = precompile.start()\n"
@@ -108,3 +108,12 @@ def test_the_helper_fills_an_empty_cache_with_what_clean_then_loads(tmp_path):
     out = subprocess.run([sys.executable, "-c", _CLEAN], env=env, check=True, capture_output=True, text=True)
     saved = {line.rsplit("/", 1)[1].split("-")[0] for line in out.stdout.splitlines() if "data saved" in line}
     assert saved and not saved & helper, saved & helper  # clean compiled the rest (the kNN search itself), not these
+
+
+def test_the_helper_does_not_outlive_the_command(tmp_path):
+    """A process that started the helper and exits at once (the helper still importing or compiling) stops it."""
+    env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path / "cache"), "MOCAPKIT_PRECOMPILE": "1"}
+    code = "from mocapkit.cleaning import precompile\nprint(precompile.start().pid)\n"
+    out = subprocess.run([sys.executable, "-c", code], env=env, check=True, capture_output=True, text=True)
+    with pytest.raises(ProcessLookupError):
+        os.kill(int(out.stdout.split()[-1]), 0)

@@ -25,10 +25,14 @@ for the current source in the cache
 (:func:`mocapkit.cleaning.ssa.twins.on_disk`), the process was not itself
 started by :mod:`multiprocessing` (a worker of ``clean-batch`` or of a Dask
 cluster: the other workers keep the cores busy), at least two cores are
-available, and ``MOCAPKIT_PRECOMPILE`` is not ``0``. It runs in its own
-session with no terminal input or output, writes nothing but numba's cache,
-and stops after the kernel it is compiling once the process that started it
-has ended.
+available, and ``MOCAPKIT_PRECOMPILE`` is not ``0``. It has no terminal
+input or output and writes nothing but numba's cache. It never outlives the
+command: when the process that started it exits with the helper still
+compiling (a kernel ``clean`` did not need, or a run cut short), the helper
+is stopped (a file numba was writing is left under a temporary name, never
+half-written under its own); it shares the command's process group, so an
+interrupt from the terminal stops both; and if the command is killed, the
+helper stops after the kernel it is compiling.
 
 The kernels are compiled through their public wrappers on tiny inputs (which
 fix the argument types as ``clean``'s calls do) or, for kernels only other
@@ -39,6 +43,7 @@ kernels again.
 
 from __future__ import annotations
 
+import atexit
 import multiprocessing
 import os
 import subprocess
@@ -161,7 +166,7 @@ def start(names=KERNELS) -> subprocess.Popen | None:
     The helper inherits the environment (``NUMBA_CACHE_DIR`` included, so
     both processes use one cache), imports this copy of mocapkit (its folder
     first on ``PYTHONPATH``) and is told this process's id, to stop once it
-    has ended.
+    has ended; this process stops it at exit if it is still running.
     """
     unknown = set(names) - set(KERNELS)
     if unknown:
@@ -171,10 +176,21 @@ def start(names=KERNELS) -> subprocess.Popen | None:
     here = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))  # the folder holding mocapkit
     env = {**os.environ, "PYTHONPATH": os.pathsep.join(filter(None, [here, os.environ.get("PYTHONPATH")]))}
     helper = subprocess.Popen([sys.executable, "-m", __name__, str(os.getpid()), *names], env=env,
-                              stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
-                              start_new_session=True)
+                              stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     _started.append(helper)
+    atexit.register(_stop, helper)
     return helper
+
+
+def _stop(helper: subprocess.Popen) -> None:
+    """At exit: end the helper if it is still compiling (module docstring)."""
+    if helper.poll() is None:
+        helper.terminate()
+        try:
+            helper.wait(timeout=2.0)
+        except subprocess.TimeoutExpired:
+            helper.kill()
+            helper.wait()
 
 
 def main(argv=None) -> int:
