@@ -11,9 +11,9 @@ Runs alternate cold and warm (``--runs`` each); the figures are medians of wall-
 the CPU seconds of the same processes beside them (wall time on a shared machine grows with its
 load, reported per run). A cold clean starts a helper process that compiles later steps' kernels on
 a second core (:mod:`mocapkit.cleaning.precompile`); the clean waits for it at exit, so its CPU
-seconds count in ``cpu_s``: a cold run's CPU exceeds its wall time. ``--baseline-src DIR`` times another source tree (e.g. an earlier
-commit's ``src``: ``git archive COMMIT src | tar -x -C /tmp/base``) in the same runs, alternately,
-as the baseline. Targets: cold <= 15 s, warm <= 3 s.
+seconds count in ``cpu_s``: a cold run's CPU exceeds its wall time. ``--baseline-src DIR`` times
+another source tree (e.g. an earlier commit's ``src``: ``git archive COMMIT src | tar -x -C
+/tmp/base``) in the same runs, alternately, as the baseline. Targets: cold <= 15 s, warm <= 3 s.
 
     python benchmarks/first_run.py --json [--runs 3] [--baseline-src /path/to/old/src]
 """
