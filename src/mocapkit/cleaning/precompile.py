@@ -26,13 +26,13 @@ for the current source in the cache
 started by :mod:`multiprocessing` (a worker of ``clean-batch`` or of a Dask
 cluster: the other workers keep the cores busy), at least two cores are
 available, and ``MOCAPKIT_PRECOMPILE`` is not ``0``. It has no terminal
-input or output and writes nothing but numba's cache. It never outlives the
-command: when the process that started it exits with the helper still
+input or output and writes nothing but numba's cache. It does not outlive
+the command: when the process that started it exits with the helper still
 compiling (a kernel ``clean`` did not need, or a run cut short), the helper
 is stopped (a file numba was writing is left under a temporary name, never
-half-written under its own); it shares the command's process group, so an
-interrupt from the terminal stops both; and if the command is killed, the
-helper stops after the kernel it is compiling.
+half-written under its own), and it shares the command's process group, so
+an interrupt from the terminal stops both; only a command killed outright
+leaves it running, to the end of the kernel it is compiling.
 
 The kernels are compiled through their public wrappers on tiny inputs (which
 fix the argument types as ``clean``'s calls do) or, for kernels only other
