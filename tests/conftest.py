@@ -45,27 +45,15 @@ def small_db():
 def no_precompile_helper():
     """No clean in the tests starts numba's compile helper (mocapkit.cleaning.precompile) behind their back, as it
     would after an edit of a kernel's source; tests/cleaning/test_precompile.py turns it on where it tests it."""
-    import os
-
-    old = os.environ.get("MOCAPKIT_PRECOMPILE")
-    os.environ["MOCAPKIT_PRECOMPILE"] = "0"
-    yield
-    if old is None:
-        os.environ.pop("MOCAPKIT_PRECOMPILE", None)
-    else:
-        os.environ["MOCAPKIT_PRECOMPILE"] = old
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setenv("MOCAPKIT_PRECOMPILE", "0")
+        yield
 
 
 @pytest.fixture(scope="session", autouse=True)
 def context_cache(tmp_path_factory):
     """Contexts built from folders or files are cached here, never in the user's ``~/.cache`` (mocapkit.context)."""
-    import os
-
     path = tmp_path_factory.mktemp("mocapkit-cache")
-    old = os.environ.get("MOCAPKIT_CACHE_DIR")
-    os.environ["MOCAPKIT_CACHE_DIR"] = str(path)
-    yield path
-    if old is None:
-        os.environ.pop("MOCAPKIT_CACHE_DIR", None)
-    else:
-        os.environ["MOCAPKIT_CACHE_DIR"] = old
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setenv("MOCAPKIT_CACHE_DIR", str(path))
+        yield path

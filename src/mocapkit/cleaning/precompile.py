@@ -52,6 +52,8 @@ from collections.abc import Callable
 
 import numpy as np
 
+from ..rotations import identity
+
 __all__ = ["compile_kernels", "kernels_for", "needed", "start", "KERNELS"]
 
 # About in the order clean first calls them on a take; the kNN search's callees come first, as clean compiles
@@ -82,16 +84,10 @@ def _knn_callees() -> None:
                            i8[::1]))
 
 
-def _unit_quaternions(shape) -> np.ndarray:
-    q = np.zeros(shape + (4,))
-    q[..., 0] = 1.0
-    return q
-
-
 def _warp() -> None:
     from .ssa.word_dtw import warp_target_words
 
-    S = _unit_quaternions((20, 2))
+    S = identity((20, 2))
     members = np.arange(2)
     warp_target_words(S, S, members, 0, [0], [0], costs=np.zeros((20, 20), dtype=np.float32))
 
@@ -99,13 +95,13 @@ def _warp() -> None:
 def _robust_means() -> None:
     from .ssa.word_means import robust_word_means
 
-    robust_word_means(_unit_quaternions((1, 2, 15, 2)), np.ones((1, 2), dtype=bool), 0.1)
+    robust_word_means(identity((1, 2, 15, 2)), np.ones((1, 2), dtype=bool), 0.1)
 
 
 def _shift_angles() -> None:
     from .ssa.word_means import shift_tolerant_angles
 
-    q = _unit_quaternions((4, 2))
+    q = identity((4, 2))
     shift_tolerant_angles(q, q, 1)
 
 
