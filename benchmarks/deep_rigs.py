@@ -32,6 +32,8 @@ the baseline, same run), 0.5 noise on the rig's own channels, ``--seeds`` draws:
   model's means; the spine's lower two segments read as one), the noise on the joints a Mixamo rig
   has, against the same noisy take through the MotionBuilder-release map (the ratio to that, target
   <= 1.1) and the fallback (in ``details``);
+* ``retarget_smpl``: CMU 01_01's BVH on SMPL's rig (``tests/shared.smpl_spelling``: 24 joints named ``Pelvis``,
+  ``L_Hip`` ..., no hip bones, upper neck, fingers or thumbs; the dropped joints' turns joined to their children's);
 * ``retarget_pybvh``: another project's clip (VictorS-67/pybvh, HumanIK names, Z up: its body frame
   turned; no hands below the wrist), 30 fps;
 * ``retarget_biovision``: another project's take (20tab/bvh-python ``test_mocapbank.bvh``, 455 frames at
@@ -39,7 +41,10 @@ the baseline, same run), 0.5 noise on the rig's own channels, ``--seeds`` draws:
   neck share the turns of the segments below them);
 * ``retarget_bandai``: Bandai Namco takes through the Acclaim networks' joint map (``--model
   ebf.pt``; body frame turned, 27 bones retargeted, 8 joints held), beside the rig's own EBF
-  (``details``), every 400th take of the set when it is unpacked (``benchmarks/_bandai.py``).
+  (``details``), every 400th take of the set when it is unpacked (``benchmarks/_bandai.py``);
+  ``retarget_unreal`` the same takes under Unreal Engine mannequin names (``root``, ``pelvis``, ``spine_01``,
+  ``thigh_l`` ...; ``tests/shared.unreal_spelling``), which get the Acclaim networks by default (the Bandai rig's
+  own model, CC BY-NC, serves that rig's own names only).
 
 ``details.rigs`` lists the decision of ``served_by`` for every BVH and ASF rig in ``../shared/data``.
 """
@@ -56,6 +61,7 @@ import numpy as np
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO / "src"))
 sys.path.insert(0, str(REPO / "benchmarks"))
+sys.path.insert(0, str(REPO))
 
 import _harness as harness  # noqa: E402
 
@@ -67,6 +73,7 @@ from mocapkit.cleaning.deep import channels as ch  # noqa: E402
 from mocapkit.cleaning.deep import retarget  # noqa: E402
 from mocapkit.cleaning.filters import savgol_smooth  # noqa: E402
 from mocapkit.motion import Motion  # noqa: E402
+from tests.shared import smpl_spelling, unreal_spelling  # noqa: E402
 
 DATA = REPO.parent / "shared" / "data"
 
@@ -118,6 +125,8 @@ def retargeted(ebf, seeds: int) -> tuple[dict, dict, dict]:
     for seed in range(seeds):
         noisy, _ = corrupt.angular_noise(mix, 0.5, seed=seed, joints=names)
         add("retarget_mixamo_mb", rms(bvh, deep.denoise(dataclasses.replace(noisy, skeleton=bvh.skeleton))))
+    smpl = smpl_spelling(bvh)
+    versus_fallback("retarget_smpl", smpl)
     versus_fallback("retarget_pybvh", mocapkit.load(REPO / "tests" / "data" / "pybvh_test1_zup.bvh"))
     versus_fallback("retarget_biovision", mocapkit.load(DATA / "peer_files" / "20tab+bvh-python" / "tests" /
                                                         "test_mocapbank.bvh"))
@@ -132,17 +141,22 @@ def retargeted(ebf, seeds: int) -> tuple[dict, dict, dict]:
         for seed in range(seeds):
             noisy, _ = corrupt.angular_noise(take, 0.5, seed=seed)
             add("retarget_bandai_own", rms(take, deep.denoise(noisy)))
+        versus_fallback("retarget_unreal", unreal_spelling(take))
     mean = {k: float(np.mean(v)) for k, v in rows.items()}
     names = ["retarget_3dsmax_body", "retarget_3dsmax_thumbs", "retarget_mixamo", "retarget_pybvh", "retarget_biovision"]
-    names += ["retarget_bandai"] if bandai else []
+    names.insert(3, "retarget_smpl")
+    names += ["retarget_bandai", "retarget_unreal"] if bandai else []
     figures = {n: mean[n] for n in names}
     baselines = {n: mean[f"{n}_fallback"] for n in names}
     baselines["retarget_mixamo"] = mean["retarget_mixamo_mb"]
     details = {"retarget_means": mean, "retarget_takes": {
-        "3dsmax": [t.name for t in three], "mixamo": "CMU 01_01 (BVH) renamed", "pybvh": "pybvh_test1_zup",
-        "bandai": [t.name for t in bandai]},
+        "3dsmax": [t.name for t in three], "mixamo": "CMU 01_01 (BVH) renamed",
+        "smpl": "CMU 01_01 (BVH) on SMPL's 24 joints and names", "pybvh": "pybvh_test1_zup",
+        "bandai": [t.name for t in bandai], "unreal": "the Bandai takes under Unreal mannequin names"},
         "retarget_serving": {"3dsmax": deep.served_by(three[0], ebf).describe(),
                              "mixamo": deep.served_by(mix, ebf).describe(),
+                             "smpl": deep.served_by(smpl, ebf).describe(),
+                             "unreal": deep.served_by(unreal_spelling(bandai[0]), ebf).describe() if bandai else None,
                              "bandai": deep.served_by(bandai[0], ebf).describe() if bandai else None}}
     return figures, baselines, details
 

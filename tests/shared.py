@@ -33,3 +33,87 @@ def unknown_rig(path: Path):
     take = dataclasses.replace(take, skeleton=odd)
     mocapkit.save(take, path)
     return mocapkit.load(path)
+
+
+def respelled(motion, names: dict, drop=()):
+    """``motion`` on a rig that names its joints ``names[old]`` (unlisted ones keep theirs) and lacks the joints
+    ``drop``: each dropped joint's rotation joins its children's (``L_dropped L_child``) and its rest offset theirs;
+    a dropped leaf becomes an end site of its parent. The result is a take on that rig in its own right (a
+    dropped joint that moved changes where its children are), which is what rig tests need: real motion under
+    another family's names and topology. Rest rotations are the identity (BVH), and no joint but the root may
+    carry animated translations where joints are dropped."""
+    import numpy as np
+
+    from mocapkit import rotations as R
+    from mocapkit.motion import Motion, Skeleton
+
+    sk = motion.skeleton
+    drop = {sk.index(n) for n in drop}
+    if drop and motion.translations is not None:
+        raise ValueError("respelled: cannot drop joints of a take with animated translations")
+    keep = [j for j in range(sk.num_joints) if j not in drop]
+    new = {j: k for k, j in enumerate(keep)}
+    rot = np.array(motion.rotations)
+    parents, offsets = [], []
+    for j in keep:
+        p, off, q = int(sk.parents[j]), np.array(sk.offsets[j], dtype=np.float64), rot[:, j]
+        while p in drop:
+            off = off + sk.offsets[p]
+            q = R.quaternion_multiply(rot[:, p], q)
+            p = int(sk.parents[p])
+        rot[:, j] = q
+        parents.append(new[p] if p >= 0 else -1)
+        offsets.append(off)
+    ends, end_offsets = [], []
+    for e, p in enumerate(sk.end_site_parents):
+        off, p = np.array(sk.end_site_offsets[e], dtype=np.float64), int(p)
+        while p in drop:
+            off, p = off + sk.offsets[p], int(sk.parents[p])
+        if p not in ends:
+            ends.append(p)
+            end_offsets.append(off)
+    for j in sorted(drop):  # a dropped leaf (and its end sites) becomes one end site of its kept parent
+        p = int(sk.parents[j])
+        if not sk.children(j) and p not in drop and p not in ends:
+            ends.append(p)
+            end_offsets.append(np.array(sk.offsets[j], dtype=np.float64))
+    channels = tuple(sk.channels[j] for j in keep) if sk.channels is not None else None
+    rig = Skeleton(tuple(names.get(sk.joint_names[j], sk.joint_names[j]) for j in keep), np.array(parents),
+                   np.array(offsets), np.array([new[p] for p in ends], dtype=np.int64),
+                   np.array(end_offsets).reshape(-1, 3), channels=channels)
+    tr = motion.translations[:, keep] if motion.translations is not None else None
+    return Motion(rig, rot[:, keep], motion.root_positions, motion.fps, motion.name, tr)
+
+
+def _sides(pairs: dict, left: str, right: str) -> dict:
+    out = {}
+    for old, new in pairs.items():
+        out[old.format(s="Left", c="L")] = new.format(s=left)
+        out[old.format(s="Right", c="R")] = new.format(s=right)
+    return out
+
+
+def smpl_spelling(motion):
+    """A CMU MotionBuilder-release BVH take (``Hips``, ``LHipJoint``, ``LeftUpLeg`` ...) on SMPL's rig and names:
+    ``Pelvis``, ``Spine1-3``, ``Neck``, ``Head``, ``L_Hip``, ``L_Knee``, ``L_Ankle``, ``L_Foot``, ``L_Collar``,
+    ``L_Shoulder``, ``L_Elbow``, ``L_Wrist``, ``L_Hand`` (24 joints): the hip bones, the upper neck, the fingers and
+    the thumbs dropped (:func:`respelled`)."""
+    names = {"Hips": "Pelvis", "LowerBack": "Spine1", "Spine": "Spine2", "Spine1": "Spine3"}
+    names |= _sides({"{s}UpLeg": "{s}_Hip", "{s}Leg": "{s}_Knee", "{s}Foot": "{s}_Ankle", "{s}ToeBase": "{s}_Foot",
+                     "{s}Shoulder": "{s}_Collar", "{s}Arm": "{s}_Shoulder", "{s}ForeArm": "{s}_Elbow",
+                     "{s}Hand": "{s}_Wrist", "{s}FingerBase": "{s}_Hand"}, "L", "R")
+    return respelled(motion, names, drop=("LHipJoint", "RHipJoint", "Neck1", "LFingers", "LThumb", "RFingers",
+                                          "RThumb"))
+
+
+def unreal_spelling(motion):
+    """A Bandai Namco take (``joint_Root``, ``Hips``, ``Spine``, ``Chest`` ...) under Unreal Engine mannequin names:
+    ``root``, ``pelvis``, ``spine_01``, ``spine_03`` (no ``spine_02``), ``neck_01``, ``head``, ``clavicle_l``,
+    ``upperarm_l``, ``lowerarm_l``, ``hand_l``, ``thigh_l``, ``calf_l``, ``foot_l``, ``ball_l``; the same rig."""
+    names = {"joint_Root": "root", "Hips": "pelvis", "Spine": "spine_01", "Chest": "spine_03", "Neck": "neck_01",
+             "Head": "head"}
+    for a, b in (("L", "l"), ("R", "r")):
+        names |= {f"Shoulder_{a}": f"clavicle_{b}", f"UpperArm_{a}": f"upperarm_{b}", f"LowerArm_{a}": f"lowerarm_{b}",
+                  f"Hand_{a}": f"hand_{b}", f"UpperLeg_{a}": f"thigh_{b}", f"LowerLeg_{a}": f"calf_{b}",
+                  f"Foot_{a}": f"foot_{b}", f"Toes_{a}": f"ball_{b}"}
+    return respelled(motion, names)

@@ -1,4 +1,5 @@
 import dataclasses
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -14,6 +15,7 @@ from mocapkit.motion import (
     Skeleton,
     concatenate,
     find_joint,
+    joint_sides,
     mirror_mismatch,
     mirror_pairs,
     standard_joints,
@@ -295,6 +297,29 @@ def test_find_joint_on_cmu_hdm05_and_bvh_rigs():
     assert names("left_shoulder") == "UpperArm_L" and names("lower_back") == "Spine"
     with pytest.raises(KeyError, match="unknown role"):
         find_joint(bandai, "tail")
+
+
+def test_find_joint_on_smpl_and_unreal_rigs():
+    """SMPL's ``L_Hip`` (side prefix with an underscore) and Unreal's ``calf_l``, ``ball_l``, ``spine_03``: every role of
+    Krüger's F39 features found, each on the joint of that body part."""
+    from mocapkit.features import FEATURE_SETS
+    from tests.cleaning.test_retarget import motionbuilder_spelling
+    from tests.shared import smpl_spelling, unreal_spelling
+
+    smpl = smpl_spelling(motionbuilder_spelling(mocapkit.load(mocapkit.samples.path("12_walk.amc")))).skeleton
+    got = {r: smpl.joint_names[j] for r, j in standard_joints(smpl, FEATURE_SETS["F39"]).items()}
+    assert got == {"left_hand": "L_Wrist", "right_hand": "R_Wrist", "left_foot": "L_Ankle", "right_foot": "R_Ankle",
+                   "head": "Head", "left_elbow": "L_Elbow", "right_elbow": "R_Elbow", "left_knee": "L_Knee",
+                   "right_knee": "R_Knee", "chest": "Spine3", "left_shoulder": "L_Shoulder",
+                   "right_shoulder": "R_Shoulder", "lower_back": "Spine1"}
+    assert smpl.joint_names[find_joint(smpl, "left_toe")] == "L_Foot"  # the toes below the ankle
+    assert joint_sides(["L_Hip", "R_Hip", "Spine1"]) == ["left", "right", None]
+    bandai = mocapkit.load(Path(__file__).parent / "data" / "dataset-1_dash_normal_001.bvh")
+    unreal = unreal_spelling(bandai).skeleton
+    got = {r: unreal.joint_names[j] for r, j in standard_joints(unreal).items()}
+    assert got["pelvis"] == "pelvis" and got["left_knee"] == "calf_l" and got["right_toe"] == "ball_r"
+    assert got["chest"] == "spine_03" and got["lower_back"] == "spine_01" and got["neck"] == "neck_01"
+    assert got["left_hand"] == "hand_l" and got["right_shoulder"] == "upperarm_r"
 
 
 def test_unit_scale_checks_bone_lengths():

@@ -9,7 +9,7 @@ import mocapkit
 from mocapkit import rigs, samples
 from mocapkit.io.asfamc import read_asf
 from mocapkit.motion import Skeleton
-from tests.shared import curated_files
+from tests.shared import curated_files, smpl_spelling, unreal_spelling
 
 # the joint each family names for a few roles (what the files write, not what the code says)
 EXPECTED = {
@@ -27,6 +27,12 @@ EXPECTED = {
                "spine_mid": "mixamorig:Spine1", "left_clavicle": "mixamorig:LeftShoulder"},
     "humanik": {"pelvis": "Hips", "spine": "Spine", "chest": "Spine3", "spine_mid": "Spine1",
                 "left_upper_arm": "LeftArm", "left_clavicle": "LeftShoulder"},
+    "smpl": {"pelvis": "Pelvis", "left_thigh": "L_Hip", "left_shin": "L_Knee", "left_foot": "L_Ankle",
+             "left_toe": "L_Foot", "left_clavicle": "L_Collar", "left_upper_arm": "L_Shoulder", "right_hand": "R_Wrist",
+             "left_palm": "L_Hand", "spine": "Spine1", "spine_mid": "Spine2", "chest": "Spine3"},
+    "unreal": {"root": "root", "pelvis": "pelvis", "left_thigh": "thigh_l", "right_shin": "calf_r", "left_toe": "ball_l",
+               "left_clavicle": "clavicle_l", "left_upper_arm": "upperarm_l", "right_forearm": "lowerarm_r",
+               "spine": "spine_01", "chest": "spine_03", "neck": "neck_01"},
 }
 
 
@@ -91,6 +97,32 @@ def test_bandai_pelvis_is_hips_not_the_floor_root():
     # the Hips travel and stay about a metre up (cm, Y up); joint_Root is the floor projection
     assert np.ptp(pos[:, p, 2]) > 100 or np.ptp(pos[:, p, 0]) > 100
     assert pos[:, p, 1].min() > 60 and abs(pos[:, 0, 1]).max() < 1
+
+
+def test_smpl_and_unreal_rigs_on_real_takes():
+    """SMPL's names (both spellings) on a CMU walk's BVH, Unreal's on a Bandai Namco take: each a family, the
+    pelvis where the hips' translation is (``pelvis`` below Unreal's floor ``root``)."""
+    from tests.cleaning.test_retarget import motionbuilder_spelling
+
+    smpl = smpl_spelling(motionbuilder_spelling(mocapkit.load(samples.path("12_walk.amc")))).skeleton
+    assert smpl.num_joints == 24
+    r = _check(smpl, "smpl")
+    assert len(r) == 24 and rigs.pelvis_index(smpl) == 0
+    lower = {"Pelvis": "pelvis", "Spine1": "spine1", "Spine2": "spine2", "Spine3": "spine3", "Neck": "neck",
+             "Head": "head"}
+    for old, new in (("L_Hip", "left_hip"), ("L_Knee", "left_knee"), ("L_Ankle", "left_ankle"), ("L_Foot", "left_foot"),
+                     ("L_Collar", "left_collar"), ("L_Shoulder", "left_shoulder"), ("L_Elbow", "left_elbow"),
+                     ("L_Wrist", "left_wrist"), ("L_Hand", "left_hand")):
+        lower[old], lower["R" + old[1:]] = new, "right" + new[4:]
+    smplx = Skeleton(tuple(lower[n] for n in smpl.joint_names), np.array(smpl.parents), smpl.offsets)
+    assert rigs.rig_family(smplx) == "smpl" and rigs.roles(smplx) == r
+    unreal = unreal_spelling(mocapkit.load(Path(__file__).parent / "data" / "dataset-1_dash_normal_001.bvh")).skeleton
+    r = _check(unreal, "unreal")
+    assert "spine_mid" not in r and unreal.joint_names[rigs.pelvis_index(unreal)] == "pelvis"
+    # UE5's five-segment spine: the chest is the highest, the middle spine the lowest left
+    names = list(unreal.joint_names)
+    names[names.index("spine_03")] = "spine_05"
+    assert rigs.role_names(Skeleton(tuple(names), np.array(unreal.parents), unreal.offsets))["chest"] == "spine_05"
 
 
 def test_samples_and_an_unknown_rig_by_topology():

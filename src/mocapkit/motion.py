@@ -812,7 +812,7 @@ def _side_and_part(name: str, names: set[str]) -> tuple[str | None, str]:
     for pat, side in (
         (r"^left[_.\- ]?", "left"), (r"^right[_.\- ]?", "right"),
         (r"[_.\- ]l$", "left"), (r"[_.\- ]r$", "right"),
-        (r"^l", "left"), (r"^r", "right"),
+        (r"^l[_.\- ]?", "left"), (r"^r[_.\- ]?", "right"),
     ):
         if re.search(pat, low):
             return side, re.sub(pat, "", low)
@@ -828,9 +828,9 @@ def joint_sides(joint_names: Sequence[str]) -> list[str | None]:
 # Role -> ordered patterns on side-stripped lower-case names; the first pattern with a match wins.
 ROLES: dict[str, tuple[str | None, tuple[str, ...]]] = {
     "pelvis": (None, (r"hips", r"pelvis", r"root")),
-    "lower_back": (None, (r"lowerback", r"spine", r"abdomen")),
-    "chest": (None, (r"thorax", r"chest", r"spine1", r"upperback", r"spine2")),
-    "neck": (None, (r"lowerneck", r"neck")),
+    "lower_back": (None, (r"lowerback", r"spine", r"abdomen", r"spine_01", r"spine1")),
+    "chest": (None, (r"thorax", r"chest", r"spine3", r"spine_05", r"spine_03", r"spine1", r"upperback", r"spine2")),
+    "neck": (None, (r"lowerneck", r"neck", r"neck_01")),
     "head": (None, (r"head",)),
     "left_shoulder": ("left", (r"humerus", r"upperarm", r"arm", r"shoulder")),
     "right_shoulder": ("right", (r"humerus", r"upperarm", r"arm", r"shoulder")),
@@ -840,12 +840,12 @@ ROLES: dict[str, tuple[str | None, tuple[str, ...]]] = {
     "right_hand": ("right", (r"wrist", r"hand")),
     "left_hip": ("left", (r"femur", r"upleg", r"upperleg", r"hip", r"thigh")),
     "right_hip": ("right", (r"femur", r"upleg", r"upperleg", r"hip", r"thigh")),
-    "left_knee": ("left", (r"knee", r"tibia", r"lowerleg", r"leg", r"shin")),
-    "right_knee": ("right", (r"knee", r"tibia", r"lowerleg", r"leg", r"shin")),
+    "left_knee": ("left", (r"knee", r"tibia", r"lowerleg", r"leg", r"shin", r"calf")),
+    "right_knee": ("right", (r"knee", r"tibia", r"lowerleg", r"leg", r"shin", r"calf")),
     "left_foot": ("left", (r"ankle", r"foot")),
     "right_foot": ("right", (r"ankle", r"foot")),
-    "left_toe": ("left", (r"toes?", r"toebase")),
-    "right_toe": ("right", (r"toes?", r"toebase")),
+    "left_toe": ("left", (r"toes?", r"toebase", r"ball")),
+    "right_toe": ("right", (r"toes?", r"toebase", r"ball")),
 }
 
 
@@ -879,6 +879,11 @@ def find_joint(skeleton: Skeleton, role: str) -> int:
         rx = re.compile(rf"^{pat}$")
         for j, (side, part) in enumerate(parsed):
             if side == want_side and rx.match(part):
+                return j
+    if role.endswith("_toe"):  # SMPL names the ankle ``Ankle`` and the toes below it ``Foot``
+        for j, (side, part) in enumerate(parsed):
+            p = int(skeleton.parents[j])
+            if side == want_side and part == "foot" and p >= 0 and parsed[p] == (want_side, "ankle"):
                 return j
     if role == "pelvis":
         return 0

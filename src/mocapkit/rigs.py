@@ -4,8 +4,9 @@ Motion-capture files spell the same human skeleton in many ways: the CMU
 and HDM05 Acclaim ASF calls the thigh ``lfemur``, Bruce Hahne's CMU BVH
 conversions call it ``LeftUpLeg`` (MotionBuilder-friendly release) or
 ``LeftHip`` (3dsMax-friendly release), the Bandai Namco game rig
-``UpperLeg_L``, MotionBuilder/HumanIK ``LeftUpLeg`` and Mixamo
-``mixamorig:LeftUpLeg``. Code that needs "the left thigh" or "the pelvis"
+``UpperLeg_L``, MotionBuilder/HumanIK ``LeftUpLeg``, Mixamo
+``mixamorig:LeftUpLeg``, SMPL ``L_Hip`` (or ``left_hip``) and Unreal
+Engine's mannequin ``thigh_l``. Code that needs "the left thigh" or "the pelvis"
 asks this module instead of matching names itself.
 
 A **role** names the joint whose rotation moves a body segment (BVH
@@ -25,7 +26,8 @@ guessing from a substring.
 
 The **pelvis** (:func:`pelvis_index`) is the joint that carries the hips'
 translation: the root on Acclaim and most BVH rigs, but ``Hips`` on the
-Bandai Namco rig, whose root ``joint_Root`` stays on the floor. On a rig of
+Bandai Namco rig, whose root ``joint_Root`` stays on the floor, and
+``pelvis`` below Unreal's ``root``. On a rig of
 no known family it is the first joint below the root where the hierarchy
 branches (legs and spine part there).
 
@@ -156,6 +158,38 @@ _HUMANIK = _both(
     _lr,
 )
 
+def _smpl_lr(name: str) -> str:
+    return "R_" + name[2:] if name.startswith("L_") else "right_" + name[5:] if name.startswith("left_") else name
+
+
+# SMPL, SMPL-H and SMPL-X body joints (AMASS and the many BVH exports of SMPL fits), in the capitalised spelling of
+# the SMPL code (``L_Hip``) and the lower-case one of smplx (``left_hip``). SMPL's ``Shoulder`` is the upper arm,
+# ``Collar`` the clavicle, ``Hip`` the thigh, ``Ankle`` the foot and ``Foot`` the toes; its ``Hand`` is the palm,
+# which SMPL-H and SMPL-X replace by fingers hanging from the wrist.
+_SMPL = _both(
+    {"pelvis": ("Pelvis", "pelvis"), "spine": ("Spine1", "spine1"), "spine_mid": ("Spine2", "spine2"),
+     "chest": ("Spine3", "spine3"), "neck": ("Neck", "neck"), "head": ("Head", "head")},
+    {"thigh": ("L_Hip", "left_hip"), "shin": ("L_Knee", "left_knee"), "foot": ("L_Ankle", "left_ankle"),
+     "toe": ("L_Foot", "left_foot"), "clavicle": ("L_Collar", "left_collar"),
+     "upper_arm": ("L_Shoulder", "left_shoulder"), "forearm": ("L_Elbow", "left_elbow"),
+     "hand": ("L_Wrist", "left_wrist"), "palm": ("L_Hand", "left_hand"), "fingers": ("left_index1", "L_Index1"),
+     "thumb": ("left_thumb1", "L_Thumb1")},
+    _smpl_lr,
+)
+
+# Unreal Engine's mannequin (UE4: spine_01-03, neck_01; UE5: spine_01-05, neck_01-02): ``root`` on the floor,
+# ``pelvis`` carrying the translation; the chest is the highest spine joint present, the middle spine the lowest
+# one left (as HumanIK); twist bones (``upperarm_twist_01_l``) and IK bones play no role.
+_UNREAL_SPINES = ("spine_05", "spine_04", "spine_03", "spine_02")
+_UNREAL = _both(
+    {"root": ("root",), "pelvis": ("pelvis",), "spine": ("spine_01",), "chest": _UNREAL_SPINES,
+     "spine_mid": _UNREAL_SPINES[::-1], "neck": ("neck_01",), "neck_upper": ("neck_02",), "head": ("head",)},
+    {"thigh": ("thigh_l",), "shin": ("calf_l",), "foot": ("foot_l",), "toe": ("ball_l",),
+     "clavicle": ("clavicle_l",), "upper_arm": ("upperarm_l",), "forearm": ("lowerarm_l",), "hand": ("hand_l",),
+     "fingers": ("index_01_l",), "thumb": ("thumb_01_l",)},
+    lambda n: n[:-2] + "_r" if n.endswith("_l") else n,
+)
+
 _MIXAMO_PREFIX = "mixamorig:"
 _MIXAMO = {role: tuple(_MIXAMO_PREFIX + n for n in names) for role, names in _HUMANIK.items()}
 
@@ -167,6 +201,8 @@ FAMILIES = MappingProxyType({
     "cmu_bvh_motionbuilder": MappingProxyType(_CMU_MOTIONBUILDER),
     "cmu_bvh_3dsmax": MappingProxyType(_CMU_3DSMAX),
     "bandai_namco": MappingProxyType(_BANDAI_NAMCO),
+    "smpl": MappingProxyType(_SMPL),
+    "unreal": MappingProxyType(_UNREAL),
 })
 
 # the roles a skeleton must play for a family to be recognised at all
@@ -256,11 +292,12 @@ def pelvis_index(skeleton: Skeleton) -> int:
     """Index of the joint that carries the hips' translation (the pelvis).
 
     The ``pelvis`` role of the skeleton's family (``root`` on Acclaim,
-    ``Hips`` on the CMU BVH, HumanIK and Mixamo rigs, and ``Hips`` on the
-    Bandai Namco rig, whose root ``joint_Root`` stays on the floor). On a rig
-    of no known family: the first joint, from the root down a chain of single
-    children, that has more than one child (the legs and the spine part
-    there), or the root when the chain never branches.
+    ``Hips`` on the CMU BVH, HumanIK and Mixamo rigs, ``Pelvis`` on SMPL, and
+    ``Hips`` on the Bandai Namco rig and ``pelvis`` on Unreal's, whose roots
+    stay on the floor). On a rig of no known family: the first joint, from
+    the root down a chain of single children, that has more than one child
+    (the legs and the spine part there), or the root when the chain never
+    branches.
     """
     family = rig_family(skeleton)
     if family is not None:

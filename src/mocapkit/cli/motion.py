@@ -20,6 +20,7 @@ def info(
     from ..io.c3d import MarkerSet
     from ..io.takes import check_asf, load_take
     from ..motion import ROLES, standard_joints, unit_scale_cm
+    from ..rigs import rig_family
 
     check_asf(asf, [file])
     obj = load_take(file, asf)
@@ -48,6 +49,7 @@ def info(
         rows.append(("length unit", f"unknown ({reason})"))
     rows.append(("human roles", f"{len(roles)} of {len(ROLES)} found"
                  + (f"; missing: {', '.join(missing_roles)}" if missing_roles else "")))
+    rows.append(("rig family", rig_family(sk) or "none known (no joint map: the networks fall back)"))
     rows += [("channels", str(len(m.channel_names()))),
              ("missing", f"{100.0 * miss.mean():.2f} % of joint samples, {plural(int(miss.any(axis=1).sum()), 'frame')} affected")]
     print_fields(rows)

@@ -168,7 +168,7 @@ def shipped_model(kind: str = "ebf", take=None) -> DeepModel:
     one, then each rig family's own model in :data:`SHIPPED_FOR_RIG`, e.g.
     ``ebf_bandai.pt`` for the Bandai Namco game rig), else the first that
     serves it through a joint map (the Acclaim one: the CMU BVH
-    conversions, HumanIK and Mixamo rigs); the Acclaim one when none does,
+    conversions, HumanIK, Mixamo, SMPL and Unreal rigs); the Acclaim one when none does,
     so the fallback's reason is its.
     """
     if kind not in SHIPPED:
