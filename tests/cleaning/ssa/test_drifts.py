@@ -146,6 +146,29 @@ def test_smooth_drift_flags_one_joint_drifts_two_may_at_once_several_are_a_style
     assert smooth_drift_flags(jumps, no_ev, three, fps, others=0)[:, 0].any()
 
 
+def test_smooth_drift_flags_a_joint_whose_partner_digresses_too_is_a_style():
+    """Joints 0 and 1 a left/right pair: joint 0's excursion is a drift while its partner stays among its neighbours,
+    and no evidence where the partner digresses by partner_ratio * z_min or more (a two-sided style)."""
+    jumps, agreement, consistency, fps = drift_case(J=4)
+    partners = np.array([1, 0, 2, 3])
+    assert smooth_drift_flags(jumps, agreement, consistency, fps, partners=partners)[:, 0].any()
+    both = consistency.copy()
+    both[30:70, 1] = 1.6  # the partner at 0.53 z_min over the whole excursion
+    assert not smooth_drift_flags(jumps, agreement, both, fps, partners=partners, partner_ratio=0.5).any()
+    assert smooth_drift_flags(jumps, agreement, both, fps, partners=partners, partner_ratio=0.6)[:, 0].any()
+    assert smooth_drift_flags(jumps, agreement, both, fps)[:, 0].any()  # not asked without partners
+    unpaired = consistency.copy()
+    unpaired[30:70, 2] = 1.6  # an unpaired joint (its own partner) at that level changes nothing
+    assert smooth_drift_flags(jumps, agreement, unpaired, fps, partners=partners)[:, 0].any()
+    nan = both.copy()
+    nan[:, 1] = np.nan  # a partner not analysed is no evidence either way
+    assert smooth_drift_flags(jumps, agreement, nan, fps, partners=partners)[:, 0].any()
+    with pytest.raises(ValueError, match="partners"):
+        smooth_drift_flags(jumps, agreement, consistency, fps, partners=partners[:3])
+    with pytest.raises(ValueError, match="partner_ratio"):
+        smooth_drift_flags(jumps, agreement, consistency, fps, partners=partners, partner_ratio=0.0)
+
+
 def test_smooth_drift_flags_a_run_cut_by_the_take_must_show_the_joint_leave_or_come_back():
     jumps, agreement, consistency, fps = drift_case()
     bump = consistency[30:70, 0].copy()

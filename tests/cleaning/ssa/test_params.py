@@ -75,7 +75,8 @@ def test_clean_takes_its_analysis_from_the_dataclass(monkeypatch):
 def test_params_check_and_round_trip():
     for bad in (dict(source_length=30), dict(analysis_fps=0.0), dict(normalization="max"), dict(jump_deg=0.0),
                 dict(confirm_margin_s=-1.0), dict(hold_travel_deg=float("nan")), dict(k=0), dict(drift_others=-1),
-                dict(drift_others=1.5), dict(drift_return_ratio=0.0), dict(drift_return_ratio=1.5)):
+                dict(drift_others=1.5), dict(drift_return_ratio=0.0), dict(drift_return_ratio=1.5),
+                dict(drift_partner_ratio=0.0), dict(drift_partner_ratio=1.5)):
         with pytest.raises(ValueError):
             SSAParams(**bad)
     with pytest.raises(TypeError, match="unknown"):

@@ -16,7 +16,7 @@ from typing import Mapping, Sequence
 
 import numpy as np
 
-from ...motion import Motion
+from ...motion import Motion, mirror_pairs
 from ...rigs import pelvis_index
 from ..ik import contact_segments
 from . import word_dtw
@@ -148,7 +148,7 @@ class Detection:
         """(F, J) bool smooth drifts (:func:`smooth_drift_flags`; any threshold), none where ``params.drift`` is off."""
         if not self.params.drift:
             return np.zeros(self.mdm.shape, dtype=bool)
-        return _drifts(self.jumps, self.agreement, self.consistency, self.fps, self.params)
+        return _drifts(self.jumps, self.agreement, self.consistency, self.fps, self.params, self.joint_names)
 
     def with_threshold(self, threshold: float) -> "Detection":
         """The same analysis flagged at another threshold (confirmed by the jumps if the detection was)."""
@@ -214,10 +214,13 @@ class Detection:
             raise MocapFormatError(path, f"not a mocapkit detection file ({e})") from None
 
 
-def _drifts(jumps, agreement, consistency, fps: float, p: SSAParams) -> np.ndarray:
-    """:func:`smooth_drift_flags` with the drift parameters of ``p``."""
+def _drifts(jumps, agreement, consistency, fps: float, p: SSAParams, joint_names) -> np.ndarray:
+    """:func:`smooth_drift_flags` with the drift parameters of ``p``, partners paired by ``joint_names``."""
+    ratio = p.drift_partner_ratio
+    partners = None if ratio is None else mirror_pairs(joint_names)
     return smooth_drift_flags(jumps, agreement, consistency, fps, p.drift_repeat_deg, p.drift_z, p.drift_min_s,
-                              p.confirm_margin_s, p.drift_extent, p.drift_others, p.drift_return_ratio)
+                              p.confirm_margin_s, p.drift_extent, p.drift_others, p.drift_return_ratio, partners,
+                              1.0 if ratio is None else ratio)
 
 
 def _digression(motion, mean_tex, spread, texture_joints, up, fps_a, noise_deg, shift_s=0.0, speeds=False):
@@ -422,7 +425,7 @@ def detect_prepared(an: Analysis, threshold: float = 0.5, *, progress: bool = Fa
     chosen = has_context and not (isinstance(info, dict) and info.get("default"))
     agreement = body_agreement(digression, analysed) if chosen else np.full((F, J), np.nan)
     agreement[:, [0, pelvis_index(sk)]] = np.nan
-    drifts = _drifts(jumps, agreement, consistency, motion.fps, p) if p.drift else None
+    drifts = _drifts(jumps, agreement, consistency, motion.fps, p, sk.joint_names) if p.drift else None
     spikes = spike_breaks(q, resid, jumps)
     flags = flag_rule(mdm, jumps, holds, swaps, offsets, threshold, motion.fps, p.confirm, p.confirm_margin_s, drifts,
                       spikes, np.isfinite(digression))

@@ -27,11 +27,13 @@ neighbours, peaks and comes back, and where it comes back to within
 excursion begins. An excursion is a smooth drift when, for at least
 ``min_s`` seconds of it, ``agreement <= repeat_deg`` and ``consistency >=
 z_min`` while at most ``others`` other joints digress that strongly at the
-same frame (:func:`other_joints_level`): it is flagged whole, down to where
-the joint is back among its neighbours. One joint drifts; two may at once.
-A take whose style the context lacks moves several joints together away
-from their neighbours (both arms of a bow held otherwise, an arm and its
-hand), and that is no drift of any one of them. Nor is a digression of a
+same frame (:func:`other_joints_level`) and its left/right partner does not
+digress by half as much: it is flagged whole, down to where the joint is
+back among its neighbours. One joint drifts; two may at once. A take whose
+style the context lacks moves several joints together away from their
+neighbours (both arms of a bow held otherwise, an arm and its hand), and
+that is no drift of any one of them; a style is often two-sided, a drift
+one joint's. Nor is a digression of a
 style next to a drift part of the drift: each excursion is judged alone.
 
 An excursion cut by the take's first or last frame must show the part the
@@ -162,6 +164,8 @@ def smooth_drift_flags(
     extent: float = 0.5,
     others: int | None = 1,
     return_ratio: float = 0.3,
+    partners: np.ndarray | None = None,
+    partner_ratio: float = 0.5,
 ) -> np.ndarray:
     """(F, J) bool: the smooth drifts of a take (module docstring).
 
@@ -178,7 +182,9 @@ def smooth_drift_flags(
     motion there), ``consistency >= z_min`` (the neighbours agree the joint
     is elsewhere) and at most ``others`` other joints at ``z_min`` or more
     (:func:`other_joints_level` over the joints with an ``agreement``; None:
-    not asked), and, if it touches the first (last) frame, its consistency
+    not asked) while its left/right partner (``partners``, the permutation
+    of :func:`~mocapkit.motion.mirror_pairs`; None: not asked) is below
+    ``partner_ratio * z_min``, and, if it touches the first (last) frame, its consistency
     comes down to ``return_ratio`` times its peak's between that frame and
     the peak (module docstring). ``return_ratio`` 1 judges whole runs as they
     are.
@@ -205,6 +211,17 @@ def smooth_drift_flags(
         # the joints that may carry a drift: those with evidence (agreement is NaN on the root, the pelvis and
         # joints not analysed)
         strong &= other_joints_level(consistency, np.isfinite(agreement), others) < z_min
+    if partners is not None and strong.any():
+        partners = np.asarray(partners, dtype=np.int64)
+        if partners.shape != (jumps.shape[1],):
+            raise ValueError(f"partners must be ({jumps.shape[1]},) joint indices, got shape {partners.shape}")
+        if not 0 < partner_ratio <= 1:
+            raise ValueError(f"partner_ratio must be in (0, 1], got {partner_ratio!r}")
+        paired = partners != np.arange(len(partners))
+        with np.errstate(invalid="ignore"):
+            # a style is often two-sided (both arms of a bow held otherwise, both legs bent more): where the
+            # joint's mirror partner leaves its neighbours too, the joint's digression is no evidence of a drift
+            strong &= ~(paired[None, :] & (consistency[:, partners] >= partner_ratio * z_min))
     if not strong.any():
         return np.zeros(jumps.shape, dtype=bool)
     n = int(round(margin_s * fps))

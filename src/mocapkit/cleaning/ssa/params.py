@@ -79,7 +79,10 @@ class SSAParams:
         excursion, cut where the joint comes back to ``drift_return_ratio`` of a peak's ratio before leaving
         again, and an excursion cut by the take's first or last frame must come back that far between the
         edge and its peak (the joint seen leaving its path, not a pose held from before the take);
-        off by default (``drift=True``, ``mocapkit detect --drifts`` / ``clean --drifts``): only a context that
+    drift_partner_ratio : ratio or None
+        A cell is no evidence of a drift where the joint's left/right partner digresses by this share of
+        ``drift_z`` at the same frame (a style is often two-sided, a drift one joint's); None: not asked.
+        The drift rule is off by default (``drift=True``, ``mocapkit detect --drifts`` / ``clean --drifts``): only a context that
         repeats the take's motion makes the evidence mean a drift.
     """
 
@@ -117,6 +120,7 @@ class SSAParams:
     drift_extent: float = 0.5
     drift_others: int | None = 1
     drift_return_ratio: float = 0.3
+    drift_partner_ratio: float | None = 0.5
 
     def __post_init__(self):
         N, M = self.source_length, self.target_length
@@ -138,6 +142,8 @@ class SSAParams:
             raise ValueError(f"drift_others must be None or a whole number >= 0, got {self.drift_others!r}")
         if not 0 < self.drift_return_ratio <= 1:
             raise ValueError(f"drift_return_ratio must be in (0, 1], got {self.drift_return_ratio!r}")
+        if self.drift_partner_ratio is not None and not 0 < self.drift_partner_ratio <= 1:
+            raise ValueError(f"drift_partner_ratio must be None or in (0, 1], got {self.drift_partner_ratio!r}")
         if not isinstance(self.joints, (int, np.integer)):
             object.__setattr__(self, "joints", tuple(j if isinstance(j, str) else int(j) for j in self.joints))
 
