@@ -24,6 +24,17 @@ Collections (``../shared/data``):
   or every take with ``--all`` (its result is kept as ``results/clean_untouched_all.json``, beside the
   sample's ``clean_untouched.json``).
 
+Rigs that ``../shared/data`` does not hold, spelled from those takes (``tests/shared.py``; the same
+motion on another rig's names and joints, so any cell changed is harm too):
+
+* ``smpl``: every 4th HDM05 clip and the CMU ASF/AMC takes on SMPL's 24 joints and names
+  (``Pelvis``, ``L_Hip``, ... : no hip bones, upper neck, fingers or thumbs), 120 fps;
+* ``unreal``: every 10th take of the Bandai Namco sample under Unreal Engine mannequin names
+  (``root``, ``pelvis``, ``spine_01``, ``thigh_l``, ...), 30 fps.
+
+Neither fits the bundled default context (another skeleton): each take is judged against itself.
+``--no-respelled`` leaves them out.
+
 Per collection: the share of changed cells, the worst take and its share, and
 the cells each step changed (fill, repair, denoise). Targets: at most 0.1 % per
 collection and no take above 1 %. Each take is also tagged ``tune`` (Bandai
@@ -63,6 +74,7 @@ import numpy as np
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO / "src"))
 sys.path.insert(0, str(REPO / "benchmarks"))
+sys.path.insert(0, str(REPO))
 
 import _harness as harness  # noqa: E402
 
@@ -79,8 +91,9 @@ def log(*a):
     print(*a, file=sys.stderr, flush=True)
 
 
-def takes(n_bandai: int, all_bandai: bool, seed: int = 0, quick: bool = False) -> list[tuple[str, str, str]]:
-    """``(collection, path, split)`` for every take measured."""
+def takes(n_bandai: int, all_bandai: bool, seed: int = 0, quick: bool = False,
+          respelled: bool = True) -> list[tuple[str, str, str, str]]:
+    """``(collection, path, split, spelling)`` for every take measured (spelling "" for the file as it is)."""
     out = []
     hdm = sorted((DATA / "hdm05_asfamc").glob("*.amc"))
     cmu = sorted((DATA / "cmu_asfamc").glob("*.amc"))
@@ -114,10 +127,14 @@ def takes(n_bandai: int, all_bandai: bool, seed: int = 0, quick: bool = False) -
                     pick.append(groups[k][r])
             r += 1
     out += [("bandai", str(t.path), "tune" if t.dataset == 1 else "check") for t in pick]
-    return out
+    if respelled:
+        out += [("smpl", str(p), "check" if "_mm_" in p.name else "tune") for p in hdm[::4 if not quick else 1]]
+        out += [("smpl", str(p), "check") for p in cmu]
+        out += [("unreal", str(t.path), "tune" if t.dataset == 1 else "check") for t in pick[::10]]
+    return [(*item, item[0] if item[0] in ("smpl", "unreal") else "") for item in out]
 
 
-def measure(item: tuple[str, str, str]) -> dict:
+def measure(item: tuple[str, str, str, str]) -> dict:
     """Clean one take with the defaults; its changed cells, per step, and the level-only noise baseline."""
     import warnings
 
@@ -125,9 +142,17 @@ def measure(item: tuple[str, str, str]) -> dict:
     import mocapkit
     from mocapkit.cleaning.pipeline import NOISE_DEG, noise_level
 
-    coll, path, split = item
+    coll, path, split, spelling = item
     p = Path(path)
     m = mocapkit.load(p)  # an AMC finds its ASF beside it (io.asfamc.find_asf)
+    if spelling == "smpl":
+        from tests.shared import motionbuilder_spelling, smpl_spelling
+
+        m = smpl_spelling(motionbuilder_spelling(m))
+    elif spelling == "unreal":
+        from tests.shared import unreal_spelling
+
+        m = unreal_spelling(m)
     t = time.perf_counter()
     res = mocapkit.clean(m)  # the defaults of `mocapkit clean`: the bundled context where it fits
     secs = time.perf_counter() - t
@@ -171,9 +196,11 @@ def main() -> None:
     ap.add_argument("--workers", type=int, default=2, help="local processes (default 2)")
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--quick", action="store_true", help="a few takes per collection (a smoke run)")
+    ap.add_argument("--no-respelled", dest="respelled", action="store_false",
+                    help="leave out the smpl and unreal collections (takes respelled on other rigs)")
     args = ap.parse_args()
 
-    items = takes(args.bandai, args.all, args.seed, args.quick)
+    items = takes(args.bandai, args.all, args.seed, args.quick, args.respelled)
     log(f"{len(items)} takes, {args.workers} workers")
     rows, t0 = [], time.perf_counter()
     with ProcessPoolExecutor(max_workers=max(1, args.workers)) as ex:

@@ -117,3 +117,24 @@ def unreal_spelling(motion):
                   f"Hand_{a}": f"hand_{b}", f"UpperLeg_{a}": f"thigh_{b}", f"LowerLeg_{a}": f"calf_{b}",
                   f"Foot_{a}": f"foot_{b}", f"Toes_{a}": f"ball_{b}"}
     return respelled(motion, names)
+
+
+def motionbuilder_spelling(motion, order: str = "ZYX"):
+    """``motion`` (an Acclaim ASF take) as the CMU MotionBuilder-release BVH spells it: the same rotations, joints
+    renamed by role, three rotation channels in ``order`` on every joint, no axis frames."""
+    import numpy as np
+
+    from mocapkit import rigs
+    from mocapkit.motion import Motion, Skeleton
+
+    sk = motion.skeleton
+    acclaim = rigs.roles(sk)
+    mb = rigs.FAMILIES["cmu_bvh_motionbuilder"]
+    names = [None] * sk.num_joints
+    for role, j in acclaim.items():
+        names[j] = mb[role][0]
+    rot = tuple(f"{a}rotation" for a in order)
+    channels = (("Xposition", "Yposition", "Zposition") + rot,) + (rot,) * (sk.num_joints - 1)
+    bvh = Skeleton(tuple(names), np.array(sk.parents), sk.offsets, sk.end_site_parents, sk.end_site_offsets,
+                   channels=channels)
+    return Motion(bvh, motion.rotations, motion.root_positions, motion.fps, motion.name)

@@ -303,7 +303,7 @@ def test_find_joint_on_smpl_and_unreal_rigs():
     """SMPL's ``L_Hip`` (side prefix with an underscore) and Unreal's ``calf_l``, ``ball_l``, ``spine_03``: every role of
     Krüger's F39 features found, each on the joint of that body part."""
     from mocapkit.features import FEATURE_SETS
-    from tests.cleaning.test_retarget import motionbuilder_spelling
+    from tests.shared import motionbuilder_spelling
     from tests.shared import smpl_spelling, unreal_spelling
 
     smpl = smpl_spelling(motionbuilder_spelling(mocapkit.load(mocapkit.samples.path("12_walk.amc")))).skeleton

@@ -102,7 +102,7 @@ def test_bandai_pelvis_is_hips_not_the_floor_root():
 def test_smpl_and_unreal_rigs_on_real_takes():
     """SMPL's names (both spellings) on a CMU walk's BVH, Unreal's on a Bandai Namco take: each a family, the
     pelvis where the hips' translation is (``pelvis`` below Unreal's floor ``root``)."""
-    from tests.cleaning.test_retarget import motionbuilder_spelling
+    from tests.shared import motionbuilder_spelling
 
     smpl = smpl_spelling(motionbuilder_spelling(mocapkit.load(samples.path("12_walk.amc")))).skeleton
     assert smpl.num_joints == 24

@@ -286,7 +286,7 @@ def test_one_flagged_segment_on_one_joint_is_said_in_the_singular(walk):
 
 def test_the_cmu_bvh_spelling_is_cleaned_by_the_networks(walk):
     """clean applies deep.served_by like denoise and fill: the BVH spelling of the walk gets the EBD and EBF."""
-    from tests.cleaning.test_retarget import motionbuilder_spelling
+    from tests.shared import motionbuilder_spelling
 
     bvh = motionbuilder_spelling(walk[:240])
     gappy, _ = corrupt.gaps(bvh, seed=4, start_prob=0.02)

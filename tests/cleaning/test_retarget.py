@@ -12,25 +12,9 @@ from mocapkit.cleaning import deep
 from mocapkit.cleaning.deep import channels as ch
 from mocapkit.cleaning.deep import retarget
 from mocapkit.motion import Motion, Skeleton
-from tests.shared import PYBVH, smpl_spelling, unknown_rig, unreal_spelling
+from tests.shared import PYBVH, motionbuilder_spelling, smpl_spelling, unknown_rig, unreal_spelling
 
 BANDAI = Path(__file__).resolve().parents[1] / "data" / "dataset-1_dash_normal_001.bvh"
-
-
-def motionbuilder_spelling(motion: Motion, order: str = "ZYX") -> Motion:
-    """``motion`` (an Acclaim ASF take) as the CMU MotionBuilder-release BVH spells it: the same rotations, joints
-    renamed by role, three rotation channels in ``order`` on every joint, no axis frames."""
-    sk = motion.skeleton
-    acclaim = rigs.roles(sk)
-    mb = rigs.FAMILIES["cmu_bvh_motionbuilder"]
-    names = [None] * sk.num_joints
-    for role, j in acclaim.items():
-        names[j] = mb[role][0]
-    rot = tuple(f"{a}rotation" for a in order)
-    channels = (("Xposition", "Yposition", "Zposition") + rot,) + (rot,) * (sk.num_joints - 1)
-    bvh = Skeleton(tuple(names), np.array(sk.parents), sk.offsets, sk.end_site_parents, sk.end_site_offsets,
-                   channels=channels)
-    return Motion(bvh, motion.rotations, motion.root_positions, motion.fps, motion.name)
 
 
 def arms_down(motion: Motion, degrees: float = 90.0) -> Motion:

@@ -62,7 +62,7 @@ def test_fill_without_gaps_says_so(tmp_path):
 
 
 def test_the_networks_serve_the_cmu_bvh_spelling(tmp_path):
-    from tests.cleaning.test_retarget import motionbuilder_spelling
+    from tests.shared import motionbuilder_spelling
 
     take = motionbuilder_spelling(mocapkit.load(WALK))  # the walk as the CMU MotionBuilder-release BVH spells it
     noisy, _ = corrupt.angular_noise(take, 0.5, seed=4)
