@@ -143,8 +143,8 @@ def retargeted(ebf, seeds: int) -> tuple[dict, dict, dict]:
             add("retarget_bandai_own", rms(take, deep.denoise(noisy)))
         versus_fallback("retarget_unreal", unreal_spelling(take))
     mean = {k: float(np.mean(v)) for k, v in rows.items()}
-    names = ["retarget_3dsmax_body", "retarget_3dsmax_thumbs", "retarget_mixamo", "retarget_pybvh", "retarget_biovision"]
-    names.insert(3, "retarget_smpl")
+    names = ["retarget_3dsmax_body", "retarget_3dsmax_thumbs", "retarget_mixamo", "retarget_smpl", "retarget_pybvh",
+             "retarget_biovision"]
     names += ["retarget_bandai", "retarget_unreal"] if bandai else []
     figures = {n: mean[n] for n in names}
     baselines = {n: mean[f"{n}_fallback"] for n in names}

@@ -38,7 +38,8 @@ def unknown_rig(path: Path):
 def respelled(motion, names: dict, drop=()):
     """``motion`` on a rig that names its joints ``names[old]`` (unlisted ones keep theirs) and lacks the joints
     ``drop``: each dropped joint's rotation joins its children's (``L_dropped L_child``) and its rest offset theirs;
-    a dropped leaf becomes an end site of its parent. The result is a take on that rig in its own right (a
+    its end sites hang from its nearest kept ancestor (one per joint), and a dropped leaf without one becomes one.
+    The result is a take on that rig in its own right (a
     dropped joint that moved changes where its children are), which is what rig tests need: real motion under
     another family's names and topology. Rest rotations are the identity (BVH), and no joint but the root may
     carry animated translations where joints are dropped."""

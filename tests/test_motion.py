@@ -300,8 +300,8 @@ def test_find_joint_on_cmu_hdm05_and_bvh_rigs():
 
 
 def test_find_joint_on_smpl_and_unreal_rigs():
-    """SMPL's ``L_Hip`` (side prefix with an underscore) and Unreal's ``calf_l``, ``ball_l``, ``spine_03``: every role of
-    Krüger's F39 features found, each on the joint of that body part."""
+    """SMPL's ``L_Hip`` (side prefix with an underscore) and Unreal's ``calf_l``, ``ball_l``, ``spine_03``: every
+    role of Krüger's F39 features found, each on the joint of that body part."""
     from mocapkit.features import FEATURE_SETS
     from tests.shared import motionbuilder_spelling
     from tests.shared import smpl_spelling, unreal_spelling
@@ -314,6 +314,11 @@ def test_find_joint_on_smpl_and_unreal_rigs():
                    "right_shoulder": "R_Shoulder", "lower_back": "Spine1"}
     assert smpl.joint_names[find_joint(smpl, "left_toe")] == "L_Foot"  # the toes below the ankle
     assert joint_sides(["L_Hip", "R_Hip", "Spine1"]) == ["left", "right", None]
+    fbx = dataclasses.replace(smpl, joint_names=tuple("m_avg_" + n for n in smpl.joint_names))  # SMPL's FBX names
+    assert standard_joints(fbx, FEATURE_SETS["F39"]) == standard_joints(smpl, FEATURE_SETS["F39"])
+    assert mirror_pairs(fbx.joint_names).tolist() == mirror_pairs(smpl.joint_names).tolist()
+    # side markers inside a name, as 3ds Max Biped writes them
+    assert joint_sides(["Bip01 L Thigh", "Bip01 R Thigh", "Bip01 Spine"]) == ["left", "right", None]
     bandai = mocapkit.load(Path(__file__).parent / "data" / "dataset-1_dash_normal_001.bvh")
     unreal = unreal_spelling(bandai).skeleton
     got = {r: unreal.joint_names[j] for r, j in standard_joints(unreal).items()}

@@ -30,8 +30,8 @@ EXPECTED = {
     "smpl": {"pelvis": "Pelvis", "left_thigh": "L_Hip", "left_shin": "L_Knee", "left_foot": "L_Ankle",
              "left_toe": "L_Foot", "left_clavicle": "L_Collar", "left_upper_arm": "L_Shoulder", "right_hand": "R_Wrist",
              "left_palm": "L_Hand", "spine": "Spine1", "spine_mid": "Spine2", "chest": "Spine3"},
-    "unreal": {"root": "root", "pelvis": "pelvis", "left_thigh": "thigh_l", "right_shin": "calf_r", "left_toe": "ball_l",
-               "left_clavicle": "clavicle_l", "left_upper_arm": "upperarm_l", "right_forearm": "lowerarm_r",
+    "unreal": {"root": "root", "pelvis": "pelvis", "left_thigh": "thigh_l", "right_shin": "calf_r",
+               "left_toe": "ball_l", "left_clavicle": "clavicle_l", "left_upper_arm": "upperarm_l", "right_forearm": "lowerarm_r",
                "spine": "spine_01", "chest": "spine_03", "neck": "neck_01"},
 }
 
@@ -116,6 +116,9 @@ def test_smpl_and_unreal_rigs_on_real_takes():
         lower[old], lower["R" + old[1:]] = new, "right" + new[4:]
     smplx = Skeleton(tuple(lower[n] for n in smpl.joint_names), np.array(smpl.parents), smpl.offsets)
     assert rigs.rig_family(smplx) == "smpl" and rigs.roles(smplx) == r
+    for pre in ("m_avg_", "f_avg_"):  # the SMPL FBX models' names
+        fbx = Skeleton(tuple(pre + n for n in smpl.joint_names), np.array(smpl.parents), smpl.offsets)
+        assert rigs.rig_family(fbx) == "smpl" and rigs.roles(fbx) == r
     unreal = unreal_spelling(mocapkit.load(Path(__file__).parent / "data" / "dataset-1_dash_normal_001.bvh")).skeleton
     r = _check(unreal, "unreal")
     assert "spine_mid" not in r and unreal.joint_names[rigs.pelvis_index(unreal)] == "pelvis"

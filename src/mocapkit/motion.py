@@ -718,6 +718,7 @@ _SIDE_SWAPS = [
     (re.compile(r"([_.\- ])L$"), r"\1R"), (re.compile(r"([_.\- ])R$"), r"\1L"),
     (re.compile(r"([_.\- ])l$"), r"\1r"), (re.compile(r"([_.\- ])r$"), r"\1l"),
     (re.compile(r"Left"), "Right"), (re.compile(r"Right"), "Left"),
+    (re.compile(r"([_.\- ])L([_.\- ])"), r"\1R\2"), (re.compile(r"([_.\- ])R([_.\- ])"), r"\1L\2"),
 ]
 
 
@@ -735,8 +736,9 @@ def mirror_pairs(joint_names: Sequence[str]) -> np.ndarray:
 
     A name pairs with another when swapping its side marker gives that other
     name: ``Left``/``Right``, ``l``/``r`` prefixes (``lfemur``), ``L``/``R``
-    prefixes (``LHipJoint``) and ``_L``/``_R`` suffixes. ``lowerback`` stays
-    unpaired because ``rowerback`` does not exist.
+    prefixes (``LHipJoint``), ``_L``/``_R`` suffixes and ``_L_``/``_R_`` (or
+    space-separated) markers inside a name (``m_avg_L_Hip``, ``Bip01 L Thigh``).
+    ``lowerback`` stays unpaired because ``rowerback`` does not exist.
 
     >>> mirror_pairs(["root", "lfemur", "rfemur", "lowerback"]).tolist()
     [0, 2, 1, 3]
@@ -807,12 +809,13 @@ def _side_and_part(name: str, names: set[str]) -> tuple[str | None, str]:
     """
     partner = _partner_name(name, names)
     low = name.lower().rsplit(":", 1)[-1]
-    if partner is None:
-        return None, re.sub(r"^joint_", "", low)
+    if partner is None:  # the Bandai Namco rig's ``joint_`` and the SMPL models' ``m_avg_`` / ``f_avg_`` prefixes
+        return None, re.sub(r"^(joint_|[mf]_avg_)", "", low)
     for pat, side in (
         (r"^left[_.\- ]?", "left"), (r"^right[_.\- ]?", "right"),
         (r"[_.\- ]l$", "left"), (r"[_.\- ]r$", "right"),
         (r"^l[_.\- ]?", "left"), (r"^r[_.\- ]?", "right"),
+        (r"^.*?[_.\- ]l[_.\- ]", "left"), (r"^.*?[_.\- ]r[_.\- ]", "right"),  # m_avg_L_Hip, Bip01 L Thigh
     ):
         if re.search(pat, low):
             return side, re.sub(pat, "", low)

@@ -5,9 +5,9 @@ and HDM05 Acclaim ASF calls the thigh ``lfemur``, Bruce Hahne's CMU BVH
 conversions call it ``LeftUpLeg`` (MotionBuilder-friendly release) or
 ``LeftHip`` (3dsMax-friendly release), the Bandai Namco game rig
 ``UpperLeg_L``, MotionBuilder/HumanIK ``LeftUpLeg``, Mixamo
-``mixamorig:LeftUpLeg``, SMPL ``L_Hip`` (or ``left_hip``) and Unreal
-Engine's mannequin ``thigh_l``. Code that needs "the left thigh" or "the pelvis"
-asks this module instead of matching names itself.
+``mixamorig:LeftUpLeg``, SMPL ``L_Hip`` (or ``m_avg_L_Hip``, ``left_hip``)
+and Unreal Engine's mannequin ``thigh_l``. Code that needs "the left thigh"
+or "the pelvis" asks this module instead of matching names itself.
 
 A **role** names the joint whose rotation moves a body segment (BVH
 semantics: the joint sits at the segment's start), e.g. ``left_thigh`` is
@@ -27,9 +27,9 @@ guessing from a substring.
 The **pelvis** (:func:`pelvis_index`) is the joint that carries the hips'
 translation: the root on Acclaim and most BVH rigs, but ``Hips`` on the
 Bandai Namco rig, whose root ``joint_Root`` stays on the floor, and
-``pelvis`` below Unreal's ``root``. On a rig of
-no known family it is the first joint below the root where the hierarchy
-branches (legs and spine part there).
+``pelvis`` below Unreal's ``root``. On a rig of no known family it is the
+first joint below the root where the hierarchy branches (legs and spine
+part there).
 
 Pure functions of a :class:`~mocapkit.motion.Skeleton`; nothing here reads
 files or depends on frame data.
@@ -158,24 +158,32 @@ _HUMANIK = _both(
     _lr,
 )
 
+
 def _smpl_lr(name: str) -> str:
-    return "R_" + name[2:] if name.startswith("L_") else "right_" + name[5:] if name.startswith("left_") else name
+    """Left -> right in SMPL's spellings: ``L_Hip`` -> ``R_Hip``, ``left_hip`` -> ``right_hip``."""
+    if name.startswith("L_"):
+        return "R_" + name[2:]
+    if name.startswith("left_"):
+        return "right_" + name[5:]
+    return name
 
 
 # SMPL, SMPL-H and SMPL-X body joints (AMASS and the many BVH exports of SMPL fits), in the capitalised spelling of
-# the SMPL code (``L_Hip``) and the lower-case one of smplx (``left_hip``). SMPL's ``Shoulder`` is the upper arm,
-# ``Collar`` the clavicle, ``Hip`` the thigh, ``Ankle`` the foot and ``Foot`` the toes; its ``Hand`` is the palm,
-# which SMPL-H and SMPL-X replace by fingers hanging from the wrist.
-_SMPL = _both(
+# the SMPL code (``L_Hip``), with the ``m_avg_`` / ``f_avg_`` prefix of the SMPL FBX models (``m_avg_L_Hip``), and
+# the lower-case one of smplx (``left_hip``). SMPL's ``Shoulder`` is the upper arm, ``Collar`` the clavicle, ``Hip``
+# the thigh, ``Ankle`` the foot and ``Foot`` the toes; its ``Hand`` is the palm, which SMPL-H and SMPL-X replace by
+# fingers hanging from the wrist.
+_SMPL_NAMES = _both(
     {"pelvis": ("Pelvis", "pelvis"), "spine": ("Spine1", "spine1"), "spine_mid": ("Spine2", "spine2"),
      "chest": ("Spine3", "spine3"), "neck": ("Neck", "neck"), "head": ("Head", "head")},
     {"thigh": ("L_Hip", "left_hip"), "shin": ("L_Knee", "left_knee"), "foot": ("L_Ankle", "left_ankle"),
      "toe": ("L_Foot", "left_foot"), "clavicle": ("L_Collar", "left_collar"),
      "upper_arm": ("L_Shoulder", "left_shoulder"), "forearm": ("L_Elbow", "left_elbow"),
-     "hand": ("L_Wrist", "left_wrist"), "palm": ("L_Hand", "left_hand"), "fingers": ("left_index1", "L_Index1"),
-     "thumb": ("left_thumb1", "L_Thumb1")},
+     "hand": ("L_Wrist", "left_wrist"), "palm": ("L_Hand", "left_hand"), "fingers": ("left_index1",),
+     "thumb": ("left_thumb1",)},
     _smpl_lr,
 )
+_SMPL = {role: tuple(pre + n for n in names for pre in ("", "m_avg_", "f_avg_")) for role, names in _SMPL_NAMES.items()}
 
 # Unreal Engine's mannequin (UE4: spine_01-03, neck_01; UE5: spine_01-05, neck_01-02): ``root`` on the floor,
 # ``pelvis`` carrying the translation; the chest is the highest spine joint present, the middle spine the lowest

@@ -33,8 +33,8 @@ back among its neighbours. One joint drifts; two may at once. A take whose
 style the context lacks moves several joints together away from their
 neighbours (both arms of a bow held otherwise, an arm and its hand), and
 that is no drift of any one of them; a style is often two-sided, a drift
-one joint's. Nor is a digression of a
-style next to a drift part of the drift: each excursion is judged alone.
+one joint's. Nor is a digression of a style next to a drift part of the
+drift: each excursion is judged alone.
 
 An excursion cut by the take's first or last frame must show the part the
 take cuts: between that edge and its peak the joint comes back to within
@@ -184,9 +184,9 @@ def smooth_drift_flags(
     (:func:`other_joints_level` over the joints with an ``agreement``; None:
     not asked) while its left/right partner (``partners``, the permutation
     of :func:`~mocapkit.motion.mirror_pairs`; None: not asked) is below
-    ``partner_ratio * z_min``, and, if it touches the first (last) frame, its consistency
-    comes down to ``return_ratio`` times its peak's between that frame and
-    the peak (module docstring). ``return_ratio`` 1 judges whole runs as they
+    ``partner_ratio * z_min``, and, if it touches the first (last) frame,
+    its consistency comes down to ``return_ratio`` times its peak's between
+    that frame and the peak (module docstring). ``return_ratio`` 1 judges whole runs as they
     are.
     """
     from scipy import ndimage

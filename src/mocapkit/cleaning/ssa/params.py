@@ -82,8 +82,8 @@ class SSAParams:
     drift_partner_ratio : ratio or None
         A cell is no evidence of a drift where the joint's left/right partner digresses by this share of
         ``drift_z`` at the same frame (a style is often two-sided, a drift one joint's); None: not asked.
-        The drift rule is off by default (``drift=True``, ``mocapkit detect --drifts`` / ``clean --drifts``): only a context that
-        repeats the take's motion makes the evidence mean a drift.
+        The drift rule is off by default (``drift=True``, ``mocapkit detect --drifts`` / ``clean --drifts``):
+        only a context that repeats the take's motion makes the evidence mean a drift.
     """
 
     analysis_fps: float = 24.0
