@@ -29,6 +29,9 @@ motion on another rig's names and joints, so any cell changed is harm too):
 
 * ``smpl``: every 4th HDM05 clip and the CMU ASF/AMC takes on SMPL's 24 joints and names
   (``Pelvis``, ``L_Hip``, ... : no hip bones, upper neck, fingers or thumbs), 120 fps;
+* ``daz``: every 4th HDM05 clip from the third (not ``smpl``'s) and the CMU ASF/AMC takes as the CMU
+  Daz-friendly BVH release spells its rig (``hip``, ``abdomen``, ``lThigh``, ``lShldr``, ... : no middle
+  spine, upper neck, toes or palms), 120 fps;
 * ``unreal``: every 10th take of the Bandai Namco sample under Unreal Engine mannequin names
   (``root``, ``pelvis``, ``spine_01``, ``thigh_l``, ...), 30 fps.
 
@@ -130,8 +133,10 @@ def takes(n_bandai: int, all_bandai: bool, seed: int = 0, quick: bool = False,
     if respelled:
         out += [("smpl", str(p), "check" if "_mm_" in p.name else "tune") for p in hdm[::4 if not quick else 1]]
         out += [("smpl", str(p), "check") for p in cmu]
+        out += [("daz", str(p), "check" if "_mm_" in p.name else "tune") for p in hdm[2::4 if not quick else 1]]
+        out += [("daz", str(p), "check") for p in cmu]
         out += [("unreal", str(t.path), "tune" if t.dataset == 1 else "check") for t in pick[::10]]
-    return [(*item, item[0] if item[0] in ("smpl", "unreal") else "") for item in out]
+    return [(*item, item[0] if item[0] in ("smpl", "daz", "unreal") else "") for item in out]
 
 
 def measure(item: tuple[str, str, str, str]) -> dict:
@@ -149,6 +154,10 @@ def measure(item: tuple[str, str, str, str]) -> dict:
         from tests.shared import motionbuilder_spelling, smpl_spelling
 
         m = smpl_spelling(motionbuilder_spelling(m))
+    elif spelling == "daz":
+        from tests.shared import daz_spelling, motionbuilder_spelling
+
+        m = daz_spelling(motionbuilder_spelling(m))
     elif spelling == "unreal":
         from tests.shared import unreal_spelling
 
@@ -197,7 +206,7 @@ def main() -> None:
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--quick", action="store_true", help="a few takes per collection (a smoke run)")
     ap.add_argument("--no-respelled", dest="respelled", action="store_false",
-                    help="leave out the smpl and unreal collections (takes respelled on other rigs)")
+                    help="leave out the smpl, daz and unreal collections (takes respelled on other rigs)")
     args = ap.parse_args()
 
     items = takes(args.bandai, args.all, args.seed, args.quick, args.respelled)

@@ -34,6 +34,8 @@ the baseline, same run), 0.5 noise on the rig's own channels, ``--seeds`` draws:
   <= 1.1) and the fallback (in ``details``);
 * ``retarget_smpl``: CMU 01_01's BVH on SMPL's rig (``tests/shared.smpl_spelling``: 24 joints named ``Pelvis``,
   ``L_Hip`` ..., no hip bones, upper neck, fingers or thumbs; the dropped joints' turns joined to their children's);
+* ``retarget_daz``: the same take as cgspeed's Daz-friendly release spells it (``tests/shared.daz_spelling``:
+  ``hip``, ``abdomen``, ``lButtock``, ``lThigh``, ``lShldr`` ...; no middle spine, upper neck, toes or palms);
 * ``retarget_pybvh``: another project's clip (VictorS-67/pybvh, HumanIK names, Z up: its body frame
   turned; no hands below the wrist), 30 fps;
 * ``retarget_biovision``: another project's take (20tab/bvh-python ``test_mocapbank.bvh``, 455 frames at
@@ -73,7 +75,7 @@ from mocapkit.cleaning.deep import channels as ch  # noqa: E402
 from mocapkit.cleaning.deep import retarget  # noqa: E402
 from mocapkit.cleaning.filters import savgol_smooth  # noqa: E402
 from mocapkit.motion import Motion  # noqa: E402
-from tests.shared import smpl_spelling, unreal_spelling  # noqa: E402
+from tests.shared import daz_spelling, smpl_spelling, unreal_spelling  # noqa: E402
 
 DATA = REPO.parent / "shared" / "data"
 
@@ -127,6 +129,8 @@ def retargeted(ebf, seeds: int) -> tuple[dict, dict, dict]:
         add("retarget_mixamo_mb", rms(bvh, deep.denoise(dataclasses.replace(noisy, skeleton=bvh.skeleton))))
     smpl = smpl_spelling(bvh)
     versus_fallback("retarget_smpl", smpl)
+    daz = daz_spelling(bvh)
+    versus_fallback("retarget_daz", daz)
     versus_fallback("retarget_pybvh", mocapkit.load(REPO / "tests" / "data" / "pybvh_test1_zup.bvh"))
     versus_fallback("retarget_biovision", mocapkit.load(DATA / "peer_files" / "20tab+bvh-python" / "tests" /
                                                         "test_mocapbank.bvh"))
@@ -143,19 +147,21 @@ def retargeted(ebf, seeds: int) -> tuple[dict, dict, dict]:
             add("retarget_bandai_own", rms(take, deep.denoise(noisy)))
         versus_fallback("retarget_unreal", unreal_spelling(take))
     mean = {k: float(np.mean(v)) for k, v in rows.items()}
-    names = ["retarget_3dsmax_body", "retarget_3dsmax_thumbs", "retarget_mixamo", "retarget_smpl", "retarget_pybvh",
-             "retarget_biovision"]
+    names = ["retarget_3dsmax_body", "retarget_3dsmax_thumbs", "retarget_mixamo", "retarget_smpl", "retarget_daz",
+             "retarget_pybvh", "retarget_biovision"]
     names += ["retarget_bandai", "retarget_unreal"] if bandai else []
     figures = {n: mean[n] for n in names}
     baselines = {n: mean[f"{n}_fallback"] for n in names}
     baselines["retarget_mixamo"] = mean["retarget_mixamo_mb"]
     details = {"retarget_means": mean, "retarget_takes": {
         "3dsmax": [t.name for t in three], "mixamo": "CMU 01_01 (BVH) renamed",
-        "smpl": "CMU 01_01 (BVH) on SMPL's 24 joints and names", "pybvh": "pybvh_test1_zup",
+        "smpl": "CMU 01_01 (BVH) on SMPL's 24 joints and names", "daz": "CMU 01_01 (BVH) as the Daz-friendly release",
+        "pybvh": "pybvh_test1_zup",
         "bandai": [t.name for t in bandai], "unreal": "the Bandai takes under Unreal mannequin names"},
         "retarget_serving": {"3dsmax": deep.served_by(three[0], ebf).describe(),
                              "mixamo": deep.served_by(mix, ebf).describe(),
                              "smpl": deep.served_by(smpl, ebf).describe(),
+                             "daz": deep.served_by(daz, ebf).describe(),
                              "unreal": deep.served_by(unreal_spelling(bandai[0]), ebf).describe() if bandai else None,
                              "bandai": deep.served_by(bandai[0], ebf).describe() if bandai else None}}
     return figures, baselines, details

@@ -139,3 +139,16 @@ def motionbuilder_spelling(motion, order: str = "ZYX"):
     bvh = Skeleton(tuple(names), np.array(sk.parents), sk.offsets, sk.end_site_parents, sk.end_site_offsets,
                    channels=channels)
     return Motion(bvh, motion.rotations, motion.root_positions, motion.fps, motion.name)
+
+
+def daz_spelling(motion):
+    """A CMU MotionBuilder-release BVH take on the rig and names of the Daz-friendly release: ``hip``, ``abdomen``,
+    ``chest``, ``neck``, ``head``, ``lButtock``, ``lThigh``, ``lShin``, ``lFoot``, ``lCollar``, ``lShldr``,
+    ``lForeArm``, ``lHand``, ``lThumb1``, ``lIndex1`` (the middle spine, upper neck, toes and palms dropped:
+    :func:`respelled`)."""
+    names = {"Hips": "hip", "LowerBack": "abdomen", "Spine1": "chest", "Neck": "neck", "Head": "head"}
+    names |= _sides({"{c}HipJoint": "{s}Buttock", "{s}UpLeg": "{s}Thigh", "{s}Leg": "{s}Shin", "{s}Foot": "{s}Foot",
+                     "{s}Shoulder": "{s}Collar", "{s}Arm": "{s}Shldr", "{s}ForeArm": "{s}ForeArm", "{s}Hand": "{s}Hand",
+                     "{c}Fingers": "{s}Index1", "{c}Thumb": "{s}Thumb1"}, "l", "r")
+    return respelled(motion, names, drop=("Spine", "Neck1", "LeftToeBase", "RightToeBase", "LeftFingerBase",
+                                          "RightFingerBase"))

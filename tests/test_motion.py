@@ -317,6 +317,13 @@ def test_find_joint_on_smpl_and_unreal_rigs():
     fbx = dataclasses.replace(smpl, joint_names=tuple("m_avg_" + n for n in smpl.joint_names))  # SMPL's FBX names
     assert standard_joints(fbx, FEATURE_SETS["F39"]) == standard_joints(smpl, FEATURE_SETS["F39"])
     assert mirror_pairs(fbx.joint_names).tolist() == mirror_pairs(smpl.joint_names).tolist()
+    from tests.shared import daz_spelling
+
+    daz = daz_spelling(motionbuilder_spelling(mocapkit.load(mocapkit.samples.path("12_walk.amc")))).skeleton
+    got = {r: daz.joint_names[j] for r, j in standard_joints(daz).items()}
+    assert got["left_shoulder"] == "lShldr" and got["right_hip"] == "rThigh" and got["left_knee"] == "lShin"
+    assert got["lower_back"] == "abdomen" and got["chest"] == "chest" and got["left_hand"] == "lHand"
+    assert joint_sides(["lThigh", "rThigh", "lowerback"]) == ["left", "right", None]
     # side markers inside a name, as 3ds Max Biped writes them
     assert joint_sides(["Bip01 L Thigh", "Bip01 R Thigh", "Bip01 Spine"]) == ["left", "right", None]
     bandai = mocapkit.load(Path(__file__).parent / "data" / "dataset-1_dash_normal_001.bvh")

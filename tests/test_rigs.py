@@ -9,7 +9,7 @@ import mocapkit
 from mocapkit import rigs, samples
 from mocapkit.io.asfamc import read_asf
 from mocapkit.motion import Skeleton
-from tests.shared import curated_files, smpl_spelling, unreal_spelling
+from tests.shared import curated_files, daz_spelling, motionbuilder_spelling, smpl_spelling, unreal_spelling
 
 # the joint each family names for a few roles (what the files write, not what the code says)
 EXPECTED = {
@@ -30,6 +30,9 @@ EXPECTED = {
     "smpl": {"pelvis": "Pelvis", "left_thigh": "L_Hip", "left_shin": "L_Knee", "left_foot": "L_Ankle",
              "left_toe": "L_Foot", "left_clavicle": "L_Collar", "left_upper_arm": "L_Shoulder", "right_hand": "R_Wrist",
              "left_palm": "L_Hand", "spine": "Spine1", "spine_mid": "Spine2", "chest": "Spine3"},
+    "cmu_bvh_daz": {"pelvis": "hip", "spine": "abdomen", "chest": "chest", "left_hip_bone": "lButtock",
+                    "left_thigh": "lThigh", "right_shin": "rShin", "left_clavicle": "lCollar",
+                    "left_upper_arm": "lShldr", "right_hand": "rHand", "left_thumb": "lThumb1"},
     "unreal": {"root": "root", "pelvis": "pelvis", "left_thigh": "thigh_l", "right_shin": "calf_r",
                "left_toe": "ball_l", "left_clavicle": "clavicle_l", "left_upper_arm": "upperarm_l", "right_forearm": "lowerarm_r",
                "spine": "spine_01", "chest": "spine_03", "neck": "neck_01"},
@@ -102,8 +105,6 @@ def test_bandai_pelvis_is_hips_not_the_floor_root():
 def test_smpl_and_unreal_rigs_on_real_takes():
     """SMPL's names (both spellings) on a CMU walk's BVH, Unreal's on a Bandai Namco take: each a family, the
     pelvis where the hips' translation is (``pelvis`` below Unreal's floor ``root``)."""
-    from tests.shared import motionbuilder_spelling
-
     smpl = smpl_spelling(motionbuilder_spelling(mocapkit.load(samples.path("12_walk.amc")))).skeleton
     assert smpl.num_joints == 24
     r = _check(smpl, "smpl")
@@ -126,6 +127,14 @@ def test_smpl_and_unreal_rigs_on_real_takes():
     names = list(unreal.joint_names)
     names[names.index("spine_03")] = "spine_05"
     assert rigs.role_names(Skeleton(tuple(names), np.array(unreal.parents), unreal.offsets))["chest"] == "spine_05"
+
+
+def test_the_daz_friendly_cmu_spelling():
+    """The CMU walk as cgspeed's Daz-friendly release spells it (``hip``, ``abdomen``, ``lButtock``, ``lThigh``,
+    ``lShldr`` ...; no middle spine, upper neck, toes or palms)."""
+    sk = daz_spelling(motionbuilder_spelling(mocapkit.load(samples.path("12_walk.amc")))).skeleton
+    r = _check(sk, "cmu_bvh_daz")
+    assert len(r) == sk.num_joints and rigs.pelvis_index(sk) == 0
 
 
 def test_samples_and_an_unknown_rig_by_topology():

@@ -715,6 +715,7 @@ _SIDE_SWAPS = [
     (re.compile(r"^left"), "right"), (re.compile(r"^right"), "left"),
     (re.compile(r"^L(?=[A-Z_])"), "R"), (re.compile(r"^R(?=[A-Z_])"), "L"),
     (re.compile(r"^l(?=[a-z_])"), "r"), (re.compile(r"^r(?=[a-z_])"), "l"),
+    (re.compile(r"^l(?=[A-Z])"), "r"), (re.compile(r"^r(?=[A-Z])"), "l"),
     (re.compile(r"([_.\- ])L$"), r"\1R"), (re.compile(r"([_.\- ])R$"), r"\1L"),
     (re.compile(r"([_.\- ])l$"), r"\1r"), (re.compile(r"([_.\- ])r$"), r"\1l"),
     (re.compile(r"Left"), "Right"), (re.compile(r"Right"), "Left"),
@@ -735,7 +736,7 @@ def mirror_pairs(joint_names: Sequence[str]) -> np.ndarray:
     """Permutation (J,) mapping each joint to its left/right partner (itself when unpaired).
 
     A name pairs with another when swapping its side marker gives that other
-    name: ``Left``/``Right``, ``l``/``r`` prefixes (``lfemur``), ``L``/``R``
+    name: ``Left``/``Right``, ``l``/``r`` prefixes (``lfemur``, ``lThigh``), ``L``/``R``
     prefixes (``LHipJoint``), ``_L``/``_R`` suffixes and ``_L_``/``_R_`` (or
     space-separated) markers inside a name (``m_avg_L_Hip``, ``Bip01 L Thigh``).
     ``lowerback`` stays unpaired because ``rowerback`` does not exist.
@@ -835,8 +836,8 @@ ROLES: dict[str, tuple[str | None, tuple[str, ...]]] = {
     "chest": (None, (r"thorax", r"chest", r"spine3", r"spine_05", r"spine_03", r"spine1", r"upperback", r"spine2")),
     "neck": (None, (r"lowerneck", r"neck", r"neck_01")),
     "head": (None, (r"head",)),
-    "left_shoulder": ("left", (r"humerus", r"upperarm", r"arm", r"shoulder")),
-    "right_shoulder": ("right", (r"humerus", r"upperarm", r"arm", r"shoulder")),
+    "left_shoulder": ("left", (r"humerus", r"upperarm", r"arm", r"shoulder", r"shldr")),
+    "right_shoulder": ("right", (r"humerus", r"upperarm", r"arm", r"shoulder", r"shldr")),
     "left_elbow": ("left", (r"elbow", r"radius", r"forearm", r"lowerarm")),
     "right_elbow": ("right", (r"elbow", r"radius", r"forearm", r"lowerarm")),
     "left_hand": ("left", (r"wrist", r"hand")),

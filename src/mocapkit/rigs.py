@@ -2,8 +2,9 @@
 
 Motion-capture files spell the same human skeleton in many ways: the CMU
 and HDM05 Acclaim ASF calls the thigh ``lfemur``, Bruce Hahne's CMU BVH
-conversions call it ``LeftUpLeg`` (MotionBuilder-friendly release) or
-``LeftHip`` (3dsMax-friendly release), the Bandai Namco game rig
+conversions call it ``LeftUpLeg`` (MotionBuilder-friendly release),
+``LeftHip`` (3dsMax-friendly release) or ``lThigh`` (Daz-friendly
+release), the Bandai Namco game rig
 ``UpperLeg_L``, MotionBuilder/HumanIK ``LeftUpLeg``, Mixamo
 ``mixamorig:LeftUpLeg``, SMPL ``L_Hip`` (or ``m_avg_L_Hip``, ``left_hip``)
 and Unreal Engine's mannequin ``thigh_l``. Code that needs "the left thigh"
@@ -129,6 +130,14 @@ _CMU_MOTIONBUILDER = _both(  # cgspeed "MotionBuilder-friendly" CMU BVH (also th
     _lr,
 )
 
+_CMU_DAZ = _both(  # cgspeed "Daz-friendly" CMU BVH (and Poser/Daz figures): Buttock = hip bone, Shldr = upper arm
+    {"pelvis": ("hip",), "spine": ("abdomen",), "chest": ("chest",), "neck": ("neck",), "head": ("head",)},
+    {"hip_bone": ("lButtock",), "thigh": ("lThigh",), "shin": ("lShin",), "foot": ("lFoot",),
+     "clavicle": ("lCollar",), "upper_arm": ("lShldr",), "forearm": ("lForeArm",), "hand": ("lHand",),
+     "fingers": ("lIndex1",), "thumb": ("lThumb1",)},
+    _lr,
+)
+
 _CMU_3DSMAX = _both(  # cgspeed "3dsMax-friendly" CMU BVH: Collar = clavicle, Shoulder = upper arm, Hip = thigh
     {"pelvis": ("Hips",), "spine": ("lowerback",), "spine_mid": ("Chest",), "chest": ("Chest2",),
      "neck": ("lowerneck",), "neck_upper": ("Neck",), "head": ("Head",)},
@@ -208,6 +217,7 @@ FAMILIES = MappingProxyType({
     "mixamo": MappingProxyType(_MIXAMO),
     "cmu_bvh_motionbuilder": MappingProxyType(_CMU_MOTIONBUILDER),
     "cmu_bvh_3dsmax": MappingProxyType(_CMU_3DSMAX),
+    "cmu_bvh_daz": MappingProxyType(_CMU_DAZ),
     "bandai_namco": MappingProxyType(_BANDAI_NAMCO),
     "smpl": MappingProxyType(_SMPL),
     "unreal": MappingProxyType(_UNREAL),

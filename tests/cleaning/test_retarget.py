@@ -12,7 +12,7 @@ from mocapkit.cleaning import deep
 from mocapkit.cleaning.deep import channels as ch
 from mocapkit.cleaning.deep import retarget
 from mocapkit.motion import Motion, Skeleton
-from tests.shared import PYBVH, motionbuilder_spelling, smpl_spelling, unknown_rig, unreal_spelling
+from tests.shared import PYBVH, daz_spelling, motionbuilder_spelling, smpl_spelling, unknown_rig, unreal_spelling
 
 BANDAI = Path(__file__).resolve().parents[1] / "data" / "dataset-1_dash_normal_001.bvh"
 
@@ -276,15 +276,17 @@ def test_a_biovision_take_from_another_project_is_served_better_than_the_fallbac
     assert _rms(take, deep.denoise(noisy)) < _rms(take, savgol_smooth(noisy, 0.1, 2, root=False))
 
 
-@pytest.mark.parametrize("rig", ["smpl", "unreal"])
-def test_smpl_and_unreal_rigs_are_served_better_than_the_fallback(walk, ebf, rig):
-    """SMPL's rig (a CMU walk on its 24 joints: no hip bones, upper neck, fingers or thumbs) and Unreal's mannequin
-    names (a Bandai Namco take: floor root, no middle spine) through the Acclaim networks' joint map: observed
-    cells come back as they were, 0.5 noise is denoised better than by the fallback, gaps are filled."""
+@pytest.mark.parametrize("rig", ["smpl", "cmu_bvh_daz", "unreal"])
+def test_smpl_daz_and_unreal_rigs_are_served_better_than_the_fallback(walk, ebf, rig):
+    """SMPL's rig (a CMU walk on its 24 joints: no hip bones, upper neck, fingers or thumbs), the CMU Daz-friendly
+    release's (no middle spine, upper neck, toes or palms) and Unreal's mannequin names (a Bandai Namco take: floor
+    root, no middle spine) through the Acclaim networks' joint map: observed cells come back as they were, 0.5
+    noise is denoised better than by the fallback, gaps are filled."""
     from mocapkit.cleaning.filters import savgol_smooth
 
     bandai = BANDAI.with_name("dataset-1_dash_chimpira_001.bvh")  # 69 frames (the normal dash has 20)
-    take = smpl_spelling(motionbuilder_spelling(walk)) if rig == "smpl" else unreal_spelling(mocapkit.load(bandai))
+    spell = {"smpl": smpl_spelling, "cmu_bvh_daz": daz_spelling}
+    take = spell[rig](motionbuilder_spelling(walk)) if rig in spell else unreal_spelling(mocapkit.load(bandai))
     s = deep.served_by(take, ebf)
     assert isinstance(s, deep.Serving) and s.family == rig and not s.direct
     assert deep.shipped_model("ebf", take) is ebf  # the Bandai rig's own model (CC BY-NC) serves its own names only
