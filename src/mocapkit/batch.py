@@ -117,6 +117,7 @@ def clean_file(
     decisions=None,
     record=None,
     drifts: bool = False,
+    models: dict | None = None,
 ):
     """Clean the take at ``inp`` and write ``out``, its ``.clean.npz`` record and optional reports.
 
@@ -132,7 +133,9 @@ def clean_file(
     every change); ``record``: the ``.clean.npz`` of an earlier run on this
     take, used instead of cleaning again (needs ``decisions``; nothing but
     ``out`` and the reports is written). ``drifts``: also flag smooth drifts
-    (:func:`mocapkit.cleaning.pipeline.clean`).
+    (:func:`mocapkit.cleaning.pipeline.clean`); ``models``: ``{"ebf": ..., "ebd": ...}`` model files (or
+    shipped names, :func:`mocapkit.cleaning.deep.load_model`) instead of the shipped models chosen for
+    the take's rig.
 
     Every output is checked against every input
     (:func:`mocapkit.io.outputs.check_outputs`) before anything is read; the
@@ -156,7 +159,9 @@ def clean_file(
         raise MocapError(f"{record}: an earlier run's record is applied with decisions; give the decisions file")
     record = Path(record) if reuse else clean_path(out)
     outputs = [out, None if reuse else record, report, png]
-    check_outputs(outputs, [inp, asf, decisions, record if reuse else None, *(context or [])], overwrite=overwrite)
+    given = [Path(m) for m in (models or {}).values() if isinstance(m, (str, Path))]
+    check_outputs(outputs, [inp, asf, decisions, record if reuse else None, *(context or []), *given],
+                  overwrite=overwrite)
     check_asf(asf, [inp])
     if motion is None and inp.suffix.lower() == ".npz" and isinstance(take := load_take(inp), MarkerSet):
         return clean_marker_file(inp, out, report=report, png=png, overwrite=overwrite, markers=take)
@@ -173,7 +178,8 @@ def clean_file(
 
         ctx, ctx_note = fit_context(m, load_context(context, progress=progress))
         try:
-            res = clean(m, ctx, steps=steps or STEPS, threshold=threshold, progress=progress, drifts=drifts)
+            res = clean(m, ctx, steps=steps or STEPS, threshold=threshold, progress=progress, drifts=drifts,
+                        models=models)
             if ctx_note:
                 res = replace(res, notes=res.notes + (ctx_note,))
         except (ValueError, TypeError) as exc:
@@ -355,7 +361,7 @@ def _batch_job(job: dict) -> dict:
         _, res = clean_file(job["input"], staged[out], context=job["context"], steps=job["steps"], threshold=job["threshold"],
                             report=staged[Path(job["report"])] if job.get("report") else None,
                             png=staged[Path(job["png"])] if job.get("png") else None, asf=job.get("asf"),
-                            drifts=bool(job.get("drifts")))
+                            drifts=bool(job.get("drifts")), models=job.get("models"))
         for final in finals:  # the record last: the completion marker
             if not owner_alive():
                 raise _Orphaned
@@ -367,8 +373,10 @@ def _batch_job(job: dict) -> dict:
             row.update(frames=res.markers.num_frames, filled=int((res.filled & ~res.spikes).sum()),
                        spikes=int(res.spikes.sum()), swapped=int(res.swapped.sum()), notes=res.summary()[1:])
         else:
+            said = " ".join(s.note for s in res.steps)  # a step's fallback or its model's licence: warnings
             row.update(frames=res.num_frames, filled=int(res.filled.sum()), repaired=int(res.repaired.sum()),
-                       denoised=int(res.denoised.sum()), flagged=int(res.flags.sum()), notes=list(res.notes))
+                       denoised=int(res.denoised.sum()), flagged=int(res.flags.sum()), notes=list(res.notes),
+                       warnings=[n for n in res.notes if n in said])
     except _Orphaned:
         _remove(moved)
         row.update(status="failed", reason=_GONE)
@@ -489,6 +497,7 @@ def clean_batch(
     overwrite: bool = False,
     asf=None,
     drifts: bool = False,
+    models: dict | None = None,
 ) -> BatchSummary:
     """Clean every take under ``in_dir`` into the mirrored layout under ``out_dir`` (module docstring).
 
@@ -501,7 +510,8 @@ def clean_batch(
     an input, and an existing file that is not part of a complete take is
     replaced only with ``overwrite``. ``asf``: the skeleton of every ``.amc``
     take (default: the ASF beside each AMC). ``drifts``: also flag smooth
-    drifts in every take (:func:`mocapkit.cleaning.pipeline.clean`). Raises
+    drifts in every take (:func:`mocapkit.cleaning.pipeline.clean`); ``models``: model files (or shipped
+    names) for every take, as :func:`clean_file`'s. Raises
     :class:`~mocapkit.errors.MocapError` (one line) on a bad folder, format,
     step list, context or executor (:func:`mocapkit.parallel.check_executor`)
     and on a refused output; nothing is written then.
@@ -545,6 +555,7 @@ def clean_batch(
     _check_batch_outputs(plans, todo, inputs, folders, ctx, overwrite)
     jobs = [{"input": str(inp), "output": str(files["output"]), "context": [str(c) for c in ctx], "steps": steps,
              "threshold": float(threshold), "drifts": bool(drifts),
+             "models": {k: str(v) for k, v in (models or {}).items()} or None,
              "report": str(files["report"]) if files["report"] else None,
              "png": str(files["png"]) if files["png"] else None,
              "asf": str(asf) if asf is not None and inp.suffix.lower() == ".amc" else None} for inp, files in todo]

@@ -612,5 +612,6 @@ def test_training_metadata_carries_the_rig_and_licence_into_the_model_file(tmp_p
                        meta={"rig": "bandai", "licence": "CC BY-NC 4.0: non-commercial"})
     again = deep.load_model(tmp_path / "model.pt")
     assert m.meta["rig"] == again.meta["rig"] == "bandai"
-    assert deep.licence_note(again) == "the EBF used is CC BY-NC 4.0: non-commercial; --model picks another"
+    assert deep.licence_note(again) == ("the EBF used is CC BY-NC 4.0: non-commercial; --model (clean, clean-batch: "
+                                        "--ebf) picks another, e.g. ebf.pt")
     assert deep.licence_note(deep.shipped_model("ebf")) == ""  # the Acclaim models carry no restriction

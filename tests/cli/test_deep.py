@@ -1,4 +1,5 @@
-"""`mocapkit denoise`, `mocapkit fill` and `mocapkit train` on real clips, and their one-line errors."""
+"""`mocapkit denoise`, `mocapkit fill` and `mocapkit train` on real clips, and their one-line errors; the models
+`clean` and `clean-batch` use."""
 
 from pathlib import Path
 
@@ -182,6 +183,45 @@ def test_a_bandai_take_is_denoised_by_the_bandai_ebf_with_its_licence_line(tmp_p
     assert code == 0, err
     text = " ".join(out.split())  # the Acclaim EBF serves the game rig through its joint map
     assert "EBF (given, via the bandai_namco joint map)" in text and "CC BY-NC" not in text
+    # the shipped model by its name, as the licence line suggests, from any folder
+    code, out, err = run("denoise", str(src), "-o", str(tmp_path / "f.bvh"), "--model", "ebf.pt", cwd=tmp_path)
+    assert code == 0, err
+    assert "CC BY-NC" not in out
+    assert np.array_equal(mocapkit.load(tmp_path / "f.bvh").rotations, mocapkit.load(tmp_path / "e.bvh").rotations)
+    code, _, err = run("denoise", str(src), "-o", str(tmp_path / "g.bvh"), "--model", "ebd.pt", cwd=tmp_path)
+    assert code == 2 and one_error_line(err) and "ebd.pt: an EBD model, but this needs an EBF" in " ".join(err.split())
+    assert not (tmp_path / "g.bvh").exists()
+
+
+def test_clean_and_clean_batch_take_their_models_and_say_the_licence(tmp_path):
+    """clean and clean-batch use the Bandai models on a Bandai take and say their licence (clean-batch under the
+    take's line); --ebf / --ebd pick others, by file or by a shipped model's name; a wrong kind is one line."""
+    noisy, _ = corrupt.angular_noise(mocapkit.load(BANDAI), 0.5, seed=3)
+    (tmp_path / "in").mkdir()
+    src = tmp_path / "in" / "noisy.bvh"
+    mocapkit.save(noisy, src)
+    code, out, err = run("clean", str(src), "-o", str(tmp_path / "a.bvh"))
+    assert code == 0, err
+    text = " ".join(out.split())
+    assert "EBF (shipped, bandai_namco)" in text and f"warning: {src}: the EBF used is CC BY-NC 4.0" in text
+    code, out, err = run("clean", str(src), "-o", str(tmp_path / "b.bvh"), "--ebf", "ebf.pt", cwd=tmp_path)
+    assert code == 0, err
+    text = " ".join(out.split())
+    assert "EBF (ebf.pt, via the bandai_namco joint map)" in text and "CC BY-NC" not in text
+    code, _, err = run("clean", str(src), "-o", str(tmp_path / "c.bvh"), "--ebf", "ebd.pt", cwd=tmp_path)
+    assert code == 2 and one_error_line(err) and "ebd.pt: an EBD model, but this needs an EBF" in " ".join(err.split())
+    assert not (tmp_path / "c.bvh").exists() and not (tmp_path / "c.clean.npz").exists()
+    code, out, err = run("clean-batch", str(tmp_path / "in"), str(tmp_path / "out"), "--executor", "serial")
+    assert code == 0, err
+    lines = out.splitlines()
+    at = next(i for i, line in enumerate(lines) if line.startswith("cleaned "))
+    assert lines[at + 1].startswith(f"warning: {src}: the EBF used is CC BY-NC 4.0")
+    code, out, err = run("clean-batch", str(tmp_path / "in"), str(tmp_path / "out2"), "--executor", "serial",
+                         "--ebf", "ebf.pt", cwd=tmp_path)
+    assert code == 0, err
+    assert "CC BY-NC" not in out
+    assert np.array_equal(mocapkit.load(tmp_path / "out2" / "noisy.bvh").rotations,
+                          mocapkit.load(tmp_path / "b.bvh").rotations)
 
 
 def test_fill_by_the_network_or_the_prior(tmp_path):

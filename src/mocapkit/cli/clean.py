@@ -44,6 +44,12 @@ def clean(
                                   "if it exists) is reused; without one the take is cleaned first."),
     record: Optional[Path] = typer.Option(None, "--record", help="With --decisions: the .clean.npz of the earlier run "
                                                                  "(default: OUT's, if it exists)."),
+    ebf: Optional[Path] = typer.Option(None, "--ebf", help="The EBF that denoises: a model file or a shipped one's "
+                                                           "name, ebf.pt or ebf_bandai.pt (default: the one for the "
+                                                           "take's rig)."),
+    ebd: Optional[Path] = typer.Option(None, "--ebd", help="The EBD that fills gaps: a model file or a shipped one's "
+                                                           "name, ebd.pt or ebd_bandai.pt (default: the one for the "
+                                                           "take's rig)."),
     asf: Optional[Path] = asf_option(),
     overwrite: bool = overwrite_option(),
 ) -> None:
@@ -67,14 +73,15 @@ def clean(
     if decisions is not None and record is None and clean_path(out).is_file():
         record = clean_path(out)  # the earlier run's record beside OUT: apply the decisions, clean nothing again
     if record is not None:
-        guard([out, report, png], [inp, asf, context, reference, decisions, record], overwrite)
+        guard([out, report, png], [inp, asf, context, reference, decisions, record, ebf, ebd], overwrite)
     else:
-        guard([out, clean_path(out), report, png], [inp, asf, context, reference, decisions], overwrite)
+        guard([out, clean_path(out), report, png], [inp, asf, context, reference, decisions, ebf, ebd], overwrite)
     check_asf(asf, [inp, reference])
     if decisions is None and _clean_marker_take(inp, out, report=report, png=png, overwrite=overwrite,
                                                  reference=reference):
         return
     step_list = _steps(steps)
+    models = _models(ebf, ebd)
     take = load_motion(inp, asf, purpose="clean")
     ref = None
     if reference is not None:  # refused before cleaning, not after OUT is written
@@ -83,7 +90,7 @@ def clean(
     original, res = clean_file(inp, out, context=context, steps=step_list, threshold=threshold, report=report, png=png,
                                progress=True, asf=asf if inp.suffix.lower() == ".amc" else None, overwrite=overwrite,
                                motion=take, drifts=drifts, decisions=decisions,
-                               record=record)
+                               record=record, models=models)
     if decisions is not None:
         m = _print_decided(inp, out, decisions, record, report, png, original, res)
         _print_reference(ref, reference, original, m)
@@ -108,6 +115,18 @@ def clean(
         if len(segs) > 12:
             console.print(f"    ... and {len(segs) - 12} more (all in {clean_path(out)})")
     _print_reference(ref, reference, original, m)
+
+
+def _models(ebf: Optional[Path], ebd: Optional[Path]) -> dict | None:
+    """``--ebf`` / ``--ebd`` checked (a model of that kind, or a shipped one's name) before any work; None: shipped."""
+    given = {k: p for k, p in (("ebf", ebf), ("ebd", ebd)) if p is not None}
+    if not given:
+        return None
+    from ..cleaning import deep
+
+    for kind, path in given.items():
+        deep.load_model(path, kind)  # a missing, malformed or wrong-kind file: one line naming it
+    return {k: str(p) for k, p in given.items()}
 
 
 def _print_reference(ref, reference, original, m) -> None:
@@ -204,6 +223,12 @@ def clean_batch(
     pattern: str = typer.Option("*.bvh,*.amc,*.npz,*.c3d,*.trc", "--pattern", help="Comma-separated file name patterns to clean."),
     fmt: str = typer.Option("auto", "--format", help="Output format: auto (.bvh and .npz kept, others -> .bvh), bvh, amc (ASF/AMC takes, read back with their ASF) or npz."),
     as_json: bool = typer.Option(False, "--json", help="Print the per-take rows as JSON."),
+    ebf: Optional[Path] = typer.Option(None, "--ebf", help="The EBF that denoises: a model file or a shipped one's "
+                                                           "name, ebf.pt or ebf_bandai.pt (default: the one for the "
+                                                           "take's rig)."),
+    ebd: Optional[Path] = typer.Option(None, "--ebd", help="The EBD that fills gaps: a model file or a shipped one's "
+                                                           "name, ebd.pt or ebd_bandai.pt (default: the one for the "
+                                                           "take's rig)."),
     asf: Optional[Path] = asf_option(),
     overwrite: bool = typer.Option(
         False, "--overwrite",
@@ -228,14 +253,17 @@ def clean_batch(
     patterns = tuple(p.strip() for p in pattern.split(",") if p.strip())
     if not patterns:
         raise MocapError("--pattern: give at least one file name pattern, e.g. '*.bvh,*.amc'")
+    models = _models(ebf, ebd)
     summary = run_batch(in_dir, out_dir, context=context, steps=step_list, threshold=threshold, patterns=patterns,
                         fmt=fmt, report=report, png=png, executor=executor, progress=not as_json, overwrite=overwrite,
-                        asf=asf, drifts=drifts)
+                        asf=asf, drifts=drifts, models=models)
     if as_json:
         print(json.dumps({"rows": summary.rows, "seconds": summary.seconds, "executor": summary.executor}))
     else:
         for row in summary.rows:
             console.print(_take_line(row))
+            for note in row.get("warnings", ()):  # as clean says them: a fallback, a model's licence
+                console.print(f"warning: {row['input']}: {note}")
         console.print(f"{plural(len(summary.rows), 'take')} on {summary.executor} in {summary.seconds:.1f} s: "
                       f"{summary.count('done')} cleaned, {summary.count('skipped')} already complete, "
                       f"{summary.count('failed')} failed")

@@ -7,7 +7,7 @@ from typing import Optional
 
 import typer
 
-from ..errors import MocapError, MocapFormatError, SkeletonError
+from ..errors import MocapError, SkeletonError
 from .common import asf_option, check_executor, console, executor_option, guard, overwrite_option, plural
 
 
@@ -17,10 +17,7 @@ def _model(path: Optional[Path], kind: str):
 
     if path is None:
         return None
-    model = deep.load_model(path)
-    if model.kind != kind:
-        raise MocapFormatError(path, f"an {model.kind.upper()} model, but this needs an {kind.upper()}")
-    return model
+    return deep.load_model(path, kind)
 
 
 def _reference(path: Optional[Path], take, asf: Optional[Path] = None):
@@ -53,7 +50,8 @@ def _served(inp: Path, motion, net, kind: str, no_fallback: bool):
 def denoise(
     inp: Path = typer.Argument(..., metavar="IN", help="Noisy motion (.bvh, .amc, .npz)."),
     out: Path = typer.Option(..., "--out", "-o", help="Denoised motion (.bvh, .amc for a take read from ASF/AMC, or .npz)."),
-    model: Optional[Path] = typer.Option(None, "--model", help="An EBF model file (default: the shipped one)."),
+    model: Optional[Path] = typer.Option(None, "--model", help="An EBF model file, or a shipped one's name: ebf.pt, "
+                                                               "ebf_bandai.pt (default: the one for the take's rig)."),
     reference: Optional[Path] = typer.Option(None, "--reference", help="A clean take to report the error against."),
     no_fallback: bool = _no_fallback_option(),
     asf: Optional[Path] = asf_option(),
@@ -97,8 +95,10 @@ def denoise(
 def fill(
     inp: Path = typer.Argument(..., metavar="IN", help="Motion with gaps (NaN joints in .npz; or any format)."),
     out: Path = typer.Option(..., "--out", "-o", help="Filled motion (.bvh, .amc for a take read from ASF/AMC, or .npz)."),
-    model: Optional[Path] = typer.Option(None, "--model", help="An EBD model file (default: the shipped one)."),
-    denoiser: Optional[Path] = typer.Option(None, "--denoiser", help="The EBF that smooths the filled entries."),
+    model: Optional[Path] = typer.Option(None, "--model", help="An EBD model file, or a shipped one's name: ebd.pt, "
+                                                               "ebd_bandai.pt (default: the one for the take's rig)."),
+    denoiser: Optional[Path] = typer.Option(None, "--denoiser", help="The EBF that smooths the filled entries (a file "
+                                                                    "or a shipped name, as --model)."),
     smooth: bool = typer.Option(True, "--smooth/--no-smooth", help="Run the EBF over the filled entries."),
     by: str = typer.Option("auto", "--by", help="What fills the gaps: prior (the EBD model's Gaussian gap prior), "
                                                 "ebd (the network), auto (the prior when the model has one)."),

@@ -115,9 +115,29 @@ def save_model(model: DeepModel, path) -> Path:
     return path
 
 
-def load_model(path) -> DeepModel:
-    """Read a model file written by :func:`save_model` (weights only; a bad file raises MocapFormatError)."""
+def load_model(path, kind: str | None = None) -> DeepModel:
+    """Read a model file written by :func:`save_model` (weights only; a bad file raises MocapFormatError).
+
+    A bare file name of a shipped model (``ebf.pt``, ``ebd.pt``, ``ebf_bandai.pt``, ``ebd_bandai.pt``; see
+    docs/models.md) that is no file in the working folder is that shipped model, so ``--model ebf.pt`` picks the
+    Acclaim networks for any take. ``kind`` ("ebf" or "ebd"), when given, is checked: a model of the other kind
+    raises MocapFormatError naming the file.
+    """
     path = Path(path)
+    if path.name in _shipped_files() and path.parent == Path(".") and not path.exists():
+        model = _packaged(path.name)
+    else:
+        model = _read_model(path)
+    if kind is not None and model.kind != kind:
+        raise MocapFormatError(path, f"an {model.kind.upper()} model, but this needs an {kind.upper()}")
+    return model
+
+
+def _shipped_files() -> set[str]:
+    return set(SHIPPED.values()) | {f for files in SHIPPED_FOR_RIG.values() for f in files.values()}
+
+
+def _read_model(path: Path) -> DeepModel:
     try:
         payload = torch.load(path, map_location="cpu", weights_only=True)
     except FileNotFoundError:
@@ -156,7 +176,7 @@ def load_model(path) -> DeepModel:
 def _packaged(name: str) -> DeepModel:
     ref = resources.files("mocapkit") / "models" / name
     with resources.as_file(ref) as p:
-        return load_model(p)
+        return _read_model(Path(p))
 
 
 def shipped_model(kind: str = "ebf", take=None) -> DeepModel:
@@ -190,7 +210,8 @@ def shipped_model(kind: str = "ebf", take=None) -> DeepModel:
 def licence_note(model: DeepModel) -> str:
     """One line naming a model's licence when it restricts use (a model inherits its training data's), else ""."""
     lic = model.meta.get("licence", "") if isinstance(model.meta, dict) else ""
-    return f"the {model.kind.upper()} used is {lic}; --model picks another" if lic else ""
+    return (f"the {model.kind.upper()} used is {lic}; --model (clean, clean-batch: --{model.kind}) picks another, e.g. "
+            f"{SHIPPED[model.kind]}" if lic else "")
 
 
 def _model(model, kind: str, take=None) -> DeepModel:
