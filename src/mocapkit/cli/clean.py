@@ -22,6 +22,14 @@ def _steps(text: str) -> list[str]:
         raise MocapError(f"--steps: {exc}") from None
 
 
+def _model_option(kind: str):
+    """``--ebf`` / ``--ebd``: the model a step uses instead of the one shipped for the take's rig."""
+    role = "denoises" if kind == "ebf" else "fills gaps"
+    return typer.Option(None, f"--{kind}", help=f"The {kind.upper()} that {role}: a model file or a shipped one's "
+                                                f"name, {kind}.pt or {kind}_bandai.pt (default: the one for the take's "
+                                                "rig).")
+
+
 def clean(
     inp: Path = typer.Argument(..., metavar="IN", help="Motion (.bvh, .amc, .npz) or marker capture (.c3d, .trc, marker .npz) to clean."),
     out: Path = typer.Option(..., "--out", "-o", help="Cleaned take (.bvh, .amc for a take read from ASF/AMC, or .npz; a marker capture: .c3d, .trc or .npz); OUT's stem + .clean.npz is written beside it."),
@@ -44,12 +52,8 @@ def clean(
                                   "if it exists) is reused; without one the take is cleaned first."),
     record: Optional[Path] = typer.Option(None, "--record", help="With --decisions: the .clean.npz of the earlier run "
                                                                  "(default: OUT's, if it exists)."),
-    ebf: Optional[Path] = typer.Option(None, "--ebf", help="The EBF that denoises: a model file or a shipped one's "
-                                                           "name, ebf.pt or ebf_bandai.pt (default: the one for the "
-                                                           "take's rig)."),
-    ebd: Optional[Path] = typer.Option(None, "--ebd", help="The EBD that fills gaps: a model file or a shipped one's "
-                                                           "name, ebd.pt or ebd_bandai.pt (default: the one for the "
-                                                           "take's rig)."),
+    ebf: Optional[Path] = _model_option("ebf"),
+    ebd: Optional[Path] = _model_option("ebd"),
     asf: Optional[Path] = asf_option(),
     overwrite: bool = overwrite_option(),
 ) -> None:
@@ -223,12 +227,8 @@ def clean_batch(
     pattern: str = typer.Option("*.bvh,*.amc,*.npz,*.c3d,*.trc", "--pattern", help="Comma-separated file name patterns to clean."),
     fmt: str = typer.Option("auto", "--format", help="Output format: auto (.bvh and .npz kept, others -> .bvh), bvh, amc (ASF/AMC takes, read back with their ASF) or npz."),
     as_json: bool = typer.Option(False, "--json", help="Print the per-take rows as JSON."),
-    ebf: Optional[Path] = typer.Option(None, "--ebf", help="The EBF that denoises: a model file or a shipped one's "
-                                                           "name, ebf.pt or ebf_bandai.pt (default: the one for the "
-                                                           "take's rig)."),
-    ebd: Optional[Path] = typer.Option(None, "--ebd", help="The EBD that fills gaps: a model file or a shipped one's "
-                                                           "name, ebd.pt or ebd_bandai.pt (default: the one for the "
-                                                           "take's rig)."),
+    ebf: Optional[Path] = _model_option("ebf"),
+    ebd: Optional[Path] = _model_option("ebd"),
     asf: Optional[Path] = asf_option(),
     overwrite: bool = typer.Option(
         False, "--overwrite",
