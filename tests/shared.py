@@ -1,5 +1,7 @@
 """Real takes several test modules share: the curated takes of ``../shared/data`` that golden I/O tests
-walk, and a real take on a rig of no known family (:func:`unknown_rig`).
+walk, a real take on a rig of no known family (:func:`unknown_rig`), and real takes respelled on the rigs
+users bring that ``../shared/data`` does not hold (:func:`smpl_spelling`, :func:`daz_spelling`,
+:func:`unreal_spelling`, :func:`motionbuilder_spelling`; the benchmarks use them too).
 
 ``peer_files/`` (other projects' test files, many deliberately odd) and
 ``bandai_namco_full/`` (an archive to unpack) are not curated takes: the I/O
@@ -39,10 +41,9 @@ def respelled(motion, names: dict, drop=()):
     """``motion`` on a rig that names its joints ``names[old]`` (unlisted ones keep theirs) and lacks the joints
     ``drop``: each dropped joint's rotation joins its children's (``L_dropped L_child``) and its rest offset theirs;
     its end sites hang from its nearest kept ancestor (one per joint), and a dropped leaf without one becomes one.
-    The result is a take on that rig in its own right (a
-    dropped joint that moved changes where its children are), which is what rig tests need: real motion under
-    another family's names and topology. Rest rotations are the identity (BVH), and no joint but the root may
-    carry animated translations where joints are dropped."""
+    The result is a take on that rig in its own right (a dropped joint that moved changes where its children
+    are), which is what rig tests need: real motion under another family's names and topology. Rest rotations
+    are the identity (BVH), and no joint but the root may carry animated translations where joints are dropped."""
     import numpy as np
 
     from mocapkit import rotations as R
@@ -87,6 +88,8 @@ def respelled(motion, names: dict, drop=()):
 
 
 def _sides(pairs: dict, left: str, right: str) -> dict:
+    """Both sides of ``{"{s}Arm": "{s}_Shoulder", ...}``: ``{s}`` is ``Left``/``Right`` (``{c}`` ``L``/``R``) in the
+    old names and ``left``/``right`` in the new."""
     out = {}
     for old, new in pairs.items():
         out[old.format(s="Left", c="L")] = new.format(s=left)
