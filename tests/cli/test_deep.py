@@ -224,6 +224,24 @@ def test_clean_and_clean_batch_take_their_models_and_say_the_licence(tmp_path):
                           mocapkit.load(tmp_path / "b.bvh").rotations)
 
 
+def test_a_given_ebd_is_smoothed_by_its_own_pair(tmp_path):
+    """The EBF smooths the EBD's channels: a given Acclaim EBD on a Bandai take gets the Acclaim EBF (not the rig's
+    own, which reads other channels), in fill and clean; two models of different rigs are one line, not a
+    fallback."""
+    gin = tmp_path / "gaps.npz"
+    _gappy(mocapkit.load(BANDAI.with_name("dataset-1_dash_chimpira_001.bvh")), gin, seed=2)
+    code, out, err = run("fill", str(gin), "-o", str(tmp_path / "f.npz"), "--model", "ebd.pt", cwd=tmp_path)
+    assert code == 0, err
+    assert "EBD's gap prior (given, via the bandai_namco joint map) + EBF" in " ".join(out.split())
+    code, out, err = run("clean", str(gin), "-o", str(tmp_path / "c.npz"), "--ebd", "ebd.pt", cwd=tmp_path)
+    assert code == 0, err
+    text = " ".join(out.split())
+    assert "EBD's gap prior (ebd.pt, via the bandai_namco joint map) + EBF" in text and "cubic" not in text
+    code, _, err = run("fill", str(gin), "-o", str(tmp_path / "g.npz"), "--model", "ebd.pt", "--denoiser",
+                       "ebf_bandai.pt", cwd=tmp_path)
+    assert code == 2 and one_error_line(err) and "not a pair" in err and not (tmp_path / "g.npz").exists()
+
+
 def test_fill_by_the_network_or_the_prior(tmp_path):
     """--by picks what fills the gaps; a model without a prior asked for one is an error, not a fallback."""
     import dataclasses

@@ -207,6 +207,23 @@ def shipped_model(kind: str = "ebf", take=None) -> DeepModel:
     return first if mapped is None else mapped
 
 
+def _paired_ebf(ebd: DeepModel, take=None) -> DeepModel:
+    """The shipped EBF that reads ``ebd``'s channels (its pair: ``ebf.pt`` for ``ebd.pt``, ``ebf_bandai.pt`` for
+    ``ebd_bandai.pt``), which smooths what the EBD fills; the EBF shipped for ``take``'s rig when none does."""
+    for name in [SHIPPED["ebf"]] + [files["ebf"] for files in SHIPPED_FOR_RIG.values()]:
+        m = _packaged(name)
+        if m.layout == ebd.layout:
+            return m
+    return shipped_model("ebf", take)
+
+
+def _check_pair(ebd: DeepModel, ebf: DeepModel) -> None:
+    """The EBF smooths the EBD's channels: refuse two models of different rigs (a request, not a reason to fall back)."""
+    if ebf.layout != ebd.layout:
+        raise ValueError(f"the EBF reads {ebf.layout.num_channels} channels and the EBD {ebd.layout.num_channels}: "
+                         "they are not a pair; give the EBF of the EBD's rig (fill --denoiser)")
+
+
 def licence_note(model: DeepModel) -> str:
     """One line naming a model's licence when it restricts use (a model inherits its training data's), else ""."""
     lic = model.meta.get("licence", "") if isinstance(model.meta, dict) else ""
@@ -560,8 +577,9 @@ def fill_gaps(motion: Motion, model=None, denoiser=None, smooth: bool = True, me
         return motion
     src = motion if sv.direct else _hold_unmapped(motion, sv, missing)
     values, ctx = encode_served(src, sv)
-    if smooth:  # the shipped EBF for this take's rig when none is given
-        denoiser = _model(denoiser, "ebf", motion)
+    if smooth:  # the shipped EBF of the EBD's pair when none is given
+        denoiser = _paired_ebf(m, motion) if denoiser is None else _model(denoiser, "ebf", motion)
+        _check_pair(m, denoiser)
     out = fill_channels(values, ctx, m, denoiser, fps=motion.fps, smooth=smooth, method=method)
     res = decode_served(out, src, sv, keep=~missing)
     rot = np.array(res.rotations)
@@ -623,7 +641,10 @@ def fill_or_fallback(motion: Motion, model=None, denoiser=None, smooth: bool = T
     sv = served_by(motion, _model(model, "ebd", motion))
     if not isinstance(sv, str):
         by_prior = _fills_by_prior(sv.model, method)  # raises before the try: a bad request is no reason to fall back
-        ebf = served_by(motion, _model(denoiser, "ebf", motion)) if smooth else "not asked"
+        if smooth:
+            pair = _paired_ebf(sv.model, motion) if denoiser is None else _model(denoiser, "ebf", motion)
+            _check_pair(sv.model, pair)
+        ebf = served_by(motion, pair) if smooth else "not asked"
         smooth = not isinstance(ebf, str)
         try:
             out = fill_gaps(motion, sv, ebf if smooth else None, smooth=smooth, method=method)
