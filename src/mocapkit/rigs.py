@@ -97,10 +97,13 @@ def _both(table: dict[str, tuple[str, ...]], left: dict[str, tuple[str, ...]], s
 
 
 def _lr(name: str) -> str:
-    """Left -> right in the CMU/HumanIK spellings: ``Left``/``L`` prefixes, ``l`` for Acclaim."""
+    """Left -> right in side prefixes: ``Left``/``left_`` (HumanIK, smplx), ``L``/``L_`` (CMU, SMPL), ``l`` (Acclaim,
+    Daz)."""
     if name.startswith("Left"):
         return "Right" + name[4:]
-    if name.startswith("L") and name[1:2].isupper():
+    if name.startswith("left_"):
+        return "right_" + name[5:]
+    if name.startswith("L") and (name[1:2].isupper() or name[1:2] == "_"):
         return "R" + name[1:]
     if name.startswith("l"):
         return "r" + name[1:]
@@ -108,7 +111,8 @@ def _lr(name: str) -> str:
 
 
 def _suffix_lr(name: str) -> str:
-    return name[:-2] + "_R" if name.endswith("_L") else name
+    """Left -> right in side suffixes: ``_L`` (Bandai Namco), ``_l`` (Unreal)."""
+    return name[:-1] + {"L": "R", "l": "r"}[name[-1]] if name.endswith(("_L", "_l")) else name
 
 
 _ACCLAIM = _both(
@@ -168,15 +172,6 @@ _HUMANIK = _both(
 )
 
 
-def _smpl_lr(name: str) -> str:
-    """Left -> right in SMPL's spellings: ``L_Hip`` -> ``R_Hip``, ``left_hip`` -> ``right_hip``."""
-    if name.startswith("L_"):
-        return "R_" + name[2:]
-    if name.startswith("left_"):
-        return "right_" + name[5:]
-    return name
-
-
 # SMPL, SMPL-H and SMPL-X body joints (AMASS and the many BVH exports of SMPL fits), in the capitalised spelling of
 # the SMPL code (``L_Hip``), with the ``m_avg_`` / ``f_avg_`` prefix of the SMPL FBX models (``m_avg_L_Hip``), and
 # the lower-case one of smplx (``left_hip``). SMPL's ``Shoulder`` is the upper arm, ``Collar`` the clavicle, ``Hip``
@@ -190,7 +185,7 @@ _SMPL_NAMES = _both(
      "upper_arm": ("L_Shoulder", "left_shoulder"), "forearm": ("L_Elbow", "left_elbow"),
      "hand": ("L_Wrist", "left_wrist"), "palm": ("L_Hand", "left_hand"), "fingers": ("left_index1",),
      "thumb": ("left_thumb1",)},
-    _smpl_lr,
+    _lr,
 )
 _SMPL = {role: tuple(pre + n for n in names for pre in ("", "m_avg_", "f_avg_")) for role, names in _SMPL_NAMES.items()}
 
@@ -204,7 +199,7 @@ _UNREAL = _both(
     {"thigh": ("thigh_l",), "shin": ("calf_l",), "foot": ("foot_l",), "toe": ("ball_l",),
      "clavicle": ("clavicle_l",), "upper_arm": ("upperarm_l",), "forearm": ("lowerarm_l",), "hand": ("hand_l",),
      "fingers": ("index_01_l",), "thumb": ("thumb_01_l",)},
-    lambda n: n[:-2] + "_r" if n.endswith("_l") else n,
+    _suffix_lr,
 )
 
 _MIXAMO_PREFIX = "mixamorig:"

@@ -133,8 +133,13 @@ def load_model(path, kind: str | None = None) -> DeepModel:
     return model
 
 
+def _shipped_names(kind: str) -> list[str]:
+    """The shipped model files of ``kind``, the Acclaim one first, then each rig family's own."""
+    return [SHIPPED[kind]] + [files[kind] for files in SHIPPED_FOR_RIG.values()]
+
+
 def _shipped_files() -> set[str]:
-    return set(SHIPPED.values()) | {f for files in SHIPPED_FOR_RIG.values() for f in files.values()}
+    return {name for kind in SHIPPED for name in _shipped_names(kind)}
 
 
 def _read_model(path: Path) -> DeepModel:
@@ -197,7 +202,7 @@ def shipped_model(kind: str = "ebf", take=None) -> DeepModel:
     if take is None:
         return first
     mapped = None
-    for name in [SHIPPED[kind]] + [files[kind] for files in SHIPPED_FOR_RIG.values()]:
+    for name in _shipped_names(kind):
         m = _packaged(name)  # loaded only when the ones before do not serve the take directly
         s = served_by(take, m)
         if not isinstance(s, str) and s.direct:
@@ -207,21 +212,20 @@ def shipped_model(kind: str = "ebf", take=None) -> DeepModel:
     return first if mapped is None else mapped
 
 
-def _paired_ebf(ebd: DeepModel, take=None) -> DeepModel:
-    """The shipped EBF that reads ``ebd``'s channels (its pair: ``ebf.pt`` for ``ebd.pt``, ``ebf_bandai.pt`` for
-    ``ebd_bandai.pt``), which smooths what the EBD fills; the EBF shipped for ``take``'s rig when none does."""
-    for name in [SHIPPED["ebf"]] + [files["ebf"] for files in SHIPPED_FOR_RIG.values()]:
-        m = _packaged(name)
-        if m.layout == ebd.layout:
-            return m
-    return shipped_model("ebf", take)
-
-
-def _check_pair(ebd: DeepModel, ebf: DeepModel) -> None:
-    """The EBF smooths the EBD's channels: refuse two models of different rigs (a request, not a reason to fall back)."""
+def _smoothing_ebf(ebd: DeepModel, denoiser, take=None) -> DeepModel:
+    """The EBF that smooths what ``ebd`` fills: ``denoiser`` (:func:`_model`'s kinds) or, when None, the shipped
+    EBF that reads the EBD's channels (its pair: ``ebf.pt`` for ``ebd.pt``, ``ebf_bandai.pt`` for
+    ``ebd_bandai.pt``; the one shipped for ``take``'s rig when none does). An EBF of another rig than the EBD's is
+    refused with ValueError (a request, not a reason to fall back)."""
+    if denoiser is None:
+        found = (_packaged(n) for n in _shipped_names("ebf"))
+        ebf = next((m for m in found if m.layout == ebd.layout), None) or shipped_model("ebf", take)
+    else:
+        ebf = _model(denoiser, "ebf", take)
     if ebf.layout != ebd.layout:
         raise ValueError(f"the EBF reads {ebf.layout.num_channels} channels and the EBD {ebd.layout.num_channels}: "
                          "they are not a pair; give the EBF of the EBD's rig (fill --denoiser)")
+    return ebf
 
 
 def licence_note(model: DeepModel) -> str:
@@ -578,8 +582,7 @@ def fill_gaps(motion: Motion, model=None, denoiser=None, smooth: bool = True, me
     src = motion if sv.direct else _hold_unmapped(motion, sv, missing)
     values, ctx = encode_served(src, sv)
     if smooth:  # the shipped EBF of the EBD's pair when none is given
-        denoiser = _paired_ebf(m, motion) if denoiser is None else _model(denoiser, "ebf", motion)
-        _check_pair(m, denoiser)
+        denoiser = _smoothing_ebf(m, denoiser, motion)
     out = fill_channels(values, ctx, m, denoiser, fps=motion.fps, smooth=smooth, method=method)
     res = decode_served(out, src, sv, keep=~missing)
     rot = np.array(res.rotations)
@@ -641,10 +644,7 @@ def fill_or_fallback(motion: Motion, model=None, denoiser=None, smooth: bool = T
     sv = served_by(motion, _model(model, "ebd", motion))
     if not isinstance(sv, str):
         by_prior = _fills_by_prior(sv.model, method)  # raises before the try: a bad request is no reason to fall back
-        if smooth:
-            pair = _paired_ebf(sv.model, motion) if denoiser is None else _model(denoiser, "ebf", motion)
-            _check_pair(sv.model, pair)
-        ebf = served_by(motion, pair) if smooth else "not asked"
+        ebf = served_by(motion, _smoothing_ebf(sv.model, denoiser, motion)) if smooth else "not asked"
         smooth = not isinstance(ebf, str)
         try:
             out = fill_gaps(motion, sv, ebf if smooth else None, smooth=smooth, method=method)
