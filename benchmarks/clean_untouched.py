@@ -32,10 +32,16 @@ motion on another rig's names and joints, so any cell changed is harm too):
 * ``daz``: every 4th HDM05 clip from the third (not ``smpl``'s) and the CMU ASF/AMC takes as the CMU
   Daz-friendly BVH release spells its rig (``hip``, ``abdomen``, ``lThigh``, ``lShldr``, ... : no middle
   spine, upper neck, toes or palms), 120 fps;
+* ``xsens``: every 4th HDM05 clip from the second (neither ``smpl``'s nor ``daz``'s) and the CMU ASF/AMC
+  takes on Xsens MVN's BVH rig and names (``Hips``, ``Chest``, ``Chest2``, ``Chest4``, ``LeftHip``,
+  ``LeftCollar``, ``LeftShoulder``, ... : no hip bones, upper neck, palms or fingers), 120 fps;
+* ``unity``: every 4th HDM05 clip from the fourth and the CMU ASF/AMC takes on Unity's humanoid avatar
+  (``Hips``, ``Spine``, ``Chest``, ``UpperChest``, ``LeftShoulder``, ``LeftUpperArm``, ``LeftUpperLeg``, ... : no
+  hip bones, upper neck or palms), 120 fps;
 * ``unreal``: every 10th take of the Bandai Namco sample under Unreal Engine mannequin names
   (``root``, ``pelvis``, ``spine_01``, ``thigh_l``, ...), 30 fps.
 
-Neither fits the bundled default context (another skeleton): each take is judged against itself.
+None fits the bundled default context (another skeleton): each take is judged against itself.
 ``--no-respelled`` leaves them out.
 
 Per collection: the share of changed cells, the worst take and its share, and
@@ -135,8 +141,12 @@ def takes(n_bandai: int, all_bandai: bool, seed: int = 0, quick: bool = False,
         out += [("smpl", str(p), "check") for p in cmu]
         out += [("daz", str(p), "check" if "_mm_" in p.name else "tune") for p in hdm[2::4 if not quick else 1]]
         out += [("daz", str(p), "check") for p in cmu]
+        out += [("xsens", str(p), "check" if "_mm_" in p.name else "tune") for p in hdm[1::4 if not quick else 1]]
+        out += [("xsens", str(p), "check") for p in cmu]
+        out += [("unity", str(p), "check" if "_mm_" in p.name else "tune") for p in hdm[3::4 if not quick else 1]]
+        out += [("unity", str(p), "check") for p in cmu]
         out += [("unreal", str(t.path), "tune" if t.dataset == 1 else "check") for t in pick[::10]]
-    return [(*item, item[0] if item[0] in ("smpl", "daz", "unreal") else "") for item in out]
+    return [(*item, item[0] if item[0] in ("smpl", "daz", "xsens", "unity", "unreal") else "") for item in out]
 
 
 def measure(item: tuple[str, str, str, str]) -> dict:
@@ -158,6 +168,14 @@ def measure(item: tuple[str, str, str, str]) -> dict:
         from tests.shared import daz_spelling, motionbuilder_spelling
 
         m = daz_spelling(motionbuilder_spelling(m))
+    elif spelling == "xsens":
+        from tests.shared import motionbuilder_spelling, xsens_spelling
+
+        m = xsens_spelling(motionbuilder_spelling(m))
+    elif spelling == "unity":
+        from tests.shared import motionbuilder_spelling, unity_spelling
+
+        m = unity_spelling(motionbuilder_spelling(m))
     elif spelling == "unreal":
         from tests.shared import unreal_spelling
 
@@ -206,7 +224,7 @@ def main() -> None:
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--quick", action="store_true", help="a few takes per collection (a smoke run)")
     ap.add_argument("--no-respelled", dest="respelled", action="store_false",
-                    help="leave out the smpl, daz and unreal collections (takes respelled on other rigs)")
+                    help="leave out the smpl, daz, xsens, unity and unreal collections (takes respelled on other rigs)")
     args = ap.parse_args()
 
     items = takes(args.bandai, args.all, args.seed, args.quick, args.respelled)

@@ -36,6 +36,13 @@ the baseline, same run), 0.5 noise on the rig's own channels, ``--seeds`` draws:
   ``L_Hip`` ..., no hip bones, upper neck, fingers or thumbs; the dropped joints' turns joined to their children's);
 * ``retarget_daz``: the same take as cgspeed's Daz-friendly release spells it (``tests/shared.daz_spelling``:
   ``hip``, ``abdomen``, ``lButtock``, ``lThigh``, ``lShldr`` ...; no middle spine, upper neck, toes or palms);
+* ``retarget_xsens``: the same take on Xsens MVN's BVH rig (``tests/shared.xsens_spelling``: ``Hips``, ``Chest``,
+  ``Chest2``, ``Chest4``, ``LeftHip``, ``LeftCollar``, ``LeftShoulder`` ...; no hip bones, upper neck, palms or
+  fingers); ``details`` also gives the same take read as before the ``xsens_mvn`` family, by the 3dsMax
+  conversion's names (the chest then ``Chest2``, the thorax ``Chest4`` no role): ``retarget_xsens_as_3dsmax``;
+* ``retarget_unity``: the same take on Unity's humanoid avatar (``tests/shared.unity_spelling``: ``Hips``,
+  ``Spine``, ``Chest``, ``UpperChest``, ``LeftShoulder`` the clavicle, ``LeftUpperArm``, ``LeftUpperLeg``,
+  ``LeftToes``, ``LeftIndexProximal`` ...; no hip bones, upper neck or palms);
 * ``retarget_pybvh``: another project's clip (VictorS-67/pybvh, HumanIK names, Z up: its body frame
   turned; no hands below the wrist), 30 fps;
 * ``retarget_biovision``: another project's take (20tab/bvh-python ``test_mocapbank.bvh``, 455 frames at
@@ -53,10 +60,12 @@ the baseline, same run), 0.5 noise on the rig's own channels, ``--seeds`` draws:
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import sys
 import time
 from pathlib import Path
+from types import MappingProxyType
 
 import numpy as np
 
@@ -75,7 +84,7 @@ from mocapkit.cleaning.deep import channels as ch  # noqa: E402
 from mocapkit.cleaning.deep import retarget  # noqa: E402
 from mocapkit.cleaning.filters import savgol_smooth  # noqa: E402
 from mocapkit.motion import Motion  # noqa: E402
-from tests.shared import daz_spelling, smpl_spelling, unreal_spelling  # noqa: E402
+from tests.shared import daz_spelling, smpl_spelling, unity_spelling, unreal_spelling, xsens_spelling  # noqa: E402
 
 DATA = REPO.parent / "shared" / "data"
 
@@ -97,6 +106,17 @@ def mixamo_spelling(bvh: Motion) -> Motion:
     names = tuple("mixamorig:" + hik.get(n, n) for n in sk.joint_names)
     mix = dataclasses.replace(sk, joint_names=names)
     return dataclasses.replace(bvh, skeleton=mix)
+
+
+@contextlib.contextmanager
+def _families(table):
+    """``rigs.FAMILIES`` replaced by ``table`` for the block (a figure of the rig tables as they were)."""
+    saved = rigs.FAMILIES
+    rigs.FAMILIES = MappingProxyType(table)
+    try:
+        yield
+    finally:
+        rigs.FAMILIES = saved
 
 
 def retargeted(ebf, seeds: int) -> tuple[dict, dict, dict]:
@@ -131,6 +151,14 @@ def retargeted(ebf, seeds: int) -> tuple[dict, dict, dict]:
     versus_fallback("retarget_smpl", smpl)
     daz = daz_spelling(bvh)
     versus_fallback("retarget_daz", daz)
+    xsens = xsens_spelling(bvh)
+    versus_fallback("retarget_xsens", xsens)
+    before = dict(rigs.FAMILIES)  # the same take as the 3dsMax conversion's names read it before the xsens_mvn family
+    del before["xsens_mvn"]
+    with _families(before):
+        versus_fallback("retarget_xsens_as_3dsmax", xsens)
+    unity = unity_spelling(bvh)
+    versus_fallback("retarget_unity", unity)
     versus_fallback("retarget_pybvh", mocapkit.load(REPO / "tests" / "data" / "pybvh_test1_zup.bvh"))
     versus_fallback("retarget_biovision", mocapkit.load(DATA / "peer_files" / "20tab+bvh-python" / "tests" /
                                                         "test_mocapbank.bvh"))
@@ -148,7 +176,7 @@ def retargeted(ebf, seeds: int) -> tuple[dict, dict, dict]:
         versus_fallback("retarget_unreal", unreal_spelling(take))
     mean = {k: float(np.mean(v)) for k, v in rows.items()}
     names = ["retarget_3dsmax_body", "retarget_3dsmax_thumbs", "retarget_mixamo", "retarget_smpl", "retarget_daz",
-             "retarget_pybvh", "retarget_biovision"]
+             "retarget_xsens", "retarget_unity", "retarget_pybvh", "retarget_biovision"]
     names += ["retarget_bandai", "retarget_unreal"] if bandai else []
     figures = {n: mean[n] for n in names}
     baselines = {n: mean[f"{n}_fallback"] for n in names}
@@ -156,12 +184,16 @@ def retargeted(ebf, seeds: int) -> tuple[dict, dict, dict]:
     details = {"retarget_means": mean, "retarget_takes": {
         "3dsmax": [t.name for t in three], "mixamo": "CMU 01_01 (BVH) renamed",
         "smpl": "CMU 01_01 (BVH) on SMPL's 24 joints and names", "daz": "CMU 01_01 (BVH) as the Daz-friendly release",
+        "xsens": "CMU 01_01 (BVH) on Xsens MVN's 22 joints and names",
+        "unity": "CMU 01_01 (BVH) on Unity's humanoid avatar (26 joints)",
         "pybvh": "pybvh_test1_zup",
         "bandai": [t.name for t in bandai], "unreal": "the Bandai takes under Unreal mannequin names"},
         "retarget_serving": {"3dsmax": deep.served_by(three[0], ebf).describe(),
                              "mixamo": deep.served_by(mix, ebf).describe(),
                              "smpl": deep.served_by(smpl, ebf).describe(),
                              "daz": deep.served_by(daz, ebf).describe(),
+                             "xsens": deep.served_by(xsens, ebf).describe(),
+                             "unity": deep.served_by(unity, ebf).describe(),
                              "unreal": deep.served_by(unreal_spelling(bandai[0]), ebf).describe() if bandai else None,
                              "bandai": deep.served_by(bandai[0], ebf).describe() if bandai else None}}
     return figures, baselines, details

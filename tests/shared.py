@@ -1,7 +1,8 @@
 """Real takes several test modules share: the curated takes of ``../shared/data`` that golden I/O tests
 walk, a real take on a rig of no known family (:func:`unknown_rig`), and real takes respelled on the rigs
 users bring that ``../shared/data`` does not hold (:func:`smpl_spelling`, :func:`daz_spelling`,
-:func:`unreal_spelling`, :func:`motionbuilder_spelling`; the benchmarks use them too).
+:func:`xsens_spelling`, :func:`unity_spelling`, :func:`unreal_spelling`, :func:`motionbuilder_spelling`; the
+benchmarks use them too).
 
 ``peer_files/`` (other projects' test files, many deliberately odd) and
 ``bandai_namco_full/`` (an archive to unpack) are not curated takes: the I/O
@@ -108,6 +109,33 @@ def smpl_spelling(motion):
                      "{s}Hand": "{s}_Wrist", "{s}FingerBase": "{s}_Hand"}, "L", "R")
     return respelled(motion, names, drop=("LHipJoint", "RHipJoint", "Neck1", "LFingers", "LThumb", "RFingers",
                                           "RThumb"))
+
+
+def xsens_spelling(motion):
+    """A CMU MotionBuilder-release BVH take on the rig and names of Xsens MVN's BVH export: ``Hips``, ``Chest``,
+    ``Chest2``, ``Chest4`` (the thorax, where the neck and collars hang; no ``Chest3``), ``Neck``, ``Head``,
+    ``LeftHip``, ``LeftKnee``, ``LeftAnkle``, ``LeftToe``, ``LeftCollar``, ``LeftShoulder``, ``LeftElbow``,
+    ``LeftWrist`` (22 joints): the hip bones, the upper neck, the palms, fingers and thumbs dropped
+    (:func:`respelled`)."""
+    names = {"LowerBack": "Chest", "Spine": "Chest2", "Spine1": "Chest4"}
+    names |= _sides({"{s}UpLeg": "{s}Hip", "{s}Leg": "{s}Knee", "{s}Foot": "{s}Ankle", "{s}ToeBase": "{s}Toe",
+                     "{s}Shoulder": "{s}Collar", "{s}Arm": "{s}Shoulder", "{s}ForeArm": "{s}Elbow",
+                     "{s}Hand": "{s}Wrist"}, "Left", "Right")
+    return respelled(motion, names, drop=("LHipJoint", "RHipJoint", "Neck1", "LeftFingerBase", "LFingers", "LThumb",
+                                          "RightFingerBase", "RFingers", "RThumb"))
+
+
+def unity_spelling(motion):
+    """A CMU MotionBuilder-release BVH take on the rig and names of Unity's humanoid avatar (``HumanBodyBones``):
+    ``Hips``, ``Spine``, ``Chest``, ``UpperChest``, ``Neck``, ``Head``, ``LeftUpperLeg``, ``LeftLowerLeg``,
+    ``LeftFoot``, ``LeftToes``, ``LeftShoulder`` (the clavicle), ``LeftUpperArm``, ``LeftLowerArm``, ``LeftHand``,
+    ``LeftIndexProximal``, ``LeftThumbProximal`` (26 joints): the hip bones, the upper neck and the palms dropped
+    (:func:`respelled`)."""
+    names = {"LowerBack": "Spine", "Spine": "Chest", "Spine1": "UpperChest"}
+    names |= _sides({"{s}UpLeg": "{s}UpperLeg", "{s}Leg": "{s}LowerLeg", "{s}ToeBase": "{s}Toes",
+                     "{s}Arm": "{s}UpperArm", "{s}ForeArm": "{s}LowerArm", "{c}Fingers": "{s}IndexProximal",
+                     "{c}Thumb": "{s}ThumbProximal"}, "Left", "Right")
+    return respelled(motion, names, drop=("LHipJoint", "RHipJoint", "Neck1", "LeftFingerBase", "RightFingerBase"))
 
 
 def unreal_spelling(motion):

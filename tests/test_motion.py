@@ -299,6 +299,28 @@ def test_find_joint_on_cmu_hdm05_and_bvh_rigs():
         find_joint(bandai, "tail")
 
 
+def test_find_joint_on_a_numbered_trunk():
+    """Xsens MVN's ``Chest`` ... ``Chest4``, Unity's ``Spine``, ``Chest``, ``UpperChest`` and the 3dsMax CMU release's
+    ``lowerback``, ``Chest``, ``Chest2``: the chest is the top of the trunk (where the collars hang), the lower back
+    its bottom."""
+    from tests.shared import motionbuilder_spelling, xsens_spelling
+
+    real = mocapkit.load(Path(__file__).parent / "data" / "pybvh_test2_xsens.bvh").skeleton
+    got = {r: real.joint_names[j] for r, j in standard_joints(real).items()}
+    assert got["chest"] == "Chest4" and got["lower_back"] == "Chest" and got["left_shoulder"] == "LeftShoulder"
+    assert got["left_hip"] == "LeftHip" and got["right_toe"] == "RightToe" and len(got) == 19
+    sk = xsens_spelling(motionbuilder_spelling(mocapkit.load(mocapkit.samples.path("12_walk.amc")))).skeleton
+    assert sk.joint_names[find_joint(sk, "chest")] == "Chest4"
+    from tests.shared import unity_spelling
+
+    unity = unity_spelling(motionbuilder_spelling(mocapkit.load(mocapkit.samples.path("12_walk.amc")))).skeleton
+    assert unity.joint_names[find_joint(unity, "chest")] == "UpperChest"
+    assert unity.joint_names[find_joint(unity, "left_shoulder")] == "LeftUpperArm"  # Unity's LeftShoulder: a clavicle
+    cmu = mocapkit.load(mocapkit.samples.path("131_01.bvh")).skeleton
+    assert cmu.joint_names[find_joint(cmu, "chest")] == "Chest2"
+    assert cmu.joint_names[find_joint(cmu, "lower_back")] == "lowerback"
+
+
 def test_find_joint_on_smpl_and_unreal_rigs():
     """SMPL's ``L_Hip`` (side prefix with an underscore) and Unreal's ``calf_l``, ``ball_l``, ``spine_03``: every
     role of Krüger's F39 features found, each on the joint of that body part."""

@@ -9,7 +9,8 @@ import mocapkit
 from mocapkit import rigs, samples
 from mocapkit.io.asfamc import read_asf
 from mocapkit.motion import Skeleton
-from tests.shared import curated_files, daz_spelling, motionbuilder_spelling, smpl_spelling, unreal_spelling
+from tests.shared import (curated_files, daz_spelling, motionbuilder_spelling, respelled, smpl_spelling,
+                          unity_spelling, unreal_spelling, xsens_spelling)
 
 # the joint each family names for a few roles (what the files write, not what the code says)
 EXPECTED = {
@@ -33,6 +34,15 @@ EXPECTED = {
     "cmu_bvh_daz": {"pelvis": "hip", "spine": "abdomen", "chest": "chest", "left_hip_bone": "lButtock",
                     "left_thigh": "lThigh", "right_shin": "rShin", "left_clavicle": "lCollar",
                     "left_upper_arm": "lShldr", "right_hand": "rHand", "left_thumb": "lThumb1"},
+    "xsens_mvn": {"pelvis": "Hips", "spine": "Chest", "spine_mid": "Chest2", "chest": "Chest4", "neck": "Neck",
+                  "left_thigh": "LeftHip", "right_shin": "RightKnee", "left_toe": "LeftToe",
+                  "left_clavicle": "LeftCollar", "left_upper_arm": "LeftShoulder", "right_forearm": "RightElbow",
+                  "right_hand": "RightWrist"},
+    "unity_humanoid": {"pelvis": "Hips", "spine": "Spine", "spine_mid": "Chest", "chest": "UpperChest",
+                       "left_thigh": "LeftUpperLeg", "right_shin": "RightLowerLeg", "left_toe": "LeftToes",
+                       "left_clavicle": "LeftShoulder", "left_upper_arm": "LeftUpperArm",
+                       "right_forearm": "RightLowerArm", "left_thumb": "LeftThumbProximal",
+                       "right_fingers": "RightIndexProximal"},
     "unreal": {"root": "root", "pelvis": "pelvis", "left_thigh": "thigh_l", "right_shin": "calf_r",
                "left_toe": "ball_l", "left_clavicle": "clavicle_l", "left_upper_arm": "upperarm_l", "right_forearm": "lowerarm_r",
                "spine": "spine_01", "chest": "spine_03", "neck": "neck_01"},
@@ -135,6 +145,47 @@ def test_the_daz_friendly_cmu_spelling():
     sk = daz_spelling(motionbuilder_spelling(mocapkit.load(samples.path("12_walk.amc")))).skeleton
     r = _check(sk, "cmu_bvh_daz")
     assert len(r) == sk.num_joints and rigs.pelvis_index(sk) == 0
+
+
+def test_the_xsens_mvn_rig():
+    """Xsens MVN's BVH export, a real file (pybvh's test clip: ``Hips``, ``Chest`` ... ``Chest4``, ``LeftCollar``,
+    ``LeftShoulder``, ``LeftHip``) and a CMU walk on its rig: the chest is the top of the trunk, where the neck and
+    the collars hang (``Chest4``), and ``Chest3`` between plays no role; a Biovision trunk of ``Chest`` and
+    ``Chest2`` (collars on ``Chest2``) is read as before, by the 3dsMax conversion's names."""
+    real = mocapkit.load(Path(__file__).parent / "data" / "pybvh_test2_xsens.bvh").skeleton
+    r = _check(real, "xsens_mvn")
+    assert real.index("Chest3") not in r.values() and len(r) == real.num_joints - 1
+    assert rigs.pelvis_index(real) == 0
+    walk = motionbuilder_spelling(mocapkit.load(samples.path("12_walk.amc")))
+    sk = xsens_spelling(walk).skeleton
+    assert len(_check(sk, "xsens_mvn")) == sk.num_joints == 22
+    names = {"LowerBack": "Chest", "Spine1": "Chest2", "LeftUpLeg": "LeftHip", "RightUpLeg": "RightHip",
+             "LeftLeg": "LeftKnee", "RightLeg": "RightKnee", "LeftFoot": "LeftAnkle", "RightFoot": "RightAnkle",
+             "LeftShoulder": "LeftCollar", "RightShoulder": "RightCollar", "LeftArm": "LeftShoulder",
+             "RightArm": "RightShoulder", "LeftForeArm": "LeftElbow", "RightForeArm": "RightElbow",
+             "LeftHand": "LeftWrist", "RightHand": "RightWrist"}
+    biovision = respelled(walk, names, drop=("Spine", "Neck1", "LHipJoint", "RHipJoint", "LeftToeBase", "RightToeBase",
+                                             "LeftFingerBase", "LFingers", "LThumb", "RightFingerBase", "RFingers",
+                                             "RThumb")).skeleton
+    assert rigs.rig_family(biovision) == "cmu_bvh_3dsmax"
+    assert rigs.role_names(biovision)["chest"] == "Chest2"
+
+
+def test_the_unity_humanoid_rig():
+    """A CMU walk on Unity's humanoid avatar (``HumanBodyBones`` names: ``Spine``, ``Chest``, ``UpperChest``,
+    ``LeftShoulder`` the clavicle, ``LeftUpperArm``, ``LeftUpperLeg``, ``LeftToes``), every joint a role; without
+    ``UpperChest`` (it is optional in Unity) the chest is ``Chest``; a ``Root`` above the hips (as VMC-protocol
+    recorders write) plays the root, and the pelvis is still ``Hips``."""
+    walk = motionbuilder_spelling(mocapkit.load(samples.path("12_walk.amc")))
+    sk = unity_spelling(walk).skeleton
+    assert len(_check(sk, "unity_humanoid")) == sk.num_joints == 26
+    names = list(sk.joint_names)
+    short = respelled(unity_spelling(walk), {}, drop=("UpperChest",)).skeleton
+    assert rigs.role_names(short)["chest"] == "Chest" and "spine_mid" not in rigs.roles(short)
+    rooted = Skeleton(("Root",) + tuple(names), np.r_[-1, np.where(sk.parents < 0, 0, sk.parents + 1)],
+                      np.r_[[np.zeros(3)], sk.offsets])
+    r = _check(rooted, "unity_humanoid")
+    assert r["root"] == 0 and rigs.pelvis_index(rooted) == 1
 
 
 def test_samples_and_an_unknown_rig_by_topology():

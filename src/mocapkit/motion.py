@@ -829,11 +829,14 @@ def joint_sides(joint_names: Sequence[str]) -> list[str | None]:
     names = set(joint_names)
     return [_side_and_part(n, names)[0] for n in joint_names]
 
-# Role -> ordered patterns on side-stripped lower-case names; the first pattern with a match wins.
+# Role -> ordered patterns on side-stripped lower-case names; the first pattern with a match wins. A numbered
+# trunk (Xsens MVN's ``Chest`` ... ``Chest4``, Biovision's ``Chest``, ``Chest2``) has its chest at the top and its
+# lower back at ``Chest``; Unity's ``UpperChest`` is above its ``Chest``.
 ROLES: dict[str, tuple[str | None, tuple[str, ...]]] = {
     "pelvis": (None, (r"hips", r"pelvis", r"root")),
-    "lower_back": (None, (r"lowerback", r"spine", r"abdomen", r"spine_01", r"spine1")),
-    "chest": (None, (r"thorax", r"chest", r"spine3", r"spine_05", r"spine_03", r"spine1", r"upperback", r"spine2")),
+    "lower_back": (None, (r"lowerback", r"spine", r"abdomen", r"spine_01", r"spine1", r"chest")),
+    "chest": (None, (r"thorax", r"upperchest", r"chest4", r"chest3", r"chest2", r"chest", r"spine3", r"spine_05",
+                     r"spine_03", r"spine1", r"upperback", r"spine2")),
     "neck": (None, (r"lowerneck", r"neck", r"neck_01")),
     "head": (None, (r"head",)),
     "left_shoulder": ("left", (r"humerus", r"upperarm", r"arm", r"shoulder", r"shldr")),

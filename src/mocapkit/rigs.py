@@ -6,8 +6,10 @@ conversions call it ``LeftUpLeg`` (MotionBuilder-friendly release),
 ``LeftHip`` (3dsMax-friendly release) or ``lThigh`` (Daz-friendly
 release), the Bandai Namco game rig
 ``UpperLeg_L``, MotionBuilder/HumanIK ``LeftUpLeg``, Mixamo
-``mixamorig:LeftUpLeg``, SMPL ``L_Hip`` (or ``m_avg_L_Hip``, ``left_hip``)
-and Unreal Engine's mannequin ``thigh_l``. Code that needs "the left thigh"
+``mixamorig:LeftUpLeg``, SMPL ``L_Hip`` (or ``m_avg_L_Hip``, ``left_hip``),
+Unreal Engine's mannequin ``thigh_l``, Xsens MVN's BVH export ``LeftHip``
+(on a trunk of ``Chest`` ... ``Chest4``) and Unity's humanoid avatar
+``LeftUpperLeg``. Code that needs "the left thigh"
 or "the pelvis" asks this module instead of matching names itself.
 
 A **role** names the joint whose rotation moves a body segment (BVH
@@ -159,6 +161,30 @@ _BANDAI_NAMCO = _both(  # Bandai Namco Research Motiondataset game rig (root on 
     _suffix_lr,
 )
 
+# Xsens MVN's BVH export: the trunk ``Chest`` (lowest) to ``Chest4`` (the thorax, where the neck and collars hang),
+# the limbs named as the 3dsMax CMU release names them (``Collar`` the clavicle, ``Shoulder`` the upper arm, ``Hip`` the
+# thigh); the chest is the highest trunk joint present and the middle spine the lowest one left (as HumanIK).
+_XSENS_CHESTS = ("Chest4", "Chest3", "Chest2")
+_XSENS_MVN = _both(
+    {"pelvis": ("Hips",), "spine": ("Chest",), "chest": _XSENS_CHESTS, "spine_mid": _XSENS_CHESTS[::-1],
+     "neck": ("Neck",), "head": ("Head",)},
+    {"thigh": ("LeftHip",), "shin": ("LeftKnee",), "foot": ("LeftAnkle",), "toe": ("LeftToe",),
+     "clavicle": ("LeftCollar",), "upper_arm": ("LeftShoulder",), "forearm": ("LeftElbow",), "hand": ("LeftWrist",)},
+    _lr,
+)
+
+# Unity's humanoid avatar (``HumanBodyBones``: the names Unity, VRM tools and VMC-protocol capture write in BVH):
+# ``Shoulder`` the clavicle, ``UpperArm``/``LowerArm``/``Hand``, ``UpperLeg``/``LowerLeg``/``Foot``/``Toes``; the chest
+# is ``UpperChest`` where there is one, a ``Root`` above the hips may carry the path.
+_UNITY = _both(
+    {"root": ("Root",), "pelvis": ("Hips",), "spine": ("Spine",), "chest": ("UpperChest", "Chest"),
+     "spine_mid": ("Chest",), "neck": ("Neck",), "head": ("Head",)},
+    {"thigh": ("LeftUpperLeg",), "shin": ("LeftLowerLeg",), "foot": ("LeftFoot",), "toe": ("LeftToes",),
+     "clavicle": ("LeftShoulder",), "upper_arm": ("LeftUpperArm",), "forearm": ("LeftLowerArm",), "hand": ("LeftHand",),
+     "fingers": ("LeftIndexProximal",), "thumb": ("LeftThumbProximal",)},
+    _lr,
+)
+
 # HumanIK (MotionBuilder's character rig): Spine, Spine1 ... Spine9 and Neck, Neck1 ... Neck9; the chest is the
 # highest spine joint present (resolved first), the middle spine the lowest one left.
 _SPINES = tuple(f"Spine{k}" for k in range(9, 0, -1))
@@ -213,6 +239,8 @@ FAMILIES = MappingProxyType({
     "cmu_bvh_motionbuilder": MappingProxyType(_CMU_MOTIONBUILDER),
     "cmu_bvh_3dsmax": MappingProxyType(_CMU_3DSMAX),
     "cmu_bvh_daz": MappingProxyType(_CMU_DAZ),
+    "xsens_mvn": MappingProxyType(_XSENS_MVN),
+    "unity_humanoid": MappingProxyType(_UNITY),
     "bandai_namco": MappingProxyType(_BANDAI_NAMCO),
     "smpl": MappingProxyType(_SMPL),
     "unreal": MappingProxyType(_UNREAL),
@@ -266,7 +294,8 @@ def rig_family(skeleton: Skeleton) -> str | None:
     arms, head) are all found and every role it finds hangs below its parent
     role's joint. Ties go to the family listed first in :data:`FAMILIES` (HumanIK
     before the CMU conversions, whose names it shares: a rig that has none of
-    the CMU-only joints is read as HumanIK).
+    the CMU-only joints is read as HumanIK; the 3dsMax conversion before Xsens
+    MVN: a Biovision trunk of ``Chest`` and ``Chest2`` keeps the 3dsMax reading).
     None when no family fits.
 
     >>> import mocapkit

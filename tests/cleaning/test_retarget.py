@@ -12,7 +12,8 @@ from mocapkit.cleaning import deep
 from mocapkit.cleaning.deep import channels as ch
 from mocapkit.cleaning.deep import retarget
 from mocapkit.motion import Motion, Skeleton
-from tests.shared import PYBVH, daz_spelling, motionbuilder_spelling, smpl_spelling, unknown_rig, unreal_spelling
+from tests.shared import (PYBVH, daz_spelling, motionbuilder_spelling, smpl_spelling, unity_spelling, unknown_rig,
+                          unreal_spelling, xsens_spelling)
 
 BANDAI = Path(__file__).resolve().parents[1] / "data" / "dataset-1_dash_normal_001.bvh"
 
@@ -276,16 +277,18 @@ def test_a_biovision_take_from_another_project_is_served_better_than_the_fallbac
     assert _rms(take, deep.denoise(noisy)) < _rms(take, savgol_smooth(noisy, 0.1, 2, root=False))
 
 
-@pytest.mark.parametrize("rig", ["smpl", "cmu_bvh_daz", "unreal"])
-def test_smpl_daz_and_unreal_rigs_are_served_better_than_the_fallback(walk, ebf, rig):
+@pytest.mark.parametrize("rig", ["smpl", "cmu_bvh_daz", "xsens_mvn", "unity_humanoid", "unreal"])
+def test_rigs_users_bring_are_served_better_than_the_fallback(walk, ebf, rig):
     """SMPL's rig (a CMU walk on its 24 joints: no hip bones, upper neck, fingers or thumbs), the CMU Daz-friendly
-    release's (no middle spine, upper neck, toes or palms) and Unreal's mannequin names (a Bandai Namco take: floor
-    root, no middle spine) through the Acclaim networks' joint map: observed cells come back as they were, 0.5
-    noise is denoised better than by the fallback, gaps are filled."""
+    release's (no middle spine, upper neck, toes or palms), Xsens MVN's (a ``Chest`` ... ``Chest4`` trunk, no hip
+    bones, palms or fingers), Unity's humanoid avatar (no hip bones, upper neck or palms) and Unreal's mannequin
+    names (a Bandai Namco take: floor root, no middle spine) through the Acclaim networks' joint map: observed cells
+    come back as they were, 0.5 noise is denoised better than by the fallback, gaps are filled."""
     from mocapkit.cleaning.filters import savgol_smooth
 
     bandai = BANDAI.with_name("dataset-1_dash_chimpira_001.bvh")  # 69 frames (the normal dash has 20)
-    spell = {"smpl": smpl_spelling, "cmu_bvh_daz": daz_spelling}
+    spell = {"smpl": smpl_spelling, "cmu_bvh_daz": daz_spelling, "xsens_mvn": xsens_spelling,
+             "unity_humanoid": unity_spelling}
     take = spell[rig](motionbuilder_spelling(walk)) if rig in spell else unreal_spelling(mocapkit.load(bandai))
     s = deep.served_by(take, ebf)
     assert isinstance(s, deep.Serving) and s.family == rig and not s.direct
@@ -317,6 +320,20 @@ def test_a_z_up_humanik_rig_from_another_project_is_served(ebf):
     out = deep.denoise(noisy)
     assert _rms(take, out) < 0.8 * _rms(take, noisy)
     assert _rms(take, out) < _rms(take, savgol_smooth(noisy, 0.1, 2, root=False))
+
+
+def test_a_real_xsens_mvn_file_is_served(ebf):
+    """pybvh's Xsens MVN clip (its own rest pose, 120 fps): the shipped EBF serves it through the xsens_mvn map,
+    retargeted from its rest pose, and an untouched decode is bit-identical."""
+    take = mocapkit.load(PYBVH.with_name("pybvh_test2_xsens.bvh"))
+    s = deep.served_by(take, ebf)
+    assert isinstance(s, deep.Serving) and s.family == "xsens_mvn" and not s.direct
+    values, _ = retarget.encode(take, s)
+    assert np.array_equal(retarget.decode(values, take, s).rotations, take.rotations)
+    noisy, _ = corrupt.angular_noise(take, 0.5, seed=2)
+    out, method, _ = deep.denoise_or_fallback(noisy)
+    assert method == "EBF (shipped, via the xsens_mvn joint map)"
+    assert _rms(take, out) < 0.6 * _rms(take, noisy)
 
 
 def test_fallbacks_are_the_same_everywhere(walk, tmp_path):
