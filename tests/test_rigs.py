@@ -8,7 +8,7 @@ import pytest
 import mocapkit
 from mocapkit import rigs, samples
 from mocapkit.io.asfamc import read_asf
-from mocapkit.motion import Skeleton
+from mocapkit.motion import Skeleton, standard_joints
 from tests.shared import (curated_files, daz_spelling, motionbuilder_spelling, respelled, smpl_spelling,
                           unity_spelling, unreal_spelling, xsens_spelling)
 
@@ -175,7 +175,8 @@ def test_the_unity_humanoid_rig():
     """A CMU walk on Unity's humanoid avatar (``HumanBodyBones`` names: ``Spine``, ``Chest``, ``UpperChest``,
     ``LeftShoulder`` the clavicle, ``LeftUpperArm``, ``LeftUpperLeg``, ``LeftToes``), every joint a role; without
     ``UpperChest`` (it is optional in Unity) the chest is ``Chest``; a ``Root`` above the hips (as VMC-protocol
-    recorders write) plays the root, and the pelvis is still ``Hips``."""
+    recorders write) plays the root, and the pelvis is still ``Hips``; VRoid's names for the same bones
+    (``J_Bip_C_Hips``, ``J_Bip_L_UpperLeg``, ``J_Bip_L_ToeBase``) play the same roles."""
     walk = motionbuilder_spelling(mocapkit.load(samples.path("12_walk.amc")))
     sk = unity_spelling(walk).skeleton
     assert len(_check(sk, "unity_humanoid")) == sk.num_joints == 26
@@ -186,6 +187,17 @@ def test_the_unity_humanoid_rig():
                       np.r_[[np.zeros(3)], sk.offsets])
     r = _check(rooted, "unity_humanoid")
     assert r["root"] == 0 and rigs.pelvis_index(rooted) == 1
+    # VRoid Studio's names for the same bones
+    vroid = {"Shoulder": "Shoulder", "UpperArm": "UpperArm", "LowerArm": "LowerArm", "Hand": "Hand",
+             "UpperLeg": "UpperLeg", "LowerLeg": "LowerLeg", "Foot": "Foot", "Toes": "ToeBase",
+             "IndexProximal": "Index1", "ThumbProximal": "Thumb1"}
+    renamed = {}
+    for n in names:
+        side = "L" if n.startswith("Left") else "R" if n.startswith("Right") else None
+        renamed[n] = f"J_Bip_{side}_{vroid[n[4 if side == 'L' else 5:]]}" if side else f"J_Bip_C_{n}"
+    vr = Skeleton(tuple(renamed[n] for n in names), np.array(sk.parents), sk.offsets)
+    assert rigs.rig_family(vr) == "unity_humanoid" and rigs.roles(vr) == rigs.roles(sk)
+    assert standard_joints(vr) == standard_joints(sk)
 
 
 def test_samples_and_an_unknown_rig_by_topology():

@@ -810,8 +810,8 @@ def _side_and_part(name: str, names: set[str]) -> tuple[str | None, str]:
     """
     partner = _partner_name(name, names)
     low = name.lower().rsplit(":", 1)[-1]
-    if partner is None:  # the Bandai Namco rig's ``joint_`` and the SMPL models' ``m_avg_`` / ``f_avg_`` prefixes
-        return None, re.sub(r"^(joint_|[mf]_avg_)", "", low)
+    if partner is None:  # the prefixes of the Bandai Namco rig (``joint_``), SMPL's models (``m_avg_``, ``f_avg_``), VRoid
+        return None, re.sub(r"^(joint_|[mf]_avg_|j_bip_c_)", "", low)
     for pat, side in (
         (r"^left[_.\- ]?", "left"), (r"^right[_.\- ]?", "right"),
         (r"[_.\- ]l$", "left"), (r"[_.\- ]r$", "right"),

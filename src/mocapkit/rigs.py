@@ -100,7 +100,9 @@ def _both(table: dict[str, tuple[str, ...]], left: dict[str, tuple[str, ...]], s
 
 def _lr(name: str) -> str:
     """Left -> right in side prefixes: ``Left``/``left_`` (HumanIK, smplx), ``L``/``L_`` (CMU, SMPL), ``l`` (Acclaim,
-    Daz)."""
+    Daz), ``J_Bip_L_`` (VRoid)."""
+    if name.startswith("J_Bip_L_"):
+        return "J_Bip_R_" + name[8:]
     if name.startswith("Left"):
         return "Right" + name[4:]
     if name.startswith("left_"):
@@ -173,15 +175,19 @@ _XSENS_MVN = _both(
     _lr,
 )
 
-# Unity's humanoid avatar (``HumanBodyBones``: the names Unity, VRM tools and VMC-protocol capture write in BVH):
-# ``Shoulder`` the clavicle, ``UpperArm``/``LowerArm``/``Hand``, ``UpperLeg``/``LowerLeg``/``Foot``/``Toes``; the chest
-# is ``UpperChest`` where there is one, a ``Root`` above the hips may carry the path.
+# Unity's humanoid avatar (``HumanBodyBones``: the names Unity, VRM tools and VMC-protocol capture write in BVH), and
+# the same bones as VRoid Studio's models name them (``J_Bip_C_Hips``, ``J_Bip_L_UpperLeg``): ``Shoulder`` the
+# clavicle, ``UpperArm``/``LowerArm``/``Hand``, ``UpperLeg``/``LowerLeg``/``Foot``/``Toes``; the chest is
+# ``UpperChest`` where there is one, a ``Root`` above the hips may carry the path.
 _UNITY = _both(
-    {"root": ("Root",), "pelvis": ("Hips",), "spine": ("Spine",), "chest": ("UpperChest", "Chest"),
-     "spine_mid": ("Chest",), "neck": ("Neck",), "head": ("Head",)},
-    {"thigh": ("LeftUpperLeg",), "shin": ("LeftLowerLeg",), "foot": ("LeftFoot",), "toe": ("LeftToes",),
-     "clavicle": ("LeftShoulder",), "upper_arm": ("LeftUpperArm",), "forearm": ("LeftLowerArm",), "hand": ("LeftHand",),
-     "fingers": ("LeftIndexProximal",), "thumb": ("LeftThumbProximal",)},
+    {"root": ("Root",), "pelvis": ("Hips", "J_Bip_C_Hips"), "spine": ("Spine", "J_Bip_C_Spine"),
+     "chest": ("UpperChest", "Chest", "J_Bip_C_UpperChest", "J_Bip_C_Chest"), "spine_mid": ("Chest", "J_Bip_C_Chest"),
+     "neck": ("Neck", "J_Bip_C_Neck"), "head": ("Head", "J_Bip_C_Head")},
+    {"thigh": ("LeftUpperLeg", "J_Bip_L_UpperLeg"), "shin": ("LeftLowerLeg", "J_Bip_L_LowerLeg"),
+     "foot": ("LeftFoot", "J_Bip_L_Foot"), "toe": ("LeftToes", "J_Bip_L_ToeBase"),
+     "clavicle": ("LeftShoulder", "J_Bip_L_Shoulder"), "upper_arm": ("LeftUpperArm", "J_Bip_L_UpperArm"),
+     "forearm": ("LeftLowerArm", "J_Bip_L_LowerArm"), "hand": ("LeftHand", "J_Bip_L_Hand"),
+     "fingers": ("LeftIndexProximal", "J_Bip_L_Index1"), "thumb": ("LeftThumbProximal", "J_Bip_L_Thumb1")},
     _lr,
 )
 
