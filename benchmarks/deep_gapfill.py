@@ -24,7 +24,10 @@ Fills, each followed by the denoising a user would run on the completed take:
   (``deep.fill_channels(..., smooth=False, method="ebd")`` then ``deep.denoise_channels``:
   Mall's pipeline);
 * ``prior+ebf``: the shipped EBD model's Gaussian gap prior (its conditional mean,
-  :mod:`mocapkit.cleaning.deep.prior`), then the EBF: what ``fill`` and ``clean`` run;
+  :mod:`mocapkit.cleaning.deep.prior`) reading the observed channels as the EBF denoises them,
+  the EBF on the filled entries (``deep.fill_channels(..., ebf, smooth=True)``: what ``fill``
+  and ``clean`` run), then the EBF on the whole take; ``prior_gauss_read+ebf`` the same with
+  the prior reading them through its 58 ms Gaussian (the fill before, for the comparison);
 * ``cubic+gauss`` / ``quintic+gauss``: interpolating cubic / quintic (Woltring-style)
   splines over the Vicon Nexus window (``cleaning.gapfill``), then the 58 ms Gaussian;
 * ``cubic`` / ``quintic`` / ``lerp``: the fills alone, the noisy observed samples
@@ -58,8 +61,8 @@ from mocapkit import corrupt  # noqa: E402
 from mocapkit.cleaning import deep, gapfill  # noqa: E402
 from mocapkit.cleaning.deep.channels import encode  # noqa: E402
 
-METHODS = ("lerp+gauss", "lerp+ebf", "ebd+ebf", "prior+ebf", "cubic+gauss", "quintic+gauss", "lerp", "cubic", "quintic",
-           "ebd", "prior")
+METHODS = ("lerp+gauss", "lerp+ebf", "ebd+ebf", "prior+ebf", "prior_gauss_read+ebf", "cubic+gauss", "quintic+gauss",
+           "lerp", "cubic", "quintic", "ebd", "prior")
 LONG_METHODS = METHODS + ("knn+gauss",)
 SIGMA = 0.058
 KNN = 8
@@ -99,13 +102,15 @@ def run_methods(x_gapped, ctx, fps, ebf, ebd) -> dict:
     cubic = gapfill.fill_channels(x_gapped, "cubic", fps)
     quintic = gapfill.fill_channels(x_gapped, "quintic", fps)
     ebd_only = deep.fill_channels(x_gapped, ctx, ebd, smooth=False, fps=fps, method="ebd")
-    prior_only = deep.fill_channels(x_gapped, ctx, ebd, smooth=False, fps=fps, method="prior")
+    prior_gauss = deep.fill_channels(x_gapped, ctx, ebd, smooth=False, fps=fps, method="prior")
+    prior_fill = deep.fill_channels(x_gapped, ctx, ebd, ebf, fps=fps, smooth=True, method="prior")
     return {
-        "lerp": lerp, "cubic": cubic, "quintic": quintic, "ebd": ebd_only, "prior": prior_only,
+        "lerp": lerp, "cubic": cubic, "quintic": quintic, "ebd": ebd_only, "prior": prior_gauss,
         "lerp+gauss": gaussian(lerp, SIGMA, fps),
         "lerp+ebf": deep.denoise_channels(lerp, ctx, ebf, fps=fps),
         "ebd+ebf": deep.denoise_channels(ebd_only, ctx, ebf, fps=fps),
-        "prior+ebf": deep.denoise_channels(prior_only, ctx, ebf, fps=fps),
+        "prior+ebf": deep.denoise_channels(prior_fill, ctx, ebf, fps=fps),
+        "prior_gauss_read+ebf": deep.denoise_channels(prior_gauss, ctx, ebf, fps=fps),
         "cubic+gauss": gaussian(cubic, SIGMA, fps),
         "quintic+gauss": gaussian(quintic, SIGMA, fps),
     }

@@ -451,9 +451,11 @@ def fill_channels(
     (:mod:`.prior`, fitted on the EBD's training clips), ``"auto"`` the prior
     when the model carries one (the shipped ones do: it left less error than
     the EBD on held-out actors and styles, short and long gaps, both rigs;
-    docs/models.md), else the EBD. The EBF here keeps the network's own
-    filter widths (no :mod:`.sure` calibration: the entries it smooths are
-    filled, not measured).
+    docs/models.md), else the EBD. With ``smooth``, the prior reads the
+    observed channels as the EBF denoises them (SURE-calibrated, :mod:`.sure`),
+    and the EBF then smooths the filled entries with the network's own filter
+    widths (no calibration there: the entries it smooths are filled, not
+    measured).
     """
     m = _model(model, "ebd")
     use_prior = _fills_by_prior(m, method)
@@ -476,7 +478,11 @@ def fill_channels(
         f_m, c_m, k_m = filled, ctx, miss
     frames = np.flatnonzero(k_m.any(axis=1))
     if use_prior:
-        f_m = conditional_fill(np.where(k_m, np.nan, f_m), m.prior, m.fps)
+        gappy = np.where(k_m, np.nan, f_m)
+        # the prior reads the observed channels through the EBF when it smooths the fill anyway (a better filter of
+        # the evidence than the prior's fixed Gaussian)
+        read = denoise_channels(gappy, c_m, denoiser) if smooth else None
+        f_m = conditional_fill(gappy, m.prior, m.fps, smoothed=read)
     else:
         pred = run_ebd(m.net, f_m, k_m, c_m, frames)
         f_m = f_m.copy()
