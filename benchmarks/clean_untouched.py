@@ -38,6 +38,9 @@ motion on another rig's names and joints, so any cell changed is harm too):
 * ``unity``: every 4th HDM05 clip from the fourth and the CMU ASF/AMC takes on Unity's humanoid avatar
   (``Hips``, ``Spine``, ``Chest``, ``UpperChest``, ``LeftShoulder``, ``LeftUpperArm``, ``LeftUpperLeg``, ... : no
   hip bones, upper neck or palms), 120 fps;
+* ``unnamed``: every 8th HDM05 clip from the second and the CMU ASF/AMC takes as the CMU MotionBuilder release
+  spells them, then renamed ``bone0``, ``bone1``, ... (a rig no family knows: its roles read from its tree and
+  rest pose), 120 fps;
 * ``unreal``: every 10th take of the Bandai Namco sample under Unreal Engine mannequin names
   (``root``, ``pelvis``, ``spine_01``, ``thigh_l``, ...), 30 fps.
 
@@ -100,6 +103,9 @@ def log(*a):
     print(*a, file=sys.stderr, flush=True)
 
 
+RESPELLED = ("smpl", "daz", "xsens", "unity", "unnamed", "unreal")
+"""The collections of takes respelled on rigs ``../shared/data`` does not hold (``tests/shared.py``)."""
+
 def takes(n_bandai: int, all_bandai: bool, seed: int = 0, quick: bool = False,
           respelled: bool = True) -> list[tuple[str, str, str, str]]:
     """``(collection, path, split, spelling)`` for every take measured (spelling "" for the file as it is)."""
@@ -145,8 +151,10 @@ def takes(n_bandai: int, all_bandai: bool, seed: int = 0, quick: bool = False,
         out += [("xsens", str(p), "check") for p in cmu]
         out += [("unity", str(p), "check" if "_mm_" in p.name else "tune") for p in hdm[3::4 if not quick else 1]]
         out += [("unity", str(p), "check") for p in cmu]
+        out += [("unnamed", str(p), "check" if "_mm_" in p.name else "tune") for p in hdm[1::8 if not quick else 1]]
+        out += [("unnamed", str(p), "check") for p in cmu]
         out += [("unreal", str(t.path), "tune" if t.dataset == 1 else "check") for t in pick[::10]]
-    return [(*item, item[0] if item[0] in ("smpl", "daz", "xsens", "unity", "unreal") else "") for item in out]
+    return [(*item, item[0] if item[0] in RESPELLED else "") for item in out]
 
 
 def measure(item: tuple[str, str, str, str]) -> dict:
@@ -176,6 +184,10 @@ def measure(item: tuple[str, str, str, str]) -> dict:
         from tests.shared import motionbuilder_spelling, unity_spelling
 
         m = unity_spelling(motionbuilder_spelling(m))
+    elif spelling == "unnamed":
+        from tests.shared import motionbuilder_spelling, unnamed
+
+        m = unnamed(motionbuilder_spelling(m))
     elif spelling == "unreal":
         from tests.shared import unreal_spelling
 
@@ -224,7 +236,7 @@ def main() -> None:
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--quick", action="store_true", help="a few takes per collection (a smoke run)")
     ap.add_argument("--no-respelled", dest="respelled", action="store_false",
-                    help="leave out the smpl, daz, xsens, unity and unreal collections (takes respelled on other rigs)")
+                    help=f"leave out the collections of takes respelled on other rigs ({', '.join(RESPELLED)})")
     args = ap.parse_args()
 
     items = takes(args.bandai, args.all, args.seed, args.quick, args.respelled)

@@ -43,6 +43,10 @@ the baseline, same run), 0.5 noise on the rig's own channels, ``--seeds`` draws:
 * ``retarget_unity``: the same take on Unity's humanoid avatar (``tests/shared.unity_spelling``: ``Hips``,
   ``Spine``, ``Chest``, ``UpperChest``, ``LeftShoulder`` the clavicle, ``LeftUpperArm``, ``LeftUpperLeg``,
   ``LeftToes``, ``LeftIndexProximal`` ...; no hip bones, upper neck or palms);
+* ``retarget_unnamed``: CMU 01_01's BVH with its joints renamed ``bone0``, ``bone1``, ... (``tests/shared.unnamed``:
+  no family, no sides in the names), served through the roles its tree and rest pose show
+  (``rigs.roles_by_topology``); before, such a rig got the fallback (the baseline); ``details`` gives the same
+  noisy take through the MotionBuilder release's named map (``retarget_unnamed_named``);
 * ``retarget_pybvh``: another project's clip (VictorS-67/pybvh, HumanIK names, Z up: its body frame
   turned; no hands below the wrist), 30 fps;
 * ``retarget_biovision``: another project's take (20tab/bvh-python ``test_mocapbank.bvh``, 455 frames at
@@ -84,7 +88,8 @@ from mocapkit.cleaning.deep import channels as ch  # noqa: E402
 from mocapkit.cleaning.deep import retarget  # noqa: E402
 from mocapkit.cleaning.filters import savgol_smooth  # noqa: E402
 from mocapkit.motion import Motion  # noqa: E402
-from tests.shared import daz_spelling, smpl_spelling, unity_spelling, unreal_spelling, xsens_spelling  # noqa: E402
+from tests.shared import (daz_spelling, smpl_spelling, unity_spelling, unnamed, unreal_spelling,  # noqa: E402
+                          xsens_spelling)
 
 DATA = REPO.parent / "shared" / "data"
 
@@ -159,6 +164,11 @@ def retargeted(ebf, seeds: int) -> tuple[dict, dict, dict]:
         versus_fallback("retarget_xsens_as_3dsmax", xsens)
     unity = unity_spelling(bvh)
     versus_fallback("retarget_unity", unity)
+    odd = unnamed(bvh)
+    versus_fallback("retarget_unnamed", odd)
+    for seed in range(seeds):
+        noisy, _ = corrupt.angular_noise(odd, 0.5, seed=seed)
+        add("retarget_unnamed_named", rms(bvh, deep.denoise(dataclasses.replace(noisy, skeleton=bvh.skeleton))))
     versus_fallback("retarget_pybvh", mocapkit.load(REPO / "tests" / "data" / "pybvh_test1_zup.bvh"))
     versus_fallback("retarget_biovision", mocapkit.load(DATA / "peer_files" / "20tab+bvh-python" / "tests" /
                                                         "test_mocapbank.bvh"))
@@ -176,7 +186,7 @@ def retargeted(ebf, seeds: int) -> tuple[dict, dict, dict]:
         versus_fallback("retarget_unreal", unreal_spelling(take))
     mean = {k: float(np.mean(v)) for k, v in rows.items()}
     names = ["retarget_3dsmax_body", "retarget_3dsmax_thumbs", "retarget_mixamo", "retarget_smpl", "retarget_daz",
-             "retarget_xsens", "retarget_unity", "retarget_pybvh", "retarget_biovision"]
+             "retarget_xsens", "retarget_unity", "retarget_unnamed", "retarget_pybvh", "retarget_biovision"]
     names += ["retarget_bandai", "retarget_unreal"] if bandai else []
     figures = {n: mean[n] for n in names}
     baselines = {n: mean[f"{n}_fallback"] for n in names}
@@ -186,6 +196,7 @@ def retargeted(ebf, seeds: int) -> tuple[dict, dict, dict]:
         "smpl": "CMU 01_01 (BVH) on SMPL's 24 joints and names", "daz": "CMU 01_01 (BVH) as the Daz-friendly release",
         "xsens": "CMU 01_01 (BVH) on Xsens MVN's 22 joints and names",
         "unity": "CMU 01_01 (BVH) on Unity's humanoid avatar (26 joints)",
+        "unnamed": "CMU 01_01 (BVH), joints renamed bone0, bone1, ...",
         "pybvh": "pybvh_test1_zup",
         "bandai": [t.name for t in bandai], "unreal": "the Bandai takes under Unreal mannequin names"},
         "retarget_serving": {"3dsmax": deep.served_by(three[0], ebf).describe(),
@@ -194,6 +205,7 @@ def retargeted(ebf, seeds: int) -> tuple[dict, dict, dict]:
                              "daz": deep.served_by(daz, ebf).describe(),
                              "xsens": deep.served_by(xsens, ebf).describe(),
                              "unity": deep.served_by(unity, ebf).describe(),
+                             "unnamed": deep.served_by(odd, ebf).describe(),
                              "unreal": deep.served_by(unreal_spelling(bandai[0]), ebf).describe() if bandai else None,
                              "bandai": deep.served_by(bandai[0], ebf).describe() if bandai else None}}
     return figures, baselines, details

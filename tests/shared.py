@@ -23,17 +23,24 @@ def curated_files(shared_data: Path, pattern: str) -> list[Path]:
 PYBVH = Path(__file__).resolve().parent / "data" / "pybvh_test1_zup.bvh"
 
 
-def unknown_rig(path: Path):
-    """The pybvh clip with its joints renamed ``bone0``, ``bone1``, ...: a real take on a rig of no known family,
-    which nothing shipped serves; saved as BVH at ``path``, returned as a Motion."""
+def unnamed(motion):
+    """``motion`` with its joints renamed ``bone0``, ``bone1``, ...: the same rig under names no family knows and
+    that carry no side."""
     import dataclasses
 
+    sk = motion.skeleton
+    return dataclasses.replace(motion, skeleton=dataclasses.replace(
+        sk, joint_names=tuple(f"bone{j}" for j in range(sk.num_joints))))
+
+
+def unknown_rig(path: Path):
+    """The pybvh clip without its toes and with its joints renamed ``bone0``, ``bone1``, ...: a real take on a rig
+    of no known family whose names and rest pose do not tell left from right (no toes to show which way it faces:
+    :func:`mocapkit.rigs.roles_by_topology` does not read it), which nothing shipped serves; saved as BVH at
+    ``path``, returned as a Motion."""
     import mocapkit
 
-    take = mocapkit.load(PYBVH)
-    sk = take.skeleton
-    odd = dataclasses.replace(sk, joint_names=tuple(f"bone{j}" for j in range(sk.num_joints)))
-    take = dataclasses.replace(take, skeleton=odd)
+    take = unnamed(respelled(mocapkit.load(PYBVH), {}, drop=("LeftToeBase", "RightToeBase")))
     mocapkit.save(take, path)
     return mocapkit.load(path)
 

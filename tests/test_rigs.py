@@ -9,8 +9,8 @@ import mocapkit
 from mocapkit import rigs, samples
 from mocapkit.io.asfamc import read_asf
 from mocapkit.motion import Skeleton, standard_joints
-from tests.shared import (curated_files, daz_spelling, motionbuilder_spelling, respelled, smpl_spelling,
-                          unity_spelling, unreal_spelling, xsens_spelling)
+from tests.shared import (PYBVH, curated_files, daz_spelling, motionbuilder_spelling, respelled, smpl_spelling,
+                          unity_spelling, unknown_rig, unnamed, unreal_spelling, xsens_spelling)
 
 # the joint each family names for a few roles (what the files write, not what the code says)
 EXPECTED = {
@@ -96,7 +96,14 @@ def test_peer_rigs_mixamo_humanik_and_unknown(shared_data):
     _check(_skeleton(peer / "VictorS-67+pybvh/bvh_data/standard_skeleton.bvh"), "humanik")
     assert rigs.rig_family(_skeleton(peer / "VictorS-67+pybvh/bvh_data/cmu_12_01_walk.bvh")) == "cmu_bvh_motionbuilder"
     sk = _skeleton(peer / "Wasserwecken+bvhio/bvhio/tests/example.bvh")  # LeftUpArm/LeftLowArm: no known family
-    assert rigs.rig_family(sk) is None and rigs.roles(sk) == {"pelvis": 0}
+    assert rigs.rig_family(sk) is None
+    # ... but its tree shows every role it has (no toes: the sides come from its names)
+    assert rigs.role_names(sk) == {
+        "pelvis": "Hips", "left_thigh": "LeftUpLeg", "right_thigh": "RightUpLeg", "left_shin": "LeftLowLeg",
+        "right_shin": "RightLowLeg", "left_foot": "LeftFoot", "right_foot": "RightFoot", "chest": "Chest",
+        "neck": "Neck", "head": "Head", "left_clavicle": "LeftCollar", "right_clavicle": "RightCollar",
+        "left_upper_arm": "LeftUpArm", "right_upper_arm": "RightUpArm", "left_forearm": "LeftLowArm",
+        "right_forearm": "RightLowArm", "left_hand": "LeftHand", "right_hand": "RightHand"}
 
 
 def test_bandai_pelvis_is_hips_not_the_floor_root():
@@ -198,6 +205,41 @@ def test_the_unity_humanoid_rig():
     vr = Skeleton(tuple(renamed[n] for n in names), np.array(sk.parents), sk.offsets)
     assert rigs.rig_family(vr) == "unity_humanoid" and rigs.roles(vr) == rigs.roles(sk)
     assert standard_joints(vr) == standard_joints(sk)
+
+
+def test_roles_by_topology_are_the_roles_the_names_give(tmp_path):
+    """Renamed ``bone0``, ``bone1``, ... (no family, no sides in the names), real rigs keep their roles: read from
+    the tree and the rest pose (left is up crossed with the toes' direction), the same joints as their families
+    name, the palms, fingers and thumbs left out; HumanIK with its toes, the 3dsMax conversion with its arms hanging
+    down, the MotionBuilder release with its hip bones and long clavicles, Xsens and Unity rigs."""
+    walk = motionbuilder_spelling(mocapkit.load(samples.path("12_walk.amc")))
+    takes = [mocapkit.load(PYBVH), mocapkit.load(samples.path("131_01.bvh")), walk, xsens_spelling(walk),
+             unity_spelling(walk), mocapkit.load(Path(__file__).parent / "data" / "pybvh_test2_xsens.bvh")]
+    hands = ("palm", "fingers", "thumb")
+    for take in takes:
+        sk = take.skeleton
+        named = {r: j for r, j in rigs.roles(sk).items() if not r.endswith(hands)}
+        odd = unnamed(take).skeleton
+        assert rigs.rig_family(odd) is None
+        assert rigs.roles_by_topology(odd) == named == rigs.roles(odd), sk.joint_names[:3]
+        assert rigs.roles_by_topology(sk) == named  # names that carry sides give the same
+        middle = {r: j for r, j in named.items() if "left" not in r and "right" not in r}
+        assert rigs.roles_by_topology(odd, sides=False) == middle
+
+
+def test_roles_by_topology_refuse_what_is_not_plain(tmp_path):
+    """Not read: a rig without toes whose names carry no side (which way is left?), the Bandai Namco rig renamed
+    (its rest pose lies on its side: the toes point along the hips), and a chain of joints; the middle of the body
+    is still read where the tree shows it."""
+    odd = unknown_rig(tmp_path / "odd.bvh").skeleton  # pybvh's clip without toes
+    assert rigs.roles_by_topology(odd) is None and rigs.roles(odd) == {"pelvis": 0}
+    assert odd.joint_names[rigs.roles_by_topology(odd, sides=False)["head"]] == "bone7"
+    daz = daz_spelling(motionbuilder_spelling(mocapkit.load(samples.path("12_walk.amc"))))
+    assert rigs.roles_by_topology(unnamed(daz).skeleton) is None
+    bandai = unnamed(mocapkit.load(Path(__file__).parent / "data" / "dataset-1_dash_normal_001.bvh")).skeleton
+    assert rigs.roles_by_topology(bandai) is None
+    chain = Skeleton(tuple(f"s{j}" for j in range(6)), np.array([-1, 0, 1, 2, 3, 4]), np.tile([0.0, 10.0, 0.0], (6, 1)))
+    assert rigs.roles_by_topology(chain) is None and rigs.roles_by_topology(chain, sides=False) is None
 
 
 def test_samples_and_an_unknown_rig_by_topology():

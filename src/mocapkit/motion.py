@@ -856,6 +856,14 @@ ROLES: dict[str, tuple[str | None, tuple[str, ...]]] = {
 }
 
 
+# the role of :mod:`mocapkit.rigs` that each of :data:`ROLES` names, where the spelling differs
+_TOPOLOGY_ROLE = {"lower_back": "spine"}
+for _s in ("left", "right"):
+    _TOPOLOGY_ROLE.update({f"{_s}_shoulder": f"{_s}_upper_arm", f"{_s}_elbow": f"{_s}_forearm", f"{_s}_hip": f"{_s}_thigh",
+                           f"{_s}_knee": f"{_s}_shin"})
+_MIDDLE_ROLES = frozenset({"pelvis", "lower_back", "chest", "neck", "head"})
+
+
 def bone_moving_joints(skeleton: Skeleton) -> np.ndarray:
     """(J,) bool: joints whose rotation moves a bone (a child joint or end site at a non-zero offset)."""
     moves = np.zeros(skeleton.num_joints, dtype=bool)
@@ -870,7 +878,10 @@ def find_joint(skeleton: Skeleton, role: str) -> int:
     """Index of the joint playing ``role`` (a key of :data:`ROLES`) on CMU, HDM05 and common BVH rigs.
 
     Hands are the wrists and feet the ankles, as in Krüger et al.'s F15
-    features; ``pelvis`` falls back to the root joint.
+    features. Where no name matches, the roles the skeleton's tree and rest
+    pose show (:func:`mocapkit.rigs.roles_by_topology`; the middle of the
+    body even where left and right are not told); ``pelvis`` falls back to
+    the root joint.
 
     >>> import mocapkit
     >>> sk = mocapkit.load(mocapkit.samples.path("131_01.bvh")).skeleton
@@ -892,6 +903,11 @@ def find_joint(skeleton: Skeleton, role: str) -> int:
             p = int(skeleton.parents[j])
             if side == want_side and part == "foot" and p >= 0 and parsed[p] == (want_side, "ankle"):
                 return j
+    from .rigs import roles_by_topology  # names say nothing: the tree and rest pose may (rigs imports this module)
+
+    topology = roles_by_topology(skeleton, sides=role not in _MIDDLE_ROLES)
+    if topology is not None and _TOPOLOGY_ROLE.get(role, role) in topology:
+        return topology[_TOPOLOGY_ROLE.get(role, role)]
     if role == "pelvis":
         return 0
     raise KeyError(f"no joint plays the role {role!r} in skeleton with joints: {_some_names(skeleton.joint_names)}")

@@ -34,6 +34,12 @@ Bandai Namco rig, whose root ``joint_Root`` stays on the floor, and
 first joint below the root where the hierarchy branches (legs and spine
 part there).
 
+A rig whose names no family knows may still show its roles in its **tree
+and rest pose** (:func:`roles_by_topology`): three limbs leave the pelvis
+and three the chest, the legs and the arms are twin chains, and left and
+right come from the names' side markers or from the way the toes point.
+:func:`roles` falls back to it.
+
 Pure functions of a :class:`~mocapkit.motion.Skeleton`; nothing here reads
 files or depends on frame data.
 """
@@ -41,6 +47,8 @@ files or depends on frame data.
 from __future__ import annotations
 
 from types import MappingProxyType
+
+import numpy as np
 
 from .motion import Skeleton
 
@@ -50,6 +58,7 @@ __all__ = [
     "FAMILIES",
     "rig_family",
     "roles",
+    "roles_by_topology",
     "pelvis_index",
     "role_names",
 ]
@@ -320,8 +329,9 @@ def roles(skeleton: Skeleton) -> dict[str, int]:
     """Role -> joint index for every role ``skeleton`` plays under its family (:func:`rig_family`).
 
     Roles the family does not name, or the skeleton lacks, are absent; a
-    skeleton of no known family gives only ``{"pelvis": pelvis_index(...)}``.
-    The result is in :data:`ROLES` order.
+    skeleton of no known family gets the roles its tree and rest pose show
+    (:func:`roles_by_topology`), or only ``{"pelvis": pelvis_index(...)}``
+    where they do not show them plainly. The result is in :data:`ROLES` order.
 
     >>> import mocapkit
     >>> sk = mocapkit.load(mocapkit.samples.path("131_01.bvh")).skeleton
@@ -331,7 +341,7 @@ def roles(skeleton: Skeleton) -> dict[str, int]:
     """
     family = rig_family(skeleton)
     if family is None:
-        return {"pelvis": pelvis_index(skeleton)}
+        return roles_by_topology(skeleton) or {"pelvis": pelvis_index(skeleton)}
     found = _resolve(skeleton, family)
     return {r: found[r] for r in ROLES if r in found}
 
@@ -361,3 +371,167 @@ def pelvis_index(skeleton: Skeleton) -> int:
 def role_names(skeleton: Skeleton) -> dict[str, str]:
     """Role -> joint name for :func:`roles` (for messages and ``mocapkit info``)."""
     return {r: skeleton.joint_names[j] for r, j in roles(skeleton).items()}
+
+
+def _subtree_sizes(skeleton: Skeleton) -> list[int]:
+    size = [1] * skeleton.num_joints
+    for j in range(skeleton.num_joints - 1, 0, -1):  # parents precede their children
+        size[int(skeleton.parents[j])] += size[j]
+    return size
+
+
+def _chain(skeleton: Skeleton, j: int, size: list[int]) -> list[int]:
+    """The joints from ``j`` down while one child carries the limb on: the only child with children of its own
+    (leaf children, such as twist or helper bones, are passed over), or a single leaf (the toes); it stops at a
+    joint where the body branches (a chest, a hand with fingers) or ends."""
+    out = [j]
+    while True:
+        kids = skeleton.children(out[-1])
+        big = [c for c in kids if size[c] > 1]
+        if len(big) == 1:
+            out.append(big[0])
+        elif not big and len(kids) == 1:
+            out.append(kids[0])
+        else:
+            return out
+
+
+def _bone(skeleton: Skeleton, j: int, nxt: int | None) -> float:
+    """Length of the segment joint ``j`` moves: to the next joint of its chain, else to its farthest end site."""
+    if nxt is not None:
+        return float(np.linalg.norm(skeleton.offsets[nxt]))
+    ends = skeleton.end_site_offsets[skeleton.end_site_parents == j]
+    return float(np.linalg.norm(ends, axis=1).max()) if len(ends) else 0.0
+
+
+def _long_pair(skeleton: Skeleton, chain: list[int], first: int = 0) -> int | None:
+    """Index in ``chain`` (``first`` or later) of the first of the two consecutive segments longest together (thigh
+    and shin, upper arm and forearm); None for a chain too short to hold them and a joint after them."""
+    if len(chain) < first + 3:
+        return None
+    bones = [_bone(skeleton, j, chain[k + 1] if k + 1 < len(chain) else None) for k, j in enumerate(chain)]
+    return first + int(np.argmax([bones[k] + bones[k + 1] for k in range(first, len(chain) - 1)]))
+
+
+def _twins(chains: list[list[int]], skeleton: Skeleton) -> list[list[int]] | None:
+    """The two chains of ``chains`` most alike (the same number of joints, segments of the nearest lengths: a pair
+    of limbs), or None when fewer than two have the same length."""
+    best, pair = np.inf, None
+    for i, a in enumerate(chains):
+        for b in chains[i + 1:]:
+            if len(a) != len(b):
+                continue
+            d = sum(abs(_bone(skeleton, x, a[k + 1] if k + 1 < len(a) else None)
+                        - _bone(skeleton, y, b[k + 1] if k + 1 < len(b) else None)) for k, (x, y) in enumerate(zip(a, b)))
+            if d < best:
+                best, pair = d, [a, b]
+    return pair
+
+
+def _side_votes(chain: list[int], sides: list[str | None]) -> int:
+    """+1 per joint of ``chain`` its name calls left, -1 per right."""
+    return sum((sides[j] == "left") - (sides[j] == "right") for j in chain)
+
+
+def roles_by_topology(skeleton: Skeleton, sides: bool = True) -> dict[str, int] | None:
+    """The roles of a humanoid skeleton whose names no family knows, read from its tree and rest pose; None unless
+    they are plain. ``sides=False``: only the roles of the body's middle (pelvis to head), which need no left and
+    right.
+
+    From the pelvis (:func:`pelvis_index`) three limbs leave: two legs (chains
+    of the same length whose two longest consecutive segments are the thigh
+    and the shin, then the foot and the toes; a joint before the thigh is the
+    hip bone) and the trunk, up to the chest where it branches into the neck
+    (the chain leaving most nearly along the pelvis-to-chest direction: neck,
+    upper neck, head) and two arms (clavicle, then the upper arm and forearm,
+    the two longest consecutive segments, then the hand). The first trunk
+    joint plays the spine and the next the middle spine; joints between, and
+    fingers, play none. Left and right come from the joints' names where they
+    carry sides (:func:`mocapkit.motion.joint_sides`: ``L_``, ``_r``,
+    ``Left`` ...), else from the rest pose: left is up (pelvis to chest)
+    crossed with forward (ankle to toes), so a rig without toes and without
+    sides in its names is not read. None as well where any part does not
+    match (no three limbs at the pelvis or at the chest, legs or arms of other
+    lengths, no foot, no clavicle, sides that disagree).
+    """
+    from .motion import joint_sides
+
+    size = _subtree_sizes(skeleton)
+    rest = skeleton.rest_positions()
+    pelvis = pelvis_index(skeleton)
+    limbs = [_chain(skeleton, c, size) for c in skeleton.children(pelvis) if size[c] > 1]
+    trunk = [c for c in limbs if len(skeleton.children(c[-1])) >= 3]
+    legs = [c for c in limbs if c not in trunk]
+    if len(limbs) != 3 or len(trunk) != 1 or len(legs) != 2:
+        return None
+    trunk = trunk[0]
+    chest = trunk[-1]
+    up = rest[chest] - rest[pelvis]
+    if np.linalg.norm(up) < 1e-9:
+        return None
+    up = up / np.linalg.norm(up)
+    branches = [_chain(skeleton, c, size) for c in skeleton.children(chest)]
+    arms = _twins([b for b in branches if len(b) >= 4], skeleton)
+    rest_of = [b for b in branches if arms is None or b not in arms]
+    if arms is None or not rest_of:
+        return None
+    neck = max(rest_of, key=lambda b: (len(b), float(np.dot(rest[b[-1]] - rest[chest], up))))
+    out: dict[str, tuple[int, ...]] = {}  # role -> joint, or (left, right) candidates before the sides are known
+    sided: dict[str, list[int]] = {}
+    for kind, pair in (("leg", legs), ("arm", arms)):
+        parts = []
+        for chain in pair:
+            k = _long_pair(skeleton, chain, 0 if kind == "leg" else 1)  # an arm starts at its clavicle
+            if k is None or k + 2 >= len(chain):
+                return None  # no foot or hand
+            names = (("hip_bone",) * (k > 0) + ("thigh", "shin", "foot") + ("toe",) * (k + 3 < len(chain))
+                     if kind == "leg" else ("clavicle", "upper_arm", "forearm", "hand"))
+            start = k - 1 if k > 0 else 0
+            parts.append(dict(zip(names, chain[start:])))
+        if set(parts[0]) != set(parts[1]):
+            return None
+        a, b = (rest[parts[i]["thigh" if kind == "leg" else "upper_arm"]] for i in (0, 1))
+        sided[kind] = [parts, a, b]
+    found = {"pelvis": pelvis}
+    if pelvis != 0:
+        found["root"] = 0
+    for j, role in zip(trunk[:-1], ("spine", "spine_mid")):
+        found[role] = j
+    found["chest"] = chest
+    found["neck"] = neck[0]
+    if len(neck) >= 3:
+        found["neck_upper"] = neck[1]
+    if len(neck) >= 2:
+        found["head"] = neck[-1]
+    if "head" not in found:
+        return None
+    if not sides:
+        return {r: found[r] for r in ROLES if r in found}
+    named = joint_sides(skeleton.joint_names)
+    votes = {kind: _side_votes(list(v[0][0].values()), named) - _side_votes(list(v[0][1].values()), named)
+             for kind, v in sided.items()}
+    if all(votes.values()):
+        first_left = {kind: v > 0 for kind, v in votes.items()}
+    else:
+        toes = [p["toe"] for p in sided["leg"][0] if "toe" in p]
+        feet = [p["foot"] for p in sided["leg"][0] if "toe" in p]
+        if len(toes) != 2:
+            return None
+        forward = (rest[toes] - rest[feet]).sum(axis=0)
+        forward = forward - np.dot(forward, up) * up
+        if np.linalg.norm(forward) < 1e-9:
+            return None
+        left = np.cross(up, forward)
+        first_left = {}
+        for kind, (parts, a, b) in sided.items():
+            da, db = float(np.dot(a - rest[pelvis], left)), float(np.dot(b - rest[pelvis], left))
+            if da * db >= 0:
+                return None
+            first_left[kind] = da > 0
+    for kind, (parts, _, _) in sided.items():
+        for i, side in ((0, "left" if first_left[kind] else "right"), (1, "right" if first_left[kind] else "left")):
+            for role, j in parts[i].items():
+                found[f"{side}_{role}"] = j
+    if len(set(found.values())) != len(found):
+        return None
+    return {r: found[r] for r in ROLES if r in found}

@@ -96,11 +96,19 @@ def test_mostly_lying_take_keeps_its_standing_rest_pose_up(takes):
 
 
 def test_rig_without_head_or_feet_uses_its_tallest_extent(takes):
+    """Joint names that say nothing: the head and feet come from the tree (``rigs.roles_by_topology``), so the Z-up
+    file's rest pose tells its axis; a rig whose tree is no body either (every joint hung from the root) gets the
+    axis of its tallest extent over the frames, and +y with nothing to go on."""
     m = takes["zup_file"]
     names = tuple(f"j{i}" for i in range(m.num_joints))
     nameless = dataclasses.replace(m.skeleton, joint_names=names)
     assert find_up_axis(nameless, m.global_positions()).tolist() == [0, 0, 1]
-    assert find_up_axis(nameless).tolist() == [0, 1, 0]
+    assert find_up_axis(nameless).tolist() == [0, 0, 1]
+    rest = nameless.rest_positions()
+    star = dataclasses.replace(nameless, parents=np.r_[-1, np.zeros(m.num_joints - 1, dtype=np.int64)],
+                               offsets=np.r_[rest[:1], rest[1:] - rest[0]])
+    assert find_up_axis(star, m.global_positions()).tolist() == [0, 0, 1]
+    assert find_up_axis(star).tolist() == [0, 1, 0]
 
 
 @pytest.mark.parametrize("up", [[0, 1, 0], [0, -1, 0], [1, 0, 0], [-1, 0, 0], [0, 0, 1], [0, 0, -1]])

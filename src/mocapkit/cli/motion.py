@@ -20,7 +20,7 @@ def info(
     from ..io.c3d import MarkerSet
     from ..io.takes import check_asf, load_take
     from ..motion import ROLES, standard_joints, unit_scale_cm
-    from ..rigs import rig_family
+    from ..rigs import rig_family, roles_by_topology
 
     check_asf(asf, [file])
     obj = load_take(file, asf)
@@ -49,7 +49,11 @@ def info(
         rows.append(("length unit", f"unknown ({reason})"))
     rows.append(("human roles", f"{len(roles)} of {len(ROLES)} found"
                  + (f"; missing: {', '.join(missing_roles)}" if missing_roles else "")))
-    rows.append(("rig family", rig_family(sk) or "none known (no joint map: the networks fall back)"))
+    family = rig_family(sk)
+    if family is None:
+        family = ("none known; roles read from its tree and rest pose (the networks serve it through them)"
+                  if roles_by_topology(sk) else "none known (no joint map: the networks fall back)")
+    rows.append(("rig family", family))
     rows += [("channels", str(len(m.channel_names()))),
              ("missing", f"{100.0 * miss.mean():.2f} % of joint samples, {plural(int(miss.any(axis=1).sum()), 'frame')} affected")]
     print_fields(rows)

@@ -74,7 +74,10 @@ from ...motion import Motion, Skeleton
 from .channels import ChannelLayout, encode as encode_direct, decode as decode_direct, layout_for
 from .channels import root_angular_velocity, unwrap_degrees
 
-__all__ = ["ACCLAIM_AXES", "SAME_REST_DEG", "OPTIONAL_ROLES", "Serving", "served_by", "encode", "decode"]
+__all__ = ["ACCLAIM_AXES", "SAME_REST_DEG", "OPTIONAL_ROLES", "INFERRED", "Serving", "served_by", "encode", "decode"]
+
+#: The family a :class:`Serving` names for a rig of no known family whose roles its tree and rest pose show.
+INFERRED = "inferred"
 
 #: The Acclaim ``axis`` (degrees, order ``XYZ``, extrinsic) of each joint of the CMU/HDM05 ASF skeleton; every
 #: ASF of both databases has these (up to 1e-13 degrees).
@@ -179,7 +182,8 @@ class Serving:
         """How the take is served, in words (for notes and messages)."""
         if self.direct:
             return "its own channels"
-        how = f"a joint map from the {self.family} rig onto the Acclaim skeleton"
+        rig = "rig, its roles read from its tree and rest pose," if self.family == INFERRED else f"{self.family} rig"
+        how = f"a joint map from the {rig} onto the Acclaim skeleton"
         extra = [f"{len(self.retargeted)} bones retargeted from its rest pose"] if self.retargeted else []
         extra += [f"{len(self.lacking)} joints held at the model's means"] if self.lacking else []
         return how + (f" ({'; '.join(extra)})" if extra else "")
@@ -302,8 +306,10 @@ def served_by(motion_or_skeleton, model) -> Serving | str:
     MotionBuilder-friendly release), or may lack a few of them
     (:data:`OPTIONAL_ROLES`: HumanIK and Mixamo rigs), in the Acclaim rest
     pose or retargeted from another (the 3dsMax-friendly release's arms hang
-    down; module docstring). Anything else: a one-line reason naming what is
-    missing or different.
+    down; module docstring); a rig of no known family through the roles its
+    tree and rest pose show (:func:`mocapkit.rigs.roles_by_topology`; the
+    family is then :data:`INFERRED`). Anything else: a one-line reason naming
+    what is missing or different.
     """
     sk = getattr(motion_or_skeleton, "skeleton", motion_or_skeleton)
     layout = model.layout
@@ -316,10 +322,12 @@ def served_by(motion_or_skeleton, model) -> Serving | str:
         return (f"{trained} and this one has {have.num_channels} ({_difference(layout, have)}); "
                 f"train a model on this rig with `mocapkit train`")
     family = rigs.rig_family(sk)
-    if family is None:
+    found = rigs.roles(sk) if family is not None else rigs.roles_by_topology(sk)
+    if found is None:
         return (f"{trained}, the Acclaim rig, and no joint map is known for this one, whose joints are "
-                f"{', '.join(sk.joint_names[:4])}, ...; train a model on this rig with `mocapkit train`")
-    found = rigs.roles(sk)
+                f"{', '.join(sk.joint_names[:4])}, ... (no known names, and its tree and rest pose do not show "
+                f"its limbs and sides plainly); train a model on this rig with `mocapkit train`")
+    family = family or INFERRED
     lacking = [n for n, r in zip(layout.joints, model_roles) if r not in found and r not in OPTIONAL_ROLES]
     if lacking:
         return (f"{trained}, the Acclaim rig; this {family} rig has no joint for {len(lacking)} of its "
