@@ -558,3 +558,17 @@ def test_up_axis_of_a_take_whose_rest_pose_lies_along_x_comes_from_its_frames():
     rd = fe.virtual_accelerometers(m)
     assert np.all(np.isfinite(rd)) and rd.shape == (len(m), 4, 3)
     np.testing.assert_array_equal(rd, fe.virtual_accelerometers(m, up_axis="y"))
+
+
+def test_a_skeleton_without_a_head_is_up_along_y_and_cleans():
+    """A chain of joints (no head by name or by tree): +y, the BVH convention, and ``clean`` runs on it (before, detect
+    stopped at the head no joint plays) and leaves the smooth take as it is."""
+    sk = Skeleton(tuple(f"seg{j}" for j in range(6)), np.array([-1, 0, 1, 2, 3, 4]),
+                  np.array([[0.0, 0.0, 0.0]] + [[0.0, 0.0, 10.0]] * 5))
+    assert fe.detect_up_axis(sk).tolist() == [0.0, 1.0, 0.0]
+    t = np.linspace(0.0, 4.0, 200)
+    rv = np.zeros((200, 6, 3))
+    rv[:, 1:, 1] = 0.3 * np.sin(t)[:, None]
+    take = Motion(sk, R.rotvec_to_quaternion(rv), np.zeros((200, 3)), 30.0, "chain")
+    res = mocapkit.clean(take)
+    assert not res.changed.any()

@@ -105,14 +105,19 @@ def detect_up_axis(skeleton: Skeleton) -> np.ndarray:
     In the rest pose (identity rotations) the head sits above the feet: the
     coordinate axis with the largest component of ``head - mean(ankles)`` is
     up, with that component's sign. CMU, HDM05 and most BVH rigs give
-    ``(0, 1, 0)``.
+    ``(0, 1, 0)``. A skeleton without a head (by name or by its tree:
+    :func:`~mocapkit.motion.find_joint`) gets ``(0, 1, 0)``, the BVH
+    convention, as :func:`find_up_axis` gives a take with nothing to go on.
 
     >>> import mocapkit
     >>> detect_up_axis(mocapkit.load(mocapkit.samples.path("131_01.bvh")).skeleton).tolist()
     [0.0, 1.0, 0.0]
     """
     rest = skeleton.rest_positions()
-    head = rest[find_joint(skeleton, "head")]
+    try:
+        head = rest[find_joint(skeleton, "head")]
+    except KeyError:
+        return np.array([0.0, 1.0, 0.0])
     feet = []
     for role in ("left_foot", "right_foot"):
         try:
