@@ -1,5 +1,6 @@
 """Real takes several test modules share: the curated takes of ``../shared/data`` that golden I/O tests
-walk, a real take on a rig of no known family (:func:`unknown_rig`), and real takes respelled on the rigs
+walk, a real take on a rig of no known family (:func:`unknown_rig`), any take under names that say nothing
+(:func:`unnamed`), and real takes respelled on the rigs
 users bring that ``../shared/data`` does not hold (:func:`smpl_spelling`, :func:`daz_spelling`,
 :func:`xsens_spelling`, :func:`unity_spelling`, :func:`unreal_spelling`, :func:`motionbuilder_spelling`; the
 benchmarks use them too).

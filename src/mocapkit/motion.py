@@ -810,7 +810,7 @@ def _side_and_part(name: str, names: set[str]) -> tuple[str | None, str]:
     """
     partner = _partner_name(name, names)
     low = name.lower().rsplit(":", 1)[-1]
-    if partner is None:  # the prefixes of the Bandai Namco rig (``joint_``), SMPL's models (``m_avg_``, ``f_avg_``), VRoid
+    if partner is None:  # the prefixes of the Bandai Namco rig (``joint_``), SMPL's models (``m_avg_``), VRoid's
         return None, re.sub(r"^(joint_|[mf]_avg_|j_bip_c_)", "", low)
     for pat, side in (
         (r"^left[_.\- ]?", "left"), (r"^right[_.\- ]?", "right"),
@@ -859,8 +859,8 @@ ROLES: dict[str, tuple[str | None, tuple[str, ...]]] = {
 # the role of :mod:`mocapkit.rigs` that each of :data:`ROLES` names, where the spelling differs
 _TOPOLOGY_ROLE = {"lower_back": "spine"}
 for _s in ("left", "right"):
-    _TOPOLOGY_ROLE.update({f"{_s}_shoulder": f"{_s}_upper_arm", f"{_s}_elbow": f"{_s}_forearm", f"{_s}_hip": f"{_s}_thigh",
-                           f"{_s}_knee": f"{_s}_shin"})
+    _TOPOLOGY_ROLE.update({f"{_s}_shoulder": f"{_s}_upper_arm", f"{_s}_elbow": f"{_s}_forearm",
+                           f"{_s}_hip": f"{_s}_thigh", f"{_s}_knee": f"{_s}_shin"})
 _MIDDLE_ROLES = frozenset({"pelvis", "lower_back", "chest", "neck", "head"})
 
 

@@ -422,7 +422,8 @@ def _twins(chains: list[list[int]], skeleton: Skeleton) -> list[list[int]] | Non
             if len(a) != len(b):
                 continue
             d = sum(abs(_bone(skeleton, x, a[k + 1] if k + 1 < len(a) else None)
-                        - _bone(skeleton, y, b[k + 1] if k + 1 < len(b) else None)) for k, (x, y) in enumerate(zip(a, b)))
+                        - _bone(skeleton, y, b[k + 1] if k + 1 < len(b) else None))
+                    for k, (x, y) in enumerate(zip(a, b)))
             if d < best:
                 best, pair = d, [a, b]
     return pair
@@ -441,10 +442,12 @@ def roles_by_topology(skeleton: Skeleton, sides: bool = True) -> dict[str, int] 
     From the pelvis (:func:`pelvis_index`) three limbs leave: two legs (chains
     of the same length whose two longest consecutive segments are the thigh
     and the shin, then the foot and the toes; a joint before the thigh is the
-    hip bone) and the trunk, up to the chest where it branches into the neck
-    (the chain leaving most nearly along the pelvis-to-chest direction: neck,
-    upper neck, head) and two arms (clavicle, then the upper arm and forearm,
-    the two longest consecutive segments, then the hand). The first trunk
+    hip bone) and the trunk, up to the chest where it branches into two arms
+    (the twin chains of four joints or more most alike in their segments:
+    the clavicle, then the upper arm and forearm, the two longest consecutive
+    segments after it, then the hand) and the neck (the longest other chain,
+    the one reaching highest among equals: neck, upper neck, head). A chain
+    passes over leaf joints beside it (twist and helper bones). The first trunk
     joint plays the spine and the next the middle spine; joints between, and
     fingers, play none. Left and right come from the joints' names where they
     carry sides (:func:`mocapkit.motion.joint_sides`: ``L_``, ``_r``,
@@ -476,8 +479,7 @@ def roles_by_topology(skeleton: Skeleton, sides: bool = True) -> dict[str, int] 
     if arms is None or not rest_of:
         return None
     neck = max(rest_of, key=lambda b: (len(b), float(np.dot(rest[b[-1]] - rest[chest], up))))
-    out: dict[str, tuple[int, ...]] = {}  # role -> joint, or (left, right) candidates before the sides are known
-    sided: dict[str, list[int]] = {}
+    sided: dict[str, tuple] = {}  # "leg"/"arm": (the two chains' roles, where each starts in the rest pose)
     for kind, pair in (("leg", legs), ("arm", arms)):
         parts = []
         for chain in pair:
@@ -491,7 +493,7 @@ def roles_by_topology(skeleton: Skeleton, sides: bool = True) -> dict[str, int] 
         if set(parts[0]) != set(parts[1]):
             return None
         a, b = (rest[parts[i]["thigh" if kind == "leg" else "upper_arm"]] for i in (0, 1))
-        sided[kind] = [parts, a, b]
+        sided[kind] = (parts, a, b)
     found = {"pelvis": pelvis}
     if pelvis != 0:
         found["root"] = 0
