@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import dataclasses
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -248,3 +249,20 @@ def test_the_take_teaches_the_prior_its_own_relations():
     assert np.array_equal(taught[~np.isnan(g)], x[~np.isnan(g)])
     short = g[380:480]  # 100 frames, 40 of them complete: the update still happens, weighted 40 / (40 + 30)
     assert not np.array_equal(P.conditional_fill(short, prior, 30.0), P.conditional_fill(short, prior, 30.0, prior_s=np.inf))
+
+
+def test_the_prior_reads_through_the_ebf_at_low_rates_only(walk, monkeypatch):
+    """``fill_channels`` gives the prior the EBF's reading of the observed channels at rates up to
+    ``EBF_READ_MAX_FPS`` (a Bandai Namco take, 30 fps), its own 58 ms Gaussian above (a CMU walk, 120 fps)."""
+    from mocapkit.cleaning.deep import inference
+
+    bandai = mocapkit.load(Path(__file__).parents[1] / "data" / "dataset-2_run_active_049.bvh")
+    for take, reads in ((walk[:240], False), (bandai, True)):
+        ebf, ebd = deep.shipped_model("ebf", take), deep.shipped_model("ebd", take)
+        x, ctx = encode(corrupt.angular_noise(take, 0.5, seed=3)[0], ebd.layout)
+        x[20:50, :3] = np.nan
+        out = deep.fill_channels(x, ctx, ebd, ebf, fps=take.fps)
+        monkeypatch.setattr(inference, "EBF_READ_MAX_FPS", 0.0)
+        gauss = deep.fill_channels(x, ctx, ebd, ebf, fps=take.fps)
+        monkeypatch.undo()
+        assert np.array_equal(out, gauss) != reads

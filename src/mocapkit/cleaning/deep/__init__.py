@@ -12,6 +12,7 @@
 
 from .channels import ChannelLayout, layout_for
 from .inference import (
+    EBF_READ_MAX_FPS,
     FALLBACK_DENOISE,
     FALLBACK_FILL,
     FILL_METHODS,
@@ -36,6 +37,7 @@ from .prior import GapPrior, conditional_fill, fit_gap_prior
 from .retarget import Serving, served_by
 
 __all__ = [
+    "EBF_READ_MAX_FPS",
     "FALLBACK_DENOISE",
     "FALLBACK_FILL",
     "FILL_METHODS",
