@@ -207,7 +207,7 @@ def test_the_unity_humanoid_rig():
     assert standard_joints(vr) == standard_joints(sk)
 
 
-def test_roles_by_topology_are_the_roles_the_names_give(tmp_path):
+def test_roles_by_topology_are_the_roles_the_names_give():
     """Renamed ``bone0``, ``bone1``, ... (no family, no sides in the names), real rigs keep their roles: read from
     the tree and the rest pose (left is up crossed with the toes' direction), the same joints as their families
     name, the palms, fingers and thumbs left out; HumanIK with its toes, the 3dsMax conversion with its arms hanging
