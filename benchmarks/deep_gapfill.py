@@ -24,10 +24,11 @@ Fills, each followed by the denoising a user would run on the completed take:
   (``deep.fill_channels(..., smooth=False, method="ebd")`` then ``deep.denoise_channels``:
   Mall's pipeline);
 * ``prior+ebf``: the shipped EBD model's Gaussian gap prior (its conditional mean,
-  :mod:`mocapkit.cleaning.deep.prior`) reading the observed channels as the EBF denoises them,
-  the EBF on the filled entries (``deep.fill_channels(..., ebf, smooth=True)``: what ``fill``
-  and ``clean`` run), then the EBF on the whole take; ``prior_gauss_read+ebf`` the same with
-  the prior reading them through its 58 ms Gaussian (the fill before, for the comparison);
+  :mod:`mocapkit.cleaning.deep.prior`; at these clips' 120 fps it reads the observed channels
+  through its 58 ms Gaussian: ``deep.EBF_READ_MAX_FPS``), the EBF on the filled entries
+  (``deep.fill_channels(..., ebf, smooth=True)``: what ``fill`` and ``clean`` run), then the
+  EBF on the whole take; ``prior_gauss_read+ebf`` the prior's fill without the EBF on its
+  filled entries, then the EBF on the whole take (this benchmark's protocol before);
 * ``cubic+gauss`` / ``quintic+gauss``: interpolating cubic / quintic (Woltring-style)
   splines over the Vicon Nexus window (``cleaning.gapfill``), then the 58 ms Gaussian;
 * ``cubic`` / ``quintic`` / ``lerp``: the fills alone, the noisy observed samples
