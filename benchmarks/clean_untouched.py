@@ -89,6 +89,8 @@ sys.path.insert(0, str(REPO / "benchmarks"))
 sys.path.insert(0, str(REPO))
 
 import _harness as harness  # noqa: E402
+from tests.shared import (daz_spelling, motionbuilder_spelling, smpl_spelling, unity_spelling, unnamed,  # noqa: E402
+                          unreal_spelling, xsens_spelling)
 
 DATA = REPO.parent / "shared" / "data"
 if not DATA.is_dir():  # a worktree beside the main checkout
@@ -103,8 +105,18 @@ def log(*a):
     print(*a, file=sys.stderr, flush=True)
 
 
-RESPELLED = ("smpl", "daz", "xsens", "unity", "unnamed", "unreal")
+# how each collection respells a CMU or HDM05 ASF/AMC take (on the MotionBuilder release's spelling first)
+_ON_ACCLAIM = {"smpl": smpl_spelling, "daz": daz_spelling, "xsens": xsens_spelling, "unity": unity_spelling,
+               "unnamed": unnamed}
+RESPELLED = (*_ON_ACCLAIM, "unreal")
 """The collections of takes respelled on rigs ``../shared/data`` does not hold (``tests/shared.py``)."""
+
+
+def respell(motion, spelling: str):
+    """``motion`` as the collection ``spelling`` holds it (a Bandai Namco take for ``unreal``); "" as it is."""
+    if spelling == "unreal":
+        return unreal_spelling(motion)
+    return _ON_ACCLAIM[spelling](motionbuilder_spelling(motion)) if spelling else motion
 
 def takes(n_bandai: int, all_bandai: bool, seed: int = 0, quick: bool = False,
           respelled: bool = True) -> list[tuple[str, str, str, str]]:
@@ -167,31 +179,7 @@ def measure(item: tuple[str, str, str, str]) -> dict:
 
     coll, path, split, spelling = item
     p = Path(path)
-    m = mocapkit.load(p)  # an AMC finds its ASF beside it (io.asfamc.find_asf)
-    if spelling == "smpl":
-        from tests.shared import motionbuilder_spelling, smpl_spelling
-
-        m = smpl_spelling(motionbuilder_spelling(m))
-    elif spelling == "daz":
-        from tests.shared import daz_spelling, motionbuilder_spelling
-
-        m = daz_spelling(motionbuilder_spelling(m))
-    elif spelling == "xsens":
-        from tests.shared import motionbuilder_spelling, xsens_spelling
-
-        m = xsens_spelling(motionbuilder_spelling(m))
-    elif spelling == "unity":
-        from tests.shared import motionbuilder_spelling, unity_spelling
-
-        m = unity_spelling(motionbuilder_spelling(m))
-    elif spelling == "unnamed":
-        from tests.shared import motionbuilder_spelling, unnamed
-
-        m = unnamed(motionbuilder_spelling(m))
-    elif spelling == "unreal":
-        from tests.shared import unreal_spelling
-
-        m = unreal_spelling(m)
+    m = respell(mocapkit.load(p), spelling)  # an AMC finds its ASF beside it (io.asfamc.find_asf)
     t = time.perf_counter()
     res = mocapkit.clean(m)  # the defaults of `mocapkit clean`: the bundled context where it fits
     secs = time.perf_counter() - t

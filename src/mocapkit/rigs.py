@@ -479,7 +479,7 @@ def roles_by_topology(skeleton: Skeleton, sides: bool = True) -> dict[str, int] 
     if arms is None or not rest_of:
         return None
     neck = max(rest_of, key=lambda b: (len(b), float(np.dot(rest[b[-1]] - rest[chest], up))))
-    sided: dict[str, tuple] = {}  # "leg"/"arm": (the two chains' roles, where each starts in the rest pose)
+    sided: dict[str, list[dict[str, int]]] = {}  # "leg"/"arm": the two chains' roles, in either order
     for kind, pair in (("leg", legs), ("arm", arms)):
         parts = []
         for chain in pair:
@@ -492,8 +492,7 @@ def roles_by_topology(skeleton: Skeleton, sides: bool = True) -> dict[str, int] 
             parts.append(dict(zip(names, chain[start:])))
         if set(parts[0]) != set(parts[1]):
             return None
-        a, b = (rest[parts[i]["thigh" if kind == "leg" else "upper_arm"]] for i in (0, 1))
-        sided[kind] = (parts, a, b)
+        sided[kind] = parts
     found = {"pelvis": pelvis}
     if pelvis != 0:
         found["root"] = 0
@@ -510,13 +509,13 @@ def roles_by_topology(skeleton: Skeleton, sides: bool = True) -> dict[str, int] 
     if not sides:
         return {r: found[r] for r in ROLES if r in found}
     named = joint_sides(skeleton.joint_names)
-    votes = {kind: _side_votes(list(v[0][0].values()), named) - _side_votes(list(v[0][1].values()), named)
-             for kind, v in sided.items()}
+    votes = {kind: _side_votes(list(a.values()), named) - _side_votes(list(b.values()), named)
+             for kind, (a, b) in sided.items()}
     if all(votes.values()):
         first_left = {kind: v > 0 for kind, v in votes.items()}
     else:
-        toes = [p["toe"] for p in sided["leg"][0] if "toe" in p]
-        feet = [p["foot"] for p in sided["leg"][0] if "toe" in p]
+        toes = [p["toe"] for p in sided["leg"] if "toe" in p]
+        feet = [p["foot"] for p in sided["leg"] if "toe" in p]
         if len(toes) != 2:
             return None
         forward = (rest[toes] - rest[feet]).sum(axis=0)
@@ -525,12 +524,13 @@ def roles_by_topology(skeleton: Skeleton, sides: bool = True) -> dict[str, int] 
             return None
         left = np.cross(up, forward)
         first_left = {}
-        for kind, (parts, a, b) in sided.items():
-            da, db = float(np.dot(a - rest[pelvis], left)), float(np.dot(b - rest[pelvis], left))
+        for kind, parts in sided.items():
+            top = "thigh" if kind == "leg" else "upper_arm"
+            da, db = (float(np.dot(rest[p[top]] - rest[pelvis], left)) for p in parts)
             if da * db >= 0:
                 return None
             first_left[kind] = da > 0
-    for kind, (parts, _, _) in sided.items():
+    for kind, parts in sided.items():
         for i, side in ((0, "left" if first_left[kind] else "right"), (1, "right" if first_left[kind] else "left")):
             for role, j in parts[i].items():
                 found[f"{side}_{role}"] = j
