@@ -23,12 +23,13 @@ Fills, each followed by the denoising a user would run on the completed take:
 * ``ebd+ebf``: the shipped EBD network on the gap entries, then the EBF on the whole take
   (``deep.fill_channels(..., smooth=False, method="ebd")`` then ``deep.denoise_channels``:
   Mall's pipeline);
-* ``prior+ebf``: the shipped EBD model's Gaussian gap prior (its conditional mean,
-  :mod:`mocapkit.cleaning.deep.prior`; at these clips' 120 fps it reads the observed channels
-  through its 58 ms Gaussian: ``deep.EBF_READ_MAX_FPS``), the EBF on the filled entries
-  (``deep.fill_channels(..., ebf, smooth=True)``: what ``fill`` and ``clean`` run), then the
-  EBF on the whole take; ``prior_gauss_read+ebf`` the prior's fill without the EBF on its
-  filled entries, then the EBF on the whole take (this benchmark's protocol before);
+* ``prior+ebf``: the shipped EBD model's Gaussian gap prior (each gap filled as a whole by the
+  conditional mean of its Gaussian field, :mod:`mocapkit.cleaning.deep.prior`; at these clips'
+  120 fps it reads the observed channels through its 58 ms Gaussian: ``deep.EBF_READ_MAX_FPS``),
+  as ``fill`` and ``clean`` run it (``deep.fill_channels(..., ebf, smooth=True)``: at 120 fps the
+  EBF takes no part in it), then the EBF on the whole take; ``prior_gauss_read+ebf`` the same
+  with ``smooth=False`` (the same fill at this rate; the row is kept for its Bandai twin in
+  ``deep_rigs_bandai.py``);
 * ``cubic+gauss`` / ``quintic+gauss``: interpolating cubic / quintic (Woltring-style)
   splines over the Vicon Nexus window (``cleaning.gapfill``), then the 58 ms Gaussian;
 * ``cubic`` / ``quintic`` / ``lerp``: the fills alone, the noisy observed samples

@@ -25,11 +25,11 @@ also checks that a Bandai take gets ``ebf_bandai.pt`` / ``ebd_bandai.pt``.
   >= 5 deg std), three joints per take and draw, one at a time; takes under 1.5 s are
   skipped. ``ebd+ebf``: the EBD network on the gap entries, then the EBF on the whole take
   (Mall's pipeline, as ``deep_gapfill.py``); ``prior+ebf``: the EBD model's Gaussian gap
-  prior instead of the network, reading the observed channels as the EBF denoises them and
-  smoothed by the EBF on the filled entries (``deep.fill_channels(..., ebf, smooth=True)``: what
-  ``fill`` and ``clean`` run), then the EBF on the whole take; ``prior_gauss_read+ebf`` the
-  same prior reading them through its 58 ms Gaussian (the fill before, same run); against
-  ``lerp+gauss`` (linear fill, then the 58 ms Gaussian) and ``lerp+ebf``; RMS over the gap
+  prior instead of the network, reading the observed channels as the EBF denoises them
+  (``deep.fill_channels(..., ebf, smooth=True)``: what ``fill`` and ``clean`` run), then the EBF
+  on the whole take; ``prior_gauss_read+ebf`` the same prior reading them through its 58 ms
+  Gaussian (``smooth=False``, same run); against ``lerp+gauss`` (linear fill, then the 58 ms
+  Gaussian) and ``lerp+ebf``; RMS over the gap
   entries. Target: the shipped fill <= 0.60x.
 * ``speed``: offline EBF frames per second on the test takes' 0.5-noise channels joined
   into one array (``deep.denoise_channels``, one torch thread), and streaming

@@ -6,7 +6,7 @@ whatever order the steps are named in:
 1. **fill** — the missing (NaN) joints. On a rig the networks serve
    (:func:`mocapkit.cleaning.deep.served_by`: the Acclaim ASF/AMC rig of CMU
    and HDM05 they were trained on, and its CMU BVH spellings through a joint
-   map) the EBD fills the gap entries and the EBF smooths them; on any other
+   map) the EBD model fills the gap entries (its gap prior by default); on any other
    rig the cubic interpolating spline of :mod:`mocapkit.cleaning.gapfill`
    does, with a note saying why (:func:`mocapkit.cleaning.deep.fill_or_fallback`,
    the rule ``mocapkit fill`` applies too). A context (clips or a database) is not used to fill gaps: it

@@ -97,9 +97,11 @@ def fill(
     out: Path = typer.Option(..., "--out", "-o", help="Filled motion (.bvh, .amc for a take read from ASF/AMC, or .npz)."),
     model: Optional[Path] = typer.Option(None, "--model", help="An EBD model file, or a shipped one's name: ebd.pt, "
                                                                "ebd_bandai.pt (default: the one for the take's rig)."),
-    denoiser: Optional[Path] = typer.Option(None, "--denoiser", help="The EBF that smooths the filled entries (a file "
-                                                                    "or a shipped name, as --model)."),
-    smooth: bool = typer.Option(True, "--smooth/--no-smooth", help="Run the EBF over the filled entries."),
+    denoiser: Optional[Path] = typer.Option(None, "--denoiser", help="The EBF that smooths the network's filled "
+                                                                    "entries, or through which the gap prior reads "
+                                                                    "a take of 60 fps or less (a file or a shipped "
+                                                                    "name, as --model)."),
+    smooth: bool = typer.Option(True, "--smooth/--no-smooth", help="Use the EBF (--denoiser); --no-smooth: none."),
     by: str = typer.Option("auto", "--by", help="What fills the gaps: prior (the EBD model's Gaussian gap prior), "
                                                 "ebd (the network), auto (the prior when the model has one)."),
     reference: Optional[Path] = typer.Option(None, "--reference", help="A clean take to report the error against."),

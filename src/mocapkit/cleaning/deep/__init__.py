@@ -13,6 +13,7 @@
 from .channels import ChannelLayout, layout_for
 from .inference import (
     EBF_READ_MAX_FPS,
+    ebf_takes_part,
     FALLBACK_DENOISE,
     FALLBACK_FILL,
     FILL_METHODS,
@@ -38,6 +39,7 @@ from .retarget import Serving, served_by
 
 __all__ = [
     "EBF_READ_MAX_FPS",
+    "ebf_takes_part",
     "FALLBACK_DENOISE",
     "FALLBACK_FILL",
     "FILL_METHODS",

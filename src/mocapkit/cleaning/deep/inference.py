@@ -63,6 +63,7 @@ __all__ = [
     "fill_channels",
     "FILL_METHODS",
     "EBF_READ_MAX_FPS",
+    "ebf_takes_part",
     "lerp_fill",
     "Denoiser",
     "denoise_rows",
@@ -427,9 +428,9 @@ def run_ebd(net: EBD, filled: np.ndarray, mask: np.ndarray, ctx: np.ndarray, fra
 EBF_READ_MAX_FPS = 60.0
 """The highest model rate (frames/s) at which the gap prior reads the observed channels through the EBF
 (:func:`fill_channels`). At 30 fps the prior's 58 ms Gaussian spans 1.7 frames and leaves much of the noise in what
-it reads: the EBF's reading cut the error of 1-4 s whole-joint gaps by 2.4 % on the Bandai validation styles (2.8 %
-on the test styles); at 120 fps it spans 7 frames and the EBF's reading changed nothing on the Acclaim validation
-actor (+0.3 %) but cost a second network pass (fill 12,057 -> 8,553 frames/s)."""
+it reads: the EBF's reading cut the error of 1-4 s whole-joint gaps by 1.4 % on the Bandai validation styles; at
+120 fps it spans 7 frames and the EBF's reading changed nothing on the Acclaim validation actor (+0.1 %) for a
+network pass."""
 
 FILL_METHODS = ("auto", "prior", "ebd")
 
@@ -444,27 +445,35 @@ def _fills_by_prior(model: DeepModel, method: str) -> bool:
     return model.prior is not None and method != "ebd"
 
 
+def ebf_takes_part(model: DeepModel, smooth: bool, method: str = "auto") -> bool:
+    """Whether :func:`fill_channels` with this EBD ``model`` runs the EBF: with ``smooth``, over the network's fill, or
+    as the gap prior's reading of the observed channels at a model rate up to :data:`EBF_READ_MAX_FPS`."""
+    return smooth and (not _fills_by_prior(model, method) or model.fps <= EBF_READ_MAX_FPS)
+
+
 def fill_channels(
     values: np.ndarray, context: np.ndarray, model=None, denoiser=None, fps: float | None = None, smooth: bool = True,
     method: str = "auto",
 ) -> np.ndarray:
-    """Fill the NaN entries of raw channels (F, C): a fill of the gap entries, then (``smooth``) the EBF on them.
+    """Fill the NaN entries of raw channels (F, C) by the EBD network or its gap prior, with the EBF where ``smooth``.
 
     Mall's gap pipeline: gaps are first linearly interpolated, the EBD replaces
-    only the gap entries, and the completed signal goes through the EBF; here
-    the EBF's output is kept on the gap entries only, so observed values are
-    returned bit-identical. ``model``/``denoiser``: EBD/EBF (None = shipped).
-    ``method``: what fills the gap entries: ``"ebd"`` the network, ``"prior"``
-    the conditional mean of the model's Gaussian gap prior
-    (:mod:`.prior`, fitted on the EBD's training clips), ``"auto"`` the prior
-    when the model carries one (the shipped ones do: it left less error than
-    the EBD on held-out actors and styles, short and long gaps, both rigs;
-    docs/models.md), else the EBD. With ``smooth``, a model of at most
+    only the gap entries, and (``smooth``) the completed signal goes through the
+    EBF; here the EBF's output is kept on the gap entries only, with the
+    network's own filter widths (no calibration: the entries it smooths are
+    filled, not measured), so observed values are returned bit-identical.
+    ``model``/``denoiser``: EBD/EBF (None = shipped). ``method``: what fills
+    the gap entries: ``"ebd"`` the network, ``"prior"`` the model's Gaussian gap
+    prior (:mod:`.prior`, fitted on the EBD's training clips), ``"auto"`` the
+    prior when the model carries one (the shipped ones do: it left less error
+    than the EBD on held-out actors and styles, short and long gaps, both rigs;
+    docs/models.md), else the EBD. The prior's fill is the conditional mean of
+    smoothed readings and is not filtered again (the EBF over it changed
+    nothing on the Acclaim validation actor and cost 2 % on the Bandai
+    validation styles); with ``smooth``, a model of at most
     :data:`EBF_READ_MAX_FPS` reads the observed channels as the EBF denoises
-    them (SURE-calibrated, :mod:`.sure`) instead of through its 58 ms
-    Gaussian, and the EBF then smooths the filled entries with the network's
-    own filter widths (no calibration there: the entries it smooths are
-    filled, not measured).
+    them (SURE-calibrated, :mod:`.sure`) instead of through its 58 ms Gaussian.
+    :func:`ebf_takes_part` says whether the EBF runs at all.
     """
     m = _model(model, "ebd")
     use_prior = _fills_by_prior(m, method)
@@ -488,9 +497,9 @@ def fill_channels(
     frames = np.flatnonzero(k_m.any(axis=1))
     if use_prior:
         gappy = np.where(k_m, np.nan, f_m)
-        # at low rates the prior reads the observed channels through the EBF that smooths the fill (a better filter
-        # of the evidence there than its fixed Gaussian; module constant)
-        read = denoise_channels(gappy, c_m, denoiser) if smooth and m.fps <= EBF_READ_MAX_FPS else None
+        # at low rates the prior reads the observed channels through the EBF (a better filter of the evidence there
+        # than its fixed Gaussian; module constant)
+        read = denoise_channels(gappy, c_m, denoiser) if ebf_takes_part(m, smooth, method) else None
         f_m = conditional_fill(gappy, m.prior, m.fps, smoothed=read)
     else:
         pred = run_ebd(m.net, f_m, k_m, c_m, frames)
@@ -498,9 +507,9 @@ def fill_channels(
         sub = f_m[frames]
         sub[k_m[frames]] = pred[k_m[frames]]
         f_m[frames] = sub
-    if smooth:  # the EBF's output is kept on the gap entries only: it runs up to the last of them
-        f_m = np.where(k_m, denoise_channels(f_m, c_m, denoiser, missing=k_m, until=int(frames[-1]) + 1,
-                                             calibrate=False), f_m)
+        if smooth:  # the EBF's output is kept on the gap entries only: it runs up to the last of them
+            f_m = np.where(k_m, denoise_channels(f_m, c_m, denoiser, missing=k_m, until=int(frames[-1]) + 1,
+                                                 calibrate=False), f_m)
     out = _to_rate(f_m, m.fps, fps, n_to=len(x)) if resample else f_m
     return np.where(miss, out, x)
 
@@ -581,9 +590,10 @@ def _residual_filter(fps: float):
 
 
 def fill_gaps(motion: Motion, model=None, denoiser=None, smooth: bool = True, method: str = "auto") -> Motion:
-    """Fill missing joints (NaN rotations) with the EBD model (+ EBF on the filled entries); observed cells unchanged.
+    """Fill missing joints (NaN rotations) with the EBD model (with its EBF, ``smooth``); observed cells unchanged.
 
-    ``method``: the EBD network or the model's gap prior (:func:`fill_channels`).
+    ``method``: the EBD network or the model's gap prior; ``smooth``: the EBF
+    over the network's fill, or as the prior's reading (:func:`fill_channels`).
     Returns a Motion with the input's skeleton, frames and root trajectory;
     every observed (frame, joint) rotation is bit-identical to the input's.
     A missing root rotation or position is not the networks' to fill: it is
@@ -642,8 +652,8 @@ def fill_or_fallback(motion: Motion, model=None, denoiser=None, smooth: bool = T
 
     The rule is :func:`served_by` (direct, or through a joint map). Where
     the EBD serves the take, :func:`fill_gaps` fills it (by the network or
-    its gap prior, ``method`` as :func:`fill_channels`; smoothed by the EBF
-    when ``smooth`` and the EBF serves it too); where it does not, or a
+    its gap prior, ``method`` as :func:`fill_channels`; with the EBF when
+    ``smooth`` and the EBF serves it too, :func:`ebf_takes_part`); where it does not, or a
     channel the network needs is never observed, the cubic interpolating
     spline of :func:`mocapkit.cleaning.gapfill.fill_motion` fills every gap.
     Returns ``(motion, method, note)``: ``note`` is "" with the networks
@@ -663,9 +673,10 @@ def fill_or_fallback(motion: Motion, model=None, denoiser=None, smooth: bool = T
         smooth = not isinstance(ebf, str)
         try:
             out = fill_gaps(motion, sv, ebf if smooth else None, smooth=smooth, method=method)
-            notes = dict.fromkeys(n for n in (licence_note(sv.model), licence_note(ebf.model) if smooth else "") if n)
+            ebf_ran = ebf_takes_part(sv.model, smooth, method)
+            notes = dict.fromkeys(n for n in (licence_note(sv.model), licence_note(ebf.model) if ebf_ran else "") if n)
             name = "EBD's gap prior" if by_prior else None
-            return out, _method("ebd", label, sv, name) + (" + EBF" if smooth else ""), "; ".join(notes)
+            return out, _method("ebd", label, sv, name) + (" + EBF" if ebf_ran else ""), "; ".join(notes)
         except ValueError as exc:
             why = str(exc)
     else:

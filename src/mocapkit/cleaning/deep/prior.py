@@ -6,18 +6,25 @@ missing joint channel with all other joint channels in the skeleton, as well as 
 coherence". The simplest learnt model of exactly those correlations is a Gaussian over the
 vector of every channel at a few time offsets, ``v(t) = [x(t + l) for l in lags]`` (the
 dimensionality-reduction fills Mall et al. cite, Liu and McMillan 2006, Park and Hodgins
-2006, are its low-rank cases). Given the channels observed around a gap, the missing
-channel's expected value is the Gaussian's conditional mean,
+2006, are its low-rank cases), in standardised units (each entry of ``v`` minus its training
+mean, over its training standard deviation plus one degree): ``z(t)``, covariance ``S``.
 
-    E[x_m | v_o] = mu_m + S_mo (S_oo + lambda I)^-1 (v_o - mu_o),
+A gap is filled as a whole. Every frame ``t`` whose window ``v(t)`` reaches into the gap
+contributes the energy ``z(t)^T (S + lambda I)^-1 z(t)`` (a Gaussian field: one factor per
+frame, overlapping in time), and the gap entries are the minimiser of the sum, the conditional
+mean of the gap given everything observed around it under that field: a sparse, banded linear
+system. The missing channels' own samples on either side of the gap enter through the lags,
+and so does every other channel over and around the gap; ``lambda`` (the ridge) stands for the
+noise of what is read. With :attr:`GapPrior.ramp` the missing channels' own samples within twice
+the lags' reach of the gap are not read (solved for too), and the field's fill is offset to meet
+the observed samples at both ends of the gap by a linear ramp: the fill then knows as little at
+the gap's ends as in its middle, so the offsets measured at the ends correct its level over the
+whole gap, and where the prior predicts the take poorly the fill falls back towards the line
+between the ends instead of sagging towards the prior's mean in the middle. Without it, the
+field reads those samples and its own reading of the ends stands. Each model chooses on its
+validation clips (docs/models.md).
 
-in standardised units (each entry of ``v`` minus its training mean, over its training
-standard deviation plus one degree), ``lambda`` a ridge that keeps the solve stable and
-stands for the noise of the observed channels. The fill then meets the observed samples at
-both ends of the gap by a linear ramp of the prediction's offsets there, so a gap closes
-without a step (with nothing to condition on, that ramp is the linear fill).
-
-Before it conditions, the take updates the prior: the mean and covariance of its own complete
+Before it fills, the take updates the prior: the mean and covariance of its own complete
 frames are pooled with the prior's, the prior counting as :data:`PRIOR_S` seconds of frames. A
 performer's own way of moving, and a motion the take repeats (the self-similarity Aristidou et
 al. 2018 build on), then outweigh the training clips' average.
@@ -30,20 +37,20 @@ uses it where it validated better than the network (see that function).
 from __future__ import annotations
 
 from dataclasses import dataclass
-from functools import cached_property
 
 import numpy as np
+from scipy.linalg import cho_factor, cho_solve, solveh_banded
 from scipy.ndimage import gaussian_filter1d
+from threadpoolctl import threadpool_limits
 
 from ..markers.gaps import gap_runs
 from .channels import lerp_fill
 
-__all__ = ["GapPrior", "fit_gap_prior", "conditional_fill", "lagged", "LAG_S", "RIDGE", "PRIOR_S"]
+__all__ = ["GapPrior", "fit_gap_prior", "conditional_fill", "lagged", "lag_frames", "LAGS_S", "RIDGE", "PRIOR_S"]
 
 SMOOTH_S = 0.058
 """Std (s) of the Gaussian that smooths the observed channels before they are read as evidence (Mall's 58 ms
-baseline filter): the regression reads the motion, not the capture noise. The filled values are the
-prediction, offset to meet these smoothed samples on either side of the gap."""
+baseline filter): the field reads the motion, not the capture noise."""
 
 
 @dataclass(frozen=True)
@@ -54,7 +61,8 @@ class GapPrior:
     mean, scale : (C * L,) the training mean and standard deviation (+1 degree) of each
     entry of ``v(t)`` (lag-major: entry ``l * C + c`` is channel ``c`` at ``lags[l]``);
     cov : (C * L, C * L) covariance of the standardised entries; ridge : ``lambda``
-    added to the observed block before solving; frames : training frames used.
+    added to the covariance of what is read; frames : training frames used; ramp : whether
+    a fill is offset to meet the observed samples at the gap's ends (module docstring).
     """
 
     lags: np.ndarray
@@ -63,22 +71,17 @@ class GapPrior:
     cov: np.ndarray
     ridge: float
     frames: int
+    ramp: bool = True
 
     @property
     def num_channels(self) -> int:
         return len(self.mean) // len(self.lags)
 
-    @cached_property
-    def precision(self) -> np.ndarray:
-        """``(cov + ridge I)^-1``: with it the conditional mean of the entries ``u`` not observed is
-        ``-P_uu^-1 P_uo v_o`` (the same as ``S_uo (S_oo + ridge I)^-1 v_o``), a solve of the few unobserved
-        entries instead of the many observed ones."""
-        return _precision(self.cov, self.ridge)
-
     def to_arrays(self) -> dict:
         """The prior as plain arrays (for a model file)."""
         return {"lags": np.asarray(self.lags, dtype=np.int64), "mean": self.mean, "scale": self.scale,
-                "cov": self.cov, "ridge": np.float64(self.ridge), "frames": np.int64(self.frames)}
+                "cov": self.cov, "ridge": np.float64(self.ridge), "frames": np.int64(self.frames),
+                "ramp": np.bool_(self.ramp)}
 
     @classmethod
     def from_arrays(cls, d: dict) -> "GapPrior":
@@ -90,7 +93,7 @@ class GapPrior:
         if (0 not in lags.tolist() or n % len(lags) or scale.shape != (n,) or cov.shape != (n, n)
                 or not np.all(scale > 0) or not np.all(np.isfinite(cov))):
             raise ValueError("inconsistent gap prior arrays")
-        return cls(lags, mean, scale, cov, float(d["ridge"]), int(d["frames"]))
+        return cls(lags, mean, scale, cov, float(d["ridge"]), int(d["frames"]), bool(d.get("ramp", True)))
 
 
 def lagged(x: np.ndarray, lags) -> np.ndarray:
@@ -100,12 +103,13 @@ def lagged(x: np.ndarray, lags) -> np.ndarray:
     return np.concatenate([x[np.clip(t + int(l), 0, max(F - 1, 0))] for l in lags], axis=1)
 
 
-LAG_S = 0.25
-"""The prior's time offsets: the channels a quarter second before and after each frame, and at it (chosen on
-held-out actors among 0.125-0.5 s, which differed by a few per cent)."""
+LAGS_S = (1 / 15, 2 / 15, 4 / 15)
+"""The prior's time offsets (s), each before and after the frame, and the frame itself: 2, 4 and 8 frames at
+30 fps, 8, 16 and 32 at 120 fps. Chosen on the validation actor and styles among sets reaching 0.27-0.53 s with
+three to eleven lags (a single quarter second, the first prior's, filled 1-4 s gaps 3-6 % worse)."""
 
-RIDGE = 0.1
-"""``lambda``, in units of the standardised entries' variance (chosen as :data:`LAG_S`)."""
+RIDGE = 0.03
+"""``lambda``, in units of the standardised entries' variance (chosen with :data:`LAGS_S` among 0.001-0.3)."""
 
 PRIOR_S = 1.0
 """How many seconds of the take's own frames the prior counts as when the take's complete frames update it
@@ -113,14 +117,19 @@ PRIOR_S = 1.0
 per cent)."""
 
 
-def fit_gap_prior(takes, fps: float, lag_s: float = LAG_S, ridge: float = RIDGE) -> GapPrior:
+def lag_frames(fps: float, lags_s=LAGS_S) -> np.ndarray:
+    """(L,) sorted distinct frame offsets at ``fps``: 0 and each of ``lags_s`` before and after, at least one frame."""
+    k = {max(1, int(round(float(l) * fps))) for l in lags_s}
+    return np.array(sorted({0} | k | {-x for x in k}), dtype=np.int64)
+
+
+def fit_gap_prior(takes, fps: float, lags_s=LAGS_S, ridge: float = RIDGE, ramp: bool = True) -> GapPrior:
     """Fit a :class:`GapPrior` on clean takes' channels (list of (F, C) arrays in degrees at ``fps``).
 
-    Lags are ``-lag_s, 0, +lag_s`` seconds rounded to frames; one frame in
-    ``round(fps / 30)`` enters (neighbouring frames say little more).
+    Lags: :func:`lag_frames` of ``lags_s``; one frame in ``round(fps / 30)``
+    enters (neighbouring frames say little more). ``ramp``: :attr:`GapPrior.ramp`.
     """
-    lag = max(1, int(round(lag_s * fps)))
-    lags = np.array([-lag, 0, lag], dtype=np.int64)
+    lags = lag_frames(fps, lags_s)
     stride = max(1, int(round(fps / 30.0)))
     v = [lagged(np.asarray(x, dtype=np.float64), lags)[::stride] for x in takes if len(x)]
     v = np.concatenate(v) if v else np.zeros((0, 0))
@@ -130,12 +139,7 @@ def fit_gap_prior(takes, fps: float, lag_s: float = LAG_S, ridge: float = RIDGE)
     scale = v.std(axis=0) + 1.0
     z = (v - mean) / scale
     cov = z.T @ z / len(z)
-    return GapPrior(lags, mean, scale, cov, float(ridge), len(v))
-
-
-def _precision(cov: np.ndarray, ridge: float) -> np.ndarray:
-    """``(cov + ridge I)^-1``, the precision of the standardised entries (observed ones read with ``ridge``)."""
-    return np.linalg.inv(cov + ridge * np.eye(len(cov)))
+    return GapPrior(lags, mean, scale, cov, float(ridge), len(v), bool(ramp))
 
 
 def _take_update(z: np.ndarray, miss: np.ndarray, prior: GapPrior, n0: float):
@@ -154,9 +158,77 @@ def _take_update(z: np.ndarray, miss: np.ndarray, prior: GapPrior, n0: float):
     return w * m, cov
 
 
+def field_fill(base: np.ndarray, lags: np.ndarray, mean: np.ndarray, scale: np.ndarray, pcols: np.ndarray,
+               read: np.ndarray, chans: np.ndarray, u0: int, u1: int) -> np.ndarray:
+    """(u1 - u0, k) values of channels ``chans`` over frames ``u0:u1`` that minimise the field's energy.
+
+    ``base`` (F, C): the channels as read (values of ``chans`` inside ``u0:u1`` are ignored); ``read``: the
+    channels the field reads (sorted, ``chans`` among them; the others are marginalised out); ``mean``, ``scale``:
+    (L * R,) the entries' mean and scale over ``read`` at every lag, lag-major; ``pcols``: (L * R, L * k) the
+    columns of the read entries' precision ``P = (S + lambda I)^-1`` (marginal) at the unknowns' entries, lag-major
+    then ``chans``. Every frame ``t`` whose lagged window reaches into ``u0:u1`` adds ``z(t)^T P z(t)`` with
+    ``z(t) = (v(t) - mean) / scale``; ``z`` is affine in the unknowns, so the minimiser solves ``H u = -g``,
+    ``H`` banded, by a Cholesky of the band.
+
+    When every lag is a multiple of ``m`` (8, 16 and 32 frames at 120 fps: ``m = 8``) and no window is clamped at
+    a take's end, a window at ``t`` reads only frames of ``t``'s residue modulo ``m``: the unknowns of different
+    residues never meet, and ordered residue by residue ``H`` is block-diagonal with a band ``m`` times narrower
+    (``m^2`` times less work, the same numbers). Otherwise they are ordered frame by frame.
+    """
+    F = len(base)
+    L, R, k = len(lags), len(read), len(chans)
+    reach = int(np.abs(lags).max())
+    t0 = max(0, u0 - reach)
+    t = np.arange(t0, min(F, u1 + reach))
+    fr = np.clip(t[:, None] + lags[None, :], 0, F - 1)  # (T, L)
+    z = (base[fr][:, :, read].reshape(len(fr), L * R) - mean) / scale
+    inside = (fr >= u0) & (fr < u1)
+    q = np.arange(L)[:, None] * R + np.searchsorted(read, chans)[None, :]  # (L, k) the unknowns' entries
+    coef = 1.0 / scale[q]  # (L, k): d z / d x of each
+    ti, li = np.nonzero(inside)
+    z[ti[:, None], q[li]] = -mean[q[li]] * coef[li]  # z at x = 0: the affine part
+    nf = u1 - u0
+    n = nf * k
+    unclamped = np.array_equal(fr, t[:, None] + lags[None, :])
+    m = int(np.gcd.reduce(np.abs(lags[lags != 0]))) if unclamped and (lags != 0).any() else 1
+    r = np.arange(nf) % m
+    first = np.cumsum(np.bincount(r, minlength=m)) - np.bincount(r, minlength=m)  # each residue's first slot
+    slot = first[r] + np.arange(nf) // m  # (nf,) frame -> its place (frame order when m = 1)
+    unk = slot[np.clip(fr - u0, 0, nf - 1)][:, :, None] * k + np.arange(k)  # (T, L, k) unknown index (where inside)
+    pz = (z @ pcols).reshape(len(fr), L, k)
+    g = np.bincount(unk[ti, li].ravel(), (coef[li] * pz[ti, li]).ravel(), minlength=n)
+    blocks = pcols[q.ravel()].reshape(L, k, L, k).transpose(0, 2, 1, 3)  # (L, L, k, k): P between lag pairs
+    # H[i, j] = sum over t and lag pairs (a, b) with both frames inside of coef * P * coef; the lower triangle is
+    # stored by diagonal, band[i - j, j] = H[i, j]
+    if unclamped:  # a lag pair's frames are (lags[a] - lags[b]) / m slots apart at every t: one diagonal per pair
+        pa, pb = np.nonzero(lags[:, None] >= lags[None, :])
+        d0 = (lags[pa] - lags[pb]) // m
+        tt, pi = np.nonzero(inside[:, pa] & inside[:, pb])
+        hit = np.zeros((len(pa), nf))
+        hit[pi, slot[fr[tt, pb[pi]] - u0]] = 1.0  # the slots b's frame takes, pair by pair
+        val = coef[pa][:, :, None] * blocks[pa, pb] * coef[pb][:, None, :]  # (P, k, k)
+        bw = min(n - 1, int(d0.max()) * k + k - 1)
+        band = np.zeros((bw + 1, n))
+        for j1 in range(k):
+            for j2 in range(k):
+                row = d0 * k + j1 - j2
+                ok = (row >= 0) & (row <= bw)
+                np.add.at(band, (row[ok][:, None], np.arange(j2, n, k)[None, :]), val[ok, j1, j2][:, None] * hit[ok])
+    else:  # clamped at a take's end: entry by entry
+        tt, a, b = np.nonzero(inside[:, :, None] & inside[:, None, :])
+        ua = np.broadcast_to(unk[tt, a][:, :, None], (len(tt), k, k))
+        ub = np.broadcast_to(unk[tt, b][:, None, :], (len(tt), k, k))
+        val = coef[a][:, :, None] * blocks[a, b] * coef[b][:, None, :]
+        low = ua >= ub
+        bw = min(n - 1, int((ua - ub).max()))
+        band = np.bincount(((ua - ub) * n + ub)[low], val[low], minlength=(bw + 1) * n).reshape(bw + 1, n)
+    u = solveh_banded(band, -g, lower=True, check_finite=False).reshape(nf, k)
+    return u[slot]
+
+
 def conditional_fill(values: np.ndarray, prior: GapPrior, fps: float, prior_s: float = PRIOR_S,
                      smoothed: np.ndarray | None = None) -> np.ndarray:
-    """Fill the NaN entries of (F, C) channels by the prior's conditional mean; observed entries returned as is.
+    """Fill the NaN entries of (F, C) channels by the prior's field; observed entries returned as is.
 
     The take teaches the prior first: its own complete frames (no channel
     missing within the lags' reach) give a mean and covariance, blended with
@@ -168,19 +240,25 @@ def conditional_fill(values: np.ndarray, prior: GapPrior, fps: float, prior_s: f
     mostly missing keeps the prior. ``prior_s=inf`` uses the prior alone.
 
     Each gap event (the channels missing over the same frames: a whole joint
-    lost together is one event) is predicted from the channels observed over
-    the gap and ``max |lag|`` frames around it; a channel missing anywhere
-    there is not read. The prediction is then offset to meet the observed
-    (smoothed) samples on either side of the gap, linearly across it; at a take's
-    end, the one observed side's offset holds. ``fps`` is the channels' rate
-    (the prior's lags are frames at that rate).
+    lost together is one event) is solved as a whole (:func:`field_fill`),
+    reading every channel over the gap and ``2 max |lag|`` frames around it,
+    the missing channels' own samples outside the gap among them; another
+    channel missing anywhere there is not read (marginalised out: a Schur
+    complement of the precision). Events are filled in time order; where the
+    event's own channels miss elsewhere within its reach, it reads an earlier
+    event's fill there (a later one's linear bridge). With
+    :attr:`GapPrior.ramp`, the missing channels are solved for over
+    ``2 max |lag|`` frames either side of the gap too (their own samples there
+    not read), and the fill is offset to meet the observed (smoothed) samples
+    at the gap's ends, linearly across it; at a take's end, the one observed
+    side's offset holds.
+    ``fps`` is the channels' rate (the prior's lags are frames at that rate).
 
-    ``smoothed``: the channels as the regression reads them, (F, C), NaN
+    ``smoothed``: the channels as the field reads them, (F, C), NaN
     where missing (linearly bridged here): the observed samples denoised,
     e.g. by the EBF (:func:`~mocapkit.cleaning.deep.inference.fill_channels`
-    passes it at low rates, where the fixed Gaussian leaves much noise: on
-    held-out Bandai Namco styles at 30 fps, 2.8 % less gap error). Default:
-    the 58 ms Gaussian of :data:`SMOOTH_S`.
+    passes it at low rates, where the fixed Gaussian leaves much noise).
+    Default: the 58 ms Gaussian of :data:`SMOOTH_S`.
     """
     x = np.asarray(values, dtype=np.float64)
     F, C = x.shape
@@ -197,42 +275,59 @@ def conditional_fill(values: np.ndarray, prior: GapPrior, fps: float, prior_s: f
         if read.shape != x.shape or not np.isfinite(read[~miss]).all():
             raise ValueError(f"smoothed must be (F, C) = {x.shape} channels, finite where observed; got {read.shape}")
         base = lerp_fill(np.where(miss, np.nan, read))
-    z = (lagged(base, prior.lags) - prior.mean) / prior.scale
-    reach = int(np.abs(prior.lags).max())
-    L = len(prior.lags)
-    lag0 = int(np.flatnonzero(prior.lags == 0)[0])
+    lags = prior.lags
+    z = (lagged(base, lags) - prior.mean) / prior.scale
+    shift, cov = _take_update(z, miss, prior, prior_s * fps)
+    cov = prior.cov if cov is None else cov
+    mean = prior.mean + shift * prior.scale
     events: dict[tuple[int, int], list[int]] = {}
     for c in np.flatnonzero(miss.any(axis=0)):
         for s, e in zip(*gap_runs(miss[:, c])):
             events.setdefault((int(s), int(e)), []).append(int(c))
-    solved: dict[bytes, np.ndarray] = {}
-    shift, cov = _take_update(z, miss, prior, prior_s * fps)
-    z = z - shift
-    mean = prior.mean + shift * prior.scale
-    prec = prior.precision if cov is None else _precision(cov, prior.ridge)
-    for (s, e), chans in sorted(events.items()):
-        lo, hi = max(0, s - 1 - reach), min(F, e + 1 + reach)
-        read = ~miss[lo:hi].any(axis=0)
-        keep = np.tile(read, L)
-        tgt = np.asarray(chans) + lag0 * C
-        key = keep.tobytes() + np.asarray(chans, dtype=np.int64).tobytes()
-        w = solved.get(key)
-        if w is None:  # (kept entries, targets): S_ok (S_oo + ridge I)^-1 through the precision's unobserved block
-            unseen = np.flatnonzero(~keep)
-            rows = np.searchsorted(unseen, tgt)
-            w = -np.linalg.solve(prec[np.ix_(unseen, unseen)], prec[np.ix_(unseen, np.flatnonzero(keep))])[rows].T
-            solved[key] = w
-        f0, f1 = max(s - 1, 0), min(e + 1, F)  # the gap and its observed neighbours
-        pred = (z[f0:f1][:, keep] @ w) * prior.scale[tgt] + mean[tgt]
-        gap = pred[s - f0 : s - f0 + (e - s)]
-        left = base[s - 1, chans] - pred[0] if s > 0 else None
-        right = base[e, chans] - pred[-1] if e < F else None
-        if left is None and right is None:
-            off = np.zeros((e - s, len(chans)))
-        elif left is None or right is None:
-            off = np.broadcast_to(left if right is None else right, (e - s, len(chans)))
-        else:
-            r = (np.arange(s, e) - (s - 1))[:, None] / (e - (s - 1))
-            off = (1.0 - r) * left + r * right
-        out[s:e, chans] = gap + off
+    prec = np.linalg.inv(cov + prior.ridge * np.eye(len(cov)))  # of every entry; marginals by Schur complements
+    with threadpool_limits(1, user_api="blas"):  # many small solves: a BLAS thread pool costs more than it gives
+        _fill_events(out, base, miss, events, prior, lags, mean, cov, prec)
     return out
+
+
+def _fill_events(out: np.ndarray, base: np.ndarray, miss: np.ndarray, events: dict, prior: GapPrior, lags: np.ndarray,
+                 mean: np.ndarray, cov: np.ndarray, prec: np.ndarray) -> None:
+    """Fill each gap event of :func:`conditional_fill` in time order, into ``out`` and ``base`` (in place)."""
+    F, C = base.shape
+    L = len(lags)
+    reach = int(np.abs(lags).max())
+    for (s, e), chans in sorted(events.items()):
+        chans = np.asarray(chans)
+        pad = 2 * reach if prior.ramp else 0  # with the ramp the missing channels' own samples are not read nearby
+        u0, u1 = max(s - pad, 0), min(e + pad, F)
+        other = miss[max(0, u0 - 2 * reach) : min(F, u1 + 2 * reach)].any(axis=0)
+        other[chans] = False
+        read = np.flatnonzero(~other)
+        ent = (np.arange(L)[:, None] * C + read[None, :]).ravel()
+        unk = (np.arange(L)[:, None] * C + chans[None, :]).ravel()
+        gone = (np.arange(L)[:, None] * C + np.flatnonzero(other)[None, :]).ravel()
+        if not len(gone):
+            pcols = prec[np.ix_(ent, unk)]
+        elif len(gone) < len(ent):  # the read entries' marginal precision: P_SS - P_SM P_MM^-1 P_MS, at the unknowns
+            pm = cho_solve(cho_factor(prec[np.ix_(gone, gone)], check_finite=False), prec[np.ix_(gone, unk)],
+                           check_finite=False)
+            pcols = prec[np.ix_(ent, unk)] - prec[np.ix_(ent, gone)] @ pm
+        else:  # fewer read than not: the inverse of their covariance, at the unknowns
+            sigma = cov[np.ix_(ent, ent)] + prior.ridge * np.eye(len(ent))
+            pcols = cho_solve(cho_factor(sigma, check_finite=False), np.eye(len(ent))[:, np.searchsorted(ent, unk)],
+                              check_finite=False)
+        pred = field_fill(base, lags, mean[ent], prior.scale[ent], pcols, read, chans, u0, u1)
+        gap = pred[s - u0 : e - u0]
+        if prior.ramp:
+            left = base[s - 1, chans] - pred[s - 1 - u0] if s > 0 else None
+            right = base[e, chans] - pred[e - u0] if e < F else None
+            if left is None and right is None:
+                off = np.zeros((e - s, len(chans)))
+            elif left is None or right is None:
+                off = np.broadcast_to(left if right is None else right, (e - s, len(chans)))
+            else:
+                r = (np.arange(s, e) - (s - 1))[:, None] / (e - (s - 1))
+                off = (1.0 - r) * left + r * right
+            gap = gap + off
+        out[s:e, chans] = gap
+        base[s:e, chans] = gap
