@@ -404,26 +404,30 @@ def _bone(skeleton: Skeleton, j: int, nxt: int | None) -> float:
     return float(np.linalg.norm(ends, axis=1).max()) if len(ends) else 0.0
 
 
+def _bones(skeleton: Skeleton, chain: list[int]) -> np.ndarray:
+    """(len(chain),) length of the segment each joint of ``chain`` moves (:func:`_bone`)."""
+    return np.array([_bone(skeleton, j, chain[k + 1] if k + 1 < len(chain) else None) for k, j in enumerate(chain)])
+
+
 def _long_pair(skeleton: Skeleton, chain: list[int], first: int = 0) -> int | None:
     """Index in ``chain`` (``first`` or later) of the first of the two consecutive segments longest together (thigh
     and shin, upper arm and forearm); None for a chain too short to hold them and a joint after them."""
     if len(chain) < first + 3:
         return None
-    bones = [_bone(skeleton, j, chain[k + 1] if k + 1 < len(chain) else None) for k, j in enumerate(chain)]
-    return first + int(np.argmax([bones[k] + bones[k + 1] for k in range(first, len(chain) - 1)]))
+    bones = _bones(skeleton, chain)
+    return first + int(np.argmax(bones[first:-1] + bones[first + 1:]))
 
 
 def _twins(chains: list[list[int]], skeleton: Skeleton) -> list[list[int]] | None:
     """The two chains of ``chains`` most alike (the same number of joints, segments of the nearest lengths: a pair
     of limbs), or None when fewer than two have the same length."""
+    bones = [_bones(skeleton, c) for c in chains]
     best, pair = np.inf, None
     for i, a in enumerate(chains):
-        for b in chains[i + 1:]:
+        for k, b in enumerate(chains[i + 1:], start=i + 1):
             if len(a) != len(b):
                 continue
-            d = sum(abs(_bone(skeleton, x, a[k + 1] if k + 1 < len(a) else None)
-                        - _bone(skeleton, y, b[k + 1] if k + 1 < len(b) else None))
-                    for k, (x, y) in enumerate(zip(a, b)))
+            d = float(np.abs(bones[i] - bones[k]).sum())
             if d < best:
                 best, pair = d, [a, b]
     return pair

@@ -296,9 +296,9 @@ def _fill_events(out: np.ndarray, base: np.ndarray, miss: np.ndarray, events: di
     F, C = base.shape
     L = len(lags)
     reach = int(np.abs(lags).max())
+    pad = 2 * reach if prior.ramp else 0  # with the ramp the missing channels' own samples are not read nearby
     for (s, e), chans in sorted(events.items()):
         chans = np.asarray(chans)
-        pad = 2 * reach if prior.ramp else 0  # with the ramp the missing channels' own samples are not read nearby
         u0, u1 = max(s - pad, 0), min(e + pad, F)
         other = miss[max(0, u0 - 2 * reach) : min(F, u1 + 2 * reach)].any(axis=0)
         other[chans] = False
