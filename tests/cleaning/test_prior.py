@@ -247,7 +247,7 @@ def test_the_banded_solve_is_the_fields_minimiser(ramp, chans, where):
     s, e = where
     g = x.copy()
     g[s:e, chans] = np.nan
-    out = P.conditional_fill(g, prior, 30.0, prior_s=np.inf)  # the prior alone (no update from the take)
+    out = P.conditional_fill(g, prior, 30.0, prior_s=np.inf, cross=0.0)  # the prior alone, read by the Gaussian
     assert np.allclose(out[s:e][:, chans], _slow_field(g, prior, 30.0, s, e, chans), rtol=0, atol=1e-7)
     assert np.array_equal(out[~np.isnan(g)], x[~np.isnan(g)])
 
@@ -263,7 +263,7 @@ def test_a_channel_missing_near_a_gap_is_marginalised_out(unread):
     g = x.copy()
     g[80:110, 1] = np.nan
     g[118:122, unread] = np.nan  # within 2 x 8 frames of the first gap: the first one does not read them
-    out = P.conditional_fill(g, prior, 30.0, prior_s=np.inf)
+    out = P.conditional_fill(g, prior, 30.0, prior_s=np.inf, cross=0.0)
     assert np.allclose(out[80:110, [1]], _slow_field(g, prior, 30.0, 80, 110, [1], unread=unread), rtol=0, atol=1e-7)
     assert np.isfinite(out).all() and np.array_equal(out[~np.isnan(g)], x[~np.isnan(g)])
 
@@ -277,7 +277,7 @@ def test_the_field_reads_a_channels_own_samples_around_its_gap():
     x = wave[:300]
     g = x.copy()
     g[100:112] = np.nan  # a bit under half a period, across a crest
-    out = P.conditional_fill(g, prior, 30.0, prior_s=np.inf)
+    out = P.conditional_fill(g, prior, 30.0, prior_s=np.inf, cross=0.0)
 
     def rms(a):
         return float(np.sqrt(np.mean((a[100:112] - x[100:112]) ** 2)))
