@@ -67,11 +67,11 @@ def cross_channel_prediction(values: np.ndarray, fps: float, ridge: float = RIDG
     """Each channel of ``values`` (F, C) predicted from the others and its own neighbouring samples, or None.
 
     NaN entries are missing: they are linearly bridged for the inputs, and
-    each channel's regression is fitted on the frames where it is observed. Returns (F, C) degrees,
-    the prediction on every frame (a channel that does not move over the
-    complete frames is returned as it is, NaN where missing), or None when
-    the take has less than :data:`MIN_SECONDS` of complete frames (too short
-    to fit on). ``fps``: the channels' rate.
+    each channel's regression is fitted on the frames where it is observed.
+    Returns (F, C) degrees, the prediction on every frame (a channel that does
+    not move where it is observed is returned as it is, NaN where missing), or
+    None when the take has less than :data:`MIN_SECONDS` of complete frames
+    (too short to fit on). ``fps``: the channels' rate.
     """
     x = np.asarray(values, dtype=np.float64)
     if x.ndim != 2:
@@ -126,8 +126,9 @@ def noise_share(values: np.ndarray, prediction: np.ndarray) -> np.ndarray:
     estimated from the channel's second differences (white noise of std ``s``
     gives them variance ``6 s^2``; a robust median estimate). Their ratio is the
     weight the prediction earns against the sample it never read (the two
-    estimates' inverse variances): near 0 on a clean take, where the
-    prediction's error is all there is to its residual.
+    estimates' inverse variances): small on a clean take, where the
+    prediction's own error is most of its residual (at 30 fps a smooth
+    motion's second differences are not all noise, so not 0).
     """
     x = np.asarray(values, dtype=np.float64)
     d2 = x[2:] - 2.0 * x[1:-1] + x[:-2]
