@@ -472,8 +472,10 @@ def fill_channels(
     nothing on the Acclaim validation actor and cost 2 % on the Bandai
     validation styles); with ``smooth``, a model of at most
     :data:`EBF_READ_MAX_FPS` reads the observed channels as the EBF denoises
-    them (SURE-calibrated, :mod:`.sure`) instead of through its 58 ms Gaussian.
-    :func:`ebf_takes_part` says whether the EBF runs at all.
+    them (SURE-calibrated, :mod:`.sure`) instead of through its 58 ms Gaussian;
+    either reading is averaged with the take's own cross-channel prediction
+    (:func:`.prior.conditional_fill`'s ``cross``). :func:`ebf_takes_part` says
+    whether the EBF runs at all.
     """
     m = _model(model, "ebd")
     use_prior = _fills_by_prior(m, method)
