@@ -48,6 +48,10 @@ def test_the_blind_kernel_is_a_gaussian_without_its_centre():
     h = len(k) // 2
     assert k[h] == 0.0 and np.isclose(k.sum(), 1.0) and np.allclose(k, k[::-1])
     assert k[h - 1] > k[h - 2] > k[0] > 0
+    tiny = B.blind_kernel(0.01)  # a take at a fraction of a frame per 58 ms: the neighbours, never 0 / 0
+    assert np.isfinite(tiny).all() and np.isclose(tiny.sum(), 1.0) and tiny[len(tiny) // 2] == 0.0
+    x = _latent_mix(60, 4, 8)
+    assert np.isfinite(B.cross_channel_prediction(x, 0.25)).all()
 
 
 @settings(max_examples=10, deadline=None)

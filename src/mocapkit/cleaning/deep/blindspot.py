@@ -54,10 +54,14 @@ frames than inputs)."""
 
 
 def blind_kernel(sigma: float) -> np.ndarray:
-    """The normalised Gaussian taps (2 h + 1,), ``h = ceil(4 sigma)``, of std ``sigma`` frames with the centre tap 0."""
-    h = max(int(np.ceil(4.0 * sigma)), 1)
+    """The normalised Gaussian taps (2 h + 1,), ``h = ceil(4 sigma)``, of std ``sigma`` frames with the centre tap 0.
+
+    A width under half a frame is taken as half a frame (the two neighbours then carry almost all the weight;
+    narrower, their taps would underflow to 0)."""
+    sigma = max(float(sigma), 0.5)
+    h = int(np.ceil(4.0 * sigma))
     t = np.arange(-h, h + 1, dtype=np.float64)
-    k = np.exp(-0.5 * (t / max(sigma, 1e-9)) ** 2)
+    k = np.exp(-0.5 * (t / sigma) ** 2)
     k[h] = 0.0
     return k / k.sum()
 
