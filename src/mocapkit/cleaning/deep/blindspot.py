@@ -29,6 +29,8 @@ Units: channels in degrees (unwrapped), frames first, (F, C).
 
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 from scipy.ndimage import convolve1d, gaussian_filter1d
 
@@ -93,6 +95,10 @@ def cross_channel_prediction(values: np.ndarray, fps: float, ridge: float = RIDG
     sd[sd < 1e-9] = np.inf  # an input constant over the take carries nothing
     Z = (Z - Z.mean(axis=0)) / sd
     G_all, S_all = Z.T @ Z, Z.sum(axis=0)
+    with warnings.catch_warnings():  # a channel with no observed sample has no mean: it is not predicted
+        warnings.simplefilter("ignore", RuntimeWarning)
+        x_mean, x_sd = np.nanmean(x, axis=0), np.nanstd(x, axis=0)
+    rhs = Z.T @ np.where(miss, 0.0, x - x_mean)  # each channel's inputs times its centred target, observed frames
     B = np.zeros((3 * C, C))  # every channel's coefficients on all inputs (0 on its own and the blind-spot others')
     offset = np.zeros(C)
     eye = np.eye(2 * C - 1)
@@ -107,16 +113,13 @@ def cross_channel_prediction(values: np.ndarray, fps: float, ridge: float = RIDG
         Zm = Z[gone]
         S = S_all - Zm.sum(axis=0)  # the inputs' sums and centred Gram over the frames these channels are observed
         G = G_all - Zm.T @ Zm - np.outer(S, S) / n
-        xo = x[~gone][:, chans]
-        xo_mean = xo.mean(axis=0)
-        rhs = Z[~gone].T @ (xo - xo_mean)
-        for j, c in enumerate(chans):
-            if xo[:, j].std() <= 1e-9:  # a channel that does not move is returned as it is
+        for c in chans:
+            if not x_sd[c] > 1e-9:  # a channel that does not move is returned as it is
                 continue
             others = np.delete(np.arange(C), c)
             idx = np.concatenate([others, C + others, [2 * C + c]])
-            B[idx, c] = np.linalg.solve(G[np.ix_(idx, idx)] + ridge * n * eye, rhs[idx, j])
-            offset[c] = xo_mean[j] - S[idx] @ B[idx, c] / n
+            B[idx, c] = np.linalg.solve(G[np.ix_(idx, idx)] + ridge * n * eye, rhs[idx, c])
+            offset[c] = x_mean[c] - S[idx] @ B[idx, c] / n
     pred = Z @ B + offset
     moving = B.any(axis=0)
     return np.where(moving, pred, x)
