@@ -35,6 +35,7 @@ import numpy as np
 from scipy.ndimage import convolve1d, gaussian_filter1d
 
 from .channels import lerp_fill
+from .networks import observed_second_differences
 
 __all__ = ["SIGMA_S", "RIDGE", "WEIGHT", "MIN_SECONDS", "blind_kernel", "cross_channel_prediction", "noise_share"]
 
@@ -138,11 +139,11 @@ def noise_share(values: np.ndarray, prediction: np.ndarray) -> np.ndarray:
     motion's second differences are not all noise, so not 0).
     """
     x = np.asarray(values, dtype=np.float64)
-    d2 = x[2:] - 2.0 * x[1:-1] + x[:-2]
+    d2, valid = observed_second_differences(x, ~np.isnan(x))
     C = x.shape[1]
     out = np.zeros(C)
     for c in range(C):
-        d = d2[np.isfinite(d2[:, c]), c]
+        d = d2[valid[:, c], c]
         r = x[:, c] - prediction[:, c]
         r = r[np.isfinite(r)]
         if len(d) < 3 or len(r) < 3:
