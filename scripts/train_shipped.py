@@ -111,6 +111,8 @@ def main() -> None:
     ap.add_argument("--offset", type=float, default=None, help="EBF: random channel offsets, x channel std")
     ap.add_argument("--patchy", type=float, default=None,
                     help="EBF: share of crops with noise on some channels and over one stretch only")
+    ap.add_argument("--mirror", action="store_true",
+                    help="also train on every training clip's mirror image (mocapkit.mirroring.mirror_for_rig)")
     ap.add_argument("--out", default=str(ROOT / "benchmarks" / "out" / "models"))
     ap.add_argument("--install", action="store_true", help="copy the model into src/mocapkit/models/")
     ap.add_argument("--prior-only", action="store_true",
@@ -132,6 +134,10 @@ def main() -> None:
     val = [mocapkit.load(f) for f in val_f]
     if a.prior_only:
         return attach_prior(a, clips, train_f, test_f)
+    if a.mirror:
+        from mocapkit.mirroring import mirror_for_rig
+
+        clips = clips + [mirror_for_rig(c) for c in clips]
     hidden = a.hidden or (64 if a.kind == "ebf" else 32)
     extra = {k: v for k, v in (("dropout", a.dropout), ("observed_weight", a.observed_weight), ("offset", a.offset), ("patchy", a.patchy),
                                ("lr_patience", a.lr_patience),
@@ -147,7 +153,7 @@ def main() -> None:
     if a.install:
         shutil.copyfile(out / "model.pt", ROOT / "src" / "mocapkit" / "models" / INSTALL_NAME[a.rig, a.kind])
     res = {
-        "benchmark": "train_shipped", "rig": a.rig, "kind": a.kind, "every": a.every, "hidden": hidden, "bias": cfg.bias, "noise_input": cfg.noise_input, "train_clips": len(clips),
+        "benchmark": "train_shipped", "rig": a.rig, "kind": a.kind, "every": a.every, "mirror": a.mirror, "hidden": hidden, "bias": cfg.bias, "noise_input": cfg.noise_input, "train_clips": len(clips),
         "train_frames": int(sum(c.num_frames for c in clips)), "validation_clips": len(val),
         "test_clips": [f.name for f in test_f], "epochs_run": len(hist),
         "best_val_rmse": min(h["val_rmse"] for h in hist), "train_seconds_total": model.meta["train_seconds"],

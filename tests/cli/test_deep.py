@@ -156,6 +156,27 @@ def test_train_command_writes_a_loadable_model(tmp_path):
     assert den.num_frames == clean.num_frames
 
 
+def test_train_mirror_adds_each_training_clip_mirror_image(tmp_path):
+    """--mirror trains on the clips and their mirror images (the validation clips as they are); a rig whose names
+    pair no left and right joints is refused in one line, nothing written."""
+    from mocapkit.cleaning import deep
+
+    clips = [str(mocapkit.samples.path(n)) for n in ("12_walk.amc", "HDM_bk_sneak2StepsLStart_004_120.amc")]
+    out = tmp_path / "m"
+    code, stdout, err = run("train", "gapfiller", *clips, "-o", str(out), "--holdout", "12_walk", "--mirror",
+                            "--epochs", "1", "--steps", "1", "--hidden", "4", "--executor", "serial")
+    assert code == 0, err
+    meta = deep.load_model(out / "model.pt").meta
+    assert sorted(meta["train_clips"]) == ["HDM_bk_sneak2StepsLStart_004_120", "HDM_bk_sneak2StepsLStart_004_120_mirror"]
+    assert meta["validation_clips"] == ["12_walk"]
+    assert "2 clips" in " ".join(stdout.split())
+    odd = tmp_path / "odd.bvh"
+    unknown_rig(odd)
+    code, _, err = run("train", "denoiser", str(odd), "-o", str(tmp_path / "n"), "--mirror", "--epochs", "1")
+    assert code == 2 and one_error_line(err) and "train --mirror" in err and "no left/right joint pairs" in err
+    assert not (tmp_path / "n").exists()
+
+
 def test_train_command_cross_validates_on_folds(tmp_path):
     clips = [str(mocapkit.samples.path(n)) for n in ("12_walk.amc", "HDM_bd_jogLeftCircle4StepsRstart_001_120.amc",
                                                       "HDM_bk_sneak2StepsLStart_004_120.amc")]

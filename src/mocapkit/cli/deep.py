@@ -193,6 +193,8 @@ def train(
     patchy: float = typer.Option(
         0.0, "--patchy", help="Denoiser augmentation: share of crops with noise on some channels and over one stretch."
     ),
+    mirror: bool = typer.Option(
+        False, "--mirror", help="Also train on each training clip's left/right mirror image (doubles a small set)."),
     init: str = typer.Option("xavier", "--init", help="xavier (the shipped models') or paper (uniform [-0.5, 0.5])."),
     seed: int = typer.Option(0, "--seed"),
     resume: bool = typer.Option(True, "--resume/--restart", help="Continue from out/checkpoint.pt if present."),
@@ -202,7 +204,8 @@ def train(
     """Train an EBF or EBD on noisy/clean pairs made on the fly with mocapkit.corrupt (Mall et al. 2017, 4).
 
     Writes OUT/model.pt (the best epoch on the validation clips) and OUT/checkpoint.pt after every
-    epoch; running the same command again resumes. With --folds K, OUT/fold_1 ... OUT/fold_K.
+    epoch; running the same command again resumes. With --folds K, OUT/fold_1 ... OUT/fold_K. With
+    --mirror the training clips' mirror images join them (validation clips stay as they are).
     """
     kinds = {"denoiser": "ebf", "gapfiller": "ebd"}
     if what not in kinds:  # before torch is imported: a mistyped command fails at once
@@ -210,6 +213,7 @@ def train(
     import numpy as np
 
     from ..cleaning.deep import training
+    from ..mirroring import mirror_for_rig
 
     # the model folder must not be, or lie inside, a source (a folder of takes, a database); its own files are
     # resumed and replaced (--resume/--restart), so they are not refused for existing
@@ -242,6 +246,14 @@ def train(
     for (tr, val), o in zip(splits, outs):
         if not tr:
             raise MocapError("train: every clip is held out; nothing left to train on")
+        if mirror:
+            mirrored = []
+            for c in tr:
+                try:
+                    mirrored.append(mirror_for_rig(c))
+                except SkeletonError as exc:
+                    raise MocapError(f"train --mirror: {c.name}: {exc}") from None
+            tr = tr + mirrored
         try:
             model = training.train(tr, o, cfg, validation=val or None, resume=resume, executor=executor)
         except (SkeletonError, ValueError) as exc:
