@@ -242,18 +242,18 @@ def train(
     else:
         hold: list[str] | int = count if count is not None else list(holdout or []) or 0
         splits, outs = [training.split_holdout(clips, hold, seed=seed)], [out]
+    mirrors = {}  # each clip's mirror image, made once (a clip trains in several folds) and before any training
+    for c in clips if mirror else ():
+        try:
+            mirrors[id(c)] = mirror_for_rig(c)
+        except SkeletonError as exc:
+            raise MocapError(f"train --mirror: {c.name}: {exc}") from None
     bests = []
     for (tr, val), o in zip(splits, outs):
         if not tr:
             raise MocapError("train: every clip is held out; nothing left to train on")
         if mirror:
-            mirrored = []
-            for c in tr:
-                try:
-                    mirrored.append(mirror_for_rig(c))
-                except SkeletonError as exc:
-                    raise MocapError(f"train --mirror: {c.name}: {exc}") from None
-            tr = tr + mirrored
+            tr = tr + [mirrors[id(c)] for c in tr]
         try:
             model = training.train(tr, o, cfg, validation=val or None, resume=resume, executor=executor)
         except (SkeletonError, ValueError) as exc:
