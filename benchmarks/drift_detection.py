@@ -53,6 +53,7 @@ drifted cells (``agreement``, ``consistency``).
 
 from __future__ import annotations
 
+import dataclasses
 import sys
 import time
 import zlib
@@ -172,6 +173,8 @@ def run_case(name, clean, context, drifts, seeds, fps_db, stats, totals, key, ro
     t0 = time.process_time()
     own = ssa.detect(clean, db, **detect_opts)
     own_drift = own.drifts()
+    stats.setdefault(f"{key}/clean_take_drift_cells_without_change", 0)
+    stats[f"{key}/clean_take_drift_cells_without_change"] += int(dataclasses.replace(own, change=None).drifts().sum())
     stats.setdefault(f"{key}/clean_take_drift_cells", 0)
     stats[f"{key}/clean_take_drift_cells"] += int(own_drift.sum()) if own_drift is not None else 0
     stats.setdefault(f"{key}/clean_take_cells", 0)
@@ -184,7 +187,12 @@ def run_case(name, clean, context, drifts, seeds, fps_db, stats, totals, key, ro
         base = flag_rule(det.mdm, det.jumps, det.holds, det.swaps, det.offsets, det.threshold, det.fps,
                          det.params.confirm, det.params.confirm_margin_s, None)
         dr = det.drifts()
-        for method, flags in (("ssa", det.flags), ("baseline", base), ("drift_rule_only", dr)):
+        # the same analysis with the drift rule reading the angle ratio alone (before ``drift_change``)
+        unchanged = flag_rule(det.mdm, det.jumps, det.holds, det.swaps, det.offsets, det.threshold, det.fps,
+                              det.params.confirm, det.params.confirm_margin_s,
+                              dataclasses.replace(det, change=None).drifts(), det.spikes, np.isfinite(det.digression))
+        for method, flags in (("ssa", det.flags), ("baseline", base), ("drift_rule_only", dr),
+                              ("ssa_without_change", unchanged)):
             sc = score(flags, truth, clean.fps, ignore)
             totals[(key, method)] = add(totals.get((key, method)), sc)
             if key != "hdm05":

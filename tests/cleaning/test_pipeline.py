@@ -316,6 +316,18 @@ def test_clean_leaves_a_calibration_pose_alone_and_names_it(tmp_path):
     assert back.calibration == res.calibration
 
 
+def test_clean_with_drifts_puts_every_detection_array_back_at_the_take_frames():
+    """With a calibration pose left out of the analysis, the drift rule's evidence (``Detection.change``) is put
+    back at the take's frames like the rest, so the detection can be flagged again at another threshold."""
+    m = mocapkit.load(TEST_DATA / "cmu_01_01_start.bvh")
+    res = clean(m, [dataclasses.replace(m, name="twin")], steps=("detect",), drifts=True)
+    det = res.detection
+    assert res.params["analysed"] == [1, m.num_frames]
+    assert det.change.shape == det.consistency.shape == (m.num_frames, m.num_joints)
+    assert np.isnan(det.change[0]).all()
+    assert det.with_threshold(0.4).flags.shape == (m.num_frames, m.num_joints)
+
+
 def test_clean_30_fps_studio_take_changes_at_most_1_percent():
     """Bandai Namco run (30 fps, game rig, post-processed studio data): a clean take stays (almost) untouched."""
     m = mocapkit.load(TEST_DATA / "dataset-2_run_active_049.bvh")

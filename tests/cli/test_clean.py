@@ -17,7 +17,9 @@ import pytest
 
 import mocapkit
 from mocapkit import corrupt, samples
+from mocapkit.cleaning.decisions import changes
 from mocapkit.cleaning.pipeline import CleanResult
+from mocapkit.cleaning.ssa.cues import CAUSES
 from mocapkit.cli import main
 from mocapkit.motion import concatenate
 
@@ -392,3 +394,10 @@ def test_clean_batch_drifts_flags_a_smooth_drift_only_when_asked(tmp_path, capsy
         records[name] = CleanResult.load(out / "sneak.clean.npz")
     assert not records["off"].flags[:, j].any()
     assert records["on"].flags[mask[:, j], j].mean() > 0.8
+    # the record says which rule flagged each cell, and the change list says it in words
+    drift = 1 << [name for name, _ in CAUSES].index("drift")
+    on = records["on"]
+    assert np.array_equal(on.causes != 0, on.flags) and (on.causes[mask[:, j] & on.flags[:, j], j] & drift).all()
+    assert not (records["off"].causes & drift).any()
+    reasons = [c.reason for c in changes(on, bad) if c.joint == "ltibia"]
+    assert reasons and all("smooth drift" in r for r in reasons)

@@ -75,6 +75,7 @@ import numpy as np
 
 from ..errors import MocapError, MocapFormatError
 from ..motion import Motion
+from .ssa.cues import cause_names
 
 __all__ = ["FORMAT", "ACCEPT", "REJECT", "Change", "changes", "apply", "take_digest", "template", "read_decisions",
            "check_decisions", "accepted_cells", "review"]
@@ -95,7 +96,7 @@ class Change:
     of the joint over these frames in degrees (geodesic angle between input
     and cleaned rotation; NaN where the input was missing in every frame of
     the change); ``reason``: why the step changed the cells (missing, flagged
-    with its MDM, noise level).
+    with its MDM and the rules that flagged it, noise level).
     """
 
     id: str
@@ -190,7 +191,10 @@ def _reason(result, step_code: int, j: int, a: int, b: int, missing: np.ndarray)
     if step_code & 2:
         mdm = float(np.nanmax(result.mdm[a:b + 1, j])) if result.mdm.size else float("nan")
         flagged = bool(result.flags[a:b + 1, j].any())
-        parts.append(f"flagged by self-similarity (MDM up to {mdm:.2f})" if flagged else "repaired with a flagged joint")
+        causes = getattr(result, "causes", None)
+        why = "" if causes is None or not flagged else ": " + ", ".join(cause_names(causes[a:b + 1, j]))
+        parts.append(f"flagged by self-similarity (MDM up to {mdm:.2f}){why}" if flagged
+                     else "repaired with a flagged joint")
     if step_code & 4:
         level = result.noise[a:b + 1, j]
         level = level[np.isfinite(level)]

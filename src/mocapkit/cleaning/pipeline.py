@@ -169,6 +169,9 @@ class CleanResult:
     "translations": (K, 3)]}`` with K = ``changed.sum()`` in row-major cell
     order and K0 the frames whose root cell changed, so that
     :mod:`mocapkit.cleaning.decisions` can apply a person's choices exactly.
+    ``causes``: uint8 (F, J), which of detect's rules flagged each cell (bits of
+    :data:`~mocapkit.cleaning.ssa.cues.CAUSES`, 0 where not flagged; None when
+    detect did not run or for a record written without them).
     """
 
     motion: Motion | None
@@ -186,6 +189,7 @@ class CleanResult:
     detection: object = None
     samples: dict | None = None
     calibration: tuple = ()
+    causes: np.ndarray | None = None
 
     def __repr__(self) -> str:
         return (f"CleanResult({self.motion!r}, {int(self.flags.sum())} flagged, {int(self.filled.sum())} filled, "
@@ -227,6 +231,7 @@ class CleanResult:
                            cleaned_root=self.motion.root_positions[cells[:, 0]])
             if self.motion.translations is not None:
                 samples["cleaned_translations"] = self.motion.translations[cells]
+        causes = {} if self.causes is None else {"causes": np.asarray(self.causes, dtype=np.uint8)}
         with atomic_write(path, "wb") as fh:
             np.savez_compressed(
                 fh,
@@ -239,6 +244,7 @@ class CleanResult:
                 noise=self.noise.astype(np.float32),
                 meta=np.array(json.dumps(meta)),
                 **samples,
+                **causes,
             )
         return path
 
@@ -269,11 +275,13 @@ class CleanResult:
                 samples={k[len("cleaned_"):]: data[k].astype(np.float64) for k in
                          ("cleaned_rotations", "cleaned_root", "cleaned_translations") if k in data} or None,
                 calibration=tuple(CalibrationPose(**c) for c in meta.get("calibration", [])),
+                causes=data["causes"].astype(np.uint8) if "causes" in data else None,
             )
         except (OSError, ValueError, KeyError, TypeError) as e:
             raise MocapFormatError(path, f"not a mocapkit clean file ({e})") from None
         shape = (res.num_frames, len(res.joint_names))
-        if any(a.shape != shape for a in (res.mdm, res.flags, res.repaired, res.denoised, res.noise)):
+        arrays = (res.mdm, res.flags, res.repaired, res.denoised, res.noise) + (() if res.causes is None else (res.causes,))
+        if any(a.shape != shape for a in arrays):
             raise MocapFormatError(path, f"not a mocapkit clean file (arrays are not all {shape})")
         k, k0 = int(res.changed.sum()), int(res.changed[:, 0].sum())
         want = {"rotations": (k, 4), "root": (k0, 3), "translations": (k, 3)}
@@ -539,6 +547,8 @@ def _padded_detection(det, lo: int, F: int):
             "swaps": False, "offsets": False, "agreement": np.nan, "consistency": np.nan}
     if getattr(det, "spikes", None) is not None:
         pads["spikes"] = False
+    if getattr(det, "change", None) is not None:
+        pads["change"] = np.nan
     return dataclasses.replace(det, **{k: _pad(np.asarray(getattr(det, k)), lo, F, v) for k, v in pads.items()},
                                notes=tuple(det.notes) + (f"analysed frames {lo}-{lo + det.num_frames - 1} (calibration "
                                                          "poses left out); word starts count from there",))
@@ -627,6 +637,7 @@ def clean(
         notes.append("detect, repair and denoise skipped: the whole take is a calibration pose")
         steps = tuple(s for s in steps if s == "fill")
     sub_mdm, sub_flags = np.zeros((Fs, J)), np.zeros((Fs, J), dtype=bool)
+    sub_causes = None
     sub_rep, sub_den, sub_noise = sub_flags, sub_flags, np.full((Fs, J), np.nan)
 
     if "detect" in steps:
@@ -649,6 +660,7 @@ def clean(
                 raise MocapError(f"{name}: detect: {exc}") from None
             sub_mdm = np.nan_to_num(np.asarray(det.mdm, dtype=np.float64))
             sub_flags = np.asarray(det.flags, dtype=bool)
+            sub_causes = det.causes()
             what = "the clip itself" if context is None else f"the clip and {_context_label(context)}"
             n_seg = len(det.segments())
             note = f"{_count(n_seg, 'flagged segment')} on {_count(int(sub_flags.any(axis=0).sum()), 'joint')}" + (
@@ -687,6 +699,7 @@ def clean(
 
     # back to the whole take: calibration frames as they came out of fill
     mdm, flags = _pad(sub_mdm, lo, F, 0.0), _pad(sub_flags, lo, F, False)
+    causes = None if sub_causes is None else _pad(sub_causes, lo, F, 0)
     repaired, denoised, noise = _pad(sub_rep, lo, F, False), _pad(sub_den, lo, F, False), _pad(sub_noise, lo, F, np.nan)
     if poses:
         rot, pos = np.array(full.rotations), np.array(full.root_positions)
@@ -702,5 +715,5 @@ def clean(
     return CleanResult(
         motion=cur, mdm=mdm, flags=flags, filled=filled, repaired=repaired, denoised=denoised, noise=noise,
         joint_names=tuple(motion.skeleton.joint_names), fps=float(motion.fps), steps=tuple(records),
-        notes=tuple(notes), params=params, detection=det, calibration=tuple(poses),
+        notes=tuple(notes), params=params, detection=det, calibration=tuple(poses), causes=causes,
     )

@@ -47,6 +47,29 @@ def test_a_break_the_context_did_not_judge_confirms_nothing():
     assert np.array_equal(cues.flag_rule(mdm, jumps, *args), np.repeat(flags[:, 1:], 2, axis=1))  # judged=None: all
 
 
+def test_flag_causes_say_which_rules_flag_each_cell_and_flag_rule_is_where_any_does():
+    F, fps = 60, 30.0
+    rng = np.random.default_rng(2)
+    mdm = rng.uniform(0, 1, size=(F, 4))
+    jumps, holds, swaps, offsets, drifts = (rng.uniform(size=(F, 4)) < p for p in (0.1, 0.05, 0.05, 0.05, 0.05))
+    bit = {name: 1 << i for i, (name, _) in enumerate(cues.CAUSES)}
+    for confirm in (True, False):
+        for dr in (drifts, None):
+            args = (mdm, jumps, holds, swaps, offsets, 0.5, fps, confirm, 0.05, dr)
+            c = cues.flag_causes(*args)
+            assert c.dtype == np.uint8 and np.array_equal(c != 0, cues.flag_rule(*args))
+            if confirm:
+                confirmed = ssa.confirm_flags(mdm, jumps, 0.5, fps, margin_s=0.05)
+                for name, cells in (("break", confirmed), ("held", holds), ("swap", swaps), ("offset", offsets)):
+                    assert np.array_equal((c & bit[name]) != 0, cells)
+                assert np.array_equal((c & bit["drift"]) != 0, np.zeros_like(holds) if dr is None else dr)
+            else:
+                assert np.array_equal(c, np.where(mdm > 0.5, bit["digression"], 0))
+    assert cues.cause_names(np.array([bit["swap"] | bit["drift"], bit["held"], 0])) == [
+        cues.CAUSES[1][1], cues.CAUSES[2][1], cues.CAUSES[4][1]]
+    assert cues.cause_names(np.zeros(0, dtype=np.uint8)) == [] and cues.cause_names(0) == []
+
+
 def test_confirm_flags_keep_whole_runs_that_reach_the_threshold_and_hold_a_break():
     F, fps = 100, 100.0
     mdm = np.zeros((F, 3))

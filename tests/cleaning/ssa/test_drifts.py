@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 from mocapkit import corrupt
+from mocapkit import rotations as R
 from mocapkit.cleaning import ssa
 from mocapkit.cleaning.ssa.drifts import body_agreement, excursions, other_joints_level, smooth_drift_flags
 
@@ -95,11 +96,21 @@ def test_detect_flags_a_smooth_drift_against_a_context_that_repeats_the_motion(w
     visible = mask[:, j] & (det.digression[:, j] > np.radians(10.0))
     assert det.flags[visible, j].all()
     assert np.array_equal(det.flags, (det.flags & ~det.drifts()) | det.drifts())
+    drift_bit = 1 << [name for name, _ in ssa.cues.CAUSES].index("drift")
+    assert np.array_equal(det.causes() != 0, det.flags) and np.array_equal((det.causes() & drift_bit) != 0, det.drifts())
     assert not det.drifts()[:, np.arange(walk.num_joints) != j].any()
     assert not ssa.detect(bad, [twin]).flags[:, j].any()  # the rule is off by default
     assert not ssa.detect(walk, [twin], drift=True).drifts().any()  # the clean take: nothing
     assert not ssa.detect(bad, drift=True).drifts().any()  # analysed alone: no evidence that the motion repeats
     assert det.with_threshold(0.3).flags[visible, j].all()
+
+
+def test_detection_keeps_the_drift_evidence_through_save_and_load(walk, drifted, tmp_path):
+    bad, _, _ = drifted
+    det = ssa.detect(bad, [dataclasses.replace(walk, name="twin")], drift=True)
+    back = ssa.Detection.load(det.save(tmp_path / "d.npz"))
+    assert np.array_equal(back.change, det.change, equal_nan=True)
+    assert np.array_equal(back.drifts(), det.drifts()) and det.drifts().any()
 
 
 def slow_other_level(c, judged, others):
@@ -243,3 +254,64 @@ def test_smooth_drift_flags_judge_each_excursion_of_a_run_alone():
     flags = smooth_drift_flags(jumps, agreement, consistency, fps)
     assert np.flatnonzero(flags[:, 0]).tolist() == list(range(30, 71))
     assert np.flatnonzero(smooth_drift_flags(jumps, agreement, consistency, fps, return_ratio=1.0)[:, 0]).tolist() == list(range(30, 112))
+
+
+def slow_offset_change(r, scale):
+    """Reference: per joint, the component-wise median offset over its judged frames, then frame by frame."""
+    F, J, _ = r.shape
+    out = np.full((F, J), np.nan)
+    for j in range(J):
+        rows = [f for f in range(F) if np.isfinite(r[f, j]).all() and np.isfinite(scale[f, j]) and scale[f, j] > 0]
+        if not rows:
+            continue
+        m = np.array([np.median([r[f, j, c] for f in rows]) for c in range(3)])
+        for f in rows:
+            out[f, j] = np.sqrt(np.sum((r[f, j] - m) ** 2)) / scale[f, j]
+    return out
+
+
+def test_offset_change_is_the_offset_less_the_one_held_over_the_take():
+    rng = np.random.default_rng(4)
+    F, J = 60, 4
+    r = rng.normal(0, 0.2, size=(F, J, 3))
+    scale = rng.uniform(0.05, 0.2, size=(F, J))
+    r[rng.uniform(size=(F, J)) < 0.1] = np.nan
+    scale[rng.uniform(size=(F, J)) < 0.05] = np.nan
+    scale[3, 1] = 0.0
+    r[:, 3] = np.nan  # a joint never judged
+    got = ssa.offset_change(r, scale)
+    assert np.allclose(got, slow_offset_change(r, scale), equal_nan=True)
+    assert np.isnan(got[3, 1]) and np.isnan(got[:, 3]).all()
+    # a style: the same turn at every frame changes nothing; a drift over it changes by its own size
+    held = np.tile([0.3, -0.1, 0.2], (F, 1, 1))
+    bump = held.copy()
+    bump[20:35, 0] += [0.0, 0.5, 0.0]
+    one = np.full((F, 1), 0.1)
+    assert np.allclose(ssa.offset_change(held, one), 0.0)
+    assert np.allclose(ssa.offset_change(bump, one)[20:35, 0], 5.0)
+    assert np.allclose(np.delete(ssa.offset_change(bump, one)[:, 0], np.arange(20, 35)), 0.0)
+    with pytest.raises(ValueError, match="offsets"):
+        ssa.offset_change(r[..., :2], scale)
+
+
+def test_detect_a_joint_held_off_its_neighbours_for_most_of_the_take_is_a_style_not_a_drift(walk):
+    """The walk with one elbow carried 30 deg off from 1.5 s to 1.5 s before the end (eased in and out over
+    0.5 s), against its twin: the rule reading the angle alone calls it a drift; with the joint's change from
+    the offset it holds (the default) it is the performer's carriage."""
+    twin = dataclasses.replace(walk, name="twin")
+    j = walk.skeleton.index("LeftElbow")
+    F, fps = walk.num_frames, walk.fps
+    t = np.arange(F) / fps
+    ease = np.clip(np.minimum(t - 1.0, t[-1] - 1.0 - t) / 0.5, 0.0, 1.0)
+    w = 0.5 - 0.5 * np.cos(np.pi * ease)  # 0 at the ends, 1 from 1.5 s to 1.5 s before the end
+    q = np.array(walk.rotations, dtype=np.float64)
+    turn = R.quaternion_from_axis_angle(np.tile([1.0, 0.0, 0.0], (F, 1)), np.radians(30.0) * w)
+    q[:, j] = R.quaternion_multiply(turn, q[:, j])
+    styled = dataclasses.replace(walk, rotations=q, name="styled")
+    det = ssa.detect(styled, [twin], drift=True)
+    held = w == 1.0
+    assert det.change is not None and np.nanmax(det.change[held, j]) < 1.0 < np.nanmin(det.consistency[held, j])
+    assert not det.drifts().any()
+    assert dataclasses.replace(det, change=None).drifts()[:, j].any()  # the angle alone calls the carriage a drift
+    assert ssa.detect(styled, [twin], drift=True, drift_change=False).drifts()[:, j].any()
+    assert ssa.detect(styled, [twin]).change is None  # only the drift rule reads it

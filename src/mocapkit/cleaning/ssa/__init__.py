@@ -106,7 +106,7 @@ True
 
 from . import word_dtw
 from .cues import confirm_flags, discontinuities, held_joints, side_swaps, transient_offsets
-from .drifts import body_agreement, smooth_drift_flags
+from .drifts import body_agreement, offset_change, smooth_drift_flags
 from .detect import Detection, detect, detect_prepared, movement_digression_map
 from .neighbours import mean_motion_texture, nearest_words, word_distance
 from .params import SSAParams
@@ -147,6 +147,7 @@ __all__ = [
     "side_swaps",
     "transient_offsets",
     "body_agreement",
+    "offset_change",
     "smooth_drift_flags",
     "word_dtw",
 ]

@@ -28,6 +28,9 @@ __all__ = [
     "transient_offsets",
     "offsets_from_residuals",
     "confirm_flags",
+    "CAUSES",
+    "flag_causes",
+    "cause_names",
     "flag_rule",
     "held_joints",
     "spike_breaks",
@@ -507,6 +510,47 @@ def confirm_flags(
     return out
 
 
+#: The rules that flag a cell, in the order of the bits of :func:`flag_causes` (bit ``i`` is ``1 << i``), and the
+#: words a report says them in.
+CAUSES = (
+    ("break", "a digression its own break confirms"),
+    ("held", "held still while the similar motion moves"),
+    ("swap", "a left/right swap"),
+    ("offset", "a transient offset (a step off its path and back)"),
+    ("drift", "a smooth drift (off its neighbours' path, no break)"),
+    ("digression", "a digression over the threshold"),
+)
+
+
+def flag_causes(mdm, jumps, holds, swaps, offsets, threshold: float, fps: float, confirm: bool, margin_s,
+                drifts=None, spikes=None, judged=None) -> np.ndarray:
+    """(F, J) uint8: which rules flag each cell, one bit per entry of :data:`CAUSES` (0: not flagged).
+
+    The arguments are :func:`flag_rule`'s, whose flags are exactly the cells with a bit set: with
+    ``confirm``, digressions confirmed by a break (:func:`confirm_flags`), holds, swaps, transient offsets
+    and smooth drifts (``drifts``, bool (F, J) or None: none); without, ``mdm > threshold`` alone (the
+    "digression" bit). A cell two rules flag has both bits, so a report can say why each change was made.
+    """
+    bit = {name: np.uint8(1 << i) for i, (name, _) in enumerate(CAUSES)}
+    mdm = np.asarray(mdm)
+    out = np.zeros(mdm.shape, dtype=np.uint8)
+    if not confirm:
+        out[mdm > threshold] = bit["digression"]
+        return out
+    breaks = jumps if judged is None else np.asarray(jumps, dtype=bool) & np.asarray(judged, dtype=bool)
+    rules = [("break", confirm_flags(mdm, breaks, threshold, fps, margin_s, spikes=spikes)), ("held", holds),
+             ("swap", swaps), ("offset", offsets)] + ([] if drifts is None else [("drift", drifts)])
+    for name, cells in rules:
+        out[np.asarray(cells, dtype=bool)] |= bit[name]
+    return out
+
+
+def cause_names(causes) -> list[str]:
+    """The words of :data:`CAUSES` for the bits set anywhere in ``causes`` (an int or an array of them), in order."""
+    seen = int(np.bitwise_or.reduce(np.asarray(causes, dtype=np.uint8).ravel())) if np.size(causes) else 0
+    return [words for i, (_, words) in enumerate(CAUSES) if seen & (1 << i)]
+
+
 def flag_rule(mdm, jumps, holds, swaps, offsets, threshold: float, fps: float, confirm: bool, margin_s,
               drifts=None, spikes=None, judged=None) -> np.ndarray:
     """The flags of :func:`detect` and :meth:`Detection.with_threshold`: confirmed digressions, holds, swaps,
@@ -515,12 +559,10 @@ def flag_rule(mdm, jumps, holds, swaps, offsets, threshold: float, fps: float, c
     one break are kept whole, as detections made before it were). ``judged`` (F, J) bool, the cells the
     context judged (a finite digression; None: all): a break outside them confirms no digression. The
     digression beside such a break (at a take's end that no neighbour word covers) says nothing about the
-    break, and repairing it would change the frames before an error and leave the error."""
-    if confirm:
-        breaks = jumps if judged is None else np.asarray(jumps, dtype=bool) & np.asarray(judged, dtype=bool)
-        out = confirm_flags(mdm, breaks, threshold, fps, margin_s, spikes=spikes) | holds | swaps | offsets
-        return out if drifts is None else out | drifts
-    return mdm > threshold
+    break, and repairing it would change the frames before an error and leave the error. Which rule flags
+    each cell: :func:`flag_causes`."""
+    return flag_causes(mdm, jumps, holds, swaps, offsets, threshold, fps, confirm, margin_s, drifts, spikes,
+                       judged) != 0
 
 
 def uncompensated_breaks(q: np.ndarray, parents, breaks: np.ndarray) -> np.ndarray:

@@ -16,11 +16,13 @@ from typing import Mapping, Sequence
 
 import numpy as np
 
+from ... import rotations as R
 from ...motion import Motion, mirror_pairs
 from ...rigs import pelvis_index
 from ..ik import contact_segments
 from . import word_dtw
 from .cues import (
+    flag_causes,
     flag_rule,
     held_joints,
     midpoint_residuals,
@@ -32,7 +34,7 @@ from .cues import (
     uncompensated_breaks,
     swaps_from_residuals,
 )
-from .drifts import body_agreement, smooth_drift_flags
+from .drifts import body_agreement, offset_change, smooth_drift_flags
 from .neighbours import Neighbors, mean_motion_texture, nearest_words, unseen_words
 from .params import SSAParams
 from .texture import Analysis, facing_aligned, prepare, upsample_quaternions
@@ -96,7 +98,11 @@ class Detection:
     texture (:func:`body_agreement`), consistency : float (F, J) the joint's
     angle over the neighbours' spread and noise: the evidence of the smooth
     drifts (:func:`smooth_drift_flags`, flagged with confirmation where
-    ``params.drift``); digression : float (F, J) angle in
+    ``params.drift``); change : float (F, J) or None, the joint's offset from
+    the mean texture less the offset it holds over the take, over the same
+    spread and noise (:func:`~mocapkit.cleaning.ssa.drifts.offset_change`;
+    the drift rule's second evidence, None where ``params.drift`` is off or
+    ``params.drift_change`` is); digression : float (F, J) angle in
     radians between the input and the mean motion texture (NaN where not
     analysed); best_group : int8 (F, J) the group whose neighbours explain the
     cell best (-1 none); spikes : bool (F, J) the ``jumps`` that are spikes
@@ -132,6 +138,7 @@ class Detection:
     notes: tuple = ()
     analysis: Analysis | None = field(default=None, repr=False)
     spikes: np.ndarray | None = None
+    change: np.ndarray | None = None  # (F, J) float, None without the drift rule
 
     @property
     def num_frames(self) -> int:
@@ -148,7 +155,14 @@ class Detection:
         """(F, J) bool smooth drifts (:func:`smooth_drift_flags`; any threshold), none where ``params.drift`` is off."""
         if not self.params.drift:
             return np.zeros(self.mdm.shape, dtype=bool)
-        return _drifts(self.jumps, self.agreement, self.consistency, self.fps, self.params, self.joint_names)
+        return _drifts(self.jumps, self.agreement, self.consistency, self.fps, self.params, self.joint_names, self.change)
+
+    def causes(self) -> np.ndarray:
+        """(F, J) uint8: which rules flag each cell (:func:`~mocapkit.cleaning.ssa.cues.flag_causes`; ``flags``
+        is exactly where it is not 0)."""
+        return flag_causes(self.mdm, self.jumps, self.holds, self.swaps, self.offsets, self.threshold, self.fps,
+                           self.params.confirm, self.params.confirm_margin_s,
+                           self.drifts() if self.params.drift else None, self.spikes, np.isfinite(self.digression))
 
     def with_threshold(self, threshold: float) -> "Detection":
         """The same analysis flagged at another threshold (confirmed by the jumps if the detection was)."""
@@ -214,8 +228,13 @@ class Detection:
             raise MocapFormatError(path, f"not a mocapkit detection file ({e})") from None
 
 
-def _drifts(jumps, agreement, consistency, fps: float, p: SSAParams, joint_names) -> np.ndarray:
-    """:func:`smooth_drift_flags` with the drift parameters of ``p``, partners paired by ``joint_names``."""
+def _drifts(jumps, agreement, consistency, fps: float, p: SSAParams, joint_names, change=None) -> np.ndarray:
+    """:func:`smooth_drift_flags` with the drift parameters of ``p``, partners paired by ``joint_names``.
+
+    With ``change`` (:func:`offset_change`, used where ``p.drift_change``) the evidence of a cell is the smaller of
+    the two ratios (a style holds its offset, a drift changes it)."""
+    if change is not None and p.drift_change:
+        consistency = np.fmin(consistency, change)
     ratio = p.drift_partner_ratio
     partners = None if ratio is None else mirror_pairs(joint_names)
     return smooth_drift_flags(jumps, agreement, consistency, fps, p.drift_repeat_deg, p.drift_z, p.drift_min_s,
@@ -223,7 +242,7 @@ def _drifts(jumps, agreement, consistency, fps: float, p: SSAParams, joint_names
                               1.0 if ratio is None else ratio)
 
 
-def _digression(motion, mean_tex, spread, texture_joints, up, fps_a, noise_deg, shift_s=0.0, speeds=False):
+def _digression(motion, mean_tex, spread, texture_joints, up, fps_a, noise_deg, shift_s=0.0, speeds=False, offsets=False):
     """Per-group digression of the input (at its own rate) from the mean texture upsampled from ``fps_a``.
 
     With ``shift_s`` the angle at frame f is the smallest over the mean
@@ -233,6 +252,10 @@ def _digression(motion, mean_tex, spread, texture_joints, up, fps_a, noise_deg, 
     that angle over the neighbours' spread at the cell, ``sqrt(spread^2 +
     noise^2)`` with ``noise_deg`` the capture noise floor. With ``speeds``
     also the mean texture's angular speed at the input's frames, deg/s (G, F, m).
+    With ``offsets`` also the turn, in the parent joint's frame, that takes the
+    mean texture's rotation to the input's, as a rotation vector, radians (G, F,
+    m, 3), and that denominator, radians (G, F, m)
+    (the evidence of :func:`~mocapkit.cleaning.ssa.drifts.offset_change`).
     """
     F = motion.num_frames
     inp = facing_aligned(motion.rotations, up)[:, texture_joints]
@@ -243,6 +266,8 @@ def _digression(motion, mean_tex, spread, texture_joints, up, fps_a, noise_deg, 
     src_t = np.arange(mean_tex.shape[1])
     noise = np.radians(noise_deg)
     speed = np.full_like(ang, np.nan) if speeds else None
+    rot = np.full(ang.shape + (3,), np.nan) if offsets else None
+    scale = np.full_like(ang, np.nan) if offsets else None
     for g in range(G):
         # the group's joints; the others' mean texture is NaN throughout, and so would be all they give
         live = np.flatnonzero(~np.isnan(mean_tex[g]).all(axis=(0, 2)))
@@ -256,8 +281,14 @@ def _digression(motion, mean_tex, spread, texture_joints, up, fps_a, noise_deg, 
         a = word_dtw.shift_tolerant_angles(inp[:, live], up_q, int(round(shift_s * motion.fps)))
         ang[g][:, live] = a
         sp = np.stack([np.interp(t, src_t, spread[g][:, c]) for c in live], axis=1)
-        z[g][:, live] = a / np.sqrt(np.where(np.isfinite(sp), sp, 0.0) ** 2 + noise**2)
-    return (ang, z, speed) if speeds else (ang, z)
+        den = np.sqrt(np.where(np.isfinite(sp), sp, 0.0) ** 2 + noise**2)
+        z[g][:, live] = a / den
+        if offsets:
+            rel = R.quaternion_multiply(inp[:, live], R.quaternion_conjugate(up_q))  # in the parent's frame
+            rot[g][:, live] = R.quaternion_to_rotvec(np.where(rel[..., :1] < 0, -rel, rel))
+            scale[g][:, live] = den
+    out = (ang, z) + ((speed,) if speeds else ()) + ((rot, scale) if offsets else ())
+    return out
 
 
 def detect(
@@ -388,7 +419,8 @@ def detect_prepared(an: Analysis, threshold: float = 0.5, *, progress: bool = Fa
             mean_tex, spread = mean_motion_texture(src, full, grows, words, nb, N, M, return_spread=True)
     finally:
         bar.close()
-    dig_g, z_g, speed_g = _digression(motion, mean_tex, spread, tex_joints, up, fps, p.noise_deg, p.shift_s, speeds=True)  # (G, F, m)
+    dig_g, z_g, speed_g, *more = _digression(motion, mean_tex, spread, tex_joints, up, fps, p.noise_deg, p.shift_s,
+                                             speeds=True, offsets=p.drift and p.drift_change)  # (G, F, m)
     F, J = motion.num_frames, sk.num_joints
     filled = np.where(np.isnan(dig_g), np.inf, dig_g)
     best = np.argmin(filled, axis=0)  # (F, m): the group whose mean texture is closest
@@ -407,6 +439,13 @@ def detect_prepared(an: Analysis, threshold: float = 0.5, *, progress: bool = Fa
     mdm = movement_digression_map(scores, normalization, row_scale, floor_deg, z_scale)
     consistency = np.full((F, J), np.nan)
     consistency[:, tex_joints] = np.where(ok, np.take_along_axis(z_g, best[None], axis=0)[0], np.nan)
+    change = None
+    if more:  # the drift rule's second evidence: the joint's offset from its neighbours, less the one it holds
+        rot_g, scale_g = more
+        rot = np.take_along_axis(rot_g, best[None, :, :, None], axis=0)[0]
+        scale = np.take_along_axis(scale_g, best[None], axis=0)[0]
+        change = np.full((F, J), np.nan)
+        change[:, tex_joints] = offset_change(np.where(ok[..., None], rot, np.nan), np.where(ok, scale, np.nan))
     analysed = np.zeros(J, dtype=bool)
     analysed[tex_joints] = True
     jumps &= analysed[None, :]
@@ -425,7 +464,7 @@ def detect_prepared(an: Analysis, threshold: float = 0.5, *, progress: bool = Fa
     chosen = has_context and not (isinstance(info, dict) and info.get("default"))
     agreement = body_agreement(digression, analysed) if chosen else np.full((F, J), np.nan)
     agreement[:, [0, pelvis_index(sk)]] = np.nan
-    drifts = _drifts(jumps, agreement, consistency, motion.fps, p, sk.joint_names) if p.drift else None
+    drifts = _drifts(jumps, agreement, consistency, motion.fps, p, sk.joint_names, change) if p.drift else None
     spikes = spike_breaks(q, resid, jumps)
     flags = flag_rule(mdm, jumps, holds, swaps, offsets, threshold, motion.fps, p.confirm, p.confirm_margin_s, drifts,
                       spikes, np.isfinite(digression))
@@ -441,5 +480,5 @@ def detect_prepared(an: Analysis, threshold: float = 0.5, *, progress: bool = Fa
         neighbor_iend=neighbors.iend, neighbor_jend=neighbors.jend, neighbor_dist=neighbors.dist,
         context_clips=clips, jumps=jumps, holds=holds, swaps=swaps, offsets=offsets,
         agreement=agreement, consistency=consistency, params=params, notes=tuple(notes),
-        analysis=an, spikes=spikes,
+        analysis=an, spikes=spikes, change=change,
     )

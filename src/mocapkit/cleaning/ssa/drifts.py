@@ -43,6 +43,14 @@ peak is a pose held from before the take began (or after it ended): the
 idle poses at a take's edges, where styles differ most, are not what the
 context is asked about.
 
+A performer's style holds a joint off its neighbours' path, often for the
+whole take (an elbow carried higher, a head held lower): that is a
+digression of the same direction at every frame, and it is no drift. So the
+evidence of a cell is the smaller of ``consistency`` and the joint's
+``change`` (:func:`offset_change`): its offset from the mean texture less the
+offset it holds over the take (the median), over the same spread and noise.
+A drift changes the offset and comes back; a style keeps it.
+
 Where the context does not repeat the motion (the rest of the
 body digresses too) nothing is flagged here: a lone joint's
 digression is then indistinguishable from motion the context lacks. For the
@@ -62,7 +70,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["body_agreement", "excursions", "other_joints_level", "smooth_drift_flags"]
+__all__ = ["body_agreement", "excursions", "offset_change", "other_joints_level", "smooth_drift_flags"]
 
 
 def body_agreement(digression: np.ndarray, analysed: np.ndarray) -> np.ndarray:
@@ -88,6 +96,35 @@ def body_agreement(digression: np.ndarray, analysed: np.ndarray) -> np.ndarray:
         ok = np.isfinite(rest).any(axis=1)
         if ok.any():
             out[ok, j] = np.nanmedian(rest[ok], axis=1)
+    return out
+
+
+def offset_change(offsets: np.ndarray, scale: np.ndarray) -> np.ndarray:
+    """(F, J) how far each joint's offset from its neighbours moves away from the offset it holds over the take.
+
+    ``offsets`` float (F, J, 3): the turn, in the parent joint's frame, from
+    the mean motion texture's rotation of the joint to the take's at each
+    frame, as a rotation vector (radians; NaN where the cell is not judged:
+    an elbow carried higher is the same turn at every frame); ``scale`` float (F, J): the cell's neighbours'
+    spread and capture noise combined (radians, the denominator of
+    ``consistency``). Returns ``|offset(f) - m| / scale(f)`` with ``m`` the
+    joint's component-wise median offset over its judged frames: 0 for a
+    joint held off its neighbours by the same turn throughout (a style), the
+    ``consistency`` of a cell whose joint otherwise follows its neighbours.
+    NaN where ``offsets`` or ``scale`` is not finite or ``scale`` is not
+    positive. A drift covering more than half of a joint's judged frames moves
+    the median, and its change is then measured from the drifted offset.
+    """
+    r = np.asarray(offsets, dtype=np.float64)
+    scale = np.asarray(scale, dtype=np.float64)
+    if r.ndim != 3 or r.shape[2] != 3 or scale.shape != r.shape[:2]:
+        raise ValueError(f"need offsets (F, J, 3) and scale (F, J), got {r.shape} and {scale.shape}")
+    ok = np.isfinite(r).all(axis=2) & np.isfinite(scale) & (scale > 0)
+    out = np.full(scale.shape, np.nan)
+    for j in np.flatnonzero(ok.any(axis=0)):
+        rows = ok[:, j]
+        m = np.median(r[rows, j], axis=0)
+        out[rows, j] = np.linalg.norm(r[rows, j] - m, axis=1) / scale[rows, j]
     return out
 
 

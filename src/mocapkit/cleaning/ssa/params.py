@@ -84,6 +84,11 @@ class SSAParams:
         ``drift_z`` at the same frame (a style is often two-sided, a drift one joint's); None: not asked.
         The drift rule is off by default (``drift=True``, ``mocapkit detect --drifts`` / ``clean --drifts``):
         only a context that repeats the take's motion makes the evidence mean a drift.
+    drift_change : bool
+        A cell is evidence of a drift only as far as the joint's offset from its neighbours' mean differs
+        from the offset it holds over the take (the median): the smaller of that ratio and the joint's angle
+        ratio is the one compared with ``drift_z`` and ``drift_extent``. A style holds an offset for the
+        whole take; a drift leaves and comes back (:func:`~mocapkit.cleaning.ssa.drifts.offset_change`).
     """
 
     analysis_fps: float = 24.0
@@ -121,6 +126,7 @@ class SSAParams:
     drift_others: int | None = 1
     drift_return_ratio: float = 0.3
     drift_partner_ratio: float | None = 0.5
+    drift_change: bool = True
 
     def __post_init__(self):
         N, M = self.source_length, self.target_length
