@@ -1,5 +1,7 @@
 """`mocapkit detect` and `mocapkit repair` on a real clip with an injected error."""
 
+import json
+
 import numpy as np
 
 import mocapkit
@@ -20,6 +22,8 @@ def test_detect_and_repair(tmp_path):
     r = records[0]
     assert det.flags[r.start : r.end, walk.skeleton.index("LeftKnee")].mean() > 0.9
     assert png.stat().st_size > 10_000 and "LeftKnee" in out
+    knee = [line for line in out.splitlines() if line.strip().startswith("LeftKnee")]
+    assert knee and all(any(w in line for _, w in ssa.cues.CAUSES) for line in knee)  # each says why
     fixed_path = tmp_path / "fixed.bvh"
     code, out, err = run("repair", str(inp), "-o", str(fixed_path), "--detection", str(det_path), "--no-foot-skate")
     assert code == 0, err
@@ -47,10 +51,16 @@ def test_detect_no_confirm_gives_the_papers_flags(tmp_path):
     inp = tmp_path / "walk.npz"
     mocapkit.save(walk, inp)
     paths = {rule: tmp_path / f"{rule}.npz" for rule in ("confirm", "no-confirm")}
+    segments = {}
     for rule, path in paths.items():
-        code, _, err = run("detect", str(inp), "--out", str(path), f"--{rule}", "--json")
+        code, out, err = run("detect", str(inp), "--out", str(path), f"--{rule}", "--json")
         assert code == 0, err
+        segments[rule] = json.loads(out.strip().splitlines()[-1])
     confirmed, paper = (ssa.Detection.load(p) for p in paths.values())
+    # each segment names the rules that flagged it: without confirmation, the digression alone
+    words = [w for _, w in ssa.cues.CAUSES]
+    assert segments["no-confirm"] and all(g["causes"] == [words[-1]] for g in segments["no-confirm"])
+    assert all(g["causes"] and set(g["causes"]) <= set(words[:-1]) for g in segments["confirm"])  # none, or named
     assert np.array_equal(confirmed.mdm, paper.mdm)
     assert np.array_equal(paper.flags, paper.mdm > 0.5) and not paper.params.confirm
     assert confirmed.params.confirm and (confirmed.flags <= paper.flags | (confirmed.mdm > 0.25)).all()

@@ -66,16 +66,21 @@ def detect(
             from ..report.plots import plot_mdm
 
             plot_mdm(det.mdm, det.joint_names, det.fps, png, flags=det.flags, title=f"{inp.name}: movement digression map")
+    from ..cleaning.ssa.cues import cause_names
+
     segs = det.segments()
-    if as_json:
-        print(json.dumps([{"joint": j, "start": a, "end": b, "start_s": a / m.fps, "end_s": b / m.fps} for j, a, b in segs]))
+    causes = det.causes()
+    why = [cause_names(causes[a:b, det.joint_names.index(j)]) for j, a, b in segs]
+    if as_json:  # end: the frame after the segment
+        print(json.dumps([{"joint": j, "start": a, "end": b, "start_s": a / m.fps, "end_s": b / m.fps, "causes": w}
+                          for (j, a, b), w in zip(segs, why)]))
         return
     console.print(f"wrote {out}" + (f" and {png}" if png else "") + f": {plural(len(segs), 'flagged segment')}"
                   f" (judged against {context_label(ctx)})")
     for line in ([note] if note else []) + list(det.notes):
         console.print(f"  note: {line}")
-    for j, a, b in segs[:50]:
-        console.print(f"  {j:16s} frames {a}-{b} ({a / m.fps:.2f}-{b / m.fps:.2f} s)")
+    for (j, a, b), w in zip(segs[:50], why):
+        console.print(f"  {j:16s} frames {a}-{b - 1} ({a / m.fps:.2f}-{b / m.fps:.2f} s): {', '.join(w)}")
     if len(segs) > 50:
         console.print(f"  ... and {len(segs) - 50} more")
 
