@@ -115,3 +115,37 @@ def test_reject_all_and_accept_all(page):
     assert page.locator("#changes input.accept:checked").count() == 0
     page.click("#accept-all")
     assert page.locator("#changes input.accept:checked").count() == len(ids)
+
+
+def test_review_mode_lists_every_flag_with_the_rule_that_raised_it(browser, tmp_path):
+    """`clean --steps detect --report`: nothing is changed, and the report lists every flagged segment with why."""
+    bad, _, _ = corrupt.real_errors(mocapkit.load(samples.path("12_walk.amc")), n_errors=4, seed=11)
+    inp = tmp_path / "walk_bad.npz"
+    mocapkit.save(bad, inp)
+    assert main(["clean", str(inp), "-o", str(tmp_path / "walk.npz"), "--steps", "detect",
+                 "--report", str(tmp_path / "walk.html")]) == 0
+    res = CleanResult.load(tmp_path / "walk.clean.npz")
+    flags = D.flag_segments(res)
+    assert not res.changed.any() and len(flags) > 1 and all(f["why"] for f in flags)
+    assert sum(f["last"] - f["first"] + 1 for f in flags) == res.flags.sum()
+    ctx = browser.new_context(viewport={"width": 1280, "height": 900})
+    pg = ctx.new_page()
+    errors = []
+    pg.on("pageerror", lambda e: errors.append(str(e)))
+    pg.goto((tmp_path / "walk.html").resolve().as_uri())
+    pg.wait_for_function("() => window.mocapkitReport && window.mocapkitReview && window.mocapkitReport.drawCount() > 0",
+                         timeout=60000)
+    assert pg.inner_text("#changes p:last-of-type").strip() == "The cleaning changed nothing."
+    rows = pg.locator("#flags tbody tr")
+    assert rows.count() == len(flags)
+    for k, f in enumerate(flags):
+        cells = rows.nth(k).locator("td")
+        assert cells.nth(0).inner_text() == f["joint"]
+        assert cells.nth(1).inner_text() == (str(f["first"]) if f["first"] == f["last"] else f"{f['first']}-{f['last']}")
+        assert cells.nth(2).inner_text() == ", ".join(f["why"])
+    f = flags[-1]
+    rows.nth(len(flags) - 1).locator("button.jump").click()
+    assert pg.evaluate("() => window.mocapkitReport.frame()") == f["first"]
+    assert pg.evaluate("() => window.mocapkitReport.selectedJointName()") == f["joint"]
+    ctx.close()
+    assert errors == []

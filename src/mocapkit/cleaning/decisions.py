@@ -78,7 +78,7 @@ from ..motion import Motion
 from .ssa.cues import cause_names
 
 __all__ = ["FORMAT", "ACCEPT", "REJECT", "Change", "changes", "apply", "take_digest", "template", "read_decisions",
-           "check_decisions", "accepted_cells", "review"]
+           "check_decisions", "accepted_cells", "flag_segments", "review"]
 
 FORMAT = "mocapkit.decisions/1"
 ACCEPT, REJECT = "accept", "reject"
@@ -384,11 +384,33 @@ def check_decisions(doc: dict, path, original: Motion, result=None) -> dict:
     return dict(doc["decisions"])
 
 
+def flag_segments(result) -> list[dict]:
+    """Every flagged run of frames of one joint, by first frame then joint, and the rules that flagged it.
+
+    Each is ``{"joint", "joint_index", "first", "last", "why"}`` (frames inclusive; ``why``: the words
+    of :data:`~mocapkit.cleaning.ssa.cues.CAUSES` for the rules that flagged any of its cells, empty for
+    a record without :attr:`CleanResult.causes`). Flags are what detection found, whether or not a step
+    changed those cells: in review mode (``--steps detect``) they are all the report has to show.
+    """
+    flags = np.asarray(result.flags, dtype=bool)
+    causes = getattr(result, "causes", None)
+    out = []
+    for j in np.flatnonzero(flags.any(axis=0)):
+        col = np.concatenate([[False], flags[:, j], [False]])
+        edges = np.flatnonzero(np.diff(col.astype(np.int8)))
+        for a, b in zip(edges[::2], edges[1::2] - 1):
+            out.append({"joint": result.joint_names[j], "joint_index": int(j), "first": int(a), "last": int(b),
+                        "why": [] if causes is None else cause_names(causes[a:b + 1, j])})
+    out.sort(key=lambda d: (d["first"], d["joint_index"]))
+    return out
+
+
 def review(original: Motion, result, take: str = "", output: str = "", decisions: Mapping[str, str] | None = None) -> dict:
-    """What the HTML report needs to let a person decide: ``{"changes": [...], "decisions": document}``.
+    """What the HTML report needs to let a person decide: ``{"changes": [...], "decisions": document, "flags": [...]}``.
 
     ``changes``: :meth:`Change.as_dict` of :func:`changes`; ``decisions``: :func:`template`
-    with the choices of ``decisions`` (every other change accepted).
+    with the choices of ``decisions`` (every other change accepted); ``flags``: :func:`flag_segments`.
     """
     found = changes(result, original)
-    return {"changes": [c.as_dict() for c in found], "decisions": template(original, found, take, output, decisions)}
+    return {"changes": [c.as_dict() for c in found], "decisions": template(original, found, take, output, decisions),
+            "flags": flag_segments(result)}

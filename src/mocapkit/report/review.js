@@ -1,4 +1,5 @@
-/* mocapkit cleaning report: the changes the cleaning made, each accepted or rejected by a person.
+/* mocapkit cleaning report: the changes the cleaning made, each accepted or rejected by a person,
+ * and the flags detection raised, each with the rule that raised it.
  * Reads the JSON block #mocapkit-review (mocapkit.cleaning.decisions: the changes and the
  * decisions document); absent, it does nothing. Each change has accept/reject (default accept)
  * and a link that moves the viewer to its first frame and selects its joint. The "Download
@@ -59,6 +60,26 @@
     el("p", { text: "The cleaning changed nothing." }, sec);
   }
 
+  // what detection flagged, and which rule flagged it: in review mode (--steps detect) all there is to see
+  var flags = R.flags || [];
+  if (flags.length) {
+    var fsec = el("section", { "class": "changes flags", id: "flags" }, sec.parentNode);
+    el("h2", { text: "Flags (" + flags.length + ")" }, fsec);
+    el("p", { "class": "note", text: "What detection flagged, one joint over a run of frames, and the rule that " +
+      "flagged it. The changes above are what the cleaning did about them." }, fsec);
+    var ftable = el("table", {}, fsec), fhead = el("tr", {}, el("thead", {}, ftable));
+    ["joint", "frames", "why", ""].forEach(function (h) { el("th", { text: h }, fhead); });
+    var fbody = el("tbody", {}, ftable);
+    flags.forEach(function (f) {
+      var tr = el("tr", { "data-flag": f.joint + ":" + f.first + "-" + f.last }, fbody);
+      el("td", { text: f.joint }, tr);
+      el("td", { "class": "num", text: f.first === f.last ? String(f.first) : f.first + "-" + f.last }, tr);
+      el("td", { "class": "reason", text: f.why.join(", ") }, tr);
+      var jb = el("button", { type: "button", "class": "jump", text: "jump to frame " + f.first }, el("td", { "class": "jump" }, tr));
+      jb.addEventListener("click", function () { goTo(f.joint_index, f.first); });
+    });
+  }
+
   function paint(k) { rows[k].tr.className = rows[k].box.checked ? "" : "rejected"; }
   function set(k, accept, bulk) {
     doc.decisions[list[k].id] = accept ? "accept" : "reject";
@@ -72,11 +93,12 @@
     list.forEach(function (c) { if (doc.decisions[c.id] === "reject") rej++; });
     count.textContent = (list.length - rej) + " accepted, " + rej + " rejected";
   }
-  function jump(k) {
-    var api = window.mocapkitReport, c = list[k];
+  function jump(k) { goTo(list[k].joint_index, list[k].first); }
+  function goTo(joint, frame) {
+    var api = window.mocapkitReport;
     if (!api) return;
-    api.select(c.joint_index);
-    api.setFrame(c.first);
+    api.select(joint);
+    api.setFrame(frame);
     var v = document.querySelector(".viewer");
     if (v && v.scrollIntoView) v.scrollIntoView({ block: "nearest" });
   }
@@ -104,6 +126,7 @@
   // for tests and for people at the console
   window.mocapkitReview = {
     changes: function () { return list.map(function (c) { return c.id; }); },
+    flags: function () { return flags.map(function (f) { return f.joint + ":" + f.first + "-" + f.last; }); },
     decisions: function () { return JSON.parse(text()); },
     set: function (id, choice) { var k = list.map(function (c) { return c.id; }).indexOf(id); if (k >= 0) set(k, choice === "accept"); },
     jump: jump,
