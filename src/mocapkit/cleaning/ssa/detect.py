@@ -287,8 +287,7 @@ def _digression(motion, mean_tex, spread, texture_joints, up, fps_a, noise_deg, 
             rel = R.quaternion_multiply(inp[:, live], R.quaternion_conjugate(up_q))  # in the parent's frame
             rot[g][:, live] = R.quaternion_to_rotvec(np.where(rel[..., :1] < 0, -rel, rel))
             scale[g][:, live] = den
-    out = (ang, z) + ((speed,) if speeds else ()) + ((rot, scale) if offsets else ())
-    return out
+    return (ang, z) + ((speed,) if speeds else ()) + ((rot, scale) if offsets else ())
 
 
 def detect(

@@ -104,13 +104,14 @@ def offset_change(offsets: np.ndarray, scale: np.ndarray) -> np.ndarray:
 
     ``offsets`` float (F, J, 3): the turn, in the parent joint's frame, from
     the mean motion texture's rotation of the joint to the take's at each
-    frame, as a rotation vector (radians; NaN where the cell is not judged:
-    an elbow carried higher is the same turn at every frame); ``scale`` float (F, J): the cell's neighbours'
-    spread and capture noise combined (radians, the denominator of
-    ``consistency``). Returns ``|offset(f) - m| / scale(f)`` with ``m`` the
-    joint's component-wise median offset over its judged frames: 0 for a
-    joint held off its neighbours by the same turn throughout (a style), the
-    ``consistency`` of a cell whose joint otherwise follows its neighbours.
+    frame, as a rotation vector (radians; NaN where the cell is not judged).
+    An elbow carried higher is the same turn at every frame. ``scale`` float
+    (F, J): the cell's neighbours' spread and capture noise combined
+    (radians, the denominator of ``consistency``). Returns ``|offset(f) - m|
+    / scale(f)`` with ``m`` the joint's component-wise median offset over its
+    judged frames: 0 for a joint held off its neighbours by the same turn
+    throughout (a style), about the ``consistency`` of a cell whose joint
+    otherwise follows its neighbours.
     NaN where ``offsets`` or ``scale`` is not finite or ``scale`` is not
     positive. A drift covering more than half of a joint's judged frames moves
     the median, and its change is then measured from the drifted offset.

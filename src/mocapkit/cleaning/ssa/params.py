@@ -82,13 +82,13 @@ class SSAParams:
     drift_partner_ratio : ratio or None
         A cell is no evidence of a drift where the joint's left/right partner digresses by this share of
         ``drift_z`` at the same frame (a style is often two-sided, a drift one joint's); None: not asked.
-        The drift rule is off by default (``drift=True``, ``mocapkit detect --drifts`` / ``clean --drifts``):
-        only a context that repeats the take's motion makes the evidence mean a drift.
     drift_change : bool
         A cell is evidence of a drift only as far as the joint's offset from its neighbours' mean differs
         from the offset it holds over the take (the median): the smaller of that ratio and the joint's angle
         ratio is the one compared with ``drift_z`` and ``drift_extent``. A style holds an offset for the
         whole take; a drift leaves and comes back (:func:`~mocapkit.cleaning.ssa.drifts.offset_change`).
+        The drift rule is off by default (``drift=True``, ``mocapkit detect --drifts`` / ``clean --drifts``):
+        only a context that repeats the take's motion makes the evidence mean a drift.
     """
 
     analysis_fps: float = 24.0
