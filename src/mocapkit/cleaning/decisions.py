@@ -75,6 +75,7 @@ import numpy as np
 
 from ..errors import MocapError, MocapFormatError
 from ..motion import Motion
+from .ik import contact_segments
 from .ssa.cues import cause_names
 
 __all__ = ["FORMAT", "ACCEPT", "REJECT", "Change", "changes", "apply", "take_digest", "template", "read_decisions",
@@ -385,7 +386,7 @@ def check_decisions(doc: dict, path, original: Motion, result=None) -> dict:
 
 
 def flag_segments(result) -> list[dict]:
-    """Every flagged run of frames of one joint, by first frame then joint, and the rules that flagged it.
+    """Every flagged run of frames of one joint, by first frame then joint name, and the rules that flagged it.
 
     Each is ``{"joint", "joint_index", "first", "last", "why"}`` (frames inclusive; ``why``: the words
     of :data:`~mocapkit.cleaning.ssa.cues.CAUSES` for the rules that flagged any of its cells, empty for
@@ -394,14 +395,10 @@ def flag_segments(result) -> list[dict]:
     """
     flags = np.asarray(result.flags, dtype=bool)
     causes = getattr(result, "causes", None)
-    out = []
-    for j in np.flatnonzero(flags.any(axis=0)):
-        col = np.concatenate([[False], flags[:, j], [False]])
-        edges = np.flatnonzero(np.diff(col.astype(np.int8)))
-        for a, b in zip(edges[::2], edges[1::2] - 1):
-            out.append({"joint": result.joint_names[j], "joint_index": int(j), "first": int(a), "last": int(b),
-                        "why": [] if causes is None else cause_names(causes[a:b + 1, j])})
-    out.sort(key=lambda d: (d["first"], d["joint_index"]))
+    out = [{"joint": result.joint_names[j], "joint_index": int(j), "first": a, "last": b - 1,
+            "why": [] if causes is None else cause_names(causes[a:b, j])}
+           for j in np.flatnonzero(flags.any(axis=0)) for a, b in contact_segments(flags[:, j])]
+    out.sort(key=lambda d: (d["first"], d["joint"]))  # as Detection.segments() orders them
     return out
 
 

@@ -113,12 +113,14 @@ def clean(
         if note in said:
             console.print(f"warning: {inp}: {note}")
     if res.detection is not None:
-        from ..cleaning.ssa.cues import cause_names
+        from ..cleaning.decisions import flag_segments
 
-        segs = res.detection.segments()
-        for j, a, b in segs[:12]:
-            why = "" if res.causes is None else ": " + ", ".join(cause_names(res.causes[a:b, res.joint_names.index(j)]))
-            console.print(f"    flagged {j:16s} frames {a}-{b - 1} ({a / m.fps:.2f}-{b / m.fps:.2f} s){why}")
+        segs = flag_segments(res)
+        for g in segs[:12]:
+            a, last = g["first"], g["last"]
+            why = ": " + ", ".join(g["why"]) if g["why"] else ""
+            console.print(f"    flagged {g['joint']:16s} frames {a}-{last} "
+                          f"({a / m.fps:.2f}-{(last + 1) / m.fps:.2f} s){why}")
         if len(segs) > 12:
             console.print(f"    ... and {len(segs) - 12} more (all in {clean_path(out)})")
     _print_reference(ref, reference, original, m)

@@ -161,8 +161,8 @@ class Detection:
         """(F, J) uint8: which rules flag each cell (:func:`~mocapkit.cleaning.ssa.cues.flag_causes`; ``flags``
         is exactly where it is not 0)."""
         return flag_causes(self.mdm, self.jumps, self.holds, self.swaps, self.offsets, self.threshold, self.fps,
-                           self.params.confirm, self.params.confirm_margin_s,
-                           self.drifts() if self.params.drift else None, self.spikes, np.isfinite(self.digression))
+                           self.params.confirm, self.params.confirm_margin_s, self.drifts(), self.spikes,
+                           np.isfinite(self.digression))
 
     def with_threshold(self, threshold: float) -> "Detection":
         """The same analysis flagged at another threshold (confirmed by the jumps if the detection was)."""
