@@ -55,9 +55,10 @@ demo: install  # demo_out/ is the demo's own folder: a rerun replaces what the l
 	$(VENV)/bin/mocapkit reconstruct --db $(OUT)/hdm_db --accelerometers $(SNEAK) -o $(OUT)/sneak_from_4_accelerometers.bvh --reference $(SNEAK) --overwrite
 	@echo "demo outputs written to $(OUT)/; open $(OUT)/12_walk_report.html in a browser"
 
+# --dist loadscope keeps each test module on one worker, so a module's costly fixtures are built once
 test: install-test  # pytest-xdist: one worker process per core (at most 4), so a 2-core machine runs two
 	@bash scripts/ensure-chromium.sh
-	$(PY) -m pytest -q -m "not slow" --numprocesses=auto --maxprocesses=4
+	$(PY) -m pytest -q -m "not slow" --numprocesses=auto --maxprocesses=4 --dist loadscope
 
 bench: install-test
 	$(PIP) install -e '.[bench]'

@@ -14,6 +14,13 @@ settings.register_profile("gate", derandomize=True)
 settings.register_profile("explore", derandomize=False)
 settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "gate"))
 
+# xdist runs one worker per core: torch's intra-op threads in each would oversubscribe them (a tiny training test
+# took 50 s instead of 13 s beside a busy worker). Inference sets its own threads (mocapkit.cleaning.deep.threads).
+if os.environ.get("PYTEST_XDIST_WORKER"):
+    import torch
+
+    torch.set_num_threads(1)
+
 # ../shared/data beside the checkout; $MOCAPKIT_SHARED_DATA for a checkout elsewhere (a git worktree)
 SHARED_DATA = Path(os.environ.get("MOCAPKIT_SHARED_DATA", Path(__file__).resolve().parents[1].parent / "shared" / "data"))
 
