@@ -64,3 +64,13 @@ def context_cache(tmp_path_factory):
     with pytest.MonkeyPatch.context() as mp:
         mp.setenv("MOCAPKIT_CACHE_DIR", str(path))
         yield path
+
+
+# Modules whose tests take a minute or more on one core between them (`pytest --durations`): run first, so that
+# with `--dist loadscope` (each module on one worker, `make test`) no worker is left with one of them at the end
+# while the other idles.
+LONG_MODULES = ("test_fuzz_commands.py", "test_precompile.py", "test_amc_writer.py", "test_fuzz.py")
+
+
+def pytest_collection_modifyitems(items):
+    items.sort(key=lambda item: item.path.name not in LONG_MODULES)  # stable: the order within each part is kept
