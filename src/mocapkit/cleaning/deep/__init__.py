@@ -4,7 +4,7 @@
 - :func:`served_by`: the one rule for which takes a model serves (directly, or through a joint map onto the
   Acclaim skeleton: :mod:`.retarget`); :func:`denoise_or_fallback` / :func:`fill_or_fallback` apply it with the
   fallbacks every command shares;
-- :class:`Denoiser`: streaming EBF, one frame of file channels at a time;
+- :class:`Denoiser`: streaming EBF, one frame of file channels at a time (:mod:`.streaming`);
 - :mod:`.networks`: the EBF and EBD modules; :mod:`.channels`: what they see;
 - :mod:`.prior`: the Gaussian gap prior an EBD model carries (its conditional mean fills gaps by default);
 - :mod:`.training`: noisy/clean pairs made on the fly with :mod:`mocapkit.corrupt`, Adam, checkpoints.
@@ -19,11 +19,9 @@ from .inference import (
     FILL_METHODS,
     SHIPPED_FOR_RIG,
     DeepModel,
-    Denoiser,
     denoise,
     denoise_channels,
     denoise_or_fallback,
-    denoise_rows,
     fill_channels,
     fill_gaps,
     fill_or_fallback,
@@ -36,6 +34,7 @@ from .inference import (
 from .networks import EBD, EBF
 from .prior import GapPrior, conditional_fill, fit_gap_prior
 from .retarget import Serving, served_by
+from .streaming import Denoiser, denoise_rows
 
 __all__ = [
     "EBF_READ_MAX_FPS",

@@ -1,4 +1,4 @@
-"""Using the trained networks: load/save model files, offline denoising and gap filling, streaming denoising.
+"""Using the trained networks: load/save model files, offline denoising and gap filling (streaming: :mod:`.streaming`).
 
 A model file is untrusted input: it is read with ``torch.load(...,
 weights_only=True)`` (tensors, numbers and strings only, no pickled code) and
@@ -10,8 +10,6 @@ from __future__ import annotations
 
 import dataclasses
 import json
-import math
-from collections import deque
 from dataclasses import dataclass, field
 from functools import lru_cache
 from importlib import resources
@@ -19,20 +17,12 @@ from pathlib import Path
 
 import numpy as np
 import torch
-from numba import njit
 
 from ... import rotations as R
 from ...errors import MocapFormatError, SkeletonError
 from ...io import atomic_write
-from ...motion import Motion, Skeleton
-from .channels import (
-    UNWRAP_ALPHA,
-    ChannelLayout,
-    euler_columns,
-    lerp_fill,
-    root_angular_velocity,
-    unwrap_degrees,
-)
+from ...motion import Motion
+from .channels import ChannelLayout, lerp_fill
 from .prior import GapPrior, conditional_fill
 from .retarget import Serving, served_by
 from .sure import BLOCK_S, block_edges, calibrated_log_sigma, scoring_stride
@@ -43,11 +33,9 @@ from .networks import (
     EBD,
     EBF,
     HALF_WINDOW,
-    LOG_SIGMA_RANGE,
     NOISE_WINDOW,
     gaussian_filter_frames,
     noise_level_observed,
-    noise_level_step,
 )
 
 __all__ = [
@@ -65,8 +53,8 @@ __all__ = [
     "EBF_READ_MAX_FPS",
     "ebf_takes_part",
     "lerp_fill",
-    "Denoiser",
-    "denoise_rows",
+    "model_of_kind",
+    "needs_resampling",
     "serving",
     "denoise_or_fallback",
     "fill_or_fallback",
@@ -223,7 +211,7 @@ def _smoothing_ebf(ebd: DeepModel, denoiser, take=None) -> DeepModel:
         found = (_packaged(n) for n in _shipped_names("ebf"))
         ebf = next((m for m in found if m.layout == ebd.layout), None) or shipped_model("ebf", take)
     else:
-        ebf = _model(denoiser, "ebf", take)
+        ebf = model_of_kind(denoiser, "ebf", take)
     if ebf.layout != ebd.layout:
         raise ValueError(f"the EBF reads {ebf.layout.num_channels} channels and the EBD {ebd.layout.num_channels}: "
                          "they are not a pair; give the EBF of the EBD's rig (fill --denoiser)")
@@ -237,7 +225,9 @@ def licence_note(model: DeepModel) -> str:
             f"{SHIPPED[model.kind]}" if lic else "")
 
 
-def _model(model, kind: str, take=None) -> DeepModel:
+def model_of_kind(model, kind: str, take=None) -> DeepModel:
+    """``model`` as a :class:`DeepModel` of ``kind`` ("ebf" or "ebd"): a Serving's model, a model, a model file, or None
+    for the shipped model that serves ``take`` (:func:`shipped_model`); another kind raises ValueError."""
     if isinstance(model, Serving):
         model = model.model
     if model is None:
@@ -257,7 +247,7 @@ def serving(motion: Motion, model, kind: str) -> Serving:
     """
     if isinstance(model, Serving):
         return model
-    m = _model(model, kind, motion)
+    m = model_of_kind(model, kind, motion)
     s = served_by(motion, m)
     if isinstance(s, str):
         raise SkeletonError(s)
@@ -329,7 +319,7 @@ def _to_rate(values: np.ndarray, fps_from: float, fps_to: float, n_to: int | Non
     return np.stack([np.interp(t_to, t_from, values[:, c]) for c in range(values.shape[1])], axis=1)
 
 
-def _needs_resampling(fps: float | None, model_fps: float) -> bool:
+def needs_resampling(fps: float | None, model_fps: float) -> bool:
     """Whether data at ``fps`` (None: the model's own rate) must be resampled to the model's rate."""
     return fps is not None and abs(fps - model_fps) > 1e-6 * model_fps
 
@@ -365,9 +355,9 @@ def denoise_channels(
     estimate on the observed samples (:mod:`.sure`: clean motion and light
     noise get a light touch); only at the model's own rate (a resampled take's
     noise is correlated from frame to frame). False: the network's widths, as
-    the streaming :class:`Denoiser` uses them.
+    the streaming :class:`~mocapkit.cleaning.deep.streaming.Denoiser` uses them.
     """
-    m = _model(model, "ebf")
+    m = model_of_kind(model, "ebf")
     x = np.asarray(values, dtype=np.float64)
     if x.ndim != 2 or x.shape[1] != m.layout.num_channels:
         raise ValueError(f"values: expected (F, {m.layout.num_channels}) channels, got {x.shape}")
@@ -376,7 +366,7 @@ def denoise_channels(
     miss = np.isnan(x)
     xf = lerp_fill(x)
     ctx = np.nan_to_num(np.asarray(context, dtype=np.float64))
-    resample = _needs_resampling(fps, m.fps)
+    resample = needs_resampling(fps, m.fps)
     if resample:
         xf_m, ctx_m = _to_rate(xf, fps, m.fps), _to_rate(ctx, fps, m.fps)
     else:
@@ -477,7 +467,7 @@ def fill_channels(
     (:func:`.prior.conditional_fill`'s ``cross``). :func:`ebf_takes_part` says
     whether the EBF runs at all.
     """
-    m = _model(model, "ebd")
+    m = model_of_kind(model, "ebd")
     use_prior = _fills_by_prior(m, method)
     x = np.asarray(values, dtype=np.float64)
     if x.ndim != 2 or x.shape[1] != m.layout.num_channels:
@@ -490,7 +480,7 @@ def fill_channels(
         raise ValueError(f"channel {m.layout.names[bad]} has no observed sample; nothing to fill it from")
     ctx = np.nan_to_num(np.asarray(context, dtype=np.float64))
     filled = lerp_fill(x)
-    resample = _needs_resampling(fps, m.fps)
+    resample = needs_resampling(fps, m.fps)
     if resample:
         f_m, c_m = _to_rate(filled, fps, m.fps), _to_rate(ctx, fps, m.fps)
         k_m = _to_rate(miss.astype(np.float64), fps, m.fps) > 0.0
@@ -668,7 +658,7 @@ def fill_or_fallback(motion: Motion, model=None, denoiser=None, smooth: bool = T
 
     if not motion.missing().any():
         return motion, "nothing (no gaps)", ""
-    sv = served_by(motion, _model(model, "ebd", motion))
+    sv = served_by(motion, model_of_kind(model, "ebd", motion))
     if not isinstance(sv, str):
         by_prior = _fills_by_prior(sv.model, method)  # raises before the try: a bad request is no reason to fall back
         ebf = served_by(motion, _smoothing_ebf(sv.model, denoiser, motion)) if smooth else "not asked"
@@ -696,7 +686,7 @@ def denoise_or_fallback(motion: Motion, model=None, cells: np.ndarray | None = N
     """
     from ..filters import savgol_smooth
 
-    sv = served_by(motion, _model(model, "ebf", motion))
+    sv = served_by(motion, model_of_kind(model, "ebf", motion))
     if not isinstance(sv, str):
         return denoise(motion, sv, cells=cells), _method("ebf", label, sv), licence_note(sv.model)
     J = motion.skeleton.num_joints
@@ -726,267 +716,3 @@ def _hold_unmapped(motion: Motion, sv: Serving, missing: np.ndarray) -> Motion:
             k = np.where(np.abs(seen[k - 1] - t) <= np.abs(seen[k] - t), k - 1, k)
         rot[missing[:, j], j] = motion.rotations[seen[k[missing[:, j]]], j]
     return dataclasses.replace(motion, rotations=rot)
-
-
-# -- streaming -------------------------------------------------------------------------
-
-
-class Denoiser:
-    """Streaming EBF: ``push(row)`` a frame of file channels, get a cleaned frame 15 frames later.
-
-    A row is one line of a BVH MOTION block / AMC frame: all of the skeleton's
-    channels in file order (:meth:`Motion.channel_values`). The first push
-    emits nothing until 15 more frames have arrived; then each push returns the
-    cleaned row of the frame 15 earlier. :meth:`flush` returns the last 15.
-    The output equals :func:`denoise_rows` on the whole take frame for frame
-    (to float32 rounding). Root channels pass through unchanged. Each push
-    runs the network's layers on one frame with the weights as float64 numpy
-    arrays and numba loops (about 0.8 ms on this CPU, where the same layers as
-    ~20 PyTorch calls cost 2 ms).
-    """
-
-    def __init__(self, skeleton: Skeleton, fps: float, model=None):
-        m = _model(model, "ebf", skeleton)
-        if m.layout.representation != "euler":
-            raise ValueError("streaming needs an Euler-channel model")
-        sv = served_by(skeleton, m)
-        if isinstance(sv, str):
-            raise SkeletonError(f"skeleton: {sv}")
-        if not sv.direct:
-            raise SkeletonError(f"skeleton: streaming needs the model's own channels; this {sv.family} rig is "
-                                f"served offline only (deep.denoise)")
-        if _needs_resampling(fps, m.fps):
-            raise ValueError(f"streaming runs at the model's rate ({m.fps:g} fps), got {fps:g} fps")
-        self.model = m
-        self.net: EBF = m.net
-        self.skeleton = skeleton
-        self.fps = float(fps)
-        self._cols = euler_columns(skeleton)
-        self._root = _root_rotation_columns(skeleton)
-        self._n_file = sum(len(skeleton.joint_channels(j)) for j in range(skeleton.num_joints))
-        L1, L2 = self.net.lstm1.lookahead, self.net.lstm2.lookahead
-        self._L = (L1, L2)
-        self._codes: deque = deque(maxlen=L1 + 1)
-        self._gi1: deque = deque(maxlen=L1 + 1)
-        self._y1: deque = deque(maxlen=L2 + 1)
-        self._gi2: deque = deque(maxlen=L2 + 1)
-        self._k = _numpy_weights(self.net)
-        self._root_order = skeleton.rotation_order(0)
-        self._x: deque = deque(maxlen=2 * HALF_WINDOW + 1)
-        self._d2: deque = deque(maxlen=NOISE_WINDOW)  # squared second differences, for the noise-level input
-        self._rows: deque = deque(maxlen=HALF_WINDOW + 1)
-        H = self.net.lstm1.hidden
-        self._s1 = self._s2 = (np.zeros(H), np.zeros(H))  # forward (h, c) of the two layers
-        self._p = 0  # padded positions processed
-        self._prev_q = None
-        self._ref = None
-        self._started = False
-
-    def _inputs(self, row: np.ndarray):
-        raw = row[self._cols]
-        if self._ref is None:
-            self._ref = raw.copy()
-        u = self._ref + (np.mod(raw - self._ref + 180.0, 360.0) - 180.0)  # as channels.unwrap_degrees
-        self._ref = self._ref + UNWRAP_ALPHA * (u - self._ref)
-        order = self._root_order
-        q = R.euler_to_quaternion(row[self._root], order) if order else R.identity()
-        if self.skeleton.axes is not None:
-            q = _conjugated(self.skeleton.axes[0], q)
-        w = np.zeros(3) if self._prev_q is None else _omega(self._prev_q, q, self.fps)
-        self._prev_q = q
-        return u, w
-
-    def _step(self, x: np.ndarray, w: np.ndarray, row: np.ndarray):
-        """One padded position: the network's layers on this frame in numpy (float64 weights).
-
-        Exactly the offline network's arithmetic on one frame, without the
-        per-call overhead of ~20 small PyTorch calls: the input projections
-        of each position enter a deque once, the backward LSTM runs of
-        L + 1 steps use them, the forward states persist.
-        """
-        k = self._k
-        L1, L2 = self._L
-        parts = [(x - k["mean"]) / k["std"]]
-        if self.net.noise_input:  # networks.noise_level_feature, one frame at a time
-            d = x - 2.0 * self._x[-1] + self._x[-2] if len(self._x) >= 2 else np.zeros_like(x)
-            self._d2.append(d * d)
-            parts.append(noise_level_step(np.array(self._d2), k["std"]))
-        self._x.append(x)
-        self._rows.append(row)
-        e = _mlp_forward(k["encoder"], np.concatenate(parts + [w / k["ctx_scale"]]), True)
-        self._codes.append(e)
-        self._gi1.append(_affine(k["b1"][0], e, k["b1"][2]))
-        p = self._p
-        self._p += 1
-        if p - L1 < 0:
-            return None
-        self._s1 = _lstm_steps(_affine(k["f1"][0], self._codes[0], k["f1"][2])[None], *self._s1, k["f1"][1])
-        f1 = self._s1[0]
-        y1 = np.concatenate([f1, _lstm_backward(self._gi1, k["b1"][1])])
-        self._y1.append(y1)
-        self._gi2.append(_affine(k["b2"][0], y1, k["b2"][2]))
-        if p - L1 - L2 < 0:
-            return None
-        self._s2 = _lstm_steps(_affine(k["f2"][0], self._y1[0], k["f2"][2])[None], *self._s2, k["f2"][1])
-        f2 = self._s2[0]
-        y2 = np.concatenate([f2, _lstm_backward(self._gi2, k["b2"][1])])
-        t = p - HALF_WINDOW
-        if t < HALF_WINDOW:
-            return None
-        out = _mlp_forward(k["head"], y2, False)
-        C = self.net.channels
-        win = np.stack(self._x)  # positions t-15 .. t+15, (31, C)
-        if self.net.head_kind == "gaussian":
-            log_sigma = np.clip(out[:C], *LOG_SIGMA_RANGE)
-            res_c = gaussian_filter_frames(win, log_sigma[None])[0]
-        else:
-            logits = out[: C * (2 * HALF_WINDOW + 1)].reshape(C, 2 * HALF_WINDOW + 1)
-            taps = np.exp(logits - logits.max(axis=1, keepdims=True))
-            res_c = np.sum(win.T * taps, axis=1) / taps.sum(axis=1)
-        if self.net.with_bias:
-            res_c = res_c - out[-C:] * k["std"]
-        res = np.array(self._rows[0], dtype=np.float64)
-        res[self._cols] = (res_c + 180.0) % 360.0 - 180.0
-        return res
-
-    def push(self, row) -> np.ndarray | None:
-        """Add one frame of file channels (C_file,); returns the cleaned row 15 frames back, or None."""
-        row = np.asarray(row, dtype=np.float64)
-        if row.shape != (self._n_file,):
-            raise ValueError(f"a row has {self._n_file} channels (the skeleton's, in file order), got shape {row.shape}")
-        if not np.all(np.isfinite(row)):
-            raise ValueError("streaming input rows must be finite (fill gaps first)")
-        x, w = self._inputs(row)
-        if not self._started:
-            self._started = True
-            for _ in range(HALF_WINDOW):  # edge padding, as offline
-                self._step(x, np.zeros(3), row)
-        self._last = (x, row)
-        return self._step(x, w, row)
-
-    def flush(self) -> list[np.ndarray]:
-        """Emit the frames still waiting for look-ahead (end of take: the last frame is held)."""
-        if not self._started:
-            return []
-        x, row = self._last
-        out = []
-        for _ in range(HALF_WINDOW):
-            r = self._step(x, np.zeros(3), row)
-            if r is not None:
-                out.append(r)
-        return out
-
-
-def _numpy_weights(net: EBF) -> dict:
-    """The EBF's weights as float64 numpy arrays for the streaming path (eval mode: no dropout)."""
-    def a(t):
-        return t.detach().cpu().double().numpy()
-
-    def mlp(seq):
-        return [(a(m.weight), a(m.bias)) for m in seq if isinstance(m, torch.nn.Linear)]
-
-    def lstm(m):  # (W_ih, W_hh, b_ih + b_hh), gate order i, f, g, o
-        return a(m.weight_ih_l0), a(m.weight_hh_l0), a(m.bias_ih_l0) + a(m.bias_hh_l0)
-
-    return {"encoder": mlp(net.encoder), "head": mlp(net.head), "f1": lstm(net.lstm1.fwd), "b1": lstm(net.lstm1.bwd),
-            "f2": lstm(net.lstm2.fwd), "b2": lstm(net.lstm2.bwd), "mean": a(net.mean), "std": a(net.std),
-            "ctx_scale": a(net.ctx_scale)}
-
-
-@njit(cache=True)
-def _affine(W: np.ndarray, v: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """W v + b in plain loops: for one frame's small layers this beats a (threaded) BLAS call."""
-    out = b.copy()
-    for r in range(W.shape[0]):
-        acc = 0.0
-        for q in range(W.shape[1]):
-            acc += W[r, q] * v[q]
-        out[r] += acc
-    return out
-
-
-def _mlp_forward(layers, v: np.ndarray, last_tanh: bool) -> np.ndarray:
-    for k, (W, b) in enumerate(layers):
-        v = _affine(W, v, b)
-        if k < len(layers) - 1 or last_tanh:
-            v = np.tanh(v)
-    return v
-
-
-@njit(cache=True)
-def _lstm_steps(gis: np.ndarray, h: np.ndarray, c: np.ndarray, w_hh: np.ndarray):
-    """PyTorch's LSTM cell (gates i, f, g, o) over input gates ``gis`` (n, 4H) in order from state (h, c).
-
-    Returns the new (h, c); the inputs are not modified.
-    """
-    H = w_hh.shape[1]
-    h = h.copy()
-    c = c.copy()
-    g = np.empty(4 * H)
-    for n in range(gis.shape[0]):
-        for r in range(4 * H):
-            acc = gis[n, r]
-            for q in range(H):
-                acc += w_hh[r, q] * h[q]
-            g[r] = acc
-        for q in range(H):
-            i = 1.0 / (1.0 + np.exp(-g[q]))
-            f = 1.0 / (1.0 + np.exp(-g[H + q]))
-            gg = np.tanh(g[2 * H + q])
-            o = 1.0 / (1.0 + np.exp(-g[3 * H + q]))
-            c[q] = f * c[q] + i * gg
-            h[q] = o * np.tanh(c[q])
-    return h, c
-
-
-def _lstm_backward(gis, w_hh: np.ndarray) -> np.ndarray:
-    """The backward direction's output at the window's first position: from zero state, last to first."""
-    H = w_hh.shape[1]
-    return _lstm_steps(np.stack(gis)[::-1].copy(), np.zeros(H), np.zeros(H), w_hh)[0]
-
-
-def _root_rotation_columns(skeleton: Skeleton) -> np.ndarray:
-    chans = skeleton.joint_channels(0)
-    return np.array([k for k, c in enumerate(chans) if c.endswith("rotation")], dtype=np.int64)
-
-
-def _conjugated(c: np.ndarray, q: np.ndarray) -> np.ndarray:
-    """c q c^-1 for one unit quaternion (the ASF axis frame), as :func:`_root_quaternion` does for rows."""
-    return R.quaternion_multiply(R.quaternion_multiply(c, q), R.quaternion_conjugate(c))
-
-
-def _omega(prev: np.ndarray, q: np.ndarray, fps: float) -> np.ndarray:
-    """:func:`root_angular_velocity` of one frame pair: rotvec(prev^-1 q) * fps, rad/s, (3,)."""
-    r = R.quaternion_multiply(R.quaternion_conjugate(prev), q)
-    if r[0] < 0.0:
-        r = -r
-    s = math.sqrt(r[1] * r[1] + r[2] * r[2] + r[3] * r[3])
-    scale = math.atan2(s, r[0]) / s if s > 1e-12 else 1.0 + s * s / 6.0
-    out = 2.0 * fps * scale * r[1:]
-    return np.zeros(3) if np.any(np.isnan(out)) else out
-
-
-def _root_quaternion(skeleton: Skeleton, rows: np.ndarray, root_cols: np.ndarray) -> np.ndarray:
-    order = skeleton.rotation_order(0)
-    if not order:
-        return R.identity((len(rows),))
-    q = R.euler_to_quaternion(rows[:, root_cols], order)
-    if skeleton.axes is not None:
-        c = skeleton.axes[0]
-        q = R.quaternion_multiply(R.quaternion_multiply(c, q), R.quaternion_conjugate(c))
-    return q
-
-
-def denoise_rows(skeleton: Skeleton, rows: np.ndarray, fps: float, model=None) -> np.ndarray:
-    """Offline EBF on file-channel rows (F, C_file), the batch counterpart of :class:`Denoiser`: the network's own
-    filter widths (no calibration, which needs the block ahead), so the same numbers as streaming."""
-    m = _model(model, "ebf", skeleton)
-    m.layout.check(skeleton, "skeleton")
-    rows = np.asarray(rows, dtype=np.float64)
-    cols = euler_columns(skeleton)
-    x = unwrap_degrees(rows[:, cols])
-    q = _root_quaternion(skeleton, rows, _root_rotation_columns(skeleton))
-    out = denoise_channels(x, root_angular_velocity(q, fps), m, fps=fps, calibrate=False)  # as streaming runs
-    res = rows.copy()
-    res[:, cols] = (out + 180.0) % 360.0 - 180.0
-    return res

@@ -180,7 +180,7 @@ def noise_level_feature(x: torch.Tensor, std: torch.Tensor, window: int = NOISE_
     :func:`inference._pad`). Returned as ``(log((s + 0.01) / std) + 3) / 3``,
     ``log`` clamped to [-8, 2], so typical values lie in [-2, 2]; ``std`` (C,)
     is the network's channel normalisation. Depends on frames up to t only:
-    the streaming :class:`inference.Denoiser` computes the same numbers.
+    the streaming :class:`streaming.Denoiser` computes the same numbers.
     """
     d = torch.zeros_like(x)
     d[:, 2:] = x[:, 2:] - 2.0 * x[:, 1:-1] + x[:, :-2]
