@@ -33,12 +33,16 @@ Mode ``--leave-one-out`` (result ``reconstruct_markers_loo``, also run as
 ``benchmarks/reconstruct_markers_loo.py``): every HDM05
 actor (bd, bk, dg, mm, tr) held out in turn, the database the other four
 actors' clips of all 11 classes (never the held-out actor's). Queries: the
-held-out actor's first ``--clips-per-class`` clips (default 2; ``--quick`` 1)
-of every class, the first ``--max-frames`` frames (default 150 = 5 s;
-``--quick`` 90). Locomotion here is jog, sneak and hop
+held-out actor's clips of the locomotion classes, every one as in the mm
+scenario above (``--locomotion-clips``, default 0: all; 6-17 per actor), and
+the first ``--clips-per-class`` clips (default 2) of every other class, each
+cut to its first ``--max-frames`` frames (default 150 = 5 s); ``--quick`` one
+clip per class, 90 frames. Locomotion here is jog, sneak and hop
 (``jogLeftCircle4StepsRstart``, ``sneak2StepsLStart``, ``hopBothLegs1hops``);
-"all" is all 11 classes. Per held-out actor: the frame-weighted mean error on
-locomotion and on all classes of ``reconstruct`` with the chosen settings
+"all" is all 11 classes, ``--clips-per-class`` clips of each (the locomotion
+classes' first ones too), so that no class outweighs the others. Per held-out
+actor: the frame-weighted mean error on locomotion and on all classes of
+``reconstruct`` with the chosen settings
 (``--k``, default ``markers.default_neighbours`` of the database size;
 ``--head-weight``, the head marker's weight in the neighbour search), of
 ``reconstruct`` with the previous defaults (``k=256``, every marker weighted 1
@@ -48,7 +52,8 @@ baseline, all in the same run. Target: <= 2.0 cm on locomotion for every held-ou
 The leave-one-out run also holds out Bandai Namco styles with the large
 database (:func:`bandai_folds`; ``--bandai-styles``, default
 ``elderly,angry,giant,old,proud,tired``; ``--bandai-takes`` locomotion takes
-per style, default 2; ``--bandai-styles ''`` for none): the split of
+per style, evenly spread over its takes, default 7: every locomotion take of
+each dataset-1 style, 7 of elderly's 106; ``--bandai-styles ''`` for none): the split of
 ``reconstruct_accelerometers_bandai.py`` (dataset-2 ``elderly`` and the
 dataset-1 styles dataset-2 lacks held out; every other take, about 280,000
 frames at 30 fps, in the database, saved once and opened memory-mapped),
@@ -116,10 +121,13 @@ def main(argv=None) -> int:
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--leave-one-out", action="store_true", help="hold out each HDM05 actor in turn")
     ap.add_argument("--clips-per-class", type=int, default=2)
+    ap.add_argument("--locomotion-clips", type=int, default=0,
+                    help="--leave-one-out: clips per locomotion class and held-out actor (0: all of them)")
     ap.add_argument("--max-frames", type=int, default=150)
     ap.add_argument("--bandai-styles", default=",".join(BANDAI_STYLES),
                     help="--leave-one-out: held-out Bandai Namco styles to test with the large database ('' for none)")
-    ap.add_argument("--bandai-takes", type=int, default=2, help="locomotion takes per held-out Bandai style")
+    ap.add_argument("--bandai-takes", type=int, default=7,
+                    help="locomotion takes per held-out Bandai style (7: all of each dataset-1 style's)")
     args = ap.parse_args(argv)
     log = lambda *a: print(*a, file=sys.stderr, flush=True)  # noqa: E731
     if args.leave_one_out:
@@ -242,6 +250,7 @@ def _noisy_markers(truth, rng):
 def leave_one_out(args, log) -> int:
     """Every HDM05 actor held out in turn (see the module docstring); emits ``reconstruct_markers_loo``."""
     per_clip = 1 if args.quick else args.clips_per_class
+    per_locomotion = 1 if args.quick else (args.locomotion_clips or 10**9)
     max_frames = 90 if args.quick else args.max_frames
     rng = np.random.default_rng(args.seed)
     actors, rows = {}, []
@@ -251,10 +260,10 @@ def leave_one_out(args, log) -> int:
         chosen, count = [], {}
         for p in tests:
             cls = B.parse(p)[1]
-            if count.get(cls, 0) < per_clip:
+            if count.get(cls, 0) < (per_locomotion if cls in LOO_LOCOMOTION else per_clip):
                 count[cls] = count.get(cls, 0) + 1
-                chosen.append(p)
-        for path in chosen:
+                chosen.append((p, count[cls] <= per_clip))  # (clip, one of its class's first per_clip: in "all")
+        for path, in_all in chosen:
             truth = mocapkit.load(path).resample(args.fps)[:max_frames]
             x = _noisy_markers(truth, rng)
             common = dict(skeleton=truth.skeleton, prior_weight=args.prior_weight, smooth_weight=args.smooth_weight,
@@ -265,7 +274,7 @@ def leave_one_out(args, log) -> int:
             before = M.reconstruct(x, MARKERS, db, args.fps, **PREVIOUS, **common)
             nn = M.nearest_neighbor(x, MARKERS, db, args.fps, skeleton=truth.skeleton, search_weights=_weights(MARKERS, args))
             cls = B.parse(path)[1]
-            row = {"actor": actor, "clip": path.stem, "class": cls, "locomotion": cls in LOO_LOCOMOTION,
+            row = {"actor": actor, "clip": path.stem, "class": cls, "locomotion": cls in LOO_LOCOMOTION, "in_all": in_all,
                    "frames": truth.num_frames, "method_cm": errors(out, truth)["mean_cm"],
                    "previous_cm": errors(before, truth)["mean_cm"], "baseline_nn_cm": errors(nn, truth)["mean_cm"],
                    "ms_per_frame": 1000.0 * dt / truth.num_frames}
@@ -281,8 +290,8 @@ def leave_one_out(args, log) -> int:
         actors[actor] = {
             "database": {"clips": db.num_clips, "frames": db.num_frames},
             "k": args.k if args.k is not None else M.default_neighbours(db.num_frames),
-            "clips": len(mine), "frames": int(sum(r["frames"] for r in mine)),
-            **{f"{part}_{key}": avg(sel, key) for part, sel in (("locomotion", loco), ("all", mine))
+            "clips": len(mine), "locomotion_clips": len(loco), "frames": int(sum(r["frames"] for r in mine)),
+            **{f"{part}_{key}": avg(sel, key) for part, sel in (("locomotion", loco), ("all", [r for r in mine if r["in_all"]]))
                for key in ("method_cm", "previous_cm", "baseline_nn_cm")},
             "ms_per_frame": avg(mine, "ms_per_frame"),
         }
@@ -301,7 +310,8 @@ def leave_one_out(args, log) -> int:
         "paper": "Krüger et al. 2010, sec. 5.2, Table 3 (HDM05: 1.33-3.37 cm mean per joint)",
         "scenario": "leave one HDM05 actor out: database the other four actors, all 11 classes; queries the held-out actor",
         "locomotion_classes": list(LOO_LOCOMOTION),
-        "clips_per_class": per_clip, "max_frames": max_frames, "markers": MARKERS,
+        "clips_per_class": per_clip, "locomotion_clips": "all" if per_locomotion >= 10**9 else per_locomotion,
+        "max_frames": max_frames, "markers": MARKERS,
         "noise": "uniform within 1 mm per coordinate",
         "error": "frame-weighted mean of the per-frame average global joint-position error, cm, on the actor's own skeleton",
         "k": args.k if args.k is not None else "markers.default_neighbours of each database (see actors)",
