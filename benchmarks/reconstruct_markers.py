@@ -250,7 +250,7 @@ def _noisy_markers(truth, rng):
 def leave_one_out(args, log) -> int:
     """Every HDM05 actor held out in turn (see the module docstring); emits ``reconstruct_markers_loo``."""
     per_clip = 1 if args.quick else args.clips_per_class
-    per_locomotion = 1 if args.quick else (args.locomotion_clips or 10**9)
+    per_locomotion = 1 if args.quick else args.locomotion_clips  # 0: every clip of the class
     max_frames = 90 if args.quick else args.max_frames
     rng = np.random.default_rng(args.seed)
     actors, rows = {}, []
@@ -260,7 +260,7 @@ def leave_one_out(args, log) -> int:
         chosen, count = [], {}
         for p in tests:
             cls = B.parse(p)[1]
-            if count.get(cls, 0) < (per_locomotion if cls in LOO_LOCOMOTION else per_clip):
+            if count.get(cls, 0) < ((per_locomotion or len(tests)) if cls in LOO_LOCOMOTION else per_clip):
                 count[cls] = count.get(cls, 0) + 1
                 chosen.append((p, count[cls] <= per_clip))  # (clip, one of its class's first per_clip: in "all")
         for path, in_all in chosen:
@@ -310,7 +310,7 @@ def leave_one_out(args, log) -> int:
         "paper": "Krüger et al. 2010, sec. 5.2, Table 3 (HDM05: 1.33-3.37 cm mean per joint)",
         "scenario": "leave one HDM05 actor out: database the other four actors, all 11 classes; queries the held-out actor",
         "locomotion_classes": list(LOO_LOCOMOTION),
-        "clips_per_class": per_clip, "locomotion_clips": "all" if per_locomotion >= 10**9 else per_locomotion,
+        "clips_per_class": per_clip, "locomotion_clips": per_locomotion or "all",
         "max_frames": max_frames, "markers": MARKERS,
         "noise": "uniform within 1 mm per coordinate",
         "error": "frame-weighted mean of the per-frame average global joint-position error, cm, on the actor's own skeleton",
