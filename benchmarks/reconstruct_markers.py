@@ -61,6 +61,14 @@ six markers on hands, ankles, head and pelvis (``Hips``), the error on the
 body (the floor-bound ``joint_Root`` is not part of it). Target: <= 2.0 cm on
 locomotion for every held-out style.
 
+Where the error sits (``details.actors[*].locomotion_carriage``, and the
+same per Bandai Namco style; :func:`carriage`): over each performer's
+locomotion clips, the pelvis-relative error in the truth's heading frame,
+the part one constant offset per joint and take explains (a carriage or a
+build no database performer shares) and the rest, the chest's distance in
+front of the line from the pelvis to the head in the truth and in the
+reconstruction, and the six joints with the largest error.
+
 OpenBLAS is pinned to one thread (small matrices per frame; threads only
 compete on a busy machine).
 """
@@ -106,6 +114,66 @@ def errors(out, truth) -> dict:
     per_frame = np.linalg.norm(a - b, axis=-1).mean(axis=1) * s
     rel = np.linalg.norm((a - a[:, :1]) - (b - b[:, :1]), axis=-1)[:, 1:].mean() * s
     return {"mean_cm": float(per_frame.mean()), "max_cm": float(per_frame.max()), "root_relative_mean_cm": float(rel)}
+
+
+def carriage(out, truth) -> dict:
+    """Where a take's error sits, pelvis-relative, in the truth's heading frame (cm).
+
+    Each joint's position relative to the pelvis is expressed in the truth's
+    heading frame (left from its right to its left thigh, up, forward), per
+    frame. ``per_joint``: each joint's mean error; ``relative_cm``: the mean
+    over joints and frames; ``constant_cm``: the mean over joints of the
+    length of the take's mean offset (what one fixed correction per joint
+    would remove: a carriage, a build); ``varying_cm``: the mean error left
+    once that offset is removed. ``chest_forward_cm``: the chest's mean
+    distance in front of the line from the pelvis to the head, ``(truth,
+    reconstruction)``: how the trunk is carried, which six markers see only
+    through the head.
+    """
+    from mocapkit.features import find_up_axis
+    from mocapkit.rigs import roles
+
+    a, b = body_motion(out), body_motion(truth)
+    s = unit_scale_cm(truth.skeleton)
+    pa, pb = a.global_positions(), b.global_positions()
+    role = roles(b.skeleton)
+    up = find_up_axis(b.skeleton, pb)
+    left = pb[:, role["left_thigh"]] - pb[:, role["right_thigh"]]
+    left = left - (left @ up)[:, None] * up
+    left /= np.linalg.norm(left, axis=-1, keepdims=True)
+    frame = np.stack([left, np.broadcast_to(up, left.shape), np.cross(left, up)], axis=1)  # (F, 3, 3) rows
+
+    def local(p):
+        return np.einsum("fij,fkj->fki", frame, p - p[:, :1]) * s
+
+    d = local(pa) - local(pb)
+    mean_offset = d.mean(axis=0)
+
+    def chest_forward(p):
+        pelvis, head, chest = p[:, role["pelvis"]], p[:, role["head"]], p[:, role["chest"]]
+        axis = (head - pelvis) / np.linalg.norm(head - pelvis, axis=-1, keepdims=True)
+        v = chest - pelvis
+        v = v - np.sum(v * axis, axis=-1, keepdims=True) * axis
+        return float(np.mean(np.sum(v * frame[:, 2], axis=-1)) * s)
+
+    return {"per_joint": np.linalg.norm(d, axis=-1).mean(axis=0), "relative_cm": float(np.linalg.norm(d, axis=-1).mean()),
+            "constant_cm": float(np.linalg.norm(mean_offset, axis=-1).mean()),
+            "varying_cm": float(np.linalg.norm(d - mean_offset, axis=-1).mean()),
+            "chest_forward_cm": (chest_forward(pb), chest_forward(pa)), "joints": b.skeleton.joint_names}
+
+
+def carriage_summary(pairs) -> dict:
+    """Frame-weighted :func:`carriage` over ``pairs`` of ``(frames, carriage dict)``: the figures and the six
+    joints with the largest mean error."""
+    w = np.array([f for f, _ in pairs], dtype=np.float64)
+    per_joint = np.average([c["per_joint"] for _, c in pairs], axis=0, weights=w)
+    names = pairs[0][1]["joints"]
+    worst = np.argsort(per_joint)[::-1][:6]
+    out = {k: float(np.average([c[k] for _, c in pairs], weights=w)) for k in ("relative_cm", "constant_cm", "varying_cm")}
+    chest = np.average([c["chest_forward_cm"] for _, c in pairs], axis=0, weights=w)
+    out["chest_forward_cm"] = {"truth": float(chest[0]), "reconstruction": float(chest[1])}
+    out["worst_joints_cm"] = {names[j]: float(per_joint[j]) for j in worst}
+    return out
 
 
 def main(argv=None) -> int:
@@ -253,7 +321,7 @@ def leave_one_out(args, log) -> int:
     per_locomotion = 1 if args.quick else args.locomotion_clips  # 0: every clip of the class
     max_frames = 90 if args.quick else args.max_frames
     rng = np.random.default_rng(args.seed)
-    actors, rows = {}, []
+    actors, rows, carried = {}, [], {}
     for actor in B.ACTORS:
         db_paths, tests = B.scenario(actor, None)
         db = B.database(db_paths, args.fps, ("F15",))
@@ -279,6 +347,8 @@ def leave_one_out(args, log) -> int:
                    "previous_cm": errors(before, truth)["mean_cm"], "baseline_nn_cm": errors(nn, truth)["mean_cm"],
                    "ms_per_frame": 1000.0 * dt / truth.num_frames}
             rows.append(row)
+            if row["locomotion"]:
+                carried.setdefault(actor, []).append((truth.num_frames, carriage(out, truth)))
             log(f"{actor} {path.stem}: {row['method_cm']:.2f} cm (previous defaults: {row['previous_cm']:.2f}, "
                 f"nn {row['baseline_nn_cm']:.2f}), {row['ms_per_frame']:.1f} ms/frame")
         mine = [r for r in rows if r["actor"] == actor]
@@ -294,8 +364,13 @@ def leave_one_out(args, log) -> int:
             **{f"{part}_{key}": avg(sel, key) for part, sel in (("locomotion", loco), ("all", [r for r in mine if r["in_all"]]))
                for key in ("method_cm", "previous_cm", "baseline_nn_cm")},
             "ms_per_frame": avg(mine, "ms_per_frame"),
+            "locomotion_carriage": carriage_summary(carried[actor]),
         }
-        log(f"held out {actor}: locomotion {actors[actor]['locomotion_method_cm']:.2f} cm, all {actors[actor]['all_method_cm']:.2f} cm")
+        c = actors[actor]["locomotion_carriage"]
+        log(f"held out {actor}: locomotion {actors[actor]['locomotion_method_cm']:.2f} cm, all {actors[actor]['all_method_cm']:.2f} cm; "
+            f"pelvis-relative {c['relative_cm']:.2f} cm, {c['varying_cm']:.2f} cm with each joint's mean offset per take "
+            f"removed (those offsets {c['constant_cm']:.2f} cm long); chest {c['chest_forward_cm']['truth']:+.1f} cm in "
+            f"front of the pelvis-head line (reconstructed {c['chest_forward_cm']['reconstruction']:+.1f})")
 
     figures, baselines, targets = {}, {}, {}
     for actor, a in actors.items():
@@ -314,6 +389,10 @@ def leave_one_out(args, log) -> int:
         "max_frames": max_frames, "markers": MARKERS,
         "noise": "uniform within 1 mm per coordinate",
         "error": "frame-weighted mean of the per-frame average global joint-position error, cm, on the actor's own skeleton",
+        "carriage": ("locomotion_carriage of each actor and style: where the error sits (reconstruct_markers.carriage, "
+                     "frame-weighted over the locomotion clips): pelvis-relative in the truth's heading frame, the part one "
+                     "constant offset per joint and take explains (constant_cm) and the rest (varying_cm), the chest's "
+                     "distance in front of the pelvis-head line in the truth and the reconstruction, the six worst joints"),
         "k": args.k if args.k is not None else "markers.default_neighbours of each database (see actors)",
         "head_weight": args.head_weight,
         "previous": {"k": PREVIOUS["k"], "head_weight": 1.0}, "prior_weight": args.prior_weight, "smooth_weight": args.smooth_weight,
@@ -361,7 +440,7 @@ def bandai_folds(args, rng, log) -> dict:
         MotionDatabase.build([t.path for t in train], fps=args.fps, progress=False).save(db_dir, overwrite=True)
     db = MotionDatabase.open(db_dir)
     build_s = time.perf_counter() - t0
-    styles, rows = {}, []
+    styles, rows, carried = {}, [], {}
     max_frames = 90 if args.quick else args.max_frames
     for style in args.bandai_styles.split(","):
         mine = [t for t in held if t.style == style and t.content in BANDAI_LOCOMOTION]
@@ -387,6 +466,7 @@ def bandai_folds(args, rng, log) -> dict:
                    "baseline_nn_cm": errors(nn, truth)["mean_cm"],
                    "ms_per_frame": 1000.0 * dt / truth.num_frames}
             rows.append(row)
+            carried.setdefault(style, []).append((truth.num_frames, carriage(out, truth)))
             log(f"bandai {style} {take.path.name}: {row['method_cm']:.2f} cm (previous defaults {row['previous_cm']:.2f}, "
                 f"nn {row['baseline_nn_cm']:.2f}), {row['ms_per_frame']:.1f} ms/frame")
         sel = [r for r in rows if r["style"] == style]
@@ -394,8 +474,13 @@ def bandai_folds(args, rng, log) -> dict:
         styles[style] = {"takes": len(sel), "frames": int(sum(w)),
                          "locomotion_method_cm": float(np.average([r["method_cm"] for r in sel], weights=w)),
                          "locomotion_previous_cm": float(np.average([r["previous_cm"] for r in sel], weights=w)),
-                         "locomotion_baseline_nn_cm": float(np.average([r["baseline_nn_cm"] for r in sel], weights=w))}
-        log(f"held out Bandai style {style}: locomotion {styles[style]['locomotion_method_cm']:.2f} cm")
+                         "locomotion_baseline_nn_cm": float(np.average([r["baseline_nn_cm"] for r in sel], weights=w)),
+                         "locomotion_carriage": carriage_summary(carried[style])}
+        c = styles[style]["locomotion_carriage"]
+        log(f"held out Bandai style {style}: locomotion {styles[style]['locomotion_method_cm']:.2f} cm; pelvis-relative "
+            f"{c['relative_cm']:.2f} cm, {c['varying_cm']:.2f} cm with each joint's mean offset per take removed; chest "
+            f"{c['chest_forward_cm']['truth']:+.1f} cm in front of the pelvis-head line (reconstructed "
+            f"{c['chest_forward_cm']['reconstruction']:+.1f})")
     return {"scenario": "Bandai Namco styles held out (dataset-2 elderly, dataset-1 styles not in dataset-2); "
                         "database every other take at 30 fps, memory-mapped",
             "database": {"takes": len(train), "frames": db.num_frames, "open_or_build_s": build_s},
