@@ -14,13 +14,20 @@ is the same matrix ``R = Rz @ Ry @ Rx``. Orders may name one, two or three axes
 (ASF joints often have fewer than three degrees of freedom).
 
 We cross to :class:`scipy.spatial.transform.Rotation` only with
-``scalar_first=True`` (see :func:`to_scipy`, :func:`from_scipy`).
+``scalar_first=True`` (see :func:`to_scipy`, :func:`from_scipy`). It is
+imported where it is used: ``scipy.spatial`` takes about 0.3 s to import,
+which every ``import mocapkit`` and every command would pay otherwise (reading
+a take never needs it; its Euler conversion is the hand-written one below).
 """
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
-from scipy.spatial.transform import Rotation
+
+if TYPE_CHECKING:
+    from scipy.spatial.transform import Rotation
 
 __all__ = [
     "identity",
@@ -402,6 +409,8 @@ def matrix_to_quaternion(m: np.ndarray) -> np.ndarray:
     m = np.asarray(m, dtype=np.float64)
     if m.shape[-2:] != (3, 3):
         raise ValueError(f"rotation matrices: expected shape (..., 3, 3), got {m.shape}")
+    from scipy.spatial.transform import Rotation
+
     shape = m.shape[:-2]
     q = from_scipy(Rotation.from_matrix(m.reshape(-1, 3, 3)))
     q = np.where(q[:, :1] < 0, -q, q)
@@ -410,6 +419,8 @@ def matrix_to_quaternion(m: np.ndarray) -> np.ndarray:
 
 def to_scipy(q: np.ndarray) -> Rotation:
     """A scipy ``Rotation`` from (..., 4) w-first quaternions (flattened to (N, 4))."""
+    from scipy.spatial.transform import Rotation
+
     q = check_quaternions(q)
     return Rotation.from_quat(q.reshape(-1, 4), scalar_first=True)
 
