@@ -155,3 +155,25 @@ def test_modelled_points_are_left_alone(shared_data):
     assert not (res.filled | res.spikes | res.swapped)[:, modelled].any()
     assert res.filled[:, ~modelled].any()  # the markers' gaps are filled
     assert not any(f.marker in {ms.labels[i] for i in np.flatnonzero(modelled)} for f in res.fixes)
+
+
+def test_frames_where_no_marker_is_seen_at_the_edges_stay_missing(cmu):
+    # The subject not yet in view (frames 0-59) and gone (from 700): nothing there to fill from, so those frames stay
+    # missing; a marker's gap reaching the first seen frame is filled from that end, near the truth.
+    truth = np.asarray(cmu.positions, dtype=np.float64)
+    x = truth.copy()
+    x[:60] = np.nan
+    x[700:] = np.nan
+    x[60:80, 5] = np.nan
+    res = clean_markers(dataclasses.replace(cmu, positions=x), steps="gaps")
+    out = np.asarray(res.markers.positions)
+    assert np.all(np.isnan(out[:60])) and np.all(np.isnan(out[700:]))
+    assert np.all(np.isfinite(out[60:700]))
+    seen = ~np.isnan(x)
+    assert np.array_equal(out[seen], x[seen])
+    err = np.linalg.norm(out[60:80, 5] - truth[60:80, 5], axis=-1)
+    assert err.max() < 30.0  # mm
+    assert res.unseen_start == (0, 60) and res.unseen_end == (700, len(x))
+    assert any("frames 0-59 at the take's start see no marker" in line for line in res.summary())
+    (gap,) = [fx for fx in res.fixes if fx.kind == "gap"]
+    assert (gap.start, gap.end) == (60, 80) and np.isfinite(gap.size_mm)

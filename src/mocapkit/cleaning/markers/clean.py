@@ -64,6 +64,10 @@ class MarkerCleanResult:
     fixes : tuple of MarkerFix
     never_seen : tuple of str
         Markers missing in the whole take (still missing).
+    unseen_start, unseen_end : (int, int)
+        The frames ``a <= f < b`` at the take's start and end where no marker
+        is seen at all (the subject out of view): left missing, as there is
+        nothing to fill them from (:func:`~mocapkit.cleaning.markers.gaps.fill_gaps`).
     """
 
     markers: object
@@ -73,6 +77,8 @@ class MarkerCleanResult:
     swapped: np.ndarray
     fixes: tuple[MarkerFix, ...]
     never_seen: tuple[str, ...]
+    unseen_start: tuple[int, int] = (0, 0)
+    unseen_end: tuple[int, int] = (0, 0)
 
     @property
     def changed(self) -> np.ndarray:
@@ -90,6 +96,9 @@ class MarkerCleanResult:
         left = int(np.sum(self.markers.missing()))
         if left:
             lines.append(f"{left} samples still missing")
+        for where, (a, b) in (("start", self.unseen_start), ("end", self.unseen_end)):
+            if b > a:
+                lines.append(f"frames {a}-{b - 1} at the take's {where} see no marker: left missing (nothing to fill from)")
         if self.never_seen:
             lines.append(f"missing in the whole take, left missing: {', '.join(self.never_seen)}")
         return lines
@@ -179,7 +188,7 @@ def clean_markers(markers, *, steps=STEPS, spike_mm: float = 15.0, swap_mm: floa
                 fixes.append(MarkerFix(labels[r.marker], r.start, r.end, "spike", size * unit_mm))
             else:
                 a, b = r.start, r.end
-                ends = [t for t in (a - 1, b) if 0 <= t < f]
+                ends = [t for t in (a - 1, b) if 0 <= t < f and not np.any(np.isnan(y[t, r.marker]))]
                 ref = out[ends, r.marker]
                 u = (np.arange(1, b - a + 1) / (b - a + 1))[:, None]
                 line = (1 - u) * ref[0] + u * ref[-1]
@@ -196,7 +205,10 @@ def clean_markers(markers, *, steps=STEPS, spike_mm: float = 15.0, swap_mm: floa
         return mask
 
     cleaned = markers.with_positions(out) if hasattr(markers, "with_positions") else dataclasses.replace(markers, positions=out)
+    seen_any = np.flatnonzero(~np.all(np.isnan(x), axis=(1, 2)))
+    lo, hi = (int(seen_any[0]), int(seen_any[-1]) + 1) if seen_any.size else (f, f)
     return MarkerCleanResult(markers=cleaned, original=markers, filled=expand(filled), spikes=expand(spikes),
                              swapped=expand(swapped), fixes=tuple(fixes),
-                             never_seen=tuple(labels[i] for i in np.flatnonzero(never)))
+                             never_seen=tuple(labels[i] for i in np.flatnonzero(never)),
+                             unseen_start=(0, lo) if seen_any.size else (0, 0), unseen_end=(hi, f))
 

@@ -44,13 +44,19 @@ from one of the two nearest markers (pattern fill) and the low-rank model of
 the nearest markers (Gløersen and Federolf 2016,
 :mod:`mocapkit.cleaning.markers.lowrank`) over a window around the gap
 compete in the same way; with nothing seen at all the gap stays missing.
+Frames at the take's start or end where no marker at all is seen (the
+subject not yet in the capture volume, or gone from it) are left missing
+too: nothing is seen there to fill from, and a fill would be made up (a
+fixed pose or a straight-line extrapolation, metres from where the
+subject appears). The take's frames between them are filled as above, a
+gap reaching those frames from one end, as a gap at the take's edge is.
 
 Positions are (F, M, 3), frames first, in the capture's unit; NaN is unseen.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from itertools import combinations
 
 import numpy as np
@@ -371,7 +377,8 @@ def fill_gaps(positions: np.ndarray, *, stats: DistanceStats | None = None, cand
     -------
     filled : float array (F, M, 3)
         Observed samples unchanged (bit-identical); gaps filled; markers
-        never seen, and gaps nothing could fill, still NaN.
+        never seen, frames before the first and after the last frame where
+        any marker is seen, and gaps nothing could fill, still NaN.
     fills : list of GapFill
         One record per filled gap.
     """
@@ -383,6 +390,15 @@ def fill_gaps(positions: np.ndarray, *, stats: DistanceStats | None = None, cand
         return out, []
     if stats is None:
         stats = distance_stats(pos)
+    seen_any = np.flatnonzero(~np.all(missing, axis=1))
+    if seen_any.size == 0:
+        return out, []
+    lo, hi = int(seen_any[0]), int(seen_any[-1]) + 1
+    if lo > 0 or hi < f:  # no marker seen at the take's start or end: left missing, the rest filled as a take
+        inner, inner_records = fill_gaps(pos[lo:hi], stats=stats, candidates=candidates, keep=keep, max_gap=max_gap,
+                                         constrain=constrain, predictors=predictors)
+        out[lo:hi] = inner
+        return out, [replace(r, start=r.start + lo, end=r.end + lo) for r in inner_records]
     order = donor_order(stats)
     records = []
     for m in np.flatnonzero(np.any(missing, axis=0) & ~np.all(missing, axis=0)):
