@@ -27,6 +27,11 @@ class MocapFormatError(MocapError, ValueError):
             where = f"{where}:{line}"
         super().__init__(f"{where}: {reason}")
 
+    def __reduce__(self):
+        # rebuilt from its own arguments: the default (the message as the one argument) cannot call this
+        # __init__, so an error raised in a worker process broke the process pool instead of reaching the caller
+        return type(self), (self.path, self.reason, self.line)
+
 
 class SkeletonError(MocapError, ValueError):
     """A skeleton is malformed or two skeletons do not match where they must."""

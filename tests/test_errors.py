@@ -1,0 +1,27 @@
+"""The exception hierarchy: errors keep their one-line form across a pickle, as raised in a worker process."""
+
+from __future__ import annotations
+
+import pickle
+
+import pytest
+
+from mocapkit.errors import MocapFormatError, SkeletonError
+from mocapkit.parallel import map_ordered
+
+
+def _raise_format_error(path):
+    raise MocapFormatError(path, "skeleton differs from the database's", line=3)
+
+
+def test_format_error_survives_a_pickle():
+    err = pickle.loads(pickle.dumps(MocapFormatError("take.bvh", "cut short", line=12)))
+    assert (err.path, err.reason, err.line, str(err)) == ("take.bvh", "cut short", 12, "take.bvh:12: cut short")
+    assert str(pickle.loads(pickle.dumps(MocapFormatError(None, "no input")))) == "<input>: no input"
+    assert str(pickle.loads(pickle.dumps(SkeletonError("two roots")))) == "two roots"
+
+
+def test_format_error_in_a_worker_process_reaches_the_caller():
+    # before, unpickling it in the parent failed and the pool reported BrokenProcessPool instead
+    with pytest.raises(MocapFormatError, match=r"^[ab]\.bvh:3: skeleton differs"):
+        map_ordered(_raise_format_error, ["a.bvh", "b.bvh"], executor="processes", progress=False, max_workers=2)
