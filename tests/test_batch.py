@@ -366,3 +366,30 @@ def test_leftovers_of_a_killed_worker_are_swept_and_nothing_else(tmp_path, short
     (out / ".walk.bvh.bvh.b.part").write_text("not of this batch either")
     assert clean_batch(src, out, steps=STEPS, executor="serial", progress=False).count("done") == 1
     assert sorted(p.name for p in out.iterdir()) == [".mine.bvh.a.part", ".walk.bvh.bvh.b.part", "walk.bvh", "walk.clean.npz"]
+
+
+def test_amc_outputs_get_their_asf_beside_them(tmp_path):
+    # an AMC holds no skeleton: --format amc copies each take's ASF into its output folder, so the outputs read back
+    src = tmp_path / "in"
+    (src / "hdm").mkdir(parents=True)
+    shutil.copy(samples.path("12.asf"), src / "12.asf")
+    (src / "12_walk.amc").write_bytes(samples.path("12_walk.amc").read_bytes())
+    shutil.copy(samples.path("HDM_bd.asf"), src / "hdm" / "HDM_bd.asf")
+    amc = samples.path("HDM_bd_jogLeftCircle4StepsRstart_001_120.amc")
+    (src / "hdm" / amc.name).write_bytes(amc.read_bytes())
+    out = tmp_path / "out"
+    s = clean_batch(src, out, steps=STEPS, fmt="amc", executor="serial", progress=False)
+    assert s.count("done") == 2
+    assert (out / "12.asf").read_bytes() == samples.path("12.asf").read_bytes()
+    assert (out / "hdm" / "HDM_bd.asf").read_bytes() == samples.path("HDM_bd.asf").read_bytes()
+    for inp, outp in ((src / "12_walk.amc", out / "12_walk.amc"), (src / "hdm" / amc.name, out / "hdm" / amc.name)):
+        assert mocapkit.load(outp).num_frames == mocapkit.load(inp).num_frames
+    # someone else's file of that name is replaced only with --overwrite, and refused before any take is cleaned
+    shutil.rmtree(out)
+    out.mkdir()
+    (out / "12.asf").write_text("someone else's skeleton")
+    with pytest.raises(MocapFormatError, match=r"12\.asf: exists and differs from the skeleton"):
+        clean_batch(src, out, steps=STEPS, fmt="amc", executor="serial", progress=False)
+    assert sorted(p.name for p in out.rglob("*")) == ["12.asf"]
+    clean_batch(src, out, steps=STEPS, fmt="amc", executor="serial", progress=False, overwrite=True)
+    assert (out / "12.asf").read_bytes() == samples.path("12.asf").read_bytes()

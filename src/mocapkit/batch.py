@@ -559,6 +559,7 @@ def clean_batch(
              "report": str(files["report"]) if files["report"] else None,
              "png": str(files["png"]) if files["png"] else None,
              "asf": str(asf) if asf is not None and inp.suffix.lower() == ".amc" else None} for inp, files in todo]
+    skeletons = _asf_copies(inputs, plans, asf, overwrite) if fmt == "amc" else {}
     expected = [f for files in plans for f in files.values() if f is not None]
     _sweep(expected)
     try:
@@ -566,9 +567,58 @@ def clean_batch(
     finally:
         _sweep(expected)  # what a killed worker could not remove
     summary.rows += rows
+    _place_asfs(skeletons, summary.rows)
     summary.rows.sort(key=lambda r: r["input"])
     summary.seconds = time.perf_counter() - t0
     return summary
+
+
+def _asf_copies(inputs: list[Path], plans: list[dict], asf, overwrite: bool) -> dict[Path, tuple[Path, list[str]]]:
+    """For ``--format amc``: each ASF skeleton the AMC outputs need beside them, checked before any take is cleaned.
+
+    An AMC holds no skeleton: read back, it takes the ASF beside it (named
+    after its prefix, or the only one in its folder; :func:`mocapkit.io.asfamc.find_asf`),
+    so each input AMC's ASF is copied, under its own name, into its output's
+    folder. Returns ``{destination: (source ASF, [input AMCs that need it])}``.
+    A destination that exists with other contents is replaced only with
+    ``overwrite`` (else :class:`~mocapkit.errors.MocapFormatError`, nothing
+    written); two different ASFs of one name for one folder are refused.
+    """
+    from .io.takes import asf_of
+
+    out: dict[Path, tuple[Path, list[str]]] = {}
+    for inp, files in zip(inputs, plans):
+        if files["output"].suffix.lower() != ".amc":
+            continue
+        src = asf_of(inp, asf)
+        if src is None:
+            continue  # the take cannot be read either: its row says so
+        dst = files["output"].parent / src.name
+        if dst in out and out[dst][0].read_bytes() != src.read_bytes():
+            raise MocapFormatError(dst, f"two different skeletons of this name ({out[dst][0]}, {src}) would be "
+                                        "copied here for the AMC outputs; give --asf or write another format")
+        out.setdefault(dst, (src, []))[1].append(str(inp))
+    for dst, (src, _) in out.items():
+        if dst.exists() and not overwrite and (not dst.is_file() or dst.read_bytes() != src.read_bytes()):
+            raise MocapFormatError(dst, f"exists and differs from the skeleton ({src}) the AMC outputs need beside "
+                                        "them; use --overwrite to replace it")
+    return out
+
+
+def _place_asfs(skeletons: dict[Path, tuple[Path, list[str]]], rows: list[dict]) -> None:
+    """Copy each ASF of :func:`_asf_copies` beside the AMC outputs written (atomically), once its takes are done."""
+    from .io import atomic_write
+
+    done = {r["input"] for r in rows if r["status"] in ("done", "skipped")}
+    for dst, (src, takes) in skeletons.items():
+        if not done.intersection(takes):
+            continue
+        data = src.read_bytes()
+        if dst.is_file() and dst.read_bytes() == data:
+            continue
+        dst.parent.mkdir(parents=True, exist_ok=True)
+        with atomic_write(dst, "wb") as fh:
+            fh.write(data)
 
 
 def _sweep(paths) -> None:
