@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import re
 
 import numpy as np
 import pytest
@@ -81,11 +82,17 @@ def test_change_sizes_and_reasons(result, take, found):
             assert np.isnan(c.max_deg) and c.as_dict()["max_deg"] is None and "was missing" in str(c)
         if "fill" in c.step:
             assert "missing in" in c.reason
-        if "repair" in c.step:
-            assert "self-similarity" in c.reason or "flagged joint" in c.reason
+        if "repair" in c.step:  # the rule that flagged it first, the MDM after it
+            assert re.search(r"flagged(: [a-z/, -]+)? .*\(MDM up to \d\.\d\d\)", c.reason) or "flagged joint" in c.reason
         if "denoise" in c.step:
             assert "noisy" in c.reason
     json.dumps([c.as_dict() for c in found], allow_nan=False)  # the report embeds them as JSON
+
+
+def test_a_small_change_never_reads_as_zero(found):
+    c = dataclasses.replace(found[0], max_deg=0.0134)
+    assert "(" + c.step + ", 0.013 deg)" in str(c)
+    assert "2.0 deg)" in str(dataclasses.replace(found[0], max_deg=2.04))
 
 
 def test_all_accept_gives_the_cleaned_take_and_all_reject_the_input(result, take, found):

@@ -120,7 +120,7 @@ class Change:
         return d
 
     def __str__(self) -> str:
-        size = "was missing" if math.isnan(self.max_deg) else f"{self.max_deg:.1f} deg"
+        size = "was missing" if math.isnan(self.max_deg) else f"{_deg(self.max_deg)} deg"
         return f"{self.id}: {self.joint} frames {self.first}-{self.last} ({self.step}, {size})"
 
 
@@ -177,6 +177,11 @@ def _check_take(original: Motion, result) -> None:
                          f"{result.fps:g} fps; this take has {original.num_frames} at {original.fps:g})")
 
 
+def _deg(x: float) -> str:
+    """A change's size: one decimal, or two significant digits under 0.1 deg (a real change never reads 0.0)."""
+    return f"{x:.1f}" if x >= 0.1 or x == 0 else f"{x:.2g}"
+
+
 def _angles_deg(q0: np.ndarray, q1: np.ndarray) -> np.ndarray:
     """Geodesic angle (degrees) between unit quaternions (..., 4); NaN where either is missing."""
     dot = np.abs(np.sum(q0 * q1, axis=-1))
@@ -193,8 +198,10 @@ def _reason(result, step_code: int, j: int, a: int, b: int, missing: np.ndarray)
         mdm = float(np.nanmax(result.mdm[a:b + 1, j])) if result.mdm.size else float("nan")
         flagged = bool(result.flags[a:b + 1, j].any())
         causes = getattr(result, "causes", None)
-        why = "" if causes is None or not flagged else ": " + ", ".join(cause_names(causes[a:b + 1, j]))
-        parts.append(f"flagged by self-similarity (MDM up to {mdm:.2f}){why}" if flagged
+        rules = [] if causes is None or not flagged else cause_names(causes[a:b + 1, j])
+        # the rule first: the held, swap, offset and drift rules flag below the MDM threshold too
+        parts.append(f"flagged: {', '.join(rules)} (MDM up to {mdm:.2f})" if rules
+                     else f"flagged by self-similarity (MDM up to {mdm:.2f})" if flagged
                      else "repaired with a flagged joint")
     if step_code & 4:
         level = result.noise[a:b + 1, j]

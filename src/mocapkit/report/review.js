@@ -48,7 +48,7 @@
       el("td", { text: c.joint }, tr);
       el("td", { "class": "num", text: c.first === c.last ? String(c.first) : c.first + "-" + c.last }, tr);
       el("td", { text: c.step, title: c.method }, tr);
-      el("td", { "class": "num", text: c.max_deg === null ? "was missing" : c.max_deg.toFixed(1) + " deg" }, tr);
+      el("td", { "class": "num", text: c.max_deg === null ? "was missing" : (c.max_deg >= 0.1 || c.max_deg === 0 ? c.max_deg.toFixed(1) : c.max_deg.toPrecision(2)) + " deg" }, tr);
       el("td", { "class": "reason", text: c.reason }, tr);
       var jt = el("td", { "class": "jump" }, tr);
       var jb = el("button", { type: "button", "class": "jump", "data-index": String(k), text: "jump to frame " + c.first }, jt);
