@@ -58,7 +58,7 @@ def draw_channels(axes, motions: Sequence[Motion], joint: str, labels: Sequence[
     for row, name in enumerate(names):
         axes[row].set_ylabel(f"{name.split('.')[-1]} (deg)")
         axes[row].grid(alpha=0.3)
-    axes[0].legend(loc="upper right", fontsize=8)
+    axes[0].legend(loc="best", fontsize=8)  # where it hides the least of the curves and the changed spans
     axes[-1].set_xlabel("time (s)")
 
 

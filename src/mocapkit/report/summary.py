@@ -56,9 +56,11 @@ def plot_summary(result, original: Motion, path, joints: int = 2, title: str | N
             ax.axvspan(a - 0.5, b - 0.5, color="0.5", alpha=0.3, lw=0)  # the map's x axis counts frames
         said = "; ".join(str(c) for c in calib)
         ax.set_title(f"{label}: movement digression map" + (f" ({said})" if said else ""), loc="left", fontsize=10, pad=28)
-        if handles:
+        if handles:  # on the title's line, above the map's time axis (its tick labels sit right above the map)
+            from matplotlib.transforms import ScaledTranslation
+
             ax.legend(handles=handles, loc="lower right", bbox_to_anchor=(1.0, 1.0), ncol=len(handles), fontsize=8,
-                      frameon=False)
+                      frameon=False, bbox_transform=ax.transAxes + ScaledTranslation(0, 22 / 72, fig.dpi_scale_trans))
         r = 1
         for j, n in zip(picks, rows):
             axes = [fig.add_subplot(grid[r + i, 0]) for i in range(n)]
