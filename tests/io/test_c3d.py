@@ -265,7 +265,7 @@ def _peer(shared_data, rel):
     ("BTKData/Input/C3DSamples/c3d.org/sample10/TYPE-4.C3D", 199, 13),
     ("BTKData/Input/C3DSamples/c3d.org/sample02/sgi_int.c3d", 89, 36),  # big-endian, 11-block section
     ("BTKData/Input/C3DSamples/c3d.org/sample02/sgi_real.c3d", 89, 36),
-    ("pyomeca+ezc3d-testFiles/Optotrak.c3d", 29, 54),  # truncated: the frames that are there
+    ("pyomeca+ezc3d-testFiles/Optotrak.c3d", 29, 54),  # whole frames, fewer than stated: the frames that are there
     ("BTKData/Input/C3DSamples/c3d.org/sample28/type1.C3D", 296, 28),
     ("BTKData/Input/C3DSamples/c3d.org/sample15/FP1.C3D", 480, 8),
 ])
@@ -410,3 +410,141 @@ def test_a_non_standard_file_does_not_make_ezc3d_take_gigabytes(shared_data):
     frames, markers, reader, peak_mb = res.stdout.split()
     assert (int(frames), int(markers), reader) == (5065, 2, "c3d"), res.stderr
     assert int(peak_mb) < 1024, f"peak resident memory {peak_mb} MB"
+
+
+# --- files cut short; integer files written back bit for bit ------------------------------------------
+
+
+@pytest.mark.parametrize("size, reason", [
+    (600, "truncated file: the parameter section claims 9 blocks, the file ends inside it"),
+    (3000, "truncated file: the parameter section claims 9 blocks, the file ends inside it"),
+    (50000, "truncated file: the data block stops partway through frame 67 of the 450 frames the header and "
+            "POINT:FRAMES declare (26 points and 64 analog samples a frame, stored as floats); the file is cut short"),
+    (100000, "truncated file: the data block stops partway through frame 142 of the 450 frames"),
+    (150000, "truncated file: the data block stops partway through frame 216 of the 450 frames"),
+])
+def test_a_c3d_cut_short_is_refused_as_truncated(tmp_path, size, reason):
+    # cut inside its data block, the bundled trial was read short (66, 141, 215 frames), exit 0
+    cut = tmp_path / "cut.c3d"
+    cut.write_bytes(mocapkit.samples.path("Eb015pr.c3d").read_bytes()[:size])
+    msg = refusal_of_load(cut)
+    assert msg.startswith(f"{cut}: {reason}"), msg
+
+
+@pytest.mark.parametrize("name", ["c3d_markers/Gait.c3d", "c3d_markers_recovery/85_12.c3d", "c3d_markers/Eb015pi.c3d"])
+def test_shared_c3d_files_cut_anywhere_are_refused_as_truncated(shared_data, tmp_path, name):
+    # BTK's Gait.c3d (DEC, 16-bit integers) cut at 50 KB said "unknown length unit 'mm\x00\x00'": its
+    # header scale was read as an IEEE float (2e21, so floats), and the c3d package read the 54 frames there
+    data = (shared_data / name).read_bytes()
+    cut = tmp_path / "cut.c3d"
+    for size in (600, 3000, 50000, 100000, 200000):
+        if size >= len(data):
+            continue
+        cut.write_bytes(data[:size])
+        with pytest.raises(MocapFormatError) as exc:
+            read_c3d(cut)
+        msg = str(exc.value)
+        assert msg.startswith(f"{cut}: truncated file: ") and "\n" not in msg, (size, msg)
+        if size >= 50000:
+            assert msg.endswith("the file is cut short"), (size, msg)
+    cut.write_bytes(data[:50000])
+    if name.endswith("Gait.c3d"):
+        assert refusal_of_load(cut).endswith("frame 55 of the 487 frames the header and POINT:FRAMES declare "
+                                             "(33 points and 280 analog samples a frame, stored as 16-bit integers); "
+                                             "the file is cut short")
+
+
+def test_whole_frames_fewer_than_stated_are_read_and_a_cut_frame_refused(tmp_path):
+    # whole frames, fewer than the header and POINT:FRAMES state, are read as ezc3d and the c3d package read
+    # them (ezc3d-testFiles Optotrak.c3d); a header overstating its frames while POINT:FRAMES states what the
+    # file holds is read too (a writer's quirk); a frame cut partway is a file cut short
+    import struct
+
+    data = bytearray(mocapkit.samples.path("Eb015pr.c3d").read_bytes())
+    start = (struct.unpack_from("<H", data, 16)[0] - 1) * 512
+    frame = (4 * 26 + 64) * 4
+    whole = tmp_path / "whole.c3d"
+    whole.write_bytes(bytes(data[: start + 100 * frame]))
+    full = read_c3d(mocapkit.samples.path("Eb015pr.c3d"))
+    assert np.array_equal(read_c3d(whole).positions, full.positions[:100], equal_nan=True)
+    whole.write_bytes(bytes(data[: start + 100 * frame + 7]))
+    with pytest.raises(MocapFormatError, match="stops partway through frame 101 of the 450 frames"):
+        read_c3d(whole)
+    struct.pack_into("<h", data, parameter_offset(bytes(data), "POINT", "FRAMES"), 100)
+    stated = tmp_path / "stated.c3d"
+    stated.write_bytes(bytes(data[: start + 100 * frame]))
+    ms = read_c3d(stated)
+    assert ms.num_frames == 100 and ms.reader == "c3d"
+    assert np.array_equal(ms.positions, full.positions[:100], equal_nan=True)
+    stated.write_bytes(bytes(data[: start + 99 * frame + 7]))
+    with pytest.raises(MocapFormatError, match="stops partway through frame 100 of the 100 frames POINT:FRAMES declares"):
+        read_c3d(stated)
+
+
+def _integer_c3d(path, frames=30, rate=100.0, scale=0.1):
+    """A small integer C3D (positive POINT:SCALE) written by the c3d package: three markers, one gap."""
+    import warnings
+
+    import c3d
+
+    rng = np.random.default_rng(7)
+    w = c3d.Writer(point_rate=rate, point_scale=scale)
+    rows = []
+    for i in range(frames):
+        p = np.zeros((3, 5), dtype=np.float32)
+        p[:, :3] = np.arange(3)[:, None] * 523.4567 + i * 1.37 + rng.normal(0.0, 3.0, (3, 3))
+        p[:, 3] = 0.5 if i != 4 else -1.0  # frame 5: every marker occluded
+        rows.append((p, np.zeros((0, 0))))
+    w.add_frames(rows)
+    w.set_point_labels(["A", "B", "C"])
+    with open(path, "wb") as fh, warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        w.write(fh)
+    return path
+
+
+def test_an_integer_c3d_written_back_reads_bit_identical(tmp_path):
+    from mocapkit.io import load_markers, save_markers
+
+    src = load_markers(_integer_c3d(tmp_path / "int.c3d"))
+    assert src.reader == "ezc3d" and src.num_frames == 30 and src.missing()[4].all()
+    # int16 * scale, as the float32 a float C3D holds (it was int16 * scale in float64, which float32 cannot hold)
+    assert np.array_equal(src.positions, src.positions.astype(np.float32).astype(np.float64), equal_nan=True)
+    back = load_markers(save_markers(src, tmp_path / "back.c3d"))
+    assert np.array_equal(back.positions, src.positions, equal_nan=True)
+    assert np.array_equal(back.residuals, src.residuals)
+    # a command that changes some samples: the others come back bit for bit
+    changed = np.array(src.positions)
+    changed[10:12, 1] += 0.123456789
+    back = load_markers(save_markers(src.with_positions(changed), tmp_path / "changed.c3d"))
+    keep = np.ones(changed.shape[:2], dtype=bool)
+    keep[10:12, 1] = False
+    assert np.array_equal(back.positions[keep], src.positions[keep], equal_nan=True)
+
+
+@pytest.mark.parametrize("name", ["Eb015pi.c3d", "Gait.c3d"])
+def test_real_integer_c3d_files_round_trip_bit_identical(shared_data, tmp_path, name):
+    # golden: `mocapkit convert Gait.c3d gg.c3d` gave back 2.6 % of Gait's samples identical (1.2e-4 mm off)
+    from mocapkit.io import load_markers, save_markers
+
+    path = shared_data / "c3d_markers" / name
+    src = load_markers(path)
+    assert float(_params(src)["POINT"]["SCALE"]["value"][0]) > 0  # stored as integers
+    back = load_markers(save_markers(src, tmp_path / name))
+    assert np.array_equal(back.positions, src.positions, equal_nan=True)
+    seen = ~src.missing()
+    assert np.array_equal(back.residuals[seen], src.residuals[seen])
+    assert np.array_equal(back.source.analogs, src.source.analogs)
+    again = load_markers(save_markers(back, tmp_path / f"again_{name}"))
+    assert np.array_equal(again.positions, src.positions, equal_nan=True)
+
+
+def test_the_integer_and_float_copies_of_one_trial_read_the_same(shared_data):
+    # c3d.org's Eb015pi.c3d (integers, scale 1/12) and Eb015pr.c3d (floats) hold one trial: read the same,
+    # bit for bit, now that the integers are read as the float32 a float C3D holds
+    integer = read_c3d(shared_data / "c3d_markers" / "Eb015pi.c3d")
+    real = read_c3d(shared_data / "c3d_markers" / "Eb015pr.c3d")
+    assert integer.positions[0, 0].tolist() == [248.58334350585938, 226.83334350585938, 37.41666793823242]
+    assert np.array_equal(integer.positions, real.positions, equal_nan=True)
+    assert np.array_equal(integer.residuals, real.residuals)
+    assert np.array_equal(integer.source.analogs, real.source.analogs)

@@ -340,7 +340,8 @@ def test_c3d_header_claims_more_frames_than_the_file_holds(tmp_path):
     struct.pack_into("<H", b, 8, 0xFFFF)  # last frame 65535
     p = tmp_path / "m.c3d"
     p.write_bytes(bytes(b))
-    # read as ezc3d and the c3d package read a file cut short (ezc3d-testFiles Optotrak.c3d): the whole frames there
+    # read as ezc3d and the c3d package read a file of whole frames, fewer than stated (ezc3d-testFiles
+    # Optotrak.c3d): the whole frames there
     assert mocapkit.load(p).num_frames == fuzz_readers.TRIM_FRAMES
     p.write_bytes(bytes(b[: (struct.unpack_from("<H", b, 16)[0] - 1) * 512 + 100]))  # not even one frame
     with pytest.raises(MocapFormatError, match="truncated file: 65535 frames of 26 points .* not even one whole frame"):

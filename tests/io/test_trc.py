@@ -220,4 +220,68 @@ def test_mutated_trc_files_read_sanely_or_are_refused_in_one_line(tmp_path):
         assert got.positions.shape == (got.num_frames, got.num_markers, 3)
         assert not np.isinf(got.positions).any() and got.fps > 0 and got.unit_cm > 0
         outcomes["ok"] += 1
-    assert outcomes["ok"] > 50 and outcomes["refused"] > 50  # both paths exercised
+    # both paths exercised (44 read: mutants that lose rows are refused as cut short since NumFrames is checked)
+    assert outcomes["ok"] > 30 and outcomes["refused"] > 50
+
+
+# --- files cut short --------------------------------------------------------------------------------
+
+
+def test_a_trc_cut_short_is_refused(shared_data, tmp_path):
+    # the user trial: `head -c 200000 SprintMotion.trc` was read as a 111-frame take, exit 0
+    data = _file(shared_data, f"{TRC}/SprintMotion.trc").read_bytes()
+    cut = tmp_path / "t.trc"
+    cut.write_bytes(data[:200000])
+    assert refusal_of_load(cut) == (f"{cut}:117: truncated file: it has 111 of the 788 frames its header declares "
+                                    "(NumFrames), the last cut mid-row; the file is cut short")
+    lines = data.split(b"\n")
+    cut.write_bytes(b"\n".join(lines[:50]) + b"\n")  # cut on a line break
+    with pytest.raises(MocapFormatError, match="it has 44 of the 788 frames its header declares"):
+        read_trc(cut)
+
+
+def _trc_text(frames=6, markers=3, num_frames=None, last_row=None, end="\n"):
+    """A small TRC text: ``frames`` rows of ``markers`` markers; NumFrames ``num_frames`` ("" for none)."""
+    rows = [f"{i + 1}\t{i / 100:.6f}\t" + "\t".join(f"{100 * k + i + 0.5:.5f}" for k in range(3 * markers))
+            for i in range(frames)]
+    if last_row is not None:
+        rows[-1] = last_row
+    nf = str(frames) if num_frames is None else num_frames
+    head = ["PathFileType\t4\t(X/Y/Z)\tx.trc", "DataRate\tCameraRate\tNumFrames\tNumMarkers\tUnits",
+            f"100.00\t100.00\t{nf}\t{markers}\tmm", "Frame#\tTime\t" + "\t\t\t".join(f"m{k}" for k in range(markers)),
+            "\t\t" + "\t".join(f"X{k + 1}\tY{k + 1}\tZ{k + 1}" for k in range(markers)), ""]
+    return "\n".join(head + rows) + end
+
+
+def test_a_last_row_cut_mid_line_is_refused_without_numframes(tmp_path):
+    path = tmp_path / "c.trc"
+    text = _trc_text(num_frames="")
+    path.write_text(text[: text.rindex("\t") - 3])  # cut inside the last row's 8th number, no NumFrames
+    with pytest.raises(MocapFormatError) as exc:
+        read_trc(path)
+    assert exc.value.line == 12 and exc.value.reason == (
+        "truncated file: the last row holds 8 of the 9 values its 3 markers need and ends without a line break; "
+        "the file is cut short")
+    path.write_text(text[: text.rindex("\t")] + "\t1.5e")  # cut inside an exponent
+    with pytest.raises(MocapFormatError, match=r"field 11 is '1\.5e', not a number \(the file ends in this row "
+                                               r"without a line break: cut short\?\)"):
+        read_trc(path)
+
+
+@pytest.mark.parametrize("variant", ["no NumFrames", "NumFrames 0", "NumFrames below the rows", "NumFrames not a number",
+                                     "no final line break", "CRLF", "blank lines after", "trailing markers missing"])
+def test_trc_variants_that_are_not_cut_short_still_read(tmp_path, variant):
+    full = _trc_text()
+    short_last = "6\t0.050000\t0.50000\t100.50000\t200.50000"  # markers 2 and 3 unseen in the last row
+    text = {
+        "no NumFrames": _trc_text(num_frames=""), "NumFrames 0": _trc_text(num_frames="0"),
+        "NumFrames below the rows": _trc_text(num_frames="4"), "NumFrames not a number": _trc_text(num_frames="n/a"),
+        "no final line break": _trc_text(end=""), "CRLF": full.replace("\n", "\r\n"),
+        "blank lines after": full + "\n\n", "trailing markers missing": _trc_text(last_row=short_last),
+    }[variant]
+    path = tmp_path / "v.trc"
+    path.write_bytes(text.encode())
+    ms = read_trc(path)
+    assert (ms.num_frames, ms.num_markers) == (6, 3)
+    assert ms.positions[0, 2].tolist() == [600.5, 700.5, 800.5]
+    assert ms.missing()[5, 1:].all() == (variant == "trailing markers missing")

@@ -29,11 +29,19 @@ MARKER_FORMATS = {".c3d": "c3d", ".trc": "trc", ".npz": "npz"}
 
 
 def suffix_kind(path: Path, table: dict, verb: str) -> str:
+    """The format ``table`` gives ``path``'s suffix; a one-line MocapFormatError for an unknown one."""
     suf = path.suffix.lower()
     if suf not in table:
         known = ", ".join(sorted(table))
         raise MocapFormatError(path, f"unknown suffix {suf or '(none)'!r} for {verb}; known: {known}")
     return table[suf]
+
+
+def _not_a_folder(path: Path, table: dict) -> None:
+    """Refuse a folder given where one file is read, saying so (its suffix, usually none, says nothing)."""
+    if path.is_dir():
+        known = ", ".join(sorted(table))
+        raise MocapFormatError(path, f"a folder, not a file: give one of the files in it ({known})")
 
 
 def load(path, **kwargs):
@@ -42,6 +50,7 @@ def load(path, **kwargs):
     Keyword arguments go to the format's reader (e.g. ``asf=`` and ``fps=`` for AMC).
     """
     path = Path(path)
+    _not_a_folder(path, READERS)
     kind = suffix_kind(path, READERS, "reading")
     if not path.is_file():
         raise MocapFormatError(path, "no such file" if not path.exists() else "not a regular file")
@@ -63,10 +72,11 @@ def load_markers(path, **kwargs) -> MarkerSet:
 
     Keyword arguments go to the reader: ``zeros_as_gaps`` (True, False, or
     None to decide from the data) for .c3d and .trc. Raises
-    :class:`~mocapkit.errors.MocapFormatError` for an unknown suffix, a file
+    :class:`~mocapkit.errors.MocapFormatError` for a folder, an unknown suffix, a file
     that is not a marker file (an npz holding a Motion) or any reader error.
     """
     path = Path(path)
+    _not_a_folder(path, MARKER_FORMATS)
     kind = suffix_kind(path, MARKER_FORMATS, "reading markers")
     if not path.is_file():
         raise MocapFormatError(path, "no such file" if not path.exists() else "not a regular file")

@@ -6,14 +6,21 @@ parameter is not an INT"; big-endian SGI files), a header that claims no points
 (the PhaseSpace sample), no ``POINT:DATA_START`` parameter, or analog samples
 in the header's frames without ``ANALOG:RATE``, which make ezc3d read the data
 block from the wrong offset or with the wrong frame size (c3d.org sample28), or
-a data block cut short (ezc3d-testFiles Optotrak.c3d); for those the
+a data block holding fewer whole frames than the header states
+(ezc3d-testFiles Optotrak.c3d: 29 of the 1,149 frames its header and
+POINT:FRAMES state, read as ezc3d and the c3d package read it); for those the
 pure-Python ``c3d`` package reads the data block, and the MarkerSet records
-which reader was used in ``reader``. Samples stored as exact (0, 0, 0) gaps
-are read as missing (:func:`~mocapkit.markerset.zero_gap_mask`).
+which reader was used in ``reader``. A data block that stops partway through
+a frame is a file cut short, refused as truncated BVH and AMC files are.
+Samples stored as exact (0, 0, 0) gaps are read as missing
+(:func:`~mocapkit.markerset.zero_gap_mask`).
 
 :func:`write_c3d` writes float point data with ezc3d and keeps every other
-parameter group and the analog channels of the file read. C3D format: Motion
-Lab Systems, "The C3D File Format User Guide" (c3d.org).
+parameter group and the analog channels of the file read. Coordinates and
+analog samples are read as the float32 values a float C3D holds
+(:func:`_float32_values`), so that what is written back reads the same, bit
+for bit, wherever a command did not change it, integer files included. C3D
+format: Motion Lab Systems, "The C3D File Format User Guide" (c3d.org).
 """
 
 from __future__ import annotations
@@ -62,6 +69,25 @@ _MODELLED = MODELLED_GROUPS
 
 class _NoPoints(Exception):
     """ezc3d read the file and found no 3D points; the message says what it holds instead."""
+
+
+def _float32_values(values) -> np.ndarray:
+    """``values`` (point coordinates or analog samples) as float64 holding the float32 nearest each.
+
+    What :func:`write_c3d` writes is float32, because ezc3d writes float data
+    only: it cannot keep an integer file's storage (int16 and POINT:SCALE),
+    which would have been the better way. A float C3D holds float32 already;
+    an integer one (positive POINT:SCALE: Eb015pi.c3d, BTK's Gait.c3d) holds
+    ``int16 * scale``, which ezc3d and the c3d package compute in float64 and
+    float32 cannot all hold: written back, 97 % of Gait's samples came back
+    up to 1.2e-4 mm off. Rounded here (by at most half a float32 step, 3e-5 mm
+    at a metre, far below any integer file's scale), every sample reads the
+    same from the file and from what the writer makes of it, so a sample a
+    command did not change reads back bit-identical. Residuals are kept as
+    read: ezc3d writes them as whole multiples of the scale, truncating, and
+    a residual rounded down to float32 would lose one.
+    """
+    return np.asarray(values, dtype=np.float64).astype(np.float32).astype(np.float64)
 
 
 def _ezc3d_parameters(c) -> dict:
@@ -129,15 +155,15 @@ def _read_ezc3d(path: Path):
         if f"LABELS{k}" not in params:
             break
         labels += list(params[f"LABELS{k}"]["value"])
-    units = params["UNITS"]["value"][0].strip() if "UNITS" in params and len(params["UNITS"]["value"]) else ""
-    xyz = np.transpose(pts[:3], (2, 1, 0)).astype(np.float64)
+    units = params["UNITS"]["value"][0] if "UNITS" in params and len(params["UNITS"]["value"]) else ""
+    xyz = _float32_values(np.transpose(pts[:3], (2, 1, 0)))
     resid = np.array(c["data"]["meta_points"]["residuals"][0].T, dtype=np.float64)  # (F, M)
     xyz[resid < 0] = np.nan
     modelled = set()
     for key in _MODELLED:
         if key in params and params[key]["type"] == -1:
             modelled.update(str(v).strip() for v in np.ravel(params[key]["value"]))
-    analogs = np.asarray(c["data"]["analogs"], dtype=np.float64)
+    analogs = _float32_values(c["data"]["analogs"])
     source = MarkerSource(
         format="c3d",
         parameters=_ezc3d_parameters(c),
@@ -198,7 +224,6 @@ def _read_c3d_package(path: Path):
         units = ""
         if unit_param is not None:  # one unit, or one per point (ezc3d-testFiles Optotrak.c3d): the first
             units = (list(unit_param.string_array.reshape(-1)) or [""])[0] if len(unit_param.dimensions) > 1 else unit_param.string_value
-            units = str(units).strip()
         fps = _point_rate(path, reader.point_rate)
         try:
             parameters = _c3d_package_parameters(reader)
@@ -215,12 +240,12 @@ def _read_c3d_package(path: Path):
         first = int(reader.first_frame)
     if data.shape[1] == 0:
         raise MocapFormatError(path, "C3D file holds no 3D points")
-    xyz = data[..., :3].copy()
+    xyz = _float32_values(data[..., :3])
     resid = data[..., 3].copy()
     xyz[resid < 0] = np.nan
     analogs = None
     if analog and np.asarray(analog[0]).size:
-        a = np.asarray(analog, dtype=np.float64)  # (F, A, ratio)
+        a = _float32_values(analog)  # (F, A, ratio)
         analogs = a.transpose(1, 0, 2).reshape(a.shape[1], -1)
     source = MarkerSource(format="c3d", parameters=parameters, analogs=analogs, first_frame=max(first, 1))
     return _clean_labels(labels, xyz.shape[1]), xyz, resid, fps, units, "c3d", source, modelled
@@ -257,12 +282,16 @@ def _check_structure(path: Path, b: bytes) -> bool:
     the file's size: the header key, the parameter section pointer and its
     block count, every parameter record (name, type -1/1/2/4, at most 7
     dimensions, its data and description inside the section, the pointer to
-    the next record moving forward) and that the data block the header
-    describes (points, analog samples, frames, integer or float) fits in the file,
-    and that an integer ``POINT:USED`` agrees with the header's point count (a
-    section claiming 32,767 markers against a header of 33 is refused, not read).
-    Returns whether ezc3d may read the file: False when a parameter it relies on
-    has an unexpected type or no value (the pure-Python reader copes with those).
+    the next record moving forward), that the data block the header
+    describes (points, analog samples, frames, integer or float) fits in the
+    file (one that stops partway through a frame is cut short and refused:
+    :func:`_frames_held`), and that an integer
+    ``POINT:USED`` agrees with the header's point count (a section claiming
+    32,767 markers against a header of 33 is refused, not read). Returns
+    whether ezc3d may read the file: False when a parameter it relies on has
+    an unexpected type or no value, or the file holds fewer whole frames than
+    the header states (the pure-Python reader copes with those and reads the
+    frames there).
     """
     n = len(b)
 
@@ -285,6 +314,7 @@ def _check_structure(path: Path, b: bytes) -> bool:
     if start + nblocks * 512 > n:
         fail(f"truncated file: the parameter section claims {nblocks} blocks, the file ends inside it")
     end = n  # real files understate the block count (c3d.org's Dance, golfswing): records may run on
+    past_end = f"runs past the end of the file ({n} bytes): the file is cut short or its parameter section malformed"
     section_end = start + nblocks * 512
     i = start + 4
     groups: dict[int, str] = {}
@@ -299,7 +329,7 @@ def _check_structure(path: Path, b: bytes) -> bool:
         name = b[i + 2 : i + 2 + nlen]
         at = i + 2 + nlen
         if at + 2 > end:
-            fail(f"parameter record at byte {i} runs past the parameter section")
+            fail(f"parameter record at byte {i} {past_end}")
         if not all(32 <= c < 127 for c in name):
             if i >= section_end:
                 break  # past the section's stated blocks, this is data, not a record (c3d.org sgi_int.c3d)
@@ -317,7 +347,7 @@ def _check_structure(path: Path, b: bytes) -> bool:
                 need += b[body]
         else:
             if body + 2 > end:
-                fail(f"parameter {name.decode()} runs past the parameter section")
+                fail(f"parameter {name.decode()} {past_end}")
             typ = struct.unpack_from("b", b, body)[0]
             ndim = b[body + 1]
             if typ not in (-1, 1, 2, 4):
@@ -335,7 +365,7 @@ def _check_structure(path: Path, b: bytes) -> bool:
             if body + need <= end:
                 need += b[body + need - 1]
         if body + need > end:
-            fail(f"parameter record {name.decode()} runs past the parameter section")
+            fail(f"parameter record {name.decode()} {past_end}")
         count += 1
         if nxt == 0:
             break
@@ -363,7 +393,7 @@ def _check_structure(path: Path, b: bytes) -> bool:
         ezc3d_ok = False  # analog samples without their scaling parameters (ezc3d: SIGSEGV)
     if points and ("POINT", "USED") not in have:
         ezc3d_ok = False
-    scale = struct.unpack_from(e + "f", b, 12)[0]
+    scale = _float(b, proc, 12)
     data_start = struct.unpack_from(e + "H", b, 16)[0]
     if points == 0:
         return ezc3d_ok  # some writers leave the header empty; the parameters decide (the fallback reader)
@@ -380,18 +410,81 @@ def _check_structure(path: Path, b: bytes) -> bool:
         fail(f"header: last frame {last} comes before the first frame {first}")
     if data_start < 2:
         fail(f"header: data block at block {data_start}")
-    size = 4 if (proc == 85 or scale < 0 or not np.isfinite(scale)) else 2
+    held, partial, frames, declared, who = _frames_held(b, proc, e, groups, typed, value_at, points, analog, first,
+                                                        last, data_start, scale)
+    if held >= frames:
+        return ezc3d_ok
+    if held == 0:
+        need = (data_start - 1) * 512 + frames * (4 * points + analog) * _sample_bytes(scale)
+        fail(f"truncated file: {frames} frames of {points} points and {analog} analog samples need "
+             f"{need} bytes, the file has {n}, not even one whole frame")
+    if held < declared and partial:
+        # A copy or download cut short. The c3d package read the whole frames there, so a cut file passed for
+        # a short take, or failed on what it then read (BTK's Gait.c3d cut at 50 KB: "unknown length unit").
+        fail(f"truncated file: the data block stops partway through frame {held + 1} of the {declared} frames "
+             f"{who} ({points} points and {analog} analog samples a frame, stored as "
+             f"{'16-bit integers' if _sample_bytes(scale) == 2 else 'floats'}); the file is cut short")
+    # Whole frames, fewer than stated (ezc3d-testFiles Optotrak.c3d: 29 of 1,149, a file every peer reader reads
+    # so), or a header stating more frames than POINT:FRAMES: the pure-Python reader reads the frames there.
+    return False
+
+
+def _float(b: bytes, proc: int, at: int) -> float:
+    """The 32-bit float at byte ``at`` in the file's processor format (84 Intel, 85 DEC, 86 big-endian IEEE).
+
+    A DEC (VAX F) float is an IEEE float with its two 16-bit words swapped and
+    an exponent 2 higher (the C3D user guide's conversion): read as IEEE, a
+    DEC file's scale was a meaningless 2e21 (BTK's Gait.c3d, 0.0744 in fact).
+    """
+    if proc == 85:
+        return struct.unpack("<f", bytes((b[at + 2], b[at + 3], b[at], b[at + 1])))[0] / 4.0
+    return struct.unpack_from(">f" if proc == 86 else "<f", b, at)[0]
+
+
+def _frames_held(b, proc, e, groups, typed, value_at, points, analog, first, last, data_start, scale):
+    """How many whole frames the data block holds, against what the header and the parameters declare.
+
+    Returns ``(held, partial, frames, declared, who)``: ``frames`` the
+    header's count, ``declared`` the smaller of it and ``POINT:FRAMES`` (a
+    take trimmed by rewriting the header's last frame is not cut short),
+    ``who`` naming which declares it, ``partial`` whether bytes of a frame
+    not whole follow the last whole one. The storage format is the header
+    scale's sign (negative: 4-byte floats, else 16-bit integers); where
+    ``POINT:SCALE`` has the other sign, the format holding more frames counts.
+    """
     frames = last - first + 1
-    need = (data_start - 1) * 512 + frames * (4 * points + analog) * (2 if size == 2 else 4)
-    if need > n and (data_start - 1) * 512 + frames * (4 * points + analog) * 2 > n:
-        frame_bytes = (4 * points + analog) * (2 if size == 2 else 4)
-        if (data_start - 1) * 512 + frame_bytes > n:
-            fail(f"truncated file: {frames} frames of {points} points and {analog} analog samples need "
-                 f"{need} bytes, the file has {n}, not even one whole frame")
-        # Cut short (ezc3d-testFiles Optotrak.c3d): the frames that are there are read, as
-        # ezc3d and the c3d package read them, by the pure-Python reader that stops at the end.
-        return False
-    return ezc3d_ok
+    counts = [frames]
+    param_frames = _int_parameter(b, e, groups, typed, value_at, "POINT", "FRAMES")
+    if param_frames is None:
+        at = _param_at(groups, typed, value_at, "POINT", "FRAMES", 4)
+        if at is not None:
+            value = _float(b, proc, at)
+            param_frames = int(value) if np.isfinite(value) and 0 < value < 2**31 else None
+    if param_frames:
+        counts.append(param_frames)
+    declared = min(counts)
+    who = ("the header and POINT:FRAMES declare" if counts == [frames, frames]
+           else "the header declares" if declared == frames else "POINT:FRAMES declares")
+    sizes = {_sample_bytes(scale)}
+    at = _param_at(groups, typed, value_at, "POINT", "SCALE", 4)
+    if at is not None:
+        sizes.add(_sample_bytes(_float(b, proc, at)))
+    body = max(len(b) - (data_start - 1) * 512, 0)
+    held, rest = max(divmod(body, (4 * points + analog) * size) for size in sizes)
+    return held, rest > 0, frames, declared, who
+
+
+def _sample_bytes(scale: float) -> int:
+    """Bytes per stored value for a point scale: 4 (floats) when it is negative (or not a number), else 2."""
+    return 2 if np.isfinite(scale) and scale >= 0 else 4
+
+
+def _param_at(groups: dict, typed: list, value_at: dict, group: str, name: str, typ: int) -> int | None:
+    """Byte offset of the first value of parameter GROUP:NAME when it has type ``typ`` and a value, else None."""
+    for gid, pname, ptyp, size in typed:
+        if groups.get(gid) == group and pname == name and ptyp == typ and size >= abs(typ):
+            return value_at[(gid, pname)]
+    return None
 
 
 def _int_parameter(b: bytes, e: str, groups: dict, typed: list, value_at: dict, group: str, name: str) -> int | None:
@@ -454,10 +547,11 @@ def read_c3d(path, zeros_as_gaps: bool | None = None) -> MarkerSet:
     :func:`write_c3d` writes back.
 
     Raises :class:`~mocapkit.errors.MocapFormatError` for a malformed header or
-    parameter section (checked before any reader runs), a data block the file
-    is too short for, a non-positive frame rate, infinite coordinates, no
-    points, a length unit that is not one, or when neither ezc3d nor the
-    fallback reader can make sense of the file.
+    parameter section (checked before any reader runs), a file cut short
+    (inside its parameter section, or a data block of fewer frames than it
+    states), a non-positive frame rate, infinite coordinates, no points, a
+    length unit that is not one, or when neither ezc3d nor the fallback reader
+    can make sense of the file.
     """
     path = Path(path)
     try:
@@ -493,7 +587,7 @@ def read_c3d(path, zeros_as_gaps: bool | None = None) -> MarkerSet:
                 reason = f"not a readable C3D file ({first_error or exc})"
             raise MocapFormatError(path, reason.replace("\n", " ")) from exc
     labels, xyz, resid, fps, units, reader, source, modelled = got
-    units = units or "mm"
+    units = str(units).replace("\x00", " ").strip() or "mm"  # NUL-padded in some files (and cut ones)
     unit_cm = checked_unit_cm(path, units)
     zeros = apply_zero_gaps(labels, xyz, resid, unit_cm, zeros_as_gaps, modelled)
     markers = MarkerSet(labels=labels, positions=xyz, fps=fps, units=units, name=path.stem, reader=reader,
@@ -587,7 +681,10 @@ def _c3d_object(markers: MarkerSet, source: MarkerSource | None):
 def write_c3d(markers: MarkerSet, path, *, like=None) -> None:
     """Write ``markers`` to a float C3D file with ezc3d, atomically (temp file + rename).
 
-    Points are written as float32 (POINT:SCALE -1), missing samples with
+    Points are written as float32 (POINT:SCALE -1: ezc3d writes no integer
+    data, so an integer file comes back as a float one; :func:`read_c3d`
+    reads both as float32 values, so every sample not changed reads back
+    bit-identical), missing samples with
     residual -1 (and NaN coordinates, which ezc3d and the ``c3d`` package both
     read back as missing), seen ones with the take's residuals (0 for a sample
     a cleaner changed or filled: "interpolated" in C3D's convention). Labels,

@@ -46,7 +46,8 @@ def read_trc(path, zeros_as_gaps: bool | None = None) -> MarkerSet:
     Raises :class:`~mocapkit.errors.MocapFormatError` naming the file and line
     for a file that is not a TRC (first line), a header cut short, a missing
     or non-positive frame rate, an unknown unit, a field that is not a number,
-    or no data rows.
+    no data rows, or a file cut short (fewer rows than NumFrames, or a last
+    row cut partway through: :func:`_check_complete`).
     """
     path = Path(path)
     try:
@@ -93,16 +94,20 @@ def read_trc(path, zeros_as_gaps: bool | None = None) -> MarkerSet:
     while labels_raw and not labels_raw[-1]:
         labels_raw.pop()
     rows, numbers = [], []
+    last_fields = last_line = 0
+    ends_in_row = not text.endswith(("\n", "\r"))  # no line break after the last line: cut there, or a writer's habit
     for n, line in enumerate(lines[5:], start=6):
+        hint = " (the file ends in this row without a line break: cut short?)" if ends_in_row and n == len(lines) else ""
         if not line.strip():
             continue
         f = _fields(line)
+        last_fields, last_line = len(f), n
         while f and not f[-1].strip():
             f.pop()
         try:
             frame = int(float(f[0]))
         except (ValueError, OverflowError):
-            raise MocapFormatError(path, f"frame number {f[0][:20]!r} is not a number", line=n) from None
+            raise MocapFormatError(path, f"frame number {f[0][:20]!r} is not a number{hint}", line=n) from None
         vals = np.full(len(f) - 2 if len(f) > 2 else 0, np.nan)
         for j, v in enumerate(f[2:]):
             v = v.strip()
@@ -110,7 +115,7 @@ def read_trc(path, zeros_as_gaps: bool | None = None) -> MarkerSet:
                 try:
                     vals[j] = float(v)
                 except ValueError:
-                    raise MocapFormatError(path, f"field {j + 3} is {v[:20]!r}, not a number", line=n) from None
+                    raise MocapFormatError(path, f"field {j + 3} is {v[:20]!r}, not a number{hint}", line=n) from None
         if np.isinf(vals).any():
             raise MocapFormatError(path, f"infinite coordinate in field {int(np.flatnonzero(np.isinf(vals))[0]) + 3}", line=n)
         rows.append(vals)
@@ -127,6 +132,8 @@ def read_trc(path, zeros_as_gaps: bool | None = None) -> MarkerSet:
         raise MocapFormatError(path, f"header field NumMarkers says {int(stated)} markers, the file names and holds "
                                f"at most {present}", line=3)
     m = int(stated) or present
+    _check_complete(path, header, len(rows), last_fields - 2, m, last_line,
+                    ends_in_row=ends_in_row and last_line == len(lines))
     data = np.full((len(rows), 3 * m), np.nan)
     for i, r in enumerate(rows):
         data[i, : min(len(r), 3 * m)] = r[: 3 * m]
@@ -138,6 +145,34 @@ def read_trc(path, zeros_as_gaps: bool | None = None) -> MarkerSet:
                           first_frame=numbers[0])
     return MarkerSet(labels=labels, positions=xyz, fps=fps, units=units, name=path.stem, reader="trc",
                      source=source, zero_gaps=zeros)
+
+
+def _check_complete(path: Path, header: dict, frames: int, last_values: int, m: int, last_line: int,
+                    ends_in_row: bool) -> None:
+    """Refuse a TRC file cut short: fewer rows than NumFrames, or a last row cut partway through.
+
+    A copy or download cut short otherwise reads as a shorter take (111 of
+    SprintMotion.trc's 788 frames, its last row ending mid-number) that a
+    command would then write out as if whole. ``ends_in_row``: the file ends
+    on its last row (line ``last_line``) without a line break; there a row
+    with fewer than the ``3 * m`` values its markers need is cut, not a row
+    whose trailing markers are missing (those end with a line break: rows of
+    BTK's Gait.trc and the Unnamed samples stop at their last seen marker).
+    A NumFrames that is absent, 0 or not a whole number, or below the rows
+    there (the header of a take trimmed by hand), says nothing of a cut.
+    """
+    cut = ends_in_row and last_values < 3 * m
+    try:
+        declared = float(header.get("NumFrames", "") or 0)
+    except ValueError:
+        declared = 0.0
+    if math.isfinite(declared) and declared == int(declared) and frames < declared:
+        raise MocapFormatError(path, f"truncated file: it has {frames} of the {int(declared)} frames its header "
+                               f"declares (NumFrames){', the last cut mid-row' if cut else ''}; the file is cut short",
+                               line=last_line)
+    if cut:
+        raise MocapFormatError(path, f"truncated file: the last row holds {max(last_values, 0)} of the {3 * m} values "
+                               f"its {m} markers need and ends without a line break; the file is cut short", line=last_line)
 
 
 def _labels(raw: list[str], m: int) -> tuple[str, ...]:
