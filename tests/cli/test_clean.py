@@ -145,6 +145,22 @@ def test_clean_batch_serial_resume_and_failure(tmp_path, capsys):
     assert sorted(p.name for p in out2.rglob("*") if p.is_file()) == ["131_01.bvh", "131_01.clean.npz"]
 
 
+def test_a_failed_batch_row_names_the_input_once(tmp_path, capsys):
+    """A reader's reason names the file already ("PATH:LINE: ..."): the failed line says the path once."""
+    src = tmp_path / "in"
+    src.mkdir()
+    good = Path(samples.path("131_01.bvh")).read_bytes()
+    (src / "good.bvh").write_bytes(good)
+    (src / "bad.bvh").write_bytes(good[:3000])  # truncated inside the hierarchy
+    rc = main(["clean-batch", str(src), str(tmp_path / "out"), "--executor", "serial", "--steps", "fill"])
+    text = capsys.readouterr().out
+    assert rc == 1, text
+    failed = [ln for ln in text.splitlines() if ln.startswith("failed ")]
+    bad = str(src / "bad.bvh")
+    assert len(failed) == 1 and failed[0].count(bad) == 1, failed
+    assert re.match(rf"failed  {re.escape(bad)}:\d+: truncated file", failed[0]), failed
+
+
 def test_clean_batch_on_local_dask_cluster(tmp_path, capsys):
     distributed = pytest.importorskip("distributed")
     src = _corpus(tmp_path)

@@ -90,3 +90,25 @@ def test_executor_is_checked_before_any_work(tmp_path, capsys):
     assert one_error_line(err) and "garbage" in err and not db_dir.exists()
     assert main(["clean-batch", str(tmp_path), str(tmp_path / "out"), "--executor", "garbage"]) == 2
     assert "garbage" in capsys.readouterr().err and not (tmp_path / "out").exists()
+
+
+def test_search_takes_both_spellings_of_neighbors(tmp_path, capsys):
+    """--neighbors and --neighbours (reconstruct's spelling) are one option."""
+    db_dir = tmp_path / "db"
+    assert main(["db", "build", str(db_dir), *_db_sources()[:2], "--executor", "serial"]) == 0
+    query = str(mocapkit.samples.path("HDM_bk_sneak2StepsLStart_005_120.amc"))
+    results = {}
+    for spelling in ("--neighbors", "--neighbours"):
+        capsys.readouterr()
+        assert main(["search", str(db_dir), query, "--k", "2", spelling, "16", "--json"]) == 0
+        results[spelling] = capsys.readouterr().out.strip().splitlines()[-1]
+    assert results["--neighbors"] == results["--neighbours"]
+    code, out, _ = run("search", "--help")
+    assert code == 0 and "--neighbors" in out and "--neighbours" in out
+
+
+def test_db_build_names_fps(tmp_path):
+    db_dir = tmp_path / "db"
+    code, _, err = run("db", "build", str(db_dir), str(mocapkit.samples.path("12_walk.amc")), "--fps", "-5")
+    assert code == 2 and one_error_line(err) and "--fps must be a positive number from 1 to 1000" in err
+    assert not db_dir.exists()

@@ -287,3 +287,47 @@ def test_fill_by_the_network_or_the_prior(tmp_path):
     assert code != 0 and one_error_line(err) and "no gap prior" in err and not out.exists()
     code, _, err = run("fill", str(gin), "-o", str(out), "--by", "spline")
     assert code != 0 and one_error_line(err) and "--by" in err and not out.exists()
+
+
+def test_the_licence_line_names_each_command_own_option(tmp_path):
+    """The licence line says which option picks another model in the command that prints it: fill --model (EBD) and
+    --denoiser (EBF), denoise --model; clean and clean-batch keep --ebf / --ebd."""
+    gin = tmp_path / "gaps.npz"
+    _gappy(mocapkit.load(BANDAI), gin, seed=2)
+    code, out, err = run("fill", str(gin), "-o", str(tmp_path / "f.bvh"))
+    assert code == 0, err
+    text = " ".join(out.split())
+    assert "the EBD used is CC BY-NC 4.0" in text and "--model picks another, e.g. ebd.pt" in text
+    assert "the EBF used is CC BY-NC 4.0" in text and "--denoiser picks another, e.g. ebf.pt" in text
+    assert "clean-batch" not in text and "--ebf" not in text and "--ebd" not in text
+    noisy, _ = corrupt.angular_noise(mocapkit.load(BANDAI), 0.5, seed=3)
+    src = tmp_path / "noisy.bvh"
+    mocapkit.save(noisy, src)
+    code, out, err = run("denoise", str(src), "-o", str(tmp_path / "d.bvh"))
+    assert code == 0, err
+    text = " ".join(out.split())
+    assert "the EBF used is CC BY-NC 4.0" in text and "--model picks another, e.g. ebf.pt" in text
+    assert "clean-batch" not in text and "--ebf" not in text
+
+
+def test_marker_files_are_sent_to_clean(tmp_path):
+    """denoise and fill on a marker capture (.c3d, or a marker .npz) say that `mocapkit clean` cleans it, whatever
+    OUT's suffix: one line naming IN, exit 2, nothing written; a motion to a marker suffix is still OUT's error."""
+    from mocapkit.io import load_markers, save_markers
+
+    c3d = mocapkit.samples.path("Eb015pr.c3d")
+    npz = tmp_path / "markers.npz"
+    save_markers(load_markers(c3d), npz)
+    for inp in (c3d, npz):
+        for command in ("denoise", "fill"):
+            for suffix in (".c3d", ".npz", ".bvh"):
+                out = tmp_path / f"x{suffix}"
+                code, _, err = run(command, str(inp), "-o", str(out))
+                text = " ".join(err.split())
+                assert code == 2 and one_error_line(err), (command, inp, suffix, err)
+                assert f"{inp}: a marker capture; {command} works on skeletal takes" in text, text
+                assert "`mocapkit clean` cleans marker files (fills gaps, removes spikes, undoes swaps)" in text
+                assert "unknown suffix" not in text and "solve it to a skeleton" not in text
+    code, _, err = run("denoise", str(WALK), "-o", str(tmp_path / "x.c3d"))
+    assert code == 2 and one_error_line(err) and "x.c3d: unknown suffix '.c3d' for writing" in err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["markers.npz"]

@@ -1,5 +1,7 @@
 """`mocapkit info`, `convert`, `corrupt` and `plot` on real takes."""
 
+from pathlib import Path
+
 import numpy as np
 
 import mocapkit
@@ -224,3 +226,63 @@ def test_convert_amc_to_amc_and_bvh_to_amc_refused(tmp_path, capsys):
     capsys.readouterr()
     assert main(["convert", SAMPLE, str(tmp_path / "x.amc")]) == 2
     assert "ASF" in capsys.readouterr().err and not (tmp_path / "x.amc").exists()
+
+
+def test_convert_at_the_takes_own_rate_keeps_the_input_text(tmp_path):
+    # AMC to AMC and BVH to BVH without --fps give the input file back, byte for byte (its bone order, digits, line ends)
+    crlf = tmp_path / "walk.amc"
+    crlf.write_bytes(mocapkit.samples.path("12_walk.amc").read_bytes().replace(b"\n", b"\r\n"))
+    asf = mocapkit.samples.path("12.asf")
+    for inp, out in ((crlf, tmp_path / "o.amc"), (Path(SAMPLE), tmp_path / "o.bvh")):
+        extra = ["--asf", str(asf)] if inp.suffix == ".amc" else []
+        assert run("convert", inp, out, *extra)[0] == 0
+        assert out.read_bytes() == inp.read_bytes()
+
+
+def test_plot_names_the_file_that_lacks_the_joint_and_writes_nothing(tmp_path):
+    """A --joint missing from a take, or without rotation channels there, is one line naming that take; no PNG."""
+    noisy = tmp_path / "noisy.npz"
+    assert run("corrupt", SAMPLE, noisy, "--kind", "noise", "--seed", "1")[0] == 0
+    png = tmp_path / "p.png"
+    code, _, err = run("plot", SAMPLE, noisy, "--joint", "Nope", "-o", png)
+    assert code == 2 and one_error_line(err) and "Traceback" not in err and "ValueError" not in err
+    assert f"{SAMPLE}: --joint: no joint 'Nope'" in " ".join(err.split())
+    walk = str(mocapkit.samples.path("12_walk.amc"))  # the ASF spelling: no 'LeftKnee'
+    code, _, err = run("plot", SAMPLE, walk, "--joint", "LeftKnee", "-o", png)
+    assert code == 2 and one_error_line(err) and "is not in list" not in err
+    assert f"{walk}: --joint: no joint 'LeftKnee'" in " ".join(err.split())
+    code, _, err = run("plot", walk, walk, "--joint", "lhipjoint", "-o", png)  # an ASF joint without DOFs
+    assert code == 2 and one_error_line(err)
+    assert f"{walk}: --joint: joint 'lhipjoint' has no rotation channels to plot" in " ".join(err.split())
+    import dataclasses
+
+    m = mocapkit.load(SAMPLE)  # LeftKnee without its Yrotation channel
+    channels = list(m.skeleton.channels)
+    channels[m.skeleton.index("LeftKnee")] = ("Zrotation", "Xrotation")
+    two = tmp_path / "two.bvh"
+    mocapkit.save(dataclasses.replace(m, skeleton=dataclasses.replace(m.skeleton, channels=tuple(channels))), two)
+    code, _, err = run("plot", SAMPLE, two, "--joint", "LeftKnee", "-o", png)
+    assert code == 2 and one_error_line(err)
+    assert f"{two}: --joint: joint 'LeftKnee' lacks the Yrotation channel(s) that {SAMPLE} plots" in " ".join(err.split())
+    assert not png.exists()
+
+
+def test_corrupt_amount_is_one_check_for_every_kind(tmp_path):
+    """--amount must be finite and > 0 whatever the kind: one line naming --amount, exit 2, nothing written."""
+    for kind in ("noise", "uniform", "bias", "spatial", "gaps"):
+        for amount in ("nan", "-1", "0", "inf"):
+            out = tmp_path / f"{kind}.npz"
+            code, _, err = run("corrupt", SAMPLE, out, "--kind", kind, f"--amount={amount}")
+            assert code == 2 and one_error_line(err), (kind, amount, err)
+            assert "--amount must be a finite number greater than 0" in err, (kind, amount, err)
+    assert list(tmp_path.iterdir()) == []
+    assert run("corrupt", SAMPLE, tmp_path / "s.npz", "--kind", "spatial", "--amount", "0.5")[0] == 0
+
+
+def test_convert_names_fps_when_it_is_out_of_range(tmp_path):
+    out = tmp_path / "o.bvh"
+    for fps in ("-5", "nan"):
+        code, _, err = run("convert", SAMPLE, out, "--fps", fps)
+        assert code == 2 and one_error_line(err)
+        assert "--fps must be a positive number from 1 to 1000" in err, err
+    assert not out.exists()

@@ -155,3 +155,28 @@ def test_accelerometer_options_reach_the_method(tmp_path, db_dir, query):
     code, _, err = run("reconstruct", "--db", str(db_dir), "--markers", str(src), "-o", str(tmp_path / "m.npz"),
                        "--synthesis", "regression")
     assert code == 2 and one_error_line(err) and "--accelerometers only" in err
+
+
+def test_neighbours_has_both_spellings_and_a_missing_csv_is_no_such_file(tmp_path, db_dir, query):
+    """--neighbours and --neighbors (search's spelling) are one option; a missing accelerometer CSV is the
+    one-line 'no such file' of every other input."""
+    src = tmp_path / "query.npz"
+    mocapkit.save(query[:60], src)
+    outs = {}
+    for spelling in ("--neighbours", "--neighbors"):
+        outs[spelling] = tmp_path / f"{spelling[2:]}.npz"
+        code, _, err = run("reconstruct", "--db", str(db_dir), "--accelerometers", str(src), "-o", str(outs[spelling]),
+                           spelling, "200")
+        assert code == 0, err
+    assert np.array_equal(mocapkit.load(outs["--neighbours"]).rotations, mocapkit.load(outs["--neighbors"]).rotations)
+    out = tmp_path / "x.npz"
+    code, _, err = run("reconstruct", "--db", str(db_dir), "--accelerometers", str(src), "-o", str(out),
+                       "--neighbors", "0")
+    assert code == 2 and one_error_line(err) and "--neighbours: k must be a positive integer" in err
+    code, stdout, _ = run("reconstruct", "--help")
+    assert code == 0 and "--neighbours" in stdout and "--neighbors" in stdout
+    missing = tmp_path / "missing.csv"
+    code, _, err = run("reconstruct", "--db", str(db_dir), "--accelerometers", str(missing), "-o", str(out))
+    assert code == 2 and one_error_line(err)
+    assert " ".join(err.split()) == f"mocapkit: error: {missing}: no such file"
+    assert not out.exists()

@@ -61,6 +61,7 @@ def test_detect_no_confirm_gives_the_papers_flags(tmp_path):
     words = [w for _, w in ssa.cues.CAUSES]
     assert segments["no-confirm"] and all(g["causes"] == [words[-1]] for g in segments["no-confirm"])
     assert all(g["causes"] and set(g["causes"]) <= set(words[:-1]) for g in segments["confirm"])  # none, or named
+    assert all(g["last"] == g["end"] - 1 >= g["start"] for g in segments["no-confirm"])  # last inclusive, as printed
     assert np.array_equal(confirmed.mdm, paper.mdm)
     assert np.array_equal(paper.flags, paper.mdm > 0.5) and not paper.params.confirm
     assert confirmed.params.confirm and (confirmed.flags <= paper.flags | (confirmed.mdm > 0.25)).all()

@@ -37,7 +37,7 @@ EXIT_INTERRUPTED = 130
 
 app = typer.Typer(
     name="mocapkit",
-    help="Clean and reconstruct human motion-capture data (BVH, ASF/AMC, C3D, npz).",
+    help="Clean and reconstruct human motion-capture data (BVH, ASF/AMC, C3D, TRC, npz).",
     no_args_is_help=True,
     add_completion=False,
     pretty_exceptions_enable=False,
@@ -69,7 +69,7 @@ def _root(
         False, "--version", callback=_show_version, is_eager=True, help="Print the version and exit."
     ),
 ) -> None:
-    """Clean and reconstruct human motion-capture data (BVH, ASF/AMC, C3D, npz)."""
+    """Clean and reconstruct human motion-capture data (BVH, ASF/AMC, C3D, TRC, npz)."""
 
 
 for _fn in (motion.info, motion.convert, motion.corrupt, motion.plot, db.search, ssa.detect, ssa.repair,

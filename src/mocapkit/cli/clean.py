@@ -204,7 +204,10 @@ def _clean_marker_take(inp: Path, out: Path, *, report, png, overwrite: bool, re
 def _take_line(row: dict) -> str:
     """One line per take of a batch: what was found and fixed, or why it failed or was skipped."""
     if row["status"] == "failed":
-        return f"failed  {row['input']}: {row['reason']}"
+        reason, name = str(row["reason"]), str(row["input"])
+        # a reader's reason names the file already ("PATH:LINE: ..."): the path once
+        named = reason.startswith(name) and reason[len(name):len(name) + 1] == ":"
+        return f"failed  {reason}" if named else f"failed  {name}: {reason}"
     if row["status"] == "skipped":
         return f"skipped {row['input']}: {row.get('reason') or 'complete'}"
     found = [plural(row[k], what) for k, what in (("filled", "filled sample"), ("flagged", "flagged sample"),
@@ -230,7 +233,7 @@ def clean_batch(
     report: bool = typer.Option(False, "--report", help="Also write STEM.report.html beside each output."),
     png: bool = typer.Option(False, "--png", help="Also write STEM.summary.png beside each output."),
     pattern: str = typer.Option("*.bvh,*.amc,*.npz,*.c3d,*.trc", "--pattern", help="Comma-separated file name patterns to clean."),
-    fmt: str = typer.Option("auto", "--format", help="Output format: auto (.bvh and .npz kept, others -> .bvh), bvh, amc (ASF/AMC takes, read back with their ASF) or npz."),
+    fmt: str = typer.Option("auto", "--format", help="Output format: auto (.bvh and .npz kept, others -> .bvh), bvh, amc (ASF/AMC takes as AMC, each take's ASF copied beside it) or npz."),
     as_json: bool = typer.Option(False, "--json", help="Print the per-take rows as JSON."),
     ebf: Optional[Path] = _model_option("ebf"),
     ebd: Optional[Path] = _model_option("ebd"),

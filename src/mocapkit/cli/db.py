@@ -49,8 +49,10 @@ def db_build(
 ) -> None:
     """Build a motion database from FILES and save it to OUT_DIR."""
     from ..database import MotionDatabase, check_database_output
+    from ..motion import check_fps
     from ..parallel import describe_executor
 
+    check_fps(fps, "--fps")  # before any work, naming the option
     check_database_output(out_dir, [*files, *([joint_map] if joint_map is not None else [])], overwrite=overwrite)
     check_executor(executor)
     jm = _read_joint_map(joint_map) if joint_map is not None else None
@@ -92,7 +94,8 @@ def search(
     query: Path = typer.Argument(..., metavar="QUERY", help="Query motion (.bvh, .amc, .npz)."),
     k: int = typer.Option(10, "--k", help="Number of matches."),
     features: Optional[str] = typer.Option(None, "--features", help="Feature set (default: the database's first)."),
-    neighbors: int = typer.Option(128, "--neighbors", help="Nearest neighbours per query frame in the lazy neighbourhood graph."),
+    neighbors: int = typer.Option(128, "--neighbors", "--neighbours",
+                                  help="Nearest neighbours per query frame in the lazy neighbourhood graph."),
     method: str = typer.Option("lng", "--method", help="lng (fast, Krüger 2010) or dtw (exact subsequence DTW)."),
     start: Optional[float] = typer.Option(None, "--start", help="Use the query from this time (s)."),
     end: Optional[float] = typer.Option(None, "--end", help="Use the query up to this time (s)."),

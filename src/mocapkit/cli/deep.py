@@ -7,7 +7,7 @@ from typing import Optional
 
 import typer
 
-from ..errors import MocapError, SkeletonError
+from ..errors import MocapError, MocapFormatError, SkeletonError
 from .common import asf_option, check_executor, console, executor_option, guard, overwrite_option, plural
 
 
@@ -29,6 +29,35 @@ def _reference(path: Optional[Path], take, asf: Optional[Path] = None):
         return None
     return check_reference(load_motion(path, asf, purpose="a reference"), path, frames=take.num_frames,
                            joint_names=take.skeleton.joint_names)
+
+
+def _marker_reason(command: str) -> str:
+    return (f"a marker capture; {command} works on skeletal takes (.bvh, .amc, .npz), and `mocapkit clean` cleans "
+            "marker files (fills gaps, removes spikes, undoes swaps)")
+
+
+def _motion_for(inp: Path, out: Path, asf: Optional[Path], command: str):
+    """IN read as a motion once OUT's suffix is checked; a marker capture is refused in one line naming IN (before
+    OUT's suffix, which would be the wrong complaint: a .c3d or .trc by its suffix, a marker .npz once read)."""
+    from .. import io
+    from ..io.takes import load_take
+    from ..motion import Motion
+
+    def motion():
+        take = load_take(inp, asf)
+        if not isinstance(take, Motion):
+            raise MocapFormatError(inp, _marker_reason(command))
+        return take
+
+    if inp.suffix.lower() in (".c3d", ".trc"):
+        raise MocapFormatError(inp, _marker_reason(command))
+    try:
+        io.suffix_kind(out, io.WRITERS, "writing")
+    except MocapFormatError:
+        if inp.suffix.lower() == ".npz" and inp.is_file():
+            motion()  # a marker .npz says so
+        raise
+    return motion()
 
 
 def _no_fallback_option():
@@ -63,14 +92,13 @@ def denoise(
     line (as `clean` does); --no-fallback makes that an error.
     """
     from .. import io
-    from ..io.takes import check_asf, load_motion
+    from ..io.takes import check_asf
     from ..metrics import joint_angle_rms
     from ..reference import joint_angle_errors
 
     guard([out], [inp, asf, model, reference], overwrite)
     check_asf(asf, [inp, reference])
-    io.suffix_kind(out, io.WRITERS, "writing")
-    m = load_motion(inp, asf, purpose="denoise")
+    m = _motion_for(inp, out, asf, "denoise")
     io.check_writable(m, out)
     ref = _reference(reference, m, asf)
     from ..cleaning import deep  # torch: only once the input is read (a bad file fails at once)
@@ -78,7 +106,8 @@ def denoise(
     net = _model(model, "ebf")
     _served(inp, m, net, "ebf", no_fallback)
     try:
-        cleaned, method, note = deep.denoise_or_fallback(m, net, label="shipped" if net is None else "given")
+        cleaned, method, note = deep.denoise_or_fallback(m, net, label="shipped" if net is None else "given",
+                                                         options={"ebf": "--model"})
     except SkeletonError as exc:
         raise MocapError(f"{inp}: {exc}") from None
     io.save(cleaned, out, like=inp, asf=asf)
@@ -119,7 +148,7 @@ def fill(
     """
     from .. import io
     from ..cleaning import deep
-    from ..io.takes import check_asf, load_motion
+    from ..io.takes import check_asf
     from ..reference import filled_error_deg
 
     import numpy as np
@@ -128,8 +157,7 @@ def fill(
         raise MocapError(f"--by must be one of {', '.join(deep.FILL_METHODS)}, got {by!r}")
     guard([out], [inp, asf, model, denoiser, reference], overwrite)
     check_asf(asf, [inp, reference])
-    io.suffix_kind(out, io.WRITERS, "writing")
-    m = load_motion(inp, asf, purpose="fill")
+    m = _motion_for(inp, out, asf, "fill")
     io.check_writable(m, out)
     ref = _reference(reference, m, asf)
     ebd, ebf = _model(model, "ebd"), _model(denoiser, "ebf")
@@ -148,7 +176,8 @@ def fill(
     _served(inp, m, ebd, "ebd", no_fallback)
     try:
         filled, method, note = deep.fill_or_fallback(m, ebd, ebf, smooth=smooth,
-                                                     label="shipped" if ebd is None else "given", method=by)
+                                                     label="shipped" if ebd is None else "given", method=by,
+                                                     options={"ebd": "--model", "ebf": "--denoiser"})
     except (SkeletonError, ValueError) as exc:
         raise MocapError(f"{inp}: {exc}") from None
     io.save(filled, out, like=inp, asf=asf)

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 from typing import Optional
 
@@ -12,7 +13,7 @@ from .common import asf_option, console, guard, overwrite_option, plural, print_
 
 
 def info(
-    file: Path = typer.Argument(..., help="A .bvh, .amc, .c3d or .npz file."),
+    file: Path = typer.Argument(..., help="A .bvh, .amc, .c3d, .trc or .npz file."),
     joints: bool = typer.Option(False, "--joints", help="Also list every joint with its parent and channels."),
     asf: Optional[Path] = asf_option(),
 ) -> None:
@@ -76,8 +77,10 @@ def convert(
     """Convert IN to OUT: a motion between BVH, AMC and npz (optionally resampled to --fps), markers between C3D, TRC and npz."""
     from .. import io
     from ..io.takes import asf_of, check_asf, load_take
-    from ..motion import Motion
+    from ..motion import Motion, check_fps
 
+    if fps is not None:
+        check_fps(fps, "--fps")  # before any work, naming the option
     guard([out], [inp, asf], overwrite)
     check_asf(asf, [inp])
     marker_input = inp.suffix.lower() in (".c3d", ".trc")
@@ -100,9 +103,10 @@ def convert(
     if zeros_as_gaps is not None:
         raise MocapError("--zeros-as-gaps/--keep-zeros apply to marker files; IN is a motion")
     io.check_writable(m, out)
-    if fps is not None:
-        m = m.resample(fps)
-    io.save(m, out, asf=asf_of(inp, asf))
+    r = m.resample(fps) if fps is not None else m
+    resampled, m = r is not m, r
+    # a BVH to BVH or AMC to AMC conversion at the take's own rate keeps the input's text (io.save's like)
+    io.save(m, out, like=None if resampled else inp, asf=asf_of(inp, asf))
     console.print(f"wrote {out} ({plural(m.num_frames, 'frame')} @ {m.fps:g} fps)")
 
 
@@ -111,7 +115,9 @@ def corrupt(
     out: Path = typer.Argument(..., metavar="OUT", help="Corrupted output (.bvh, .amc or .npz; gaps need .npz)."),
     kind: str = typer.Option(..., "--kind", help="noise | uniform | bias | spatial | gaps | errors, or one error kind: spike | flip | freeze | drift | swap"),
     amount: Optional[float] = typer.Option(
-        None, "--amount", help="noise: std as a fraction of each channel's std (0.1/0.5/0.9); spatial: std in cm."
+        None, "--amount", help="noise, uniform, bias: std as a fraction of each channel's std (0.1/0.5/0.9); "
+                               "spatial: std in cm. A finite number > 0 (0 would change nothing); gaps and the "
+                               "error kinds take none."
     ),
     seed: int = typer.Option(0, "--seed", help="Random seed: the same seed gives the same corruption."),
     mask_out: Optional[Path] = typer.Option(
@@ -127,6 +133,8 @@ def corrupt(
     from ..io.outputs import removed_on_failure
     from ..io.takes import asf_of, check_asf, load_motion
 
+    if amount is not None and not (math.isfinite(amount) and amount > 0):  # one rule for every kind, before any work
+        raise MocapError(f"--amount must be a finite number greater than 0, got {amount:g}")
     mask_path = mask_out or mask_path_for(out)
     guard([out, mask_path], [inp, asf], overwrite)
     check_asf(asf, [inp])
@@ -172,6 +180,7 @@ def plot(
     if out.suffix.lower() != ".png":
         raise MocapFormatError(out, "the plot is written as .png")
     motions = [load_motion(p, asf, purpose="plot") for p in (reference, *others)]
+    _check_plot_joint(joint, [reference, *others], motions)
     mask_arr = None
     if mask_path is not None:
         try:
@@ -184,3 +193,23 @@ def plot(
     except KeyError as exc:
         raise MocapError(str(exc.args[0])) from None
     console.print(f"wrote {out}")
+
+
+def _check_plot_joint(joint: str, paths: list[Path], motions: list) -> None:
+    """Refuse ``--joint`` unless every take has it, with the reference's rotation channels: one line naming the file."""
+    first = None
+    for path, m in zip(paths, motions):
+        sk = m.skeleton
+        try:
+            j = sk.index(joint)
+        except KeyError as exc:
+            raise MocapFormatError(path, f"--joint: {exc.args[0]}") from None
+        rotations = [c for c in sk.joint_channels(j) if c.endswith("rotation")]
+        if not rotations:
+            raise MocapFormatError(path, f"--joint: joint {joint!r} has no rotation channels to plot")
+        if first is None:
+            first = rotations
+        lacking = [c for c in first if c not in rotations]
+        if lacking:
+            raise MocapFormatError(path, f"--joint: joint {joint!r} lacks the {', '.join(lacking)} channel(s) that "
+                                         f"{paths[0]} plots")

@@ -55,7 +55,7 @@ def _sensors_named(names, db, path: Path):
 
 def reconstruct(
     db_dir: Path = typer.Option(..., "--db", help="The knowledge base: a database folder (`mocapkit db build`)."),
-    out: Path = typer.Option(..., "--out", "-o", help="Reconstructed full-body motion (.bvh or .npz)."),
+    out: Path = typer.Option(..., "--out", "-o", help="Reconstructed full-body motion (.bvh or .npz; .amc on an ASF skeleton, read back with that ASF)."),
     markers: Optional[Path] = typer.Option(
         None, "--markers", help="A few marker trajectories (.c3d, marker .npz, or a motion whose joints become markers): local linear models (Krüger 2010, 5.2)."
     ),
@@ -76,7 +76,7 @@ def reconstruct(
     synthesis: Optional[str] = typer.Option(
         None, "--synthesis", help="Accelerometers: the pose from the candidates: mean (default; small databases), regression (on the recent readings; better on large ones), energy (Tautges eq. 3.4)."
     ),
-    neighbours: Optional[int] = typer.Option(None, "--neighbours", help="Accelerometers: K nearest database frames per sample (default 1 % of the database's frames, 128-4096)."),
+    neighbours: Optional[int] = typer.Option(None, "--neighbours", "--neighbors", help="Accelerometers: K nearest database frames per sample (default 1 % of the database's frames, 128-4096)."),
     smoothing: Optional[float] = typer.Option(None, "--smoothing", help="Accelerometers: causal pose smoothing a in [0, 1) (default 0)."),
     asf: Optional[Path] = asf_option(),
     overwrite: bool = overwrite_option(),
@@ -108,6 +108,8 @@ def reconstruct(
     guard([out], [inp, db_dir, skeleton, reference, asf], overwrite)
     check_asf(asf, [inp, reference])
     io.suffix_kind(out, io.WRITERS, "writing")
+    if not inp.is_file():  # as every reader says it (the CSV reader would say "cannot read the file: [Errno 2] ...")
+        raise MocapFormatError(inp, "no such file" if not inp.exists() else "not a regular file")
     db = MotionDatabase.open(db_dir)
     if kind == "accelerometers":
         from ..reconstruct import accelerometers as acc

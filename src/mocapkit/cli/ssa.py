@@ -71,9 +71,9 @@ def detect(
     segs = det.segments()
     causes = det.causes()
     why = [cause_names(causes[a:b, det.joint_names.index(j)]) for j, a, b in segs]
-    if as_json:  # end: the frame after the segment
-        print(json.dumps([{"joint": j, "start": a, "end": b, "start_s": a / m.fps, "end_s": b / m.fps, "causes": w}
-                          for (j, a, b), w in zip(segs, why)]))
+    if as_json:  # end: the frame after the segment (Python's slice); last: its last frame, as the lines print it
+        print(json.dumps([{"joint": j, "start": a, "end": b, "last": b - 1, "start_s": a / m.fps, "end_s": b / m.fps,
+                           "causes": w} for (j, a, b), w in zip(segs, why)]))
         return
     console.print(f"wrote {out}" + (f" and {png}" if png else "") + f": {plural(len(segs), 'flagged segment')}"
                   f" (judged against {context_label(ctx)})")

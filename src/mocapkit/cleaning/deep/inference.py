@@ -218,11 +218,18 @@ def _smoothing_ebf(ebd: DeepModel, denoiser, take=None) -> DeepModel:
     return ebf
 
 
-def licence_note(model: DeepModel) -> str:
-    """One line naming a model's licence when it restricts use (a model inherits its training data's), else ""."""
+def licence_note(model: DeepModel, options: dict[str, str] | None = None) -> str:
+    """One line naming a model's licence when it restricts use (a model inherits its training data's), else "".
+
+    ``options``: the option that picks another model of each kind in the command that prints the line
+    (``{"ebd": "--model", "ebf": "--denoiser"}`` in ``fill``); without it the line names ``--model`` and
+    clean's ``--ebf`` / ``--ebd``.
+    """
     lic = model.meta.get("licence", "") if isinstance(model.meta, dict) else ""
-    return (f"the {model.kind.upper()} used is {lic}; --model (clean, clean-batch: --{model.kind}) picks another, e.g. "
-            f"{SHIPPED[model.kind]}" if lic else "")
+    if not lic:
+        return ""
+    option = (options or {}).get(model.kind) or f"--model (clean, clean-batch: --{model.kind})"
+    return f"the {model.kind.upper()} used is {lic}; {option} picks another, e.g. {SHIPPED[model.kind]}"
 
 
 def model_of_kind(model, kind: str, take=None) -> DeepModel:
@@ -639,7 +646,7 @@ def _method(kind: str, label: str, sv: Serving, name: str | None = None) -> str:
 
 
 def fill_or_fallback(motion: Motion, model=None, denoiser=None, smooth: bool = True, label: str = "shipped",
-                     method: str = "auto"):
+                     method: str = "auto", options: dict[str, str] | None = None):
     """Fill the gaps of ``motion`` with the EBD model (+ EBF) where they serve it, else with the cubic spline.
 
     The rule is :func:`served_by` (direct, or through a joint map). Where
@@ -652,7 +659,8 @@ def fill_or_fallback(motion: Motion, model=None, denoiser=None, smooth: bool = T
     (or one line naming a restrictive licence of the model used, e.g. the
     non-commercial Bandai Namco models: :func:`licence_note`), else one line
     saying which fallback ran and why. ``label`` names the model in
-    both ("shipped", a file name). A take without gaps is returned as is.
+    both ("shipped", a file name); ``options``: the caller's option per
+    model kind, for the licence line. A take without gaps is returned as is.
     """
     from ..gapfill import fill_motion
 
@@ -666,7 +674,8 @@ def fill_or_fallback(motion: Motion, model=None, denoiser=None, smooth: bool = T
         try:
             out = fill_gaps(motion, sv, ebf if smooth else None, smooth=smooth, method=method)
             ebf_ran = ebf_takes_part(sv.model, smooth, method)
-            notes = dict.fromkeys(n for n in (licence_note(sv.model), licence_note(ebf.model) if ebf_ran else "") if n)
+            notes = dict.fromkeys(n for n in (licence_note(sv.model, options),
+                                              licence_note(ebf.model, options) if ebf_ran else "") if n)
             name = "EBD's gap prior" if by_prior else None
             return out, _method("ebd", label, sv, name) + (" + EBF" if ebf_ran else ""), "; ".join(notes)
         except ValueError as exc:
@@ -676,19 +685,20 @@ def fill_or_fallback(motion: Motion, model=None, denoiser=None, smooth: bool = T
     return fill_motion(motion, "cubic"), FALLBACK_FILL, _fallback_note(FALLBACK_FILL, "ebd", label, why)
 
 
-def denoise_or_fallback(motion: Motion, model=None, cells: np.ndarray | None = None, label: str = "shipped"):
+def denoise_or_fallback(motion: Motion, model=None, cells: np.ndarray | None = None, label: str = "shipped",
+                        options: dict[str, str] | None = None):
     """Denoise ``motion`` (only ``cells`` (F, J) when given) with the EBF where it serves the take, else by a
     quadratic Savitzky-Golay filter over 0.1 s (:func:`mocapkit.cleaning.filters.savgol_smooth`).
 
     The rule is :func:`served_by`. Without ``cells`` every non-root joint is
-    denoised. Returns ``(motion, method, note)`` as :func:`fill_or_fallback`;
-    cells outside ``cells`` (and the root) are bit-identical to the input.
+    denoised. Returns ``(motion, method, note)`` as :func:`fill_or_fallback`
+    (``options`` as there); cells outside ``cells`` (and the root) are bit-identical to the input.
     """
     from ..filters import savgol_smooth
 
     sv = served_by(motion, model_of_kind(model, "ebf", motion))
     if not isinstance(sv, str):
-        return denoise(motion, sv, cells=cells), _method("ebf", label, sv), licence_note(sv.model)
+        return denoise(motion, sv, cells=cells), _method("ebf", label, sv), licence_note(sv.model, options)
     J = motion.skeleton.num_joints
     if cells is None:
         cells = np.zeros((motion.num_frames, J), dtype=bool)
