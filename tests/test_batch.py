@@ -222,6 +222,23 @@ def test_a_failing_take_is_a_row_and_the_others_go_on(tmp_path, short_bvh):
     assert not [p for p in (tmp_path / "out").rglob(".*")]  # no staging folder or temporary left
 
 
+def test_a_failing_take_leaves_no_folder_behind(tmp_path, short_bvh):
+    # the mirrored folders a failed take's output would have gone in are not left empty (OUT_DIR itself neither,
+    # when every take failed); folders that were there stay
+    src = tmp_path / "in"
+    (src / "a" / "b").mkdir(parents=True)
+    shutil.copy(short_bvh, src / "good.bvh")
+    (src / "a" / "b" / "broken.bvh").write_text("HIERARCHY\nROOT\n")
+    out = tmp_path / "out"
+    (out / "a").mkdir(parents=True)
+    s = clean_batch(src, out, steps=STEPS, executor="serial", progress=False)
+    assert [r["status"] for r in s.rows] == ["failed", "done"]
+    assert sorted(str(p.relative_to(out)) for p in out.rglob("*")) == ["a", "good.bvh", "good.clean.npz"]
+    (src / "good.bvh").unlink()
+    clean_batch(src, tmp_path / "none", steps=STEPS, executor="serial", progress=False)
+    assert not (tmp_path / "none").exists()
+
+
 # -- item 5: no write after the batch is gone -----------------------------------------------
 
 

@@ -561,11 +561,13 @@ def clean_batch(
              "asf": str(asf) if asf is not None and inp.suffix.lower() == ".amc" else None} for inp, files in todo]
     skeletons = _asf_copies(inputs, plans, asf, overwrite) if fmt == "amc" else {}
     expected = [f for files in plans for f in files.values() if f is not None]
+    made = _missing_folders(Path(files["output"]).parent for _, files in todo)
     _sweep(expected)
     try:
         rows = map_ordered(_batch_job, jobs, executor=executor, progress=progress, desc="clean") if jobs else []
     finally:
         _sweep(expected)  # what a killed worker could not remove
+        _prune(made)  # the folders made for takes that failed
     summary.rows += rows
     _place_asfs(skeletons, summary.rows)
     summary.rows.sort(key=lambda r: r["input"])
@@ -619,6 +621,27 @@ def _place_asfs(skeletons: dict[Path, tuple[Path, list[str]]], rows: list[dict])
         dst.parent.mkdir(parents=True, exist_ok=True)
         with atomic_write(dst, "wb") as fh:
             fh.write(data)
+
+
+def _missing_folders(folders) -> list[Path]:
+    """The folders among ``folders`` and their parents that do not exist yet, deepest first."""
+    out: set[Path] = set()
+    for folder in folders:
+        f = Path(folder)
+        while not f.exists() and f not in out and f != f.parent:
+            out.add(f)
+            f = f.parent
+    return sorted(out, key=lambda p: len(p.parts), reverse=True)
+
+
+def _prune(folders: list[Path]) -> None:
+    """Remove the folders of :func:`_missing_folders` that the batch made and left empty (no take of theirs was
+    written), deepest first; a folder holding anything stays."""
+    for f in folders:
+        try:
+            f.rmdir()
+        except OSError:  # not empty, or never made
+            pass
 
 
 def _sweep(paths) -> None:
