@@ -548,8 +548,8 @@ def read_c3d(path, zeros_as_gaps: bool | None = None) -> MarkerSet:
 
     Raises :class:`~mocapkit.errors.MocapFormatError` for a malformed header or
     parameter section (checked before any reader runs), a file cut short
-    (inside its parameter section, or a data block of fewer frames than it
-    states), a non-positive frame rate, infinite coordinates, no points, a
+    (inside its parameter section, or partway through a frame of its data
+    block; whole frames fewer than stated are read), a non-positive frame rate, infinite coordinates, no points, a
     length unit that is not one, or when neither ezc3d nor the fallback reader
     can make sense of the file.
     """

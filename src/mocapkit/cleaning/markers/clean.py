@@ -172,6 +172,7 @@ def clean_markers(markers, *, steps=STEPS, spike_mm: float = 15.0, swap_mm: floa
     y[spikes] = np.nan
     filled = np.zeros((f, m), dtype=bool)
     never = np.all(np.isnan(y), axis=(0, 2))
+    seen_any = np.flatnonzero(~np.all(np.isnan(y), axis=(1, 2)))  # frames with a marker seen (spikes removed)
     if "gaps" in steps or np.any(spikes):
         stats = distance_stats(y)
         max_gap = None if max_gap_s is None else int(round(max_gap_s * markers.fps))
@@ -205,7 +206,6 @@ def clean_markers(markers, *, steps=STEPS, spike_mm: float = 15.0, swap_mm: floa
         return mask
 
     cleaned = markers.with_positions(out) if hasattr(markers, "with_positions") else dataclasses.replace(markers, positions=out)
-    seen_any = np.flatnonzero(~np.all(np.isnan(x), axis=(1, 2)))
     lo, hi = (int(seen_any[0]), int(seen_any[-1]) + 1) if seen_any.size else (f, f)
     return MarkerCleanResult(markers=cleaned, original=markers, filled=expand(filled), spikes=expand(spikes),
                              swapped=expand(swapped), fixes=tuple(fixes),
