@@ -140,3 +140,18 @@ def test_a_gap_at_the_end_of_the_take_is_validated_from_one_end():
     assert inside_record.expected_error < 1e-6
     assert end_record.expected_error > 10.0  # mm: the marker moves 2 mm a frame
     assert np.all(np.isfinite(filled))
+
+
+def test_a_marker_whose_neighbours_are_never_seen_fills_without_a_warning():
+    # BTK's Gait.trc: 13 of its 66 markers are never seen; the low-rank fill's neighbour weights took the median of
+    # their distances, all NaN, and numpy printed "All-NaN slice encountered" to the user's terminal
+    import warnings
+
+    t = np.arange(100, dtype=float)
+    x = np.full((100, 3, 3), np.nan)
+    x[:, 0] = np.stack([t, 0.5 * t, 900 + 0 * t], axis=1)
+    x[40:60, 0] = np.nan
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        filled, records = fill_gaps(x, constrain=False)
+    assert len(records) == 1 and np.all(np.isfinite(filled[:, 0])) and np.all(np.isnan(filled[:, 1:]))

@@ -343,7 +343,9 @@ def _lowrank_fill(pos: np.ndarray, m: int, a: int, b: int, order: np.ndarray, st
     if np.all(np.isnan(sub[:, 0])):
         return None
     med = stats.median[m, near[1:]]
-    w = np.concatenate([[1.0], np.exp(-np.nan_to_num(med, nan=1e9) / max(np.nanmedian(med), 1e-9))])
+    known = med[np.isfinite(med)]  # none when no neighbour was ever seen with the marker
+    scale = max(float(np.median(known)), 1e-9) if known.size else 1.0
+    w = np.concatenate([[1.0], np.exp(-np.nan_to_num(med, nan=1e9) / scale)])
     filled = fill_lowrank(sub, weights=w)
     out = filled[a - lo:b - lo, 0]
     return None if np.any(np.isnan(out)) else out
