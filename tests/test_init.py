@@ -51,6 +51,22 @@ def test_clean_passes_steps_and_threshold(broken):
         mocapkit.clean(broken[0], threshold=1.5)
 
 
+def test_clean_passes_drifts_and_models(broken, monkeypatch):
+    # the guide's drifts=True and models= (the CLI's --drifts, --ebf/--ebd) reach the pipeline
+    import mocapkit.cleaning.pipeline as P
+
+    seen, real = {}, P.clean
+
+    def spy(*args, **kwargs):
+        seen.update(kwargs)
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(P, "clean", spy)
+    res = mocapkit.clean(broken[0], steps="fill,detect,denoise", drifts=True, models={"ebf": "ebf.pt"})
+    assert seen["drifts"] is True and seen["models"] == {"ebf": "ebf.pt"}
+    assert [s.name for s in res.steps] == ["fill", "detect", "denoise"]
+
+
 def test_clean_an_amc_with_its_asf_and_file_context():
     amc = samples.path("HDM_bk_sneak2StepsLStart_005_120.amc")
     res = mocapkit.clean(amc, [samples.path("HDM_bk_sneak2StepsLStart_004_120.amc")], steps="fill,detect",

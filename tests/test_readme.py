@@ -22,8 +22,9 @@ def test_readme_python_examples_run(tmp_path, monkeypatch, capsys):
     walk = mocapkit.load(mocapkit.samples.path("12_walk.amc"))
     cleaned = mocapkit.load(tmp_path / "walk_clean.bvh")
     assert cleaned.num_frames == walk.num_frames
-    before, after = map(float, re.search(r"joint positions: ([\d.]+) cm -> ([\d.]+) cm RMS", out).groups())
-    assert after < before
+    for name, unit in (("joint angles", "deg"), ("joint positions", "cm")):
+        before, after = map(float, re.search(rf"{name}: ([\d.]+) {unit} -> ([\d.]+) {unit} RMS", out).groups())
+        assert after < 0.25 * before  # the errors of the example (seed 1) move the body: 11.6 -> 0.3 deg, 12.9 -> 0.4 cm
     changed, total = map(int, re.search(r"(\d+) of (\d+) joint samples changed", out).groups())
     assert 0 < changed < total
     # the loading example

@@ -43,7 +43,7 @@ __all__ = [
 
 
 def clean(take, context=None, *, steps="fill,detect,repair,denoise", threshold: float = 0.5, asf=None,
-          progress: bool = False):
+          drifts: bool = False, models: dict | None = None, progress: bool = False):
     """Clean a take: fill gaps, detect and repair erroneous joints, denoise the noisy cells.
 
     The main job of mocapkit, :func:`mocapkit.cleaning.pipeline.clean` on a
@@ -72,6 +72,13 @@ def clean(take, context=None, *, steps="fill,detect,repair,denoise", threshold: 
         MDM value in (0, 1) above which a joint is flagged and repaired.
     asf : str, os.PathLike or Skeleton, optional
         The ASF skeleton of an AMC take (context AMC files use the ASF beside them).
+    drifts : bool
+        Also flag and repair smooth drifts (digressions with no break), where
+        ``context`` repeats the take's motion (``docs/guide/cleaning.md``; the CLI's ``--drifts``).
+    models : dict, optional
+        ``{"ebf": ..., "ebd": ...}``: model files, shipped models' names (``"ebf.pt"``) or
+        loaded models for the denoiser and the gap filler (the CLI's ``--ebf`` / ``--ebd``);
+        default the pair for the take's rig.
     progress : bool
         Show detection's progress bar.
 
@@ -102,7 +109,7 @@ def clean(take, context=None, *, steps="fill,detect,repair,denoise", threshold: 
         return clean_markers(take)
     motion = take if isinstance(take, Motion) else _load_motion(take, asf)
     ctx, note = _load_context(context, motion)
-    res = clean_motion(motion, ctx, steps=steps, threshold=threshold, progress=progress)
+    res = clean_motion(motion, ctx, steps=steps, threshold=threshold, progress=progress, drifts=drifts, models=models)
     return dataclasses.replace(res, notes=res.notes + (note,)) if note else res
 
 

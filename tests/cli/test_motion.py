@@ -286,3 +286,17 @@ def test_convert_names_fps_when_it_is_out_of_range(tmp_path):
         assert code == 2 and one_error_line(err)
         assert "--fps must be a positive number from 1 to 1000" in err, err
     assert not out.exists()
+
+
+def test_info_says_whether_the_networks_serve_a_rig_read_from_its_tree(tmp_path, shared_data):
+    # it said "the networks serve it through them" for every rig read from its tree, while denoise fell back on
+    # bvhio's example.bvh (no lower back to share the trunk's turn with)
+    from tests.shared import unnamed
+
+    served = tmp_path / "unnamed.bvh"
+    mocapkit.save(unnamed(mocapkit.load(Path(__file__).parents[1] / "data" / "cmu_01_01_start.bvh")), served)
+    code, out, _ = run("info", served)
+    assert code == 0 and "roles read from its tree and rest pose (the networks serve it through them)" in out
+    code, out, _ = run("info", shared_data / "peer_files" / "Wasserwecken+bvhio" / "bvhio" / "tests" / "example.bvh")
+    text = " ".join(out.split())
+    assert code == 0 and "(the networks fall back: " in text and "lacks lowerback" in text

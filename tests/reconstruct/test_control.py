@@ -59,3 +59,19 @@ def test_bad_names_are_named():
         control_markers(ms, "NOPE=head", sk)
     with pytest.raises(ValueError, match="unknown joint"):
         control_markers(ms, f"{ms.labels[0]}=elbowz", sk)
+
+
+def test_a_bare_label_names_the_subject_prefixed_one():
+    # Vicon Nexus writes "Subject:LFHD"; --use LFHD=head names it when one subject has it, and refuses two
+    import dataclasses
+
+    ms = mocapkit.load(samples.path("Eb015pr.c3d"))
+    sk = mocapkit.load(samples.path("HDM_bk_sneak2StepsLStart_004_120.amc")).skeleton
+    a, b = ms.labels[0], ms.labels[1]
+    prefixed = dataclasses.replace(ms, labels=tuple(f"Bastian:{x}" for x in ms.labels))
+    got, _, _ = control_markers(prefixed, f"{a}=head,{b}=lhand", sk)
+    want, _, _ = control_markers(ms, f"{a}=head,{b}=lhand", sk)
+    assert np.array_equal(got, want, equal_nan=True)
+    two = dataclasses.replace(ms, labels=(f"Bastian:{a}", f"Other:{a}") + tuple(ms.labels[2:]))
+    with pytest.raises(ValueError, match=f"marker {a} is Bastian:{a} or Other:{a} in the file; give the full label"):
+        control_markers(two, f"{a}=head", sk)

@@ -52,7 +52,7 @@ def info(
                  + (f"; missing: {', '.join(missing_roles)}" if missing_roles else "")))
     family = rig_family(sk)
     if family is None:
-        family = ("none known; roles read from its tree and rest pose (the networks serve it through them)"
+        family = ("none known; roles read from its tree and rest pose" + _served_note(m)
                   if roles_by_topology(sk) else "none known (no joint map: the networks fall back)")
     rows.append(("rig family", family))
     rows += [("channels", str(len(m.channel_names()))),
@@ -193,6 +193,15 @@ def plot(
     except KeyError as exc:
         raise MocapError(str(exc.args[0])) from None
     console.print(f"wrote {out}")
+
+
+def _served_note(m) -> str:
+    """Whether the shipped networks serve a rig read from its tree, as denoise, fill and clean decide
+    (``deep.served_by``: the roles found may still leave a trunk segment unmapped)."""
+    from ..cleaning import deep  # torch: only for a rig of no known family
+
+    sv = deep.served_by(m, deep.shipped_model("ebf", m))
+    return " (the networks serve it through them)" if not isinstance(sv, str) else f" (the networks fall back: {sv})"
 
 
 def _check_plot_joint(joint: str, paths: list[Path], motions: list) -> None:

@@ -93,7 +93,9 @@ def control_markers(
         A marker file's trajectories, or a motion whose joints become markers.
     use : str or sequence of str
         ``LABEL[=JOINT]`` items (:func:`parse_use`). For a motion the label is
-        the joint or end-site name itself.
+        the joint or end-site name itself; in a marker file a bare label also
+        names the one label that ends in ``:LABEL`` (Vicon Nexus writes
+        ``Subject:LFHD``).
     skeleton : Skeleton
         The database skeleton: its unit (:func:`unit_scale_cm`) and vertical
         axis (:func:`detect_up_axis`) are the output's.
@@ -128,10 +130,18 @@ def control_markers(
     if not isinstance(source, MarkerSet):
         raise TypeError(f"source must be a MarkerSet or Motion, got {type(source).__name__}")
     index = {label: i for i, label in enumerate(source.labels)}
-    missing = [a for a, _ in pairs if a not in index]
+    by_bare: dict[str, list[str]] = {}  # Vicon Nexus prefixes each label with its subject: "Bastian:LFHD"
+    for label in source.labels:
+        if ":" in label:
+            by_bare.setdefault(label.rsplit(":", 1)[1], []).append(label)
+    for a, _ in pairs:
+        if a not in index and len(by_bare.get(a, ())) > 1:
+            raise ValueError(f"marker {a} is {' or '.join(by_bare[a])} in the file; give the full label")
+    found = {a: index[a] if a in index else index[by_bare[a][0]] for a, _ in pairs if a in index or a in by_bare}
+    missing = [a for a, _ in pairs if a not in found]
     if missing:
         shown = ", ".join(source.labels[:20]) + (" ..." if source.num_markers > 20 else "")
         raise ValueError(f"no marker(s) {', '.join(missing)} in the file; it has {shown}")
-    pos = source.positions[:, [index[a] for a, _ in pairs]] * (source.unit_cm * to_unit)
+    pos = source.positions[:, [found[a] for a, _ in pairs]] * (source.unit_cm * to_unit)
     P = up_rotation("z" if up_axis is None else up_axis, target_up)
     return pos @ P.T, joints, float(source.fps)
