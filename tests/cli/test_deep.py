@@ -156,6 +156,15 @@ def test_train_command_writes_a_loadable_model(tmp_path):
     assert den.num_frames == clean.num_frames
 
 
+def test_train_refuses_a_holdout_name_no_clip_has(tmp_path):
+    # a typo trained on everything and reported a "best training RMS", with no validation at all
+    out = tmp_path / "ebf"
+    code, _, err = run("train", "denoiser", str(WALK), "-o", str(out), "--epochs", "1", "--steps", "1",
+                       "--hidden", "8", "--executor", "serial", "--holdout", "actor_x")
+    assert code == 2 and one_error_line(err) and "--holdout actor_x: no clip's name contains it" in err
+    assert not out.exists()
+
+
 def test_train_mirror_adds_each_training_clip_mirror_image(tmp_path):
     """--mirror trains on the clips and their mirror images (the validation clips as they are); a rig whose names
     pair no left and right joints is refused in one line, nothing written."""

@@ -270,6 +270,11 @@ def train(
         outs = [out / f"fold_{k + 1}" for k in range(folds)]
     else:
         hold: list[str] | int = count if count is not None else list(holdout or []) or 0
+        if isinstance(hold, list):  # a name that holds out nothing is a typo, not a choice to validate on nothing
+            unmatched = [h for h in hold if not any(h in c.name for c in clips)]
+            if unmatched:
+                raise MocapError(f"--holdout {' '.join(unmatched)}: no clip's name contains it; clips are "
+                                 f"{', '.join(c.name for c in clips[:8])}" + (", ..." if len(clips) > 8 else ""))
         splits, outs = [training.split_holdout(clips, hold, seed=seed)], [out]
     mirrors = {}  # each clip's mirror image, made once (a clip trains in several folds) and before any training
     for c in clips if mirror else ():
