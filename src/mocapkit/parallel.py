@@ -276,8 +276,14 @@ def map_ordered(
             return out
         if executor in (None, "processes"):
             workers = min(n, max_workers or os.cpu_count() or 1)
-            with ProcessPoolExecutor(max_workers=workers, initializer=_die_with_parent, initargs=(os.getpid(),)) as pool:
-                return _run(pool, fn, items, bar, as_completed)
+            pool = ProcessPoolExecutor(max_workers=workers, initializer=_die_with_parent, initargs=(os.getpid(),))
+            try:
+                out = _run(pool, fn, items, bar, as_completed, cancel=False)
+            except BaseException:
+                _stop_pool(pool)
+                raise
+            pool.shutdown(wait=True)
+            return out
         if isinstance(executor, str):
             return _run_dask(executor, fn, items, bar)
         if _is_dask_client(executor):
@@ -289,7 +295,7 @@ def map_ordered(
         bar.close()
 
 
-def _run(pool, fn, items, bar, completed) -> list:
+def _run(pool, fn, items, bar, completed, cancel: bool = True) -> list:
     futures = {pool.submit(fn, it): k for k, it in enumerate(items)}
     out: list = [None] * len(items)
     try:
@@ -297,10 +303,39 @@ def _run(pool, fn, items, bar, completed) -> list:
             out[futures[fut]] = fut.result()
             bar.update(1)
     except BaseException:
-        for fut in futures:
+        for fut in futures if cancel else ():
             fut.cancel()
         raise
     return out
+
+
+def _stop_pool(pool: ProcessPoolExecutor) -> None:
+    """End a local pool at once after an error or an interrupt: its workers killed, its queued work dropped.
+
+    Cancelling the futures one by one while Ctrl-C also reaches the workers (one process group) raced
+    Python 3.11's pool manager: it set an exception on a cancelled future when the pool broke
+    (InvalidStateError in its thread), and the exit then waited on it for ever (4 of 10 interrupted
+    ``db build`` runs hung). Killed workers leave nothing of theirs behind that a caller does not
+    sweep (``batch._sweep``); there is no public way to kill them before Python 3.14.
+    """
+    procs = list((getattr(pool, "_processes", None) or {}).values())
+    queue = getattr(pool, "_call_queue", None)
+    if queue is not None:  # its feeder thread, writing to a dead worker's pipe, would hold the exit
+        queue.cancel_join_thread()
+    for p in procs:
+        try:
+            p.kill()
+        except (OSError, ValueError, AttributeError):
+            pass
+    try:
+        pool.shutdown(wait=False, cancel_futures=True)
+    except Exception:
+        pass
+    for p in procs:
+        try:
+            p.join(timeout=5)
+        except (OSError, ValueError, AttributeError, AssertionError):
+            pass
 
 
 def _run_dask(spec: str, fn, items, bar) -> list:
