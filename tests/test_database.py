@@ -263,3 +263,18 @@ def test_a_mirrored_clip_of_a_rig_whose_frames_differ_by_side_lands_on_the_refle
     assert err.max() < 0.01  # centimetres: float32 storage
     assert MotionDatabase.build([samples.path("12_walk.amc")], fps=30, mirror=True, progress=False,
                                 executor="serial").num_clips == 2
+
+
+def test_a_file_named_twice_goes_in_once(tmp_path):
+    # a file given and also found in a folder given went into the database twice ("... #2"), and its matches twice
+    import shutil
+
+    from mocapkit.database import expand_sources
+
+    folder = tmp_path / "takes"
+    folder.mkdir()
+    walk = folder / "walk.amc"
+    shutil.copy(mocapkit.samples.path("12_walk.amc"), walk)
+    shutil.copy(mocapkit.samples.path("12.asf"), folder / "12.asf")
+    (tmp_path / "link.amc").symlink_to(walk)
+    assert expand_sources([walk, folder, tmp_path / "link.amc", str(walk)]) == [walk]

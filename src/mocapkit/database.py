@@ -214,13 +214,22 @@ def expand_sources(sources) -> list:
     """The clips ``sources`` names: Motions as given, files checked, folders searched recursively.
 
     ``sources`` is one path or Motion, or a sequence of them. Returns Motions
-    and paths of :data:`SUFFIXES` files (a folder's sorted by path); raises
-    :class:`~mocapkit.errors.MocapFormatError` for a missing path, a file of
-    another kind, or a folder without motion files.
+    and paths of :data:`SUFFIXES` files (a folder's sorted by path), each
+    file once however many times it is named (directly, through its folder,
+    through a link); raises :class:`~mocapkit.errors.MocapFormatError` for a
+    missing path, a file of another kind, or a folder without motion files.
     """
     if isinstance(sources, (str, os.PathLike, Motion)):
         sources = [sources]
     items: list = []
+    seen: set = set()
+
+    def add(path: Path) -> None:
+        key = path.resolve()
+        if key not in seen:  # a file given and also found in a folder given went in twice (its matches twice)
+            seen.add(key)
+            items.append(path)
+
     for s in sources:
         if isinstance(s, Motion):
             items.append(s)
@@ -230,11 +239,12 @@ def expand_sources(sources) -> list:
             found = sorted(q for q in p.rglob("*") if q.suffix.lower() in SUFFIXES and q.is_file())
             if not found:
                 raise MocapFormatError(p, f"the folder holds no motion files ({', '.join(SUFFIXES)})")
-            items.extend(found)
+            for q in found:
+                add(q)
         elif p.is_file():
             if p.suffix.lower() not in SUFFIXES:
                 raise MocapFormatError(p, f"cannot go into a motion database (expected {', '.join(SUFFIXES)})")
-            items.append(p)
+            add(p)
         else:
             raise MocapFormatError(p, "no such file or folder")
     if not items:

@@ -487,6 +487,8 @@ def read_folder(directory, mmap: bool = True) -> tuple[Description, dict[str, np
     """
     directory = Path(directory)
     desc_path = directory / DESCRIPTION
+    if not directory.exists():
+        raise MocapFormatError(directory, "no such folder (a motion database is a folder `mocapkit db build` writes)")
     if not directory.is_dir() or not desc_path.is_file():
         raise MocapFormatError(directory, f"not a motion database (no {DESCRIPTION})")
     d = _check_description(_read_json(desc_path), desc_path)

@@ -40,6 +40,8 @@ def test_db_errors_are_one_line(tmp_path):
     assert not db_dir.exists()
     code, _, err = run("db", "info", str(tmp_path))
     assert code == 2 and "not a motion database" in err and one_error_line(err)
+    code, _, err = run("db", "info", str(tmp_path / "nope"))  # it said "not a motion database (no database.json)"
+    assert code == 2 and one_error_line(err) and f"{tmp_path / 'nope'}: no such folder" in " ".join(err.split())
     assert main(["db", "build", str(db_dir), str(mocapkit.samples.path("12_walk.amc")), "--executor", "serial"]) == 0
     code, _, err = run("db", "build", str(db_dir), str(mocapkit.samples.path("12_walk.amc")))
     assert code == 2 and "already exists" in err
@@ -112,3 +114,15 @@ def test_db_build_names_fps(tmp_path):
     code, _, err = run("db", "build", str(db_dir), str(mocapkit.samples.path("12_walk.amc")), "--fps", "-5")
     assert code == 2 and one_error_line(err) and "--fps must be a positive number from 1 to 1000" in err
     assert not db_dir.exists()
+
+
+def test_search_clamps_end_and_names_k_and_neighbors(tmp_path):
+    db_dir = tmp_path / "db"
+    assert main(["db", "build", str(db_dir), *_db_sources()[:2], "--executor", "serial"]) == 0
+    query = str(mocapkit.samples.path("HDM_bk_sneak2StepsLStart_005_120.amc"))
+    whole = run("search", str(db_dir), query, "--k", "2", "--json")
+    past = run("search", str(db_dir), query, "--k", "2", "--json", "--end", "500")  # past the clip's end: its end
+    assert whole[0] == past[0] == 0 and whole[1] == past[1]
+    for opt in ("--k", "--neighbors"):
+        code, _, err = run("search", str(db_dir), query, opt, "0")
+        assert code == 2 and one_error_line(err) and f"{opt} must be a positive integer, got 0" in err

@@ -7,7 +7,7 @@ import numpy as np
 
 import mocapkit
 from mocapkit import corrupt, metrics
-from tests.cli.helpers import one_error_line, run, run_process
+from tests.cli.helpers import SAMPLE, one_error_line, run, run_process
 from tests.shared import unknown_rig
 
 WALK = mocapkit.samples.path("12_walk.amc")
@@ -163,6 +163,17 @@ def test_train_refuses_a_holdout_name_no_clip_has(tmp_path):
                        "--hidden", "8", "--executor", "serial", "--holdout", "actor_x")
     assert code == 2 and one_error_line(err) and "--holdout actor_x: no clip's name contains it" in err
     assert not out.exists()
+
+
+def test_train_on_two_rigs_says_so_and_leaves_no_folder(tmp_path):
+    # it said "the model was trained on a skeleton with 56 euler channels ... train a model on this rig with
+    # `mocapkit train`" (no model yet, and the user was running train) and left the empty output folder
+    out = tmp_path / "ebf"
+    code, _, err = run("train", "denoiser", str(WALK), SAMPLE, "-o", str(out), "--epochs", "1", "--steps", "1",
+                       "--hidden", "8", "--executor", "serial")
+    text = " ".join(err.split())
+    assert code == 2 and one_error_line(err) and "another rig than the first clip's" in text
+    assert "train one rig at a time" in text and not out.exists()
 
 
 def test_train_mirror_adds_each_training_clip_mirror_image(tmp_path):

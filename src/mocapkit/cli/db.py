@@ -98,7 +98,7 @@ def search(
                                   help="Nearest neighbours per query frame in the lazy neighbourhood graph."),
     method: str = typer.Option("lng", "--method", help="lng (fast, Krüger 2010) or dtw (exact subsequence DTW)."),
     start: Optional[float] = typer.Option(None, "--start", help="Use the query from this time (s)."),
-    end: Optional[float] = typer.Option(None, "--end", help="Use the query up to this time (s)."),
+    end: Optional[float] = typer.Option(None, "--end", help="Use the query up to this time (s; past its end: to its end)."),
     as_json: bool = typer.Option(False, "--json", help="Print the matches as JSON."),
     asf: Optional[Path] = asf_option(),
 ) -> None:
@@ -106,11 +106,13 @@ def search(
     from ..database import MotionDatabase
     from ..io.takes import check_asf, load_motion
 
+    if k < 1 or neighbors < 1:  # before any work, naming the option
+        raise MocapError(f"{'--k' if k < 1 else '--neighbors'} must be a positive integer, got {min(k, neighbors)}")
     check_asf(asf, [query])
     db = MotionDatabase.open(db_dir)
     m = load_motion(query, asf, purpose="a query")
     a = 0 if start is None else int(round(start * m.fps))
-    b = m.num_frames if end is None else int(round(end * m.fps))
+    b = m.num_frames if end is None else min(int(round(end * m.fps)), m.num_frames)  # --end past the clip: its end
     if not 0 <= a < b <= m.num_frames:
         raise MocapFormatError(query, f"--start/--end select no frames (clip has {plural(m.num_frames, 'frame')}, {m.duration:.2f} s)")
     try:

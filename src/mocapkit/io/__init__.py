@@ -138,9 +138,12 @@ def save(motion, path, like=None, asf=None, **kwargs) -> Path:
     the same file; other pairs of formats ignore it. An AMC is written only for
     a take on an ASF skeleton (read with the same ASF); ``asf``, that ASF when
     it is not beside ``like``, sets the order of the root's numbers (other
-    formats ignore it).
+    formats ignore it). A :class:`~mocapkit.markerset.MarkerSet` is written by
+    :func:`save_markers` (.c3d, .trc, .npz).
     """
     path = Path(path)
+    if isinstance(motion, MarkerSet):
+        return save_markers(motion, path, like=like)
     kind = suffix_kind(path, WRITERS, "writing")
     if kind == "bvh":
         from .bvh import write_bvh

@@ -32,6 +32,7 @@ import torch
 from tqdm.auto import tqdm
 
 from ... import corrupt
+from ...errors import SkeletonError
 from ...io import atomic_write
 from ...motion import Motion
 from .channels import ChannelLayout, encode, layout_for, wrap_degrees
@@ -303,7 +304,8 @@ def _ebf_batch(data, cfg: TrainConfig, rng: np.random.Generator, std: np.ndarray
     lens = np.array([len(d["clean"]) for d in data], dtype=np.float64)
     ok = np.flatnonzero(lens >= T)
     if not len(ok):
-        raise ValueError(f"every training clip is shorter than a crop of {T} frames; lower crop")
+        raise ValueError(f"every training clip is shorter than a crop of {T} frames; train on longer clips "
+                         "(or lower TrainConfig.crop in Python)")
     if cfg.offset > 0 and std is None:
         raise ValueError("offset augmentation needs the training set's channel std")
     pick = rng.choice(ok, size=cfg.batch, p=lens[ok] / lens[ok].sum())
@@ -471,12 +473,14 @@ def train(
     cfg = config
     if not clips:
         raise ValueError("no training clips")
-    out_dir = Path(out_dir)
-    out_dir.mkdir(parents=True, exist_ok=True)
+    out_dir = Path(out_dir)  # made by the first write (atomic_write): a run that fails before leaves no folder
     layout = layout_for(clips[0], cfg.representation)
     fps = clips[0].fps
     for c in clips + list(validation or []):
-        layout.check(c, c.name or "clip")
+        if layout_for(c, cfg.representation).names != layout.names:
+            raise SkeletonError(f"{c.name or 'clip'}: another rig than the first clip's ({clips[0].name or 'clip'}: "
+                             f"{layout_for(c, cfg.representation).num_channels} {cfg.representation} channels against "
+                             f"{layout.num_channels}); train one rig at a time")
         if abs(c.fps - fps) > 1e-6:
             raise ValueError(f"{c.name}: {c.fps:g} fps, but the first clip has {fps:g}; resample the corpus first")
     noise = tuple(cfg.noise)
