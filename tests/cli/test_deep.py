@@ -165,6 +165,15 @@ def test_train_refuses_a_holdout_name_no_clip_has(tmp_path):
     assert not out.exists()
 
 
+def test_train_says_when_a_holdout_count_leaves_one_clip(tmp_path):
+    # --holdout 10 of 2 clips held out 1 and trained on 1 without a word
+    out = tmp_path / "ebf"
+    code, stdout, err = run("train", "denoiser", str(WALK), str(WALK), "-o", str(out), "--epochs", "1", "--steps", "1",
+                            "--hidden", "8", "--executor", "serial", "--holdout", "10")
+    assert code == 0, err
+    assert "note: --holdout 10 of 2 clips: 1 held out, 1 to train on" in " ".join(stdout.split())
+
+
 def test_train_on_two_rigs_says_so_and_leaves_no_folder(tmp_path):
     # it said "the model was trained on a skeleton with 56 euler channels ... train a model on this rig with
     # `mocapkit train`" (no model yet, and the user was running train) and left the empty output folder

@@ -276,6 +276,9 @@ def train(
                 raise MocapError(f"--holdout {' '.join(unmatched)}: no clip's name contains it; clips are "
                                  f"{', '.join(c.name for c in clips[:8])}" + (", ..." if len(clips) > 8 else ""))
         splits, outs = [training.split_holdout(clips, hold, seed=seed)], [out]
+        if isinstance(hold, int) and hold >= len(clips):  # split_holdout keeps one clip to train on
+            console.print(f"note: --holdout {hold} of {plural(len(clips), 'clip')}: {len(splits[0][1])} held out, "
+                          f"{len(splits[0][0])} to train on")
     mirrors = {}  # each clip's mirror image, made once (a clip trains in several folds) and before any training
     for c in clips if mirror else ():
         try:
