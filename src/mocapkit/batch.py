@@ -596,7 +596,7 @@ def _asf_copies(inputs: list[Path], plans: list[dict], asf, overwrite: bool) -> 
         if src is None:
             continue  # the take cannot be read either: its row says so
         dst = files["output"].parent / src.name
-        if dst in out and out[dst][0].read_bytes() != src.read_bytes():
+        if dst in out and out[dst][0] != src and out[dst][0].read_bytes() != src.read_bytes():  # read once per ASF
             raise MocapFormatError(dst, f"two different skeletons of this name ({out[dst][0]}, {src}) would be "
                                         "copied here for the AMC outputs; give --asf or write another format")
         out.setdefault(dst, (src, []))[1].append(str(inp))

@@ -43,21 +43,21 @@ def _motion_for(inp: Path, out: Path, asf: Optional[Path], command: str):
     from ..io.takes import load_take
     from ..motion import Motion
 
-    def motion():
-        take = load_take(inp, asf)
-        if not isinstance(take, Motion):
-            raise MocapFormatError(inp, _marker_reason(command))
-        return take
-
     if inp.suffix.lower() in (".c3d", ".trc"):
         raise MocapFormatError(inp, _marker_reason(command))
+    bad_out = None
     try:
         io.suffix_kind(out, io.WRITERS, "writing")
-    except MocapFormatError:
-        if inp.suffix.lower() == ".npz" and inp.is_file():
-            motion()  # a marker .npz says so
-        raise
-    return motion()
+    except MocapFormatError as exc:
+        if inp.suffix.lower() != ".npz" or not inp.is_file():
+            raise
+        bad_out = exc  # a marker .npz is named as one first
+    take = load_take(inp, asf)
+    if not isinstance(take, Motion):
+        raise MocapFormatError(inp, _marker_reason(command))
+    if bad_out is not None:
+        raise bad_out
+    return take
 
 
 def _no_fallback_option():

@@ -188,10 +188,7 @@ def plot(
         except MocapFormatError:
             if mask is not None:  # asked for: its problem is an error; a mask merely found beside OTHER is skipped
                 raise
-    try:
-        plot_channels(motions, joint, out, labels=[reference.stem] + [p.stem for p in others], mask=mask_arr)
-    except KeyError as exc:
-        raise MocapError(str(exc.args[0])) from None
+    plot_channels(motions, joint, out, labels=[reference.stem] + [p.stem for p in others], mask=mask_arr)
     console.print(f"wrote {out}")
 
 
@@ -205,20 +202,23 @@ def _served_note(m) -> str:
 
 
 def _check_plot_joint(joint: str, paths: list[Path], motions: list) -> None:
-    """Refuse ``--joint`` unless every take has it, with the reference's rotation channels: one line naming the file."""
+    """Refuse ``--joint`` unless every take has it, with the reference's rotation channels: one line naming the file.
+
+    The channels are those the plot draws (:func:`mocapkit.report.plots.channel_names`), so the check and the
+    plot cannot disagree.
+    """
+    from ..report.plots import channel_names
+
     first = None
     for path, m in zip(paths, motions):
-        sk = m.skeleton
         try:
-            j = sk.index(joint)
-        except KeyError as exc:
+            m.skeleton.index(joint)
+            names = [n[len(joint) + 1:] for n in channel_names(m, joint)]  # "LeftKnee.Zrotation" -> "Zrotation"
+        except (KeyError, ValueError) as exc:
             raise MocapFormatError(path, f"--joint: {exc.args[0]}") from None
-        rotations = [c for c in sk.joint_channels(j) if c.endswith("rotation")]
-        if not rotations:
-            raise MocapFormatError(path, f"--joint: joint {joint!r} has no rotation channels to plot")
         if first is None:
-            first = rotations
-        lacking = [c for c in first if c not in rotations]
+            first = names
+        lacking = [c for c in first if c not in names]
         if lacking:
             raise MocapFormatError(path, f"--joint: joint {joint!r} lacks the {', '.join(lacking)} channel(s) that "
                                          f"{paths[0]} plots")

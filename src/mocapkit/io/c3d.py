@@ -489,10 +489,8 @@ def _param_at(groups: dict, typed: list, value_at: dict, group: str, name: str, 
 
 def _int_parameter(b: bytes, e: str, groups: dict, typed: list, value_at: dict, group: str, name: str) -> int | None:
     """The first value of an integer parameter GROUP:NAME (read as unsigned, like the header's counts), or None."""
-    for gid, pname, typ, size in typed:
-        if groups.get(gid) == group and pname == name and typ == 2 and size >= 2:
-            return struct.unpack_from(e + "H", b, value_at[(gid, pname)])[0]
-    return None
+    at = _param_at(groups, typed, value_at, group, name, 2)
+    return None if at is None else struct.unpack_from(e + "H", b, at)[0]
 
 
 def _check_result(path: Path, markers: MarkerSet) -> MarkerSet:

@@ -477,10 +477,11 @@ def train(
     layout = layout_for(clips[0], cfg.representation)
     fps = clips[0].fps
     for c in clips + list(validation or []):
-        if layout_for(c, cfg.representation).names != layout.names:
+        have = layout_for(c, cfg.representation)
+        if have.names != layout.names:  # ChannelLayout.check's test, said as training needs it: no model yet
             raise SkeletonError(f"{c.name or 'clip'}: another rig than the first clip's ({clips[0].name or 'clip'}: "
-                             f"{layout_for(c, cfg.representation).num_channels} {cfg.representation} channels against "
-                             f"{layout.num_channels}); train one rig at a time")
+                                f"{have.num_channels} {cfg.representation} channels against {layout.num_channels}); "
+                                "train one rig at a time")
         if abs(c.fps - fps) > 1e-6:
             raise ValueError(f"{c.name}: {c.fps:g} fps, but the first clip has {fps:g}; resample the corpus first")
     noise = tuple(cfg.noise)
