@@ -57,9 +57,7 @@ import dataclasses
 import fnmatch
 import os
 import shutil
-import signal
 import tempfile
-import threading
 import time
 from dataclasses import dataclass, field, replace
 from functools import lru_cache
@@ -67,24 +65,11 @@ from pathlib import Path
 from typing import Sequence
 
 from .errors import MocapError, MocapFormatError
+from .interrupts import interrupts_as_keyboard_interrupt
 
-__all__ = ["clean_file", "clean_marker_file", "clean_batch", "find_inputs", "output_for", "BatchSummary", "sigterm_as_interrupt", "DEFAULT_PATTERNS"]
+__all__ = ["clean_file", "clean_marker_file", "clean_batch", "find_inputs", "output_for", "BatchSummary", "DEFAULT_PATTERNS"]
 
 DEFAULT_PATTERNS = ("*.bvh", "*.amc", "*.npz", "*.c3d", "*.trc")
-
-
-def sigterm_as_interrupt() -> None:
-    """Make SIGTERM raise KeyboardInterrupt (as SIGINT does) so atomic writes clean up; main thread only."""
-    if threading.current_thread() is not threading.main_thread():
-        return
-
-    def handler(signum, frame):
-        raise KeyboardInterrupt(f"signal {signum}")
-
-    try:
-        signal.signal(signal.SIGTERM, handler)
-    except (ValueError, OSError):  # not the main thread of the interpreter (embedded, some workers)
-        pass
 
 
 @lru_cache(maxsize=4)
@@ -341,10 +326,14 @@ def _batch_job(job: dict) -> dict:
     only while :func:`mocapkit.parallel.owner_alive`; if the batch is gone,
     what this take already moved is removed again.
     """
+    with interrupts_as_keyboard_interrupt():  # SIGTERM too, in a pool's worker and in this process alike
+        return _clean_job(job)
+
+
+def _clean_job(job: dict) -> dict:
     from .cleaning.pipeline import clean_path
     from .parallel import owner_alive
 
-    sigterm_as_interrupt()
     t = time.perf_counter()
     row = {"input": job["input"], "output": job["output"], "status": "done", "reason": ""}
     out = Path(job["output"])

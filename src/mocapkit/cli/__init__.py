@@ -126,8 +126,11 @@ def main(argv: list[str] | None = None) -> int:
     stderr, no traceback), 1 for a batch with failed takes (the command says
     which), 130 when interrupted.
     """
+    from ..interrupts import interrupts_as_keyboard_interrupt
+
     try:
-        result = app(args=argv, standalone_mode=False)
+        with interrupts_as_keyboard_interrupt():  # SIGTERM too, so atomic writes clean up (see mocapkit.interrupts)
+            result = app(args=argv, standalone_mode=False)
     except BaseException as exc:  # noqa: BLE001 - every failure ends in one line and an exit status
         return _exit_status(exc)
     if result == EXIT_INTERRUPTED:  # typer turns an interrupt inside a command into Exit(130)

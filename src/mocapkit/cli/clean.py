@@ -66,12 +66,11 @@ def clean(
     capture (.c3d, .trc) gets swapped labels undone, spikes removed and gaps filled instead
     (--steps, --threshold, --context do not apply to it); every other sample stays bit-identical.
     """
-    from ..batch import clean_file, sigterm_as_interrupt
+    from ..batch import clean_file
     from ..cleaning.pipeline import clean_path
     from ..io.takes import check_asf, load_motion
     from ..reference import check_reference
 
-    sigterm_as_interrupt()
     if record is not None and decisions is None:
         raise MocapError("--record: the earlier run's record is read with --decisions; give the decisions file")
     if decisions is not None and record is None and clean_path(out).is_file():
@@ -253,9 +252,6 @@ def clean_batch(
     take failed.
     """
     from ..batch import clean_batch as run_batch
-    from ..batch import sigterm_as_interrupt
-
-    sigterm_as_interrupt()
     check_executor(executor)
     step_list = _steps(steps)
     patterns = tuple(p.strip() for p in pattern.split(",") if p.strip())

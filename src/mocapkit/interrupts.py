@@ -1,0 +1,73 @@
+"""Interrupts: SIGINT and SIGTERM end a command as ``KeyboardInterrupt``, so every atomic write cleans up.
+
+Python turns SIGINT into ``KeyboardInterrupt`` but dies at once on SIGTERM, which leaves a
+command's hidden ``.part`` files behind; :func:`interrupts_as_keyboard_interrupt` makes both
+raise it. One place is unsafe for any exception: numba's JIT cache calls Python back from
+LLVM's C++ (llvmlite's object-cache hooks), and an exception raised there cannot unwind through
+it: the process crashed with SIGSEGV when Ctrl-C or SIGTERM landed while a kernel was loaded or
+compiled. While a frame of llvmlite is on the stack the handler therefore sends the signal again
+50 ms later instead of raising, so the interrupt lands right after the callback returns.
+"""
+
+from __future__ import annotations
+
+import os
+import signal
+import threading
+from contextlib import contextmanager
+
+__all__ = ["interrupts_as_keyboard_interrupt", "in_native_callback", "RETRY_S"]
+
+RETRY_S = 0.05  # seconds before a deferred signal is sent again
+
+
+def in_native_callback(frame) -> bool:
+    """True while ``frame`` or any of its callers runs llvmlite's Python code (C++ may be below it)."""
+    while frame is not None:
+        if f"{os.sep}llvmlite{os.sep}" in frame.f_code.co_filename:
+            return True
+        frame = frame.f_back
+    return False
+
+
+def _interrupt(signum, frame):
+    if in_native_callback(frame):
+        timer = threading.Timer(RETRY_S, os.kill, (os.getpid(), signum))
+        timer.daemon = True
+        timer.start()
+        return
+    raise KeyboardInterrupt(f"signal {signum}")
+
+
+def _replaceable(handler) -> bool:
+    """Python's own behaviour for the signal (not ignored, not someone else's handler)."""
+    return handler in (signal.SIG_DFL, signal.default_int_handler, _interrupt)
+
+
+def _install() -> dict:
+    if threading.current_thread() is not threading.main_thread():
+        return {}
+    before = {}
+    for sig in (signal.SIGINT, signal.SIGTERM):
+        try:
+            current = signal.getsignal(sig)
+            if _replaceable(current):
+                signal.signal(sig, _interrupt)
+                before[sig] = current
+        except (ValueError, OSError):  # not the main thread of the interpreter (embedded, some workers)
+            pass
+    return before
+
+
+@contextmanager
+def interrupts_as_keyboard_interrupt():
+    """While the block runs, SIGINT and SIGTERM raise KeyboardInterrupt (outside llvmlite's callbacks); then the handlers are restored."""
+    before = _install()
+    try:
+        yield
+    finally:
+        for sig, handler in before.items():
+            try:
+                signal.signal(sig, handler)
+            except (ValueError, OSError):
+                pass

@@ -1,0 +1,82 @@
+"""SIGINT and SIGTERM as KeyboardInterrupt, deferred while llvmlite's code is on the stack."""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import time
+
+import pytest
+
+from mocapkit import interrupts
+from mocapkit.interrupts import in_native_callback, interrupts_as_keyboard_interrupt
+
+
+def _in_fake_llvmlite(fn):
+    """Run ``fn`` in a frame whose code claims to be llvmlite's (as its object-cache hook is)."""
+    path = os.path.join(os.sep, "site-packages", "llvmlite", "binding", "executionengine.py")
+    scope = {"fn": fn, "sys": sys}
+    exec(compile("result = fn(sys._getframe())", path, "exec"), scope)
+    return scope["result"]
+
+
+def test_in_native_callback_looks_through_the_callers():
+    assert not in_native_callback(sys._getframe())
+    assert _in_fake_llvmlite(in_native_callback)
+    assert _in_fake_llvmlite(lambda frame: in_native_callback(sys._getframe()))  # a callee of that frame
+
+
+def test_handlers_installed_for_the_block_and_restored():
+    before = signal.getsignal(signal.SIGINT), signal.getsignal(signal.SIGTERM)
+    with interrupts_as_keyboard_interrupt():
+        assert signal.getsignal(signal.SIGTERM) is interrupts._interrupt  # a private name, in its own module's test
+        with pytest.raises(KeyboardInterrupt):
+            os.kill(os.getpid(), signal.SIGTERM)
+            time.sleep(5)
+    assert (signal.getsignal(signal.SIGINT), signal.getsignal(signal.SIGTERM)) == before
+
+
+def test_an_ignored_signal_stays_ignored():
+    old = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    try:
+        with interrupts_as_keyboard_interrupt():
+            assert signal.getsignal(signal.SIGINT) is signal.SIG_IGN
+    finally:
+        signal.signal(signal.SIGINT, old)
+
+
+def test_a_signal_inside_llvmlite_lands_after_it():
+    """The handler does not raise in the callback; the signal comes again and raises once the callback has returned."""
+    with interrupts_as_keyboard_interrupt():
+        handler = signal.getsignal(signal.SIGTERM)
+        t0 = time.perf_counter()
+        assert _in_fake_llvmlite(lambda frame: handler(signal.SIGTERM, frame)) is None  # deferred: no exception
+        with pytest.raises(KeyboardInterrupt):
+            time.sleep(5)
+        assert time.perf_counter() - t0 >= interrupts.RETRY_S * 0.9
+
+
+def test_sigterm_on_any_command_leaves_no_part_file(tmp_path):
+    """``db build`` (not only clean) is interrupted by SIGTERM as by Ctrl-C: exit 130, its one line, nothing written."""
+    from mocapkit import samples
+
+    out = tmp_path / "db"
+    code = (
+        "import os, signal, sys\n"
+        "import numpy as np\n"
+        "from mocapkit.cli import main\n"
+        "real, calls = np.save, []\n"
+        "def save(*a, **k):\n"  # the first array is written into the hidden staging folder, then SIGTERM
+        "    real(*a, **k)\n"
+        "    calls.append(1)\n"
+        "    if len(calls) == 1:\n"
+        "        os.kill(os.getpid(), signal.SIGTERM)\n"
+        "np.save = save\n"
+        f"sys.exit(main(['db', 'build', {str(out)!r}, {str(samples.path('131_01.bvh'))!r}, '--executor', 'serial']))\n"
+    )
+    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300, cwd=tmp_path)
+    assert proc.returncode == 130, proc.stderr
+    assert "interrupted; no partial output was left" in proc.stderr
+    assert not out.exists() and list(tmp_path.iterdir()) == []  # the staging folder removed too
