@@ -79,6 +79,9 @@ def test_clean_takes_a_marker_capture_to_the_marker_cleaner():
     res = mocapkit.clean(samples.path("Eb015pr.c3d"))
     assert type(res).__name__ == "MarkerCleanResult"
     assert not res.markers.missing().any() and res.original.missing().any()
+    for kwargs in ({"steps": "detect"}, {"threshold": 0.8}, {"drifts": True}, {"context": "none"}):
+        with pytest.raises(mocapkit.MocapError, match="a marker capture is cleaned whole"):  # no review mode for it
+            mocapkit.clean(samples.path("Eb015pr.c3d"), **kwargs)
 
 
 def test_clean_refuses_what_is_not_a_motion(tmp_path):

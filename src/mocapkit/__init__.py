@@ -58,7 +58,8 @@ def clean(take, context=None, *, steps="fill,detect,repair,denoise", threshold: 
         (MarkerSet, .c3d, .trc, marker .npz) goes to
         :func:`mocapkit.cleaning.markers.clean_markers` (label swaps, spikes,
         gaps), which returns a ``MarkerCleanResult``; the other parameters
-        apply to motions only.
+        apply to motions only and are refused for it (``steps="detect"`` too:
+        a marker capture has no review mode).
     context : None, False, "none", MotionDatabase, database folder, folder of takes, or list of Motions or files
         What detection and repair compare with besides the clip itself
         (:func:`mocapkit.context.resolve_context`): a folder of takes or a
@@ -104,8 +105,13 @@ def clean(take, context=None, *, steps="fill,detect,repair,denoise", threshold: 
 
         take = load_take(take)
     if isinstance(take, MarkerSet):
+        from .batch import refuse_marker_options
         from .cleaning.markers import clean_markers
+        from .cleaning.pipeline import STEPS, parse_steps
 
+        refuse_marker_options(take.name or "the take", [name for name, given in (
+            (f"steps {steps}", parse_steps(steps) != STEPS), ("threshold", threshold != 0.5), ("drifts", drifts),
+            ("models", bool(models)), ("context", context is not None)) if given])
         return clean_markers(take)
     motion = take if isinstance(take, Motion) else _load_motion(take, asf)
     ctx, note = _load_context(context, motion)

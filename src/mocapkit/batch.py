@@ -67,7 +67,7 @@ from typing import Sequence
 from .errors import MocapError, MocapFormatError
 from .interrupts import interrupts_as_keyboard_interrupt
 
-__all__ = ["clean_file", "clean_marker_file", "clean_batch", "find_inputs", "output_for", "BatchSummary", "DEFAULT_PATTERNS"]
+__all__ = ["clean_file", "clean_marker_file", "refuse_marker_options", "clean_batch", "find_inputs", "output_for", "BatchSummary", "DEFAULT_PATTERNS"]
 
 DEFAULT_PATTERNS = ("*.bvh", "*.amc", "*.npz", "*.c3d", "*.trc")
 
@@ -131,13 +131,18 @@ def clean_file(
     """
     from . import io
     from .cleaning import decisions as dec
-    from .cleaning.pipeline import STEPS, CleanResult, clean, clean_path
+    from .cleaning.pipeline import STEPS, CleanResult, clean, clean_path, parse_steps
     from .io.outputs import check_outputs, removed_on_failure
     from .io.takes import check_asf, load_motion, load_take
     from .markerset import MarkerSet
 
     inp, out = Path(inp), Path(out)
+    not_for_markers = [name for name, given in (
+        ("steps " + ",".join(parse_steps(steps)), steps is not None and parse_steps(steps) != STEPS),
+        ("decisions", decisions is not None), ("record", record is not None), ("drifts", drifts),
+        ("models", bool(models))) if given]
     if isinstance(motion, MarkerSet) or (motion is None and inp.suffix.lower() in (".c3d", ".trc")):
+        refuse_marker_options(inp, not_for_markers)
         return clean_marker_file(inp, out, report=report, png=png, overwrite=overwrite, markers=motion)
     reuse = record is not None
     if reuse and decisions is None:
@@ -149,6 +154,7 @@ def clean_file(
                   overwrite=overwrite)
     check_asf(asf, [inp])
     if motion is None and inp.suffix.lower() == ".npz" and isinstance(take := load_take(inp), MarkerSet):
+        refuse_marker_options(inp, not_for_markers)
         return clean_marker_file(inp, out, report=report, png=png, overwrite=overwrite, markers=take)
     io.suffix_kind(out, io.WRITERS, "writing")
     doc = dec.read_decisions(decisions) if decisions is not None else None
@@ -199,6 +205,17 @@ def clean_file(
         if not reuse:
             res.save(record)  # last: the completion marker
     return m, res
+
+
+def refuse_marker_options(inp, names: Sequence[str]) -> None:
+    """Refuse, in one line, what a marker capture's cleaning cannot honour: a marker capture is cleaned whole.
+
+    ``--steps detect`` (review mode) and decisions have no meaning for it (:func:`clean_marker_file` has no
+    flags-only mode and no per-change decisions); cleaning it anyway would change a take its user asked not to.
+    """
+    if names:
+        raise MocapError(f"{inp}: a marker capture is cleaned whole (label swaps, spikes, gaps): "
+                         f"{', '.join(names)} {'applies' if len(names) == 1 else 'apply'} only to joint-angle takes")
 
 
 def clean_marker_file(inp, out, *, report=None, png=None, overwrite: bool = False, markers=None, steps=None):

@@ -135,3 +135,28 @@ def test_clean_batch_mixes_marker_and_skeletal_takes(cut_take, tmp_path):
     assert (tmp_path / "out" / "walk.bvh").exists()
     assert "2 cleaned" in stdout
     assert not load_markers(tmp_path / "out" / "markers.c3d").missing().any()
+
+
+@pytest.mark.parametrize("options", [["--steps", "detect"], ["--steps", "fill"], ["--threshold", "0.8"],
+                                     ["--drifts"], ["--decisions", "d.json"], ["--context", "none"]])
+def test_options_of_joint_angle_takes_are_refused_for_a_marker_capture(cut_take, tmp_path, options):
+    """Review mode (--steps detect) must not change a take: a marker capture, which has none, is refused, not cleaned."""
+    inp, _, _ = cut_take
+    (tmp_path / "d.json").write_text("{}")
+    options = [str(tmp_path / o) if o == "d.json" else o for o in options]
+    code, _, stderr = run("clean", inp, "-o", tmp_path / "x.c3d", *options)
+    assert code == 2 and one_error_line(stderr), stderr
+    assert "a marker capture is cleaned whole" in stderr and options[0] in stderr
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["d.json"]
+
+
+def test_review_mode_batch_leaves_its_marker_captures_uncleaned(cut_take, tmp_path):
+    inp, _, _ = cut_take
+    src = tmp_path / "in"
+    src.mkdir()
+    shutil.copy(inp, src / "markers.c3d")
+    shutil.copy(SAMPLE, src / "walk.bvh")
+    code, stdout, stderr = run("clean-batch", src, tmp_path / "out", "--executor", "serial", "--steps", "detect")
+    assert code == 1, stderr + stdout  # a take failed: the marker capture, named with the reason
+    assert "markers.c3d: a marker capture is cleaned whole" in stdout + stderr and "steps detect" in stdout + stderr
+    assert not (tmp_path / "out" / "markers.c3d").exists() and (tmp_path / "out" / "walk.bvh").exists()

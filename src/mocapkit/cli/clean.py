@@ -64,15 +64,22 @@ def clean(
     (--report) lists every change for a person to accept or reject; --decisions then writes OUT
     with only the accepted changes, every other sample bit-identical to IN. A marker
     capture (.c3d, .trc) gets swapped labels undone, spikes removed and gaps filled instead
-    (--steps, --threshold, --context do not apply to it); every other sample stays bit-identical.
+    (the options of joint-angle takes, --steps detect's review mode among them, are refused for it);
+    every other sample stays bit-identical.
     """
     from ..batch import clean_file
-    from ..cleaning.pipeline import clean_path
+    from ..cleaning.pipeline import STEPS, clean_path
     from ..io.takes import check_asf, load_motion
     from ..reference import check_reference
 
     if record is not None and decisions is None:
         raise MocapError("--record: the earlier run's record is read with --decisions; give the decisions file")
+    step_list = _steps(steps)  # an unknown step is refused for any take
+    not_for_markers = [name for name, given in (
+        (f"--steps {steps}", tuple(step_list) != STEPS), ("--threshold", threshold != 0.5),
+        ("--context", bool(context)), ("--drifts", drifts), ("--reference", reference is not None),
+        ("--decisions", decisions is not None), ("--record", record is not None), ("--ebf", ebf is not None),
+        ("--ebd", ebd is not None)) if given]
     if decisions is not None and record is None and clean_path(out).is_file():
         record = clean_path(out)  # the earlier run's record beside OUT: apply the decisions, clean nothing again
     if record is not None:
@@ -80,10 +87,8 @@ def clean(
     else:
         guard([out, clean_path(out), report, png], [inp, asf, context, reference, decisions, ebf, ebd], overwrite)
     check_asf(asf, [inp, reference])
-    if decisions is None and _clean_marker_take(inp, out, report=report, png=png, overwrite=overwrite,
-                                                 reference=reference):
+    if _clean_marker_take(inp, out, report=report, png=png, overwrite=overwrite, not_for_markers=not_for_markers):
         return
-    step_list = _steps(steps)
     models = _models(ebf, ebd)
     take = load_motion(inp, asf, purpose="clean")
     ref = None
@@ -171,9 +176,12 @@ def _print_decided(inp, out, decisions, record, report, png, original, res):
     return dec.apply(original, res, choice)
 
 
-def _clean_marker_take(inp: Path, out: Path, *, report, png, overwrite: bool, reference) -> bool:
-    """Clean ``inp`` as a marker capture when it is one (writing OUT, its record and reports); False for a motion."""
-    from ..batch import clean_marker_file
+def _clean_marker_take(inp: Path, out: Path, *, report, png, overwrite: bool, not_for_markers: list[str]) -> bool:
+    """Clean ``inp`` as a marker capture when it is one (writing OUT, its record and reports); False for a motion.
+
+    ``not_for_markers``: the options given that apply only to joint-angle takes, refused for a marker capture.
+    """
+    from ..batch import clean_marker_file, refuse_marker_options
     from ..cleaning.pipeline import clean_path
     from ..io.takes import load_take
     from ..markerset import MarkerSet
@@ -183,8 +191,7 @@ def _clean_marker_take(inp: Path, out: Path, *, report, png, overwrite: bool, re
     take = load_take(inp)
     if not isinstance(take, MarkerSet):
         return False
-    if reference is not None:
-        raise MocapError("--reference compares skeletal takes; it does not apply to a marker capture")
+    refuse_marker_options(inp, not_for_markers)
     _, res = clean_marker_file(inp, out, report=report, png=png, overwrite=overwrite, markers=take)
     extra = "".join(f" and {x}" for x in (report, png) if x is not None)
     console.print(f"wrote {out} and {clean_path(out)}{extra}: {plural(take.num_frames, 'frame')} x "
