@@ -300,3 +300,22 @@ def test_info_says_whether_the_networks_serve_a_rig_read_from_its_tree(tmp_path,
     code, out, _ = run("info", shared_data / "peer_files" / "Wasserwecken+bvhio" / "bvhio" / "tests" / "example.bvh")
     text = " ".join(out.split())
     assert code == 0 and "(the networks fall back: " in text and "lacks lowerback" in text
+
+
+def test_an_amc_written_to_another_folder_reads_back(tmp_path):
+    """convert and clean copy the input's ASF beside an AMC output (an AMC holds no skeleton), and say so."""
+    amc = mocapkit.samples.path("HDM_bd_jogLeftCircle4StepsRstart_001_120.amc")
+    code, out, err = run("convert", amc, tmp_path / "a" / "jog.amc")
+    assert code == 0, err
+    assert "copied the skeleton" in out and (tmp_path / "a" / "jog.asf").read_bytes() == mocapkit.samples.path("HDM_bd.asf").read_bytes()
+    code, out, err = run("clean", amc, "-o", tmp_path / "b" / "HDM_bd_clean.amc")
+    assert code == 0, err
+    assert sorted(p.name for p in (tmp_path / "b").iterdir()) == ["HDM_bd.asf", "HDM_bd_clean.amc", "HDM_bd_clean.clean.npz"]
+    for f in (tmp_path / "a" / "jog.amc", tmp_path / "b" / "HDM_bd_clean.amc"):
+        np.testing.assert_array_equal(mocapkit.load(f).rotations, mocapkit.load(amc).rotations)
+    code, out, err = run("convert", amc, tmp_path / "b" / "more.amc")  # the folder's only ASF is its: nothing copied
+    assert code == 0 and "copied" not in out and [p.name for p in (tmp_path / "b").glob("*.asf")] == ["HDM_bd.asf"]
+    (tmp_path / "c").mkdir()
+    (tmp_path / "c" / "jog.asf").write_text("not this skeleton")
+    code, out, err = run("convert", amc, tmp_path / "c" / "jog.amc")
+    assert code == 2 and one_error_line(err) and "exists and differs" in err and not (tmp_path / "c" / "jog.amc").exists()

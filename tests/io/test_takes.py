@@ -7,7 +7,8 @@ import pytest
 
 import mocapkit
 from mocapkit.errors import MocapFormatError
-from mocapkit.io.takes import check_asf, load_motion, load_take
+from mocapkit import samples
+from mocapkit.io.takes import asf_for_output, check_asf, load_motion, load_take, place_asf
 
 
 @pytest.fixture
@@ -53,3 +54,32 @@ def test_a_marker_file_is_refused_where_joint_angles_are_needed():
     with pytest.raises(MocapFormatError, match="no joint angles, which clean needs") as err:
         load_motion(c3d, purpose="clean")
     assert "Eb015pr.c3d" in str(err.value) and "\n" not in str(err.value)
+
+
+def test_asf_for_output_names_the_skeleton_an_amc_reads_back_with(tmp_path):
+    src = samples.path("HDM_bd.asf")
+    out = tmp_path / "o"
+    assert asf_for_output(out / "x.bvh", src) is None  # not an AMC
+    assert asf_for_output(out / "x.amc", None) is None
+    assert asf_for_output(out / "HDM_bd_walk.amc", src) == out / "HDM_bd.asf"  # its own name: a prefix of the AMC's
+    assert asf_for_output(out / "walk.amc", src) == out / "walk.asf"  # else the AMC's stem, picked whatever is there
+    out.mkdir()
+    (out / "HDM_bd.asf").write_bytes(src.read_bytes())
+    assert asf_for_output(out / "HDM_bd_walk.amc", src) is None  # already there
+    (out / "walk.asf").write_text("another skeleton")
+    with pytest.raises(MocapFormatError, match="walk.asf: exists and differs"):
+        asf_for_output(out / "walk.amc", src)
+    assert asf_for_output(out / "walk.amc", src, overwrite=True) == out / "walk.asf"
+    lone = tmp_path / "lone"
+    lone.mkdir()
+    (lone / "12.asf").write_bytes(samples.path("12.asf").read_bytes())
+    (lone / "take.amc").write_text("")  # read with the folder's only ASF: a second one would change that
+    with pytest.raises(MocapFormatError, match="would change the skeleton .*take.amc"):
+        asf_for_output(lone / "jog.amc", src)
+
+
+def test_place_asf_copies_it_whole(tmp_path):
+    src = samples.path("HDM_bd.asf")
+    place_asf(tmp_path / "HDM_bd.asf", src)
+    place_asf(None, src)
+    assert (tmp_path / "HDM_bd.asf").read_bytes() == src.read_bytes() and len(list(tmp_path.iterdir())) == 1

@@ -69,7 +69,7 @@ def clean(
     """
     from ..batch import clean_file
     from ..cleaning.pipeline import STEPS, clean_path
-    from ..io.takes import check_asf, load_motion
+    from ..io.takes import asf_for_output, asf_of, check_asf, load_motion, place_asf
     from ..reference import check_reference
 
     if record is not None and decisions is None:
@@ -90,6 +90,8 @@ def clean(
     if _clean_marker_take(inp, out, report=report, png=png, overwrite=overwrite, not_for_markers=not_for_markers):
         return
     models = _models(ebf, ebd)
+    skeleton = asf_of(inp, asf)
+    skeleton_copy = asf_for_output(out, skeleton, overwrite)  # an AMC output reads back with its ASF beside it
     take = load_motion(inp, asf, purpose="clean")
     ref = None
     if reference is not None:  # refused before cleaning, not after OUT is written
@@ -99,6 +101,9 @@ def clean(
                                progress=True, asf=asf if inp.suffix.lower() == ".amc" else None, overwrite=overwrite,
                                motion=take, drifts=drifts, decisions=decisions,
                                record=record, models=models)
+    place_asf(skeleton_copy, skeleton)
+    if skeleton_copy is not None:
+        console.print(f"copied the skeleton {skeleton} to {skeleton_copy}: an AMC is read with the ASF beside it")
     if decisions is not None:
         m = _print_decided(inp, out, decisions, record, report, png, original, res)
         _print_reference(ref, reference, original, m)

@@ -76,7 +76,7 @@ def convert(
 ) -> None:
     """Convert IN to OUT: a motion between BVH, AMC and npz (optionally resampled to --fps), markers between C3D, TRC and npz."""
     from .. import io
-    from ..io.takes import asf_of, check_asf, load_take
+    from ..io.takes import asf_for_output, asf_of, check_asf, load_take, place_asf
     from ..motion import Motion, check_fps
 
     if fps is not None:
@@ -103,11 +103,16 @@ def convert(
     if zeros_as_gaps is not None:
         raise MocapError("--zeros-as-gaps/--keep-zeros apply to marker files; IN is a motion")
     io.check_writable(m, out)
+    skeleton = asf_of(inp, asf)
+    skeleton_copy = asf_for_output(out, skeleton, overwrite)  # an AMC output reads back with its ASF beside it
     r = m.resample(fps) if fps is not None else m
     resampled, m = r is not m, r
     # a BVH to BVH or AMC to AMC conversion at the take's own rate keeps the input's text (io.save's like)
-    io.save(m, out, like=None if resampled else inp, asf=asf_of(inp, asf))
-    console.print(f"wrote {out} ({plural(m.num_frames, 'frame')} @ {m.fps:g} fps)")
+    io.save(m, out, like=None if resampled else inp, asf=skeleton)
+    place_asf(skeleton_copy, skeleton)
+    console.print(f"wrote {out} ({plural(m.num_frames, 'frame')} @ {m.fps:g} fps)"
+                  + (f"; copied the skeleton {skeleton} to {skeleton_copy}: an AMC is read with the ASF beside it"
+                     if skeleton_copy is not None else ""))
 
 
 def corrupt(

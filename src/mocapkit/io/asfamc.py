@@ -45,7 +45,7 @@ from .. import rotations as R
 from ..errors import MocapFormatError, SkeletonError
 from ..motion import MAX_JOINTS, Motion, Skeleton, check_fps
 
-__all__ = ["read_asf", "read_amc", "asf_dofs", "amc_dofs", "amc_header", "find_asf", "fps_from_name", "DEFAULT_FPS"]
+__all__ = ["read_asf", "read_amc", "asf_dofs", "amc_dofs", "amc_header", "find_asf", "pick_asf", "fps_from_name", "DEFAULT_FPS"]
 
 DEFAULT_FPS = 120.0
 """Frame rate used when neither ``fps=`` nor the file name gives one (CMU captured at 120 Hz)."""
@@ -399,17 +399,9 @@ def find_asf(amc) -> Path:
         asfs = sorted(p for p in folder.iterdir() if p.suffix.lower() == ".asf" and p.is_file())
     except OSError as exc:
         raise MocapFormatError(amc, f"cannot list {folder} to find its ASF: {exc.strerror or exc}") from None
-    stem = amc.stem.lower()
-    best = None
-    for p in asfs:
-        s = p.stem.lower()
-        if s and stem.startswith(s) and _at_boundary(stem, len(s)):
-            if best is None or len(s) > len(best.stem):
-                best = p
+    best = pick_asf(amc.name, asfs)
     if best is not None:
         return best
-    if len(asfs) == 1:
-        return asfs[0]
     first = next((k for k in range(1, len(amc.stem) + 1) if _at_boundary(amc.stem, k)), len(amc.stem))
     wanted = folder / f"{amc.stem[:first]}.asf"
     found = f"{len(asfs)} other ASF files" if asfs else "no ASF files"
@@ -418,6 +410,24 @@ def find_asf(amc) -> Path:
         f"no skeleton: looked for {wanted} (or another ASF named by a prefix of {amc.stem!r}) "
         f"and found {found} there; name the skeleton with --asf FILE (command line) or asf=FILE (Python)",
     )
+
+
+def pick_asf(amc_name: str, asfs, only_one: bool = True):
+    """The ASF of ``asfs`` (paths in one folder) that :func:`find_asf` gives the AMC named ``amc_name``; None if none.
+
+    The rule alone, on any list (one that does not exist yet included): the longest stem that is a prefix
+    of the AMC's at a word boundary, ignoring case; else (``only_one``) the only ASF.
+    """
+    stem = Path(amc_name).stem.lower()
+    best = None
+    for p in asfs:
+        s = Path(p).stem.lower()
+        if s and stem.startswith(s) and _at_boundary(stem, len(s)):
+            if best is None or len(s) > len(Path(best).stem):
+                best = p
+    if best is not None:
+        return best
+    return asfs[0] if only_one and len(asfs) == 1 else None
 
 
 def fps_from_name(stem: str) -> float | None:

@@ -27,7 +27,7 @@ from typing import Iterable
 
 from ..errors import MocapFormatError
 
-__all__ = ["load_take", "load_motion", "check_asf", "asf_of"]
+__all__ = ["load_take", "load_motion", "check_asf", "asf_of", "asf_for_output", "place_asf"]
 
 
 def _is_amc(path: os.PathLike | str) -> bool:
@@ -91,3 +91,54 @@ def load_motion(path: os.PathLike | str, asf: os.PathLike | str | None = None, p
     if not isinstance(take, Motion):
         raise MocapFormatError(path, f"a marker file has no joint angles, which {purpose} needs; solve it to a skeleton first")
     return take
+
+
+def asf_for_output(out: os.PathLike | str, source: os.PathLike | str | None, overwrite: bool = False) -> Path | None:
+    """Where the ASF ``source`` must be copied so that the AMC written to ``out`` reads back with it.
+
+    An AMC holds no skeleton: it is read with the ASF beside it (:func:`mocapkit.io.asfamc.find_asf`).
+    None when ``out`` is no AMC, ``source`` is None, or the ASF ``out`` would be read with already holds
+    ``source``'s bytes. Otherwise ``source``'s own name when its stem is a prefix of ``out``'s (``HDM_bd.asf``
+    for ``HDM_bd_walk.amc``), else ``out``'s stem + ``.asf``: a name ``find_asf`` picks whatever else the
+    folder holds. Checked before any work (:class:`~mocapkit.errors.MocapFormatError`): that file existing
+    with other contents is refused unless ``overwrite``, and so is a copy that would change the ASF
+    another AMC of the folder is read with (one that read with the folder's only ASF).
+    """
+    out = Path(out)
+    if source is None or not _is_amc(out):
+        return None
+    from .asfamc import pick_asf
+
+    source = Path(source)
+    data = source.read_bytes()
+    try:
+        present = sorted(p for p in out.parent.iterdir() if p.suffix.lower() == ".asf" and p.is_file())
+    except OSError:  # the folder does not exist yet
+        present = []
+    found = pick_asf(out.name, present)
+    if found is not None and Path(found).read_bytes() == data:
+        return None
+    same_name = out.parent / source.name
+    by_prefix = pick_asf(out.name, sorted({*present, same_name}), only_one=False) == same_name
+    dst = same_name if by_prefix else out.with_suffix(".asf")
+    if dst.exists() and not overwrite and (not dst.is_file() or dst.read_bytes() != data):
+        raise MocapFormatError(dst, f"exists and differs from the skeleton ({source}) the AMC output needs beside it; "
+                                    "use --overwrite to replace it, or write another format")
+    after = sorted({*present, dst})
+    for amc in sorted(p for p in out.parent.glob("*") if p.suffix.lower() == ".amc" and p.name != out.name):
+        was = pick_asf(amc.name, present)
+        if was is not None and was != pick_asf(amc.name, after):  # it read with the folder's only ASF
+            raise MocapFormatError(dst, f"the AMC output needs its skeleton here, which would change the skeleton "
+                                        f"{amc} is read with; write the AMC to another folder")
+    return dst
+
+
+def place_asf(dst: os.PathLike | str | None, source: os.PathLike | str | None) -> None:
+    """Copy ``source`` to ``dst`` (from :func:`asf_for_output`) atomically; nothing when ``dst`` is None."""
+    if dst is None or source is None:
+        return
+    from . import atomic_write
+
+    data = Path(source).read_bytes()
+    with atomic_write(Path(dst), "wb") as fh:
+        fh.write(data)
