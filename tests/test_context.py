@@ -134,6 +134,43 @@ def test_takes_on_another_rig_are_left_out_with_one_note(takes, tmp_path):
     assert C.fit_context(walk, cached)[1] == notes[0]  # said again on every run that uses it
 
 
+def test_a_take_on_the_minority_rig_of_a_folder_gets_the_takes_on_its_own(takes, tmp_path):
+    bvh = mocapkit.load(mocapkit.samples.path("131_01.bvh"))
+    for k in range(4):  # most of the folder is another rig (CMU's BVH spelling)
+        mocapkit.save(bvh[100 * k:100 * k + 60], takes / f"bvh{k}.bvh")
+    walk = mocapkit.load(takes / "cmu" / "12_walk.amc")
+    cache = tmp_path / "cache"
+    majority = C.resolve_context(takes, cache_dir=cache)
+    assert majority.skeletons[0].joint_names == bvh.skeleton.joint_names and majority.num_clips == 4
+    assert C.resolve_context(takes, cache_dir=cache, prefer=C.topology_id(bvh.skeleton)) is not None
+    assert len(list(cache.iterdir())) == 1  # the majority's build serves its rig
+    mine = C.resolve_context(takes, cache_dir=cache, prefer=C.topology_id(walk.skeleton))
+    assert mine.num_clips == 3 and mine.skeletons[0].joint_names == walk.skeleton.joint_names
+    ctx, note = C.fit_context(walk, mine)
+    assert ctx is mine and "left out 4 of 7 takes on another skeleton than this take's" in note
+    assert len(list(cache.iterdir())) == 2  # and the take's, cached too
+    fresh = C.resolve_context(takes, cache_dir=tmp_path / "fresh", prefer=C.topology_id(walk.skeleton))
+    assert fresh.num_clips == 3 and len(list((tmp_path / "fresh").iterdir())) == 1  # no majority build first
+    res = mocapkit.clean(walk, takes, steps="fill,detect")  # the Python API asks for the take's rig, as the CLI does
+    assert "3 clips" in res.steps[1].method and "than this take's" in " ".join(res.notes)
+
+
+def test_files_of_a_folder_that_cannot_be_context_are_left_out_and_named_files_refused(takes, tmp_path):
+    mocapkit.save(mocapkit.load(mocapkit.samples.path("Eb015pr.c3d")), takes / "markers.npz")
+    walk = mocapkit.load(takes / "cmu" / "12_walk.amc")
+    rot = walk.rotations.copy()
+    rot[5:9, 3] = np.nan
+    mocapkit.save(dataclasses.replace(walk, rotations=rot), takes / "gappy.npz")
+    db = C.resolve_context(takes, cache_dir=tmp_path / "cache")
+    assert db.num_clips == 3
+    note = " ".join(db.info["notes"])
+    assert "left out 2 of 5 files that cannot be context" in note and "gappy.npz" in note
+    assert C.fit_context(walk, db)[1] == note
+    for named in ("markers.npz", "gappy.npz"):
+        with pytest.raises(MocapFormatError, match=named):
+            C.resolve_context([takes / "cmu" / "12_walk.amc", takes / named], cache_dir=tmp_path / "cache")
+
+
 def test_cleaning_records_and_hidden_files_are_not_context(takes):
     (takes / "x.clean.npz").write_bytes(b"")
     (takes / ".hidden.bvh").write_bytes(b"")

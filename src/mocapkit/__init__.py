@@ -135,6 +135,6 @@ def _load_motion(path, asf) -> Motion:
 def _load_context(context, motion):
     """``context`` as :func:`mocapkit.cleaning.pipeline.clean` takes it (:func:`mocapkit.context.resolve_context`),
     fitted to ``motion``'s skeleton (:func:`mocapkit.context.fit_context`); returns ``(context, note)``."""
-    from .context import fit_context, resolve_context
+    from .context import fit_context, resolve_context, topology_id
 
-    return fit_context(motion, resolve_context(context))
+    return fit_context(motion, resolve_context(context, prefer=topology_id(motion.skeleton)))

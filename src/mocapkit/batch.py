@@ -73,17 +73,21 @@ DEFAULT_PATTERNS = ("*.bvh", "*.amc", "*.npz", "*.c3d", "*.trc")
 
 
 @lru_cache(maxsize=4)
-def _context(paths: tuple[str, ...], default: bool, progress: bool):
+def _context(paths: tuple[str, ...], default: bool, progress: bool, prefer: str | None):
     """The context ``paths`` name (:func:`mocapkit.context.resolve_context`), resolved once per process."""
     from .context import resolve_context
 
-    return resolve_context(list(paths), default=default, progress=progress)
+    return resolve_context(list(paths), default=default, progress=progress, prefer=prefer)
 
 
-def load_context(paths: Sequence | None, *, default: bool = True, progress: bool = False):
+def load_context(paths: Sequence | None, *, default: bool = True, progress: bool = False, take=None):
     """``--context``: a database folder, a folder of takes or motion files (built once and cached), ``none``;
-    None or empty: the bundled default context (with ``default``), else the clip itself."""
-    return _context(tuple(str(p) for p in (paths or ())), default, progress)
+    None or empty: the bundled default context (with ``default``), else the clip itself. ``take``: the
+    Motion it is for (a folder of mixed rigs then gives the takes on its skeleton)."""
+    from .context import topology_id
+
+    prefer = topology_id(take.skeleton) if take is not None else None
+    return _context(tuple(str(p) for p in (paths or ())), default, progress, prefer)
 
 
 def clean_file(
@@ -167,7 +171,7 @@ def clean_file(
     else:
         from .context import fit_context
 
-        ctx, ctx_note = fit_context(m, load_context(context, progress=progress))
+        ctx, ctx_note = fit_context(m, load_context(context, progress=progress, take=m))
         try:
             res = clean(m, ctx, steps=steps or STEPS, threshold=threshold, progress=progress, drifts=drifts,
                         models=models)

@@ -32,7 +32,12 @@ the files themselves, and nothing in it replaces them.
 
 **Rigs.** A database holds one skeleton topology. Takes of a folder on
 another topology than the majority's are left out of the build with one note
-naming them. A database serves a take (:func:`fit_context`) when the joint
+naming them; a take on one of those other topologies gets a second build of
+the same files that keeps its own (``prefer``, cached under its own key), so
+the takes of a mixed folder each meet the ones on their skeleton. A file found
+in a folder that cannot be context (a marker capture, a take with missing
+joints, an AMC without its ASF) is left out with a note; one named on its own
+is refused. A database serves a take (:func:`fit_context`) when the joint
 names agree, or when the topology (parents) agrees and every bone's rest
 direction agrees within :data:`REST_TOLERANCE_DEG`: then local rotations mean
 the same on both skeletons (mocapkit reads ASF rotations as ``C M C^-1`` about
@@ -66,6 +71,7 @@ __all__ = [
     "cache_root",
     "context_files",
     "context_key",
+    "topology_id",
     "build_context",
     "cached_context",
     "default_context",
@@ -160,9 +166,17 @@ def _stamp(p: Path) -> list:
     return [str(p.resolve()), st.st_size, st.st_mtime_ns]
 
 
-def context_key(files: Sequence, fps: float = BUILD_FPS, features: Sequence[str] = BUILD_FEATURES) -> str:
+def topology_id(skeleton) -> str:
+    """A short digest of a skeleton's topology: its joint names and parents (what one database holds)."""
+    text = json.dumps([list(skeleton.joint_names), [int(x) for x in skeleton.parents]])
+    return hashlib.sha256(text.encode("utf-8")).hexdigest()[:16]
+
+
+def context_key(files: Sequence, fps: float = BUILD_FPS, features: Sequence[str] = BUILD_FEATURES,
+                prefer: str | None = None, optional: Sequence = ()) -> str:
     """The cache key of a context built from ``files``: a hex digest of every file's resolved path, size and
-    mtime (an AMC's also of the ASF beside it), the settings and the database format version."""
+    mtime (an AMC's also of the ASF beside it), the settings (``prefer``: a :func:`topology_id`; ``optional``:
+    the files found in folders) and the database format version."""
     from .database_folder import FORMAT_VERSION
     from .io.asfamc import find_asf
 
@@ -176,8 +190,13 @@ def context_key(files: Sequence, fps: float = BUILD_FPS, features: Sequence[str]
             except MocapError:
                 row.append(None)  # the build refuses it, naming the file
         stamps.append(row)
-    text = json.dumps({"files": stamps, "fps": float(fps), "features": list(features), "format": FORMAT_VERSION,
-                       "layout": 1}, sort_keys=True)
+    settings = {"files": stamps, "fps": float(fps), "features": list(features), "format": FORMAT_VERSION, "layout": 1}
+    if prefer is not None:
+        settings["prefer"] = prefer
+    found = sorted(str(Path(f).resolve()) for f in optional)
+    if found:
+        settings["optional"] = found
+    text = json.dumps(settings, sort_keys=True)
     return hashlib.sha256(text.encode("utf-8")).hexdigest()[:32]
 
 
@@ -190,52 +209,83 @@ def _progress(total: int, enabled: bool):
                     TextColumn("{task.description}"), console=Console(stderr=True), disable=not enabled, transient=True)
 
 
+def _names(paths: Sequence[Path]) -> str:
+    return ", ".join(p.name for p in paths[:5]) + (f" and {len(paths) - 5} more" if len(paths) > 5 else "")
+
+
+def _context_take(p: Path, fps: float):
+    """The take at ``p`` resampled for a context; MocapFormatError naming it when it cannot be context."""
+    from .io.takes import load_motion
+
+    m = load_motion(p, purpose="context")
+    if m.num_frames == 0:
+        raise MocapFormatError(p, "the take has no frames; it cannot be context")
+    if not np.all(np.isfinite(m.rotations)):
+        raise MocapFormatError(p, "the take has missing joints (NaN); fill it before using it as context")
+    m = m.resample(fps)
+    return m if m.name else dataclasses.replace(m, name=p.stem)
+
+
 def build_context(files: Sequence, *, fps: float = BUILD_FPS, features: Sequence[str] = BUILD_FEATURES,
-                  progress: bool = False, label: str | None = None):
+                  progress: bool = False, label: str | None = None, prefer: str | None = None,
+                  optional: Sequence = ()):
     """Build a context database from motion files; returns ``(database, notes)``.
 
     Every file is read (an AMC with the ASF beside it, as the readers find
     it), resampled to ``fps`` and featurised. The database takes the skeleton
-    topology (joint names and parents) that holds the most clips; files on
-    another topology are left out and named in one note. An unreadable file
-    is refused (:class:`~mocapkit.errors.MocapFormatError` naming it).
-    ``progress`` shows a rich progress bar on stderr. ``label`` is stored in
-    the database's ``info`` (what the summary says judged a take).
+    topology (joint names and parents) ``prefer`` names (a :func:`topology_id`)
+    when a file is on it, else the one that holds the most clips; files on
+    another topology are left out and named in one note, and the database's
+    ``info["topologies"]`` lists every topology seen. A file that cannot be
+    context is refused (:class:`~mocapkit.errors.MocapFormatError` naming it),
+    or, when it is among ``optional`` (files found in a folder), left out and
+    named in a note. ``progress`` shows a rich progress bar on stderr.
+    ``label`` is stored in the database's ``info`` (what the summary says
+    judged a take).
     """
     from .database import MotionDatabase
-    from .io.takes import load_motion
 
     files = [Path(f) for f in files]
     if not files:
         raise MocapError("no context files given")
-    motions, topo = [], []
+    found = {Path(f).resolve() for f in optional}
+    motions, topo, used, bad = [], [], [], []
     with _progress(len(files), progress) as bar:
         task = bar.add_task("", total=len(files))
         for p in files:
             bar.update(task, description=p.name)
-            m = load_motion(p, purpose="context")
-            if m.num_frames == 0:
-                raise MocapFormatError(p, "the take has no frames; it cannot be context")
-            if not np.all(np.isfinite(m.rotations)):
-                raise MocapFormatError(p, "the take has missing joints (NaN); fill it before using it as context")
-            m = m.resample(fps)
-            motions.append(m if m.name else dataclasses.replace(m, name=p.stem))
-            topo.append((tuple(m.skeleton.joint_names), tuple(int(x) for x in m.skeleton.parents)))
+            try:
+                m = _context_take(p, fps)
+            except MocapFormatError as exc:
+                if p.resolve() not in found:
+                    raise
+                bad.append((p, str(exc), exc))
+                bar.advance(task)
+                continue
+            motions.append(m)
+            used.append(p)
+            topo.append(topology_id(m.skeleton))
             bar.advance(task)
+    notes = []
+    if bad:
+        notes.append(f"context: left out {len(bad)} of {len(files)} files that cannot be context "
+                     f"({bad[0][1]}{'; ' + _names([b[0] for b in bad[1:]]) if len(bad) > 1 else ''})")
+    if not motions:
+        raise bad[0][2]  # nothing left: the first file's own error
     counts: dict = {}
     for t in topo:
         counts[t] = counts.get(t, 0) + 1
-    best = max(counts, key=lambda t: (counts[t], -topo.index(t)))
+    best = prefer if prefer in counts else max(counts, key=lambda t: (counts[t], -topo.index(t)))
     keep = [m for m, t in zip(motions, topo) if t == best]
-    left = [p for p, t in zip(files, topo) if t != best]
-    notes = []
+    left = [p for p, t in zip(used, topo) if t != best]
     if left:
-        names = ", ".join(p.name for p in left[:5]) + (f" and {len(left) - 5} more" if len(left) > 5 else "")
-        notes.append(f"context: left out {len(left)} of {len(files)} takes on another skeleton than the "
-                     f"{len(best[0])}-joint one of the others ({names})")
+        why = "than this take's" if best == prefer and counts[best] < max(counts.values()) else "than the one of the others"
+        notes.append(f"context: left out {len(left)} of {len(files)} takes on another skeleton {why}, "
+                     f"{len(keep[0].skeleton.joint_names)} joints ({_names(left)})")
     db = MotionDatabase.build(keep, fps=fps, features=tuple(features), progress=False, executor="serial")
     db.info["label"] = label or "the context files"
     db.info["notes"] = notes
+    db.info["topologies"] = sorted(counts)
     return db, notes
 
 
@@ -255,28 +305,34 @@ def _sweep(root: Path) -> None:
 
 
 def cached_context(files: Sequence, *, cache_dir=None, fps: float = BUILD_FPS, features: Sequence[str] = BUILD_FEATURES,
-                   progress: bool = False, label: str | None = None):
+                   progress: bool = False, label: str | None = None, prefer: str | None = None, optional: Sequence = (),
+                   build: bool = True):
     """The context database of ``files``, built once into the cache and opened from it afterwards.
 
     ``cache_dir``: the cache folder (default :func:`cache_root`). The build
     goes into a hidden staging folder beside the entry and is renamed into
     place; when another process put the same key in place first, its copy is
     used and this one discarded. A cached entry that no longer opens (a disk
-    fault) is rebuilt. Returns a :class:`~mocapkit.database.MotionDatabase`
-    (memory-mapped) whose ``info`` holds ``label`` and the build's notes.
+    fault) is rebuilt. ``prefer`` and ``optional``: :func:`build_context`'s.
+    Returns a :class:`~mocapkit.database.MotionDatabase` (memory-mapped)
+    whose ``info`` holds ``label`` and the build's notes; with ``build``
+    False, None when the cache does not hold it.
     """
     from .database import MotionDatabase
 
     files = [Path(f) for f in files]
     root = Path(cache_dir) if cache_dir is not None else cache_root()
-    key = context_key(files, fps, features)
+    key = context_key(files, fps, features, prefer=prefer, optional=optional)
     entry = root / key
     if entry.is_dir():
         try:
             return _labelled(MotionDatabase.open(entry), label)
         except MocapFormatError:
             shutil.rmtree(entry, ignore_errors=True)  # our own entry, damaged: build it again
-    db, _ = build_context(files, fps=fps, features=features, progress=progress, label=label)
+    if not build:
+        return None
+    db, _ = build_context(files, fps=fps, features=features, progress=progress, label=label, prefer=prefer,
+                          optional=optional)
     try:
         root.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
@@ -322,15 +378,18 @@ def _describe(paths: list[Path]) -> str:
     return "the context files" if len(paths) > 1 else f"the context file {paths[0]}"
 
 
-def resolve_context(spec, *, default: bool = True, cache_dir=None, progress: bool = False):
+def resolve_context(spec, *, default: bool = True, cache_dir=None, progress: bool = False, prefer: str | None = None):
     """What ``--context`` (or ``context=``) names, as the analysis takes it.
 
     ``spec`` may be None or empty (the bundled default context when
     ``default``, else None), ``False``/``"none"`` (None: the clip itself), a
     :class:`~mocapkit.database.MotionDatabase` or Motions (returned as they
     are), a database folder (opened), or a folder of takes and/or a list of
-    motion files (built once and cached, :func:`cached_context`). Returns a
-    MotionDatabase, a list of Motions, or None.
+    motion files (built once and cached, :func:`cached_context`). ``prefer``:
+    the :func:`topology_id` of the take the context is for; when the files
+    hold takes on it but most are on another skeleton, the context built
+    from them keeps the take's. Returns a MotionDatabase, a list of Motions,
+    or None.
     """
     from .database import MotionDatabase
     from .motion import Motion
@@ -354,7 +413,12 @@ def resolve_context(spec, *, default: bool = True, cache_dir=None, progress: boo
         db.info["label"] = f"the database {paths[0]}"
         return db
     files = context_files(paths)
-    return cached_context(files, cache_dir=cache_dir, progress=progress, label=_describe(paths))
+    optional = [f for f in files if f not in paths]  # found in a folder, not named
+    kw = {"cache_dir": cache_dir, "progress": progress, "label": _describe(paths), "optional": optional}
+    plain = cached_context(files, build=prefer is None, **kw)  # the majority's build, when there is one
+    if plain is not None and (prefer not in plain.info.get("topologies", ()) or topology_id(plain.skeletons[0]) == prefer):
+        return plain
+    return cached_context(files, prefer=prefer, **kw)  # built for the take's skeleton (the majority's if it is absent)
 
 
 def _rest_directions(sk) -> np.ndarray:
@@ -419,7 +483,7 @@ def fit_context(motion, context):
         if context.info.get("default"):
             return None, f"{label} not used: this take's joints differ from the context's ({why}); the take is judged against itself"
         raise MocapError(f"{motion.name or 'take'}: its joints differ from those of the context, {label} ({why}); "
-                         "give a context on this take's skeleton")
+                         "give a context on this take's skeleton" + (f" ({built})" if built else ""))
     renamed = [dataclasses.replace(s, joint_names=names) for s in context.skeletons]
     out = MotionDatabase(fps=context.fps, skeletons=renamed, clips=context.clips, rotations=context.rotations,
                          root_positions=context.root_positions, features=context.features,

@@ -58,7 +58,7 @@ def detect(
         raise MocapFormatError(png, "the map is written as .png")
     m = load_motion(inp, asf, purpose="detect")
     precompile.start(precompile.kernels_for(["detect"]))  # with an empty numba cache: beside the context's loading
-    ctx, note = fit_context(m, load_context(context, progress=not as_json))
+    ctx, note = fit_context(m, load_context(context, progress=not as_json, take=m))
     det = _detect(m, ctx, threshold, progress=not as_json, confirm=confirm, jump_deg=jump_deg, drifts=drifts)
     with removed_on_failure([out, png]):
         det.save(out)
@@ -119,7 +119,7 @@ def repair(
         if det.flags.shape != (m.num_frames, m.skeleton.num_joints):
             raise MocapFormatError(detection, f"the detection is of {det.flags.shape[0]} frames x {det.flags.shape[1]} joints, "
                                               f"the take {m.num_frames} x {m.skeleton.num_joints}; detect this take again")
-    ctx, note = fit_context(m, load_context(context, progress=True))
+    ctx, note = fit_context(m, load_context(context, progress=True, take=m))
     if note:
         console.print(f"note: {note}")
     if det is None:
