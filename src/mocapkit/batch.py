@@ -193,7 +193,10 @@ def clean_file(
         except MocapError as exc:
             raise MocapError(f"{record}: {exc}") from None
         changed = dec.accepted_cells(res, chosen)
-    io.check_complete(cleaned, out, "the cleaned take still has missing joints (NaN)", "add the fill step or write .npz")
+    filled_rejected = chosen is not None and bool((res.filled & ~changed).any())
+    io.check_complete(cleaned, out, "the cleaned take still has missing joints (NaN)",
+                      "the decisions reject fill changes: accept them or write .npz" if filled_rejected
+                      else "add the fill step or write .npz")
     with removed_on_failure(outputs):
         if report is not None:
             from .report.html import write_report  # lazy: the viewer is optional

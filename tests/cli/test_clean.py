@@ -417,3 +417,51 @@ def test_clean_batch_drifts_flags_a_smooth_drift_only_when_asked(tmp_path, capsy
     assert not (records["off"].causes & drift).any()
     reasons = [c.reason for c in changes(on, bad) if c.joint == "ltibia"]
     assert reasons and all("smooth drift" in r for r in reasons)
+
+
+def test_a_model_licence_is_said_once_naming_cleans_own_option(tmp_path, capsys):
+    """The Bandai Namco EBD's non-commercial licence: one line in clean's output, naming --ebd, not a --model clean lacks."""
+    take = mocapkit.load(Path(__file__).resolve().parents[1] / "data" / "bandai_dance-short_normal_001_first60.bvh")
+    rot = take.rotations.copy()
+    rot[20:30, take.skeleton.joint_names.index("LowerArm_L")] = np.nan
+    mocapkit.save(dataclasses.replace(take, rotations=rot), tmp_path / "gappy.npz")
+    assert main(["clean", str(tmp_path / "gappy.npz"), "-o", str(tmp_path / "out.npz"), "--steps", "fill",
+                 "--context", "none"]) == 0
+    out = capsys.readouterr().out
+    assert out.count("the EBD used is CC BY-NC") == 1 and out.count("the EBF used is CC BY-NC") == 1, out
+    assert "warning" not in out  # no fallback: the licence is said in the fill step's line, not again
+    assert "--ebd (clean, clean-batch; models= in Python) picks another, e.g. ebd.pt" in " ".join(out.split())
+
+
+def test_rejected_fills_written_as_bvh_say_the_decisions_left_the_gaps(tmp_path, capsys):
+    """A BVH holds no gaps: with fill changes rejected the hint is to accept them, not to add a fill step that ran."""
+    import json
+
+    from mocapkit.cleaning import decisions as dec
+
+    take = mocapkit.load(samples.path("12_walk.amc"))[:120]
+    rot = take.rotations.copy()
+    rot[40:50, 5] = np.nan
+    gappy = dataclasses.replace(take, rotations=rot)
+    mocapkit.save(gappy, tmp_path / "gappy.npz")
+    assert main(["clean", str(tmp_path / "gappy.npz"), "-o", str(tmp_path / "out.npz"), "--steps", "fill"]) == 0
+    res = CleanResult.load(tmp_path / "out.clean.npz")
+    found = changes(res, gappy)
+    doc = dec.template(gappy, found, decisions={c.id: "reject" for c in found if c.step == "fill"})
+    (tmp_path / "d.json").write_text(json.dumps(doc))
+    capsys.readouterr()
+    assert main(["clean", str(tmp_path / "gappy.npz"), "-o", str(tmp_path / "out.bvh"), "--record",
+                 str(tmp_path / "out.clean.npz"), "--decisions", str(tmp_path / "d.json")]) == 2
+    err = capsys.readouterr().err
+    assert "the decisions reject fill changes: accept them or write .npz" in err and "add the fill step" not in err
+    assert not (tmp_path / "out.bvh").exists()
+
+
+def test_output_suffix_and_record_clashes_are_named_first(tmp_path, capsys):
+    """A wrong OUT suffix is said before an existing record asks for --overwrite; a record landing on the input says so."""
+    (tmp_path / "x.clean.npz").write_bytes(b"an earlier record")
+    assert main(["clean", str(samples.path("131_01.bvh")), "-o", str(tmp_path / "x.c3d")]) == 2
+    assert "unknown suffix '.c3d' for writing" in capsys.readouterr().err
+    mocapkit.save(mocapkit.load(samples.path("12_walk.amc"))[:60], tmp_path / "a.clean.npz")
+    assert main(["clean", str(tmp_path / "a.clean.npz"), "-o", str(tmp_path / "a.npz")]) == 2
+    assert "the record of" in capsys.readouterr().err and not (tmp_path / "a.npz").exists()

@@ -92,6 +92,7 @@ def test_clean_c3d_end_to_end(cut_take, tmp_path):
     code, stdout, stderr = run("clean", inp, "-o", out, "--report", tmp_path / "r.html", "--png", tmp_path / "p.png")
     assert code == 0, stderr
     assert f"{len(np.flatnonzero(mask.any(0)))} gaps filled" in stdout
+    assert "mm off the straight line between the gap's ends" in stdout  # what a gap's size measures (no error)
     got = _ezc3d_points(out)
     before = _ezc3d_points(inp)
     assert np.array_equal(np.isnan(before), np.repeat(mask[..., None], 3, -1))  # the gaps as ezc3d wrote them
@@ -105,7 +106,7 @@ def test_clean_c3d_end_to_end(cut_take, tmp_path):
     with np.load(tmp_path / "clean.clean.npz") as rec:
         assert np.array_equal(rec["filled"], mask)
     page = (tmp_path / "r.html").read_text()
-    assert "gap filled" in page and '"kind"' in page
+    assert "gap filled" in page and '"kind"' in page and "off the straight line" in page
     assert (tmp_path / "p.png").read_bytes()[:4] == b"\x89PNG"
 
 

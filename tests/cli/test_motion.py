@@ -319,3 +319,10 @@ def test_an_amc_written_to_another_folder_reads_back(tmp_path):
     (tmp_path / "c" / "jog.asf").write_text("not this skeleton")
     code, out, err = run("convert", amc, tmp_path / "c" / "jog.amc")
     assert code == 2 and one_error_line(err) and "exists and differs" in err and not (tmp_path / "c" / "jog.amc").exists()
+
+
+def test_an_output_folder_that_takes_no_file_names_the_output(tmp_path, capsys):
+    """/proc takes no new file: the line names OUT, not the hidden temporary file the write began with."""
+    assert main(["convert", SAMPLE, "/proc/mocapkit-test.npz"]) == 2
+    err = capsys.readouterr().err
+    assert "/proc/mocapkit-test.npz: cannot be written there" in err and ".part" not in err

@@ -84,12 +84,14 @@ _TEMP_NAME = re.compile(r"^(?P<dir>.*?)\.(?P<name>[^/]+)\.[^./]+\.part$")
 
 def _os_error_line(exc: OSError) -> str:
     """``PATH: reason`` for a filesystem error, naming the output rather than its temporary file."""
-    name = exc.filename
+    name, writing = exc.filename, False
     if isinstance(name, str):
         found = _TEMP_NAME.match(name)
         if found:
-            name = found.group("dir") + found.group("name")
+            name, writing = found.group("dir") + found.group("name"), True
     reason = exc.strerror or str(exc)
+    if writing and exc.errno == errno.ENOENT:  # the folder takes no new file (/proc, a folder removed meanwhile)
+        reason = "cannot be written there (no such file or directory)"
     if exc.errno == errno.ENOSPC:
         reason = "no space left on the device"
     elif exc.errno == errno.EROFS:
@@ -152,7 +154,7 @@ def _exit_status(exc: BaseException) -> int:
     usage = _usage_error(exc)
     if usage is not None:
         return usage
-    if isinstance(exc, FileNotFoundError):
+    if isinstance(exc, FileNotFoundError) and not (isinstance(exc.filename, str) and _TEMP_NAME.match(exc.filename)):
         return _fail(f"{exc.filename or exc}: no such file")
     if isinstance(exc, OSError):
         return _fail(_os_error_line(exc))

@@ -8,7 +8,7 @@ from typing import Optional
 
 import typer
 
-from ..errors import MocapError
+from ..errors import MocapError, MocapFormatError
 from .common import (STEPS_HELP, asf_option, check_executor, console, context_option, executor_option, guard,
                      overwrite_option, plural)
 
@@ -80,6 +80,7 @@ def clean(
         ("--context", bool(context)), ("--drifts", drifts), ("--reference", reference is not None),
         ("--decisions", decisions is not None), ("--record", record is not None), ("--ebf", ebf is not None),
         ("--ebd", ebd is not None)) if given]
+    _check_out_early(inp, out)
     if decisions is not None and record is None and clean_path(out).is_file():
         record = clean_path(out)  # the earlier run's record beside OUT: apply the decisions, clean nothing again
     if record is not None:
@@ -119,7 +120,7 @@ def clean(
         console.print(f"  {line}")
     said = " ".join(s.note for s in res.steps)
     for note in res.notes:  # the fallbacks, word for word as denoise and fill say them
-        if note in said:
+        if note in said and not _licence(note):  # a licence line is in its step's line already
             console.print(f"warning: {inp}: {note}")
     if res.detection is not None:
         from ..cleaning.decisions import flag_segments
@@ -133,6 +134,31 @@ def clean(
         if len(segs) > 12:
             console.print(f"    ... and {len(segs) - 12} more (all in {clean_path(out)})")
     _print_reference(ref, reference, original, m)
+
+
+def _check_out_early(inp: Path, out: Path) -> None:
+    """Before the output guard: OUT's suffix for the input's kind (when its suffix tells the kind), and the record
+    beside OUT landing on the input (``clean a.clean.npz -o a.npz``), each said as what it is."""
+    from .. import io
+    from ..cleaning.pipeline import clean_path
+    from ..io.outputs import same_file
+
+    kind = inp.suffix.lower()
+    if kind in (".bvh", ".amc"):
+        io.suffix_kind(out, io.WRITERS, "writing")
+    elif kind in (".c3d", ".trc"):
+        io.suffix_kind(out, io.MARKER_FORMATS, "writing markers")
+    if inp.exists() and same_file(clean_path(out), inp):
+        raise MocapFormatError(clean_path(out), f"the record of {out} (its stem + .clean.npz) would be written over "
+                                                "this input; choose another output name")
+
+
+def _licence(note: str) -> bool:
+    if " picks another, e.g. " not in note:  # no model's licence line: torch need not be imported to tell
+        return False
+    from ..cleaning.deep import is_licence_note
+
+    return is_licence_note(note)
 
 
 def _models(ebf: Optional[Path], ebd: Optional[Path]) -> dict | None:
@@ -206,7 +232,7 @@ def _clean_marker_take(inp: Path, out: Path, *, report, png, overwrite: bool, no
         console.print(f"  {line}")
     for fix in res.fixes[:12]:
         other = f" with {fix.other}" if fix.other else ""
-        console.print(f"    {fix.kind:5s} {fix.marker:16s} frames {fix.start}-{fix.end - 1}{other} ({fix.size_mm:.1f} mm)")
+        console.print(f"    {fix.kind:5s} {fix.marker:16s} frames {fix.start}-{fix.end - 1}{other} ({fix.size_text})")
     if len(res.fixes) > 12:
         console.print(f"    ... and {len(res.fixes) - 12} more (all in {clean_path(out)})")
     return True

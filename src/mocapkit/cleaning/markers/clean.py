@@ -48,6 +48,14 @@ class MarkerFix:
     size_mm: float
     other: str = ""
 
+    @property
+    def size_text(self) -> str:
+        """``size_mm`` in words: what the number measures differs by kind (a gap's is no error)."""
+        what = {"gap": "fill up to {} mm off the straight line between the gap's ends",
+                "spike": "removed samples up to {} mm from the fill",
+                "swap": "markers {} mm apart where it starts"}.get(self.kind, "{} mm")
+        return what.format(f"{self.size_mm:.1f}")
+
 
 @dataclass(frozen=True)
 class MarkerCleanResult:
