@@ -21,7 +21,7 @@ import dataclasses
 import os
 
 from . import rotations, samples
-from .errors import MocapError, MocapFormatError, SkeletonError
+from .errors import MissingFileError, MocapError, MocapFormatError, SkeletonError
 from .io import load, save
 from .motion import Motion, Skeleton, concatenate
 
@@ -32,6 +32,7 @@ __all__ = [
     "Skeleton",
     "MocapError",
     "MocapFormatError",
+    "MissingFileError",
     "SkeletonError",
     "clean",
     "load",

@@ -2,9 +2,10 @@
 
 from __future__ import annotations
 
+import errno
 import os
 
-__all__ = ["MocapError", "MocapFormatError", "SkeletonError"]
+__all__ = ["MocapError", "MocapFormatError", "MissingFileError", "SkeletonError"]
 
 
 class MocapError(Exception):
@@ -31,6 +32,21 @@ class MocapFormatError(MocapError, ValueError):
         # rebuilt from its own arguments: the default (the message as the one argument) cannot call this
         # __init__, so an error raised in a worker process broke the process pool instead of reaching the caller
         return type(self), (self.path, self.reason, self.line)
+
+
+class MissingFileError(MocapFormatError, FileNotFoundError):
+    """A file that does not exist: a :class:`MocapFormatError` (one line naming it) that is also a
+    ``FileNotFoundError``, so ``except FileNotFoundError`` and ``except OSError`` catch it as for ``open``."""
+
+    def __new__(cls, path=None, reason: str = "no such file", line: int | None = None):
+        return FileNotFoundError.__new__(cls)
+
+    def __init__(self, path: str | os.PathLike | None, reason: str = "no such file", line: int | None = None):
+        super().__init__(path, reason, line)
+        self.errno, self.strerror, self.filename = errno.ENOENT, reason, self.path
+
+    def __str__(self) -> str:
+        return str(self.args[0])
 
 
 class SkeletonError(MocapError, ValueError):

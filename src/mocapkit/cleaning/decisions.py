@@ -73,7 +73,7 @@ from typing import Mapping
 
 import numpy as np
 
-from ..errors import MocapError, MocapFormatError
+from ..errors import MissingFileError, MocapError, MocapFormatError
 from ..motion import Motion
 from .ik import contact_segments
 from .ssa.cues import cause_names
@@ -347,7 +347,7 @@ def read_decisions(path) -> dict:
             raise MocapFormatError(path, f"over {MAX_FILE_BYTES >> 20} MB; not a mocapkit decisions file")
         doc = json.loads(path.read_text(encoding="utf-8"))
     except FileNotFoundError:
-        raise MocapFormatError(path, "no such file") from None
+        raise MissingFileError(path) from None
     except IsADirectoryError:
         raise MocapFormatError(path, "a folder, not a decisions file") from None
     except (UnicodeDecodeError, json.JSONDecodeError) as exc:

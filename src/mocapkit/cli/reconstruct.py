@@ -7,7 +7,7 @@ from typing import Optional
 
 import typer
 
-from ..errors import MocapError, MocapFormatError
+from ..errors import MissingFileError, MocapError, MocapFormatError
 from .common import asf_option, console, guard, overwrite_option, plural
 
 # Krüger's six markers (2010, sec. 5.2): the four end effectors, the head and the root
@@ -109,7 +109,7 @@ def reconstruct(
     check_asf(asf, [inp, reference])
     io.suffix_kind(out, io.WRITERS, "writing")
     if not inp.is_file():  # as every reader says it (the CSV reader would say "cannot read the file: [Errno 2] ...")
-        raise MocapFormatError(inp, "no such file" if not inp.exists() else "not a regular file")
+        raise (MocapFormatError(inp, "not a regular file") if inp.exists() else MissingFileError(inp))
     db = MotionDatabase.open(db_dir)
     if kind == "accelerometers":
         from ..reconstruct import accelerometers as acc

@@ -16,7 +16,7 @@ import tempfile
 from contextlib import contextmanager
 from pathlib import Path
 
-from ..errors import MocapFormatError
+from ..errors import MissingFileError, MocapFormatError
 
 from ..markerset import MarkerSet
 
@@ -53,7 +53,7 @@ def load(path, **kwargs):
     _not_a_folder(path, READERS)
     kind = suffix_kind(path, READERS, "reading")
     if not path.is_file():
-        raise MocapFormatError(path, "no such file" if not path.exists() else "not a regular file")
+        raise (MocapFormatError(path, "not a regular file") if path.exists() else MissingFileError(path))
     if kind == "bvh":
         from .bvh import read_bvh as reader
     elif kind == "asfamc":
@@ -79,7 +79,7 @@ def load_markers(path, **kwargs) -> MarkerSet:
     _not_a_folder(path, MARKER_FORMATS)
     kind = suffix_kind(path, MARKER_FORMATS, "reading markers")
     if not path.is_file():
-        raise MocapFormatError(path, "no such file" if not path.exists() else "not a regular file")
+        raise (MocapFormatError(path, "not a regular file") if path.exists() else MissingFileError(path))
     if kind == "npz":
         from .npz import read_npz
 

@@ -25,7 +25,7 @@ import os
 from pathlib import Path
 from typing import Iterable
 
-from ..errors import MocapFormatError
+from ..errors import MissingFileError, MocapFormatError
 
 __all__ = ["load_take", "load_motion", "check_asf", "asf_of", "asf_for_output", "place_asf"]
 
@@ -46,7 +46,7 @@ def check_asf(asf: os.PathLike | str | None, inputs: Iterable[os.PathLike | str 
     if asf.suffix.lower() != ".asf":
         raise MocapFormatError(asf, "an ASF skeleton file (.asf) is expected for --asf")
     if not asf.is_file():
-        raise MocapFormatError(asf, "no such file" if not asf.exists() else "not a regular file")
+        raise (MocapFormatError(asf, "not a regular file") if asf.exists() else MissingFileError(asf))
     if not any(_is_amc(p) for p in inputs if p is not None):
         raise MocapFormatError(asf, "--asf is the skeleton of an .amc input, and no input is an .amc file")
 
