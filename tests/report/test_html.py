@@ -17,6 +17,7 @@ from mocapkit.cleaning import ssa
 from mocapkit.corrupt import real_errors
 from mocapkit.motion import concatenate, unit_scale_cm
 from mocapkit.report.html import DEFAULT_MAX_FRAMES, write_report
+from mocapkit.rotations import quaternion_from_axis_angle, quaternion_multiply
 
 CHROMIUM = os.environ.get("MOCAPKIT_CHROMIUM", "/usr/bin/chromium")
 CHROMIUM_ARGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-background-networking",
@@ -215,22 +216,119 @@ def test_nan_input_becomes_gaps(tmp_path, walk):
     assert data["stats"]["missingOriginal"] == int(gappy.missing().sum())
 
 
-def test_long_take_is_downsampled_and_keeps_short_flags(tmp_path, walk):
+def frame_list(data: dict) -> np.ndarray:
+    """The take frame of each shown frame, as the page decodes it."""
+    if data["frameList"] is None:
+        return np.arange(data["n"])
+    return np.frombuffer(base64.b64decode(data["frameList"]), dtype="<i4")
+
+
+def test_long_take_shows_every_kth_frame_and_every_flagged_frame(tmp_path, walk):
     F, J = walk.num_frames, walk.num_joints
     flags = np.zeros((F, J), bool)
     flags[5, 3] = True  # one frame, not on the kept grid 0, 4, 8, ...
     mdm = np.zeros((F, J))
     mdm[6, 3] = 0.8
+    mdm[101, 7] = 0.6  # far from any flag: not shown, kept as the maximum of the block 100-103
     out = write_report(tmp_path / "r.html", walk, walk, mdm=mdm, flags=flags, max_frames=100)
     data = page_data(out)
-    assert data["stride"] == 4 and data["n"] == len(range(0, F, 4)) and data["frames"] == F
+    want = sorted(set(range(0, F, 4)) | set(range(5 - 3, 5 + 4)))  # the grid, the flag and 3 frames either side
+    assert data["stride"] == 4 and data["frames"] == F and data["detail"] == "full" and data["margin"] == 3
+    assert frame_list(data).tolist() == want and data["n"] == len(want)
     bits = np.frombuffer(base64.b64decode(data["bits"]), dtype=np.uint8).reshape(data["n"], J)
-    assert bits[1, 3] & 1 and (bits & 1).sum() == 1
+    assert np.argwhere(bits & 1).tolist() == [[want.index(5), 3]]  # on frame 5 itself, nowhere else
     q = np.frombuffer(base64.b64decode(data["mdm"]), dtype=np.uint8).reshape(data["n"], J)
-    assert q[1, 3] == round(0.8 * 255) and q.sum() == q[1, 3]
+    assert q[want.index(6), 3] == round(0.8 * 255) and q[want.index(100), 7] == round(0.6 * 255)
+    assert q.sum() == round(0.8 * 255) + round(0.6 * 255)
     pos = decode_positions(data, "original")
-    ref = walk[::4].global_positions(end_sites=True) * unit_scale_cm(walk.skeleton)
+    ref = walk.global_positions(end_sites=True)[want] * unit_scale_cm(walk.skeleton)
     assert np.abs(pos - ref).max() <= data["pos"]["step"] / 2 + 1e-6
+    track = np.frombuffer(base64.b64decode(data["view"]["track"]), dtype="<f4").reshape(-1, 2)
+    assert track.shape == (data["n"], 2) and np.isfinite(track).all()
+
+
+SPIKE = (502, 503)  # two frames of a 1000-frame take, neither on the grid 0, 3, 6, ... of max_frames=400
+
+
+def spiked_long_take(walk):
+    """12_walk looped to 1000 frames; the input has a 2-frame spike of lhumerus (80 deg) at SPIKE."""
+    take = concatenate([walk] * 3)[:1000]
+    j = take.skeleton.index("lhumerus")
+    rot = np.array(take.rotations)
+    a, b = SPIKE[0], SPIKE[1] + 1
+    rot[a:b, j] = quaternion_multiply(quaternion_from_axis_angle(np.array([0.0, 0.0, 1.0]), np.radians(80.0)), rot[a:b, j])
+    spiked = dataclasses.replace(take, rotations=rot, name="spiked")
+    changed = np.zeros((take.num_frames, take.num_joints), bool)
+    changed[a:b, j] = True
+    return spiked, take, changed, j
+
+
+def test_long_take_holds_every_frame_of_a_change(tmp_path, walk):
+    spiked, take, changed, j = spiked_long_take(walk)
+    out = write_report(tmp_path / "r.html", spiked, take, flags=changed, changed=changed, max_frames=400)
+    data = page_data(out)
+    frames = frame_list(data)
+    assert data["stride"] == 3 and data["frames"] == 1000 and data["detail"] == "full"
+    # every 3rd frame, both frames of the change and 3 frames either side: sorted, from 0
+    assert frames.tolist() == sorted(set(range(0, 1000, 3)) | set(range(SPIKE[0] - 3, SPIKE[1] + 4)))
+    rows = [int(np.searchsorted(frames, f)) for f in SPIKE]
+    assert frames[rows].tolist() == list(SPIKE)
+    # the page's poses are those frames' poses: the spike in the input, not in the cleaned take
+    scale = unit_scale_cm(take.skeleton)
+    for which, motion in (("original", spiked), ("cleaned", take)):
+        ref = motion.global_positions(end_sites=True)[frames] * scale
+        assert np.abs(decode_positions(data, which) - ref).max() <= data["pos"]["step"] / 2 + 1e-6
+    hand = take.skeleton.index("lhand")
+    moved = np.linalg.norm(decode_positions(data, "original")[rows, hand] - decode_positions(data, "cleaned")[rows, hand], axis=-1)
+    assert moved.min() > 10  # cm
+    # flags and changes sit on exactly those two shown frames; the channel plots have one row per shown frame
+    bits = np.frombuffer(base64.b64decode(data["bits"]), dtype=np.uint8).reshape(data["n"], -1)
+    assert np.argwhere(bits & 3).tolist() == [[r, j] for r in rows]
+    plot = next(p for p in data["plots"] if p["joint"] == j)
+    got = decode_i16(plot["original"], plot["lo"], plot["step"]).reshape(data["n"], len(plot["channels"]))
+    cols = [spiked.channel_names().index(f"lhumerus.{c}") for c in plot["channels"]]
+    np.testing.assert_allclose(got, spiked.channel_values()[frames][:, cols], atol=plot["step"] / 2 + 1e-6)
+
+
+def test_review_spans_are_shown_whole_even_when_not_in_changed(tmp_path, walk):
+    """A rejected change is not in ``changed`` any more, but the review list still jumps to it."""
+    take = concatenate([walk] * 3)[:1000]
+    review = {"changes": [{"id": "c1", "first": 700, "last": 701}], "decisions": {"decisions": {"c1": "reject"}},
+              "flags": [{"first": 850, "last": 850}]}
+    data = page_data(write_report(tmp_path / "r.html", take, take, max_frames=400, review=review))
+    assert data["stride"] == 3 and data["detail"] == "full"
+    assert frame_list(data).tolist() == sorted(set(range(0, 1000, 3)) | set(range(697, 705)) | set(range(847, 854)))
+
+
+def test_shown_frames_rule_and_its_cap():
+    from mocapkit.report.html import DETAIL_MARGIN, shown_frames
+
+    F, J = 1000, 4
+    assert DETAIL_MARGIN == 3
+    frames, stride, detail = shown_frames(F, F, np.ones((F, J), bool))
+    assert frames.tolist() == list(range(F)) and stride == 1 and detail == "all"
+    frames, stride, detail = shown_frames(F, 100)
+    assert frames.tolist() == list(range(0, F, 10)) and stride == 10 and detail == "none"
+    # a change and a flag: their frames and 3 either side
+    ch, fl = np.zeros((F, J), bool), np.zeros((F, J), bool)
+    ch[501:503, 1] = True
+    fl[777, 2] = True
+    frames, stride, detail = shown_frames(F, 100, fl, ch)
+    assert detail == "full" and frames.tolist() == sorted(set(range(0, F, 10)) | set(range(498, 506)) | set(range(774, 781)))
+    # a take flagged all through: never more than 2 * max_frames frames; the tiers that fit, in order
+    everything = np.ones((F, J), bool)
+    frames, stride, detail = shown_frames(F, 100, everything, ch)
+    assert len(frames) <= 200 and detail == "changes" and {501, 502} <= set(frames.tolist())
+    frames, stride, detail = shown_frames(F, 100, None, everything)
+    assert frames.tolist() == list(range(0, F, 10)) and detail == "starts"  # the one run starts at 0
+    # more runs than room: their first frames, evenly spread, up to the cap
+    many = np.zeros((F, J), bool)
+    many[1::2, 0] = True  # 500 one-frame runs
+    frames, stride, detail = shown_frames(F, 100, many)
+    assert detail == "some" and len(frames) == 200 and np.all(np.diff(frames) > 0) and frames[-1] == 999
+    # the review list's jump targets are shown first of all
+    frames, stride, detail = shown_frames(F, 100, everything, starts=[123, 457])
+    assert {123, 457} <= set(frames.tolist()) and len(frames) <= 200
 
 
 def long_take(walk, seconds=60.0):
@@ -615,3 +713,129 @@ def test_viewer_frames_any_rig_upright_and_whole(open_page, tmp_path, name):
             box = got["panels"][1]["box"]
             assert got["foot"][1] - got["head"][1] > 0.5 * (box[3] - box[1]), (name, width, f, got)
         assert pg.errors == []
+
+
+# ---- long takes in the browser: every frame of a change, at its own frame number ---------------
+
+RING_JS = """() => {
+  // centre of the orange selection ring in each panel (input left, cleaned right), relative to the
+  // panel, above the "selected: ..." label at the bottom of the input panel
+  const c = document.getElementById('viewer'), W = c.width, H = c.height, half = Math.round(W / 2);
+  const d = c.getContext('2d').getImageData(0, 0, W, H).data;
+  return [[0, half - 1], [half + 1, W]].map(([x0, x1]) => {
+    let sx = 0, sy = 0, n = 0;
+    for (let y = 0; y < H - 26; y++) for (let x = x0; x < x1; x++) {
+      const i = (y * W + x) * 4;
+      if (d[i] > 200 && d[i + 1] > 120 && d[i + 1] < 190 && d[i + 2] < 80) { sx += x - (x0 ? half : 0); sy += y; n++; }
+    }
+    return n ? [sx / n, sy / n] : null;
+  });
+}"""
+
+
+def test_long_take_page_jumps_to_and_draws_the_changed_frames(open_page, tmp_path, walk):
+    spiked, take, changed, j = spiked_long_take(walk)
+    out = write_report(tmp_path / "r.html", spiked, take, flags=changed, changed=changed, max_frames=400)
+    data = page_data(out)
+    shown = frame_list(data).tolist()
+    pg = open_page(out)
+    api = "window.mocapkitReport"
+    assert pg.js(f"{api}.shownFrames()") == shown
+    assert pg.js(f"{api}.info.shown") == data["n"] and pg.js(f"{api}.heatmapLayout().frames") == 1000
+    note = pg.page.inner_text("#downsample-note")
+    assert f"every 3rd frame and every frame of each change and flag, with 3 frames either side ({data['n']} of 1000)" in note
+    # each frame of the change is shown as itself, at its own frame number
+    hand = take.skeleton.index("lhand")
+    scale = unit_scale_cm(take.skeleton)
+    for f in SPIKE:
+        pg.js(f"{api}.setFrame({f})")
+        assert pg.js(f"{api}.frame()") == f and pg.js(f"{api}.index()") == shown.index(f)
+        assert pg.page.inner_text("#frame-label").startswith(f"frame {f} / 999")
+        for which, motion in (("original", spiked), ("cleaned", take)):
+            got = np.array(pg.js(f"{api}.position('{which}', {f}, {hand})"), dtype=float)
+            want = motion[f].global_positions()[0, hand] * scale
+            assert np.abs(got - want).max() < 0.06, (which, f)
+    # a frame that is not shown lands on the shown one before it
+    pg.js(f"{api}.setFrame(511)")
+    assert pg.js(f"{api}.frame()") == 510
+    # the drawn pose: with the hand selected, its ring sits apart in the two panels on the spike, together elsewhere
+    pg.js(f"{api}.select({hand})")
+    for f in (SPIKE[0] - 3, SPIKE[0], SPIKE[1], SPIKE[1] + 3):
+        pg.js(f"{api}.setFrame({f})")
+        left, right = pg.js(RING_JS)
+        assert left and right, f
+        apart = float(np.hypot(left[0] - right[0], left[1] - right[1]))
+        if f in SPIKE:
+            assert apart > 8, (f, left, right)
+        else:
+            assert apart < 1.5, (f, left, right)
+    # the arrow keys step through the shown frames: one by one across the change
+    pg.js(f"document.activeElement && document.activeElement.blur(); {api}.setFrame(496)")
+    seen = []
+    for _ in range(12):
+        pg.page.keyboard.press("ArrowRight")
+        seen.append(pg.js(f"{api}.frame()"))
+    assert seen == [498] + list(range(499, 507)) + [507, 510, 513]
+    assert pg.errors == []
+
+
+def test_long_take_plays_the_change_at_every_frame(open_page, tmp_path, walk):
+    spiked, take, changed, j = spiked_long_take(walk)
+    out = write_report(tmp_path / "r.html", spiked, take, flags=changed, changed=changed, max_frames=400)
+    shown = set(frame_list(page_data(out)).tolist())
+    pg = open_page(out)
+    pg.page.select_option("#speed", "0.1")  # 12 take frames a second
+    # the page's animation frames driven by hand, 20 ms apart: the same steps on a fast or a busy machine
+    seen = pg.js("""() => {
+        const r = window.mocapkitReport, seen = [], queue = [];
+        const real = window.requestAnimationFrame;
+        window.requestAnimationFrame = cb => { queue.push(cb); return queue.length; };
+        r.setFrame(496); r.play();
+        for (let t = 0; t <= 1500; t += 20) {
+          const due = queue.splice(0);
+          due.forEach(cb => cb(t));
+          seen.push(r.frame());
+        }
+        r.pause();
+        window.requestAnimationFrame = real;
+        return seen;
+    }""")
+    assert seen[0] <= 496 and seen == sorted(seen) and 510 <= seen[-1] < 520, seen  # forwards, at the take's rate
+    assert set(seen) <= shown
+    # every frame of the change and its margins in turn, the rest at the stride
+    assert set(range(499, 507)) <= set(seen), seen
+    assert all(f % 3 == 0 for f in seen if not 499 <= f <= 506), seen
+    assert pg.errors == []
+
+
+def test_downsample_note_says_the_ordinal_right(open_page, tmp_path, walk):
+    F, J = walk.num_frames, walk.num_joints
+    flags = np.zeros((F, J), bool)
+    flags[100, 5] = True
+    for stride, word in [(2, "2nd"), (3, "3rd"), (4, "4th"), (11, "11th"), (12, "12th"), (13, "13th"),
+                         (21, "21st"), (22, "22nd"), (23, "23rd")]:
+        max_frames = -(-F // stride)
+        assert -(-F // max_frames) == stride
+        out = write_report(tmp_path / f"r{stride}.html", walk, walk, flags=flags, max_frames=max_frames)
+        n = page_data(out)["n"]
+        pg = open_page(out)
+        note = pg.page.inner_text("#downsample-note")
+        assert f"shows every {word} frame and every frame of each change and flag, with 3 frames either side ({n} of {F})" in note
+        assert pg.errors == []
+        pg.close()
+
+
+def test_short_take_shows_every_frame_without_a_frame_list(open_page, tmp_path, walk, cleaned_walk):
+    corrupted, repaired, det, changed = cleaned_walk
+    F = corrupted.num_frames
+    out = write_report(tmp_path / "r.html", corrupted, repaired, flags=det.flags, changed=changed, max_frames=F)
+    data = page_data(out)
+    assert data["frameList"] is None and data["detail"] == "all"
+    assert data["n"] == data["frames"] == F and data["stride"] == 1
+    pg = open_page(out)
+    assert pg.js("window.mocapkitReport.shownFrames()") == list(range(F))
+    assert pg.page.locator("#downsample-note").count() == 0
+    for f in (0, 1, 171, F - 1):
+        pg.js(f"window.mocapkitReport.setFrame({f})")
+        assert pg.js("[window.mocapkitReport.index(), window.mocapkitReport.frame()]") == [f, f]
+    assert pg.errors == []

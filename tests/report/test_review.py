@@ -149,3 +149,50 @@ def test_review_mode_lists_every_flag_with_the_rule_that_raised_it(browser, tmp_
     assert pg.evaluate("() => window.mocapkitReport.selectedJointName()") == f["joint"]
     ctx.close()
     assert errors == []
+
+
+def test_jump_lands_on_each_change_and_flag_of_a_long_take(browser, tmp_path):
+    """A take over max_frames (every 3rd frame shown): each "jump to frame N" shows frame N itself, rejected or not."""
+    from mocapkit.cleaning.pipeline import clean
+    from mocapkit.motion import concatenate, unit_scale_cm
+    from mocapkit.report.html import write_report
+
+    take = concatenate([mocapkit.load(samples.path("12_walk.amc"))] * 3)[:1000]
+    bad, _, _ = corrupt.real_errors(take, n_errors=6, seed=11)
+    res = clean(bad)
+    found = D.changes(res, bad)
+    assert sum(c.first % 3 != 0 for c in found) >= 3  # most jump targets are off the grid 0, 3, 6, ...
+    rejected = next(c for c in found if c.first % 3)
+    chosen = {rejected.id: D.REJECT}
+    cleaned, changed = D.apply(bad, res, chosen), D.accepted_cells(res, chosen)
+    assert not changed[rejected.first, rejected.joint_index]
+    out = write_report(tmp_path / "long.html", bad, cleaned, mdm=res.mdm, flags=res.flags, changed=changed,
+                       max_frames=400, review=D.review(bad, res, take="bad.npz", output="out.npz", decisions=chosen))
+    ctx = browser.new_context(viewport={"width": 1280, "height": 900})
+    pg = ctx.new_page()
+    errors = []
+    pg.on("pageerror", lambda e: errors.append(str(e)))
+    pg.goto(out.resolve().as_uri())
+    pg.wait_for_function("() => window.mocapkitReport && window.mocapkitReview && window.mocapkitReport.drawCount() > 0",
+                         timeout=60000)
+    assert pg.evaluate("() => window.mocapkitReport.info.stride") == 3
+    scale = unit_scale_cm(take.skeleton)
+    rows = pg.locator("#changes tbody tr")
+    assert rows.count() == len(found)
+    for k, c in enumerate(found):
+        rows.nth(k).locator("button.jump").click()
+        assert pg.evaluate("() => [window.mocapkitReport.frame(), window.mocapkitReport.selectedJointName()]") == \
+            [c.first, c.joint], c.id
+        # the pose drawn is that frame's, in both panels
+        for which, motion in (("original", bad), ("cleaned", cleaned)):
+            got = np.array(pg.evaluate(f"() => window.mocapkitReport.position('{which}', {c.first}, {c.joint_index})"), float)
+            want = motion[c.first].global_positions()[0, c.joint_index] * scale
+            assert np.abs(got - want).max() < 0.06, (c.id, which)
+    flags = D.flag_segments(res)
+    frows = pg.locator("#flags tbody tr")
+    assert frows.count() == len(flags) > 0
+    for k, f in enumerate(flags):
+        frows.nth(k).locator("button.jump").click()
+        assert pg.evaluate("() => window.mocapkitReport.frame()") == f["first"]
+    ctx.close()
+    assert errors == []

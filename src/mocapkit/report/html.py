@@ -24,14 +24,30 @@ What the page holds
   downloads the decisions JSON (its own JSON block and ``review.js``).
 
 Binary arrays travel as base64 of little-endian bytes inside one JSON block, so
-a 60 s take at 120 fps is a few MB. Above ``max_frames`` frames the viewer keeps
-every k-th frame (the heat map and the flags keep the maximum / any over each
-block of k frames, so a one-frame spike is not lost) and the page says so.
+a 60 s take at 120 fps is a few MB.
+
+Long takes
+----------
+Up to ``max_frames`` frames the viewer shows every frame (the page's frame list
+is null). A longer take shows a sorted, non-uniform list of its frames
+(:func:`shown_frames`): every k-th frame, ``k = ceil(frames / max_frames)``, and
+every frame of each run of flagged or changed cells (and of each change and flag
+of ``review``) with :data:`DETAIL_MARGIN` frames either side, so that a person
+reviewing a change sees exactly the frames it touched; the page carries the list
+(``frameList``, int32) and plays the take at its real rate, the detail at every
+frame and the rest at every k-th. The heat map and the flags keep the maximum /
+any over the frames from one shown frame to the next, so a one-frame spike is
+never lost, and the page says what it shows. The list is capped at
+``2 * max_frames`` frames: when the detail does not fit, it is kept by priority,
+whole tiers in this order while they fit: the first frame of each run (where the
+review list jumps), every changed frame, every flagged frame, the margins; the
+page says which tiers it kept.
 """
 
 from __future__ import annotations
 
 import base64
+import dataclasses
 import html as _html
 import json
 import math
@@ -44,10 +60,12 @@ from ..io import atomic_write
 from ..motion import Motion, unit_scale_cm
 from .view import body_points, find_up_axis, fit_view, rotation_to_y
 
-__all__ = ["write_report", "DEFAULT_MAX_FRAMES", "MAX_PLOT_JOINTS"]
+__all__ = ["write_report", "shown_frames", "DEFAULT_MAX_FRAMES", "DETAIL_MARGIN", "MAX_PLOT_JOINTS"]
 
 #: frames the viewer keeps by default: a 60 s take at 120 fps is shown at full rate.
 DEFAULT_MAX_FRAMES = 7200
+#: in a long take, frames shown on each side of a run of flagged or changed frames.
+DETAIL_MARGIN = 3
 #: at most this many joints get before/after channel plots (those flagged or changed most).
 MAX_PLOT_JOINTS = 12
 
@@ -94,14 +112,126 @@ def _cell_mask(a, name: str, shape: tuple[int, int]) -> np.ndarray | None:
     return arr
 
 
-def _block_reduce(a: np.ndarray, stride: int, how: str) -> np.ndarray:
-    """Reduce (F, ...) over blocks of ``stride`` frames starting at 0, stride, 2 stride, ..."""
-    if stride == 1:
-        return a
-    F = a.shape[0]
-    starts = np.arange(0, F, stride)
-    fn = np.maximum.reduceat if how == "max" else np.logical_or.reduceat
-    return fn(a, starts, axis=0)
+def _run_starts(mask: np.ndarray) -> np.ndarray:
+    """(F,) bool: frames where a run of True cells of some joint of the (F, J) ``mask`` begins."""
+    start = mask.copy()
+    start[1:] &= ~mask[:-1]
+    return start.any(axis=1)
+
+
+def _review_spans(review: dict | None, F: int) -> dict[str, list[tuple[int, int]]]:
+    """``(first, last)`` frames of the review's changes and flags that lie in the take."""
+    out: dict[str, list[tuple[int, int]]] = {"changes": [], "flags": []}
+    if not isinstance(review, dict):
+        return out
+    for key in out:
+        items = review.get(key)
+        for item in items if isinstance(items, list) else ():
+            if not isinstance(item, dict):
+                continue
+            a, b = item.get("first"), item.get("last", item.get("first"))
+            if isinstance(a, (int, np.integer)) and isinstance(b, (int, np.integer)) and 0 <= a <= b < F:
+                out[key].append((int(a), int(b)))
+    return out
+
+
+def shown_frames(num_frames: int, max_frames: int, flags=None, changed=None, *,
+                 starts=(), margin: int = DETAIL_MARGIN) -> tuple[np.ndarray, int, str]:
+    """The take frames the report's viewer shows: ``(frames, stride, detail)``.
+
+    Up to ``max_frames`` frames: all of them, stride 1, detail ``"all"``. A longer
+    take: every ``stride``-th frame (``stride = ceil(num_frames / max_frames)``, at
+    most ``max_frames`` of them) and the detail frames, at most ``2 * max_frames``
+    frames in all. The detail comes in tiers, each kept whole while the total stays
+    within that cap, in this order (the first that does not fit ends it):
+
+    1. ``"starts"``: the frame where each run of flagged or changed cells of a joint
+       begins, and the frames in ``starts`` (the review list's "jump to frame"
+       targets); when even these do not fit, evenly spaced ones of them (``"some"``);
+    2. ``"changes"``: every frame with a changed cell;
+    3. ``"runs"``: every frame with a flagged cell;
+    4. ``"full"``: ``margin`` frames either side of each run of frames of tiers 2-3.
+
+    ``detail`` names the last tier kept (``"none"`` when nothing is flagged or changed).
+
+    Parameters
+    ----------
+    num_frames, max_frames : int
+        Frames in the take; frames the viewer keeps at a uniform rate.
+    flags, changed : bool arrays (F,) or (F, J), optional
+        Flagged / changed cells (or frames); a run starts where a column's run of True does.
+    starts : iterable of int
+        Further frames to show first (where the review list jumps).
+    margin : int
+        Frames shown either side of each run of detail frames.
+
+    Returns
+    -------
+    frames : int64 array (N,), sorted, starting at 0
+    stride : int
+    detail : str
+
+    Examples
+    --------
+    >>> f = np.zeros(100, bool); f[41:43] = True
+    >>> frames, stride, detail = shown_frames(100, 20, f)
+    >>> stride, detail, [int(x) for x in frames if 35 <= x < 50]
+    (5, 'full', [35, 38, 39, 40, 41, 42, 43, 44, 45])
+    """
+    F = int(num_frames)
+    if F <= max_frames:
+        return np.arange(F), 1, "all"
+    stride = math.ceil(F / int(max_frames))
+    cap = 2 * int(max_frames)
+
+    def frames_mask(a):
+        if a is None:
+            return np.zeros(F, dtype=bool)
+        a = np.asarray(a, dtype=bool)
+        return a if a.ndim == 1 else a.any(axis=1)
+
+    def cell_starts(a):
+        if a is None:
+            return np.zeros(F, dtype=bool)
+        a = np.asarray(a, dtype=bool)
+        return _run_starts(a if a.ndim == 2 else a[:, None])
+
+    keep = np.zeros(F, dtype=bool)
+    keep[::stride] = True
+    first = cell_starts(flags) | cell_starts(changed)
+    first[[int(f) for f in starts]] = True
+    ch, fl = frames_mask(changed), frames_mask(flags)
+    if not (first.any() or ch.any() or fl.any()):
+        return np.flatnonzero(keep), stride, "none"
+    with_first = keep | first
+    if with_first.sum() > cap:  # more run starts than room: evenly spaced ones of them
+        room = cap - int(keep.sum())
+        extra = np.flatnonzero(first & ~keep)
+        pick = extra[np.unique(np.linspace(0, len(extra) - 1, max(room, 0)).round().astype(int))] if room > 0 else []
+        keep[pick] = True
+        return np.flatnonzero(keep), stride, "some"
+    keep, detail = with_first, "starts"
+    runs = ch | fl
+    for name, tier in (("changes", ch), ("runs", fl), ("full", None)):
+        if tier is None:  # the margins: either side of each run of changed or flagged frames
+            if margin <= 0:
+                break
+            kernel = np.ones(2 * int(margin) + 1, dtype=int)
+            tier = np.convolve(runs.astype(int), kernel, mode="same") > 0
+        cand = keep | tier
+        if cand.sum() > cap:
+            break
+        keep, detail = cand, name
+    return np.flatnonzero(keep), stride, detail
+
+
+def _motion_frames(m: Motion, frames: np.ndarray) -> Motion:
+    """The motion at the given frames (any sorted list of them)."""
+    if len(frames) == m.num_frames:
+        return m
+    tr = None if m.translations is None else m.translations[frames]
+    return dataclasses.replace(m, rotations=m.rotations[frames], root_positions=m.root_positions[frames],
+                               translations=tr)
 
 
 def _channel_plots(original: Motion, cleaned: Motion, interest: np.ndarray, idx: np.ndarray):
@@ -212,7 +342,9 @@ def write_report(
         Frame rate to show and play at; defaults to ``original.fps``.
     max_frames : int, optional
         Frames the viewer keeps (default :data:`DEFAULT_MAX_FRAMES`); longer takes
-        are shown at every k-th frame, which the page states.
+        are shown at every k-th frame and at every frame of each flagged or changed
+        run with :data:`DETAIL_MARGIN` frames either side, at most ``2 * max_frames``
+        frames (:func:`shown_frames`), which the page states.
     up_axis : str, int or 3-vector, optional
         The take's up axis (``"y"``, ``"z"``, ``"-z"``, ...); by default it is
         found from the data (:func:`mocapkit.report.view.find_up_axis`). The page
@@ -266,20 +398,33 @@ def write_report(
     if not math.isfinite(show_fps) or show_fps <= 0:
         raise ValueError(f"fps must be a positive number, got {fps!r}")
 
-    stride = max(1, math.ceil(F / int(max_frames)))
-    idx = np.arange(0, F, stride)
+    # the review's changes and flags count as runs too: a rejected change is not in ``changed``
+    spans = _review_spans(review, F)
+    span = {k: np.zeros(F, dtype=bool) for k in spans}
+    for k, runs in spans.items():
+        for a, b in runs:
+            span[k][a:b + 1] = True
+
+    def with_span(cells, k):
+        if not span[k].any():
+            return cells
+        return span[k][:, None] if cells is None else np.column_stack([cells, span[k]])
+
+    idx, stride, detail = shown_frames(F, int(max_frames), with_span(flags_arr, "flags"),
+                                       with_span(changed_arr, "changes"),
+                                       starts=[a for runs in spans.values() for a, _ in runs])
     sk = original.skeleton
     try:
         scale = unit_scale_cm(sk)
     except Exception:  # no human in any known unit: show file units as they are
         scale = 1.0
     with np.errstate(invalid="ignore"):
-        p_orig = original[::stride].global_positions(end_sites=True)
-        p_clean = cleaned[::stride].global_positions(end_sites=True)
+        p_orig = _motion_frames(original, idx).global_positions(end_sites=True)
+        p_clean = _motion_frames(cleaned, idx).global_positions(end_sites=True)
     turn = rotation_to_y(find_up_axis(sk, p_orig[:, :J], up_axis=up_axis)) * scale
     body = body_points(sk, p_orig)  # in the rig's units, before the turn and the scale
     p_orig, p_clean = p_orig @ turn.T, p_clean @ turn.T
-    framing = fit_view([p_orig, p_clean], fps=show_fps / stride, body=body)
+    framing = fit_view([p_orig, p_clean], fps=show_fps, body=body, frames=idx)  # smoothed over 1 s of the take
     # one grid for all three axes keeps the decoder trivial; 1 mm unless the take spans > 65 m
     lo, step, (q_orig, q_clean) = _quantise_i16([p_orig, p_clean], min_step=0.1)
 
@@ -291,11 +436,12 @@ def write_report(
         bits |= changed_arr.astype(np.uint8) * _BIT_CHANGED
     bits |= miss_o.astype(np.uint8) * _BIT_MISSING_ORIG
     bits |= miss_c.astype(np.uint8) * _BIT_MISSING_CLEAN
-    if stride > 1:
+    all_shown = len(idx) == F
+    if not all_shown:  # each shown frame stands for the frames up to the next shown one
         bits = np.bitwise_or.reduceat(bits, idx, axis=0)
     mdm_q = None
     if mdm_arr is not None:
-        mdm_q = np.rint(_block_reduce(mdm_arr, stride, "max") * 255).astype(np.uint8)
+        mdm_q = np.rint((mdm_arr if all_shown else np.maximum.reduceat(mdm_arr, idx, axis=0)) * 255).astype(np.uint8)
 
     interest = np.zeros(shape, dtype=bool)
     for a in (flags_arr, changed_arr):
@@ -313,6 +459,10 @@ def write_report(
         "frames": F,
         "stride": stride,
         "n": int(len(idx)),
+        # the take frame of each shown frame (sorted); null when every frame is shown
+        "frameList": None if all_shown else _b64(idx.astype("<i4")),
+        "detail": detail,
+        "margin": DETAIL_MARGIN,
         "numJoints": J,
         "names": names,
         "parents": parents,

@@ -216,7 +216,7 @@ def _moving_average(a: np.ndarray, width: int) -> np.ndarray:
     return (c[2 * h + 1:] - c[:-2 * h - 1]) / (2 * h + 1)
 
 
-def fit_view(positions, fps: float = 30.0, body=None) -> Framing:
+def fit_view(positions, fps: float = 30.0, body=None, frames=None) -> Framing:
     """Frame the drawn points of a take so that the figure is whole in every frame.
 
     Parameters
@@ -225,10 +225,15 @@ def fit_view(positions, fps: float = 30.0, body=None) -> Framing:
         Every motion the viewer draws with one camera (the input and the cleaned
         take), page units (cm), +y up; NaN (missing) points are ignored.
     fps : float
-        Rate of the N shown frames; sets the track's smoothing (about 1 s).
+        Frame rate of the take; sets the track's smoothing (about 1 s).
     body : bool array (P,), optional
         The points on the body (:func:`body_points`); the others are left out of
         the framing and marked hidden. Default: all.
+    frames : int array (N,), optional
+        The take frame of each row, sorted (the shown frames of a long take,
+        :func:`mocapkit.report.html.shown_frames`: not evenly spaced); default
+        ``0 .. N-1``. The follow track is interpolated to every take frame,
+        smoothed over about ``fps`` of them and read back at these.
 
     A take without one finite point gets a 170 cm figure at the origin.
     """
@@ -260,10 +265,13 @@ def fit_view(positions, fps: float = 30.0, body=None) -> Framing:
     have = cnt > 0
     xz = np.zeros((N, 2))
     xz[have] = np.stack([np.where(finite, pts[..., k], 0.0).sum(axis=1)[have] / cnt[have] for k in (0, 2)], axis=1)
+    rows = np.arange(N) if frames is None else np.asarray(frames, dtype=np.int64)
+    if rows.shape != (N,) or (N > 1 and np.any(np.diff(rows) <= 0)):
+        raise ValueError(f"frames: expected {N} increasing take frames, got shape {rows.shape}")
     idx = np.flatnonzero(have)
-    for k in range(2):
-        xz[:, k] = np.interp(np.arange(N), idx, xz[idx, k])
-    track = _moving_average(xz, int(round(max(fps, 1.0))) | 1)
+    every = np.arange(int(rows[-1]) + 1 - int(rows[0])) + int(rows[0])  # each take frame the rows span
+    full = np.stack([np.interp(every, rows[idx], xz[idx, k]) for k in range(2)], axis=1)
+    track = _moving_average(full, int(round(max(fps, 1.0))) | 1)[rows - rows[0]]
     track_height = float(centre[1])
     target = np.concatenate([track[:, :1], np.full((N, 1), track_height), track[:, 1:]], axis=1)
     d2 = ((pts - target[:, None, :]) ** 2).sum(axis=-1)

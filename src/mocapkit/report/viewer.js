@@ -9,7 +9,7 @@
   var T0 = performance.now(), TIMES = {};
   var D = JSON.parse(document.getElementById("mocapkit-data").textContent);
   TIMES.parse = performance.now() - T0;
-  var N = D.n, P = D.names.length, J = D.numJoints, STRIDE = D.stride;
+  var N = D.n, P = D.names.length, J = D.numJoints, STRIDE = D.stride, F = D.frames;
   var MISSING = -32768;
   var BIT_FLAG = 1, BIT_CHANGED = 2, BIT_MISS_O = 4, BIT_MISS_C = 8;
 
@@ -18,6 +18,24 @@
     var s = atob(b64), out = new Uint8Array(s.length);
     for (var i = 0; i < s.length; i++) out[i] = s.charCodeAt(i);
     return out;
+  }
+  // shown frame i <-> take frame: every frame (no list), or in a long take a sorted list of them
+  // (every k-th frame and every frame of each change and flag); shown frame i stands for the take
+  // frames frameOf(i) .. frameEnd(i) - 1 (its heat-map cell and its flags cover them all)
+  var FRAMES = D.frameList ? new Int32Array(bytes(D.frameList).buffer) : null;
+  function frameOf(i) { return FRAMES ? FRAMES[i] : i; }
+  function frameEnd(i) { return i + 1 < N ? frameOf(i + 1) : F; }
+  function indexOf(f) {
+    // the shown frame that is take frame f, else the nearest shown one before it
+    f = Math.floor(Number(f));
+    if (!(f > 0)) return 0;  // also NaN
+    if (!FRAMES) return Math.min(N - 1, f);
+    var lo = 0, hi = N - 1;
+    while (lo < hi) {
+      var mid = (lo + hi + 1) >> 1;
+      if (FRAMES[mid] <= f) lo = mid; else hi = mid - 1;
+    }
+    return lo;
   }
   function dequant(b64, lo, step) {
     var q = new Int16Array(bytes(b64).buffer), out = new Float32Array(q.length);
@@ -82,14 +100,25 @@
     if (st.changed !== null) parts.push(st.changed + " cells changed by the cleaning");
     if (st.missingOriginal) parts.push(st.missingOriginal + " missing cells in the input");
     summary.textContent = parts.join("; ") + ".";
-    if (STRIDE > 1) {
-      el("p", { "class": "note", id: "downsample-note",
-        text: "Long take: the viewer shows every " + STRIDE + "th frame (" + N + " of " + D.frames +
-              "); the heat map and the flags keep the maximum over each block of " + STRIDE + " frames." },
-        document.querySelector("header"));
-    }
+    if (N < F) el("p", { "class": "note", id: "downsample-note", text: downsampleNote() }, document.querySelector("header"));
   })();
   function fmt(x) { return Math.abs(x - Math.round(x)) < 1e-9 ? String(Math.round(x)) : x.toFixed(2); }
+  function ordinal(n) {
+    var t = n % 100, u = n % 10;
+    return n + (t >= 11 && t <= 13 ? "th" : u === 1 ? "st" : u === 2 ? "nd" : u === 3 ? "rd" : "th");
+  }
+  function downsampleNote() {
+    // what a long take shows (mocapkit.report.html.shown_frames): the detail tiers it kept
+    var m = D.margin, extra = {
+      full: "every frame of each change and flag" + (m ? ", with " + m + " frame" + (m === 1 ? "" : "s") + " either side" : ""),
+      runs: "every frame of each change and flag (too many to add the frames either side)",
+      changes: "every frame of each change and the first frame of each flag (too many flagged frames to show them all)",
+      starts: "the first frame of each change and flag (too many changed and flagged frames to show them all)",
+      some: "the first frame of some of the changes and flags (too many to show them all)"
+    }[D.detail];
+    return "Long take: the viewer shows every " + ordinal(STRIDE) + " frame" + (extra ? " and " + extra : "") +
+      " (" + N + " of " + F + "); the heat map and the flags keep the maximum over the frames from one shown frame to the next.";
+  }
 
   var viewSec = el("section", { "class": "viewer" }, app);
   var bar = el("div", { "class": "toolbar" }, viewSec);
@@ -302,7 +331,9 @@
     var ctx = off.getContext("2d"), img = ctx.createImageData(W, J), px = img.data;
     var red = D.has.flags ? BIT_FLAG : (D.has.changed ? BIT_CHANGED : 0);
     for (var c = 0; c < W; c++) {
-      var i0 = Math.floor(c * N / W), i1 = Math.max(i0 + 1, Math.floor((c + 1) * N / W));
+      // the take frames of column c, and the shown frames whose spans meet them
+      var f0 = Math.floor(c * F / W), f1 = Math.max(f0 + 1, Math.floor((c + 1) * F / W));
+      var i0 = indexOf(f0), i1 = indexOf(f1 - 1) + 1;
       for (var j = 0; j < J; j++) {
         var v = 0, b = 0;
         for (var i = i0; i < i1; i++) {
@@ -344,10 +375,10 @@
     }
     // frame ticks in the take's own frame numbers
     ctx.textAlign = "center"; ctx.textBaseline = "top"; ctx.fillStyle = "#343a40"; ctx.strokeStyle = "#343a40";
-    var step = niceStep(D.frames, H.width, 70), y0 = H.top + H.height;
+    var step = niceStep(F, H.width, 70), y0 = H.top + H.height;
     ctx.beginPath();
-    for (var f = 0; f < D.frames; f += step) {
-      var x = H.left + (f / STRIDE) / N * H.width;
+    for (var f = 0; f < F; f += step) {
+      var x = H.left + f / F * H.width;
       ctx.moveTo(x, y0); ctx.lineTo(x, y0 + 4);
       ctx.fillText(String(f), x, y0 + 6);
     }
@@ -358,14 +389,14 @@
       ctx.strokeStyle = COL.sel; ctx.lineWidth = 2;
       ctx.strokeRect(H.left - 1, H.top + S.selected * H.rowHeight - 1, H.width + 2, H.rowHeight + 2);
     }
-    var cx = H.left + (S.index + 0.5) / N * H.width;
+    var f0 = frameOf(S.index), f1 = frameEnd(S.index), cx = H.left + (f0 + f1) / 2 / F * H.width;
     ctx.strokeStyle = "#ffffff"; ctx.lineWidth = 3;
     ctx.beginPath(); ctx.moveTo(cx, H.top); ctx.lineTo(cx, y0); ctx.stroke();
     ctx.strokeStyle = "#000000"; ctx.lineWidth = 1;
     ctx.beginPath(); ctx.moveTo(cx, H.top); ctx.lineTo(cx, y0); ctx.stroke();
     if (S.selected >= 0) {
       ctx.strokeStyle = COL.sel; ctx.lineWidth = 2;
-      var cw = Math.max(3, H.width / N);
+      var cw = Math.max(3, (f1 - f0) / F * H.width);
       ctx.strokeRect(cx - cw / 2, H.top + S.selected * H.rowHeight, cw, H.rowHeight);
     }
   }
@@ -376,10 +407,10 @@
   }
   heat.addEventListener("click", function (ev) {
     var xy = canvasXY(ev, heat);
-    var i = Math.floor((xy[0] - H.left) / H.width * N), j = Math.floor((xy[1] - H.top) / H.rowHeight);
-    if (i < 0 || i >= N || j < 0 || j >= J) return;
+    var f = Math.floor((xy[0] - H.left) / H.width * F), j = Math.floor((xy[1] - H.top) / H.rowHeight);
+    if (f < 0 || f >= F || j < 0 || j >= J) return;
     select(j);
-    setIndex(i);
+    setIndex(indexOf(f));
   });
 
   // ---- drawing: channel plots ----------------------------------------------
@@ -406,7 +437,7 @@
       if (!(BITS[i * J + joint] & (BIT_FLAG | BIT_CHANGED))) continue;
       var i1 = i;
       while (i1 + 1 < N && (BITS[(i1 + 1) * J + joint] & (BIT_FLAG | BIT_CHANGED))) i1++;
-      ctx.fillRect(L + i / N * pw, T, Math.max(1, (i1 + 1 - i) / N * pw), ph);
+      ctx.fillRect(L + frameOf(i) / F * pw, T, Math.max(1, (frameEnd(i1) - frameOf(i)) / F * pw), ph);
       i = i1;
     }
     ctx.strokeStyle = "#ced4da"; ctx.lineWidth = 1; ctx.strokeRect(L, T, pw, ph);
@@ -420,8 +451,8 @@
     }
     ctx.stroke();
     ctx.textAlign = "center"; ctx.textBaseline = "top";
-    var fs = niceStep(D.frames, pw, 70);
-    for (var f = 0; f < D.frames; f += fs) ctx.fillText(String(f), L + (f / STRIDE) / N * pw, T + ph + 3);
+    var fs = niceStep(F, pw, 70);
+    for (var f = 0; f < F; f += fs) ctx.fillText(String(f), L + f / F * pw, T + ph + 3);
     function line(a, colour, faint, width) {
       // the input is drawn faint and wide under the cleaned line: dashes on a 7200-point path
       // cost Skia a second per page, and where the two agree the cleaned line covers the input
@@ -431,7 +462,7 @@
       for (var k = 0; k < keep.length; k++) {
         var i = keep[k], v = a[i];
         if (v !== v) { pen = false; prev = v; continue; }
-        var x = L + (i + 0.5) / N * pw, yv = T + (hi - v) / (hi - lo) * ph;
+        var x = L + (frameOf(i) + 0.5) / F * pw, yv = T + (hi - v) / (hi - lo) * ph;
         // an Euler channel wrapping at +-180 deg is a jump, not a line across the plot
         if (pen && !(series.wrap && Math.abs(v - prev) > series.wrap)) ctx.lineTo(x, yv); else ctx.moveTo(x, yv);
         pen = true; prev = v;
@@ -453,12 +484,16 @@
   function decimate(a, pw) {
     // indices to draw: all of them when there are few; else per pixel column the first, the
     // lowest, the highest and the last sample (in time order) and every NaN boundary, so the
-    // envelope and the gaps look as with every sample, at a few points per pixel
+    // envelope and the gaps look as with every sample, at a few points per pixel. Columns are
+    // spans of take frames (shown frames are not evenly spaced in a long take)
     var n = a.length, cols = Math.max(1, Math.floor(pw));
     if (n <= 2 * cols) { var all = new Array(n); for (var q = 0; q < n; q++) all[q] = q; return all; }
-    var out = [];
-    for (var c = 0; c < cols; c++) {
-      var i0 = Math.floor(c * n / cols), i1 = Math.floor((c + 1) * n / cols);
+    var out = [], i1 = 0;
+    for (var c = 0; c < cols && i1 < n; c++) {
+      // column c: the shown frames after column c - 1's with frameOf(i) + 1 <= (c + 1) * F / cols
+      var i0 = i1;
+      while (i1 < n && (frameOf(i1) + 1) * cols <= (c + 1) * F) i1++;
+      if (i1 === i0) continue;
       var lo = -1, hi = -1, gap = false;
       for (var i = i0; i < i1; i++) {
         var v = a[i];
@@ -499,7 +534,7 @@
   function drawPlotCursor(canvasEl, cache) {
     var ctx = sizeCanvas(canvasEl, cache.cssW, cache.cssH);
     ctx.drawImage(cache.image, 0, 0, cache.cssW, cache.cssH);
-    var x = cache.L + (S.index + 0.5) / N * cache.pw;
+    var x = cache.L + (frameOf(S.index) + 0.5) / F * cache.pw;
     ctx.strokeStyle = "#000"; ctx.lineWidth = 1;
     ctx.beginPath(); ctx.moveTo(x, cache.T); ctx.lineTo(x, cache.T + cache.ph); ctx.stroke();
   }
@@ -531,8 +566,8 @@
     var pc = plotCanvases.filter(function (x) { return x.canvas === c; })[0];
     var cache = pc ? pc.cache : selPlot && selPlot.cache;
     if (!cache) return;
-    var xy = canvasXY(ev, c), i = Math.floor((xy[0] - cache.L) / cache.pw * N);
-    if (i >= 0 && i < N) { select(joint); setIndex(i); }
+    var xy = canvasXY(ev, c), f = Math.floor((xy[0] - cache.L) / cache.pw * F);
+    if (f >= 0 && f < F) { select(joint); setIndex(indexOf(f)); }
   }
 
   // ---- state changes -------------------------------------------------------
@@ -552,7 +587,7 @@
   }
   function setIndex(i) {
     i = Math.max(0, Math.min(N - 1, Math.round(Number(i)) || 0));
-    S.index = i; S.pos = i;
+    S.index = i; S.pos = frameOf(i);
     slider.value = String(i);
     invalidate();
   }
@@ -560,7 +595,8 @@
     if (!S.dirty) { S.dirty = true; requestAnimationFrame(frame); }
   }
   function redraw() {
-    frameLabel.textContent = "frame " + (S.index * STRIDE) + " / " + (D.frames - 1) + "  (" + (S.index * STRIDE / D.fps).toFixed(2) + " s)";
+    var f = frameOf(S.index);
+    frameLabel.textContent = "frame " + f + " / " + (F - 1) + "  (" + (f / D.fps).toFixed(2) + " s)";
     var t0 = performance.now();
     drawViewer();
     var t1 = performance.now();
@@ -574,9 +610,10 @@
   function frame(t) {
     if (S.playing) {
       if (S.lastT !== null) {
-        S.pos += (t - S.lastT) / 1000 * D.fps / STRIDE * S.speed;
-        if (S.pos >= N) S.pos = S.pos % N;
-        S.index = Math.floor(S.pos);
+        // S.pos is in take frames: real time, every frame of the detail, the rest at the stride
+        S.pos += (t - S.lastT) / 1000 * D.fps * S.speed;
+        if (S.pos >= F) S.pos = S.pos % F;
+        S.index = indexOf(S.pos);
         slider.value = String(S.index);
       }
       S.lastT = t;
@@ -633,9 +670,9 @@
 
   // ---- API for tests and for people at the console ----------------------------
   window.mocapkitReport = {
-    frame: function () { return S.index * STRIDE; },         // frame number in the take
-    index: function () { return S.index; },                  // frame index in the viewer (take frame / stride)
-    setFrame: function (f) { play(false); setIndex(Number(f) / STRIDE); redraw(); },
+    frame: function () { return frameOf(S.index); },         // frame number in the take
+    index: function () { return S.index; },                  // frame index in the viewer (into shownFrames())
+    setFrame: function (f) { play(false); setIndex(indexOf(f)); redraw(); },  // f, or the shown frame before it
     setIndex: function (i) { play(false); setIndex(i); redraw(); },
     selectedJoint: function () { return S.selected; },
     selectedJointName: function () { return S.selected >= 0 ? D.names[S.selected] : null; },
@@ -645,13 +682,14 @@
     pause: function () { play(false); },
     playing: function () { return S.playing; },
     overlay: function (on) { if (on !== undefined) { S.overlay = !!on; redraw(); } return S.overlay; },
-    position: function (which, f, j) {                       // cm, y up, as drawn; NaN when missing
-      var o = ((Math.round(f / STRIDE) * P) + j) * 3, a = POS[which];
+    position: function (which, f, j) {                       // cm, y up, as drawn at take frame f; null when missing
+      var o = ((indexOf(f) * P) + j) * 3, a = POS[which];
       return [a[o], a[o + 1], a[o + 2]].map(function (v) { return v === v ? v : null; });
     },
-    heatmapLayout: function () { return { left: H.left, top: H.top, width: H.width, height: H.height, rowHeight: H.rowHeight, frames: N, joints: J }; },
+    heatmapLayout: function () { return { left: H.left, top: H.top, width: H.width, height: H.height, rowHeight: H.rowHeight, frames: F, joints: J }; },
+    shownFrames: function () { var out = new Array(N); for (var i = 0; i < N; i++) out[i] = frameOf(i); return out; },
     timings: TIMES,                                          // ms since the script started
-    info: { frames: D.frames, shown: N, stride: STRIDE, fps: D.fps, joints: J, names: D.names.slice(0, J), plots: PLOTS.map(function (p) { return D.names[p.joint]; }) }
+    info: { frames: F, shown: N, stride: STRIDE, detail: D.detail, fps: D.fps, joints: J, names: D.names.slice(0, J), plots: PLOTS.map(function (p) { return D.names[p.joint]; }) }
   };
   TIMES.setup = performance.now() - T0;
   redraw();
