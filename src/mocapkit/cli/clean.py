@@ -116,12 +116,15 @@ def clean(
                   + ("review mode (--steps detect): flags only, the take unchanged" if review else
                      f"{int(res.changed.sum())} of {plural(res.changed.size, 'joint sample')} changed "
                      f"({100.0 * (1 - res.changed.mean()):.1f} % untouched)"))
-    for line in res.summary():
-        console.print(f"  {line}")
     said = " ".join(s.note for s in res.steps)
-    for note in res.notes:  # the fallbacks, word for word as denoise and fill say them
-        if note in said and not _licence(note):  # a licence line is in its step's line already
-            console.print(f"warning: {inp}: {note}")
+    # a step's fallback or its model's licence: a warning, word for word as denoise and fill say it, and only there
+    warned = [note for note in res.notes if note and note in said]
+    for line in res.summary():
+        for note in warned:
+            line = line.replace(f"; {note}", "")
+        console.print(f"  {line}")
+    for note in warned:
+        console.print(f"warning: {inp}: {note}")
     if res.detection is not None:
         from ..cleaning.decisions import flag_segments
 
@@ -151,14 +154,6 @@ def _check_out_early(inp: Path, out: Path) -> None:
     if inp.exists() and same_file(clean_path(out), inp):
         raise MocapFormatError(clean_path(out), f"the record of {out} (its stem + .clean.npz) would be written over "
                                                 "this input; choose another output name")
-
-
-def _licence(note: str) -> bool:
-    if " picks another, e.g. " not in note:  # no model's licence line: torch need not be imported to tell
-        return False
-    from ..cleaning.deep import is_licence_note
-
-    return is_licence_note(note)
 
 
 def _models(ebf: Optional[Path], ebd: Optional[Path]) -> dict | None:

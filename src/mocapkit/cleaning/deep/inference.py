@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import dataclasses
 import json
-import re
 from dataclasses import dataclass, field
 from functools import lru_cache
 from importlib import resources
@@ -224,18 +223,13 @@ def licence_note(model: DeepModel, options: dict[str, str] | None = None) -> str
 
     ``options``: the option that picks another model of each kind in the command that prints the line
     (``{"ebd": "--model", "ebf": "--denoiser"}`` in ``fill``); without it the line names clean's ``--ebf`` /
-    ``--ebd`` and the Python API's ``models=``. :func:`is_licence_note` tells such a line from a fallback's.
+    ``--ebd`` and the Python API's ``models=``.
     """
     lic = model.meta.get("licence", "") if isinstance(model.meta, dict) else ""
     if not lic:
         return ""
     option = (options or {}).get(model.kind) or f"--{model.kind} (clean, clean-batch; models= in Python)"
     return f"the {model.kind.upper()} used is {lic}; {option} picks another, e.g. {SHIPPED[model.kind]}"
-
-
-def is_licence_note(note: str) -> bool:
-    """True for a line of :func:`licence_note` (a licence to heed), False for a fallback's or any other note."""
-    return bool(re.match(r"the (EBF|EBD) used is .*; .* picks another, e\.g\. ", note))
 
 
 def model_of_kind(model, kind: str, take=None) -> DeepModel:
