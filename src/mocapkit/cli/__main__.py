@@ -1,7 +1,5 @@
 """``python -m mocapkit.cli``: the ``mocapkit`` command."""
 
-import sys
+from . import run
 
-from . import main
-
-sys.exit(main())
+run()
