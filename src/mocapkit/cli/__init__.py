@@ -147,9 +147,11 @@ def run() -> None:
     """The console script and ``python -m mocapkit``: :func:`main`, then the process ends without the
     interpreter's teardown of its modules (0.6 s of torch's alone, after every output was written and closed).
 
-    What an ordinary exit does first still happens: thread pools are stopped and non-daemon threads joined, the ``atexit`` handlers
-    run (the numba precompile helper is stopped, multiprocessing's children are ended, temporary folders
-    removed) and stdout and stderr are flushed.
+    What an ordinary exit does first still happens: the ``atexit`` handlers run (the numba precompile
+    helper is stopped, multiprocessing's children are ended, temporary folders removed), stdout and stderr
+    are flushed and, after a command that succeeded, thread pools are stopped and non-daemon threads
+    joined (after a failure or an interrupt nothing is left to finish, and a process pool whose workers
+    were killed can leave a thread that would never end).
     """
     code = main()
     # CPython's own first steps of an exit (Py_FinalizeEx): elsewhere, the ordinary exit
@@ -157,7 +159,11 @@ def run() -> None:
     if join_threads is None or run_exitfuncs is None:
         sys.exit(code)
     try:
-        join_threads()  # thread pools told to stop (their atexit hooks), then every non-daemon thread joined
+        if code == 0:  # thread pools told to stop (their atexit hooks), then every non-daemon thread joined
+            join_threads()
+        # else the work stopped (an interrupt, an error): a process pool's workers were killed
+        # (parallel._stop_pool), and one killed while sending its result leaves the pool's manager
+        # thread waiting on half a message for ever; joining it hung 3 of 47 interrupted `db build`s
         run_exitfuncs()
     except KeyboardInterrupt:
         code = code or EXIT_INTERRUPTED
