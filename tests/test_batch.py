@@ -16,7 +16,7 @@ import pytest
 
 import mocapkit
 from mocapkit import samples
-from mocapkit.batch import BatchSummary, clean_batch, find_inputs, output_for
+from mocapkit.batch import BATCH_MARK, BatchSummary, clean_batch, find_inputs, output_for
 from mocapkit.errors import MocapError, MocapFormatError
 from mocapkit.motion import concatenate
 
@@ -219,7 +219,7 @@ def test_a_failing_take_is_a_row_and_the_others_go_on(tmp_path, short_bvh):
     assert [(Path(r["input"]).name, r["status"]) for r in s.rows] == [("broken.bvh", "failed"), ("good.bvh", "done")]
     assert "broken.bvh" in s.failed[0]["reason"] and "\n" not in s.failed[0]["reason"]
     assert _visible(tmp_path / "out") == ["good.bvh", "good.clean.npz"]
-    assert not [p for p in (tmp_path / "out").rglob(".*")]  # no staging folder or temporary left
+    assert [p.name for p in (tmp_path / "out").rglob(".*")] == [BATCH_MARK]  # no staging folder or temporary left
 
 
 def test_a_failing_take_leaves_no_folder_behind(tmp_path, short_bvh):
@@ -233,7 +233,7 @@ def test_a_failing_take_leaves_no_folder_behind(tmp_path, short_bvh):
     (out / "a").mkdir(parents=True)
     s = clean_batch(src, out, steps=STEPS, executor="serial", progress=False)
     assert [r["status"] for r in s.rows] == ["failed", "done"]
-    assert sorted(str(p.relative_to(out)) for p in out.rglob("*")) == ["a", "good.bvh", "good.clean.npz"]
+    assert sorted(str(p.relative_to(out)) for p in out.rglob("*")) == [BATCH_MARK, "a", "good.bvh", "good.clean.npz"]
     (src / "good.bvh").unlink()
     clean_batch(src, tmp_path / "none", steps=STEPS, executor="serial", progress=False)
     assert not (tmp_path / "none").exists()
@@ -382,7 +382,8 @@ def test_leftovers_of_a_killed_worker_are_swept_and_nothing_else(tmp_path, short
     (out / ".mine.bvh.a.part").write_text("not of this batch")
     (out / ".walk.bvh.bvh.b.part").write_text("not of this batch either")
     assert clean_batch(src, out, steps=STEPS, executor="serial", progress=False).count("done") == 1
-    assert sorted(p.name for p in out.iterdir()) == [".mine.bvh.a.part", ".walk.bvh.bvh.b.part", "walk.bvh", "walk.clean.npz"]
+    assert sorted(p.name for p in out.iterdir()) == [".mine.bvh.a.part", BATCH_MARK, ".walk.bvh.bvh.b.part", "walk.bvh",
+                                                    "walk.clean.npz"]
 
 
 def test_amc_outputs_get_their_asf_beside_them(tmp_path):
@@ -410,3 +411,45 @@ def test_amc_outputs_get_their_asf_beside_them(tmp_path):
     assert sorted(p.name for p in out.rglob("*")) == ["12.asf"]
     clean_batch(src, out, steps=STEPS, fmt="amc", executor="serial", progress=False, overwrite=True)
     assert (out / "12.asf").read_bytes() == samples.path("12.asf").read_bytes()
+
+
+def test_a_take_is_complete_only_for_the_request_that_made_it(tmp_path, short_bvh):
+    """A review batch (steps detect) leaves takes unchanged: a later full batch must not skip them as complete."""
+    src = tmp_path / "in"
+    src.mkdir()
+    shutil.copy(short_bvh, src / "walk.bvh")
+    out = tmp_path / "out"
+    assert clean_batch(src, out, steps=["detect"], executor="serial", progress=False).count("done") == 1
+    review = (out / "walk.bvh").read_bytes()
+    with pytest.raises(MocapFormatError, match=r"walk.bvh: exists from an earlier run, but it was cleaned with steps "
+                                               r"detect \(now fill,detect,repair,denoise\); use --overwrite"):
+        clean_batch(src, out, executor="serial", progress=False)
+    assert (out / "walk.bvh").read_bytes() == review  # refused before anything was written
+    again = clean_batch(src, out, executor="serial", progress=False, overwrite=True)
+    assert again.count("done") == 1
+    assert clean_batch(src, out, executor="serial", progress=False).count("skipped") == 1  # now complete
+    with pytest.raises(MocapFormatError, match="its png is missing"):
+        clean_batch(src, out, executor="serial", progress=False, png=True)
+    with pytest.raises(MocapFormatError, match=r"threshold 0.5 \(now 0.7\)"):
+        clean_batch(src, out, executor="serial", progress=False, threshold=0.7)
+
+
+def test_an_earlier_batchs_outputs_inside_in_dir_are_not_inputs(tmp_path, short_bvh):
+    src = tmp_path / "in"
+    src.mkdir()
+    shutil.copy(short_bvh, src / "walk.bvh")
+    first = clean_batch(src, src / "cleaned", executor="serial", progress=False)
+    assert first.count("done") == 1 and (src / "cleaned" / BATCH_MARK).is_file() and first.earlier == []
+    second = clean_batch(src, tmp_path / "out2", executor="serial", progress=False)
+    assert [Path(r["input"]).name for r in second.rows] == ["walk.bvh"]  # not cleaned/walk.bvh a second time
+    assert second.earlier == [str(src / "cleaned")]
+    assert find_inputs(src) == [src / "walk.bvh"]
+    assert find_inputs(src / "cleaned") == [src / "cleaned" / "walk.bvh"]  # named itself: its takes are the inputs
+
+
+def test_a_batch_that_wrote_nothing_leaves_no_mark(tmp_path):
+    src = tmp_path / "in"
+    src.mkdir()
+    (src / "broken.bvh").write_text("HIERARCHY\nROOT x\n")
+    s = clean_batch(src, tmp_path / "out", executor="serial", progress=False)
+    assert s.count("failed") == 1 and not (tmp_path / "out").exists()

@@ -9,8 +9,11 @@ What is on disk after a take is cleaned, beside each other:
 
 Every file is written atomically (temporary file + rename), reports first,
 then ``OUT``, then the ``.clean.npz`` **last**: its presence is the completion
-marker. :func:`clean_batch` skips a take whose output and marker both exist,
-so an interrupted corpus run resumes where it stopped; a take interrupted
+marker, and it keeps the take's request (:func:`clean_request`: steps,
+threshold, drifts, context, models). :func:`clean_batch` skips a take whose
+output and marker both exist and whose request and reports are this run's,
+so an interrupted corpus run resumes where it stopped (a take made with
+another request is refused without ``overwrite``, cleaned again with it); a take interrupted
 after ``OUT`` was renamed but before its marker is removed again, so an
 interrupt never leaves an output without its record.
 
@@ -28,7 +31,8 @@ file after that (an input literally named ``take.amc.bvh`` beside
 no output, record or report may resolve (symlinks, ``..``, hard links) to
 any input take or ``--context`` file, nor lie inside a ``--context`` folder
 or inside ``IN_DIR`` (an ``OUT_DIR`` below ``IN_DIR`` is allowed: it is left
-out of the inputs); two takes may not write one file; ``OUT_DIR`` may not be
+out of the inputs, and so is any folder below ``IN_DIR`` holding the
+:data:`BATCH_MARK` an earlier batch left in its ``OUT_DIR``); two takes may not write one file; ``OUT_DIR`` may not be
 ``IN_DIR``. A take is cleaned again only when it is not complete, and any of
 its files that already exists (an output without its record, a report left
 by another tool) is replaced only with ``overwrite``.
@@ -55,6 +59,7 @@ from __future__ import annotations
 
 import dataclasses
 import fnmatch
+import json
 import os
 import shutil
 import tempfile
@@ -67,9 +72,12 @@ from typing import Sequence
 from .errors import MocapError, MocapFormatError
 from .interrupts import interrupts_as_keyboard_interrupt
 
-__all__ = ["clean_file", "clean_marker_file", "refuse_marker_options", "clean_batch", "find_inputs", "output_for", "BatchSummary", "DEFAULT_PATTERNS"]
+__all__ = ["clean_file", "clean_marker_file", "clean_request", "refuse_marker_options", "clean_batch", "find_inputs", "output_for", "BatchSummary", "DEFAULT_PATTERNS", "BATCH_MARK"]
 
 DEFAULT_PATTERNS = ("*.bvh", "*.amc", "*.npz", "*.c3d", "*.trc")
+
+#: The hidden file :func:`clean_batch` leaves in its OUT_DIR: a later batch leaves a folder holding it out of its inputs.
+BATCH_MARK = ".mocapkit-batch.json"
 
 
 @lru_cache(maxsize=4)
@@ -177,6 +185,7 @@ def clean_file(
                         models=models)
             if ctx_note:
                 res = replace(res, notes=res.notes + (ctx_note,))
+            res = replace(res, params={**res.params, "request": clean_request(steps, threshold, drifts, context, models)})
         except (ValueError, TypeError) as exc:
             raise MocapError(f"{inp}: {exc}") from None
         except MocapError as exc:
@@ -212,6 +221,49 @@ def clean_file(
         if not reuse:
             res.save(record)  # last: the completion marker
     return m, res
+
+
+def clean_request(steps=None, threshold: float = 0.5, drifts: bool = False, context: Sequence | None = None,
+                  models: dict | None = None) -> dict:
+    """What a take was asked to be cleaned with, as its record keeps it (``params["request"]``).
+
+    :func:`clean_batch` takes a take as complete only when its record holds the same request: a take
+    reviewed with ``steps="detect"`` or cleaned at another threshold is not what a later run asks for.
+    """
+    from .cleaning.pipeline import STEPS, parse_steps
+
+    def spec(c):
+        p = Path(c)
+        return str(p.resolve()) if p.exists() else os.fspath(c)
+
+    return {"steps": list(parse_steps(steps or STEPS)), "threshold": float(threshold), "drifts": bool(drifts),
+            "context": [spec(c) for c in context] if context else "default",
+            "models": {k: spec(v) if isinstance(v, (str, os.PathLike)) else type(v).__name__
+                       for k, v in sorted((models or {}).items())}}
+
+
+def _not_complete(files: dict, request: dict) -> str:
+    """Why a take whose output and record exist is not complete for this run ("" when it is)."""
+    from .cleaning.pipeline import CleanResult
+
+    missing = [k for k in ("report", "png") if files.get(k) is not None and not Path(files[k]).is_file()]
+    if missing:
+        return f"its {' and '.join(missing)} is missing"
+    params = CleanResult.load_params(files["record"])
+    done = None if params is None else params.get("request")
+    if not isinstance(done, dict):  # a marker capture's record, or one written before requests were kept
+        return ""
+    names = {"steps": "steps", "threshold": "threshold", "drifts": "drifts", "context": "context", "models": "models"}
+    diff = [f"{names[k]} {_said(done.get(k))} (now {_said(request[k])})" for k in names if done.get(k) != request[k]]
+    return f"it was cleaned with {', '.join(diff)}" if diff else ""
+
+
+def _said(v) -> str:
+    if isinstance(v, list):
+        return ",".join(str(x) for x in v) or "none"
+    if isinstance(v, dict):
+        return ",".join(f"{k}={x}" for k, x in v.items()) or "shipped"
+    return str(v)
 
 
 def refuse_marker_options(inp, names: Sequence[str]) -> None:
@@ -266,12 +318,24 @@ def clean_marker_file(inp, out, *, report=None, png=None, overwrite: bool = Fals
 # -- corpora -------------------------------------------------------------------------------
 
 
-def find_inputs(in_dir, patterns: Sequence[str] = DEFAULT_PATTERNS, exclude=None) -> list[Path]:
-    """Every file under ``in_dir`` (recursive) whose name matches one of ``patterns``, sorted; files under ``exclude`` and ``.clean.npz``/``.mask.npz`` records left out."""
+def find_inputs(in_dir, patterns: Sequence[str] = DEFAULT_PATTERNS, exclude=None, earlier: list | None = None) -> list[Path]:
+    """Every file under ``in_dir`` (recursive) whose name matches one of ``patterns``, sorted; left out: files
+    under ``exclude``, ``.clean.npz``/``.mask.npz`` records, and the folders below ``in_dir`` that hold an
+    earlier batch's outputs (a :data:`BATCH_MARK` file; appended to ``earlier`` when given)."""
     in_dir = Path(in_dir)
     excl = Path(exclude).resolve() if exclude is not None else None
+    found = []
+    for folder, dirs, files in os.walk(in_dir):
+        here = Path(folder)
+        if here != in_dir and BATCH_MARK in files:
+            dirs[:] = []
+            if earlier is not None:
+                earlier.append(here)
+            continue
+        dirs.sort()
+        found.extend(here / f for f in files)
     out = []
-    for p in sorted(in_dir.rglob("*")):
+    for p in sorted(found):
         if not p.is_file() or p.name.startswith("."):
             continue
         if p.name.endswith((".clean.npz", ".mask.npz")):
@@ -318,12 +382,14 @@ class BatchSummary:
     ``seconds`` and, for cleaned takes, the counts of cells changed.
     ``renamed``: the inputs whose output keeps the input's suffix because
     another take would have written the same file (module docstring).
+    ``earlier``: folders below IN_DIR left out as an earlier batch's outputs.
     """
 
     rows: list = field(default_factory=list)
     seconds: float = 0.0
     executor: str = ""
     renamed: list = field(default_factory=list)
+    earlier: list = field(default_factory=list)
 
     def count(self, status: str) -> int:
         return sum(r["status"] == status for r in self.rows)
@@ -514,7 +580,7 @@ def clean_batch(
 ) -> BatchSummary:
     """Clean every take under ``in_dir`` into the mirrored layout under ``out_dir`` (module docstring).
 
-    Complete takes (output and ``.clean.npz`` present) are skipped; failures
+    Complete takes (output and ``.clean.npz`` present, made with this request) are skipped; failures
     are rows with a one-line reason. ``report``/``png``: also write
     ``<stem>.report.html`` / ``<stem>.summary.png`` beside each output.
     Takes that would share an output keep their input's suffix
@@ -550,20 +616,30 @@ def clean_batch(
         load_context(ctx, progress=progress)  # fail early, in one line, on a bad context; a folder is built and cached once
     t0 = time.perf_counter()
     below = inside(out_dir, in_dir)  # an OUT_DIR below IN_DIR is left out of the inputs, IN_DIR itself is not
-    inputs = find_inputs(in_dir, patterns, exclude=out_dir if below else None)
+    earlier: list[Path] = []  # folders below IN_DIR holding an earlier batch's outputs: left out too
+    inputs = find_inputs(in_dir, patterns, exclude=out_dir if below else None, earlier=earlier)
     if asf is not None:
         from .io.takes import check_asf
 
         check_asf(asf, inputs)
     plans, renamed = _plan(inputs, in_dir, out_dir, fmt, report, png)
-    summary = BatchSummary(executor=describe_executor(executor), renamed=[str(p) for p in renamed])
-    todo = []
+    summary = BatchSummary(executor=describe_executor(executor), renamed=[str(p) for p in renamed],
+                           earlier=[str(p) for p in earlier if not (below and resolved(p) == resolved(out_dir))])
+    todo, stale = [], []
+    request = clean_request(steps, threshold, drifts, ctx, models)
     for inp, files in zip(inputs, plans):
         if files["output"].is_file() and files["record"].is_file():
-            summary.rows.append({"input": str(inp), "output": str(files["output"]), "status": "skipped",
-                                 "reason": "complete", "seconds": 0.0})
-        else:
-            todo.append((inp, files))
+            why = _not_complete(files, request)
+            if not why:
+                summary.rows.append({"input": str(inp), "output": str(files["output"]), "status": "skipped",
+                                     "reason": "complete", "seconds": 0.0})
+                continue
+            stale.append((files["output"], why))
+        todo.append((inp, files))
+    if stale and not overwrite:  # an earlier run's take, made otherwise: not this run's to skip, nor to replace silently
+        more = f" ({len(stale) - 1} more take{'s' if len(stale) > 2 else ''} alike)" if len(stale) > 1 else ""
+        raise MocapFormatError(stale[0][0], f"exists from an earlier run, but {stale[0][1]}; use --overwrite to clean "
+                                            f"it again{more}")
     folders = [] if below else [in_dir]
     _check_batch_outputs(plans, todo, inputs, folders, ctx, overwrite)
     jobs = [{"input": str(inp), "output": str(files["output"]), "context": [str(c) for c in ctx], "steps": steps,
@@ -574,12 +650,15 @@ def clean_batch(
              "asf": str(asf) if asf is not None and inp.suffix.lower() == ".amc" else None} for inp, files in todo]
     skeletons = _asf_copies(inputs, plans, asf, overwrite) if fmt == "amc" else {}
     expected = [f for files in plans for f in files.values() if f is not None]
-    made = _missing_folders(Path(files["output"]).parent for _, files in todo)
+    made = _missing_folders([out_dir, *(Path(files["output"]).parent for _, files in todo)])
     _sweep(expected)
     try:
+        if jobs:
+            _mark(out_dir, in_dir)
         rows = map_ordered(_batch_job, jobs, executor=executor, progress=progress, desc="clean") if jobs else []
     finally:
         _sweep(expected)  # what a killed worker could not remove
+        _unmark_if_empty(out_dir)
         _prune(made)  # the folders made for takes that failed
     summary.rows += rows
     _place_asfs(skeletons, summary.rows)
@@ -634,6 +713,28 @@ def _place_asfs(skeletons: dict[Path, tuple[Path, list[str]]], rows: list[dict])
         dst.parent.mkdir(parents=True, exist_ok=True)
         with atomic_write(dst, "wb") as fh:
             fh.write(data)
+
+
+def _mark(out_dir: Path, in_dir: Path) -> None:
+    """Leave :data:`BATCH_MARK` in OUT_DIR (atomically): a later batch of a folder above it leaves it out."""
+    from .io import atomic_write
+
+    mark = Path(out_dir) / BATCH_MARK
+    text = json.dumps({"format": 1, "what": "outputs of mocapkit clean-batch", "input": str(Path(in_dir).resolve())})
+    if mark.is_file() and mark.read_text(encoding="utf-8", errors="replace") == text:
+        return
+    with atomic_write(mark, "w", encoding="utf-8") as fh:
+        fh.write(text)
+
+
+def _unmark_if_empty(out_dir: Path) -> None:
+    """Remove :data:`BATCH_MARK` again when no take was written beside it (an interrupted or failed first run)."""
+    mark = Path(out_dir) / BATCH_MARK
+    try:
+        if mark.is_file() and not any(p != mark and not p.is_dir() for p in Path(out_dir).rglob("*")):
+            mark.unlink()
+    except OSError:
+        pass
 
 
 def _missing_folders(folders) -> list[Path]:

@@ -142,7 +142,7 @@ def test_clean_batch_serial_resume_and_failure(tmp_path, capsys):
     # only the pattern's files
     out2 = tmp_path / "out2"
     assert main(["clean-batch", str(src), str(out2), "--executor", "serial", "--steps", "fill", "--pattern", "*.bvh"]) == 1
-    assert sorted(p.name for p in out2.rglob("*") if p.is_file()) == ["131_01.bvh", "131_01.clean.npz"]
+    assert sorted(p.name for p in out2.rglob("*") if p.is_file()) == [".mocapkit-batch.json", "131_01.bvh", "131_01.clean.npz"]
 
 
 def test_a_failed_batch_row_names_the_input_once(tmp_path, capsys):

@@ -248,6 +248,17 @@ class CleanResult:
             )
         return path
 
+    @staticmethod
+    def load_params(path) -> dict | None:
+        """The ``params`` of a record written by :meth:`save`, read without its arrays; None when it holds none."""
+        try:
+            with np.load(Path(path), allow_pickle=False) as data:
+                meta = json.loads(str(data["meta"]))
+        except (OSError, ValueError, KeyError, TypeError):
+            return None
+        params = meta.get("params") if isinstance(meta, dict) and meta.get("format") == FORMAT else None
+        return params if isinstance(params, dict) else None
+
     @classmethod
     def load(cls, path, motion: Motion | None = None) -> "CleanResult":
         """Read a file written by :meth:`save`; ``motion`` (e.g. the cleaned output) is attached as is."""

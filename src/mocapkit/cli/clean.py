@@ -295,8 +295,11 @@ def clean_batch(
                         fmt=fmt, report=report, png=png, executor=executor, progress=not as_json, overwrite=overwrite,
                         asf=asf, drifts=drifts, models=models)
     if as_json:
-        print(json.dumps({"rows": summary.rows, "seconds": summary.seconds, "executor": summary.executor}))
+        print(json.dumps({"rows": summary.rows, "seconds": summary.seconds, "executor": summary.executor,
+                          "earlier": summary.earlier}))
     else:
+        for folder in summary.earlier:
+            console.print(f"left out {folder}: an earlier batch's outputs")
         for row in summary.rows:
             console.print(_take_line(row))
             for note in row.get("warnings", ()):  # as clean says them: a fallback, a model's licence
