@@ -115,3 +115,14 @@ def test_a_frame_slice_written_to_c3d_keeps_frame_numbers_and_analogs_in_step(sh
     ratio = ms.source.analog_ratio(ms.num_frames)
     assert np.array_equal(back.source.analogs, ms.source.analogs[:, 10 * ratio : 110 * ratio].astype(np.float32))
     assert np.array_equal(back.positions, part.positions.astype(np.float32), equal_nan=True)
+
+
+def test_a_marker_take_is_sliced_as_a_motion_is():
+    ms = mocapkit.load(mocapkit.samples.path("Eb015pr.c3d"))
+    one = ms[3]
+    assert one.num_frames == 1 and np.array_equal(one.positions, ms.positions[3:4], equal_nan=True)
+    with pytest.raises(ValueError, match="run forwards"):
+        ms[::-1]
+    with pytest.raises(ValueError, match="a step of 1000 frames gives 0.05 fps"):
+        ms[::1000]
+    assert ms[::2].fps == ms.fps / 2

@@ -244,6 +244,20 @@ def test_concatenate():
     other = dataclasses.replace(m, fps=60.0)
     with pytest.raises(SkeletonError, match="fps"):
         concatenate([m, other])
+    offsets = np.array(m.skeleton.offsets)
+    offsets[3] *= 1.1  # another actor's bone: the result would draw the second part on the first's bones
+    taller = dataclasses.replace(m, skeleton=dataclasses.replace(m.skeleton, offsets=offsets), name="taller")
+    with pytest.raises(SkeletonError, match=f"its bones differ .*offset of {m.skeleton.joint_names[3]!r}"):
+        concatenate([m, taller])
+
+
+def test_concatenate_refuses_two_hdm05_actors():
+    bd = mocapkit.load(mocapkit.samples.path("HDM_bd_jogLeftCircle4StepsRstart_001_120.amc"))
+    bk = mocapkit.load(mocapkit.samples.path("HDM_bk_sneak2StepsLStart_004_120.amc"))
+    with pytest.raises(SkeletonError, match="its bones differ"):
+        concatenate([bd, bk])
+    both = concatenate([bk, mocapkit.load(mocapkit.samples.path("HDM_bk_sneak2StepsLStart_005_120.amc"))])  # one actor
+    assert both.num_frames > bk.num_frames
 
 
 @settings(max_examples=30, deadline=None)
@@ -422,3 +436,28 @@ def test_messages_about_missing_joints_list_a_few_names_not_all():
     assert "j0, j1," in msg and msg.endswith("j39, ... (4,960 more)") and len(msg) < 400
     with pytest.raises(KeyError, match=r"no joint 'x'; joints are: j0, .*j39, \.\.\. \(4,960 more\)"):
         sk.index("x")
+
+
+def test_a_motion_does_not_change_with_the_arrays_it_was_built_from():
+    """Immutable means the caller's arrays changing afterwards leave the Motion and its Skeleton as built."""
+    m = mocapkit.load(mocapkit.samples.path("12_walk.amc"))[:20]
+    rot, root, offsets = np.array(m.rotations), np.array(m.root_positions), np.array(m.skeleton.offsets)
+    built = Motion(dataclasses.replace(m.skeleton, offsets=offsets), rot, root, m.fps)
+    before = built.global_positions().copy()
+    rot[:] = [1.0, 0.0, 0.0, 0.0]
+    root += 100.0
+    offsets *= 2.0
+    np.testing.assert_array_equal(built.global_positions(), before)
+    for a in (built.rotations, built.root_positions, built.skeleton.offsets):
+        assert not a.flags.writeable
+    sliced = built[5:10]  # a frozen array's slice is a view, not a copy
+    assert np.shares_memory(sliced.rotations, built.rotations)
+
+
+def test_slices_say_what_is_wrong_with_them():
+    m = mocapkit.load(mocapkit.samples.path("12_walk.amc"))
+    with pytest.raises(ValueError, match="run forwards: the step must be a positive integer, got -1"):
+        m[::-1]
+    with pytest.raises(ValueError, match="a step of 1000 frames gives 0.12 fps"):
+        m[::1000]
+    assert m[-1].num_frames == 1 and m[::4].fps == 30.0

@@ -21,7 +21,7 @@ from typing import Any, Mapping
 
 import numpy as np
 
-from .motion import check_fps, readonly_view
+from .motion import check_fps, frame_slice, frozen
 
 __all__ = ["MarkerSet", "MarkerSource", "length_unit_cm", "zero_gap_mask", "ZERO_GAP_DISTANCE_CM", "MODELLED_GROUPS"]
 
@@ -90,7 +90,7 @@ class MarkerSource:
             a = np.asarray(self.analogs, dtype=np.float64)
             if a.ndim != 2:
                 raise ValueError(f"analogs: expected shape (A, N), got {a.shape}")
-            object.__setattr__(self, "analogs", readonly_view(a))
+            object.__setattr__(self, "analogs", frozen(a))
 
     def analog_ratio(self, num_frames: int) -> int:
         """Analog samples per point frame (0 without analogs)."""
@@ -144,7 +144,7 @@ class MarkerSet:
         labels = tuple(str(label) for label in self.labels)
         if pos.ndim != 3 or pos.shape[1:] != (len(labels), 3):
             raise ValueError(f"positions: expected shape (F, {len(labels)}, 3), got {pos.shape}")
-        object.__setattr__(self, "positions", readonly_view(pos))
+        object.__setattr__(self, "positions", frozen(pos))
         object.__setattr__(self, "labels", labels)
         object.__setattr__(self, "fps", check_fps(self.fps))
         if self.residuals is not None:
@@ -153,7 +153,7 @@ class MarkerSet:
                 raise ValueError(f"residuals: expected shape {pos.shape[:2]}, got {res.shape}")
             res[np.any(np.isnan(pos), axis=-1)] = -1.0
             res[np.isnan(res)] = -1.0
-            object.__setattr__(self, "residuals", readonly_view(res))
+            object.__setattr__(self, "residuals", frozen(res))
 
     @property
     def num_frames(self) -> int:
@@ -224,8 +224,9 @@ class MarkerSet:
         return dataclasses.replace(self, labels=tuple(labels), positions=self.positions[:, idx], residuals=res)
 
     def __getitem__(self, key) -> "MarkerSet":
-        if not isinstance(key, slice):
-            raise TypeError("a MarkerSet is sliced by frames: markers[a:b]")
+        """Frames by slice (a step ``k`` divides fps by ``k``; analogs are kept only without a step) or by a
+        single index (one frame), as a Motion is sliced (:func:`mocapkit.motion.frame_slice`)."""
+        key, fps = frame_slice(key, self.num_frames, self.fps, "markers")
         start, stop, step = key.indices(self.num_frames)
         res = None if self.residuals is None else self.residuals[key]
         source = self.source
@@ -235,7 +236,7 @@ class MarkerSet:
             if ratio and step == 1:
                 analogs = source.analogs[:, start * ratio : max(start, stop) * ratio]
             source = dataclasses.replace(source, analogs=analogs, first_frame=source.first_frame + start)
-        return dataclasses.replace(self, positions=self.positions[key], fps=self.fps / step, residuals=res, source=source)
+        return dataclasses.replace(self, positions=self.positions[key], fps=fps, residuals=res, source=source)
 
     def __repr__(self) -> str:
         miss = 100.0 * self.missing().mean() if self.positions.size else 0.0

@@ -38,6 +38,9 @@ __all__ = [
     "standard_joints",
     "unit_scale_cm",
     "check_fps",
+    "frame_slice",
+    "frozen",
+    "readonly_view",
     "FPS_RANGE",
     "MAX_JOINTS",
     "RESAMPLE_LIMIT_BYTES",
@@ -106,12 +109,65 @@ def readonly_view(a: np.ndarray) -> np.ndarray:
     return v
 
 
+def frozen(a: np.ndarray) -> np.ndarray:
+    """``a`` as a container keeps it: a read-only view when nothing can write its memory (a slice of another
+    frozen array, a read-only memory map), else a read-only copy, so that the caller's array changing
+    afterwards does not change a Motion, Skeleton or MarkerSet built from it."""
+    b = a
+    while isinstance(b, np.ndarray):
+        if b.flags.writeable:
+            c = np.array(a, copy=True)
+            c.setflags(write=False)
+            return c
+        b = b.base
+    return readonly_view(a)
+
+
+def frame_slice(key, num_frames: int, fps: float, what: str = "take") -> tuple[slice, float]:
+    """``take[key]`` of a take of ``num_frames`` frames at ``fps``: the frame slice and the rate it gives.
+
+    A single index is that one frame; a slice runs forwards (a step ``k`` divides the rate by ``k``,
+    and must leave one of :data:`FPS_RANGE`). Raises IndexError, TypeError or ValueError saying which.
+    """
+    if isinstance(key, (int, np.integer)):
+        k = int(key)
+        if not -num_frames <= k < num_frames:
+            raise IndexError(f"frame {k} out of range for {num_frames} frames")
+        k %= num_frames
+        key = slice(k, k + 1)
+    if not isinstance(key, slice):
+        raise TypeError(f"a {what} is sliced by frames: {what}[a:b], {what}[a:b:k] or {what}[i]")
+    step = 1 if key.step is None else int(key.step)
+    if step <= 0:
+        raise ValueError(f"frame slices run forwards: the step must be a positive integer, got {step}")
+    if fps / step < FPS_RANGE[0]:
+        raise ValueError(f"a step of {step} frames gives {fps / step:.3g} fps, below the {FPS_RANGE[0]:g} fps a take "
+                         "may have")
+    return key, fps / step
+
+
+#: How far a rotation's squared length may be from 1 (float32 storage rounds it by up to about 2.4e-7).
+UNIT_TOLERANCE = 1e-5
+
+
+def _check_unit(rot: np.ndarray, skeleton) -> None:
+    """Refuse rotations that are not unit quaternions (NaN, a missing joint, allowed): forward kinematics
+    would scale the body by their length (3q put joints 5e8 away) and a zero one is no rotation at all."""
+    n2 = np.einsum("fjk,fjk->fj", rot, rot)
+    with np.errstate(invalid="ignore"):
+        bad = np.abs(n2 - 1.0) > UNIT_TOLERANCE  # False where NaN
+    if bad.any():
+        f, j = (int(x[0]) for x in np.nonzero(bad))
+        raise SkeletonError(f"rotations: quaternions must have unit length; frame {f}, joint "
+                            f"{skeleton.joint_names[j]!r} has length {float(np.sqrt(n2[f, j])):.6g}")
+
+
 def _as_float(a, name: str, shape_tail: tuple[int, ...], ndim: int) -> np.ndarray:
     arr = np.asarray(a, dtype=np.float64)
     if arr.ndim != ndim or arr.shape[arr.ndim - len(shape_tail):] != shape_tail:
         tail = ", ".join(str(s) for s in shape_tail)
         raise SkeletonError(f"{name}: expected shape ({'N, ' * (ndim - len(shape_tail))}{tail}), got {arr.shape}")
-    return readonly_view(arr)
+    return frozen(arr)
 
 
 @dataclass(frozen=True, eq=False)
@@ -174,7 +230,7 @@ class Skeleton:
             raise SkeletonError("the root must be joint 0 with parent -1")
         if J > 1 and np.any((parents[1:] < 0) | (parents[1:] >= np.arange(1, J))):
             raise SkeletonError("parents must be in topological order: 0 <= parents[j] < j for every j > 0")
-        object.__setattr__(self, "parents", readonly_view(parents))
+        object.__setattr__(self, "parents", frozen(parents))
         offsets = _as_float(self.offsets, "offsets", (3,), 2)
         if offsets.shape[0] != J:
             raise SkeletonError(f"offsets: expected shape ({J}, 3), got {offsets.shape}")
@@ -182,7 +238,7 @@ class Skeleton:
         esp = np.asarray(self.end_site_parents, dtype=np.int64).reshape(-1)
         if np.any((esp < 0) | (esp >= J)):
             raise SkeletonError("end_site_parents must index joints")
-        object.__setattr__(self, "end_site_parents", readonly_view(esp))
+        object.__setattr__(self, "end_site_parents", frozen(esp))
         eso = _as_float(np.asarray(self.end_site_offsets, dtype=np.float64).reshape(-1, 3), "end_site_offsets", (3,), 2)
         if eso.shape[0] != esp.shape[0]:
             raise SkeletonError("end_site_offsets and end_site_parents differ in length")
@@ -335,19 +391,20 @@ class Motion:
         if rot.ndim != 3 or rot.shape[1:] != (J, 4):
             raise SkeletonError(f"rotations: expected shape (F, {J}, 4) with w first, got {rot.shape}")
         F = rot.shape[0]
+        _check_unit(rot, self.skeleton)
         root = np.asarray(self.root_positions, dtype=np.float64)
         if root.shape != (F, 3):
             raise SkeletonError(f"root_positions: expected shape ({F}, 3), got {root.shape}")
         fps = check_fps(self.fps)
-        object.__setattr__(self, "rotations", readonly_view(rot))
-        object.__setattr__(self, "root_positions", readonly_view(root))
+        object.__setattr__(self, "rotations", frozen(rot))
+        object.__setattr__(self, "root_positions", frozen(root))
         object.__setattr__(self, "fps", fps)
         object.__setattr__(self, "name", str(self.name))
         if self.translations is not None:
             tr = np.asarray(self.translations, dtype=np.float64)
             if tr.shape != (F, J, 3):
                 raise SkeletonError(f"translations: expected shape ({F}, {J}, 3), got {tr.shape}")
-            object.__setattr__(self, "translations", readonly_view(tr))
+            object.__setattr__(self, "translations", frozen(tr))
 
     # -- sizes -------------------------------------------------------------
     @property
@@ -375,19 +432,7 @@ class Motion:
     # -- slicing -----------------------------------------------------------
     def __getitem__(self, key) -> "Motion":
         """Frames by slice (a step ``k`` divides fps by ``k``) or by a single index (one frame)."""
-        fps = self.fps
-        if isinstance(key, (int, np.integer)):
-            k = int(key)
-            if not -self.num_frames <= k < self.num_frames:
-                raise IndexError(f"frame {k} out of range for {self.num_frames} frames")
-            k %= self.num_frames
-            key = slice(k, k + 1)
-        if not isinstance(key, slice):
-            raise TypeError("a Motion is sliced by frames: motion[a:b], motion[a:b:k] or motion[i]")
-        step = 1 if key.step is None else int(key.step)
-        if step <= 0:
-            raise ValueError("frame slices need a positive step")
-        fps = fps / step
+        key, fps = frame_slice(key, self.num_frames, self.fps, "motion")
         tr = None if self.translations is None else self.translations[key]
         return dataclasses.replace(
             self, rotations=self.rotations[key], root_positions=self.root_positions[key], fps=fps, translations=tr
@@ -687,7 +732,9 @@ def _lerp(x: np.ndarray, i0: np.ndarray, i1: np.ndarray, a: np.ndarray, exact: n
 
 
 def concatenate(motions: Iterable[Motion], name: str | None = None) -> Motion:
-    """Frames of several clips one after another; skeletons must match and frame rates agree."""
+    """Frames of several clips one after another; skeletons must be the same (joints, hierarchy, bone offsets
+    and ASF axes: the result has one skeleton, and another actor's bones would move every joint of their
+    frames) and frame rates agree."""
     motions = list(motions)
     if not motions:
         raise ValueError("concatenate needs at least one motion")
@@ -695,6 +742,15 @@ def concatenate(motions: Iterable[Motion], name: str | None = None) -> Motion:
     for m in motions[1:]:
         if not m.skeleton.is_compatible(first.skeleton):
             raise SkeletonError(f"cannot concatenate {m.name!r}: its skeleton differs from {first.name!r}'s")
+        a, b = np.asarray(m.skeleton.offsets), np.asarray(first.skeleton.offsets)
+        if not np.array_equal(a, b):
+            j = int(np.argmax(np.linalg.norm(a - b, axis=1)))
+            raise SkeletonError(f"cannot concatenate {m.name!r}: its bones differ from {first.name!r}'s (the offset of "
+                                f"{m.skeleton.joint_names[j]!r} by {float(np.linalg.norm(a[j] - b[j])):.3g} length "
+                                "units); concatenate takes of one actor")
+        axes_a, axes_b = m.skeleton.axes, first.skeleton.axes
+        if (axes_a is None) != (axes_b is None) or (axes_a is not None and not np.array_equal(axes_a, axes_b)):
+            raise SkeletonError(f"cannot concatenate {m.name!r}: its ASF axes differ from {first.name!r}'s")
         if m.fps != first.fps:
             raise SkeletonError(f"cannot concatenate {m.name!r} at {m.fps:g} fps with {first.name!r} at {first.fps:g} fps")
     any_tr = any(m.translations is not None for m in motions)

@@ -21,7 +21,7 @@ import pytest
 
 import mocapkit
 from mocapkit import samples
-from mocapkit.errors import MocapFormatError
+from mocapkit.errors import MocapFormatError, SkeletonError
 from mocapkit.io.asfamc import read_amc, read_asf
 from mocapkit.io.npz import write_npz
 from tests.fuzzing import readers as fuzz_readers
@@ -85,7 +85,11 @@ def test_oracle_flags_inconsistent_results():
     bad_rot[3, 4, 0] = np.nan
     import dataclasses
 
-    probs = fuzz_readers.consistency_problems(dataclasses.replace(m, root_positions=bad_root, rotations=bad_rot))
+    with pytest.raises(SkeletonError, match="unit length"):  # a Motion refuses such rotations itself
+        dataclasses.replace(m, rotations=bad_rot)
+    bad = dataclasses.replace(m, root_positions=bad_root)
+    object.__setattr__(bad, "rotations", bad_rot)  # as a reader that built its arrays around the check would
+    probs = fuzz_readers.consistency_problems(bad)
     assert "root_positions holds inf" in probs
     assert "a rotation is not a unit quaternion" in probs
     assert "a quaternion is partly NaN" in probs
