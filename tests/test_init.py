@@ -100,3 +100,14 @@ def test_import_is_cheap():
             "if m in sys.modules))")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.strip() == "[]"
+
+
+def test_save_replaces_like_open_and_refuses_with_overwrite_false(tmp_path):
+    m = mocapkit.load(mocapkit.samples.path("12_walk.amc"))[:10]
+    p = mocapkit.save(m, tmp_path / "a.npz")
+    before = p.read_bytes()
+    with pytest.raises(mocapkit.MocapFormatError, match="already exists; pass overwrite=True"):
+        mocapkit.save(m[:5], p, overwrite=False)
+    assert p.read_bytes() == before
+    mocapkit.save(m[:5], p)  # the default: replaced, as open(path, "w") would
+    assert mocapkit.load(p).num_frames == 5

@@ -131,7 +131,7 @@ def test_a_bandai_take_gets_the_bandai_models_held_out_by_style_and_non_commerci
 def test_bandai_ebf_denoises_and_its_note_names_the_licence(dance):
     noisy, _ = corrupt.angular_noise(dance, 0.5, seed=7)
     out, method, note = deep.denoise_or_fallback(noisy)
-    assert method == "EBF (shipped, bandai_namco)" and "CC BY-NC 4.0" in note and "--model" in note
+    assert method == "EBF (shipped, bandai_namco)" and "CC BY-NC 4.0" in note and "--ebf (clean, clean-batch; models= in Python)" in note
     before = metrics.joint_angle_rms(dance, noisy, include_root=False)
     assert metrics.joint_angle_rms(dance, out, include_root=False) < 0.75 * before
     assert np.array_equal(out.rotations[:, 0], noisy.rotations[:, 0])  # joint_Root untouched

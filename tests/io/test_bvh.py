@@ -685,6 +685,15 @@ def test_unchanged_take_written_like_its_file_is_the_same_file(src, tmp_path):
     assert np.array_equal(read_bvh(plain).rotations.shape, m.rotations.shape)
 
 
+def test_a_frame_time_line_spaced_by_a_tab_is_found_as_the_reader_finds_it(tmp_path):
+    """'Frame<TAB>Time:' reads (any whitespace); the writer must find it too, or it rewrote every line (a user trial)."""
+    src = tmp_path / "tabs.bvh"
+    src.write_bytes(BANDAI.read_bytes().replace(b"Frame Time:", b"Frame\tTime:"))
+    out = tmp_path / "same.bvh"
+    write_bvh(read_bvh(src), out, like=src)
+    assert out.read_bytes() == src.read_bytes()
+
+
 @pytest.mark.parametrize("src", [BUNDLED, BANDAI], ids=["cmu-3dsmax", "bandai"])
 def test_only_changed_cells_change_their_text(src, tmp_path):
     m = read_bvh(src)

@@ -128,8 +128,12 @@ def save_markers(markers: MarkerSet, path, *, like=None) -> Path:
     return path
 
 
-def save(motion, path, like=None, asf=None, **kwargs) -> Path:
+def save(motion, path, like=None, asf=None, overwrite: bool = True, **kwargs) -> Path:
     """Write ``motion`` to ``path`` (.bvh, .amc or .npz) atomically; returns the path.
+
+    As Python's ``open(path, "w")`` does, an existing file is replaced (the file the take was read from
+    too); ``overwrite=False`` refuses one instead (:class:`~mocapkit.errors.MocapFormatError`), as the
+    command line does without ``--overwrite``.
 
     ``like``: the file ``motion`` was read from. A BVH written from a BVH, or
     an AMC from an AMC, keeps that file's text wherever the motion did not
@@ -142,6 +146,8 @@ def save(motion, path, like=None, asf=None, **kwargs) -> Path:
     :func:`save_markers` (.c3d, .trc, .npz).
     """
     path = Path(path)
+    if not overwrite and (path.exists() or path.is_symlink()):
+        raise MocapFormatError(path, "already exists; pass overwrite=True to replace it")
     if isinstance(motion, MarkerSet):
         return save_markers(motion, path, like=like)
     kind = suffix_kind(path, WRITERS, "writing")

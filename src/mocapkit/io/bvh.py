@@ -731,7 +731,7 @@ def _like_source(like, motion: Motion, order: list[int]) -> _LikeSource | None:
             or tuple(map(tuple, rsk.channels)) != tuple(map(tuple, sk.channels)) or ref.num_frames != motion.num_frames):
         return None
     lines = like.read_bytes().decode("utf-8", errors="replace").splitlines(keepends=True)
-    at = next((i for i, t in enumerate(lines) if t.lstrip().startswith("Frame Time")), None)
+    at = next((i for i, t in enumerate(lines) if _FRAME_TIME_RE.match(t)), None)  # as the reader finds it
     if at is None:
         return None
     data = [t for t in lines[at + 1:] if t.strip()]
