@@ -160,3 +160,25 @@ def test_owner_alive_here_and_in_pool_workers():
     assert os.getpid() not in {pid for pid, _, _, _ in states}
     if sys.platform.startswith("linux"):
         assert {sig for _, _, sig, _ in states} == {int(signal.SIGKILL)}  # and on Linux the kernel's parent-death signal
+
+
+def test_stopping_a_pool_ends_a_manager_left_waiting_on_half_a_result():
+    """A worker killed while sending its result leaves half a message in the result pipe: the pool's manager thread
+    waited for the rest for ever, and so did the exit that joins it (interrupted `db build` runs hung)."""
+    import struct
+    import time
+    from concurrent.futures import ProcessPoolExecutor
+
+    from mocapkit.parallel import _stop_pool  # this module's own test
+
+    pool = ProcessPoolExecutor(max_workers=1)
+    assert pool.submit(abs, -1).result() == 1  # the workers and the manager thread are up
+    manager = pool._executor_manager_thread
+    writer = pool._result_queue._writer
+    # a header announcing 1,000 bytes, then 10 of them, as a worker killed mid-send leaves it
+    os.write(writer.fileno(), struct.pack("!i", 1000) + b"x" * 10)
+    time.sleep(0.5)
+    assert manager.is_alive()  # waiting for the other 990 bytes
+    _stop_pool(pool)
+    manager.join(timeout=10)
+    assert not manager.is_alive()

@@ -201,8 +201,16 @@ def owner_alive() -> bool:
 
 
 def _die_with_parent(parent_pid: int) -> None:
-    """Pool initializer: this worker ends (SIGKILL) when ``parent_pid``, the process that started it, is gone."""
+    """Pool initializer: this worker ends (SIGKILL) when ``parent_pid``, the process that started it, is gone,
+    and ignores SIGINT: on Ctrl-C (sent to the whole process group) the parent stops the pool
+    (:func:`_stop_pool`). A worker that raised KeyboardInterrupt itself could die halfway through sending a
+    result, and the pool's manager thread then waited for the rest of it for ever, and the exit with it
+    (3 of 60 interrupted ``db build`` runs hung at exit)."""
     global _OWNER_PID
+    try:
+        signal.signal(signal.SIGINT, signal.SIG_IGN)
+    except (ValueError, OSError):  # not the main thread of this worker: it cannot take its own interrupts either
+        pass
     if sys.platform.startswith("linux"):
         try:
             import ctypes
@@ -279,10 +287,10 @@ def map_ordered(
             pool = ProcessPoolExecutor(max_workers=workers, initializer=_die_with_parent, initargs=(os.getpid(),))
             try:
                 out = _run(pool, fn, items, bar, as_completed, cancel=False)
-            except BaseException:
+                pool.shutdown(wait=True)
+            except BaseException:  # an interrupt during the shutdown too
                 _stop_pool(pool)
                 raise
-            pool.shutdown(wait=True)
             return out
         if isinstance(executor, str):
             return _run_dask(executor, fn, items, bar)
@@ -319,6 +327,7 @@ def _stop_pool(pool: ProcessPoolExecutor) -> None:
     sweep (``batch._sweep``); there is no public way to kill them before Python 3.14.
     """
     procs = list((getattr(pool, "_processes", None) or {}).values())
+    writer = getattr(getattr(pool, "_result_queue", None), "_writer", None)  # before shutdown() drops the queue
     queue = getattr(pool, "_call_queue", None)
     if queue is not None:  # its feeder thread, writing to a dead worker's pipe, would hold the exit
         queue.cancel_join_thread()
@@ -336,6 +345,14 @@ def _stop_pool(pool: ProcessPoolExecutor) -> None:
             p.join(timeout=5)
         except (OSError, ValueError, AttributeError, AssertionError):
             pass
+    # a worker killed while sending its result leaves half a message in the result pipe, and the pool's
+    # manager thread waits for the rest for ever (and an exit that joins it). With the workers dead this
+    # process holds the pipe's last write end: closing it ends that wait (EOF), as for a broken pool.
+    try:
+        if writer is not None:
+            writer.close()
+    except OSError:
+        pass
 
 
 def _run_dask(spec: str, fn, items, bar) -> list:
