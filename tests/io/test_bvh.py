@@ -731,3 +731,13 @@ def test_like_of_another_rig_or_length_writes_as_without(tmp_path):
     write_bvh(m, out1, like=BANDAI)  # another rig
     write_bvh(m, out2)
     assert out1.read_bytes() == out2.read_bytes()
+
+
+def test_a_joint_name_used_twice_is_refused_at_its_line(tmp_path):
+    text = BANDAI.read_text()
+    first = text.index("JOINT UpperArm_R")
+    dup = tmp_path / "dup.bvh"
+    dup.write_text(text[:first] + text[first:].replace("JOINT UpperArm_R", "JOINT UpperArm_L", 1))
+    line = text[:first].count("\n") + 1
+    with pytest.raises(MocapFormatError, match=rf"dup.bvh:{line}: joint name 'UpperArm_L' is used twice \(first at line \d+\)"):
+        read_bvh(dup)

@@ -78,6 +78,7 @@ def _parse_hierarchy(path: Path, text: str, motion_line: int | None):
 
     last_line = max(1, text.count("\n") + (0 if text.endswith("\n") else 1))
     names: list[str] = []
+    seen_at: dict[str, int] = {}  # name -> the line it was first given on
     parents: list[int] = []
     blocks: list[_Block] = []  # per joint
     end_parents: list[int] = []
@@ -137,6 +138,9 @@ def _parse_hierarchy(path: Path, text: str, motion_line: int | None):
                 if len(names) >= MAX_JOINTS:
                     fail(f"more than {MAX_JOINTS:,} joints: not a skeleton mocapkit reads", line)
                 name = " ".join(words)
+                if name in seen_at:
+                    fail(f"joint name {name!r} is used twice (first at line {seen_at[name]}); every joint needs its own", line)
+                seen_at[name] = line
                 pending = _Block("joint", len(names), name, line)
                 names.append(name)
                 parents.append(stack[-1].index if stack else -1)
