@@ -124,13 +124,18 @@ def test_clean_c3d_to_trc_and_refusals(cut_take, tmp_path):
     assert code != 0 and "--reference" in stderr and not (tmp_path / "y.c3d").exists()
 
 
-def test_clean_batch_mixes_marker_and_skeletal_takes(cut_take, tmp_path):
-    inp, _, _ = cut_take
+@pytest.fixture
+def mixed_folder(cut_take, tmp_path):
+    """IN_DIR with the cut marker capture and a skeletal take."""
     src = tmp_path / "in"
     src.mkdir()
-    shutil.copy(inp, src / "markers.c3d")
+    shutil.copy(cut_take[0], src / "markers.c3d")
     shutil.copy(SAMPLE, src / "walk.bvh")
-    code, stdout, stderr = run("clean-batch", src, tmp_path / "out", "--executor", "serial")
+    return src
+
+
+def test_clean_batch_mixes_marker_and_skeletal_takes(mixed_folder, tmp_path):
+    code, stdout, stderr = run("clean-batch", mixed_folder, tmp_path / "out", "--executor", "serial")
     assert code == 0, stderr + stdout
     assert (tmp_path / "out" / "markers.c3d").exists() and (tmp_path / "out" / "markers.clean.npz").exists()
     assert (tmp_path / "out" / "walk.bvh").exists()
@@ -151,13 +156,8 @@ def test_options_of_joint_angle_takes_are_refused_for_a_marker_capture(cut_take,
     assert sorted(p.name for p in tmp_path.iterdir()) == ["d.json"]
 
 
-def test_review_mode_batch_leaves_its_marker_captures_uncleaned(cut_take, tmp_path):
-    inp, _, _ = cut_take
-    src = tmp_path / "in"
-    src.mkdir()
-    shutil.copy(inp, src / "markers.c3d")
-    shutil.copy(SAMPLE, src / "walk.bvh")
-    code, stdout, stderr = run("clean-batch", src, tmp_path / "out", "--executor", "serial", "--steps", "detect")
+def test_review_mode_batch_leaves_its_marker_captures_uncleaned(mixed_folder, tmp_path):
+    code, stdout, stderr = run("clean-batch", mixed_folder, tmp_path / "out", "--executor", "serial", "--steps", "detect")
     assert code == 1, stderr + stdout  # a take failed: the marker capture, named with the reason
     assert "markers.c3d: a marker capture is cleaned whole" in stdout + stderr and "steps detect" in stdout + stderr
     assert not (tmp_path / "out" / "markers.c3d").exists() and (tmp_path / "out" / "walk.bvh").exists()
