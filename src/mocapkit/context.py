@@ -256,7 +256,7 @@ def build_context(files: Sequence, *, fps: float = BUILD_FPS, features: Sequence
             bar.update(task, description=p.name)
             try:
                 m = _context_take(p, fps)
-            except MocapFormatError as exc:
+            except MocapError as exc:  # a format error, or a skeleton error the reader found
                 if p.resolve() not in found:
                     raise
                 bad.append((p, str(exc), exc))

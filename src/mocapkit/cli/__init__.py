@@ -150,8 +150,8 @@ def run() -> None:
     What an ordinary exit does first still happens: the ``atexit`` handlers run (the numba precompile
     helper is stopped, multiprocessing's children are ended, temporary folders removed), stdout and stderr
     are flushed and, after a command that succeeded, thread pools are stopped and non-daemon threads
-    joined (after a failure or an interrupt nothing is left to finish, and a process pool whose workers
-    were killed can leave a thread that would never end).
+    joined (after a failure or an interrupt nothing is left to finish, and no thread a stopped pool
+    left behind may hold the exit).
     """
     code = main()
     # CPython's own first steps of an exit (Py_FinalizeEx): elsewhere, the ordinary exit
@@ -161,9 +161,9 @@ def run() -> None:
     try:
         if code == 0:  # thread pools told to stop (their atexit hooks), then every non-daemon thread joined
             join_threads()
-        # else the work stopped (an interrupt, an error): a process pool's workers were killed
-        # (parallel._stop_pool), and one killed while sending its result leaves the pool's manager
-        # thread waiting on half a message for ever; joining it hung 3 of 47 interrupted `db build`s
+        # else the work stopped (an interrupt, an error) and nothing is left to finish: a thread a
+        # stopped pool left behind (a manager waiting on a killed worker, which hung 3 of 47
+        # interrupted `db build`s before parallel._stop_pool ended it) must not hold the exit
         run_exitfuncs()
     except KeyboardInterrupt:
         code = code or EXIT_INTERRUPTED
