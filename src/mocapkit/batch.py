@@ -248,13 +248,12 @@ def _not_complete(files: dict, request: dict) -> str:
 
     missing = [k for k in ("report", "png") if files.get(k) is not None and not Path(files[k]).is_file()]
     if missing:
-        return f"its {' and '.join(missing)} is missing"
+        return f"its {' and '.join(missing)} {'is' if len(missing) == 1 else 'are'} missing"
     params = CleanResult.load_params(files["record"])
     done = None if params is None else params.get("request")
     if not isinstance(done, dict):  # a marker capture's record, or one written before requests were kept
         return ""
-    names = {"steps": "steps", "threshold": "threshold", "drifts": "drifts", "context": "context", "models": "models"}
-    diff = [f"{names[k]} {_said(done.get(k))} (now {_said(request[k])})" for k in names if done.get(k) != request[k]]
+    diff = [f"{k} {_said(done.get(k))} (now {_said(request[k])})" for k in request if done.get(k) != request[k]]
     return f"it was cleaned with {', '.join(diff)}" if diff else ""
 
 
