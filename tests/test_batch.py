@@ -453,3 +453,24 @@ def test_a_batch_that_wrote_nothing_leaves_no_mark(tmp_path):
     (src / "broken.bvh").write_text("HIERARCHY\nROOT x\n")
     s = clean_batch(src, tmp_path / "out", executor="serial", progress=False)
     assert s.count("failed") == 1 and not (tmp_path / "out").exists()
+
+
+def test_an_earlier_batch_whose_out_dir_holds_its_in_dir_keeps_those_inputs(tmp_path, short_bvh):
+    """clean-batch proj/s1/raw proj/s1, then clean-batch proj: proj/s1's outputs are left out, proj/s1/raw's takes
+    (the earlier batch's own inputs, inside its OUT_DIR) are not."""
+    raw = tmp_path / "proj" / "s1" / "raw"
+    raw.mkdir(parents=True)
+    shutil.copy(short_bvh, raw / "a.bvh")
+    assert clean_batch(raw, tmp_path / "proj" / "s1", executor="serial", progress=False).count("done") == 1
+    assert (tmp_path / "proj" / "s1" / "a.bvh").is_file()
+    earlier: list = []
+    assert find_inputs(tmp_path / "proj", earlier=earlier) == [raw / "a.bvh"]
+    assert earlier == [tmp_path / "proj" / "s1"]
+
+
+def test_clean_file_runs_every_step_by_default(tmp_path, short_bvh):
+    from mocapkit.batch import clean_file
+    from mocapkit.cleaning.pipeline import STEPS as ALL_STEPS
+
+    _, res = clean_file(short_bvh, tmp_path / "o.bvh")  # steps left to their default (it raised TypeError)
+    assert res.params["request"]["steps"] == list(ALL_STEPS) and "detect" in res.params["steps"]

@@ -259,3 +259,18 @@ def test_two_processes_building_one_key_at_once(takes, tmp_path):
     assert len(names) == 1 and all(o.split()[1] == "3" for o, _ in outs)
     assert [p.name for p in cache.iterdir()] == list(names)
     assert MotionDatabase.open(cache / names.pop()).num_clips == 3
+
+
+def test_a_take_of_the_folders_own_rig_builds_it_once(takes, tmp_path, monkeypatch):
+    """A take on the majority's skeleton asks with its preference first (clean, detect), a batch without one: one
+    build, cached once, serves both."""
+    builds = []
+    real = C.build_context
+    monkeypatch.setattr(C, "build_context", lambda *a, **k: builds.append(k.get("prefer")) or real(*a, **k))
+    walk = mocapkit.load(takes / "cmu" / "12_walk.amc")
+    cache = tmp_path / "cache"
+    first = C.resolve_context(takes, cache_dir=cache, prefer=C.topology_id(walk.skeleton))
+    second = C.resolve_context(takes, cache_dir=cache)
+    again = C.resolve_context(takes, cache_dir=cache, prefer=C.topology_id(walk.skeleton))
+    assert len(builds) == 1 and len(list(cache.iterdir())) == 1
+    assert first.num_clips == second.num_clips == again.num_clips == 3

@@ -150,7 +150,7 @@ def clean_file(
 
     inp, out = Path(inp), Path(out)
     not_for_markers = [name for name, given in (
-        ("steps " + ",".join(parse_steps(steps)), steps is not None and parse_steps(steps) != STEPS),
+        ("steps " + ",".join(parse_steps(steps or STEPS)), steps is not None and parse_steps(steps) != STEPS),
         ("decisions", decisions is not None), ("record", record is not None), ("drifts", drifts),
         ("models", bool(models))) if given]
     if isinstance(motion, MarkerSet) or (motion is None and inp.suffix.lower() in (".c3d", ".trc")):
@@ -324,14 +324,20 @@ def find_inputs(in_dir, patterns: Sequence[str] = DEFAULT_PATTERNS, exclude=None
     in_dir = Path(in_dir)
     excl = Path(exclude).resolve() if exclude is not None else None
     found = []
+    skipped: list[tuple[Path, Path | None]] = []  # (an earlier OUT_DIR, its own IN_DIR when inside it)
     for folder, dirs, files in os.walk(in_dir):
         here = Path(folder)
+        dirs.sort()
         if here != in_dir and BATCH_MARK in files:
-            dirs[:] = []
+            own = _marked_input(here)
+            skipped.append((here, own))
             if earlier is not None:
                 earlier.append(here)
-            continue
-        dirs.sort()
+            if own is None:
+                dirs[:] = []
+                continue
+        if any(_below(here, out) and not (own is not None and _below(here, own)) for out, own in skipped):
+            continue  # an earlier batch's output folder (its files, not its own inputs below it)
         found.extend(here / f for f in files)
     out = []
     for p in sorted(found):
@@ -712,6 +718,23 @@ def _place_asfs(skeletons: dict[Path, tuple[Path, list[str]]], rows: list[dict])
         dst.parent.mkdir(parents=True, exist_ok=True)
         with atomic_write(dst, "wb") as fh:
             fh.write(data)
+
+
+def _below(p: Path, folder: Path) -> bool:
+    return p == folder or folder in p.parents
+
+
+def _marked_input(out_dir: Path) -> Path | None:
+    """The IN_DIR an earlier batch recorded in its :data:`BATCH_MARK`, when it lies inside that OUT_DIR."""
+    try:
+        recorded = Path(json.loads((out_dir / BATCH_MARK).read_text(encoding="utf-8"))["input"])
+    except (OSError, ValueError, KeyError, TypeError):
+        return None
+    try:
+        rel = recorded.relative_to(out_dir.resolve())
+    except ValueError:
+        return None
+    return out_dir / rel if rel.parts else None
 
 
 def _mark(out_dir: Path, in_dir: Path) -> None:

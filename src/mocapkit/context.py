@@ -190,7 +190,7 @@ def context_key(files: Sequence, fps: float = BUILD_FPS, features: Sequence[str]
             except MocapError:
                 row.append(None)  # the build refuses it, naming the file
         stamps.append(row)
-    settings = {"files": stamps, "fps": float(fps), "features": list(features), "format": FORMAT_VERSION, "layout": 1}
+    settings = {"files": stamps, "fps": float(fps), "features": list(features), "format": FORMAT_VERSION, "layout": 2}
     if prefer is not None:
         settings["prefer"] = prefer
     found = sorted(str(Path(f).resolve()) for f in optional)
@@ -275,7 +275,8 @@ def build_context(files: Sequence, *, fps: float = BUILD_FPS, features: Sequence
     counts: dict = {}
     for t in topo:
         counts[t] = counts.get(t, 0) + 1
-    best = prefer if prefer in counts else max(counts, key=lambda t: (counts[t], -topo.index(t)))
+    majority = max(counts, key=lambda t: (counts[t], -topo.index(t)))
+    best = prefer if prefer in counts else majority
     keep = [m for m, t in zip(motions, topo) if t == best]
     left = [p for p, t in zip(used, topo) if t != best]
     if left:
@@ -286,6 +287,7 @@ def build_context(files: Sequence, *, fps: float = BUILD_FPS, features: Sequence
     db.info["label"] = label or "the context files"
     db.info["notes"] = notes
     db.info["topologies"] = sorted(counts)
+    db.info["majority"] = majority
     return db, notes
 
 
@@ -333,6 +335,16 @@ def cached_context(files: Sequence, *, cache_dir=None, fps: float = BUILD_FPS, f
         return None
     db, _ = build_context(files, fps=fps, features=features, progress=progress, label=label, prefer=prefer,
                           optional=optional)
+    if prefer is not None and db.info.get("majority") == topology_id(db.skeletons[0]):
+        # the take's skeleton is the folder's majority (or absent from it): the build without a preference,
+        # cached under its key, so that a later request without one (a batch's first check) finds it
+        key = context_key(files, fps, features, optional=optional)
+        entry = root / key
+        if entry.is_dir():
+            try:
+                return _labelled(MotionDatabase.open(entry), label)
+            except MocapFormatError:
+                shutil.rmtree(entry, ignore_errors=True)
     try:
         root.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
@@ -418,7 +430,8 @@ def resolve_context(spec, *, default: bool = True, cache_dir=None, progress: boo
     plain = cached_context(files, build=prefer is None, **kw)  # the majority's build, when there is one
     if plain is not None and (prefer not in plain.info.get("topologies", ()) or topology_id(plain.skeletons[0]) == prefer):
         return plain
-    return cached_context(files, prefer=prefer, **kw)  # built for the take's skeleton (the majority's if it is absent)
+    # built for the take's skeleton; when that is the majority's (or absent), cached as the plain build
+    return cached_context(files, prefer=prefer, **kw)
 
 
 def _rest_directions(sk) -> np.ndarray:

@@ -264,3 +264,17 @@ def test_run_joins_threads_after_success_and_not_after_a_failure(tmp_path):
     proc = _run_with_a_thread(tmp_path, ["--version"], 1)
     assert proc.returncode == 0, proc.stderr
     assert (tmp_path / "joined").exists()
+
+
+def test_run_still_runs_the_exit_handlers_when_interrupted_while_joining(tmp_path):
+    """Ctrl-C while the exit waits for a thread: the wait ends, the atexit handlers still run, exit 130."""
+    code = ("import atexit, os, signal, sys, threading, time\n"
+            "from mocapkit import cli\n"
+            f"atexit.register(lambda: open({str(tmp_path / 'handled')!r}, 'w').close())\n"
+            "threading.Thread(target=time.sleep, args=(600,)).start()\n"
+            "threading.Timer(1.0, os.kill, (os.getpid(), signal.SIGINT)).start()\n"
+            "sys.argv = ['mocapkit', '--version']\n"
+            "cli.run()\n")
+    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 130, proc.stderr
+    assert (tmp_path / "handled").exists()

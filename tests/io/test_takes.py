@@ -83,3 +83,17 @@ def test_place_asf_copies_it_whole(tmp_path):
     place_asf(tmp_path / "HDM_bd.asf", src)
     place_asf(None, src)
     assert (tmp_path / "HDM_bd.asf").read_bytes() == src.read_bytes() and len(list(tmp_path.iterdir())) == 1
+
+
+def test_asf_for_output_never_swaps_the_skeleton_another_amc_reads_with(tmp_path):
+    """--overwrite replaces a file of the name, but not the ASF another AMC of the folder is read with."""
+    out = tmp_path / "o"
+    out.mkdir()
+    (out / "HDM_bd.asf").write_bytes(samples.path("HDM_bd.asf").read_bytes())
+    (out / "HDM_bd_01.amc").write_text("")  # reads with HDM_bd.asf
+    other = tmp_path / "HDM_bd.asf"  # another actor's skeleton under the same name
+    other.write_bytes(samples.path("HDM_bk.asf").read_bytes())
+    for overwrite in (False, True):
+        with pytest.raises(MocapFormatError, match="would change the skeleton HDM_bd_01.amc is read with"):
+            asf_for_output(out / "HDM_bd_02.amc", other, overwrite=overwrite)
+    assert (out / "HDM_bd.asf").read_bytes() == samples.path("HDM_bd.asf").read_bytes()

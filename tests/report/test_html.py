@@ -16,7 +16,7 @@ import mocapkit
 from mocapkit.cleaning import ssa
 from mocapkit.corrupt import real_errors
 from mocapkit.motion import concatenate, unit_scale_cm
-from mocapkit.report.html import DEFAULT_MAX_FRAMES, write_report
+from mocapkit.report.html import DEFAULT_MAX_FRAMES, shown_frames, write_report
 from mocapkit.rotations import quaternion_from_axis_angle, quaternion_multiply
 
 CHROMIUM = os.environ.get("MOCAPKIT_CHROMIUM", "/usr/bin/chromium")
@@ -839,3 +839,15 @@ def test_short_take_shows_every_frame_without_a_frame_list(open_page, tmp_path, 
         pg.js(f"window.mocapkitReport.setFrame({f})")
         assert pg.js("[window.mocapkitReport.index(), window.mocapkitReport.frame()]") == [f, f]
     assert pg.errors == []
+
+
+def test_shown_frames_of_a_take_shorter_than_its_margins():
+    """A take of fewer frames than the margin window (2 * margin + 1) crashed the margin tier (np.convolve 'same')."""
+    f = np.zeros(5, bool)
+    f[2] = True
+    frames, stride, detail = shown_frames(5, 2, f)
+    assert stride == 3 and 2 in frames and len(frames) <= 4
+    f = np.zeros(150, bool)
+    f[70] = True
+    frames, _, detail = shown_frames(150, 100, f, margin=100)
+    assert detail == "full" and frames.tolist() == list(range(150))  # every frame within 100 of frame 70

@@ -158,12 +158,15 @@ def run() -> None:
     join_threads, run_exitfuncs = getattr(threading, "_shutdown", None), getattr(atexit, "_run_exitfuncs", None)
     if join_threads is None or run_exitfuncs is None:
         sys.exit(code)
-    try:
-        if code == 0:  # thread pools told to stop (their atexit hooks), then every non-daemon thread joined
+    if code == 0:  # thread pools told to stop (their atexit hooks), then every non-daemon thread joined
+        try:
             join_threads()
-        # else the work stopped (an interrupt, an error) and nothing is left to finish: a thread a
-        # stopped pool left behind (a manager waiting on a killed worker, which hung 3 of 47
-        # interrupted `db build`s before parallel._stop_pool ended it) must not hold the exit
+        except KeyboardInterrupt:  # Ctrl-C while waiting: stop waiting, still run the handlers below
+            code = EXIT_INTERRUPTED
+    # else the work stopped (an interrupt, an error) and nothing is left to finish: a thread a
+    # stopped pool left behind (a manager waiting on a killed worker, which hung 3 of 47
+    # interrupted `db build`s before parallel._stop_pool ended it) must not hold the exit
+    try:
         run_exitfuncs()
     except KeyboardInterrupt:
         code = code or EXIT_INTERRUPTED

@@ -121,15 +121,17 @@ def asf_for_output(out: os.PathLike | str, source: os.PathLike | str | None, ove
     same_name = out.parent / source.name
     by_prefix = pick_asf(out.name, sorted({*present, same_name}), only_one=False) == same_name
     dst = same_name if by_prefix else out.with_suffix(".asf")
-    if dst.exists() and not overwrite and (not dst.is_file() or dst.read_bytes() != data):
-        raise MocapFormatError(dst, f"exists and differs from the skeleton ({source}) the AMC output needs beside it; "
-                                    "use --overwrite to replace it, or write another format")
+    replaced = dst.exists() and (not dst.is_file() or dst.read_bytes() != data)
     after = sorted({*present, dst})
     for amc in sorted(p for p in out.parent.glob("*") if p.suffix.lower() == ".amc" and p.name != out.name):
         was = pick_asf(amc.name, present)
-        if was is not None and was != pick_asf(amc.name, after):  # it read with the folder's only ASF
-            raise MocapFormatError(dst, f"the AMC output needs its skeleton here, which would change the skeleton "
-                                        f"{amc} is read with; write the AMC to another folder")
+        # another AMC here reads with the ASF the copy would replace, or with another one the copy would displace
+        if was is not None and (was != pick_asf(amc.name, after) or (replaced and Path(was) == dst)):
+            raise MocapFormatError(dst, f"the AMC output needs its skeleton ({source}) here, which would change the "
+                                        f"skeleton {amc.name} is read with; write the AMC to another folder")
+    if replaced and not overwrite:
+        raise MocapFormatError(dst, f"exists and differs from the skeleton ({source}) the AMC output needs beside it; "
+                                    "use --overwrite to replace it, or write another format")
     return dst
 
 

@@ -216,8 +216,9 @@ def shown_frames(num_frames: int, max_frames: int, flags=None, changed=None, *,
         if tier is None:  # the margins: either side of each run of changed or flagged frames
             if margin <= 0:
                 break
-            kernel = np.ones(2 * int(margin) + 1, dtype=int)
-            tier = np.convolve(runs.astype(int), kernel, mode="same") > 0
+            k = int(margin)
+            kernel = np.ones(2 * k + 1, dtype=int)
+            tier = np.convolve(runs.astype(int), kernel, mode="full")[k:k + F] > 0  # any length of take
         cand = keep | tier
         if cand.sum() > cap:
             break
