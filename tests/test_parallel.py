@@ -182,3 +182,8 @@ def test_stopping_a_pool_ends_a_manager_left_waiting_on_half_a_result():
     _stop_pool(pool)
     manager.join(timeout=10)
     assert not manager.is_alive()
+
+
+def test_the_bar_counts_what_the_caller_did_already(capsys):
+    assert map_ordered(abs, [-1, 2], executor="serial", progress=True, desc="clips", done=1) == [1, 2]
+    assert "1/3" in capsys.readouterr().err  # starts at what was done, out of all: db build reads its first clip itself

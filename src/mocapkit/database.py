@@ -614,7 +614,8 @@ class MotionDatabase:
         job = partial(_prepare, fps=fps, features=features, mirror=mirror, ref_skeleton=ref, joint_map=joint_map)
         # files are loaded and featurised on the executor; Motions already in memory stay here
         file_slots = [k for k in range(1, len(items)) if not isinstance(items[k], Motion)]
-        loaded = map_ordered(job, [items[k] for k in file_slots], executor=executor, progress=progress, desc="clips")
+        loaded = map_ordered(job, [items[k] for k in file_slots], executor=executor, progress=progress, desc="clips",
+                             done=1)  # the first clip, read here for the reference skeleton
         prepared: list = [first] + [None] * (len(items) - 1)
         for k, group in zip(file_slots, loaded):
             prepared[k] = group

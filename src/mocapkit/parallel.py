@@ -258,10 +258,12 @@ def map_ordered(
     progress: bool = True,
     desc: str | None = None,
     max_workers: int | None = None,
+    done: int = 0,
 ) -> list:
     """``[fn(item) for item in items]``, run on ``executor`` (see the module docstring), in input order.
 
-    ``fn`` and the items must be picklable for anything but ``"serial"``.
+    ``fn`` and the items must be picklable for anything but ``"serial"``. ``done``: items of the same
+    job the caller already did (the progress bar counts them).
     The first exception raised by ``fn`` is re-raised here after the
     remaining work is cancelled. ``executor`` is checked first
     (:func:`check_executor`): a bad one raises :class:`MocapError`.
@@ -274,7 +276,7 @@ def map_ordered(
     n = len(items)
     if n == 0:
         return []
-    bar = tqdm(total=n, desc=desc, disable=not progress, unit="item", leave=False)
+    bar = tqdm(total=n + done, initial=done, desc=desc, disable=not progress, unit="item", leave=False)
     try:
         if executor == "serial" or (executor in (None, "processes") and (n == 1 or (max_workers or os.cpu_count() or 1) == 1)):
             out = []
