@@ -187,3 +187,12 @@ def test_stopping_a_pool_ends_a_manager_left_waiting_on_half_a_result():
 def test_the_bar_counts_what_the_caller_did_already(capsys):
     assert map_ordered(abs, [-1, 2], executor="serial", progress=True, desc="clips", done=1) == [1, 2]
     assert "1/3" in capsys.readouterr().err  # starts at what was done, out of all: db build reads its first clip itself
+
+
+def _die(x):
+    os._exit(1)  # as a worker killed by the OOM killer or a signal before it could answer
+
+
+def test_a_worker_that_dies_is_one_line_not_broken_process_pool():
+    with pytest.raises(MocapError, match="a worker process ended abruptly"):
+        map_ordered(_die, [1, 2], executor="processes", progress=False, max_workers=2)

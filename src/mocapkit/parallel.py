@@ -44,6 +44,7 @@ import sys
 import threading
 import time
 from concurrent.futures import Executor, ProcessPoolExecutor, as_completed
+from concurrent.futures.process import BrokenProcessPool
 from typing import Callable, Sequence
 
 from tqdm.auto import tqdm
@@ -290,6 +291,10 @@ def map_ordered(
             try:
                 out = _run(pool, fn, items, bar, as_completed, cancel=False)
                 pool.shutdown(wait=True)
+            except BrokenProcessPool:
+                _stop_pool(pool)
+                raise MocapError("a worker process ended abruptly (killed, out of memory, or interrupted while "
+                                 "it started); the work was stopped") from None
             except BaseException:  # an interrupt during the shutdown too
                 _stop_pool(pool)
                 raise
