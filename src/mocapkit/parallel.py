@@ -210,6 +210,8 @@ def _die_with_parent(parent_pid: int) -> None:
     global _OWNER_PID
     try:
         signal.signal(signal.SIGINT, signal.SIG_IGN)
+        if hasattr(signal, "pthread_sigmask"):  # forked with SIGINT held back (_run): a pending one is now ignored
+            signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
     except (ValueError, OSError):  # not the main thread of this worker: it cannot take its own interrupts either
         pass
     if sys.platform.startswith("linux"):
@@ -289,7 +291,7 @@ def map_ordered(
             workers = min(n, max_workers or os.cpu_count() or 1)
             pool = ProcessPoolExecutor(max_workers=workers, initializer=_die_with_parent, initargs=(os.getpid(),))
             try:
-                out = _run(pool, fn, items, bar, as_completed, cancel=False)
+                out = _run(pool, fn, items, bar, as_completed, cancel=False, quiet_start=True)
                 pool.shutdown(wait=True)
             except BrokenProcessPool:
                 _stop_pool(pool)
@@ -310,8 +312,16 @@ def map_ordered(
         bar.close()
 
 
-def _run(pool, fn, items, bar, completed, cancel: bool = True) -> list:
-    futures = {pool.submit(fn, it): k for k, it in enumerate(items)}
+def _run(pool, fn, items, bar, completed, cancel: bool = True, quiet_start: bool = False) -> list:
+    """Submit every item, then gather the results in input order. ``quiet_start``: SIGINT is held back
+    while the items are submitted, when a local pool forks its workers: a worker forked with it pending
+    would die of it before its initializer ignores it, breaking the pool; the parent takes it after."""
+    held = quiet_start and _hold_sigint()
+    try:
+        futures = {pool.submit(fn, it): k for k, it in enumerate(items)}
+    finally:
+        if held:
+            signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
     out: list = [None] * len(items)
     try:
         for fut in completed(list(futures)):
@@ -322,6 +332,13 @@ def _run(pool, fn, items, bar, completed, cancel: bool = True) -> list:
             fut.cancel()
         raise
     return out
+
+
+def _hold_sigint() -> bool:
+    """Block SIGINT in this thread (the main one, where Python takes signals); True when it was blocked here."""
+    if not hasattr(signal, "pthread_sigmask") or threading.current_thread() is not threading.main_thread():
+        return False
+    return signal.SIGINT not in signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
 
 
 def _stop_pool(pool: ProcessPoolExecutor) -> None:
