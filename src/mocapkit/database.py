@@ -183,6 +183,10 @@ def _prepare(item, fps: float, features: tuple[str, ...], mirror: bool, ref_skel
             feats = {n: feature_set(mm, n, scale_cm=True).values for n in features}
         except MocapError as exc:
             raise MocapFormatError(source, f"cannot compute features: {exc}") from None
+        except KeyError as exc:  # the features' end effectors (hands, feet, head) found by role: none here
+            raise MocapFormatError(source, f"cannot compute features {', '.join(features)}: "
+                                           f"{exc.args[0] if exc.args else exc}; give --joint-map onto a rig of "
+                                           "known naming") from None
         tr = None if mm.translations is None else _float32(mm.translations, "joint translations", source)
         out.append(
             {

@@ -998,8 +998,12 @@ def unit_scale_cm(skeleton: Skeleton) -> float:
     """
     if skeleton.unit_cm is not None:
         return float(skeleton.unit_cm)
-    foot = find_joint(skeleton, "left_foot")
-    head = find_joint(skeleton, "head")
+    try:
+        foot = find_joint(skeleton, "left_foot")
+        head = find_joint(skeleton, "head")
+    except KeyError as exc:  # a rig of no known naming: its length unit cannot be read from a human's height
+        raise SkeletonError(f"the length unit cannot be told from the bones: {exc.args[0] if exc.args else exc} "
+                            "(a rig of no known naming)") from None
     rest = skeleton.rest_positions()
     # path length foot -> common ancestor -> head along the tree
     def chain(j):

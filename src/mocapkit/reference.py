@@ -58,6 +58,13 @@ def check_reference(reference, path: os.PathLike | str, *, frames: int, joint_na
         rig = "" if same_rig else "; its joints differ"
         raise MocapFormatError(path, f"the reference must have the input's joints and {frames} frames "
                                      f"(it has {reference.num_frames} frames{rig})")
+    from .errors import SkeletonError
+    from .motion import unit_scale_cm
+
+    try:
+        unit_scale_cm(reference.skeleton)  # the position errors are in cm: told before any work, not after
+    except SkeletonError as exc:
+        raise MocapFormatError(path, f"the error in cm needs the reference's length unit: {exc}") from None
     return reference
 
 

@@ -278,3 +278,29 @@ def test_run_still_runs_the_exit_handlers_when_interrupted_while_joining(tmp_pat
     proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
     assert proc.returncode == 130, proc.stderr
     assert (tmp_path / "handled").exists()
+
+
+def test_a_rig_of_no_known_naming_is_one_line_before_any_output(tmp_path):
+    """A rig whose joints say nothing (bn00, bn01, ...) raised a bare KeyError in db build, corrupt --kind spatial,
+    train's default (spatial) noise, and clean --reference after writing its outputs."""
+    import dataclasses
+
+    from pathlib import Path
+
+    m = mocapkit.load(Path(__file__).resolve().parents[1] / "data" / "bandai_dance-short_normal_001_first60.bvh")
+    names = tuple(f"bn{k:02d}" for k in range(m.num_joints))  # the game rig, its tree too unlike a human's to read
+    bare = dataclasses.replace(m, skeleton=dataclasses.replace(m.skeleton, joint_names=names))
+    take = tmp_path / "in" / "take.bvh"
+    take.parent.mkdir()
+    mocapkit.save(bare, take)
+    before = sorted(p.name for p in tmp_path.rglob("*"))
+    for argv, said in ((["db", "build", str(tmp_path / "db"), str(take)], "cannot compute features F15"),
+                       (["corrupt", str(take), str(tmp_path / "c.npz"), "--kind", "spatial", "--amount", "1"],
+                        "the length unit cannot be told from the bones"),
+                       (["train", "denoiser", str(take.parent), "-o", str(tmp_path / "model"), "--epochs", "1"],
+                        "give --noise without spatial"),
+                       (["clean", str(take), "-o", str(tmp_path / "o.bvh"), "--reference", str(take)],
+                        "the error in cm needs the reference's length unit")):
+        code, _, err = run(*argv)
+        assert code == 2 and one_error_line(err) and said in err and "KeyError" not in err, (argv, err)
+        assert sorted(p.name for p in tmp_path.rglob("*")) == before, argv
