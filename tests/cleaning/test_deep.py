@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 import torch
@@ -294,8 +296,10 @@ def test_training_is_deterministic_and_resumable(tmp_path, walk):
     assert len(hb) == 3
     assert [h["train_rmse"] for h in ha] == [h["train_rmse"] for h in hb]
     other = training.TrainConfig(**{**cfg.__dict__, "seed": 5})
-    c = training.train([clip], tmp_path / "b", other, executor="serial", progress=False)
-    assert c.meta["history"][0]["train_rmse"] != ha[0]["train_rmse"]  # a changed config restarts
+    with pytest.raises(ValueError, match="other settings"):  # a changed config does not replace the folder's run
+        training.train([clip], tmp_path / "b", other, executor="serial", progress=False)
+    c = training.train([clip], tmp_path / "b", other, resume=False, executor="serial", progress=False)
+    assert c.meta["history"][0]["train_rmse"] != ha[0]["train_rmse"]  # --restart: started over
 
 
 def test_ebd_forward_at_equals_forward_on_the_gathered_windows(walk, tiny_ebd):
@@ -615,3 +619,21 @@ def test_training_metadata_carries_the_rig_and_licence_into_the_model_file(tmp_p
     assert deep.licence_note(again) == ("the EBF used is CC BY-NC 4.0: non-commercial; --ebf (clean, clean-batch; "
                                         "models= in Python) picks another, e.g. ebf.pt")
     assert deep.licence_note(deep.shipped_model("ebf")) == ""  # the Acclaim models carry no restriction
+
+
+def test_a_resume_with_other_settings_or_clips_is_refused_not_started_over(tmp_path, walk):
+    """Rerunning into the same folder with another --hidden, or other clips, replaced model.pt and checkpoint.pt
+    silently (a user trial); --restart (resume=False) is the way to start over."""
+    cfg = training.TrainConfig(kind="ebf", hidden=8, epochs=1, steps_per_epoch=2, batch=2, crop=40,
+                               noise=("angular:0.5",), variants=1)
+    training.train([walk[:160]], tmp_path, cfg, executor="serial", progress=False)
+    before = (tmp_path / "model.pt").read_bytes()
+    with pytest.raises(ValueError, match="holds a training with other settings"):
+        training.train([walk[:160]], tmp_path, dataclasses.replace(cfg, hidden=16), executor="serial", progress=False)
+    other = dataclasses.replace(walk[:160], name="another clip")
+    with pytest.raises(ValueError, match="holds a training with other clips"):
+        training.train([other], tmp_path, cfg, executor="serial", progress=False)
+    assert (tmp_path / "model.pt").read_bytes() == before
+    longer = training.train([walk[:160]], tmp_path, dataclasses.replace(cfg, epochs=2), executor="serial",
+                            progress=False)  # the same run, continued
+    assert len(longer.meta["history"]) == 2

@@ -260,15 +260,6 @@ def train(
     clips = training.load_clips(sources)
     if not clips:
         raise MocapError(f"train: no .bvh, .amc or .npz clips in {', '.join(map(str, sources))}")
-    if any(n.startswith("spatial") for n in cfg.noise):  # in cm: the rig's length unit, told before any work
-        from ..errors import SkeletonError
-        from ..motion import unit_scale_cm
-
-        try:
-            unit_scale_cm(clips[0].skeleton)
-        except SkeletonError as exc:
-            raise MocapError(f"train: spatial noise (in cm{', a default' if not noise else ''}) needs the clips' "
-                             f"length unit: {exc}; give --noise without spatial: (e.g. --noise angular:0.5)") from None
     # --holdout is a count of random clips (one number) or name substrings
     count = int(holdout[0]) if holdout and len(holdout) == 1 and holdout[0].isdigit() else None
     if folds > 1:
@@ -294,6 +285,14 @@ def train(
             mirrors[id(c)] = mirror_for_rig(c)
         except SkeletonError as exc:
             raise MocapError(f"train --mirror: {c.name}: {exc}") from None
+    if any(n.startswith("spatial") for n in cfg.noise):  # in cm: the rig's length unit, told before any work
+        from ..motion import unit_scale_cm
+
+        try:
+            unit_scale_cm(clips[0].skeleton)
+        except SkeletonError as exc:
+            raise MocapError(f"train: spatial noise (in cm{', a default' if not noise else ''}) needs the clips' "
+                             f"length unit: {exc}; give --noise without spatial: (e.g. --noise angular:0.5)") from None
     bests = []
     for (tr, val), o in zip(splits, outs):
         if not tr:

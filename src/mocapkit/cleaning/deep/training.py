@@ -474,6 +474,19 @@ def train(
     if not clips:
         raise ValueError("no training clips")
     out_dir = Path(out_dir)  # made by the first write (atomic_write): a run that fails before leaves no folder
+    # A checkpoint continues when everything but the stopping rule and device matches, on the same clips;
+    # another one is not replaced by a resume (its model would be lost): refused before any work
+    same = {k: v for k, v in dataclasses.asdict(cfg).items() if k not in ("epochs", "minutes", "device")}
+    cfg_json = json.dumps(same, sort_keys=True)
+    data_json = json.dumps({"train": [c.name for c in clips], "validation": [c.name for c in validation or []]})
+    ckpt_path = out_dir / "checkpoint.pt"
+    if resume and ckpt_path.is_file():
+        ck = torch.load(ckpt_path, map_location="cpu", weights_only=True)
+        other = [what for what, same_as in (("settings", ck.get("config") == cfg_json),
+                                            ("clips", ck.get("data", data_json) == data_json)) if not same_as]
+        if other:
+            raise ValueError(f"{out_dir} holds a training with other {' and '.join(other)}; --restart starts it "
+                             "over there (its model and checkpoint replaced), or give another folder")
     layout = layout_for(clips[0], cfg.representation)
     fps = clips[0].fps
     for c in clips + list(validation or []):
@@ -497,13 +510,9 @@ def train(
     groups = channel_joints(layout)
     dev = _device(cfg.device)
     opt = torch.optim.Adam(net.parameters(), lr=cfg.lr)
-    ckpt_path = out_dir / "checkpoint.pt"
     history: list[dict] = []
     start_epoch, best = 0, math.inf
-    # A checkpoint continues when everything but the stopping rule and device matches.
-    same = {k: v for k, v in dataclasses.asdict(cfg).items() if k not in ("epochs", "minutes", "device")}
-    cfg_json = json.dumps(same, sort_keys=True)
-    if resume and ckpt_path.is_file():
+    if resume and ckpt_path.is_file():  # of the same settings and clips (checked above)
         ck = torch.load(ckpt_path, map_location="cpu", weights_only=True)
         if ck.get("config") == cfg_json:
             net.load_state_dict(ck["state"])
@@ -551,7 +560,7 @@ def train(
             for g in opt.param_groups:
                 g["lr"] *= 0.5
         with atomic_write(ckpt_path, "wb") as fh:
-            torch.save({"config": cfg_json, "state": net.state_dict(), "optimizer": opt.state_dict(),
+            torch.save({"config": cfg_json, "data": data_json, "state": net.state_dict(), "optimizer": opt.state_dict(),
                         "epoch": epoch, "best": best, "history": json.dumps(history)}, fh)
         net.to(dev)
         bar.set_postfix(train=f"{history[-1]['train_rmse']:.3f}", val=f"{v:.3f}", best=f"{best:.3f}")
