@@ -274,3 +274,12 @@ def test_root_relative_errors_are_about_the_pelvis_by_role():
     rot = np.array(m.rotations)
     rot[:, m.skeleton.index("UpperArm_L")] = R.quaternion_from_axis_angle(np.array([0.0, 0.0, 1.0]), 0.5)
     assert M.joint_position_rms(dataclasses.replace(m, rotations=rot), m, root_relative="heading") > 1.0
+
+
+def test_joint_angles_of_an_amc_take_and_its_bvh_conversion_agree(tmp_path):
+    """The same motion as ASF/AMC and as BVH: channels of other orders and axes (it raised IndexError)."""
+    amc = mocapkit.load(mocapkit.samples.path("HDM_bk_sneak2StepsLStart_004_120.amc"))
+    mocapkit.save(amc, tmp_path / "same.bvh")
+    bvh = mocapkit.load(tmp_path / "same.bvh")
+    assert bvh.skeleton.channels != amc.skeleton.channels
+    assert M.joint_angle_rms(amc, bvh) < 1e-4

@@ -29,7 +29,7 @@ import numpy as np
 from . import rotations as R
 from .errors import SkeletonError
 from .rigs import pelvis_index
-from .motion import Motion, unit_scale_cm
+from .motion import Motion, unit_scale_cm, with_channels_of
 
 __all__ = [
     "geodesic_pose_distance",
@@ -104,6 +104,7 @@ def joint_angle_rms(a: Motion, b: Motion, per_frame: bool = False, include_root:
     NaN channels are left out.
     """
     _check_pair(a, b)
+    b = with_channels_of(b, a.skeleton)  # an AMC take and its BVH conversion: the same angles, other channels
     sk = a.skeleton
     rot = np.array(
         [c.endswith("rotation") and (include_root or j > 0) for j in range(sk.num_joints) for c in sk.joint_channels(j)],

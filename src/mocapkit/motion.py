@@ -40,6 +40,7 @@ __all__ = [
     "check_fps",
     "frame_slice",
     "frozen",
+    "with_channels_of",
     "readonly_view",
     "FPS_RANGE",
     "MAX_JOINTS",
@@ -729,6 +730,20 @@ def _lerp(x: np.ndarray, i0: np.ndarray, i1: np.ndarray, a: np.ndarray, exact: n
     out = x[i0] * (1 - w) + x[i1] * w
     out[exact] = x[i0[exact]]
     return out
+
+
+def with_channels_of(motion: Motion, skeleton: Skeleton) -> Motion:
+    """``motion`` with ``skeleton``'s channels (Euler orders, ASF axes) when it is on the same joints and
+    hierarchy but its channels differ, so that its ``channel_values`` compare with a take on ``skeleton``:
+    an ASF/AMC take and its BVH conversion hold the same rotations, yet a channel named Zrotation is
+    another angle in each. The rotations are unchanged; ``motion`` itself when nothing differs or when it
+    animates joint offsets (translations)."""
+    sk = motion.skeleton
+    same = (sk.channels == skeleton.channels and (sk.axes is None) == (skeleton.axes is None)
+            and (sk.axes is None or np.array_equal(sk.axes, skeleton.axes)))
+    if same or not sk.is_compatible(skeleton) or motion.translations is not None:
+        return motion
+    return dataclasses.replace(motion, skeleton=dataclasses.replace(sk, channels=skeleton.channels, axes=skeleton.axes))
 
 
 def concatenate(motions: Iterable[Motion], name: str | None = None) -> Motion:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+
 import math
 from pathlib import Path
 from typing import Optional
@@ -185,6 +186,7 @@ def plot(
     if out.suffix.lower() != ".png":
         raise MocapFormatError(out, "the plot is written as .png")
     motions = [load_motion(p, asf, purpose="plot") for p in (reference, *others)]
+    motions, redrawn = _in_reference_channels(motions)
     _check_plot_joint(joint, [reference, *others], motions)
     mask_arr = None
     if mask_path is not None:
@@ -195,6 +197,18 @@ def plot(
                 raise
     plot_channels(motions, joint, out, labels=[reference.stem] + [p.stem for p in others], mask=mask_arr)
     console.print(f"wrote {out}")
+    for k in redrawn:
+        console.print(f"note: {others[k - 1]} drawn in {reference.name}'s channels (its own order or axes differ; "
+                      "the rotations are the same)")
+
+
+def _in_reference_channels(motions: list) -> tuple[list, list[int]]:
+    """Each take drawn in the reference's channels (:func:`mocapkit.motion.with_channels_of`: the same motion as
+    AMC and as BVH plotted -80 against +80 deg); returns the takes and the indices of those re-expressed."""
+    from ..motion import with_channels_of
+
+    out = [motions[0]] + [with_channels_of(m, motions[0].skeleton) for m in motions[1:]]
+    return out, [k for k in range(1, len(out)) if out[k] is not motions[k]]
 
 
 def _served_note(m) -> str:
