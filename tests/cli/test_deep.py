@@ -353,3 +353,17 @@ def test_marker_files_are_sent_to_clean(tmp_path):
     code, _, err = run("denoise", str(WALK), "-o", str(tmp_path / "x.c3d"))
     assert code == 2 and one_error_line(err) and "x.c3d: unknown suffix '.c3d' for writing" in err
     assert sorted(p.name for p in tmp_path.iterdir()) == ["markers.npz"]
+
+
+def test_commands_writing_an_amc_elsewhere_copy_its_asf(tmp_path):
+    """repair, denoise, fill and corrupt, as convert and clean: an AMC output reads back (it said 'no skeleton')."""
+    amc = mocapkit.samples.path("HDM_bk_sneak2StepsLStart_004_120.amc")
+    for k, argv in enumerate((["denoise", str(amc), "-o"], ["fill", str(amc), "--always-write", "-o"],
+                              ["corrupt", str(amc), "--kind", "spike", "--seed", "1"])):
+        out = tmp_path / f"o{k}" / "take.amc"
+        code, stdout, err = run(*argv, str(out)) if argv[0] != "corrupt" else run(*argv[:2], str(out), *argv[2:])
+        assert code == 0, (argv, err)
+        assert (out.parent / "take.asf").read_bytes() == mocapkit.samples.path("HDM_bk.asf").read_bytes(), argv
+        assert mocapkit.load(out).num_frames == mocapkit.load(amc).num_frames
+    code, _, err = run("reconstruct", "--db", str(tmp_path / "o0"), "--accelerometers", str(amc), "-o", str(tmp_path / "r" / "r.amc"))
+    assert code == 2 and "written as .bvh or .npz" in err and not (tmp_path / "r").exists()

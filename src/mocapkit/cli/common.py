@@ -107,3 +107,18 @@ def print_table(header: Iterable[str], rows: Iterable[Iterable[str]]) -> None:
     widths = [max(len(r[c]) for r in table) for c in range(len(table[0]))]
     for r in table:
         console.print("  ".join(cell.ljust(w) for cell, w in zip(r, widths)).rstrip())
+
+
+def save_take(motion, out: Path, inp: Path | None, asf=None, overwrite: bool = False, **kwargs) -> None:
+    """``io.save`` of a command's output take, and, for an AMC output, the input's ASF beside it where the
+    output's folder lacks it (:func:`mocapkit.io.takes.asf_for_output`: an AMC is read with the ASF beside
+    it), said in one line. Checked before anything is written."""
+    from .. import io
+    from ..io.takes import asf_for_output, asf_of, place_asf
+
+    skeleton = asf_of(inp, asf) if inp is not None else None
+    copy = asf_for_output(out, skeleton, overwrite)
+    io.save(motion, out, asf=skeleton if skeleton is not None else asf, **kwargs)
+    place_asf(copy, skeleton)
+    if copy is not None:
+        console.print(f"copied the skeleton {skeleton} to {copy}: an AMC is read with the ASF beside it")

@@ -8,7 +8,7 @@ from typing import Optional
 import typer
 
 from ..errors import MocapError, MocapFormatError, SkeletonError
-from .common import asf_option, check_executor, console, executor_option, guard, overwrite_option, plural
+from .common import asf_option, check_executor, console, executor_option, guard, overwrite_option, plural, save_take
 
 
 def _model(path: Optional[Path], kind: str):
@@ -110,7 +110,7 @@ def denoise(
                                                          options={"ebf": "--model"})
     except SkeletonError as exc:
         raise MocapError(f"{inp}: {exc}") from None
-    io.save(cleaned, out, like=inp, asf=asf)
+    save_take(cleaned, out, inp, asf, overwrite, like=inp)
     if note:
         console.print(f"warning: {inp}: {note}")
     change = joint_angle_rms(m, cleaned, include_root=False)
@@ -165,7 +165,7 @@ def fill(
     n = int(missing.sum())
     if not n:
         if always_write:
-            io.save(m, out, like=inp, asf=asf)
+            save_take(m, out, inp, asf, overwrite, like=inp)
             console.print(f"no gaps in {inp}; nothing to fill; wrote it unchanged to {out}")
         else:
             console.print(f"no gaps in {inp}; nothing to fill (nothing written; --always-write writes it)")
@@ -180,7 +180,7 @@ def fill(
                                                      options={"ebd": "--model", "ebf": "--denoiser"})
     except (SkeletonError, ValueError) as exc:
         raise MocapError(f"{inp}: {exc}") from None
-    io.save(filled, out, like=inp, asf=asf)
+    save_take(filled, out, inp, asf, overwrite, like=inp)
     if note:
         console.print(f"warning: {inp}: {note}")
     line = f"wrote {out}: {plural(n, 'missing joint sample')} filled by {method}"

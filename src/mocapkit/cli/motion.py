@@ -10,7 +10,7 @@ from typing import Optional
 import typer
 
 from ..errors import MocapError, MocapFormatError
-from .common import asf_option, console, guard, overwrite_option, plural, print_fields, print_table
+from .common import asf_option, console, guard, overwrite_option, plural, print_fields, print_table, save_take
 
 
 def info(
@@ -137,7 +137,7 @@ def corrupt(
     from .. import io
     from ..io.masks import error_record, mask_path_for, write_mask
     from ..io.outputs import removed_on_failure
-    from ..io.takes import asf_of, check_asf, load_motion
+    from ..io.takes import check_asf, load_motion
 
     if amount is not None and not (math.isfinite(amount) and amount > 0):  # one rule for every kind, before any work
         raise MocapError(f"--amount must be a finite number greater than 0, got {amount:g}")
@@ -156,7 +156,7 @@ def corrupt(
     records = result[2] if len(result) > 2 else []
     io.check_complete(bad, out, "this corruption leaves missing values (NaN)", "write .npz")
     with removed_on_failure([out, mask_path]):
-        io.save(bad, out, asf=asf_of(inp, asf))
+        save_take(bad, out, inp, asf, overwrite)
         write_mask(mask_path, mask, m.skeleton.joint_names, kind=kind, seed=seed, params=params, records=records)
     frames = int(mask.any(axis=1).sum())
     console.print(f"wrote {out} and {mask_path}: {plural(int(mask.sum()), 'joint sample')} changed in "

@@ -108,6 +108,9 @@ def reconstruct(
     guard([out], [inp, db_dir, skeleton, reference, asf], overwrite)
     check_asf(asf, [inp, reference])
     io.suffix_kind(out, io.WRITERS, "writing")
+    if out.suffix.lower() == ".amc":  # an AMC is read with its actor's ASF beside it: a database keeps none
+        raise MocapFormatError(out, "a reconstruction is written as .bvh or .npz (an AMC needs its skeleton's ASF "
+                                    "beside it, which a database does not keep)")
     if not inp.is_file():  # as every reader says it (the CSV reader would say "cannot read the file: [Errno 2] ...")
         raise (MocapFormatError(inp, "not a regular file") if inp.exists() else MissingFileError(inp))
     db = MotionDatabase.open(db_dir)

@@ -8,7 +8,7 @@ from typing import Optional
 import typer
 
 from ..errors import MocapError, MocapFormatError, SkeletonError
-from .common import asf_option, console, context_option, guard, overwrite_option, plural
+from .common import asf_option, console, context_option, guard, overwrite_option, plural, save_take
 
 
 def _detect(m, context, threshold: float, progress: bool = True, confirm: bool = True, jump_deg: float = 8.0,
@@ -128,7 +128,7 @@ def repair(
         fixed = ssa.repair(m, det, ctx, foot_skate=foot_skate)
     except ValueError as exc:
         raise MocapError(f"{inp}: {exc}") from None
-    io.save(fixed, out, like=inp, asf=asf)
+    save_take(fixed, out, inp, asf, overwrite, like=inp)
     n = int(det.flags.sum())
     console.print(f"wrote {out}: {plural(n, 'joint sample')} replaced in {int(det.flags.any(axis=1).sum())} of "
                   f"{plural(m.num_frames, 'frame')}")
