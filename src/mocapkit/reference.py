@@ -31,7 +31,7 @@ __all__ = ["check_reference", "clean_errors", "joint_angle_errors", "filled_erro
 
 
 def check_reference(reference, path: os.PathLike | str, *, frames: int, joint_names: Sequence[str] | None = None,
-                    skeleton=None):
+                    skeleton=None, whose: str = "the input's"):
     """Return ``reference`` if it can be compared with a result of ``frames`` frames, else refuse.
 
     Parameters
@@ -43,6 +43,7 @@ def check_reference(reference, path: os.PathLike | str, *, frames: int, joint_na
     joint_names : the result's joint names, in order (same rig, same names); or
     skeleton : a Skeleton the reference must be compatible with (same joints,
         any offsets: :meth:`~mocapkit.motion.Skeleton.is_compatible`).
+    whose : what the result is, for the message (``"the reconstruction's"``: the database's skeleton).
 
     Raises
     ------
@@ -56,7 +57,7 @@ def check_reference(reference, path: os.PathLike | str, *, frames: int, joint_na
         same_rig = same_rig and reference.skeleton.is_compatible(skeleton)
     if reference.num_frames != frames or not same_rig:
         rig = "" if same_rig else "; its joints differ"
-        raise MocapFormatError(path, f"the reference must have the input's joints and {frames} frames "
+        raise MocapFormatError(path, f"the reference must have {whose} joints and {frames} frames "
                                      f"(it has {reference.num_frames} frames{rig})")
     from .errors import SkeletonError
     from .motion import unit_scale_cm

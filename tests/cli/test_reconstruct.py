@@ -1,6 +1,7 @@
 """`mocapkit reconstruct` with each control signal on bundled real clips, and its one-line errors."""
 
 import re
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -180,3 +181,14 @@ def test_neighbours_has_both_spellings_and_a_missing_csv_is_no_such_file(tmp_pat
     assert code == 2 and one_error_line(err)
     assert " ".join(err.split()) == f"mocapkit: error: {missing}: no such file"
     assert not out.exists()
+
+
+def test_accelerometers_of_another_rig_say_whose_body_the_result_is(tmp_path, db_dir):
+    bandai = Path(__file__).resolve().parents[1] / "data" / "dataset-1_dash_normal_001.bvh"
+    out = tmp_path / "r.bvh"
+    code, stdout, err = run("reconstruct", "--db", str(db_dir), "--accelerometers", str(bandai), "-o", str(out))
+    assert code == 0, err
+    assert "the body is the database's skeleton" in " ".join(stdout.split())
+    code, _, err = run("reconstruct", "--db", str(db_dir), "--accelerometers", str(bandai), "-o",
+                       str(tmp_path / "s.bvh"), "--reference", str(bandai))
+    assert code == 2 and "the reference must have the reconstruction's" in err

@@ -150,7 +150,7 @@ def reconstruct(
     ref = None
     if reference is not None:  # checked before the (long) reconstruction
         ref = check_reference(load_motion(reference, asf, purpose="a reference"), reference, frames=frames,
-                              skeleton=db.skeletons[0])
+                              skeleton=db.skeletons[0], whose=f"the reconstruction's ({db_dir.name}'s skeleton)")
     try:
         if kind == "accelerometers":
             result = acc.reconstruct(readings, db, fps, sensors, skeleton=performer, progress=True, **acc_params)
@@ -164,7 +164,8 @@ def reconstruct(
         raise MocapError(f"{inp}: {exc}") from None
     report = ""
     if ref is not None:
-        check_reference(ref, reference, frames=result.num_frames, skeleton=result.skeleton)
+        check_reference(ref, reference, frames=result.num_frames, skeleton=result.skeleton,
+                        whose=f"the reconstruction's ({db_dir.name}'s skeleton)")
         # accelerometers see no heading: their error is measured with each motion's heading removed
         heading = kind == "accelerometers"
         err = position_error_cm(ref, result, heading=heading)
@@ -172,3 +173,6 @@ def reconstruct(
         report = f"; joint-position RMS against {reference.name} ({how}): {err:.2f} cm"
     io.save(result, out)
     console.print(f"wrote {out}: {plural(result.num_frames, 'frame')} @ {result.fps:g} fps from {what}{report}")
+    if isinstance(source, Motion) and not source.skeleton.is_compatible(result.skeleton):
+        console.print(f"note: the body is the database's skeleton ({result.skeleton.num_joints} joints), not "
+                      f"{inp.name}'s: the sensors' readings come from any rig, the poses from the database")
