@@ -1,6 +1,7 @@
 """`mocapkit denoise`, `mocapkit fill` and `mocapkit train` on real clips, and their one-line errors; the models
 `clean` and `clean-batch` use."""
 
+import re
 from pathlib import Path
 
 import numpy as np
@@ -183,6 +184,8 @@ def test_train_on_two_rigs_says_so_and_leaves_no_folder(tmp_path):
     text = " ".join(err.split())
     assert code == 2 and one_error_line(err) and "another rig than the first clip's" in text
     assert "train one rig at a time" in text and not out.exists()
+    # each count beside its own clip: the second clip's channels, then the first clip's name and its count
+    assert re.search(r"131_01: another rig than the first clip's \(\d+ euler channels; 12_walk has \d+\)", text), text
 
 
 def test_train_mirror_adds_each_training_clip_mirror_image(tmp_path):

@@ -303,6 +303,10 @@ def train(
             model = training.train(tr, o, cfg, validation=val or None, resume=resume, executor=executor)
         except (SkeletonError, ValueError) as exc:
             raise MocapError(f"train: {exc}") from None
+        except KeyboardInterrupt:  # a checkpoint is a whole file, kept on purpose: say so beside "interrupted"
+            if (o / "checkpoint.pt").is_file():
+                console.print(f"note: {o / 'checkpoint.pt'} keeps the last finished epoch; the same command resumes")
+            raise
         h = model.meta["history"]
         bests.append(min(x["val_rmse"] for x in h))
         what_rms = "validation" if val else "training"

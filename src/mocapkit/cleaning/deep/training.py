@@ -492,9 +492,9 @@ def train(
     for c in clips + list(validation or []):
         have = layout_for(c, cfg.representation)
         if have.names != layout.names:  # ChannelLayout.check's test, said as training needs it: no model yet
-            raise SkeletonError(f"{c.name or 'clip'}: another rig than the first clip's ({clips[0].name or 'clip'}: "
-                                f"{have.num_channels} {cfg.representation} channels against {layout.num_channels}); "
-                                "train one rig at a time")
+            raise SkeletonError(f"{c.name or 'clip'}: another rig than the first clip's ({have.num_channels} "
+                                f"{cfg.representation} channels; {clips[0].name or 'the first clip'} has "
+                                f"{layout.num_channels}); train one rig at a time")
         if abs(c.fps - fps) > 1e-6:
             raise ValueError(f"{c.name}: {c.fps:g} fps, but the first clip has {fps:g}; resample the corpus first")
     noise = tuple(cfg.noise)
