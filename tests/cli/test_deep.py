@@ -370,3 +370,24 @@ def test_commands_writing_an_amc_elsewhere_copy_its_asf(tmp_path):
         assert mocapkit.load(out).num_frames == mocapkit.load(amc).num_frames
     code, _, err = run("reconstruct", "--db", str(tmp_path / "o0"), "--accelerometers", str(amc), "-o", str(tmp_path / "r" / "r.amc"))
     assert code == 2 and "written as .bvh or .npz" in err and not (tmp_path / "r").exists()
+
+
+def test_an_interrupted_train_says_its_checkpoint_resumes(tmp_path):
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    out = tmp_path / "m"
+    p = subprocess.Popen([sys.executable, "-m", "mocapkit.cli", "train", "denoiser", str(WALK), "-o", str(out),
+                          "--epochs", "500", "--steps", "2", "--hidden", "8", "--noise", "angular:0.5",
+                          "--executor", "serial"], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                         preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
+    deadline = time.monotonic() + 300  # readiness, not speed: the first epoch's checkpoint
+    while not (out / "checkpoint.pt").is_file() and p.poll() is None and time.monotonic() < deadline:
+        time.sleep(0.05)
+    p.send_signal(signal.SIGINT)
+    stdout, stderr = p.communicate(timeout=300)
+    assert p.returncode == 130, stderr
+    assert f"{out / 'checkpoint.pt'} keeps the last finished epoch; the same command resumes" in " ".join(stdout.split())
+    assert (out / "checkpoint.pt").is_file()
