@@ -334,3 +334,17 @@ def test_plot_draws_an_amc_take_and_its_bvh_conversion_in_one_convention(tmp_pat
     code, out, err = run("plot", amc, tmp_path / "same.bvh", "--joint", "rhumerus", "-o", tmp_path / "p.png")
     assert code == 0, err
     assert "same.bvh drawn in HDM_bk_sneak2StepsLStart_004_120.amc's channels" in " ".join(out.split())
+
+
+def test_info_describes_the_files_mocapkit_writes(tmp_path):
+    take = tmp_path / "take.bvh"
+    mocapkit.save(mocapkit.load(SAMPLE)[:200], take)
+    assert run("clean", take, "-o", tmp_path / "c.bvh", "--context", "none")[0] == 0
+    assert run("detect", take, "-o", tmp_path / "d.npz", "--context", "none")[0] == 0
+    assert run("corrupt", take, tmp_path / "k.bvh", "--kind", "spike", "--seed", "1")[0] == 0
+    assert run("db", "build", tmp_path / "db", take)[0] == 0
+    for path, kind in ((tmp_path / "c.clean.npz", "cleaning record"), (tmp_path / "d.npz", "detection"),
+                       (tmp_path / "k.mask.npz", "corruption mask"), (tmp_path / "db", "motion database"),
+                       (mocapkit.samples.path("12_walk.amc").parent.parent / "models" / "ebf.pt", "EBF model")):
+        code, out, err = run("info", path)
+        assert code == 0 and kind in out, (path, out, err)

@@ -14,17 +14,20 @@ from .common import asf_option, console, guard, overwrite_option, plural, print_
 
 
 def info(
-    file: Path = typer.Argument(..., help="A .bvh, .amc, .c3d, .trc or .npz file."),
+    file: Path = typer.Argument(..., help="A .bvh, .amc, .c3d, .trc or .npz file; or what mocapkit writes: a database "
+                                          "folder, a .clean.npz record, a detection, a .mask.npz, a .pt model."),
     joints: bool = typer.Option(False, "--joints", help="Also list every joint with its parent and channels."),
     asf: Optional[Path] = asf_option(),
 ) -> None:
-    """Print the skeleton, frame count, frame rate, duration and missing data of FILE."""
+    """Print the skeleton, frame count, frame rate, duration and missing data of FILE (or what a mocapkit file holds)."""
     from ..io.c3d import MarkerSet
     from ..io.takes import check_asf, load_take
     from ..motion import ROLES, standard_joints, unit_scale_cm
     from ..rigs import rig_family, roles_by_topology
 
     check_asf(asf, [file])
+    if _info_of_own_file(file):  # a database, a cleaning record, a detection, a mask or a model: not a take
+        return
     obj = load_take(file, asf)
     rows = [("file", str(file))]
     if isinstance(obj, MarkerSet):
@@ -209,6 +212,69 @@ def _in_reference_channels(motions: list) -> tuple[list, list[int]]:
 
     out = [motions[0]] + [with_channels_of(m, motions[0].skeleton) for m in motions[1:]]
     return out, [k for k in range(1, len(out)) if out[k] is not motions[k]]
+
+
+def _info_of_own_file(path: Path) -> bool:
+    """``info`` of a file mocapkit writes that is no take; False for anything else (read as a take)."""
+    import numpy as np
+
+    from ..database_folder import DESCRIPTION
+
+    name = path.name.lower()
+    if path.is_dir() and (path / DESCRIPTION).is_file():
+        from ..database import MotionDatabase
+
+        summary = MotionDatabase.open(path).summary()
+        print_fields([("file", str(path)), ("kind", "motion database (mocapkit db info DIR --clips lists its clips)")]
+                     + [(k.replace("_", " "), ", ".join(f"{a} ({b})" for a, b in v.items()) if isinstance(v, dict)
+                         else str(v)) for k, v in summary.items() if k != "path"])
+        return True
+    if name.endswith(".pt") and path.is_file():
+        from ..cleaning import deep
+
+        model = deep.load_model(path)
+        meta = model.meta if isinstance(model.meta, dict) else {}
+        print_fields([("file", str(path)), ("kind", f"{model.kind.upper()} model"),
+                      ("rig", str(meta.get("rig", "acclaim"))), ("channels", str(model.layout.num_channels)),
+                      ("fps", f"{model.fps:g}" if getattr(model, "fps", None) else "?"),
+                      ("training clips", str(len(meta.get("train_clips", ())))),
+                      ("licence", str(meta.get("licence") or "none stated"))])
+        return True
+    if not (name.endswith(".npz") and path.is_file()):
+        return False
+    with np.load(path, allow_pickle=False) as z:
+        keys = set(z.files)
+    if name.endswith(".clean.npz") and "meta" in keys and "changed" in keys:
+        from ..cleaning.pipeline import CleanResult
+
+        res = CleanResult.load(path)
+        print_fields([("file", str(path)), ("kind", "cleaning record (mocapkit clean)"),
+                      ("frames", str(res.num_frames)), ("joints", str(len(res.joint_names))),
+                      ("changed", f"{plural(int(res.changed.sum()), 'joint sample')} (filled {int(res.filled.sum())}, "
+                                  f"repaired {int(res.repaired.sum())}, denoised {int(res.denoised.sum())})"),
+                      ("flagged", plural(int(res.flags.sum()), "joint sample"))])
+        for line in res.summary():
+            console.print(f"  {line}")
+        return True
+    if name.endswith(".mask.npz") and "mask" in keys:
+        from ..io.masks import read_mask
+
+        mask = read_mask(path)
+        print_fields([("file", str(path)), ("kind", "corruption mask (mocapkit corrupt)"),
+                      ("frames", str(mask.shape[0])), ("joints", str(mask.shape[1])),
+                      ("corrupted", f"{plural(int(mask.sum()), 'joint sample')} in "
+                                    f"{plural(int(mask.any(axis=1).sum()), 'frame')}")])
+        return True
+    if {"mdm", "flags"} <= keys and "format_version" not in keys:
+        from ..cleaning.ssa import Detection
+
+        det = Detection.load(path)
+        print_fields([("file", str(path)), ("kind", "detection (mocapkit detect)"),
+                      ("frames", str(det.flags.shape[0])), ("joints", str(det.flags.shape[1])),
+                      ("flagged", f"{plural(int(det.flags.sum()), 'joint sample')} in "
+                                  f"{plural(len(det.segments()), 'segment')}")])
+        return True
+    return False
 
 
 def _served_note(m) -> str:
