@@ -126,3 +126,14 @@ def test_search_clamps_end_and_names_k_and_neighbors(tmp_path):
     for opt in ("--k", "--neighbors"):
         code, _, err = run("search", str(db_dir), query, opt, "0")
         assert code == 2 and one_error_line(err) and f"{opt} must be a positive integer, got 0" in err
+
+
+def test_a_query_whose_rig_lacks_the_features_names_the_query(tmp_path):
+    from tests.shared import unknown_rig
+
+    db = tmp_path / "db"
+    assert run("db", "build", str(db), SAMPLE)[0] == 0
+    query = tmp_path / "q.bvh"
+    unknown_rig(query)
+    code, _, err = run("search", str(db), str(query))
+    assert code == 2 and one_error_line(err) and f"{query}: cannot compute the query's features" in " ".join(err.split())

@@ -118,7 +118,10 @@ def search(
     try:
         results = db.search(m[a:b], k=k, features=features, neighbors=neighbors, method=method)
     except (KeyError, ValueError) as exc:
-        raise MocapError(f"{db_dir}: {exc.args[0] if exc.args else exc}") from None
+        why = str(exc.args[0] if exc.args else exc)
+        if isinstance(exc, KeyError) and "no joint plays the role" in why:  # the query's rig lacks an end effector
+            raise MocapFormatError(query, f"cannot compute the query's features: {why}") from None
+        raise MocapError(f"{db_dir}: {why}") from None
     if as_json:
         print(json.dumps([dict(r.as_dict(), start_s=r.start / db.fps, end_s=r.end / db.fps) for r in results]))
         return

@@ -242,8 +242,11 @@ def _info_of_own_file(path: Path) -> bool:
         return True
     if not (name.endswith(".npz") and path.is_file()):
         return False
-    with np.load(path, allow_pickle=False) as z:
-        keys = set(z.files)
+    try:
+        with np.load(path, allow_pickle=False) as z:
+            keys = set(z.files)  # the archive's listing: nothing inflated
+    except Exception:  # noqa: BLE001 - not a readable archive: the take reader says why, naming the file
+        return False
     if name.endswith(".clean.npz") and "meta" in keys and "changed" in keys:
         from ..cleaning.pipeline import CleanResult
 
