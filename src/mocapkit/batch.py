@@ -149,8 +149,9 @@ def clean_file(
     from .markerset import MarkerSet
 
     inp, out = Path(inp), Path(out)
+    asked = parse_steps(steps or STEPS)
     not_for_markers = [name for name, given in (
-        ("steps " + ",".join(parse_steps(steps or STEPS)), steps is not None and parse_steps(steps) != STEPS),
+        ("steps " + ",".join(asked), asked != STEPS),
         ("decisions", decisions is not None), ("record", record is not None), ("drifts", drifts),
         ("models", bool(models))) if given]
     if isinstance(motion, MarkerSet) or (motion is None and inp.suffix.lower() in (".c3d", ".trc")):

@@ -341,16 +341,19 @@ class Skeleton:
     def __eq__(self, other) -> bool:
         if not isinstance(other, Skeleton):
             return NotImplemented
-        same_axes = (self.axes is None and other.axes is None) or (
-            self.axes is not None and other.axes is not None and np.array_equal(self.axes, other.axes)
-        )
         return (
             self.is_compatible(other)
             and np.array_equal(self.offsets, other.offsets)
             and np.array_equal(self.end_site_parents, other.end_site_parents)
             and np.array_equal(self.end_site_offsets, other.end_site_offsets)
-            and same_axes
+            and self.same_axes(other)
         )
+
+    def same_axes(self, other: "Skeleton") -> bool:
+        """Both without ASF axis frames, or both with the same ones (a rotation's channels mean the same)."""
+        if self.axes is None or other.axes is None:
+            return self.axes is None and other.axes is None
+        return bool(np.array_equal(self.axes, other.axes))
 
     __hash__ = None  # mutable-looking arrays inside: not hashable
 
@@ -745,9 +748,7 @@ def with_channels_of(motion: Motion, skeleton: Skeleton) -> Motion:
     another angle in each. The rotations are unchanged; ``motion`` itself when nothing differs or when it
     animates joint offsets (translations)."""
     sk = motion.skeleton
-    same = (sk.channels == skeleton.channels and (sk.axes is None) == (skeleton.axes is None)
-            and (sk.axes is None or np.array_equal(sk.axes, skeleton.axes)))
-    if same or not sk.is_compatible(skeleton) or motion.translations is not None:
+    if (sk.channels == skeleton.channels and sk.same_axes(skeleton)) or not sk.is_compatible(skeleton) or motion.translations is not None:
         return motion
     return dataclasses.replace(motion, skeleton=dataclasses.replace(sk, channels=skeleton.channels, axes=skeleton.axes))
 
@@ -769,8 +770,7 @@ def concatenate(motions: Iterable[Motion], name: str | None = None) -> Motion:
             raise SkeletonError(f"cannot concatenate {m.name!r}: its bones differ from {first.name!r}'s (the offset of "
                                 f"{m.skeleton.joint_names[j]!r} by {float(np.linalg.norm(a[j] - b[j])):.3g} length "
                                 "units); concatenate takes of one actor")
-        axes_a, axes_b = m.skeleton.axes, first.skeleton.axes
-        if (axes_a is None) != (axes_b is None) or (axes_a is not None and not np.array_equal(axes_a, axes_b)):
+        if not m.skeleton.same_axes(first.skeleton):
             raise SkeletonError(f"cannot concatenate {m.name!r}: its ASF axes differ from {first.name!r}'s")
         if m.fps != first.fps:
             raise SkeletonError(f"cannot concatenate {m.name!r} at {m.fps:g} fps with {first.name!r} at {first.fps:g} fps")

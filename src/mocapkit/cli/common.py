@@ -122,3 +122,9 @@ def save_take(motion, out: Path, inp: Path | None, asf=None, overwrite: bool = F
     place_asf(copy, skeleton)
     if copy is not None:
         console.print(f"copied the skeleton {skeleton} to {copy}: an AMC is read with the ASF beside it")
+
+
+def database_rows(summary: dict) -> list[tuple[str, str]]:
+    """``MotionDatabase.summary()`` as the (label, text) rows ``db info`` and ``info`` print."""
+    return [(k.replace("_", " "), ", ".join(f"{a} ({b})" for a, b in v.items()) if isinstance(v, dict) else str(v))
+            for k, v in summary.items()]

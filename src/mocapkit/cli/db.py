@@ -9,7 +9,7 @@ from typing import Optional
 import typer
 
 from ..errors import MocapError, MocapFormatError
-from .common import asf_option, check_executor, console, executor_option, plural, print_fields, print_table
+from .common import asf_option, check_executor, console, database_rows, executor_option, plural, print_fields, print_table
 
 db_app = typer.Typer(
     help="Build and inspect motion databases (the knowledge that search and cleaning compare against).",
@@ -82,8 +82,7 @@ def db_info(
             summary["clip_list"] = [{"name": c.name, "start": c.start, "frames": c.frames, "source": c.source} for c in db.clips]
         print(json.dumps(summary))
         return
-    print_fields((k.replace("_", " "), ", ".join(f"{a} ({b})" for a, b in v.items()) if isinstance(v, dict) else str(v))
-                 for k, v in summary.items())
+    print_fields(database_rows(summary))
     if clips:
         print_table(("#", "clip", "first frame", "frames", "source"),
                     ((k, c.name, c.start, c.frames, c.source) for k, c in enumerate(db.clips)))

@@ -10,7 +10,7 @@ from typing import Optional
 import typer
 
 from ..errors import MocapError, MocapFormatError
-from .common import asf_option, console, guard, overwrite_option, plural, print_fields, print_table, save_take
+from .common import asf_option, console, database_rows, guard, overwrite_option, plural, print_fields, print_table, save_take
 
 
 def info(
@@ -80,7 +80,7 @@ def convert(
 ) -> None:
     """Convert IN to OUT: a motion between BVH, AMC and npz (optionally resampled to --fps), markers between C3D, TRC and npz."""
     from .. import io
-    from ..io.takes import asf_for_output, asf_of, check_asf, load_take, place_asf
+    from ..io.takes import check_asf, load_take
     from ..motion import Motion, check_fps
 
     if fps is not None:
@@ -107,16 +107,12 @@ def convert(
     if zeros_as_gaps is not None:
         raise MocapError("--zeros-as-gaps/--keep-zeros apply to marker files; IN is a motion")
     io.check_writable(m, out)
-    skeleton = asf_of(inp, asf)
-    skeleton_copy = asf_for_output(out, skeleton, overwrite)  # an AMC output reads back with its ASF beside it
     r = m.resample(fps) if fps is not None else m
     resampled, m = r is not m, r
-    # a BVH to BVH or AMC to AMC conversion at the take's own rate keeps the input's text (io.save's like)
-    io.save(m, out, like=None if resampled else inp, asf=skeleton)
-    place_asf(skeleton_copy, skeleton)
-    console.print(f"wrote {out} ({plural(m.num_frames, 'frame')} @ {m.fps:g} fps)"
-                  + (f"; copied the skeleton {skeleton} to {skeleton_copy}: an AMC is read with the ASF beside it"
-                     if skeleton_copy is not None else ""))
+    # a BVH to BVH or AMC to AMC conversion at the take's own rate keeps the input's text (io.save's like);
+    # an AMC output gets the input's ASF beside it
+    save_take(m, out, inp, asf, overwrite, like=None if resampled else inp)
+    console.print(f"wrote {out} ({plural(m.num_frames, 'frame')} @ {m.fps:g} fps)")
 
 
 def corrupt(
@@ -225,9 +221,9 @@ def _info_of_own_file(path: Path) -> bool:
         from ..database import MotionDatabase
 
         summary = MotionDatabase.open(path).summary()
+        summary.pop("path", None)
         print_fields([("file", str(path)), ("kind", "motion database (mocapkit db info DIR --clips lists its clips)")]
-                     + [(k.replace("_", " "), ", ".join(f"{a} ({b})" for a, b in v.items()) if isinstance(v, dict)
-                         else str(v)) for k, v in summary.items() if k != "path"])
+                     + database_rows(summary))
         return True
     if name.endswith(".pt") and path.is_file():
         from ..cleaning import deep
