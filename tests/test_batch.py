@@ -474,3 +474,89 @@ def test_clean_file_runs_every_step_by_default(tmp_path, short_bvh):
 
     _, res = clean_file(short_bvh, tmp_path / "o.bvh")  # steps left to their default (it raised TypeError)
     assert res.params["request"]["steps"] == list(ALL_STEPS) and "detect" in res.params["steps"]
+
+
+def test_an_interrupted_overwrite_leaves_the_earlier_take_whole(tmp_path, short_bvh, monkeypatch):
+    """Interrupted while a take's new files replace an earlier run's (--overwrite): the earlier set comes back."""
+    src = tmp_path / "in"
+    src.mkdir()
+    shutil.copy(short_bvh, src / "walk.bvh")
+    out = tmp_path / "out"
+    clean_batch(src, out, steps=STEPS, executor="serial", progress=False, report=True)
+    before = _tree(out)
+    real = os.replace
+
+    def interrupted_at_the_record(a, b, *args, **kwargs):
+        if Path(b) == out / "walk.clean.npz" and ".part" in str(a) and Path(a).parent != out:
+            raise KeyboardInterrupt  # the report and the take are in place; the record is not
+        return real(a, b, *args, **kwargs)
+
+    monkeypatch.setattr(os, "replace", interrupted_at_the_record)
+    with pytest.raises(KeyboardInterrupt):
+        clean_batch(src, out, steps=["fill", "denoise"], executor="serial", progress=False, report=True,
+                    overwrite=True)
+    assert _tree(out) == before  # the earlier take, report and record, and no hidden copy left
+
+
+def test_a_record_that_cannot_be_read_is_not_a_complete_take(tmp_path, short_bvh):
+    src = tmp_path / "in"
+    src.mkdir()
+    shutil.copy(short_bvh, src / "walk.bvh")
+    out = tmp_path / "out"
+    clean_batch(src, out, steps=STEPS, executor="serial", progress=False)
+    for junk in (b"", b"garbage", (out / "walk.clean.npz").read_bytes()[:500]):
+        (out / "walk.clean.npz").write_bytes(junk)
+        with pytest.raises(MocapFormatError, match=r"walk\.bvh: exists from an earlier run, but its record "
+                                                   r"walk\.clean\.npz is not a readable mocapkit clean record"):
+            clean_batch(src, out, steps=STEPS, executor="serial", progress=False)
+    s = clean_batch(src, out, steps=STEPS, executor="serial", progress=False, overwrite=True)
+    assert s.count("done") == 1
+    np = pytest.importorskip("numpy")
+    np.savez(out / "walk.clean.npz", something=np.zeros(3))  # another program's .npz of that name
+    with pytest.raises(MocapFormatError, match="its record walk.clean.npz is not a readable mocapkit clean record"):
+        clean_batch(src, out, steps=STEPS, executor="serial", progress=False)
+
+
+@pytest.mark.skipif(sys.platform == "win32", reason="flock")
+def test_a_second_batch_into_a_folder_in_use_is_refused(tmp_path, short_bvh):
+    import fcntl
+
+    src = tmp_path / "in"
+    src.mkdir()
+    shutil.copy(short_bvh, src / "walk.bvh")
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / ".walk.bvh.x1y2.part").mkdir()  # another batch's take, being staged
+    fd = os.open(out, os.O_RDONLY)
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX)  # as the running batch holds it
+        with pytest.raises(MocapFormatError, match="another clean-batch is writing into this folder"):
+            clean_batch(src, out, steps=STEPS, executor="serial", progress=False)
+        assert (out / ".walk.bvh.x1y2.part").is_dir()  # its staging folder was not swept away
+    finally:
+        os.close(fd)
+    assert clean_batch(src, out, steps=STEPS, executor="serial", progress=False).count("done") == 1
+
+
+def test_clean_file_writes_the_asf_before_the_amc_and_neither_on_failure(tmp_path, monkeypatch):
+    from mocapkit import io
+    from mocapkit.batch import clean_file
+    from mocapkit.io.takes import asf_for_output
+
+    out = tmp_path / "elsewhere" / "walk.amc"
+    inp, asf = samples.path("12_walk.amc"), samples.path("12.asf")
+    copy = asf_for_output(out, asf)
+    real, seen = io.save, []
+
+    def save(motion, path, **kwargs):
+        seen.append(copy.is_file())
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(io, "save", save)
+    with pytest.raises(KeyboardInterrupt):
+        clean_file(inp, out, steps=STEPS, asf=asf, skeleton_copy=(copy, asf))
+    assert seen == [True]  # the skeleton was there before the take
+    assert not any(p.is_file() for p in tmp_path.rglob("*"))  # and neither is left
+    monkeypatch.setattr(io, "save", real)
+    clean_file(inp, out, steps=STEPS, asf=asf, skeleton_copy=(copy, asf))
+    assert mocapkit.load(out).num_frames == mocapkit.load(inp, asf=asf).num_frames

@@ -80,3 +80,22 @@ def test_sigterm_on_any_command_leaves_no_part_file(tmp_path):
     assert proc.returncode == 130, proc.stderr
     assert "interrupted; no partial output was left" in proc.stderr
     assert not out.exists() and list(tmp_path.iterdir()) == []  # the staging folder removed too
+
+
+def test_held_interrupts_wait_for_the_block_then_act():
+    from mocapkit.interrupts import interrupts_held
+
+    done = []
+    before = signal.signal(signal.SIGINT, signal.default_int_handler)  # Python's own, whatever the runner set
+    try:
+        with pytest.raises(KeyboardInterrupt):
+            with interrupts_held():
+                os.kill(os.getpid(), signal.SIGINT)
+                time.sleep(0.05)  # the handler has run by now: it only noted the signal
+                done.append("finished")
+        assert done == ["finished"]
+        assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
+        with interrupts_held():  # nothing pending: nothing raised
+            pass
+    finally:
+        signal.signal(signal.SIGINT, before)

@@ -64,6 +64,7 @@ import os
 import shutil
 import tempfile
 import time
+from contextlib import contextmanager
 from dataclasses import dataclass, field, replace
 from functools import lru_cache
 from pathlib import Path
@@ -115,6 +116,7 @@ def clean_file(
     record=None,
     drifts: bool = False,
     models: dict | None = None,
+    skeleton_copy: tuple | None = None,
 ):
     """Clean the take at ``inp`` and write ``out``, its ``.clean.npz`` record and optional reports.
 
@@ -132,13 +134,15 @@ def clean_file(
     ``out`` and the reports is written). ``drifts``: also flag smooth drifts
     (:func:`mocapkit.cleaning.pipeline.clean`); ``models``: ``{"ebf": ..., "ebd": ...}`` model files (or
     shipped names, :func:`mocapkit.cleaning.deep.load_model`) instead of the shipped models chosen for
-    the take's rig.
+    the take's rig. ``skeleton_copy``: ``(destination, source)`` of the ASF an AMC ``out`` is read with
+    (:func:`mocapkit.io.takes.asf_for_output`), written first, with the outputs.
 
     Every output is checked against every input
     (:func:`mocapkit.io.outputs.check_outputs`) before anything is read; the
     outputs are written after the take is cleaned, reports first and the
-    record last (the completion marker), and a failure or interrupt while
-    writing removes the outputs this call created. Raises
+    record last (the completion marker; an old one is removed first), and a
+    failure or interrupt while writing leaves the outputs as they were
+    (:func:`mocapkit.io.outputs.removed_on_failure`). Raises
     :class:`~mocapkit.errors.MocapError` (one line) on bad input.
     """
     from . import io
@@ -207,7 +211,12 @@ def clean_file(
     io.check_complete(cleaned, out, "the cleaned take still has missing joints (NaN)",
                       "the decisions reject fill changes: accept them or write .npz" if filled_rejected
                       else "add the fill step or write .npz")
-    with removed_on_failure(outputs):
+    with removed_on_failure([*outputs, skeleton_copy[0] if skeleton_copy else None], overwrite=overwrite,
+                            marker=None if reuse else record):
+        if skeleton_copy:
+            from .io.takes import place_asf
+
+            place_asf(*skeleton_copy)  # first: an AMC output is never left without the ASF it is read with
         if report is not None:
             from .report.html import write_report  # lazy: the viewer is optional
 
@@ -250,7 +259,10 @@ def _not_complete(files: dict, request: dict) -> str:
     missing = [k for k in ("report", "png") if files.get(k) is not None and not Path(files[k]).is_file()]
     if missing:
         return f"its {' and '.join(missing)} {'is' if len(missing) == 1 else 'are'} missing"
-    params = CleanResult.load_params(files["record"])
+    try:
+        params = CleanResult.load_params(files["record"])
+    except MocapFormatError as exc:
+        return f"its record {Path(files['record']).name} is {exc.reason}"
     done = None if params is None else params.get("request")
     if not isinstance(done, dict):  # a marker capture's record, or one written before requests were kept
         return ""
@@ -301,7 +313,7 @@ def clean_marker_file(inp, out, *, report=None, png=None, overwrite: bool = Fals
         res = clean_markers(ms, steps=steps or MARKER_STEPS)
     except ValueError as exc:
         raise MocapError(f"{inp}: {exc}") from None
-    with removed_on_failure(outputs):
+    with removed_on_failure(outputs, overwrite=overwrite, marker=record):
         if report is not None:
             from .report.markers import write_marker_report
 
@@ -419,8 +431,10 @@ def _batch_job(job: dict) -> dict:
 
     The take is cleaned into a staging folder beside its output, then its
     files are renamed into place (reports, output, record last), each rename
-    only while :func:`mocapkit.parallel.owner_alive`; if the batch is gone,
-    what this take already moved is removed again.
+    only while :func:`mocapkit.parallel.owner_alive`. An earlier run's record
+    is removed before the first rename, so a take killed half-way never reads
+    as complete; if the take fails, is interrupted or the batch is gone, what
+    it moved is removed again and the earlier run's files are put back.
     """
     with interrupts_as_keyboard_interrupt():  # SIGTERM too, in a pool's worker and in this process alike
         return _clean_job(job)
@@ -428,6 +442,7 @@ def _batch_job(job: dict) -> dict:
 
 def _clean_job(job: dict) -> dict:
     from .cleaning.pipeline import clean_path
+    from .io.outputs import drop_kept, keep_aside, put_back
     from .parallel import owner_alive
 
     t = time.perf_counter()
@@ -438,6 +453,11 @@ def _clean_job(job: dict) -> dict:
         row.update(status="failed", reason=_GONE, seconds=time.perf_counter() - t)
         return row
     moved: list[Path] = []
+    kept: dict[Path, Path] = {}  # an earlier run's files (--overwrite): put back if this take's cannot all be placed
+
+    def undo():
+        put_back(finals, kept, {os.path.abspath(p) for p in moved})
+
     stage = None
     try:
         out.parent.mkdir(parents=True, exist_ok=True)
@@ -447,6 +467,9 @@ def _clean_job(job: dict) -> dict:
                             report=staged[Path(job["report"])] if job.get("report") else None,
                             png=staged[Path(job["png"])] if job.get("png") else None, asf=job.get("asf"),
                             drifts=bool(job.get("drifts")), models=job.get("models"))
+        kept = keep_aside(finals)
+        if finals[-1] in kept:  # the old record goes first: the take reads as incomplete while its files are replaced
+            os.unlink(finals[-1])
         for final in finals:  # the record last: the completion marker
             if not owner_alive():
                 raise _Orphaned
@@ -463,18 +486,19 @@ def _clean_job(job: dict) -> dict:
                        denoised=int(res.denoised.sum()), flagged=int(res.flags.sum()), notes=list(res.notes),
                        warnings=[n for n in res.notes if n in said])
     except _Orphaned:
-        _remove(moved)
+        undo()
         row.update(status="failed", reason=_GONE)
     except FileNotFoundError as exc:
-        _remove(moved)
+        undo()
         row.update(status="failed", reason=_unstaged(f"{exc.filename or exc}: no such file", stage, out.parent))
     except Exception as exc:  # one bad take must not stop the corpus: report it in one line
-        _remove(moved)
+        undo()
         row.update(status="failed", reason=_unstaged(_one_line(exc), stage, out.parent))
     except BaseException:
-        _remove(moved)  # an output without its record would pass for complete-but-unrecorded
+        undo()  # an output without its record would pass for complete-but-unrecorded
         raise
     finally:
+        drop_kept(kept)
         if stage is not None:
             shutil.rmtree(stage, ignore_errors=True)
     row["seconds"] = time.perf_counter() - t
@@ -488,14 +512,6 @@ def _unstaged(reason: str, stage: Path | None, folder: Path) -> str:
 
 class _Orphaned(Exception):
     """The process that started a take is gone: move nothing more into place."""
-
-
-def _remove(paths) -> None:
-    for p in paths:
-        try:
-            os.unlink(p)
-        except FileNotFoundError:
-            pass
 
 
 def _take_files(inp: Path, in_dir: Path, out_dir: Path, fmt: str, report: bool, png: bool, keep_suffix: bool) -> dict:
@@ -642,12 +658,14 @@ def clean_batch(
                 continue
             stale.append((files["output"], why))
         todo.append((inp, files))
+    folders = [] if below else [in_dir]
+    stale_outputs = {out for out, _ in stale}
+    _check_batch_outputs(plans, todo if overwrite else [t for t in todo if t[1]["output"] not in stale_outputs],
+                         inputs, folders, ctx, overwrite)  # an output that is an input: refused first
     if stale and not overwrite:  # an earlier run's take, made otherwise: not this run's to skip, nor to replace silently
         more = f" ({len(stale) - 1} more take{'s' if len(stale) > 2 else ''} alike)" if len(stale) > 1 else ""
         raise MocapFormatError(stale[0][0], f"exists from an earlier run, but {stale[0][1]}; use --overwrite to clean "
                                             f"it again{more}")
-    folders = [] if below else [in_dir]
-    _check_batch_outputs(plans, todo, inputs, folders, ctx, overwrite)
     jobs = [{"input": str(inp), "output": str(files["output"]), "context": [str(c) for c in ctx], "steps": steps,
              "threshold": float(threshold), "drifts": bool(drifts),
              "models": {k: str(v) for k, v in (models or {}).items()} or None,
@@ -657,17 +675,18 @@ def clean_batch(
     skeletons = _asf_copies(inputs, plans, asf, overwrite) if fmt == "amc" else {}
     expected = [f for files in plans for f in files.values() if f is not None]
     made = _missing_folders([out_dir, *(Path(files["output"]).parent for _, files in todo)])
-    _sweep(expected)
-    try:
-        if jobs:
-            _mark(out_dir, in_dir)
-        rows = map_ordered(_batch_job, jobs, executor=executor, progress=progress, desc="clean") if jobs else []
-    finally:
-        _sweep(expected)  # what a killed worker could not remove
-        _unmark_if_empty(out_dir)
-        _prune(made)  # the folders made for takes that failed
+    with _only_batch(out_dir):
+        _sweep(expected)
+        try:
+            if jobs:
+                _mark(out_dir, in_dir)
+            rows = map_ordered(_batch_job, jobs, executor=executor, progress=progress, desc="clean") if jobs else []
+        finally:
+            _place_asfs(skeletons)  # also after an interrupt: every complete AMC output reads back
+            _sweep(expected)  # what a killed worker could not remove
+            _unmark_if_empty(out_dir)
+            _prune(made)  # the folders made for takes that failed
     summary.rows += rows
-    _place_asfs(skeletons, summary.rows)
     summary.rows.sort(key=lambda r: r["input"])
     summary.seconds = time.perf_counter() - t0
     return summary
@@ -683,6 +702,7 @@ def _asf_copies(inputs: list[Path], plans: list[dict], asf, overwrite: bool) -> 
     A destination that exists with other contents is replaced only with
     ``overwrite`` (else :class:`~mocapkit.errors.MocapFormatError`, nothing
     written); two different ASFs of one name for one folder are refused.
+    The list holds the AMC outputs (not the inputs) that read with the copy.
     """
     from .io.takes import asf_of
 
@@ -697,7 +717,7 @@ def _asf_copies(inputs: list[Path], plans: list[dict], asf, overwrite: bool) -> 
         if dst in out and out[dst][0] != src and out[dst][0].read_bytes() != src.read_bytes():  # read once per ASF
             raise MocapFormatError(dst, f"two different skeletons of this name ({out[dst][0]}, {src}) would be "
                                         "copied here for the AMC outputs; give --asf or write another format")
-        out.setdefault(dst, (src, []))[1].append(str(inp))
+        out.setdefault(dst, (src, []))[1].append(str(files["output"]))
     for dst, (src, _) in out.items():
         if dst.exists() and not overwrite and (not dst.is_file() or dst.read_bytes() != src.read_bytes()):
             raise MocapFormatError(dst, f"exists and differs from the skeleton ({src}) the AMC outputs need beside "
@@ -705,13 +725,14 @@ def _asf_copies(inputs: list[Path], plans: list[dict], asf, overwrite: bool) -> 
     return out
 
 
-def _place_asfs(skeletons: dict[Path, tuple[Path, list[str]]], rows: list[dict]) -> None:
-    """Copy each ASF of :func:`_asf_copies` beside the AMC outputs written (atomically), once its takes are done."""
+def _place_asfs(skeletons: dict[Path, tuple[Path, list[str]]]) -> None:
+    """Copy each ASF of :func:`_asf_copies` (atomically) where an AMC output that reads with it is complete
+    (the output and its record are there: written by this run or an earlier one)."""
+    from .cleaning.pipeline import clean_path
     from .io import atomic_write
 
-    done = {r["input"] for r in rows if r["status"] in ("done", "skipped")}
-    for dst, (src, takes) in skeletons.items():
-        if not done.intersection(takes):
+    for dst, (src, outputs) in skeletons.items():
+        if not any(Path(o).is_file() and clean_path(o).is_file() for o in outputs):
             continue
         data = src.read_bytes()
         if dst.is_file() and dst.read_bytes() == data:
@@ -719,6 +740,34 @@ def _place_asfs(skeletons: dict[Path, tuple[Path, list[str]]], rows: list[dict])
         dst.parent.mkdir(parents=True, exist_ok=True)
         with atomic_write(dst, "wb") as fh:
             fh.write(data)
+
+
+@contextmanager
+def _only_batch(out_dir: Path):
+    """Hold an exclusive lock on ``out_dir`` (``flock`` on the folder) while a batch writes into it.
+
+    Two batches into one folder would sweep each other's staging folders and judge each other's half-written
+    takes; the second is refused in one line instead. The folder is made first (:func:`_prune` removes it
+    again if nothing was written). Without ``fcntl`` (not POSIX), or where the file system refuses locks, no lock.
+    """
+    try:
+        import fcntl
+    except ImportError:  # pragma: no cover - not POSIX
+        yield
+        return
+    out_dir.mkdir(parents=True, exist_ok=True)
+    fd = os.open(out_dir, os.O_RDONLY)
+    try:
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            raise MocapFormatError(out_dir, "another clean-batch is writing into this folder; wait for it to end, "
+                                            "or choose another output folder") from None
+        except OSError:  # a file system without locks (some network mounts)
+            pass
+        yield
+    finally:
+        os.close(fd)
 
 
 def _below(p: Path, folder: Path) -> bool:

@@ -16,7 +16,7 @@ import signal
 import threading
 from contextlib import contextmanager
 
-__all__ = ["interrupts_as_keyboard_interrupt", "in_native_callback", "RETRY_S"]
+__all__ = ["interrupts_as_keyboard_interrupt", "interrupts_held", "in_native_callback", "RETRY_S"]
 
 RETRY_S = 0.05  # seconds before a deferred signal is sent again
 
@@ -71,3 +71,40 @@ def interrupts_as_keyboard_interrupt():
                 signal.signal(sig, handler)
             except (ValueError, OSError):
                 pass
+
+
+@contextmanager
+def interrupts_held():
+    """While the block runs, SIGINT and SIGTERM wait; when it ends, the first one that came acts as usual.
+
+    For the few file operations that must finish whole once begun: putting back the files a failed
+    write replaced (:func:`mocapkit.io.outputs.put_back`), a folder swapped for its new version. A
+    second Ctrl-C must not cut them in two. Only the main thread can hold signals; elsewhere the block
+    runs as it is (a worker thread never receives them in Python).
+    """
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    pending: list[int] = []
+
+    def hold(signum, frame):
+        pending.append(signum)
+
+    before = {}
+    for sig in (signal.SIGINT, signal.SIGTERM):
+        try:
+            current = signal.getsignal(sig)
+            if current not in (signal.SIG_IGN, None):
+                before[sig] = signal.signal(sig, hold)
+        except (ValueError, OSError):  # not the interpreter's main thread (embedded)
+            pass
+    try:
+        yield
+    finally:
+        for sig, handler in before.items():
+            try:
+                signal.signal(sig, handler)
+            except (ValueError, OSError):
+                pass
+        if pending:
+            os.kill(os.getpid(), pending[0])  # delivered now, to the handler the block found

@@ -450,3 +450,20 @@ def test_noise_level_is_the_running_median_of_the_cubic_fit_residual(walk):
         ref[miss] = np.nan
         assert np.array_equal(noise_level(m), ref, equal_nan=True)
     assert gap.any()
+
+
+def test_load_params_names_a_record_it_cannot_read(tmp_path):
+    good = tmp_path / "good.clean.npz"
+    res = clean(mocapkit.load(samples.path("131_01.bvh"))[:30], steps=("fill",))
+    res.save(good)
+    assert isinstance(CleanResult.load_params(good), dict)
+    for name, data in (("empty", b""), ("garbage", b"garbage"), ("cut", good.read_bytes()[:400])):
+        bad = tmp_path / f"{name}.clean.npz"
+        bad.write_bytes(data)
+        with pytest.raises(MocapFormatError, match=f"{name}.clean.npz: not a readable mocapkit clean record"):
+            CleanResult.load_params(bad)
+    np.savez(tmp_path / "other.npz", x=np.zeros(2))
+    with pytest.raises(MocapFormatError, match="other.npz: not a readable mocapkit clean record"):
+        CleanResult.load_params(tmp_path / "other.npz")
+    np.savez(tmp_path / "markers.clean.npz", kind=np.array("markers"), filled=np.zeros((2, 2), bool))
+    assert CleanResult.load_params(tmp_path / "markers.clean.npz") is None  # a marker capture's record keeps none

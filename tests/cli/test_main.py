@@ -304,3 +304,14 @@ def test_a_rig_of_no_known_naming_is_one_line_before_any_output(tmp_path):
         code, _, err = run(*argv)
         assert code == 2 and one_error_line(err) and said in err and "KeyError" not in err, (argv, err)
         assert sorted(p.name for p in tmp_path.rglob("*")) == before, argv
+
+
+def test_a_file_cut_short_is_an_error_not_an_interrupt(monkeypatch, tmp_path):
+    import mocapkit.io.takes
+
+    def cut_short(*args, **kwargs):
+        raise EOFError("No data left in file")  # as numpy says it of an empty .npy inside an archive
+
+    monkeypatch.setattr(mocapkit.io.takes, "load_take", cut_short)
+    code, _, err = run("convert", SAMPLE, tmp_path / "out.npz")
+    assert code == 2 and "interrupted" not in err and one_error_line(err) and "EOFError: No data left" in err

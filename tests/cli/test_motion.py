@@ -348,3 +348,34 @@ def test_info_describes_the_files_mocapkit_writes(tmp_path):
                        (mocapkit.samples.path("12_walk.amc").parent.parent / "models" / "ebf.pt", "EBF model")):
         code, out, err = run("info", path)
         assert code == 0 and kind in out, (path, out, err)
+
+
+def test_an_interrupted_corrupt_overwrite_keeps_the_earlier_take_and_its_ground_truth(tmp_path, monkeypatch):
+    import mocapkit.io.masks
+
+    out = tmp_path / "bad.bvh"
+    assert run("corrupt", SAMPLE, out, "--kind", "noise", "--seed", "1")[0] == 0
+    before = {p.name: p.read_bytes() for p in tmp_path.iterdir()}
+
+    def interrupted(*args, **kwargs):
+        raise KeyboardInterrupt  # the new take is written, its ground truth is not
+
+    monkeypatch.setattr(mocapkit.io.masks, "write_mask", interrupted)
+    code, _, err = run("corrupt", SAMPLE, out, "--kind", "spike", "--seed", "2", "--overwrite")
+    assert code == 130 and "interrupted" in err
+    assert {p.name: p.read_bytes() for p in tmp_path.iterdir()} == before  # never a take beside another's mask
+
+
+def test_an_amc_output_is_never_left_without_its_asf(tmp_path, monkeypatch):
+    from mocapkit import io
+
+    amc, asf = mocapkit.samples.path("12_walk.amc"), mocapkit.samples.path("12.asf")
+    out = tmp_path / "elsewhere" / "walk.amc"
+
+    def interrupted(*args, **kwargs):
+        assert (tmp_path / "elsewhere" / "12.asf").is_file() or (tmp_path / "elsewhere" / "walk.asf").is_file()
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(io, "save", interrupted)
+    code, _, _ = run("convert", amc, out, "--asf", asf)
+    assert code == 130 and not [p for p in tmp_path.rglob("*") if p.is_file()]

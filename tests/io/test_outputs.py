@@ -1,9 +1,12 @@
-"""mocapkit.io.outputs.removed_on_failure: a failed multi-file write leaves none of the files it created."""
+"""mocapkit.io.outputs: a failed multi-file write leaves the files as they were; a file written meanwhile is never replaced."""
+
+import os
 
 import pytest
 
+from mocapkit.errors import MocapFormatError
 from mocapkit.io import atomic_write
-from mocapkit.io.outputs import removed_on_failure
+from mocapkit.io.outputs import check_outputs, removed_on_failure
 
 
 def test_created_files_are_removed_and_earlier_files_kept(tmp_path):
@@ -16,8 +19,9 @@ def test_created_files_are_removed_and_earlier_files_kept(tmp_path):
             with atomic_write(new) as fh:
                 fh.write("new")
             raise RuntimeError("the third file failed")
-    assert old.read_text() == "replaced"  # existed before: never deleted
+    assert old.read_text() == "before"  # existed before: its old contents are back
     assert not new.exists() and not never.exists()
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["deep", "old.txt"]  # no hidden copy left
 
 
 def test_interrupts_clean_up_too_and_success_keeps_everything(tmp_path):
@@ -30,3 +34,58 @@ def test_interrupts_clean_up_too_and_success_keeps_everything(tmp_path):
     with removed_on_failure([a]):
         a.write_text("y")
     assert a.read_text() == "y"
+
+
+def test_the_marker_is_gone_while_its_set_is_replaced_and_comes_back_on_failure(tmp_path):
+    out, record = tmp_path / "take.bvh", tmp_path / "take.clean.npz"
+    out.write_text("old take")
+    record.write_text("old record")
+    with pytest.raises(KeyboardInterrupt):
+        with removed_on_failure([out, record], overwrite=True, marker=record):
+            assert not record.exists()  # a run killed outright now leaves no old record beside a new take
+            with atomic_write(out) as fh:
+                fh.write("new take")
+            raise KeyboardInterrupt
+    assert (out.read_text(), record.read_text()) == ("old take", "old record")
+    with removed_on_failure([out, record], overwrite=True, marker=record):
+        with atomic_write(out) as fh:
+            fh.write("new take")
+        with atomic_write(record) as fh:
+            fh.write("new record")
+    assert (out.read_text(), record.read_text()) == ("new take", "new record")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["take.bvh", "take.clean.npz"]
+
+
+def test_a_file_written_meanwhile_is_never_replaced_nor_removed(tmp_path):
+    out = tmp_path / "out.npz"
+    out.write_text("another program's")  # appeared after the check, before the block
+    with pytest.raises(MocapFormatError, match="appeared while this command ran"):
+        with removed_on_failure([out], overwrite=False):
+            pass
+    out.unlink()
+    with pytest.raises(MocapFormatError, match="out.npz: appeared while this command ran"):
+        with removed_on_failure([out], overwrite=False):
+            out.write_text("another program's")  # appears while the output is being written
+            with atomic_write(out) as fh:
+                fh.write("ours")
+    assert out.read_text() == "another program's"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["out.npz"]
+
+
+def test_a_nested_block_s_files_are_removed_when_the_outer_one_fails(tmp_path):
+    a, b = tmp_path / "a.txt", tmp_path / "b.txt"
+    with pytest.raises(RuntimeError):
+        with removed_on_failure([a, b], overwrite=False):
+            with removed_on_failure([a], overwrite=False):
+                with atomic_write(a) as fh:
+                    fh.write("a")
+            raise RuntimeError("b failed")
+    assert not a.exists() and not b.exists()
+
+
+def test_a_dangling_link_is_an_existing_output(tmp_path):
+    link = tmp_path / "take.npz"
+    os.symlink(tmp_path / "nowhere" / "take.npz", link)
+    with pytest.raises(MocapFormatError, match="already exists"):
+        check_outputs([link])
+    check_outputs([link], overwrite=True)

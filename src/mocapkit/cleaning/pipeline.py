@@ -250,13 +250,26 @@ class CleanResult:
 
     @staticmethod
     def load_params(path) -> dict | None:
-        """The ``params`` of a record written by :meth:`save`, read without its arrays; None when it holds none."""
+        """The ``params`` of a record written by :meth:`save`, read without its arrays.
+
+        None for a readable record that keeps none (a marker capture's record,
+        :class:`mocapkit.cleaning.markers.MarkerCleanResult`). Raises
+        :class:`~mocapkit.errors.MocapFormatError` naming ``path`` when it is no
+        mocapkit record or cannot be read (empty, cut short, another program's file).
+        """
+        path = Path(path)
         try:
-            with np.load(Path(path), allow_pickle=False) as data:
+            with np.load(path, allow_pickle=False) as data:
+                if "meta" not in data.files:
+                    if "kind" in data.files and str(data["kind"]) == "markers":
+                        return None
+                    raise ValueError("it holds no record")
                 meta = json.loads(str(data["meta"]))
-        except (OSError, ValueError, KeyError, TypeError):
-            return None
-        params = meta.get("params") if isinstance(meta, dict) and meta.get("format") == FORMAT else None
+        except Exception as exc:  # EOFError, BadZipFile, ValueError, OSError, ...: the file is not a record
+            raise MocapFormatError(path, f"not a readable mocapkit clean record ({type(exc).__name__}: {exc})") from None
+        if not isinstance(meta, dict) or meta.get("format") != FORMAT:
+            raise MocapFormatError(path, "not a mocapkit clean record")
+        params = meta.get("params")
         return params if isinstance(params, dict) else None
 
     @classmethod

@@ -180,6 +180,8 @@ def run() -> None:
 
 def _exit_status(exc: BaseException) -> int:
     """Print the one line for a failure and return the exit status (see :func:`main`)."""
+    if isinstance(exc, typer.Abort) and isinstance(exc.__cause__, EOFError):  # click's Abort for a file cut short
+        return _fail(f"a file ended before its data did (EOFError: {exc.__cause__})")
     if isinstance(exc, (KeyboardInterrupt, typer.Abort)):
         print("mocapkit: interrupted; no partial output was left", file=sys.stderr)
         return EXIT_INTERRUPTED

@@ -69,7 +69,7 @@ def clean(
     """
     from ..batch import clean_file
     from ..cleaning.pipeline import STEPS, clean_path
-    from ..io.takes import asf_for_output, asf_of, check_asf, load_motion, place_asf
+    from ..io.takes import asf_for_output, asf_of, check_asf, load_motion
     from ..reference import check_reference
 
     if record is not None and decisions is None:
@@ -101,8 +101,8 @@ def clean(
     original, res = clean_file(inp, out, context=context, steps=step_list, threshold=threshold, report=report, png=png,
                                progress=True, asf=asf if inp.suffix.lower() == ".amc" else None, overwrite=overwrite,
                                motion=take, drifts=drifts, decisions=decisions,
-                               record=record, models=models)
-    place_asf(skeleton_copy, skeleton)
+                               record=record, models=models,
+                               skeleton_copy=(skeleton_copy, skeleton) if skeleton_copy is not None else None)
     if skeleton_copy is not None:
         console.print(f"copied the skeleton {skeleton} to {skeleton_copy}: an AMC is read with the ASF beside it")
     if decisions is not None:

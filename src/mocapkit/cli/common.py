@@ -114,12 +114,14 @@ def save_take(motion, out: Path, inp: Path | None, asf=None, overwrite: bool = F
     output's folder lacks it (:func:`mocapkit.io.takes.asf_for_output`: an AMC is read with the ASF beside
     it), said in one line. Checked before anything is written."""
     from .. import io
+    from ..io.outputs import removed_on_failure
     from ..io.takes import asf_for_output, asf_of, place_asf
 
     skeleton = asf_of(inp, asf) if inp is not None else None
     copy = asf_for_output(out, skeleton, overwrite)
-    io.save(motion, out, asf=skeleton if skeleton is not None else asf, **kwargs)
-    place_asf(copy, skeleton)
+    with removed_on_failure([copy, out], overwrite=overwrite):
+        place_asf(copy, skeleton)  # first: an AMC is never left without the ASF it is read with
+        io.save(motion, out, asf=skeleton if skeleton is not None else asf, **kwargs)
     if copy is not None:
         console.print(f"copied the skeleton {skeleton} to {copy}: an AMC is read with the ASF beside it")
 

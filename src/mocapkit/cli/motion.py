@@ -154,7 +154,7 @@ def corrupt(
     bad, mask = result[0], result[1]
     records = result[2] if len(result) > 2 else []
     io.check_complete(bad, out, "this corruption leaves missing values (NaN)", "write .npz")
-    with removed_on_failure([out, mask_path]):
+    with removed_on_failure([out, mask_path], overwrite=overwrite, marker=mask_path):  # the ground truth last
         save_take(bad, out, inp, asf, overwrite)
         write_mask(mask_path, mask, m.skeleton.joint_names, kind=kind, seed=seed, params=params, records=records)
     frames = int(mask.any(axis=1).sum())

@@ -60,12 +60,12 @@ def detect(
     precompile.start(precompile.kernels_for(["detect"]))  # with an empty numba cache: beside the context's loading
     ctx, note = fit_context(m, load_context(context, progress=not as_json, take=m))
     det = _detect(m, ctx, threshold, progress=not as_json, confirm=confirm, jump_deg=jump_deg, drifts=drifts)
-    with removed_on_failure([out, png]):
-        det.save(out)
+    with removed_on_failure([out, png], overwrite=overwrite, marker=out):  # the detection last
         if png is not None:
             from ..report.plots import plot_mdm
 
             plot_mdm(det.mdm, det.joint_names, det.fps, png, flags=det.flags, title=f"{inp.name}: movement digression map")
+        det.save(out)
     from ..cleaning.ssa.cues import cause_names
 
     segs = det.segments()

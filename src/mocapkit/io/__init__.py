@@ -19,6 +19,7 @@ from pathlib import Path
 from ..errors import MissingFileError, MocapFormatError
 
 from ..markerset import MarkerSet
+from .outputs import publish
 
 __all__ = ["load", "save", "check_writable", "check_complete", "load_markers", "save_markers", "atomic_write", "MarkerSet",
            "READERS", "WRITERS", "MARKER_FORMATS"]
@@ -220,7 +221,7 @@ def atomic_write(path, mode: str = "w", **open_kwargs):
             fh.flush()
             os.fsync(fh.fileno())
         os.chmod(tmp, _final_mode(path))
-        os.replace(tmp, path)
+        publish(tmp, path)  # a rename; a link where the file must still be new (outputs.removed_on_failure)
     except BaseException:
         try:
             os.unlink(tmp)

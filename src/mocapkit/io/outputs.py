@@ -33,13 +33,18 @@ refusing to write over an input
 from __future__ import annotations
 
 import os
+import shutil
+import tempfile
 from contextlib import contextmanager
+from contextvars import ContextVar
 from pathlib import Path
 from typing import Iterable, Iterator
 
 from ..errors import MocapFormatError
+from ..interrupts import interrupts_held
 
-__all__ = ["check_outputs", "same_file", "inside", "removed_on_failure"]
+__all__ = ["check_outputs", "same_file", "inside", "removed_on_failure", "publish", "keep_aside", "put_back",
+           "drop_kept"]
 
 
 def resolved(path: os.PathLike | str) -> Path:
@@ -104,27 +109,143 @@ def check_outputs(
             parent = parent.parent
         if parent.exists() and not parent.is_dir():
             raise MocapFormatError(out, f"cannot create it: {parent} is a file, not a folder")
-        if out.exists() and not overwrite:
+        if os.path.lexists(out) and not overwrite:  # a dangling link too
             raise MocapFormatError(out, "already exists; pass --overwrite to replace it")
 
 
-@contextmanager
-def removed_on_failure(outputs: Iterable[os.PathLike | str | None]) -> Iterator[None]:
-    """Remove, if the block raises (interrupts included), every output it created; then re-raise.
+_NEW_ONLY: ContextVar[frozenset] = ContextVar("mocapkit_new_only", default=frozenset())
+_WRITTEN: ContextVar[list | None] = ContextVar("mocapkit_written", default=None)
 
-    Only files that did not exist when the block started are removed: an
-    output that existed before (replaced with ``overwrite``) is never deleted.
-    Each output is still written atomically, so a file is either complete or absent.
+
+def publish(tmp: os.PathLike | str, path: os.PathLike | str) -> None:
+    """Move the finished temporary file ``tmp`` to ``path`` (:func:`mocapkit.io.atomic_write`'s last step).
+
+    Inside :func:`removed_on_failure` with ``overwrite=False`` an output must still be new when it is
+    written: it is linked into place, which fails where a file (or a link) appeared since the check, so
+    what another program wrote there meanwhile is never replaced (:class:`~mocapkit.errors.MocapFormatError`).
+    Everywhere else, and on a file system without hard links, a plain ``os.replace``.
+    """
+    path = Path(path)
+    key = os.path.abspath(path)
+    written = _WRITTEN.get()
+    if key in _NEW_ONLY.get():
+        try:
+            os.link(tmp, path)
+        except FileExistsError:
+            raise MocapFormatError(path, "appeared while this command ran (another program wrote it); pass "
+                                         "--overwrite to replace it") from None
+        except OSError:  # no hard links here (some network and FAT file systems): the plain rename
+            os.replace(tmp, path)
+        else:
+            if written is not None:
+                written.append(key)
+            os.unlink(tmp)
+            return
+    else:
+        os.replace(tmp, path)
+    if written is not None:
+        written.append(key)
+
+
+def keep_aside(paths: Iterable[os.PathLike | str | None]) -> dict[Path, Path]:
+    """A hidden hard link (``.NAME.RANDOM.part``, a copy where links fail) beside each existing file of ``paths``.
+
+    Each output is replaced by a rename, which leaves the old file's data at the link: :func:`put_back`
+    restores it, :func:`drop_kept` removes the links. Returns ``{path: link}``.
+    """
+    kept: dict[Path, Path] = {}
+    try:
+        for p in paths:
+            if p is None:
+                continue
+            p = Path(p)
+            if not p.is_file() or p.is_symlink():
+                continue
+            fd, tmp = tempfile.mkstemp(prefix=f".{p.name}.", suffix=".part", dir=p.parent)
+            os.close(fd)
+            os.unlink(tmp)
+            try:
+                os.link(p, tmp)
+            except OSError:
+                shutil.copy2(p, tmp)
+            kept[p] = Path(tmp)
+    except BaseException:
+        drop_kept(kept)
+        raise
+    return kept
+
+
+def put_back(paths: Iterable[os.PathLike | str | None], kept: dict[Path, Path], written=None) -> None:
+    """After a failure: each file of ``paths`` kept by :func:`keep_aside` gets its old contents back, and each
+    that did not exist before is removed (only files; never a folder); with ``written`` (absolute paths this
+    run wrote) only those: a file another program put there meanwhile stays. Interrupts wait until it is done
+    (:func:`mocapkit.interrupts.interrupts_held`)."""
+    with interrupts_held():
+        _put_back(paths, kept, written)
+
+
+def _put_back(paths, kept: dict[Path, Path], written) -> None:
+    for p in paths:
+        if p is None:
+            continue
+        p = Path(p)
+        try:
+            if p in kept:
+                os.replace(kept.pop(p), p)
+            elif written is None or os.path.abspath(p) in written:
+                p.unlink()
+        except (FileNotFoundError, IsADirectoryError, PermissionError):
+            pass
+
+
+def drop_kept(kept: dict[Path, Path]) -> None:
+    """Remove the links of :func:`keep_aside` (after success, or what :func:`put_back` left)."""
+    for link in kept.values():
+        try:
+            os.unlink(link)
+        except OSError:
+            pass
+    kept.clear()
+
+
+@contextmanager
+def removed_on_failure(
+    outputs: Iterable[os.PathLike | str | None],
+    *,
+    overwrite: bool | None = None,
+    marker: os.PathLike | str | None = None,
+) -> Iterator[None]:
+    """Write a set of outputs as one: if the block raises (interrupts included), the set is as it was before.
+
+    An output that did not exist when the block started is removed; one that existed (replaced with
+    ``overwrite``) gets its old contents back (:func:`keep_aside`, :func:`put_back`). Each output is
+    still written atomically, so a file is either complete or absent. ``marker``: the output written
+    last that says the set is complete (a ``.clean.npz`` record, a ``.mask.npz``): an old one is removed
+    as the block starts, so a run killed outright (no handler runs) never leaves new files beside the
+    old marker; a failure puts it back. ``overwrite=False``: the outputs were checked new before the work
+    (:func:`check_outputs`), and one that exists now, or appears before it is written (:func:`publish`),
+    was written meanwhile by another program: refused, never replaced.
     """
     outs = [Path(o) for o in outputs if o is not None]
-    existed = {o for o in outs if os.path.lexists(o)}
+    if overwrite is False:
+        for o in outs:
+            if os.path.lexists(o):
+                raise MocapFormatError(o, "appeared while this command ran (another program wrote it); pass "
+                                          "--overwrite to replace it")
+    kept = keep_aside(outs)
+    outer, mine = _WRITTEN.get(), []
+    token = _NEW_ONLY.set(_NEW_ONLY.get() | {os.path.abspath(o) for o in outs if o not in kept})
+    token_w = _WRITTEN.set(mine)
     try:
+        if marker is not None and Path(marker) in kept:
+            os.unlink(marker)
         yield
     except BaseException:
-        for o in outs:
-            if o not in existed:
-                try:
-                    o.unlink()
-                except (FileNotFoundError, IsADirectoryError, PermissionError):
-                    pass
+        put_back(outs, kept, None if overwrite is None else set(mine))
         raise
+    finally:
+        _WRITTEN.reset(token_w)
+        _NEW_ONLY.reset(token)
+        if outer is not None:
+            outer.extend(mine)  # an enclosing block removes these too if it fails later
+        drop_kept(kept)
