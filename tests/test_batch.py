@@ -560,3 +560,27 @@ def test_clean_file_writes_the_asf_before_the_amc_and_neither_on_failure(tmp_pat
     monkeypatch.setattr(io, "save", real)
     clean_file(inp, out, steps=STEPS, asf=asf, skeleton_copy=(copy, asf))
     assert mocapkit.load(out).num_frames == mocapkit.load(inp, asf=asf).num_frames
+
+
+def test_a_batch_hands_out_absolute_paths(tmp_path, short_bvh, monkeypatch):
+    """A remote Dask worker resolves a relative path against its own folder: every path a job carries is absolute."""
+    import mocapkit.parallel
+
+    (tmp_path / "in").mkdir()
+    shutil.copy(short_bvh, tmp_path / "in" / "walk.bvh")
+    shutil.copy(short_bvh, tmp_path / "ctx.bvh")
+    seen = []
+    real = mocapkit.parallel.map_ordered
+
+    def spy(fn, jobs, **kwargs):
+        seen.extend(jobs)
+        return real(fn, jobs, **kwargs)
+
+    monkeypatch.setattr(mocapkit.parallel, "map_ordered", spy)
+    monkeypatch.chdir(tmp_path)
+    s = clean_batch("in", "out", context=["ctx.bvh"], steps=STEPS, executor="serial", progress=False, report=True)
+    assert s.count("done") == 1 and s.rows[0]["input"] == os.path.join("in", "walk.bvh")  # said as given
+    job = seen[0]
+    for key in ("input", "output", "report"):
+        assert os.path.isabs(job[key]), key
+    assert all(os.path.isabs(c) for c in job["context"])

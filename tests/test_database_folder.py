@@ -422,3 +422,116 @@ def test_mutated_folders_open_or_fail_in_one_line(saved, tmp_path):
             outcomes["refused"] += 1
         (db / name).write_bytes(originals[name])
     assert outcomes["refused"] > 200, outcomes
+
+
+# -- the swap, interrupts and killed writes --------------------------------------------------------
+
+
+def _dead_pid():
+    """The pid of a process that has exited (a child started and waited for)."""
+    import subprocess
+    import sys
+
+    child = subprocess.Popen([sys.executable, "-c", "pass"])
+    child.wait()
+    return child.pid
+
+
+def test_an_interrupt_right_after_the_old_database_is_moved_aside_leaves_a_database(small_db, saved, tmp_path, monkeypatch):
+    """Finding 8: SIGINT (SIGTERM alike) lands as the first rename returns; the swap finishes, then it is raised."""
+    import signal
+
+    db = shutil.copytree(saved, tmp_path / "db")
+    real_replace = os.replace
+
+    def replace(src, dst):
+        real_replace(src, dst)
+        if os.path.dirname(os.fspath(dst)).endswith(".old"):
+            os.kill(os.getpid(), signal.SIGINT)
+
+    monkeypatch.setattr(os, "replace", replace)
+    with pytest.raises(KeyboardInterrupt):
+        small_db.save(db, overwrite=True)
+    monkeypatch.undo()
+    assert MotionDatabase.open(db).clip_names == small_db.clip_names  # the new one, whole
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["db"]  # nothing hidden left
+
+
+def test_a_database_hidden_by_a_killed_write_is_put_back_not_lost(small_db, saved, tmp_path):
+    """kill -9 between the two renames (a real child process): target missing, the old database in .db.*.old."""
+    import subprocess
+    import sys
+
+    db = shutil.copytree(saved, tmp_path / "db")
+    before = _tree(db)
+    script = (
+        "import os, sys\n"
+        "from pathlib import Path\n"
+        "from mocapkit.database import MotionDatabase\n"
+        "real = os.replace\n"
+        "def replace(src, dst):\n"
+        "    real(src, dst)\n"
+        "    if Path(dst).parent.name.endswith('.old'):\n"
+        "        os._exit(137)\n"
+        "os.replace = replace\n"
+        "MotionDatabase.open(sys.argv[1], mmap=False).save(sys.argv[2], overwrite=True)\n"
+    )
+    rc = subprocess.run([sys.executable, "-c", script, str(saved), str(db)], timeout=120).returncode
+    assert rc == 137 and not db.exists()
+    with pytest.raises(MocapFormatError, match=r"no such folder; an interrupted write left the previous database at .*\.old"):
+        MotionDatabase.open(db)  # said when opening, nothing moved
+    with pytest.raises(MocapFormatError, match=r"already exists \(put back from .*\.old.*; pass --overwrite"):
+        small_db.save(db)  # a write without --overwrite: put back, then refused as any existing database
+    assert _tree(db) == before
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["db"]  # the unfinished .part swept with it
+    small_db.save(db, overwrite=True)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["db"]
+
+
+def test_leftovers_of_dead_writers_are_swept_those_of_live_ones_kept(small_db, tmp_path):
+    live = database_folder.staging_folder(tmp_path / "db")  # this very process: a writer at work
+    (live / "rotations.npy").write_bytes(b"x")
+    host = live.name.split(".")[2].split("-")[1]  # .db.PID-HOST-XXXXXXXX.part
+    dead = tmp_path / f".db.{_dead_pid()}-{host}-abcd1234.part"
+    other_host = tmp_path / f".db.{_dead_pid()}-{'0' * 6 if host != '000000' else '111111'}-abcd1234.part"
+    not_ours = tmp_path / ".db.abcd1234.part"  # no owner in the name: never ours to judge
+    for p in (dead, other_host, not_ours):
+        p.mkdir()
+        (p / "rotations.npy").write_bytes(b"x")
+    small_db.save(tmp_path / "db")
+    assert sorted(p.name for p in tmp_path.iterdir()) == sorted(["db", live.name, other_host.name, not_ours.name])
+
+
+def test_saved_folders_get_the_umask_permissions_not_mkdtemps(small_db, tmp_path):
+    old = os.umask(0o022)
+    try:
+        small_db.save(tmp_path / "db")
+    finally:
+        os.umask(old)
+    assert oct((tmp_path / "db").stat().st_mode & 0o777) == oct(0o755)
+
+
+def test_the_content_digest_is_stored_once_and_changes_with_any_sample(small_db, saved, tmp_path):
+    stored = json.loads((saved / "database.json").read_text())["info"]["content_digest"]
+    assert stored.startswith("blake2b-256:") and stored == small_db.digest
+    opened = MotionDatabase.open(saved)
+    assert opened.digest == stored  # read, not computed: no array is hashed on opening
+    rot = np.array(small_db.rotations)
+    rot[5, 3, 0] += 1e-3
+    edited = MotionDatabase(fps=small_db.fps, skeletons=small_db.skeletons, clips=small_db.clips, rotations=rot,
+                            root_positions=small_db.root_positions, features=small_db.features, info=small_db.info)
+    assert edited.digest != stored
+    assert json.loads((edited.save(tmp_path / "e") / "database.json").read_text())["info"]["content_digest"] == edited.digest
+    noted = MotionDatabase(fps=small_db.fps, skeletons=small_db.skeletons, clips=small_db.clips, rotations=rot,
+                           root_positions=small_db.root_positions, features=small_db.features,
+                           info={**small_db.info, "label": "a note"})  # notes are no content (context.py sets them)
+    assert noted.digest == edited.digest
+    # a folder saved before the digest was kept opens, and its digest is computed from its arrays
+    old = shutil.copytree(saved, tmp_path / "old")
+    desc = json.loads((old / "database.json").read_text())
+    del desc["info"]["content_digest"]
+    (old / "database.json").write_text(json.dumps(desc))
+    assert MotionDatabase.open(old).digest == stored
+    desc["info"]["content_digest"] = "md5:0"
+    (old / "database.json").write_text(json.dumps(desc))
+    _refused(old, "digest: expected")

@@ -8,6 +8,7 @@ import signal
 import socket
 import sys
 import threading
+import time
 from concurrent.futures import ThreadPoolExecutor
 
 import pytest
@@ -153,6 +154,18 @@ def test_real_scheduler_passes():
             map_ordered(square, [1, 2], executor=worker, progress=False)
 
 
+def test_a_scheduler_without_workers_is_one_line_not_a_wait(monkeypatch):
+    distributed = pytest.importorskip("distributed")
+    import mocapkit.parallel
+
+    monkeypatch.setattr(mocapkit.parallel, "WORKERS_S", 1.0)
+    with distributed.LocalCluster(n_workers=0, processes=True, dashboard_address=None) as cluster:
+        t0 = time.monotonic()
+        with pytest.raises(MocapError, match="the scheduler has no workers"):
+            map_ordered(square, [1, 2], executor=cluster.scheduler_address, progress=False)
+        assert time.monotonic() - t0 < 30
+
+
 def test_owner_alive_here_and_in_pool_workers():
     assert owner_alive()  # not a worker: the owner is this process
     states = map_ordered(worker_state, range(4), executor="processes", max_workers=2, progress=False)
@@ -184,7 +197,8 @@ def test_stopping_a_pool_ends_a_manager_left_waiting_on_half_a_result():
     assert not manager.is_alive()
 
 
-def test_the_bar_counts_what_the_caller_did_already(capsys):
+def test_the_bar_counts_what_the_caller_did_already(capsys, monkeypatch):
+    monkeypatch.setenv("MOCAPKIT_PROGRESS", "1")  # the bar, though the captured stderr is no terminal
     assert map_ordered(abs, [-1, 2], executor="serial", progress=True, desc="clips", done=1) == [1, 2]
     assert "1/3" in capsys.readouterr().err  # starts at what was done, out of all: db build reads its first clip itself
 

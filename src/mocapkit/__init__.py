@@ -20,10 +20,14 @@ from __future__ import annotations
 import dataclasses
 import os
 
-from . import rotations, samples
-from .errors import MissingFileError, MocapError, MocapFormatError, SkeletonError
-from .io import load, save
-from .motion import Motion, Skeleton, concatenate
+from .kernel_cache import ensure_cache_dir
+
+ensure_cache_dir()  # before any kernel loads: a read-only install without a writable home still runs
+
+from . import rotations, samples  # noqa: E402
+from .errors import MissingFileError, MocapError, MocapFormatError, SkeletonError  # noqa: E402
+from .io import load, save  # noqa: E402
+from .motion import Motion, Skeleton, concatenate  # noqa: E402
 
 __version__ = "0.1.0"
 

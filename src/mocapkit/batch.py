@@ -666,12 +666,13 @@ def clean_batch(
         more = f" ({len(stale) - 1} more take{'s' if len(stale) > 2 else ''} alike)" if len(stale) > 1 else ""
         raise MocapFormatError(stale[0][0], f"exists from an earlier run, but {stale[0][1]}; use --overwrite to clean "
                                             f"it again{more}")
-    jobs = [{"input": str(inp), "output": str(files["output"]), "context": [str(c) for c in ctx], "steps": steps,
+    # every path absolute: a remote Dask worker resolves a relative one against its own working folder
+    jobs = [{"input": _abs(inp), "output": _abs(files["output"]), "context": [_abs(c) for c in ctx], "steps": steps,
              "threshold": float(threshold), "drifts": bool(drifts),
-             "models": {k: str(v) for k, v in (models or {}).items()} or None,
-             "report": str(files["report"]) if files["report"] else None,
-             "png": str(files["png"]) if files["png"] else None,
-             "asf": str(asf) if asf is not None and inp.suffix.lower() == ".amc" else None} for inp, files in todo]
+             "models": {k: _abs(v) if Path(v).exists() else str(v) for k, v in (models or {}).items()} or None,
+             "report": _abs(files["report"]) if files["report"] else None,
+             "png": _abs(files["png"]) if files["png"] else None,
+             "asf": _abs(asf) if asf is not None and inp.suffix.lower() == ".amc" else None} for inp, files in todo]
     skeletons = _asf_copies(inputs, plans, asf, overwrite) if fmt == "amc" else {}
     expected = [f for files in plans for f in files.values() if f is not None]
     made = _missing_folders([out_dir, *(Path(files["output"]).parent for _, files in todo)])
@@ -686,6 +687,8 @@ def clean_batch(
             _sweep(expected)  # what a killed worker could not remove
             _unmark_if_empty(out_dir)
             _prune(made)  # the folders made for takes that failed
+    for row, (inp, files) in zip(rows, todo):  # the paths as the caller gave them
+        row.update(input=str(inp), output=str(files["output"]))
     summary.rows += rows
     summary.rows.sort(key=lambda r: r["input"])
     summary.seconds = time.perf_counter() - t0
@@ -768,6 +771,10 @@ def _only_batch(out_dir: Path):
         yield
     finally:
         os.close(fd)
+
+
+def _abs(p) -> str:
+    return os.path.abspath(os.fspath(p))
 
 
 def _below(p: Path, folder: Path) -> bool:

@@ -105,9 +105,13 @@ def is_off(spec) -> bool:
 
 
 def cache_root() -> Path:
-    """Folder of cached contexts: ``$MOCAPKIT_CACHE_DIR/contexts`` or ``~/.cache/mocapkit/contexts``."""
+    """Folder of cached contexts: ``$MOCAPKIT_CACHE_DIR/contexts``, else ``$XDG_CACHE_HOME/mocapkit/contexts``,
+    else ``~/.cache/mocapkit/contexts``."""
     base = os.environ.get("MOCAPKIT_CACHE_DIR")
-    return (Path(base).expanduser() if base else Path.home() / ".cache" / "mocapkit") / "contexts"
+    if base:
+        return Path(base).expanduser() / "contexts"
+    xdg = os.environ.get("XDG_CACHE_HOME")
+    return (Path(xdg).expanduser() if xdg else Path.home() / ".cache") / "mocapkit" / "contexts"
 
 
 def default_context_path() -> Path:
@@ -315,9 +319,13 @@ def cached_context(files: Sequence, *, cache_dir=None, fps: float = BUILD_FPS, f
     goes into a hidden staging folder beside the entry and is renamed into
     place; when another process put the same key in place first, its copy is
     used and this one discarded. A cached entry that no longer opens (a disk
-    fault) is rebuilt. ``prefer`` and ``optional``: :func:`build_context`'s.
-    Returns a :class:`~mocapkit.database.MotionDatabase` (memory-mapped)
-    whose ``info`` holds ``label`` and the build's notes; with ``build``
+    fault) is rebuilt. A cache that cannot be written (read-only, full) or an
+    entry another user's permissions hide does not stop the work: the build
+    is used from memory, and its notes say why it was not cached. Entries get
+    the permissions the umask gives a new folder, so a shared cache serves
+    everyone. ``prefer`` and ``optional``: :func:`build_context`'s.
+    Returns a :class:`~mocapkit.database.MotionDatabase` (memory-mapped when
+    cached) whose ``info`` holds ``label`` and the build's notes; with ``build``
     False, None when the cache does not hold it.
     """
     from .database import MotionDatabase
@@ -326,11 +334,9 @@ def cached_context(files: Sequence, *, cache_dir=None, fps: float = BUILD_FPS, f
     root = Path(cache_dir) if cache_dir is not None else cache_root()
     key = context_key(files, fps, features, prefer=prefer, optional=optional)
     entry = root / key
-    if entry.is_dir():
-        try:
-            return _labelled(MotionDatabase.open(entry), label)
-        except MocapFormatError:
-            shutil.rmtree(entry, ignore_errors=True)  # our own entry, damaged: build it again
+    cached, hidden = _open_entry(entry, label)
+    if cached is not None:
+        return cached
     if not build:
         return None
     db, _ = build_context(files, fps=fps, features=features, progress=progress, label=label, prefer=prefer,
@@ -340,29 +346,62 @@ def cached_context(files: Sequence, *, cache_dir=None, fps: float = BUILD_FPS, f
         # cached under its key, so that a later request without one (a batch's first check) finds it
         key = context_key(files, fps, features, optional=optional)
         entry = root / key
-        if entry.is_dir():
-            try:
-                return _labelled(MotionDatabase.open(entry), label)
-            except MocapFormatError:
-                shutil.rmtree(entry, ignore_errors=True)
+        cached, hidden = _open_entry(entry, label)
+        if cached is not None:
+            return cached
+    if hidden:
+        return _uncached(db, f"the cache entry {entry} cannot be read ({hidden})")
     try:
         root.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
-        raise MocapFormatError(root, f"cannot create the context cache ({exc.strerror or exc}); set MOCAPKIT_CACHE_DIR") from None
+        return _uncached(db, f"{root}: cannot create the context cache ({exc.strerror or exc})")
     _sweep(root)
     staging = root / f".build-{key}-{os.getpid()}-{uuid.uuid4().hex[:8]}"
     try:
         db.save(staging / "db")
+        os.chmod(staging / "db", _folder_mode())  # mkdtemp's 0700 would hide the entry from other users
         try:
             os.rename(staging / "db", entry)
         except OSError:
             if not _is_database(entry):  # not another process's finished copy: a real failure
                 raise
-    except OSError as exc:
-        raise MocapFormatError(entry, f"cannot write the context cache ({exc.strerror or exc}); set MOCAPKIT_CACHE_DIR") from None
+    except (OSError, MocapFormatError) as exc:
+        return _uncached(db, f"{entry}: cannot write the context cache ({getattr(exc, 'strerror', None) or exc})")
     finally:
         shutil.rmtree(staging, ignore_errors=True)
-    return _labelled(MotionDatabase.open(entry), label)
+    cached, hidden = _open_entry(entry, label)
+    return cached if cached is not None else _uncached(db, f"the cache entry {entry} cannot be read ({hidden})")
+
+
+def _open_entry(entry: Path, label):
+    """``(database, "")`` from a cache entry; ``(None, "")`` when it is missing or damaged (a damaged entry is
+    removed, to be built again); ``(None, reason)`` when it is there but this user cannot read it."""
+    from .database import MotionDatabase
+
+    if not entry.is_dir():
+        return None, ""
+    try:
+        return _labelled(MotionDatabase.open(entry), label), ""
+    except PermissionError as exc:
+        return None, exc.strerror or str(exc)
+    except (MocapFormatError, OSError) as exc:
+        if isinstance(exc.__cause__ or exc.__context__, PermissionError) or "Permission denied" in str(exc):
+            return None, "Permission denied"
+        shutil.rmtree(entry, ignore_errors=True)  # our own entry, damaged: build it again
+        return None, ""
+
+
+def _uncached(db, why: str):
+    """The context ``db`` as built in memory, its notes saying why it was not cached."""
+    db.info["notes"] = [*db.info.get("notes", []), f"not cached: {why}; set MOCAPKIT_CACHE_DIR to a writable folder"]
+    return db
+
+
+def _folder_mode() -> int:
+    """The mode ``mkdir`` gives a new folder under the current umask."""
+    umask = os.umask(0)
+    os.umask(umask)
+    return 0o777 & ~umask
 
 
 def _labelled(db, label):

@@ -36,7 +36,7 @@ from typing import Iterable, Mapping, Sequence
 
 import numpy as np
 
-from .database_folder import FORMAT_VERSION, FPS_RANGE, Description, check_database_output, read_folder, skeleton_to_json, write_folder
+from .database_folder import FORMAT_VERSION, FPS_RANGE, Description, check_database_output, content_digest, read_folder, skeleton_to_json, write_folder
 from .errors import MocapError, MocapFormatError
 from .features import FEATURE_SETS, WINDOWED_SETS, feature_set
 from .io.outputs import same_file
@@ -281,6 +281,9 @@ class MotionDatabase:
         Clip number of each frame.
     path : Path or None
         The directory it was opened from.
+    digest : str
+        Identity of the content (:func:`mocapkit.database_folder.content_digest`):
+        read from ``database.json`` when opened, else computed once on first use.
 
     Examples
     --------
@@ -307,6 +310,7 @@ class MotionDatabase:
         clip_ids: np.ndarray | None = None,
         path: Path | None = None,
         info: Mapping | None = None,
+        digest: str = "",
     ):
         self.fps = float(fps)
         self.skeletons = tuple(skeletons)
@@ -331,6 +335,7 @@ class MotionDatabase:
         self.path = path
         self.info = dict(info or {})
         self._indexes: dict = {}
+        self._digest = digest  # the folder's stored content digest; "" until computed
 
     # -- sizes and lookups ---------------------------------------------------------------
 
@@ -667,6 +672,34 @@ class MotionDatabase:
 
     # -- saving and opening ---------------------------------------------------------------------
 
+    @property
+    def digest(self) -> str:
+        """The content digest (:func:`mocapkit.database_folder.content_digest`): a cache key that changes with any sample.
+
+        Free for a database saved by this mocapkit and opened (``database.json``
+        keeps it); otherwise its arrays are hashed once (about 1 GB/s) and the
+        result kept.
+        """
+        if not self._digest:
+            self._digest = content_digest(*self._folder_parts())
+        return self._digest
+
+    def _folder_parts(self) -> tuple[Description, dict]:
+        """The description (without digest) and the arrays, keyed by file, that :meth:`save` writes."""
+        desc = Description(
+            fps=self.fps,
+            num_frames=self.num_frames,
+            skeletons=self.skeletons,
+            clips=tuple((c.name, c.source, c.start, c.frames, c.skeleton, c.mirrored) for c in self.clips),
+            features={n: int(f.shape[1]) for n, f in self.features.items()},
+            info=self.info,
+        )
+        arrays = {"rotations.npy": self.rotations, "root_positions.npy": self.root_positions, "clip_ids.npy": self.clip_ids}
+        if self.translations is not None:
+            arrays["translations.npy"] = self.translations
+        arrays.update({f"features/{n}.npy": f for n, f in self.features.items()})
+        return desc, arrays
+
     def save(self, directory, overwrite: bool = False, inputs: Iterable = ()) -> Path:
         """Write the database to the folder ``directory`` (created; replaced only with ``overwrite``).
 
@@ -686,19 +719,8 @@ class MotionDatabase:
         """
         if self.path is not None and same_file(directory, self.path):
             raise MocapFormatError(directory, "cannot save a database over the folder it is opened from")
-        desc = Description(
-            fps=self.fps,
-            num_frames=self.num_frames,
-            skeletons=self.skeletons,
-            clips=tuple((c.name, c.source, c.start, c.frames, c.skeleton, c.mirrored) for c in self.clips),
-            features={n: int(f.shape[1]) for n, f in self.features.items()},
-            info=self.info,
-        )
-        arrays = {"rotations.npy": self.rotations, "root_positions.npy": self.root_positions, "clip_ids.npy": self.clip_ids}
-        if self.translations is not None:
-            arrays["translations.npy"] = self.translations
-        arrays.update({f"features/{n}.npy": f for n, f in self.features.items()})
-        write_folder(directory, desc, arrays, inputs=inputs, overwrite=overwrite)
+        desc, arrays = self._folder_parts()
+        write_folder(directory, desc._replace(digest=self.digest), arrays, inputs=inputs, overwrite=overwrite)
         return Path(directory)
 
     @classmethod
@@ -725,6 +747,7 @@ class MotionDatabase:
                 clip_ids=arrays["clip_ids.npy"],
                 path=directory,
                 info=desc.info,
+                digest=desc.digest,
             )
         except ValueError as exc:
             raise MocapFormatError(directory, f"inconsistent database ({exc})") from None

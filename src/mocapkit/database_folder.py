@@ -13,7 +13,12 @@ A :class:`~mocapkit.database.MotionDatabase` is saved as a folder::
 Writing must lose nothing (:func:`check_database_output`): the folder may not
 be, lie in or hold an input, and an existing folder is replaced only when the
 caller says so and it is a mocapkit database holding nothing else. The write
-goes to a temporary folder beside the target and is renamed into place.
+goes to a hidden temporary folder beside the target and is renamed into
+place (:func:`publish_folder`, interrupts held across the swap); what a
+killed write left beside the target is tidied, or put back, before the next
+write (:func:`recover_leftovers`). ``database.json`` keeps a content digest
+(:func:`content_digest`, in ``info``) computed once at save time, so a cache built from
+the database (a knowledge base) can tell another content at no cost.
 
 Opening trusts nothing (:func:`read_folder`): the description is bounded in
 size and nesting before it is parsed, every field's type and range is
@@ -25,11 +30,13 @@ file's size before numpy maps it. Each failure is one
 
 from __future__ import annotations
 
+import hashlib
 import json
 import math
 import os
 import re
 import shutil
+import socket
 import tempfile
 from pathlib import Path
 from typing import Iterable, Mapping, NamedTuple, Sequence
@@ -38,6 +45,7 @@ import numpy as np
 
 from .errors import MocapError, MocapFormatError
 from .features import FEATURE_SETS, WINDOWED_SETS
+from .interrupts import interrupts_held
 from .io.outputs import inside, resolved, same_file
 from .motion import Skeleton
 
@@ -49,6 +57,11 @@ __all__ = [
     "Description",
     "check_database_output",
     "skeleton_to_json",
+    "description_json",
+    "content_digest",
+    "staging_folder",
+    "publish_folder",
+    "recover_leftovers",
     "write_folder",
     "read_folder",
 ]
@@ -74,6 +87,9 @@ _FEATURE_NAME = re.compile(r"[A-Za-z_][A-Za-z0-9_]{0,63}")
 _TOP_KEYS = ("format", "format_version", "fps", "num_frames", "feature_unit", "features", "skeletons", "clips")
 _SKELETON_KEYS = ("joint_names", "parents", "offsets", "end_site_parents", "end_site_offsets", "channels", "axes", "limits", "unit_cm")
 _CLIP_KEYS = ("name", "source", "start", "frames", "skeleton", "mirrored")
+_DIGEST = re.compile(r"blake2b-256:[0-9a-f]{64}")
+_DIGEST_KEY = "content_digest"  # kept in info: a mocapkit that predates it still opens the folder
+_KEPT = "kept"  # the replaced folder's name inside its .NAME.OWNER-XXXX.old folder
 
 
 class Description(NamedTuple):
@@ -81,7 +97,10 @@ class Description(NamedTuple):
 
     ``clips`` holds one ``(name, source, start, frames, skeleton, mirrored)``
     tuple per clip (the fields of :class:`~mocapkit.database.ClipInfo`);
-    ``features`` maps each feature set to its number of columns.
+    ``features`` maps each feature set to its number of columns;
+    ``digest`` is the stored :func:`content_digest` (``info["content_digest"]``
+    in the file, taken out of ``info`` here; "" in a folder saved before
+    mocapkit kept one).
     """
 
     fps: float
@@ -90,6 +109,7 @@ class Description(NamedTuple):
     clips: tuple[tuple, ...]
     features: dict[str, int]
     info: dict
+    digest: str = ""
 
 
 # -- paths ---------------------------------------------------------------------------------------
@@ -291,7 +311,11 @@ def _check_description(desc: dict, path: Path) -> Description:
         if sk.joint_names != skeletons[0].joint_names or not np.array_equal(sk.parents, skeletons[0].parents):
             raise MocapFormatError(path, f"skeleton {k}: other joints or parents than skeleton 0 (a database has one topology)")
     clips = _check_clips(desc["clips"], N, len(skeletons), path)
-    return Description(float(fps), N, skeletons, clips, features, info)
+    info = dict(info)
+    digest = info.pop(_DIGEST_KEY, "")
+    if not (isinstance(digest, str) and (digest == "" or _DIGEST.fullmatch(digest))):
+        raise MocapFormatError(path, f"info: {_DIGEST_KEY}: expected 'blake2b-256:' and 64 hexadecimal digits")
+    return Description(float(fps), N, skeletons, clips, features, info, digest)
 
 
 # -- arrays --------------------------------------------------------------------------------------
@@ -371,6 +395,168 @@ def _not_a_database(folder: Path) -> str:
     return ""
 
 
+def _owner() -> str:
+    """This process as the owner tag of its hidden folders: pid and a hash of the host name (``1234-a1b2c3``)."""
+    return f"{os.getpid()}-{hashlib.blake2b(socket.gethostname().encode(), digest_size=3).hexdigest()}"
+
+
+def _owner_dead(tag: str) -> bool:
+    """True when the process of owner ``tag`` (:func:`_owner`) ran on this host and is gone.
+
+    Another host's process cannot be asked, and a pid reused since reads as
+    alive: both are left alone (never deleted by mistake, at worst kept).
+    """
+    pid, _, host = tag.partition("-")
+    if host != _owner().partition("-")[2]:
+        return False
+    try:
+        os.kill(int(pid), 0)
+    except ProcessLookupError:
+        return True
+    except (PermissionError, OverflowError, ValueError):  # another user's live process; a pid out of range
+        return False
+    return False
+
+
+def staging_folder(target, kind: str = "part") -> Path:
+    """A new hidden folder ``.NAME.OWNER-XXXXXXXX.KIND`` beside ``target`` (``NAME`` its name, ``OWNER`` this process).
+
+    Where a folder is written before it is renamed into place (``kind``
+    "part") or where the folder it replaces waits until the swap is done
+    ("old"). The owner tag (pid and host) lets :func:`recover_leftovers`
+    tell a killed run's leftovers from a live writer's. A "part" folder gets
+    the permissions of a folder made with ``mkdir`` (the umask's, not
+    ``mkdtemp``'s owner-only ones), since it becomes the target.
+    """
+    target = Path(target)
+    path = Path(tempfile.mkdtemp(prefix=f".{target.name}.{_owner()}-", suffix=f".{kind}", dir=target.parent))
+    if kind == "part":
+        try:
+            probe = path / "mode"  # os.mkdir's mode under the umask, read without changing the process's umask
+            os.mkdir(probe)
+            os.chmod(path, os.stat(probe).st_mode & 0o7777)
+            probe.rmdir()
+        except BaseException:
+            shutil.rmtree(path, ignore_errors=True)
+            raise
+    return path
+
+
+def _leftovers(target: Path) -> list[tuple[Path, str]]:
+    """The ``.NAME.OWNER-XXXXXXXX.{part,old}`` folders beside ``target`` whose owner is dead: ``(path, kind)``, newest first."""
+    pattern = re.compile(rf"\.{re.escape(target.name)}\.(\d+-[0-9a-f]{{6}})-[a-z0-9_]{{8}}\.(part|old)")
+    found = []
+    try:
+        with os.scandir(target.parent) as entries:
+            for e in entries:
+                m = pattern.fullmatch(e.name)
+                if m and e.is_dir(follow_symlinks=False) and _owner_dead(m.group(1)):
+                    found.append((Path(e.path), m.group(2), e.stat(follow_symlinks=False).st_mtime_ns))
+    except OSError:
+        return []
+    return [(p, kind) for p, kind, _ in sorted(found, key=lambda f: -f[2])]
+
+
+def recover_leftovers(target) -> Path | None:
+    """Tidy what killed writes of the folder ``target`` left beside it; returns the folder put back, if any.
+
+    A write killed outright (``kill -9``, power loss: no handler runs)
+    between the two renames of :func:`publish_folder` leaves ``target``
+    missing and the folder it replaced in ``.NAME.OWNER-X.old/kept``: when
+    ``target`` is missing that folder (the newest) is renamed back, so the
+    user's data is where it was before the killed run (it is returned, so a
+    caller can say so). Then the hidden ``.part`` folders and the ``.old``
+    folders of dead owners are removed: a ``.part`` is an unfinished write,
+    an ``.old`` beside an existing ``target`` a folder its run was asked to
+    replace. Folders of live processes (another writer right now) and of
+    other hosts are never touched.
+    """
+    target = Path(target)
+    restored = None
+    found = _leftovers(target)
+    if not os.path.lexists(target):
+        for path, kind in found:
+            if kind == "old" and (path / _KEPT).is_dir():
+                with interrupts_held():
+                    os.rename(path / _KEPT, target)
+                    path.rmdir()
+                restored = path / _KEPT
+                break
+    for path, _ in found:
+        if path.exists() and (restored is None or path != restored.parent):
+            shutil.rmtree(path, ignore_errors=True)
+    return restored
+
+
+def publish_folder(tmp, target) -> None:
+    """Put the finished folder ``tmp`` (made by :func:`staging_folder` beside ``target``) at ``target``.
+
+    An existing ``target`` (a folder the caller may replace: checked before)
+    is first moved aside into a ``.old`` folder; it is deleted only once
+    the new folder is in place, and renamed back if that rename fails.
+    SIGINT and SIGTERM wait until the swap is done
+    (:func:`mocapkit.interrupts.interrupts_held`), so an interrupt never
+    leaves ``target`` missing; a ``kill -9`` between the two renames leaves
+    the old folder for :func:`recover_leftovers` to put back.
+    """
+    tmp, target = Path(tmp), Path(target)
+    with interrupts_held():
+        if not os.path.lexists(target):
+            os.rename(tmp, target)
+            return
+        old = staging_folder(target, "old")
+        try:
+            os.replace(target, old / _KEPT)
+        except BaseException:
+            old.rmdir()
+            raise
+        try:
+            os.replace(tmp, target)
+        except BaseException:
+            os.replace(old / _KEPT, target)
+            old.rmdir()
+            raise
+        shutil.rmtree(old, ignore_errors=True)
+
+
+def description_json(description: Description) -> dict:
+    """``description`` as the JSON object ``database.json`` stores, without its digest (``info`` as given)."""
+    return {
+        "format": FORMAT,
+        "format_version": FORMAT_VERSION,
+        "fps": description.fps,
+        "num_frames": description.num_frames,
+        "feature_unit": "cm",
+        "features": dict(description.features),
+        "skeletons": [skeleton_to_json(s) for s in description.skeletons],
+        "clips": [dict(zip(_CLIP_KEYS, c)) for c in description.clips],
+        "info": {k: v for k, v in description.info.items() if k != _DIGEST_KEY},
+    }
+
+
+def content_digest(description: Description, arrays: Mapping[str, np.ndarray]) -> str:
+    """The identity of a database's content: ``"blake2b-256:"`` and 64 hex digits.
+
+    A BLAKE2b hash of :func:`description_json` without ``info`` (frame rate,
+    skeletons, clips, feature sets; keys sorted: ``info`` is notes, which
+    callers change) and of every array of the layout (name, stored dtype,
+    shape, bytes; in file-name order). Two databases with the same digest
+    hold the same motion; any edited sample changes it. About 0.4-1 GB/s:
+    :func:`write_folder` computes it once and stores it in ``database.json``
+    (``info["content_digest"]``, which an older mocapkit reads as a note), so
+    an opened database knows it without reading its arrays.
+    """
+    h = hashlib.blake2b(digest_size=32)
+    desc = description_json(description)
+    del desc["info"]
+    h.update(json.dumps(desc, sort_keys=True).encode("utf-8"))
+    for rel in sorted(arrays):
+        a = np.ascontiguousarray(arrays[rel], dtype=_array_dtype(rel))
+        h.update(f"\0{rel}\0{a.dtype.str}\0{a.shape}\0".encode())
+        h.update(memoryview(a.reshape(-1)).cast("B"))
+    return f"blake2b-256:{h.hexdigest()}"
+
+
 def check_database_output(directory, inputs: Iterable = (), overwrite: bool = False) -> None:
     """Refuse, before any work, a database folder whose writing could lose anything.
 
@@ -379,7 +565,10 @@ def check_database_output(directory, inputs: Iterable = (), overwrite: bool = Fa
     symlinks and by name. Its parent may not be a file. When it exists it is
     replaced only with ``overwrite`` and only when it is a mocapkit database
     (its ``database.json`` says so and it holds nothing but what a database
-    save writes) or an empty folder.
+    save writes) or an empty folder. A database that a killed write left
+    hidden beside a missing ``directory`` is first put back
+    (:func:`recover_leftovers`), so it is never lost to a new write: it is
+    then replaced only with ``overwrite``, as any existing database.
 
     Parameters
     ----------
@@ -406,10 +595,12 @@ def check_database_output(directory, inputs: Iterable = (), overwrite: bool = Fa
         parent = parent.parent
     if not parent.is_dir():
         raise MocapFormatError(out, f"cannot create it: {parent} is a file, not a folder")
+    restored = recover_leftovers(resolved(out)) if resolved(out).parent.is_dir() else None
     if not os.path.lexists(out):
         return
     if not overwrite:
-        raise MocapFormatError(out, "already exists; pass --overwrite to replace it")
+        note = f" (put back from {restored}, where an interrupted write had left it)" if restored else ""
+        raise MocapFormatError(out, f"already exists{note}; pass --overwrite to replace it")
     why = _not_a_database(resolved(out)) if out.exists() else "it is a broken symbolic link"
     if why:
         raise MocapFormatError(out, f"refusing to replace it: {why}")
@@ -420,10 +611,12 @@ def write_folder(directory, description: Description, arrays: Mapping[str, np.nd
 
     ``arrays`` maps each file of the layout (``"rotations.npy"``,
     ``"features/F15.npy"``, ...) to its array, stored in the layout's dtype.
-    Everything is written into a temporary folder beside the target; an
-    existing database is moved aside, the new one renamed into place, and the
-    old one deleted only then (put back if the rename fails), so an
-    interrupted write leaves the old or the new database, never a mix. A
+    Everything is written into a hidden temporary folder beside the target
+    (:func:`staging_folder`); an existing database is moved aside, the new
+    one renamed into place, and the old one deleted only then (put back if
+    the rename fails; :func:`publish_folder`), so an interrupted write
+    leaves the old or the new database, never a mix. ``database.json``'s
+    ``info`` gets ``description.digest``, or :func:`content_digest` when it is "". A
     failing write (disk full, no permission) is a one-line
     :class:`~mocapkit.errors.MocapFormatError` naming ``directory``.
     """
@@ -434,41 +627,21 @@ def write_folder(directory, description: Description, arrays: Mapping[str, np.nd
     inputs = list(inputs)
     check_database_output(directory, inputs, overwrite=overwrite)
     target = resolved(directory)  # a symlinked folder: replace what it points to
-    desc = {
-        "format": FORMAT,
-        "format_version": FORMAT_VERSION,
-        "fps": description.fps,
-        "num_frames": description.num_frames,
-        "feature_unit": "cm",
-        "features": dict(description.features),
-        "skeletons": [skeleton_to_json(s) for s in description.skeletons],
-        "clips": [dict(zip(_CLIP_KEYS, c)) for c in description.clips],
-        "info": description.info,
-    }
+    desc = description_json(description)
     try:
         target.parent.mkdir(parents=True, exist_ok=True)
-        tmp = Path(tempfile.mkdtemp(prefix=f".{target.name}.", suffix=".part", dir=target.parent))
+        tmp = staging_folder(target)
     except OSError as exc:
         raise MocapFormatError(directory, f"cannot write the database ({exc.strerror or exc})") from None
     try:
         (tmp / "features").mkdir()
         for rel, a in arrays.items():
             np.save(tmp / rel, np.ascontiguousarray(a, dtype=_array_dtype(rel)))
+        desc["info"][_DIGEST_KEY] = description.digest or content_digest(description, arrays)
         with open(tmp / DESCRIPTION, "w", encoding="utf-8") as fh:
             json.dump(desc, fh, indent=1)
         check_database_output(directory, inputs, overwrite=overwrite)  # it may have changed meanwhile
-        if os.path.lexists(target):
-            old = Path(tempfile.mkdtemp(prefix=f".{target.name}.", suffix=".old", dir=target.parent))
-            os.replace(target, old / "db")
-            try:
-                os.replace(tmp, target)
-            except BaseException:
-                os.replace(old / "db", target)
-                old.rmdir()
-                raise
-            shutil.rmtree(old, ignore_errors=True)
-        else:
-            os.replace(tmp, target)
+        publish_folder(tmp, target)
     except BaseException as exc:
         shutil.rmtree(tmp, ignore_errors=True)
         if isinstance(exc, OSError):
@@ -488,6 +661,9 @@ def read_folder(directory, mmap: bool = True) -> tuple[Description, dict[str, np
     directory = Path(directory)
     desc_path = directory / DESCRIPTION
     if not directory.exists():
+        hidden = [p for p, kind in _leftovers(resolved(directory)) if kind == "old" and (p / _KEPT).is_dir()]
+        if hidden:  # said, not moved: opening changes nothing; the next write puts it back
+            raise MocapFormatError(directory, f"no such folder; an interrupted write left the previous database at {hidden[0] / _KEPT}")
         raise MocapFormatError(directory, "no such folder (a motion database is a folder `mocapkit db build` writes)")
     if not directory.is_dir() or not desc_path.is_file():
         raise MocapFormatError(directory, f"not a motion database (no {DESCRIPTION})")

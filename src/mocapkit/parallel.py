@@ -44,10 +44,12 @@ import sys
 import threading
 import time
 from concurrent.futures import Executor, ProcessPoolExecutor, as_completed
+from contextlib import contextmanager
 from concurrent.futures.process import BrokenProcessPool
 from typing import Callable, Sequence
 
 from tqdm.auto import tqdm
+from .progress import bar_disabled
 
 from .errors import MocapError
 
@@ -279,7 +281,7 @@ def map_ordered(
     n = len(items)
     if n == 0:
         return []
-    bar = tqdm(total=n + done, initial=done, desc=desc, disable=not progress, unit="item", leave=False)
+    bar = tqdm(total=n + done, initial=done, desc=desc, disable=bar_disabled(progress), unit="item", leave=False)
     try:
         if executor == "serial" or (executor in (None, "processes") and (n == 1 or (max_workers or os.cpu_count() or 1) == 1)):
             out = []
@@ -386,10 +388,89 @@ def _run_dask(spec: str, fn, items, bar) -> list:
         with LocalCluster(n_workers=os.cpu_count() or 1, threads_per_worker=1, processes=True, dashboard_address=None) as cluster:
             with Client(cluster) as client:
                 return _run(client, fn, items, bar, dask_as_completed)
+    with _quiet_dask():
+        try:
+            client = Client(spec, timeout=_PROBE_S * 2)
+        except Exception as exc:  # it speaks Dask but is no scheduler (a worker, a nanny), or went away since the probe
+            reason = (str(exc).strip().splitlines() or [""])[0]
+            raise MocapError(f"--executor {spec}: cannot start a Dask client there ({type(exc).__name__}: {reason})") from None
+        with client:
+            try:
+                client.wait_for_workers(1, timeout=WORKERS_S)
+            except Exception:  # distributed's TimeoutError
+                raise MocapError(f"--executor {spec}: the scheduler has no workers (none joined within {WORKERS_S:g} s); "
+                                 f"start some with `dask worker {spec}`") from None
+            return _run_remote(client, spec, fn, items, bar)
+
+
+#: seconds a remote scheduler may go without a worker (at the start, or once they are all gone) before the work stops
+WORKERS_S = 20.0
+
+
+@contextmanager
+def _quiet_dask():
+    """distributed's client logs a lost scheduler as tracebacks on stderr: the command says it in one line instead."""
+    import logging
+
+    loggers = [logging.getLogger(n) for n in ("distributed", "distributed.client", "distributed.comm", "tornado")]
+    levels = [lg.level for lg in loggers]
+    for lg in loggers:
+        lg.setLevel(logging.CRITICAL)
     try:
-        client = Client(spec, timeout=_PROBE_S * 2)
-    except Exception as exc:  # it speaks Dask but is no scheduler (a worker, a nanny), or went away since the probe
-        reason = (str(exc).strip().splitlines() or [""])[0]
-        raise MocapError(f"--executor {spec}: cannot start a Dask client there ({type(exc).__name__}: {reason})") from None
-    with client:
-        return _run(client, fn, items, bar, dask_as_completed)
+        yield
+    finally:
+        for lg, level in zip(loggers, levels):
+            lg.setLevel(level)
+
+
+def _run_remote(client, spec: str, fn, items, bar) -> list:
+    """:func:`_run` on a remote scheduler's client, watched: when no worker is left for :data:`WORKERS_S` seconds,
+    or the scheduler is lost, the work stops with one line saying how much of it was done (a rerun resumes it)."""
+    from distributed import as_completed as dask_as_completed
+
+    futures = {client.submit(fn, it, pure=False): k for k, it in enumerate(items)}
+    out: list = [None] * len(items)
+    done, idle_since = 0, time.monotonic()
+    pending = dask_as_completed(list(futures), timeout=1.0)
+    try:
+        while done < len(items):
+            try:
+                fut = next(pending)
+            except StopIteration:
+                break
+            except Exception as exc:  # distributed's TimeoutError: nothing finished within a second
+                if type(exc).__name__ != "TimeoutError":
+                    raise
+                if _workers(client) > 0:
+                    idle_since = time.monotonic()
+                elif time.monotonic() - idle_since > WORKERS_S:
+                    raise MocapError(f"--executor {spec}: no worker has been connected to the scheduler for "
+                                     f"{WORKERS_S:g} s; {done} of {len(items)} done (a rerun resumes)") from None
+                continue
+            try:
+                out[futures[fut]] = fut.result()
+            except Exception as exc:
+                if _lost(exc):
+                    raise MocapError(f"--executor {spec}: the Dask scheduler was lost ({type(exc).__name__}); "
+                                     f"{done} of {len(items)} done (a rerun resumes)") from None
+                raise
+            done += 1
+            bar.update(1)
+    except BaseException:
+        for fut in futures:
+            fut.cancel()
+        raise
+    return out
+
+
+def _workers(client) -> int:
+    try:
+        return len(client.scheduler_info().get("workers", {}))
+    except Exception:  # the scheduler is gone: as good as no workers
+        return 0
+
+
+def _lost(exc: BaseException) -> bool:
+    """True for what distributed raises when the client lost its scheduler (not an error of the work)."""
+    return type(exc).__name__ in ("FutureCancelledError", "CancelledError", "CommClosedError") or \
+        "scheduler-connection-lost" in str(exc)

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import dataclasses
+import json
 
 import numpy as np
 import pytest
@@ -617,7 +618,8 @@ def test_training_metadata_carries_the_rig_and_licence_into_the_model_file(tmp_p
     again = deep.load_model(tmp_path / "model.pt")
     assert m.meta["rig"] == again.meta["rig"] == "bandai"
     assert deep.licence_note(again) == ("the EBF used is CC BY-NC 4.0: non-commercial; --ebf (clean, clean-batch; "
-                                        "models= in Python) picks another, e.g. ebf.pt")
+                                        "models= in Python) picks another, e.g. ebf.pt (trained on HDM05 and CMU "
+                                        "takes; HDM05's terms: research use, docs/models.md)")
     assert deep.licence_note(deep.shipped_model("ebf")) == ""  # the Acclaim models carry no restriction
 
 
@@ -637,3 +639,90 @@ def test_a_resume_with_other_settings_or_clips_is_refused_not_started_over(tmp_p
     longer = training.train([walk[:160]], tmp_path, dataclasses.replace(cfg, epochs=2), executor="serial",
                             progress=False)  # the same run, continued
     assert len(longer.meta["history"]) == 2
+
+
+def _tiny(**kw):
+    return training.TrainConfig(**{"kind": "ebf", "hidden": 8, "epochs": 1, "steps_per_epoch": 2, "batch": 2,
+                                   "crop": 40, "noise": ("angular:0.5",), "variants": 1, **kw})
+
+
+def test_a_resume_on_clips_of_other_content_is_refused(tmp_path, walk):
+    """Finding 7: the same clip name with other motion resumed the checkpoint (names were compared, not content)."""
+    training.train([walk[:160]], tmp_path, _tiny(), executor="serial", progress=False)
+    before = {p.name: p.read_bytes() for p in tmp_path.iterdir()}
+    rot = walk.rotations[:160].copy()
+    rot[40:80, 3] = rot[40:80, 3][::-1]
+    edited = dataclasses.replace(walk[:160], rotations=rot)
+    assert edited.name == walk[:160].name
+    with pytest.raises(ValueError, match=r"holds a training with other clips .*; --restart starts it over there"):
+        training.train([edited], tmp_path, _tiny(epochs=2), executor="serial", progress=False)
+    # a checkpoint from before clip digests (names only) is no match either
+    ck = torch.load(tmp_path / "checkpoint.pt", weights_only=True)
+    ck["data"] = json.dumps({"train": [walk[:160].name], "validation": []})
+    torch.save(ck, tmp_path / "checkpoint.pt")
+    with pytest.raises(ValueError, match="other clips"):
+        training.train([walk[:160]], tmp_path, _tiny(epochs=2), executor="serial", progress=False)
+    assert (tmp_path / "model.pt").read_bytes() == before["model.pt"]
+
+
+def test_a_model_without_its_checkpoint_is_refused_before_any_work(tmp_path, walk, monkeypatch):
+    """Finding 6: model.pt without a checkpoint of the same training was replaced after the first epoch."""
+    training.train([walk[:160]], tmp_path, _tiny(), executor="serial", progress=False)
+    (tmp_path / "checkpoint.pt").unlink()
+    before = (tmp_path / "model.pt").read_bytes()
+
+    def no_work(*args, **kwargs):
+        raise AssertionError("training started before the folder was checked")
+
+    monkeypatch.setattr(training, "prepare_clip", no_work)
+    with pytest.raises(ValueError, match=r"model.pt already exists \(no checkpoint of this training beside it\); "
+                                         r"--restart or --overwrite replaces it"):
+        training.train([walk[:160]], tmp_path, _tiny(), executor="serial", progress=False)
+    (tmp_path / "model.pt").write_bytes(b"a file that is no model")
+    with pytest.raises(ValueError, match="model.pt already exists"):
+        training.check_out_dir(tmp_path, [walk[:160]], _tiny())
+    monkeypatch.undo()
+    assert (tmp_path / "model.pt").read_bytes() == b"a file that is no model"
+    training.train([walk[:160]], tmp_path, _tiny(), executor="serial", progress=False, overwrite=True)
+    assert deep.load_model(tmp_path / "model.pt").meta["training"]
+    assert training.check_out_dir(tmp_path, [walk[:160]], _tiny(epochs=3)) is True  # now the same run: resumes
+
+
+def test_a_kill_between_model_and_checkpoint_never_lets_a_worse_model_replace_the_better(tmp_path, walk, monkeypatch):
+    """Suspected finding: model.pt of epoch 1 written, the process dies before epoch 1's checkpoint; the resumed run
+    redoes epoch 1 (on a GPU not bit for bit: here another seed and a worse score) and must keep the better model."""
+    cfg = _tiny(epochs=2, dropout=0.5)
+    scores = iter([2.0, 1.0])  # validation RMS of epochs 0 and 1: epoch 1 is better and written to model.pt
+    monkeypatch.setattr(training, "_validate", lambda *a, **k: next(scores))
+    real_write, writes = training.atomic_write, []
+
+    def dying_write(path, *args, **kwargs):
+        writes.append(path)
+        if len(writes) == 2:  # epoch 1's checkpoint: the process dies first
+            raise KeyboardInterrupt
+        return real_write(path, *args, **kwargs)
+
+    monkeypatch.setattr(training, "atomic_write", dying_write)
+    with pytest.raises(KeyboardInterrupt):
+        training.train([walk[:160]], tmp_path, cfg, validation=[walk[160:320]], executor="serial", progress=False)
+    monkeypatch.undo()
+    better = deep.load_model(tmp_path / "model.pt")
+    assert torch.load(tmp_path / "checkpoint.pt", weights_only=True)["epoch"] == 0
+    real_seed = torch.manual_seed
+    monkeypatch.setattr(training, "_validate", lambda *a, **k: 1.5)  # the redo of epoch 1: worse than 1.0, better than 2.0
+    monkeypatch.setattr(torch, "manual_seed", lambda s: real_seed(s + 99))  # and other weights, as on a GPU
+    resumed = training.train([walk[:160]], tmp_path, cfg, validation=[walk[160:320]], executor="serial", progress=False)
+    monkeypatch.undo()
+    kept = deep.load_model(tmp_path / "model.pt")
+    for k, v in better.net.state_dict().items():
+        assert torch.equal(v, kept.net.state_dict()[k]), k
+    assert kept.meta["best_val_rmse"] == resumed.meta["best_val_rmse"] == 1.0 and kept.meta["best_epoch"] == 1
+
+
+def test_a_finished_training_without_its_model_says_so(tmp_path, walk):
+    """The checkpoint of a finished run without model.pt: nothing to resume (it ended in a raw 'no such file')."""
+    training.train([walk[:160]], tmp_path, _tiny(), executor="serial", progress=False)
+    (tmp_path / "model.pt").unlink()
+    with pytest.raises(ValueError, match="its training is finished but model.pt is missing; more --epochs continue it"):
+        training.train([walk[:160]], tmp_path, _tiny(), executor="serial", progress=False)
+    assert training.train([walk[:160]], tmp_path, _tiny(epochs=2), executor="serial", progress=False).meta["best_epoch"] == 1

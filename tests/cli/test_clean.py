@@ -187,7 +187,7 @@ def _run_and_signal(args, sig, ready, tmp_path, timeout=600.0):
 
     The timeout only bounds a hung run; nothing depends on how long a step takes.
     """
-    env = dict(os.environ, PYTHONUNBUFFERED="1")
+    env = dict(os.environ, PYTHONUNBUFFERED="1", MOCAPKIT_PROGRESS="1")  # its bars, though stderr is a pipe
     # a shell runs background jobs with SIGINT ignored and children inherit that; give the CLI the default, as a terminal does
     proc = subprocess.Popen([sys.executable, "-m", "mocapkit.cli", *args], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
                             env=env, cwd=tmp_path, preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))

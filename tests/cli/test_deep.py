@@ -222,6 +222,40 @@ def test_train_command_cross_validates_on_folds(tmp_path):
     assert code == 2 and one_error_line(err) and "need more than" in err
 
 
+def test_train_refuses_a_model_it_did_not_write_before_any_work(tmp_path):
+    """Finding 6: an OUT/model.pt without a checkpoint of the same training was replaced after the first epoch."""
+    out = tmp_path / "m"
+    out.mkdir()
+    (out / "model.pt").write_bytes(b"a model from elsewhere")
+    args = ("train", "denoiser", str(WALK), "-o", str(out), "--epochs", "1", "--steps", "1", "--hidden", "4",
+            "--noise", "angular:0.5", "--executor", "serial")
+    code, stdout, err = run(*args)
+    assert code == 2 and one_error_line(err), err
+    assert "model.pt already exists (no checkpoint of this training beside it); --restart or --overwrite" in err
+    assert sorted(p.name for p in out.iterdir()) == ["model.pt"] and "noisy pairs" not in stdout
+    assert (out / "model.pt").read_bytes() == b"a model from elsewhere"
+    code, _, err = run(*args, "--overwrite")
+    assert code == 0, err
+    code, stdout, err = run(*args[:6], "2", *args[7:])  # the same training, one more epoch: resumed
+    assert code == 0 and "2 epochs" in " ".join(stdout.split()), err
+    # with folds: every fold's folder is checked before the first fold trains
+    clips = [str(mocapkit.samples.path(n)) for n in ("12_walk.amc", "HDM_bd_jogLeftCircle4StepsRstart_001_120.amc",
+                                                      "HDM_bk_sneak2StepsLStart_004_120.amc")]
+    cv = tmp_path / "cv"
+    (cv / "fold_2").mkdir(parents=True)
+    (cv / "fold_2" / "model.pt").write_bytes(b"x")
+    code, _, err = run("train", "gapfiller", *clips, "-o", str(cv), "--folds", "2", "--holdout", "1",
+                       "--epochs", "1", "--steps", "1", "--hidden", "4", "--executor", "serial")
+    assert code == 2 and one_error_line(err) and "fold_2/model.pt already exists" in err
+    assert sorted(str(p.relative_to(cv)) for p in cv.rglob("*")) == ["fold_2", "fold_2/model.pt"]
+
+
+def test_train_help_documents_overwrite_and_restart():
+    code, stdout, _ = run("train", "--help")
+    text = " ".join(stdout.split())
+    assert code == 0 and "--overwrite" in text and "--restart" in text
+
+
 def test_a_bandai_take_is_denoised_by_the_bandai_ebf_with_its_licence_line(tmp_path):
     """The rig family picks the shipped model; its licence (CC BY-NC) is said where it is used; --model overrides."""
     noisy, _ = corrupt.angular_noise(mocapkit.load(BANDAI), 0.5, seed=3)

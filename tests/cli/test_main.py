@@ -315,3 +315,24 @@ def test_a_file_cut_short_is_an_error_not_an_interrupt(monkeypatch, tmp_path):
     monkeypatch.setattr(mocapkit.io.takes, "load_take", cut_short)
     code, _, err = run("convert", SAMPLE, tmp_path / "out.npz")
     assert code == 2 and "interrupted" not in err and one_error_line(err) and "EOFError: No data left" in err
+
+
+def test_without_torch_the_line_says_how_to_get_it(monkeypatch, tmp_path):
+    import mocapkit.io.takes
+
+    def no_torch(*args, **kwargs):
+        raise ModuleNotFoundError("No module named 'torch'", name="torch")
+
+    monkeypatch.setattr(mocapkit.io.takes, "load_take", no_torch)
+    code, _, err = run("convert", SAMPLE, tmp_path / "out.npz")
+    assert code == 2 and one_error_line(err) and "pip install torch==2.13.0" in err
+
+
+def test_a_path_the_terminal_cannot_show_does_not_fail_the_command(tmp_path):
+    src = tmp_path / "Ünïcødé 日本.bvh"
+    src.write_bytes(open(SAMPLE, "rb").read())
+    env = dict(os.environ, PYTHONIOENCODING="ascii")
+    proc = subprocess.run([sys.executable, "-m", "mocapkit.cli", "convert", str(src), str(tmp_path / "é.npz")],
+                          capture_output=True, env=env)
+    assert proc.returncode == 0, proc.stderr
+    assert (tmp_path / "é.npz").is_file() and b"\\xe9.npz" in proc.stdout  # said, escaped

@@ -41,3 +41,19 @@ def test_an_error_leaves_the_old_file_and_no_temp(tmp_path):
             raise RuntimeError("boom")
     assert out.read_text() == "old"
     assert sorted(p.name for p in tmp_path.iterdir()) == ["a.txt"]
+
+
+def test_a_full_disk_names_the_output(tmp_path, monkeypatch):
+    import errno
+    import os
+
+    out = tmp_path / "take.bvh"
+
+    def full(fd):
+        raise OSError(errno.ENOSPC, "No space left on device")
+
+    monkeypatch.setattr(os, "fsync", full)
+    with pytest.raises(OSError) as info:
+        with atomic_write(out) as fh:
+            fh.write("x")
+    assert info.value.filename == str(out) and not list(tmp_path.iterdir())

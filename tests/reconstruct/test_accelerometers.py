@@ -335,6 +335,93 @@ def test_open_knowledge_base_names_a_bad_folder(tmp_path):
         A.open_knowledge_base(tmp_path)
 
 
+def _listing(folder):
+    return sorted(str(p.relative_to(folder)) for p in folder.rglob("*"))
+
+
+def test_cache_dir_of_other_files_is_refused_before_any_work_and_kept(db, tmp_path, monkeypatch):
+    """Findings 1 and 9: a results folder (files, a sub-folder) given as cache_dir is refused in one line, untouched."""
+    from mocapkit.errors import MocapFormatError
+
+    results = tmp_path / "results"
+    (results / "sub").mkdir(parents=True)
+    (results / "thesis_notes.txt").write_text("notes")
+    (results / "sub" / "figure.png").write_bytes(b"png")
+    before = _listing(tmp_path)
+
+    def no_work(*args, **kwargs):
+        raise AssertionError("the knowledge base was built before the folder was checked")
+
+    monkeypatch.setattr(knowledge, "clip_values", no_work)
+    A.clear_cache(db)
+    with pytest.raises(MocapFormatError, match=r"results: refusing to replace it with a knowledge base: it is not a "
+                                               r"knowledge base \(no knowledge.json\)") as info:
+        A.knowledge_base(db, cache_dir=results)
+    assert "\n" not in str(info.value)
+    monkeypatch.undo()
+    kb = A.knowledge_base(db)
+    (results / "knowledge.json").write_text('{"format": 1, "sensors": []}')  # a knowledge base with an extra file
+    for folder, match in ((results, "it holds sub"), (tmp_path / "results" / "thesis_notes.txt", "is a file")):
+        with pytest.raises(MocapFormatError, match=match):
+            A.save_knowledge_base(kb, folder)
+    (results / "knowledge.json").unlink()
+    assert _listing(tmp_path) == before and (results / "thesis_notes.txt").read_text() == "notes"
+
+
+def test_an_interrupted_save_leaves_nothing_and_a_retry_works(db, tmp_path, monkeypatch):
+    """Finding 9: Ctrl-C while the arrays are written: no partial folder, the old knowledge base kept, retry fine."""
+    import os
+    import signal
+
+    kb = A.knowledge_base(db)
+    real_save, calls = np.save, []
+
+    def interrupted_save(*args, **kwargs):
+        calls.append(1)
+        if len(calls) == 3:
+            os.kill(os.getpid(), signal.SIGINT)
+        return real_save(*args, **kwargs)
+
+    monkeypatch.setattr(np, "save", interrupted_save)
+    with pytest.raises(KeyboardInterrupt):
+        A.save_knowledge_base(kb, tmp_path / "kb")
+    assert _listing(tmp_path) == []  # no partial, no hidden folder
+    monkeypatch.undo()
+    A.save_knowledge_base(kb, tmp_path / "kb")  # the retry in the same process
+    saved = {p: p.read_bytes() for p in (tmp_path / "kb").iterdir()}
+    calls.clear()
+    monkeypatch.setattr(np, "save", interrupted_save)
+    with pytest.raises(KeyboardInterrupt):
+        A.save_knowledge_base(kb, tmp_path / "kb")  # replacing it, interrupted: the old one is whole
+    monkeypatch.undo()
+    assert {p: p.read_bytes() for p in (tmp_path / "kb").iterdir()} == saved
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["kb"]
+    A.save_knowledge_base(kb, tmp_path / "kb")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["kb"]
+
+
+def test_a_cached_knowledge_base_of_other_content_is_rebuilt(db, tmp_path):
+    """Finding 4: a database rebuilt from edited takes (same names and lengths) does not reuse the old cache."""
+    import json
+
+    A.clear_cache(db)
+    A.knowledge_base(db, cache_dir=tmp_path / "kb")
+    rot = np.array(db.rotations)
+    rot[:, 1:] = rot[::-1, 1:]  # other motion in the same clips
+    edited = MotionDatabase(fps=db.fps, skeletons=db.skeletons, clips=db.clips, rotations=rot,
+                            root_positions=db.root_positions, features=db.features, info=db.info)
+    kb = A.knowledge_base(edited, cache_dir=tmp_path / "kb")
+    assert kb.path is None  # built, not opened
+    assert not np.allclose(kb.poses, A.knowledge_base(db).poses)  # the edited motion's, not the cached one's
+    assert json.loads((tmp_path / "kb" / "knowledge.json").read_text())["database"]["digest"] == edited.digest
+    A.clear_cache(edited)
+    assert A.knowledge_base(edited, cache_dir=tmp_path / "kb").path == tmp_path / "kb"  # now a match
+    # a database saved to disk: its digest is read from database.json, so the match costs no array read
+    saved = MotionDatabase.open(edited.save(tmp_path / "db"))
+    assert saved.digest == edited.digest
+    assert A.knowledge_base(saved, cache_dir=tmp_path / "kb").path == tmp_path / "kb"
+
+
 # -- the search key with history -----------------------------------------------------------------------------
 
 

@@ -171,8 +171,11 @@ def start(names=KERNELS) -> subprocess.Popen | None:
         return None
     here = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))  # the folder holding mocapkit
     env = {**os.environ, "PYTHONPATH": os.pathsep.join(filter(None, [here, os.environ.get("PYTHONPATH")]))}
-    helper = subprocess.Popen([sys.executable, "-m", __name__, str(os.getpid()), *names], env=env,
-                              stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    try:
+        helper = subprocess.Popen([sys.executable, "-m", __name__, str(os.getpid()), *names], env=env,
+                                  stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    except OSError:  # the interpreter cannot be started again here (a worker run as another user): compile in place
+        return None
     _started.append(helper)
     atexit.register(_stop, helper)
     return helper

@@ -133,6 +133,11 @@ def main(argv: list[str] | None = None) -> int:
     """
     from ..interrupts import interrupts_as_keyboard_interrupt
 
+    for stream in (sys.stdout, sys.stderr):  # a path the terminal's encoding cannot show must not fail the command
+        try:
+            stream.reconfigure(errors="backslashreplace")
+        except (AttributeError, ValueError):  # not a text file of the io module (a test's StringIO)
+            pass
     try:
         with interrupts_as_keyboard_interrupt():  # SIGTERM too, so atomic writes clean up (see mocapkit.interrupts)
             result = app(args=argv, standalone_mode=False)
@@ -198,6 +203,9 @@ def _exit_status(exc: BaseException) -> int:
         return _fail(f"{exc.filename or exc}: no such file")
     if isinstance(exc, OSError):
         return _fail(_os_error_line(exc))
+    if isinstance(exc, ModuleNotFoundError) and exc.name == "torch":  # installed without its declared dependency
+        return _fail("the networks (fill, denoise, train) need PyTorch: pip install torch==2.13.0 (the CPU wheel); "
+                     "or leave those steps out (clean --steps detect,repair)")
     if not isinstance(exc, Exception):  # GeneratorExit and the like: not ours to swallow
         raise exc
     return _fail(f"{type(exc).__name__}: {exc}")  # anything unexpected: still one line, naming the exception

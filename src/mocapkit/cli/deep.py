@@ -194,7 +194,8 @@ def train(
     what: str = typer.Argument(..., metavar="denoiser|gapfiller", help="Train the EBF denoiser or the EBD gap filler."),
     sources: list[Path] = typer.Argument(..., metavar="CLIPS...", help="Motion files, folders or database folders."),
     out: Path = typer.Option(..., "--out", "-o", help="Folder for checkpoint.pt and model.pt (created; "
-                                                       "an existing one is resumed, see --resume)."),
+                                                       "the same training there is resumed, see --resume; "
+                                                       "another one's files are refused, see --overwrite)."),
     holdout: Optional[list[str]] = typer.Option(
         None, "--holdout", help="Validation clips: a name substring (repeat) or a count of random clips."
     ),
@@ -226,14 +227,19 @@ def train(
         False, "--mirror", help="Also train on each training clip's left/right mirror image (doubles a small set)."),
     init: str = typer.Option("xavier", "--init", help="xavier (the shipped models') or paper (uniform [-0.5, 0.5])."),
     seed: int = typer.Option(0, "--seed"),
-    resume: bool = typer.Option(True, "--resume/--restart", help="Continue from out/checkpoint.pt if present."),
+    resume: bool = typer.Option(True, "--resume/--restart", help="Continue from OUT/checkpoint.pt of the same settings "
+                                "and clips (default), or start over there, replacing OUT's model and checkpoint."),
+    overwrite: bool = typer.Option(False, "--overwrite", help="Replace a model.pt or checkpoint.pt of another training "
+                                   "in OUT (refused without it); the same training still resumes."),
     executor: Optional[str] = executor_option("noisy pairs are made"),
     device: str = typer.Option("auto", "--device", help="auto (a GPU when present), cpu or cuda."),
 ) -> None:
     """Train an EBF or EBD on noisy/clean pairs made on the fly with mocapkit.corrupt (Mall et al. 2017, 4).
 
     Writes OUT/model.pt (the best epoch on the validation clips) and OUT/checkpoint.pt after every
-    epoch; running the same command again resumes. With --folds K, OUT/fold_1 ... OUT/fold_K. With
+    epoch; running the same command again resumes. An OUT holding the model or checkpoint of another
+    training (other settings, or clips of other names or content) is refused before any work unless
+    --restart or --overwrite is given. With --folds K, OUT/fold_1 ... OUT/fold_K. With
     --mirror the training clips' mirror images join them (validation clips stay as they are).
     """
     kinds = {"denoiser": "ebf", "gapfiller": "ebd"}
@@ -245,7 +251,7 @@ def train(
     from ..mirroring import mirror_for_rig
 
     # the model folder must not be, or lie inside, a source (a folder of takes, a database); its own files are
-    # resumed and replaced (--resume/--restart), so they are not refused for existing
+    # resumed or replaced (--resume/--restart/--overwrite: training.check_out_dir, below), not refused here
     guard([out / "model.pt", out / "checkpoint.pt"], sources, overwrite=True)
     check_executor(executor)
     try:  # every setting is checked by TrainConfig before a clip is read
@@ -293,14 +299,21 @@ def train(
         except SkeletonError as exc:
             raise MocapError(f"train: spatial noise (in cm{', a default' if not noise else ''}) needs the clips' "
                              f"length unit: {exc}; give --noise without spatial: (e.g. --noise angular:0.5)") from None
-    bests = []
+    runs = []
     for (tr, val), o in zip(splits, outs):
         if not tr:
             raise MocapError("train: every clip is held out; nothing left to train on")
-        if mirror:
-            tr = tr + [mirrors[id(c)] for c in tr]
+        runs.append((tr + [mirrors[id(c)] for c in tr] if mirror else tr, val, o))
+    try:  # every fold's folder before the first fold trains: a model of another training is never replaced unasked
+        for tr, val, o in runs:
+            training.check_out_dir(o, tr, cfg, val or None, resume=resume, overwrite=overwrite)
+    except ValueError as exc:
+        raise MocapError(f"train: {exc}") from None
+    bests = []
+    for tr, val, o in runs:
         try:
-            model = training.train(tr, o, cfg, validation=val or None, resume=resume, executor=executor)
+            model = training.train(tr, o, cfg, validation=val or None, resume=resume, executor=executor,
+                                   overwrite=overwrite)
         except (SkeletonError, ValueError) as exc:
             raise MocapError(f"train: {exc}") from None
         except KeyboardInterrupt:  # a checkpoint is a whole file, kept on purpose: say so beside "interrupted"

@@ -222,9 +222,18 @@ def atomic_write(path, mode: str = "w", **open_kwargs):
             os.fsync(fh.fileno())
         os.chmod(tmp, _final_mode(path))
         publish(tmp, path)  # a rename; a link where the file must still be new (outputs.removed_on_failure)
-    except BaseException:
-        try:
-            os.unlink(tmp)
-        except FileNotFoundError:
-            pass
+    except OSError as exc:
+        if exc.filename is None:  # a write or fsync failed (a full disk): the error names the output
+            exc.filename = str(path)
+        _discard(tmp)
         raise
+    except BaseException:
+        _discard(tmp)
+        raise
+
+
+def _discard(tmp: str) -> None:
+    try:
+        os.unlink(tmp)
+    except FileNotFoundError:
+        pass

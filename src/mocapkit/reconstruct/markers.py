@@ -120,6 +120,7 @@ import numba
 import numpy as np
 from scipy.optimize import least_squares
 from tqdm.auto import tqdm
+from ..progress import bar_disabled
 
 from .. import rotations as R
 from .._numba_quaternions import qexp, qmul, qrot
@@ -677,7 +678,7 @@ def _run(
     gpos = np.zeros((F, J, 3))
     mpos = np.zeros((F, len(joints), 3))
     model = None
-    for t in tqdm(range(t0, F), disable=not progress, desc="frames", unit="frame"):
+    for t in tqdm(range(t0, F), disable=bar_disabled(progress), desc="frames", unit="frame"):
         obs, m_seen = x[t], seen[t]
         n_seen = int(m_seen.sum())
         if t == t0:

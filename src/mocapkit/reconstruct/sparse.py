@@ -55,6 +55,7 @@ def reconstruct_sparse(
     input's where it is finite. Words are matched at ``analysis_fps``.
     """
     from tqdm.auto import tqdm
+    from ..progress import bar_disabled
 
     sk = sparse.skeleton
     known = np.array(sorted({sk.index(j) if isinstance(j, str) else int(j) for j in joints}), dtype=np.int64)
@@ -81,7 +82,7 @@ def reconstruct_sparse(
     prev_last = None
     wi, ki = np.nonzero(nb.pos[0] >= 0)
     nws, ok = neighbor_words(src.values, full, known, drop, words[wi], nb.pos[0][wi, ki], N, M, min(11, N), out_rows=all_rows)
-    for w, s in enumerate(tqdm(words, desc="sparse reconstruction", disable=not progress, unit="word")):
+    for w, s in enumerate(tqdm(words, desc="sparse reconstruction", disable=bar_disabled(progress), unit="word")):
         cands = [(float(nb.dist[0, w, ki[q]]), nws[q]) for q in np.flatnonzero((wi == w) & ok)]
         if not cands:
             continue

@@ -229,7 +229,8 @@ def licence_note(model: DeepModel, options: dict[str, str] | None = None) -> str
     if not lic:
         return ""
     option = (options or {}).get(model.kind) or f"--{model.kind} (clean, clean-batch; models= in Python)"
-    return f"the {model.kind.upper()} used is {lic}; {option} picks another, e.g. {SHIPPED[model.kind]}"
+    return (f"the {model.kind.upper()} used is {lic}; {option} picks another, e.g. {SHIPPED[model.kind]} (trained on "
+            "HDM05 and CMU takes; HDM05's terms: research use, docs/models.md)")
 
 
 def model_of_kind(model, kind: str, take=None) -> DeepModel:

@@ -273,7 +273,15 @@ def conditional_fill(values: np.ndarray, prior: GapPrior, fps: float, prior_s: f
     The other joints' word removes noise a filter of one channel leaves: 1-4 s
     whole-joint gaps at 0.5 noise 1.6-1.8 % less error on both rigs'
     validation clips, within 0.1 % without noise (docs/models.md).
+
+    BLAS runs on one thread throughout, so the fill is the same to the last bit on any machine and
+    under any executor (OpenBLAS splits its sums by its thread count).
     """
+    with threadpool_limits(1, user_api="blas"):
+        return _conditional_fill(values, prior, fps, prior_s, smoothed, cross)
+
+
+def _conditional_fill(values, prior: GapPrior, fps: float, prior_s: float, smoothed, cross: float) -> np.ndarray:
     x = np.asarray(values, dtype=np.float64)
     F, C = x.shape
     if C != prior.num_channels:
@@ -303,8 +311,7 @@ def conditional_fill(values: np.ndarray, prior: GapPrior, fps: float, prior_s: f
         for s, e in zip(*gap_runs(miss[:, c])):
             events.setdefault((int(s), int(e)), []).append(int(c))
     prec = np.linalg.inv(cov + prior.ridge * np.eye(len(cov)))  # of every entry; marginals by Schur complements
-    with threadpool_limits(1, user_api="blas"):  # many small solves: a BLAS thread pool costs more than it gives
-        _fill_events(out, base, miss, events, prior, lags, mean, cov, prec)
+    _fill_events(out, base, miss, events, prior, lags, mean, cov, prec)
     return out
 
 

@@ -16,11 +16,20 @@ Training is seeded and deterministic on the CPU: epoch ``e`` uses the seeds
 it had not stopped. Checkpoints and the best model (lowest validation RMS in
 degrees on the held-out clips) are written atomically after every epoch, so
 interrupting never leaves a broken file.
+
+A run's identity is its settings and the content of its clips (names and
+:func:`clip_digest`); ``model.pt`` carries it with its own validation RMS.
+An output folder holding a checkpoint or model of another training is
+refused before any work (:func:`check_out_dir`), and a resumed run takes
+the best score from ``model.pt`` itself, so a run killed between writing
+``model.pt`` and ``checkpoint.pt`` never replaces a better model with a
+worse one.
 """
 
 from __future__ import annotations
 
 import dataclasses
+import hashlib
 import json
 import math
 import time
@@ -40,7 +49,8 @@ from .inference import DeepModel, denoise_channels, lerp_fill, run_ebd, save_mod
 from .networks import EBD, EBF, HALF_WINDOW, window_indices
 from .prior import fit_gap_prior
 
-__all__ = ["TrainConfig", "load_clips", "split_holdout", "holdout_folds", "gap_mask", "channel_joints", "prepare_clip", "train"]
+__all__ = ["TrainConfig", "load_clips", "split_holdout", "holdout_folds", "gap_mask", "channel_joints", "prepare_clip", "train",
+           "clip_digest", "check_out_dir"]
 
 DEFAULT_NOISE = ("angular:0.1", "angular:0.5", "angular:0.9", "uniform:0.5", "spatial:0.5", "spatial:1.0")
 BIAS_NOISE = ("bias-constant:0.5", "bias-sinusoidal:0.5")
@@ -449,6 +459,102 @@ def _plateau_halvings(history: list[dict], patience: int) -> list[bool]:
     return out
 
 
+def clip_digest(m: Motion) -> str:
+    """The identity of a clip's content (32 hex digits): BLAKE2b of its fps, joint names, parents, bone offsets,
+    rotations, root positions and translations (dtype, shape and bytes of each). Any edited sample changes it;
+    the name does not enter it (a checkpoint keeps names beside digests)."""
+    h = hashlib.blake2b(digest_size=16)
+    sk = m.skeleton
+    h.update(json.dumps([float(m.fps), list(sk.joint_names)]).encode())
+    for a in (sk.parents, sk.offsets, m.rotations, m.root_positions, m.translations):
+        if a is None:
+            h.update(b"\0none")
+            continue
+        a = np.ascontiguousarray(a)
+        h.update(f"\0{a.dtype.str}{a.shape}".encode())
+        h.update(memoryview(a.reshape(-1)).cast("B"))
+    return h.hexdigest()
+
+
+def _identity(cfg: TrainConfig, clips: list[Motion], validation: list[Motion] | None) -> tuple[str, str]:
+    """The settings (all but the stopping rule and device) and the data of a run, as the JSON a checkpoint keeps."""
+    same = {k: v for k, v in dataclasses.asdict(cfg).items() if k not in ("epochs", "minutes", "device")}
+    data = {"train": [[c.name, clip_digest(c)] for c in clips],
+            "validation": [[c.name, clip_digest(c)] for c in validation or []]}
+    return json.dumps(same, sort_keys=True), json.dumps(data)
+
+
+def _training_id(cfg_json: str, data_json: str) -> str:
+    """One digest of a run's settings and data: what ``model.pt``'s metadata ``training`` holds."""
+    return hashlib.blake2b(f"{cfg_json}\0{data_json}".encode(), digest_size=16).hexdigest()
+
+
+def _load_or_none(path: Path) -> dict | None:
+    """``torch.load`` of a checkpoint or model file (weights only); None when it is not one (damaged, foreign)."""
+    try:
+        out = torch.load(path, map_location="cpu", weights_only=True)
+    except Exception:  # pickle, zip and torch errors alike: not a file of ours
+        return None
+    return out if isinstance(out, dict) else None
+
+
+def _model_record(path: Path) -> dict | None:
+    """``model.pt``'s metadata (JSON), None when it is missing or unreadable."""
+    payload = _load_or_none(path) if path.is_file() else None
+    try:
+        meta = json.loads(payload["meta"]) if payload is not None else None
+    except (KeyError, TypeError, ValueError):
+        return None
+    return meta if isinstance(meta, dict) else None
+
+
+def check_out_dir(out_dir, clips: list[Motion], config: TrainConfig = TrainConfig(), validation: list[Motion] | None = None,
+                  resume: bool = True, overwrite: bool = False) -> bool:
+    """Refuse, before any work, an output folder whose model or checkpoint a run would replace unasked; True to resume.
+
+    The folder's run continues (True) when ``checkpoint.pt`` holds the same
+    settings (all but epochs, minutes, device) on the same clips (names and
+    :func:`clip_digest`; a checkpoint from before digests were kept does not
+    match) and ``model.pt``, if present, is that run's. Otherwise the folder
+    is refused (ValueError, one line saying what differs and that
+    ``--restart`` starts over there) when it holds a checkpoint or a
+    ``model.pt``: these are replaced only with ``resume=False``
+    (``--restart``: start over) or ``overwrite`` (start over where the folder
+    is not this run's, resume where it is).
+    """
+    out_dir = Path(out_dir)
+    ckpt_path, model_path = out_dir / "checkpoint.pt", out_dir / "model.pt"
+    if not resume:
+        return False
+    cfg_json, data_json = _identity(config, clips, validation)
+    same_run = False
+    if ckpt_path.is_file():
+        ck = _load_or_none(ckpt_path)
+        if ck is None:
+            other = "an unreadable checkpoint.pt (not one mocapkit wrote)"
+        else:
+            differ = [what for what, same in (("settings", ck.get("config") == cfg_json),
+                                              ("clips", ck.get("data") == data_json)) if not same]
+            other = f"a training with other {' and '.join(differ)}" if differ else ""
+        if other and not overwrite:
+            why = " (or the same clips with other content, or a checkpoint from before clip digests)" if "clips" in other else ""
+            raise ValueError(f"{out_dir} holds {other}{why}; --restart starts it over there (its model and checkpoint "
+                             "replaced), or give another folder")
+        same_run = not other
+        if same_run and not model_path.exists() and int(ck.get("epoch", -1)) + 1 >= config.epochs:
+            raise ValueError(f"{out_dir}: its training is finished but model.pt is missing; more --epochs continue "
+                             "it, --restart trains it again")
+    if model_path.exists():
+        meta = _model_record(model_path)
+        mine = same_run and meta is not None and meta.get("training") == _training_id(cfg_json, data_json)
+        if not mine and not overwrite:
+            why = "no checkpoint of this training beside it" if not same_run else "it is another training's model"
+            raise ValueError(f"{model_path} already exists ({why}); --restart or --overwrite replaces it, or give "
+                             "another folder")
+        same_run = same_run and mine
+    return same_run
+
+
 def train(
     clips: list[Motion],
     out_dir,
@@ -458,12 +564,19 @@ def train(
     executor=None,
     progress: bool = True,
     meta: dict | None = None,
+    overwrite: bool = False,
 ) -> DeepModel:
     """Train an EBF or EBD on ``clips``; returns the best model (also written to ``out_dir/model.pt``).
 
     ``out_dir/checkpoint.pt`` holds the weights, optimiser state and history
     after each epoch; with ``resume`` an existing checkpoint of the same
-    config continues where it stopped. ``executor``: where the noisy pools are
+    config and clips continues where it stopped. A folder holding another
+    run's checkpoint or model is refused before any work unless
+    ``resume=False`` (start over) or ``overwrite`` (:func:`check_out_dir`).
+    ``model.pt``'s metadata keeps the run's identity (``training``) and its
+    score (``best_val_rmse``, ``best_epoch``); a resumed run starts from that
+    score, so it replaces ``model.pt`` only with a better model, even after
+    a kill between the two files' writes. ``executor``: where the noisy pools are
     made (:func:`mocapkit.parallel.map_ordered`). ``meta``: extra entries for
     the model's metadata (e.g. ``{"rig": "bandai", "licence": "CC BY-NC 4.0 ..."}``:
     a model inherits the licence of the takes it was trained on).
@@ -475,18 +588,11 @@ def train(
         raise ValueError("no training clips")
     out_dir = Path(out_dir)  # made by the first write (atomic_write): a run that fails before leaves no folder
     # A checkpoint continues when everything but the stopping rule and device matches, on the same clips;
-    # another one is not replaced by a resume (its model would be lost): refused before any work
-    same = {k: v for k, v in dataclasses.asdict(cfg).items() if k not in ("epochs", "minutes", "device")}
-    cfg_json = json.dumps(same, sort_keys=True)
-    data_json = json.dumps({"train": [c.name for c in clips], "validation": [c.name for c in validation or []]})
+    # another run's checkpoint or model is not replaced by a resume (it would be lost): refused before any work
+    resume = check_out_dir(out_dir, clips, cfg, validation, resume=resume, overwrite=overwrite)
+    cfg_json, data_json = _identity(cfg, clips, validation)
+    training_id = _training_id(cfg_json, data_json)
     ckpt_path = out_dir / "checkpoint.pt"
-    if resume and ckpt_path.is_file():
-        ck = torch.load(ckpt_path, map_location="cpu", weights_only=True)
-        other = [what for what, same_as in (("settings", ck.get("config") == cfg_json),
-                                            ("clips", ck.get("data", data_json) == data_json)) if not same_as]
-        if other:
-            raise ValueError(f"{out_dir} holds a training with other {' and '.join(other)}; --restart starts it "
-                             "over there (its model and checkpoint replaced), or give another folder")
     layout = layout_for(clips[0], cfg.representation)
     fps = clips[0].fps
     for c in clips + list(validation or []):
@@ -512,13 +618,16 @@ def train(
     opt = torch.optim.Adam(net.parameters(), lr=cfg.lr)
     history: list[dict] = []
     start_epoch, best = 0, math.inf
-    if resume and ckpt_path.is_file():  # of the same settings and clips (checked above)
+    if resume:  # a checkpoint of the same settings and clips (checked above)
         ck = torch.load(ckpt_path, map_location="cpu", weights_only=True)
-        if ck.get("config") == cfg_json:
-            net.load_state_dict(ck["state"])
-            opt.load_state_dict(ck["optimizer"])
-            start_epoch, best = int(ck["epoch"]) + 1, float(ck["best"])
-            history = json.loads(ck["history"])
+        net.load_state_dict(ck["state"])
+        opt.load_state_dict(ck["optimizer"])
+        start_epoch = int(ck["epoch"]) + 1
+        history = json.loads(ck["history"])
+        # the score to beat is model.pt's own (this run's, checked above): written before the checkpoint, it may be
+        # an epoch ahead of it after a kill between the two writes; without model.pt any epoch writes one
+        record = _model_record(out_dir / "model.pt")
+        best = float(record.get("best_val_rmse", math.inf)) if record is not None else math.inf
     net.to(dev)
     for st in opt.state.values():
         for k, v in st.items():
@@ -552,7 +661,8 @@ def train(
                         "lr": opt.param_groups[0]["lr"], "seconds": time.perf_counter() - te})
         meta = {"config": dataclasses.asdict(cfg), "train_clips": [c.name for c in clips],
                 "validation_clips": [c.name for c in (validation or [])], "history": history,
-                "train_seconds": time.perf_counter() - t0, "torch": torch.__version__, **(meta or {})}
+                "train_seconds": time.perf_counter() - t0, "torch": torch.__version__, **(meta or {}),
+                "training": training_id, "best_val_rmse": v, "best_epoch": epoch}
         if v < best:
             best = v
             save_model(DeepModel(cfg.kind, net, layout, fps, meta), out_dir / "model.pt")

@@ -337,6 +337,7 @@ def detect(
 def detect_prepared(an: Analysis, threshold: float = 0.5, *, progress: bool = False) -> Detection:
     """:func:`detect` on a take already prepared by :func:`prepare` (with its parameters and context)."""
     from tqdm.auto import tqdm
+    from ...progress import bar_disabled
 
     motion, p = an.motion, an.params
     N, M = int(p.source_length), int(p.target_length)
@@ -368,7 +369,7 @@ def detect_prepared(an: Analysis, threshold: float = 0.5, *, progress: bool = Fa
     )
     mean_tex = np.full((G, src.num_frames, m, 4), np.nan)
     spread = np.full((G, src.num_frames, m), np.nan)
-    bar = tqdm(total=W * G * (2 if two_stage and has_context else 1), desc=f"ssa {motion.name or 'motion'}", disable=not progress, unit="word")
+    bar = tqdm(total=W * G * (2 if two_stage and has_context else 1), desc=f"ssa {motion.name or 'motion'}", disable=bar_disabled(progress), unit="word")
     try:
         if two_stage and has_context:
             whole = [gnames.index("whole")] if "whole" in gnames else [int(np.argmax([len(r) for r in grows]))]

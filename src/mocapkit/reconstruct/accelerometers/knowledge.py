@@ -23,7 +23,14 @@ frames) is built once, in parallel over local processes when the database
 was opened from disk (:mod:`mocapkit.parallel`), and saved
 (:func:`save_knowledge_base`) as ``.npy`` arrays that
 :func:`open_knowledge_base` memory-maps; the kd-tree over the readings is
-rebuilt on first use. ``knowledge_base(db, cache_dir=...)`` does both.
+rebuilt on first use. ``knowledge_base(db, cache_dir=...)`` does both, and
+reuses a saved knowledge base only when it was built from the same content
+(the database's :attr:`~mocapkit.database.MotionDatabase.digest`, read from
+``database.json`` for a saved database, so the check costs no array read).
+Saving loses nothing: a folder that is not a knowledge base is refused
+before any work (:func:`check_knowledge_base_output`), and the write goes
+through a hidden folder renamed into place
+(:func:`mocapkit.database_folder.publish_folder`), as a database's does.
 
 Departure from the thesis: the knowledge base keeps each clip's own skeleton
 (the thesis averages bone lengths).
@@ -33,6 +40,7 @@ from __future__ import annotations
 
 import json
 import os
+import shutil
 import time
 import weakref
 from dataclasses import dataclass
@@ -44,15 +52,17 @@ import numpy as np
 
 from ... import rotations as R
 from ...database import MotionDatabase
+from ...database_folder import publish_folder, recover_leftovers, staging_folder
 from ...errors import MocapFormatError
 from ...features import Sensor, default_sensors, find_up_axis, five_point_derivative, root_frame, virtual_accelerometers
+from ...io.outputs import resolved
 from ...motion import Motion, Skeleton, unit_scale_cm
 from ...parallel import map_ordered
 from ...search.knn import KNNIndex
 from .._common import body_motion, body_skeleton, database_up
 
 __all__ = ["KnowledgeBase", "knowledge_base", "clear_cache", "clip_values", "check_sensors", "database_up", "stacked_readings", "clip_starts",
-           "save_knowledge_base", "open_knowledge_base"]
+           "save_knowledge_base", "open_knowledge_base", "check_knowledge_base_output"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -275,6 +285,8 @@ def _clip_block(clips: range, sensors, up, database: str) -> tuple:
 
 _ARRAYS = ("readings", "poses", "pose_mean", "pose_basis", "pose_coords", "velocities", "accelerations",
            "root_velocity", "yaw_rate", "root_height", "clip_ids")
+DESCRIPTION = "knowledge.json"
+_FORMAT = 1  # knowledge.json's "format"
 
 
 def knowledge_base(db: MotionDatabase, sensors: Sequence[Sensor] | None = None, *, cache_dir=None,
@@ -289,9 +301,11 @@ def knowledge_base(db: MotionDatabase, sensors: Sequence[Sensor] | None = None, 
     (:meth:`KnowledgeBase.index`) and kept with it.
 
     ``cache_dir``: a folder for the knowledge base on disk. When it holds one
-    of this database (same frames, clips and sensors) it is opened
-    memory-mapped (:func:`open_knowledge_base`); otherwise the knowledge base
-    is built and saved there (:func:`save_knowledge_base`).
+    of this database (same content digest, frames, clips and sensors) it is
+    opened memory-mapped (:func:`open_knowledge_base`); otherwise the
+    knowledge base is built and saved there (:func:`save_knowledge_base`),
+    replacing only a knowledge base: any other existing folder is refused
+    before any work (:func:`check_knowledge_base_output`).
     """
     if not isinstance(db, MotionDatabase):
         raise ValueError(f"db: expected a MotionDatabase, got {type(db).__name__}")
@@ -309,6 +323,7 @@ def knowledge_base(db: MotionDatabase, sensors: Sequence[Sensor] | None = None, 
         if found is not None:
             per_db[key] = found
             return found
+        check_knowledge_base_output(cache_dir)  # before the build: a folder of other files is refused, not emptied
     t0 = time.perf_counter()
     S, J = len(sensors), sk0.num_joints
     if db.path is not None and executor != "serial" and db.num_clips > 1:
@@ -359,7 +374,9 @@ def knowledge_base(db: MotionDatabase, sensors: Sequence[Sensor] | None = None, 
 
 
 def _fingerprint(db: MotionDatabase) -> dict:
-    return {"frames": int(db.num_frames), "clips": [[c.name, int(c.frames)] for c in db.clips], "fps": float(db.fps)}
+    """What identifies ``db`` to a saved knowledge base: its content digest (free for a saved database), frames, clips, fps."""
+    return {"digest": db.digest, "frames": int(db.num_frames), "clips": [[c.name, int(c.frames)] for c in db.clips],
+            "fps": float(db.fps)}
 
 
 def _sensor_json(sensors) -> list:
@@ -367,32 +384,99 @@ def _sensor_json(sensors) -> list:
              "offset": [float(x) for x in s.offset]} for s in sensors]
 
 
+def _not_a_knowledge_base(folder: Path) -> str:
+    """Why the existing ``folder`` may not be replaced ("" when it is a knowledge base or empty).
+
+    Only what :func:`save_knowledge_base` writes may be lost: ``knowledge.json``
+    naming the format and the ``.npy`` file of each array, all regular
+    files (no links, sub-folders or other files).
+    """
+    if not folder.is_dir():
+        return "it is a file, not a knowledge base folder"
+    names = {}
+    with os.scandir(folder) as entries:
+        for e in entries:
+            names[e.name] = e.is_file(follow_symlinks=False)
+    if not names:
+        return ""
+    if not names.get(DESCRIPTION):
+        return f"it is not a knowledge base (no {DESCRIPTION})"
+    allowed = {DESCRIPTION} | {f"{n}.npy" for n in _ARRAYS}
+    for name, regular in sorted(names.items()):
+        if name not in allowed or not regular:
+            return f"it holds {name}, which a knowledge base save does not write"
+    try:
+        with open(folder / DESCRIPTION, encoding="utf-8") as fh:
+            meta = json.loads(fh.read(2**20))
+    except (OSError, ValueError):
+        meta = None
+    if not isinstance(meta, dict) or meta.get("format") != _FORMAT or "sensors" not in meta:
+        return f"it is not a knowledge base ({DESCRIPTION} does not say so)"
+    return ""
+
+
+def check_knowledge_base_output(directory) -> None:
+    """Refuse, before any work, a folder that :func:`save_knowledge_base` could not replace without loss.
+
+    ``directory`` may be missing, an empty folder or a knowledge base
+    (``knowledge.json`` of this format and the array files, nothing else):
+    a cache folder is replaced without asking. Anything else (a results
+    folder, a file, a broken link, a parent that is a file) is one
+    :class:`~mocapkit.errors.MocapFormatError` line naming it, and nothing
+    is touched. What a killed save left beside it is tidied first
+    (:func:`mocapkit.database_folder.recover_leftovers`).
+    """
+    out = Path(directory)
+    parent = resolved(out).parent
+    while not parent.exists() and parent != parent.parent:
+        parent = parent.parent
+    if not parent.is_dir():
+        raise MocapFormatError(out, f"cannot create it: {parent} is a file, not a folder")
+    if resolved(out).parent.is_dir():
+        recover_leftovers(resolved(out))
+    if not os.path.lexists(out):
+        return
+    why = _not_a_knowledge_base(resolved(out)) if out.exists() else "it is a broken symbolic link"
+    if why:
+        raise MocapFormatError(out, f"refusing to replace it with a knowledge base: {why}; give an empty or new folder")
+
+
 def save_knowledge_base(kb: KnowledgeBase, directory, database: dict | None = None) -> Path:
     """Write ``kb`` to the folder ``directory``: ``knowledge.json`` (sensors, up, fps, build time) and one ``.npy`` per array.
 
     ``database`` (optional, JSON-friendly) identifies the database it was
     built from; :func:`knowledge_base` compares it before reusing the folder.
-    The folder is written beside the target and renamed into place, so an
-    interrupted save never leaves a partial knowledge base. Returns the folder.
+    An existing ``directory`` is replaced only when it is a knowledge base
+    (or empty); anything else is refused (:func:`check_knowledge_base_output`).
+    The folder is written into a hidden ``.NAME.OWNER-XXXX.part`` beside the
+    target (removed on any failure or interrupt) and renamed into place, the
+    old knowledge base deleted only after that
+    (:func:`mocapkit.database_folder.publish_folder`), so an interrupted save
+    leaves the old or the new knowledge base, never a partial one, and can
+    simply be run again. A failing write is one MocapFormatError line.
+    Returns the folder.
     """
+    check_knowledge_base_output(directory)
     directory = Path(directory)
-    directory.parent.mkdir(parents=True, exist_ok=True)
-    tmp = directory.with_name(directory.name + f".writing-{os.getpid()}")
-    tmp.mkdir()
-    for name in _ARRAYS:
-        np.save(tmp / f"{name}.npy", np.ascontiguousarray(getattr(kb, name)))
-    meta = {"format": 1, "sensors": _sensor_json(kb.sensors), "up": [float(x) for x in kb.up], "fps": float(kb.fps),
+    target = resolved(directory)  # a symlinked folder: replace what it points to
+    meta = {"format": _FORMAT, "sensors": _sensor_json(kb.sensors), "up": [float(x) for x in kb.up], "fps": float(kb.fps),
             "build_seconds": float(kb.build_seconds), "database": database}
-    (tmp / "knowledge.json").write_text(json.dumps(meta))
-    if directory.exists():
-        old = directory.with_name(directory.name + f".old-{os.getpid()}")
-        os.replace(directory, old)
-        os.replace(tmp, directory)
-        for p in old.iterdir():
-            p.unlink()
-        old.rmdir()
-    else:
-        os.replace(tmp, directory)
+    try:
+        target.parent.mkdir(parents=True, exist_ok=True)
+        tmp = staging_folder(target)
+    except OSError as exc:
+        raise MocapFormatError(directory, f"cannot write the knowledge base ({exc.strerror or exc})") from None
+    try:
+        for name in _ARRAYS:
+            np.save(tmp / f"{name}.npy", np.ascontiguousarray(getattr(kb, name)))
+        (tmp / DESCRIPTION).write_text(json.dumps(meta))
+        check_knowledge_base_output(directory)  # it may have changed meanwhile
+        publish_folder(tmp, target)
+    except BaseException as exc:
+        shutil.rmtree(tmp, ignore_errors=True)
+        if isinstance(exc, OSError):
+            raise MocapFormatError(directory, f"cannot write the knowledge base ({exc.strerror or exc})") from None
+        raise
     return directory
 
 
@@ -407,7 +491,7 @@ def open_knowledge_base(directory, mmap: bool = True) -> KnowledgeBase:
     """
     directory = Path(directory)
     try:
-        meta = json.loads((directory / "knowledge.json").read_text())
+        meta = json.loads((directory / DESCRIPTION).read_text())
         arrays = {n: np.load(directory / f"{n}.npy", mmap_mode="r" if mmap else None, allow_pickle=False) for n in _ARRAYS}
         sensors = tuple(Sensor(d["name"], d["joint"], np.asarray(d["rotation"]), np.asarray(d["offset"])) for d in meta["sensors"])
         up = np.asarray(meta["up"], dtype=np.float64)
@@ -423,8 +507,10 @@ def open_knowledge_base(directory, mmap: bool = True) -> KnowledgeBase:
 def _open_matching(directory: Path, db: MotionDatabase, key: tuple) -> KnowledgeBase | None:
     """The knowledge base in ``directory`` if it was built from ``db`` with the sensors of ``key``, else None."""
     try:
-        meta = json.loads((directory / "knowledge.json").read_text())
+        meta = json.loads((directory / DESCRIPTION).read_text())
     except (OSError, ValueError):
+        return None
+    if not isinstance(meta, dict):
         return None
     if meta.get("database") != json.loads(json.dumps(_fingerprint(db))):
         return None

@@ -1,0 +1,28 @@
+"""mocapkit.kernel_cache: numba gets a place for the kernels when the install and the home are read-only."""
+
+import os
+from pathlib import Path
+
+import numba
+
+from mocapkit import kernel_cache
+
+
+def test_a_private_temporary_folder_when_nothing_else_is_writable(monkeypatch, tmp_path):
+    monkeypatch.delenv("NUMBA_CACHE_DIR", raising=False)
+    monkeypatch.setattr(numba.config, "CACHE_DIR", numba.config.CACHE_DIR)  # restored after the test
+    monkeypatch.setattr(kernel_cache, "writable", lambda folder: False)  # read-only site-packages and home
+    monkeypatch.setattr(kernel_cache.tempfile, "gettempdir", lambda: str(tmp_path))
+    folder = kernel_cache.ensure_cache_dir()
+    assert folder is not None and Path(folder).parent == tmp_path and os.environ["NUMBA_CACHE_DIR"] == folder
+    assert numba.config.CACHE_DIR == folder  # numba was imported first: its setting follows
+
+
+def test_nothing_changes_where_numba_has_a_place(monkeypatch, tmp_path):
+    assert kernel_cache.writable(tmp_path / "new" / "deep") and not kernel_cache.writable(Path("/proc/nope"))
+    monkeypatch.setenv("NUMBA_CACHE_DIR", str(tmp_path / "mine"))
+    assert kernel_cache.ensure_cache_dir() is None and os.environ["NUMBA_CACHE_DIR"] == str(tmp_path / "mine")
+    monkeypatch.delenv("NUMBA_CACHE_DIR")
+    monkeypatch.setattr(kernel_cache, "writable", lambda folder: "__pycache__" not in str(folder))
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "xdg"))
+    assert kernel_cache.ensure_cache_dir() is None and "NUMBA_CACHE_DIR" not in os.environ
