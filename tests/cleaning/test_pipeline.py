@@ -467,3 +467,15 @@ def test_load_params_names_a_record_it_cannot_read(tmp_path):
         CleanResult.load_params(tmp_path / "other.npz")
     np.savez(tmp_path / "markers.clean.npz", kind=np.array("markers"), filled=np.zeros((2, 2), bool))
     assert CleanResult.load_params(tmp_path / "markers.clean.npz") is None  # a marker capture's record keeps none
+
+
+def test_a_take_mostly_missing_is_filled_with_a_warning():
+    take = mocapkit.load(samples.path("12_walk.amc"))
+    rot = np.array(take.rotations)
+    rot[40:300, 1:] = np.nan  # 73 % of the joint samples (the root stays)
+    res = clean(dataclasses.replace(take, rotations=rot), steps=("fill",))
+    said = [n for n in res.notes if "made up most of what it returns" in n]
+    assert said and said[0].startswith("73 % of the take's joint samples were missing")
+    assert said[0] in res.steps[0].note  # a step's note: clean prints it as a warning line
+    few = clean(corrupt.gaps(take, seed=1)[0], steps=("fill",))
+    assert not [n for n in few.notes if "made up" in n]

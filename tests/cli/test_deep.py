@@ -425,3 +425,11 @@ def test_an_interrupted_train_says_its_checkpoint_resumes(tmp_path):
     assert p.returncode == 130, stderr
     assert f"{out / 'checkpoint.pt'} keeps the last finished epoch; the same command resumes" in " ".join(stdout.split())
     assert (out / "checkpoint.pt").is_file()
+
+
+def test_denoise_refuses_a_take_too_short_to_tell_noise_by(tmp_path):
+    short = tmp_path / "short.bvh"
+    mocapkit.save(mocapkit.load(SAMPLE)[:5], short)
+    code, _, err = run("denoise", short, "-o", tmp_path / "d.bvh")
+    assert code == 2 and one_error_line(err) and "5 frames is shorter than the noise criterion's fit (7 frames)" in err
+    assert not (tmp_path / "d.bvh").exists()

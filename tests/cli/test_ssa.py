@@ -7,7 +7,7 @@ import numpy as np
 import mocapkit
 from mocapkit import corrupt
 from mocapkit.cleaning import ssa
-from tests.cli.helpers import one_error_line, run
+from tests.cli.helpers import SAMPLE, one_error_line, run
 
 
 def test_detect_and_repair(tmp_path):
@@ -117,3 +117,10 @@ def test_detect_context_forms(tmp_path):
     assert code == 0 and "judged against the bundled default context (" in text
     assert len(ssa.Detection.load(out).context_clips) > 20
     assert sorted(p.name for p in folder.iterdir()) == ["HDM_bk.asf", "HDM_bk_sneak2StepsLStart_004_120.amc"]
+
+
+def test_detect_says_a_short_take_in_its_own_frames(tmp_path):
+    short = tmp_path / "short.bvh"
+    mocapkit.save(mocapkit.load(SAMPLE)[:10], short)
+    code, _, err = run("detect", short, "--out", tmp_path / "d.npz")
+    assert code == 2 and "10 frames (0.08 s) is shorter than one motion word (15 frames at 24 fps, 0.625 s)" in err

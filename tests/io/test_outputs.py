@@ -21,7 +21,7 @@ def test_created_files_are_removed_and_earlier_files_kept(tmp_path):
             raise RuntimeError("the third file failed")
     assert old.read_text() == "before"  # existed before: its old contents are back
     assert not new.exists() and not never.exists()
-    assert sorted(p.name for p in tmp_path.iterdir()) == ["deep", "old.txt"]  # no hidden copy left
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["old.txt"]  # no hidden copy, nor the folder made for new.txt
 
 
 def test_interrupts_clean_up_too_and_success_keeps_everything(tmp_path):
@@ -89,3 +89,13 @@ def test_a_dangling_link_is_an_existing_output(tmp_path):
     with pytest.raises(MocapFormatError, match="already exists"):
         check_outputs([link])
     check_outputs([link], overwrite=True)
+
+
+def test_folders_made_for_a_failed_output_are_removed_too(tmp_path):
+    out = tmp_path / "new" / "deeper" / "take.bvh"
+    with pytest.raises(KeyboardInterrupt):
+        with removed_on_failure([out], overwrite=False):
+            with atomic_write(out) as fh:
+                fh.write("x")
+            raise KeyboardInterrupt
+    assert list(tmp_path.iterdir()) == []

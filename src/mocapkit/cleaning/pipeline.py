@@ -578,6 +578,27 @@ def _padded_detection(det, lo: int, F: int):
                                                          "poses left out); word starts count from there",))
 
 
+def noise_fit_frames(fps: float) -> int:
+    """Frames the noise criterion fits at a time (odd, at least :data:`NOISE_FIT_MIN`): a take shorter than this has
+    nothing to tell noise from motion by, and is not denoised."""
+    return max(NOISE_FIT_MIN, int(round(NOISE_FIT_S * fps)) | 1)
+
+
+#: above this share of missing joint samples, a fill is said to have made up most of the take
+MADE_UP_SHARE = 0.5
+
+
+def made_up_note(missing: np.ndarray) -> str:
+    """One line when most of a take was missing ((F, J) bool ``missing``), so that the fill invented most of what
+    comes out (a batch user would not notice otherwise), else "". The fill has nothing to compare with there: a
+    take 88 % missing came out 10.6 deg off its truth on average, a straight line between the samples 8.6."""
+    share = float(np.mean(missing)) if np.size(missing) else 0.0
+    if share <= MADE_UP_SHARE:
+        return ""
+    return (f"{100.0 * share:.0f} % of the take's joint samples were missing: the fill made up most of what it "
+            "returns; look at it before use")
+
+
 def clean(
     motion: Motion,
     context=None,
@@ -649,6 +670,10 @@ def clean(
         t = time.perf_counter()
         before = cur.rotations
         cur, method, note = _fill(cur, models, notes)
+        made_up = made_up_note(motion.missing())
+        if made_up:  # a warning line, as a fallback's note is
+            notes.append(made_up)
+            note = "; ".join(n for n in (note, made_up) if n)
         filled = _changed_cells(before, cur.rotations) | (motion.missing() & ~cur.missing())
         records.append(StepRecord("fill", time.perf_counter() - t, int(filled.sum()), method, note))
 
@@ -705,7 +730,7 @@ def clean(
 
     if "denoise" in steps:
         t = time.perf_counter()
-        w = max(NOISE_FIT_MIN, int(round(NOISE_FIT_S * cur.fps)) | 1)
+        w = noise_fit_frames(cur.fps)
         if Fs < w:
             note = f"denoise skipped: {Fs} frames is shorter than the noise criterion's fit ({w} frames)"
             notes.append(note)

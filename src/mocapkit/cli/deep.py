@@ -99,6 +99,11 @@ def denoise(
     guard([out], [inp, asf, model, reference], overwrite)
     check_asf(asf, [inp, reference])
     m = _motion_for(inp, out, asf, "denoise")
+    from ..cleaning.pipeline import noise_fit_frames
+
+    if m.num_frames < noise_fit_frames(m.fps):  # as clean skips it: too few frames to tell noise from motion
+        raise MocapError(f"{inp}: {plural(m.num_frames, 'frame')} is shorter than the noise criterion's fit "
+                         f"({noise_fit_frames(m.fps)} frames): too short to denoise")
     io.check_writable(m, out)
     ref = _reference(reference, m, asf)
     from ..cleaning import deep  # torch: only once the input is read (a bad file fails at once)
@@ -148,6 +153,7 @@ def fill(
     """
     from .. import io
     from ..cleaning import deep
+    from ..cleaning.pipeline import made_up_note
     from ..io.takes import check_asf
     from ..reference import filled_error_deg
 
@@ -181,8 +187,9 @@ def fill(
     except (SkeletonError, ValueError) as exc:
         raise MocapError(f"{inp}: {exc}") from None
     save_take(filled, out, inp, asf, overwrite, like=inp)
-    if note:
-        console.print(f"warning: {inp}: {note}")
+    for said in (note, made_up_note(missing)):
+        if said:
+            console.print(f"warning: {inp}: {said}")
     line = f"wrote {out}: {plural(n, 'missing joint sample')} filled by {method}"
     if ref is not None:
         line += (f"; mean rotation error of the filled joints against {reference.name}: "

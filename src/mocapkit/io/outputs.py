@@ -208,6 +208,17 @@ def drop_kept(kept: dict[Path, Path]) -> None:
     kept.clear()
 
 
+def _missing_parents(outs: list[Path]) -> list[Path]:
+    """The folders above ``outs`` that do not exist yet, deepest first."""
+    found: set[Path] = set()
+    for o in outs:
+        f = o.absolute().parent
+        while not f.exists() and f != f.parent:
+            found.add(f)
+            f = f.parent
+    return sorted(found, key=lambda p: len(p.parts), reverse=True)
+
+
 @contextmanager
 def removed_on_failure(
     outputs: Iterable[os.PathLike | str | None],
@@ -217,7 +228,8 @@ def removed_on_failure(
 ) -> Iterator[None]:
     """Write a set of outputs as one: if the block raises (interrupts included), the set is as it was before.
 
-    An output that did not exist when the block started is removed; one that existed (replaced with
+    An output that did not exist when the block started is removed, and so are the folders made for it
+    (when nothing else was put there); one that existed (replaced with
     ``overwrite``) gets its old contents back (:func:`keep_aside`, :func:`put_back`). Each output is
     still written atomically, so a file is either complete or absent. ``marker``: the output written
     last that says the set is complete (a ``.clean.npz`` record, a ``.mask.npz``): an old one is removed
@@ -232,6 +244,7 @@ def removed_on_failure(
             if os.path.lexists(o):
                 raise MocapFormatError(o, "appeared while this command ran (another program wrote it); pass "
                                           "--overwrite to replace it")
+    made = _missing_parents(outs)  # folders the writes will make: removed again, when empty, on failure
     kept = keep_aside(outs)
     outer, mine = _WRITTEN.get(), []
     token = _NEW_ONLY.set(_NEW_ONLY.get() | {os.path.abspath(o) for o in outs if o not in kept})
@@ -242,6 +255,11 @@ def removed_on_failure(
         yield
     except BaseException:
         put_back(outs, kept, None if overwrite is None else set(mine))
+        for folder in made:
+            try:
+                folder.rmdir()
+            except OSError:  # not empty (something else was put there), or never made
+                pass
         raise
     finally:
         _WRITTEN.reset(token_w)

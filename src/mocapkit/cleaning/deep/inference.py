@@ -713,17 +713,16 @@ def denoise_or_fallback(motion: Motion, model=None, cells: np.ndarray | None = N
 
 
 def _hold_unmapped(motion: Motion, sv: Serving, missing: np.ndarray) -> Motion:
-    """``motion`` with the missing cells of non-root joints the joint map does not cover (e.g. ``LHipJoint``)
-    set to the joint's rotation in the nearest observed frame, so the chains through them are complete."""
+    """``motion`` with the missing cells of non-root joints the joint map does not cover (e.g. ``LHipJoint``, the
+    thumbs) filled by interpolating the joint's rotation between the observed frames on either side (held at the
+    take's ends), so the chains through them are complete and such a joint moves on through its gap."""
     rot = np.array(motion.rotations)
     mapped = set(sv.joints)
-    t = np.arange(motion.num_frames)
     for j in np.flatnonzero(missing[:, 1:].any(axis=0)) + 1:
-        seen = np.flatnonzero(~missing[:, j])
-        if int(j) in mapped or not len(seen):
+        seen = ~missing[:, j]
+        if int(j) in mapped or not seen.any():
             continue
-        k = np.clip(np.searchsorted(seen, t), 1, len(seen) - 1) if len(seen) > 1 else np.zeros_like(t)
-        if len(seen) > 1:
-            k = np.where(np.abs(seen[k - 1] - t) <= np.abs(seen[k] - t), k - 1, k)
-        rot[missing[:, j], j] = motion.rotations[seen[k[missing[:, j]]], j]
+        q = np.array(motion.rotations[:, j])
+        q[seen] = R.quaternion_continuity(q[seen])  # one hemisphere, then each component interpolated
+        rot[missing[:, j], j] = R.quaternion_normalize(lerp_fill(q))[missing[:, j]]
     return dataclasses.replace(motion, rotations=rot)

@@ -498,6 +498,21 @@ def _channels(m: np.ndarray, serving: Serving) -> np.ndarray:
     return unwrap_degrees(np.stack(cols, axis=1))
 
 
+def _bridge(angles: np.ndarray) -> np.ndarray:
+    """(F, K) angle columns in degrees with their NaN runs filled: linear between the unwrapped observed samples on
+    either side, held at the take's ends; a column with no observed sample stays NaN."""
+    out = np.array(angles, dtype=np.float64)
+    t = np.arange(len(out))
+    for c in range(out.shape[1]):
+        miss = np.isnan(out[:, c])
+        if not miss.any() or miss.all():
+            continue
+        seen = np.flatnonzero(~miss)
+        vals = np.degrees(np.unwrap(np.radians(out[seen, c])))
+        out[miss, c] = np.interp(t[miss], seen, vals)
+    return out
+
+
 def decode(values: np.ndarray, like: Motion, serving: Serving, keep: np.ndarray | None = None,
            residual=None) -> Motion:
     """A Motion like ``like`` whose model-covered rotations come from the model's ``values`` (F, C) in degrees.
@@ -535,8 +550,10 @@ def decode(values: np.ndarray, like: Motion, serving: Serving, keep: np.ndarray 
             continue
         changed[k] = ~np.all((new == old) | (np.isnan(new) & np.isnan(old)), axis=1)
         ang, full = _full_angles(m[:, k], order)
-        ang = np.nan_to_num(ang)  # a missing cell has no residual to keep: its rotation is the dofs alone
         rest_axes = [full.index(a) for a in full if a not in order]
+        if rest_axes:  # a missing cell has no residual of its own: the observed ones on either side, interpolated
+            ang[:, rest_axes] = _bridge(ang[:, rest_axes])
+        ang = np.nan_to_num(ang)  # a joint missing throughout: its rotation is the dofs alone
         if residual is not None and rest_axes:
             r0 = ang[:, rest_axes]
             r1 = residual(unwrap_degrees(r0))

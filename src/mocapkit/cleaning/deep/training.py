@@ -39,6 +39,7 @@ from pathlib import Path
 import numpy as np
 import torch
 from tqdm.auto import tqdm
+from ...progress import bar_disabled
 
 from ... import corrupt
 from ...errors import SkeletonError
@@ -634,7 +635,7 @@ def train(
             if torch.is_tensor(v):
                 st[k] = v.to(dev)
     t0 = time.perf_counter() - sum(h["seconds"] for h in history)
-    bar = tqdm(range(start_epoch, cfg.epochs), desc=f"train {cfg.kind}", disable=not progress, initial=start_epoch,
+    bar = tqdm(range(start_epoch, cfg.epochs), desc=f"train {cfg.kind}", disable=bar_disabled(progress), initial=start_epoch,
                total=cfg.epochs)
     for epoch in bar:
         rng = np.random.default_rng([cfg.seed, epoch])

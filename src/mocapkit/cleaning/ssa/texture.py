@@ -371,5 +371,9 @@ def prepare(
     gnames, grows = group_rows(groups, tex_joints)
     if not gnames:
         raise ValueError("no joint group has two analysed joints")
+    if src.num_frames < params.source_length:  # said in the take's own frames, as clean says it
+        N, fps = params.source_length, params.analysis_fps
+        raise ValueError(f"{motion.num_frames} frames ({motion.duration:.2f} s) is shorter than one motion word "
+                         f"({N} frames at {fps:g} fps, {N / fps:.3f} s)")
     words = motion_words(src.num_frames, params.source_length, params.stride)
     return Analysis(motion, tuple(ctx), params, up, src, full, tuple(gnames), tuple(grows), words, tuple(notes), context)
