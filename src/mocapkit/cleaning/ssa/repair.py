@@ -138,6 +138,25 @@ def _bridge(track: np.ndarray, mask: np.ndarray) -> np.ndarray:
     return out
 
 
+def nearest_sorted(values: np.ndarray, queries: np.ndarray) -> np.ndarray:
+    """Index of the entry of the ascending ``values`` nearest each of ``queries`` (the lower index on a tie), as
+    ``argmin(|queries[:, None] - values|, axis=1)`` gives it, in O((F + W) log W) memory and time instead of an
+    (F, W) matrix: 4 GB for a 10-minute take at 120 fps and its 7,000 words."""
+    values = np.asarray(values, dtype=np.float64)
+    queries = np.asarray(queries, dtype=np.float64)
+    if len(values) == 0:
+        raise ValueError("no values to be nearest to")
+    if np.any(np.diff(values) < 0):
+        raise ValueError("values must be ascending")
+    hi = np.clip(np.searchsorted(values, queries, side="left"), 1, max(len(values) - 1, 1))
+    lo = hi - 1
+    if len(values) == 1:
+        return np.zeros(len(queries), dtype=np.int64)
+    take_lo = np.abs(queries - values[lo]) <= np.abs(values[hi] - queries)
+    pick = np.where(take_lo, lo, hi)
+    return np.searchsorted(values, values[pick], side="left").astype(np.int64)  # the first of equal values
+
+
 def repair(
     motion: Motion,
     detection: Detection,
@@ -198,8 +217,8 @@ def repair(
     F = motion.num_frames
     tau = np.arange(F) * (fps_a / motion.fps)  # analysis time of each input frame
     centers = words + (N - 1) / 2.0
-    # the source word around each input frame: the one whose centre is nearest
-    word_of = np.argmin(np.abs(tau[:, None] - centers[None, :]), axis=1)
+    # the source word around each input frame: the one whose centre is nearest (the earlier one on a tie)
+    word_of = nearest_sorted(centers, tau)
     groups = [np.flatnonzero(detection.group_masks[g]) for g in range(len(detection.group_names))]
     new = np.array(motion.rotations)
     placed = np.zeros(flags.shape, dtype=bool)  # the flagged cells a neighbour word was written into
