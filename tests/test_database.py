@@ -278,3 +278,17 @@ def test_a_file_named_twice_goes_in_once(tmp_path):
     shutil.copy(mocapkit.samples.path("12.asf"), folder / "12.asf")
     (tmp_path / "link.amc").symlink_to(walk)
     assert expand_sources([walk, folder, tmp_path / "link.amc", str(walk)]) == [walk]
+
+
+def test_a_build_hands_its_workers_absolute_paths(tmp_path, monkeypatch):
+    """A remote Dask worker resolves a relative path against its own folder: every clip goes out (and is kept as its
+    source) absolute."""
+    import os
+    import shutil
+
+    for name in ("12_walk.amc", "12.asf"):
+        shutil.copy(samples.path(name), tmp_path / name)
+    shutil.copy(samples.path("12_walk.amc"), tmp_path / "12_again.amc")
+    monkeypatch.chdir(tmp_path)
+    db = MotionDatabase.build(["12_walk.amc", "12_again.amc"], fps=30, progress=False, executor="serial")
+    assert [c.source for c in db.clips] == [os.path.join(str(tmp_path), n) for n in ("12_walk.amc", "12_again.amc")]

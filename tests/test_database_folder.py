@@ -535,3 +535,30 @@ def test_the_content_digest_is_stored_once_and_changes_with_any_sample(small_db,
     desc["info"]["content_digest"] = "md5:0"
     (old / "database.json").write_text(json.dumps(desc))
     _refused(old, "digest: expected")
+
+
+def test_a_database_replaced_while_it_is_opened_comes_back_whole(tmp_path, monkeypatch):
+    """db build --overwrite swapping in a new build while another process opens the folder: the description of one
+    build and the arrays of the other were possible; the open notices the folder changed and reads it again."""
+    import mocapkit
+    from mocapkit import corrupt
+
+    walk = mocapkit.load(samples.path("12_walk.amc"))
+    other = corrupt.angular_noise(walk, 0.5, seed=1)[0]  # the same shapes, other samples
+    first, second = tmp_path / "db", tmp_path / "next"
+    MotionDatabase.build([walk], fps=30, progress=False).save(first)
+    MotionDatabase.build([other], fps=30, progress=False).save(second)
+    expected = np.array(read_folder(second, mmap=False)[1]["rotations.npy"])
+    real = database_folder._load_array
+    swapped = []
+
+    def swap_midway(directory, rel, shape, mmap):
+        if not swapped and rel != "rotations.npy":  # the rotations read, then the new build is swapped in
+            os.rename(first, tmp_path / "old")
+            os.rename(second, first)
+            swapped.append(rel)
+        return real(directory, rel, shape, mmap)
+
+    monkeypatch.setattr(database_folder, "_load_array", swap_midway)
+    desc, arrays = read_folder(first, mmap=False)
+    assert swapped and np.array_equal(arrays["rotations.npy"], expected)  # all of the new build

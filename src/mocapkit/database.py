@@ -617,7 +617,8 @@ class MotionDatabase:
         if not FPS_RANGE[0] <= fps <= FPS_RANGE[1]:
             raise ValueError(f"fps must be between {FPS_RANGE[0]:g} and {FPS_RANGE[1]:g}, got {fps!r}")
         features = _check_features(features)
-        items = expand_sources(sources)
+        # absolute: a remote Dask worker resolves a relative path against its own working folder
+        items = [it if isinstance(it, Motion) else Path(os.path.abspath(it)) for it in expand_sources(sources)]
         first = _prepare(items[0], fps, features, mirror, None, joint_map)
         ref = first[0]["skeleton"]
         job = partial(_prepare, fps=fps, features=features, mirror=mirror, ref_skeleton=ref, joint_map=joint_map)

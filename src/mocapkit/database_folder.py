@@ -656,9 +656,38 @@ def read_folder(directory, mmap: bool = True) -> tuple[Description, dict[str, np
     Arrays are memory-mapped read-only unless ``mmap=False``. Nothing is
     mapped before the description and every ``.npy`` header have been checked
     (see the module docstring); ``clip_ids.npy`` must agree with the clip
-    ranges.
+    ranges. A folder replaced while it is read (``db build --overwrite``
+    swapping in a new build) could give the description of one build and
+    arrays of the other: the folder's identity is compared before and after,
+    and the reading is done again when it changed.
     """
     directory = Path(directory)
+    for attempt in range(_OPEN_TRIES):
+        before = _identity(directory)
+        try:
+            out = _read_folder(directory, mmap)
+        except (MocapFormatError, OSError):
+            if before is None or _identity(directory) == before or attempt == _OPEN_TRIES - 1:
+                raise
+            continue  # it was replaced while read: its parts disagreed
+        if before is not None and _identity(directory) == before:
+            return out
+    raise MocapFormatError(directory, f"was replaced {_OPEN_TRIES} times while it was being opened; open it again "
+                                      "once its build is done")
+
+
+_OPEN_TRIES = 5
+
+
+def _identity(directory: Path):
+    try:
+        st = os.stat(directory)
+    except OSError:
+        return None
+    return st.st_dev, st.st_ino, st.st_mtime_ns
+
+
+def _read_folder(directory: Path, mmap: bool) -> tuple[Description, dict[str, np.ndarray]]:
     desc_path = directory / DESCRIPTION
     if not directory.exists():
         hidden = [p for p, kind in _leftovers(resolved(directory)) if kind == "old" and (p / _KEPT).is_dir()]
