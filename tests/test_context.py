@@ -274,3 +274,22 @@ def test_a_take_of_the_folders_own_rig_builds_it_once(takes, tmp_path, monkeypat
     again = C.resolve_context(takes, cache_dir=cache, prefer=C.topology_id(walk.skeleton))
     assert len(builds) == 1 and len(list(cache.iterdir())) == 1
     assert first.num_clips == second.num_clips == again.num_clips == 3
+
+
+def test_no_home_folder_does_not_stop_a_folder_context(monkeypatch, tmp_path):
+    """A container run under an unknown user has no home folder for the cache: the context is built and used from
+    memory, and its notes say it was not cached."""
+    import shutil
+
+    import mocapkit.context
+    from mocapkit import samples
+    from mocapkit.context import cached_context
+
+    def no_home():
+        raise RuntimeError("Could not determine home directory.")
+
+    monkeypatch.setattr(mocapkit.context, "cache_root", no_home)
+    shutil.copy(samples.path("12_walk.amc"), tmp_path / "12_walk.amc")
+    shutil.copy(samples.path("12.asf"), tmp_path / "12.asf")
+    db = cached_context([tmp_path / "12_walk.amc"])
+    assert db.num_clips == 1 and any("not cached" in n for n in db.info["notes"])

@@ -281,8 +281,8 @@ def test_a_file_named_twice_goes_in_once(tmp_path):
 
 
 def test_a_build_hands_its_workers_absolute_paths(tmp_path, monkeypatch):
-    """A remote Dask worker resolves a relative path against its own folder: every clip goes out (and is kept as its
-    source) absolute."""
+    """A remote Dask worker resolves a relative path against its own folder: every clip goes out absolute, and keeps
+    the path as given as its source (the content digest does not depend on where the files lie)."""
     import os
     import shutil
 
@@ -291,4 +291,17 @@ def test_a_build_hands_its_workers_absolute_paths(tmp_path, monkeypatch):
     shutil.copy(samples.path("12_walk.amc"), tmp_path / "12_again.amc")
     monkeypatch.chdir(tmp_path)
     db = MotionDatabase.build(["12_walk.amc", "12_again.amc"], fps=30, progress=False, executor="serial")
-    assert [c.source for c in db.clips] == [os.path.join(str(tmp_path), n) for n in ("12_walk.amc", "12_again.amc")]
+    assert [c.source for c in db.clips] == ["12_walk.amc", "12_again.amc"]  # kept as given
+
+    seen = []
+    import mocapkit.parallel
+
+    original = mocapkit.parallel.map_ordered
+
+    def spy(fn, items, **kwargs):
+        seen.extend(items)
+        return original(fn, items, **kwargs)
+
+    monkeypatch.setattr(mocapkit.parallel, "map_ordered", spy)
+    MotionDatabase.build(["12_walk.amc", "12_again.amc"], fps=30, progress=False, executor="serial")
+    assert seen and all(os.path.isabs(path) for path, _ in seen)  # what the workers read

@@ -26,3 +26,21 @@ def test_nothing_changes_where_numba_has_a_place(monkeypatch, tmp_path):
     monkeypatch.setattr(kernel_cache, "writable", lambda folder: "__pycache__" not in str(folder))
     monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "xdg"))
     assert kernel_cache.ensure_cache_dir() is None and "NUMBA_CACHE_DIR" not in os.environ
+
+
+def test_a_folder_others_can_write_in_is_never_numbas_cache(monkeypatch, tmp_path):
+    """numba's cache holds pickles: a folder of the expected name that others may write in (planted by another user)
+    is passed over for a fresh private one."""
+    monkeypatch.delenv("NUMBA_CACHE_DIR", raising=False)
+    monkeypatch.setattr(numba.config, "CACHE_DIR", numba.config.CACHE_DIR)
+    monkeypatch.setattr(kernel_cache, "writable", lambda folder: False)
+    monkeypatch.setattr(kernel_cache.tempfile, "gettempdir", lambda: str(tmp_path))
+    who = os.getuid() if hasattr(os, "getuid") else "user"
+    planted = tmp_path / f"mocapkit-numba-{who}"
+    planted.mkdir()
+    os.chmod(planted, 0o777)
+    folder = Path(kernel_cache.ensure_cache_dir())
+    assert folder != planted and folder.parent == tmp_path and (folder.stat().st_mode & 0o077) == 0
+    os.chmod(planted, 0o700)  # its own, closed folder is used as it is
+    monkeypatch.delenv("NUMBA_CACHE_DIR")
+    assert Path(kernel_cache.ensure_cache_dir()) == planted

@@ -678,15 +678,19 @@ def clean_batch(
     made = _missing_folders([out_dir, *(Path(files["output"]).parent for _, files in todo)])
     with _only_batch(out_dir):
         _sweep(expected)
+        finished = False
         try:
             if jobs:
                 _mark(out_dir, in_dir)
             rows = map_ordered(_batch_job, jobs, executor=executor, progress=progress, desc="clean") if jobs else []
+            finished = True
         finally:
-            _place_asfs(skeletons)  # also after an interrupt: every complete AMC output reads back
-            _sweep(expected)  # what a killed worker could not remove
-            _unmark_if_empty(out_dir)
-            _prune(made)  # the folders made for takes that failed
+            try:  # also after an interrupt: every complete AMC output reads back
+                _place_asfs(skeletons, quiet=not finished)
+            finally:
+                _sweep(expected)  # what a killed worker could not remove
+                _unmark_if_empty(out_dir)
+                _prune(made)  # the folders made for takes that failed
     for row, (inp, files) in zip(rows, todo):  # the paths as the caller gave them
         row.update(input=str(inp), output=str(files["output"]))
     summary.rows += rows
@@ -728,21 +732,28 @@ def _asf_copies(inputs: list[Path], plans: list[dict], asf, overwrite: bool) -> 
     return out
 
 
-def _place_asfs(skeletons: dict[Path, tuple[Path, list[str]]]) -> None:
+def _place_asfs(skeletons: dict[Path, tuple[Path, list[str]]], quiet: bool = False) -> None:
     """Copy each ASF of :func:`_asf_copies` (atomically) where an AMC output that reads with it is complete
-    (the output and its record are there: written by this run or an earlier one)."""
+    (the output and its record are there: written by this run or an earlier one). A copy that fails raises
+    :class:`~mocapkit.errors.MocapFormatError` naming it, or, ``quiet`` (the batch is already ending on another
+    error or an interrupt, which must not be masked), is left out."""
     from .cleaning.pipeline import clean_path
     from .io import atomic_write
 
     for dst, (src, outputs) in skeletons.items():
         if not any(Path(o).is_file() and clean_path(o).is_file() for o in outputs):
             continue
-        data = src.read_bytes()
-        if dst.is_file() and dst.read_bytes() == data:
-            continue
-        dst.parent.mkdir(parents=True, exist_ok=True)
-        with atomic_write(dst, "wb") as fh:
-            fh.write(data)
+        try:
+            data = src.read_bytes()
+            if dst.is_file() and dst.read_bytes() == data:
+                continue
+            dst.parent.mkdir(parents=True, exist_ok=True)
+            with atomic_write(dst, "wb") as fh:
+                fh.write(data)
+        except OSError as exc:
+            if not quiet:
+                raise MocapFormatError(dst, f"cannot copy the skeleton {src} there, which its AMC outputs read "
+                                            f"with ({exc.strerror or exc})") from None
 
 
 @contextmanager

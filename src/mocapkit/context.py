@@ -18,8 +18,8 @@ mostly unjudged. This module turns what a user gives into that context:
   ``scripts/build_default_context.py``), or no context at all when the user
   says ``none`` (``--context none``, ``context=False`` or ``"none"``).
 
-**The cache** lives under ``$MOCAPKIT_CACHE_DIR/contexts/`` (or
-``~/.cache/mocapkit/contexts/``), one database folder per key. The key hashes
+**The cache** lives under ``$MOCAPKIT_CACHE_DIR/contexts/`` (else
+``$XDG_CACHE_HOME/mocapkit/contexts/`` or ``~/.cache/mocapkit/contexts/``), one database folder per key. The key hashes
 each file's resolved path, size and modification time (and, for an AMC, those
 of the ASF beside it, which the reader uses), the build settings and the
 database format, so an edited, added or removed file makes a new key. A build
@@ -111,7 +111,9 @@ def cache_root() -> Path:
     if base:
         return Path(base).expanduser() / "contexts"
     xdg = os.environ.get("XDG_CACHE_HOME")
-    return (Path(xdg).expanduser() if xdg else Path.home() / ".cache") / "mocapkit" / "contexts"
+    if xdg and os.path.isabs(xdg):  # a relative one is to be ignored (the XDG spec)
+        return Path(xdg) / "mocapkit" / "contexts"
+    return Path.home() / ".cache" / "mocapkit" / "contexts"
 
 
 def default_context_path() -> Path:
@@ -209,8 +211,13 @@ def _progress(total: int, enabled: bool):
     from rich.console import Console
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeRemainingColumn
 
+    from .progress import bar_disabled
+
+    mode = bar_disabled(enabled)  # on a terminal only, as every bar (mocapkit.progress)
+    console = Console(stderr=True, force_terminal=True if mode is False else None)
     return Progress(TextColumn("building context"), BarColumn(), MofNCompleteColumn(), TimeRemainingColumn(),
-                    TextColumn("{task.description}"), console=Console(stderr=True), disable=not enabled, transient=True)
+                    TextColumn("{task.description}"), console=console,
+                    disable=mode is True or (mode is None and not console.is_terminal), transient=True)
 
 
 def _names(paths: Sequence[Path]) -> str:
@@ -331,8 +338,17 @@ def cached_context(files: Sequence, *, cache_dir=None, fps: float = BUILD_FPS, f
     from .database import MotionDatabase
 
     files = [Path(f) for f in files]
-    root = Path(cache_dir) if cache_dir is not None else cache_root()
+    try:
+        root = Path(cache_dir) if cache_dir is not None else cache_root()
+    except RuntimeError:  # no home folder to hold the cache (a container run under an unknown user)
+        root = None
     key = context_key(files, fps, features, prefer=prefer, optional=optional)
+    if root is None:
+        if not build:
+            return None
+        db, _ = build_context(files, fps=fps, features=features, progress=progress, label=label, prefer=prefer,
+                              optional=optional)
+        return _uncached(db, "no home folder holds the context cache")
     entry = root / key
     cached, hidden = _open_entry(entry, label)
     if cached is not None:
@@ -358,8 +374,7 @@ def cached_context(files: Sequence, *, cache_dir=None, fps: float = BUILD_FPS, f
     _sweep(root)
     staging = root / f".build-{key}-{os.getpid()}-{uuid.uuid4().hex[:8]}"
     try:
-        db.save(staging / "db")
-        os.chmod(staging / "db", _folder_mode())  # mkdtemp's 0700 would hide the entry from other users
+        db.save(staging / "db")  # the umask's folder mode, as any folder (database_folder.staging_folder)
         try:
             os.rename(staging / "db", entry)
         except OSError:
@@ -396,12 +411,6 @@ def _uncached(db, why: str):
     db.info["notes"] = [*db.info.get("notes", []), f"not cached: {why}; set MOCAPKIT_CACHE_DIR to a writable folder"]
     return db
 
-
-def _folder_mode() -> int:
-    """The mode ``mkdir`` gives a new folder under the current umask."""
-    umask = os.umask(0)
-    os.umask(umask)
-    return 0o777 & ~umask
 
 
 def _labelled(db, label):

@@ -152,15 +152,16 @@ def _retarget(m: Motion, ref_skeleton: Skeleton, joint_map: Mapping[str, str], s
 
 
 def _prepare(item, fps: float, features: tuple[str, ...], mirror: bool, ref_skeleton: Skeleton | None, joint_map) -> list[dict]:
-    """Load (if a path), check, resample and featurise one clip; with ``mirror`` also its mirror image."""
+    """Load (if a path), check, resample and featurise one clip; with ``mirror`` also its mirror image.
+
+    ``item``: a Motion, a path, or ``(path to read, source to keep)``."""
     from . import io
 
     if isinstance(item, Motion):
         m, source = item, f"<motion {item.name}>"
     else:
-        path = Path(item)
+        path, source = (Path(item[0]), str(item[1])) if isinstance(item, tuple) else (Path(item), str(item))
         m = io.load(path)
-        source = str(path)
         if not isinstance(m, Motion):
             raise MocapFormatError(path, "a marker file holds no skeleton motion and cannot go into a motion database")
     if m.num_frames == 0:
@@ -617,8 +618,9 @@ class MotionDatabase:
         if not FPS_RANGE[0] <= fps <= FPS_RANGE[1]:
             raise ValueError(f"fps must be between {FPS_RANGE[0]:g} and {FPS_RANGE[1]:g}, got {fps!r}")
         features = _check_features(features)
-        # absolute: a remote Dask worker resolves a relative path against its own working folder
-        items = [it if isinstance(it, Motion) else Path(os.path.abspath(it)) for it in expand_sources(sources)]
+        # a file goes out absolute (a remote Dask worker resolves a relative path against its own working folder),
+        # with the path as given, which the clip keeps as its source
+        items = [it if isinstance(it, Motion) else (os.path.abspath(it), str(it)) for it in expand_sources(sources)]
         first = _prepare(items[0], fps, features, mirror, None, joint_map)
         ref = first[0]["skeleton"]
         job = partial(_prepare, fps=fps, features=features, mirror=mirror, ref_skeleton=ref, joint_map=joint_map)

@@ -107,4 +107,4 @@ def interrupts_held():
             except (ValueError, OSError):
                 pass
         if pending:
-            os.kill(os.getpid(), pending[0])  # delivered now, to the handler the block found
+            signal.raise_signal(pending[0])  # delivered now, to the handler the block found

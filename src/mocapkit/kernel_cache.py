@@ -1,14 +1,16 @@
 """Where numba keeps mocapkit's compiled kernels, and a place for them when there is none.
 
-numba caches a kernel (``@njit(cache=True)``) in the ``__pycache__`` folder
-beside its source, else in the user's cache folder (``$XDG_CACHE_HOME/numba``
-or ``~/.cache/numba``), else in ``NUMBA_CACHE_DIR`` when that is set; with
+numba caches a kernel (``@njit(cache=True)``) in ``NUMBA_CACHE_DIR`` when that
+is set, else in the ``__pycache__`` folder beside its source, else in the
+user's cache folder (``$XDG_CACHE_HOME/numba`` or ``~/.cache/numba`` on Linux,
+``~/Library/Caches/numba`` on macOS); with
 none of them writable it raises "cannot cache function" at the first kernel,
 and every command that reads a take fails. That is the ordinary shape of a
 locked-down install: a read-only site-packages used by an account without a
 writable home (a container, a service account, a Dask worker run as another
 user). :func:`ensure_cache_dir`, run when mocapkit is imported, gives numba a
-private folder under the system's temporary folder then; kernels compile once
+private folder under the system's temporary folder then (made by this user and
+closed to others: numba's cache holds pickles); kernels compile once
 per machine boot there instead of failing. To share one warm cache among users
 of a system-wide install, run ``python -m mocapkit.warmup`` with
 ``NUMBA_CACHE_DIR`` set to a shared folder and set it for every user.
@@ -17,6 +19,7 @@ of a system-wide install, run ``python -m mocapkit.warmup`` with
 from __future__ import annotations
 
 import os
+import stat
 import sys
 import tempfile
 from pathlib import Path
@@ -35,13 +38,41 @@ def writable(folder: Path) -> bool:
 
 
 def _user_cache() -> Path | None:
-    base = os.environ.get("XDG_CACHE_HOME")
-    if base:
-        return Path(base) / "numba"
+    """numba's user-wide cache folder, as its ``appdirs`` finds it on this system (without importing numba)."""
     try:
-        return Path.home() / ".cache" / "numba"
+        home = Path.home()
     except RuntimeError:  # no HOME and no password entry
-        return None
+        home = None
+    if sys.platform == "darwin":
+        return home / "Library" / "Caches" / "numba" if home else None
+    if sys.platform == "win32":
+        local = os.environ.get("LOCALAPPDATA")
+        return Path(local) / "numba" / "numba" / "Cache" if local else None
+    base = os.environ.get("XDG_CACHE_HOME")
+    if base and os.path.isabs(base):
+        return Path(base) / "numba"
+    return home / ".cache" / "numba" if home else None
+
+
+def _private_folder(base: Path, name: str) -> Path:
+    """``base/name`` made by this user, readable and writable by no one else; when another user holds that name (or
+    it is a link, or others may write in it), a fresh folder of this process instead (numba loads pickles from its
+    cache: a folder another user can write in would run their code here)."""
+    folder = base / name
+    try:
+        os.mkdir(folder, 0o700)
+    except FileExistsError:
+        pass
+    except OSError:
+        return Path(tempfile.mkdtemp(prefix=name + "-", dir=base))
+    try:
+        st = os.lstat(folder)
+    except OSError:
+        return Path(tempfile.mkdtemp(prefix=name + "-", dir=base))
+    mine = not hasattr(os, "getuid") or st.st_uid == os.getuid()
+    if stat.S_ISDIR(st.st_mode) and mine and not st.st_mode & 0o022:
+        return folder
+    return Path(tempfile.mkdtemp(prefix=name + "-", dir=base))
 
 
 def ensure_cache_dir() -> str | None:
@@ -60,7 +91,7 @@ def ensure_cache_dir() -> str | None:
     if user is not None and writable(user):
         return None
     who = os.getuid() if hasattr(os, "getuid") else os.environ.get("USERNAME", "user")
-    folder = Path(tempfile.gettempdir()) / f"mocapkit-numba-{who}"
+    folder = _private_folder(Path(tempfile.gettempdir()), f"mocapkit-numba-{who}")
     os.environ["NUMBA_CACHE_DIR"] = str(folder)
     if "numba" in sys.modules:
         sys.modules["numba"].config.CACHE_DIR = str(folder)

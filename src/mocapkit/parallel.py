@@ -430,32 +430,33 @@ def _run_remote(client, spec: str, fn, items, bar) -> list:
 
     futures = {client.submit(fn, it, pure=False): k for k, it in enumerate(items)}
     out: list = [None] * len(items)
-    done, idle_since = 0, time.monotonic()
-    pending = dask_as_completed(list(futures), timeout=1.0)
+    done, seen_workers, asked = 0, time.monotonic(), 0.0
+    pending = dask_as_completed(list(futures))
     try:
-        while done < len(items):
-            try:
-                fut = next(pending)
-            except StopIteration:
-                break
-            except Exception as exc:  # distributed's TimeoutError: nothing finished within a second
-                if type(exc).__name__ != "TimeoutError":
-                    raise
-                if _workers(client) > 0:
-                    idle_since = time.monotonic()
-                elif time.monotonic() - idle_since > WORKERS_S:
-                    raise MocapError(f"--executor {spec}: no worker has been connected to the scheduler for "
-                                     f"{WORKERS_S:g} s; {done} of {len(items)} done (a rerun resumes)") from None
+        while not pending.is_empty():
+            batch = pending.next_batch(block=False)
+            if not batch:  # nothing finished: look at the workers once a second, then wait a little
+                now = time.monotonic()
+                if now - asked >= 1.0:
+                    asked = now
+                    if _workers(client) > 0:
+                        seen_workers = now
+                    elif now - seen_workers > WORKERS_S:
+                        raise MocapError(f"--executor {spec}: no worker has been connected to the scheduler for "
+                                         f"{WORKERS_S:g} s; {done} of {len(items)} done (a rerun resumes)")
+                time.sleep(0.1)
                 continue
-            try:
-                out[futures[fut]] = fut.result()
-            except Exception as exc:
-                if _lost(exc):
-                    raise MocapError(f"--executor {spec}: the Dask scheduler was lost ({type(exc).__name__}); "
-                                     f"{done} of {len(items)} done (a rerun resumes)") from None
-                raise
-            done += 1
-            bar.update(1)
+            seen_workers = time.monotonic()  # something finished: a worker was there
+            for fut in batch:
+                try:
+                    out[futures[fut]] = fut.result()
+                except Exception as exc:
+                    if _lost(exc):
+                        raise MocapError(f"--executor {spec}: the Dask scheduler was lost ({type(exc).__name__}); "
+                                         f"{done} of {len(items)} done (a rerun resumes)") from None
+                    raise
+                done += 1
+                bar.update(1)
     except BaseException:
         for fut in futures:
             fut.cancel()

@@ -99,3 +99,30 @@ def test_folders_made_for_a_failed_output_are_removed_too(tmp_path):
                 fh.write("x")
             raise KeyboardInterrupt
     assert list(tmp_path.iterdir()) == []
+
+
+def test_overwrite_replaces_a_linked_output_and_puts_the_link_back_on_failure(tmp_path):
+    target = tmp_path / "elsewhere.bvh"
+    target.write_text("the link's target")
+    out = tmp_path / "out.bvh"
+    os.symlink(target, out)
+    with pytest.raises(KeyboardInterrupt):
+        with removed_on_failure([out], overwrite=True):
+            with atomic_write(out) as fh:
+                fh.write("new")
+            raise KeyboardInterrupt
+    assert out.is_symlink() and os.readlink(out) == str(target) and target.read_text() == "the link's target"
+    with removed_on_failure([out], overwrite=True):  # --overwrite replaces the link itself, as before
+        with atomic_write(out) as fh:
+            fh.write("new")
+    assert not out.is_symlink() and out.read_text() == "new" and target.read_text() == "the link's target"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["elsewhere.bvh", "out.bvh"]
+
+
+def test_with_overwrite_a_file_written_meanwhile_is_replaced(tmp_path):
+    out = tmp_path / "out.npz"
+    with removed_on_failure([out], overwrite=True):
+        out.write_text("another program's")
+        with atomic_write(out) as fh:
+            fh.write("ours")
+    assert out.read_text() == "ours"

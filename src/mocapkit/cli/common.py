@@ -48,8 +48,8 @@ def asf_option():
 
 
 CONTEXT_HELP = ("What the take is compared with: a motion database folder, a folder of takes or motion files "
-                "(repeat the option; built into a database once and cached under $MOCAPKIT_CACHE_DIR/contexts or "
-                "~/.cache/mocapkit/contexts), or 'none' for the clip alone. Default: the bundled default context "
+                "(repeat the option; built into a database once and cached under $MOCAPKIT_CACHE_DIR/contexts, else "
+                "$XDG_CACHE_HOME/mocapkit/contexts or ~/.cache/mocapkit/contexts), or 'none' for the clip alone. Default: the bundled default context "
                 "(common human motion on the CMU/HDM05 Acclaim skeleton; takes on another skeleton are judged against "
                 "themselves).")
 

@@ -148,7 +148,8 @@ def publish(tmp: os.PathLike | str, path: os.PathLike | str) -> None:
 
 
 def keep_aside(paths: Iterable[os.PathLike | str | None]) -> dict[Path, Path]:
-    """A hidden hard link (``.NAME.RANDOM.part``, a copy where links fail) beside each existing file of ``paths``.
+    """A hidden hard link (``.NAME.RANDOM.part``, a copy where links fail) beside each existing file of ``paths``,
+    and a hidden copy of each that is a symbolic link (the link itself, not what it points to).
 
     Each output is replaced by a rename, which leaves the old file's data at the link: :func:`put_back`
     restores it, :func:`drop_kept` removes the links. Returns ``{path: link}``.
@@ -159,15 +160,19 @@ def keep_aside(paths: Iterable[os.PathLike | str | None]) -> dict[Path, Path]:
             if p is None:
                 continue
             p = Path(p)
-            if not p.is_file() or p.is_symlink():
+            link = p.is_symlink()
+            if not (link or p.is_file()):
                 continue
             fd, tmp = tempfile.mkstemp(prefix=f".{p.name}.", suffix=".part", dir=p.parent)
             os.close(fd)
             os.unlink(tmp)
-            try:
-                os.link(p, tmp)
-            except OSError:
-                shutil.copy2(p, tmp)
+            if link:
+                os.symlink(os.readlink(p), tmp)
+            else:
+                try:
+                    os.link(p, tmp)
+                except OSError:
+                    shutil.copy2(p, tmp)
             kept[p] = Path(tmp)
     except BaseException:
         drop_kept(kept)
@@ -247,7 +252,8 @@ def removed_on_failure(
     made = _missing_parents(outs)  # folders the writes will make: removed again, when empty, on failure
     kept = keep_aside(outs)
     outer, mine = _WRITTEN.get(), []
-    token = _NEW_ONLY.set(_NEW_ONLY.get() | {os.path.abspath(o) for o in outs if o not in kept})
+    new_only = {os.path.abspath(o) for o in outs if not os.path.lexists(o)} if overwrite is False else set()
+    token = _NEW_ONLY.set(_NEW_ONLY.get() | new_only)
     token_w = _WRITTEN.set(mine)
     try:
         if marker is not None and Path(marker) in kept:
