@@ -584,3 +584,13 @@ def test_a_batch_hands_out_absolute_paths(tmp_path, short_bvh, monkeypatch):
     for key in ("input", "output", "report"):
         assert os.path.isabs(job[key]), key
     assert all(os.path.isabs(c) for c in job["context"])
+
+
+def test_context_none_stays_a_word(tmp_path, short_bvh, monkeypatch):
+    """``--context none`` (the take judged against itself) is no path: made absolute it named a folder 'none' in
+    the working folder, and every take failed."""
+    (tmp_path / "in").mkdir()
+    shutil.copy(short_bvh, tmp_path / "in" / "walk.bvh")
+    monkeypatch.chdir(tmp_path)
+    s = clean_batch("in", "out", context=["none"], steps=["fill", "detect"], executor="serial", progress=False)
+    assert s.count("done") == 1, s.rows

@@ -667,7 +667,8 @@ def clean_batch(
         raise MocapFormatError(stale[0][0], f"exists from an earlier run, but {stale[0][1]}; use --overwrite to clean "
                                             f"it again{more}")
     # every path absolute: a remote Dask worker resolves a relative one against its own working folder
-    jobs = [{"input": _abs(inp), "output": _abs(files["output"]), "context": [_abs(c) for c in ctx], "steps": steps,
+    jobs = [{"input": _abs(inp), "output": _abs(files["output"]), "steps": steps,
+             "context": [_abs(c) if os.path.lexists(c) else str(c) for c in ctx],  # 'none' stays a word
              "threshold": float(threshold), "drifts": bool(drifts),
              "models": {k: _abs(v) if Path(v).exists() else str(v) for k, v in (models or {}).items()} or None,
              "report": _abs(files["report"]) if files["report"] else None,

@@ -479,3 +479,12 @@ def test_a_take_mostly_missing_is_filled_with_a_warning():
     assert said[0] in res.steps[0].note  # a step's note: clean prints it as a warning line
     few = clean(corrupt.gaps(take, seed=1)[0], steps=("fill",))
     assert not [n for n in few.notes if "made up" in n]
+
+
+def test_a_record_says_which_version_wrote_it(tmp_path):
+    import json
+
+    res = clean(mocapkit.load(samples.path("131_01.bvh"))[:30], steps=("fill",))
+    res.save(tmp_path / "r.clean.npz")
+    with np.load(tmp_path / "r.clean.npz") as data:
+        assert json.loads(str(data["meta"]))["mocapkit"] == mocapkit.__version__

@@ -215,8 +215,11 @@ class CleanResult:
         from ..io import atomic_write
 
         path = Path(path)
+        from .. import __version__
+
         meta = {
             "format": FORMAT,
+            "mocapkit": __version__,  # which version cleaned it: an upgrade's takes can be told from earlier ones
             "joint_names": list(self.joint_names),
             "fps": self.fps,
             "steps": [s.as_dict() for s in self.steps],

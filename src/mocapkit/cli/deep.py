@@ -325,7 +325,8 @@ def train(
             raise MocapError(f"train: {exc}") from None
         except KeyboardInterrupt:  # a checkpoint is a whole file, kept on purpose: say so beside "interrupted"
             if (o / "checkpoint.pt").is_file():
-                console.print(f"note: {o / 'checkpoint.pt'} keeps the last finished epoch; the same command resumes")
+                again = "the same command without --restart" if not resume else "the same command"
+                console.print(f"note: {o / 'checkpoint.pt'} keeps the last finished epoch; {again} resumes")
             raise
         h = model.meta["history"]
         bests.append(min(x["val_rmse"] for x in h))

@@ -485,6 +485,16 @@ def _identity(cfg: TrainConfig, clips: list[Motion], validation: list[Motion] | 
     return json.dumps(same, sort_keys=True), json.dumps(data)
 
 
+def _without_digests(data) -> bool:
+    """True for a checkpoint's data of an earlier mocapkit: clip names alone, no ``[name, digest]`` pairs."""
+    try:
+        d = json.loads(data) if isinstance(data, str) else data
+        rows = list(d.get("train", [])) + list(d.get("validation", []))
+    except (TypeError, ValueError, AttributeError):
+        return False
+    return bool(rows) and all(isinstance(r, str) for r in rows)
+
+
 def _training_id(cfg_json: str, data_json: str) -> str:
     """One digest of a run's settings and data: what ``model.pt``'s metadata ``training`` holds."""
     return hashlib.blake2b(f"{cfg_json}\0{data_json}".encode(), digest_size=16).hexdigest()
@@ -538,7 +548,11 @@ def check_out_dir(out_dir, clips: list[Motion], config: TrainConfig = TrainConfi
                                               ("clips", ck.get("data") == data_json)) if not same]
             other = f"a training with other {' and '.join(differ)}" if differ else ""
         if other and not overwrite:
-            why = " (or the same clips with other content, or a checkpoint from before clip digests)" if "clips" in other else ""
+            why = ""
+            if "clips" in other:
+                why = (" (written by an earlier mocapkit, which kept no digest of its clips' content: it cannot be "
+                       "resumed)" if ck is not None and _without_digests(ck.get("data")) else
+                       " (other clips, or the same clips with other content)")
             raise ValueError(f"{out_dir} holds {other}{why}; --restart starts it over there (its model and checkpoint "
                              "replaced), or give another folder")
         same_run = not other
