@@ -44,33 +44,38 @@ def _replaceable(handler) -> bool:
     return handler in (signal.SIG_DFL, signal.default_int_handler, _interrupt)
 
 
-def _install() -> dict:
+def _set_handlers(handler, replaceable) -> dict:
+    """``handler`` for SIGINT and SIGTERM where ``replaceable(current)``; returns the handlers replaced."""
     if threading.current_thread() is not threading.main_thread():
         return {}
     before = {}
     for sig in (signal.SIGINT, signal.SIGTERM):
         try:
             current = signal.getsignal(sig)
-            if _replaceable(current):
-                signal.signal(sig, _interrupt)
+            if replaceable(current):
+                signal.signal(sig, handler)
                 before[sig] = current
         except (ValueError, OSError):  # not the main thread of the interpreter (embedded, some workers)
             pass
     return before
 
 
+def _restore(before: dict) -> None:
+    for sig, handler in before.items():
+        try:
+            signal.signal(sig, handler)
+        except (ValueError, OSError):
+            pass
+
+
 @contextmanager
 def interrupts_as_keyboard_interrupt():
     """While the block runs, SIGINT and SIGTERM raise KeyboardInterrupt (outside llvmlite's callbacks); then the handlers are restored."""
-    before = _install()
+    before = _set_handlers(_interrupt, _replaceable)
     try:
         yield
     finally:
-        for sig, handler in before.items():
-            try:
-                signal.signal(sig, handler)
-            except (ValueError, OSError):
-                pass
+        _restore(before)
 
 
 @contextmanager
@@ -90,21 +95,10 @@ def interrupts_held():
     def hold(signum, frame):
         pending.append(signum)
 
-    before = {}
-    for sig in (signal.SIGINT, signal.SIGTERM):
-        try:
-            current = signal.getsignal(sig)
-            if current not in (signal.SIG_IGN, None):
-                before[sig] = signal.signal(sig, hold)
-        except (ValueError, OSError):  # not the interpreter's main thread (embedded)
-            pass
+    before = _set_handlers(hold, lambda current: current not in (signal.SIG_IGN, None))  # ignored stays ignored
     try:
         yield
     finally:
-        for sig, handler in before.items():
-            try:
-                signal.signal(sig, handler)
-            except (ValueError, OSError):
-                pass
+        _restore(before)
         if pending:
             signal.raise_signal(pending[0])  # delivered now, to the handler the block found
