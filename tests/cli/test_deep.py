@@ -433,3 +433,13 @@ def test_denoise_refuses_a_take_too_short_to_tell_noise_by(tmp_path):
     code, _, err = run("denoise", short, "-o", tmp_path / "d.bvh")
     assert code == 2 and one_error_line(err) and "5 frames is shorter than the noise criterion's fit (7 frames)" in err
     assert not (tmp_path / "d.bvh").exists()
+
+
+def test_info_describes_a_training_checkpoint(tmp_path):
+    out = tmp_path / "m"
+    code, _, err = run("train", "denoiser", WALK, "-o", out, "--epochs", "1", "--steps", "2", "--hidden", "8",
+                       "--noise", "angular:0.5", "--executor", "serial")
+    assert code == 0, err
+    code, text, err = run("info", out / "checkpoint.pt")
+    assert code == 0, err  # it said "malformed mocapkit model"
+    assert "training checkpoint (EBF" in text and "digests kept" in text

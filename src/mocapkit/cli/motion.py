@@ -228,6 +228,8 @@ def _info_of_own_file(path: Path) -> bool:
     if name.endswith(".pt") and path.is_file():
         from ..cleaning import deep
 
+        if _describe_checkpoint(path):
+            return True
         model = deep.load_model(path)
         meta = model.meta if isinstance(model.meta, dict) else {}
         print_fields([("file", str(path)), ("kind", f"{model.kind.upper()} model"),
@@ -274,6 +276,32 @@ def _info_of_own_file(path: Path) -> bool:
                                   f"{plural(len(det.segments()), 'segment')}")])
         return True
     return False
+
+
+def _describe_checkpoint(path: Path) -> bool:
+    """``info`` of a training checkpoint (``mocapkit train``'s ``checkpoint.pt``); False when ``path`` is none."""
+    import json
+
+    import torch
+
+    try:
+        ck = torch.load(path, map_location="cpu", weights_only=True)
+    except Exception:  # noqa: BLE001 - not a torch file of ours: the model reader says why
+        return False
+    if not (isinstance(ck, dict) and {"config", "data", "epoch", "state"} <= set(ck)):
+        return False
+    try:
+        cfg, data = json.loads(ck["config"]), json.loads(ck["data"])
+        train = list(data.get("train", []))
+    except (TypeError, ValueError, AttributeError):
+        cfg, train = {}, []
+    digests = bool(train) and all(isinstance(r, list) for r in train)
+    print_fields([("file", str(path)), ("kind", f"training checkpoint ({str(cfg.get('kind', '?')).upper()}, "
+                                                 "mocapkit train: the same command resumes it)"),
+                  ("epochs done", str(int(ck["epoch"]) + 1)), ("training clips", str(len(train))),
+                  ("clip content", "digests kept" if digests else
+                   "names only (an earlier mocapkit: it cannot be resumed; --restart)")])
+    return True
 
 
 def _served_note(m) -> str:
