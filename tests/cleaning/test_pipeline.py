@@ -488,3 +488,13 @@ def test_a_record_says_which_version_wrote_it(tmp_path):
     res.save(tmp_path / "r.clean.npz")
     with np.load(tmp_path / "r.clean.npz") as data:
         assert json.loads(str(data["meta"]))["mocapkit"] == mocapkit.__version__
+
+
+def test_a_limb_held_still_through_a_moving_take_is_named():
+    take = mocapkit.load(samples.path("12_walk.amc"))
+    assert not [n for n in clean(take, steps=("detect",)).notes if "bit for bit" in n]
+    k = take.skeleton.index("lradius")
+    rot = np.array(take.rotations)
+    rot[:, k] = rot[0, k]  # the elbow's channel frozen at its first value
+    said = [n for n in clean(dataclasses.replace(take, rotations=rot), steps=("detect",)).notes if "bit for bit" in n]
+    assert said and said[0].startswith("lradius holds one rotation, bit for bit, through the whole take")

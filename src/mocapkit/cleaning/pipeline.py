@@ -587,6 +587,32 @@ def noise_fit_frames(fps: float) -> int:
     return max(NOISE_FIT_MIN, int(round(NOISE_FIT_S * fps)) | 1)
 
 
+#: limb joints that never hold one rotation, bit for bit, through a moving take of two seconds or more
+HELD_ROLES = tuple(f"{s}_{p}" for s in ("left", "right") for p in ("shoulder", "elbow", "hip", "knee"))
+
+
+def held_still_note(motion: Motion) -> str:
+    """One line naming the limb joints (:data:`HELD_ROLES`) whose rotation is the same, bit for bit, in every frame of
+    a take of at least two seconds while another of them moves, else "".
+
+    A lost or frozen channel, which self-similarity does not flag: the take's own similar motion holds it too.
+    Nothing in 561 real takes (HDM05, CMU, Bandai Namco, peers' BVH files) holds a shoulder, elbow, hip or knee
+    still so; fingers and hands do (the CMU fingers' fixed 7.125 deg), so they are not asked.
+    """
+    from ..joints import standard_joints
+
+    if motion.num_frames < 2.0 * motion.fps:
+        return ""
+    found = standard_joints(motion.skeleton)
+    limbs = [found[r] for r in HELD_ROLES if r in found]
+    held = [j for j in limbs if np.all(motion.rotations[:, j] == motion.rotations[0, j])]
+    if not held or len(held) == len(limbs):
+        return ""
+    names = ", ".join(motion.skeleton.joint_names[j] for j in held)
+    return (f"{names} {'holds' if len(held) == 1 else 'hold'} one rotation, bit for bit, through the whole take while "
+            "the body moves: a lost or frozen channel? (not flagged: every word of the take holds it alike)")
+
+
 #: above this share of missing joint samples, a fill is said to have made up most of the take
 MADE_UP_SHARE = 0.5
 
@@ -669,6 +695,9 @@ def clean(
     det = None
     cur = motion
 
+    held = held_still_note(motion) if "detect" in steps else ""
+    if held:
+        notes.append(held)
     if "fill" in steps:
         t = time.perf_counter()
         before = cur.rotations
