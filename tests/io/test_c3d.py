@@ -1,3 +1,5 @@
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -548,3 +550,16 @@ def test_the_integer_and_float_copies_of_one_trial_read_the_same(shared_data):
     assert np.array_equal(integer.positions, real.positions, equal_nan=True)
     assert np.array_equal(integer.residuals, real.residuals)
     assert np.array_equal(integer.source.analogs, real.source.analogs)
+
+
+def test_a_capture_without_analogs_keeps_its_analog_rate_of_zero(tmp_path):
+    """A C3D whose ANALOG:RATE says 0 (no analog channels) came back stating the frame rate there."""
+    import ezc3d
+
+    src = Path(__file__).parents[1] / "data" / "85_02.c3d"
+    assert float(ezc3d.c3d(str(src))["parameters"]["ANALOG"]["RATE"]["value"][0]) == 0.0
+    out = tmp_path / "back.c3d"
+    mocapkit.io.save_markers(mocapkit.io.load_markers(src), out)
+    back = ezc3d.c3d(str(out))
+    assert float(back["parameters"]["ANALOG"]["RATE"]["value"][0]) == 0.0 and back["header"]["analogs"]["frame_rate"] == 0
+    assert np.array_equal(mocapkit.io.load_markers(out).positions, mocapkit.io.load_markers(src).positions, equal_nan=True)

@@ -657,13 +657,17 @@ def _c3d_object(markers: MarkerSet, source: MarkerSource | None):
         if key == "LABELS" or values:
             values = (values + [f"Analog{i + 1}" if key == "LABELS" else "" for i in range(len(values), A)])[:A]
             analog[key] = {"type": -1, "description": "", "is_locked": False, "value": values}
-    # ezc3d writes analog values as floats already scaled: the stored scale is then 1, offset 0
+    # ezc3d writes analog values as floats already scaled: the stored scale is then 1, offset 0; a file without
+    # analogs whose ANALOG:RATE says 0 keeps saying so (the frame rate written there read as an analog rate)
+    old_rate = np.ravel(analog.get("RATE", {}).get("value", [np.nan]))
+    none_at_0 = analogs is None and len(old_rate) > 0 and old_rate[0] == 0
+    rate = 0.0 if none_at_0 else markers.fps * (1 if analogs is None else analogs.shape[1] // F)
     for key, typ, value in (("SCALE", 4, np.ones(A)), ("OFFSET", 2, np.zeros(A, dtype=int)), ("GEN_SCALE", 4, np.array([1.0])),
-                            ("RATE", 4, np.array([markers.fps * (1 if analogs is None else analogs.shape[1] // F)]))):
+                            ("RATE", 4, np.array([rate]))):
         old = analog.get(key, {})
         analog[key] = {"type": typ, "description": old.get("description", ""), "is_locked": old.get("is_locked", False),
                        "value": value}
-    data_analogs = np.zeros((1, 0, F)) if analogs is None else analogs[None]
+    data_analogs = np.zeros((1, 0, 0 if none_at_0 else F)) if analogs is None else analogs[None]
     trial = c["parameters"].get("TRIAL", {}) if "TRIAL" in c["parameters"] else {}
     for key, frame in (("ACTUAL_START_FIELD", first), ("ACTUAL_END_FIELD", first + F - 1)):
         if key in trial:  # a 32-bit frame number in two 16-bit words (Vicon), kept in step with the frames written
