@@ -16,7 +16,7 @@ import signal
 import threading
 from contextlib import contextmanager
 
-__all__ = ["interrupts_as_keyboard_interrupt", "interrupts_held", "in_native_callback", "RETRY_S"]
+__all__ = ["interrupts_as_keyboard_interrupt", "interrupts_held", "in_native_callback", "exit_status", "RETRY_S"]
 
 RETRY_S = 0.05  # seconds before a deferred signal is sent again
 
@@ -30,13 +30,24 @@ def in_native_callback(frame) -> bool:
     return False
 
 
+_last_signal: list[int] = []  # the signal that raised the last KeyboardInterrupt here (exit_status)
+
+
 def _interrupt(signum, frame):
     if in_native_callback(frame):
         timer = threading.Timer(RETRY_S, os.kill, (os.getpid(), signum))
         timer.daemon = True
         timer.start()
         return
+    _last_signal[:] = [signum]
     raise KeyboardInterrupt(f"signal {signum}")
+
+
+def exit_status() -> int:
+    """The exit status of a command an interrupt ended: 128 + the signal's number, as a shell reports a process the
+    signal ended (130 for Ctrl-C, 143 for SIGTERM, what a scheduler that stopped it expects); 130 for an interrupt
+    no signal of ours raised."""
+    return 128 + (_last_signal[0] if _last_signal else int(signal.SIGINT))
 
 
 def _replaceable(handler) -> bool:
@@ -72,6 +83,7 @@ def _restore(before: dict) -> None:
 def interrupts_as_keyboard_interrupt():
     """While the block runs, SIGINT and SIGTERM raise KeyboardInterrupt (outside llvmlite's callbacks); then the handlers are restored."""
     before = _set_handlers(_interrupt, _replaceable)
+    _last_signal.clear()
     try:
         yield
     finally:

@@ -14,7 +14,7 @@ What every command guarantees:
 - outputs are written atomically (temporary file + rename), and a run that
   fails leaves none of the files it created;
 - every failure ends in one line on stderr, ``mocapkit: error: ...``, and exit
-  status 2 (1 for a batch with failed takes; 130 when interrupted), never a
+  status 2 (1 for a batch with failed takes; 130 when interrupted, 143 after SIGTERM), never a
   traceback (:func:`main`).
 """
 
@@ -129,7 +129,7 @@ def main(argv: list[str] | None = None) -> int:
     Returns the exit status: 0, 2 for any failure (bad input, usage, a
     filesystem error, an unexpected exception: ``mocapkit: error: ...`` on
     stderr, no traceback), 1 for a batch with failed takes (the command says
-    which), 130 when interrupted.
+    which), 130 when interrupted (143 by SIGTERM).
     """
     from ..interrupts import interrupts_as_keyboard_interrupt
 
@@ -145,6 +145,7 @@ def main(argv: list[str] | None = None) -> int:
         return _exit_status(exc)
     if result == EXIT_INTERRUPTED:  # typer turns an interrupt inside a command into Exit(130)
         print("mocapkit: interrupted; no partial output was left", file=sys.stderr)
+        return interrupted_status()
     return result if isinstance(result, int) else 0
 
 
@@ -183,13 +184,20 @@ def run() -> None:
     os._exit(code)
 
 
+def interrupted_status() -> int:
+    """Exit status of an interrupted command: 130 after Ctrl-C, 143 after SIGTERM (:func:`mocapkit.interrupts.exit_status`)."""
+    from ..interrupts import exit_status
+
+    return exit_status()
+
+
 def _exit_status(exc: BaseException) -> int:
     """Print the one line for a failure and return the exit status (see :func:`main`)."""
     if isinstance(exc, typer.Abort) and isinstance(exc.__cause__, EOFError):  # click's Abort for a file cut short
         return _fail(f"a file ended before its data did (EOFError: {exc.__cause__})")
     if isinstance(exc, (KeyboardInterrupt, typer.Abort)):
         print("mocapkit: interrupted; no partial output was left", file=sys.stderr)
-        return EXIT_INTERRUPTED
+        return interrupted_status()
     if isinstance(exc, SystemExit):
         return exc.code if isinstance(exc.code, int) else (0 if exc.code is None else EXIT_BAD_INPUT)
     if isinstance(exc, typer.Exit):
