@@ -562,3 +562,23 @@ def test_a_database_replaced_while_it_is_opened_comes_back_whole(tmp_path, monke
     monkeypatch.setattr(database_folder, "_load_array", swap_midway)
     desc, arrays = read_folder(first, mmap=False)
     assert swapped and np.array_equal(arrays["rotations.npy"], expected)  # all of the new build
+
+
+def test_a_database_a_killed_earlier_version_left_hidden_is_put_back(saved, tmp_path):
+    """mocapkit 0.1.0 moved the old database to ``.NAME.XXXXXXXX.old/db`` before renaming the new one in; a kill
+    between the two left only that hidden copy, which this version now finds and puts back (a minute on)."""
+    hidden = tmp_path / ".db.k3j9x0ab.old"
+    hidden.mkdir()
+    shutil.copytree(saved, hidden / "db")
+    old = 1_000_000_000
+    os.utime(hidden, (old, old))
+    target = tmp_path / "db"
+    with pytest.raises(MocapFormatError, match=r"no such folder; an interrupted write left the previous database at .*\.db\.k3j9x0ab\.old"):
+        read_folder(target)
+    with pytest.raises(MocapFormatError, match=r"already exists \(put back from .*k3j9x0ab.*; pass --overwrite"):
+        check_database_output(target)
+    assert read_folder(target)[0].num_frames == read_folder(saved)[0].num_frames and not hidden.exists()
+    fresh = tmp_path / ".db.zz9x0abc.old"  # a minute has not passed: it may be a live 0.1.0 writer's
+    fresh.mkdir()
+    database_folder.recover_leftovers(target)
+    assert fresh.is_dir()

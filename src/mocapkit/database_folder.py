@@ -38,6 +38,7 @@ import re
 import shutil
 import socket
 import tempfile
+import time
 from pathlib import Path
 from typing import Iterable, Mapping, NamedTuple, Sequence
 
@@ -442,19 +443,32 @@ def staging_folder(target, kind: str = "part") -> Path:
     return path
 
 
-def _leftovers(target: Path) -> list[tuple[Path, str]]:
-    """The ``.NAME.OWNER-XXXXXXXX.{part,old}`` folders beside ``target`` whose owner is dead: ``(path, kind)``, newest first."""
-    pattern = re.compile(rf"\.{re.escape(target.name)}\.(\d+-[0-9a-f]{{6}})-[a-z0-9_]{{8}}\.(part|old)")
+def _leftovers(target: Path) -> list[tuple[Path, str, str]]:
+    """The ``.NAME.OWNER-XXXXXXXX.{part,old}`` folders beside ``target`` whose owner is dead: ``(path, kind, inner)``,
+    newest first; ``inner`` names the replaced folder inside an ``.old`` one.
+
+    mocapkit 0.1.0 named them ``.NAME.XXXXXXXX.{part,old}`` (no owner; the replaced database in ``.old/db``): those
+    are taken as dead once a minute old (its swap took milliseconds).
+    """
+    name = re.escape(target.name)
+    tagged = re.compile(rf"\.{name}\.(\d+-[0-9a-f]{{6}})-[a-z0-9_]{{8}}\.(part|old)")
+    legacy = re.compile(rf"\.{name}\.[a-z0-9_]{{8}}\.(part|old)")
     found = []
     try:
         with os.scandir(target.parent) as entries:
             for e in entries:
-                m = pattern.fullmatch(e.name)
-                if m and e.is_dir(follow_symlinks=False) and _owner_dead(m.group(1)):
-                    found.append((Path(e.path), m.group(2), e.stat(follow_symlinks=False).st_mtime_ns))
+                if not e.is_dir(follow_symlinks=False):
+                    continue
+                when = e.stat(follow_symlinks=False).st_mtime_ns
+                m = tagged.fullmatch(e.name)
+                if m and _owner_dead(m.group(1)):
+                    found.append((Path(e.path), m.group(2), _KEPT, when))
+                m = legacy.fullmatch(e.name)
+                if m and time.time_ns() - when > 60 * 10**9:
+                    found.append((Path(e.path), m.group(1), "db", when))
     except OSError:
         return []
-    return [(p, kind) for p, kind, _ in sorted(found, key=lambda f: -f[2])]
+    return [(p, kind, inner) for p, kind, inner, _ in sorted(found, key=lambda f: -f[3])]
 
 
 def recover_leftovers(target) -> Path | None:
@@ -475,14 +489,14 @@ def recover_leftovers(target) -> Path | None:
     restored = None
     found = _leftovers(target)
     if not os.path.lexists(target):
-        for path, kind in found:
-            if kind == "old" and (path / _KEPT).is_dir():
+        for path, kind, inner in found:
+            if kind == "old" and (path / inner).is_dir():
                 with interrupts_held():
-                    os.rename(path / _KEPT, target)
+                    os.rename(path / inner, target)
                     path.rmdir()
-                restored = path / _KEPT
+                restored = path / inner
                 break
-    for path, _ in found:
+    for path, _, _ in found:
         if path.exists() and (restored is None or path != restored.parent):
             shutil.rmtree(path, ignore_errors=True)
     return restored
@@ -690,9 +704,9 @@ def _identity(directory: Path):
 def _read_folder(directory: Path, mmap: bool) -> tuple[Description, dict[str, np.ndarray]]:
     desc_path = directory / DESCRIPTION
     if not directory.exists():
-        hidden = [p for p, kind in _leftovers(resolved(directory)) if kind == "old" and (p / _KEPT).is_dir()]
+        hidden = [p / inner for p, kind, inner in _leftovers(resolved(directory)) if kind == "old" and (p / inner).is_dir()]
         if hidden:  # said, not moved: opening changes nothing; the next write puts it back
-            raise MocapFormatError(directory, f"no such folder; an interrupted write left the previous database at {hidden[0] / _KEPT}")
+            raise MocapFormatError(directory, f"no such folder; an interrupted write left the previous database at {hidden[0]}")
         raise MocapFormatError(directory, "no such folder (a motion database is a folder `mocapkit db build` writes)")
     if not directory.is_dir() or not desc_path.is_file():
         raise MocapFormatError(directory, f"not a motion database (no {DESCRIPTION})")
