@@ -447,12 +447,13 @@ def _leftovers(target: Path) -> list[tuple[Path, str, str]]:
     """The ``.NAME.OWNER-XXXXXXXX.{part,old}`` folders beside ``target`` whose owner is dead: ``(path, kind, inner)``,
     newest first; ``inner`` names the replaced folder inside an ``.old`` one.
 
-    mocapkit 0.1.0 named them ``.NAME.XXXXXXXX.{part,old}`` (no owner; the replaced database in ``.old/db``): those
-    are taken as dead once a minute old (its swap took milliseconds).
+    mocapkit 0.1.0 named them ``.NAME.XXXXXXXX.{part,old}`` (no owner; the replaced database in ``.old/db``): its
+    ``.old`` folders are taken as dead once a minute old (its swap took milliseconds); its ``.part`` folders, which a
+    long build of that version may still be writing, are left alone.
     """
     name = re.escape(target.name)
     tagged = re.compile(rf"\.{name}\.(\d+-[0-9a-f]{{6}})-[a-z0-9_]{{8}}\.(part|old)")
-    legacy = re.compile(rf"\.{name}\.[a-z0-9_]{{8}}\.(part|old)")
+    legacy = re.compile(rf"\.{name}\.[a-z0-9_]{{8}}\.(old)")
     found = []
     try:
         with os.scandir(target.parent) as entries:
