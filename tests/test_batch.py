@@ -594,3 +594,13 @@ def test_context_none_stays_a_word(tmp_path, short_bvh, monkeypatch):
     monkeypatch.chdir(tmp_path)
     s = clean_batch("in", "out", context=["none"], steps=["fill", "detect"], executor="serial", progress=False)
     assert s.count("done") == 1, s.rows
+
+
+def test_the_context_turned_off_is_one_request_however_it_is_said(tmp_path, short_bvh):
+    (tmp_path / "in").mkdir()
+    shutil.copy(short_bvh, tmp_path / "in" / "walk.bvh")
+    out = tmp_path / "out"
+    assert clean_batch(tmp_path / "in", out, context=["none"], steps=STEPS, executor="serial", progress=False).count("done") == 1
+    for said in ("off", "NONE"):  # documented as the same: the take is complete, not 'made otherwise'
+        again = clean_batch(tmp_path / "in", out, context=[said], steps=STEPS, executor="serial", progress=False)
+        assert again.count("skipped") == 1

@@ -246,8 +246,11 @@ def clean_request(steps=None, threshold: float = 0.5, drifts: bool = False, cont
         p = Path(c)
         return str(p.resolve()) if p.exists() else os.fspath(c)
 
+    from .context import is_off
+
     return {"steps": list(parse_steps(steps or STEPS)), "threshold": float(threshold), "drifts": bool(drifts),
-            "context": [spec(c) for c in context] if context else "default",
+            # the context turned off, however it was said ('none', 'off', 'NONE'): one request, as records kept it
+            "context": ["none"] if context and is_off(list(context)) else ([spec(c) for c in context] if context else "default"),
             "models": {k: spec(v) if isinstance(v, (str, os.PathLike)) else type(v).__name__
                        for k, v in sorted((models or {}).items())}}
 
@@ -618,6 +621,7 @@ def clean_batch(
     and on a refused output; nothing is written then.
     """
     from .cleaning.pipeline import STEPS, parse_steps
+    from .context import is_off
     from .io.outputs import inside, resolved
     from .parallel import check_executor, describe_executor, map_ordered
 
@@ -668,7 +672,7 @@ def clean_batch(
                                             f"it again{more}")
     # every path absolute: a remote Dask worker resolves a relative one against its own working folder
     jobs = [{"input": _abs(inp), "output": _abs(files["output"]), "steps": steps,
-             "context": [_abs(c) if os.path.lexists(c) else str(c) for c in ctx],  # 'none' stays a word
+             "context": [str(c) if is_off(c) else _abs(c) for c in ctx],  # 'none' stays a word
              "threshold": float(threshold), "drifts": bool(drifts),
              "models": {k: _abs(v) if Path(v).exists() else str(v) for k, v in (models or {}).items()} or None,
              "report": _abs(files["report"]) if files["report"] else None,

@@ -366,7 +366,7 @@ def cached_context(files: Sequence, *, cache_dir=None, fps: float = BUILD_FPS, f
         if cached is not None:
             return cached
     if hidden:
-        return _uncached(db, f"the cache entry {entry} cannot be read ({hidden})")
+        return _uncached(db, f"the cache entry {entry} cannot be read ({hidden})", _HIDDEN_ADVICE)
     try:
         root.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
@@ -385,7 +385,7 @@ def cached_context(files: Sequence, *, cache_dir=None, fps: float = BUILD_FPS, f
     finally:
         shutil.rmtree(staging, ignore_errors=True)
     cached, hidden = _open_entry(entry, label)
-    return cached if cached is not None else _uncached(db, f"the cache entry {entry} cannot be read ({hidden})")
+    return cached if cached is not None else _uncached(db, f"the cache entry {entry} cannot be read ({hidden})", _HIDDEN_ADVICE)
 
 
 def _open_entry(entry: Path, label):
@@ -406,9 +406,13 @@ def _open_entry(entry: Path, label):
         return None, ""
 
 
-def _uncached(db, why: str):
-    """The context ``db`` as built in memory, its notes saying why it was not cached."""
-    db.info["notes"] = [*db.info.get("notes", []), f"not cached: {why}; set MOCAPKIT_CACHE_DIR to a writable folder"]
+_HIDDEN_ADVICE = ("another user's entry, private (as mocapkit 0.1.0 made them): its owner can `chmod -R go+rX` it or "
+                  "remove it")
+
+
+def _uncached(db, why: str, advice: str = "set MOCAPKIT_CACHE_DIR to a writable folder"):
+    """The context ``db`` as built in memory, its notes saying why it was not cached and what to do about it."""
+    db.info["notes"] = [*db.info.get("notes", []), f"not cached: {why}; {advice}"]
     return db
 
 

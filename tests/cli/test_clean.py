@@ -17,6 +17,7 @@ import pytest
 
 import mocapkit
 from mocapkit import corrupt, samples
+from tests.cli import helpers
 from mocapkit.cleaning.decisions import changes
 from mocapkit.cleaning.pipeline import CleanResult
 from mocapkit.cleaning.ssa.cues import CAUSES
@@ -465,3 +466,19 @@ def test_output_suffix_and_record_clashes_are_named_first(tmp_path, capsys):
     mocapkit.save(mocapkit.load(samples.path("12_walk.amc"))[:60], tmp_path / "a.clean.npz")
     assert main(["clean", str(tmp_path / "a.clean.npz"), "-o", str(tmp_path / "a.npz")]) == 2
     assert "the record of" in capsys.readouterr().err and not (tmp_path / "a.npz").exists()
+
+
+def test_an_interrupted_batch_says_its_finished_takes_are_kept(tmp_path, monkeypatch):
+    import mocapkit.batch
+
+    out = tmp_path / "out"
+
+    def interrupted(in_dir, out_dir, **kwargs):
+        (Path(out_dir) / "done.clean.npz").parent.mkdir(parents=True, exist_ok=True)
+        (Path(out_dir) / "done.clean.npz").write_bytes(b"a finished take's record")
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(mocapkit.batch, "clean_batch", interrupted)
+    (tmp_path / "in").mkdir()
+    code, text, err = helpers.run("clean-batch", tmp_path / "in", out)
+    assert code == 130 and "the takes finished in" in " ".join(text.split()) and "resumes the others" in text

@@ -379,3 +379,22 @@ def test_an_amc_output_is_never_left_without_its_asf(tmp_path, monkeypatch):
     monkeypatch.setattr(io, "save", interrupted)
     code, _, _ = run("convert", amc, out, "--asf", asf)
     assert code == 130 and not [p for p in tmp_path.rglob("*") if p.is_file()]
+
+
+def test_info_describes_mocapkit_s_json_files(tmp_path):
+    import json
+
+    from mocapkit.batch import BATCH_MARK
+
+    (tmp_path / "take.decisions.json").write_text(json.dumps({
+        "format": "mocapkit.decisions/1", "mocapkit": "0.2.0", "take": {"name": "walk.bvh"}, "output": "w.bvh",
+        "decisions": {"repair:a:1-2": "reject", "fill:b:3-4": "accept"}}))
+    code, text, err = run("info", tmp_path / "take.decisions.json")
+    assert code == 0, err
+    assert "review decisions" in text and "1 accepted, 1 rejected" in text
+    (tmp_path / BATCH_MARK).write_text(json.dumps({"format": 1, "input": "/data/takes"}))
+    code, text, err = run("info", tmp_path / BATCH_MARK)
+    assert code == 0 and "clean-batch's mark" in " ".join(text.split()) and "/data/takes" in text, err
+    (tmp_path / "other.json").write_text("{}")
+    code, _, err = run("info", tmp_path / "other.json")
+    assert code == 2 and one_error_line(err)

@@ -291,9 +291,14 @@ def clean_batch(
     if not patterns:
         raise MocapError("--pattern: give at least one file name pattern, e.g. '*.bvh,*.amc'")
     models = _models(ebf, ebd)
-    summary = run_batch(in_dir, out_dir, context=context, steps=step_list, threshold=threshold, patterns=patterns,
-                        fmt=fmt, report=report, png=png, executor=executor, progress=not as_json, overwrite=overwrite,
-                        asf=asf, drifts=drifts, models=models)
+    try:
+        summary = run_batch(in_dir, out_dir, context=context, steps=step_list, threshold=threshold, patterns=patterns,
+                            fmt=fmt, report=report, png=png, executor=executor, progress=not as_json,
+                            overwrite=overwrite, asf=asf, drifts=drifts, models=models)
+    except KeyboardInterrupt:  # "no partial output" alone reads as if nothing was kept
+        if out_dir.is_dir() and any(out_dir.rglob("*.clean.npz")):
+            console.print(f"note: the takes finished in {out_dir} are kept; the same command resumes the others")
+        raise
     if as_json:
         print(json.dumps({"rows": summary.rows, "seconds": summary.seconds, "executor": summary.executor,
                           "earlier": summary.earlier}))

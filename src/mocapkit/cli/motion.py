@@ -15,7 +15,8 @@ from .common import asf_option, console, database_rows, guard, overwrite_option,
 
 def info(
     file: Path = typer.Argument(..., help="A .bvh, .amc, .c3d, .trc or .npz file; or what mocapkit writes: a database "
-                                          "folder, a .clean.npz record, a detection, a .mask.npz, a .pt model."),
+                                          "folder, a .clean.npz record, a detection, a .mask.npz, a .pt model or "
+                                          "checkpoint, a knowledge base, a decisions file, a batch mark."),
     joints: bool = typer.Option(False, "--joints", help="Also list every joint with its parent and channels."),
     asf: Optional[Path] = asf_option(),
 ) -> None:
@@ -217,6 +218,10 @@ def _info_of_own_file(path: Path) -> bool:
     from ..database_folder import DESCRIPTION
 
     name = path.name.lower()
+    if path.is_dir() and (path / "knowledge.json").is_file():
+        return _describe_json(path, path / "knowledge.json", "accelerometer knowledge base (reconstruct --accelerometers)")
+    if name.endswith(".json") and path.is_file():
+        return _describe_json(path, path, None)
     if path.is_dir() and (path / DESCRIPTION).is_file():
         from ..database import MotionDatabase
 
@@ -274,6 +279,41 @@ def _info_of_own_file(path: Path) -> bool:
                       ("frames", str(det.flags.shape[0])), ("joints", str(det.flags.shape[1])),
                       ("flagged", f"{plural(int(det.flags.sum()), 'joint sample')} in "
                                   f"{plural(len(det.segments()), 'segment')}")])
+        return True
+    return False
+
+
+def _describe_json(path: Path, doc_path: Path, kind: str | None) -> bool:
+    """``info`` of mocapkit's JSON files: a knowledge base's description, a decisions file, a batch's mark; False
+    for any other JSON (refused then as no take)."""
+    import json
+
+    from ..batch import BATCH_MARK
+
+    try:
+        doc = json.loads(doc_path.read_text(encoding="utf-8")[: 2**22])
+    except (OSError, ValueError):
+        return False
+    if not isinstance(doc, dict):
+        return False
+    if kind is not None:  # a knowledge base folder
+        sensors = [s.get("name", "?") for s in doc.get("sensors", []) if isinstance(s, dict)]
+        print_fields([("file", str(path)), ("kind", kind), ("sensors", ", ".join(sensors) or "?"),
+                      ("fps", f"{doc.get('fps', '?')}"), ("built in", f"{float(doc.get('build_seconds', 0)):.1f} s")])
+        return True
+    if str(doc.get("format", "")).startswith("mocapkit.decisions"):
+        decided = doc.get("decisions", {}) if isinstance(doc.get("decisions"), dict) else {}
+        rejected = sum(1 for v in decided.values() if v == "reject")
+        take = doc.get("take", {}) if isinstance(doc.get("take"), dict) else {}
+        print_fields([("file", str(path)), ("kind", "review decisions (clean --decisions applies them)"),
+                      ("take", str(take.get("name", "?"))), ("output", str(doc.get("output", "?"))),
+                      ("decisions", f"{len(decided) - rejected} accepted, {rejected} rejected"),
+                      ("written by", f"mocapkit {doc.get('mocapkit', '?')}")])
+        return True
+    if path.name == BATCH_MARK and "input" in doc:
+        print_fields([("file", str(path)), ("kind", "clean-batch's mark of its output folder (a later batch of the "
+                                                     "input folder leaves this folder out)"),
+                      ("input folder", str(doc.get("input")))])
         return True
     return False
 
