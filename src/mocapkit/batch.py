@@ -622,7 +622,7 @@ def clean_batch(
     """
     from .cleaning.pipeline import STEPS, parse_steps
     from .context import is_off
-    from .io.outputs import inside, resolved
+    from .io.outputs import inside, missing_folders, resolved
     from .parallel import check_executor, describe_executor, map_ordered
 
     in_dir, out_dir = Path(in_dir), Path(out_dir)
@@ -680,7 +680,7 @@ def clean_batch(
              "asf": _abs(asf) if asf is not None and inp.suffix.lower() == ".amc" else None} for inp, files in todo]
     skeletons = _asf_copies(inputs, plans, asf, overwrite) if fmt == "amc" else {}
     expected = [f for files in plans for f in files.values() if f is not None]
-    made = _missing_folders([out_dir, *(Path(files["output"]).parent for _, files in todo)])
+    made = missing_folders([out_dir, *(Path(files["output"]).parent for _, files in todo)])
     with _only_batch(out_dir):
         _sweep(expected)
         finished = False
@@ -832,19 +832,8 @@ def _unmark_if_empty(out_dir: Path) -> None:
         pass
 
 
-def _missing_folders(folders) -> list[Path]:
-    """The folders among ``folders`` and their parents that do not exist yet, deepest first."""
-    out: set[Path] = set()
-    for folder in folders:
-        f = Path(folder)
-        while not f.exists() and f not in out and f != f.parent:
-            out.add(f)
-            f = f.parent
-    return sorted(out, key=lambda p: len(p.parts), reverse=True)
-
-
 def _prune(folders: list[Path]) -> None:
-    """Remove the folders of :func:`_missing_folders` that the batch made and left empty (no take of theirs was
+    """Remove the folders of :func:`mocapkit.io.outputs.missing_folders` that the batch made and left empty (no take of theirs was
     written), deepest first; a folder holding anything stays."""
     for f in folders:
         try:

@@ -40,7 +40,7 @@ import socket
 import tempfile
 import time
 from pathlib import Path
-from typing import Iterable, Mapping, NamedTuple, Sequence
+from typing import Callable, Iterable, Mapping, NamedTuple, Sequence
 
 import numpy as np
 
@@ -62,6 +62,7 @@ __all__ = [
     "content_digest",
     "staging_folder",
     "publish_folder",
+    "write_staged",
     "recover_leftovers",
     "write_folder",
     "read_folder",
@@ -641,26 +642,41 @@ def write_folder(directory, description: Description, arrays: Mapping[str, np.nd
             raise ValueError(f"{rel!r} is not a file of the database layout (feature names are plain identifiers)")
     inputs = list(inputs)
     check_database_output(directory, inputs, overwrite=overwrite)
-    target = resolved(directory)  # a symlinked folder: replace what it points to
     desc = description_json(description)
-    try:
-        target.parent.mkdir(parents=True, exist_ok=True)
-        tmp = staging_folder(target)
-    except OSError as exc:
-        raise MocapFormatError(directory, f"cannot write the database ({exc.strerror or exc})") from None
-    try:
+
+    def fill(tmp: Path) -> None:
         (tmp / "features").mkdir()
         for rel, a in arrays.items():
             np.save(tmp / rel, np.ascontiguousarray(a, dtype=_array_dtype(rel)))
         desc["info"][_DIGEST_KEY] = description.digest or content_digest(description, arrays)
         with open(tmp / DESCRIPTION, "w", encoding="utf-8") as fh:
             json.dump(desc, fh, indent=1)
-        check_database_output(directory, inputs, overwrite=overwrite)  # it may have changed meanwhile
+
+    return write_staged(directory, fill, lambda: check_database_output(directory, inputs, overwrite=overwrite),
+                        "the database")
+
+
+def write_staged(directory, fill: Callable[[Path], None], recheck: Callable[[], None], what: str) -> Path:
+    """Write the folder ``directory`` whole or not at all: ``fill(tmp)`` writes its files into a hidden
+    :func:`staging_folder` beside it, ``recheck()`` refuses the write if the target changed meanwhile (raising), and
+    :func:`publish_folder` swaps it in. On any failure or interrupt the staging folder is removed; a failing write
+    is one :class:`~mocapkit.errors.MocapFormatError` naming ``directory`` and ``what`` ("the database"). A
+    symlinked ``directory``: what it points to is replaced. Returns the folder written (resolved).
+    """
+    target = resolved(directory)
+    try:
+        target.parent.mkdir(parents=True, exist_ok=True)
+        tmp = staging_folder(target)
+    except OSError as exc:
+        raise MocapFormatError(directory, f"cannot write {what} ({exc.strerror or exc})") from None
+    try:
+        fill(tmp)
+        recheck()
         publish_folder(tmp, target)
     except BaseException as exc:
         shutil.rmtree(tmp, ignore_errors=True)
         if isinstance(exc, OSError):
-            raise MocapFormatError(directory, f"cannot write the database ({exc.strerror or exc})") from None
+            raise MocapFormatError(directory, f"cannot write {what} ({exc.strerror or exc})") from None
         raise
     return target
 

@@ -44,7 +44,7 @@ from ..errors import MocapFormatError
 from ..interrupts import interrupts_held
 
 __all__ = ["check_outputs", "same_file", "inside", "removed_on_failure", "publish", "keep_aside", "put_back",
-           "drop_kept"]
+           "drop_kept", "missing_folders"]
 
 
 def resolved(path: os.PathLike | str) -> Path:
@@ -213,12 +213,13 @@ def drop_kept(kept: dict[Path, Path]) -> None:
     kept.clear()
 
 
-def _missing_parents(outs: list[Path]) -> list[Path]:
-    """The folders above ``outs`` that do not exist yet, deepest first."""
+def missing_folders(folders: Iterable[os.PathLike | str]) -> list[Path]:
+    """The folders among ``folders`` and their parents that do not exist yet, deepest first: what writing into them
+    will make, and a failed write removes again when they are left empty."""
     found: set[Path] = set()
-    for o in outs:
-        f = o.absolute().parent
-        while not f.exists() and f != f.parent:
+    for folder in folders:
+        f = Path(folder)
+        while not f.exists() and f not in found and f != f.parent:
             found.add(f)
             f = f.parent
     return sorted(found, key=lambda p: len(p.parts), reverse=True)
@@ -249,7 +250,7 @@ def removed_on_failure(
             if os.path.lexists(o):
                 raise MocapFormatError(o, "appeared while this command ran (another program wrote it); pass "
                                           "--overwrite to replace it")
-    made = _missing_parents(outs)  # folders the writes will make: removed again, when empty, on failure
+    made = missing_folders(o.absolute().parent for o in outs)  # removed again, when empty, on failure
     kept = keep_aside(outs)
     outer, mine = _WRITTEN.get(), []
     new_only = {os.path.abspath(o) for o in outs if not os.path.lexists(o)} if overwrite is False else set()

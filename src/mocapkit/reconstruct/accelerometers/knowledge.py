@@ -40,7 +40,6 @@ from __future__ import annotations
 
 import json
 import os
-import shutil
 import time
 import weakref
 from dataclasses import dataclass
@@ -52,7 +51,7 @@ import numpy as np
 
 from ... import rotations as R
 from ...database import MotionDatabase
-from ...database_folder import publish_folder, recover_leftovers, staging_folder
+from ...database_folder import recover_leftovers, write_staged
 from ...errors import MocapFormatError
 from ...features import Sensor, default_sensors, find_up_axis, five_point_derivative, root_frame, virtual_accelerometers
 from ...io.outputs import resolved
@@ -457,27 +456,16 @@ def save_knowledge_base(kb: KnowledgeBase, directory, database: dict | None = No
     Returns the folder.
     """
     check_knowledge_base_output(directory)
-    directory = Path(directory)
-    target = resolved(directory)  # a symlinked folder: replace what it points to
     meta = {"format": _FORMAT, "sensors": _sensor_json(kb.sensors), "up": [float(x) for x in kb.up], "fps": float(kb.fps),
             "build_seconds": float(kb.build_seconds), "database": database}
-    try:
-        target.parent.mkdir(parents=True, exist_ok=True)
-        tmp = staging_folder(target)
-    except OSError as exc:
-        raise MocapFormatError(directory, f"cannot write the knowledge base ({exc.strerror or exc})") from None
-    try:
+
+    def fill(tmp: Path) -> None:
         for name in _ARRAYS:
             np.save(tmp / f"{name}.npy", np.ascontiguousarray(getattr(kb, name)))
         (tmp / DESCRIPTION).write_text(json.dumps(meta))
-        check_knowledge_base_output(directory)  # it may have changed meanwhile
-        publish_folder(tmp, target)
-    except BaseException as exc:
-        shutil.rmtree(tmp, ignore_errors=True)
-        if isinstance(exc, OSError):
-            raise MocapFormatError(directory, f"cannot write the knowledge base ({exc.strerror or exc})") from None
-        raise
-    return directory
+
+    write_staged(directory, fill, lambda: check_knowledge_base_output(directory), "the knowledge base")
+    return Path(directory)
 
 
 def open_knowledge_base(directory, mmap: bool = True) -> KnowledgeBase:
