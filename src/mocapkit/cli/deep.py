@@ -92,6 +92,7 @@ def denoise(
     line (as `clean` does); --no-fallback makes that an error.
     """
     from .. import io
+    from ..cleaning.pipeline import noise_fit_frames
     from ..io.takes import check_asf
     from ..metrics import joint_angle_rms
     from ..reference import joint_angle_errors
@@ -99,8 +100,6 @@ def denoise(
     guard([out], [inp, asf, model, reference], overwrite)
     check_asf(asf, [inp, reference])
     m = _motion_for(inp, out, asf, "denoise")
-    from ..cleaning.pipeline import noise_fit_frames
-
     if m.num_frames < noise_fit_frames(m.fps):  # as clean skips it: too few frames to tell noise from motion
         raise MocapError(f"{inp}: {plural(m.num_frames, 'frame')} is shorter than the noise criterion's fit "
                          f"({noise_fit_frames(m.fps)} frames): too short to denoise")

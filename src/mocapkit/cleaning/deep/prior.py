@@ -342,8 +342,9 @@ def raw_weight(x: np.ndarray, reading: np.ndarray, miss: np.ndarray) -> np.ndarr
     w = np.zeros(C)
     ok3 = ~(miss[2:] | miss[1:-1] | miss[:-2])
     d2 = x[2:] - 2.0 * x[1:-1] + x[:-2]
+    resid = x - reading
     for c in range(C):
-        r = (x - reading)[~miss[:, c], c]
+        r = resid[~miss[:, c], c]
         d = d2[ok3[:, c], c]
         if len(r) < 8 or len(d) < 8:
             continue
