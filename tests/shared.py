@@ -191,3 +191,20 @@ def daz_spelling(motion):
                      "{c}Fingers": "{s}Index1", "{c}Thumb": "{s}Thumb1"}, "l", "r")
     return respelled(motion, names, drop=("Spine", "Neck1", "LeftToeBase", "RightToeBase", "LeftFingerBase",
                                           "RightFingerBase"))
+
+
+def record_map_ordered(monkeypatch) -> list:
+    """Patch :func:`mocapkit.parallel.map_ordered` to run as before and keep every item it hands out; returns that
+    list (what a batch's or a build's workers are given)."""
+    import mocapkit.parallel
+
+    seen: list = []
+    real = mocapkit.parallel.map_ordered
+
+    def spy(fn, items, **kwargs):
+        items = list(items)
+        seen.extend(items)
+        return real(fn, items, **kwargs)
+
+    monkeypatch.setattr(mocapkit.parallel, "map_ordered", spy)
+    return seen

@@ -56,6 +56,15 @@ def twins(tmp_path, short_bvh) -> Path:
     return src
 
 
+@pytest.fixture
+def walk_in(tmp_path, short_bvh) -> Path:
+    """IN_DIR holding one take, walk.bvh."""
+    src = tmp_path / "in"
+    src.mkdir()
+    shutil.copy(short_bvh, src / "walk.bvh")
+    return src
+
+
 # -- names -------------------------------------------------------------------------------
 
 
@@ -140,10 +149,8 @@ def test_output_that_resolves_to_an_input_through_a_link_is_refused(tmp_path, sh
     assert _tree(src) == before and _visible(out) == []  # refused before first.bvh (sorted first) was cleaned
 
 
-def test_output_that_is_a_hard_link_of_an_input_is_refused(tmp_path, short_bvh):
-    src = tmp_path / "in"
-    src.mkdir()
-    shutil.copy(short_bvh, src / "walk.bvh")
+def test_output_that_is_a_hard_link_of_an_input_is_refused(tmp_path, short_bvh, walk_in):
+    src = walk_in
     out = tmp_path / "out"
     out.mkdir()
     os.link(src / "walk.bvh", out / "walk.bvh")
@@ -166,10 +173,8 @@ def test_output_inside_in_dir_is_refused_unless_under_out_dir(tmp_path, short_bv
     assert [r["status"] for r in again.rows] == ["skipped"]  # the outputs are not taken for inputs
 
 
-def test_context_file_is_never_an_output(tmp_path, short_bvh):
-    src = tmp_path / "in"
-    src.mkdir()
-    shutil.copy(short_bvh, src / "walk.bvh")
+def test_context_file_is_never_an_output(tmp_path, short_bvh, walk_in):
+    src = walk_in
     out = tmp_path / "out"
     out.mkdir()
     ctx = out / "walk.bvh"  # the context clip sits where the output would go
@@ -242,13 +247,11 @@ def test_a_failing_take_leaves_no_folder_behind(tmp_path, short_bvh):
 # -- item 5: no write after the batch is gone -----------------------------------------------
 
 
-def test_a_take_whose_batch_is_gone_moves_nothing_into_place(tmp_path, short_bvh, monkeypatch):
+def test_a_take_whose_batch_is_gone_moves_nothing_into_place(tmp_path, monkeypatch, walk_in):
     """The liveness token is asked before each rename; when it turns false mid-take, what was moved is removed."""
     import mocapkit.parallel
 
-    src = tmp_path / "in"
-    src.mkdir()
-    shutil.copy(short_bvh, src / "walk.bvh")
+    src = walk_in
     answers = iter([True, True, False])  # take starts, the report is moved, then the batch is gone
     monkeypatch.setattr(mocapkit.parallel, "owner_alive", lambda: next(answers))
     out = tmp_path / "out"
@@ -371,10 +374,8 @@ def test_failures_name_the_output_not_the_staging_folder(tmp_path, short_bvh):
     assert not list(out.rglob("*"))
 
 
-def test_leftovers_of_a_killed_worker_are_swept_and_nothing_else(tmp_path, short_bvh):
-    src = tmp_path / "in"
-    src.mkdir()
-    shutil.copy(short_bvh, src / "walk.bvh")
+def test_leftovers_of_a_killed_worker_are_swept_and_nothing_else(tmp_path, walk_in):
+    src = walk_in
     out = tmp_path / "out"
     (out / ".walk.bvh.k1ll3d.part").mkdir(parents=True)  # a staging folder
     (out / ".walk.bvh.k1ll3d.part" / "walk.bvh").write_text("half")
@@ -413,11 +414,9 @@ def test_amc_outputs_get_their_asf_beside_them(tmp_path):
     assert (out / "12.asf").read_bytes() == samples.path("12.asf").read_bytes()
 
 
-def test_a_take_is_complete_only_for_the_request_that_made_it(tmp_path, short_bvh):
+def test_a_take_is_complete_only_for_the_request_that_made_it(tmp_path, walk_in):
     """A review batch (steps detect) leaves takes unchanged: a later full batch must not skip them as complete."""
-    src = tmp_path / "in"
-    src.mkdir()
-    shutil.copy(short_bvh, src / "walk.bvh")
+    src = walk_in
     out = tmp_path / "out"
     assert clean_batch(src, out, steps=["detect"], executor="serial", progress=False).count("done") == 1
     review = (out / "walk.bvh").read_bytes()
@@ -434,10 +433,8 @@ def test_a_take_is_complete_only_for_the_request_that_made_it(tmp_path, short_bv
         clean_batch(src, out, executor="serial", progress=False, threshold=0.7)
 
 
-def test_an_earlier_batchs_outputs_inside_in_dir_are_not_inputs(tmp_path, short_bvh):
-    src = tmp_path / "in"
-    src.mkdir()
-    shutil.copy(short_bvh, src / "walk.bvh")
+def test_an_earlier_batchs_outputs_inside_in_dir_are_not_inputs(tmp_path, walk_in):
+    src = walk_in
     first = clean_batch(src, src / "cleaned", executor="serial", progress=False)
     assert first.count("done") == 1 and (src / "cleaned" / BATCH_MARK).is_file() and first.earlier == []
     second = clean_batch(src, tmp_path / "out2", executor="serial", progress=False)
@@ -476,11 +473,9 @@ def test_clean_file_runs_every_step_by_default(tmp_path, short_bvh):
     assert res.params["request"]["steps"] == list(ALL_STEPS) and "detect" in res.params["steps"]
 
 
-def test_an_interrupted_overwrite_leaves_the_earlier_take_whole(tmp_path, short_bvh, monkeypatch):
+def test_an_interrupted_overwrite_leaves_the_earlier_take_whole(tmp_path, monkeypatch, walk_in):
     """Interrupted while a take's new files replace an earlier run's (--overwrite): the earlier set comes back."""
-    src = tmp_path / "in"
-    src.mkdir()
-    shutil.copy(short_bvh, src / "walk.bvh")
+    src = walk_in
     out = tmp_path / "out"
     clean_batch(src, out, steps=STEPS, executor="serial", progress=False, report=True)
     before = _tree(out)
@@ -498,10 +493,8 @@ def test_an_interrupted_overwrite_leaves_the_earlier_take_whole(tmp_path, short_
     assert _tree(out) == before  # the earlier take, report and record, and no hidden copy left
 
 
-def test_a_record_that_cannot_be_read_is_not_a_complete_take(tmp_path, short_bvh):
-    src = tmp_path / "in"
-    src.mkdir()
-    shutil.copy(short_bvh, src / "walk.bvh")
+def test_a_record_that_cannot_be_read_is_not_a_complete_take(tmp_path, walk_in):
+    src = walk_in
     out = tmp_path / "out"
     clean_batch(src, out, steps=STEPS, executor="serial", progress=False)
     for junk in (b"", b"garbage", (out / "walk.clean.npz").read_bytes()[:500]):
@@ -518,12 +511,10 @@ def test_a_record_that_cannot_be_read_is_not_a_complete_take(tmp_path, short_bvh
 
 
 @pytest.mark.skipif(sys.platform == "win32", reason="flock")
-def test_a_second_batch_into_a_folder_in_use_is_refused(tmp_path, short_bvh):
+def test_a_second_batch_into_a_folder_in_use_is_refused(tmp_path, walk_in):
     import fcntl
 
-    src = tmp_path / "in"
-    src.mkdir()
-    shutil.copy(short_bvh, src / "walk.bvh")
+    src = walk_in
     out = tmp_path / "out"
     out.mkdir()
     (out / ".walk.bvh.x1y2.part").mkdir()  # another batch's take, being staged
@@ -562,21 +553,12 @@ def test_clean_file_writes_the_asf_before_the_amc_and_neither_on_failure(tmp_pat
     assert mocapkit.load(out).num_frames == mocapkit.load(inp, asf=asf).num_frames
 
 
-def test_a_batch_hands_out_absolute_paths(tmp_path, short_bvh, monkeypatch):
+def test_a_batch_hands_out_absolute_paths(tmp_path, short_bvh, monkeypatch, walk_in):
     """A remote Dask worker resolves a relative path against its own folder: every path a job carries is absolute."""
-    import mocapkit.parallel
+    from tests.shared import record_map_ordered
 
-    (tmp_path / "in").mkdir()
-    shutil.copy(short_bvh, tmp_path / "in" / "walk.bvh")
     shutil.copy(short_bvh, tmp_path / "ctx.bvh")
-    seen = []
-    real = mocapkit.parallel.map_ordered
-
-    def spy(fn, jobs, **kwargs):
-        seen.extend(jobs)
-        return real(fn, jobs, **kwargs)
-
-    monkeypatch.setattr(mocapkit.parallel, "map_ordered", spy)
+    seen = record_map_ordered(monkeypatch)
     monkeypatch.chdir(tmp_path)
     s = clean_batch("in", "out", context=["ctx.bvh"], steps=STEPS, executor="serial", progress=False, report=True)
     assert s.count("done") == 1 and s.rows[0]["input"] == os.path.join("in", "walk.bvh")  # said as given
@@ -586,21 +568,17 @@ def test_a_batch_hands_out_absolute_paths(tmp_path, short_bvh, monkeypatch):
     assert all(os.path.isabs(c) for c in job["context"])
 
 
-def test_context_none_stays_a_word(tmp_path, short_bvh, monkeypatch):
+def test_context_none_stays_a_word(tmp_path, monkeypatch, walk_in):
     """``--context none`` (the take judged against itself) is no path: made absolute it named a folder 'none' in
     the working folder, and every take failed."""
-    (tmp_path / "in").mkdir()
-    shutil.copy(short_bvh, tmp_path / "in" / "walk.bvh")
     monkeypatch.chdir(tmp_path)
     s = clean_batch("in", "out", context=["none"], steps=["fill", "detect"], executor="serial", progress=False)
     assert s.count("done") == 1, s.rows
 
 
-def test_the_context_turned_off_is_one_request_however_it_is_said(tmp_path, short_bvh):
-    (tmp_path / "in").mkdir()
-    shutil.copy(short_bvh, tmp_path / "in" / "walk.bvh")
+def test_the_context_turned_off_is_one_request_however_it_is_said(tmp_path, walk_in):
     out = tmp_path / "out"
-    assert clean_batch(tmp_path / "in", out, context=["none"], steps=STEPS, executor="serial", progress=False).count("done") == 1
+    assert clean_batch(walk_in, out, context=["none"], steps=STEPS, executor="serial", progress=False).count("done") == 1
     for said in ("off", "NONE"):  # documented as the same: the take is complete, not 'made otherwise'
-        again = clean_batch(tmp_path / "in", out, context=[said], steps=STEPS, executor="serial", progress=False)
+        again = clean_batch(walk_in, out, context=[said], steps=STEPS, executor="serial", progress=False)
         assert again.count("skipped") == 1

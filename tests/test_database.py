@@ -286,22 +286,14 @@ def test_a_build_hands_its_workers_absolute_paths(tmp_path, monkeypatch):
     import os
     import shutil
 
+    from tests.shared import record_map_ordered
+
     for name in ("12_walk.amc", "12.asf"):
         shutil.copy(samples.path(name), tmp_path / name)
     shutil.copy(samples.path("12_walk.amc"), tmp_path / "12_again.amc")
     monkeypatch.chdir(tmp_path)
     db = MotionDatabase.build(["12_walk.amc", "12_again.amc"], fps=30, progress=False, executor="serial")
     assert [c.source for c in db.clips] == ["12_walk.amc", "12_again.amc"]  # kept as given
-
-    seen = []
-    import mocapkit.parallel
-
-    original = mocapkit.parallel.map_ordered
-
-    def spy(fn, items, **kwargs):
-        seen.extend(items)
-        return original(fn, items, **kwargs)
-
-    monkeypatch.setattr(mocapkit.parallel, "map_ordered", spy)
+    seen = record_map_ordered(monkeypatch)
     MotionDatabase.build(["12_walk.amc", "12_again.amc"], fps=30, progress=False, executor="serial")
     assert seen and all(os.path.isabs(path) for path, _ in seen)  # what the workers read
