@@ -713,7 +713,8 @@ class _LikeSource:
 
     header: list[str] | None  # the lines up to Frame Time (line endings kept), when the skeleton and rate are the file's
     lines: list[str]  # the F data lines, as the file gives them (line endings kept)
-    changed: np.ndarray  # (F, J) bool: cells whose rotation, position or offset differ from the file's
+    turned: np.ndarray  # (F, J) bool: cells whose rotation differs from the file's
+    moved: np.ndarray  # (F, J) bool: cells whose position or offset differs from the file's
 
 
 def _differs(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -741,15 +742,18 @@ def _like_source(like, motion: Motion, order: list[int]) -> _LikeSource | None:
     data = [t for t in lines[at + 1:] if t.strip()]
     if len(data) != motion.num_frames:
         return None
-    changed = _differs(motion.rotations, ref.rotations) | _differs(motion.local_offsets(), ref.local_offsets())
+    turned = _differs(motion.rotations, ref.rotations)
+    moved = _differs(motion.local_offsets(), ref.local_offsets())
     same_header = (ref.fps == motion.fps and np.array_equal(rsk.offsets, sk.offsets)
                    and np.array_equal(rsk.end_site_parents, sk.end_site_parents)
                    and np.array_equal(rsk.end_site_offsets, sk.end_site_offsets))
-    return _LikeSource(lines[: at + 1] if same_header else None, data, changed)
+    return _LikeSource(lines[: at + 1] if same_header else None, data, turned, moved)
 
 
 def _write_like(path: Path, motion: Motion, values: np.ndarray, channels, source: _LikeSource, precision: int) -> None:
-    """Write ``values`` (F, C) keeping ``source``'s text wherever a cell did not change."""
+    """Write ``values`` (F, C) keeping ``source``'s text wherever a cell did not change: a joint's rotation channels
+    are written where its rotation changed, its position channels where its position did (a 6-channel joint whose
+    rotation was repaired keeps the file's position text)."""
     sk = motion.skeleton
     F = motion.num_frames
     starts = np.cumsum([0] + [len(c) for c in channels])
@@ -766,7 +770,8 @@ def _write_like(path: Path, motion: Motion, values: np.ndarray, channels, source
             line = source.lines[f]
             if source.header is None and not line.endswith("\n"):
                 line += "\n"
-            joints = np.flatnonzero(source.changed[f])
+            turned, moved = source.turned[f], source.moved[f]
+            joints = np.flatnonzero(turned | moved)
             if joints.size == 0:
                 fh.write(line)
                 continue
@@ -774,6 +779,8 @@ def _write_like(path: Path, motion: Motion, values: np.ndarray, channels, source
             tokens = body.split()
             for j in joints:
                 for c in range(starts[j], starts[j + 1]):
+                    if not (turned[j] if is_rot[c] else moved[j]):
+                        continue
                     v = float(values[f, c])
                     if is_rot[c]:
                         try:
