@@ -387,10 +387,12 @@ def test_leftovers_of_a_killed_worker_are_swept_and_nothing_else(tmp_path, walk_
                                                     "walk.clean.npz"]
 
 
-def test_amc_outputs_get_their_asf_beside_them(tmp_path):
-    # an AMC holds no skeleton: --format amc copies each take's ASF into its output folder, so the outputs read back
+def test_amc_outputs_get_their_asf_beside_them(tmp_path, short_bvh):
+    # an AMC holds no skeleton: --format amc copies each take's ASF into its output folder, so the outputs read back;
+    # a BVH take beside them, which has no ASF, stays BVH (it failed)
     src = tmp_path / "in"
     (src / "hdm").mkdir(parents=True)
+    shutil.copy(short_bvh, src / "hdm" / "mixed.bvh")
     shutil.copy(samples.path("12.asf"), src / "12.asf")
     (src / "12_walk.amc").write_bytes(samples.path("12_walk.amc").read_bytes())
     shutil.copy(samples.path("HDM_bd.asf"), src / "hdm" / "HDM_bd.asf")
@@ -398,7 +400,8 @@ def test_amc_outputs_get_their_asf_beside_them(tmp_path):
     (src / "hdm" / amc.name).write_bytes(amc.read_bytes())
     out = tmp_path / "out"
     s = clean_batch(src, out, steps=STEPS, fmt="amc", executor="serial", progress=False)
-    assert s.count("done") == 2
+    assert s.count("done") == 3
+    assert mocapkit.load(out / "hdm" / "mixed.bvh").num_frames == 40
     assert (out / "12.asf").read_bytes() == samples.path("12.asf").read_bytes()
     assert (out / "hdm" / "HDM_bd.asf").read_bytes() == samples.path("HDM_bd.asf").read_bytes()
     for inp, outp in ((src / "12_walk.amc", out / "12_walk.amc"), (src / "hdm" / amc.name, out / "hdm" / amc.name)):
