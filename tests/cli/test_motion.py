@@ -3,10 +3,11 @@
 from pathlib import Path
 
 import numpy as np
+import pytest
 
 import mocapkit
 from mocapkit.cli import main
-from tests.cli.helpers import SAMPLE, one_error_line, run
+from tests.cli.helpers import SAMPLE, WALK, one_error_line, run
 
 
 def test_info_on_bvh_and_c3d(capsys):
@@ -40,6 +41,23 @@ def test_corrupt_writes_motion_and_ground_truth(tmp_path):
     ref = mocapkit.load(SAMPLE)
     changed = np.degrees(mocapkit.rotations.geodesic_angle(bad.rotations, ref.rotations)) > 1e-3
     assert not changed[~mask].any()
+
+
+
+@pytest.mark.parametrize("take", [SAMPLE, str(WALK)], ids=["bvh", "amc"])
+def test_corrupt_keeps_the_inputs_text_where_no_cell_changed(take, tmp_path):
+    """A corrupted copy differs from its input only in the masked cells' text: the header as written (mixed line
+    endings, the Frame Time, comment lines) and every frame without a changed joint (every line was rewritten:
+    1,508 angles of 131_01 on other 360-degree branches, the AMC's header comments dropped)."""
+    out = tmp_path / ("bad" + Path(take).suffix)
+    assert main(["corrupt", take, str(out), "--kind", "errors", "--seed", "4"]) == 0
+    with np.load(tmp_path / "bad.mask.npz") as z:
+        mask = z["mask"]
+    src, got = Path(take).read_bytes().splitlines(keepends=True), out.read_bytes().splitlines(keepends=True)
+    assert len(src) == len(got)
+    differ = [i for i, (a, b) in enumerate(zip(src, got)) if a != b]
+    assert differ and len(differ) <= mask.any(axis=1).sum() * (mask.shape[1] if take.endswith(".amc") else 1)
+    assert len(differ) < 0.5 * len(src)
 
 
 def test_plot_writes_png(tmp_path):

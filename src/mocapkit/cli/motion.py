@@ -156,7 +156,7 @@ def corrupt(
     records = result[2] if len(result) > 2 else []
     io.check_complete(bad, out, "this corruption leaves missing values (NaN)", "write .npz")
     with removed_on_failure([out, mask_path], overwrite=overwrite, marker=mask_path):  # the ground truth last
-        save_take(bad, out, inp, asf, overwrite)
+        save_take(bad, out, inp, asf, overwrite, like=inp)  # the input's text kept where no cell changed
         write_mask(mask_path, mask, m.skeleton.joint_names, kind=kind, seed=seed, params=params, records=records)
     frames = int(mask.any(axis=1).sum())
     console.print(f"wrote {out} and {mask_path}: {plural(int(mask.sum()), 'joint sample')} changed in "
