@@ -363,3 +363,59 @@ def test_the_raw_weight_is_one_on_clean_channels_and_zero_on_noisy_ones():
     assert np.all(raw_weight(clean, reading, miss) >= RAW_WEIGHT_MIN)
     noisy = clean + rng.normal(0.0, 3.0, clean.shape)
     assert np.all(raw_weight(noisy, gaussian_filter1d(noisy, 7.0, axis=0, mode="nearest"), miss) == 0.0)
+
+
+def _angle_deg(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    return np.degrees(2.0 * np.arccos(np.clip(np.abs(np.sum(a * b, axis=-1)), 0.0, 1.0)))
+
+
+def test_short_gaps_of_a_clean_30fps_take_follow_the_samples_course():
+    """On a clean Bandai Namco take (30 fps) 1-3 frame gaps are filled closer to the truth than a straight line
+    between their ends: the prior alone filled them 2.5-4 times further off (a still foot 3 deg off in one frame),
+    its field never reads a gap's neighbouring frames (2.2 deg here against the line's 0.93)."""
+    from mocapkit.rotations import quaternion_continuity
+
+    take = mocapkit.load(Path(__file__).parents[1] / "data" / "dataset-1_bow_active_001.bvh")
+    rng = np.random.default_rng(3)
+    ours, line = [], []
+    for joint in ("Foot_R", "LowerLeg_L", "UpperArm_R", "Hand_L", "Spine", "Neck"):
+        k = take.skeleton.index(joint)
+        for n in (1, 2, 3):
+            s = int(rng.integers(10, take.num_frames - 10))
+            rot = np.array(take.rotations)
+            rot[s:s + n, k] = np.nan
+            filled = deep.fill_gaps(dataclasses.replace(take, rotations=rot))
+            truth = take.rotations[s:s + n, k]
+            ours.append(_angle_deg(filled.rotations[s:s + n, k], truth))
+            q = quaternion_continuity(np.array(take.rotations[s - 1:s + n + 1, k]))
+            u = (np.arange(1, n + 1) / (n + 1))[:, None]
+            lerp = (1 - u) * q[0] + u * q[-1]
+            line.append(_angle_deg(lerp / np.linalg.norm(lerp, axis=-1, keepdims=True), truth))
+    assert np.mean(np.concatenate(ours)) < np.mean(np.concatenate(line))
+
+
+def test_clean_channels_tell_fast_clean_motion_from_noise():
+    """At 30 fps a fast clean channel bends as much from frame to frame as noise does (the second differences call
+    it noisy); the frames where it bends least do not."""
+    t = np.arange(300) / 30.0
+    fast = 40.0 * np.sin(2 * np.pi * 2.0 * t) + 20.0 * np.sin(2 * np.pi * 3.1 * t + 1.0)
+    x = np.stack([fast, fast + np.random.default_rng(1).normal(0.0, 4.0, len(t))], axis=1)
+    miss = np.zeros(x.shape, dtype=bool)
+    miss[100:103] = True
+    assert P.clean_channels(np.where(miss, np.nan, x), miss, 30.0).tolist() == [True, False]
+    reading = gaussian_filter1d(x, P.SMOOTH_S * 30.0, axis=0, mode="nearest")
+    assert P.raw_weight(np.where(miss, np.nan, x), reading, miss)[0] == 0.0  # what the whole-take estimate says
+
+
+@settings(max_examples=30, deadline=None)
+@given(st.lists(st.floats(-5, 5), min_size=4, max_size=4), st.integers(1, 12))
+def test_the_hermite_blend_is_the_cubic_near_the_ends_and_keeps_a_cubic_fill(coef, n):
+    """Where the blend weighs the cubic fully (a huge rate: every frame next to an end) it reproduces a cubic
+    polynomial from its end values and slopes; a fill that is that cubic comes back unchanged at any rate."""
+    c0, c1, c2, c3 = coef
+    f = lambda t: c0 + c1 * t + c2 * t**2 + c3 * t**3  # noqa: E731  (frames -1 .. n)
+    df = lambda t: c1 + 2 * c2 * t + 3 * c3 * t**2  # noqa: E731
+    inner = f(np.arange(n, dtype=float))
+    args = (f(-1.0), f(float(n)), df(-1.0), df(float(n)))
+    assert np.allclose(P.hermite_blend(np.full(n, 100.0), *args, fps=1e12), inner, atol=1e-6)
+    assert np.allclose(P.hermite_blend(inner, *args, fps=30.0), inner, atol=1e-9)

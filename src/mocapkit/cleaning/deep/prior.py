@@ -318,7 +318,7 @@ def _conditional_fill(values, prior: GapPrior, fps: float, prior_s: float, smoot
     reading = base.copy()  # the observed channels as the field read them (_fill_events fills the gaps of base)
     _fill_events(out, base, miss, events, prior, lags, mean, cov, prec)
     if anchor:
-        anchor_ends(out, x, reading, miss)
+        anchor_ends(out, x, reading, miss, fps)
     return out
 
 
@@ -357,12 +357,61 @@ def raw_weight(x: np.ndarray, reading: np.ndarray, miss: np.ndarray) -> np.ndarr
     return np.where(w >= RAW_WEIGHT_MIN, w, 0.0)
 
 
-def anchor_ends(out: np.ndarray, x: np.ndarray, reading: np.ndarray, miss: np.ndarray) -> None:
-    """Shift each gap's fill (in ``out``, in place) by a linear ramp between the offsets ``x - reading`` at the
-    observed samples on either side of the gap, weighted by :func:`raw_weight`: on a clean channel the fill then
-    meets the samples it continues (no step at the gap's ends), on a noisy one it keeps meeting their reading."""
+#: a channel is clean when its noise estimate (:func:`clean_channels`) is at most this share of what the 58 ms
+#: Gaussian takes out of it
+CLEAN_NOISE_SHARE = 0.05
+
+#: seconds: how far into a clean channel's gap the cubic through its ends carries weight (:func:`anchor_ends`)
+HERMITE_S = 0.1
+
+
+def clean_channels(x: np.ndarray, miss: np.ndarray, fps: float) -> np.ndarray:
+    """(C,) bool: the channels of (F, C) ``x`` (NaN where ``miss``) whose samples carry no capture noise to speak of.
+
+    A clean take's motion bends where it moves fast, and at 30 fps a second difference is mostly that bend, so the
+    second differences of every frame (:func:`raw_weight`'s estimate) call a clean channel of a 30 fps take noisy.
+    Noise is the same at every frame, motion is not: the noise variance is read from the second differences at the
+    quarter of frames where the channel's 58 ms Gaussian reading bends least (white noise of variance ``n`` gives
+    ``6 n`` there too; the median absolute deviation keeps what motion is left out), and a channel is clean when
+    that is at most :data:`CLEAN_NOISE_SHARE` of the mean square the Gaussian takes out of it. On the Bandai
+    Namco and HDM05 validation takes 81-98 % of the clean channels are clean by it and 0-5 % at Mall's 0.5 noise.
+    """
+    C = x.shape[1]
+    clean = np.zeros(C, dtype=bool)
+    if len(x) < 8:
+        return clean
+    reading = gaussian_filter1d(lerp_fill(x), SMOOTH_S * fps, axis=0, mode="nearest")
+    ok3 = ~(miss[2:] | miss[1:-1] | miss[:-2])
+    d2 = x[2:] - 2.0 * x[1:-1] + x[:-2]
+    bend = np.abs(reading[2:] - 2.0 * reading[1:-1] + reading[:-2])
+    for c in np.flatnonzero(miss.any(axis=0)):
+        ok = ok3[:, c]
+        if ok.sum() < 8:
+            continue
+        r = x[~miss[:, c], c] - reading[~miss[:, c], c]
+        total = float(np.mean(r * r))
+        b, d = bend[ok, c], d2[ok, c]
+        d = d[b <= np.quantile(b, 0.25)]
+        noise = (1.4826 * float(np.median(np.abs(d - np.median(d))))) ** 2 / 6.0
+        clean[c] = noise <= CLEAN_NOISE_SHARE * total
+    return clean
+
+
+def anchor_ends(out: np.ndarray, x: np.ndarray, reading: np.ndarray, miss: np.ndarray, fps: float) -> None:
+    """Make each gap's fill (in ``out``, in place) meet the samples it continues, where they are clean.
+
+    First a linear ramp between the offsets ``x - reading`` at the observed samples on either side of the gap,
+    weighted by :func:`raw_weight` (1 on :func:`clean_channels`): on a clean channel the fill then meets the samples
+    (no step at the gap's ends), on a noisy one it keeps meeting their reading. Then, on a clean channel, a gap
+    with samples on both sides is blended with the cubic Hermite curve through its end samples and their one-frame
+    slopes, with the weight ``exp(-d / HERMITE_S)`` at ``d`` seconds from the nearer end: the prior's field reads
+    the frames 2-32 frames away, never the neighbours, and with its ridge leans towards the training mean, so on
+    clean motion a short gap's fill wandered off the samples' own course (a still foot filled 3 deg off in a
+    one-frame gap of a 30 fps take) where the cubic continues it; a long gap's middle stays the prior's.
+    """
     F = len(x)
-    w = raw_weight(x, reading, miss)
+    clean = clean_channels(x, miss, fps)
+    w = np.where(clean, 1.0, raw_weight(x, reading, miss))
     for c in np.flatnonzero(miss.any(axis=0)):
         if w[c] <= 0.0:
             continue
@@ -376,6 +425,24 @@ def anchor_ends(out: np.ndarray, x: np.ndarray, reading: np.ndarray, miss: np.nd
             d1 = d0 if d1 is None else d1
             t = (np.arange(s, e) - (s - 1)) / float(e - s + 1)
             out[s:e, c] += w[c] * ((1.0 - t) * d0 + t * d1)
+            if clean[c] and s > 0 and e < F:
+                v0 = x[s - 1, c] - x[s - 2, c] if s >= 2 and not miss[s - 2, c] else 0.0
+                v1 = x[e + 1, c] - x[e, c] if e + 1 < F and not miss[e + 1, c] else 0.0
+                out[s:e, c] = hermite_blend(out[s:e, c], x[s - 1, c], x[e, c], v0, v1, fps)
+
+
+def hermite_blend(fill: np.ndarray, a: float, b: float, va: float, vb: float, fps: float) -> np.ndarray:
+    """(n,) ``fill`` of a gap between samples ``a`` (frame -1) and ``b`` (frame n), blended with the cubic Hermite
+    curve through them with slopes ``va`` and ``vb`` (per frame): the curve's weight is ``exp(-d / HERMITE_S)`` at
+    ``d`` seconds from the nearer end (:func:`anchor_ends`)."""
+    n = len(fill)
+    u = (np.arange(n) + 1.0) / (n + 1.0)  # from a (0) to b (1)
+    h = n + 1.0  # frames between a and b
+    cubic = ((2 * u**3 - 3 * u**2 + 1) * a + (u**3 - 2 * u**2 + u) * h * va + (-2 * u**3 + 3 * u**2) * b
+             + (u**3 - u**2) * h * vb)
+    d = np.minimum(np.arange(n) + 1.0, n - np.arange(n)) / fps
+    k = np.exp(-d / HERMITE_S)
+    return k * cubic + (1.0 - k) * fill
 
 
 def _fill_events(out: np.ndarray, base: np.ndarray, miss: np.ndarray, events: dict, prior: GapPrior, lags: np.ndarray,
