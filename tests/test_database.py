@@ -199,6 +199,25 @@ def test_lng_search_equals_dtw_search_on_real_data(small_db):
     assert lng.cost == pytest.approx(dtw.cost, rel=1e-9)
 
 
+
+@pytest.mark.parametrize("method", ["lng", "dtw"])
+def test_search_returns_no_segment_of_another_speed(method):
+    """Classic DTW steps let a path stay on one frame: a 2.5 s sneak "matched" single held frames of the bundled
+    context (47-47) once fewer real matches than k existed. Every result lasts a third to three times the query."""
+    from pathlib import Path
+
+    db = MotionDatabase.open(Path(mocapkit.__file__).parent / "data" / "context")
+    query = mocapkit.load(samples.path("HDM_bk_sneak2StepsLStart_005_120.amc"))
+    M = len(db.query_features(query, db.feature_names[0]))
+    spans = lambda rs: [r.end - r.start + 1 for r in rs]  # noqa: E731
+    loose = spans(db.search(query, k=30, method=method, max_warp=1e9))
+    assert min(loose) < M / 3  # the degenerate matches exist
+    strict = spans(db.search(query, k=30, method=method))
+    assert strict and all(M / 3 <= n <= 3 * M for n in strict)
+    with pytest.raises(ValueError, match="max_warp"):
+        db.search(query, max_warp=0.5)
+
+
 def test_logical_search_grows_the_result_set(small_db):
     query = small_db.clip(SNEAK_4)[5:35]
     numeric = small_db.search(query, k=2)

@@ -72,6 +72,10 @@ class ClipInfo:
         return self.start + self.frames
 
 
+#: :meth:`MotionDatabase.search` returns no segment more than this many times shorter or longer than the query
+MAX_WARP = 3.0
+
+
 @dataclass(frozen=True, eq=False)
 class SearchResult:
     """A database segment similar to a query: clip, first and last frame (at the database rate), cost.
@@ -487,6 +491,7 @@ class MotionDatabase:
         method: str = "lng",
         exclude=None,
         max_neighbors: int = 2048,
+        max_warp: float = MAX_WARP,
     ) -> list[SearchResult]:
         """Numerical similarity search: the ``k`` best non-overlapping segments similar to ``query``.
 
@@ -515,6 +520,12 @@ class MotionDatabase:
             Half-open database range no result may use (e.g. the query's own clip).
         max_neighbors : int
             Largest neighbourhood the LNG may grow to.
+        max_warp : float
+            A segment more than ``max_warp`` times shorter or longer than the
+            query is not returned (:data:`MAX_WARP`): the classic DTW steps let
+            a path stay on one database frame (or one query frame) for any
+            number of steps, so a 2.5 s query "matched" a single held frame
+            where fewer than ``k`` real matches exist.
         """
         from .search import dtw, lng
 
@@ -523,13 +534,19 @@ class MotionDatabase:
         data = self.features[name]
         if q.ndim != 2 or q.shape[1] != data.shape[1]:
             raise ValueError(f"query features: expected shape (M, {data.shape[1]}), got {q.shape}")
+        if not max_warp >= 1.0:
+            raise ValueError(f"max_warp must be at least 1, got {max_warp!r}")
+
+        def kept(found):  # segments of a plausible speed against the query's length
+            return [mt for mt in found if len(q) <= max_warp * (mt.end - mt.start + 1) <= max_warp**2 * len(q)]
+
         if method == "lng":
             # A query unlike anything in the database can leave the neighbourhoods without a
             # chain of consecutive frames: widen them (x4) until k matches exist or max_neighbors.
             K = min(int(neighbors), self.num_frames)
             while True:
                 dist, idx = self.index(name).query(q, k=K, exclude=exclude)
-                matches = lng.lazy_neighborhood_graph(idx, dist, self.clip_ids, k=k)
+                matches = kept(lng.lazy_neighborhood_graph(idx, dist, self.clip_ids, k=2 * k))
                 if len(matches) >= k or K >= min(max_neighbors, self.num_frames):
                     break
                 K = min(4 * K, max_neighbors, self.num_frames)
@@ -538,10 +555,10 @@ class MotionDatabase:
             if exclude is not None:
                 mask = np.zeros(self.num_frames, dtype=bool)
                 mask[int(exclude[0]) : int(exclude[1])] = True
-            matches = dtw.subsequence_dtw(q, data, self.clip_ids, k=k, exclude=mask)
+            matches = kept(dtw.subsequence_dtw(q, data, self.clip_ids, k=2 * k, exclude=mask))
         else:
             raise ValueError(f"method must be 'lng' or 'dtw', got {method!r}")
-        return self._results(matches)
+        return self._results(matches[:k])
 
     def logical_search(
         self,

@@ -131,3 +131,7 @@ def search(
     print_table(("#", "clip", "start", "end", "seconds", "cost", "cost/frame"),
                 ((rank, r.name, r.start, r.end, f"{r.start / db.fps:.2f}-{r.end / db.fps:.2f}", f"{r.cost:.1f}",
                   f"{r.cost / max(qlen, 1):.2f}") for rank, r in enumerate(results, 1)))
+    if len(results) < k:
+        console.print(f"{len(results)} of the {k} matches asked for: no other segment of the database lasts between a "
+                      f"third and three times the query's {(b - a) / m.fps:.2f} s (a longer or shorter one is a "
+                      "held pose or a pause, not the motion)")
