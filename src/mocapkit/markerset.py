@@ -23,7 +23,8 @@ import numpy as np
 
 from .motion import check_fps, frame_slice, frozen
 
-__all__ = ["MarkerSet", "MarkerSource", "length_unit_cm", "zero_gap_mask", "ZERO_GAP_DISTANCE_CM", "MODELLED_GROUPS"]
+__all__ = ["MarkerSet", "MarkerSource", "length_unit_cm", "zero_gap_mask", "unique_labels", "ZERO_GAP_DISTANCE_CM",
+           "MODELLED_GROUPS"]
 
 # Vicon writes modelled quantities (joint angles, forces, moments, powers) as
 # C3D points and lists them in these POINT parameters; they are not markers.
@@ -43,6 +44,34 @@ _UNIT_CM = {
 # jumps there from at least this far away: the lab origin is not a place a
 # marker teleports to and from.
 ZERO_GAP_DISTANCE_CM = 10.0
+
+
+def unique_labels(raw, m: int) -> tuple[str, ...]:
+    """Names for ``m`` markers from a file's labels ``raw``: stripped, unique, one per marker.
+
+    A marker the file names with an empty label or does not name at all is
+    M001, M002, ... by its 1-based place in the file (a stable name: the same
+    file always gives the same one); a label a file repeats (legal in C3D and
+    TRC) gets _2, _3, ... on its second, third use, so that every marker can
+    be addressed by name in memory. Writers put the file's own labels back
+    (:meth:`MarkerSet.file_labels`).
+    """
+    raw = [str(s).strip() for s in list(raw)[:m]]
+    base = [label or f"M{k + 1:03d}" for k, label in enumerate(raw)] + [f"M{k + 1:03d}" for k in range(len(raw), m)]
+    taken = set(base)
+    counts: dict[str, int] = {}
+    used: set[str] = set()
+    out: list[str] = []
+    for label in base:
+        k = counts.get(label, 0) + 1
+        name = label if k == 1 else f"{label}_{k}"
+        while k > 1 and (name in used or name in taken):  # never a name the file gives another marker
+            k += 1
+            name = f"{label}_{k}"
+        counts[label] = k
+        used.add(name)
+        out.append(name)
+    return tuple(out)
 
 
 def length_unit_cm(units: str) -> float:
@@ -77,15 +106,31 @@ class MarkerSource:
         frame), in the file's scaled units; None when the file has none.
     first_frame : int
         Number of the first frame in the file (C3D header, TRC Frame# column), 1-based.
+    labels : tuple of str
+        The marker labels as the file states them, one per marker read, in
+        file order (repeats and a TRC label's spaces included), so a writer
+        can put them back where the markers are still the file's own.
+    events : tuple of (float, str, int)
+        C3D header events (time in seconds, the 4-character label, display
+        flag), in the order the header lists them; () for none.
+    text : str or None
+        TRC: the file's text, so that a TRC writer keeps every cell, line and
+        header field the take did not change; None otherwise (and for a part
+        of the take: :meth:`MarkerSet.__getitem__`).
     """
 
     format: str
     parameters: Mapping[str, Any] = dataclasses.field(default_factory=dict)
     analogs: np.ndarray | None = None
     first_frame: int = 1
+    labels: tuple[str, ...] = ()
+    events: tuple[tuple[float, str, int], ...] = ()
+    text: str | None = None
 
     def __post_init__(self):
         object.__setattr__(self, "parameters", MappingProxyType(dict(self.parameters)))
+        object.__setattr__(self, "labels", tuple(str(s) for s in self.labels))
+        object.__setattr__(self, "events", tuple((float(t), str(label), int(d)) for t, label, d in self.events))
         if self.analogs is not None:
             a = np.asarray(self.analogs, dtype=np.float64)
             if a.ndim != 2:
@@ -127,6 +172,13 @@ class MarkerSet:
     zero_gaps : int
         How many samples the reader found stored as exact (0, 0, 0) gaps and
         read as missing (see :func:`zero_gap_mask`); 0 when none or when asked to keep them.
+    cameras : int array (F, M) or None
+        C3D camera masks: bit k (0-6) set where camera k saw the sample, as
+        the file stores them; None when the file has none (TRC, npz).
+    notes : tuple of str
+        What the reader did that the user should know (labels a file repeats
+        named apart, trajectories beyond the header's count read, frames a
+        file skips inserted as missing); commands print them.
     """
 
     labels: tuple[str, ...]
@@ -138,6 +190,8 @@ class MarkerSet:
     residuals: np.ndarray | None = None
     source: MarkerSource | None = None
     zero_gaps: int = 0
+    cameras: np.ndarray | None = None
+    notes: tuple[str, ...] = ()
 
     def __post_init__(self):
         pos = np.asarray(self.positions, dtype=np.float64)
@@ -154,6 +208,12 @@ class MarkerSet:
             res[np.any(np.isnan(pos), axis=-1)] = -1.0
             res[np.isnan(res)] = -1.0
             object.__setattr__(self, "residuals", frozen(res))
+        if self.cameras is not None:
+            cams = np.array(self.cameras, dtype=np.int64)
+            if cams.shape != pos.shape[:2]:
+                raise ValueError(f"cameras: expected shape {pos.shape[:2]}, got {cams.shape}")
+            object.__setattr__(self, "cameras", frozen(cams))
+        object.__setattr__(self, "notes", tuple(str(n) for n in self.notes))
 
     @property
     def num_frames(self) -> int:
@@ -194,24 +254,33 @@ class MarkerSet:
             return self.residuals
         return np.where(self.missing(), -1.0, 0.0)
 
-    def with_positions(self, positions, residuals=None) -> "MarkerSet":
+    def with_positions(self, positions, residuals=None, sources=None) -> "MarkerSet":
         """A copy with new ``positions`` (F, M, 3) of the same shape, e.g. a cleaned take.
 
-        Residuals follow C3D's convention unless given: a sample that was seen
-        and is unchanged keeps its residual, a changed or newly filled sample
-        gets 0 (interpolated), a sample now NaN gets -1. The labels, rate,
-        units and :class:`MarkerSource` are kept, so writing the result with
-        the same writer keeps the file's other contents.
+        ``sources`` (int array (F, M), optional): the marker column of this
+        take each new sample was taken from, where a command moved samples
+        between markers (an undone label swap); default: each its own.
+        Residuals (unless given) and camera masks follow their samples, in
+        C3D's convention: a sample equal to its source keeps the source's
+        residual and cameras, a changed or newly filled sample gets residual 0
+        ("interpolated") and camera mask 0 (no camera saw the value written
+        there: a cleaner computed it), a sample now NaN gets -1. The labels,
+        rate, units and :class:`MarkerSource` are kept, so writing the result
+        with the same writer keeps the file's other contents.
         """
         new = np.asarray(positions, dtype=np.float64)
         if new.shape != self.positions.shape:
             raise ValueError(f"positions: expected shape {self.positions.shape}, got {new.shape}")
+        rows = np.arange(self.num_frames)[:, None]
+        cols = np.broadcast_to(np.arange(self.num_markers), new.shape[:2]) if sources is None else np.asarray(sources)
+        if cols.shape != new.shape[:2]:
+            raise ValueError(f"sources: expected shape {new.shape[:2]}, got {cols.shape}")
+        old = self.positions[rows, cols]
+        changed = np.any(~((new == old) | (np.isnan(new) & np.isnan(old))), axis=-1)
         if residuals is None and self.residuals is not None:
-            res = np.array(self.residuals)
-            changed = np.any(~((new == self.positions) | (np.isnan(new) & np.isnan(self.positions))), axis=-1)
-            res[changed] = 0.0
-            residuals = res
-        return dataclasses.replace(self, positions=new, residuals=residuals)
+            residuals = np.where(changed, 0.0, self.residuals[rows, cols])
+        cameras = None if self.cameras is None else np.where(changed, 0, self.cameras[rows, cols])
+        return dataclasses.replace(self, positions=new, residuals=residuals, cameras=cameras)
 
     def select(self, labels) -> "MarkerSet":
         """The markers named in ``labels``, in that order."""
@@ -221,7 +290,22 @@ class MarkerSet:
                 raise KeyError(f"no marker {label!r}; markers are: {', '.join(self.labels)}")
             idx.append(self.labels.index(label))
         res = None if self.residuals is None else self.residuals[:, idx]
-        return dataclasses.replace(self, labels=tuple(labels), positions=self.positions[:, idx], residuals=res)
+        cams = None if self.cameras is None else self.cameras[:, idx]
+        return dataclasses.replace(self, labels=tuple(labels), positions=self.positions[:, idx], residuals=res,
+                                   cameras=cams)
+
+    def file_labels(self) -> tuple[str, ...]:
+        """The labels a writer writes: the file's own (repeats included) while the markers are the file's, else ``labels``.
+
+        The markers are the file's own when the source lists one label per
+        marker and naming them apart (:func:`unique_labels`) gives this
+        take's labels, in order: then a label the file repeats (RKNE twice in
+        BTK's Gait.c3d, read as RKNE and RKNE_2) is written as the file had it.
+        """
+        raw = self.source.labels if self.source is not None else ()
+        if len(raw) == self.num_markers and unique_labels(raw, len(raw)) == self.labels:
+            return raw
+        return self.labels
 
     def __getitem__(self, key) -> "MarkerSet":
         """Frames by slice (a step ``k`` divides fps by ``k``; analogs are kept only without a step) or by a
@@ -229,14 +313,18 @@ class MarkerSet:
         key, fps = frame_slice(key, self.num_frames, self.fps, "markers")
         start, stop, step = key.indices(self.num_frames)
         res = None if self.residuals is None else self.residuals[key]
+        cams = None if self.cameras is None else self.cameras[key]
         source = self.source
         if source is not None:
             ratio = source.analog_ratio(self.num_frames)
             analogs = None
             if ratio and step == 1:
                 analogs = source.analogs[:, start * ratio : max(start, stop) * ratio]
-            source = dataclasses.replace(source, analogs=analogs, first_frame=source.first_frame + start)
-        return dataclasses.replace(self, positions=self.positions[key], fps=fps, residuals=res, source=source)
+            whole = (start, max(start, stop), step) == (0, self.num_frames, 1)
+            source = dataclasses.replace(source, analogs=analogs, first_frame=source.first_frame + start,
+                                         text=source.text if whole else None)
+        return dataclasses.replace(self, positions=self.positions[key], fps=fps, residuals=res, source=source,
+                                   cameras=cams)
 
     def __repr__(self) -> str:
         miss = 100.0 * self.missing().mean() if self.positions.size else 0.0

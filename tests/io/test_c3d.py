@@ -563,3 +563,94 @@ def test_a_capture_without_analogs_keeps_its_analog_rate_of_zero(tmp_path):
     back = ezc3d.c3d(str(out))
     assert float(back["parameters"]["ANALOG"]["RATE"]["value"][0]) == 0.0 and back["header"]["analogs"]["frame_rate"] == 0
     assert np.array_equal(mocapkit.io.load_markers(out).positions, mocapkit.io.load_markers(src).positions, equal_nan=True)
+
+
+def _c3d_package_words(path):
+    """(F, M) residuals and camera masks as the ``c3d`` package reads them (the C3D guide's fourth word)."""
+    import warnings
+
+    import c3d
+
+    with open(path, "rb") as fh, warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        frames = [points[:, 3:5] for _, points, _ in c3d.Reader(fh).read_frames()]
+    words = np.asarray(frames, dtype=np.float64)
+    return words[..., 0], words[..., 1]
+
+
+def test_residuals_and_camera_masks_are_read_and_written_as_the_c3d_guide_has_them(tmp_path):
+    # trial11: every written C3D had its camera masks zeroed (ezc3d reads and writes the residual and
+    # camera bytes of the fourth word the other way round: ezc3d issue #386)
+    from mocapkit.io import load_markers, save_markers
+
+    path = mocapkit.samples.path("Eb015pr.c3d")
+    src = load_markers(path)
+    res, cams = _c3d_package_words(path)
+    seen = ~src.missing()
+    assert src.residuals[0, :3].tolist() == pytest.approx([1.3333334, 2.0833335, 1.75])  # 16, 25, 21 / 12
+    assert np.allclose(src.residuals[seen], res[seen], rtol=1e-6)
+    assert np.array_equal(src.cameras[seen], cams[seen]) and src.cameras[0, :3].tolist() == [62, 63, 54]
+    out = save_markers(src, tmp_path / "copy.c3d")
+    res2, cams2 = _c3d_package_words(out)
+    assert np.array_equal(res2, res) and np.array_equal(cams2[seen], cams[seen])
+    back = load_markers(out)
+    assert np.array_equal(back.residuals, src.residuals) and np.array_equal(back.cameras, src.cameras)
+    # a sample a cleaner changed: residual 0 and no camera (no camera saw the value written there)
+    changed = np.array(src.positions)
+    changed[10, 0] += 1.0
+    again = load_markers(save_markers(src.with_positions(changed), tmp_path / "changed.c3d"))
+    assert again.residuals[10, 0] == 0.0 and again.cameras[10, 0] == 0
+    keep = seen.copy()
+    keep[10, 0] = False
+    assert np.array_equal(again.cameras[keep], src.cameras[keep])
+
+
+def test_header_events_are_kept(tmp_path):
+    # trial11: Eb015pi/pr hold their gait events only in the header (no EVENT group): written back, lost
+    import ezc3d
+
+    from mocapkit.io import load_markers, save_markers
+
+    src = load_markers(mocapkit.samples.path("Eb015pr.c3d"))
+    assert [label for _, label, _ in src.source.events] == ["RIC ", "RHS ", "RTO "]
+    out = save_markers(src, tmp_path / "copy.c3d")
+    events = ezc3d.c3d(str(out))["header"]["events"]
+    assert list(events["events_time"][:3]) == pytest.approx([2.72, 5.40, 7.32])
+    assert list(events["events_label"][:3]) == ["RIC ", "RHS ", "RTO "]
+    assert load_markers(out).source.events == src.source.events
+
+
+def test_negative_zero_analog_samples_stay_negative(tmp_path):
+    import dataclasses
+
+    from mocapkit.io import load_markers, save_markers
+
+    src = load_markers(mocapkit.samples.path("Eb015pr.c3d"))
+    analogs = np.array(src.source.analogs)
+    analogs[3, 10:20] = -0.0
+    analogs[5, 7] = 0.0
+    src = dataclasses.replace(src, source=dataclasses.replace(src.source, analogs=analogs))
+    back = load_markers(save_markers(src, tmp_path / "z.c3d")).source.analogs
+    assert np.array_equal(np.signbit(back), np.signbit(analogs.astype(np.float32)))
+    assert np.array_equal(back, analogs.astype(np.float32))
+
+
+def test_repeated_labels_and_descriptions_are_written_as_the_file_has_them(shared_data, tmp_path):
+    # trial11: Gait.c3d written back had RKNE -> RKNE_2 (six labels) and all 33 POINT:DESCRIPTIONS emptied
+    import ezc3d
+
+    from mocapkit.io import load_markers, save_markers
+
+    path = shared_data / "c3d_markers" / "Gait.c3d"
+    src = load_markers(path)
+    assert "RKNE_2" in src.labels and any("RKNE as RKNE_2" in n for n in src.notes)
+    before = ezc3d.c3d(str(path))["parameters"]["POINT"]
+    after = ezc3d.c3d(str(save_markers(src, tmp_path / "g.c3d")))["parameters"]["POINT"]
+    assert list(after["LABELS"]["value"]) == [s.strip() for s in before["LABELS"]["value"]]
+    assert list(after["LABELS"]["value"]).count("RKNE") == 2
+    assert list(after["DESCRIPTIONS"]["value"]) == [s.strip() for s in before["DESCRIPTIONS"]["value"]]
+    assert after["DESCRIPTIONS"]["value"][0] == "R.Shoulder"
+    assert load_markers(tmp_path / "g.c3d").labels == src.labels
+    # a part of the markers is no longer the file's own: unique names, no descriptions of others
+    part = load_markers(save_markers(src.select(["RKNE_2", "RSHO"]), tmp_path / "p.c3d"))
+    assert part.labels == ("RKNE_2", "RSHO")

@@ -14,6 +14,9 @@ which reader was used in ``reader``. A data block that stops partway through
 a frame is a file cut short, refused as truncated BVH and AMC files are.
 Samples stored as exact (0, 0, 0) gaps are read as missing
 (:func:`~mocapkit.markerset.zero_gap_mask`).
+Residuals and camera masks are read from each point's fourth word as
+the C3D guide defines it (:func:`_point_words`: ezc3d 1.7 swaps its two
+bytes), and the header's events (:func:`_header_events`) are kept.
 
 :func:`write_c3d` writes float point data with ezc3d and keeps every other
 parameter group and the analog channels of the file read. Coordinates and
@@ -25,6 +28,7 @@ format: Motion Lab Systems, "The C3D File Format User Guide" (c3d.org).
 
 from __future__ import annotations
 
+import dataclasses
 import re
 import struct
 import warnings
@@ -34,24 +38,10 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import MocapFormatError, SkeletonError
-from ..markerset import MODELLED_GROUPS, MarkerSet, MarkerSource, length_unit_cm, zero_gap_mask
+from ..markerset import MODELLED_GROUPS, MarkerSet, MarkerSource, length_unit_cm, unique_labels, zero_gap_mask
 from ..motion import check_fps
 
 __all__ = ["MarkerSet", "read_c3d", "write_c3d", "apply_zero_gaps", "checked_unit_cm"]
-
-
-def _clean_labels(raw, n: int) -> tuple[str, ...]:
-    labels = [str(s).strip() for s in list(raw)[:n]]
-    labels += [f"M{i + 1:03d}" for i in range(len(labels), n)]
-    # Duplicate labels happen in the wild; keep them addressable.
-    seen: dict[str, int] = {}
-    out = []
-    for label in labels:
-        label = label or f"M{len(out) + 1:03d}"
-        k = seen.get(label, 0)
-        seen[label] = k + 1
-        out.append(label if k == 0 else f"{label}_{k + 1}")
-    return tuple(out)
 
 
 def _point_rate(path: Path, rate) -> float:
@@ -131,7 +121,49 @@ def _address_space_budget(extra: int):
             resource.setrlimit(resource.RLIMIT_AS, (soft, hard))
 
 
-def _read_ezc3d(path: Path):
+def _point_words(raw: bytes, frames: int, points: int, scale: float) -> np.ndarray | None:
+    """(F, M) int: the fourth word of every point sample in the data block, as the C3D guide defines it.
+
+    Its low byte is the residual in units of ``|POINT:SCALE|``, bits 8-14 the
+    cameras that saw the sample (bit 8: camera 1), and a negative word marks
+    the sample invalid; a float file stores the word as a float holding that
+    integer. ezc3d 1.7 reads the two bytes the other way round (its residual
+    is the camera byte: ezc3d issue #386) and writes them so, which is why
+    :func:`read_c3d` and :func:`write_c3d` read and write this word
+    themselves, as the ``c3d`` package and the capture software do. ``scale``:
+    POINT:SCALE, whose sign says floats (negative) or 16-bit integers. None
+    when the data block does not hold ``frames`` whole frames.
+    """
+    proc = raw[(raw[0] - 1) * 512 + 3]
+    e = ">" if proc == 86 else "<"
+    analog, = struct.unpack_from(e + "H", raw, 4)
+    data_start, = struct.unpack_from(e + "H", raw, 16)
+    size = _sample_bytes(scale)
+    frame_bytes = (4 * points + analog) * size
+    start = (data_start - 1) * 512
+    if frames <= 0 or start < 0 or start + frames * frame_bytes > len(raw):
+        return None
+    block = np.frombuffer(raw, dtype=np.uint8, count=frames * frame_bytes, offset=start).reshape(frames, frame_bytes)
+    word = np.ascontiguousarray(block[:, : 4 * points * size].reshape(frames, points, 4, size)[:, :, 3, :])
+    if size == 2:
+        return word.view(e + "i2")[..., 0].astype(np.int64)
+    if proc == 85:  # DEC float: the two 16-bit halves swapped, the exponent 2 higher (see _float)
+        values = word[..., [2, 3, 0, 1]].copy().view("<f4")[..., 0].astype(np.float64) / 4.0
+    else:
+        values = word.view(e + "f4")[..., 0].astype(np.float64)
+    values = np.where(np.isfinite(values), values, -1.0)
+    return np.clip(np.trunc(values), -(2**31), 2**31 - 1).astype(np.int64)
+
+
+def _residuals_and_cameras(words: np.ndarray, scale: float) -> tuple[np.ndarray, np.ndarray]:
+    """(F, M) residuals (-1 where invalid) and (F, M) camera masks (0 there) from :func:`_point_words`."""
+    invalid = words < 0
+    resid = np.where(invalid, -1.0, (words & 0xFF) * abs(float(scale)))
+    cameras = np.where(invalid, 0, (words & 0x7F00) >> 8)
+    return resid, cameras
+
+
+def _read_ezc3d(path: Path, raw: bytes):
     import ezc3d
 
     with _address_space_budget(max(1 << 30, 64 * path.stat().st_size)):
@@ -158,6 +190,12 @@ def _read_ezc3d(path: Path):
     units = params["UNITS"]["value"][0] if "UNITS" in params and len(params["UNITS"]["value"]) else ""
     xyz = _float32_values(np.transpose(pts[:3], (2, 1, 0)))
     resid = np.array(c["data"]["meta_points"]["residuals"][0].T, dtype=np.float64)  # (F, M)
+    scale_param = np.ravel(params["SCALE"]["value"]) if "SCALE" in params else []
+    scale = float(scale_param[0]) if len(scale_param) else _float(raw, raw[(raw[0] - 1) * 512 + 3], 12)
+    words = _point_words(raw, xyz.shape[0], n, scale)
+    cameras = None
+    if words is not None:  # ezc3d's residuals are the camera byte (see _point_words)
+        resid, cameras = _residuals_and_cameras(np.where(resid < 0, -1, words), scale)
     xyz[resid < 0] = np.nan
     modelled = set()
     for key in _MODELLED:
@@ -171,7 +209,7 @@ def _read_ezc3d(path: Path):
         first_frame=int(c["header"]["points"]["first_frame"]) + 1,
     )
     fps = _point_rate(path, c["header"]["points"]["frame_rate"])
-    return _clean_labels(labels, n), xyz, resid, fps, units, "ezc3d", source, modelled
+    return labels, xyz, (resid, cameras), fps, units, "ezc3d", source, modelled
 
 
 def _c3d_package_parameters(reader) -> dict:
@@ -248,7 +286,9 @@ def _read_c3d_package(path: Path):
         a = _float32_values(analog)  # (F, A, ratio)
         analogs = a.transpose(1, 0, 2).reshape(a.shape[1], -1)
     source = MarkerSource(format="c3d", parameters=parameters, analogs=analogs, first_frame=max(first, 1))
-    return _clean_labels(labels, xyz.shape[1]), xyz, resid, fps, units, "c3d", source, modelled
+    # (F, M) camera masks: the c3d package reads the fourth word of a point as the C3D guide has it
+    cameras = np.where(resid < 0, 0, data[..., 4]).astype(np.int64)
+    return labels, xyz, (resid, cameras), fps, units, "c3d", source, modelled
 
 
 # Types ezc3d takes for granted (a char ANALOG:USED crashes it): parameters of another type or
@@ -561,7 +601,7 @@ def read_c3d(path, zeros_as_gaps: bool | None = None) -> MarkerSet:
     no_points = None
     if _check_structure(path, raw):
         try:
-            got = _read_ezc3d(path)
+            got = _read_ezc3d(path, raw)
         except MocapFormatError:
             raise
         except _NoPoints as exc:
@@ -584,13 +624,55 @@ def read_c3d(path, zeros_as_gaps: bool | None = None) -> MarkerSet:
             else:
                 reason = f"not a readable C3D file ({first_error or exc})"
             raise MocapFormatError(path, reason.replace("\n", " ")) from exc
-    labels, xyz, resid, fps, units, reader, source, modelled = got
+    raw_labels, xyz, (resid, cameras), fps, units, reader, source, modelled = got
+    n = xyz.shape[1]
+    labels = unique_labels(raw_labels, n)
+    file_labels = tuple(str(s).strip() for s in list(raw_labels)[:n]) + labels[len(raw_labels):]
+    source = dataclasses.replace(source, labels=file_labels, events=_header_events(raw))
     units = str(units).replace("\x00", " ").strip() or "mm"  # NUL-padded in some files (and cut ones)
     unit_cm = checked_unit_cm(path, units)
     zeros = apply_zero_gaps(labels, xyz, resid, unit_cm, zeros_as_gaps, modelled)
+    if cameras is not None:
+        cameras[np.isnan(xyz).any(axis=-1)] = 0
     markers = MarkerSet(labels=labels, positions=xyz, fps=fps, units=units, name=path.stem, reader=reader,
-                        residuals=resid, source=source, zero_gaps=zeros)
+                        residuals=resid, source=source, zero_gaps=zeros, cameras=cameras,
+                        notes=_repeated_labels_note(file_labels, labels))
     return _check_result(path, markers)
+
+
+def _repeated_labels_note(file_labels, labels) -> tuple[str, ...]:
+    """One note naming the labels a file repeats and the names mocapkit gives the repeats; () for none."""
+    renamed = [f"{a} as {b}" for a, b in zip(file_labels, labels) if a and a != b and a in file_labels[: labels.index(b)]]
+    if not renamed:
+        return ()
+    shown = ", ".join(renamed[:6]) + (f" and {len(renamed) - 6} more" if len(renamed) > 6 else "")
+    return (f"the file repeats marker labels: the repeats are named {shown} here; a C3D or TRC written from "
+            "this take keeps the file's labels",)
+
+
+# C3D header event section (16-bit words from 1): word 150 the key 12345, 151 the event count (at
+# most 18), 153-188 the times (floats, seconds), 189-197 a display flag byte per event, 199-234
+# the labels (4 characters each). Byte offsets of each:
+_EVENT_KEY, _EVENT_COUNT, _EVENT_TIMES, _EVENT_FLAGS, _EVENT_LABELS = 298, 300, 304, 376, 396
+
+
+def _header_events(raw: bytes) -> tuple[tuple[float, str, int], ...]:
+    """The events the C3D header lists: (time s, 4-character label, display flag) each; () for none.
+
+    Files older than the EVENT parameter group (c3d.org's Eb015pi.c3d: RIC,
+    RHS, RTO) hold their gait events only here.
+    """
+    proc = raw[(raw[0] - 1) * 512 + 3]
+    e = ">" if proc == 86 else "<"
+    count, = struct.unpack_from(e + "h", raw, _EVENT_COUNT)
+    if not 0 < count <= 18:
+        return ()
+    out = []
+    for i in range(count):
+        t = _float(raw, proc, _EVENT_TIMES + 4 * i)
+        label = raw[_EVENT_LABELS + 4 * i:_EVENT_LABELS + 4 * i + 4].decode("latin-1")
+        out.append((float(t) if np.isfinite(t) else 0.0, label, raw[_EVENT_FLAGS + i]))
+    return tuple(out)
 
 
 def _c3d_like(markers: MarkerSet, like) -> MarkerSource | None:
@@ -630,7 +712,9 @@ def _c3d_object(markers: MarkerSet, source: MarkerSource | None):
     for k in ["LABELS"] + [f"LABELS{i}" for i in range(2, 100)]:
         if k in point:
             old_labels += [str(v).strip() for v in np.ravel(point[k]["value"])]
-    same_markers = old_labels[:M] == list(markers.labels)
+    # the file's own labels while the markers are the file's (a label it repeats written as it had it)
+    labels = [label.strip() for label in markers.file_labels()]
+    same_markers = old_labels[:M] == labels
     for k in list(point):
         if k.startswith("LABELS") and k != "LABELS" or k in ("DATA_START",):
             del point[k]
@@ -642,7 +726,7 @@ def _c3d_object(markers: MarkerSet, source: MarkerSource | None):
     # Float data (a negative scale); its magnitude is the residuals' resolution, kept from the source.
     old_scale = np.ravel(point.get("SCALE", {}).get("value", [])) if source is not None else []
     scale = -abs(float(old_scale[0])) if len(old_scale) and np.isfinite(old_scale[0]) and old_scale[0] != 0 else -1.0
-    for key, typ, value in (("LABELS", -1, list(markers.labels)), ("RATE", 4, np.array([markers.fps])),
+    for key, typ, value in (("LABELS", -1, labels), ("RATE", 4, np.array([markers.fps])),
                             ("UNITS", -1, [markers.units]), ("SCALE", 4, np.array([scale]))):
         old = point.get(key, {})
         point[key] = {"type": typ, "description": old.get("description", ""), "is_locked": old.get("is_locked", False),
@@ -680,6 +764,54 @@ def _c3d_object(markers: MarkerSet, source: MarkerSource | None):
     return c
 
 
+def _data_block(data: bytearray, frames: int, points: int) -> np.ndarray:
+    """The float data block of a C3D ezc3d wrote, as a writable (F, 4 * points + analog samples) float32 view."""
+    analog, data_start = struct.unpack_from("<H", data, 4)[0], struct.unpack_from("<H", data, 16)[0]
+    width = 4 * points + analog
+    return np.frombuffer(data, dtype="<f4", count=frames * width, offset=(data_start - 1) * 512).reshape(frames, width)
+
+
+def _put_point_words(data: bytearray, markers: MarkerSet, scale: float) -> None:
+    """Write every point's fourth word as the C3D guide has it: residual byte, camera byte, -1 where missing.
+
+    ezc3d writes the residual in the camera byte (:func:`_point_words`);
+    this puts the take's residuals (in units of ``|scale|``, 0 to 255) in
+    the low byte and its camera masks (0 where it has none: a TRC or npz
+    take) in bits 8-14, so the ``c3d`` package and capture software read
+    back what the file held.
+    """
+    block = _data_block(data, markers.num_frames, markers.num_markers)
+    res = markers.residual_or_default()
+    step = abs(scale) or 1.0
+    byte = np.clip(np.rint(np.where(res < 0, 0.0, res) / step), 0, 255).astype(np.int64)
+    cams = np.zeros_like(byte) if markers.cameras is None else markers.cameras & 0x7F
+    block[:, 3::4][:, : markers.num_markers] = np.where(res < 0, -1, (cams << 8) | byte).astype(np.float32)
+
+
+def _put_negative_zeros(data: bytearray, markers: MarkerSet, analogs: np.ndarray) -> None:
+    """Put back the -0.0 analog samples ezc3d writes as +0.0 (it adds the channel's offset, 0, to each)."""
+    if analogs.size == 0 or analogs.shape[1] % max(markers.num_frames, 1):
+        return
+    negative = (analogs == 0) & np.signbit(analogs)  # (A, F * ratio)
+    if not negative.any():
+        return
+    block = _data_block(data, markers.num_frames, markers.num_markers)[:, 4 * markers.num_markers:]
+    a, n = analogs.shape  # a frame holds its analog samples subframe by subframe, every channel in each
+    block[negative.reshape(a, markers.num_frames, n // markers.num_frames).transpose(1, 2, 0).reshape(block.shape)] = -0.0
+
+
+def _put_header_events(data: bytearray, events) -> None:
+    """Write the C3D header's event section (see :func:`_header_events`) for up to 18 events."""
+    events = list(events)[:18]
+    if not events:
+        return
+    struct.pack_into("<hh", data, _EVENT_KEY, 12345, len(events))
+    for i, (t, label, flag) in enumerate(events):
+        struct.pack_into("<f", data, _EVENT_TIMES + 4 * i, float(t))
+        data[_EVENT_FLAGS + i] = int(flag) & 0xFF
+        data[_EVENT_LABELS + 4 * i:_EVENT_LABELS + 4 * i + 4] = label.encode("latin-1", "replace")[:4].ljust(4)
+
+
 def write_c3d(markers: MarkerSet, path, *, like=None) -> None:
     """Write ``markers`` to a float C3D file with ezc3d, atomically (temp file + rename).
 
@@ -688,9 +820,13 @@ def write_c3d(markers: MarkerSet, path, *, like=None) -> None:
     reads both as float32 values, so every sample not changed reads back
     bit-identical), missing samples with
     residual -1 (and NaN coordinates, which ezc3d and the ``c3d`` package both
-    read back as missing), seen ones with the take's residuals (0 for a sample
-    a cleaner changed or filled: "interpolated" in C3D's convention). Labels,
-    rate and units come from ``markers``; every other parameter group and the
+    read back as missing), seen ones with the take's residuals and camera
+    masks (residual 0 and no camera for a sample a cleaner changed or
+    filled: "interpolated" in C3D's convention), written in the fourth word
+    as the C3D guide has it (:func:`_put_point_words`). Labels are the
+    file's own while the markers are (:meth:`MarkerSet.file_labels`: a label
+    the file repeats is written as it had it, with its POINT:DESCRIPTIONS),
+    else ``markers.labels``; the header's events are kept. Rate and units come from ``markers``; every other parameter group and the
     analog channels come from ``like`` (a MarkerSet or a C3D file) or, by
     default, from the file ``markers`` was read from (``markers.source``), with
     POINT:USED and the frame counts made consistent by ezc3d. Analogs are
@@ -703,11 +839,12 @@ def write_c3d(markers: MarkerSet, path, *, like=None) -> None:
     path = Path(path)
     if markers.num_markers == 0 or markers.num_frames == 0:
         raise MocapFormatError(path, "a C3D file needs at least one marker and one frame")
-    bad = [label for label in markers.labels if not label.isprintable() or not label.isascii()]
+    bad = [label for label in markers.labels + markers.file_labels() if not label.isprintable() or not label.isascii()]
     if bad:
         raise MocapFormatError(path, f"marker label {bad[0]!r} is not printable ASCII, which C3D labels must be")
     checked_unit_cm(path, markers.units)
-    c = _c3d_object(markers, _c3d_like(markers, like))
+    source = _c3d_like(markers, like)
+    c = _c3d_object(markers, source)
     with tempfile.TemporaryDirectory(prefix="mocapkit-c3d-") as tmp:
         tmp_file = Path(tmp) / "out.c3d"
         try:
@@ -717,6 +854,10 @@ def write_c3d(markers: MarkerSet, path, *, like=None) -> None:
         data = bytearray(tmp_file.read_bytes())
     # ezc3d writes -1 as the header's scale whatever POINT:SCALE says; readers that check the two
     # agree (the c3d package) refuse the mismatch, so the header gets POINT:SCALE (Intel byte order).
-    struct.pack_into("<f", data, 12, float(c["parameters"]["POINT"]["SCALE"]["value"][0]))
+    scale = float(c["parameters"]["POINT"]["SCALE"]["value"][0])
+    struct.pack_into("<f", data, 12, scale)
+    _put_point_words(data, markers, scale)
+    _put_negative_zeros(data, markers, c["data"]["analogs"][0])
+    _put_header_events(data, source.events if source is not None else ())
     with atomic_write(path, "wb") as fh:
         fh.write(data)
