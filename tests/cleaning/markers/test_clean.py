@@ -177,3 +177,22 @@ def test_frames_where_no_marker_is_seen_at_the_edges_stay_missing(cmu):
     assert any("frames 0-59 at the take's start see no marker" in line for line in res.summary())
     (gap,) = [fx for fx in res.fixes if fx.kind == "gap"]
     assert (gap.start, gap.end) == (60, 80) and np.isfinite(gap.size_mm)
+
+
+def test_an_undone_swap_keeps_the_residuals_and_camera_masks_of_its_samples(cmu):
+    # trial11: undoing a label swap gave the swapped samples residual 0 (the file had 0.2 and 0.45)
+    x = np.asarray(cmu.positions)
+    i = 0
+    j = int(np.nanargmin(distance_stats(x).median[i]))
+    res = np.where(np.isnan(x[..., 0]), -1.0, 0.2)
+    res[:, j] = np.where(np.isnan(x[:, j, 0]), -1.0, 0.45)
+    cams = np.full(res.shape, 3)
+    cams[:, j] = 96
+    y, ry, cy = x.copy(), res.copy(), cams.copy()
+    for a in (y, ry, cy):  # the capture system swapped the labels of i and j, each sample with its residual
+        a[300:420, [i, j]] = a[300:420, [j, i]]
+    taken = dataclasses.replace(cmu, positions=y, residuals=ry, cameras=cy)
+    out = clean_markers(taken, steps="swaps").markers
+    assert np.array_equal(out.positions, x)
+    assert np.array_equal(out.residuals, np.where(np.isnan(x[..., 0]), -1.0, res))
+    assert np.array_equal(out.cameras, cams)

@@ -130,6 +130,26 @@ class MarkerCleanResult:
         return path
 
 
+def _swap_sources(x: np.ndarray, y: np.ndarray, swapped: np.ndarray) -> np.ndarray:
+    """(F, M) int: the marker column of ``x`` each sample of ``y`` came from (its own outside ``swapped``).
+
+    ``x``: positions (F, M, 3) before the swaps were undone; ``y``: after
+    (the same samples, re-labelled: :func:`~mocapkit.cleaning.markers.swaps.undo_swaps`);
+    ``swapped``: (F, M) bool, the re-labelled samples. A re-labelled sample
+    is matched to the sample of ``x`` in its frame with the same values,
+    among that frame's re-labelled markers; an unseen one keeps its column.
+    """
+    f, m = swapped.shape
+    src = np.broadcast_to(np.arange(m), (f, m)).copy()
+    t, i = np.nonzero(swapped)
+    if t.size == 0:
+        return src
+    same = np.all(y[t, i][:, None, :] == x[t], axis=-1) & swapped[t]  # (N, M)
+    found = same.any(axis=1)
+    src[t[found], i[found]] = np.argmax(same[found], axis=1)
+    return src
+
+
 def clean_markers(markers, *, steps=STEPS, spike_mm: float = 15.0, swap_mm: float = 15.0,
                   max_gap_s: float | None = None, constrain: bool = True) -> MarkerCleanResult:
     """Clean a :class:`MarkerSet`: undo label swaps, remove spikes, fill gaps.
@@ -213,7 +233,13 @@ def clean_markers(markers, *, steps=STEPS, spike_mm: float = 15.0, swap_mm: floa
         mask[:, work] = sub
         return mask
 
-    cleaned = markers.with_positions(out) if hasattr(markers, "with_positions") else dataclasses.replace(markers, positions=out)
+    if hasattr(markers, "with_positions"):
+        # a re-labelled sample keeps the residual and camera mask it was recorded with
+        sources = np.broadcast_to(np.arange(full.shape[1]), full.shape[:2]).copy()
+        sources[:, work] = work[_swap_sources(x, before_fill, swapped)]
+        cleaned = markers.with_positions(out, sources=sources)
+    else:
+        cleaned = dataclasses.replace(markers, positions=out)
     lo, hi = (int(seen_any[0]), int(seen_any[-1]) + 1) if seen_any.size else (f, f)
     return MarkerCleanResult(markers=cleaned, original=markers, filled=expand(filled), spikes=expand(spikes),
                              swapped=expand(swapped), fixes=tuple(fixes),
