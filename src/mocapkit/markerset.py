@@ -23,7 +23,8 @@ import numpy as np
 
 from .motion import check_fps, frame_slice, frozen
 
-__all__ = ["MarkerSet", "MarkerSource", "length_unit_cm", "zero_gap_mask", "unique_labels", "ZERO_GAP_DISTANCE_CM",
+__all__ = ["MarkerSet", "MarkerSource", "length_unit_cm", "zero_gap_mask", "unique_labels", "repeated_labels_note",
+           "ZERO_GAP_DISTANCE_CM",
            "MODELLED_GROUPS"]
 
 # Vicon writes modelled quantities (joint angles, forces, moments, powers) as
@@ -72,6 +73,22 @@ def unique_labels(raw, m: int) -> tuple[str, ...]:
         used.add(name)
         out.append(name)
     return tuple(out)
+
+
+def repeated_labels_note(file_labels, labels) -> tuple[str, ...]:
+    """One note naming the labels a file repeats and what their repeats are called here; () for none.
+
+    ``file_labels``: the file's labels (stripped), ``labels``: the names
+    :func:`unique_labels` gave them. Readers put it in ``MarkerSet.notes``.
+    """
+    repeats = [(a, b) for a, b in zip(file_labels, labels) if a and a != b and a.strip() in labels]
+    if not repeats:
+        return ()
+    names = list(dict.fromkeys(a for a, _ in repeats))
+    shown = ", ".join(b for _, b in repeats[:8]) + (f" and {len(repeats) - 8} more" if len(repeats) > 8 else "")
+    return (f"the file repeats marker label{'s' if len(names) > 1 else ''} {', '.join(names[:8])}"
+            f"{' ...' if len(names) > 8 else ''}: the repeats are called {shown} here; a C3D or TRC written from "
+            "this take keeps the file's labels",)
 
 
 def length_unit_cm(units: str) -> float:

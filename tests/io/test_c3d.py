@@ -643,7 +643,7 @@ def test_repeated_labels_and_descriptions_are_written_as_the_file_has_them(share
 
     path = shared_data / "c3d_markers" / "Gait.c3d"
     src = load_markers(path)
-    assert "RKNE_2" in src.labels and any("RKNE as RKNE_2" in n for n in src.notes)
+    assert "RKNE_2" in src.labels and any("repeats are called RKNE_2" in n for n in src.notes)
     before = ezc3d.c3d(str(path))["parameters"]["POINT"]
     after = ezc3d.c3d(str(save_markers(src, tmp_path / "g.c3d")))["parameters"]["POINT"]
     assert list(after["LABELS"]["value"]) == [s.strip() for s in before["LABELS"]["value"]]

@@ -20,7 +20,7 @@ def _file(shared_data, rel):
 
 
 @pytest.mark.parametrize("name, frames, markers, fps, first, last", [
-    ("Gait.trc", 487, 66, 100.0, "R.Shoulder", "M066"),  # 33 labels over 66 stated markers
+    ("Gait.trc", 487, 105, 100.0, "R.Shoulder", "M105"),  # 33 labels, 66 stated markers, rows holding 105
     ("SprintMotion.trc", 788, 59, 250.0, "C7", "StartArr"),
     ("T.trc", 89, 41, 30.0, "RFHD", "LFHD"),
     ("ballet_reduced.trc", 100, 41, 30.0, "RFHD", "LFHD"),
@@ -45,7 +45,8 @@ def test_golden_values(shared_data):
     assert sprint.positions[0, 0].tolist() == [161.60107, 69.74284, 728.04388]
     assert not sprint.missing().any()
     gait = read_trc(_file(shared_data, f"{TRC}/Gait.trc"))
-    assert gait.missing()[0].all()  # frame 1 is all empty fields
+    assert gait.missing()[0, :66].all()  # frame 1: empty fields up to the 66 markers the header states
+    assert gait.positions[0, 66].tolist() == [4012.05127, 112.96879, 1347.57288]  # and a trajectory past them
     assert 0.5 < gait.missing().mean() < 0.9
 
 
@@ -220,8 +221,9 @@ def test_mutated_trc_files_read_sanely_or_are_refused_in_one_line(tmp_path):
         assert got.positions.shape == (got.num_frames, got.num_markers, 3)
         assert not np.isinf(got.positions).any() and got.fps > 0 and got.unit_cm > 0
         outcomes["ok"] += 1
-    # both paths exercised (44 read: mutants that lose rows are refused as cut short since NumFrames is checked)
-    assert outcomes["ok"] > 30 and outcomes["refused"] > 50
+    # both paths exercised (24 read: mutants that lose rows are refused as cut short since NumFrames is checked,
+    # and those with a doubled or swapped row since the Frame# column must increase)
+    assert outcomes["ok"] > 20 and outcomes["refused"] > 50
 
 
 # --- files cut short --------------------------------------------------------------------------------
@@ -285,3 +287,157 @@ def test_trc_variants_that_are_not_cut_short_still_read(tmp_path, variant):
     assert (ms.num_frames, ms.num_markers) == (6, 3)
     assert ms.positions[0, 2].tolist() == [600.5, 700.5, 800.5]
     assert ms.missing()[5, 1:].all() == (variant == "trailing markers missing")
+
+
+# --- what the file holds comes back (trial11) -------------------------------------------------------
+
+
+def _crlf_trc(rows, labels=("A", "B"), num_markers=None, name="cap.trc", decimals=8, first=1, t0=0.0):
+    """A TRC text as exporters write it: CRLF, trailing tabs, padded NumFrames, ``rows`` of coordinates (lists)."""
+    nm = len(labels) if num_markers is None else num_markers
+    head = [f"PathFileType\t4\t(X/Y/Z)\t{name}\t", "DataRate\tCameraRate\tNumFrames\tNumMarkers\tUnits\tOrigDataRate\t"
+            "OrigDataStartFrame\tOrigNumFrames\t", f"30.00\t30.00\t   {len(rows)}\t{nm}\tm\t30.00\t{first}\t   {len(rows)}\t",
+            "Frame#\tTime\t" + "\t\t\t".join(labels) + "\t\t\t", "\t\t" + "\t".join(
+                f"X{k + 1}\tY{k + 1}\tZ{k + 1}" for k in range(len(labels))) + "\t", ""]
+    body = [f"{first + i}\t{t0 + i / 30:.3f}\t" + "\t".join("" if v is None else f"{v:.{decimals}f}" for v in r) + "\t"
+            for i, r in enumerate(rows)]
+    return ("\r\n".join(head + body) + "\r\n").encode()
+
+
+def _rows(frames=40, markers=2, seed=3):
+    rng = np.random.default_rng(seed)
+    base = rng.normal(0.0, 0.5, (markers, 3))
+    return [list((base + 0.001 * i + rng.normal(0.0, 1e-5, base.shape)).ravel()) for i in range(frames)]
+
+
+def test_an_unchanged_take_is_written_back_byte_for_byte(tmp_path):
+    # trial11: t4_metres.trc (8 decimals) came back rounded to 5, CRLF -> LF, trailing tabs dropped, the
+    # PathFileType name replaced, NumFrames' padding removed, label spaces stripped
+    path = tmp_path / "cap.trc"
+    path.write_bytes(_crlf_trc(_rows(), labels=(" A ", "B")))
+    ms = read_trc(path)
+    assert ms.labels == ("A", "B")
+    out = save_markers(ms, tmp_path / "out.trc")
+    assert out.read_bytes() == path.read_bytes()
+
+
+def test_a_changed_sample_rewrites_its_cells_only(tmp_path):
+    path = tmp_path / "cap.trc"
+    path.write_bytes(_crlf_trc(_rows()))
+    ms = read_trc(path)
+    pos = np.array(ms.positions)
+    pos[5, 1] += 0.0012345678
+    pos[9, 0] = np.nan
+    out = save_markers(ms.with_positions(pos), tmp_path / "out.trc")
+    a, b = path.read_bytes().split(b"\r\n"), out.read_bytes().split(b"\r\n")
+    assert len(a) == len(b) and [i for i in range(len(a)) if a[i] != b[i]] == [6 + 5, 6 + 9]
+    old5, new5 = a[11].split(b"\t"), b[11].split(b"\t")
+    assert old5[:5] == new5[:5] and old5[8:] == new5[8:]  # marker B's three fields only
+    assert new5[5] == f"{pos[5, 1, 0]:.8f}".encode()  # the file's 8 decimals, not the writer's 5
+    assert b[15].split(b"\t")[2:5] == [b"", b"", b""]
+    back = read_trc(out)
+    assert np.array_equal(back.positions, np.vectorize(lambda v: float(f"{v:.8f}"))(pos), equal_nan=True)
+
+
+def test_trajectories_past_num_markers_are_read_and_said(tmp_path):
+    # trial11: Gait.trc states 66 markers and its rows hold 105: 10,005 cells dropped without a word
+    rows = _rows(markers=3)
+    path = tmp_path / "cap.trc"
+    path.write_bytes(_crlf_trc(rows, labels=("A", "B"), num_markers=2))
+    ms = read_trc(path)
+    assert ms.labels == ("A", "B", "M003")
+    assert ms.positions[4, 2].tolist() == [float(f"{v:.8f}") for v in rows[4][6:9]]
+    assert ms.notes == ("the header states NumMarkers 2, the rows hold 3 trajectories: all 3 are read; 1 trajectory "
+                        "without a label named M003 (M and the marker's place in the file)",)
+    assert save_markers(ms, tmp_path / "out.trc").read_bytes() == path.read_bytes()
+    # a file stating 0 markers: the same markers, by the same rule
+    path.write_bytes(_crlf_trc(rows, labels=("A", "B"), num_markers=0))
+    zero = read_trc(path)
+    assert zero.labels == ms.labels and np.array_equal(zero.positions, ms.positions, equal_nan=True)
+    assert zero.notes == ("1 trajectory without a label named M003 (M and the marker's place in the file)",)
+
+
+def test_gait_trc_reads_every_trajectory_its_rows_hold(shared_data, tmp_path):
+    gait = read_trc(_file(shared_data, f"{TRC}/Gait.trc"))
+    assert gait.num_markers == 105 and int((~gait.missing()[:, 66:]).sum()) * 3 == 10005
+    assert "NumMarkers 66, the rows hold 105 trajectories" in gait.notes[0]
+    assert save_markers(gait, tmp_path / "g.trc").read_bytes() == (shared_data / TRC / "Gait.trc").read_bytes()
+
+
+def test_fields_past_the_last_marker_are_said_and_kept_in_a_trc(tmp_path):
+    # trial11: t3_extracol.trc's extra column '42' on each row was dropped silently
+    path = tmp_path / "cap.trc"
+    text = _crlf_trc(_rows(frames=5)).replace(b"\t\r\n", b"\t42\r\n")
+    header_end = text.index(b"\r\n\r\n") + 4
+    path.write_bytes(text[:header_end].replace(b"\t42\r\n", b"\t\r\n") + text[header_end:])
+    ms = read_trc(path)
+    assert ms.num_markers == 2
+    assert ms.notes == ("5 rows hold fields past the last marker's X Y Z (line 7: field 9, 42): not coordinates, not "
+                        "read; a TRC written from this take keeps them",)
+    pos = np.array(ms.positions)
+    pos[2, 0] += 1.0
+    out = save_markers(ms.with_positions(pos), tmp_path / "out.trc").read_bytes().split(b"\r\n")
+    assert all(line.endswith(b"\t42") for line in out[6:11])
+
+
+def test_the_first_frame_number_and_time_are_kept(tmp_path):
+    # trial11: t1_offset.trc (Frame# from 101, Time from 3.333) was written with times from 0
+    path = tmp_path / "cap.trc"
+    path.write_bytes(_crlf_trc(_rows(), first=101, t0=100 / 30))
+    ms = read_trc(path)
+    assert ms.source.first_frame == 101
+    assert save_markers(ms, tmp_path / "same.trc").read_bytes() == path.read_bytes()
+    for out in (save_markers(ms.select(["B"]), tmp_path / "b.trc"),  # a new file: its times go on from the file's
+                save_markers(load_markers(save_markers(ms, tmp_path / "c.c3d")), tmp_path / "c.trc")):
+        row = out.read_text().splitlines()[6].split("\t")
+        assert row[0] == "101" and float(row[1]) == pytest.approx(100 / 30, abs=1e-3), out.name
+
+
+def test_a_frame_the_file_skips_is_read_as_missing_and_said(tmp_path):
+    # trial11: t2_skip.trc (Frame# 1..40, 42..89) was renumbered 1..88: frame 42 written as 41, at 1.333 s
+    rows = _rows(frames=12)
+    path = tmp_path / "cap.trc"
+    text = _crlf_trc(rows).split(b"\r\n")
+    del text[6 + 4]  # frame 5
+    path.write_bytes(b"\r\n".join(text))
+    ms = read_trc(path)
+    assert ms.num_frames == 12 and ms.missing()[4].all() and not ms.missing()[[3, 5]].any()
+    assert ms.positions[5, 0, 0] == float(f"{rows[5][0]:.8f}")
+    assert ms.notes == ("the Frame# column skips frame 5 (at line 11): read as 1 frame with every marker missing, "
+                        "so every frame keeps its time",)
+    out = save_markers(ms, tmp_path / "out.trc").read_bytes().split(b"\r\n")
+    assert out[6 + 4].split(b"\t")[:2] == [b"5", b"0.133"] and out[6 + 5] == text[6 + 4]
+    assert out[2].split(b"\t")[2] == b"   12"  # NumFrames counts the frame inserted
+    # a Frame# that goes back is refused in one line naming it
+    text[6 + 6] = b"3" + text[6 + 6][1:]  # frame 8 (line 13) numbered 3
+    path.write_bytes(b"\r\n".join(text))
+    with pytest.raises(MocapFormatError, match="frame number 3 follows frame 7: the Frame# column must increase") as exc:
+        read_trc(path)
+    assert exc.value.line == 13
+
+
+def test_a_repeated_label_is_written_as_the_file_has_it(tmp_path):
+    # trial11: t5_dup.trc's second RFHD was written as RFHD_2
+    path = tmp_path / "cap.trc"
+    path.write_bytes(_crlf_trc(_rows(markers=3), labels=("RFHD", "C7", "RFHD")))
+    ms = read_trc(path)
+    assert ms.labels == ("RFHD", "C7", "RFHD_2") and "the repeats are called RFHD_2 here" in ms.notes[0]
+    pos = np.array(ms.positions)
+    pos[3, 2] += 0.5
+    out = save_markers(ms.with_positions(pos), tmp_path / "out.trc")
+    assert out.read_text().splitlines()[3].split("\t")[2::3] == ["RFHD", "C7", "RFHD", ""]
+    c3d = load_markers(save_markers(ms, tmp_path / "out.c3d"))
+    assert c3d.labels == ms.labels and c3d.notes == ms.notes
+
+
+def test_every_shared_trc_written_back_unchanged_is_byte_identical(shared_data, tmp_path):
+    files = sorted((shared_data / TRC).glob("*.trc")) + sorted((shared_data / PEER_TRC).glob("*.trc"))
+    done = 0
+    for f in files:
+        try:
+            ms = read_trc(f)
+        except MocapFormatError:
+            continue
+        assert save_markers(ms, tmp_path / f.name).read_bytes() == f.read_bytes(), f.name
+        done += 1
+    assert done >= 12

@@ -38,7 +38,8 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import MocapFormatError, SkeletonError
-from ..markerset import MODELLED_GROUPS, MarkerSet, MarkerSource, length_unit_cm, unique_labels, zero_gap_mask
+from ..markerset import (MODELLED_GROUPS, MarkerSet, MarkerSource, length_unit_cm, repeated_labels_note,
+                         unique_labels, zero_gap_mask)
 from ..motion import check_fps
 
 __all__ = ["MarkerSet", "read_c3d", "write_c3d", "apply_zero_gaps", "checked_unit_cm"]
@@ -636,18 +637,8 @@ def read_c3d(path, zeros_as_gaps: bool | None = None) -> MarkerSet:
         cameras[np.isnan(xyz).any(axis=-1)] = 0
     markers = MarkerSet(labels=labels, positions=xyz, fps=fps, units=units, name=path.stem, reader=reader,
                         residuals=resid, source=source, zero_gaps=zeros, cameras=cameras,
-                        notes=_repeated_labels_note(file_labels, labels))
+                        notes=repeated_labels_note(file_labels, labels))
     return _check_result(path, markers)
-
-
-def _repeated_labels_note(file_labels, labels) -> tuple[str, ...]:
-    """One note naming the labels a file repeats and the names mocapkit gives the repeats; () for none."""
-    renamed = [f"{a} as {b}" for a, b in zip(file_labels, labels) if a and a != b and a in file_labels[: labels.index(b)]]
-    if not renamed:
-        return ()
-    shown = ", ".join(renamed[:6]) + (f" and {len(renamed) - 6} more" if len(renamed) > 6 else "")
-    return (f"the file repeats marker labels: the repeats are named {shown} here; a C3D or TRC written from "
-            "this take keeps the file's labels",)
 
 
 # C3D header event section (16-bit words from 1): word 150 the key 12345, 151 the event count (at

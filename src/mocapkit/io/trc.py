@@ -18,7 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import MocapFormatError, SkeletonError
-from ..markerset import MarkerSet, MarkerSource
+from ..markerset import MarkerSet, MarkerSource, repeated_labels_note, unique_labels
 from ..motion import check_fps
 from .c3d import apply_zero_gaps, checked_unit_cm
 
@@ -51,7 +51,8 @@ def read_trc(path, zeros_as_gaps: bool | None = None) -> MarkerSet:
     """
     path = Path(path)
     try:
-        text = path.read_bytes().decode("utf-8", errors="replace")
+        raw = path.read_bytes()
+        text = raw.decode("utf-8", errors="replace")
     except OSError as exc:
         raise MocapFormatError(path, f"cannot read: {exc.strerror or exc}") from None
     lines = text.splitlines()
@@ -90,10 +91,10 @@ def read_trc(path, zeros_as_gaps: bool | None = None) -> MarkerSet:
     label_line = _fields(lines[3])
     if label_line[0].strip() != "Frame#":
         raise MocapFormatError(path, f"line 4 should start with 'Frame#', got {label_line[0][:40]!r}", line=4)
-    labels_raw = [label_line[j].strip() for j in range(2, len(label_line), 3)]
-    while labels_raw and not labels_raw[-1]:
-        labels_raw.pop()
-    rows, numbers = [], []
+    label_text = [label_line[j] for j in range(2, len(label_line), 3)]  # as the file has them, spaces included
+    while label_text and not label_text[-1].strip():
+        label_text.pop()
+    rows, numbers, row_lines = [], [], []
     last_fields = last_line = 0
     ends_in_row = not text.endswith(("\n", "\r"))  # no line break after the last line: cut there, or a writer's habit
     for n, line in enumerate(lines[5:], start=6):
@@ -108,6 +109,8 @@ def read_trc(path, zeros_as_gaps: bool | None = None) -> MarkerSet:
             frame = int(float(f[0]))
         except (ValueError, OverflowError):
             raise MocapFormatError(path, f"frame number {f[0][:20]!r} is not a number{hint}", line=n) from None
+        if abs(frame) >= 2**31:
+            raise MocapFormatError(path, f"frame number {f[0][:20]!r} is out of range{hint}", line=n)
         vals = np.full(len(f) - 2 if len(f) > 2 else 0, np.nan)
         for j, v in enumerate(f[2:]):
             v = v.strip()
@@ -120,31 +123,110 @@ def read_trc(path, zeros_as_gaps: bool | None = None) -> MarkerSet:
             raise MocapFormatError(path, f"infinite coordinate in field {int(np.flatnonzero(np.isinf(vals))[0]) + 3}", line=n)
         rows.append(vals)
         numbers.append(frame)
+        row_lines.append(n)
     if not rows:
         raise MocapFormatError(path, "the TRC file holds no data rows")
     stated = number("NumMarkers", 0) or 0
     if stated < 0 or stated != int(stated):
         raise MocapFormatError(path, f"header field NumMarkers is {header['NumMarkers']!r}, not a marker count", line=3)
-    # NumMarkers decides when stated (fields past it are ignored, as BTK and OpenSim read them);
-    # a file stating 0 gets as many markers as its widest row holds.
-    present = max(max((len(r) + 2) // 3 for r in rows), len(labels_raw))
+    # Every trajectory the rows hold is read: NumMarkers, the labels, or the whole X Y Z triples of the
+    # widest row, whichever is most (BTK and OpenSim read NumMarkers only: Gait.trc states 66, names 33
+    # and its rows hold 105); a file stating 0 gets as many as its rows hold, by the same rule.
+    held = max(len(r) // 3 for r in rows)
+    present = max(held, len(label_text))
     if stated > present + 1000:
         raise MocapFormatError(path, f"header field NumMarkers says {int(stated)} markers, the file names and holds "
                                f"at most {present}", line=3)
-    m = int(stated) or present
-    _check_complete(path, header, len(rows), last_fields - 2, m, last_line,
+    m = max(int(stated), present)
+    slots = _frame_slots(path, numbers, row_lines)
+    _check_complete(path, header, int(slots[-1]) + 1, last_fields - 2, m, last_line,
                     ends_in_row=ends_in_row and last_line == len(lines))
-    data = np.full((len(rows), 3 * m), np.nan)
-    for i, r in enumerate(rows):
+    data = np.full((int(slots[-1]) + 1, 3 * m), np.nan)
+    for i, r in zip(slots, rows):
         data[i, : min(len(r), 3 * m)] = r[: 3 * m]
-    xyz = data.reshape(len(rows), m, 3)
+    xyz = data.reshape(data.shape[0], m, 3)
     xyz[np.any(np.isnan(xyz), axis=-1)] = np.nan  # a sample with one empty coordinate is not seen
-    labels = _labels(labels_raw, m)
+    labels = unique_labels(label_text, m)
+    file_labels = tuple(label_text) + labels[len(label_text):]
     zeros = apply_zero_gaps(labels, xyz, None, unit_cm, zeros_as_gaps)
+    notes = repeated_labels_note(tuple(t.strip() for t in file_labels), labels)
+    notes += _count_notes(int(stated), len([t for t in label_text if t.strip()]), held, m, labels)
+    notes += _extra_field_notes(rows, row_lines, m)
+    notes += _skipped_frame_notes(numbers, row_lines)
     source = MarkerSource(format="trc", parameters={"PathFileType": first[3].strip() if len(first) > 3 else "", **header},
-                          first_frame=numbers[0])
+                          first_frame=numbers[0], labels=file_labels,
+                          text=raw.decode("utf-8", errors="surrogateescape"))
     return MarkerSet(labels=labels, positions=xyz, fps=fps, units=units, name=path.stem, reader="trc",
-                     source=source, zero_gaps=zeros)
+                     source=source, zero_gaps=zeros, notes=notes)
+
+
+# Frames a file may skip, inserted as missing samples: more than this many is refused as not a frame numbering.
+_MAX_INSERTED = 100_000
+
+
+def _frame_slots(path: Path, numbers: list[int], row_lines: list[int]) -> np.ndarray:
+    """(rows,) int: the frame (0-based, from the first row's number) each data row holds.
+
+    Frame numbers must increase; a file that skips some (``1..40, 42..89``)
+    gets the skipped frames inserted as frames with every marker missing, so
+    that frame ``k`` of the take stays at the file's time (a cleaner then
+    fills them as gaps; :func:`_skipped_frame_notes` says so). A number that
+    does not increase, or a skip of more than :data:`_MAX_INSERTED` frames,
+    is refused naming its line.
+    """
+    nums = np.asarray(numbers, dtype=np.int64)
+    step = np.diff(nums)
+    bad = np.flatnonzero(step <= 0)
+    if bad.size:
+        k = int(bad[0]) + 1
+        raise MocapFormatError(path, f"frame number {numbers[k]} follows frame {numbers[k - 1]}: the Frame# column "
+                               "must increase", line=row_lines[k])
+    if int(nums[-1] - nums[0]) + 1 - len(nums) > _MAX_INSERTED:
+        k = int(np.argmax(step)) + 1
+        raise MocapFormatError(path, f"frame number {numbers[k]} follows frame {numbers[k - 1]}: the Frame# column "
+                               f"skips more than {_MAX_INSERTED} frames", line=row_lines[k])
+    return nums - nums[0]
+
+
+def _skipped_frame_notes(numbers: list[int], row_lines: list[int]) -> tuple[str, ...]:
+    """One note naming the frames the Frame# column skips (inserted as missing samples); () for none."""
+    step = np.diff(np.asarray(numbers, dtype=np.int64))
+    at = np.flatnonzero(step > 1)
+    if at.size == 0:
+        return ()
+    runs = [f"{numbers[k] + 1}" if step[k] == 2 else f"{numbers[k] + 1}-{numbers[k + 1] - 1}" for k in at[:5]]
+    more = f" and {at.size - 5} more runs" if at.size > 5 else ""
+    total = int((step[at] - 1).sum())
+    return (f"the Frame# column skips frame{'s' if total > 1 else ''} {', '.join(runs)}{more} (at line "
+            f"{row_lines[int(at[0]) + 1]}): read as {total} frame{'s' if total > 1 else ''} with every marker missing, "
+            "so every frame keeps its time",)
+
+
+def _count_notes(stated: int, named: int, held: int, m: int, labels) -> tuple[str, ...]:
+    """One note when the file holds trajectories its header does not count or its labels do not name."""
+    said = []
+    if stated and held > stated:
+        said.append(f"the header states NumMarkers {stated}, the rows hold {held} trajectories: all {m} are read")
+    unnamed = [label for k, label in enumerate(labels) if k >= named]
+    if unnamed and (said or named):
+        span = unnamed[0] if len(unnamed) == 1 else f"{unnamed[0]}-{unnamed[-1]}"
+        said.append(f"{_plural(len(unnamed), 'trajectory', 'trajectories')} without a label named {span} "
+                    "(M and the marker's place in the file)")
+    return ("; ".join(said),) if said else ()
+
+
+def _extra_field_notes(rows, row_lines, m: int) -> tuple[str, ...]:
+    """One note for rows holding fields past the last marker's X Y Z (not coordinates); () for none."""
+    extra = [(k, r) for k, r in enumerate(rows) if len(r) > 3 * m and not np.all(np.isnan(r[3 * m:]))]
+    if not extra:
+        return ()
+    k, r = extra[0]
+    return (f"{_plural(len(extra), 'row', 'rows')} hold fields past the last marker's X Y Z (line {row_lines[k]}: field "
+            f"{3 * m + 3}, {r[3 * m]:g}): not coordinates, not read; a TRC written from this take keeps them",)
+
+
+def _plural(n: int, word: str, many: str) -> str:
+    return f"{n} {word if n == 1 else many}"
 
 
 def _check_complete(path: Path, header: dict, frames: int, last_values: int, m: int, last_line: int,
@@ -175,17 +257,6 @@ def _check_complete(path: Path, header: dict, frames: int, last_values: int, m: 
                                f"its {m} markers need and ends without a line break; the file is cut short", line=last_line)
 
 
-def _labels(raw: list[str], m: int) -> tuple[str, ...]:
-    """Labels for ``m`` markers: the file's, unnamed ones as M001..., duplicates suffixed _2, _3."""
-    out, seen = [], {}
-    for k in range(m):
-        label = raw[k] if k < len(raw) and raw[k] else f"M{k + 1:03d}"
-        count = seen.get(label, 0)
-        seen[label] = count + 1
-        out.append(label if count == 0 else f"{label}_{count + 1}")
-    return tuple(out)
-
-
 def _rate(x: float) -> str:
     return f"{x:.2f}" if round(x, 2) == x else repr(float(x))
 
@@ -193,28 +264,171 @@ def _rate(x: float) -> str:
 def write_trc(markers: MarkerSet, path, *, like=None, decimals: int = TRC_DECIMALS) -> None:
     """Write ``markers`` as a tab-separated TRC file, atomically (temp file + rename).
 
-    Coordinates are written with ``decimals`` decimals (a round trip gives back
-    each coordinate rounded to them), missing samples as empty fields, the
-    time column as (frame - 1) / fps. CameraRate, OrigDataRate,
-    OrigDataStartFrame and OrigNumFrames come from ``like`` (a MarkerSet or a
-    TRC file) or the file ``markers`` was read from when it was a TRC, else
-    they restate the take's own rate and frames. Frame numbers start at the
-    source's first frame (1 without one).
+    A take read from a TRC file (or written ``like`` one) whose markers are
+    still the file's own, in its order, rate and unit, is written as the
+    file's text with only the changed samples rewritten
+    (:func:`_edited_text`): every other cell, the Frame# and Time columns,
+    the header, labels (spaces and repeats included), fields past the last
+    marker and the line breaks stay as the file had them, so an unchanged
+    take comes back byte for byte. A changed sample is written with the
+    file's decimals or ``decimals``, whichever is more; a frame the file
+    skipped (read as missing) gets a row of its own.
+
+    Otherwise (another format's take, a selection of markers) the file is
+    written new: coordinates with ``decimals`` decimals (a round trip gives
+    back each coordinate rounded to them), missing samples as empty fields,
+    frame numbers from the source's first frame (1 without one) and times
+    that go with them (the source TRC's first time, else (frame - 1) / fps).
+    CameraRate, OrigDataRate, OrigDataStartFrame, OrigNumFrames and the
+    PathFileType line's name come from ``like`` (a MarkerSet or a TRC file)
+    or the TRC file ``markers`` was read from, else they restate the take's
+    own rate and frames.
     """
     from . import atomic_write
 
     path = Path(path)
     if markers.num_markers == 0 or markers.num_frames == 0:
         raise MocapFormatError(path, "a TRC file needs at least one marker and one frame")
-    bad = [label for label in markers.labels if any(c in label for c in "\t\r\n") or not label.strip()]
+    bad = [label for label in markers.labels + markers.file_labels()
+           if any(c in label for c in "\t\r\n") or not label.strip()]
     if bad:
         raise MocapFormatError(path, f"marker label {bad[0]!r} is empty or holds a tab or line break, which TRC cannot store")
     checked_unit_cm(path, markers.units)
     if like is not None and not isinstance(like, MarkerSet):
         like = read_trc(like, zeros_as_gaps=False)
     source = (like if like is not None else markers).source
-    old = dict(source.parameters) if source is not None and source.format == "trc" else {}
-    first = source.first_frame if source is not None else 1
+    trc = source if source is not None and source.format == "trc" else None
+    out = _edited_text(markers, trc, decimals) if trc is not None else None
+    if out is None:
+        out = _new_text(markers, path, trc, source.first_frame if source is not None else 1, decimals)
+    with atomic_write(path, "w", encoding="utf-8", errors="surrogateescape", newline="") as fh:
+        fh.write(out)
+
+
+def _rows(text: str) -> tuple[list[str], list[int], list[int]]:
+    """A TRC text's lines (line breaks kept), the index of each data row and its frame number."""
+    lines = text.splitlines(keepends=True)
+    at, numbers = [], []
+    for i in range(5, len(lines)):
+        field = lines[i].split("\t", 1)[0].strip()
+        if lines[i].strip():
+            try:
+                numbers.append(int(float(field)))
+            except (ValueError, OverflowError):
+                return lines, [], []
+            at.append(i)
+    return lines, at, numbers
+
+
+def _decimals(cells) -> int:
+    """The most decimals among number texts ``cells`` (0 for none)."""
+    return max((len(c.strip().split(".", 1)[1]) for c in cells if "." in c and "e" not in c.lower()), default=0)
+
+
+def _edited_text(markers: MarkerSet, source: MarkerSource, decimals: int) -> str | None:
+    """The source TRC's text with the samples ``markers`` changed rewritten; None when it is not this take's file.
+
+    It is when the markers are the file's own (:meth:`MarkerSet.file_labels`),
+    at its rate and unit, and its first frame and frame count (skipped frames
+    included) are the take's. A row without a changed sample is kept as it
+    stands; in a row with one, the changed samples' three fields are
+    rewritten (empty for a sample now missing), the rest kept. A sample read
+    as missing from an exact 0 0 0 (:func:`~mocapkit.markerset.zero_gap_mask`)
+    and still missing is unchanged.
+    """
+    if source.text is None or markers.file_labels() != source.labels or len(source.labels) != markers.num_markers:
+        return None
+    head = dict(source.parameters)
+    try:
+        rate = float(head.get("DataRate") or head.get("CameraRate") or "nan")
+    except ValueError:
+        return None
+    if markers.units != (head.get("Units") or "mm") or markers.fps != rate:
+        return None
+    lines, at, numbers = _rows(source.text)
+    F, M = markers.num_frames, markers.num_markers
+    if not at or numbers[0] != source.first_frame or numbers[-1] - numbers[0] + 1 != F or len(set(numbers)) != len(at):
+        return None
+    first_row = lines[at[0]]
+    eol = first_row[len(first_row.rstrip("\r\n")):] or "\n"
+    cells0 = first_row.rstrip("\r\n").split("\t")
+    fmt = f"{{:.{max(int(decimals), _decimals(cells0[2:]))}f}}"
+    pos = markers.positions.reshape(F, 3 * M)
+    rows = dict(zip(numbers, at))
+    out = []
+    for i in range(F):
+        n = numbers[0] + i
+        if n not in rows:  # a frame the file skipped: a row of its own, time in step with its neighbours
+            out.append(_new_row(n, _time_text(cells0[1], (n - numbers[0]) / markers.fps), pos[i], fmt) + eol)
+            continue
+        line = lines[rows[n]]
+        body = line.rstrip("\r\n")
+        fields = body.split("\t")
+        old = np.full(3 * M, np.nan)
+        for j, v in enumerate(fields[2 : 2 + 3 * M]):
+            v = v.strip()
+            if v:
+                old[j] = float(v)
+        o, new = old.reshape(M, 3), pos[i].reshape(M, 3)
+        o_gap = np.isnan(o).any(axis=1) | np.all(o == 0.0, axis=1)
+        same = np.all(o == new, axis=1) | (np.isnan(new).any(axis=1) & o_gap)
+        if same.all():
+            out.append(line if line.endswith(("\n", "\r")) else line + eol)
+            continue
+        fields += [""] * (2 + 3 * M - len(fields))
+        for k in np.flatnonzero(~same):
+            fields[2 + 3 * k : 5 + 3 * k] = ["" if math.isnan(v) else fmt.format(v) for v in new[k].tolist()]
+        out.append("\t".join(fields) + (line[len(body):] or eol))
+    header = list(lines[: at[0]])
+    if len(header) > 2 and F != len(at):  # frames the file skipped were inserted: NumFrames counts them
+        header[2] = _set_field(lines[1], header[2], "NumFrames", len(at), F)
+    tail = lines[at[-1] + 1 :]
+    if out and not out[-1].endswith(("\n", "\r")) and tail:
+        out[-1] += eol
+    return "".join(header + out + tail)
+
+
+def _time_text(like: str, t: float) -> str:
+    """``t`` seconds with the decimals of the time text ``like`` (6 when it has none)."""
+    return f"{t:.{_decimals([like]) or 6}f}"
+
+
+def _new_row(frame: int, time: str, values, fmt: str) -> str:
+    """A data row: frame number, time text, then the (3 * M,) coordinates (empty fields for NaN)."""
+    return f"{frame}\t{time}\t" + "\t".join("" if math.isnan(v) else fmt.format(v) for v in values.tolist())
+
+
+def _set_field(names_line: str, values_line: str, key: str, was: int, value: int) -> str:
+    """``values_line`` with header field ``key`` set to ``value`` where it said ``was``, its width kept."""
+    names = [k.strip() for k in names_line.rstrip("\r\n").split("\t")]
+    body = values_line.rstrip("\r\n")
+    values = body.split("\t")
+    if key in names and names.index(key) < len(values):
+        j = names.index(key)
+        try:
+            if float(values[j]) == was:
+                values[j] = str(value).rjust(len(values[j]))
+        except ValueError:
+            pass
+    return "\t".join(values) + values_line[len(body):]
+
+
+def _new_text(markers: MarkerSet, path: Path, source: MarkerSource | None, first: int, decimals: int) -> str:
+    """A TRC text written new (see :func:`write_trc`): the source TRC's header fields, line breaks and first time kept."""
+    old = dict(source.parameters) if source is not None else {}
+    text = source.text if source is not None else None
+    eol = "\r\n" if text is not None and "\r\n" in text.split("\n", 1)[0] + "\n" else "\n"
+    t0, time_like = (first - 1) / markers.fps, "0.000000"
+    if text is not None:
+        lines, at, numbers = _rows(text)
+        if at:
+            decimals = max(int(decimals), _decimals(lines[at[0]].rstrip("\r\n").split("\t")[2:]))
+        if at and numbers[0] == first:
+            time_like = (lines[at[0]].split("\t") + ["", ""])[1]
+            try:
+                t0 = float(time_like)
+            except ValueError:
+                time_like = "0.000000"
     F, M = markers.num_frames, markers.num_markers
     head = {
         "DataRate": _rate(markers.fps), "CameraRate": old.get("CameraRate") or _rate(markers.fps),
@@ -222,14 +436,12 @@ def write_trc(markers: MarkerSet, path, *, like=None, decimals: int = TRC_DECIMA
         "OrigDataRate": old.get("OrigDataRate") or _rate(markers.fps),
         "OrigDataStartFrame": old.get("OrigDataStartFrame") or str(first), "OrigNumFrames": old.get("OrigNumFrames") or str(F),
     }
-    out = [f"PathFileType\t4\t(X/Y/Z)\t{path.name}",
+    out = [f"PathFileType\t4\t(X/Y/Z)\t{old.get('PathFileType') or path.name}",
            "\t".join(_HEADER_KEYS), "\t".join(head[k] for k in _HEADER_KEYS),
-           "\t".join(["Frame#", "Time"] + [f"{label}\t\t" for label in markers.labels]).rstrip("\t"),
+           "\t".join(["Frame#", "Time"] + [f"{label}\t\t" for label in markers.file_labels()]).rstrip("\t"),
            "\t\t" + "\t".join(f"X{k + 1}\tY{k + 1}\tZ{k + 1}" for k in range(M)), ""]
     fmt = f"{{:.{int(decimals)}f}}"
     pos = markers.positions.reshape(F, 3 * M)
     for i in range(F):
-        cells = ["" if math.isnan(v) else fmt.format(v) for v in pos[i].tolist()]
-        out.append(f"{first + i}\t{i / markers.fps:.6f}\t" + "\t".join(cells))
-    with atomic_write(path, "w", encoding="utf-8", newline="\n") as fh:
-        fh.write("\n".join(out) + "\n")
+        out.append(_new_row(first + i, _time_text(time_like, t0 + i / markers.fps), pos[i], fmt))
+    return eol.join(out) + eol
