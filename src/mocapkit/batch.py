@@ -449,6 +449,7 @@ def _batch_job(job: dict) -> dict:
 
 def _clean_job(job: dict) -> dict:
     from .cleaning.pipeline import clean_path
+    from .io import marker_notes
     from .io.outputs import drop_kept, keep_aside, put_back
     from .parallel import owner_alive
 
@@ -486,7 +487,8 @@ def _clean_job(job: dict) -> dict:
             moved.append(final)
         if hasattr(res, "fixes"):  # a marker capture (cleaning.markers.MarkerCleanResult)
             row.update(frames=res.markers.num_frames, filled=int((res.filled & ~res.spikes).sum()),
-                       spikes=int(res.spikes.sum()), swapped=int(res.swapped.sum()), notes=res.summary()[1:])
+                       spikes=int(res.spikes.sum()), swapped=int(res.swapped.sum()), notes=res.summary()[1:],
+                       warnings=marker_notes(res.original, out))  # what the reader did, what OUT cannot hold
         else:
             said = " ".join(s.note for s in res.steps)  # a step's fallback or its model's licence: warnings
             row.update(frames=res.num_frames, filled=int(res.filled.sum()), repaired=int(res.repaired.sum()),

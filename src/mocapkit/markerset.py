@@ -87,8 +87,8 @@ def repeated_labels_note(file_labels, labels) -> tuple[str, ...]:
     names = list(dict.fromkeys(a for a, _ in repeats))
     shown = ", ".join(b for _, b in repeats[:8]) + (f" and {len(repeats) - 8} more" if len(repeats) > 8 else "")
     return (f"the file repeats marker label{'s' if len(names) > 1 else ''} {', '.join(names[:8])}"
-            f"{' ...' if len(names) > 8 else ''}: the repeats are called {shown} here; a C3D or TRC written from "
-            "this take keeps the file's labels",)
+            f"{' ...' if len(names) > 8 else ''}: the repeats are called {shown} here; files written from this "
+            "take keep the file's labels",)
 
 
 def length_unit_cm(units: str) -> float:

@@ -161,3 +161,60 @@ def test_review_mode_batch_leaves_its_marker_captures_uncleaned(mixed_folder, tm
     assert code == 1, stderr + stdout  # a take failed: the marker capture, named with the reason
     assert "markers.c3d: a marker capture is cleaned whole" in stdout + stderr and "steps detect" in stdout + stderr
     assert not (tmp_path / "out" / "markers.c3d").exists() and (tmp_path / "out" / "walk.bvh").exists()
+
+
+def test_what_the_output_format_cannot_hold_is_said_in_one_note(tmp_path):
+    # trial11: C3D -> TRC / npz dropped analogs, events, parameters, residuals and camera masks without a word
+    c3d = mocapkit_sample("Eb015pr.c3d")
+    code, stdout, _ = run("clean", c3d, "-o", tmp_path / "x.trc")
+    assert code == 0
+    said = [line for line in stdout.splitlines() if line.startswith("note: ")]
+    assert said == [f"note: {tmp_path / 'x.trc'}: not written, as TRC cannot hold them: the input's 16 analog channels, "
+                    "events, parameter groups, residuals and camera masks (a .c3d output keeps them)"]
+    code, stdout, _ = run("convert", c3d, tmp_path / "x.npz")
+    assert code == 0 and f"note: {tmp_path / 'x.npz'}: not written, as a marker npz cannot hold them" in stdout
+    code, stdout, _ = run("clean", c3d, "-o", tmp_path / "y.c3d")
+    assert code == 0 and "note: " not in stdout
+
+
+def test_a_reader_note_is_shown_by_clean_convert_and_clean_batch(tmp_path):
+    # trial11: a capture's repeated labels were renamed on writing without a word (BTK's Gait.c3d: RKNE -> RKNE_2)
+    ms = load_markers(CMU)
+    folder = tmp_path / "in"
+    folder.mkdir()
+    labels = list(ms.labels)
+    labels[5] = labels[4]
+    _write_with_ezc3d(folder / "dup.c3d", np.array(ms.positions), labels, ms.fps)
+    note = (f"the file repeats marker label {labels[4]}: the repeats are called {labels[4]}_2 here; files written "
+            "from this take keep the file's labels")
+    code, stdout, _ = run("convert", folder / "dup.c3d", tmp_path / "d.trc")
+    assert code == 0 and f"note: {folder / 'dup.c3d'}: {note}" in stdout
+    code, stdout, _ = run("clean", folder / "dup.c3d", "-o", tmp_path / "d.c3d")
+    assert code == 0 and f"note: {folder / 'dup.c3d'}: {note}" in stdout
+    code, stdout, _ = run("clean-batch", folder, tmp_path / "out", "--executor", "serial")
+    assert code == 0 and f"warning: {folder / 'dup.c3d'}: {note}" in stdout
+    import ezc3d
+
+    for out in (tmp_path / "d.c3d", tmp_path / "out" / "dup.c3d"):
+        assert list(ezc3d.c3d(str(out))["parameters"]["POINT"]["LABELS"]["value"]) == labels
+    assert (tmp_path / "d.trc").read_text().splitlines()[3].split("\t")[2::3][4:6] == [labels[4], labels[4]]
+
+
+@pytest.mark.parametrize("inp, out", [("m.c3d", "x.bvh"), ("m.trc", "x.npz"), ("131_01.bvh", "x.c3d")])
+def test_corrupt_says_it_takes_skeleton_takes_not_marker_files(tmp_path, inp, out):
+    # trial11: corrupt on a .c3d said "unknown suffix '.c3d' for writing"
+    source = tmp_path / inp
+    if inp.endswith(".bvh"):
+        shutil.copy(SAMPLE, source)
+    else:
+        save_markers(load_markers(CMU)[:20], source)
+    code, _, err = run("corrupt", source, tmp_path / out, "--kind", "noise")
+    assert code != 0 and one_error_line(err)
+    assert "corrupt takes skeleton takes (.bvh, .amc, .npz), not marker files (.c3d, .trc)" in err
+    assert not (tmp_path / out).exists()
+
+
+def mocapkit_sample(name: str) -> str:
+    import mocapkit
+
+    return str(mocapkit.samples.path(name))

@@ -168,3 +168,24 @@ def test_a_zip_listing_too_many_members_is_refused_before_its_directory_is_parse
             zf.writestr(f"m{i}.npy", b"")
     with pytest.raises(MocapFormatError, match=r"many\.npz: the zip lists 300 members, more than the 200 an npz may have"):
         load_arrays(path, max_members=200)
+
+
+def test_a_marker_npz_keeps_the_first_frame_and_the_files_labels(tmp_path):
+    # trial11: FunctionalWalk.c3d (first frame 480) -> npz -> c3d came back from frame 1
+    import dataclasses
+
+    ms = read_c3d(mocapkit.samples.path("Eb015pr.c3d"))[100:200]
+    assert ms.source.first_frame == 101
+    back = mocapkit.load(mocapkit.save(ms, tmp_path / "part.npz"))
+    assert back.source.first_frame == 101 and back.file_labels() == back.labels
+    # a label the file repeats: unique in memory (and in "labels"), the file's own kept beside them
+    raw = ms.labels[:2] + (ms.labels[0],) + ms.labels[3:]
+    dup = dataclasses.replace(ms, labels=ms.labels[:2] + (ms.labels[0] + "_2",) + ms.labels[3:],
+                              source=dataclasses.replace(ms.source, labels=raw))
+    again = mocapkit.load(mocapkit.save(dup, tmp_path / "dup.npz"))
+    assert again.labels == dup.labels and again.file_labels() == raw
+    # an npz written before first_frame was stored still reads, from frame 1
+    with np.load(tmp_path / "part.npz") as z:
+        arrays = {k: z[k] for k in z.files if k != "first_frame"}
+    np.savez(tmp_path / "old.npz", **arrays)
+    assert mocapkit.load(tmp_path / "old.npz").source.first_frame == 1

@@ -209,6 +209,7 @@ def _clean_marker_take(inp: Path, out: Path, *, report, png, overwrite: bool, no
     """
     from ..batch import clean_marker_file, refuse_marker_options
     from ..cleaning.pipeline import clean_path
+    from ..io import marker_notes
     from ..io.takes import load_take
     from ..markerset import MarkerSet
 
@@ -225,6 +226,8 @@ def _clean_marker_take(inp: Path, out: Path, *, report, png, overwrite: bool, no
                   f"{plural(res.changed.size, 'marker sample')} changed")
     for line in res.summary():
         console.print(f"  {line}")
+    for note in marker_notes(take, out, inp):  # what the reader did, what OUT's format cannot hold
+        console.print(f"note: {note}")
     for fix in res.fixes[:12]:
         other = f" with {fix.other}" if fix.other else ""
         console.print(f"    {fix.kind:5s} {fix.marker:16s} frames {fix.start}-{fix.end - 1}{other} ({fix.size_text})")

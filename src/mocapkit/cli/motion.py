@@ -104,6 +104,8 @@ def convert(
         if m.zero_gaps:
             console.print(f"read {plural(m.zero_gaps, 'sample')} stored as exact (0, 0, 0) as gaps "
                           "(--keep-zeros keeps them as positions)")
+        for note in io.marker_notes(m, out, inp):  # what the reader did, what OUT's format cannot hold
+            console.print(f"note: {note}")
         return
     if zeros_as_gaps is not None:
         raise MocapError("--zeros-as-gaps/--keep-zeros apply to marker files; IN is a motion")
@@ -141,6 +143,10 @@ def corrupt(
 
     if amount is not None and not (math.isfinite(amount) and amount > 0):  # one rule for every kind, before any work
         raise MocapError(f"--amount must be a finite number greater than 0, got {amount:g}")
+    marker_files = [p for p in (inp, out) if p.suffix.lower() in (".c3d", ".trc")]
+    if marker_files:  # before the output guard: the command does not take this kind of file at all
+        raise MocapFormatError(marker_files[0], "corrupt takes skeleton takes (.bvh, .amc, .npz), not marker files "
+                                                "(.c3d, .trc)")
     mask_path = mask_out or mask_path_for(out)
     guard([out, mask_path], [inp, asf], overwrite)
     check_asf(asf, [inp])

@@ -21,7 +21,8 @@ from ..errors import MissingFileError, MocapFormatError
 from ..markerset import MarkerSet
 from .outputs import publish
 
-__all__ = ["load", "save", "check_writable", "check_complete", "load_markers", "save_markers", "atomic_write", "MarkerSet",
+__all__ = ["load", "save", "check_writable", "check_complete", "load_markers", "save_markers", "marker_notes", "atomic_write",
+           "MarkerSet",
            "READERS", "WRITERS", "MARKER_FORMATS"]
 
 READERS = {".bvh": "bvh", ".amc": "asfamc", ".npz": "npz", ".c3d": "c3d", ".trc": "trc"}
@@ -127,6 +128,50 @@ def save_markers(markers: MarkerSet, path, *, like=None) -> Path:
 
         write_c3d(markers, path, like=like)
     return path
+
+
+def marker_notes(markers: MarkerSet, path, inp=None) -> list[str]:
+    """What a command tells its user when it writes ``markers`` (read from ``inp``) to ``path``: one line each.
+
+    The reader's notes (``markers.notes``: labels a file repeats, trajectories
+    its header does not count, frames it skips), then one line naming what the
+    take holds that ``path``'s format cannot (a C3D's analog channels, events,
+    parameter groups, residuals and camera masks in a .trc or .npz; a TRC's
+    header rates and counts in a .c3d or .npz), so that nothing is dropped
+    without a word. Each line names the file it is about (``inp``, ``path``).
+    """
+    import numpy as np
+
+    path = Path(path)
+    kind = MARKER_FORMATS.get(path.suffix.lower())
+    notes = [f"{inp}: {note}" if inp is not None else note for note in markers.notes]
+    source = markers.source
+    lost: list[str] = []
+    if kind in ("trc", "npz") and source is not None and source.format == "c3d":
+        if source.analogs is not None and source.analogs.shape[0]:
+            lost.append(f"{source.analogs.shape[0]} analog channel{'s' if source.analogs.shape[0] > 1 else ''}")
+        event = source.parameters.get("EVENT", {})
+        used = np.ravel(event.get("USED", {}).get("value", [0])) if isinstance(event, dict) else [0]
+        if source.events or (len(used) and int(used[0]) > 0):
+            lost.append("events")
+        lost.append("parameter groups")
+    if kind in ("trc", "npz") and markers.residuals is not None and np.any(markers.residuals > 0):
+        lost.append("residuals")
+    if kind in ("trc", "npz") and markers.cameras is not None and np.any(markers.cameras):
+        lost.append("camera masks")
+    if kind in ("c3d", "npz") and source is not None and source.format == "trc":
+        fields = [k for k in ("CameraRate", "OrigDataRate", "OrigDataStartFrame", "OrigNumFrames")
+                  if source.parameters.get(k)]
+        if fields:
+            lost.append(f"TRC header fields {', '.join(fields)}")
+    if lost:
+        what = ", ".join(lost[:-1]) + (" and " if len(lost) > 1 else "") + lost[-1]
+        fmt = {"trc": "TRC", "npz": "a marker npz", "c3d": "C3D"}[kind]
+        keep = {"c3d": "a .c3d output keeps them", "trc": "a .trc output keeps them"}[source.format] \
+            if source is not None and source.format in ("c3d", "trc") else ""
+        notes.append(f"{path}: not written, as {fmt} cannot hold them: the input's {what}"
+                     + (f" ({keep})" if keep else ""))
+    return notes
 
 
 def save(motion, path, like=None, asf=None, overwrite: bool = True, **kwargs) -> Path:

@@ -74,7 +74,12 @@ def write_npz(obj, path, compress: bool = True) -> None:
             "fps": np.array(obj.fps),
             "units": np.array(obj.units),
             "name": np.array(obj.name),
+            # the file's first frame number, and its labels where they repeat one (labels holds unique names)
+            "first_frame": np.array(obj.source.first_frame if obj.source is not None else 1),
         }
+        if obj.file_labels() != obj.labels:
+            _check_texts(path, "marker", obj.file_labels())
+            arrays["file_labels"] = np.array(obj.file_labels())
     else:
         raise TypeError(f"write_npz takes a Motion or MarkerSet, got {type(obj).__name__}")
     with atomic_write(path, "wb") as fh:
@@ -260,7 +265,7 @@ def read_npz(path):
     of the wrong shape or dtype, infinite values, non-unit quaternions, a
     non-positive frame rate.
     """
-    from .c3d import MarkerSet
+    from ..markerset import MarkerSet, MarkerSource
 
     path = Path(path)
     data = load_arrays(path)
@@ -283,6 +288,14 @@ def read_npz(path):
             positions = _real(path, data, "positions")
             if positions.ndim != 3 or positions.shape[0] == 0:
                 raise MocapFormatError(path, f"npz positions must be (F, M, 3) with F >= 1, got {positions.shape}")
+            first = _scalar(path, data, "first_frame", "i") if "first_frame" in data else 1  # older npz: none
+            if abs(first) >= 2**31:
+                raise MocapFormatError(path, f"npz first_frame {first} is out of range")
+            file_labels = data.get("file_labels")
+            if file_labels is not None and (file_labels.ndim != 1 or file_labels.dtype.kind != "U"
+                                            or len(file_labels) != len(labels)):
+                raise MocapFormatError(path, f"npz file_labels must be a 1-D string array of {len(labels)}, got "
+                                       f"{file_labels.dtype} {file_labels.shape}")
             return MarkerSet(
                 labels=tuple(str(s) for s in labels),
                 positions=positions,
@@ -290,6 +303,8 @@ def read_npz(path):
                 units=_scalar(path, data, "units", "s"),
                 name=name,
                 reader="npz",
+                source=MarkerSource(format="npz", first_frame=first,
+                                    labels=() if file_labels is None else tuple(str(s) for s in file_labels)),
             )
         if kind != "motion":
             raise MocapFormatError(path, f"unknown npz kind {kind!r}")
