@@ -126,3 +126,37 @@ def test_a_marker_take_is_sliced_as_a_motion_is():
     with pytest.raises(ValueError, match="a step of 1000 frames gives 0.05 fps"):
         ms[::1000]
     assert ms[::2].fps == ms.fps / 2
+
+
+def test_unique_labels_name_repeats_apart_and_unnamed_markers_by_place():
+    from mocapkit.markerset import unique_labels
+
+    assert unique_labels(["RKNE", " RKNE ", "", "A", "A_2", "A"], 8) == (
+        "RKNE", "RKNE_2", "M003", "A", "A_2", "A_3", "M007", "M008")
+
+
+def test_file_labels_are_the_files_while_the_markers_are_its_own():
+    import dataclasses
+
+    ms = _ms()
+    ms = dataclasses.replace(ms, labels=("a", "a_2"), source=dataclasses.replace(ms.source, labels=("a", "a")))
+    assert ms.file_labels() == ("a", "a") and ms[2:5].file_labels() == ("a", "a")
+    assert ms.select(["a_2", "a"]).file_labels() == ("a_2", "a")
+    assert ms.select(["a"]).file_labels() == ("a",)
+
+
+def test_residuals_and_camera_masks_follow_their_samples():
+    import dataclasses
+
+    ms = dataclasses.replace(_ms(), cameras=np.tile([[3, 96]], (10, 1)))
+    pos = np.array(ms.positions)
+    pos[5:7] = pos[5:7, ::-1]  # re-labelled samples
+    pos[8, 0] += 1.0  # a changed one
+    sources = np.tile([0, 1], (10, 1))
+    sources[5:7] = [1, 0]
+    out = ms.with_positions(pos, sources=sources)
+    assert out.cameras[5].tolist() == [96, 3] and out.cameras[8].tolist() == [0, 96]
+    assert out.residuals[8, 0] == 0.0 and out.residuals[5, 0] == 0.5
+    plain = ms.with_positions(pos)  # without sources the re-labelled samples read as changed
+    assert plain.cameras[5].tolist() == [0, 0] and plain.residuals[5, 0] == 0.0
+    assert ms[3:6].cameras.shape == (3, 2) and ms.select(["b"]).cameras[:, 0].tolist() == [96] * 10
