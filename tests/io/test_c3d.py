@@ -654,3 +654,18 @@ def test_repeated_labels_and_descriptions_are_written_as_the_file_has_them(share
     # a part of the markers is no longer the file's own: unique names, no descriptions of others
     part = load_markers(save_markers(src.select(["RKNE_2", "RSHO"]), tmp_path / "p.c3d"))
     assert part.labels == ("RKNE_2", "RSHO")
+
+
+@pytest.mark.parametrize("name", ["Eb015pi.c3d", "Gait.c3d"])
+def test_an_integer_files_analogs_are_written_as_its_whole_numbers(shared_data, tmp_path, name):
+    # trial11: written back as float32 of the scaled values under SCALE 1, OFFSET 0 (up to 5.8e-8 off)
+    import ezc3d
+
+    from mocapkit.io import load_markers, save_markers
+
+    path = shared_data / "c3d_markers" / name
+    out = save_markers(load_markers(path), tmp_path / name)
+    before, after = ezc3d.c3d(str(path)), ezc3d.c3d(str(out))
+    assert np.array_equal(after["data"]["analogs"], before["data"]["analogs"])  # as ezc3d reads them, float64
+    assert np.array_equal(np.ravel(after["parameters"]["ANALOG"]["SCALE"]["value"]),
+                          np.ravel(before["parameters"]["ANALOG"]["SCALE"]["value"])[: after["data"]["analogs"].shape[1]])

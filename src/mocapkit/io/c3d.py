@@ -677,6 +677,39 @@ def _c3d_like(markers: MarkerSet, like) -> MarkerSource | None:
     return source if source is not None and source.format == "c3d" else None
 
 
+def _integer_analogs(analogs: np.ndarray, analog: dict, source: MarkerSource | None):
+    """``(values, scales, gen_scale)`` that make ezc3d write an integer C3D's analog samples as its whole numbers.
+
+    An integer file (positive POINT:SCALE) stores each analog sample as an
+    integer ``k``, read as ``(k - offset) * scale * GEN_SCALE``. ezc3d
+    writes ``value / (scale * GEN_SCALE)`` as a float with offset 0; given
+    ``(k - offset) * scale * GEN_SCALE`` again and the file's scales, it
+    writes the whole number ``k - offset``, which every reader turns into
+    the very value it read from the file. ``analogs`` (A, N) are the
+    samples as read (float32 values: :func:`_float32_values`); None when the
+    file is not an integer one, a scale is missing or 0, or a sample is not
+    such a whole number times its scale (a changed channel): those are
+    written as the values, scale 1.
+    """
+    params = source.parameters if source is not None else {}
+    point_scale = np.ravel(params.get("POINT", {}).get("SCALE", {}).get("value", []))
+    if not len(point_scale) or not point_scale[0] > 0:
+        return None
+    a = analogs.shape[0]
+    scales = np.ravel(analog.get("SCALE", {}).get("value", [])).astype(np.float64)
+    gen = np.ravel(analog.get("GEN_SCALE", {}).get("value", [])).astype(np.float64)
+    if len(scales) < a or not len(gen):
+        return None
+    step = scales[:a, None] * gen[0]
+    if not np.all(np.isfinite(step)) or np.any(step == 0):
+        return None
+    k = np.rint(analogs / step)
+    values = k * step
+    if np.any(np.abs(k) > 65535) or not np.array_equal(_float32_values(values), analogs):
+        return None
+    return values, scales[:a], float(gen[0])
+
+
 def _c3d_object(markers: MarkerSet, source: MarkerSource | None):
     """An ezc3d ``c3d`` holding ``markers`` and the parameter groups and analogs of ``source``."""
     import copy
@@ -732,12 +765,17 @@ def _c3d_object(markers: MarkerSet, source: MarkerSource | None):
         if key == "LABELS" or values:
             values = (values + [f"Analog{i + 1}" if key == "LABELS" else "" for i in range(len(values), A)])[:A]
             analog[key] = {"type": -1, "description": "", "is_locked": False, "value": values}
-    # ezc3d writes analog values as floats already scaled: the stored scale is then 1, offset 0; a file without
+    # ezc3d writes analog values as floats divided by their scale, offset 0: an integer file's samples go back as
+    # its whole numbers under its own scales (_integer_analogs), others as the values read, scale 1; a file without
     # analogs whose ANALOG:RATE says 0 keeps saying so (the frame rate written there read as an analog rate)
     old_rate = np.ravel(analog.get("RATE", {}).get("value", [np.nan]))
     none_at_0 = analogs is None and len(old_rate) > 0 and old_rate[0] == 0
     rate = 0.0 if none_at_0 else markers.fps * (1 if analogs is None else analogs.shape[1] // F)
-    for key, typ, value in (("SCALE", 4, np.ones(A)), ("OFFSET", 2, np.zeros(A, dtype=int)), ("GEN_SCALE", 4, np.array([1.0])),
+    whole = _integer_analogs(analogs, analog, source) if analogs is not None else None
+    scales, gen = (np.ones(A), 1.0) if whole is None else whole[1:]
+    if whole is not None:
+        analogs = whole[0]
+    for key, typ, value in (("SCALE", 4, scales), ("OFFSET", 2, np.zeros(A, dtype=int)), ("GEN_SCALE", 4, np.array([gen])),
                             ("RATE", 4, np.array([rate]))):
         old = analog.get(key, {})
         analog[key] = {"type": typ, "description": old.get("description", ""), "is_locked": old.get("is_locked", False),
@@ -848,7 +886,8 @@ def write_c3d(markers: MarkerSet, path, *, like=None) -> None:
     scale = float(c["parameters"]["POINT"]["SCALE"]["value"][0])
     struct.pack_into("<f", data, 12, scale)
     _put_point_words(data, markers, scale)
-    _put_negative_zeros(data, markers, c["data"]["analogs"][0])
+    if np.all(np.ravel(c["parameters"]["ANALOG"]["SCALE"]["value"]) == 1.0):  # analogs written as the values
+        _put_negative_zeros(data, markers, c["data"]["analogs"][0])
     _put_header_events(data, source.events if source is not None else ())
     with atomic_write(path, "wb") as fh:
         fh.write(data)
