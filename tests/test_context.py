@@ -219,6 +219,29 @@ def test_fit_context_renames_a_database_on_the_same_rig_and_refuses_another():
     assert C.fit_context(bvh, motions) == (motions, "")  # lists go to the analysis as they are
 
 
+
+def test_fit_context_refuses_a_context_in_another_basis_under_the_same_names():
+    """A Z-up export of an Acclaim take keeps its joint names, but its local rotations are in another basis: the
+    Y-up default context's rotations, copied in by repair, doubled its errors (a user trial: 12.7 -> 23.6 deg)."""
+    from mocapkit import rotations as R
+
+    walk = mocapkit.load(mocapkit.samples.path("12_walk.amc"))
+    c = R.quaternion_from_axis_angle(np.array([1.0, 0.0, 0.0]), np.pi / 2)  # Y up -> Z up, every frame and bone
+    rot = R.quaternion_multiply(R.quaternion_multiply(c[None, None], walk.rotations), R.quaternion_conjugate(c)[None, None])
+    sk = walk.skeleton
+    zsk = dataclasses.replace(sk, offsets=R.quaternion_rotate(c[None], sk.offsets),
+                              end_site_offsets=R.quaternion_rotate(c[None], sk.end_site_offsets))
+    zup = dataclasses.replace(walk, skeleton=zsk, rotations=rot, root_positions=R.quaternion_rotate(c[None], walk.root_positions))
+    assert zup.skeleton.joint_names == walk.skeleton.joint_names
+    db = C.default_context()
+    none, note = C.fit_context(zup, db)
+    assert none is None and "not used" in note and "rest pose" in note
+    explicit = MotionDatabase(fps=db.fps, skeletons=db.skeletons, clips=db.clips, rotations=db.rotations,
+                              root_positions=db.root_positions, features=db.features, info={"label": "mine"})
+    with pytest.raises(MocapError, match="rest pose"):
+        C.fit_context(zup, explicit)
+
+
 def test_mocapkit_clean_uses_the_default_and_says_so():
     take = mocapkit.load(mocapkit.samples.path("HDM_bk_sneak2StepsLStart_005_120.amc"))
     res = mocapkit.clean(take, steps="detect")

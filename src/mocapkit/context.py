@@ -525,8 +525,8 @@ def context_label(context) -> str:
 def fit_context(motion, context):
     """``context`` made to serve ``motion``; returns ``(context, note)`` (note: one line, or "").
 
-    A list of Motions and a database on the take's joint names come back as
-    they are. A database on the same topology and rest pose under other joint
+    A list of Motions and a database on the take's joint names and rest pose
+    come back as they are. A database on the same topology and rest pose under other joint
     names (module docstring) comes back with its joints renamed to the take's
     (arrays shared, nothing copied) and a note saying so. Otherwise the
     bundled default context is dropped (``(None, note)``: the take is judged
@@ -540,9 +540,9 @@ def fit_context(motion, context):
     built = "; ".join(str(n) for n in context.info.get("notes", ()) if isinstance(n, str))
     names = tuple(motion.skeleton.joint_names)
     ref = context.skeletons[0]
-    if tuple(ref.joint_names) == names:
+    why = _same_rest(motion.skeleton, ref)  # also on the same names: a Z-up export of a Y-up rig keeps them, and
+    if tuple(ref.joint_names) == names and not why:  # the context's local rotations are in the other basis
         return context, built
-    why = _same_rest(motion.skeleton, ref)
     label = context_label(context)
     if why:
         if context.info.get("default"):
