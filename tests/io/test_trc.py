@@ -441,3 +441,14 @@ def test_every_shared_trc_written_back_unchanged_is_byte_identical(shared_data, 
         assert save_markers(ms, tmp_path / f.name).read_bytes() == f.read_bytes(), f.name
         done += 1
     assert done >= 12
+
+
+def test_a_file_without_a_final_line_break_comes_back_without_one(tmp_path):
+    path = tmp_path / "v.trc"
+    path.write_bytes(_trc_text(end="").encode())
+    ms = read_trc(path)
+    assert save_markers(ms, tmp_path / "same.trc").read_bytes() == path.read_bytes()
+    pos = np.array(ms.positions)
+    pos[-1, 0] += 1.0
+    text = save_markers(ms.with_positions(pos), tmp_path / "changed.trc").read_text()
+    assert not text.endswith("\n") and text.splitlines()[-1].split("\t")[2] == f"{pos[-1, 0, 0]:.5f}"

@@ -37,17 +37,26 @@ def read_trc(path, zeros_as_gaps: bool | None = None) -> MarkerSet:
     """Read a TRC file as a :class:`~mocapkit.markerset.MarkerSet` (empty fields become NaN).
 
     The frame rate is DataRate (CameraRate when DataRate is absent), the unit
-    the Units field. Labels come from the ``Frame#`` line (stripped; a marker
-    without one is named M001, M002, ...); the marker count is the larger of
-    NumMarkers and the columns the rows hold. A row with fewer fields than
-    markers has the rest missing. ``zeros_as_gaps`` as for
+    the Units field. Every trajectory the rows hold is read: the marker count
+    is the largest of NumMarkers, the labels and the whole X Y Z triples of
+    the widest row (fields past them are not coordinates). Labels come from
+    the ``Frame#`` line, named apart in memory
+    (:func:`~mocapkit.markerset.unique_labels`: a marker without one is
+    M and its place, a repeat gets _2); the file's own are kept in
+    ``source.labels`` and its text in ``source.text`` for :func:`write_trc`.
+    A row with fewer fields than markers has the rest missing; a frame the
+    Frame# column skips is a frame with every marker missing
+    (:func:`_frame_slots`). What the user should know (trajectories past
+    NumMarkers or without a label, extra fields, skipped frames, repeated
+    labels) is in ``notes``. ``zeros_as_gaps`` as for
     :func:`~mocapkit.io.c3d.read_c3d` (some exporters write unseen markers as 0 0 0).
 
     Raises :class:`~mocapkit.errors.MocapFormatError` naming the file and line
     for a file that is not a TRC (first line), a header cut short, a missing
     or non-positive frame rate, an unknown unit, a field that is not a number,
-    no data rows, or a file cut short (fewer rows than NumFrames, or a last
-    row cut partway through: :func:`_check_complete`).
+    a frame number out of range or not increasing, no data rows, or a file
+    cut short (fewer frames than NumFrames, or a last row cut partway
+    through: :func:`_check_complete`).
     """
     path = Path(path)
     try:
@@ -373,18 +382,19 @@ def _edited_text(markers: MarkerSet, source: MarkerSource, decimals: int) -> str
         o_gap = np.isnan(o).any(axis=1) | np.all(o == 0.0, axis=1)
         same = np.all(o == new, axis=1) | (np.isnan(new).any(axis=1) & o_gap)
         if same.all():
-            out.append(line if line.endswith(("\n", "\r")) else line + eol)
+            out.append(line)
             continue
         fields += [""] * (2 + 3 * M - len(fields))
         for k in np.flatnonzero(~same):
             fields[2 + 3 * k : 5 + 3 * k] = ["" if math.isnan(v) else fmt.format(v) for v in new[k].tolist()]
-        out.append("\t".join(fields) + (line[len(body):] or eol))
+        out.append("\t".join(fields) + line[len(body):])
     header = list(lines[: at[0]])
     if len(header) > 2 and F != len(at):  # frames the file skipped were inserted: NumFrames counts them
         header[2] = _set_field(lines[1], header[2], "NumFrames", len(at), F)
     tail = lines[at[-1] + 1 :]
-    if out and not out[-1].endswith(("\n", "\r")) and tail:
-        out[-1] += eol
+    for k in range(len(out) - (0 if tail else 1)):  # a row that ended the file goes on with a line break
+        if not out[k].endswith(("\n", "\r")):
+            out[k] += eol
     return "".join(header + out + tail)
 
 
