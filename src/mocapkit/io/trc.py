@@ -298,8 +298,9 @@ def write_trc(markers: MarkerSet, path, *, like=None, decimals: int = TRC_DECIMA
     path = Path(path)
     if markers.num_markers == 0 or markers.num_frames == 0:
         raise MocapFormatError(path, "a TRC file needs at least one marker and one frame")
-    bad = [label for label in markers.labels + markers.file_labels()
-           if any(c in label for c in "\t\r\n") or not label.strip()]
+    # a file's own label may be empty (read as M and its place, and so again when written back)
+    bad = [label for label in markers.labels if not label.strip()] + [
+        label for label in markers.labels + markers.file_labels() if any(c in label for c in "\t\r\n")]
     if bad:
         raise MocapFormatError(path, f"marker label {bad[0]!r} is empty or holds a tab or line break, which TRC cannot store")
     checked_unit_cm(path, markers.units)
