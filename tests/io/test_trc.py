@@ -452,3 +452,21 @@ def test_a_file_without_a_final_line_break_comes_back_without_one(tmp_path):
     pos[-1, 0] += 1.0
     text = save_markers(ms.with_positions(pos), tmp_path / "changed.trc").read_text()
     assert not text.endswith("\n") and text.splitlines()[-1].split("\t")[2] == f"{pos[-1, 0, 0]:.5f}"
+
+
+def test_a_c3d_with_an_empty_and_a_repeated_label_converts_to_trc_and_back(tmp_path):
+    import ezc3d
+
+    c = ezc3d.c3d()
+    c["parameters"]["POINT"]["RATE"]["value"] = np.array([100.0])
+    c["parameters"]["POINT"]["LABELS"]["value"] = ("A", "", "A")
+    pts = np.ones((4, 3, 5))
+    pts[:3] = np.arange(45).reshape(3, 3, 5) + 1.0
+    c["data"]["points"] = pts
+    c.write(str(tmp_path / "e.c3d"))
+    ms = load_markers(tmp_path / "e.c3d")
+    assert ms.labels == ("A", "M002", "A_2")
+    trc = save_markers(ms, tmp_path / "e.trc")
+    assert trc.read_text().splitlines()[3].split("\t")[2::3] == ["A", "", "A"]
+    back = save_markers(load_markers(trc), tmp_path / "back.c3d")
+    assert list(ezc3d.c3d(str(back))["parameters"]["POINT"]["LABELS"]["value"]) == ["A", "", "A"]
