@@ -669,3 +669,14 @@ def test_an_integer_files_analogs_are_written_as_its_whole_numbers(shared_data, 
     assert np.array_equal(after["data"]["analogs"], before["data"]["analogs"])  # as ezc3d reads them, float64
     assert np.array_equal(np.ravel(after["parameters"]["ANALOG"]["SCALE"]["value"]),
                           np.ravel(before["parameters"]["ANALOG"]["SCALE"]["value"])[: after["data"]["analogs"].shape[1]])
+
+
+def test_residuals_are_read_where_ezc3d_reads_the_frames(shared_data):
+    # c3d.org's MotionMonitorC3D.c3d: its header counts 16 analog samples a frame, ANALOG:USED 16 at 7 a
+    # frame; the residual word is read in the frame layout ezc3d reads, so no seen sample turns missing
+    import ezc3d
+
+    path = _peer(shared_data, "BTKData/Input/C3DSamples/c3d.org/sample24/MotionMonitorC3D.c3d")
+    ms = read_c3d(path)
+    c = ezc3d.c3d(str(path))
+    assert np.array_equal(ms.missing(), c["data"]["meta_points"]["residuals"][0].T < 0)

@@ -122,7 +122,7 @@ def _address_space_budget(extra: int):
             resource.setrlimit(resource.RLIMIT_AS, (soft, hard))
 
 
-def _point_words(raw: bytes, frames: int, points: int, scale: float) -> np.ndarray | None:
+def _point_words(raw: bytes, frames: int, points: int, scale: float, analog: int | None = None) -> np.ndarray | None:
     """(F, M) int: the fourth word of every point sample in the data block, as the C3D guide defines it.
 
     Its low byte is the residual in units of ``|POINT:SCALE|``, bits 8-14 the
@@ -132,12 +132,14 @@ def _point_words(raw: bytes, frames: int, points: int, scale: float) -> np.ndarr
     is the camera byte: ezc3d issue #386) and writes them so, which is why
     :func:`read_c3d` and :func:`write_c3d` read and write this word
     themselves, as the ``c3d`` package and the capture software do. ``scale``:
-    POINT:SCALE, whose sign says floats (negative) or 16-bit integers. None
+    POINT:SCALE, whose sign says floats (negative) or 16-bit integers;
+    ``analog``: analog samples a frame (default: the header's count). None
     when the data block does not hold ``frames`` whole frames.
     """
     proc = raw[(raw[0] - 1) * 512 + 3]
     e = ">" if proc == 86 else "<"
-    analog, = struct.unpack_from(e + "H", raw, 4)
+    if analog is None:
+        analog, = struct.unpack_from(e + "H", raw, 4)
     data_start, = struct.unpack_from(e + "H", raw, 16)
     size = _sample_bytes(scale)
     frame_bytes = (4 * points + analog) * size
@@ -193,10 +195,13 @@ def _read_ezc3d(path: Path, raw: bytes):
     resid = np.array(c["data"]["meta_points"]["residuals"][0].T, dtype=np.float64)  # (F, M)
     scale_param = np.ravel(params["SCALE"]["value"]) if "SCALE" in params else []
     scale = float(scale_param[0]) if len(scale_param) else _float(raw, raw[(raw[0] - 1) * 512 + 3], 12)
-    words = _point_words(raw, xyz.shape[0], n, scale)
+    a = c["data"]["analogs"]  # (1, A, F * ratio): the frame layout ezc3d read
+    words = _point_words(raw, xyz.shape[0], n, scale, a.shape[1] * (a.shape[2] // max(xyz.shape[0], 1)))
     cameras = None
-    if words is not None:  # ezc3d's residuals are the camera byte (see _point_words)
-        resid, cameras = _residuals_and_cameras(np.where(resid < 0, -1, words), scale)
+    # ezc3d's residuals are the camera byte (see _point_words); both read a negative word as a missing sample, so
+    # where they disagree on that the word was not found where ezc3d read it: ezc3d's residuals are kept
+    if words is not None and np.array_equal(words < 0, resid < 0):
+        resid, cameras = _residuals_and_cameras(words, scale)
     xyz[resid < 0] = np.nan
     modelled = set()
     for key in _MODELLED:
