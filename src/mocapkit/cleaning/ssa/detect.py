@@ -334,6 +334,25 @@ def detect(
     return detect_prepared(prepare(motion, context, params, groups=groups), threshold, progress=progress)
 
 
+def _judged_by_context(src, full, grows, words, nb: Neighbors, unseen: np.ndarray, prefilter: bool,
+                       max_word_angle_deg, opts: dict) -> np.ndarray:
+    """Fill, in place, the neighbours of the (joint group, word) pairs the take alone leaves ``unseen`` (G, W) from
+    the whole texture ``full`` (the take, then its context); returns the pairs still unseen. Positions in the take
+    are positions in ``full`` (the take is its first clip)."""
+    redo = unseen.any(axis=0)
+    nb2 = nearest_words(src, full, grows, words[redo], self_clip=0, prefilter=prefilter, **opts)
+    still = unseen_words(nb2, grows, max_word_angle_deg)
+    take = unseen[:, redo]  # (G, R): the groups the take did not see, per redone word
+    for a in ("pos", "iend", "jend", "dist"):
+        arr = getattr(nb, a)
+        sub = arr[:, redo]
+        sub[take] = getattr(nb2, a)[take]
+        arr[:, redo] = sub
+    out = unseen.copy()
+    out[:, redo] = take & still
+    return out
+
+
 def detect_prepared(an: Analysis, threshold: float = 0.5, *, progress: bool = False) -> Detection:
     """:func:`detect` on a take already prepared by :func:`prepare` (with its parameters and context)."""
     from tqdm.auto import tqdm
@@ -408,8 +427,20 @@ def detect_prepared(an: Analysis, threshold: float = 0.5, *, progress: bool = Fa
                         spread[gi, ~region] = np.nan
             notes.append(f"two-stage: {int(redo.sum())} of {W} words re-analysed against the context")
         else:
-            nb = nearest_words(src, full, grows, words, self_clip=0, prefilter=prefilter and has_context, progress=bar, **opts)
+            # the bundled default context, a general sample of other people's motion, only judges the words the take
+            # itself cannot: as every word's neighbours it outvoted the take's own repetitions, and the mean of other
+            # people's style hid errors (33 corrupted HDM05 and CMU takes: recall 0.815 -> 0.712, error after repair
+            # 7.6 -> 10.4 deg)
+            info = getattr(an.context_given, "info", None)
+            gaps_only = has_context and isinstance(info, dict) and bool(info.get("default"))
+            nb = nearest_words(src, src if gaps_only else full, grows, words, self_clip=0,
+                               prefilter=prefilter and has_context and not gaps_only, progress=bar, **opts)
             unseen = unseen_words(nb, grows, max_word_angle_deg)
+            if gaps_only and unseen.any():
+                before = int(unseen.any(axis=0).sum())
+                unseen = _judged_by_context(src, full, grows, words, nb, unseen, prefilter, max_word_angle_deg, opts)
+                notes.append(f"{before} of {W} words have nothing like them in the take in some joint group: judged "
+                             "against the default context there")
             if unseen.any():
                 notes.append(
                     f"{int(unseen.any(axis=0).sum())} of {W} words have no neighbour within {max_word_angle_deg:g} deg "

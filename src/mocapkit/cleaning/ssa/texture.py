@@ -358,7 +358,11 @@ def prepare(
     sk = motion.skeleton
     chosen = params.joints if joints is None else joints
     if isinstance(chosen, (int, np.integer)):
-        tex_joints = informative_joints([motion] + ctx, int(chosen))
+        # the bundled default context, a general sample, does not choose which of the take's joints are analysed:
+        # its still fingers left a take's finger error unanalysed, so the cues that need no context missed it
+        info = getattr(context, "info", None)
+        general = isinstance(info, dict) and bool(info.get("default"))
+        tex_joints = informative_joints([motion] + ([] if general else ctx), int(chosen))
     else:
         tex_joints = np.array([sk.index(j) if isinstance(j, str) else int(j) for j in chosen], dtype=np.int64)
     up = detect_up_axis(sk)
