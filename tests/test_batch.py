@@ -585,3 +585,42 @@ def test_the_context_turned_off_is_one_request_however_it_is_said(tmp_path, walk
     for said in ("off", "NONE"):  # documented as the same: the take is complete, not 'made otherwise'
         again = clean_batch(walk_in, out, context=[said], steps=STEPS, executor="serial", progress=False)
         assert again.count("skipped") == 1
+
+
+def test_two_takes_whose_outputs_resolve_to_one_file_are_refused_before_any_work(tmp_path, short_bvh):
+    """OUT_DIR/a is a link to OUT_DIR/b (an earlier layout): in/a/walk.bvh and in/b/walk.bvh would write one file,
+    the second take silently replacing the first's output."""
+    src = tmp_path / "in"
+    for sub in ("a", "b"):
+        (src / sub).mkdir(parents=True)
+        shutil.copy(short_bvh, src / sub / "walk.bvh")
+    out = tmp_path / "out"
+    (out / "b").mkdir(parents=True)
+    (out / "a").symlink_to(out / "b", target_is_directory=True)
+    with pytest.raises(MocapFormatError, match="given as two outputs"):
+        clean_batch(src, out, steps=STEPS, executor="serial", progress=False)
+    assert list((out / "b").iterdir()) == []  # refused before the first take was cleaned
+
+
+def test_clean_file_removes_an_old_record_before_it_replaces_the_take_and_puts_it_back_on_failure(tmp_path, short_bvh,
+                                                                                                  monkeypatch):
+    """A kill -9 while the take is replaced must not leave the old record (the completion marker) beside a new take."""
+    from mocapkit import io
+    from mocapkit.batch import clean_file
+    from mocapkit.cleaning.pipeline import clean_path
+
+    out = tmp_path / "o.bvh"
+    clean_file(short_bvh, out, steps=STEPS)
+    record = clean_path(out)
+    old = record.read_bytes()
+    seen = []
+
+    def save(motion, path, **kwargs):
+        seen.append(record.exists())
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(io, "save", save)
+    with pytest.raises(KeyboardInterrupt):
+        clean_file(short_bvh, out, steps=STEPS, overwrite=True)
+    assert seen == [False]  # gone while the take was written
+    assert record.read_bytes() == old  # and back after the failure

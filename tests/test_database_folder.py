@@ -582,3 +582,51 @@ def test_a_database_a_killed_earlier_version_left_hidden_is_put_back(saved, tmp_
     fresh.mkdir()
     database_folder.recover_leftovers(target)
     assert fresh.is_dir()
+
+
+def test_an_old_folder_beside_an_existing_database_is_swept_not_put_back(small_db, saved, tmp_path):
+    """kill -9 after the new database was renamed in, before the old one was deleted: the new one stays."""
+    db = shutil.copytree(saved, tmp_path / "db")
+    before = _tree(db)
+    live = database_folder.staging_folder(tmp_path / "db")
+    host = live.name.split(".")[2].split("-")[1]  # .db.PID-HOST-XXXXXXXX.part
+    shutil.rmtree(live)
+    old = tmp_path / f".db.{_dead_pid()}-{host}-abcd1234.old"
+    shutil.copytree(saved, old / "kept")
+    (old / "kept" / "an_older_file").write_bytes(b"older")
+    assert database_folder.recover_leftovers(db) is None
+    assert _tree(db) == before
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["db"]
+
+
+def test_leftovers_of_another_user_s_live_writer_are_kept(small_db, tmp_path, monkeypatch):
+    """Asking another user's process gives PermissionError: it is alive, and its unfinished write is not ours to sweep."""
+    live = database_folder.staging_folder(tmp_path / "db")
+    host = live.name.split(".")[2].split("-")[1]
+    shutil.rmtree(live)
+    theirs = tmp_path / f".db.4242-{host}-abcd1234.part"
+    theirs.mkdir()
+    (theirs / "rotations.npy").write_bytes(b"x")
+
+    def kill(pid, sig):
+        raise PermissionError(1, "Operation not permitted")
+
+    monkeypatch.setattr(os, "kill", kill)
+    database_folder.recover_leftovers(tmp_path / "db")
+    assert (theirs / "rotations.npy").read_bytes() == b"x"
+
+
+def test_of_two_hidden_databases_the_newest_is_put_back_and_the_other_swept(saved, tmp_path):
+    live = database_folder.staging_folder(tmp_path / "db")
+    host = live.name.split(".")[2].split("-")[1]
+    shutil.rmtree(live)
+    older = tmp_path / f".db.{_dead_pid()}-{host}-aaaa1111.old"
+    newer = tmp_path / f".db.{_dead_pid()}-{host}-bbbb2222.old"
+    for p, when in ((older, 1_000_000_000), (newer, 1_500_000_000)):
+        shutil.copytree(saved, p / "kept")
+        (p / "kept" / "which").write_text(p.name)
+        os.utime(p, (when, when))
+    target = tmp_path / "db"
+    assert database_folder.recover_leftovers(target) == newer / "kept"
+    assert (target / "which").read_text() == newer.name
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["db"]

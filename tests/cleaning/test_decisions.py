@@ -258,3 +258,24 @@ def test_decisions_for_another_take_or_another_cleaning_are_refused(result, take
     with pytest.raises(MocapFormatError, match="not changes of this cleaning") as err:
         D.check_decisions(D.read_decisions(path), path, take, result)
     assert str(path) in str(err.value) and "\n" not in str(err.value)
+
+
+def test_take_digest_changes_with_the_root_trajectory(take):
+    """Decisions made for a take whose root trajectory differs are for another take."""
+    root = np.array(take.root_positions)
+    root[5, 1] = np.nextafter(root[5, 1], np.inf)
+    assert D.take_digest(dataclasses.replace(take, root_positions=root)) != D.take_digest(take)
+
+
+def test_a_fill_change_counts_its_missing_frames_exactly(take, found):
+    missing = take.missing()
+    fills = [c for c in found if "fill" in c.step]
+    assert fills
+    for c in fills:
+        n = int(missing[c.first:c.last + 1, c.joint_index].sum())
+        assert f"missing in {n} of {c.frames} frames" in c.reason
+
+
+def test_a_record_of_the_take_at_another_rate_is_refused(result, take):
+    with pytest.raises(MocapError, match="another take"):
+        D.apply(dataclasses.replace(take, fps=2 * take.fps), result, {})

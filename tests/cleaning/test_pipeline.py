@@ -498,3 +498,40 @@ def test_a_limb_held_still_through_a_moving_take_is_named():
     rot[:, k] = rot[0, k]  # the elbow's channel frozen at its first value
     said = [n for n in clean(dataclasses.replace(take, rotations=rot), steps=("detect",)).notes if "bit for bit" in n]
     assert said and said[0].startswith("lradius holds one rotation, bit for bit, through the whole take")
+
+
+def test_with_a_calibration_pose_the_change_masks_are_at_the_take_frames():
+    """The analysed span starts after the pose (frame 1): what repair changed is recorded at the take's frames,
+    so the report, the decisions and the untouched guarantee point at the cells that really changed."""
+    m = mocapkit.load(TEST_DATA / "cmu_01_01_start.bvh")
+    bad, _, _ = corrupt.real_errors(m, n_errors=4, seed=7)
+    res = clean(bad, steps="detect,repair")
+    assert res.calibration and res.params["analysed"][0] >= 1
+    assert res.repaired.any()
+    really = ~np.all(res.motion.rotations == bad.rotations, axis=-1)
+    assert np.array_equal(really, res.repaired)
+    assert not (res.repaired & ~res.flags).any()
+
+
+def test_denoise_alone_never_records_a_missing_cell_as_changed(walk):
+    gappy, gap = corrupt.gaps(walk, seed=5)
+    noisy, _ = corrupt.angular_noise(gappy, amount=0.5, seed=6, joints=["lfemur"])
+    res = clean(noisy, steps="denoise")
+    assert gap.any() and not (res.denoised & gap).any()
+    assert np.array_equal(res.motion.missing(), noisy.missing())  # the gaps stay gaps
+
+
+def test_fill_of_a_root_gap_keeps_every_observed_root_sample_bit_identical(walk):
+    """A gap in the root (rotation and position) is filled; the root's observed frames stay the input's, bit for bit."""
+    gappy, _ = corrupt.gaps(walk, seed=11)
+    rot, pos = np.array(gappy.rotations), np.array(gappy.root_positions)
+    rot[100:115, 0] = np.nan
+    pos[100:115] = np.nan
+    take = dataclasses.replace(gappy, rotations=rot, root_positions=pos)
+    res = clean(take, steps="fill")
+    seen = ~take.missing()[:, 0]
+    assert (~seen).any() and not res.motion.missing().any()
+    assert res.motion.rotations[seen, 0].tobytes() == take.rotations[seen, 0].tobytes()
+    assert res.motion.root_positions[seen].tobytes() == take.root_positions[seen].tobytes()
+    observed = ~take.missing()
+    assert res.motion.rotations[observed].tobytes() == take.rotations[observed].tobytes()

@@ -188,3 +188,29 @@ def test_an_asf_listing_root_rotations_first_gets_its_own_order(tmp_path):
     for like in (src, None):  # kept like the source, or written whole in the ASF's order
         io.save(edited, out, like=like, asf=other)
         _assert_same_motion(edited, read_amc(out, other))
+
+
+@pytest.mark.parametrize("name", SAMPLES[:2])
+def test_a_moved_root_written_like_its_file_keeps_the_move(name, tmp_path):
+    """like=: a root-position edit (a filled root gap, a user's fix) is a changed cell too, not only rotations."""
+    amc, asf, m = _sample(name)
+    pos = np.array(m.root_positions)
+    pos[10:15] += [2.0, 0.0, -1.0]
+    edited = dataclasses.replace(m, root_positions=pos)
+    out = tmp_path / "moved.amc"
+    io.save(edited, out, like=amc)
+    back = read_amc(out, asf)
+    _assert_same_motion(edited, back)
+    assert out.read_bytes() != amc.read_bytes()
+
+
+def test_a_bone_added_to_a_crlf_frame_ends_its_line_as_the_file_does(tmp_path):
+    amc, asf, m = _sample(SAMPLES[0])
+    lines = amc.read_text().splitlines(keepends=True)
+    at = [i for i, ln in enumerate(lines) if ln.startswith("rtibia ")][3]
+    src = tmp_path / "crlf.amc"
+    src.write_bytes("".join(lines[:at] + lines[at + 1:]).replace("\n", "\r\n").encode("latin-1"))  # frame 4 omits rtibia
+    m = read_amc(src, asf)
+    io.save(_turned(m, 3, "rtibia", 20.0), tmp_path / "out.amc", like=src)
+    data = (tmp_path / "out.amc").read_bytes()
+    assert b"\n" not in data.replace(b"\r\n", b"")  # the added rtibia line too

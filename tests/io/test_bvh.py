@@ -742,3 +742,130 @@ def test_a_joint_name_used_twice_is_refused_at_its_line(tmp_path):
     line = text[:first].count("\n") + 1
     with pytest.raises(MocapFormatError, match=rf"dup.bvh:{line}: joint name 'UpperArm_L' is used twice \(first at line \d+\)"):
         read_bvh(dup)
+
+
+def test_a_moved_root_written_like_its_file_keeps_the_move(tmp_path):
+    """like=: a root-position edit is a changed cell too (not only rotations); unchanged frames keep their text."""
+    m = read_bvh(BANDAI)
+    pos = np.array(m.root_positions)
+    pos[10:20] += [5.0, 0.0, -2.5]
+    edited = dataclasses.replace(m, root_positions=pos)
+    out = tmp_path / "moved.bvh"
+    write_bvh(edited, out, like=BANDAI)
+    back = read_bvh(out)
+    np.testing.assert_allclose(back.root_positions, pos, rtol=0, atol=1e-5)
+    before, after = _data_lines(BANDAI), _data_lines(out)
+    assert [f for f in range(len(before)) if before[f] != after[f]] == list(range(10, 20))
+
+
+def test_an_animated_offset_written_like_its_file_keeps_the_change(tmp_path):
+    """like=: an edit of a non-root joint's animated offset (BANDAI animates every joint's position) is written."""
+    m = read_bvh(BANDAI)
+    tr = np.array(m.local_offsets())
+    tr[30:35, 5] += [0.0, 1.5, 0.0]
+    edited = dataclasses.replace(m, translations=tr)
+    out = tmp_path / "offset.bvh"
+    write_bvh(edited, out, like=BANDAI)
+    np.testing.assert_allclose(read_bvh(out).local_offsets(), tr, rtol=0, atol=1e-5)
+
+
+def test_a_new_channel_layout_is_not_written_into_the_file_s_columns(tmp_path):
+    """like= of a file whose channel layout the motion no longer has (a joint now translates): values stay in
+    their own columns (the file's text cannot serve)."""
+    m = read_bvh(BUNDLED)  # CMU: non-root joints have rotation channels only
+    tr = np.array(m.local_offsets())
+    tr[:, 5] += [0.0, 0.25, 0.0]  # joint 5 now needs position channels
+    edited = dataclasses.replace(m, translations=tr)
+    out, plain = tmp_path / "like.bvh", tmp_path / "plain.bvh"
+    write_bvh(edited, out, like=BUNDLED)
+    write_bvh(edited, plain)
+    assert out.read_bytes() == plain.read_bytes()
+
+
+def test_a_new_frame_rate_is_written_not_the_file_s_frame_time(tmp_path):
+    m = read_bvh(BANDAI)
+    edited = dataclasses.replace(m, fps=2 * m.fps)
+    out = tmp_path / "fast.bvh"
+    write_bvh(edited, out, like=BANDAI)
+    assert read_bvh(out).fps == pytest.approx(edited.fps, rel=1e-9)
+
+
+def test_new_bone_lengths_are_written_not_the_file_s_header(tmp_path):
+    m = read_bvh(BUNDLED)
+    sk = dataclasses.replace(m.skeleton, offsets=np.asarray(m.skeleton.offsets) * 1.25)
+    out = tmp_path / "longer.bvh"
+    write_bvh(dataclasses.replace(m, skeleton=sk), out, like=BUNDLED)
+    np.testing.assert_array_equal(read_bvh(out).skeleton.offsets, sk.offsets)
+    sk2 = dataclasses.replace(m.skeleton, end_site_offsets=np.asarray(m.skeleton.end_site_offsets) * 2.0)
+    write_bvh(dataclasses.replace(m, skeleton=sk2), out, like=BUNDLED)
+    np.testing.assert_array_equal(read_bvh(out).skeleton.end_site_offsets, sk2.end_site_offsets)
+
+
+def test_a_changed_cell_keeps_the_file_s_360_degree_branch(tmp_path):
+    """A channel the file writes as ~+370 deg stays near +370 where the edit changed it (not jumping to ~10)."""
+    lines = BANDAI.read_bytes().decode().splitlines(keepends=True)
+    at = next(i for i, t in enumerate(lines) if t.startswith("Frame Time"))
+    m0 = read_bvh(BANDAI)
+    starts = np.cumsum([0] + [len(c) for c in m0.skeleton.channels])
+    j = 5
+    col = starts[j] + list(m0.skeleton.channels[j]).index("Zrotation")
+    for i in range(at + 1, len(lines)):
+        if lines[i].strip():
+            body = lines[i].rstrip("\r\n")
+            tok = body.split()
+            tok[col] = repr(float(tok[col]) + 360.0)
+            lines[i] = " ".join(tok) + lines[i][len(body):]
+    src = tmp_path / "wound.bvh"
+    src.write_bytes("".join(lines).encode())
+    m = read_bvh(src)
+    rot = np.array(m.rotations)
+    rot[10:20, j] = quaternion_multiply(rot[10:20, j], euler_to_quaternion(np.array([0.0, 0.0, 3.0]), "XYZ"))
+    out = tmp_path / "edited.bvh"
+    write_bvh(dataclasses.replace(m, rotations=rot), out, like=src)
+    was = np.array([float(t.split()[col]) for t in _data_lines(src)])
+    now = np.array([float(t.split()[col]) for t in _data_lines(out)])
+    assert np.abs(now - was).max() < 30.0  # same branch: a few degrees, never ~360
+
+
+def test_changed_lines_keep_the_file_s_crlf_line_endings(tmp_path):
+    src = tmp_path / "crlf.bvh"
+    src.write_bytes(BANDAI.read_bytes().replace(b"\r\n", b"\n").replace(b"\n", b"\r\n"))  # a Windows file
+    m = read_bvh(src)
+    rot = np.array(m.rotations)
+    rot[10:20, 5] = quaternion_multiply(rot[10:20, 5], euler_to_quaternion(np.array([0.0, 0.0, 30.0]), "XYZ"))
+    out = tmp_path / "edited.bvh"
+    write_bvh(dataclasses.replace(m, rotations=rot), out, like=src)
+    data = out.read_bytes()
+    assert data != src.read_bytes() and b"\n" not in data.replace(b"\r\n", b"")  # changed lines end in CRLF too
+
+
+def test_a_joint_declared_without_channels_that_now_rotates_gets_rotation_channels(tmp_path, rng):
+    path = tmp_path / "odd.bvh"
+    path.write_text(bvh_text(ODD, odd_rows(rng).tolist()))
+    m = read_bvh(path)
+    still = m.skeleton.joint_names.index("Still")
+    rot = np.array(m.rotations)
+    rot[:, still] = euler_to_quaternion(np.array([0.0, 0.0, 40.0]), "XYZ")
+    out = tmp_path / "rotated.bvh"
+    write_bvh(dataclasses.replace(m, rotations=rot), out)
+    back = read_bvh(out)
+    assert back.skeleton.rotation_order(still)
+    assert np.degrees(geodesic_angle(back.rotations[:, still], rot[:, still])).max() < 1e-4
+
+
+def test_missing_animated_offsets_are_refused_like_missing_rotations(tmp_path):
+    m = read_bvh(BANDAI)
+    tr = np.array(m.local_offsets())
+    tr[3, 5] = np.nan
+    out = tmp_path / "gap.bvh"
+    with pytest.raises(MocapFormatError, match="missing values"):
+        write_bvh(dataclasses.replace(m, translations=tr), out)
+    assert not out.exists()
+
+
+def test_a_take_with_no_frames_is_refused_and_nothing_written(tmp_path):
+    m = read_bvh(BANDAI)
+    out = tmp_path / "empty.bvh"
+    with pytest.raises(MocapFormatError, match="no frames"):
+        write_bvh(m[:0], out)
+    assert not out.exists()

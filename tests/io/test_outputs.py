@@ -126,3 +126,24 @@ def test_with_overwrite_a_file_written_meanwhile_is_replaced(tmp_path):
         with atomic_write(out) as fh:
             fh.write("ours")
     assert out.read_text() == "ours"
+
+
+def test_two_outputs_that_are_one_file_are_refused(tmp_path):
+    """Two spellings of one path (``..``, a symlinked folder) are one output: the second would replace the first."""
+    (tmp_path / "sub").mkdir()
+    (tmp_path / "alias").symlink_to(tmp_path / "sub", target_is_directory=True)
+    a = tmp_path / "sub" / "take.bvh"
+    for b in (tmp_path / "sub" / ".." / "sub" / "take.bvh", tmp_path / "alias" / "take.bvh"):
+        with pytest.raises(MocapFormatError, match="given as two outputs"):
+            check_outputs([a, b])
+    check_outputs([a, tmp_path / "sub" / "take.html"])  # two files: fine
+
+
+def test_an_output_that_is_a_hard_link_of_an_input_is_refused_even_with_overwrite(tmp_path):
+    inp = tmp_path / "in.bvh"
+    inp.write_text("the take")
+    out = tmp_path / "out.bvh"
+    os.link(inp, out)
+    for overwrite in (False, True):
+        with pytest.raises(MocapFormatError, match="refusing to write over an input"):
+            check_outputs([out], [inp], overwrite=overwrite)
