@@ -14,10 +14,11 @@ from .common import asf_option, console, context_option, guard, overwrite_option
 def _detect(m, context, threshold: float, progress: bool = True, confirm: bool = True, jump_deg: float = 8.0,
             drifts: bool = False):
     from ..cleaning import ssa
+    from ..cleaning.pipeline import MAX_WORD_ANGLE_DEG
 
-    try:
+    try:  # clean's word gate: a word with no neighbour that close is not judged (the flags of `clean --steps detect`)
         return ssa.detect(m, context, threshold=threshold, progress=progress, confirm=confirm, jump_deg=jump_deg,
-                          drift=drifts)
+                          drift=drifts, max_word_angle_deg=MAX_WORD_ANGLE_DEG)
     except (ValueError, SkeletonError) as exc:
         raise MocapError(f"{m.name or 'input'}: {exc}") from None
 
