@@ -680,3 +680,21 @@ def test_residuals_are_read_where_ezc3d_reads_the_frames(shared_data):
     ms = read_c3d(path)
     c = ezc3d.c3d(str(path))
     assert np.array_equal(ms.missing(), c["data"]["meta_points"]["residuals"][0].T < 0)
+
+
+def test_the_trial_frame_range_follows_the_frames_written(tmp_path):
+    """TRIAL:ACTUAL_START_FIELD / ACTUAL_END_FIELD (Vicon) say which frames the file holds: first .. first + F - 1."""
+    import ezc3d
+
+    from mocapkit.io.c3d import write_c3d
+
+    ms = read_c3d(Path(__file__).resolve().parents[1] / "data" / "85_02.c3d")[10:20]
+    write_c3d(ms, tmp_path / "out.c3d")
+    trial = ezc3d.c3d(str(tmp_path / "out.c3d"))["parameters"]["TRIAL"]
+
+    def frame(key):
+        lo, hi = (int(v) for v in np.ravel(trial[key]["value"])[:2])
+        return (lo & 0xFFFF) + (hi << 16)
+
+    assert frame("ACTUAL_START_FIELD") == ms.source.first_frame
+    assert frame("ACTUAL_END_FIELD") - frame("ACTUAL_START_FIELD") + 1 == ms.num_frames == 10

@@ -470,3 +470,33 @@ def test_a_c3d_with_an_empty_and_a_repeated_label_converts_to_trc_and_back(tmp_p
     assert trc.read_text().splitlines()[3].split("\t")[2::3] == ["A", "", "A"]
     back = save_markers(load_markers(trc), tmp_path / "back.c3d")
     assert list(ezc3d.c3d(str(back))["parameters"]["POINT"]["LABELS"]["value"]) == ["A", "", "A"]
+
+
+def test_a_take_keeps_its_frame_numbers_and_camera_rate_through_a_write(tmp_path):
+    """A TRC whose frames start at 101 (a trimmed capture) is written with frames 101.., not renumbered from 1,
+    and its CameraRate is kept: what lines the take up with its video and analog data."""
+    write_trc(_markers(), tmp_path / "a.trc")
+    lines = (tmp_path / "a.trc").read_text().splitlines()
+    head = lines[2].split("\t")
+    head[1] = "120.00"  # CameraRate
+    lines[2] = "\t".join(head)
+    for i in range(6, len(lines)):
+        row = lines[i].split("\t")
+        row[0] = str(int(row[0]) + 100)
+        lines[i] = "\t".join(row)
+    src = tmp_path / "trimmed.trc"
+    src.write_text("\n".join(lines) + "\n")
+    ms = read_trc(src)
+    assert ms.source.first_frame == 101
+    write_trc(ms, tmp_path / "out.trc")
+    out = (tmp_path / "out.trc").read_text().splitlines()
+    assert [r.split("\t")[0] for r in out[6:]] == [str(101 + i) for i in range(ms.num_frames)]
+    assert out[2].split("\t")[1] == "120.00"
+    assert read_trc(tmp_path / "out.trc").source.first_frame == 101
+
+
+def test_an_empty_take_is_refused_and_nothing_written(tmp_path):
+    empty = _markers()[:0]
+    with pytest.raises(MocapFormatError, match="at least one marker and one frame"):
+        write_trc(empty, tmp_path / "e.trc")
+    assert not (tmp_path / "e.trc").exists()
