@@ -501,7 +501,9 @@ def detect_prepared(an: Analysis, threshold: float = 0.5, *, progress: bool = Fa
                       spikes, np.isfinite(digression))
     masks = an.group_masks()
     if not ok.all():
-        notes.append(f"{int((~ok).any(axis=1).sum())} frames have no neighbour words (context too short)")
+        some, every = int((~ok).any(axis=1).sum()), int((~ok).all(axis=1).sum())
+        notes.append(f"{some} frames have joints that no neighbour word judges ({every} of them no joint at all): "
+                     "not judged there; a context that repeats the motion judges more")
     clips = an.clips
     params = p.replace(two_stage=bool(two_stage and has_context), prefilter=bool(prefilter and has_context))
     return Detection(
