@@ -393,6 +393,7 @@ def test_amc_outputs_get_their_asf_beside_them(tmp_path, short_bvh):
     src = tmp_path / "in"
     (src / "hdm").mkdir(parents=True)
     shutil.copy(short_bvh, src / "hdm" / "mixed.bvh")
+    mocapkit.save(mocapkit.load(samples.path("12_walk.amc"))[:40], src / "hdm" / "walk40.npz")  # no ASF file either
     shutil.copy(samples.path("12.asf"), src / "12.asf")
     (src / "12_walk.amc").write_bytes(samples.path("12_walk.amc").read_bytes())
     shutil.copy(samples.path("HDM_bd.asf"), src / "hdm" / "HDM_bd.asf")
@@ -400,8 +401,9 @@ def test_amc_outputs_get_their_asf_beside_them(tmp_path, short_bvh):
     (src / "hdm" / amc.name).write_bytes(amc.read_bytes())
     out = tmp_path / "out"
     s = clean_batch(src, out, steps=STEPS, fmt="amc", executor="serial", progress=False)
-    assert s.count("done") == 3
+    assert s.count("done") == 4
     assert mocapkit.load(out / "hdm" / "mixed.bvh").num_frames == 40
+    assert mocapkit.load(out / "hdm" / "walk40.npz").num_frames == 40 and not (out / "hdm" / "walk40.amc").exists()
     assert (out / "12.asf").read_bytes() == samples.path("12.asf").read_bytes()
     assert (out / "hdm" / "HDM_bd.asf").read_bytes() == samples.path("HDM_bd.asf").read_bytes()
     for inp, outp in ((src / "12_walk.amc", out / "12_walk.amc"), (src / "hdm" / amc.name, out / "hdm" / amc.name)):

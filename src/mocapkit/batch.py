@@ -375,7 +375,7 @@ def output_for(inp: Path, in_dir: Path, out_dir: Path, fmt: str = "auto", keep_s
     ``fmt``: ``"bvh"``, ``"amc"``, ``"npz"`` or ``"auto"`` (the input's suffix
     for .bvh, .npz, .c3d and .trc; .bvh for an AMC, which then needs no ASF
     beside it to be read; ``"amc"`` writes AMC takes as AMC, read back with
-    their ASF, and leaves BVH takes BVH; marker captures keep their format). ``keep_suffix``: append the output suffix to
+    their ASF, and leaves BVH and .npz takes as they are; marker captures keep their format). ``keep_suffix``: append the output suffix to
     the whole input name (``take.amc`` -> ``take.amc.bvh``), the name
     :func:`clean_batch` gives takes that would otherwise share a file.
 
@@ -391,8 +391,10 @@ def output_for(inp: Path, in_dir: Path, out_dir: Path, fmt: str = "auto", keep_s
         suffix = rel.suffix.lower() if rel.suffix.lower() in (".bvh", ".npz", ".c3d", ".trc") else ".bvh"
     elif rel.suffix.lower() in (".c3d", ".trc") and fmt.lstrip(".").lower() in ("bvh", "amc"):
         suffix = rel.suffix.lower()  # marker captures have no joint angles to write as BVH: they keep their format
-    elif rel.suffix.lower() == ".bvh" and fmt.lstrip(".").lower() == "amc":
-        suffix = ".bvh"  # AMC needs the ASF skeleton a BVH take lacks: it stays BVH (it failed every BVH take)
+    elif rel.suffix.lower() in (".bvh", ".npz") and fmt.lstrip(".").lower() == "amc":
+        # AMC is read with the ASF beside it, which only an AMC take has to copy: a BVH take failed, and an .npz take
+        # was written as AMC without one (read back with another actor's ASF in the folder, 14 cm off)
+        suffix = rel.suffix.lower()
     else:
         suffix = "." + fmt.lstrip(".").lower()
     return Path(out_dir) / (rel.with_name(rel.name + suffix) if keep_suffix else rel.with_suffix(suffix))

@@ -268,7 +268,7 @@ def clean_batch(
     report: bool = typer.Option(False, "--report", help="Also write STEM.report.html beside each output."),
     png: bool = typer.Option(False, "--png", help="Also write STEM.summary.png beside each output."),
     pattern: str = typer.Option("*.bvh,*.amc,*.npz,*.c3d,*.trc", "--pattern", help="Comma-separated file name patterns to clean."),
-    fmt: str = typer.Option("auto", "--format", help="Output format: auto (.bvh, .npz, .c3d and .trc kept, .amc -> .bvh), bvh, amc (ASF/AMC takes as AMC, each take's ASF copied beside it; BVH takes stay BVH) or npz; marker captures keep their format."),
+    fmt: str = typer.Option("auto", "--format", help="Output format: auto (.bvh, .npz, .c3d and .trc kept, .amc -> .bvh), bvh, amc (ASF/AMC takes as AMC, each take's ASF copied beside it; BVH and .npz takes keep their format) or npz; marker captures keep their format."),
     as_json: bool = typer.Option(False, "--json", help="Print the per-take rows as JSON."),
     ebf: Optional[Path] = _model_option("ebf"),
     ebd: Optional[Path] = _model_option("ebd"),
