@@ -6,6 +6,7 @@ thing in a copy of the folder and opens it: the answer must be one
 :class:`MocapFormatError` line naming the file, never a traceback or a crash.
 """
 
+import dataclasses
 import json
 import math
 import os
@@ -526,6 +527,10 @@ def test_the_content_digest_is_stored_once_and_changes_with_any_sample(small_db,
                            root_positions=small_db.root_positions, features=small_db.features,
                            info={**small_db.info, "label": "a note"})  # notes are no content (context.py sets them)
     assert noted.digest == edited.digest
+    moved = MotionDatabase(fps=small_db.fps, skeletons=small_db.skeletons,
+                           clips=[dataclasses.replace(c, source="../elsewhere/" + c.name) for c in small_db.clips],
+                           rotations=rot, root_positions=small_db.root_positions, features=small_db.features)
+    assert moved.digest == edited.digest  # where the clips were read from, as typed, is not content
     # a folder saved before the digest was kept opens, and its digest is computed from its arrays
     old = shutil.copytree(saved, tmp_path / "old")
     desc = json.loads((old / "database.json").read_text())

@@ -555,7 +555,8 @@ def content_digest(description: Description, arrays: Mapping[str, np.ndarray]) -
 
     A BLAKE2b hash of :func:`description_json` without ``info`` (frame rate,
     skeletons, clips, feature sets; keys sorted: ``info`` is notes, which
-    callers change) and of every array of the layout (name, stored dtype,
+    callers change) and without the clips' sources (a folder typed as
+    ``takes``, ``/abs/takes`` or ``../x/takes`` gave three digests) and of every array of the layout (name, stored dtype,
     shape, bytes; in file-name order). Two databases with the same digest
     hold the same motion; any edited sample changes it. About 0.4-1 GB/s:
     :func:`write_folder` computes it once and stores it in ``database.json``
@@ -565,6 +566,8 @@ def content_digest(description: Description, arrays: Mapping[str, np.ndarray]) -
     h = hashlib.blake2b(digest_size=32)
     desc = description_json(description)
     del desc["info"]
+    for clip in desc["clips"]:  # where a clip was read from, as the user typed it, is not what it holds
+        clip.pop("source", None)
     h.update(json.dumps(desc, sort_keys=True).encode("utf-8"))
     for rel in sorted(arrays):
         a = np.ascontiguousarray(arrays[rel], dtype=_array_dtype(rel))
