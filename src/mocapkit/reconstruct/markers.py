@@ -119,6 +119,7 @@ from typing import Sequence
 import numba
 import numpy as np
 from scipy.optimize import least_squares
+from threadpoolctl import threadpool_limits
 from tqdm.auto import tqdm
 from ..progress import bar_disabled
 
@@ -194,7 +195,7 @@ def _same_hemisphere(q: np.ndarray) -> np.ndarray:
 def joint_ranges(rotations: np.ndarray) -> _JointRanges:
     """The :class:`_JointRanges` of local rotations (N, B, 4) (the root's entry: its tilt).
 
-    Per joint: the sign-aligned mean rotation, the principal axes of the
+    Per joint: the mean rotation (signs aligned to the principal quaternion), the principal axes of the
     rotation vectors relative to it (eigenvectors of their 3x3 covariance),
     and along each axis the 0.1 and 99.9 percentiles of the frames, widened
     by 10 degrees on either side. At most 50,000 evenly spaced frames are
@@ -203,7 +204,12 @@ def joint_ranges(rotations: np.ndarray) -> _JointRanges:
     q = np.asarray(rotations)
     step = max(1, -(-len(q) // _RANGE_FRAMES))
     q = np.array(q[::step], dtype=np.float64)
-    q = np.where(np.sum(q * q[:1], axis=-1, keepdims=True) < 0, -q, q)
+    # signs aligned to each joint's principal quaternion (the top eigenvector of sum q q^T, w >= 0), which no frame's
+    # order or sign changes: aligned to the first frame, a database of the same clips in another order gave other
+    # ranges (and reconstructions up to 7 cm apart)
+    ref = np.linalg.eigh(np.einsum("nbi,nbj->bij", q, q))[1][..., -1]  # (B, 4)
+    ref = _same_hemisphere(ref)
+    q = np.where(np.sum(q * ref[None], axis=-1, keepdims=True) < 0, -q, q)
     mean = R.quaternion_normalize(q.mean(axis=0))
     v = R.quaternion_to_rotvec(_same_hemisphere(R.quaternion_multiply(R.quaternion_conjugate(mean), q)))
     B = q.shape[1]
@@ -211,7 +217,9 @@ def joint_ranges(rotations: np.ndarray) -> _JointRanges:
     for j in range(B):
         vj = v[:, j]
         _, vec = np.linalg.eigh(np.cov(vj.T) if len(vj) > 1 else np.eye(3))
-        axes[j] = vec[:, ::-1].T
+        ax = vec[:, ::-1].T
+        big = np.argmax(np.abs(ax), axis=1)  # each axis' sign fixed by its largest component, not by eigh's choice
+        axes[j] = ax * np.where(ax[np.arange(3), big] < 0, -1.0, 1.0)[:, None]
         c = vj @ axes[j].T
         lo[j], hi[j] = np.percentile(c, _RANGE_PERCENTILES, axis=0)
     return _JointRanges(mean, axes, lo - _RANGE_MARGIN, hi + _RANGE_MARGIN)
@@ -605,7 +613,14 @@ def _normalised(points: np.ndarray, theta: float, ground: np.ndarray, up: np.nda
     return R.quaternion_rotate(R.quaternion_from_axis_angle(up, -theta), points - ground)
 
 
-def _run(
+def _run(*args, **kwargs) -> Motion:
+    """:func:`_solve` on one BLAS thread: the local models' sums are then the same to the last bit however many cores
+    the machine has (two threads and one gave frames up to 2 degrees apart)."""
+    with threadpool_limits(1, user_api="blas"):
+        return _solve(*args, **kwargs)
+
+
+def _solve(
     markers,
     joints,
     db: MotionDatabase,
