@@ -391,6 +391,11 @@ def clean_channels(x: np.ndarray, miss: np.ndarray, fps: float) -> np.ndarray:
         r = x[~miss[:, c], c] - reading[~miss[:, c], c]
         total = float(np.mean(r * r))
         b, d = bend[ok, c], d2[ok, c]
+        moving = d != 0.0  # frames held exactly (a still stretch, padding) say nothing of the noise elsewhere
+        if moving.sum() < 8:
+            clean[c] = not moving.any()  # a channel held still throughout (but for a few frames) is not noisy
+            continue
+        b, d = b[moving], d[moving]
         d = d[b <= np.quantile(b, 0.25)]
         noise = (1.4826 * float(np.median(np.abs(d - np.median(d))))) ** 2 / 6.0
         clean[c] = noise <= CLEAN_NOISE_SHARE * total
@@ -426,9 +431,34 @@ def anchor_ends(out: np.ndarray, x: np.ndarray, reading: np.ndarray, miss: np.nd
             t = (np.arange(s, e) - (s - 1)) / float(e - s + 1)
             out[s:e, c] += w[c] * ((1.0 - t) * d0 + t * d1)
             if clean[c] and s > 0 and e < F:
-                v0 = x[s - 1, c] - x[s - 2, c] if s >= 2 and not miss[s - 2, c] else 0.0
-                v1 = x[e + 1, c] - x[e, c] if e + 1 < F and not miss[e + 1, c] else 0.0
-                out[s:e, c] = hermite_blend(out[s:e, c], x[s - 1, c], x[e, c], v0, v1, fps)
+                v0 = end_slope(x[:s, c][::-1], miss[:s, c][::-1])
+                v1 = end_slope(x[e:, c], miss[e:, c])
+                out[s:e, c] = hermite_blend(out[s:e, c], x[s - 1, c], x[e, c], -v0, v1, fps)
+
+
+def end_slope(x: np.ndarray, miss: np.ndarray) -> float:
+    """The per-frame slope of a channel going away from a gap's end: ``x`` (n,) the samples from the end outwards
+    (``x[0]`` the sample next to the gap), ``miss`` (n,) which are missing.
+
+    The first one-frame difference ``x[1] - x[0]``, unless the first four observed samples disagree: their two
+    second differences change by more than half their size, as a glitched sample makes them (a smooth motion bends
+    alike from one frame to the next). Then the median of the three differences, which one glitch cannot move:
+    from the first difference, a 15 deg glitch two frames before a 0.5 s gap bent its fill by up to 48 deg, while
+    on clean motion at 30 fps the median lags the end's slope. With two or three observed samples, the first
+    difference; else 0.
+    """
+    n = 0
+    while n < min(len(x), 4) and not miss[n]:
+        n += 1
+    if n < 2:
+        return 0.0
+    d = np.diff(np.asarray(x[:n], dtype=np.float64))
+    if n < 4:
+        return float(d[0])
+    dd = np.diff(d)
+    if abs(dd[0] - dd[1]) <= 0.5 * (abs(dd[0]) + abs(dd[1])):
+        return float(d[0])
+    return float(np.median(d))
 
 
 def hermite_blend(fill: np.ndarray, a: float, b: float, va: float, vb: float, fps: float) -> np.ndarray:
