@@ -242,6 +242,20 @@ def test_fit_context_refuses_a_context_in_another_basis_under_the_same_names():
         C.fit_context(zup, explicit)
 
 
+
+def test_a_context_on_the_same_names_serves_a_rig_whose_toes_point_elsewhere(shared_data):
+    """Actors of one naming differ in a bone or two (CMU's backflip.asf and HDM05's mm: the toes 33 deg apart): the
+    same names on the same up axis serve as they are (a stricter rest check refused them); only a basis change
+    (another up axis) is refused."""
+    backflip = mocapkit.load(shared_data / "cmu_asfamc" / "backflip.amc", asf=shared_data / "cmu_asfamc" / "backflip.asf")
+    hdm = shared_data / "hdm05_asfamc"
+    mm = mocapkit.load(hdm / "HDM_mm_grabHighR_017_120.amc", asf=hdm / "HDM_mm.asf")
+    db = MotionDatabase.build([mm], fps=24, executor="serial", progress=False)
+    assert C._same_rest(backflip.skeleton, db.skeletons[0])  # the toes
+    served, note = C.fit_context(backflip, db)
+    assert served is db
+
+
 def test_mocapkit_clean_uses_the_default_and_says_so():
     take = mocapkit.load(mocapkit.samples.path("HDM_bk_sneak2StepsLStart_005_120.amc"))
     res = mocapkit.clean(take, steps="detect")

@@ -509,6 +509,17 @@ def _same_rest(a, b) -> str:
     return ""
 
 
+def _other_up_axis(a, b) -> str:
+    """Empty when skeletons ``a`` and ``b`` stand along the same axis in their rest poses, else why not."""
+    from .features import detect_up_axis
+
+    ua, ub = detect_up_axis(a), detect_up_axis(b)
+    if np.array_equal(ua, ub):
+        return ""
+    name = lambda v: ("-" if v.min() < 0 else "") + "xyz"[int(np.argmax(np.abs(v)))]  # noqa: E731
+    return f"another rest pose: it stands along {name(ua)}, the context along {name(ub)}"
+
+
 def context_label(context) -> str:
     """What judged a take, for its summary: ``"the clip itself"``, ``"2 context clips"``, or the database's
     label with its size (``"the bundled default context (31 clips, 79 s)"``)."""
@@ -525,7 +536,7 @@ def context_label(context) -> str:
 def fit_context(motion, context):
     """``context`` made to serve ``motion``; returns ``(context, note)`` (note: one line, or "").
 
-    A list of Motions and a database on the take's joint names and rest pose
+    A list of Motions and a database on the take's joint names and up axis
     come back as they are. A database on the same topology and rest pose under other joint
     names (module docstring) comes back with its joints renamed to the take's
     (arrays shared, nothing copied) and a note saying so. Otherwise the
@@ -540,9 +551,15 @@ def fit_context(motion, context):
     built = "; ".join(str(n) for n in context.info.get("notes", ()) if isinstance(n, str))
     names = tuple(motion.skeleton.joint_names)
     ref = context.skeletons[0]
-    why = _same_rest(motion.skeleton, ref)  # also on the same names: a Z-up export of a Y-up rig keeps them, and
-    if tuple(ref.joint_names) == names and not why:  # the context's local rotations are in the other basis
-        return context, built
+    if tuple(ref.joint_names) == names:
+        # the same names on another basis (a Z-up export of a Y-up rig keeps them): the context's local rotations
+        # are in the other basis; other rest differences of a rig under the same names (an actor's toes 33 deg
+        # apart) serve as they did
+        why = _other_up_axis(motion.skeleton, ref)
+        if not why:
+            return context, built
+    else:
+        why = _same_rest(motion.skeleton, ref)
     label = context_label(context)
     if why:
         if context.info.get("default"):
