@@ -129,7 +129,11 @@ def _count(n: int, word: str) -> str:
 
 @dataclass(frozen=True)
 class StepRecord:
-    """What one step did: its name, seconds, cells changed, the method used and why, and a note."""
+    """What one step did: its name, seconds, cells changed, the method used and why, and a note.
+
+    The seconds are not saved (:meth:`as_dict`): a record of the same take and request is then the same file on
+    every run (a checksum or a diff of two runs' records showed only the timings); a loaded step's are NaN.
+    """
 
     name: str
     seconds: float
@@ -138,10 +142,11 @@ class StepRecord:
     note: str = ""
 
     def as_dict(self) -> dict:
-        return dataclasses.asdict(self)
+        return {k: v for k, v in dataclasses.asdict(self).items() if k != "seconds"}
 
     def __str__(self) -> str:
-        s = f"{self.name} ({self.seconds:.2f} s): {self.method}"
+        took = f" ({self.seconds:.2f} s)" if np.isfinite(self.seconds) else ""
+        s = f"{self.name}{took}: {self.method}"
         if self.name != "detect" and not self.method.startswith(("skipped", "nothing")):
             s += f", {_count(self.cells, 'joint sample')} changed"
         return s + (f"; {self.note}" if self.note else "")
@@ -296,7 +301,7 @@ class CleanResult:
                 noise=data["noise"].astype(np.float64),
                 joint_names=tuple(meta["joint_names"]),
                 fps=float(meta["fps"]),
-                steps=tuple(StepRecord(**s) for s in meta["steps"]),
+                steps=tuple(StepRecord(**{"seconds": float("nan"), **s}) for s in meta["steps"]),
                 notes=tuple(meta["notes"]),
                 params=dict(meta["params"]),
                 samples={k[len("cleaned_"):]: data[k].astype(np.float64) for k in
