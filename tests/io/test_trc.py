@@ -221,8 +221,8 @@ def test_mutated_trc_files_read_sanely_or_are_refused_in_one_line(tmp_path):
         assert got.positions.shape == (got.num_frames, got.num_markers, 3)
         assert not np.isinf(got.positions).any() and got.fps > 0 and got.unit_cm > 0
         outcomes["ok"] += 1
-    # both paths exercised (24 read: mutants that lose rows are refused as cut short since NumFrames is checked,
-    # and those with a doubled or swapped row since the Frame# column must increase)
+    # both paths exercised (mutants that lose rows are refused as cut short since NumFrames is checked, and those
+    # with a doubled or swapped row, or a time out of step, since the Time column must go forward by whole frames)
     assert outcomes["ok"] > 20 and outcomes["refused"] > 50
 
 
@@ -408,12 +408,133 @@ def test_a_frame_the_file_skips_is_read_as_missing_and_said(tmp_path):
     out = save_markers(ms, tmp_path / "out.trc").read_bytes().split(b"\r\n")
     assert out[6 + 4].split(b"\t")[:2] == [b"5", b"0.133"] and out[6 + 5] == text[6 + 4]
     assert out[2].split(b"\t")[2] == b"   12"  # NumFrames counts the frame inserted
-    # a Frame# that goes back is refused in one line naming it
+    # a Frame# that goes back, its Time a frame on, is read by its time (this was refused: review4 D-TRC3)
     text[6 + 6] = b"3" + text[6 + 6][1:]  # frame 8 (line 13) numbered 3
     path.write_bytes(b"\r\n".join(text))
-    with pytest.raises(MocapFormatError, match="frame number 3 follows frame 7: the Frame# column must increase") as exc:
+    ms = read_trc(path)
+    assert ms.num_frames == 12 and ms.missing()[4].all() and not ms.missing()[[3, 5, 7]].any()
+    assert ms.notes[0].startswith("the Frame# column is not consecutive (Frame# 3 follows 7, line 13) but the Time")
+    assert "the Time column skips frame: 1 after 0.100 s (at line 11)" in ms.notes[1]
+    assert save_markers(ms, tmp_path / "same.trc").read_bytes().split(b"\r\n")[6 + 7] == text[6 + 6]
+    # a Time that goes back is refused in one line naming it
+    text[6 + 6] = b"8\t0.100" + text[6 + 6][len(b"3\t0.233"):]
+    path.write_bytes(b"\r\n".join(text))
+    with pytest.raises(MocapFormatError, match="time 0.100 follows 0.200: the Time column goes back") as exc:
         read_trc(path)
     assert exc.value.line == 13
+
+
+def _timed_trc(frames, times, rate=100, decimals=5, numframes=None):
+    """A TRC text with Frame# texts ``frames`` and Time ``times`` (numbers, or texts as they are), 2 markers."""
+    head = ["PathFileType\t4\t(X/Y/Z)\tx.trc", "DataRate\tCameraRate\tNumFrames\tNumMarkers\tUnits",
+            f"{rate}\t{rate}\t{len(frames) if numframes is None else numframes}\t2\tmm", "Frame#\tTime\tA\t\t\tB",
+            "\t\tX1\tY1\tZ1\tX2\tY2\tZ2", ""]
+    rows = [f"{f}\t{t if isinstance(t, str) else f'{t:.{decimals}f}'}\t{i}.5\t2.0\t3.0\t4.0\t5.0\t{i}.25"
+            for i, (f, t) in enumerate(zip(frames, times))]
+    return "\n".join(head + rows) + "\n"
+
+
+def test_a_frame_inserted_on_write_gets_the_files_time(tmp_path):
+    # review4 D-TRC1: Frame# 11, 12, 14 at Time 0.10, 0.11, 0.13 came back with "13  0.02000" (counted from 0)
+    path = tmp_path / "t0.trc"
+    path.write_text(_timed_trc([11, 12, 14, 15], [0.10, 0.11, 0.13, 0.14]))
+    ms = read_trc(path)
+    assert ms.num_frames == 5 and ms.missing()[2].all() and ms.source.first_frame == 11
+    out = save_markers(ms, tmp_path / "out.trc").read_text().splitlines()
+    assert out[8] == "13\t0.12000\t\t\t\t\t\t" and out[2].split("\t")[2] == "5"
+    pos = np.array(ms.positions)
+    pos[2] = [[9, 9, 9], [8, 8, 8]]  # the inserted frame filled
+    out = save_markers(ms.with_positions(pos), tmp_path / "filled.trc").read_text().splitlines()
+    assert out[8].split("\t")[:3] == ["13", "0.12000", "9.00000"]
+    assert out[6:8] + out[9:] == path.read_text().splitlines()[6:]
+    back = read_trc(tmp_path / "filled.trc")
+    assert back.notes == () and np.array_equal(back.positions, pos, equal_nan=True)
+    # two frames skipped at 30 fps (times k / 30 to 3 decimals): the times of frames 102 and 103, not 3.333 + 1/30
+    path.write_text(_timed_trc([101, 104], [100 / 30, 103 / 30], rate=30, decimals=3))
+    out = save_markers(read_trc(path), tmp_path / "out.trc").read_text().splitlines()
+    assert [r.split("\t")[:2] for r in out[6:]] == [["101", "3.333"], ["102", "3.367"], ["103", "3.400"], ["104", "3.433"]]
+
+
+def test_rows_a_frame_apart_in_time_are_consecutive_frames_whatever_their_frame_number(tmp_path):
+    # review4 D-TRC2: a thinned export numbered by camera frame (1, 3, 5 ...) at Time steps of 1/DataRate was read
+    # as twice the frames, every other one missing
+    path = tmp_path / "thin.trc"
+    path.write_text(_timed_trc([1, 3, 5, 7, 9], [i / 60 for i in range(5)], rate=60))
+    ms = read_trc(path)
+    assert ms.num_frames == 5 and not ms.missing().any() and ms.source.first_frame == 1
+    assert ms.positions[:, 0, 0].tolist() == [0.5, 1.5, 2.5, 3.5, 4.5]
+    assert ms.notes == ("the Frame# column is not consecutive (Frame# 3 follows 1, line 8) but the Time column steps "
+                        "by 1/DataRate: the rows are placed by their time (Frame# kept as the file has it)",)
+    assert save_markers(ms, tmp_path / "same.trc").read_bytes() == path.read_bytes()
+    pos = np.array(ms.positions)
+    pos[2, 1, 2] = 7.0
+    out = save_markers(ms.with_positions(pos), tmp_path / "out.trc").read_text().splitlines()
+    assert out[8].split("\t")[:2] == ["5", "0.03333"] and out[8].endswith("\t7.00000")  # Frame# text kept
+    # where the Time column itself skips (2/60 s), one frame is inserted; its Frame# goes on in the file's steps
+    path.write_text(_timed_trc([1, 3, 5, 9], [0, 1 / 60, 2 / 60, 4 / 60], rate=60))
+    ms = read_trc(path)
+    assert ms.num_frames == 5 and ms.missing()[3].all() and not ms.missing()[[0, 1, 2, 4]].any()
+    assert ms.notes[1] == ("the Time column skips frame: 1 after 0.03333 s (at line 10): read as 1 frame with every "
+                           "marker missing, so every frame keeps its time")
+    out = save_markers(ms, tmp_path / "out.trc").read_text().splitlines()
+    assert out[9].split("\t")[:2] == ["7", "0.05000"] and out[2].split("\t")[2] == "5"
+    assert read_trc(tmp_path / "out.trc").num_frames == 5
+
+
+@pytest.mark.parametrize("frames", [["1"] * 5, ["1", "2", "3", "1", "2"], ["1.0", "1.5", "2.0", "2.5", "3.0"],
+                                    ["", "", "", "", ""]])
+def test_a_frame_number_that_repeats_restarts_or_is_fractional_is_read_by_its_time(tmp_path, frames):
+    # review4 D-TRC3: these were refused ("the Frame# column must increase")
+    path = tmp_path / "f.trc"
+    path.write_text(_timed_trc(frames, [2 + i / 100 for i in range(5)]))
+    ms = read_trc(path)
+    assert ms.num_frames == 5 and not ms.missing().any() and ms.positions[:, 0, 0].tolist() == [0.5, 1.5, 2.5, 3.5, 4.5]
+    assert len(ms.notes) == 1 and "the rows are placed by their time" in ms.notes[0]
+    assert save_markers(ms, tmp_path / "same.trc").read_bytes() == path.read_bytes()
+
+
+@pytest.mark.parametrize("times, line, reason", [
+    ([0, 0.01, 0.02, 0.01, 0.04], 10, "time 0.01000 follows 0.02000: the Time column goes back"),
+    ([0, 0.01, 0.01, 0.02, 0.03], 9, "time 0.01000 follows 0.01000: the Time column repeats"),
+    ([0, 0.01, 0.025, 0.035, 0.045], 9, "time 0.02500 follows 0.01000: a step of 1.5 frames at DataRate 100, not a "
+                                        "whole number of frames"),
+])
+def test_a_time_out_of_step_is_refused_in_one_line_naming_it(tmp_path, times, line, reason):
+    path = tmp_path / "t.trc"
+    path.write_text(_timed_trc([1, 2, 3, 4, 5], times))
+    with pytest.raises(MocapFormatError, match=reason) as exc:
+        read_trc(path)
+    assert exc.value.line == line and str(exc.value).startswith(str(path)) and "\n" not in str(exc.value)
+
+
+def test_without_a_usable_time_column_frame_numbers_then_row_order_place_the_rows(tmp_path):
+    path = tmp_path / "f.trc"
+    # no times: Frame# places the rows, a skip inserts a frame, timed between its neighbours (none here)
+    path.write_text(_timed_trc([1, 2, 4, 5], [""] * 4, numframes=5))
+    ms = read_trc(path)
+    assert ms.num_frames == 5 and ms.missing()[2].all()
+    assert ms.notes == ("the Frame# column skips frame 3 (at line 9): read as 1 frame with every marker missing, "
+                        "so every frame keeps its time",)
+    assert save_markers(ms, tmp_path / "out.trc").read_text().splitlines()[8] == "3\t\t\t\t\t\t\t"
+    # times in milliseconds: Frame# places the rows, said; an inserted row's time is spaced between its neighbours'
+    path.write_text(_timed_trc([1, 2, 4, 5], [10, 20, 40, 50], numframes=5))
+    ms = read_trc(path)
+    assert ms.num_frames == 5 and ms.missing()[2].all()
+    assert ms.notes[0] == ("the Time column does not step by 1/DataRate (0.01 s; its steps are mostly 10 s): the rows "
+                           "are placed by their Frame#")
+    out = save_markers(ms, tmp_path / "out.trc").read_text().splitlines()
+    assert out[8].split("\t")[:2] == ["3", "30.00000"]
+    # neither: Frame# repeats and no times: the rows in file order, said
+    path.write_text(_timed_trc([1, 2, 2, 3], [""] * 4))
+    ms = read_trc(path)
+    assert ms.num_frames == 4 and not ms.missing().any() and ms.positions[:, 0, 0].tolist() == [0.5, 1.5, 2.5, 3.5]
+    assert ms.notes == ("the Frame# column is not whole numbers that increase (Frame# 2 follows 2, line 9) and the "
+                        "Time column has rows without a time: the rows are read in file order as consecutive frames",)
+    assert save_markers(ms, tmp_path / "same.trc").read_bytes() == path.read_bytes()
+    # a Frame# that is text, not a number, is still refused
+    path.write_text(_timed_trc([1, "x", 3], [0, 0.01, 0.02]))
+    with pytest.raises(MocapFormatError, match="frame number 'x' is not a number"):
+        read_trc(path)
 
 
 def test_a_repeated_label_is_written_as_the_file_has_it(tmp_path):

@@ -44,17 +44,21 @@ def read_trc(path, zeros_as_gaps: bool | None = None) -> MarkerSet:
     (:func:`~mocapkit.markerset.unique_labels`: a marker without one is
     M and its place, a repeat gets _2); the file's own are kept in
     ``source.labels`` and its text in ``source.text`` for :func:`write_trc`.
-    A row with fewer fields than markers has the rest missing; a frame the
-    Frame# column skips is a frame with every marker missing
-    (:func:`_frame_slots`). What the user should know (trajectories past
-    NumMarkers or without a label, extra fields, skipped frames, repeated
+    A row with fewer fields than markers has the rest missing. The Time
+    column places the rows when it steps by 1/DataRate (rows a frame apart
+    are consecutive frames whatever their Frame#), else the Frame# column
+    when it is whole numbers that increase, else the row order; a frame
+    skipped is a frame with every marker missing (:func:`_frame_slots`).
+    What the user should know (trajectories past NumMarkers or without a
+    label, extra fields, skipped frames, a Frame# out of step, repeated
     labels) is in ``notes``. ``zeros_as_gaps`` as for
     :func:`~mocapkit.io.c3d.read_c3d` (some exporters write unseen markers as 0 0 0).
 
     Raises :class:`~mocapkit.errors.MocapFormatError` naming the file and line
     for a file that is not a TRC (first line), a header cut short, a missing
     or non-positive frame rate, an unknown unit, a field that is not a number,
-    a frame number out of range or not increasing, no data rows, or a file
+    a frame number out of range, a time that goes back, repeats or is not a
+    whole number of frames on, no data rows, or a file
     cut short (fewer frames than NumFrames, or a last row cut partway
     through: :func:`_check_complete`).
     """
@@ -103,7 +107,7 @@ def read_trc(path, zeros_as_gaps: bool | None = None) -> MarkerSet:
     label_text = [label_line[j] for j in range(2, len(label_line), 3)]  # as the file has them, spaces included
     while label_text and not label_text[-1].strip():
         label_text.pop()
-    rows, numbers, row_lines = [], [], []
+    rows, numbers, times, row_lines = [], [], [], []  # numbers, times: the Frame# and Time texts
     last_fields = last_line = 0
     ends_in_row = not text.endswith(("\n", "\r"))  # no line break after the last line: cut there, or a writer's habit
     for n, line in enumerate(lines[5:], start=6):
@@ -114,12 +118,15 @@ def read_trc(path, zeros_as_gaps: bool | None = None) -> MarkerSet:
         last_fields, last_line = len(f), n
         while f and not f[-1].strip():
             f.pop()
-        try:
-            frame = int(float(f[0]))
-        except (ValueError, OverflowError):
-            raise MocapFormatError(path, f"frame number {f[0][:20]!r} is not a number{hint}", line=n) from None
-        if abs(frame) >= 2**31:
-            raise MocapFormatError(path, f"frame number {f[0][:20]!r} is out of range{hint}", line=n)
+        if f[0].strip():  # an empty Frame# is read by its time (or place); any other text must be a frame number
+            try:
+                frame = float(f[0])
+            except ValueError:
+                raise MocapFormatError(path, f"frame number {f[0][:20]!r} is not a number{hint}", line=n) from None
+            if not math.isfinite(frame):
+                raise MocapFormatError(path, f"frame number {f[0][:20]!r} is not a number{hint}", line=n)
+            if abs(frame) >= 2**31:
+                raise MocapFormatError(path, f"frame number {f[0][:20]!r} is out of range{hint}", line=n)
         vals = np.full(len(f) - 2 if len(f) > 2 else 0, np.nan)
         for j, v in enumerate(f[2:]):
             v = v.strip()
@@ -131,7 +138,8 @@ def read_trc(path, zeros_as_gaps: bool | None = None) -> MarkerSet:
         if np.isinf(vals).any():
             raise MocapFormatError(path, f"infinite coordinate in field {int(np.flatnonzero(np.isinf(vals))[0]) + 3}", line=n)
         rows.append(vals)
-        numbers.append(frame)
+        numbers.append(f[0])
+        times.append(f[1] if len(f) > 1 else "")
         row_lines.append(n)
     if not rows:
         raise MocapFormatError(path, "the TRC file holds no data rows")
@@ -147,7 +155,7 @@ def read_trc(path, zeros_as_gaps: bool | None = None) -> MarkerSet:
         raise MocapFormatError(path, f"header field NumMarkers says {int(stated)} markers, the file names and holds "
                                f"at most {present}", line=3)
     m = max(int(stated), present)
-    slots = _frame_slots(path, numbers, row_lines)
+    slots, frame_notes, first_frame = _frame_slots(path, numbers, times, row_lines, fps)
     _check_complete(path, header, int(slots[-1]) + 1, last_fields - 2, m, last_line,
                     ends_in_row=ends_in_row and last_line == len(lines))
     data = np.full((int(slots[-1]) + 1, 3 * m), np.nan)
@@ -161,9 +169,9 @@ def read_trc(path, zeros_as_gaps: bool | None = None) -> MarkerSet:
     notes = repeated_labels_note(tuple(t.strip() for t in file_labels), labels)
     notes += _count_notes(int(stated), len([t for t in label_text if t.strip()]), held, m, labels)
     notes += _extra_field_notes(rows, row_lines, m)
-    notes += _skipped_frame_notes(numbers, row_lines)
+    notes += frame_notes
     source = MarkerSource(format="trc", parameters={"PathFileType": first[3].strip() if len(first) > 3 else "", **header},
-                          first_frame=numbers[0], labels=file_labels,
+                          first_frame=first_frame, labels=file_labels,
                           text=raw.decode("utf-8", errors="surrogateescape"))
     return MarkerSet(labels=labels, positions=xyz, fps=fps, units=units, name=path.stem, reader="trc",
                      source=source, zero_gaps=zeros, notes=notes)
@@ -173,42 +181,142 @@ def read_trc(path, zeros_as_gaps: bool | None = None) -> MarkerSet:
 _MAX_INSERTED = 100_000
 
 
-def _frame_slots(path: Path, numbers: list[int], row_lines: list[int]) -> np.ndarray:
-    """(rows,) int: the frame (0-based, from the first row's number) each data row holds.
+def _number(text: str) -> float:
+    """A Frame# or Time text as a number; NaN when it is empty or not a finite number."""
+    try:
+        value = float(text)
+    except (ValueError, TypeError):
+        return math.nan
+    return value if math.isfinite(value) else math.nan
 
-    Frame numbers must increase; a file that skips some (``1..40, 42..89``)
-    gets the skipped frames inserted as frames with every marker missing, so
-    that frame ``k`` of the take stays at the file's time (a cleaner then
-    fills them as gaps; :func:`_skipped_frame_notes` says so). A number that
-    does not increase, or a skip of more than :data:`_MAX_INSERTED` frames,
-    is refused naming its line.
+
+def _places(texts) -> int:
+    """The most decimal places among number texts ``texts`` (``1.5e-05``: 6), what they resolve."""
+    most = 0
+    for t in texts:
+        t = t.strip().lower()
+        mantissa, _, exp = t.partition("e")
+        places = len(mantissa.split(".", 1)[1]) if "." in mantissa else 0
+        try:
+            places -= int(exp) if exp else 0
+        except ValueError:
+            pass
+        most = max(most, places)
+    return min(most, 17)  # (a float holds no more)
+
+
+def _first_frame(text: str) -> int:
+    """The take's first frame number from the first row's Frame# text: 1 where it is not a whole number."""
+    value = _number(text)
+    return int(value) if value == value and value == int(value) else 1
+
+
+def _frame_slots(path: Path, numbers: list[str], times: list[str], row_lines: list[int],
+                 fps: float) -> tuple[np.ndarray, tuple[str, ...], int]:
+    """Where each data row goes: ((rows,) int frame from 0, notes, the first frame number).
+
+    The Time column decides when it can: when every row has a time, written
+    finely enough to tell frames apart at DataRate, and at least half its
+    steps are one frame (1/DataRate). Then rows one frame apart are
+    consecutive frames whatever their Frame# says (a thinned export numbered
+    by camera frame: 1, 3, 5 ...; a Frame# that repeats or restarts; a note
+    says so and the Frame# text is written back as it was), and a step of
+    k frames inserts k - 1 frames with every marker missing, so that every
+    frame keeps its time (a cleaner fills them as gaps). A time that goes
+    back or repeats, or a step that is not a whole number of frames, is
+    refused naming its line. Without such a Time column, the Frame# column
+    decides when it is whole numbers that increase (a skip inserts frames
+    as above), and otherwise the rows are read in file order (a note says
+    so). More than :data:`_MAX_INSERTED` inserted frames is refused.
     """
-    nums = np.asarray(numbers, dtype=np.int64)
-    step = np.diff(nums)
-    bad = np.flatnonzero(step <= 0)
-    if bad.size:
-        k = int(bad[0]) + 1
-        raise MocapFormatError(path, f"frame number {numbers[k]} follows frame {numbers[k - 1]}: the Frame# column "
-                               "must increase", line=row_lines[k])
-    if int(nums[-1] - nums[0]) + 1 - len(nums) > _MAX_INSERTED:
-        k = int(np.argmax(step)) + 1
-        raise MocapFormatError(path, f"frame number {numbers[k]} follows frame {numbers[k - 1]}: the Frame# column "
-                               f"skips more than {_MAX_INSERTED} frames", line=row_lines[k])
-    return nums - nums[0]
+    nums = np.array([_number(t) for t in numbers])
+    t = np.array([_number(x) for x in times])
+    n = len(nums)
+    first = _first_frame(numbers[0])
+    whole = ~np.isnan(nums) & (nums == np.round(nums))
+    resolution = 10.0 ** -_places(times) * fps  # frames a time written with those places may be off, a step 2x half
+    tol = resolution + 0.05
+    with np.errstate(over="ignore", invalid="ignore"):
+        dt = np.diff(t)
+        steps = dt * fps  # (inf for times 1e308 apart, refused below as too large a skip)
+    time_why = ""
+    if np.isnan(t).any():
+        time_why = "has rows without a time"
+    elif tol >= 0.5:
+        time_why = f"is written too coarsely to tell frames apart at DataRate {fps:g}"
+    elif n > 1 and 2 * int(np.sum(np.abs(steps - 1.0) <= tol)) < n - 1:
+        typical = float(np.median(dt))
+        time_why = f"does not step by 1/DataRate ({1 / fps:.6g} s; its steps are mostly {typical:.6g} s)"
+    if not time_why:
+        far = np.flatnonzero(~(steps <= _MAX_INSERTED + 1))
+        if far.size:
+            i = int(far[0]) + 1
+            raise MocapFormatError(path, f"time {times[i].strip()[:20]} follows {times[i - 1].strip()[:20]}: a skip of "
+                                   f"more than {_MAX_INSERTED} frames at DataRate {fps:g}", line=row_lines[i])
+        k = np.rint(steps).astype(np.int64) if n > 1 else np.zeros(0, np.int64)
+        bad = np.flatnonzero((k < 1) | (np.abs(steps - k) > tol))
+        if bad.size:
+            i = int(bad[0]) + 1
+            was, now = times[i - 1].strip()[:20], times[i].strip()[:20]
+            if k[i - 1] < 1:
+                what = "repeats" if abs(steps[i - 1]) <= tol else "goes back"
+                raise MocapFormatError(path, f"time {now} follows {was}: the Time column {what} (it must go forward "
+                                       f"by whole frames of 1/DataRate)", line=row_lines[i])
+            raise MocapFormatError(path, f"time {now} follows {was}: a step of {steps[i - 1]:.3g} frames at DataRate "
+                                   f"{fps:g}, not a whole number of frames", line=row_lines[i])
+        slots = np.concatenate([[0], np.cumsum(k)])
+        agree = whole & (nums - nums[0] == slots) if whole[0] else np.zeros(n, bool)
+        notes = ()
+        if not agree.all():
+            i = int(np.argmin(agree))
+            said = (f"Frame# {numbers[i].strip() or '(empty)'} follows {numbers[i - 1].strip() or '(empty)'}" if i
+                    else f"Frame# {numbers[0].strip() or '(empty)'} first")
+            notes += (f"the Frame# column is not consecutive ({said}, line {row_lines[i]}) but the Time column steps "
+                      "by 1/DataRate: the rows are placed by their time (Frame# kept as the file has it)",)
+        notes += _skipped_frame_notes(slots, row_lines, numbers if agree.all() else None, times)
+        return _checked_inserted(path, slots, row_lines), notes, first
+    if whole.all() and (n == 1 or (np.diff(nums) > 0).all()):
+        slots = (nums - nums[0]).astype(np.int64)
+        notes = ()
+        if time_why.startswith("does not step") and (np.abs(steps - np.diff(slots)) > tol).any():
+            notes += (f"the Time column {time_why}: the rows are placed by their Frame#",)  # not where Frame# says
+        notes += _skipped_frame_notes(slots, row_lines, numbers, None)
+        return _checked_inserted(path, slots, row_lines), notes, first
+    i = int(np.argmin(whole)) if not whole.all() else int(np.flatnonzero(np.diff(nums) <= 0)[0]) + 1
+    said = (f"Frame# {numbers[i].strip() or '(empty)'}" + (f" follows {numbers[i - 1].strip() or '(empty)'}" if i else "")
+            + f", line {row_lines[i]}")
+    return np.arange(n), (f"the Frame# column is not whole numbers that increase ({said}) and the Time column "
+                          f"{time_why}: the rows are read in file order as consecutive frames",), first
 
 
-def _skipped_frame_notes(numbers: list[int], row_lines: list[int]) -> tuple[str, ...]:
-    """One note naming the frames the Frame# column skips (inserted as missing samples); () for none."""
-    step = np.diff(np.asarray(numbers, dtype=np.int64))
+def _checked_inserted(path: Path, slots: np.ndarray, row_lines: list[int]) -> np.ndarray:
+    """``slots``, refused naming the line of the largest skip when they insert more than :data:`_MAX_INSERTED` frames."""
+    if int(slots[-1]) + 1 - len(slots) > _MAX_INSERTED:
+        k = int(np.argmax(np.diff(slots))) + 1
+        raise MocapFormatError(path, f"the frames skip {int(slots[-1]) + 1 - len(slots)} frames in all (the most at "
+                               f"this line): more than the {_MAX_INSERTED} read as missing", line=row_lines[k])
+    return slots
+
+
+def _skipped_frame_notes(slots: np.ndarray, row_lines: list[int], numbers: list[str] | None,
+                         times: list[str] | None) -> tuple[str, ...]:
+    """One note naming the frames skipped (inserted as missing samples): by Frame# when ``numbers`` name
+    them, else by time; () for none."""
+    step = np.diff(slots)
     at = np.flatnonzero(step > 1)
     if at.size == 0:
         return ()
-    runs = [f"{numbers[k] + 1}" if step[k] == 2 else f"{numbers[k] + 1}-{numbers[k + 1] - 1}" for k in at[:5]]
-    more = f" and {at.size - 5} more runs" if at.size > 5 else ""
     total = int((step[at] - 1).sum())
-    return (f"the Frame# column skips frame{'s' if total > 1 else ''} {', '.join(runs)}{more} (at line "
-            f"{row_lines[int(at[0]) + 1]}): read as {total} frame{'s' if total > 1 else ''} with every marker missing, "
-            "so every frame keeps its time",)
+    if numbers is not None:
+        nums = [int(_number(x)) for x in numbers]
+        runs = [f"{nums[k] + 1}" if step[k] == 2 else f"{nums[k] + 1}-{nums[k + 1] - 1}" for k in at[:5]]
+        what = f"the Frame# column skips frame{'s' if total > 1 else ''}"
+    else:
+        runs = [f"{step[k] - 1} after {times[k].strip()[:20]} s" for k in at[:5]]
+        what = f"the Time column skips frame{'s' if total > 1 else ''}:"
+    more = f" and {at.size - 5} more runs" if at.size > 5 else ""
+    return (f"{what} {', '.join(runs)}{more} (at line {row_lines[int(at[0]) + 1]}): read as {total} "
+            f"frame{'s' if total > 1 else ''} with every marker missing, so every frame keeps its time",)
 
 
 def _count_notes(stated: int, named: int, held: int, m: int, labels) -> tuple[str, ...]:
@@ -281,7 +389,8 @@ def write_trc(markers: MarkerSet, path, *, like=None, decimals: int = TRC_DECIMA
     marker and the line breaks stay as the file had them, so an unchanged
     take comes back byte for byte. A changed sample is written with the
     file's decimals or ``decimals``, whichever is more; a frame the file
-    skipped (read as missing) gets a row of its own.
+    skipped (read as missing) gets a row of its own, numbered and timed as
+    the file's own timing gives it (:func:`_between`).
 
     Otherwise (another format's take, a selection of markers) the file is
     written new: coordinates with ``decimals`` decimals (a round trip gives
@@ -315,19 +424,17 @@ def write_trc(markers: MarkerSet, path, *, like=None, decimals: int = TRC_DECIMA
         fh.write(out)
 
 
-def _rows(text: str) -> tuple[list[str], list[int], list[int]]:
-    """A TRC text's lines (line breaks kept), the index of each data row and its frame number."""
+def _rows(text: str) -> tuple[list[str], list[int], list[str], list[str]]:
+    """A TRC text's lines (line breaks kept), the index of each data row, and its Frame# and Time texts."""
     lines = text.splitlines(keepends=True)
-    at, numbers = [], []
+    at, numbers, times = [], [], []
     for i in range(5, len(lines)):
-        field = lines[i].split("\t", 1)[0].strip()
         if lines[i].strip():
-            try:
-                numbers.append(int(float(field)))
-            except (ValueError, OverflowError):
-                return lines, [], []
+            fields = lines[i].rstrip("\r\n").split("\t") + [""]
             at.append(i)
-    return lines, at, numbers
+            numbers.append(fields[0])
+            times.append(fields[1])
+    return lines, at, numbers, times
 
 
 def _decimals(cells) -> int:
@@ -340,7 +447,7 @@ def _edited_text(markers: MarkerSet, source: MarkerSource, decimals: int) -> str
 
     It is when the markers are the file's own (:meth:`MarkerSet.file_labels`),
     at its rate and unit, and its first frame and frame count (skipped frames
-    included) are the take's. A row without a changed sample is kept as it
+    included, placed as the reader placed them: :func:`_frame_slots`) are the take's. A row without a changed sample is kept as it
     stands; in a row with one, the changed samples' three fields are
     rewritten (empty for a sample now missing), the rest kept. A sample read
     as missing from an exact 0 0 0 (:func:`~mocapkit.markerset.zero_gap_mask`)
@@ -355,23 +462,31 @@ def _edited_text(markers: MarkerSet, source: MarkerSource, decimals: int) -> str
         return None
     if markers.units != (head.get("Units") or "mm") or markers.fps != rate:
         return None
-    lines, at, numbers = _rows(source.text)
+    lines, at, numbers, times = _rows(source.text)
     F, M = markers.num_frames, markers.num_markers
-    if not at or numbers[0] != source.first_frame or numbers[-1] - numbers[0] + 1 != F or len(set(numbers)) != len(at):
+    if not at or _first_frame(numbers[0]) != source.first_frame:
+        return None
+    try:  # where the reader put each row (its Time column, else its Frame#, else its place)
+        slots = _frame_slots(Path("?"), numbers, times, [a + 1 for a in at], rate)[0]
+    except MocapFormatError:
+        return None
+    if int(slots[-1]) + 1 != F:
         return None
     first_row = lines[at[0]]
     eol = first_row[len(first_row.rstrip("\r\n")):] or "\n"
     cells0 = first_row.rstrip("\r\n").split("\t")
     fmt = f"{{:.{max(int(decimals), _decimals(cells0[2:]))}f}}"
     pos = markers.positions.reshape(F, 3 * M)
-    rows = dict(zip(numbers, at))
     out = []
-    for i in range(F):
-        n = numbers[0] + i
-        if n not in rows:  # a frame the file skipped: a row of its own, time in step with its neighbours
-            out.append(_new_row(n, _time_text(cells0[1], (n - numbers[0]) / markers.fps), pos[i], fmt) + eol)
-            continue
-        line = lines[rows[n]]
+    for r, i in enumerate(slots.tolist()):
+        if r:  # the frames the file skipped before this row: rows of their own, numbered and timed as the file's
+            # own timing gives them (:func:`_between`)
+            gap = i - int(slots[r - 1])
+            for j in range(1, gap):
+                number = _between(numbers[r - 1], numbers[r], j, gap)
+                time = _between(times[r - 1], times[r], j, gap, 1 / rate)
+                out.append(_new_row(number, time, pos[i - gap + j], fmt) + eol)
+        line = lines[at[r]]
         body = line.rstrip("\r\n")
         fields = body.split("\t")
         old = np.full(3 * M, np.nan)
@@ -397,6 +512,29 @@ def _edited_text(markers: MarkerSet, source: MarkerSource, decimals: int) -> str
         if not out[k].endswith(("\n", "\r")):
             out[k] += eol
     return "".join(header + out + tail)
+
+
+def _between(before: str, after: str, j: int, gap: int, frame: float | None = None) -> str:
+    """The Frame# or Time text ``j`` of ``gap`` frames from ``before`` to ``after`` (texts of two rows), written
+    with their decimals (a whole number stays whole where the step is); empty where either is not a number.
+
+    Times (``frame``: 1/DataRate) that are whole multiples of a frame as written (``0.133`` at 30 fps: frame 4),
+    ``gap`` frames apart, give frame ``j`` on from ``before``'s (0.167 for the next, not 0.133 + 1/30); other
+    values are spaced evenly between the two.
+    """
+    a, b = _number(before), _number(after)
+    if a != a or b != b:
+        return ""
+    places = _places([before, after])
+    if frame is not None:
+        on = [x / frame for x in (a, b)]
+        slack = 0.5 * 10.0 ** -places / frame + 1e-9  # frames a time written with these places may be off
+        if all(abs(x - round(x)) <= slack for x in on) and round(on[1]) - round(on[0]) == gap:
+            return f"{(round(on[0]) + j) * frame:.{max(places, 1)}f}"
+    step = (b - a) / gap
+    if places <= 0 and step == int(step):
+        return str(int(a) + j * int(step))
+    return f"{a + j * step:.{max(places, 1)}f}"
 
 
 def _time_text(like: str, t: float) -> str:
@@ -431,10 +569,10 @@ def _new_text(markers: MarkerSet, path: Path, source: MarkerSource | None, first
     eol = "\r\n" if text is not None and "\r\n" in text.split("\n", 1)[0] + "\n" else "\n"
     t0, time_like = (first - 1) / markers.fps, "0.000000"
     if text is not None:
-        lines, at, numbers = _rows(text)
+        lines, at, numbers, _ = _rows(text)
         if at:
             decimals = max(int(decimals), _decimals(lines[at[0]].rstrip("\r\n").split("\t")[2:]))
-        if at and numbers[0] == first:
+        if at and _first_frame(numbers[0]) == first:
             time_like = (lines[at[0]].split("\t") + ["", ""])[1]
             try:
                 t0 = float(time_like)
