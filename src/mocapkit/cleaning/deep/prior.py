@@ -364,6 +364,11 @@ CLEAN_NOISE_SHARE = 0.05
 #: seconds: how far into a clean channel's gap the cubic through its ends carries weight (:func:`anchor_ends`)
 HERMITE_S = 0.1
 
+#: seconds: the longest gap the cubic is blended into. A longer gap's ends weigh little against its middle, and
+#: where the channel is noisy only near a gap (Mall's noise over a take's middle third, called clean by the whole
+#: take) a 0.9 s gap's cubic followed the noisy end samples' slope: ``clean_takes``' fill error up by a third
+HERMITE_MAX_S = 0.25
+
 
 def clean_channels(x: np.ndarray, miss: np.ndarray, fps: float) -> np.ndarray:
     """(C,) bool: the channels of (F, C) ``x`` (NaN where ``miss``) whose samples carry no capture noise to speak of.
@@ -408,11 +413,11 @@ def anchor_ends(out: np.ndarray, x: np.ndarray, reading: np.ndarray, miss: np.nd
     First a linear ramp between the offsets ``x - reading`` at the observed samples on either side of the gap,
     weighted by :func:`raw_weight` (1 on :func:`clean_channels`): on a clean channel the fill then meets the samples
     (no step at the gap's ends), on a noisy one it keeps meeting their reading. Then, on a clean channel, a gap
-    with samples on both sides is blended with the cubic Hermite curve through its end samples and their one-frame
-    slopes, with the weight ``exp(-d / HERMITE_S)`` at ``d`` seconds from the nearer end: the prior's field reads
-    the frames 2-32 frames away, never the neighbours, and with its ridge leans towards the training mean, so on
-    clean motion a short gap's fill wandered off the samples' own course (a still foot filled 3 deg off in a
-    one-frame gap of a 30 fps take) where the cubic continues it; a long gap's middle stays the prior's.
+    of at most :data:`HERMITE_MAX_S` with samples on both sides is blended with the cubic Hermite curve through its
+    end samples and their slopes (:func:`end_slope`), with the weight ``exp(-d / HERMITE_S)`` at ``d`` seconds from
+    the nearer end: the prior's field reads the frames 2-32 frames away, never the neighbours, and with its ridge
+    leans towards the training mean, so on clean motion a short gap's fill wandered off the samples' own course (a
+    still foot filled 3 deg off in a one-frame gap of a 30 fps take) where the cubic continues it.
     """
     F = len(x)
     clean = clean_channels(x, miss, fps)
@@ -430,7 +435,7 @@ def anchor_ends(out: np.ndarray, x: np.ndarray, reading: np.ndarray, miss: np.nd
             d1 = d0 if d1 is None else d1
             t = (np.arange(s, e) - (s - 1)) / float(e - s + 1)
             out[s:e, c] += w[c] * ((1.0 - t) * d0 + t * d1)
-            if clean[c] and s > 0 and e < F:
+            if clean[c] and s > 0 and e < F and e - s <= HERMITE_MAX_S * fps:
                 v0 = end_slope(x[:s, c][::-1], miss[:s, c][::-1])
                 v1 = end_slope(x[e:, c], miss[e:, c])
                 out[s:e, c] = hermite_blend(out[s:e, c], x[s - 1, c], x[e, c], -v0, v1, fps)
