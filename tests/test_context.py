@@ -211,13 +211,17 @@ def test_fit_context_renames_a_database_on_the_same_rig_and_refuses_another():
     bvh = mocapkit.load(mocapkit.samples.path("131_01.bvh"))  # the 3dsMax conversion: arms at another rest pose
     none, note = C.fit_context(bvh, db)
     assert none is None and "not used" in note and "rest pose" in note
-    explicit = MotionDatabase(fps=db.fps, skeletons=db.skeletons, clips=db.clips, rotations=db.rotations,
-                              root_positions=db.root_positions, features=db.features, info={"label": "mine"})
+    explicit = _chosen_copy(db)
     with pytest.raises(MocapError, match="joints differ"):
         C.fit_context(bvh, explicit)
     motions = [walk]
     assert C.fit_context(bvh, motions) == (motions, "")  # lists go to the analysis as they are
 
+
+def _chosen_copy(db) -> MotionDatabase:
+    """``db``'s arrays as a database the user chose (not the bundled default, which is dropped, not refused)."""
+    return MotionDatabase(fps=db.fps, skeletons=db.skeletons, clips=db.clips, rotations=db.rotations,
+                          root_positions=db.root_positions, features=db.features, info={"label": "mine"})
 
 
 def test_fit_context_refuses_a_context_in_another_basis_under_the_same_names():
@@ -236,8 +240,7 @@ def test_fit_context_refuses_a_context_in_another_basis_under_the_same_names():
     db = C.default_context()
     none, note = C.fit_context(zup, db)
     assert none is None and "not used" in note and "rest pose" in note
-    explicit = MotionDatabase(fps=db.fps, skeletons=db.skeletons, clips=db.clips, rotations=db.rotations,
-                              root_positions=db.root_positions, features=db.features, info={"label": "mine"})
+    explicit = _chosen_copy(db)
     with pytest.raises(MocapError, match="rest pose"):
         C.fit_context(zup, explicit)
 
