@@ -377,9 +377,11 @@ def clean_channels(x: np.ndarray, miss: np.ndarray, fps: float) -> np.ndarray:
     second differences of every frame (:func:`raw_weight`'s estimate) call a clean channel of a 30 fps take noisy.
     Noise is the same at every frame, motion is not: the noise variance is read from the second differences at the
     quarter of frames where the channel's 58 ms Gaussian reading bends least (white noise of variance ``n`` gives
-    ``6 n`` there too; the median absolute deviation keeps what motion is left out), and a channel is clean when
-    that is at most :data:`CLEAN_NOISE_SHARE` of the mean square the Gaussian takes out of it. On the Bandai
-    Namco and HDM05 validation takes 81-98 % of the clean channels are clean by it and 0-5 % at Mall's 0.5 noise.
+    ``6 n`` there too; the median absolute deviation keeps what motion is left out; frames held exactly, a still
+    stretch or padding, are left out, or a noisy channel held for a quarter of its frames read as clean), and a
+    channel is clean when that is at most :data:`CLEAN_NOISE_SHARE` of the mean square the Gaussian takes out of
+    it. On the Bandai Namco and HDM05 validation takes 81-98 % of the clean channels are clean by it and 0-5 % at
+    Mall's 0.5 noise.
     """
     C = x.shape[1]
     clean = np.zeros(C, dtype=bool)
