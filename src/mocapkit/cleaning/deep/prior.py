@@ -253,7 +253,8 @@ def conditional_fill(values: np.ndarray, prior: GapPrior, fps: float, prior_s: f
     ``2 max |lag|`` frames either side of the gap too (their own samples there
     not read), and the fill is offset to meet the observed (smoothed) samples
     at the gap's ends, linearly across it; at a take's end, the one observed
-    side's offset holds. With ``anchor``, on a channel whose samples are clean the fill then
+    side's offset holds; with ``anchor``, a clean take (:func:`is_clean_take`) is ramped so whatever the
+    prior. With ``anchor``, on a channel whose samples are clean the fill then
     meets the samples themselves (:func:`anchor_ends`): the reading bends a
     clean motion, and a fill that met it left a step at each end (a 3-frame
     gap of a clean take filled 3 deg off where a straight line was 0.2 off).
@@ -316,9 +317,12 @@ def _conditional_fill(values, prior: GapPrior, fps: float, prior_s: float, smoot
             events.setdefault((int(s), int(e)), []).append(int(c))
     prec = np.linalg.inv(cov + prior.ridge * np.eye(len(cov)))  # of every entry; marginals by Schur complements
     reading = base.copy()  # the observed channels as the field read them (_fill_events fills the gaps of base)
-    _fill_events(out, base, miss, events, prior, lags, mean, cov, prec)
+    clean = clean_channels(x, miss, fps) if anchor else np.zeros(C, dtype=bool)
+    # a clean take's gaps are ramped onto their ends whatever the prior's own choice (made on noisy clips)
+    clean_take = anchor and is_clean_take(x, miss, fps)
+    met = _fill_events(out, base, miss, events, prior, lags, mean, cov, prec, clean_take)
     if anchor:
-        anchor_ends(out, x, reading, miss, fps)
+        anchor_ends(out, x, reading, miss, fps, met=met, clean=clean)
     return out
 
 
@@ -409,12 +413,40 @@ def clean_channels(x: np.ndarray, miss: np.ndarray, fps: float) -> np.ndarray:
     return clean
 
 
-def anchor_ends(out: np.ndarray, x: np.ndarray, reading: np.ndarray, miss: np.ndarray, fps: float) -> None:
+#: a take is clean (:func:`is_clean_take`) when at least this share of its channels are (:func:`clean_channels`)
+CLEAN_TAKE_SHARE = 0.25
+
+
+def is_clean_take(x: np.ndarray, miss: np.ndarray, fps: float) -> bool:
+    """Whether (F, C) channels ``x`` (NaN where ``miss``) are a clean take's: at least :data:`CLEAN_TAKE_SHARE` of
+    every channel, missing or not, clean by :func:`clean_channels`.
+
+    A prior fitted without the ramp (:attr:`GapPrior.ramp`, the Bandai Namco one: chosen on clips at Mall's 0.5
+    noise) reads a gap's own channels' smoothed samples next to it and ends where its field ends, steps off the
+    samples included: on a clean 30 fps take 1-2.5 deg at each end of a still arm's gap. On a clean take every gap
+    is ramped onto its ends instead (:func:`conditional_fill`). On 24 HDM05, CMU and Bandai Namco takes 40-97 % of
+    a clean take's channels are clean, 0-13 % at Mall's 0.1 noise and 0-5 % at 0.5: noisy takes keep the prior's
+    choice (docs/models.md has the figures).
+    """
+    if len(x) < 8 or x.shape[1] == 0:
+        return False
+    judged = miss.copy()
+    judged[0] = True  # clean_channels judges the channels with a gap: here every channel
+    return bool(clean_channels(np.where(judged, np.nan, x), judged, fps).mean() >= CLEAN_TAKE_SHARE)
+
+
+def anchor_ends(out: np.ndarray, x: np.ndarray, reading: np.ndarray, miss: np.ndarray, fps: float,
+                met: np.ndarray | None = None, clean: np.ndarray | None = None) -> None:
     """Make each gap's fill (in ``out``, in place) meet the samples it continues, where they are clean.
 
     First a linear ramp between the offsets ``x - reading`` at the observed samples on either side of the gap,
     weighted by :func:`raw_weight` (1 on :func:`clean_channels`): on a clean channel the fill then meets the samples
-    (no step at the gap's ends), on a noisy one it keeps meeting their reading. Then, on a clean channel, a gap
+    (no step at the gap's ends), on a noisy one it keeps meeting their reading. That is for a fill that meets the
+    reading at the gap's ends (a ramped one); ``met`` (F, C) bool marks the gap cells whose fill does (None: all).
+    Elsewhere the offsets are taken from the fill's own ends, continued one frame by its first and last
+    differences: a field that reads the channel's own samples near the gap (a prior without the ramp) ends where
+    it ends, not on the reading, and the first version left a step of up to 2.5 deg at each end of a clean 30 fps
+    take's gaps. ``clean``: :func:`clean_channels` when already known. Then, on a clean channel, a gap
     of at most :data:`HERMITE_MAX_S` with samples on both sides is blended with the cubic Hermite curve through its
     end samples and their slopes (:func:`end_slope`), with the weight ``exp(-d / HERMITE_S)`` at ``d`` seconds from
     the nearer end: the prior's field reads the frames 2-32 frames away, never the neighbours, and with its ridge
@@ -422,15 +454,22 @@ def anchor_ends(out: np.ndarray, x: np.ndarray, reading: np.ndarray, miss: np.nd
     still foot filled 3 deg off in a one-frame gap of a 30 fps take) where the cubic continues it.
     """
     F = len(x)
-    clean = clean_channels(x, miss, fps)
+    clean = clean_channels(x, miss, fps) if clean is None else clean
     w = np.where(clean, 1.0, raw_weight(x, reading, miss))
     for c in np.flatnonzero(miss.any(axis=0)):
         if w[c] <= 0.0:
             continue
         for s, e in zip(*gap_runs(miss[:, c])):
             s, e = int(s), int(e)
-            d0 = x[s - 1, c] - reading[s - 1, c] if s > 0 else None
-            d1 = x[e, c] - reading[e, c] if e < F else None
+            if met is None or met[s, c]:
+                f0 = reading[s - 1, c] if s > 0 else None
+                f1 = reading[e, c] if e < F else None
+            elif e - s >= 2:  # the fill continued one frame past each end
+                f0, f1 = 2.0 * out[s, c] - out[s + 1, c], 2.0 * out[e - 1, c] - out[e - 2, c]
+            else:
+                f0 = f1 = out[s, c]
+            d0 = x[s - 1, c] - f0 if s > 0 else None
+            d1 = x[e, c] - f1 if e < F else None
             if d0 is None and d1 is None:
                 continue
             d0 = d1 if d0 is None else d0
@@ -483,14 +522,19 @@ def hermite_blend(fill: np.ndarray, a: float, b: float, va: float, vb: float, fp
 
 
 def _fill_events(out: np.ndarray, base: np.ndarray, miss: np.ndarray, events: dict, prior: GapPrior, lags: np.ndarray,
-                 mean: np.ndarray, cov: np.ndarray, prec: np.ndarray) -> None:
-    """Fill each gap event of :func:`conditional_fill` in time order, into ``out`` and ``base`` (in place)."""
+                 mean: np.ndarray, cov: np.ndarray, prec: np.ndarray, clean_take: bool = False) -> np.ndarray:
+    """Fill each gap event of :func:`conditional_fill` in time order, into ``out`` and ``base`` (in place).
+
+    Every event is ramped when the prior is (:attr:`GapPrior.ramp`) or ``clean_take`` (:func:`is_clean_take`).
+    Returns (F, C) bool: the gap cells of the ramped events, whose fill meets ``base`` at the gap's ends."""
     F, C = base.shape
     L = len(lags)
     reach = int(np.abs(lags).max())
-    pad = 2 * reach if prior.ramp else 0  # with the ramp the missing channels' own samples are not read nearby
+    met = np.zeros((F, C), dtype=bool)
     for (s, e), chans in sorted(events.items()):
         chans = np.asarray(chans)
+        ramp = prior.ramp or clean_take
+        pad = 2 * reach if ramp else 0  # with the ramp the missing channels' own samples are not read nearby
         u0, u1 = max(s - pad, 0), min(e + pad, F)
         other = miss[max(0, u0 - 2 * reach) : min(F, u1 + 2 * reach)].any(axis=0)
         other[chans] = False
@@ -510,7 +554,8 @@ def _fill_events(out: np.ndarray, base: np.ndarray, miss: np.ndarray, events: di
                               check_finite=False)
         pred = field_fill(base, lags, mean[ent], prior.scale[ent], pcols, read, chans, u0, u1)
         gap = pred[s - u0 : e - u0]
-        if prior.ramp:
+        if ramp:
+            met[s:e, chans] = True
             left = base[s - 1, chans] - pred[s - 1 - u0] if s > 0 else None
             right = base[e, chans] - pred[e - u0] if e < F else None
             if left is None and right is None:
@@ -523,3 +568,4 @@ def _fill_events(out: np.ndarray, base: np.ndarray, miss: np.ndarray, events: di
             gap = gap + off
         out[s:e, chans] = gap
         base[s:e, chans] = gap
+    return met
