@@ -181,6 +181,7 @@ def clean_file(
         dec.check_decisions(doc, decisions, m)  # decisions for another take: refused before any cleaning
     if reuse:
         res = CleanResult.load(record)
+        dec.check_record(m, res, record)  # the record against the take first, then the decisions against the record
     else:
         from .context import fit_context
 

@@ -177,3 +177,64 @@ def test_steps_detect_is_the_review_mode(cleaned, tmp_path, capsys):
     rec = CleanResult.load(tmp_path / "review.clean.npz")
     assert rec.flags.any() and not rec.changed.any()
     assert review_block(tmp_path / "r.html")["changes"] == []
+
+
+def _other_take(tmp_path, n_frames=None):
+    """12_walk with other errors than the fixture's take: the same rig and rate (and length unless ``n_frames``)."""
+    bad, _, _ = corrupt.real_errors(mocapkit.load(samples.path("12_walk.amc")), n_errors=4, seed=12)
+    other = tmp_path / "other.npz"
+    mocapkit.save(bad if n_frames is None else bad[:n_frames], other)
+    return other, mocapkit.load(other)
+
+
+def test_a_record_of_another_take_of_the_same_length_is_refused_naming_the_record(cleaned, tmp_path, capsys):
+    """Decisions made for THIS take (its digest) with the record of another take: the record is refused.
+
+    Before the record kept its take's digest, the other take's cleaned values were written into this one.
+    """
+    d, inp = cleaned
+    other, take = _other_take(tmp_path)
+    record = d / "walk.clean.npz"
+    found = D.changes(CleanResult.load(record), mocapkit.load(inp))  # the record's changes, listed against its take
+    dec = tmp_path / "d.json"
+    dec.write_text(json.dumps(D.template(take, found, take=other.name)))
+    out = tmp_path / "o.npz"
+    assert main(["clean", str(other), "-o", str(out), "--decisions", str(dec), "--record", str(record)]) == 2
+    err = capsys.readouterr().err
+    assert one_error_line(err) and f"{record}: the clean record is of another take" in err, err
+    assert not out.exists() and not (tmp_path / "o.clean.npz").exists()
+    assert CleanResult.load(record).take_sha256 == D.take_digest(mocapkit.load(inp)) != D.take_digest(take)
+
+
+def test_a_record_of_another_length_is_blamed_not_the_decisions(cleaned, tmp_path, capsys):
+    """The record is checked against the take before the decisions against the record."""
+    d, inp = cleaned
+    other, take = _other_take(tmp_path, n_frames=200)
+    doc = D.template(take, [], take=other.name, decisions={})
+    doc["decisions"] = {"repair:lfemur:10-20": D.REJECT}  # not a change of the record: the record is wrong first
+    dec = tmp_path / "d.json"
+    dec.write_text(json.dumps(doc))
+    out = tmp_path / "o.npz"
+    assert main(["clean", str(other), "-o", str(out), "--decisions", str(dec), "--record", str(d / "walk.clean.npz")]) == 2
+    err = capsys.readouterr().err
+    assert one_error_line(err) and f"{d / 'walk.clean.npz'}: the clean record is of another take (" in err, err
+    assert str(dec) not in err and not out.exists()
+
+
+def test_a_record_written_before_the_take_digest_still_applies_with_a_note(cleaned, tmp_path, capsys):
+    """Decisions from an earlier version's report keep applying to its record (docs/upgrading.md), said once."""
+    d, inp = cleaned
+    dec, ids = _decide(cleaned, tmp_path)
+    with np.load(d / "walk.clean.npz") as data:
+        arrays = {k: data[k] for k in data.files}
+    meta = json.loads(str(arrays["meta"]))
+    meta.pop("take_sha256", None)
+    arrays["meta"] = np.array(json.dumps(meta))
+    old = tmp_path / "old.clean.npz"
+    np.savez_compressed(old, **arrays)
+    out = tmp_path / "o.npz"
+    rc = main(["clean", str(inp), "-o", str(out), "--decisions", str(dec), "--record", str(old)])
+    text = capsys.readouterr().out
+    assert rc == 0, text
+    assert f"note: {old} was written by an earlier mocapkit and keeps no digest of its take" in text
+    _check_output(out, inp, old, {ids[0]: D.REJECT})

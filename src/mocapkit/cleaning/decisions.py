@@ -42,10 +42,15 @@ Small JSON, written by the report's "download decisions" button
      "decisions": {"repair:lfemur:120-145": "reject", ...}}
 
 ``take.sha256`` is :func:`take_digest` of the input take: decisions made for
-another take are refused. A change the file does not name is accepted (the
-report's default); an id that is not a change of this cleaning is refused.
-Every refusal is one line naming the file
-(:class:`~mocapkit.errors.MocapFormatError`).
+another take are refused. The record keeps the same digest of the take it
+cleaned (:attr:`CleanResult.take_sha256`): a record of another take, even one
+of the same rig and length, is refused too (:func:`check_record`), before the
+decisions are checked against it, so that the refusal names the record. A
+change the file does not name is accepted (the report's default); an id that
+is not a change of this cleaning is refused. Every refusal is one line naming
+the file (:class:`~mocapkit.errors.MocapFormatError`). A record written before
+the digest was kept is still applied (decisions downloaded from its report keep
+working after an upgrade), checked by rig, length and rate only.
 
 Examples
 --------
@@ -79,7 +84,7 @@ from .ik import contact_segments
 from .ssa.cues import cause_names
 
 __all__ = ["FORMAT", "ACCEPT", "REJECT", "Change", "changes", "apply", "take_digest", "template", "read_decisions",
-           "check_decisions", "accepted_cells", "flag_segments", "review"]
+           "check_decisions", "check_record", "record_problem", "accepted_cells", "flag_segments", "review"]
 
 FORMAT = "mocapkit.decisions/1"
 ACCEPT, REJECT = "accept", "reject"
@@ -98,6 +103,9 @@ class Change:
     and cleaned rotation; NaN where the input was missing in every frame of
     the change); ``reason``: why the step changed the cells (missing, flagged
     with its MDM and the rules that flagged it, noise level).
+    A cell counts as missing as :meth:`Motion.missing` says: the root's cell
+    also where only its position was missing (its observed rotation is kept,
+    so an angle there would only measure rounding).
     """
 
     id: str
@@ -165,16 +173,45 @@ def _cleaned(result) -> dict:
     return out
 
 
-def _check_take(original: Motion, result) -> None:
+def record_problem(original: Motion, result) -> str:
+    """Why ``result`` is not the record of a cleaning of ``original``; "" when it is, as far as the record tells.
+
+    Another rig (joint names), another length or rate, or, for a record that keeps the
+    :func:`take_digest` of the take it cleaned (:attr:`CleanResult.take_sha256`), other samples: a
+    record of another take of the same rig and length would otherwise put that take's cleaned values
+    into this one. A record written before the digest was kept (``take_sha256`` "") can only be
+    checked by rig, length and rate.
+    """
     if not isinstance(original, Motion):
         raise TypeError(f"original must be a mocapkit Motion, got {type(original).__name__}")
-    name = original.name or "the take"
     if tuple(original.skeleton.joint_names) != tuple(result.joint_names):
-        raise MocapError(f"{name}: the clean record is of another rig ({len(result.joint_names)} joints "
-                         f"{', '.join(result.joint_names[:3])}, ...), not this take's")
+        return (f"the clean record is of another rig ({len(result.joint_names)} joints "
+                f"{', '.join(result.joint_names[:3])}, ...), not this take's")
     if original.num_frames != result.num_frames or not math.isclose(original.fps, result.fps):
-        raise MocapError(f"{name}: the clean record is of another take ({result.num_frames} frames at "
-                         f"{result.fps:g} fps; this take has {original.num_frames} at {original.fps:g})")
+        return (f"the clean record is of another take ({result.num_frames} frames at "
+                f"{result.fps:g} fps; this take has {original.num_frames} at {original.fps:g})")
+    digest = getattr(result, "take_sha256", "")
+    if digest and digest != take_digest(original):
+        return (f"the clean record is of another take (the same rig, {result.num_frames} frames at "
+                f"{result.fps:g} fps, but other samples), not of {original.name or 'this take'}")
+    return ""
+
+
+def check_record(original: Motion, result, path) -> None:
+    """Refuse, in one line naming the record ``path``, a record that is not of ``original`` (:func:`record_problem`).
+
+    Checked before the decisions are checked against the record: a record of another take makes every
+    decision look wrong, and the line then names the file that is.
+    """
+    problem = record_problem(original, result)
+    if problem:
+        raise MocapFormatError(path, problem)
+
+
+def _check_take(original: Motion, result) -> None:
+    problem = record_problem(original, result)
+    if problem:
+        raise MocapError(f"{original.name or 'the take'}: {problem}")
 
 
 def _deg(x: float) -> str:
@@ -238,6 +275,7 @@ def changes(result, original: Motion) -> list[Change]:
     out = []
     for j, a, b, code in runs:
         ang = _angles_deg(original.rotations[a:b + 1, j], cleaned[a:b + 1, j])
+        ang[missing[a:b + 1, j]] = np.nan  # a cell missing its root position too: it was missing, not turned
         size = float(np.nanmax(ang)) if np.isfinite(ang).any() else float("nan")
         steps = _step_name(code).split("+")
         out.append(Change(

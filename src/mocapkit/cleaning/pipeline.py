@@ -177,6 +177,10 @@ class CleanResult:
     ``causes``: uint8 (F, J), which of detect's rules flagged each cell (bits of
     :data:`~mocapkit.cleaning.ssa.cues.CAUSES`, 0 where not flagged; None when
     detect did not run or for a record written without them).
+    ``take_sha256``: :func:`mocapkit.cleaning.decisions.take_digest` of the take
+    that was cleaned, so that a record is applied to no other take (a record of
+    another take of the same rig and length would put that take's cleaned values
+    in); "" for a record written before it was kept.
     """
 
     motion: Motion | None
@@ -195,6 +199,7 @@ class CleanResult:
     samples: dict | None = None
     calibration: tuple = ()
     causes: np.ndarray | None = None
+    take_sha256: str = ""
 
     def __repr__(self) -> str:
         return (f"CleanResult({self.motion!r}, {int(self.flags.sum())} flagged, {int(self.filled.sum())} filled, "
@@ -231,6 +236,7 @@ class CleanResult:
             "notes": list(self.notes),
             "params": self.params,
             "calibration": [dataclasses.asdict(c) for c in self.calibration],
+            "take_sha256": self.take_sha256,
         }
         samples = {}
         if self.motion is not None:  # the cleaned values of the changed cells: decisions apply them exactly
@@ -308,6 +314,7 @@ class CleanResult:
                          ("cleaned_rotations", "cleaned_root", "cleaned_translations") if k in data} or None,
                 calibration=tuple(CalibrationPose(**c) for c in meta.get("calibration", [])),
                 causes=data["causes"].astype(np.uint8) if "causes" in data else None,
+                take_sha256=str(meta.get("take_sha256") or ""),
             )
         except (OSError, ValueError, KeyError, TypeError) as e:
             raise MocapFormatError(path, f"not a mocapkit clean file ({e})") from None
@@ -680,6 +687,7 @@ def clean(
     CleanResult
     """
     from . import precompile, ssa
+    from .decisions import take_digest
 
     _check(motion)
     steps = parse_steps(steps)
@@ -802,4 +810,5 @@ def clean(
         motion=cur, mdm=mdm, flags=flags, filled=filled, repaired=repaired, denoised=denoised, noise=noise,
         joint_names=tuple(motion.skeleton.joint_names), fps=float(motion.fps), steps=tuple(records),
         notes=tuple(notes), params=params, detection=det, calibration=tuple(poses), causes=causes,
+        take_sha256=take_digest(motion),
     )

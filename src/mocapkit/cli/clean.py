@@ -195,6 +195,9 @@ def _print_decided(inp, out, decisions, record, report, png, original, res):
                   f"{len(found) - len(rejected)} of {plural(len(found), 'change')} accepted, {len(rejected)} rejected; "
                   f"{plural(int(cells.sum()), 'joint sample')} of {res.changed.size} changed, every other sample is "
                   f"{inp.name}'s")
+    if record is not None and not res.take_sha256:
+        console.print(f"note: {record} was written by an earlier mocapkit and keeps no digest of its take: it was "
+                      "checked by rig, length and rate only; make sure it is this take's")
     for c in rejected[:12]:
         console.print(f"  rejected {c}")
     if len(rejected) > 12:
