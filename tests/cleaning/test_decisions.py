@@ -74,7 +74,7 @@ def test_change_sizes_and_reasons(result, take, found):
     cleaned = result.motion
     for c in found:
         q0, q1 = take.rotations[c.first:c.last + 1, c.joint_index], cleaned.rotations[c.first:c.last + 1, c.joint_index]
-        ok = ~np.isnan(q0).any(axis=-1)
+        ok = ~take.missing()[c.first:c.last + 1, c.joint_index]  # the root's cell: its position missing too
         if ok.any():
             dot = np.clip(np.abs(np.sum(q0[ok] * q1[ok], axis=-1)), 0, 1)
             assert c.max_deg == pytest.approx(np.degrees(2 * np.arccos(dot)).max(), abs=1e-9)
@@ -279,3 +279,33 @@ def test_a_fill_change_counts_its_missing_frames_exactly(take, found):
 def test_a_record_of_the_take_at_another_rate_is_refused(result, take):
     with pytest.raises(MocapError, match="another take"):
         D.apply(dataclasses.replace(take, fps=2 * take.fps), result, {})
+
+
+def test_a_gap_of_the_root_position_alone_was_missing_and_keeps_the_root_rotation(result, take, found):
+    """Frames missing only the root's position: the root's observed rotation comes back bit for bit, and the
+    fill is listed as "was missing", not as a turn of a few rounding errors (1.7e-06 deg before)."""
+    assert np.isfinite(take.rotations[ROOT_GAP, 0]).all()  # the fixture's root gap is of the position alone
+    seen = np.isfinite(take.rotations[:, 0]).all(axis=-1) & ~result.repaired[:, 0] & ~result.denoised[:, 0]
+    assert _same_bits(result.motion.rotations[seen, 0], take.rotations[seen, 0])
+    gap = [c for c in found if c.joint_index == 0 and c.first <= ROOT_GAP.start and ROOT_GAP.stop - 1 <= c.last]
+    assert len(gap) == 1 and np.isnan(gap[0].max_deg) and "was missing" in str(gap[0]), gap
+
+
+def test_a_record_of_another_take_of_the_same_length_and_rig_is_refused(result, take, found, tmp_path):
+    """The record keeps its take's digest: a take differing in one bit of one sample is another take."""
+    rot = np.array(take.rotations)
+    rot[5, 3, 1] = np.nextafter(rot[5, 3, 1], np.inf)
+    other = dataclasses.replace(take, rotations=rot)
+    rec = CleanResult.load(result.save(tmp_path / "walk.clean.npz"))
+    assert rec.take_sha256 == result.take_sha256 == D.take_digest(take)
+    for r in (result, rec):
+        with pytest.raises(MocapError, match="the clean record is of another take .*other samples"):
+            D.apply(other, r, {})
+        with pytest.raises(MocapError, match="another take"):
+            D.changes(r, other)
+        with pytest.raises(MocapFormatError, match=r"walk\.clean\.npz: the clean record is of another take"):
+            D.check_record(other, r, tmp_path / "walk.clean.npz")
+    D.check_record(take, rec, tmp_path / "walk.clean.npz")  # its own take passes
+    # a record written before the digest was kept: checked by rig, length and rate only (docs/upgrading.md)
+    old = dataclasses.replace(rec, take_sha256="")
+    assert D.record_problem(other, old) == "" and [c.id for c in D.changes(old, take)] == [c.id for c in found]

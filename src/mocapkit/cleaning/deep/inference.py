@@ -620,13 +620,16 @@ def fill_gaps(motion: Motion, model=None, denoiser=None, smooth: bool = True, me
         root_pos = lerp_fill(motion.root_positions)
         rot = np.array(res.rotations)
         q0 = np.array(motion.rotations[:, 0])
-        seen = ~missing[:, 0]
+        # the root's rotation and position have gaps of their own: a frame missing only its position keeps its
+        # observed rotation bit for bit (and anchors the rotation's interpolation)
+        gap = np.isnan(q0).any(axis=-1)
+        seen = ~gap
         if seen.any():  # the observed root rotations in one hemisphere, then each component interpolated
             q0[seen] = R.quaternion_continuity(q0[seen])
             q0 = R.quaternion_normalize(lerp_fill(q0))
         else:
             q0 = R.identity((len(q0),))
-        rot[:, 0] = np.where(missing[:, :1], q0, motion.rotations[:, 0])
+        rot[:, 0] = np.where(gap[:, None], q0, motion.rotations[:, 0])
         res = dataclasses.replace(res, rotations=rot, root_positions=root_pos)
     return res
 
