@@ -197,6 +197,17 @@ def clean_file(
         except MocapError as exc:
             msg = str(exc)
             raise MocapError(msg if str(inp) in msg else f"{inp}: {msg}") from None
+    if out.suffix.lower() == ".amc":  # sizes, report and record say what the AMC holds (dec.as_written)
+        from .io.amc_writer import _file_dofs
+        from .io.asfamc import amc_held_rotations
+
+        dofs = _file_dofs(m, asf, inp)  # the layout io.save writes below
+        try:
+            res = dec.as_written(res, m, lambda take: amc_held_rotations(take, dofs))
+        except MocapFormatError:
+            raise
+        except MocapError as exc:  # a record without its cleaned samples
+            raise MocapError(f"{record}: {exc}") from None
     cleaned, changed = res.motion, res.changed
     chosen = None
     if doc is not None:

@@ -238,3 +238,40 @@ def test_a_record_written_before_the_take_digest_still_applies_with_a_note(clean
     assert rc == 0, text
     assert f"note: {old} was written by an earlier mocapkit and keeps no digest of its take" in text
     _check_output(out, inp, old, {ids[0]: D.REJECT})
+
+
+def _deg(p, q):
+    return np.degrees(2 * np.arccos(np.clip(np.abs(np.sum(p * q, axis=-1)), 0, 1)))
+
+
+@pytest.mark.parametrize("seed", [5, 11])
+def test_an_amc_output_reports_and_records_what_the_file_holds(tmp_path, capsys, seed):
+    """A bone with fewer than three dofs holds only its dofs' part of a repair: the change list's sizes and the
+    record's cleaned values are those of the written file (before, up to several degrees off)."""
+    import shutil
+
+    shutil.copy(samples.path("12.asf"), tmp_path / "bad.asf")
+    bad, _, _ = corrupt.real_errors(mocapkit.load(samples.path("12_walk.amc")), n_errors=4, seed=seed)
+    inp, out = tmp_path / "bad.amc", tmp_path / "out.amc"
+    mocapkit.save(bad, inp)
+    assert main(["clean", str(inp), "-o", str(out), "--report", str(tmp_path / "r.html")]) == 0, capsys.readouterr()
+    take, got, res = mocapkit.load(inp), mocapkit.load(out), CleanResult.load(tmp_path / "out.clean.npz")
+    moved = _deg(take.rotations, got.rotations)
+    found = D.changes(res, take)
+    few = {j for j, d in enumerate(mocapkit.io.asfamc.amc_dofs(take.skeleton)) if 0 < len(d) < 3}
+    assert any(c.joint_index in few and c.max_deg > 1 for c in found)  # the case the file cannot hold whole
+    for c in found:  # the file's numbers have 6 decimals (degrees)
+        assert c.max_deg == pytest.approx(moved[c.first:c.last + 1, c.joint_index].max(), abs=1e-4), c
+    assert _deg(res.samples["rotations"], got.rotations[res.changed]).max() < 1e-4
+    shown = {c["id"]: c["max_deg"] for c in review_block(tmp_path / "r.html")["changes"]}
+    assert shown == {c.id: round(c.max_deg, 3) for c in found}
+    # the undo round trip stays exact: every change rejected gives the input file back, every change accepted
+    # the cleaning's own file, byte for byte
+    doc = review_block(tmp_path / "r.html")["decisions"]
+    for choice, want in ((D.REJECT, inp), (D.ACCEPT, out)):
+        doc["decisions"] = {k: choice for k in doc["decisions"]}
+        (tmp_path / "d.json").write_text(json.dumps(doc))
+        again = tmp_path / f"{choice}.amc"
+        assert main(["clean", str(inp), "-o", str(again), "--decisions", str(tmp_path / "d.json"),
+                     "--record", str(tmp_path / "out.clean.npz")]) == 0
+        assert again.read_bytes() == want.read_bytes()

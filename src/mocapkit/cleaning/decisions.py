@@ -84,7 +84,8 @@ from .ik import contact_segments
 from .ssa.cues import cause_names
 
 __all__ = ["FORMAT", "ACCEPT", "REJECT", "Change", "changes", "apply", "take_digest", "template", "read_decisions",
-           "check_decisions", "check_record", "record_problem", "accepted_cells", "flag_segments", "review"]
+           "check_decisions", "check_record", "record_problem", "as_written", "accepted_cells", "flag_segments",
+           "review"]
 
 FORMAT = "mocapkit.decisions/1"
 ACCEPT, REJECT = "accept", "reject"
@@ -206,6 +207,40 @@ def check_record(original: Motion, result, path) -> None:
     problem = record_problem(original, result)
     if problem:
         raise MocapFormatError(path, problem)
+
+
+#: a cleaned rotation within this angle of what the output file holds is kept bit for bit (degrees)
+HELD_TOLERANCE_DEG = 1e-9
+
+
+def as_written(result, original: Motion, held):
+    """``result`` with each changed cell's cleaned rotation as the output file holds it.
+
+    ``held(motion) -> (F, J, 4)``: the rotations a file written from ``motion`` reads back as, e.g.
+    :func:`mocapkit.io.asfamc.amc_held_rotations` for an AMC, whose bones with fewer than three dofs
+    cannot hold every rotation. The changes' sizes (:func:`changes`), the report and the record then
+    say what the file holds, not a rotation it could not. A cleaned rotation within
+    :data:`HELD_TOLERANCE_DEG` of what the file holds is kept bit for bit: a record made for such a
+    file applies unchanged (accepting every change gives the same output as the cleaning did), and a
+    bone with three dofs keeps its cleaned values. Every other sample is left as it is.
+    """
+    cells = result.changed
+    if not cells.any():
+        return result
+    vals = _cleaned(result)
+    rot = np.array(original.rotations)
+    rot[cells] = vals["rotations"]
+    new = np.asarray(held(dataclasses.replace(original, rotations=rot)))[cells]
+    kept = ~(_angles_deg(vals["rotations"], new) > HELD_TOLERANCE_DEG)  # NaN (a missing value): kept
+    new = np.where(kept[:, None], vals["rotations"], new)
+    out = result
+    if result.samples is not None:
+        out = dataclasses.replace(out, samples={**result.samples, "rotations": new})
+    if result.motion is not None:
+        full = np.array(result.motion.rotations)
+        full[cells] = new
+        out = dataclasses.replace(out, motion=dataclasses.replace(result.motion, rotations=full))
+    return out
 
 
 def _check_take(original: Motion, result) -> None:

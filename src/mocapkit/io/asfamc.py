@@ -45,7 +45,8 @@ from .. import rotations as R
 from ..errors import MocapFormatError, SkeletonError
 from ..motion import MAX_JOINTS, Motion, Skeleton, check_fps
 
-__all__ = ["read_asf", "read_amc", "asf_dofs", "amc_dofs", "amc_header", "find_asf", "pick_asf", "fps_from_name", "DEFAULT_FPS"]
+__all__ = ["read_asf", "read_amc", "asf_dofs", "amc_dofs", "amc_held_rotations", "amc_header", "find_asf", "pick_asf",
+           "fps_from_name", "DEFAULT_FPS"]
 
 DEFAULT_FPS = 120.0
 """Frame rate used when neither ``fps=`` nor the file name gives one (CMU captured at 120 Hz)."""
@@ -365,6 +366,41 @@ def amc_dofs(skeleton: Skeleton) -> tuple[tuple[str, ...], ...]:
         rot = ["r" + c[0].lower() for c in chans if c.endswith("rotation")][::-1]
         dofs.append(tuple(pos + rot))
     return tuple(dofs)
+
+
+def amc_held_rotations(motion: Motion, dofs=None) -> np.ndarray:
+    """The local rotations (F, J, 4) an AMC written for ``motion`` reads back as: each bone's rotation on its dofs.
+
+    An ASF bone with fewer than three rotation dofs cannot hold every rotation: the AMC writer
+    (:mod:`mocapkit.io.amc_writer`) writes the bone's dof angles and drops the rest, and the file reads
+    back as the rotation those angles make. This is that rotation, made the writer's way and read
+    back the reader's way without a file (so without the text's rounding to its decimals): what a
+    cleaning written as AMC measures and records its changes with. ``dofs``: the AMC layout the
+    writer uses (default :func:`amc_dofs`). Joints without rotation dofs, and cells with a missing
+    (NaN) value, are returned as given. ``motion.skeleton`` must come from an ASF (``axes`` set).
+    """
+    import dataclasses
+
+    from .amc_writer import _values
+
+    sk = motion.skeleton
+    if sk.axes is None:
+        raise ValueError("an AMC holds the rotations of a skeleton read from an ASF; this one has no ASF axes")
+    dofs = amc_dofs(sk) if dofs is None else tuple(tuple(d) for d in dofs)
+    rot = np.asarray(motion.rotations, dtype=np.float64)
+    seen = np.isfinite(rot).all(axis=-1)
+    safe = np.where(seen[..., None], rot, R.identity())  # a NaN would run through the writer's unwrapping
+    values = _values(dataclasses.replace(motion, rotations=safe, root_positions=np.zeros((len(rot), 3))), dofs,
+                     radians=False)
+    out = np.array(rot)
+    cols = [v for v in values if v is not None]
+    if not cols:
+        return out
+    held, _ = _to_motion_arrays(np.concatenate(cols, axis=1), sk, _Layout(dofs, False), radians=False)
+    turning = np.array([any(d[0] == "r" for d in jd) for jd in dofs])
+    cells = seen & turning[None, :]
+    out[cells] = held[cells]
+    return out
 
 
 # -- finding the skeleton, the frame rate -----------------------------------------------
