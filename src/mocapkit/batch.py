@@ -149,7 +149,7 @@ def clean_file(
     from .cleaning import decisions as dec
     from .cleaning.pipeline import STEPS, CleanResult, clean, clean_path, parse_steps
     from .io.outputs import check_outputs, removed_on_failure
-    from .io.takes import check_asf, load_motion, load_take
+    from .io.takes import check_asf, file_first_frame, load_motion, load_take
     from .markerset import MarkerSet
 
     inp, out = Path(inp), Path(out)
@@ -234,7 +234,8 @@ def clean_file(
 
             write_report(report, m, cleaned, mdm=res.mdm, flags=res.flags, changed=changed,
                          title=f"{inp.name}: cleaned" + (f" ({Path(decisions).name} applied)" if doc else ""),
-                         review=dec.review(m, res, take=inp.name, output=out.name, decisions=chosen))
+                         review=dec.review(m, res, take=inp.name, output=out.name, decisions=chosen,
+                                           first_frame=file_first_frame(inp)))
         if png is not None:
             from .report.summary import plot_summary
 

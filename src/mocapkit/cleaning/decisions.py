@@ -85,7 +85,7 @@ from .ssa.cues import cause_names
 
 __all__ = ["FORMAT", "ACCEPT", "REJECT", "Change", "changes", "apply", "take_digest", "template", "read_decisions",
            "check_decisions", "check_record", "record_problem", "as_written", "accepted_cells", "flag_segments",
-           "review"]
+           "frame_note", "review"]
 
 FORMAT = "mocapkit.decisions/1"
 ACCEPT, REJECT = "accept", "reject"
@@ -482,12 +482,29 @@ def flag_segments(result) -> list[dict]:
     return out
 
 
-def review(original: Motion, result, take: str = "", output: str = "", decisions: Mapping[str, str] | None = None) -> dict:
-    """What the HTML report needs to let a person decide: ``{"changes": [...], "decisions": document, "flags": [...]}``.
+def frame_note(take: str = "", first: int | None = None) -> str:
+    """How the frame numbers of changes, flags and ids relate to the input file's own.
+
+    They are 0-based indexes into the take (frame 0 is its first frame) whatever the file says: the
+    change ids of decisions files keep them. ``first``: the number the file ``take`` gives its first
+    frame (an AMC's, a TRC's ``Frame#``, a C3D's first frame; None for a file that does not number
+    them, :func:`mocapkit.io.takes.file_first_frame`), said when it is not 0.
+    """
+    text = "frame numbers count from 0, the take's first frame"
+    if first is not None and first != 0:
+        text += f"; {take or 'the input'} numbers its frames from {first}: its frame {first + 10} is frame 10 here"
+    return text
+
+
+def review(original: Motion, result, take: str = "", output: str = "", decisions: Mapping[str, str] | None = None,
+           first_frame: int | None = None) -> dict:
+    """What the HTML report needs to let a person decide: ``{"changes": [...], "decisions": document, "flags": [...],
+    "frames": note}``.
 
     ``changes``: :meth:`Change.as_dict` of :func:`changes`; ``decisions``: :func:`template`
-    with the choices of ``decisions`` (every other change accepted); ``flags``: :func:`flag_segments`.
+    with the choices of ``decisions`` (every other change accepted); ``flags``: :func:`flag_segments`;
+    ``frames``: :func:`frame_note` for the input file ``take`` whose first frame is numbered ``first_frame``.
     """
     found = changes(result, original)
     return {"changes": [c.as_dict() for c in found], "decisions": template(original, found, take, output, decisions),
-            "flags": flag_segments(result)}
+            "flags": flag_segments(result), "frames": frame_note(take, first_frame)}

@@ -10,7 +10,7 @@ import typer
 
 from ..errors import MocapError, MocapFormatError
 from .common import (STEPS_HELP, asf_option, check_executor, console, context_option, executor_option, guard,
-                     overwrite_option, plural)
+                     overwrite_option, percent, plural)
 
 
 def _steps(text: str) -> list[str]:
@@ -115,7 +115,7 @@ def clean(
                   + f": {plural(res.num_frames, 'frame')} @ {m.fps:g} fps, "
                   + ("review mode (--steps detect): flags only, the take unchanged" if review else
                      f"{int(res.changed.sum())} of {plural(res.changed.size, 'joint sample')} changed "
-                     f"({100.0 * (1 - res.changed.mean()):.1f} % untouched)"))
+                     f"({percent(int((~res.changed).sum()), res.changed.size)} % untouched)"))
     said = " ".join(s.note for s in res.steps)
     # a step's fallback or its model's licence: a warning, word for word as denoise and fill say it, and only there
     warned = [note for note in res.notes if note and note in said]
@@ -136,7 +136,18 @@ def clean(
                           f"({a / m.fps:.2f}-{(last + 1) / m.fps:.2f} s){why}")
         if len(segs) > 12:
             console.print(f"    ... and {len(segs) - 12} more (all in {clean_path(out)})")
+        _print_frame_note(inp, bool(segs))
     _print_reference(ref, reference, original, m)
+
+
+def _print_frame_note(inp: Path, shown: bool, take=None) -> None:
+    """After frame numbers printed for a file that numbers its frames itself (AMC, TRC, C3D): how the two relate."""
+    from ..cleaning.decisions import frame_note
+    from ..io.takes import file_first_frame
+
+    first = file_first_frame(inp, take)
+    if shown and first not in (None, 0):
+        console.print(f"    {frame_note(inp.name, first)}")
 
 
 def _check_out_early(inp: Path, out: Path) -> None:
@@ -202,6 +213,7 @@ def _print_decided(inp, out, decisions, record, report, png, original, res):
         console.print(f"  rejected {c}")
     if len(rejected) > 12:
         console.print(f"  ... and {len(rejected) - 12} more rejected")
+    _print_frame_note(inp, bool(rejected))
     return dec.apply(original, res, choice)
 
 
@@ -236,6 +248,7 @@ def _clean_marker_take(inp: Path, out: Path, *, report, png, overwrite: bool, no
         console.print(f"    {fix.kind:5s} {fix.marker:16s} frames {fix.start}-{fix.end - 1}{other} ({fix.size_text})")
     if len(res.fixes) > 12:
         console.print(f"    ... and {len(res.fixes) - 12} more (all in {clean_path(out)})")
+    _print_frame_note(inp, bool(res.fixes), take)
     return True
 
 

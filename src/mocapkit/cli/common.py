@@ -17,6 +17,7 @@ from rich.console import Console
 __all__ = [
     "console",
     "guard",
+    "percent",
     "plural",
     "print_fields",
     "print_table",
@@ -91,6 +92,23 @@ def guard(outputs: Iterable, inputs: Iterable, overwrite: bool = False) -> None:
 def plural(n: int, word: str, many: str | None = None) -> str:
     """``"1 joint"``, ``"2 joints"`` (``many``: an irregular plural)."""
     return f"{n} {word if n == 1 else (many or word + 's')}"
+
+
+def percent(part: int, whole: int) -> str:
+    """``part`` of ``whole`` as a percentage that never rounds to 100 or 0 unless it is: "99.98", "> 99.999".
+
+    One decimal where that tells the share apart from 100 and from 0, more where it does not (14 of
+    85,312 samples changed read "100.0 % untouched", as if nothing had), up to three, then "> 99.999"
+    or "< 0.001".
+    """
+    if whole <= 0 or part in (0, whole):
+        return "100" if whole > 0 and part == whole else "0"
+    share = 100.0 * part / whole
+    for digits in (1, 2, 3):
+        text = f"{share:.{digits}f}"
+        if 0.0 < float(text) < 100.0:
+            return text
+    return "> 99.999" if share > 50 else "< 0.001"
 
 
 def print_fields(rows: Iterable[tuple[str, str]]) -> None:

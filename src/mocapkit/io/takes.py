@@ -27,7 +27,7 @@ from typing import Iterable
 
 from ..errors import MissingFileError, MocapFormatError
 
-__all__ = ["load_take", "load_motion", "check_asf", "asf_of", "asf_for_output", "place_asf"]
+__all__ = ["load_take", "load_motion", "check_asf", "asf_of", "asf_for_output", "place_asf", "file_first_frame"]
 
 
 def _is_amc(path: os.PathLike | str) -> bool:
@@ -144,3 +144,31 @@ def place_asf(dst: os.PathLike | str | None, source: os.PathLike | str | None) -
     data = Path(source).read_bytes()
     with atomic_write(Path(dst), "wb") as fh:
         fh.write(data)
+
+
+def file_first_frame(path: os.PathLike | str, take=None) -> int | None:
+    """The number the input file gives its first frame, or None for a file that does not number its frames.
+
+    An AMC numbers each frame (usually from 1), a TRC's ``Frame#`` column and a C3D's header give the
+    first frame's number (:attr:`MarkerSource.first_frame` of ``take.source``, from ``take`` when it is the marker capture
+    read from ``path``); a BVH or an npz of a motion does not number them. mocapkit's frames are
+    0-based indexes into the take whatever the file says (the change ids of the decisions files keep
+    them), and the summary and report say how they relate to this number.
+    """
+    from ..markerset import MarkerSet
+
+    if isinstance(take, MarkerSet):
+        src = take.source
+        return None if src is None else int(src.first_frame)
+    if not _is_amc(path):
+        return None
+    from .asfamc import amc_header
+
+    try:
+        with open(path, "rb") as fh:
+            data = fh.read(1 << 20)  # the header and the first frame's number
+    except OSError:
+        return None
+    at, _, _ = amc_header(data)
+    token = data[at:].split(b"\n", 1)[0].split(b"#", 1)[0].strip()
+    return int(token) if token.isdigit() else None

@@ -25,7 +25,8 @@
   el("h2", { text: "Changes (" + list.length + ")" }, sec);
   el("p", { "class": "note", text: "Every change the cleaning made, one joint over a run of frames. Accept or " +
     "reject each one, then download the decisions and run: mocapkit clean " + (doc.take.name || "IN") +
-    " -o OUT --decisions " + fileName() + " (rejected changes get the input's samples back exactly)." }, sec);
+    " -o OUT --decisions " + fileName() + " (rejected changes get the input's samples back exactly)." +
+    (R.frames ? " " + R.frames.charAt(0).toUpperCase() + R.frames.slice(1) + "." : "") }, sec);
   var bar = el("div", { "class": "toolbar" }, sec);
   var allAcc = el("button", { type: "button", id: "accept-all", text: "Accept all" }, bar);
   var allRej = el("button", { type: "button", id: "reject-all", text: "Reject all" }, bar);

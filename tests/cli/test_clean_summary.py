@@ -1,0 +1,68 @@
+"""`mocapkit clean`'s summary: the share of untouched samples, and how its frame numbers relate to the file's."""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import re
+import shutil
+
+import numpy as np
+import pytest
+
+import mocapkit
+from mocapkit import corrupt, samples
+from mocapkit.cleaning import decisions as D
+from mocapkit.cli import main
+
+
+@pytest.mark.parametrize("part, whole, text", [
+    (85298, 85312, "99.98"),  # 14 of 85,312 changed: "100.0" before
+    (999_999, 1_000_000, "> 99.999"), (1, 1_000_000, "< 0.001"), (14, 85312, "0.02"),
+    (1, 3, "33.3"), (5, 5, "100"), (0, 5, "0"),
+])
+def test_a_share_never_rounds_to_all_or_nothing(part, whole, text):
+    from mocapkit.cli.common import percent
+
+    assert percent(part, whole) == text
+
+
+def test_one_changed_sample_does_not_read_as_all_untouched(tmp_path, capsys):
+    m = mocapkit.load(samples.path("12_walk.amc"))
+    root = np.array(m.root_positions)
+    root[100] = np.nan  # one root cell to fill, nothing else changed
+    inp = tmp_path / "gap.npz"
+    mocapkit.save(dataclasses.replace(m, root_positions=root), inp)
+    assert main(["clean", str(inp), "-o", str(tmp_path / "o.npz"), "--steps", "fill"]) == 0
+    out = capsys.readouterr().out
+    assert f"1 of {m.num_frames * m.num_joints} joint samples changed (99.99 % untouched)" in out, out
+
+
+def _amc_frame_labels(path) -> list[int]:
+    return [int(s) for s in (ln.strip() for ln in open(path, encoding="latin-1")) if re.fullmatch(r"\d+", s)]
+
+
+def test_the_summary_and_report_say_how_frames_relate_to_an_amcs_numbers(tmp_path, capsys):
+    """Frames are 0-based take indexes everywhere (ids, JSON, record, report); an AMC numbers them from 1, said."""
+    shutil.copy(samples.path("12.asf"), tmp_path / "bad.asf")
+    bad, _, _ = corrupt.real_errors(mocapkit.load(samples.path("12_walk.amc")), n_errors=4, seed=11)
+    inp, out, rep = tmp_path / "bad.amc", tmp_path / "out.amc", tmp_path / "r.html"
+    mocapkit.save(bad, inp)
+    assert _amc_frame_labels(inp)[0] == 1
+    assert main(["clean", str(inp), "-o", str(out), "--report", str(rep)]) == 0
+    text = capsys.readouterr().out
+    note = "frame numbers count from 0, the take's first frame; bad.amc numbers its frames from 1: its frame 11 is frame 10 here"
+    assert f"\n    {note}\n" in text, text
+    first, last = map(int, re.search(r"flagged \w+ +frames (\d+)-(\d+)", text).groups())
+    block = json.loads(re.search(r'id="mocapkit-review">(.*?)</script>', rep.read_text(), re.S).group(1))
+    assert block["frames"] == note
+    # the indexes are the take's: index i is the AMC's frame i + 1
+    labels = _amc_frame_labels(out)
+    assert (labels[first], labels[last]) == (first + 1, last + 1)
+    # a BVH numbers no frames: nothing to say beyond the count from 0
+    bvh = tmp_path / "bad.bvh"
+    mocapkit.save(bad, bvh)
+    assert main(["clean", str(bvh), "-o", str(tmp_path / "o.bvh"), "--report", str(tmp_path / "b.html")]) == 0
+    assert "numbers its frames" not in capsys.readouterr().out
+    block = json.loads(re.search(r'id="mocapkit-review">(.*?)</script>', (tmp_path / "b.html").read_text(), re.S).group(1))
+    assert block["frames"] == D.frame_note("bad.bvh") == "frame numbers count from 0, the take's first frame"
