@@ -194,7 +194,7 @@ def record_problem(original: Motion, result) -> str:
     digest = getattr(result, "take_sha256", "")
     if digest and digest != take_digest(original):
         return (f"the clean record is of another take (the same rig, {result.num_frames} frames at "
-                f"{result.fps:g} fps, but other samples), not of {original.name or 'this take'}")
+                f"{result.fps:g} fps, but other samples than this take's)")
     return ""
 
 
