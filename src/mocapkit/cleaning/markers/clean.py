@@ -68,7 +68,10 @@ class MarkerCleanResult:
     original : MarkerSet
         The input.
     filled, spikes, swapped : bool arrays (F, M)
-        Samples filled (gaps and removed spikes), found to be spikes, re-labelled.
+        Samples of gaps filled; samples found to be spikes (removed, and
+        replaced by a fill where one reached them); samples re-labelled.
+        ``filled`` and ``spikes`` do not overlap, so that the record, the
+        summary and ``clean-batch --json`` count each sample once.
     fixes : tuple of MarkerFix
     never_seen : tuple of str
         Markers missing in the whole take (still missing).
@@ -98,7 +101,7 @@ class MarkerCleanResult:
     def summary(self) -> list[str]:
         """A few lines for a terminal."""
         counts = {k: sum(1 for x in self.fixes if x.kind == k) for k in ("gap", "spike", "swap")}
-        lines = [f"{counts['gap']} gaps filled ({int(self.filled.sum() - self.spikes.sum())} samples), "
+        lines = [f"{counts['gap']} gaps filled ({int(self.filled.sum())} samples), "
                  f"{counts['spike']} spikes removed ({int(self.spikes.sum())} samples), "
                  f"{counts['swap']} label swaps undone ({int(self.swapped.sum())} samples)"]
         left = int(np.sum(self.markers.missing()))
@@ -211,7 +214,7 @@ def clean_markers(markers, *, steps=STEPS, spike_mm: float = 15.0, swap_mm: floa
             if not is_spike and "gaps" not in steps:
                 continue
             y[run, r.marker] = out[run, r.marker]
-            filled[run, r.marker] = True
+            filled[run, r.marker] = ~spikes[run, r.marker]  # a spike sample is counted as a spike, not a gap
             if is_spike:
                 size = float(np.max(np.linalg.norm(before_fill[run, r.marker] - out[run, r.marker], axis=-1)))
                 fixes.append(MarkerFix(labels[r.marker], r.start, r.end, "spike", size * unit_mm))
