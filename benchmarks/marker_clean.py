@@ -25,7 +25,9 @@ in ``../shared/data/c3d_markers/``, and ``SprintMotion.trc`` (59 markers,
   lie 0.0 mm from LFWT, CLAV and LFHD; golfswing's ``Channel8xx`` come in
   groups of up to four within 1-6 mm of each other; no other pair of the
   seven captures is under 40 mm): exchanging their labels moves nothing a
-  user could correct, so no swap is injected between them. Per sample recall and precision of the samples found as spike
+  user could correct, so no swap is injected between them. No error is
+  injected into an unlabelled trajectory (HDM05's ``*0``-``*2``), which
+  ``clean_markers`` leaves as read (``MarkerSet.unlabelled``). Per sample recall and precision of the samples found as spike
   or swap (targets >= 0.95 each), and the RMS distance of the cleaned samples
   to the truth on the injected samples (target <= 2 mm).
 * **occluded swaps** (``occluded_swap_*``, no target): into each of the
@@ -80,8 +82,12 @@ def shared() -> Path:
     raise SystemExit("../shared/data not found")
 
 
-def inject(x: np.ndarray, fps: float, rng, spikes: int = 30, swaps: int = 10, gaps: int = 0):
-    """Corrupt a copy of ``x`` (mm): returns (y, spike mask, swap mask, gap mask); no two errors within 10 frames."""
+def inject(x: np.ndarray, fps: float, rng, spikes: int = 30, swaps: int = 10, gaps: int = 0, unlabelled=None):
+    """Corrupt a copy of ``x`` (mm): returns (y, spike mask, swap mask, gap mask); no two errors within 10 frames.
+
+    ``unlabelled``: (M,) bool, the trajectories ``clean_markers`` leaves as read
+    (:meth:`MarkerSet.unlabelled`); no error is put in them.
+    """
     from mocapkit.cleaning.markers.rigid import distance_stats
 
     f, m = x.shape[:2]
@@ -94,10 +100,12 @@ def inject(x: np.ndarray, fps: float, rng, spikes: int = 30, swaps: int = 10, ga
     usual = np.nan_to_num(med, nan=1e9)
     near = np.argwhere((usual >= 10.0) & (usual < 250.0))  # under 10 mm: one marker under two labels
     near = near[near[:, 0] < near[:, 1]]
+    skip = np.zeros(m, bool) if unlabelled is None else np.asarray(unlabelled, bool)
+    near = near[~skip[near].any(axis=1)]
 
     def free(a, b, cols):
         lo, hi = max(a - 10, 0), min(b + 10, f)
-        return a >= 3 and b <= f - 3 and not busy[lo:hi, cols].any()
+        return a >= 3 and b <= f - 3 and not busy[lo:hi, cols].any() and not skip[cols].any()
 
     count = 0
     while count < swaps:
@@ -131,8 +139,9 @@ def inject(x: np.ndarray, fps: float, rng, spikes: int = 30, swaps: int = 10, ga
     return y, spike, swap, gap
 
 
-def inject_occluded_swaps(x: np.ndarray, fps: float, rng, swaps: int = 6):
-    """Swaps that start as a marker comes back from an occlusion: returns (y, swap mask), on a copy of ``x`` (mm)."""
+def inject_occluded_swaps(x: np.ndarray, fps: float, rng, swaps: int = 6, unlabelled=None):
+    """Swaps that start as a marker comes back from an occlusion: returns (y, swap mask), on a copy of ``x`` (mm);
+    none in the ``unlabelled`` trajectories ((M,) bool), as in :func:`inject`."""
     from mocapkit.cleaning.markers.rigid import distance_stats
 
     f, m = x.shape[:2]
@@ -142,6 +151,8 @@ def inject_occluded_swaps(x: np.ndarray, fps: float, rng, swaps: int = 6):
     usual = np.nan_to_num(distance_stats(x).median, nan=1e9)
     near = np.argwhere((usual >= 10.0) & (usual < 250.0))
     near = near[near[:, 0] < near[:, 1]]
+    if unlabelled is not None:
+        near = near[~np.asarray(unlabelled, bool)[near].any(axis=1)]
     count = 0
     while count < swaps:
         i, j = near[rng.integers(len(near))]
@@ -185,7 +196,8 @@ def main() -> None:
                                "fixes": [f"{x.kind} {x.marker} {x.start}-{x.end - 1} {x.size_mm:.0f} mm" for x in res0.fixes][:20]}
             changed.append(untouched[name]["changed_pct"])
             x = np.asarray(ms.positions) * mm
-            y, spike, swap, _ = inject(x, ms.fps, np.random.default_rng(10 + i + (0 if group == "developed" else 40)))
+            y, spike, swap, _ = inject(x, ms.fps, np.random.default_rng(10 + i + (0 if group == "developed" else 40)),
+                                        unlabelled=ms.unlabelled())
             res = clean_markers(ms.with_positions(y / mm))
             truth = spike | swap
             found = (res.spikes | res.swapped) & ~own
@@ -205,7 +217,7 @@ def main() -> None:
         ms = load_markers(path)
         mm = 10.0 * ms.unit_cm
         x = np.asarray(ms.positions) * mm
-        y, truth = inject_occluded_swaps(x, ms.fps, np.random.default_rng(700 + i))
+        y, truth = inject_occluded_swaps(x, ms.fps, np.random.default_rng(700 + i), unlabelled=ms.unlabelled())
         res = clean_markers(ms.with_positions(y / mm))
         found = res.swapped & ~own_changed[path.stem]
         t, p, n = int((found & truth).sum()), int((found & ~truth).sum()), int((~found & truth).sum())
@@ -221,7 +233,7 @@ def main() -> None:
     ms = load_markers(data / "c3d_markers_recovery" / "HDM_bd_05-01_01_120.c3d")
     ms = ms[:5000]
     x = np.asarray(ms.positions)
-    y, *_ = inject(x, ms.fps, np.random.default_rng(99), spikes=20, swaps=5, gaps=20)
+    y, *_ = inject(x, ms.fps, np.random.default_rng(99), spikes=20, swaps=5, gaps=20, unlabelled=ms.unlabelled())
     take = ms.with_positions(y)
     times = []
     for _ in range(3):

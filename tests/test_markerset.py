@@ -160,3 +160,21 @@ def test_residuals_and_camera_masks_follow_their_samples():
     plain = ms.with_positions(pos)  # without sources the re-labelled samples read as changed
     assert plain.cameras[5].tolist() == [0, 0] and plain.residuals[5, 0] == 0.0
     assert ms[3:6].cameras.shape == (3, 2) and ms.select(["b"]).cameras[:, 0].tolist() == [96] * 10
+
+
+def test_unlabelled_trajectories_come_from_the_files_own_labels_and_survive_npz_c3d_and_trc(tmp_path):
+    # a TRC column without a label (read as M and its place) and Vicon's '*0' are unlabelled; a marker the file
+    # names M003 is not, nor is one named M002 by a user (no source)
+    from mocapkit.io import load_markers, save_markers
+    from mocapkit.markerset import unique_labels
+
+    raw = ("A", "", "*0", "M003", "B")
+    pos = np.arange(6 * 5 * 3, dtype=float).reshape(6, 5, 3) + 1.0
+    ms = MarkerSet(labels=unique_labels(raw, 5), positions=pos, fps=50.0, source=MarkerSource("trc", labels=raw))
+    assert ms.labels == ("A", "M002", "*0", "M003", "B")
+    assert ms.unlabelled().tolist() == [False, True, True, False, False]
+    assert ms.select(["B", "M002", "*0"]).unlabelled().tolist() == [False, True, True]  # found by name
+    assert MarkerSet(labels=("A", "M002", "*1"), positions=pos[:, :3], fps=50.0).unlabelled().tolist() == [False, False, True]
+    for name in ("t.npz", "t.c3d", "t.trc"):
+        back = load_markers(save_markers(ms, tmp_path / name))
+        assert back.labels == ms.labels and back.unlabelled().tolist() == [False, True, True, False, False], name

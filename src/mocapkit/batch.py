@@ -501,7 +501,7 @@ def _clean_job(job: dict) -> dict:
             os.replace(staged[final], final)
             moved.append(final)
         if hasattr(res, "fixes"):  # a marker capture (cleaning.markers.MarkerCleanResult)
-            row.update(frames=res.markers.num_frames, filled=int((res.filled & ~res.spikes).sum()),
+            row.update(frames=res.markers.num_frames, filled=int(res.filled.sum()),
                        spikes=int(res.spikes.sum()), swapped=int(res.swapped.sum()), notes=res.summary()[1:],
                        warnings=marker_notes(res.original, out))  # what the reader did, what OUT cannot hold
         else:

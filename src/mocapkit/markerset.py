@@ -265,6 +265,27 @@ class MarkerSet:
                 names.update(str(v).strip() for v in np.ravel(param.get("value", [])))
         return np.array([label in names for label in self.labels], dtype=bool)
 
+    def unlabelled(self) -> np.ndarray:
+        """Boolean (M,) mask of unlabelled trajectories: points the capture system tracked but did not identify.
+
+        A marker is unlabelled when the file gives it no label (a TRC column
+        without one, an empty C3D label; read as M and its place:
+        :func:`unique_labels`) or a label starting with ``*`` (Vicon's ``*0``,
+        ``*1``, ...). C3D points past the end of POINT:LABELS are not: their
+        reader names them by place in ``source.labels`` (c3d.org's PhaseSpace
+        sample lists no labels; its active markers are told apart by their
+        LEDs). Decided on the file's own labels (``source.labels``,
+        each marker found by its name, so a :meth:`select` keeps it); a marker
+        that is not the file's (no source, or a name the file does not give)
+        by its own label. Such a trajectory is a point on the body while seen,
+        but which one, and whether the same one each time it appears, is
+        unknown: cleaning leaves it as read and uses it for nothing.
+        """
+        raw = self.source.labels if self.source is not None else ()
+        own = dict(zip(unique_labels(raw, len(raw)), (str(s).strip() for s in raw)))
+        texts = [own.get(label, label) for label in self.labels]
+        return np.array([not text or text.startswith("*") for text in texts], dtype=bool)
+
     def residual_or_default(self) -> np.ndarray:
         """(F, M) residuals: the file's, or 0 where seen and -1 where missing when it had none."""
         if self.residuals is not None:

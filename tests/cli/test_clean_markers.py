@@ -218,3 +218,29 @@ def mocapkit_sample(name: str) -> str:
     import mocapkit
 
     return str(mocapkit.samples.path(name))
+
+
+def test_the_record_console_and_batch_json_count_filled_and_spike_samples_alike(tmp_path):
+    # trial15: the record's filled mask held 43 samples (the 40 of a gap and the 3 of a spike) while the console
+    # and clean-batch --json said 40 filled and 3 spikes
+    import json
+
+    ms = load_markers(CMU)
+    y = np.array(ms.positions) * 10.0 * ms.unit_cm
+    y[300:340, 4] = np.nan  # a 40-frame gap
+    y[100:103, 9] += [35.0, -40.0, 20.0]  # a 3-frame spike, 57 mm
+    src = tmp_path / "in"
+    src.mkdir()
+    _write_with_ezc3d(src / "bad.c3d", y, ms.labels, ms.fps)
+    code, stdout, stderr = run("clean", src / "bad.c3d", "-o", tmp_path / "one.c3d")
+    assert code == 0, stderr
+    assert "1 gaps filled (40 samples), 1 spikes removed (3 samples)" in stdout
+    with np.load(tmp_path / "one.clean.npz") as rec:
+        filled, spikes = rec["filled"], rec["spikes"]
+    assert filled.sum() == 40 and filled[300:340, 4].all()
+    assert spikes.sum() == 3 and spikes[100:103, 9].all() and not (filled & spikes).any()
+    code, stdout, stderr = run("clean-batch", src, tmp_path / "out", "--json", "--executor", "serial")
+    assert code == 0, stderr
+    (row,) = json.loads(stdout)["rows"]
+    with np.load(tmp_path / "out" / "bad.clean.npz") as rec:
+        assert (row["filled"], row["spikes"]) == (int(rec["filled"].sum()), int(rec["spikes"].sum())) == (40, 3)

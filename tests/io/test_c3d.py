@@ -698,3 +698,34 @@ def test_the_trial_frame_range_follows_the_frames_written(tmp_path):
 
     assert frame("ACTUAL_START_FIELD") == ms.source.first_frame
     assert frame("ACTUAL_END_FIELD") - frame("ACTUAL_START_FIELD") + 1 == ms.num_frames == 10
+
+
+def test_parameter_names_keep_their_case_through_the_pure_python_reader(tmp_path):
+    # trial: dynamic.c3d's SUBJECT:Address and Height came back as ADDRESS and HEIGHT in a cleaned file (the
+    # c3d package upper-cases every name; ezc3d reads and writes them as written, and looks them up by case)
+    import dataclasses
+    import struct
+
+    import ezc3d
+
+    from mocapkit.io import load_markers, save_markers
+
+    src = load_markers(mocapkit.samples.path("Eb015pr.c3d"))
+    params = {g: dict(v) for g, v in src.source.parameters.items()}
+    text = {"type": -1, "description": "", "is_locked": False, "value": ["12 Main St"]}
+    params["SUBJECT"]["Address"] = text
+    params["Lab_Info"] = {"__METADATA__": params["SUBJECT"]["__METADATA__"], "Room": dict(text, value=["B2"])}
+    mixed = dataclasses.replace(src, source=dataclasses.replace(src.source, parameters=params))
+    data = bytearray(save_markers(mixed, tmp_path / "mixed.c3d").read_bytes())
+    # 100 whole frames, POINT:FRAMES saying so and the header 450: a file only the pure-Python reader reads
+    points, analog = struct.unpack_from("<2H", data, 2)
+    start = (struct.unpack_from("<H", data, 16)[0] - 1) * 512
+    struct.pack_into("<h", data, parameter_offset(bytes(data), "POINT", "FRAMES"), 100)
+    (tmp_path / "short.c3d").write_bytes(bytes(data[: start + 100 * (4 * points + analog) * 4]))
+    ms = load_markers(tmp_path / "short.c3d")
+    assert ms.reader == "c3d" and ms.num_frames == 100
+    assert "Address" in ms.source.parameters["SUBJECT"] and "Room" in ms.source.parameters["Lab_Info"]
+    assert "HEIGHT" in ms.source.parameters["SUBJECT"] and "LABELS" in ms.source.parameters["POINT"]
+    back = ezc3d.c3d(str(save_markers(ms, tmp_path / "back.c3d")))["parameters"]
+    assert list(back["SUBJECT"]["Address"]["value"]) == ["12 Main St"] and list(back["Lab_Info"]["Room"]["value"]) == ["B2"]
+    assert "ADDRESS" not in back["SUBJECT"] and "LAB_INFO" not in back

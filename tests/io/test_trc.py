@@ -621,3 +621,19 @@ def test_an_empty_take_is_refused_and_nothing_written(tmp_path):
     with pytest.raises(MocapFormatError, match="at least one marker and one frame"):
         write_trc(empty, tmp_path / "e.trc")
     assert not (tmp_path / "e.trc").exists()
+
+
+def test_a_column_without_a_label_is_an_unlabelled_trajectory_and_stays_one(tmp_path):
+    # trial14: Gait.trc's 72 columns past its 33 labels were kept in source.labels as M034..M105, names the file
+    # does not give them: written anew (a part of the take) or to npz, they became labelled markers
+    rows = _rows(markers=3)
+    path = tmp_path / "cap.trc"
+    path.write_bytes(_crlf_trc(rows, labels=("A", "B"), num_markers=2))
+    ms = read_trc(path)
+    assert ms.labels == ("A", "B", "M003") and ms.source.labels == ("A", "B", "")
+    assert ms.unlabelled().tolist() == [False, False, True]
+    part = save_markers(ms[2:], tmp_path / "part.trc")  # a part of the take: written anew
+    assert part.read_text().splitlines()[3].split("\t")[2::3] == ["A", "B"]
+    for out in (part, save_markers(ms, tmp_path / "t.npz")):
+        back = load_markers(out)
+        assert back.labels == ms.labels and back.unlabelled().tolist() == [False, False, True], out.name

@@ -245,11 +245,68 @@ def _c3d_package_parameters(reader) -> dict:
     return out
 
 
+# Groups the readers, the writer and ezc3d look up by their upper-case names: the pure-Python reader's
+# upper-cased names are kept there (:func:`_with_written_case`).
+_LOOKED_UP = frozenset({"POINT", "ANALOG", "TRIAL", "FORCE_PLATFORM", "EVENT"})
+
+
+def _written_names(raw: bytes) -> dict[tuple[str, str], tuple[str, str]]:
+    """The parameter names as the file writes them: (GROUP, NAME) upper-cased -> (group, name) as written.
+
+    A group's own record is keyed (GROUP, ""). Walks the parameter section of
+    ``raw`` (a file :func:`_check_structure` passed) record by record; stops
+    at its end or at the first record whose name is not printable ASCII.
+    """
+    start = (raw[0] - 1) * 512
+    e = ">" if raw[start + 3] == 86 else "<"
+    i, groups, params = start + 4, {}, []
+    while i + 4 <= len(raw):
+        nlen, gid = abs(struct.unpack_from("b", raw, i)[0]), struct.unpack_from("b", raw, i + 1)[0]
+        name = raw[i + 2 : i + 2 + nlen]
+        if nlen == 0 or gid == 0 or not all(32 <= c < 127 for c in name) or i + 4 + nlen > len(raw):
+            break
+        if gid < 0:
+            groups[-gid] = name.decode()
+        else:
+            params.append((gid, name.decode()))
+        nxt = struct.unpack_from(e + "h", raw, i + 2 + nlen)[0]
+        if nxt <= 0:
+            break
+        i += 2 + nlen + nxt
+    out = {(g.upper(), ""): (g, "") for g in groups.values()}
+    out.update({(groups[gid].upper(), n.upper()): (groups[gid], n) for gid, n in params if gid in groups})
+    return out
+
+
+def _with_written_case(parameters: dict, raw: bytes) -> dict:
+    """``parameters`` (the ``c3d`` package's, every name upper-cased) with the names as the file writes them.
+
+    ezc3d keeps a file's names as written (dynamic.c3d's ``SUBJECT:Address``), and
+    lookups by name are case-sensitive, so a take read by the pure-Python reader
+    is written back with its own names. The groups in :data:`_LOOKED_UP` (and
+    their parameters) keep their upper-case names; a name the package changed
+    otherwise (a repeated group renamed) is kept as the package gives it.
+    """
+    try:
+        written = _written_names(raw)
+    except (IndexError, struct.error):
+        return parameters
+    out = {}
+    for group, params in parameters.items():
+        if group in _LOOKED_UP:
+            out[group] = params
+            continue
+        g = written.get((group, ""), (group, ""))[0]
+        out[g] = {written.get((group, k), (g, k))[1] if k != "__METADATA__" else k: v for k, v in params.items()}
+    return out
+
+
 def _text(raw) -> str:
     return raw.decode("latin-1").strip() if isinstance(raw, bytes) else str(raw or "").strip()
 
 
-def _read_c3d_package(path: Path):
+def _read_c3d_package(path: Path, raw: bytes):
+    """The pure-Python reader: what :func:`_read_ezc3d` returns, for the file ``path`` whose bytes are ``raw``."""
     import c3d
 
     with open(path, "rb") as fh, warnings.catch_warnings():
@@ -270,7 +327,7 @@ def _read_c3d_package(path: Path):
             units = (list(unit_param.string_array.reshape(-1)) or [""])[0] if len(unit_param.dimensions) > 1 else unit_param.string_value
         fps = _point_rate(path, reader.point_rate)
         try:
-            parameters = _c3d_package_parameters(reader)
+            parameters = _with_written_case(_c3d_package_parameters(reader), raw)
         except Exception:
             parameters = {}
         modelled = set()
@@ -616,7 +673,7 @@ def read_c3d(path, zeros_as_gaps: bool | None = None) -> MarkerSet:
             first_error = exc
     if got is None:
         try:
-            got = _read_c3d_package(path)
+            got = _read_c3d_package(path, raw)
         except MocapFormatError as exc:
             raise MocapFormatError(path, no_points) if no_points else exc from None
         except Exception as exc:

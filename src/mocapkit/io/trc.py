@@ -43,7 +43,9 @@ def read_trc(path, zeros_as_gaps: bool | None = None) -> MarkerSet:
     the ``Frame#`` line, named apart in memory
     (:func:`~mocapkit.markerset.unique_labels`: a marker without one is
     M and its place, a repeat gets _2); the file's own are kept in
-    ``source.labels`` and its text in ``source.text`` for :func:`write_trc`.
+    ``source.labels`` (an empty text for a column without a label, past the
+    label line's end too: :meth:`~mocapkit.markerset.MarkerSet.unlabelled`)
+    and its text in ``source.text`` for :func:`write_trc`.
     A row with fewer fields than markers has the rest missing. The Time
     column places the rows when it steps by 1/DataRate (rows a frame apart
     are consecutive frames whatever their Frame#), else the Frame# column
@@ -164,7 +166,7 @@ def read_trc(path, zeros_as_gaps: bool | None = None) -> MarkerSet:
     xyz = data.reshape(data.shape[0], m, 3)
     xyz[np.any(np.isnan(xyz), axis=-1)] = np.nan  # a sample with one empty coordinate is not seen
     labels = unique_labels(label_text, m)
-    file_labels = tuple(label_text) + labels[len(label_text):]
+    file_labels = tuple(label_text) + ("",) * (m - len(label_text))  # a column past the labels has none
     zeros = apply_zero_gaps(labels, xyz, None, unit_cm, zeros_as_gaps)
     notes = repeated_labels_note(tuple(t.strip() for t in file_labels), labels)
     notes += _count_notes(int(stated), len([t for t in label_text if t.strip()]), held, m, labels)

@@ -196,3 +196,39 @@ def test_an_undone_swap_keeps_the_residuals_and_camera_masks_of_its_samples(cmu)
     assert np.array_equal(out.positions, x)
     assert np.array_equal(out.residuals, np.where(np.isnan(x[..., 0]), -1.0, res))
     assert np.array_equal(out.cameras, cams)
+
+
+def test_unlabelled_trajectories_are_left_as_read_and_used_for_nothing(cmu):
+    # trial14: Gait.trc's unlabelled fragments (TRC columns without a label) are seen in frames where no labelled
+    # marker is; clean filled every labelled marker there with a made-up pose 1.7 m away (2 m jumps where the
+    # subject came into view) and filled each fragment over the whole take.
+    from mocapkit.markerset import MarkerSet, MarkerSource, unique_labels
+
+    truth = np.asarray(cmu.positions, dtype=np.float64)
+    f, m = truth.shape[:2]
+    x = truth.copy()
+    x[:60] = np.nan  # no labelled marker seen before frame 60 ...
+    x[300:340, 5] = np.nan  # ... and a labelled marker's gap
+    extra = np.full((f, 3, 3), np.nan)
+    extra[10:50, 0] = truth[10:50, 0] + 2000.0  # ... but a fragment is (elsewhere in the room)
+    extra[200:400, 1] = truth[200:400, 5]  # a phantom copy of marker 5, seen through its gap
+    extra[420:470, 2] = truth[420:470, 7]
+    extra[440, 2] += 60.0  # a jump in a fragment: not a spike to repair (its identity is unknown)
+    raw = cmu.labels + ("", "*0", "*1")  # a TRC column without a label; Vicon's unlabelled trajectories
+    take = MarkerSet(labels=unique_labels(raw, m + 3), positions=np.concatenate([x, extra], axis=1), fps=cmu.fps,
+                     source=MarkerSource(format="trc", labels=raw))
+    res = clean_markers(take)
+    out = np.asarray(res.markers.positions)
+    assert np.all(np.isnan(out[:60, :m])) and np.all(np.isfinite(out[60:, :m]))  # nobody (labelled) seen there
+    assert np.array_equal(out[:, m:], extra, equal_nan=True)  # left exactly as read
+    assert take.unlabelled().tolist() == [False] * m + [True] * 3
+    assert not (res.filled | res.spikes | res.swapped)[:, m:].any() and not any(fx.marker in res.unlabelled
+                                                                                 for fx in res.fixes)
+    assert res.unseen_start == (0, 60) and res.unseen_end == (f, f)
+    assert res.unlabelled == (take.labels[m], "*0", "*1")
+    lines = res.summary()
+    assert any("frames 0-59 at the take's start see no labelled marker" in line for line in lines)
+    assert any(line.startswith("3 unlabelled trajectories") for line in lines)
+    # the phantom copy lends the gap nothing: the fill is the one made without the unlabelled trajectories
+    alone = clean_markers(dataclasses.replace(cmu, positions=x))
+    assert np.array_equal(out[:, :m], np.asarray(alone.markers.positions), equal_nan=True)

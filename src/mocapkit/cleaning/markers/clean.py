@@ -10,6 +10,14 @@ values unchanged); spike samples and gaps are filled
 stays missing and is listed in ``never_seen``. Points a C3D lists as
 modelled quantities (Vicon's joint angles, forces, moments, powers:
 :meth:`MarkerSet.modelled`) are not markers and come back as they are.
+Nor are unlabelled trajectories (no label in the file, or one
+starting with ``*``: :meth:`MarkerSet.unlabelled`): which point on the body
+each is, and whether it is the same one each time it appears, is unknown
+(HDM05's ``*0`` duplicates LFWT; Gait.trc's 72 are fragments seen where no
+labelled marker is), so they come back as read, and no labelled marker's
+fill, spike test or swap test uses them: a donor of unknown identity and
+rigidity could carry a fill anywhere. Frames where no labelled marker is
+seen at the take's start or end are frames where nobody is seen.
 """
 
 from __future__ import annotations
@@ -68,14 +76,20 @@ class MarkerCleanResult:
     original : MarkerSet
         The input.
     filled, spikes, swapped : bool arrays (F, M)
-        Samples filled (gaps and removed spikes), found to be spikes, re-labelled.
+        Samples of gaps filled; samples found to be spikes (removed, and
+        replaced by a fill where one reached them); samples re-labelled.
+        ``filled`` and ``spikes`` do not overlap, so that the record, the
+        summary and ``clean-batch --json`` count each sample once.
     fixes : tuple of MarkerFix
     never_seen : tuple of str
         Markers missing in the whole take (still missing).
     unseen_start, unseen_end : (int, int)
         The frames ``a <= f < b`` at the take's start and end where no marker
-        is seen at all (the subject out of view): left missing, as there is
-        nothing to fill them from (:func:`~mocapkit.cleaning.markers.gaps.fill_gaps`).
+        is seen at all (the subject out of view; unlabelled trajectories seen
+        there do not count): left missing, as there is nothing to fill them
+        from (:func:`~mocapkit.cleaning.markers.gaps.fill_gaps`).
+    unlabelled : tuple of str
+        The unlabelled trajectories (:meth:`MarkerSet.unlabelled`), left as read.
     """
 
     markers: object
@@ -87,6 +101,7 @@ class MarkerCleanResult:
     never_seen: tuple[str, ...]
     unseen_start: tuple[int, int] = (0, 0)
     unseen_end: tuple[int, int] = (0, 0)
+    unlabelled: tuple[str, ...] = ()
 
     @property
     def changed(self) -> np.ndarray:
@@ -98,15 +113,22 @@ class MarkerCleanResult:
     def summary(self) -> list[str]:
         """A few lines for a terminal."""
         counts = {k: sum(1 for x in self.fixes if x.kind == k) for k in ("gap", "spike", "swap")}
-        lines = [f"{counts['gap']} gaps filled ({int(self.filled.sum() - self.spikes.sum())} samples), "
+        lines = [f"{counts['gap']} gaps filled ({int(self.filled.sum())} samples), "
                  f"{counts['spike']} spikes removed ({int(self.spikes.sum())} samples), "
                  f"{counts['swap']} label swaps undone ({int(self.swapped.sum())} samples)"]
-        left = int(np.sum(self.markers.missing()))
+        skip = np.isin(self.markers.labels, self.unlabelled)
+        left = int(np.sum(self.markers.missing()[:, ~skip]))
         if left:
             lines.append(f"{left} samples still missing")
+        marker = "labelled marker" if self.unlabelled else "marker"
         for where, (a, b) in (("start", self.unseen_start), ("end", self.unseen_end)):
             if b > a:
-                lines.append(f"frames {a}-{b - 1} at the take's {where} see no marker: left missing (nothing to fill from)")
+                lines.append(f"frames {a}-{b - 1} at the take's {where} see no {marker}: left missing (nothing to fill from)")
+        if self.unlabelled:
+            n = len(self.unlabelled)
+            names = ", ".join(self.unlabelled[:4]) + (f" ... {self.unlabelled[-1]}" if n > 4 else "")
+            lines.append(f"{n} unlabelled trajector{'ies' if n > 1 else 'y'} ({names}: no label in the file, or "
+                         "one starting with '*') left as read: not a marker's identity, so not cleaned")
         if self.never_seen:
             lines.append(f"missing in the whole take, left missing: {', '.join(self.never_seen)}")
         return lines
@@ -125,6 +147,7 @@ class MarkerCleanResult:
                 labels=np.array(labels, dtype=str),
                 fixes=np.array(json.dumps(fixes)),
                 never_seen=np.array(list(self.never_seen), dtype=str),
+                unlabelled=np.array(list(self.unlabelled), dtype=str),
                 kind=np.array("markers"),
             )
         return path
@@ -157,7 +180,9 @@ def clean_markers(markers, *, steps=STEPS, spike_mm: float = 15.0, swap_mm: floa
     Parameters
     ----------
     markers : MarkerSet
-        The capture (positions (F, M, 3), NaN where unseen).
+        The capture (positions (F, M, 3), NaN where unseen). Its modelled
+        points and unlabelled trajectories (:meth:`MarkerSet.modelled`,
+        :meth:`MarkerSet.unlabelled`) come back as they are and are used for nothing.
     steps : sequence of str or str
         Any of "swaps", "spikes", "gaps" (comma-separated or a list); they run in that order.
     spike_mm, swap_mm : float
@@ -180,8 +205,11 @@ def clean_markers(markers, *, steps=STEPS, spike_mm: float = 15.0, swap_mm: floa
         raise ValueError(f"unknown step(s) {', '.join(unknown)}; steps are {', '.join(STEPS)}")
     unit_mm = 10.0 * markers.unit_cm
     full = np.asarray(markers.positions, dtype=np.float64)
-    modelled = markers.modelled() if hasattr(markers, "modelled") else np.zeros(full.shape[1], dtype=bool)
-    work = np.flatnonzero(~modelled)  # the markers; modelled angles, forces, ... are left as they are
+    none = np.zeros(full.shape[1], dtype=bool)
+    modelled = markers.modelled() if hasattr(markers, "modelled") else none
+    unlabelled = markers.unlabelled() if hasattr(markers, "unlabelled") else none
+    # the markers; modelled angles, forces, ... and unlabelled trajectories are left as they are and used for nothing
+    work = np.flatnonzero(~modelled & ~unlabelled)
     x = full[:, work]
     f, m = x.shape[:2]
     labels = [markers.labels[i] for i in work]
@@ -211,7 +239,7 @@ def clean_markers(markers, *, steps=STEPS, spike_mm: float = 15.0, swap_mm: floa
             if not is_spike and "gaps" not in steps:
                 continue
             y[run, r.marker] = out[run, r.marker]
-            filled[run, r.marker] = True
+            filled[run, r.marker] = ~spikes[run, r.marker]  # a spike sample is counted as a spike, not a gap
             if is_spike:
                 size = float(np.max(np.linalg.norm(before_fill[run, r.marker] - out[run, r.marker], axis=-1)))
                 fixes.append(MarkerFix(labels[r.marker], r.start, r.end, "spike", size * unit_mm))
@@ -244,5 +272,6 @@ def clean_markers(markers, *, steps=STEPS, spike_mm: float = 15.0, swap_mm: floa
     return MarkerCleanResult(markers=cleaned, original=markers, filled=expand(filled), spikes=expand(spikes),
                              swapped=expand(swapped), fixes=tuple(fixes),
                              never_seen=tuple(labels[i] for i in np.flatnonzero(never)),
-                             unseen_start=(0, lo) if seen_any.size else (0, 0), unseen_end=(hi, f))
+                             unseen_start=(0, lo) if seen_any.size else (0, 0), unseen_end=(hi, f),
+                             unlabelled=tuple(markers.labels[i] for i in np.flatnonzero(unlabelled & ~modelled)))
 
