@@ -33,6 +33,15 @@ def test_detect_and_repair(tmp_path):
     assert np.allclose(fixed.rotations[keep], again.rotations[keep], atol=1e-6) or np.allclose(
         np.abs(np.sum(fixed.rotations[keep] * again.rotations[keep], axis=-1)), 1.0, atol=1e-9
     )
+    # by default as with --no-foot-skate (foot-skate cleanup is opt-in, as in clean), and the count printed is of
+    # the samples that changed (it was the flags' count while the cleanup moved unflagged hips and knees too)
+    code, out, err = run("repair", str(inp), "-o", str(tmp_path / "default.bvh"), "--detection", str(det_path))
+    assert code == 0, err
+    assert (tmp_path / "default.bvh").read_bytes() == fixed_path.read_bytes()
+    changed = ~np.all(mocapkit.load(tmp_path / "default.bvh").rotations == again.rotations, axis=-1)
+    assert changed.any() and not (changed & ~det.flags).any()
+    assert (f"{int(changed.sum())} joint samples changed in {int(changed.any(axis=1).sum())} of {walk.num_frames} "
+            f"frames ({int(det.flags.sum())} flagged)") in out
 
 
 def test_detect_errors_are_one_line(tmp_path):
@@ -141,3 +150,82 @@ def test_detect_flags_what_clean_in_review_mode_flags(tmp_path):
         flags = z["flags"]
     assert det.flags.any() and np.array_equal(det.flags, flags)
     assert "have no neighbour within 8 deg" in " ".join(det.notes)
+
+
+def _t_pose_walk(tmp_path):
+    """CMU 12_walk (bundled) opening with the rest pose, a T-pose, as the CMU BVH converter's frame 0 does, and with
+    four errors injected (a spike, a flip, a swap of the feet): ``(path of the .npz take, the take)``."""
+    import dataclasses
+
+    walk = mocapkit.load(mocapkit.samples.path("12_walk.amc"))
+    rest = np.array(walk.rotations[:1])
+    rest[0, 1:] = (1.0, 0.0, 0.0, 0.0)
+    take = dataclasses.replace(walk, rotations=np.concatenate([rest, walk.rotations]),
+                               root_positions=np.concatenate([walk.root_positions[:1], walk.root_positions]),
+                               name="t_pose_walk")
+    bad, _, _ = corrupt.real_errors(take, n_errors=3, seed=1)
+    inp = tmp_path / "t_pose_walk.npz"
+    mocapkit.save(bad, inp)
+    return inp, bad
+
+
+def test_detect_and_repair_do_what_clean_does_and_leave_the_calibration_pose_alone(tmp_path):
+    """`detect` flags what `clean --steps detect` flags and `repair` writes what `clean --steps detect,repair` writes,
+    on a take opening with a T-pose: before, both analysed the pose with the motion, so `detect` flagged it on ten
+    joints (and flags next to it), `repair` rewrote it, and foot-skate cleanup (on by default) moved unflagged legs."""
+    from mocapkit.cleaning import decisions as dec
+    from mocapkit.cleaning.pipeline import CleanResult
+
+    inp, bad = _t_pose_walk(tmp_path)
+    code, out, err = run("detect", inp, "-o", tmp_path / "det.npz", "--json")
+    assert code == 0, err
+    found = {(g["joint"], g["start"], g["last"]) for g in json.loads(out.strip().splitlines()[-1])}
+    assert run("clean", inp, "-o", tmp_path / "review.npz", "--steps", "detect")[0] == 0
+    review = CleanResult.load(tmp_path / "review.clean.npz")
+    assert found and found == {(g["joint"], g["first"], g["last"]) for g in dec.flag_segments(review)}
+    det = ssa.Detection.load(tmp_path / "det.npz")
+    assert np.array_equal(det.flags, review.flags) and not det.flags[0].any()
+    assert det.span == (1, bad.num_frames)  # the T-pose was left out of the analysis
+
+    assert run("clean", inp, "-o", tmp_path / "cleaned.npz", "--steps", "detect,repair")[0] == 0
+    cleaned = mocapkit.load(tmp_path / "cleaned.npz")
+    for args in ((), ("--detection", tmp_path / "det.npz")):  # detecting again, or reading detect's file
+        code, out, err = run("repair", inp, "-o", tmp_path / "repaired.npz", "--overwrite", *args)
+        assert code == 0, err
+        repaired = mocapkit.load(tmp_path / "repaired.npz")
+        assert np.array_equal(repaired.rotations, cleaned.rotations)
+        assert np.array_equal(repaired.root_positions, cleaned.root_positions)
+        changed = ~np.all(repaired.rotations == bad.rotations, axis=-1)
+        assert changed.any() and not changed[0].any() and not (changed & ~det.flags).any()
+        assert (f"{int(changed.sum())} joint samples changed in {int(changed.any(axis=1).sum())} of "
+                f"{bad.num_frames} frames ({int(det.flags.sum())} flagged)") in out
+
+
+def test_repair_moves_unflagged_legs_only_with_foot_skate_and_says_so(tmp_path):
+    """Foot-skate cleanup is opt-in (as in `clean`), and the count printed is of the samples that changed: before,
+    `repair` said "92 joint samples replaced" (the flags) while it changed 128, unflagged hips and knees among them."""
+    from mocapkit.motion import find_joint
+
+    inp, bad = _t_pose_walk(tmp_path)
+    code, out, err = run("detect", inp, "-o", tmp_path / "det.npz")
+    assert code == 0, err
+    flags = ssa.Detection.load(tmp_path / "det.npz").flags
+    code, out, err = run("repair", inp, "-o", tmp_path / "skate.npz", "--detection", tmp_path / "det.npz",
+                         "--foot-skate")
+    assert code == 0, err
+    fixed = mocapkit.load(tmp_path / "skate.npz")
+    changed = ~np.all(fixed.rotations == bad.rotations, axis=-1)
+    extra = changed & ~flags
+    legs = set()
+    for role in ("left_foot", "right_foot"):
+        j = find_joint(bad.skeleton, role)
+        while j > 0:
+            legs.add(j)
+            j = int(bad.skeleton.parents[j])
+    assert extra.any() and set(np.flatnonzero(extra.any(axis=0))) <= legs and not changed[0].any()
+    assert (f"{int(changed.sum())} joint samples changed in {int(changed.any(axis=1).sum())} of {bad.num_frames} "
+            f"frames ({int(flags.sum())} flagged; {int(extra.sum())} more moved by the foot-skate cleanup)") in out
+    code, out, err = run("repair", inp, "-o", tmp_path / "plain.npz", "--detection", tmp_path / "det.npz")
+    assert code == 0, err
+    plain = ~np.all(mocapkit.load(tmp_path / "plain.npz").rotations == bad.rotations, axis=-1)
+    assert plain.any() and not (plain & ~flags).any() and "foot-skate" not in out

@@ -24,6 +24,9 @@ whatever order the steps are named in:
 3. **repair** — only the flagged cells (:func:`mocapkit.cleaning.ssa.repair`).
    Foot-skate cleanup is off by default (``foot_skate=False``): it would also
    move the hip and knee of a leg whose foot is planted, cells nobody flagged.
+   Detect and repair run through :func:`mocapkit.cleaning.whole_take.detect_take`
+   and :func:`~mocapkit.cleaning.whole_take.repair_take`, as the ``detect`` and
+   ``repair`` commands do: their flags and changes are clean's.
 4. **denoise** — only where the take is noisy. Tests on each
    joint's own track (see :func:`noise_level` and :func:`noise_direction`):
    the *level*, the rotation left over after a cubic Savitzky-Golay fit over
@@ -104,9 +107,10 @@ from typing import Sequence
 import numpy as np
 
 from .. import rotations as R
-from ..errors import MocapError, MocapFormatError, SkeletonError
+from ..errors import MocapError, MocapFormatError
 from ..motion import Motion
-from .calibration import CalibrationPose, calibration_mask, calibration_poses
+from .calibration import CalibrationPose, calibration_poses
+from .whole_take import MAX_WORD_ANGLE_DEG, changed_cells, detect_take, motion_span, repair_take, take_params
 
 __all__ = ["STEPS", "CleanResult", "StepRecord", "clean", "noise_level", "noise_direction", "noisy_cells", "clean_path", "parse_steps"]
 
@@ -119,7 +123,6 @@ NOISE_DEG = 1.0  # default threshold
 NOISE_REVERSAL = -0.2  # median cosine of consecutive steps over a run below which its residual is noise
 NOISE_MIN_RUN_S = 0.4  # shorter runs above the level are local events (a toe flick), not sustained noise
 NOISE_STEP_RATIO = 1.0  # median frame-to-frame step over a run, in units of its median level, that noise reaches
-MAX_WORD_ANGLE_DEG = 8.0  # words with no neighbour this close (RMS joint angle) are not judged
 
 
 def _count(n: int, word: str) -> str:
@@ -539,11 +542,6 @@ def _fill(motion: Motion, models: dict, notes: list) -> tuple[Motion, str, str]:
     return out, method, note
 
 
-def _analysis_frames(motion: Motion, analysis_fps: float) -> int:
-    """Frames of ``motion`` resampled to ``analysis_fps`` (as :meth:`Motion.resample` makes them)."""
-    return int(np.floor((motion.num_frames - 1) * analysis_fps / motion.fps + 1e-9)) + 1
-
-
 def _denoise(motion: Motion, noisy: np.ndarray, models: dict, notes: list) -> tuple[Motion, str, str]:
     if not noisy.any():
         return motion, "nothing (no joint is noisy)", ""
@@ -564,33 +562,11 @@ def _context_label(context) -> str:
     return context_label(context)
 
 
-def _motion_span(poses, F: int) -> tuple[int, int]:
-    """``(lo, hi)``: the frames between the calibration poses (the whole take when there is none)."""
-    keep = ~calibration_mask(poses, F)
-    if not keep.any():
-        return 0, 0
-    idx = np.flatnonzero(keep)
-    return int(idx[0]), int(idx[-1]) + 1
-
-
 def _pad(a: np.ndarray, lo: int, F: int, fill) -> np.ndarray:
     """(F, J) holding ``a`` (Fs, J) at frames ``lo .. lo + Fs`` and ``fill`` elsewhere."""
     out = np.full((F,) + a.shape[1:], fill, dtype=a.dtype)
     out[lo : lo + a.shape[0]] = a
     return out
-
-
-def _padded_detection(det, lo: int, F: int):
-    """``det`` with its (F, J) arrays put back at the take's frames (nothing flagged on calibration frames)."""
-    pads = {"mdm": 0.0, "flags": False, "digression": np.nan, "best_group": -1, "jumps": False, "holds": False,
-            "swaps": False, "offsets": False, "agreement": np.nan, "consistency": np.nan}
-    if getattr(det, "spikes", None) is not None:
-        pads["spikes"] = False
-    if getattr(det, "change", None) is not None:
-        pads["change"] = np.nan
-    return dataclasses.replace(det, **{k: _pad(np.asarray(getattr(det, k)), lo, F, v) for k, v in pads.items()},
-                               notes=tuple(det.notes) + (f"analysed frames {lo}-{lo + det.num_frames - 1} (calibration "
-                                                         "poses left out); word starts count from there",))
 
 
 def noise_fit_frames(fps: float) -> int:
@@ -686,14 +662,14 @@ def clean(
     -------
     CleanResult
     """
-    from . import precompile, ssa
+    from . import precompile
     from .decisions import take_digest
 
     _check(motion)
     steps = parse_steps(steps)
     if "detect" in steps:  # with an empty numba cache, later steps' kernels compile beside the first steps
         precompile.start(precompile.kernels_for(steps))
-    params = ssa.SSAParams(max_word_angle_deg=max_word_angle_deg, drift=bool(drifts))
+    params = take_params(max_word_angle_deg=max_word_angle_deg, drifts=drifts)
     models = _models(models)
     if not 0.0 < threshold < 1.0:
         raise ValueError(f"threshold must be in (0, 1), got {threshold}")
@@ -724,53 +700,45 @@ def clean(
 
     # calibration poses opening or closing the take are left out of every later step (module docstring)
     poses = calibration_poses(cur) if any(s in steps for s in ("detect", "repair", "denoise")) else ()
-    lo, hi = _motion_span(poses, F)
-    full, cur = cur, cur[lo:hi]
+    lo, hi = motion_span(poses, F)
     Fs = hi - lo
     if poses and Fs == 0:
         notes.append("detect, repair and denoise skipped: the whole take is a calibration pose")
         steps = tuple(s for s in steps if s == "fill")
-    sub_mdm, sub_flags = np.zeros((Fs, J)), np.zeros((Fs, J), dtype=bool)
-    sub_causes = None
-    sub_rep, sub_den, sub_noise = sub_flags, sub_flags, np.full((Fs, J), np.nan)
+    mdm, flags, causes = np.zeros((F, J)), zeros, None
+    repaired, denoised, noise = zeros, zeros, np.full((F, J), np.nan)
 
     if "detect" in steps:
         t = time.perf_counter()
-        if cur.missing().any():
-            raise MocapError(f"{name}: {int(cur.missing().any(axis=1).sum())} frames have missing joints; detect needs "
+        gaps = cur[lo:hi].missing().any(axis=1)
+        if gaps.any():
+            raise MocapError(f"{name}: {int(gaps.sum())} frames have missing joints; detect needs "
                              "complete frames: add the fill step")
-        n_a = _analysis_frames(cur, params.analysis_fps)
-        N = params.source_length
-        if n_a < N:
-            note = (f"detect and repair skipped: {Fs} frames ({cur.duration:.2f} s) is shorter than one motion word "
-                    f"({N} frames at {params.analysis_fps:g} fps, {N / params.analysis_fps:.3f} s)")
+        # the path `mocapkit detect` and `mocapkit repair` take too (whole_take): their flags are these
+        found = detect_take(cur, context, threshold=threshold, params=params, progress=progress, poses=poses)
+        if found.detection is None:
+            note = f"detect and repair skipped: {found.skipped}"
             notes.append(note)
             records.append(StepRecord("detect", time.perf_counter() - t, 0, "skipped", note))
             steps = tuple(s for s in steps if s != "repair")
         else:
-            try:
-                det = ssa.detect(cur, context, threshold=threshold, params=params, progress=progress)
-            except (ValueError, SkeletonError) as exc:
-                raise MocapError(f"{name}: detect: {exc}") from None
-            sub_mdm = np.nan_to_num(np.asarray(det.mdm, dtype=np.float64))
-            sub_flags = np.asarray(det.flags, dtype=bool)
-            sub_causes = det.causes()
+            det = found.detection  # at the take's frames, nothing flagged on a calibration pose
+            mdm = np.nan_to_num(np.asarray(det.mdm, dtype=np.float64))
+            flags = np.asarray(det.flags, dtype=bool)
+            causes = det.causes()
             what = "the clip itself" if context is None else f"the clip and {_context_label(context)}"
-            n_seg = len(det.segments())
-            note = f"{_count(n_seg, 'flagged segment')} on {_count(int(sub_flags.any(axis=0).sum()), 'joint')}" + (
-                f"; {'; '.join(det.notes)}" if det.notes else "")
+            said = det.analysed_part().notes  # the frames analysed are said by the calibration lines
+            note = f"{_count(len(det.segments()), 'flagged segment')} on {_count(int(flags.any(axis=0).sum()), 'joint')}" + (
+                f"; {'; '.join(said)}" if said else "")
             records.append(StepRecord("detect", time.perf_counter() - t, 0, f"self-similarity against {what}", note))
 
     if "repair" in steps and det is not None:
         t = time.perf_counter()
-        before = cur.rotations
-        try:
-            cur = ssa.repair(cur, det, foot_skate=foot_skate)  # on the take detect prepared
-        except ValueError as exc:
-            raise MocapError(f"{name}: repair: {exc}") from None
-        sub_rep = _changed_cells(before, cur.rotations)
-        note = "" if sub_flags.any() else "nothing flagged"
-        records.append(StepRecord("repair", time.perf_counter() - t, int(sub_rep.sum()),
+        before = cur
+        cur = repair_take(cur, det, foot_skate=foot_skate, poses=poses)  # on the take detect prepared
+        repaired = changed_cells(before, cur)
+        note = "" if flags.any() else "nothing flagged"
+        records.append(StepRecord("repair", time.perf_counter() - t, int(repaired.sum()),
                                   "medoid of the nearest motion words" + (" + foot-skate cleanup" if foot_skate else ""), note))
 
     if "denoise" in steps:
@@ -781,28 +749,19 @@ def clean(
             notes.append(note)
             records.append(StepRecord("denoise", time.perf_counter() - t, 0, "skipped", note))
         else:
-            noisy, sub_noise = noisy_cells(cur, noise_deg, filled=filled[lo:hi])
-            noisy &= ~cur.missing()
-            before = cur.rotations
-            cur, method, note = _denoise(cur, noisy, models, notes)
-            sub_den = _changed_cells(before, cur.rotations)
+            part = cur[lo:hi]  # calibration frames as they came out of fill
+            noisy, sub_noise = noisy_cells(part, noise_deg, filled=filled[lo:hi])
+            noisy &= ~part.missing()
+            den, method, note = _denoise(part, noisy, models, notes)
+            sub_den = _changed_cells(part.rotations, den.rotations)
+            rot = np.array(cur.rotations)
+            rot[lo:hi] = den.rotations
+            cur = dataclasses.replace(cur, rotations=rot)
+            denoised, noise = _pad(sub_den, lo, F, False), _pad(sub_noise, lo, F, np.nan)
             extra = (f"{_count(int(noisy.sum()), 'noisy cell')} (level > {noise_deg:g} deg) on "
                      f"{_count(int(noisy.any(axis=0).sum()), 'joint')}")
             records.append(StepRecord("denoise", time.perf_counter() - t, int(sub_den.sum()), method,
                                       extra + (f"; {note}" if note else "")))
-
-    # back to the whole take: calibration frames as they came out of fill
-    mdm, flags = _pad(sub_mdm, lo, F, 0.0), _pad(sub_flags, lo, F, False)
-    causes = None if sub_causes is None else _pad(sub_causes, lo, F, 0)
-    repaired, denoised, noise = _pad(sub_rep, lo, F, False), _pad(sub_den, lo, F, False), _pad(sub_noise, lo, F, np.nan)
-    if poses:
-        rot, pos = np.array(full.rotations), np.array(full.root_positions)
-        rot[lo:hi], pos[lo:hi] = cur.rotations, cur.root_positions
-        cur = dataclasses.replace(full, rotations=rot, root_positions=pos)
-        if det is not None:
-            det = _padded_detection(det, lo, F)
-    else:
-        cur = dataclasses.replace(full, rotations=cur.rotations, root_positions=cur.root_positions)
 
     params = dict(steps=list(steps), threshold=float(threshold), noise_deg=float(noise_deg), foot_skate=bool(foot_skate),
                   context="none" if context is None else _context_label(context), analysed=[int(lo), int(hi)])

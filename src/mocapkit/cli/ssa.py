@@ -7,20 +7,23 @@ from typing import Optional
 
 import typer
 
-from ..errors import MocapError, MocapFormatError, SkeletonError
+from ..errors import MocapError, MocapFormatError
 from .common import asf_option, console, context_option, guard, overwrite_option, plural, save_take
 
 
-def _detect(m, context, threshold: float, progress: bool = True, confirm: bool = True, jump_deg: float = 8.0,
-            drifts: bool = False):
-    from ..cleaning import ssa
-    from ..cleaning.pipeline import MAX_WORD_ANGLE_DEG
+def _detect(m, context, threshold: float, progress: bool = True, drifts: bool = False, **overrides):
+    """The take's detection as `clean --steps detect` makes it (calibration poses left out, clean's word gate):
+    ``(TakeDetection, Detection)``; a take with nothing to analyse is refused in one line."""
+    from ..cleaning.whole_take import detect_take, take_params
 
-    try:  # clean's word gate: a word with no neighbour that close is not judged (the flags of `clean --steps detect`)
-        return ssa.detect(m, context, threshold=threshold, progress=progress, confirm=confirm, jump_deg=jump_deg,
-                          drift=drifts, max_word_angle_deg=MAX_WORD_ANGLE_DEG)
-    except (ValueError, SkeletonError) as exc:
+    try:
+        params = take_params(drifts=drifts, **overrides)
+    except ValueError as exc:
         raise MocapError(f"{m.name or 'input'}: {exc}") from None
+    found = detect_take(m, context, threshold=threshold, params=params, progress=progress)
+    if found.detection is None:
+        raise MocapError(f"{m.name or 'input'}: {found.skipped}")
+    return found, found.detection
 
 
 def detect(
@@ -42,7 +45,11 @@ def detect(
     asf: Optional[Path] = asf_option(),
     overwrite: bool = overwrite_option(),
 ) -> None:
-    """Find erroneous joints by self-similarity (Aristidou et al. 2018): movement digression map + flags."""
+    """Find erroneous joints by self-similarity (Aristidou et al. 2018): movement digression map + flags.
+
+    The flags are those of `clean --steps detect` on the same take and options: calibration poses at the
+    take's ends are left out (named in a note), and words with no neighbour within 8 degrees are not judged.
+    """
     import json
 
     from ..batch import load_context
@@ -60,7 +67,7 @@ def detect(
     m = load_motion(inp, asf, purpose="detect")
     precompile.start(precompile.kernels_for(["detect"]))  # with an empty numba cache: beside the context's loading
     ctx, note = fit_context(m, load_context(context, progress=not as_json, take=m))
-    det = _detect(m, ctx, threshold, progress=not as_json, confirm=confirm, jump_deg=jump_deg, drifts=drifts)
+    found, det = _detect(m, ctx, threshold, progress=not as_json, confirm=confirm, jump_deg=jump_deg, drifts=drifts)
     with removed_on_failure([out, png], overwrite=overwrite, marker=out):  # the detection last
         if png is not None:
             from ..report.plots import plot_mdm
@@ -78,7 +85,7 @@ def detect(
         return
     console.print(f"wrote {out}" + (f" and {png}" if png else "") + f": {plural(len(segs), 'flagged segment')}"
                   f" (judged against {context_label(ctx)})")
-    for line in ([note] if note else []) + list(det.notes):
+    for line in ([note] if note else []) + [str(c) for c in found.calibration] + list(det.notes):
         console.print(f"  note: {line}")
     for (j, a, b), w in zip(segs[:50], why):
         console.print(f"  {j:16s} frames {a}-{b - 1} ({a / m.fps:.2f}-{b / m.fps:.2f} s): {', '.join(w)}")
@@ -98,14 +105,28 @@ def repair(
         True, "--confirm/--no-confirm", help="As for detect; ignored with --detection (the file's own rule is kept)."
     ),
     jump_deg: float = typer.Option(8.0, "--jump-deg", help="As for detect (degrees)."),
-    foot_skate: bool = typer.Option(True, "--foot-skate/--no-foot-skate", help="Pin planted feet on repaired frames."),
+    drifts: bool = typer.Option(
+        False, "--drifts", help="As for detect: also replace smooth drifts; ignored with --detection."
+    ),
+    foot_skate: bool = typer.Option(
+        False, "--foot-skate/--no-foot-skate",
+        help="Also pin planted feet on repaired frames: this moves the hip and knee of a leg whose foot is planted, "
+             "joints that were not flagged (off by default, as in clean).",
+    ),
     asf: Optional[Path] = asf_option(),
     overwrite: bool = overwrite_option(),
 ) -> None:
-    """Replace only the flagged joints in flagged frames by the median of their nearest motion words."""
+    """Replace only the flagged joints in flagged frames by the median of their nearest motion words.
+
+    The flags are those of `clean --steps detect` (or --detection's), and OUT is what
+    `clean --steps detect,repair` writes: calibration poses at the take's ends are left alone, every
+    other unflagged sample stays bit-identical (unless --foot-skate). Prints the joint samples and
+    frames that changed.
+    """
     from .. import io
     from ..batch import load_context
     from ..cleaning import ssa
+    from ..cleaning.whole_take import changed_cells, repair_take
     from ..context import fit_context
     from ..io.takes import check_asf, load_motion
 
@@ -123,13 +144,17 @@ def repair(
     ctx, note = fit_context(m, load_context(context, progress=True, take=m))
     if note:
         console.print(f"note: {note}")
+    poses = None
     if det is None:
-        det = _detect(m, ctx, threshold, confirm=confirm, jump_deg=jump_deg)
-    try:
-        fixed = ssa.repair(m, det, ctx, foot_skate=foot_skate)
-    except ValueError as exc:
-        raise MocapError(f"{inp}: {exc}") from None
+        found, det = _detect(m, ctx, threshold, confirm=confirm, jump_deg=jump_deg, drifts=drifts)
+        poses = found.calibration
+        for c in poses:
+            console.print(f"note: {c}")
+    fixed = repair_take(m, det, ctx, foot_skate=foot_skate, poses=poses)
     save_take(fixed, out, inp, asf, overwrite, like=inp)
-    n = int(det.flags.sum())
-    console.print(f"wrote {out}: {plural(n, 'joint sample')} replaced in {int(det.flags.any(axis=1).sum())} of "
-                  f"{plural(m.num_frames, 'frame')}")
+    changed = changed_cells(m, fixed)
+    flagged = int(det.flags.sum())
+    extra = int((changed & ~det.flags).sum())
+    said = f"{flagged} flagged" + (f"; {extra} more moved by the foot-skate cleanup" if extra else "")
+    console.print(f"wrote {out}: {plural(int(changed.sum()), 'joint sample')} changed in {int(changed.any(axis=1).sum())} "
+                  f"of {plural(m.num_frames, 'frame')} ({said})")

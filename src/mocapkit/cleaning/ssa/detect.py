@@ -109,6 +109,13 @@ class Detection:
     (:func:`~mocapkit.cleaning.ssa.cues.spike_breaks`; None for a detection
     saved before they were told apart). The rest records how the analysis
     was made so that :func:`repair` can fetch the neighbour words again.
+
+    span : ``(lo, hi)`` or None. None: the whole take was analysed. ``(lo, hi)``: only its frames ``lo .. hi - 1``
+    were (:meth:`padded`: the calibration poses at the take's ends left out,
+    :func:`mocapkit.cleaning.whole_take.detect_take`); the (F, J) arrays are at the take's frames, with nothing
+    flagged outside the span, while the word starts and neighbours count from ``lo``. :meth:`causes`,
+    :meth:`drifts` and :meth:`with_threshold` judge the analysed frames only (:meth:`analysed_part`), and
+    :func:`repair` replaces cells inside the span only.
     """
 
     mdm: np.ndarray
@@ -139,6 +146,7 @@ class Detection:
     analysis: Analysis | None = field(default=None, repr=False)
     spikes: np.ndarray | None = None
     change: np.ndarray | None = None  # (F, J) float, None without the drift rule
+    span: tuple | None = None  # (lo, hi): the frames analysed, when not the whole take (padded)
 
     @property
     def num_frames(self) -> int:
@@ -155,11 +163,15 @@ class Detection:
         """(F, J) bool smooth drifts (:func:`smooth_drift_flags`; any threshold), none where ``params.drift`` is off."""
         if not self.params.drift:
             return np.zeros(self.mdm.shape, dtype=bool)
+        if self.span is not None:  # judged on the frames analysed, as the detection itself was
+            return _pad_frames(self.analysed_part().drifts(), self.span[0], self.num_frames, False)
         return _drifts(self.jumps, self.agreement, self.consistency, self.fps, self.params, self.joint_names, self.change)
 
     def causes(self) -> np.ndarray:
         """(F, J) uint8: which rules flag each cell (:func:`~mocapkit.cleaning.ssa.cues.flag_causes`; ``flags``
         is exactly where it is not 0)."""
+        if self.span is not None:
+            return _pad_frames(self.analysed_part().causes(), self.span[0], self.num_frames, 0)
         return flag_causes(self.mdm, self.jumps, self.holds, self.swaps, self.offsets, self.threshold, self.fps,
                            self.params.confirm, self.params.confirm_margin_s, self.drifts(), self.spikes,
                            np.isfinite(self.digression))
@@ -169,10 +181,41 @@ class Detection:
         threshold = float(threshold)
         if not 0.0 < threshold < 1.0:
             raise ValueError(f"threshold must be in (0, 1), got {threshold}")
+        if self.span is not None:
+            sub = self.analysed_part().with_threshold(threshold)
+            return dataclasses.replace(self, threshold=threshold, flags=_pad_frames(sub.flags, self.span[0],
+                                                                                    self.num_frames, False))
         flags = flag_rule(self.mdm, self.jumps, self.holds, self.swaps, self.offsets, threshold, self.fps,
                           self.params.confirm, self.params.confirm_margin_s, self.drifts(), self.spikes,
                           np.isfinite(self.digression))
         return dataclasses.replace(self, threshold=threshold, flags=flags)
+
+    def padded(self, lo: int, num_frames: int) -> "Detection":
+        """This detection of frames ``lo .. lo + self.num_frames - 1`` of a take of ``num_frames`` frames, put back
+        at the take's frames: nothing flagged outside them (no MDM, no cue, no digression), ``span`` set, and a
+        note saying which frames were analysed. The word starts and neighbours still count from ``lo``, and
+        :attr:`analysis` stays the prepared part, which :func:`repair` reuses on it (:meth:`analysed_part`)."""
+        if self.span is not None:
+            raise ValueError("the detection is padded already")
+        lo, F = int(lo), int(num_frames)
+        hi = lo + self.num_frames
+        if lo < 0 or hi > F:
+            raise ValueError(f"frames {lo}-{hi - 1} are not frames of a take of {F}")
+        pads = {k: v for k, v in _PADS.items() if getattr(self, k) is not None}
+        return dataclasses.replace(self, **{k: _pad_frames(np.asarray(getattr(self, k)), lo, F, v) for k, v in pads.items()},
+                                   span=(lo, hi), notes=tuple(self.notes) + (_span_note(lo, hi),))
+
+    def analysed_part(self) -> "Detection":
+        """The detection of the frames analysed (:attr:`span`) alone, as :func:`detect` made it on them; ``self``
+        when the whole take was analysed."""
+        if self.span is None:
+            return self
+        lo, hi = self.span
+        notes = tuple(self.notes)
+        if notes and notes[-1] == _span_note(lo, hi):
+            notes = notes[:-1]
+        cut = {k: np.asarray(getattr(self, k))[lo:hi] for k in _PADS if getattr(self, k) is not None}
+        return dataclasses.replace(self, **cut, span=None, notes=notes)
 
     def save(self, path) -> Path:
         """Write as ``.npz`` (no pickles) through a temporary file and a rename."""
@@ -180,7 +223,9 @@ class Detection:
 
         arrays = {f.name: getattr(self, f.name) for f in dataclasses.fields(self)
                   if f.name != "analysis" and getattr(self, f.name) is not None}
+        arrays.pop("span", None)
         meta = {
+            "span": None if self.span is None else [int(v) for v in self.span],
             "threshold": self.threshold,
             "fps": self.fps,
             "joint_names": list(self.joint_names),
@@ -190,7 +235,7 @@ class Detection:
             "notes": list(self.notes),
         }
         for key in meta:
-            arrays.pop(key)
+            arrays.pop(key, None)
         arrays["meta"] = np.array(json.dumps(meta))
         path = Path(path)
         with atomic_write(path, "wb") as fh:
@@ -223,9 +268,27 @@ class Detection:
                 context_clips=tuple((str(n), int(f)) for n, f in meta["context_clips"]),
                 params=SSAParams.from_dict(meta["params"]),
                 notes=tuple(meta["notes"]),
+                span=None if meta.get("span") is None else (int(meta["span"][0]), int(meta["span"][1])),
             )
         except (OSError, ValueError, KeyError, TypeError) as e:
             raise MocapFormatError(path, f"not a mocapkit detection file ({e})") from None
+
+
+#: what each (F, J) array of a :class:`Detection` holds on frames that were not analysed (:meth:`Detection.padded`)
+_PADS = {"mdm": 0.0, "flags": False, "digression": np.nan, "best_group": -1, "jumps": False, "holds": False,
+         "swaps": False, "offsets": False, "agreement": np.nan, "consistency": np.nan, "spikes": False, "change": np.nan}
+
+
+def _pad_frames(a: np.ndarray, lo: int, F: int, fill) -> np.ndarray:
+    """(F, ...) holding ``a`` at frames ``lo .. lo + len(a) - 1`` and ``fill`` elsewhere."""
+    out = np.full((F,) + a.shape[1:], fill, dtype=a.dtype)
+    out[lo : lo + a.shape[0]] = a
+    return out
+
+
+def _span_note(lo: int, hi: int) -> str:
+    """The note of a detection analysed on frames ``lo .. hi - 1`` only (:meth:`Detection.padded`)."""
+    return f"analysed frames {lo}-{hi - 1} (calibration poses left out); word starts count from there"
 
 
 def _drifts(jumps, agreement, consistency, fps: float, p: SSAParams, joint_names, change=None) -> np.ndarray:

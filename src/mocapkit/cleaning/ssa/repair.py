@@ -189,7 +189,10 @@ def repair(
     detection was made with; None takes the detection's own when it holds
     its prepared take (:attr:`Detection.analysis`, made by :func:`detect` on
     this motion), which is then reused as is: the take and its context are
-    not resampled again.
+    not resampled again. A detection of part of the take (:attr:`Detection.span`, the calibration poses left
+    out by :func:`mocapkit.cleaning.whole_take.detect_take`) repairs that part only, as the detection of it
+    alone would (``contacts`` count from the take's first frame): every frame outside it stays bit-identical,
+    whatever ``foot_skate`` or ``contacts`` say.
     """
     if not isinstance(detection, Detection):
         raise TypeError(f"detection must be a Detection, got {type(detection).__name__}")
@@ -199,6 +202,8 @@ def repair(
             f"({detection.num_frames} frames, {len(detection.joint_names)} joints vs "
             f"{motion.num_frames} frames, {motion.num_joints} joints)"
         )
+    if detection.span is not None:
+        return _repair_span(motion, detection, context, contacts=contacts, foot_skate=foot_skate, blend_s=blend_s)
     flags = np.asarray(detection.flags, dtype=bool) & detection.analysed[None, :]
     if not flags.any():
         return motion
@@ -305,6 +310,24 @@ def repair(
     if foot_skate:
         out = _foot_skate(motion, out, flags)
     return out
+
+
+def _repair_span(motion: Motion, detection: Detection, context, **options) -> Motion:
+    """:func:`repair` of the frames ``detection.span`` analysed, put back into ``motion`` (the rest untouched)."""
+    lo, hi = detection.span
+    if not np.asarray(detection.flags, dtype=bool).any():
+        return motion
+    contacts = options.pop("contacts")
+    if contacts:  # frames of the part, which starts at lo
+        contacts = [dataclasses.replace(c, start=c.start - lo, end=c.end - lo) for c in contacts]
+    part = repair(motion[lo:hi], detection.analysed_part(), context, contacts=contacts, **options)
+    rot, pos = np.array(motion.rotations), np.array(motion.root_positions)
+    rot[lo:hi], pos[lo:hi] = part.rotations, part.root_positions
+    tr = None
+    if motion.translations is not None:
+        tr = np.array(motion.translations)
+        tr[lo:hi] = part.translations
+    return dataclasses.replace(motion, rotations=rot, root_positions=pos, translations=tr)
 
 
 def _closest_to_contacts(motion, words_k, place, cells, contacts) -> int | None:

@@ -1,0 +1,98 @@
+"""mocapkit.cleaning.whole_take: detect and repair a take with its calibration pose left out, as clean does.
+
+The take: CMU 12_walk (bundled) opening with its rest pose, a T-pose, as the CMU BVH converter's frame 0 does,
+with errors injected (a spike, a flip, a swap of the feet)."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import pytest
+
+import mocapkit
+from mocapkit import corrupt, samples
+from mocapkit.cleaning import ssa
+from mocapkit.cleaning.pipeline import clean
+from mocapkit.cleaning.whole_take import changed_cells, detect_take, repair_take
+
+
+@pytest.fixture(scope="module")
+def t_pose_walk():
+    walk = mocapkit.load(samples.path("12_walk.amc"))
+    rest = np.array(walk.rotations[:1])
+    rest[0, 1:] = (1.0, 0.0, 0.0, 0.0)
+    take = dataclasses.replace(walk, rotations=np.concatenate([rest, walk.rotations]),
+                               root_positions=np.concatenate([walk.root_positions[:1], walk.root_positions]),
+                               name="t_pose_walk")
+    bad, _, _ = corrupt.real_errors(take, n_errors=3, seed=1)
+    return bad
+
+
+@pytest.fixture(scope="module")
+def found(t_pose_walk):
+    return detect_take(t_pose_walk)
+
+
+def test_detect_take_leaves_the_t_pose_out_and_flags_what_clean_flags(t_pose_walk, found):
+    m = t_pose_walk
+    det = found.detection
+    assert [str(c) for c in found.calibration] == ["frame 0: calibration T-pose, left alone"]
+    assert found.span == det.span == (1, m.num_frames) and not found.skipped
+    assert det.flags.shape == (m.num_frames, m.num_joints) and det.flags.any() and not det.flags[0].any()
+    res = clean(m, steps="detect")
+    assert np.array_equal(det.flags, res.flags) and np.array_equal(det.causes(), res.causes)
+    # the part analysed is what ssa.detect makes of the frames after the pose
+    alone = ssa.detect(m[1:], params=det.params)
+    part = det.analysed_part()
+    assert part.span is None and np.array_equal(part.flags, alone.flags) and np.array_equal(part.mdm, alone.mdm)
+    assert part.notes == alone.notes and det.notes[-1].startswith("analysed frames 1-")
+    # whole, the pose was flagged on the arms and legs
+    assert ssa.detect(m, params=det.params).flags[0].any()
+
+
+def test_a_padded_detection_keeps_its_span_through_a_file_and_another_threshold(t_pose_walk, found, tmp_path):
+    det = found.detection
+    back = ssa.Detection.load(det.save(tmp_path / "det.npz"))
+    assert back.span == det.span and np.array_equal(back.flags, det.flags)
+    lower = back.with_threshold(0.3)
+    again = det.analysed_part().with_threshold(0.3)
+    assert lower.span == det.span and not lower.flags[0].any()
+    assert np.array_equal(lower.flags[1:], again.flags) and lower.flags.sum() >= det.flags.sum()
+    with pytest.raises(ValueError, match="padded already"):
+        det.padded(1, t_pose_walk.num_frames)
+
+
+def test_repair_of_a_padded_detection_changes_the_flagged_cells_of_its_span_only(t_pose_walk, found, tmp_path):
+    m, det = t_pose_walk, found.detection
+    fixed = ssa.repair(m, det, foot_skate=False)
+    changed = changed_cells(m, fixed)
+    assert changed.any() and not (changed & ~det.flags).any() and not changed[0].any()
+    part = ssa.repair(m[1:], det.analysed_part(), foot_skate=False)
+    assert np.array_equal(fixed.rotations[1:], part.rotations) and np.array_equal(fixed.rotations[0], m.rotations[0])
+    # read back from a file (no prepared take kept): the same repair
+    loaded = ssa.Detection.load(det.save(tmp_path / "det.npz"))
+    assert np.array_equal(ssa.repair(m, loaded, foot_skate=False).rotations, fixed.rotations)
+    # foot-skate cleanup stays inside the span too
+    skated = changed_cells(m, ssa.repair(m, det, foot_skate=True))
+    assert not skated[0].any()
+    assert np.array_equal(repair_take(m, det).rotations, clean(m, steps="detect,repair").motion.rotations)
+
+
+def test_repair_take_drops_flags_on_the_pose_of_a_whole_take_detection(t_pose_walk):
+    """A detection of every frame (ssa.detect, or a file written before poses were left out) flags the T-pose;
+    repair_take leaves the pose as it is all the same."""
+    m = t_pose_walk
+    whole = ssa.detect(m, max_word_angle_deg=8.0)
+    assert whole.flags[0].any()
+    fixed = repair_take(m, whole)
+    changed = changed_cells(m, fixed)
+    assert not changed[0].any() and changed[1:].any() and not (changed & ~whole.flags).any()
+
+
+def test_detect_take_says_why_nothing_was_analysed(t_pose_walk):
+    short = detect_take(t_pose_walk[:10])
+    assert short.detection is None and short.span == (1, 10)
+    assert short.skipped.startswith("9 frames (0.07 s) is shorter than one motion word (15 frames at 24 fps")
+    pose = detect_take(t_pose_walk[:1])
+    assert pose.detection is None and pose.skipped == "the whole take is a calibration pose"
