@@ -49,6 +49,7 @@ __all__ = [
     "slerp",
     "euler_to_quaternion",
     "quaternion_to_euler",
+    "continuous_euler",
     "quaternion_to_matrix",
     "matrix_to_quaternion",
     "to_scipy",
@@ -388,6 +389,89 @@ def quaternion_to_euler(q: np.ndarray, order: str, degrees: bool = True) -> np.n
             out[good] = to_scipy(flat[good]).as_euler(seq, degrees=degrees)
     keep = [full.index(a) for a in low]
     return out[:, keep].reshape(shape + (len(low),))
+
+
+def continuous_euler(angles, order: str, fixed=None, start=None, degrees: bool = True,
+                     max_step: float = 90.0) -> np.ndarray:
+    """Euler angles rewritten as the equivalent angles nearest their neighbouring frames (an "Euler filter").
+
+    The one rule every writer of Euler text follows (:func:`mocapkit.io.bvh.write_bvh`,
+    :func:`mocapkit.io.amc_writer.write_amc`), so that the written curves are
+    continuous as a graph editor shows them. A rotation has many Euler
+    triples: each angle plus any whole turn and, for a 3-axis ``order``, the
+    other branch of the middle angle, ``(a + 180, 180 - b, c + 180)``
+    (``(a + 180, -b, c + 180)`` for a repeated-axis order such as ``"ZXZ"``).
+    With fewer than 3 axes (an ASF bone with 1 or 2 dofs, a BVH joint with
+    1 or 2 rotation channels) only whole turns apply. For each cell that is
+    not ``fixed`` the triple nearest a reference (sum of absolute
+    differences; a tie keeps the branch ``angles`` gives) is chosen:
+
+    - the value of the nearest ``fixed`` cell of the same column, chained
+      through the cells in between (each nearest the one written next to it;
+      a cell between two fixed ones follows the nearer, the earlier on a tie);
+    - in a column with no fixed cell, each frame the one before it, the first
+      (finite) frame nearest ``start`` when given, else as ``angles`` has it.
+
+    Where the rotation itself jumps, by more than ``max_step`` from the frame
+    it is chained from (a T-pose frame 0 before the motion, a cut, a broken
+    frame), nothing is continuous: the cell keeps the branch of the middle
+    angle ``angles`` gives (whole turns are still chosen), so a jump does not
+    carry a whole take onto the other branch. Between two fixed cells on
+    different branches (the file itself jumps there) the changed cells are
+    split between the two chains where the written curve's total variation
+    is least (nearest the middle on a tie).
+
+    Parameters
+    ----------
+    angles : array (F, n) or (F, K, n)
+        Any Euler triples of the rotations (degrees, or radians with
+        ``degrees=False``), frames first, K columns (joints) of ``n`` angles
+        in ``order``; e.g. :func:`quaternion_to_euler`'s output. Cells with a
+        NaN angle stay NaN and are skipped (the chain crosses them).
+    order : str
+        The axes of the ``n`` angles (case as in :func:`euler_to_quaternion`;
+        intrinsic and extrinsic orders have the same equivalent triples).
+    fixed : bool array (F,) or (F, K), optional
+        Cells kept exactly as ``angles`` gives them (a file's own numbers,
+        which are the reference of the cells around them). None: none.
+    start : array (n,) or (K, n), optional
+        Where a column with no fixed cell starts from (e.g. the file's own
+        numbers of its first frame, to stay on the file's branch); NaN or None:
+        its first frame as given.
+    degrees : bool
+        Units of ``angles`` and ``start``.
+    max_step : float
+        Degrees, whatever the units of ``angles``: the largest rotation from
+        one frame to the next across which the branch of the middle angle is
+        continued. 90 is far above any motion's step (under 30 degrees a
+        frame at 120 Hz in the CMU takes) and far below a flip's 180.
+
+    Returns
+    -------
+    ndarray, the shape of ``angles``: fixed cells and NaN cells bit for bit
+    as given, every other cell an equivalent triple of the same rotation
+    (bit for bit as given when no turn or branch change was needed).
+    """
+    low, _ = _check_order(order)
+    a = np.asarray(angles, dtype=np.float64)
+    flat = a.ndim == 2
+    if a.ndim not in (2, 3) or a.shape[-1] != len(low):
+        raise ValueError(f"Euler angles for order {order!r}: expected shape (F, {len(low)}) or (F, K, {len(low)}), "
+                         f"got {a.shape}")
+    a3 = np.ascontiguousarray(a[:, None] if flat else a)
+    F, K, n = a3.shape
+    fx = np.zeros((F, K), dtype=np.bool_) if fixed is None else np.asarray(fixed, dtype=np.bool_).reshape(F, K)
+    st = np.full((K, n), np.nan) if start is None else np.asarray(start, dtype=np.float64).reshape(K, n)
+    flip = 0 if n < 3 else (2 if low[0] == low[2] else 1)
+    if F == 0 or K == 0:
+        return a.copy()
+    from ._numba_euler import continuous_kernel
+
+    axes = np.array([_AXIS_INDEX[c] for c in low], dtype=np.int64)
+    out = continuous_kernel(a3, np.ascontiguousarray(fx), np.ascontiguousarray(st), flip,
+                            360.0 if degrees else 2.0 * np.pi, float(np.cos(np.radians(max_step) / 2.0)),
+                            axes, order.isupper())
+    return out[:, 0] if flat else out
 
 
 def quaternion_to_matrix(q: np.ndarray) -> np.ndarray:

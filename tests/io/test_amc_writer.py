@@ -90,10 +90,11 @@ def test_a_changed_cell_rewrites_only_its_bone_line(tmp_path):
 
 def test_changed_angles_stay_on_the_file_branch(tmp_path):
     amc, asf, m = _sample(SAMPLES[0])
-    line = [ln for ln in amc.read_text().splitlines() if ln.startswith("lfemur ")][20]
-    text = amc.read_text().replace(line, "lfemur " + " ".join(f"{float(v) + 360.0:.6f}" for v in line.split()[1:]), 1)
+    lines = amc.read_text().splitlines(keepends=True)
+    text = "".join("lfemur " + " ".join(f"{float(v) + 360.0:.6f}" for v in ln.split()[1:]) + "\n"
+                   if ln.startswith("lfemur ") else ln for ln in lines)
     src = tmp_path / "wrapped.amc"
-    src.write_text(text)  # the same rotations, every angle of one line 360 degrees up
+    src.write_text(text)  # the same rotations, every lfemur angle 360 degrees up: the file's branch
     m = read_amc(src, asf)
     edited = _turned(m, 20, "lfemur", 1.0)  # frame 20: every frame lists lfemur
     out = tmp_path / "out.amc"

@@ -12,18 +12,21 @@ The inverse of :mod:`mocapkit.io.asfamc`'s reading: the local rotation
 decomposed into the bone's dof angles, extrinsic in dof order
 (:func:`mocapkit.rotations.quaternion_to_euler`; for a bone with one or two
 dofs the rotation about the others is dropped, which is exact for any
-rotation the bone's dofs can make). Angles are unwrapped over frames.
+rotation the bone's dofs can make). The angles written are continuous over
+frames (:func:`mocapkit.rotations.continuous_euler`: whole turns and, for a
+bone with 3 rotation dofs, the other branch of the middle angle, whichever is
+nearest the neighbouring frames; with 1 or 2 dofs only whole turns).
 
 Written like the file the take was read from (``like``): every frame whose
 cells did not change is that file's text, byte for byte, and a changed cell
-rewrites only its bone's numbers on that line (on the file's 360-degree
-branch), so an untouched take comes back the same file, as
-:func:`mocapkit.io.bvh.write_bvh` does for BVH.
+rewrites only its bone's numbers on that line (a root that only moved keeps
+its angles' text, one that only turned its position's), nearest the file's
+numbers at the bone's nearest unchanged frames, so an untouched take comes
+back the same file, as :func:`mocapkit.io.bvh.write_bvh` does for BVH.
 """
 
 from __future__ import annotations
 
-import math
 import re
 from dataclasses import dataclass
 from pathlib import Path
@@ -75,11 +78,22 @@ def check_amc_writable(motion: Motion, path, missing_ok: bool = False) -> None:
         raise MocapFormatError(path, "the take has no frames; AMC needs at least one")
 
 
-def _values(motion: Motion, dofs, radians: bool) -> list[np.ndarray | None]:
-    """Per joint the (F, n_j) numbers of its AMC line (degrees or radians, unwrapped), None without dofs."""
+def _values(motion: Motion, dofs, radians: bool, source: "_LikeSource | None" = None) -> list[np.ndarray | None]:
+    """Per joint the (F, n_j) numbers of its AMC line (degrees or radians), None without dofs.
+
+    A bone's rotation dofs are the Euler triple (or pair, or single angle) of
+    ``C^-1 q C`` nearest its neighbouring frames
+    (:func:`mocapkit.rotations.continuous_euler`: whole turns, and for 3 dofs
+    the other branch of the middle angle): with ``source`` (the AMC the take
+    was read from), a changed cell is written on the branch of its nearest
+    unchanged frame of the same bone (the file's numbers), chained through the
+    changed frames between, and a bone changed in every frame starts from the
+    file's first frame; without it each bone starts from the plain conversion
+    and every frame continues from the one before.
+    """
     sk = motion.skeleton
     out: list[np.ndarray | None] = []
-    period = 2.0 * math.pi if radians else 360.0
+    col0 = 0
     for j, d in enumerate(dofs):
         if not d:
             out.append(None)
@@ -90,8 +104,14 @@ def _values(motion: Motion, dofs, radians: bool) -> list[np.ndarray | None]:
             c = np.broadcast_to(sk.axes[j], motion.rotations[:, j].shape)
             m = R.quaternion_multiply(R.quaternion_multiply(R.quaternion_conjugate(c), motion.rotations[:, j]), c)
             ang = R.quaternion_to_euler(m, rot, degrees=not radians)
-            if ang.shape[0] > 1:
-                ang = np.unwrap(ang, period=period, axis=0)
+            fixed = start = None
+            if source is not None:
+                file_cols = [col0 + i for i, x in enumerate(d) if x[0] == "r"]
+                given = source.numbers[:, file_cols]
+                fixed = ~source.turned[:, j]
+                ang = np.where(fixed[:, None], given, ang)
+                start = given[0]
+            ang = R.continuous_euler(ang, rot, fixed=fixed, start=start, degrees=not radians)
         k = 0
         for x in d:
             if x[0] == "t":
@@ -100,6 +120,7 @@ def _values(motion: Motion, dofs, radians: bool) -> list[np.ndarray | None]:
                 cols.append(ang[:, k])
                 k += 1
         out.append(np.stack(cols, axis=1))
+        col0 += len(d)
     return out
 
 
@@ -134,9 +155,11 @@ def write_amc(motion: Motion, path, precision: int = 6, like=None, asf=None) -> 
     from. Where it is that file (same skeleton, same
     frame count, its units stated in its header), every frame whose rotations
     and root position are bit for bit the file's is copied as the file has it,
-    and a changed cell rewrites only its bone's numbers, on the file's branch of
-    each angle; otherwise the file is written whole, ``:FULLY-SPECIFIED`` and
-    ``:DEGREES``, frames numbered from 1, every bone with dofs on its own line.
+    and a changed cell rewrites only its bone's numbers, each angle on the
+    branch of the bone's nearest unchanged frames (never that of the broken
+    value it replaces); otherwise the file is written whole, ``:FULLY-SPECIFIED`` and
+    ``:DEGREES``, frames numbered from 1, every bone with dofs on its own line,
+    its angles Euler-filtered from frame to frame (:func:`_values`).
     """
     from . import atomic_write
 
@@ -171,19 +194,22 @@ class _LikeSource:
     header: str  # the text before the first frame
     frames: list[list[str]]  # per frame its lines, the frame-number line first (line endings kept)
     radians: bool
-    changed: np.ndarray  # (F, J) bool
+    changed: np.ndarray  # (F, J) bool: cells whose rotation (or, for the root, position) differs from the file's
+    turned: np.ndarray  # (F, J) bool: cells whose rotation differs from the file's
+    moved: np.ndarray  # (F,) bool: frames whose root position differs from the file's
+    numbers: np.ndarray  # (F, columns): the file's numbers, each bone's dofs in file order (its own branches)
 
 
 def _like_source(like, motion: Motion, dofs) -> _LikeSource | None:
     """The source AMC's lines and changed cells, or None when ``like`` is not the file ``motion`` came from."""
-    from .asfamc import amc_header, read_amc
+    from .asfamc import _read_amc, amc_header
 
     like = Path(like)
     if like.suffix.lower() != ".amc" or not like.is_file():
         return None
     try:
         data = like.read_bytes()
-        ref = read_amc(like, asf=motion.skeleton, fps=motion.fps, dofs=dofs)
+        ref, numbers = _read_amc(like, asf=motion.skeleton, fps=motion.fps, dofs=dofs, keep_numbers=True)
     except (MocapFormatError, OSError):
         return None
     body_at, _, radians = amc_header(data)  # the reader's rule for where the frames start and the units
@@ -200,18 +226,20 @@ def _like_source(like, motion: Motion, dofs) -> _LikeSource | None:
     if len(frames) != motion.num_frames:
         return None
     header = data[:body_at].decode("latin-1")
-    changed = np.any((motion.rotations != ref.rotations), axis=-1)
-    changed[:, 0] |= np.any(np.asarray(motion.root_positions) != ref.root_positions, axis=-1)
-    return _LikeSource(header, frames, radians, changed)
+    turned = np.any((motion.rotations != ref.rotations), axis=-1)
+    moved = np.any(np.asarray(motion.root_positions) != ref.root_positions, axis=-1)
+    changed = turned.copy()
+    changed[:, 0] |= moved
+    return _LikeSource(header, frames, radians, changed, turned, moved, numbers)
 
 
 def _write_like(path: Path, motion: Motion, dofs, source: _LikeSource, precision: int) -> None:
-    """Write the take keeping ``source``'s text wherever a frame or a bone's line did not change."""
+    """Write the take keeping ``source``'s text wherever a frame or a bone's line did not change (and a root's
+    angles where only its position changed, its position where only its rotation did)."""
     from . import atomic_write
 
     names = motion.skeleton.joint_names
-    period = 2.0 * math.pi if source.radians else 360.0
-    values = _values(motion, dofs, radians=source.radians)
+    values = _values(motion, dofs, radians=source.radians, source=source)
     fmt = f"%.{precision}f"
     with atomic_write(path, "w", encoding="latin-1", newline="") as fh:
         fh.write(source.header)
@@ -236,15 +264,8 @@ def _write_like(path: Path, motion: Motion, dofs, source: _LikeSource, precision
                 line = block[i]
                 body = line.rstrip("\r\n")
                 tok = body.split("#", 1)[0].split()
-                rot = [x[0] == "r" for x in dofs[j]]
-                for k, v in enumerate(new):
-                    if rot[k]:
-                        try:
-                            old = float(tok[k + 1])
-                        except (ValueError, IndexError):
-                            old = float("nan")
-                        if math.isfinite(old):
-                            v += period * round((old - v) / period)  # the file's branch of the angle
-                    tok[k + 1] = fmt % v
+                for k, v in enumerate(new):  # angles already on the branch of the bone's unchanged frames (_values)
+                    if source.moved[f] if dofs[j][k][0] == "t" else source.turned[f, j]:
+                        tok[k + 1] = fmt % v  # a root that only moved keeps its angles' text, and the other way
                 block[i] = " ".join(tok) + (line[len(body):] or ending)
             fh.write("".join(block))

@@ -536,6 +536,13 @@ def read_amc(path, asf=None, fps: float | None = None, dofs=None) -> Motion:
         non-numeric value, no frames, frame numbers not consecutive, bone
         listed twice in a frame, last frame truncated; or no ASF found.
     """
+    return _read_amc(path, asf, fps, dofs)[0]
+
+
+def _read_amc(path, asf=None, fps: float | None = None, dofs=None, keep_numbers: bool = False):
+    """:func:`read_amc`'s Motion and, with ``keep_numbers``, the file's numbers as written: (F, columns), each
+    joint's dofs in file order joint after joint (degrees or radians as the file says; 0 for a bone a frame does
+    not list), which :func:`mocapkit.io.amc_writer.write_amc` needs to stay on the file's branches; else None."""
     path = Path(path)
     if isinstance(asf, Skeleton):
         order = amc_dofs(asf) if dofs is None else tuple(tuple(d) for d in dofs)
@@ -556,6 +563,7 @@ def read_amc(path, asf=None, fps: float | None = None, dofs=None) -> Motion:
     tables = _parse_amc_body(path, data, body_at, first_line, skeleton, layout, asf_name)
     del data  # the text is no longer needed: free it before the rotations are made
     F = sum(t.shape[0] for t in tables)
+    numbers = np.concatenate(tables, axis=0) if keep_numbers else None
     rotations = np.empty((F, skeleton.num_joints, 4))
     root = np.empty((F, 3))
     r0 = 0
@@ -568,7 +576,7 @@ def read_amc(path, asf=None, fps: float | None = None, dofs=None) -> Motion:
         rate = check_fps(fps if fps is not None else (fps_from_name(path.stem) or DEFAULT_FPS))
     except SkeletonError as exc:
         raise MocapFormatError(path, f"frame rate: {exc}") from None
-    return Motion(skeleton=skeleton, rotations=rotations, root_positions=root, fps=rate, name=path.stem)
+    return Motion(skeleton=skeleton, rotations=rotations, root_positions=root, fps=rate, name=path.stem), numbers
 
 
 _CHUNK_BYTES = 1 << 20

@@ -11,8 +11,11 @@ which the tests check; it is 5x faster than the numpy route on whole clips).
 
 The writer keeps the skeleton's own channel layout (``Skeleton.channels``);
 ASF-derived skeletons (``Skeleton.axes`` set) are written with
-``Zrotation Yrotation Xrotation`` on every rotating joint. Euler angles are
-unwrapped over time so written channels have no spurious 360-degree jumps.
+``Zrotation Yrotation Xrotation`` on every rotating joint. The Euler angles
+written are continuous over time, as a graph editor shows them: each frame
+the equivalent triple (whole turns, and the other branch of the middle angle)
+nearest its neighbours (:func:`mocapkit.rotations.continuous_euler`), so
+there are no spurious 360-degree or flipped-branch jumps.
 """
 
 from __future__ import annotations
@@ -25,6 +28,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import MocapFormatError, SkeletonError
+from .. import rotations as R
 from ..motion import MAX_JOINTS, Motion, Skeleton, check_fps
 from . import atomic_write
 from ._numparse import line_of_offset, parse_floats
@@ -300,6 +304,12 @@ def read_bvh(path) -> Motion:
         a line with the wrong number of channels, zero frames, or fewer or
         more data lines than ``Frames:`` says.
     """
+    return _read_bvh(path)[0]
+
+
+def _read_bvh(path) -> tuple[Motion, np.ndarray]:
+    """:func:`read_bvh`'s Motion and the file's numbers as written: (F, C) channel values in file order (degrees
+    and file units, NaN where the file says ``nan``), which :func:`write_bvh` needs to stay on the file's branches."""
     path = Path(path)
     try:
         data = path.read_bytes()
@@ -416,7 +426,7 @@ def read_bvh(path) -> Motion:
         )
     except SkeletonError as e:
         raise MocapFormatError(path, str(e)) from None
-    return _motion_from_channels(skeleton, table, fps, path.stem)
+    return _motion_from_channels(skeleton, table, fps, path.stem), table
 
 
 @njit(cache=True)
@@ -588,20 +598,31 @@ def _write_channels(motion: Motion) -> tuple[tuple[str, ...], ...]:
     return tuple(out)
 
 
-def _unwrap_degrees(a: np.ndarray) -> np.ndarray:
-    """Unwrap angle columns (F, K) in degrees over frames (period 360), skipping NaN."""
-    if a.shape[0] < 2 or a.shape[1] == 0:
-        return a
-    finite = np.isfinite(a)
-    full = np.all(finite, axis=0)
-    out = a.copy()
-    if np.any(full):
-        out[:, full] = np.unwrap(a[:, full], period=360.0, axis=0)
-    for k in np.flatnonzero(~full):
-        ok = finite[:, k]
-        if np.count_nonzero(ok) > 1:
-            out[ok, k] = np.unwrap(a[ok, k], period=360.0)
-    return out
+def _continuous_rotations(values: np.ndarray, channels, source: "_LikeSource | None" = None) -> None:
+    """Rewrite, in place, the rotation channels of ``values`` (F, C; columns in ``channels``' order, degrees) as
+    the Euler triples nearest their neighbouring frames (:func:`mocapkit.rotations.continuous_euler`), so the
+    written curves have no 360-degree or flipped-branch jumps: where ``source`` (the file the motion was read from)
+    is given its unchanged cells are the file's own numbers and anchor the changed ones (each written on the
+    branch of its nearest unchanged frame, chained through the changed frames between); a joint with no unchanged
+    cell starts from the file's first frame, and without ``source`` from the plain conversion. One call per
+    rotation order, all joints with that order together."""
+    starts = np.cumsum([0] + [len(c) for c in channels])
+    groups: dict[str, tuple[list[int], list[list[int]]]] = {}
+    for j, chans in enumerate(channels):
+        rot = [k for k, c in enumerate(chans) if c.endswith("rotation")]
+        if rot:
+            js, cols = groups.setdefault("".join(chans[k][0] for k in rot), ([], []))
+            js.append(j)
+            cols.append([int(starts[j]) + k for k in rot])
+    for order, (js, cols) in groups.items():
+        idx = np.array(cols)  # (K, n)
+        angles = values[:, idx]
+        fixed = start = None
+        if source is not None:
+            fixed = ~source.turned[:, js]
+            angles = np.where(fixed[..., None], source.values[:, idx], angles)
+            start = source.values[0, idx]
+        values[:, idx] = R.continuous_euler(angles, order, fixed=fixed, start=start)
 
 
 def _fmt(x: float) -> str:
@@ -635,10 +656,17 @@ def write_bvh(motion: Motion, path, precision: int = 6, allow_nan: bool = False,
         (frame, joint) cell whose rotation, position and offset are bit for bit
         what the file gives keeps the file's own text (a frame with no changed
         cell is the file's line, byte for byte, with its line ending; the header too when the
-        skeleton and rate are the file's), and a changed rotation channel is
-        written on the file's 360-degree branch. So a take that comes back
-        unchanged is the same file, and a change touches only its own
-        numbers. Ignored when ``like`` is not such a file.
+        skeleton and rate are the file's), and a changed joint's rotation is
+        written as the Euler triple (whole turns, either branch of the middle
+        angle) nearest the file's numbers at its nearest unchanged frames,
+        chained through the changed frames between (so a repaired value is
+        written next to its neighbours, never on the branch of the broken
+        value it replaces). So a take that comes back unchanged is the same
+        file, and a change touches only its own numbers. Without ``like`` (or
+        when it is not such a file) each joint's angles start as the plain
+        conversion gives them and every next frame takes the triple nearest
+        the one before (an Euler filter; not across a jump of the rotation
+        itself over 90 degrees). Ignored when ``like`` is not such a file.
 
     Raises
     ------
@@ -682,16 +710,14 @@ def write_bvh(motion: Motion, path, precision: int = 6, allow_nan: bool = False,
         translations=motion.translations,
     )
     values = out_motion.channel_values()
-    rot_cols = [k for k, c in enumerate(c for cs in channels for c in cs) if c.endswith("rotation")]
-    if rot_cols:
-        values[:, rot_cols] = _unwrap_degrees(values[:, rot_cols])
     # BVH lists joints depth first; a skeleton in another topological order (e.g. from an ASF
     # hierarchy) is written in depth-first order with its channel columns permuted to match.
     order = _depth_first_order(sk)
+    source = _like_source(like, out_motion, order) if like is not None else None
+    _continuous_rotations(values, channels, source)
     if order != list(range(sk.num_joints)):
         starts = np.cumsum([0] + [len(c) for c in channels])
         values = values[:, [k for j in order for k in range(starts[j], starts[j + 1])]]
-    source = _like_source(like, out_motion, order) if like is not None else None
     if source is not None:
         _write_like(path, out_motion, values, channels, source, precision)
         return
@@ -715,6 +741,7 @@ class _LikeSource:
     lines: list[str]  # the F data lines, as the file gives them (line endings kept)
     turned: np.ndarray  # (F, J) bool: cells whose rotation differs from the file's
     moved: np.ndarray  # (F, J) bool: cells whose position or offset differs from the file's
+    values: np.ndarray  # (F, C) float: the file's numbers (its own 360-degree and Euler branches; NaN for "nan")
 
 
 def _differs(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -728,7 +755,7 @@ def _like_source(like, motion: Motion, order: list[int]) -> _LikeSource | None:
     if like.suffix.lower() != ".bvh" or not like.is_file() or order != list(range(motion.skeleton.num_joints)):
         return None
     try:
-        ref = read_bvh(like)
+        ref, table = _read_bvh(like)
     except MocapFormatError:
         return None
     sk, rsk = motion.skeleton, ref.skeleton
@@ -747,13 +774,14 @@ def _like_source(like, motion: Motion, order: list[int]) -> _LikeSource | None:
     same_header = (ref.fps == motion.fps and np.array_equal(rsk.offsets, sk.offsets)
                    and np.array_equal(rsk.end_site_parents, sk.end_site_parents)
                    and np.array_equal(rsk.end_site_offsets, sk.end_site_offsets))
-    return _LikeSource(lines[: at + 1] if same_header else None, data, turned, moved)
+    return _LikeSource(lines[: at + 1] if same_header else None, data, turned, moved, table)
 
 
 def _write_like(path: Path, motion: Motion, values: np.ndarray, channels, source: _LikeSource, precision: int) -> None:
     """Write ``values`` (F, C) keeping ``source``'s text wherever a cell did not change: a joint's rotation channels
     are written where its rotation changed, its position channels where its position did (a 6-channel joint whose
-    rotation was repaired keeps the file's position text)."""
+    rotation was repaired keeps the file's position text). The changed angles in ``values`` are already on the
+    branch of their unchanged neighbours (:func:`_continuous_rotations`)."""
     sk = motion.skeleton
     F = motion.num_frames
     starts = np.cumsum([0] + [len(c) for c in channels])
@@ -781,15 +809,7 @@ def _write_like(path: Path, motion: Motion, values: np.ndarray, channels, source
                 for c in range(starts[j], starts[j + 1]):
                     if not (turned[j] if is_rot[c] else moved[j]):
                         continue
-                    v = float(values[f, c])
-                    if is_rot[c]:
-                        try:
-                            old = float(tokens[c])
-                        except ValueError:
-                            old = float("nan")
-                        if np.isfinite(old) and np.isfinite(v):
-                            v += 360.0 * round((old - v) / 360.0)  # the file's branch of the angle
-                    tokens[c] = fmt % v
+                    tokens[c] = fmt % values[f, c]
             fh.write(" ".join(tokens) + (line[len(body):] or "\n"))
 
 

@@ -1,0 +1,231 @@
+"""Written Euler curves are continuous, as a graph editor shows them (BVH and AMC, from a source file or fresh):
+a changed cell takes the triple (whole turns, the middle angle's two branches) nearest its unchanged neighbours,
+never the branch of the broken value it replaces; a file with no source is Euler-filtered frame to frame. Unchanged
+cells keep their text (the golden tests in test_bvh / test_amc_writer hold that too)."""
+
+import dataclasses
+from pathlib import Path
+
+import numpy as np
+
+import mocapkit
+from mocapkit import corrupt as C
+from mocapkit import io
+from mocapkit import rotations as R
+from mocapkit.io.amc_writer import write_amc
+from mocapkit.io.asfamc import amc_dofs, read_amc
+from mocapkit.io.bvh import read_bvh, write_bvh
+from mocapkit.motion import Motion, Skeleton
+
+DATA = Path(mocapkit.__file__).parent / "data"
+TAKE = DATA / "131_01.bvh"  # CMU 131_01 (the take of the report: RThumb, LeftToe)
+WALK, WALK_ASF = DATA / "12_walk.amc", DATA / "12.asf"
+START_01_01 = Path(__file__).resolve().parents[1] / "data" / "cmu_01_01_start.bvh"
+
+
+def _bvh_table(path: Path) -> tuple[list[str], np.ndarray]:
+    """(joint name per column, the (F, C) numbers) of a BVH, parsed independently of mocapkit."""
+    text = path.read_text()
+    head, motion = text.split("MOTION", 1)
+    cols, joint = [], None
+    for line in head.splitlines():
+        t = line.split()
+        if t and t[0] in ("ROOT", "JOINT"):
+            joint = t[1]
+        if t and t[0] == "CHANNELS":
+            cols += [(joint, c) for c in t[2:]]
+    rows = [ln for ln in motion.splitlines()[3:] if ln.strip()]
+    return cols, np.array([[float(v) for v in ln.split()] for ln in rows])
+
+
+def _with_column(path: Path, out: Path, col: int, frames, fn) -> None:
+    """Copy BVH ``path`` to ``out`` with column ``col`` of ``frames`` (data line indices) replaced by ``fn(value)``."""
+    lines = path.read_text().splitlines(keepends=True)
+    at = next(i for i, t in enumerate(lines) if t.startswith("Frame Time")) + 1
+    for f in frames:
+        tok = lines[at + f].split()
+        tok[col] = repr(fn(float(tok[col])))
+        lines[at + f] = " ".join(tok) + "\n"
+    out.write_text("".join(lines))
+
+
+def _rot_cols(cols, joint):
+    return [k for k, (j, c) in enumerate(cols) if j == joint and c.endswith("rotation")]
+
+
+def test_a_repaired_run_is_written_on_its_neighbours_branch_not_the_broken_values(tmp_path):
+    """The report's RThumb case: broken cells read 200 deg off; the repair brings the right rotation back, and it
+    is written next to its neighbours (before: within 180 deg of the broken value, 360 deg off them)."""
+    cols, good = _bvh_table(TAKE)
+    col = _rot_cols(cols, "LeftElbow")[0]
+    broken = tmp_path / "broken.bvh"
+    _with_column(TAKE, broken, col, range(300, 310), lambda v: v + 200.0)
+    out = tmp_path / "repaired.bvh"
+    write_bvh(read_bvh(TAKE), out, like=broken)  # the repair: the file's own rotations again
+    _, got = _bvh_table(out)
+    np.testing.assert_allclose(got[:, col], good[:, col], atol=1e-5)
+    assert np.abs(np.diff(got[295:315, col])).max() < 30.0
+
+
+def test_a_file_on_the_other_branch_stays_there_where_edited(tmp_path):
+    """A joint the file writes as the equivalent (a+180, 180-b, c+180) triples, continuous; a small edit (as denoise
+    makes) is written on that branch (before: on the [-90, 90] branch, 180 deg jumps at each edge)."""
+    cols, good = _bvh_table(TAKE)
+    k = _rot_cols(cols, "LeftShoulder")
+    flipped = tmp_path / "flipped.bvh"
+    lines = TAKE.read_text().splitlines(keepends=True)
+    at = next(i for i, t in enumerate(lines) if t.startswith("Frame Time")) + 1
+    for f in range(good.shape[0]):
+        tok = lines[at + f].split()
+        a, b, c = (float(tok[i]) for i in k)
+        tok[k[0]], tok[k[1]], tok[k[2]] = repr(a + 180.0), repr(180.0 - b), repr(c + 180.0)
+        lines[at + f] = " ".join(tok) + "\n"
+    flipped.write_text("".join(lines))
+    m = read_bvh(flipped)
+    j = m.skeleton.joint_names.index("LeftShoulder")
+    rot = np.array(m.rotations)
+    rot[100:160, j] = R.quaternion_multiply(rot[100:160, j], R.euler_to_quaternion([2.0, -1.0, 1.5], "ZYX"))
+    out = tmp_path / "edited.bvh"
+    write_bvh(dataclasses.replace(m, rotations=rot), out, like=flipped)
+    _, was = _bvh_table(flipped)
+    _, got = _bvh_table(out)
+    assert np.abs(got[:, k] - was[:, k]).max() < 10.0
+    assert np.abs(np.diff(got[:, k], axis=0)).max() < 30.0
+    back = read_bvh(out)
+    assert np.degrees(R.geodesic_angle(back.rotations[:, j], rot[:, j])).max() < 1e-4
+
+
+def _gimbal_path(F: int) -> np.ndarray:
+    """ZYX angles (F, 3) of a continuous rotation whose middle angle goes 40 -> 140 deg."""
+    return np.stack([np.linspace(10, 50, F), np.linspace(40.3, 140, F), np.linspace(-30, 30, F)], axis=1)
+
+
+def test_a_fresh_bvh_is_continuous_through_gimbal_lock(tmp_path):
+    """No source text (convert, npz -> bvh): every frame the triple nearest the one before (before: the middle
+    angle folded back at 90 deg and the other two jumped 180 deg)."""
+    F = 101
+    sk = Skeleton(("root", "arm"), [-1, 0], [[0, 0, 0], [0, 1, 0]],
+                  channels=(("Xposition", "Yposition", "Zposition"), ("Zrotation", "Yrotation", "Xrotation")))
+    path = _gimbal_path(F)
+    rot = np.stack([np.tile([1.0, 0, 0, 0], (F, 1)), R.euler_to_quaternion(path, "ZYX")], axis=1)
+    out = tmp_path / "arm.bvh"
+    write_bvh(Motion(sk, rot, np.zeros((F, 3)), 60.0, "arm"), out)
+    _, got = _bvh_table(out)
+    np.testing.assert_allclose(got[:, 3:], path, atol=1e-5)
+
+
+def test_npz_round_trip_of_a_cmu_start_gives_its_angles_back(tmp_path):
+    """CMU 01_01's first frames through npz and back: the same angles (a T-pose frame 0 first, 136 deg away from
+    frame 1, does not carry the next frames onto the other branch)."""
+    m = read_bvh(START_01_01)
+    npz = tmp_path / "start.npz"
+    io.save(m, npz)
+    out = tmp_path / "back.bvh"
+    io.save(io.load(npz), out)
+    _, was = _bvh_table(START_01_01)
+    _, got = _bvh_table(out)
+    np.testing.assert_allclose(got, was, atol=2e-4)
+
+
+def test_a_corrupt_flip_is_not_written_alternating(tmp_path):
+    """`mocapkit corrupt --kind errors --seed 3` on 131_01: LeftToe flipped 180 deg about its bone over frames
+    408-454; written -175.9, 184.2, -175.8, ... frame to frame before (each near the clean value's branch, a tie)."""
+    m = read_bvh(TAKE)
+    bad, mask = C.corrupt(m, "errors", seed=3)[:2]
+    out = tmp_path / "err.bvh"
+    io.save(bad, out, like=TAKE)
+    cols, was = _bvh_table(TAKE)
+    _, got = _bvh_table(out)
+    rot = [k for k, (_, c) in enumerate(cols) if c.endswith("rotation")]
+    new_jumps = (np.abs(np.diff(got[:, rot], axis=0)) > 300) & ~(np.abs(np.diff(was[:, rot], axis=0)) > 300)
+    toe = m.skeleton.joint_names.index("LeftToe")
+    assert mask[408:455, toe].all()
+    assert not new_jumps.any()
+
+
+# -- AMC ------------------------------------------------------------------------------
+
+
+def _amc_rows(path: Path, bone: str) -> np.ndarray:
+    """The numbers of ``bone``'s line in every frame of an AMC, parsed independently."""
+    return np.array([[float(v) for v in ln.split()[1:]] for ln in path.read_text().splitlines()
+                     if ln.split()[:1] == [bone]])
+
+
+def _amc_with(path: Path, out: Path, bone: str, frames, fn) -> None:
+    """Copy AMC ``path`` to ``out`` with ``bone``'s line of ``frames`` (0-based) rewritten as ``fn(numbers)``."""
+    lines, seen = [], -1
+    for ln in path.read_text().splitlines(keepends=True):
+        if ln.split()[:1] == [bone]:
+            seen += 1
+            if seen in frames:
+                ln = bone + " " + " ".join(repr(float(v)) for v in fn(np.array([float(x) for x in ln.split()[1:]]))) + "\n"
+        lines.append(ln)
+    out.write_text("".join(lines))
+
+
+def test_a_repaired_amc_run_is_written_on_its_neighbours_branch(tmp_path):
+    """backflip's lhand/lhumerus case: broken values 200 deg off on a 3-dof and a 2-dof bone; the repaired
+    rotations are written next to the unchanged frames (before: -7.3, -368.7, -10.2, -371.5)."""
+    m = read_amc(WALK, WALK_ASF)
+    broken = tmp_path / "broken.amc"
+    _amc_with(WALK, tmp_path / "half.amc", "lhumerus", range(40, 50), lambda v: v + [0.0, 0.0, 200.0])
+    _amc_with(tmp_path / "half.amc", broken, "lhand", range(60, 66), lambda v: v + [200.0, 0.0])
+    out = tmp_path / "repaired.amc"
+    io.save(m, out, like=broken, asf=WALK_ASF)
+    for bone in ("lhumerus", "lhand"):
+        np.testing.assert_allclose(_amc_rows(out, bone), _amc_rows(WALK, bone), atol=1e-4)
+    was, got = broken.read_text().splitlines(), out.read_text().splitlines()  # written like the broken file
+    assert len(was) == len(got) and sum(a != b for a, b in zip(was, got)) == 16
+
+
+def test_a_fresh_amc_is_continuous_through_gimbal_lock(tmp_path):
+    """AMC written with no source (the root turning through ry = 90, as backflip's root does): continuous dofs."""
+    m = read_amc(WALK, WALK_ASF)
+    F = m.num_frames
+    xyz = _gimbal_path(F)[:, ::-1]  # rx ry rz, extrinsic xyz: the same matrix as intrinsic ZYX of the reversed
+    rot = np.array(m.rotations)
+    c = m.skeleton.axes[0]
+    rot[:, 0] = R.quaternion_multiply(R.quaternion_multiply(c, R.euler_to_quaternion(xyz, "xyz")),
+                                      R.quaternion_conjugate(c))
+    out = tmp_path / "turning.amc"
+    write_amc(dataclasses.replace(m, rotations=rot), out)
+    assert amc_dofs(m.skeleton)[0][3:] == ("rx", "ry", "rz")
+    np.testing.assert_allclose(_amc_rows(out, "root")[:, 3:], xyz, atol=1e-5)
+    bvh = tmp_path / "turning.bvh"  # convert backflip.amc -> .bvh: the BVH root likewise
+    write_bvh(dataclasses.replace(m, rotations=rot), bvh)
+    cols, got = _bvh_table(bvh)
+    assert np.abs(np.diff(got[:, _rot_cols(cols, "root")], axis=0)).max() < 10.0
+
+
+def test_two_dof_bones_take_whole_turns_only(tmp_path):
+    """lhand (rx rz) turning far past 90 deg about rx: no equivalent-triple trick without a third dof (it would
+    write another rotation), whole turns keep it continuous, and it reads back the same."""
+    m = read_amc(WALK, WALK_ASF)
+    j = m.skeleton.joint_names.index("lhand")
+    F = m.num_frames
+    xz = np.stack([np.linspace(-170, 250, F), np.linspace(-20, 20, F)], axis=1)
+    c = m.skeleton.axes[j]
+    rot = np.array(m.rotations)
+    rot[:, j] = R.quaternion_multiply(R.quaternion_multiply(c, R.euler_to_quaternion(xz, "xz")),
+                                      R.quaternion_conjugate(c))
+    out = tmp_path / "hand.amc"
+    write_amc(dataclasses.replace(m, rotations=rot), out)
+    np.testing.assert_allclose(_amc_rows(out, "lhand"), xz, atol=1e-5)
+    back = read_amc(out, WALK_ASF)
+    assert np.degrees(R.geodesic_angle(back.rotations[:, j], rot[:, j])).max() < 1e-4
+
+
+def test_a_root_that_only_moved_keeps_its_angles_text(tmp_path):
+    """A changed root position rewrites the root's position numbers only: its unchanged angles keep the file's text
+    (before: the whole line was reformatted, '-2.48972' -> '-2.489720')."""
+    m = read_amc(WALK, WALK_ASF)
+    root = np.array(m.root_positions)
+    root[5, 0] += 1.0
+    out = tmp_path / "moved.amc"
+    io.save(dataclasses.replace(m, root_positions=root), out, like=WALK)
+    was = [ln for ln in WALK.read_text().splitlines() if ln.startswith("root ")]
+    got = [ln for ln in out.read_text().splitlines() if ln.startswith("root ")]
+    assert [i for i, (a, b) in enumerate(zip(was, got)) if a != b] == [5]
+    assert got[5].split()[4:] == was[5].split()[4:]
+    assert float(got[5].split()[1]) == float(was[5].split()[1]) + 1.0
