@@ -198,10 +198,10 @@ def clean_file(
             msg = str(exc)
             raise MocapError(msg if str(inp) in msg else f"{inp}: {msg}") from None
     if out.suffix.lower() == ".amc":  # sizes, report and record say what the AMC holds (dec.as_written)
-        from .io.amc_writer import _file_dofs
+        from .io.amc_writer import file_dofs
         from .io.asfamc import amc_held_rotations
 
-        dofs = _file_dofs(m, asf, inp)  # the layout io.save writes below
+        dofs = file_dofs(m, asf, inp)  # the layout io.save writes below
         try:
             res = dec.as_written(res, m, lambda take: amc_held_rotations(take, dofs))
         except MocapFormatError:

@@ -38,7 +38,7 @@ from ..errors import MocapFormatError
 from ..motion import Motion
 from .asfamc import amc_dofs
 
-__all__ = ["write_amc", "check_amc_writable"]
+__all__ = ["write_amc", "check_amc_writable", "dof_values", "file_dofs"]
 
 _FRAME_LINE = re.compile(r"^\s*\d+\s*$")
 
@@ -78,7 +78,7 @@ def check_amc_writable(motion: Motion, path, missing_ok: bool = False) -> None:
         raise MocapFormatError(path, "the take has no frames; AMC needs at least one")
 
 
-def _values(motion: Motion, dofs, radians: bool, source: "_LikeSource | None" = None) -> list[np.ndarray | None]:
+def dof_values(motion: Motion, dofs, radians: bool, source: "_LikeSource | None" = None) -> list[np.ndarray | None]:
     """Per joint the (F, n_j) numbers of its AMC line (degrees or radians), None without dofs.
 
     A bone's rotation dofs are the Euler triple (or pair, or single angle) of
@@ -124,7 +124,7 @@ def _values(motion: Motion, dofs, radians: bool, source: "_LikeSource | None" = 
     return out
 
 
-def _file_dofs(motion: Motion, asf, like) -> tuple[tuple[str, ...], ...]:
+def file_dofs(motion: Motion, asf, like) -> tuple[tuple[str, ...], ...]:
     """The AMC layout to write: the ASF's own (``asf``, else the one beside an AMC ``like``) where it is this
     skeleton's, with the root's numbers in its ``order``; else the skeleton's (root translations first)."""
     from .asfamc import asf_dofs
@@ -159,7 +159,7 @@ def write_amc(motion: Motion, path, precision: int = 6, like=None, asf=None) -> 
     branch of the bone's nearest unchanged frames (never that of the broken
     value it replaces); otherwise the file is written whole, ``:FULLY-SPECIFIED`` and
     ``:DEGREES``, frames numbered from 1, every bone with dofs on its own line,
-    its angles Euler-filtered from frame to frame (:func:`_values`).
+    its angles Euler-filtered from frame to frame (:func:`dof_values`).
     """
     from . import atomic_write
 
@@ -168,12 +168,12 @@ def write_amc(motion: Motion, path, precision: int = 6, like=None, asf=None) -> 
     if precision < 0:
         raise ValueError(f"precision must be >= 0, got {precision}")
     check_amc_writable(motion, path)
-    dofs = _file_dofs(motion, asf, like)
+    dofs = file_dofs(motion, asf, like)
     source = _like_source(like, motion, dofs) if like is not None else None
     if source is not None:
         _write_like(path, motion, dofs, source, precision)
         return
-    values = _values(motion, dofs, radians=False)
+    values = dof_values(motion, dofs, radians=False)
     names = motion.skeleton.joint_names
     joints = [j for j in range(len(dofs)) if dofs[j]]
     row = "%d\n" + "".join(f"{names[j]} " + " ".join([f"%.{precision}f"] * len(dofs[j])) + "\n" for j in joints)
@@ -202,14 +202,14 @@ class _LikeSource:
 
 def _like_source(like, motion: Motion, dofs) -> _LikeSource | None:
     """The source AMC's lines and changed cells, or None when ``like`` is not the file ``motion`` came from."""
-    from .asfamc import _read_amc, amc_header
+    from .asfamc import amc_header, read_amc_numbers
 
     like = Path(like)
     if like.suffix.lower() != ".amc" or not like.is_file():
         return None
     try:
         data = like.read_bytes()
-        ref, numbers = _read_amc(like, asf=motion.skeleton, fps=motion.fps, dofs=dofs, keep_numbers=True)
+        ref, numbers = read_amc_numbers(like, asf=motion.skeleton, fps=motion.fps, dofs=dofs)
     except (MocapFormatError, OSError):
         return None
     body_at, _, radians = amc_header(data)  # the reader's rule for where the frames start and the units
@@ -239,7 +239,7 @@ def _write_like(path: Path, motion: Motion, dofs, source: _LikeSource, precision
     from . import atomic_write
 
     names = motion.skeleton.joint_names
-    values = _values(motion, dofs, radians=source.radians, source=source)
+    values = dof_values(motion, dofs, radians=source.radians, source=source)
     fmt = f"%.{precision}f"
     with atomic_write(path, "w", encoding="latin-1", newline="") as fh:
         fh.write(source.header)
@@ -264,7 +264,7 @@ def _write_like(path: Path, motion: Motion, dofs, source: _LikeSource, precision
                 line = block[i]
                 body = line.rstrip("\r\n")
                 tok = body.split("#", 1)[0].split()
-                for k, v in enumerate(new):  # angles already on the branch of the bone's unchanged frames (_values)
+                for k, v in enumerate(new):  # angles already on the branch of the bone's unchanged frames (dof_values)
                     if source.moved[f] if dofs[j][k][0] == "t" else source.turned[f, j]:
                         tok[k + 1] = fmt % v  # a root that only moved keeps its angles' text, and the other way
                 block[i] = " ".join(tok) + (line[len(body):] or ending)

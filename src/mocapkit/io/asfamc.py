@@ -45,7 +45,7 @@ from .. import rotations as R
 from ..errors import MocapFormatError, SkeletonError
 from ..motion import MAX_JOINTS, Motion, Skeleton, check_fps
 
-__all__ = ["read_asf", "read_amc", "asf_dofs", "amc_dofs", "amc_held_rotations", "amc_header", "find_asf", "pick_asf",
+__all__ = ["read_asf", "read_amc", "read_amc_numbers", "asf_dofs", "amc_dofs", "amc_held_rotations", "amc_header", "find_asf", "pick_asf",
            "fps_from_name", "DEFAULT_FPS"]
 
 DEFAULT_FPS = 120.0
@@ -381,7 +381,7 @@ def amc_held_rotations(motion: Motion, dofs=None) -> np.ndarray:
     """
     import dataclasses
 
-    from .amc_writer import _values
+    from .amc_writer import dof_values
 
     sk = motion.skeleton
     if sk.axes is None:
@@ -390,7 +390,7 @@ def amc_held_rotations(motion: Motion, dofs=None) -> np.ndarray:
     rot = np.asarray(motion.rotations, dtype=np.float64)
     seen = np.isfinite(rot).all(axis=-1)
     safe = np.where(seen[..., None], rot, R.identity())  # a NaN would run through the writer's unwrapping
-    values = _values(dataclasses.replace(motion, rotations=safe, root_positions=np.zeros((len(rot), 3))), dofs,
+    values = dof_values(dataclasses.replace(motion, rotations=safe, root_positions=np.zeros((len(rot), 3))), dofs,
                      radians=False)
     out = np.array(rot)
     cols = [v for v in values if v is not None]
@@ -537,6 +537,13 @@ def read_amc(path, asf=None, fps: float | None = None, dofs=None) -> Motion:
         listed twice in a frame, last frame truncated; or no ASF found.
     """
     return _read_amc(path, asf, fps, dofs)[0]
+
+
+def read_amc_numbers(path, asf=None, fps: float | None = None, dofs=None):
+    """:func:`read_amc`'s Motion and the file's numbers as written, (F, columns): each joint's dofs in file order
+    joint after joint (degrees or radians as the file says; 0 for a bone a frame does not list). The AMC writer
+    (:func:`mocapkit.io.amc_writer.write_amc`) reads them to keep a changed bone on the file's branches."""
+    return _read_amc(path, asf, fps, dofs, keep_numbers=True)
 
 
 def _read_amc(path, asf=None, fps: float | None = None, dofs=None, keep_numbers: bool = False):
