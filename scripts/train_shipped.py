@@ -53,6 +53,12 @@ PRIOR_RAMP = {"acclaim": True, "bandai": False}
 #: (13,302 rows of 392 entries: the covariance is short of data); Bandai "tired"/"childish" 0.544x -> 0.551x (292,431
 #: rows: mirroring adds no data it lacks, and its performers' sides differ).
 PRIOR_MIRROR = {"acclaim": True, "bandai": False}
+#: Whether each rig's gap prior keeps its training clips' frames (not their mirror images) for the local prior of long
+#: gaps (mocapkit.cleaning.deep.prior.local_prior), chosen on the same validation clips: HDM05 "tr", 1-4 s whole
+#: joints 0.692x -> 0.614x, single channels 0.583x -> 0.481x, ordinary gaps 0.837x -> 0.812x (one frame in 8 kept,
+#: 15 a second, 1.5 MB; the mirror images too, or every 4th frame, 0.614-0.618x). Not for the Bandai prior: its
+#: 292,431 frames at its lags' step would be 37 MB, and its gaps meet the target without it.
+PRIOR_LOCAL = {"acclaim": True, "bandai": False}
 INSTALL_NAME = {("acclaim", "ebf"): "ebf.pt", ("acclaim", "ebd"): "ebd.pt",
                 ("bandai", "ebf"): "ebf_bandai.pt", ("bandai", "ebd"): "ebd_bandai.pt"}
 
@@ -178,9 +184,13 @@ def attach_prior(a, clips, train_f, test_f) -> None:
     if bad:
         sys.exit(f"{bad[0]}: not at the model's {model.fps:g} fps")
     fitted = clips + [mirror_for_rig(c) for c in clips] if PRIOR_MIRROR[a.rig] else clips
-    prior = fit_gap_prior([encode(c, model.layout)[0] for c in fitted], model.fps, ramp=PRIOR_RAMP[a.rig])
+    local = [encode(c, model.layout)[0] for c in clips] if PRIOR_LOCAL[a.rig] else None
+    prior = fit_gap_prior([encode(c, model.layout)[0] for c in fitted], model.fps, ramp=PRIOR_RAMP[a.rig],
+                          local_takes=local)
     meta = dict(model.meta, gap_prior={"train_clips": len(clips), "mirrored": PRIOR_MIRROR[a.rig], "frames": prior.frames,
                                        "lags_frames": prior.lags.tolist(), "ridge": prior.ridge, "ramp": prior.ramp,
+                                       "local_frames": 0 if prior.local_frames is None else len(prior.local_frames),
+                                       "local_step": prior.local_step,
                                        "fit_seconds": round(time.perf_counter() - t, 1)})
     model = dataclasses.replace(model, meta=meta, prior=prior)
     out = Path(a.out) / ("ebd" if a.rig == "acclaim" else f"{a.rig}/ebd") / "model_prior.pt"

@@ -129,6 +129,86 @@ def test_prior_arrays_round_trip_and_refuse_inconsistent_ones():
         P.fit_gap_prior([np.full((10, 3), np.nan)], 30.0)
 
 
+def test_local_windows_are_the_fits_windows_at_its_stored_frames():
+    """The local frames keep one frame in ``local_step``; their windows, clip by clip, are the full-rate windows at
+    those frames wherever no lag reaches past a clip's end (every lag is a multiple of the step)."""
+    rng = np.random.default_rng(1)
+    clips = [np.cumsum(gaussian_filter1d(rng.normal(size=(n, 3)), 4.0, axis=0), axis=0) for n in (400, 250)]
+    prior = P.fit_gap_prior(clips, 120.0, local_takes=clips, local_step=8)
+    assert prior.local_step == 8 and prior.local_starts.tolist() == [0, 50, 82]
+    win = P.local_windows(prior)
+    reach = int(prior.lags.max())
+    for clip, (a, b) in zip(clips, zip(prior.local_starts[:-1], prior.local_starts[1:])):
+        full = (P.lagged(clip, prior.lags)[::8] - prior.mean) / prior.scale
+        inner = slice(reach // 8, (b - a) - reach // 8)
+        assert np.allclose(win[a:b][inner], full[inner], atol=1e-4)  # float32 frames
+    assert P.fit_gap_prior(clips, 120.0, local_takes=clips).local_step == 8  # the default: about 15 frames a second
+    with pytest.raises(ValueError, match="divide"):
+        P.fit_gap_prior(clips, 120.0, local_takes=clips, local_step=3)
+    assert P.local_windows(P.fit_gap_prior(clips, 120.0)).shape == (0, len(prior.mean))
+
+
+def test_the_local_prior_is_the_nearest_windows_pooled_with_the_global_one():
+    """Two kinds of windows; a query among the second kind draws its mean and covariance from them (``n0=0``), and
+    ``n0`` windows' worth of the global prior pulls it back (the pooled mean and second moment)."""
+    rng = np.random.default_rng(4)
+    near = rng.normal(3.0, 0.5, (200, 6))
+    far = rng.normal(-3.0, 2.0, (300, 6))
+    windows = np.concatenate([far, near])
+    entries = np.array([0, 1, 2, 3])  # the query is compared on these entries only
+    query = np.concatenate([np.full((2, 4), 3.0), np.full((2, 2), -50.0)], axis=1)
+    mean, cov = np.zeros(6), np.eye(6)
+    m, c = P.local_prior(windows, query, entries, mean, cov, k=150, n0=0.0)
+    chosen = np.unique(np.argpartition(np.sum((windows[:, entries] - 3.0) ** 2, axis=1), 150)[:150])
+    assert np.all(chosen >= 300) and np.allclose(m, windows[chosen].mean(axis=0))
+    assert np.allclose(c, np.cov(windows[chosen].T, bias=True))
+    m2, c2 = P.local_prior(windows, query, entries, mean, cov, k=150, n0=150.0)
+    assert np.allclose(m2, 0.5 * m)  # as many windows of the global prior as of neighbours
+    second = 0.5 * (c + np.outer(m, m)) + 0.5 * (cov + np.outer(mean, mean))  # pooled second moments
+    assert np.allclose(c2, second - np.outer(m2, m2))
+    assert P.local_prior(windows[:1], query, entries, mean, cov)[0] is mean  # too few windows: the global prior
+
+
+def test_a_long_gap_reads_the_local_prior_and_a_short_one_the_global(monkeypatch):
+    """Training takes of two couplings of their channels: the global prior averages them, the local one (drawn from
+    the training windows whose other channels are like the take's around the gap) fills a long gap of the rarer
+    coupling nearer the truth (8.3 against 21.5 deg; a straight line 35.5); gaps under ``LOCAL_MIN_S`` are filled exactly as without local frames, and observed
+    entries are kept."""
+    fps = 30.0
+
+    def take(F, seed, sign):  # the second coupling also holds the third channel 60 deg higher: what tells them apart
+        x = _coupled(F, seed, fps)
+        x[:, 1] = sign * 2.0 * x[:, 0] + 5.0
+        x[:, 2] += 30.0 * (1.0 - sign)
+        return x
+
+    # a small training set (600 windows of the rarer coupling), and the local prior alone: the two couplings are
+    # opposite here, and pooled with the global prior they mix (on real motion pooling 300 windows' worth helps)
+    monkeypatch.setattr(P, "LOCAL_K", 100)
+    monkeypatch.setattr(P, "LOCAL_N0", 0.0)
+    train = [take(600, s, +1.0) for s in range(6)] + [take(600, 10 + s, -1.0) for s in range(2)]
+    glob = P.fit_gap_prior(train, fps)
+    loc = P.fit_gap_prior(train, fps, local_takes=train, local_step=2)
+    x = take(600, 30, -1.0)
+    g = x.copy()
+    g[200:290, 1] = np.nan  # 3 s
+    g[400:405, 1] = np.nan  # short
+    by_glob, by_loc = P.conditional_fill(g, glob, fps, prior_s=np.inf), P.conditional_fill(g, loc, fps, prior_s=np.inf)
+    assert np.array_equal(by_loc[~np.isnan(g)], x[~np.isnan(g)])
+    assert np.array_equal(by_loc[400:405], by_glob[400:405])
+
+    def err(a):
+        return float(np.sqrt(np.mean((a[200:290, 1] - x[200:290, 1]) ** 2)))
+
+    assert err(by_loc) < 0.5 * err(by_glob)
+    back = P.GapPrior.from_arrays(loc.to_arrays())
+    assert np.array_equal(P.conditional_fill(g, back, fps, prior_s=np.inf), by_loc)
+    bad = loc.to_arrays()
+    bad["local_starts"] = bad["local_starts"][:-1]
+    with pytest.raises(ValueError, match="local"):
+        P.GapPrior.from_arrays(bad)
+
+
 # -- in the EBD model and in fill -------------------------------------------------------------------------
 
 
