@@ -16,6 +16,14 @@ error:
   1986 on marker data, and Aristidou et al. 2018's idea of judging a sample
   by what the rest of the motion predicts), made exact for short runs by
   trying each run.
+* **by its rigid partners**: the markers whose distance to it the take
+  shows nearly constant (a wrist-bar pair, heel and ankle;
+  :func:`partner_motion`). A biomechanist's first check: where the marker
+  left its cubic but stayed at its usual distance from a partner that left
+  its own cubic with it, the segment moved faster than the cubic follows
+  (a strike, a heel strike, a wrist turning) and the samples are real. A
+  spike moves one marker; its partners stay on their cubic. This check can
+  only keep a candidate; where no partner is seen it says nothing.
 * **in space**: a marker rides on a body segment with other markers. The
   candidate run is predicted from the moving frame of rigidly attached
   markers (:func:`rigid_deviation`: its coordinates in the frame of each
@@ -25,6 +33,9 @@ error:
   the whole segment, so its markers leave the cubic together and the
   neighbours explain it; a reflection moves one marker. A candidate some
   neighbour triple predicts within the threshold is real motion and stays.
+  The triples include markers across a joint (a wrist's hand and forearm
+  markers), which do not turn with a fast-turning wrist: hence the partners
+  first.
   Tits, Tilmanne and Dutoit (2018, PLoS ONE 13(7): e0199744) use the same
   inter-marker relations as soft constraints on recovered markers.
 
@@ -40,9 +51,9 @@ from itertools import combinations
 
 import numpy as np
 
-from .rigid import distance_stats, donor_order, from_local, local_frames, to_local
+from .rigid import DistanceStats, distance_stats, donor_order, from_local, local_frames, to_local
 
-__all__ = ["spike_mask", "prediction_matrix", "rigid_deviation"]
+__all__ = ["spike_mask", "prediction_matrix", "rigid_deviation", "partner_motion"]
 
 
 def prediction_matrix(length: int, context: int = 3, degree: int = 3) -> np.ndarray:
@@ -173,9 +184,72 @@ def rigid_deviation(positions: np.ndarray, good: np.ndarray, marker: int, start:
     return best
 
 
+def partner_motion(positions: np.ndarray, good: np.ndarray, marker: int, start: int, end: int,
+                   partners: np.ndarray, median: np.ndarray, tol: np.ndarray, suspect: np.ndarray,
+                   step: float, context: int = 3, reach: int = 8, share: float = 0.25) -> bool | None:
+    """Whether the run of ``marker`` (frames ``start <= f < end``) is real motion by its rigid partners' account.
+
+    ``positions`` (F, M, 3), NaN where unseen; ``good`` (F,) the marker's
+    frames taken as right (seen, its suspected runs excluded); ``partners``
+    the markers whose distance to it the take shows nearly constant;
+    ``median`` and ``tol`` (M,) their usual distance to it and how far from
+    it a sample may lie (capture unit); ``suspect`` (F, M) the samples found
+    far from their cubic (spike candidates); ``step`` how far (capture unit)
+    a sample's distance to a partner may lie from that distance at the run's
+    two ends (the last good frame before it, the first after), interpolated
+    linearly across it. The marker's departure from the cubic through its
+    ``context`` nearest good samples on either side (within ``reach``
+    frames), and each partner's departure from the cubic through the same
+    frames, are compared sample by sample. A partner *keeps* a sample when
+    their distance is within ``tol`` of the usual one and ``step`` of the
+    one at the run's ends, and the partner leaves its own cubic by at least
+    ``share`` of the marker's departure: the segment moved fast, both markers
+    with it, and the distance held. A partner not itself suspected there *breaks* a sample
+    whose distance to it is off by more than ``tol``. A spike moves one
+    marker: its partners stay on their cubic, and the distance to them
+    changes unless the jump happens to lie on the sphere about them.
+
+    Returns True when every sample of the run is kept by some partner and
+    broken by none (real motion), False when some sample is not, and None
+    when no partner is seen over the run and its context, or the marker's
+    context is missing (nothing to judge by: the caller falls back to its
+    other rules).
+    """
+    f = positions.shape[0]
+    before = np.flatnonzero(good[max(start - reach, 0):start]) + max(start - reach, 0)
+    after = np.flatnonzero(good[end:min(end + reach, f)]) + end
+    if before.size < context or after.size < context or len(partners) == 0:
+        return None
+    ctx = np.concatenate([before[-context:], after[:context]])
+    centre = (start + end - 1) / 2.0
+    w = np.vander(np.arange(start, end) - centre, 4) @ np.linalg.pinv(np.vander(ctx - centre, 4))
+    frames = np.concatenate([ctx, np.arange(start, end)])
+    own = np.linalg.norm(positions[start:end, marker] - w @ positions[ctx, marker], axis=-1)
+    kept = np.zeros(end - start, dtype=bool)
+    broken = np.zeros(end - start, dtype=bool)
+    judged = False
+    t0, t1 = before[-1], after[0]
+    u = (np.arange(start, end) - t0) / (t1 - t0)
+    for j in partners:
+        if np.any(np.isnan(positions[frames, j])):
+            continue  # the partner is missing here: it cannot vouch for the marker
+        judged = True
+        moved = np.linalg.norm(positions[start:end, j] - w @ positions[ctx, j], axis=-1)
+        dist = np.linalg.norm(positions[frames, marker] - positions[frames, j], axis=-1)
+        near = (1.0 - u) * dist[context - 1] + u * dist[context]  # the distance at the run's two ends, interpolated
+        dist = dist[2 * context:]
+        off = np.abs(dist - median[j])
+        kept |= (off <= tol[j]) & (np.abs(dist - near) <= step) & (moved >= share * own)
+        broken |= (off > tol[j]) & ~suspect[start:end, j]
+    if not judged:
+        return None
+    return bool(np.all(kept & ~broken))
+
+
 def spike_mask(positions: np.ndarray, unit_mm: float = 1.0, *, threshold_mm: float = 15.0, max_len: int = 5,
                context: int = 3, noise_factor: float = 8.0, rigid: bool = True,
-               order: np.ndarray | None = None) -> np.ndarray:
+               order: np.ndarray | None = None, partner_mm: float = 3.0, keep_mm: float = 3.0,
+               keep_spreads: float = 3.0, stats: DistanceStats | None = None) -> np.ndarray:
     """Boolean (F, M) mask of spike samples.
 
     Parameters
@@ -200,10 +274,27 @@ def spike_mask(positions: np.ndarray, unit_mm: float = 1.0, *, threshold_mm: flo
         error: a marker whose motion the cubic predicts poorly (a noisy
         system, a low frame rate) needs a larger departure to count.
     rigid : bool
-        Keep only candidates that the marker's rigid neighbours do not explain.
+        Keep only candidates that neither the marker's rigid partners
+        (:func:`partner_motion`) nor its rigid neighbours
+        (:func:`rigid_deviation`) explain.
     order : int array (M, M-1), optional
         Each marker's neighbours, most rigid first
-        (:func:`~mocapkit.cleaning.markers.rigid.donor_order`); computed when not given.
+        (:func:`~mocapkit.cleaning.markers.rigid.donor_order`); computed from ``stats`` when not given.
+    partner_mm : float
+        A marker's rigid partners are the markers whose distance to it
+        varies by at most this many millimetres over the take (robust spread:
+        half the 10-90 % range, :func:`~mocapkit.cleaning.markers.rigid.distance_stats`).
+        A wrist-bar pair varies by 0.7-1.4 mm on CMU captures, a heel and an
+        ankle by 2-3 mm; a hand or forearm marker by 5 mm or more from a wrist.
+    keep_mm, keep_spreads : float
+        A partner keeps a sample when their distance lies within
+        max(``keep_mm``, ``keep_spreads`` x spread) of its usual (median) value
+        and within ``keep_mm`` of the distance at the run's two ends,
+        interpolated across it (millimetres).
+    stats : DistanceStats, optional
+        The take's usual inter-marker distances (capture unit); computed from
+        ``positions`` when not given. Pass the whole take's when judging a
+        part of it.
     """
     x = np.asarray(positions, dtype=np.float64)
     f, m = x.shape[:2]
@@ -238,10 +329,20 @@ def spike_mask(positions: np.ndarray, unit_mm: float = 1.0, *, threshold_mm: flo
                 mask[lo + a:lo + a + length, mk] = True
                 runs.append((int(mk), int(lo + a), int(lo + a + length)))
     if rigid and runs:
+        if stats is None:
+            stats = distance_stats(x)
         if order is None:
-            order = donor_order(distance_stats(x))
+            order = donor_order(stats)
         good = ~mask & ~np.any(np.isnan(x), axis=-1)
+        suspect = mask.copy()
+        spread = np.where(stats.count >= 10, stats.spread, np.nan)
         for mk, a, b in runs:
-            if rigid_deviation(x, good[:, mk], mk, a, b, order, reach=pad) <= thr[mk]:
+            # its rigid partners first (real fast motion keeps their distances), then the neighbour triples
+            partners = np.flatnonzero(spread[mk] * unit_mm <= partner_mm)
+            tol = np.maximum(keep_mm / unit_mm, keep_spreads * np.nan_to_num(spread[mk], nan=np.inf))
+            if partner_motion(x, good[:, mk], mk, a, b, partners, stats.median[mk], tol, suspect, keep_mm / unit_mm,
+                              context=context, reach=pad):
+                mask[a:b, mk] = False
+            elif rigid_deviation(x, good[:, mk], mk, a, b, order, reach=pad) <= thr[mk]:
                 mask[a:b, mk] = False
     return mask
