@@ -206,14 +206,21 @@ def fit_gap_prior(takes, fps: float, lags_s=LAGS_S, ridge: float = RIDGE, ramp: 
 
 
 def local_windows(prior: GapPrior) -> np.ndarray:
-    """(N, C * L) float64 the standardised windows ``z`` of the prior's local training frames (clip by clip,
-    clamped at each clip's ends, as :func:`fit_gap_prior` makes them); (0, C * L) without local frames."""
+    """(N, C * L) float32 the standardised windows ``z`` of the prior's local training frames (clip by clip,
+    clamped at each clip's ends, as :func:`fit_gap_prior` makes them); (0, C * L) without local frames. Made once
+    per prior object and kept on it (read-only): a shipped model is loaded once per process."""
     if prior.local_frames is None:
-        return np.zeros((0, len(prior.mean)))
+        return np.zeros((0, len(prior.mean)), dtype=np.float32)
+    cached = prior.__dict__.get("_local_windows")
+    if cached is not None:
+        return cached
     x = np.asarray(prior.local_frames, dtype=np.float64)
     lags = prior.lags // prior.local_step
     v = [lagged(x[a:b], lags) for a, b in zip(prior.local_starts[:-1], prior.local_starts[1:]) if b > a]
-    return (np.concatenate(v) - prior.mean) / prior.scale
+    w = ((np.concatenate(v) - prior.mean) / prior.scale).astype(np.float32)
+    w.flags.writeable = False
+    object.__setattr__(prior, "_local_windows", w)  # a cache beside the frozen fields, not one of them
+    return w
 
 
 def local_prior(windows: np.ndarray, query: np.ndarray, entries: np.ndarray, mean: np.ndarray, cov: np.ndarray,
@@ -230,22 +237,29 @@ def local_prior(windows: np.ndarray, query: np.ndarray, entries: np.ndarray, mea
     missing ones' are unknown). The union of each query's ``k`` nearest windows (Euclidean)
     gives a mean and covariance, pooled with the take's global prior (``mean``, ``cov``,
     standardised) as ``n`` windows against ``n0``. On the Acclaim validation actor, 1-4 s
-    whole-joint gaps at 0.5 noise: 0.692x -> 0.614x lerp + Gaussian (docs/models.md).
+    whole-joint gaps at 0.5 noise: 0.692x -> 0.614x lerp + Gaussian (docs/models.md). The
+    search and the neighbours' covariance run in the windows' own precision (float32 for
+    :func:`local_windows`), the pooling in float64.
     """
     n_all = len(windows)
     if n_all < 2 or len(query) == 0:
         return mean, cov
     k = max(1, min(int(k), n_all - 1))
-    w = windows[:, entries]
-    d2 = np.sum(w * w, axis=1)[None, :] - 2.0 * (query[:, entries] @ w.T)
+    read = np.zeros(windows.shape[1], dtype=bool)
+    read[entries] = True
+    q = np.where(read, query, 0.0).astype(windows.dtype)  # entries not read weigh nothing in the product
+    left = np.flatnonzero(~read)
+    norms = np.einsum("ij,ij->i", windows, windows) - np.einsum("ij,ij->i", windows[:, left], windows[:, left])
+    d2 = norms[None, :] - 2.0 * (q @ windows.T)
     near = np.unique(np.argpartition(d2, k, axis=1)[:, :k].ravel())
     zl = windows[near]
     n = len(zl)
-    ml = zl.mean(axis=0)
-    dl = zl - ml
+    ml = zl.mean(axis=0, dtype=np.float64)
+    dl = zl - ml.astype(zl.dtype)
     a = n / (n + max(float(n0), 0.0))
     shift = ml - mean
-    return (1.0 - a) * mean + a * ml, (1.0 - a) * cov + a * (dl.T @ dl / n) + a * (1.0 - a) * np.outer(shift, shift)
+    second = (dl.T @ dl).astype(np.float64) / n
+    return (1.0 - a) * mean + a * ml, (1.0 - a) * cov + a * second + a * (1.0 - a) * np.outer(shift, shift)
 
 
 def _take_update(z: np.ndarray, miss: np.ndarray, prior: GapPrior, n0: float):
