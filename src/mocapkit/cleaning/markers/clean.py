@@ -147,6 +147,8 @@ class MarkerCleanResult:
                  f"{counts['spike']} spikes removed ({int(self.spikes.sum())} samples), "
                  f"{counts['swap']} label swaps undone ({int(self.swapped.sum())} samples)"]
         skip = np.isin(self.markers.labels, self.unlabelled)
+        if hasattr(self.original, "modelled"):  # modelled points' unseen samples are no markers' missing ones
+            skip = skip | self.original.modelled()
         left = int(np.sum(self.markers.missing()[:, ~skip]))
         if left:
             lines.append(f"{left} samples still missing")
