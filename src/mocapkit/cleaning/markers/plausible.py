@@ -11,14 +11,16 @@ itself, against what the rest of the take shows, before it is written:
 - **speed**: no step between consecutive samples of the fill, nor between
   the last seen sample and the fill's first or its last and the next seen
   sample, longer than twice the take's 99.9th percentile one-frame step (of
-  all markers, or of this marker when it is faster) plus 2 mm: a fill that
-  jumps at its ends or teleports inside is not motion;
+  all markers, or of this marker when it is faster), or 1.5 times this
+  marker's fastest seen step, plus 2 mm: a fill
+  that jumps at its ends or teleports inside is not motion;
 - **rigid neighbours**: at every filled frame, its distance to each of its
   ``neighbours`` most rigidly attached markers (those seen in that frame,
   and rigid: the pair's 1-99 % range over the take no wider than a quarter
-  of its median distance, or 50 mm) within that range widened by the range's
-  width (at least 30 mm) on each side: a shank marker 1.6 m from its heel
-  is not on the shank;
+  of its median distance, or 50 mm) within that range widened by twice the
+  range's width (at least 50 mm) on each side (a gap can hide poses the rest
+  of the take does not show): a shank marker 1.6 m from its heel is not on
+  the shank;
 - **the floor**: where the take's samples pile up against one side of
   one axis (at least 5 % of them within 30 mm of the take's extreme there,
   three times as many as at any other side: the floor a standing or lying
@@ -105,7 +107,8 @@ def take_limits(pos: np.ndarray, stats: DistanceStats, order: np.ndarray, unit_m
         own = np.array([np.percentile(s[~np.isnan(s)], 99.9) if np.any(~np.isnan(s)) else 0.0 for s in steps.T])
         every = steps[~np.isnan(steps)]
         take = float(np.percentile(every, 99.9)) if every.size else 0.0
-    step = 2.0 * np.maximum(own, take) + 2.0 * mm
+        fastest = np.array([np.max(s[~np.isnan(s)]) if np.any(~np.isnan(s)) else 0.0 for s in steps.T])
+    step = np.maximum(2.0 * np.maximum(own, take), 1.5 * fastest) + 2.0 * mm
     idx = np.unique(np.linspace(0, f - 1, min(f, max_frames)).round().astype(int)) if f else np.zeros(0, int)
     sub = pos[idx]
     d = np.linalg.norm(sub[:, :, None, :] - sub[:, None, :, :], axis=-1)
@@ -119,7 +122,7 @@ def take_limits(pos: np.ndarray, stats: DistanceStats, order: np.ndarray, unit_m
             ref = np.nanmax(near, axis=0)
     ref = np.where(np.isfinite(ref), ref, np.inf)
     nearest = np.maximum(2.0 * ref, ref + 150.0 * mm)
-    width = np.maximum(stats.high - stats.low, 30.0 * mm)
+    width = np.maximum(2.0 * (stats.high - stats.low), 50.0 * mm)
     rigid = (stats.high - stats.low) <= np.maximum(0.25 * stats.median, 50.0 * mm)
     low = np.where(rigid, stats.low - width, np.nan)
     return TakeLimits(step=step, nearest=nearest, low=low, high=stats.high + width,
