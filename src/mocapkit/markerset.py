@@ -256,6 +256,10 @@ class MarkerSet:
         lists their labels in POINT:ANGLES, FORCES, MOMENTS, POWERS, SCALARS and
         REACTIONS (:data:`MODELLED_GROUPS`); cleaning leaves them alone. All
         False for a take without such a list (TRC, npz).
+
+        Modelled *positions* (Plug-in Gait's segment axes, centre of mass,
+        joint centres) are listed nowhere; they are found as points no
+        camera measured (:meth:`computed`).
         """
         names: set[str] = set()
         point = self.source.parameters.get("POINT", {}) if self.source is not None else {}
@@ -263,7 +267,69 @@ class MarkerSet:
             param = point.get(key)
             if isinstance(param, Mapping) and param.get("type") == -1:
                 names.update(str(v).strip() for v in np.ravel(param.get("value", [])))
-        return np.array([label in names for label in self.labels], dtype=bool)
+        return np.array([label in names for label in self.labels], dtype=bool) | self.computed()
+
+    def computed(self) -> np.ndarray:
+        """Boolean (M,) mask of points a model computed rather than cameras measured.
+
+        Three kinds of evidence, strongest first:
+
+        - the file records camera masks (some sample of some point has a
+          non-zero one) and this point has mask 0 and residual 0 at every
+          seen sample: no camera ever saw it (FunctionalWalk's PELO,
+          LTIA, ..., LeftHipCenterScore). Where no point has a camera mask
+          (CMU, HDM05, Plug-in Gait exports) this says nothing;
+        - the point is exact in a way no measured marker is: one coordinate
+          exactly 0 at every seen sample while the others move and most
+          points' is not (a floor projection: CentreOfMassFloor, z == 0), or one of four points
+          ``<stem>O``, ``<stem>A``, ``<stem>L``, ``<stem>P`` where A, L and P
+          are at every seen frame equally far from O (within 0.05 mm) in
+          mutually perpendicular directions (cosines under 0.001): an axis
+          triad (Plug-in Gait's segment axes HEDO/HEDA/HEDL/HEDP, LFEO, ...),
+          which no four skin markers form;
+        - the weaker clue of a name: ``CentreOfMass`` / ``CenterOfMass``.
+        """
+        pos = np.asarray(self.positions, dtype=np.float64)
+        m = pos.shape[1]
+        seen = ~np.any(np.isnan(pos), axis=-1)
+        out = np.zeros(m, dtype=bool)
+        if self.cameras is not None and np.any(self.cameras[seen] != 0):
+            res = self.residuals if self.residuals is not None else np.zeros(seen.shape)
+            for i in range(m):
+                s = seen[:, i]
+                out[i] = bool(s.any() and np.all(self.cameras[s, i] == 0) and np.all(res[s, i] == 0))
+        zero = np.all((pos == 0) | ~seen[..., None], axis=0)  # (M, 3): a coordinate 0 wherever seen
+        moves = np.any(np.abs(np.diff(np.where(seen[..., None], pos, 0.0), axis=0)) > 0, axis=0)
+        flat = (seen.sum(axis=0) >= 10) & np.any(moves & ~zero, axis=1)  # seen, and moving
+        projected = flat & np.any(zero & (np.mean(zero[flat], axis=0) < 0.5), axis=1) if flat.any() else flat
+        out |= projected  # a coordinate 0 that most points' is not (a planar capture's z == 0 everywhere is no clue)
+        bare = [str(label).split(":")[-1].strip() for label in self.labels]
+        where = {b: i for i, b in enumerate(bare)}
+        tol = 0.005 / max(self.unit_cm_or_mm(), 1e-12)  # 0.05 mm in the take's unit
+        for i, b in enumerate(bare):
+            if len(b) < 2 or not b.endswith("O") or not all(b[:-1] + k in where for k in "ALP"):
+                continue
+            group = [i] + [where[b[:-1] + k] for k in "ALP"]
+            both = np.all(seen[:, group], axis=1)
+            if both.sum() < 10:
+                continue
+            v = pos[both][:, group[1:]] - pos[both][:, group[:1]]  # (T, 3 axes, 3)
+            d = np.linalg.norm(v, axis=-1)
+            if np.any(d <= tol):
+                continue
+            u = v / d[..., None]
+            cos = np.abs(np.einsum("tai,tbi->tab", u, u)[:, [0, 0, 1], [1, 2, 2]])
+            if np.all(np.ptp(d, axis=1) <= tol) and np.all(cos < 1e-3):
+                out[group] = True
+        out |= np.array([b.lower().startswith(("centreofmass", "centerofmass")) for b in bare], dtype=bool)
+        return out
+
+    def unit_cm_or_mm(self) -> float:
+        """Centimetres per unit, or 0.1 (millimetres) for a unit :func:`length_unit_cm` does not know."""
+        try:
+            return self.unit_cm
+        except ValueError:
+            return 0.1
 
     def unlabelled(self) -> np.ndarray:
         """Boolean (M,) mask of unlabelled trajectories: points the capture system tracked but did not identify.

@@ -109,6 +109,12 @@ def write_marker_report(path, result, *, title: str = "", max_frames: int = 3000
         f"<tr><td>{html.escape(x.marker)}</td><td><a class='fix' href='#' data-frame='{x.start}'>{x.start}-{x.end - 1}</a></td>"
         f"<td>{x.kind}</td><td>{html.escape(x.size_text)}</td><td>{html.escape(x.other)}</td></tr>"
         for x in result.fixes)
+    unfilled = getattr(result, "unfilled", ())
+    left = "".join(
+        f"<tr><td>{html.escape(x.marker)}</td><td><a class='fix' href='#' data-frame='{x.start}'>{x.start}-{x.end - 1}</a></td>"
+        f"<td>{html.escape(x.size_text)}</td></tr>" for x in unfilled)
+    left = (f"<h3>Left missing: no plausible fill ({len(unfilled)})</h3><table><tr><th>marker</th><th>frames</th>"
+            f"<th>duration, rejected fill, why</th></tr>{left}</table>") if unfilled else ""
     summary = "".join(f"<li>{html.escape(s)}</li>" for s in result.summary())
     head = html.escape(title or result.markers.name or "marker capture")
     payload = json.dumps(data, separators=(",", ":")).replace("</", "<\\/")
@@ -123,7 +129,8 @@ table{{border-collapse:collapse}}td,th{{padding:2px 8px;border-bottom:1px solid 
 <span class="k" style="background:#1a9850"></span>gap filled <span class="k" style="background:#d73027"></span>spike replaced
 <span class="k" style="background:#f28e2b"></span>label swap undone; grey cross: the spike's recorded value</div>
 <canvas id="view" width="900" height="600"></canvas>
-<h3>Fixes ({len(result.fixes)})</h3><table><tr><th>marker</th><th>frames</th><th>kind</th><th>size</th><th>swapped with</th></tr>{rows}</table>
+<h3>Fixes ({len(result.fixes)})</h3><table><tr><th>marker</th><th>frames</th><th>kind</th><th>size (a gap: duration, method, expected error, distance off the straight line)</th><th>swapped with</th></tr>{rows}</table>
+{left}
 <script id="data" type="application/json">{payload}</script>
 <script>{_SCRIPT}</script></body></html>"""
     with atomic_write(path, "w", encoding="utf-8") as fh:

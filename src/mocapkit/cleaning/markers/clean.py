@@ -44,9 +44,16 @@ class MarkerFix:
     """One change: ``kind`` "gap", "spike" or "swap" on marker ``marker`` for frames ``start <= f < end``.
 
     ``size_mm``: for a gap, the largest distance between the fill and the
-    straight line between its ends; for a spike, the largest distance of a
-    removed sample from its fill; for a swap, the distance between the two
-    markers where it starts. ``other``: the marker it swapped with.
+    straight line between its ends (how far the marker moved off it, not an
+    error); for a spike, the largest distance of a removed sample from its
+    fill; for a swap, the distance between the two markers where it starts.
+    ``other``: the marker it swapped with. For a gap (and a gap left
+    missing, :attr:`MarkerCleanResult.unfilled`): ``seconds``, its duration
+    (s); ``method`` and ``donors``, the fill's model (:class:`GapFill`'s
+    method; the donors' names, comma-separated); ``expected_mm``, the fill's
+    RMS error on stretches of the same length cut where the marker is seen
+    (mm; NaN where none could be cut: the fill is unvalidated); ``note``,
+    for a gap left missing, why no fill was plausible.
     """
 
     marker: str
@@ -55,14 +62,32 @@ class MarkerFix:
     kind: str
     size_mm: float
     other: str = ""
+    seconds: float = float("nan")
+    method: str = ""
+    donors: str = ""
+    expected_mm: float = float("nan")
+    note: str = ""
+
+    @property
+    def fill_text(self) -> str:
+        """A gap's duration, method and expected error in words ("" for a spike or a swap)."""
+        if self.kind != "gap":
+            return ""
+        how = self.method + (f" ({self.donors})" if self.donors else "")
+        doubt = (f"expected error {self.expected_mm:.1f} mm" if np.isfinite(self.expected_mm)
+                 else "expected error unknown (no seen stretch to validate on)")
+        return f"{self.seconds:.2f} s, {how}, {doubt}"
 
     @property
     def size_text(self) -> str:
-        """``size_mm`` in words: what the number measures differs by kind (a gap's is no error)."""
+        """``size_mm`` in words, after a gap's :attr:`fill_text`: what the number measures differs by kind (a gap's is no error)."""
+        if self.note:
+            return f"{self.fill_text}: left missing: no plausible fill ({self.note})"
         what = {"gap": "fill up to {} mm off the straight line between the gap's ends",
                 "spike": "removed samples up to {} mm from the fill",
                 "swap": "markers {} mm apart where it starts"}.get(self.kind, "{} mm")
-        return what.format(f"{self.size_mm:.1f}")
+        text = what.format(f"{self.size_mm:.1f}")
+        return f"{self.fill_text}; {text}" if self.kind == "gap" else text
 
 
 @dataclass(frozen=True)
@@ -90,6 +115,10 @@ class MarkerCleanResult:
         from (:func:`~mocapkit.cleaning.markers.gaps.fill_gaps`).
     unlabelled : tuple of str
         The unlabelled trajectories (:meth:`MarkerSet.unlabelled`), left as read.
+    unfilled : tuple of MarkerFix
+        Gaps left missing because no fill passed the plausibility guard
+        (:mod:`~mocapkit.cleaning.markers.plausible`): kind "gap",
+        ``note`` says why, the other fields describe the rejected fill.
     """
 
     markers: object
@@ -102,6 +131,7 @@ class MarkerCleanResult:
     unseen_start: tuple[int, int] = (0, 0)
     unseen_end: tuple[int, int] = (0, 0)
     unlabelled: tuple[str, ...] = ()
+    unfilled: tuple[MarkerFix, ...] = ()
 
     @property
     def changed(self) -> np.ndarray:
@@ -117,9 +147,18 @@ class MarkerCleanResult:
                  f"{counts['spike']} spikes removed ({int(self.spikes.sum())} samples), "
                  f"{counts['swap']} label swaps undone ({int(self.swapped.sum())} samples)"]
         skip = np.isin(self.markers.labels, self.unlabelled)
+        if hasattr(self.original, "modelled"):  # modelled points' unseen samples are no markers' missing ones
+            skip = skip | self.original.modelled()
         left = int(np.sum(self.markers.missing()[:, ~skip]))
         if left:
             lines.append(f"{left} samples still missing")
+        if self.unfilled:
+            n = len(self.unfilled)
+            shown = "; ".join(f"{x.marker} frames {x.start}-{x.end - 1} ({x.seconds:.2f} s: {x.note})"
+                              for x in self.unfilled[:3])
+            more = f"; ... and {n - 3} more" if n > 3 else ""
+            lines.append(f"{n} gap{'s' if n > 1 else ''} ({sum(x.end - x.start for x in self.unfilled)} samples) "
+                         f"left missing: no plausible fill: {shown}{more}")
         marker = "labelled marker" if self.unlabelled else "marker"
         for where, (a, b) in (("start", self.unseen_start), ("end", self.unseen_end)):
             if b > a:
@@ -140,12 +179,13 @@ class MarkerCleanResult:
         path = Path(path)
         labels = list(self.markers.labels)
         fixes = [dataclasses.asdict(x) for x in self.fixes]
+        unfilled = [dataclasses.asdict(x) for x in self.unfilled]
         with atomic_write(path, "wb") as fh:
             np.savez_compressed(
                 fh,
                 filled=self.filled, spikes=self.spikes, swapped=self.swapped, changed=self.changed,
                 labels=np.array(labels, dtype=str),
-                fixes=np.array(json.dumps(fixes)),
+                fixes=np.array(json.dumps(fixes)), unfilled=np.array(json.dumps(unfilled)),
                 never_seen=np.array(list(self.never_seen), dtype=str),
                 unlabelled=np.array(list(self.unlabelled), dtype=str),
                 kind=np.array("markers"),
@@ -214,6 +254,7 @@ def clean_markers(markers, *, steps=STEPS, spike_mm: float = 15.0, swap_mm: floa
     f, m = x.shape[:2]
     labels = [markers.labels[i] for i in work]
     fixes: list[MarkerFix] = []
+    unfilled: list[MarkerFix] = []
     y = x.copy()
     swapped = np.zeros((f, m), dtype=bool)
     if "swaps" in steps:
@@ -232,11 +273,18 @@ def clean_markers(markers, *, steps=STEPS, spike_mm: float = 15.0, swap_mm: floa
     if "gaps" in steps or np.any(spikes):
         stats = distance_stats(y)
         max_gap = None if max_gap_s is None else int(round(max_gap_s * markers.fps))
-        out, records = fill_gaps(y, stats=stats, max_gap=max_gap, constrain=constrain)
+        out, records = fill_gaps(y, stats=stats, max_gap=max_gap, constrain=constrain, unit_mm=unit_mm)
         for r in records:
             run = slice(r.start, r.end)
             is_spike = bool(np.all(spikes[run, r.marker]))
             if not is_spike and "gaps" not in steps:
+                continue
+            how = dict(seconds=(r.end - r.start) / markers.fps, method=r.method,
+                       donors=", ".join(labels[d] for d in r.donors), expected_mm=r.expected_error * unit_mm)
+            if not r.filled:  # no plausible fill: left missing, and said so
+                if not is_spike:
+                    unfilled.append(MarkerFix(labels[r.marker], r.start, r.end, "gap", float("nan"), note=r.implausible,
+                                              **how))
                 continue
             y[run, r.marker] = out[run, r.marker]
             filled[run, r.marker] = ~spikes[run, r.marker]  # a spike sample is counted as a spike, not a gap
@@ -250,7 +298,7 @@ def clean_markers(markers, *, steps=STEPS, spike_mm: float = 15.0, swap_mm: floa
                 u = (np.arange(1, b - a + 1) / (b - a + 1))[:, None]
                 line = (1 - u) * ref[0] + u * ref[-1]
                 size = float(np.max(np.linalg.norm(out[run, r.marker] - line, axis=-1)))
-                fixes.append(MarkerFix(labels[r.marker], a, b, "gap", size * unit_mm))
+                fixes.append(MarkerFix(labels[r.marker], a, b, "gap", size * unit_mm, **how))
     # a spike no fill reached stays missing rather than wrong
     fixes.sort(key=lambda x: (x.start, x.marker, x.kind))
     out = full.copy()
@@ -273,5 +321,6 @@ def clean_markers(markers, *, steps=STEPS, spike_mm: float = 15.0, swap_mm: floa
                              swapped=expand(swapped), fixes=tuple(fixes),
                              never_seen=tuple(labels[i] for i in np.flatnonzero(never)),
                              unseen_start=(0, lo) if seen_any.size else (0, 0), unseen_end=(hi, f),
-                             unlabelled=tuple(markers.labels[i] for i in np.flatnonzero(unlabelled & ~modelled)))
+                             unlabelled=tuple(markers.labels[i] for i in np.flatnonzero(unlabelled & ~modelled)),
+                             unfilled=tuple(sorted(unfilled, key=lambda x: (x.start, x.marker))))
 

@@ -63,6 +63,7 @@ import numpy as np
 
 from .constraints import enforce_distances
 from .lowrank import fill_lowrank
+from .plausible import TakeLimits, implausible, take_limits
 from .rigid import DistanceStats, distance_stats, donor_order, from_local, local_frames, to_local
 
 __all__ = ["GapFill", "gap_runs", "fill_gaps"]
@@ -92,6 +93,11 @@ class GapFill:
     constrained : bool
         Whether the soft distance constraints were applied to the gap (they
         brought the validation gaps nearer the truth).
+    implausible : str
+        Empty for a filled gap. Otherwise why no fill was plausible
+        (:func:`~mocapkit.cleaning.markers.plausible.implausible`: the
+        reason the best model's fill failed): the gap is left missing, and
+        ``method``, ``donors`` and ``expected_error`` describe that rejected fill.
     """
 
     marker: int
@@ -101,6 +107,12 @@ class GapFill:
     donors: tuple[int, ...] = ()
     expected_error: float = float("nan")
     constrained: bool = False
+    implausible: str = ""
+
+    @property
+    def filled(self) -> bool:
+        """Whether the gap was filled (False: left missing, no plausible fill)."""
+        return not self.implausible
 
 
 def gap_runs(missing: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -352,7 +364,8 @@ def _lowrank_fill(pos: np.ndarray, m: int, a: int, b: int, order: np.ndarray, st
 
 
 def fill_gaps(positions: np.ndarray, *, stats: DistanceStats | None = None, candidates: int = 4, keep: int = 3,
-              max_gap: int | None = None, constrain: bool = True, predictors: int = 6) -> tuple[np.ndarray, list[GapFill]]:
+              max_gap: int | None = None, constrain: bool = True, predictors: int = 6, guard: bool = True,
+              unit_mm: float = 1.0) -> tuple[np.ndarray, list[GapFill]]:
     """Fill every gap of every marker that is seen at least once.
 
     Parameters
@@ -374,15 +387,25 @@ def fill_gaps(positions: np.ndarray, *, stats: DistanceStats | None = None, cand
     predictors : int
         How many of the most rigidly attached markers the regression fills
         use (0: no regression fills).
+    guard : bool
+        Write only fills that pass the plausibility guard
+        (:func:`~mocapkit.cleaning.markers.plausible.implausible`): the
+        averaged fill, else the first of its models, best validated first,
+        that passes; none passing, the gap is left missing. A constrained
+        fill that fails after the constraints is written unconstrained.
+    unit_mm : float
+        Millimetres per unit of ``positions`` (the guard's floors are in mm).
 
     Returns
     -------
     filled : float array (F, M, 3)
         Observed samples unchanged (bit-identical); gaps filled; markers
         never seen, frames before the first and after the last frame where
-        any marker is seen, and gaps nothing could fill, still NaN.
+        any marker is seen, gaps nothing could fill and gaps no fill of
+        which was plausible, still NaN.
     fills : list of GapFill
-        One record per filled gap.
+        One record per filled gap, and one per gap left missing for want of
+        a plausible fill (``implausible`` says why; ``filled`` is False).
     """
     pos = np.array(positions, dtype=np.float64)
     f, m_count = pos.shape[:2]
@@ -398,24 +421,34 @@ def fill_gaps(positions: np.ndarray, *, stats: DistanceStats | None = None, cand
     lo, hi = int(seen_any[0]), int(seen_any[-1]) + 1
     if lo > 0 or hi < f:  # no marker seen at the take's start or end: left missing, the rest filled as a take
         inner, inner_records = fill_gaps(pos[lo:hi], stats=stats, candidates=candidates, keep=keep, max_gap=max_gap,
-                                         constrain=constrain, predictors=predictors)
+                                         constrain=constrain, predictors=predictors, guard=guard, unit_mm=unit_mm)
         out[lo:hi] = inner
         return out, [replace(r, start=r.start + lo, end=r.end + lo) for r in inner_records]
     order = donor_order(stats)
+    limits = take_limits(pos, stats, order, unit_mm) if guard else None
     records = []
     for m in np.flatnonzero(np.any(missing, axis=0) & ~np.all(missing, axis=0)):
         for a, b in zip(*gap_runs(missing[:, m])):
             a, b = int(a), int(b)
             if max_gap is not None and b - a > max_gap:
                 continue
-            rec = _fill_one(pos, out, int(m), a, b, order, stats, candidates, keep, predictors, constrain)
+            rec = _fill_one(pos, out, int(m), a, b, order, stats, candidates, keep, predictors, constrain,
+                            limits, unit_mm)
             if rec is not None:
                 records.append(rec)
     if constrain and any(r.constrained for r in records):
         free = np.zeros(missing.shape, dtype=bool)
         for r in records:
             free[r.start:r.end, r.marker] = r.constrained
-        out = enforce_distances(out, free, stats, order)
+        con = enforce_distances(out, free, stats, order)
+        for k, r in enumerate(records):
+            if not r.constrained:
+                continue
+            run = slice(r.start, r.end)
+            if limits is not None and implausible(pos, r.marker, r.start, r.end, con[run, r.marker], limits, unit_mm):
+                records[k] = replace(r, constrained=False)  # the constraints pulled it off: written as it passed the guard
+            else:
+                out[run, r.marker] = con[run, r.marker]
     return out, records
 
 
@@ -455,20 +488,34 @@ def _constraint_helps(pos: np.ndarray, m: int, checks, stats: DistanceStats, ord
     return bool(err[1] < err[0])
 
 
-def _fill_one(pos, out, m, a, b, order, stats, candidates, keep, predictors, constrain) -> GapFill | None:
-    """Fill marker m's gap a..b-1 of ``pos`` into ``out``; the record, or None when nothing could fill it."""
+def _fill_one(pos, out, m, a, b, order, stats, candidates, keep, predictors, constrain,
+              limits: TakeLimits | None = None, unit_mm: float = 1.0) -> GapFill | None:
+    """Fill marker m's gap a..b-1 of ``pos`` into ``out``; its record, or None when nothing could fill it.
+
+    The fills tried, in turn: the weighted average of the ``keep`` best
+    validated models, then each usable model alone, best validated first
+    (unvalidated ones last), then the low-rank fill and the room-coordinate
+    interpolation. With ``limits`` the first that passes the plausibility
+    guard is written; when none does, nothing is written and the record
+    says why the first failed (``implausible``).
+    """
+    f = pos.shape[0]
     models = _models(pos, m, a, b, order, candidates, predictors)
     fills = _fills(pos, m, a, b, models, order, stats)
     if not any(est is not None and g for (g, _, _), est in zip(models, fills)):
-        # no donor group could fill (too few seen, or degenerate): the room-coordinate and low-rank fills compete
-        near = [int(d) for d in order[m][:2]]
+        # no donor group could fill (too few seen, or degenerate): the room-coordinate and low-rank fills and the
+        # offset from each of the two most rigidly attached markers seen throughout the gap (pattern fill) compete
+        span = slice(max(a - 1, 0), min(b + 1, f))
+        seen_gap = ~np.any(np.isnan(pos[span]), axis=(0, 2))
+        near = [int(d) for d in order[m] if d != m and seen_gap[d]][:2]
         extra = [((), "linear", None), ((), "lowrank", None)] + [((d,), "linear", None) for d in near]
         models += extra
         fills += _fills(pos, m, a, b, extra, order, stats)
     spans = _validation_spans(pos, m, a, b)
-    side = -1 if b == pos.shape[0] else (1 if a == 0 else 0)  # a gap at the take's end is validated from one end too
+    side = -1 if b == f else (1 if a == 0 else 0)  # a gap at the take's end is validated from one end too
     checks = [_fills(pos, m, s, e, models, order, stats, side) for s, e in spans]
     usable = [i for i, est in enumerate(fills) if est is not None]
+    tries = []  # (fill, method, donors, expected error, validated fills of the spans or None)
     if usable:
         errs = np.full(len(models), np.inf)
         for i in usable:
@@ -480,25 +527,44 @@ def _fill_one(pos, out, m, a, b, order, stats, candidates, keep, predictors, con
         else:
             best = [int(i) for i in np.argsort(errs, kind="stable")[:keep] if np.isfinite(errs[i])]
             w = 1.0 / np.maximum(errs[best], 1e-6) ** 2
-        out[a:b, m] = np.tensordot(w / w.sum(), np.stack([fills[i] for i in best]), axes=1)
         validated = []
         for (s, e), c in zip(spans, checks):
             have = [k for k, i in enumerate(best) if c[i] is not None]
             if have:
                 wk = w[have] / w[have].sum()
                 validated.append((s, e, np.tensordot(wk, np.stack([c[best[k]] for k in have]), axes=1)))
-        g, kind, _ = models[best[0]]
-        method = {"regress": "regression", "lowrank": "lowrank"}.get(kind, "donors" if g else kind)
-        expected = float(errs[best[0]]) if np.isfinite(errs[best[0]]) else float("nan")
-        helps = constrain and _constraint_helps(pos, m, validated, stats, order)
-        return GapFill(m, a, b, method, g, expected, helps)
-    est = _lowrank_fill(pos, m, a, b, order, stats)
-    if est is not None:
-        out[a:b, m] = est
-        return GapFill(m, a, b, "lowrank")
-    seen = ~np.any(np.isnan(pos[:, m]), axis=-1)
-    t = np.flatnonzero(seen)
-    if t.size == 0:
+        tries.append((np.tensordot(w / w.sum(), np.stack([fills[i] for i in best]), axes=1), best[0], validated))
+        alone = sorted(usable, key=lambda i: errs[i])  # stable: unvalidated (inf) ones last, in model order
+        tries += [(fills[i], i, [(s, e, c[i]) for (s, e), c in zip(spans, checks) if c[i] is not None]) for i in alone]
+        tries = [(est, _method(models[i]), models[i][0], float(errs[i]) if np.isfinite(errs[i]) else float("nan"), v)
+                 for est, i, v in tries]
+    else:
+        est = _lowrank_fill(pos, m, a, b, order, stats)
+        if est is not None:
+            tries.append((est, "lowrank", (), float("nan"), None))
+        seen = ~np.any(np.isnan(pos[:, m]), axis=-1)
+        t = np.flatnonzero(seen)
+        if t.size:
+            est = np.stack([np.interp(np.arange(a, b), t, pos[t, m, c]) for c in range(3)], axis=-1)
+            tries.append((est, "linear", (), float("nan"), None))
+    if not tries:
         return None
-    out[a:b, m] = np.stack([np.interp(np.arange(a, b), t, pos[t, m, c]) for c in range(3)], axis=-1)
-    return GapFill(m, a, b, "linear")
+    first = None
+    for k, (est, method, donors, expected, validated) in enumerate(tries):
+        if k and len(tries) > 1 and np.array_equal(est, tries[0][0]):
+            continue  # the average of one model is that model: tried already
+        why = implausible(pos, m, a, b, est, limits, unit_mm) if limits is not None else ""
+        rec = GapFill(m, a, b, method, tuple(donors), expected, False, why)
+        first = first or rec
+        if why:
+            continue
+        out[a:b, m] = est
+        helps = constrain and validated is not None and _constraint_helps(pos, m, validated, stats, order)
+        return replace(rec, constrained=bool(helps))
+    return first
+
+
+def _method(model) -> str:
+    """The name a model's fill is reported by (see :class:`GapFill`)."""
+    g, kind, _ = model
+    return {"regress": "regression", "lowrank": "lowrank"}.get(kind, "donors" if g else kind)
