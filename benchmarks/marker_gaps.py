@@ -31,6 +31,11 @@ Fills, all run here on the same gaps:
   either side of the gaps;
 * ``mocapkit``: ``cleaning.markers.fill_gaps``.
 
+A case where mocapkit leaves a gap missing (no fill passes its plausibility
+check, :mod:`mocapkit.cleaning.markers.plausible`) is scored for no method and
+counted (``*_left_missing_cases``): every figure compares the methods on the
+same gaps, those mocapkit fills.
+
 The method was developed looking at 85_12 and HDM_bd_05-01_01_120;
 85_02 and 135_02 are held out (``heldout_*`` figures), though no longer
 untouched: 85_02's 2-4 s band, the one that missed, was later diagnosed case
@@ -163,12 +168,14 @@ def run_capture(name: str, cases: int, seed: int):
     rng = np.random.default_rng(seed)
     sq = {(b, k): [] for b in bands_of(len(x), fps) for k in METHODS}
     seconds = {k: 0.0 for k in METHODS}
+    left = {b: 0 for b in bands_of(len(x), fps)}
     for band in bands_of(len(x), fps):
         span = BANDS[band]
         for markers in [1] * cases + [3] * cases:
             mask = cut(x, fps, span, markers, rng)
             y = x.copy()
             y[mask] = np.nan
+            errs = {}
             for k in METHODS:
                 t0 = time.perf_counter()
                 if k in ("linear", "spline"):
@@ -181,8 +188,13 @@ def run_capture(name: str, cases: int, seed: int):
                     z = fill_gaps(y)[0]
                 seconds[k] += time.perf_counter() - t0
                 e = np.sum((z[mask] - x[mask]) ** 2, axis=-1)
-                sq[(band, k)].append(np.where(np.isnan(e), np.inf, e))
-    return {key: np.concatenate(v) for key, v in sq.items()}, seconds
+                errs[k] = np.where(np.isnan(e), np.inf, e)
+            if not np.all(np.isfinite(errs["mocapkit"])):  # left missing: no plausible fill (cleaning.markers.plausible)
+                left[band] += 1
+                continue
+            for k in METHODS:
+                sq[(band, k)].append(errs[k])
+    return {key: np.concatenate(v) if v else np.zeros(0) for key, v in sq.items()}, seconds, left
 
 
 def rms(values) -> float:
@@ -194,9 +206,9 @@ def main() -> None:
     ap = harness.parser(__doc__)
     ap.add_argument("--cases", type=int, default=6, help="takes per capture, band and setting (one / three markers)")
     args = ap.parse_args()
-    per, secs = {}, {}
+    per, secs, left = {}, {}, {}
     for i, name in enumerate(CAPTURES):
-        per[name], secs[name] = run_capture(name, args.cases, seed=100 + i)
+        per[name], secs[name], left[name] = run_capture(name, args.cases, seed=100 + i)
     table = {}
     for name in CAPTURES:
         table[name] = {b: {k: round(rms([per[name][(b, k)]]), 2) for k in METHODS} for b in BANDS if (b, "mocapkit") in per[name]}
@@ -211,6 +223,7 @@ def main() -> None:
                 continue
             r = {k: rms([per[n][(b, k)] for n in names_b]) for k in METHODS}
             figures[f"{group}_{b}_mocapkit_mm"] = round(r["mocapkit"], 2)
+            figures[f"{group}_{b}_left_missing_cases"] = sum(left[n].get(b, 0) for n in names_b)
             for k in METHODS[:-1]:
                 figures[f"{group}_{b}_{k}_mm"] = round(r[k], 2)
             best_interp = min(r["linear"], r["spline"])
@@ -230,6 +243,7 @@ def main() -> None:
         "capture_role": CAPTURES,
         "seconds_per_method": {n: {k: round(v, 2) for k, v in secs[n].items()} for n in CAPTURES},
         "cases": f"{args.cases} one-marker + {args.cases} three-marker takes per capture and band",
+        "left_missing_cases": left,
         "note": "baselines: linear/spline = cleaning.gapfill (Nexus window); pattern/rigid = gapfill 0.0.7 "
                 "(unfilled samples linear); pca = Gloersen-Federolf low-rank, distance-weighted, +-10 s window; "
                 "worst_vs_best_baseline is the largest mocapkit / best-baseline ratio over every capture, band and the pools; "
