@@ -53,7 +53,10 @@ def test_the_summary_and_report_say_how_frames_relate_to_an_amcs_numbers(tmp_pat
     text = capsys.readouterr().out
     note = "frame numbers count from 0, the take's first frame; bad.amc numbers its frames from 1: its frame 11 is frame 10 here"
     assert f"\n    {note}\n" in text, text
-    first, last = map(int, re.search(r"flagged \w+ +frames (\d+)-(\d+)", text).groups())
+    first, last, t0, t1 = re.search(r"flagged \w+ +frames (\d+)-(\d+) \((\d+\.\d+)-(\d+\.\d+) s\)", text).groups()
+    first, last = int(first), int(last)
+    # the times are the first and last frame's, as the report's viewer labels them (frame f at f / fps)
+    assert (t0, t1) == (f"{first / bad.fps:.2f}", f"{last / bad.fps:.2f}")
     block = json.loads(re.search(r'id="mocapkit-review">(.*?)</script>', rep.read_text(), re.S).group(1))
     assert block["frames"] == note
     # the indexes are the take's: index i is the AMC's frame i + 1

@@ -143,7 +143,12 @@ def test_detect_flags_what_clean_in_review_mode_flags(tmp_path):
     bad, mask, _ = corrupt.real_errors(take, n_errors=3, seed=5)
     inp = tmp_path / "bad.npz"
     mocapkit.save(bad, inp)
-    assert run("detect", str(inp), "--out", str(tmp_path / "det.npz"), "--context", "none")[0] == 0
+    code, out, _ = run("detect", str(inp), "--out", str(tmp_path / "det.npz"), "--context", "none")
+    assert code == 0
+    # a segment's times are its first and last frame's, as the report's viewer labels them (frame f at f / fps)
+    import re
+    a, last, t0, t1 = re.search(r"frames (\d+)-(\d+) \((\d+\.\d+)-(\d+\.\d+) s\)", out).groups()
+    assert (t0, t1) == (f"{int(a) / bad.fps:.2f}", f"{int(last) / bad.fps:.2f}")
     assert run("clean", str(inp), "-o", str(tmp_path / "review.npz"), "--steps", "detect", "--context", "none")[0] == 0
     det = ssa.Detection.load(tmp_path / "det.npz")
     with np.load(tmp_path / "review.clean.npz") as z:

@@ -232,7 +232,7 @@ def test_long_take_shows_every_kth_frame_and_every_flagged_frame(tmp_path, walk)
     mdm[101, 7] = 0.6  # far from any flag: not shown, kept as the maximum of the block 100-103
     out = write_report(tmp_path / "r.html", walk, walk, mdm=mdm, flags=flags, max_frames=100)
     data = page_data(out)
-    want = sorted(set(range(0, F, 4)) | set(range(5 - 3, 5 + 4)))  # the grid, the flag and 3 frames either side
+    want = sorted(set(range(0, F, 4)) | {F - 1} | set(range(5 - 3, 5 + 4)))  # the grid, the last frame, the flag and 3 either side
     assert data["stride"] == 4 and data["frames"] == F and data["detail"] == "full" and data["margin"] == 3
     assert frame_list(data).tolist() == want and data["n"] == len(want)
     bits = np.frombuffer(base64.b64decode(data["bits"]), dtype=np.uint8).reshape(data["n"], J)
@@ -308,19 +308,19 @@ def test_shown_frames_rule_and_its_cap():
     frames, stride, detail = shown_frames(F, F, np.ones((F, J), bool))
     assert frames.tolist() == list(range(F)) and stride == 1 and detail == "all"
     frames, stride, detail = shown_frames(F, 100)
-    assert frames.tolist() == list(range(0, F, 10)) and stride == 10 and detail == "none"
+    assert frames.tolist() == list(range(0, F, 10)) + [F - 1] and stride == 10 and detail == "none"
     # a change and a flag: their frames and 3 either side
     ch, fl = np.zeros((F, J), bool), np.zeros((F, J), bool)
     ch[501:503, 1] = True
     fl[777, 2] = True
     frames, stride, detail = shown_frames(F, 100, fl, ch)
-    assert detail == "full" and frames.tolist() == sorted(set(range(0, F, 10)) | set(range(498, 506)) | set(range(774, 781)))
+    assert detail == "full" and frames.tolist() == sorted(set(range(0, F, 10)) | {F - 1} | set(range(498, 506)) | set(range(774, 781)))
     # a take flagged all through: never more than 2 * max_frames frames; the tiers that fit, in order
     everything = np.ones((F, J), bool)
     frames, stride, detail = shown_frames(F, 100, everything, ch)
     assert len(frames) <= 200 and detail == "changes" and {501, 502} <= set(frames.tolist())
     frames, stride, detail = shown_frames(F, 100, None, everything)
-    assert frames.tolist() == list(range(0, F, 10)) and detail == "starts"  # the one run starts at 0
+    assert frames.tolist() == list(range(0, F, 10)) + [F - 1] and detail == "starts"  # the one run starts at 0
     # more runs than room: their first frames, evenly spread, up to the cap
     many = np.zeros((F, J), bool)
     many[1::2, 0] = True  # 500 one-frame runs
@@ -582,7 +582,7 @@ def test_gappy_and_downsampled_pages_work(open_page, tmp_path, walk):
     long_page = write_report(tmp_path / "long.html", long_take(walk, 20.0), long_take(walk, 20.0), max_frames=600)
     pg2 = open_page(long_page)
     note = pg2.page.inner_text("#downsample-note")
-    assert "every 4th frame (600 of 2400)" in note
+    assert "every 4th frame, the last one (601 of 2400)" in note
     pg2.js("window.mocapkitReport.setFrame(1001)")
     assert pg2.js("[window.mocapkitReport.index(), window.mocapkitReport.frame()]") == [250, 1000]
     assert pg2.errors == []
@@ -743,7 +743,7 @@ def test_long_take_page_jumps_to_and_draws_the_changed_frames(open_page, tmp_pat
     assert pg.js(f"{api}.shownFrames()") == shown
     assert pg.js(f"{api}.info.shown") == data["n"] and pg.js(f"{api}.heatmapLayout().frames") == 1000
     note = pg.page.inner_text("#downsample-note")
-    assert f"every 3rd frame and every frame of each change and flag, with 3 frames either side ({data['n']} of 1000)" in note
+    assert f"every 3rd frame, the last one and every frame of each change and flag, with 3 frames either side ({data['n']} of 1000)" in note
     # each frame of the change is shown as itself, at its own frame number
     hand = take.skeleton.index("lhand")
     scale = unit_scale_cm(take.skeleton)
@@ -820,7 +820,7 @@ def test_downsample_note_says_the_ordinal_right(open_page, tmp_path, walk):
         n = page_data(out)["n"]
         pg = open_page(out)
         note = pg.page.inner_text("#downsample-note")
-        assert f"shows every {word} frame and every frame of each change and flag, with 3 frames either side ({n} of {F})" in note
+        assert f"shows every {word} frame, the last one and every frame of each change and flag, with 3 frames either side ({n} of {F})" in note
         assert pg.errors == []
         pg.close()
 

@@ -78,6 +78,39 @@ def test_page_lists_every_change_with_accept_and_jump(page, cleaned):
     assert page.evaluate("() => window.mocapkitReport.selectedJointName()") == c.joint
 
 
+IN_VIEW = """(sel) => { const r = document.querySelector(sel).getBoundingClientRect();
+    return r.bottom > 0 && r.top < window.innerHeight; }"""
+
+
+def test_the_viewer_steps_through_the_changes_and_the_reviewer_keeps_their_place(page, cleaned):
+    """From a row's jump, the viewer's own bar shows, accepts or rejects the next and previous changes
+    without scrolling, and takes the reviewer back to the row of the change on show."""
+    d, inp = cleaned
+    found = D.changes(CleanResult.load(d / "walk.clean.npz"), mocapkit.load(inp))
+    assert len(found) >= 3
+    page.set_viewport_size({"width": 1280, "height": 500})  # the list below the fold
+    page.locator("#changes tbody tr").nth(0).locator("button.jump").click()
+    assert page.evaluate(IN_VIEW, "#viewer") and page.evaluate(IN_VIEW, "#change-nav")
+    assert not page.evaluate(IN_VIEW, '#changes tbody tr[data-change="%s"]' % found[1].id)
+    y = page.evaluate("() => window.scrollY")
+    for k in (1, 2):
+        page.click("#next-change")
+        c = found[k]
+        assert page.evaluate("() => [window.mocapkitReport.frame(), window.mocapkitReport.selectedJointName()]") == \
+            [c.first, c.joint]
+        assert page.inner_text("#change-label").startswith(f"change {k + 1} of {len(found)}: {c.joint}")
+        assert page.evaluate("() => window.scrollY") == y  # the viewer stays where it is
+    page.uncheck("#change-accept")  # reject the change on show from the viewer's bar
+    assert page.evaluate("() => window.mocapkitReview.decisions().decisions")[found[2].id] == "reject"
+    assert not page.locator(f'#changes tbody tr[data-change="{found[2].id}"] input.accept').is_checked()
+    page.click("#prev-change")
+    assert page.evaluate("() => window.mocapkitReport.frame()") == found[1].first
+    assert page.is_checked("#change-accept")
+    page.click("#back-to-list")
+    row = f'#changes tbody tr[data-change="{found[1].id}"]'
+    assert page.evaluate(IN_VIEW, row) and "current" in page.get_attribute(row, "class")
+
+
 def test_reject_download_and_apply(page, cleaned, tmp_path, capsys):
     d, inp = cleaned
     ids = page.evaluate("() => window.mocapkitReview.changes()")
@@ -136,6 +169,12 @@ def test_review_mode_lists_every_flag_with_the_rule_that_raised_it(browser, tmp_
     pg.wait_for_function("() => window.mocapkitReport && window.mocapkitReview && window.mocapkitReport.drawCount() > 0",
                          timeout=60000)
     assert pg.inner_text("#changes p:last-of-type").strip() == "The cleaning changed nothing."
+    # nothing to decide, and the page says so: no accept/reject/download buttons that would do nothing
+    assert pg.inner_text("#nothing-to-decide").startswith("Nothing to decide: the cleaning changed no sample")
+    assert "review mode" in pg.inner_text("#nothing-to-decide")
+    assert "Accept or reject each one" not in pg.inner_text("#changes")
+    for button in ("#accept-all", "#reject-all", "#download-decisions", "#decision-count", "#change-nav"):
+        assert pg.locator(button).count() == 0, button
     rows = pg.locator("#flags tbody tr")
     assert rows.count() == len(flags)
     for k, f in enumerate(flags):

@@ -133,7 +133,7 @@ def clean(
             a, last = g["first"], g["last"]
             why = ": " + ", ".join(g["why"]) if g["why"] else ""
             console.print(f"    flagged {g['joint']:16s} frames {a}-{last} "
-                          f"({a / m.fps:.2f}-{(last + 1) / m.fps:.2f} s){why}")
+                          f"({a / m.fps:.2f}-{last / m.fps:.2f} s){why}")  # each frame's time, as the viewer labels it
         if len(segs) > 12:
             console.print(f"    ... and {len(segs) - 12} more (all in {clean_path(out)})")
         _print_frame_note(inp, bool(segs))

@@ -88,7 +88,8 @@ def detect(
     for line in ([note] if note else []) + [str(c) for c in found.calibration] + list(det.notes):
         console.print(f"  note: {line}")
     for (j, a, b), w in zip(segs[:50], why):
-        console.print(f"  {j:16s} frames {a}-{b - 1} ({a / m.fps:.2f}-{b / m.fps:.2f} s): {', '.join(w)}")
+        # the first and last frame's times (frame f is at f / fps, as the report's viewer labels it)
+        console.print(f"  {j:16s} frames {a}-{b - 1} ({a / m.fps:.2f}-{(b - 1) / m.fps:.2f} s): {', '.join(w)}")
     if len(segs) > 50:
         console.print(f"  ... and {len(segs) - 50} more")
 

@@ -30,7 +30,7 @@ Long takes
 ----------
 Up to ``max_frames`` frames the viewer shows every frame (the page's frame list
 is null). A longer take shows a sorted, non-uniform list of its frames
-(:func:`shown_frames`): every k-th frame, ``k = ceil(frames / max_frames)``, and
+(:func:`shown_frames`): every k-th frame, ``k = ceil(frames / max_frames)``, its last frame, and
 every frame of each run of flagged or changed cells (and of each change and flag
 of ``review``) with :data:`DETAIL_MARGIN` frames either side, so that a person
 reviewing a change sees exactly the frames it touched; the page carries the list
@@ -198,6 +198,7 @@ def shown_frames(num_frames: int, max_frames: int, flags=None, changed=None, *,
 
     keep = np.zeros(F, dtype=bool)
     keep[::stride] = True
+    keep[F - 1] = True  # the take's last frame: the viewer can reach the end
     first = cell_starts(flags) | cell_starts(changed)
     first[[int(f) for f in starts]] = True
     ch, fl = frames_mask(changed), frames_mask(flags)

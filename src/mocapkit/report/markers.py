@@ -27,57 +27,137 @@ _SCRIPT = r"""
 const D = JSON.parse(document.getElementById('data').textContent);
 const cv = document.getElementById('view'), cx = cv.getContext('2d');
 const slider = document.getElementById('frame'), label = document.getElementById('flabel');
+const followBox = document.getElementById('follow');
 let yaw = 0.6, pitch = 0.3, playing = false, f = 0, drag = null;
 const up = D.up;  // index of the vertical axis
 const colours = ['#445', '#1a9850', '#d73027', '#f28e2b'];
-function project(p) {
-  const x = p[0] - D.centre[0], y = p[1] - D.centre[1], z = p[2] - D.centre[2];
+followBox.checked = D.view.follow;
+followBox.onchange = () => draw();
+function target() { return followBox.checked ? D.view.track[f] : D.view.centre; }
+function project(p, t) {
+  // orthographic: every point within the framed sphere about the target lies in the canvas at any yaw and pitch
+  const x = p[0] - t[0], y = p[1] - t[1], z = p[2] - t[2];
   let h = [x, y, z]; const v = h[up]; h.splice(up, 1);
   const cy = Math.cos(yaw), sy = Math.sin(yaw);
   const a = h[0] * cy - h[1] * sy, b = h[0] * sy + h[1] * cy;
   const cp = Math.cos(pitch), sp = Math.sin(pitch);
-  const s = 0.9 * Math.min(cv.width, cv.height) / D.extent;
+  const s = D.view.fill * Math.min(cv.width, cv.height) / 2 / D.view.radius[followBox.checked ? 'follow' : 'fixed'];
   return [cv.width / 2 + a * s, cv.height / 2 - (v * cp - b * sp) * s];
 }
 function draw() {
   cx.clearRect(0, 0, cv.width, cv.height);
-  const P = D.pos[f], K = D.kind[f], B = D.bad[f];
+  const P = D.pos[f], K = D.kind[f], B = D.bad[f], t = target();
   for (let m = 0; m < P.length; m++) {
-    if (B[m]) { const q = project(B[m]); cx.strokeStyle = '#999'; cx.beginPath();
+    if (B[m]) { const q = project(B[m], t); cx.strokeStyle = '#999'; cx.beginPath();
       cx.moveTo(q[0] - 4, q[1] - 4); cx.lineTo(q[0] + 4, q[1] + 4); cx.moveTo(q[0] - 4, q[1] + 4); cx.lineTo(q[0] + 4, q[1] - 4); cx.stroke(); }
     if (!P[m]) continue;
-    const q = project(P[m]);
+    const q = project(P[m], t);
     cx.fillStyle = colours[K[m]]; cx.beginPath(); cx.arc(q[0], q[1], K[m] ? 5 : 3.5, 0, 2 * Math.PI); cx.fill();
   }
-  label.textContent = 'frame ' + D.frames[f] + ' (' + (D.frames[f] / D.fps).toFixed(2) + ' s)';
+  label.textContent = 'frame ' + D.frames[f] + ' / ' + (D.num_frames - 1) + ' (' + (D.frames[f] / D.fps).toFixed(2) + ' s)';
 }
+function indexOf(t) {  // the shown frame that is take frame t, else the nearest shown one before it
+  let lo = 0, hi = D.frames.length - 1;
+  while (lo < hi) { const mid = (lo + hi + 1) >> 1; if (D.frames[mid] <= t) lo = mid; else hi = mid - 1; }
+  return lo;
+}
+// playback in real time: the position runs in take frames at the capture's rate and the frame drawn is
+// the shown one at or before it (frames in between are skipped when the screen draws fewer per second)
+let pos = 0, lastT = null;
+function show(k) { f = Math.max(0, Math.min(D.frames.length - 1, k)); pos = D.frames[f]; slider.value = f; draw(); }
 slider.max = D.pos.length - 1;
-slider.oninput = () => { f = +slider.value; draw(); };
-document.getElementById('play').onclick = () => { playing = !playing; if (playing) tick(); };
-function tick() { if (!playing) return; f = (f + 1) % D.pos.length; slider.value = f; draw();
-  setTimeout(() => requestAnimationFrame(tick), 1000 / D.play_fps); }
+slider.oninput = () => show(+slider.value);
+function tick(now) {
+  if (!playing) return;
+  if (lastT !== null) {
+    pos = (pos + (now - lastT) / 1000 * D.fps) % D.num_frames;
+    const k = indexOf(pos);
+    if (k !== f) { f = k; slider.value = f; draw(); }
+  }
+  lastT = now; requestAnimationFrame(tick);
+}
+document.getElementById('play').onclick = () => { playing = !playing; lastT = null; if (playing) requestAnimationFrame(tick); };
 cv.onmousedown = e => { drag = [e.clientX, e.clientY]; };
 window.onmouseup = () => { drag = null; };
 cv.onmousemove = e => { if (!drag) return; yaw += (e.clientX - drag[0]) * 0.01;
   pitch = Math.max(-1.5, Math.min(1.5, pitch + (e.clientY - drag[1]) * 0.01)); drag = [e.clientX, e.clientY]; draw(); };
-for (const a of document.querySelectorAll('a.fix')) a.onclick = e => { e.preventDefault();
-  const t = +a.dataset.frame; let k = 0; while (k + 1 < D.frames.length && D.frames[k + 1] <= t) k++; f = k; slider.value = f; draw(); };
+for (const a of document.querySelectorAll('a.fix')) a.onclick = e => { e.preventDefault(); playing = false; show(indexOf(+a.dataset.frame)); };
+window.markerReport = { frame: () => D.frames[f], show: t => show(indexOf(t)), playing: () => playing };
 draw();
 """
 
 
-def _frames(num_frames: int, max_frames: int) -> np.ndarray:
-    step = max(1, int(np.ceil(num_frames / max_frames)))
-    return np.arange(0, num_frames, step)
+def shown_marker_frames(result, max_frames: int) -> tuple[np.ndarray, int, str]:
+    """The capture frames the marker viewer keeps: ``(frames, stride, detail)``.
+
+    As the joint-angle report (:func:`mocapkit.report.html.shown_frames`): every
+    frame up to ``max_frames``; a longer capture keeps every ``stride``-th frame,
+    its last frame, and every frame of each fix (gap filled, spike removed, swap
+    undone) with frames either side, the first frame of each fix before all (where
+    its link lands), at most ``2 * max_frames`` frames.
+    """
+    from .html import shown_frames
+
+    touched = result.filled | result.spikes | result.swapped
+    return shown_frames(result.markers.positions.shape[0], int(max_frames), changed=touched,
+                        starts=[x.start for x in result.fixes])
+
+
+_DETAIL_WORDS = {
+    "full": "every frame of each fix, with 3 frames either side",
+    "runs": "every frame of each fix",
+    "changes": "every frame of each fix",
+    "starts": "the first frame of each fix (too many fixed frames to show them all)",
+    "some": "the first frame of some of the fixes (too many to show them all)",
+}
+
+
+def _shown_note(frames: np.ndarray, num_frames: int, stride: int, detail: str) -> str:
+    """What a long capture's viewer shows, in words; empty when it shows every frame."""
+    if len(frames) == num_frames:
+        return ""
+    extra = _DETAIL_WORDS.get(detail)
+    return (f"Long capture: the viewer shows every {stride}th frame, the last one"
+            + (f" and {extra}" if extra else "") + f" ({len(frames)} of {num_frames} frames); "
+            "it plays in real time, skipping the frames between.")
+
+
+def _marker_framing(points, frames: np.ndarray, fps: float, up: int) -> dict:
+    """Where the marker viewer looks and how far it zooms, in the capture's axes (mm).
+
+    The marker viewer projects orthographically, so a sphere of radius ``r`` about the
+    target stays within ``r`` of the canvas centre at any yaw and pitch: the page scales
+    ``fill * min(width, height) / 2`` pixels to the radius of the sphere holding every
+    drawn point (markers and the grey crosses of removed spikes). The target is the
+    bounding-box centre of the capture, or (``follow``, on captures that travel) the
+    markers' centroid smoothed over a second (:func:`mocapkit.report.view.fit_view`).
+    """
+    from .view import FOLLOW_RATIO, MARGIN, fit_view
+
+    order = [a for a in range(3) if a != up]
+    perm = [order[0], up, order[1]]  # the page's y is the vertical: what fit_view frames
+    fv = fit_view([p[..., perm] for p in points], fps=fps, frames=frames)
+    back = np.argsort(perm)
+
+    def orig(v):
+        return [round(float(c), 1) for c in np.asarray(v)[back]]
+
+    track = [orig([x, fv.track_height, z]) for x, z in fv.track]
+    return {"centre": orig(fv.centre), "track": track, "fill": 1.0 - MARGIN,
+            "radius": {"fixed": fv.radius_fixed, "follow": fv.radius_follow},
+            "follow": bool(fv.radius_fixed > FOLLOW_RATIO * fv.radius_follow)}
 
 
 def write_marker_report(path, result, *, title: str = "", max_frames: int = 3000, up_axis: int | None = None) -> Path:
     """Write the HTML marker viewer of ``result`` (a MarkerCleanResult) to ``path``; returns the path.
 
-    At most ``max_frames`` frames are kept (evenly spaced), positions in
-    millimetres rounded to 0.1 mm. ``up_axis``: 0, 1 or 2 (default: the axis
-    along which one frame's markers spread most: a standing body is tallest
-    along the vertical).
+    Up to ``max_frames`` frames every frame is kept; a longer capture keeps every
+    k-th frame, its last frame and every frame of each fix with frames either side
+    (:func:`shown_marker_frames`), and the page says so. Positions in millimetres
+    rounded to 0.1 mm. ``up_axis``: 0, 1 or 2 (default: the axis along which one
+    frame's markers spread most: a standing body is tallest along the vertical).
+    The page plays in real time at the capture's rate and frames every drawn point
+    of every frame whole (:func:`_marker_framing`).
     """
     from ..io import atomic_write
 
@@ -85,14 +165,12 @@ def write_marker_report(path, result, *, title: str = "", max_frames: int = 3000
     before = np.asarray(result.original.positions, dtype=np.float64)
     after = np.asarray(result.markers.positions, dtype=np.float64)
     mm = 10.0 * result.markers.unit_cm
-    idx = _frames(after.shape[0], max_frames)
+    idx, stride, detail = shown_marker_frames(result, max_frames)
     kind = np.zeros(after.shape[:2], dtype=np.int8)
     kind[result.filled] = _KIND_CODE["filled"]
     kind[result.spikes] = _KIND_CODE["spike"]
     kind[result.swapped] = _KIND_CODE["swap"]
     seen = after[~np.isnan(after).any(axis=-1)]
-    centre = np.nanmedian(seen, axis=0) if seen.size else np.zeros(3)
-    extent = float(np.nanmax(np.ptp(seen, axis=0))) if seen.size else 1.0
     if up_axis is None:
         frame_spread = np.nanmedian(np.nanmax(after, axis=1) - np.nanmin(after, axis=1), axis=0) if seen.size else np.ones(3)
         up_axis = int(np.nanargmax(frame_spread)) if seen.size else 2  # a standing body is tallest along the vertical
@@ -101,10 +179,11 @@ def write_marker_report(path, result, *, title: str = "", max_frames: int = 3000
         return [[None if np.isnan(p).any() else [round(float(c) * mm, 1) for c in p] for p in row] for row in a]
 
     bad = np.where(result.spikes[..., None], before, np.nan)
+    fps = float(result.markers.fps)
     data = {"pos": pts(after[idx]), "kind": kind[idx].tolist(), "bad": pts(bad[idx]), "frames": idx.tolist(),
-            "fps": float(result.markers.fps), "play_fps": float(min(result.markers.fps / max(idx[1] - idx[0], 1)
-                                                                     if idx.size > 1 else 30.0, 60.0)),
-            "centre": [float(c) * mm for c in centre], "extent": max(extent * mm, 1.0), "up": up_axis}
+            "num_frames": int(after.shape[0]), "fps": fps, "up": up_axis,
+            "view": _marker_framing([after[idx] * mm, bad[idx] * mm], idx, fps, up_axis)}
+    note = _shown_note(idx, after.shape[0], stride, detail)
     rows = "".join(
         f"<tr><td>{html.escape(x.marker)}</td><td><a class='fix' href='#' data-frame='{x.start}'>{x.start}-{x.end - 1}</a></td>"
         f"<td>{x.kind}</td><td>{html.escape(x.size_text)}</td><td>{html.escape(x.other)}</td></tr>"
@@ -124,7 +203,8 @@ table{{border-collapse:collapse}}td,th{{padding:2px 8px;border-bottom:1px solid 
 .k{{display:inline-block;width:10px;height:10px;border-radius:5px;margin:0 4px 0 12px}}</style></head><body>
 <h2>{head}</h2><ul>{summary}</ul>
 <div><button id="play">play / pause</button> <input id="frame" type="range" min="0" value="0" style="width:60%">
-<span id="flabel"></span></div>
+<span id="flabel"></span> <label><input id="follow" type="checkbox"> follow</label></div>
+<p id="shown-note">{html.escape(note)}</p>
 <div>drag to turn; <span class="k" style="background:#445"></span>recorded
 <span class="k" style="background:#1a9850"></span>gap filled <span class="k" style="background:#d73027"></span>spike replaced
 <span class="k" style="background:#f28e2b"></span>label swap undone; grey cross: the spike's recorded value</div>

@@ -22,16 +22,24 @@
     return e;
   }
   var sec = el("section", { "class": "changes", id: "changes" }, document.getElementById("app") || document.body);
+  var flags = R.flags || [];
   el("h2", { text: "Changes (" + list.length + ")" }, sec);
-  el("p", { "class": "note", text: "Every change the cleaning made, one joint over a run of frames. Accept or " +
-    "reject each one, then download the decisions and run: mocapkit clean " + (doc.take.name || "IN") +
-    " -o OUT --decisions " + fileName() + " (rejected changes get the input's samples back exactly)." +
-    (R.frames ? " " + R.frames.charAt(0).toUpperCase() + R.frames.slice(1) + "." : "") }, sec);
-  var bar = el("div", { "class": "toolbar" }, sec);
-  var allAcc = el("button", { type: "button", id: "accept-all", text: "Accept all" }, bar);
-  var allRej = el("button", { type: "button", id: "reject-all", text: "Reject all" }, bar);
-  var dl = el("button", { type: "button", id: "download-decisions", text: "Download decisions" }, bar);
-  var count = el("span", { id: "decision-count", "class": "note" }, bar);
+  var frameNote = R.frames ? " " + R.frames.charAt(0).toUpperCase() + R.frames.slice(1) + "." : "";
+  var count = null;
+  if (list.length) {
+    el("p", { "class": "note", text: "Every change the cleaning made, one joint over a run of frames. Accept or " +
+      "reject each one, then download the decisions and run: mocapkit clean " + (doc.take.name || "IN") +
+      " -o OUT --decisions " + fileName() + " (rejected changes get the input's samples back exactly)." + frameNote }, sec);
+    var bar = el("div", { "class": "toolbar" }, sec);
+    var allAcc = el("button", { type: "button", id: "accept-all", text: "Accept all" }, bar);
+    var allRej = el("button", { type: "button", id: "reject-all", text: "Reject all" }, bar);
+    var dl = el("button", { type: "button", id: "download-decisions", text: "Download decisions" }, bar);
+    count = el("span", { id: "decision-count", "class": "note" }, bar);
+  } else {  // nothing to accept, reject or download: no buttons that would do nothing
+    el("p", { "class": "note", id: "nothing-to-decide", text: "Nothing to decide: the cleaning changed no sample, so " +
+      "there is nothing to accept or reject and no decisions to download" + (flags.length ?
+      " (review mode, --steps detect, only flags: the flags below are what detection found)." : ".") + frameNote }, sec);
+  }
 
   var rows = [];
   if (list.length) {
@@ -53,7 +61,7 @@
       el("td", { "class": "reason", text: c.reason }, tr);
       var jt = el("td", { "class": "jump" }, tr);
       var jb = el("button", { type: "button", "class": "jump", "data-index": String(k), text: "jump to frame " + c.first }, jt);
-      jb.addEventListener("click", function () { jump(k); });
+      jb.addEventListener("click", function () { jump(k, true); });
       rows.push({ tr: tr, box: box });
       paint(k);
     });
@@ -62,7 +70,6 @@
   }
 
   // what detection flagged, and which rule flagged it: in review mode (--steps detect) all there is to see
-  var flags = R.flags || [];
   if (flags.length) {
     var fsec = el("section", { "class": "changes flags", id: "flags" }, sec.parentNode);
     el("h2", { text: "Flags (" + flags.length + ")" }, fsec);
@@ -81,28 +88,80 @@
     });
   }
 
-  function paint(k) { rows[k].tr.className = rows[k].box.checked ? "" : "rejected"; }
+  function paint(k) {
+    rows[k].tr.className = (rows[k].box.checked ? "" : "rejected") + (k === current ? " current" : "");
+  }
   function set(k, accept, bulk) {
     doc.decisions[list[k].id] = accept ? "accept" : "reject";
     rows[k].box.checked = accept;
     paint(k);
+    if (k === current) showCurrent();
     if (!bulk) tally();
   }
   function setAll(accept) { list.forEach(function (c, k) { set(k, accept, true); }); tally(); }
   function tally() {
+    if (!count) return;
     var rej = 0;
     list.forEach(function (c) { if (doc.decisions[c.id] === "reject") rej++; });
     count.textContent = (list.length - rej) + " accepted, " + rej + " rejected";
   }
-  function jump(k) { goTo(list[k].joint_index, list[k].first); }
-  function goTo(joint, frame) {
+  // the change on show in the viewer: the viewer's own bar steps through the changes and accepts or
+  // rejects them, so a reviewer need not scroll between the list and the viewer for each one
+  var current = -1, nav = null;
+  function jump(k, fromList) {
+    if (k < 0 || k >= list.length) return;
+    var was = current;
+    current = k;
+    if (was >= 0) paint(was);
+    paint(k);
+    showCurrent();
+    goTo(list[k].joint_index, list[k].first, !fromList);
+  }
+  function goTo(joint, frame, stay) {
     var api = window.mocapkitReport;
     if (!api) return;
     api.select(joint);
     api.setFrame(frame);
     var v = document.querySelector(".viewer");
-    if (v && v.scrollIntoView) v.scrollIntoView({ block: "nearest" });
+    if (!stay && v && v.scrollIntoView) v.scrollIntoView({ block: "start" });  // its bars and the figure
   }
+  function showCurrent() {
+    if (!nav) return;
+    var c = list[current];
+    nav.label.textContent = c ? "change " + (current + 1) + " of " + list.length + ": " + c.joint + ", frames " +
+      (c.first === c.last ? c.first : c.first + "-" + c.last) + " (" + c.step + ")" : list.length + " changes";
+    nav.accept.disabled = !c;
+    nav.accept.checked = !!c && doc.decisions[c.id] !== "reject";
+    nav.prev.disabled = current <= 0;
+    nav.next.disabled = current >= list.length - 1;
+    nav.back.disabled = !c;
+  }
+  function backToList() {
+    if (current >= 0 && rows[current].tr.scrollIntoView) rows[current].tr.scrollIntoView({ block: "center" });
+  }
+  (function () {
+    var viewer = document.querySelector(".viewer");
+    if (!viewer || !list.length) return;
+    var bar = el("div", { "class": "toolbar change-nav", id: "change-nav" });
+    viewer.insertBefore(bar, viewer.children[1] || null);
+    nav = {
+      prev: el("button", { type: "button", id: "prev-change", text: "\u25c0 previous change" }, bar),
+      label: el("span", { id: "change-label", "class": "change-label" }, bar),
+      accept: null,
+      next: null,
+      back: null
+    };
+    var lab = el("label", {}, bar);
+    nav.accept = el("input", { type: "checkbox", id: "change-accept" }, lab);
+    lab.appendChild(document.createTextNode(" accept"));
+    nav.next = el("button", { type: "button", id: "next-change", text: "next change \u25b6" }, bar);
+    nav.back = el("button", { type: "button", id: "back-to-list", text: "back to its row" }, bar);
+    nav.prev.addEventListener("click", function () { jump(current - 1); });
+    nav.next.addEventListener("click", function () { jump(current + 1); });
+    nav.back.addEventListener("click", backToList);
+    nav.accept.addEventListener("change", function () { if (current >= 0) set(current, nav.accept.checked); });
+    showCurrent();  // before any jump, "next" shows the first change
+  })();
   function fileName() {
     var stem = String(doc.take.name || "take").replace(/\.[^.\/]*$/, "").replace(/[^A-Za-z0-9._-]+/g, "_");
     return stem + ".decisions.json";
@@ -119,9 +178,11 @@
     document.body.removeChild(a);
     setTimeout(function () { URL.revokeObjectURL(url); }, 10000);
   }
-  allAcc.addEventListener("click", function () { setAll(true); });
-  allRej.addEventListener("click", function () { setAll(false); });
-  dl.addEventListener("click", download);
+  if (list.length) {
+    allAcc.addEventListener("click", function () { setAll(true); });
+    allRej.addEventListener("click", function () { setAll(false); });
+    dl.addEventListener("click", download);
+  }
   tally();
 
   // for tests and for people at the console
@@ -130,7 +191,8 @@
     flags: function () { return flags.map(function (f) { return f.joint + ":" + f.first + "-" + f.last; }); },
     decisions: function () { return JSON.parse(text()); },
     set: function (id, choice) { var k = list.map(function (c) { return c.id; }).indexOf(id); if (k >= 0) set(k, choice === "accept"); },
-    jump: jump,
+    jump: function (k) { jump(k, true); },
+    current: function () { return current; },
     fileName: fileName
   };
 })();

@@ -13,9 +13,12 @@ module decides, in Python where it can be tested without a browser,
   when the rig has no head or feet;
 - the rotation turning it into the page's +y (:func:`rotation_to_y`);
 - the **framing** (:func:`fit_view`): the floor, a fixed camera target (the
-  take's bounding-box centre) or a target that follows the body across the floor,
-  and for each the camera distance at which a sphere holding every drawn point
-  of every frame fits in the panel with a margin, whatever the orbit angle.
+  take's bounding-box centre) or a target that follows the body across the floor
+  (and cuts where it jumps: takes joined end to end), and for each the camera
+  distance at which a sphere holding every drawn point of every frame fits in the
+  panel with a margin, whatever the orbit angle (following: every frame but the
+  outliers, see :attr:`Framing.radius_follow`, so that a root jumping metres away
+  for a frame does not shrink a long take's figure to a speck).
 
 The bound behind the distance: the viewer's pinhole camera looks at the target
 with a half field of view ``HALF_FOV`` across the panel's smaller side; a sphere
@@ -43,6 +46,7 @@ __all__ = [
     "MARGIN",
     "REST_POSE_MIN_SHARE",
     "FOLLOW_RATIO",
+    "FOLLOW_OUTLIER",
     "Framing",
     "find_up_axis",
     "rotation_to_y",
@@ -57,6 +61,10 @@ HALF_FOV = math.pi / 8
 MARGIN = 0.08
 #: a take whose fixed framing would draw the figure this many times smaller than following it is followed.
 FOLLOW_RATIO = 1.5
+#: following, frames whose farthest point lies over this many times the median frame's from the target are not sized for.
+FOLLOW_OUTLIER = 2.0
+#: following, a step of the body's centroid over half its height plus this speed (cm/s) is a cut, not motion.
+JUMP_SPEED = 1000.0
 
 
 
@@ -144,11 +152,14 @@ class Framing:
         Radius of the sphere about ``centre`` holding every drawn point of every frame.
     track : (N, 2) float
         The following camera target's (x, z) in each shown frame: the body's
-        centroid over the floor, averaged over about a second so the view does not shake.
+        centroid over the floor, averaged over about a second so the view does not
+        shake, and cut where the body jumps (takes joined end to end).
     track_height : float
-        The following target's (constant) height: mid-height of the take's vertical extent.
+        The following target's (constant) height: the median over frames of each frame's mid-height.
     radius_follow : float
-        Radius of the sphere about the following target holding every drawn point of its frame.
+        Radius of the sphere about the following target holding every drawn point of its frame,
+        in every frame but those whose farthest point is over :data:`FOLLOW_OUTLIER` times the
+        median frame's (a root that jumps metres away for a frame or two in the input).
     follow : bool
         Whether the view starts following (the fixed framing would draw the
         figure over ``FOLLOW_RATIO`` times smaller).
@@ -216,6 +227,33 @@ def _moving_average(a: np.ndarray, width: int) -> np.ndarray:
     return (c[2 * h + 1:] - c[:-2 * h - 1]) / (2 * h + 1)
 
 
+def _follow_track(rows: np.ndarray, xz: np.ndarray, have: np.ndarray, fps: float, size: float) -> np.ndarray:
+    """(N, 2) follow target over the floor at each row: the centroids ``xz`` smoothed over about a second.
+
+    The centroids are interpolated to every take frame between the rows, and smoothed
+    within pieces: a step between two rows longer than half the figure's ``size`` plus
+    :data:`JUMP_SPEED` times the time between them is a cut (takes joined end to end, a
+    root that jumps), where the camera cuts too instead of gliding across the room.
+    """
+    N = len(rows)
+    idx = np.flatnonzero(have)
+    if not idx.size:
+        return np.zeros((N, 2))
+    r, v = rows[idx], xz[idx]
+    limit = 0.5 * size + JUMP_SPEED * np.diff(r) / max(fps, 1e-9)
+    piece = np.concatenate([[0], np.cumsum(np.linalg.norm(np.diff(v, axis=0), axis=1) > limit)])
+    every = np.arange(int(rows[0]), int(rows[-1]) + 1)  # each take frame the rows span
+    of = piece[np.clip(np.searchsorted(r, every, side="right") - 1, 0, len(r) - 1)]  # the piece of the row before
+    full = np.empty((len(every), 2))
+    width = int(round(max(fps, 1.0))) | 1
+    bounds = np.flatnonzero(np.diff(of)) + 1
+    for a, b in zip(np.concatenate([[0], bounds]), np.concatenate([bounds, [len(every)]])):
+        mine = piece == of[a]
+        full[a:b] = _moving_average(np.stack([np.interp(every[a:b], r[mine], v[mine, k]) for k in range(2)], axis=1),
+                                    width)
+    return full[rows - rows[0]]
+
+
 def fit_view(positions, fps: float = 30.0, body=None, frames=None) -> Framing:
     """Frame the drawn points of a take so that the figure is whole in every frame.
 
@@ -268,14 +306,18 @@ def fit_view(positions, fps: float = 30.0, body=None, frames=None) -> Framing:
     rows = np.arange(N) if frames is None else np.asarray(frames, dtype=np.int64)
     if rows.shape != (N,) or (N > 1 and np.any(np.diff(rows) <= 0)):
         raise ValueError(f"frames: expected {N} increasing take frames, got shape {rows.shape}")
-    idx = np.flatnonzero(have)
-    every = np.arange(int(rows[-1]) + 1 - int(rows[0])) + int(rows[0])  # each take frame the rows span
-    full = np.stack([np.interp(every, rows[idx], xz[idx, k]) for k in range(2)], axis=1)
-    track = _moving_average(full, int(round(max(fps, 1.0))) | 1)[rows - rows[0]]
-    track_height = float(centre[1])
+    ylo = np.where(finite, pts[..., 1], np.inf).min(axis=1)[have]
+    yhi = np.where(finite, pts[..., 1], -np.inf).max(axis=1)[have]
+    size = float(np.median(yhi - ylo))  # the figure's usual height (its extent when lying)
+    track = _follow_track(rows, xz, have, fps, size)
+    track_height = float(np.median((ylo + yhi) / 2))
     target = np.concatenate([track[:, :1], np.full((N, 1), track_height), track[:, 1:]], axis=1)
     d2 = ((pts - target[:, None, :]) ** 2).sum(axis=-1)
-    radius_follow = float(np.sqrt(np.where(finite, d2, 0.0).max()))
+    reach = np.sqrt(np.where(finite, d2, 0.0).max(axis=1))[have]  # each frame's farthest point from its target
+    # sized for every frame but those where a point strays over FOLLOW_OUTLIER times the usual reach
+    # (a root jumping metres away in the input for a frame or two): such a frame would shrink the whole take
+    usual = float(np.median(reach))
+    radius_follow = float(reach[reach <= FOLLOW_OUTLIER * usual].max())
     radius_fixed = max(radius_fixed, 1e-6)
     radius_follow = max(radius_follow, 1e-6)
     height = float(hi[1] - floor) if hi[1] > floor else float(hi[1] - lo[1])

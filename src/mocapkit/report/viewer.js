@@ -116,7 +116,7 @@
       starts: "the first frame of each change and flag (too many changed and flagged frames to show them all)",
       some: "the first frame of some of the changes and flags (too many to show them all)"
     }[D.detail];
-    return "Long take: the viewer shows every " + ordinal(STRIDE) + " frame" + (extra ? " and " + extra : "") +
+    return "Long take: the viewer shows every " + ordinal(STRIDE) + " frame, the last one" + (extra ? " and " + extra : "") +
       " (" + N + " of " + F + "); the heat map and the flags keep the maximum over the frames from one shown frame to the next.";
   }
 
@@ -406,12 +406,29 @@
     return [ev.clientX - r.left, ev.clientY - r.top];
   }
   heat.addEventListener("click", function (ev) {
-    var xy = canvasXY(ev, heat);
-    var f = Math.floor((xy[0] - H.left) / H.width * F), j = Math.floor((xy[1] - H.top) / H.rowHeight);
-    if (f < 0 || f >= F || j < 0 || j >= J) return;
+    var xy = canvasXY(ev, heat), W = Math.max(1, Math.round(H.width));
+    // multiply first: (x / width) * W rounds a click on the left edge of column c (x = c) into column c - 1
+    var c = Math.floor((xy[0] - H.left) * W / H.width), j = Math.floor((xy[1] - H.top) / H.rowHeight);
+    if (c < 0 || c >= W || j < 0 || j >= J) return;
     select(j);
-    setIndex(indexOf(f));
+    setIndex(cellIndex(c, W, j, Math.floor((xy[0] - H.left) / H.width * F)));
   });
+  function cellIndex(c, W, j, under) {
+    // where a click on the cell (column c of W, joint j) lands: a column of a long take holds many frames,
+    // so on what made the cell red (its first flagged, else changed, frame for j), else on its most
+    // digressing frame for j, else on the frame under the pointer
+    var f0 = Math.floor(c * F / W), f1 = Math.max(f0 + 1, Math.floor((c + 1) * F / W));
+    var i0 = indexOf(f0), i1 = indexOf(f1 - 1) + 1;
+    var red = D.has.flags ? BIT_FLAG : (D.has.changed ? BIT_CHANGED : 0), first = -1, best = -1, v = 0;
+    for (var i = i0; i < i1; i++) {
+      if (red && (BITS[i * J + j] & red)) {
+        if (frameOf(i) >= f0) return i;  // in the column itself before a span reaching in from the column before
+        if (first < 0) first = i;
+      }
+      if (MDM && MDM[i * J + j] > v) { v = MDM[i * J + j]; best = i; }
+    }
+    return first >= 0 ? first : best >= 0 ? best : indexOf(Math.min(Math.max(under, f0), f1 - 1));
+  }
 
   // ---- drawing: channel plots ----------------------------------------------
   var CH = ["#1c7ed6", "#e8590c", "#7048e8", "#0ca678", "#c2255c", "#495057"];
