@@ -208,3 +208,23 @@ def record_map_ordered(monkeypatch) -> list:
 
     monkeypatch.setattr(mocapkit.parallel, "map_ordered", spy)
     return seen
+
+
+def t_pose_walk():
+    """CMU 12_walk (bundled) opening with the rest pose, a T-pose, as the CMU BVH converter's frame 0 does, with
+    three errors injected (``corrupt.real_errors``, seed 1): the take ``clean``, ``detect`` and ``repair`` must treat
+    alike, the calibration pose left alone."""
+    import dataclasses
+
+    import numpy as np
+
+    import mocapkit
+    from mocapkit import corrupt
+
+    walk = mocapkit.load(mocapkit.samples.path("12_walk.amc"))
+    rest = np.array(walk.rotations[:1])
+    rest[0, 1:] = (1.0, 0.0, 0.0, 0.0)
+    take = dataclasses.replace(walk, rotations=np.concatenate([rest, walk.rotations]),
+                               root_positions=np.concatenate([walk.root_positions[:1], walk.root_positions]),
+                               name="t_pose_walk")
+    return corrupt.real_errors(take, n_errors=3, seed=1)[0]

@@ -5,13 +5,9 @@ with errors injected (a spike, a flip, a swap of the feet)."""
 
 from __future__ import annotations
 
-import dataclasses
-
 import numpy as np
 import pytest
 
-import mocapkit
-from mocapkit import corrupt, samples
 from mocapkit.cleaning import ssa
 from mocapkit.cleaning.pipeline import clean
 from mocapkit.cleaning.whole_take import changed_cells, detect_take, repair_take
@@ -19,14 +15,9 @@ from mocapkit.cleaning.whole_take import changed_cells, detect_take, repair_take
 
 @pytest.fixture(scope="module")
 def t_pose_walk():
-    walk = mocapkit.load(samples.path("12_walk.amc"))
-    rest = np.array(walk.rotations[:1])
-    rest[0, 1:] = (1.0, 0.0, 0.0, 0.0)
-    take = dataclasses.replace(walk, rotations=np.concatenate([rest, walk.rotations]),
-                               root_positions=np.concatenate([walk.root_positions[:1], walk.root_positions]),
-                               name="t_pose_walk")
-    bad, _, _ = corrupt.real_errors(take, n_errors=3, seed=1)
-    return bad
+    from tests.shared import t_pose_walk as make
+
+    return make()
 
 
 @pytest.fixture(scope="module")

@@ -158,17 +158,10 @@ def test_detect_flags_what_clean_in_review_mode_flags(tmp_path):
 
 
 def _t_pose_walk(tmp_path):
-    """CMU 12_walk (bundled) opening with the rest pose, a T-pose, as the CMU BVH converter's frame 0 does, and with
-    four errors injected (a spike, a flip, a swap of the feet): ``(path of the .npz take, the take)``."""
-    import dataclasses
+    """:func:`tests.shared.t_pose_walk` saved as an .npz take: ``(its path, the take)``."""
+    from tests.shared import t_pose_walk
 
-    walk = mocapkit.load(mocapkit.samples.path("12_walk.amc"))
-    rest = np.array(walk.rotations[:1])
-    rest[0, 1:] = (1.0, 0.0, 0.0, 0.0)
-    take = dataclasses.replace(walk, rotations=np.concatenate([rest, walk.rotations]),
-                               root_positions=np.concatenate([walk.root_positions[:1], walk.root_positions]),
-                               name="t_pose_walk")
-    bad, _, _ = corrupt.real_errors(take, n_errors=3, seed=1)
+    bad = t_pose_walk()
     inp = tmp_path / "t_pose_walk.npz"
     mocapkit.save(bad, inp)
     return inp, bad

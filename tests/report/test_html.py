@@ -24,6 +24,25 @@ CHROMIUM_ARGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-backg
                  "--disable-component-update", "--disable-sync", "--no-first-run"]
 
 
+def chromium_page(path: Path, ready: str):
+    """A generator for a module-scoped fixture: one 1280x900 headless Chromium page on the report at ``path``, yielded
+    once the JavaScript condition ``ready`` holds; skips without playwright or Chromium, and fails at teardown on a
+    page error."""
+    sync_api = pytest.importorskip("playwright.sync_api", reason="playwright is not installed (pip install -e '.[test]')")
+    if not os.access(CHROMIUM, os.X_OK):
+        pytest.skip(f"no Chromium executable at {CHROMIUM} (apt-get install chromium, or set MOCAPKIT_CHROMIUM)")
+    errors = []
+    with sync_api.sync_playwright() as p:
+        b = p.chromium.launch(executable_path=CHROMIUM, args=CHROMIUM_ARGS)
+        pg = b.new_page(viewport={"width": 1280, "height": 900})
+        pg.on("pageerror", lambda e: errors.append(str(e)))
+        pg.goto(Path(path).resolve().as_uri())
+        pg.wait_for_function(ready, timeout=60000)
+        yield pg
+        b.close()
+    assert not errors
+
+
 # ---- real clip, real errors, real detection ----------------------------------------------------
 
 @pytest.fixture(scope="module")

@@ -8,7 +8,6 @@ into one do), about 100 s at 120 fps, with a one-frame root jump of 8 m in the i
 from __future__ import annotations
 
 import dataclasses
-import os
 
 import numpy as np
 import pytest
@@ -16,11 +15,8 @@ import pytest
 import mocapkit
 from mocapkit.motion import concatenate, unit_scale_cm
 from mocapkit.report.html import shown_frames, write_report
-from tests.report.test_html import page_data
+from tests.report.test_html import chromium_page, page_data
 
-CHROMIUM = os.environ.get("MOCAPKIT_CHROMIUM", "/usr/bin/chromium")
-CHROMIUM_ARGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-background-networking",
-                 "--disable-component-update", "--disable-sync", "--no-first-run"]
 JUMP = 5000  # the input's root is 8 m away at this frame
 
 
@@ -77,19 +73,7 @@ def test_a_joined_long_take_is_followed_at_the_size_of_one_clip(tmp_path, takes,
 
 @pytest.fixture(scope="module")
 def page(report):
-    sync_api = pytest.importorskip("playwright.sync_api", reason="playwright is not installed (pip install -e '.[test]')")
-    if not os.access(CHROMIUM, os.X_OK):
-        pytest.skip(f"no Chromium executable at {CHROMIUM} (apt-get install chromium, or set MOCAPKIT_CHROMIUM)")
-    errors = []
-    with sync_api.sync_playwright() as p:
-        b = p.chromium.launch(executable_path=CHROMIUM, args=CHROMIUM_ARGS)
-        pg = b.new_page(viewport={"width": 1280, "height": 900})
-        pg.on("pageerror", lambda e: errors.append(str(e)))
-        pg.goto(report.resolve().as_uri())
-        pg.wait_for_function("() => window.mocapkitReport && window.mocapkitReport.drawCount() > 0", timeout=60000)
-        yield pg
-        b.close()
-    assert not errors
+    yield from chromium_page(report, "() => window.mocapkitReport && window.mocapkitReport.drawCount() > 0")
 
 
 def test_a_click_on_a_red_cell_lands_on_a_flagged_frame_of_that_joint(page, flagged):

@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import dataclasses
 import json
-import os
 import re
 from pathlib import Path
 
@@ -19,11 +18,9 @@ import pytest
 from mocapkit.cleaning.markers import clean_markers
 from mocapkit.io import load_markers
 from mocapkit.report.markers import write_marker_report
+from tests.report.test_html import chromium_page
 
 DATA = Path(__file__).resolve().parents[1] / "data"
-CHROMIUM = os.environ.get("MOCAPKIT_CHROMIUM", "/usr/bin/chromium")
-CHROMIUM_ARGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-background-networking",
-                 "--disable-component-update", "--disable-sync", "--no-first-run"]
 RED = (0xD7, 0x30, 0x27)
 
 
@@ -64,19 +61,7 @@ def test_every_frame_of_every_fix_and_the_last_frame_are_kept(long_capture):
 
 @pytest.fixture(scope="module")
 def page(long_capture):
-    sync_api = pytest.importorskip("playwright.sync_api", reason="playwright is not installed (pip install -e '.[test]')")
-    if not os.access(CHROMIUM, os.X_OK):
-        pytest.skip(f"no Chromium executable at {CHROMIUM} (apt-get install chromium, or set MOCAPKIT_CHROMIUM)")
-    errors = []
-    with sync_api.sync_playwright() as p:
-        b = p.chromium.launch(executable_path=CHROMIUM, args=CHROMIUM_ARGS)
-        pg = b.new_page(viewport={"width": 1280, "height": 900})
-        pg.on("pageerror", lambda e: errors.append(str(e)))
-        pg.goto(long_capture[0].resolve().as_uri())
-        pg.wait_for_function("() => document.getElementById('flabel').textContent.length > 0")
-        yield pg
-        b.close()
-    assert not errors
+    yield from chromium_page(long_capture[0], "() => document.getElementById('flabel').textContent.length > 0")
 
 
 def red_pixels(pg) -> int:
