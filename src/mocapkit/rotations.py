@@ -443,8 +443,10 @@ def continuous_euler(angles, order: str, fixed=None, start=None, degrees: bool =
     max_step : float
         Degrees, whatever the units of ``angles``: the largest rotation from
         one frame to the next across which the branch of the middle angle is
-        continued. 90 is far above any motion's step (under 30 degrees a
-        frame at 120 Hz in the CMU takes) and far below a flip's 180.
+        continued. 90 is above the steps of fast real motion (the bundled CMU
+        pirouette turns a joint by up to 61 degrees in a frame at 120 Hz) and
+        below a flip's 180; a larger step (a T-pose edge, the backflip's 179
+        degree glitches) starts the branch afresh.
 
     Returns
     -------

@@ -143,6 +143,8 @@ def test_local_windows_are_the_fits_windows_at_its_stored_frames():
         inner = slice(reach // 8, (b - a) - reach // 8)
         assert np.allclose(win[a:b][inner], full[inner], atol=1e-4)  # float32 frames
     assert P.fit_gap_prior(clips, 120.0, local_takes=clips).local_step == 8  # the default: about 15 frames a second
+    # lags of 18, 36 and 72 frames: the largest divisor of their gcd (18) at most 120 / 15 = 8 is 6
+    assert P.fit_gap_prior(clips, 120.0, lags_s=(0.15, 0.3, 0.6), local_takes=clips).local_step == 6
     with pytest.raises(ValueError, match="divide"):
         P.fit_gap_prior(clips, 120.0, local_takes=clips, local_step=3)
     assert P.local_windows(P.fit_gap_prior(clips, 120.0)).shape == (0, len(prior.mean))
@@ -167,6 +169,8 @@ def test_the_local_prior_is_the_nearest_windows_pooled_with_the_global_one():
     second = 0.5 * (c + np.outer(m, m)) + 0.5 * (cov + np.outer(mean, mean))  # pooled second moments
     assert np.allclose(c2, second - np.outer(m2, m2))
     assert P.local_prior(windows[:1], query, entries, mean, cov)[0] is mean  # too few windows: the global prior
+    # nothing read around the gap (a whole-body dropout): no window is nearer than another, so the global prior
+    assert P.local_prior(windows, query, np.array([], dtype=int), mean, cov)[1] is cov
 
 
 def test_a_long_gap_reads_the_local_prior_and_a_short_one_the_global(monkeypatch):

@@ -73,6 +73,30 @@ def test_a_fill_nothing_plausible_supports_is_left_missing_and_said():
     assert "left missing: no plausible fill" in res.unfilled[0].size_text
 
 
+def test_a_spike_run_no_fill_can_replace_is_listed_as_a_change_left_missing(monkeypatch):
+    # review: a spike run whose every fill failed the guard lost its recorded samples, and neither the fixes nor
+    # the left-missing list named it (phasespace_sample.c3d: 37 of 54 removed samples listed nowhere). Here the
+    # guard rejects every fill: the spike's samples are removed (a change), listed among the fixes and as left
+    # missing, and the summary counts them.
+    from mocapkit.cleaning.markers import gaps
+
+    monkeypatch.setattr(gaps, "implausible", lambda *a, **k: "rejected here")
+    x = _walk()
+    y = x.copy()
+    y[80:82, 2] += np.array([0.0, 60.0, 0.0])  # a two-sample spike of 60 mm
+    res = clean_markers(MarkerSet(labels=("A", "B", "C", "D", "E"), positions=y, fps=100.0))
+    out = np.asarray(res.markers.positions)
+    assert res.spikes[80:82, 2].all() and np.all(np.isnan(out[80:82, 2]))
+    gone = np.isfinite(y).all(-1) & ~np.isfinite(out).all(-1)
+    listed = np.zeros_like(gone)
+    for fix in tuple(res.fixes) + tuple(res.unfilled):
+        listed[fix.start:fix.end, "ABCDE".index(fix.marker)] = True
+    assert gone.any() and not (gone & ~listed).any()
+    spike = [u for u in res.unfilled if u.kind == "spike"]
+    assert spike and spike[0] in res.fixes and "removed: left missing: no plausible fill" in spike[0].size_text
+    assert any("1 of them spikes removed" in line for line in res.summary())
+
+
 def test_the_guard_rejects_jumps_far_fills_and_fills_under_the_floor():
     from mocapkit.cleaning.markers.plausible import implausible, take_limits
 

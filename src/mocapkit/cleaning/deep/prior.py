@@ -192,9 +192,8 @@ def fit_gap_prior(takes, fps: float, lags_s=LAGS_S, ridge: float = RIDGE, ramp: 
         return GapPrior(lags, mean, scale, cov, float(ridge), len(v), bool(ramp))
     nonzero = np.abs(lags[lags != 0])
     if local_step is None:
-        local_step = max(1, int(np.gcd.reduce(nonzero)) if len(nonzero) else 1)
-        while local_step > 1 and local_step > round(fps / 15.0):
-            local_step = max(d for d in range(1, local_step) if local_step % d == 0)
+        g = int(np.gcd.reduce(nonzero)) if len(nonzero) else 1
+        local_step = max(d for d in range(1, g + 1) if g % d == 0 and d <= max(1, round(fps / 15.0)))
     if local_step < 1 or np.any(lags % local_step):
         raise ValueError(f"local_step {local_step} must divide every lag ({lags.tolist()})")
     kept = [np.asarray(x, dtype=np.float64)[::local_step] for x in local_takes if len(x)]
@@ -234,7 +233,9 @@ def local_prior(windows: np.ndarray, query: np.ndarray, entries: np.ndarray, mea
     search, the prior is drawn from the training windows nearest the take: ``windows`` (N, D)
     standardised (:func:`local_windows`), ``query`` (Q, D) the take's standardised windows at
     a few frames of the gap, compared on ``entries`` only (the channels read there: the
-    missing ones' are unknown). The union of each query's ``k`` nearest windows (Euclidean)
+    missing ones' are unknown; with no entry read, as when every channel is missing over the gap,
+    nothing says which windows are near, and the global prior is returned). The union of each
+    query's ``k`` nearest windows (Euclidean)
     gives a mean and covariance, pooled with the take's global prior (``mean``, ``cov``,
     standardised) as ``n`` windows against ``n0``. On the Acclaim validation actor, 1-4 s
     whole-joint gaps at 0.5 noise: 0.692x -> 0.614x lerp + Gaussian (docs/models.md). The
@@ -242,7 +243,7 @@ def local_prior(windows: np.ndarray, query: np.ndarray, entries: np.ndarray, mea
     :func:`local_windows`), the pooling in float64.
     """
     n_all = len(windows)
-    if n_all < 2 or len(query) == 0:
+    if n_all < 2 or len(query) == 0 or len(entries) == 0:  # nothing to compare on (a whole-body dropout): global
         return mean, cov
     k = max(1, min(int(k), n_all - 1))
     read = np.zeros(windows.shape[1], dtype=bool)

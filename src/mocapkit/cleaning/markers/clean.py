@@ -82,7 +82,7 @@ class MarkerFix:
     def size_text(self) -> str:
         """``size_mm`` in words, after a gap's :attr:`fill_text`: what the number measures differs by kind (a gap's is no error)."""
         if self.note:
-            return f"{self.fill_text}: left missing: no plausible fill ({self.note})"
+            return f"{self.fill_text or 'removed'}: left missing: no plausible fill ({self.note})"
         what = {"gap": "fill up to {} mm off the straight line between the gap's ends",
                 "spike": "removed samples up to {} mm from the fill",
                 "swap": "markers {} mm apart where it starts"}.get(self.kind, "{} mm")
@@ -117,8 +117,10 @@ class MarkerCleanResult:
         The unlabelled trajectories (:meth:`MarkerSet.unlabelled`), left as read.
     unfilled : tuple of MarkerFix
         Gaps left missing because no fill passed the plausibility guard
-        (:mod:`~mocapkit.cleaning.markers.plausible`): kind "gap",
-        ``note`` says why, the other fields describe the rejected fill.
+        (:mod:`~mocapkit.cleaning.markers.plausible`): kind "gap", or
+        "spike" for a spike run whose samples were removed and could not be
+        replaced (it is among :attr:`fixes` too: a change); ``note`` says
+        why, the other fields describe the rejected fill.
     """
 
     markers: object
@@ -154,10 +156,12 @@ class MarkerCleanResult:
             lines.append(f"{left} samples still missing")
         if self.unfilled:
             n = len(self.unfilled)
-            shown = "; ".join(f"{x.marker} frames {x.start}-{x.end - 1} ({x.seconds:.2f} s: {x.note})"
-                              for x in self.unfilled[:3])
+            shown = "; ".join(f"{x.marker} frames {x.start}-{x.end - 1} ({'a spike removed, ' if x.kind == 'spike' else ''}"
+                              f"{x.seconds:.2f} s: {x.note})" for x in self.unfilled[:3])
             more = f"; ... and {n - 3} more" if n > 3 else ""
-            lines.append(f"{n} gap{'s' if n > 1 else ''} ({sum(x.end - x.start for x in self.unfilled)} samples) "
+            spikes = sum(1 for x in self.unfilled if x.kind == "spike")
+            of = f"; {spikes} of them spikes removed" if spikes else ""
+            lines.append(f"{n} gap{'s' if n > 1 else ''} ({sum(x.end - x.start for x in self.unfilled)} samples{of}) "
                          f"left missing: no plausible fill: {shown}{more}")
         marker = "labelled marker" if self.unlabelled else "marker"
         for where, (a, b) in (("start", self.unseen_start), ("end", self.unseen_end)):
@@ -281,10 +285,12 @@ def clean_markers(markers, *, steps=STEPS, spike_mm: float = 15.0, swap_mm: floa
                 continue
             how = dict(seconds=(r.end - r.start) / markers.fps, method=r.method,
                        donors=", ".join(labels[d] for d in r.donors), expected_mm=r.expected_error * unit_mm)
-            if not r.filled:  # no plausible fill: left missing, and said so
-                if not is_spike:
-                    unfilled.append(MarkerFix(labels[r.marker], r.start, r.end, "gap", float("nan"), note=r.implausible,
-                                              **how))
+            if not r.filled:  # no plausible fill: left missing, and said so (a spike run's samples removed: a change)
+                left_fix = MarkerFix(labels[r.marker], r.start, r.end, "spike" if is_spike else "gap", float("nan"),
+                                     note=r.implausible, **how)
+                unfilled.append(left_fix)
+                if is_spike:
+                    fixes.append(left_fix)
                 continue
             y[run, r.marker] = out[run, r.marker]
             filled[run, r.marker] = ~spikes[run, r.marker]  # a spike sample is counted as a spike, not a gap

@@ -166,8 +166,8 @@ def implausible(pos: np.ndarray, m: int, a: int, b: int, est: np.ndarray, limits
         steps = np.linalg.norm(np.diff(track, axis=0), axis=-1)
         k = int(np.argmax(steps))
         if steps[k] > limits.step[m]:
-            return (f"a step of {steps[k] * unit_mm:.0f} mm in one frame (the take's markers move at most "
-                    f"{limits.step[m] / 2 * unit_mm:.0f})")
+            return (f"a step of {steps[k] * unit_mm:.0f} mm in one frame (the limit the take sets for this marker: "
+                    f"{limits.step[m] * unit_mm:.0f} mm)")
     seen = ~np.any(np.isnan(pos[a:b]), axis=-1)  # (n, M) observed in the gap's frames
     seen[:, m] = False
     for d in limits.order[m][:limits.neighbours]:
@@ -188,7 +188,9 @@ def implausible(pos: np.ndarray, m: int, a: int, b: int, est: np.ndarray, limits
         beyond = side * (est[:, axis] - level)
         if np.any(beyond > limits.floor_margin):
             k = int(np.argmax(beyond))
-            return (f"{beyond[k] * unit_mm:.0f} mm beyond the floor (the take's lowest recorded sample) at frame {a + k}")
+            edge = "lowest" if side < 0 else "highest"
+            return (f"{beyond[k] * unit_mm:.0f} mm beyond the floor (the take's {edge} recorded samples along "
+                    f"{'xyz'[axis]}) at frame {a + k}")
     if np.isfinite(limits.nearest[m]):
         dist = np.linalg.norm(est[:, None, :] - pos[a:b], axis=-1)  # (n, M)
         dist[~seen] = np.inf
