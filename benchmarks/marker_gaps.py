@@ -144,12 +144,13 @@ def fill_pca(y, fps, stats):
 
 
 def load_capture(name: str):
-    """(F, M, 3) positions in mm and the frame rate; for the other systems' captures only the markers seen in every frame."""
+    """(F, M, 3) positions in mm and the frame rate: the markers seen in every frame, as ``clean`` cleans them (not
+    modelled points, not unlabelled trajectories, which it leaves as read and uses for nothing: HDM05's ``*0``-``*2``)."""
     from mocapkit.io import load_markers
 
     ms = load_markers(data_dir() / FILES.get(name, f"{name}.c3d"))
     x = np.asarray(ms.positions, dtype=np.float64) * 10.0 * ms.unit_cm  # mm
-    keep = ~np.any(np.isnan(x), axis=(0, 2)) & ~ms.modelled()
+    keep = ~np.any(np.isnan(x), axis=(0, 2)) & ~ms.modelled() & ~ms.unlabelled()
     return x[:, keep], ms.fps
 
 
