@@ -450,12 +450,11 @@ def _conditional_fill(values, prior: GapPrior, fps: float, prior_s: float, smoot
 
     prec = np.linalg.inv(cov + prior.ridge * np.eye(len(cov)))  # of every entry; marginals by Schur complements
     reading = base.copy()  # the observed channels as the field read them (_fill_events fills the gaps of base)
-    clean = clean_channels(x, miss, fps) if anchor else np.zeros(C, dtype=bool)
     # a clean take's gaps are ramped onto their ends whatever the prior's own choice (made on noisy clips)
-    clean_take = anchor and is_clean_take(x, miss, fps)
-    met = _fill_events(out, base, miss, events, prior, lags, mean, cov, prec, clean_take, local_model)
+    ramp = prior.ramp or (anchor and is_clean_take(x, miss, fps))
+    _fill_events(out, base, miss, events, prior, lags, mean, cov, prec, ramp, local_model)
     if anchor:
-        anchor_ends(out, x, reading, miss, fps, met=met, clean=clean)
+        anchor_ends(out, x, reading, miss, fps, meets_reading=ramp)
     return out
 
 
@@ -569,17 +568,16 @@ def is_clean_take(x: np.ndarray, miss: np.ndarray, fps: float) -> bool:
 
 
 def anchor_ends(out: np.ndarray, x: np.ndarray, reading: np.ndarray, miss: np.ndarray, fps: float,
-                met: np.ndarray | None = None, clean: np.ndarray | None = None) -> None:
+                meets_reading: bool = True) -> None:
     """Make each gap's fill (in ``out``, in place) meet the samples it continues, where they are clean.
 
     First a linear ramp between the offsets ``x - reading`` at the observed samples on either side of the gap,
     weighted by :func:`raw_weight` (1 on :func:`clean_channels`): on a clean channel the fill then meets the samples
     (no step at the gap's ends), on a noisy one it keeps meeting their reading. That is for a fill that meets the
-    reading at the gap's ends (a ramped one); ``met`` (F, C) bool marks the gap cells whose fill does (None: all).
-    Elsewhere the offsets are taken from the fill's own ends, continued one frame by its first and last
-    differences: a field that reads the channel's own samples near the gap (a prior without the ramp) ends where
-    it ends, not on the reading, and the first version left a step of up to 2.5 deg at each end of a clean 30 fps
-    take's gaps. ``clean``: :func:`clean_channels` when already known. Then, on a clean channel, a gap
+    reading at the gap's ends (a ramped one: ``meets_reading``). Otherwise the offsets are taken from the fill's
+    own ends, continued one frame by its first and last differences: a field that reads the channel's own samples
+    near the gap (a prior without the ramp) ends where it ends, not on the reading, and the first version left a
+    step of up to 2.5 deg at each end of a clean 30 fps take's gaps. Then, on a clean channel, a gap
     of at most :data:`HERMITE_MAX_S` with samples on both sides is blended with the cubic Hermite curve through its
     end samples and their slopes (:func:`end_slope`), with the weight ``exp(-d / HERMITE_S)`` at ``d`` seconds from
     the nearer end: the prior's field reads the frames 2-32 frames away, never the neighbours, and with its ridge
@@ -587,14 +585,14 @@ def anchor_ends(out: np.ndarray, x: np.ndarray, reading: np.ndarray, miss: np.nd
     still foot filled 3 deg off in a one-frame gap of a 30 fps take) where the cubic continues it.
     """
     F = len(x)
-    clean = clean_channels(x, miss, fps) if clean is None else clean
+    clean = clean_channels(x, miss, fps)
     w = np.where(clean, 1.0, raw_weight(x, reading, miss))
     for c in np.flatnonzero(miss.any(axis=0)):
         if w[c] <= 0.0:
             continue
         for s, e in zip(*gap_runs(miss[:, c])):
             s, e = int(s), int(e)
-            if met is None or met[s, c]:
+            if meets_reading:
                 f0 = reading[s - 1, c] if s > 0 else None
                 f1 = reading[e, c] if e < F else None
             elif e - s >= 2:  # the fill continued one frame past each end
@@ -655,25 +653,21 @@ def hermite_blend(fill: np.ndarray, a: float, b: float, va: float, vb: float, fp
 
 
 def _fill_events(out: np.ndarray, base: np.ndarray, miss: np.ndarray, events: dict, prior: GapPrior, lags: np.ndarray,
-                 mean: np.ndarray, cov: np.ndarray, prec: np.ndarray, clean_take: bool = False,
-                 local=None) -> np.ndarray:
+                 mean: np.ndarray, cov: np.ndarray, prec: np.ndarray, ramp: bool, local=None) -> None:
     """Fill each gap event of :func:`conditional_fill` in time order, into ``out`` and ``base`` (in place).
 
-    Every event is ramped when the prior is (:attr:`GapPrior.ramp`) or ``clean_take`` (:func:`is_clean_take`).
-    ``local(s, e, chans)``: an event's own (mean, covariance, precision) or None for ``mean``, ``cov``,
-    ``prec`` (None: the same for all). Returns (F, C) bool: the gap cells of the ramped events, whose fill
-    meets ``base`` at the gap's ends."""
+    ``ramp``: every event solved over the gap and around it and offset onto ``base`` at the gap's ends
+    (:attr:`GapPrior.ramp`, or a clean take: :func:`is_clean_take`). ``local(s, e, chans)``: an event's own
+    (mean, covariance, precision) or None for ``mean``, ``cov``, ``prec`` (None: the same for all)."""
     F, C = base.shape
     L = len(lags)
     reach = int(np.abs(lags).max())
-    met = np.zeros((F, C), dtype=bool)
+    pad = 2 * reach if ramp else 0  # with the ramp the missing channels' own samples are not read nearby
     glob = mean, cov, prec
     for (s, e), chans in sorted(events.items()):
         chans = np.asarray(chans)
         own = local(s, e, chans) if local is not None else None
         mean, cov, prec = glob if own is None else own
-        ramp = prior.ramp or clean_take
-        pad = 2 * reach if ramp else 0  # with the ramp the missing channels' own samples are not read nearby
         u0, u1 = max(s - pad, 0), min(e + pad, F)
         other = miss[max(0, u0 - 2 * reach) : min(F, u1 + 2 * reach)].any(axis=0)
         other[chans] = False
@@ -694,7 +688,6 @@ def _fill_events(out: np.ndarray, base: np.ndarray, miss: np.ndarray, events: di
         pred = field_fill(base, lags, mean[ent], prior.scale[ent], pcols, read, chans, u0, u1)
         gap = pred[s - u0 : e - u0]
         if ramp:
-            met[s:e, chans] = True
             left = base[s - 1, chans] - pred[s - 1 - u0] if s > 0 else None
             right = base[e, chans] - pred[e - u0] if e < F else None
             if left is None and right is None:
@@ -707,4 +700,3 @@ def _fill_events(out: np.ndarray, base: np.ndarray, miss: np.ndarray, events: di
             gap = gap + off
         out[s:e, chans] = gap
         base[s:e, chans] = gap
-    return met
