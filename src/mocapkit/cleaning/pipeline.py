@@ -110,7 +110,8 @@ from .. import rotations as R
 from ..errors import MocapError, MocapFormatError
 from ..motion import Motion
 from .calibration import CalibrationPose, calibration_poses
-from .whole_take import MAX_WORD_ANGLE_DEG, changed_cells, detect_take, motion_span, repair_take, take_params
+from .whole_take import (MAX_WORD_ANGLE_DEG, changed_cells, detect_take, differing, motion_span, repair_take,
+                         take_params)
 
 __all__ = ["STEPS", "CleanResult", "StepRecord", "clean", "noise_level", "noise_direction", "noisy_cells", "clean_path", "parse_steps"]
 
@@ -507,12 +508,6 @@ def _deep_model(models: dict, kind: str):
     return m, "given"
 
 
-def _changed_cells(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """(F, J) bool where two rotation arrays differ (NaN == NaN counts as unchanged)."""
-    same = (a == b) | (np.isnan(a) & np.isnan(b))
-    return ~np.all(same, axis=-1)
-
-
 def _check(motion: Motion) -> None:
     if not isinstance(motion, Motion):
         raise TypeError(f"clean needs a mocapkit Motion, got {type(motion).__name__}")
@@ -560,13 +555,6 @@ def _context_label(context) -> str:
     from ..context import context_label
 
     return context_label(context)
-
-
-def _pad(a: np.ndarray, lo: int, F: int, fill) -> np.ndarray:
-    """(F, J) holding ``a`` (Fs, J) at frames ``lo .. lo + Fs`` and ``fill`` elsewhere."""
-    out = np.full((F,) + a.shape[1:], fill, dtype=a.dtype)
-    out[lo : lo + a.shape[0]] = a
-    return out
 
 
 def noise_fit_frames(fps: float) -> int:
@@ -695,7 +683,7 @@ def clean(
         if made_up:  # a warning line, as a fallback's note is
             notes.append(made_up)
             note = "; ".join(n for n in (note, made_up) if n)
-        filled = _changed_cells(before, cur.rotations) | (motion.missing() & ~cur.missing())
+        filled = differing(before, cur.rotations) | (motion.missing() & ~cur.missing())
         records.append(StepRecord("fill", time.perf_counter() - t, int(filled.sum()), method, note))
 
     # calibration poses opening or closing the take are left out of every later step (module docstring)
@@ -753,14 +741,14 @@ def clean(
             noisy, sub_noise = noisy_cells(part, noise_deg, filled=filled[lo:hi])
             noisy &= ~part.missing()
             den, method, note = _denoise(part, noisy, models, notes)
-            sub_den = _changed_cells(part.rotations, den.rotations)
             rot = np.array(cur.rotations)
             rot[lo:hi] = den.rotations
+            denoised = differing(cur.rotations, rot)
             cur = dataclasses.replace(cur, rotations=rot)
-            denoised, noise = _pad(sub_den, lo, F, False), _pad(sub_noise, lo, F, np.nan)
+            noise[lo:hi] = sub_noise
             extra = (f"{_count(int(noisy.sum()), 'noisy cell')} (level > {noise_deg:g} deg) on "
                      f"{_count(int(noisy.any(axis=0).sum()), 'joint')}")
-            records.append(StepRecord("denoise", time.perf_counter() - t, int(sub_den.sum()), method,
+            records.append(StepRecord("denoise", time.perf_counter() - t, int(denoised.sum()), method,
                                       extra + (f"; {note}" if note else "")))
 
     params = dict(steps=list(steps), threshold=float(threshold), noise_deg=float(noise_deg), foot_skate=bool(foot_skate),

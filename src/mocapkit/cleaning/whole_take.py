@@ -34,7 +34,7 @@ from ..motion import Motion
 from .calibration import calibration_mask, calibration_poses
 
 __all__ = ["MAX_WORD_ANGLE_DEG", "TakeDetection", "take_params", "motion_span", "detect_take", "repair_take",
-           "changed_cells"]
+           "changed_cells", "differing"]
 
 MAX_WORD_ANGLE_DEG = 8.0  # words with no neighbour this close (RMS joint angle) are not judged
 
@@ -144,16 +144,18 @@ def repair_take(motion: Motion, detection, context=None, *, foot_skate: bool = F
         raise MocapError(f"{motion.name or 'motion'}: repair: {exc}") from None
 
 
+def differing(a, b) -> np.ndarray:
+    """(F, J) bool where two (F, J, k) arrays (rotations, translations; or (F, k) root positions: (F,)) differ in
+    any component, NaN equal to NaN."""
+    a, b = np.asarray(a), np.asarray(b)
+    return ~np.all((a == b) | (np.isnan(a) & np.isnan(b)), axis=-1)
+
+
 def changed_cells(before: Motion, after: Motion) -> np.ndarray:
     """(F, J) bool: the joint samples ``after`` changed from ``before``: a rotation, an animated translation, or
     (on the root, joint 0) the root position. NaN equal to NaN."""
-
-    def differ(a, b):
-        a, b = np.asarray(a), np.asarray(b)
-        return ~np.all((a == b) | (np.isnan(a) & np.isnan(b)), axis=-1)
-
-    out = differ(before.rotations, after.rotations)
-    out[:, 0] |= differ(before.root_positions, after.root_positions)
+    out = differing(before.rotations, after.rotations)
+    out[:, 0] |= differing(before.root_positions, after.root_positions)
     if before.translations is not None and after.translations is not None:
-        out |= differ(before.translations, after.translations)
+        out |= differing(before.translations, after.translations)
     return out
