@@ -305,7 +305,11 @@ class MarkerSet:
         out |= projected  # a coordinate 0 that most points' is not (a planar capture's z == 0 everywhere is no clue)
         bare = [str(label).split(":")[-1].strip() for label in self.labels]
         where = {b: i for i, b in enumerate(bare)}
-        tol = 0.005 / max(self.unit_cm_or_mm(), 1e-12)  # 0.05 mm in the take's unit
+        try:
+            unit_cm = self.unit_cm
+        except ValueError:  # a unit length_unit_cm does not know: read as millimetres
+            unit_cm = 0.1
+        tol = 0.005 / max(unit_cm, 1e-12)  # 0.05 mm in the take's unit
         for i, b in enumerate(bare):
             if len(b) < 2 or not b.endswith("O") or not all(b[:-1] + k in where for k in "ALP"):
                 continue
@@ -323,13 +327,6 @@ class MarkerSet:
                 out[group] = True
         out |= np.array([b.lower().startswith(("centreofmass", "centerofmass")) for b in bare], dtype=bool)
         return out
-
-    def unit_cm_or_mm(self) -> float:
-        """Centimetres per unit, or 0.1 (millimetres) for a unit :func:`length_unit_cm` does not know."""
-        try:
-            return self.unit_cm
-        except ValueError:
-            return 0.1
 
     def unlabelled(self) -> np.ndarray:
         """Boolean (M,) mask of unlabelled trajectories: points the capture system tracked but did not identify.
