@@ -71,6 +71,13 @@ def prediction_matrix(length: int, context: int = 3, degree: int = 3) -> np.ndar
     return vr @ np.linalg.pinv(vc)
 
 
+def _cubic_weights(a: int, b: int, ctx: np.ndarray) -> np.ndarray:
+    """(b - a, len(ctx)) least-squares weights of the cubic through the samples at frames ``ctx`` (any, around the
+    run) evaluated at frames ``a .. b - 1``: :func:`prediction_matrix` for a context with frames missing."""
+    centre = (a + b - 1) / 2.0
+    return np.vander(np.arange(a, b) - centre, 4) @ np.linalg.pinv(np.vander(ctx - centre, 4))
+
+
 def _run_deviation(x: np.ndarray, length: int, context: int) -> np.ndarray:
     """(S, M) smallest distance between each run's samples and their prediction, for run starts s = context..F-length-context.
 
@@ -128,8 +135,7 @@ def _settle(seg: np.ndarray, thr: float, max_len: int, context: int) -> list[tup
                 key = (length, *(ctx - a))
                 w = weights.get(key)
                 if w is None:
-                    centre = (a + b - 1) / 2.0
-                    w = weights[key] = np.vander(np.arange(a, b) - centre, 4) @ np.linalg.pinv(np.vander(ctx - centre, 4))
+                    w = weights[key] = _cubic_weights(a, b, ctx)
                 pred = w @ seg[ctx]
                 score = np.min(np.linalg.norm(seg[a:b] - pred, axis=-1)) / thr
                 if score > best:
@@ -221,8 +227,7 @@ def partner_motion(positions: np.ndarray, good: np.ndarray, marker: int, start: 
     if before.size < context or after.size < context or len(partners) == 0:
         return None
     ctx = np.concatenate([before[-context:], after[:context]])
-    centre = (start + end - 1) / 2.0
-    w = np.vander(np.arange(start, end) - centre, 4) @ np.linalg.pinv(np.vander(ctx - centre, 4))
+    w = _cubic_weights(start, end, ctx)
     frames = np.concatenate([ctx, np.arange(start, end)])
     own = np.linalg.norm(positions[start:end, marker] - w @ positions[ctx, marker], axis=-1)
     kept = np.zeros(end - start, dtype=bool)
