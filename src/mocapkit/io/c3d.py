@@ -250,47 +250,16 @@ def _c3d_package_parameters(reader) -> dict:
 _LOOKED_UP = frozenset({"POINT", "ANALOG", "TRIAL", "FORCE_PLATFORM", "EVENT"})
 
 
-def _written_names(raw: bytes) -> dict[tuple[str, str], tuple[str, str]]:
-    """The parameter names as the file writes them: (GROUP, NAME) upper-cased -> (group, name) as written.
-
-    A group's own record is keyed (GROUP, ""). Walks the parameter section of
-    ``raw`` (a file :func:`_check_structure` passed) record by record; stops
-    at its end or at the first record whose name is not printable ASCII.
-    """
-    start = (raw[0] - 1) * 512
-    e = ">" if raw[start + 3] == 86 else "<"
-    i, groups, params = start + 4, {}, []
-    while i + 4 <= len(raw):
-        nlen, gid = abs(struct.unpack_from("b", raw, i)[0]), struct.unpack_from("b", raw, i + 1)[0]
-        name = raw[i + 2 : i + 2 + nlen]
-        if nlen == 0 or gid == 0 or not all(32 <= c < 127 for c in name) or i + 4 + nlen > len(raw):
-            break
-        if gid < 0:
-            groups[-gid] = name.decode()
-        else:
-            params.append((gid, name.decode()))
-        nxt = struct.unpack_from(e + "h", raw, i + 2 + nlen)[0]
-        if nxt <= 0:
-            break
-        i += 2 + nlen + nxt
-    out = {(g.upper(), ""): (g, "") for g in groups.values()}
-    out.update({(groups[gid].upper(), n.upper()): (groups[gid], n) for gid, n in params if gid in groups})
-    return out
-
-
-def _with_written_case(parameters: dict, raw: bytes) -> dict:
+def _with_written_case(parameters: dict, written: dict) -> dict:
     """``parameters`` (the ``c3d`` package's, every name upper-cased) with the names as the file writes them.
 
     ezc3d keeps a file's names as written (dynamic.c3d's ``SUBJECT:Address``), and
     lookups by name are case-sensitive, so a take read by the pure-Python reader
-    is written back with its own names. The groups in :data:`_LOOKED_UP` (and
-    their parameters) keep their upper-case names; a name the package changed
+    is written back with its own names. ``written``: (GROUP, NAME) upper-cased -> (group, name) as the file
+    writes them, a group's own record keyed (GROUP, "") (:func:`_check_structure` reads them). The groups in
+    :data:`_LOOKED_UP` (and their parameters) keep their upper-case names; a name the package changed
     otherwise (a repeated group renamed) is kept as the package gives it.
     """
-    try:
-        written = _written_names(raw)
-    except (IndexError, struct.error):
-        return parameters
     out = {}
     for group, params in parameters.items():
         if group in _LOOKED_UP:
@@ -305,8 +274,9 @@ def _text(raw) -> str:
     return raw.decode("latin-1").strip() if isinstance(raw, bytes) else str(raw or "").strip()
 
 
-def _read_c3d_package(path: Path, raw: bytes):
-    """The pure-Python reader: what :func:`_read_ezc3d` returns, for the file ``path`` whose bytes are ``raw``."""
+def _read_c3d_package(path: Path, written: dict):
+    """The pure-Python reader: what :func:`_read_ezc3d` returns, for the file ``path`` whose parameters the file
+    names as ``written`` says (:func:`_with_written_case`)."""
     import c3d
 
     with open(path, "rb") as fh, warnings.catch_warnings():
@@ -327,7 +297,7 @@ def _read_c3d_package(path: Path, raw: bytes):
             units = (list(unit_param.string_array.reshape(-1)) or [""])[0] if len(unit_param.dimensions) > 1 else unit_param.string_value
         fps = _point_rate(path, reader.point_rate)
         try:
-            parameters = _with_written_case(_c3d_package_parameters(reader), raw)
+            parameters = _with_written_case(_c3d_package_parameters(reader), written)
         except Exception:
             parameters = {}
         modelled = set()
@@ -377,7 +347,7 @@ _PER_CHANNEL = {
 }
 
 
-def _check_structure(path: Path, b: bytes) -> bool:
+def _check_structure(path: Path, b: bytes) -> tuple[bool, dict]:
     """Refuse a C3D whose header or parameter section is malformed, before any C++ reader sees it.
 
     ezc3d (C++) crashes or loops on some malformed parameter sections and
@@ -394,7 +364,9 @@ def _check_structure(path: Path, b: bytes) -> bool:
     whether ezc3d may read the file: False when a parameter it relies on has
     an unexpected type or no value, or the file holds fewer whole frames than
     the header states (the pure-Python reader copes with those and reads the
-    frames there).
+    frames there); and the parameter names as the file writes them, (GROUP,
+    NAME) upper-cased -> (group, name) (a group's own record keyed (GROUP, ""):
+    :func:`_with_written_case`).
     """
     n = len(b)
 
@@ -423,6 +395,8 @@ def _check_structure(path: Path, b: bytes) -> bool:
     groups: dict[int, str] = {}
     typed: list[tuple[int, str, int, int]] = []  # (group id, name, type, data bytes)
     value_at: dict[tuple[int, str], int] = {}  # (group id, name) -> byte offset of its data
+    spelled: dict[int, str] = {}  # group id -> its name as written
+    names: list[tuple[int, str]] = []  # (group id, parameter name as written)
     count = 0
     while nblocks and i + 2 <= end:
         nlen = abs(struct.unpack_from("b", b, i)[0])
@@ -445,6 +419,7 @@ def _check_structure(path: Path, b: bytes) -> bool:
             if -gid in groups:
                 fail(f"parameter section defines group id {-gid} twice ({groups[-gid]}, {name.decode().upper()})")
             groups[-gid] = name.decode().upper()
+            spelled[-gid] = name.decode()
             need = 1
             if body + 1 <= end:
                 need += b[body]
@@ -463,6 +438,7 @@ def _check_structure(path: Path, b: bytes) -> bool:
             for d in b[body + 2 : body + 2 + ndim]:
                 size *= d
             typed.append((gid, name.decode().upper(), typ, size if typ != -1 or ndim else -1))
+            names.append((gid, name.decode()))
             value_at[(gid, name.decode().upper())] = body + 2 + ndim
             need = 2 + ndim + size + 1
             if body + need <= end:
@@ -478,6 +454,8 @@ def _check_structure(path: Path, b: bytes) -> bool:
     # Parameters of a group id the section never defines (c3d.org TYPE-2.C3D, TYPE-4.C3D) are
     # ignored, as ezc3d and the c3d package ignore them.
     typed = [t for t in typed if t[0] in groups]
+    written = {(g.upper(), ""): (g, "") for g in spelled.values()}
+    written.update({(groups[gid], n.upper()): (spelled[gid], n) for gid, n in names if gid in groups})
     # A parameter defined twice (Vicon's PiG_Calibration files: PROCESSING:BODYMASS) is read by
     # ezc3d, which keeps the first; the c3d package refuses it.
     ezc3d_ok = True
@@ -499,7 +477,7 @@ def _check_structure(path: Path, b: bytes) -> bool:
     scale = _float(b, proc, 12)
     data_start = struct.unpack_from(e + "H", b, 16)[0]
     if points == 0:
-        return ezc3d_ok  # some writers leave the header empty; the parameters decide (the fallback reader)
+        return ezc3d_ok, written  # some writers leave the header empty; the parameters decide (the fallback reader)
     used = _int_parameter(b, e, groups, typed, value_at, "POINT", "USED")
     if analog and (("ANALOG", "RATE") not in have or _int_parameter(b, e, groups, typed, value_at, "ANALOG", "USED") == 0):
         # analog samples in the header's frames but no ANALOG:RATE (or ANALOG:USED 0): ezc3d then takes
@@ -516,7 +494,7 @@ def _check_structure(path: Path, b: bytes) -> bool:
     held, partial, frames, declared, who = _frames_held(b, proc, e, groups, typed, value_at, points, analog, first,
                                                         last, data_start, scale)
     if held >= frames:
-        return ezc3d_ok
+        return ezc3d_ok, written
     if held == 0:
         need = (data_start - 1) * 512 + frames * (4 * points + analog) * _sample_bytes(scale)
         fail(f"truncated file: {frames} frames of {points} points and {analog} analog samples need "
@@ -529,7 +507,7 @@ def _check_structure(path: Path, b: bytes) -> bool:
              f"{'16-bit integers' if _sample_bytes(scale) == 2 else 'floats'}); the file is cut short")
     # Whole frames, fewer than stated (ezc3d-testFiles Optotrak.c3d: 29 of 1,149, a file every peer reader reads
     # so), or a header stating more frames than POINT:FRAMES: the pure-Python reader reads the frames there.
-    return False
+    return False, written
 
 
 def _float(b: bytes, proc: int, at: int) -> float:
@@ -662,7 +640,8 @@ def read_c3d(path, zeros_as_gaps: bool | None = None) -> MarkerSet:
     first_error = None
     got = None
     no_points = None
-    if _check_structure(path, raw):
+    ezc3d_ok, written = _check_structure(path, raw)
+    if ezc3d_ok:
         try:
             got = _read_ezc3d(path, raw)
         except MocapFormatError:
@@ -673,7 +652,7 @@ def read_c3d(path, zeros_as_gaps: bool | None = None) -> MarkerSet:
             first_error = exc
     if got is None:
         try:
-            got = _read_c3d_package(path, raw)
+            got = _read_c3d_package(path, written)
         except MocapFormatError as exc:
             raise MocapFormatError(path, no_points) if no_points else exc from None
         except Exception as exc:
