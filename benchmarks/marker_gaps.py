@@ -47,6 +47,12 @@ benchmark holds out too: c3d.org's ``Dance.c3d`` (40 markers, 65 Hz, 7.7 s)
 and ``golfswing.c3d`` (29 markers, 108 Hz, 4.8 s) and BTKData's
 ``SprintMotion.trc`` (59 markers, 250 Hz, 3.2 s), in the bands their length
 allows (the band's longest gap with 1 s either side).
+Smoothness (``*_accel_ratio_p90`` / ``_max``, mocapkit's and the rigid-body
+fill's): per gap, the fill's largest acceleration (second difference) over
+the gap and the seen frame either side, over the truth's; the 90th
+percentile and the largest over the gaps of a pool and band. A fill can be
+near the truth on average and still jolt where it switches a correction on
+or its donors' frame turns fast; 1 moves as hard as the marker did.
 Targets: mocapkit at most 0.5x the better of linear and spline on 0.5-2 and
 2-4 s gaps, and below every baseline in every band
 (``worst_vs_best_baseline`` < 1, over every capture, band and pool).
@@ -76,6 +82,7 @@ FILES = {"Dance": "../c3d_markers/Dance.c3d", "golfswing": "../c3d_markers/golfs
          "SprintMotion": "../trc_markers/SprintMotion.trc"}
 BANDS = {"0.1-0.5": (0.1, 0.5), "0.5-2": (0.5, 2.0), "2-4": (2.0, 4.0)}
 METHODS = ("linear", "spline", "pattern", "rigid", "pca", "mocapkit")
+JOLT_METHODS = ("rigid", "mocapkit")  # the smoothness figure: mocapkit's fill and the rigid-body fill
 
 
 def data_dir() -> Path:
@@ -161,6 +168,7 @@ def bands_of(frames: int, fps: float) -> list[str]:
 
 def run_capture(name: str, cases: int, seed: int):
     from mocapkit.cleaning.markers import fill_gaps
+    from mocapkit.cleaning.markers.gaps import SMOOTH_S
     from mocapkit.cleaning.markers.rigid import distance_stats, donor_order
 
     x, fps = load_capture(name)
@@ -170,13 +178,14 @@ def run_capture(name: str, cases: int, seed: int):
     sq = {(b, k): [] for b in bands_of(len(x), fps) for k in METHODS}
     seconds = {k: 0.0 for k in METHODS}
     left = {b: 0 for b in bands_of(len(x), fps)}
+    jolt = {(b, k): [] for b in bands_of(len(x), fps) for k in JOLT_METHODS}
     for band in bands_of(len(x), fps):
         span = BANDS[band]
         for markers in [1] * cases + [3] * cases:
             mask = cut(x, fps, span, markers, rng)
             y = x.copy()
             y[mask] = np.nan
-            errs = {}
+            errs, fills = {}, {}
             for k in METHODS:
                 t0 = time.perf_counter()
                 if k in ("linear", "spline"):
@@ -186,8 +195,9 @@ def run_capture(name: str, cases: int, seed: int):
                 elif k == "pca":
                     z = fill_pca(y, fps, stats)
                 else:
-                    z = fill_gaps(y)[0]
+                    z = fill_gaps(y, smooth=SMOOTH_S * fps)[0]
                 seconds[k] += time.perf_counter() - t0
+                fills[k] = z
                 e = np.sum((z[mask] - x[mask]) ** 2, axis=-1)
                 errs[k] = np.where(np.isnan(e), np.inf, e)
             if not np.all(np.isfinite(errs["mocapkit"])):  # left missing: no plausible fill (cleaning.markers.plausible)
@@ -195,7 +205,25 @@ def run_capture(name: str, cases: int, seed: int):
                 continue
             for k in METHODS:
                 sq[(band, k)].append(errs[k])
-    return {key: np.concatenate(v) if v else np.zeros(0) for key, v in sq.items()}, seconds, left
+                if k in JOLT_METHODS:
+                    jolt[(band, k)] += accel_ratios(fills[k], x, mask)
+    return {key: np.concatenate(v) if v else np.zeros(0) for key, v in sq.items()}, seconds, left, jolt
+
+
+def accel_ratios(z: np.ndarray, x: np.ndarray, mask: np.ndarray) -> list[float]:
+    """Per gap: the fill's largest acceleration over the gap and the seen frame either side, over the truth's there.
+
+    Accelerations are second differences (mm/frame^2); 1 is as smooth as the
+    marker really moved, 10 a fill that jolts ten times harder than it did.
+    """
+    out = []
+    for m in np.flatnonzero(mask.any(axis=0)):
+        edges = np.diff(np.r_[0, mask[:, m].astype(np.int8), 0])
+        for a, b in zip(np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)):
+            lo, hi = max(a - 1, 0), min(b + 1, len(x))
+            acc = lambda y: np.linalg.norm(y[2:] - 2 * y[1:-1] + y[:-2], axis=-1).max()  # noqa: E731
+            out.append(float(acc(z[lo:hi, m]) / max(acc(x[lo:hi, m]), 1e-9)))
+    return out
 
 
 def rms(values) -> float:
@@ -207,9 +235,9 @@ def main() -> None:
     ap = harness.parser(__doc__)
     ap.add_argument("--cases", type=int, default=6, help="takes per capture, band and setting (one / three markers)")
     args = ap.parse_args()
-    per, secs, left = {}, {}, {}
+    per, secs, left, jolt = {}, {}, {}, {}
     for i, name in enumerate(CAPTURES):
-        per[name], secs[name], left[name] = run_capture(name, args.cases, seed=100 + i)
+        per[name], secs[name], left[name], jolt[name] = run_capture(name, args.cases, seed=100 + i)
     table = {}
     for name in CAPTURES:
         table[name] = {b: {k: round(rms([per[name][(b, k)]]), 2) for k in METHODS} for b in BANDS if (b, "mocapkit") in per[name]}
@@ -232,6 +260,10 @@ def main() -> None:
             figures[f"{group}_{b}_vs_best_baseline"] = round(r["mocapkit"] / min(r[k] for k in METHODS[:-1]), 3)
             worst = max(worst, figures[f"{group}_{b}_vs_best_baseline"])
             baselines[f"{group}_{b}_mocapkit_mm"] = round(best_interp, 2)
+            for k in JOLT_METHODS:
+                ratios = [v for n in names_b for v in jolt[n][(b, k)]]
+                figures[f"{group}_{b}_{k}_accel_ratio_p90"] = round(float(np.percentile(ratios, 90)), 2)
+                figures[f"{group}_{b}_{k}_accel_ratio_max"] = round(float(np.max(ratios)), 2)
             if b != "0.1-0.5":
                 targets[f"{group}_{b}_vs_interp"] = {"value": 0.5, "op": "<=", "of": "figures"}
     for name in CAPTURES:

@@ -235,3 +235,48 @@ def test_unlabelled_trajectories_are_left_as_read_and_used_for_nothing(cmu):
     # the phantom copy lends the gap nothing: the fill is the one made without the unlabelled trajectories
     alone = clean_markers(dataclasses.replace(cmu, positions=x))
     assert np.array_equal(out[:, :m], np.asarray(alone.markers.positions), equal_nan=True)
+
+
+def test_smoothed_correction_has_no_frame_to_frame_jolt_and_meets_the_seen_samples():
+    # A correction switched on and off from one frame to the next (the frame-by-frame projection's pattern) is
+    # low-passed: the filled run's second differences drop, the correction fades to nothing where a seen sample
+    # adjoins, is held where the run reaches the take's edge, and nothing outside the run moves.
+    from mocapkit.cleaning.markers.constraints import smooth_correction
+
+    f = 200
+    t = np.arange(f, dtype=float)
+    before = np.stack([np.stack([np.sin(t / 30), np.cos(t / 30), t / 50], axis=-1)] * 2, axis=1) * 100  # (F, 2, 3)
+    free = np.zeros((f, 2), bool)
+    free[50:150, 0] = True
+    free[170:, 1] = True  # reaches the take's last frame
+    after = before.copy()
+    after[50:150, 0, 0] += np.where(np.arange(100) % 3 == 0, 20.0, 0.0)  # on every third frame
+    after[170:, 1, 2] += 15.0
+    out = smooth_correction(before, after, free, sigma=6.0)
+    acc = lambda y: np.abs(y[2:] - 2 * y[1:-1] + y[:-2]).max()  # noqa: E731
+    assert acc(out[49:151, 0, 0]) < 0.1 * acc(after[49:151, 0, 0])
+    mean_corr = (out[50:150, 0, 0] - before[50:150, 0, 0])[20:-20].mean()
+    assert abs(mean_corr - 20.0 / 3) < 0.5  # the correction's mean kept inside the run
+    assert abs(out[50, 0, 0] - before[50, 0, 0]) < 0.7 * mean_corr  # fading where seen frame 49 adjoins
+    assert np.allclose(out[-1, 1, 2] - before[-1, 1, 2], 15.0)  # held at the take's edge
+    assert np.array_equal(out[~free], after[~free])
+
+
+def test_long_gap_fill_with_soft_constraints_does_not_jolt(cmu):
+    # A whole head (4 markers) hidden for 2 s of real motion: the constrained fill, smoothed, moves no harder than
+    # the frame-by-frame one (which jolts where pairs leave their range), at the same distance from the truth.
+    x = np.asarray(cmu.positions, dtype=np.float64)
+    labels = [name.split(":")[-1] for name in cmu.labels]
+    head = [labels.index(n) for n in ("LFHD", "RFHD", "LBHD", "RBHD")]
+    a, b = 300, 540
+    y = x.copy()
+    y[a:b, head] = np.nan
+    acc = lambda p, m: np.linalg.norm(p[a - 1:b + 1, m][2:] - 2 * p[a - 1:b + 1, m][1:-1] + p[a - 1:b + 1, m][:-2], axis=-1).max()  # noqa: E731
+    rms = lambda p: np.sqrt(np.mean(np.sum((p[a:b, head] - x[a:b, head]) ** 2, axis=-1)))  # noqa: E731
+    raw, records = fill_gaps(y, smooth=0.0)
+    smooth, _ = fill_gaps(y)
+    assert any(r.constrained for r in records)
+    worst_raw = max(acc(raw, m) / acc(x, m) for m in head)
+    worst_smooth = max(acc(smooth, m) / acc(x, m) for m in head)
+    assert worst_smooth < 0.8 * worst_raw
+    assert rms(smooth) < 1.02 * rms(raw)

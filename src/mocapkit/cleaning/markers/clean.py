@@ -29,7 +29,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .gaps import fill_gaps
+from .gaps import SMOOTH_S, fill_gaps
 from .rigid import distance_stats
 from .spikes import spike_mask
 from .swaps import undo_swaps
@@ -277,7 +277,8 @@ def clean_markers(markers, *, steps=STEPS, spike_mm: float = 15.0, swap_mm: floa
     if "gaps" in steps or np.any(spikes):
         stats = distance_stats(y)
         max_gap = None if max_gap_s is None else int(round(max_gap_s * markers.fps))
-        out, records = fill_gaps(y, stats=stats, max_gap=max_gap, constrain=constrain, unit_mm=unit_mm)
+        out, records = fill_gaps(y, stats=stats, max_gap=max_gap, constrain=constrain, unit_mm=unit_mm,
+                                 smooth=SMOOTH_S * markers.fps)
         for r in records:
             run = slice(r.start, r.end)
             is_spike = bool(np.all(spikes[run, r.marker]))

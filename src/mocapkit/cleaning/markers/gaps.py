@@ -36,7 +36,8 @@ fill is then pulled to its usual distances from its rigid neighbours
 (Tits et al.'s soft constraints,
 :mod:`mocapkit.cleaning.markers.constraints`) where that brought the
 validation gaps nearer the truth, their usual distances taken from the rest
-of the take as the real gap's are; those distances come from the frames the
+of the take as the real gap's are, and the pull smoothed over time so it does
+not jolt the fill where it switches on; those distances come from the frames the
 gap does not hide, and a gap hiding poses the rest of the take does not show
 is better left unconstrained. Where no donor group can fill (fewer than 3
 seen throughout, or collinear), room-coordinate interpolation, the offset
@@ -66,7 +67,7 @@ from .lowrank import fill_lowrank
 from .plausible import TakeLimits, implausible, take_limits
 from .rigid import DistanceStats, distance_stats, donor_order, from_local, local_frames, to_local
 
-__all__ = ["GapFill", "gap_runs", "fill_gaps"]
+__all__ = ["GapFill", "SMOOTH_S", "gap_runs", "fill_gaps"]
 
 
 @dataclass(frozen=True)
@@ -259,6 +260,8 @@ def _regress_fill(pos: np.ndarray, m: int, a: int, b: int, donors, predictors, r
     return out
 
 
+SMOOTH_S = 0.025  # the soft constraints' correction smoothed over this standard deviation (s): no frame-to-frame jolt
+SMOOTH_FRAMES = SMOOTH_S * 120.0
 RIDGES = (1e-3, 1e-1)  # the regression fills' relative ridges: one trusting the fit, one shrinking it
 
 
@@ -365,7 +368,7 @@ def _lowrank_fill(pos: np.ndarray, m: int, a: int, b: int, order: np.ndarray, st
 
 def fill_gaps(positions: np.ndarray, *, stats: DistanceStats | None = None, candidates: int = 4, keep: int = 3,
               max_gap: int | None = None, constrain: bool = True, predictors: int = 6, guard: bool = True,
-              unit_mm: float = 1.0) -> tuple[np.ndarray, list[GapFill]]:
+              unit_mm: float = 1.0, smooth: float = SMOOTH_FRAMES) -> tuple[np.ndarray, list[GapFill]]:
     """Fill every gap of every marker that is seen at least once.
 
     Parameters
@@ -395,6 +398,12 @@ def fill_gaps(positions: np.ndarray, *, stats: DistanceStats | None = None, cand
         fill that fails after the constraints is written unconstrained.
     unit_mm : float
         Millimetres per unit of ``positions`` (the guard's floors are in mm).
+    smooth : float
+        The soft constraints' correction is smoothed over time by a Gaussian
+        of this many frames (:func:`~mocapkit.cleaning.markers.constraints.smooth_correction`;
+        0: frame by frame). The default is 0.025 s at 120 Hz;
+        :func:`~mocapkit.cleaning.markers.clean.clean_markers` passes
+        :data:`SMOOTH_S` at the take's rate.
 
     Returns
     -------
@@ -421,7 +430,8 @@ def fill_gaps(positions: np.ndarray, *, stats: DistanceStats | None = None, cand
     lo, hi = int(seen_any[0]), int(seen_any[-1]) + 1
     if lo > 0 or hi < f:  # no marker seen at the take's start or end: left missing, the rest filled as a take
         inner, inner_records = fill_gaps(pos[lo:hi], stats=stats, candidates=candidates, keep=keep, max_gap=max_gap,
-                                         constrain=constrain, predictors=predictors, guard=guard, unit_mm=unit_mm)
+                                         constrain=constrain, predictors=predictors, guard=guard, unit_mm=unit_mm,
+                                         smooth=smooth)
         out[lo:hi] = inner
         return out, [replace(r, start=r.start + lo, end=r.end + lo) for r in inner_records]
     order = donor_order(stats)
@@ -433,14 +443,14 @@ def fill_gaps(positions: np.ndarray, *, stats: DistanceStats | None = None, cand
             if max_gap is not None and b - a > max_gap:
                 continue
             rec = _fill_one(pos, out, int(m), a, b, order, stats, candidates, keep, predictors, constrain,
-                            limits, unit_mm)
+                            limits, unit_mm, smooth)
             if rec is not None:
                 records.append(rec)
     if constrain and any(r.constrained for r in records):
         free = np.zeros(missing.shape, dtype=bool)
         for r in records:
             free[r.start:r.end, r.marker] = r.constrained
-        con = enforce_distances(out, free, stats, order)
+        con = enforce_distances(out, free, stats, order, smooth=smooth)
         for k, r in enumerate(records):
             if not r.constrained:
                 continue
@@ -452,7 +462,8 @@ def fill_gaps(positions: np.ndarray, *, stats: DistanceStats | None = None, cand
     return out, records
 
 
-def _constraint_helps(pos: np.ndarray, m: int, checks, stats: DistanceStats, order: np.ndarray) -> bool:
+def _constraint_helps(pos: np.ndarray, m: int, checks, stats: DistanceStats, order: np.ndarray,
+                      smooth: float = 0.0) -> bool:
     """Whether the soft constraints brought the fills of the validation spans nearer the truth.
 
     ``checks`` holds (s, e, fill) for each validation span. Each span is
@@ -478,18 +489,20 @@ def _constraint_helps(pos: np.ndarray, m: int, checks, stats: DistanceStats, ord
             else:
                 low[m, d] = high[m, d] = np.nan
             low[d, m], high[d, m] = low[m, d], high[m, d]
-        sub = pos[s:e].copy()
-        sub[:, m] = est
+        s0, e0 = max(s - 1, 0), min(e + 1, pos.shape[0])  # with the seen samples either side, as the gap has
+        sub = pos[s0:e0].copy()
+        sub[s - s0:e - s0, m] = est
         free = np.zeros(sub.shape[:2], dtype=bool)
-        free[:, m] = True
-        con = enforce_distances(sub, free, DistanceStats(stats.median, low, high, stats.spread, stats.count), order)
+        free[s - s0:e - s0, m] = True
+        con = enforce_distances(sub, free, DistanceStats(stats.median, low, high, stats.spread, stats.count), order,
+                                smooth=smooth)
         truth = pos[s:e, m]
-        err += [np.sum((est - truth) ** 2), np.sum((con[:, m] - truth) ** 2)]
+        err += [np.sum((est - truth) ** 2), np.sum((con[s - s0:e - s0, m] - truth) ** 2)]
     return bool(err[1] < err[0])
 
 
 def _fill_one(pos, out, m, a, b, order, stats, candidates, keep, predictors, constrain,
-              limits: TakeLimits | None = None, unit_mm: float = 1.0) -> GapFill | None:
+              limits: TakeLimits | None = None, unit_mm: float = 1.0, smooth: float = 0.0) -> GapFill | None:
     """Fill marker m's gap a..b-1 of ``pos`` into ``out``; its record, or None when nothing could fill it.
 
     The fills tried, in turn: the weighted average of the ``keep`` best
@@ -559,7 +572,7 @@ def _fill_one(pos, out, m, a, b, order, stats, candidates, keep, predictors, con
         if why:
             continue
         out[a:b, m] = est
-        helps = constrain and validated is not None and _constraint_helps(pos, m, validated, stats, order)
+        helps = constrain and validated is not None and _constraint_helps(pos, m, validated, stats, order, smooth)
         return replace(rec, constrained=bool(helps))
     return first
 
