@@ -147,3 +147,39 @@ def test_an_output_that_is_a_hard_link_of_an_input_is_refused_even_with_overwrit
     for overwrite in (False, True):
         with pytest.raises(MocapFormatError, match="refusing to write over an input"):
             check_outputs([out], [inp], overwrite=overwrite)
+
+
+@pytest.mark.parametrize("failure", [KeyboardInterrupt, OSError])
+def test_a_failure_before_an_old_output_is_replaced_leaves_no_hidden_link(tmp_path, failure):
+    # the old file is kept aside as a hard link; putting back an output never replaced is a rename onto
+    # the same file, which leaves both names: the link must still go
+    out, report = tmp_path / "out.bvh", tmp_path / "out.html"
+    out.write_text("old take")
+    report.write_text("old report")
+    with pytest.raises(failure):
+        with removed_on_failure([out, report], overwrite=True):
+            with atomic_write(report) as fh:
+                fh.write("new report")
+            raise failure(28, "No space left on device") if failure is OSError else failure()
+    assert (out.read_text(), report.read_text()) == ("old take", "old report")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["out.bvh", "out.html"]
+    assert os.stat(out).st_nlink == 1
+
+
+def test_another_user_s_file_in_a_sticky_folder_is_kept_aside_as_a_copy(tmp_path, monkeypatch):
+    # a hard link to another user's file in a sticky folder could not be removed again (EPERM): a copy of
+    # our own is kept aside instead, and goes when the replacement is refused
+    from mocapkit.io import outputs
+
+    out = tmp_path / "x.bvh"
+    out.write_text("theirs")
+    tmp_path.chmod(0o1777)
+    monkeypatch.setattr(outputs.os, "geteuid", lambda: os.stat(out).st_uid + 1)  # we are someone else
+    kept = outputs.keep_aside([out])
+    assert os.stat(kept[out]).st_ino != os.stat(out).st_ino  # a copy, not a second name
+    monkeypatch.setattr(outputs.os, "replace", lambda a, b: (_ for _ in ()).throw(PermissionError(1, "not permitted")))
+    outputs.put_back([out], kept)
+    outputs.drop_kept(kept)
+    monkeypatch.undo()
+    assert out.read_text() == "theirs"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["x.bvh"]

@@ -34,6 +34,7 @@ from __future__ import annotations
 
 import os
 import shutil
+import stat
 import tempfile
 from contextlib import contextmanager
 from contextvars import ContextVar
@@ -168,16 +169,30 @@ def keep_aside(paths: Iterable[os.PathLike | str | None]) -> dict[Path, Path]:
             os.unlink(tmp)
             if link:
                 os.symlink(os.readlink(p), tmp)
-            else:
+            elif _removable_link(p):
                 try:
                     os.link(p, tmp)
                 except OSError:
                     shutil.copy2(p, tmp)
+            else:
+                shutil.copy2(p, tmp)
             kept[p] = Path(tmp)
     except BaseException:
         drop_kept(kept)
         raise
     return kept
+
+
+def _removable_link(path: Path) -> bool:
+    """Whether a hard link to ``path`` made beside it could be removed again: not where the folder is sticky
+    (``/tmp``-like, mode 1777) and the file another user's, whose every name only its owner (or the folder's)
+    may remove; there :func:`keep_aside` copies instead, so that nothing of its own is left behind."""
+    try:
+        folder, st = os.stat(path.parent), os.stat(path)
+    except OSError:
+        return True
+    me = os.geteuid() if hasattr(os, "geteuid") else st.st_uid
+    return not (folder.st_mode & stat.S_ISVTX) or me in (st.st_uid, folder.st_uid)
 
 
 def put_back(paths: Iterable[os.PathLike | str | None], kept: dict[Path, Path], written=None) -> None:
@@ -196,7 +211,13 @@ def _put_back(paths, kept: dict[Path, Path], written) -> None:
         p = Path(p)
         try:
             if p in kept:
-                os.replace(kept.pop(p), p)
+                link = kept[p]
+                # a rename onto another name of the same file (an output not yet replaced) does nothing and
+                # leaves both names: the link is removed here, and by drop_kept if this fails
+                os.replace(link, p)
+                if os.path.lexists(link):
+                    os.unlink(link)
+                del kept[p]
             elif written is None or os.path.abspath(p) in written:
                 p.unlink()
         except (FileNotFoundError, IsADirectoryError, PermissionError):
