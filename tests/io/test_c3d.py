@@ -729,3 +729,56 @@ def test_parameter_names_keep_their_case_through_the_pure_python_reader(tmp_path
     back = ezc3d.c3d(str(save_markers(ms, tmp_path / "back.c3d")))["parameters"]
     assert list(back["SUBJECT"]["Address"]["value"]) == ["12 Main St"] and list(back["Lab_Info"]["Room"]["value"]) == ["B2"]
     assert "ADDRESS" not in back["SUBJECT"] and "LAB_INFO" not in back
+
+
+def _ezc3d_cut_short(monkeypatch, keep: int):
+    """ezc3d's write on a full disk: the file cut short at ``keep`` bytes and no error (it checks none)."""
+    import ezc3d
+
+    real = ezc3d.c3d.write
+
+    def write(self, path, *args, **kwargs):
+        real(self, path, *args, **kwargs)
+        with open(path, "r+b") as fh:
+            fh.truncate(keep)
+
+    monkeypatch.setattr(ezc3d.c3d, "write", write)
+
+
+@pytest.mark.parametrize("keep", [300, 200_000])
+def test_a_c3d_ezc3d_cuts_short_on_a_full_disk_is_refused_naming_the_file(tmp_path, monkeypatch, keep):
+    import errno
+    import os
+
+    from mocapkit.io import load_markers, save_markers
+
+    src = load_markers(mocapkit.samples.path("Eb015pr.c3d"))
+    _ezc3d_cut_short(monkeypatch, keep)
+    monkeypatch.setattr(os, "statvfs", lambda p: os.statvfs_result((4096, 4096, 100, 0, 0, 100, 0, 0, 0, 255)))
+    out = tmp_path / "out" / "x.c3d"
+    with pytest.raises(OSError) as caught:
+        save_markers(src, out)
+    assert caught.value.errno == errno.ENOSPC and caught.value.filename == str(out)
+    assert list((tmp_path / "out").iterdir()) == []  # no output, and nothing of ezc3d's left
+
+
+def test_a_c3d_cut_short_with_room_left_is_refused_too(tmp_path, monkeypatch):
+    from mocapkit.io import load_markers, save_markers
+
+    src = load_markers(mocapkit.samples.path("Eb015pr.c3d"))
+    _ezc3d_cut_short(monkeypatch, 200_000)
+    with pytest.raises(MocapFormatError, match=r"x\.c3d: cannot write C3D: ezc3d wrote 200000 of its \d+ bytes"):
+        save_markers(src, tmp_path / "x.c3d")
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_a_c3d_is_written_beside_its_output_not_in_the_temporary_folder(tmp_path, monkeypatch):
+    import tempfile
+
+    from mocapkit.io import load_markers, save_markers
+
+    src = load_markers(mocapkit.samples.path("Eb015pr.c3d"))
+    monkeypatch.setattr(tempfile, "tempdir", str(tmp_path / "no-such-tmp"))  # $TMPDIR gone (or full)
+    out = save_markers(src, tmp_path / "x.c3d")
+    assert load_markers(out).num_frames == src.num_frames
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["x.c3d"]

@@ -882,6 +882,47 @@ def _put_header_events(data: bytearray, events) -> None:
         data[_EVENT_LABELS + 4 * i:_EVENT_LABELS + 4 * i + 4] = label.encode("latin-1", "replace")[:4].ljust(4)
 
 
+def _ezc3d_bytes(c, path: Path, frames: int, points: int) -> bytearray:
+    """The file ezc3d writes for ``c``, checked whole: ezc3d writes into a hidden file beside ``path``
+    (``.NAME.RANDOM.part``, as :func:`mocapkit.io.atomic_write` names its own: the disk the output goes
+    to, not the temporary folder's), which is read and removed.
+
+    ezc3d does not check its writes: on a full disk it leaves the file cut short and reports nothing.
+    A file shorter than its header's data block (frames x (4 x points + analog samples) floats from the
+    data start block) raises ``OSError(ENOSPC)`` naming ``path`` when the disk has no room left for the
+    rest, else :class:`~mocapkit.errors.MocapFormatError`; nothing is written then.
+    """
+    import errno
+    import os
+    import shutil
+    import tempfile
+
+    path.parent.mkdir(parents=True, exist_ok=True)
+    stage = tempfile.mkdtemp(prefix=f".{path.name}.", suffix=".part", dir=path.parent)
+    try:
+        try:
+            c.write(os.path.join(stage, "out.c3d"))  # a name ending .c3d: ezc3d adds the suffix to any other
+        except Exception as exc:  # ezc3d raises plain RuntimeError/ValueError
+            raise MocapFormatError(path, f"cannot write C3D: {exc}".replace("\n", " ")) from None
+        data = bytearray(Path(stage, "out.c3d").read_bytes())
+    finally:
+        shutil.rmtree(stage, ignore_errors=True)
+    need = 512
+    if len(data) >= 18:
+        analog, data_start = struct.unpack_from("<H", data, 4)[0], struct.unpack_from("<H", data, 16)[0]
+        need = max(need, (data_start - 1) * 512 + frames * (4 * points + analog) * 4)
+    if len(data) < need:
+        try:
+            room = os.statvfs(path.parent)
+            full = room.f_bavail * room.f_frsize < need - len(data)
+        except (OSError, AttributeError):  # no statvfs (not POSIX): say what is known
+            full = False
+        if full:
+            raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC), str(path))
+        raise MocapFormatError(path, f"cannot write C3D: ezc3d wrote {len(data)} of its {need} bytes")
+    return data
+
+
 def write_c3d(markers: MarkerSet, path, *, like=None) -> None:
     """Write ``markers`` to a float C3D file with ezc3d, atomically (temp file + rename).
 
@@ -902,8 +943,6 @@ def write_c3d(markers: MarkerSet, path, *, like=None) -> None:
     POINT:USED and the frame counts made consistent by ezc3d. Analogs are
     kept when they span the same frames as the points.
     """
-    import tempfile
-
     from . import atomic_write
 
     path = Path(path)
@@ -915,13 +954,7 @@ def write_c3d(markers: MarkerSet, path, *, like=None) -> None:
     checked_unit_cm(path, markers.units)
     source = _c3d_like(markers, like)
     c = _c3d_object(markers, source)
-    with tempfile.TemporaryDirectory(prefix="mocapkit-c3d-") as tmp:
-        tmp_file = Path(tmp) / "out.c3d"
-        try:
-            c.write(str(tmp_file))
-        except Exception as exc:  # ezc3d raises plain RuntimeError/ValueError
-            raise MocapFormatError(path, f"cannot write C3D: {exc}".replace("\n", " ")) from None
-        data = bytearray(tmp_file.read_bytes())
+    data = _ezc3d_bytes(c, path, markers.num_frames, markers.num_markers)
     # ezc3d writes -1 as the header's scale whatever POINT:SCALE says; readers that check the two
     # agree (the c3d package) refuse the mismatch, so the header gets POINT:SCALE (Intel byte order).
     scale = float(c["parameters"]["POINT"]["SCALE"]["value"][0])
