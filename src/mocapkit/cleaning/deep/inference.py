@@ -100,8 +100,23 @@ def save_model(model: DeepModel, path) -> Path:
     }
     if model.prior is not None:
         payload["prior"] = {k: torch.from_numpy(np.array(v)) for k, v in model.prior.to_arrays().items()}
+    return write_torch(payload, path)
+
+
+def write_torch(payload: dict, path) -> Path:
+    """``torch.save`` of ``payload`` to ``path``, atomically (temp file + rename); returns the path.
+
+    The file is made in memory and written in one piece: torch's zip writer, writing to a file itself, turns a
+    failed write (a full disk) into a RuntimeError naming neither the file nor the cause; this way it is an
+    ``OSError`` (ENOSPC) naming ``path``, and nothing is left.
+    """
+    import io
+
+    path = Path(path)
+    buf = io.BytesIO()
+    torch.save(payload, buf)
     with atomic_write(path, "wb") as fh:
-        torch.save(payload, fh)
+        fh.write(buf.getbuffer())
     return path
 
 

@@ -43,10 +43,10 @@ from ...progress import bar_disabled
 
 from ... import corrupt
 from ...errors import SkeletonError
-from ...io import atomic_write
+from ...io.outputs import removed_on_failure
 from ...motion import Motion
 from .channels import ChannelLayout, encode, layout_for, wrap_degrees
-from .inference import DeepModel, denoise_channels, lerp_fill, run_ebd, save_model
+from .inference import DeepModel, denoise_channels, lerp_fill, run_ebd, save_model, write_torch
 from .networks import EBD, EBF, HALF_WINDOW, window_indices
 from .prior import fit_gap_prior
 
@@ -678,15 +678,17 @@ def train(
                 "validation_clips": [c.name for c in (validation or [])], "history": history,
                 "train_seconds": time.perf_counter() - t0, "torch": torch.__version__, **(meta or {}),
                 "training": training_id, "best_val_rmse": v, "best_epoch": epoch}
-        if v < best:
-            best = v
-            save_model(DeepModel(cfg.kind, net, layout, fps, meta), out_dir / "model.pt")
         if _plateau_halvings(history, cfg.lr_patience)[-1]:
             for g in opt.param_groups:
                 g["lr"] *= 0.5
-        with atomic_write(ckpt_path, "wb") as fh:
-            torch.save({"config": cfg_json, "data": data_json, "state": net.state_dict(), "optimizer": opt.state_dict(),
-                        "epoch": epoch, "best": best, "history": json.dumps(history)}, fh)
+        # the epoch's model and checkpoint as one set: if either write fails (a full disk) or is interrupted, both
+        # are as after the last epoch (on a first epoch, neither is there), so the same command resumes
+        with removed_on_failure([out_dir / "model.pt", ckpt_path], overwrite=True):
+            if v < best:
+                save_model(DeepModel(cfg.kind, net, layout, fps, meta), out_dir / "model.pt")
+            write_torch({"config": cfg_json, "data": data_json, "state": net.state_dict(), "optimizer": opt.state_dict(),
+                         "epoch": epoch, "best": min(best, v), "history": json.dumps(history)}, ckpt_path)
+        best = min(best, v)
         net.to(dev)
         bar.set_postfix(train=f"{history[-1]['train_rmse']:.3f}", val=f"{v:.3f}", best=f"{best:.3f}")
         if cfg.minutes is not None and time.perf_counter() - t0 > 60.0 * cfg.minutes:
