@@ -166,7 +166,7 @@ def test_replace_keeps_the_old_database_when_writing_fails(small_db, saved, tmp_
         return real_save(*args, **kwargs)
 
     monkeypatch.setattr(np, "save", failing_save)
-    with pytest.raises(MocapFormatError, match=r"db: cannot write the database \(No space left on device\)"):
+    with pytest.raises(MocapFormatError, match=r"db: cannot write the database \(no space left on the device\)"):
         small_db.save(db, overwrite=True)
     monkeypatch.undo()
     assert _tree(db) == before and sorted(p.name for p in tmp_path.iterdir()) == ["db"]
@@ -635,3 +635,22 @@ def test_of_two_hidden_databases_the_newest_is_put_back_and_the_other_swept(save
     assert database_folder.recover_leftovers(target) == newer / "kept"
     assert (target / "which").read_text() == newer.name
     assert sorted(p.name for p in tmp_path.iterdir()) == ["db"]
+
+
+def test_a_full_disk_says_so_and_leaves_no_folder_it_made(small_db, tmp_path, monkeypatch):
+    """Trial 20: numpy's tofile said "6200 requested and 5088 written" (no cause), and the folders made for the
+    database stayed, empty. Each array now goes through Python's writes, which say ENOSPC."""
+    import errno
+    import io
+
+    class FullDisk(io.BufferedWriter):
+        def write(self, b):
+            raise OSError(errno.ENOSPC, "No space left on device")
+
+    def full_open(path, mode="r", *args, **kwargs):  # the arrays' files fill the disk
+        return FullDisk(io.FileIO(path, "wb")) if mode == "wb" else open(path, mode, *args, **kwargs)
+
+    monkeypatch.setattr(database_folder, "open", full_open, raising=False)
+    with pytest.raises(MocapFormatError, match=r"new/a/db: cannot write the database \(no space left on the device\)"):
+        small_db.save(tmp_path / "new" / "a" / "db")
+    assert list(tmp_path.iterdir()) == []

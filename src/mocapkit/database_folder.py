@@ -30,6 +30,7 @@ file's size before numpy maps it. Each failure is one
 
 from __future__ import annotations
 
+import errno
 import hashlib
 import json
 import math
@@ -47,7 +48,7 @@ import numpy as np
 from .errors import MocapError, MocapFormatError
 from .features import FEATURE_SETS, WINDOWED_SETS
 from .interrupts import interrupts_held
-from .io.outputs import inside, resolved, same_file
+from .io.outputs import inside, missing_folders, resolved, same_file
 from .motion import Skeleton
 
 __all__ = [
@@ -650,7 +651,8 @@ def write_folder(directory, description: Description, arrays: Mapping[str, np.nd
     def fill(tmp: Path) -> None:
         (tmp / "features").mkdir()
         for rel, a in arrays.items():
-            np.save(tmp / rel, np.ascontiguousarray(a, dtype=_array_dtype(rel)))
+            with open(tmp / rel, "wb") as fh:  # through Python's writes: a full disk is ENOSPC, not a short count
+                np.save(_Stream(fh), np.ascontiguousarray(a, dtype=_array_dtype(rel)), allow_pickle=False)
         desc["info"][_DIGEST_KEY] = description.digest or content_digest(description, arrays)
         with open(tmp / DESCRIPTION, "w", encoding="utf-8") as fh:
             json.dump(desc, fh, indent=1)
@@ -667,21 +669,35 @@ def write_staged(directory, fill: Callable[[Path], None], recheck: Callable[[], 
     symlinked ``directory``: what it points to is replaced. Returns the folder written (resolved).
     """
     target = resolved(directory)
+    made = missing_folders([target.parent])  # removed again, when left empty, if the write fails
+    tmp = None
     try:
         target.parent.mkdir(parents=True, exist_ok=True)
         tmp = staging_folder(target)
-    except OSError as exc:
-        raise MocapFormatError(directory, f"cannot write {what} ({exc.strerror or exc})") from None
-    try:
         fill(tmp)
         recheck()
         publish_folder(tmp, target)
     except BaseException as exc:
-        shutil.rmtree(tmp, ignore_errors=True)
+        if tmp is not None:
+            shutil.rmtree(tmp, ignore_errors=True)
+        for folder in made:
+            try:
+                folder.rmdir()
+            except OSError:  # not empty (something else was put there), or never made
+                pass
         if isinstance(exc, OSError):
-            raise MocapFormatError(directory, f"cannot write {what} ({exc.strerror or exc})") from None
+            why = "no space left on the device" if exc.errno == errno.ENOSPC else (exc.strerror or str(exc))
+            raise MocapFormatError(directory, f"cannot write {what} ({why})") from None
         raise
     return target
+
+
+class _Stream:
+    """A file seen by numpy as a plain stream: ``np.save`` then writes it with ``write`` (16 MiB chunks), whose
+    failure is an ``OSError`` with its errno, not ``tofile``'s "N requested and M written" (no errno, no cause)."""
+
+    def __init__(self, fh):
+        self.write = fh.write
 
 
 def read_folder(directory, mmap: bool = True) -> tuple[Description, dict[str, np.ndarray]]:
