@@ -57,3 +57,20 @@ def test_a_full_disk_names_the_output(tmp_path, monkeypatch):
         with atomic_write(out) as fh:
             fh.write("x")
     assert info.value.filename == str(out) and not list(tmp_path.iterdir())
+
+
+def test_a_failed_write_removes_the_folders_it_made(tmp_path, monkeypatch):
+    # trial 20: `plot -o new/a/p.png` on a full disk left new/a behind, empty
+    import errno
+    import os
+
+    def full(fd):
+        raise OSError(errno.ENOSPC, "No space left on device")
+
+    monkeypatch.setattr(os, "fsync", full)
+    (tmp_path / "kept").mkdir()
+    for out in (tmp_path / "new" / "a" / "p.png", tmp_path / "kept" / "b" / "q.png"):
+        with pytest.raises(OSError):
+            with atomic_write(out, "wb") as fh:
+                fh.write(b"x")
+    assert sorted(p.name for p in tmp_path.rglob("*")) == ["kept"]  # a folder that was there before stays

@@ -19,7 +19,7 @@ from pathlib import Path
 from ..errors import MissingFileError, MocapFormatError
 
 from ..markerset import MarkerSet
-from .outputs import publish
+from .outputs import missing_folders, publish
 
 __all__ = ["load", "save", "check_writable", "check_complete", "load_markers", "save_markers", "marker_notes", "atomic_write",
            "MarkerSet",
@@ -252,14 +252,20 @@ def _final_mode(path: Path) -> int:
 def atomic_write(path, mode: str = "w", **open_kwargs):
     """Open a temporary file beside ``path`` for writing and rename it over ``path`` on success.
 
-    On any exception (KeyboardInterrupt included) the temporary file is removed
-    and ``path`` is untouched. The file gets the permissions an ordinary
+    On any exception (KeyboardInterrupt included) the temporary file is removed,
+    ``path`` is untouched, and the folders made for it are removed again when
+    left empty. The file gets the permissions an ordinary
     ``open(path, "w")`` would give it (those of the file it replaces, else
     0o666 less the umask), not the temporary file's private 0o600.
     """
     path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".part", dir=path.parent)
+    made = missing_folders([path.absolute().parent])
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".part", dir=path.parent)
+    except BaseException:
+        _remove_empty(made)
+        raise
     try:
         with os.fdopen(fd, mode, **open_kwargs) as fh:
             yield fh
@@ -271,9 +277,11 @@ def atomic_write(path, mode: str = "w", **open_kwargs):
         if exc.filename is None:  # a write or fsync failed (a full disk): the error names the output
             exc.filename = str(path)
         _discard(tmp)
+        _remove_empty(made)
         raise
     except BaseException:
         _discard(tmp)
+        _remove_empty(made)
         raise
 
 
@@ -282,3 +290,12 @@ def _discard(tmp: str) -> None:
         os.unlink(tmp)
     except FileNotFoundError:
         pass
+
+
+def _remove_empty(folders: list[Path]) -> None:
+    """Remove the folders a failed write made (deepest first), each only when nothing else was put there."""
+    for folder in folders:
+        try:
+            folder.rmdir()
+        except OSError:  # not empty, or already gone
+            pass
