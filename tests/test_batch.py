@@ -626,3 +626,76 @@ def test_clean_file_removes_an_old_record_before_it_replaces_the_take_and_puts_i
         clean_file(short_bvh, out, steps=STEPS, overwrite=True)
     assert seen == [False]  # gone while the take was written
     assert record.read_bytes() == old  # and back after the failure
+
+
+def test_a_rerun_cleans_again_a_take_whose_input_was_replaced_and_says_so(tmp_path, short_bvh):
+    """Trial 20: a new version of a take kept the old version's output ("skipped: complete")."""
+    src, out = tmp_path / "in", tmp_path / "out"
+    src.mkdir()
+    shutil.copy(short_bvh, src / "a.bvh")
+    shutil.copy(short_bvh, src / "b.bvh")
+    assert clean_batch(src, out, steps=STEPS, executor="serial", progress=False).count("done") == 2
+    mocapkit.save(mocapkit.load(short_bvh)[:30], src / "a.bvh")  # the new version: 30 frames
+    s = clean_batch(src, out, steps=STEPS, executor="serial", progress=False)
+    assert [(r["status"], r["reason"]) for r in s.rows] == [
+        ("done", "cleaned again: its input changed since it was cleaned"), ("skipped", "complete")]
+    assert mocapkit.load(out / "a.bvh").num_frames == 30
+    assert clean_batch(src, out, steps=STEPS, executor="serial", progress=False).count("skipped") == 2
+
+
+@pytest.mark.parametrize("damage", ["truncate", "same size"])
+def test_an_output_changed_outside_mocapkit_is_not_complete(tmp_path, short_bvh, damage):
+    """Trial 20: an output cut short outside mocapkit counted as complete. It is now refused, naming it, until
+    --overwrite cleans it again (it is not the batch's to replace unasked: someone changed it)."""
+    src, out = tmp_path / "in", tmp_path / "out"
+    src.mkdir()
+    shutil.copy(short_bvh, src / "a.bvh")
+    clean_batch(src, out, steps=STEPS, executor="serial", progress=False)
+    data = (out / "a.bvh").read_bytes()
+    (out / "a.bvh").write_bytes(data[:1000] if damage == "truncate" else data[:-2] + b"9\n")
+    before = _tree(out)
+    with pytest.raises(MocapFormatError, match=r"a\.bvh: exists from an earlier run, but its output was changed since "
+                                               r"that run wrote it.*use --overwrite"):
+        clean_batch(src, out, steps=STEPS, executor="serial", progress=False)
+    assert _tree(out) == before
+    s = clean_batch(src, out, steps=STEPS, executor="serial", progress=False, overwrite=True)
+    assert s.count("done") == 1 and (out / "a.bvh").read_bytes() == data
+
+
+def test_a_marker_capture_s_record_keeps_what_it_read_and_wrote(tmp_path):
+    src, out = tmp_path / "in", tmp_path / "out"
+    src.mkdir()
+    shutil.copy(samples.path("Eb015pr.c3d"), src / "e.c3d")
+    clean_batch(src, out, executor="serial", progress=False)
+    with open(out / "e.c3d", "r+b") as fh:
+        fh.truncate(100_000)
+    with pytest.raises(MocapFormatError, match=r"e\.c3d: exists from an earlier run, but its output was changed"):
+        clean_batch(src, out, executor="serial", progress=False)
+
+
+def test_a_take_that_cannot_be_written_fails_in_one_line_naming_its_output(tmp_path, short_bvh, monkeypatch):
+    """Trial 20: rows said "OSError: [Errno 28] No space left on device: '...'" and, for a folder without write
+    permission, named the hidden staging folder '.a.bvh.RANDOM.part'."""
+    import errno
+    import tempfile
+
+    import mocapkit.batch as batch
+
+    src, out = tmp_path / "in", tmp_path / "out"
+    src.mkdir()
+    shutil.copy(short_bvh, src / "a.bvh")
+
+    def full(inp, staged, **kwargs):  # the staged output's write fills the disk
+        raise OSError(errno.ENOSPC, "No space left on device", str(staged.parent / ".a.bvh.k2j4.part"))
+
+    monkeypatch.setattr(batch, "clean_file", full)
+    s = clean_batch(src, out, steps=STEPS, executor="serial", progress=False)
+    assert s.rows[0]["reason"] == f"{out / 'a.bvh'}: no space left on the device"
+    monkeypatch.undo()
+
+    def denied(prefix="", suffix="", dir=None):
+        raise PermissionError(errno.EACCES, "Permission denied", os.path.join(dir, f"{prefix}q7w2{suffix}"))
+
+    monkeypatch.setattr(tempfile, "mkdtemp", denied)
+    s = clean_batch(src, out, steps=STEPS, executor="serial", progress=False)
+    assert s.rows[0]["reason"] == f"{out / 'a.bvh'}: Permission denied"

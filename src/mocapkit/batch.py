@@ -70,7 +70,7 @@ from functools import lru_cache
 from pathlib import Path
 from typing import Sequence
 
-from .errors import MocapError, MocapFormatError
+from .errors import MocapError, MocapFormatError, os_error_line
 from .interrupts import interrupts_as_keyboard_interrupt
 
 __all__ = ["clean_file", "clean_marker_file", "clean_request", "refuse_marker_options", "clean_batch", "find_inputs", "output_for", "BatchSummary", "DEFAULT_PATTERNS", "BATCH_MARK"]
@@ -148,7 +148,7 @@ def clean_file(
     from . import io
     from .cleaning import decisions as dec
     from .cleaning.pipeline import STEPS, CleanResult, clean, clean_path, parse_steps
-    from .io.outputs import check_outputs, removed_on_failure
+    from .io.outputs import check_outputs, file_facts, removed_on_failure
     from .io.takes import check_asf, file_first_frame, load_motion, load_take
     from .markerset import MarkerSet
 
@@ -175,6 +175,7 @@ def clean_file(
         return clean_marker_file(inp, out, report=report, png=png, overwrite=overwrite, markers=take)
     io.suffix_kind(out, io.WRITERS, "writing")
     doc = dec.read_decisions(decisions) if decisions is not None else None
+    taken = None if reuse else file_facts(inp)  # the take as read: a later batch tells a replaced input by it
     m = motion if motion is not None else load_motion(inp, asf, purpose="clean")
     io.check_writable(m, out)
     if doc is not None:
@@ -241,8 +242,9 @@ def clean_file(
 
             plot_summary(dataclasses.replace(res, motion=cleaned), m, png, title=inp.name)
         io.save(cleaned, out, like=inp, asf=asf)
-        if not reuse:
-            res.save(record)  # last: the completion marker
+        if not reuse:  # last: the completion marker, keeping what was read and written (_not_complete)
+            res = replace(res, params={**res.params, "written": {"input": taken, "output": file_facts(out)}})
+            res.save(record)
     return m, res
 
 
@@ -268,22 +270,38 @@ def clean_request(steps=None, threshold: float = 0.5, drifts: bool = False, cont
                        for k, v in sorted((models or {}).items())}}
 
 
-def _not_complete(files: dict, request: dict) -> str:
-    """Why a take whose output and record exist is not complete for this run ("" when it is)."""
+def _not_complete(inp: Path, files: dict, request: dict) -> tuple[str, bool]:
+    """Why a take whose output and record exist is not complete for this run ("" when it is), and whether it is
+    cleaned again as it is (True: its input was replaced since, and the output is this batch's own, of the old take)
+    or refused without ``overwrite`` (an output changed outside mocapkit, another request, a missing report).
+
+    The record keeps the size and SHA-256 of the input as read and of the output as written (``params["written"]``,
+    :func:`mocapkit.io.outputs.file_facts`); a record without them (an earlier mocapkit's) is taken at its word.
+    """
     from .cleaning.pipeline import CleanResult
+    from .io.outputs import file_facts
 
     missing = [k for k in ("report", "png") if files.get(k) is not None and not Path(files[k]).is_file()]
     if missing:
-        return f"its {' and '.join(missing)} {'is' if len(missing) == 1 else 'are'} missing"
+        return f"its {' and '.join(missing)} {'is' if len(missing) == 1 else 'are'} missing", False
     try:
         params = CleanResult.load_params(files["record"])
     except MocapFormatError as exc:
-        return f"its record {Path(files['record']).name} is {exc.reason}"
+        return f"its record {Path(files['record']).name} is {exc.reason}", False
+    written = (params or {}).get("written")
+    if isinstance(written, dict):
+        was, out = written.get("output") or {}, Path(files["output"])
+        size = out.stat().st_size
+        if size != was.get("size") or file_facts(out) != was:
+            return (f"its output was changed since that run wrote it ({size} bytes, {was.get('size')} when "
+                    "written)" if size != was.get("size") else "its output was changed since that run wrote it"), False
+        if file_facts(inp) != written.get("input"):
+            return "its input changed since it was cleaned", True
     done = None if params is None else params.get("request")
     if not isinstance(done, dict):  # a marker capture's record, or one written before requests were kept
-        return ""
+        return "", False
     diff = [f"{k} {_said(done.get(k))} (now {_said(request[k])})" for k in request if done.get(k) != request[k]]
-    return f"it was cleaned with {', '.join(diff)}" if diff else ""
+    return (f"it was cleaned with {', '.join(diff)}" if diff else ""), False
 
 
 def _said(v) -> str:
@@ -317,13 +335,14 @@ def clean_marker_file(inp, out, *, report=None, png=None, overwrite: bool = Fals
     from .cleaning.markers import clean_markers
     from .cleaning.pipeline import clean_path
     from .io import MARKER_FORMATS, load_markers, save_markers, suffix_kind
-    from .io.outputs import check_outputs, removed_on_failure
+    from .io.outputs import check_outputs, file_facts, removed_on_failure
 
     inp, out = Path(inp), Path(out)
     record = clean_path(out)
     outputs = [out, record, report, png]
     check_outputs(outputs, [inp], overwrite=overwrite)
     suffix_kind(out, MARKER_FORMATS, "writing markers")
+    taken = file_facts(inp)
     ms = markers if markers is not None else load_markers(inp)
     try:
         res = clean_markers(ms, steps=steps or MARKER_STEPS)
@@ -339,7 +358,7 @@ def clean_marker_file(inp, out, *, report=None, png=None, overwrite: bool = Fals
 
             plot_marker_fixes(png, res, title=f"{inp.name}: before (grey) and after")
         save_markers(res.markers, out, like=ms)
-        res.save(record)  # last: the completion marker
+        res.save(record, written={"input": taken, "output": file_facts(out)})  # last: the completion marker
     return ms, res
 
 
@@ -440,6 +459,10 @@ class BatchSummary:
 
 
 def _one_line(exc: BaseException) -> str:
+    """A failed take's reason in one line: a MocapError's own, a filesystem error's as the CLI says it (the output's
+    name, not its temporary file's; "no space left on the device"), else the exception's name and first line."""
+    if isinstance(exc, OSError) and not isinstance(exc, MocapError):
+        return os_error_line(exc)
     text = str(exc).strip().splitlines()
     msg = text[0] if text else ""
     return msg if isinstance(exc, MocapError) else f"{type(exc).__name__}: {msg}"
@@ -672,20 +695,23 @@ def clean_batch(
     plans, renamed = _plan(inputs, in_dir, out_dir, fmt, report, png)
     summary = BatchSummary(executor=describe_executor(executor), renamed=[str(p) for p in renamed],
                            earlier=[str(p) for p in earlier if not (below and resolved(p) == resolved(out_dir))])
-    todo, stale = [], []
+    todo, stale, again = [], [], {}
     request = clean_request(steps, threshold, drifts, ctx, models)
     for inp, files in zip(inputs, plans):
         if files["output"].is_file() and files["record"].is_file():
-            why = _not_complete(files, request)
+            why, anew = _not_complete(inp, files, request)
             if not why:
                 summary.rows.append({"input": str(inp), "output": str(files["output"]), "status": "skipped",
                                      "reason": "complete", "seconds": 0.0})
                 continue
-            stale.append((files["output"], why))
+            if anew:  # a new version of the take: its old output is this batch's own, cleaned again as it is
+                again[inp] = f"cleaned again: {why}"
+            else:
+                stale.append((files["output"], why))
         todo.append((inp, files))
     folders = [] if below else [in_dir]
-    stale_outputs = {out for out, _ in stale}
-    _check_batch_outputs(plans, todo if overwrite else [t for t in todo if t[1]["output"] not in stale_outputs],
+    earlier_outputs = {out for out, _ in stale} | {files["output"] for inp, files in todo if inp in again}
+    _check_batch_outputs(plans, todo if overwrite else [t for t in todo if t[1]["output"] not in earlier_outputs],
                          inputs, folders, ctx, overwrite)  # an output that is an input: refused first
     if stale and not overwrite:  # an earlier run's take, made otherwise: not this run's to skip, nor to replace silently
         more = f" ({len(stale) - 1} more take{'s' if len(stale) > 2 else ''} alike)" if len(stale) > 1 else ""
@@ -719,6 +745,8 @@ def clean_batch(
                 _prune(made)  # the folders made for takes that failed
     for row, (inp, files) in zip(rows, todo):  # the paths as the caller gave them
         row.update(input=str(inp), output=str(files["output"]))
+        if row["status"] == "done" and inp in again:
+            row["reason"] = again[inp]
     summary.rows += rows
     summary.rows.sort(key=lambda r: r["input"])
     summary.seconds = time.perf_counter() - t0

@@ -4,8 +4,9 @@ from __future__ import annotations
 
 import errno
 import os
+import re
 
-__all__ = ["MocapError", "MocapFormatError", "MissingFileError", "SkeletonError"]
+__all__ = ["MocapError", "MocapFormatError", "MissingFileError", "SkeletonError", "TEMP_NAME", "os_error_line"]
 
 
 class MocapError(Exception):
@@ -51,3 +52,25 @@ class MissingFileError(MocapFormatError, FileNotFoundError):
 
 class SkeletonError(MocapError, ValueError):
     """A skeleton is malformed or two skeletons do not match where they must."""
+
+
+# a temporary file of mocapkit.io.atomic_write (or a staging folder): ".NAME.RANDOM.part" beside NAME
+TEMP_NAME = re.compile(r"^(?P<dir>.*?)\.(?P<name>[^/]+)\.[^./]+\.part$")
+
+
+def os_error_line(exc: OSError) -> str:
+    """``PATH: reason`` for a filesystem error, naming the output rather than its temporary file or staging folder:
+    the one line the CLI prints for it, and a batch's row for a take that failed so (no Python repr, no errno)."""
+    name, writing = exc.filename, False
+    if isinstance(name, str):
+        found = TEMP_NAME.match(name)
+        if found:
+            name, writing = found.group("dir") + found.group("name"), True
+    reason = exc.strerror or str(exc)
+    if writing and exc.errno == errno.ENOENT:  # the folder takes no new file (/proc, a folder removed meanwhile)
+        reason = "cannot be written there (no such file or directory)"
+    if exc.errno == errno.ENOSPC:
+        reason = "no space left on the device"
+    elif exc.errno == errno.EROFS:
+        reason = "read-only file system"
+    return f"{name}: {reason}" if name else reason

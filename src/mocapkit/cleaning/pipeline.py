@@ -270,8 +270,8 @@ class CleanResult:
     def load_params(path) -> dict | None:
         """The ``params`` of a record written by :meth:`save`, read without its arrays.
 
-        None for a readable record that keeps none (a marker capture's record,
-        :class:`mocapkit.cleaning.markers.MarkerCleanResult`). Raises
+        A marker capture's record (:class:`mocapkit.cleaning.markers.MarkerCleanResult`) keeps only
+        ``written`` (the sizes and digests of the files read and written), and gives None without it. Raises
         :class:`~mocapkit.errors.MocapFormatError` naming ``path`` when it is no
         mocapkit record or cannot be read (empty, cut short, another program's file).
         """
@@ -280,7 +280,7 @@ class CleanResult:
             with np.load(path, allow_pickle=False) as data:
                 if "meta" not in data.files:
                     if "kind" in data.files and str(data["kind"]) == "markers":
-                        return None
+                        return {"written": json.loads(str(data["written"]))} if "written" in data.files else None
                     raise ValueError("it holds no record")
                 meta = json.loads(str(data["meta"]))
         except Exception as exc:  # EOFError, BadZipFile, ValueError, OSError, ...: the file is not a record

@@ -21,15 +21,13 @@ What every command guarantees:
 from __future__ import annotations
 
 import atexit
-import errno
 import os
-import re
 import sys
 import threading
 
 import typer
 
-from ..errors import MocapError
+from ..errors import TEMP_NAME, MocapError, os_error_line
 from . import clean as clean_cmds
 from . import db, deep, motion, reconstruct, ssa
 
@@ -80,27 +78,6 @@ for _fn in (motion.info, motion.convert, motion.corrupt, motion.plot, db.search,
     app.command()(_fn)
 app.command("clean-batch")(clean_cmds.clean_batch)
 app.add_typer(db.db_app, name="db")
-
-# a temporary file of mocapkit.io.atomic_write: ".NAME.RANDOM.part" beside NAME
-_TEMP_NAME = re.compile(r"^(?P<dir>.*?)\.(?P<name>[^/]+)\.[^./]+\.part$")
-
-
-def _os_error_line(exc: OSError) -> str:
-    """``PATH: reason`` for a filesystem error, naming the output rather than its temporary file."""
-    name, writing = exc.filename, False
-    if isinstance(name, str):
-        found = _TEMP_NAME.match(name)
-        if found:
-            name, writing = found.group("dir") + found.group("name"), True
-    reason = exc.strerror or str(exc)
-    if writing and exc.errno == errno.ENOENT:  # the folder takes no new file (/proc, a folder removed meanwhile)
-        reason = "cannot be written there (no such file or directory)"
-    if exc.errno == errno.ENOSPC:
-        reason = "no space left on the device"
-    elif exc.errno == errno.EROFS:
-        reason = "read-only file system"
-    return f"{name}: {reason}" if name else reason
-
 
 def _fail(message: str, code: int = EXIT_BAD_INPUT) -> int:
     text = " ".join(str(message).split())  # one line, whatever the message held
@@ -207,10 +184,10 @@ def _exit_status(exc: BaseException) -> int:
     usage = _usage_error(exc)
     if usage is not None:
         return usage
-    if isinstance(exc, FileNotFoundError) and not (isinstance(exc.filename, str) and _TEMP_NAME.match(exc.filename)):
+    if isinstance(exc, FileNotFoundError) and not (isinstance(exc.filename, str) and TEMP_NAME.match(exc.filename)):
         return _fail(f"{exc.filename or exc}: no such file")
     if isinstance(exc, OSError):
-        return _fail(_os_error_line(exc))
+        return _fail(os_error_line(exc))
     if isinstance(exc, ModuleNotFoundError) and exc.name == "torch":  # installed without its declared dependency
         return _fail("the networks (fill, denoise, train) need PyTorch: pip install torch==2.13.0 (the CPU wheel); "
                      "or leave those steps out (clean --steps detect,repair)")

@@ -266,7 +266,8 @@ def _take_line(row: dict) -> str:
                                                    ("spikes", "spike sample"), ("swapped", "re-labelled sample"))
              if row.get(k)]
     what = ", ".join(found) if found else "nothing to change"
-    return f"cleaned {row['input']} -> {row['output']}: {what} ({row.get('seconds', 0.0):.1f} s)"
+    again = f"; {row['reason']}" if row.get("reason") else ""  # "cleaned again: its input changed ..."
+    return f"cleaned {row['input']} -> {row['output']}: {what} ({row.get('seconds', 0.0):.1f} s{again})"
 
 
 def clean_batch(
@@ -297,8 +298,10 @@ def clean_batch(
 ) -> None:
     """Clean every take under IN_DIR into OUT_DIR: resumable, one failing take reported and skipped.
 
-    A take is complete when its output and STEM.clean.npz both exist (the record is written last);
-    complete takes are skipped, so running the command again resumes. Takes that would share a file
+    A take is complete when its output and STEM.clean.npz both exist (the record is written last),
+    the output is as written and the input as cleaned (the record keeps their sizes and digests);
+    complete takes are skipped, so running the command again resumes, and a take whose input was
+    replaced since is cleaned again. Takes that would share a file
     (take.amc and take.bvh in one folder) keep their input's suffix (take.amc.bvh). Every output is
     checked against every input before any take is cleaned. Prints one line per take; exits 1 if any
     take failed.

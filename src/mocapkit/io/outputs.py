@@ -45,7 +45,7 @@ from ..errors import MocapFormatError
 from ..interrupts import interrupts_held
 
 __all__ = ["check_outputs", "same_file", "inside", "removed_on_failure", "publish", "keep_aside", "put_back",
-           "drop_kept", "missing_folders"]
+           "drop_kept", "missing_folders", "file_facts"]
 
 
 def resolved(path: os.PathLike | str) -> Path:
@@ -232,6 +232,19 @@ def drop_kept(kept: dict[Path, Path]) -> None:
         except OSError:
             pass
     kept.clear()
+
+
+def file_facts(path: os.PathLike | str) -> dict:
+    """``{"size": bytes, "sha256": hex}`` of the file at ``path``: what a record keeps of the files a run read and
+    wrote, so a later run can tell an input replaced since, or an output changed or cut short outside mocapkit."""
+    import hashlib
+
+    h, size = hashlib.sha256(), 0
+    with open(path, "rb") as fh:
+        while chunk := fh.read(1 << 20):
+            h.update(chunk)
+            size += len(chunk)
+    return {"size": size, "sha256": h.hexdigest()}
 
 
 def missing_folders(folders: Iterable[os.PathLike | str]) -> list[Path]:

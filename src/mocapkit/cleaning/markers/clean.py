@@ -176,8 +176,9 @@ class MarkerCleanResult:
             lines.append(f"missing in the whole take, left missing: {', '.join(self.never_seen)}")
         return lines
 
-    def save(self, path) -> Path:
-        """Write the masks and the list of fixes as ``.npz`` (no pickles), atomically."""
+    def save(self, path, written: dict | None = None) -> Path:
+        """Write the masks and the list of fixes as ``.npz`` (no pickles), atomically; ``written``: what
+        :func:`mocapkit.batch.clean_marker_file` read and wrote (sizes and digests), kept as JSON."""
         from ...io import atomic_write
 
         path = Path(path)
@@ -193,6 +194,7 @@ class MarkerCleanResult:
                 never_seen=np.array(list(self.never_seen), dtype=str),
                 unlabelled=np.array(list(self.unlabelled), dtype=str),
                 kind=np.array("markers"),
+                **({"written": np.array(json.dumps(written))} if written else {}),
             )
         return path
 
