@@ -209,6 +209,9 @@ def save(motion, path, like=None, asf=None, overwrite: bool = True, **kwargs) ->
         from .npz import write_npz
 
         write_npz(motion, path, **kwargs)
+    from .sources import forget
+
+    forget(path)  # a file read earlier and now written over: what was read of it is no longer its text
     return path
 
 

@@ -204,12 +204,16 @@ def _like_source(like, motion: Motion, dofs) -> _LikeSource | None:
     """The source AMC's lines and changed cells, or None when ``like`` is not the file ``motion`` came from."""
     from .asfamc import amc_header, read_amc_numbers
 
+    from .sources import recall
+
     like = Path(like)
-    if like.suffix.lower() != ".amc" or not like.is_file():
+    if like.suffix.lower() != ".amc":
+        return None
+    data = recall(like)  # the text as the take was read from it, even if the file was removed or changed since
+    if data is None:
         return None
     try:
-        data = like.read_bytes()
-        ref, numbers = read_amc_numbers(like, asf=motion.skeleton, fps=motion.fps, dofs=dofs)
+        ref, numbers = read_amc_numbers(like, asf=motion.skeleton, fps=motion.fps, dofs=dofs, data=data)
     except (MocapFormatError, OSError):
         return None
     body_at, _, radians = amc_header(data)  # the reader's rule for where the frames start and the units

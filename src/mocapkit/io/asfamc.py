@@ -44,6 +44,7 @@ import numpy as np
 from .. import rotations as R
 from ..errors import MocapFormatError, SkeletonError
 from ..motion import MAX_JOINTS, Motion, Skeleton, check_fps
+from .sources import remember
 
 __all__ = ["read_asf", "read_amc", "read_amc_numbers", "asf_dofs", "amc_dofs", "amc_held_rotations", "amc_header", "find_asf", "pick_asf",
            "fps_from_name", "DEFAULT_FPS"]
@@ -539,14 +540,16 @@ def read_amc(path, asf=None, fps: float | None = None, dofs=None) -> Motion:
     return _read_amc(path, asf, fps, dofs)[0]
 
 
-def read_amc_numbers(path, asf=None, fps: float | None = None, dofs=None):
+def read_amc_numbers(path, asf=None, fps: float | None = None, dofs=None, data: bytes | None = None):
     """:func:`read_amc`'s Motion and the file's numbers as written, (F, columns): each joint's dofs in file order
     joint after joint (degrees or radians as the file says; 0 for a bone a frame does not list). The AMC writer
-    (:func:`mocapkit.io.amc_writer.write_amc`) reads them to keep a changed bone on the file's branches."""
-    return _read_amc(path, asf, fps, dofs, keep_numbers=True)
+    (:func:`mocapkit.io.amc_writer.write_amc`) reads them to keep a changed bone on the file's branches, from
+    ``data``, the file's bytes as the take was read (:func:`mocapkit.io.sources.recall`)."""
+    return _read_amc(path, asf, fps, dofs, keep_numbers=True, data=data)
 
 
-def _read_amc(path, asf=None, fps: float | None = None, dofs=None, keep_numbers: bool = False):
+def _read_amc(path, asf=None, fps: float | None = None, dofs=None, keep_numbers: bool = False,
+              data: bytes | None = None):
     """:func:`read_amc`'s Motion and, with ``keep_numbers``, the file's numbers as written: (F, columns), each
     joint's dofs in file order joint after joint (degrees or radians as the file says; 0 for a bone a frame does
     not list), which :func:`mocapkit.io.amc_writer.write_amc` needs to stay on the file's branches; else None."""
@@ -560,10 +563,12 @@ def _read_amc(path, asf=None, fps: float | None = None, dofs=None, keep_numbers:
             raise MocapFormatError(asf_path, "no such ASF file")
         skeleton, layout = _parse_asf(asf_path)
         asf_name = asf_path.name
-    try:
-        data = path.read_bytes()
-    except OSError as exc:
-        raise MocapFormatError(path, f"cannot read: {exc.strerror or exc}") from None
+    if data is None:
+        try:
+            data = path.read_bytes()
+        except OSError as exc:
+            raise MocapFormatError(path, f"cannot read: {exc.strerror or exc}") from None
+        remember(path, data)  # the text the AMC writer keeps (mocapkit.io.sources)
     body_at, first_line, radians = amc_header(data)
     if radians is None:
         radians = layout.radians

@@ -32,6 +32,7 @@ from .. import rotations as R
 from ..motion import MAX_JOINTS, Motion, Skeleton, check_fps
 from . import atomic_write
 from ._numparse import line_of_offset, parse_floats
+from .sources import recall, remember
 
 from numba import njit
 
@@ -307,14 +308,18 @@ def read_bvh(path) -> Motion:
     return _read_bvh(path)[0]
 
 
-def _read_bvh(path) -> tuple[Motion, np.ndarray]:
+def _read_bvh(path, data: bytes | None = None) -> tuple[Motion, np.ndarray]:
     """:func:`read_bvh`'s Motion and the file's numbers as written: (F, C) channel values in file order (degrees
-    and file units, NaN where the file says ``nan``), which :func:`write_bvh` needs to stay on the file's branches."""
+    and file units, NaN where the file says ``nan``), which :func:`write_bvh` needs to stay on the file's branches.
+    ``data``: the file's bytes as read before (:func:`mocapkit.io.sources.recall`), else the file is read (and its
+    bytes remembered: :func:`mocapkit.io.sources.remember`)."""
     path = Path(path)
-    try:
-        data = path.read_bytes()
-    except OSError as e:
-        raise MocapFormatError(path, f"cannot read: {e.strerror or e}") from None
+    if data is None:
+        try:
+            data = path.read_bytes()
+        except OSError as e:
+            raise MocapFormatError(path, f"cannot read: {e.strerror or e}") from None
+        remember(path, data)
 
     m = _MOTION_RE.search(data)
     head_end = m.start() if m else len(data)
@@ -752,17 +757,20 @@ def _differs(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 def _like_source(like, motion: Motion, order: list[int]) -> _LikeSource | None:
     """The source BVH's lines and changed cells, or None when ``like`` is not the file ``motion`` came from."""
     like = Path(like)
-    if like.suffix.lower() != ".bvh" or not like.is_file() or order != list(range(motion.skeleton.num_joints)):
+    if like.suffix.lower() != ".bvh" or order != list(range(motion.skeleton.num_joints)):
+        return None
+    data = recall(like)  # the text as the take was read from it, even if the file was removed or changed since
+    if data is None:
         return None
     try:
-        ref, table = _read_bvh(like)
+        ref, table = _read_bvh(like, data)
     except MocapFormatError:
         return None
     sk, rsk = motion.skeleton, ref.skeleton
     if (rsk.joint_names != sk.joint_names or not np.array_equal(rsk.parents, sk.parents)
             or tuple(map(tuple, rsk.channels)) != tuple(map(tuple, sk.channels)) or ref.num_frames != motion.num_frames):
         return None
-    lines = like.read_bytes().decode("utf-8", errors="replace").splitlines(keepends=True)
+    lines = data.decode("utf-8", errors="replace").splitlines(keepends=True)
     at = next((i for i, t in enumerate(lines) if _FRAME_TIME_RE.match(t)), None)  # as the reader finds it
     if at is None:
         return None
