@@ -681,7 +681,8 @@ def test_a_take_that_cannot_be_written_fails_in_one_line_naming_its_output(tmp_p
 
     import mocapkit.batch as batch
 
-    src, out = tmp_path / "in", tmp_path / "out"
+    monkeypatch.chdir(tmp_path)
+    src, out = Path("in"), Path("out")  # named as given, not as the worker's absolute paths
     src.mkdir()
     shutil.copy(short_bvh, src / "a.bvh")
 
@@ -696,6 +697,7 @@ def test_a_take_that_cannot_be_written_fails_in_one_line_naming_its_output(tmp_p
     def denied(prefix="", suffix="", dir=None):
         raise PermissionError(errno.EACCES, "Permission denied", os.path.join(dir, f"{prefix}q7w2{suffix}"))
 
+    monkeypatch.chdir(tmp_path)
     monkeypatch.setattr(tempfile, "mkdtemp", denied)
     s = clean_batch(src, out, steps=STEPS, executor="serial", progress=False)
     assert s.rows[0]["reason"] == f"{out / 'a.bvh'}: Permission denied"

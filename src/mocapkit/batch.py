@@ -747,6 +747,8 @@ def clean_batch(
         row.update(input=str(inp), output=str(files["output"]))
         if row["status"] == "done" and inp in again:
             row["reason"] = again[inp]
+        elif row["status"] == "failed":  # the worker's absolute paths, as the caller gave them
+            row["reason"] = row["reason"].replace(_abs(files["output"]), str(files["output"]))
     summary.rows += rows
     summary.rows.sort(key=lambda r: r["input"])
     summary.seconds = time.perf_counter() - t0
