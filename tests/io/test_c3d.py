@@ -731,8 +731,9 @@ def test_parameter_names_keep_their_case_through_the_pure_python_reader(tmp_path
     assert "ADDRESS" not in back["SUBJECT"] and "LAB_INFO" not in back
 
 
-def _ezc3d_cut_short(monkeypatch, keep: int):
-    """ezc3d's write on a full disk: the file cut short at ``keep`` bytes and no error (it checks none)."""
+def _ezc3d_cut_short(monkeypatch, keep: int, finished: bool = False):
+    """ezc3d's write on a full disk: the file cut short at ``keep`` bytes and no error (it checks none); the header's
+    data start block, which it writes last, left at its placeholder 1 (as trial 20's file had it) unless ``finished``."""
     import ezc3d
 
     real = ezc3d.c3d.write
@@ -741,33 +742,41 @@ def _ezc3d_cut_short(monkeypatch, keep: int):
         real(self, path, *args, **kwargs)
         with open(path, "r+b") as fh:
             fh.truncate(keep)
+            if not finished and keep >= 18:
+                fh.seek(16)
+                fh.write((1).to_bytes(2, "little"))
 
     monkeypatch.setattr(ezc3d.c3d, "write", write)
 
 
-@pytest.mark.parametrize("keep", [300, 200_000])
-def test_a_c3d_ezc3d_cuts_short_on_a_full_disk_is_refused_naming_the_file(tmp_path, monkeypatch, keep):
+@pytest.mark.parametrize("keep, finished", [(300, False), (200_000, False), (302_080, False), (302_080, True)])
+def test_a_c3d_ezc3d_cuts_short_on_a_full_disk_is_refused_naming_the_file(tmp_path, monkeypatch, keep, finished):
     import errno
     import os
 
     from mocapkit.io import load_markers, save_markers
 
-    src = load_markers(mocapkit.samples.path("Eb015pr.c3d"))
-    _ezc3d_cut_short(monkeypatch, keep)
+    src = load_markers(mocapkit.samples.path("Eb015pr.c3d"))  # 306,176 bytes as ezc3d writes it
+    _ezc3d_cut_short(monkeypatch, keep, finished)
     monkeypatch.setattr(os, "statvfs", lambda p: os.statvfs_result((4096, 4096, 100, 0, 0, 100, 0, 0, 0, 255)))
     out = tmp_path / "out" / "x.c3d"
     with pytest.raises(OSError) as caught:
         save_markers(src, out)
     assert caught.value.errno == errno.ENOSPC and caught.value.filename == str(out)
-    assert list((tmp_path / "out").iterdir()) == []  # no output, and nothing of ezc3d's left
+    assert list(tmp_path.iterdir()) == []  # no output, nothing of ezc3d's, nor the folder made for it
 
 
 def test_a_c3d_cut_short_with_room_left_is_refused_too(tmp_path, monkeypatch):
     from mocapkit.io import load_markers, save_markers
 
     src = load_markers(mocapkit.samples.path("Eb015pr.c3d"))
-    _ezc3d_cut_short(monkeypatch, 200_000)
-    with pytest.raises(MocapFormatError, match=r"x\.c3d: cannot write C3D: ezc3d wrote 200000 of its \d+ bytes"):
+    _ezc3d_cut_short(monkeypatch, 200_000, finished=True)
+    with pytest.raises(MocapFormatError, match=r"x\.c3d: cannot write C3D: ezc3d wrote 200000 bytes, not the "
+                                               r"\d+ its header describes"):
+        save_markers(src, tmp_path / "x.c3d")
+    _ezc3d_cut_short(monkeypatch, 302_080)
+    with pytest.raises(MocapFormatError, match=r"x\.c3d: cannot write C3D: ezc3d wrote 302080 bytes, its header "
+                                               r"unfinished"):
         save_markers(src, tmp_path / "x.c3d")
     assert list(tmp_path.iterdir()) == []
 

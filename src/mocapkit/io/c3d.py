@@ -883,20 +883,25 @@ def _put_header_events(data: bytearray, events) -> None:
 
 
 def _ezc3d_bytes(c, path: Path, frames: int, points: int) -> bytearray:
-    """The file ezc3d writes for ``c``, checked whole: ezc3d writes into a hidden file beside ``path``
-    (``.NAME.RANDOM.part``, as :func:`mocapkit.io.atomic_write` names its own: the disk the output goes
-    to, not the temporary folder's), which is read and removed.
+    """The file ezc3d writes for ``c``, checked whole: ezc3d writes into a hidden folder beside ``path``
+    (``.NAME.RANDOM.part``, named as :func:`mocapkit.io.atomic_write` names its files: on the disk the output
+    goes to, not the temporary folder's), which is read and removed.
 
-    ezc3d does not check its writes: on a full disk it leaves the file cut short and reports nothing.
-    A file shorter than its header's data block (frames x (4 x points + analog samples) floats from the
-    data start block) raises ``OSError(ENOSPC)`` naming ``path`` when the disk has no room left for the
-    rest, else :class:`~mocapkit.errors.MocapFormatError`; nothing is written then.
+    ezc3d does not check its writes: on a full disk it leaves the file cut short, its header unfinished
+    (the data start block it writes last still 1), and reports nothing. A file whose header is unfinished,
+    or which is shorter than the data block the header describes (frames x (4 x points + analog samples)
+    floats from the data start block), raises ``OSError(ENOSPC)`` naming ``path`` when the disk has no room
+    left, else :class:`~mocapkit.errors.MocapFormatError`; nothing is written then.
     """
     import errno
     import os
     import shutil
     import tempfile
 
+    from .outputs import missing_folders
+
+    made = missing_folders([path.absolute().parent])  # removed again, when left empty, if the write fails
+    done = False
     path.parent.mkdir(parents=True, exist_ok=True)
     stage = tempfile.mkdtemp(prefix=f".{path.name}.", suffix=".part", dir=path.parent)
     try:
@@ -905,22 +910,28 @@ def _ezc3d_bytes(c, path: Path, frames: int, points: int) -> bytearray:
         except Exception as exc:  # ezc3d raises plain RuntimeError/ValueError
             raise MocapFormatError(path, f"cannot write C3D: {exc}".replace("\n", " ")) from None
         data = bytearray(Path(stage, "out.c3d").read_bytes())
-    finally:
-        shutil.rmtree(stage, ignore_errors=True)
-    need = 512
-    if len(data) >= 18:
-        analog, data_start = struct.unpack_from("<H", data, 4)[0], struct.unpack_from("<H", data, 16)[0]
-        need = max(need, (data_start - 1) * 512 + frames * (4 * points + analog) * 4)
-    if len(data) < need:
-        try:
+        data_start = struct.unpack_from("<H", data, 16)[0] if len(data) >= 18 else 0
+        need = (data_start - 1) * 512 + frames * (4 * points + struct.unpack_from("<H", data, 4)[0]) * 4 \
+            if data_start >= 2 else None  # unfinished: ezc3d never got to write where the data starts
+        if need is not None and len(data) >= need:
+            done = True
+            return data
+        try:  # asked while the cut file still fills the disk
             room = os.statvfs(path.parent)
-            full = room.f_bavail * room.f_frsize < need - len(data)
+            full = room.f_bavail * room.f_frsize < max(need or 0, len(data)) - len(data) + (64 << 10)
         except (OSError, AttributeError):  # no statvfs (not POSIX): say what is known
             full = False
         if full:
             raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC), str(path))
-        raise MocapFormatError(path, f"cannot write C3D: ezc3d wrote {len(data)} of its {need} bytes")
-    return data
+        raise MocapFormatError(path, f"cannot write C3D: ezc3d wrote {len(data)} bytes, "
+                                     + (f"not the {need} its header describes" if need else "its header unfinished"))
+    finally:
+        shutil.rmtree(stage, ignore_errors=True)
+        for folder in [] if done else made:
+            try:
+                folder.rmdir()
+            except OSError:  # not empty, or never made
+                pass
 
 
 def write_c3d(markers: MarkerSet, path, *, like=None) -> None:
