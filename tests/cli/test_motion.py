@@ -301,7 +301,7 @@ def test_convert_names_fps_when_it_is_out_of_range(tmp_path):
     for fps in ("-5", "nan"):
         code, _, err = run("convert", SAMPLE, out, "--fps", fps)
         assert code == 2 and one_error_line(err)
-        assert "--fps must be a positive number from 1 to 1000" in err, err
+        assert "--fps must be a positive number from 1 to 10000 " in err, err
     assert not out.exists()
 
 

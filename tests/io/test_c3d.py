@@ -76,14 +76,15 @@ def write_c3d(path, n_frames=20, n_markers=3, rate=100.0):
     return path
 
 
-def test_a_point_rate_outside_1_to_1000_fps_is_refused(tmp_path):
+def test_a_point_rate_outside_1_to_10000_fps_is_refused(tmp_path):
     assert read_c3d(write_c3d(tmp_path / "ok.c3d", rate=1000.0)).fps == 1000.0
+    assert read_c3d(write_c3d(tmp_path / "fast.c3d", rate=2000.0)).fps == 2000.0  # a high-speed capture
     for rate in (0.01, 20000.0):
         bad = write_c3d(tmp_path / f"rate_{rate:g}.c3d", rate=rate)
         with pytest.raises(MocapFormatError) as exc:
             read_c3d(bad)
         msg = str(exc.value)
-        assert msg.startswith(f"{bad}: point frame rate must be a positive number from 1 to 1000"), msg
+        assert msg.startswith(f"{bad}: point frame rate must be a positive number from 1 to 10000 "), msg
         assert "\n" not in msg
 
 

@@ -126,7 +126,7 @@ def test_a_non_round_rate_survives(tmp_path):
 @pytest.mark.parametrize("text, reason, line", [
     ("hello\n", "not a TRC file: the first line starts with 'hello', not 'PathFileType'", 1),
     ("PathFileType\t4\t(X/Y/Z)\tx\nDataRate\tUnits\n0\tmm\nFrame#\tTime\tA\n\t\tX1\tY1\tZ1\n\n1\t0\t1\t2\t3\n",
-     "DataRate must be a positive number from 1 to 1000 (frames per second), got 0.0", 3),
+     "DataRate must be a positive number from 1 to 10000 (frames per second), got 0.0", 3),
     ("PathFileType\t4\t(X/Y/Z)\tx\nDataRate\tUnits\n100\tparsecs\nFrame#\tTime\tA\n\t\tX1\tY1\tZ1\n\n1\t0\t1\t2\t3\n",
      "unknown length unit 'parsecs'", None),
     ("PathFileType\t4\t(X/Y/Z)\tx\nDataRate\tUnits\n100\tmm\nFrame#\tTime\tA\n\t\tX1\tY1\tZ1\n\n1\t0\t1\tabc\t3\n",

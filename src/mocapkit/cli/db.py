@@ -48,11 +48,12 @@ def db_build(
     ),
 ) -> None:
     """Build a motion database from FILES and save it to OUT_DIR."""
-    from ..database import MotionDatabase, check_database_output
-    from ..motion import check_fps
+    from ..database import FPS_RANGE, MotionDatabase, check_database_output
     from ..parallel import describe_executor
 
-    check_fps(fps, "--fps")  # before any work, naming the option
+    if not FPS_RANGE[0] <= fps <= FPS_RANGE[1]:  # before any work, naming the option (a database's own range)
+        raise MocapError(f"--fps must be a positive number from {FPS_RANGE[0]:g} to {FPS_RANGE[1]:g} (frames per second) "
+                         f"for a database, got {fps:g}")
     check_database_output(out_dir, [*files, *([joint_map] if joint_map is not None else [])], overwrite=overwrite)
     check_executor(executor)
     jm = _read_joint_map(joint_map) if joint_map is not None else None
