@@ -485,6 +485,22 @@ def test_an_amc_converted_to_another_rate_reads_back_at_it(shared_data, tmp_path
     assert same.read_bytes() == hdm.read_bytes()  # at its own rate: the file as it was
 
 
+def test_info_describes_a_marker_capture_s_cleaning_record(tmp_path):
+    from mocapkit.io import load_markers, save_markers
+
+    ms = load_markers(DATA / "85_02.c3d")
+    pos = np.array(ms.positions[:240])
+    pos[100:130, 5] = np.nan  # a gap to fill
+    take = tmp_path / "take.trc"
+    save_markers(mocapkit.io.MarkerSet(labels=ms.labels, positions=pos, fps=ms.fps, units=ms.units, name="take"), take)
+    code, _, err = run("clean", take, "-o", tmp_path / "c.trc")
+    assert code == 0, err
+    code, out, err = run("info", tmp_path / "c.clean.npz")
+    assert code == 0, err
+    assert "marker cleaning record" in out and "frames   240" in out and "markers  41" in out
+    assert "1 gap filled" in out and "(filled 30," in out
+
+
 def test_info_and_clean_say_a_marker_file_s_unit_was_inferred(shared_data, tmp_path):
     from mocapkit.io import load_markers, save_markers
 

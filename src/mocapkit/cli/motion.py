@@ -298,6 +298,24 @@ def _info_of_own_file(path: Path) -> bool:
         for line in res.summary():
             console.print(f"  {line}")
         return True
+    if name.endswith(".clean.npz") and {"kind", "changed", "labels"} <= keys:
+        from ..cleaning.markers.record import read_marker_record
+
+        rec = read_marker_record(path)
+        rows = [("file", str(path)), ("kind", "marker cleaning record (mocapkit clean of a marker capture)"),
+                ("frames", str(rec.num_frames)), ("markers", str(len(rec.labels))),
+                ("changed", f"{plural(int(rec.changed.sum()), 'marker sample')} (filled {int(rec.filled.sum())}, "
+                            f"spikes removed {int(rec.spikes.sum())}, re-labelled {int(rec.swapped.sum())})"),
+                ("fixes", f"{plural(rec.count('gap'), 'gap')} filled, {plural(rec.count('spike'), 'spike')} removed, "
+                          f"{plural(rec.count('swap'), 'label swap')} undone")]
+        if rec.unfilled:
+            rows.append(("left missing", f"{plural(len(rec.unfilled), 'gap')} (no plausible fill)"))
+        if rec.never_seen:
+            rows.append(("never seen", ", ".join(rec.never_seen)))
+        if rec.unlabelled:
+            rows.append(("unlabelled", f"{plural(len(rec.unlabelled), 'trajectory', 'trajectories')} left as read"))
+        print_fields(rows)
+        return True
     if name.endswith(".mask.npz") and "mask" in keys:
         from ..io.masks import read_mask
 
