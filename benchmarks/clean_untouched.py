@@ -47,6 +47,16 @@ motion on another rig's names and joints, so any cell changed is harm too):
 None fits the bundled default context (another skeleton): each take is judged against itself.
 ``--no-respelled`` leaves them out.
 
+The same captures at a lower rate (``--no-low-rate`` leaves them out): every 4th frame of a 120 fps
+take, so every value is a real capture sample (a take delivered at 30 fps by dropping frames):
+
+* ``hdm05_30fps``: every 4th HDM05 clip (every 20th with ``--quick``), 30 fps;
+* ``cmu_asfamc_30fps``, ``cmu_bvh_30fps``: the CMU ASF/AMC takes and BVH conversions, 30 fps
+  (the BVH's frame 0, the converter's T-pose, kept).
+
+They are judged against the bundled default context, as the 120 fps takes are; the level-only
+baseline is computed on them as on every take.
+
 Per collection: the share of changed cells, the worst take and its share, and
 the cells each step changed (fill, repair, denoise). Targets: at most 0.1 % per
 collection and no take above 1 %. Each take is also tagged ``tune`` (Bandai
@@ -110,16 +120,20 @@ _ON_ACCLAIM = {"smpl": smpl_spelling, "daz": daz_spelling, "xsens": xsens_spelli
                "unnamed": unnamed}
 RESPELLED = (*_ON_ACCLAIM, "unreal")
 """The collections of takes respelled on rigs ``../shared/data`` does not hold (``tests/shared.py``)."""
+LOW_RATE = {"hdm05_30fps": 4, "cmu_asfamc_30fps": 4, "cmu_bvh_30fps": 4}
+"""The collections of 120 fps takes at a lower rate, and the step between the frames each keeps."""
 
 
 def respell(motion, spelling: str):
     """``motion`` as the collection ``spelling`` holds it (a Bandai Namco take for ``unreal``); "" as it is."""
+    if spelling in LOW_RATE:
+        return motion[:: LOW_RATE[spelling]]
     if spelling == "unreal":
         return unreal_spelling(motion)
     return _ON_ACCLAIM[spelling](motionbuilder_spelling(motion)) if spelling else motion
 
 def takes(n_bandai: int, all_bandai: bool, seed: int = 0, quick: bool = False,
-          respelled: bool = True) -> list[tuple[str, str, str, str]]:
+          respelled: bool = True, low_rate: bool = True) -> list[tuple[str, str, str, str]]:
     """``(collection, path, split, spelling)`` for every take measured (spelling "" for the file as it is)."""
     out = []
     hdm = sorted((DATA / "hdm05_asfamc").glob("*.amc"))
@@ -166,7 +180,11 @@ def takes(n_bandai: int, all_bandai: bool, seed: int = 0, quick: bool = False,
         out += [("unnamed", str(p), "check" if "_mm_" in p.name else "tune") for p in hdm[1::8 if not quick else 1]]
         out += [("unnamed", str(p), "check") for p in cmu]
         out += [("unreal", str(t.path), "tune" if t.dataset == 1 else "check") for t in pick[::10]]
-    return [(*item, item[0] if item[0] in RESPELLED else "") for item in out]
+    if low_rate:
+        out += [("hdm05_30fps", str(p), "check" if "_mm_" in p.name else "tune") for p in hdm[::4 if not quick else 1]]
+        out += [("cmu_asfamc_30fps", str(p), "check") for p in cmu]
+        out += [("cmu_bvh_30fps", str(p), "check") for p in bvh]
+    return [(*item, item[0] if item[0] in RESPELLED or item[0] in LOW_RATE else "") for item in out]
 
 
 def measure(item: tuple[str, str, str, str]) -> dict:
@@ -225,9 +243,11 @@ def main() -> None:
     ap.add_argument("--quick", action="store_true", help="a few takes per collection (a smoke run)")
     ap.add_argument("--no-respelled", dest="respelled", action="store_false",
                     help=f"leave out the collections of takes respelled on other rigs ({', '.join(RESPELLED)})")
+    ap.add_argument("--no-low-rate", dest="low_rate", action="store_false",
+                    help=f"leave out the 120 fps takes at 30 fps ({', '.join(LOW_RATE)})")
     args = ap.parse_args()
 
-    items = takes(args.bandai, args.all, args.seed, args.quick, args.respelled)
+    items = takes(args.bandai, args.all, args.seed, args.quick, args.respelled, args.low_rate)
     log(f"{len(items)} takes, {args.workers} workers")
     rows, t0 = [], time.perf_counter()
     with ProcessPoolExecutor(max_workers=max(1, args.workers)) as ex:

@@ -178,3 +178,30 @@ def test_unlabelled_trajectories_come_from_the_files_own_labels_and_survive_npz_
     for name in ("t.npz", "t.c3d", "t.trc"):
         back = load_markers(save_markers(ms, tmp_path / name))
         assert back.labels == ms.labels and back.unlabelled().tolist() == [False, True, True, False, False], name
+
+
+def test_the_unit_inferred_from_marker_distances_is_never_wrong_on_real_files(shared_data):
+    """Every marker file of the shared data that reads and states mm or m: the whole-body captures (the curated
+    folders) are inferred in their stated unit, every other file (peers' test files: a knee, a cube) in its stated
+    unit or none (the unit is asked for then); the same data in cm fits neither."""
+    from mocapkit.errors import MocapFormatError
+    from mocapkit.markerset import infer_units
+
+    curated = ["c3d_markers", "trc_markers", "c3d_markers_recovery"]
+    files = [(p, True) for d in curated for p in sorted((shared_data / d).glob("*.[ct][3r][dc]"))]
+    files += [(p, False) for p in sorted((shared_data / "peer_files").rglob("*")) if p.suffix.lower() in (".c3d", ".trc")]
+    checked = 0
+    for path, whole_body in files:
+        try:
+            ms = mocapkit.io.load_markers(path)
+        except MocapFormatError:
+            continue
+        unit = {0.1: "mm", 100.0: "m"}.get(length_unit_cm(ms.units))
+        if unit is None:
+            continue
+        got = infer_units(ms.positions)
+        assert got == unit if whole_body else got in (unit, None), (path, got, ms.units)
+        in_cm = ms.positions * (0.1 if unit == "mm" else 100.0)
+        assert infer_units(in_cm) is None, path  # the same data in cm
+        checked += 1
+    assert checked > 40

@@ -117,6 +117,8 @@ def clean_file(
     drifts: bool = False,
     models: dict | None = None,
     skeleton_copy: tuple | None = None,
+    amc_fps: float | None = None,
+    unit: str | None = None,
 ):
     """Clean the take at ``inp`` and write ``out``, its ``.clean.npz`` record and optional reports.
 
@@ -125,8 +127,10 @@ def clean_file(
     ``--context`` gives (:func:`load_context`; empty: the bundled default
     context, fitted to the take by :func:`mocapkit.context.fit_context`, whose
     note joins the result's notes); ``asf``: the skeleton of an
-    ``.amc`` input; ``motion``: the take already read from ``inp`` (it is not
-    read again). ``overwrite``: replace existing outputs (never an input).
+    ``.amc`` input; ``amc_fps``: its frame rate (an AMC states none:
+    :func:`mocapkit.io.asfamc.amc_rate`); ``unit``: the length unit of a take
+    whose file states none (:func:`mocapkit.io.takes.with_unit`); ``motion``:
+    the take already read from ``inp`` (it is not read again). ``overwrite``: replace existing outputs (never an input).
     ``decisions``: a decisions file (:mod:`mocapkit.cleaning.decisions`):
     ``out`` then holds only the changes it accepts (the record still lists
     every change); ``record``: the ``.clean.npz`` of an earlier run on this
@@ -160,7 +164,7 @@ def clean_file(
         ("models", bool(models))) if given]
     if isinstance(motion, MarkerSet) or (motion is None and inp.suffix.lower() in (".c3d", ".trc")):
         refuse_marker_options(inp, not_for_markers)
-        return clean_marker_file(inp, out, report=report, png=png, overwrite=overwrite, markers=motion)
+        return clean_marker_file(inp, out, report=report, png=png, overwrite=overwrite, markers=motion, unit=unit)
     reuse = record is not None
     if reuse and decisions is None:
         raise MocapError(f"{record}: an earlier run's record is applied with decisions; give the decisions file")
@@ -169,14 +173,14 @@ def clean_file(
     given = [Path(m) for m in (models or {}).values() if isinstance(m, (str, Path))]
     check_outputs(outputs, [inp, asf, decisions, record if reuse else None, *(context or []), *given],
                   overwrite=overwrite)
-    check_asf(asf, [inp])
-    if motion is None and inp.suffix.lower() == ".npz" and isinstance(take := load_take(inp), MarkerSet):
+    check_asf(asf, [inp], amc_fps)
+    if motion is None and inp.suffix.lower() == ".npz" and isinstance(take := load_take(inp, unit=unit), MarkerSet):
         refuse_marker_options(inp, not_for_markers)
         return clean_marker_file(inp, out, report=report, png=png, overwrite=overwrite, markers=take)
     io.suffix_kind(out, io.WRITERS, "writing")
     doc = dec.read_decisions(decisions) if decisions is not None else None
     taken = None if reuse else file_facts(inp)  # the take as read: a later batch tells a replaced input by it
-    m = motion if motion is not None else load_motion(inp, asf, purpose="clean")
+    m = motion if motion is not None else load_motion(inp, asf, purpose="clean", fps=amc_fps, unit=unit)
     io.check_writable(m, out)
     if doc is not None:
         dec.check_decisions(doc, decisions, m)  # decisions for another take: refused before any cleaning
@@ -323,7 +327,8 @@ def refuse_marker_options(inp, names: Sequence[str]) -> None:
                          f"{', '.join(names)} {'applies' if len(names) == 1 else 'apply'} only to joint-angle takes")
 
 
-def clean_marker_file(inp, out, *, report=None, png=None, overwrite: bool = False, markers=None, steps=None):
+def clean_marker_file(inp, out, *, report=None, png=None, overwrite: bool = False, markers=None, steps=None,
+                      unit: str | None = None):
     """Clean the marker capture at ``inp`` (.c3d, .trc, marker .npz) into ``out`` (.c3d, .trc or .npz).
 
     :func:`mocapkit.cleaning.markers.clean_markers`, then the reports (HTML
@@ -343,7 +348,7 @@ def clean_marker_file(inp, out, *, report=None, png=None, overwrite: bool = Fals
     check_outputs(outputs, [inp], overwrite=overwrite)
     suffix_kind(out, MARKER_FORMATS, "writing markers")
     taken = file_facts(inp)
-    ms = markers if markers is not None else load_markers(inp)
+    ms = markers if markers is not None else load_markers(inp, **({} if unit is None else {"units": unit}))
     try:
         res = clean_markers(ms, steps=steps or MARKER_STEPS)
     except ValueError as exc:
@@ -512,7 +517,8 @@ def _clean_job(job: dict) -> dict:
         _, res = clean_file(job["input"], staged[out], context=job["context"], steps=job["steps"], threshold=job["threshold"],
                             report=staged[Path(job["report"])] if job.get("report") else None,
                             png=staged[Path(job["png"])] if job.get("png") else None, asf=job.get("asf"),
-                            drifts=bool(job.get("drifts")), models=job.get("models"))
+                            drifts=bool(job.get("drifts")), models=job.get("models"), amc_fps=job.get("amc_fps"),
+                            unit=job.get("unit"))
         kept = keep_aside(finals)
         if finals[-1] in kept:  # the old record goes first: the take reads as incomplete while its files are replaced
             os.unlink(finals[-1])
@@ -646,6 +652,8 @@ def clean_batch(
     asf=None,
     drifts: bool = False,
     models: dict | None = None,
+    amc_fps: float | None = None,
+    unit: str | None = None,
 ) -> BatchSummary:
     """Clean every take under ``in_dir`` into the mirrored layout under ``out_dir`` (module docstring).
 
@@ -657,7 +665,9 @@ def clean_batch(
     Every output is checked before any take is cleaned: none may resolve to
     an input, and an existing file that is not part of a complete take is
     replaced only with ``overwrite``. ``asf``: the skeleton of every ``.amc``
-    take (default: the ASF beside each AMC). ``drifts``: also flag smooth
+    take (default: the ASF beside each AMC); ``amc_fps``: the frame rate of
+    every ``.amc`` take (default: :func:`mocapkit.io.asfamc.amc_rate`);
+    ``unit``: the length unit of every take whose file states none. ``drifts``: also flag smooth
     drifts in every take (:func:`mocapkit.cleaning.pipeline.clean`); ``models``: model files (or shipped
     names) for every take, as :func:`clean_file`'s. Raises
     :class:`~mocapkit.errors.MocapError` (one line) on a bad folder, format,
@@ -688,10 +698,11 @@ def clean_batch(
     below = inside(out_dir, in_dir)  # an OUT_DIR below IN_DIR is left out of the inputs, IN_DIR itself is not
     earlier: list[Path] = []  # folders below IN_DIR holding an earlier batch's outputs: left out too
     inputs = find_inputs(in_dir, patterns, exclude=out_dir if below else None, earlier=earlier)
-    if asf is not None:
-        from .io.takes import check_asf
+    if asf is not None or amc_fps is not None or unit is not None:
+        from .io.takes import check_asf, check_unit
 
-        check_asf(asf, inputs)
+        check_asf(asf, inputs, amc_fps)
+        check_unit(unit)
     plans, renamed = _plan(inputs, in_dir, out_dir, fmt, report, png)
     summary = BatchSummary(executor=describe_executor(executor), renamed=[str(p) for p in renamed],
                            earlier=[str(p) for p in earlier if not (below and resolved(p) == resolved(out_dir))])
@@ -724,7 +735,9 @@ def clean_batch(
              "models": {k: _abs(v) if Path(v).exists() else str(v) for k, v in (models or {}).items()} or None,
              "report": _abs(files["report"]) if files["report"] else None,
              "png": _abs(files["png"]) if files["png"] else None,
-             "asf": _abs(asf) if asf is not None and inp.suffix.lower() == ".amc" else None} for inp, files in todo]
+             "asf": _abs(asf) if asf is not None and inp.suffix.lower() == ".amc" else None,
+             "amc_fps": float(amc_fps) if amc_fps is not None and inp.suffix.lower() == ".amc" else None,
+             "unit": unit} for inp, files in todo]
     skeletons = _asf_copies(inputs, plans, asf, overwrite) if fmt == "amc" else {}
     expected = [f for files in plans for f in files.values() if f is not None]
     made = missing_folders([out_dir, *(Path(files["output"]).parent for _, files in todo)])

@@ -306,6 +306,7 @@ def unit_scale_cm(skeleton: Skeleton) -> float:
     if best is None:
         raise SkeletonError(
             f"cannot tell the length unit: ankle-to-head path is {length:.4g} units, "
-            "no known unit makes that a human; pass the scale explicitly"
+            "no known unit makes that an adult; name the unit with --unit mm|cm|m|in "
+            "(Python: the skeleton's unit_cm, io.takes.with_unit)"
         )
     return best

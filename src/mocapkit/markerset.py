@@ -24,7 +24,7 @@ import numpy as np
 from .motion import check_fps, frame_slice, frozen
 
 __all__ = ["MarkerSet", "MarkerSource", "length_unit_cm", "zero_gap_mask", "unique_labels", "repeated_labels_note",
-           "ZERO_GAP_DISTANCE_CM",
+           "infer_units", "marker_units", "ZERO_GAP_DISTANCE_CM", "BODY_SPAN_M",
            "MODELLED_GROUPS"]
 
 # Vicon writes modelled quantities (joint angles, forces, moments, powers) as
@@ -40,6 +40,14 @@ _UNIT_CM = {
     "m": 100.0, "meter": 100.0, "meters": 100.0, "metre": 100.0, "metres": 100.0, "mete": 100.0, "metr": 100.0,
     "in": 2.54, "inch": 2.54, "inches": 2.54, "ft": 30.48, "foot": 30.48, "feet": 30.48,
 }
+
+BODY_SPAN_M = (0.3, 3.0)
+"""The span of a whole body's marker set, in metres: the 90th percentile of a frame's distances between the markers
+seen, taken at its median over the take. Real whole-body captures span 0.37-1.7 m (tests/test_markerset.py checks
+every marker file of the shared data); a file that states no unit is read in mm or m, whichever puts its span in
+this range (:func:`infer_units`). The lower end keeps centimetres out: an adult in cm spans about 120 units, which
+read as mm would be a 12 cm body; a capture of one body part (a knee's markers span 0.1 m) is asked for its unit.
+"""
 
 # A real marker trajectory that is interrupted by an exact (0, 0, 0) sample
 # jumps there from at least this far away: the lab origin is not a place a
@@ -103,6 +111,67 @@ def length_unit_cm(units: str) -> float:
     except KeyError:
         known = "mm, cm, dm, m, in, ft (and their spelled-out forms)"
         raise ValueError(f"unknown length unit {str(units)!r}; known: {known}") from None
+
+
+def infer_units(positions: np.ndarray) -> str | None:
+    """The length unit, "mm" or "m", that puts a marker set's span in :data:`BODY_SPAN_M`; None when neither does.
+
+    ``positions``: (F, M, 3), NaN where unseen (exact (0, 0, 0) samples are left out too: gaps some exporters
+    write). The span is the 90th percentile of each frame's distances between the markers it sees, at its
+    median over up to 64 frames spread over the take (a few stray trajectories do not move it). mm and m are
+    1000 apart and the range is 10 wide, so at most one fits; cm (10 from each) is never inferred (a body in cm
+    fits neither), nor is any unit of a take with no frame seeing two markers: the caller asks for it then.
+    """
+    pos = np.asarray(positions, dtype=np.float64)
+    if pos.ndim != 3 or pos.shape[0] == 0:
+        return None
+    spans = []
+    for t in np.unique(np.linspace(0, pos.shape[0] - 1, min(pos.shape[0], 64)).astype(np.int64)):
+        p = pos[t]
+        p = p[np.all(np.isfinite(p), axis=1) & np.any(p != 0.0, axis=1)]
+        if len(p) < 2:
+            continue
+        d = np.linalg.norm(p[:, None] - p[None], axis=-1)[np.triu_indices(len(p), 1)]
+        spans.append(np.percentile(d, 90))
+    if not spans:
+        return None
+    span = float(np.median(spans))
+    for unit, metres in (("mm", 0.001), ("m", 1.0)):
+        if BODY_SPAN_M[0] <= span * metres <= BODY_SPAN_M[1]:
+            return unit
+    return None
+
+
+def marker_units(path, stated: str, positions: np.ndarray, given: str | None = None) -> tuple[str, str]:
+    """A marker file's length unit and where it comes from: ``(units, "file" | "given" | "data")``.
+
+    ``stated``: the file's unit field ("" when it is empty); ``given``: the unit the user names (``--unit``,
+    ``units=``), which serves a file that states none and must agree with one that does; else the unit is
+    inferred from ``positions`` (:func:`infer_units`). Raises :class:`~mocapkit.errors.MocapFormatError`
+    naming ``path`` for an unknown unit, a given one that disagrees with the file, or a file stating none whose
+    data fits neither mm nor m.
+    """
+    from .errors import MocapFormatError
+
+    stated = str(stated).strip()
+    for text in (stated, given):
+        if text:
+            try:
+                length_unit_cm(text)
+            except ValueError as exc:
+                raise MocapFormatError(path, f"{exc}; the file's coordinates cannot be put on a length scale") from None
+    if stated:
+        if given and length_unit_cm(given) != length_unit_cm(stated):
+            raise MocapFormatError(path, f"the file states its unit is {stated!r}, not {given!r}: --unit is for a "
+                                         "file that states none")
+        return stated, "file"
+    if given:
+        return given, "given"
+    found = infer_units(positions)
+    if found is None:
+        raise MocapFormatError(path, "the file states no length unit and its marker distances fit neither mm nor m; "
+                                     "name it with --unit mm|cm|m|in (Python: units=)")
+    return found, "data"
 
 
 @dataclass(frozen=True, eq=False)
@@ -173,8 +242,9 @@ class MarkerSet:
     fps : float
         Point frame rate, frames per second.
     units : str
-        Length unit as the file states it ("mm" when it states none); see
-        :func:`length_unit_cm` for the accepted spellings.
+        Length unit as the file states it; see :func:`length_unit_cm` for the
+        accepted spellings. For a file that states none, the one the user
+        gave, else the one its data fits (:func:`marker_units`).
     name : str
     reader : str
         Which reader produced it: "ezc3d", "c3d" (the pure-Python fallback for
@@ -196,6 +266,10 @@ class MarkerSet:
         What the reader did that the user should know (labels a file repeats
         named apart, trajectories beyond the header's count read, frames a
         file skips inserted as missing); commands print them.
+    units_from : str
+        Where ``units`` comes from: "file" (stated there), "given" (by the
+        user, for a file that states none) or "data" (inferred:
+        :func:`infer_units`).
     """
 
     labels: tuple[str, ...]
@@ -209,8 +283,11 @@ class MarkerSet:
     zero_gaps: int = 0
     cameras: np.ndarray | None = None
     notes: tuple[str, ...] = ()
+    units_from: str = "file"
 
     def __post_init__(self):
+        if self.units_from not in ("file", "given", "data"):
+            raise ValueError(f"units_from: 'file', 'given' or 'data', got {self.units_from!r}")
         pos = np.asarray(self.positions, dtype=np.float64)
         labels = tuple(str(label) for label in self.labels)
         if pos.ndim != 3 or pos.shape[1:] != (len(labels), 3):

@@ -66,13 +66,15 @@ DEFAULT_ROOT_CHANNELS = ("Xposition", "Yposition", "Zposition", "Zrotation", "Yr
 DEFAULT_JOINT_CHANNELS = ("Zrotation", "Yrotation", "Xrotation")
 _CHANNEL_NAMES = {"Xposition", "Yposition", "Zposition", "Xrotation", "Yrotation", "Zrotation"}
 
-FPS_RANGE = (1.0, 1000.0)
+FPS_RANGE = (1.0, 10000.0)
 """Frame rates mocapkit accepts, in frames per second, both ends included.
 
-Human motion capture runs at 24-480 Hz; a rate far outside this range is a
-corrupt file (a BVH ``Frame Time: 1000`` is 0.001 fps), and resampling such a
-clip to a working rate would make millions of frames from a few hundred.
-Every reader and every :class:`Motion` refuses a rate outside it.
+Human motion capture runs at 24-480 Hz, high-speed optical systems at 1-10 kHz
+(a 2,000 Hz C3D is a real capture); a rate outside this range is a corrupt file
+(a BVH ``Frame Time: 1000`` is 0.001 fps), and resampling such a clip to a
+working rate would make millions of frames from a few hundred.
+Every reader and every :class:`Motion` refuses a rate outside it (a motion
+database keeps its own, narrower range: :data:`mocapkit.database.FPS_RANGE`).
 """
 
 MAX_JOINTS = 100_000
@@ -104,7 +106,7 @@ def check_fps(fps, what: str = "fps") -> float:
     >>> check_fps(0.001)
     Traceback (most recent call last):
     ...
-    mocapkit.errors.SkeletonError: fps must be a positive number from 1 to 1000 (frames per second), got 0.001
+    mocapkit.errors.SkeletonError: fps must be a positive number from 1 to 10000 (frames per second), got 0.001
     """
     try:
         value = float(fps)

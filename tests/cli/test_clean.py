@@ -482,3 +482,21 @@ def test_an_interrupted_batch_says_its_finished_takes_are_kept(tmp_path, monkeyp
     (tmp_path / "in").mkdir()
     code, text, err = helpers.run("clean-batch", tmp_path / "in", out)
     assert code == 130 and "the takes finished in" in " ".join(text.split()) and "resumes the others" in text
+
+
+def test_clean_batch_writes_a_cmu_trial_numbered_30_at_120_fps(shared_data, tmp_path):
+    """CMU's SS_TT.amc: trial 30 is no 30 fps take. The BVH clean-batch writes plays at the take's 120 fps, and
+    --amc-fps gives the rate of every AMC of the batch."""
+    src = tmp_path / "in"
+    src.mkdir()
+    (src / "86.asf").write_bytes((shared_data / "cmu_asfamc" / "11.asf").read_bytes())
+    (src / "86_30.amc").write_bytes((shared_data / "cmu_asfamc" / "11_01.amc").read_bytes())
+    code, out, err = helpers.run("clean-batch", src, tmp_path / "out", "--steps", "fill", "--context", "none")
+    assert code == 0, (out, err)
+    bvh = mocapkit.load(tmp_path / "out" / "86_30.bvh")
+    assert bvh.fps == 120.0 and bvh.num_frames == 597
+    assert "Frame Time: 0.008333" in (tmp_path / "out" / "86_30.bvh").read_text()
+    code, out, err = helpers.run("clean-batch", src, tmp_path / "out60", "--steps", "fill", "--context", "none",
+                         "--amc-fps", "60")
+    assert code == 0, (out, err)
+    assert mocapkit.load(tmp_path / "out60" / "86_30.bvh").fps == 60.0

@@ -112,7 +112,9 @@ def test_search_takes_both_spellings_of_neighbors(tmp_path, capsys):
 def test_db_build_names_fps(tmp_path):
     db_dir = tmp_path / "db"
     code, _, err = run("db", "build", str(db_dir), str(mocapkit.samples.path("12_walk.amc")), "--fps", "-5")
-    assert code == 2 and one_error_line(err) and "--fps must be a positive number from 1 to 1000" in err
+    assert code == 2 and one_error_line(err) and "--fps must be a positive number from 1 to 1000 " in err
+    code, _, err = run("db", "build", str(db_dir), str(mocapkit.samples.path("12_walk.amc")), "--fps", "2000")
+    assert code == 2 and one_error_line(err) and "from 1 to 1000 (frames per second) for a database" in err
     assert not db_dir.exists()
 
 

@@ -301,7 +301,7 @@ def test_convert_names_fps_when_it_is_out_of_range(tmp_path):
     for fps in ("-5", "nan"):
         code, _, err = run("convert", SAMPLE, out, "--fps", fps)
         assert code == 2 and one_error_line(err)
-        assert "--fps must be a positive number from 1 to 1000" in err, err
+        assert "--fps must be a positive number from 1 to 10000 " in err, err
     assert not out.exists()
 
 
@@ -416,3 +416,105 @@ def test_info_describes_mocapkit_s_json_files(tmp_path):
     (tmp_path / "other.json").write_text("{}")
     code, _, err = run("info", tmp_path / "other.json")
     assert code == 2 and one_error_line(err)
+
+
+DATA = Path(__file__).resolve().parents[1] / "data"
+
+
+def _child(tmp_path, scale: float) -> Path:
+    """A real Bandai take (cm) with the body made ``scale`` times the size, still in cm: a child's take."""
+    import dataclasses
+
+    m = mocapkit.load(DATA / "dataset-1_dash_normal_001.bvh")
+    sk = m.skeleton
+    small = dataclasses.replace(sk, offsets=sk.offsets * scale, end_site_offsets=sk.end_site_offsets * scale)
+    child = dataclasses.replace(m, skeleton=small, root_positions=np.asarray(m.root_positions) * scale)
+    path = tmp_path / f"child{int(scale * 100)}.bvh"
+    mocapkit.save(child, path)
+    return path
+
+
+def test_unit_names_the_length_unit_a_bvh_does_not_state(tmp_path):
+    """The unit read from the bones assumes an adult; --unit states it, on every command that measures lengths."""
+    child = _child(tmp_path, 0.65)
+    code, out, _ = run("info", child)
+    assert code == 0 and "--unit mm|cm|m|in" in out  # unknown, and how to name it
+    code, out, _ = run("info", child, "--unit", "cm")
+    assert code == 0 and "length unit  1 cm (given with --unit)" in out, out
+    code, _, err = run("corrupt", child, tmp_path / "sp.bvh", "--kind", "spatial", "--amount", "0.5")
+    assert code == 2 and one_error_line(err) and "--unit mm|cm|m|in" in err and not (tmp_path / "sp.bvh").exists()
+    code, out, err = run("corrupt", child, tmp_path / "sp.bvh", "--kind", "spatial", "--amount", "0.5", "--unit", "cm")
+    assert code == 0, err
+    code, out, err = run("clean", tmp_path / "sp.bvh", "-o", tmp_path / "c.bvh", "--steps", "fill", "--reference",
+                         child, "--unit", "cm", "--context", "none")
+    assert code == 0 and "joint positions" in out, (out, err)
+    code, _, err = run("info", WALK, "--unit", "cm")  # an ASF states its unit
+    assert code == 2 and one_error_line(err) and "states its length unit (5.644 cm), not cm" in err
+    code, _, err = run("info", child, "--unit", "furlong")
+    assert code == 2 and one_error_line(err) and "--unit 'furlong': one of mm, cm, m, in" in err
+
+
+def test_info_says_where_an_amc_s_frame_rate_comes_from(shared_data, tmp_path):
+    (tmp_path / "86.asf").write_bytes((shared_data / "cmu_asfamc" / "11.asf").read_bytes())
+    amc = tmp_path / "86_30.amc"  # CMU's subject 86, trial 30: no 30 fps take
+    amc.write_bytes((shared_data / "cmu_asfamc" / "11_01.amc").read_bytes())
+    code, out, _ = run("info", amc)
+    assert code == 0 and "fps          120 (the file states none: 120, the CMU and HDM05 rate; --amc-fps sets it)" in out
+    assert "duration     4.975 s" in out
+    code, out, _ = run("info", amc, "--amc-fps", "60")
+    assert code == 0 and "60 (given with --amc-fps)" in out and "9.950 s" in out
+    hdm = shared_data / "hdm05_asfamc" / "HDM_bd_squat1Reps_001_120.amc"
+    assert "120 (from the HDM05 file name)" in run("info", hdm)[1]
+    code, _, err = run("info", SAMPLE, "--amc-fps", "60")
+    assert code == 2 and one_error_line(err) and "--amc-fps is the frame rate of an .amc input" in err
+
+
+def test_an_amc_converted_to_another_rate_reads_back_at_it(shared_data, tmp_path):
+    hdm = shared_data / "hdm05_asfamc" / "HDM_bd_squat1Reps_001_120.amc"
+    for name in ("squat_60fps.amc", "squat_30_120.amc"):
+        out = tmp_path / name
+        code, said, err = run("convert", hdm, out, "--fps", "60")
+        assert code == 0 and "@ 60 fps" in said, err
+        code, said, _ = run("info", out)
+        assert "60 (stated in the file's mocapkit comment line)" in said and "duration     1.167 s" in said
+        bvh = out.with_suffix(".bvh")
+        assert run("convert", out, bvh)[0] == 0
+        assert mocapkit.load(bvh).fps == 60.0
+    same = tmp_path / "same.amc"
+    assert run("convert", hdm, same)[0] == 0
+    assert same.read_bytes() == hdm.read_bytes()  # at its own rate: the file as it was
+
+
+def test_info_describes_a_marker_capture_s_cleaning_record(tmp_path):
+    from mocapkit.io import load_markers, save_markers
+
+    ms = load_markers(DATA / "85_02.c3d")
+    pos = np.array(ms.positions[:240])
+    pos[100:130, 5] = np.nan  # a gap to fill
+    take = tmp_path / "take.trc"
+    save_markers(mocapkit.io.MarkerSet(labels=ms.labels, positions=pos, fps=ms.fps, units=ms.units, name="take"), take)
+    code, _, err = run("clean", take, "-o", tmp_path / "c.trc")
+    assert code == 0, err
+    code, out, err = run("info", tmp_path / "c.clean.npz")
+    assert code == 0, err
+    assert "marker cleaning record" in out and "frames   240" in out and "markers  41" in out
+    assert "1 gap filled" in out and "(filled 30," in out
+
+
+def test_info_and_clean_say_a_marker_file_s_unit_was_inferred(shared_data, tmp_path):
+    from mocapkit.io import load_markers, save_markers
+
+    src = load_markers(shared_data / "trc_markers" / "T.trc")
+    metres = mocapkit.io.MarkerSet(labels=src.labels, positions=src.positions / 1000, fps=src.fps, units="m",
+                                   name="t")
+    take = tmp_path / "t.trc"
+    save_markers(metres, take)
+    lines = take.read_text().split("\n")
+    lines[2] = lines[2].replace("\tm\t", "\t\t")  # the Units field emptied
+    take.write_text("\n".join(lines))
+    code, out, _ = run("info", take)
+    assert code == 0 and "units     m (the file states none: inferred from the marker distances; --unit sets it)" in out
+    code, out, err = run("clean", take, "-o", tmp_path / "c.trc")
+    assert code == 0 and "length unit m: the file states none (inferred from the marker distances" in out, (out, err)
+    code, out, _ = run("info", take, "--unit", "mm")
+    assert code == 0 and "units     mm (given with --unit; the file states none)" in out

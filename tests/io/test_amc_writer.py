@@ -215,3 +215,42 @@ def test_a_bone_added_to_a_crlf_frame_ends_its_line_as_the_file_does(tmp_path):
     io.save(_turned(m, 3, "rtibia", 20.0), tmp_path / "out.amc", like=src)
     data = (tmp_path / "out.amc").read_bytes()
     assert b"\n" not in data.replace(b"\r\n", b"")  # the added rtibia line too
+
+
+def test_a_take_at_another_rate_is_written_with_its_rate_and_reads_back_at_it(tmp_path):
+    """An AMC has no rate field: a take at 60 fps gets mocapkit's comment line first (skipped by other readers as
+    every '#' line), whatever its name says; at 120 fps the file is written as before, without it."""
+    from tests.naive import naive_amc_parse
+
+    amc, asf, m = _sample(SAMPLES[1])
+    half = m.resample(60)
+    for name in ("squat_60fps.amc", "HDM_bd_squat_001_120.amc", "86_30.amc"):
+        out = tmp_path / name
+        write_amc(half, out)
+        text = out.read_text()
+        assert text.startswith("# frame rate: 60 fps (mocapkit)\n:FULLY-SPECIFIED\n:DEGREES\n1\nroot "), name
+        back = read_amc(out, asf)
+        assert back.fps == 60.0 and back.num_frames == half.num_frames
+        _assert_same_motion(half, back)
+        frames, radians = naive_amc_parse(out)  # a reader that knows nothing of the line reads the same frames
+        assert len(frames) == half.num_frames and not radians
+    plain = tmp_path / "plain.amc"
+    write_amc(m, plain)
+    assert plain.read_text().startswith(":FULLY-SPECIFIED\n:DEGREES\n1\nroot ")  # 120 fps: as before, no rate line
+
+
+def test_a_take_read_at_a_given_rate_written_like_its_file_keeps_every_frame_and_states_the_rate(tmp_path):
+    amc, asf, _ = _sample(SAMPLES[0])
+    m = read_amc(amc, asf, fps=60)
+    out = tmp_path / "walk.amc"
+    io.save(m, out, like=amc)
+    data, src = out.read_bytes(), amc.read_bytes()
+    line = b"# frame rate: 60 fps (mocapkit)\r\n"  # the file's line endings
+    assert data == line + src
+    assert read_amc(out, asf).fps == 60.0
+    again = tmp_path / "again.amc"
+    io.save(read_amc(out, asf), again, like=out)  # read at its stated rate: the same file
+    assert again.read_bytes() == data
+    back120 = tmp_path / "back120.amc"
+    io.save(dataclasses.replace(read_amc(out, asf), fps=120.0), back120, like=out)
+    assert back120.read_bytes() == src  # the stated rate, no longer needed, goes

@@ -360,22 +360,69 @@ def test_missing_skeleton_names_the_file_looked_for(tmp_path):
 
 
 def test_fps_from_name():
+    # only HDM05's naming carries a rate; a number ending any other name is no rate (CMU's SUBJECT_TRIAL)
     assert fps_from_name("HDM_bd_kick_001_120") == 120.0
-    assert fps_from_name("clip_60") == 60.0
+    assert fps_from_name("HDM_tr_05-01_01_120") == 120.0
+    assert fps_from_name("clip_60") is None
+    assert fps_from_name("86_30") is None and fps_from_name("135_100") is None
     assert fps_from_name("07_01") is None
     assert fps_from_name("charleston1") is None
-    assert fps_from_name("take_5000") is None
+    assert fps_from_name("HDM_bd_take_20000") is None
     assert fps_from_name("120") is None
     assert fps_from_name("walk") is None
 
 
-def test_fps_comes_from_the_name(tmp_path):
+def test_fps_comes_from_the_hdm05_name_else_120(tmp_path):
     folder = _touch(tmp_path, "12.asf")
     body = mocapkit.samples.path("12_walk.amc").read_bytes()
-    for name, fps in [("12_walk_60.amc", 60.0), ("12_walk_01.amc", 120.0), ("12_walk.amc", 120.0)]:
+    for name, fps in [("12_walk_60.amc", 120.0), ("12_30.amc", 120.0), ("12_walk.amc", 120.0),
+                      ("12_HDM_bd_walk_001_60.amc", 120.0)]:
         (folder / name).write_bytes(body)
-        assert mocapkit.load(folder / name).fps == fps
+        assert mocapkit.load(folder / name).fps == fps, name
+    _copy(tmp_path, "12.asf", "HDM_bd.asf")
+    (folder / "HDM_bd_walk_001_60.amc").write_bytes(body)
+    assert mocapkit.load(folder / "HDM_bd_walk_001_60.amc").fps == 60.0
     assert mocapkit.load(folder / "12_walk_60.amc", fps=25).fps == 25.0
+
+
+def test_a_cmu_trial_numbered_30_reads_at_120_fps(shared_data, tmp_path):
+    """CMU names its takes SUBJECT_TRIAL: trial 30 of subject 86 is no 30 fps take (CMU captured at 120 Hz)."""
+    from mocapkit.io.asfamc import amc_rate
+
+    src = shared_data / "cmu_asfamc" / "11_01.amc"
+    (tmp_path / "86.asf").write_bytes((shared_data / "cmu_asfamc" / "11.asf").read_bytes())
+    (tmp_path / "86_30.amc").write_bytes(src.read_bytes())
+    m = read_amc(tmp_path / "86_30.amc")
+    ref = read_amc(src)
+    assert m.fps == ref.fps == 120.0 and m.num_frames == ref.num_frames == 597
+    assert m.duration == pytest.approx(4.975)
+    assert amc_rate(tmp_path / "86_30.amc") == (120.0, "default")
+    assert amc_rate(tmp_path / "86_30.amc", 60) == (60.0, "given")
+    assert amc_rate(shared_data / "hdm05_asfamc" / "HDM_bd_squat1Reps_001_120.amc") == (120.0, "name")
+
+
+def test_the_rate_a_file_states_in_its_comment_line_wins_over_the_name(tmp_path):
+    from mocapkit.io.asfamc import amc_rate, rate_comment
+
+    folder = _touch(tmp_path, "HDM_bd.asf")
+    body = mocapkit.samples.path("12_walk.amc").read_bytes()
+    assert rate_comment(60) == "# frame rate: 60 fps (mocapkit)"
+    assert rate_comment(30000 / 1001) == f"# frame rate: {30000 / 1001!r} fps (mocapkit)"
+    for fps in (60.0, 30000 / 1001, 2000.0):
+        amc = folder / "HDM_bd_walk_001_120.amc"
+        amc.write_bytes(rate_comment(fps).encode() + b"\n" + body)
+        assert read_amc(amc).fps == fps and amc_rate(amc) == (fps, "file")
+        assert read_amc(amc, fps=50).fps == 50.0
+    # a comment of anyone else's is no rate, and a comment after the first frame is not read for one
+    amc.write_bytes(b"# frame rate of the cameras was 60 fps\n" + body)
+    assert read_amc(amc).fps == 120.0
+    assert body.startswith(b"#!OML:ASF")  # the CMU header comment line the reader skips
+    first = re.search(rb"\n1\r?\n", body).end()
+    amc.write_bytes(body[:first] + rate_comment(60).encode() + b"\n" + body[first:])
+    assert read_amc(amc).fps == 120.0
+    amc.write_bytes(rate_comment(0.5).encode() + b"\n" + body)
+    with pytest.raises(MocapFormatError, match=r"HDM_bd_walk_001_120\.amc: frame rate: fps must be a positive number"):
+        read_amc(amc)
 
 
 def _copy(folder, name, new=None):
@@ -530,14 +577,14 @@ def test_amc_motions_round_trip_through_bvh_and_npz(tmp_path, shared_data):
             np.testing.assert_allclose(got, ref, atol=tol, rtol=0, err_msg=f"{f.name} via {suffix}")
 
 
-def test_a_frame_rate_outside_1_to_1000_fps_is_refused(tmp_path):
+def test_a_frame_rate_outside_1_to_10000_fps_is_refused(tmp_path):
     amc = mocapkit.samples.path("12_walk.amc")
     asf = mocapkit.samples.path("12.asf")
     for fps in (0.01, 1e6):
         with pytest.raises(MocapFormatError) as exc:
             read_amc(amc, asf=asf, fps=fps)
         assert str(exc.value) == (
-            f"{amc}: frame rate: fps must be a positive number from 1 to 1000 (frames per second), got {fps!r}"
+            f"{amc}: frame rate: fps must be a positive number from 1 to 10000 (frames per second), got {fps!r}"
         )
 
 

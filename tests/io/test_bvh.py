@@ -290,13 +290,30 @@ def test_root_offset_and_position_channels(tmp_path, offset, channels, expect):
 @pytest.mark.parametrize(
     "frame_time, fps", [
         (".0083333", 120.0), ("0.0333333", 30.0), ("0.04", 25.0), ("1", 1.0), ("8.3333e-03", 120.0),
-        ("0.0104167", 96.0), ("0.0333667", 1 / 0.0333667), ("0.0125001", 1 / 0.0125001), ("0.1234", 1 / 0.1234),
+        ("0.0104167", 96.0), ("0.0125001", 1 / 0.0125001), ("0.1234", 1 / 0.1234),
+        # NTSC rates at the digits shown (29.97 written to 6 or 7 decimals), not 29.9697
+        ("0.033367", 30000 / 1001), ("0.0333667", 30000 / 1001), ("0.03337", 30000 / 1001),
+        ("0.016683", 60000 / 1001), ("0.041708", 24000 / 1001), ("0.0333", 1 / 0.0333),
     ]
 )
 def test_frame_time_to_fps(tmp_path, frame_time, fps):
     path = tmp_path / "ft.bvh"
     path.write_text(bvh_text("ROOT r\n{\nCHANNELS 1 Xposition\n}", [[1.0]], frame_time=frame_time))
     assert read_bvh(path).fps == fps
+
+
+@pytest.mark.parametrize("fps", [29.97, 30000 / 1001, 59.94, 60000 / 1001, 119.88, 23.976, 50.5, 2000.0, 120.0])
+def test_a_rate_mocapkit_writes_reads_back_exactly(tmp_path, fps):
+    """The writer prints 1 / fps in full (repr); 1 / that is not always fps (29.970000000000002): the reader takes
+    the rate with fewest decimals whose 1 / fps is the number printed."""
+    src = mocapkit.samples.path("131_01.bvh")
+    m = dataclasses.replace(read_bvh(src), fps=fps)
+    out = tmp_path / "r.bvh"
+    write_bvh(m, out)
+    assert read_bvh(out).fps == fps
+    same = tmp_path / "same.bvh"
+    write_bvh(read_bvh(src), same, like=src)
+    assert same.read_bytes() == src.read_bytes()  # an untouched BVH keeps its Frame Time text
 
 
 def test_nan_values_read_and_write(tmp_path, rng):
@@ -519,19 +536,19 @@ def test_unknown_suffix_and_missing_file(tmp_path):
         mocapkit.load(tmp_path / "absent.bvh")
 
 
-def test_a_frame_rate_outside_1_to_1000_fps_is_refused_at_reading(tmp_path):
+def test_a_frame_rate_outside_1_to_10000_fps_is_refused_at_reading(tmp_path):
     # 300 frames with "Frame Time: 1000" (0.001 fps): `clean` once resampled it to 7,176,001 frames (24 GB)
     m = mocapkit.load(mocapkit.samples.path("131_01.bvh"))[:300]
     good = tmp_path / "good.bvh"
     write_bvh(m, good)
     lines = good.read_text().split("\n")
     k = next(i for i, s in enumerate(lines) if s.startswith("Frame Time:"))
-    for frame_time, bad in (("1000", "0.001"), ("0.0001", "10000.0")):
+    for frame_time, bad in (("1000", "0.001"), ("0.00001", "100000.0")):
         lines[k] = f"Frame Time: {frame_time}"
         slow = tmp_path / f"rate_{frame_time}.bvh"
         slow.write_text("\n".join(lines))
         msg = refusal_of_load(slow)
-        assert msg.startswith(f"{slow}:{k + 1}: Frame Time {frame_time} s: fps must be a positive number from 1 to 1000")
+        assert msg.startswith(f"{slow}:{k + 1}: Frame Time {frame_time} s: fps must be a positive number from 1 to 10000 ")
         assert msg.endswith(f"got {bad}")
 
 

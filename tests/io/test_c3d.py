@@ -68,6 +68,7 @@ def write_c3d(path, n_frames=20, n_markers=3, rate=100.0):
     c = ezc3d.c3d()
     c["parameters"]["POINT"]["RATE"]["value"] = np.array([rate])
     c["parameters"]["POINT"]["LABELS"]["value"] = tuple(f"M{i}" for i in range(n_markers))
+    c["parameters"]["POINT"]["UNITS"]["value"] = ["mm"]  # stated: a few markers 100 mm apart fit no unit by their span
     t = np.arange(n_frames)
     pts = np.ones((4, n_markers, n_frames))
     pts[:3] = (np.arange(n_markers)[None, :, None] * 100.0 + t[None, None, :]) * np.array([1.0, 2.0, 3.0])[:, None, None]
@@ -76,14 +77,15 @@ def write_c3d(path, n_frames=20, n_markers=3, rate=100.0):
     return path
 
 
-def test_a_point_rate_outside_1_to_1000_fps_is_refused(tmp_path):
+def test_a_point_rate_outside_1_to_10000_fps_is_refused(tmp_path):
     assert read_c3d(write_c3d(tmp_path / "ok.c3d", rate=1000.0)).fps == 1000.0
+    assert read_c3d(write_c3d(tmp_path / "fast.c3d", rate=2000.0)).fps == 2000.0  # a high-speed capture
     for rate in (0.01, 20000.0):
         bad = write_c3d(tmp_path / f"rate_{rate:g}.c3d", rate=rate)
         with pytest.raises(MocapFormatError) as exc:
             read_c3d(bad)
         msg = str(exc.value)
-        assert msg.startswith(f"{bad}: point frame rate must be a positive number from 1 to 1000"), msg
+        assert msg.startswith(f"{bad}: point frame rate must be a positive number from 1 to 10000 "), msg
         assert "\n" not in msg
 
 
@@ -216,6 +218,7 @@ def test_a_file_ezc3d_writes_with_a_point_scale_is_read(tmp_path):
     c["parameters"]["POINT"]["RATE"]["value"] = np.array([100.0])
     c["parameters"]["POINT"]["LABELS"]["value"] = ("A", "B")
     c["parameters"]["POINT"]["SCALE"]["value"] = np.array([-0.1])  # header scale -1, POINT:SCALE -0.1
+    c["parameters"]["POINT"]["UNITS"]["value"] = ["mm"]
     pts = np.ones((4, 2, 10))
     pts[:3] = np.arange(60).reshape(3, 2, 10) * 10.0
     c["data"]["points"] = pts
@@ -729,6 +732,23 @@ def test_parameter_names_keep_their_case_through_the_pure_python_reader(tmp_path
     back = ezc3d.c3d(str(save_markers(ms, tmp_path / "back.c3d")))["parameters"]
     assert list(back["SUBJECT"]["Address"]["value"]) == ["12 Main St"] and list(back["Lab_Info"]["Room"]["value"]) == ["B2"]
     assert "ADDRESS" not in back["SUBJECT"] and "LAB_INFO" not in back
+
+
+@pytest.mark.parametrize("name", ["Gait.c3d", "Dance.c3d", "golfswing.c3d"])
+def test_a_c3d_whose_point_units_is_blank_is_read_in_the_unit_its_marker_distances_fit(shared_data, tmp_path, name):
+    src = shared_data / "c3d_markers" / name
+    data = bytearray(src.read_bytes())
+    at = parameter_offset(bytes(data), "POINT", "UNITS")
+    size = data[at - 1]  # one dimension: the text's length
+    assert bytes(data[at:at + size]).strip(b" \x00") == b"mm"
+    data[at:at + size] = b" " * size
+    blank = tmp_path / name
+    blank.write_bytes(bytes(data))
+    stated, read = read_c3d(src), read_c3d(blank)
+    assert (stated.units, stated.units_from) == ("mm", "file")
+    assert (read.units, read.units_from) == ("mm", "data")
+    np.testing.assert_array_equal(read.positions, stated.positions)
+    assert read_c3d(blank, units="cm").units_from == "given"
 
 
 def _ezc3d_cut_short(monkeypatch, keep: int, finished: bool = False):

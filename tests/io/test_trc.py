@@ -126,7 +126,7 @@ def test_a_non_round_rate_survives(tmp_path):
 @pytest.mark.parametrize("text, reason, line", [
     ("hello\n", "not a TRC file: the first line starts with 'hello', not 'PathFileType'", 1),
     ("PathFileType\t4\t(X/Y/Z)\tx\nDataRate\tUnits\n0\tmm\nFrame#\tTime\tA\n\t\tX1\tY1\tZ1\n\n1\t0\t1\t2\t3\n",
-     "DataRate must be a positive number from 1 to 1000 (frames per second), got 0.0", 3),
+     "DataRate must be a positive number from 1 to 10000 (frames per second), got 0.0", 3),
     ("PathFileType\t4\t(X/Y/Z)\tx\nDataRate\tUnits\n100\tparsecs\nFrame#\tTime\tA\n\t\tX1\tY1\tZ1\n\n1\t0\t1\t2\t3\n",
      "unknown length unit 'parsecs'", None),
     ("PathFileType\t4\t(X/Y/Z)\tx\nDataRate\tUnits\n100\tmm\nFrame#\tTime\tA\n\t\tX1\tY1\tZ1\n\n1\t0\t1\tabc\t3\n",
@@ -581,6 +581,7 @@ def test_a_c3d_with_an_empty_and_a_repeated_label_converts_to_trc_and_back(tmp_p
     c = ezc3d.c3d()
     c["parameters"]["POINT"]["RATE"]["value"] = np.array([100.0])
     c["parameters"]["POINT"]["LABELS"]["value"] = ("A", "", "A")
+    c["parameters"]["POINT"]["UNITS"]["value"] = ["mm"]  # stated: these points fit no unit by their span
     pts = np.ones((4, 3, 5))
     pts[:3] = np.arange(45).reshape(3, 3, 5) + 1.0
     c["data"]["points"] = pts
@@ -637,3 +638,56 @@ def test_a_column_without_a_label_is_an_unlabelled_trajectory_and_stays_one(tmp_
     for out in (part, save_markers(ms, tmp_path / "t.npz")):
         back = load_markers(out)
         assert back.labels == ms.labels and back.unlabelled().tolist() == [False, False, True], out.name
+
+
+def _blank_units(src, dst, scale=None, tmp=None):
+    """``src`` TRC copied to ``dst`` with its Units field emptied; with ``scale``, first rewritten (by the TRC
+    writer) with every coordinate times ``scale`` and the unit that makes (mm * 0.001: m)."""
+    if scale is not None:
+        ms = read_trc(src)
+        unit = {0.001: "m", 0.1: "cm", 1.0: "mm"}[scale]
+        scaled = MarkerSet(labels=ms.labels, positions=ms.positions * scale, fps=ms.fps, units=unit, name=ms.name)
+        src = tmp / f"scaled_{unit}.trc"
+        write_trc(scaled, src, decimals=8)
+    lines = src.read_text().split("\n")
+    keys, values = lines[1].split("\t"), lines[2].split("\t")
+    values[keys.index("Units")] = ""
+    lines[2] = "\t".join(values)
+    dst.write_text("\n".join(lines))
+    return dst
+
+
+@pytest.mark.parametrize("name", ["Gait.trc", "SprintMotion.trc", "T.trc"])
+def test_a_trc_that_states_no_unit_is_read_in_the_unit_its_marker_distances_fit(shared_data, tmp_path, name):
+    src = _file(shared_data, f"{TRC}/{name}")
+    stated = read_trc(src)
+    assert (stated.units, stated.units_from) == ("mm", "file")
+    mm = read_trc(_blank_units(src, tmp_path / "mm.trc"))
+    assert (mm.units, mm.units_from) == ("mm", "data")
+    np.testing.assert_array_equal(mm.positions, stated.positions)
+    m = read_trc(_blank_units(src, tmp_path / "m.trc", scale=0.001, tmp=tmp_path))
+    assert (m.units, m.units_from) == ("m", "data")  # read as mm before: a body 1.8 mm tall
+    np.testing.assert_allclose(m.positions * 1000, stated.positions, atol=1e-4)
+    assert read_trc(tmp_path / "m.trc", units="m").units_from == "given"
+
+
+def test_a_unit_the_data_cannot_tell_is_asked_for_and_a_given_one_must_agree_with_the_file(shared_data, tmp_path):
+    src = _file(shared_data, f"{TRC}/Gait.trc")
+    cm = _blank_units(src, tmp_path / "cm.trc", scale=0.1, tmp=tmp_path)  # 1.2 m spans 120 units: neither mm nor m
+    msg = refusal_of_load(cm)
+    assert msg == (f"{cm}: the file states no length unit and its marker distances fit neither mm nor m; "
+                   "name it with --unit mm|cm|m|in (Python: units=)")
+    ms = read_trc(cm, units="cm")
+    assert (ms.units, ms.units_from, ms.unit_cm) == ("cm", "given", 1.0)
+    with pytest.raises(MocapFormatError, match=r"Gait\.trc: the file states its unit is 'mm', not 'm': --unit is for"):
+        read_trc(src, units="m")
+    assert read_trc(src, units="mm").units_from == "file"
+
+
+def test_a_take_read_in_an_inferred_unit_is_written_back_byte_for_byte(shared_data, tmp_path):
+    src = _blank_units(_file(shared_data, f"{TRC}/T.trc"), tmp_path / "t.trc", scale=0.001, tmp=tmp_path)
+    ms = read_trc(src)
+    assert ms.units == "m"
+    out = tmp_path / "out.trc"
+    save_markers(ms, out)
+    assert out.read_bytes() == src.read_bytes()  # the empty Units field kept, every row the file's

@@ -9,8 +9,8 @@ from typing import Optional
 import typer
 
 from ..errors import MocapError, MocapFormatError
-from .common import (STEPS_HELP, asf_option, check_executor, console, context_option, executor_option, guard,
-                     overwrite_option, percent, plural)
+from .common import (STEPS_HELP, amc_fps_option, asf_option, check_executor, console, context_option, executor_option,
+                     guard, overwrite_option, percent, plural, unit_option)
 
 
 def _steps(text: str) -> list[str]:
@@ -55,6 +55,8 @@ def clean(
     ebf: Optional[Path] = _model_option("ebf"),
     ebd: Optional[Path] = _model_option("ebd"),
     asf: Optional[Path] = asf_option(),
+    amc_fps: Optional[float] = amc_fps_option(),
+    unit: Optional[str] = unit_option(),
     overwrite: bool = overwrite_option(),
 ) -> None:
     """Clean a take: fill gaps, detect and repair erroneous joints, denoise only the noisy cells.
@@ -87,16 +89,18 @@ def clean(
         guard([out, report, png], [inp, asf, context, reference, decisions, record, ebf, ebd], overwrite)
     else:
         guard([out, clean_path(out), report, png], [inp, asf, context, reference, decisions, ebf, ebd], overwrite)
-    check_asf(asf, [inp, reference])
-    if _clean_marker_take(inp, out, report=report, png=png, overwrite=overwrite, not_for_markers=not_for_markers):
+    check_asf(asf, [inp, reference], amc_fps)
+    if _clean_marker_take(inp, out, report=report, png=png, overwrite=overwrite, not_for_markers=not_for_markers,
+                          unit=unit):
         return
     models = _models(ebf, ebd)
     skeleton = asf_of(inp, asf)
     skeleton_copy = asf_for_output(out, skeleton, overwrite)  # an AMC output reads back with its ASF beside it
-    take = load_motion(inp, asf, purpose="clean")
+    take = load_motion(inp, asf, purpose="clean", fps=amc_fps, unit=unit)
     ref = None
     if reference is not None:  # refused before cleaning, not after OUT is written
-        ref = check_reference(load_motion(reference, asf, purpose="a reference"), reference, frames=take.num_frames,
+        ref = check_reference(load_motion(reference, asf, purpose="a reference", fps=amc_fps, unit=unit), reference,
+                              frames=take.num_frames,
                               joint_names=take.skeleton.joint_names)
     original, res = clean_file(inp, out, context=context, steps=step_list, threshold=threshold, report=report, png=png,
                                progress=True, asf=asf if inp.suffix.lower() == ".amc" else None, overwrite=overwrite,
@@ -217,10 +221,12 @@ def _print_decided(inp, out, decisions, record, report, png, original, res):
     return dec.apply(original, res, choice)
 
 
-def _clean_marker_take(inp: Path, out: Path, *, report, png, overwrite: bool, not_for_markers: list[str]) -> bool:
+def _clean_marker_take(inp: Path, out: Path, *, report, png, overwrite: bool, not_for_markers: list[str],
+                       unit: str | None = None) -> bool:
     """Clean ``inp`` as a marker capture when it is one (writing OUT, its record and reports); False for a motion.
 
-    ``not_for_markers``: the options given that apply only to joint-angle takes, refused for a marker capture.
+    ``not_for_markers``: the options given that apply only to joint-angle takes, refused for a marker capture;
+    ``unit``: ``--unit``, the length unit of a file that states none.
     """
     from ..batch import clean_marker_file, refuse_marker_options
     from ..cleaning.pipeline import clean_path
@@ -230,7 +236,7 @@ def _clean_marker_take(inp: Path, out: Path, *, report, png, overwrite: bool, no
 
     if inp.suffix.lower() not in (".c3d", ".trc", ".npz"):
         return False
-    take = load_take(inp)
+    take = load_take(inp, unit=unit)
     if not isinstance(take, MarkerSet):
         return False
     refuse_marker_options(inp, not_for_markers)
@@ -239,6 +245,9 @@ def _clean_marker_take(inp: Path, out: Path, *, report, png, overwrite: bool, no
     console.print(f"wrote {out} and {clean_path(out)}{extra}: {plural(take.num_frames, 'frame')} x "
                   f"{plural(take.num_markers, 'marker')}, {int(res.changed.sum())} of "
                   f"{plural(res.changed.size, 'marker sample')} changed")
+    if take.units_from != "file":  # the unit every mm figure below rests on
+        how = "given with --unit" if take.units_from == "given" else "inferred from the marker distances; --unit sets it"
+        console.print(f"  length unit {take.units}: the file states none ({how})")
     for line in res.summary():
         console.print(f"  {line}")
     for note in marker_notes(take, out, inp):  # what the reader did, what OUT's format cannot hold
@@ -290,6 +299,8 @@ def clean_batch(
     ebf: Optional[Path] = _model_option("ebf"),
     ebd: Optional[Path] = _model_option("ebd"),
     asf: Optional[Path] = asf_option(),
+    amc_fps: Optional[float] = amc_fps_option(),
+    unit: Optional[str] = unit_option(),
     overwrite: bool = typer.Option(
         False, "--overwrite",
         help="Replace existing outputs that are not complete takes of an earlier run (without it they are refused; "
@@ -316,7 +327,7 @@ def clean_batch(
     try:
         summary = run_batch(in_dir, out_dir, context=context, steps=step_list, threshold=threshold, patterns=patterns,
                             fmt=fmt, report=report, png=png, executor=executor, progress=not as_json,
-                            overwrite=overwrite, asf=asf, drifts=drifts, models=models)
+                            overwrite=overwrite, asf=asf, drifts=drifts, models=models, amc_fps=amc_fps, unit=unit)
     except KeyboardInterrupt:  # "no partial output" alone reads as if nothing was kept
         if out_dir.is_dir() and any(out_dir.rglob("*.clean.npz")):
             console.print(f"note: the takes finished in {out_dir} are kept; the same command resumes the others")

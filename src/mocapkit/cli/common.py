@@ -23,6 +23,8 @@ __all__ = [
     "print_table",
     "overwrite_option",
     "asf_option",
+    "amc_fps_option",
+    "unit_option",
     "context_option",
     "CONTEXT_HELP",
     "executor_option",
@@ -46,6 +48,22 @@ def overwrite_option():
 def asf_option():
     """The ``--asf`` option of every command that reads AMC files."""
     return typer.Option(None, "--asf", help="Skeleton (.asf) for the .amc input(s) and reference (default: the ASF beside each AMC).")
+
+
+def amc_fps_option():
+    """The ``--amc-fps`` option of every command that reads AMC files (an AMC states no rate of its own)."""
+    return typer.Option(None, "--amc-fps", metavar="FPS",
+                        help="Frame rate of the .amc input(s) and reference (default: the rate the file states in "
+                             "mocapkit's comment line, else the one an HDM05 name ends with, else 120, the CMU and "
+                             "HDM05 rate).")
+
+
+def unit_option():
+    """The ``--unit`` option of the commands that measure lengths (:func:`mocapkit.io.takes.with_unit`)."""
+    return typer.Option(None, "--unit", metavar="mm|cm|m|in",
+                        help="Length unit of the input(s) and reference where the file states none (a BVH; a marker "
+                             "file with an empty unit field). Default: read from the bones, assuming an adult, or from "
+                             "the marker distances.")
 
 
 CONTEXT_HELP = ("What the take is compared with: a motion database folder, a folder of takes or motion files "

@@ -9,7 +9,7 @@ from typing import Optional
 import typer
 
 from ..errors import MocapError, MocapFormatError
-from .common import asf_option, check_executor, console, database_rows, executor_option, plural, print_fields, print_table
+from .common import amc_fps_option, asf_option, check_executor, console, database_rows, executor_option, plural, print_fields, print_table
 
 db_app = typer.Typer(
     help="Build and inspect motion databases (the knowledge that search and cleaning compare against).",
@@ -48,11 +48,12 @@ def db_build(
     ),
 ) -> None:
     """Build a motion database from FILES and save it to OUT_DIR."""
-    from ..database import MotionDatabase, check_database_output
-    from ..motion import check_fps
+    from ..database import FPS_RANGE, MotionDatabase, check_database_output
     from ..parallel import describe_executor
 
-    check_fps(fps, "--fps")  # before any work, naming the option
+    if not FPS_RANGE[0] <= fps <= FPS_RANGE[1]:  # before any work, naming the option (a database's own range)
+        raise MocapError(f"--fps must be a positive number from {FPS_RANGE[0]:g} to {FPS_RANGE[1]:g} (frames per second) "
+                         f"for a database, got {fps:g}")
     check_database_output(out_dir, [*files, *([joint_map] if joint_map is not None else [])], overwrite=overwrite)
     check_executor(executor)
     jm = _read_joint_map(joint_map) if joint_map is not None else None
@@ -100,6 +101,7 @@ def search(
     end: Optional[float] = typer.Option(None, "--end", help="Use the query up to this time (s; past its end: to its end)."),
     as_json: bool = typer.Option(False, "--json", help="Print the matches as JSON."),
     asf: Optional[Path] = asf_option(),
+    amc_fps: Optional[float] = amc_fps_option(),
 ) -> None:
     """Rank the database segments most similar to QUERY (numerical similarity search)."""
     from ..database import MotionDatabase
@@ -107,9 +109,9 @@ def search(
 
     if k < 1 or neighbors < 1:  # before any work, naming the option
         raise MocapError(f"{'--k' if k < 1 else '--neighbors'} must be a positive integer, got {min(k, neighbors)}")
-    check_asf(asf, [query])
+    check_asf(asf, [query], amc_fps)
     db = MotionDatabase.open(db_dir)
-    m = load_motion(query, asf, purpose="a query")
+    m = load_motion(query, asf, purpose="a query", fps=amc_fps)
     a = 0 if start is None else int(round(start * m.fps))
     b = m.num_frames if end is None else min(int(round(end * m.fps)), m.num_frames)  # --end past the clip: its end
     if not 0 <= a < b <= m.num_frames:

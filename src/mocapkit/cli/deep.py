@@ -8,7 +8,8 @@ from typing import Optional
 import typer
 
 from ..errors import MocapError, MocapFormatError, SkeletonError
-from .common import asf_option, check_executor, console, executor_option, guard, overwrite_option, plural, save_take
+from .common import (amc_fps_option, asf_option, check_executor, console, executor_option, guard, overwrite_option,
+                     plural, save_take, unit_option)
 
 
 def _model(path: Optional[Path], kind: str):
@@ -20,14 +21,15 @@ def _model(path: Optional[Path], kind: str):
     return deep.load_model(path, kind)
 
 
-def _reference(path: Optional[Path], take, asf: Optional[Path] = None):
+def _reference(path: Optional[Path], take, asf: Optional[Path] = None, fps: Optional[float] = None,
+               unit: Optional[str] = None):
     """``--reference``, read and checked against ``take`` (same joints and frames) before any work."""
     from ..io.takes import load_motion
     from ..reference import check_reference
 
     if path is None:
         return None
-    return check_reference(load_motion(path, asf, purpose="a reference"), path, frames=take.num_frames,
+    return check_reference(load_motion(path, asf, purpose="a reference", fps=fps, unit=unit), path, frames=take.num_frames,
                            joint_names=take.skeleton.joint_names)
 
 
@@ -36,7 +38,8 @@ def _marker_reason(command: str) -> str:
             "marker files (fills gaps, removes spikes, undoes swaps)")
 
 
-def _motion_for(inp: Path, out: Path, asf: Optional[Path], command: str):
+def _motion_for(inp: Path, out: Path, asf: Optional[Path], command: str, fps: Optional[float] = None,
+                unit: Optional[str] = None):
     """IN read as a motion once OUT's suffix is checked; a marker capture is refused in one line naming IN (before
     OUT's suffix, which would be the wrong complaint: a .c3d or .trc by its suffix, a marker .npz once read)."""
     from .. import io
@@ -52,7 +55,7 @@ def _motion_for(inp: Path, out: Path, asf: Optional[Path], command: str):
         if inp.suffix.lower() != ".npz" or not inp.is_file():
             raise
         bad_out = exc  # a marker .npz is named as one first
-    take = load_take(inp, asf)
+    take = load_take(inp, asf, fps=fps, unit=unit)
     if not isinstance(take, Motion):
         raise MocapFormatError(inp, _marker_reason(command))
     if bad_out is not None:
@@ -84,6 +87,8 @@ def denoise(
     reference: Optional[Path] = typer.Option(None, "--reference", help="A clean take to report the error against."),
     no_fallback: bool = _no_fallback_option(),
     asf: Optional[Path] = asf_option(),
+    amc_fps: Optional[float] = amc_fps_option(),
+    unit: Optional[str] = unit_option(),
     overwrite: bool = overwrite_option(),
 ) -> None:
     """Denoise every joint angle with the EBF network (Mall et al. 2017); the root trajectory is kept.
@@ -98,13 +103,13 @@ def denoise(
     from ..reference import joint_angle_errors
 
     guard([out], [inp, asf, model, reference], overwrite)
-    check_asf(asf, [inp, reference])
-    m = _motion_for(inp, out, asf, "denoise")
+    check_asf(asf, [inp, reference], amc_fps)
+    m = _motion_for(inp, out, asf, "denoise", amc_fps, unit)
     if m.num_frames < noise_fit_frames(m.fps):  # as clean skips it: too few frames to tell noise from motion
         raise MocapError(f"{inp}: {plural(m.num_frames, 'frame')} is shorter than the noise criterion's fit "
                          f"({noise_fit_frames(m.fps)} frames): too short to denoise")
     io.check_writable(m, out)
-    ref = _reference(reference, m, asf)
+    ref = _reference(reference, m, asf, amc_fps, unit)
     from ..cleaning import deep  # torch: only once the input is read (a bad file fails at once)
 
     net = _model(model, "ebf")
@@ -142,6 +147,8 @@ def fill(
                                                                      "(IN in OUT's format)."),
     no_fallback: bool = _no_fallback_option(),
     asf: Optional[Path] = asf_option(),
+    amc_fps: Optional[float] = amc_fps_option(),
+    unit: Optional[str] = unit_option(),
     overwrite: bool = overwrite_option(),
 ) -> None:
     """Fill missing joints with the EBD model (its gap prior or the network, + EBF); observed values are kept bit-identical.
@@ -161,10 +168,10 @@ def fill(
     if by not in deep.FILL_METHODS:
         raise MocapError(f"--by must be one of {', '.join(deep.FILL_METHODS)}, got {by!r}")
     guard([out], [inp, asf, model, denoiser, reference], overwrite)
-    check_asf(asf, [inp, reference])
-    m = _motion_for(inp, out, asf, "fill")
+    check_asf(asf, [inp, reference], amc_fps)
+    m = _motion_for(inp, out, asf, "fill", amc_fps, unit)
     io.check_writable(m, out)
-    ref = _reference(reference, m, asf)
+    ref = _reference(reference, m, asf, amc_fps, unit)
     ebd, ebf = _model(model, "ebd"), _model(denoiser, "ebf")
     missing = m.missing()
     n = int(missing.sum())

@@ -10,7 +10,8 @@ from typing import Optional
 import typer
 
 from ..errors import MocapError, MocapFormatError
-from .common import asf_option, console, database_rows, guard, overwrite_option, plural, print_fields, print_table, save_take
+from .common import (amc_fps_option, asf_option, console, database_rows, guard, overwrite_option, plural, print_fields,
+                     print_table, save_take, unit_option)
 
 
 def info(
@@ -19,6 +20,8 @@ def info(
                                           "checkpoint, a knowledge base, a decisions file, a batch mark."),
     joints: bool = typer.Option(False, "--joints", help="Also list every joint with its parent and channels."),
     asf: Optional[Path] = asf_option(),
+    amc_fps: Optional[float] = amc_fps_option(),
+    unit: Optional[str] = unit_option(),
 ) -> None:
     """Print the skeleton, frame count, frame rate, duration and missing data of FILE (or what a mocapkit file holds)."""
     from ..io.c3d import MarkerSet
@@ -26,15 +29,15 @@ def info(
     from ..motion import ROLES, standard_joints, unit_scale_cm
     from ..rigs import rig_family, roles_by_topology
 
-    check_asf(asf, [file])
+    check_asf(asf, [file], amc_fps)
     if _info_of_own_file(file):  # a database, a cleaning record, a detection, a mask or a model: not a take
         return
-    obj = load_take(file, asf)
+    obj = load_take(file, asf, fps=amc_fps, unit=unit)
     rows = [("file", str(file))]
     if isinstance(obj, MarkerSet):
         rows += [("kind", f"markers (read with {obj.reader})"), ("markers", str(obj.num_markers)),
                  ("frames", str(obj.num_frames)), ("fps", f"{obj.fps:g}"),
-                 ("duration", f"{obj.num_frames / obj.fps:.3f} s"), ("units", obj.units),
+                 ("duration", f"{obj.num_frames / obj.fps:.3f} s"), ("units", obj.units + _UNITS_FROM[obj.units_from]),
                  ("missing", f"{100.0 * obj.missing().mean():.2f} % of marker samples")]
         print_fields(rows)
         if joints:
@@ -44,12 +47,15 @@ def info(
     miss = m.missing()
     rows += [("kind", "motion"), ("name", m.name),
              ("joints", f"{plural(sk.num_joints, 'joint')} (+{plural(sk.num_end_sites, 'end site')}), root {sk.joint_names[0]!r}"),
-             ("frames", str(m.num_frames)), ("fps", f"{m.fps:g}"), ("duration", f"{m.duration:.3f} s")]
+             ("frames", str(m.num_frames)), ("fps", f"{m.fps:g}" + _amc_rate_note(file, amc_fps)),
+             ("duration", f"{m.duration:.3f} s")]
     roles = standard_joints(sk)
     missing_roles = [r for r in ROLES if r not in roles]
     try:
         scale = unit_scale_cm(sk)
-        rows.append(("length unit", f"{scale:.4g} cm" + (" (stated by the file)" if sk.unit_cm else " (from bone lengths)")))
+        how = " (given with --unit)" if unit is not None else " (stated by the file)"
+        rows.append(("length unit", f"{scale:.4g} cm" + (how if sk.unit_cm else " (from bone lengths, assuming an adult; "
+                                                                              "--unit mm|cm|m|in sets it)")))
     except (MocapError, KeyError) as exc:  # KeyError: a rig without the human joints the estimate measures
         reason = exc.args[0] if isinstance(exc, KeyError) and exc.args else exc
         rows.append(("length unit", f"unknown ({reason})"))
@@ -69,6 +75,21 @@ def info(
                      for j, name in enumerate(sk.joint_names)))
 
 
+_UNITS_FROM = {"file": "", "given": " (given with --unit; the file states none)",
+               "data": " (the file states none: inferred from the marker distances; --unit sets it)"}
+
+
+def _amc_rate_note(path: Path, given: float | None) -> str:
+    """Where an AMC's frame rate comes from, for ``info`` (an AMC has no field for it); "" for other files."""
+    if path.suffix.lower() != ".amc":
+        return ""
+    from ..io.asfamc import amc_rate
+
+    return {"given": " (given with --amc-fps)", "file": " (stated in the file's mocapkit comment line)",
+            "name": " (from the HDM05 file name)",
+            "default": " (the file states none: 120, the CMU and HDM05 rate; --amc-fps sets it)"}[amc_rate(path, given)[1]]
+
+
 def convert(
     inp: Path = typer.Argument(..., metavar="IN", help="Input take (.bvh, .amc, .npz) or marker file (.c3d, .trc, marker .npz)."),
     out: Path = typer.Argument(..., metavar="OUT", help="Output, chosen by suffix: .bvh, .amc (a take read from ASF/AMC) or .npz for a motion; .c3d, .trc or .npz for markers."),
@@ -77,23 +98,29 @@ def convert(
         None, "--zeros-as-gaps/--keep-zeros",
         help="Marker files: read samples at exactly (0, 0, 0) as gaps, or keep them (default: decided from the data)."),
     asf: Optional[Path] = asf_option(),
+    amc_fps: Optional[float] = amc_fps_option(),
+    unit: Optional[str] = unit_option(),
     overwrite: bool = overwrite_option(),
 ) -> None:
     """Convert IN to OUT: a motion between BVH, AMC and npz (optionally resampled to --fps), markers between C3D, TRC and npz."""
     from .. import io
-    from ..io.takes import check_asf, load_take
+    from ..io.takes import check_asf, check_unit, load_take
     from ..motion import Motion, check_fps
 
     if fps is not None:
         check_fps(fps, "--fps")  # before any work, naming the option
     guard([out], [inp, asf], overwrite)
-    check_asf(asf, [inp])
+    check_asf(asf, [inp], amc_fps)
+    check_unit(unit)
     marker_input = inp.suffix.lower() in (".c3d", ".trc")
     if marker_input:
         io.suffix_kind(out, io.MARKER_FORMATS, "writing markers")
     else:
         io.suffix_kind(out, {**io.WRITERS, **io.MARKER_FORMATS} if inp.suffix.lower() == ".npz" else io.WRITERS, "writing")
-    m = io.load_markers(inp, zeros_as_gaps=zeros_as_gaps) if marker_input else load_take(inp, asf)
+    if marker_input:
+        m = io.load_markers(inp, zeros_as_gaps=zeros_as_gaps, **({} if unit is None else {"units": unit}))
+    else:
+        m = load_take(inp, asf, fps=amc_fps, unit=unit)
     if not isinstance(m, Motion):
         if fps is not None:
             raise MocapFormatError(inp, "--fps resamples joint angles; a marker file converts at its own rate")
@@ -132,6 +159,8 @@ def corrupt(
         None, "--mask", help="Ground-truth mask file (default: OUT with suffix .mask.npz)."
     ),
     asf: Optional[Path] = asf_option(),
+    amc_fps: Optional[float] = amc_fps_option(),
+    unit: Optional[str] = unit_option(),
     overwrite: bool = overwrite_option(),
 ) -> None:
     """Corrupt IN with known ground truth; writes OUT and a .mask.npz of what changed."""
@@ -149,9 +178,9 @@ def corrupt(
                                                 "(.c3d, .trc)")
     mask_path = mask_out or mask_path_for(out)
     guard([out, mask_path], [inp, asf], overwrite)
-    check_asf(asf, [inp])
+    check_asf(asf, [inp], amc_fps)
     io.suffix_kind(out, io.WRITERS, "writing")
-    m = load_motion(inp, asf, purpose="corrupt")
+    m = load_motion(inp, asf, purpose="corrupt", fps=amc_fps, unit=unit)
     io.check_writable(m, out)
     params = {} if amount is None else {"amount": amount}
     try:
@@ -178,6 +207,7 @@ def plot(
     out: Path = typer.Option(..., "-o", "--out", help="PNG to write."),
     mask: Optional[Path] = typer.Option(None, "--mask", help="A .mask.npz from `mocapkit corrupt` to shade (default: the first OTHER's, if present)."),
     asf: Optional[Path] = asf_option(),
+    amc_fps: Optional[float] = amc_fps_option(),
     overwrite: bool = overwrite_option(),
 ) -> None:
     """Plot the rotation channels of one joint of two or more takes over time, as a PNG."""
@@ -188,10 +218,10 @@ def plot(
     implicit = mask_path_for(others[0])
     mask_path = mask if mask is not None else (implicit if implicit.is_file() else None)
     guard([out], [reference, *others, asf, mask_path], overwrite)
-    check_asf(asf, [reference, *others])
+    check_asf(asf, [reference, *others], amc_fps)
     if out.suffix.lower() != ".png":
         raise MocapFormatError(out, "the plot is written as .png")
-    motions = [load_motion(p, asf, purpose="plot") for p in (reference, *others)]
+    motions = [load_motion(p, asf, purpose="plot", fps=amc_fps) for p in (reference, *others)]
     motions, redrawn = _in_reference_channels(motions)
     _check_plot_joint(joint, [reference, *others], motions)
     mask_arr = None
@@ -267,6 +297,24 @@ def _info_of_own_file(path: Path) -> bool:
                       ("flagged", plural(int(res.flags.sum()), "joint sample"))])
         for line in res.summary():
             console.print(f"  {line}")
+        return True
+    if name.endswith(".clean.npz") and {"kind", "changed", "labels"} <= keys:
+        from ..cleaning.markers.record import read_marker_record
+
+        rec = read_marker_record(path)
+        rows = [("file", str(path)), ("kind", "marker cleaning record (mocapkit clean of a marker capture)"),
+                ("frames", str(rec.num_frames)), ("markers", str(len(rec.labels))),
+                ("changed", f"{plural(int(rec.changed.sum()), 'marker sample')} (filled {int(rec.filled.sum())}, "
+                            f"spikes removed {int(rec.spikes.sum())}, re-labelled {int(rec.swapped.sum())})"),
+                ("fixes", f"{plural(rec.count('gap'), 'gap')} filled, {plural(rec.count('spike'), 'spike')} removed, "
+                          f"{plural(rec.count('swap'), 'label swap')} undone")]
+        if rec.unfilled:
+            rows.append(("left missing", f"{plural(len(rec.unfilled), 'gap')} (no plausible fill)"))
+        if rec.never_seen:
+            rows.append(("never seen", ", ".join(rec.never_seen)))
+        if rec.unlabelled:
+            rows.append(("unlabelled", f"{plural(len(rec.unlabelled), 'trajectory', 'trajectories')} left as read"))
+        print_fields(rows)
         return True
     if name.endswith(".mask.npz") and "mask" in keys:
         from ..io.masks import read_mask

@@ -8,7 +8,7 @@ from typing import Optional
 import typer
 
 from ..errors import MissingFileError, MocapError, MocapFormatError
-from .common import asf_option, console, guard, overwrite_option, plural
+from .common import amc_fps_option, asf_option, console, guard, overwrite_option, plural, unit_option
 
 # Krüger's six markers (2010, sec. 5.2): the four end effectors, the head and the root
 SIX_MARKERS = ("left_hand", "right_hand", "left_foot", "right_foot", "head")
@@ -79,6 +79,8 @@ def reconstruct(
     neighbours: Optional[int] = typer.Option(None, "--neighbours", "--neighbors", help="Accelerometers: K nearest database frames per sample (default 1 % of the database's frames, 128-4096)."),
     smoothing: Optional[float] = typer.Option(None, "--smoothing", help="Accelerometers: causal pose smoothing a in [0, 1) (default 0)."),
     asf: Optional[Path] = asf_option(),
+    amc_fps: Optional[float] = amc_fps_option(),
+    unit: Optional[str] = unit_option(),
     overwrite: bool = overwrite_option(),
 ) -> None:
     """Reconstruct full-body motion from sparse control signals and a motion database."""
@@ -106,7 +108,7 @@ def reconstruct(
         except ValueError as e:
             raise MocapError(f"{option}: {e}") from None
     guard([out], [inp, db_dir, skeleton, reference, asf], overwrite)
-    check_asf(asf, [inp, reference])
+    check_asf(asf, [inp, reference], amc_fps)
     io.suffix_kind(out, io.WRITERS, "writing")
     if out.suffix.lower() == ".amc":  # an AMC is read with its actor's ASF beside it: a database keeps none
         raise MocapFormatError(out, "a reconstruction is written as .bvh or .npz (an AMC needs its skeleton's ASF "
@@ -124,7 +126,7 @@ def reconstruct(
         fps = (len(times) - 1) / (times[-1] - times[0]) if len(times) > 1 else db.fps
         sensors = _sensors_named(names, db, inp)
     else:
-        source = load_take(inp, asf)
+        source = load_take(inp, asf, fps=amc_fps, unit=unit)
         if kind == "accelerometers" and not isinstance(source, Motion):
             raise MocapFormatError(inp, "accelerometers come as a CSV (or a motion to simulate them on), not markers")
     performer = _performer_skeleton(skeleton, source, db)
@@ -149,7 +151,8 @@ def reconstruct(
         frames = pos.shape[0]
     ref = None
     if reference is not None:  # checked before the (long) reconstruction
-        ref = check_reference(load_motion(reference, asf, purpose="a reference"), reference, frames=frames,
+        ref = check_reference(load_motion(reference, asf, purpose="a reference", fps=amc_fps, unit=unit), reference,
+                              frames=frames,
                               skeleton=db.skeletons[0], whose=f"the reconstruction's ({db_dir.name}'s skeleton)")
     try:
         if kind == "accelerometers":

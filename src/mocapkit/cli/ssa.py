@@ -8,7 +8,8 @@ from typing import Optional
 import typer
 
 from ..errors import MocapError, MocapFormatError
-from .common import asf_option, console, context_option, guard, overwrite_option, plural, save_take
+from .common import (amc_fps_option, asf_option, console, context_option, guard, overwrite_option, plural, save_take,
+                     unit_option)
 
 
 def _detect(m, context, threshold: float, progress: bool = True, drifts: bool = False, **overrides):
@@ -43,6 +44,8 @@ def detect(
     png: Optional[Path] = typer.Option(None, "--png", help="Also draw the movement digression map here."),
     as_json: bool = typer.Option(False, "--json", help="Print the flagged segments as JSON."),
     asf: Optional[Path] = asf_option(),
+    amc_fps: Optional[float] = amc_fps_option(),
+    unit: Optional[str] = unit_option(),
     overwrite: bool = overwrite_option(),
 ) -> None:
     """Find erroneous joints by self-similarity (Aristidou et al. 2018): movement digression map + flags.
@@ -59,12 +62,12 @@ def detect(
     from ..io.takes import check_asf, load_motion
 
     guard([out, png], [inp, asf, context], overwrite)
-    check_asf(asf, [inp])
+    check_asf(asf, [inp], amc_fps)
     if out.suffix.lower() != ".npz":
         raise MocapFormatError(out, "the detection is written as .npz")
     if png is not None and png.suffix.lower() != ".png":
         raise MocapFormatError(png, "the map is written as .png")
-    m = load_motion(inp, asf, purpose="detect")
+    m = load_motion(inp, asf, purpose="detect", fps=amc_fps, unit=unit)
     precompile.start(precompile.kernels_for(["detect"]))  # with an empty numba cache: beside the context's loading
     ctx, note = fit_context(m, load_context(context, progress=not as_json, take=m))
     found, det = _detect(m, ctx, threshold, progress=not as_json, confirm=confirm, jump_deg=jump_deg, drifts=drifts)
@@ -115,6 +118,8 @@ def repair(
              "joints that were not flagged (off by default, as in clean).",
     ),
     asf: Optional[Path] = asf_option(),
+    amc_fps: Optional[float] = amc_fps_option(),
+    unit: Optional[str] = unit_option(),
     overwrite: bool = overwrite_option(),
 ) -> None:
     """Replace only the flagged joints in flagged frames by the median of their nearest motion words.
@@ -132,9 +137,9 @@ def repair(
     from ..io.takes import check_asf, load_motion
 
     guard([out], [inp, asf, context, detection], overwrite)
-    check_asf(asf, [inp])
+    check_asf(asf, [inp], amc_fps)
     io.suffix_kind(out, io.WRITERS, "writing")
-    m = load_motion(inp, asf, purpose="repair")
+    m = load_motion(inp, asf, purpose="repair", fps=amc_fps, unit=unit)
     io.check_writable(m, out)
     det = None
     if detection is not None:

@@ -23,6 +23,13 @@ rewrites only its bone's numbers on that line (a root that only moved keeps
 its angles' text, one that only turned its position's), nearest the file's
 numbers at the bone's nearest unchanged frames, so an untouched take comes
 back the same file, as :func:`mocapkit.io.bvh.write_bvh` does for BVH.
+
+An AMC has no field for its frame rate: it is read at 120 fps unless an HDM05
+name or mocapkit's comment line says otherwise (:func:`mocapkit.io.asfamc.amc_rate`).
+A take at another rate is written with that comment line first
+(``# frame rate: 60 fps (mocapkit)``, :func:`mocapkit.io.asfamc.with_rate`),
+which other AMC readers skip as a comment; a take at 120 fps is written as
+before, without it.
 """
 
 from __future__ import annotations
@@ -36,7 +43,7 @@ import numpy as np
 from .. import rotations as R
 from ..errors import MocapFormatError
 from ..motion import Motion
-from .asfamc import amc_dofs
+from .asfamc import amc_dofs, with_rate
 
 __all__ = ["write_amc", "check_amc_writable", "dof_values", "file_dofs"]
 
@@ -159,7 +166,9 @@ def write_amc(motion: Motion, path, precision: int = 6, like=None, asf=None) -> 
     branch of the bone's nearest unchanged frames (never that of the broken
     value it replaces); otherwise the file is written whole, ``:FULLY-SPECIFIED`` and
     ``:DEGREES``, frames numbered from 1, every bone with dofs on its own line,
-    its angles Euler-filtered from frame to frame (:func:`dof_values`).
+    its angles Euler-filtered from frame to frame (:func:`dof_values`). Either way a
+    take whose rate the file would not be read at gets mocapkit's rate comment line
+    first (:func:`~mocapkit.io.asfamc.with_rate`).
     """
     from . import atomic_write
 
@@ -181,7 +190,7 @@ def write_amc(motion: Motion, path, precision: int = 6, like=None, asf=None) -> 
                            + [values[j] for j in joints], axis=1)
     block = max(1, 2**18 // table.shape[1])
     with atomic_write(path, "w", encoding="utf-8", newline="\n") as fh:
-        fh.write(":FULLY-SPECIFIED\n:DEGREES\n")
+        fh.write(with_rate(":FULLY-SPECIFIED\n:DEGREES\n", motion.fps, path))
         for f0 in range(0, table.shape[0], block):
             rows = table[f0 : f0 + block]
             fh.write((row * rows.shape[0]) % tuple(rows.ravel().tolist()))
@@ -203,7 +212,6 @@ class _LikeSource:
 def _like_source(like, motion: Motion, dofs) -> _LikeSource | None:
     """The source AMC's lines and changed cells, or None when ``like`` is not the file ``motion`` came from."""
     from .asfamc import amc_header, read_amc_numbers
-
     from .sources import recall
 
     like = Path(like)
@@ -246,7 +254,7 @@ def _write_like(path: Path, motion: Motion, dofs, source: _LikeSource, precision
     values = dof_values(motion, dofs, radians=source.radians, source=source)
     fmt = f"%.{precision}f"
     with atomic_write(path, "w", encoding="latin-1", newline="") as fh:
-        fh.write(source.header)
+        fh.write(with_rate(source.header, motion.fps, path))
         for f, block in enumerate(source.frames):
             joints = [j for j in np.flatnonzero(source.changed[f]) if dofs[j]]
             if not joints:

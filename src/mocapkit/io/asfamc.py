@@ -47,10 +47,14 @@ from ..motion import MAX_JOINTS, Motion, Skeleton, check_fps
 from .sources import remember
 
 __all__ = ["read_asf", "read_amc", "read_amc_numbers", "asf_dofs", "amc_dofs", "amc_held_rotations", "amc_header", "find_asf", "pick_asf",
-           "fps_from_name", "DEFAULT_FPS"]
+           "fps_from_name", "amc_rate", "stated_fps", "rate_comment", "with_rate", "DEFAULT_FPS"]
 
 DEFAULT_FPS = 120.0
-"""Frame rate used when neither ``fps=`` nor the file name gives one (CMU captured at 120 Hz)."""
+"""Frame rate of an AMC that states none, its name gives none and no ``fps=`` is given: the rate the CMU and
+HDM05 databases were captured at (120 Hz). An AMC has no field for its rate."""
+
+_RATE_LINE = re.compile(rb"^#\s*frame rate:\s*(\d+(?:\.\d*)?(?:[eE][+-]?\d+)?)\s*fps\b", re.IGNORECASE)
+_HDM05_NAME = re.compile(r"^HDM_[A-Za-z]{2}_.+_(\d+)$")
 
 _ROT_CHANNEL = {"x": "Xrotation", "y": "Yrotation", "z": "Zrotation"}
 _POS_CHANNEL = {"x": "Xposition", "y": "Yposition", "z": "Zposition"}
@@ -468,12 +472,89 @@ def pick_asf(amc_name: str, asfs, only_one: bool = True):
 
 
 def fps_from_name(stem: str) -> float | None:
-    """Frame rate written at the end of a file stem (HDM05 ``..._120``), if plausible (24-1000 Hz)."""
-    m = re.search(r"(?<![0-9.])(\d+)$", stem)
-    if m is None or stem == m.group(1):
+    """Frame rate an HDM05 file stem ends with (``HDM_bd_kick_001_120``: 120), if plausible (24 Hz up); else None.
+
+    Only HDM05's naming (``HDM_`` + the actor's two letters + ``_`` ... ``_RATE``) gives a rate: a number
+    ending any other name is no rate (CMU numbers its trials ``SUBJECT_TRIAL``, so ``86_30`` is trial 30).
+    """
+    from ..motion import FPS_RANGE
+
+    m = _HDM05_NAME.match(stem)
+    if m is None:
         return None
     rate = int(m.group(1))
-    return float(rate) if 24 <= rate <= 1000 else None
+    return float(rate) if 24 <= rate <= FPS_RANGE[1] else None
+
+
+def stated_fps(data: bytes) -> float | None:
+    """The frame rate an AMC's header states in mocapkit's comment line (:func:`rate_comment`), or None.
+
+    ``data``: the file's bytes (its header at least). Only the comment lines before the first frame are read;
+    other programs skip them (``#`` starts an Acclaim comment).
+    """
+    body_at = amc_header(data)[0]
+    for line in data[:body_at].splitlines():
+        m = _RATE_LINE.match(line.strip())
+        if m is not None:
+            return float(m.group(1))
+    return None
+
+
+def amc_rate(path, fps: float | None = None, data: bytes | None = None) -> tuple[float, str]:
+    """The frame rate an AMC at ``path`` is read at (frames per second) and where it comes from.
+
+    In this order: ``fps`` when given (``"given"``); the rate the file states in mocapkit's comment line
+    (``"file"``, :func:`stated_fps`); the rate an HDM05 name ends with (``"name"``, :func:`fps_from_name`);
+    else :data:`DEFAULT_FPS` (``"default"``). ``data``: the file's bytes when already read (else its first
+    MiB is read: the header). The rate is not checked here (:func:`read_amc` does).
+    """
+    path = Path(path)
+    if fps is not None:
+        return float(fps), "given"
+    if data is None:
+        try:
+            with open(path, "rb") as fh:
+                data = fh.read(1 << 20)
+        except OSError as exc:
+            raise MocapFormatError(path, f"cannot read: {exc.strerror or exc}") from None
+    stated = stated_fps(data)
+    if stated is not None:
+        return stated, "file"
+    named = fps_from_name(path.stem)
+    if named is not None:
+        return named, "name"
+    return DEFAULT_FPS, "default"
+
+
+def rate_comment(fps: float) -> str:
+    """mocapkit's AMC comment line stating the frame rate (no line ending): ``# frame rate: 60 fps (mocapkit)``.
+
+    Written exactly (``repr`` of the float, so 30000/1001 reads back bit for bit); ``#`` starts an Acclaim
+    comment, so other AMC readers skip it.
+    """
+    text = repr(float(fps))
+    return f"# frame rate: {text[:-2] if text.endswith('.0') else text} fps (mocapkit)"
+
+
+def with_rate(header: str, fps: float, path) -> str:
+    """An AMC header (the text before the first frame) that makes the file at ``path`` read at ``fps``.
+
+    ``header`` itself when the file would be read at ``fps`` already (:func:`amc_rate` of its stated rate, the
+    name's, or the default 120) and, for a file stating none, ``fps`` is the default 120 too (so a renamed copy
+    keeps it); else ``header`` with mocapkit's rate line (:func:`rate_comment`) first and any earlier one removed
+    (only removed at 120 fps): a 120 fps AMC is written as before, byte for byte.
+    """
+    data = header.encode("latin-1", "replace")
+    stated = stated_fps(data)
+    named = fps_from_name(Path(path).stem)
+    if stated == float(fps) or (stated is None and float(fps) == DEFAULT_FPS and named in (None, DEFAULT_FPS)):
+        return header
+    ending = "\r\n" if "\r\n" in header else "\n"
+    kept = "".join(line for line in header.splitlines(keepends=True)
+                   if _RATE_LINE.match(line.strip().encode("latin-1", "replace")) is None)
+    if float(fps) == DEFAULT_FPS and named in (None, DEFAULT_FPS):
+        return kept  # 120 fps needs no line: the stale one goes
+    return rate_comment(fps) + ending + kept
 
 
 # -- AMC -------------------------------------------------------------------------------
@@ -516,8 +597,8 @@ def read_amc(path, asf=None, fps: float | None = None, dofs=None) -> Motion:
         Skeleton given directly must have ASF channels (e.g. from
         :func:`read_asf`); its root line is read as positions then rotations.
     fps : float, optional
-        Frame rate; by default the number ending the file stem when plausible
-        (:func:`fps_from_name`), else 120.
+        Frame rate; by default the one the file states in mocapkit's comment line, else the one an HDM05
+        name ends with, else 120 (:func:`amc_rate`).
     dofs : tuple, optional
         With a Skeleton given as ``asf``: each joint's numbers in file order
         (:func:`asf_dofs` of its ASF), where the root's ``order`` puts
@@ -573,6 +654,7 @@ def _read_amc(path, asf=None, fps: float | None = None, dofs=None, keep_numbers:
     if radians is None:
         radians = layout.radians
     tables = _parse_amc_body(path, data, body_at, first_line, skeleton, layout, asf_name)
+    header = data[:body_at]
     del data  # the text is no longer needed: free it before the rotations are made
     F = sum(t.shape[0] for t in tables)
     numbers = np.concatenate(tables, axis=0) if keep_numbers else None
@@ -585,7 +667,7 @@ def _read_amc(path, asf=None, fps: float | None = None, dofs=None, keep_numbers:
         r0 += t.shape[0]
         del t
     try:
-        rate = check_fps(fps if fps is not None else (fps_from_name(path.stem) or DEFAULT_FPS))
+        rate = check_fps(amc_rate(path, fps, data=header)[0])
     except SkeletonError as exc:
         raise MocapFormatError(path, f"frame rate: {exc}") from None
     return Motion(skeleton=skeleton, rotations=rotations, root_positions=root, fps=rate, name=path.stem), numbers

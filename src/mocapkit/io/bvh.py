@@ -254,25 +254,41 @@ def _parse_hierarchy(path: Path, text: str, motion_line: int | None):
     return names, parents, offsets, channels, end_parents, end_offsets
 
 
+_NTSC_FPS = tuple(x for r in (24, 30, 48, 60, 120, 240) for x in (r * 1000 / 1001, float(f"{r * 1000 / 1001:.5g}")))
+"""The NTSC rates (r * 1000 / 1001: 23.976..., 29.97..., 59.94...), each followed by the decimal it is called by
+(23.976, 29.97, 59.94): rates a Frame Time is read as when it is one of theirs at the digits it shows."""
+
+
 def _fps_from_frame_time(token: str) -> float:
     """Frames per second from the ``Frame Time:`` token.
 
-    ``1 / t`` is snapped to the integer ``r`` when the printed frame time is
-    ``1 / r`` rounded to the digits it shows and ``1 / t`` is within 1e-3
-    relative of ``r``: ``.0083333`` gives 120, while NTSC's ``0.0333667``
-    (29.97 fps, 0.1 % from 30) stays 29.97.
+    ``1 / t`` is snapped to the integer ``r``, else to an NTSC rate
+    (:data:`_NTSC_FPS`), when the printed frame time is ``1 / r`` rounded to
+    the digits it shows and ``1 / t`` is within 1e-3 relative of ``r``:
+    ``.0083333`` gives 120, NTSC's ``0.0333667`` or ``0.033367`` (0.1 % from
+    30) 30000/1001. A token with 15 or more significant digits (mocapkit
+    writes ``repr(1 / fps)``) gives the rate with fewest decimals whose
+    ``1 / fps`` is that number, so a written rate reads back as it was (29.97
+    stays 29.97, where ``1 / t`` is 29.970000000000002).
     """
     t = float(token)
     fps = 1.0 / t
-    r = round(fps)
-    if r < 1 or abs(fps - r) > 1e-3 * r:
-        return fps
     try:
-        last_digit = Decimal(token).as_tuple().exponent
+        shown = Decimal(token).as_tuple()
     except InvalidOperation:
         return fps
-    if isinstance(last_digit, int) and abs(t - 1.0 / r) <= 0.5 * 10.0**last_digit * (1 + 1e-9):
-        return float(r)
+    last_digit = shown.exponent
+    if not isinstance(last_digit, int):
+        return fps
+    half = 0.5 * 10.0**last_digit * (1 + 1e-9)
+    for r in (round(fps), *_NTSC_FPS):
+        if r >= 1 and abs(fps - r) <= 1e-3 * r and abs(t - 1.0 / r) <= half:
+            return float(r)
+    if len(shown.digits) - next((i for i, d in enumerate(shown.digits) if d), 0) >= 15:
+        for k in range(16):
+            r = round(fps, k)
+            if r > 0 and 1.0 / r == t:
+                return r
     return fps
 
 
@@ -292,7 +308,7 @@ def read_bvh(path) -> Motion:
         position channels); ``translations`` (F, J, 3) when non-root joints
         have position channels; ``fps`` = 1 / Frame Time, snapped to the
         nearest integer when the printed Frame Time is that rate's rounded
-        period (``.0083333`` -> 120.0; ``0.0333667`` stays 29.97); ``name`` = file stem.
+        period (``.0083333`` -> 120.0; ``0.0333667`` -> 30000/1001); ``name`` = file stem.
         ``skeleton.channels`` keeps the file's channel layout.
 
     Raises

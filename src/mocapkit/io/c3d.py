@@ -38,8 +38,8 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import MocapFormatError, SkeletonError
-from ..markerset import (MODELLED_GROUPS, MarkerSet, MarkerSource, length_unit_cm, repeated_labels_note,
-                         unique_labels, zero_gap_mask)
+from ..markerset import (MODELLED_GROUPS, MarkerSet, MarkerSource, length_unit_cm, marker_units,
+                         repeated_labels_note, unique_labels, zero_gap_mask)
 from ..motion import check_fps
 
 __all__ = ["MarkerSet", "read_c3d", "write_c3d", "apply_zero_gaps", "checked_unit_cm"]
@@ -615,7 +615,7 @@ def checked_unit_cm(path, units: str) -> float:
         raise MocapFormatError(path, f"{exc}; the file's coordinates cannot be put on a length scale") from None
 
 
-def read_c3d(path, zeros_as_gaps: bool | None = None) -> MarkerSet:
+def read_c3d(path, zeros_as_gaps: bool | None = None, units: str | None = None) -> MarkerSet:
     """Read the 3D points of a C3D file; occluded samples (negative residual) become NaN.
 
     ``zeros_as_gaps`` (None: decide from the data; True; False): whether
@@ -623,7 +623,9 @@ def read_c3d(path, zeros_as_gaps: bool | None = None) -> MarkerSet:
     read as missing (see :func:`~mocapkit.markerset.zero_gap_mask`); the
     MarkerSet's ``zero_gaps`` says how many were. The result keeps the
     residuals and, in ``source``, the parameter section and analog channels
-    :func:`write_c3d` writes back.
+    :func:`write_c3d` writes back. The length unit is POINT:UNITS; where that is
+    empty or absent, ``units`` when given, else mm or m as the marker distances
+    say (:func:`~mocapkit.markerset.marker_units`; ``units_from`` says which).
 
     Raises :class:`~mocapkit.errors.MocapFormatError` for a malformed header or
     parameter section (checked before any reader runs), a file cut short
@@ -633,6 +635,7 @@ def read_c3d(path, zeros_as_gaps: bool | None = None) -> MarkerSet:
     can make sense of the file.
     """
     path = Path(path)
+    given = units  # the name is the file's unit below
     try:
         raw = path.read_bytes()
     except OSError as exc:
@@ -671,14 +674,15 @@ def read_c3d(path, zeros_as_gaps: bool | None = None) -> MarkerSet:
     labels = unique_labels(raw_labels, n)
     file_labels = tuple(str(s).strip() for s in list(raw_labels)[:n]) + labels[len(raw_labels):]
     source = dataclasses.replace(source, labels=file_labels, events=_header_events(raw))
-    units = str(units).replace("\x00", " ").strip() or "mm"  # NUL-padded in some files (and cut ones)
+    stated = str(units).replace("\x00", " ").strip()  # NUL-padded in some files (and cut ones)
+    units, units_from = marker_units(path, stated, xyz, given)
     unit_cm = checked_unit_cm(path, units)
     zeros = apply_zero_gaps(labels, xyz, resid, unit_cm, zeros_as_gaps, modelled)
     if cameras is not None:
         cameras[np.isnan(xyz).any(axis=-1)] = 0
     markers = MarkerSet(labels=labels, positions=xyz, fps=fps, units=units, name=path.stem, reader=reader,
                         residuals=resid, source=source, zero_gaps=zeros, cameras=cameras,
-                        notes=repeated_labels_note(file_labels, labels))
+                        notes=repeated_labels_note(file_labels, labels), units_from=units_from)
     return _check_result(path, markers)
 
 

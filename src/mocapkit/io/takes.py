@@ -6,7 +6,12 @@ more, and the same everywhere:
 - an AMC file's skeleton may be given explicitly (the CLI's ``--asf``, the
   Python ``asf=``); otherwise the reader looks for the ASF beside the AMC.
   The explicit skeleton applies to ``.amc`` files only, and giving one when
-  no input is an AMC file is an error rather than silently ignored;
+  no input is an AMC file is an error rather than silently ignored; so does
+  an AMC's frame rate (``--amc-fps``, ``fps=``: an AMC has no field for it,
+  :func:`mocapkit.io.asfamc.amc_rate`);
+- the length unit of a take whose file states none (``--unit``, ``unit=``):
+  a BVH's bones, a marker file with an empty unit field; one that disagrees
+  with a unit the file states is refused (:func:`with_unit`);
 - most commands need joint angles, so a marker file (C3D) is refused with a
   line that says what to do instead.
 
@@ -27,19 +32,33 @@ from typing import Iterable
 
 from ..errors import MissingFileError, MocapFormatError
 
-__all__ = ["load_take", "load_motion", "check_asf", "asf_of", "asf_for_output", "place_asf", "file_first_frame"]
+__all__ = ["load_take", "load_motion", "check_asf", "asf_of", "asf_for_output", "place_asf", "file_first_frame",
+           "with_unit", "check_unit", "UNIT_CHOICES"]
+
+UNIT_CHOICES = ("mm", "cm", "m", "in")
+"""The length units ``--unit`` names (millimetres, centimetres, metres, inches)."""
 
 
 def _is_amc(path: os.PathLike | str) -> bool:
     return Path(path).suffix.lower() == ".amc"
 
 
-def check_asf(asf: os.PathLike | str | None, inputs: Iterable[os.PathLike | str | None]) -> None:
-    """Refuse an explicit ASF skeleton that no input can use, or that is not a readable ``.asf`` file.
+def check_asf(asf: os.PathLike | str | None, inputs: Iterable[os.PathLike | str | None], fps: float | None = None) -> None:
+    """Refuse an explicit ASF skeleton that no input can use, or that is not a readable ``.asf`` file; and an AMC
+    frame rate (``fps``, the CLI's ``--amc-fps``) when no input is an AMC file or it is no rate mocapkit reads.
 
     ``inputs``: the motion files the skeleton is meant for (``None`` entries
-    ignored). Raises :class:`~mocapkit.errors.MocapFormatError` naming the ASF.
+    ignored). Raises :class:`~mocapkit.errors.MocapFormatError` naming the ASF
+    (:class:`~mocapkit.errors.MocapError` for the rate).
     """
+    inputs = [p for p in inputs if p is not None]
+    if fps is not None:
+        from ..errors import MocapError
+        from ..motion import check_fps
+
+        check_fps(fps, "--amc-fps")
+        if not any(_is_amc(p) for p in inputs):
+            raise MocapError("--amc-fps is the frame rate of an .amc input, and no input is an .amc file")
     if asf is None:
         return
     asf = Path(asf)
@@ -65,29 +84,84 @@ def asf_of(path: os.PathLike | str, asf: os.PathLike | str | None = None) -> Pat
         return None
 
 
-def load_take(path: os.PathLike | str, asf: os.PathLike | str | None = None):
+def load_take(path: os.PathLike | str, asf: os.PathLike | str | None = None, fps: float | None = None,
+              unit: str | None = None):
     """Read a motion (:class:`~mocapkit.motion.Motion`) or marker take (:class:`~mocapkit.io.c3d.MarkerSet`).
 
     ``asf``: the skeleton of an ``.amc`` file (ignored for other formats, so one
     ``asf`` can serve a list of mixed inputs; :func:`check_asf` refuses an
     ``asf`` that serves none). Without it, an AMC's ASF is looked for beside it.
+    ``fps``: an ``.amc`` file's frame rate (ignored for other formats; by default
+    :func:`mocapkit.io.asfamc.amc_rate`). ``unit``: the length unit (one of
+    :data:`UNIT_CHOICES`) of a take whose file states none (:func:`with_unit`).
     """
     from . import load
 
-    if asf is not None and _is_amc(path):
-        return load(path, asf=Path(asf))
-    return load(path)
+    check_unit(unit)
+    kwargs = {}
+    if _is_amc(path):
+        if asf is not None:
+            kwargs["asf"] = Path(asf)
+        if fps is not None:
+            kwargs["fps"] = float(fps)
+    if unit is not None and Path(path).suffix.lower() in (".c3d", ".trc"):
+        kwargs["units"] = unit  # the reader needs it before reading a file that states none (zero gaps)
+    take = load(path, **kwargs)
+    return with_unit(take, unit, path) if unit is not None and "units" not in kwargs else take
 
 
-def load_motion(path: os.PathLike | str, asf: os.PathLike | str | None = None, purpose: str = "this command"):
+def check_unit(unit: str | None) -> None:
+    """Refuse a ``--unit`` that is none of :data:`UNIT_CHOICES` (:class:`~mocapkit.errors.MocapError`); None passes."""
+    if unit is not None and unit not in UNIT_CHOICES:
+        from ..errors import MocapError
+
+        raise MocapError(f"--unit {unit!r}: one of {', '.join(UNIT_CHOICES)} is expected")
+
+
+def with_unit(take, unit: str | None, path: os.PathLike | str):
+    """``take`` with the length unit ``unit`` (mm, cm, m, in) where its file states none.
+
+    A :class:`~mocapkit.motion.Motion` gets ``skeleton.unit_cm`` (what
+    :func:`~mocapkit.motion.unit_scale_cm` reads instead of guessing from the
+    bones, which assumes an adult); a marker take read from an npz keeps its
+    stated unit. A unit that disagrees with one the file states (an ASF's
+    ``:units``, an npz's) is refused: :class:`~mocapkit.errors.MocapFormatError`
+    naming ``path``. None: ``take`` as it is.
+    """
+    if unit is None:
+        return take
+    import dataclasses
+
+    from ..markerset import MarkerSet, length_unit_cm
+    from ..motion import Motion
+
+    check_unit(unit)
+    cm = length_unit_cm(unit)
+    if isinstance(take, MarkerSet):
+        stated = length_unit_cm(take.units)
+    elif isinstance(take, Motion):
+        stated = take.skeleton.unit_cm
+    else:
+        return take
+    if stated is not None and abs(float(stated) - cm) > 1e-9 * cm:
+        raise MocapFormatError(path, f"the file states its length unit ({float(stated):.4g} cm), not {unit}: "
+                                     "--unit is for a file that states none")
+    if isinstance(take, MarkerSet) or stated is not None:
+        return take
+    return dataclasses.replace(take, skeleton=dataclasses.replace(take.skeleton, unit_cm=cm))
+
+
+def load_motion(path: os.PathLike | str, asf: os.PathLike | str | None = None, purpose: str = "this command",
+                fps: float | None = None, unit: str | None = None):
     """Read a take that must have joint angles (a :class:`~mocapkit.motion.Motion`); a marker file is refused.
 
     ``purpose``: who needs the angles ("clean", "a query", ...), used in the
     one-line refusal ``PATH: a marker file has no joint angles, which clean needs; ...``.
+    ``fps``, ``unit``: as for :func:`load_take`.
     """
     from ..motion import Motion
 
-    take = load_take(path, asf)
+    take = load_take(path, asf, fps=fps, unit=unit)
     if not isinstance(take, Motion):
         raise MocapFormatError(path, f"a marker file has no joint angles, which {purpose} needs; solve it to a skeleton first")
     return take

@@ -18,7 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import MocapFormatError, SkeletonError
-from ..markerset import MarkerSet, MarkerSource, repeated_labels_note, unique_labels
+from ..markerset import MarkerSet, MarkerSource, marker_units, repeated_labels_note, unique_labels
 from ..motion import check_fps
 from .c3d import apply_zero_gaps, checked_unit_cm
 
@@ -33,11 +33,13 @@ def _fields(line: str) -> list[str]:
     return line.rstrip("\r\n").split("\t")
 
 
-def read_trc(path, zeros_as_gaps: bool | None = None) -> MarkerSet:
+def read_trc(path, zeros_as_gaps: bool | None = None, units: str | None = None) -> MarkerSet:
     """Read a TRC file as a :class:`~mocapkit.markerset.MarkerSet` (empty fields become NaN).
 
     The frame rate is DataRate (CameraRate when DataRate is absent), the unit
-    the Units field. Every trajectory the rows hold is read: the marker count
+    the Units field; where that is empty, ``units`` when given, else mm or m as
+    the marker distances say (:func:`~mocapkit.markerset.marker_units`; the
+    MarkerSet's ``units_from`` says which). Every trajectory the rows hold is read: the marker count
     is the largest of NumMarkers, the labels and the whole X Y Z triples of
     the widest row (fields past them are not coordinates). Labels come from
     the ``Frame#`` line, named apart in memory
@@ -101,8 +103,9 @@ def read_trc(path, zeros_as_gaps: bool | None = None) -> MarkerSet:
         fps = check_fps(rate, "DataRate")
     except SkeletonError as exc:
         raise MocapFormatError(path, str(exc), line=3) from None
-    units = header.get("Units", "") or "mm"
-    unit_cm = checked_unit_cm(path, units)
+    stated_units = header.get("Units", "")
+    if stated_units:
+        checked_unit_cm(path, stated_units)  # an unknown unit is refused before the rows are read
     label_line = _fields(lines[3])
     if label_line[0].strip() != "Frame#":
         raise MocapFormatError(path, f"line 4 should start with 'Frame#', got {label_line[0][:40]!r}", line=4)
@@ -167,7 +170,8 @@ def read_trc(path, zeros_as_gaps: bool | None = None) -> MarkerSet:
     xyz[np.any(np.isnan(xyz), axis=-1)] = np.nan  # a sample with one empty coordinate is not seen
     labels = unique_labels(label_text, m)
     file_labels = tuple(label_text) + ("",) * (m - len(label_text))  # a column past the labels has none
-    zeros = apply_zero_gaps(labels, xyz, None, unit_cm, zeros_as_gaps)
+    units, units_from = marker_units(path, stated_units, xyz, units)
+    zeros = apply_zero_gaps(labels, xyz, None, checked_unit_cm(path, units), zeros_as_gaps)
     notes = repeated_labels_note(tuple(t.strip() for t in file_labels), labels)
     notes += _count_notes(int(stated), len([t for t in label_text if t.strip()]), held, m, labels)
     notes += _extra_field_notes(rows, row_lines, m)
@@ -176,7 +180,7 @@ def read_trc(path, zeros_as_gaps: bool | None = None) -> MarkerSet:
                           first_frame=first_frame, labels=file_labels,
                           text=raw.decode("utf-8", errors="surrogateescape"))
     return MarkerSet(labels=labels, positions=xyz, fps=fps, units=units, name=path.stem, reader="trc",
-                     source=source, zero_gaps=zeros, notes=notes)
+                     source=source, zero_gaps=zeros, notes=notes, units_from=units_from)
 
 
 # Frames a file may skip, inserted as missing samples: more than this many is refused as not a frame numbering.
@@ -462,7 +466,7 @@ def _edited_text(markers: MarkerSet, source: MarkerSource, decimals: int) -> str
         rate = float(head.get("DataRate") or head.get("CameraRate") or "nan")
     except ValueError:
         return None
-    if markers.units != (head.get("Units") or "mm") or markers.fps != rate:
+    if markers.units != (head.get("Units") or markers.units) or markers.fps != rate:  # none stated: read from the data
         return None
     lines, at, numbers, times = _rows(source.text)
     F, M = markers.num_frames, markers.num_markers

@@ -469,3 +469,29 @@ def test_event_steps_and_spikes_equal_the_one_event_at_a_time_reference(walk):
                 want[run, j] = True
     assert n_events > 20 and n_none >= 2 and want.any() and (breaks & ~want).any()
     assert np.array_equal(cues.spike_breaks(rot, resid, breaks), want)
+
+
+def test_a_throw_at_24_fps_breaks_nothing_an_error_there_still_does(shared_data):
+    """CMU 131_02 at 24 fps (every fifth frame of the BVH, each value a real capture sample, frame 0's T-pose
+    left out): the right arm, still for most of the take, throws twice, its shoulder turning up to 51 deg in
+    one frame. Its midpoint residuals (up to 30 deg) pass the level of its own motion over the take, so they
+    broke and confirmed digressions that repair then turned by 100+ deg; the arm's speed beside them explains
+    them (:func:`cues.motion_explained`). A 30 deg step into the still frames after the throw still breaks,
+    and at 120 fps the breaks are those of the take-wide level alone."""
+    full = mocapkit.load(shared_data / "cmu_bvh" / "131_02.bvh")
+    m = full[5::5]
+    assert m.fps == 24.0
+    q = np.asarray(m.rotations, dtype=np.float64)
+    resid = cues.midpoint_residuals(q)
+    arm = [m.skeleton.index(n) for n in ("RightShoulder", "RightElbow", "RightHip")]
+    level_only = cues.own_breaks(resid, 8.0, m.fps)
+    assert level_only[:, arm].any()  # the throws pass the take-wide level: the old breaks
+    breaks = cues.own_breaks(resid, 8.0, m.fps, q)
+    assert not breaks[:, arm].any()
+    assert not (breaks & ~level_only).any()  # it only ever takes breaks away
+    stepped, j = turned(m, "RightShoulder", np.arange(100, m.num_frames), 30.0)  # the arm is still there
+    qs = np.asarray(stepped.rotations, dtype=np.float64)
+    assert set(np.flatnonzero(cues.own_breaks(cues.midpoint_residuals(qs), 8.0, m.fps, qs)[:, j])) == {99, 100}
+    q120 = np.asarray(full[1:].rotations, dtype=np.float64)
+    r120 = cues.midpoint_residuals(q120)
+    assert np.array_equal(cues.own_breaks(r120, 8.0, 120.0, q120), cues.own_breaks(r120, 8.0, 120.0))

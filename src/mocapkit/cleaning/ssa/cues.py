@@ -22,6 +22,7 @@ __all__ = [
     "midpoint_residuals",
     "residual_breaks",
     "own_breaks",
+    "motion_explained",
     "side_swaps",
     "mirrored_rotations",
     "swaps_from_residuals",
@@ -64,7 +65,7 @@ def residual_breaks(resid: np.ndarray, jump_deg: float) -> np.ndarray:
     return resid > np.radians(jump_deg)
 
 
-def own_breaks(resid: np.ndarray, jump_deg: float, fps: float | None = None) -> np.ndarray:
+def own_breaks(resid: np.ndarray, jump_deg: float, fps: float | None = None, rotations=None) -> np.ndarray:
     """(F, J) bool: midpoint residuals over ``jump_deg`` *and* over what the joint's own motion reaches.
 
     What a joint's motion reaches is ten times its median residual in the
@@ -79,14 +80,66 @@ def own_breaks(resid: np.ndarray, jump_deg: float, fps: float | None = None) -> 
     (2.1 deg at 120 fps, 33 deg at 30 fps): where heavy noise raises a
     joint's residuals, its breaks still confirm an error's digression (used
     so for the confirmation and the side swaps; the transient offsets take
-    the uncapped level).
+    the uncapped level). With ``fps`` and ``rotations`` (F, J, 4) too, a
+    break event under that cap that the joint's speed beside it explains is
+    no break (:func:`motion_explained`): the level is the joint's over the
+    whole take, and a joint still for most of it (a throwing arm, 131_02 at
+    24 and 30 fps) breaks that level wherever it moves fast.
     """
     if not (np.isfinite(jump_deg) and jump_deg > 0):
         raise ValueError(f"jump_deg must be a positive number of degrees, got {jump_deg!r}")
     usual = np.maximum(10.0 * np.median(resid, axis=0), _usual_residual(resid))
     if fps is not None:
-        usual = np.minimum(usual, np.radians(MAX_ACCEL_DEG_S2 / (2.0 * float(fps) ** 2)))
-    return resid > np.maximum(np.radians(jump_deg), usual)[None, :]
+        cap = np.radians(MAX_ACCEL_DEG_S2 / (2.0 * float(fps) ** 2))
+        usual = np.minimum(usual, cap)
+    breaks = resid > np.maximum(np.radians(jump_deg), usual)[None, :]
+    if fps is not None and rotations is not None and cap > np.radians(jump_deg):
+        breaks = motion_explained(np.asarray(rotations, dtype=np.float64), resid, breaks, cap)
+    return breaks
+
+
+def motion_explained(q: np.ndarray, resid: np.ndarray, breaks: np.ndarray, cap: float) -> np.ndarray:
+    """``breaks`` (F, J) bool without the break events a joint's own fast motion beside them explains.
+
+    The midpoint residual of smooth motion is half the change of its
+    frame-to-frame step (:func:`discontinuities`), so it can reach the
+    joint's speed where the joint starts, stops or turns within a frame: an
+    arm that throws at 24 fps turns 36, 51 and then 9 deg in three frames
+    (a residual of 30 deg, the CMU 131_02 right shoulder), far over what
+    the joint's motion in the rest of the take reaches. An error steps off
+    a path the joint follows at its own pace. So a break event (grouped
+    as :func:`_event_bounds` does) whose largest residual stays under
+    ``cap`` (radians, what limb motion can make at the take's rate:
+    :func:`own_breaks`) and under the joint's speed just outside it (the
+    larger of the steps ``q[first - 2] -> q[first - 1]`` and ``q[last + 1]
+    -> q[last + 2]``, frames the event's own steps do not touch, whether it
+    is a step or a one-frame spike) is motion, not a break. Residuals over
+    ``cap`` are breaks whatever the speed, and where ``cap`` is under the
+    break threshold (over about 60 fps at the defaults) no event is left out:
+    only at low frame rates can real motion break at all. Used for the
+    confirmation (:func:`~mocapkit.cleaning.ssa.detect`'s ``jumps``), not the
+    side swaps, whose step onto the partner's mirror image is evidence that
+    speed does not explain. What it costs: at
+    24-30 fps an error smaller than about twice the speed of a fast-moving
+    joint confirms nothing. ``q`` (F, J, 4) rotations, ``resid`` (F, J)
+    radians (:func:`midpoint_residuals`). A cue of this library's
+    confirmation, not of the paper (Aristidou et al. 2018 flag ``MDM >
+    threshold``, section 3.4).
+    """
+    out = np.array(breaks, dtype=bool)
+    F = len(q)
+    if F < 3 or not out.any():
+        return out
+    step = np.nan_to_num(step_angles(q))  # (F - 1, J): step i is q[i] -> q[i + 1]
+    for j in np.flatnonzero(out.any(axis=0)):
+        frames = np.flatnonzero(out[:, j])
+        first, last, event = _event_bounds(frames)
+        peak = np.maximum.reduceat(resid[frames, j], np.flatnonzero(np.r_[True, np.diff(event) > 0]))
+        before = np.where(first >= 2, step[np.clip(first - 2, 0, F - 2), j], 0.0)
+        after = np.where(last + 1 <= F - 2, step[np.clip(last + 1, 0, F - 2), j], 0.0)
+        explained = (peak < cap) & (peak <= np.maximum(before, after))
+        out[frames[explained[event]], j] = False
+    return out
 
 
 def midpoint_residuals(rotations: np.ndarray) -> np.ndarray:

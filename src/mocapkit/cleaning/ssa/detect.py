@@ -91,7 +91,7 @@ class Detection:
     flags : bool (F, J) the errors: ``mdm > threshold`` confirmed by ``jumps``
     (:func:`confirm_flags`), with ``holds``, ``swaps`` and ``offsets``; or ``mdm >
     threshold`` alone when the detection was made with ``confirm=False``; jumps : bool (F, J) the analysed joints'
-    :func:`discontinuities` (less the turns their chain undoes, :func:`~mocapkit.cleaning.ssa.cues.uncompensated_breaks`); holds, swaps, offsets : bool (F, J) their
+    :func:`discontinuities` over their own motion's level (less the turns their chain undoes, :func:`~mocapkit.cleaning.ssa.cues.uncompensated_breaks`, and at 24-30 fps the breaks their speed beside them explains, :func:`~mocapkit.cleaning.ssa.cues.motion_explained`); holds, swaps, offsets : bool (F, J) their
     :func:`held_joints`, :func:`side_swaps` and :func:`transient_offsets`
     (flagged with confirmation at any threshold); agreement : float (F, J)
     the median angle in radians of the other analysed joints from the mean
@@ -429,7 +429,8 @@ def detect_prepared(an: Analysis, threshold: float = 0.5, *, progress: bool = Fa
     normalization, row_scale, floor_deg, z_scale = p.normalization, p.row_scale, p.floor_deg, p.z_scale
     max_word_angle_deg = p.max_word_angle_deg
     resid = midpoint_residuals(motion.rotations)  # for the breaks and the side swaps
-    jumps = own_breaks(resid, p.jump_deg, motion.fps)  # breaks that stand out from the joint's own motion (30 fps too)
+    # breaks that stand out from the joint's own motion and speed (30 fps too)
+    jumps = own_breaks(resid, p.jump_deg, motion.fps, motion.rotations)
     # a turn the joint's chain undoes (a solver sharing a bend another way) is no evidence of an error
     jumps = uncompensated_breaks(np.asarray(motion.rotations, dtype=np.float64), motion.skeleton.parents, jumps)
     sk = motion.skeleton

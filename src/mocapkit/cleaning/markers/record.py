@@ -1,0 +1,99 @@
+"""The record ``clean`` writes beside a cleaned marker capture (``OUT_STEM.clean.npz``), read back.
+
+:meth:`~mocapkit.cleaning.markers.clean.MarkerCleanResult.save` writes it: the
+(F, M) masks of the samples filled, removed as spikes, re-labelled and changed,
+the labels, the fixes and the gaps left unfilled (JSON texts), the markers
+never seen and the unlabelled trajectories, and ``kind = "markers"``, which
+tells it from a motion's record (:class:`~mocapkit.cleaning.pipeline.CleanResult`).
+It holds no trajectories: the cleaned capture is the output file.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from ...errors import MocapFormatError
+
+__all__ = ["MarkerRecord", "read_marker_record", "is_marker_record"]
+
+_MASKS = ("filled", "spikes", "swapped", "changed")
+
+
+@dataclass(frozen=True)
+class MarkerRecord:
+    """A marker capture's cleaning record.
+
+    ``labels`` (M,); ``filled``, ``spikes``, ``swapped``, ``changed``: bool (F, M) masks of the samples
+    filled, removed as spikes, re-labelled and changed; ``fixes`` and ``unfilled``: one dict per fix and per gap
+    left missing (the fields of :class:`~mocapkit.cleaning.markers.clean.MarkerFix`); ``never_seen`` and
+    ``unlabelled``: marker names.
+    """
+
+    labels: tuple[str, ...]
+    filled: np.ndarray
+    spikes: np.ndarray
+    swapped: np.ndarray
+    changed: np.ndarray
+    fixes: tuple[dict, ...]
+    unfilled: tuple[dict, ...]
+    never_seen: tuple[str, ...]
+    unlabelled: tuple[str, ...]
+
+    @property
+    def num_frames(self) -> int:
+        return int(self.changed.shape[0])
+
+    def count(self, kind: str) -> int:
+        """How many fixes of ``kind`` ("gap", "spike", "swap") the record lists."""
+        return sum(1 for f in self.fixes if f.get("kind") == kind)
+
+
+def is_marker_record(arrays: dict) -> bool:
+    """Whether the npz members ``arrays`` (name -> array, or a set of names with ``kind`` read) are a marker record."""
+    kind = arrays.get("kind") if isinstance(arrays, dict) else None
+    return kind is not None and np.asarray(kind).shape == () and str(np.asarray(kind)) == "markers"
+
+
+def read_marker_record(path) -> MarkerRecord:
+    """Read a marker capture's ``.clean.npz`` (bounded: :func:`mocapkit.io.npz.load_arrays`, no pickles).
+
+    Raises :class:`~mocapkit.errors.MocapFormatError` naming ``path`` for an npz that is no marker record, or
+    whose masks and labels disagree in shape.
+    """
+    from ...io.npz import load_arrays
+
+    path = Path(path)
+    z = load_arrays(path)
+    if not is_marker_record(z):
+        raise MocapFormatError(path, "not a marker capture's cleaning record (no kind 'markers')")
+    missing = [k for k in (*_MASKS, "labels") if k not in z]
+    if missing:
+        raise MocapFormatError(path, f"a marker cleaning record without {', '.join(missing)}")
+    labels = tuple(str(x) for x in np.asarray(z["labels"]).reshape(-1))
+    masks = {}
+    for k in _MASKS:
+        a = np.asarray(z[k])
+        if a.dtype != bool or a.ndim != 2 or a.shape[1] != len(labels) or a.shape != np.shape(z["changed"]):
+            raise MocapFormatError(path, f"{k}: expected a bool (frames, {len(labels)}) mask, got {a.dtype} {a.shape}")
+        masks[k] = a
+
+    def listed(key: str) -> tuple[dict, ...]:
+        if key not in z:
+            return ()
+        try:
+            items = json.loads(str(np.asarray(z[key])))
+        except ValueError:
+            raise MocapFormatError(path, f"{key}: not the JSON list a record holds") from None
+        if not isinstance(items, list) or not all(isinstance(x, dict) for x in items):
+            raise MocapFormatError(path, f"{key}: not the JSON list a record holds")
+        return tuple(items)
+
+    def names(key: str) -> tuple[str, ...]:
+        return tuple(str(x) for x in np.asarray(z[key]).reshape(-1)) if key in z else ()
+
+    return MarkerRecord(labels=labels, fixes=listed("fixes"), unfilled=listed("unfilled"),
+                        never_seen=names("never_seen"), unlabelled=names("unlabelled"), **masks)
