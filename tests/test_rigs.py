@@ -305,3 +305,14 @@ def test_one_answer_for_roles_when_bones_hang_beside_the_body():
         family = rigs.roles(sk)
         assert {r: j for r, j in found.items() if to_rigs.get(r, r) in family} == \
             {r: family[to_rigs.get(r, r)] for r in found if to_rigs.get(r, r) in family}, what
+
+
+def test_the_pelvis_of_a_rig_read_from_nothing_is_the_one_rigs_gives():
+    """Issue 5: on a Bandai take under names no family knows, with a two-joint weapon at the right hand (the tree
+    then does not read plainly), ``find_joint`` and :func:`rigs.pelvis_index` agree on the pelvis: the hips below
+    the floor root, not the root."""
+    sk = mocapkit.load(Path(__file__).parent / "data" / "dataset-1_dash_normal_001.bvh").skeleton
+    sk = _with_bone(sk, "weapon_r", "Hand_R", leaf=False)
+    sk = Skeleton(tuple(f"bone{j}" for j in range(sk.num_joints)), np.array(sk.parents), sk.offsets)
+    assert rigs.rig_family(sk) is None and rigs.roles_by_topology(sk, sides=False) is None
+    assert mocapkit.motion.find_joint(sk, "pelvis") == rigs.pelvis_index(sk) == 1
