@@ -139,21 +139,22 @@ class Serving:
     """How a model serves a take (from :func:`served_by`; arrays over the model's joints, layout order).
 
     ``direct``: the take has the model's channels and no mapping is needed;
-    where it has more joints than the model, ``joints[k]`` is the take joint of
-    model joint ``k`` and ``others`` the take's rotating non-root joints the
-    model does not cover (the caller's fallback smooths them). Otherwise ``joints[k]`` is the take joint playing model joint ``k`` (-1:
-    the rig lacks it, see :data:`OPTIONAL_ROLES`); ``chains[k]`` the take
-    joints whose local rotations make the rotation from model joint
-    ``parent[k]`` (-1: the pelvis) to ``k``, top down, ending with
-    ``joints[k]`` (empty for a lacking joint); ``pelvis_chain`` the take
-    joints from the root to the pelvis; ``orders[k]`` the intrinsic Euler
-    order of the model's channels; ``axes`` (n, 4) the Acclaim axis frames;
-    ``rest`` (n, 4) each joint's retargeting rotation ``A`` (identity where
-    the rest bones agree); ``body`` (4,) the pelvis' (the rest body frame's
-    turn, identity on a Y-up rig); ``shares[k]`` the lacking model joint
-    between joint ``k`` and its mapped parent whose turn ``k``'s chain
-    carries (-1: none); ``filler`` (C,) the channel values a joint the
-    network reads at its means is shown as (the training means, degrees).
+    where it has more joints than the model, ``joints[k]`` is the take joint
+    of model joint ``k`` and ``others`` the take's rotating non-root joints
+    the model does not cover (the caller's fallback smooths them). Otherwise
+    ``joints[k]`` is the take joint playing model joint ``k`` (-1: the rig
+    lacks it, see :data:`OPTIONAL_ROLES`); ``chains[k]`` the take joints whose
+    local rotations make the rotation from model joint ``parent[k]`` (-1: the
+    pelvis) to ``k``, top down, ending with ``joints[k]`` (empty for a lacking
+    joint); ``pelvis_chain`` the take joints from the root to the pelvis;
+    ``orders[k]`` the intrinsic Euler order of the model's channels; ``axes``
+    (n, 4) the Acclaim axis frames; ``rest`` (n, 4) each joint's retargeting
+    rotation ``A`` (identity where the rest bones agree); ``body`` (4,) the
+    pelvis' (the rest body frame's turn, identity on a Y-up rig);
+    ``shares[k]`` the lacking model joint between joint ``k`` and its mapped
+    parent whose turn ``k``'s chain carries (-1: none); ``filler`` (C,) the
+    channel values a joint the network reads at its means is shown as (the
+    training means, degrees).
     """
 
     model: object
@@ -313,8 +314,8 @@ def served_by(motion_or_skeleton, model) -> Serving | str:
     trained on) is served directly; so is one that has them among more
     joints (:func:`_own_joints`: each model joint by name with the model's
     channels, below another model joint or the root, in the model's order),
-    whose other joints the network leaves alone (``Serving.others``). An Euler model of the Acclaim skeleton
-    also serves a take whose rig family (:func:`mocapkit.rigs.rig_family`)
+    whose other joints the network leaves alone (``Serving.others``). An
+    Euler model of the Acclaim skeleton also serves a take whose rig family (:func:`mocapkit.rigs.rig_family`)
     plays every role its joints play, each below the joint of its parent
     role, in the Acclaim rest pose (the CMU BVH conversions of the
     MotionBuilder-friendly release), or may lack a few of them
@@ -388,8 +389,8 @@ def restricted(motion: Motion, joints) -> Motion:
     """``motion`` on the root and ``joints`` alone (take indices whose parents are among them or the root): the
     rotations (F, n + 1, 4), root trajectory and file channels of those joints, for a model that knows only them."""
     keep = sorted({0} | {int(j) for j in joints})
-    return Motion(skeleton=_restricted_skeleton(motion.skeleton, keep), rotations=motion.rotations[:, keep], root_positions=motion.root_positions,
-                  fps=motion.fps, name=motion.name,
+    return Motion(skeleton=_restricted_skeleton(motion.skeleton, keep), rotations=motion.rotations[:, keep],
+                  root_positions=motion.root_positions, fps=motion.fps, name=motion.name,
                   translations=None if motion.translations is None else motion.translations[:, keep])
 
 
