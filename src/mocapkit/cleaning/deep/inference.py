@@ -710,7 +710,8 @@ def fill_or_fallback(motion: Motion, model=None, denoiser=None, smooth: bool = T
                 notes = {passed_over("ebd", motion): None} | notes
             notes.pop("", None)
             name = "EBD's gap prior" if by_prior else None
-            return out, _method("ebd", label, sv, name, motion.skeleton) + (" + EBF" if ebf_ran else ""), "; ".join(notes)
+            how = _method("ebd", label, sv, name, motion.skeleton) + (" + EBF" if ebf_ran else "")
+            return out, how, "; ".join(notes)
         except ValueError as exc:
             why = str(exc)
     else:
