@@ -268,3 +268,51 @@ def test_family_tables_name_only_known_roles(family):
     assert set(table) <= set(rigs.ROLES)
     for core in ("pelvis", "left_thigh", "right_thigh", "head"):
         assert core in table
+
+
+def _with_bone(skeleton: Skeleton, name: str, parent: str, offset=(0.0, 0.0, 8.0), leaf: bool = True) -> Skeleton:
+    """``skeleton`` with a joint ``name`` hung from ``parent`` (a weapon, twist or tail bone); ``leaf=False`` gives
+    it a child ``name_end`` too (a chain of two, as a tail)."""
+    names, parents, offsets = list(skeleton.joint_names), list(skeleton.parents), [tuple(o) for o in skeleton.offsets]
+    names.append(name)
+    parents.append(names.index(parent))
+    offsets.append(offset)
+    if not leaf:
+        names.append(f"{name}_end")
+        parents.append(len(names) - 2)
+        offsets.append(offset)
+    return Skeleton(tuple(names), np.array(parents), np.array(offsets))
+
+
+def test_one_answer_for_roles_when_bones_hang_beside_the_body():
+    """Issue 5: an Unreal rig whose chest is ``spine_02`` (UE4's two-segment variant) keeps its chest in
+    ``standard_joints`` (info, the F30 features) with a weapon, twist or tail bone added, as the family reads it."""
+    take = unreal_spelling(mocapkit.load(Path(__file__).parent / "data" / "dataset-1_dash_normal_001.bvh"))
+    names = list(take.skeleton.joint_names)
+    names[names.index("spine_03")] = "spine_02"
+    base = Skeleton(tuple(names), np.array(take.skeleton.parents), take.skeleton.offsets)
+    variants = {"base": base, "weapon": _with_bone(base, "weapon_r", "hand_r"),
+                "twist": _with_bone(base, "upperarm_twist_01_l", "upperarm_l"),
+                "tail": _with_bone(base, "tail_01", "pelvis", offset=(0.0, -10.0, -10.0), leaf=False)}
+    to_rigs = {"lower_back": "spine", "left_shoulder": "left_upper_arm", "right_shoulder": "right_upper_arm",
+               "left_elbow": "left_forearm", "right_elbow": "right_forearm", "left_hip": "left_thigh",
+               "right_hip": "right_thigh", "left_knee": "left_shin", "right_knee": "right_shin"}
+    for what, sk in variants.items():
+        assert rigs.rig_family(sk) == "unreal", what
+        found = standard_joints(sk)
+        assert sk.joint_names[found["chest"]] == "spine_02", what
+        assert len(found) == len(mocapkit.motion.ROLES), what
+        family = rigs.roles(sk)
+        assert {r: j for r, j in found.items() if to_rigs.get(r, r) in family} == \
+            {r: family[to_rigs.get(r, r)] for r in found if to_rigs.get(r, r) in family}, what
+
+
+def test_the_pelvis_of_a_rig_read_from_nothing_is_the_one_rigs_gives():
+    """Issue 5: on a Bandai take under names no family knows, with a two-joint weapon at the right hand (the tree
+    then does not read plainly), ``find_joint`` and :func:`rigs.pelvis_index` agree on the pelvis: the hips below
+    the floor root, not the root."""
+    sk = mocapkit.load(Path(__file__).parent / "data" / "dataset-1_dash_normal_001.bvh").skeleton
+    sk = _with_bone(sk, "weapon_r", "Hand_R", leaf=False)
+    sk = Skeleton(tuple(f"bone{j}" for j in range(sk.num_joints)), np.array(sk.parents), sk.offsets)
+    assert rigs.rig_family(sk) is None and rigs.roles_by_topology(sk, sides=False) is None
+    assert mocapkit.motion.find_joint(sk, "pelvis") == rigs.pelvis_index(sk) == 1

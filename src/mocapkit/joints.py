@@ -2,8 +2,9 @@
 
 A rig is known by its joints' names (``LeftUpLeg``, ``lfemur``, ``UpperLeg_L``, ``thigh_l`` ...):
 :func:`joint_sides` and :func:`mirror_pairs` read left and right from them, :func:`find_joint` the
-joint playing a body role (:data:`ROLES`: pelvis, chest, head, hands, feet ...; where names say
-nothing, the tree and rest pose may, :func:`mocapkit.rigs.roles_by_topology`), and
+joint playing a body role (:data:`ROLES`: pelvis, chest, head, hands, feet ...; on a rig of a known
+family the family's own names, :func:`family_roles`, so ``info``, the features and the networks agree;
+where names say nothing, the tree and rest pose may, :func:`mocapkit.rigs.roles_by_topology`), and
 :func:`unit_scale_cm` the length unit from the bones between ankle and head. The motion model
 (:mod:`mocapkit.motion`) re-exports these names.
 """
@@ -29,6 +30,7 @@ __all__ = [
     "joint_sides",
     "bone_moving_joints",
     "find_joint",
+    "family_roles",
     "standard_joints",
     "unit_scale_cm",
     "ROLES",
@@ -205,14 +207,33 @@ def bone_moving_joints(skeleton: Skeleton) -> np.ndarray:
     return moves
 
 
+def family_roles(skeleton: Skeleton) -> dict[str, int]:
+    """Role (a key of :data:`ROLES`) -> joint index for the roles the skeleton's rig family names
+    (:func:`mocapkit.rigs.roles` under :func:`mocapkit.rigs.rig_family`); empty for a rig of no known family.
+
+    The family's table is the one answer where it has one: ``info``, the features and the networks' joint
+    map then agree (an Unreal rig's chest is its highest ``spine_0N`` however many bones hang beside it).
+    """
+    from .rigs import rig_family, roles  # rigs imports this module
+
+    if rig_family(skeleton) is None:
+        return {}
+    found = roles(skeleton)
+    return {r: found[_TOPOLOGY_ROLE.get(r, r)] for r in ROLES if _TOPOLOGY_ROLE.get(r, r) in found}
+
+
 def find_joint(skeleton: Skeleton, role: str) -> int:
     """Index of the joint playing ``role`` (a key of :data:`ROLES`) on CMU, HDM05 and common BVH rigs.
 
     Hands are the wrists and feet the ankles, as in Krüger et al.'s F15
-    features. Where no name matches, the roles the skeleton's tree and rest
-    pose show (:func:`mocapkit.rigs.roles_by_topology`; the middle of the
-    body even where left and right are not told); ``pelvis`` falls back to
-    the root joint.
+    features. A rig of a known family plays the roles its family's names
+    give (:func:`family_roles`); otherwise, and for roles the family does not
+    name, the patterns of :data:`ROLES` on the names decide. Where no name
+    matches, the roles the skeleton's tree and rest pose show
+    (:func:`mocapkit.rigs.roles_by_topology`; the middle of the body even
+    where left and right are not told); ``pelvis`` falls back to
+    :func:`mocapkit.rigs.pelvis_index` (the first joint where the tree
+    branches, or the root).
 
     >>> import mocapkit
     >>> sk = mocapkit.load(mocapkit.samples.path("131_01.bvh")).skeleton
@@ -221,6 +242,13 @@ def find_joint(skeleton: Skeleton, role: str) -> int:
     """
     if role not in ROLES:
         raise KeyError(f"unknown role {role!r}; roles are: {', '.join(ROLES)}")
+    return _find(skeleton, role, family_roles(skeleton))
+
+
+def _find(skeleton: Skeleton, role: str, by_family: dict[str, int]) -> int:
+    """:func:`find_joint` with the skeleton's :func:`family_roles` computed once by the caller."""
+    if role in by_family:
+        return by_family[role]
     want_side, patterns = ROLES[role]
     names = set(skeleton.joint_names)
     parsed = [_side_and_part(n, names) for n in skeleton.joint_names]
@@ -234,24 +262,28 @@ def find_joint(skeleton: Skeleton, role: str) -> int:
             p = int(skeleton.parents[j])
             if side == want_side and part == "foot" and p >= 0 and parsed[p] == (want_side, "ankle"):
                 return j
-    from .rigs import roles_by_topology  # names say nothing: the tree and rest pose may (rigs imports this module)
+    from .rigs import pelvis_index, roles_by_topology  # names say nothing: the tree and rest pose may
 
     topology = roles_by_topology(skeleton, sides=role not in _MIDDLE_ROLES)
     if topology is not None and _TOPOLOGY_ROLE.get(role, role) in topology:
         return topology[_TOPOLOGY_ROLE.get(role, role)]
     if role == "pelvis":
-        return 0
+        return pelvis_index(skeleton)
     raise KeyError(f"no joint plays the role {role!r} in skeleton with joints: {some_names(skeleton.joint_names)}")
 
 
 def standard_joints(skeleton: Skeleton, roles: Iterable[str] | None = None) -> dict[str, int]:
     """Map of role -> joint index for every role found (or exactly ``roles``, raising if one is missing)."""
+    by_family = family_roles(skeleton)
     if roles is not None:
-        return {r: find_joint(skeleton, r) for r in roles}
+        for r in roles:
+            if r not in ROLES:
+                raise KeyError(f"unknown role {r!r}; roles are: {', '.join(ROLES)}")
+        return {r: _find(skeleton, r, by_family) for r in roles}
     out = {}
     for r in ROLES:
         try:
-            out[r] = find_joint(skeleton, r)
+            out[r] = _find(skeleton, r, by_family)
         except KeyError:
             pass
     return out

@@ -64,7 +64,7 @@ __all__ = [
 
 DEFAULT_ROOT_CHANNELS = ("Xposition", "Yposition", "Zposition", "Zrotation", "Yrotation", "Xrotation")
 DEFAULT_JOINT_CHANNELS = ("Zrotation", "Yrotation", "Xrotation")
-_CHANNEL_NAMES = {"Xposition", "Yposition", "Zposition", "Xrotation", "Yrotation", "Zrotation"}
+_CHANNEL_NAMES = {"Xposition", "Yposition", "Zposition", "Xrotation", "Yrotation", "Zrotation", "Xscale", "Yscale", "Zscale"}
 
 FPS_RANGE = (1.0, 10000.0)
 """Frame rates mocapkit accepts, in frames per second, both ends included.
@@ -204,7 +204,8 @@ class Skeleton:
     channels : tuple of tuple of str, optional
         Per joint, the BVH-style channels of the source file in file order
         (``"Xposition"``, ``"Zrotation"``, ...). Rotation channels are in
-        intrinsic order. None means the BVH default (root: 3 positions + ZYX,
+        intrinsic order. Scale channels (``"Xscale"``, ...) are kept as the
+        file's layout only: their value is always 1 (a skeleton has no scale). None means the BVH default (root: 3 positions + ZYX,
         others ZYX).
     axes : float array (J, 4), optional
         ASF ``axis`` frame ``C`` of each joint: the local rotation is
@@ -546,7 +547,7 @@ class Motion:
 
         These are the "joint angles as the BVH gives them" (for ASF skeletons:
         the AMC degrees of freedom, with the ``axis`` frame removed). Joints
-        without rotation channels contribute nothing.
+        without rotation channels contribute nothing; scale channels are 1.
         """
         sk = self.skeleton
         local = self.local_offsets()
@@ -572,6 +573,8 @@ class Motion:
             for ch in sk.joint_channels(j):
                 if ch.endswith("position"):
                     cols.append(local[:, j, "XYZ".index(ch[0])])
+                elif ch.endswith("scale"):
+                    cols.append(np.ones(self.num_frames))
                 else:
                     cols.append(angles[j][:, k])
                     k += 1
@@ -586,7 +589,9 @@ class Motion:
         Joints with no position channels keep their skeleton offset; a root
         without position channels stays at its offset. With
         ``animated_offsets``, position channels of non-root joints become
-        ``translations``; otherwise they must be absent.
+        ``translations``; otherwise they must be absent. Scale columns are
+        ignored (a skeleton has no scale; :func:`mocapkit.io.bvh.read_bvh`
+        refuses values other than 1).
         """
         values = np.asarray(values, dtype=np.float64)
         sk = skeleton
@@ -608,7 +613,7 @@ class Motion:
                 if ch.endswith("position"):
                     local[:, j, "XYZ".index(ch[0])] = values[:, col]
                     has_tr = has_tr or j > 0
-                else:
+                elif not ch.endswith("scale"):
                     rcols.append(col)
                 col += 1
             by_order.setdefault(sk.rotation_order(j), []).append((j, rcols))

@@ -154,3 +154,87 @@ def test_bandai_ebd_fills_a_whole_joint_gap_and_keeps_the_observed_cells(dance):
     assert np.array_equal(out.rotations[obs], gapped.rotations[obs])
     err = np.degrees(mocapkit.rotations.geodesic_angle(out.rotations[15:45, j], dance.rotations[15:45, j]))
     assert float(np.sqrt(np.mean(err**2))) < 20.0
+
+
+def _with_joint(motion, name: str, parent: str, offset, angle_deg, inserted: bool = False):
+    """``motion`` with a joint ``name`` (3 rotation channels, ZXY as the rig's, turning ``angle_deg`` (F,) about
+    its z) hung from ``parent``: a weapon bone beside the rig's joints, or with ``inserted`` a helper bone placed
+    between ``parent`` and its children (which then hang from it, their motion the same)."""
+    from mocapkit.motion import Motion, Skeleton
+
+    sk = motion.skeleton
+    p = sk.index(parent)
+    order = list(range(p + 1)) + [-1] + list(range(p + 1, sk.num_joints))  # the new joint right after its parent
+    new = {j: k for k, j in enumerate(order)}
+    parents = []
+    for j in order:
+        q = p if j == -1 else int(sk.parents[j])
+        parents.append(-1 if q < 0 else new[-1] if inserted and j != -1 and q == p else new[q])
+    offsets = np.array([offset if j == -1 else sk.offsets[j] for j in order], dtype=np.float64)
+    channels = tuple(("Zrotation", "Xrotation", "Yrotation") if j == -1 else sk.channels[j] for j in order)
+    names = tuple(name if j == -1 else sk.joint_names[j] for j in order)
+    ends = np.array([new[int(e)] for e in sk.end_site_parents], dtype=np.int64)
+    skel = Skeleton(names, np.array(parents), offsets, ends, sk.end_site_offsets, channels=channels)
+    F = motion.num_frames
+    turn = mocapkit.rotations.quaternion_from_axis_angle(np.array([0.0, 0.0, 1.0]), np.radians(angle_deg))
+    rot = np.concatenate([motion.rotations[:, : p + 1], turn[:, None], motion.rotations[:, p + 1:]], axis=1)
+    tr = None
+    if motion.translations is not None:
+        tr = np.concatenate([motion.translations[:, : p + 1], np.broadcast_to(offsets[p + 1], (F, 1, 3)),
+                             motion.translations[:, p + 1:]], axis=1)
+    return Motion(skeleton=skel, rotations=rot, root_positions=motion.root_positions, fps=motion.fps,
+                  name=motion.name, translations=tr)
+
+
+def test_a_bandai_take_with_a_weapon_bone_keeps_the_bandai_models_on_its_own_joints(dance):
+    """Issue 4: one weapon bone under the right hand switched a Bandai take to the Acclaim models through a joint
+    map. The take has every channel of the Bandai models, so they serve it directly: the rig's joints come out
+    as from the plain take, bit for bit, and the weapon gets the fallback's filter."""
+    noisy, _ = corrupt.angular_noise(dance, 0.5, seed=7)
+    swing = 40.0 * np.sin(np.arange(dance.num_frames) / 4.0) + np.random.default_rng(3).normal(0, 2.0, dance.num_frames)
+    armed = _with_joint(noisy, "weapon_r", "Hand_R", (-8.0, 0.0, 2.0), swing)
+    w = armed.skeleton.index("weapon_r")
+    assert mocapkit.rigs.rig_family(armed.skeleton) == "bandai_namco"
+    for kind in ("ebf", "ebd"):
+        m = deep.shipped_model(kind, armed)
+        assert m.meta["rig"] == "bandai"
+        sv = deep.served_by(armed, m)
+        assert sv.direct and sv.others == (w,) and armed.skeleton.joint_names[sv.joints[0]] == "Hips"
+    plain, _m, _n = deep.denoise_or_fallback(noisy)
+    out, method, note = deep.denoise_or_fallback(armed)
+    assert method == "EBF (shipped, bandai_namco; weapon_r beside its joints by the fallback)"
+    assert "CC BY-NC 4.0" in note and "not used" not in note
+    ids = [armed.skeleton.index(n) for n in dance.skeleton.joint_names]
+    assert np.allclose(out.rotations[:, ids], plain.rotations, rtol=0, atol=1e-12)
+    smooth = mocapkit.cleaning.filters.savgol_smooth(armed, window_s=0.1, polyorder=2, joints=[w], root=False)
+    assert np.array_equal(out.rotations[:, w], smooth.rotations[:, w])
+    assert not np.array_equal(out.rotations[:, w], armed.rotations[:, w])
+    # a gap of the knee is filled by the Bandai EBD as on the plain take; the weapon's gap by interpolation
+    rot = np.array(armed.rotations)
+    k = armed.skeleton.index("LowerLeg_L")
+    rot[15:45, k] = np.nan
+    rot[20:30, w] = np.nan
+    filled, method, _note = deep.fill_or_fallback(dataclasses.replace(armed, rotations=rot))
+    assert method == "EBD's gap prior (shipped, bandai_namco; weapon_r beside its joints by the fallback) + EBF"
+    assert not filled.missing().any()
+    seen = ~np.isnan(rot).any(axis=-1)
+    assert np.array_equal(filled.rotations[seen], armed.rotations[seen])
+    with pytest.raises(mocapkit.errors.SkeletonError, match="streaming needs exactly the model's channels; this "
+                       "bandai_namco rig has joints the model does not know"):
+        deep.Denoiser(armed.skeleton, armed.fps)  # streaming reads every file channel: offline only
+
+
+def test_a_bandai_take_the_bandai_models_cannot_serve_says_why(dance):
+    """Issue 4: a helper bone inserted between the right forearm and hand changes what the hand's channels mean
+    (its rotation is now relative to the helper), so the Bandai models do not serve the take; the Acclaim model's
+    joint map does, and the output says why the rig's own model was not used, naming the joint."""
+    helper = _with_joint(dance, "wrist_helper_r", "LowerArm_R", (-11.0, 0.0, 0.0), np.zeros(dance.num_frames),
+                         inserted=True)
+    assert helper.skeleton.joint_names[int(helper.skeleton.parents[helper.skeleton.index("Hand_R")])] == "wrist_helper_r"
+    assert deep.shipped_model("ebf", helper).meta.get("rig", "acclaim") != "bandai"
+    noisy, _ = corrupt.angular_noise(helper, 0.5, seed=7)
+    _out, method, note = deep.denoise_or_fallback(noisy)
+    assert method == "EBF (shipped, via the bandai_namco joint map)"
+    assert note.startswith("the bandai_namco EBF (ebf_bandai.pt) was not used: ")
+    assert "its Hand_R hangs below wrist_helper_r, which the model has no channels for" in note
+    assert "\n" not in note

@@ -886,3 +886,82 @@ def test_a_take_with_no_frames_is_refused_and_nothing_written(tmp_path):
     with pytest.raises(MocapFormatError, match="no frames"):
         write_bvh(m[:0], out)
     assert not out.exists()
+
+
+def with_scale_channels(path: Path, out: Path, joints: int, scale: str = "1") -> list[str]:
+    """Copy of the BVH ``path`` with ``Xscale Yscale Zscale`` after the channels of its first ``joints`` joints
+    (as Maya writes them), every scale value ``scale`` (a token, written as given); returns the data lines."""
+    lines = path.read_text().splitlines()
+    at = lines.index("MOTION")
+    widths, head = [], []
+    for line in lines[:at]:
+        toks = line.split()
+        if toks and toks[0] == "CHANNELS":
+            widths.append(int(toks[1]))
+            if len(widths) <= joints:
+                ind = line[: len(line) - len(line.lstrip())]
+                line = f"{ind}CHANNELS {int(toks[1]) + 3} {' '.join(toks[2:])} Xscale Yscale Zscale"
+        head.append(line)
+    starts = np.cumsum([0] + widths)
+    data = []
+    for line in lines[at + 3:]:
+        toks = line.split()
+        for j in reversed(range(joints)):
+            toks[starts[j + 1]:starts[j + 1]] = [scale] * 3
+        data.append(" ".join(toks))
+    out.write_text("\n".join(head + lines[at:at + 3] + data) + "\n")
+    return data
+
+
+def test_unit_scale_channels_are_read_and_written_back_as_the_file_has_them(tmp_path):
+    """Issue 6: Maya and game exporters write Xscale Yscale Zscale (value 1); the take reads as the same motion,
+    and a cleaned joint is rewritten while the scale columns keep the file's text."""
+    plain = read_bvh(BANDAI)
+    path = tmp_path / "scaled.bvh"
+    with_scale_channels(BANDAI, path, joints=4)
+    m = read_bvh(path)
+    assert m.skeleton.joint_channels(1)[-3:] == ("Xscale", "Yscale", "Zscale")
+    assert m.skeleton.rotation_order(1) == plain.skeleton.rotation_order(1)
+    np.testing.assert_array_equal(m.rotations, plain.rotations)
+    np.testing.assert_array_equal(m.local_offsets(), plain.local_offsets())
+    rot = np.array(m.rotations)
+    rot[5:8, 2] = euler_to_quaternion(np.array([10.0, 20.0, 30.0]), "ZXY")
+    out = tmp_path / "cleaned.bvh"
+    write_bvh(dataclasses.replace(m, rotations=rot), out, like=path)
+    src, got = path.read_text().splitlines(), out.read_text().splitlines()
+    assert got[: src.index("MOTION") + 3] == src[: src.index("MOTION") + 3]
+    changed = [f for f, (a, b) in enumerate(zip(src, got)) if a != b]
+    assert changed and min(changed) > src.index("MOTION")
+    names = [c for line in src[: src.index("MOTION")] if line.split()[:1] == ["CHANNELS"] for c in line.split()[2:]]
+    scale = [k for k, c in enumerate(names) if c.endswith("scale")]
+    assert len(scale) == 12
+    rows = slice(src.index("MOTION") + 3, None)
+    assert [[r.split()[k] for k in scale] for r in got[rows]] == [[r.split()[k] for k in scale] for r in src[rows]]
+    back = read_bvh(out)
+    assert np.degrees(geodesic_angle(back.rotations, rot)).max() < 1e-4
+    fresh = tmp_path / "fresh.bvh"
+    write_bvh(m, fresh)  # without like: the layout is kept, the scales written as 1
+    again = read_bvh(fresh)
+    assert again.skeleton.channels == m.skeleton.channels
+    assert np.degrees(geodesic_angle(again.rotations, m.rotations)).max() < 1e-4
+
+
+@pytest.mark.parametrize("scale, what", [("0.5", "Xscale is 0.5 in frame 1"), ("nan", "Xscale is nan in frame 1")])
+def test_a_scale_other_than_one_is_refused_naming_the_file_joint_and_scale(tmp_path, scale, what):
+    path = tmp_path / "scaled.bvh"
+    with_scale_channels(BANDAI, path, joints=2, scale=scale)
+    with pytest.raises(MocapFormatError) as err:
+        read_bvh(path)
+    msg = str(err.value)
+    assert "scaled.bvh" in msg and "'joint_Root'" in msg and what in msg and "scale channels" in msg
+    assert "\n" not in msg
+
+
+def test_a_nine_channel_joint_reads_and_a_tenth_channel_is_refused_naming_the_kinds(tmp_path):
+    path = tmp_path / "nine.bvh"
+    with_scale_channels(BANDAI, path, joints=1)
+    assert read_bvh(path).skeleton.joint_channels(0)[-1] == "Zscale"
+    text = path.read_text().replace("CHANNELS 9 Xposition", "CHANNELS 10 Xposition Wscale", 1)
+    path.write_text(text)
+    with pytest.raises(MocapFormatError, match="between 0 and 9 .X/Y/Z position, rotation and scale"):
+        read_bvh(path)

@@ -1,9 +1,12 @@
 """BVH (Biovision Hierarchy) reading and writing.
 
-The reader takes any channel layout: 0 to 6 channels per joint in any order,
+The reader takes any channel layout: 0 to 9 channels per joint in any order,
 position channels on any joint (on the root they give ``root_positions``, on
 other joints ``Motion.translations``; present axes replace the OFFSET, absent
-ones keep it), ``End Site`` blocks, tabs, CRLF, scientific notation and
+ones keep it), scale channels (``Xscale Yscale Zscale``, as Maya and some game
+exporters write them) when every value is 1 (the skeleton has no scale: they are
+kept in ``Skeleton.channels`` and written back as 1; other values are refused),
+``End Site`` blocks, tabs, CRLF, scientific notation and
 ``nan``. The file is read once; the small hierarchy is parsed in Python and
 the MOTION block by the numba number parser, then converted to quaternions in
 one fused numba pass (bit for bit what ``Motion.from_channel_values`` gives,
@@ -38,7 +41,10 @@ from numba import njit
 
 __all__ = ["read_bvh", "write_bvh", "check_bvh_names", "MAX_INDENT"]
 
-_CHANNELS = {c.lower(): c for c in ("Xposition", "Yposition", "Zposition", "Xrotation", "Yrotation", "Zrotation")}
+_CHANNELS = {c.lower(): c for c in ("Xposition", "Yposition", "Zposition", "Xrotation", "Yrotation", "Zrotation",
+                                     "Xscale", "Yscale", "Zscale")}
+SCALE_TOLERANCE = 1e-6
+"""How far from 1 a scale channel's value may be and still read as unit scale (float noise of exporters)."""
 _MOTION_RE = re.compile(rb"^[ \t]*MOTION[ \t]*\r?$", re.M)
 _FRAMES_RE = re.compile(r"^\s*Frames\s*:\s*(\S+)\s*$")
 _FRAME_TIME_RE = re.compile(r"^\s*Frame\s+Time\s*:\s*(\S+)\s*$")
@@ -213,8 +219,8 @@ def _parse_hierarchy(path: Path, text: str, motion_line: int | None):
                     count = int(words[0])
                 except ValueError:
                     fail(f"CHANNELS count {words[0]!r} is not an integer", line)
-                if not 0 <= count <= 6:
-                    fail(f"CHANNELS count {count} is not between 0 and 6", line)
+                if not 0 <= count <= 9:
+                    fail(f"CHANNELS count {count} is not between 0 and 9 (X/Y/Z position, rotation and scale)", line)
                 given = words[1:]
                 if len(given) != count:
                     fail(f"CHANNELS says {count} but names {len(given)}", line)
@@ -222,7 +228,7 @@ def _parse_hierarchy(path: Path, text: str, motion_line: int | None):
                 for c in given:
                     canon = _CHANNELS.get(c.lower())
                     if canon is None:
-                        fail(f"unknown channel {c!r} (expected X/Y/Z position/rotation)", line)
+                        fail(f"unknown channel {c!r} (expected X/Y/Z position/rotation/scale)", line)
                     if canon in chans:
                         fail(f"channel {canon} repeated", line)
                     chans.append(canon)
@@ -318,7 +324,8 @@ def read_bvh(path) -> Motion:
         a non-finite OFFSET, missing or bad ``Frames:`` / ``Frame Time:`` (a
         frame time so small its rate is infinite included), non-numeric or
         infinite values (``nan`` is read as missing),
-        a line with the wrong number of channels, zero frames, or fewer or
+        a line with the wrong number of channels, a scale channel whose value
+        is not 1 (naming the joint and frame), zero frames, or fewer or
         more data lines than ``Frames:`` says.
     """
     return _read_bvh(path)[0]
@@ -436,6 +443,7 @@ def _read_bvh(path, data: bytes | None = None) -> tuple[Motion, np.ndarray]:
             path, f"infinite value {float(table[f, c])!r} in frame {f + 1} (column {c + 1}) of the motion data",
             line=first_data_line + int(nonblank[f]),
         )
+    _check_unit_scale(path, names, channels, table, first_data_line + nonblank)
     try:
         skeleton = Skeleton(
             joint_names=tuple(names),
@@ -450,6 +458,27 @@ def _read_bvh(path, data: bytes | None = None) -> tuple[Motion, np.ndarray]:
     return _motion_from_channels(skeleton, table, fps, path.stem), table
 
 
+def _check_unit_scale(path: Path, names, channels, table: np.ndarray, lines: np.ndarray) -> None:
+    """Refuse a scale channel whose value is not 1 (within :data:`SCALE_TOLERANCE`) in any frame.
+
+    ``table`` (F, C) holds the file's values in file order, ``lines`` (F,) the file line of each frame. A
+    Skeleton has no scale, so a unit scale is all mocapkit can read and write back as the file had it; a
+    scaled joint would move its children where the offsets do not put them.
+    """
+    col = 0
+    for name, chans in zip(names, channels):
+        for ch in chans:
+            if ch.endswith("scale"):
+                v = table[:, col]
+                bad = np.flatnonzero(~(np.abs(v - 1.0) <= SCALE_TOLERANCE))
+                if bad.size:
+                    f = int(bad[0])
+                    raise MocapFormatError(
+                        path, f"joint {name!r}: {ch} is {float(v[f])!r} in frame {f + 1}; scale channels are "
+                        f"supported only at 1 (a skeleton has no scale)", line=int(lines[f]))
+            col += 1
+
+
 @njit(cache=True)
 def _channels_to_arrays(values, col_joint, col_kind, offsets):
     """Fused conversion of BVH channels to local quaternions and offsets, one pass over the values.
@@ -461,7 +490,7 @@ def _channels_to_arrays(values, col_joint, col_kind, offsets):
     col_joint : int array (C,)
         Joint of each column.
     col_kind : int array (C,)
-        0, 1, 2 for X/Y/Z position; 3, 4, 5 for X/Y/Z rotation.
+        0, 1, 2 for X/Y/Z position; 3, 4, 5 for X/Y/Z rotation; 6 for a scale channel (skipped: unit scale).
     offsets : float array (J, 3)
         Skeleton offsets; position channels replace their axis.
 
@@ -493,6 +522,8 @@ def _channels_to_arrays(values, col_joint, col_kind, offsets):
             v = values[f, c]
             if kind < 3:
                 local[f, j, kind] = v
+                continue
+            if kind > 5:
                 continue
             half = (v * k) * 0.5
             co = np.cos(half)
@@ -527,7 +558,7 @@ def _motion_from_channels(skeleton: Skeleton, values: np.ndarray, fps: float, na
     for j, chans in enumerate(skeleton.channels):
         for ch in chans:
             col_joint.append(j)
-            col_kind.append("XYZ".index(ch[0]) + (0 if ch.endswith("position") else 3))
+            col_kind.append(6 if ch.endswith("scale") else "XYZ".index(ch[0]) + (0 if ch.endswith("position") else 3))
             moving = moving or (j > 0 and ch.endswith("position"))
     rot, local = _channels_to_arrays(
         values, np.array(col_joint, dtype=np.int64), np.array(col_kind, dtype=np.int64), skeleton.offsets
@@ -612,7 +643,7 @@ def _write_channels(motion: Motion) -> tuple[tuple[str, ...], ...]:
             chans = list(_POS3) if j == 0 else []
             chans += list(_ZYX) if has_rot else []
         if any(moving[j, k] and _POS3[k] not in chans for k in range(3)):
-            chans = list(_POS3) + [c for c in chans if c.endswith("rotation")]
+            chans = list(_POS3) + [c for c in chans if not c.endswith("position")]
         out.append(tuple(chans))
     if not any(out):  # a BVH needs at least one channel per frame line
         out[0] = _POS3
@@ -804,12 +835,13 @@ def _like_source(like, motion: Motion, order: list[int]) -> _LikeSource | None:
 def _write_like(path: Path, motion: Motion, values: np.ndarray, channels, source: _LikeSource, precision: int) -> None:
     """Write ``values`` (F, C) keeping ``source``'s text wherever a cell did not change: a joint's rotation channels
     are written where its rotation changed, its position channels where its position did (a 6-channel joint whose
-    rotation was repaired keeps the file's position text). The changed angles in ``values`` are already on the
+    rotation was repaired keeps the file's position text), and its scale channels never (always 1, as read). The changed angles in ``values`` are already on the
     branch of their unchanged neighbours (:func:`_continuous_rotations`)."""
     sk = motion.skeleton
     F = motion.num_frames
     starts = np.cumsum([0] + [len(c) for c in channels])
     is_rot = np.array([c.endswith("rotation") for cs in channels for c in cs], dtype=bool)
+    is_pos = np.array([c.endswith("position") for cs in channels for c in cs], dtype=bool)
     fmt = f"%.{precision}f"
     with atomic_write(path, "w", encoding="utf-8", newline="") as fh:
         if source.header is not None:
@@ -831,7 +863,7 @@ def _write_like(path: Path, motion: Motion, values: np.ndarray, channels, source
             tokens = body.split()
             for j in joints:
                 for c in range(starts[j], starts[j + 1]):
-                    if not (turned[j] if is_rot[c] else moved[j]):
+                    if not ((turned[j] and is_rot[c]) or (moved[j] and is_pos[c])):
                         continue
                     tokens[c] = fmt % values[f, c]
             fh.write(" ".join(tokens) + (line[len(body):] or "\n"))

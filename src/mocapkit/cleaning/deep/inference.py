@@ -18,6 +18,7 @@ from pathlib import Path
 import numpy as np
 import torch
 
+from ... import rigs
 from ... import rotations as R
 from ...errors import MocapFormatError, SkeletonError
 from ...io import atomic_write
@@ -58,6 +59,7 @@ __all__ = [
     "serving",
     "denoise_or_fallback",
     "fill_or_fallback",
+    "passed_over",
     "FALLBACK_DENOISE",
     "FALLBACK_FILL",
 ]
@@ -215,6 +217,23 @@ def shipped_model(kind: str = "ebf", take=None) -> DeepModel:
         if mapped is None and not isinstance(s, str):
             mapped = m
     return first if mapped is None else mapped
+
+
+def passed_over(kind: str, take) -> str:
+    """Why the shipped model of ``kind`` for ``take``'s own rig family (:data:`SHIPPED_FOR_RIG`) does not serve it
+    directly, in one line (:func:`served_by`'s reason: the joints or channels that differ); "" where the family has
+    no model of its own or it serves the take. Said beside the output whenever :func:`shipped_model` had to take
+    another (a Bandai Namco rig with a bone inserted in a limb goes to the Acclaim model's joint map)."""
+    sk = getattr(take, "skeleton", take)
+    family = rigs.rig_family(sk)
+    name = SHIPPED_FOR_RIG.get(family, {}).get(kind)
+    if name is None:
+        return ""
+    s = served_by(sk, _packaged(name))
+    if not isinstance(s, str) and s.direct:
+        return ""
+    why = s if isinstance(s, str) else f"it serves it only through a joint map ({s.describe()})"
+    return f"the {family} {kind.upper()} ({name}) was not used: {why}"
 
 
 def _smoothing_ebf(ebd: DeepModel, denoiser, take=None) -> DeepModel:
@@ -567,15 +586,17 @@ def denoise(motion: Motion, model=None, cells: np.ndarray | None = None) -> Moti
     values, ctx = encode_served(motion, sv)
     out = denoise_channels(values, ctx, m, fps=motion.fps, until=until)
     if sv.direct:
-        return decode_served(np.nan_to_num(out), motion, sv, keep=keep)
-    out = np.where(np.isnan(out), values, out)  # a NaN channel (a missing joint on a mapped chain) stays as it is
-    res = decode_served(np.nan_to_num(out), motion, sv, keep=keep, residual=_residual_filter(motion.fps))
-    # the rig's joints the network does not filter get the fallback's filter: those it reads at its means (it
-    # never saw them move) and those the map does not cover (Chest3 on a five-segment trunk), but the root and
-    # the joints above the pelvis, whose rotation is the body's (kept, as the root's is)
-    sk = motion.skeleton
-    covered = set(sv.joints) | set(sv.pelvis_chain) | {0}
-    others = [j for j in range(1, sk.num_joints) if j not in covered and sk.rotation_order(j)]
+        res = decode_served(np.nan_to_num(out), motion, sv, keep=keep)
+        others = list(sv.others)  # joints beside the model's (a weapon bone): the fallback's filter, as below
+    else:
+        out = np.where(np.isnan(out), values, out)  # a NaN channel (a missing joint on a mapped chain) stays as it is
+        res = decode_served(np.nan_to_num(out), motion, sv, keep=keep, residual=_residual_filter(motion.fps))
+        # the rig's joints the network does not filter get the fallback's filter: those it reads at its means (it
+        # never saw them move) and those the map does not cover (Chest3 on a five-segment trunk), but the root and
+        # the joints above the pelvis, whose rotation is the body's (kept, as the root's is)
+        sk = motion.skeleton
+        covered = set(sv.joints) | set(sv.pelvis_chain) | {0}
+        others = [j for j in range(1, sk.num_joints) if j not in covered and sk.rotation_order(j)]
     if not others:
         return res
     from ..filters import savgol_smooth
@@ -619,7 +640,7 @@ def fill_gaps(motion: Motion, model=None, denoiser=None, smooth: bool = True, me
     missing = motion.missing()
     if not missing.any():
         return motion
-    src = motion if sv.direct else _hold_unmapped(motion, sv, missing)
+    src = motion if sv.direct and not sv.joints else _hold_unmapped(motion, sv, missing)
     values, ctx = encode_served(src, sv)
     if smooth:  # the shipped EBF of the EBD's pair when none is given
         denoiser = _smoothing_ebf(m, denoiser, motion)
@@ -658,9 +679,14 @@ def _fallback_note(method: str, kind: str, label: str, why: str) -> str:
     return f"{method}: the {label} {kind.upper()} does not serve this rig ({why})"
 
 
-def _method(kind: str, label: str, sv: Serving, name: str | None = None) -> str:
+def _method(kind: str, label: str, sv: Serving, name: str | None = None, skeleton=None) -> str:
+    """How a take was served, for the output line: the model, the rig family or joint map, and the joints beside
+    the model's that the fallback took (``skeleton`` names them)."""
     rig = sv.model.meta.get("rig", "acclaim") if isinstance(sv.model.meta, dict) else "acclaim"
     via = (f", {sv.family}" if rig != "acclaim" else "") if sv.direct else f", via the {sv.family} joint map"
+    if sv.direct and sv.others and skeleton is not None:
+        names = [skeleton.joint_names[j] for j in sv.others]
+        via += f"; {', '.join(names[:3])}{', ...' if len(names) > 3 else ''} beside its joints by the fallback"
     return f"{name or kind.upper()} ({label}{via})"
 
 
@@ -695,13 +721,19 @@ def fill_or_fallback(motion: Motion, model=None, denoiser=None, smooth: bool = T
             ebf_ran = ebf_takes_part(sv.model, smooth, method)
             notes = dict.fromkeys(n for n in (licence_note(sv.model, options),
                                               licence_note(ebf.model, options) if ebf_ran else "") if n)
+            if model is None:
+                notes = {passed_over("ebd", motion): None} | notes
+            notes.pop("", None)
             name = "EBD's gap prior" if by_prior else None
-            return out, _method("ebd", label, sv, name) + (" + EBF" if ebf_ran else ""), "; ".join(notes)
+            how = _method("ebd", label, sv, name, motion.skeleton) + (" + EBF" if ebf_ran else "")
+            return out, how, "; ".join(notes)
         except ValueError as exc:
             why = str(exc)
     else:
         why = sv
-    return fill_motion(motion, "cubic"), FALLBACK_FILL, _fallback_note(FALLBACK_FILL, "ebd", label, why)
+    note = _fallback_note(FALLBACK_FILL, "ebd", label, why)
+    own = passed_over("ebd", motion) if model is None else ""
+    return fill_motion(motion, "cubic"), FALLBACK_FILL, f"{own}; {note}" if own else note
 
 
 def denoise_or_fallback(motion: Motion, model=None, cells: np.ndarray | None = None, label: str = "shipped",
@@ -716,8 +748,10 @@ def denoise_or_fallback(motion: Motion, model=None, cells: np.ndarray | None = N
     from ..filters import savgol_smooth
 
     sv = served_by(motion, model_of_kind(model, "ebf", motion))
+    own = passed_over("ebf", motion) if model is None else ""
     if not isinstance(sv, str):
-        return denoise(motion, sv, cells=cells), _method("ebf", label, sv), licence_note(sv.model, options)
+        note = "; ".join(n for n in (own, licence_note(sv.model, options)) if n)
+        return denoise(motion, sv, cells=cells), _method("ebf", label, sv, skeleton=motion.skeleton), note
     J = motion.skeleton.num_joints
     if cells is None:
         cells = np.zeros((motion.num_frames, J), dtype=bool)
@@ -727,7 +761,8 @@ def denoise_or_fallback(motion: Motion, model=None, cells: np.ndarray | None = N
     den = savgol_smooth(motion, window_s=0.1, polyorder=2, joints=joints, root=False)
     rot = np.where(cells[..., None], den.rotations, motion.rotations)
     out = dataclasses.replace(motion, rotations=rot)
-    return out, FALLBACK_DENOISE, _fallback_note("Savitzky-Golay", "ebf", label, sv)
+    note = _fallback_note("Savitzky-Golay", "ebf", label, sv)
+    return out, FALLBACK_DENOISE, f"{own}; {note}" if own else note
 
 
 def _hold_unmapped(motion: Motion, sv: Serving, missing: np.ndarray) -> Motion:

@@ -9,7 +9,13 @@ channels in world-aligned frames, where the ASF has one to three degrees of
 freedom in a per-bone ``axis`` frame.
 
 :func:`served_by` is the one rule: a take is served **directly** when it has
-the model's channels (any ASF/AMC of that skeleton); **through a joint map**
+the model's channels (any ASF/AMC of that skeleton), or has them among more
+(a game rig with a weapon, twist or tail bone added: every joint of the
+model by name, each with the model's rotation channels in the model's order
+and hanging directly below another of the model's joints or the root, in
+the model's order; the network reads and writes those joints alone and the
+others are left to the caller's fallback, as a joint map leaves the joints
+no role claims); **through a joint map**
 when its rig family (:mod:`mocapkit.rigs`) plays every role the model's
 joints play but a few it can do without (:data:`OPTIONAL_ROLES`: a trunk
 segment here and there, palms, fingers, thumbs and toes, which HumanIK,
@@ -74,7 +80,8 @@ from ...motion import Motion, Skeleton
 from .channels import ChannelLayout, encode as encode_direct, decode as decode_direct, layout_for
 from .channels import root_angular_velocity, unwrap_degrees
 
-__all__ = ["ACCLAIM_AXES", "SAME_REST_DEG", "OPTIONAL_ROLES", "INFERRED", "Serving", "served_by", "encode", "decode"]
+__all__ = ["ACCLAIM_AXES", "SAME_REST_DEG", "OPTIONAL_ROLES", "INFERRED", "Serving", "served_by", "restricted", "encode",
+           "decode"]
 
 #: The family a :class:`Serving` names for a rig of no known family whose roles its tree and rest pose show.
 INFERRED = "inferred"
@@ -131,20 +138,23 @@ for _s in ("left", "right"):
 class Serving:
     """How a model serves a take (from :func:`served_by`; arrays over the model's joints, layout order).
 
-    ``direct``: the take has the model's channels and no mapping is needed.
-    Otherwise ``joints[k]`` is the take joint playing model joint ``k`` (-1:
-    the rig lacks it, see :data:`OPTIONAL_ROLES`); ``chains[k]`` the take
-    joints whose local rotations make the rotation from model joint
-    ``parent[k]`` (-1: the pelvis) to ``k``, top down, ending with
-    ``joints[k]`` (empty for a lacking joint); ``pelvis_chain`` the take
-    joints from the root to the pelvis; ``orders[k]`` the intrinsic Euler
-    order of the model's channels; ``axes`` (n, 4) the Acclaim axis frames;
-    ``rest`` (n, 4) each joint's retargeting rotation ``A`` (identity where
-    the rest bones agree); ``body`` (4,) the pelvis' (the rest body frame's
-    turn, identity on a Y-up rig); ``shares[k]`` the lacking model joint
-    between joint ``k`` and its mapped parent whose turn ``k``'s chain
-    carries (-1: none); ``filler`` (C,) the channel values a joint the
-    network reads at its means is shown as (the training means, degrees).
+    ``direct``: the take has the model's channels and no mapping is needed;
+    where it has more joints than the model, ``joints[k]`` is the take joint
+    of model joint ``k`` and ``others`` the take's rotating non-root joints
+    the model does not cover (the caller's fallback smooths them). Otherwise
+    ``joints[k]`` is the take joint playing model joint ``k`` (-1: the rig
+    lacks it, see :data:`OPTIONAL_ROLES`); ``chains[k]`` the take joints whose
+    local rotations make the rotation from model joint ``parent[k]`` (-1: the
+    pelvis) to ``k``, top down, ending with ``joints[k]`` (empty for a lacking
+    joint); ``pelvis_chain`` the take joints from the root to the pelvis;
+    ``orders[k]`` the intrinsic Euler order of the model's channels; ``axes``
+    (n, 4) the Acclaim axis frames; ``rest`` (n, 4) each joint's retargeting
+    rotation ``A`` (identity where the rest bones agree); ``body`` (4,) the
+    pelvis' (the rest body frame's turn, identity on a Y-up rig);
+    ``shares[k]`` the lacking model joint between joint ``k`` and its mapped
+    parent whose turn ``k``'s chain carries (-1: none); ``filler`` (C,) the
+    channel values a joint the network reads at its means is shown as (the
+    training means, degrees).
     """
 
     model: object
@@ -160,6 +170,7 @@ class Serving:
     filler: np.ndarray | None = None
     body: np.ndarray | None = None
     shares: tuple[int, ...] = ()
+    others: tuple[int, ...] = ()
 
     @property
     def retargeted(self) -> tuple[int, ...]:
@@ -181,7 +192,8 @@ class Serving:
     def describe(self) -> str:
         """How the take is served, in words (for notes and messages)."""
         if self.direct:
-            return "its own channels"
+            return "its own channels" + (f" ({len(self.others)} joints the model does not know left to the fallback"
+                                         " filter)" if self.others else "")
         rig = "rig, its roles read from its tree and rest pose," if self.family == INFERRED else f"{self.family} rig"
         how = f"a joint map from the {rig} onto the Acclaim skeleton"
         extra = [f"{len(self.retargeted)} bones retargeted from its rest pose"] if self.retargeted else []
@@ -299,8 +311,11 @@ def served_by(motion_or_skeleton, model) -> Serving | str:
 
     The one rule every command and the cleaning pipeline apply. A take with
     exactly the model's channels (an ASF/AMC take of the skeleton it was
-    trained on) is served directly. An Euler model of the Acclaim skeleton
-    also serves a take whose rig family (:func:`mocapkit.rigs.rig_family`)
+    trained on) is served directly; so is one that has them among more
+    joints (:func:`_own_joints`: each model joint by name with the model's
+    channels, below another model joint or the root, in the model's order),
+    whose other joints the network leaves alone (``Serving.others``). An
+    Euler model of the Acclaim skeleton also serves a take whose rig family (:func:`mocapkit.rigs.rig_family`)
     plays every role its joints play, each below the joint of its parent
     role, in the Acclaim rest pose (the CMU BVH conversions of the
     MotionBuilder-friendly release), or may lack a few of them
@@ -316,10 +331,14 @@ def served_by(motion_or_skeleton, model) -> Serving | str:
     have = layout_for(sk, layout.representation)
     if have.names == layout.names:
         return Serving(model, rigs.rig_family(sk), True)
+    own = _own_joints(sk, layout)
+    if not isinstance(own, str):
+        others = tuple(j for j in range(1, sk.num_joints) if j not in set(own) and sk.rotation_order(j))
+        return Serving(model, rigs.rig_family(sk), True, joints=own, others=others)
     trained = f"the model was trained on a skeleton with {layout.num_channels} {layout.representation} channels"
     model_roles = [_acclaim_role(n) for n in layout.joints]
     if layout.representation != "euler" or None in model_roles:
-        return (f"{trained} and this one has {have.num_channels} ({_difference(layout, have)}); "
+        return (f"{trained} and this one has {have.num_channels} ({own}); "
                 f"train a model on this rig with `mocapkit train`")
     family = rigs.rig_family(sk)
     found = rigs.roles(sk) if family is not None else rigs.roles_by_topology(sk)
@@ -334,6 +353,45 @@ def served_by(motion_or_skeleton, model) -> Serving | str:
                 f"{len(layout.joints)} joints: {', '.join(lacking[:4])}{', ...' if len(lacking) > 4 else ''}; "
                 f"train a model on this rig with `mocapkit train`")
     return _map(model, sk, family, found, model_roles)
+
+
+def _own_joints(sk: Skeleton, layout: ChannelLayout) -> tuple[int, ...] | str:
+    """The take joints of the model's joints (layout order) where ``sk`` holds the model's channels among more
+    joints (:func:`served_by`'s direct rule), else what differs, in words: a model joint the rig lacks, one that
+    hangs below a joint the model does not know (then its rotation is relative to another frame than the model's),
+    or other channels or another order of the model's joints."""
+    index = {n: j for j, n in enumerate(sk.joint_names)}
+    lacking = [n for n in layout.joints if n not in index or index[n] == 0]
+    if lacking:
+        return f"no joint {', '.join(lacking[:4])}{', ...' if len(lacking) > 4 else ''} below the root"
+    ids = [index[n] for n in layout.joints]
+    known = set(ids) | {0}
+    for n, j in zip(layout.joints, ids):
+        p = int(sk.parents[j])
+        if p not in known:
+            return f"its {n} hangs below {sk.joint_names[p]}, which the model has no channels for"
+    have = layout_for(_restricted_skeleton(sk, sorted(known)), layout.representation)
+    if have.names != layout.names:
+        return _difference(layout, have) if set(have.names) != set(layout.names) else "its joints in another order"
+    return tuple(ids)
+
+
+def _restricted_skeleton(sk: Skeleton, keep: list[int]) -> Skeleton:
+    """``sk`` on the joints ``keep`` (sorted, the root first, each one's parent among them): names, offsets, file
+    channels and axis frames of those joints; no end sites."""
+    new = {j: k for k, j in enumerate(keep)}
+    return Skeleton(tuple(sk.joint_names[j] for j in keep), np.array([-1] + [new[int(sk.parents[j])] for j in keep[1:]]),
+                    sk.offsets[keep], channels=None if sk.channels is None else tuple(sk.channels[j] for j in keep),
+                    axes=None if sk.axes is None else sk.axes[keep], unit_cm=sk.unit_cm)
+
+
+def restricted(motion: Motion, joints) -> Motion:
+    """``motion`` on the root and ``joints`` alone (take indices whose parents are among them or the root): the
+    rotations (F, n + 1, 4), root trajectory and file channels of those joints, for a model that knows only them."""
+    keep = sorted({0} | {int(j) for j in joints})
+    return Motion(skeleton=_restricted_skeleton(motion.skeleton, keep), rotations=motion.rotations[:, keep],
+                  root_positions=motion.root_positions, fps=motion.fps, name=motion.name,
+                  translations=None if motion.translations is None else motion.translations[:, keep])
 
 
 def _difference(layout: ChannelLayout, have: ChannelLayout) -> str:
@@ -468,7 +526,8 @@ def _full_angles(m: np.ndarray, order: str) -> tuple[np.ndarray, str]:
 def encode(motion: Motion, serving: Serving) -> tuple[np.ndarray, np.ndarray]:
     """(values (F, C), context (F, 3)) the model reads for ``motion``: its degrees (unwrapped) and root omega.
 
-    Direct serving is :func:`channels.encode`. Through a joint map the
+    Direct serving is :func:`channels.encode` (of :func:`restricted` to the model's joints where the take has
+    more). Through a joint map the
     values are the Acclaim degrees of freedom of each mapped joint (module
     docstring) and the context is the pelvis' angular velocity in its own
     frame (rad/s). A NaN rotation anywhere on a joint's chain gives NaN
@@ -477,7 +536,7 @@ def encode(motion: Motion, serving: Serving) -> tuple[np.ndarray, np.ndarray]:
     means at every frame.
     """
     if serving.direct:
-        return encode_direct(motion, serving.layout)
+        return encode_direct(restricted(motion, serving.joints) if serving.joints else motion, serving.layout)
     ctx = root_angular_velocity(_pelvis_rotation(motion, serving), motion.fps)
     return _channels(_dof_rotations(motion, serving), serving), ctx
 
@@ -517,7 +576,8 @@ def decode(values: np.ndarray, like: Motion, serving: Serving, keep: np.ndarray 
            residual=None) -> Motion:
     """A Motion like ``like`` whose model-covered rotations come from the model's ``values`` (F, C) in degrees.
 
-    Direct serving is :func:`channels.decode`. Through a joint map, each
+    Direct serving is :func:`channels.decode` (onto the model's joints alone where the take has more; the
+    others are copied). Through a joint map, each
     mapped joint's new rotation keeps the part of its Acclaim rotation the
     degrees of freedom do not span, and is written back through its chain
     (joints on the chain that the model does not cover keep their rotation).
@@ -528,6 +588,13 @@ def decode(values: np.ndarray, like: Motion, serving: Serving, keep: np.ndarray 
     degrees unwrapped along time, before they are recombined (the denoiser
     smooths them: the network cannot see them).
     """
+    if serving.direct and serving.joints:  # the model's joints among more: written back onto them alone
+        part = restricted(like, serving.joints)
+        keep_part = None if keep is None else np.asarray(keep, dtype=bool)[:, sorted({0, *serving.joints})]
+        out = decode_direct(values, part, serving.layout, keep=keep_part)
+        rot = np.array(like.rotations)
+        rot[:, list(serving.joints)] = out.rotations[:, [part.skeleton.index(n) for n in serving.layout.joints]]
+        return dataclasses.replace(like, rotations=rot)
     if serving.direct:
         return decode_direct(values, like, serving.layout, keep=keep)
     values = np.asarray(values, dtype=np.float64)

@@ -53,9 +53,10 @@ class Denoiser:
         sv = served_by(skeleton, m)
         if isinstance(sv, str):
             raise SkeletonError(f"skeleton: {sv}")
-        if not sv.direct:
-            raise SkeletonError(f"skeleton: streaming needs the model's own channels; this {sv.family} rig is "
-                                f"served offline only (deep.denoise)")
+        if not sv.direct or sv.joints:
+            how = "has joints the model does not know" if sv.direct else "is served through a joint map"
+            raise SkeletonError(f"skeleton: streaming needs exactly the model's channels; this {sv.family} rig {how} "
+                                f"and is served offline only (deep.denoise)")
         if needs_resampling(fps, m.fps):
             raise ValueError(f"streaming runs at the model's rate ({m.fps:g} fps), got {fps:g} fps")
         self.model = m

@@ -20,6 +20,7 @@ from .params import SSAParams
 __all__ = [
     "discontinuities",
     "midpoint_residuals",
+    "midpoint_angles",
     "residual_breaks",
     "own_breaks",
     "motion_explained",
@@ -148,15 +149,18 @@ def midpoint_residuals(rotations: np.ndarray) -> np.ndarray:
     out = np.zeros(q.shape[:2])
     if len(q) < 3:
         return out
-    a, b, c = q[:-2], q[1:-1], q[2:]
+    out[1:-1] = np.nan_to_num(midpoint_angles(q[:-2], q[1:-1], q[2:]), nan=0.0)
+    return out
+
+
+def midpoint_angles(a: np.ndarray, b: np.ndarray, c: np.ndarray) -> np.ndarray:
+    """(...) radians: angle between ``b`` and the midpoint of ``a`` and ``c`` (their normalised sum, ``c`` on
+    ``a``'s side), for unit quaternions (..., 4) of three consecutive frames; NaN where one is missing."""
     c = np.where((np.sum(a * c, axis=-1) < 0)[..., None], -c, c)
     mid = a + c
     norm = np.linalg.norm(mid, axis=-1, keepdims=True)
     with np.errstate(invalid="ignore", divide="ignore"):
-        mid = mid / norm
-        resid = R.geodesic_angle(b, mid)
-    out[1:-1] = np.nan_to_num(resid, nan=0.0)
-    return out
+        return R.geodesic_angle(b, mid / norm)
 
 
 def side_swaps(motion: Motion, jump_deg: float = _D.swap_jump_deg, max_s: float = _D.swap_max_s, joints=None) -> np.ndarray:
@@ -388,41 +392,49 @@ def _velocity(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 
 
 def _compensated(q: np.ndarray, parents, j: int, first, last, depth: int = 3, ratio: float = 0.5) -> np.ndarray:
-    """(n,) bool: whether joint ``j``'s turn across each event is undone within its chain: a representation jump.
+    """(n,) bool: whether joint ``j``'s break across each event is undone within its chain: a representation jump.
 
     Some solvers share one turn between the joints of a chain and, from
     one frame to the next, share it another way (the HDM05 spine: the
     lower back turns 17 deg in one frame and the thorax turns back, so the
     upper body does not move). The joint's own rotation jumps, but the
     chain's composed rotation from an ancestor to a descendant (``depth``
-    levels at most each way) does not. An error in one joint turns every
-    such composed rotation as much as the joint itself; here some turns
-    less than ``ratio`` times as much. ``q`` (F, J, 4) local rotations,
-    ``parents`` (J,); event i spans frames ``first[i] .. last[i]`` (n,); a
-    turn is the largest angle from frame ``first - 1`` to any frame up to
-    ``last + 1`` (so a spike, back on its path after the event, turns by its
-    size). All of the joint's events at once: their frames are stacked, and
-    the largest angles taken per event.
+    levels at most each way) does not. An error in one joint breaks every
+    such composed rotation's track as much as the joint's own (the error
+    ``e`` in ``A q e B`` leaves ``B^-1 e B``, a turn of the same angle); here
+    some chain breaks less than ``ratio`` times as much. A break is the
+    largest midpoint residual (:func:`midpoint_angles`) over the event's
+    frames ``first[i] .. last[i]`` (n,): the departure from the smooth path
+    through each frame's neighbours, whichever way the error turns and
+    whatever the rest of the chain does meanwhile (the chain's own motion
+    is second order in time; the turn from the frame before the event,
+    which this compared once, adds a 30 fps stride's first-order motion and
+    called a thigh error compensated or not by its direction). ``q``
+    (F, J, 4) local rotations, ``parents`` (J,). All of the joint's events
+    at once: the frames ``first - 1 .. last + 1`` of each are stacked and the
+    largest residuals taken per event.
     """
     first, last = np.asarray(first, dtype=np.int64), np.asarray(last, dtype=np.int64)
     f0, f1 = np.maximum(first - 1, 0), np.minimum(last + 1, len(q) - 1)
     out = np.zeros(len(first), dtype=bool)
     chains = chain_table(parents, j, depth)
-    has = f1 > f0
+    has = f1 - f0 >= 2  # an event with a frame between two others
     if not has.any() or not len(chains):
         return out
-    frames, event, start = segment_frames(f0[has], f1[has] - f0[has] + 1)  # f0 .. f1 of each event, f0 the reference
+    frames, event, start = segment_frames(f0[has], f1[has] - f0[has] + 1)  # f0 .. f1 of each event
     at = np.asarray(q[frames], dtype=np.float64)  # (T, J, 4)
-    later = np.ones(len(event), dtype=bool)
-    later[start] = False  # the rows after each event's reference frame
-    ref = start[event[later]]
-    firsts = start - np.arange(len(start))  # each event's first row among the later ones
-    own = np.maximum.reduceat(R.geodesic_angle(at[later, j], at[ref, j]), firsts)
+    inner = np.ones(len(event), dtype=bool)
+    inner[start] = False
+    inner[np.append(start[1:], len(event)) - 1] = False  # each event's first and last rows are neighbours only
+    rows = np.flatnonzero(inner)
+    firsts = start - 2 * np.arange(len(start))  # each event's first row among the inner ones
+    own = np.maximum.reduceat(midpoint_angles(at[rows - 1, j], at[rows, j], at[rows + 1, j]), firsts)
     composed = at[:, chains[:, 0]]  # (T, C, 4): each chain's rotation from its root-side joint down
     for i in range(1, chains.shape[1]):
         on = chains[:, i] >= 0
         composed[:, on] = R.quaternion_multiply(composed[:, on], at[:, chains[on, i]])
-    turns = np.maximum.reduceat(R.geodesic_angle(composed[later], composed[ref]), firsts, axis=0)  # (n, C)
+    turns = np.maximum.reduceat(midpoint_angles(composed[rows - 1], composed[rows], composed[rows + 1]), firsts,
+                                axis=0)  # (n, C)
     out[has] = (own > 0) & (turns < ratio * own[:, None]).any(axis=1)
     return out
 
