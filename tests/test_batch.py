@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import hashlib
 import os
 import shutil
@@ -701,3 +702,27 @@ def test_a_take_that_cannot_be_written_fails_in_one_line_naming_its_output(tmp_p
     monkeypatch.setattr(tempfile, "mkdtemp", denied)
     s = clean_batch(src, out, steps=STEPS, executor="serial", progress=False)
     assert s.rows[0]["reason"] == f"{out / 'a.bvh'}: Permission denied"
+
+
+def test_the_noise_level_is_part_of_the_request_and_an_earlier_record_without_it_reads_as_the_default(tmp_path,
+                                                                                                      walk_in):
+    """--noise-deg changes what denoise touches, so a take cleaned at another level is not this run's to skip; a
+    record written before the request kept the level (or the AMC rate and unit) was made at the defaults."""
+    from mocapkit.cleaning.pipeline import NOISE_DEG, CleanResult
+
+    from mocapkit.batch import REQUEST_DEFAULTS
+
+    assert REQUEST_DEFAULTS["noise_deg"] == NOISE_DEG
+    out = tmp_path / "out"
+    assert clean_batch(walk_in, out, steps=["fill", "denoise"], executor="serial", progress=False).count("done") == 1
+    record = out / "walk.clean.npz"
+    assert CleanResult.load_params(record)["request"]["noise_deg"] == NOISE_DEG
+    with pytest.raises(MocapFormatError, match=r"noise_deg 1.0 \(now 3.0\)"):
+        clean_batch(walk_in, out, steps=["fill", "denoise"], executor="serial", progress=False, noise_deg=3.0)
+    with pytest.raises(MocapError, match="noise_deg must be a positive number"):
+        clean_batch(walk_in, out, executor="serial", progress=False, noise_deg=0.0)
+    res = CleanResult.load(record)  # the record as an earlier mocapkit wrote it: no noise_deg, amc_fps, unit
+    request = {k: v for k, v in res.params["request"].items() if k not in REQUEST_DEFAULTS}
+    res = dataclasses.replace(res, params={**res.params, "request": request})
+    res.save(record)
+    assert clean_batch(walk_in, out, steps=["fill", "denoise"], executor="serial", progress=False).count("skipped") == 1

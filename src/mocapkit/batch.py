@@ -60,6 +60,7 @@ from __future__ import annotations
 import dataclasses
 import fnmatch
 import json
+import math
 import os
 import shutil
 import tempfile
@@ -119,6 +120,7 @@ def clean_file(
     skeleton_copy: tuple | None = None,
     amc_fps: float | None = None,
     unit: str | None = None,
+    noise_deg: float | None = None,
 ):
     """Clean the take at ``inp`` and write ``out``, its ``.clean.npz`` record and optional reports.
 
@@ -139,7 +141,8 @@ def clean_file(
     (:func:`mocapkit.cleaning.pipeline.clean`); ``models``: ``{"ebf": ..., "ebd": ...}`` model files (or
     shipped names, :func:`mocapkit.cleaning.deep.load_model`) instead of the shipped models chosen for
     the take's rig. ``skeleton_copy``: ``(destination, source)`` of the ASF an AMC ``out`` is read with
-    (:func:`mocapkit.io.takes.asf_for_output`), written first, with the outputs.
+    (:func:`mocapkit.io.takes.asf_for_output`), written first, with the outputs. ``noise_deg``: the
+    noisy-cell level (:func:`mocapkit.cleaning.pipeline.clean`; None: its default).
 
     Every output is checked against every input
     (:func:`mocapkit.io.outputs.check_outputs`) before anything is read; the
@@ -151,7 +154,7 @@ def clean_file(
     """
     from . import io
     from .cleaning import decisions as dec
-    from .cleaning.pipeline import STEPS, CleanResult, clean, clean_path, parse_steps
+    from .cleaning.pipeline import NOISE_DEG, STEPS, CleanResult, clean, clean_path, parse_steps
     from .io.outputs import check_outputs, file_facts, removed_on_failure
     from .io.takes import check_asf, file_first_frame, load_motion, load_take
     from .markerset import MarkerSet
@@ -161,7 +164,7 @@ def clean_file(
     not_for_markers = [name for name, given in (
         ("steps " + ",".join(asked), asked != STEPS),
         ("decisions", decisions is not None), ("record", record is not None), ("drifts", drifts),
-        ("models", bool(models))) if given]
+        ("models", bool(models)), ("noise_deg", noise_deg is not None)) if given]
     if isinstance(motion, MarkerSet) or (motion is None and inp.suffix.lower() in (".c3d", ".trc")):
         refuse_marker_options(inp, not_for_markers)
         return clean_marker_file(inp, out, report=report, png=png, overwrite=overwrite, markers=motion, unit=unit)
@@ -193,10 +196,11 @@ def clean_file(
         ctx, ctx_note = fit_context(m, load_context(context, progress=progress, take=m))
         try:
             res = clean(m, ctx, steps=steps or STEPS, threshold=threshold, progress=progress, drifts=drifts,
-                        models=models)
+                        models=models, noise_deg=NOISE_DEG if noise_deg is None else noise_deg)
             if ctx_note:
                 res = replace(res, notes=res.notes + (ctx_note,))
-            res = replace(res, params={**res.params, "request": clean_request(steps, threshold, drifts, context, models)})
+            res = replace(res, params={**res.params, "request": clean_request(steps, threshold, drifts, context, models,
+                                                                              noise_deg, amc_fps, unit)})
         except (ValueError, TypeError) as exc:
             raise MocapError(f"{inp}: {exc}") from None
         except MocapError as exc:
@@ -253,13 +257,16 @@ def clean_file(
 
 
 def clean_request(steps=None, threshold: float = 0.5, drifts: bool = False, context: Sequence | None = None,
-                  models: dict | None = None) -> dict:
+                  models: dict | None = None, noise_deg: float | None = None, amc_fps: float | None = None,
+                  unit: str | None = None) -> dict:
     """What a take was asked to be cleaned with, as its record keeps it (``params["request"]``).
 
     :func:`clean_batch` takes a take as complete only when its record holds the same request: a take
-    reviewed with ``steps="detect"`` or cleaned at another threshold is not what a later run asks for.
+    reviewed with ``steps="detect"`` or cleaned at another threshold, noise level, AMC frame rate or unit is
+    not what a later run asks for. Keys a record of an earlier mocapkit lacks read as their defaults
+    (:data:`REQUEST_DEFAULTS`).
     """
-    from .cleaning.pipeline import STEPS, parse_steps
+    from .cleaning.pipeline import NOISE_DEG, STEPS, parse_steps
 
     def spec(c):
         p = Path(c)
@@ -271,7 +278,12 @@ def clean_request(steps=None, threshold: float = 0.5, drifts: bool = False, cont
             # the context turned off, however it was said ('none', 'off', 'NONE'): one request, as records kept it
             "context": ["none"] if context and is_off(list(context)) else ([spec(c) for c in context] if context else "default"),
             "models": {k: spec(v) if isinstance(v, (str, os.PathLike)) else type(v).__name__
-                       for k, v in sorted((models or {}).items())}}
+                       for k, v in sorted((models or {}).items())},
+            "noise_deg": float(NOISE_DEG if noise_deg is None else noise_deg),
+            "amc_fps": None if amc_fps is None else float(amc_fps), "unit": unit}
+
+
+REQUEST_DEFAULTS = {"noise_deg": 1.0, "amc_fps": None, "unit": None}  # what a record without these keys was made with
 
 
 def _not_complete(inp: Path, files: dict, request: dict) -> tuple[str, bool]:
@@ -304,7 +316,8 @@ def _not_complete(inp: Path, files: dict, request: dict) -> tuple[str, bool]:
     done = None if params is None else params.get("request")
     if not isinstance(done, dict):  # a marker capture's record, or one written before requests were kept
         return "", False
-    diff = [f"{k} {_said(done.get(k))} (now {_said(request[k])})" for k in request if done.get(k) != request[k]]
+    was = {k: done.get(k, REQUEST_DEFAULTS.get(k)) for k in request}
+    diff = [f"{k} {_said(was[k])} (now {_said(request[k])})" for k in request if was[k] != request[k]]
     return (f"it was cleaned with {', '.join(diff)}" if diff else ""), False
 
 
@@ -518,7 +531,7 @@ def _clean_job(job: dict) -> dict:
                             report=staged[Path(job["report"])] if job.get("report") else None,
                             png=staged[Path(job["png"])] if job.get("png") else None, asf=job.get("asf"),
                             drifts=bool(job.get("drifts")), models=job.get("models"), amc_fps=job.get("amc_fps"),
-                            unit=job.get("unit"))
+                            unit=job.get("unit"), noise_deg=job.get("noise_deg"))
         kept = keep_aside(finals)
         if finals[-1] in kept:  # the old record goes first: the take reads as incomplete while its files are replaced
             os.unlink(finals[-1])
@@ -654,6 +667,7 @@ def clean_batch(
     models: dict | None = None,
     amc_fps: float | None = None,
     unit: str | None = None,
+    noise_deg: float | None = None,
 ) -> BatchSummary:
     """Clean every take under ``in_dir`` into the mirrored layout under ``out_dir`` (module docstring).
 
@@ -667,7 +681,8 @@ def clean_batch(
     replaced only with ``overwrite``. ``asf``: the skeleton of every ``.amc``
     take (default: the ASF beside each AMC); ``amc_fps``: the frame rate of
     every ``.amc`` take (default: :func:`mocapkit.io.asfamc.amc_rate`);
-    ``unit``: the length unit of every take whose file states none. ``drifts``: also flag smooth
+    ``unit``: the length unit of every take whose file states none; ``noise_deg``: the noisy-cell level
+    of every take (:func:`clean_file`). ``drifts``: also flag smooth
     drifts in every take (:func:`mocapkit.cleaning.pipeline.clean`); ``models``: model files (or shipped
     names) for every take, as :func:`clean_file`'s. Raises
     :class:`~mocapkit.errors.MocapError` (one line) on a bad folder, format,
@@ -691,6 +706,8 @@ def clean_batch(
         steps = list(parse_steps(steps or STEPS))
     except ValueError as exc:
         raise MocapError(f"steps: {exc}") from None
+    if noise_deg is not None and not (math.isfinite(noise_deg) and noise_deg > 0):
+        raise MocapError(f"noise_deg must be a positive number of degrees, got {noise_deg!r}")
     ctx = [Path(c) for c in (context or [])]
     if ctx:
         load_context(ctx, progress=progress)  # fail early, in one line, on a bad context; a folder is built and cached once
@@ -707,7 +724,7 @@ def clean_batch(
     summary = BatchSummary(executor=describe_executor(executor), renamed=[str(p) for p in renamed],
                            earlier=[str(p) for p in earlier if not (below and resolved(p) == resolved(out_dir))])
     todo, stale, again = [], [], {}
-    request = clean_request(steps, threshold, drifts, ctx, models)
+    request = clean_request(steps, threshold, drifts, ctx, models, noise_deg, amc_fps, unit)
     for inp, files in zip(inputs, plans):
         if files["output"].is_file() and files["record"].is_file():
             why, anew = _not_complete(inp, files, request)
@@ -737,7 +754,7 @@ def clean_batch(
              "png": _abs(files["png"]) if files["png"] else None,
              "asf": _abs(asf) if asf is not None and inp.suffix.lower() == ".amc" else None,
              "amc_fps": float(amc_fps) if amc_fps is not None and inp.suffix.lower() == ".amc" else None,
-             "unit": unit} for inp, files in todo]
+             "unit": unit, "noise_deg": None if noise_deg is None else float(noise_deg)} for inp, files in todo]
     skeletons = _asf_copies(inputs, plans, asf, overwrite) if fmt == "amc" else {}
     expected = [f for files in plans for f in files.values() if f is not None]
     made = missing_folders([out_dir, *(Path(files["output"]).parent for _, files in todo)])

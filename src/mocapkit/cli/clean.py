@@ -9,8 +9,8 @@ from typing import Optional
 import typer
 
 from ..errors import MocapError, MocapFormatError
-from .common import (STEPS_HELP, amc_fps_option, asf_option, check_executor, console, context_option, executor_option,
-                     guard, overwrite_option, percent, plural, unit_option)
+from .common import (STEPS_HELP, amc_fps_option, asf_option, check_executor, check_noise_deg, console, context_option,
+                     executor_option, guard, noise_deg_option, overwrite_option, percent, plural, unit_option)
 
 
 def _steps(text: str) -> list[str]:
@@ -38,6 +38,7 @@ def clean(
                               help=STEPS_HELP + " --steps detect is the review mode: flags, record and report; OUT "
                                                 "holds the input's samples unchanged."),
     threshold: float = typer.Option(0.5, "--threshold", help="MDM value above which a joint is flagged and repaired (0-1)."),
+    noise_deg: Optional[float] = noise_deg_option(),
     drifts: bool = typer.Option(
         False, "--drifts",
         help="Also flag and repair smooth drifts (no break) where the --context repeats the take's motion "
@@ -79,6 +80,7 @@ def clean(
     step_list = _steps(steps)  # an unknown step is refused for any take
     not_for_markers = [name for name, given in (
         (f"--steps {steps}", tuple(step_list) != STEPS), ("--threshold", threshold != 0.5),
+        ("--noise-deg", noise_deg is not None),
         ("--context", bool(context)), ("--drifts", drifts), ("--reference", reference is not None),
         ("--decisions", decisions is not None), ("--record", record is not None), ("--ebf", ebf is not None),
         ("--ebd", ebd is not None)) if given]
@@ -90,6 +92,7 @@ def clean(
     else:
         guard([out, clean_path(out), report, png], [inp, asf, context, reference, decisions, ebf, ebd], overwrite)
     check_asf(asf, [inp, reference], amc_fps)
+    check_noise_deg(noise_deg)
     if _clean_marker_take(inp, out, report=report, png=png, overwrite=overwrite, not_for_markers=not_for_markers,
                           unit=unit):
         return
@@ -104,7 +107,7 @@ def clean(
                               joint_names=take.skeleton.joint_names)
     original, res = clean_file(inp, out, context=context, steps=step_list, threshold=threshold, report=report, png=png,
                                progress=True, asf=asf if inp.suffix.lower() == ".amc" else None, overwrite=overwrite,
-                               motion=take, drifts=drifts, decisions=decisions,
+                               motion=take, drifts=drifts, decisions=decisions, noise_deg=noise_deg,
                                record=record, models=models,
                                skeleton_copy=(skeleton_copy, skeleton) if skeleton_copy is not None else None)
     if skeleton_copy is not None:
@@ -285,6 +288,7 @@ def clean_batch(
     context: Optional[list[Path]] = context_option(),
     steps: str = typer.Option("fill,detect,repair,denoise", "--steps", help=STEPS_HELP),
     threshold: float = typer.Option(0.5, "--threshold", help="MDM value above which a joint is flagged (0-1)."),
+    noise_deg: Optional[float] = noise_deg_option(),
     drifts: bool = typer.Option(
         False, "--drifts",
         help="Also flag and repair smooth drifts (no break) where the --context repeats the takes' motion "
@@ -327,7 +331,8 @@ def clean_batch(
     try:
         summary = run_batch(in_dir, out_dir, context=context, steps=step_list, threshold=threshold, patterns=patterns,
                             fmt=fmt, report=report, png=png, executor=executor, progress=not as_json,
-                            overwrite=overwrite, asf=asf, drifts=drifts, models=models, amc_fps=amc_fps, unit=unit)
+                            overwrite=overwrite, asf=asf, drifts=drifts, models=models, amc_fps=amc_fps, unit=unit,
+                            noise_deg=noise_deg)
     except KeyboardInterrupt:  # "no partial output" alone reads as if nothing was kept
         if out_dir.is_dir() and any(out_dir.rglob("*.clean.npz")):
             console.print(f"note: the takes finished in {out_dir} are kept; the same command resumes the others")

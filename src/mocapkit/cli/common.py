@@ -9,6 +9,7 @@ no user string needs escaping case by case. Lines are not wrapped or cut
 
 from __future__ import annotations
 
+import math
 from typing import Iterable, Optional
 
 import typer
@@ -56,6 +57,22 @@ def amc_fps_option():
                         help="Frame rate of the .amc input(s) and reference (default: the rate the file states in "
                              "mocapkit's comment line, else the one an HDM05 name ends with, else 120, the CMU and "
                              "HDM05 rate).")
+
+
+def noise_deg_option():
+    """The ``--noise-deg`` option of ``clean`` and ``clean-batch`` (:func:`mocapkit.cleaning.pipeline.noisy_cells`)."""
+    return typer.Option(None, "--noise-deg", metavar="DEG",
+                        help="Noise level in degrees over which a joint's cells are denoised (a run of at least "
+                             "0.4 s; default 1). Raise it for takes at 24-30 fps whose fingers and toes wobble "
+                             "(docs/guide/cleaning.md: takes delivered at 24-30 fps).")
+
+
+def check_noise_deg(noise_deg: float | None) -> None:
+    """Refuse a ``--noise-deg`` that is not a positive number of degrees, in one line."""
+    if noise_deg is not None and not (math.isfinite(noise_deg) and noise_deg > 0):
+        from ..errors import MocapError
+
+        raise MocapError(f"--noise-deg must be a positive number of degrees, got {noise_deg:g}")
 
 
 def unit_option():
