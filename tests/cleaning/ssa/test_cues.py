@@ -193,7 +193,11 @@ def test_transient_offsets_flag_exactly_a_drift_or_flip_between_its_two_steps(wa
         assert not ssa.transient_offsets(bad, max_s=0.9 * (r.end - r.start) / walk.fps)[:, j].any()  # steps too far apart
         assert not ssa.transient_offsets(bad, joints=clean_joints)[:, j].any()
         det = ssa.detect(bad)
-        assert (det.flags >= det.offsets).all() and det.offsets[r.start : r.end, j].all()
+        assert (det.flags >= det.offsets).all()
+        if r.joint == "RFingers":  # a finger stub, an extra: the 24 slots go to the body first, and it is named
+            assert det.not_analysed()[r.joint] == "beyond the 24 analysed (body first)"
+        else:
+            assert det.offsets[r.start : r.end, j].all()
 
 
 def test_transient_offsets_leave_smooth_motion_spikes_and_one_way_steps_alone(walk):
@@ -469,3 +473,4 @@ def test_event_steps_and_spikes_equal_the_one_event_at_a_time_reference(walk):
                 want[run, j] = True
     assert n_events > 20 and n_none >= 2 and want.any() and (breaks & ~want).any()
     assert np.array_equal(cues.spike_breaks(rot, resid, breaks), want)
+
