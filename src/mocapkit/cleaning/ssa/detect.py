@@ -30,6 +30,7 @@ from .cues import (
     own_breaks,
     offsets_from_residuals,
     spike_breaks,
+    unshared_offsets,
     step_angles,
     uncompensated_breaks,
     swaps_from_residuals,
@@ -563,6 +564,7 @@ def detect_prepared(an: Analysis, threshold: float = 0.5, *, progress: bool = Fa
         np.asarray(motion.rotations, dtype=np.float64), resid, motion.fps, p.offset_jump_deg, p.offset_max_s,
         p.offset_min_deg, analysed, sk.joint_names, sk.parents,
     )
+    offsets = unshared_offsets(offsets, digression, p.offset_min_deg)  # an offset the similar motion holds is motion
     # smooth-drift evidence only against a context beyond the take that the caller chose (not the bundled default
     # context, a general sample that repeats no take's motion), and never on the pelvis or the root, whose rotation
     # carries the path's heading (module docstring of :mod:`~mocapkit.cleaning.ssa.drifts`)
