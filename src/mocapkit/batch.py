@@ -241,7 +241,7 @@ def clean_file(
         if report is not None:
             from .report.html import write_report  # lazy: the viewer is optional
 
-            write_report(report, m, cleaned, mdm=res.mdm, flags=res.flags, changed=changed,
+            write_report(report, m, cleaned, mdm=res.mdm, flags=res.flags, changed=changed, analysed=res.analysed,
                          title=f"{inp.name}: cleaned" + (f" ({Path(decisions).name} applied)" if doc else ""),
                          review=dec.review(m, res, take=inp.name, output=out.name, decisions=chosen,
                                            first_frame=file_first_frame(inp)))

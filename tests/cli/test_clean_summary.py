@@ -69,3 +69,33 @@ def test_the_summary_and_report_say_how_frames_relate_to_an_amcs_numbers(tmp_pat
     assert "numbers its frames" not in capsys.readouterr().out
     block = json.loads(re.search(r'id="mocapkit-review">(.*?)</script>', (tmp_path / "b.html").read_text(), re.S).group(1))
     assert block["frames"] == D.frame_note("bad.bvh") == "frame numbers count from 0, the take's first frame"
+
+
+def test_joints_not_analysed_are_named_in_summary_record_and_report(tmp_path, capsys):
+    """/tmp/trial19 R3: the summary, the record and the report hid which joints detection analysed, and the report's
+    heat map drew the others at MDM 0, looking checked and clean. They are named, with the reason, and striped."""
+    import base64
+    import re
+
+    from mocapkit.cleaning.pipeline import CleanResult
+
+    walk = mocapkit.load(samples.path("12_walk.amc"))  # CMU ASF: hip joints with no dof, still clavicles and fingers
+    inp = tmp_path / "walk.npz"
+    mocapkit.save(walk, inp)
+    out, report = tmp_path / "o.npz", tmp_path / "r.html"
+    assert main(["clean", str(inp), "-o", str(out), "--steps", "detect", "--report", str(report)]) == 0
+    text = capsys.readouterr().out
+    line = [s for s in text.splitlines() if "not analysed" in s]
+    assert line and "lhipjoint, rhipjoint (no rotation channels)" in line[0], text
+    res = CleanResult.load(out.with_name("o.clean.npz"))
+    why = dict(res.left_out)
+    assert why["lhipjoint"] == "no rotation channels" and why["lfingers"] == "rotation never changes"
+    assert why["rthumb"] == "beyond the 24 analysed (body first)"
+    assert int((~res.analysed).sum()) == len(why) and res.analysed[walk.skeleton.index("lfemur")]
+    assert not res.analysed[walk.skeleton.index("lhipjoint")]
+    page = report.read_text(encoding="utf-8")
+    data = json.loads(re.search(r'id="mocapkit-data">(.*?)</script>', page, re.S).group(1))
+    assert [data["names"][j] for j in data["notAnalysed"]] == list(why)
+    # the MDM the page holds is 0 there: only the list tells a joint not checked from one found clean
+    mdm = np.frombuffer(base64.b64decode(data["mdm"]), dtype=np.uint8).reshape(-1, data["numJoints"])
+    assert not mdm[:, data["notAnalysed"]].any()

@@ -64,7 +64,7 @@ def test_detect_no_confirm_gives_the_papers_flags(tmp_path):
     for rule, path in paths.items():
         code, out, err = run("detect", str(inp), "--out", str(path), f"--{rule}", "--json")
         assert code == 0, err
-        segments[rule] = json.loads(out.strip().splitlines()[-1])
+        segments[rule] = json.loads(out.strip().splitlines()[-1])["segments"]
     confirmed, paper = (ssa.Detection.load(p) for p in paths.values())
     # each segment names the rules that flagged it: without confirmation, the digression alone
     words = [w for _, w in ssa.cues.CAUSES]
@@ -177,7 +177,7 @@ def test_detect_and_repair_do_what_clean_does_and_leave_the_calibration_pose_alo
     inp, bad = _t_pose_walk(tmp_path)
     code, out, err = run("detect", inp, "-o", tmp_path / "det.npz", "--json")
     assert code == 0, err
-    found = {(g["joint"], g["start"], g["last"]) for g in json.loads(out.strip().splitlines()[-1])}
+    found = {(g["joint"], g["start"], g["last"]) for g in json.loads(out.strip().splitlines()[-1])["segments"]}
     assert run("clean", inp, "-o", tmp_path / "review.npz", "--steps", "detect")[0] == 0
     review = CleanResult.load(tmp_path / "review.clean.npz")
     assert found and found == {(g["joint"], g["first"], g["last"]) for g in dec.flag_segments(review)}
@@ -227,3 +227,24 @@ def test_repair_moves_unflagged_legs_only_with_foot_skate_and_says_so(tmp_path):
     assert code == 0, err
     plain = ~np.all(mocapkit.load(tmp_path / "plain.npz").rotations == bad.rotations, axis=-1)
     assert plain.any() and not (plain & ~flags).any() and "foot-skate" not in out
+
+
+def test_detect_json_names_the_joints_not_analysed(tmp_path):
+    """/tmp/trial19 R3: `detect --json` listed the flagged segments only, so a joint nobody analysed read as clean.
+    It prints one object: the segments, the joints not analysed with the reason, and the notes."""
+    walk = mocapkit.load(SAMPLE)[1:400]  # CMU 131 BVH: still palms, fingers and a collar; thumbs after the body
+    inp = tmp_path / "walk.npz"
+    mocapkit.save(walk, inp)
+    code, out, err = run("detect", inp, "-o", tmp_path / "det.npz", "--json")
+    assert code == 0, err
+    doc = json.loads(out.strip().splitlines()[-1])
+    assert set(doc) == {"segments", "not_analysed", "notes"}
+    still, crowded = {"lhand", "LFingers", "RightCollar", "rhand", "RFingers"}, {"LThumb", "RThumb"}
+    assert doc["not_analysed"] == {n: "rotation never changes" if n in still else "beyond the 24 analysed (body first)"
+                                   for n in walk.skeleton.joint_names if n in still | crowded}
+    assert list(doc["not_analysed"]) == [n for n in walk.skeleton.joint_names if n in still | crowded]  # skeleton order
+    assert any(n.startswith("not analysed, 7 joints: lhand, LFingers") for n in doc["notes"])
+    det = ssa.Detection.load(tmp_path / "det.npz")  # the detection file keeps them too
+    assert det.not_analysed() == doc["not_analysed"]
+    assert sorted(det.texture_joints.tolist()) == [j for j, n in enumerate(walk.skeleton.joint_names)
+                                                   if n not in still | crowded]

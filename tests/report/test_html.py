@@ -870,3 +870,30 @@ def test_shown_frames_of_a_take_shorter_than_its_margins():
     f[70] = True
     frames, _, detail = shown_frames(150, 100, f, margin=100)
     assert detail == "full" and frames.tolist() == list(range(150))  # every frame within 100 of frame 70
+
+
+def test_joints_not_analysed_are_striped_and_named_not_drawn_as_mdm_0(open_page, tmp_path, cleaned_walk):
+    """/tmp/trial19 R3: a joint detection did not analyse has MDM 0, and the heat map drew it as dark as a joint
+    checked and found clean. With ``analysed`` the page names those joints and stripes their rows grey."""
+    corrupted, repaired, det, changed = cleaned_walk
+    assert not det.analysed.all()
+    out = write_report(tmp_path / "r.html", corrupted, repaired, mdm=det.mdm, flags=det.flags, changed=changed,
+                       analysed=det.analysed)
+    names = corrupted.skeleton.joint_names
+    skipped = [int(j) for j in np.flatnonzero(~det.analysed)]
+    assert page_data(out)["notAnalysed"] == skipped
+    pg = open_page(out)
+    assert pg.errors == []
+    summary = pg.js("document.getElementById('summary').textContent")
+    assert f"{len(skipped)} joints not analysed by detection ({', '.join(names[j] for j in skipped)})" in summary
+    lay = pg.js("window.mocapkitReport.heatmapLayout()")
+    dpr = pg.js("window.devicePixelRatio || 1")
+
+    def row(j, rgb):
+        y = int((lay["top"] + (j + 0.5) * lay["rowHeight"]) * dpr)
+        return pg.ink("heatmap", rgb=rgb, region=[int(lay["left"] * dpr) + 2, y, int(lay["width"] * dpr) - 4, 1])
+
+    dark = (68, 1, 84)  # the ramp's 0: what an unanalysed row was drawn in
+    j, k = skipped[0], int(np.flatnonzero(det.analysed & ~det.flags.any(axis=0) & ~changed.any(axis=0))[1])
+    assert row(j, dark) == 0 and row(j, (173, 181, 189)) > 20 and row(j, (222, 226, 230)) > 20
+    assert row(k, dark) > 20 and row(k, (173, 181, 189)) == 0  # an analysed joint keeps its colours

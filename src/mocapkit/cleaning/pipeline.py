@@ -185,6 +185,10 @@ class CleanResult:
     that was cleaned, so that a record is applied to no other take (a record of
     another take of the same rig and length would put that take's cleaned values
     in); "" for a record written before it was kept.
+    ``left_out``: ``((joint name, why), ...)``, the joints detect did not analyse and why
+    (:meth:`mocapkit.cleaning.ssa.Detection.not_analysed`; their MDM is 0 and nothing flags
+    them: not checked, rather than found clean); None when detect did not run or for a record
+    written before they were kept. :attr:`analysed` is the same as a mask.
     """
 
     motion: Motion | None
@@ -204,6 +208,7 @@ class CleanResult:
     calibration: tuple = ()
     causes: np.ndarray | None = None
     take_sha256: str = ""
+    left_out: tuple | None = None
 
     def __repr__(self) -> str:
         return (f"CleanResult({self.motion!r}, {int(self.flags.sum())} flagged, {int(self.filled.sum())} filled, "
@@ -217,6 +222,14 @@ class CleanResult:
     @property
     def num_frames(self) -> int:
         return int(self.filled.shape[0])
+
+    @property
+    def analysed(self) -> np.ndarray | None:
+        """(J,) bool: the joints detect analysed (all but :attr:`left_out`); None when that is not known."""
+        if self.left_out is None:
+            return None
+        out = set(n for n, _ in self.left_out)
+        return np.array([n not in out for n in self.joint_names], dtype=bool)
 
     def summary(self) -> list[str]:
         """One line per calibration pose, one per step, then the notes."""
@@ -241,6 +254,7 @@ class CleanResult:
             "params": self.params,
             "calibration": [dataclasses.asdict(c) for c in self.calibration],
             "take_sha256": self.take_sha256,
+            "left_out": None if self.left_out is None else [list(p) for p in self.left_out],
         }
         samples = {}
         if self.motion is not None:  # the cleaned values of the changed cells: decisions apply them exactly
@@ -319,6 +333,7 @@ class CleanResult:
                 calibration=tuple(CalibrationPose(**c) for c in meta.get("calibration", [])),
                 causes=data["causes"].astype(np.uint8) if "causes" in data else None,
                 take_sha256=str(meta.get("take_sha256") or ""),
+                left_out=None if meta.get("left_out") is None else tuple((str(n), str(w)) for n, w in meta["left_out"]),
             )
         except (OSError, ValueError, KeyError, TypeError) as e:
             raise MocapFormatError(path, f"not a mocapkit clean file ({e})") from None
@@ -670,6 +685,7 @@ def clean(
     records: list[StepRecord] = []
     notes: list[str] = []
     det = None
+    left_out = None
     cur = motion
 
     held = held_still_note(motion) if "detect" in steps else ""
@@ -714,6 +730,7 @@ def clean(
             mdm = np.nan_to_num(np.asarray(det.mdm, dtype=np.float64))
             flags = np.asarray(det.flags, dtype=bool)
             causes = det.causes()
+            left_out = tuple(det.not_analysed().items())
             what = "the clip itself" if context is None else f"the clip and {_context_label(context)}"
             said = det.analysed_part().notes  # the frames analysed are said by the calibration lines
             note = f"{_count(len(det.segments()), 'flagged segment')} on {_count(int(flags.any(axis=0).sum()), 'joint')}" + (
@@ -757,5 +774,5 @@ def clean(
         motion=cur, mdm=mdm, flags=flags, filled=filled, repaired=repaired, denoised=denoised, noise=noise,
         joint_names=tuple(motion.skeleton.joint_names), fps=float(motion.fps), steps=tuple(records),
         notes=tuple(notes), params=params, detection=det, calibration=tuple(poses), causes=causes,
-        take_sha256=take_digest(motion),
+        take_sha256=take_digest(motion), left_out=left_out,
     )

@@ -42,7 +42,8 @@ def detect(
         help="Also flag smooth drifts (no break) where the --context repeats the take's motion (docs/guide/cleaning.md).",
     ),
     png: Optional[Path] = typer.Option(None, "--png", help="Also draw the movement digression map here."),
-    as_json: bool = typer.Option(False, "--json", help="Print the flagged segments as JSON."),
+    as_json: bool = typer.Option(
+        False, "--json", help="Print one JSON object: the flagged segments, the joints not analysed and why, the notes."),
     asf: Optional[Path] = asf_option(),
     amc_fps: Optional[float] = amc_fps_option(),
     unit: Optional[str] = unit_option(),
@@ -75,7 +76,10 @@ def detect(
         if png is not None:
             from ..report.plots import plot_mdm
 
-            plot_mdm(det.mdm, det.joint_names, det.fps, png, flags=det.flags, title=f"{inp.name}: movement digression map")
+            import numpy as np
+
+            shown = np.where(det.analysed[None, :], det.mdm, np.nan)  # grey, "not analysed", rather than an MDM of 0
+            plot_mdm(shown, det.joint_names, det.fps, png, flags=det.flags, title=f"{inp.name}: movement digression map")
         det.save(out)
     from ..cleaning.ssa.cues import cause_names
 
@@ -83,8 +87,13 @@ def detect(
     causes = det.causes()
     why = [cause_names(causes[a:b, det.joint_names.index(j)]) for j, a, b in segs]
     if as_json:  # end: the frame after the segment (Python's slice); last: its last frame, as the lines print it
-        print(json.dumps([{"joint": j, "start": a, "end": b, "last": b - 1, "start_s": a / m.fps, "end_s": b / m.fps,
-                           "causes": w} for (j, a, b), w in zip(segs, why)]))
+        # not_analysed: joint -> why; nothing flags those joints because nothing checked them
+        print(json.dumps({
+            "segments": [{"joint": j, "start": a, "end": b, "last": b - 1, "start_s": a / m.fps, "end_s": b / m.fps,
+                          "causes": w} for (j, a, b), w in zip(segs, why)],
+            "not_analysed": det.not_analysed(),
+            "notes": ([note] if note else []) + [str(c) for c in found.calibration] + list(det.notes),
+        }))
         return
     console.print(f"wrote {out}" + (f" and {png}" if png else "") + f": {plural(len(segs), 'flagged segment')}"
                   f" (judged against {context_label(ctx)})")

@@ -322,6 +322,7 @@ def write_report(
     max_frames: int | None = None,
     up_axis=None,
     review: dict | None = None,
+    analysed=None,
 ) -> Path:
     """Write the self-contained HTML cleaning report of ``original`` -> ``cleaned``.
 
@@ -357,6 +358,10 @@ def write_report(
         (:func:`mocapkit.cleaning.decisions.changes` and
         :func:`~mocapkit.cleaning.decisions.template`): the page lists the
         changes for a person to accept or reject and download the decisions.
+    analysed : bool array (J,), optional
+        The joints detection analysed (:attr:`mocapkit.cleaning.pipeline.CleanResult.analysed`). The
+        heat map draws the others striped grey, "not analysed", and the page names them, rather than
+        an MDM of 0 that looks checked and clean. None: every joint is drawn by its MDM.
 
     Returns
     -------
@@ -392,6 +397,12 @@ def write_report(
         mdm_arr = np.nan_to_num(mdm_arr, nan=0.0).clip(0.0, 1.0)
     flags_arr = _cell_mask(flags, "flags", shape)
     changed_arr = _cell_mask(changed, "changed", shape)
+    unchecked = []
+    if analysed is not None:
+        analysed = np.asarray(analysed)
+        if analysed.shape != (J,) or analysed.dtype != bool:
+            raise ValueError(f"analysed: expected a bool array of shape (J,) = ({J},), got {analysed.dtype} {analysed.shape}")
+        unchecked = [int(j) for j in np.flatnonzero(~analysed)]
     if max_frames is None:
         max_frames = DEFAULT_MAX_FRAMES
     if int(max_frames) != max_frames or max_frames < 2:
@@ -474,6 +485,8 @@ def write_report(
         "mdm": None if mdm_q is None else _b64(mdm_q),
         "bits": _b64(bits),
         "has": {"mdm": mdm_q is not None, "flags": flags_arr is not None, "changed": changed_arr is not None},
+        # the joints detection did not analyse: striped on the heat map, named in the summary (not an MDM of 0)
+        "notAnalysed": unchecked,
         "stats": {
             "flagged": None if flags_arr is None else int(flags_arr.sum()),
             "changed": None if changed_arr is None else int(changed_arr.sum()),

@@ -49,7 +49,10 @@ def plot_summary(result, original: Motion, path, joints: int = 2, title: str | N
         grid = fig.add_gridspec(len(heights), 2, height_ratios=heights, width_ratios=[60, 1], hspace=0.6, wspace=0.02,
                                 left=0.12, right=0.95, top=1.0 - 1.0 / (sum(heights) + gaps), bottom=0.5 / (sum(heights) + gaps))
         ax = fig.add_subplot(grid[0, 0])
-        handles = draw_mdm(ax, fig.add_subplot(grid[0, 1]), result.mdm, result.joint_names, result.fps, flags=result.flags)
+        mdm = np.array(result.mdm, dtype=np.float64)
+        if result.analysed is not None:  # drawn grey, "not analysed", rather than an MDM of 0
+            mdm[:, ~result.analysed] = np.nan
+        handles = draw_mdm(ax, fig.add_subplot(grid[0, 1]), mdm, result.joint_names, result.fps, flags=result.flags)
         calib = tuple(getattr(result, "calibration", ()) or ())
         for c in calib:
             a, b = c.frames

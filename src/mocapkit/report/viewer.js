@@ -57,6 +57,9 @@
   POS.cleaned = cleanedPositions(POS.original);
   var MDM = D.mdm ? bytes(D.mdm) : null;   // (N, J) uint8, 255 = 1.0
   var BITS = bytes(D.bits);                // (N, J)
+  var UNCHECKED = D.notAnalysed || [];     // joints detection did not analyse
+  var NOT_ANALYSED = new Uint8Array(J);
+  UNCHECKED.forEach(function (j) { NOT_ANALYSED[j] = 1; });
   var PLOTS = D.plots.map(function (p) {
     return { joint: p.joint, channels: p.channels,
              original: dequant(p.original, p.lo, p.step), cleaned: dequant(p.cleaned, p.lo, p.step) };
@@ -99,6 +102,8 @@
       (st.flaggedJoints.length ? " (" + st.flaggedJoints.slice(0, 8).join(", ") + (st.flaggedJoints.length > 8 ? ", ..." : "") + ")" : ""));
     if (st.changed !== null) parts.push(st.changed + " cells changed by the cleaning");
     if (st.missingOriginal) parts.push(st.missingOriginal + " missing cells in the input");
+    if (UNCHECKED.length) parts.push(UNCHECKED.length + " joint" + (UNCHECKED.length === 1 ? "" : "s") +
+      " not analysed by detection (" + UNCHECKED.map(function (j) { return D.names[j]; }).join(", ") + ")");
     summary.textContent = parts.join("; ") + ".";
     if (N < F) el("p", { "class": "note", id: "downsample-note", text: downsampleNote() }, document.querySelector("header"));
   })();
@@ -149,7 +154,8 @@
   var heatNote = el("p", { "class": "note" }, heatSec);
   heatNote.textContent = (D.has.mdm ? "Colour: MDM (0 dark to 1 bright)" : "No MDM given") +
     (D.has.flags ? "; red: flagged" : (D.has.changed ? "; red: changed by the cleaning" : "")) +
-    "; grey: missing in the input. Click a cell to jump to that frame and select that joint.";
+    "; grey: missing in the input" + (UNCHECKED.length ? "; striped: not analysed by detection (not checked, no MDM)" : "") +
+    ". Click a cell to jump to that frame and select that joint.";
   var heat = el("canvas", { id: "heatmap", "class": "heat-canvas" }, heatSec);
 
   var plotSec = el("section", { "class": "plots" }, app);
@@ -343,6 +349,7 @@
         var rgb = LUT[v];
         if (red && (b & red)) rgb = [Math.round(rgb[0] * 0.2 + 224 * 0.8), Math.round(rgb[1] * 0.2 + 49 * 0.8), Math.round(rgb[2] * 0.2 + 49 * 0.8)];
         else if ((b & BIT_MISS_O) && !v) rgb = [190, 190, 190];
+        else if (NOT_ANALYSED[j]) rgb = (c >> 2) % 2 ? [222, 226, 230] : [173, 181, 189];  // striped: not checked
         var o = (j * W + c) * 4;
         px[o] = rgb[0]; px[o + 1] = rgb[1]; px[o + 2] = rgb[2]; px[o + 3] = 255;
       }

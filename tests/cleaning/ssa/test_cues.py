@@ -193,7 +193,11 @@ def test_transient_offsets_flag_exactly_a_drift_or_flip_between_its_two_steps(wa
         assert not ssa.transient_offsets(bad, max_s=0.9 * (r.end - r.start) / walk.fps)[:, j].any()  # steps too far apart
         assert not ssa.transient_offsets(bad, joints=clean_joints)[:, j].any()
         det = ssa.detect(bad)
-        assert (det.flags >= det.offsets).all() and det.offsets[r.start : r.end, j].all()
+        assert (det.flags >= det.offsets).all()
+        if r.joint == "RFingers":  # a finger stub, an extra: the 24 slots go to the body first, and it is named
+            assert det.not_analysed()[r.joint] == "beyond the 24 analysed (body first)"
+        else:
+            assert det.offsets[r.start : r.end, j].all()
 
 
 def test_transient_offsets_leave_smooth_motion_spikes_and_one_way_steps_alone(walk):
@@ -537,3 +541,35 @@ def test_the_same_thigh_error_is_flagged_in_every_rotation_order_and_either_dire
     values[frames, take.channel_names().index("UpperLeg_R.Yrotation")] += 60.0
     edited = mocapkit.motion.Motion.from_channel_values(take.skeleton, values, take.fps, animated_offsets=True)
     assert ssa.detect(edited).flags[frames, j].all(), order
+
+
+BANDAI_TOES = Path(__file__).resolve().parents[2] / "data" / "dataset-1_run_masculinity_001.bvh"
+
+
+def test_an_offset_the_similar_motion_holds_is_motion_and_an_error_offset_is_still_flagged():
+    """The game rig's toes, analysed since they turn (they end in a zero-length End Site), bend by 27 deg in one
+    30 fps frame as the foot rolls and stay bent: two opposite steps, a transient offset, which repair "put back" by
+    30 deg on untouched Bandai Namco runs (72 cells on 3 of 520 takes). The neighbour words hold the same bend
+    (digression under 5 deg over the run): that offset is motion. An error's offset is the take's alone."""
+    from mocapkit.cleaning.pipeline import clean
+
+    run = mocapkit.load(BANDAI_TOES)
+    j = run.skeleton.index("Toes_L")
+    det = ssa.detect(run)
+    q = np.asarray(run.rotations, dtype=np.float64)
+    raw = cues.offsets_from_residuals(q, cues.midpoint_residuals(q), run.fps, 7.0, 1.0, 10.0, det.analysed,
+                                      run.skeleton.joint_names, run.skeleton.parents)
+    assert raw[:, j].sum() > 15 and det.analysed[j]  # the bend: a transient offset by the steps alone
+    assert np.nanmedian(np.degrees(det.digression[raw[:, j], j])) < 5.0  # that the neighbour words share
+    assert not det.offsets.any() and not cues.unshared_offsets(raw, det.digression, 10.0).any()
+    res = clean(run)
+    assert not res.changed.any()  # the untouched take comes back untouched
+    # a 30 deg offset held for 10 frames on a hand (also ending in a zero-length End Site) is the take's alone: the
+    # neighbour words are 30 deg off it, and it is flagged as an offset and repaired
+    bad = np.array(run.rotations)
+    k = run.skeleton.index("Hand_L")
+    bad[30:40, k] = R.quaternion_multiply(bad[30:40, k], R.quaternion_from_axis_angle(np.array([1.0, 0, 0]), np.radians(30.0)))
+    res = clean(dataclasses.replace(run, rotations=bad))
+    assert res.detection.offsets[30:40, k].all() and res.flags[30:40, k].all()
+    err = np.degrees(R.geodesic_angle(res.motion.rotations[30:40, k], run.rotations[30:40, k]))
+    assert err.max() < 5.0, err

@@ -14,10 +14,11 @@ import numpy as np
 
 from ... import rotations as R
 from ...motion import Motion
-from ..ik import segment_frames
+from ..ik import contact_segments, segment_frames
 from .params import SSAParams
 
 __all__ = [
+    "unshared_offsets",
     "discontinuities",
     "midpoint_residuals",
     "midpoint_angles",
@@ -495,6 +496,28 @@ def offsets_from_residuals(q, resid, fps, jump_deg, max_s, min_offset_deg, joint
 
         pairs[j] = _paired_events(starts, longest, back)
     return _single_joint_offsets(pairs, F, J, partner)
+
+
+def unshared_offsets(offsets: np.ndarray, digression: np.ndarray, min_offset_deg: float) -> np.ndarray:
+    """``offsets`` (F, J) bool without the runs the joint's neighbour words share (Aristidou et al. 2018, sec. 3.4).
+
+    A transient offset (:func:`transient_offsets`) whose frames stay, as a median, within half of
+    ``min_offset_deg`` of the mean motion texture is held the same way by the similar motion: the
+    joint's own motion, not an error (a game rig's toe bending in one 30 fps frame as the foot rolls
+    and staying bent, which repair "put back" by 30 degrees on untouched Bandai Namco runs). An
+    error's offset is the take's alone, so the mean texture is off it by about the offset itself.
+    ``digression`` (F, J) radians, NaN where not judged: a run with no judged frame is kept (no
+    evidence either way).
+    """
+    out = np.array(offsets, dtype=bool)
+    half = np.radians(float(min_offset_deg)) / 2.0
+    for j in np.flatnonzero(out.any(axis=0)):
+        for a, b in contact_segments(out[:, j]):
+            d = digression[a:b, j]
+            d = d[np.isfinite(d)]
+            if len(d) and float(np.median(d)) < half:
+                out[a:b, j] = False
+    return out
 
 
 def _single_joint_offsets(pairs: dict, F: int, J: int, partner: np.ndarray | None) -> np.ndarray:

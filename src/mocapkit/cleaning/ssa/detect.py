@@ -30,6 +30,7 @@ from .cues import (
     own_breaks,
     offsets_from_residuals,
     spike_breaks,
+    unshared_offsets,
     step_angles,
     uncompensated_breaks,
     swaps_from_residuals,
@@ -107,7 +108,9 @@ class Detection:
     analysed); best_group : int8 (F, J) the group whose neighbours explain the
     cell best (-1 none); spikes : bool (F, J) the ``jumps`` that are spikes
     (:func:`~mocapkit.cleaning.ssa.cues.spike_breaks`; None for a detection
-    saved before they were told apart). The rest records how the analysis
+    saved before they were told apart). ``left_out``: ``((joint name, why), ...)``
+    the joints not analysed and why (:func:`~mocapkit.cleaning.ssa.texture.left_out_joints`;
+    :meth:`not_analysed`). The rest records how the analysis
     was made so that :func:`repair` can fetch the neighbour words again.
 
     span : ``(lo, hi)`` or None. None: the whole take was analysed. ``(lo, hi)``: only its frames ``lo .. hi - 1``
@@ -147,10 +150,18 @@ class Detection:
     spikes: np.ndarray | None = None
     change: np.ndarray | None = None  # (F, J) float, None without the drift rule
     span: tuple | None = None  # (lo, hi): the frames analysed, when not the whole take (padded)
+    left_out: tuple = ()  # ((joint name, why), ...): the joints not analysed
 
     @property
     def num_frames(self) -> int:
         return int(self.mdm.shape[0])
+
+    def not_analysed(self) -> dict[str, str]:
+        """Joint name -> why it was not analysed, for every joint outside :attr:`texture_joints` (in skeleton
+        order; "not analysed" for a detection saved before the reasons were kept). Their MDM is 0 and nothing
+        flags them: they were not checked, not found clean."""
+        why = dict(self.left_out)
+        return {n: why.get(n, "not analysed") for n, a in zip(self.joint_names, self.analysed) if not a}
 
     def segments(self) -> list[tuple[str, int, int]]:
         """Flagged runs as ``(joint name, start frame, end frame)``, half-open, sorted by start."""
@@ -233,6 +244,7 @@ class Detection:
             "context_clips": [list(c) for c in self.context_clips],
             "params": self.params.as_dict(),
             "notes": list(self.notes),
+            "left_out": [list(p) for p in self.left_out],
         }
         for key in meta:
             arrays.pop(key, None)
@@ -268,6 +280,7 @@ class Detection:
                 context_clips=tuple((str(n), int(f)) for n, f in meta["context_clips"]),
                 params=SSAParams.from_dict(meta["params"]),
                 notes=tuple(meta["notes"]),
+                left_out=tuple((str(n), str(w)) for n, w in meta.get("left_out", [])),
                 span=None if meta.get("span") is None else (int(meta["span"][0]), int(meta["span"][1])),
             )
         except (OSError, ValueError, KeyError, TypeError) as e:
@@ -552,6 +565,7 @@ def detect_prepared(an: Analysis, threshold: float = 0.5, *, progress: bool = Fa
         np.asarray(motion.rotations, dtype=np.float64), resid, motion.fps, p.offset_jump_deg, p.offset_max_s,
         p.offset_min_deg, analysed, sk.joint_names, sk.parents,
     )
+    offsets = unshared_offsets(offsets, digression, p.offset_min_deg)  # an offset the similar motion holds is motion
     # smooth-drift evidence only against a context beyond the take that the caller chose (not the bundled default
     # context, a general sample that repeats no take's motion), and never on the pelvis or the root, whose rotation
     # carries the path's heading (module docstring of :mod:`~mocapkit.cleaning.ssa.drifts`)
@@ -577,5 +591,5 @@ def detect_prepared(an: Analysis, threshold: float = 0.5, *, progress: bool = Fa
         neighbor_iend=neighbors.iend, neighbor_jend=neighbors.jend, neighbor_dist=neighbors.dist,
         context_clips=clips, jumps=jumps, holds=holds, swaps=swaps, offsets=offsets,
         agreement=agreement, consistency=consistency, params=params, notes=tuple(notes),
-        analysis=an, spikes=spikes, change=change,
+        analysis=an, spikes=spikes, change=change, left_out=tuple(an.left_out),
     )

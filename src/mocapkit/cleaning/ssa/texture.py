@@ -31,6 +31,12 @@ __all__ = [
     "motion_words",
     "joint_groups",
     "informative_joints",
+    "analysable_joints",
+    "body_joints",
+    "left_out_joints",
+    "left_out_note",
+    "STILL_RAD",
+    "HAND_DETAIL_ROLES",
     "facing_aligned",
     "context_motions",
     "group_rows",
@@ -52,37 +58,71 @@ def facing_aligned(rotations: np.ndarray, up: np.ndarray) -> np.ndarray:
     return out
 
 
-def _moving_joints(skeleton) -> np.ndarray:
-    """(J,) joints with rotation channels that move a bone (a child or end site at a non-zero offset)."""
-    has = np.array([bool(skeleton.rotation_order(j)) for j in range(skeleton.num_joints)])
-    out = bone_moving_joints(skeleton) & has
-    out[0] = True  # the root: its tilt is analysed (heading removed)
-    return out
+#: Rotations that never turn more than this (radians) from their first frame are still: nothing to analyse.
+STILL_RAD = 1e-6
+
+#: Roles (:data:`mocapkit.rigs.ROLES`) of the digits, which :func:`body_joints` leaves to the extras with the other
+#: finger segments: small bones (on the CMU and HDM05 rigs one-segment stubs whose tracks glitch, a thumb flipping
+#: 180 degrees in 1/120 s), and on a game rig each hand's first finger and thumb segments, which would otherwise
+#: take four slots from the body. The palm (the Acclaim ``lhand``, the hand's flexion) is the body's.
+HAND_DETAIL_ROLES = ("left_fingers", "right_fingers", "left_thumb", "right_thumb")
 
 
-def informative_joints(motions: Sequence[Motion], count: int = _D.joints) -> np.ndarray:
-    """The ``count`` most informative joints, sorted skeleton indices (section 5: "m = 24").
+def body_joints(skeleton) -> np.ndarray:
+    """(J,) bool: the joints of the human body, which :func:`informative_joints` analyses before any other.
 
-    Joints with rotation channels that move a bone, ranked by how much they
-    rotate: the mean angle from their average rotation over all frames of
-    ``motions`` (sharing one skeleton). The root is always kept. Joints that
-    never move (fingers of most captures) come last. Left/right partners
-    (:func:`mocapkit.motion.mirror_pairs`) are taken together, ranked by the
-    one that rotates more, so the set does not depend on which hand moved
-    more in the take and the left and right groups match (a swap, which
-    :func:`side_swaps` finds, needs both joints); a last slot that no pair
-    fits takes the next single joint, or else the half of a pair that
-    rotates more.
+    A joint plays a body role (:func:`mocapkit.rigs.roles`: pelvis, spine, neck, head, clavicles, arms to
+    the wrists and palms, legs to the toes; not the digits, :data:`HAND_DETAIL_ROLES`) or lies on the chain
+    from the root to one (a spine or neck segment no role names). The rest are extras: finger segments,
+    twist and helper bones, weapon and prop bones, tails. On a rig of no known family, whose roles are
+    read from its tree (:func:`mocapkit.rigs.roles_by_topology`, which names no palm), the wrist's one
+    child that holds more joints than any other (two at least: a palm with its fingers) is the palm. On
+    a rig whose roles are not known at all only the pelvis and the joints above it are body joints.
     """
-    from ...motion import mirror_pairs
+    from ...rigs import rig_family, roles
 
+    body = np.zeros(skeleton.num_joints, dtype=bool)
+    parents = skeleton.parents
+    found = roles(skeleton)
+    read_from_tree = rig_family(skeleton) is None
+    for side in ("left", "right"):  # a palm no name tells: the one child of the wrist that holds more joints
+        hand = found.get(f"{side}_hand")
+        if read_from_tree and hand is not None and f"{side}_palm" not in found:
+            sizes = {int(c): int(np.sum([_descends(parents, k, int(c)) for k in range(skeleton.num_joints)]))
+                     for c in skeleton.children(hand) if int(c) not in found.values()}  # not a named finger
+            big = [c for c, n in sizes.items() if n >= 2 and n == max(sizes.values(), default=0)]
+            if len(big) == 1:
+                found[f"{side}_palm"] = big[0]
+    for role, j in found.items():
+        if role in HAND_DETAIL_ROLES:
+            continue
+        while j >= 0 and not body[j]:
+            body[j] = True
+            j = int(parents[j])
+    return body
+
+
+def _descends(parents, k: int, a: int) -> bool:
+    """Whether joint ``k`` is ``a`` or below it."""
+    while k >= 0 and k != a:
+        k = int(parents[k])
+    return k == a
+
+
+def _rotation_spread(motions: Sequence[Motion], joints) -> tuple[np.ndarray, np.ndarray]:
+    """(J,) mean angle (radians) of each of ``joints``' rotations from their average over every frame of
+    ``motions`` (0 for a still joint), and (J,) bool whether the rotation turns at all (more than
+    :data:`STILL_RAD` from its first finite frame); 0 and False for the other joints."""
     sk = motions[0].skeleton
-    cand = np.flatnonzero(_moving_joints(sk))
     spread = np.zeros(sk.num_joints)
-    for j in cand:
+    turns = np.zeros(sk.num_joints, dtype=bool)
+    for j in joints:
         qs = np.concatenate([R.quaternion_continuity(np.asarray(m.rotations[:, j])) for m in motions])
         qs = qs[np.all(np.isfinite(qs), axis=1)]
         if len(qs) == 0:
+            continue
+        turns[j] = bool(np.max(R.geodesic_angle(qs, qs[0])) > STILL_RAD)
+        if not turns[j]:  # exactly 0, not rounding noise: still joints tie, and their order is the skeleton's
             continue
         mean = qs.mean(axis=0)
         if np.linalg.norm(mean) < 1e-9:
@@ -90,6 +130,60 @@ def informative_joints(motions: Sequence[Motion], count: int = _D.joints) -> np.
             continue
         mean = mean / np.linalg.norm(mean)
         spread[j] = float(np.mean(R.geodesic_angle(qs, mean)))
+    return spread, turns
+
+
+def analysable_joints(motions: Sequence[Motion]) -> np.ndarray:
+    """(J,) bool: the joints self-similarity can judge in ``motions`` (sharing one skeleton).
+
+    A joint with rotation channels whose rotation turns in the data (more than :data:`STILL_RAD` from its
+    first frame) or that moves a bone (a child or end site at a non-zero offset); the root always (its
+    tilt is analysed, the heading removed). The data decides, not only the bone's length: a game rig's
+    head, hands and toes end in an End Site at offset 0, yet a mesh is skinned to their rotations, so a
+    wrong turn there shows (before, only bone-moving joints were candidates and these were never
+    analysed). A zero-length joint whose rotation is the same in every frame has nothing to judge. A
+    still joint that moves a bone stays a candidate (ranked by its spread, 0): the word distance's
+    8 degree gate is an RMS over a group's joints, and leaving the CMU BVH's still collars and hip
+    joints out raised it so that on CMU 131_01 the frames no joint is judged at rose from 176 to 573
+    and a 50 degree head spike went unjudged.
+    """
+    return _candidates(motions)[0]
+
+
+def _candidates(motions: Sequence[Motion]) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`analysable_joints` and the (J,) rotation spread of :func:`_rotation_spread`, computed once."""
+    sk = motions[0].skeleton
+    has = np.array([bool(sk.rotation_order(j)) for j in range(sk.num_joints)])
+    spread, turns = _rotation_spread(motions, np.flatnonzero(has))
+    out = has & (turns | bone_moving_joints(sk))
+    out[0] = True
+    return out, spread
+
+
+def informative_joints(motions: Sequence[Motion], count: int = _D.joints) -> np.ndarray:
+    """The ``count`` joints analysed, sorted skeleton indices (section 5: "m = 24").
+
+    Candidates are the :func:`analysable_joints`. The body's joints (:func:`body_joints`) come first,
+    then the extras (finger segments, twist, weapon and prop bones, tails) in the slots left: an
+    animated extra rotates more than a clavicle or a wrist and, ranked with them, pushed body joints
+    out of the analysis, so their errors went unseen (a user trial: on a Bandai walk with fingers on
+    one hand, the forearms, hands, spine, neck and pelvis; on CMU 131_01 with a weapon, a prop, twist
+    bones and a tail, the head). Within each of the two, joints are ranked by how much they rotate:
+    the mean angle from their average rotation over all frames of ``motions`` (sharing one
+    skeleton). The root is always kept. Left/right partners (:func:`mocapkit.motion.mirror_pairs`)
+    are taken together, ranked by the one that rotates more, so the set does not depend on which
+    hand moved more in the take and the left and right groups match (a swap, which
+    :func:`side_swaps` finds, needs both joints); a last slot that no pair of the body fits takes
+    the half of a body pair that rotates more before any extra, and a last slot no pair of extras
+    fits the next single extra, or else the half of a pair that rotates more.
+    :func:`left_out_joints` says why each other joint is not analysed.
+    """
+    from ...motion import mirror_pairs
+
+    sk = motions[0].skeleton
+    ok, spread = _candidates(motions)
+    cand = np.flatnonzero(ok)
+    extra = (~body_joints(sk)).astype(int)
     perm = mirror_pairs(sk.joint_names)
     in_cand = np.zeros(sk.num_joints, dtype=bool)
     in_cand[cand] = True
@@ -97,12 +191,55 @@ def informative_joints(motions: Sequence[Motion], count: int = _D.joints) -> np.
     units = [(int(j),) if single[j] else (int(j), int(perm[j])) for j in cand if single[j] or perm[j] > j]
     units.sort(key=lambda u: (0 not in u, -max(spread[list(u)]), min(u)))
     chosen: list[int] = []
-    for u in units:
-        if len(chosen) + len(u) <= int(count):
-            chosen.extend(u)
-    rest = sorted((j for j in cand if j not in chosen), key=lambda j: (-spread[j], j))
-    chosen.extend(rest[: max(int(count) - len(chosen), 0)])  # a slot no pair fits and no single is left for
+    for tier in (0, 1):  # the body's joints, then the extras
+        for u in units:
+            if min(extra[list(u)]) == tier and len(chosen) + len(u) <= int(count):
+                chosen.extend(u)
+        # a slot no pair of the tier fits and no single is left for
+        rest = sorted((j for j in cand if j not in chosen and extra[j] == tier), key=lambda j: (-spread[j], j))
+        chosen.extend(rest[: max(int(count) - len(chosen), 0)])
     return np.array(sorted(chosen), dtype=np.int64)
+
+
+def left_out_joints(motions: Sequence[Motion], analysed: Sequence[int], count: int | None = None) -> dict[str, str]:
+    """Joint name -> why it is not analysed, for every joint of ``motions``' skeleton not in ``analysed``.
+
+    The reasons, briefly: ``"no rotation channels"``; ``"rotation never changes"`` (the same rotation
+    in every frame: nothing to compare; a zero-length one is no candidate, :func:`analysable_joints`,
+    one that moves a bone ranks last);
+    ``"beyond the COUNT analysed (body first)"`` (crowded out of :func:`informative_joints`'s
+    ``count`` slots, extras after the body's joints); ``"not chosen"`` (an explicit joint list left
+    it out). In skeleton order. The summary, ``detect --json``, the record
+    and the report name them, so that an error there is not taken for checked and clean.
+    """
+    sk = motions[0].skeleton
+    has = [bool(sk.rotation_order(j)) for j in range(sk.num_joints)]
+    inside = set(int(j) for j in analysed)
+    _, turns = _rotation_spread(motions, [j for j in range(sk.num_joints) if has[j] and j not in inside])
+    out = {}
+    for j, name in enumerate(sk.joint_names):
+        if j in inside:
+            continue
+        if not has[j]:
+            out[name] = "no rotation channels"
+        elif not turns[j]:
+            out[name] = "rotation never changes"
+        elif count is not None:
+            out[name] = f"beyond the {int(count)} analysed (body first)"
+        else:
+            out[name] = "not chosen"
+    return out
+
+
+def left_out_note(left_out: Mapping[str, str]) -> str:
+    """One line naming the joints not analysed, grouped by reason ("" when every joint is)."""
+    by: dict[str, list[str]] = {}
+    for name, why in left_out.items():
+        by.setdefault(why, []).append(name)
+    if not by:
+        return ""
+    parts = [f"{', '.join(names)} ({why})" for why, names in by.items()]
+    return f"not analysed, {len(left_out)} joint{'' if len(left_out) == 1 else 's'}: " + "; ".join(parts)
 
 
 def joint_groups(skeleton, joints: Sequence[int] | None = None) -> dict[str, np.ndarray]:
@@ -282,7 +419,8 @@ class Analysis:
     (clip 0 the take; ``source`` itself when there is no context); group_names, group_rows : the joint
     groups with their rows in the textures; words : (W,) first frames of the source words at the
     analysis rate; notes : what was left out and why; context_given : the ``context`` argument it was
-    prepared from (so that a repair handed the same object knows it).
+    prepared from (so that a repair handed the same object knows it); left_out : ``((joint name, why),
+    ...)`` the joints not analysed and why (:func:`left_out_joints`), in skeleton order.
     """
 
     motion: Motion
@@ -296,6 +434,7 @@ class Analysis:
     words: np.ndarray
     notes: tuple = ()
     context_given: object = None
+    left_out: tuple = ()
 
     @property
     def joints(self) -> np.ndarray:
@@ -362,9 +501,14 @@ def prepare(
         # its still fingers left a take's finger error unanalysed, so the cues that need no context missed it
         info = getattr(context, "info", None)
         general = isinstance(info, dict) and bool(info.get("default"))
-        tex_joints = informative_joints([motion] + ([] if general else ctx), int(chosen))
+        ranked = [motion] + ([] if general else ctx)
+        tex_joints = informative_joints(ranked, int(chosen))
+        left_out = left_out_joints(ranked, tex_joints, int(chosen))
     else:
         tex_joints = np.array([sk.index(j) if isinstance(j, str) else int(j) for j in chosen], dtype=np.int64)
+        left_out = left_out_joints([motion] + ctx, tex_joints)
+    if left_out:  # said, so that a joint nobody checked is not taken for checked and clean
+        notes.append(left_out_note(left_out))
     up = detect_up_axis(sk)
     src = motion_texture(motion, params.analysis_fps, tex_joints, up)
     full = motion_texture([motion] + ctx, params.analysis_fps, tex_joints, up) if ctx else src
@@ -380,4 +524,5 @@ def prepare(
         raise ValueError(f"{motion.num_frames} frames ({motion.duration:.2f} s) is shorter than one motion word "
                          f"({N} frames at {fps:g} fps, {N / fps:.3f} s)")
     words = motion_words(src.num_frames, params.source_length, params.stride)
-    return Analysis(motion, tuple(ctx), params, up, src, full, tuple(gnames), tuple(grows), words, tuple(notes), context)
+    return Analysis(motion, tuple(ctx), params, up, src, full, tuple(gnames), tuple(grows), words, tuple(notes), context,
+                    tuple(left_out.items()))
