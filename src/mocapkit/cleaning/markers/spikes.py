@@ -177,14 +177,19 @@ def rigid_deviation(positions: np.ndarray, good: np.ndarray, marker: int, start:
     neighbours seen.
 
     With ``nearby`` (F,) bool, the marker's samples taken as surely right
-    (never suspected), each triple's distance is lessened by the most that
-    the same prediction (the same number of frames between two ends) misses
-    those samples within ``reach`` frames of the run (never below 0), on
-    frames where no marker of the triple is in ``suspect`` (F, M), if given
-    (a neighbour's spike is no miss of the marker's: it would excuse the
-    run by the triple's error): by the triangle inequality, a run that lies no further
-    than the threshold plus that miss from the prediction may be within the
-    threshold of where the marker really was. The prediction interpolates
+    (never suspected), each triple is validated as the gap fill's models
+    are: the most that the same prediction (the same number of frames
+    between two ends) misses those samples within ``reach`` frames of the
+    run, on frames where no marker of the triple is in ``suspect`` (F, M),
+    if given (a neighbour's spike is no miss of the marker's). The triple
+    that misses them least is allowed that miss: its distance to the run,
+    lessened by it (never below 0), is returned when smaller. By the
+    triangle inequality, a run that lies no further than the threshold plus
+    that miss from the prediction may be within the threshold of where the
+    marker really was. Only the best-validated triple is allowed it: a
+    triple of near-coincident markers (golfswing's club channels, 1-6 mm
+    apart) or one holding a spiking neighbour misses everything, nearby
+    samples included, and would excuse any spike. The prediction interpolates
     across 1/rate seconds per frame, so its miss on real motion grows as the
     rate falls (on CMU 135_02, single-sample misses of 15 mm or more go
     from 0.02 % of samples at 120 Hz to 0.6 % at 30 Hz, on elbows, fingers
@@ -215,6 +220,7 @@ def rigid_deviation(positions: np.ndarray, good: np.ndarray, marker: int, start:
         starts = np.flatnonzero(whole) + lo  # the first end of each validation run
         starts = starts[(starts + n + 1 <= p) | (starts >= q)]
     best = float("inf")
+    validated = []  # (the triple's largest miss on the marker's samples nearby, its miss of the run)
     for g in combinations(cand, 3):
         d = span[:, list(g)]
         rot, origin = local_frames(d, d[0])
@@ -236,8 +242,11 @@ def rigid_deviation(positions: np.ndarray, good: np.ndarray, marker: int, start:
                 est = (1.0 - v)[None, :, None] * lw[i0][:, None, :] + v[None, :, None] * lw[i0 + n + 1][:, None, :]
                 room = np.einsum("snij,snj->sni", rw[inner], est) + ow[inner]
                 natural = float(np.max(np.min(np.linalg.norm(positions[lo:hi, marker][inner] - room, axis=-1), axis=1)))
-                miss = max(miss - natural, 0.0)
+                validated.append((natural, miss))
         best = min(best, miss)
+    if validated:  # the triple that predicts the marker best nearby, allowed its miss there
+        natural, miss = min(validated)
+        best = min(best, max(miss - natural, 0.0))
     return best
 
 
