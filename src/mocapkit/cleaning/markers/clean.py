@@ -151,9 +151,13 @@ class MarkerCleanResult:
         skip = np.isin(self.markers.labels, self.unlabelled)
         if hasattr(self.original, "modelled"):  # modelled points' unseen samples are no markers' missing ones
             skip = skip | self.original.modelled()
-        left = int(np.sum(self.markers.missing()[:, ~skip]))
+        gone = self.markers.missing()[:, ~skip]
+        removed = gone & ~self.original.missing()[:, ~skip]  # recorded samples removed as spikes, no fill passed
+        left = int(np.sum(gone & ~removed))
         if left:
             lines.append(f"{left} samples still missing")
+        if removed.any():
+            lines.append(f"{int(removed.sum())} recorded samples removed as spikes and left missing (no plausible fill)")
         if self.unfilled:
             n = len(self.unfilled)
             shown = "; ".join(f"{x.marker} frames {x.start}-{x.end - 1} ({'a spike removed, ' if x.kind == 'spike' else ''}"
@@ -270,7 +274,7 @@ def clean_markers(markers, *, steps=STEPS, spike_mm: float = 15.0, swap_mm: floa
             fixes.append(MarkerFix(labels[s.a], s.start, s.end, "swap", s.distance * unit_mm, labels[s.b]))
     spikes = np.zeros((f, m), dtype=bool)
     if "spikes" in steps:
-        spikes = spike_mask(y, unit_mm, threshold_mm=spike_mm)
+        spikes = spike_mask(y, unit_mm, threshold_mm=spike_mm, fps=markers.fps)
     before_fill = y.copy()
     y[spikes] = np.nan
     filled = np.zeros((f, m), dtype=bool)

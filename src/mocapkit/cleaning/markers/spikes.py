@@ -43,6 +43,14 @@ The threshold is ``threshold_mm`` millimetres, or more for a marker whose
 single-frame prediction error is naturally large (``noise_factor`` robust
 standard deviations of it), so that a noisy marker does not lose good
 samples. Positions are (F, M, 3), frames first, NaN for unseen samples.
+
+At a low frame rate a frame lasts longer, and both predictions miss real
+motion by more (at 30 Hz, 30 times as many samples of CMU 135_02 miss both
+by 15 mm as at 120 Hz). What the rules count in frames follows the rate or
+the take: a run is at most 1/12 s long (``max_seconds``, given ``fps``); the
+noise is the smaller of the cubic's and the rigid neighbours' median miss;
+and the rigid prediction is allowed the miss it makes on the marker's own
+never-suspected samples near the run (:func:`rigid_deviation`, ``nearby``).
 """
 
 from __future__ import annotations
@@ -147,7 +155,8 @@ def _settle(seg: np.ndarray, thr: float, max_len: int, context: int) -> list[tup
 
 
 def rigid_deviation(positions: np.ndarray, good: np.ndarray, marker: int, start: int, end: int,
-                    order: np.ndarray, candidates: int = 4, reach: int = 8) -> float:
+                    order: np.ndarray, candidates: int = 4, reach: int = 8, nearby: np.ndarray | None = None,
+                    suspect: np.ndarray | None = None) -> float:
     """How far the run of ``marker`` (frames ``start <= f < end``) lies from what its rigid neighbours predict.
 
     ``positions`` (F, M, 3) are the recorded samples (NaN where unseen);
@@ -166,6 +175,26 @@ def rigid_deviation(positions: np.ndarray, good: np.ndarray, marker: int, start:
     run is far from every triple's prediction. ``inf`` when it cannot be
     judged: no good frame within ``reach`` frames on a side, or fewer than 3
     neighbours seen.
+
+    With ``nearby`` (F,) bool, the marker's samples taken as surely right
+    (never suspected), each triple is validated as the gap fill's models
+    are: the most that the same prediction (the same number of frames
+    between two ends) misses those samples within ``reach`` frames of the
+    run, on frames where no marker of the triple is in ``suspect`` (F, M),
+    if given (a neighbour's spike is no miss of the marker's). The triple
+    that misses them least is allowed that miss: its distance to the run,
+    lessened by it (never below 0), is returned when smaller. By the
+    triangle inequality, a run that lies no further than the threshold plus
+    that miss from the prediction may be within the threshold of where the
+    marker really was. Only the best-validated triple is allowed it: a
+    triple of near-coincident markers (golfswing's club channels, 1-6 mm
+    apart) or one holding a spiking neighbour misses everything, nearby
+    samples included, and would excuse any spike. The prediction interpolates
+    across 1/rate seconds per frame, so its miss on real motion grows as the
+    rate falls (on CMU 135_02, single-sample misses of 15 mm or more go
+    from 0.02 % of samples at 120 Hz to 0.6 % at 30 Hz, on elbows, fingers
+    and wrists swinging fast); this allowance follows it at any rate, from
+    the take itself, and is a millimetre or two at 100 Hz and above.
     """
     f = positions.shape[0]
     before = np.flatnonzero(good[max(start - reach, 0):start])
@@ -180,13 +209,44 @@ def rigid_deviation(positions: np.ndarray, good: np.ndarray, marker: int, start:
         return float("inf")
     u = ((np.arange(start, end) - p) / (q - p))[:, None]
     run = slice(start - p, end - p)
+    # the same prediction's validation runs: q - p - 1 frames between two good ends, on good frames within reach
+    n = q - p - 1
+    lo, hi = max(p - reach, 0), min(q + reach + 1, f)
+    starts = np.zeros(0, dtype=int)
+    if nearby is not None:
+        window = nearby[lo:hi].copy()
+        window[p - lo + 1:q - lo] = False  # the run and what lies between its ends
+        whole = np.convolve(window.astype(np.int8), np.ones(n + 2, dtype=np.int8), mode="valid") == n + 2
+        starts = np.flatnonzero(whole) + lo  # the first end of each validation run
+        starts = starts[(starts + n + 1 <= p) | (starts >= q)]
     best = float("inf")
+    validated = []  # (the triple's largest miss on the marker's samples nearby, its miss of the run)
     for g in combinations(cand, 3):
         d = span[:, list(g)]
         rot, origin = local_frames(d, d[0])
         loc = to_local(span[[0, -1], marker], rot[[0, -1]], origin[[0, -1]])
         pred = from_local((1.0 - u) * loc[0] + u * loc[1], rot[run], origin[run])
-        best = min(best, float(np.min(np.linalg.norm(positions[start:end, marker] - pred, axis=-1))))
+        miss = float(np.min(np.linalg.norm(positions[start:end, marker] - pred, axis=-1)))
+        if starts.size:
+            dw = positions[lo:hi][:, list(g)]
+            seen = ~np.any(np.isnan(dw), axis=(1, 2))
+            if suspect is not None:
+                seen &= ~np.any(suspect[lo:hi][:, list(g)], axis=1)
+            use = starts[[bool(np.all(seen[s - lo:s - lo + n + 2])) for s in starts]]
+            if use.size:
+                rw, ow = local_frames(dw, d[0])
+                lw = to_local(positions[lo:hi, marker], rw, ow)  # NaN where the marker or the triple is unseen
+                v = np.arange(1, n + 1) / (n + 1)
+                i0 = use - lo  # (S,) the validation runs' first ends, window rows
+                inner = i0[:, None] + np.arange(1, n + 1)  # (S, n)
+                est = (1.0 - v)[None, :, None] * lw[i0][:, None, :] + v[None, :, None] * lw[i0 + n + 1][:, None, :]
+                room = np.einsum("snij,snj->sni", rw[inner], est) + ow[inner]
+                natural = float(np.max(np.min(np.linalg.norm(positions[lo:hi, marker][inner] - room, axis=-1), axis=1)))
+                validated.append((natural, miss))
+        best = min(best, miss)
+    if validated:  # the triple that predicts the marker best nearby, allowed its miss there
+        natural, miss = min(validated)
+        best = min(best, max(miss - natural, 0.0))
     return best
 
 
@@ -251,10 +311,41 @@ def partner_motion(positions: np.ndarray, good: np.ndarray, marker: int, start: 
     return bool(np.all(kept & ~broken))
 
 
+def _rigid_noise(x: np.ndarray, marker: int, order: np.ndarray, candidates: int = 4, frames: int = 600) -> float:
+    """Median one-sample miss of ``marker`` by the moving frame of its rigid neighbours (capture unit; inf if none).
+
+    On at most ``frames`` evenly spaced frames t of ``x`` (F, M, 3), the
+    marker's coordinates in the frame of each triple of its first
+    ``candidates`` neighbours in ``order`` at t - 1 and t + 1 are averaged
+    and mapped back at t (:func:`rigid_deviation` for a one-sample run); the
+    best triple's miss is taken per frame, and the median over frames where
+    all are seen returned.
+    """
+    f = x.shape[0]
+    if f < 3:
+        return float("inf")
+    t = np.unique(np.linspace(1, f - 2, min(f - 2, frames)).round().astype(int))
+    cand = [int(d) for d in order[marker] if d != marker][:candidates]
+    best = np.full(t.size, np.inf)
+    for g in combinations(cand, 3):
+        d = x[:, list(g)]
+        ref = d[np.argmax(~np.any(np.isnan(d), axis=(1, 2)))]
+        rot, origin = local_frames(np.concatenate([d[t - 1], d[t], d[t + 1]]), ref)
+        n = t.size
+        loc = to_local(np.concatenate([x[t - 1, marker], x[t + 1, marker]]), np.concatenate([rot[:n], rot[2 * n:]]),
+                       np.concatenate([origin[:n], origin[2 * n:]]))
+        pred = from_local(0.5 * (loc[:n] + loc[n:]), rot[n:2 * n], origin[n:2 * n])
+        miss = np.linalg.norm(x[t, marker] - pred, axis=-1)
+        best = np.fmin(best, np.where(np.isnan(miss), np.inf, miss))
+    best = best[np.isfinite(best)]
+    return float(np.median(best)) if best.size else float("inf")
+
+
 def spike_mask(positions: np.ndarray, unit_mm: float = 1.0, *, threshold_mm: float = 15.0, max_len: int = 5,
                context: int = 3, noise_factor: float = 8.0, rigid: bool = True,
                order: np.ndarray | None = None, partner_mm: float = 3.0, keep_mm: float = 3.0,
-               keep_spreads: float = 3.0, stats: DistanceStats | None = None) -> np.ndarray:
+               keep_spreads: float = 3.0, stats: DistanceStats | None = None, fps: float | None = None,
+               max_seconds: float = 5.0 / 60.0) -> np.ndarray:
     """Boolean (F, M) mask of spike samples.
 
     Parameters
@@ -270,14 +361,16 @@ def spike_mask(positions: np.ndarray, unit_mm: float = 1.0, *, threshold_mm: flo
         and, with ``rigid``, at least as far from what every triple of its
         rigid neighbours predicts (:func:`rigid_deviation`).
     max_len : int
-        Longest spike, in frames.
+        Longest spike, in frames; with ``fps``, no longer than ``max_seconds`` either.
     context : int
         Seen samples used on each side of a run.
     noise_factor : float
         The per-marker threshold is at least ``noise_factor`` robust standard
         deviations (1.4826 x median) of the marker's single-sample prediction
-        error: a marker whose motion the cubic predicts poorly (a noisy
-        system, a low frame rate) needs a larger departure to count.
+        error: a noisy marker needs a larger departure to count. With
+        ``rigid``, the error is the smaller of the cubic's and the rigid
+        neighbours' (:func:`_rigid_noise`): at a low rate the cubic misses the
+        motion itself, which is no noise.
     rigid : bool
         Keep only candidates that neither the marker's rigid partners
         (:func:`partner_motion`) nor its rigid neighbours
@@ -300,8 +393,22 @@ def spike_mask(positions: np.ndarray, unit_mm: float = 1.0, *, threshold_mm: flo
         The take's usual inter-marker distances (capture unit); computed from
         ``positions`` when not given. Pass the whole take's when judging a
         part of it.
+    fps : float, optional
+        The capture's rate (frames per second). A glitch is brief in time: 5
+        frames are 42 ms at 120 Hz but 167 ms at 30 Hz, where a foot's fast
+        swing, or a labelling error lasting a third of a second (CMU 85_12's
+        RTOE and RMT5 at 19.9-20.1 s, 100-200 mm off their usual distances to
+        RANK and each other, which no 120 Hz run of 5 frames covers), fits in
+        5 frames. So with ``fps`` a run is at most ``max_seconds`` long (at
+        least 1 frame): 5 frames at 60 Hz and above, 2 at 24-30 Hz. (Runs
+        that touch are still removed one after the other, as at any rate: a
+        longer departure can go piecewise.)
+    max_seconds : float
+        See ``fps``.
     """
     x = np.asarray(positions, dtype=np.float64)
+    if fps is not None and fps > 0:
+        max_len = max(1, min(max_len, int(np.floor(max_seconds * fps + 1e-9))))
     f, m = x.shape[:2]
     mask = np.zeros((f, m), dtype=bool)
     if f < 2 * context + 1:
@@ -313,7 +420,20 @@ def spike_mask(positions: np.ndarray, unit_mm: float = 1.0, *, threshold_mm: flo
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", RuntimeWarning)
             scale = 1.4826 * np.nanmedian(d1, axis=0)
-    thr = np.maximum(threshold_mm / unit_mm, noise_factor * np.nan_to_num(scale, nan=0.0))  # (M,)
+    scale = np.nan_to_num(scale, nan=0.0)
+    raised = np.flatnonzero(noise_factor * scale > threshold_mm / unit_mm)
+    if rigid and raised.size:
+        # The cubic misses a marker's motion more as the rate falls (its context spans 1/rate s a frame): at
+        # 24 Hz its median one-sample miss on CMU 85_02 is 2-9 mm, which is motion, not noise, and raised
+        # thresholds to 50-105 mm. A noisy marker misses every prediction; a fast one misses the cubic, not
+        # the moving frame of its rigid neighbours. So the noise is the smaller of the two medians.
+        if stats is None:
+            stats = distance_stats(x)
+        if order is None:
+            order = donor_order(stats)
+        for mk in raised:
+            scale[mk] = min(scale[mk], 1.4826 * _rigid_noise(x, int(mk), order))
+    thr = np.maximum(threshold_mm / unit_mm, noise_factor * scale)  # (M,)
     hits = np.zeros((f, m), dtype=bool)
     for length in range(1, max_len + 1):
         dev = d1 if length == 1 else _run_deviation(x, length, context)
@@ -340,14 +460,27 @@ def spike_mask(positions: np.ndarray, unit_mm: float = 1.0, *, threshold_mm: flo
             order = donor_order(stats)
         good = ~mask & ~np.any(np.isnan(x), axis=-1)
         suspect = mask.copy()
+        clear = good.copy()  # never suspected: what the rigid prediction's miss on real motion is measured on
         spread = np.where(stats.count >= 10, stats.spread, np.nan)
-        for mk, a, b in runs:
-            # its rigid partners first (real fast motion keeps their distances), then the neighbour triples
-            partners = np.flatnonzero(spread[mk] * unit_mm <= partner_mm)
-            tol = np.maximum(keep_mm / unit_mm, keep_spreads * np.nan_to_num(spread[mk], nan=np.inf))
-            if partner_motion(x, good[:, mk], mk, a, b, partners, stats.median[mk], tol, suspect, keep_mm / unit_mm,
-                              context=context, reach=pad):
-                mask[a:b, mk] = False
-            elif rigid_deviation(x, good[:, mk], mk, a, b, order, reach=pad) <= thr[mk]:
-                mask[a:b, mk] = False
+        # A run is judged from the marker's good samples around it; a neighbouring run of the same marker
+        # (fast motion makes several) takes them away until it is itself found to be motion. So the runs are
+        # judged again, with the released runs' samples good, until no more is released (at most one pass per
+        # run, each releasing one at least): the outcome does not depend on the order the runs were found in.
+        while runs:
+            left = []
+            for mk, a, b in runs:
+                # its rigid partners first (real fast motion keeps their distances), then the neighbour triples
+                partners = np.flatnonzero(spread[mk] * unit_mm <= partner_mm)
+                tol = np.maximum(keep_mm / unit_mm, keep_spreads * np.nan_to_num(spread[mk], nan=np.inf))
+                if (partner_motion(x, good[:, mk], mk, a, b, partners, stats.median[mk], tol, suspect,
+                                   keep_mm / unit_mm, context=context, reach=pad)
+                        or rigid_deviation(x, good[:, mk], mk, a, b, order, reach=pad, nearby=clear[:, mk],
+                                           suspect=mask) <= thr[mk]):
+                    mask[a:b, mk] = False
+                    good[a:b, mk] = True
+                else:
+                    left.append((mk, a, b))
+            if len(left) == len(runs):
+                break
+            runs = left
     return mask
