@@ -140,8 +140,7 @@ def analysable_joints(motions: Sequence[Motion]) -> np.ndarray:
     first frame) or that moves a bone (a child or end site at a non-zero offset); the root always (its
     tilt is analysed, the heading removed). The data decides, not only the bone's length: a game rig's
     head, hands and toes end in an End Site at offset 0, yet a mesh is skinned to their rotations, so a
-    wrong turn there shows (before, only bone-moving joints were candidates and these were never
-    analysed). A zero-length joint whose rotation is the same in every frame has nothing to judge. A
+    wrong turn there shows. A zero-length joint whose rotation is the same in every frame has nothing to judge. A
     still joint that moves a bone stays a candidate (ranked by its spread, 0): the word distance's
     8 degree gate is an RMS over a group's joints, and leaving the CMU BVH's still collars and hip
     joints out raised it so that on CMU 131_01 the frames no joint is judged at rose from 176 to 573
@@ -165,10 +164,9 @@ def informative_joints(motions: Sequence[Motion], count: int = _D.joints) -> np.
 
     Candidates are the :func:`analysable_joints`. The body's joints (:func:`body_joints`) come first,
     then the extras (finger segments, twist, weapon and prop bones, tails) in the slots left: an
-    animated extra rotates more than a clavicle or a wrist and, ranked with them, pushed body joints
-    out of the analysis, so their errors went unseen (a user trial: on a Bandai walk with fingers on
-    one hand, the forearms, hands, spine, neck and pelvis; on CMU 131_01 with a weapon, a prop, twist
-    bones and a tail, the head). Within each of the two, joints are ranked by how much they rotate:
+    animated extra rotates more than a clavicle or a wrist and, ranked with them, would push body
+    joints out of the analysis (fingers on one hand of a Bandai walk: the forearms, hands, spine, neck
+    and pelvis; a weapon, a prop, twist bones and a tail on CMU 131_01: the head). Within each of the two, joints are ranked by how much they rotate:
     the mean angle from their average rotation over all frames of ``motions`` (sharing one
     skeleton). The root is always kept. Left/right partners (:func:`mocapkit.motion.mirror_pairs`)
     are taken together, ranked by the one that rotates more, so the set does not depend on which
