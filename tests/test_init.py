@@ -84,6 +84,25 @@ def test_clean_takes_a_marker_capture_to_the_marker_cleaner():
             mocapkit.clean(samples.path("Eb015pr.c3d"), **kwargs)
 
 
+def test_clean_takes_the_noise_level_the_amc_rate_and_the_unit_as_the_cli_does(tmp_path):
+    """``noise_deg``, ``fps`` and ``unit`` are clean's --noise-deg, --amc-fps and --unit; ``fps`` is for AMC files."""
+    amc = samples.path("HDM_bk_sneak2StepsLStart_005_120.amc")
+    asf = samples.path("HDM_bk.asf")
+    res = mocapkit.clean(amc, "none", steps="fill,detect", asf=asf, fps=60.0)
+    assert res.motion.fps == 60.0
+    bad = corrupt.angular_noise(mocapkit.load(amc, asf=asf), amount=0.5, seed=1)[0]
+    assert mocapkit.clean(bad, "none", steps="denoise").denoised.any()
+    high = mocapkit.clean(bad, "none", steps="denoise", noise_deg=1e6)
+    assert not high.denoised.any() and "level > 1e+06 deg" in high.steps[0].note
+    with pytest.raises(mocapkit.MocapFormatError, match=r"131_01\.bvh.*fps= applies to \.amc files only"):
+        mocapkit.clean(samples.path("131_01.bvh"), fps=60.0)
+    with pytest.raises(mocapkit.MocapError, match="a marker capture is cleaned whole"):
+        mocapkit.clean(samples.path("Eb015pr.c3d"), noise_deg=3.0)
+    take = tmp_path / "take.bvh"
+    mocapkit.save(mocapkit.load(samples.path("131_01.bvh"))[:60], take)
+    assert mocapkit.clean(take, "none", steps="fill", unit="cm").motion.skeleton.unit_cm == 1.0
+
+
 def test_clean_refuses_what_is_not_a_motion(tmp_path):
     with pytest.raises(mocapkit.MocapFormatError, match=r"131_01\.bvh.*asf= applies to \.amc files only"):
         mocapkit.clean(samples.path("131_01.bvh"), asf=samples.path("12.asf"))

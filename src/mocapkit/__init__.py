@@ -48,7 +48,8 @@ __all__ = [
 
 
 def clean(take, context=None, *, steps="fill,detect,repair,denoise", threshold: float = 0.5, asf=None,
-          drifts: bool = False, models: dict | None = None, progress: bool = False):
+          drifts: bool = False, models: dict | None = None, progress: bool = False, noise_deg: float | None = None,
+          fps: float | None = None, unit: str | None = None):
     """Clean a take: fill gaps, detect and repair erroneous joints, denoise the noisy cells.
 
     The main job of mocapkit, :func:`mocapkit.cleaning.pipeline.clean` on a
@@ -87,6 +88,14 @@ def clean(take, context=None, *, steps="fill,detect,repair,denoise", threshold: 
         default the pair for the take's rig.
     progress : bool
         Show detection's progress bar.
+    noise_deg : float, optional
+        The noise level in degrees over which a joint's cells are denoised
+        (:func:`mocapkit.cleaning.pipeline.noisy_cells`; default 1; the CLI's ``--noise-deg``).
+    fps : float, optional
+        The frame rate of an AMC file, which states none (the CLI's ``--amc-fps``;
+        default :func:`mocapkit.io.asfamc.amc_rate`).
+    unit : {"mm", "cm", "m", "in"}, optional
+        The length unit of a file that states none (the CLI's ``--unit``).
 
     Returns
     -------
@@ -108,7 +117,7 @@ def clean(take, context=None, *, steps="fill,detect,repair,denoise", threshold: 
     if isinstance(take, (str, os.PathLike)) and os.fspath(take).lower().endswith((".c3d", ".trc", ".npz")):
         from .io.takes import load_take
 
-        take = load_take(take)
+        take = load_take(take, unit=unit)
     if isinstance(take, MarkerSet):
         from .batch import refuse_marker_options
         from .cleaning.markers import clean_markers
@@ -116,22 +125,28 @@ def clean(take, context=None, *, steps="fill,detect,repair,denoise", threshold: 
 
         refuse_marker_options(take.name or "the take", [name for name, given in (
             (f"steps {steps}", parse_steps(steps) != STEPS), ("threshold", threshold != 0.5), ("drifts", drifts),
-            ("models", bool(models)), ("context", context is not None)) if given])
+            ("models", bool(models)), ("context", context is not None), ("noise_deg", noise_deg is not None)) if given])
         return clean_markers(take)
-    motion = take if isinstance(take, Motion) else _load_motion(take, asf)
+    motion = take if isinstance(take, Motion) else _load_motion(take, asf, fps, unit)
     ctx, note = _load_context(context, motion)
-    res = clean_motion(motion, ctx, steps=steps, threshold=threshold, progress=progress, drifts=drifts, models=models)
+    extra = {} if noise_deg is None else {"noise_deg": noise_deg}
+    res = clean_motion(motion, ctx, steps=steps, threshold=threshold, progress=progress, drifts=drifts, models=models,
+                       **extra)
     return dataclasses.replace(res, notes=res.notes + (note,)) if note else res
 
 
-def _load_motion(path, asf) -> Motion:
-    """The Motion in ``path`` (``asf`` for an AMC file); a marker file or ``asf`` with another format is refused."""
+def _load_motion(path, asf, fps=None, unit=None) -> Motion:
+    """The Motion in ``path`` (``asf`` and ``fps`` for an AMC file, ``unit`` where the file states none); a marker
+    file, or ``asf`` or ``fps`` with another format, is refused."""
     if not isinstance(path, (str, os.PathLike)):
         raise TypeError(f"expected a Motion or a file path, got {type(path).__name__}")
     is_amc = os.fspath(path).lower().endswith(".amc")
-    if asf is not None and not is_amc:
-        raise MocapFormatError(path, "asf= applies to .amc files only")
-    out = load(path, asf=asf) if is_amc else load(path)
+    for name, given in (("asf", asf), ("fps", fps)):
+        if given is not None and not is_amc:
+            raise MocapFormatError(path, f"{name}= applies to .amc files only")
+    from .io.takes import load_take
+
+    out = load_take(path, asf, fps=fps, unit=unit)
     if not isinstance(out, Motion):
         raise MocapFormatError(path, "holds marker trajectories, not a skeleton motion; clean takes .bvh, .amc or .npz motions")
     return out
