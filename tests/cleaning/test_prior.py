@@ -546,3 +546,27 @@ def test_the_hermite_blend_is_the_cubic_near_the_ends_and_keeps_a_cubic_fill(coe
     args = (f(-1.0), f(float(n)), df(-1.0), df(float(n)))
     assert np.allclose(P.hermite_blend(np.full(n, 100.0), *args, fps=1e12), inner, atol=1e-6)
     assert np.allclose(P.hermite_blend(inner, *args, fps=30.0), inner, atol=1e-9)
+
+
+@settings(max_examples=200, deadline=None)
+@given(frames=st.integers(1, 40), channels=st.integers(1, 4),
+       lags=st.lists(st.integers(-60, 60), min_size=1, max_size=7), seed=st.integers(0, 2**16))
+def test_lagged_is_the_clamped_gather_of_every_lag(frames, channels, lags, seed):
+    """The shifted-slice form equals the reference: for each lag, frame t holds x[clip(t + lag, 0, F - 1)]."""
+    x = np.random.default_rng(seed).normal(size=(frames, channels))
+    t = np.arange(frames)
+    ref = np.concatenate([x[np.clip(t + lag, 0, frames - 1)] for lag in lags], axis=1)
+    assert np.array_equal(P.lagged(x, lags), ref)
+    assert np.array_equal(P.lagged(x > 0, lags), ref > 0)
+
+
+@settings(max_examples=100, deadline=None)
+@given(frames=st.integers(1, 40), channels=st.integers(1, 4), seed=st.integers(0, 2**16))
+def test_a_frame_missing_within_the_lags_is_a_channel_missing_in_the_lagged_vector(frames, channels, seed):
+    """The take's complete rows (``_take_update``) are read from the frames' any-missing mask, lagged: the same rows
+    as lagging every channel's mask."""
+    rng = np.random.default_rng(seed)
+    miss = rng.random((frames, channels)) < rng.random() * 0.2
+    lags = deep.shipped_model("ebd").prior.lags
+    assert np.array_equal((P.lagged(miss.astype(np.float64), lags) > 0).any(axis=1),
+                          P.lagged(np.any(miss, axis=1)[:, None], lags).any(axis=1))

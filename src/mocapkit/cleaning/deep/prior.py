@@ -129,9 +129,22 @@ class GapPrior:
 
 def lagged(x: np.ndarray, lags) -> np.ndarray:
     """(F, C) channels -> (F, C * L) vectors ``[x(t + l) for l in lags]``, frames clamped at the ends."""
-    F = len(x)
-    t = np.arange(F)
-    return np.concatenate([x[np.clip(t + int(l), 0, max(F - 1, 0))] for l in lags], axis=1)
+    x = np.asarray(x)
+    F, C = x.shape[0], x.shape[1]
+    out = np.empty((F, C * len(lags)), dtype=x.dtype)
+    if F == 0:
+        return out
+    for k, lag in enumerate(lags):  # shifted slices, the ends held: no gather of F index rows per lag
+        col = out[:, k * C:(k + 1) * C]
+        lag = int(lag)
+        n = max(F - abs(lag), 0)  # frames whose t + lag falls inside the take
+        if lag >= 0:
+            col[:n] = x[F - n:]
+            col[n:] = x[F - 1]
+        else:
+            col[F - n:] = x[:n]
+            col[:F - n] = x[0]
+    return out
 
 
 LAGS_S = (1 / 15, 2 / 15, 4 / 15)
@@ -267,7 +280,7 @@ def _take_update(z: np.ndarray, miss: np.ndarray, prior: GapPrior, n0: float):
     """(mean shift (D,), covariance (D, D) or None): the prior's standardised mean (0) and covariance pooled with
     those of the take's complete rows of ``z`` (no channel missing within the lags' reach), ``n0`` frames' worth
     of prior against the rows' count; (0, None) when fewer than 10 rows or ``n0`` is infinite."""
-    rows = ~(lagged(miss.astype(np.float64), prior.lags) > 0).any(axis=1)
+    rows = ~lagged(np.any(miss, axis=1)[:, None], prior.lags).any(axis=1)  # a frame missing in any lag's reach
     n = int(rows.sum())
     if n < 10 or not np.isfinite(n0):
         return np.zeros(z.shape[1]), None
