@@ -139,3 +139,22 @@ def test_a_query_whose_rig_lacks_the_features_names_the_query(tmp_path):
     unknown_rig(query)
     code, _, err = run("search", str(db), str(query))
     assert code == 2 and one_error_line(err) and f"{query}: cannot compute the query's features" in " ".join(err.split())
+
+
+def test_search_takes_the_query_s_unit(tmp_path, capsys):
+    """The query's positions (F30) are compared in centimetres: --unit says what a file that states no unit holds, as
+    on clean. The CMU BVH is read at 5.6 cm a unit (its bones, an adult's); read as metres, the same query is 18
+    times too large and matches nothing as well."""
+    import json
+
+    db_dir = tmp_path / "db"
+    assert main(["db", "build", str(db_dir), *_db_sources(), "--features", "F30", "--executor", "serial"]) == 0
+    capsys.readouterr()
+    found = {}
+    for unit in (None, "m"):
+        assert main(["search", str(db_dir), SAMPLE, "--k", "1", "--start", "2", "--end", "3", "--json",
+                     *(["--unit", unit] if unit else [])]) == 0
+        found[unit] = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
+    assert found[None] and (not found["m"] or found["m"][0]["cost"] > 10 * found[None][0]["cost"])
+    code, _, err = run("search", str(db_dir), SAMPLE, "--unit", "furlong")
+    assert code == 2 and one_error_line(err) and "furlong" in err

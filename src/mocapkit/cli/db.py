@@ -9,7 +9,8 @@ from typing import Optional
 import typer
 
 from ..errors import MocapError, MocapFormatError
-from .common import amc_fps_option, asf_option, check_executor, console, database_rows, executor_option, plural, print_fields, print_table
+from .common import (amc_fps_option, asf_option, check_executor, console, database_rows, executor_option, plural,
+                     print_fields, print_table, unit_option)
 
 db_app = typer.Typer(
     help="Build and inspect motion databases (the knowledge that search and cleaning compare against).",
@@ -102,6 +103,7 @@ def search(
     as_json: bool = typer.Option(False, "--json", help="Print the matches as JSON."),
     asf: Optional[Path] = asf_option(),
     amc_fps: Optional[float] = amc_fps_option(),
+    unit: Optional[str] = unit_option(),
 ) -> None:
     """Rank the database segments most similar to QUERY (numerical similarity search)."""
     from ..database import MotionDatabase
@@ -111,7 +113,7 @@ def search(
         raise MocapError(f"{'--k' if k < 1 else '--neighbors'} must be a positive integer, got {min(k, neighbors)}")
     check_asf(asf, [query], amc_fps)
     db = MotionDatabase.open(db_dir)
-    m = load_motion(query, asf, purpose="a query", fps=amc_fps)
+    m = load_motion(query, asf, purpose="a query", fps=amc_fps, unit=unit)
     a = 0 if start is None else int(round(start * m.fps))
     b = m.num_frames if end is None else min(int(round(end * m.fps)), m.num_frames)  # --end past the clip: its end
     if not 0 <= a < b <= m.num_frames:
