@@ -216,13 +216,16 @@ def accel_ratios(z: np.ndarray, x: np.ndarray, mask: np.ndarray) -> list[float]:
     Accelerations are second differences (mm/frame^2); 1 is as smooth as the
     marker really moved, 10 a fill that jolts ten times harder than it did.
     """
+    from mocapkit.cleaning.markers import gap_runs
+
+    def peak(y):
+        return np.linalg.norm(y[2:] - 2 * y[1:-1] + y[:-2], axis=-1).max()
+
     out = []
     for m in np.flatnonzero(mask.any(axis=0)):
-        edges = np.diff(np.r_[0, mask[:, m].astype(np.int8), 0])
-        for a, b in zip(np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)):
+        for a, b in zip(*gap_runs(mask[:, m])):
             lo, hi = max(a - 1, 0), min(b + 1, len(x))
-            acc = lambda y: np.linalg.norm(y[2:] - 2 * y[1:-1] + y[:-2], axis=-1).max()  # noqa: E731
-            out.append(float(acc(z[lo:hi, m]) / max(acc(x[lo:hi, m]), 1e-9)))
+            out.append(float(peak(z[lo:hi, m]) / max(peak(x[lo:hi, m]), 1e-9)))
     return out
 
 

@@ -28,6 +28,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.ndimage import gaussian_filter1d
 
+from ..ik import contact_segments
 from .rigid import DistanceStats
 
 __all__ = ["constraint_pairs", "enforce_distances", "smooth_correction", "violation"]
@@ -110,8 +111,7 @@ def smooth_correction(before: np.ndarray, after: np.ndarray, free: np.ndarray, s
     f = free.shape[0]
     pad = int(np.ceil(4 * sigma)) + 1
     for m in np.flatnonzero(np.any(free, axis=0)):
-        edges = np.diff(np.r_[0, free[:, m].astype(np.int8), 0])
-        for a, b in zip(np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)):
+        for a, b in contact_segments(free[:, m]):
             corr = after[a:b, m] - before[a:b, m]
             ok = np.all(np.isfinite(corr), axis=-1)
             if not np.all(ok):
