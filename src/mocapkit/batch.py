@@ -60,7 +60,6 @@ from __future__ import annotations
 import dataclasses
 import fnmatch
 import json
-import math
 import os
 import shutil
 import tempfile
@@ -689,7 +688,7 @@ def clean_batch(
     step list, context or executor (:func:`mocapkit.parallel.check_executor`)
     and on a refused output; nothing is written then.
     """
-    from .cleaning.pipeline import STEPS, parse_steps
+    from .cleaning.pipeline import STEPS, check_noise_deg, parse_steps
     from .context import is_off
     from .io.outputs import inside, missing_folders, resolved
     from .parallel import check_executor, describe_executor, map_ordered
@@ -706,8 +705,11 @@ def clean_batch(
         steps = list(parse_steps(steps or STEPS))
     except ValueError as exc:
         raise MocapError(f"steps: {exc}") from None
-    if noise_deg is not None and not (math.isfinite(noise_deg) and noise_deg > 0):
-        raise MocapError(f"noise_deg must be a positive number of degrees, got {noise_deg!r}")
+    if noise_deg is not None:
+        try:
+            check_noise_deg(noise_deg)
+        except ValueError as exc:
+            raise MocapError(str(exc)) from None
     ctx = [Path(c) for c in (context or [])]
     if ctx:
         load_context(ctx, progress=progress)  # fail early, in one line, on a bad context; a folder is built and cached once

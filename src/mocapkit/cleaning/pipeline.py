@@ -113,7 +113,8 @@ from .calibration import CalibrationPose, calibration_poses
 from .whole_take import (MAX_WORD_ANGLE_DEG, changed_cells, detect_take, differing, motion_span, repair_take,
                          take_params)
 
-__all__ = ["STEPS", "CleanResult", "StepRecord", "clean", "noise_level", "noise_direction", "noisy_cells", "clean_path", "parse_steps"]
+__all__ = ["STEPS", "CleanResult", "StepRecord", "clean", "noise_level", "noise_direction", "noisy_cells", "clean_path", "parse_steps",
+           "check_noise_deg"]
 
 STEPS = ("fill", "detect", "repair", "denoise")
 FORMAT = "mocapkit.clean/1"
@@ -619,6 +620,12 @@ def made_up_note(missing: np.ndarray) -> str:
             "returns; look at it before use")
 
 
+def check_noise_deg(noise_deg: float) -> None:
+    """Raise ValueError unless ``noise_deg`` (the noisy-cell level, degrees) is a positive number."""
+    if not (np.isfinite(noise_deg) and noise_deg > 0):
+        raise ValueError(f"noise_deg must be a positive number of degrees, got {noise_deg!r}")
+
+
 def clean(
     motion: Motion,
     context=None,
@@ -676,8 +683,7 @@ def clean(
     models = _models(models)
     if not 0.0 < threshold < 1.0:
         raise ValueError(f"threshold must be in (0, 1), got {threshold}")
-    if not (np.isfinite(noise_deg) and noise_deg > 0):
-        raise ValueError(f"noise_deg must be a positive number of degrees, got {noise_deg!r}")
+    check_noise_deg(noise_deg)
     name = motion.name or "motion"
     F, J = motion.num_frames, motion.num_joints
     zeros = np.zeros((F, J), dtype=bool)
