@@ -764,3 +764,30 @@ def test_a_full_disk_in_the_first_epoch_names_the_file_and_leaves_nothing_that_b
     assert not out.exists()  # no model.pt without its checkpoint (nor the folder made for them)
     assert training.train([walk[:160]], out, _tiny(), executor="serial", progress=False).meta["best_epoch"] == 0
     assert sorted(p.name for p in out.iterdir()) == ["checkpoint.pt", "model.pt"]
+
+
+def test_a_kill_between_the_first_epochs_two_writes_starts_over_unasked(tmp_path, walk, monkeypatch):
+    """Left by trial 20: killed outright between epoch 0's model.pt and its checkpoint, the folder held this run's
+    model without a checkpoint, and the same command was refused until --restart. It starts over now, and the
+    run's result is the uninterrupted run's, bit for bit; a finished model without its checkpoint is still refused."""
+    cfg = _tiny(epochs=2)
+    real_write = training.write_torch
+
+    def dying_write(payload, path):
+        raise KeyboardInterrupt  # the first epoch's checkpoint: the process dies first
+
+    monkeypatch.setattr(training, "write_torch", dying_write)
+    monkeypatch.setattr(training, "removed_on_failure", lambda *a, **k: contextlib.nullcontext())  # killed: no handler runs
+    with pytest.raises(KeyboardInterrupt):
+        training.train([walk[:160]], tmp_path / "a", cfg, executor="serial", progress=False)
+    monkeypatch.undo()
+    assert (tmp_path / "a" / "model.pt").is_file() and not (tmp_path / "a" / "checkpoint.pt").exists()
+    assert real_write is training.write_torch
+    again = training.train([walk[:160]], tmp_path / "a", cfg, executor="serial", progress=False)
+    whole = training.train([walk[:160]], tmp_path / "b", cfg, executor="serial", progress=False)
+    assert again.meta["finished"] is True and len(again.meta["history"]) == 2
+    for k, v in whole.net.state_dict().items():
+        assert torch.equal(v, again.net.state_dict()[k]), k
+    (tmp_path / "b" / "checkpoint.pt").unlink()  # a finished run's model: not started over
+    with pytest.raises(ValueError, match=r"model.pt already exists \(no checkpoint of this training beside it\)"):
+        training.check_out_dir(tmp_path / "b", [walk[:160]], cfg)

@@ -519,6 +519,13 @@ def _model_record(path: Path) -> dict | None:
     return meta if isinstance(meta, dict) else None
 
 
+def _first_epoch_only(meta: dict) -> bool:
+    """True for the metadata of a model written by a run's first epoch and not by the run's end (``finished`` False)."""
+    history = meta.get("history")
+    return meta.get("finished") is False and isinstance(history, list) and len(history) == 1 \
+        and isinstance(history[0], dict) and history[0].get("epoch") == 0
+
+
 def check_out_dir(out_dir, clips: list[Motion], config: TrainConfig = TrainConfig(), validation: list[Motion] | None = None,
                   resume: bool = True, overwrite: bool = False) -> bool:
     """Refuse, before any work, an output folder whose model or checkpoint a run would replace unasked; True to resume.
@@ -531,7 +538,9 @@ def check_out_dir(out_dir, clips: list[Motion], config: TrainConfig = TrainConfi
     ``--restart`` starts over there) when it holds a checkpoint or a
     ``model.pt``: these are replaced only with ``resume=False``
     (``--restart``: start over) or ``overwrite`` (start over where the folder
-    is not this run's, resume where it is).
+    is not this run's, resume where it is). The one ``model.pt`` without a
+    checkpoint that starts over unasked is this run's own first epoch's
+    (killed between the epoch's two writes): the seed writes it again.
     """
     out_dir = Path(out_dir)
     ckpt_path, model_path = out_dir / "checkpoint.pt", out_dir / "model.pt"
@@ -561,7 +570,12 @@ def check_out_dir(out_dir, clips: list[Motion], config: TrainConfig = TrainConfi
                              "it, --restart trains it again")
     if model_path.exists():
         meta = _model_record(model_path)
-        mine = same_run and meta is not None and meta.get("training") == _training_id(cfg_json, data_json)
+        this_training = meta is not None and meta.get("training") == _training_id(cfg_json, data_json)
+        if not ckpt_path.exists() and this_training and _first_epoch_only(meta):
+            # killed outright between the first epoch's two writes: the model is this run's own epoch 0,
+            # which starting over writes again (the seed fixes it), so nothing is lost
+            return False
+        mine = same_run and this_training
         if not mine and not overwrite:
             why = "no checkpoint of this training beside it" if not same_run else "it is another training's model"
             raise ValueError(f"{model_path} already exists ({why}); --restart or --overwrite replaces it, or give "
@@ -677,7 +691,7 @@ def train(
         meta = {"config": dataclasses.asdict(cfg), "train_clips": [c.name for c in clips],
                 "validation_clips": [c.name for c in (validation or [])], "history": history,
                 "train_seconds": time.perf_counter() - t0, "torch": torch.__version__, **(meta or {}),
-                "training": training_id, "best_val_rmse": v, "best_epoch": epoch}
+                "training": training_id, "best_val_rmse": v, "best_epoch": epoch, "finished": False}
         if _plateau_halvings(history, cfg.lr_patience)[-1]:
             for g in opt.param_groups:
                 g["lr"] *= 0.5
@@ -697,7 +711,7 @@ def train(
     from .inference import load_model
 
     best_model = load_model(out_dir / "model.pt")
-    best_model.meta.update(history=history, train_seconds=time.perf_counter() - t0)
+    best_model.meta.update(history=history, train_seconds=time.perf_counter() - t0, finished=True)
     if cfg.kind == "ebd":  # the gap prior on the same clean clips (seconds: one covariance)
         best_model = dataclasses.replace(best_model, prior=fit_gap_prior([d["clean"] for d in data], fps))
     save_model(best_model, out_dir / "model.pt")  # the whole history, not only up to the best epoch
