@@ -155,17 +155,19 @@ def _retarget(m: Motion, ref_skeleton: Skeleton, joint_map: Mapping[str, str], s
     return Motion(ref_skeleton, rot, m.root_positions * scale, m.fps, m.name)
 
 
-def _prepare(item, fps: float, features: tuple[str, ...], mirror: bool, ref_skeleton: Skeleton | None, joint_map) -> list[dict]:
+def _prepare(item, fps: float, features: tuple[str, ...], mirror: bool, ref_skeleton: Skeleton | None, joint_map,
+             amc: dict | None = None) -> list[dict]:
     """Load (if a path), check, resample and featurise one clip; with ``mirror`` also its mirror image.
 
-    ``item``: a Motion, a path, or ``(path to read, source to keep)``."""
-    from . import io
+    ``item``: a Motion, a path, or ``(path to read, source to keep)``; ``amc``: ``{"asf": ..., "fps": ...}`` for
+    an ``.amc`` file (:func:`mocapkit.io.takes.load_take`)."""
+    from .io.takes import load_take
 
     if isinstance(item, Motion):
         m, source = item, f"<motion {item.name}>"
     else:
         path, source = (Path(item[0]), str(item[1])) if isinstance(item, tuple) else (Path(item), str(item))
-        m = io.load(path)
+        m = load_take(path, **(amc or {}))
         if not isinstance(m, Motion):
             raise MocapFormatError(path, "a marker file holds no skeleton motion and cannot go into a motion database")
     if m.num_frames == 0:
@@ -614,6 +616,8 @@ class MotionDatabase:
         joint_map: Mapping[str, str] | None = None,
         executor=None,
         progress: bool = True,
+        asf=None,
+        amc_fps: float | None = None,
     ) -> "MotionDatabase":
         """Build a database from files, folders (searched recursively) and/or Motions.
 
@@ -627,7 +631,9 @@ class MotionDatabase:
 
         Loading and featurising runs on ``executor`` (:mod:`mocapkit.parallel`:
         local processes by default, ``"dask"`` or a scheduler address for a
-        Dask cluster).
+        Dask cluster). ``asf`` and ``amc_fps``: the skeleton and frame rate of
+        the ``.amc`` files among the sources (:func:`mocapkit.io.takes.load_take`;
+        by default the ASF beside each and :func:`mocapkit.io.asfamc.amc_rate`).
         """
         from .parallel import map_ordered
 
@@ -638,9 +644,11 @@ class MotionDatabase:
         # a file goes out absolute (a remote Dask worker resolves a relative path against its own working folder),
         # with the path as given, which the clip keeps as its source
         items = [it if isinstance(it, Motion) else (os.path.abspath(it), str(it)) for it in expand_sources(sources)]
-        first = _prepare(items[0], fps, features, mirror, None, joint_map)
+        amc = {"asf": None if asf is None else os.path.abspath(asf), "fps": amc_fps}
+        first = _prepare(items[0], fps, features, mirror, None, joint_map, amc)
         ref = first[0]["skeleton"]
-        job = partial(_prepare, fps=fps, features=features, mirror=mirror, ref_skeleton=ref, joint_map=joint_map)
+        job = partial(_prepare, fps=fps, features=features, mirror=mirror, ref_skeleton=ref, joint_map=joint_map,
+                      amc=amc)
         # files are loaded and featurised on the executor; Motions already in memory stay here
         file_slots = [k for k in range(1, len(items)) if not isinstance(items[k], Motion)]
         loaded = map_ordered(job, [items[k] for k in file_slots], executor=executor, progress=progress, desc="clips",

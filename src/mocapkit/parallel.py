@@ -6,7 +6,7 @@ through :func:`map_ordered`. ``executor`` chooses where it runs:
 * ``None`` or ``"processes"``: a local :class:`~concurrent.futures.ProcessPoolExecutor`
   (one worker per core; in-process when there is a single input or core);
 * ``"serial"``: in this process, one after another (debugging, tiny jobs);
-* ``"dask"``: a local Dask cluster started for the job (``pip install "dask[distributed]"``);
+* ``"dask"``: a local Dask cluster started for the job (``pip install "mocapkit[dask]"``);
 * a scheduler address such as ``"tcp://10.0.0.5:8786"``: that Dask cluster;
 * an object with ``submit`` (a :class:`concurrent.futures.Executor`, a
   ``distributed.Client``, a Ray ``ray.util.ActorPool``-like wrapper): used as is.
@@ -98,7 +98,7 @@ def check_executor(executor, timeout: float = _PROBE_S):
             try:
                 import distributed  # noqa: F401
             except ImportError:
-                raise MocapError('--executor dask needs Dask: pip install "dask[distributed]"') from None
+                raise MocapError('--executor dask needs Dask: pip install "mocapkit[dask]"') from None
             return executor
         match = _ADDRESS_RE.match(executor.strip())
         if match is None:
@@ -109,7 +109,7 @@ def check_executor(executor, timeout: float = _PROBE_S):
         try:
             import distributed  # noqa: F401
         except ImportError:
-            raise MocapError(f'--executor {executor}: a Dask scheduler needs Dask: pip install "dask[distributed]"') from None
+            raise MocapError(f'--executor {executor}: a Dask scheduler needs Dask: pip install "mocapkit[dask]"') from None
         _probe_scheduler(executor, match["host"].strip("[]"), port, timeout)
         return executor
     if callable(getattr(executor, "submit", None)):

@@ -31,7 +31,8 @@ def broken_walk():
     """The bundled walk with gaps, capture errors and noise on two joints (a Motion with every defect ``clean`` treats)."""
     import dataclasses
 
-    from . import corrupt, load, samples
+    from . import corrupt, samples
+    from .io import load
 
     walk = load(samples.path("12_walk.amc"))
     bad, _, _ = corrupt.real_errors(walk, n_errors=4, seed=7)
@@ -60,7 +61,7 @@ def warm_up() -> dict:
     short piece (its shorter word lists compile nothing new but check the
     small sizes run).
     """
-    from . import load, save
+    from .io import load, save
     from .cleaning.pipeline import clean
     from .cleaning.ssa.twins import forced
     from .context import fit_context, resolve_context

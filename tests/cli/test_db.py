@@ -158,3 +158,30 @@ def test_search_takes_the_query_s_unit(tmp_path, capsys):
     assert found[None] and (not found["m"] or found["m"][0]["cost"] > 10 * found[None][0]["cost"])
     code, _, err = run("search", str(db_dir), SAMPLE, "--unit", "furlong")
     assert code == 2 and one_error_line(err) and "furlong" in err
+
+
+def test_db_build_reads_amc_files_with_asf_and_amc_fps(tmp_path, capsys):
+    """Docs trial: README says every command that reads AMC takes --asf and --amc-fps; db build had neither, so
+    AMC files in a folder of several ASFs could not go into a database ("name the skeleton with --asf FILE", then
+    "No such option: --asf")."""
+    import json
+    import shutil
+
+    folder = tmp_path / "takes"
+    folder.mkdir()
+    shutil.copy(mocapkit.samples.path("12_walk.amc"), folder / "walk.amc")
+    for asf in ("12.asf", "HDM_bd.asf"):
+        shutil.copy(mocapkit.samples.path(asf), folder / asf)
+    code, _, err = run("db", "build", str(tmp_path / "refused"), str(folder), "--executor", "serial")
+    assert code == 2 and one_error_line(err) and "--asf" in err
+    db_dir = tmp_path / "db"
+    assert main(["db", "build", str(db_dir), str(folder), "--asf", str(folder / "12.asf"), "--amc-fps", "60",
+                 "--executor", "serial", "--fps", "30"]) == 0
+    capsys.readouterr()
+    assert main(["db", "info", str(db_dir), "--json", "--clips"]) == 0
+    info = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
+    walk = mocapkit.load(mocapkit.samples.path("12_walk.amc"))
+    # read at 60 fps, the take lasts twice as long as at 120: twice the frames at the database's 30 fps
+    assert info["clip_list"][0]["frames"] == int((walk.num_frames - 1) * 30 / 60) + 1
+    code, _, err = run("db", "build", str(tmp_path / "x"), SAMPLE, "--asf", str(folder / "12.asf"))
+    assert code == 2 and one_error_line(err) and "no input is an .amc file" in err

@@ -443,3 +443,23 @@ def test_info_describes_a_training_checkpoint(tmp_path):
     code, text, err = run("info", out / "checkpoint.pt")
     assert code == 0, err  # it said "malformed mocapkit model"
     assert "training checkpoint (EBF" in text and "digests kept" in text
+
+
+def test_train_reads_amc_files_with_asf_and_amc_fps(tmp_path):
+    """Docs trial: train had no --asf or --amc-fps, so AMC clips in a folder of several ASFs could not be trained on."""
+    import shutil
+
+    from mocapkit.cleaning import deep
+
+    folder = tmp_path / "takes"
+    folder.mkdir()
+    shutil.copy(WALK, folder / "walk.amc")
+    for asf in ("12.asf", "HDM_bd.asf"):
+        shutil.copy(mocapkit.samples.path(asf), folder / asf)
+    code, _, err = run("train", "denoiser", str(folder), "-o", str(tmp_path / "refused"), "--epochs", "1")
+    assert code == 2 and one_error_line(err) and "--asf" in err
+    out = tmp_path / "ebf"
+    code, _, err = run("train", "denoiser", str(folder), "-o", str(out), "--epochs", "1", "--steps", "1",
+                       "--hidden", "8", "--executor", "serial", "--asf", str(folder / "12.asf"), "--amc-fps", "60")
+    assert code == 0, err
+    assert deep.load_model(out / "model.pt").fps == 60

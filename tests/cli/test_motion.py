@@ -518,3 +518,10 @@ def test_info_and_clean_say_a_marker_file_s_unit_was_inferred(shared_data, tmp_p
     assert code == 0 and "length unit m: the file states none (inferred from the marker distances" in out, (out, err)
     code, out, _ = run("info", take, "--unit", "mm")
     assert code == 0 and "units     mm (given with --unit; the file states none)" in out
+
+
+def test_info_on_a_missing_file_says_no_such_file_whatever_its_suffix(tmp_path):
+    """Docs trial: `info nonexist.pt` said "unknown suffix '.pt' for reading" though info reads models."""
+    for name in ("model.pt", "base.kb", "take.bvh", "take.clean.npz", "noext"):
+        code, _, err = run("info", str(tmp_path / name))
+        assert code == 2 and one_error_line(err) and err.strip().endswith(f"{tmp_path / name}: no such file"), err

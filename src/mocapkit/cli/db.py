@@ -42,6 +42,8 @@ def db_build(
     features: str = typer.Option("F15", "--features", help="Comma-separated feature sets: F15, F30, F39, F15x3, F15x5, F30x3, F39x3."),
     executor: Optional[str] = executor_option("clips are loaded"),
     joint_map: Optional[Path] = typer.Option(None, "--joint-map", help="JSON object {clip joint: database joint} for clips of another skeleton."),
+    asf: Optional[Path] = asf_option(),
+    amc_fps: Optional[float] = amc_fps_option(),
     overwrite: bool = typer.Option(
         False, "--overwrite",
         help="Replace OUT_DIR if it is a mocapkit database holding none of the inputs (anything else is refused). "
@@ -56,11 +58,17 @@ def db_build(
         raise MocapError(f"--fps must be a positive number from {FPS_RANGE[0]:g} to {FPS_RANGE[1]:g} (frames per second) "
                          f"for a database, got {fps:g}")
     check_database_output(out_dir, [*files, *([joint_map] if joint_map is not None else [])], overwrite=overwrite)
+    if asf is not None or amc_fps is not None:
+        from ..database import expand_sources
+        from ..io.takes import check_asf
+
+        check_asf(asf, expand_sources(files), amc_fps)
     check_executor(executor)
     jm = _read_joint_map(joint_map) if joint_map is not None else None
     console.print(f"building from {plural(len(files), 'path')} on {describe_executor(executor)}")
     try:
-        db = MotionDatabase.build(files, fps=fps, features=_feature_list(features), mirror=mirror, joint_map=jm, executor=executor)
+        db = MotionDatabase.build(files, fps=fps, features=_feature_list(features), mirror=mirror, joint_map=jm,
+                                  executor=executor, asf=asf, amc_fps=amc_fps)
     except ValueError as exc:
         raise MocapError(str(exc)) from None
     db.save(out_dir, overwrite=overwrite)

@@ -246,6 +246,8 @@ def train(
                                    "in OUT (refused without it); the same training still resumes."),
     executor: Optional[str] = executor_option("noisy pairs are made"),
     device: str = typer.Option("auto", "--device", help="auto (a GPU when present), cpu or cuda."),
+    asf: Optional[Path] = asf_option(),
+    amc_fps: Optional[float] = amc_fps_option(),
 ) -> None:
     """Train an EBF or EBD on noisy/clean pairs made on the fly with mocapkit.corrupt (Mall et al. 2017, 4).
 
@@ -276,7 +278,12 @@ def train(
         )
     except ValueError as exc:
         raise MocapError(f"train: {exc}") from None
-    clips = training.load_clips(sources)
+    if asf is not None or amc_fps is not None:
+        from ..database import expand_sources
+        from ..io.takes import check_asf
+
+        check_asf(asf, expand_sources([s for s in sources if not (s / "database.json").is_file()]), amc_fps)
+    clips = training.load_clips(sources, asf, amc_fps)
     if not clips:
         raise MocapError(f"train: no .bvh, .amc or .npz clips in {', '.join(map(str, sources))}")
     # --holdout is a count of random clips (one number) or name substrings

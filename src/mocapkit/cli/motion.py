@@ -9,7 +9,7 @@ from typing import Optional
 
 import typer
 
-from ..errors import MocapError, MocapFormatError
+from ..errors import MissingFileError, MocapError, MocapFormatError
 from .common import (amc_fps_option, asf_option, console, database_rows, guard, overwrite_option, plural, print_fields,
                      print_table, save_take, unit_option)
 
@@ -30,6 +30,8 @@ def info(
     from ..rigs import rig_family, roles_by_topology
 
     check_asf(asf, [file], amc_fps)
+    if not file.exists():  # before the suffix: a missing model or knowledge base is missing, not of unknown kind
+        raise MissingFileError(file)
     if _info_of_own_file(file):  # a database, a cleaning record, a detection, a mask or a model: not a take
         return
     obj = load_take(file, asf, fps=amc_fps, unit=unit)

@@ -131,7 +131,7 @@ def repair(
     unit: Optional[str] = unit_option(),
     overwrite: bool = overwrite_option(),
 ) -> None:
-    """Replace only the flagged joints in flagged frames by the median of their nearest motion words.
+    """Replace only the flagged joints in flagged frames by the medoid (the median word) of their nearest motion words.
 
     The flags are those of `clean --steps detect` (or --detection's), and OUT is what
     `clean --steps detect,repair` writes: calibration poses at the take's ends are left alone, every

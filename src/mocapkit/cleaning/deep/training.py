@@ -119,10 +119,13 @@ class TrainConfig:
         raise ValueError(f"kind must be 'ebf' or 'ebd', got {self.kind!r}")
 
 
-def load_clips(sources) -> list[Motion]:
-    """Motions from files, folders (every .bvh/.amc/.npz below) or a MotionDatabase directory/object."""
-    from ... import io
+def load_clips(sources, asf=None, amc_fps: float | None = None) -> list[Motion]:
+    """Motions from files, folders (every .bvh/.amc/.npz below) or a MotionDatabase directory/object.
+
+    ``asf``, ``amc_fps``: the skeleton and frame rate of the ``.amc`` files (:func:`mocapkit.io.takes.load_take`;
+    by default the ASF beside each and :func:`mocapkit.io.asfamc.amc_rate`)."""
     from ...database import MotionDatabase, expand_sources
+    from ...io.takes import load_take
 
     if isinstance(sources, MotionDatabase):
         return [sources.clip(i) for i in range(sources.num_clips)]
@@ -135,7 +138,7 @@ def load_clips(sources) -> list[Motion]:
             out += [db.clip(i) for i in range(db.num_clips)]
             continue
         for item in expand_sources([s]):
-            out.append(item if isinstance(item, Motion) else io.load(item))
+            out.append(item if isinstance(item, Motion) else load_take(item, asf, fps=amc_fps))
     return out
 
 
