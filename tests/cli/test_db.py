@@ -185,3 +185,17 @@ def test_db_build_reads_amc_files_with_asf_and_amc_fps(tmp_path, capsys):
     assert info["clip_list"][0]["frames"] == int((walk.num_frames - 1) * 30 / 60) + 1
     code, _, err = run("db", "build", str(tmp_path / "x"), SAMPLE, "--asf", str(folder / "12.asf"))
     assert code == 2 and one_error_line(err) and "no input is an .amc file" in err
+
+
+def test_search_says_when_fewer_segments_than_k_remain_with_and_without_json(tmp_path):
+    """Docs trial: the guide says search says so when fewer than --k segments remain; with --json it said nothing."""
+    import json
+
+    db_dir = tmp_path / "db"
+    assert main(["db", "build", str(db_dir), _db_sources()[1], "--executor", "serial"]) == 0
+    query = _db_sources()[1]
+    code, out, err = run("search", str(db_dir), query, "--k", "50", "--start", "0.5", "--end", "1.5")
+    assert code == 0 and "of the 50 matches asked for" in out
+    code, out, err = run("search", str(db_dir), query, "--k", "50", "--start", "0.5", "--end", "1.5", "--json")
+    found = json.loads(out.strip().splitlines()[-1])
+    assert code == 0 and 0 < len(found) < 50 and f"note: {len(found)} of the 50 matches asked for" in err

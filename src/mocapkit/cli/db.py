@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import sys
 from pathlib import Path
 from typing import Optional
 
@@ -133,8 +134,13 @@ def search(
         if isinstance(exc, KeyError) and "no joint plays the role" in why:  # the query's rig lacks an end effector
             raise MocapFormatError(query, f"cannot compute the query's features: {why}") from None
         raise MocapError(f"{db_dir}: {why}") from None
-    if as_json:
+    fewer = (f"{len(results)} of the {k} matches asked for: no other segment of the database lasts between a "
+             f"third and three times the query's {(b - a) / m.fps:.2f} s (a longer or shorter one is a "
+             "held pose or a pause, not the motion)") if 0 < len(results) < k else None
+    if as_json:  # the JSON alone on stdout; the note on stderr
         print(json.dumps([dict(r.as_dict(), start_s=r.start / db.fps, end_s=r.end / db.fps) for r in results]))
+        if fewer:
+            print(f"note: {fewer}", file=sys.stderr)
         return
     if not results:
         console.print("no match (try a larger --neighbors)")
@@ -143,7 +149,5 @@ def search(
     print_table(("#", "clip", "start", "end", "seconds", "cost", "cost/frame"),
                 ((rank, r.name, r.start, r.end, f"{r.start / db.fps:.2f}-{r.end / db.fps:.2f}", f"{r.cost:.1f}",
                   f"{r.cost / max(qlen, 1):.2f}") for rank, r in enumerate(results, 1)))
-    if len(results) < k:
-        console.print(f"{len(results)} of the {k} matches asked for: no other segment of the database lasts between a "
-                      f"third and three times the query's {(b - a) / m.fps:.2f} s (a longer or shorter one is a "
-                      "held pose or a pause, not the motion)")
+    if fewer:
+        console.print(fewer)
