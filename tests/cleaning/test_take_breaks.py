@@ -53,7 +53,6 @@ def test_teleport_put_back_named_and_undoable(rig, walk131, request):
     f = m.num_frames // 2
     bad = _moved_root(m, slice(f, f + 1), (100.0, 0.0, 0.0))  # 1 m away for one frame
     res = clean(bad, steps="fill,detect,repair")
-    scale = unit_scale_cm(m.skeleton)
     path, p = tb.pelvis_path_cm(res.motion)
     truth, _ = tb.pelvis_path_cm(m)
     assert np.linalg.norm(path[f] - truth[f]) < 5.0  # was 100 cm: never looked at
@@ -63,7 +62,6 @@ def test_teleport_put_back_named_and_undoable(rig, walk131, request):
     back = decisions.apply(bad, res, {c.id: "reject" for c in put})
     assert np.array_equal(back.root_positions, bad.root_positions)
     assert bad.translations is None or np.array_equal(back.translations, bad.translations)
-    assert scale > 0
 
 
 def test_jump_that_stays_and_frozen_root_named_not_changed(walk131):

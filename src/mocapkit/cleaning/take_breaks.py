@@ -35,7 +35,7 @@ import numpy as np
 from ..motion import Motion
 
 __all__ = ["JUMP_CM", "TELEPORT_MAX_S", "FROZEN_MIN_S", "CUT_SHARE", "CUT_RATIO", "CUT_MIN_DEG", "RootEvent",
-           "Cut", "pelvis_path_cm", "root_jumps", "root_events", "fix_teleports", "cuts",
+           "Cut", "pelvis_path_cm", "root_jumps", "root_events", "fix_teleports", "cut_scores", "cuts",
            "cut_mask"]
 
 JUMP_CM = 25.0  # a step of the pelvis this far off the steps beside it (cm per frame) no body makes
