@@ -89,7 +89,7 @@ class Cut:
 
     def __str__(self) -> str:
         return (f"frame {self.frame}: the whole body jumps ({100 * self.share:.0f} % of the joints at once): a cut, "
-                "or dropped frames; flags beside it dropped, the motion on either side kept")
+                "or dropped frames; its breaks confirm no repair, the motion on either side is kept")
 
 
 def pelvis_path_cm(motion: Motion) -> tuple[np.ndarray, int]:
