@@ -110,6 +110,7 @@ from .. import rotations as R
 from ..errors import MocapError, MocapFormatError
 from ..motion import Motion
 from .calibration import CalibrationPose, calibration_poses
+from .ssa.cues import CAUSES
 from .whole_take import (MAX_WORD_ANGLE_DEG, changed_cells, detect_take, differing, motion_span, repair_take,
                          take_params)
 
@@ -620,6 +621,18 @@ def made_up_note(missing: np.ndarray) -> str:
             "returns; look at it before use")
 
 
+def _teleports(motion: Motion, span: tuple[int, int]) -> tuple[Motion, list[str]]:
+    """``motion`` with the teleports of its root path within ``span`` put back
+    (:func:`mocapkit.cleaning.take_breaks.fix_teleports`), and a line for each."""
+    from . import take_breaks as tb
+
+    events = [e for e in tb.root_events(motion, span) if e.kind == "teleport"]
+    if not events:
+        return motion, []
+    fixed, done = tb.fix_teleports(motion, events)
+    return fixed, [str(e) for e in done if e.fixed]
+
+
 def check_noise_deg(noise_deg: float) -> None:
     """Raise ValueError unless ``noise_deg`` (the noisy-cell level, degrees) is a positive number."""
     if not (np.isfinite(noise_deg) and noise_deg > 0):
@@ -747,8 +760,15 @@ def clean(
         t = time.perf_counter()
         before = cur
         cur = repair_take(cur, det, foot_skate=foot_skate, poses=poses)  # on the take detect prepared
-        repaired = changed_cells(before, cur)
-        note = "" if flags.any() else "nothing flagged"
+        moved = changed_cells(before, cur)
+        cur, put_back = _teleports(cur, (lo, hi))
+        teleported = changed_cells(before, cur) & ~moved
+        if teleported.any():  # the root cells put back: flagged in the record, so a person can undo them
+            flags = flags | teleported
+            causes = np.zeros((F, J), dtype=np.uint8) if causes is None else np.array(causes)
+            causes[teleported] |= np.uint8(1 << [k for k, _ in CAUSES].index("teleport"))
+        repaired = moved | teleported
+        note = "; ".join(put_back) if put_back else "" if flags.any() else "nothing flagged"
         records.append(StepRecord("repair", time.perf_counter() - t, int(repaired.sum()),
                                   "medoid of the nearest motion words" + (" + foot-skate cleanup" if foot_skate else ""), note))
 

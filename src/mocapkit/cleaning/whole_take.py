@@ -33,7 +33,7 @@ from ..errors import MocapError, SkeletonError
 from ..motion import Motion
 from .calibration import calibration_mask, calibration_poses
 
-__all__ = ["MAX_WORD_ANGLE_DEG", "TakeDetection", "take_params", "motion_span", "detect_take", "repair_take",
+__all__ = ["MAX_WORD_ANGLE_DEG", "TakeDetection", "take_params", "motion_span", "detect_take", "across_breaks", "repair_take",
            "changed_cells", "differing"]
 
 MAX_WORD_ANGLE_DEG = 8.0  # words with no neighbour this close (RMS joint angle) are not judged
@@ -116,7 +116,39 @@ def detect_take(motion: Motion, context=None, *, threshold: float = 0.5, params=
         det = ssa.detect(part, context, threshold=threshold, params=params, progress=progress)
     except (ValueError, SkeletonError) as exc:
         raise MocapError(f"{name}: detect: {exc}") from None
+    det = across_breaks(part, det)
     return TakeDetection(det.padded(lo, F) if poses else det, poses, span)
+
+
+def across_breaks(part: Motion, det):
+    """``det`` (a detection of ``part``, the frames analysed) with the take's breaks said and judged as such.
+
+    The cuts of ``part`` and the jumps of its root's path (:mod:`mocapkit.cleaning.take_breaks`) are named in
+    the detection's notes (so ``detect`` prints them and ``clean`` says them); at a cut, or where the root
+    jumps and stays, the whole take changes, and a joint's break there confirms no digression: the breaks
+    (``jumps``) within ``confirm_margin_s`` of it are cleared and the flags made again, so the frames on
+    either side are not "repaired" because of it (a splice of two walks had the pelvis of the 17 frames before
+    it turned round by up to 172 deg).
+    """
+    import dataclasses
+
+    from . import take_breaks as tb
+
+    events = tb.root_events(part)
+    found = tb.cuts(part)
+    at = sorted({c.frame for c in found} | {e.first for e in events if e.kind == "jump"})
+    lines = [str(e) for e in events] + [str(c) for c in found if not any(e.first == c.frame for e in events)]
+    if not lines:
+        return det
+    det = dataclasses.replace(det, notes=tuple(det.notes) + tuple(lines))
+    if not at:
+        return det
+    margin = int(np.ceil(det.params.confirm_margin_s * part.fps))
+    near = tb.cut_mask(at, part.num_frames, margin)
+    if not (np.asarray(det.jumps, dtype=bool) & near[:, None]).any():
+        return det
+    det = dataclasses.replace(det, jumps=np.asarray(det.jumps, dtype=bool) & ~near[:, None])
+    return det.with_threshold(det.threshold)
 
 
 def repair_take(motion: Motion, detection, context=None, *, foot_skate: bool = False, poses=None) -> Motion:

@@ -607,6 +607,7 @@ CAUSES = (
     ("offset", "a transient offset (a step off its path and back)"),
     ("drift", "a smooth drift (off its neighbours' path, no break)"),
     ("digression", "a digression over the threshold"),
+    ("teleport", "the root's path jumps away and back (wrong root samples, put back on the path)"),
 )
 
 

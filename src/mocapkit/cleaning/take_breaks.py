@@ -1,0 +1,300 @@
+"""Breaks of the whole take: the root's path (teleports, jumps that stay, a frozen root) and cuts.
+
+Self-similarity (:mod:`mocapkit.cleaning.ssa`) judges each joint's rotations. Two kinds of damage are no
+error of one joint's rotation, and this module finds them from the take alone, in physical units:
+
+**The root's path.** The pelvis (:func:`mocapkit.rigs.pelvis_index`, the joint that carries the hips'
+translation: ``Hips`` on the Bandai Namco rig under a ``joint_Root`` on the floor, the root elsewhere) is
+followed in world space, in centimetres (:func:`mocapkit.joints.unit_scale_cm`). A body's centre never
+changes its velocity by :data:`JUMP_CM` (25 cm per frame, i.e. a change of 7.5 m/s in 1/30 s or 30 m/s in
+1/120 s: ten times a hard landing) from one frame to the next. Where the step into a frame differs from the
+steps beside it by more than that, the root *jumps* (:func:`root_jumps`). A jump away and, within
+:data:`TELEPORT_MAX_S`, back by the opposite step is a *teleport* (a few wrong root samples): its frames
+are put back on the straight line between the good frames around them (:func:`fix_teleports`), named
+and undoable as any repair. A jump with no way back (the rest of the take offset) is named and left: which
+side is right is not known (the take may start or end offset, or have been cut there). A root held bit for
+bit for :data:`FROZEN_MIN_S` or more while the legs turn and the root moves elsewhere in the take is named
+and left: nothing tells where the body went.
+
+**Cuts.** Where two takes were joined, or frames were dropped, the whole body breaks at one frame: most
+joints' midpoint residuals (:func:`mocapkit.cleaning.ssa.cues.midpoint_residuals`) jump together, far over
+what each joint's own motion reaches. :func:`cuts` finds such frames. Detection confirms a digression by
+its joint's own break; at a cut every joint breaks, so without care the frames beside a cut are "repaired"
+(the pelvis of a walk turned round in the 17 frames before a splice). :func:`mocapkit.cleaning.whole_take.detect_take`
+(:func:`~mocapkit.cleaning.whole_take.across_breaks`) lets no break at a cut, or where the root jumps and stays,
+confirm a digression: the cut is named, the motion on either side kept.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..motion import Motion
+
+__all__ = ["JUMP_CM", "TELEPORT_MAX_S", "FROZEN_MIN_S", "CUT_SHARE", "CUT_RATIO", "CUT_MIN_DEG", "RootEvent",
+           "Cut", "pelvis_path_cm", "root_jumps", "root_events", "fix_teleports", "cut_scores", "cuts",
+           "cut_mask"]
+
+JUMP_CM = 25.0  # a step of the pelvis this far off the steps beside it (cm per frame) no body makes
+TELEPORT_MAX_S = 0.5  # a jump back within this long makes a teleport
+FROZEN_MIN_S = 0.5  # a root held bit for bit this long while the legs turn is named
+FROZEN_TURN_DEG = 10.0  # ... the legs turning at least this far over the hold
+CUT_SHARE = 0.6  # share of the moving joints that must break at one frame for a cut
+CUT_RATIO = 4.0  # a joint breaks at a cut when its midpoint residual passes this many times its usual peak
+CUT_MIN_DEG = 2.0  # ... and this many degrees
+CUT_MOVING_DEG = 10.0  # joints turning less than this from the first frame over the take are not asked
+CUT_MIN_JOINTS = 6  # a take with fewer moving joints is not asked
+
+
+@dataclass(frozen=True)
+class RootEvent:
+    """One finding on the root's path: ``kind`` "teleport", "jump" or "frozen"; frames ``first``..``last``
+    (inclusive; for a jump, ``first`` is the frame the root lands on and ``last`` the take's last frame);
+    ``size_cm``: how far the root is off, cm (teleport, jump), or how far the legs turned over the hold, degrees
+    (frozen); ``joint``: the pelvis's name; ``fixed``: the frames were put back (teleports)."""
+
+    kind: str
+    first: int
+    last: int
+    size_cm: float
+    joint: str
+    fixed: bool = False
+
+    def __str__(self) -> str:
+        frames = f"frame {self.first}" if self.first == self.last else f"frames {self.first}-{self.last}"
+        if self.kind == "teleport":
+            what = (f"{frames}: the root ({self.joint}) jumps {self.size_cm:.0f} cm away and back "
+                    "(wrong root samples)" + ("; put back on the path between the frames around them"
+                                              if self.fixed else ""))
+        elif self.kind == "jump":
+            what = (f"frame {self.first}: the root ({self.joint}) jumps {self.size_cm:.0f} cm and stays there "
+                    "(an offset, or a cut); left as it is: which side is right is not known")
+        else:
+            what = (f"{frames}: the root ({self.joint}) is held still, bit for bit, while the legs turn up to "
+                    f"{self.size_cm:.0f} deg (a frozen root channel?); left as it is")
+        return what
+
+
+@dataclass(frozen=True)
+class Cut:
+    """A frame where the whole body jumps: ``frame`` (the first frame after the break), ``share`` of the
+    moving joints breaking there, ``root_cm`` the root's step off its neighbours' (cm)."""
+
+    frame: int
+    share: float
+    root_cm: float
+
+    def __str__(self) -> str:
+        return (f"frame {self.frame}: the whole body jumps ({100 * self.share:.0f} % of the joints at once): a cut, "
+                "or dropped frames; its breaks confirm no repair, the motion on either side is kept")
+
+
+def pelvis_path_cm(motion: Motion) -> tuple[np.ndarray, int]:
+    """``(path, pelvis)``: the pelvis's world positions (F, 3) in centimetres and its joint index."""
+    from ..rigs import pelvis_index
+
+    sk = motion.skeleton
+    p = pelvis_index(sk)
+    scale = _scale(sk)
+    if p == 0 and motion.translations is None:
+        pos = np.asarray(motion.root_positions, dtype=np.float64)
+    else:
+        pos = np.asarray(motion.global_positions()[:, p], dtype=np.float64)
+    return pos * scale, p
+
+
+def root_jumps(path: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``(frames, excess)``: the frames the pelvis ``path`` (F, 3) cm jumps into (the step into frame f is
+    more than :data:`JUMP_CM` off the median of the two steps before and two after it), and each excess (cm)."""
+    F = len(path)
+    if F < 3:
+        return np.zeros(0, dtype=int), np.zeros(0)
+    d = np.diff(path, axis=0)  # d[i]: the step into frame i + 1
+    n = len(d)
+    excess = np.zeros(n)
+    for i in range(n):
+        idx = [k for k in (i - 2, i - 1, i + 1, i + 2) if 0 <= k < n]
+        ref = np.median(d[idx], axis=0) if idx else np.zeros(3)
+        excess[i] = np.linalg.norm(d[i] - ref)
+    bad = np.flatnonzero(np.nan_to_num(excess) > JUMP_CM)
+    return bad + 1, excess[bad]
+
+
+def root_events(motion: Motion, span: tuple[int, int] | None = None) -> list[RootEvent]:
+    """The :class:`RootEvent` of ``motion``'s root path (module docstring), frames at the take's; ``span``
+    ``(lo, hi)``: look only there (calibration poses left out)."""
+    F = motion.num_frames
+    lo, hi = (0, F) if span is None else span
+    if hi - lo < 3:
+        return []
+    path, p = pelvis_path_cm(motion)
+    path = path[lo:hi]
+    name = motion.skeleton.joint_names[p]
+    frames, _ = root_jumps(path)
+    out: list[RootEvent] = []
+    longest = max(1, int(round(TELEPORT_MAX_S * motion.fps)))
+    used: set[int] = set()
+    for k, a in enumerate(frames):
+        if a in used:
+            continue
+        step_in = path[a] - path[a - 1]
+        back = None
+        for b in frames[k + 1:]:
+            if b - a > longest:
+                break
+            # back: the root returns to the line it left (the good frames around agree)
+            before, after = path[a - 1], path[b]
+            gap = b - a + 1
+            slope = (path[min(b + 1, len(path) - 1)] - path[max(a - 2, 0)]) / max(1, min(b + 1, len(path) - 1) - max(a - 2, 0))
+            if np.linalg.norm(after - (before + slope * gap)) < JUMP_CM:
+                back = int(b)
+                break
+        if back is not None:
+            seg = path[a:back]
+            t = np.arange(1, back - a + 1) / (back - a + 1)
+            line = path[a - 1] + t[:, None] * (path[back] - path[a - 1])
+            size = float(np.max(np.linalg.norm(seg - line, axis=1)))
+            out.append(RootEvent("teleport", lo + int(a), lo + back - 1, size, name))
+            used.update(int(b) for b in frames[(frames >= a) & (frames <= back)])
+        else:
+            out.append(RootEvent("jump", lo + int(a), hi - 1, float(np.linalg.norm(step_in - (path[a - 1] - path[max(a - 2, 0)]))), name))
+            used.add(int(a))
+    held = _frozen(motion, path, lo, name)
+    ends = {e.last + 1 for e in held}  # where a held root lets go it jumps to where the body went: part of the hold
+    out = [e for e in out if not (e.kind == "jump" and e.first in ends)] + held
+    return sorted(out, key=lambda e: e.first)
+
+
+def _frozen(motion: Motion, path: np.ndarray, lo: int, name: str) -> list[RootEvent]:
+    """Runs of a root held bit for bit (:data:`FROZEN_MIN_S` or longer) while the legs turn, in a take whose
+    root moves elsewhere."""
+    from ..joints import standard_joints
+    from .. import rotations as R
+    from .ik import contact_segments
+
+    still = np.zeros(len(path), dtype=bool)
+    still[1:] = np.all(path[1:] == path[:-1], axis=1)
+    if still[1:].all() or not still.any():
+        return []  # a root that never moves (an in-place take) says nothing
+    legs = [j for r, j in standard_joints(motion.skeleton).items() if r.endswith(("_hip", "_knee"))]
+    if not legs:
+        return []
+    rot = np.asarray(motion.rotations, dtype=np.float64)[lo:lo + len(path)]
+    need = max(2, int(round(FROZEN_MIN_S * motion.fps)))
+    out = []
+    for a, b in contact_segments(still):
+        first = a - 1  # the frame the hold starts from
+        if b - first < need:
+            continue
+        seg = rot[first:b][:, legs]
+        turn = float(np.degrees(np.max(R.geodesic_angle(seg, seg[:1]))))
+        if turn >= FROZEN_TURN_DEG:
+            out.append(RootEvent("frozen", lo + first, lo + b - 1, turn, name))
+    return out
+
+
+def fix_teleports(motion: Motion, events) -> tuple[Motion, list[RootEvent]]:
+    """``motion`` with each teleport of ``events`` put back, and the events (teleports marked ``fixed``).
+
+    Over a teleport's frames, each position channel that carries the jump (the root position, and the
+    animated translations of the joints from the root down to the pelvis) is replaced by the straight line
+    between its values at the frames before and after; a channel off that line by less than half
+    :data:`JUMP_CM` is left bit for bit, as is every other frame. A teleport touching the take's ends is
+    left (there is no good frame on one side).
+    """
+    sk = motion.skeleton
+    _, p = pelvis_path_cm(motion)
+    chain = [p]
+    while sk.parents[chain[-1]] >= 0:
+        chain.append(int(sk.parents[chain[-1]]))
+    scale = _scale(sk)
+    root = np.array(motion.root_positions, dtype=np.float64)
+    tr = None if motion.translations is None else np.array(motion.translations, dtype=np.float64)
+    chans = [root] + ([] if tr is None else [tr[:, j] for j in chain if j > 0])  # views: written in place
+    out = []
+    for e in events:
+        if e.kind != "teleport" or e.first < 1 or e.last + 1 >= motion.num_frames:
+            out.append(e)
+            continue
+        a, b = e.first, e.last + 1  # wrong frames a..b-1; good frames a-1 and b
+        t = ((np.arange(a, b) - (a - 1)) / (b - (a - 1)))[:, None]
+        for c in chans:
+            line = c[a - 1] + t * (c[b] - c[a - 1])
+            if np.max(np.linalg.norm(c[a:b] - line, axis=1)) * scale > 0.5 * JUMP_CM:
+                c[a:b] = line
+        out.append(dataclasses.replace(e, fixed=True))
+    return dataclasses.replace(motion, root_positions=root, translations=tr), out
+
+
+def _scale(sk) -> float:
+    """Centimetres per unit of ``sk`` (1 for a rig whose unit cannot be told)."""
+    from ..errors import SkeletonError
+    from ..joints import unit_scale_cm
+
+    try:
+        return unit_scale_cm(sk)
+    except SkeletonError:
+        return 1.0
+
+
+def _usual_peak(resid: np.ndarray) -> np.ndarray:
+    """(J,) radians: a joint's usual peak midpoint residual, its 98th percentile (below the 8 largest in a short take)."""
+    F = resid.shape[0]
+    return np.percentile(resid, min(98.0, 100.0 * (1.0 - 8.0 / max(F, 1))), axis=0)
+
+
+def cut_scores(motion: Motion) -> np.ndarray:
+    """(F,) the share of moving joints that break into each frame (module docstring; 0 at frame 0)."""
+    from .ssa.cues import midpoint_residuals
+
+    resid = midpoint_residuals(motion.rotations)  # (F, J) radians, at f against f-1 and f+1
+    F = resid.shape[0]
+    out = np.zeros(F)
+    if F < 4:
+        return out
+    from .. import rotations as R
+
+    q = np.asarray(motion.rotations, dtype=np.float64)
+    travel = np.nan_to_num(np.max(R.geodesic_angle(q, q[:1]), axis=0))  # (J,) radians from the first frame
+    moving = travel > np.radians(CUT_MOVING_DEG)
+    if moving.sum() < CUT_MIN_JOINTS:
+        return out
+    peak = _usual_peak(resid[1:-1])
+    limit = np.maximum(CUT_RATIO * peak, np.radians(CUT_MIN_DEG))
+    over = resid > limit  # a break between f-1 and f shows at f-1 and at f
+    into = np.zeros_like(over)
+    into[1:] = over[:-1] | over[1:]
+    out = into[:, moving].mean(axis=1)
+    out[0] = 0.0
+    return out
+
+
+def cuts(motion: Motion, span: tuple[int, int] | None = None) -> list[Cut]:
+    """The :class:`Cut` frames of ``motion`` (within ``span`` ``(lo, hi)``; module docstring)."""
+    F = motion.num_frames
+    lo, hi = (0, F) if span is None else span
+    if hi - lo < 8:
+        return []
+    part = motion[lo:hi]
+    share = cut_scores(part)
+    found = np.flatnonzero(share >= CUT_SHARE)
+    out = []
+    for f in found:
+        if out and f - (out[-1].frame - lo) <= 2:  # one cut shows at two frames at most
+            if share[f] > out[-1].share:
+                out[-1] = Cut(lo + int(f), float(share[f]), 0.0)
+            continue
+        out.append(Cut(lo + int(f), float(share[f]), 0.0))
+    return out
+
+
+def cut_mask(frames, num_frames: int, margin: int) -> np.ndarray:
+    """(F,) bool: the frames within ``margin`` of each break into a frame of ``frames`` (the frame before it and
+    the frame itself, and ``margin`` more on each side)."""
+    out = np.zeros(num_frames, dtype=bool)
+    for f in frames:
+        out[max(0, f - 1 - margin):min(num_frames, f + 1 + margin)] = True
+    return out

@@ -1,0 +1,106 @@
+"""The root's path and cuts (mocapkit.cleaning.take_breaks): teleports put back, jumps and holds named, cuts
+named and no frame beside them "repaired" because of them; clean takes untouched and unnamed."""
+
+import dataclasses
+
+import numpy as np
+import pytest
+
+import mocapkit
+from mocapkit.cleaning import decisions
+from mocapkit.cleaning import take_breaks as tb
+from mocapkit.cleaning.pipeline import clean
+from mocapkit.joints import unit_scale_cm
+
+
+def _cat(a, b):
+    tr = None if a.translations is None else np.concatenate([a.translations, b.translations])
+    return dataclasses.replace(a, rotations=np.concatenate([a.rotations, b.rotations]),
+                               root_positions=np.concatenate([a.root_positions, b.root_positions]), translations=tr)
+
+
+def _moved_root(m, frames, by_cm):
+    """``m`` with the pelvis's position channel moved by ``by_cm`` (x, y, z) over ``frames`` (the Bandai rig's Hips
+    translation, the root position elsewhere)."""
+    by = np.asarray(by_cm, dtype=float) / unit_scale_cm(m.skeleton)
+    if m.translations is not None:
+        tr = np.array(m.translations)
+        tr[frames, 1] += by
+        return dataclasses.replace(m, translations=tr)
+    root = np.array(m.root_positions)
+    root[frames] += by
+    return dataclasses.replace(m, root_positions=root)
+
+
+def _note(res) -> str:
+    return " ".join(res.summary())
+
+
+@pytest.fixture(scope="module")
+def walk131():
+    return mocapkit.load(mocapkit.samples.path("131_01.bvh"))
+
+
+@pytest.fixture(scope="module")
+def bandai_walks(shared_data):
+    d = shared_data / "secondary_bandai_namco_CC-BY-NC"
+    return mocapkit.load(d / "dataset-1_walk_normal_001.bvh"), mocapkit.load(d / "dataset-1_walk_normal_002.bvh")
+
+
+@pytest.mark.parametrize("rig", ["cmu", "bandai"])
+def test_teleport_put_back_named_and_undoable(rig, walk131, request):
+    m = walk131 if rig == "cmu" else request.getfixturevalue("bandai_walks")[0]
+    f = m.num_frames // 2
+    bad = _moved_root(m, slice(f, f + 1), (100.0, 0.0, 0.0))  # 1 m away for one frame
+    res = clean(bad, steps="fill,detect,repair")
+    path, p = tb.pelvis_path_cm(res.motion)
+    truth, _ = tb.pelvis_path_cm(m)
+    assert np.linalg.norm(path[f] - truth[f]) < 5.0  # was 100 cm: never looked at
+    assert f"frame {f}: the root ({m.skeleton.joint_names[p]}) jumps 100 cm away and back" in _note(res)
+    put = [c for c in decisions.changes(res, bad) if "root's path" in c.reason]
+    assert [(c.joint_index, c.first, c.last) for c in put] == [(p if m.translations is not None else 0, f, f)]
+    back = decisions.apply(bad, res, {c.id: "reject" for c in put})
+    assert np.array_equal(back.root_positions, bad.root_positions)
+    assert bad.translations is None or np.array_equal(back.translations, bad.translations)
+
+
+def test_jump_that_stays_and_frozen_root_named_not_changed(walk131):
+    f = 500
+    held = np.array(walk131.root_positions)
+    held[f:f + 240] = held[f]  # 2 s while the body walks
+    for bad, words in [(_moved_root(walk131, slice(f, None), (200.0, 0.0, 0.0)), f"frame {f}: the root (Hips) jumps 200 cm and stays"),
+                       (dataclasses.replace(walk131, root_positions=held), f"frames {f}-{f + 239}: the root (Hips) is held still")]:
+        res = clean(bad, steps="fill,detect,repair")
+        assert words in _note(res)
+        assert np.array_equal(res.motion.root_positions, bad.root_positions)
+
+
+def test_bandai_splice_leaves_the_frames_before_the_cut(bandai_walks):
+    a, b = bandai_walks
+    m = _cat(a[:143], b[b.num_frames // 2:])
+    res = clean(m, steps="fill,detect,repair")
+    assert "frame 143: the root (Hips) jumps" in _note(res)
+    assert not res.repaired[113:173].any()  # the Hips of frames 126-142 was turned up to 172 deg
+
+
+def test_cmu_splice_and_dropped_frames(walk131, shared_data):
+    other = mocapkit.load(shared_data / "cmu_bvh" / "131_02.bvh")
+    for m, words in [(_cat(walk131[:504], other[other.num_frames // 2:]), "frame 504: the root (Hips) jumps"),
+                     (_cat(walk131[:504], walk131[514:]), "frame 504: the whole body jumps")]:
+        res = clean(m, steps="fill,detect,repair")
+        assert words in _note(res)
+        assert not res.repaired[474:534].any()  # good frames 473-503 were turned up to 120 deg; a wrist "repaired"
+
+
+@pytest.mark.parametrize("name", ["131_01.bvh", "12_walk.amc", "HDM_bd_jogLeftCircle4StepsRstart_001_120.amc"])
+def test_clean_takes_have_no_breaks(name):
+    m = mocapkit.load(mocapkit.samples.path(name))
+    assert tb.cuts(m) == [] and tb.root_events(m) == []
+    low = dataclasses.replace(m[::4], fps=m.fps / 4)  # the same capture at 30 fps
+    assert tb.cuts(low) == [] and tb.root_events(low) == []
+
+
+def test_fast_real_takes_have_no_breaks(shared_data):
+    for p in sorted((shared_data / "secondary_bandai_namco_CC-BY-NC").glob("*.bvh")):
+        m = mocapkit.load(p)
+        assert tb.cuts(m) == [] and tb.root_events(m) == [], p.name
