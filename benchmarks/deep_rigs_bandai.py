@@ -31,6 +31,9 @@ also checks that a Bandai take gets ``ebf_bandai.pt`` / ``ebd_bandai.pt``.
   Gaussian (``smooth=False``, same run); against ``lerp+gauss`` (linear fill, then the 58 ms
   Gaussian) and ``lerp+ebf``; RMS over the gap
   entries. Target: the shipped fill <= 0.60x.
+* ``hard_gaps``: what ``gaps`` never makes (trial A, finding 2), on the clean takes: three moving joints lost at
+  once, 1-5 s each, one gap running to the take's start or end; RMS over the gap entries of ``lerp``, ``prior``,
+  ``ebd`` and ``auto`` (what ``fill`` and ``clean`` run), and per fill the draws that ended worse than ``lerp``.
 * ``speed``: offline EBF frames per second on the test takes' 0.5-noise channels joined
   into one array (``deep.denoise_channels``, one torch thread), and streaming
   (``deep.Denoiser.push``) milliseconds per frame over one take, median and p95.
@@ -129,6 +132,35 @@ def gap_rows(clean, ebf, ebd, seeds: int, name: str) -> dict:
     return out
 
 
+def hard_gap_rows(clean, ebf, ebd, seeds: int, name: str) -> dict:
+    """The gaps ``gap_rows`` never makes, on the clean take: three moving joints lost at once for 1-5 s each, one
+    of the gaps running to the take's start or end. RMS over the gap entries of the linear fill (``lerp``), the
+    prior (``prior``), the network (``ebd``) and what ``fill`` and ``clean`` run (``auto``), with the EBF; and per
+    fill how many draws ended further from the truth than ``lerp`` ("worse")."""
+    lay, fps = ebf.layout, clean.fps
+    F = clean.num_frames
+    out: dict = {"lerp": [], "prior": [], "ebd": [], "auto": []}
+    if F < int(2.5 * fps):
+        return out
+    y, ctx = encode(clean, lay)
+    groups = channel_joints(lay)
+    moving = [g for g in np.unique(groups) if np.std(y[:, groups == g], axis=0).max() >= 5.0]
+    for seed in range(seeds):
+        rng = np.random.default_rng([seed, 11, len(name), F])
+        xg = y.copy()
+        for k, g in enumerate(rng.choice(moving, size=min(3, len(moving)), replace=False)):
+            n = int(rng.integers(int(fps), min(int(5 * fps), F - int(fps)) + 1))
+            s = (0 if rng.random() < 0.5 else F - n) if k == 0 else int(rng.integers(1, F - n))
+            xg[s : s + n, groups == g] = np.nan
+        mask = np.isnan(xg)
+        fills = {"lerp": deep.lerp_fill(xg), "prior": deep.fill_channels(xg, ctx, ebd, ebf, fps=fps, method="prior"),
+                 "ebd": deep.fill_channels(xg, ctx, ebd, ebf, fps=fps, method="ebd"),
+                 "auto": deep.fill_channels(xg, ctx, ebd, ebf, fps=fps)}
+        for k, v in fills.items():
+            out[k].append(wrapped_rms(v, y, mask))
+    return out
+
+
 def speed(takes, ebf) -> dict:
     """Offline frames/s on the takes joined, and streaming ms per frame on the longest take."""
     import torch
@@ -192,6 +224,7 @@ def main(argv=None) -> None:
     ebf, ebd = deep.shipped_model("ebf", takes[0]), deep.shipped_model("ebd", takes[0])
     den: dict = {n: {} for n in NOISES}
     gaps: dict = {}
+    hard: dict = {}
     from tqdm import tqdm
 
     for t, clean in tqdm(list(zip(paths, takes)), desc="takes", disable=a.json):
@@ -200,6 +233,8 @@ def main(argv=None) -> None:
                 den[n].setdefault(k, []).extend(v)
         for k, v in gap_rows(clean, ebf, ebd, a.seeds, t.path.name).items():
             gaps.setdefault(k, []).extend(v)
+        for k, v in hard_gap_rows(clean, ebf, ebd, a.seeds, t.path.name).items():
+            hard.setdefault(k, []).extend(v)
     result: dict = {
         "test_styles": [f"dataset-{d} {s}" for d, s in train_shipped.BANDAI_TEST], "takes": len(takes),
         "every": a.every, "frames": int(sum(m.num_frames for m in takes)), "seeds": a.seeds, "fps": 30,
@@ -226,6 +261,10 @@ def main(argv=None) -> None:
                       "ratio_prior_ebf_vs_lerp_gauss": round(gm["prior+ebf"] / gm["lerp+gauss"], 3),
                       "ratio_prior_gauss_read_ebf_vs_lerp_gauss":
                           round(gm["prior_gauss_read+ebf"] / gm["lerp+gauss"], 3)}
+    hv = {k: np.array(v) for k, v in hard.items()}
+    result["hard_gaps"] = {"runs": len(hv["lerp"]), "gap_rms": {k: round(float(v.mean()), 3) for k, v in hv.items()},
+                           "worse_than_lerp": {k: int(np.sum(v > hv["lerp"])) for k, v in hv.items() if k != "lerp"},
+                           "ratio_auto_vs_lerp": round(float(hv["auto"].mean() / hv["lerp"].mean()), 3)}
     result["speed"] = speed(takes, ebf)
     result["clean_takes"] = clean_counts(takes[: a.clean])
     result["seconds"] = round(time.perf_counter() - t0, 1)
@@ -233,6 +272,7 @@ def main(argv=None) -> None:
         for n, r in result["denoise"].items():
             print(f"{n}: " + ", ".join(f"{k} {v}" for k, v in r.items()))
         print("gaps:", result["gaps"])
+        print("hard gaps:", result["hard_gaps"])
         print("speed:", result["speed"])
         print("clean takes: changed", result["clean_takes"]["changed_bandai_models"], "before",
               result["clean_takes"]["changed_before"])
@@ -242,6 +282,8 @@ def main(argv=None) -> None:
     figures["long_gap_rms_deg"] = gm["prior+ebf"]
     baselines["long_gap_rms_deg"] = gm["lerp+gauss"]
     figures["long_gap_ebd_rms_deg"] = gm["ebd+ebf"]
+    figures["hard_gap_auto_rms_deg"] = result["hard_gaps"]["gap_rms"]["auto"]
+    baselines["hard_gap_auto_rms_deg"] = result["hard_gaps"]["gap_rms"]["lerp"]
     baselines["long_gap_ebd_rms_deg"] = gm["lerp+gauss"]
     figures["offline_frames_per_s"] = result["speed"]["offline_frames_per_s"]
     figures["stream_ms_p95"] = result["speed"]["stream_ms_p95"]

@@ -156,6 +156,28 @@ def test_bandai_ebd_fills_a_whole_joint_gap_and_keeps_the_observed_cells(dance):
     assert float(np.sqrt(np.mean(err**2))) < 20.0
 
 
+@pytest.mark.parametrize("method", ["auto", "ebd"])
+@pytest.mark.parametrize("rotation_too", [True, False])
+def test_a_lost_bandai_pelvis_position_is_filled_as_the_root_position_is(dance, method, rotation_too):
+    """Trial A, finding 1: on this rig joint_Root stands still and Hips' animated offset carries the path; its gap
+    was left NaN by the EBD's fill (prior and network), so ``clean`` stopped at detect's complete-frames check."""
+    j = dance.skeleton.index("Hips")
+    rot, tr = np.array(dance.rotations), np.array(dance.translations)
+    tr[20:35, j] = np.nan
+    if rotation_too:
+        rot[20:35, j] = np.nan
+    gapped = dataclasses.replace(dance, rotations=rot, translations=tr)
+    out, _, _ = deep.fill_or_fallback(gapped, method=method)
+    assert not out.missing().any() and not np.isnan(out.translations).any()
+    assert np.array_equal(out.translations[~np.isnan(tr)], tr[~np.isnan(tr)])  # observed offsets bit-identical
+    t = (np.arange(20, 35) - 19) / 16.0  # the line between the frames either side, as a root position's gap
+    line = (1 - t)[:, None] * dance.translations[19, j] + t[:, None] * dance.translations[35, j]
+    assert np.allclose(out.translations[20:35, j], line)
+    if method == "auto":
+        res = mocapkit.clean(gapped)  # fill is a default step: no "detect needs complete frames" any more
+        assert not res.motion.missing().any()
+
+
 def _with_joint(motion, name: str, parent: str, offset, angle_deg, inserted: bool = False):
     """``motion`` with a joint ``name`` (3 rotation channels, ZXY as the rig's, turning ``angle_deg`` (F,) about
     its z) hung from ``parent``: a weapon bone beside the rig's joints, or with ``inserted`` a helper bone placed

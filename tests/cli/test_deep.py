@@ -463,3 +463,22 @@ def test_train_reads_amc_files_with_asf_and_amc_fps(tmp_path):
                        "--hidden", "8", "--executor", "serial", "--asf", str(folder / "12.asf"), "--amc-fps", "60")
     assert code == 0, err
     assert deep.load_model(out / "model.pt").fps == 60
+
+
+def test_fill_fills_a_lost_bandai_pelvis_position_and_says_how(tmp_path):
+    """Trial A, finding 1: a Bandai take's Hips (whose animated offset carries the path) lost over half a second was
+    reported filled and written with NaN positions; now they are the line between the gap's ends, and said so."""
+    import dataclasses
+
+    take = mocapkit.load(Path(__file__).resolve().parents[1] / "data" / "bandai_dance-short_normal_001_first60.bvh")
+    j = take.skeleton.index("Hips")
+    rot, tr = np.array(take.rotations), np.array(take.translations)
+    rot[20:35, j] = tr[20:35, j] = np.nan
+    gin, gout = tmp_path / "hips.npz", tmp_path / "out.npz"
+    mocapkit.save(dataclasses.replace(take, rotations=rot, translations=tr), gin)
+    code, out, err = run("fill", gin, "-o", gout)
+    assert code == 0, err
+    text = " ".join(out.split())
+    assert "15 missing joint samples filled by EBD's gap prior" in text
+    assert "the 15 missing position(s) among them interpolated linearly" in text
+    assert not np.isnan(mocapkit.load(gout).translations).any()

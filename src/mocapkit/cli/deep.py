@@ -196,7 +196,15 @@ def fill(
     for said in (note, made_up_note(missing)):
         if said:
             console.print(f"warning: {inp}: {said}")
-    line = f"wrote {out}: {plural(n, 'missing joint sample')} filled by {method}"
+    left = int((missing & filled.missing()).sum())
+    if left:  # never say filled for what is still NaN
+        console.print(f"warning: {inp}: {plural(left, 'missing joint sample')} could not be filled and stay missing")
+    line = f"wrote {out}: {plural(n - left, 'missing joint sample')} filled by {method}"
+    moved = int(np.isnan(m.root_positions).any(axis=-1).sum())  # positions: the root's and animated offsets
+    if m.translations is not None:
+        moved += int(np.isnan(m.translations[:, 1:]).any(axis=-1).sum())
+    if moved and method != deep.FALLBACK_FILL:  # the networks fill rotations; a position's gap is a straight line
+        line += f" (the {moved} missing position(s) among them interpolated linearly)"
     if ref is not None:
         line += (f"; mean rotation error of the filled joints against {reference.name}: "
                  f"{filled_error_deg(ref, filled, missing):.2f} deg")

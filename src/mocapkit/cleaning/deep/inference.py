@@ -633,7 +633,10 @@ def fill_gaps(motion: Motion, model=None, denoiser=None, smooth: bool = True, me
     Returns a Motion with the input's skeleton, frames and root trajectory;
     every observed (frame, joint) rotation is bit-identical to the input's.
     A missing root rotation or position is not the networks' to fill: it is
-    interpolated linearly (rotations by lerp of channels as well).
+    interpolated linearly (rotations by lerp of channels as well), and so is a
+    missing animated offset (``motion.translations``, (F, J, 3)): on a game rig
+    whose pelvis carries the body's path (Bandai Namco's Hips over a still
+    ``joint_Root``) that is the root position under another name.
     """
     sv = serving(motion, model, "ebd")
     m = sv.model
@@ -667,6 +670,11 @@ def fill_gaps(motion: Motion, model=None, denoiser=None, smooth: bool = True, me
             q0 = R.identity((len(q0),))
         rot[:, 0] = np.where(gap[:, None], q0, motion.rotations[:, 0])
         res = dataclasses.replace(res, rotations=rot, root_positions=root_pos)
+    tr = motion.translations
+    if tr is not None and np.isnan(tr).any():  # the animated offsets' gaps, as the root position's (observed kept)
+        F, J = tr.shape[:2]
+        line = lerp_fill(tr.reshape(F, 3 * J)).reshape(F, J, 3)
+        res = dataclasses.replace(res, translations=np.where(np.isnan(tr), line, tr))
     return res
 
 
