@@ -52,6 +52,14 @@ whatever order the steps are named in:
    cells, with a note (:func:`mocapkit.cleaning.deep.denoise_or_fallback`, as
    ``mocapkit denoise``).
 
+**Zeros and stutters.** Before fill, channels the take writes as exactly 0
+where the capture lost data (a joint, one of its channels, or a whole frame,
+between frames that do not read 0; :mod:`mocapkit.cleaning.zeros`) become
+missing cells, which fill fills (without the fill step they are named and
+kept); frames that repeat the one before bit for bit while the take moves
+(:mod:`mocapkit.cleaning.stutters`) are named and left. Both are named in the
+summary.
+
 **Calibration poses.** T-pose and A-pose frames opening or closing the take
 (the CMU BVH converter's frame 0, a standing calibration pose held before the
 motion) and their transition into the motion are found after fill
