@@ -264,8 +264,13 @@ def _angles_deg(q0: np.ndarray, q1: np.ndarray) -> np.ndarray:
 def _reason(result, step_code: int, j: int, a: int, b: int, missing: np.ndarray) -> str:
     parts = []
     if step_code & 1:
-        n = int(missing[a:b + 1, j].sum())
-        parts.append(f"missing in {n} of {b - a + 1} frames")
+        zeros = getattr(result, "zeros", None)
+        nz = 0 if zeros is None else int(zeros[a:b + 1, j].sum())
+        n = int((missing[a:b + 1, j] & (True if zeros is None else ~zeros[a:b + 1, j])).sum())
+        if nz:  # a dropout the take wrote as 0 (mocapkit.cleaning.zeros), filled as missing
+            parts.append(f"written as 0 (a dropout) in {nz} of {b - a + 1} frames")
+        if n or not nz:
+            parts.append(f"missing in {n} of {b - a + 1} frames")
     if step_code & 2:
         mdm = float(np.nanmax(result.mdm[a:b + 1, j])) if result.mdm.size else float("nan")
         flagged = bool(result.flags[a:b + 1, j].any())

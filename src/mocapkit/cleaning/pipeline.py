@@ -52,6 +52,14 @@ whatever order the steps are named in:
    cells, with a note (:func:`mocapkit.cleaning.deep.denoise_or_fallback`, as
    ``mocapkit denoise``).
 
+**Zeros and stutters.** Before fill, channels the take writes as exactly 0
+where the capture lost data (a joint, one of its channels, or a whole frame,
+between frames that do not read 0; :mod:`mocapkit.cleaning.zeros`) become
+missing cells, which fill fills (without the fill step they are named and
+kept); frames that repeat the one before bit for bit while the take moves
+(:mod:`mocapkit.cleaning.stutters`) are named and left. Both are named in the
+summary.
+
 **Calibration poses.** T-pose and A-pose frames opening or closing the take
 (the CMU BVH converter's frame 0, a standing calibration pose held before the
 motion) and their transition into the motion are found after fill
@@ -111,8 +119,10 @@ from ..errors import MocapError, MocapFormatError
 from ..motion import Motion
 from .calibration import CalibrationPose, calibration_poses
 from .ssa.cues import CAUSES
+from .stutters import Stutter, find_stutters
 from .whole_take import (MAX_WORD_ANGLE_DEG, changed_cells, detect_take, differing, motion_span, repair_take,
                          take_params)
+from .zeros import ZeroRun, as_missing, find_zeros
 
 __all__ = ["STEPS", "CleanResult", "StepRecord", "clean", "noise_level", "noise_direction", "noisy_cells", "clean_path", "parse_steps",
            "check_noise_deg"]
@@ -191,6 +201,11 @@ class CleanResult:
     (:meth:`mocapkit.cleaning.ssa.Detection.not_analysed`; their MDM is 0 and nothing flags
     them: not checked, rather than found clean); None when detect did not run or for a record
     written before they were kept. :attr:`analysed` is the same as a mask.
+    ``zeros``: bool (F, J), the cells the take wrote as 0 where it lost data (a dropout,
+    :mod:`mocapkit.cleaning.zeros`), which fill filled as missing cells (None for a record written before they were
+    found); ``zero_runs``: their :class:`~mocapkit.cleaning.zeros.ZeroRun` s, named in the summary;
+    ``stutters``: the :class:`~mocapkit.cleaning.stutters.Stutter` s, frames repeating the one before bit for bit
+    while the take moves, named and left as they are.
     """
 
     motion: Motion | None
@@ -211,6 +226,9 @@ class CleanResult:
     causes: np.ndarray | None = None
     take_sha256: str = ""
     left_out: tuple | None = None
+    zeros: np.ndarray | None = None
+    zero_runs: tuple = ()
+    stutters: tuple = ()
 
     def __repr__(self) -> str:
         return (f"CleanResult({self.motion!r}, {int(self.flags.sum())} flagged, {int(self.filled.sum())} filled, "
@@ -234,9 +252,11 @@ class CleanResult:
         return np.array([n not in out for n in self.joint_names], dtype=bool)
 
     def summary(self) -> list[str]:
-        """One line per calibration pose, one per step, then the notes."""
+        """One line per calibration pose, per run written as 0 and per stutter (at most :data:`MAX_LINES` of each,
+        then one line counting the rest), one per step, then the notes."""
         said = " ".join(s.note for s in self.steps)
-        return ([str(c) for c in self.calibration] + [str(s) for s in self.steps]
+        return ([str(c) for c in self.calibration] + _capped(self.zero_runs, "runs written as 0")
+                + _capped(self.stutters, "stutters") + [str(s) for s in self.steps]
                 + [f"note: {n}" for n in self.notes if n not in said])
 
     def save(self, path) -> Path:
@@ -257,6 +277,8 @@ class CleanResult:
             "calibration": [dataclasses.asdict(c) for c in self.calibration],
             "take_sha256": self.take_sha256,
             "left_out": None if self.left_out is None else [list(p) for p in self.left_out],
+            "zero_runs": [dataclasses.asdict(z) for z in self.zero_runs],
+            "stutters": [dataclasses.asdict(z) for z in self.stutters],
         }
         samples = {}
         if self.motion is not None:  # the cleaned values of the changed cells: decisions apply them exactly
@@ -266,6 +288,8 @@ class CleanResult:
             if self.motion.translations is not None:
                 samples["cleaned_translations"] = self.motion.translations[cells]
         causes = {} if self.causes is None else {"causes": np.asarray(self.causes, dtype=np.uint8)}
+        if self.zeros is not None:
+            causes["zeros"] = np.asarray(self.zeros, dtype=bool)
         with atomic_write(path, "wb") as fh:
             np.savez_compressed(
                 fh,
@@ -336,11 +360,15 @@ class CleanResult:
                 causes=data["causes"].astype(np.uint8) if "causes" in data else None,
                 take_sha256=str(meta.get("take_sha256") or ""),
                 left_out=None if meta.get("left_out") is None else tuple((str(n), str(w)) for n, w in meta["left_out"]),
+                zeros=data["zeros"].astype(bool) if "zeros" in data else None,
+                zero_runs=tuple(ZeroRun(**z) for z in meta.get("zero_runs", [])),
+                stutters=tuple(Stutter(**z) for z in meta.get("stutters", [])),
             )
         except (OSError, ValueError, KeyError, TypeError) as e:
             raise MocapFormatError(path, f"not a mocapkit clean file ({e})") from None
         shape = (res.num_frames, len(res.joint_names))
-        arrays = (res.mdm, res.flags, res.repaired, res.denoised, res.noise) + (() if res.causes is None else (res.causes,))
+        arrays = ((res.mdm, res.flags, res.repaired, res.denoised, res.noise) + (() if res.causes is None else (res.causes,))
+                  + (() if res.zeros is None else (res.zeros,)))
         if any(a.shape != shape for a in arrays):
             raise MocapFormatError(path, f"not a mocapkit clean file (arrays are not all {shape})")
         k, k0 = int(res.changed.sum()), int(res.changed[:, 0].sum())
@@ -349,6 +377,17 @@ class CleanResult:
                                         or any(v.shape != want[n] for n, v in res.samples.items())):
             raise MocapFormatError(path, f"not a mocapkit clean file (the cleaned samples are not {k} changed cells)")
         return res
+
+
+#: lines of one kind (runs written as 0, stutters) the summary names before it counts the rest
+MAX_LINES = 12
+
+
+def _capped(items, what: str) -> list[str]:
+    lines = [str(x) for x in items[:MAX_LINES]]
+    if len(items) > MAX_LINES:
+        lines.append(f"... and {len(items) - MAX_LINES} more {what} (the clean record lists them all)")
+    return lines
 
 
 def clean_path(out) -> Path:
@@ -710,15 +749,23 @@ def clean(
     held = held_still_note(motion) if "detect" in steps else ""
     if held:
         notes.append(held)
+    # channels written as 0 where the capture lost data are missing cells, which fill fills (module docstring)
+    zero_cells, zero_runs, zero_frames = find_zeros(motion)
+    stutters = find_stutters(motion, skip=zero_frames)
+    if zero_runs and "fill" in steps:
+        cur = as_missing(motion, zero_cells, zero_frames)
+    else:
+        zero_runs = tuple(dataclasses.replace(z, filled=False) for z in zero_runs)
     if "fill" in steps:
         t = time.perf_counter()
         before = cur.rotations
+        gaps = cur.missing()
         cur, method, note = _fill(cur, models, notes)
-        made_up = made_up_note(motion.missing())
+        made_up = made_up_note(gaps)
         if made_up:  # a warning line, as a fallback's note is
             notes.append(made_up)
             note = "; ".join(n for n in (note, made_up) if n)
-        filled = differing(before, cur.rotations) | (motion.missing() & ~cur.missing())
+        filled = differing(before, cur.rotations) | (gaps & ~cur.missing())
         records.append(StepRecord("fill", time.perf_counter() - t, int(filled.sum()), method, note))
 
     # calibration poses opening or closing the take are left out of every later step (module docstring)
@@ -800,5 +847,5 @@ def clean(
         motion=cur, mdm=mdm, flags=flags, filled=filled, repaired=repaired, denoised=denoised, noise=noise,
         joint_names=tuple(motion.skeleton.joint_names), fps=float(motion.fps), steps=tuple(records),
         notes=tuple(notes), params=params, detection=det, calibration=tuple(poses), causes=causes,
-        take_sha256=take_digest(motion), left_out=left_out,
+        take_sha256=take_digest(motion), left_out=left_out, zeros=zero_cells, zero_runs=zero_runs, stutters=stutters,
     )
