@@ -307,9 +307,15 @@ def _info_of_own_file(path: Path) -> bool:
         rows = [("file", str(path)), ("kind", "marker cleaning record (mocapkit clean of a marker capture)"),
                 ("frames", str(rec.num_frames)), ("markers", str(len(rec.labels))),
                 ("changed", f"{plural(int(rec.changed.sum()), 'marker sample')} (filled {int(rec.filled.sum())}, "
-                            f"spikes removed {int(rec.spikes.sum())}, re-labelled {int(rec.swapped.sum())})"),
+                            f"spikes removed {int(rec.spikes.sum())}, re-labelled {int(rec.swapped.sum())}"
+                            + (f", duplicate labels removed {int(rec.duplicates.sum())}" if rec.duplicates.any() else "")
+                            + ")"),
                 ("fixes", f"{plural(rec.count('gap'), 'gap')} filled, {plural(rec.count('spike'), 'spike')} removed, "
-                          f"{plural(rec.count('swap'), 'label swap')} undone")]
+                          f"{plural(rec.count('swap'), 'label swap')} undone"
+                          + (f", {plural(rec.count('duplicate'), 'duplicate label')} removed" if rec.count('duplicate') else ""))]
+        if rec.coincident:
+            rows.append(("coincident", f"{plural(len(rec.coincident), 'run')} of two markers at one position, "
+                                       "which is the duplicate not told (left as recorded)"))
         if rec.unfilled:
             rows.append(("left missing", f"{plural(len(rec.unfilled), 'gap')} (no plausible fill)"))
         if rec.never_seen:

@@ -3,8 +3,9 @@
 :func:`write_marker_report` writes one self-contained HTML file (no network:
 the script and data are inline): the markers as points, drag to turn the
 view, a frame slider and a play button; a sample that was filled is drawn
-green, a removed spike's fill red, a re-labelled (swapped) sample orange,
-and the input's bad value of a spike as a small grey cross; the list of
+green, a removed spike's fill red, a re-labelled (swapped) sample orange, a
+removed duplicate label's fill purple, and the input's bad value of a spike
+or a duplicate as a small grey cross; the list of
 fixes (marker, frames, kind, size in mm) below, each a link to its first
 frame. :func:`plot_marker_fixes` draws, for the markers with most changes,
 their three coordinates before (grey) and after (colour) with the changed
@@ -21,7 +22,7 @@ import numpy as np
 
 __all__ = ["write_marker_report", "plot_marker_fixes"]
 
-_KIND_CODE = {"filled": 1, "spike": 2, "swap": 3}
+_KIND_CODE = {"filled": 1, "spike": 2, "swap": 3, "duplicate": 4}
 
 _SCRIPT = r"""
 const D = JSON.parse(document.getElementById('data').textContent);
@@ -30,7 +31,7 @@ const slider = document.getElementById('frame'), label = document.getElementById
 const followBox = document.getElementById('follow');
 let yaw = 0.6, pitch = 0.3, playing = false, f = 0, drag = null;
 const up = D.up;  // index of the vertical axis
-const colours = ['#445', '#1a9850', '#d73027', '#f28e2b'];
+const colours = ['#445', '#1a9850', '#d73027', '#f28e2b', '#7b3294'];
 followBox.checked = D.view.follow;
 followBox.onchange = () => draw();
 function target() { return followBox.checked ? D.view.track[f] : D.view.centre; }
@@ -87,6 +88,12 @@ draw();
 """
 
 
+def _duplicates(result) -> np.ndarray:
+    """(F, M) the samples removed as duplicate labels (none for a result without the mask)."""
+    d = getattr(result, "duplicates", None)
+    return d if d is not None else np.zeros(result.filled.shape, dtype=bool)
+
+
 def shown_marker_frames(result, max_frames: int) -> tuple[np.ndarray, int, str]:
     """The capture frames the marker viewer keeps: ``(frames, stride, detail)``.
 
@@ -98,7 +105,7 @@ def shown_marker_frames(result, max_frames: int) -> tuple[np.ndarray, int, str]:
     """
     from .html import shown_frames
 
-    touched = result.filled | result.spikes | result.swapped
+    touched = result.filled | result.spikes | result.swapped | _duplicates(result)
     return shown_frames(result.markers.positions.shape[0], int(max_frames), changed=touched,
                         starts=[x.start for x in result.fixes])
 
@@ -170,6 +177,8 @@ def write_marker_report(path, result, *, title: str = "", max_frames: int = 3000
     kind[result.filled] = _KIND_CODE["filled"]
     kind[result.spikes] = _KIND_CODE["spike"]
     kind[result.swapped] = _KIND_CODE["swap"]
+    removed = result.spikes | _duplicates(result)  # recorded values that were removed: drawn as grey crosses
+    kind[_duplicates(result)] = _KIND_CODE["duplicate"]
     seen = after[~np.isnan(after).any(axis=-1)]
     if up_axis is None:
         frame_spread = np.nanmedian(np.nanmax(after, axis=1) - np.nanmin(after, axis=1), axis=0) if seen.size else np.ones(3)
@@ -178,7 +187,7 @@ def write_marker_report(path, result, *, title: str = "", max_frames: int = 3000
     def pts(a):
         return [[None if np.isnan(p).any() else [round(float(c) * mm, 1) for c in p] for p in row] for row in a]
 
-    bad = np.where(result.spikes[..., None], before, np.nan)
+    bad = np.where(removed[..., None], before, np.nan)
     fps = float(result.markers.fps)
     data = {"pos": pts(after[idx]), "kind": kind[idx].tolist(), "bad": pts(bad[idx]), "frames": idx.tolist(),
             "num_frames": int(after.shape[0]), "fps": fps, "up": up_axis,
@@ -194,6 +203,12 @@ def write_marker_report(path, result, *, title: str = "", max_frames: int = 3000
         f"<td>{html.escape(x.size_text)}</td></tr>" for x in unfilled)
     left = (f"<h3>Left missing: no plausible fill ({len(unfilled)})</h3><table><tr><th>marker</th><th>frames</th>"
             f"<th>duration, rejected fill, why</th></tr>{left}</table>") if unfilled else ""
+    coincident = getattr(result, "coincident", ())
+    same = "".join(
+        f"<tr><td>{html.escape(x.marker)}, {html.escape(x.other)}</td><td><a class='fix' href='#' data-frame='{x.start}'>"
+        f"{x.start}-{x.end - 1}</a></td><td>{html.escape(x.size_text)}</td></tr>" for x in coincident)
+    same = (f"<h3>Two markers at one position, left as recorded ({len(coincident)})</h3><table><tr><th>markers</th>"
+            f"<th>frames</th><th>what</th></tr>{same}</table>") if coincident else ""
     summary = "".join(f"<li>{html.escape(s)}</li>" for s in result.summary())
     head = html.escape(title or result.markers.name or "marker capture")
     payload = json.dumps(data, separators=(",", ":")).replace("</", "<\\/")
@@ -207,10 +222,11 @@ table{{border-collapse:collapse}}td,th{{padding:2px 8px;border-bottom:1px solid 
 <p id="shown-note">{html.escape(note)}</p>
 <div>drag to turn; <span class="k" style="background:#445"></span>recorded
 <span class="k" style="background:#1a9850"></span>gap filled <span class="k" style="background:#d73027"></span>spike replaced
-<span class="k" style="background:#f28e2b"></span>label swap undone; grey cross: the spike's recorded value</div>
+<span class="k" style="background:#f28e2b"></span>label swap undone <span class="k" style="background:#7b3294"></span>duplicate label replaced;
+grey cross: the removed recorded value</div>
 <canvas id="view" width="900" height="600"></canvas>
-<h3>Fixes ({len(result.fixes)})</h3><table><tr><th>marker</th><th>frames</th><th>kind</th><th>size (a gap: duration, method, expected error, distance off the straight line)</th><th>swapped with</th></tr>{rows}</table>
-{left}
+<h3>Fixes ({len(result.fixes)})</h3><table><tr><th>marker</th><th>frames</th><th>kind</th><th>size (a gap: duration, method, expected error, distance off the straight line)</th><th>swapped with / on</th></tr>{rows}</table>
+{left}{same}
 <script id="data" type="application/json">{payload}</script>
 <script>{_SCRIPT}</script></body></html>"""
     with atomic_write(path, "w", encoding="utf-8") as fh:
@@ -245,7 +261,7 @@ def plot_marker_fixes(path, result, *, max_markers: int = 8, title: str = "") ->
             ax.plot(t, before[:, m, c] * mm, color="0.6", lw=1.6)
             ax.plot(t, after[:, m, c] * mm, color=colours[c], lw=0.8, label="xyz"[c])
         for mask, colour in ((result.filled[:, m], "tab:green"), (result.spikes[:, m], "tab:red"),
-                             (result.swapped[:, m], "tab:orange")):
+                             (result.swapped[:, m], "tab:orange"), (_duplicates(result)[:, m], "tab:purple")):
             d = np.diff(np.concatenate([[0], mask.astype(np.int8), [0]]))
             for a, b in zip(np.flatnonzero(d == 1), np.flatnonzero(d == -1)):
                 ax.axvspan(t[a], t[min(b, len(t) - 1)], color=colour, alpha=0.15, lw=0)
@@ -253,7 +269,8 @@ def plot_marker_fixes(path, result, *, max_markers: int = 8, title: str = "") ->
         ax.tick_params(labelsize=7)
     axes[0, 0].legend(loc="upper right", fontsize=7, ncol=3)
     axes[-1, 0].set_xlabel("s")
-    fig.suptitle(title or "before (grey) and after; shaded: filled (green), spike (red), swap (orange)", fontsize=9)
+    fig.suptitle(title or "before (grey) and after; shaded: filled (green), spike (red), swap (orange), "
+                 "duplicate label (purple)", fontsize=9)
     fig.tight_layout()
     with atomic_write(path, "wb") as fh:
         fig.savefig(fh, format="png", dpi=90)

@@ -168,3 +168,26 @@ def test_135_02_fast_strikes_are_kept_and_its_glitches_removed(part, kept, remov
         assert not mask[a - first:b - first, labels.index(name)].any(), (name, a)
     for name, a, b in removed:
         assert mask[a - first:b - first, labels.index(name)].all(), (name, a)
+
+
+def test_the_good_side_of_a_step_into_a_long_wrong_run_is_not_a_spike(cmu):
+    # CMU 85_02 with LFWT put on RFWT's position for 1 s (frames 405-524, a labeller's duplicate): every run beside
+    # each step leaves the cubic, which bridges the step. The good side missed it most, and 11 good LFWT samples
+    # (400-404, 525-530) were removed and refilled up to 200 mm off, while the wrong run stayed. A run that jumps at
+    # one end only and goes on smoothly for more than 4 runs at the other is a step's side, not a spike.
+    ms = read_c3d(CMU)
+    a, b = _label(ms.labels, "LFWT"), _label(ms.labels, "RFWT")
+    y = cmu.copy()
+    y[405:525, a] = cmu[405:525, b]
+    mask = spike_mask(y, fps=ms.fps)
+    assert not mask[:, a].any()
+    assert np.array_equal(mask, spike_mask(cmu, fps=ms.fps))
+
+
+def test_a_departure_a_few_runs_long_still_goes_piecewise(cmu):
+    # A marker 60 mm off for 8 frames (over the 5-frame run): its first runs jump in, its last jumps out, and it
+    # goes whole (before the step rule, only its 2 first and 2 last samples went).
+    y = cmu.copy()
+    y[300:308, 20] += np.array([60.0, 0.0, 0.0])
+    mask = spike_mask(y, fps=120.0)
+    assert mask[300:308, 20].all() and not mask[290:300, 20].any() and not mask[308:318, 20].any()

@@ -1,9 +1,12 @@
-"""Clean a marker capture: undo swapped labels, remove spikes, fill gaps; record every change.
+"""Clean a marker capture: undo swapped labels, remove duplicate labels and spikes, fill gaps; record every change.
 
 The marker counterpart of :func:`mocapkit.cleaning.pipeline.clean`. The
 steps run in this order because each needs the one before: a swap makes
-two large jumps that would look like spikes, and removed spikes become
-short gaps the fill closes. Every observed sample that is not an error
+two large jumps that would look like spikes; a marker put on another's
+position for a while (a duplicate label,
+:mod:`~mocapkit.cleaning.markers.duplicates`) is judged by its rigid
+neighbours once the swaps are undone, and its removed samples, like removed
+spikes, become gaps the fill closes. Every observed sample that is not an error
 comes back bit-identical; a swapped sample comes back re-labelled (its
 values unchanged); spike samples and gaps are filled
 (:mod:`~mocapkit.cleaning.markers.gaps`). A marker missing in the whole take
@@ -29,6 +32,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .duplicates import find_duplicates
 from .gaps import SMOOTH_S, fill_gaps
 from .rigid import distance_stats
 from .spikes import spike_mask
@@ -36,18 +40,22 @@ from .swaps import undo_swaps
 
 __all__ = ["MarkerFix", "MarkerCleanResult", "clean_markers", "STEPS"]
 
-STEPS = ("swaps", "spikes", "gaps")
+STEPS = ("swaps", "duplicates", "spikes", "gaps")
 
 
 @dataclass(frozen=True)
 class MarkerFix:
-    """One change: ``kind`` "gap", "spike" or "swap" on marker ``marker`` for frames ``start <= f < end``.
+    """One change: ``kind`` "gap", "spike", "swap" or "duplicate" on marker ``marker`` for frames ``start <= f < end``.
 
     ``size_mm``: for a gap, the largest distance between the fill and the
     straight line between its ends (how far the marker moved off it, not an
-    error); for a spike, the largest distance of a removed sample from its
-    fill; for a swap, the distance between the two markers where it starts.
-    ``other``: the marker it swapped with. For a gap (and a gap left
+    error); for a spike or a duplicate, the largest distance of a removed
+    sample from its fill; for a swap, the distance between the two markers
+    where it starts. ``other``: the marker it swapped with; for a duplicate,
+    the marker whose position it was put on (``note``: how that was told).
+    Kind "coincident" (in :attr:`MarkerCleanResult.coincident`, no change):
+    ``marker`` and ``other`` at the same position, which one is the copy
+    not told; ``size_mm`` their largest distance there. For a gap (and a gap left
     missing, :attr:`MarkerCleanResult.unfilled`): ``seconds``, its duration
     (s); ``method`` and ``donors``, the fill's model (:class:`GapFill`'s
     method; the donors' names, comma-separated); ``expected_mm``, the fill's
@@ -70,8 +78,8 @@ class MarkerFix:
 
     @property
     def fill_text(self) -> str:
-        """A gap's duration, method and expected error in words ("" for a spike or a swap)."""
-        if self.kind != "gap":
+        """A gap's (or a filled duplicate's) duration, method and expected error in words ("" for a spike or a swap)."""
+        if self.kind not in ("gap", "duplicate") or not self.method:
             return ""
         how = self.method + (f" ({self.donors})" if self.donors else "")
         doubt = (f"expected error {self.expected_mm:.1f} mm" if np.isfinite(self.expected_mm)
@@ -81,6 +89,14 @@ class MarkerFix:
     @property
     def size_text(self) -> str:
         """``size_mm`` in words, after a gap's :attr:`fill_text`: what the number measures differs by kind (a gap's is no error)."""
+        if self.kind == "duplicate":
+            fill = f" ({self.fill_text})" if self.fill_text else ""
+            done = ("removed, left missing: no plausible fill" if not np.isfinite(self.size_mm)
+                    else f"removed and filled{fill}: removed samples up to {self.size_mm:.1f} mm from the fill")
+            return f"on {self.other}'s position (a duplicate label: {self.note}), {done}"
+        if self.kind == "coincident":
+            return (f"at the same position as {self.other} ({self.size_mm:.1f} mm apart at most): one is a duplicate "
+                    f"label, which one cannot be told ({self.note}): both left as recorded")
         if self.note:
             return f"{self.fill_text or 'removed'}: left missing: no plausible fill ({self.note})"
         what = {"gap": "fill up to {} mm off the straight line between the gap's ends",
@@ -103,8 +119,8 @@ class MarkerCleanResult:
     filled, spikes, swapped : bool arrays (F, M)
         Samples of gaps filled; samples found to be spikes (removed, and
         replaced by a fill where one reached them); samples re-labelled.
-        ``filled`` and ``spikes`` do not overlap, so that the record, the
-        summary and ``clean-batch --json`` count each sample once.
+        ``filled``, ``spikes`` and ``duplicates`` do not overlap, so that the
+        record, the summary and ``clean-batch --json`` count each sample once.
     fixes : tuple of MarkerFix
     never_seen : tuple of str
         Markers missing in the whole take (still missing).
@@ -121,6 +137,14 @@ class MarkerCleanResult:
         "spike" for a spike run whose samples were removed and could not be
         replaced (it is among :attr:`fixes` too: a change); ``note`` says
         why, the other fields describe the rejected fill.
+    duplicates : bool array (F, M)
+        Samples of a marker found on another marker's position (a duplicate
+        label, :mod:`~mocapkit.cleaning.markers.duplicates`): removed, and
+        replaced by a fill where one reached them; each run is a fix of kind
+        "duplicate" naming the other marker.
+    coincident : tuple of MarkerFix
+        Runs where two markers sit at the same position and which one is the
+        copy could not be told (kind "coincident"): both left as recorded.
     """
 
     markers: object
@@ -134,6 +158,8 @@ class MarkerCleanResult:
     unseen_end: tuple[int, int] = (0, 0)
     unlabelled: tuple[str, ...] = ()
     unfilled: tuple[MarkerFix, ...] = ()
+    duplicates: np.ndarray | None = None
+    coincident: tuple[MarkerFix, ...] = ()
 
     @property
     def changed(self) -> np.ndarray:
@@ -141,6 +167,11 @@ class MarkerCleanResult:
         a, b = self.original.positions, self.markers.positions
         same = (a == b) | (np.isnan(a) & np.isnan(b))
         return ~np.all(same, axis=-1)
+
+    @property
+    def duplicate_mask(self) -> np.ndarray:
+        """(F, M) :attr:`duplicates`, all False where none was given."""
+        return self.duplicates if self.duplicates is not None else np.zeros(self.filled.shape, dtype=bool)
 
     def summary(self) -> list[str]:
         """A few lines for a terminal."""
@@ -157,7 +188,16 @@ class MarkerCleanResult:
         if left:
             lines.append(f"{left} samples still missing")
         if removed.any():
-            lines.append(f"{int(removed.sum())} recorded samples removed as spikes and left missing (no plausible fill)")
+            how = "spikes or duplicate labels" if np.any(removed & self.duplicate_mask[:, ~skip]) else "spikes"
+            lines.append(f"{int(removed.sum())} recorded samples removed as {how} and left missing (no plausible fill)")
+        for x in (x for x in self.fixes if x.kind == "duplicate"):
+            done = "removed and filled" if np.isfinite(x.size_mm) else "removed, left missing (no plausible fill)"
+            lines.append(f"{x.marker} frames {x.start}-{x.end - 1}: on {x.other}'s position (a duplicate label: "
+                         f"{x.note}), {done}")
+        for x in self.coincident:
+            lines.append(f"{x.marker} and {x.other} frames {x.start}-{x.end - 1}: at the same position "
+                         f"({x.size_mm:.1f} mm apart at most); one is a duplicate label, which one cannot be told "
+                         f"({x.note}): both left as recorded")
         if self.unfilled:
             n = len(self.unfilled)
             shown = "; ".join(f"{x.marker} frames {x.start}-{x.end - 1} ({'a spike removed, ' if x.kind == 'spike' else ''}"
@@ -193,8 +233,9 @@ class MarkerCleanResult:
             np.savez_compressed(
                 fh,
                 filled=self.filled, spikes=self.spikes, swapped=self.swapped, changed=self.changed,
-                labels=np.array(labels, dtype=str),
+                duplicates=self.duplicate_mask, labels=np.array(labels, dtype=str),
                 fixes=np.array(json.dumps(fixes)), unfilled=np.array(json.dumps(unfilled)),
+                coincident=np.array(json.dumps([dataclasses.asdict(x) for x in self.coincident])),
                 never_seen=np.array(list(self.never_seen), dtype=str),
                 unlabelled=np.array(list(self.unlabelled), dtype=str),
                 kind=np.array("markers"),
@@ -237,6 +278,8 @@ def clean_markers(markers, *, steps=STEPS, spike_mm: float = 15.0, swap_mm: floa
         Any of "swaps", "spikes", "gaps" (comma-separated or a list); they run in that order.
     spike_mm, swap_mm : float
         Detection thresholds in millimetres (see :func:`spike_mask`, :func:`undo_swaps`).
+        A duplicate label (:func:`~mocapkit.cleaning.markers.duplicates.find_duplicates`)
+        lies more than ``spike_mm`` from where its rigid neighbours put it.
     max_gap_s : float, optional
         Gaps longer than this are left missing.
     constrain : bool
@@ -272,23 +315,39 @@ def clean_markers(markers, *, steps=STEPS, spike_mm: float = 15.0, swap_mm: floa
         for s in swaps:
             swapped[s.start:s.end, [s.a, s.b]] = True
             fixes.append(MarkerFix(labels[s.a], s.start, s.end, "swap", s.distance * unit_mm, labels[s.b]))
+    dups = np.zeros((f, m), dtype=bool)
+    found = find_duplicates(y, unit_mm, off_mm=spike_mm) if "duplicates" in steps else []
+    coincident = [MarkerFix(labels[d.marker], d.start, d.end, "coincident", d.distance * unit_mm, labels[d.other],
+                            note=d.why) for d in found if not d.resolved]
+    found = [d for d in found if d.resolved]
+    for d in found:
+        dups[d.start:d.end, d.marker] = True
+    before_fill = y.copy()  # the recorded (re-labelled) samples: what a removed one was
+    y[dups] = np.nan
     spikes = np.zeros((f, m), dtype=bool)
     if "spikes" in steps:
         spikes = spike_mask(y, unit_mm, threshold_mm=spike_mm, fps=markers.fps)
-    before_fill = y.copy()
     y[spikes] = np.nan
     filled = np.zeros((f, m), dtype=bool)
     never = np.all(np.isnan(y), axis=(0, 2))
     seen_any = np.flatnonzero(~np.all(np.isnan(y), axis=(1, 2)))  # frames with a marker seen (spikes removed)
-    if "gaps" in steps or np.any(spikes):
+    dup_fill: dict[tuple, dict] = {}  # (marker, start, end) -> the fill of a duplicate's removed run
+    if "gaps" in steps or np.any(spikes) or np.any(dups):
         stats = distance_stats(y)
         max_gap = None if max_gap_s is None else int(round(max_gap_s * markers.fps))
         out, records = fill_gaps(y, stats=stats, max_gap=max_gap, constrain=constrain, unit_mm=unit_mm,
                                  smooth=SMOOTH_S * markers.fps)
         for r in records:
             run = slice(r.start, r.end)
+            if np.all(dups[run, r.marker]):  # a duplicate's removed samples: named below, with the marker it was on
+                if r.filled:
+                    y[run, r.marker] = out[run, r.marker]
+                    dup_fill[(r.marker, r.start, r.end)] = dict(
+                        method=r.method, donors=", ".join(labels[d] for d in r.donors),
+                        expected_mm=r.expected_error * unit_mm)
+                continue
             is_spike = bool(np.all(spikes[run, r.marker]))
-            if not is_spike and "gaps" not in steps:
+            if not is_spike and "gaps" not in steps and not np.any(dups[run, r.marker]):
                 continue
             how = dict(seconds=(r.end - r.start) / markers.fps, method=r.method,
                        donors=", ".join(labels[d] for d in r.donors), expected_mm=r.expected_error * unit_mm)
@@ -300,7 +359,7 @@ def clean_markers(markers, *, steps=STEPS, spike_mm: float = 15.0, swap_mm: floa
                     fixes.append(left_fix)
                 continue
             y[run, r.marker] = out[run, r.marker]
-            filled[run, r.marker] = ~spikes[run, r.marker]  # a spike sample is counted as a spike, not a gap
+            filled[run, r.marker] = ~spikes[run, r.marker] & ~dups[run, r.marker]  # each sample counted once
             if is_spike:
                 size = float(np.max(np.linalg.norm(before_fill[run, r.marker] - out[run, r.marker], axis=-1)))
                 fixes.append(MarkerFix(labels[r.marker], r.start, r.end, "spike", size * unit_mm))
@@ -312,6 +371,15 @@ def clean_markers(markers, *, steps=STEPS, spike_mm: float = 15.0, swap_mm: floa
                 line = (1 - u) * ref[0] + u * ref[-1]
                 size = float(np.max(np.linalg.norm(out[run, r.marker] - line, axis=-1)))
                 fixes.append(MarkerFix(labels[r.marker], a, b, "gap", size * unit_mm, **how))
+    for d in found:  # a duplicate no fill reached stays missing rather than wrong (size NaN: the summary says so)
+        run = slice(d.start, d.end)
+        gone = np.any(np.isnan(y[run, d.marker]))
+        size = (float("nan") if gone else
+                float(np.max(np.linalg.norm(before_fill[run, d.marker] - y[run, d.marker], axis=-1))) * unit_mm)
+        fix = MarkerFix(labels[d.marker], d.start, d.end, "duplicate", size, labels[d.other],
+                        seconds=(d.end - d.start) / markers.fps, note=d.why,
+                        **dup_fill.get((d.marker, d.start, d.end), {}))
+        fixes.append(fix)
     # a spike no fill reached stays missing rather than wrong
     fixes.sort(key=lambda x: (x.start, x.marker, x.kind))
     out = full.copy()
@@ -335,5 +403,6 @@ def clean_markers(markers, *, steps=STEPS, spike_mm: float = 15.0, swap_mm: floa
                              never_seen=tuple(labels[i] for i in np.flatnonzero(never)),
                              unseen_start=(0, lo) if seen_any.size else (0, 0), unseen_end=(hi, f),
                              unlabelled=tuple(markers.labels[i] for i in np.flatnonzero(unlabelled & ~modelled)),
-                             unfilled=tuple(sorted(unfilled, key=lambda x: (x.start, x.marker))))
+                             unfilled=tuple(sorted(unfilled, key=lambda x: (x.start, x.marker))),
+                             duplicates=expand(dups), coincident=tuple(coincident))
 

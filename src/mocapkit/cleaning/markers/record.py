@@ -2,7 +2,8 @@
 
 :meth:`~mocapkit.cleaning.markers.clean.MarkerCleanResult.save` writes it: the
 (F, M) masks of the samples filled, removed as spikes, re-labelled and changed,
-the labels, the fixes and the gaps left unfilled (JSON texts), the markers
+the labels, the fixes, the gaps left unfilled and the runs where two markers
+coincide and which is the copy was not told (JSON texts), the markers
 never seen and the unlabelled trajectories, and ``kind = "markers"``, which
 tells it from a motion's record (:class:`~mocapkit.cleaning.pipeline.CleanResult`).
 It holds no trajectories: the cleaned capture is the output file.
@@ -28,9 +29,11 @@ class MarkerRecord:
     """A marker capture's cleaning record.
 
     ``labels`` (M,); ``filled``, ``spikes``, ``swapped``, ``changed``: bool (F, M) masks of the samples
-    filled, removed as spikes, re-labelled and changed; ``fixes`` and ``unfilled``: one dict per fix and per gap
-    left missing (the fields of :class:`~mocapkit.cleaning.markers.clean.MarkerFix`); ``never_seen`` and
-    ``unlabelled``: marker names.
+    filled, removed as spikes, re-labelled and changed; ``duplicates``: the samples removed as duplicate labels
+    (a marker on another's position; all False in a record written before there was such a fix); ``fixes``,
+    ``unfilled`` and ``coincident``: one dict per fix, per gap left missing and per run of two markers at the
+    same position left as recorded (the fields of :class:`~mocapkit.cleaning.markers.clean.MarkerFix`);
+    ``never_seen`` and ``unlabelled``: marker names.
     """
 
     labels: tuple[str, ...]
@@ -42,13 +45,15 @@ class MarkerRecord:
     unfilled: tuple[dict, ...]
     never_seen: tuple[str, ...]
     unlabelled: tuple[str, ...]
+    duplicates: np.ndarray | None = None
+    coincident: tuple[dict, ...] = ()
 
     @property
     def num_frames(self) -> int:
         return int(self.changed.shape[0])
 
     def count(self, kind: str) -> int:
-        """How many fixes of ``kind`` ("gap", "spike", "swap") the record lists."""
+        """How many fixes of ``kind`` ("gap", "spike", "swap", "duplicate") the record lists."""
         return sum(1 for f in self.fixes if f.get("kind") == kind)
 
 
@@ -80,6 +85,13 @@ def read_marker_record(path) -> MarkerRecord:
         if a.dtype != bool or a.ndim != 2 or a.shape[1] != len(labels) or a.shape != np.shape(z["changed"]):
             raise MocapFormatError(path, f"{k}: expected a bool (frames, {len(labels)}) mask, got {a.dtype} {a.shape}")
         masks[k] = a
+    if "duplicates" in z:
+        a = np.asarray(z["duplicates"])
+        if a.dtype != bool or a.shape != masks["changed"].shape:
+            raise MocapFormatError(path, f"duplicates: expected a bool (frames, {len(labels)}) mask, got {a.dtype} {a.shape}")
+        masks["duplicates"] = a
+    else:
+        masks["duplicates"] = np.zeros_like(masks["changed"])
 
     def listed(key: str) -> tuple[dict, ...]:
         if key not in z:
@@ -95,5 +107,5 @@ def read_marker_record(path) -> MarkerRecord:
     def names(key: str) -> tuple[str, ...]:
         return tuple(str(x) for x in np.asarray(z[key]).reshape(-1)) if key in z else ()
 
-    return MarkerRecord(labels=labels, fixes=listed("fixes"), unfilled=listed("unfilled"),
+    return MarkerRecord(labels=labels, fixes=listed("fixes"), unfilled=listed("unfilled"), coincident=listed("coincident"),
                         never_seen=names("never_seen"), unlabelled=names("unlabelled"), **masks)

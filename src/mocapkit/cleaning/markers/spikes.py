@@ -106,29 +106,107 @@ def _run_deviation(x: np.ndarray, length: int, context: int) -> np.ndarray:
     return dev
 
 
-def _settle(seg: np.ndarray, thr: float, max_len: int, context: int) -> list[tuple[int, int]]:
+def _second_differences(track: np.ndarray) -> np.ndarray:
+    """(F,) ``|x[t-1] - 2 x[t] + x[t+1]|`` of one marker's ``track`` (F, 3): how far sample t + 1 lies from the straight
+    line through t - 1 and t (and t - 1 from the line through t + 1 and t); NaN at the ends and where a sample is unseen."""
+    x = np.asarray(track, dtype=np.float64)
+    d2 = np.full(x.shape[0], np.nan)
+    if x.shape[0] >= 3:
+        d2[1:-1] = np.linalg.norm(x[:-2] - 2.0 * x[1:-1] + x[2:], axis=-1)
+    return d2
+
+
+def _smooth_for(d2: np.ndarray, t: int, step: int, jump: float, cap: int) -> int:
+    """How many samples go on past sample ``t`` in direction ``step`` (+1, -1), each within ``jump`` of the straight line
+    through the two before it (``d2``: :func:`_second_differences` of the marker's recorded track); at most ``cap``."""
+    k = 0
+    c = t
+    while k < cap and 0 < c < d2.shape[0] - 1 and d2[c] <= jump:  # d2[c] spans c - 1, c, c + 1: one sample on
+        k += 1
+        c += step
+    return k
+
+
+def _one_ended(seg: np.ndarray, a: int, b: int, before: np.ndarray, after: np.ndarray, d2: np.ndarray | None,
+               lo: int, jump: float, limit: int) -> bool:
+    """Whether the run ``a <= t < b`` of ``seg`` (n, 3) sits beside a step into a run too long for a spike.
+
+    A spike jumps off the trajectory and back: its first sample lies far
+    (over ``jump``) from the straight line through the two seen samples
+    before it (of ``before``, the frames of its context), and its last from
+    the line through the two after it. A run that jumps at one end only and
+    on the other goes on smoothly with the track (``d2``, the recorded
+    track's :func:`_second_differences`; ``lo``: the frame of ``seg[0]``) for
+    more than ``limit`` frames, itself included, is one side of a step: the
+    good side of a step into a long wrong run (a marker put on another's
+    position for a second), or the start of that wrong run, which is no
+    spike either. Nor is a run that jumps at neither end: it goes on
+    smoothly from both sides, and leaves the cubic only because its context
+    holds a step (the last good samples and the first wrong one). Such runs
+    are not taken. A departure of at most ``limit`` frames can still go
+    piecewise: its first runs jump in, its last out.
+    """
+    if d2 is None or len(before) < 2 or len(after) < 2:
+        return False
+
+    def miss(t, p, q):  # sample t against the straight line through samples p and q
+        return float(np.linalg.norm(seg[t] - (seg[q] + (seg[q] - seg[p]) * (t - q) / (q - p))))
+
+    jumps_in = miss(a, before[-2], before[-1]) > jump
+    jumps_out = miss(b - 1, after[1], after[0]) > jump
+    if jumps_in and jumps_out:
+        return False
+    if not jumps_in and not jumps_out:  # it goes on smoothly from both sides: it holds the step (or the cubic missed)
+        return True
+    if jumps_in:  # it goes on smoothly through b (the line through b and b + 1 met b - 1), and on from there
+        own = (b - a) + 1 + _smooth_for(d2, lo + b, 1, jump, limit)
+    else:
+        own = (b - a) + 1 + _smooth_for(d2, lo + a - 1, -1, jump, limit)
+    return own > limit
+
+
+def _settle(seg: np.ndarray, thr: float, max_len: int, context: int, d2: np.ndarray | None = None,
+            lo: int = 0, limit: int | None = None) -> list[tuple[int, int]]:
     """Spike runs (start, length) of one marker's samples ``seg`` (n, 3), most certain first.
 
     Each round tries every run of 1..max_len seen samples against the cubic
     through the ``context`` nearest seen samples on either side (skipping
     removed ones, within ``max_len`` extra frames), takes the run whose
     smallest deviation is largest, and removes it; it stops when no run's
-    samples are all further than ``thr``.
+    samples are all further than ``thr``. With ``d2`` (the marker's recorded
+    track's :func:`_second_differences`; ``seg`` starts at its frame ``lo``),
+    a run beside a step into a run longer than ``limit`` frames (default
+    4 x ``max_len``: a departure the runs can still remove piecewise) is not
+    taken (:func:`_one_ended`). Beside such a step every run on either side
+    leaves the cubic, which bridges the step; the good side, nearer its
+    context, missed it most and was removed sample by sample (CMU 85_02 with
+    LFWT put on RFWT for 120 frames: 11 good samples removed and refilled up
+    to 200 mm off, the wrong run kept).
     """
     n = seg.shape[0]
+    limit = 4 * max_len if limit is None else limit
     runs = []
     weights: dict[tuple, np.ndarray] = {}  # context offsets -> least-squares prediction weights
     while True:
         seen = ~np.any(np.isnan(seg), axis=-1)
         idx = np.flatnonzero(seen)
         best, where = 1.0, None
+
+        def stepside(a, b, before=None, after=None):
+            if before is None:
+                before, after = np.arange(a - context, a), np.arange(b, b + context)
+            return _one_ended(seg, a, b, before, after, d2, lo, 0.5 * thr, limit)
+
         for length in range(1, max_len + 1):
             fast = np.full(n - length + 1, np.nan)
             dev = _run_deviation(seg[:, None, :], length, context)[:, 0]  # runs with a whole context
             fast[context:context + dev.size] = dev
-            if np.any(fast > best * thr):
-                a = int(np.nanargmax(fast))
-                best, where = fast[a] / thr, (a, length)
+            for a in np.argsort(-np.nan_to_num(fast, nan=-np.inf), kind="stable"):
+                if not fast[a] > best * thr:
+                    break
+                if not stepside(int(a), int(a) + length):
+                    best, where = fast[a] / thr, (int(a), length)
+                    break
             run_seen = np.convolve(seen.astype(np.int8), np.ones(length, dtype=np.int8), mode="valid") == length
             for a in np.flatnonzero(np.isnan(fast) & run_seen):  # runs whose context skips removed samples
                 b = a + length
@@ -146,8 +224,8 @@ def _settle(seg: np.ndarray, thr: float, max_len: int, context: int) -> list[tup
                     w = weights[key] = _cubic_weights(a, b, ctx)
                 pred = w @ seg[ctx]
                 score = np.min(np.linalg.norm(seg[a:b] - pred, axis=-1)) / thr
-                if score > best:
-                    best, where = score, (a, length)
+                if score > best and not stepside(int(a), int(b), before, after):
+                    best, where = score, (int(a), length)
         if where is None:
             return runs
         runs.append(where)
@@ -450,7 +528,7 @@ def spike_mask(positions: np.ndarray, unit_mm: float = 1.0, *, threshold_mm: flo
         d = np.diff(np.concatenate([[0], grown.astype(np.int8), [0]]))
         for lo, hi in zip(np.flatnonzero(d == 1), np.flatnonzero(d == -1)):
             lo, hi = max(lo - pad, 0), min(hi + pad, f)
-            for a, length in _settle(x[lo:hi, mk].copy(), thr[mk], max_len, context):
+            for a, length in _settle(x[lo:hi, mk].copy(), thr[mk], max_len, context, _second_differences(x[:, mk]), lo):
                 mask[lo + a:lo + a + length, mk] = True
                 runs.append((int(mk), int(lo + a), int(lo + a + length)))
     if rigid and runs:
