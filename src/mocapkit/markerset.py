@@ -512,12 +512,15 @@ class MarkerSet:
 def zero_gap_mask(positions, unit_cm: float, skip=()) -> np.ndarray:
     """Boolean (F, M) mask of samples that are gaps stored as exact (0, 0, 0).
 
-    A sample is a zero gap when all three coordinates are exactly 0.0 and the
-    marker's observed samples right before and after each such run lie at least
-    :data:`ZERO_GAP_DISTANCE_CM` from the origin: the marker jumps to the lab
-    origin and back, which a tracked marker does not do, while a trajectory
-    that really passes through the origin (or a modelled quantity such as a
-    ground reaction force that rises from zero) approaches it gradually. A
+    Decided run by run: a run of samples of a marker at exactly (0, 0, 0) is a
+    gap unless the marker's own observed samples right before and right after
+    it (the one there is, at the take's start or end) all lie within
+    :data:`ZERO_GAP_DISTANCE_CM` of the origin: a trajectory that really
+    passes through the origin approaches it and leaves it gradually, while a
+    tracked marker does not jump to the lab origin from 10 cm or more away,
+    nor back. So one run next to a sample near the origin (a heel passing 5
+    cm from it, then occluded) says nothing about the marker's other runs,
+    and a run with one end near the origin and the other far is a gap too. A
     marker at (0, 0, 0) in every frame is a marker never seen. Markers whose
     index is in ``skip`` (e.g. a Vicon file's modelled angles and forces,
     listed in POINT:ANGLES, FORCES, MOMENTS, POWERS, SCALARS) are left alone.
@@ -539,15 +542,11 @@ def zero_gap_mask(positions, unit_cm: float, skip=()) -> np.ndarray:
             continue
         z = zero[:, m]
         edges = np.flatnonzero(np.diff(np.concatenate([[0], z.astype(np.int8), [0]])))
-        ok = True
         for a, b in zip(edges[::2], edges[1::2]):  # zero run [a, b)
             before = np.flatnonzero(seen[:a, m])
             after = np.flatnonzero(seen[b:, m])
             near = [dist[before[-1], m]] if len(before) else []
             near += [dist[b + after[0], m]] if len(after) else []
-            if any(d < far for d in near):
-                ok = False
-                break
-        if ok:
-            out[:, m] = z
+            if not near or any(d >= far for d in near):  # never seen, or a jump from or to 10 cm away: a gap
+                out[a:b, m] = True
     return out
