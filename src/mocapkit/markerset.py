@@ -24,6 +24,7 @@ import numpy as np
 from .motion import check_fps, frame_slice, frozen
 
 __all__ = ["MarkerSet", "MarkerSource", "length_unit_cm", "zero_gap_mask", "unique_labels", "repeated_labels_note",
+           "subject_of",
            "infer_units", "marker_units", "ZERO_GAP_DISTANCE_CM", "BODY_SPAN_M",
            "MODELLED_GROUPS"]
 
@@ -97,6 +98,16 @@ def repeated_labels_note(file_labels, labels) -> tuple[str, ...]:
     return (f"the file repeats marker label{'s' if len(names) > 1 else ''} {', '.join(names[:8])}"
             f"{' ...' if len(names) > 8 else ''}: the repeats are called {shown} here; files written from this "
             "take keep the file's labels",)
+
+
+def subject_of(label: str) -> str:
+    """The subject a marker label names: the text before its first ``:`` ("Alice" for "Alice:LTHI"), stripped; "" for none.
+
+    Vicon Nexus and Qualisys prefix each marker of a multi-subject (or subject-and-prop) capture with its subject's
+    name; cleaning treats each subject's markers as one body (:func:`mocapkit.cleaning.markers.gaps.nobody_seen`).
+    """
+    text = str(label)
+    return text.split(":", 1)[0].strip() if ":" in text else ""
 
 
 def length_unit_cm(units: str) -> float:

@@ -17,7 +17,11 @@ each is, and whether it is the same one each time it appears, is unknown
 labelled marker is), so they come back as read, and no labelled marker's
 fill, spike test or swap test uses them: a donor of unknown identity and
 rigidity could carry a fill anywhere. Frames where no labelled marker is
-seen at the take's start or end are frames where nobody is seen.
+seen at the take's start or end are frames where nobody is seen; so are
+frames mid-take where none of a subject's markers is (markers share a
+``Subject:`` prefix in a multi-subject capture: :func:`mocapkit.markerset.subject_of`):
+the subject was out of the volume, and its markers stay missing there
+(:attr:`MarkerCleanResult.nobody_seen`).
 """
 
 from __future__ import annotations
@@ -29,7 +33,8 @@ from pathlib import Path
 
 import numpy as np
 
-from .gaps import SMOOTH_S, fill_gaps
+from ...markerset import subject_of
+from .gaps import SMOOTH_S, fill_gaps, nobody_seen
 from .rigid import distance_stats
 from .spikes import spike_mask
 from .swaps import undo_swaps
@@ -115,6 +120,12 @@ class MarkerCleanResult:
         from (:func:`~mocapkit.cleaning.markers.gaps.fill_gaps`).
     unlabelled : tuple of str
         The unlabelled trajectories (:meth:`MarkerSet.unlabelled`), left as read.
+    nobody_seen : tuple of (str, int, int)
+        ``(subject, start, end)``: the frames ``start <= f < end`` where none
+        of a subject's markers is seen ("" for a capture of one subject), other
+        than the take's ``unseen_start`` and ``unseen_end``: the subject out of
+        the volume (before it walks in, after it leaves, or mid-take); its
+        markers are left missing there.
     unfilled : tuple of MarkerFix
         Gaps left missing because no fill passed the plausibility guard
         (:mod:`~mocapkit.cleaning.markers.plausible`): kind "gap", or
@@ -134,6 +145,7 @@ class MarkerCleanResult:
     unseen_end: tuple[int, int] = (0, 0)
     unlabelled: tuple[str, ...] = ()
     unfilled: tuple[MarkerFix, ...] = ()
+    nobody_seen: tuple[tuple[str, int, int], ...] = ()
 
     @property
     def changed(self) -> np.ndarray:
@@ -171,6 +183,10 @@ class MarkerCleanResult:
         for where, (a, b) in (("start", self.unseen_start), ("end", self.unseen_end)):
             if b > a:
                 lines.append(f"frames {a}-{b - 1} at the take's {where} see no {marker}: left missing (nothing to fill from)")
+        f = self.markers.positions.shape[0]
+        for who, a, b in self.nobody_seen:
+            why = "not yet in the volume?" if a == 0 else ("gone from the volume?" if b == f else "out of the volume?")
+            lines.append(f"{who + ': ' if who else ''}frames {a}-{b - 1}: nobody seen ({why}), left missing")
         if self.unlabelled:
             n = len(self.unlabelled)
             names = ", ".join(self.unlabelled[:4]) + (f" ... {self.unlabelled[-1]}" if n > 4 else "")
@@ -197,6 +213,7 @@ class MarkerCleanResult:
                 fixes=np.array(json.dumps(fixes)), unfilled=np.array(json.dumps(unfilled)),
                 never_seen=np.array(list(self.never_seen), dtype=str),
                 unlabelled=np.array(list(self.unlabelled), dtype=str),
+                nobody_seen=np.array(json.dumps([list(x) for x in self.nobody_seen])),
                 kind=np.array("markers"),
                 **({"written": np.array(json.dumps(written))} if written else {}),
             )
@@ -263,6 +280,7 @@ def clean_markers(markers, *, steps=STEPS, spike_mm: float = 15.0, swap_mm: floa
     x = full[:, work]
     f, m = x.shape[:2]
     labels = [markers.labels[i] for i in work]
+    subjects = [subject_of(label) for label in labels]
     fixes: list[MarkerFix] = []
     unfilled: list[MarkerFix] = []
     y = x.copy()
@@ -284,7 +302,7 @@ def clean_markers(markers, *, steps=STEPS, spike_mm: float = 15.0, swap_mm: floa
         stats = distance_stats(y)
         max_gap = None if max_gap_s is None else int(round(max_gap_s * markers.fps))
         out, records = fill_gaps(y, stats=stats, max_gap=max_gap, constrain=constrain, unit_mm=unit_mm,
-                                 smooth=SMOOTH_S * markers.fps)
+                                 smooth=SMOOTH_S * markers.fps, subjects=subjects)
         for r in records:
             run = slice(r.start, r.end)
             is_spike = bool(np.all(spikes[run, r.marker]))
@@ -330,10 +348,11 @@ def clean_markers(markers, *, steps=STEPS, spike_mm: float = 15.0, swap_mm: floa
     else:
         cleaned = dataclasses.replace(markers, positions=out)
     lo, hi = (int(seen_any[0]), int(seen_any[-1]) + 1) if seen_any.size else (f, f)
+    absent = tuple(r for r in nobody_seen(np.any(np.isnan(y), axis=-1), subjects) if r[1:] not in ((0, lo), (hi, f)))
     return MarkerCleanResult(markers=cleaned, original=markers, filled=expand(filled), spikes=expand(spikes),
                              swapped=expand(swapped), fixes=tuple(fixes),
                              never_seen=tuple(labels[i] for i in np.flatnonzero(never)),
                              unseen_start=(0, lo) if seen_any.size else (0, 0), unseen_end=(hi, f),
                              unlabelled=tuple(markers.labels[i] for i in np.flatnonzero(unlabelled & ~modelled)),
-                             unfilled=tuple(sorted(unfilled, key=lambda x: (x.start, x.marker))))
+                             unfilled=tuple(sorted(unfilled, key=lambda x: (x.start, x.marker))), nobody_seen=absent)
 

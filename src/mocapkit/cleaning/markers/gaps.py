@@ -45,12 +45,16 @@ from one of the two nearest markers (pattern fill) and the low-rank model of
 the nearest markers (Gløersen and Federolf 2016,
 :mod:`mocapkit.cleaning.markers.lowrank`) over a window around the gap
 compete in the same way; with nothing seen at all the gap stays missing.
-Frames at the take's start or end where no marker at all is seen (the
-subject not yet in the capture volume, or gone from it) are left missing
-too: nothing is seen there to fill from, and a fill would be made up (a
-fixed pose or a straight-line extrapolation, metres from where the
-subject appears). The take's frames between them are filled as above, a
-gap reaching those frames from one end, as a gap at the take's edge is.
+Frames where no marker of a subject is seen (the subject not yet in the
+capture volume, gone from it, or out of it for a while mid-take; in a
+multi-subject capture each subject's markers share a ``Subject:`` prefix,
+:func:`mocapkit.markerset.subject_of`, and are one body) are left missing
+too: nothing of that body is seen there to fill from, and a fill would be
+made up (a fixed pose or a straight-line extrapolation, metres from where
+the subject appears; another subject's markers say nothing about where
+this one is). The stretches between them are filled as takes of their
+own, a gap reaching those frames from one end, as a gap at the take's
+edge is (:func:`nobody_seen` lists them).
 
 Positions are (F, M, 3), frames first, in the capture's unit; NaN is unseen.
 """
@@ -67,7 +71,7 @@ from .lowrank import fill_lowrank
 from .plausible import TakeLimits, implausible, take_limits
 from .rigid import DistanceStats, distance_stats, donor_order, from_local, local_frames, to_local
 
-__all__ = ["GapFill", "SMOOTH_S", "gap_runs", "fill_gaps"]
+__all__ = ["GapFill", "SMOOTH_S", "gap_runs", "fill_gaps", "nobody_seen"]
 
 
 @dataclass(frozen=True)
@@ -120,6 +124,26 @@ def gap_runs(missing: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Starts and ends (exclusive) of the runs of True in a 1-D bool array."""
     d = np.diff(np.concatenate([[0], np.asarray(missing, dtype=np.int8), [0]]))
     return np.flatnonzero(d == 1), np.flatnonzero(d == -1)
+
+
+def nobody_seen(missing: np.ndarray, subjects=None) -> list[tuple[str, int, int]]:
+    """Per subject, the runs of frames where none of its markers is seen: ``(subject, start, end)``, ``start <= f < end``.
+
+    ``missing``: (F, M) bool; ``subjects``: (M,) the subject of each marker
+    (:func:`mocapkit.markerset.subject_of`; default: all one subject, "").
+    A subject none of whose markers is ever seen has no runs (its markers
+    are never seen). Sorted by start, then subject.
+    """
+    missing = np.asarray(missing, dtype=bool)
+    names = [""] * missing.shape[1] if subjects is None else [str(x) for x in subjects]
+    out = []
+    for name in dict.fromkeys(names):
+        cols = [i for i, x in enumerate(names) if x == name]
+        none = np.all(missing[:, cols], axis=1)
+        if none.all():
+            continue
+        out += [(name, int(a), int(b)) for a, b in zip(*gap_runs(none))]
+    return sorted(out, key=lambda r: (r[1], r[0]))
 
 
 def _donor_fill(pos: np.ndarray, m: int, a: int, b: int, donors, cubic: bool = False, side: int = 0) -> np.ndarray | None:
@@ -368,8 +392,9 @@ def _lowrank_fill(pos: np.ndarray, m: int, a: int, b: int, order: np.ndarray, st
 
 def fill_gaps(positions: np.ndarray, *, stats: DistanceStats | None = None, candidates: int = 4, keep: int = 3,
               max_gap: int | None = None, constrain: bool = True, predictors: int = 6, guard: bool = True,
-              unit_mm: float = 1.0, smooth: float = SMOOTH_FRAMES) -> tuple[np.ndarray, list[GapFill]]:
-    """Fill every gap of every marker that is seen at least once.
+              unit_mm: float = 1.0, smooth: float = SMOOTH_FRAMES, subjects=None,
+              markers=None) -> tuple[np.ndarray, list[GapFill]]:
+    """Fill every gap of every marker that is seen at least once, except where none of its subject's markers is.
 
     Parameters
     ----------
@@ -404,14 +429,22 @@ def fill_gaps(positions: np.ndarray, *, stats: DistanceStats | None = None, cand
         0: frame by frame). The default is 0.025 s at 120 Hz;
         :func:`~mocapkit.cleaning.markers.clean.clean_markers` passes
         :data:`SMOOTH_S` at the take's rate.
+    subjects : sequence of str (M,), optional
+        The subject of each marker (:func:`mocapkit.markerset.subject_of`);
+        default: all one. Frames where none of a subject's markers is seen
+        stay missing for all of them (:func:`nobody_seen`), and the
+        stretches between are filled as takes of their own.
+    markers : sequence of int, optional
+        Fill only these markers' gaps (default: every marker's); the others
+        still serve as donors.
 
     Returns
     -------
     filled : float array (F, M, 3)
         Observed samples unchanged (bit-identical); gaps filled; markers
-        never seen, frames before the first and after the last frame where
-        any marker is seen, gaps nothing could fill and gaps no fill of
-        which was plausible, still NaN.
+        never seen, frames where none of a marker's subject's markers is
+        seen, gaps nothing could fill and gaps no fill of which was
+        plausible, still NaN.
     fills : list of GapFill
         One record per filled gap, and one per gap left missing for want of
         a plausible fill (``implausible`` says why; ``filled`` is False).
@@ -424,20 +457,33 @@ def fill_gaps(positions: np.ndarray, *, stats: DistanceStats | None = None, cand
         return out, []
     if stats is None:
         stats = distance_stats(pos)
-    seen_any = np.flatnonzero(~np.all(missing, axis=1))
-    if seen_any.size == 0:
-        return out, []
-    lo, hi = int(seen_any[0]), int(seen_any[-1]) + 1
-    if lo > 0 or hi < f:  # no marker seen at the take's start or end: left missing, the rest filled as a take
-        inner, inner_records = fill_gaps(pos[lo:hi], stats=stats, candidates=candidates, keep=keep, max_gap=max_gap,
-                                         constrain=constrain, predictors=predictors, guard=guard, unit_mm=unit_mm,
-                                         smooth=smooth)
-        out[lo:hi] = inner
-        return out, [replace(r, start=r.start + lo, end=r.end + lo) for r in inner_records]
+    names = [""] * m_count if subjects is None else [str(x) for x in subjects]
+    todo = np.zeros(m_count, dtype=bool)
+    todo[np.arange(m_count) if markers is None else np.asarray(markers, dtype=int)] = True
+    todo &= np.any(missing, axis=0) & ~np.all(missing, axis=0)
+    records = []
+    for name in dict.fromkeys(names):
+        group = np.array([i for i, x in enumerate(names) if x == name])
+        mine = group[todo[group]]
+        none = np.all(missing[:, group], axis=1)
+        if not mine.size or not none.any():
+            continue
+        # nobody of this subject seen in some frames: left missing, each stretch between filled as a take of its own
+        todo[mine] = False
+        for lo, hi in zip(*gap_runs(~none)):
+            lo, hi = int(lo), int(hi)
+            inner, inner_records = fill_gaps(pos[lo:hi], stats=stats, candidates=candidates, keep=keep,
+                                             max_gap=max_gap, constrain=constrain, predictors=predictors, guard=guard,
+                                             unit_mm=unit_mm, smooth=smooth, subjects=names, markers=mine)
+            out[lo:hi, mine] = inner[:, mine]
+            records += [replace(r, start=r.start + lo, end=r.end + lo) for r in inner_records]
+    if not todo.any():
+        return out, sorted(records, key=lambda r: (r.marker, r.start))
     order = donor_order(stats)
     limits = take_limits(pos, stats, order, unit_mm) if guard else None
+    split = records
     records = []
-    for m in np.flatnonzero(np.any(missing, axis=0) & ~np.all(missing, axis=0)):
+    for m in np.flatnonzero(todo):
         for a, b in zip(*gap_runs(missing[:, m])):
             a, b = int(a), int(b)
             if max_gap is not None and b - a > max_gap:
@@ -459,7 +505,7 @@ def fill_gaps(positions: np.ndarray, *, stats: DistanceStats | None = None, cand
                 records[k] = replace(r, constrained=False)  # the constraints pulled it off: written as it passed the guard
             else:
                 out[run, r.marker] = con[run, r.marker]
-    return out, records
+    return out, sorted(split + records, key=lambda r: (r.marker, r.start))
 
 
 def _constraint_helps(pos: np.ndarray, m: int, checks, stats: DistanceStats, order: np.ndarray,

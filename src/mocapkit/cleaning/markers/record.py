@@ -3,7 +3,7 @@
 :meth:`~mocapkit.cleaning.markers.clean.MarkerCleanResult.save` writes it: the
 (F, M) masks of the samples filled, removed as spikes, re-labelled and changed,
 the labels, the fixes and the gaps left unfilled (JSON texts), the markers
-never seen and the unlabelled trajectories, and ``kind = "markers"``, which
+never seen, the unlabelled trajectories, the frames where nobody (of a subject) is seen, and ``kind = "markers"``, which
 tells it from a motion's record (:class:`~mocapkit.cleaning.pipeline.CleanResult`).
 It holds no trajectories: the cleaned capture is the output file.
 """
@@ -30,7 +30,8 @@ class MarkerRecord:
     ``labels`` (M,); ``filled``, ``spikes``, ``swapped``, ``changed``: bool (F, M) masks of the samples
     filled, removed as spikes, re-labelled and changed; ``fixes`` and ``unfilled``: one dict per fix and per gap
     left missing (the fields of :class:`~mocapkit.cleaning.markers.clean.MarkerFix`); ``never_seen`` and
-    ``unlabelled``: marker names.
+    ``unlabelled``: marker names; ``nobody_seen``: ``(subject, start, end)`` runs of frames where none of a
+    subject's markers is seen, left missing (() in a record written before they were kept).
     """
 
     labels: tuple[str, ...]
@@ -42,6 +43,7 @@ class MarkerRecord:
     unfilled: tuple[dict, ...]
     never_seen: tuple[str, ...]
     unlabelled: tuple[str, ...]
+    nobody_seen: tuple[tuple[str, int, int], ...] = ()
 
     @property
     def num_frames(self) -> int:
@@ -95,5 +97,12 @@ def read_marker_record(path) -> MarkerRecord:
     def names(key: str) -> tuple[str, ...]:
         return tuple(str(x) for x in np.asarray(z[key]).reshape(-1)) if key in z else ()
 
+    absent = ()
+    if "nobody_seen" in z:
+        try:
+            runs = json.loads(str(np.asarray(z["nobody_seen"])))
+            absent = tuple((str(w), int(a), int(b)) for w, a, b in runs)
+        except (ValueError, TypeError):
+            raise MocapFormatError(path, "nobody_seen: not the JSON list of [subject, start, end] a record holds") from None
     return MarkerRecord(labels=labels, fixes=listed("fixes"), unfilled=listed("unfilled"),
-                        never_seen=names("never_seen"), unlabelled=names("unlabelled"), **masks)
+                        never_seen=names("never_seen"), unlabelled=names("unlabelled"), nobody_seen=absent, **masks)
