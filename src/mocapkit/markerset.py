@@ -374,7 +374,9 @@ class MarkerSet:
           are at every seen frame equally far from O (within 0.05 mm) in
           mutually perpendicular directions (cosines under 0.001): an axis
           triad (Plug-in Gait's segment axes HEDO/HEDA/HEDL/HEDP, LFEO, ...),
-          which no four skin markers form;
+          which no four skin markers form; the four of one subject (the same
+          ``Subject:`` prefix, :func:`subject_of`: in a two-subject file
+          Alice:LFEO goes with Alice:LFEA, not Bob's);
         - the weaker clue of a name: ``CentreOfMass`` / ``CenterOfMass``.
         """
         pos = np.asarray(self.positions, dtype=np.float64)
@@ -392,16 +394,17 @@ class MarkerSet:
         projected = flat & np.any(zero & (np.mean(zero[flat], axis=0) < 0.5), axis=1) if flat.any() else flat
         out |= projected  # a coordinate 0 that most points' is not (a planar capture's z == 0 everywhere is no clue)
         bare = [str(label).split(":")[-1].strip() for label in self.labels]
-        where = {b: i for i, b in enumerate(bare)}
+        who = [subject_of(label) for label in self.labels]  # a triad is one subject's: Alice's LFEO with her LFEA, ...
+        where = {(w, b): i for i, (w, b) in enumerate(zip(who, bare))}
         try:
             unit_cm = self.unit_cm
         except ValueError:  # a unit length_unit_cm does not know: read as millimetres
             unit_cm = 0.1
         tol = 0.005 / max(unit_cm, 1e-12)  # 0.05 mm in the take's unit
-        for i, b in enumerate(bare):
-            if len(b) < 2 or not b.endswith("O") or not all(b[:-1] + k in where for k in "ALP"):
+        for i, (w, b) in enumerate(zip(who, bare)):
+            if len(b) < 2 or not b.endswith("O") or not all((w, b[:-1] + k) in where for k in "ALP"):
                 continue
-            group = [i] + [where[b[:-1] + k] for k in "ALP"]
+            group = [i] + [where[(w, b[:-1] + k)] for k in "ALP"]
             both = np.all(seen[:, group], axis=1)
             if both.sum() < 10:
                 continue
