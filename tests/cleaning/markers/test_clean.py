@@ -312,3 +312,28 @@ def test_frames_where_nobody_is_seen_mid_take_stay_missing_per_subject(cmu, tmp_
     from mocapkit.cleaning.markers.record import read_marker_record
 
     assert read_marker_record(res.save(tmp_path / "two.clean.npz")).nobody_seen == (("Alice", 300, 420),)
+
+
+def test_fills_expected_to_be_off_by_more_than_the_marker_spacing_are_left_missing(shared_data):
+    # BTS.c3d (a real gait walk-in): markers enter the volume between frames 239 and 401; each was extrapolated back
+    # to 239 from its one seen end and written, "r heel 239-294 donors (LATT), expected error 593 mm" among them.
+    # A fill expected to be off by more than the marker's distance to its nearest marker is left missing and named.
+    from mocapkit.cleaning.markers.gaps import error_limits
+
+    ms = read_c3d(shared_data / "peer_files" / "pyomeca+ezc3d-testFiles" / "BTS.c3d")
+    res = clean_markers(ms)
+    heel = [x for x in res.unfilled if x.marker == "r heel" and x.start == 239]
+    assert len(heel) == 1 and "at frame 0 " not in heel[0].note  # frames named in the take's numbers
+    assert np.all(np.isnan(np.asarray(res.markers.positions)[239:295, ms.labels.index("r heel")]))
+    over = [x for x in res.unfilled if "over the" in x.note]
+    assert over and all(f"expected error {x.expected_mm:.0f} mm" in x.note for x in over)
+    limit = error_limits(distance_stats(np.asarray(ms.positions)))  # mm: BTS is in mm
+    gaps = [x for x in res.fixes if x.kind == "gap"]
+    assert gaps and all(x.expected_mm <= limit[ms.labels.index(x.marker)] + 1e-9 for x in gaps
+                        if np.isfinite(x.expected_mm))
+    one = [x for x in gaps if x.start == 239]  # a gap from the frame the walker comes in: one seen end
+    assert one and all(x.ends == 1 and "extrapolated from its one seen end" in x.size_text for x in one)
+    # no limit: written as before
+    free = clean_markers(ms, max_error_mm=float("inf"))
+    assert not any(x.marker == "r heel" and x.start == 239 for x in free.unfilled)
+    assert int(free.filled.sum()) > int(res.filled.sum())

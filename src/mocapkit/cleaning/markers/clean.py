@@ -58,7 +58,10 @@ class MarkerFix:
     method; the donors' names, comma-separated); ``expected_mm``, the fill's
     RMS error on stretches of the same length cut where the marker is seen
     (mm; NaN where none could be cut: the fill is unvalidated); ``note``,
-    for a gap left missing, why no fill was plausible.
+    for a gap left missing, why no fill was plausible; ``ends``, how many
+    seen ends a gap has: 1 where it reaches the take's first or last frame
+    or frames where nobody is seen (its fill is an extrapolation from that
+    one end, and ``size_mm`` measures from the one seen sample).
     """
 
     marker: str
@@ -72,6 +75,7 @@ class MarkerFix:
     donors: str = ""
     expected_mm: float = float("nan")
     note: str = ""
+    ends: int = 2
 
     @property
     def fill_text(self) -> str:
@@ -88,7 +92,8 @@ class MarkerFix:
         """``size_mm`` in words, after a gap's :attr:`fill_text`: what the number measures differs by kind (a gap's is no error)."""
         if self.note:
             return f"{self.fill_text or 'removed'}: left missing: no plausible fill ({self.note})"
-        what = {"gap": "fill up to {} mm off the straight line between the gap's ends",
+        what = {"gap": "fill up to {} mm off the straight line between the gap's ends" if self.ends != 1 else
+                "extrapolated from its one seen end: fill up to {} mm from the sample seen there",
                 "spike": "removed samples up to {} mm from the fill",
                 "swap": "markers {} mm apart where it starts"}.get(self.kind, "{} mm")
         text = what.format(f"{self.size_mm:.1f}")
@@ -241,7 +246,8 @@ def _swap_sources(x: np.ndarray, y: np.ndarray, swapped: np.ndarray) -> np.ndarr
 
 
 def clean_markers(markers, *, steps=STEPS, spike_mm: float = 15.0, swap_mm: float = 15.0,
-                  max_gap_s: float | None = None, constrain: bool = True) -> MarkerCleanResult:
+                  max_gap_s: float | None = None, constrain: bool = True,
+                  max_error_mm: float | None = None) -> MarkerCleanResult:
     """Clean a :class:`MarkerSet`: undo label swaps, remove spikes, fill gaps.
 
     Parameters
@@ -256,6 +262,13 @@ def clean_markers(markers, *, steps=STEPS, spike_mm: float = 15.0, swap_mm: floa
         Detection thresholds in millimetres (see :func:`spike_mask`, :func:`undo_swaps`).
     max_gap_s : float, optional
         Gaps longer than this are left missing.
+    max_error_mm : float, optional
+        A fill whose expected error (its RMS error on stretches of the same
+        length cut where the marker is seen) is larger than this, in mm, is
+        not written: the gap is left missing and named in ``unfilled``.
+        Default: each marker's distance to its nearest marker (at least 50
+        mm: :func:`~mocapkit.cleaning.markers.gaps.error_limits`); ``inf``
+        writes every plausible fill.
     constrain : bool
         Pull filled samples to their usual distances from their rigid
         neighbours (soft constraints, :mod:`~mocapkit.cleaning.markers.constraints`),
@@ -302,7 +315,8 @@ def clean_markers(markers, *, steps=STEPS, spike_mm: float = 15.0, swap_mm: floa
         stats = distance_stats(y)
         max_gap = None if max_gap_s is None else int(round(max_gap_s * markers.fps))
         out, records = fill_gaps(y, stats=stats, max_gap=max_gap, constrain=constrain, unit_mm=unit_mm,
-                                 smooth=SMOOTH_S * markers.fps, subjects=subjects)
+                                 smooth=SMOOTH_S * markers.fps, subjects=subjects,
+                                 max_error=None if max_error_mm is None else max_error_mm / unit_mm)
         for r in records:
             run = slice(r.start, r.end)
             is_spike = bool(np.all(spikes[run, r.marker]))
@@ -329,7 +343,7 @@ def clean_markers(markers, *, steps=STEPS, spike_mm: float = 15.0, swap_mm: floa
                 u = (np.arange(1, b - a + 1) / (b - a + 1))[:, None]
                 line = (1 - u) * ref[0] + u * ref[-1]
                 size = float(np.max(np.linalg.norm(out[run, r.marker] - line, axis=-1)))
-                fixes.append(MarkerFix(labels[r.marker], a, b, "gap", size * unit_mm, **how))
+                fixes.append(MarkerFix(labels[r.marker], a, b, "gap", size * unit_mm, ends=len(ends), **how))
     # a spike no fill reached stays missing rather than wrong
     fixes.sort(key=lambda x: (x.start, x.marker, x.kind))
     out = full.copy()

@@ -71,7 +71,10 @@ from .lowrank import fill_lowrank
 from .plausible import TakeLimits, implausible, take_limits
 from .rigid import DistanceStats, distance_stats, donor_order, from_local, local_frames, to_local
 
-__all__ = ["GapFill", "SMOOTH_S", "gap_runs", "fill_gaps", "nobody_seen"]
+__all__ = ["GapFill", "SMOOTH_S", "gap_runs", "fill_gaps", "nobody_seen", "error_limits", "MIN_ERROR_LIMIT_MM"]
+
+MIN_ERROR_LIMIT_MM = 50.0
+"""The least default limit on a fill's expected error (mm): see :func:`error_limits`."""
 
 
 @dataclass(frozen=True)
@@ -144,6 +147,22 @@ def nobody_seen(missing: np.ndarray, subjects=None) -> list[tuple[str, int, int]
             continue
         out += [(name, int(a), int(b)) for a, b in zip(*gap_runs(none))]
     return sorted(out, key=lambda r: (r[1], r[0]))
+
+
+def error_limits(stats: DistanceStats, unit_mm: float = 1.0) -> np.ndarray:
+    """(M,) the default limit on a fill's expected error: each marker's median distance to its nearest marker.
+
+    In the capture's unit, at least :data:`MIN_ERROR_LIMIT_MM`. A fill
+    expected to be off by more than the distance between the marker and its
+    nearest neighbour cannot tell the one from the other: a heel extrapolated
+    0.6 m while out of the volume is a guess, not a measurement. NaN-free:
+    a marker never seen with another gets the floor.
+    """
+    med = np.array(stats.median, dtype=np.float64)
+    np.fill_diagonal(med, np.nan)
+    with np.errstate(all="ignore"):
+        near = np.nanmin(np.where(np.isfinite(med), med, np.inf), axis=1)
+    return np.maximum(np.where(np.isfinite(near), near, 0.0), MIN_ERROR_LIMIT_MM / unit_mm)
 
 
 def _donor_fill(pos: np.ndarray, m: int, a: int, b: int, donors, cubic: bool = False, side: int = 0) -> np.ndarray | None:
@@ -393,7 +412,7 @@ def _lowrank_fill(pos: np.ndarray, m: int, a: int, b: int, order: np.ndarray, st
 def fill_gaps(positions: np.ndarray, *, stats: DistanceStats | None = None, candidates: int = 4, keep: int = 3,
               max_gap: int | None = None, constrain: bool = True, predictors: int = 6, guard: bool = True,
               unit_mm: float = 1.0, smooth: float = SMOOTH_FRAMES, subjects=None,
-              markers=None) -> tuple[np.ndarray, list[GapFill]]:
+              markers=None, max_error=None, first_frame: int = 0) -> tuple[np.ndarray, list[GapFill]]:
     """Fill every gap of every marker that is seen at least once, except where none of its subject's markers is.
 
     Parameters
@@ -437,6 +456,14 @@ def fill_gaps(positions: np.ndarray, *, stats: DistanceStats | None = None, cand
     markers : sequence of int, optional
         Fill only these markers' gaps (default: every marker's); the others
         still serve as donors.
+    max_error : float or float array (M,), optional
+        A fill whose expected error (its RMS error on the validation gaps) is
+        larger than this, in the capture's unit, is not written: the gap is
+        left missing and its record says so. Default: :func:`error_limits`
+        (each marker's distance to its nearest marker); ``inf``: no limit.
+    first_frame : int
+        The frame number of ``positions``' first frame in the take it is part
+        of: the frames a record's ``implausible`` names count from it.
 
     Returns
     -------
@@ -474,22 +501,27 @@ def fill_gaps(positions: np.ndarray, *, stats: DistanceStats | None = None, cand
             lo, hi = int(lo), int(hi)
             inner, inner_records = fill_gaps(pos[lo:hi], stats=stats, candidates=candidates, keep=keep,
                                              max_gap=max_gap, constrain=constrain, predictors=predictors, guard=guard,
-                                             unit_mm=unit_mm, smooth=smooth, subjects=names, markers=mine)
+                                             unit_mm=unit_mm, smooth=smooth, subjects=names, markers=mine,
+                                             max_error=error_limits(stats, unit_mm) if max_error is None else max_error,
+                                             first_frame=first_frame + lo)
             out[lo:hi, mine] = inner[:, mine]
             records += [replace(r, start=r.start + lo, end=r.end + lo) for r in inner_records]
     if not todo.any():
         return out, sorted(records, key=lambda r: (r.marker, r.start))
     order = donor_order(stats)
     limits = take_limits(pos, stats, order, unit_mm) if guard else None
+    worst = error_limits(stats, unit_mm) if max_error is None else np.broadcast_to(np.asarray(max_error, float), (m_count,))
     split = records
     records = []
     for m in np.flatnonzero(todo):
         for a, b in zip(*gap_runs(missing[:, m])):
             a, b = int(a), int(b)
-            if max_gap is not None and b - a > max_gap:
+            if max_gap is not None and b - a > max_gap:  # left missing, and said so
+                records.append(GapFill(int(m), a, b, "", implausible=f"longer than --max-gap ({max_gap} frames): "
+                                                                     "not filled"))
                 continue
             rec = _fill_one(pos, out, int(m), a, b, order, stats, candidates, keep, predictors, constrain,
-                            limits, unit_mm, smooth)
+                            limits, unit_mm, smooth, float(worst[m]), first_frame)
             if rec is not None:
                 records.append(rec)
     if constrain and any(r.constrained for r in records):
@@ -548,14 +580,16 @@ def _constraint_helps(pos: np.ndarray, m: int, checks, stats: DistanceStats, ord
 
 
 def _fill_one(pos, out, m, a, b, order, stats, candidates, keep, predictors, constrain,
-              limits: TakeLimits | None = None, unit_mm: float = 1.0, smooth: float = 0.0) -> GapFill | None:
+              limits: TakeLimits | None = None, unit_mm: float = 1.0, smooth: float = 0.0,
+              max_error: float = np.inf, first_frame: int = 0) -> GapFill | None:
     """Fill marker m's gap a..b-1 of ``pos`` into ``out``; its record, or None when nothing could fill it.
 
     The fills tried, in turn: the weighted average of the ``keep`` best
     validated models, then each usable model alone, best validated first
     (unvalidated ones last), then the low-rank fill and the room-coordinate
     interpolation. With ``limits`` the first that passes the plausibility
-    guard is written; when none does, nothing is written and the record
+    guard, and whose expected error is at most ``max_error`` (unit of
+    ``pos``), is written; when none does, nothing is written and the record
     says why the first failed (``implausible``).
     """
     f = pos.shape[0]
@@ -597,6 +631,9 @@ def _fill_one(pos, out, m, a, b, order, stats, candidates, keep, predictors, con
         tries += [(fills[i], i, [(s, e, c[i]) for (s, e), c in zip(spans, checks) if c[i] is not None]) for i in alone]
         tries = [(est, _method(models[i]), models[i][0], float(errs[i]) if np.isfinite(errs[i]) else float("nan"), v)
                  for est, i, v in tries]
+        if validated and len(best) > 1:  # the average's own error on the validation gaps, not its best model's
+            own = [np.mean(np.sum((v - pos[s:e, m]) ** 2, axis=-1)) for s, e, v in validated]
+            tries[0] = tries[0][:3] + (float(np.sqrt(np.mean(own))),) + tries[0][4:]
     else:
         est = _lowrank_fill(pos, m, a, b, order, stats)
         if est is not None:
@@ -612,7 +649,12 @@ def _fill_one(pos, out, m, a, b, order, stats, candidates, keep, predictors, con
     for k, (est, method, donors, expected, validated) in enumerate(tries):
         if k and len(tries) > 1 and np.array_equal(est, tries[0][0]):
             continue  # the average of one model is that model: tried already
-        why = implausible(pos, m, a, b, est, limits, unit_mm) if limits is not None else ""
+        why = ""
+        if np.isfinite(expected) and expected > max_error:
+            why = (f"expected error {expected * unit_mm:.0f} mm, over the {max_error * unit_mm:.0f} mm a fill may be "
+                   "off (the distance to its nearest marker; --max-fill-error)")
+        elif limits is not None:
+            why = implausible(pos, m, a, b, est, limits, unit_mm, first_frame)
         rec = GapFill(m, a, b, method, tuple(donors), expected, False, why)
         first = first or rec
         if why:
