@@ -337,3 +337,14 @@ def test_fills_expected_to_be_off_by_more_than_the_marker_spacing_are_left_missi
     free = clean_markers(ms, max_error_mm=float("inf"))
     assert not any(x.marker == "r heel" and x.start == 239 for x in free.unfilled)
     assert int(free.filled.sum()) > int(res.filled.sum())
+
+
+def test_a_take_whose_residuals_are_all_zero_is_told_its_fills_cannot_be_told_apart(cmu):
+    # a C3D whose every residual is 0 (s3_res0.c3d of trial C): fills get residual 0 too, as C3D has it
+    x = np.asarray(cmu.positions, dtype=np.float64).copy()
+    x[300:360, 9] = np.nan
+    take = dataclasses.replace(cmu, positions=x, residuals=np.zeros(x.shape[:2]))
+    lines = clean_markers(take).summary()
+    assert any("residuals are all 0" in line and ".clean.npz" in line for line in lines)
+    measured = dataclasses.replace(cmu, positions=x, residuals=np.ones(x.shape[:2]))  # as CMU's file is not
+    assert not any("residuals are all 0" in line for line in clean_markers(measured).summary())

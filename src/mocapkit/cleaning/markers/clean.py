@@ -61,7 +61,8 @@ class MarkerFix:
     for a gap left missing, why no fill was plausible; ``ends``, how many
     seen ends a gap has: 1 where it reaches the take's first or last frame
     or frames where nobody is seen (its fill is an extrapolation from that
-    one end, and ``size_mm`` measures from the one seen sample).
+    one end, and ``size_mm`` measures from the one seen sample); ``models``,
+    how many models' fills were averaged (``method`` and ``donors`` then name the best).
     """
 
     marker: str
@@ -76,6 +77,7 @@ class MarkerFix:
     expected_mm: float = float("nan")
     note: str = ""
     ends: int = 2
+    models: int = 1
 
     @property
     def fill_text(self) -> str:
@@ -83,6 +85,8 @@ class MarkerFix:
         if self.kind != "gap":
             return ""
         how = self.method + (f" ({self.donors})" if self.donors else "")
+        if self.models > 1:
+            how = f"average of {self.models} fills, the best {how}"
         doubt = (f"expected error {self.expected_mm:.1f} mm" if np.isfinite(self.expected_mm)
                  else "expected error unknown (no seen stretch to validate on)")
         return f"{self.seconds:.2f} s, {how}, {doubt}"
@@ -199,6 +203,11 @@ class MarkerCleanResult:
                          "one starting with '*') left as read: not a marker's identity, so not cleaned")
         if self.never_seen:
             lines.append(f"missing in the whole take, left missing: {', '.join(self.never_seen)}")
+        res = getattr(self.original, "residuals", None)
+        seen = ~self.original.missing() if hasattr(self.original, "missing") else None
+        if res is not None and (self.filled | self.spikes).any() and seen.any() and np.all(res[seen] == 0):
+            lines.append("the input's residuals are all 0, as a fill's are (C3D: 0 is 'interpolated'): the written file "
+                         "cannot tell fills from recorded samples; the .clean.npz's masks (filled, spikes) can")
         return lines
 
     def save(self, path, written: dict | None = None) -> Path:
@@ -323,7 +332,8 @@ def clean_markers(markers, *, steps=STEPS, spike_mm: float = 15.0, swap_mm: floa
             if not is_spike and "gaps" not in steps:
                 continue
             how = dict(seconds=(r.end - r.start) / markers.fps, method=r.method,
-                       donors=", ".join(labels[d] for d in r.donors), expected_mm=r.expected_error * unit_mm)
+                       donors=", ".join(labels[d] for d in r.donors), expected_mm=r.expected_error * unit_mm,
+                       models=r.models)
             if not r.filled:  # no plausible fill: left missing, and said so (a spike run's samples removed: a change)
                 left_fix = MarkerFix(labels[r.marker], r.start, r.end, "spike" if is_spike else "gap", float("nan"),
                                      note=r.implausible, **how)

@@ -106,6 +106,10 @@ class GapFill:
         (:func:`~mocapkit.cleaning.markers.plausible.implausible`: the
         reason the best model's fill failed): the gap is left missing, and
         ``method``, ``donors`` and ``expected_error`` describe that rejected fill.
+    models : int
+        How many models' fills were averaged (weights 1 / error^2); 1 for a
+        single model's fill. ``method`` and ``donors`` name the best of them,
+        ``expected_error`` is the average's own.
     """
 
     marker: int
@@ -116,6 +120,7 @@ class GapFill:
     expected_error: float = float("nan")
     constrained: bool = False
     implausible: str = ""
+    models: int = 1
 
     @property
     def filled(self) -> bool:
@@ -609,6 +614,7 @@ def _fill_one(pos, out, m, a, b, order, stats, candidates, keep, predictors, con
     checks = [_fills(pos, m, s, e, models, order, stats, side) for s, e in spans]
     usable = [i for i, est in enumerate(fills) if est is not None]
     tries = []  # (fill, method, donors, expected error, validated fills of the spans or None)
+    averaged = 1
     if usable:
         errs = np.full(len(models), np.inf)
         for i in usable:
@@ -627,6 +633,7 @@ def _fill_one(pos, out, m, a, b, order, stats, candidates, keep, predictors, con
                 wk = w[have] / w[have].sum()
                 validated.append((s, e, np.tensordot(wk, np.stack([c[best[k]] for k in have]), axes=1)))
         tries.append((np.tensordot(w / w.sum(), np.stack([fills[i] for i in best]), axes=1), best[0], validated))
+        averaged = len(best)
         alone = sorted(usable, key=lambda i: errs[i])  # stable: unvalidated (inf) ones last, in model order
         tries += [(fills[i], i, [(s, e, c[i]) for (s, e), c in zip(spans, checks) if c[i] is not None]) for i in alone]
         tries = [(est, _method(models[i]), models[i][0], float(errs[i]) if np.isfinite(errs[i]) else float("nan"), v)
@@ -655,7 +662,7 @@ def _fill_one(pos, out, m, a, b, order, stats, candidates, keep, predictors, con
                    "off (the distance to its nearest marker; --max-fill-error)")
         elif limits is not None:
             why = implausible(pos, m, a, b, est, limits, unit_mm, first_frame)
-        rec = GapFill(m, a, b, method, tuple(donors), expected, False, why)
+        rec = GapFill(m, a, b, method, tuple(donors), expected, False, why, averaged if k == 0 else 1)
         first = first or rec
         if why:
             continue
