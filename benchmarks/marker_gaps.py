@@ -33,7 +33,9 @@ Fills, all run here on the same gaps:
 
 A case where mocapkit leaves a gap missing (no fill passes its plausibility
 check, :mod:`mocapkit.cleaning.markers.plausible`) is scored for no method and
-counted (``*_left_missing_cases``): every figure compares the methods on the
+counted (``*_left_missing_cases``; of them, ``*_over_error_limit_cases`` left
+missing because a fill's expected error was over the default limit,
+:func:`mocapkit.cleaning.markers.gaps.error_limits`): every figure compares the methods on the
 same gaps, those mocapkit fills.
 
 The method was developed looking at 85_12 and HDM_bd_05-01_01_120;
@@ -178,6 +180,7 @@ def run_capture(name: str, cases: int, seed: int):
     sq = {(b, k): [] for b in bands_of(len(x), fps) for k in METHODS}
     seconds = {k: 0.0 for k in METHODS}
     left = {b: 0 for b in bands_of(len(x), fps)}
+    over = {b: 0 for b in bands_of(len(x), fps)}
     jolt = {(b, k): [] for b in bands_of(len(x), fps) for k in JOLT_METHODS}
     for band in bands_of(len(x), fps):
         span = BANDS[band]
@@ -195,7 +198,8 @@ def run_capture(name: str, cases: int, seed: int):
                 elif k == "pca":
                     z = fill_pca(y, fps, stats)
                 else:
-                    z = fill_gaps(y, smooth=SMOOTH_S * fps)[0]
+                    z, records = fill_gaps(y, smooth=SMOOTH_S * fps)
+                    over[band] += any("over the" in r.implausible for r in records)
                 seconds[k] += time.perf_counter() - t0
                 fills[k] = z
                 e = np.sum((z[mask] - x[mask]) ** 2, axis=-1)
@@ -207,7 +211,7 @@ def run_capture(name: str, cases: int, seed: int):
                 sq[(band, k)].append(errs[k])
                 if k in JOLT_METHODS:
                     jolt[(band, k)] += accel_ratios(fills[k], x, mask)
-    return {key: np.concatenate(v) if v else np.zeros(0) for key, v in sq.items()}, seconds, left, jolt
+    return {key: np.concatenate(v) if v else np.zeros(0) for key, v in sq.items()}, seconds, left, jolt, over
 
 
 def accel_ratios(z: np.ndarray, x: np.ndarray, mask: np.ndarray) -> list[float]:
@@ -238,9 +242,9 @@ def main() -> None:
     ap = harness.parser(__doc__)
     ap.add_argument("--cases", type=int, default=6, help="takes per capture, band and setting (one / three markers)")
     args = ap.parse_args()
-    per, secs, left, jolt = {}, {}, {}, {}
+    per, secs, left, jolt, over = {}, {}, {}, {}, {}
     for i, name in enumerate(CAPTURES):
-        per[name], secs[name], left[name], jolt[name] = run_capture(name, args.cases, seed=100 + i)
+        per[name], secs[name], left[name], jolt[name], over[name] = run_capture(name, args.cases, seed=100 + i)
     table = {}
     for name in CAPTURES:
         table[name] = {b: {k: round(rms([per[name][(b, k)]]), 2) for k in METHODS} for b in BANDS if (b, "mocapkit") in per[name]}
@@ -256,6 +260,7 @@ def main() -> None:
             r = {k: rms([per[n][(b, k)] for n in names_b]) for k in METHODS}
             figures[f"{group}_{b}_mocapkit_mm"] = round(r["mocapkit"], 2)
             figures[f"{group}_{b}_left_missing_cases"] = sum(left[n].get(b, 0) for n in names_b)
+            figures[f"{group}_{b}_over_error_limit_cases"] = sum(over[n].get(b, 0) for n in names_b)
             for k in METHODS[:-1]:
                 figures[f"{group}_{b}_{k}_mm"] = round(r[k], 2)
             best_interp = min(r["linear"], r["spline"])

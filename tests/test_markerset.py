@@ -205,3 +205,18 @@ def test_the_unit_inferred_from_marker_distances_is_never_wrong_on_real_files(sh
         assert infer_units(in_cm) is None, path  # the same data in cm
         checked += 1
     assert checked > 40
+
+
+def test_computed_points_are_found_per_subject_in_a_two_subject_file(shared_data):
+    # Nexus prefixes each subject's points (Alice:LFEO, Bob:LFEO): an axis triad was looked up by its name without
+    # the prefix, so the last subject's index won: Alice's axes (96 in Plug-in Gait, 20 found by name or the floor)
+    # were cleaned as markers, filled (170 samples made up) and used as donors for her real markers
+    from mocapkit.io import load_markers
+
+    one = load_markers(shared_data / "c3d_markers" / "PiG_Motion-FlatFoot-Full.c3d")
+    alone = one.computed()
+    assert alone.sum() == 96
+    x = np.asarray(one.positions)
+    labels = tuple(f"{who}:{label}" for who in ("Alice", "Bob") for label in one.labels)
+    two = MarkerSet(labels=labels, positions=np.concatenate([x, x + [0.0, 2500.0, 0.0]], axis=1), fps=one.fps)
+    assert two.computed().tolist() == alone.tolist() * 2

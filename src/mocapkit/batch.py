@@ -340,13 +340,14 @@ def refuse_marker_options(inp, names: Sequence[str]) -> None:
 
 
 def clean_marker_file(inp, out, *, report=None, png=None, overwrite: bool = False, markers=None, steps=None,
-                      unit: str | None = None):
+                      unit: str | None = None, max_gap_s: float | None = None, max_error_mm: float | None = None):
     """Clean the marker capture at ``inp`` (.c3d, .trc, marker .npz) into ``out`` (.c3d, .trc or .npz).
 
     :func:`mocapkit.cleaning.markers.clean_markers`, then the reports (HTML
     marker viewer, per-marker PNG), ``out`` written like the input
     (``save_markers(..., like=input)``: a C3D keeps its parameters and
-    analogs) and the ``.clean.npz`` record last. Returns ``(original, result)``.
+    analogs) and the ``.clean.npz`` record last. ``max_gap_s``, ``max_error_mm``: as for
+    :func:`~mocapkit.cleaning.markers.clean_markers`. Returns ``(original, result)``.
     """
     from .cleaning.markers import STEPS as MARKER_STEPS
     from .cleaning.markers import clean_markers
@@ -362,7 +363,7 @@ def clean_marker_file(inp, out, *, report=None, png=None, overwrite: bool = Fals
     taken = file_facts(inp)
     ms = markers if markers is not None else load_markers(inp, **({} if unit is None else {"units": unit}))
     try:
-        res = clean_markers(ms, steps=steps or MARKER_STEPS)
+        res = clean_markers(ms, steps=steps or MARKER_STEPS, max_gap_s=max_gap_s, max_error_mm=max_error_mm)
     except ValueError as exc:
         raise MocapError(f"{inp}: {exc}") from None
     with removed_on_failure(outputs, overwrite=overwrite, marker=record):

@@ -24,6 +24,7 @@ import numpy as np
 from .motion import check_fps, frame_slice, frozen
 
 __all__ = ["MarkerSet", "MarkerSource", "length_unit_cm", "zero_gap_mask", "unique_labels", "repeated_labels_note",
+           "subject_of",
            "infer_units", "marker_units", "ZERO_GAP_DISTANCE_CM", "BODY_SPAN_M",
            "MODELLED_GROUPS"]
 
@@ -97,6 +98,16 @@ def repeated_labels_note(file_labels, labels) -> tuple[str, ...]:
     return (f"the file repeats marker label{'s' if len(names) > 1 else ''} {', '.join(names[:8])}"
             f"{' ...' if len(names) > 8 else ''}: the repeats are called {shown} here; files written from this "
             "take keep the file's labels",)
+
+
+def subject_of(label: str) -> str:
+    """The subject a marker label names: the text before its first ``:`` ("Alice" for "Alice:LTHI"), stripped; "" for none.
+
+    Vicon Nexus and Qualisys prefix each marker of a multi-subject (or subject-and-prop) capture with its subject's
+    name; cleaning treats each subject's markers as one body (:func:`mocapkit.cleaning.markers.gaps.nobody_seen`).
+    """
+    text = str(label)
+    return text.split(":", 1)[0].strip() if ":" in text else ""
 
 
 def length_unit_cm(units: str) -> float:
@@ -363,7 +374,9 @@ class MarkerSet:
           are at every seen frame equally far from O (within 0.05 mm) in
           mutually perpendicular directions (cosines under 0.001): an axis
           triad (Plug-in Gait's segment axes HEDO/HEDA/HEDL/HEDP, LFEO, ...),
-          which no four skin markers form;
+          which no four skin markers form; the four of one subject (the same
+          ``Subject:`` prefix, :func:`subject_of`: in a two-subject file
+          Alice:LFEO goes with Alice:LFEA, not Bob's);
         - the weaker clue of a name: ``CentreOfMass`` / ``CenterOfMass``.
         """
         pos = np.asarray(self.positions, dtype=np.float64)
@@ -381,16 +394,17 @@ class MarkerSet:
         projected = flat & np.any(zero & (np.mean(zero[flat], axis=0) < 0.5), axis=1) if flat.any() else flat
         out |= projected  # a coordinate 0 that most points' is not (a planar capture's z == 0 everywhere is no clue)
         bare = [str(label).split(":")[-1].strip() for label in self.labels]
-        where = {b: i for i, b in enumerate(bare)}
+        who = [subject_of(label) for label in self.labels]  # a triad is one subject's: Alice's LFEO with her LFEA, ...
+        where = {(w, b): i for i, (w, b) in enumerate(zip(who, bare))}
         try:
             unit_cm = self.unit_cm
         except ValueError:  # a unit length_unit_cm does not know: read as millimetres
             unit_cm = 0.1
         tol = 0.005 / max(unit_cm, 1e-12)  # 0.05 mm in the take's unit
-        for i, b in enumerate(bare):
-            if len(b) < 2 or not b.endswith("O") or not all(b[:-1] + k in where for k in "ALP"):
+        for i, (w, b) in enumerate(zip(who, bare)):
+            if len(b) < 2 or not b.endswith("O") or not all((w, b[:-1] + k) in where for k in "ALP"):
                 continue
-            group = [i] + [where[b[:-1] + k] for k in "ALP"]
+            group = [i] + [where[(w, b[:-1] + k)] for k in "ALP"]
             both = np.all(seen[:, group], axis=1)
             if both.sum() < 10:
                 continue
@@ -512,12 +526,15 @@ class MarkerSet:
 def zero_gap_mask(positions, unit_cm: float, skip=()) -> np.ndarray:
     """Boolean (F, M) mask of samples that are gaps stored as exact (0, 0, 0).
 
-    A sample is a zero gap when all three coordinates are exactly 0.0 and the
-    marker's observed samples right before and after each such run lie at least
-    :data:`ZERO_GAP_DISTANCE_CM` from the origin: the marker jumps to the lab
-    origin and back, which a tracked marker does not do, while a trajectory
-    that really passes through the origin (or a modelled quantity such as a
-    ground reaction force that rises from zero) approaches it gradually. A
+    Decided run by run: a run of samples of a marker at exactly (0, 0, 0) is a
+    gap unless the marker's own observed samples right before and right after
+    it (the one there is, at the take's start or end) all lie within
+    :data:`ZERO_GAP_DISTANCE_CM` of the origin: a trajectory that really
+    passes through the origin approaches it and leaves it gradually, while a
+    tracked marker does not jump to the lab origin from 10 cm or more away,
+    nor back. So one run next to a sample near the origin (a heel passing 5
+    cm from it, then occluded) says nothing about the marker's other runs,
+    and a run with one end near the origin and the other far is a gap too. A
     marker at (0, 0, 0) in every frame is a marker never seen. Markers whose
     index is in ``skip`` (e.g. a Vicon file's modelled angles and forces,
     listed in POINT:ANGLES, FORCES, MOMENTS, POWERS, SCALARS) are left alone.
@@ -539,15 +556,11 @@ def zero_gap_mask(positions, unit_cm: float, skip=()) -> np.ndarray:
             continue
         z = zero[:, m]
         edges = np.flatnonzero(np.diff(np.concatenate([[0], z.astype(np.int8), [0]])))
-        ok = True
         for a, b in zip(edges[::2], edges[1::2]):  # zero run [a, b)
             before = np.flatnonzero(seen[:a, m])
             after = np.flatnonzero(seen[b:, m])
             near = [dist[before[-1], m]] if len(before) else []
             near += [dist[b + after[0], m]] if len(after) else []
-            if any(d < far for d in near):
-                ok = False
-                break
-        if ok:
-            out[:, m] = z
+            if not near or any(d >= far for d in near):  # never seen, or a jump from or to 10 cm away: a gap
+                out[a:b, m] = True
     return out

@@ -124,6 +124,21 @@ def test_clean_c3d_to_trc_and_refusals(cut_take, tmp_path):
     assert code != 0 and "--reference" in stderr and not (tmp_path / "y.c3d").exists()
 
 
+def test_max_gap_and_max_fill_error_leave_gaps_missing_and_say_why(cut_take, tmp_path):
+    # clean_markers had max_gap_s and the CLI no way to set it; --max-fill-error sets the limit on a fill's
+    # expected error (default: the marker's distance to its nearest marker)
+    inp, _, mask = cut_take
+    code, stdout, stderr = run("clean", inp, "-o", tmp_path / "a.c3d", "--max-gap", "0.01")
+    assert code == 0, stderr
+    assert np.array_equal(np.isnan(_ezc3d_points(tmp_path / "a.c3d"))[..., 0], mask)  # every gap left as read
+    assert "longer than --max-gap (1 frames): not filled" in stdout  # and named
+    code, stdout, stderr = run("clean", inp, "-o", tmp_path / "b.c3d", "--max-fill-error", "0.001")
+    assert code == 0, stderr
+    assert "left missing: no plausible fill" in stdout and "over the 0 mm a fill may be off" in stdout
+    code, _, stderr = run("clean", SAMPLE, "-o", tmp_path / "c.bvh", "--max-fill-error", "10")
+    assert code != 0 and one_error_line(stderr) and "applies only to marker captures" in stderr
+
+
 @pytest.fixture
 def mixed_folder(cut_take, tmp_path):
     """IN_DIR with the cut marker capture and a skeletal take."""

@@ -346,6 +346,32 @@ def test_zeros_are_kept_where_a_trajectory_reaches_the_origin_gradually():
     assert not zero_gap_mask(pos, unit_cm=0.1, skip=[1]).any()
 
 
+def test_zero_gaps_are_decided_run_by_run_and_cleaning_moves_no_recorded_sample(shared_data, tmp_path):
+    # CMU 135_02's left heel passes 50 mm from the lab origin at frame 4420; an exporter writes its occlusions as
+    # exact zeros (residual >= 0): one right after that pass (4421-4439), one ordinary (4550-4599). Both are gaps: a
+    # run is kept as a position only when the marker's samples on both sides lie within 10 cm of the origin (the
+    # whole marker's zeros were kept as positions, because one run touched that area: 0 of 69 read as gaps, and
+    # cleaning moved the recorded samples beside the runs up to 38 mm, removed as "spikes").
+    from mocapkit.cleaning.markers import clean_markers
+    from mocapkit.io import load_markers, save_markers
+
+    take = load_markers(shared_data / "c3d_markers_recovery" / "135_02.c3d")[4200:4700]
+    j = take.labels.index("male:LHEE")
+    x = np.array(take.positions)
+    zeros = np.zeros(x.shape[:2], dtype=bool)
+    zeros[221:240, j] = zeros[350:400, j] = True
+    assert np.linalg.norm(x[220, j]) < 60.0  # the heel just before the first run, mm from the origin
+    x[zeros] = 0.0
+    path = save_markers(take.with_positions(x, residuals=np.ones(x.shape[:2])), tmp_path / "zeros.c3d")
+    back = load_markers(path)
+    assert back.zero_gaps == 69 and np.array_equal(back.missing(), zeros)
+    res = clean_markers(back)
+    out = np.asarray(res.markers.positions)
+    seen = ~back.missing()[:, j]
+    assert np.array_equal(out[seen, j], np.asarray(back.positions)[seen, j])  # no recorded sample moved
+    assert not np.any(np.all(out[:, j] == 0.0, axis=-1)) and res.filled[:, j].sum() == 69
+
+
 def test_every_peer_marker_file_reads_or_is_refused_in_one_line(shared_data):
     """Walk the peer files: each C3D and TRC gives a sane MarkerSet or a one-line MocapFormatError."""
     from mocapkit.io import load_markers

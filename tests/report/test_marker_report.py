@@ -59,6 +59,13 @@ def test_every_frame_of_every_fix_and_the_last_frame_are_kept(long_capture):
     assert f"of {F} frames" in note and "every frame of each fix" in note
 
 
+def test_the_shown_note_says_every_2nd_frame(long_capture, tmp_path):
+    res = long_capture[1]  # 3,240 frames, at most 2,000 shown: every 2nd (it said "every 2th frame")
+    path = write_marker_report(tmp_path / "half.html", res, max_frames=2000)
+    note = re.search(r'<p id="shown-note">(.*?)</p>', path.read_text()).group(1)
+    assert "the viewer shows every 2nd frame" in note
+
+
 @pytest.fixture(scope="module")
 def page(long_capture):
     yield from chromium_page(long_capture[0], "() => document.getElementById('flabel').textContent.length > 0")

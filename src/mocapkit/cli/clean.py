@@ -58,6 +58,12 @@ def clean(
     asf: Optional[Path] = asf_option(),
     amc_fps: Optional[float] = amc_fps_option(),
     unit: Optional[str] = unit_option(),
+    max_gap: Optional[float] = typer.Option(None, "--max-gap", metavar="S", min=0.0,
+                                            help="A marker capture: gaps longer than S seconds are left missing."),
+    max_fill_error: Optional[float] = typer.Option(
+        None, "--max-fill-error", metavar="MM", min=0.0,
+        help="A marker capture: a fill expected to be off by more than MM millimetres (its error where the marker is "
+             "seen) is left missing (default: the marker's distance to its nearest marker, at least 50 mm)."),
     overwrite: bool = overwrite_option(),
 ) -> None:
     """Clean a take: fill gaps, detect and repair erroneous joints, denoise only the noisy cells.
@@ -94,8 +100,11 @@ def clean(
     check_asf(asf, [inp, reference], amc_fps)
     check_noise_deg(noise_deg)
     if _clean_marker_take(inp, out, report=report, png=png, overwrite=overwrite, not_for_markers=not_for_markers,
-                          unit=unit):
+                          unit=unit, max_gap_s=max_gap, max_error_mm=max_fill_error):
         return
+    for name, given in (("--max-gap", max_gap), ("--max-fill-error", max_fill_error)):
+        if given is not None:
+            raise MocapError(f"{inp}: {name} applies only to marker captures (.c3d, .trc, marker .npz)")
     models = _models(ebf, ebd)
     skeleton = asf_of(inp, asf)
     skeleton_copy = asf_for_output(out, skeleton, overwrite)  # an AMC output reads back with its ASF beside it
@@ -225,7 +234,8 @@ def _print_decided(inp, out, decisions, record, report, png, original, res):
 
 
 def _clean_marker_take(inp: Path, out: Path, *, report, png, overwrite: bool, not_for_markers: list[str],
-                       unit: str | None = None) -> bool:
+                       unit: str | None = None, max_gap_s: float | None = None,
+                       max_error_mm: float | None = None) -> bool:
     """Clean ``inp`` as a marker capture when it is one (writing OUT, its record and reports); False for a motion.
 
     ``not_for_markers``: the options given that apply only to joint-angle takes, refused for a marker capture;
@@ -243,7 +253,8 @@ def _clean_marker_take(inp: Path, out: Path, *, report, png, overwrite: bool, no
     if not isinstance(take, MarkerSet):
         return False
     refuse_marker_options(inp, not_for_markers)
-    _, res = clean_marker_file(inp, out, report=report, png=png, overwrite=overwrite, markers=take)
+    _, res = clean_marker_file(inp, out, report=report, png=png, overwrite=overwrite, markers=take,
+                               max_gap_s=max_gap_s, max_error_mm=max_error_mm)
     extra = "".join(f" and {x}" for x in (report, png) if x is not None)
     console.print(f"wrote {out} and {clean_path(out)}{extra}: {plural(take.num_frames, 'frame')} x "
                   f"{plural(take.num_markers, 'marker')}, {int(res.changed.sum())} of "

@@ -124,7 +124,9 @@ def _shown_note(frames: np.ndarray, num_frames: int, stride: int, detail: str) -
     if len(frames) == num_frames:
         return ""
     extra = _DETAIL_WORDS.get(detail)
-    return (f"Long capture: the viewer shows every {stride}th frame, the last one"
+    suffix = {1: "st", 2: "nd", 3: "rd"}.get(stride % 10, "th") if stride % 100 not in (11, 12, 13) else "th"
+    nth = f"{stride}{suffix}"  # every 2nd frame, not "every 2th"
+    return (f"Long capture: the viewer shows every {nth} frame, the last one"
             + (f" and {extra}" if extra else "") + f" ({len(frames)} of {num_frames} frames); "
             "it plays in real time, skipping the frames between.")
 

@@ -13,6 +13,7 @@ from mocapkit.cleaning.markers import clean_markers, fill_gaps, spike_mask, undo
 from mocapkit.cleaning.markers.rigid import distance_stats, from_local, local_frames, to_local
 from mocapkit.cleaning.markers.spikes import prediction_matrix
 from mocapkit.io.c3d import read_c3d
+from mocapkit.markerset import MarkerSet
 from mocapkit import samples
 
 CMU = Path(__file__).resolve().parents[2] / "data" / "85_02.c3d"
@@ -280,3 +281,70 @@ def test_long_gap_fill_with_soft_constraints_does_not_jolt(cmu):
     worst_smooth = max(acc(smooth, m) / acc(x, m) for m in head)
     assert worst_smooth < 0.8 * worst_raw
     assert rms(smooth) < 1.02 * rms(raw)
+
+
+def test_frames_where_nobody_is_seen_mid_take_stay_missing_per_subject(cmu, tmp_path):
+    # The performer out of the volume for 2 s mid-take (all 41 markers hidden 300-539): every one of the 9,840
+    # samples was filled (RMS 647 mm from the truth, up to 1.7 m: a whole body invented); they stay missing and the
+    # summary says why. A marker's gap reaching into those frames is filled up to them, from its one seen end.
+    truth = np.asarray(cmu.positions, dtype=np.float64)
+    x = truth.copy()
+    x[300:540] = np.nan
+    x[280:300, 5] = np.nan
+    res = clean_markers(dataclasses.replace(cmu, positions=x), steps="gaps")
+    out = np.asarray(res.markers.positions)
+    assert np.all(np.isnan(out[300:540])) and np.all(np.isfinite(out[:300])) and np.all(np.isfinite(out[540:]))
+    assert np.linalg.norm(out[280:300, 5] - truth[280:300, 5], axis=-1).max() < 30.0  # mm
+    assert res.nobody_seen == (("Male", 300, 540),)
+    assert "Male: frames 300-539: nobody seen (out of the volume?), left missing" in res.summary()
+    # two subjects: Alice out of the volume 300-419 while Bob (the same walk, 2.5 m away) is seen; Bob's markers
+    # say nothing about where she is, so her frames stay missing there too, and Bob comes back as he went in
+    alice = truth.copy()
+    alice[300:420] = np.nan
+    bob = truth + [2500.0, 0.0, 0.0]
+    labels = tuple("Alice:" + s.split(":")[-1] for s in cmu.labels) + tuple("Bob:" + s.split(":")[-1] for s in cmu.labels)
+    two = MarkerSet(labels=labels, positions=np.concatenate([alice, bob], axis=1), fps=cmu.fps, units="mm")
+    res = clean_markers(two, steps="gaps")
+    out = np.asarray(res.markers.positions)
+    assert np.all(np.isnan(out[300:420, :41])) and np.array_equal(out[:, 41:], bob)
+    assert res.nobody_seen == (("Alice", 300, 420),) and not res.fixes and not res.unfilled
+    assert "Alice: frames 300-419: nobody seen (out of the volume?), left missing" in res.summary()
+    from mocapkit.cleaning.markers.record import read_marker_record
+
+    assert read_marker_record(res.save(tmp_path / "two.clean.npz")).nobody_seen == (("Alice", 300, 420),)
+
+
+def test_fills_expected_to_be_off_by_more_than_the_marker_spacing_are_left_missing(shared_data):
+    # BTS.c3d (a real gait walk-in): markers enter the volume between frames 239 and 401; each was extrapolated back
+    # to 239 from its one seen end and written, "r heel 239-294 donors (LATT), expected error 593 mm" among them.
+    # A fill expected to be off by more than the marker's distance to its nearest marker is left missing and named.
+    from mocapkit.cleaning.markers.gaps import error_limits
+
+    ms = read_c3d(shared_data / "peer_files" / "pyomeca+ezc3d-testFiles" / "BTS.c3d")
+    res = clean_markers(ms)
+    heel = [x for x in res.unfilled if x.marker == "r heel" and x.start == 239]
+    assert len(heel) == 1 and "at frame 0 " not in heel[0].note  # frames named in the take's numbers
+    assert np.all(np.isnan(np.asarray(res.markers.positions)[239:295, ms.labels.index("r heel")]))
+    over = [x for x in res.unfilled if "over the" in x.note]
+    assert over and all(f"expected error {x.expected_mm:.0f} mm" in x.note for x in over)
+    limit = error_limits(distance_stats(np.asarray(ms.positions)))  # mm: BTS is in mm
+    gaps = [x for x in res.fixes if x.kind == "gap"]
+    assert gaps and all(x.expected_mm <= limit[ms.labels.index(x.marker)] + 1e-9 for x in gaps
+                        if np.isfinite(x.expected_mm))
+    one = [x for x in gaps if x.start == 239]  # a gap from the frame the walker comes in: one seen end
+    assert one and all(x.ends == 1 and "extrapolated from its one seen end" in x.size_text for x in one)
+    # no limit: written as before
+    free = clean_markers(ms, max_error_mm=float("inf"))
+    assert not any(x.marker == "r heel" and x.start == 239 for x in free.unfilled)
+    assert int(free.filled.sum()) > int(res.filled.sum())
+
+
+def test_a_take_whose_residuals_are_all_zero_is_told_its_fills_cannot_be_told_apart(cmu):
+    # a C3D whose every residual is 0 (s3_res0.c3d of trial C): fills get residual 0 too, as C3D has it
+    x = np.asarray(cmu.positions, dtype=np.float64).copy()
+    x[300:360, 9] = np.nan
+    take = dataclasses.replace(cmu, positions=x, residuals=np.zeros(x.shape[:2]))
+    lines = clean_markers(take).summary()
+    assert any("residuals are all 0" in line and ".clean.npz" in line for line in lines)
+    measured = dataclasses.replace(cmu, positions=x, residuals=np.ones(x.shape[:2]))  # as CMU's file is not
+    assert not any("residuals are all 0" in line for line in clean_markers(measured).summary())

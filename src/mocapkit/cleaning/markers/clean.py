@@ -20,7 +20,11 @@ each is, and whether it is the same one each time it appears, is unknown
 labelled marker is), so they come back as read, and no labelled marker's
 fill, spike test or swap test uses them: a donor of unknown identity and
 rigidity could carry a fill anywhere. Frames where no labelled marker is
-seen at the take's start or end are frames where nobody is seen.
+seen at the take's start or end are frames where nobody is seen; so are
+frames mid-take where none of a subject's markers is (markers share a
+``Subject:`` prefix in a multi-subject capture: :func:`mocapkit.markerset.subject_of`):
+the subject was out of the volume, and its markers stay missing there
+(:attr:`MarkerCleanResult.nobody_seen`).
 """
 
 from __future__ import annotations
@@ -32,8 +36,9 @@ from pathlib import Path
 
 import numpy as np
 
+from ...markerset import subject_of
 from .duplicates import find_duplicates
-from .gaps import SMOOTH_S, fill_gaps
+from .gaps import SMOOTH_S, fill_gaps, nobody_seen
 from .rigid import distance_stats
 from .spikes import spike_mask
 from .swaps import undo_swaps
@@ -61,7 +66,11 @@ class MarkerFix:
     method; the donors' names, comma-separated); ``expected_mm``, the fill's
     RMS error on stretches of the same length cut where the marker is seen
     (mm; NaN where none could be cut: the fill is unvalidated); ``note``,
-    for a gap left missing, why no fill was plausible.
+    for a gap left missing, why no fill was plausible; ``ends``, how many
+    seen ends a gap has: 1 where it reaches the take's first or last frame
+    or frames where nobody is seen (its fill is an extrapolation from that
+    one end, and ``size_mm`` measures from the one seen sample); ``models``,
+    how many models' fills were averaged (``method`` and ``donors`` then name the best).
     """
 
     marker: str
@@ -75,6 +84,8 @@ class MarkerFix:
     donors: str = ""
     expected_mm: float = float("nan")
     note: str = ""
+    ends: int = 2
+    models: int = 1
 
     @property
     def fill_text(self) -> str:
@@ -82,6 +93,8 @@ class MarkerFix:
         if self.kind not in ("gap", "duplicate") or not self.method:
             return ""
         how = self.method + (f" ({self.donors})" if self.donors else "")
+        if self.models > 1:
+            how = f"average of {self.models} fills, the best {how}"
         doubt = (f"expected error {self.expected_mm:.1f} mm" if np.isfinite(self.expected_mm)
                  else "expected error unknown (no seen stretch to validate on)")
         return f"{self.seconds:.2f} s, {how}, {doubt}"
@@ -99,7 +112,8 @@ class MarkerFix:
                     f"label, which one cannot be told ({self.note}): both left as recorded")
         if self.note:
             return f"{self.fill_text or 'removed'}: left missing: no plausible fill ({self.note})"
-        what = {"gap": "fill up to {} mm off the straight line between the gap's ends",
+        what = {"gap": "fill up to {} mm off the straight line between the gap's ends" if self.ends != 1 else
+                "extrapolated from its one seen end: fill up to {} mm from the sample seen there",
                 "spike": "removed samples up to {} mm from the fill",
                 "swap": "markers {} mm apart where it starts"}.get(self.kind, "{} mm")
         text = what.format(f"{self.size_mm:.1f}")
@@ -131,6 +145,12 @@ class MarkerCleanResult:
         from (:func:`~mocapkit.cleaning.markers.gaps.fill_gaps`).
     unlabelled : tuple of str
         The unlabelled trajectories (:meth:`MarkerSet.unlabelled`), left as read.
+    nobody_seen : tuple of (str, int, int)
+        ``(subject, start, end)``: the frames ``start <= f < end`` where none
+        of a subject's markers is seen ("" for a capture of one subject), other
+        than the take's ``unseen_start`` and ``unseen_end``: the subject out of
+        the volume (before it walks in, after it leaves, or mid-take); its
+        markers are left missing there.
     unfilled : tuple of MarkerFix
         Gaps left missing because no fill passed the plausibility guard
         (:mod:`~mocapkit.cleaning.markers.plausible`): kind "gap", or
@@ -160,6 +180,7 @@ class MarkerCleanResult:
     unfilled: tuple[MarkerFix, ...] = ()
     duplicates: np.ndarray | None = None
     coincident: tuple[MarkerFix, ...] = ()
+    nobody_seen: tuple[tuple[str, int, int], ...] = ()
 
     @property
     def changed(self) -> np.ndarray:
@@ -211,6 +232,10 @@ class MarkerCleanResult:
         for where, (a, b) in (("start", self.unseen_start), ("end", self.unseen_end)):
             if b > a:
                 lines.append(f"frames {a}-{b - 1} at the take's {where} see no {marker}: left missing (nothing to fill from)")
+        f = self.markers.positions.shape[0]
+        for who, a, b in self.nobody_seen:
+            why = "not yet in the volume?" if a == 0 else ("gone from the volume?" if b == f else "out of the volume?")
+            lines.append(f"{who + ': ' if who else ''}frames {a}-{b - 1}: nobody seen ({why}), left missing")
         if self.unlabelled:
             n = len(self.unlabelled)
             names = ", ".join(self.unlabelled[:4]) + (f" ... {self.unlabelled[-1]}" if n > 4 else "")
@@ -218,6 +243,11 @@ class MarkerCleanResult:
                          "one starting with '*') left as read: not a marker's identity, so not cleaned")
         if self.never_seen:
             lines.append(f"missing in the whole take, left missing: {', '.join(self.never_seen)}")
+        res = getattr(self.original, "residuals", None)
+        seen = ~self.original.missing() if hasattr(self.original, "missing") else None
+        if res is not None and (self.filled | self.spikes).any() and seen.any() and np.all(res[seen] == 0):
+            lines.append("the input's residuals are all 0, as a fill's are (C3D: 0 is 'interpolated'): the written file "
+                         "cannot tell fills from recorded samples; the .clean.npz's masks (filled, spikes) can")
         return lines
 
     def save(self, path, written: dict | None = None) -> Path:
@@ -238,6 +268,7 @@ class MarkerCleanResult:
                 coincident=np.array(json.dumps([dataclasses.asdict(x) for x in self.coincident])),
                 never_seen=np.array(list(self.never_seen), dtype=str),
                 unlabelled=np.array(list(self.unlabelled), dtype=str),
+                nobody_seen=np.array(json.dumps([list(x) for x in self.nobody_seen])),
                 kind=np.array("markers"),
                 **({"written": np.array(json.dumps(written))} if written else {}),
             )
@@ -265,7 +296,8 @@ def _swap_sources(x: np.ndarray, y: np.ndarray, swapped: np.ndarray) -> np.ndarr
 
 
 def clean_markers(markers, *, steps=STEPS, spike_mm: float = 15.0, swap_mm: float = 15.0,
-                  max_gap_s: float | None = None, constrain: bool = True) -> MarkerCleanResult:
+                  max_gap_s: float | None = None, constrain: bool = True,
+                  max_error_mm: float | None = None) -> MarkerCleanResult:
     """Clean a :class:`MarkerSet`: undo label swaps, remove spikes, fill gaps.
 
     Parameters
@@ -282,6 +314,13 @@ def clean_markers(markers, *, steps=STEPS, spike_mm: float = 15.0, swap_mm: floa
         lies more than ``spike_mm`` from where its rigid neighbours put it.
     max_gap_s : float, optional
         Gaps longer than this are left missing.
+    max_error_mm : float, optional
+        A fill whose expected error (its RMS error on stretches of the same
+        length cut where the marker is seen) is larger than this, in mm, is
+        not written: the gap is left missing and named in ``unfilled``.
+        Default: each marker's distance to its nearest marker (at least 50
+        mm: :func:`~mocapkit.cleaning.markers.gaps.error_limits`); ``inf``
+        writes every plausible fill.
     constrain : bool
         Pull filled samples to their usual distances from their rigid
         neighbours (soft constraints, :mod:`~mocapkit.cleaning.markers.constraints`),
@@ -306,6 +345,7 @@ def clean_markers(markers, *, steps=STEPS, spike_mm: float = 15.0, swap_mm: floa
     x = full[:, work]
     f, m = x.shape[:2]
     labels = [markers.labels[i] for i in work]
+    subjects = [subject_of(label) for label in labels]
     fixes: list[MarkerFix] = []
     unfilled: list[MarkerFix] = []
     y = x.copy()
@@ -336,7 +376,8 @@ def clean_markers(markers, *, steps=STEPS, spike_mm: float = 15.0, swap_mm: floa
         stats = distance_stats(y)
         max_gap = None if max_gap_s is None else int(round(max_gap_s * markers.fps))
         out, records = fill_gaps(y, stats=stats, max_gap=max_gap, constrain=constrain, unit_mm=unit_mm,
-                                 smooth=SMOOTH_S * markers.fps)
+                                 smooth=SMOOTH_S * markers.fps, subjects=subjects,
+                                 max_error=None if max_error_mm is None else max_error_mm / unit_mm)
         for r in records:
             run = slice(r.start, r.end)
             if np.all(dups[run, r.marker]):  # a duplicate's removed samples: named below, with the marker it was on
@@ -350,7 +391,8 @@ def clean_markers(markers, *, steps=STEPS, spike_mm: float = 15.0, swap_mm: floa
             if not is_spike and "gaps" not in steps and not np.any(dups[run, r.marker]):
                 continue
             how = dict(seconds=(r.end - r.start) / markers.fps, method=r.method,
-                       donors=", ".join(labels[d] for d in r.donors), expected_mm=r.expected_error * unit_mm)
+                       donors=", ".join(labels[d] for d in r.donors), expected_mm=r.expected_error * unit_mm,
+                       models=r.models)
             if not r.filled:  # no plausible fill: left missing, and said so (a spike run's samples removed: a change)
                 left_fix = MarkerFix(labels[r.marker], r.start, r.end, "spike" if is_spike else "gap", float("nan"),
                                      note=r.implausible, **how)
@@ -370,7 +412,7 @@ def clean_markers(markers, *, steps=STEPS, spike_mm: float = 15.0, swap_mm: floa
                 u = (np.arange(1, b - a + 1) / (b - a + 1))[:, None]
                 line = (1 - u) * ref[0] + u * ref[-1]
                 size = float(np.max(np.linalg.norm(out[run, r.marker] - line, axis=-1)))
-                fixes.append(MarkerFix(labels[r.marker], a, b, "gap", size * unit_mm, **how))
+                fixes.append(MarkerFix(labels[r.marker], a, b, "gap", size * unit_mm, ends=len(ends), **how))
     for d in found:  # a duplicate no fill reached stays missing rather than wrong (size NaN: the summary says so)
         run = slice(d.start, d.end)
         gone = np.any(np.isnan(y[run, d.marker]))
@@ -398,11 +440,12 @@ def clean_markers(markers, *, steps=STEPS, spike_mm: float = 15.0, swap_mm: floa
     else:
         cleaned = dataclasses.replace(markers, positions=out)
     lo, hi = (int(seen_any[0]), int(seen_any[-1]) + 1) if seen_any.size else (f, f)
+    absent = tuple(r for r in nobody_seen(np.any(np.isnan(y), axis=-1), subjects) if r[1:] not in ((0, lo), (hi, f)))
     return MarkerCleanResult(markers=cleaned, original=markers, filled=expand(filled), spikes=expand(spikes),
                              swapped=expand(swapped), fixes=tuple(fixes),
                              never_seen=tuple(labels[i] for i in np.flatnonzero(never)),
                              unseen_start=(0, lo) if seen_any.size else (0, 0), unseen_end=(hi, f),
                              unlabelled=tuple(markers.labels[i] for i in np.flatnonzero(unlabelled & ~modelled)),
                              unfilled=tuple(sorted(unfilled, key=lambda x: (x.start, x.marker))),
-                             duplicates=expand(dups), coincident=tuple(coincident))
+                             duplicates=expand(dups), coincident=tuple(coincident), nobody_seen=absent)
 

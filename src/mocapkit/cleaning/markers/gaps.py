@@ -45,12 +45,16 @@ from one of the two nearest markers (pattern fill) and the low-rank model of
 the nearest markers (Gløersen and Federolf 2016,
 :mod:`mocapkit.cleaning.markers.lowrank`) over a window around the gap
 compete in the same way; with nothing seen at all the gap stays missing.
-Frames at the take's start or end where no marker at all is seen (the
-subject not yet in the capture volume, or gone from it) are left missing
-too: nothing is seen there to fill from, and a fill would be made up (a
-fixed pose or a straight-line extrapolation, metres from where the
-subject appears). The take's frames between them are filled as above, a
-gap reaching those frames from one end, as a gap at the take's edge is.
+Frames where no marker of a subject is seen (the subject not yet in the
+capture volume, gone from it, or out of it for a while mid-take; in a
+multi-subject capture each subject's markers share a ``Subject:`` prefix,
+:func:`mocapkit.markerset.subject_of`, and are one body) are left missing
+too: nothing of that body is seen there to fill from, and a fill would be
+made up (a fixed pose or a straight-line extrapolation, metres from where
+the subject appears; another subject's markers say nothing about where
+this one is). The stretches between them are filled as takes of their
+own, a gap reaching those frames from one end, as a gap at the take's
+edge is (:func:`nobody_seen` lists them).
 
 Positions are (F, M, 3), frames first, in the capture's unit; NaN is unseen.
 """
@@ -67,7 +71,10 @@ from .lowrank import fill_lowrank
 from .plausible import TakeLimits, implausible, take_limits
 from .rigid import DistanceStats, distance_stats, donor_order, from_local, local_frames, to_local
 
-__all__ = ["GapFill", "SMOOTH_S", "gap_runs", "fill_gaps"]
+__all__ = ["GapFill", "SMOOTH_S", "gap_runs", "fill_gaps", "nobody_seen", "error_limits", "MIN_ERROR_LIMIT_MM"]
+
+MIN_ERROR_LIMIT_MM = 50.0
+"""The least default limit on a fill's expected error (mm): see :func:`error_limits`."""
 
 
 @dataclass(frozen=True)
@@ -99,6 +106,10 @@ class GapFill:
         (:func:`~mocapkit.cleaning.markers.plausible.implausible`: the
         reason the best model's fill failed): the gap is left missing, and
         ``method``, ``donors`` and ``expected_error`` describe that rejected fill.
+    models : int
+        How many models' fills were averaged (weights 1 / error^2); 1 for a
+        single model's fill. ``method`` and ``donors`` name the best of them,
+        ``expected_error`` is the average's own.
     """
 
     marker: int
@@ -109,6 +120,7 @@ class GapFill:
     expected_error: float = float("nan")
     constrained: bool = False
     implausible: str = ""
+    models: int = 1
 
     @property
     def filled(self) -> bool:
@@ -120,6 +132,42 @@ def gap_runs(missing: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Starts and ends (exclusive) of the runs of True in a 1-D bool array."""
     d = np.diff(np.concatenate([[0], np.asarray(missing, dtype=np.int8), [0]]))
     return np.flatnonzero(d == 1), np.flatnonzero(d == -1)
+
+
+def nobody_seen(missing: np.ndarray, subjects=None) -> list[tuple[str, int, int]]:
+    """Per subject, the runs of frames where none of its markers is seen: ``(subject, start, end)``, ``start <= f < end``.
+
+    ``missing``: (F, M) bool; ``subjects``: (M,) the subject of each marker
+    (:func:`mocapkit.markerset.subject_of`; default: all one subject, "").
+    A subject none of whose markers is ever seen has no runs (its markers
+    are never seen). Sorted by start, then subject.
+    """
+    missing = np.asarray(missing, dtype=bool)
+    names = [""] * missing.shape[1] if subjects is None else [str(x) for x in subjects]
+    out = []
+    for name in dict.fromkeys(names):
+        cols = [i for i, x in enumerate(names) if x == name]
+        none = np.all(missing[:, cols], axis=1)
+        if none.all():
+            continue
+        out += [(name, int(a), int(b)) for a, b in zip(*gap_runs(none))]
+    return sorted(out, key=lambda r: (r[1], r[0]))
+
+
+def error_limits(stats: DistanceStats, unit_mm: float = 1.0) -> np.ndarray:
+    """(M,) the default limit on a fill's expected error: each marker's median distance to its nearest marker.
+
+    In the capture's unit, at least :data:`MIN_ERROR_LIMIT_MM`. A fill
+    expected to be off by more than the distance between the marker and its
+    nearest neighbour cannot tell the one from the other: a heel extrapolated
+    0.6 m while out of the volume is a guess, not a measurement. NaN-free:
+    a marker never seen with another gets the floor.
+    """
+    med = np.array(stats.median, dtype=np.float64)
+    np.fill_diagonal(med, np.nan)
+    with np.errstate(all="ignore"):
+        near = np.nanmin(np.where(np.isfinite(med), med, np.inf), axis=1)
+    return np.maximum(np.where(np.isfinite(near), near, 0.0), MIN_ERROR_LIMIT_MM / unit_mm)
 
 
 def _donor_fill(pos: np.ndarray, m: int, a: int, b: int, donors, cubic: bool = False, side: int = 0) -> np.ndarray | None:
@@ -368,8 +416,9 @@ def _lowrank_fill(pos: np.ndarray, m: int, a: int, b: int, order: np.ndarray, st
 
 def fill_gaps(positions: np.ndarray, *, stats: DistanceStats | None = None, candidates: int = 4, keep: int = 3,
               max_gap: int | None = None, constrain: bool = True, predictors: int = 6, guard: bool = True,
-              unit_mm: float = 1.0, smooth: float = SMOOTH_FRAMES) -> tuple[np.ndarray, list[GapFill]]:
-    """Fill every gap of every marker that is seen at least once.
+              unit_mm: float = 1.0, smooth: float = SMOOTH_FRAMES, subjects=None,
+              markers=None, max_error=None, first_frame: int = 0) -> tuple[np.ndarray, list[GapFill]]:
+    """Fill every gap of every marker that is seen at least once, except where none of its subject's markers is.
 
     Parameters
     ----------
@@ -404,14 +453,30 @@ def fill_gaps(positions: np.ndarray, *, stats: DistanceStats | None = None, cand
         0: frame by frame). The default is 0.025 s at 120 Hz;
         :func:`~mocapkit.cleaning.markers.clean.clean_markers` passes
         :data:`SMOOTH_S` at the take's rate.
+    subjects : sequence of str (M,), optional
+        The subject of each marker (:func:`mocapkit.markerset.subject_of`);
+        default: all one. Frames where none of a subject's markers is seen
+        stay missing for all of them (:func:`nobody_seen`), and the
+        stretches between are filled as takes of their own.
+    markers : sequence of int, optional
+        Fill only these markers' gaps (default: every marker's); the others
+        still serve as donors.
+    max_error : float or float array (M,), optional
+        A fill whose expected error (its RMS error on the validation gaps) is
+        larger than this, in the capture's unit, is not written: the gap is
+        left missing and its record says so. Default: :func:`error_limits`
+        (each marker's distance to its nearest marker); ``inf``: no limit.
+    first_frame : int
+        The frame number of ``positions``' first frame in the take it is part
+        of: the frames a record's ``implausible`` names count from it.
 
     Returns
     -------
     filled : float array (F, M, 3)
         Observed samples unchanged (bit-identical); gaps filled; markers
-        never seen, frames before the first and after the last frame where
-        any marker is seen, gaps nothing could fill and gaps no fill of
-        which was plausible, still NaN.
+        never seen, frames where none of a marker's subject's markers is
+        seen, gaps nothing could fill and gaps no fill of which was
+        plausible, still NaN.
     fills : list of GapFill
         One record per filled gap, and one per gap left missing for want of
         a plausible fill (``implausible`` says why; ``filled`` is False).
@@ -424,26 +489,44 @@ def fill_gaps(positions: np.ndarray, *, stats: DistanceStats | None = None, cand
         return out, []
     if stats is None:
         stats = distance_stats(pos)
-    seen_any = np.flatnonzero(~np.all(missing, axis=1))
-    if seen_any.size == 0:
-        return out, []
-    lo, hi = int(seen_any[0]), int(seen_any[-1]) + 1
-    if lo > 0 or hi < f:  # no marker seen at the take's start or end: left missing, the rest filled as a take
-        inner, inner_records = fill_gaps(pos[lo:hi], stats=stats, candidates=candidates, keep=keep, max_gap=max_gap,
-                                         constrain=constrain, predictors=predictors, guard=guard, unit_mm=unit_mm,
-                                         smooth=smooth)
-        out[lo:hi] = inner
-        return out, [replace(r, start=r.start + lo, end=r.end + lo) for r in inner_records]
+    names = [""] * m_count if subjects is None else [str(x) for x in subjects]
+    todo = np.zeros(m_count, dtype=bool)
+    todo[np.arange(m_count) if markers is None else np.asarray(markers, dtype=int)] = True
+    todo &= np.any(missing, axis=0) & ~np.all(missing, axis=0)
+    records = []
+    for name in dict.fromkeys(names):
+        group = np.array([i for i, x in enumerate(names) if x == name])
+        mine = group[todo[group]]
+        none = np.all(missing[:, group], axis=1)
+        if not mine.size or not none.any():
+            continue
+        # nobody of this subject seen in some frames: left missing, each stretch between filled as a take of its own
+        todo[mine] = False
+        for lo, hi in zip(*gap_runs(~none)):
+            lo, hi = int(lo), int(hi)
+            inner, inner_records = fill_gaps(pos[lo:hi], stats=stats, candidates=candidates, keep=keep,
+                                             max_gap=max_gap, constrain=constrain, predictors=predictors, guard=guard,
+                                             unit_mm=unit_mm, smooth=smooth, subjects=names, markers=mine,
+                                             max_error=error_limits(stats, unit_mm) if max_error is None else max_error,
+                                             first_frame=first_frame + lo)
+            out[lo:hi, mine] = inner[:, mine]
+            records += [replace(r, start=r.start + lo, end=r.end + lo) for r in inner_records]
+    if not todo.any():
+        return out, sorted(records, key=lambda r: (r.marker, r.start))
     order = donor_order(stats)
     limits = take_limits(pos, stats, order, unit_mm) if guard else None
+    worst = error_limits(stats, unit_mm) if max_error is None else np.broadcast_to(np.asarray(max_error, float), (m_count,))
+    split = records
     records = []
-    for m in np.flatnonzero(np.any(missing, axis=0) & ~np.all(missing, axis=0)):
+    for m in np.flatnonzero(todo):
         for a, b in zip(*gap_runs(missing[:, m])):
             a, b = int(a), int(b)
-            if max_gap is not None and b - a > max_gap:
+            if max_gap is not None and b - a > max_gap:  # left missing, and said so
+                records.append(GapFill(int(m), a, b, "", implausible=f"longer than --max-gap ({max_gap} frames): "
+                                                                     "not filled"))
                 continue
             rec = _fill_one(pos, out, int(m), a, b, order, stats, candidates, keep, predictors, constrain,
-                            limits, unit_mm, smooth)
+                            limits, unit_mm, smooth, float(worst[m]), first_frame)
             if rec is not None:
                 records.append(rec)
     if constrain and any(r.constrained for r in records):
@@ -459,7 +542,7 @@ def fill_gaps(positions: np.ndarray, *, stats: DistanceStats | None = None, cand
                 records[k] = replace(r, constrained=False)  # the constraints pulled it off: written as it passed the guard
             else:
                 out[run, r.marker] = con[run, r.marker]
-    return out, records
+    return out, sorted(split + records, key=lambda r: (r.marker, r.start))
 
 
 def _constraint_helps(pos: np.ndarray, m: int, checks, stats: DistanceStats, order: np.ndarray,
@@ -502,14 +585,16 @@ def _constraint_helps(pos: np.ndarray, m: int, checks, stats: DistanceStats, ord
 
 
 def _fill_one(pos, out, m, a, b, order, stats, candidates, keep, predictors, constrain,
-              limits: TakeLimits | None = None, unit_mm: float = 1.0, smooth: float = 0.0) -> GapFill | None:
+              limits: TakeLimits | None = None, unit_mm: float = 1.0, smooth: float = 0.0,
+              max_error: float = np.inf, first_frame: int = 0) -> GapFill | None:
     """Fill marker m's gap a..b-1 of ``pos`` into ``out``; its record, or None when nothing could fill it.
 
     The fills tried, in turn: the weighted average of the ``keep`` best
     validated models, then each usable model alone, best validated first
     (unvalidated ones last), then the low-rank fill and the room-coordinate
     interpolation. With ``limits`` the first that passes the plausibility
-    guard is written; when none does, nothing is written and the record
+    guard, and whose expected error is at most ``max_error`` (unit of
+    ``pos``), is written; when none does, nothing is written and the record
     says why the first failed (``implausible``).
     """
     f = pos.shape[0]
@@ -529,6 +614,7 @@ def _fill_one(pos, out, m, a, b, order, stats, candidates, keep, predictors, con
     checks = [_fills(pos, m, s, e, models, order, stats, side) for s, e in spans]
     usable = [i for i, est in enumerate(fills) if est is not None]
     tries = []  # (fill, method, donors, expected error, validated fills of the spans or None)
+    averaged = 1
     if usable:
         errs = np.full(len(models), np.inf)
         for i in usable:
@@ -547,10 +633,14 @@ def _fill_one(pos, out, m, a, b, order, stats, candidates, keep, predictors, con
                 wk = w[have] / w[have].sum()
                 validated.append((s, e, np.tensordot(wk, np.stack([c[best[k]] for k in have]), axes=1)))
         tries.append((np.tensordot(w / w.sum(), np.stack([fills[i] for i in best]), axes=1), best[0], validated))
+        averaged = len(best)
         alone = sorted(usable, key=lambda i: errs[i])  # stable: unvalidated (inf) ones last, in model order
         tries += [(fills[i], i, [(s, e, c[i]) for (s, e), c in zip(spans, checks) if c[i] is not None]) for i in alone]
         tries = [(est, _method(models[i]), models[i][0], float(errs[i]) if np.isfinite(errs[i]) else float("nan"), v)
                  for est, i, v in tries]
+        if validated and len(best) > 1:  # the average's own error on the validation gaps, not its best model's
+            own = [np.mean(np.sum((v - pos[s:e, m]) ** 2, axis=-1)) for s, e, v in validated]
+            tries[0] = tries[0][:3] + (float(np.sqrt(np.mean(own))),) + tries[0][4:]
     else:
         est = _lowrank_fill(pos, m, a, b, order, stats)
         if est is not None:
@@ -566,8 +656,13 @@ def _fill_one(pos, out, m, a, b, order, stats, candidates, keep, predictors, con
     for k, (est, method, donors, expected, validated) in enumerate(tries):
         if k and len(tries) > 1 and np.array_equal(est, tries[0][0]):
             continue  # the average of one model is that model: tried already
-        why = implausible(pos, m, a, b, est, limits, unit_mm) if limits is not None else ""
-        rec = GapFill(m, a, b, method, tuple(donors), expected, False, why)
+        why = ""
+        if np.isfinite(expected) and expected > max_error:
+            why = (f"expected error {expected * unit_mm:.0f} mm, over the {max_error * unit_mm:.0f} mm a fill may be "
+                   "off (the distance to its nearest marker; --max-fill-error)")
+        elif limits is not None:
+            why = implausible(pos, m, a, b, est, limits, unit_mm, first_frame)
+        rec = GapFill(m, a, b, method, tuple(donors), expected, False, why, averaged if k == 0 else 1)
         first = first or rec
         if why:
             continue

@@ -146,11 +146,13 @@ def _floor(pos: np.ndarray, near: float) -> tuple | None:
 
 
 def implausible(pos: np.ndarray, m: int, a: int, b: int, est: np.ndarray, limits: TakeLimits,
-                unit_mm: float = 1.0) -> str:
+                unit_mm: float = 1.0, first: int = 0) -> str:
     """Why the fill ``est`` (b - a, 3) of marker m's frames a..b-1 of ``pos`` is implausible; "" when it is not.
 
     ``pos`` holds the observed samples (the gap NaN). The reason names the
-    first check failed, with its numbers in millimetres.
+    first check failed, with its numbers in millimetres. ``first``: the
+    take's frame number of ``pos``'s first frame (``pos`` a part of the
+    take), for the frames the reason names.
     """
     f = pos.shape[0]
     est = np.asarray(est, dtype=np.float64)
@@ -181,7 +183,7 @@ def implausible(pos: np.ndarray, m: int, a: int, b: int, est: np.ndarray, limits
         bad = (dist < lo) | (dist > hi)
         if np.any(bad):
             k = int(np.argmax(np.abs(dist - np.clip(dist, lo, hi))))
-            return (f"{dist[k] * unit_mm:.0f} mm from a rigid neighbour at frame {a + int(t[k])} "
+            return (f"{dist[k] * unit_mm:.0f} mm from a rigid neighbour at frame {first + a + int(t[k])} "
                     f"(the take shows {limits.usual_low[m, d] * unit_mm:.0f}-{limits.usual_high[m, d] * unit_mm:.0f})")
     if limits.floor is not None:
         axis, side, level = limits.floor
@@ -190,7 +192,7 @@ def implausible(pos: np.ndarray, m: int, a: int, b: int, est: np.ndarray, limits
             k = int(np.argmax(beyond))
             edge = "lowest" if side < 0 else "highest"
             return (f"{beyond[k] * unit_mm:.0f} mm beyond the floor (the take's {edge} recorded samples along "
-                    f"{'xyz'[axis]}) at frame {a + k}")
+                    f"{'xyz'[axis]}) at frame {first + a + k}")
     if np.isfinite(limits.nearest[m]):
         dist = np.linalg.norm(est[:, None, :] - pos[a:b], axis=-1)  # (n, M)
         dist[~seen] = np.inf
@@ -198,6 +200,6 @@ def implausible(pos: np.ndarray, m: int, a: int, b: int, est: np.ndarray, limits
         near[np.isinf(near)] = np.nan
         if np.any(near > limits.nearest[m]):
             k = int(np.nanargmax(near))
-            return (f"{near[k] * unit_mm:.0f} mm from every seen marker at frame {a + k} "
+            return (f"{near[k] * unit_mm:.0f} mm from every seen marker at frame {first + a + k} "
                     f"(allowed: {limits.nearest[m] * unit_mm:.0f}, twice the most the take shows)")
     return ""

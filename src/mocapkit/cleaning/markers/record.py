@@ -4,7 +4,7 @@
 (F, M) masks of the samples filled, removed as spikes, re-labelled and changed,
 the labels, the fixes, the gaps left unfilled and the runs where two markers
 coincide and which is the copy was not told (JSON texts), the markers
-never seen and the unlabelled trajectories, and ``kind = "markers"``, which
+never seen, the unlabelled trajectories, the frames where nobody (of a subject) is seen, and ``kind = "markers"``, which
 tells it from a motion's record (:class:`~mocapkit.cleaning.pipeline.CleanResult`).
 It holds no trajectories: the cleaned capture is the output file.
 """
@@ -33,7 +33,8 @@ class MarkerRecord:
     (a marker on another's position; all False in a record written before there was such a fix); ``fixes``,
     ``unfilled`` and ``coincident``: one dict per fix, per gap left missing and per run of two markers at the
     same position left as recorded (the fields of :class:`~mocapkit.cleaning.markers.clean.MarkerFix`);
-    ``never_seen`` and ``unlabelled``: marker names.
+    ``never_seen`` and ``unlabelled``: marker names; ``nobody_seen``: ``(subject, start, end)`` runs of frames
+    where none of a subject's markers is seen, left missing (() in a record written before they were kept).
     """
 
     labels: tuple[str, ...]
@@ -47,6 +48,7 @@ class MarkerRecord:
     unlabelled: tuple[str, ...]
     duplicates: np.ndarray | None = None
     coincident: tuple[dict, ...] = ()
+    nobody_seen: tuple[tuple[str, int, int], ...] = ()
 
     @property
     def num_frames(self) -> int:
@@ -107,5 +109,12 @@ def read_marker_record(path) -> MarkerRecord:
     def names(key: str) -> tuple[str, ...]:
         return tuple(str(x) for x in np.asarray(z[key]).reshape(-1)) if key in z else ()
 
+    absent = ()
+    if "nobody_seen" in z:
+        try:
+            runs = json.loads(str(np.asarray(z["nobody_seen"])))
+            absent = tuple((str(w), int(a), int(b)) for w, a, b in runs)
+        except (ValueError, TypeError):
+            raise MocapFormatError(path, "nobody_seen: not the JSON list of [subject, start, end] a record holds") from None
     return MarkerRecord(labels=labels, fixes=listed("fixes"), unfilled=listed("unfilled"), coincident=listed("coincident"),
-                        never_seen=names("never_seen"), unlabelled=names("unlabelled"), **masks)
+                        never_seen=names("never_seen"), unlabelled=names("unlabelled"), nobody_seen=absent, **masks)
