@@ -59,6 +59,12 @@ PRIOR_MIRROR = {"acclaim": True, "bandai": False}
 #: 15 a second, 1.5 MB; the mirror images too, or every 4th frame, 0.614-0.618x). Not for the Bandai prior: its
 #: 292,431 frames at its lags' step would be 37 MB, and its gaps meet the target without it.
 PRIOR_LOCAL = {"acclaim": True, "bandai": False}
+#: Whether each rig's gap prior puts every Euler channel on one branch (mocapkit.cleaning.deep.prior, GapPrior.branch):
+#: the Bandai rig's thighs sit at +-180 deg (+180 in some takes, -180 in others) and its pelvis turns freely, so one
+#: Gaussian saw modes 360 deg apart; on one branch, the held-out styles' hard gaps (3 joints lost at once, 1-5 s)
+#: 10.20 -> 9.55 deg, their 1-4 s whole-joint gaps 0.585x -> 0.592x (docs/models.md). The Acclaim prior has no such
+#: channel (largest scale 51 deg).
+PRIOR_BRANCH = {"acclaim": False, "bandai": True}
 INSTALL_NAME = {("acclaim", "ebf"): "ebf.pt", ("acclaim", "ebd"): "ebd.pt",
                 ("bandai", "ebf"): "ebf_bandai.pt", ("bandai", "ebd"): "ebd_bandai.pt"}
 
@@ -186,11 +192,11 @@ def attach_prior(a, clips, train_f, test_f) -> None:
     fitted = clips + [mirror_for_rig(c) for c in clips] if PRIOR_MIRROR[a.rig] else clips
     local = [encode(c, model.layout)[0] for c in clips] if PRIOR_LOCAL[a.rig] else None
     prior = fit_gap_prior([encode(c, model.layout)[0] for c in fitted], model.fps, ramp=PRIOR_RAMP[a.rig],
-                          local_takes=local)
+                          local_takes=local, branch=PRIOR_BRANCH[a.rig])
     meta = dict(model.meta, gap_prior={"train_clips": len(clips), "mirrored": PRIOR_MIRROR[a.rig], "frames": prior.frames,
                                        "lags_frames": prior.lags.tolist(), "ridge": prior.ridge, "ramp": prior.ramp,
                                        "local_frames": 0 if prior.local_frames is None else len(prior.local_frames),
-                                       "local_step": prior.local_step,
+                                       "local_step": prior.local_step, "branch": prior.branch is not None,
                                        "fit_seconds": round(time.perf_counter() - t, 1)})
     model = dataclasses.replace(model, meta=meta, prior=prior)
     out = Path(a.out) / ("ebd" if a.rig == "acclaim" else f"{a.rig}/ebd") / "model_prior.pt"
