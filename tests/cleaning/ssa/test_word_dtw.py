@@ -214,10 +214,10 @@ def _assert_same(s, p):
 
 
 def test_every_prange_kernel_has_twins():
-    from mocapkit.cleaning.ssa import word_means
+    from mocapkit.cleaning.ssa import self_costs, word_means
 
-    kernels = {name: v for mod in (W, word_means) for name, v in vars(mod).items() if isinstance(v, Twins)}
-    assert set(kernels) == {"_group_pose_distances", "_self_pose_distances", "_profile", "_row_minima", "_knn_profile",
+    kernels = {name: v for mod in (W, word_means, self_costs) for name, v in vars(mod).items() if isinstance(v, Twins)}
+    assert set(kernels) == {"_group_pose_distances", "_self_costs", "_profile", "_row_minima", "_knn_profile",
                             "_pairs", "_warp", "_robust_means", "_shift_angles"}
     for name, t in kernels.items():
         assert t.parallel.targetoptions.get("parallel") and not t.serial.targetoptions.get("parallel")

@@ -41,6 +41,7 @@ from numba import njit, prange
 from .dtw_rows import ROW_STATES, best_state, word_dtw_rows
 from .word_bounds import cheap_bound
 from .ordering import kth_smallest, sort_by_key
+from .self_costs import self_pose_costs
 from .twins import twin_kernels
 from .word_means import robust_word_means, select_separated_minima, shift_tolerant_angles  # re-exported
 
@@ -167,37 +168,6 @@ def _group_pose_distances(A, B, members, offsets, drop):
 
 
 
-@twin_kernels(_PARALLEL_CELLS)
-def _self_pose_distances(A, members, offsets, drop, out):
-    F = A.shape[0]
-    m = A.shape[1]
-    G = drop.shape[0]
-    for h in prange((F + 1) // 2):
-        terms = np.empty(m)
-        top = np.int64(h)
-        for side in range(2):  # a long row and a short one per step, so the threads share the triangle evenly
-            a = top if side == 0 else F - 1 - top
-            if side == 1 and a == top:
-                break
-            for b in range(a, F):
-                finite = True
-                for k in range(m):
-                    v = _half_angle_sq(A[a, k], A[b, k])
-                    terms[k] = v
-                    if v == _INF:
-                        finite = False
-                for g in range(G):
-                    val = _INF
-                    bad = False
-                    if not finite:
-                        for k in members[offsets[g] : offsets[g + 1]]:
-                            if terms[k] == _INF:
-                                bad = True
-                    if not bad:
-                        val = _robust_sum(terms, members[offsets[g] : offsets[g + 1]], drop[g])
-                    out[g, a, b] = val
-
-
 @njit(cache=True)
 def _mirror_upper(out):
     """``out[g, r, c] = out[g, c, r]`` below the diagonal, in 64 x 64 blocks (a column-wise write per cell
@@ -262,7 +232,7 @@ def self_pose_distances(A: np.ndarray, groups: np.ndarray, drop) -> np.ndarray:
     F = A.shape[0]
     out = np.empty((len(groups), F, F), dtype=np.float32)
     if F:
-        _self_pose_distances.pick(F * F // 2)(A, members, offsets, drop, out)  # the upper triangle
+        self_pose_costs(A, members, offsets, drop, out)  # the upper triangle, few acos (self_costs)
         _mirror_upper(out)
     return out
 
