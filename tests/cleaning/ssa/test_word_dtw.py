@@ -359,3 +359,19 @@ def test_a_parallel_twin_not_compiled_nor_cached_runs_only_on_very_large_problem
 
     assert run() == ["True", "False", "True", "True"]  # cold: serial at the threshold; compiled: parallel
     assert run() == ["True", "True", "True", "True"]  # cached: parallel at the threshold before any call
+
+
+@pytest.mark.parametrize("contiguous", [True, False])
+@pytest.mark.parametrize("N, M, run", [(15, 20, 3), (10, 12, 1), (6, 9, 2)])
+def test_row_minima_equal_the_window_minima(rng, contiguous, N, M, run):
+    """Each bound row minimum is the minimum of its column window, consecutive starts or not, both twins."""
+    D = rng.random((30, 70)).astype(np.float32)
+    D[4, 20:26] = np.inf
+    D[9] = np.inf
+    tgt = np.arange(3, 70 - M + 1) if contiguous else np.sort(rng.choice(70 - M + 1, 25, replace=False))
+    lens, _ = W._row_windows(N, M, run)
+    want = np.array([[[D[r, t : t + n].min() for t in tgt] for r in range(30)] for n in lens])
+    for side in ("serial", "parallel"):
+        got = np.full((len(lens), 30, len(tgt)), -1.0, dtype=np.float32)
+        getattr(W._row_minima, side)(D, tgt, lens, got)
+        assert np.array_equal(got, want)

@@ -483,35 +483,61 @@ def _row_minima(D, tgt, lens, out):
 
     The minima of every block of ``lens[0]`` columns are taken once per row, so
     a window that grows by that step costs one comparison, not one per column.
+    Each output is the running ``c < v`` scan of its window in column order;
+    the loops run level by level over all target starts (SIMD lanes, with
+    contiguous loads where the starts are consecutive frames, as a take's
+    are), each start's scan the same sequence of comparisons as one start at a time.
     """
     R = D.shape[0]
     T = tgt.shape[0]
     Fb = D.shape[1]
     step = lens[0]
+    nb = max(Fb - step + 1, 0)
+    base = tgt[0] if T > 0 else 0  # the first start, when every start is the one before plus one; else -1
+    for t in range(1, T):
+        if tgt[t] != tgt[t - 1] + 1:
+            base = -1
+            break
     for r in prange(R):
-        block = np.empty(max(Fb - step + 1, 1))
-        for x in range(Fb - step + 1):
-            v = _INF
-            for j in range(x, x + step):
-                c = D[r, j]
-                if c < v:
-                    v = c
-            block[x] = v
+        block = np.empty(max(nb, 1))
+        cur = np.empty(T)
+        row = D[r]
+        for x in range(nb):
+            block[x] = _INF
+        for j in range(step):
+            for x in range(nb):
+                c = row[x + j]
+                if c < block[x]:
+                    block[x] = c
         for t in range(T):
-            v = _INF
-            j0 = 0
-            for l in range(lens.shape[0]):
-                if lens[l] - j0 == step:
+            cur[t] = _INF
+        j0 = 0
+        for l in range(lens.shape[0]):
+            if lens[l] - j0 == step and base >= 0:
+                for t in range(T):
+                    c = block[base + j0 + t]
+                    if c < cur[t]:
+                        cur[t] = c
+            elif lens[l] - j0 == step:
+                for t in range(T):
                     c = block[tgt[t] + j0]
-                    if c < v:
-                        v = c
-                else:
-                    for j in range(j0, lens[l]):
-                        c = D[r, tgt[t] + j]
-                        if c < v:
-                            v = c
-                out[l, r, t] = v
-                j0 = lens[l]
+                    if c < cur[t]:
+                        cur[t] = c
+            else:
+                for j in range(j0, lens[l]):
+                    if base >= 0:
+                        for t in range(T):
+                            c = row[base + j + t]
+                            if c < cur[t]:
+                                cur[t] = c
+                    else:
+                        for t in range(T):
+                            c = row[tgt[t] + j]
+                            if c < cur[t]:
+                                cur[t] = c
+            for t in range(T):
+                out[l, r, t] = cur[t]
+            j0 = lens[l]
 
 
 @njit(cache=True, inline="always")
