@@ -39,7 +39,7 @@ import numpy as np
 from numba import njit, prange
 
 from .dtw_rows import ROW_STATES, best_state, word_dtw_rows
-from .word_bounds import cheap_bound
+from .word_bounds import cheap_bounds
 from .ordering import kth_smallest, sort_by_key
 from .self_costs import self_pose_costs
 from .twins import twin_kernels
@@ -688,14 +688,18 @@ def _knn_profile(D, rowmin, level, src, tgt, consec, excl_lo, excl_hi, N, M, min
         row = np.empty(M)
         ev = np.empty(T, dtype=np.int64)
         heap = np.empty(first)
+        btot = np.empty(T)
+        bmu = np.empty(T)
+        alive = np.empty(T, dtype=np.bool_)
         ne = 0
         lo = excl_lo[w]
         hi = excl_hi[w]
+        cheap_bounds(rowmin, level, src[w], N, min_width, wmax, btot, bmu, lb, alive)  # cheap_bound at every t
         for t in range(T):
             if lo < tgt[t] < hi:  # inside the source's own place: never chosen, never a chosen one's neighbour
                 lb[t] = _INF
             else:
-                lb[t] = cheap_bound(rowmin, level, src[w], t, N, min_width, wmax) * (1.0 - 1e-9)
+                lb[t] = lb[t] * (1.0 - 1e-9)
         tau = _INF
         for phase in range(2):
             # in increasing order of the bound: first the `first` lowest, then, once tau is known, only the
