@@ -637,35 +637,40 @@ def _mean_exceeds(D, si, tj, N, M, min_width, lam, row):
     return best > 1e-12 * (N + M) * cmax
 
 
-@njit(cache=True)
-def _kth_confirmed(d, evaluated, lb, strict, consec, ev, ne, k, vals, tgt, lo, hi):
-    """K-th smallest value among the evaluated positions proven to be local minima (inf if fewer).
+@njit(cache=True, inline="always")
+def _confirm(d, evaluated, lb, strict, consec, proven, tgt, lo, hi, t, k, vals, n):
+    """Count position ``t`` among the proven local minima if it now is one; returns how many of ``vals`` are set.
 
-    Positions whose start lies in ``[lo, hi]`` (the source word's own place) are
-    part of the distance function but never chosen.
+    ``vals`` (k,) keeps the K smallest values of the evaluated positions proven
+    to be local minima, ascending; ``proven`` (T,) marks those already counted.
+    A proof reads only the position's own value and its two neighbours' values
+    or bounds, and bounds only rise, so a proof once made stands: checking the
+    positions next to each change (a DTW run, a bound raised) keeps ``vals``
+    what a scan of every evaluated position would give, and its K-th value is
+    the search's ``tau`` after every step. Positions whose start lies in
+    ``[lo, hi]`` (the source word's own place) are never counted.
     """
-    n = 0
-    for e in range(ne):
-        t = ev[e]
-        v = d[t]
-        if not v < _INF or lo <= tgt[t] <= hi:
-            continue
-        if n == k and v >= vals[k - 1]:
-            continue
-        if not _proven_minimum(d, evaluated, lb, strict, consec, t, v):
-            continue
-        q = n if n < k else k - 1
-        while q > 0 and vals[q - 1] > v:
-            vals[q] = vals[q - 1]
-            q -= 1
-        vals[q] = v
-        if n < k:
-            n += 1
-    return vals[k - 1] if n == k else _INF
+    T = d.shape[0]
+    if t < 0 or t >= T or proven[t] or not evaluated[t]:
+        return n
+    v = d[t]
+    if not v < _INF or lo <= tgt[t] <= hi:
+        return n
+    if not _proven_minimum(d, evaluated, lb, strict, consec, t, v):
+        return n
+    proven[t] = True
+    if n == k and v >= vals[k - 1]:
+        return n
+    q = n if n < k else k - 1
+    while q > 0 and vals[q - 1] > v:
+        vals[q] = vals[q - 1]
+        q -= 1
+    vals[q] = v
+    return n + 1 if n < k else n
 
 
 @twin_kernels(_PARALLEL_KNN)
-def _knn_profile(D, rowmin, level, src, tgt, consec, excl_lo, excl_hi, N, M, min_width, max_run, k, batch,
+def _knn_profile(D, rowmin, level, src, tgt, consec, excl_lo, excl_hi, N, M, min_width, max_run, k,
                  out_idx, out_dist, out_iend, out_jend, out_evaluated):
     W = src.shape[0]
     T = tgt.shape[0]
@@ -685,6 +690,8 @@ def _knn_profile(D, rowmin, level, src, tgt, consec, excl_lo, excl_hi, N, M, min
         evaluated = np.zeros(T, dtype=np.bool_)
         strict = np.zeros(T, dtype=np.bool_)
         refined = np.zeros(T, dtype=np.bool_)
+        proven = np.zeros(T, dtype=np.bool_)
+        nv = 0  # of vals set
         row = np.empty(M)
         ev = np.empty(T, dtype=np.int64)
         heap = np.empty(first)
@@ -720,11 +727,17 @@ def _knn_profile(D, rowmin, level, src, tgt, consec, excl_lo, excl_hi, N, M, min
                 if tau < _INF and not refined[t]:  # the sorting bound, only where the cheap one is not enough
                     lb[t] = max(lb[t], _bound(rowmin, level, src[w], t, N, min_width, wmax, buf) * (1.0 - 1e-9))
                     refined[t] = True
-                    if not lb[t] <= tau:
+                    if not lb[t] <= tau:  # a bound raised: a neighbour's proof may read it
+                        nv = _confirm(d, evaluated, lb, strict, consec, proven, tgt, lo, hi, t - 1, k, vals, nv)
+                        nv = _confirm(d, evaluated, lb, strict, consec, proven, tgt, lo, hi, t + 1, k, vals, nv)
+                        tau = vals[k - 1] if nv == k else _INF
                         continue
                 if tau < _INF and _mean_exceeds(D, src[w], tgt[t], N, M, min_width, tau * (1.0 + 1e-9), row):
                     lb[t] = tau  # the distance exceeds tau: a strict bound, no DTW needed
                     strict[t] = True
+                    nv = _confirm(d, evaluated, lb, strict, consec, proven, tgt, lo, hi, t - 1, k, vals, nv)
+                    nv = _confirm(d, evaluated, lb, strict, consec, proven, tgt, lo, hi, t + 1, k, vals, nv)
+                    tau = vals[k - 1] if nv == k else _INF
                     continue
                 dd, i, j = word_dtw_rows(D, src[w], tgt[t], N, M, min_width, max_run, acc, ln, col_best, col_len)
                 d[t] = dd
@@ -733,8 +746,9 @@ def _knn_profile(D, rowmin, level, src, tgt, consec, excl_lo, excl_hi, N, M, min
                 evaluated[t] = True
                 ev[ne] = t
                 ne += 1
-                if ne % batch == 0:
-                    tau = _kth_confirmed(d, evaluated, lb, strict, consec, ev, ne, k, vals, tgt, lo, hi)
+                for u in range(t - 1, t + 2):  # the new value: its own proof and its neighbours'
+                    nv = _confirm(d, evaluated, lb, strict, consec, proven, tgt, lo, hi, u, k, vals, nv)
+                tau = vals[k - 1] if nv == k else _INF
         out_evaluated[w] = ne
         # the K smallest proven local minima, ties to the earlier target
         n = 0
@@ -841,7 +855,7 @@ def word_knn_profile(D, src_starts, tgt_starts, k=5, exclude_center=None, exclud
         lens, level = _row_windows(N, M, max_run)
         rowmin = np.empty((len(lens), D.shape[0], T), dtype=np.float32)
         _row_minima.pick(D.shape[0] * len(tgt))(D, tgt, lens, rowmin)
-        _knn_profile.pick(W * T)(D, rowmin, level, src, tgt, consec, lo, hi, N, M, int(min_width), int(max_run), int(k), 4,
+        _knn_profile.pick(W * T)(D, rowmin, level, src, tgt, consec, lo, hi, N, M, int(min_width), int(max_run), int(k),
                      idx, dist, iend, jend, evaluated)
     out = (idx, dist.astype(np.float32), iend.astype(np.int16), jend.astype(np.int16))
     return out + (evaluated,) if return_evaluated else out
