@@ -219,7 +219,10 @@ def self_pose_distances(A: np.ndarray, groups: np.ndarray, drop) -> np.ndarray:
     ``(b, a)``, bit for bit), so each cell of the upper triangle is computed
     once and mirrored: the same array as ``group_pose_distances(A, A, ...)``
     at half the cost (the self-distance matrix of the motion words, Aristidou
-    et al. 2018, section 3.3).
+    et al. 2018, section 3.3). The cells come from
+    :func:`~mocapkit.cleaning.ssa.self_costs.self_pose_costs`: joint terms from
+    a polynomial instead of ``acos``, each cell checked to round to the same
+    float32 (the few it cannot vouch for computed with ``acos``).
     """
     A = np.ascontiguousarray(A, dtype=np.float64)
     if A.ndim != 3 or A.shape[2] != 4:
