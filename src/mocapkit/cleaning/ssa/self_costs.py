@@ -32,7 +32,7 @@ from numba import njit, prange
 
 from .twins import twin_kernels
 
-__all__ = ["self_pose_costs", "approx_half_angle_sq", "TERM_RTOL", "DELTA_RTOL", "PARALLEL_CELLS"]
+__all__ = ["self_pose_costs", "mirror_upper", "approx_half_angle_sq", "TERM_RTOL", "DELTA_RTOL", "PARALLEL_CELLS"]
 
 _INF = np.inf
 
@@ -254,3 +254,18 @@ def self_pose_costs(A: np.ndarray, members: np.ndarray, offsets: np.ndarray, dro
     Q = np.ascontiguousarray(A.transpose(1, 2, 0))  # (m, 4, F): a joint's component over frames, for SIMD lanes
     ok = np.all(np.isfinite(A) & (np.abs(A) <= 2.0), axis=(1, 2))
     _self_costs.pick(F * F // 2)(A, Q, ok, members, offsets, drop, float(rtol), out)
+
+
+@njit(cache=True)
+def mirror_upper(out):
+    """``out[g, r, c] = out[g, c, r]`` below the diagonal of (G, F, F) ``out``, in place: the lower triangle of
+    :func:`self_pose_costs`' upper one, in 64 x 64 blocks (a column-wise write per cell would miss the cache on
+    every one)."""
+    G, F = out.shape[0], out.shape[1]
+    B = 64
+    for g in range(G):
+        for r0 in range(0, F, B):
+            for c0 in range(0, r0 + 1, B):
+                for r in range(r0, min(r0 + B, F)):
+                    for c in range(c0, min(c0 + B, r)):
+                        out[g, r, c] = out[g, c, r]

@@ -41,7 +41,7 @@ from numba import njit, prange
 from .dtw_rows import ROW_STATES, best_state, word_dtw_rows
 from .word_bounds import cheap_bounds
 from .ordering import kth_smallest, sort_by_key
-from .self_costs import self_pose_costs
+from .self_costs import mirror_upper, self_pose_costs
 from .twins import twin_kernels
 from .word_means import robust_word_means, select_separated_minima, shift_tolerant_angles  # re-exported
 
@@ -168,20 +168,6 @@ def _group_pose_distances(A, B, members, offsets, drop):
 
 
 
-@njit(cache=True)
-def _mirror_upper(out):
-    """``out[g, r, c] = out[g, c, r]`` below the diagonal, in 64 x 64 blocks (a column-wise write per cell
-    would miss the cache on every one)."""
-    G, F = out.shape[0], out.shape[1]
-    B = 64
-    for g in range(G):
-        for r0 in range(0, F, B):
-            for c0 in range(0, r0 + 1, B):
-                for r in range(r0, min(r0 + B, F)):
-                    for c in range(c0, min(c0 + B, r)):
-                        out[g, r, c] = out[g, c, r]
-
-
 def _pack_groups(groups):
     """(G, m) boolean group masks -> (members, offsets) CSR arrays for the kernels."""
     groups = np.asarray(groups, dtype=bool)
@@ -219,10 +205,8 @@ def self_pose_distances(A: np.ndarray, groups: np.ndarray, drop) -> np.ndarray:
     ``(b, a)``, bit for bit), so each cell of the upper triangle is computed
     once and mirrored: the same array as ``group_pose_distances(A, A, ...)``
     at half the cost (the self-distance matrix of the motion words, Aristidou
-    et al. 2018, section 3.3). The cells come from
-    :func:`~mocapkit.cleaning.ssa.self_costs.self_pose_costs`: joint terms from
-    a polynomial instead of ``acos``, each cell checked to round to the same
-    float32 (the few it cannot vouch for computed with ``acos``).
+    et al. 2018, section 3.3), its cells from polynomial joint terms checked
+    to round alike (:func:`~mocapkit.cleaning.ssa.self_costs.self_pose_costs`).
     """
     A = np.ascontiguousarray(A, dtype=np.float64)
     if A.ndim != 3 or A.shape[2] != 4:
@@ -236,7 +220,7 @@ def self_pose_distances(A: np.ndarray, groups: np.ndarray, drop) -> np.ndarray:
     out = np.empty((len(groups), F, F), dtype=np.float32)
     if F:
         self_pose_costs(A, members, offsets, drop, out)  # the upper triangle, few acos (self_costs)
-        _mirror_upper(out)
+        mirror_upper(out)
     return out
 
 
@@ -642,17 +626,11 @@ def _mean_exceeds(D, si, tj, N, M, min_width, lam, row):
 
 @njit(cache=True, inline="always")
 def _confirm(d, evaluated, lb, strict, consec, proven, tgt, lo, hi, t, k, vals, n):
-    """Count position ``t`` among the proven local minima if it now is one; returns how many of ``vals`` are set.
-
-    ``vals`` (k,) keeps the K smallest values of the evaluated positions proven
-    to be local minima, ascending; ``proven`` (T,) marks those already counted.
-    A proof reads only the position's own value and its two neighbours' values
-    or bounds, and bounds only rise, so a proof once made stands: checking the
-    positions next to each change (a DTW run, a bound raised) keeps ``vals``
-    what a scan of every evaluated position would give, and its K-th value is
-    the search's ``tau`` after every step. Positions whose start lies in
-    ``[lo, hi]`` (the source word's own place) are never counted.
-    """
+    """Count position ``t`` among the proven local minima if it now is one; returns how many of ``vals`` (k,), the
+    K smallest such values ascending, are set. ``proven`` (T,) marks those counted. A proof reads only the value
+    and the two neighbours' values or bounds, and bounds only rise: checking the positions next to each change (a
+    DTW run, a bound raised) keeps ``vals`` what a scan of every evaluated position gives, its K-th value ``tau``.
+    Positions whose start lies in ``[lo, hi]`` (the source word's own place) are never counted."""
     T = d.shape[0]
     if t < 0 or t >= T or proven[t] or not evaluated[t]:
         return n
