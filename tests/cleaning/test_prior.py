@@ -594,3 +594,30 @@ def test_pair_band_is_the_add_at_it_replaces(k, nf):
             ok = (row >= 0) & (row <= bw)
             np.add.at(want, (row[ok][:, None], np.arange(j2, n, k)[None, :]), val[ok, j1, j2][:, None] * hit[ok])
     assert L == len(lags) and np.array_equal(P.pair_band(d0, val, hit, k, n, bw), want)
+
+
+def test_local_priors_made_on_two_threads_fill_as_made_one_by_one(monkeypatch):
+    """The long gaps' local priors are made up front in two halves on two threads: the fill is the one they give
+    made in the calling thread one after the other, bit for bit."""
+    from mocapkit.cleaning.deep import threads
+
+    fps = 30.0
+    train = [_coupled(600, s, fps) for s in range(4)]
+    loc = P.fit_gap_prior(train, fps, local_takes=train, local_step=2)
+    x = _coupled(900, 40, fps)
+    g = x.copy()
+    for s0, c in ((100, 1), (300, 0), (420, 2), (600, 1), (800, 0)):  # five long gaps, and a short one
+        g[s0 : s0 + 40, c] = np.nan
+    g[500:504, 1] = np.nan
+    calls = []
+    real = threads.run_in_parts
+
+    def spy(fn, n, parts=threads.INFERENCE_PARTS, min_rows=threads.MIN_PART_ROWS):
+        calls.append((n, len(threads.part_bounds(n, parts, min_rows))))
+        return real(fn, n, parts, min_rows)
+
+    monkeypatch.setattr(threads, "run_in_parts", spy)
+    both = P.conditional_fill(g, loc, fps)
+    monkeypatch.setattr(threads, "run_in_parts", lambda fn, n, parts=2, min_rows=1: [fn(0, n)])
+    one = P.conditional_fill(g, loc, fps)
+    assert calls == [(5, 2)] and np.array_equal(both, one)

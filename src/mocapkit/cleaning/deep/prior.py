@@ -469,15 +469,26 @@ def _conditional_fill(values, prior: GapPrior, fps: float, prior_s: float, smoot
         windows = local_windows(prior)
         norms = np.einsum("ij,ij->i", windows, windows)  # once for every long gap of the take
 
-        def local_model(s: int, e: int, chans: np.ndarray):
-            """The event's local prior (mean, covariance, precision), or None for the global one."""
-            if e - s < LOCAL_MIN_S * fps:
-                return None
+        def own_model(s: int, e: int, chans: np.ndarray):
+            """A long event's local prior (mean, covariance, precision)."""
             read = np.setdiff1d(np.arange(C), chans)
             entries = (np.arange(len(lags))[:, None] * C + read[None, :]).ravel()
             at = np.arange(s, e, max(1, (e - s) // LOCAL_QUERIES))
             lm, lc = local_prior(windows, z[at], entries, shift, cov, LOCAL_K, LOCAL_N0, norms)
             return prior.mean + lm * prior.scale, lc, np.linalg.inv(lc + prior.ridge * np.eye(len(lc)))
+
+        # a local prior reads the take as read before any fill (z), never another event's fill: the long events'
+        # are made up front, in two fixed halves on two threads (each BLAS call in one thread, as here: the same
+        # numbers, bit for bit, on any machine)
+        from .threads import run_in_parts
+
+        long = [(s, e, np.asarray(c)) for (s, e), c in sorted(events.items()) if e - s >= LOCAL_MIN_S * fps]
+        made = run_in_parts(lambda lo, hi: [own_model(*ev) for ev in long[lo:hi]], len(long), min_rows=1)
+        models = dict(zip([(s, e) for s, e, _ in long], [m for part in made for m in part]))
+
+        def local_model(s: int, e: int, chans: np.ndarray):
+            """The event's local prior (mean, covariance, precision), or None for the global one."""
+            return models.get((s, e))
 
     prec = np.linalg.inv(cov + prior.ridge * np.eye(len(cov)))  # of every entry; marginals by Schur complements
     reading = base.copy()  # the observed channels as the field read them (_fill_events fills the gaps of base)
