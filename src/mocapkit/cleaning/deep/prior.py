@@ -428,7 +428,9 @@ def conditional_fill(values: np.ndarray, prior: GapPrior, fps: float, prior_s: f
     validation clips, within 0.1 % without noise (docs/models.md).
 
     BLAS runs on one thread throughout, so the fill is the same to the last bit on any machine and
-    under any executor (OpenBLAS splits its sums by its thread count).
+    under any executor (OpenBLAS splits its sums by its thread count). The long gaps' local priors, which read
+    the take as it was before any fill, are made first, in two fixed halves on two threads
+    (:func:`~mocapkit.cleaning.deep.threads.run_in_parts`), each call still one BLAS thread.
     """
     with threadpool_limits(1, user_api="blas"):
         return _conditional_fill(values, prior, fps, prior_s, smoothed, cross, anchor)
