@@ -168,6 +168,9 @@ def test_the_local_prior_is_the_nearest_windows_pooled_with_the_global_one():
     assert np.allclose(m2, 0.5 * m)  # as many windows of the global prior as of neighbours
     second = 0.5 * (c + np.outer(m, m)) + 0.5 * (cov + np.outer(mean, mean))  # pooled second moments
     assert np.allclose(c2, second - np.outer(m2, m2))
+    norms = np.einsum("ij,ij->i", windows, windows)  # computed once by the caller: the same prior, bit for bit
+    m3, c3 = P.local_prior(windows, query, entries, mean, cov, k=150, n0=150.0, norms=norms)
+    assert np.array_equal(m3, m2) and np.array_equal(c3, c2)
     assert P.local_prior(windows[:1], query, entries, mean, cov)[0] is mean  # too few windows: the global prior
     # nothing read around the gap (a whole-body dropout): no window is nearer than another, so the global prior
     assert P.local_prior(windows, query, np.array([], dtype=int), mean, cov)[1] is cov
@@ -570,3 +573,51 @@ def test_a_frame_missing_within_the_lags_is_a_channel_missing_in_the_lagged_vect
     lags = deep.shipped_model("ebd").prior.lags
     assert np.array_equal((P.lagged(miss.astype(np.float64), lags) > 0).any(axis=1),
                           P.lagged(np.any(miss, axis=1)[:, None], lags).any(axis=1))
+
+
+@pytest.mark.parametrize("k, nf", [(1, 9), (3, 17), (4, 5)])
+def test_pair_band_is_the_add_at_it_replaces(k, nf):
+    """field_fill's band added by one bincount: the same numbers, bit for bit, as np.add.at per channel pair."""
+    rng = np.random.default_rng(k * 100 + nf)
+    L = 7
+    lags = np.array([-4, -2, -1, 0, 1, 2, 4])
+    pa, pb = np.nonzero(lags[:, None] >= lags[None, :])
+    d0 = lags[pa] - lags[pb]
+    val = rng.normal(size=(len(pa), k, k)) * 10.0 ** rng.integers(-8, 8, size=(len(pa), k, k))
+    hit = (rng.random((len(pa), nf)) < 0.7).astype(float)
+    n = nf * k
+    bw = min(n - 1, int(d0.max()) * k + k - 1)
+    want = np.zeros((bw + 1, n))
+    for j1 in range(k):
+        for j2 in range(k):
+            row = d0 * k + j1 - j2
+            ok = (row >= 0) & (row <= bw)
+            np.add.at(want, (row[ok][:, None], np.arange(j2, n, k)[None, :]), val[ok, j1, j2][:, None] * hit[ok])
+    assert L == len(lags) and np.array_equal(P.pair_band(d0, val, hit, k, n, bw), want)
+
+
+def test_local_priors_made_on_two_threads_fill_as_made_one_by_one(monkeypatch):
+    """The long gaps' local priors are made up front in two halves on two threads: the fill is the one they give
+    made in the calling thread one after the other, bit for bit."""
+    from mocapkit.cleaning.deep import threads
+
+    fps = 30.0
+    train = [_coupled(600, s, fps) for s in range(4)]
+    loc = P.fit_gap_prior(train, fps, local_takes=train, local_step=2)
+    x = _coupled(900, 40, fps)
+    g = x.copy()
+    for s0, c in ((100, 1), (300, 0), (420, 2), (600, 1), (800, 0)):  # five long gaps, and a short one
+        g[s0 : s0 + 40, c] = np.nan
+    g[500:504, 1] = np.nan
+    calls = []
+    real = threads.run_in_parts
+
+    def spy(fn, n, parts=threads.INFERENCE_PARTS, min_rows=threads.MIN_PART_ROWS):
+        calls.append((n, len(threads.part_bounds(n, parts, min_rows))))
+        return real(fn, n, parts, min_rows)
+
+    monkeypatch.setattr(threads, "run_in_parts", spy)
+    both = P.conditional_fill(g, loc, fps)
+    monkeypatch.setattr(threads, "run_in_parts", lambda fn, n, parts=2, min_rows=1: [fn(0, n)])
+    one = P.conditional_fill(g, loc, fps)
+    assert calls == [(5, 2)] and np.array_equal(both, one)

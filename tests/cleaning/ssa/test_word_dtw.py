@@ -214,10 +214,10 @@ def _assert_same(s, p):
 
 
 def test_every_prange_kernel_has_twins():
-    from mocapkit.cleaning.ssa import word_means
+    from mocapkit.cleaning.ssa import self_costs, word_means
 
-    kernels = {name: v for mod in (W, word_means) for name, v in vars(mod).items() if isinstance(v, Twins)}
-    assert set(kernels) == {"_group_pose_distances", "_self_pose_distances", "_profile", "_row_minima", "_knn_profile",
+    kernels = {name: v for mod in (W, word_means, self_costs) for name, v in vars(mod).items() if isinstance(v, Twins)}
+    assert set(kernels) == {"_group_pose_distances", "_self_costs", "_profile", "_row_minima", "_knn_profile",
                             "_pairs", "_warp", "_robust_means", "_shift_angles"}
     for name, t in kernels.items():
         assert t.parallel.targetoptions.get("parallel") and not t.serial.targetoptions.get("parallel")
@@ -359,3 +359,19 @@ def test_a_parallel_twin_not_compiled_nor_cached_runs_only_on_very_large_problem
 
     assert run() == ["True", "False", "True", "True"]  # cold: serial at the threshold; compiled: parallel
     assert run() == ["True", "True", "True", "True"]  # cached: parallel at the threshold before any call
+
+
+@pytest.mark.parametrize("contiguous", [True, False])
+@pytest.mark.parametrize("N, M, run", [(15, 20, 3), (10, 12, 1), (6, 9, 2)])
+def test_row_minima_equal_the_window_minima(rng, contiguous, N, M, run):
+    """Each bound row minimum is the minimum of its column window, consecutive starts or not, both twins."""
+    D = rng.random((30, 70)).astype(np.float32)
+    D[4, 20:26] = np.inf
+    D[9] = np.inf
+    tgt = np.arange(3, 70 - M + 1) if contiguous else np.sort(rng.choice(70 - M + 1, 25, replace=False))
+    lens, _ = W._row_windows(N, M, run)
+    want = np.array([[[D[r, t : t + n].min() for t in tgt] for r in range(30)] for n in lens])
+    for side in ("serial", "parallel"):
+        got = np.full((len(lens), 30, len(tgt)), -1.0, dtype=np.float32)
+        getattr(W._row_minima, side)(D, tgt, lens, got)
+        assert np.array_equal(got, want)

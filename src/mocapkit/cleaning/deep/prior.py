@@ -68,8 +68,8 @@ from .blindspot import WEIGHT as CROSS_WEIGHT
 from .blindspot import cross_channel_prediction, noise_share
 from .channels import lerp_fill
 
-__all__ = ["GapPrior", "fit_gap_prior", "conditional_fill", "lagged", "lag_frames", "local_prior", "local_windows", "LAGS_S",
-           "RIDGE", "PRIOR_S", "branch_turns", "branch_lagged", "circular_mean"]
+__all__ = ["GapPrior", "fit_gap_prior", "conditional_fill", "pair_band", "lagged", "lag_frames", "local_prior", "local_windows",
+           "LAGS_S", "RIDGE", "PRIOR_S", "branch_turns", "branch_lagged", "circular_mean"]
 
 SMOOTH_S = 0.058
 """Std (s) of the Gaussian that smooths the observed channels before they are read as evidence (Mall's 58 ms
@@ -306,7 +306,7 @@ def local_windows(prior: GapPrior) -> np.ndarray:
 
 
 def local_prior(windows: np.ndarray, query: np.ndarray, entries: np.ndarray, mean: np.ndarray, cov: np.ndarray,
-                k: int = LOCAL_K, n0: float = LOCAL_N0) -> tuple[np.ndarray, np.ndarray]:
+                k: int = LOCAL_K, n0: float = LOCAL_N0, norms: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
     """(mean (D,), covariance (D, D)) of the standardised windows near a gap: a kernel prior.
 
     One Gaussian for all motion leans every long gap towards the training clips' average
@@ -323,7 +323,8 @@ def local_prior(windows: np.ndarray, query: np.ndarray, entries: np.ndarray, mea
     standardised) as ``n`` windows against ``n0``. On the Acclaim validation actor, 1-4 s
     whole-joint gaps at 0.5 noise: 0.692x -> 0.614x lerp + Gaussian (docs/models.md). The
     search and the neighbours' covariance run in the windows' own precision (float32 for
-    :func:`local_windows`), the pooling in float64.
+    :func:`local_windows`), the pooling in float64. ``norms`` (N,): the windows' squared norms as
+    ``np.einsum("ij,ij->i", windows, windows)`` gives them, when the caller computed them once for many gaps.
     """
     n_all = len(windows)
     if n_all < 2 or len(query) == 0 or len(entries) == 0:  # nothing to compare on (a whole-body dropout): global
@@ -333,7 +334,8 @@ def local_prior(windows: np.ndarray, query: np.ndarray, entries: np.ndarray, mea
     read[entries] = True
     q = np.where(read, query, 0.0).astype(windows.dtype)  # entries not read weigh nothing in the product
     left = np.flatnonzero(~read)
-    norms = np.einsum("ij,ij->i", windows, windows) - np.einsum("ij,ij->i", windows[:, left], windows[:, left])
+    whole = np.einsum("ij,ij->i", windows, windows) if norms is None else norms
+    norms = whole - np.einsum("ij,ij->i", windows[:, left], windows[:, left])
     d2 = norms[None, :] - 2.0 * (q @ windows.T)
     near = np.unique(np.argpartition(d2, k, axis=1)[:, :k].ravel())
     zl = windows[near]
@@ -412,12 +414,7 @@ def field_fill(base: np.ndarray, lags: np.ndarray, mean: np.ndarray, scale: np.n
         hit[pi, slot[fr[tt, pb[pi]] - u0]] = 1.0  # the slots b's frame takes, pair by pair
         val = coef[pa][:, :, None] * blocks[pa, pb] * coef[pb][:, None, :]  # (P, k, k)
         bw = min(n - 1, int(d0.max()) * k + k - 1)
-        band = np.zeros((bw + 1, n))
-        for j1 in range(k):
-            for j2 in range(k):
-                row = d0 * k + j1 - j2
-                ok = (row >= 0) & (row <= bw)
-                np.add.at(band, (row[ok][:, None], np.arange(j2, n, k)[None, :]), val[ok, j1, j2][:, None] * hit[ok])
+        band = pair_band(d0, val, hit, k, n, bw)
     else:  # clamped at a take's end: entry by entry
         tt, a, b = np.nonzero(inside[:, :, None] & inside[:, None, :])
         ua = np.broadcast_to(unk[tt, a][:, :, None], (len(tt), k, k))
@@ -428,6 +425,26 @@ def field_fill(base: np.ndarray, lags: np.ndarray, mean: np.ndarray, scale: np.n
         band = np.bincount(((ua - ub) * n + ub)[low], val[low], minlength=(bw + 1) * n).reshape(bw + 1, n)
     u = solveh_banded(band, -g, lower=True, check_finite=False).reshape(nf, k)
     return u[slot]
+
+
+def pair_band(d0: np.ndarray, val: np.ndarray, hit: np.ndarray, k: int, n: int, bw: int) -> np.ndarray:
+    """(bw + 1, n) the lower band of :func:`field_fill`'s ``H`` added lag pair by lag pair (unclamped windows).
+
+    ``d0`` (P,) int: each lag pair's distance in slots; ``val`` (P, k, k): its ``coef * P * coef`` block; ``hit``
+    (P, nf): 1 at the slots its second frame takes (``n = nf * k``). ``band[d0 * k + j1 - j2, slot * k + j2] +=
+    val[p, j1, j2] * hit[p, slot]`` for every pair ``p``, slot and channels ``j1``, ``j2`` on the band. A cell's
+    column is ``j2`` modulo ``k`` and its diagonal ``j1 - j2`` modulo ``k``, so it belongs to one ``(j1, j2)``: one
+    bincount over them all, ``(j1, j2)`` then pair then slot, sums each cell from 0 in the order of the
+    ``np.add.at`` per ``(j1, j2)`` it replaces (the same numbers, bit for bit; one call instead of ``k^2``).
+    """
+    idx, wts = [], []
+    for j1 in range(k):
+        for j2 in range(k):
+            row = d0 * k + j1 - j2
+            ok = (row >= 0) & (row <= bw)
+            idx.append((row[ok][:, None] * n + np.arange(j2, n, k)[None, :]).ravel())
+            wts.append((val[ok, j1, j2][:, None] * hit[ok]).ravel())
+    return np.bincount(np.concatenate(idx), np.concatenate(wts), minlength=(bw + 1) * n).reshape(bw + 1, n)
 
 
 def conditional_fill(values: np.ndarray, prior: GapPrior, fps: float, prior_s: float = PRIOR_S,
@@ -481,7 +498,9 @@ def conditional_fill(values: np.ndarray, prior: GapPrior, fps: float, prior_s: f
     validation clips, within 0.1 % without noise (docs/models.md).
 
     BLAS runs on one thread throughout, so the fill is the same to the last bit on any machine and
-    under any executor (OpenBLAS splits its sums by its thread count).
+    under any executor (OpenBLAS splits its sums by its thread count). The long gaps' local priors, which read
+    the take as it was before any fill, are made first, in two fixed halves on two threads
+    (:func:`~mocapkit.cleaning.deep.threads.run_in_parts`), each call still one BLAS thread.
     """
     with threadpool_limits(1, user_api="blas"):
         return _conditional_fill(values, prior, fps, prior_s, smoothed, cross, anchor)
@@ -520,16 +539,30 @@ def _conditional_fill(values, prior: GapPrior, fps: float, prior_s: float, smoot
     local_model = None
     if prior.local_frames is not None and any(e - s >= LOCAL_MIN_S * fps for s, e in events):
         windows = local_windows(prior)
+        norms = np.einsum("ij,ij->i", windows, windows)  # once for every long gap of the take
 
-        def local_model(s: int, e: int, chans: np.ndarray):
-            """The event's local prior (mean, covariance, precision), or None for the global one."""
-            if e - s < LOCAL_MIN_S * fps:
-                return None
+        def own_model(s: int, e: int, chans: np.ndarray):
+            """A long event's local prior (mean, covariance, precision)."""
             read = np.setdiff1d(np.arange(C), chans)
             entries = (np.arange(len(lags))[:, None] * C + read[None, :]).ravel()
             at = np.arange(s, e, max(1, (e - s) // LOCAL_QUERIES))
-            lm, lc = local_prior(windows, z[at], entries, shift, cov, LOCAL_K, LOCAL_N0)
+            lm, lc = local_prior(windows, z[at], entries, shift, cov, LOCAL_K, LOCAL_N0, norms)
             return prior.mean + lm * prior.scale, lc, np.linalg.inv(lc + prior.ridge * np.eye(len(lc)))
+
+        # a local prior reads the take as read before any fill (z), never another event's fill: the long events'
+        # are made up front, in two fixed halves on two threads (each BLAS call in one thread, as here: the same
+        # numbers, bit for bit, on any machine)
+        from .threads import run_in_parts
+
+        long = [(s, e, np.asarray(c)) for (s, e), c in sorted(events.items()) if e - s >= LOCAL_MIN_S * fps]
+        made = run_in_parts(lambda lo, hi: [own_model(*ev) for ev in long[lo:hi]], len(long), min_rows=1)
+        models = dict(zip([(s, e) for s, e, _ in long], [m for part in made for m in part]))
+
+        def made_model(s: int, e: int, chans: np.ndarray):
+            """The event's local prior (mean, covariance, precision), or None for the global one."""
+            return models.get((s, e))
+
+        local_model = made_model
 
     prec = np.linalg.inv(cov + prior.ridge * np.eye(len(cov)))  # of every entry; marginals by Schur complements
     reading = base.copy()  # the observed channels as the field read them (_fill_events fills the gaps of base)

@@ -27,7 +27,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-__all__ = ["cheap_bound"]
+__all__ = ["cheap_bound", "cheap_bounds"]
 
 _INF = np.inf
 
@@ -58,3 +58,38 @@ def cheap_bound(rowmin, level, s, t, N, min_width, wmax):
             if m < best:
                 best = m
     return best
+
+
+@njit(cache=True, inline="always")
+def cheap_bounds(rowmin, level, s, N, min_width, wmax, total, mu, best, alive):
+    """:func:`cheap_bound` of the source word at row ``s`` against every target position at once, into ``best``.
+
+    The same arithmetic per position, run row by row over all positions (SIMD lanes) instead of position by
+    position: ``best`` (T,) float64 gets exactly what ``cheap_bound(rowmin, level, s, t, ...)`` returns for each
+    ``t``. ``total``, ``mu`` (T,) float64 and ``alive`` (T,) bool are scratch.
+    """
+    T = best.shape[0]
+    lo = min_width - 1 if min_width >= 1 else 0
+    for t in range(T):
+        best[t] = _INF
+        total[t] = 0.0
+        mu[t] = _INF
+        alive[t] = True
+    for i in range(N):
+        row = rowmin[level[i], s + i]
+        scored = i >= lo
+        n = i + 1
+        for t in range(T):
+            v = row[t]
+            a = alive[t] and v < _INF  # no finite path reaches past row i: best stays as it is
+            alive[t] = a
+            tot = total[t] + v
+            m0 = mu[t]
+            m1 = v if v < m0 else m0
+            if a:
+                total[t] = tot
+                mu[t] = m1
+            if a and scored:
+                m = m1 + (tot - n * m1) / (wmax * n)
+                if m < best[t]:
+                    best[t] = m

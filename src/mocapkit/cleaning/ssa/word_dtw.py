@@ -39,8 +39,9 @@ import numpy as np
 from numba import njit, prange
 
 from .dtw_rows import ROW_STATES, best_state, word_dtw_rows
-from .word_bounds import cheap_bound
+from .word_bounds import cheap_bounds
 from .ordering import kth_smallest, sort_by_key
+from .self_costs import mirror_upper, self_pose_costs
 from .twins import twin_kernels
 from .word_means import robust_word_means, select_separated_minima, shift_tolerant_angles  # re-exported
 
@@ -167,51 +168,6 @@ def _group_pose_distances(A, B, members, offsets, drop):
 
 
 
-@twin_kernels(_PARALLEL_CELLS)
-def _self_pose_distances(A, members, offsets, drop, out):
-    F = A.shape[0]
-    m = A.shape[1]
-    G = drop.shape[0]
-    for h in prange((F + 1) // 2):
-        terms = np.empty(m)
-        top = np.int64(h)
-        for side in range(2):  # a long row and a short one per step, so the threads share the triangle evenly
-            a = top if side == 0 else F - 1 - top
-            if side == 1 and a == top:
-                break
-            for b in range(a, F):
-                finite = True
-                for k in range(m):
-                    v = _half_angle_sq(A[a, k], A[b, k])
-                    terms[k] = v
-                    if v == _INF:
-                        finite = False
-                for g in range(G):
-                    val = _INF
-                    bad = False
-                    if not finite:
-                        for k in members[offsets[g] : offsets[g + 1]]:
-                            if terms[k] == _INF:
-                                bad = True
-                    if not bad:
-                        val = _robust_sum(terms, members[offsets[g] : offsets[g + 1]], drop[g])
-                    out[g, a, b] = val
-
-
-@njit(cache=True)
-def _mirror_upper(out):
-    """``out[g, r, c] = out[g, c, r]`` below the diagonal, in 64 x 64 blocks (a column-wise write per cell
-    would miss the cache on every one)."""
-    G, F = out.shape[0], out.shape[1]
-    B = 64
-    for g in range(G):
-        for r0 in range(0, F, B):
-            for c0 in range(0, r0 + 1, B):
-                for r in range(r0, min(r0 + B, F)):
-                    for c in range(c0, min(c0 + B, r)):
-                        out[g, r, c] = out[g, c, r]
-
-
 def _pack_groups(groups):
     """(G, m) boolean group masks -> (members, offsets) CSR arrays for the kernels."""
     groups = np.asarray(groups, dtype=bool)
@@ -249,7 +205,8 @@ def self_pose_distances(A: np.ndarray, groups: np.ndarray, drop) -> np.ndarray:
     ``(b, a)``, bit for bit), so each cell of the upper triangle is computed
     once and mirrored: the same array as ``group_pose_distances(A, A, ...)``
     at half the cost (the self-distance matrix of the motion words, Aristidou
-    et al. 2018, section 3.3).
+    et al. 2018, section 3.3), its cells from polynomial joint terms checked
+    to round alike (:func:`~mocapkit.cleaning.ssa.self_costs.self_pose_costs`).
     """
     A = np.ascontiguousarray(A, dtype=np.float64)
     if A.ndim != 3 or A.shape[2] != 4:
@@ -262,8 +219,8 @@ def self_pose_distances(A: np.ndarray, groups: np.ndarray, drop) -> np.ndarray:
     F = A.shape[0]
     out = np.empty((len(groups), F, F), dtype=np.float32)
     if F:
-        _self_pose_distances.pick(F * F // 2)(A, members, offsets, drop, out)  # the upper triangle
-        _mirror_upper(out)
+        self_pose_costs(A, members, offsets, drop, out)  # the upper triangle, few acos (self_costs)
+        mirror_upper(out)
     return out
 
 
@@ -513,35 +470,61 @@ def _row_minima(D, tgt, lens, out):
 
     The minima of every block of ``lens[0]`` columns are taken once per row, so
     a window that grows by that step costs one comparison, not one per column.
+    Each output is the running ``c < v`` scan of its window in column order;
+    the loops run level by level over all target starts (SIMD lanes, with
+    contiguous loads where the starts are consecutive frames, as a take's
+    are), each start's scan the same sequence of comparisons as one start at a time.
     """
     R = D.shape[0]
     T = tgt.shape[0]
     Fb = D.shape[1]
     step = lens[0]
+    nb = max(Fb - step + 1, 0)
+    base = tgt[0] if T > 0 else 0  # the first start, when every start is the one before plus one; else -1
+    for t in range(1, T):
+        if tgt[t] != tgt[t - 1] + 1:
+            base = -1
+            break
     for r in prange(R):
-        block = np.empty(max(Fb - step + 1, 1))
-        for x in range(Fb - step + 1):
-            v = _INF
-            for j in range(x, x + step):
-                c = D[r, j]
-                if c < v:
-                    v = c
-            block[x] = v
+        block = np.empty(max(nb, 1))
+        cur = np.empty(T)
+        row = D[r]
+        for x in range(nb):
+            block[x] = _INF
+        for j in range(step):
+            for x in range(nb):
+                c = row[x + j]
+                if c < block[x]:
+                    block[x] = c
         for t in range(T):
-            v = _INF
-            j0 = 0
-            for l in range(lens.shape[0]):
-                if lens[l] - j0 == step:
+            cur[t] = _INF
+        j0 = 0
+        for l in range(lens.shape[0]):
+            if lens[l] - j0 == step and base >= 0:
+                for t in range(T):
+                    c = block[base + j0 + t]
+                    if c < cur[t]:
+                        cur[t] = c
+            elif lens[l] - j0 == step:
+                for t in range(T):
                     c = block[tgt[t] + j0]
-                    if c < v:
-                        v = c
-                else:
-                    for j in range(j0, lens[l]):
-                        c = D[r, tgt[t] + j]
-                        if c < v:
-                            v = c
-                out[l, r, t] = v
-                j0 = lens[l]
+                    if c < cur[t]:
+                        cur[t] = c
+            else:
+                for j in range(j0, lens[l]):
+                    if base >= 0:
+                        for t in range(T):
+                            c = row[base + j + t]
+                            if c < cur[t]:
+                                cur[t] = c
+                    else:
+                        for t in range(T):
+                            c = row[tgt[t] + j]
+                            if c < cur[t]:
+                                cur[t] = c
+            for t in range(T):
+                out[l, r, t] = cur[t]
+            j0 = lens[l]
 
 
 @njit(cache=True, inline="always")
@@ -641,35 +624,34 @@ def _mean_exceeds(D, si, tj, N, M, min_width, lam, row):
     return best > 1e-12 * (N + M) * cmax
 
 
-@njit(cache=True)
-def _kth_confirmed(d, evaluated, lb, strict, consec, ev, ne, k, vals, tgt, lo, hi):
-    """K-th smallest value among the evaluated positions proven to be local minima (inf if fewer).
-
-    Positions whose start lies in ``[lo, hi]`` (the source word's own place) are
-    part of the distance function but never chosen.
-    """
-    n = 0
-    for e in range(ne):
-        t = ev[e]
-        v = d[t]
-        if not v < _INF or lo <= tgt[t] <= hi:
-            continue
-        if n == k and v >= vals[k - 1]:
-            continue
-        if not _proven_minimum(d, evaluated, lb, strict, consec, t, v):
-            continue
-        q = n if n < k else k - 1
-        while q > 0 and vals[q - 1] > v:
-            vals[q] = vals[q - 1]
-            q -= 1
-        vals[q] = v
-        if n < k:
-            n += 1
-    return vals[k - 1] if n == k else _INF
+@njit(cache=True, inline="always")
+def _confirm(d, evaluated, lb, strict, consec, proven, tgt, lo, hi, t, k, vals, n):
+    """Count position ``t`` among the proven local minima if it now is one; returns how many of ``vals`` (k,), the
+    K smallest such values ascending, are set. ``proven`` (T,) marks those counted. A proof reads only the value
+    and the two neighbours' values or bounds, and bounds only rise: checking the positions next to each change (a
+    DTW run, a bound raised) keeps ``vals`` what a scan of every evaluated position gives, its K-th value ``tau``.
+    Positions whose start lies in ``[lo, hi]`` (the source word's own place) are never counted."""
+    T = d.shape[0]
+    if t < 0 or t >= T or proven[t] or not evaluated[t]:
+        return n
+    v = d[t]
+    if not v < _INF or lo <= tgt[t] <= hi:
+        return n
+    if not _proven_minimum(d, evaluated, lb, strict, consec, t, v):
+        return n
+    proven[t] = True
+    if n == k and v >= vals[k - 1]:
+        return n
+    q = n if n < k else k - 1
+    while q > 0 and vals[q - 1] > v:
+        vals[q] = vals[q - 1]
+        q -= 1
+    vals[q] = v
+    return n + 1 if n < k else n
 
 
 @twin_kernels(_PARALLEL_KNN)
-def _knn_profile(D, rowmin, level, src, tgt, consec, excl_lo, excl_hi, N, M, min_width, max_run, k, batch,
+def _knn_profile(D, rowmin, level, src, tgt, consec, excl_lo, excl_hi, N, M, min_width, max_run, k,
                  out_idx, out_dist, out_iend, out_jend, out_evaluated):
     W = src.shape[0]
     T = tgt.shape[0]
@@ -689,17 +671,23 @@ def _knn_profile(D, rowmin, level, src, tgt, consec, excl_lo, excl_hi, N, M, min
         evaluated = np.zeros(T, dtype=np.bool_)
         strict = np.zeros(T, dtype=np.bool_)
         refined = np.zeros(T, dtype=np.bool_)
+        proven = np.zeros(T, dtype=np.bool_)
+        nv = 0  # of vals set
         row = np.empty(M)
         ev = np.empty(T, dtype=np.int64)
         heap = np.empty(first)
+        btot = np.empty(T)
+        bmu = np.empty(T)
+        alive = np.empty(T, dtype=np.bool_)
         ne = 0
         lo = excl_lo[w]
         hi = excl_hi[w]
+        cheap_bounds(rowmin, level, src[w], N, min_width, wmax, btot, bmu, lb, alive)  # cheap_bound at every t
         for t in range(T):
             if lo < tgt[t] < hi:  # inside the source's own place: never chosen, never a chosen one's neighbour
                 lb[t] = _INF
             else:
-                lb[t] = cheap_bound(rowmin, level, src[w], t, N, min_width, wmax) * (1.0 - 1e-9)
+                lb[t] = lb[t] * (1.0 - 1e-9)
         tau = _INF
         for phase in range(2):
             # in increasing order of the bound: first the `first` lowest, then, once tau is known, only the
@@ -720,11 +708,17 @@ def _knn_profile(D, rowmin, level, src, tgt, consec, excl_lo, excl_hi, N, M, min
                 if tau < _INF and not refined[t]:  # the sorting bound, only where the cheap one is not enough
                     lb[t] = max(lb[t], _bound(rowmin, level, src[w], t, N, min_width, wmax, buf) * (1.0 - 1e-9))
                     refined[t] = True
-                    if not lb[t] <= tau:
+                    if not lb[t] <= tau:  # a bound raised: a neighbour's proof may read it
+                        nv = _confirm(d, evaluated, lb, strict, consec, proven, tgt, lo, hi, t - 1, k, vals, nv)
+                        nv = _confirm(d, evaluated, lb, strict, consec, proven, tgt, lo, hi, t + 1, k, vals, nv)
+                        tau = vals[k - 1] if nv == k else _INF
                         continue
                 if tau < _INF and _mean_exceeds(D, src[w], tgt[t], N, M, min_width, tau * (1.0 + 1e-9), row):
                     lb[t] = tau  # the distance exceeds tau: a strict bound, no DTW needed
                     strict[t] = True
+                    nv = _confirm(d, evaluated, lb, strict, consec, proven, tgt, lo, hi, t - 1, k, vals, nv)
+                    nv = _confirm(d, evaluated, lb, strict, consec, proven, tgt, lo, hi, t + 1, k, vals, nv)
+                    tau = vals[k - 1] if nv == k else _INF
                     continue
                 dd, i, j = word_dtw_rows(D, src[w], tgt[t], N, M, min_width, max_run, acc, ln, col_best, col_len)
                 d[t] = dd
@@ -733,8 +727,9 @@ def _knn_profile(D, rowmin, level, src, tgt, consec, excl_lo, excl_hi, N, M, min
                 evaluated[t] = True
                 ev[ne] = t
                 ne += 1
-                if ne % batch == 0:
-                    tau = _kth_confirmed(d, evaluated, lb, strict, consec, ev, ne, k, vals, tgt, lo, hi)
+                for u in range(t - 1, t + 2):  # the new value: its own proof and its neighbours'
+                    nv = _confirm(d, evaluated, lb, strict, consec, proven, tgt, lo, hi, u, k, vals, nv)
+                tau = vals[k - 1] if nv == k else _INF
         out_evaluated[w] = ne
         # the K smallest proven local minima, ties to the earlier target
         n = 0
@@ -841,7 +836,7 @@ def word_knn_profile(D, src_starts, tgt_starts, k=5, exclude_center=None, exclud
         lens, level = _row_windows(N, M, max_run)
         rowmin = np.empty((len(lens), D.shape[0], T), dtype=np.float32)
         _row_minima.pick(D.shape[0] * len(tgt))(D, tgt, lens, rowmin)
-        _knn_profile.pick(W * T)(D, rowmin, level, src, tgt, consec, lo, hi, N, M, int(min_width), int(max_run), int(k), 4,
+        _knn_profile.pick(W * T)(D, rowmin, level, src, tgt, consec, lo, hi, N, M, int(min_width), int(max_run), int(k),
                      idx, dist, iend, jend, evaluated)
     out = (idx, dist.astype(np.float32), iend.astype(np.int16), jend.astype(np.int16))
     return out + (evaluated,) if return_evaluated else out

@@ -1,0 +1,271 @@
+"""The take's self pose-distance matrix (eq. 1 of Aristidou et al. 2018) without most of its ``acos`` calls.
+
+The self-distance matrix of a 60 s take (1440 texture frames, 24 joints, 5
+groups) takes 25 million joint terms ``acos(|q_a . q_b|)^2``, and ``acos``
+was four fifths of its time. Here each term is first taken from a polynomial
+instead (:func:`approx_half_angle_sq`: ``acos(d) = 2 asin(sqrt((1 - d) / 2))``,
+and ``asin(s) / s`` a degree-16 polynomial in ``t = 1 - 2 d``, so no ``acos``
+and no square root; the loops over a row's cells run in SIMD lanes), within a
+relative :data:`TERM_RTOL` of the ``acos`` term (measured: 2.2e-15). A cell's
+group sum (the robust sum of ``word_dtw``, ``drop`` largest terms left out)
+then lies within ``DELTA_RTOL`` times its terms' total of the sum the exact
+terms give (the robust sum moves by at most twice the terms' total error, and
+each sum's round-off is below ``(m + 3)`` units of the last place of the
+total). The matrix is float32: where both ends of that interval round to the
+same float32, so does the exact sum, and that float32 is stored; otherwise
+(about one cell in 10^4) the cell is computed again with ``acos``, as
+``word_dtw``'s kernels compute it. The matrix is the one
+:func:`~mocapkit.cleaning.ssa.word_dtw.group_pose_distances` gives, bit for bit
+(``tests/cleaning/ssa/test_self_costs.py``), at a fraction of the time.
+
+A frame holding a non-finite or overlong (any component above 2 in size)
+quaternion is never approximated: every cell of its row and column is computed
+the exact way (``inf`` where a group's term is).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit, prange
+
+from .twins import twin_kernels
+
+__all__ = ["self_pose_costs", "mirror_upper", "approx_half_angle_sq", "TERM_RTOL", "DELTA_RTOL", "PARALLEL_CELLS"]
+
+_INF = np.inf
+
+#: Relative error bound used for a polynomial term against the ``acos`` one (400x what was measured, 2.2e-15
+#: over 4 million values of ``d``, ``tests/cleaning/ssa/test_self_costs.py``).
+TERM_RTOL = 1e-12
+
+#: A cell's group sum of polynomial terms is within ``DELTA_RTOL`` times their total of the exact one: twice the
+#: terms' error (the sum, and at most as much again through the dropped largest terms), plus both sums' round-off
+#: (below 3e-15 each for 24 joints), with room to spare.
+DELTA_RTOL = 4e-12
+
+#: F * F / 2 cells from which the parallel twin runs (the threshold of word_dtw's pose-distance kernels).
+PARALLEL_CELLS = 16384
+
+# asin(s) / s with s = sqrt((1 + t) / 4), t in [-1, 1], in powers of t (a degree-16 Chebyshev interpolant fitted
+# at 40 digits, converted to monomials; every coefficient positive, so Horner's rule is well conditioned)
+_COEF = (1.0471975511965979, 0.0537514935913165, 0.007798902238970451, 0.0015196685400978211,
+         0.00034086372357476044, 8.302317095249746e-05, 2.1345550379954454e-05, 5.701826721154319e-06,
+         1.5669766358133022e-06, 4.400550332229293e-07, 1.2579926945696048e-07, 3.6755083788958076e-08,
+         1.078871832720154e-08, 2.9005835285697755e-09, 8.647556963724701e-10, 4.300065905943289e-10,
+         1.308933671927025e-10)
+(_C0, _C1, _C2, _C3, _C4, _C5, _C6, _C7, _C8, _C9, _C10, _C11, _C12, _C13, _C14, _C15, _C16) = _COEF
+
+
+@njit(cache=True, inline="always")
+def approx_half_angle_sq(d) -> float:
+    """``acos(d)^2`` for ``d`` in [0, 1] from the polynomial (relative error under :data:`TERM_RTOL`; 0 at 1)."""
+    t = 1.0 - 2.0 * d
+    p = _C16
+    p = p * t + _C15
+    p = p * t + _C14
+    p = p * t + _C13
+    p = p * t + _C12
+    p = p * t + _C11
+    p = p * t + _C10
+    p = p * t + _C9
+    p = p * t + _C8
+    p = p * t + _C7
+    p = p * t + _C6
+    p = p * t + _C5
+    p = p * t + _C4
+    p = p * t + _C3
+    p = p * t + _C2
+    p = p * t + _C1
+    p = p * t + _C0
+    return 2.0 * (1.0 - d) * (p * p)
+
+
+@njit(cache=True, inline="always")
+def _half_angle_sq(a, b) -> float:
+    """The exact eq. 1 term, as ``word_dtw`` computes it (``inf`` for a non-finite quaternion)."""
+    d = abs(a[0] * b[0] + a[1] * b[1] + a[2] * b[2] + a[3] * b[3])
+    if not d == d:  # NaN
+        return _INF
+    if d > 1.0:
+        d = 1.0
+    h = math.acos(d)
+    return h * h
+
+
+@njit(cache=True, inline="always")
+def _robust_sum(terms, members, drop) -> float:
+    """``word_dtw``'s robust sum: ``terms[members]`` summed in order, the ``drop`` (<= 3) largest subtracted."""
+    s = 0.0
+    if drop == 0:
+        for k in members:
+            s += terms[k]
+    elif drop == 1:
+        t0 = -1.0
+        for k in members:
+            v = terms[k]
+            s += v
+            if v > t0:
+                t0 = v
+        if t0 > 0.0:
+            s -= t0
+    else:
+        t0 = -1.0
+        t1 = -1.0
+        t2 = -1.0
+        for k in members:
+            v = terms[k]
+            s += v
+            if v > t0:
+                t2 = t1
+                t1 = t0
+                t0 = v
+            elif v > t1:
+                t2 = t1
+                t1 = v
+            elif v > t2:
+                t2 = v
+        if t0 > 0.0:
+            s -= t0
+        if t1 > 0.0:
+            s -= t1
+        if drop >= 3 and t2 > 0.0:
+            s -= t2
+    if s < 0.0:  # round-off
+        s = 0.0
+    return s
+
+
+@njit(cache=True)
+def _exact_cell(A, a, b, members, offsets, drop, g, terms):
+    """The float32 eq. 1 cost of frames ``a``, ``b`` on group ``g``, every term from ``acos`` (``terms`` scratch)."""
+    for k in members[offsets[g] : offsets[g + 1]]:
+        v = _half_angle_sq(A[a, k], A[b, k])
+        if v == _INF:
+            return np.float32(_INF)
+        terms[k] = v
+    return np.float32(_robust_sum(terms, members[offsets[g] : offsets[g + 1]], drop[g]))
+
+
+@njit(cache=True, inline="always")
+def _row(A, Q, ok, members, offsets, drop, rtol, a, out, term, tot, s, t0, t1, t2, exact):
+    """Cells ``(a, a..F-1)`` of every group into ``out``: polynomial terms checked, the unsure cells exact."""
+    F, m = A.shape[0], A.shape[1]
+    G = drop.shape[0]
+    n = F - a
+    if not ok[a]:
+        for g in range(G):
+            for j in range(n):
+                out[g, a, a + j] = _exact_cell(A, a, a + j, members, offsets, drop, g, exact)
+        return
+    for k in range(m):
+        a0, a1, a2, a3 = A[a, k, 0], A[a, k, 1], A[a, k, 2], A[a, k, 3]
+        q0, q1, q2, q3 = Q[k, 0], Q[k, 1], Q[k, 2], Q[k, 3]
+        tk = term[k]
+        for j in range(n):
+            b = a + j
+            d = abs(a0 * q0[b] + a1 * q1[b] + a2 * q2[b] + a3 * q3[b])
+            d = min(d, 1.0)
+            tk[j] = approx_half_angle_sq(d)
+    for g in range(G):
+        mem = members[offsets[g] : offsets[g + 1]]
+        dg = drop[g]
+        for j in range(n):
+            s[j] = 0.0
+            t0[j] = -1.0
+            t1[j] = -1.0
+            t2[j] = -1.0
+        for k in mem:
+            tk = term[k]
+            if dg == 0:
+                for j in range(n):
+                    s[j] += tk[j]
+            elif dg == 1:
+                for j in range(n):
+                    v = tk[j]
+                    s[j] += v
+                    t0[j] = max(t0[j], v)
+            else:  # the three largest, as word_dtw's insertion keeps them
+                for j in range(n):
+                    v = tk[j]
+                    s[j] += v
+                    x0, x1 = t0[j], t1[j]
+                    t0[j] = max(x0, v)
+                    t1[j] = max(x1, min(x0, v))
+                    t2[j] = max(t2[j], min(x1, v))
+        for j in range(n):
+            total = s[j]
+            r = total
+            if dg >= 1 and t0[j] > 0.0:
+                r -= t0[j]
+            if dg >= 2 and t1[j] > 0.0:
+                r -= t1[j]
+            if dg >= 3 and t2[j] > 0.0:
+                r -= t2[j]
+            r = max(r, 0.0)
+            delta = rtol * total
+            lo = np.float32(max(r - delta, 0.0))
+            hi = np.float32(r + delta)
+            tot[j] = lo if lo == hi else np.float32(np.nan)  # NaN: not sure, computed again
+        for j in range(n):
+            v = tot[j]
+            if v == v and ok[a + j]:
+                out[g, a, a + j] = v
+            else:
+                out[g, a, a + j] = _exact_cell(A, a, a + j, members, offsets, drop, g, exact)
+
+
+@twin_kernels(PARALLEL_CELLS)
+def _self_costs(A, Q, ok, members, offsets, drop, rtol, out):
+    F = A.shape[0]
+    m = A.shape[1]
+    for h in prange((F + 1) // 2):
+        term = np.empty((m, F))
+        tot = np.empty(F, dtype=np.float32)
+        s = np.empty(F)
+        t0 = np.empty(F)
+        t1 = np.empty(F)
+        t2 = np.empty(F)
+        exact = np.empty(m)
+        top = np.int64(h)
+        for side in range(2):  # a long row and a short one per step, so the threads share the triangle evenly
+            a = top if side == 0 else F - 1 - top
+            if side == 1 and a == top:
+                break
+            _row(A, Q, ok, members, offsets, drop, rtol, a, out, term, tot, s, t0, t1, t2, exact)
+
+
+def self_pose_costs(A: np.ndarray, members: np.ndarray, offsets: np.ndarray, drop: np.ndarray, out: np.ndarray,
+                    rtol: float = DELTA_RTOL) -> None:
+    """The upper triangle (``b >= a``) of the eq. 1 costs of ``A`` against itself, per group, into ``out``.
+
+    A : (F, m, 4) float64 C-contiguous quaternions; members, offsets : int64 CSR of the groups' joints
+    (``word_dtw``'s packing); drop : (G,) int64 in 0..3; out : (G, F, F) float32, its lower triangle left
+    as it is. Every stored value equals ``word_dtw.group_pose_distances(A, A, ...)``'s, bit for bit.
+    ``rtol``: the sums' error bound relative to their terms' total (:data:`DELTA_RTOL`; never less: a larger one
+    only sends more cells the exact way, as the tests do to reach that path).
+    """
+    if not rtol >= DELTA_RTOL:
+        raise ValueError(f"rtol must be at least DELTA_RTOL ({DELTA_RTOL}), got {rtol}")
+    F = A.shape[0]
+    if F == 0:
+        return
+    Q = np.ascontiguousarray(A.transpose(1, 2, 0))  # (m, 4, F): a joint's component over frames, for SIMD lanes
+    ok = np.all(np.isfinite(A) & (np.abs(A) <= 2.0), axis=(1, 2))
+    _self_costs.pick(F * F // 2)(A, Q, ok, members, offsets, drop, float(rtol), out)
+
+
+@njit(cache=True)
+def mirror_upper(out):
+    """``out[g, r, c] = out[g, c, r]`` below the diagonal of (G, F, F) ``out``, in place: the lower triangle of
+    :func:`self_pose_costs`' upper one, in 64 x 64 blocks (a column-wise write per cell would miss the cache on
+    every one)."""
+    G, F = out.shape[0], out.shape[1]
+    B = 64
+    for g in range(G):
+        for r0 in range(0, F, B):
+            for c0 in range(0, r0 + 1, B):
+                for r in range(r0, min(r0 + B, F)):
+                    for c in range(c0, min(c0 + B, r)):
+                        out[g, r, c] = out[g, c, r]

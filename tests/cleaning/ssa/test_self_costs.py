@@ -1,0 +1,73 @@
+"""The self pose-distance matrix from polynomial terms checked against the acos ones (mocapkit.cleaning.ssa.self_costs)."""
+
+import numpy as np
+import pytest
+from numba import njit
+
+from mocapkit import rotations as R
+from mocapkit.cleaning.ssa import self_costs as S
+from mocapkit.cleaning.ssa import word_dtw as W
+from mocapkit.cleaning.ssa.twins import forced
+
+
+@njit(cache=False)
+def _approx(d):
+    out = np.empty_like(d)
+    for i in range(d.shape[0]):
+        out[i] = S.approx_half_angle_sq(d[i])
+    return out
+
+
+def test_polynomial_term_is_within_its_bound_of_acos():
+    rng = np.random.default_rng(3)
+    d = np.concatenate([np.linspace(0.0, 1.0, 400001), 1.0 - np.geomspace(1e-17, 1.0, 200001), rng.random(200000),
+                        1.0 - rng.random(200000) ** 8, [0.0, 0.5, 1.0]])
+    d = np.clip(d, 0.0, 1.0)
+    want = np.arccos(d) ** 2
+    got = _approx(d)
+    assert np.array_equal(got == 0.0, want == 0.0)  # zero exactly where acos is (d = 1)
+    nz = want > 0
+    assert np.max(np.abs(got[nz] - want[nz]) / want[nz]) < S.TERM_RTOL / 100  # the bound has room to spare
+
+
+def _textures(rng):
+    """Quaternion sets meant to trip the check: tiny and large angles, repeated frames, NaN and overlong ones."""
+    walk = np.cumsum(rng.normal(scale=0.05, size=(61, 9, 4)), axis=0) + np.array([1.0, 0.0, 0.0, 0.0])
+    walk = R.quaternion_normalize(walk)
+    walk[10] = walk[9]  # a held frame: zero costs
+    walk[20:23] = R.quaternion_normalize(walk[20:23] + 1e-9 * rng.normal(size=(3, 9, 4)))  # tiny angles
+    walk[30, 2] = np.nan
+    walk[40, 5] = walk[40, 5] * 2.5  # not unit, a component above 2: the exact way
+    walk[44] = -walk[43]  # the same rotations, other hemisphere
+    spread = R.quaternion_normalize(rng.normal(size=(47, 9, 4)))  # every angle, d below 0.5 too
+    return walk, spread
+
+
+@pytest.mark.parametrize("rtol", [S.DELTA_RTOL, 1e-3, 1.0])
+def test_upper_triangle_equals_the_acos_matrix_bit_for_bit(rtol):
+    """Both twins, every drop; a large rtol sends most (1.0: every nonzero) cells the exact way."""
+    rng = np.random.default_rng(5)
+    groups = np.array([[True] * 9, [True, True, False, True, False, True, True, True, False],
+                       [False, True] * 4 + [False], [True] * 3 + [False] * 6])
+    for A in _textures(rng):
+        for drop in ([3, 1, 0, 2], [0, 3, 1, 1]):
+            want = W.group_pose_distances(A, A, groups, drop)
+            members, offsets = W._pack_groups(groups)
+            upper = np.triu(np.ones(want.shape[1:], dtype=bool))
+            for side in ("serial", "parallel"):
+                out = np.full(want.shape, -7.0, dtype=np.float32)
+                with forced(side):
+                    S.self_pose_costs(A, members, offsets, np.array(drop, dtype=np.int64), out, rtol)
+                assert np.array_equal(out[:, upper], want[:, upper], equal_nan=True)
+                assert (out[:, ~upper] == -7.0).all()  # the lower triangle left alone
+    with pytest.raises(ValueError, match="rtol"):
+        S.self_pose_costs(A, members, offsets, np.array(drop, dtype=np.int64), out, S.DELTA_RTOL / 2)
+
+
+def test_self_pose_distances_of_a_long_texture_equal_the_full_matrix():
+    """Long rows (SIMD lanes over hundreds of frames) on a smooth walk, as a take's texture."""
+    rng = np.random.default_rng(11)
+    A = R.quaternion_normalize(np.cumsum(rng.normal(scale=0.03, size=(400, 12, 4)), axis=0) + np.array([1.0, 0, 0, 0]))
+    groups = np.array([[True] * 12, [True] * 6 + [False] * 6, [False] * 6 + [True] * 6])
+    want = W.group_pose_distances(A, A, groups, [3, 1, 1])
+    assert np.array_equal(W.self_pose_distances(A, groups, [3, 1, 1]), want)
