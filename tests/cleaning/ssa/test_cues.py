@@ -75,29 +75,31 @@ def test_confirm_flags_keep_whole_runs_that_reach_the_threshold_and_hold_a_break
     mdm = np.zeros((F, 3))
     mdm[10:30, 0] = 0.3
     mdm[15:20, 0] = 0.8  # run 10-30 reaches 0.8; a break 4 frames before its start confirms it (margin 5 frames)
+    mdm[10:30, 1] = 0.8  # the same run with its break at its end (a drift, a frozen channel): kept whole
     mdm[60:70, 0] = 0.9  # a clear digression with no break near: distinct motion, not an error
     mdm[70:80, 1] = 0.4  # a break, but the run never exceeds the threshold
     mdm[40:50, 2] = 0.9  # the break near it is on joint 0, not this one
     jumps = np.zeros((F, 3), dtype=bool)
-    jumps[6, 0] = jumps[75, 1] = jumps[45, 0] = True
+    jumps[6, 0] = jumps[75, 1] = jumps[45, 0] = jumps[29, 1] = True
     flags = ssa.confirm_flags(mdm, jumps, 0.5, fps, margin_s=0.05)
     expect = np.zeros((F, 3), dtype=bool)
-    expect[10:30, 0] = True
+    expect[10:12, 0] = True  # past its last break (and the margin) the run only digresses: not flagged
+    expect[10:30, 1] = True
     assert np.array_equal(flags, expect)
     assert not ssa.confirm_flags(mdm, jumps, 0.5, fps, margin_s=0.03)[:, 0].any()  # the break is 4 frames off
-    # a run holding two break events is cut to them (within the margin); with one it is kept whole
+    # a run holding two break events is cut to them (within the margin); with one it is kept up to it
     long = np.zeros((F, 1))
     long[10:70, 0] = 0.8
     steps = np.zeros((F, 1), dtype=bool)
     steps[30:32, 0] = True  # a step marks the frames on both of its sides
-    assert np.flatnonzero(ssa.confirm_flags(long, steps, 0.5, fps)).tolist() == list(range(10, 70))
+    assert np.flatnonzero(ssa.confirm_flags(long, steps, 0.5, fps)).tolist() == list(range(10, 37))
     steps[50, 0] = True
     assert np.flatnonzero(ssa.confirm_flags(long, steps, 0.5, fps)).tolist() == list(range(25, 56))
     one = np.zeros((F, 1), dtype=bool)
-    one[30:33, 0] = True  # one break event: kept whole as a step, cut to it (within the margin) as a spike
-    assert np.flatnonzero(ssa.confirm_flags(long, one, 0.5, fps)).tolist() == list(range(10, 70))
+    one[30:33, 0] = True  # one break event: kept up to it as a step, cut to it (within the margin) as a spike
+    assert np.flatnonzero(ssa.confirm_flags(long, one, 0.5, fps)).tolist() == list(range(10, 38))
     assert np.flatnonzero(ssa.confirm_flags(long, one, 0.5, fps, spikes=one)).tolist() == list(range(25, 38))
-    assert np.flatnonzero(ssa.confirm_flags(long, one, 0.5, fps, spikes=~one)).tolist() == list(range(10, 70))
+    assert np.flatnonzero(ssa.confirm_flags(long, one, 0.5, fps, spikes=~one)).tolist() == list(range(10, 38))
     early = np.zeros((F, 1))
     early[0:70, 0] = 0.8  # a run from the first frame, its first break within the margin of it
     first = np.zeros((F, 1), dtype=bool)
@@ -573,3 +575,45 @@ def test_an_offset_the_similar_motion_holds_is_motion_and_an_error_offset_is_sti
     assert res.detection.offsets[30:40, k].all() and res.flags[30:40, k].all()
     err = np.degrees(R.geodesic_angle(res.motion.rotations[30:40, k], run.rotations[30:40, k]))
     assert err.max() < 5.0, err
+
+
+SLASH = Path("secondary_bandai_namco_CC-BY-NC") / "dataset-1_slash_normal_001.bvh"
+
+
+@pytest.mark.parametrize("kind, seed", [("freeze", 2), ("swap", 1)])
+def test_a_confirmed_run_is_not_flagged_past_its_last_break(shared_data, kind, seed):
+    """trialA finding 3: on a 30 fps Bandai Namco take, the break where a frozen foot or a swapped forearm comes
+    back confirmed the digression after it too (the neighbour words the error led astray, the take's own
+    motion), 10 and 16 clean cells flagged more than 3 frames from the error, which repair replaced from unlike
+    motion. Past its last break a run only digresses: the errors are flagged whole, nothing beyond them."""
+    from scipy import ndimage
+
+    from mocapkit.cleaning.whole_take import detect_take
+
+    m = mocapkit.load(shared_data / SLASH)
+    bad, mask, _ = corrupt.real_errors(m, kinds=(kind,), n_errors=2 if kind == "swap" else 3, seed=seed)
+    flags = detect_take(bad).detection.flags
+    near = ndimage.binary_dilation(mask, structure=np.ones((7, 1), dtype=bool))  # within 3 frames of an error
+    assert not (flags & ~near).any()
+    assert (flags & mask).sum() == mask.sum()
+
+
+@pytest.mark.parametrize("start", [33, 124])
+def test_a_short_swap_is_flagged_on_its_own_frames_not_paired_with_the_next(shared_data, start):
+    """trialA finding 3: a 4-frame left/right swap breaks at frames 3 apart, one break event, which was paired
+    with the next swap's first step 1 s later: the 26 clean frames between were flagged as swapped (a waving
+    forearm repaired up to 21 deg off). The event holding both steps of a swap is that swap (a real 30 fps
+    walk, its forearms swapped over 4 frames, then over 12 frames 26 frames later)."""
+    from mocapkit.mirroring import mirror_for_rig
+
+    m = mocapkit.load(shared_data / "secondary_bandai_namco_CC-BY-NC" / "dataset-1_walk_normal_001.bvh")
+    j, k = m.skeleton.index("LowerArm_L"), m.skeleton.index("LowerArm_R")
+    mirrored = mirror_for_rig(m).rotations
+    rot = np.array(m.rotations)
+    expect = np.zeros(m.num_frames, dtype=bool)
+    for a, b in ((start, start + 4), (start + 30, start + 42)):
+        rot[a:b, [j, k]] = mirrored[a:b, [j, k]]
+        expect[a:b] = True
+    swaps = cues.side_swaps(dataclasses.replace(m, rotations=rot))
+    assert np.array_equal(swaps[:, j], expect) and np.array_equal(swaps[:, k], expect)
+    assert not np.delete(swaps, [j, k], axis=1).any()

@@ -229,15 +229,40 @@ def swaps_from_residuals(resid, joint_names, fps, jump_deg, max_s, joints, rotat
         frames = np.flatnonzero(both)
         if len(frames) < 2:
             continue
-        starts = [int(f) for f in _event_bounds(frames)[0]]
+        first, last, _ = _event_bounds(frames)
+        starts = [int(f) for f in first]
         if rotations is not None and mirrored is not None:
-            starts = [f for f in starts if _swap_step(rotations, mirrored, f, j) and _swap_step(rotations, mirrored, f, p)]
+            whole = [_whole_swap(rotations, mirrored, int(f), int(l), j, p) for f, l in zip(first, last)]
+            for a, b in filter(None, whole):
+                out[a + 1 : b + 1, j] = out[a + 1 : b + 1, p] = True
+            starts = [f for f, w in zip(starts, whole) if w is None
+                      and _swap_step(rotations, mirrored, f, j) and _swap_step(rotations, mirrored, f, p)]
         for a, b in _paired_events(starts, longest):
             out[a + 1 : b + 1, j] = out[a + 1 : b + 1, p] = True  # a step from f to f + 1 breaks at both
     return out
 
 
-def _swap_step(q: np.ndarray, mirrored: np.ndarray, f: int, j: int, ratio: float = 0.5) -> bool:
+def _whole_swap(q: np.ndarray, mirrored: np.ndarray, first: int, last: int, j: int, p: int) -> tuple | None:
+    """``(a, b)``, the steps ``a -> a + 1`` and ``b -> b + 1`` that swap joints ``j`` and ``p`` and swap them
+    back, when one break event (frames ``first .. last``, :func:`_event_bounds`) holds a whole swap; else None.
+
+    A swap of 1-4 frames breaks at frames at most 3 apart, which group into one event; paired with the next
+    event it flagged the clean frames up to that one (a 4-frame swap of a waving forearm and a swap 1 s later
+    were one flag on 30 fps Bandai Namco, 26 clean frames repaired up to 21 deg off). Both joints step onto
+    their partner's mirror image (:func:`_swap_step`) at the event's first step (starting at ``first`` or
+    ``first + 1``) and back at its last (starting at ``last - 1`` or ``last``), a later one.
+    """
+    F = len(q)
+
+    def both(a):
+        return a + 1 < F and _swap_step(q, mirrored, a, j, tries=1) and _swap_step(q, mirrored, a, p, tries=1)
+
+    offs = [a for a in (first, first + 1) if a < last - 1 and both(a)]
+    backs = [b for b in (last - 1, last) if offs and b > offs[0] and both(b)]
+    return (offs[0], backs[0]) if backs else None
+
+
+def _swap_step(q: np.ndarray, mirrored: np.ndarray, f: int, j: int, ratio: float = 0.5, tries: int = 2) -> bool:
     """Whether joint ``j`` steps at ``f -> f + 1`` (or ``f + 1 -> f + 2``) onto its partner's mirrored rotation.
 
     When labels swap (or swap back), the joint's new rotation is the mirror
@@ -248,7 +273,7 @@ def _swap_step(q: np.ndarray, mirrored: np.ndarray, f: int, j: int, ratio: float
     rotation as the step itself.
     """
     F = len(q)
-    for a in (f, f + 1):
+    for a in range(f, f + tries):  # (f, f + 1): the break frames of a step from f to f + 1 are f and f + 1
         if a + 1 >= F:
             break
         own = float(R.geodesic_angle(q[a + 1, j], q[a, j]))
@@ -561,9 +586,12 @@ def confirm_flags(
     to its first and last break, within ``margin_s``: an error starts and
     ends with a break, and beyond them the digression comes from the
     neighbour words the error itself led astray (a word spans 0.6 s), not
-    from more error, and repairing there would replace clean frames. A run with one break (a drift that grows smoothly and ends
-    in a step) is kept whole. ``mdm`` float (F, J) in [0, 1]; ``jumps``
-    bool (F, J).
+    from more error, and repairing there would replace clean frames. A run with one break (a drift that grows
+    smoothly, a frozen channel, each ending in a step) keeps its frames before the break, not those after it:
+    an error ends with a break, and past its last one the joint is back on its path, whatever the digression
+    says there (the neighbour words the error led astray, the take's own motion that nothing repeats: on 30
+    fps Bandai Namco takes, 30 frames after a frozen upper arm were repaired 65 deg off). ``mdm`` float (F, J)
+    in [0, 1]; ``jumps`` bool (F, J).
     """
     from scipy import ndimage
 
@@ -591,10 +619,12 @@ def confirm_flags(
             continue
         a, j = rows.start, cols.start
         at = np.flatnonzero(jumps[rows, j]) + a
-        if (np.diff(at) > 2).any() or (spikes is not None and len(at) and spikes[at, j].all()):
+        if not len(at):
+            continue
+        if (np.diff(at) > 2).any() or (spikes is not None and spikes[at, j].all()):
             # two break events or more (a step marks two adjacent frames), or only spikes
             out[a : max(at[0] - n, a), j] = False  # (a negative stop would count from the end)
-            out[at[-1] + n + 1 : rows.stop, j] = False
+        out[at[-1] + n + 1 : rows.stop, j] = False  # past its last break a run digresses only
     return out
 
 
@@ -643,8 +673,8 @@ def flag_rule(mdm, jumps, holds, swaps, offsets, threshold: float, fps: float, c
               drifts=None, spikes=None, judged=None) -> np.ndarray:
     """The flags of :func:`detect` and :meth:`Detection.with_threshold`: confirmed digressions, holds, swaps,
     transient offsets and smooth drifts (``drifts``, bool (F, J) or None: none), or the paper's
-    ``mdm > threshold`` without confirmation. ``spikes``: :func:`spike_breaks` of the take (None: runs with
-    one break are kept whole, as detections made before it were). ``judged`` (F, J) bool, the cells the
+    ``mdm > threshold`` without confirmation. ``spikes``: :func:`spike_breaks` of the take (None: no run is
+    cut as a spike's, as in detections made before it). ``judged`` (F, J) bool, the cells the
     context judged (a finite digression; None: all): a break outside them confirms no digression. The
     digression beside such a break (at a take's end that no neighbour word covers) says nothing about the
     break, and repairing it would change the frames before an error and leave the error. Which rule flags
