@@ -51,7 +51,8 @@ def test_flag_causes_say_which_rules_flag_each_cell_and_flag_rule_is_where_any_d
     F, fps = 60, 30.0
     rng = np.random.default_rng(2)
     mdm = rng.uniform(0, 1, size=(F, 4))
-    jumps, holds, swaps, offsets, drifts, lone = (rng.uniform(size=(F, 4)) < p for p in (0.1, 0.05, 0.05, 0.05, 0.05, 0.02))
+    jumps, holds, swaps, offsets, drifts, lone = (rng.uniform(size=(F, 4)) < p
+                                                  for p in (0.1, 0.05, 0.05, 0.05, 0.05, 0.02))
     bit = {name: 1 << i for i, (name, _) in enumerate(cues.CAUSES)}
     for confirm in (True, False):
         for dr, ls in ((drifts, lone), (None, None)):

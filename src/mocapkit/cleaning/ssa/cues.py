@@ -649,7 +649,8 @@ def flag_causes(mdm, jumps, holds, swaps, offsets, threshold: float, fps: float,
     The arguments are :func:`flag_rule`'s, whose flags are exactly the cells with a bit set: with
     ``confirm``, digressions confirmed by a break (:func:`confirm_flags`), holds, swaps, transient offsets
     and smooth drifts (``drifts``, bool (F, J) or None: none) and the :func:`lone_spikes` (``lone``, bool
-    (F, J) or None: none); without, ``mdm > threshold`` alone (the "digression" bit). A cell two rules flag has both bits, so a report can say why each change was made.
+    (F, J) or None: none); without, ``mdm > threshold`` alone (the "digression" bit). A cell two rules flag
+    has both bits, so a report can say why each change was made.
     """
     bit = {name: np.uint8(1 << i) for i, (name, _) in enumerate(CAUSES)}
     mdm = np.asarray(mdm)
@@ -731,29 +732,30 @@ def spike_breaks(q: np.ndarray, resid: np.ndarray, breaks: np.ndarray, ratio: fl
 #: 5 to 100 times; corrupt.real_errors' spikes of 30 to 90 deg, 5 to 50 times)
 LONE_SPIKE_RATIO = 5.0
 LONE_SPIKE_MIN_DEG = 20.0
+LONE_SPIKE_MAX_FRAMES = 3  # off the path for at most this many frames (corrupt.real_errors' spikes: 1-3)
 
 
 def lone_spikes(q: np.ndarray, resid: np.ndarray, judged: np.ndarray, analysed: np.ndarray, parents=None,
                 jump_deg: float = _D.jump_deg, ratio: float = LONE_SPIKE_RATIO,
-                min_deg: float = LONE_SPIKE_MIN_DEG) -> np.ndarray:
+                min_deg: float = LONE_SPIKE_MIN_DEG, max_frames: int = LONE_SPIKE_MAX_FRAMES) -> np.ndarray:
     """(F, J) bool: the frames of spikes far past the joint's own motion, where no neighbour word judges them.
 
-    The movement digression map flags only motion the take (or its context) repeats: a word with no
-    neighbour within the gate is not judged (Aristidou et al. 2018 find an error by similar motion, section
-    3.4), and 30 to 90 deg spikes in a dance or a take lying down went through unflagged. A spike is an
-    error whatever the motion around it: the joint leaves its path and comes back within a few frames by
-    far more than its own motion ever does. A break event (midpoint residuals over ``jump_deg``, grouped as
-    :func:`_event_bounds` does, less those the joint's chain undoes, :func:`uncompensated_breaks`, with
-    ``parents``) is such a spike when its frames lie at least ``min_deg`` off the slerp between the frames
-    beside it and (a return to the path) that is twice the turn between those two frames or more, or
-    :func:`spike_breaks` calls it one; and when its largest residual is at least ``ratio`` times the
-    joint's largest residual outside it and outside the joint's largest other such spike (so that two
-    errors on one joint do not hide each other, while a flick the joint makes in every stride does not
-    stand out). The frames flagged are the spike's own, between its first and last break (a spike of k
-    frames breaks at the frame before it and the one after too), and only where no cell is judged
+    The movement digression map flags only motion the take (or its context) repeats: a word with no neighbour within
+    the gate is not judged (Aristidou et al. 2018 find an error by similar motion, section 3.4), and 30 to 90 deg
+    spikes in a dance or a take lying down went through unflagged. A spike is an error whatever the motion around
+    it: the joint leaves its path and comes back within a few frames by far more than its own motion ever does. A
+    break event (midpoint residuals over ``jump_deg``, grouped as :func:`_event_bounds` does, less those the joint's
+    chain undoes, :func:`uncompensated_breaks`, with ``parents``) is such a spike when it holds at most
+    ``max_frames`` frames between its first and last break (a joint under noise breaks at every frame, one long
+    event), its frames lie at least ``min_deg`` off the slerp between the frames beside it and (a return to the
+    path) that is twice the turn between those two frames or more, or :func:`spike_breaks` calls it one; and when
+    its largest residual is at least ``ratio`` times the joint's largest residual outside it and outside the joint's
+    largest other such spike (so that two errors on one joint do not hide each other, while a flick the joint makes
+    in every stride does not stand out). The frames flagged are the spike's own, between its first and last break (a
+    spike of k frames breaks at the frame before it and the one after too), and only where no cell is judged
     (``judged`` (F, J) bool, a finite digression; the rest is the digression's to judge) and the joint is
-    ``analysed`` ((J,) bool): there :func:`~mocapkit.cleaning.ssa.repair` has no neighbour word and bridges
-    them by slerp between the frames beside them. ``q`` (F, J, 4) rotations, ``resid`` (F, J) radians
+    ``analysed`` ((J,) bool): there :func:`~mocapkit.cleaning.ssa.repair` has no neighbour word and bridges them by
+    slerp between the frames beside them. ``q`` (F, J, 4) rotations, ``resid`` (F, J) radians
     (:func:`midpoint_residuals`). A cue of this library, not of the paper.
     """
     F, J = resid.shape
@@ -771,7 +773,8 @@ def lone_spikes(q: np.ndarray, resid: np.ndarray, judged: np.ndarray, analysed: 
         peak = np.array([resid[a : b + 1, j].max() for a, b in zip(first, last)])
         off, turn = _off_path(q[:, j], first, last)
         stepped = _norms(_event_steps(q[:, j], first, last)) < 0.5 * peak  # spike_breaks' test (NaN: no)
-        big = (off >= low) & ((off >= 2.0 * turn) | stepped)
+        short = np.where(last - first >= 2, last - first - 1, last - first + 1) <= max_frames
+        big = short & (off >= low) & ((off >= 2.0 * turn) | stepped)
         for i in np.flatnonzero(big):
             own = np.array(resid[:, j])
             others = np.flatnonzero(big & (np.arange(len(first)) != i))
