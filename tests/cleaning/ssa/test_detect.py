@@ -187,7 +187,7 @@ def test_a_detection_file_without_jumps_loads_with_none(tmp_path, flipped):
     back = ssa.Detection.load(tmp_path / "old.npz")
     assert back.jumps.shape == back.holds.shape == back.swaps.shape == back.offsets.shape == det.mdm.shape
     assert not (back.jumps.any() or back.holds.any() or back.swaps.any() or back.offsets.any())
-    assert back.spikes is None  # written before spikes were told apart: runs with one break are kept whole
+    assert back.spikes is None  # written before spikes were told apart: no run is cut as a spike's
     assert np.array_equal(back.with_threshold(0.4).flags, det.mdm > 0.4)
 
 

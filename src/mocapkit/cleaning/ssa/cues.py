@@ -37,6 +37,7 @@ __all__ = [
     "flag_rule",
     "held_joints",
     "spike_breaks",
+    "lone_spikes",
     "step_angles",
     "uncompensated_breaks",
     "chain_table",
@@ -229,15 +230,40 @@ def swaps_from_residuals(resid, joint_names, fps, jump_deg, max_s, joints, rotat
         frames = np.flatnonzero(both)
         if len(frames) < 2:
             continue
-        starts = [int(f) for f in _event_bounds(frames)[0]]
+        first, last, _ = _event_bounds(frames)
+        starts = [int(f) for f in first]
         if rotations is not None and mirrored is not None:
-            starts = [f for f in starts if _swap_step(rotations, mirrored, f, j) and _swap_step(rotations, mirrored, f, p)]
+            whole = [_whole_swap(rotations, mirrored, int(f), int(l), j, p) for f, l in zip(first, last)]
+            for a, b in filter(None, whole):
+                out[a + 1 : b + 1, j] = out[a + 1 : b + 1, p] = True
+            starts = [f for f, w in zip(starts, whole) if w is None
+                      and _swap_step(rotations, mirrored, f, j) and _swap_step(rotations, mirrored, f, p)]
         for a, b in _paired_events(starts, longest):
             out[a + 1 : b + 1, j] = out[a + 1 : b + 1, p] = True  # a step from f to f + 1 breaks at both
     return out
 
 
-def _swap_step(q: np.ndarray, mirrored: np.ndarray, f: int, j: int, ratio: float = 0.5) -> bool:
+def _whole_swap(q: np.ndarray, mirrored: np.ndarray, first: int, last: int, j: int, p: int) -> tuple | None:
+    """``(a, b)``, the steps ``a -> a + 1`` and ``b -> b + 1`` that swap joints ``j`` and ``p`` and swap them
+    back, when one break event (frames ``first .. last``, :func:`_event_bounds`) holds a whole swap; else None.
+
+    A swap of 1-4 frames breaks at frames at most 3 apart, which group into one event; paired with the next
+    event it flagged the clean frames up to that one (a 4-frame swap of a waving forearm and a swap 1 s later
+    were one flag on 30 fps Bandai Namco, 26 clean frames repaired up to 21 deg off). Both joints step onto
+    their partner's mirror image (:func:`_swap_step`) at the event's first step (starting at ``first`` or
+    ``first + 1``) and back at its last (starting at ``last - 1`` or ``last``), a later one.
+    """
+    F = len(q)
+
+    def both(a):
+        return a + 1 < F and _swap_step(q, mirrored, a, j, tries=1) and _swap_step(q, mirrored, a, p, tries=1)
+
+    offs = [a for a in (first, first + 1) if a < last - 1 and both(a)]
+    backs = [b for b in (last - 1, last) if offs and b > offs[0] and both(b)]
+    return (offs[0], backs[0]) if backs else None
+
+
+def _swap_step(q: np.ndarray, mirrored: np.ndarray, f: int, j: int, ratio: float = 0.5, tries: int = 2) -> bool:
     """Whether joint ``j`` steps at ``f -> f + 1`` (or ``f + 1 -> f + 2``) onto its partner's mirrored rotation.
 
     When labels swap (or swap back), the joint's new rotation is the mirror
@@ -248,7 +274,7 @@ def _swap_step(q: np.ndarray, mirrored: np.ndarray, f: int, j: int, ratio: float
     rotation as the step itself.
     """
     F = len(q)
-    for a in (f, f + 1):
+    for a in range(f, f + tries):  # (f, f + 1): the break frames of a step from f to f + 1 are f and f + 1
         if a + 1 >= F:
             break
         own = float(R.geodesic_angle(q[a + 1, j], q[a, j]))
@@ -561,9 +587,12 @@ def confirm_flags(
     to its first and last break, within ``margin_s``: an error starts and
     ends with a break, and beyond them the digression comes from the
     neighbour words the error itself led astray (a word spans 0.6 s), not
-    from more error, and repairing there would replace clean frames. A run with one break (a drift that grows smoothly and ends
-    in a step) is kept whole. ``mdm`` float (F, J) in [0, 1]; ``jumps``
-    bool (F, J).
+    from more error, and repairing there would replace clean frames. A run with one break (a drift that grows
+    smoothly, a frozen channel, each ending in a step) keeps its frames before the break, not those after it:
+    an error ends with a break, and past its last one the joint is back on its path, whatever the digression
+    says there (the neighbour words the error led astray, the take's own motion that nothing repeats: on 30
+    fps Bandai Namco takes, 30 frames after a frozen upper arm were repaired 65 deg off). ``mdm`` float (F, J)
+    in [0, 1]; ``jumps`` bool (F, J).
     """
     from scipy import ndimage
 
@@ -591,10 +620,12 @@ def confirm_flags(
             continue
         a, j = rows.start, cols.start
         at = np.flatnonzero(jumps[rows, j]) + a
-        if (np.diff(at) > 2).any() or (spikes is not None and len(at) and spikes[at, j].all()):
+        if not len(at):
+            continue
+        if (np.diff(at) > 2).any() or (spikes is not None and spikes[at, j].all()):
             # two break events or more (a step marks two adjacent frames), or only spikes
             out[a : max(at[0] - n, a), j] = False  # (a negative stop would count from the end)
-            out[at[-1] + n + 1 : rows.stop, j] = False
+        out[at[-1] + n + 1 : rows.stop, j] = False  # past its last break a run digresses only
     return out
 
 
@@ -608,17 +639,19 @@ CAUSES = (
     ("drift", "a smooth drift (off its neighbours' path, no break)"),
     ("digression", "a digression over the threshold"),
     ("teleport", "the root's path jumps away and back (wrong root samples, put back on the path)"),
+    ("spike", "a spike far past the joint's own motion, where no similar motion judges it"),
 )
 
 
 def flag_causes(mdm, jumps, holds, swaps, offsets, threshold: float, fps: float, confirm: bool, margin_s,
-                drifts=None, spikes=None, judged=None) -> np.ndarray:
+                drifts=None, spikes=None, judged=None, lone=None) -> np.ndarray:
     """(F, J) uint8: which rules flag each cell, one bit per entry of :data:`CAUSES` (0: not flagged).
 
     The arguments are :func:`flag_rule`'s, whose flags are exactly the cells with a bit set: with
     ``confirm``, digressions confirmed by a break (:func:`confirm_flags`), holds, swaps, transient offsets
-    and smooth drifts (``drifts``, bool (F, J) or None: none); without, ``mdm > threshold`` alone (the
-    "digression" bit). A cell two rules flag has both bits, so a report can say why each change was made.
+    and smooth drifts (``drifts``, bool (F, J) or None: none) and the :func:`lone_spikes` (``lone``, bool
+    (F, J) or None: none); without, ``mdm > threshold`` alone (the "digression" bit). A cell two rules flag
+    has both bits, so a report can say why each change was made.
     """
     bit = {name: np.uint8(1 << i) for i, (name, _) in enumerate(CAUSES)}
     mdm = np.asarray(mdm)
@@ -628,7 +661,8 @@ def flag_causes(mdm, jumps, holds, swaps, offsets, threshold: float, fps: float,
         return out
     breaks = jumps if judged is None else np.asarray(jumps, dtype=bool) & np.asarray(judged, dtype=bool)
     rules = [("break", confirm_flags(mdm, breaks, threshold, fps, margin_s, spikes=spikes)), ("held", holds),
-             ("swap", swaps), ("offset", offsets)] + ([] if drifts is None else [("drift", drifts)])
+             ("swap", swaps), ("offset", offsets)] + ([] if drifts is None else [("drift", drifts)]) + (
+                 [] if lone is None else [("spike", lone)])
     for name, cells in rules:
         out[np.asarray(cells, dtype=bool)] |= bit[name]
     return out
@@ -641,17 +675,17 @@ def cause_names(causes) -> list[str]:
 
 
 def flag_rule(mdm, jumps, holds, swaps, offsets, threshold: float, fps: float, confirm: bool, margin_s,
-              drifts=None, spikes=None, judged=None) -> np.ndarray:
+              drifts=None, spikes=None, judged=None, lone=None) -> np.ndarray:
     """The flags of :func:`detect` and :meth:`Detection.with_threshold`: confirmed digressions, holds, swaps,
     transient offsets and smooth drifts (``drifts``, bool (F, J) or None: none), or the paper's
-    ``mdm > threshold`` without confirmation. ``spikes``: :func:`spike_breaks` of the take (None: runs with
-    one break are kept whole, as detections made before it were). ``judged`` (F, J) bool, the cells the
+    ``mdm > threshold`` without confirmation. ``spikes``: :func:`spike_breaks` of the take (None: no run is
+    cut as a spike's, as in detections made before it). ``judged`` (F, J) bool, the cells the
     context judged (a finite digression; None: all): a break outside them confirms no digression. The
     digression beside such a break (at a take's end that no neighbour word covers) says nothing about the
     break, and repairing it would change the frames before an error and leave the error. Which rule flags
-    each cell: :func:`flag_causes`."""
+    each cell: :func:`flag_causes`; ``lone``: :func:`lone_spikes` (None: none)."""
     return flag_causes(mdm, jumps, holds, swaps, offsets, threshold, fps, confirm, margin_s, drifts, spikes,
-                       judged) != 0
+                       judged, lone) != 0
 
 
 def uncompensated_breaks(q: np.ndarray, parents, breaks: np.ndarray) -> np.ndarray:
@@ -691,6 +725,82 @@ def spike_breaks(q: np.ndarray, resid: np.ndarray, breaks: np.ndarray, ratio: fl
         spike = _norms(_event_steps(q[:, j], first, last)) < ratio * peak  # NaN (ends of the take): no spike
         out[frames[spike[event]], j] = True
     return out
+
+
+#: :func:`lone_spikes`: how many times the joint's largest residual elsewhere a spike's must reach, and the fewest
+#: degrees it must leave the path by (real motion's spike-shaped breaks reach 3.1 times that level on the CMU,
+#: HDM05 and Bandai Namco takes at 30 and 120 fps; the captures' own glitches, a hand flipping for a few frames,
+#: 5 to 100 times; corrupt.real_errors' spikes of 30 to 90 deg, 5 to 50 times)
+LONE_SPIKE_RATIO = 5.0
+LONE_SPIKE_MIN_DEG = 20.0
+LONE_SPIKE_MAX_FRAMES = 3  # off the path for at most this many frames (corrupt.real_errors' spikes: 1-3)
+
+
+def lone_spikes(q: np.ndarray, resid: np.ndarray, judged: np.ndarray, analysed: np.ndarray, parents=None,
+                jump_deg: float = _D.jump_deg, ratio: float = LONE_SPIKE_RATIO,
+                min_deg: float = LONE_SPIKE_MIN_DEG, max_frames: int = LONE_SPIKE_MAX_FRAMES) -> np.ndarray:
+    """(F, J) bool: the frames of spikes far past the joint's own motion, where no neighbour word judges them.
+
+    The movement digression map flags only motion the take (or its context) repeats: a word with no neighbour within
+    the gate is not judged (Aristidou et al. 2018 find an error by similar motion, section 3.4), and 30 to 90 deg
+    spikes in a dance or a take lying down went through unflagged. A spike is an error whatever the motion around
+    it: the joint leaves its path and comes back within a few frames by far more than its own motion ever does. A
+    break event (midpoint residuals over ``jump_deg``, grouped as :func:`_event_bounds` does, less those the joint's
+    chain undoes, :func:`uncompensated_breaks`, with ``parents``) is such a spike when it holds at most
+    ``max_frames`` frames between its first and last break (a joint under noise breaks at every frame, one long
+    event), its frames lie at least ``min_deg`` off the slerp between the frames beside it and (a return to the
+    path) that is twice the turn between those two frames or more, or :func:`spike_breaks` calls it one; and when
+    its largest residual is at least ``ratio`` times the joint's largest residual outside it and outside the joint's
+    largest other such spike (so that two errors on one joint do not hide each other, while a flick the joint makes
+    in every stride does not stand out). The frames flagged are the spike's own, between its first and last break (a
+    spike of k frames breaks at the frame before it and the one after too), and only where no cell is judged
+    (``judged`` (F, J) bool, a finite digression; the rest is the digression's to judge) and the joint is
+    ``analysed`` ((J,) bool): there :func:`~mocapkit.cleaning.ssa.repair` has no neighbour word and bridges them by
+    slerp between the frames beside them. ``q`` (F, J, 4) rotations, ``resid`` (F, J) radians
+    (:func:`midpoint_residuals`). A cue of this library, not of the paper.
+    """
+    F, J = resid.shape
+    out = np.zeros((F, J), dtype=bool)
+    breaks = residual_breaks(resid, jump_deg) & np.asarray(analysed, dtype=bool)[None, :]
+    if parents is not None:
+        breaks = uncompensated_breaks(q, parents, breaks)
+    low = np.radians(min_deg)
+    for j in np.flatnonzero(breaks.any(axis=0)):
+        first, last, _ = _event_bounds(np.flatnonzero(breaks[:, j]))
+        inside = (first >= 1) & (last <= F - 2)
+        first, last = first[inside], last[inside]
+        if not len(first):
+            continue
+        peak = np.array([resid[a : b + 1, j].max() for a, b in zip(first, last)])
+        off, turn = _off_path(q[:, j], first, last)
+        stepped = _norms(_event_steps(q[:, j], first, last)) < 0.5 * peak  # spike_breaks' test (NaN: no)
+        short = np.where(last - first >= 2, last - first - 1, last - first + 1) <= max_frames
+        big = short & (off >= low) & ((off >= 2.0 * turn) | stepped)
+        for i in np.flatnonzero(big):
+            own = np.array(resid[:, j])
+            others = np.flatnonzero(big & (np.arange(len(first)) != i))
+            for k in [i] + ([int(others[np.argmax(peak[others])])] if len(others) else []):
+                own[max(first[k] - 2, 0) : last[k] + 3] = 0.0
+            if peak[i] < ratio * own.max():
+                continue
+            a, b = (first[i] + 1, last[i] - 1) if last[i] - first[i] >= 2 else (first[i], last[i])
+            if not np.asarray(judged[a : b + 1, j]).any():
+                out[a : b + 1, j] = True
+    return out
+
+
+def _off_path(q: np.ndarray, first: np.ndarray, last: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``(off, turn)`` (n,) radians for the events ``first[i] .. last[i]`` of one joint's track ``q`` (F, 4), none
+    touching the take's ends: the largest angle of an event's frames from the slerp between the frames beside it
+    (``first - 1`` and ``last + 1``), and the angle between those two frames."""
+    off, turn = np.zeros(len(first)), np.zeros(len(first))
+    for i, (a, b) in enumerate(zip(first, last)):
+        lo, hi = q[a - 1], q[b + 1]
+        u = (np.arange(a, b + 1) - (a - 1)) / (b + 2 - a)
+        path = R.slerp(np.broadcast_to(lo, (len(u), 4)), np.broadcast_to(hi, (len(u), 4)), u)
+        off[i] = float(R.geodesic_angle(q[a : b + 1], path).max())
+        turn[i] = float(R.geodesic_angle(lo, hi))
+    return off, turn
 
 
 def step_angles(q: np.ndarray) -> np.ndarray:

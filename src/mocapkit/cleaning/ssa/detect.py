@@ -25,6 +25,7 @@ from .cues import (
     flag_causes,
     flag_rule,
     held_joints,
+    lone_spikes,
     midpoint_residuals,
     mirrored_rotations,
     own_breaks,
@@ -108,7 +109,10 @@ class Detection:
     analysed); best_group : int8 (F, J) the group whose neighbours explain the
     cell best (-1 none); spikes : bool (F, J) the ``jumps`` that are spikes
     (:func:`~mocapkit.cleaning.ssa.cues.spike_breaks`; None for a detection
-    saved before they were told apart). ``left_out``: ``((joint name, why), ...)``
+    saved before they were told apart); lone_spikes : bool (F, J) the spikes far
+    past the joint's own motion on cells no neighbour word judges, flagged with
+    confirmation (:func:`~mocapkit.cleaning.ssa.cues.lone_spikes`; None for a
+    detection saved before). ``left_out``: ``((joint name, why), ...)``
     the joints not analysed and why (:func:`~mocapkit.cleaning.ssa.texture.left_out_joints`;
     :meth:`not_analysed`). The rest records how the analysis
     was made so that :func:`repair` can fetch the neighbour words again.
@@ -151,6 +155,7 @@ class Detection:
     change: np.ndarray | None = None  # (F, J) float, None without the drift rule
     span: tuple | None = None  # (lo, hi): the frames analysed, when not the whole take (padded)
     left_out: tuple = ()  # ((joint name, why), ...): the joints not analysed
+    lone_spikes: np.ndarray | None = None  # (F, J) bool, None for a detection saved before the rule
 
     @property
     def num_frames(self) -> int:
@@ -185,7 +190,7 @@ class Detection:
             return _pad_frames(self.analysed_part().causes(), self.span[0], self.num_frames, 0)
         return flag_causes(self.mdm, self.jumps, self.holds, self.swaps, self.offsets, self.threshold, self.fps,
                            self.params.confirm, self.params.confirm_margin_s, self.drifts(), self.spikes,
-                           np.isfinite(self.digression))
+                           np.isfinite(self.digression), self.lone_spikes)
 
     def with_threshold(self, threshold: float) -> "Detection":
         """The same analysis flagged at another threshold (confirmed by the jumps if the detection was)."""
@@ -198,7 +203,7 @@ class Detection:
                                                                                     self.num_frames, False))
         flags = flag_rule(self.mdm, self.jumps, self.holds, self.swaps, self.offsets, threshold, self.fps,
                           self.params.confirm, self.params.confirm_margin_s, self.drifts(), self.spikes,
-                          np.isfinite(self.digression))
+                          np.isfinite(self.digression), self.lone_spikes)
         return dataclasses.replace(self, threshold=threshold, flags=flags)
 
     def padded(self, lo: int, num_frames: int) -> "Detection":
@@ -289,7 +294,8 @@ class Detection:
 
 #: what each (F, J) array of a :class:`Detection` holds on frames that were not analysed (:meth:`Detection.padded`)
 _PADS = {"mdm": 0.0, "flags": False, "digression": np.nan, "best_group": -1, "jumps": False, "holds": False,
-         "swaps": False, "offsets": False, "agreement": np.nan, "consistency": np.nan, "spikes": False, "change": np.nan}
+         "swaps": False, "offsets": False, "agreement": np.nan, "consistency": np.nan, "spikes": False, "change": np.nan,
+         "lone_spikes": False}
 
 
 def _pad_frames(a: np.ndarray, lo: int, F: int, fill) -> np.ndarray:
@@ -575,8 +581,10 @@ def detect_prepared(an: Analysis, threshold: float = 0.5, *, progress: bool = Fa
     agreement[:, [0, pelvis_index(sk)]] = np.nan
     drifts = _drifts(jumps, agreement, consistency, motion.fps, p, sk.joint_names, change) if p.drift else None
     spikes = spike_breaks(q, resid, jumps)
+    # a spike far past the joint's own motion is an error where no similar motion judges it
+    lone = lone_spikes(q, resid, np.isfinite(digression), analysed, sk.parents, p.jump_deg)
     flags = flag_rule(mdm, jumps, holds, swaps, offsets, threshold, motion.fps, p.confirm, p.confirm_margin_s, drifts,
-                      spikes, np.isfinite(digression))
+                      spikes, np.isfinite(digression), lone)
     masks = an.group_masks()
     if not ok.all():
         some, every = int((~ok).any(axis=1).sum()), int((~ok).all(axis=1).sum())
@@ -591,5 +599,5 @@ def detect_prepared(an: Analysis, threshold: float = 0.5, *, progress: bool = Fa
         neighbor_iend=neighbors.iend, neighbor_jend=neighbors.jend, neighbor_dist=neighbors.dist,
         context_clips=clips, jumps=jumps, holds=holds, swaps=swaps, offsets=offsets,
         agreement=agreement, consistency=consistency, params=params, notes=tuple(notes),
-        analysis=an, spikes=spikes, change=change, left_out=tuple(an.left_out),
+        analysis=an, spikes=spikes, change=change, left_out=tuple(an.left_out), lone_spikes=lone,
     )
