@@ -32,7 +32,8 @@ from numba import njit, prange
 
 from .twins import twin_kernels
 
-__all__ = ["self_pose_costs", "mirror_upper", "approx_half_angle_sq", "TERM_RTOL", "DELTA_RTOL", "PARALLEL_CELLS"]
+__all__ = ["self_pose_costs", "mirror_upper", "approx_half_angle_sq", "half_angle_sq", "robust_sum", "TERM_RTOL",
+           "DELTA_RTOL", "PARALLEL_CELLS"]
 
 _INF = np.inf
 
@@ -83,8 +84,9 @@ def approx_half_angle_sq(d) -> float:
 
 
 @njit(cache=True, inline="always")
-def _half_angle_sq(a, b) -> float:
-    """The exact eq. 1 term, as ``word_dtw`` computes it (``inf`` for a non-finite quaternion)."""
+def half_angle_sq(a, b) -> float:
+    """The exact eq. 1 term of two unit quaternions (Aristidou et al. 2018): ``acos(|a . b|)^2``, the squared half
+    rotation angle between them in radians; ``inf`` for a non-finite quaternion. Every pose-distance kernel's."""
     d = abs(a[0] * b[0] + a[1] * b[1] + a[2] * b[2] + a[3] * b[3])
     if not d == d:  # NaN
         return _INF
@@ -95,8 +97,13 @@ def _half_angle_sq(a, b) -> float:
 
 
 @njit(cache=True, inline="always")
-def _robust_sum(terms, members, drop) -> float:
-    """``word_dtw``'s robust sum: ``terms[members]`` summed in order, the ``drop`` (<= 3) largest subtracted."""
+def robust_sum(terms, members, drop) -> float:
+    """Sum of ``terms[members]`` without its ``drop`` (<= 3) largest values.
+
+    The sum runs in ``members`` order and the dropped values are subtracted
+    from it afterwards, largest first; dropping none only sums, dropping one
+    tracks only the largest value.
+    """
     s = 0.0
     if drop == 0:
         for k in members:
@@ -141,11 +148,11 @@ def _robust_sum(terms, members, drop) -> float:
 def _exact_cell(A, a, b, members, offsets, drop, g, terms):
     """The float32 eq. 1 cost of frames ``a``, ``b`` on group ``g``, every term from ``acos`` (``terms`` scratch)."""
     for k in members[offsets[g] : offsets[g + 1]]:
-        v = _half_angle_sq(A[a, k], A[b, k])
+        v = half_angle_sq(A[a, k], A[b, k])
         if v == _INF:
             return np.float32(_INF)
         terms[k] = v
-    return np.float32(_robust_sum(terms, members[offsets[g] : offsets[g + 1]], drop[g]))
+    return np.float32(robust_sum(terms, members[offsets[g] : offsets[g + 1]], drop[g]))
 
 
 @njit(cache=True, inline="always")

@@ -41,7 +41,7 @@ from numba import njit, prange
 from .dtw_rows import ROW_STATES, best_state, word_dtw_rows
 from .word_bounds import cheap_bounds
 from .ordering import kth_smallest, sort_by_key
-from .self_costs import mirror_upper, self_pose_costs
+from .self_costs import half_angle_sq, mirror_upper, robust_sum, self_pose_costs
 from .twins import twin_kernels
 from .word_means import robust_word_means, select_separated_minima, shift_tolerant_angles  # re-exported
 
@@ -79,65 +79,6 @@ _PARALLEL_PAIRS = 256  # pairs, pose costs and DTW, ~20 us each
 _PARALLEL_WARPS = 64  # pairs, pose costs, DTW, trace and warp, ~50 us each
 
 
-@njit(cache=True, inline="always")
-def _half_angle_sq(a, b) -> float:
-    d = abs(a[0] * b[0] + a[1] * b[1] + a[2] * b[2] + a[3] * b[3])
-    if not d == d:  # NaN
-        return _INF
-    if d > 1.0:
-        d = 1.0
-    h = math.acos(d)
-    return h * h
-
-
-@njit(cache=True, inline="always")
-def _robust_sum(terms, members, drop) -> float:
-    """Sum of ``terms[members]`` without its ``drop`` (<= 3) largest values.
-
-    The sum runs in ``members`` order and the dropped values are subtracted
-    from it afterwards, largest first; dropping none only sums, dropping one
-    tracks only the largest value.
-    """
-    s = 0.0
-    if drop == 0:
-        for k in members:
-            s += terms[k]
-    elif drop == 1:
-        t0 = -1.0
-        for k in members:
-            v = terms[k]
-            s += v
-            if v > t0:
-                t0 = v
-        if t0 > 0.0:
-            s -= t0
-    else:
-        t0 = -1.0
-        t1 = -1.0
-        t2 = -1.0
-        for k in members:
-            v = terms[k]
-            s += v
-            if v > t0:
-                t2 = t1
-                t1 = t0
-                t0 = v
-            elif v > t1:
-                t2 = t1
-                t1 = v
-            elif v > t2:
-                t2 = v
-        if t0 > 0.0:
-            s -= t0
-        if t1 > 0.0:
-            s -= t1
-        if drop >= 3 and t2 > 0.0:
-            s -= t2
-    if s < 0.0:  # round-off
-        s = 0.0
-    return s
-
-
 @twin_kernels(_PARALLEL_CELLS)
 def _group_pose_distances(A, B, members, offsets, drop):
     Fa, Fb = A.shape[0], B.shape[0]
@@ -149,7 +90,7 @@ def _group_pose_distances(A, B, members, offsets, drop):
         for b in range(Fb):
             finite = True
             for k in range(m):
-                v = _half_angle_sq(A[a, k], B[b, k])
+                v = half_angle_sq(A[a, k], B[b, k])
                 terms[k] = v
                 if v == _INF:
                     finite = False
@@ -162,7 +103,7 @@ def _group_pose_distances(A, B, members, offsets, drop):
                     if bad:
                         out[g, a, b] = _INF
                         continue
-                out[g, a, b] = _robust_sum(terms, members[offsets[g] : offsets[g + 1]], drop[g])
+                out[g, a, b] = robust_sum(terms, members[offsets[g] : offsets[g + 1]], drop[g])
     return out
 
 
@@ -853,16 +794,16 @@ def _cost_block(A, B, members, drop, s0, t0, terms, C, as_float32):
         for j in range(M):
             finite = True
             for k in members:
-                v = _half_angle_sq(A[s0 + i, k], B[t0 + j, k])
+                v = half_angle_sq(A[s0 + i, k], B[t0 + j, k])
                 terms[k] = v
                 if v == _INF:
                     finite = False
             if not finite:
                 C[i, j] = _INF
             elif as_float32:
-                C[i, j] = np.float32(_robust_sum(terms, members, drop))
+                C[i, j] = np.float32(robust_sum(terms, members, drop))
             else:
-                C[i, j] = _robust_sum(terms, members, drop)
+                C[i, j] = robust_sum(terms, members, drop)
 
 
 @twin_kernels(_PARALLEL_PAIRS)
