@@ -804,8 +804,7 @@ def _fill_events(out: np.ndarray, base: np.ndarray, miss: np.ndarray, events: di
 #: DOUBT_FLOOR_DEG) and by more than DOUBT_MIN_DEG: a joint the take shows nearly still that the fill swings far.
 #: The prior's training scale does not tell a bad fill from a good one (on the Bandai held-out takes a fill departing
 #: over 3 training sigmas, 10-30 deg, from the line was worse than the line in 15 of the 107 standard gap runs it
-#: marked); the take's own spread
-#: does better (docs/guide/deep-models.md, Limits).
+#: marked); the take's own spread does better (docs/guide/deep-models.md, Limits).
 DOUBT_SPREAD = 6.0
 DOUBT_FLOOR_DEG = 1.0
 DOUBT_MIN_DEG = 10.0
