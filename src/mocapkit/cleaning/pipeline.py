@@ -574,7 +574,7 @@ def _check(motion: Motion) -> None:
         raise MocapError(f"{name}: every joint is missing (NaN) in every frame; nothing to clean")
 
 
-def _fill(motion: Motion, models: dict, notes: list) -> tuple[Motion, str, str]:
+def _fill(motion: Motion, models: dict, notes: list, doubts: list | None = None) -> tuple[Motion, str, str]:
     name = motion.name or "motion"
     missing = motion.missing()
     never = np.flatnonzero(missing.all(axis=0))
@@ -587,7 +587,8 @@ def _fill(motion: Motion, models: dict, notes: list) -> tuple[Motion, str, str]:
 
     ebd, src = _deep_model(models, "ebd")
     ebf, _ = _deep_model(models, "ebf")
-    out, method, note = deep.fill_or_fallback(motion, ebd, ebf, label=src)  # the rule every command applies
+    # the rule every command applies; a fill far from the line between a gap's ends is said in ``doubts``
+    out, method, note = deep.fill_or_fallback(motion, ebd, ebf, label=src, doubts=doubts)
     if note:
         notes.append(note)
     return out, method, note
@@ -760,11 +761,12 @@ def clean(
         t = time.perf_counter()
         before = cur.rotations
         gaps = cur.missing()
-        cur, method, note = _fill(cur, models, notes)
-        made_up = made_up_note(gaps)
-        if made_up:  # a warning line, as a fallback's note is
-            notes.append(made_up)
-            note = "; ".join(n for n in (note, made_up) if n)
+        doubts: list[str] = []
+        cur, method, note = _fill(cur, models, notes, doubts)
+        for warn in (made_up_note(gaps), *doubts):
+            if warn:  # a warning line, as a fallback's note is
+                notes.append(warn)
+                note = "; ".join(n for n in (note, warn) if n)
         filled = differing(before, cur.rotations) | (gaps & ~cur.missing())
         records.append(StepRecord("fill", time.perf_counter() - t, int(filled.sum()), method, note))
 

@@ -24,7 +24,7 @@ from ...errors import MocapFormatError, SkeletonError
 from ...io import atomic_write
 from ...motion import Motion
 from .channels import ChannelLayout, lerp_fill
-from .prior import GapPrior, conditional_fill
+from .prior import GapPrior, conditional_fill, doubtful_runs
 from .retarget import Serving, served_by
 from .sure import BLOCK_S, block_edges, calibrated_log_sigma, scoring_stride
 from .threads import INFERENCE_PARTS, torch_threads
@@ -638,16 +638,24 @@ def fill_gaps(motion: Motion, model=None, denoiser=None, smooth: bool = True, me
     whose pelvis carries the body's path (Bandai Namco's Hips over a still
     ``joint_Root``) that is the root position under another name.
     """
+    return _fill_gaps(motion, model, denoiser, smooth, method)[0]
+
+
+def _fill_gaps(motion: Motion, model, denoiser, smooth: bool, method: str) -> tuple[Motion, list]:
+    """:func:`fill_gaps`, and the runs of its fill that depart far from the line between their ends
+    (:func:`.prior.doubtful_runs`, as ``[(joint name, first, last, departure_deg, spread_deg)]``)."""
     sv = serving(motion, model, "ebd")
     m = sv.model
     missing = motion.missing()
     if not missing.any():
-        return motion
+        return motion, []
     src = motion if sv.direct and not sv.joints else _hold_unmapped(motion, sv, missing)
     values, ctx = encode_served(src, sv)
     if smooth:  # the shipped EBF of the EBD's pair when none is given
         denoiser = _smoothing_ebf(m, denoiser, motion)
     out = fill_channels(values, ctx, m, denoiser, fps=motion.fps, smooth=smooth, method=method)
+    groups = np.array([m.layout.joints.index(n.rsplit(".", 1)[0]) for n in m.layout.names])
+    doubts = [(m.layout.joints[g], a, b, d, sp) for g, a, b, d, sp in doubtful_runs(values, out, groups)]
     res = decode_served(out, src, sv, keep=~missing)
     rot = np.array(res.rotations)
     for j in np.flatnonzero(missing[:, 1:].any(axis=0)) + 1:  # joints without channels hold one rotation
@@ -675,7 +683,23 @@ def fill_gaps(motion: Motion, model=None, denoiser=None, smooth: bool = True, me
         F, J = tr.shape[:2]
         line = lerp_fill(tr.reshape(F, 3 * J)).reshape(F, J, 3)
         res = dataclasses.replace(res, translations=np.where(np.isnan(tr), line, tr))
-    return res
+    return res, doubts
+
+
+#: the doubtful runs :func:`doubt_note` names before it counts the rest
+DOUBT_LINES = 3
+
+
+def doubt_note(doubts, what: str = "the gap prior's fill") -> str:
+    """One line for the runs of a fill that depart far from the line between their ends (:func:`_fill_gaps`), else
+    "": ``"Hips frames 120-239: the gap prior's fill departs up to 95 deg from the line between the gap's ends (the
+    channel spreads 2 deg over the take's seen frames); look at it before use"``."""
+    if not doubts:
+        return ""
+    said = [f"{j} frames {a}-{b}: {what} departs up to {d:.0f} deg from the line between the gap's ends (the "
+            f"channel spreads {sp:.0f} deg over the take's seen frames)" for j, a, b, d, sp in doubts[:DOUBT_LINES]]
+    more = f", and {len(doubts) - DOUBT_LINES} more such runs" if len(doubts) > DOUBT_LINES else ""
+    return ", ".join(said) + more + "; look at it before use"
 
 
 #: What replaces the networks on a take they do not serve (the same in ``clean``, ``denoise`` and ``fill``).
@@ -699,7 +723,7 @@ def _method(kind: str, label: str, sv: Serving, name: str | None = None, skeleto
 
 
 def fill_or_fallback(motion: Motion, model=None, denoiser=None, smooth: bool = True, label: str = "shipped",
-                     method: str = "auto", options: dict[str, str] | None = None):
+                     method: str = "auto", options: dict[str, str] | None = None, doubts: list | None = None):
     """Fill the gaps of ``motion`` with the EBD model (+ EBF) where they serve it, else with the cubic spline.
 
     The rule is :func:`served_by` (direct, or through a joint map). Where
@@ -714,6 +738,8 @@ def fill_or_fallback(motion: Motion, model=None, denoiser=None, smooth: bool = T
     saying which fallback ran and why. ``label`` names the model in
     both ("shipped", a file name); ``options``: the caller's option per
     model kind, for the licence line. A take without gaps is returned as is.
+    Runs of the fill that depart far from the line between their ends (:func:`.prior.doubtful_runs`) are said
+    by :func:`doubt_note`: appended to ``doubts`` when given (a caller saying it on its own), else to ``note``.
     """
     from ..gapfill import fill_motion
 
@@ -725,7 +751,7 @@ def fill_or_fallback(motion: Motion, model=None, denoiser=None, smooth: bool = T
         ebf = served_by(motion, _smoothing_ebf(sv.model, denoiser, motion)) if smooth else "not asked"
         smooth = not isinstance(ebf, str)
         try:
-            out = fill_gaps(motion, sv, ebf if smooth else None, smooth=smooth, method=method)
+            out, runs = _fill_gaps(motion, sv, ebf if smooth else None, smooth, method)
             ebf_ran = ebf_takes_part(sv.model, smooth, method)
             notes = dict.fromkeys(n for n in (licence_note(sv.model, options),
                                               licence_note(ebf.model, options) if ebf_ran else "") if n)
@@ -734,6 +760,11 @@ def fill_or_fallback(motion: Motion, model=None, denoiser=None, smooth: bool = T
             notes.pop("", None)
             name = "EBD's gap prior" if by_prior else None
             how = _method("ebd", label, sv, name, motion.skeleton) + (" + EBF" if ebf_ran else "")
+            doubt = doubt_note(runs, "the gap prior's fill" if by_prior else "the EBD's fill")
+            if doubt and doubts is not None:
+                doubts.append(doubt)
+            elif doubt:
+                notes[doubt] = None
             return out, how, "; ".join(notes)
         except ValueError as exc:
             why = str(exc)
