@@ -104,3 +104,31 @@ def test_fast_real_takes_have_no_breaks(shared_data):
     for p in sorted((shared_data / "secondary_bandai_namco_CC-BY-NC").glob("*.bvh")):
         m = mocapkit.load(p)
         assert tb.cuts(m) == [] and tb.root_events(m) == [], p.name
+
+
+def test_root_jumps_matches_the_frame_by_frame_reference():
+    """root_jumps compares each step with the median of the steps beside it, all frames at once: the same
+    frames and excesses as the loop over frames (short paths included)."""
+    import numpy as np
+
+    from mocapkit.cleaning import take_breaks as tb
+
+    def reference(path):
+        d = np.diff(path, axis=0)
+        n = len(d)
+        excess = np.zeros(n)
+        for i in range(n):
+            idx = [k for k in (i - 2, i - 1, i + 1, i + 2) if 0 <= k < n]
+            ref = np.median(d[idx], axis=0) if idx else np.zeros(3)
+            excess[i] = np.linalg.norm(d[i] - ref)
+        bad = np.flatnonzero(excess > tb.JUMP_CM)
+        return bad + 1, excess[bad]
+
+    rng = np.random.default_rng(0)
+    for F in (2, 3, 4, 5, 7, 60, 400):
+        for _ in range(10):
+            path = np.cumsum(rng.normal(0.0, 8.0, (F, 3)), axis=0)
+            if F > 5:
+                path[rng.integers(1, F - 1)] += 100.0
+            got, want = tb.root_jumps(path), reference(path)
+            assert np.array_equal(got[0], want[0]) and np.allclose(got[1], want[1])

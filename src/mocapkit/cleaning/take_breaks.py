@@ -80,12 +80,11 @@ class RootEvent:
 
 @dataclass(frozen=True)
 class Cut:
-    """A frame where the whole body jumps: ``frame`` (the first frame after the break), ``share`` of the
-    moving joints breaking there, ``root_cm`` the root's step off its neighbours' (cm)."""
+    """A frame where the whole body jumps: ``frame`` (the first frame after the break) and the ``share`` of the
+    moving joints breaking there."""
 
     frame: int
     share: float
-    root_cm: float
 
     def __str__(self) -> str:
         return (f"frame {self.frame}: the whole body jumps ({100 * self.share:.0f} % of the joints at once): a cut, "
@@ -114,11 +113,16 @@ def root_jumps(path: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         return np.zeros(0, dtype=int), np.zeros(0)
     d = np.diff(path, axis=0)  # d[i]: the step into frame i + 1
     n = len(d)
-    excess = np.zeros(n)
-    for i in range(n):
-        idx = [k for k in (i - 2, i - 1, i + 1, i + 2) if 0 <= k < n]
-        ref = np.median(d[idx], axis=0) if idx else np.zeros(3)
-        excess[i] = np.linalg.norm(d[i] - ref)
+    beside = np.full((n, 4, 3), np.nan)  # the steps two before and two after each, NaN past the ends
+    for k, o in enumerate((-2, -1, 1, 2)):
+        lo, hi = max(0, -o), min(n, n - o)
+        beside[lo:hi, k] = d[lo + o:hi + o]
+    has = np.isfinite(beside).all(axis=2).any(axis=1)  # a one-step path has no step beside its own
+    ref = np.zeros((n, 3))
+    if has.any():
+        with np.errstate(all="ignore"):
+            ref[has] = np.nanmedian(beside[has], axis=1)
+    excess = np.linalg.norm(d - ref, axis=1)
     bad = np.flatnonzero(np.nan_to_num(excess) > JUMP_CM)
     return bad + 1, excess[bad]
 
@@ -148,7 +152,8 @@ def root_events(motion: Motion, span: tuple[int, int] | None = None) -> list[Roo
             # back: the root returns to the line it left (the good frames around agree)
             before, after = path[a - 1], path[b]
             gap = b - a + 1
-            slope = (path[min(b + 1, len(path) - 1)] - path[max(a - 2, 0)]) / max(1, min(b + 1, len(path) - 1) - max(a - 2, 0))
+            left, right = max(a - 2, 0), min(b + 1, len(path) - 1)
+            slope = (path[right] - path[left]) / max(1, right - left)
             if np.linalg.norm(after - (before + slope * gap)) < JUMP_CM:
                 back = int(b)
                 break
@@ -160,7 +165,8 @@ def root_events(motion: Motion, span: tuple[int, int] | None = None) -> list[Roo
             out.append(RootEvent("teleport", lo + int(a), lo + back - 1, size, name))
             used.update(int(b) for b in frames[(frames >= a) & (frames <= back)])
         else:
-            out.append(RootEvent("jump", lo + int(a), hi - 1, float(np.linalg.norm(step_in - (path[a - 1] - path[max(a - 2, 0)]))), name))
+            size = float(np.linalg.norm(step_in - (path[a - 1] - path[max(a - 2, 0)])))
+            out.append(RootEvent("jump", lo + int(a), hi - 1, size, name))
             used.add(int(a))
     held = _frozen(motion, path, lo, name)
     ends = {e.last + 1 for e in held}  # where a held root lets go it jumps to where the body went: part of the hold
@@ -285,9 +291,9 @@ def cuts(motion: Motion, span: tuple[int, int] | None = None) -> list[Cut]:
     for f in found:
         if out and f - (out[-1].frame - lo) <= 2:  # one cut shows at two frames at most
             if share[f] > out[-1].share:
-                out[-1] = Cut(lo + int(f), float(share[f]), 0.0)
+                out[-1] = Cut(lo + int(f), float(share[f]))
             continue
-        out.append(Cut(lo + int(f), float(share[f]), 0.0))
+        out.append(Cut(lo + int(f), float(share[f])))
     return out
 
 
