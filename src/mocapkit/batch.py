@@ -120,6 +120,8 @@ def clean_file(
     amc_fps: float | None = None,
     unit: str | None = None,
     noise_deg: float | None = None,
+    max_gap_s: float | None = None,
+    max_error_mm: float | None = None,
 ):
     """Clean the take at ``inp`` and write ``out``, its ``.clean.npz`` record and optional reports.
 
@@ -166,7 +168,8 @@ def clean_file(
         ("models", bool(models)), ("noise_deg", noise_deg is not None)) if given]
     if isinstance(motion, MarkerSet) or (motion is None and inp.suffix.lower() in (".c3d", ".trc")):
         refuse_marker_options(inp, not_for_markers)
-        return clean_marker_file(inp, out, report=report, png=png, overwrite=overwrite, markers=motion, unit=unit)
+        return clean_marker_file(inp, out, report=report, png=png, overwrite=overwrite, markers=motion, unit=unit,
+                                 max_gap_s=max_gap_s, max_error_mm=max_error_mm)
     reuse = record is not None
     if reuse and decisions is None:
         raise MocapError(f"{record}: an earlier run's record is applied with decisions; give the decisions file")
@@ -178,7 +181,8 @@ def clean_file(
     check_asf(asf, [inp], amc_fps)
     if motion is None and inp.suffix.lower() == ".npz" and isinstance(take := load_take(inp, unit=unit), MarkerSet):
         refuse_marker_options(inp, not_for_markers)
-        return clean_marker_file(inp, out, report=report, png=png, overwrite=overwrite, markers=take)
+        return clean_marker_file(inp, out, report=report, png=png, overwrite=overwrite, markers=take,
+                                 max_gap_s=max_gap_s, max_error_mm=max_error_mm)
     io.suffix_kind(out, io.WRITERS, "writing")
     doc = dec.read_decisions(decisions) if decisions is not None else None
     taken = None if reuse else file_facts(inp)  # the take as read: a later batch tells a replaced input by it
@@ -531,7 +535,8 @@ def _clean_job(job: dict) -> dict:
                             report=staged[Path(job["report"])] if job.get("report") else None,
                             png=staged[Path(job["png"])] if job.get("png") else None, asf=job.get("asf"),
                             drifts=bool(job.get("drifts")), models=job.get("models"), amc_fps=job.get("amc_fps"),
-                            unit=job.get("unit"), noise_deg=job.get("noise_deg"))
+                            unit=job.get("unit"), noise_deg=job.get("noise_deg"), max_gap_s=job.get("max_gap_s"),
+                            max_error_mm=job.get("max_error_mm"))
         kept = keep_aside(finals)
         if finals[-1] in kept:  # the old record goes first: the take reads as incomplete while its files are replaced
             os.unlink(finals[-1])
@@ -668,6 +673,8 @@ def clean_batch(
     amc_fps: float | None = None,
     unit: str | None = None,
     noise_deg: float | None = None,
+    max_gap_s: float | None = None,
+    max_error_mm: float | None = None,
 ) -> BatchSummary:
     """Clean every take under ``in_dir`` into the mirrored layout under ``out_dir`` (module docstring).
 
@@ -682,7 +689,10 @@ def clean_batch(
     take (default: the ASF beside each AMC); ``amc_fps``: the frame rate of
     every ``.amc`` take (default: :func:`mocapkit.io.asfamc.amc_rate`);
     ``unit``: the length unit of every take whose file states none; ``noise_deg``: the noisy-cell level
-    of every take (:func:`clean_file`). ``drifts``: also flag smooth
+    of every take (:func:`clean_file`); ``max_gap_s``, ``max_error_mm``: the gap-length and fill-error limits of
+    every marker capture (:func:`mocapkit.cleaning.markers.clean_markers`; joint-angle takes ignore them, and a
+    marker capture's record does not keep them: a rerun with other limits skips its complete takes, so use
+    ``overwrite`` to clean them again). ``drifts``: also flag smooth
     drifts in every take (:func:`mocapkit.cleaning.pipeline.clean`); ``models``: model files (or shipped
     names) for every take, as :func:`clean_file`'s. Raises
     :class:`~mocapkit.errors.MocapError` (one line) on a bad folder, format,
@@ -757,7 +767,8 @@ def clean_batch(
              "png": _abs(files["png"]) if files["png"] else None,
              "asf": _abs(asf) if asf is not None and inp.suffix.lower() == ".amc" else None,
              "amc_fps": float(amc_fps) if amc_fps is not None and inp.suffix.lower() == ".amc" else None,
-             "unit": unit, "noise_deg": None if noise_deg is None else float(noise_deg)} for inp, files in todo]
+             "unit": unit, "noise_deg": None if noise_deg is None else float(noise_deg),
+             "max_gap_s": max_gap_s, "max_error_mm": max_error_mm} for inp, files in todo]
     skeletons = _asf_copies(inputs, plans, asf, overwrite) if fmt == "amc" else {}
     expected = [f for files in plans for f in files.values() if f is not None]
     made = missing_folders([out_dir, *(Path(files["output"]).parent for _, files in todo)])

@@ -158,6 +158,19 @@ def test_clean_batch_mixes_marker_and_skeletal_takes(mixed_folder, tmp_path):
     assert not load_markers(tmp_path / "out" / "markers.c3d").missing().any()
 
 
+def test_clean_batch_takes_max_gap_for_its_marker_captures_and_leaves_joint_angle_takes_alone(mixed_folder, cut_take,
+                                                                                              tmp_path):
+    """clean had --max-gap and --max-fill-error, clean-batch neither: a folder of captures could not set them."""
+    _, _, mask = cut_take
+    code, stdout, stderr = run("clean-batch", mixed_folder, tmp_path / "out", "--executor", "serial",
+                               "--max-gap", "0.01")
+    assert code == 0, stderr + stdout
+    assert np.array_equal(np.isnan(_ezc3d_points(tmp_path / "out" / "markers.c3d"))[..., 0], mask)  # left as read
+    walk = tmp_path / "walk_alone"
+    assert run("clean", mixed_folder / "walk.bvh", "-o", walk.with_suffix(".bvh"))[0] == 0
+    assert (tmp_path / "out" / "walk.bvh").read_bytes() == walk.with_suffix(".bvh").read_bytes()  # no effect there
+
+
 @pytest.mark.parametrize("options", [["--steps", "detect"], ["--steps", "fill"], ["--threshold", "0.8"],
                                      ["--drifts"], ["--decisions", "d.json"], ["--context", "none"]])
 def test_options_of_joint_angle_takes_are_refused_for_a_marker_capture(cut_take, tmp_path, options):

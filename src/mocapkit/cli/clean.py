@@ -316,6 +316,13 @@ def clean_batch(
     asf: Optional[Path] = asf_option(),
     amc_fps: Optional[float] = amc_fps_option(),
     unit: Optional[str] = unit_option(),
+    max_gap: Optional[float] = typer.Option(None, "--max-gap", metavar="S", min=0.0,
+                                            help="Marker captures: gaps longer than S seconds are left missing."),
+    max_fill_error: Optional[float] = typer.Option(
+        None, "--max-fill-error", metavar="MM", min=0.0,
+        help="Marker captures: a fill expected to be off by more than MM millimetres (its error where the marker is "
+             "seen) is left missing (default: the marker's distance to its nearest marker, at least 50 mm). "
+             "Joint-angle takes ignore this and --max-gap."),
     overwrite: bool = typer.Option(
         False, "--overwrite",
         help="Replace existing outputs that are not complete takes of an earlier run (without it they are refused; "
@@ -343,6 +350,7 @@ def clean_batch(
         summary = run_batch(in_dir, out_dir, context=context, steps=step_list, threshold=threshold, patterns=patterns,
                             fmt=fmt, report=report, png=png, executor=executor, progress=not as_json,
                             overwrite=overwrite, asf=asf, drifts=drifts, models=models, amc_fps=amc_fps, unit=unit,
+                            max_gap_s=max_gap, max_error_mm=max_fill_error,
                             noise_deg=noise_deg)
     except KeyboardInterrupt:  # "no partial output" alone reads as if nothing was kept
         if out_dir.is_dir() and any(out_dir.rglob("*.clean.npz")):
