@@ -685,3 +685,17 @@ def test_every_cause_has_a_bit_of_the_uint8_record():
 
     names = [k for k, _ in CAUSES]
     assert len(names) <= 8 and len(set(names)) == len(names)
+
+
+@pytest.mark.parametrize("shape, dtype", [((37, 3), np.float64), ((5, 4), np.float32), ((0, 3), np.float64)])
+def test_norms_are_the_one_row_norms_they_replace(shape, dtype):
+    """cues._norms: bit for bit ``np.linalg.norm`` of each 1-D row (strided rows, tiny, huge and NaN rows too)."""
+    rng = np.random.default_rng(shape[0])
+    v = (rng.normal(size=shape) * 10.0 ** rng.integers(-12, 12, size=shape)).astype(dtype)
+    if shape[0]:
+        v[0] = np.nan
+        v[1] = 0.0
+    for rows in (v, np.asfortranarray(v), v[::2]):
+        want = np.array([np.linalg.norm(r) for r in rows], dtype=np.float64)
+        got = cues._norms(rows)
+        assert got.dtype == np.float64 and got.shape == want.shape and np.array_equal(got, want, equal_nan=True)
