@@ -26,7 +26,6 @@ from .cues import (
     flag_rule,
     held_joints,
     lone_spikes,
-    midpoint_residuals,
     mirrored_rotations,
     own_breaks,
     offsets_from_residuals,
@@ -447,7 +446,7 @@ def detect_prepared(an: Analysis, threshold: float = 0.5, *, progress: bool = Fa
     fps = p.analysis_fps
     normalization, row_scale, floor_deg, z_scale = p.normalization, p.row_scale, p.floor_deg, p.z_scale
     max_word_angle_deg = p.max_word_angle_deg
-    resid = midpoint_residuals(motion.rotations)  # for the breaks and the side swaps
+    resid = an.residuals  # for the breaks and the side swaps (midpoint_residuals, made once per analysis)
     # breaks that stand out from the joint's own motion and speed (30 fps too)
     jumps = own_breaks(resid, p.jump_deg, motion.fps, motion.rotations)
     # a turn the joint's chain undoes (a solver sharing a bend another way) is no evidence of an error
