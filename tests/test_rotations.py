@@ -215,3 +215,26 @@ def test_kabsch_never_reflects_a_mirrored_set():
     m = R.kabsch(ref, mirrored)
     np.testing.assert_allclose(np.linalg.det(m), 1.0, atol=1e-12)
     np.testing.assert_allclose(m @ m.T, np.eye(3), atol=1e-12)
+
+
+@pytest.mark.parametrize("sa, sb", [((4,), (4,)), ((7, 4), (7, 4)), ((4,), (5, 3, 4)), ((5, 1, 4), (1, 3, 4)),
+                                    ((0, 4), (4,)), ((300, 6, 4), (300, 6, 4))])
+def test_quaternion_multiply_is_the_stacked_product_it_replaces(sa, sb):
+    """quaternion_multiply writes each component into its place: bit for bit the np.stack of the four it replaced
+    (broadcasting, 0-d, empty, NaN, signed zeros and huge and tiny values too)."""
+    rng = np.random.default_rng(len(sa) * 10 + len(sb))
+    a = rng.normal(size=sa) * 10.0 ** rng.integers(-150, 150, size=sa)
+    b = rng.normal(size=sb) * 10.0 ** rng.integers(-150, 150, size=sb)
+    if a.size > 8:
+        a.reshape(-1)[:3] = [np.nan, -0.0, np.inf]
+    if b.size > 8:
+        b.reshape(-1)[1:4] = [0.0, -0.0, np.nan]
+    aw, ax, ay, az = a[..., 0], a[..., 1], a[..., 2], a[..., 3]
+    bw, bx, by, bz = b[..., 0], b[..., 1], b[..., 2], b[..., 3]
+    with np.errstate(all="ignore"):
+        want = np.stack([aw * bw - ax * bx - ay * by - az * bz, aw * bx + ax * bw + ay * bz - az * by,
+                         aw * by - ax * bz + ay * bw + az * bx, aw * bz + ax * by - ay * bx + az * bw], axis=-1)
+        got = R.quaternion_multiply(a, b)
+    assert got.shape == want.shape and got.dtype == want.dtype
+    assert np.array_equal(got.view(np.int64), want.view(np.int64)) or np.array_equal(got, want, equal_nan=True)
+    assert np.array_equal(np.signbit(got), np.signbit(want)) and np.array_equal(got, want, equal_nan=True)

@@ -684,3 +684,25 @@ def test_clean_says_a_doubtful_fill_and_keeps_it(monkeypatch):
     assert np.allclose((made + 180.0) % 360.0 - 180.0, bump, atol=1e-6)  # the fill is kept as made
     monkeypatch.setattr(inference, "fill_channels", lambda values, *a, **k: P.end_line(values))
     assert not any("look at it before use" in n for n in mocapkit.clean(gappy, steps="fill").notes)
+
+
+@pytest.mark.parametrize("u0, u1, turns", [(20, 31, True), (0, 6, True), (40, 50, False)])
+def test_field_fill_shift_is_the_shifted_copy_it_replaces(u0, u1, turns):
+    """field_fill(base, ..., shift=s) reads the windows' frames minus ``s``: the same numbers, bit for bit, as
+    field_fill(base - s, ...) on a shifted copy of the whole take (interior and clamped at the take's start)."""
+    rng = np.random.default_rng(u0 + u1)
+    F, C = 50, 6
+    lags = np.array([-16, -8, 0, 8, 16])
+    read = np.array([0, 1, 2, 4, 5])
+    chans = np.array([1, 4])
+    L, R, k = len(lags), len(read), len(chans)
+    base = rng.normal(size=(F, C)) * 90.0
+    a = rng.normal(size=(L * R, L * R))
+    prec = a @ a.T + L * R * np.eye(L * R)
+    unk = (np.arange(L)[:, None] * R + np.searchsorted(read, chans)[None, :]).ravel()
+    pcols = prec[:, unk]
+    mean, scale = rng.normal(size=L * R), 1.0 + rng.random(L * R)
+    shift = 360.0 * rng.integers(-2, 3, size=C).astype(float) if turns else 0.0
+    want = P.field_fill(base - shift, lags, mean, scale, pcols, read, chans, u0, u1)
+    got = P.field_fill(base, lags, mean, scale, pcols, read, chans, u0, u1, shift=shift)
+    assert np.array_equal(got, want) and np.isfinite(got).all()

@@ -132,3 +132,28 @@ def test_root_jumps_matches_the_frame_by_frame_reference():
                 path[rng.integers(1, F - 1)] += 100.0
             got, want = tb.root_jumps(path), reference(path)
             assert np.array_equal(got[0], want[0]) and np.allclose(got[1], want[1])
+
+
+def test_cuts_read_the_residuals_detection_made(walk131):
+    """A splice's cuts found on residuals handed in (the detection's, made once: Analysis.residuals) are the cuts
+    found on residuals made here, and across_breaks hands the analysis' own residuals of the part."""
+    from mocapkit.cleaning import ssa
+    from mocapkit.cleaning.ssa.cues import midpoint_residuals
+    from mocapkit.cleaning.whole_take import across_breaks, take_params
+
+    m = _cat(walk131[:200], walk131[400:600])
+    resid = midpoint_residuals(m.rotations)
+    assert np.array_equal(tb.cut_scores(m, resid), tb.cut_scores(m))
+    assert tb.cuts(m, resid=resid) == tb.cuts(m) and tb.cuts(m)
+    det = ssa.detect(m, params=take_params())
+    an = det.analysis
+    assert an.motion is m and np.array_equal(an.residuals, resid) and not an.residuals.flags.writeable
+    assert an.residuals is an.residuals  # made once
+    seen = []
+    real = tb.cuts
+    try:
+        tb.cuts = lambda part, span=None, resid=None: seen.append(resid) or real(part, span, resid)
+        across_breaks(m, det)
+    finally:
+        tb.cuts = real
+    assert len(seen) == 1 and seen[0] is an.residuals

@@ -252,11 +252,14 @@ def _usual_peak(resid: np.ndarray) -> np.ndarray:
     return np.percentile(resid, min(98.0, 100.0 * (1.0 - 8.0 / max(F, 1))), axis=0)
 
 
-def cut_scores(motion: Motion) -> np.ndarray:
-    """(F,) the share of moving joints that break into each frame (module docstring; 0 at frame 0)."""
+def cut_scores(motion: Motion, resid: np.ndarray | None = None) -> np.ndarray:
+    """(F,) the share of moving joints that break into each frame (module docstring; 0 at frame 0).
+
+    ``resid``: ``midpoint_residuals(motion.rotations)`` when the caller has them already (None: made here)."""
     from .ssa.cues import midpoint_residuals
 
-    resid = midpoint_residuals(motion.rotations)  # (F, J) radians, at f against f-1 and f+1
+    if resid is None:
+        resid = midpoint_residuals(motion.rotations)  # (F, J) radians, at f against f-1 and f+1
     F = resid.shape[0]
     out = np.zeros(F)
     if F < 4:
@@ -278,14 +281,16 @@ def cut_scores(motion: Motion) -> np.ndarray:
     return out
 
 
-def cuts(motion: Motion, span: tuple[int, int] | None = None) -> list[Cut]:
-    """The :class:`Cut` frames of ``motion`` (within ``span`` ``(lo, hi)``; module docstring)."""
+def cuts(motion: Motion, span: tuple[int, int] | None = None, resid: np.ndarray | None = None) -> list[Cut]:
+    """The :class:`Cut` frames of ``motion`` (within ``span`` ``(lo, hi)``; module docstring).
+
+    ``resid``: the midpoint residuals of ``motion[lo:hi]`` when the caller has them already (:func:`cut_scores`)."""
     F = motion.num_frames
     lo, hi = (0, F) if span is None else span
     if hi - lo < 8:
         return []
     part = motion[lo:hi]
-    share = cut_scores(part)
+    share = cut_scores(part, resid)
     found = np.flatnonzero(share >= CUT_SHARE)
     out = []
     for f in found:

@@ -135,7 +135,8 @@ def across_breaks(part: Motion, det):
     from . import take_breaks as tb
 
     events = tb.root_events(part)
-    found = tb.cuts(part)
+    an = det.analysis  # its midpoint residuals are part's when it analysed part itself
+    found = tb.cuts(part, resid=an.residuals if an is not None and an.motion is part else None)
     at = sorted({c.frame for c in found} | {e.first for e in events if e.kind == "jump"})
     lines = [str(e) for e in events] + [str(c) for c in found if not any(e.first == c.frame for e in events)]
     if not lines:

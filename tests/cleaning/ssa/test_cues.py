@@ -685,3 +685,49 @@ def test_every_cause_has_a_bit_of_the_uint8_record():
 
     names = [k for k, _ in CAUSES]
     assert len(names) <= 8 and len(set(names)) == len(names)
+
+
+@pytest.mark.parametrize("shape, dtype", [((37, 3), np.float64), ((5, 4), np.float32), ((0, 3), np.float64)])
+def test_norms_are_the_one_row_norms_they_replace(shape, dtype):
+    """cues._norms: bit for bit ``np.linalg.norm`` of each 1-D row (strided rows, tiny, huge and NaN rows too)."""
+    rng = np.random.default_rng(shape[0])
+    v = (rng.normal(size=shape) * 10.0 ** rng.integers(-12, 12, size=shape)).astype(dtype)
+    if shape[0]:
+        v[0] = np.nan
+        v[1] = 0.0
+    for rows in (v, np.asfortranarray(v), v[::2]):
+        want = np.array([np.linalg.norm(r) for r in rows], dtype=np.float64)
+        got = cues._norms(rows)
+        assert got.dtype == np.float64 and got.shape == want.shape and np.array_equal(got, want, equal_nan=True)
+
+
+def test_uncompensated_breaks_memo_gives_the_same_answers(walk):
+    """Break events judged once (detection's own breaks) and read again from the memo by another call (the lone
+    spikes' breaks, other events among them) give, bit for bit, what each call gives alone; the memo holds every
+    event judged, and a call whose events are all in it judges none again."""
+    sk = walk.skeleton
+    parents = np.asarray(sk.parents)
+    bad, _mask, _rec = corrupt.real_errors(walk, n_errors=6, seed=3)
+    rot = np.array(bad.rotations, dtype=np.float64)
+    resid = cues.midpoint_residuals(rot)
+    own = cues.own_breaks(resid, 7.0)
+    wide = cues.residual_breaks(resid, 5.0)
+    assert (wide & ~own).any()  # the second call has events the first did not judge
+    memo: dict = {}
+    assert np.array_equal(cues.uncompensated_breaks(rot, parents, own, memo), cues.uncompensated_breaks(rot, parents, own))
+    judged = len(memo)
+    assert judged and np.array_equal(cues.uncompensated_breaks(rot, parents, wide, memo),
+                                     cues.uncompensated_breaks(rot, parents, wide))
+    assert len(memo) > judged
+    calls = []
+    real = cues._compensated
+    try:
+        cues._compensated = lambda *a, **k: calls.append(a) or real(*a, **k)
+        again = cues.uncompensated_breaks(rot, parents, wide, memo)
+    finally:
+        cues._compensated = real
+    assert not calls and np.array_equal(again, cues.uncompensated_breaks(rot, parents, wide))
+    assert np.array_equal(cues.lone_spikes(rot, resid, np.zeros(resid.shape, bool), np.ones(sk.num_joints, bool),
+                                           parents, memo={}),
+                          cues.lone_spikes(rot, resid, np.zeros(resid.shape, bool), np.ones(sk.num_joints, bool),
+                                           parents))

@@ -366,8 +366,11 @@ def _take_update(z: np.ndarray, miss: np.ndarray, prior: GapPrior, n0: float):
 
 
 def field_fill(base: np.ndarray, lags: np.ndarray, mean: np.ndarray, scale: np.ndarray, pcols: np.ndarray,
-               read: np.ndarray, chans: np.ndarray, u0: int, u1: int) -> np.ndarray:
+               read: np.ndarray, chans: np.ndarray, u0: int, u1: int, shift=None) -> np.ndarray:
     """(u1 - u0, k) values of channels ``chans`` over frames ``u0:u1`` that minimise the field's energy.
+
+    ``shift`` (C,) or a number, optional: subtracted from ``base`` as read (``field_fill(base - shift, ...)``, the
+    same numbers, bit for bit, without a copy of the whole take per call).
 
     ``base`` (F, C): the channels as read (values of ``chans`` inside ``u0:u1`` are ignored); ``read``: the
     channels the field reads (sorted, ``chans`` among them; the others are marginalised out); ``mean``, ``scale``:
@@ -388,7 +391,8 @@ def field_fill(base: np.ndarray, lags: np.ndarray, mean: np.ndarray, scale: np.n
     t0 = max(0, u0 - reach)
     t = np.arange(t0, min(F, u1 + reach))
     fr = np.clip(t[:, None] + lags[None, :], 0, F - 1)  # (T, L)
-    z = (base[fr][:, :, read].reshape(len(fr), L * R) - mean) / scale
+    vals = base[fr] if shift is None else base[fr] - shift  # (T, L, C): the frames the windows read
+    z = (vals[:, :, read].reshape(len(fr), L * R) - mean) / scale
     inside = (fr >= u0) & (fr < u1)
     q = np.arange(L)[:, None] * R + np.searchsorted(read, chans)[None, :]  # (L, k) the unknowns' entries
     coef = 1.0 / scale[q]  # (L, k): d z / d x of each
@@ -812,7 +816,7 @@ def _fill_events(out: np.ndarray, base: np.ndarray, miss: np.ndarray, events: di
         if prior.branch is not None:
             w0, w1 = max(0, u0 - 2 * reach), min(F, u1 + 2 * reach)  # the frames the event's windows read
             turns = 360.0 * branch_turns(base[w0:w1].mean(axis=0), prior.branch)  # (C,)
-        pred = field_fill(base - turns, lags, mean[ent], prior.scale[ent], pcols, read, chans, u0, u1)
+        pred = field_fill(base, lags, mean[ent], prior.scale[ent], pcols, read, chans, u0, u1, shift=turns)
         if prior.branch is not None:
             pred = pred + turns[chans]
         gap = pred[s - u0 : e - u0]

@@ -409,8 +409,14 @@ def _row_dots(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 
 def _norms(v: np.ndarray) -> np.ndarray:
     """(n,) ``np.linalg.norm(v[i])`` of (n, k) rows, each by the 1-D call (the square root of a BLAS dot
-    product, which a sum along the rows may round otherwise); NaN rows NaN."""
-    return np.array([np.linalg.norm(r) for r in v], dtype=np.float64)
+    product, which a sum along the rows may round otherwise); NaN rows NaN. For float64 rows the same dot
+    product and square root as that call (``x.dot(x)`` of the contiguous row, then ``sqrt``: bit for bit), without
+    its per-call checks."""
+    v = np.asarray(v)
+    if v.dtype != np.float64 or v.ndim != 2:
+        return np.array([np.linalg.norm(r) for r in v], dtype=np.float64)
+    v = np.ascontiguousarray(v)  # each row contiguous, as ``norm``'s ``ravel`` leaves it
+    return np.sqrt(np.array([r.dot(r) for r in v], dtype=np.float64))
 
 
 def _velocity(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -688,7 +694,7 @@ def flag_rule(mdm, jumps, holds, swaps, offsets, threshold: float, fps: float, c
                        judged, lone) != 0
 
 
-def uncompensated_breaks(q: np.ndarray, parents, breaks: np.ndarray) -> np.ndarray:
+def uncompensated_breaks(q: np.ndarray, parents, breaks: np.ndarray, memo: dict | None = None) -> np.ndarray:
     """``breaks`` (F, J) bool without the break events whose turn the joint's chain undoes (:func:`_compensated`).
 
     A solver that shares a spine's bend between the lower back and the
@@ -696,12 +702,24 @@ def uncompensated_breaks(q: np.ndarray, parents, breaks: np.ndarray) -> np.ndarr
     tracks while the body does not move: no evidence of an error, so such
     breaks confirm no digression. ``q`` (F, J, 4) local rotations,
     ``parents`` (J,); events are grouped as :func:`_event_bounds` does.
+    ``memo``: a dict ``(joint, first, last) -> compensated`` of the events already judged on this ``q`` and
+    ``parents`` (another call's), read and added to: an event's answer is its own, whichever events it is judged
+    with, so the events found again are not judged again (detection's breaks and :func:`lone_spikes`').
     """
     out = np.array(breaks, dtype=bool)
     for j in np.flatnonzero(out.any(axis=0)):
         frames = np.flatnonzero(out[:, j])
         first, last, event = _event_bounds(frames)
-        out[frames[_compensated(q, parents, int(j), first, last)[event]], j] = False
+        if memo is None:
+            comp = _compensated(q, parents, int(j), first, last)
+        else:
+            keys = [(int(j), int(a), int(b)) for a, b in zip(first, last)]
+            todo = np.array([key not in memo for key in keys], dtype=bool)
+            if todo.any():
+                found = _compensated(q, parents, int(j), first[todo], last[todo])
+                memo.update(zip([keys[i] for i in np.flatnonzero(todo)], found.tolist()))
+            comp = np.array([memo[key] for key in keys], dtype=bool)
+        out[frames[comp[event]], j] = False
     return out
 
 
@@ -738,7 +756,8 @@ LONE_SPIKE_MAX_FRAMES = 3  # off the path for at most this many frames (corrupt.
 
 def lone_spikes(q: np.ndarray, resid: np.ndarray, judged: np.ndarray, analysed: np.ndarray, parents=None,
                 jump_deg: float = _D.jump_deg, ratio: float = LONE_SPIKE_RATIO,
-                min_deg: float = LONE_SPIKE_MIN_DEG, max_frames: int = LONE_SPIKE_MAX_FRAMES) -> np.ndarray:
+                min_deg: float = LONE_SPIKE_MIN_DEG, max_frames: int = LONE_SPIKE_MAX_FRAMES,
+                memo: dict | None = None) -> np.ndarray:
     """(F, J) bool: the frames of spikes far past the joint's own motion, where no neighbour word judges them.
 
     The movement digression map flags only motion the take (or its context) repeats: a word with no neighbour within
@@ -757,13 +776,14 @@ def lone_spikes(q: np.ndarray, resid: np.ndarray, judged: np.ndarray, analysed: 
     (``judged`` (F, J) bool, a finite digression; the rest is the digression's to judge) and the joint is
     ``analysed`` ((J,) bool): there :func:`~mocapkit.cleaning.ssa.repair` has no neighbour word and bridges them by
     slerp between the frames beside them. ``q`` (F, J, 4) rotations, ``resid`` (F, J) radians
-    (:func:`midpoint_residuals`). A cue of this library, not of the paper.
+    (:func:`midpoint_residuals`). ``memo``: :func:`uncompensated_breaks`' events already judged on ``q``. A cue
+    of this library, not of the paper.
     """
     F, J = resid.shape
     out = np.zeros((F, J), dtype=bool)
     breaks = residual_breaks(resid, jump_deg) & np.asarray(analysed, dtype=bool)[None, :]
     if parents is not None:
-        breaks = uncompensated_breaks(q, parents, breaks)
+        breaks = uncompensated_breaks(q, parents, breaks, memo)
     low = np.radians(min_deg)
     for j in np.flatnonzero(breaks.any(axis=0)):
         first, last, _ = _event_bounds(np.flatnonzero(breaks[:, j]))

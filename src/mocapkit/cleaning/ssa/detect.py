@@ -26,7 +26,6 @@ from .cues import (
     flag_rule,
     held_joints,
     lone_spikes,
-    midpoint_residuals,
     mirrored_rotations,
     own_breaks,
     offsets_from_residuals,
@@ -447,11 +446,13 @@ def detect_prepared(an: Analysis, threshold: float = 0.5, *, progress: bool = Fa
     fps = p.analysis_fps
     normalization, row_scale, floor_deg, z_scale = p.normalization, p.row_scale, p.floor_deg, p.z_scale
     max_word_angle_deg = p.max_word_angle_deg
-    resid = midpoint_residuals(motion.rotations)  # for the breaks and the side swaps
+    resid = an.residuals  # for the breaks and the side swaps (midpoint_residuals, made once per analysis)
     # breaks that stand out from the joint's own motion and speed (30 fps too)
     jumps = own_breaks(resid, p.jump_deg, motion.fps, motion.rotations)
     # a turn the joint's chain undoes (a solver sharing a bend another way) is no evidence of an error
-    jumps = uncompensated_breaks(np.asarray(motion.rotations, dtype=np.float64), motion.skeleton.parents, jumps)
+    chain_memo: dict = {}  # the break events judged compensated or not, read again by the lone spikes
+    jumps = uncompensated_breaks(np.asarray(motion.rotations, dtype=np.float64), motion.skeleton.parents, jumps,
+                                 chain_memo)
     sk = motion.skeleton
     gnames, grows = list(an.group_names), list(an.group_rows)
     words = an.words
@@ -582,7 +583,7 @@ def detect_prepared(an: Analysis, threshold: float = 0.5, *, progress: bool = Fa
     drifts = _drifts(jumps, agreement, consistency, motion.fps, p, sk.joint_names, change) if p.drift else None
     spikes = spike_breaks(q, resid, jumps)
     # a spike far past the joint's own motion is an error where no similar motion judges it
-    lone = lone_spikes(q, resid, np.isfinite(digression), analysed, sk.parents, p.jump_deg)
+    lone = lone_spikes(q, resid, np.isfinite(digression), analysed, sk.parents, p.jump_deg, memo=chain_memo)
     flags = flag_rule(mdm, jumps, holds, swaps, offsets, threshold, motion.fps, p.confirm, p.confirm_margin_s, drifts,
                       spikes, np.isfinite(digression), lone)
     masks = an.group_masks()

@@ -12,6 +12,7 @@ source words (an :class:`Analysis`).
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 from typing import Mapping, Sequence
 
 import numpy as np
@@ -438,6 +439,17 @@ class Analysis:
     def joints(self) -> np.ndarray:
         """(m,) skeleton indices of the analysed joints (the textures' rows)."""
         return self.source.joints
+
+    @cached_property
+    def residuals(self) -> np.ndarray:
+        """(F, J) radians: the take's midpoint residuals (:func:`~mocapkit.cleaning.ssa.cues.midpoint_residuals`),
+        made once for detection and for the take's breaks (:func:`~mocapkit.cleaning.whole_take.across_breaks`);
+        read-only."""
+        from .cues import midpoint_residuals
+
+        out = midpoint_residuals(self.motion.rotations)
+        out.flags.writeable = False
+        return out
 
     @property
     def has_context(self) -> bool:
