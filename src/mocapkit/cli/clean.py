@@ -10,7 +10,8 @@ import typer
 
 from ..errors import MocapError, MocapFormatError
 from .common import (STEPS_HELP, amc_fps_option, asf_option, check_executor, check_noise_deg, console, context_option,
-                     executor_option, guard, noise_deg_option, overwrite_option, percent, plural, unit_option)
+                     executor_option, guard, max_fill_error_option, max_gap_option, noise_deg_option, overwrite_option,
+                     percent, plural, unit_option)
 
 
 def _steps(text: str) -> list[str]:
@@ -58,12 +59,8 @@ def clean(
     asf: Optional[Path] = asf_option(),
     amc_fps: Optional[float] = amc_fps_option(),
     unit: Optional[str] = unit_option(),
-    max_gap: Optional[float] = typer.Option(None, "--max-gap", metavar="S", min=0.0,
-                                            help="A marker capture: gaps longer than S seconds are left missing."),
-    max_fill_error: Optional[float] = typer.Option(
-        None, "--max-fill-error", metavar="MM", min=0.0,
-        help="A marker capture: a fill expected to be off by more than MM millimetres (its error where the marker is "
-             "seen) is left missing (default: the marker's distance to its nearest marker, at least 50 mm)."),
+    max_gap: Optional[float] = max_gap_option(),
+    max_fill_error: Optional[float] = max_fill_error_option(),
     overwrite: bool = overwrite_option(),
 ) -> None:
     """Clean a take: fill gaps, detect and repair erroneous joints, denoise only the noisy cells.
@@ -316,13 +313,8 @@ def clean_batch(
     asf: Optional[Path] = asf_option(),
     amc_fps: Optional[float] = amc_fps_option(),
     unit: Optional[str] = unit_option(),
-    max_gap: Optional[float] = typer.Option(None, "--max-gap", metavar="S", min=0.0,
-                                            help="Marker captures: gaps longer than S seconds are left missing."),
-    max_fill_error: Optional[float] = typer.Option(
-        None, "--max-fill-error", metavar="MM", min=0.0,
-        help="Marker captures: a fill expected to be off by more than MM millimetres (its error where the marker is "
-             "seen) is left missing (default: the marker's distance to its nearest marker, at least 50 mm). "
-             "Joint-angle takes ignore this and --max-gap."),
+    max_gap: Optional[float] = max_gap_option(batch=True),
+    max_fill_error: Optional[float] = max_fill_error_option(batch=True),
     overwrite: bool = typer.Option(
         False, "--overwrite",
         help="Replace existing outputs that are not complete takes of an earlier run (without it they are refused; "

@@ -83,6 +83,24 @@ def unit_option():
                              "the marker distances.")
 
 
+def max_gap_option(batch: bool = False):
+    """The ``--max-gap`` option of ``clean`` and ``clean-batch`` (marker captures: ``clean_markers(max_gap_s=)``)."""
+    who = "Marker captures" if batch else "A marker capture"
+    return typer.Option(None, "--max-gap", metavar="S", min=0.0,
+                        help=f"{who}: gaps longer than S seconds are left missing.")
+
+
+def max_fill_error_option(batch: bool = False):
+    """The ``--max-fill-error`` option of ``clean`` and ``clean-batch`` (marker captures:
+    ``clean_markers(max_error_mm=)``; a batch's joint-angle takes ignore it and ``--max-gap``)."""
+    who = "Marker captures" if batch else "A marker capture"
+    return typer.Option(
+        None, "--max-fill-error", metavar="MM", min=0.0,
+        help=f"{who}: a fill expected to be off by more than MM millimetres (its error where the marker is "
+             "seen) is left missing (default: the marker's distance to its nearest marker, at least 50 mm)."
+             + (" Joint-angle takes ignore this and --max-gap." if batch else ""))
+
+
 CONTEXT_HELP = ("What the take is compared with: a motion database folder, a folder of takes or motion files "
                 "(repeat the option; built into a database once and cached under $MOCAPKIT_CACHE_DIR/contexts, else "
                 "$XDG_CACHE_HOME/mocapkit/contexts or ~/.cache/mocapkit/contexts), or 'none' for the clip alone. Default: the bundled default context "
