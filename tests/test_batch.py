@@ -726,3 +726,38 @@ def test_the_noise_level_is_part_of_the_request_and_an_earlier_record_without_it
     res = dataclasses.replace(res, params={**res.params, "request": request})
     res.save(record)
     assert clean_batch(walk_in, out, steps=["fill", "denoise"], executor="serial", progress=False).count("skipped") == 1
+
+
+def test_a_marker_capture_s_limits_are_part_of_its_request(tmp_path):
+    """--max-gap and --max-fill-error change which gaps are filled, so a capture cleaned with others is not this run's
+    to skip: refused without overwrite and cleaned again with it, as a joint-angle take cleaned at another threshold
+    is (it was skipped as complete, overwrite or not); a record written before the request was kept reads as the
+    defaults."""
+    import numpy as np
+
+    from mocapkit.batch import marker_request
+    from mocapkit.cleaning.pipeline import CleanResult
+
+    src, out = tmp_path / "in", tmp_path / "out"
+    src.mkdir()
+    shutil.copy(samples.path("Eb015pr.c3d"), src / "e.c3d")
+    assert clean_batch(src, out, executor="serial", progress=False).count("done") == 1
+    record = out / "e.clean.npz"
+    assert CleanResult.load_params(record)["request"] == marker_request()
+    assert clean_batch(src, out, executor="serial", progress=False).count("skipped") == 1
+    with pytest.raises(MocapFormatError, match=r"e\.c3d: exists from an earlier run, but it was cleaned with "
+                                               r"max_gap_s None \(now 0\.05\); use --overwrite"):
+        clean_batch(src, out, executor="serial", progress=False, max_gap_s=0.05)
+    s = clean_batch(src, out, executor="serial", progress=False, max_gap_s=0.05, overwrite=True)
+    assert s.count("done") == 1
+    assert CleanResult.load_params(record)["request"] == marker_request(max_gap_s=0.05)
+    assert clean_batch(src, out, executor="serial", progress=False, max_gap_s=0.05).count("skipped") == 1
+    with pytest.raises(MocapFormatError, match=r"max_error_mm None \(now 20\.0\)"):
+        clean_batch(src, out, executor="serial", progress=False, max_gap_s=0.05, max_error_mm=20.0)
+    # an earlier mocapkit's record, without its request: the defaults
+    with np.load(record) as data:
+        kept = {k: data[k] for k in data.files if k != "request"}
+    np.savez_compressed(record, **kept)
+    assert CleanResult.load_params(record)["kind"] == "markers" and "request" not in CleanResult.load_params(record)
+    with pytest.raises(MocapFormatError, match=r"max_gap_s None \(now 0\.05\)"):
+        clean_batch(src, out, executor="serial", progress=False, max_gap_s=0.05)

@@ -10,7 +10,8 @@ What is on disk after a take is cleaned, beside each other:
 Every file is written atomically (temporary file + rename), reports first,
 then ``OUT``, then the ``.clean.npz`` **last**: its presence is the completion
 marker, and it keeps the take's request (:func:`clean_request`: steps,
-threshold, drifts, context, models). :func:`clean_batch` skips a take whose
+threshold, drifts, context, models, ...; a marker capture's: :func:`marker_request`, its unit, gap length
+and fill error limits). :func:`clean_batch` skips a take whose
 output and marker both exist and whose request and reports are this run's,
 so an interrupted corpus run resumes where it stopped (a take made with
 another request is refused without ``overwrite``, cleaned again with it); a take interrupted
@@ -73,7 +74,7 @@ from typing import Sequence
 from .errors import MocapError, MocapFormatError, os_error_line
 from .interrupts import interrupts_as_keyboard_interrupt
 
-__all__ = ["clean_file", "clean_marker_file", "clean_request", "refuse_marker_options", "clean_batch", "find_inputs", "output_for", "BatchSummary", "DEFAULT_PATTERNS", "BATCH_MARK"]
+__all__ = ["clean_file", "clean_marker_file", "clean_request", "marker_request", "refuse_marker_options", "clean_batch", "find_inputs", "output_for", "BatchSummary", "DEFAULT_PATTERNS", "BATCH_MARK"]
 
 DEFAULT_PATTERNS = ("*.bvh", "*.amc", "*.npz", "*.c3d", "*.trc")
 
@@ -289,10 +290,21 @@ def clean_request(steps=None, threshold: float = 0.5, drifts: bool = False, cont
 REQUEST_DEFAULTS = {"noise_deg": 1.0, "amc_fps": None, "unit": None}  # what a record without these keys was made with
 
 
-def _not_complete(inp: Path, files: dict, request: dict) -> tuple[str, bool]:
+def marker_request(unit: str | None = None, max_gap_s: float | None = None, max_error_mm: float | None = None) -> dict:
+    """What a marker capture was asked to be cleaned with, as its record keeps it (``request``): the length unit of a
+    file that states none, the longest gap filled (s) and the largest expected fill error (mm), None for the
+    defaults. :func:`clean_batch` takes a capture as complete only when its record holds the same request, as
+    :func:`clean_request` is for a joint-angle take; a record written before it kept one reads as the defaults."""
+    return {"unit": unit, "max_gap_s": None if max_gap_s is None else float(max_gap_s),
+            "max_error_mm": None if max_error_mm is None else float(max_error_mm)}
+
+
+def _not_complete(inp: Path, files: dict, request: dict, markers: dict | None = None) -> tuple[str, bool]:
     """Why a take whose output and record exist is not complete for this run ("" when it is), and whether it is
     cleaned again as it is (True: its input was replaced since, and the output is this batch's own, of the old take)
     or refused without ``overwrite`` (an output changed outside mocapkit, another request, a missing report).
+    ``request``: this run's :func:`clean_request`; ``markers``: its :func:`marker_request`, which a marker capture's
+    record is held to (default: the defaults).
 
     The record keeps the size and SHA-256 of the input as read and of the output as written (``params["written"]``,
     :func:`mocapkit.io.outputs.file_facts`); a record without them (an earlier mocapkit's) is taken at its word.
@@ -317,7 +329,9 @@ def _not_complete(inp: Path, files: dict, request: dict) -> tuple[str, bool]:
         if file_facts(inp) != written.get("input"):
             return "its input changed since it was cleaned", True
     done = None if params is None else params.get("request")
-    if not isinstance(done, dict):  # a marker capture's record, or one written before requests were kept
+    if params is not None and params.get("kind") == "markers":  # held to the marker request, kept or not
+        request, done = markers if markers is not None else marker_request(), done if isinstance(done, dict) else {}
+    if not isinstance(done, dict):  # a record written before requests were kept
         return "", False
     was = {k: done.get(k, REQUEST_DEFAULTS.get(k)) for k in request}
     diff = [f"{k} {_said(was[k])} (now {_said(request[k])})" for k in request if was[k] != request[k]]
@@ -380,7 +394,8 @@ def clean_marker_file(inp, out, *, report=None, png=None, overwrite: bool = Fals
 
             plot_marker_fixes(png, res, title=f"{inp.name}: before (grey) and after")
         save_markers(res.markers, out, like=ms)
-        res.save(record, written={"input": taken, "output": file_facts(out)})  # last: the completion marker
+        res.save(record, written={"input": taken, "output": file_facts(out)},  # last: the completion marker
+                 request=marker_request(unit, max_gap_s, max_error_mm))
     return ms, res
 
 
@@ -690,9 +705,10 @@ def clean_batch(
     every ``.amc`` take (default: :func:`mocapkit.io.asfamc.amc_rate`);
     ``unit``: the length unit of every take whose file states none; ``noise_deg``: the noisy-cell level
     of every take (:func:`clean_file`); ``max_gap_s``, ``max_error_mm``: the gap-length and fill-error limits of
-    every marker capture (:func:`mocapkit.cleaning.markers.clean_markers`; joint-angle takes ignore them, and a
-    marker capture's record does not keep them: a rerun with other limits skips its complete takes, so use
-    ``overwrite`` to clean them again). ``drifts``: also flag smooth
+    every marker capture (:func:`mocapkit.cleaning.markers.clean_markers`; joint-angle takes ignore them; a
+    marker capture's record keeps them with its unit, :func:`marker_request`, and a capture cleaned with other
+    ones is refused without ``overwrite`` and cleaned again with it, as a joint-angle take cleaned with another
+    request is). ``drifts``: also flag smooth
     drifts in every take (:func:`mocapkit.cleaning.pipeline.clean`); ``models``: model files (or shipped
     names) for every take, as :func:`clean_file`'s. Raises
     :class:`~mocapkit.errors.MocapError` (one line) on a bad folder, format,
@@ -738,9 +754,10 @@ def clean_batch(
                            earlier=[str(p) for p in earlier if not (below and resolved(p) == resolved(out_dir))])
     todo, stale, again = [], [], {}
     request = clean_request(steps, threshold, drifts, ctx, models, noise_deg, amc_fps, unit)
+    markers = marker_request(unit, max_gap_s, max_error_mm)
     for inp, files in zip(inputs, plans):
         if files["output"].is_file() and files["record"].is_file():
-            why, anew = _not_complete(inp, files, request)
+            why, anew = _not_complete(inp, files, request, markers)
             if not why:
                 summary.rows.append({"input": str(inp), "output": str(files["output"]), "status": "skipped",
                                      "reason": "complete", "seconds": 0.0})

@@ -250,9 +250,10 @@ class MarkerCleanResult:
                          "cannot tell fills from recorded samples; the .clean.npz's masks (filled, spikes) can")
         return lines
 
-    def save(self, path, written: dict | None = None) -> Path:
+    def save(self, path, written: dict | None = None, request: dict | None = None) -> Path:
         """Write the masks and the list of fixes as ``.npz`` (no pickles), atomically; ``written``: what
-        :func:`mocapkit.batch.clean_marker_file` read and wrote (sizes and digests), kept as JSON."""
+        :func:`mocapkit.batch.clean_marker_file` read and wrote (sizes and digests), and ``request``: what the
+        capture was asked to be cleaned with (:func:`mocapkit.batch.marker_request`), each kept as JSON."""
         from ...io import atomic_write
 
         path = Path(path)
@@ -271,6 +272,7 @@ class MarkerCleanResult:
                 nobody_seen=np.array(json.dumps([list(x) for x in self.nobody_seen])),
                 kind=np.array("markers"),
                 **({"written": np.array(json.dumps(written))} if written else {}),
+                **({"request": np.array(json.dumps(request))} if request else {}),
             )
         return path
 
