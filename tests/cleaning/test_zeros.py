@@ -12,6 +12,7 @@ from mocapkit import samples
 from mocapkit.cleaning.decisions import apply, changes
 from mocapkit.cleaning.pipeline import CleanResult, clean
 from mocapkit.cleaning.zeros import find_zeros
+from mocapkit.errors import MocapError
 
 
 def _zeroed_bvh(src, dst, edits):
@@ -109,14 +110,18 @@ def test_clean_fills_the_zeros_and_touches_nothing_else(cmu_zeroed, tmp_path):
     assert np.array_equal(undone.rotations, bad.rotations) and np.array_equal(undone.root_positions, bad.root_positions)
 
 
-def test_without_fill_the_zeros_are_named_and_left(cmu_zeroed):
+def test_without_fill_the_zeros_are_named_and_left_and_detect_refuses_them(cmu_zeroed):
     _, bad = cmu_zeroed
-    res = clean(bad[300:], steps="detect")
-    assert "LeftHip frames 0-159" not in " ".join(res.summary())  # touching the cut's start: not interior
-    res = clean(bad[:700], steps="detect")
+    res = clean(bad[300:503], steps="detect")  # the hip's run touches the cut's start: not interior, nothing found
+    assert "LeftHip frames 0-" not in " ".join(res.summary()) and res.zero_runs == ()
+    res = clean(bad[:700], steps="denoise")
     assert "LeftHip frames 100-459: channels written as 0 (a dropout), left as written (the fill step did not run)" \
         in res.summary()
-    assert not res.changed.any()
+    assert not res.changed[100:460].any()
+    # samples the capture lost, as NaN is: detect judged the dropout as motion and "repaired" its good edges
+    with pytest.raises(MocapError, match=r"131_zeroed: frame 504: every channel written as 0, the root's position too "
+                                         r"\(a dropout\) and 2 more such runs: .* detect needs complete frames"):
+        clean(bad[:700], steps="detect")
 
 
 def test_all_zero_frame_on_a_rig_with_animated_offsets(shared_data, tmp_path):

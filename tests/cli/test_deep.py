@@ -482,3 +482,50 @@ def test_fill_fills_a_lost_bandai_pelvis_position_and_says_how(tmp_path):
     assert "15 missing joint samples filled by EBD's gap prior" in text
     assert "the 15 missing position(s) among them interpolated linearly" in text
     assert not np.isnan(mocapkit.load(gout).translations).any()
+
+
+def test_fill_fills_channels_written_as_zero_as_clean_does(tmp_path):
+    """A real take whose hip reads 0 for 100 frames and whose frame 504 is all 0 (an exporter's dropouts): `fill`
+    said "no gaps" and wrote nothing; it fills them by clean's fill step, names them in clean's words, and OUT is
+    clean --steps fill's byte for byte; every other sample is the input's."""
+    from tests.cleaning.test_zeros import _zeroed_bvh
+
+    inp = _zeroed_bvh(BVH, tmp_path / "zeroed.bvh", {("LeftHip", None): range(100, 200), (None, None): [504]})
+    out, ref = tmp_path / "f.bvh", tmp_path / "c.bvh"
+    code, said, err = run("fill", str(inp), "-o", str(out))
+    assert code == 0, err
+    text = " ".join(said.split())
+    assert "no gaps" not in text and "(131 of them written as 0 where the capture lost data)" in text
+    assert "frame 504: every channel written as 0, the root's position too (a dropout), filled" in text
+    assert "LeftHip frames 100-199: channels written as 0 (a dropout), filled" in text
+    code, _, err = run("clean", str(inp), "-o", str(ref), "--steps", "fill")
+    assert code == 0, err
+    assert out.read_bytes() == ref.read_bytes()
+    bad, filled, truth = mocapkit.load(inp), mocapkit.load(out), mocapkit.load(BVH)
+    hip = bad.skeleton.index("LeftHip")
+    lost = np.zeros((bad.num_frames, bad.num_joints), dtype=bool)
+    lost[100:200, hip] = True
+    lost[504] = True
+    assert np.array_equal(filled.rotations[~lost], bad.rotations[~lost])
+    err_deg = np.degrees(mocapkit.rotations.geodesic_angle(filled.rotations[100:200, hip], truth.rotations[100:200, hip]))
+    assert err_deg.mean() < 10.0  # 0 was tens of degrees off
+
+
+def test_denoise_leaves_channels_written_as_zero_and_the_frames_beside_them(tmp_path):
+    """A real take whose hip reads 0 for 100 frames: the EBF read the dropout as motion and spread its jumps into
+    the good frames beside it; `denoise` takes clean's denoise path, the run left as written, named in clean's
+    words, and out of what the filter reads."""
+    from tests.cleaning.test_zeros import _zeroed_bvh
+
+    inp = _zeroed_bvh(BVH, tmp_path / "zeroed.bvh", {("LeftHip", None): range(100, 200)})
+    out = tmp_path / "d.bvh"
+    code, said, err = run("denoise", str(inp), "-o", str(out))
+    assert code == 0, err
+    assert ("LeftHip frames 100-199: channels written as 0 (a dropout), left as written (the fill step did not run)"
+            in " ".join(said.split()))
+    bad, den, truth = mocapkit.load(inp), mocapkit.load(out), mocapkit.load(BVH)
+    hip = bad.skeleton.index("LeftHip")
+    assert np.array_equal(den.rotations[100:200, hip], bad.rotations[100:200, hip])
+    near = np.r_[90:100, 200:210]  # the good frames beside the run move as the rest of the take does
+    moved = np.degrees(mocapkit.rotations.geodesic_angle(den.rotations[near, hip], truth.rotations[near, hip]))
+    assert moved.max() < 3.0

@@ -1,13 +1,16 @@
 """`mocapkit detect` and `mocapkit repair` on a real clip with an injected error."""
 
 import json
+from pathlib import Path
 
 import numpy as np
 
 import mocapkit
 from mocapkit import corrupt
-from mocapkit.cleaning import ssa
+from mocapkit.cleaning import ssa, take_breaks
 from tests.cli.helpers import SAMPLE, one_error_line, run
+
+BANDAI = Path(__file__).resolve().parents[1] / "data" / "dataset-1_dash_normal_001.bvh"
 
 
 def test_detect_and_repair(tmp_path):
@@ -249,3 +252,66 @@ def test_detect_json_names_the_joints_not_analysed(tmp_path):
     assert det.not_analysed() == doc["not_analysed"]
     assert sorted(det.texture_joints.tolist()) == [j for j, n in enumerate(walk.skeleton.joint_names)
                                                    if n not in still | crowded]
+
+
+def test_repair_puts_back_a_root_teleport_as_clean_does(tmp_path):
+    """`repair` takes clean's repair step: the root 1 m away for two frames of a real take is put back, said in the
+    line clean's summary says, and OUT is clean --steps detect,repair's byte for byte (it was left 1 m away)."""
+    from tests.cleaning.test_take_breaks import _moved_root
+
+    for src in (mocapkit.samples.path("131_01.bvh"), BANDAI):  # the root position; the Bandai Hips' animated offset
+        walk = mocapkit.load(src)
+        f = walk.num_frames // 2
+        inp = tmp_path / f"tele_{src.stem}.bvh"
+        mocapkit.save(_moved_root(walk, slice(f, f + 2), (100.0, 0.0, 0.0)), inp, like=src)
+        out, ref = tmp_path / f"rep_{src.stem}.bvh", tmp_path / f"cl_{src.stem}.bvh"
+        code, said, err = run("repair", str(inp), "-o", str(out), "--context", "none")
+        assert code == 0, err
+        text = " ".join(said.split())
+        assert f"frames {f}-{f + 1}: the root" in text and "put back on the path between the frames around them" in text
+        code, said_c, err = run("clean", str(inp), "-o", str(ref), "--steps", "detect,repair", "--context", "none")
+        assert code == 0, err
+        assert out.read_bytes() == ref.read_bytes()
+        path, _ = take_breaks.pelvis_path_cm(mocapkit.load(out))
+        truth, _ = take_breaks.pelvis_path_cm(walk)
+        assert np.linalg.norm(path[f:f + 2] - truth[f:f + 2], axis=1).max() < 5.0
+
+
+def test_detect_and_repair_refuse_channels_written_as_zero_as_they_refuse_gaps(tmp_path):
+    """A dropout written as 0 is samples the capture lost: detect and repair refuse it in one line naming the file
+    and the run, as clean without its fill step does (detect flagged the run with two good frames before it, and
+    repair "repaired" them)."""
+    from tests.cleaning.test_zeros import _zeroed_bvh
+
+    inp = _zeroed_bvh(Path(SAMPLE), tmp_path / "zeroed.bvh", {("LeftHip", None): range(100, 200)})
+    det = tmp_path / "det.npz"
+    for args in (("detect", str(inp), "-o", str(det)), ("repair", str(inp), "-o", str(tmp_path / "r.bvh"))):
+        code, _, err = run(*args, "--context", "none")
+        assert code == 2 and one_error_line(err), err
+        assert f"{inp}: LeftHip frames 100-199: channels written as 0 (a dropout)" in " ".join(err.split())
+        assert "detect needs complete frames" in err
+    assert not det.exists() and not (tmp_path / "r.bvh").exists()
+    code, _, err = run("clean", str(inp), "-o", str(tmp_path / "c.bvh"), "--steps", "detect", "--context", "none")
+    assert code == 2 and "LeftHip frames 100-199: channels written as 0" in " ".join(err.split())
+    # a detection made of the take otherwise (Python, an earlier mocapkit) repairs nothing in it either
+    ssa.detect(mocapkit.load(inp)).save(det)
+    code, _, err = run("repair", str(inp), "-o", str(tmp_path / "r.bvh"), "--detection", str(det))
+    assert code == 2 and one_error_line(err) and "LeftHip frames 100-199" in err
+
+
+def test_detect_and_repair_say_the_stutters_clean_says(tmp_path):
+    """A frame written again bit for bit while the take moves: clean names it; detect and repair said nothing."""
+    import dataclasses
+
+    walk = mocapkit.load(mocapkit.samples.path("131_01.bvh"))
+    rot, root = np.array(walk.rotations), np.array(walk.root_positions)
+    rot[505], root[505] = rot[504], root[504]
+    inp = tmp_path / "stutter.npz"
+    mocapkit.save(dataclasses.replace(walk, rotations=rot, root_positions=root), inp)
+    line = "frame 505 repeats frame 504 bit for bit while the take moves (a capture stutter)"
+    code, said_c, err = run("clean", str(inp), "-o", str(tmp_path / "c.npz"), "--steps", "detect", "--context", "none")
+    assert code == 0 and line in " ".join(said_c.split()), err
+    for args in (("detect", str(inp), "-o", str(tmp_path / "d.npz")), ("repair", str(inp), "-o", str(tmp_path / "r.npz"))):
+        code, said, err = run(*args, "--context", "none")
+        assert code == 0, err
+        assert line in " ".join(said.split())

@@ -25,8 +25,9 @@ whatever order the steps are named in:
    Foot-skate cleanup is off by default (``foot_skate=False``): it would also
    move the hip and knee of a leg whose foot is planted, cells nobody flagged.
    Detect and repair run through :func:`mocapkit.cleaning.whole_take.detect_take`
-   and :func:`~mocapkit.cleaning.whole_take.repair_take`, as the ``detect`` and
-   ``repair`` commands do: their flags and changes are clean's.
+   and :func:`~mocapkit.cleaning.whole_take.repair_whole` (the flagged cells,
+   then the root's teleports put back), as the ``detect`` and ``repair``
+   commands do: their flags and changes are clean's.
 4. **denoise** — only where the take is noisy. Tests on each
    joint's own track (see :func:`noise_level` and :func:`noise_direction`):
    the *level*, the rotation left over after a cubic Savitzky-Golay fit over
@@ -55,8 +56,10 @@ whatever order the steps are named in:
 **Zeros and stutters.** Before fill, channels the take writes as exactly 0
 where the capture lost data (a joint, one of its channels, or a whole frame,
 between frames that do not read 0; :mod:`mocapkit.cleaning.zeros`) become
-missing cells, which fill fills (without the fill step they are named and
-kept); frames that repeat the one before bit for bit while the take moves
+missing cells, which fill fills (:func:`mocapkit.cleaning.whole_take.fill_take`,
+as ``mocapkit fill``). Without the fill step they are named and kept, and
+detect refuses them as it refuses NaN gaps (missing samples it cannot
+judge; :func:`~mocapkit.cleaning.whole_take.check_no_zeros`); frames that repeat the one before bit for bit while the take moves
 (:mod:`mocapkit.cleaning.stutters`) are named and left. Both are named in the
 summary.
 
@@ -84,8 +87,8 @@ Edge cases (documented fallbacks, never a crash):
 - a single frame, a take missing in every frame, or a joint never observed
   that a step needs raise :class:`~mocapkit.errors.MocapError` with a message
   naming the take and the problem;
-- missing data with ``fill`` not among the steps raises when detect needs
-  complete frames.
+- missing data (NaN, or channels written as 0 where the capture lost data)
+  with ``fill`` not among the steps raises when detect needs complete frames.
 
 Examples
 --------
@@ -118,13 +121,12 @@ from .. import rotations as R
 from ..errors import MocapError, MocapFormatError
 from ..motion import Motion
 from .calibration import CalibrationPose, calibration_poses
-from .ssa.cues import CAUSES
 from .stutters import Stutter, find_stutters
-from .whole_take import (MAX_WORD_ANGLE_DEG, changed_cells, detect_take, differing, motion_span, repair_take,
-                         take_params)
-from .zeros import ZeroRun, as_missing, find_zeros
+from .whole_take import (MAX_WORD_ANGLE_DEG, denoise_take, detect_take, differing, fill_take, motion_span,
+                         repair_whole, take_params, with_teleports)
+from .zeros import ZeroRun, find_zeros
 
-__all__ = ["STEPS", "CleanResult", "StepRecord", "clean", "noise_level", "noise_direction", "noisy_cells", "clean_path", "parse_steps",
+__all__ = ["STEPS", "CleanResult", "StepRecord", "clean", "capped_lines", "noise_level", "noise_direction", "noisy_cells", "clean_path", "parse_steps",
            "check_noise_deg"]
 
 STEPS = ("fill", "detect", "repair", "denoise")
@@ -255,8 +257,8 @@ class CleanResult:
         """One line per calibration pose, per run written as 0 and per stutter (at most :data:`MAX_LINES` of each,
         then one line counting the rest), one per step, then the notes."""
         said = " ".join(s.note for s in self.steps)
-        return ([str(c) for c in self.calibration] + _capped(self.zero_runs, "runs written as 0")
-                + _capped(self.stutters, "stutters") + [str(s) for s in self.steps]
+        return ([str(c) for c in self.calibration] + capped_lines(self.zero_runs, "runs written as 0")
+                + capped_lines(self.stutters, "stutters") + [str(s) for s in self.steps]
                 + [f"note: {n}" for n in self.notes if n not in said])
 
     def save(self, path) -> Path:
@@ -385,10 +387,12 @@ class CleanResult:
 MAX_LINES = 12
 
 
-def _capped(items, what: str) -> list[str]:
+def capped_lines(items, what: str, listed: str = " (the clean record lists them all)") -> list[str]:
+    """One line per item (``str``), at most :data:`MAX_LINES`, then one line counting the rest (``listed``: where
+    they all are)."""
     lines = [str(x) for x in items[:MAX_LINES]]
     if len(items) > MAX_LINES:
-        lines.append(f"... and {len(items) - MAX_LINES} more {what} (the clean record lists them all)")
+        lines.append(f"... and {len(items) - MAX_LINES} more {what}{listed}")
     return lines
 
 
@@ -555,17 +559,6 @@ def _models(models) -> dict:
     return models
 
 
-def _deep_model(models: dict, kind: str):
-    from . import deep
-
-    m = models.get(kind)
-    if m is None:  # the shipped model for the take's rig family (deep.shipped_model), chosen by deep.served_by
-        return None, "shipped"
-    if isinstance(m, (str, Path)):
-        return deep.load_model(m), Path(m).name
-    return m, "given"
-
-
 def _check(motion: Motion) -> None:
     if not isinstance(motion, Motion):
         raise TypeError(f"clean needs a mocapkit Motion, got {type(motion).__name__}")
@@ -576,34 +569,12 @@ def _check(motion: Motion) -> None:
         raise MocapError(f"{name}: every joint is missing (NaN) in every frame; nothing to clean")
 
 
-def _fill(motion: Motion, models: dict, notes: list, doubts: list | None = None) -> tuple[Motion, str, str]:
-    name = motion.name or "motion"
-    missing = motion.missing()
-    never = np.flatnonzero(missing.all(axis=0))
-    if len(never):
-        names = ", ".join(motion.skeleton.joint_names[j] for j in never[:4])
-        raise MocapError(f"{name}: joint(s) {names} are missing in every frame; nothing to fill them from")
-    if not missing.any():
-        return motion, "nothing (no gaps)", ""
-    from . import deep  # torch is imported only when there is something to fill
-
-    ebd, src = _deep_model(models, "ebd")
-    ebf, _ = _deep_model(models, "ebf")
-    # the rule every command applies; a fill far from the line between a gap's ends is said in ``doubts``
-    out, method, note = deep.fill_or_fallback(motion, ebd, ebf, label=src, doubts=doubts)
-    if note:
-        notes.append(note)
-    return out, method, note
-
-
-def _denoise(motion: Motion, noisy: np.ndarray, models: dict, notes: list) -> tuple[Motion, str, str]:
+def _denoise(motion: Motion, noisy: np.ndarray, models: dict, notes: list, zeros) -> tuple[Motion, str, str]:
     if not noisy.any():
         return motion, "nothing (no joint is noisy)", ""
-    from . import deep  # torch is imported only when there is something to denoise
-
-    ebf, src = _deep_model(models, "ebf")
-    # the EBF runs only as far as the noisy cells need; the rule and fallback every command applies
-    den, method, note = deep.denoise_or_fallback(motion, ebf, cells=noisy, label=src)
+    # the EBF runs only as far as the noisy cells need; the rule and fallback every command applies, and the path
+    # `mocapkit denoise` takes (whole_take.denoise_take: channels written as 0 left as written)
+    den, method, note = denoise_take(motion, models.get("ebf"), cells=noisy, zeros=zeros)
     if note:
         notes.append(note)
     rot = np.where(noisy[..., None], den.rotations, motion.rotations)
@@ -646,33 +617,6 @@ def held_still_note(motion: Motion) -> str:
     names = ", ".join(motion.skeleton.joint_names[j] for j in held)
     return (f"{names} {'holds' if len(held) == 1 else 'hold'} one rotation, bit for bit, through the whole take while "
             "the body moves: a lost or frozen channel? (not flagged: every word of the take holds it alike)")
-
-
-#: above this share of missing joint samples, a fill is said to have made up most of the take
-MADE_UP_SHARE = 0.5
-
-
-def made_up_note(missing: np.ndarray) -> str:
-    """One line when most of a take was missing ((F, J) bool ``missing``), so that the fill invented most of what
-    comes out (a batch user would not notice otherwise), else "". The fill has nothing to compare with there: a
-    take 88 % missing came out 10.6 deg off its truth on average, a straight line between the samples 8.6."""
-    share = float(np.mean(missing)) if np.size(missing) else 0.0
-    if share <= MADE_UP_SHARE:
-        return ""
-    return (f"{100.0 * share:.0f} % of the take's joint samples were missing: the fill made up most of what it "
-            "returns; look at it before use")
-
-
-def _teleports(motion: Motion, span: tuple[int, int]) -> tuple[Motion, list[str]]:
-    """``motion`` with the teleports of its root path within ``span`` put back
-    (:func:`mocapkit.cleaning.take_breaks.fix_teleports`), and a line for each."""
-    from . import take_breaks as tb
-
-    events = [e for e in tb.root_events(motion, span) if e.kind == "teleport"]
-    if not events:
-        return motion, []
-    fixed, done = tb.fix_teleports(motion, events)
-    return fixed, [str(e) for e in done if e.fixed]
 
 
 def check_noise_deg(noise_deg: float) -> None:
@@ -753,24 +697,22 @@ def clean(
     if held:
         notes.append(held)
     # channels written as 0 where the capture lost data are missing cells, which fill fills (module docstring)
-    zero_cells, zero_runs, zero_frames = find_zeros(motion)
+    found_zeros = find_zeros(motion)
+    zero_cells, zero_runs, zero_frames = found_zeros
     stutters = find_stutters(motion, skip=zero_frames)
-    if zero_runs and "fill" in steps:
-        cur = as_missing(motion, zero_cells, zero_frames)
-    else:
-        zero_runs = tuple(dataclasses.replace(z, filled=False) for z in zero_runs)
     if "fill" in steps:
         t = time.perf_counter()
-        before = cur.rotations
-        gaps = cur.missing()
-        doubts: list[str] = []
-        cur, method, note = _fill(cur, models, notes, doubts)
-        for warn in (made_up_note(gaps), *doubts):
-            if warn:  # a warning line, as a fallback's note is
-                notes.append(warn)
-                note = "; ".join(n for n in (note, warn) if n)
-        filled = differing(before, cur.rotations) | (gaps & ~cur.missing())
-        records.append(StepRecord("fill", time.perf_counter() - t, int(filled.sum()), method, note))
+        # the path `mocapkit fill` takes too (whole_take.fill_take)
+        done = fill_take(motion, models.get("ebd"), models.get("ebf"), zeros=found_zeros)
+        cur, filled, note = done.motion, done.filled, done.note
+        if note:
+            notes.append(note)
+        for warn in done.warnings:  # a warning line, as a fallback's note is
+            notes.append(warn)
+            note = "; ".join(n for n in (note, warn) if n)
+        records.append(StepRecord("fill", time.perf_counter() - t, int(filled.sum()), done.method, note))
+    else:
+        zero_runs = tuple(dataclasses.replace(z, filled=False) for z in zero_runs)
 
     # calibration poses opening or closing the take are left out of every later step (module docstring)
     poses = calibration_poses(cur) if any(s in steps for s in ("detect", "repair", "denoise")) else ()
@@ -789,7 +731,8 @@ def clean(
             raise MocapError(f"{name}: {int(gaps.sum())} frames have missing joints; detect needs "
                              "complete frames: add the fill step")
         # the path `mocapkit detect` and `mocapkit repair` take too (whole_take): their flags are these
-        found = detect_take(cur, context, threshold=threshold, params=params, progress=progress, poses=poses)
+        found = detect_take(cur, context, threshold=threshold, params=params, progress=progress, poses=poses,
+                            zero_runs=() if "fill" in steps else zero_runs)
         if found.detection is None:
             note = f"detect and repair skipped: {found.skipped}"
             notes.append(note)
@@ -809,17 +752,12 @@ def clean(
 
     if "repair" in steps and det is not None:
         t = time.perf_counter()
-        before = cur
-        cur = repair_take(cur, det, foot_skate=foot_skate, poses=poses)  # on the take detect prepared
-        moved = changed_cells(before, cur)
-        cur, put_back = _teleports(cur, (lo, hi))
-        teleported = changed_cells(before, cur) & ~moved
-        if teleported.any():  # the root cells put back: flagged in the record, so a person can undo them
-            flags = flags | teleported
-            causes = np.zeros((F, J), dtype=np.uint8) if causes is None else np.array(causes)
-            causes[teleported] |= np.uint8(1 << [k for k, _ in CAUSES].index("teleport"))
-        repaired = moved | teleported
-        note = "; ".join(put_back) if put_back else "" if flags.any() else "nothing flagged"
+        # on the take detect prepared, teleports put back after: the path `mocapkit repair` takes too
+        done = repair_whole(cur, det, foot_skate=foot_skate, poses=poses)
+        cur, repaired = done.motion, done.changed
+        # the root cells put back: flagged in the record, so a person can undo them
+        flags, causes = with_teleports(flags, causes, done.teleported)
+        note = "; ".join(done.put_back) if done.put_back else "" if flags.any() else "nothing flagged"
         records.append(StepRecord("repair", time.perf_counter() - t, int(repaired.sum()),
                                   "medoid of the nearest motion words" + (" + foot-skate cleanup" if foot_skate else ""), note))
 
@@ -834,7 +772,10 @@ def clean(
             part = cur[lo:hi]  # calibration frames as they came out of fill
             noisy, sub_noise = noisy_cells(part, noise_deg, filled=filled[lo:hi])
             noisy &= ~part.missing()
-            den, method, note = _denoise(part, noisy, models, notes)
+            # the zeros fill did not fill, in the part's frames (none after fill)
+            left = ((zero_cells[lo:hi], zero_runs, zero_frames[lo:hi]) if "fill" not in steps
+                    else (np.zeros_like(noisy), (), np.zeros(Fs, dtype=bool)))
+            den, method, note = _denoise(part, noisy, models, notes, left)
             rot = np.array(cur.rotations)
             rot[lo:hi] = den.rotations
             denoised = differing(cur.rotations, rot)

@@ -79,13 +79,18 @@ class ZeroRun:
     filled: bool = True
 
     def __str__(self) -> str:
+        fate = "filled" if self.filled else "left as written (the fill step did not run)"
+        return f"{self.what()}, {fate}"
+
+    def what(self) -> str:
+        """The run in words, without what became of it: ``"LeftHip frames 100-459: channels written as 0 (a
+        dropout)"``."""
         a, b = self.first, self.last
         frames = f"frame {a}" if a == b else f"frames {a}-{b}"
-        fate = "filled" if self.filled else "left as written (the fill step did not run)"
         if not self.joint:
-            return f"{frames}: every channel written as 0, the root's position too (a dropout), {fate}"
+            return f"{frames}: every channel written as 0, the root's position too (a dropout)"
         what = f"{self.channel} written as 0" if self.channel else "channels written as 0"
-        return f"{self.joint} {frames}: {what} (a dropout), {fate}"
+        return f"{self.joint} {frames}: {what} (a dropout)"
 
 
 def _angles(a: np.ndarray, b: np.ndarray) -> np.ndarray:

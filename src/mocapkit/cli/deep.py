@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 from pathlib import Path
 from typing import Optional
 
@@ -97,7 +98,9 @@ def denoise(
     line (as `clean` does); --no-fallback makes that an error.
     """
     from .. import io
-    from ..cleaning.pipeline import noise_fit_frames
+    from ..cleaning.pipeline import capped_lines, noise_fit_frames
+    from ..cleaning.whole_take import denoise_take
+    from ..cleaning.zeros import find_zeros
     from ..io.takes import check_asf
     from ..metrics import joint_angle_rms
     from ..reference import joint_angle_errors
@@ -110,13 +113,11 @@ def denoise(
                          f"({noise_fit_frames(m.fps)} frames): too short to denoise")
     io.check_writable(m, out)
     ref = _reference(reference, m, asf, amc_fps, unit)
-    from ..cleaning import deep  # torch: only once the input is read (a bad file fails at once)
-
-    net = _model(model, "ebf")
+    net = _model(model, "ebf")  # torch: only once the input is read (a bad file fails at once)
     _served(inp, m, net, "ebf", no_fallback)
-    try:
-        cleaned, method, note = deep.denoise_or_fallback(m, net, label="shipped" if net is None else "given",
-                                                         options={"ebf": "--model"})
+    zeros = find_zeros(m)  # channels written as 0 where the capture lost data: left as written, as clean leaves them
+    try:  # the path clean's denoise step takes
+        cleaned, method, note = denoise_take(m, net, options={"ebf": "--model"}, zeros=zeros)
     except SkeletonError as exc:
         raise MocapError(f"{inp}: {exc}") from None
     save_take(cleaned, out, inp, asf, overwrite, like=inp)
@@ -128,6 +129,9 @@ def denoise(
         a, b = joint_angle_errors(ref, m, cleaned)
         line += f"; joint-angle RMS against {reference.name}: {a:.2f} -> {b:.2f} deg"
     console.print(line)
+    left = [dataclasses.replace(z, filled=False) for z in zeros[1]]
+    for said in capped_lines(left, "runs written as 0", ""):  # as clean without its fill step names them
+        console.print(f"  {said}")
 
 
 def fill(
@@ -153,13 +157,16 @@ def fill(
 ) -> None:
     """Fill missing joints with the EBD model (its gap prior or the network, + EBF); observed values are kept bit-identical.
 
-    On a rig the network does not serve, a cubic spline fills the gaps instead, with a warning line (as
-    `clean` does); --no-fallback makes that an error. A take without gaps is reported and OUT is not
-    written unless --always-write.
+    Channels written as 0 where the capture lost data (a joint, one channel or a whole frame jumping to 0
+    and back) are gaps too, named and filled, as `clean` fills them. On a rig the network does not serve,
+    a cubic spline fills the gaps instead, with a warning line (as `clean` does); --no-fallback makes that
+    an error. A take without gaps is reported and OUT is not written unless --always-write.
     """
     from .. import io
     from ..cleaning import deep
-    from ..cleaning.pipeline import made_up_note
+    from ..cleaning.pipeline import capped_lines
+    from ..cleaning.whole_take import fill_take
+    from ..cleaning.zeros import as_missing, find_zeros
     from ..io.takes import check_asf
     from ..reference import filled_error_deg
 
@@ -173,7 +180,9 @@ def fill(
     io.check_writable(m, out)
     ref = _reference(reference, m, asf, amc_fps, unit)
     ebd, ebf = _model(model, "ebd"), _model(denoiser, "ebf")
-    missing = m.missing()
+    zeros = find_zeros(m)  # channels written as 0 where the capture lost data: gaps, as clean's fill step finds them
+    gappy = as_missing(m, zeros[0], zeros[2]) if zeros[1] else m
+    missing = gappy.missing()
     n = int(missing.sum())
     if not n:
         if always_write:
@@ -186,29 +195,33 @@ def fill(
     if never:
         raise MocapError(f"{inp}: joint(s) {', '.join(never[:4])} are missing in every frame; nothing to fill them from")
     _served(inp, m, ebd, "ebd", no_fallback)
-    try:
-        filled, method, note = deep.fill_or_fallback(m, ebd, ebf, smooth=smooth,
-                                                     label="shipped" if ebd is None else "given", method=by,
-                                                     options={"ebd": "--model", "ebf": "--denoiser"})
+    try:  # the path clean's fill step takes
+        done = fill_take(m, ebd, ebf, smooth=smooth, method=by, options={"ebd": "--model", "ebf": "--denoiser"},
+                         zeros=zeros)
     except (SkeletonError, ValueError) as exc:
         raise MocapError(f"{inp}: {exc}") from None
+    filled, method = done.motion, done.method
     save_take(filled, out, inp, asf, overwrite, like=inp)
-    for said in (note, made_up_note(missing)):
+    for said in (done.note, *done.warnings):
         if said:
             console.print(f"warning: {inp}: {said}")
     left = int((missing & filled.missing()).sum())
     if left:  # never say filled for what is still NaN
         console.print(f"warning: {inp}: {plural(left, 'missing joint sample')} could not be filled and stay missing")
     line = f"wrote {out}: {plural(n - left, 'missing joint sample')} filled by {method}"
-    moved = int(np.isnan(m.root_positions).any(axis=-1).sum())  # positions: the root's and animated offsets
-    if m.translations is not None:
-        moved += int(np.isnan(m.translations[:, 1:]).any(axis=-1).sum())
+    if zeros[1]:
+        line += f" ({int(zeros[0].sum())} of them written as 0 where the capture lost data)"
+    moved = int(np.isnan(gappy.root_positions).any(axis=-1).sum())  # positions: the root's and animated offsets
+    if gappy.translations is not None:
+        moved += int(np.isnan(gappy.translations[:, 1:]).any(axis=-1).sum())
     if moved and method != deep.FALLBACK_FILL:  # the networks fill rotations; a position's gap is a straight line
         line += f" (the {moved} missing position(s) among them interpolated linearly)"
     if ref is not None:
         line += (f"; mean rotation error of the filled joints against {reference.name}: "
                  f"{filled_error_deg(ref, filled, missing):.2f} deg")
     console.print(line)
+    for said in capped_lines(done.zero_runs, "runs written as 0", ""):  # as clean's summary names them
+        console.print(f"  {said}")
 
 
 def train(

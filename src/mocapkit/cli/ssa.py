@@ -12,19 +12,42 @@ from .common import (amc_fps_option, asf_option, console, context_option, guard,
                      unit_option)
 
 
-def _detect(m, context, threshold: float, progress: bool = True, drifts: bool = False, **overrides):
-    """The take's detection as `clean --steps detect` makes it (calibration poses left out, clean's word gate):
-    ``(TakeDetection, Detection)``; a take with nothing to analyse is refused in one line."""
+def _named(inp: Path, m, exc: MocapError) -> MocapError:
+    """``exc``'s line naming the file ``inp`` rather than the take ``m``'s name (the file's stem), as the
+    library names it."""
+    msg, name = str(exc), f"{m.name or 'motion'}: "
+    return MocapError(f"{inp}: {msg[len(name):] if msg.startswith(name) else msg}")
+
+
+def _detect(inp: Path, m, context, threshold: float, progress: bool = True, drifts: bool = False, **overrides):
+    """The take's detection as `clean --steps detect` makes it (calibration poses left out, clean's word gate;
+    gaps and channels written as 0 where the capture lost data refused): ``(TakeDetection, Detection)``; a take
+    with nothing to analyse is refused in one line naming ``inp``."""
     from ..cleaning.whole_take import detect_take, take_params
 
     try:
         params = take_params(drifts=drifts, **overrides)
     except ValueError as exc:
-        raise MocapError(f"{m.name or 'input'}: {exc}") from None
-    found = detect_take(m, context, threshold=threshold, params=params, progress=progress)
+        raise MocapError(f"{inp}: {exc}") from None
+    try:
+        found = detect_take(m, context, threshold=threshold, params=params, progress=progress)
+    except MocapError as exc:
+        raise _named(inp, m, exc) from None
     if found.detection is None:
-        raise MocapError(f"{m.name or 'input'}: {found.skipped}")
+        raise MocapError(f"{inp}: {found.skipped}")
     return found, found.detection
+
+
+def _take_notes(m, found, det) -> list[str]:
+    """The lines `clean --steps detect` says of the take besides its flags: the calibration poses, a limb held
+    still through the take, the stutters, then the detection's own notes (the root's path, cuts, words not
+    judged)."""
+    from ..cleaning.pipeline import capped_lines, held_still_note
+    from ..cleaning.stutters import find_stutters
+
+    held = held_still_note(m)
+    return ([str(c) for c in found.calibration] + ([held] if held else [])
+            + capped_lines(find_stutters(m), "stutters", "") + list(det.notes))
 
 
 def detect(
@@ -71,7 +94,8 @@ def detect(
     m = load_motion(inp, asf, purpose="detect", fps=amc_fps, unit=unit)
     precompile.start(precompile.kernels_for(["detect"]))  # with an empty numba cache: beside the context's loading
     ctx, note = fit_context(m, load_context(context, progress=not as_json, take=m))
-    found, det = _detect(m, ctx, threshold, progress=not as_json, confirm=confirm, jump_deg=jump_deg, drifts=drifts)
+    found, det = _detect(inp, m, ctx, threshold, progress=not as_json, confirm=confirm, jump_deg=jump_deg,
+                         drifts=drifts)
     with removed_on_failure([out, png], overwrite=overwrite, marker=out):  # the detection last
         if png is not None:
             from ..report.plots import plot_mdm
@@ -92,12 +116,12 @@ def detect(
             "segments": [{"joint": j, "start": a, "end": b, "last": b - 1, "start_s": a / m.fps, "end_s": b / m.fps,
                           "causes": w} for (j, a, b), w in zip(segs, why)],
             "not_analysed": det.not_analysed(),
-            "notes": ([note] if note else []) + [str(c) for c in found.calibration] + list(det.notes),
+            "notes": ([note] if note else []) + _take_notes(m, found, det),
         }))
         return
     console.print(f"wrote {out}" + (f" and {png}" if png else "") + f": {plural(len(segs), 'flagged segment')}"
                   f" (judged against {context_label(ctx)})")
-    for line in ([note] if note else []) + [str(c) for c in found.calibration] + list(det.notes):
+    for line in ([note] if note else []) + _take_notes(m, found, det):
         console.print(f"  note: {line}")
     for (j, a, b), w in zip(segs[:50], why):
         # the first and last frame's times (frame f is at f / fps, as the report's viewer labels it)
@@ -134,14 +158,15 @@ def repair(
     """Replace only the flagged joints in flagged frames by the medoid (the median word) of their nearest motion words.
 
     The flags are those of `clean --steps detect` (or --detection's), and OUT is what
-    `clean --steps detect,repair` writes: calibration poses at the take's ends are left alone, every
-    other unflagged sample stays bit-identical (unless --foot-skate). Prints the joint samples and
-    frames that changed.
+    `clean --steps detect,repair` writes: calibration poses at the take's ends are left alone, the root's
+    teleports (a jump away and back within 0.5 s) are put back, every other unflagged sample stays
+    bit-identical (unless --foot-skate). A take with gaps, or channels written as 0 where the capture lost
+    data, is refused: fill it first. Prints the joint samples and frames that changed.
     """
     from .. import io
     from ..batch import load_context
     from ..cleaning import ssa
-    from ..cleaning.whole_take import changed_cells, repair_take
+    from ..cleaning.whole_take import check_no_zeros, repair_whole, with_teleports
     from ..context import fit_context
     from ..io.takes import check_asf, load_motion
 
@@ -161,15 +186,23 @@ def repair(
         console.print(f"note: {note}")
     poses = None
     if det is None:
-        found, det = _detect(m, ctx, threshold, confirm=confirm, jump_deg=jump_deg, drifts=drifts)
+        found, det = _detect(inp, m, ctx, threshold, confirm=confirm, jump_deg=jump_deg, drifts=drifts)
         poses = found.calibration
-        for c in poses:
-            console.print(f"note: {c}")
-    fixed = repair_take(m, det, ctx, foot_skate=foot_skate, poses=poses)
-    save_take(fixed, out, inp, asf, overwrite, like=inp)
-    changed = changed_cells(m, fixed)
-    flagged = int(det.flags.sum())
-    extra = int((changed & ~det.flags).sum())
-    said = f"{flagged} flagged" + (f"; {extra} more moved by the foot-skate cleanup" if extra else "")
+        for line in _take_notes(m, found, det):  # as detect says them
+            console.print(f"note: {line}")
+    else:  # as detect refuses them: a detection of the take with its lost samples written as 0 is no reason to repair
+        try:
+            check_no_zeros(m, span=det.span)
+        except MocapError as exc:
+            raise _named(inp, m, exc) from None
+    # the path clean's repair step takes: the flagged cells, then the root's teleports put back
+    done = repair_whole(m, det, ctx, foot_skate=foot_skate, poses=poses)
+    save_take(done.motion, out, inp, asf, overwrite, like=inp)
+    changed = done.changed
+    flags, _ = with_teleports(det.flags, None, done.teleported)
+    extra = int((done.repaired & ~det.flags).sum())
+    said = f"{int(flags.sum())} flagged" + (f"; {extra} more moved by the foot-skate cleanup" if extra else "")
     console.print(f"wrote {out}: {plural(int(changed.sum()), 'joint sample')} changed in {int(changed.any(axis=1).sum())} "
                   f"of {plural(m.num_frames, 'frame')} ({said})")
+    for line in done.put_back:  # as clean's repair step says them
+        console.print(f"  {line}")
