@@ -25,7 +25,10 @@ Metrics, against the clean clip (:mod:`mocapkit.metrics`):
 * error globally: eq. 2 per frame (``metrics.pose_error``, summed over all
   joints), its average and maximum over the frames of a clip;
 * error per joint: the per-cell eq. 2 term ``||log(q^-1 q')||^2`` over the
-  erroneous cells (the ``real_errors`` mask), average and maximum.
+  erroneous cells (the ``real_errors`` mask), average and maximum;
+* per error kind (``ssa_cells_by_kind``): the share of its cells ``ssa.detect``
+  flags, the share ``ssa.repair`` brings within 5 degrees of the clean clip, and
+  the mean degrees off before and after.
 
 Each figure is computed per (clip, seed) and averaged over them (so
 "maximum" is the mean of the per-run maxima). The paper's SSA row (0.85,
@@ -134,6 +137,26 @@ def per_kind(clean, out, mask, records) -> dict:
     return acc
 
 
+REPAIRED_DEG = 5.0  # a cell is repaired when it ends within this many degrees of the clean take
+
+
+def kind_cells(clean, bad, out, flags, mask, records, acc: dict) -> None:
+    """Add each error kind's cells to ``acc``: how many, how many flagged, how many repaired (within
+    ``REPAIRED_DEG`` of the clean take after repair) and the degrees off before and after (summed)."""
+    names = list(clean.skeleton.joint_names)
+    for r in records:
+        j = names.index(r.joint)
+        sel = mask[r.start : r.end, j]
+        before = np.degrees(R.geodesic_angle(bad.rotations[r.start : r.end, j], clean.rotations[r.start : r.end, j]))[sel]
+        after = np.degrees(R.geodesic_angle(out.rotations[r.start : r.end, j], clean.rotations[r.start : r.end, j]))[sel]
+        d = acc.setdefault(r.kind, {"cells": 0, "flagged": 0, "repaired": 0, "deg_before": 0.0, "deg_after": 0.0})
+        d["cells"] += int(sel.sum())
+        d["flagged"] += int(flags[r.start : r.end, j][sel].sum())
+        d["repaired"] += int((after < REPAIRED_DEG).sum())
+        d["deg_before"] += float(before.sum())
+        d["deg_after"] += float(after.sum())
+
+
 def main(argv=None) -> None:
     ap = harness.parser(__doc__)
     ap.add_argument("--seeds", type=int, default=5)
@@ -144,6 +167,7 @@ def main(argv=None) -> None:
     t_start = time.perf_counter()
     runs = []
     kinds_acc: dict = {m: {} for m in METHODS}
+    cells_acc: dict = {}
     seconds: dict = {m: 0.0 for m in METHODS}
     total_duration = 0.0
     for kind, path, ctx_paths in scenarios(args.quick):
@@ -179,6 +203,7 @@ def main(argv=None) -> None:
                 for k, (s, n) in per_kind(clean, outs[m], mask, records).items():
                     s0, n0 = kinds_acc[m].get(k, (0.0, 0))
                     kinds_acc[m][k] = (s0 + s, n0 + n)
+            kind_cells(clean, bad, outs["ssa"], det.flags, mask, records, cells_acc)
             runs.append(row)
             if not args.json:
                 print(f"{path.name:46s} seed {seed}  " + "  ".join(
@@ -191,6 +216,11 @@ def main(argv=None) -> None:
     ratios_excl = {f: {c: table[f][f"global_excl_artifacts_{c[7:]}"] / table["ssa"][f"global_excl_artifacts_{c[7:]}"]
                        for c in ("global_avg", "global_max")} for f in ("gaussian", "savgol")}
     by_kind = {m: {k: round(s / max(n, 1), 5) for k, (s, n) in sorted(kinds_acc[m].items())} for m in METHODS}
+    ssa_by_kind = {k: {"cells": d["cells"], "flagged_share": round(d["flagged"] / d["cells"], 4),
+                       "repaired_share": round(d["repaired"] / d["cells"], 4),
+                       "deg_before": round(d["deg_before"] / d["cells"], 2),
+                       "deg_after": round(d["deg_after"] / d["cells"], 2)}
+                   for k, d in sorted(cells_acc.items())}
     by_clip = {}
     for r in runs:
         d = by_clip.setdefault(r["clip"], {m: [] for m in METHODS})
@@ -212,6 +242,10 @@ def main(argv=None) -> None:
         "baseline": "whole-clip gaussian_smooth (sigma 0.02 s) and savgol_smooth (0.2 s, quadratic) of the corrupted clip",
         "ssa_beats_both_filters": beats,
         "per_joint_error_by_kind": by_kind,
+        "ssa_cells_by_kind": ssa_by_kind,
+        "ssa_cells_by_kind_note": f"per error kind, over its erroneous cells: the share ssa.detect flags, the share "
+                                  f"repaired (within {REPAIRED_DEG:g} deg of the clean take after ssa.repair) and the "
+                                  "mean degrees off the clean take before and after repair",
         "by_clip": by_clip,
         "paper_table2": {k: dict(zip(COLUMNS, v)) for k, v in PAPER.items()},
         "paper_note": "paper's clips, errors and log convention differ; compare orderings, not values",
@@ -230,6 +264,9 @@ def main(argv=None) -> None:
         print(f"{'paper SSA (Table 2)':22s}" + "".join(f"{v:11.2f}" for v in PAPER["ssa"]))
         for f, r in ratios.items():
             print(f"ratio {f}/ssa: " + ", ".join(f"{c} {v:.2f}" for c, v in r.items() if v is not None))
+        print("ssa cells by kind: " + "; ".join(
+            f"{k} flagged {d['flagged_share']:.3f} repaired {d['repaired_share']:.3f} deg {d['deg_before']:.1f} -> "
+            f"{d['deg_after']:.1f}" for k, d in ssa_by_kind.items()))
         print("per-joint error by kind: " + "; ".join(
             f"{m}: " + ", ".join(f"{k} {v:.3f}" for k, v in by_kind[m].items()) for m in METHODS))
     cols = list(COLUMNS) + ["global_excl_artifacts_avg", "global_excl_artifacts_max"]

@@ -11,7 +11,7 @@ from mocapkit import corrupt
 from mocapkit import rotations as R
 from mocapkit.cleaning import ssa
 from mocapkit.cleaning.ssa import cues
-from tests.cleaning.ssa.helpers import swinging, turned
+from tests.cleaning.ssa.helpers import offset_on, swinging, turned
 
 
 def test_discontinuities_mark_steps_and_spikes_not_smooth_motion(walk):
@@ -731,3 +731,40 @@ def test_uncompensated_breaks_memo_gives_the_same_answers(walk):
                                            parents, memo={}),
                           cues.lone_spikes(rot, resid, np.zeros(resid.shape, bool), np.ones(sk.num_joints, bool),
                                            parents))
+
+
+@pytest.mark.parametrize("start, own_frame", [(200, False), (760, True)])
+def test_an_offset_across_the_joints_own_steps_pairs_with_the_step_that_undoes_it(walk, start, own_frame):
+    """The walk's right wrist turns 133 deg in 4 frames at frame 235 and 76 deg at 808, real motion. A 60 deg
+    offset lying across one of them steps off, the wrist steps, and the offset steps back: three events, no
+    two successive ones opposite, and the offset went unpaired (repaired 60 -> 54 deg by neighbour words).
+    The step back undoes the step off (in the parent's frame, or in the joint's own): they pair, and the
+    stretch between, which alone digresses, is flagged exactly."""
+    frames = np.arange(start, start + 100)
+    own_step = 235 if start == 200 else 808
+    assert frames[0] < own_step < frames[-1]
+    bad, j = offset_on(walk, "RightWrist", frames, 60.0, own_frame)
+    det = ssa.detect(bad)
+    assert np.flatnonzero(det.offsets[:, j]).tolist() == frames.tolist()
+    assert det.flags[frames, j].all()
+    # without the digression to tell the stretch from the motion beside it, only successive events pair
+    assert not ssa.transient_offsets(bad)[start : own_step - 1, j].any()
+    # the untouched wrist's own steps pair with nothing
+    assert not ssa.detect(walk).offsets[:, j].any()
+
+
+def test_undoing_pairs_take_the_nearest_undoing_step_and_need_the_stretch_to_stand_out():
+    starts = [10, 40, 70, 100]
+    undo = {(0, 2), (1, 3)}
+    # event 0 is undone by event 2 across event 1; event 1 then has no free partner (event 2 is taken)
+    assert cues._undoing_pairs(starts, 120, lambda k, m: (k, m) in undo, lambda a, b: True) == [(0, 2)]
+    assert cues._undoing_pairs(starts, 50, lambda k, m: (k, m) in undo, lambda a, b: True) == []  # too far apart
+    assert cues._undoing_pairs(starts, 120, lambda k, m: (k, m) in undo, lambda a, b: False) == []
+    assert cues._undoing_pairs(starts, 120, lambda k, m: m == k + 1, lambda a, b: False) == [(0, 1), (2, 3)]
+    d = np.full(100, np.radians(2.0))
+    d[40:60] = np.radians(20.0)
+    assert cues._stands_out(d, 40, 60)
+    d[20:40] = np.radians(15.0)  # the motion before digresses as much: nothing marks the stretch
+    assert not cues._stands_out(d, 40, 60)
+    d[:] = np.nan
+    assert not cues._stands_out(d, 40, 60)

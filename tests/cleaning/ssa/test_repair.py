@@ -8,7 +8,7 @@ import pytest
 import mocapkit
 from mocapkit import rotations as R
 from mocapkit.cleaning import ssa
-from tests.cleaning.ssa.helpers import turned
+from tests.cleaning.ssa.helpers import offset_on, turned
 
 
 def test_repair_changes_only_flagged_cells_and_fixes_the_error(walk, flipped):
@@ -78,7 +78,10 @@ def test_a_flagged_run_without_neighbour_words_is_bridged_from_its_ends(walk, fl
     rng = np.random.default_rng(0)
     garbage[cells, j] = R.quaternion_normalize(rng.normal(size=(int(cells.sum()), 4)))  # nothing to keep in there
     garbage = dataclasses.replace(bad, rotations=garbage)
-    orphan = dataclasses.replace(det, neighbor_pos=np.full_like(det.neighbor_pos, -1))
+    # flagged by the break rule alone (a transient offset's cells are not replaced but have their offset taken away,
+    # which garbage has none of: test_a_transient_offset_is_repaired_by_taking_its_offset_away)
+    orphan = dataclasses.replace(det, neighbor_pos=np.full_like(det.neighbor_pos, -1),
+                                 offsets=np.zeros_like(det.offsets))
     fixed = ssa.repair(garbage, orphan, foot_skate=False)
     assert np.array_equal(fixed.rotations[~det.flags], garbage.rotations[~det.flags])
     after = np.degrees(R.geodesic_angle(walk.rotations[cells, j], fixed.rotations[cells, j]))
@@ -197,3 +200,41 @@ def test_nearest_sorted_is_the_argmin_it_replaces():
         assert np.array_equal(nearest_sorted(v, q), slow)
 
     check()
+
+
+def test_undone_offsets_take_away_a_constant_offset_in_either_frame_and_a_linear_drift():
+    from mocapkit.cleaning.ssa.undo import undone_offsets
+
+    t = np.arange(120) / 120.0
+    axis = np.array([0.3, 0.8, 0.5]) / np.linalg.norm([0.3, 0.8, 0.5])
+    track = R.quaternion_multiply(R.quaternion_from_axis_angle(axis, 2.0 * np.sin(3.0 * t)),
+                                  R.quaternion_from_axis_angle(np.array([0.0, 0.0, 1.0]), 0.7 + t))
+    mask = np.zeros(120, dtype=bool)
+    mask[40:80] = True
+    x = np.array([1.0, 0.0, 0.0])
+    cases = {"parent": lambda ang, q: R.quaternion_multiply(R.quaternion_from_axis_angle(x, ang), q),
+             "own": lambda ang, q: R.quaternion_multiply(q, R.quaternion_from_axis_angle(x, ang))}
+    for name, apply in cases.items():
+        for ang in (np.full(40, np.radians(60.0)), np.full(40, np.pi), np.radians(np.linspace(10.0, 40.0, 40))):
+            if name == "own" and ang[0] != ang[-1]:
+                continue  # a drift along a fixed axis of the joint's own frame turns that axis with the joint
+            bad = np.array(track)
+            bad[40:80] = apply(ang, track[40:80])
+            got, undone = undone_offsets(bad, mask)
+            assert np.array_equal(undone, mask)
+            assert np.array_equal(got[~mask], bad[~mask])
+            assert np.degrees(R.geodesic_angle(got[40:80], track[40:80])).max() < 0.5, name
+
+
+@pytest.mark.parametrize("start, own_frame", [(200, False), (760, True)])
+def test_a_transient_offset_is_repaired_by_taking_its_offset_away(walk, start, own_frame):
+    """The offset across the wrist's own 133 and 76 deg turns (tests/cleaning/ssa/test_cues.py): neighbour words
+    of a walk put back other wrist motion (60 -> 54 and 68 deg off); taking the offset measured at its two steps
+    away keeps the wrist's own motion, under a degree from the truth, and no other cell changes."""
+    frames = np.arange(start, start + 100)
+    bad, j = offset_on(walk, "RightWrist", frames, 60.0, own_frame)
+    det = ssa.detect(bad)
+    fixed = ssa.repair(bad, det, foot_skate=False)
+    assert np.array_equal(fixed.rotations[~det.flags], bad.rotations[~det.flags])
+    err = np.degrees(R.geodesic_angle(fixed.rotations[frames, j], walk.rotations[frames, j]))
+    assert err.max() < 1.0, err.max()

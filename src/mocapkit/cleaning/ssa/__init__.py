@@ -11,7 +11,8 @@ The package, by step of the method:
 - :mod:`~mocapkit.cleaning.ssa.drifts`: smooth drifts, flagged with no break where a chosen context
   repeats the motion;
 - :mod:`~mocapkit.cleaning.ssa.detect`: the movement digression map and the flags;
-- :mod:`~mocapkit.cleaning.ssa.repair`: the flagged cells replaced by their neighbour words.
+- :mod:`~mocapkit.cleaning.ssa.repair`: the flagged cells replaced by their neighbour words;
+- :mod:`~mocapkit.cleaning.ssa.undo`: a transient offset's offset taken away instead.
 
 A clip's joint rotations over time form a *motion texture* (section 3.1):
 resampled to the analysis rate (24 fps), one row per joint, the root's heading removed so global
@@ -82,6 +83,9 @@ Departures from the paper, and why:
   threshold).
 - "Median of the KNN": the medoid word (the neighbour closest to the others on
   the flagged joints), an actual motion, as the paper requires.
+- A transient offset is not replaced by neighbour words: the offset it steps off by,
+  measured at its two steps, is taken away (:mod:`~mocapkit.cleaning.ssa.undo`), which keeps
+  the joint's own motion under the error.
 - One preparation: :func:`detect` keeps the prepared take in its result
   (:attr:`Detection.analysis`) and :func:`repair` reuses it, so the take and
   its context are resampled to the analysis rate once.

@@ -294,13 +294,15 @@ def _event_bounds(frames: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarra
     return frames[np.concatenate([[0], cut])], frames[np.concatenate([cut - 1, [len(frames) - 1]])], event
 
 
-def _paired_events(starts, longest: int, match=None) -> list[tuple[int, int]]:
+def _paired_events(starts, longest: int, match=None, skip=()) -> list[tuple[int, int]]:
     """Successive events paired in time order, ``(start k, start k + 1)``, where the second starts at most
     ``longest`` frames after the first and ``match(k, k + 1)`` holds (if given); a paired event is not paired
-    again (:func:`side_swaps`, :func:`transient_offsets`)."""
+    again, nor one of ``skip`` (indices paired already) (:func:`side_swaps`, :func:`transient_offsets`)."""
     pairs, k = [], 0
     while k + 1 < len(starts):
-        if starts[k + 1] - starts[k] <= longest and (match is None or match(k, k + 1)):
+        if k in skip or k + 1 in skip:
+            k += 1
+        elif starts[k + 1] - starts[k] <= longest and (match is None or match(k, k + 1)):
             pairs.append((int(starts[k]), int(starts[k + 1])))
             k += 2
         else:
@@ -338,7 +340,10 @@ def transient_offsets(
     near 180 deg pair either way) and start at most ``max_s`` apart are
     flagged from the frame after the first event's first frame to the second
     event's first frame (a step between frames f and f + 1 shows at both).
-    Pairs are taken in time order, as in :func:`side_swaps`. A pair whose two
+    Pairs are taken in time order, as in :func:`side_swaps`, after the pairs
+    whose second step undoes the first (equal and opposite: :func:`offsets_from_residuals`,
+    which :func:`~mocapkit.cleaning.ssa.detect` also lets pair across the joint's
+    own steps between them). A pair whose two
     steps another joint (not the mirror partner) takes at the same frames is
     left out (:func:`_single_joint_offsets`): a limb moving at once is
     motion, an error moves one joint. ``joints`` (bool (J,),
@@ -368,7 +373,7 @@ def _usual_residual(resid: np.ndarray) -> np.ndarray:
     return 3.0 * np.percentile(resid, min(95.0, 100.0 * (1.0 - 8.0 / F)), axis=0)
 
 
-def _event_steps(q: np.ndarray, first: np.ndarray, last: np.ndarray) -> np.ndarray:
+def _event_steps(q: np.ndarray, first: np.ndarray, last: np.ndarray, own_frame: bool = False) -> np.ndarray:
     """(n, 3) rotation vectors (radians, parent frame) from a joint's path before each event to its path after it.
 
     ``q`` (F, 4) the joint's track; event i spans frames ``first[i] ..
@@ -380,7 +385,8 @@ def _event_steps(q: np.ndarray, first: np.ndarray, last: np.ndarray) -> np.ndarr
     meeting inside the event) gives about nothing, and constant acceleration
     cancels exactly, however coarse the frame rate. NaN rows where the event
     touches the take's ends. All events at once, row by row the values of
-    one event at a time.
+    one event at a time. ``own_frame``: the step in the joint's own frame
+    instead (``after = before * step``, as a flip about the bone turns it).
     """
     first, last = np.asarray(first, dtype=np.int64), np.asarray(last, dtype=np.int64)
     out = np.full((len(first), 3), np.nan)
@@ -394,7 +400,9 @@ def _event_steps(q: np.ndarray, first: np.ndarray, last: np.ndarray) -> np.ndarr
     half = (0.5 * (l + 2 - f))[:, None]  # frames from first - 1 (and from last + 1) to the middle
     before = R.quaternion_multiply(R.rotvec_to_quaternion(half * _velocity(a, b)), b)
     after = R.quaternion_multiply(R.rotvec_to_quaternion(-half * _velocity(c, d)), c)
-    out[ok] = R.quaternion_to_rotvec(R.quaternion_multiply(after, R.quaternion_inverse(before)))
+    step = (R.quaternion_multiply(R.quaternion_inverse(before), after) if own_frame
+            else R.quaternion_multiply(after, R.quaternion_inverse(before)))
+    out[ok] = R.quaternion_to_rotvec(step)
     return out
 
 
@@ -496,13 +504,26 @@ def chain_table(parents, j: int, depth: int = 3) -> np.ndarray:
     return table
 
 
+#: :func:`offsets_from_residuals`: a step back *undoes* a step off when the two, composed, leave a turn under this
+#: share of the larger one, in the parent's frame or in the joint's own (a constant offset leaves none in one of them)
+UNDO_RATIO = 0.25
+
+
 def offsets_from_residuals(q, resid, fps, jump_deg, max_s, min_offset_deg, joints, joint_names=None,
-                           parents=None) -> np.ndarray:
+                           parents=None, digression=None) -> np.ndarray:
     """:func:`transient_offsets` on rotations ``q`` (F, J, 4) with their midpoint residuals already computed.
 
     ``joint_names`` (optional) name the mirror partners (:func:`mocapkit.motion.mirror_pairs`) that
     :func:`_single_joint_offsets` does not count as sharing a joint's steps; ``parents`` (optional, (J,))
     lets :func:`_compensated` leave out the steps the joint's chain undoes.
+
+    A step back that undoes a step off (:data:`UNDO_RATIO`: equal and opposite, in the parent's frame or in
+    the joint's own) is paired with it first, also where other events of the joint lie between them: a joint's
+    own steps while it is off (the CMU 131_01 right wrist turns 133 deg in 4 frames) leave the offset's two
+    steps apart, and paired only in turn the error went unflagged (:func:`_undoing_pairs`). With
+    ``digression`` (F, J) radians (NaN: not judged) given, such a pair with events between counts only where
+    the stretch between digresses from the neighbour words and the frames beside it do not
+    (:func:`_stands_out`); without, only successive events pair. The events left pair in turn as before.
     """
     from ...motion import mirror_pairs
 
@@ -520,14 +541,64 @@ def offsets_from_residuals(q, resid, fps, jump_deg, max_s, min_offset_deg, joint
         if parents is not None and keep.any():
             keep[keep] = ~_compensated(q, parents, int(j), first[keep], last[keep])
         starts, steps = [int(f) for f in first[keep]], list(step[keep])
+        own = _event_steps(q[:, j], first[keep], last[keep], own_frame=True)
 
         def back(k, m):  # the second step points roughly opposite the first (a half turn has no sign)
             na, nb = np.linalg.norm(steps[k]), np.linalg.norm(steps[m])
             cos = float(np.dot(steps[k], steps[m]) / (na * nb)) if na > 0 and nb > 0 else 1.0
             return cos <= -0.5 or (max(na, nb) > half_turn and abs(cos) >= 0.5)
 
-        pairs[j] = _paired_events(starts, longest, back)
+        def undoes(k, m):  # the second step is the first one's inverse, in one frame or the other
+            return any(_undo_left(v[k], v[m]) <= UNDO_RATIO * max(np.linalg.norm(v[k]), np.linalg.norm(v[m]))
+                       for v in (np.asarray(steps), own))
+
+        def apart(a, b):  # a pair with events between: the stretch alone differs from the neighbour words
+            return digression is not None and _stands_out(digression[:, j], a + 1, b + 1)
+
+        strict = _undoing_pairs(starts, longest, undoes, apart)
+        taken = {k for pair in strict for k in pair}
+        loose = _paired_events(starts, longest, back, skip=taken)
+        pairs[j] = sorted([(starts[k], starts[m]) for k, m in strict] + loose)
     return _single_joint_offsets(pairs, F, J, partner)
+
+
+def _undo_left(a: np.ndarray, b: np.ndarray) -> float:
+    """Radians: the turn left by rotation vector ``b`` after ``a`` (0 where ``b`` undoes ``a``)."""
+    return float(R.geodesic_angle(R.rotvec_to_quaternion(a), R.rotvec_to_quaternion(-np.asarray(b))))
+
+
+def _undoing_pairs(starts, longest: int, undoes, apart) -> list[tuple[int, int]]:
+    """``(k, m)`` index pairs of events, in time order, where event ``m`` starts at most ``longest`` frames after
+    event ``k`` and ``undoes(k, m)``: the nearest such ``m`` whose events between are not paired yet, and, where
+    there are events between, ``apart(starts[k], starts[m])`` holds (:func:`offsets_from_residuals`)."""
+    taken = np.zeros(len(starts), dtype=bool)
+    out = []
+    for k in range(len(starts)):
+        if taken[k]:
+            continue
+        m = k + 1
+        while m < len(starts) and starts[m] - starts[k] <= longest and not taken[m]:
+            if undoes(k, m) and (m == k + 1 or apart(starts[k], starts[m])):
+                out.append((k, m))
+                taken[k] = taken[m] = True
+                break
+            m += 1
+    return out
+
+
+def _stands_out(digression: np.ndarray, a: int, b: int) -> bool:
+    """Whether frames ``a .. b - 1`` of a joint's ``digression`` (F,) radians (NaN: not judged) digress from the
+    neighbour words, as a median, at least twice as much as the as many frames on either side of them do (an
+    offset is the take's alone; where the motion beside digresses as much, nothing marks the stretch as an
+    error). A side with fewer than half its frames judged does not count; False where the stretch has fewer
+    than half its frames judged, or neither side counts."""
+    n = b - a
+    medians = []
+    for part in (digression[a:b], digression[max(a - n, 0) : a], digression[b : b + n]):
+        part = part[np.isfinite(part)]
+        medians.append(float(np.median(part)) if 2 * len(part) >= n else np.nan)
+    inside, beside = medians[0], [m for m in medians[1:] if np.isfinite(m)]
+    return bool(np.isfinite(inside) and beside and inside >= 2.0 * max(beside))
 
 
 def unshared_offsets(offsets: np.ndarray, digression: np.ndarray, min_offset_deg: float) -> np.ndarray:

@@ -570,7 +570,7 @@ def detect_prepared(an: Analysis, threshold: float = 0.5, *, progress: bool = Fa
                                  rotations=q, mirrored=mirrored_rotations(motion))
     offsets = offsets_from_residuals(
         np.asarray(motion.rotations, dtype=np.float64), resid, motion.fps, p.offset_jump_deg, p.offset_max_s,
-        p.offset_min_deg, analysed, sk.joint_names, sk.parents,
+        p.offset_min_deg, analysed, sk.joint_names, sk.parents, digression,
     )
     offsets = unshared_offsets(offsets, digression, p.offset_min_deg)  # an offset the similar motion holds is motion
     # smooth-drift evidence only against a context beyond the take that the caller chose (not the bundled default

@@ -3,7 +3,9 @@
 Each flagged cell takes the medoid of its source word's neighbour words (the
 median of the KNN, an actual motion, as the paper requires) on the word's
 flagged joints, blended into the untouched motion with a quadratic
-Savitzky-Golay filter; every unflagged value stays bit-identical.
+Savitzky-Golay filter; every unflagged value stays bit-identical. A transient
+offset's cells keep the joint's own motion, its offset taken away
+(:mod:`~mocapkit.cleaning.ssa.undo`).
 """
 
 from __future__ import annotations
@@ -22,6 +24,7 @@ from ..ik import contact_segments, segment_frames
 from .detect import Detection
 from .neighbours import dropped_terms, near_neighbors, neighbor_words
 from .texture import Analysis, align_hemisphere, prepare
+from .undo import undone_offsets
 
 __all__ = ["Contact", "repair"]
 
@@ -179,7 +182,11 @@ def repair(
     neighbour word covers is bridged by slerp between its ends, unflagged
     or already replaced, as a gap would be), which are blended into the
     untouched motion with a quadratic Savitzky-Golay filter (``blend_s``
-    seconds). Every unflagged value is bit-identical to the input, except, with
+    seconds). The flagged cells of a transient offset
+    (:attr:`Detection.offsets`, not a side swap's) are not replaced: the
+    offset measured at its two steps is taken away
+    (:func:`~mocapkit.cleaning.ssa.undo.undone_offsets`), and the other
+    runs blend into the track so mended. Every unflagged value is bit-identical to the input, except, with
     ``foot_skate``, the hip and knee of a leg whose joints were replaced in a
     frame where its foot is planted (foot-skate cleanup, see
     :func:`mocapkit.cleaning.ik.foot_skate_cleanup`). ``contacts`` (list of
@@ -228,8 +235,15 @@ def repair(
     new = np.array(motion.rotations)
     placed = np.zeros(flags.shape, dtype=bool)  # the flagged cells a neighbour word was written into
     heading = R.quaternion_twist(motion.rotations[:, 0], up)
+    # a transient offset's own motion is kept: its offset is taken away, not replaced by a neighbour word (a side
+    # swap's joint took its partner's pose, no offset of its own: the neighbour words repair it)
+    base = np.array(motion.rotations)
+    undone = np.zeros(flags.shape, dtype=bool)
+    offsets = flags & np.asarray(detection.offsets, dtype=bool) & ~np.asarray(detection.swaps, dtype=bool)
+    for j in np.flatnonzero(offsets.any(axis=0)):
+        base[:, j], undone[:, j] = undone_offsets(motion.rotations[:, j], offsets[:, j])
     flagged_frames_by_word: dict[tuple[int, int], list] = {}
-    fi, ji = np.nonzero(flags)
+    fi, ji = np.nonzero(flags & ~undone)
     for f, j in zip(fi, ji):
         g = int(detection.best_group[f, j])
         if g < 0:
@@ -292,13 +306,14 @@ def repair(
     # a flagged run no neighbour word was written into is bridged like a gap: slerp between its ends,
     # unflagged or already replaced (blending its own values towards the ends would bend a 180-degree
     # flip, not undo it)
-    for j in np.flatnonzero((flags & ~placed).any(axis=0)):
-        bridged = _bridge(new[:, j], flags[:, j] & ~placed[:, j])
+    new[undone] = base[undone]
+    for j in np.flatnonzero((flags & ~placed & ~undone).any(axis=0)):
+        bridged = _bridge(new[:, j], flags[:, j] & ~placed[:, j] & ~undone[:, j])
         placed[bridged, j] = True
     window = window_frames(blend_s, motion.fps, 2)
-    out_rot = np.array(motion.rotations)
+    out_rot = base
     for j in np.flatnonzero(placed.any(axis=0)):
-        out_rot[:, j] = _blend_runs(motion.rotations[:, j], new[:, j], placed[:, j], window)
+        out_rot[:, j] = _blend_runs(base[:, j], new[:, j], placed[:, j], window)
     out = dataclasses.replace(motion, rotations=out_rot)
     if contacts:
         from .. import ik
