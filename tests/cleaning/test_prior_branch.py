@@ -6,6 +6,7 @@ over such channels saw modes 360 deg apart and a fill that read little drifted b
 
 from __future__ import annotations
 
+import dataclasses
 from pathlib import Path
 
 import numpy as np
@@ -93,3 +94,71 @@ def test_the_shipped_bandai_prior_is_on_one_branch():
     names = list(model.layout.names)
     for n in ("UpperLeg_R.Zrotation", "UpperLeg_R.Yrotation", "UpperLeg_L.Zrotation"):
         assert pr.scale[at0 + names.index(n)] < 60.0  # was 175, 174 and 125 deg over two modes
+
+
+def _turning_takes(n: int, F: int, seed: int) -> list[np.ndarray]:
+    """(F, 4) synthetic takes at 30 fps: joint 0 (channels 0 and 1) a heading that turns over 180 deg in every
+    take and a lean that follows its turning rate; joint 1 (channels 2 and 3) a swing 30 deg either way."""
+    rng = np.random.default_rng(seed)
+    out = []
+    for _ in range(n):
+        t = np.arange(F) / 30.0
+        rate = rng.uniform(60.0, 120.0) * rng.choice([-1.0, 1.0])
+        heading = rng.uniform(-180.0, 180.0) + rate * t
+        lean = 0.05 * rate + rng.normal(0.0, 0.5, F)
+        swing = 30.0 * np.sin(2.0 * np.pi * rng.uniform(0.5, 1.5) * t + rng.uniform(0, 6.3))
+        out.append(np.stack([heading, lean, swing, 0.5 * swing + 10.0], axis=1))
+    return out
+
+
+def test_a_joint_that_turns_freely_is_held_at_its_one_seen_end():
+    """A heading has no branch and no mean to fall back on: lost to the take's end, read as it is, its fill drifted
+    to the training clips' heading; now its joint is held at its one seen end, the other joints read it, and a gap
+    between two seen ends is filled by the field as before."""
+    prior = P.fit_gap_prior(_turning_takes(40, 150, 1), 30.0, branch=True)
+    assert np.isnan(prior.branch[0]) and not np.isnan(prior.branch[1:]).any()
+    joints = np.array([0, 0, 1, 1])
+    assert P.held_channels(prior, joints).tolist() == [True, True, False, False]
+    assert P.held_channels(prior).tolist() == [True, False, False, False]
+    assert P.held_channels(P.fit_gap_prior(_turning_takes(8, 150, 1), 30.0)) is None  # no branch: none held
+    with pytest.raises(ValueError, match="one joint per channel"):
+        P.held_channels(prior, np.array([0, 1]))
+    y = _turning_takes(1, 150, 7)[0]
+    x = y.copy()
+    x[90:, 0] = np.nan  # the heading lost for the take's last 2 s
+    x[60:100, 2:] = np.nan  # and the other joint inside
+    for kw in ({}, {"joints": joints}):
+        out = P.conditional_fill(x, prior, 30.0, **kw)
+        assert np.array_equal(out[~np.isnan(x)], x[~np.isnan(x)])
+        assert np.allclose(out[90:, 0], y[89, 0], atol=1e-6)  # held: the field alone drifted 38 deg off it
+        assert np.isfinite(out).all()
+    x[90:, 1] = np.nan  # the whole joint lost: both its channels held
+    out = P.conditional_fill(x, prior, 30.0, joints=joints)
+    assert np.ptp(out[90:, :2], axis=0).max() < 1e-9  # held: the lean (noisy) at its reading there
+    assert np.abs(out[90:, :2] - y[89, :2]).max() < 1.0
+    unseen = y.copy()
+    unseen[:, 0] = np.nan  # no seen end to hold: the field's fill, as before
+    assert np.isfinite(P.conditional_fill(unseen, prior, 30.0, joints=joints)).all()
+    inner = y.copy()
+    inner[60:90, :2] = np.nan  # between two seen ends: the field's fill, near the truth
+    out = P.conditional_fill(inner, prior, 30.0, joints=joints)
+    assert np.abs(out[60:90, 0] - y[60:90, 0]).max() < 15.0 and np.ptp(out[60:90, 0]) > 20.0
+
+
+def test_the_bandai_pelvis_lost_to_a_dances_end_is_held_not_swung(shared_data):
+    """The shipped Bandai prior on the first 10 s of the dance-short take, the pelvis lost over the last 3 s: its
+    fill swung the pelvis up to 112 deg off the truth (the hold: 12 deg); now it is held at its last seen frame."""
+    from mocapkit import rotations as R
+
+    path = shared_data / "secondary_bandai_namco_CC-BY-NC" / "dataset-1_dance-short_normal_001.bvh"
+    if not path.is_file():
+        pytest.skip(f"{path}: not there")
+    take = mocapkit.load(path)[:300]
+    j = take.skeleton.joint_names.index("Hips")
+    rot = np.array(take.rotations)
+    rot[210:, j] = np.nan
+    filled = deep.fill_gaps(dataclasses.replace(take, rotations=rot))
+    off = np.degrees(R.geodesic_angle(filled.rotations[210:, j], take.rotations[210:, j]))
+    held = np.degrees(R.geodesic_angle(filled.rotations[210:, j], take.rotations[209, j]))
+    assert off.max() < 15.0 and held.max() < 1e-3
+    np.testing.assert_array_equal(filled.rotations[:210], take.rotations[:210])

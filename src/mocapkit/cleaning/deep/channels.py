@@ -32,7 +32,7 @@ from ... import rotations as R
 from ...errors import SkeletonError
 from ...motion import Motion
 
-__all__ = ["ChannelLayout", "layout_for", "euler_columns", "root_angular_velocity", "encode", "decode", "unwrap_degrees", "wrap_degrees", "lerp_fill"]
+__all__ = ["ChannelLayout", "layout_for", "euler_columns", "root_angular_velocity", "encode", "decode", "unwrap_degrees", "wrap_degrees", "channel_joints", "lerp_fill"]
 
 REPRESENTATIONS = ("euler", "rot6d")
 
@@ -249,6 +249,12 @@ def decode(values: np.ndarray, like: Motion, layout: ChannelLayout, keep: np.nda
     if keep is not None:
         rot = np.where(np.asarray(keep, dtype=bool)[..., None], ref, rot)
     return dataclasses.replace(like, rotations=rot)
+
+
+def channel_joints(layout: ChannelLayout) -> np.ndarray:
+    """(C,) index of each model channel's joint in ``layout.joints`` (channel names are ``joint.channel``)."""
+    idx = {j: k for k, j in enumerate(layout.joints)}
+    return np.array([idx[n.rsplit(".", 1)[0]] for n in layout.names], dtype=np.int64)
 
 
 def lerp_fill(values: np.ndarray) -> np.ndarray:

@@ -23,8 +23,9 @@ from ... import rotations as R
 from ...errors import MocapFormatError, SkeletonError
 from ...io import atomic_write
 from ...motion import Motion
-from .channels import ChannelLayout, lerp_fill
-from .prior import GapPrior, conditional_fill, doubtful_runs
+from .channels import ChannelLayout, channel_joints, lerp_fill
+from .doubt import doubtful_runs
+from .prior import GapPrior, conditional_fill
 from .retarget import Serving, served_by
 from .sure import BLOCK_S, block_edges, calibrated_log_sigma, scoring_stride
 from .threads import INFERENCE_PARTS, torch_threads
@@ -534,7 +535,7 @@ def fill_channels(
         # at low rates the prior reads the observed channels through the EBF (a better filter of the evidence there
         # than its fixed Gaussian; module constant)
         read = denoise_channels(gappy, c_m, denoiser) if ebf_takes_part(m, smooth, method) else None
-        f_m = conditional_fill(gappy, m.prior, m.fps, smoothed=read)
+        f_m = conditional_fill(gappy, m.prior, m.fps, smoothed=read, joints=channel_joints(m.layout))
     else:
         pred = run_ebd(m.net, f_m, k_m, c_m, frames)
         f_m = f_m.copy()
@@ -642,8 +643,9 @@ def fill_gaps(motion: Motion, model=None, denoiser=None, smooth: bool = True, me
 
 
 def _fill_gaps(motion: Motion, model, denoiser, smooth: bool, method: str) -> tuple[Motion, list]:
-    """:func:`fill_gaps`, and the runs of its fill that depart far from the line between their ends
-    (:func:`.prior.doubtful_runs`, as ``[(joint name, first, last, departure_deg, spread_deg)]``)."""
+    """:func:`fill_gaps`, and the runs of its fill that depart far from the line between their ends or from the one
+    seen end of a run at the take's start or end (:func:`.doubt.doubtful_runs`, as ``[(joint name, first, last,
+    departure_deg, spread_deg, side)]``)."""
     sv = serving(motion, model, "ebd")
     m = sv.model
     missing = motion.missing()
@@ -654,8 +656,7 @@ def _fill_gaps(motion: Motion, model, denoiser, smooth: bool, method: str) -> tu
     if smooth:  # the shipped EBF of the EBD's pair when none is given
         denoiser = _smoothing_ebf(m, denoiser, motion)
     out = fill_channels(values, ctx, m, denoiser, fps=motion.fps, smooth=smooth, method=method)
-    groups = np.array([m.layout.joints.index(n.rsplit(".", 1)[0]) for n in m.layout.names])
-    doubts = [(m.layout.joints[g], a, b, d, sp) for g, a, b, d, sp in doubtful_runs(values, out, groups)]
+    doubts = [(m.layout.joints[g], *run) for g, *run in doubtful_runs(values, out, channel_joints(m.layout))]
     res = decode_served(out, src, sv, keep=~missing)
     rot = np.array(res.rotations)
     for j in np.flatnonzero(missing[:, 1:].any(axis=0)) + 1:  # joints without channels hold one rotation
@@ -691,13 +692,18 @@ DOUBT_LINES = 3
 
 
 def doubt_note(doubts, what: str = "the gap prior's fill") -> str:
-    """One line for the runs of a fill that depart far from the line between their ends (:func:`_fill_gaps`), else
-    "": ``"Hips frames 120-239: the gap prior's fill departs up to 95 deg from the line between the gap's ends (the
-    channel spreads 2 deg over the take's seen frames); look at it before use"``."""
+    """One line for the runs of a fill that depart far from the line between their ends, or from the one seen end
+    of a run at the take's start or end (:func:`_fill_gaps`), else "": ``"Hips frames 120-239: the gap prior's fill
+    departs up to 95 deg from the line between the gap's ends (the channel spreads 2 deg over the take's seen
+    frames); look at it before use"``; for a run at the take's start or end, ``"... departs up to 40 deg from the
+    gap's one seen end (the gap runs to the take's end; the channel spreads 2 deg over the take's seen frames)
+    ..."``."""
     if not doubts:
         return ""
-    said = [f"{j} frames {a}-{b}: {what} departs up to {d:.0f} deg from the line between the gap's ends (the "
-            f"channel spreads {sp:.0f} deg over the take's seen frames)" for j, a, b, d, sp in doubts[:DOUBT_LINES]]
+    said = [f"{j} frames {a}-{b}: {what} departs up to {d:.0f} deg from "
+            + ("the line between the gap's ends (the" if side is None else
+               f"the gap's one seen end (the gap runs to the take's {side}; the")
+            + f" channel spreads {sp:.0f} deg over the take's seen frames)" for j, a, b, d, sp, side in doubts[:DOUBT_LINES]]
     more = f", and {len(doubts) - DOUBT_LINES} more such runs" if len(doubts) > DOUBT_LINES else ""
     return ", ".join(said) + more + "; look at it before use"
 
@@ -738,7 +744,8 @@ def fill_or_fallback(motion: Motion, model=None, denoiser=None, smooth: bool = T
     saying which fallback ran and why. ``label`` names the model in
     both ("shipped", a file name); ``options``: the caller's option per
     model kind, for the licence line. A take without gaps is returned as is.
-    Runs of the fill that depart far from the line between their ends (:func:`.prior.doubtful_runs`) are said
+    Runs of the fill that depart far from the line between their ends, or from the one seen end of a run at the
+    take's start or end (:func:`.doubt.doubtful_runs`), are said
     by :func:`doubt_note`: appended to ``doubts`` when given (a caller saying it on its own), else to ``note``.
     """
     from ..gapfill import fill_motion

@@ -49,6 +49,12 @@ window by window, its windows spread over the whole circle, and the narrower Gau
 pelvis gap's fill further towards the training heading (1-4 s gaps of the held-out styles' Hips 68 ->
 82 deg RMS).
 
+Such a channel has no mean to fall back on, and a gap that runs to the take's start or end has no far
+side to meet: read as it is, its fill drifts towards the prior's mean heading (another Euler branch of
+the pelvis of a take that faces the other way: tens of degrees off, up to 180). There the joint that
+carries it is held at its one seen end (:func:`held_channels`) and every other channel is filled
+reading the held joint, as the line between a gap's ends holds at a take's end.
+
 A :class:`GapPrior` belongs to an EBD model (fitted on the same training clips, saved in
 the same file, :func:`fit_gap_prior`); :func:`~mocapkit.cleaning.deep.inference.fill_channels`
 uses it where it validated better than the network (see that function).
@@ -70,7 +76,7 @@ from .channels import lerp_fill
 
 __all__ = ["GapPrior", "fit_gap_prior", "conditional_fill", "pair_band", "lagged", "lag_frames", "local_prior", "local_windows",
            "LAGS_S", "RIDGE", "PRIOR_S", "branch_turns", "branch_lagged", "circular_mean",
-           "doubtful_runs", "end_line", "DOUBT_SPREAD", "DOUBT_FLOOR_DEG", "DOUBT_MIN_DEG"]
+           "held_channels"]
 
 SMOOTH_S = 0.058
 """Std (s) of the Gaussian that smooths the observed channels before they are read as evidence (Mall's 58 ms
@@ -453,7 +459,8 @@ def pair_band(d0: np.ndarray, val: np.ndarray, hit: np.ndarray, k: int, n: int, 
 
 
 def conditional_fill(values: np.ndarray, prior: GapPrior, fps: float, prior_s: float = PRIOR_S,
-                     smoothed: np.ndarray | None = None, cross: float = CROSS_WEIGHT, anchor: bool = True) -> np.ndarray:
+                     smoothed: np.ndarray | None = None, cross: float = CROSS_WEIGHT, anchor: bool = True,
+                     joints: np.ndarray | None = None) -> np.ndarray:
     """Fill the NaN entries of (F, C) channels by the prior's field; observed entries returned as is.
 
     The take teaches the prior first: its own complete frames (no channel
@@ -502,17 +509,45 @@ def conditional_fill(values: np.ndarray, prior: GapPrior, fps: float, prior_s: f
     whole-joint gaps at 0.5 noise 1.6-1.8 % less error on both rigs'
     validation clips, within 0.1 % without noise (docs/models.md).
 
+    ``joints`` (C,) int, optional: each channel's joint. A gap running to the take's start or end holds
+    every channel of a joint that has a freely turning channel (:func:`held_channels`: the pelvis, whose
+    heading has no branch) at its one seen end, and the other events are filled reading it; None: each
+    channel its own joint (the freely turning channels alone are held).
+
     BLAS runs on one thread throughout, so the fill is the same to the last bit on any machine and
     under any executor (OpenBLAS splits its sums by its thread count). The long gaps' local priors, which read
     the take as it was before any fill, are made first, in two fixed halves on two threads
     (:func:`~mocapkit.cleaning.deep.threads.run_in_parts`), each call still one BLAS thread.
     """
     with threadpool_limits(1, user_api="blas"):
-        return _conditional_fill(values, prior, fps, prior_s, smoothed, cross, anchor)
+        return _conditional_fill(values, prior, fps, prior_s, smoothed, cross, anchor, joints)
+
+
+def held_channels(prior: GapPrior, joints: np.ndarray | None = None) -> np.ndarray | None:
+    """(C,) bool, the channels a gap running to the take's start or end holds at its one seen end; None when none.
+
+    Every channel of a joint (``joints`` (C,) int, each channel's joint; None: each channel its own) that has a
+    freely turning channel (NaN in :attr:`GapPrior.branch`: the Bandai Namco pelvis' Z and Y). Such a channel
+    has no mean to fall back on: read as it is, a fill with no far side to meet drifts towards the training
+    clips' heading, and on this rig the pelvis' Euler angles carry the heading between all three channels
+    (X is the heading, Z and Y flip by 180 deg where it passes +-90 deg), so the whole joint is held. On the
+    Bandai validation styles, the pelvis lost for 1-5 s to a take's end with two other joints lost inside:
+    its rotation 19.7 deg RMS off the truth (geodesic) as the field filled it, 14.2 with Z and Y held and X
+    read from the field, 12.9 with the joint held; its heading 17.3, 13.5 and 11.7 deg.
+    """
+    if prior.branch is None or not np.isnan(prior.branch).any():
+        return None
+    free = np.isnan(prior.branch)
+    if joints is None:
+        return free
+    joints = np.asarray(joints)
+    if joints.shape != free.shape:
+        raise ValueError(f"joints must name one joint per channel ({free.shape[0]}), got shape {joints.shape}")
+    return np.isin(joints, joints[free])
 
 
 def _conditional_fill(values, prior: GapPrior, fps: float, prior_s: float, smoothed, cross: float,
-                      anchor: bool) -> np.ndarray:
+                      anchor: bool, joints=None) -> np.ndarray:
     x = np.asarray(values, dtype=np.float64)
     F, C = x.shape
     if C != prior.num_channels:
@@ -573,7 +608,7 @@ def _conditional_fill(values, prior: GapPrior, fps: float, prior_s: float, smoot
     reading = base.copy()  # the observed channels as the field read them (_fill_events fills the gaps of base)
     # a clean take's gaps are ramped onto their ends whatever the prior's own choice (made on noisy clips)
     ramp = prior.ramp or (anchor and is_clean_take(x, miss, fps))
-    _fill_events(out, base, miss, events, prior, lags, mean, cov, prec, ramp, local_model)
+    _fill_events(out, base, miss, events, prior, lags, mean, cov, prec, ramp, local_model, held_channels(prior, joints))
     if anchor:
         anchor_ends(out, x, reading, miss, fps, meets_reading=ramp)
     return out
@@ -774,7 +809,7 @@ def hermite_blend(fill: np.ndarray, a: float, b: float, va: float, vb: float, fp
 
 
 def _fill_events(out: np.ndarray, base: np.ndarray, miss: np.ndarray, events: dict, prior: GapPrior, lags: np.ndarray,
-                 mean: np.ndarray, cov: np.ndarray, prec: np.ndarray, ramp: bool, local=None) -> None:
+                 mean: np.ndarray, cov: np.ndarray, prec: np.ndarray, ramp: bool, local=None, held=None) -> None:
     """Fill each gap event of :func:`conditional_fill` in time order, into ``out`` and ``base`` (in place).
 
     ``ramp``: every event solved over the gap and around it and offset onto ``base`` at the gap's ends
@@ -785,18 +820,34 @@ def _fill_events(out: np.ndarray, base: np.ndarray, miss: np.ndarray, events: di
     the frames the event reads nearest the branch (:func:`branch_turns`), and the fill is shifted back: one multiple
     per channel and event keeps the event one linear solve, and the fill continues the take's own branch (never a
     360 deg step at a gap's end); per take, a heading that turns over the take would sit far from the branch at
-    most of its gaps."""
+    most of its gaps.
+
+    ``held`` (C,) bool or None (:func:`held_channels`): an event running to the take's start or end holds these of
+    its channels at their one seen end (in ``base``: the reading there) before any event is solved, and every
+    event reads them as observed."""
     F, C = base.shape
     L = len(lags)
     reach = int(np.abs(lags).max())
     pad = 2 * reach if ramp else 0  # with the ramp the missing channels' own samples are not read nearby
     glob = mean, cov, prec
+    unknown = miss.copy()
+    todo = []
     for (s, e), chans in sorted(events.items()):
         chans = np.asarray(chans)
+        if held is not None and (s == 0) != (e == F) and held[chans].any():  # one seen end
+            hold = chans[held[chans]]
+            end = e if s == 0 else s - 1
+            out[s:e, hold] = base[end, hold]
+            base[s:e, hold] = base[end, hold]
+            unknown[s:e, hold] = False
+            chans = chans[~held[chans]]
+        if len(chans):
+            todo.append(((s, e), chans))
+    for (s, e), chans in todo:
         own = local(s, e, chans) if local is not None else None
         mean, cov, prec = glob if own is None else own
         u0, u1 = max(s - pad, 0), min(e + pad, F)
-        other = miss[max(0, u0 - 2 * reach) : min(F, u1 + 2 * reach)].any(axis=0)
+        other = unknown[max(0, u0 - 2 * reach) : min(F, u1 + 2 * reach)].any(axis=0)
         other[chans] = False
         read = np.flatnonzero(~other)
         ent = (np.arange(L)[:, None] * C + read[None, :]).ravel()
@@ -833,69 +884,3 @@ def _fill_events(out: np.ndarray, base: np.ndarray, miss: np.ndarray, events: di
             gap = gap + off
         out[s:e, chans] = gap
         base[s:e, chans] = gap
-
-
-
-#: A fill is doubtful (:func:`doubtful_runs`) where it departs from the straight line between a run's seen ends by
-#: more than DOUBT_SPREAD times the channel's own spread (its standard deviation over the take's seen frames, plus
-#: DOUBT_FLOOR_DEG) and by more than DOUBT_MIN_DEG: a joint the take shows nearly still that the fill swings far.
-#: The prior's training scale does not tell a bad fill from a good one (on the Bandai held-out takes a fill departing
-#: over 3 training sigmas, 10-30 deg, from the line was worse than the line in 15 of the 107 standard gap runs it
-#: marked); the take's own spread does better (docs/guide/deep-models.md, Limits).
-DOUBT_SPREAD = 6.0
-DOUBT_FLOOR_DEG = 1.0
-DOUBT_MIN_DEG = 10.0
-
-
-def _runs(col: np.ndarray) -> list[tuple[int, int]]:
-    """Runs of True in a 1-D bool array, as ``(first, last)`` frames."""
-    d = np.diff(np.concatenate(([0], col.astype(np.int8), [0])))
-    return list(zip(np.flatnonzero(d == 1), np.flatnonzero(d == -1) - 1))
-
-
-def end_line(values: np.ndarray) -> np.ndarray:
-    """The straight line through each NaN run of (F, C) degrees ``values`` between its seen ends, the far end moved
-    by whole turns to within 180 deg of the near one; a run at the take's start or end holds its one seen end."""
-    x = np.array(values, dtype=np.float64)
-    miss = np.isnan(x)
-    for c in np.flatnonzero(miss.any(axis=0)):
-        if miss[:, c].all():
-            continue
-        for a, b in _runs(miss[:, c]):
-            lo = x[a - 1, c] if a > 0 else None
-            hi = x[b + 1, c] if b + 1 < len(x) else None
-            if lo is None or hi is None:
-                x[a:b + 1, c] = hi if lo is None else lo
-                continue
-            hi = lo + (hi - lo + 180.0) % 360.0 - 180.0
-            x[a:b + 1, c] = lo + (hi - lo) * np.arange(1, b - a + 2) / (b - a + 2)
-    return x
-
-
-def doubtful_runs(values: np.ndarray, filled: np.ndarray, groups: np.ndarray):
-    """Where the fill ``filled`` of (F, C) degrees ``values`` (NaN: the gaps) departs from the straight line between
-    the gaps' seen ends (:func:`end_line`) by more than :data:`DOUBT_SPREAD` times the channel's spread over the
-    take's seen frames (plus :data:`DOUBT_FLOOR_DEG`) and by more than :data:`DOUBT_MIN_DEG`. ``groups`` (C,): each
-    channel's joint; a joint's run is its frames missing any of its channels. Returns ``[(group, first, last,
-    departure_deg, spread_deg)]``: the largest departure over the run's doubtful channels (wrapped to within
-    180 deg) and that channel's spread. The fill is not changed (a line is no better a guess of a long gap in
-    general); the list is what a caller says (``clean``'s notes)."""
-    x = np.asarray(values, dtype=np.float64)
-    miss = np.isnan(x)
-    if not miss.any():
-        return []
-    spread = np.array([np.std(x[~miss[:, c], c]) if (~miss[:, c]).any() else 0.0 for c in range(x.shape[1])])
-    allow = np.maximum(DOUBT_SPREAD * (spread + DOUBT_FLOOR_DEG), DOUBT_MIN_DEG)
-    dev = np.abs((np.asarray(filled, dtype=np.float64) - end_line(x) + 180.0) % 360.0 - 180.0)
-    dev = np.where(miss, dev, 0.0)
-    groups = np.asarray(groups)
-    out = []
-    for g in np.unique(groups[miss.any(axis=0)]):
-        cols = np.flatnonzero(groups == g)
-        for a, b in _runs(miss[:, cols].any(axis=1)):
-            d = dev[a:b + 1][:, cols].max(axis=0)
-            over = d > allow[cols]
-            if over.any():
-                c = int(np.argmax(np.where(over, d, -1.0)))
-                out.append((int(g), int(a), int(b), float(d[c]), float(spread[cols[c]])))
-    return out

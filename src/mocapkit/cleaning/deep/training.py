@@ -45,7 +45,7 @@ from ... import corrupt
 from ...errors import SkeletonError
 from ...io.outputs import removed_on_failure
 from ...motion import Motion
-from .channels import ChannelLayout, encode, layout_for, wrap_degrees
+from .channels import ChannelLayout, channel_joints, encode, layout_for, wrap_degrees
 from .inference import DeepModel, denoise_channels, lerp_fill, run_ebd, save_model, write_torch
 from .networks import EBD, EBF, HALF_WINDOW, window_indices
 from .prior import fit_gap_prior
@@ -208,12 +208,6 @@ def gap_mask(shape: tuple[int, int], fps: float, rng: np.random.Generator, start
             mask[f : f + n, cols] = True
             f += n + int(rng.geometric(p))
     return mask
-
-
-def channel_joints(layout: ChannelLayout) -> np.ndarray:
-    """(C,) index of each model channel's joint in ``layout.joints`` (channel names are ``joint.channel``)."""
-    idx = {j: k for k, j in enumerate(layout.joints)}
-    return np.array([idx[n.rsplit(".", 1)[0]] for n in layout.names], dtype=np.int64)
 
 
 NOISE_KINDS = ("angular", "uniform", "spatial", "bias-constant", "bias-sinusoidal", "clean")
