@@ -17,7 +17,7 @@ import numpy as np
 from .. import rotations as R
 from ..database import MotionDatabase
 from ..features import find_up_axis, virtual_markers
-from ..motion import Motion, Skeleton
+from ..motion import Motion, Skeleton, unit_scale_cm
 from ..rigs import pelvis_index
 
 
@@ -57,6 +57,40 @@ def output_skeleton(db: MotionDatabase, skeleton: Skeleton | None) -> Skeleton:
             "retarget it to the database skeleton first"
         )
     return skeleton
+
+
+def in_database_units(db: MotionDatabase, skeleton: Skeleton) -> tuple[Skeleton, float]:
+    """``skeleton`` in the database's length unit, and the factor that takes a result back to its own.
+
+    Marker positions and the database's poses are in the database skeleton's
+    unit (:func:`~mocapkit.motion.unit_scale_cm`); a performer's skeleton read
+    from a file in metres or millimetres is not. The fit runs on the returned
+    skeleton (offsets scaled, ``unit_cm`` the database's), and
+    :func:`in_units_of` writes the result on ``skeleton`` again. ``skeleton``
+    itself and 1.0 when the units agree.
+
+    Returns
+    -------
+    Skeleton, float
+        The scaled skeleton, and ``skeleton``'s units per database unit.
+    """
+    db_cm = unit_scale_cm(db.skeletons[0])
+    own_cm = unit_scale_cm(skeleton)
+    if abs(own_cm - db_cm) <= 1e-9 * db_cm:
+        return skeleton, 1.0
+    s = own_cm / db_cm
+    import dataclasses
+
+    scaled = dataclasses.replace(skeleton, offsets=skeleton.offsets * s, end_site_offsets=skeleton.end_site_offsets * s, unit_cm=db_cm)
+    return scaled, 1.0 / s
+
+
+def in_units_of(m: Motion, skeleton: Skeleton, factor: float) -> Motion:
+    """``m`` (on :func:`in_database_units`' scaled skeleton) written on ``skeleton``: positions times ``factor``."""
+    if factor == 1.0 and m.skeleton is skeleton:
+        return m
+    tr = None if m.translations is None else np.asarray(m.translations) * factor
+    return Motion(skeleton, m.rotations, np.asarray(m.root_positions) * factor, m.fps, m.name, tr)
 
 
 def align_about_vertical(source: np.ndarray, target: np.ndarray, up: np.ndarray, weights=None) -> tuple[np.ndarray, np.ndarray]:
