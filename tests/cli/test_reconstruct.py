@@ -312,3 +312,23 @@ def test_knowledge_folder_is_built_once_and_reused(tmp_path, db_dir, query):
     code, _, err = run("reconstruct", "--db", str(db_dir), "--accelerometers", str(csv), "-o", str(tmp_path / "x.bvh"),
                        "--knowledge", str(tmp_path / "other"))
     assert code == 2 and one_error_line(err) and (tmp_path / "other" / "notes.txt").read_text() == "mine"
+
+
+def test_markers_fit_says_where_it_ends_far_from_a_seen_marker(tmp_path, bandai_db):
+    import json
+
+    from mocapkit.features import virtual_markers
+    from mocapkit.io import save_markers
+    from mocapkit.markerset import MarkerSet
+
+    take = mocapkit.load(BANDAI)
+    names = ["Hand_L", "Hand_R", "Foot_L", "Foot_R", "Head", "Hips"]
+    x = virtual_markers(take, names)
+    x[30:33, 0, 1] += 150.0  # a left-hand marker 1.5 m above the hand: out of the arm's reach
+    src, out = tmp_path / "m.npz", tmp_path / "rec.bvh"
+    save_markers(MarkerSet(tuple(names), x, take.fps, "cm"), src)
+    code, stdout, err = run("reconstruct", "--db", str(bandai_db), "--markers", str(src), "--use", ",".join(names),
+                            "--up-axis", "y", "-o", str(out), "--json")
+    assert code == 0, err
+    far = json.loads(stdout)["far_from_markers"]
+    assert 1 <= far["frames"] <= 6 and far["worst_marker"] == "Hand_L (Hand_L)" and 30 <= far["worst_frame"] <= 32

@@ -59,6 +59,39 @@ def _drop_unseen(pos, joints, spec: str):
     return pos[:, seen], [j for j, ok in zip(joints, seen) if ok], unseen
 
 
+FAR_CM = 10.0  # a fit that ends this far from a marker it was given has not passed through it
+
+
+def _far_from_markers(result, pos, joints, db, spec: str, unseen) -> dict:
+    """Where the markers fit ends over :data:`FAR_CM` further from a seen marker than usual: frames, the worst marker and frame.
+
+    The fit is a least-squares compromise with a pose prior, a smoothness and
+    a joint-range term, and in single frames it can end tens of centimetres
+    from a marker (a hand missed when the local model cannot reach it).
+    ``pos`` (F, M, 3) in the database's unit and frame, as the fit saw them;
+    the result's markers are taken on its own skeleton, in its unit. ``worst_cm``
+    is beyond the marker's median distance.
+    """
+    import numpy as np
+
+    from ..features import virtual_markers
+    from ..motion import unit_scale_cm
+    from ..reconstruct.control import parse_use
+
+    fitted = virtual_markers(result, list(joints)) * unit_scale_cm(result.skeleton)
+    d = np.linalg.norm(fitted - np.asarray(pos) * unit_scale_cm(db.skeletons[0]), axis=-1)  # (F, M) cm, NaN unseen
+    # a skin marker sits centimetres off its joint (LFHD on the forehead, not the head joint): its usual distance,
+    # the median over the take, is no miss; a frame further than that by FAR_CM is
+    d = d - np.nanmedian(d, axis=0)
+    over = np.nan_to_num(d, nan=0.0) > FAR_CM
+    labels = [a for a, _ in parse_use(spec) if not any(u.startswith(f"{a} (") for u in unseen)]
+    if not over.any():
+        return {"over_cm": FAR_CM, "frames": 0}
+    f, m = np.unravel_index(int(np.nanargmax(np.where(over, d, -1.0))), d.shape)
+    return {"over_cm": FAR_CM, "frames": int(over.any(axis=1).sum()), "worst_marker": f"{labels[m]} ({joints[m]})",
+            "worst_cm": round(float(d[f, m]), 2), "worst_frame": int(f)}
+
+
 def _asf_for_amc(out: Path, skeleton: Optional[Path], performer, source, inp: Path, asf: Optional[Path], overwrite: bool):
     """The ASF an ``.amc`` output is read back with (None for other outputs), checked before any work.
 
@@ -257,7 +290,12 @@ def reconstruct(
             pelvis_cm, body_cm = global_errors_cm(ref, result)
             report += f"; in the markers' frame: pelvis {pelvis_cm:.2f} cm, body {body_cm:.2f} cm"
             errors.update(pelvis_position_rms_cm=pelvis_cm, body_position_rms_cm=body_cm)
-    notes = []
+    notes, far = [], {}
+    if kind == "markers":
+        far = _far_from_markers(result, pos, joints, db, spec, unseen)
+        if far["frames"]:
+            notes.append(f"the fit ends over {FAR_CM:g} cm further than usual from a seen marker in {plural(far['frames'], 'frame')} of "
+                         f"{result.num_frames} (worst: {far['worst_marker']} {far['worst_cm']:.1f} cm at frame {far['worst_frame']})")
     if kind != "accelerometers" and unseen:
         notes.append(f"{', '.join(unseen)} never seen in {inp.name}: left out (the other markers carry the fit)")
     if isinstance(source, Motion) and not source.skeleton.is_compatible(result.skeleton):
@@ -269,7 +307,7 @@ def reconstruct(
 
         print(json.dumps({"out": str(out), "frames": result.num_frames, "fps": result.fps, "method": kind,
                           "from": what, "left_out": list(unseen) if kind != "accelerometers" else [],
-                          **errors, "notes": notes}))
+                          **errors, **({"far_from_markers": far} if far else {}), "notes": notes}))
         return
     console.print(f"wrote {out}: {plural(result.num_frames, 'frame')} @ {result.fps:g} fps from {what}{report}")
     for note in notes:
