@@ -243,3 +243,57 @@ def whole_motion(body: Motion, skeleton: Skeleton, up: np.ndarray) -> Motion:
         root = pelvis - (rest[p] - rest[0])
     return Motion(skeleton, rot, root, body.fps, body.name, tr)
 
+
+def database_bodies(db: MotionDatabase) -> tuple[np.ndarray, np.ndarray]:
+    """Every database frame's *body* (:func:`._common.body_motion`), what a played-back subsequence is made of.
+
+    On Acclaim and most BVH rigs the pelvis is the root and these are the
+    database's own arrays. On the Bandai Namco game rig the root
+    ``joint_Root`` stays on the floor and ``Hips`` carries the translation:
+    the body is rooted at ``Hips``, so aligning and cross-fading it moves the
+    pelvis itself, not the floor-bound root. As in :mod:`mocapkit.reconstruct.markers`, the bone
+    lengths are the output skeleton's (no animated offsets are played).
+
+    Returns
+    -------
+    rotations : float array (N, B, 4)
+        Local rotations of the body joints, the pelvis's global.
+    pelvis : float array (N, 3)
+        The pelvis's global position, file units.
+    """
+    sk = db.skeletons[0]
+    if body_skeleton(sk) is sk:
+        return db.rotations, db.root_positions
+
+    def packed(m: Motion) -> np.ndarray:
+        b = body_motion(m)
+        return np.concatenate([b.rotations.reshape(b.num_frames, -1), b.root_positions], axis=1)
+
+    flat = per_clip(db, packed)
+    return flat[:, :-3].reshape(flat.shape[0], -1, 4), flat[:, -3:]
+
+
+def onto_pelvis_marker(pelvis: np.ndarray, markers: np.ndarray, joints: list[str], skeleton: Skeleton) -> np.ndarray:
+    """The played-back pelvis positions (F, 3) moved onto the pelvis's own marker where it is seen.
+
+    The alignment of eq. 4.3 places each subsequence as a whole, so its pelvis
+    lies where the database actor's would (his height, his stride) and jumps
+    by the difference at every change of subsequence. A marker on the pelvis
+    (found by its role, :func:`mocapkit.rigs.pelvis_index`, as
+    :mod:`mocapkit.reconstruct.markers` pins its root) says where it is: the offset ``marker -
+    pelvis`` (F, 3) is taken where the marker is seen, linearly interpolated
+    over its gaps and held before its first and after its last sighting, and
+    added. Without such a marker, or when it is never seen, ``pelvis`` is
+    returned as it is. ``markers`` (F, M, 3) NaN where unseen, file units.
+    """
+    name = skeleton.joint_names[pelvis_index(skeleton)]
+    cols = [m for m, j in enumerate(joints) if j == name]
+    if not cols:
+        return pelvis
+    x = markers[:, cols[0]]
+    seen = np.isfinite(x).all(axis=1)
+    if not seen.any():
+        return pelvis
+    t = np.arange(len(pelvis))
+    d = x[seen] - pelvis[seen]
+    return pelvis + np.stack([np.interp(t, t[seen], d[:, c]) for c in range(3)], axis=1)

@@ -39,7 +39,7 @@ Namco game rig, whose root ``joint_Root`` stays on the floor while ``Hips``
 carries the translation, the pelvis is what is aligned, cross-faded and
 placed; ``joint_Root`` is put back on the ground under it on output
 (:func:`._common.whole_motion`), as :mod:`.markers` does. A marker on the
-pelvis, where seen, places it (:func:`_onto_pelvis_marker`).
+pelvis, where seen, places it (:func:`._common.onto_pelvis_marker`).
 
 Departures from the thesis, all documented where they act: the local cost is
 the *weighted mean* squared distance (eq. 4.3 divided by the sum of the
@@ -62,10 +62,9 @@ from ..progress import bar_disabled
 from .. import rotations as R
 from ..database import MotionDatabase
 from ..motion import Motion, Skeleton
-from ..rigs import pelvis_index
 from ..search.dtw import subsequence_dtw
-from ._common import (align_about_vertical, body_motion, body_skeleton, database_positions, in_database_units, in_units_of,
-                      output_skeleton, per_clip, whole_motion)
+from ._common import (align_about_vertical, body_skeleton, database_bodies, database_positions, in_database_units, in_units_of,
+                      onto_pelvis_marker, output_skeleton, per_clip, whole_motion)
 
 __all__ = [
     "Alignment",
@@ -749,39 +748,10 @@ def cross_fade(rot_a, root_a, rot_b, root_b) -> tuple[np.ndarray, np.ndarray]:
     return rot, root
 
 
-def _bodies(db: MotionDatabase) -> tuple[np.ndarray, np.ndarray]:
-    """Every database frame's *body* (:func:`._common.body_motion`), what a played-back subsequence is made of.
-
-    On Acclaim and most BVH rigs the pelvis is the root and these are the
-    database's own arrays. On the Bandai Namco game rig the root
-    ``joint_Root`` stays on the floor and ``Hips`` carries the translation:
-    the body is rooted at ``Hips``, so aligning and cross-fading it moves the
-    pelvis itself, not the floor-bound root. As in :mod:`.markers`, the bone
-    lengths are the output skeleton's (no animated offsets are played).
-
-    Returns
-    -------
-    rotations : float array (N, B, 4)
-        Local rotations of the body joints, the pelvis's global.
-    pelvis : float array (N, 3)
-        The pelvis's global position, file units.
-    """
-    sk = db.skeletons[0]
-    if body_skeleton(sk) is sk:
-        return db.rotations, db.root_positions
-
-    def packed(m: Motion) -> np.ndarray:
-        b = body_motion(m)
-        return np.concatenate([b.rotations.reshape(b.num_frames, -1), b.root_positions], axis=1)
-
-    flat = per_clip(db, packed)
-    return flat[:, :-3].reshape(flat.shape[0], -1, 4), flat[:, -3:]
-
-
 def _play(db: MotionDatabase, bodies, node: Subsequence, lo: int, hi: int) -> tuple[np.ndarray, np.ndarray]:
     """Body rotations (T, B, 4) and pelvis positions (T, 3) of a node at control frames [lo, hi), in the marker frame.
 
-    ``bodies`` is :func:`_bodies` of ``db``.
+    ``bodies`` is :func:`._common.database_bodies` of ``db``.
     """
     rotations, pelvis = bodies
     f = node.frames[lo - node.lo : hi - node.lo]
@@ -800,7 +770,7 @@ def _play(db: MotionDatabase, bodies, node: Subsequence, lo: int, hi: int) -> tu
 
 
 def _synthesise(db: MotionDatabase, bodies, graph: SubsequenceGraph, path: list[int]) -> tuple[np.ndarray, np.ndarray]:
-    """Step 5: play the path's subsequences' bodies (:func:`_bodies`) and cross-fade consecutive ones in their blend ranges.
+    """Step 5: play the path's subsequences' bodies (:func:`._common.database_bodies`) and cross-fade consecutive ones in their blend ranges.
 
     Returns body rotations (F, B, 4) and pelvis positions (F, 3).
     """
@@ -825,32 +795,6 @@ def _synthesise(db: MotionDatabase, bodies, graph: SubsequenceGraph, path: list[
 
 
 # -- the public entry point ------------------------------------------------------------------------
-
-
-def _onto_pelvis_marker(pelvis: np.ndarray, markers: np.ndarray, joints: list[str], skeleton: Skeleton) -> np.ndarray:
-    """The played-back pelvis positions (F, 3) moved onto the pelvis's own marker where it is seen.
-
-    The alignment of eq. 4.3 places each subsequence as a whole, so its pelvis
-    lies where the database actor's would (his height, his stride) and jumps
-    by the difference at every change of subsequence. A marker on the pelvis
-    (found by its role, :func:`mocapkit.rigs.pelvis_index`, as
-    :mod:`.markers` pins its root) says where it is: the offset ``marker -
-    pelvis`` (F, 3) is taken where the marker is seen, linearly interpolated
-    over its gaps and held before its first and after its last sighting, and
-    added. Without such a marker, or when it is never seen, ``pelvis`` is
-    returned as it is. ``markers`` (F, M, 3) NaN where unseen, file units.
-    """
-    name = skeleton.joint_names[pelvis_index(skeleton)]
-    cols = [m for m, j in enumerate(joints) if j == name]
-    if not cols:
-        return pelvis
-    x = markers[:, cols[0]]
-    seen = np.isfinite(x).all(axis=1)
-    if not seen.any():
-        return pelvis
-    t = np.arange(len(pelvis))
-    d = x[seen] - pelvis[seen]
-    return pelvis + np.stack([np.interp(t, t[seen], d[:, c]) for c in range(3)], axis=1)
 
 
 def _resample_markers(X: np.ndarray, fps: float, target: float) -> np.ndarray:
@@ -972,8 +916,8 @@ def reconstruct(
     pos = per_clip(db, lambda m: m.global_positions())
     graph = subsequence_graph(Xd, P, pos, db.clip_ids, window=N, overlap=o, k=k, half_window=h, progress=progress)
     path = shortest_path(graph, transition_weight)
-    rot, root = _synthesise(db, _bodies(db), graph, path)
-    root = _onto_pelvis_marker(root, Xd, names, db.skeletons[0])
+    rot, root = _synthesise(db, database_bodies(db), graph, path)
+    root = onto_pelvis_marker(root, Xd, names, db.skeletons[0])
     out = in_units_of(whole_motion(Motion(body_skeleton(out_sk), rot, root, db.fps, name="ssg reconstruction"), out_sk, _UP), given, back)
     if fps != db.fps:
         out = out.resample(fps)[: X.shape[0]]
@@ -1005,14 +949,14 @@ def framewise(markers, joints, db: MotionDatabase, fps: float, *, cost_window: f
     P = database_positions(db, names)
     C = point_cloud_cost_matrix(Xd, P, db.clip_ids, half_window=_half_window(db.fps, cost_window))
     best = np.argmin(C, axis=1)
-    rotations, pelvis = _bodies(db)
+    rotations, pelvis = database_bodies(db)
     rot = R.quaternion_normalize(np.asarray(rotations[best], dtype=np.float64))
     root = np.asarray(pelvis[best], dtype=np.float64)
     for f in range(F):
         _, T = point_cloud_distance(Xd[f], P[best[f]])
         rot[f, 0] = R.quaternion_multiply(T.quaternion(), rot[f, 0])
         root[f] = T.apply(root[f])
-    root = _onto_pelvis_marker(root, _resample_markers(X, fps, db.fps), names, db.skeletons[0])
+    root = onto_pelvis_marker(root, _resample_markers(X, fps, db.fps), names, db.skeletons[0])
     out = in_units_of(whole_motion(Motion(body_skeleton(out_sk), rot, root, db.fps, name="framewise nearest pose"), out_sk, _UP), given, back)
     if fps != db.fps:
         out = out.resample(fps)[: X.shape[0]]
