@@ -147,18 +147,26 @@ def joint_position_rms(
     - ``"heading"``: pelvis position and heading (the rotation about the
       vertical, :func:`mocapkit.features.root_frame`) removed, the pelvis's tilt
       kept: free heading, but a wrongly tilted pelvis counts;
+    - ``"body"``: global positions of the pelvis and the joints below it (the
+      body a reconstruction places in the markers' frame; a game rig's
+      floor-bound root above the pelvis is left out);
+    - ``"pelvis"``: the pelvis's global position alone;
     - False: global positions, all joints.
 
     Lengths are converted with ``scale_cm`` or :func:`unit_scale_cm` of
     ``a``'s skeleton. NaN joints are left out.
     """
     _check_pair(a, b)
-    if root_relative not in (True, False, "frame", "heading"):
-        raise ValueError(f"root_relative must be True, False, 'frame' or 'heading', got {root_relative!r}")
+    if root_relative not in (True, False, "frame", "heading", "body", "pelvis"):
+        raise ValueError(f"root_relative must be True, False, 'frame', 'heading', 'body' or 'pelvis', got {root_relative!r}")
     scale = unit_scale_cm(a.skeleton) if scale_cm is None else float(scale_cm)
     ga, pa = a.global_transforms()
     gb, pb = b.global_transforms()
-    if root_relative is not False:
+    if root_relative in ("body", "pelvis"):
+        p, below = _below_pelvis(a.skeleton)
+        keep = [p] if root_relative == "pelvis" else [p, *below]
+        pa, pb = pa[:, keep], pb[:, keep]
+    elif root_relative is not False:
         p, below = _below_pelvis(a.skeleton)
         pa = pa[:, below] - pa[:, p : p + 1]
         pb = pb[:, below] - pb[:, p : p + 1]

@@ -27,7 +27,7 @@ import numpy as np
 
 from .errors import MocapFormatError
 
-__all__ = ["check_reference", "clean_errors", "joint_angle_errors", "filled_error_deg", "position_error_cm"]
+__all__ = ["check_reference", "clean_errors", "joint_angle_errors", "filled_error_deg", "global_errors_cm", "position_error_cm"]
 
 
 def check_reference(reference, path: os.PathLike | str, *, frames: int, joint_names: Sequence[str] | None = None,
@@ -108,6 +108,22 @@ def filled_error_deg(reference, filled, missing: np.ndarray) -> float:
     if not missing.any():
         return 0.0
     return float(np.degrees(geodesic_pose_distance(reference, filled))[missing].mean())
+
+
+def global_errors_cm(reference, result) -> tuple[float, float]:
+    """Where the result lies, not only its pose: the pelvis's position RMS and the body's joint-position RMS (cm), global.
+
+    A root-relative figure (:func:`position_error_cm`) is blind to a body put
+    metres from its markers; these compare positions as they are, in the
+    reference's frame (a reconstruction from markers is placed in the
+    markers'). The pelvis is found by its role; the body is it and the joints
+    below it (:func:`mocapkit.metrics.joint_position_rms`, ``"pelvis"`` and
+    ``"body"``). Returns ``(pelvis_cm, body_cm)``.
+    """
+    from .metrics import joint_position_rms
+
+    return (float(joint_position_rms(reference, result, root_relative="pelvis")),
+            float(joint_position_rms(reference, result, root_relative="body")))
 
 
 def position_error_cm(reference, result, heading: bool = False) -> float:

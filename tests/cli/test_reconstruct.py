@@ -192,3 +192,143 @@ def test_accelerometers_of_another_rig_say_whose_body_the_result_is(tmp_path, db
     code, _, err = run("reconstruct", "--db", str(db_dir), "--accelerometers", str(bandai), "-o",
                        str(tmp_path / "s.bvh"), "--reference", str(bandai))
     assert code == 2 and "the reference must have the reconstruction's" in err
+
+
+BANDAI = Path(__file__).resolve().parents[1] / "data" / "bandai_dance-short_normal_001_first60.bvh"
+
+
+@pytest.fixture(scope="module")
+def bandai_db(tmp_path_factory):
+    d = tmp_path_factory.mktemp("bandai") / "db"
+    code, _, err = run("db", "build", str(d), str(BANDAI), "--fps", "30", "--executor", "serial")
+    assert code == 0, err
+    return d
+
+
+def test_ssg_on_the_bandai_rig_reports_where_the_body_lies(tmp_path, bandai_db):
+    """--reference gives the pelvis's and the body's error in the markers' frame beside the root-relative one, in --json too."""
+    import json
+
+    out = tmp_path / "rec.bvh"
+    code, stdout, err = run("reconstruct", "--db", str(bandai_db), "--ssg", str(BANDAI), "-o", str(out),
+                            "--reference", str(BANDAI), "--json")
+    assert code == 0, err
+    rep = json.loads(stdout)
+    assert rep["frames"] == 60 and rep["joint_position_rms_is"] == "root-relative"
+    # the body is played back by its pelvis (Hips), which lies on its marker: not metres away
+    assert rep["pelvis_position_rms_cm"] < 0.01 and rep["body_position_rms_cm"] < 1.0
+    code, stdout, err = run("reconstruct", "--db", str(bandai_db), "--ssg", str(BANDAI), "-o", str(out),
+                            "--reference", str(BANDAI), "--overwrite")
+    assert code == 0 and "in the markers' frame: pelvis 0.00 cm, body" in " ".join(stdout.split()), stdout
+
+
+def test_markers_on_a_take_in_metres_give_a_body_in_metres(tmp_path, bandai_db):
+    import dataclasses
+
+    take = mocapkit.load(BANDAI)
+    sk = take.skeleton
+    metres = dataclasses.replace(take, skeleton=dataclasses.replace(sk, offsets=sk.offsets * 0.01, end_site_offsets=sk.end_site_offsets * 0.01),
+                                 root_positions=take.root_positions * 0.01, translations=take.translations * 0.01)
+    src, out = tmp_path / "walk_m.bvh", tmp_path / "rec.bvh"
+    mocapkit.save(metres, src)
+    code, stdout, err = run("reconstruct", "--db", str(bandai_db), "--markers", str(src), "-o", str(out), "--reference", str(src))
+    assert code == 0, err
+    d = np.linalg.norm(mocapkit.load(out).global_positions()[:, 1:] - metres.global_positions()[:, 1:], axis=-1)
+    assert d.mean() < 0.02  # metres: the body is the take's, in its unit
+    assert _reported_cm(stdout) < 2.0
+
+
+def test_a_marker_never_seen_is_left_out_and_said(tmp_path, bandai_db):
+    from mocapkit.features import virtual_markers
+    from mocapkit.io import save_markers
+    from mocapkit.markerset import MarkerSet
+
+    take = mocapkit.load(BANDAI)
+    names = ["Hand_L", "Hand_R", "Foot_L", "Foot_R", "Head", "Hips"]
+    x = virtual_markers(take, names)
+    x[:, 0] = np.nan
+    ms = MarkerSet(tuple(n.upper() for n in names), x, take.fps, "cm")
+    src, out = tmp_path / "m.npz", tmp_path / "rec.bvh"
+    save_markers(ms, src)
+    use = ",".join(f"{n.upper()}={n}" for n in names)
+    code, stdout, err = run("reconstruct", "--db", str(bandai_db), "--markers", str(src), "--use", use, "--up-axis", "y", "-o", str(out))
+    assert code == 0, err
+    text = " ".join(stdout.split())
+    assert "from 5 markers (Hand_R, Foot_L, Foot_R, Head, Hips)" in text
+    assert "HAND_L (Hand_L) never seen in m.npz: left out" in text
+
+
+def test_amc_output_on_the_performer_asf(tmp_path, db_dir, query):
+    out = tmp_path / "rec.amc"
+    code, stdout, err = run("reconstruct", "--db", str(db_dir), "--markers", str(QUERY), "-o", str(out))
+    assert code == 0, err
+    back = mocapkit.load(out)  # read with the ASF copied beside it
+    assert back.num_frames == mocapkit.load(QUERY).num_frames and back.skeleton.is_compatible(query.skeleton)
+    csv = tmp_path / "imu.csv"
+    from mocapkit.io.readings import write_readings_csv
+
+    write_readings_csv(csv, np.arange(query.num_frames) / query.fps, virtual_accelerometers(query))
+    code, _, err = run("reconstruct", "--db", str(db_dir), "--accelerometers", str(csv), "-o", str(tmp_path / "acc.amc"))
+    assert code == 2 and one_error_line(err) and "has none" in err  # the database's skeleton: no ASF to read it with
+    assert not (tmp_path / "acc.amc").exists()
+
+
+def test_jittered_csv_keeps_its_frames_and_nominal_rate(tmp_path, db_dir, query):
+    from mocapkit.io.readings import write_readings_csv
+
+    F = query.num_frames
+    t = np.arange(F) / 120.0 + np.random.default_rng(1).uniform(-0.002, 0.002, F)
+    t[0] = 0.0
+    csv = tmp_path / "jit.csv"
+    write_readings_csv(csv, t, virtual_accelerometers(query))
+    out = tmp_path / "rec.bvh"
+    code, stdout, err = run("reconstruct", "--db", str(db_dir), "--accelerometers", str(csv), "-o", str(out))
+    assert code == 0, err
+    rec = mocapkit.load(out)
+    assert rec.num_frames == F and rec.fps == 120.0
+    one = tmp_path / "one.csv"
+    write_readings_csv(one, t[:1], virtual_accelerometers(query)[:1])
+    code, _, err = run("reconstruct", "--db", str(db_dir), "--accelerometers", str(one), "-o", str(tmp_path / "one.bvh"))
+    assert code == 2 and one_error_line(err) and "no rate" in err
+
+
+def test_knowledge_folder_is_built_once_and_reused(tmp_path, db_dir, query):
+    from mocapkit.io.readings import write_readings_csv
+
+    csv = tmp_path / "imu.csv"
+    write_readings_csv(csv, np.arange(query.num_frames) / query.fps, virtual_accelerometers(query))
+    kb = tmp_path / "kb"
+    outs = []
+    for i in range(2):
+        outs.append(tmp_path / f"rec{i}.bvh")
+        code, _, err = run("reconstruct", "--db", str(db_dir), "--accelerometers", str(csv), "-o", str(outs[-1]), "--knowledge", str(kb))
+        assert code == 0, err
+        if i == 0:
+            stamp = {p.name: p.stat().st_mtime_ns for p in kb.iterdir()}
+    assert stamp and {p.name: p.stat().st_mtime_ns for p in kb.iterdir()} == stamp  # opened, not written again
+    assert outs[0].read_bytes() == outs[1].read_bytes()
+    (tmp_path / "other").mkdir()
+    (tmp_path / "other" / "notes.txt").write_text("mine")
+    code, _, err = run("reconstruct", "--db", str(db_dir), "--accelerometers", str(csv), "-o", str(tmp_path / "x.bvh"),
+                       "--knowledge", str(tmp_path / "other"))
+    assert code == 2 and one_error_line(err) and (tmp_path / "other" / "notes.txt").read_text() == "mine"
+
+
+def test_markers_fit_says_where_it_ends_far_from_a_seen_marker(tmp_path, bandai_db):
+    import json
+
+    from mocapkit.features import virtual_markers
+    from mocapkit.io import save_markers
+    from mocapkit.markerset import MarkerSet
+
+    take = mocapkit.load(BANDAI)
+    names = ["Hand_L", "Hand_R", "Foot_L", "Foot_R", "Head", "Hips"]
+    x = virtual_markers(take, names)
+    x[30:33, 0, 1] += 150.0  # a left-hand marker 1.5 m above the hand: out of the arm's reach
+    src, out = tmp_path / "m.npz", tmp_path / "rec.bvh"
+    save_markers(MarkerSet(tuple(names), x, take.fps, "cm"), src)
+    code, stdout, err = run("reconstruct", "--db", str(bandai_db), "--markers", str(src), "--use", ",".join(names),
+                            "--up-axis", "y", "-o", str(out), "--json")
+    assert code == 0, err
+    far = json.loads(stdout)["far_from_markers"]
+    assert 1 <= far["frames"] <= 6 and far["worst_marker"] == "Hand_L (Hand_L)" and 30 <= far["worst_frame"] <= 32

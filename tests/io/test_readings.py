@@ -103,3 +103,17 @@ def test_csv_write_refuses_bad_input(tmp_path):
     with pytest.raises(ValueError, match="names"):
         write_readings_csv(tmp_path / "x.csv", [0.0, 1.0], np.zeros((2, 4, 3)), ["a"])
     assert not (tmp_path / "x.csv").exists()
+
+
+def test_jittered_time_stamps_keep_one_frame_per_sample_at_the_nominal_rate(tmp_path):
+    from mocapkit.io.readings import nominal_rate
+
+    rng = np.random.default_rng(0)
+    t = np.arange(262) / 120.0 + rng.uniform(0.0, 0.004, 262) ** 2 * 250 - 0.002  # jitter that is not symmetric
+    t[0] = 0.0
+    assert nominal_rate(t) == (120.0, True)
+    ts, rd, _ = read_readings_csv(write_readings_csv(tmp_path / "j.csv", t, np.zeros((262, 4, 3))))
+    assert len(ts) == 262 and rd.shape[0] == 262
+    np.testing.assert_allclose(np.diff(ts), 1 / 120.0)
+    with pytest.raises(ValueError, match="no rate"):
+        nominal_rate([0.0])

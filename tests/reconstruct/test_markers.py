@@ -364,3 +364,21 @@ def test_bad_search_weights(db, truth):
     for bad in ([1.0] * 5, [1.0, 1.0, 1.0, 1.0, 0.0, 1.0], [1.0, 1.0, 1.0, 1.0, np.nan, 1.0]):
         with pytest.raises(ValueError, match="search_weights"):
             reconstruct(x, MARKERS, db, 30, search_weights=bad)
+
+
+def _in_metres(sk):
+    import dataclasses
+
+    s = unit_scale_cm(sk) / 100.0
+    return dataclasses.replace(sk, offsets=sk.offsets * s, end_site_offsets=sk.end_site_offsets * s, unit_cm=100.0)
+
+
+def test_performer_skeleton_in_metres_gives_the_same_body_in_metres(db, truth, result):
+    # the markers are in the database's unit; a performer skeleton in metres is fitted in that unit too and the
+    # result written in metres (before, a body of metre-long bones was fitted to the database-unit markers)
+    x, out = result
+    metres = _in_metres(truth.skeleton)
+    out_m = reconstruct(x, MARKERS, db, 30, skeleton=metres)
+    assert out_m.skeleton is metres
+    d = np.linalg.norm(out_m.global_positions() * 100.0 - out.global_positions() * unit_scale_cm(truth.skeleton), axis=-1)
+    assert d.mean() < 0.05 and d.max() < 1.0, (d.mean(), d.max())

@@ -317,3 +317,65 @@ def test_bad_input(knowledge, truth):
         ssg.reconstruct(X, HANDS_FEET, knowledge, 120.0, skeleton=other)
     with pytest.raises(ValueError, match="db_markers"):
         ssg.point_cloud_cost_matrix(X[:, :2], np.zeros((5, 3, 3)))
+
+
+# -- a rig whose pelvis is not the root (Bandai Namco: joint_Root on the floor, Hips moves) -------------------
+
+BANDAI_MARKERS = ["Hand_L", "Hand_R", "Foot_L", "Foot_R", "Head"]
+
+
+@pytest.fixture(scope="module")
+def bandai_clip():
+    from pathlib import Path
+
+    return mocapkit.load(Path(__file__).resolve().parents[1] / "data" / "bandai_dance-short_normal_001_first60.bvh").resample(30)
+
+
+@pytest.fixture(scope="module")
+def bandai_db(bandai_clip):
+    return MotionDatabase.build([bandai_clip], fps=30, executor="serial", progress=False)
+
+
+@pytest.mark.parametrize("method", ["reconstruct", "framewise"])
+def test_bandai_body_overlays_its_markers_moved_on_the_ground(bandai_db, bandai_clip, method):
+    # the database's own take, its markers moved 3 m along x and turned: the played-back body is aligned and
+    # moved by its pelvis (Hips), not by the floor-bound joint_Root, so every joint lands where the truth's does
+    m = bandai_db.clip(0)
+    q = R.quaternion_from_axis_angle(np.array([0.0, 1.0, 0.0]), 0.7)
+    g = R.quaternion_rotate(q, m.global_positions(end_sites=True)) + np.array([300.0, 0.0, -120.0])
+    X = R.quaternion_rotate(q, virtual_markers(m, BANDAI_MARKERS)) + np.array([300.0, 0.0, -120.0])
+    out = getattr(ssg, method)(X, BANDAI_MARKERS, bandai_db, 30.0, skeleton=m.skeleton)
+    err = np.linalg.norm(out.global_positions(end_sites=True) - g, axis=-1)
+    assert err[:, 1:].max() < 1.0  # cm, every joint but the root (the truth's joint_Root is not under its pelvis)
+    hips = m.skeleton.index("Hips")
+    assert out.global_positions()[:, 0, 1].max() < 1e-9  # joint_Root on the floor, under the pelvis
+    np.testing.assert_allclose(out.global_positions()[:, 0, [0, 2]], out.global_positions()[:, hips, [0, 2]], atol=1e-9)
+
+
+def test_bandai_pelvis_lies_on_its_marker_where_seen(bandai_db, bandai_clip):
+    # a marker on the pelvis (found by its role: Hips) places it where the played-back subsequence would not:
+    # the truth lifted 5 cm; where the Hips marker is hidden the offset is interpolated, never a jump
+    m = bandai_db.clip(0)
+    joints = BANDAI_MARKERS + ["Hips"]
+    X = virtual_markers(m, joints) + np.array([0.0, 5.0, 0.0])
+    X[20:30, -1] = np.nan
+    out = ssg.reconstruct(X, joints, bandai_db, 30.0, skeleton=m.skeleton)
+    hips = out.global_positions()[:, m.skeleton.index("Hips")]
+    seen = np.isfinite(X[:, -1, 0])
+    np.testing.assert_allclose(hips[seen], X[seen, -1], atol=1e-6)
+    truth = m.global_positions()[:, m.skeleton.index("Hips")] + [0.0, 5.0, 0.0]
+    assert np.linalg.norm(hips - truth, axis=-1).max() < 1.0
+
+
+def test_bandai_performer_skeleton_in_metres_is_played_back_in_metres(bandai_db, bandai_clip):
+    import dataclasses
+
+    m = bandai_db.clip(0)
+    sk = m.skeleton
+    s = unit_scale_cm(sk) / 100.0
+    metres = dataclasses.replace(sk, offsets=sk.offsets * s, end_site_offsets=sk.end_site_offsets * s, unit_cm=100.0)
+    X = virtual_markers(m, BANDAI_MARKERS)  # the database's unit (cm)
+    out = ssg.reconstruct(X, BANDAI_MARKERS, bandai_db, 30.0, skeleton=metres)
+    assert out.skeleton is metres
+    err = np.linalg.norm(out.global_positions() * 100.0 - m.global_positions() * unit_scale_cm(sk), axis=-1)
+    assert err[:, 1:].max() < 1.0

@@ -42,6 +42,100 @@ def _performer_skeleton(path: Optional[Path], source, db):
     return None
 
 
+def _drop_unseen(pos, joints, spec: str):
+    """Markers (F, M, 3) and joints without those never seen in the take, and the ``LABEL (joint)`` of the dropped.
+
+    A marker empty in every frame says nothing; counting it as used would
+    claim a fit it did not make. The others still carry the reconstruction,
+    so it goes on without it and says so (a mislabelled --use shows up there).
+    """
+    import numpy as np
+
+    from ..reconstruct.control import parse_use
+
+    seen = np.isfinite(pos).all(axis=-1).any(axis=0)
+    labels = [a for a, _ in parse_use(spec)]
+    unseen = [f"{a} ({j})" for a, j, ok in zip(labels, joints, seen) if not ok]
+    return pos[:, seen], [j for j, ok in zip(joints, seen) if ok], unseen
+
+
+FAR_CM = 10.0  # a fit that ends this far from a marker it was given has not passed through it
+
+
+def _far_from_markers(result, pos, joints, db, spec: str, unseen) -> dict:
+    """Where the markers fit ends over :data:`FAR_CM` further from a seen marker than usual: frames, the worst marker and frame.
+
+    The fit is a least-squares compromise with a pose prior, a smoothness and
+    a joint-range term, and in single frames it can end tens of centimetres
+    from a marker (a hand missed when the local model cannot reach it).
+    ``pos`` (F, M, 3) in the database's unit and frame, as the fit saw them;
+    the result's markers are taken on its own skeleton, in its unit. ``worst_cm``
+    is beyond the marker's median distance.
+    """
+    import numpy as np
+
+    from ..features import virtual_markers
+    from ..motion import unit_scale_cm
+    from ..reconstruct.control import parse_use
+
+    fitted = virtual_markers(result, list(joints)) * unit_scale_cm(result.skeleton)
+    d = np.linalg.norm(fitted - np.asarray(pos) * unit_scale_cm(db.skeletons[0]), axis=-1)  # (F, M) cm, NaN unseen
+    # a skin marker sits centimetres off its joint (LFHD on the forehead, not the head joint): its usual distance,
+    # the median over the take, is no miss; a frame further than that by FAR_CM is
+    d = d - np.nanmedian(d, axis=0)
+    over = np.nan_to_num(d, nan=0.0) > FAR_CM
+    labels = [a for a, _ in parse_use(spec) if not any(u.startswith(f"{a} (") for u in unseen)]
+    if not over.any():
+        return {"over_cm": FAR_CM, "frames": 0}
+    f, m = np.unravel_index(int(np.nanargmax(np.where(over, d, -1.0))), d.shape)
+    return {"over_cm": FAR_CM, "frames": int(over.any(axis=1).sum()), "worst_marker": f"{labels[m]} ({joints[m]})",
+            "worst_cm": round(float(d[f, m]), 2), "worst_frame": int(f)}
+
+
+def _asf_for_amc(out: Path, skeleton: Optional[Path], performer, source, inp: Path, asf: Optional[Path], overwrite: bool):
+    """The ASF an ``.amc`` output is read back with (None for other outputs), checked before any work.
+
+    The body is written on the performer's skeleton: ``--skeleton X.asf``, or
+    an ``.amc`` input's own (read with its ASF). On the database's skeleton
+    there is no ASF file to read an AMC with: refused in one line.
+    """
+    if out.suffix.lower() != ".amc":
+        return None
+    from ..io.takes import asf_for_output, asf_of
+
+    if skeleton is not None and skeleton.suffix.lower() == ".asf":
+        found = skeleton
+    elif skeleton is None and performer is not None and getattr(source, "skeleton", None) is performer:
+        found = asf_of(inp, asf)
+    else:
+        found = None
+    if found is None:
+        raise MocapFormatError(out, "an .amc is read with its skeleton's ASF, and this body's skeleton has none "
+                                    "(give --skeleton PERFORMER.asf, or write .bvh or .npz)")
+    asf_for_output(out, found, overwrite)  # where it is copied, refused now if that would lose a file
+    return found
+
+
+def _write(result, out: Path, asf_file: Optional[Path], overwrite: bool) -> None:
+    """Save the reconstruction; an ``.amc`` with its ASF beside it (copied when the folder lacks it)."""
+    from .. import io
+    from ..io.outputs import removed_on_failure
+    from ..io.takes import asf_for_output, place_asf
+
+    if asf_file is None:
+        io.save(result, out)
+        return
+    from ..io.amc_writer import check_amc_writable
+
+    check_amc_writable(result, out)
+    copy = asf_for_output(out, asf_file, overwrite)
+    with removed_on_failure([copy, out], overwrite=overwrite):
+        place_asf(copy, asf_file)
+        io.save(result, out, asf=asf_file)
+    if copy is not None:
+        console.print(f"copied the skeleton {asf_file} to {copy}: an AMC is read with the ASF beside it")
+
+
 def _sensors_named(names, db, path: Path):
     """The database skeleton's default sensors in the CSV's column order."""
     from ..features import default_sensors
@@ -55,7 +149,7 @@ def _sensors_named(names, db, path: Path):
 
 def reconstruct(
     db_dir: Path = typer.Option(..., "--db", help="The knowledge base: a database folder (`mocapkit db build`)."),
-    out: Path = typer.Option(..., "--out", "-o", help="Reconstructed full-body motion (.bvh or .npz; .amc on an ASF skeleton, read back with that ASF)."),
+    out: Path = typer.Option(..., "--out", "-o", help="Reconstructed full-body motion (.bvh or .npz; .amc when the body is on an ASF's skeleton: --skeleton X.asf, or an .amc input; the ASF is copied beside it)."),
     markers: Optional[Path] = typer.Option(
         None, "--markers", help="A few marker trajectories (.c3d, marker .npz, or a motion whose joints become markers): local linear models (Krüger 2010, 5.2)."
     ),
@@ -78,6 +172,9 @@ def reconstruct(
     ),
     neighbours: Optional[int] = typer.Option(None, "--neighbours", "--neighbors", help="Accelerometers: K nearest database frames per sample (default 1 % of the database's frames, 128-4096)."),
     smoothing: Optional[float] = typer.Option(None, "--smoothing", help="Accelerometers: causal pose smoothing a in [0, 1) (default 0)."),
+    knowledge: Optional[Path] = typer.Option(
+        None, "--knowledge", help="Accelerometers: a folder for the database's knowledge base, built and saved there on the first run, opened memory-mapped on later ones (rebuilt when the database changes)."),
+    as_json: bool = typer.Option(False, "--json", help="Print one JSON object (output, frames, rate, markers used and left out, errors) instead of the summary line."),
     asf: Optional[Path] = asf_option(),
     amc_fps: Optional[float] = amc_fps_option(),
     unit: Optional[str] = unit_option(),
@@ -89,7 +186,7 @@ def reconstruct(
     from ..io.c3d import MarkerSet
     from ..io.takes import check_asf, load_motion, load_take
     from ..motion import Motion
-    from ..reference import check_reference, position_error_cm
+    from ..reference import check_reference, global_errors_cm, position_error_cm
 
     given = [(k, p) for k, p in (("markers", markers), ("accelerometers", accelerometers), ("ssg", ssg)) if p is not None]
     if len(given) != 1:
@@ -98,8 +195,8 @@ def reconstruct(
     given_acc = [(o, k, v) for o, k, v in (("--synthesis", "synthesis", synthesis), ("--neighbours", "k", neighbours),
                                            ("--smoothing", "smoothing", smoothing)) if v is not None]
     acc_params = {k: v for _, k, v in given_acc}
-    if acc_params and kind != "accelerometers":
-        raise MocapError("--synthesis, --neighbours and --smoothing apply to --accelerometers only")
+    if (acc_params or knowledge is not None) and kind != "accelerometers":
+        raise MocapError("--synthesis, --neighbours, --smoothing and --knowledge apply to --accelerometers only")
     if given_acc:
         from ..reconstruct.accelerometers import check_params
     for option, key, value in given_acc:  # the method's own rule, before anything is read or written
@@ -110,26 +207,34 @@ def reconstruct(
     guard([out], [inp, db_dir, skeleton, reference, asf], overwrite)
     check_asf(asf, [inp, reference], amc_fps)
     io.suffix_kind(out, io.WRITERS, "writing")
-    if out.suffix.lower() == ".amc":  # an AMC is read with its actor's ASF beside it: a database keeps none
-        raise MocapFormatError(out, "a reconstruction is written as .bvh or .npz (an AMC needs its skeleton's ASF "
-                                    "beside it, which a database does not keep)")
+    if knowledge is not None:
+        from ..reconstruct.accelerometers.knowledge import check_knowledge_base_output
+
+        check_knowledge_base_output(knowledge)  # a folder of other files is refused before any work
     if not inp.is_file():  # as every reader says it (the CSV reader would say "cannot read the file: [Errno 2] ...")
         raise (MocapFormatError(inp, "not a regular file") if inp.exists() else MissingFileError(inp))
     db = MotionDatabase.open(db_dir)
+    unseen: list[str] = []
     if kind == "accelerometers":
         from ..reconstruct import accelerometers as acc
     if kind == "accelerometers" and inp.suffix.lower() == ".csv":
         from ..io.readings import read_readings_csv
 
+        from ..io.readings import nominal_rate
+
         times, readings, names = read_readings_csv(inp)
         source = None
-        fps = (len(times) - 1) / (times[-1] - times[0]) if len(times) > 1 else db.fps
+        try:
+            fps = nominal_rate(times)[0]  # the recording's own rate, never the database's
+        except ValueError as exc:
+            raise MocapFormatError(inp, str(exc)) from None
         sensors = _sensors_named(names, db, inp)
     else:
         source = load_take(inp, asf, fps=amc_fps, unit=unit)
         if kind == "accelerometers" and not isinstance(source, Motion):
             raise MocapFormatError(inp, "accelerometers come as a CSV (or a motion to simulate them on), not markers")
     performer = _performer_skeleton(skeleton, source, db)
+    asf_file = _asf_for_amc(out, skeleton, performer, source, inp, asf, overwrite)
     if kind == "accelerometers":
         if source is not None:
             from ..features import virtual_accelerometers
@@ -147,6 +252,9 @@ def reconstruct(
             pos, joints, fps = control_markers(source, spec, db.skeletons[0], up_axis=up_axis)
         except ValueError as exc:
             raise MocapError(f"{inp}: {exc}") from None
+        pos, joints, unseen = _drop_unseen(pos, joints, spec)
+        if not joints:
+            raise MocapFormatError(inp, f"no marker named in --use is seen in any frame ({', '.join(unseen)})")
         what = f"{plural(len(joints), 'marker')} ({', '.join(joints)})"
         frames = pos.shape[0]
     ref = None
@@ -156,16 +264,18 @@ def reconstruct(
                               skeleton=db.skeletons[0], whose=f"the reconstruction's ({db_dir.name}'s skeleton)")
     try:
         if kind == "accelerometers":
-            result = acc.reconstruct(readings, db, fps, sensors, skeleton=performer, progress=True, **acc_params)
+            if knowledge is not None:  # primes the knowledge base the reconstruction then uses
+                acc.knowledge_base(db, sensors, cache_dir=knowledge, progress=not as_json)
+            result = acc.reconstruct(readings, db, fps, sensors, skeleton=performer, progress=not as_json, **acc_params)
         else:
             if kind == "markers":
                 from ..reconstruct import markers as method
             else:
                 from ..reconstruct import ssg as method
-            result = method.reconstruct(pos, joints, db, fps, skeleton=performer, progress=True)
+            result = method.reconstruct(pos, joints, db, fps, skeleton=performer, progress=not as_json)
     except ValueError as exc:
         raise MocapError(f"{inp}: {exc}") from None
-    report = ""
+    report, errors = "", {}
     if ref is not None:
         check_reference(ref, reference, frames=result.num_frames, skeleton=result.skeleton,
                         whose=f"the reconstruction's ({db_dir.name}'s skeleton)")
@@ -174,8 +284,31 @@ def reconstruct(
         err = position_error_cm(ref, result, heading=heading)
         how = "root and heading removed" if heading else "root-relative"
         report = f"; joint-position RMS against {reference.name} ({how}): {err:.2f} cm"
-    io.save(result, out)
-    console.print(f"wrote {out}: {plural(result.num_frames, 'frame')} @ {result.fps:g} fps from {what}{report}")
+        errors = {"reference": str(reference), "joint_position_rms_cm": err,
+                  "joint_position_rms_is": "root and heading removed" if heading else "root-relative"}
+        if not heading:  # markers place the body in their frame: where it lies is part of the error
+            pelvis_cm, body_cm = global_errors_cm(ref, result)
+            report += f"; in the markers' frame: pelvis {pelvis_cm:.2f} cm, body {body_cm:.2f} cm"
+            errors.update(pelvis_position_rms_cm=pelvis_cm, body_position_rms_cm=body_cm)
+    notes, far = [], {}
+    if kind == "markers":
+        far = _far_from_markers(result, pos, joints, db, spec, unseen)
+        if far["frames"]:
+            notes.append(f"the fit ends over {FAR_CM:g} cm further than usual from a seen marker in {plural(far['frames'], 'frame')} of "
+                         f"{result.num_frames} (worst: {far['worst_marker']} {far['worst_cm']:.1f} cm at frame {far['worst_frame']})")
+    if kind != "accelerometers" and unseen:
+        notes.append(f"{', '.join(unseen)} never seen in {inp.name}: left out (the other markers carry the fit)")
     if isinstance(source, Motion) and not source.skeleton.is_compatible(result.skeleton):
-        console.print(f"note: the body is the database's skeleton ({result.skeleton.num_joints} joints), not "
-                      f"{inp.name}'s: the sensors' readings come from any rig, the poses from the database")
+        notes.append(f"the body is the database's skeleton ({result.skeleton.num_joints} joints), not "
+                     f"{inp.name}'s: the sensors' readings come from any rig, the poses from the database")
+    _write(result, out, asf_file, overwrite)
+    if as_json:
+        import json
+
+        print(json.dumps({"out": str(out), "frames": result.num_frames, "fps": result.fps, "method": kind,
+                          "from": what, "left_out": list(unseen) if kind != "accelerometers" else [],
+                          **errors, **({"far_from_markers": far} if far else {}), "notes": notes}))
+        return
+    console.print(f"wrote {out}: {plural(result.num_frames, 'frame')} @ {result.fps:g} fps from {what}{report}")
+    for note in notes:
+        console.print(f"note: {note}")

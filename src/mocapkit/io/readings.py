@@ -11,7 +11,9 @@ accelerometer reads it); time in seconds, strictly increasing. Empty cells
 and ``nan`` are missing values. The default sensor names
 (:data:`DEFAULT_SENSOR_NAMES`) are those of
 :func:`mocapkit.features.default_sensors`. Irregular time stamps are
-resampled (linearly) to a uniform rate, the median sample interval.
+resampled (linearly) to a uniform grid at the recording's nominal rate
+(:func:`nominal_rate`): stamps that jitter about a steady rate keep one frame
+per sample; where samples were dropped the grid spans the recording.
 
 The readings feed :func:`mocapkit.reconstruct.accelerometers.reconstruct`
 (Tautges 2012, ch. 3), which expects them as an (F, S, 3) array at one rate.
@@ -35,10 +37,42 @@ import numpy as np
 from ..errors import MocapFormatError
 from . import atomic_write
 
-__all__ = ["DEFAULT_SENSOR_NAMES", "read_readings_csv", "write_readings_csv"]
+__all__ = ["DEFAULT_SENSOR_NAMES", "nominal_rate", "read_readings_csv", "write_readings_csv"]
 
 #: Sensor names of :func:`mocapkit.features.default_sensors`, in its order.
 DEFAULT_SENSOR_NAMES = ("left_wrist", "right_wrist", "left_ankle", "right_ankle")
+
+
+# rates a recording is taken at: a time stamp's rate within 0.1 % of one of them is that rate (as BVH frame times are read)
+_RATES = (24, 25, 30, 48, 50, 60, 100, 120, 240, 250, 500, 1000)
+
+
+def nominal_rate(times) -> tuple[float, bool]:
+    """The rate (Hz) a recording's time stamps (F,) were taken at, and whether every sample has its own frame.
+
+    Each interval is compared with the median interval. When none is 1.5
+    times the median or more (no sample dropped: the stamps only jitter),
+    every sample is a frame and the rate is ``(F - 1) / (t[-1] - t[0])``, one
+    over the mean interval: a jitter that is not symmetric moves the median
+    (8.24 ms for a 120 Hz recording with +-2 ms of jitter), not the mean.
+    Otherwise the rate is one over the median interval, and the grid spans
+    the recording. A rate within 0.1 % of a whole rate, of one of the usual
+    capture rates or of its NTSC variant (``r * 1000 / 1001``) is that rate,
+    as :func:`mocapkit.io.bvh.read_bvh` reads frame times.
+
+    Raises ``ValueError`` for fewer than two stamps (no rate to read).
+    """
+    t = np.asarray(times, dtype=np.float64)
+    if t.size < 2:
+        raise ValueError(f"{t.size} sample gives no rate; at least 2 are needed")
+    dt = np.diff(t)
+    step = float(np.median(dt))
+    per_sample = bool(np.all(dt < 1.5 * step))
+    fps = (t.size - 1) / float(t[-1] - t[0]) if per_sample else 1.0 / step
+    for r in (round(fps), *_RATES, *(r * 1000 / 1001 for r in _RATES)):
+        if r >= 1 and abs(fps - r) <= 1e-3 * r:
+            return float(r), per_sample
+    return fps, per_sample
 
 
 def _parse_cell(s: str) -> float:
@@ -56,7 +90,8 @@ def read_readings_csv(path, fps: float | None = None):
     path : str or Path
     fps : float, optional
         Resample to this rate. When None, uniform time stamps are kept as
-        they are and irregular ones are resampled to the median interval.
+        they are and irregular ones are resampled to the nominal rate
+        (:func:`nominal_rate`): one frame per sample when they only jitter.
 
     Returns
     -------
@@ -125,11 +160,13 @@ def read_readings_csv(path, fps: float | None = None):
         step = float(np.median(dt))
         if np.all(np.abs(dt - step) <= 1e-3 * step + 2e-6):
             return t, a, names
-        fps = 1.0 / step
-    fps = float(fps)
-    if not np.isfinite(fps) or fps <= 0:
-        raise ValueError(f"fps must be a positive number, got {fps!r}")
-    G = int(np.floor((t[-1] - t[0]) * fps + 1e-9)) + 1
+        fps, per_sample = nominal_rate(t)
+        G = len(t) if per_sample else int(np.floor((t[-1] - t[0]) * fps + 1e-9)) + 1
+    else:
+        fps = float(fps)
+        if not np.isfinite(fps) or fps <= 0:
+            raise ValueError(f"fps must be a positive number, got {fps!r}")
+        G = int(np.floor((t[-1] - t[0]) * fps + 1e-9)) + 1
     tg = t[0] + np.arange(G) / fps
     flat = a.reshape(len(t), -1)
     out = np.stack([np.interp(tg, t, flat[:, c]) for c in range(flat.shape[1])], axis=1)

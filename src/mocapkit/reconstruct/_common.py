@@ -17,7 +17,7 @@ import numpy as np
 from .. import rotations as R
 from ..database import MotionDatabase
 from ..features import find_up_axis, virtual_markers
-from ..motion import Motion, Skeleton
+from ..motion import Motion, Skeleton, unit_scale_cm
 from ..rigs import pelvis_index
 
 
@@ -57,6 +57,40 @@ def output_skeleton(db: MotionDatabase, skeleton: Skeleton | None) -> Skeleton:
             "retarget it to the database skeleton first"
         )
     return skeleton
+
+
+def in_database_units(db: MotionDatabase, skeleton: Skeleton) -> tuple[Skeleton, float]:
+    """``skeleton`` in the database's length unit, and the factor that takes a result back to its own.
+
+    Marker positions and the database's poses are in the database skeleton's
+    unit (:func:`~mocapkit.motion.unit_scale_cm`); a performer's skeleton read
+    from a file in metres or millimetres is not. The fit runs on the returned
+    skeleton (offsets scaled, ``unit_cm`` the database's), and
+    :func:`in_units_of` writes the result on ``skeleton`` again. ``skeleton``
+    itself and 1.0 when the units agree.
+
+    Returns
+    -------
+    Skeleton, float
+        The scaled skeleton, and ``skeleton``'s units per database unit.
+    """
+    db_cm = unit_scale_cm(db.skeletons[0])
+    own_cm = unit_scale_cm(skeleton)
+    if abs(own_cm - db_cm) <= 1e-9 * db_cm:
+        return skeleton, 1.0
+    s = own_cm / db_cm
+    import dataclasses
+
+    scaled = dataclasses.replace(skeleton, offsets=skeleton.offsets * s, end_site_offsets=skeleton.end_site_offsets * s, unit_cm=db_cm)
+    return scaled, 1.0 / s
+
+
+def in_units_of(m: Motion, skeleton: Skeleton, factor: float) -> Motion:
+    """``m`` (on :func:`in_database_units`' scaled skeleton) written on ``skeleton``: positions times ``factor``."""
+    if factor == 1.0 and m.skeleton is skeleton:
+        return m
+    tr = None if m.translations is None else np.asarray(m.translations) * factor
+    return Motion(skeleton, m.rotations, np.asarray(m.root_positions) * factor, m.fps, m.name, tr)
 
 
 def align_about_vertical(source: np.ndarray, target: np.ndarray, up: np.ndarray, weights=None) -> tuple[np.ndarray, np.ndarray]:
@@ -209,3 +243,57 @@ def whole_motion(body: Motion, skeleton: Skeleton, up: np.ndarray) -> Motion:
         root = pelvis - (rest[p] - rest[0])
     return Motion(skeleton, rot, root, body.fps, body.name, tr)
 
+
+def database_bodies(db: MotionDatabase) -> tuple[np.ndarray, np.ndarray]:
+    """Every database frame's *body* (:func:`._common.body_motion`), what a played-back subsequence is made of.
+
+    On Acclaim and most BVH rigs the pelvis is the root and these are the
+    database's own arrays. On the Bandai Namco game rig the root
+    ``joint_Root`` stays on the floor and ``Hips`` carries the translation:
+    the body is rooted at ``Hips``, so aligning and cross-fading it moves the
+    pelvis itself, not the floor-bound root. As in :mod:`mocapkit.reconstruct.markers`, the bone
+    lengths are the output skeleton's (no animated offsets are played).
+
+    Returns
+    -------
+    rotations : float array (N, B, 4)
+        Local rotations of the body joints, the pelvis's global.
+    pelvis : float array (N, 3)
+        The pelvis's global position, file units.
+    """
+    sk = db.skeletons[0]
+    if body_skeleton(sk) is sk:
+        return db.rotations, db.root_positions
+
+    def packed(m: Motion) -> np.ndarray:
+        b = body_motion(m)
+        return np.concatenate([b.rotations.reshape(b.num_frames, -1), b.root_positions], axis=1)
+
+    flat = per_clip(db, packed)
+    return flat[:, :-3].reshape(flat.shape[0], -1, 4), flat[:, -3:]
+
+
+def onto_pelvis_marker(pelvis: np.ndarray, markers: np.ndarray, joints: list[str], skeleton: Skeleton) -> np.ndarray:
+    """The played-back pelvis positions (F, 3) moved onto the pelvis's own marker where it is seen.
+
+    The alignment of eq. 4.3 places each subsequence as a whole, so its pelvis
+    lies where the database actor's would (his height, his stride) and jumps
+    by the difference at every change of subsequence. A marker on the pelvis
+    (found by its role, :func:`mocapkit.rigs.pelvis_index`, as
+    :mod:`mocapkit.reconstruct.markers` pins its root) says where it is: the offset ``marker -
+    pelvis`` (F, 3) is taken where the marker is seen, linearly interpolated
+    over its gaps and held before its first and after its last sighting, and
+    added. Without such a marker, or when it is never seen, ``pelvis`` is
+    returned as it is. ``markers`` (F, M, 3) NaN where unseen, file units.
+    """
+    name = skeleton.joint_names[pelvis_index(skeleton)]
+    cols = [m for m, j in enumerate(joints) if j == name]
+    if not cols:
+        return pelvis
+    x = markers[:, cols[0]]
+    seen = np.isfinite(x).all(axis=1)
+    if not seen.any():
+        return pelvis
+    t = np.arange(len(pelvis))
+    d = x[seen] - pelvis[seen]
+    return pelvis + np.stack([np.interp(t, t[seen], d[:, c]) for c in range(3)], axis=1)

@@ -130,8 +130,8 @@ from ..features import parse_up_axis, root_frame, virtual_markers
 from ..motion import Motion, Skeleton, unit_scale_cm
 from ..search.knn import KNNIndex
 from ..rigs import pelvis_index, roles
-from ._common import (align_about_vertical, database_up, body_joints, body_motion, body_skeleton, output_skeleton, per_clip,
-                      whole_motion)
+from ._common import (align_about_vertical, database_up, body_joints, body_motion, body_skeleton, in_database_units, in_units_of,
+                      output_skeleton, per_clip, whole_motion)
 
 __all__ = ["reconstruct", "nearest_neighbor", "marker_residuals", "default_neighbours", "search_weights"]
 
@@ -650,7 +650,10 @@ def _solve(
         raise ValueError(f"variance must be in (0, 1], got {variance}")
     if prior_weight < 0 or smooth_weight < 0 or limit_weight < 0:
         raise ValueError("prior_weight, smooth_weight and limit_weight must be >= 0")
-    whole = output_skeleton(db, skeleton)
+    given = output_skeleton(db, skeleton)
+    whole, back = in_database_units(db, given)  # the markers are in the database's unit: so is the fit
+    if skeleton is not None:
+        skeleton = whole
     sk = body_skeleton(whole)  # the pelvis and the joints below it (the whole skeleton on Acclaim rigs)
     known = set(sk.joint_names) | set(sk.end_site_names)
     if any(j not in known for j in joints):
@@ -796,6 +799,7 @@ def _solve(
     glob[:, 0] = R.quaternion_multiply(R.quaternion_from_axis_angle(up, theta), local[:, 0])
     glob[:t0], root[:t0] = glob[t0], root[t0]
     out = whole_motion(Motion(sk, R.quaternion_normalize(glob), root, run_fps, name="reconstruction"), whole, up)
+    out = in_units_of(out, given, back)
     if run_fps != fps:
         out = out.resample(fps)[:F_in]
     return out

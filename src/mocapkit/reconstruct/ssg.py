@@ -29,9 +29,17 @@ where the two extensions agree best. Gaps at the start or the end extend the
 first or the last window's subsequences.
 
 The result is placed in the markers' coordinate frame: every played-back
-subsequence has its database root moved by its own optimal alignment with the
+subsequence has its pelvis moved by its own optimal alignment with the
 control signal, so the reconstruction overlays the markers. The vertical axis
-is ``y`` (the database's up axis, as in HDM05 and CMU).
+is ``y`` (the database's up axis, as in HDM05, CMU and the Bandai Namco set).
+
+Rigs: subsequences are played back as *bodies* (:func:`._common.body_motion`:
+the pelvis, found by its role, and the joints below it), so on the Bandai
+Namco game rig, whose root ``joint_Root`` stays on the floor while ``Hips``
+carries the translation, the pelvis is what is aligned, cross-faded and
+placed; ``joint_Root`` is put back on the ground under it on output
+(:func:`._common.whole_motion`), as :mod:`.markers` does. A marker on the
+pelvis, where seen, places it (:func:`._common.onto_pelvis_marker`).
 
 Departures from the thesis, all documented where they act: the local cost is
 the *weighted mean* squared distance (eq. 4.3 divided by the sum of the
@@ -55,7 +63,8 @@ from .. import rotations as R
 from ..database import MotionDatabase
 from ..motion import Motion, Skeleton
 from ..search.dtw import subsequence_dtw
-from ._common import align_about_vertical, database_positions, output_skeleton, per_clip
+from ._common import (align_about_vertical, body_skeleton, database_bodies, database_positions, in_database_units, in_units_of,
+                      onto_pelvis_marker, output_skeleton, per_clip, whole_motion)
 
 __all__ = [
     "Alignment",
@@ -739,30 +748,34 @@ def cross_fade(rot_a, root_a, rot_b, root_b) -> tuple[np.ndarray, np.ndarray]:
     return rot, root
 
 
-def _play(db: MotionDatabase, node: Subsequence, lo: int, hi: int) -> tuple[np.ndarray, np.ndarray]:
-    """Local rotations (T, J, 4) and root positions (T, 3) of a node at control frames [lo, hi), in the marker frame."""
+def _play(db: MotionDatabase, bodies, node: Subsequence, lo: int, hi: int) -> tuple[np.ndarray, np.ndarray]:
+    """Body rotations (T, B, 4) and pelvis positions (T, 3) of a node at control frames [lo, hi), in the marker frame.
+
+    ``bodies`` is :func:`._common.database_bodies` of ``db``.
+    """
+    rotations, pelvis = bodies
     f = node.frames[lo - node.lo : hi - node.lo]
     c0, c1 = db.clip_range(node.clip)
     f = np.clip(f, c0, c1 - 1)
     i0 = np.floor(f).astype(np.int64)
     i1 = np.minimum(i0 + 1, c1 - 1)
     a = f - i0
-    q0 = np.asarray(db.rotations[i0], dtype=np.float64)
-    q1 = np.asarray(db.rotations[i1], dtype=np.float64)
+    q0 = np.asarray(rotations[i0], dtype=np.float64)
+    q1 = np.asarray(rotations[i1], dtype=np.float64)
     rot = R.slerp(R.quaternion_normalize(q0), R.quaternion_normalize(q1), a[:, None])
-    root = np.asarray(db.root_positions[i0], dtype=np.float64) * (1 - a[:, None]) + np.asarray(
-        db.root_positions[i1], dtype=np.float64
-    ) * a[:, None]
+    root = np.asarray(pelvis[i0], dtype=np.float64) * (1 - a[:, None]) + np.asarray(pelvis[i1], dtype=np.float64) * a[:, None]
     T = node.alignment
     rot[:, 0] = R.quaternion_multiply(T.quaternion(), rot[:, 0])
     return rot, T.apply(root)
 
 
-def _synthesise(db: MotionDatabase, graph: SubsequenceGraph, path: list[int]) -> tuple[np.ndarray, np.ndarray]:
-    """Step 5: play the path's subsequences and cross-fade consecutive ones in their blend ranges."""
+def _synthesise(db: MotionDatabase, bodies, graph: SubsequenceGraph, path: list[int]) -> tuple[np.ndarray, np.ndarray]:
+    """Step 5: play the path's subsequences' bodies (:func:`._common.database_bodies`) and cross-fade consecutive ones in their blend ranges.
+
+    Returns body rotations (F, B, 4) and pelvis positions (F, 3).
+    """
     F = graph.num_frames
-    J = db.num_joints
-    rot = np.empty((F, J, 4))
+    rot = np.empty((F, bodies[0].shape[1], 4))
     root = np.empty((F, 3))
     chosen = [graph.nodes[j][i] for j, i in enumerate(path)]
     cut = 0  # frames before `cut` are written
@@ -771,11 +784,11 @@ def _synthesise(db: MotionDatabase, graph: SubsequenceGraph, path: list[int]) ->
             c0, c1 = (int(v) for v in graph.blend[j][path[j], path[j + 1]])
         else:
             c0 = c1 = F
-        r, p = _play(db, nd, cut, c0)
+        r, p = _play(db, bodies, nd, cut, c0)
         rot[cut:c0], root[cut:c0] = r, p
         if c1 > c0:
-            ra, pa = _play(db, nd, c0, c1)
-            rb, pb = _play(db, chosen[j + 1], c0, c1)
+            ra, pa = _play(db, bodies, nd, c0, c1)
+            rb, pb = _play(db, bodies, chosen[j + 1], c0, c1)
             rot[c0:c1], root[c0:c1] = cross_fade(ra, pa, rb, pb)
         cut = c1
     return R.quaternion_normalize(rot), root
@@ -893,7 +906,8 @@ def reconstruct(
     for name, v in (("window", window), ("overlap", overlap), ("cost_window", cost_window)):
         if not np.isfinite(v) or v < 0:
             raise ValueError(f"{name}: expected a non-negative number of seconds, got {v!r}")
-    out_sk = output_skeleton(db, skeleton)
+    given = output_skeleton(db, skeleton)
+    out_sk, back = in_database_units(db, given)  # the markers are in the database's unit: so is the playback
     N = max(2, int(round(window * db.fps)))
     o = min(N - 1, max(1, int(round(overlap * db.fps))))
     h = _half_window(db.fps, cost_window)
@@ -902,8 +916,9 @@ def reconstruct(
     pos = per_clip(db, lambda m: m.global_positions())
     graph = subsequence_graph(Xd, P, pos, db.clip_ids, window=N, overlap=o, k=k, half_window=h, progress=progress)
     path = shortest_path(graph, transition_weight)
-    rot, root = _synthesise(db, graph, path)
-    out = Motion(out_sk, rot, root, db.fps, name="ssg reconstruction")
+    rot, root = _synthesise(db, database_bodies(db), graph, path)
+    root = onto_pelvis_marker(root, Xd, names, db.skeletons[0])
+    out = in_units_of(whole_motion(Motion(body_skeleton(out_sk), rot, root, db.fps, name="ssg reconstruction"), out_sk, _UP), given, back)
     if fps != db.fps:
         out = out.resample(fps)[: X.shape[0]]
     return out
@@ -921,7 +936,8 @@ def framewise(markers, joints, db: MotionDatabase, fps: float, *, cost_window: f
     output as :func:`reconstruct`.
     """
     X, names, fps = _check_input(markers, joints, db, fps)
-    out_sk = output_skeleton(db, skeleton)
+    given = output_skeleton(db, skeleton)
+    out_sk, back = in_database_units(db, given)  # the markers are in the database's unit: so is the playback
     Xd = np.array(_resample_markers(X, fps, db.fps))  # a copy: filled in place below
     F = Xd.shape[0]
     t = np.arange(F)
@@ -933,13 +949,15 @@ def framewise(markers, joints, db: MotionDatabase, fps: float, *, cost_window: f
     P = database_positions(db, names)
     C = point_cloud_cost_matrix(Xd, P, db.clip_ids, half_window=_half_window(db.fps, cost_window))
     best = np.argmin(C, axis=1)
-    rot = R.quaternion_normalize(np.asarray(db.rotations[best], dtype=np.float64))
-    root = np.asarray(db.root_positions[best], dtype=np.float64)
+    rotations, pelvis = database_bodies(db)
+    rot = R.quaternion_normalize(np.asarray(rotations[best], dtype=np.float64))
+    root = np.asarray(pelvis[best], dtype=np.float64)
     for f in range(F):
         _, T = point_cloud_distance(Xd[f], P[best[f]])
         rot[f, 0] = R.quaternion_multiply(T.quaternion(), rot[f, 0])
         root[f] = T.apply(root[f])
-    out = Motion(out_sk, rot, root, db.fps, name="framewise nearest pose")
+    root = onto_pelvis_marker(root, _resample_markers(X, fps, db.fps), names, db.skeletons[0])
+    out = in_units_of(whole_motion(Motion(body_skeleton(out_sk), rot, root, db.fps, name="framewise nearest pose"), out_sk, _UP), given, back)
     if fps != db.fps:
         out = out.resample(fps)[: X.shape[0]]
     return out
