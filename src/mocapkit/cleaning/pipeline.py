@@ -843,6 +843,8 @@ def clean(
             records.append(StepRecord("denoise", time.perf_counter() - t, int(denoised.sum()), method,
                                       extra + (f"; {note}" if note else "")))
 
+    if cur.source_file != motion.source_file:  # the file a writer keeps the text of (mocapkit.io.save's like)
+        cur = dataclasses.replace(cur, source_file=motion.source_file)
     params = dict(steps=list(steps), threshold=float(threshold), noise_deg=float(noise_deg), foot_skate=bool(foot_skate),
                   context="none" if context is None else _context_label(context), analysed=[int(lo), int(hi)])
     return CleanResult(

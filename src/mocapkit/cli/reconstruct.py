@@ -174,7 +174,7 @@ def reconstruct(
         err = position_error_cm(ref, result, heading=heading)
         how = "root and heading removed" if heading else "root-relative"
         report = f"; joint-position RMS against {reference.name} ({how}): {err:.2f} cm"
-    io.save(result, out)
+    io.save(result, out, like=False, copy_asf=False)
     console.print(f"wrote {out}: {plural(result.num_frames, 'frame')} @ {result.fps:g} fps from {what}{report}")
     if isinstance(source, Motion) and not source.skeleton.is_compatible(result.skeleton):
         console.print(f"note: the body is the database's skeleton ({result.skeleton.num_joints} joints), not "
