@@ -130,3 +130,47 @@ def test_save_replaces_like_open_and_refuses_with_overwrite_false(tmp_path):
     assert p.read_bytes() == before
     mocapkit.save(m[:5], p)  # the default: replaced, as open(path, "w") would
     assert mocapkit.load(p).num_frames == 5
+
+
+def test_clean_checks_its_arguments_before_any_work(tmp_path):
+    """Model files were checked only when a take needed them (the CLI refuses --ebf typo.pt up front), a Motion's
+    fps=/asf=/unit= were ignored, and wrong types gave errors from deep inside (a bare ValueError, '<' between str
+    and float, 'bool' object is not iterable) or the CLI's wording."""
+    import mocapkit
+    from mocapkit.cleaning import deep
+
+    m = mocapkit.load(mocapkit.samples.path("131_01.bvh"))[:200]
+    with pytest.raises(mocapkit.MocapFormatError, match="typo_ebf.pt: no such model file"):
+        mocapkit.clean(m, models={"ebf": tmp_path / "typo_ebf.pt"})
+    with pytest.raises(mocapkit.MocapFormatError, match="an EBD model, but this needs an EBF"):
+        mocapkit.clean(m, models={"ebf": "ebd.pt"})
+    with pytest.raises(mocapkit.MocapError, match=r"models\['ebf'\] is an EBD model"):
+        mocapkit.clean(m, models={"ebf": deep.load_model("ebd.pt")})
+    with pytest.raises(TypeError, match="models must be a dict"):
+        mocapkit.clean(m, models=["ebf.pt"])
+    for kw in ({"fps": 30}, {"asf": "actor.asf"}, {"unit": "m"}):
+        with pytest.raises(mocapkit.MocapError, match=f"{next(iter(kw))}= applies to a file"):
+            mocapkit.clean(m, **kw)
+    with pytest.raises(TypeError, match="threshold must be a number in"):
+        mocapkit.clean(m, threshold="0.4")
+    with pytest.raises(TypeError, match="context must be None, False"):
+        mocapkit.clean(m, context=True)
+    with pytest.raises(ValueError, match="no step given"):
+        mocapkit.clean(m, steps="")
+    with pytest.raises(mocapkit.MocapError, match="^unit='metres': one of mm, cm, m, in"):
+        mocapkit.clean(mocapkit.samples.path("131_01.bvh"), unit="metres")
+
+
+def test_a_results_masks_are_read_only_and_its_own():
+    """CleanResult is frozen, but its masks were writable and the detection's own: res.repaired[:] = False changed
+    what decisions.changes listed."""
+    walk = mocapkit.load(samples.path("12_walk.amc"))[:150]
+    broken, _, _ = corrupt.real_errors(walk, seed=1)
+    res = mocapkit.clean(broken, context=False, steps="fill,detect,repair")
+    for name in ("mdm", "flags", "filled", "repaired", "denoised", "noise", "causes", "zeros"):
+        a = getattr(res, name)
+        with pytest.raises(ValueError, match="read-only"):
+            a[...] = 0
+        with pytest.raises(ValueError, match="WRITEABLE"):
+            a.setflags(write=True)
+    assert res.detection.flags is not res.flags

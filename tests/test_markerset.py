@@ -220,3 +220,25 @@ def test_computed_points_are_found_per_subject_in_a_two_subject_file(shared_data
     labels = tuple(f"{who}:{label}" for who in ("Alice", "Bob") for label in one.labels)
     two = MarkerSet(labels=labels, positions=np.concatenate([x, x + [0.0, 2500.0, 0.0]], axis=1), fps=one.fps)
     assert two.computed().tolist() == alone.tolist() * 2
+
+
+def test_a_marker_set_built_in_python_has_its_unit_checked(shared_data):
+    """units= was never checked on a MarkerSet built from arrays: metres left at the default "mm" missed a 60 mm
+    spike, mm labelled "m" lost 4,705 good samples as spikes, and "furlong" failed later with a bare ValueError."""
+    import mocapkit
+    from mocapkit.errors import MocapError
+    from mocapkit.io import load_markers
+    from mocapkit.markerset import MarkerSet
+
+    f = load_markers(shared_data / "c3d_markers_recovery" / "85_02.c3d")
+    p = np.array(f.positions)
+    p[300, 7] += [60.0, 0.0, 0.0]
+    with pytest.raises(MocapError, match="units: unknown length unit 'furlong'"):
+        MarkerSet(f.labels, p, f.fps, units="furlong")
+    with pytest.raises(MocapError, match="said to be in 'mm'.*a body's in 'm'.*1000 times smaller.*units='m'"):
+        mocapkit.clean(MarkerSet(f.labels, p / 1000.0, f.fps))
+    with pytest.raises(MocapError, match="said to be in 'm'.*a body's in 'mm'.*1000 times larger"):
+        mocapkit.clean(MarkerSet(f.labels, p, f.fps, units="m"))
+    for ms in (MarkerSet(f.labels, p, f.fps), MarkerSet(f.labels, p / 1000.0, f.fps, units="m")):
+        res = mocapkit.clean(ms)
+        assert res.spikes.sum() == 1 and res.spikes[300, 7]

@@ -461,3 +461,40 @@ def test_slices_say_what_is_wrong_with_them():
     with pytest.raises(ValueError, match="a step of 1000 frames gives 0.12 fps"):
         m[::1000]
     assert m[-1].num_frames == 1 and m[::4].fps == 30.0
+
+
+def test_a_motion_cannot_be_made_writable_again(tmp_path):
+    """A Motion's arrays are views of read-only memory: ``setflags(write=True)`` is refused, so the take cannot be
+    changed in place; a memory-mapped array is copied, so writes to the file under it leave the Motion as built."""
+    m = mocapkit.load(mocapkit.samples.path("131_01.bvh"))[:30]
+    for built in (m, Motion(m.skeleton, np.array(m.rotations), np.array(m.root_positions), m.fps)):
+        for a in (built.rotations, built.root_positions, built.skeleton.offsets):
+            with pytest.raises(ValueError, match="WRITEABLE"):
+                a.setflags(write=True)
+    np.save(tmp_path / "rot.npy", np.array(m.rotations))
+    mapped = np.load(tmp_path / "rot.npy", mmap_mode="r")
+    built = Motion(m.skeleton, mapped, m.root_positions, m.fps)
+    assert not np.shares_memory(built.rotations, mapped)
+    w = np.load(tmp_path / "rot.npy", mmap_mode="r+")
+    w[0, 0] = [0.0, 1.0, 0.0, 0.0]
+    w.flush()
+    np.testing.assert_array_equal(built.rotations, m.rotations)
+
+
+def test_no_rate_from_a_bool_no_nan_offset_no_infinite_root():
+    m = random_motion(4, frames=5)
+    for bad in (True, np.bool_(True)):
+        with pytest.raises(SkeletonError, match="fps must be a positive number"):
+            Motion(m.skeleton, m.rotations, m.root_positions, bad)
+    offsets = np.array(m.skeleton.offsets)
+    offsets[2, 1] = np.nan
+    with pytest.raises(SkeletonError, match=f"offsets: {m.skeleton.joint_names[2]} is .*finite"):
+        dataclasses.replace(m.skeleton, offsets=offsets)
+    with pytest.raises(SkeletonError, match="end_site_offsets"):
+        Skeleton(("a", "b"), [-1, 0], np.zeros((2, 3)), [1], [[0.0, np.inf, 0.0]])
+    root = np.array(m.root_positions)
+    root[3, 0] = -np.inf
+    with pytest.raises(SkeletonError, match="root_positions: frame 3 is infinite"):
+        dataclasses.replace(m, root_positions=root)
+    root[3, 0] = np.nan  # missing: allowed
+    assert dataclasses.replace(m, root_positions=root).missing()[3, 0]

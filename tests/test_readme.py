@@ -20,8 +20,12 @@ def test_readme_python_examples_run(tmp_path, monkeypatch, capsys):
     for step in ("fill", "detect", "repair", "denoise"):
         assert re.search(rf"^{step} \(", out, flags=re.M), f"no summary line for {step}"
     walk = mocapkit.load(mocapkit.samples.path("12_walk.amc"))
-    cleaned = mocapkit.load(tmp_path / "walk_clean.bvh")
+    cleaned = mocapkit.load(tmp_path / "walk_clean.amc")  # read with the ASF save copied beside it
     assert cleaned.num_frames == walk.num_frames
+    # the input's text kept: its header, and its frames' lines wherever the corruption and the fix left them
+    text, given = (tmp_path / "walk_clean.amc").read_text(), mocapkit.samples.path("12_walk.amc").read_text()
+    assert text.split("\n1\n")[0] == given.split("\n1\n")[0]
+    assert len(set(text.splitlines()) & set(given.splitlines())) > 0.5 * len(given.splitlines())
     for name, unit in (("joint angles", "deg"), ("joint positions", "cm")):
         before, after = map(float, re.search(rf"{name}: ([\d.]+) {unit} -> ([\d.]+) {unit} RMS", out).groups())
         assert after < 0.25 * before  # the errors of the example (seed 1) move the body: 11.6 -> 0.3 deg, 12.9 -> 0.4 cm

@@ -112,8 +112,15 @@ def clean(take, context=None, *, steps="fill,detect,repair,denoise", threshold: 
         A take the steps cannot clean (e.g. missing in every frame).
     """
     from .cleaning.pipeline import clean as clean_motion
+    from .io.takes import check_unit
     from .markerset import MarkerSet
 
+    check_unit(unit, "unit=")
+    if isinstance(take, (MarkerSet, Motion)):  # options of a file, refused as fps= is for a .bvh path
+        given = [f"{name}=" for name, value in (("asf", asf), ("fps", fps), ("unit", unit)) if value is not None]
+        if given:
+            raise MocapError(f"{take.name or 'the take'}: {', '.join(given)} {'apply' if len(given) > 1 else 'applies'} "
+                             f"to a file read here, not to a {type(take).__name__} already read")
     if isinstance(take, (str, os.PathLike)) and os.fspath(take).lower().endswith((".c3d", ".trc", ".npz")):
         from .io.takes import load_take
 

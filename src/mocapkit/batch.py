@@ -253,7 +253,7 @@ def clean_file(
             from .report.summary import plot_summary
 
             plot_summary(dataclasses.replace(res, motion=cleaned), m, png, title=inp.name)
-        io.save(cleaned, out, like=inp, asf=asf)
+        io.save(cleaned, out, like=inp, asf=asf, copy_asf=False)  # the ASF: skeleton_copy, or the batch's
         if not reuse:  # last: the completion marker, keeping what was read and written (_not_complete)
             res = replace(res, params={**res.params, "written": {"input": taken, "output": file_facts(out)}})
             res.save(record)

@@ -466,6 +466,9 @@ def resolve_context(spec, *, default: bool = True, cache_dir=None, progress: boo
         return spec
     if isinstance(spec, Motion):
         return [spec]
+    if not isinstance(spec, (str, os.PathLike, list, tuple)):
+        raise TypeError("context must be None, False, 'none', a MotionDatabase, a folder, or a list of files or "
+                        f"Motions; got {type(spec).__name__} {spec!r:.60}")
     items = [spec] if isinstance(spec, (str, os.PathLike)) else list(spec)
     if all(isinstance(c, Motion) for c in items):
         return items

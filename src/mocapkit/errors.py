@@ -6,7 +6,8 @@ import errno
 import os
 import re
 
-__all__ = ["MocapError", "MocapFormatError", "MissingFileError", "SkeletonError", "TEMP_NAME", "os_error_line"]
+__all__ = ["MocapError", "MocapFormatError", "MissingFileError", "SkeletonError", "LicenceWarning", "TEMP_NAME",
+           "os_error_line"]
 
 
 class MocapError(Exception):
@@ -52,6 +53,12 @@ class MissingFileError(MocapFormatError, FileNotFoundError):
 
 class SkeletonError(MocapError, ValueError):
     """A skeleton is malformed or two skeletons do not match where they must."""
+
+
+class LicenceWarning(UserWarning):
+    """A model whose licence restricts use (the non-commercial Bandai Namco models) was used: said by the library
+    functions that pick a model themselves (:func:`mocapkit.cleaning.deep.denoise`, ``fill_gaps``), as the CLI and
+    ``clean``'s summary say it."""
 
 
 # a temporary file of mocapkit.io.atomic_write (or a staging folder): ".NAME.RANDOM.part" beside NAME

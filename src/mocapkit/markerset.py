@@ -25,7 +25,7 @@ from .motion import check_fps, frame_slice, frozen
 
 __all__ = ["MarkerSet", "MarkerSource", "length_unit_cm", "zero_gap_mask", "unique_labels", "repeated_labels_note",
            "subject_of",
-           "infer_units", "marker_units", "ZERO_GAP_DISTANCE_CM", "BODY_SPAN_M",
+           "infer_units", "marker_units", "check_units", "UNIT_MISMATCH_FACTOR", "ZERO_GAP_DISTANCE_CM", "BODY_SPAN_M",
            "MODELLED_GROUPS"]
 
 # Vicon writes modelled quantities (joint angles, forces, moments, powers) as
@@ -151,6 +151,33 @@ def infer_units(positions: np.ndarray) -> str | None:
         if BODY_SPAN_M[0] <= span * metres <= BODY_SPAN_M[1]:
             return unit
     return None
+
+
+#: A stated unit this many times another that the marker distances fit is refused by :func:`check_units` (a
+#: factor of 10, cm for mm, is one order of magnitude; mm and m differ by 1,000).
+UNIT_MISMATCH_FACTOR = 10.0
+
+
+def check_units(markers: "MarkerSet") -> None:
+    """Refuse (:class:`~mocapkit.errors.MocapError`) marker positions whose stated unit is implausible by an order of
+    magnitude or more: the marker distances fit a whole body in another unit (:func:`infer_units`, the readers'
+    inference for a file that states none). Metres left at the default "mm" made a 60 mm spike 0.06 units, never
+    seen; mm labelled "m" removed 4,705 good samples of a complete capture as spikes. A set whose distances fit
+    neither mm nor m (one body part, a body in cm) is not judged, nor one whose unit was inferred so.
+    """
+    from .errors import MocapError
+
+    if markers.units_from == "data":
+        return
+    found = infer_units(markers.positions)
+    if found is None:
+        return
+    stated, fits = length_unit_cm(markers.units), length_unit_cm(found)
+    if max(stated, fits) / min(stated, fits) >= UNIT_MISMATCH_FACTOR:
+        ratio, size = max(stated, fits) / min(stated, fits), "smaller" if stated < fits else "larger"
+        raise MocapError(f"{markers.name or 'the marker set'}: positions are said to be in {markers.units!r}, but their "
+                         f"distances are a body's in {found!r} (read in {markers.units!r}, the body is {ratio:g} times "
+                         f"{size} than a person); give units={found!r} (or convert the positions)")
 
 
 def marker_units(path, stated: str, positions: np.ndarray, given: str | None = None) -> tuple[str, str]:
@@ -299,6 +326,12 @@ class MarkerSet:
     def __post_init__(self):
         if self.units_from not in ("file", "given", "data"):
             raise ValueError(f"units_from: 'file', 'given' or 'data', got {self.units_from!r}")
+        try:
+            length_unit_cm(self.units)
+        except ValueError as exc:  # cleaning and writing need the scale: refused here, not at their first use
+            from .errors import MocapError
+
+            raise MocapError(f"units: {exc}") from None
         pos = np.asarray(self.positions, dtype=np.float64)
         labels = tuple(str(label) for label in self.labels)
         if pos.ndim != 3 or pos.shape[1:] != (len(labels), 3):

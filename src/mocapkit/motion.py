@@ -16,6 +16,7 @@ that form on reading, their per-bone axis frames kept in ``Skeleton.axes``.
 from __future__ import annotations
 
 import dataclasses
+import os
 from dataclasses import dataclass, field
 from typing import Iterable, Sequence
 
@@ -109,7 +110,7 @@ def check_fps(fps, what: str = "fps") -> float:
     mocapkit.errors.SkeletonError: fps must be a positive number from 1 to 10000 (frames per second), got 0.001
     """
     try:
-        value = float(fps)
+        value = float("nan") if isinstance(fps, (bool, np.bool_)) else float(fps)  # True is no rate, not 1 fps
     except (TypeError, ValueError):
         value = float("nan")
     lo, hi = FPS_RANGE
@@ -125,17 +126,25 @@ def readonly_view(a: np.ndarray) -> np.ndarray:
 
 
 def frozen(a: np.ndarray) -> np.ndarray:
-    """``a`` as a container keeps it: a read-only view when nothing can write its memory (a slice of another
-    frozen array, a read-only memory map), else a read-only copy, so that the caller's array changing
-    afterwards does not change a Motion, Skeleton or MarkerSet built from it."""
+    """``a`` as a container keeps it: a read-only view of memory nothing can write (a slice of another frozen
+    array), else a read-only view of a read-only copy, so that the caller's array changing afterwards does not
+    change a Motion, Skeleton or MarkerSet built from it.
+
+    A memory map is copied whatever its mode: the file under it can be written by another map or program, and
+    the container would follow. The result is always a view whose base is read-only, so that
+    ``setflags(write=True)`` on it is refused (numpy allows that on an array that owns its memory).
+    """
     b = a
     while isinstance(b, np.ndarray):
-        if b.flags.writeable:
-            c = np.array(a, copy=True)
-            c.setflags(write=False)
-            return c
+        if b.flags.writeable or isinstance(b, np.memmap):
+            break
         b = b.base
-    return readonly_view(a)
+    else:
+        if b is None and a.base is not None:  # a view of read-only memory an array owns: nothing can write it
+            return readonly_view(a)
+    c = np.array(a, copy=True)
+    c.setflags(write=False)
+    return readonly_view(c)
 
 
 def frame_slice(key, num_frames: int, fps: float, what: str = "take") -> tuple[slice, float]:
@@ -177,6 +186,22 @@ def _check_unit(rot: np.ndarray, skeleton) -> None:
                             f"{skeleton.joint_names[j]!r} has length {float(np.sqrt(n2[f, j])):.6g}")
 
 
+def _check_finite(a: np.ndarray, name: str, rows) -> None:
+    """Refuse a NaN or infinite row of ``a`` (N, 3), naming it by ``rows[i]``: a skeleton's rest offsets have no
+    missing values (forward kinematics would put every joint below it nowhere)."""
+    bad = ~np.isfinite(a).all(axis=1)
+    if bad.any():
+        i = int(np.flatnonzero(bad)[0])
+        raise SkeletonError(f"{name}: {rows[i]} is {a[i].tolist()}; offsets must be finite numbers")
+
+
+def _source_path(path, name: str) -> str:
+    """``path`` (a str or path-like) as an absolute path string, else TypeError."""
+    if not isinstance(path, (str, os.PathLike)):
+        raise TypeError(f"{name} must be a path (str or os.PathLike) or None, got {type(path).__name__}")
+    return os.path.abspath(os.fspath(path))
+
+
 def _as_float(a, name: str, shape_tail: tuple[int, ...], ndim: int) -> np.ndarray:
     arr = np.asarray(a, dtype=np.float64)
     if arr.ndim != ndim or arr.shape[arr.ndim - len(shape_tail):] != shape_tail:
@@ -215,6 +240,9 @@ class Skeleton:
         Per joint, a (lo, hi) pair in degrees for each rotation channel (ASF ``limits``).
     unit_cm : float, optional
         Centimetres per length unit when the source states it (ASF ``:units length``).
+    source_file : str, optional
+        The ASF file the skeleton was read from (absolute path; None otherwise): the ASF an AMC written for
+        it is read with (:func:`mocapkit.io.save` copies it beside the AMC). Not compared.
     """
 
     joint_names: tuple[str, ...]
@@ -226,6 +254,7 @@ class Skeleton:
     axes: np.ndarray | None = None
     limits: tuple[tuple[tuple[float, float], ...], ...] | None = None
     unit_cm: float | None = None
+    source_file: str | None = None
 
     def __post_init__(self):
         names = tuple(str(n) for n in self.joint_names)
@@ -250,6 +279,7 @@ class Skeleton:
         offsets = _as_float(self.offsets, "offsets", (3,), 2)
         if offsets.shape[0] != J:
             raise SkeletonError(f"offsets: expected shape ({J}, 3), got {offsets.shape}")
+        _check_finite(offsets, "offsets", names)
         object.__setattr__(self, "offsets", offsets)
         esp = np.asarray(self.end_site_parents, dtype=np.int64).reshape(-1)
         if np.any((esp < 0) | (esp >= J)):
@@ -258,6 +288,7 @@ class Skeleton:
         eso = _as_float(np.asarray(self.end_site_offsets, dtype=np.float64).reshape(-1, 3), "end_site_offsets", (3,), 2)
         if eso.shape[0] != esp.shape[0]:
             raise SkeletonError("end_site_offsets and end_site_parents differ in length")
+        _check_finite(eso, "end_site_offsets", [f"{names[p]} (end site)" for p in esp])
         object.__setattr__(self, "end_site_offsets", eso)
         if self.channels is not None:
             ch = tuple(tuple(str(c) for c in cs) for cs in self.channels)
@@ -280,6 +311,8 @@ class Skeleton:
             if len(lim) != J:
                 raise SkeletonError(f"limits: expected one entry per joint ({J}), got {len(lim)}")
             object.__setattr__(self, "limits", lim)
+        if self.source_file is not None:
+            object.__setattr__(self, "source_file", _source_path(self.source_file, "source_file"))
 
     # -- basic facts -------------------------------------------------------
     @property
@@ -384,6 +417,11 @@ class Motion:
         channels on non-root joints). Where given, forward kinematics uses
         ``translations[:, j]`` instead of ``skeleton.offsets[j]`` for every
         joint ``j > 0``; column 0 is unused (the root is ``root_positions``).
+    source_file : str, optional
+        The file the take was read from (absolute path; set by the readers, kept by every operation that
+        returns a new Motion, None for a take made in Python). :func:`mocapkit.io.save` writes a BVH or AMC
+        like it (its text kept wherever the take did not change, as the command line does). Not compared,
+        not written to .npz.
 
     Examples
     --------
@@ -401,6 +439,7 @@ class Motion:
     fps: float
     name: str = ""
     translations: np.ndarray | None = None
+    source_file: str | None = None
 
     def __post_init__(self):
         if not isinstance(self.skeleton, Skeleton):
@@ -414,6 +453,9 @@ class Motion:
         root = np.asarray(self.root_positions, dtype=np.float64)
         if root.shape != (F, 3):
             raise SkeletonError(f"root_positions: expected shape ({F}, 3), got {root.shape}")
+        if np.isinf(root).any():  # NaN is a missing sample; an infinite position is none
+            f = int(np.flatnonzero(np.isinf(root).any(axis=1))[0])
+            raise SkeletonError(f"root_positions: frame {f} is infinite ({root[f].tolist()}); missing is NaN")
         fps = check_fps(self.fps)
         object.__setattr__(self, "rotations", frozen(rot))
         object.__setattr__(self, "root_positions", frozen(root))
@@ -423,7 +465,11 @@ class Motion:
             tr = np.asarray(self.translations, dtype=np.float64)
             if tr.shape != (F, J, 3):
                 raise SkeletonError(f"translations: expected shape ({F}, {J}, 3), got {tr.shape}")
+            if np.isinf(tr).any():
+                raise SkeletonError("translations: an offset is infinite; missing is NaN")
             object.__setattr__(self, "translations", frozen(tr))
+        if self.source_file is not None:
+            object.__setattr__(self, "source_file", _source_path(self.source_file, "source_file"))
 
     # -- sizes -------------------------------------------------------------
     @property

@@ -156,6 +156,27 @@ def test_bandai_ebd_fills_a_whole_joint_gap_and_keeps_the_observed_cells(dance):
     assert float(np.sqrt(np.mean(err**2))) < 20.0
 
 
+def test_denoise_and_fill_gaps_warn_of_the_non_commercial_models_they_pick(dance):
+    """deep.denoise and deep.fill_gaps used the CC BY-NC Bandai models on a Bandai take without a word (the CLI and
+    clean's summary say it): a LicenceWarning naming the licence and the argument that picks another model."""
+    import warnings
+
+    from mocapkit.errors import LicenceWarning
+
+    noisy, _ = corrupt.angular_noise(dance, 0.5, seed=7)
+    with pytest.warns(LicenceWarning, match="the EBF used is CC BY-NC 4.0.*model= picks another, e.g. ebf.pt"):
+        deep.denoise(noisy)
+    rot = np.array(dance.rotations)
+    rot[15:45, dance.skeleton.joint_names.index("LowerLeg_L")] = np.nan
+    with pytest.warns(LicenceWarning, match="the EB[DF] used is CC BY-NC 4.0") as said:
+        deep.fill_gaps(dataclasses.replace(dance, rotations=rot))
+    assert any("denoiser= picks another" in str(w.message) for w in said)  # its EBF smooths the fill
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # the Acclaim models, and clean (its summary says it), warn of nothing
+        deep.denoise(noisy, deep.shipped_model("ebf"))
+        deep.denoise_or_fallback(noisy)
+
+
 @pytest.mark.parametrize("method", ["auto", "ebd"])
 @pytest.mark.parametrize("rotation_too", [True, False])
 def test_a_lost_bandai_pelvis_position_is_filled_as_the_root_position_is(dance, method, rotation_too):

@@ -87,8 +87,11 @@ def test_oracle_flags_inconsistent_results():
 
     with pytest.raises(SkeletonError, match="unit length"):  # a Motion refuses such rotations itself
         dataclasses.replace(m, rotations=bad_rot)
-    bad = dataclasses.replace(m, root_positions=bad_root)
-    object.__setattr__(bad, "rotations", bad_rot)  # as a reader that built its arrays around the check would
+    with pytest.raises(SkeletonError, match="infinite"):  # and an infinite root position
+        dataclasses.replace(m, root_positions=bad_root)
+    bad = dataclasses.replace(m)
+    object.__setattr__(bad, "root_positions", bad_root)  # as a reader that built its arrays around the checks would
+    object.__setattr__(bad, "rotations", bad_rot)
     probs = fuzz_readers.consistency_problems(bad)
     assert "root_positions holds inf" in probs
     assert "a rotation is not a unit quaternion" in probs

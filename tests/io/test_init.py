@@ -33,3 +33,52 @@ def test_save_writes_a_marker_set_by_its_suffix(tmp_path):
     for suffix in (".c3d", ".trc", ".npz"):
         back = load(save(ms, tmp_path / f"m{suffix}"))
         assert back.labels == ms.labels and np.allclose(back.positions, ms.positions, equal_nan=True, atol=1e-3)
+
+
+def test_save_keeps_the_text_of_the_file_the_take_was_read_from(tmp_path):
+    """`mocapkit.save(result.motion, "x.bvh")` (the README's recipe) rewrote every line of an untouched take (other
+    number text, other Euler branches) where the CLI kept them: a take remembers its file, and save writes like it."""
+    import dataclasses
+
+    import numpy as np
+
+    import mocapkit
+    from mocapkit import samples
+
+    src = samples.path("131_01.bvh")
+    res = mocapkit.clean(src, steps="fill")  # nothing to fill: the take as read
+    assert res.motion.source_file == str(src.resolve())
+    out = mocapkit.save(res.motion, tmp_path / "same.bvh")
+    assert out.read_bytes() == src.read_bytes()
+    m = mocapkit.load(src)
+    rot = np.array(m.rotations)
+    rot[7, 3] = [0.0, 1.0, 0.0, 0.0]
+    mocapkit.save(dataclasses.replace(m, rotations=rot), tmp_path / "one.bvh")
+    a, b = src.read_text().splitlines(), (tmp_path / "one.bvh").read_text().splitlines()
+    assert len(a) == len(b) and sum(x != y for x, y in zip(a, b)) == 1
+    whole = mocapkit.save(m, tmp_path / "whole.bvh", like=False)  # written whole, as a take made in Python
+    assert whole.read_bytes() != src.read_bytes()
+    assert np.degrees(mocapkit.rotations.geodesic_angle(mocapkit.load(whole).rotations, m.rotations)).max() < 1e-4
+    with pytest.raises(TypeError, match="like must be a path"):
+        mocapkit.save(m, tmp_path / "x.bvh", like=1)
+
+
+def test_an_amc_saved_from_python_gets_its_asf_beside_it(tmp_path):
+    """An AMC written by `mocapkit.save` could not be read back (no ASF beside it): the ASF the take was read with is
+    copied there first, as the CLI does, and the AMC keeps its input's text."""
+    import mocapkit
+    from mocapkit import samples
+
+    src = samples.path("12_walk.amc")
+    m = mocapkit.load(src)
+    assert m.skeleton.source_file == str((src.parent / "12.asf").resolve())
+    out = mocapkit.save(m[:], tmp_path / "walk_clean.amc")
+    assert out.read_bytes() == src.read_bytes()
+    assert (tmp_path / "walk_clean.asf").read_bytes() == (src.parent / "12.asf").read_bytes()
+    back = mocapkit.load(out)
+    assert back.num_frames == m.num_frames
+    other = tmp_path / "other"
+    mocapkit.save(m, other / "12_walk.amc", copy_asf=False)
+    with pytest.raises(MocapFormatError, match="no skeleton"):
+        mocapkit.load(other / "12_walk.amc")
+    assert mocapkit.load(other / "12_walk.amc", asf=src.parent / "12.asf").num_frames == m.num_frames

@@ -110,16 +110,17 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import os
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Sequence
+from typing import Mapping, Sequence
 
 import numpy as np
 
 from .. import rotations as R
 from ..errors import MocapError, MocapFormatError
-from ..motion import Motion
+from ..motion import Motion, frozen
 from .calibration import CalibrationPose, calibration_poses
 from .stutters import Stutter, find_stutters
 from .whole_take import (MAX_WORD_ANGLE_DEG, denoise_take, detect_take, differing, fill_take, motion_span,
@@ -127,7 +128,7 @@ from .whole_take import (MAX_WORD_ANGLE_DEG, denoise_take, detect_take, differin
 from .zeros import ZeroRun, find_zeros
 
 __all__ = ["STEPS", "CleanResult", "StepRecord", "clean", "capped_lines", "noise_level", "noise_direction", "noisy_cells", "clean_path", "parse_steps",
-           "check_noise_deg"]
+           "check_noise_deg", "check_threshold", "check_models"]
 
 STEPS = ("fill", "detect", "repair", "denoise")
 FORMAT = "mocapkit.clean/1"
@@ -231,6 +232,14 @@ class CleanResult:
     zeros: np.ndarray | None = None
     zero_runs: tuple = ()
     stutters: tuple = ()
+
+    def __post_init__(self):
+        # read-only, and not the detection's own arrays: a caller writing res.repaired[:] = False changed what
+        # decisions.changes listed, and the detection with it
+        for name in ("mdm", "flags", "filled", "repaired", "denoised", "noise", "causes", "zeros"):
+            a = getattr(self, name)
+            if a is not None:
+                object.__setattr__(self, name, frozen(np.asarray(a)))
 
     def __repr__(self) -> str:
         return (f"CleanResult({self.motion!r}, {int(self.flags.sum())} flagged, {int(self.filled.sum())} filled, "
@@ -540,22 +549,54 @@ def noisy_cells(motion: Motion, noise_deg: float = NOISE_DEG, filled: np.ndarray
 
 
 def parse_steps(steps) -> tuple[str, ...]:
+    """``steps`` (a comma-separated string or a list of step names) as a tuple in :data:`STEPS` order; ValueError
+    naming an unknown step or an empty request, TypeError for something that is neither."""
     if isinstance(steps, str):
         steps = [s.strip() for s in steps.split(",") if s.strip()]
-    steps = list(steps)
+    try:
+        steps = list(steps)
+    except TypeError:
+        raise TypeError(f"steps must be a comma-separated string or a list of step names, got "
+                        f"{type(steps).__name__}") from None
     bad = [s for s in steps if s not in STEPS]
-    if bad or not steps:
-        raise ValueError(f"unknown step(s) {bad or steps!r}; steps are {', '.join(STEPS)}")
+    if not steps:
+        raise ValueError(f"no step given; steps are {', '.join(STEPS)} (comma-separated, or a list)")
+    if bad:
+        raise ValueError(f"unknown step(s) {bad!r}; steps are {', '.join(STEPS)}")
     if "repair" in steps and "detect" not in steps:
         raise ValueError("the repair step needs the detect step (it replaces what detect flags)")
     return tuple(s for s in STEPS if s in steps)
 
 
-def _models(models) -> dict:
-    models = dict(models or {})
+def check_models(models) -> dict:
+    """``models`` (``{"ebf": ..., "ebd": ...}``, None: the shipped ones) checked before any work, as the CLI checks
+    ``--ebf`` / ``--ebd``: each file (or shipped model's name) read as a model of its key's kind, each model given
+    of that kind. Returns the dict with files as given (they are read again where a step needs them).
+
+    Raises TypeError for something that is no dict (a list of files) or a value that is no model or path,
+    :class:`~mocapkit.errors.MocapError` for another key, and :class:`~mocapkit.errors.MocapFormatError`
+    naming a missing, malformed or other-kind model file.
+    """
+    if models is None:
+        return {}
+    if not isinstance(models, Mapping):
+        raise TypeError(f"models must be a dict {{'ebf': ..., 'ebd': ...}} of model files or models, got "
+                        f"{type(models).__name__}")
+    models = dict(models)
     bad = [k for k in models if k not in ("ebd", "ebf")]
     if bad:
-        raise ValueError(f"models: keys are 'ebd' and 'ebf', got {bad}")
+        raise MocapError(f"models: keys are 'ebd' and 'ebf', got {', '.join(map(repr, bad))}")
+    if not models:
+        return models
+    from . import deep
+
+    for kind, m in models.items():
+        if isinstance(m, (str, os.PathLike)):
+            deep.load_model(m, kind)  # a missing, malformed or other-kind file: one line naming it
+        elif not isinstance(m, deep.DeepModel):
+            raise TypeError(f"models[{kind!r}] must be a model file or a loaded model, got {type(m).__name__}")
+        elif m.kind != kind:
+            raise MocapError(f"models[{kind!r}] is an {m.kind.upper()} model, but this needs an {kind.upper()}")
     return models
 
 
@@ -619,8 +660,19 @@ def held_still_note(motion: Motion) -> str:
             "the body moves: a lost or frozen channel? (not flagged: every word of the take holds it alike)")
 
 
+def check_threshold(threshold: float) -> None:
+    """Raise TypeError unless ``threshold`` (the MDM level over which a joint is flagged) is a number, ValueError
+    unless it is in (0, 1)."""
+    if isinstance(threshold, (bool, np.bool_)) or not isinstance(threshold, (int, float, np.integer, np.floating)):
+        raise TypeError(f"threshold must be a number in (0, 1), got {type(threshold).__name__} {threshold!r}")
+    if not 0.0 < threshold < 1.0:
+        raise ValueError(f"threshold must be in (0, 1), got {threshold}")
+
+
 def check_noise_deg(noise_deg: float) -> None:
     """Raise ValueError unless ``noise_deg`` (the noisy-cell level, degrees) is a positive number."""
+    if isinstance(noise_deg, (bool, np.bool_)) or not isinstance(noise_deg, (int, float, np.integer, np.floating)):
+        raise TypeError(f"noise_deg must be a number of degrees, got {type(noise_deg).__name__} {noise_deg!r}")
     if not (np.isfinite(noise_deg) and noise_deg > 0):
         raise ValueError(f"noise_deg must be a positive number of degrees, got {noise_deg!r}")
 
@@ -676,13 +728,12 @@ def clean(
 
     _check(motion)
     steps = parse_steps(steps)
+    models = check_models(models)  # before any work, as the CLI checks --ebf / --ebd
+    check_threshold(threshold)
+    check_noise_deg(noise_deg)
     if "detect" in steps:  # with an empty numba cache, later steps' kernels compile beside the first steps
         precompile.start(precompile.kernels_for(steps))
     params = take_params(max_word_angle_deg=max_word_angle_deg, drifts=drifts)
-    models = _models(models)
-    if not 0.0 < threshold < 1.0:
-        raise ValueError(f"threshold must be in (0, 1), got {threshold}")
-    check_noise_deg(noise_deg)
     name = motion.name or "motion"
     F, J = motion.num_frames, motion.num_joints
     zeros = np.zeros((F, J), dtype=bool)
@@ -786,6 +837,8 @@ def clean(
             records.append(StepRecord("denoise", time.perf_counter() - t, int(denoised.sum()), method,
                                       extra + (f"; {note}" if note else "")))
 
+    if cur.source_file != motion.source_file:  # the file a writer keeps the text of (mocapkit.io.save's like)
+        cur = dataclasses.replace(cur, source_file=motion.source_file)
     params = dict(steps=list(steps), threshold=float(threshold), noise_deg=float(noise_deg), foot_skate=bool(foot_skate),
                   context="none" if context is None else _context_label(context), analysed=[int(lo), int(hi)])
     return CleanResult(

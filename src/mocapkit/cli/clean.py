@@ -185,10 +185,9 @@ def _models(ebf: Optional[Path], ebd: Optional[Path]) -> dict | None:
     given = {k: p for k, p in (("ebf", ebf), ("ebd", ebd)) if p is not None}
     if not given:
         return None
-    from ..cleaning import deep
+    from ..cleaning.pipeline import check_models
 
-    for kind, path in given.items():
-        deep.load_model(path, kind)  # a missing, malformed or wrong-kind file: one line naming it
+    check_models(given)  # a missing, malformed or wrong-kind file: one line naming it (mocapkit.clean's check)
     return {k: str(p) for k, p in given.items()}
 
 

@@ -192,7 +192,7 @@ def save_take(motion, out: Path, inp: Path | None, asf=None, overwrite: bool = F
     copy = asf_for_output(out, skeleton, overwrite)
     with removed_on_failure([copy, out], overwrite=overwrite):
         place_asf(copy, skeleton)  # first: an AMC is never left without the ASF it is read with
-        io.save(motion, out, asf=skeleton if skeleton is not None else asf, **kwargs)
+        io.save(motion, out, asf=skeleton if skeleton is not None else asf, copy_asf=False, **kwargs)
     if copy is not None:
         console.print(f"copied the skeleton {skeleton} to {copy}: an AMC is read with the ASF beside it")
 

@@ -143,7 +143,7 @@ def convert(
     resampled, m = r is not m, r
     # a BVH to BVH or AMC to AMC conversion at the take's own rate keeps the input's text (io.save's like);
     # an AMC output gets the input's ASF beside it
-    save_take(m, out, inp, asf, overwrite, like=None if resampled else inp)
+    save_take(m, out, inp, asf, overwrite, like=False if resampled else inp)
     console.print(f"wrote {out} ({plural(m.num_frames, 'frame')} @ {m.fps:g} fps)")
 
 

@@ -123,7 +123,7 @@ def _write(result, out: Path, asf_file: Optional[Path], overwrite: bool) -> None
     from ..io.takes import asf_for_output, place_asf
 
     if asf_file is None:
-        io.save(result, out)
+        io.save(result, out, like=False, copy_asf=False)
         return
     from ..io.amc_writer import check_amc_writable
 
@@ -131,7 +131,7 @@ def _write(result, out: Path, asf_file: Optional[Path], overwrite: bool) -> None
     copy = asf_for_output(out, asf_file, overwrite)
     with removed_on_failure([copy, out], overwrite=overwrite):
         place_asf(copy, asf_file)
-        io.save(result, out, asf=asf_file)
+        io.save(result, out, asf=asf_file, like=False, copy_asf=False)
     if copy is not None:
         console.print(f"copied the skeleton {asf_file} to {copy}: an AMC is read with the ASF beside it")
 

@@ -174,37 +174,63 @@ def marker_notes(markers: MarkerSet, path, inp=None) -> list[str]:
     return notes
 
 
-def save(motion, path, like=None, asf=None, overwrite: bool = True, **kwargs) -> Path:
+def save(motion, path, like=None, asf=None, overwrite: bool = True, copy_asf: bool = True, **kwargs) -> Path:
     """Write ``motion`` to ``path`` (.bvh, .amc or .npz) atomically; returns the path.
 
     As Python's ``open(path, "w")`` does, an existing file is replaced (the file the take was read from
     too); ``overwrite=False`` refuses one instead (:class:`~mocapkit.errors.MocapFormatError`), as the
     command line does without ``--overwrite``.
 
-    ``like``: the file ``motion`` was read from. A BVH written from a BVH, or
-    an AMC from an AMC, keeps that file's text wherever the motion did not
-    change (see :func:`mocapkit.io.bvh.write_bvh` and
-    :func:`mocapkit.io.amc_writer.write_amc`), so an untouched take comes back
-    the same file; other pairs of formats ignore it. An AMC is written only for
-    a take on an ASF skeleton (read with the same ASF); ``asf``, that ASF when
-    it is not beside ``like``, sets the order of the root's numbers (other
-    formats ignore it). A :class:`~mocapkit.markerset.MarkerSet` is written by
-    :func:`save_markers` (.c3d, .trc, .npz).
+    ``like``: the file ``motion`` was read from; by default ``motion.source_file``, which the readers set
+    and every operation keeps (a cleaned take's too), so ``save(mocapkit.clean(path).motion, out)`` keeps
+    the input's text as ``mocapkit clean`` does; ``False`` writes the file whole. A BVH written from a
+    BVH, or an AMC from an AMC, keeps that file's text wherever the motion did not change (see
+    :func:`mocapkit.io.bvh.write_bvh` and :func:`mocapkit.io.amc_writer.write_amc`), so an untouched take
+    comes back the same file; other pairs of formats ignore it. When that file was changed or removed
+    since the take was read and its text is no longer kept (:mod:`mocapkit.io.sources`), the save is
+    refused in one line (``like=False`` writes it whole).
+
+    An AMC is written only for a take on an ASF skeleton (read with the same ASF); ``asf``, that ASF
+    (by default ``motion.skeleton.source_file``, the one it was read with), sets the order of the
+    root's numbers (other formats ignore it). An AMC holds no skeleton and is read with the ASF beside
+    it, so with ``copy_asf`` that ASF is copied beside ``path`` first where the folder lacks it (under
+    its own name when it prefixes the AMC's, else the AMC's stem + ``.asf``:
+    :func:`mocapkit.io.takes.asf_for_output`), as the command line does; an ASF of that name with
+    other contents is replaced only with ``overwrite`` and where no other AMC in the folder is read with
+    it (else refused). A take whose skeleton's ASF is not known (one read from
+    .npz) is read back with ``load(path, asf=...)``. A :class:`~mocapkit.markerset.MarkerSet` is
+    written by :func:`save_markers` (.c3d, .trc, .npz; ``like`` as there).
     """
+    from ..motion import Motion
+
     path = Path(path)
+    if like is not None and like is not False and not isinstance(like, (str, os.PathLike, MarkerSet)):
+        raise TypeError(f"like must be a path, False or None, got {type(like).__name__}")
     if not overwrite and (path.exists() or path.is_symlink()):
         raise MocapFormatError(path, "already exists; pass overwrite=True to replace it")
     if isinstance(motion, MarkerSet):
-        return save_markers(motion, path, like=like)
+        return save_markers(motion, path, like=like or None)
+    if not isinstance(motion, Motion):
+        raise TypeError(f"save takes a Motion or a MarkerSet, got {type(motion).__name__}")
     kind = suffix_kind(path, WRITERS, "writing")
+    if like is None:
+        like = motion.source_file
+    like = like or None
     if kind == "bvh":
         from .bvh import write_bvh
 
         write_bvh(motion, path, like=like, **kwargs)
     elif kind == "amc":
-        from .amc_writer import write_amc
+        from .amc_writer import check_amc_writable, write_amc
+        from .outputs import removed_on_failure
+        from .takes import asf_for_output, place_asf
 
-        write_amc(motion, path, like=like, asf=asf, **kwargs)
+        asf = asf if asf is not None else motion.skeleton.source_file
+        check_amc_writable(motion, path)  # before the ASF is copied
+        copy = asf_for_output(path, asf, overwrite) if copy_asf and asf is not None and Path(asf).is_file() else None
+        with removed_on_failure([copy]):
+            place_asf(copy, asf)  # first: an AMC is never left without the ASF it is read with
+            write_amc(motion, path, like=like, asf=asf, **kwargs)
     else:
         from .npz import write_npz
 

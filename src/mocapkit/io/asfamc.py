@@ -291,6 +291,7 @@ def _parse_asf(path: Path) -> tuple[Skeleton, _Layout]:
         axes=np.array(axes),
         limits=tuple(limits),
         unit_cm=None if length_unit is None else 2.54 / length_unit,
+        source_file=path,
     )
     return skeleton, _Layout(dofs=tuple(dofs), radians=radians)
 
@@ -670,7 +671,8 @@ def _read_amc(path, asf=None, fps: float | None = None, dofs=None, keep_numbers:
         rate = check_fps(amc_rate(path, fps, data=header)[0])
     except SkeletonError as exc:
         raise MocapFormatError(path, f"frame rate: {exc}") from None
-    return Motion(skeleton=skeleton, rotations=rotations, root_positions=root, fps=rate, name=path.stem), numbers
+    return Motion(skeleton=skeleton, rotations=rotations, root_positions=root, fps=rate, name=path.stem,
+                  source_file=path), numbers
 
 
 _CHUNK_BYTES = 1 << 20

@@ -455,7 +455,7 @@ def _read_bvh(path, data: bytes | None = None) -> tuple[Motion, np.ndarray]:
         )
     except SkeletonError as e:
         raise MocapFormatError(path, str(e)) from None
-    return _motion_from_channels(skeleton, table, fps, path.stem), table
+    return _motion_from_channels(skeleton, table, fps, path.stem, path), table
 
 
 def _check_unit_scale(path: Path, names, channels, table: np.ndarray, lines: np.ndarray) -> None:
@@ -551,8 +551,9 @@ def _channels_to_arrays(values, col_joint, col_kind, offsets):
     return rot, local
 
 
-def _motion_from_channels(skeleton: Skeleton, values: np.ndarray, fps: float, name: str) -> Motion:
-    """``Motion.from_channel_values(..., animated_offsets=True)`` for BVH skeletons, fused in one numba pass."""
+def _motion_from_channels(skeleton: Skeleton, values: np.ndarray, fps: float, name: str, path: Path) -> Motion:
+    """``Motion.from_channel_values(..., animated_offsets=True)`` for BVH skeletons, fused in one numba pass; the
+    Motion's ``source_file`` is ``path``."""
     col_joint, col_kind = [], []
     moving = False
     for j, chans in enumerate(skeleton.channels):
@@ -570,6 +571,7 @@ def _motion_from_channels(skeleton: Skeleton, values: np.ndarray, fps: float, na
         fps=fps,
         name=name,
         translations=local if moving else None,
+        source_file=path,
     )
 
 

@@ -16,7 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import MocapFormatError, SkeletonError
+from ..errors import MocapError, MocapFormatError, SkeletonError
 from ..motion import Motion, Skeleton, check_fps
 from . import atomic_write
 
@@ -345,7 +345,7 @@ def read_npz(path):
         )
     except KeyError as exc:
         raise MocapFormatError(path, f"npz lacks the array {exc.args[0]!r}") from None
-    except (ValueError, TypeError) as exc:
+    except (ValueError, TypeError, MocapError) as exc:
         if isinstance(exc, MocapFormatError):
             raise
         raise MocapFormatError(path, f"inconsistent npz contents: {exc}".replace("\n", " ")) from None

@@ -110,12 +110,13 @@ def load_take(path: os.PathLike | str, asf: os.PathLike | str | None = None, fps
     return with_unit(take, unit, path) if unit is not None and "units" not in kwargs else take
 
 
-def check_unit(unit: str | None) -> None:
-    """Refuse a ``--unit`` that is none of :data:`UNIT_CHOICES` (:class:`~mocapkit.errors.MocapError`); None passes."""
+def check_unit(unit: str | None, option: str = "--unit ") -> None:
+    """Refuse a ``--unit`` that is none of :data:`UNIT_CHOICES` (:class:`~mocapkit.errors.MocapError`); None passes.
+    ``option``: how the message names it (the CLI's ``--unit ``, Python's ``unit=``)."""
     if unit is not None and unit not in UNIT_CHOICES:
         from ..errors import MocapError
 
-        raise MocapError(f"--unit {unit!r}: one of {', '.join(UNIT_CHOICES)} is expected")
+        raise MocapError(f"{option}{unit!r}: one of {', '.join(UNIT_CHOICES)} is expected")
 
 
 def with_unit(take, unit: str | None, path: os.PathLike | str):

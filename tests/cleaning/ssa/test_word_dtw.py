@@ -1,5 +1,7 @@
 """The numba kernels of the self-similarity analysis against slow, obvious oracles (tests/naive.py)."""
 
+import os
+
 import numpy as np
 import pytest
 from hypothesis import given, settings
@@ -359,6 +361,31 @@ def test_a_parallel_twin_not_compiled_nor_cached_runs_only_on_very_large_problem
 
     assert run() == ["True", "False", "True", "True"]  # cold: serial at the threshold; compiled: parallel
     assert run() == ["True", "True", "True", "True"]  # cached: parallel at the threshold before any call
+
+
+_TORCH_THREADS_RUN = '''
+import numpy as np, torch, mocapkit
+from mocapkit.cleaning import deep
+from mocapkit.cleaning.ssa.twins import forced
+from mocapkit.cleaning.ssa.word_dtw import group_pose_distances
+torch.set_num_threads(1)
+deep.denoise(mocapkit.load(mocapkit.samples.path("12_walk.amc"))[:120])  # torch's inference threads, then numba's
+q = np.tile([1.0, 0.0, 0.0, 0.0], (40, 3, 1))
+with forced("parallel"):
+    group_pose_distances(q, q, np.ones((1, 3), bool), [0])
+print(torch.get_num_threads())
+'''
+
+
+@pytest.mark.skipif((os.cpu_count() or 1) < 2, reason="numba's pool of one thread sets the count torch was given")
+def test_a_parallel_twin_leaves_the_callers_torch_threads_as_set():
+    """The first parallel kernel in a process (after torch had run) started numba's OpenMP pool, which set the
+    OpenMP thread count to the core count: a caller's torch.set_num_threads(1) read 2 after its first clean."""
+    import subprocess
+    import sys
+
+    out = subprocess.run([sys.executable, "-c", _TORCH_THREADS_RUN], check=True, capture_output=True, text=True)
+    assert out.stdout.split() == ["1"]
 
 
 @pytest.mark.parametrize("contiguous", [True, False])

@@ -20,7 +20,7 @@ import torch
 
 from ... import rigs
 from ... import rotations as R
-from ...errors import MocapFormatError, SkeletonError
+from ...errors import LicenceWarning, MocapFormatError, SkeletonError
 from ...io import atomic_write
 from ...motion import Motion
 from .channels import ChannelLayout, channel_joints, lerp_fill
@@ -556,7 +556,10 @@ def denoise(motion: Motion, model=None, cells: np.ndarray | None = None) -> Moti
     """Denoise every non-root joint of ``motion`` with the EBF (Mall 3); root trajectory and rotation kept.
 
     ``model``: a :class:`DeepModel`, a model file, or None for the shipped
-    EBF. Frames and skeleton are the input's; missing joints stay missing.
+    EBF that serves the take's rig (:func:`shipped_model`: the Acclaim one, ``ebf.pt``, or a rig family's own,
+    such as ``ebf_bandai.pt`` for the Bandai Namco game rig). A model whose licence restricts use (the Bandai
+    Namco models are CC BY-NC: non-commercial) is said by a :class:`~mocapkit.errors.LicenceWarning`
+    (:func:`licence_note`), as the CLI says it. Frames and skeleton are the input's; missing joints stay missing.
     ``cells`` (F, J) bool: denoise only these cells, the others are returned
     bit-identical; the network then runs only up to the frames they need
     (:func:`denoise_channels`' ``until``), and the denoised cells are the
@@ -572,6 +575,12 @@ def denoise(motion: Motion, model=None, cells: np.ndarray | None = None) -> Moti
     True
     """
     sv = serving(motion, model, "ebf")
+    warn_licence(sv.model, {"ebf": "model="})
+    return _denoise(motion, sv, cells)
+
+
+def _denoise(motion: Motion, sv: Serving, cells: np.ndarray | None) -> Motion:
+    """:func:`denoise` by the model ``sv`` serves the take with, without a word about its licence (the caller says it)."""
     m = sv.model
     keep = motion.missing()
     until = None
@@ -638,8 +647,26 @@ def fill_gaps(motion: Motion, model=None, denoiser=None, smooth: bool = True, me
     missing animated offset (``motion.translations``, (F, J, 3)): on a game rig
     whose pelvis carries the body's path (Bandai Namco's Hips over a still
     ``joint_Root``) that is the root position under another name.
+    ``model`` / ``denoiser``: models or files, None for the shipped pair that serves the take's rig (the Bandai
+    Namco one, CC BY-NC, on that rig): a model whose licence restricts use is said by a
+    :class:`~mocapkit.errors.LicenceWarning`, as the CLI says it.
     """
-    return _fill_gaps(motion, model, denoiser, smooth, method)[0]
+    sv = serving(motion, model, "ebd")
+    if motion.missing().any():
+        warn_licence(sv.model, {"ebd": "model=", "ebf": "denoiser="})
+        if smooth and ebf_takes_part(sv.model, smooth, method):
+            warn_licence(_smoothing_ebf(sv.model, denoiser, motion), {"ebd": "model=", "ebf": "denoiser="})
+    return _fill_gaps(motion, sv, denoiser, smooth, method)[0]
+
+
+def warn_licence(model: DeepModel, options: dict[str, str]) -> None:
+    """Warn (:class:`~mocapkit.errors.LicenceWarning`) with :func:`licence_note`'s line when ``model``'s licence
+    restricts use; ``options`` names the argument that picks another model."""
+    note = licence_note(model, options)
+    if note:
+        import warnings
+
+        warnings.warn(note, LicenceWarning, stacklevel=3)
 
 
 def _fill_gaps(motion: Motion, model, denoiser, smooth: bool, method: str) -> tuple[Motion, list]:
@@ -797,7 +824,7 @@ def denoise_or_fallback(motion: Motion, model=None, cells: np.ndarray | None = N
     own = passed_over("ebf", motion) if model is None else ""
     if not isinstance(sv, str):
         note = "; ".join(n for n in (own, licence_note(sv.model, options)) if n)
-        return denoise(motion, sv, cells=cells), _method("ebf", label, sv, skeleton=motion.skeleton), note
+        return _denoise(motion, sv, cells), _method("ebf", label, sv, skeleton=motion.skeleton), note
     J = motion.skeleton.num_joints
     if cells is None:
         cells = np.zeros((motion.num_frames, J), dtype=bool)

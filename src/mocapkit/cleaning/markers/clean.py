@@ -36,7 +36,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ...markerset import subject_of
+from ...markerset import check_units, subject_of
 from .duplicates import find_duplicates
 from .gaps import SMOOTH_S, fill_gaps, nobody_seen
 from .rigid import distance_stats
@@ -337,6 +337,7 @@ def clean_markers(markers, *, steps=STEPS, spike_mm: float = 15.0, swap_mm: floa
     unknown = [s for s in steps if s not in STEPS]
     if unknown:
         raise ValueError(f"unknown step(s) {', '.join(unknown)}; steps are {', '.join(STEPS)}")
+    check_units(markers)  # a stated unit off by orders of magnitude: refused, not cleaned at the wrong scale
     unit_mm = 10.0 * markers.unit_cm
     full = np.asarray(markers.positions, dtype=np.float64)
     none = np.zeros(full.shape[1], dtype=bool)

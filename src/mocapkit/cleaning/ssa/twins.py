@@ -31,19 +31,21 @@ take, and the tests to compare the two.
 
 from __future__ import annotations
 
+import sys
 import threading
 import types
 from contextlib import contextmanager
 
 from numba import njit
 
-__all__ = ["Twins", "twin_kernels", "forced", "on_disk", "PARALLEL_SUFFIX", "COLD_FACTOR"]
+__all__ = ["Twins", "twin_kernels", "forced", "on_disk", "start_threads", "PARALLEL_SUFFIX", "COLD_FACTOR"]
 
 PARALLEL_SUFFIX = "__parallel"
 # A parallel twin not yet compiled runs only from COLD_FACTOR x its threshold: the thresholds sit near
 # 3-10 ms of serial work, so this is 6-20 s of serial work, about what compiling the parallel twin costs.
 COLD_FACTOR = 2000
 _forced: list[str | None] = [None]  # "serial", "parallel" or None (by size)
+_started = [False]  # whether numba's thread pool was started here (start_threads)
 
 
 class Twins:
@@ -78,15 +80,41 @@ class Twins:
         if side == "serial":
             return self.serial
         if side == "parallel":
+            start_threads()
             return self.parallel
         if threading.current_thread() is not threading.main_thread() or size < self.threshold:
             return self.serial
         if size >= COLD_FACTOR * self.threshold or self.parallel_ready():
+            start_threads()
             return self.parallel
         return self.serial
 
     def __repr__(self) -> str:
         return f"<Twins {self.__name__} parallel from size {self.threshold}>"
+
+
+def start_threads() -> None:
+    """Start numba's thread pool (once per process) before a parallel twin runs, leaving torch's thread count as
+    the caller set it.
+
+    Started by the first parallel kernel itself, numba's OpenMP pool set the process's OpenMP thread count to
+    the core count, which torch (sharing that OpenMP runtime) then reported and used: a caller's
+    ``torch.set_num_threads(1)`` was undone by the first ``clean`` that ran a parallel twin. Started here
+    (``numba.get_num_threads`` starts it), with torch's count put back if it moved, later kernels leave it alone.
+    torch is not imported here: only a caller that imported it has a count to keep.
+    """
+    if _started[0]:
+        return
+    import numba
+
+    torch = sys.modules.get("torch")
+    threads = torch.get_num_threads() if torch is not None else None
+    try:
+        numba.get_num_threads()
+    finally:
+        _started[0] = True
+        if threads is not None and torch.get_num_threads() != threads:
+            torch.set_num_threads(threads)
 
 
 def on_disk(dispatcher) -> bool | None:
