@@ -17,6 +17,9 @@ from mocapkit.cleaning import deep
 from mocapkit.cleaning.deep import prior as P
 from mocapkit.cleaning.deep.channels import encode
 
+# the Bandai Namco models' licence is said by a LicenceWarning, tested in test_deep_shipped.py
+pytestmark = pytest.mark.filterwarnings("ignore::mocapkit.errors.LicenceWarning")
+
 
 def _coupled(F: int, seed: int, fps: float = 30.0) -> np.ndarray:
     """Three synthetic channels (degrees): a smooth random walk a, b = 2 a + 5, c = -a / 2 delayed by the prior's

@@ -17,6 +17,9 @@ from mocapkit.cleaning import deep
 from mocapkit.cleaning.deep import prior as P
 from mocapkit.cleaning.deep.channels import encode, lerp_fill
 
+# the Bandai Namco models' licence is said by a LicenceWarning, tested in test_deep_shipped.py
+pytestmark = pytest.mark.filterwarnings("ignore::mocapkit.errors.LicenceWarning")
+
 TEST_TAKE = "dataset-1_kick_normal_001"
 HELD = (TEST_TAKE, "dataset-1_walk_normal_002", "dataset-1_walk-left_normal_001")
 
