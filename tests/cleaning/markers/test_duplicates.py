@@ -85,3 +85,22 @@ def test_real_captures_hold_no_duplicate(shared_data):
         ms = load_markers(shared_data / name)
         keep = ~ms.modelled() & ~ms.unlabelled()
         assert find_duplicates(np.asarray(ms.positions)[:, keep], 10.0 * ms.unit_cm) == [], name
+
+
+@pytest.mark.parametrize("start,end,jitter", [(405, 525, 1.0), (100, 600, 0.0), (100, 600, 1.0)])
+def test_a_copy_that_jitters_or_covers_most_of_the_take_is_found(cmu, start, end, jitter):
+    # LFWT on RFWT's position with 1 mm of noise per axis (1.6 mm apart on average, up to 4 mm: it broke into dozens
+    # of 1-5 frame runs, most not told apart), or for 500 of the 810 frames (the pair's median distance over the take
+    # was then 0.0 mm, and it was taken for one marker under two labels: nothing found).
+    x = np.asarray(cmu.positions, dtype=np.float64)
+    a, b = _label(cmu.labels, "LFWT"), _label(cmu.labels, "RFWT")
+    y = x.copy()
+    y[start:end, a] = x[start:end, b] + np.random.default_rng(1).normal(0.0, jitter, (end - start, 3))
+    (d,) = find_duplicates(y)
+    assert (d.marker, d.other, d.start, d.end, d.resolved) == (a, b, start, end, True)
+    res = clean_markers(dataclasses.replace(cmu, positions=y), steps="swaps,duplicates")
+    want = np.zeros(y.shape[:2], dtype=bool)
+    want[start:end, a] = True
+    assert np.array_equal(res.changed, want)
+    err = np.linalg.norm(res.markers.positions[start:end, a] - x[start:end, a], axis=-1)
+    assert err.max() < 60.0  # the fill (the copy was 200-230 mm off)

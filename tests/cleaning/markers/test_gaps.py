@@ -159,3 +159,26 @@ def test_a_marker_whose_neighbours_are_never_seen_fills_without_a_warning():
         filled, records = fill_gaps(x, constrain=False)
     assert [r.marker for r in records if r.marker != 3] == [0] and np.all(np.isfinite(filled[:, 0]))
     assert np.all(np.isnan(filled[:, 1:3]))
+
+
+def _labels(path):
+    return [str(s).split(":")[-1] for s in read_c3d(path).labels]
+
+
+def test_a_props_hidden_markers_take_no_donor_from_the_body(cmu, shared_data):
+    # A real rigid cluster, the head markers of CMU 135_02, set 1.5 m beside the subject of 85_02 as a prop. With
+    # three of its four markers hidden for 1 s, their fills took the subject's head and shoulder markers as donors
+    # (their distance to the prop varies by 600-800 mm over the take): the fill followed another body. Now only
+    # the prop's own seen marker is a donor, and the record says why there is no donor group.
+    other = np.asarray(read_c3d(shared_data / "c3d_markers_recovery" / "135_02.c3d").positions, dtype=np.float64)
+    head = [_labels(shared_data / "c3d_markers_recovery" / "135_02.c3d").index(n) for n in ("LFHD", "RFHD", "LBHD", "RBHD")]
+    prop = other[1000:1000 + len(cmu)][:, head] + np.array([1500.0, 0.0, 0.0])
+    x = np.concatenate([cmu, prop], axis=1)
+    body = cmu.shape[1]
+    y = x.copy()
+    y[300:420, body:body + 3] = np.nan
+    _, records = fill_gaps(y, smooth=3.0)
+    assert [r.marker for r in records] == [body, body + 1, body + 2]
+    for r in records:
+        assert all(d >= body for d in r.donors)
+        assert "rigid donors" in r.note and "over the take by more than 150 mm" in r.note

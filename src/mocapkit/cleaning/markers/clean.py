@@ -70,7 +70,10 @@ class MarkerFix:
     seen ends a gap has: 1 where it reaches the take's first or last frame
     or frames where nobody is seen (its fill is an extrapolation from that
     one end, and ``size_mm`` measures from the one seen sample); ``models``,
-    how many models' fills were averaged (``method`` and ``donors`` then name the best).
+    how many models' fills were averaged (``method`` and ``donors`` then name the best);
+    ``fill_note``, why a gap had no donor group although markers were seen
+    throughout it: too few of them rigid enough to be donors
+    (:func:`~mocapkit.cleaning.markers.gaps.donors_allowed`).
     """
 
     marker: str
@@ -86,6 +89,7 @@ class MarkerFix:
     note: str = ""
     ends: int = 2
     models: int = 1
+    fill_note: str = ""
 
     @property
     def fill_text(self) -> str:
@@ -97,7 +101,7 @@ class MarkerFix:
             how = f"average of {self.models} fills, the best {how}"
         doubt = (f"expected error {self.expected_mm:.1f} mm" if np.isfinite(self.expected_mm)
                  else "expected error unknown (no seen stretch to validate on)")
-        return f"{self.seconds:.2f} s, {how}, {doubt}"
+        return f"{self.seconds:.2f} s, {how}, {doubt}" + (f" ({self.fill_note})" if self.fill_note else "")
 
     @property
     def size_text(self) -> str:
@@ -395,7 +399,7 @@ def clean_markers(markers, *, steps=STEPS, spike_mm: float = 15.0, swap_mm: floa
                 continue
             how = dict(seconds=(r.end - r.start) / markers.fps, method=r.method,
                        donors=", ".join(labels[d] for d in r.donors), expected_mm=r.expected_error * unit_mm,
-                       models=r.models)
+                       models=r.models, fill_note=r.note)
             if not r.filled:  # no plausible fill: left missing, and said so (a spike run's samples removed: a change)
                 left_fix = MarkerFix(labels[r.marker], r.start, r.end, "spike" if is_spike else "gap", float("nan"),
                                      note=r.implausible, **how)

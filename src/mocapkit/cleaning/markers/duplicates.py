@@ -2,11 +2,14 @@
 
 A labelling solver that gives one reconstructed point two labels puts one
 marker exactly on another for a while (CMU 85_02 with LFWT on RFWT: 0.0 mm
-apart for 1 s). Two real markers cannot sit within a millimetre of each other:
-they are balls 6-25 mm wide. So two labelled markers that are usually apart
-(at least ``apart_mm``, the median distance over the take) but lie within
-``tol_mm`` of each other over one frame or more cannot both be right there:
-one of them is a duplicate. Trajectories that are one physical marker under
+apart for 1 s). Two real markers cannot sit within a few millimetres of each
+other: they are balls 6-25 mm wide. So two labelled markers that are usually
+apart (at least ``apart_mm`` in the frames where they do not coincide) but lie
+within ``tol_mm`` (1 mm) of each other over one frame or more cannot both be
+right there: one of them is a duplicate. A copy may jitter about the other
+marker by a few millimetres (a median distance over 9 frames under ``jitter_mm``,
+4 mm, counts too: :func:`coincide`), and it may cover most of the take (how
+far apart they usually are is taken where they do not coincide). Trajectories that are one physical marker under
 two labels all the time (golfswing's club channels, 1-6 mm apart; a model's
 points that coincide by construction, c3d.org's sub_labels RFOO and RTOP)
 are usually that close and are left alone; so are markers that only come
@@ -36,7 +39,7 @@ import numpy as np
 from .gaps import gap_runs
 from .rigid import DistanceStats, distance_stats, donor_order, from_local, local_frames, to_local
 
-__all__ = ["Duplicate", "find_duplicates"]
+__all__ = ["Duplicate", "find_duplicates", "coincide"]
 
 
 @dataclass(frozen=True)
@@ -95,6 +98,22 @@ def _rigid_miss(x: np.ndarray, m: int, other: int, start: int, end: int, order: 
     return best
 
 
+def coincide(distance: np.ndarray, tol: float, jitter: float, width: int = 9) -> np.ndarray:
+    """(F,) bool: the frames where two markers sit at the same position, from their distance (F,) (NaN: unseen).
+
+    A frame coincides where the distance is under ``tol``, or its median
+    over the ``width`` frames about it under ``jitter``: a copy that jitters about the other
+    marker (a second label on a re-reconstructed point, a few mm off from
+    frame to frame) stays one run instead of breaking wherever its noise
+    reaches ``tol``, and the median keeps the run's edges where the copy
+    jumps on and off. Unseen frames never coincide.
+    """
+    d = np.where(np.isnan(distance), np.inf, distance)
+    half = width // 2
+    windows = np.lib.stride_tricks.sliding_window_view(np.pad(d, half, mode="edge"), width)
+    return ((d < tol) | (np.median(windows, axis=1) < jitter)) & np.isfinite(d)
+
+
 def _jumps(x: np.ndarray, m: int, start: int, end: int, unit_mm: float, off_mm: float) -> list[bool]:
     """Whether ``m`` jumps into the run at ``start`` and out of it at ``end`` (one entry per end with two seen samples
     beyond it): its sample there over ``off_mm`` from the straight line through the two samples beyond."""
@@ -110,7 +129,8 @@ def _jumps(x: np.ndarray, m: int, start: int, end: int, unit_mm: float, off_mm: 
     return out
 
 
-def find_duplicates(positions: np.ndarray, unit_mm: float = 1.0, *, tol_mm: float = 1.0, apart_mm: float = 10.0,
+def find_duplicates(positions: np.ndarray, unit_mm: float = 1.0, *, tol_mm: float = 1.0, jitter_mm: float = 4.0,
+                    apart_mm: float = 10.0,
                     off_mm: float = 15.0, ratio: float = 3.0, stats: DistanceStats | None = None, order: np.ndarray | None = None,
                     neighbours: int = 4) -> list[Duplicate]:
     """Runs of frames where two labelled markers sit at the same position, and which one is the copy.
@@ -121,11 +141,17 @@ def find_duplicates(positions: np.ndarray, unit_mm: float = 1.0, *, tol_mm: floa
         Marker positions, NaN where unseen (labelled markers only).
     unit_mm : float
         Millimetres per unit of ``positions``.
-    tol_mm : float
-        Two markers closer than this (mm) are at the same position.
+    tol_mm, jitter_mm : float
+        Two markers closer than ``tol_mm`` (mm), or whose median distance
+        over 9 frames is under ``jitter_mm`` (:func:`coincide`), are at the
+        same position: two real markers' centres are at least a ball's width
+        apart (6 mm for the smallest).
     apart_mm : float
-        Only pairs whose usual (median) distance is at least this (mm) are
-        judged: nearer ones are one physical marker under two labels.
+        Only pairs at least this far apart (mm) in 90 % of the frames where
+        they are seen and do not coincide are judged: nearer ones are one
+        physical marker under two labels (golfswing's club channels: 0.1-15
+        mm apart). Those frames, not the whole take: a copy covering over
+        half of it would make the pair's usual distance 0.
     off_mm, ratio : float
         The copy lies more than ``off_mm`` (mm) from where its rigid
         neighbours put it, and ``ratio`` times further than the other
@@ -149,16 +175,18 @@ def find_duplicates(positions: np.ndarray, unit_mm: float = 1.0, *, tol_mm: floa
     tol = tol_mm / unit_mm
     for i in range(m - 1):
         with np.errstate(invalid="ignore"):
-            close = np.linalg.norm(x[:, i + 1:] - x[:, i:i + 1], axis=-1) < tol  # (F, M - i - 1), False where unseen
-        for k in np.flatnonzero(close.any(axis=0)):
+            near = np.linalg.norm(x[:, i + 1:] - x[:, i:i + 1], axis=-1)  # (F, M - i - 1), NaN where unseen
+        for k in np.flatnonzero(np.any(near < max(tol, jitter_mm / unit_mm), axis=0)):
             j = i + 1 + int(k)
+            close = coincide(near[:, k], tol, jitter_mm / unit_mm)
+            apart = near[:, k][~close & ~np.isnan(near[:, k])]
+            if apart.size < 10 or not np.percentile(apart, 10) * unit_mm >= apart_mm:
+                continue  # one physical marker under two labels (or too rarely seen apart to tell)
             if stats is None:
                 stats = distance_stats(x)
-            if not stats.count[i, j] >= 10 or not stats.median[i, j] * unit_mm >= apart_mm:
-                continue  # one physical marker under two labels (or too rarely seen together to tell)
             if order is None:
                 order = donor_order(stats)
-            for s, e in zip(*gap_runs(close[:, k])):
+            for s, e in zip(*gap_runs(close)):
                 s, e = int(s), int(e)
                 dist = float(np.max(np.linalg.norm(x[s:e, i] - x[s:e, j], axis=-1)))
                 miss = {a: _rigid_miss(x, a, b, s, e, order, neighbours) * unit_mm for a, b in ((i, j), (j, i))}

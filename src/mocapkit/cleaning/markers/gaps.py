@@ -17,8 +17,10 @@ inter-marker correlations, taken in a moving frame), and interpolates the
 residual across the gap so it meets both ends too.
 
 Which donors? Candidates are the markers whose distance to the gap marker
-varies least over the take (:func:`mocapkit.cleaning.markers.rigid.donor_order`)
-and that are seen throughout the gap. Every triple of the first
+varies least over the take (:func:`mocapkit.cleaning.markers.rigid.donor_order`),
+by no more than :data:`MAX_DONOR_SPREAD_MM` (:func:`donors_allowed`: a
+prop's or another subject's markers are no donors), and that are seen
+throughout the gap. Every triple of the first
 ``candidates`` of them, and the groups of the first 4 and 5, is a linear
 fill model; the cubic in the frame of the first triple and of all
 candidates, the cubic in room coordinates and the regression on the first
@@ -71,10 +73,14 @@ from .lowrank import fill_lowrank
 from .plausible import TakeLimits, implausible, take_limits
 from .rigid import DistanceStats, distance_stats, donor_order, from_local, local_frames, to_local
 
-__all__ = ["GapFill", "SMOOTH_S", "gap_runs", "fill_gaps", "nobody_seen", "error_limits", "MIN_ERROR_LIMIT_MM"]
+__all__ = ["GapFill", "SMOOTH_S", "gap_runs", "fill_gaps", "nobody_seen", "error_limits", "MIN_ERROR_LIMIT_MM",
+           "MAX_DONOR_SPREAD_MM", "donors_allowed"]
 
 MIN_ERROR_LIMIT_MM = 50.0
 """The least default limit on a fill's expected error (mm): see :func:`error_limits`."""
+
+MAX_DONOR_SPREAD_MM = 150.0
+"""The most a donor's distance to the gap's marker may vary over the take (its spread, mm): :func:`donors_allowed`."""
 
 
 @dataclass(frozen=True)
@@ -110,6 +116,10 @@ class GapFill:
         How many models' fills were averaged (weights 1 / error^2); 1 for a
         single model's fill. ``method`` and ``donors`` name the best of them,
         ``expected_error`` is the average's own.
+    note : str
+        Why the fill had no donor group although markers were seen
+        throughout the gap: too few of them rigid enough to be donors
+        (:func:`donors_allowed`); empty otherwise.
     """
 
     marker: int
@@ -121,6 +131,7 @@ class GapFill:
     constrained: bool = False
     implausible: str = ""
     models: int = 1
+    note: str = ""
 
     @property
     def filled(self) -> bool:
@@ -168,6 +179,26 @@ def error_limits(stats: DistanceStats, unit_mm: float = 1.0) -> np.ndarray:
     with np.errstate(all="ignore"):
         near = np.nanmin(np.where(np.isfinite(med), med, np.inf), axis=1)
     return np.maximum(np.where(np.isfinite(near), near, 0.0), MIN_ERROR_LIMIT_MM / unit_mm)
+
+
+def donors_allowed(stats: DistanceStats, m: int, unit_mm: float = 1.0) -> np.ndarray:
+    """(M,) bool: the markers rigid enough with marker m to be its donors.
+
+    A donor must move rigidly with the marker over the frames where both are
+    seen: the spread of their distance (half its 10-90 % range,
+    :class:`~mocapkit.cleaning.markers.rigid.DistanceStats`) at most
+    :data:`MAX_DONOR_SPREAD_MM`. Markers of one body keep it (the loosest
+    pair among the 4 most rigid neighbours of any marker of the recovery,
+    c3d.org, BTKData and TRC captures: 106 mm, across Dance.c3d's elbow);
+    a prop's or another subject's markers do not (SprintMotion.trc's start
+    blocks against the sprinter's feet: 570-630 mm). Pairs never seen
+    together are not donors.
+    """
+    spread = np.asarray(stats.spread[m], dtype=np.float64)
+    with np.errstate(invalid="ignore"):
+        out = spread <= MAX_DONOR_SPREAD_MM / unit_mm
+    out[m] = False
+    return out
 
 
 def _donor_fill(pos: np.ndarray, m: int, a: int, b: int, donors, cubic: bool = False, side: int = 0) -> np.ndarray | None:
@@ -313,7 +344,8 @@ SMOOTH_FRAMES = SMOOTH_S * 120.0
 RIDGES = (1e-3, 1e-1)  # the regression fills' relative ridges: one trusting the fit, one shrinking it
 
 
-def _models(pos: np.ndarray, m: int, a: int, b: int, order: np.ndarray, candidates: int, predictors: int):
+def _models(pos: np.ndarray, m: int, a: int, b: int, order: np.ndarray, candidates: int, predictors: int,
+            rigid: np.ndarray | None = None):
     """Fill models (donor group, kind, extra) for marker m's gap a..b-1.
 
     Linear in the frame of every triple of the most rigid markers seen
@@ -321,13 +353,15 @@ def _models(pos: np.ndarray, m: int, a: int, b: int, order: np.ndarray, candidat
     rigid triple and of all candidates; cubic in room coordinates; and the
     regression on the ``predictors`` most rigid markers seen throughout in
     the frame of the most rigid triple, once per ridge of ``RIDGES``
-    (``extra`` is then (predictors, ridge)).
+    (``extra`` is then (predictors, ridge)). ``rigid`` (M,) bool: the
+    markers that may be donors (:func:`donors_allowed`; default all); the
+    predictors are not limited (a regression learns how they move).
     """
     f = pos.shape[0]
     span = slice(max(a - 1, 0), min(b + 1, f))
     seen = np.all(~np.any(np.isnan(pos[span]), axis=-1), axis=0)
     near = [int(d) for d in order[m] if d != m and seen[d]]
-    cand = near[:candidates]
+    cand = [d for d in near if rigid is None or rigid[d]][:candidates]
     if len(cand) < 3:
         return [((), "cubic", None)]
     groups = [tuple(c) for c in combinations(cand, 3)]
@@ -598,14 +632,22 @@ def _fill_one(pos, out, m, a, b, order, stats, candidates, keep, predictors, con
     says why the first failed (``implausible``).
     """
     f = pos.shape[0]
-    models = _models(pos, m, a, b, order, candidates, predictors)
+    rigid = donors_allowed(stats, m, unit_mm)
+    models = _models(pos, m, a, b, order, candidates, predictors, rigid)
     fills = _fills(pos, m, a, b, models, order, stats)
+    note = ""
     if not any(est is not None and g for (g, _, _), est in zip(models, fills)):
         # no donor group could fill (too few seen, or degenerate): the room-coordinate and low-rank fills and the
         # offset from each of the two most rigidly attached markers seen throughout the gap (pattern fill) compete
         span = slice(max(a - 1, 0), min(b + 1, f))
         seen_gap = ~np.any(np.isnan(pos[span]), axis=(0, 2))
-        near = [int(d) for d in order[m] if d != m and seen_gap[d]][:2]
+        seen_gap[m] = False
+        near = [int(d) for d in order[m] if d != m and seen_gap[d] and rigid[d]][:2]
+        loose = int(np.count_nonzero(seen_gap & ~rigid))
+        if loose and np.count_nonzero(seen_gap & rigid) < 3:
+            note = (f"{np.count_nonzero(seen_gap & rigid)} rigid donors seen throughout the gap; {loose} other seen "
+                    f"markers not taken as donors: their distance to it varies over the take by more than "
+                    f"{MAX_DONOR_SPREAD_MM:.0f} mm (another body, or a prop)")
         extra = [((), "linear", None), ((), "lowrank", None)] + [((d,), "linear", None) for d in near]
         models += extra
         fills += _fills(pos, m, a, b, extra, order, stats)
@@ -662,7 +704,7 @@ def _fill_one(pos, out, m, a, b, order, stats, candidates, keep, predictors, con
                    "off (the distance to its nearest marker; --max-fill-error)")
         elif limits is not None:
             why = implausible(pos, m, a, b, est, limits, unit_mm, first_frame)
-        rec = GapFill(m, a, b, method, tuple(donors), expected, False, why, averaged if k == 0 else 1)
+        rec = GapFill(m, a, b, method, tuple(donors), expected, False, why, averaged if k == 0 else 1, note)
         first = first or rec
         if why:
             continue
