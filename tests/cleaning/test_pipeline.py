@@ -211,7 +211,9 @@ def test_drifts_are_repaired_only_when_asked_for_against_a_repeating_context():
     off = clean(bad, [twin], steps=("detect", "repair"))
     assert not off.flags[:, j].any() and not off.changed.any()
     on = clean(bad, [twin], steps=("detect", "repair"), drifts=True)
-    assert on.flags[mask[:, j], j].mean() > 0.8 and not (on.repaired & ~on.flags).any()
+    # every cell the drift moved visibly (5 deg, the benchmark's truth) is flagged; its faint ends need not be
+    seen = mask[:, j] & (np.degrees(R.geodesic_angle(bad.rotations[:, j], m.rotations[:, j])) >= 5.0)
+    assert on.flags[seen, j].all() and not on.flags[~mask[:, j], j].any() and not (on.repaired & ~on.flags).any()
     err = lambda x: np.degrees(R.geodesic_angle(x.rotations[:, j], m.rotations[:, j])).max()  # noqa: E731
     assert err(on.motion) < err(bad) / 3
     assert not clean(m, [twin], steps=("detect", "repair"), drifts=True).changed.any()  # the clean take: untouched

@@ -410,7 +410,8 @@ def test_clean_batch_drifts_flags_a_smooth_drift_only_when_asked(tmp_path, capsy
         assert rc == 0, capsys.readouterr().out
         records[name] = CleanResult.load(out / "sneak.clean.npz")
     assert not records["off"].flags[:, j].any()
-    assert records["on"].flags[mask[:, j], j].mean() > 0.8
+    seen = mask[:, j] & (np.degrees(mocapkit.rotations.geodesic_angle(bad.rotations[:, j], m.rotations[:, j])) >= 5.0)
+    assert records["on"].flags[seen, j].all()  # every cell the drift moved visibly; its faint ends need not be
     # the record says which rule flagged each cell, and the change list says it in words
     drift = 1 << [name for name, _ in CAUSES].index("drift")
     on = records["on"]

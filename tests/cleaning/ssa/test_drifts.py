@@ -8,7 +8,7 @@ import pytest
 from mocapkit import corrupt
 from mocapkit import rotations as R
 from mocapkit.cleaning import ssa
-from mocapkit.cleaning.ssa.drifts import body_agreement, excursions, other_joints_level, smooth_drift_flags
+from mocapkit.cleaning.ssa.drifts import body_agreement, chain_level, excursions, other_joints_level, smooth_drift_flags
 
 
 def slow_agreement(d, analysed):
@@ -180,6 +180,56 @@ def test_smooth_drift_flags_a_joint_whose_partner_digresses_too_is_a_style():
         smooth_drift_flags(jumps, agreement, consistency, fps, partners=partners, partner_ratio=0.0)
 
 
+def slow_chain_level(c, judged, parents):
+    """Reference: cell by cell, the largest finite value among the joint's judged parent and children."""
+    F, J = c.shape
+    out = np.full((F, J), -np.inf)
+    for f in range(F):
+        for j in range(J):
+            kin = [k for k in range(J) if k == parents[j] or parents[k] == j]
+            vals = [c[f, k] for k in kin if judged[f, k] and np.isfinite(c[f, k])]
+            if vals:
+                out[f, j] = max(vals)
+    return out
+
+
+def test_chain_level_is_the_largest_of_the_judged_parent_and_children():
+    rng = np.random.default_rng(7)
+    parents = np.array([-1, 0, 1, 2, 1, 4, 0])  # a root, a chain 1-2-3, a branch 1-4-5, a leaf 6 on the root
+    c = rng.uniform(0, 6, size=(30, 7))
+    c[rng.uniform(size=c.shape) < 0.1] = np.nan
+    judged = rng.uniform(size=c.shape) < 0.8
+    judged[:, 0] = False  # the root carries no evidence (as agreement is NaN there)
+    got = chain_level(c, judged, parents)
+    assert np.array_equal(got, slow_chain_level(c, judged, parents))
+    assert np.isneginf(chain_level(c, judged, np.full(7, -1))).all()  # no chains: no kin
+    with pytest.raises(ValueError, match="parents"):
+        chain_level(c, judged, parents[:3])
+
+
+def test_smooth_drift_flags_a_joint_whose_parent_or_child_digresses_too_is_a_style():
+    """Joint 1 the parent of joint 0, joint 2 its child: joint 0's excursion is a drift while the chain stays among
+    its neighbours, and no evidence where its parent or child digresses by chain_ratio * z_min or more (a style
+    bends a chain; a drift turns one joint)."""
+    jumps, agreement, consistency, fps = drift_case(J=4)
+    parents = np.array([1, -1, 0, 1])
+    assert smooth_drift_flags(jumps, agreement, consistency, fps, parents=parents)[:, 0].any()
+    for kin in (1, 2):
+        bent = consistency.copy()
+        bent[30:70, kin] = 1.6  # the parent (or the child) at 0.53 z_min over the whole excursion
+        assert not smooth_drift_flags(jumps, agreement, bent, fps, parents=parents, chain_ratio=0.5).any()
+        assert smooth_drift_flags(jumps, agreement, bent, fps, parents=parents, chain_ratio=0.6)[:, 0].any()
+        assert smooth_drift_flags(jumps, agreement, bent, fps)[:, 0].any()  # not asked without parents
+        unjudged = agreement.copy()
+        unjudged[:, kin] = np.nan  # a joint with no evidence (the root, the pelvis) is no evidence either way
+        assert smooth_drift_flags(jumps, unjudged, bent, fps, parents=parents)[:, 0].any()
+    sibling = consistency.copy()
+    sibling[30:70, 3] = 1.6  # a sibling (joint 3 on the parent too) is no kin
+    assert smooth_drift_flags(jumps, agreement, sibling, fps, parents=parents)[:, 0].any()
+    with pytest.raises(ValueError, match="chain_ratio"):
+        smooth_drift_flags(jumps, agreement, consistency, fps, parents=parents, chain_ratio=1.5)
+
+
 def test_smooth_drift_flags_a_run_cut_by_the_take_must_show_the_joint_leave_or_come_back():
     jumps, agreement, consistency, fps = drift_case()
     bump = consistency[30:70, 0].copy()
@@ -315,3 +365,18 @@ def test_detect_a_joint_held_off_its_neighbours_for_most_of_the_take_is_a_style_
     assert dataclasses.replace(det, change=None).drifts()[:, j].any()  # the angle alone calls the carriage a drift
     assert ssa.detect(styled, [twin], drift=True, drift_change=False).drifts()[:, j].any()
     assert ssa.detect(styled, [twin]).change is None  # only the drift rule reads it
+
+
+def test_detect_the_drift_evidence_is_the_change_alone(walk, drifted, tmp_path):
+    """A drift that turns a joint back across the offset its style holds brings it near its neighbours' mean at
+    the drift's height: the angle ratio (``consistency``) falls there while the change from the held offset does
+    not. The evidence is the change alone: the angle ratio no longer caps it."""
+    bad, mask, _ = drifted
+    det = ssa.detect(bad, [dataclasses.replace(walk, name="twin")], drift=True)
+    assert det.drifts().any()
+    near = dataclasses.replace(det, consistency=np.where(np.isfinite(det.consistency), 0.0, np.nan))
+    assert np.array_equal(near.drifts(), det.drifts())
+    # without the change the angle ratio is the evidence, and a joint on its neighbours' mean shows none
+    assert not dataclasses.replace(near, params=near.params.replace(drift_change=False)).drifts().any()
+    back = ssa.Detection.load(det.save(tmp_path / "d.npz"))  # the chains' parents travel with the file
+    assert det.parents is not None and np.array_equal(back.parents, det.parents)

@@ -97,13 +97,13 @@ class Detection:
     (flagged with confirmation at any threshold); agreement : float (F, J)
     the median angle in radians of the other analysed joints from the mean
     texture (:func:`body_agreement`), consistency : float (F, J) the joint's
-    angle over the neighbours' spread and noise: the evidence of the smooth
-    drifts (:func:`smooth_drift_flags`, flagged with confirmation where
-    ``params.drift``); change : float (F, J) or None, the joint's offset from
+    angle over the neighbours' spread and noise (the evidence of the smooth
+    drifts, :func:`smooth_drift_flags`, where ``params.drift_change`` is
+    off); change : float (F, J) or None, the joint's offset from
     the mean texture less the offset it holds over the take, over the same
     spread and noise (:func:`~mocapkit.cleaning.ssa.drifts.offset_change`;
-    the drift rule's second evidence, None where ``params.drift`` is off or
-    ``params.drift_change`` is); digression : float (F, J) angle in
+    the drift rule's evidence, None where ``params.drift`` or
+    ``params.drift_change`` is off); digression : float (F, J) angle in
     radians between the input and the mean motion texture (NaN where not
     analysed); best_group : int8 (F, J) the group whose neighbours explain the
     cell best (-1 none); spikes : bool (F, J) the ``jumps`` that are spikes
@@ -111,7 +111,8 @@ class Detection:
     saved before they were told apart); lone_spikes : bool (F, J) the spikes far
     past the joint's own motion on cells no neighbour word judges, flagged with
     confirmation (:func:`~mocapkit.cleaning.ssa.cues.lone_spikes`; None for a
-    detection saved before). ``left_out``: ``((joint name, why), ...)``
+    detection saved before); parents : int (J,) the skeleton's parent indices, read by the drift rule's chains
+    (None for a detection saved before, whose :meth:`drifts` then does not ask them). ``left_out``: ``((joint name, why), ...)``
     the joints not analysed and why (:func:`~mocapkit.cleaning.ssa.texture.left_out_joints`;
     :meth:`not_analysed`). The rest records how the analysis
     was made so that :func:`repair` can fetch the neighbour words again.
@@ -155,6 +156,7 @@ class Detection:
     span: tuple | None = None  # (lo, hi): the frames analysed, when not the whole take (padded)
     left_out: tuple = ()  # ((joint name, why), ...): the joints not analysed
     lone_spikes: np.ndarray | None = None  # (F, J) bool, None for a detection saved before the rule
+    parents: np.ndarray | None = None  # (J,) int, the skeleton's parents (the drift rule's chains); None: saved before
 
     @property
     def num_frames(self) -> int:
@@ -180,7 +182,8 @@ class Detection:
             return np.zeros(self.mdm.shape, dtype=bool)
         if self.span is not None:  # judged on the frames analysed, as the detection itself was
             return _pad_frames(self.analysed_part().drifts(), self.span[0], self.num_frames, False)
-        return _drifts(self.jumps, self.agreement, self.consistency, self.fps, self.params, self.joint_names, self.change)
+        return _drifts(self.jumps, self.agreement, self.consistency, self.fps, self.params, self.joint_names, self.change,
+                       self.parents)
 
     def causes(self) -> np.ndarray:
         """(F, J) uint8: which rules flag each cell (:func:`~mocapkit.cleaning.ssa.cues.flag_causes`; ``flags``
@@ -309,18 +312,22 @@ def _span_note(lo: int, hi: int) -> str:
     return f"analysed frames {lo}-{hi - 1} (calibration poses left out); word starts count from there"
 
 
-def _drifts(jumps, agreement, consistency, fps: float, p: SSAParams, joint_names, change=None) -> np.ndarray:
-    """:func:`smooth_drift_flags` with the drift parameters of ``p``, partners paired by ``joint_names``.
+def _drifts(jumps, agreement, consistency, fps: float, p: SSAParams, joint_names, change=None,
+            parents=None) -> np.ndarray:
+    """:func:`smooth_drift_flags` with the drift parameters of ``p``, partners paired by ``joint_names``, chains
+    read from ``parents`` (the skeleton's parent indices; None: the chain is not asked).
 
-    With ``change`` (:func:`offset_change`, used where ``p.drift_change``) the evidence of a cell is the smaller of
-    the two ratios (a style holds its offset, a drift changes it)."""
+    With ``change`` (:func:`offset_change`, used where ``p.drift_change``) the evidence of a cell is the change, not
+    ``consistency`` (a style holds its offset, a drift changes it)."""
     if change is not None and p.drift_change:
-        consistency = np.fmin(consistency, change)
+        consistency = change
     ratio = p.drift_partner_ratio
     partners = None if ratio is None else mirror_pairs(joint_names)
+    chain = p.drift_chain_ratio
     return smooth_drift_flags(jumps, agreement, consistency, fps, p.drift_repeat_deg, p.drift_z, p.drift_min_s,
                               p.confirm_margin_s, p.drift_extent, p.drift_others, p.drift_return_ratio, partners,
-                              1.0 if ratio is None else ratio)
+                              1.0 if ratio is None else ratio, None if chain is None else parents,
+                              1.0 if chain is None else chain)
 
 
 def _digression(motion, mean_tex, spread, texture_joints, up, fps_a, noise_deg, shift_s=0.0, speeds=False, offsets=False):
@@ -580,7 +587,7 @@ def detect_prepared(an: Analysis, threshold: float = 0.5, *, progress: bool = Fa
     chosen = has_context and not (isinstance(info, dict) and info.get("default"))
     agreement = body_agreement(digression, analysed) if chosen else np.full((F, J), np.nan)
     agreement[:, [0, pelvis_index(sk)]] = np.nan
-    drifts = _drifts(jumps, agreement, consistency, motion.fps, p, sk.joint_names, change) if p.drift else None
+    drifts = _drifts(jumps, agreement, consistency, motion.fps, p, sk.joint_names, change, sk.parents) if p.drift else None
     spikes = spike_breaks(q, resid, jumps)
     # a spike far past the joint's own motion is an error where no similar motion judges it
     lone = lone_spikes(q, resid, np.isfinite(digression), analysed, sk.parents, p.jump_deg, memo=chain_memo)
@@ -601,4 +608,5 @@ def detect_prepared(an: Analysis, threshold: float = 0.5, *, progress: bool = Fa
         context_clips=clips, jumps=jumps, holds=holds, swaps=swaps, offsets=offsets,
         agreement=agreement, consistency=consistency, params=params, notes=tuple(notes),
         analysis=an, spikes=spikes, change=change, left_out=tuple(an.left_out), lone_spikes=lone,
+        parents=np.asarray(sk.parents, dtype=np.int64),
     )

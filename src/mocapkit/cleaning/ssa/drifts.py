@@ -28,13 +28,16 @@ excursion begins. An excursion is a smooth drift when, for at least
 ``min_s`` seconds of it, ``agreement <= repeat_deg`` and ``consistency >=
 z_min`` while at most ``others`` other joints digress that strongly at the
 same frame (:func:`other_joints_level`) and its left/right partner does not
-digress by half as much: it is flagged whole, down to where the joint is
+digress by half as much, nor its parent or one of its children
+(:func:`chain_level`): it is flagged whole, down to where the joint is
 back among its neighbours. One joint drifts; two may at once. A take whose
 style the context lacks moves several joints together away from their
 neighbours (both arms of a bow held otherwise, an arm and its hand), and
 that is no drift of any one of them; a style is often two-sided, a drift
-one joint's. Nor is a digression of a style next to a drift part of the
-drift: each excursion is judged alone.
+one joint's; a style bends a chain (a head bowed with the neck, an arm
+raised with the elbow opened), while a drift turns one joint and leaves
+its children's local rotations on their path. Nor is a digression of a
+style next to a drift part of the drift: each excursion is judged alone.
 
 An excursion cut by the take's first or last frame must show the part the
 take cuts: between that edge and its peak the joint comes back to within
@@ -46,10 +49,13 @@ context is asked about.
 A performer's style holds a joint off its neighbours' path, often for the
 whole take (an elbow carried higher, a head held lower): that is a
 digression of the same direction at every frame, and it is no drift. So the
-evidence of a cell is the smaller of ``consistency`` and the joint's
-``change`` (:func:`offset_change`): its offset from the mean texture less the
-offset it holds over the take (the median), over the same spread and noise.
-A drift changes the offset and comes back; a style keeps it.
+evidence of a cell is the joint's ``change`` (:func:`offset_change`): its
+offset from the mean texture less the offset it holds over the take (the
+median), over the same spread and noise, in place of ``consistency``. A
+drift changes the offset and comes back; a style keeps it. Where a drift
+turns the joint back across the offset its style holds, towards the
+neighbours' mean, ``consistency`` falls at the drift's height while the
+change does not.
 
 Where the context does not repeat the motion (the rest of the
 body digresses too) nothing is flagged here: a lone joint's
@@ -70,7 +76,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["body_agreement", "excursions", "offset_change", "other_joints_level", "smooth_drift_flags"]
+__all__ = ["body_agreement", "chain_level", "excursions", "offset_change", "other_joints_level", "smooth_drift_flags"]
 
 
 def body_agreement(digression: np.ndarray, analysed: np.ndarray) -> np.ndarray:
@@ -153,6 +159,32 @@ def other_joints_level(consistency: np.ndarray, judged: np.ndarray, others: int 
     return np.where(v >= top[:, [k]], top[:, [k + 1]], top[:, [k]])
 
 
+def chain_level(consistency: np.ndarray, judged: np.ndarray, parents) -> np.ndarray:
+    """(F, J) the largest ``consistency`` of a joint's parent and children among the judged joints, per frame.
+
+    ``consistency`` float (F, J) (NaN: no value, never counted); ``judged``
+    bool (F, J), the cells whose joint may carry a drift (the others are left
+    out); ``parents`` (J,) the skeleton's parent indices (-1 at the root). A
+    style bends a chain of joints together; a drift turns one joint, and its
+    children's local rotations keep their path. ``-inf`` where no parent or
+    child has a value.
+    """
+    c = np.asarray(consistency, dtype=np.float64)
+    judged = np.asarray(judged, dtype=bool)
+    parents = np.asarray(parents, dtype=np.int64)
+    if c.ndim != 2 or judged.shape != c.shape or parents.shape != (c.shape[1],):
+        raise ValueError(f"need consistency and judged of one (F, J) shape and parents (J,), got {c.shape}, "
+                         f"{judged.shape} and {parents.shape}")
+    v = np.where(judged & np.isfinite(c), c, -np.inf)
+    out = np.full(c.shape, -np.inf)
+    child = np.flatnonzero(parents >= 0)
+    up = parents[child]
+    # each joint takes its parent's value, and each parent the largest of its children's
+    out[:, child] = np.maximum(out[:, child], v[:, up])
+    np.maximum.at(out.T, up, v[:, child].T)
+    return out
+
+
 def excursions(c: np.ndarray, return_ratio: float = 0.3) -> list[tuple[int, int]]:
     """Half-open ``(a, b)`` excursions of a run of positive values ``c`` (1-D), in order.
 
@@ -204,6 +236,8 @@ def smooth_drift_flags(
     return_ratio: float = 0.3,
     partners: np.ndarray | None = None,
     partner_ratio: float = 0.5,
+    parents: np.ndarray | None = None,
+    chain_ratio: float = 0.5,
 ) -> np.ndarray:
     """(F, J) bool: the smooth drifts of a take (module docstring).
 
@@ -222,7 +256,9 @@ def smooth_drift_flags(
     (:func:`other_joints_level` over the joints with an ``agreement``; None:
     not asked) while its left/right partner (``partners``, the permutation
     of :func:`~mocapkit.motion.mirror_pairs`; None: not asked) is below
-    ``partner_ratio * z_min``, and, if it touches the first (last) frame,
+    ``partner_ratio * z_min``, and so are its parent and children
+    (:func:`chain_level` over the same joints; ``parents`` the skeleton's
+    parent indices, None: not asked) below ``chain_ratio * z_min``, and, if it touches the first (last) frame,
     its consistency comes down to ``return_ratio`` times its peak's between
     that frame and the peak (module docstring). ``return_ratio`` 1 judges whole runs as they
     are.
@@ -260,6 +296,12 @@ def smooth_drift_flags(
             # a style is often two-sided (both arms of a bow held otherwise, both legs bent more): where the
             # joint's mirror partner leaves its neighbours too, the joint's digression is no evidence of a drift
             strong &= ~(paired[None, :] & (consistency[:, partners] >= partner_ratio * z_min))
+    if parents is not None and strong.any():
+        if not 0 < chain_ratio <= 1:
+            raise ValueError(f"chain_ratio must be in (0, 1], got {chain_ratio!r}")
+        # a style bends a chain (a head bowed with the neck, an arm raised with the elbow opened); a drift turns one
+        # joint and leaves its children's local rotations on their path
+        strong &= chain_level(consistency, np.isfinite(agreement), parents) < chain_ratio * z_min
     if not strong.any():
         return np.zeros(jumps.shape, dtype=bool)
     n = int(round(margin_s * fps))

@@ -82,11 +82,16 @@ class SSAParams:
     drift_partner_ratio : ratio or None
         A cell is no evidence of a drift where the joint's left/right partner digresses by this share of
         ``drift_z`` at the same frame (a style is often two-sided, a drift one joint's); None: not asked.
+    drift_chain_ratio : ratio or None
+        Nor where the joint's parent or one of its children does (a style bends a chain, a drift turns one
+        joint and leaves its children's local rotations on their path,
+        :func:`~mocapkit.cleaning.ssa.drifts.chain_level`); None: not asked.
     drift_change : bool
         A cell is evidence of a drift only as far as the joint's offset from its neighbours' mean differs
-        from the offset it holds over the take (the median): the smaller of that ratio and the joint's angle
-        ratio is the one compared with ``drift_z`` and ``drift_extent``. A style holds an offset for the
-        whole take; a drift leaves and comes back (:func:`~mocapkit.cleaning.ssa.drifts.offset_change`).
+        from the offset it holds over the take (the median): that ratio, not the joint's angle ratio, is
+        the one compared with ``drift_z`` and ``drift_extent``. A style holds an offset for the whole
+        take; a drift leaves and comes back (:func:`~mocapkit.cleaning.ssa.drifts.offset_change`); False:
+        the angle ratio.
         The drift rule is off by default (``drift=True``, ``mocapkit detect --drifts`` / ``clean --drifts``):
         only a context that repeats the take's motion makes the evidence mean a drift.
     """
@@ -121,11 +126,12 @@ class SSAParams:
     drift: bool = False
     drift_repeat_deg: float = 5.0
     drift_z: float = 3.0
-    drift_min_s: float = 0.25
-    drift_extent: float = 0.5
+    drift_min_s: float = 0.15
+    drift_extent: float = 0.75
     drift_others: int | None = 1
     drift_return_ratio: float = 0.3
     drift_partner_ratio: float | None = 0.5
+    drift_chain_ratio: float | None = 0.5
     drift_change: bool = True
 
     def __post_init__(self):
@@ -150,6 +156,8 @@ class SSAParams:
             raise ValueError(f"drift_return_ratio must be in (0, 1], got {self.drift_return_ratio!r}")
         if self.drift_partner_ratio is not None and not 0 < self.drift_partner_ratio <= 1:
             raise ValueError(f"drift_partner_ratio must be None or in (0, 1], got {self.drift_partner_ratio!r}")
+        if self.drift_chain_ratio is not None and not 0 < self.drift_chain_ratio <= 1:
+            raise ValueError(f"drift_chain_ratio must be None or in (0, 1], got {self.drift_chain_ratio!r}")
         if not isinstance(self.joints, (int, np.integer)):
             object.__setattr__(self, "joints", tuple(j if isinstance(j, str) else int(j) for j in self.joints))
 
