@@ -38,6 +38,7 @@ from .cues import (
 from .drifts import body_agreement, offset_change, smooth_drift_flags
 from .neighbours import Neighbors, mean_motion_texture, nearest_words, unseen_words
 from .params import SSAParams
+from .repeats import expand, kept_frames, repeat_runs, without_repeats
 from .texture import Analysis, facing_aligned, prepare, upsample_quaternions
 
 __all__ = ["Detection", "detect", "detect_prepared", "movement_digression_map"]
@@ -123,6 +124,13 @@ class Detection:
     flagged outside the span, while the word starts and neighbours count from ``lo``. :meth:`causes`,
     :meth:`drifts` and :meth:`with_threshold` judge the analysed frames only (:meth:`analysed_part`), and
     :func:`repair` replaces cells inside the span only.
+
+    repeats : ``((first, last), ...)``: the runs of frames that repeat the frame before bit for bit
+    (:func:`~mocapkit.cleaning.ssa.repeats.repeat_runs`, counted from the first frame analysed), analysed once:
+    :func:`detect` analysed the take without them and each repeat holds what the frame it repeats holds (so a frame
+    written twice changes no flag but its own, :mod:`~mocapkit.cleaning.ssa.repeats`); the word starts and
+    neighbours count frames of the take without them. :meth:`causes`, :meth:`drifts` and :meth:`with_threshold`
+    judge that take (:meth:`unrepeated`), and :func:`repair` mends it.
     """
 
     mdm: np.ndarray
@@ -157,6 +165,7 @@ class Detection:
     left_out: tuple = ()  # ((joint name, why), ...): the joints not analysed
     lone_spikes: np.ndarray | None = None  # (F, J) bool, None for a detection saved before the rule
     parents: np.ndarray | None = None  # (J,) int, the skeleton's parents (the drift rule's chains); None: saved before
+    repeats: tuple = ()  # ((first, last), ...): frames repeating the frame before, analysed once
 
     @property
     def num_frames(self) -> int:
@@ -182,6 +191,8 @@ class Detection:
             return np.zeros(self.mdm.shape, dtype=bool)
         if self.span is not None:  # judged on the frames analysed, as the detection itself was
             return _pad_frames(self.analysed_part().drifts(), self.span[0], self.num_frames, False)
+        if self.repeats:
+            return expand(self.unrepeated().drifts(), self.repeats, self.num_frames)
         return _drifts(self.jumps, self.agreement, self.consistency, self.fps, self.params, self.joint_names, self.change,
                        self.parents)
 
@@ -190,6 +201,8 @@ class Detection:
         is exactly where it is not 0)."""
         if self.span is not None:
             return _pad_frames(self.analysed_part().causes(), self.span[0], self.num_frames, 0)
+        if self.repeats:
+            return expand(self.unrepeated().causes(), self.repeats, self.num_frames)
         return flag_causes(self.mdm, self.jumps, self.holds, self.swaps, self.offsets, self.threshold, self.fps,
                            self.params.confirm, self.params.confirm_margin_s, self.drifts(), self.spikes,
                            np.isfinite(self.digression), self.lone_spikes)
@@ -203,6 +216,9 @@ class Detection:
             sub = self.analysed_part().with_threshold(threshold)
             return dataclasses.replace(self, threshold=threshold, flags=_pad_frames(sub.flags, self.span[0],
                                                                                     self.num_frames, False))
+        if self.repeats:
+            sub = self.unrepeated().with_threshold(threshold)
+            return dataclasses.replace(self, threshold=threshold, flags=expand(sub.flags, self.repeats, self.num_frames))
         flags = flag_rule(self.mdm, self.jumps, self.holds, self.swaps, self.offsets, threshold, self.fps,
                           self.params.confirm, self.params.confirm_margin_s, self.drifts(), self.spikes,
                           np.isfinite(self.digression), self.lone_spikes)
@@ -235,6 +251,28 @@ class Detection:
         cut = {k: np.asarray(getattr(self, k))[lo:hi] for k in _PADS if getattr(self, k) is not None}
         return dataclasses.replace(self, **cut, span=None, notes=notes)
 
+    def unrepeated(self) -> "Detection":
+        """The detection of the frames analysed without their repeats (:attr:`repeats`), as :func:`detect` made it
+        on the take without them; ``self`` when there are none. Call it on :meth:`analysed_part`'s detection."""
+        if not self.repeats:
+            return self
+        if self.span is not None:
+            raise ValueError("call unrepeated() on the analysed part (analysed_part())")
+        keep = kept_frames(self.repeats, self.num_frames)
+        cut = {k: np.asarray(getattr(self, k))[keep] for k in _PADS if getattr(self, k) is not None}
+        return dataclasses.replace(self, **cut, repeats=())
+
+    def repeated(self, repeats, num_frames: int) -> "Detection":
+        """This detection of a take without its ``repeats`` (:func:`~mocapkit.cleaning.ssa.repeats.repeat_runs`)
+        put at the take's ``num_frames`` frames: each repeat holds the rows of the frame it repeats."""
+        repeats = tuple((int(a), int(b)) for a, b in repeats)
+        if not repeats:
+            return self
+        if self.repeats or self.span is not None:
+            raise ValueError("the detection is of the take with its repeats already")
+        arrays = {k: expand(getattr(self, k), repeats, num_frames) for k in _PADS if getattr(self, k) is not None}
+        return dataclasses.replace(self, **arrays, repeats=repeats)
+
     def save(self, path) -> Path:
         """Write as ``.npz`` (no pickles) through a temporary file and a rename."""
         from ...io import atomic_write
@@ -242,6 +280,7 @@ class Detection:
         arrays = {f.name: getattr(self, f.name) for f in dataclasses.fields(self)
                   if f.name != "analysis" and getattr(self, f.name) is not None}
         arrays.pop("span", None)
+        arrays.pop("repeats", None)
         meta = {
             "span": None if self.span is None else [int(v) for v in self.span],
             "threshold": self.threshold,
@@ -252,6 +291,7 @@ class Detection:
             "params": self.params.as_dict(),
             "notes": list(self.notes),
             "left_out": [list(p) for p in self.left_out],
+            "repeats": [list(r) for r in self.repeats],
         }
         for key in meta:
             arrays.pop(key, None)
@@ -289,6 +329,7 @@ class Detection:
                 notes=tuple(meta["notes"]),
                 left_out=tuple((str(n), str(w)) for n, w in meta.get("left_out", [])),
                 span=None if meta.get("span") is None else (int(meta["span"][0]), int(meta["span"][1])),
+                repeats=tuple((int(a), int(b)) for a, b in meta.get("repeats", [])),
             )
         except (OSError, ValueError, KeyError, TypeError) as e:
             raise MocapFormatError(path, f"not a mocapkit detection file ({e})") from None
@@ -414,12 +455,17 @@ def detect(
         ``max_word_angle_deg=8.0``, ...) replacing the one in ``params``.
 
     The detection keeps the prepared take (:attr:`Detection.analysis`), so
-    :func:`repair` does not resample the take and its context again.
+    :func:`repair` does not resample the take and its context again. Frames that repeat the frame before bit
+    for bit are analysed once (:attr:`Detection.repeats`, :mod:`~mocapkit.cleaning.ssa.repeats`): the take is
+    analysed without them, and each takes what the frame it repeats was given.
     """
     if not 0.0 < threshold < 1.0:
         raise ValueError(f"threshold must be in (0, 1), got {threshold}")
     params = (SSAParams() if params is None else params).replace(**overrides)
-    return detect_prepared(prepare(motion, context, params, groups=groups), threshold, progress=progress)
+    runs = repeat_runs(motion) if isinstance(motion, Motion) else ()
+    once = without_repeats(motion, runs)
+    det = detect_prepared(prepare(once, context, params, groups=groups), threshold, progress=progress)
+    return det.repeated(runs, motion.num_frames)
 
 
 def _judged_by_context(src, full, grows, words, nb: Neighbors, unseen: np.ndarray, prefilter: bool,

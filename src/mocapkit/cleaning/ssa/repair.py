@@ -23,6 +23,7 @@ from ..filters import window_frames
 from ..ik import contact_segments, segment_frames
 from .detect import Detection
 from .neighbours import dropped_terms, near_neighbors, neighbor_words
+from .repeats import expand, frame_index, repeat_runs, without_repeats
 from .texture import Analysis, align_hemisphere, prepare
 from .undo import undone_offsets
 
@@ -211,6 +212,8 @@ def repair(
         )
     if detection.span is not None:
         return _repair_span(motion, detection, context, contacts=contacts, foot_skate=foot_skate, blend_s=blend_s)
+    if detection.repeats:
+        return _repair_repeats(motion, detection, context, contacts=contacts, foot_skate=foot_skate, blend_s=blend_s)
     flags = np.asarray(detection.flags, dtype=bool) & detection.analysed[None, :]
     if not flags.any():
         return motion
@@ -387,6 +390,26 @@ def _foot_skate(original: Motion, repaired: Motion, flags: np.ndarray) -> Motion
         return repaired
     return ik.foot_skate_cleanup(repaired, frames=leg_frames, contacts=contacts)
 
+
+
+def _repair_repeats(motion: Motion, detection: Detection, context, **options) -> Motion:
+    """:func:`repair` of the take without the frames that repeat the one before (:attr:`Detection.repeats`), as
+    :func:`~mocapkit.cleaning.ssa.detect` analysed it, each repeat then written as the frame it repeats (so an
+    unflagged repeat stays bit-identical, and a repeat stays a repeat; ``contacts`` count the take's frames)."""
+    if not np.asarray(detection.flags, dtype=bool).any():
+        return motion
+    runs, F = detection.repeats, motion.num_frames
+    if repeat_runs(motion) != tuple(runs):
+        raise ValueError(f"{motion.name or 'motion'}: the detection was made on another clip (its repeated frames "
+                         "differ)")
+    index = frame_index(runs, F)
+    contacts = options.pop("contacts")
+    if contacts:
+        contacts = [dataclasses.replace(c, start=int(index[c.start]), end=int(index[c.end - 1]) + 1) for c in contacts]
+    once = repair(without_repeats(motion, runs), detection.unrepeated(), context, contacts=contacts, **options)
+    tr = None if motion.translations is None else expand(once.translations, runs, F)
+    return dataclasses.replace(motion, rotations=expand(once.rotations, runs, F),
+                               root_positions=expand(once.root_positions, runs, F), translations=tr)
 
 
 def _analysis(motion: Motion, detection: Detection, context) -> Analysis:
