@@ -12,9 +12,11 @@ take is cleaned, but the take's own continuity is. A run of changed cells of one
   angular acceleration (the angle of
   the second difference of the joint's rotation, degrees per frame squared) over the run and the frame on
   each side is not larger after than before (:func:`roughness`);
-* where it is bridged (no neighbour word covers it), the bridge turns no faster than
-  :data:`BRIDGE_MARGIN_DEG` beyond the fastest turn the joint makes in the take's unflagged frames: a slerp
-  that fast is no motion of the joint, it is the error spread over clean frames.
+* where it is bridged (no neighbour word covers it), the bridge turns no faster than :data:`BRIDGE_MIN_DEG`
+  degrees a frame or :data:`BRIDGE_FACTOR` times the fastest turn the joint makes between two unflagged
+  frames, whichever is more: a slerp an order of magnitude faster than the joint ever turns is no motion
+  of the joint, it is the error spread over clean frames. (A bound closer to the joint's own peak left
+  good bridges of freezes on fast knees and elbows, whose fastest frames are the flagged ones.)
 
 A run that fails is given back its input values bit for bit and named (:class:`LeftRun`): "left: repair not
 better than the take". A rule of this library, not of the paper. (Neighbour-word evidence was tried as a
@@ -36,8 +38,10 @@ __all__ = ["LeftRun", "angular_acceleration", "guard_joint", "roughness"]
 #: degrees per frame squared a repaired run may add to the input's largest angular acceleration: the joins of a
 #: 0.25 s blend add about 1 (a smooth drift repaired from a twin: 0.1 -> 1.1), a step put into a real turn tens
 ROUGHNESS_TOL_DEG = 2.0
-#: degrees per frame a bridge may turn beyond the joint's fastest turn in its unflagged frames
-BRIDGE_MARGIN_DEG = 10.0
+#: a bridge may turn up to this many degrees a frame whatever the joint does elsewhere (at 30 fps, 300 deg/s) ...
+BRIDGE_MIN_DEG = 10.0
+#: ... and up to this many times the joint's fastest turn between two unflagged frames
+BRIDGE_FACTOR = 10.0
 
 
 @dataclass(frozen=True)
@@ -107,6 +111,6 @@ def guard_joint(
             continue
         if bridged[s:e].any():
             fast = float(out_speed[max(s - 1, 0) : e].max())  # the turns into, through and out of the run
-            if fast > peak + BRIDGE_MARGIN_DEG:
-                bad.append((s, e, f"a bridge turning {fast:.0f} deg/frame, the joint at most {peak:.0f} elsewhere"))
+            if fast > max(BRIDGE_MIN_DEG, BRIDGE_FACTOR * peak):
+                bad.append((s, e, f"a bridge turning {fast:.1f} deg/frame, the joint at most {peak:.1f} elsewhere"))
     return bad
