@@ -809,6 +809,9 @@ def clean(
         # the root cells put back: flagged in the record, so a person can undo them
         flags, causes = with_teleports(flags, causes, done.teleported)
         note = "; ".join(done.put_back) if done.put_back else "" if flags.any() else "nothing flagged"
+        if done.left:  # runs the repair guard gave back as they were: flagged, not changed, named
+            notes.extend(capped_lines(done.left, "runs left"))
+            note = "; ".join(x for x in (note, f"{_count(len(done.left), 'run')} left: repair not better than the take") if x)
         records.append(StepRecord("repair", time.perf_counter() - t, int(repaired.sum()),
                                   "medoid of the nearest motion words" + (" + foot-skate cleanup" if foot_skate else ""), note))
 

@@ -307,6 +307,12 @@ def repair_take(motion: Motion, detection, context=None, *, foot_skate: bool = F
     change too, cells nobody flagged. Raises :class:`~mocapkit.errors.MocapError` naming the take when the
     detection or context do not fit it.
     """
+    return repair_take_left(motion, detection, context, foot_skate=foot_skate, poses=poses)[0]
+
+
+def repair_take_left(motion: Motion, detection, context=None, *, foot_skate: bool = False, poses=None):
+    """``(repaired, left)``: :func:`repair_take`, and the runs the repair guard gave back as they were
+    (:class:`~mocapkit.cleaning.ssa.LeftRun`, named "left: repair not better than the take")."""
     import dataclasses
 
     from . import ssa
@@ -316,7 +322,7 @@ def repair_take(motion: Motion, detection, context=None, *, foot_skate: bool = F
         if (detection.flags[calib]).any():
             detection = dataclasses.replace(detection, flags=detection.flags & ~calib[:, None])
     try:
-        return ssa.repair(motion, detection, context, foot_skate=foot_skate)
+        return ssa.repair_with_left(motion, detection, context, foot_skate=foot_skate)
     except ValueError as exc:
         raise MocapError(f"{motion.name or 'motion'}: repair: {exc}") from None
 
@@ -327,12 +333,14 @@ class TakeRepair:
     medoid words (and the foot-skate cleanup) changed; ``teleported``: (F, J) bool, the cells of the root's
     teleports put back (the root's position on joint 0, the pelvis's animated offset on its joint), none of them
     in ``repaired``; ``put_back``: one line per teleport put back
-    (:class:`~mocapkit.cleaning.take_breaks.RootEvent`)."""
+    (:class:`~mocapkit.cleaning.take_breaks.RootEvent`); ``left``: one line per run the repair guard left as it
+    was ("left: repair not better than the take: ...", :class:`~mocapkit.cleaning.ssa.LeftRun`)."""
 
     motion: Motion
     repaired: np.ndarray
     teleported: np.ndarray
     put_back: tuple = ()
+    left: tuple = ()
 
     @property
     def changed(self) -> np.ndarray:
@@ -353,14 +361,15 @@ def repair_whole(motion: Motion, detection, context=None, *, foot_skate: bool = 
     if detection.span is None and poses is None:
         poses = calibration_poses(motion)
     span = tuple(detection.span) if detection.span is not None else motion_span(poses, F)
-    fixed = repair_take(motion, detection, context, foot_skate=foot_skate, poses=poses)
+    fixed, left = repair_take_left(motion, detection, context, foot_skate=foot_skate, poses=poses)
+    left = tuple(str(r) for r in left)
     moved = changed_cells(motion, fixed)
     events = [e for e in tb.root_events(fixed, span) if e.kind == "teleport"]
     if not events:
-        return TakeRepair(fixed, moved, np.zeros_like(moved))
+        return TakeRepair(fixed, moved, np.zeros_like(moved), left=left)
     back, done = tb.fix_teleports(fixed, events)
     teleported = changed_cells(motion, back) & ~moved
-    return TakeRepair(back, moved, teleported, tuple(str(e) for e in done if e.fixed))
+    return TakeRepair(back, moved, teleported, tuple(str(e) for e in done if e.fixed), left)
 
 
 def with_teleports(flags: np.ndarray, causes: np.ndarray | None, teleported: np.ndarray):

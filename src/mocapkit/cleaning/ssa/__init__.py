@@ -113,8 +113,9 @@ from .cues import confirm_flags, discontinuities, held_joints, side_swaps, trans
 from .drifts import body_agreement, offset_change, smooth_drift_flags
 from .detect import Detection, detect, detect_prepared, movement_digression_map
 from .neighbours import mean_motion_texture, nearest_words, word_distance
+from .guard import LeftRun
 from .params import SSAParams
-from .repair import Contact, repair
+from .repair import Contact, repair, repair_with_left
 from .texture import (
     Analysis,
     MotionTexture,
@@ -137,6 +138,8 @@ __all__ = [
     "detect",
     "detect_prepared",
     "repair",
+    "repair_with_left",
+    "LeftRun",
     "motion_texture",
     "motion_words",
     "joint_groups",

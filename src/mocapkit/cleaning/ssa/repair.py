@@ -23,11 +23,12 @@ from ..filters import window_frames
 from ..ik import contact_segments, segment_frames
 from .detect import Detection
 from .neighbours import dropped_terms, near_neighbors, neighbor_words
-from .repeats import expand, frame_index, repeat_runs, without_repeats
+from .repeats import expand, frame_index, kept_frames, repeat_runs, without_repeats
 from .texture import Analysis, align_hemisphere, prepare
+from .guard import LeftRun, guard_joint
 from .undo import undone_offsets
 
-__all__ = ["Contact", "repair"]
+__all__ = ["Contact", "repair", "repair_with_left"]
 
 
 @dataclass(frozen=True)
@@ -169,8 +170,24 @@ def repair(
     contacts=None,
     foot_skate: bool = True,
     blend_s: float = 0.25,
+    guard: bool = True,
 ) -> Motion:
-    """Replace the flagged joints in flagged frames by the median of their KNN words (section 4).
+    """:func:`repair_with_left`'s repaired take, without the runs it left."""
+    return repair_with_left(motion, detection, context, contacts=contacts, foot_skate=foot_skate, blend_s=blend_s,
+                            guard=guard)[0]
+
+
+def repair_with_left(
+    motion: Motion,
+    detection: Detection,
+    context=None,
+    *,
+    contacts=None,
+    foot_skate: bool = True,
+    blend_s: float = 0.25,
+    guard: bool = True,
+) -> tuple[Motion, tuple[LeftRun, ...]]:
+    """``(repaired, left)``: replace the flagged joints in flagged frames by the median of their KNN words (section 4).
 
     For each flagged cell the source word around the frame gives K neighbour
     words (in the group that explained the joint best); the medoid of those
@@ -201,6 +218,12 @@ def repair(
     out by :func:`mocapkit.cleaning.whole_take.detect_take`) repairs that part only, as the detection of it
     alone would (``contacts`` count from the take's first frame): every frame outside it stays bit-identical,
     whatever ``foot_skate`` or ``contacts`` say.
+
+    With ``guard`` (the default), each run of one joint's changed cells is checked against the take itself
+    before contacts and foot skate (:mod:`~mocapkit.cleaning.ssa.guard`): a run that joins the take less
+    smoothly than the input did, or a bridge turning far faster than the joint does anywhere else, is given
+    back its input values bit for bit; ``left`` names each such run (:class:`~mocapkit.cleaning.ssa.guard.LeftRun`, frames of
+    ``motion``). Without it every flagged cell is repaired as above and ``left`` is empty.
     """
     if not isinstance(detection, Detection):
         raise TypeError(f"detection must be a Detection, got {type(detection).__name__}")
@@ -211,12 +234,14 @@ def repair(
             f"{motion.num_frames} frames, {motion.num_joints} joints)"
         )
     if detection.span is not None:
-        return _repair_span(motion, detection, context, contacts=contacts, foot_skate=foot_skate, blend_s=blend_s)
+        return _repair_span(motion, detection, context, contacts=contacts, foot_skate=foot_skate, blend_s=blend_s,
+                            guard=guard)
     if detection.repeats:
-        return _repair_repeats(motion, detection, context, contacts=contacts, foot_skate=foot_skate, blend_s=blend_s)
+        return _repair_repeats(motion, detection, context, contacts=contacts, foot_skate=foot_skate, blend_s=blend_s,
+                               guard=guard)
     flags = np.asarray(detection.flags, dtype=bool) & detection.analysed[None, :]
     if not flags.any():
-        return motion
+        return motion, ()
     p = detection.params
     fps_a, N = float(p.analysis_fps), int(p.source_length)
     an = _analysis(motion, detection, context)
@@ -310,13 +335,22 @@ def repair(
     # unflagged or already replaced (blending its own values towards the ends would bend a 180-degree
     # flip, not undo it)
     new[undone] = base[undone]
+    bridged = np.zeros(flags.shape, dtype=bool)
     for j in np.flatnonzero((flags & ~placed & ~undone).any(axis=0)):
-        bridged = _bridge(new[:, j], flags[:, j] & ~placed[:, j] & ~undone[:, j])
-        placed[bridged, j] = True
+        bridged[:, j] = _bridge(new[:, j], flags[:, j] & ~placed[:, j] & ~undone[:, j])
+        placed[bridged[:, j], j] = True
     window = window_frames(blend_s, motion.fps, 2)
     out_rot = base
     for j in np.flatnonzero(placed.any(axis=0)):
         out_rot[:, j] = _blend_runs(base[:, j], new[:, j], placed[:, j], window)
+    left: list[LeftRun] = []
+    if guard:  # a run the take shows to be no better than its input is given back as it was (guard.py)
+        names = motion.skeleton.joint_names
+        for j in np.flatnonzero((placed | undone).any(axis=0)):
+            changed = np.any(out_rot[:, j] != motion.rotations[:, j], axis=-1)
+            for s, e, why in guard_joint(motion.rotations[:, j], out_rot[:, j], changed, bridged[:, j], flags[:, j]):
+                out_rot[s:e, j] = motion.rotations[s:e, j]
+                left.append(LeftRun(names[j], int(s), int(e), why))
     out = dataclasses.replace(motion, rotations=out_rot)
     if contacts:
         from .. import ik
@@ -327,25 +361,27 @@ def repair(
                 out = ik.two_bone_ik(out, c.joint, c.target(), frames=frames)
     if foot_skate:
         out = _foot_skate(motion, out, flags)
-    return out
+    return out, tuple(left)
 
 
-def _repair_span(motion: Motion, detection: Detection, context, **options) -> Motion:
-    """:func:`repair` of the frames ``detection.span`` analysed, put back into ``motion`` (the rest untouched)."""
+def _repair_span(motion: Motion, detection: Detection, context, **options) -> tuple[Motion, tuple[LeftRun, ...]]:
+    """:func:`repair_with_left` of the frames ``detection.span`` analysed, put back into ``motion`` (the rest
+    untouched), its left runs in the take's frames."""
     lo, hi = detection.span
     if not np.asarray(detection.flags, dtype=bool).any():
-        return motion
+        return motion, ()
     contacts = options.pop("contacts")
     if contacts:  # frames of the part, which starts at lo
         contacts = [dataclasses.replace(c, start=c.start - lo, end=c.end - lo) for c in contacts]
-    part = repair(motion[lo:hi], detection.analysed_part(), context, contacts=contacts, **options)
+    part, left = repair_with_left(motion[lo:hi], detection.analysed_part(), context, contacts=contacts, **options)
+    left = tuple(dataclasses.replace(r, start=r.start + lo, end=r.end + lo) for r in left)
     rot, pos = np.array(motion.rotations), np.array(motion.root_positions)
     rot[lo:hi], pos[lo:hi] = part.rotations, part.root_positions
     tr = None
     if motion.translations is not None:
         tr = np.array(motion.translations)
         tr[lo:hi] = part.translations
-    return dataclasses.replace(motion, rotations=rot, root_positions=pos, translations=tr)
+    return dataclasses.replace(motion, rotations=rot, root_positions=pos, translations=tr), left
 
 
 def _closest_to_contacts(motion, words_k, place, cells, contacts) -> int | None:
@@ -392,12 +428,13 @@ def _foot_skate(original: Motion, repaired: Motion, flags: np.ndarray) -> Motion
 
 
 
-def _repair_repeats(motion: Motion, detection: Detection, context, **options) -> Motion:
-    """:func:`repair` of the take without the frames that repeat the one before (:attr:`Detection.repeats`), as
-    :func:`~mocapkit.cleaning.ssa.detect` analysed it, each repeat then written as the frame it repeats (so an
-    unflagged repeat stays bit-identical, and a repeat stays a repeat; ``contacts`` count the take's frames)."""
+def _repair_repeats(motion: Motion, detection: Detection, context, **options) -> tuple[Motion, tuple[LeftRun, ...]]:
+    """:func:`repair_with_left` of the take without the frames that repeat the one before
+    (:attr:`Detection.repeats`), as :func:`~mocapkit.cleaning.ssa.detect` analysed it, each repeat then written as
+    the frame it repeats (so an unflagged repeat stays bit-identical, and a repeat stays a repeat; ``contacts`` and
+    the left runs count the take's frames)."""
     if not np.asarray(detection.flags, dtype=bool).any():
-        return motion
+        return motion, ()
     runs, F = detection.repeats, motion.num_frames
     if repeat_runs(motion) != tuple(runs):
         raise ValueError(f"{motion.name or 'motion'}: the detection was made on another clip (its repeated frames "
@@ -406,10 +443,14 @@ def _repair_repeats(motion: Motion, detection: Detection, context, **options) ->
     contacts = options.pop("contacts")
     if contacts:
         contacts = [dataclasses.replace(c, start=int(index[c.start]), end=int(index[c.end - 1]) + 1) for c in contacts]
-    once = repair(without_repeats(motion, runs), detection.unrepeated(), context, contacts=contacts, **options)
+    once, left = repair_with_left(without_repeats(motion, runs), detection.unrepeated(), context, contacts=contacts,
+                                  **options)
+    kept = np.flatnonzero(kept_frames(runs, F))  # the take's frame of each frame without repeats
+    left = tuple(dataclasses.replace(r, start=int(kept[r.start]), end=int(kept[r.end]) if r.end < len(kept) else F)
+                 for r in left)  # a run ending on a repeated frame keeps its repeats
     tr = None if motion.translations is None else expand(once.translations, runs, F)
     return dataclasses.replace(motion, rotations=expand(once.rotations, runs, F),
-                               root_positions=expand(once.root_positions, runs, F), translations=tr)
+                               root_positions=expand(once.root_positions, runs, F), translations=tr), left
 
 
 def _analysis(motion: Motion, detection: Detection, context) -> Analysis:

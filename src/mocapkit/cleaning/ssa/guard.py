@@ -1,0 +1,116 @@
+"""The repair guard: a repaired run the take itself shows to be worse than its input is left as it was.
+
+Self-similarity repair (Aristidou et al. 2018, section 4) replaces a flagged joint by the medoid of its
+neighbour words, bridges what no word covers by slerp between its ends, and takes a transient offset away
+(:mod:`~mocapkit.cleaning.ssa.undo`). Each can leave a joint worse than it found it: a real fast turn that
+the break rule flagged (CMU 131_01's RightWrist, 133 degrees at frame 235) comes back with a step where the
+take turned smoothly; a bridge across a flip whose *other* side was flagged (the clean frames before a long
+flip of the toes) turns a still joint 180 degrees in 23 frames of clean capture. The truth is not known when a
+take is cleaned, but the take's own continuity is. A run of changed cells of one joint is kept only when
+
+* it joins the take no less smoothly than the input did (within :data:`ROUGHNESS_TOL_DEG`): the largest
+  angular acceleration (the angle of
+  the second difference of the joint's rotation, degrees per frame squared) over the run and the frame on
+  each side is not larger after than before (:func:`roughness`);
+* where it is bridged (no neighbour word covers it), the bridge turns no faster than :data:`BRIDGE_MIN_DEG`
+  degrees a frame or :data:`BRIDGE_FACTOR` times the fastest turn the joint makes between two unflagged
+  frames, whichever is more: a slerp an order of magnitude faster than the joint ever turns is no motion
+  of the joint, it is the error spread over clean frames. (A bound closer to the joint's own peak left
+  good bridges of freezes on fast knees and elbows, whose fastest frames are the flagged ones.)
+
+A run that fails is given back its input values bit for bit and named (:class:`LeftRun`): "left: repair not
+better than the take". A rule of this library, not of the paper. (Neighbour-word evidence was tried as a
+third rule, output against input distance from the words' medoid: the blend that makes a run meet the take
+at its ends moves it off the medoid on most good repairs, so it left more good repairs than bad.)
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ... import rotations as R
+from ..ik import contact_segments
+
+__all__ = ["LeftRun", "angular_acceleration", "guard_joint", "roughness"]
+
+#: degrees per frame squared a repaired run may add to the input's largest angular acceleration: the joins of a
+#: 0.25 s blend add about 1 (a smooth drift repaired from a twin: 0.1 -> 1.1), a step put into a real turn tens
+ROUGHNESS_TOL_DEG = 2.0
+#: a bridge may turn up to this many degrees a frame whatever the joint does elsewhere (at 30 fps, 300 deg/s) ...
+BRIDGE_MIN_DEG = 10.0
+#: ... and up to this many times the joint's fastest turn between two unflagged frames
+BRIDGE_FACTOR = 10.0
+
+
+@dataclass(frozen=True)
+class LeftRun:
+    """A run of one joint's repair given back as it was: ``joint`` (name), frames ``start`` to ``end - 1`` of
+    the take repaired, and ``reason``, the guard's words for the rule it failed."""
+
+    joint: str
+    start: int
+    end: int
+    reason: str
+
+    def __str__(self) -> str:
+        return f"left: repair not better than the take: {self.joint} frames {self.start}-{self.end - 1} ({self.reason})"
+
+
+def angular_acceleration(q: np.ndarray) -> np.ndarray:
+    """(F,) degrees per frame squared: at frame f (1 .. F-2) the angle of ``log(q[f+1] q[f]^-1) -
+    log(q[f] q[f-1]^-1)`` (each frame's turn as a rotation vector in the parent's frame); 0 at both ends.
+
+    ``q`` (F, 4) one joint's track. A real turn, however fast, changes its speed gradually; a step in the
+    data (a flip, a freeze let go, a badly joined repair) shows as one large value.
+    """
+    q = np.asarray(q, dtype=np.float64)
+    out = np.zeros(len(q))
+    if len(q) < 3:
+        return out
+    v = R.quaternion_to_rotvec(R.quaternion_multiply(q[1:], R.quaternion_inverse(q[:-1])))  # (F-1, 3) radians
+    out[1:-1] = np.degrees(np.linalg.norm(v[1:] - v[:-1], axis=-1))
+    return out
+
+
+def roughness(acc: np.ndarray, start: int, end: int) -> float:
+    """The largest of ``acc`` (F,) (:func:`angular_acceleration`) over the run ``start .. end - 1`` and the
+    frame on each side: every second difference that a value of the run enters."""
+    lo, hi = max(start - 1, 0), min(end + 1, len(acc))
+    return float(acc[lo:hi].max()) if hi > lo else 0.0
+
+
+def guard_joint(
+    orig: np.ndarray,
+    out: np.ndarray,
+    changed: np.ndarray,
+    bridged: np.ndarray,
+    flagged: np.ndarray,
+) -> list[tuple[int, int, str]]:
+    """The runs of one joint's repair that fail the guard (module docstring), as ``(start, end, reason)``.
+
+    ``orig``, ``out`` (F, 4): the joint's input and repaired tracks; ``changed`` (F,) bool: the frames the
+    repair changed (the runs judged are its maximal runs); ``bridged`` (F,) bool: the frames bridged by slerp
+    (no neighbour word); ``flagged`` (F,) bool: the joint's flagged frames (the turns between two unflagged
+    frames give the joint's own peak speed).
+    """
+    runs = contact_segments(changed)
+    if not runs:
+        return []
+    acc_in, acc_out = angular_acceleration(orig), angular_acceleration(out)
+    speed = np.degrees(R.geodesic_angle(orig[1:], orig[:-1]))  # (F-1,) the turn from frame f to f+1
+    free = ~(flagged[1:] | flagged[:-1])
+    peak = float(speed[free].max()) if free.any() else np.inf
+    out_speed = np.degrees(R.geodesic_angle(out[1:], out[:-1]))
+    bad = []
+    for s, e in runs:
+        r_in, r_out = roughness(acc_in, s, e), roughness(acc_out, s, e)
+        if r_out > r_in + ROUGHNESS_TOL_DEG:
+            bad.append((s, e, f"joins the take less smoothly: {r_out:.1f} against {r_in:.1f} deg/frame^2"))
+            continue
+        if bridged[s:e].any():
+            fast = float(out_speed[max(s - 1, 0) : e].max())  # the turns into, through and out of the run
+            if fast > max(BRIDGE_MIN_DEG, BRIDGE_FACTOR * peak):
+                bad.append((s, e, f"a bridge turning {fast:.1f} deg/frame, the joint at most {peak:.1f} elsewhere"))
+    return bad

@@ -1,0 +1,96 @@
+"""The repair guard (cleaning/ssa/guard.py): a repaired run the take shows to be worse is left as it was, and named."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import mocapkit
+from mocapkit import corrupt, samples
+from mocapkit import rotations as R
+from mocapkit.cleaning import ssa
+from mocapkit.cleaning.pipeline import clean
+from mocapkit.cleaning.whole_take import detect_take, take_params
+from mocapkit.cleaning.ssa.guard import angular_acceleration, guard_joint, roughness
+
+
+def _turn(angles_deg: np.ndarray) -> np.ndarray:
+    """(F, 4): a joint turning about z by ``angles_deg`` (F,)."""
+    return R.rotvec_to_quaternion(np.radians(angles_deg)[:, None] * np.array([0.0, 0.0, 1.0]))
+
+
+def test_angular_acceleration_of_a_steady_turn_is_zero_and_of_a_step_is_its_size():
+    steady = _turn(np.arange(20) * 3.0)
+    assert np.allclose(angular_acceleration(steady), 0.0, atol=1e-9)
+    step = _turn(np.where(np.arange(20) >= 10, 40.0, 0.0))
+    acc = angular_acceleration(step)
+    assert acc[9] == pytest.approx(40.0) and acc[10] == pytest.approx(40.0)
+    assert roughness(acc, 12, 15) == pytest.approx(0.0, abs=1e-9) and roughness(acc, 11, 15) == pytest.approx(40.0)
+
+
+def test_a_repair_that_puts_a_step_into_a_smooth_turn_is_left():
+    F = 60
+    orig = _turn(np.cumsum(np.sin(np.linspace(0, np.pi, F)) * 10.0))  # a fast real turn, smooth
+    out = np.array(orig)
+    out[25:31] = orig[24]  # "repaired" by holding: two steps
+    changed = np.zeros(F, dtype=bool)
+    changed[25:31] = True
+    bad = guard_joint(orig, out, changed, np.zeros(F, dtype=bool), changed)
+    assert [(s, e) for s, e, _ in bad] == [(25, 31)] and "less smoothly" in bad[0][2]
+
+
+def test_a_repair_that_takes_a_step_away_is_kept():
+    F = 60
+    truth = _turn(np.arange(F) * 2.0)
+    orig = np.array(truth)
+    orig[20:30] = R.quaternion_multiply(_turn(np.full(10, 60.0)), truth[20:30])  # an offset, a step at each end
+    changed = np.zeros(F, dtype=bool)
+    changed[20:30] = True
+    assert guard_joint(orig, truth, changed, np.zeros(F, dtype=bool), changed) == []
+    # bridged: the slerp between the ends turns as the joint does: kept
+    assert guard_joint(orig, truth, changed, changed, changed) == []
+
+
+def test_a_bridge_that_turns_a_still_joint_fast_is_left():
+    F = 60
+    orig = _turn(np.where(np.arange(F) >= 30, 180.0, 0.0) + 0.01 * np.arange(F))  # still, a flip at frame 30
+    changed = np.zeros(F, dtype=bool)
+    changed[20:30] = True  # the clean side was flagged and bridged across the flip: 16 deg a frame
+    out = np.array(orig)
+    out[20:30] = R.slerp(orig[19], orig[30], ((np.arange(20, 30) - 19) / 11.0))
+    bad = guard_joint(orig, out, changed, changed, changed)
+    assert [(s, e) for s, e, _ in bad] == [(20, 30)] and "bridge" in bad[0][2]
+
+
+def test_guard_off_repairs_as_before_and_the_guard_changes_only_the_runs_it_names(shared_data):
+    """HDM05 grabHighR (bk, 010) with real-style errors: a flip of the right toes (frames 46-104) had its clean
+    side (23-45) flagged, which the repair bridged across the flip: 0 -> 90 degrees off the clean take."""
+    path = shared_data / "hdm05_asfamc" / "HDM_bk_grabHighR_010_120.amc"
+    if not path.is_file():
+        pytest.skip("HDM05 grabHighR take not in the shared data")
+    ref = mocapkit.load(path)
+    bad, _, _ = corrupt.real_errors(ref, n_errors=4, seed=1001)
+    det = detect_take(bad, None, params=take_params()).detection  # clean's detection
+    old = ssa.repair(bad, det, None, foot_skate=False, guard=False)
+    new, left = ssa.repair_with_left(bad, det, None, foot_skate=False)
+    j = ref.skeleton.index("rtoes")
+    off = np.degrees(R.geodesic_angle(old.rotations[23:46, j], ref.rotations[23:46, j])).mean()
+    assert off > 45.0  # what the unguarded repair did to clean frames
+    assert np.array_equal(new.rotations[23:46, j], bad.rotations[23:46, j])
+    assert any(r.joint == "rtoes" and r.start <= 23 and r.end >= 46 for r in left)
+    kept = np.ones(new.rotations.shape[:2], dtype=bool)
+    for r in left:
+        kept[r.start : r.end, ref.skeleton.index(r.joint)] = False
+    assert np.array_equal(new.rotations[kept], old.rotations[kept])  # elsewhere the repair is the same
+
+
+def test_clean_leaves_a_real_fast_turn_and_names_it():
+    """CMU 131_01: the RightWrist's own turn (133 deg around frame 235) is flagged by the break rule; repairing
+    it put a 48-degree step into clean capture. Clean leaves it and says so."""
+    take = mocapkit.load(samples.path("131_01.bvh"))
+    res = clean(take, steps=("detect", "repair"))
+    j = take.skeleton.index("RightWrist")
+    assert res.flags[236:241, j].all()
+    assert np.array_equal(res.motion.rotations[230:250, j], take.rotations[230:250, j])
+    assert not res.repaired[230:250, j].any()
+    assert any(line.startswith("note: left: repair not better than the take: RightWrist frames 23") for line in res.summary())
