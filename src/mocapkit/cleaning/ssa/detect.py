@@ -36,9 +36,9 @@ from .cues import (
     swaps_from_residuals,
 )
 from .drifts import body_agreement, offset_change, smooth_drift_flags
-from .neighbours import Neighbors, mean_motion_texture, nearest_words, unseen_words
+from .neighbours import Neighbors, flagged_words, mean_motion_texture, nearest_words, unseen_words
 from .params import SSAParams
-from .texture import Analysis, facing_aligned, prepare, upsample_quaternions
+from .texture import Analysis, facing_aligned, frame_words, prepare, upsample_quaternions
 
 __all__ = ["Detection", "detect", "detect_prepared", "movement_digression_map"]
 
@@ -472,6 +472,7 @@ def detect_prepared(an: Analysis, threshold: float = 0.5, *, progress: bool = Fa
     )
     mean_tex = np.full((G, src.num_frames, m, 4), np.nan)
     spread = np.full((G, src.num_frames, m), np.nan)
+    kept: dict = {}  # the words the mean texture warps against the whole texture, for the repair of the flagged ones
     bar = tqdm(total=W * G * (2 if two_stage and has_context else 1), desc=f"ssa {motion.name or 'motion'}", disable=bar_disabled(progress), unit="word")
     try:
         if two_stage and has_context:
@@ -501,7 +502,7 @@ def detect_prepared(an: Analysis, threshold: float = 0.5, *, progress: bool = Fa
                 unseen_words(nb2, grows, max_word_angle_deg)
                 for a in ("pos", "iend", "jend", "dist"):
                     getattr(neighbors, a)[:, redo] = getattr(nb2, a)
-                mt2, sp2 = mean_motion_texture(src, full, grows, sub, nb2, N, M, return_spread=True)
+                mt2, sp2 = mean_motion_texture(src, full, grows, sub, nb2, N, M, return_spread=True, keep=kept)
                 # region frames take the second stage; groups other than the whole body exist only there
                 mean_tex[:, region] = mt2[:, region]
                 spread[:, region] = sp2[:, region]
@@ -531,7 +532,7 @@ def detect_prepared(an: Analysis, threshold: float = 0.5, *, progress: bool = Fa
                     "(RMS joint angle) in some joint group: not judged there"
                 )
             neighbors = nb
-            mean_tex, spread = mean_motion_texture(src, full, grows, words, nb, N, M, return_spread=True)
+            mean_tex, spread = mean_motion_texture(src, full, grows, words, nb, N, M, return_spread=True, keep=kept)
     finally:
         bar.close()
     dig_g, z_g, speed_g, *more = _digression(motion, mean_tex, spread, tex_joints, up, fps, p.noise_deg, p.shift_s,
@@ -586,6 +587,10 @@ def detect_prepared(an: Analysis, threshold: float = 0.5, *, progress: bool = Fa
     lone = lone_spikes(q, resid, np.isfinite(digression), analysed, sk.parents, p.jump_deg, memo=chain_memo)
     flags = flag_rule(mdm, jumps, holds, swaps, offsets, threshold, motion.fps, p.confirm, p.confirm_margin_s, drifts,
                       spikes, np.isfinite(digression), lone)
+    if kept:  # the repair of these flags reads their words (Analysis.warped); the others are let go
+        word_of = frame_words(words, N, F, fps, motion.fps)
+        an.warped.update(flagged_words(kept, grows, flags & analysed[None, :], best_group, word_of, words))
+    del kept
     masks = an.group_masks()
     if not ok.all():
         some, every = int((~ok).any(axis=1).sum()), int((~ok).all(axis=1).sum())
