@@ -403,12 +403,15 @@ def mean_motion_texture(
         # source: a broken source joint may sit 90 degrees away in quaternion space, where hemispheres
         # are arbitrary
         valid = np.zeros((len(word_starts), K), dtype=bool)
-        valid[wi[ok], ki[ok]] = True
+        vw, vk = wi[ok], ki[ok]
+        valid[vw, vk] = True
         stacked = np.zeros((len(word_starts), K, N, len(members), 4))
-        stacked[wi[ok], ki[ok]] = nws[ok]
+        stacked[vw, vk] = nws[ok]
         has = valid.any(axis=1)
         first = np.argmax(valid, axis=1)
-        stacked = align_hemisphere(stacked, stacked[np.arange(len(word_starts)), first][:, None])
+        # the words there are (a zero word stays zero whatever its reference): each quaternion as by the whole array
+        ref = stacked[np.arange(len(word_starts)), first]
+        stacked[vw, vk] = align_hemisphere(stacked[vw, vk], ref[vw])
         means = np.zeros((len(word_starts), N, len(members), 4))
         spreads = np.zeros((len(word_starts), N, len(members)))
         for c0 in range(0, len(word_starts), 256):
