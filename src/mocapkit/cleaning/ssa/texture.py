@@ -115,25 +115,46 @@ def _descends(parents, k: int, a: int) -> bool:
 def _rotation_spread(motions: Sequence[Motion], joints) -> tuple[np.ndarray, np.ndarray]:
     """(J,) mean angle (radians) of each of ``joints``' rotations from their average over every frame of
     ``motions`` (0 for a still joint), and (J,) bool whether the rotation turns at all (more than
-    :data:`STILL_RAD` from its first finite frame); 0 and False for the other joints."""
+    :data:`STILL_RAD` from its first finite frame); 0 and False for the other joints. All joints at once where
+    every frame is finite (the same numbers as joint by joint: flips, angles and the mean over frames go joint by
+    joint alike; each joint's mean angle its own column's), else joint by joint."""
     sk = motions[0].skeleton
     spread = np.zeros(sk.num_joints)
     turns = np.zeros(sk.num_joints, dtype=bool)
-    for j in joints:
-        qs = np.concatenate([R.quaternion_continuity(np.asarray(m.rotations[:, j])) for m in motions])
-        qs = qs[np.all(np.isfinite(qs), axis=1)]
-        if len(qs) == 0:
-            continue
-        turns[j] = bool(np.max(R.geodesic_angle(qs, qs[0])) > STILL_RAD)
-        if not turns[j]:  # exactly 0, not rounding noise: still joints tie, and their order is the skeleton's
-            continue
-        mean = qs.mean(axis=0)
-        if np.linalg.norm(mean) < 1e-9:
-            spread[j] = np.pi
-            continue
-        mean = mean / np.linalg.norm(mean)
-        spread[j] = float(np.mean(R.geodesic_angle(qs, mean)))
+    joints = np.asarray(list(joints), dtype=np.int64)
+    if not len(joints):
+        return spread, turns
+    qs = np.concatenate([R.quaternion_continuity(np.asarray(m.rotations[:, joints]), axis=0) for m in motions])
+    if len(qs) == 0 or not np.all(np.isfinite(qs)):
+        for j in joints:
+            spread[j], turns[j] = _joint_spread(motions, int(j))
+        return spread, turns
+    turns[joints] = np.max(R.geodesic_angle(qs, qs[0]), axis=0) > STILL_RAD
+    # exactly 0, not rounding noise: still joints tie, and their order is the skeleton's
+    live = np.flatnonzero(turns[joints])
+    mean = qs[:, live].mean(axis=0)  # (n, 4)
+    size = np.array([np.linalg.norm(m) for m in mean])
+    flat = size < 1e-9
+    rows = np.ascontiguousarray(qs[:, live[~flat]].swapaxes(0, 1))  # (n, F, 4): each joint's mean over a row
+    ang = R.geodesic_angle(rows, (mean[~flat] / size[~flat, None])[:, None])  # (n, F)
+    spread[joints[live[flat]]] = np.pi
+    spread[joints[live[~flat]]] = [float(np.mean(a)) for a in ang]
     return spread, turns
+
+
+def _joint_spread(motions: Sequence[Motion], j: int) -> tuple[float, bool]:
+    """:func:`_rotation_spread` of one joint ``j``: its frames' NaN rows left out."""
+    qs = np.concatenate([R.quaternion_continuity(np.asarray(m.rotations[:, j])) for m in motions])
+    qs = qs[np.all(np.isfinite(qs), axis=1)]
+    if len(qs) == 0:
+        return 0.0, False
+    if not np.max(R.geodesic_angle(qs, qs[0])) > STILL_RAD:
+        return 0.0, False
+    mean = qs.mean(axis=0)
+    if np.linalg.norm(mean) < 1e-9:
+        return float(np.pi), True
+    mean = mean / np.linalg.norm(mean)
+    return float(np.mean(R.geodesic_angle(qs, mean))), True
 
 
 def analysable_joints(motions: Sequence[Motion]) -> np.ndarray:
