@@ -498,3 +498,20 @@ def test_no_rate_from_a_bool_no_nan_offset_no_infinite_root():
         dataclasses.replace(m, root_positions=root)
     root[3, 0] = np.nan  # missing: allowed
     assert dataclasses.replace(m, root_positions=root).missing()[3, 0]
+
+
+def test_missing_is_made_once_and_handed_out_as_a_new_array():
+    """Motion.missing(): the mask made once per Motion (its arrays are read-only), each call a new writable array;
+    a Motion made from it (replace, slicing) makes its own."""
+    import dataclasses
+
+    m = mocapkit.load(mocapkit.samples.path("131_01.bvh"))
+    rot = np.array(m.rotations)
+    rot[5:9, 3] = np.nan
+    m = dataclasses.replace(m, rotations=rot)
+    a = m.missing()
+    assert a.flags.writeable and np.array_equal(a, np.isnan(rot).any(axis=-1)) and a[5:9, 3].all()
+    a[:] = True  # the caller's to change
+    assert np.array_equal(m.missing(), np.isnan(rot).any(axis=-1)) and m.missing() is not m.missing()
+    assert not m[10:].missing().any() and m[:20].missing()[5:9, 3].all()
+    assert not dataclasses.replace(m, rotations=np.nan_to_num(m.rotations, nan=0.5)).missing().any()

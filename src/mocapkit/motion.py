@@ -575,12 +575,17 @@ class Motion:
 
     # -- missing data --------------------------------------------------------
     def missing(self) -> np.ndarray:
-        """Boolean (F, J) mask of joints with any NaN in their rotation (root: or its position)."""
-        mask = np.any(np.isnan(self.rotations), axis=-1)
-        mask[:, 0] |= np.any(np.isnan(self.root_positions), axis=-1)
-        if self.translations is not None:
-            mask[:, 1:] |= np.any(np.isnan(self.translations[:, 1:]), axis=-1)
-        return mask
+        """Boolean (F, J) mask of joints with any NaN in their rotation (root: or its position); a new array each
+        call, the mask made once per Motion (its arrays are read-only)."""
+        made = self.__dict__.get("_missing")
+        if made is None:
+            made = np.any(np.isnan(self.rotations), axis=-1)
+            made[:, 0] |= np.any(np.isnan(self.root_positions), axis=-1)
+            if self.translations is not None:
+                made[:, 1:] |= np.any(np.isnan(self.translations[:, 1:]), axis=-1)
+            made.flags.writeable = False
+            object.__setattr__(self, "_missing", made)  # a cache beside the frozen fields, not one of them
+        return made.copy()
 
     # -- channels as the file gives them ------------------------------------
     def channel_names(self) -> list[str]:

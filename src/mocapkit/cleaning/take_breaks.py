@@ -289,7 +289,7 @@ def cuts(motion: Motion, span: tuple[int, int] | None = None, resid: np.ndarray 
     lo, hi = (0, F) if span is None else span
     if hi - lo < 8:
         return []
-    part = motion[lo:hi]
+    part = motion if (lo, hi) == (0, F) else motion[lo:hi]
     share = cut_scores(part, resid)
     found = np.flatnonzero(share >= CUT_SHARE)
     out = []

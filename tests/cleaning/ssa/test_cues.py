@@ -768,3 +768,36 @@ def test_undoing_pairs_take_the_nearest_undoing_step_and_need_the_stretch_to_sta
     assert not cues._stands_out(d, 40, 60)
     d[:] = np.nan
     assert not cues._stands_out(d, 40, 60)
+
+
+def _off_path_one_at_a_time(q, first, last):
+    """cues._off_path's reference: one event at a time (a slerp and two angles per event)."""
+    off, turn = np.zeros(len(first)), np.zeros(len(first))
+    for i, (a, b) in enumerate(zip(first, last)):
+        lo, hi = q[a - 1], q[b + 1]
+        u = (np.arange(a, b + 1) - (a - 1)) / (b + 2 - a)
+        path = R.slerp(np.broadcast_to(lo, (len(u), 4)), np.broadcast_to(hi, (len(u), 4)), u)
+        off[i] = float(R.geodesic_angle(q[a : b + 1], path).max())
+        turn[i] = float(R.geodesic_angle(lo, hi))
+    return off, turn
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_off_path_of_all_events_at_once_is_the_one_at_a_time_reference(walk, seed):
+    """Every event's frames in one slerp and one angle (cues._off_path) give, bit for bit, what one event at a time
+    gave: one-frame and longer events, on a strided track (one joint of the take) and on flipped, turned samples."""
+    rng = np.random.default_rng(seed)
+    rot = np.array(walk.rotations)
+    F = rot.shape[0]
+    j = int(rng.integers(1, walk.num_joints))
+    spots = np.sort(rng.choice(np.arange(3, F - 8, 6), size=20, replace=False))
+    first = spots
+    last = spots + rng.integers(0, 4, size=len(spots))
+    for a, b in zip(first, last):
+        rot[a : b + 1, j] = R.quaternion_multiply(rot[a : b + 1, j], R.quaternion_from_axis_angle(
+            rng.normal(size=3), rng.uniform(0.1, 3.0)))
+    rot[rng.integers(0, F, size=40), j] *= -1.0
+    got = cues._off_path(rot[:, j], first, last)
+    want = _off_path_one_at_a_time(rot[:, j], first, last)
+    assert np.array_equal(got[0], want[0]) and np.array_equal(got[1], want[1])
+    assert all(len(a) == 0 for a in cues._off_path(rot[:, j], first[:0], last[:0]))

@@ -236,3 +236,22 @@ def test_digression_on_the_groups_joints_equals_it_on_every_joint(flipped):
         want[1][g] = want[0][g] / np.sqrt(np.where(np.isfinite(sp), sp, 0.0) ** 2 + np.radians(p.noise_deg) ** 2)
     for a, b in zip(got, want):
         assert np.array_equal(a, b, equal_nan=True)
+
+
+def test_causes_made_with_the_flags_are_those_made_again(flipped):
+    """The causes detect, with_threshold and padded keep beside the flags (made once) are what the detection's
+    fields give when made again (Detection.flag_causes), and their flags the detection's; a copy each call."""
+    bad, mask, records, det = flipped
+    assert "_causes" in det.__dict__
+    fresh = det.flag_causes(det.threshold)
+    assert np.array_equal(det.causes(), fresh) and np.array_equal(det.flags, fresh != 0) and fresh.any()
+    det.causes()[:] = 0  # a copy: the kept one stays
+    assert np.array_equal(det.causes(), fresh)
+    other = det.with_threshold(0.3)
+    assert np.array_equal(other.causes(), other.flag_causes(0.3)) and np.array_equal(other.flags, other.causes() != 0)
+    padded = det.padded(7, det.num_frames + 12)
+    bare = dataclasses.replace(padded)  # replace leaves the kept causes behind: made again from the fields
+    assert "_causes" not in bare.__dict__
+    assert np.array_equal(padded.causes(), bare.causes())
+    assert np.array_equal(padded.with_threshold(0.3).causes(), dataclasses.replace(padded.with_threshold(0.3)).causes())
+    assert np.array_equal(dataclasses.replace(det).causes(), fresh)

@@ -8,6 +8,7 @@ import pytest
 
 import mocapkit
 from mocapkit import corrupt
+from mocapkit import rotations as R
 from mocapkit.cleaning import ssa
 from mocapkit.cleaning.pipeline import clean
 from mocapkit.motion import Motion
@@ -76,3 +77,49 @@ def test_clean_resamples_the_take_once(flipped, resamples):
     res = clean(flipped, steps="detect,repair")
     assert res.repaired.any()
     assert resamples == [24.0]
+
+
+def _rotation_spread_joint_by_joint(motions, joints):
+    """texture._rotation_spread's reference: one joint at a time."""
+    from mocapkit.cleaning.ssa.texture import STILL_RAD
+
+    sk = motions[0].skeleton
+    spread = np.zeros(sk.num_joints)
+    turns = np.zeros(sk.num_joints, dtype=bool)
+    for j in joints:
+        qs = np.concatenate([R.quaternion_continuity(np.asarray(m.rotations[:, j])) for m in motions])
+        qs = qs[np.all(np.isfinite(qs), axis=1)]
+        if len(qs) == 0:
+            continue
+        turns[j] = bool(np.max(R.geodesic_angle(qs, qs[0])) > STILL_RAD)
+        if not turns[j]:
+            continue
+        mean = qs.mean(axis=0)
+        if np.linalg.norm(mean) < 1e-9:
+            spread[j] = np.pi
+            continue
+        mean = mean / np.linalg.norm(mean)
+        spread[j] = float(np.mean(R.geodesic_angle(qs, mean)))
+    return spread, turns
+
+
+def test_rotation_spread_of_all_joints_at_once_is_the_joint_by_joint_reference():
+    """Every joint's spread and turning in one pass (texture._rotation_spread) are, bit for bit, what one joint at a
+    time gave: on a take, on a take and a context clip, and with NaN frames (then joint by joint)."""
+    import dataclasses
+
+    from mocapkit.cleaning.ssa import texture
+
+    walk = mocapkit.load(mocapkit.samples.path("131_01.bvh"))
+    other = dataclasses.replace(walk[100:400], rotations=np.array(walk.rotations[100:400])[::-1].copy())
+    gappy = np.array(walk.rotations)
+    gappy[50:60, 4] = np.nan
+    for motions in ([walk], [walk, other], [dataclasses.replace(walk, rotations=gappy)]):
+        joints = np.arange(walk.num_joints)
+        got = texture._rotation_spread(motions, joints)
+        want = _rotation_spread_joint_by_joint(motions, joints)
+        assert np.array_equal(got[0], want[0]) and np.array_equal(got[1], want[1])
+        assert want[1].any() and not want[1].all()  # still joints too
+        sub = joints[::3]
+        assert all(np.array_equal(a, b) for a, b in zip(texture._rotation_spread(motions, sub),
+                                                         _rotation_spread_joint_by_joint(motions, sub)))

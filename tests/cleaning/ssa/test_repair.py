@@ -1,6 +1,7 @@
 """Repair on real clips: only flagged cells change, the error is fixed, contacts and foot skate respected."""
 
 import dataclasses
+import importlib
 
 import numpy as np
 import pytest
@@ -188,7 +189,7 @@ def test_nearest_sorted_is_the_argmin_it_replaces():
     from hypothesis import given, settings
     from hypothesis import strategies as st
 
-    from mocapkit.cleaning.ssa.repair import nearest_sorted
+    from mocapkit.cleaning.ssa.texture import nearest_sorted
 
     @settings(max_examples=200, deadline=None)
     @given(st.lists(st.integers(-50, 50), min_size=1, max_size=30), st.lists(st.integers(-80, 80), max_size=60),
@@ -238,3 +239,53 @@ def test_a_transient_offset_is_repaired_by_taking_its_offset_away(walk, start, o
     assert np.array_equal(fixed.rotations[~det.flags], bad.rotations[~det.flags])
     err = np.degrees(R.geodesic_angle(fixed.rotations[frames, j], walk.rotations[frames, j]))
     assert err.max() < 1.0, err.max()
+
+
+def test_repair_reads_the_words_its_detection_kept_bit_for_bit(flipped):
+    """The neighbour words a detection keeps for its flags (Analysis.warped, warped on the search's own pose
+    distances) are the words the repair would warp: the same repair, bit for bit, with them and without."""
+    bad, mask, records, det = flipped
+    assert det.analysis.warped  # the flagged words' neighbours, kept
+    kept = ssa.repair(bad, det, foot_skate=False)
+    bare = dataclasses.replace(det, analysis=dataclasses.replace(det.analysis, warped={}))
+    assert not bare.analysis.warped
+    warped = ssa.repair(bad, bare, foot_skate=False)
+    assert np.array_equal(kept.rotations, warped.rotations)
+    assert not np.array_equal(kept.rotations, bad.rotations)
+
+
+@pytest.mark.parametrize("fail_first", [False, True])
+def test_medoid_words_are_those_of_warping_every_candidate(flipped, fail_first):
+    """The repair warps only the candidates its medoid may take (within reach of the nearest that warps), and those
+    are what warping every candidate gives (the slow reference): the same words for the same candidates, the rest
+    out of reach. With a nearest candidate that fails (its word runs past its clip), a second round reaches further."""
+    from mocapkit.cleaning.ssa.neighbours import dropped_terms, near_neighbors, neighbor_words
+
+    rp = importlib.import_module("mocapkit.cleaning.ssa.repair")
+    bad, mask, records, det = flipped
+    an = det.analysis
+    src, full, words = an.source, an.texture, det.word_starts
+    N, M = int(det.params.source_length), int(det.params.target_length)
+    groups = [np.flatnonzero(det.group_masks[g]) for g in range(len(det.group_names))]
+    end = int(full.clip_starts[1]) - M + 1  # a word here runs one frame past the take: never warped
+    candidates = {}
+    for g in range(len(groups)):
+        for w in np.flatnonzero((det.neighbor_pos[g] >= 0).any(axis=1))[:6]:
+            pos, dist = det.neighbor_pos[g, w], det.neighbor_dist[g, w]
+            cands = [(k, float(dist[k]), int(q)) for k, q in enumerate(pos) if q >= 0]
+            if fail_first:
+                cands.append((len(pos), 0.5 * min(d for _, d, _ in cands), end))
+            candidates[(g, int(w))] = cands
+    bare = dataclasses.replace(an, warped={})
+    got = rp._medoid_words(bare, src, full, groups, words, candidates, N, M)
+    for (g, w), cands in candidates.items():
+        members = groups[g]
+        qs = np.array([q for _, _, q in cands])
+        nws, ok = neighbor_words(src.values, full, members, dropped_terms(members), np.full(len(qs), words[w]), qs, N, M)
+        assert ok.any() and not (fail_first and ok[-1])
+        nearest = min(d for (_, d, _), good in zip(cands, ok) if good)
+        for (k, d, _), nw, good in zip(cands, nws, ok):
+            if good and near_neighbors(d, nearest):
+                assert np.array_equal(got[g, w, k], nw)
+            elif (g, w, k) in got:
+                assert got[g, w, k] is None or not near_neighbors(d, nearest)

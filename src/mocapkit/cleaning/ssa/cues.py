@@ -883,15 +883,16 @@ def lone_spikes(q: np.ndarray, resid: np.ndarray, judged: np.ndarray, analysed: 
 def _off_path(q: np.ndarray, first: np.ndarray, last: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """``(off, turn)`` (n,) radians for the events ``first[i] .. last[i]`` of one joint's track ``q`` (F, 4), none
     touching the take's ends: the largest angle of an event's frames from the slerp between the frames beside it
-    (``first - 1`` and ``last + 1``), and the angle between those two frames."""
-    off, turn = np.zeros(len(first)), np.zeros(len(first))
-    for i, (a, b) in enumerate(zip(first, last)):
-        lo, hi = q[a - 1], q[b + 1]
-        u = (np.arange(a, b + 1) - (a - 1)) / (b + 2 - a)
-        path = R.slerp(np.broadcast_to(lo, (len(u), 4)), np.broadcast_to(hi, (len(u), 4)), u)
-        off[i] = float(R.geodesic_angle(q[a : b + 1], path).max())
-        turn[i] = float(R.geodesic_angle(lo, hi))
-    return off, turn
+    (``first - 1`` and ``last + 1``), and the angle between those two frames. Every event's frames at once (the
+    same numbers as one event at a time: every step is elementwise)."""
+    first, last = np.asarray(first, dtype=np.int64), np.asarray(last, dtype=np.int64)
+    if not len(first):
+        return np.zeros(0), np.zeros(0)
+    frames, event, start = segment_frames(first, last - first + 1)
+    lo, hi = q[first - 1], q[last + 1]
+    u = (frames - (first - 1)[event]) / (last + 2 - first)[event]
+    path = R.slerp(lo[event], hi[event], u)
+    return np.maximum.reduceat(R.geodesic_angle(q[frames], path), start), R.geodesic_angle(lo, hi)
 
 
 def step_angles(q: np.ndarray) -> np.ndarray:

@@ -23,7 +23,6 @@ from ..ik import contact_segments
 from . import word_dtw
 from .cues import (
     flag_causes,
-    flag_rule,
     held_joints,
     lone_spikes,
     mirrored_rotations,
@@ -36,10 +35,10 @@ from .cues import (
     swaps_from_residuals,
 )
 from .drifts import body_agreement, offset_change, smooth_drift_flags
-from .neighbours import Neighbors, mean_motion_texture, nearest_words, unseen_words
+from .neighbours import Neighbors, flagged_words, mean_motion_texture, nearest_words, unseen_words
 from .params import SSAParams
 from .repeats import expand, kept_frames, repeat_runs, without_repeats
-from .texture import Analysis, facing_aligned, prepare, upsample_quaternions
+from .texture import Analysis, facing_aligned, frame_words, prepare, upsample_quaternions
 
 __all__ = ["Detection", "detect", "detect_prepared", "movement_digression_map"]
 
@@ -198,14 +197,29 @@ class Detection:
 
     def causes(self) -> np.ndarray:
         """(F, J) uint8: which rules flag each cell (:func:`~mocapkit.cleaning.ssa.cues.flag_causes`; ``flags``
-        is exactly where it is not 0)."""
+        is exactly where it is not 0). Made once where the flags were made (:func:`detect`, :meth:`with_threshold`,
+        :meth:`padded`: :meth:`_with_causes`), else here; a copy each call."""
+        made = self.__dict__.get("_causes")
+        if made is not None:
+            return made.copy()
         if self.span is not None:
             return _pad_frames(self.analysed_part().causes(), self.span[0], self.num_frames, 0)
         if self.repeats:
             return expand(self.unrepeated().causes(), self.repeats, self.num_frames)
-        return flag_causes(self.mdm, self.jumps, self.holds, self.swaps, self.offsets, self.threshold, self.fps,
+        return self.flag_causes(self.threshold)
+
+    def flag_causes(self, threshold: float) -> np.ndarray:
+        """(F, J) uint8: :func:`~mocapkit.cleaning.ssa.cues.flag_causes` of this analysis at ``threshold`` (the
+        frames analysed only: a detection of a :attr:`span` is judged by :meth:`causes` and :meth:`with_threshold`)."""
+        return flag_causes(self.mdm, self.jumps, self.holds, self.swaps, self.offsets, threshold, self.fps,
                            self.params.confirm, self.params.confirm_margin_s, self.drifts(), self.spikes,
                            np.isfinite(self.digression), self.lone_spikes)
+
+    def _with_causes(self, causes: np.ndarray) -> "Detection":
+        """This detection, its :meth:`causes` ``causes`` (their flags its :attr:`flags`), kept beside the frozen
+        fields so that they are not made again (a cache, not a field: ``dataclasses.replace`` leaves it behind)."""
+        object.__setattr__(self, "_causes", np.array(causes, dtype=np.uint8))
+        return self
 
     def with_threshold(self, threshold: float) -> "Detection":
         """The same analysis flagged at another threshold (confirmed by the jumps if the detection was)."""
@@ -214,15 +228,15 @@ class Detection:
             raise ValueError(f"threshold must be in (0, 1), got {threshold}")
         if self.span is not None:
             sub = self.analysed_part().with_threshold(threshold)
-            return dataclasses.replace(self, threshold=threshold, flags=_pad_frames(sub.flags, self.span[0],
-                                                                                    self.num_frames, False))
+            out = dataclasses.replace(self, threshold=threshold, flags=_pad_frames(sub.flags, self.span[0],
+                                                                                   self.num_frames, False))
+            return out._with_causes(_pad_frames(sub.causes(), self.span[0], self.num_frames, 0))
         if self.repeats:
             sub = self.unrepeated().with_threshold(threshold)
-            return dataclasses.replace(self, threshold=threshold, flags=expand(sub.flags, self.repeats, self.num_frames))
-        flags = flag_rule(self.mdm, self.jumps, self.holds, self.swaps, self.offsets, threshold, self.fps,
-                          self.params.confirm, self.params.confirm_margin_s, self.drifts(), self.spikes,
-                          np.isfinite(self.digression), self.lone_spikes)
-        return dataclasses.replace(self, threshold=threshold, flags=flags)
+            out = dataclasses.replace(self, threshold=threshold, flags=expand(sub.flags, self.repeats, self.num_frames))
+            return out._with_causes(expand(sub.causes(), self.repeats, self.num_frames))
+        causes = self.flag_causes(threshold)  # flag_rule's flags are where they are not 0
+        return dataclasses.replace(self, threshold=threshold, flags=causes != 0)._with_causes(causes)
 
     def padded(self, lo: int, num_frames: int) -> "Detection":
         """This detection of frames ``lo .. lo + self.num_frames - 1`` of a take of ``num_frames`` frames, put back
@@ -236,8 +250,10 @@ class Detection:
         if lo < 0 or hi > F:
             raise ValueError(f"frames {lo}-{hi - 1} are not frames of a take of {F}")
         pads = {k: v for k, v in _PADS.items() if getattr(self, k) is not None}
-        return dataclasses.replace(self, **{k: _pad_frames(np.asarray(getattr(self, k)), lo, F, v) for k, v in pads.items()},
-                                   span=(lo, hi), notes=tuple(self.notes) + (_span_note(lo, hi),))
+        out = dataclasses.replace(self, **{k: _pad_frames(np.asarray(getattr(self, k)), lo, F, v) for k, v in pads.items()},
+                                  span=(lo, hi), notes=tuple(self.notes) + (_span_note(lo, hi),))
+        made = self.__dict__.get("_causes")
+        return out if made is None else out._with_causes(_pad_frames(made, lo, F, 0))
 
     def analysed_part(self) -> "Detection":
         """The detection of the frames analysed (:attr:`span`) alone, as :func:`detect` made it on them; ``self``
@@ -525,6 +541,7 @@ def detect_prepared(an: Analysis, threshold: float = 0.5, *, progress: bool = Fa
     )
     mean_tex = np.full((G, src.num_frames, m, 4), np.nan)
     spread = np.full((G, src.num_frames, m), np.nan)
+    kept: dict = {}  # the words the mean texture warps against the whole texture, for the repair of the flagged ones
     bar = tqdm(total=W * G * (2 if two_stage and has_context else 1), desc=f"ssa {motion.name or 'motion'}", disable=bar_disabled(progress), unit="word")
     try:
         if two_stage and has_context:
@@ -554,7 +571,7 @@ def detect_prepared(an: Analysis, threshold: float = 0.5, *, progress: bool = Fa
                 unseen_words(nb2, grows, max_word_angle_deg)
                 for a in ("pos", "iend", "jend", "dist"):
                     getattr(neighbors, a)[:, redo] = getattr(nb2, a)
-                mt2, sp2 = mean_motion_texture(src, full, grows, sub, nb2, N, M, return_spread=True)
+                mt2, sp2 = mean_motion_texture(src, full, grows, sub, nb2, N, M, return_spread=True, keep=kept)
                 # region frames take the second stage; groups other than the whole body exist only there
                 mean_tex[:, region] = mt2[:, region]
                 spread[:, region] = sp2[:, region]
@@ -584,7 +601,7 @@ def detect_prepared(an: Analysis, threshold: float = 0.5, *, progress: bool = Fa
                     "(RMS joint angle) in some joint group: not judged there"
                 )
             neighbors = nb
-            mean_tex, spread = mean_motion_texture(src, full, grows, words, nb, N, M, return_spread=True)
+            mean_tex, spread = mean_motion_texture(src, full, grows, words, nb, N, M, return_spread=True, keep=kept)
     finally:
         bar.close()
     dig_g, z_g, speed_g, *more = _digression(motion, mean_tex, spread, tex_joints, up, fps, p.noise_deg, p.shift_s,
@@ -637,8 +654,13 @@ def detect_prepared(an: Analysis, threshold: float = 0.5, *, progress: bool = Fa
     spikes = spike_breaks(q, resid, jumps)
     # a spike far past the joint's own motion is an error where no similar motion judges it
     lone = lone_spikes(q, resid, np.isfinite(digression), analysed, sk.parents, p.jump_deg, memo=chain_memo)
-    flags = flag_rule(mdm, jumps, holds, swaps, offsets, threshold, motion.fps, p.confirm, p.confirm_margin_s, drifts,
-                      spikes, np.isfinite(digression), lone)
+    causes = flag_causes(mdm, jumps, holds, swaps, offsets, threshold, motion.fps, p.confirm, p.confirm_margin_s,
+                         drifts, spikes, np.isfinite(digression), lone)
+    flags = causes != 0  # flag_rule's flags
+    if kept:  # the repair of these flags reads their words (Analysis.warped); the others are let go
+        word_of = frame_words(words, N, F, fps, motion.fps)
+        an.warped.update(flagged_words(kept, grows, flags & analysed[None, :], best_group, word_of, words))
+    del kept
     masks = an.group_masks()
     if not ok.all():
         some, every = int((~ok).any(axis=1).sum()), int((~ok).all(axis=1).sum())
@@ -646,7 +668,7 @@ def detect_prepared(an: Analysis, threshold: float = 0.5, *, progress: bool = Fa
                      "not judged there; a context that repeats the motion judges more")
     clips = an.clips
     params = p.replace(two_stage=bool(two_stage and has_context), prefilter=bool(prefilter and has_context))
-    return Detection(
+    det = Detection(
         mdm=mdm, flags=flags, digression=digression, best_group=best_group, threshold=float(threshold),
         fps=motion.fps, joint_names=tuple(sk.joint_names), analysed=analysed, texture_joints=tex_joints,
         group_names=tuple(gnames), group_masks=masks, word_starts=words, neighbor_pos=neighbors.pos,
@@ -656,3 +678,6 @@ def detect_prepared(an: Analysis, threshold: float = 0.5, *, progress: bool = Fa
         analysis=an, spikes=spikes, change=change, left_out=tuple(an.left_out), lone_spikes=lone,
         parents=np.asarray(sk.parents, dtype=np.int64),
     )
+    # Detection.causes() made again gives these (its threshold float(threshold), its drifts() these or none where
+    # p.drift is off, its params' confirmation p's) unless the threshold compares otherwise as a float
+    return det._with_causes(causes) if isinstance(threshold, float) else det

@@ -32,6 +32,8 @@ __all__ = [
     "neighbor_words",
     "near_neighbors",
     "mean_motion_texture",
+    "flagged_words",
+    "KEEP_WORDS_BYTES",
     "unseen_words",
     "robust_means",
     "dropped_terms",
@@ -43,6 +45,10 @@ _D = SSAParams()
 
 _LARGE_GROUP = 12  # groups with at least this many joints drop 3 joint terms, smaller ones 1
 _SELF_MATRIX_BYTES = 128 << 20  # a take's self-distance matrices up to this size (~100 s at 24 fps) are computed whole
+#: the most bytes of warped neighbour words :func:`mean_motion_texture` keeps (``keep``) while a detection runs, so that
+#: its repair reads the words of the flagged cells (:func:`flagged_words`) instead of warping them again: a 60 s take's
+#: five groups hold about 21 MiB
+KEEP_WORDS_BYTES = 64 << 20
 
 
 def word_distance(a: np.ndarray, b: np.ndarray, drop: int = 3, min_width: int = 11, max_run: int = 3):
@@ -355,6 +361,7 @@ def mean_motion_texture(
     target_length: int = 20,
     return_spread: bool = False,
     neighbor_ratio: float = NEIGHBOR_RATIO,
+    keep: dict | None = None,
 ):
     """Mean motion texture per group, (G, F, m, 4) (section 3.4).
 
@@ -367,7 +374,9 @@ def mean_motion_texture(
     one's (plus 0.001) are left out: when the context repeats a word only
     twice, the other local minima are different motions, not examples of it. With
     ``return_spread`` also the neighbours' spread (G, F, m): the RMS angle
-    (radians) of the K words from their mean, averaged like the texture.
+    (radians) of the K words from their mean, averaged like the texture. ``keep``: a dict that takes, per group
+    (its rows as bytes), the words warped: ``(source word starts, positions, words, ok)`` as :func:`neighbor_words`
+    makes them, while they total at most :data:`KEEP_WORDS_BYTES` (see :func:`flagged_words`).
     """
     N = source_length
     G = len(groups)
@@ -388,16 +397,21 @@ def mean_motion_texture(
             source.values, context, members, dropped_terms(members), word_starts[wi], neighbors.pos[gi][wi, ki], N, target_length,
             costs=costs,
         )
+        if keep is not None and sum(v[2].nbytes for v in keep.values()) + nws.nbytes <= KEEP_WORDS_BYTES:
+            keep[np.asarray(members, dtype=np.int64).tobytes()] = (word_starts[wi], neighbors.pos[gi][wi, ki], nws, ok)
         # (W, K, N, m_g, 4) in neighbour order, each word's aligned with its first neighbour, not the
         # source: a broken source joint may sit 90 degrees away in quaternion space, where hemispheres
         # are arbitrary
         valid = np.zeros((len(word_starts), K), dtype=bool)
-        valid[wi[ok], ki[ok]] = True
+        vw, vk = wi[ok], ki[ok]
+        valid[vw, vk] = True
         stacked = np.zeros((len(word_starts), K, N, len(members), 4))
-        stacked[wi[ok], ki[ok]] = nws[ok]
+        stacked[vw, vk] = nws[ok]
         has = valid.any(axis=1)
         first = np.argmax(valid, axis=1)
-        stacked = align_hemisphere(stacked, stacked[np.arange(len(word_starts)), first][:, None])
+        # the words there are (a zero word stays zero whatever its reference): each quaternion as by the whole array
+        ref = stacked[np.arange(len(word_starts)), first]
+        stacked[vw, vk] = align_hemisphere(stacked[vw, vk], ref[vw])
         means = np.zeros((len(word_starts), N, len(members), 4))
         spreads = np.zeros((len(word_starts), N, len(members)))
         for c0 in range(0, len(word_starts), 256):
@@ -413,6 +427,25 @@ def mean_motion_texture(
         sp[ok] = sacc[ok] / cnt[ok, None]
         spread[gi][:, members] = sp
     return (out, spread) if return_spread else out
+
+
+def flagged_words(kept: dict, groups, flags: np.ndarray, best_group: np.ndarray, word_of: np.ndarray,
+                  words: np.ndarray) -> dict:
+    """The words of ``kept`` (:func:`mean_motion_texture`'s ``keep``) that a repair of ``flags`` reads: those of each
+    flagged cell's source word (``word_of`` (F,), :func:`~mocapkit.cleaning.ssa.texture.frame_words`, into ``words``)
+    in the cell's group (``best_group`` (F, J), indices into ``groups``, the rows of each), as ``kept`` holds them."""
+    out = {}
+    fi, ji = np.nonzero(flags)
+    g_of = np.asarray(best_group)[fi, ji]
+    for gi, members in enumerate(groups):
+        key = np.asarray(members, dtype=np.int64).tobytes()
+        at = g_of == gi
+        if key not in kept or not at.any():
+            continue
+        starts, pos, nws, ok = kept[key]
+        sel = np.isin(starts, words[np.unique(word_of[fi[at]])])
+        out[key] = (starts[sel], pos[sel], nws[sel], ok[sel])
+    return out
 
 
 def _overlap_sums(F: int, starts: np.ndarray, means: np.ndarray, spreads: np.ndarray):

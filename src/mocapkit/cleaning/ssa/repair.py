@@ -24,7 +24,7 @@ from ..ik import contact_segments, segment_frames
 from .detect import Detection
 from .neighbours import dropped_terms, near_neighbors, neighbor_words
 from .repeats import expand, frame_index, kept_frames, repeat_runs, without_repeats
-from .texture import Analysis, align_hemisphere, prepare
+from .texture import Analysis, align_hemisphere, frame_words, prepare
 from .guard import LeftRun, guard_joint
 from .undo import undone_offsets
 
@@ -143,25 +143,6 @@ def _bridge(track: np.ndarray, mask: np.ndarray) -> np.ndarray:
     return out
 
 
-def nearest_sorted(values: np.ndarray, queries: np.ndarray) -> np.ndarray:
-    """Index of the entry of the ascending ``values`` nearest each of ``queries`` (the lower index on a tie), as
-    ``argmin(|queries[:, None] - values|, axis=1)`` gives it, in O((F + W) log W) memory and time instead of an
-    (F, W) matrix: 4 GB for a 10-minute take at 120 fps and its 7,000 words."""
-    values = np.asarray(values, dtype=np.float64)
-    queries = np.asarray(queries, dtype=np.float64)
-    if len(values) == 0:
-        raise ValueError("no values to be nearest to")
-    if np.any(np.diff(values) < 0):
-        raise ValueError("values must be ascending")
-    hi = np.clip(np.searchsorted(values, queries, side="left"), 1, max(len(values) - 1, 1))
-    lo = hi - 1
-    if len(values) == 1:
-        return np.zeros(len(queries), dtype=np.int64)
-    take_lo = np.abs(queries - values[lo]) <= np.abs(values[hi] - queries)
-    pick = np.where(take_lo, lo, hi)
-    return np.searchsorted(values, values[pick], side="left").astype(np.int64)  # the first of equal values
-
-
 def repair(
     motion: Motion,
     detection: Detection,
@@ -256,9 +237,7 @@ def repair_with_left(
     words = detection.word_starts
     F = motion.num_frames
     tau = np.arange(F) * (fps_a / motion.fps)  # analysis time of each input frame
-    centers = words + (N - 1) / 2.0
-    # the source word around each input frame: the one whose centre is nearest (the earlier one on a tie)
-    word_of = nearest_sorted(centers, tau)
+    word_of = frame_words(words, N, F, fps_a, motion.fps)  # the source word around each input frame
     groups = [np.flatnonzero(detection.group_masks[g]) for g in range(len(detection.group_names))]
     new = np.array(motion.rotations)
     placed = np.zeros(flags.shape, dtype=bool)  # the flagged cells a neighbour word was written into
@@ -277,18 +256,7 @@ def repair_with_left(
         if g < 0:
             continue
         flagged_frames_by_word.setdefault((g, int(word_of[f])), []).append((f, j))
-    # every neighbour word the repair needs, warped in one batch per group
     M = int(p.target_length)
-    warped: dict[tuple[int, int], list[tuple[np.ndarray, float, int]]] = {}  # (word, DTW distance, position)
-    for g in sorted({g for g, _ in flagged_frames_by_word}):
-        ws = np.array(sorted({w for gg, w in flagged_frames_by_word if gg == g}), dtype=np.int64)
-        pos = detection.neighbor_pos[g, ws]  # (n, K)
-        wi, ki = np.nonzero(pos >= 0)
-        members = groups[g]
-        nws, ok = neighbor_words(src.values, full, members, dropped_terms(members), words[ws[wi]], pos[wi, ki], N, M)
-        dist = detection.neighbor_dist[g, ws][wi, ki]
-        for q in np.flatnonzero(ok):
-            warped.setdefault((g, int(ws[wi[q]])), []).append((nws[q], float(dist[q]), int(pos[wi[q], ki[q]])))
     # the take's own flagged cells at the analysis rate (+-1 frame): a neighbour word from the take that
     # spans one of them on a joint to repair would copy the error back (the rest of a long error, a
     # repeated glitch)
@@ -297,12 +265,20 @@ def repair_with_left(
     np.logical_or.at(flagged_a, np.clip(np.round(tau).astype(np.int64), 0, n_self), flags)
     flagged_a[1:] |= flagged_a[:-1].copy()
     flagged_a[:-1] |= flagged_a[1:].copy()
+    # each flagged word's candidates: its neighbours (k, DTW distance, position) in k order, less those of the take
+    # that span a flagged cell of the joints to repair
+    candidates: dict[tuple[int, int], list[tuple[int, float, int]]] = {}
+    for (g, w), cells in flagged_frames_by_word.items():
+        here = np.unique([j for _, j in cells])
+        pos, dist = detection.neighbor_pos[g, w], detection.neighbor_dist[g, w]
+        candidates[(g, w)] = [(k, float(dist[k]), int(q)) for k, q in enumerate(pos)
+                              if q >= 0 and not (q < n_self and flagged_a[q : q + M, here].any())]
+    warped = _medoid_words(an, src, full, groups, words, candidates, N, M)
     for (g, w), cells in flagged_frames_by_word.items():
         members = groups[g]
         fs = np.array([f for f, _ in cells], dtype=np.int64)
         js = np.array([j for _, j in cells], dtype=np.int64)
-        here = np.unique(js)
-        found = [(nw, d) for nw, d, q in warped.get((g, w), []) if not (q < n_self and flagged_a[q : q + M, here].any())]
+        found = [(warped[g, w, k], d) for k, d, _ in candidates[(g, w)] if warped.get((g, w, k)) is not None]
         if not found:
             continue
         nearest = min(d for _, d in found)
@@ -362,6 +338,50 @@ def repair_with_left(
     if foot_skate:
         out = _foot_skate(motion, out, flags)
     return out, tuple(left)
+
+
+def _medoid_words(an: Analysis, src, full, groups, words, candidates: dict, N: int, M: int) -> dict:
+    """``(group, word, k) -> word`` (N, m_g, 4), or None where it has no admissible path or does not fit its clip:
+    the warped neighbour words (:func:`~mocapkit.cleaning.ssa.neighbours.neighbor_words`) among ``candidates``
+    (``(group, word) -> [(k, distance, position), ...]``) that the repair may take.
+
+    A word's medoid is taken of the candidates that warp within :func:`near_neighbors` of the nearest one that
+    does; the others are never warped. A candidate is fetched once it lies within that reach of the nearest
+    candidate not yet known to fail; a candidate that fails raises the reach, and the next round fetches what it
+    adds, until nothing new is in reach: the nearest candidate that warps is then known, and every candidate
+    within its reach. The words the detection kept (:attr:`Analysis.warped`) are read, the rest warped in one
+    batch per group and round; each word is its pair's alone, in any batch.
+    """
+    got: dict = {}
+    while True:
+        todo: dict[int, list[tuple[int, int, int]]] = {}
+        for (g, w), cands in candidates.items():
+            live = [d for k, d, _ in cands if got.get((g, w, k), True) is not None]  # not yet known to fail
+            if not live:
+                continue
+            nearest = min(live)
+            for k, d, q in cands:
+                if (g, w, k) not in got and near_neighbors(d, nearest):
+                    todo.setdefault(g, []).append((w, k, q))
+        if not todo:
+            return got
+        for g, items in sorted(todo.items()):
+            members = groups[g]
+            kept = an.warped.get(np.asarray(members, dtype=np.int64).tobytes())
+            row = {} if kept is None else {(int(s), int(q)): i for i, (s, q) in enumerate(zip(kept[0], kept[1]))}
+            miss = []
+            for w, k, q in items:
+                i = row.get((int(words[w]), q))
+                if i is None:
+                    miss.append((w, k, q))
+                else:
+                    got[g, w, k] = kept[2][i] if kept[3][i] else None
+            if miss:
+                ws = np.array([w for w, _, _ in miss], dtype=np.int64)
+                qs = np.array([q for _, _, q in miss], dtype=np.int64)
+                nws, ok = neighbor_words(src.values, full, members, dropped_terms(members), words[ws], qs, N, M)
+                for i, (w, k, _) in enumerate(miss):
+                    got[g, w, k] = nws[i] if ok[i] else None
 
 
 def _repair_span(motion: Motion, detection: Detection, context, **options) -> tuple[Motion, tuple[LeftRun, ...]]:

@@ -11,7 +11,7 @@ source words (an :class:`Analysis`).
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from functools import cached_property
 from typing import Mapping, Sequence
 
@@ -30,6 +30,8 @@ __all__ = [
     "prepare",
     "motion_texture",
     "motion_words",
+    "frame_words",
+    "nearest_sorted",
     "joint_groups",
     "informative_joints",
     "analysable_joints",
@@ -113,25 +115,46 @@ def _descends(parents, k: int, a: int) -> bool:
 def _rotation_spread(motions: Sequence[Motion], joints) -> tuple[np.ndarray, np.ndarray]:
     """(J,) mean angle (radians) of each of ``joints``' rotations from their average over every frame of
     ``motions`` (0 for a still joint), and (J,) bool whether the rotation turns at all (more than
-    :data:`STILL_RAD` from its first finite frame); 0 and False for the other joints."""
+    :data:`STILL_RAD` from its first finite frame); 0 and False for the other joints. All joints at once where
+    every frame is finite (the same numbers as joint by joint: flips, angles and the mean over frames go joint by
+    joint alike; each joint's mean angle its own column's), else joint by joint."""
     sk = motions[0].skeleton
     spread = np.zeros(sk.num_joints)
     turns = np.zeros(sk.num_joints, dtype=bool)
-    for j in joints:
-        qs = np.concatenate([R.quaternion_continuity(np.asarray(m.rotations[:, j])) for m in motions])
-        qs = qs[np.all(np.isfinite(qs), axis=1)]
-        if len(qs) == 0:
-            continue
-        turns[j] = bool(np.max(R.geodesic_angle(qs, qs[0])) > STILL_RAD)
-        if not turns[j]:  # exactly 0, not rounding noise: still joints tie, and their order is the skeleton's
-            continue
-        mean = qs.mean(axis=0)
-        if np.linalg.norm(mean) < 1e-9:
-            spread[j] = np.pi
-            continue
-        mean = mean / np.linalg.norm(mean)
-        spread[j] = float(np.mean(R.geodesic_angle(qs, mean)))
+    joints = np.asarray(list(joints), dtype=np.int64)
+    if not len(joints):
+        return spread, turns
+    qs = np.concatenate([R.quaternion_continuity(np.asarray(m.rotations[:, joints]), axis=0) for m in motions])
+    if len(qs) == 0 or not np.all(np.isfinite(qs)):
+        for j in joints:
+            spread[j], turns[j] = _joint_spread(motions, int(j))
+        return spread, turns
+    turns[joints] = np.max(R.geodesic_angle(qs, qs[0]), axis=0) > STILL_RAD
+    # exactly 0, not rounding noise: still joints tie, and their order is the skeleton's
+    live = np.flatnonzero(turns[joints])
+    mean = qs[:, live].mean(axis=0)  # (n, 4)
+    size = np.array([np.linalg.norm(m) for m in mean])
+    flat = size < 1e-9
+    rows = np.ascontiguousarray(qs[:, live[~flat]].swapaxes(0, 1))  # (n, F, 4): each joint's mean over a row
+    ang = R.geodesic_angle(rows, (mean[~flat] / size[~flat, None])[:, None])  # (n, F)
+    spread[joints[live[flat]]] = np.pi
+    spread[joints[live[~flat]]] = [float(np.mean(a)) for a in ang]
     return spread, turns
+
+
+def _joint_spread(motions: Sequence[Motion], j: int) -> tuple[float, bool]:
+    """:func:`_rotation_spread` of one joint ``j``: its frames' NaN rows left out."""
+    qs = np.concatenate([R.quaternion_continuity(np.asarray(m.rotations[:, j])) for m in motions])
+    qs = qs[np.all(np.isfinite(qs), axis=1)]
+    if len(qs) == 0:
+        return 0.0, False
+    if not np.max(R.geodesic_angle(qs, qs[0])) > STILL_RAD:
+        return 0.0, False
+    mean = qs.mean(axis=0)
+    if np.linalg.norm(mean) < 1e-9:
+        return float(np.pi), True
+    mean = mean / np.linalg.norm(mean)
+    return float(np.mean(R.geodesic_angle(qs, mean))), True
 
 
 def analysable_joints(motions: Sequence[Motion]) -> np.ndarray:
@@ -341,6 +364,33 @@ def motion_words(num_frames: int, length: int = _D.source_length, stride: int = 
     return motion_word_starts(num_frames, length, stride)
 
 
+def nearest_sorted(values: np.ndarray, queries: np.ndarray) -> np.ndarray:
+    """Index of the entry of the ascending ``values`` nearest each of ``queries`` (the lower index on a tie), as
+    ``argmin(|queries[:, None] - values|, axis=1)`` gives it, in O((F + W) log W) memory and time instead of an
+    (F, W) matrix: 4 GB for a 10-minute take at 120 fps and its 7,000 words."""
+    values = np.asarray(values, dtype=np.float64)
+    queries = np.asarray(queries, dtype=np.float64)
+    if len(values) == 0:
+        raise ValueError("no values to be nearest to")
+    if np.any(np.diff(values) < 0):
+        raise ValueError("values must be ascending")
+    hi = np.clip(np.searchsorted(values, queries, side="left"), 1, max(len(values) - 1, 1))
+    lo = hi - 1
+    if len(values) == 1:
+        return np.zeros(len(queries), dtype=np.int64)
+    take_lo = np.abs(queries - values[lo]) <= np.abs(values[hi] - queries)
+    pick = np.where(take_lo, lo, hi)
+    return np.searchsorted(values, values[pick], side="left").astype(np.int64)  # the first of equal values
+
+
+def frame_words(words: np.ndarray, length: int, num_frames: int, analysis_fps: float, fps: float) -> np.ndarray:
+    """(F,) int64: the source word around each of a take's ``num_frames`` frames at ``fps``, the one of ``words``
+    (first frames at ``analysis_fps``, ``length`` frames long) whose centre is nearest (the earlier on a tie): the
+    word whose neighbours :func:`~mocapkit.cleaning.ssa.repair` reads for the frame."""
+    tau = np.arange(num_frames) * (analysis_fps / fps)  # analysis time of each frame
+    return nearest_sorted(np.asarray(words) + (length - 1) / 2.0, tau)
+
+
 
 def align_hemisphere(q: np.ndarray, ref: np.ndarray) -> np.ndarray:
     """``q`` with each quaternion's sign flipped into the hemisphere of ``ref``."""
@@ -419,7 +469,11 @@ class Analysis:
     groups with their rows in the textures; words : (W,) first frames of the source words at the
     analysis rate; notes : what was left out and why; context_given : the ``context`` argument it was
     prepared from (so that a repair handed the same object knows it); left_out : ``((joint name, why),
-    ...)`` the joints not analysed and why (:func:`left_out_joints`), in skeleton order.
+    ...)`` the joints not analysed and why (:func:`left_out_joints`), in skeleton order; warped : neighbour words
+    already warped on this take and its context, kept by the detection for its repair
+    (:func:`~mocapkit.cleaning.ssa.neighbours.flagged_words`: a group's rows as bytes -> its source word starts,
+    neighbour positions, words and whether each was warped), read by
+    :func:`~mocapkit.cleaning.ssa.repair` instead of warping them again.
     """
 
     motion: Motion
@@ -434,6 +488,7 @@ class Analysis:
     notes: tuple = ()
     context_given: object = None
     left_out: tuple = ()
+    warped: dict = field(default_factory=dict, repr=False)
 
     @property
     def joints(self) -> np.ndarray:
