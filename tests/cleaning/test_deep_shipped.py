@@ -177,6 +177,23 @@ def test_denoise_and_fill_gaps_warn_of_the_non_commercial_models_they_pick(dance
         deep.denoise_or_fallback(noisy)
 
 
+def test_the_streaming_denoiser_warns_of_the_non_commercial_model_it_picks(dance, walk):
+    """deep.Denoiser and deep.denoise_rows picked the CC BY-NC Bandai EBF for a Bandai take without a word, where
+    deep.denoise warns: the same LicenceWarning; the Acclaim model streaming an Acclaim take warns of nothing."""
+    import warnings
+
+    from mocapkit.errors import LicenceWarning
+
+    with pytest.warns(LicenceWarning, match="the EBF used is CC BY-NC 4.0.*model= picks another"):
+        deep.Denoiser(dance.skeleton, dance.fps)
+    with pytest.warns(LicenceWarning, match="the EBF used is CC BY-NC 4.0"):
+        deep.denoise_rows(dance.skeleton, dance.channel_values()[:40], dance.fps)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        deep.Denoiser(walk.skeleton, walk.fps)
+        deep.denoise_rows(walk.skeleton, walk.channel_values()[:40], walk.fps)
+
+
 @pytest.mark.parametrize("method", ["auto", "ebd"])
 @pytest.mark.parametrize("rotation_too", [True, False])
 def test_a_lost_bandai_pelvis_position_is_filled_as_the_root_position_is(dance, method, rotation_too):

@@ -25,7 +25,7 @@ from ... import rotations as R
 from ...errors import SkeletonError
 from ...motion import Skeleton
 from .channels import UNWRAP_ALPHA, euler_columns, root_angular_velocity, unwrap_degrees
-from .inference import denoise_channels, model_of_kind, needs_resampling
+from .inference import denoise_channels, model_of_kind, needs_resampling, warn_licence
 from .networks import EBF, HALF_WINDOW, LOG_SIGMA_RANGE, NOISE_WINDOW, gaussian_filter_frames, noise_level_step
 from .retarget import served_by
 
@@ -59,6 +59,7 @@ class Denoiser:
                                 f"and is served offline only (deep.denoise)")
         if needs_resampling(fps, m.fps):
             raise ValueError(f"streaming runs at the model's rate ({m.fps:g} fps), got {fps:g} fps")
+        warn_licence(m, {"ebf": "model="})  # the Bandai Namco model is non-commercial, as deep.denoise says
         self.model = m
         self.net: EBF = m.net
         self.skeleton = skeleton
@@ -283,6 +284,7 @@ def denoise_rows(skeleton: Skeleton, rows: np.ndarray, fps: float, model=None) -
     """Offline EBF on file-channel rows (F, C_file), the batch counterpart of :class:`Denoiser`: the network's own
     filter widths (no calibration, which needs the block ahead), so the same numbers as streaming."""
     m = model_of_kind(model, "ebf", skeleton)
+    warn_licence(m, {"ebf": "model="})
     m.layout.check(skeleton, "skeleton")
     rows = np.asarray(rows, dtype=np.float64)
     cols = euler_columns(skeleton)
