@@ -59,39 +59,6 @@ def _drop_unseen(pos, joints, spec: str):
     return pos[:, seen], [j for j, ok in zip(joints, seen) if ok], unseen
 
 
-FAR_CM = 10.0  # a fit that ends this far from a marker it was given has not passed through it
-
-
-def _far_from_markers(result, pos, joints, db, spec: str, unseen) -> dict:
-    """Where the markers fit ends over :data:`FAR_CM` further from a seen marker than usual: frames, the worst marker and frame.
-
-    The fit is a least-squares compromise with a pose prior, a smoothness and
-    a joint-range term, and in single frames it can end tens of centimetres
-    from a marker (a hand missed when the local model cannot reach it).
-    ``pos`` (F, M, 3) in the database's unit and frame, as the fit saw them;
-    the result's markers are taken on its own skeleton, in its unit. ``worst_cm``
-    is beyond the marker's median distance.
-    """
-    import numpy as np
-
-    from ..features import virtual_markers
-    from ..motion import unit_scale_cm
-    from ..reconstruct.control import parse_use
-
-    fitted = virtual_markers(result, list(joints)) * unit_scale_cm(result.skeleton)
-    d = np.linalg.norm(fitted - np.asarray(pos) * unit_scale_cm(db.skeletons[0]), axis=-1)  # (F, M) cm, NaN unseen
-    # a skin marker sits centimetres off its joint (LFHD on the forehead, not the head joint): its usual distance,
-    # the median over the take, is no miss; a frame further than that by FAR_CM is
-    d = d - np.nanmedian(d, axis=0)
-    over = np.nan_to_num(d, nan=0.0) > FAR_CM
-    labels = [a for a, _ in parse_use(spec) if not any(u.startswith(f"{a} (") for u in unseen)]
-    if not over.any():
-        return {"over_cm": FAR_CM, "frames": 0}
-    f, m = np.unravel_index(int(np.nanargmax(np.where(over, d, -1.0))), d.shape)
-    return {"over_cm": FAR_CM, "frames": int(over.any(axis=1).sum()), "worst_marker": f"{labels[m]} ({joints[m]})",
-            "worst_cm": round(float(d[f, m]), 2), "worst_frame": int(f)}
-
-
 def _asf_for_amc(out: Path, skeleton: Optional[Path], performer, source, inp: Path, asf: Optional[Path], overwrite: bool):
     """The ASF an ``.amc`` output is read back with (None for other outputs), checked before any work.
 
@@ -185,7 +152,7 @@ def reconstruct(
     from ..database import MotionDatabase
     from ..io.c3d import MarkerSet
     from ..io.takes import check_asf, load_motion, load_take
-    from ..motion import Motion
+    from ..motion import Motion, unit_scale_cm
     from ..reference import check_reference, global_errors_cm, position_error_cm
 
     given = [(k, p) for k, p in (("markers", markers), ("accelerometers", accelerometers), ("ssg", ssg)) if p is not None]
@@ -243,7 +210,7 @@ def reconstruct(
         what = plural(readings.shape[1], "accelerometer")
         frames = readings.shape[0]
     else:
-        from ..reconstruct.control import control_markers
+        from ..reconstruct.control import control_markers, far_from_markers, parse_use
 
         if use is None and isinstance(source, MarkerSet):
             raise MocapFormatError(inp, "a marker file needs --use LABEL=JOINT,... to say which joint each marker sits on")
@@ -292,9 +259,10 @@ def reconstruct(
             errors.update(pelvis_position_rms_cm=pelvis_cm, body_position_rms_cm=body_cm)
     notes, far = [], {}
     if kind == "markers":
-        far = _far_from_markers(result, pos, joints, db, spec, unseen)
+        labels = [a for a, _ in parse_use(spec) if not any(u.startswith(f"{a} (") for u in unseen)]
+        far = far_from_markers(result, pos, joints, unit_scale_cm(db.skeletons[0]), labels)
         if far["frames"]:
-            notes.append(f"the fit ends over {FAR_CM:g} cm further than usual from a seen marker in {plural(far['frames'], 'frame')} of "
+            notes.append(f"the fit ends over {far['over_cm']:g} cm further than usual from a seen marker in {plural(far['frames'], 'frame')} of "
                          f"{result.num_frames} (worst: {far['worst_marker']} {far['worst_cm']:.1f} cm at frame {far['worst_frame']})")
     if kind != "accelerometers" and unseen:
         notes.append(f"{', '.join(unseen)} never seen in {inp.name}: left out (the other markers carry the fit)")

@@ -24,7 +24,10 @@ from ..features import parse_up_axis, detect_up_axis, virtual_markers
 from ..io.c3d import MarkerSet
 from ..motion import Motion, Skeleton, unit_scale_cm
 
-__all__ = ["parse_use", "up_rotation", "control_markers"]
+__all__ = ["parse_use", "up_rotation", "control_markers", "far_from_markers", "FAR_CM"]
+
+#: a markers fit that ends this far (cm) further from a seen marker than its usual distance has not passed through it
+FAR_CM = 10.0
 
 
 def parse_use(text: str | Sequence[str]) -> list[tuple[str, str]]:
@@ -145,3 +148,29 @@ def control_markers(
     pos = source.positions[:, [found[a] for a, _ in pairs]] * (source.unit_cm * to_unit)
     P = up_rotation("z" if up_axis is None else up_axis, target_up)
     return pos @ P.T, joints, float(source.fps)
+
+
+def far_from_markers(result: Motion, pos, joints: Sequence[str], pos_unit_cm: float, labels: Sequence[str],
+                     over_cm: float = FAR_CM) -> dict:
+    """Where a markers fit ends over ``over_cm`` further from a seen marker than usual: frames, the worst marker
+    and frame.
+
+    The fit is a least-squares compromise with a pose prior, a smoothness and a joint-range term, and in single
+    frames it can end tens of centimetres from a marker (a hand missed when the local model cannot reach it).
+    ``pos`` (F, M, 3): the markers as the fit saw them, in units of ``pos_unit_cm`` centimetres (the database's)
+    and its frame, NaN where unseen; ``joints`` (M): the joint each sits on; ``labels`` (M): the markers' names.
+    The result's markers are taken on its own skeleton, in its unit. A skin marker sits centimetres off its joint
+    (LFHD on the forehead, not the head joint), so its usual distance, the median over the take, is no miss.
+
+    Returns ``{"over_cm", "frames"}`` (frames with any marker over), and where there are some ``"worst_marker"``
+    (``"LABEL (joint)"``), ``"worst_cm"`` (beyond the marker's median distance) and ``"worst_frame"``.
+    """
+    fitted = virtual_markers(result, list(joints)) * unit_scale_cm(result.skeleton)
+    d = np.linalg.norm(fitted - np.asarray(pos) * pos_unit_cm, axis=-1)  # (F, M) cm, NaN unseen
+    d = d - np.nanmedian(d, axis=0)
+    over = np.nan_to_num(d, nan=0.0) > over_cm
+    if not over.any():
+        return {"over_cm": over_cm, "frames": 0}
+    f, m = np.unravel_index(int(np.nanargmax(np.where(over, d, -1.0))), d.shape)
+    return {"over_cm": over_cm, "frames": int(over.any(axis=1).sum()), "worst_marker": f"{labels[m]} ({joints[m]})",
+            "worst_cm": round(float(d[f, m]), 2), "worst_frame": int(f)}
