@@ -102,16 +102,16 @@ def coincide(distance: np.ndarray, tol: float, jitter: float, width: int = 9) ->
     """(F,) bool: the frames where two markers sit at the same position, from their distance (F,) (NaN: unseen).
 
     A frame coincides where the distance is under ``tol``, or its median
-    over the ``width`` frames about it under ``jitter``: a copy that jitters about the other
+    over the ``width`` (odd) frames about it under ``jitter``: a copy that jitters about the other
     marker (a second label on a re-reconstructed point, a few mm off from
     frame to frame) stays one run instead of breaking wherever its noise
     reaches ``tol``, and the median keeps the run's edges where the copy
     jumps on and off. Unseen frames never coincide.
     """
+    from scipy.ndimage import median_filter
+
     d = np.where(np.isnan(distance), np.inf, distance)
-    half = width // 2
-    windows = np.lib.stride_tricks.sliding_window_view(np.pad(d, half, mode="edge"), width)
-    return ((d < tol) | (np.median(windows, axis=1) < jitter)) & np.isfinite(d)
+    return ((d < tol) | (median_filter(d, size=width, mode="nearest") < jitter)) & np.isfinite(d)
 
 
 def _jumps(x: np.ndarray, m: int, start: int, end: int, unit_mm: float, off_mm: float) -> list[bool]:
