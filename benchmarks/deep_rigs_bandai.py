@@ -94,6 +94,12 @@ def denoise_rows(clean, ebf, seeds: int) -> dict:
     return out
 
 
+def moving_joints(y: np.ndarray, groups: np.ndarray) -> list:
+    """The joints (``groups`` values, one per channel of ``y`` (F, C) degrees) with a channel whose spread over the
+    take is 5 deg or more: the joints a gap is drawn on (a still joint's gap is filled by any method)."""
+    return [g for g in np.unique(groups) if np.std(y[:, groups == g], axis=0).max() >= 5.0]
+
+
 def gap_rows(clean, ebf, ebd, seeds: int, name: str) -> dict:
     """Gap RMS of each fill on 1-4 s whole-joint gaps of one take: {method: [per gap]}."""
     lay, fps = ebf.layout, clean.fps
@@ -105,7 +111,7 @@ def gap_rows(clean, ebf, ebd, seeds: int, name: str) -> dict:
         return out
     y, _ = encode(clean, lay)
     groups = channel_joints(lay)
-    moving = [g for g in np.unique(groups) if np.std(y[:, groups == g], axis=0).max() >= 5.0]
+    moving = moving_joints(y, groups)
     for seed in range(seeds):
         rng = np.random.default_rng([seed, 7, len(name), F])
         noisy = corrupt.angular_noise(clean, 0.5, seed=(seed, 41))[0]
@@ -144,7 +150,7 @@ def hard_gap_rows(clean, ebf, ebd, seeds: int, name: str) -> dict:
         return out
     y, ctx = encode(clean, lay)
     groups = channel_joints(lay)
-    moving = [g for g in np.unique(groups) if np.std(y[:, groups == g], axis=0).max() >= 5.0]
+    moving = moving_joints(y, groups)
     for seed in range(seeds):
         rng = np.random.default_rng([seed, 11, len(name), F])
         xg = y.copy()
