@@ -46,7 +46,11 @@ whatever order the steps are named in:
    foot strike or a dance hit leaves a residual of several degrees); the
    direction test keeps such motion; and the run's median frame-to-frame step
    must reach its median level (:func:`noisy_cells`: a toe flicking between
-   still frames turns back too). Tuned on Bandai Namco dataset-1 and HDM05 actors other than mm
+   still frames turns back too). Under 117 fps (where the fit's 7 frames
+   span more than 0.06 s) a run on a hand or toe joint counts only where the
+   rest of the body is noisy too (:mod:`mocapkit.cleaning.noise_scope`:
+   CMU's toes and hands wobble in the files, and at 30 fps that wobble
+   reverses frame to frame like noise). Tuned on Bandai Namco dataset-1 and HDM05 actors other than mm
    (``benchmarks/clean_untouched.py``), checked on the rest. Noisy cells take
    the EBF's output (:func:`mocapkit.cleaning.deep.denoise`); on a rig the
    EBF does not serve, a quadratic Savitzky-Golay filter over 0.1 s on those
@@ -122,6 +126,7 @@ from .. import rotations as R
 from ..errors import MocapError, MocapFormatError
 from ..motion import Motion, frozen
 from .calibration import CalibrationPose, calibration_poses
+from .noise_scope import with_body_noise
 from .stutters import Stutter, find_stutters
 from .whole_take import (MAX_WORD_ANGLE_DEG, denoise_take, detect_take, differing, fill_take, motion_span,
                          repair_whole, take_params, with_teleports)
@@ -516,6 +521,15 @@ def noisy_cells(motion: Motion, noise_deg: float = NOISE_DEG, filled: np.ndarray
     flicks it hardly moves: the median step is a third of the level or less.
     ``filled`` (F, J) bool, optional: cells a gap filler made up (smooth by
     construction, so no evidence either way), left out of the medians.
+    Last, where the take's rate is too low for the fit to span only
+    ``NOISE_FIT_S`` (under 117 fps its ``NOISE_FIT_MIN`` frames span more,
+    0.23 s at 30 fps, and the residual takes in the joint's own motion up to
+    a few Hz), a run on a hand or toe joint is noisy only where a joint of
+    the rest of the body is noisy at one of its frames
+    (:func:`mocapkit.cleaning.noise_scope.with_body_noise`): there the
+    extremities' own wobble (CMU's toes and hands) passes every test of one
+    track, and only the company it keeps tells it from sensor or solver
+    noise. At 120 fps and above nothing changes.
     """
     from .ik import contact_segments
 
@@ -542,6 +556,8 @@ def noisy_cells(motion: Motion, noise_deg: float = NOISE_DEG, filled: np.ndarray
                 if (len(c) and np.median(c) < NOISE_REVERSAL
                         and np.nanmedian(s) >= NOISE_STEP_RATIO * np.median(lv)):
                     noisy[a:b, j] = True
+    if noise_fit_frames(motion.fps) > (int(round(NOISE_FIT_S * motion.fps)) | 1):
+        noisy = with_body_noise(noisy, sk)  # under 117 fps the fit's 7 frames span more than NOISE_FIT_S
     return noisy, level
 
 
