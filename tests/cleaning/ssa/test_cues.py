@@ -463,7 +463,7 @@ def _event_step_reference(q, first, last):
 
 
 def test_event_steps_and_spikes_equal_the_one_event_at_a_time_reference(walk):
-    """All of a joint's events at once (:func:`cues._event_steps`, :func:`cues.spike_breaks`) give, bit for bit,
+    """All of a joint's events at once (:func:`cues.event_steps`, :func:`cues.spike_breaks`) give, bit for bit,
     what one event at a time gives, on a real take with real-style errors and events at both ends."""
     bad, _mask, _rec = corrupt.real_errors(walk, n_errors=8, seed=5)
     rot = np.array(bad.rotations, dtype=np.float64)
@@ -476,7 +476,7 @@ def test_event_steps_and_spikes_equal_the_one_event_at_a_time_reference(walk):
     n_events = n_none = 0
     for j in np.flatnonzero(breaks.any(axis=0)):
         runs = _break_events(np.flatnonzero(breaks[:, j]))
-        got = cues._event_steps(rot[:, j], [r[0] for r in runs], [r[-1] for r in runs])
+        got = cues.event_steps(rot[:, j], [r[0] for r in runs], [r[-1] for r in runs])
         for run, g in zip(runs, got):
             ref = _event_step_reference(rot[:, j], int(run[0]), int(run[-1]))
             n_events += 1
@@ -689,7 +689,7 @@ def test_every_cause_has_a_bit_of_the_uint8_record():
 
 @pytest.mark.parametrize("shape, dtype", [((37, 3), np.float64), ((5, 4), np.float32), ((0, 3), np.float64)])
 def test_norms_are_the_one_row_norms_they_replace(shape, dtype):
-    """cues._norms: bit for bit ``np.linalg.norm`` of each 1-D row (strided rows, tiny, huge and NaN rows too)."""
+    """cues.row_norms: bit for bit ``np.linalg.norm`` of each 1-D row (strided rows, tiny, huge and NaN rows too)."""
     rng = np.random.default_rng(shape[0])
     v = (rng.normal(size=shape) * 10.0 ** rng.integers(-12, 12, size=shape)).astype(dtype)
     if shape[0]:
@@ -697,7 +697,7 @@ def test_norms_are_the_one_row_norms_they_replace(shape, dtype):
         v[1] = 0.0
     for rows in (v, np.asfortranarray(v), v[::2]):
         want = np.array([np.linalg.norm(r) for r in rows], dtype=np.float64)
-        got = cues._norms(rows)
+        got = cues.row_norms(rows)
         assert got.dtype == np.float64 and got.shape == want.shape and np.array_equal(got, want, equal_nan=True)
 
 
@@ -763,15 +763,15 @@ def test_undoing_pairs_take_the_nearest_undoing_step_and_need_the_stretch_to_sta
     assert cues._undoing_pairs(starts, 120, lambda k, m: m == k + 1, lambda a, b: False) == [(0, 1), (2, 3)]
     d = np.full(100, np.radians(2.0))
     d[40:60] = np.radians(20.0)
-    assert cues._stands_out(d, 40, 60)
+    assert cues.stands_out(d, 40, 60)
     d[20:40] = np.radians(15.0)  # the motion before digresses as much: nothing marks the stretch
-    assert not cues._stands_out(d, 40, 60)
+    assert not cues.stands_out(d, 40, 60)
     d[:] = np.nan
-    assert not cues._stands_out(d, 40, 60)
+    assert not cues.stands_out(d, 40, 60)
 
 
 def _off_path_one_at_a_time(q, first, last):
-    """cues._off_path's reference: one event at a time (a slerp and two angles per event)."""
+    """cues.off_path's reference: one event at a time (a slerp and two angles per event)."""
     off, turn = np.zeros(len(first)), np.zeros(len(first))
     for i, (a, b) in enumerate(zip(first, last)):
         lo, hi = q[a - 1], q[b + 1]
@@ -784,7 +784,7 @@ def _off_path_one_at_a_time(q, first, last):
 
 @pytest.mark.parametrize("seed", range(4))
 def test_off_path_of_all_events_at_once_is_the_one_at_a_time_reference(walk, seed):
-    """Every event's frames in one slerp and one angle (cues._off_path) give, bit for bit, what one event at a time
+    """Every event's frames in one slerp and one angle (cues.off_path) give, bit for bit, what one event at a time
     gave: one-frame and longer events, on a strided track (one joint of the take) and on flipped, turned samples."""
     rng = np.random.default_rng(seed)
     rot = np.array(walk.rotations)
@@ -797,7 +797,7 @@ def test_off_path_of_all_events_at_once_is_the_one_at_a_time_reference(walk, see
         rot[a : b + 1, j] = R.quaternion_multiply(rot[a : b + 1, j], R.quaternion_from_axis_angle(
             rng.normal(size=3), rng.uniform(0.1, 3.0)))
     rot[rng.integers(0, F, size=40), j] *= -1.0
-    got = cues._off_path(rot[:, j], first, last)
+    got = cues.off_path(rot[:, j], first, last)
     want = _off_path_one_at_a_time(rot[:, j], first, last)
     assert np.array_equal(got[0], want[0]) and np.array_equal(got[1], want[1])
-    assert all(len(a) == 0 for a in cues._off_path(rot[:, j], first[:0], last[:0]))
+    assert all(len(a) == 0 for a in cues.off_path(rot[:, j], first[:0], last[:0]))

@@ -41,6 +41,7 @@ __all__ = [
     "step_angles",
     "uncompensated_breaks",
     "chain_table",
+    "event_bounds", "event_steps", "off_path", "stands_out", "undo_left", "row_norms",
 ]
 
 _D = SSAParams()
@@ -111,7 +112,7 @@ def motion_explained(q: np.ndarray, resid: np.ndarray, breaks: np.ndarray, cap: 
     (a residual of 30 deg, the CMU 131_02 right shoulder), far over what
     the joint's motion in the rest of the take reaches. An error steps off
     a path the joint follows at its own pace. So a break event (grouped
-    as :func:`_event_bounds` does) whose largest residual stays under
+    as :func:`event_bounds` does) whose largest residual stays under
     ``cap`` (radians, what limb motion can make at the take's rate:
     :func:`own_breaks`) and under the joint's speed just outside it (the
     larger of the steps ``q[first - 2] -> q[first - 1]`` and ``q[last + 1]
@@ -136,7 +137,7 @@ def motion_explained(q: np.ndarray, resid: np.ndarray, breaks: np.ndarray, cap: 
     step = np.nan_to_num(step_angles(q))  # (F - 1, J): step i is q[i] -> q[i + 1]
     for j in np.flatnonzero(out.any(axis=0)):
         frames = np.flatnonzero(out[:, j])
-        first, last, event = _event_bounds(frames)
+        first, last, event = event_bounds(frames)
         peak = np.maximum.reduceat(resid[frames, j], np.flatnonzero(np.r_[True, np.diff(event) > 0]))
         before = np.where(first >= 2, step[np.clip(first - 2, 0, F - 2), j], 0.0)
         after = np.where(last + 1 <= F - 2, step[np.clip(last + 1, 0, F - 2), j], 0.0)
@@ -230,7 +231,7 @@ def swaps_from_residuals(resid, joint_names, fps, jump_deg, max_s, joints, rotat
         frames = np.flatnonzero(both)
         if len(frames) < 2:
             continue
-        first, last, _ = _event_bounds(frames)
+        first, last, _ = event_bounds(frames)
         starts = [int(f) for f in first]
         if rotations is not None and mirrored is not None:
             whole = [_whole_swap(rotations, mirrored, int(f), int(l), j, p) for f, l in zip(first, last)]
@@ -245,7 +246,7 @@ def swaps_from_residuals(resid, joint_names, fps, jump_deg, max_s, joints, rotat
 
 def _whole_swap(q: np.ndarray, mirrored: np.ndarray, first: int, last: int, j: int, p: int) -> tuple | None:
     """``(a, b)``, the steps ``a -> a + 1`` and ``b -> b + 1`` that swap joints ``j`` and ``p`` and swap them
-    back, when one break event (frames ``first .. last``, :func:`_event_bounds`) holds a whole swap; else None.
+    back, when one break event (frames ``first .. last``, :func:`event_bounds`) holds a whole swap; else None.
 
     A swap of 1-4 frames breaks at frames at most 3 apart, which group into one event; paired with the next
     event it flagged the clean frames up to that one (a 4-frame swap of a waving forearm and a swap 1 s later
@@ -284,7 +285,7 @@ def _swap_step(q: np.ndarray, mirrored: np.ndarray, f: int, j: int, ratio: float
     return False
 
 
-def _event_bounds(frames: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def event_bounds(frames: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Sorted break frames (at least one) grouped into events, runs whose frames lie at most 3 apart:
     ``(first, last, event)``, the events' first and last frames (n,) and the event of each of ``frames``."""
     cut = np.flatnonzero(np.diff(frames) > 3) + 1
@@ -373,7 +374,7 @@ def _usual_residual(resid: np.ndarray) -> np.ndarray:
     return 3.0 * np.percentile(resid, min(95.0, 100.0 * (1.0 - 8.0 / F)), axis=0)
 
 
-def _event_steps(q: np.ndarray, first: np.ndarray, last: np.ndarray, own_frame: bool = False) -> np.ndarray:
+def event_steps(q: np.ndarray, first: np.ndarray, last: np.ndarray, own_frame: bool = False) -> np.ndarray:
     """(n, 3) rotation vectors (radians, parent frame) from a joint's path before each event to its path after it.
 
     ``q`` (F, 4) the joint's track; event i spans frames ``first[i] ..
@@ -415,7 +416,7 @@ def _row_dots(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return out
 
 
-def _norms(v: np.ndarray) -> np.ndarray:
+def row_norms(v: np.ndarray) -> np.ndarray:
     """(n,) ``np.linalg.norm(v[i])`` of (n, k) rows, each by the 1-D call (the square root of a BLAS dot
     product, which a sum along the rows may round otherwise); NaN rows NaN. For float64 rows the same dot
     product and square root as that call (``x.dot(x)`` of the contiguous row, then ``sqrt``: bit for bit), without
@@ -523,7 +524,7 @@ def offsets_from_residuals(q, resid, fps, jump_deg, max_s, min_offset_deg, joint
     steps apart, and paired only in turn the error went unflagged (:func:`_undoing_pairs`). With
     ``digression`` (F, J) radians (NaN: not judged) given, such a pair with events between counts only where
     the stretch between digresses from the neighbour words and the frames beside it do not
-    (:func:`_stands_out`); without, only successive events pair. The events left pair in turn as before.
+    (:func:`stands_out`); without, only successive events pair. The events left pair in turn as before.
     """
     from ...motion import mirror_pairs
 
@@ -535,13 +536,13 @@ def offsets_from_residuals(q, resid, fps, jump_deg, max_s, min_offset_deg, joint
     longest = int(round(max_s * fps))
     half_turn = np.radians(150.0)
     for j in np.flatnonzero(use & breaks.any(axis=0)):
-        first, last, _ = _event_bounds(np.flatnonzero(breaks[:, j]))
-        step = _event_steps(q[:, j], first, last)
-        keep = _norms(step) >= np.radians(min_offset_deg)  # NaN (ends of the take): not kept
+        first, last, _ = event_bounds(np.flatnonzero(breaks[:, j]))
+        step = event_steps(q[:, j], first, last)
+        keep = row_norms(step) >= np.radians(min_offset_deg)  # NaN (ends of the take): not kept
         if parents is not None and keep.any():
             keep[keep] = ~_compensated(q, parents, int(j), first[keep], last[keep])
         starts, steps = [int(f) for f in first[keep]], list(step[keep])
-        own = _event_steps(q[:, j], first[keep], last[keep], own_frame=True)
+        own = event_steps(q[:, j], first[keep], last[keep], own_frame=True)
 
         def back(k, m):  # the second step points roughly opposite the first (a half turn has no sign)
             na, nb = np.linalg.norm(steps[k]), np.linalg.norm(steps[m])
@@ -549,11 +550,11 @@ def offsets_from_residuals(q, resid, fps, jump_deg, max_s, min_offset_deg, joint
             return cos <= -0.5 or (max(na, nb) > half_turn and abs(cos) >= 0.5)
 
         def undoes(k, m):  # the second step is the first one's inverse, in one frame or the other
-            return any(_undo_left(v[k], v[m]) <= UNDO_RATIO * max(np.linalg.norm(v[k]), np.linalg.norm(v[m]))
+            return any(undo_left(v[k], v[m]) <= UNDO_RATIO * max(np.linalg.norm(v[k]), np.linalg.norm(v[m]))
                        for v in (np.asarray(steps), own))
 
         def apart(a, b):  # a pair with events between: the stretch alone differs from the neighbour words
-            return digression is not None and _stands_out(digression[:, j], a + 1, b + 1)
+            return digression is not None and stands_out(digression[:, j], a + 1, b + 1)
 
         strict = _undoing_pairs(starts, longest, undoes, apart)
         taken = {k for pair in strict for k in pair}
@@ -562,7 +563,7 @@ def offsets_from_residuals(q, resid, fps, jump_deg, max_s, min_offset_deg, joint
     return _single_joint_offsets(pairs, F, J, partner)
 
 
-def _undo_left(a: np.ndarray, b: np.ndarray) -> float:
+def undo_left(a: np.ndarray, b: np.ndarray) -> float:
     """Radians: the turn left by rotation vector ``b`` after ``a`` (0 where ``b`` undoes ``a``)."""
     return float(R.geodesic_angle(R.rotvec_to_quaternion(a), R.rotvec_to_quaternion(-np.asarray(b))))
 
@@ -586,7 +587,7 @@ def _undoing_pairs(starts, longest: int, undoes, apart) -> list[tuple[int, int]]
     return out
 
 
-def _stands_out(digression: np.ndarray, a: int, b: int) -> bool:
+def stands_out(digression: np.ndarray, a: int, b: int) -> bool:
     """Whether frames ``a .. b - 1`` of a joint's ``digression`` (F,) radians (NaN: not judged) digress from the
     neighbour words, as a median, at least twice as much as the as many frames on either side of them do (an
     offset is the take's alone; where the motion beside digresses as much, nothing marks the stretch as an
@@ -772,7 +773,7 @@ def uncompensated_breaks(q: np.ndarray, parents, breaks: np.ndarray, memo: dict 
     thorax another way from one frame to the next breaks both joints'
     tracks while the body does not move: no evidence of an error, so such
     breaks confirm no digression. ``q`` (F, J, 4) local rotations,
-    ``parents`` (J,); events are grouped as :func:`_event_bounds` does.
+    ``parents`` (J,); events are grouped as :func:`event_bounds` does.
     ``memo``: a dict ``(joint, first, last) -> compensated`` of the events already judged on this ``q`` and
     ``parents`` (another call's), read and added to: an event's answer is its own, whichever events it is judged
     with, so the events found again are not judged again (detection's breaks and :func:`lone_spikes`').
@@ -780,7 +781,7 @@ def uncompensated_breaks(q: np.ndarray, parents, breaks: np.ndarray, memo: dict 
     out = np.array(breaks, dtype=bool)
     for j in np.flatnonzero(out.any(axis=0)):
         frames = np.flatnonzero(out[:, j])
-        first, last, event = _event_bounds(frames)
+        first, last, event = event_bounds(frames)
         if memo is None:
             comp = _compensated(q, parents, int(j), first, last)
         else:
@@ -795,10 +796,10 @@ def uncompensated_breaks(q: np.ndarray, parents, breaks: np.ndarray, memo: dict 
 
 
 def spike_breaks(q: np.ndarray, resid: np.ndarray, breaks: np.ndarray, ratio: float = 0.5) -> np.ndarray:
-    """(F, J) bool: the break events (``breaks``, grouped as :func:`_event_bounds` does) that are spikes.
+    """(F, J) bool: the break events (``breaks``, grouped as :func:`event_bounds` does) that are spikes.
 
     A spike leaves the joint on the path it was on: the step across its
-    event (:func:`_event_steps`, from the path before to the path after) is
+    event (:func:`event_steps`, from the path before to the path after) is
     under ``ratio`` times the event's largest midpoint residual ``resid``.
     A step of s degrees between two frames leaves residuals of s / 2 and
     a step of s, a ratio of 2; a one-frame spike of s degrees a residual of s
@@ -808,10 +809,10 @@ def spike_breaks(q: np.ndarray, resid: np.ndarray, breaks: np.ndarray, ratio: fl
     out = np.zeros(breaks.shape, dtype=bool)
     for j in np.flatnonzero(breaks.any(axis=0)):
         frames = np.flatnonzero(breaks[:, j])
-        first, last, event = _event_bounds(frames)
+        first, last, event = event_bounds(frames)
         span, _, start = segment_frames(first, last - first + 1)  # the frames first .. last of each event
         peak = np.maximum.reduceat(resid[span, j], start)
-        spike = _norms(_event_steps(q[:, j], first, last)) < ratio * peak  # NaN (ends of the take): no spike
+        spike = row_norms(event_steps(q[:, j], first, last)) < ratio * peak  # NaN (ends of the take): no spike
         out[frames[spike[event]], j] = True
     return out
 
@@ -835,7 +836,7 @@ def lone_spikes(q: np.ndarray, resid: np.ndarray, judged: np.ndarray, analysed: 
     the gate is not judged (Aristidou et al. 2018 find an error by similar motion, section 3.4), and 30 to 90 deg
     spikes in a dance or a take lying down went through unflagged. A spike is an error whatever the motion around
     it: the joint leaves its path and comes back within a few frames by far more than its own motion ever does. A
-    break event (midpoint residuals over ``jump_deg``, grouped as :func:`_event_bounds` does, less those the joint's
+    break event (midpoint residuals over ``jump_deg``, grouped as :func:`event_bounds` does, less those the joint's
     chain undoes, :func:`uncompensated_breaks`, with ``parents``) is such a spike when it holds at most
     ``max_frames`` frames between its first and last break (a joint under noise breaks at every frame, one long
     event), its frames lie at least ``min_deg`` off the slerp between the frames beside it and (a return to the
@@ -857,14 +858,14 @@ def lone_spikes(q: np.ndarray, resid: np.ndarray, judged: np.ndarray, analysed: 
         breaks = uncompensated_breaks(q, parents, breaks, memo)
     low = np.radians(min_deg)
     for j in np.flatnonzero(breaks.any(axis=0)):
-        first, last, _ = _event_bounds(np.flatnonzero(breaks[:, j]))
+        first, last, _ = event_bounds(np.flatnonzero(breaks[:, j]))
         inside = (first >= 1) & (last <= F - 2)
         first, last = first[inside], last[inside]
         if not len(first):
             continue
         peak = np.array([resid[a : b + 1, j].max() for a, b in zip(first, last)])
-        off, turn = _off_path(q[:, j], first, last)
-        stepped = _norms(_event_steps(q[:, j], first, last)) < 0.5 * peak  # spike_breaks' test (NaN: no)
+        off, turn = off_path(q[:, j], first, last)
+        stepped = row_norms(event_steps(q[:, j], first, last)) < 0.5 * peak  # spike_breaks' test (NaN: no)
         short = np.where(last - first >= 2, last - first - 1, last - first + 1) <= max_frames
         big = short & (off >= low) & ((off >= 2.0 * turn) | stepped)
         for i in np.flatnonzero(big):
@@ -880,7 +881,7 @@ def lone_spikes(q: np.ndarray, resid: np.ndarray, judged: np.ndarray, analysed: 
     return out
 
 
-def _off_path(q: np.ndarray, first: np.ndarray, last: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def off_path(q: np.ndarray, first: np.ndarray, last: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """``(off, turn)`` (n,) radians for the events ``first[i] .. last[i]`` of one joint's track ``q`` (F, 4), none
     touching the take's ends: the largest angle of an event's frames from the slerp between the frames beside it
     (``first - 1`` and ``last + 1``), and the angle between those two frames. Every event's frames at once (the

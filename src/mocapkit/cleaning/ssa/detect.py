@@ -21,6 +21,7 @@ from ...motion import Motion, mirror_pairs
 from ...rigs import pelvis_index
 from ..ik import contact_segments
 from . import word_dtw
+from .backed import backed_breaks
 from .cues import (
     flag_causes,
     held_joints,
@@ -633,9 +634,12 @@ def detect_prepared(an: Analysis, threshold: float = 0.5, *, progress: bool = Fa
         change[:, tex_joints] = offset_change(np.where(ok[..., None], rot, np.nan), np.where(ok, scale, np.nan))
     analysed = np.zeros(J, dtype=bool)
     analysed[tex_joints] = True
+    q = np.asarray(motion.rotations, dtype=np.float64)
+    # breaks under the joint's own level whose shape the digression backs (a spike, an offset and its undoing)
+    jumps |= backed_breaks(q, resid, digression, analysed, motion.fps, sk.parents, p.jump_deg, p.offset_min_deg,
+                           memo=chain_memo)
     jumps &= analysed[None, :]
     holds = held_joints(motion, mean_speed, travel_deg=p.hold_travel_deg) & analysed[None, :]
-    q = np.asarray(motion.rotations, dtype=np.float64)
     swaps = swaps_from_residuals(resid, sk.joint_names, motion.fps, p.swap_jump_deg, p.swap_max_s, analysed,
                                  rotations=q, mirrored=mirrored_rotations(motion))
     offsets = offsets_from_residuals(
