@@ -69,7 +69,10 @@ def clean(take, context=None, *, steps="fill,detect,repair,denoise", threshold: 
     context : None, False, "none", MotionDatabase, database folder, folder of takes, or list of Motions or files
         What detection and repair compare with besides the clip itself
         (:func:`mocapkit.context.resolve_context`): a folder of takes or a
-        list of files is built into a database once and cached; None: the
+        list of files is built into a database once and cached, a list of
+        Motions into the same database in memory (the result is bit for bit
+        that of their files: each resampled to 24 fps by slerp and stored as
+        float32, :func:`mocapkit.context.motions_context`); None: the
         bundled default context (skipped, with a note, for a take on another
         skeleton); False or "none": the clip itself alone.
     steps : str or sequence of str
