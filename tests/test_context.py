@@ -333,3 +333,22 @@ def test_no_home_folder_does_not_stop_a_folder_context(monkeypatch, tmp_path):
     shutil.copy(samples.path("12.asf"), tmp_path / "12.asf")
     db = cached_context([tmp_path / "12_walk.amc"])
     assert db.num_clips == 1 and any("not cached" in n for n in db.info["notes"])
+
+
+def test_context_motions_clean_a_take_bit_for_bit_as_their_files_do(tmp_path, monkeypatch):
+    """``mocapkit.clean(take, context=[Motion])`` and ``context=[path]`` for that Motion's file: the same cleaned take,
+    flags and MDM bit for bit (both are built into one context database: resampled by slerp, stored as float32)."""
+    from mocapkit import corrupt, samples
+
+    monkeypatch.setenv("MOCAPKIT_CACHE_DIR", str(tmp_path / "cache"))
+    take = mocapkit.load(samples.path("HDM_bk_sneak2StepsLStart_005_120.amc"))
+    bad, _, _ = corrupt.real_errors(take, n_errors=3, seed=5)
+    path = samples.path("HDM_bk_sneak2StepsLStart_004_120.amc")
+    by_file = mocapkit.clean(bad, [path])
+    by_motion = mocapkit.clean(bad, [mocapkit.load(path)])
+    assert by_file.repaired.any()
+    np.testing.assert_array_equal(by_motion.motion.rotations, by_file.motion.rotations)
+    np.testing.assert_array_equal(by_motion.motion.root_positions, by_file.motion.root_positions)
+    np.testing.assert_array_equal(by_motion.mdm, by_file.mdm)
+    np.testing.assert_array_equal(by_motion.repaired, by_file.repaired)
+    assert "context Motions (1 clip" in by_motion.steps[1].method

@@ -84,6 +84,29 @@ def test_clean_takes_a_marker_capture_to_the_marker_cleaner():
             mocapkit.clean(samples.path("Eb015pr.c3d"), **kwargs)
 
 
+def test_the_summary_says_how_frames_relate_to_the_files_numbers_as_the_cli_does(tmp_path, capsys):
+    """An AMC numbers its frames from 1, a C3D from its header's first frame: ``mocapkit clean`` says how its 0-based
+    frames relate to them, and the library's summary says the same line; a Motion numbers no frames."""
+    import shutil
+
+    from mocapkit.cli import main
+
+    shutil.copy(samples.path("12.asf"), tmp_path / "bad.asf")
+    bad, _, _ = corrupt.real_errors(mocapkit.load(samples.path("12_walk.amc")), n_errors=4, seed=11)
+    inp = mocapkit.save(bad, tmp_path / "bad.amc")
+    note = "frame numbers count from 0, the take's first frame; {} numbers its frames from 1: its frame 11 is frame 10 here"
+    lines = mocapkit.clean(inp, steps="detect").summary()
+    assert lines[-1] == note.format("bad.amc"), lines
+    assert main(["clean", str(inp), "-o", str(tmp_path / "o.amc"), "--steps", "detect"]) == 0
+    assert f"\n  {lines[-1]}\n" in capsys.readouterr().out
+    assert not any("numbers its frames" in x for x in mocapkit.clean(bad, steps="detect").summary())
+    c3d = samples.path("Eb015pr.c3d")
+    lines = mocapkit.clean(c3d).summary()
+    assert lines[-1] == note.format("Eb015pr.c3d"), lines
+    assert main(["clean", str(c3d), "-o", str(tmp_path / "markers.c3d")]) == 0
+    assert f"\n  {lines[-1]}\n" in capsys.readouterr().out
+
+
 def test_clean_takes_the_noise_level_the_amc_rate_and_the_unit_as_the_cli_does(tmp_path):
     """``noise_deg``, ``fps`` and ``unit`` are clean's --noise-deg, --amc-fps and --unit; ``fps`` is for AMC files."""
     amc = samples.path("HDM_bk_sneak2StepsLStart_005_120.amc")

@@ -69,7 +69,10 @@ def clean(take, context=None, *, steps="fill,detect,repair,denoise", threshold: 
     context : None, False, "none", MotionDatabase, database folder, folder of takes, or list of Motions or files
         What detection and repair compare with besides the clip itself
         (:func:`mocapkit.context.resolve_context`): a folder of takes or a
-        list of files is built into a database once and cached; None: the
+        list of files is built into a database once and cached, a list of
+        Motions into the same database in memory (the result is bit for bit
+        that of their files: each resampled to 24 fps by slerp and stored as
+        float32, :func:`mocapkit.context.motions_context`); None: the
         bundled default context (skipped, with a note, for a take on another
         skeleton); False or "none": the clip itself alone.
     steps : str or sequence of str
@@ -102,7 +105,10 @@ def clean(take, context=None, *, steps="fill,detect,repair,denoise", threshold: 
     CleanResult
         ``motion`` (the cleaned take), the (F, J) cell masks ``filled``,
         ``repaired``, ``denoised``, the detection, and one record per step
-        (see :class:`mocapkit.cleaning.pipeline.CleanResult`).
+        (see :class:`mocapkit.cleaning.pipeline.CleanResult`); its
+        ``summary()`` lines are those ``mocapkit clean`` prints, the line on
+        how its 0-based frames relate to the file's own numbers (an AMC's,
+        a TRC's, a C3D's) included when ``take`` is such a file.
 
     Raises
     ------
@@ -111,6 +117,7 @@ def clean(take, context=None, *, steps="fill,detect,repair,denoise", threshold: 
     MocapError
         A take the steps cannot clean (e.g. missing in every frame).
     """
+    from .cleaning.decisions import frames_note
     from .cleaning.pipeline import clean as clean_motion
     from .io.takes import check_unit
     from .markerset import MarkerSet
@@ -121,10 +128,11 @@ def clean(take, context=None, *, steps="fill,detect,repair,denoise", threshold: 
         if given:
             raise MocapError(f"{take.name or 'the take'}: {', '.join(given)} {'apply' if len(given) > 1 else 'applies'} "
                              f"to a file read here, not to a {type(take).__name__} already read")
-    if isinstance(take, (str, os.PathLike)) and os.fspath(take).lower().endswith((".c3d", ".trc", ".npz")):
+    path = take if isinstance(take, (str, os.PathLike)) else None
+    if path is not None and os.fspath(path).lower().endswith((".c3d", ".trc", ".npz")):
         from .io.takes import load_take
 
-        take = load_take(take, unit=unit)
+        take = load_take(path, unit=unit)
     if isinstance(take, MarkerSet):
         from .batch import refuse_marker_options
         from .cleaning.markers import clean_markers
@@ -133,13 +141,13 @@ def clean(take, context=None, *, steps="fill,detect,repair,denoise", threshold: 
         refuse_marker_options(take.name or "the take", [name for name, given in (
             (f"steps {steps}", parse_steps(steps) != STEPS), ("threshold", threshold != 0.5), ("drifts", drifts),
             ("models", bool(models)), ("context", context is not None), ("noise_deg", noise_deg is not None)) if given])
-        return clean_markers(take)
+        return dataclasses.replace(clean_markers(take), frames_note=frames_note(path, take))
     motion = take if isinstance(take, Motion) else _load_motion(take, asf, fps, unit)
     ctx, note = _load_context(context, motion)
     extra = {} if noise_deg is None else {"noise_deg": noise_deg}
     res = clean_motion(motion, ctx, steps=steps, threshold=threshold, progress=progress, drifts=drifts, models=models,
                        **extra)
-    return dataclasses.replace(res, notes=res.notes + (note,)) if note else res
+    return dataclasses.replace(res, notes=res.notes + ((note,) if note else ()), frames_note=frames_note(path))
 
 
 def _load_motion(path, asf, fps=None, unit=None) -> Motion:

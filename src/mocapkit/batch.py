@@ -210,6 +210,7 @@ def clean_file(
         except MocapError as exc:
             msg = str(exc)
             raise MocapError(msg if str(inp) in msg else f"{inp}: {msg}") from None
+    res = replace(res, frames_note=dec.frames_note(inp))  # the summary says how its frames relate to the file's
     if out.suffix.lower() == ".amc":  # sizes, report and record say what the AMC holds (dec.as_written)
         from .io.amc_writer import file_dofs
         from .io.asfamc import amc_held_rotations
@@ -367,6 +368,7 @@ def clean_marker_file(inp, out, *, report=None, png=None, overwrite: bool = Fals
     analogs) and the ``.clean.npz`` record last. ``max_gap_s``, ``max_error_mm``: as for
     :func:`~mocapkit.cleaning.markers.clean_markers`. Returns ``(original, result)``.
     """
+    from .cleaning import decisions as dec
     from .cleaning.markers import STEPS as MARKER_STEPS
     from .cleaning.markers import clean_markers
     from .cleaning.pipeline import clean_path
@@ -384,6 +386,7 @@ def clean_marker_file(inp, out, *, report=None, png=None, overwrite: bool = Fals
         res = clean_markers(ms, steps=steps or MARKER_STEPS, max_gap_s=max_gap_s, max_error_mm=max_error_mm)
     except ValueError as exc:
         raise MocapError(f"{inp}: {exc}") from None
+    res = replace(res, frames_note=dec.frames_note(inp, ms))  # the summary says how its frames relate to the file's
     with removed_on_failure(outputs, overwrite=overwrite, marker=record):
         if report is not None:
             from .report.markers import write_marker_report

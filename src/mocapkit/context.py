@@ -73,6 +73,8 @@ __all__ = [
     "context_key",
     "topology_id",
     "build_context",
+    "context_take",
+    "motions_context",
     "cached_context",
     "default_context",
     "default_context_path",
@@ -228,13 +230,20 @@ def _context_take(p: Path, fps: float):
     """The take at ``p`` resampled for a context; MocapFormatError naming it when it cannot be context."""
     from .io.takes import load_motion
 
-    m = load_motion(p, purpose="context")
+    return context_take(load_motion(p, purpose="context"), fps, p)
+
+
+def context_take(m, fps: float = BUILD_FPS, source=None):
+    """The Motion ``m`` as a context clip: resampled to ``fps`` (slerp, :meth:`Motion.resample`) and named (by
+    ``source``'s stem when it has no name). A take with no frames or with missing joints cannot be context:
+    :class:`~mocapkit.errors.MocapFormatError` naming ``source`` (a file), or ``m.name``."""
+    where = source if source is not None else (m.name or "a context Motion")
     if m.num_frames == 0:
-        raise MocapFormatError(p, "the take has no frames; it cannot be context")
+        raise MocapFormatError(where, "the take has no frames; it cannot be context")
     if not np.all(np.isfinite(m.rotations)):
-        raise MocapFormatError(p, "the take has missing joints (NaN); fill it before using it as context")
+        raise MocapFormatError(where, "the take has missing joints (NaN); fill it before using it as context")
     m = m.resample(fps)
-    return m if m.name else dataclasses.replace(m, name=p.stem)
+    return m if m.name or source is None else dataclasses.replace(m, name=Path(source).stem)
 
 
 def build_context(files: Sequence, *, fps: float = BUILD_FPS, features: Sequence[str] = BUILD_FEATURES,
@@ -254,13 +263,11 @@ def build_context(files: Sequence, *, fps: float = BUILD_FPS, features: Sequence
     ``label`` is stored in the database's ``info`` (what the summary says
     judged a take).
     """
-    from .database import MotionDatabase
-
     files = [Path(f) for f in files]
     if not files:
         raise MocapError("no context files given")
     found = {Path(f).resolve() for f in optional}
-    motions, topo, used, bad = [], [], [], []
+    motions, used, bad = [], [], []
     with _progress(len(files), progress) as bar:
         task = bar.add_task("", total=len(files))
         for p in files:
@@ -275,7 +282,6 @@ def build_context(files: Sequence, *, fps: float = BUILD_FPS, features: Sequence
                 continue
             motions.append(m)
             used.append(p)
-            topo.append(topology_id(m.skeleton))
             bar.advance(task)
     notes = []
     if bad:
@@ -283,6 +289,34 @@ def build_context(files: Sequence, *, fps: float = BUILD_FPS, features: Sequence
                      f"({bad[0][1]}{'; ' + _names([b[0] for b in bad[1:]]) if len(bad) > 1 else ''})")
     if not motions:
         raise bad[0][2]  # nothing left: the first file's own error
+    return _database(motions, used, len(files), notes, fps, features, label or "the context files", prefer)
+
+
+def motions_context(motions: Sequence, *, fps: float = BUILD_FPS, features: Sequence[str] = BUILD_FEATURES,
+                    prefer: str | None = None):
+    """The context database of Motions already read, built in memory as :func:`build_context` builds one from
+    their files; returns ``(database, notes)``.
+
+    Each Motion is resampled to ``fps`` (slerp) and stored as float32 (:meth:`MotionDatabase.build`), as
+    the files' database is, so that cleaning with ``context=[Motion, ...]`` gives bit for bit what
+    ``context=[path, ...]`` gives for the Motions read from those paths (float32 keeps about 1e-7 of a unit
+    quaternion: far under a thousandth of a degree). Takes on a skeleton other than the
+    chosen one (``prefer``, else the majority's) are left out and named in a note, as files are; a Motion
+    with no frames or missing joints is refused (:func:`context_take`).
+    """
+    clips = [context_take(m, fps) for m in motions]
+    names = [Path(m.name or f"context Motion {i}") for i, m in enumerate(motions)]
+    return _database(clips, names, len(clips), [], fps, features, "the context Motions", prefer)
+
+
+def _database(motions: list, used: list, total: int, notes: list, fps: float, features: Sequence[str], label: str,
+              prefer: str | None):
+    """The database of the context clips ``motions`` (read from ``used``, of ``total`` asked for) on the topology
+    ``prefer`` names when one is on it, else the majority's; the others left out with a note. Returns
+    ``(database, notes)``."""
+    from .database import MotionDatabase
+
+    topo = [topology_id(m.skeleton) for m in motions]
     counts: dict = {}
     for t in topo:
         counts[t] = counts.get(t, 0) + 1
@@ -292,10 +326,10 @@ def build_context(files: Sequence, *, fps: float = BUILD_FPS, features: Sequence
     left = [p for p, t in zip(used, topo) if t != best]
     if left:
         why = "than this take's" if best == prefer and counts[best] < max(counts.values()) else "than the one of the others"
-        notes.append(f"context: left out {len(left)} of {len(files)} takes on another skeleton {why}, "
+        notes.append(f"context: left out {len(left)} of {total} takes on another skeleton {why}, "
                      f"{len(keep[0].skeleton.joint_names)} joints ({_names(left)})")
     db = MotionDatabase.build(keep, fps=fps, features=tuple(features), progress=False, executor="serial")
-    db.info["label"] = label or "the context files"
+    db.info["label"] = label
     db.info["notes"] = notes
     db.info["topologies"] = sorted(counts)
     db.info["majority"] = majority
@@ -447,13 +481,14 @@ def resolve_context(spec, *, default: bool = True, cache_dir=None, progress: boo
 
     ``spec`` may be None or empty (the bundled default context when
     ``default``, else None), ``False``/``"none"`` (None: the clip itself), a
-    :class:`~mocapkit.database.MotionDatabase` or Motions (returned as they
-    are), a database folder (opened), or a folder of takes and/or a list of
+    :class:`~mocapkit.database.MotionDatabase` (returned as it is), a
+    Motion or a list of Motions (built in memory as their files would be,
+    :func:`motions_context`, so that both give the same result bit for bit),
+    a database folder (opened), or a folder of takes and/or a list of
     motion files (built once and cached, :func:`cached_context`). ``prefer``:
     the :func:`topology_id` of the take the context is for; when the files
     hold takes on it but most are on another skeleton, the context built
-    from them keeps the take's. Returns a MotionDatabase, a list of Motions,
-    or None.
+    from them keeps the take's. Returns a MotionDatabase or None.
     """
     from .database import MotionDatabase
     from .motion import Motion
@@ -465,13 +500,14 @@ def resolve_context(spec, *, default: bool = True, cache_dir=None, progress: boo
     if isinstance(spec, MotionDatabase):
         return spec
     if isinstance(spec, Motion):
-        return [spec]
+        spec = [spec]
     if not isinstance(spec, (str, os.PathLike, list, tuple)):
         raise TypeError("context must be None, False, 'none', a MotionDatabase, a folder, or a list of files or "
                         f"Motions; got {type(spec).__name__} {spec!r:.60}")
     items = [spec] if isinstance(spec, (str, os.PathLike)) else list(spec)
     if all(isinstance(c, Motion) for c in items):
-        return items
+        db, _ = motions_context(items, prefer=prefer)  # as their files would be built: the same result bit for bit
+        return db
     if not all(isinstance(c, (str, os.PathLike)) for c in items):
         raise TypeError("context must be a MotionDatabase, Motions, or paths of files and folders (not a mix)")
     paths = [Path(c) for c in items]

@@ -45,3 +45,35 @@ def test_denoise_cells_equals_the_whole_take_on_those_cells(noisy):
     assert deep.denoise(noisy, ebf, cells=np.zeros_like(cells)) is noisy
     with pytest.raises(ValueError, match="cells"):
         deep.denoise(noisy, ebf, cells=cells[:10])
+
+
+def test_clean_reads_each_model_file_once_until_it_changes(tmp_path, monkeypatch):
+    """``mocapkit clean --ebf F --ebd G`` checked the files, then fill and denoise read them again (4 reads of the
+    EBF, 3 of the EBD); each is read once per process, and again only once the file is written over."""
+    import os
+    import shutil
+    from pathlib import Path
+
+    import torch
+
+    from mocapkit import samples
+    from mocapkit.cli import main
+
+    models = Path(inference.__file__).parents[2] / "models"
+    ebf, ebd = shutil.copy(models / "ebf.pt", tmp_path), shutil.copy(models / "ebd.pt", tmp_path)
+    reads, real = [], torch.load
+    monkeypatch.setattr(torch, "load", lambda f, *a, **k: (reads.append(Path(f).resolve()), real(f, *a, **k))[1])
+    take = corrupt.gaps(mocapkit.load(samples.path("131_01.bvh")), seed=1)[0]
+    take = corrupt.angular_noise(take, amount=3, seed=2)[0]
+    inp = mocapkit.save(take, tmp_path / "take.npz")
+    assert main(["clean", str(inp), "-o", str(tmp_path / "o.npz"), "--steps", "fill,denoise",
+                 "--ebf", str(ebf), "--ebd", str(ebd)]) == 0
+    mine = sorted(p.name for p in reads if p.parent == tmp_path.resolve())
+    assert mine == ["ebd.pt", "ebf.pt"], mine
+    n = len(reads)
+    assert deep.load_model(ebf) is deep.load_model(ebf) and len(reads) == n  # the same model, no read
+    st = os.stat(ebf)
+    os.utime(ebf, ns=(st.st_atime_ns, st.st_mtime_ns + 10**9))  # written over: read again, once
+    again = deep.load_model(ebf)
+    assert len(reads) == n + 1 and deep.load_model(ebf) is again
+    assert not any(p.requires_grad for p in again.net.parameters())

@@ -332,3 +332,26 @@ def test_markers_fit_says_where_it_ends_far_from_a_seen_marker(tmp_path, bandai_
     assert code == 0, err
     far = json.loads(stdout)["far_from_markers"]
     assert 1 <= far["frames"] <= 6 and far["worst_marker"] == "Hand_L (Hand_L)" and 30 <= far["worst_frame"] <= 32
+
+
+def test_an_npz_reconstruction_says_what_it_holds(tmp_path, db_dir, query):
+    """``-o OUT.npz``: beside the Motion (read back by mocapkit.load) the global joint positions (F, J, 3) with their
+    unit, the joint names, the rate, the method and a text naming every array."""
+    from mocapkit.motion import unit_scale_cm
+
+    src, out = tmp_path / "query.npz", tmp_path / "rec.npz"
+    mocapkit.save(query, src)
+    code, _, err = run("reconstruct", "--db", str(db_dir), "--markers", str(src), "-o", str(out))
+    assert code == 0, err
+    rec = mocapkit.load(out)
+    z = np.load(out)
+    np.testing.assert_array_equal(z["positions"], rec.global_positions())
+    assert z["positions"].shape == (query.num_frames, rec.num_joints, 3)
+    assert list(z["joint_names"]) == list(rec.skeleton.joint_names) and float(z["fps"]) == query.fps
+    assert str(z["method"]) == "markers"
+    assert float(z["cm_per_unit"]) == pytest.approx(unit_scale_cm(rec.skeleton))
+    assert str(z["length_unit"]) == f"{float(z['cm_per_unit']):g} cm"  # HDM05's ASF unit: no common name
+    height_cm = np.ptp(z["positions"][0, :, 1]) * float(z["cm_per_unit"])  # the skeleton's up axis is y
+    assert 100 < height_cm < 220
+    for key in ("positions", "joint_names", "fps", "rotations", "root_positions", "cm_per_unit", "method"):
+        assert f"\n{key}:" in str(z["contents"]), key

@@ -85,7 +85,7 @@ from .ssa.cues import cause_names
 
 __all__ = ["FORMAT", "ACCEPT", "REJECT", "Change", "changes", "apply", "take_digest", "template", "read_decisions",
            "check_decisions", "check_record", "record_problem", "as_written", "accepted_cells", "flag_segments",
-           "frame_note", "review"]
+           "frame_note", "frames_note", "review"]
 
 FORMAT = "mocapkit.decisions/1"
 ACCEPT, REJECT = "accept", "reject"
@@ -499,6 +499,28 @@ def frame_note(take: str = "", first: int | None = None) -> str:
     if first is not None and first != 0:
         text += f"; {take or 'the input'} numbers its frames from {first}: its frame {first + 10} is frame 10 here"
     return text
+
+
+def frames_note(path=None, take=None) -> str:
+    """The line a summary says about frame numbers for a take read from the file ``path``: :func:`frame_note`
+    when the file numbers its frames from other than 0 (an AMC from 1, a TRC's ``Frame#``, a C3D's first
+    frame), "" when it does not number them (a BVH, a motion npz) or counts from 0, as the take's indexes do.
+
+    ``take``: the :class:`~mocapkit.markerset.MarkerSet` read from ``path``, whose source keeps the first
+    frame's number (:func:`mocapkit.io.takes.file_first_frame`); with ``path`` None it is named by its
+    ``name``. :meth:`CleanResult.summary <mocapkit.cleaning.pipeline.CleanResult.summary>` and
+    :meth:`MarkerCleanResult.summary <mocapkit.cleaning.markers.MarkerCleanResult.summary>` say it, so
+    ``mocapkit.clean`` and ``mocapkit clean`` say the same.
+    """
+    from ..io.takes import file_first_frame
+    from ..markerset import MarkerSet
+
+    if path is None and not isinstance(take, MarkerSet):
+        return ""
+    first = file_first_frame("" if path is None else path, take)
+    if first in (None, 0):
+        return ""
+    return frame_note(Path(path).name if path is not None else take.name, first)
 
 
 def review(original: Motion, result, take: str = "", output: str = "", decisions: Mapping[str, str] | None = None,

@@ -214,6 +214,10 @@ class CleanResult:
     found); ``zero_runs``: their :class:`~mocapkit.cleaning.zeros.ZeroRun` s, named in the summary;
     ``stutters``: the :class:`~mocapkit.cleaning.stutters.Stutter` s, frames repeating the one before bit for bit
     while the take moves, named and left as they are.
+    ``frames_note``: how the frame numbers of the summary, flags and changes (0-based take indexes) relate to the
+    input file's own, :func:`mocapkit.cleaning.decisions.frames_note`; "" when the take came from no file that
+    numbers its frames from other than 0 (a Motion, a BVH). Set by :func:`mocapkit.clean` and
+    :func:`mocapkit.batch.clean_file`, which know the file; not kept in the record.
     """
 
     motion: Motion | None
@@ -237,6 +241,7 @@ class CleanResult:
     zeros: np.ndarray | None = None
     zero_runs: tuple = ()
     stutters: tuple = ()
+    frames_note: str = ""
 
     def __post_init__(self):
         # read-only, and not the detection's own arrays: a caller writing res.repaired[:] = False changed what
@@ -269,11 +274,14 @@ class CleanResult:
 
     def summary(self) -> list[str]:
         """One line per calibration pose, per run written as 0 and per stutter (at most :data:`MAX_LINES` of each,
-        then one line counting the rest), one per step, then the notes."""
+        then one line counting the rest), one per step, the notes, then :attr:`frames_note` where the result names
+        any frame (a flag, a calibration pose, a run written as 0, a stutter)."""
         said = " ".join(s.note for s in self.steps)
+        names_frames = bool(self.flags.any() or self.calibration or self.zero_runs or self.stutters)
         return ([str(c) for c in self.calibration] + capped_lines(self.zero_runs, "runs written as 0")
                 + capped_lines(self.stutters, "stutters") + [str(s) for s in self.steps]
-                + [f"note: {n}" for n in self.notes if n not in said])
+                + [f"note: {n}" for n in self.notes if n not in said]
+                + ([self.frames_note] if self.frames_note and names_frames else []))
 
     def save(self, path) -> Path:
         """Write the MDM, flags, per-step masks and records as ``.npz`` (no pickles), atomically."""

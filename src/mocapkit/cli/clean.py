@@ -149,18 +149,7 @@ def clean(
                           f"({a / m.fps:.2f}-{last / m.fps:.2f} s){why}")  # each frame's time, as the viewer labels it
         if len(segs) > 12:
             console.print(f"    ... and {len(segs) - 12} more (all in {clean_path(out)})")
-        _print_frame_note(inp, bool(segs))
     _print_reference(ref, reference, original, m)
-
-
-def _print_frame_note(inp: Path, shown: bool, take=None) -> None:
-    """After frame numbers printed for a file that numbers its frames itself (AMC, TRC, C3D): how the two relate."""
-    from ..cleaning.decisions import frame_note
-    from ..io.takes import file_first_frame
-
-    first = file_first_frame(inp, take)
-    if shown and first not in (None, 0):
-        console.print(f"    {frame_note(inp.name, first)}")
 
 
 def _check_out_early(inp: Path, out: Path) -> None:
@@ -225,7 +214,8 @@ def _print_decided(inp, out, decisions, record, report, png, original, res):
         console.print(f"  rejected {c}")
     if len(rejected) > 12:
         console.print(f"  ... and {len(rejected) - 12} more rejected")
-    _print_frame_note(inp, bool(rejected))
+    if rejected and res.frames_note:  # the rejected changes' frames, against the file's own numbers
+        console.print(f"  {res.frames_note}")
     return dec.apply(original, res, choice)
 
 
@@ -267,7 +257,6 @@ def _clean_marker_take(inp: Path, out: Path, *, report, png, overwrite: bool, no
         console.print(f"    {fix.kind:5s} {fix.marker:16s} frames {fix.start}-{fix.end - 1}{other} ({fix.size_text})")
     if len(res.fixes) > 12:
         console.print(f"    ... and {len(res.fixes) - 12} more (all in {clean_path(out)})")
-    _print_frame_note(inp, bool(res.fixes), take)
     return True
 
 

@@ -83,14 +83,15 @@ def _asf_for_amc(out: Path, skeleton: Optional[Path], performer, source, inp: Pa
     return found
 
 
-def _write(result, out: Path, asf_file: Optional[Path], overwrite: bool) -> None:
-    """Save the reconstruction; an ``.amc`` with its ASF beside it (copied when the folder lacks it)."""
-    from .. import io
+def _write(result, out: Path, asf_file: Optional[Path], overwrite: bool, method: str) -> None:
+    """Save the reconstruction (an npz that says what it holds); an ``.amc`` with its ASF beside it (copied when the
+    folder lacks it)."""
     from ..io.outputs import removed_on_failure
     from ..io.takes import asf_for_output, place_asf
+    from ..reconstruct.output import save_reconstruction
 
     if asf_file is None:
-        io.save(result, out, like=False, copy_asf=False)
+        save_reconstruction(result, out, method)
         return
     from ..io.amc_writer import check_amc_writable
 
@@ -98,7 +99,7 @@ def _write(result, out: Path, asf_file: Optional[Path], overwrite: bool) -> None
     copy = asf_for_output(out, asf_file, overwrite)
     with removed_on_failure([copy, out], overwrite=overwrite):
         place_asf(copy, asf_file)
-        io.save(result, out, asf=asf_file, like=False, copy_asf=False)
+        save_reconstruction(result, out, method, asf=asf_file)
     if copy is not None:
         console.print(f"copied the skeleton {asf_file} to {copy}: an AMC is read with the ASF beside it")
 
@@ -269,7 +270,7 @@ def reconstruct(
     if isinstance(source, Motion) and not source.skeleton.is_compatible(result.skeleton):
         notes.append(f"the body is the database's skeleton ({result.skeleton.num_joints} joints), not "
                      f"{inp.name}'s: the sensors' readings come from any rig, the poses from the database")
-    _write(result, out, asf_file, overwrite)
+    _write(result, out, asf_file, overwrite, kind)
     if as_json:
         import json
 

@@ -25,13 +25,16 @@ __all__ = ["read_npz", "write_npz", "load_arrays", "FORMAT_VERSION", "MAX_NPZ_BY
 FORMAT_VERSION = 1
 
 
-def write_npz(obj, path, compress: bool = True) -> None:
+def write_npz(obj, path, compress: bool = True, extra: dict | None = None) -> None:
     """Write a Motion or MarkerSet to ``path`` atomically (temp file + rename).
 
     Names (joints, markers, the clip, the unit) are stored as numpy strings,
     which hold any code point, lone surrogates included, but drop trailing
     NUL characters: a name ending in one is refused (``MocapFormatError``
-    naming it) before anything is written.
+    naming it) before anything is written. ``extra``: more arrays written
+    beside the format's own (which they may not replace; :func:`read_npz`
+    ignores them), e.g. what :func:`mocapkit.reconstruct.output.described_arrays`
+    adds so that a reconstruction says what it holds.
     """
     from .c3d import MarkerSet
 
@@ -82,6 +85,10 @@ def write_npz(obj, path, compress: bool = True) -> None:
             arrays["file_labels"] = np.array(obj.file_labels())
     else:
         raise TypeError(f"write_npz takes a Motion or MarkerSet, got {type(obj).__name__}")
+    clash = sorted(set(extra or {}) & set(arrays))
+    if clash:
+        raise ValueError(f"extra arrays may not replace the format's own: {', '.join(clash)}")
+    arrays.update(extra or {})
     with atomic_write(path, "wb") as fh:
         (np.savez_compressed if compress else np.savez)(fh, **arrays)
 

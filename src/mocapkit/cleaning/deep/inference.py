@@ -151,6 +151,35 @@ def _shipped_files() -> set[str]:
 
 
 def _read_model(path: Path) -> DeepModel:
+    """The model in the file ``path``, read once per process while the file stays as it was.
+
+    ``mocapkit clean --ebf F --ebd G`` checks the files before any work, then fill and denoise each ask for
+    them: one ``torch.load`` per file, keyed on the file's resolved path, size, modification time and inode, so
+    a file written over (a new training) is read again. Every caller gets the same :class:`DeepModel`, as
+    the shipped ones always were; it is read-only by convention (nothing in mocapkit changes a loaded model,
+    its parameters require no gradient): ``copy.deepcopy`` it to change it.
+    """
+    try:
+        st = path.stat()
+    except FileNotFoundError:
+        raise MocapFormatError(path, "no such model file") from None
+    except OSError:
+        return _parse_model(path)  # unreadable: torch.load says why, naming the file
+    try:
+        return _model_of_file(str(path.resolve()), st.st_size, st.st_mtime_ns, st.st_ino)
+    except MocapFormatError as exc:  # named as the caller gave it, not resolved
+        raise MocapFormatError(path, exc.reason) from None
+
+
+@lru_cache(maxsize=8)
+def _model_of_file(resolved: str, size: int, mtime_ns: int, inode: int) -> DeepModel:
+    """:func:`_parse_model` of the file at ``resolved`` as it is now (the other arguments: the cache key)."""
+    model = _parse_model(Path(resolved))
+    model.net.requires_grad_(False)
+    return model
+
+
+def _parse_model(path: Path) -> DeepModel:
     try:
         payload = torch.load(path, map_location="cpu", weights_only=True)
     except FileNotFoundError:

@@ -155,6 +155,11 @@ class MarkerCleanResult:
         than the take's ``unseen_start`` and ``unseen_end``: the subject out of
         the volume (before it walks in, after it leaves, or mid-take); its
         markers are left missing there.
+    frames_note : str
+        How the frame numbers of the summary and fixes (0-based take indexes)
+        relate to the file's own (a TRC's ``Frame#``, a C3D's first frame):
+        :func:`mocapkit.cleaning.decisions.frames_note`, the last line of
+        :meth:`summary` where it names a frame; "" when not known or 0.
     unfilled : tuple of MarkerFix
         Gaps left missing because no fill passed the plausibility guard
         (:mod:`~mocapkit.cleaning.markers.plausible`): kind "gap", or
@@ -185,6 +190,7 @@ class MarkerCleanResult:
     duplicates: np.ndarray | None = None
     coincident: tuple[MarkerFix, ...] = ()
     nobody_seen: tuple[tuple[str, int, int], ...] = ()
+    frames_note: str = ""
 
     @property
     def changed(self) -> np.ndarray:
@@ -199,7 +205,7 @@ class MarkerCleanResult:
         return self.duplicates if self.duplicates is not None else np.zeros(self.filled.shape, dtype=bool)
 
     def summary(self) -> list[str]:
-        """A few lines for a terminal."""
+        """A few lines for a terminal, :attr:`frames_note` last where they or :attr:`fixes` name a frame."""
         counts = {k: sum(1 for x in self.fixes if x.kind == k) for k in ("gap", "spike", "swap")}
         lines = [f"{counts['gap']} gaps filled ({int(self.filled.sum())} samples), "
                  f"{counts['spike']} spikes removed ({int(self.spikes.sum())} samples), "
@@ -252,6 +258,10 @@ class MarkerCleanResult:
         if res is not None and (self.filled | self.spikes).any() and seen.any() and np.all(res[seen] == 0):
             lines.append("the input's residuals are all 0, as a fill's are (C3D: 0 is 'interpolated'): the written file "
                          "cannot tell fills from recorded samples; the .clean.npz's masks (filled, spikes) can")
+        names_frames = bool(self.fixes or self.coincident or self.unfilled or self.nobody_seen
+                            or self.unseen_start[1] > self.unseen_start[0] or self.unseen_end[1] > self.unseen_end[0])
+        if self.frames_note and names_frames:
+            lines.append(self.frames_note)
         return lines
 
     def save(self, path, written: dict | None = None, request: dict | None = None) -> Path:
