@@ -671,24 +671,27 @@ def _c3d_like(markers: MarkerSet, like) -> MarkerSource | None:
     return source if source is not None and source.format == "c3d" else None
 
 
-def _integer_analogs(analogs: np.ndarray, analog: dict, source: MarkerSource | None):
-    """``(values, scales, gen_scale)`` that make ezc3d write an integer C3D's analog samples as its whole numbers.
+def _whole_analogs(analogs: np.ndarray, analog: dict, source: MarkerSource | None):
+    """``(values, scales, gen_scale)`` that make ezc3d write a C3D's analog samples as its stored whole numbers.
 
-    An integer file (positive POINT:SCALE) stores each analog sample as an
-    integer ``k``, read as ``(k - offset) * scale * GEN_SCALE``. ezc3d
-    writes ``value / (scale * GEN_SCALE)`` as a float with offset 0; given
-    ``(k - offset) * scale * GEN_SCALE`` again and the file's scales, it
-    writes the whole number ``k - offset``, which every reader turns into
-    the very value it read from the file. ``analogs`` (A, N) are the
-    samples as read (float32 values: :func:`_float32_values`); None when the
-    file is not an integer one, a scale is missing or 0, or a sample is not
-    such a whole number times its scale (a changed channel): those are
-    written as the values, scale 1.
+    Analog samples are stored as numbers ``k`` (16-bit integers in an integer
+    file, positive POINT:SCALE; floats holding whole A/D counts in the float
+    files Vicon writes: FunctionalWalk.c3d), read as ``(k - offset) * scale *
+    GEN_SCALE``. ezc3d writes ``value / (scale * GEN_SCALE)`` as a float with
+    offset 0; given ``(k - offset) * scale * GEN_SCALE`` again and the file's
+    scales, it writes the whole number ``k - offset``, which every reader turns
+    into the very value it read from the file, under the file's own
+    ANALOG:SCALE and GEN_SCALE. ``analogs`` (A, N) are the samples as read
+    (float32 values: :func:`_float32_values`); None when a scale is missing
+    or 0, or a sample is not such a whole number times its scale (a changed
+    channel, a float file storing volts): those are written as the values,
+    scale 1.
     """
     params = source.parameters if source is not None else {}
     point_scale = np.ravel(params.get("POINT", {}).get("SCALE", {}).get("value", []))
-    if not len(point_scale) or not point_scale[0] > 0:
+    if not len(point_scale) or not np.isfinite(point_scale[0]):
         return None
+    most = 65535 if point_scale[0] > 0 else 2**24  # what 16-bit words, or float32, hold as whole numbers
     a = analogs.shape[0]
     scales = np.ravel(analog.get("SCALE", {}).get("value", [])).astype(np.float64)
     gen = np.ravel(analog.get("GEN_SCALE", {}).get("value", [])).astype(np.float64)
@@ -699,7 +702,7 @@ def _integer_analogs(analogs: np.ndarray, analog: dict, source: MarkerSource | N
         return None
     k = np.rint(analogs / step)
     values = k * step
-    if np.any(np.abs(k) > 65535) or not np.array_equal(_float32_values(values), analogs):
+    if np.any(np.abs(k) > most) or not np.array_equal(_float32_values(values), analogs):
         return None
     return values, scales[:a], float(gen[0])
 
@@ -759,13 +762,13 @@ def _c3d_object(markers: MarkerSet, source: MarkerSource | None):
         if key == "LABELS" or values:
             values = (values + [f"Analog{i + 1}" if key == "LABELS" else "" for i in range(len(values), A)])[:A]
             analog[key] = {"type": -1, "description": "", "is_locked": False, "value": values}
-    # ezc3d writes analog values as floats divided by their scale, offset 0: an integer file's samples go back as
-    # its whole numbers under its own scales (_integer_analogs), others as the values read, scale 1; a file without
+    # ezc3d writes analog values as floats divided by their scale, offset 0: samples stored as whole numbers go back as
+    # them under the file's own scales (_whole_analogs), others as the values read, scale 1; a file without
     # analogs whose ANALOG:RATE says 0 keeps saying so (the frame rate written there read as an analog rate)
     old_rate = np.ravel(analog.get("RATE", {}).get("value", [np.nan]))
     none_at_0 = analogs is None and len(old_rate) > 0 and old_rate[0] == 0
     rate = 0.0 if none_at_0 else markers.fps * (1 if analogs is None else analogs.shape[1] // F)
-    whole = _integer_analogs(analogs, analog, source) if analogs is not None else None
+    whole = _whole_analogs(analogs, analog, source) if analogs is not None else None
     scales, gen = (np.ones(A), 1.0) if whole is None else whole[1:]
     if whole is not None:
         analogs = whole[0]
@@ -791,6 +794,13 @@ def _c3d_object(markers: MarkerSet, source: MarkerSource | None):
     c["data"]["points"] = pts
     c["data"]["meta_points"] = {"residuals": markers.residual_or_default().T[None].astype(np.float64)}
     c["data"]["analogs"] = data_analogs
+    for group in c["parameters"]:
+        for key, param in c["parameters"][group].items():
+            value = param.get("value") if isinstance(param, dict) and param.get("type") == -1 else None
+            if isinstance(value, list) and value and all(isinstance(v, str) and not v.strip() for v in value):
+                # ezc3d writes a list of empty texts with no columns, which reads back as no text at all ([''] ->
+                # []); a space each keeps its entries, read back as the empty texts they were
+                c["parameters"][group][key] = dict(param, value=[" "] * len(value))
     return c
 
 
@@ -818,16 +828,22 @@ def _put_point_words(data: bytearray, markers: MarkerSet, scale: float) -> None:
     block[:, 3::4][:, : markers.num_markers] = np.where(res < 0, -1, (cams << 8) | byte).astype(np.float32)
 
 
-def _put_negative_zeros(data: bytearray, markers: MarkerSet, analogs: np.ndarray) -> None:
-    """Put back the -0.0 analog samples ezc3d writes as +0.0 (it adds the channel's offset, 0, to each)."""
+def _put_signed_zeros(data: bytearray, markers: MarkerSet, analogs: np.ndarray, steps: np.ndarray) -> None:
+    """Give each zero analog sample the stored sign that reads back as its own (-0.0 or +0.0).
+
+    ezc3d writes every zero as +0.0 (it adds the channel's offset, 0, to each),
+    which a reader multiplies by the channel's step (ANALOG:SCALE x GEN_SCALE):
+    -0.0 read back as +0.0 under a positive step, +0.0 as -0.0 under a negative
+    one. ``analogs`` (A, F * ratio): the values written; ``steps`` (A,).
+    """
     if analogs.size == 0 or analogs.shape[1] % max(markers.num_frames, 1):
         return
-    negative = (analogs == 0) & np.signbit(analogs)  # (A, F * ratio)
-    if not negative.any():
+    flip = (analogs == 0) & (np.signbit(analogs) != (np.asarray(steps, dtype=np.float64)[:, None] < 0))
+    if not flip.any():
         return
     block = _data_block(data, markers.num_frames, markers.num_markers)[:, 4 * markers.num_markers:]
     a, n = analogs.shape  # a frame holds its analog samples subframe by subframe, every channel in each
-    block[negative.reshape(a, markers.num_frames, n // markers.num_frames).transpose(1, 2, 0).reshape(block.shape)] = -0.0
+    block[flip.reshape(a, markers.num_frames, n // markers.num_frames).transpose(1, 2, 0).reshape(block.shape)] = -0.0
 
 
 def _put_header_events(data: bytearray, events) -> None:
@@ -931,8 +947,9 @@ def write_c3d(markers: MarkerSet, path, *, like=None) -> None:
     scale = float(c["parameters"]["POINT"]["SCALE"]["value"][0])
     struct.pack_into("<f", data, 12, scale)
     _put_point_words(data, markers, scale)
-    if np.all(np.ravel(c["parameters"]["ANALOG"]["SCALE"]["value"]) == 1.0):  # analogs written as the values
-        _put_negative_zeros(data, markers, c["data"]["analogs"][0])
+    analog = c["parameters"]["ANALOG"]
+    _put_signed_zeros(data, markers, c["data"]["analogs"][0],
+                      np.ravel(analog["SCALE"]["value"]).astype(np.float64) * float(np.ravel(analog["GEN_SCALE"]["value"])[0]))
     _put_header_events(data, source.events if source is not None else ())
     with atomic_write(path, "wb") as fh:
         fh.write(data)
