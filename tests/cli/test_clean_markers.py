@@ -272,3 +272,10 @@ def test_the_record_console_and_batch_json_count_filled_and_spike_samples_alike(
     (row,) = json.loads(stdout)["rows"]
     with np.load(tmp_path / "out" / "bad.clean.npz") as rec:
         assert (row["filled"], row["spikes"]) == (int(rec["filled"].sum()), int(rec["spikes"].sum())) == (40, 3)
+
+
+def test_clean_of_a_missing_file_onto_itself_names_the_missing_file(tmp_path):
+    code, _, err = run("clean", "ghost.c3d", "-o", "ghost.c3d", cwd=tmp_path)
+    assert code != 0 and one_error_line(err)
+    assert "ghost.c3d: no such file" in err and "refusing" not in err
+    assert list(tmp_path.iterdir()) == []

@@ -837,3 +837,32 @@ def test_a_c3d_is_written_beside_its_output_not_in_the_temporary_folder(tmp_path
     out = save_markers(src, tmp_path / "x.c3d")
     assert load_markers(out).num_frames == src.num_frames
     assert sorted(p.name for p in tmp_path.iterdir()) == ["x.c3d"]
+
+
+def test_written_back_keeps_empty_texts_and_the_analog_scales(shared_data, tmp_path):
+    """FunctionalWalk.c3d written back unchanged: its empty texts (SUBJECTS:NAMES [''] ...) stay [''], not [],
+    and its analogs (whole A/D counts stored as floats) keep ANALOG:SCALE and read back the very values, by
+    ezc3d and by the c3d package (ezc3d writes ANALOG:OFFSET 0, the stored counts shifted by it)."""
+    import warnings
+
+    import c3d
+    import ezc3d
+
+    from mocapkit.io.c3d import write_c3d
+
+    src = next(shared_data.rglob("FunctionalWalk.c3d"))
+    out = tmp_path / "fw.c3d"
+    write_c3d(read_c3d(src), out)
+    a, b = ezc3d.c3d(str(src)), ezc3d.c3d(str(out))
+    for key in ("NAMES", "LABEL_PREFIXES", "MARKER_SETS", "MODELS", "MODEL_PARAMS"):
+        assert a["parameters"]["SUBJECTS"][key]["value"] == [""]
+        assert b["parameters"]["SUBJECTS"][key]["value"] == [""], key
+    assert np.array_equal(b["parameters"]["ANALOG"]["SCALE"]["value"], a["parameters"]["ANALOG"]["SCALE"]["value"])
+    assert np.array_equal(b["data"]["analogs"], a["data"]["analogs"])
+
+    def package_analogs(path):
+        with open(path, "rb") as fh, warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            return np.array([an.copy() for _, _, an in c3d.Reader(fh).read_frames()])
+
+    assert np.array_equal(package_analogs(out), package_analogs(src))

@@ -183,3 +183,14 @@ def test_another_user_s_file_in_a_sticky_folder_is_kept_aside_as_a_copy(tmp_path
     monkeypatch.undo()
     assert out.read_text() == "theirs"
     assert sorted(p.name for p in tmp_path.iterdir()) == ["x.bvh"]
+
+
+def test_an_output_named_as_a_missing_input_is_refused_as_missing(tmp_path):
+    """``clean ghost.c3d -o ghost.c3d`` with no ghost.c3d: the missing input is the problem, not a collision."""
+    ghost = tmp_path / "ghost.c3d"
+    with pytest.raises(MocapFormatError) as err:
+        check_outputs([ghost], [ghost])
+    assert str(err.value) == f"{ghost}: no such file"
+    ghost.write_bytes(b"")
+    with pytest.raises(MocapFormatError, match="refusing to write over an input"):
+        check_outputs([ghost], [ghost])

@@ -15,7 +15,7 @@ a frame is a file cut short, refused as truncated BVH and AMC files are.
 Samples stored as exact (0, 0, 0) gaps are read as missing
 (:func:`~mocapkit.markerset.zero_gap_mask`).
 Residuals and camera masks are read from each point's fourth word as
-the C3D guide defines it (:func:`_point_words`: ezc3d 1.7 swaps its two
+the C3D guide defines it (:func:`point_words`: ezc3d 1.7 swaps its two
 bytes), and the header's events (:func:`_header_events`) are kept.
 
 :func:`write_c3d` writes float point data with ezc3d and keeps every other
@@ -41,6 +41,8 @@ from ..errors import MocapFormatError, SkeletonError
 from ..markerset import (MODELLED_GROUPS, MarkerSet, MarkerSource, length_unit_cm, marker_units,
                          repeated_labels_note, unique_labels, zero_gap_mask)
 from ..motion import check_fps
+from .c3d_frames import (FRAME_CAP, long_frame_parameters, point_words, read_float, residuals_and_cameras,
+                         rest_of_trial, sample_bytes)
 
 __all__ = ["MarkerSet", "read_c3d", "write_c3d", "apply_zero_gaps", "checked_unit_cm"]
 
@@ -122,50 +124,6 @@ def _address_space_budget(extra: int):
             resource.setrlimit(resource.RLIMIT_AS, (soft, hard))
 
 
-def _point_words(raw: bytes, frames: int, points: int, scale: float, analog: int | None = None) -> np.ndarray | None:
-    """(F, M) int: the fourth word of every point sample in the data block, as the C3D guide defines it.
-
-    Its low byte is the residual in units of ``|POINT:SCALE|``, bits 8-14 the
-    cameras that saw the sample (bit 8: camera 1), and a negative word marks
-    the sample invalid; a float file stores the word as a float holding that
-    integer. ezc3d 1.7 reads the two bytes the other way round (its residual
-    is the camera byte: ezc3d issue #386) and writes them so, which is why
-    :func:`read_c3d` and :func:`write_c3d` read and write this word
-    themselves, as the ``c3d`` package and the capture software do. ``scale``:
-    POINT:SCALE, whose sign says floats (negative) or 16-bit integers;
-    ``analog``: analog samples a frame (default: the header's count). None
-    when the data block does not hold ``frames`` whole frames.
-    """
-    proc = raw[(raw[0] - 1) * 512 + 3]
-    e = ">" if proc == 86 else "<"
-    if analog is None:
-        analog, = struct.unpack_from(e + "H", raw, 4)
-    data_start, = struct.unpack_from(e + "H", raw, 16)
-    size = _sample_bytes(scale)
-    frame_bytes = (4 * points + analog) * size
-    start = (data_start - 1) * 512
-    if frames <= 0 or start < 0 or start + frames * frame_bytes > len(raw):
-        return None
-    block = np.frombuffer(raw, dtype=np.uint8, count=frames * frame_bytes, offset=start).reshape(frames, frame_bytes)
-    word = np.ascontiguousarray(block[:, : 4 * points * size].reshape(frames, points, 4, size)[:, :, 3, :])
-    if size == 2:
-        return word.view(e + "i2")[..., 0].astype(np.int64)
-    if proc == 85:  # DEC float: the two 16-bit halves swapped, the exponent 2 higher (see _float)
-        values = word[..., [2, 3, 0, 1]].copy().view("<f4")[..., 0].astype(np.float64) / 4.0
-    else:
-        values = word.view(e + "f4")[..., 0].astype(np.float64)
-    values = np.where(np.isfinite(values), values, -1.0)
-    return np.clip(np.trunc(values), -(2**31), 2**31 - 1).astype(np.int64)
-
-
-def _residuals_and_cameras(words: np.ndarray, scale: float) -> tuple[np.ndarray, np.ndarray]:
-    """(F, M) residuals (-1 where invalid) and (F, M) camera masks (0 there) from :func:`_point_words`."""
-    invalid = words < 0
-    resid = np.where(invalid, -1.0, (words & 0xFF) * abs(float(scale)))
-    cameras = np.where(invalid, 0, (words & 0x7F00) >> 8)
-    return resid, cameras
-
-
 def _read_ezc3d(path: Path, raw: bytes):
     import ezc3d
 
@@ -194,24 +152,32 @@ def _read_ezc3d(path: Path, raw: bytes):
     xyz = _float32_values(np.transpose(pts[:3], (2, 1, 0)))
     resid = np.array(c["data"]["meta_points"]["residuals"][0].T, dtype=np.float64)  # (F, M)
     scale_param = np.ravel(params["SCALE"]["value"]) if "SCALE" in params else []
-    scale = float(scale_param[0]) if len(scale_param) else _float(raw, raw[(raw[0] - 1) * 512 + 3], 12)
+    scale = float(scale_param[0]) if len(scale_param) else read_float(raw, raw[(raw[0] - 1) * 512 + 3], 12)
     a = c["data"]["analogs"]  # (1, A, F * ratio): the frame layout ezc3d read
-    words = _point_words(raw, xyz.shape[0], n, scale, a.shape[1] * (a.shape[2] // max(xyz.shape[0], 1)))
+    per_frame = a.shape[1] * (a.shape[2] // max(xyz.shape[0], 1))
+    analogs = c["data"]["analogs"][0] if a.size else None
+    # a trial past the 65,535 frames a header can state: ezc3d read the first 65,535, numpy reads the rest
+    rest = rest_of_trial(path, raw, c["parameters"], np.transpose(pts[:3], (2, 1, 0)), analogs, per_frame, scale)
+    if rest is not None:
+        xyz = np.concatenate([xyz, _float32_values(rest[0])])
+        analogs = None if analogs is None else np.concatenate([analogs, rest[1]], axis=1)
+    words = point_words(raw, xyz.shape[0], n, scale, per_frame)
+    if rest is not None:  # the frames ezc3d did not read: their residuals and cameras from the words alone
+        resid = np.concatenate([resid, residuals_and_cameras(words[pts.shape[2]:], scale)[0]])
     cameras = None
-    # ezc3d's residuals are the camera byte (see _point_words); both read a negative word as a missing sample, so
+    # ezc3d's residuals are the camera byte (see point_words); both read a negative word as a missing sample, so
     # where they disagree on that the word was not found where ezc3d read it: ezc3d's residuals are kept
     if words is not None and np.array_equal(words < 0, resid < 0):
-        resid, cameras = _residuals_and_cameras(words, scale)
+        resid, cameras = residuals_and_cameras(words, scale)
     xyz[resid < 0] = np.nan
     modelled = set()
     for key in _MODELLED:
         if key in params and params[key]["type"] == -1:
             modelled.update(str(v).strip() for v in np.ravel(params[key]["value"]))
-    analogs = _float32_values(c["data"]["analogs"])
     source = MarkerSource(
         format="c3d",
         parameters=_ezc3d_parameters(c),
-        analogs=analogs[0] if analogs.size else None,
+        analogs=None if analogs is None else _float32_values(analogs),
         first_frame=int(c["header"]["points"]["first_frame"]) + 1,
     )
     fps = _point_rate(path, c["header"]["points"]["frame_rate"])
@@ -474,7 +440,7 @@ def _check_structure(path: Path, b: bytes) -> tuple[bool, dict]:
         ezc3d_ok = False  # analog samples without their scaling parameters (ezc3d: SIGSEGV)
     if points and ("POINT", "USED") not in have:
         ezc3d_ok = False
-    scale = _float(b, proc, 12)
+    scale = read_float(b, proc, 12)
     data_start = struct.unpack_from(e + "H", b, 16)[0]
     if points == 0:
         return ezc3d_ok, written  # some writers leave the header empty; the parameters decide (the fallback reader)
@@ -496,7 +462,7 @@ def _check_structure(path: Path, b: bytes) -> tuple[bool, dict]:
     if held >= frames:
         return ezc3d_ok, written
     if held == 0:
-        need = (data_start - 1) * 512 + frames * (4 * points + analog) * _sample_bytes(scale)
+        need = (data_start - 1) * 512 + frames * (4 * points + analog) * sample_bytes(scale)
         fail(f"truncated file: {frames} frames of {points} points and {analog} analog samples need "
              f"{need} bytes, the file has {n}, not even one whole frame")
     if held < declared and partial:
@@ -504,22 +470,10 @@ def _check_structure(path: Path, b: bytes) -> tuple[bool, dict]:
         # a short take, or failed on what it then read (BTK's Gait.c3d cut at 50 KB: "unknown length unit").
         fail(f"truncated file: the data block stops partway through frame {held + 1} of the {declared} frames "
              f"{who} ({points} points and {analog} analog samples a frame, stored as "
-             f"{'16-bit integers' if _sample_bytes(scale) == 2 else 'floats'}); the file is cut short")
+             f"{'16-bit integers' if sample_bytes(scale) == 2 else 'floats'}); the file is cut short")
     # Whole frames, fewer than stated (ezc3d-testFiles Optotrak.c3d: 29 of 1,149, a file every peer reader reads
     # so), or a header stating more frames than POINT:FRAMES: the pure-Python reader reads the frames there.
     return False, written
-
-
-def _float(b: bytes, proc: int, at: int) -> float:
-    """The 32-bit float at byte ``at`` in the file's processor format (84 Intel, 85 DEC, 86 big-endian IEEE).
-
-    A DEC (VAX F) float is an IEEE float with its two 16-bit words swapped and
-    an exponent 2 higher (the C3D user guide's conversion): read as IEEE, a
-    DEC file's scale was a meaningless 2e21 (BTK's Gait.c3d, 0.0744 in fact).
-    """
-    if proc == 85:
-        return struct.unpack("<f", bytes((b[at + 2], b[at + 3], b[at], b[at + 1])))[0] / 4.0
-    return struct.unpack_from(">f" if proc == 86 else "<f", b, at)[0]
 
 
 def _frames_held(b, proc, e, groups, typed, value_at, points, analog, first, last, data_start, scale):
@@ -539,25 +493,20 @@ def _frames_held(b, proc, e, groups, typed, value_at, points, analog, first, las
     if param_frames is None:
         at = _param_at(groups, typed, value_at, "POINT", "FRAMES", 4)
         if at is not None:
-            value = _float(b, proc, at)
+            value = read_float(b, proc, at)
             param_frames = int(value) if np.isfinite(value) and 0 < value < 2**31 else None
     if param_frames:
         counts.append(param_frames)
     declared = min(counts)
     who = ("the header and POINT:FRAMES declare" if counts == [frames, frames]
            else "the header declares" if declared == frames else "POINT:FRAMES declares")
-    sizes = {_sample_bytes(scale)}
+    sizes = {sample_bytes(scale)}
     at = _param_at(groups, typed, value_at, "POINT", "SCALE", 4)
     if at is not None:
-        sizes.add(_sample_bytes(_float(b, proc, at)))
+        sizes.add(sample_bytes(read_float(b, proc, at)))
     body = max(len(b) - (data_start - 1) * 512, 0)
     held, rest = max(divmod(body, (4 * points + analog) * size) for size in sizes)
     return held, rest > 0, frames, declared, who
-
-
-def _sample_bytes(scale: float) -> int:
-    """Bytes per stored value for a point scale: 4 (floats) when it is negative (or not a number), else 2."""
-    return 2 if np.isfinite(scale) and scale >= 0 else 4
 
 
 def _param_at(groups: dict, typed: list, value_at: dict, group: str, name: str, typ: int) -> int | None:
@@ -705,7 +654,7 @@ def _header_events(raw: bytes) -> tuple[tuple[float, str, int], ...]:
         return ()
     out = []
     for i in range(count):
-        t = _float(raw, proc, _EVENT_TIMES + 4 * i)
+        t = read_float(raw, proc, _EVENT_TIMES + 4 * i)
         label = raw[_EVENT_LABELS + 4 * i:_EVENT_LABELS + 4 * i + 4].decode("latin-1")
         out.append((float(t) if np.isfinite(t) else 0.0, label, raw[_EVENT_FLAGS + i]))
     return tuple(out)
@@ -722,24 +671,27 @@ def _c3d_like(markers: MarkerSet, like) -> MarkerSource | None:
     return source if source is not None and source.format == "c3d" else None
 
 
-def _integer_analogs(analogs: np.ndarray, analog: dict, source: MarkerSource | None):
-    """``(values, scales, gen_scale)`` that make ezc3d write an integer C3D's analog samples as its whole numbers.
+def _whole_analogs(analogs: np.ndarray, analog: dict, source: MarkerSource | None):
+    """``(values, scales, gen_scale)`` that make ezc3d write a C3D's analog samples as its stored whole numbers.
 
-    An integer file (positive POINT:SCALE) stores each analog sample as an
-    integer ``k``, read as ``(k - offset) * scale * GEN_SCALE``. ezc3d
-    writes ``value / (scale * GEN_SCALE)`` as a float with offset 0; given
-    ``(k - offset) * scale * GEN_SCALE`` again and the file's scales, it
-    writes the whole number ``k - offset``, which every reader turns into
-    the very value it read from the file. ``analogs`` (A, N) are the
-    samples as read (float32 values: :func:`_float32_values`); None when the
-    file is not an integer one, a scale is missing or 0, or a sample is not
-    such a whole number times its scale (a changed channel): those are
-    written as the values, scale 1.
+    Analog samples are stored as numbers ``k`` (16-bit integers in an integer
+    file, positive POINT:SCALE; floats holding whole A/D counts in the float
+    files Vicon writes: FunctionalWalk.c3d), read as ``(k - offset) * scale *
+    GEN_SCALE``. ezc3d writes ``value / (scale * GEN_SCALE)`` as a float with
+    offset 0; given ``(k - offset) * scale * GEN_SCALE`` again and the file's
+    scales, it writes the whole number ``k - offset``, which every reader turns
+    into the very value it read from the file, under the file's own
+    ANALOG:SCALE and GEN_SCALE. ``analogs`` (A, N) are the samples as read
+    (float32 values: :func:`_float32_values`); None when a scale is missing
+    or 0, or a sample is not such a whole number times its scale (a changed
+    channel, a float file storing volts): those are written as the values,
+    scale 1.
     """
     params = source.parameters if source is not None else {}
     point_scale = np.ravel(params.get("POINT", {}).get("SCALE", {}).get("value", []))
-    if not len(point_scale) or not point_scale[0] > 0:
+    if not len(point_scale) or not np.isfinite(point_scale[0]):
         return None
+    most = 65535 if point_scale[0] > 0 else 2**24  # what 16-bit words, or float32, hold as whole numbers
     a = analogs.shape[0]
     scales = np.ravel(analog.get("SCALE", {}).get("value", [])).astype(np.float64)
     gen = np.ravel(analog.get("GEN_SCALE", {}).get("value", [])).astype(np.float64)
@@ -750,7 +702,7 @@ def _integer_analogs(analogs: np.ndarray, analog: dict, source: MarkerSource | N
         return None
     k = np.rint(analogs / step)
     values = k * step
-    if np.any(np.abs(k) > 65535) or not np.array_equal(_float32_values(values), analogs):
+    if np.any(np.abs(k) > most) or not np.array_equal(_float32_values(values), analogs):
         return None
     return values, scales[:a], float(gen[0])
 
@@ -810,13 +762,13 @@ def _c3d_object(markers: MarkerSet, source: MarkerSource | None):
         if key == "LABELS" or values:
             values = (values + [f"Analog{i + 1}" if key == "LABELS" else "" for i in range(len(values), A)])[:A]
             analog[key] = {"type": -1, "description": "", "is_locked": False, "value": values}
-    # ezc3d writes analog values as floats divided by their scale, offset 0: an integer file's samples go back as
-    # its whole numbers under its own scales (_integer_analogs), others as the values read, scale 1; a file without
+    # ezc3d writes analog values as floats divided by their scale, offset 0: samples stored as whole numbers go back as
+    # them under the file's own scales (_whole_analogs), others as the values read, scale 1; a file without
     # analogs whose ANALOG:RATE says 0 keeps saying so (the frame rate written there read as an analog rate)
     old_rate = np.ravel(analog.get("RATE", {}).get("value", [np.nan]))
     none_at_0 = analogs is None and len(old_rate) > 0 and old_rate[0] == 0
     rate = 0.0 if none_at_0 else markers.fps * (1 if analogs is None else analogs.shape[1] // F)
-    whole = _integer_analogs(analogs, analog, source) if analogs is not None else None
+    whole = _whole_analogs(analogs, analog, source) if analogs is not None else None
     scales, gen = (np.ones(A), 1.0) if whole is None else whole[1:]
     if whole is not None:
         analogs = whole[0]
@@ -826,15 +778,29 @@ def _c3d_object(markers: MarkerSet, source: MarkerSource | None):
         analog[key] = {"type": typ, "description": old.get("description", ""), "is_locked": old.get("is_locked", False),
                        "value": value}
     data_analogs = np.zeros((1, 0, 0 if none_at_0 else F)) if analogs is None else analogs[None]
-    trial = c["parameters"].get("TRIAL", {}) if "TRIAL" in c["parameters"] else {}
-    for key, frame in (("ACTUAL_START_FIELD", first), ("ACTUAL_END_FIELD", first + F - 1)):
-        if key in trial:  # a 32-bit frame number in two 16-bit words (Vicon), kept in step with the frames written
-            trial[key] = dict(trial[key], type=2, value=np.array([frame & 0xFFFF, frame >> 16]))
+    # the trial's first and last frames and its length, kept in step with the frames written, and written
+    # whenever the header's 16-bit frame numbers cannot hold them (long_frame_parameters)
+    for (group, key), param in long_frame_parameters(first, F).items():
+        params = c["parameters"]
+        if F > FRAME_CAP and group not in params:
+            params[group] = {"__METADATA__": {"DESCRIPTION": "", "IS_LOCKED": False}}
+        if F > FRAME_CAP or (key in params.get(group, {}) and key != "LONG_FRAMES"):
+            old = params[group].get(key, {})
+            params[group][key] = dict(param, description=old.get("description", param["description"]))
+        elif key in params.get(group, {}):
+            del params[group][key]  # a count no longer true: C3D states it only past the header's reach
     pts = np.ones((4, M, F))
     pts[:3] = np.transpose(markers.positions, (2, 1, 0))
     c["data"]["points"] = pts
     c["data"]["meta_points"] = {"residuals": markers.residual_or_default().T[None].astype(np.float64)}
     c["data"]["analogs"] = data_analogs
+    for group in c["parameters"]:
+        for key, param in c["parameters"][group].items():
+            value = param.get("value") if isinstance(param, dict) and param.get("type") == -1 else None
+            if isinstance(value, list) and value and all(isinstance(v, str) and not v.strip() for v in value):
+                # ezc3d writes a list of empty texts with no columns, which reads back as no text at all ([''] ->
+                # []); a space each keeps its entries, read back as the empty texts they were
+                c["parameters"][group][key] = dict(param, value=[" "] * len(value))
     return c
 
 
@@ -848,7 +814,7 @@ def _data_block(data: bytearray, frames: int, points: int) -> np.ndarray:
 def _put_point_words(data: bytearray, markers: MarkerSet, scale: float) -> None:
     """Write every point's fourth word as the C3D guide has it: residual byte, camera byte, -1 where missing.
 
-    ezc3d writes the residual in the camera byte (:func:`_point_words`);
+    ezc3d writes the residual in the camera byte (:func:`point_words`);
     this puts the take's residuals (in units of ``|scale|``, 0 to 255) in
     the low byte and its camera masks (0 where it has none: a TRC or npz
     take) in bits 8-14, so the ``c3d`` package and capture software read
@@ -862,16 +828,22 @@ def _put_point_words(data: bytearray, markers: MarkerSet, scale: float) -> None:
     block[:, 3::4][:, : markers.num_markers] = np.where(res < 0, -1, (cams << 8) | byte).astype(np.float32)
 
 
-def _put_negative_zeros(data: bytearray, markers: MarkerSet, analogs: np.ndarray) -> None:
-    """Put back the -0.0 analog samples ezc3d writes as +0.0 (it adds the channel's offset, 0, to each)."""
+def _put_signed_zeros(data: bytearray, markers: MarkerSet, analogs: np.ndarray, steps: np.ndarray) -> None:
+    """Give each zero analog sample the stored sign that reads back as its own (-0.0 or +0.0).
+
+    ezc3d writes every zero as +0.0 (it adds the channel's offset, 0, to each),
+    which a reader multiplies by the channel's step (ANALOG:SCALE x GEN_SCALE):
+    -0.0 read back as +0.0 under a positive step, +0.0 as -0.0 under a negative
+    one. ``analogs`` (A, F * ratio): the values written; ``steps`` (A,).
+    """
     if analogs.size == 0 or analogs.shape[1] % max(markers.num_frames, 1):
         return
-    negative = (analogs == 0) & np.signbit(analogs)  # (A, F * ratio)
-    if not negative.any():
+    flip = (analogs == 0) & (np.signbit(analogs) != (np.asarray(steps, dtype=np.float64)[:, None] < 0))
+    if not flip.any():
         return
     block = _data_block(data, markers.num_frames, markers.num_markers)[:, 4 * markers.num_markers:]
     a, n = analogs.shape  # a frame holds its analog samples subframe by subframe, every channel in each
-    block[negative.reshape(a, markers.num_frames, n // markers.num_frames).transpose(1, 2, 0).reshape(block.shape)] = -0.0
+    block[flip.reshape(a, markers.num_frames, n // markers.num_frames).transpose(1, 2, 0).reshape(block.shape)] = -0.0
 
 
 def _put_header_events(data: bytearray, events) -> None:
@@ -975,8 +947,9 @@ def write_c3d(markers: MarkerSet, path, *, like=None) -> None:
     scale = float(c["parameters"]["POINT"]["SCALE"]["value"][0])
     struct.pack_into("<f", data, 12, scale)
     _put_point_words(data, markers, scale)
-    if np.all(np.ravel(c["parameters"]["ANALOG"]["SCALE"]["value"]) == 1.0):  # analogs written as the values
-        _put_negative_zeros(data, markers, c["data"]["analogs"][0])
+    analog = c["parameters"]["ANALOG"]
+    _put_signed_zeros(data, markers, c["data"]["analogs"][0],
+                      np.ravel(analog["SCALE"]["value"]).astype(np.float64) * float(np.ravel(analog["GEN_SCALE"]["value"])[0]))
     _put_header_events(data, source.events if source is not None else ())
     with atomic_write(path, "wb") as fh:
         fh.write(data)

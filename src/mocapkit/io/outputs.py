@@ -82,7 +82,8 @@ def check_outputs(
     ----------
     outputs : paths the caller will write (``None`` entries are ignored).
     inputs : every path the caller reads: files and folders (``None`` ignored).
-        An output equal to an input file, or inside an input folder, is refused.
+        An output equal to an input file, or inside an input folder, is refused; an output
+        equal to an input that does not exist is refused naming the missing input.
     overwrite : allow replacing an existing output *file* (never an input, never a folder).
 
     Raises
@@ -95,6 +96,8 @@ def check_outputs(
     seen: list[Path] = []
     for out in outs:
         for inp in ins:
+            if same_file(out, inp) and not os.path.lexists(inp):
+                raise MocapFormatError(inp, "no such file")  # a missing input, not a collision
             if same_file(out, inp) or (resolved(inp).is_dir() and inside(out, inp)):
                 raise MocapFormatError(out, f"refusing to write over an input ({inp}); choose another output path")
             if out.exists() and out.is_dir() and inside(inp, out):

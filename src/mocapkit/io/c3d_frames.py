@@ -1,0 +1,270 @@
+"""C3D data-block frames read with numpy: each point's fourth word, and trials longer than 65,535 frames.
+
+The C3D header counts frames in 16-bit words, so it cannot state more than
+65,535. Vicon writes a longer trial with the header's last frame at 65,535 and
+the true first and last frames in ``TRIAL:ACTUAL_START_FIELD`` and
+``TRIAL:ACTUAL_END_FIELD`` (each a 32-bit number in two 16-bit words, low word
+first: 100,000 is [34464, 1]); c3d.org's other convention is the frame count in
+``POINT:LONG_FRAMES`` (a float). ezc3d 1.7 reads neither and stops at 65,535
+frames, so :func:`~mocapkit.io.c3d.read_c3d` asks :func:`long_trial_frames` how
+many frames the file holds and reads those past ezc3d's with
+:func:`read_frames`, from the data block ezc3d's parameters describe.
+:func:`long_frame_parameters` are what :func:`~mocapkit.io.c3d.write_c3d` writes
+so that every reader finds them all again. C3D format: Motion Lab Systems,
+"The C3D File Format User Guide" (c3d.org).
+"""
+
+from __future__ import annotations
+
+import struct
+
+import numpy as np
+
+from ..errors import MocapFormatError
+
+__all__ = ["FRAME_CAP", "read_float", "sample_bytes", "point_words", "residuals_and_cameras",
+           "long_trial_frames", "read_frames", "rest_of_trial", "long_frame_parameters"]
+
+FRAME_CAP = 65535
+"""The most frames a C3D header (16-bit frame numbers) can state."""
+
+
+def read_float(b: bytes, proc: int, at: int) -> float:
+    """The 32-bit float at byte ``at`` in the file's processor format (84 Intel, 85 DEC, 86 big-endian IEEE).
+
+    A DEC (VAX F) float is an IEEE float with its two 16-bit words swapped and
+    an exponent 2 higher (the C3D user guide's conversion): read as IEEE, a
+    DEC file's scale was a meaningless 2e21 (BTK's Gait.c3d, 0.0744 in fact).
+    """
+    if proc == 85:
+        return struct.unpack("<f", bytes((b[at + 2], b[at + 3], b[at], b[at + 1])))[0] / 4.0
+    return struct.unpack_from(">f" if proc == 86 else "<f", b, at)[0]
+
+
+def sample_bytes(scale: float) -> int:
+    """Bytes per stored value for a point scale: 4 (floats) when it is negative (or not a number), else 2."""
+    return 2 if np.isfinite(scale) and scale >= 0 else 4
+
+
+def _block(raw: bytes, begin: int, end: int, points: int, analog: int, scale: float):
+    """Frames ``begin`` to ``end`` (0-based, end excluded) of the data block as (F, bytes a frame) uint8, the
+    processor type, the byte order and the bytes a value; None when the file does not hold them whole."""
+    proc = raw[(raw[0] - 1) * 512 + 3]
+    e = ">" if proc == 86 else "<"
+    data_start, = struct.unpack_from(e + "H", raw, 16)
+    size = sample_bytes(scale)
+    frame_bytes = (4 * points + analog) * size
+    start = (data_start - 1) * 512 + begin * frame_bytes
+    frames = end - begin
+    if frames <= 0 or start < 0 or frame_bytes <= 0 or start + frames * frame_bytes > len(raw):
+        return None
+    block = np.frombuffer(raw, dtype=np.uint8, count=frames * frame_bytes, offset=start).reshape(frames, frame_bytes)
+    return block, proc, e, size
+
+
+def _values(raw_bytes: np.ndarray, proc: int, e: str, size: int, unsigned: bool = False) -> np.ndarray:
+    """float64 values of the stored numbers in ``raw_bytes`` (..., size) uint8: 16-bit integers or floats
+    (DEC floats: the two 16-bit halves swapped, the exponent 2 higher, as :func:`read_float`)."""
+    data = np.ascontiguousarray(raw_bytes)
+    if size == 2:
+        return data.view(e + ("u2" if unsigned else "i2"))[..., 0].astype(np.float64)
+    if proc == 85:
+        return data[..., [2, 3, 0, 1]].copy().view("<f4")[..., 0].astype(np.float64) / 4.0
+    return data.view(e + "f4")[..., 0].astype(np.float64)
+
+
+def point_words(raw: bytes, frames: int, points: int, scale: float, analog: int | None = None) -> np.ndarray | None:
+    """(F, M) int: the fourth word of every point sample in the data block, as the C3D guide defines it.
+
+    Its low byte is the residual in units of ``|POINT:SCALE|``, bits 8-14 the
+    cameras that saw the sample (bit 8: camera 1), and a negative word marks
+    the sample invalid; a float file stores the word as a float holding that
+    integer. ezc3d 1.7 reads the two bytes the other way round (its residual
+    is the camera byte: ezc3d issue #386) and writes them so, which is why
+    :func:`~mocapkit.io.c3d.read_c3d` and :func:`~mocapkit.io.c3d.write_c3d`
+    read and write this word themselves, as the ``c3d`` package and the
+    capture software do. ``scale``: POINT:SCALE, whose sign says floats
+    (negative) or 16-bit integers; ``analog``: analog samples a frame
+    (default: the header's count). None when the data block does not hold
+    ``frames`` whole frames.
+    """
+    if analog is None:
+        proc = raw[(raw[0] - 1) * 512 + 3]
+        analog, = struct.unpack_from(">H" if proc == 86 else "<H", raw, 4)
+    got = _block(raw, 0, frames, points, analog, scale)
+    if got is None:
+        return None
+    block, proc, e, size = got
+    word = block[:, : 4 * points * size].reshape(frames, points, 4, size)[:, :, 3, :]
+    values = _values(word, proc, e, size)
+    if size == 2:
+        return values.astype(np.int64)
+    values = np.where(np.isfinite(values), values, -1.0)
+    return np.clip(np.trunc(values), -(2**31), 2**31 - 1).astype(np.int64)
+
+
+def residuals_and_cameras(words: np.ndarray, scale: float) -> tuple[np.ndarray, np.ndarray]:
+    """(F, M) residuals (-1 where invalid) and (F, M) camera masks (0 there) from :func:`point_words`."""
+    invalid = words < 0
+    resid = np.where(invalid, -1.0, (words & 0xFF) * abs(float(scale)))
+    cameras = np.where(invalid, 0, (words & 0x7F00) >> 8)
+    return resid, cameras
+
+
+def _value(parameters: dict, group: str, name: str):
+    """The value array of parameter GROUP:NAME in ezc3d's parsed layout, or None."""
+    param = parameters.get(group, {}).get(name)
+    return None if param is None else np.ravel(param.get("value", []))
+
+
+def _field(words) -> int | None:
+    """A TRIAL frame field: a 32-bit number in two 16-bit words, low word first (ezc3d reads them signed)."""
+    if words is None or len(words) < 2:
+        return None
+    return (int(words[0]) & 0xFFFF) | ((int(words[1]) & 0xFFFF) << 16)
+
+
+def long_trial_frames(path, raw: bytes, parameters: dict, read: int, points: int, analog: int, scale: float) -> int:
+    """How many frames a C3D file holds whose reader read ``read`` of them (ezc3d stops at 65,535).
+
+    Only a header at the cap (last frame 65,535) can hide more frames. Then
+    the count is the one the parameters state: ``TRIAL:ACTUAL_END_FIELD -
+    TRIAL:ACTUAL_START_FIELD + 1`` (Vicon), else ``POINT:LONG_FRAMES``; where
+    neither does (ezc3d writes a long trial so), the data block's whole frames
+    (at most 512 bytes of padding after them). ``parameters``: ezc3d's parsed section;
+    ``points``, ``analog``: points and analog samples a frame; ``scale``:
+    POINT:SCALE (its sign says floats or 16-bit integers). Raises
+    :class:`~mocapkit.errors.MocapFormatError` when the data block holds fewer
+    frames than stated, or a number of bytes no count of whole frames
+    explains: reading only the first 65,535 would lose the rest unsaid.
+    """
+    proc = raw[(raw[0] - 1) * 512 + 3]
+    e = ">" if proc == 86 else "<"
+    first, last, data_start = struct.unpack_from(e + "H", raw, 6)[0], struct.unpack_from(e + "H", raw, 8)[0], \
+        struct.unpack_from(e + "H", raw, 16)[0]
+    if last != FRAME_CAP or read != last - max(first, 1) + 1:
+        return read
+    frame_bytes = (4 * points + analog) * sample_bytes(scale)
+    body = len(raw) - (data_start - 1) * 512
+    held = body // frame_bytes if frame_bytes > 0 else 0
+    end, begin = _field(_value(parameters, "TRIAL", "ACTUAL_END_FIELD")), \
+        _field(_value(parameters, "TRIAL", "ACTUAL_START_FIELD"))
+    long_frames = _value(parameters, "POINT", "LONG_FRAMES")
+    stated, who = None, ""
+    if end is not None and end >= FRAME_CAP:
+        stated = end - (begin if begin else max(first, 1)) + 1
+        who = "TRIAL:ACTUAL_START_FIELD and ACTUAL_END_FIELD state"
+    elif long_frames is not None and len(long_frames) and np.isfinite(long_frames[0]) and long_frames[0] >= FRAME_CAP:
+        stated, who = int(long_frames[0]), "POINT:LONG_FRAMES states"
+    if stated is not None:
+        if stated < read:
+            raise MocapFormatError(path, f"{who} {stated} frames, fewer than the {read} the header states")
+        if held < stated:
+            raise MocapFormatError(path, f"truncated file: {who} {stated} frames, the data block holds {held} "
+                                         f"whole frames of {points} points and {analog} analog samples")
+        return stated
+    # the fewest whole frames after which at most a 512-byte block is left: the padding to a block's end (ezc3d
+    # writes a whole block where the frames end on one)
+    frames = max(read, -(-(body - 512) // frame_bytes)) if frame_bytes > 0 else read
+    if frames <= held:
+        return frames
+    raise MocapFormatError(path, f"the header stops at frame {FRAME_CAP}, no TRIAL:ACTUAL_END_FIELD or "
+                                 f"POINT:LONG_FRAMES states the trial's length, and the data block's {body} bytes "
+                                 f"are {held} frames and {body - held * frame_bytes} bytes more: "
+                                 "its length cannot be told")
+
+
+def read_frames(raw: bytes, begin: int, end: int, points: int, analog: int, scale: float, parameters: dict):
+    """Frames ``begin`` to ``end`` (0-based, end excluded) of a C3D data block, read with numpy.
+
+    Returns ``(xyz, analogs)``: ``xyz`` (F, M, 3) float64 point coordinates
+    in the file's units as stored (16-bit integers times ``scale`` when it is
+    positive, else floats), ``analogs`` (A, F * ratio) float64 at the analog
+    rate, ``(stored - ANALOG:OFFSET) * ANALOG:SCALE * ANALOG:GEN_SCALE`` as
+    ezc3d reads them (``ANALOG:FORMAT`` UNSIGNED: stored and offset unsigned
+    16-bit), or None when the file holds none. ``analog``: analog samples a
+    frame (channels x ratio); ``parameters``: ezc3d's parsed section. None when
+    the file does not hold those frames whole.
+    """
+    got = _block(raw, begin, end, points, analog, scale)
+    if got is None:
+        return None
+    block, proc, e, size = got
+    frames = end - begin
+    stored = _values(block[:, : 4 * points * size].reshape(frames, points, 4, size)[:, :, :3, :], proc, e, size)
+    xyz = stored * scale if size == 2 else stored
+    channels = int((_value(parameters, "ANALOG", "USED") or [0])[0]) if analog else 0
+    if not channels or analog % channels:
+        return xyz, None
+    ratio = analog // channels
+    fmt = _value(parameters, "ANALOG", "FORMAT")
+    unsigned = fmt is not None and len(fmt) > 0 and str(fmt[0]).strip().upper() == "UNSIGNED"
+    samples = _values(block[:, 4 * points * size:].reshape(frames, ratio, channels, size), proc, e, size,
+                      unsigned=unsigned)  # (F, ratio, A)
+    offsets = np.zeros(channels) if _value(parameters, "ANALOG", "OFFSET") is None else \
+        np.resize(_value(parameters, "ANALOG", "OFFSET").astype(np.int64), channels)
+    if unsigned:
+        offsets = offsets & 0xFFFF
+    scales = _value(parameters, "ANALOG", "SCALE")
+    scales = np.ones(channels) if scales is None or not len(scales) else np.resize(scales.astype(np.float64), channels)
+    gen = _value(parameters, "ANALOG", "GEN_SCALE")
+    gen = float(gen[0]) if gen is not None and len(gen) else 1.0
+    values = (samples - offsets) * scales * gen
+    return xyz, values.transpose(2, 0, 1).reshape(channels, frames * ratio)
+
+
+def rest_of_trial(path, raw: bytes, parameters: dict, xyz: np.ndarray, analogs: np.ndarray | None, analog: int,
+                  scale: float):
+    """The frames of a long trial past those a reader read (:func:`long_trial_frames`), or None when there are none.
+
+    ``xyz`` (F, M, 3) and ``analogs`` (A, F * ratio) or None: the frames read
+    (ezc3d's values); ``analog``: analog samples a frame; ``parameters``:
+    ezc3d's parsed section; ``scale``: POINT:SCALE. Returns ``(xyz, analogs)``
+    for the frames after them, as :func:`read_frames` reads them. The last
+    frames read are read again here first and must agree with the reader's
+    values (to float32 precision, NaN where the reader has it): where they do
+    not, this layout is not one read safely, and
+    :class:`~mocapkit.errors.MocapFormatError` says so rather than join frames
+    read two ways.
+    """
+    read, points = xyz.shape[0], xyz.shape[1]
+    total = long_trial_frames(path, raw, parameters, read, points, analog, scale)
+    if total <= read:
+        return None
+    check = min(read, 64)
+    again = read_frames(raw, read - check, read, points, analog, scale, parameters)
+    rest = read_frames(raw, read, total, points, analog, scale, parameters)
+    ok = again is not None and rest is not None
+    if ok:
+        seen = ~np.isnan(xyz[read - check:])
+        ok = np.allclose(again[0][seen], xyz[read - check:][seen], rtol=1e-6, atol=0)
+        ratio = analog // max(analogs.shape[0], 1) if analogs is not None else 0
+        if analogs is not None and analogs.size:
+            ok = ok and again[1] is not None and np.allclose(again[1], analogs[:, (read - check) * ratio:],
+                                                             rtol=1e-6, atol=1e-9)
+    if not ok:
+        raise MocapFormatError(path, f"the trial holds {total} frames, more than the {read} the C3D header can state, "
+                                     "and the data block past them is not laid out as the frames before: it cannot "
+                                     "be read safely")
+    return rest
+
+
+def long_frame_parameters(first: int, frames: int) -> dict[tuple[str, str], dict]:
+    """(GROUP, NAME) -> parameter (ezc3d's layout) that state ``frames`` frames from frame ``first`` (1-based).
+
+    Both conventions (:func:`long_trial_frames`): TRIAL:ACTUAL_START_FIELD and
+    ACTUAL_END_FIELD, two 16-bit words each (low word first, written signed
+    as ezc3d writes integers), and POINT:LONG_FRAMES, the count as a float.
+    """
+    def words(n: int) -> np.ndarray:
+        return np.array([n & 0xFFFF, n >> 16]).astype(np.uint16).astype(np.int16).astype(np.int64)
+
+    last = first + frames - 1
+    return {
+        ("TRIAL", "ACTUAL_START_FIELD"): {"type": 2, "description": "First frame of the trial (two 16-bit words)",
+                                          "is_locked": False, "value": words(first)},
+        ("TRIAL", "ACTUAL_END_FIELD"): {"type": 2, "description": "Last frame of the trial (two 16-bit words)",
+                                        "is_locked": False, "value": words(last)},
+        ("POINT", "LONG_FRAMES"): {"type": 4, "description": "Number of frames", "is_locked": False,
+                                   "value": np.array([float(frames)])},
+    }
