@@ -73,6 +73,7 @@ from typing import Sequence
 
 from .errors import MocapError, MocapFormatError, os_error_line
 from .interrupts import interrupts_as_keyboard_interrupt
+from .marker_files import clean_marker_file, marker_request, refuse_marker_options
 
 __all__ = ["clean_file", "clean_marker_file", "clean_request", "marker_request", "refuse_marker_options", "clean_batch", "find_inputs", "output_for", "BatchSummary", "DEFAULT_PATTERNS", "BATCH_MARK"]
 
@@ -164,13 +165,13 @@ def clean_file(
     inp, out = Path(inp), Path(out)
     asked = parse_steps(steps or STEPS)
     not_for_markers = [name for name, given in (
-        ("steps " + ",".join(asked), asked != STEPS),
-        ("decisions", decisions is not None), ("record", record is not None), ("drifts", drifts),
+        ("steps " + ",".join(asked), asked not in (STEPS, ("detect",))), ("drifts", drifts),
         ("models", bool(models)), ("noise_deg", noise_deg is not None)) if given]
+    as_markers = dict(report=report, png=png, overwrite=overwrite, unit=unit, max_gap_s=max_gap_s,
+                      max_error_mm=max_error_mm, decisions=decisions, record=record, review=asked == ("detect",))
     if isinstance(motion, MarkerSet) or (motion is None and inp.suffix.lower() in (".c3d", ".trc")):
         refuse_marker_options(inp, not_for_markers)
-        return clean_marker_file(inp, out, report=report, png=png, overwrite=overwrite, markers=motion, unit=unit,
-                                 max_gap_s=max_gap_s, max_error_mm=max_error_mm)
+        return clean_marker_file(inp, out, markers=motion, **as_markers)
     reuse = record is not None
     if reuse and decisions is None:
         raise MocapError(f"{record}: an earlier run's record is applied with decisions; give the decisions file")
@@ -182,8 +183,7 @@ def clean_file(
     check_asf(asf, [inp], amc_fps)
     if motion is None and inp.suffix.lower() == ".npz" and isinstance(take := load_take(inp, unit=unit), MarkerSet):
         refuse_marker_options(inp, not_for_markers)
-        return clean_marker_file(inp, out, report=report, png=png, overwrite=overwrite, markers=take,
-                                 max_gap_s=max_gap_s, max_error_mm=max_error_mm)
+        return clean_marker_file(inp, out, markers=take, **as_markers)
     io.suffix_kind(out, io.WRITERS, "writing")
     doc = dec.read_decisions(decisions) if decisions is not None else None
     taken = None if reuse else file_facts(inp)  # the take as read: a later batch tells a replaced input by it
@@ -288,16 +288,7 @@ def clean_request(steps=None, threshold: float = 0.5, drifts: bool = False, cont
             "amc_fps": None if amc_fps is None else float(amc_fps), "unit": unit}
 
 
-REQUEST_DEFAULTS = {"noise_deg": 1.0, "amc_fps": None, "unit": None}  # what a record without these keys was made with
-
-
-def marker_request(unit: str | None = None, max_gap_s: float | None = None, max_error_mm: float | None = None) -> dict:
-    """What a marker capture was asked to be cleaned with, as its record keeps it (``request``): the length unit of a
-    file that states none, the longest gap filled (s) and the largest expected fill error (mm), None for the
-    defaults. :func:`clean_batch` takes a capture as complete only when its record holds the same request, as
-    :func:`clean_request` is for a joint-angle take; a record written before it kept one reads as the defaults."""
-    return {"unit": unit, "max_gap_s": None if max_gap_s is None else float(max_gap_s),
-            "max_error_mm": None if max_error_mm is None else float(max_error_mm)}
+REQUEST_DEFAULTS = {"noise_deg": 1.0, "amc_fps": None, "unit": None, "review": False}  # what a record without these keys was made with
 
 
 def _not_complete(inp: Path, files: dict, request: dict, markers: dict | None = None) -> tuple[str, bool]:
@@ -345,61 +336,6 @@ def _said(v) -> str:
     if isinstance(v, dict):
         return ",".join(f"{k}={x}" for k, x in v.items()) or "shipped"
     return str(v)
-
-
-def refuse_marker_options(inp, names: Sequence[str]) -> None:
-    """Refuse, in one line, what a marker capture's cleaning cannot honour: a marker capture is cleaned whole.
-
-    ``--steps detect`` (review mode) and decisions have no meaning for it (:func:`clean_marker_file` has no
-    flags-only mode and no per-change decisions); cleaning it anyway would change a take its user asked not to.
-    """
-    if names:
-        raise MocapError(f"{inp}: a marker capture is cleaned whole (label swaps, spikes, gaps): "
-                         f"{', '.join(names)} {'applies' if len(names) == 1 else 'apply'} only to joint-angle takes")
-
-
-def clean_marker_file(inp, out, *, report=None, png=None, overwrite: bool = False, markers=None, steps=None,
-                      unit: str | None = None, max_gap_s: float | None = None, max_error_mm: float | None = None):
-    """Clean the marker capture at ``inp`` (.c3d, .trc, marker .npz) into ``out`` (.c3d, .trc or .npz).
-
-    :func:`mocapkit.cleaning.markers.clean_markers`, then the reports (HTML
-    marker viewer, per-marker PNG), ``out`` written like the input
-    (``save_markers(..., like=input)``: a C3D keeps its parameters and
-    analogs) and the ``.clean.npz`` record last. ``max_gap_s``, ``max_error_mm``: as for
-    :func:`~mocapkit.cleaning.markers.clean_markers`. Returns ``(original, result)``.
-    """
-    from .cleaning import decisions as dec
-    from .cleaning.markers import STEPS as MARKER_STEPS
-    from .cleaning.markers import clean_markers
-    from .cleaning.pipeline import clean_path
-    from .io import MARKER_FORMATS, load_markers, save_markers, suffix_kind
-    from .io.outputs import check_outputs, file_facts, removed_on_failure
-
-    inp, out = Path(inp), Path(out)
-    record = clean_path(out)
-    outputs = [out, record, report, png]
-    check_outputs(outputs, [inp], overwrite=overwrite)
-    suffix_kind(out, MARKER_FORMATS, "writing markers")
-    taken = file_facts(inp)
-    ms = markers if markers is not None else load_markers(inp, **({} if unit is None else {"units": unit}))
-    try:
-        res = clean_markers(ms, steps=steps or MARKER_STEPS, max_gap_s=max_gap_s, max_error_mm=max_error_mm)
-    except ValueError as exc:
-        raise MocapError(f"{inp}: {exc}") from None
-    res = replace(res, frames_note=dec.frames_note(inp, ms))  # the summary says how its frames relate to the file's
-    with removed_on_failure(outputs, overwrite=overwrite, marker=record):
-        if report is not None:
-            from .report.markers import write_marker_report
-
-            write_marker_report(report, res, title=f"{inp.name}: cleaned")
-        if png is not None:
-            from .report.markers import plot_marker_fixes
-
-            plot_marker_fixes(png, res, title=f"{inp.name}: before (grey) and after")
-        save_markers(res.markers, out, like=ms)
-        res.save(record, written={"input": taken, "output": file_facts(out)},  # last: the completion marker
-                 request=marker_request(unit, max_gap_s, max_error_mm))
-    return ms, res
 
 
 # -- corpora -------------------------------------------------------------------------------

@@ -69,9 +69,9 @@ def clean(
     a record per step); everything not missing, flagged or noisy stays bit-identical. The report
     (--report) lists every change for a person to accept or reject; --decisions then writes OUT
     with only the accepted changes, every other sample bit-identical to IN. A marker
-    capture (.c3d, .trc) gets swapped labels undone, spikes removed and gaps filled instead
-    (the options of joint-angle takes, --steps detect's review mode among them, are refused for it);
-    every other sample stays bit-identical.
+    capture (.c3d, .trc) gets swapped labels undone, spikes removed and gaps filled instead, each a
+    change to accept or reject the same way (--steps detect reviews it; the other options of
+    joint-angle takes are refused for it); every other sample stays bit-identical.
     """
     from ..batch import clean_file
     from ..cleaning.pipeline import STEPS, clean_path
@@ -82,11 +82,10 @@ def clean(
         raise MocapError("--record: the earlier run's record is read with --decisions; give the decisions file")
     step_list = _steps(steps)  # an unknown step is refused for any take
     not_for_markers = [name for name, given in (
-        (f"--steps {steps}", tuple(step_list) != STEPS), ("--threshold", threshold != 0.5),
+        (f"--steps {steps}", tuple(step_list) not in (STEPS, ("detect",))), ("--threshold", threshold != 0.5),
         ("--noise-deg", noise_deg is not None),
         ("--context", bool(context)), ("--drifts", drifts), ("--reference", reference is not None),
-        ("--decisions", decisions is not None), ("--record", record is not None), ("--ebf", ebf is not None),
-        ("--ebd", ebd is not None)) if given]
+        ("--ebf", ebf is not None), ("--ebd", ebd is not None)) if given]
     _check_out_early(inp, out)
     if decisions is not None and record is None and clean_path(out).is_file():
         record = clean_path(out)  # the earlier run's record beside OUT: apply the decisions, clean nothing again
@@ -97,7 +96,8 @@ def clean(
     check_asf(asf, [inp, reference], amc_fps)
     check_noise_deg(noise_deg)
     if _clean_marker_take(inp, out, report=report, png=png, overwrite=overwrite, not_for_markers=not_for_markers,
-                          unit=unit, max_gap_s=max_gap, max_error_mm=max_fill_error):
+                          unit=unit, max_gap_s=max_gap, max_error_mm=max_fill_error, decisions=decisions,
+                          record=record, review=tuple(step_list) == ("detect",)):
         return
     for name, given in (("--max-gap", max_gap), ("--max-fill-error", max_fill_error)):
         if given is not None:
@@ -221,11 +221,12 @@ def _print_decided(inp, out, decisions, record, report, png, original, res):
 
 def _clean_marker_take(inp: Path, out: Path, *, report, png, overwrite: bool, not_for_markers: list[str],
                        unit: str | None = None, max_gap_s: float | None = None,
-                       max_error_mm: float | None = None) -> bool:
+                       max_error_mm: float | None = None, decisions=None, record=None, review: bool = False) -> bool:
     """Clean ``inp`` as a marker capture when it is one (writing OUT, its record and reports); False for a motion.
 
     ``not_for_markers``: the options given that apply only to joint-angle takes, refused for a marker capture;
-    ``unit``: ``--unit``, the length unit of a file that states none.
+    ``unit``: ``--unit``, the length unit of a file that states none; ``decisions``, ``record``, ``review``:
+    :func:`mocapkit.marker_files.clean_marker_file`'s.
     """
     from ..batch import clean_marker_file, refuse_marker_options
     from ..cleaning.pipeline import clean_path
@@ -240,11 +241,17 @@ def _clean_marker_take(inp: Path, out: Path, *, report, png, overwrite: bool, no
         return False
     refuse_marker_options(inp, not_for_markers)
     _, res = clean_marker_file(inp, out, report=report, png=png, overwrite=overwrite, markers=take,
-                               max_gap_s=max_gap_s, max_error_mm=max_error_mm)
+                               max_gap_s=max_gap_s, max_error_mm=max_error_mm, decisions=decisions, record=record,
+                               review=review)
+    if decisions is not None:
+        _print_marker_decided(inp, out, take, res, decisions, record, report, png)
+        return True
     extra = "".join(f" and {x}" for x in (report, png) if x is not None)
     console.print(f"wrote {out} and {clean_path(out)}{extra}: {plural(take.num_frames, 'frame')} x "
-                  f"{plural(take.num_markers, 'marker')}, {int(res.changed.sum())} of "
-                  f"{plural(res.changed.size, 'marker sample')} changed")
+                  f"{plural(take.num_markers, 'marker')}, " +
+                  (f"review mode (--steps detect): the capture unchanged; cleaning would change "
+                   f"{int(res.changed.sum())} of {plural(res.changed.size, 'marker sample')}" if review else
+                   f"{int(res.changed.sum())} of {plural(res.changed.size, 'marker sample')} changed"))
     if take.units_from != "file":  # the unit every mm figure below rests on
         how = "given with --unit" if take.units_from == "given" else "inferred from the marker distances; --unit sets it"
         console.print(f"  length unit {take.units}: the file states none ({how})")
@@ -258,6 +265,29 @@ def _clean_marker_take(inp: Path, out: Path, *, report, png, overwrite: bool, no
     if len(res.fixes) > 12:
         console.print(f"    ... and {len(res.fixes) - 12} more (all in {clean_path(out)})")
     return True
+
+
+def _print_marker_decided(inp, out, take, res, decisions, record, report, png) -> None:
+    """The summary of ``clean --decisions`` on a marker capture: what was reused, which changes were rejected."""
+    from ..cleaning import decisions as dec
+    from ..cleaning.markers import decisions as mdec
+    from ..cleaning.pipeline import clean_path
+
+    choice = dec.read_decisions(decisions)["decisions"]
+    found = mdec.changes(take, res.markers, res.fixes)
+    rejected = [c for c in found if choice.get(c.id) == dec.REJECT]
+    n = int(mdec.accepted_samples(take, res.markers, res.fixes, choice).sum())
+    written = [out] + ([clean_path(out)] if record is None else []) + [p for p in (report, png) if p is not None]
+    src = f"the record {record} (nothing cleaned again)" if record is not None else "a new cleaning"
+    console.print(f"wrote {' and '.join(map(str, written))}: {decisions} applied to {src}: "
+                  f"{len(found) - len(rejected)} of {plural(len(found), 'change')} accepted, {len(rejected)} rejected; "
+                  f"{plural(n, 'marker sample')} of {res.changed.size} changed, every other sample is {inp.name}'s")
+    for c in rejected[:12]:
+        console.print(f"  rejected {c}")
+    if len(rejected) > 12:
+        console.print(f"  ... and {len(rejected) - 12} more rejected")
+    if rejected and res.frames_note:
+        console.print(f"  {res.frames_note}")
 
 
 def _take_line(row: dict) -> str:

@@ -298,7 +298,7 @@ def _script_json(obj) -> str:
     return json.dumps(obj, separators=(",", ":"), allow_nan=False).replace("<", "\\u003c")
 
 
-def _review_parts(review: dict | None) -> tuple[str, str, str]:
+def review_parts(review: dict | None) -> tuple[str, str, str]:
     """CSS, JSON block and script of the changes list (all empty without ``review``)."""
     if review is None:
         return "", "", ""
@@ -497,7 +497,7 @@ def write_report(
         "plots": plots,
     }
     esc = _html.escape(title)
-    review_css, review_block, review_js = _review_parts(review)
+    review_css, review_block, review_js = review_parts(review)
     page = f"""<!DOCTYPE html>
 <html lang="en">
 <head>

@@ -84,6 +84,8 @@ cv.onmousemove = e => { if (!drag) return; yaw += (e.clientX - drag[0]) * 0.01;
   pitch = Math.max(-1.5, Math.min(1.5, pitch + (e.clientY - drag[1]) * 0.01)); drag = [e.clientX, e.clientY]; draw(); };
 for (const a of document.querySelectorAll('a.fix')) a.onclick = e => { e.preventDefault(); playing = false; show(indexOf(+a.dataset.frame)); };
 window.markerReport = { frame: () => D.frames[f], show: t => show(indexOf(t)), playing: () => playing };
+// what the accept/reject list (review.js) moves: the frame on show (a marker is not selected apart)
+window.mocapkitReport = { select: m => {}, setFrame: t => { playing = false; show(indexOf(t)); } };
 draw();
 """
 
@@ -157,7 +159,8 @@ def _marker_framing(points, frames: np.ndarray, fps: float, up: int) -> dict:
             "follow": bool(fv.radius_fixed > FOLLOW_RATIO * fv.radius_follow)}
 
 
-def write_marker_report(path, result, *, title: str = "", max_frames: int = 3000, up_axis: int | None = None) -> Path:
+def write_marker_report(path, result, *, title: str = "", max_frames: int = 3000, up_axis: int | None = None,
+                        review: dict | None = None, review_mode: bool = False) -> Path:
     """Write the HTML marker viewer of ``result`` (a MarkerCleanResult) to ``path``; returns the path.
 
     Up to ``max_frames`` frames every frame is kept; a longer capture keeps every
@@ -166,9 +169,13 @@ def write_marker_report(path, result, *, title: str = "", max_frames: int = 3000
     rounded to 0.1 mm. ``up_axis``: 0, 1 or 2 (default: the axis along which one
     frame's markers spread most: a standing body is tallest along the vertical).
     The page plays in real time at the capture's rate and frames every drawn point
-    of every frame whole (:func:`_marker_framing`).
+    of every frame whole (:func:`_marker_framing`). ``review``: the changes to accept or reject and the
+    decisions document (:func:`mocapkit.cleaning.markers.decisions.review`), drawn by the joint-angle
+    report's list (:func:`mocapkit.report.html.review_parts`); ``review_mode``: the capture was only
+    reviewed (``--steps detect``), the page says its output holds the input unchanged.
     """
     from ..io import atomic_write
+    from .html import review_parts
 
     path = Path(path)
     before = np.asarray(result.original.positions, dtype=np.float64)
@@ -211,13 +218,18 @@ def write_marker_report(path, result, *, title: str = "", max_frames: int = 3000
         f"{x.start}-{x.end - 1}</a></td><td>{html.escape(x.size_text)}</td></tr>" for x in coincident)
     same = (f"<h3>Two markers at one position, left as recorded ({len(coincident)})</h3><table><tr><th>markers</th>"
             f"<th>frames</th><th>what</th></tr>{same}</table>") if coincident else ""
-    summary = "".join(f"<li>{html.escape(s)}</li>" for s in result.summary())
+    lines = result.summary()
+    if review_mode:
+        lines = ["review mode (--steps detect): the capture was written unchanged; the fixes below are what "
+                 "cleaning would change"] + lines
+    summary = "".join(f"<li>{html.escape(s)}</li>" for s in lines)
+    review_css, review_block, review_js = review_parts(review)
     head = html.escape(title or result.markers.name or "marker capture")
     payload = json.dumps(data, separators=(",", ":")).replace("</", "<\\/")
     doc = f"""<!DOCTYPE html><html><head><meta charset="utf-8"><title>{head}</title>
 <style>body{{font-family:sans-serif;margin:1em}}canvas{{border:1px solid #ccc;cursor:grab}}
 table{{border-collapse:collapse}}td,th{{padding:2px 8px;border-bottom:1px solid #eee}}
-.k{{display:inline-block;width:10px;height:10px;border-radius:5px;margin:0 4px 0 12px}}</style></head><body>
+.k{{display:inline-block;width:10px;height:10px;border-radius:5px;margin:0 4px 0 12px}}{review_css}</style></head><body>
 <h2>{head}</h2><ul>{summary}</ul>
 <div><button id="play">play / pause</button> <input id="frame" type="range" min="0" value="0" style="width:60%">
 <span id="flabel"></span> <label><input id="follow" type="checkbox"> follow</label></div>
@@ -230,7 +242,7 @@ grey cross: the removed recorded value</div>
 <h3>Fixes ({len(result.fixes)})</h3><table><tr><th>marker</th><th>frames</th><th>kind</th><th>size (a gap: duration, method, expected error, distance off the straight line)</th><th>swapped with / on</th></tr>{rows}</table>
 {left}{same}
 <script id="data" type="application/json">{payload}</script>
-<script>{_SCRIPT}</script></body></html>"""
+<script>{_SCRIPT}</script>{review_block}{review_js and f"<script>{review_js}</script>"}</body></html>"""
     with atomic_write(path, "w", encoding="utf-8") as fh:
         fh.write(doc)
     return path

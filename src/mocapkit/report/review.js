@@ -12,6 +12,7 @@
   if (!block) return;
   var R = JSON.parse(block.textContent);
   var doc = R.decisions, list = R.changes;
+  var item = R.item || "joint";  // what a change moves: a joint, or a marker of a marker capture
 
   function el(tag, attrs, parent) {
     var e = document.createElement(tag);
@@ -27,7 +28,7 @@
   var frameNote = R.frames ? " " + R.frames.charAt(0).toUpperCase() + R.frames.slice(1) + "." : "";
   var count = null;
   if (list.length) {
-    el("p", { "class": "note", text: "Every change the cleaning made, one joint over a run of frames. Accept or " +
+    el("p", { "class": "note", text: "Every change the cleaning made, one " + item + " over a run of frames. Accept or " +
       "reject each one, then download the decisions and run: mocapkit clean " + (doc.take.name || "IN") +
       " -o OUT --decisions " + fileName() + " (rejected changes get the input's samples back exactly)." + frameNote }, sec);
     var bar = el("div", { "class": "toolbar" }, sec);
@@ -44,7 +45,7 @@
   var rows = [];
   if (list.length) {
     var table = el("table", {}, sec), head = el("tr", {}, el("thead", {}, table));
-    ["", "joint", "frames", "step", "max change", "why", ""].forEach(function (h) { el("th", { text: h }, head); });
+    ["", item, "frames", "step", "max change", "why", ""].forEach(function (h) { el("th", { text: h }, head); });
     var body = el("tbody", {}, table);
     list.forEach(function (c, k) {
       var tr = el("tr", { "data-change": c.id }, body);
@@ -57,7 +58,7 @@
       el("td", { text: c.joint }, tr);
       el("td", { "class": "num", text: c.first === c.last ? String(c.first) : c.first + "-" + c.last }, tr);
       el("td", { text: c.step, title: c.method }, tr);
-      el("td", { "class": "num", text: c.max_deg === null ? "was missing" : (c.max_deg >= 0.1 || c.max_deg === 0 ? c.max_deg.toFixed(1) : c.max_deg.toPrecision(2)) + " deg" }, tr);
+      el("td", { "class": "num", text: c.size !== undefined ? c.size : c.max_deg === null ? "was missing" : (c.max_deg >= 0.1 || c.max_deg === 0 ? c.max_deg.toFixed(1) : c.max_deg.toPrecision(2)) + " deg" }, tr);
       el("td", { "class": "reason", text: c.reason }, tr);
       var jt = el("td", { "class": "jump" }, tr);
       var jb = el("button", { type: "button", "class": "jump", "data-index": String(k), text: "jump to frame " + c.first }, jt);

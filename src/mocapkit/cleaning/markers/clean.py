@@ -269,6 +269,7 @@ class MarkerCleanResult:
         :func:`mocapkit.batch.clean_marker_file` read and wrote (sizes and digests), and ``request``: what the
         capture was asked to be cleaned with (:func:`mocapkit.batch.marker_request`), each kept as JSON."""
         from ...io import atomic_write
+        from .decisions import record_cells
 
         path = Path(path)
         labels = list(self.markers.labels)
@@ -284,7 +285,7 @@ class MarkerCleanResult:
                 never_seen=np.array(list(self.never_seen), dtype=str),
                 unlabelled=np.array(list(self.unlabelled), dtype=str),
                 nobody_seen=np.array(json.dumps([list(x) for x in self.nobody_seen])),
-                kind=np.array("markers"),
+                kind=np.array("markers"), **record_cells(self.original, self.markers),
                 **({"written": np.array(json.dumps(written))} if written else {}),
                 **({"request": np.array(json.dumps(request))} if request else {}),
             )

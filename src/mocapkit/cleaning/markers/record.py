@@ -35,6 +35,9 @@ class MarkerRecord:
     same position left as recorded (the fields of :class:`~mocapkit.cleaning.markers.clean.MarkerFix`);
     ``never_seen`` and ``unlabelled``: marker names; ``nobody_seen``: ``(subject, start, end)`` runs of frames
     where none of a subject's markers is seen, left missing (() in a record written before they were kept).
+    ``cells`` (F, M) bool, ``cell_positions`` (N, 3), ``cell_residuals`` and ``cell_cameras`` (N,): the cleaned
+    values of the samples that differ from the input, and ``take_sha256`` the input's digest, so that decisions
+    apply without cleaning again (:mod:`mocapkit.cleaning.markers.decisions`; None and "" in an older record).
     """
 
     labels: tuple[str, ...]
@@ -49,6 +52,11 @@ class MarkerRecord:
     duplicates: np.ndarray | None = None
     coincident: tuple[dict, ...] = ()
     nobody_seen: tuple[tuple[str, int, int], ...] = ()
+    cells: np.ndarray | None = None
+    cell_positions: np.ndarray | None = None
+    cell_residuals: np.ndarray | None = None
+    cell_cameras: np.ndarray | None = None
+    take_sha256: str = ""
 
     @property
     def num_frames(self) -> int:
@@ -116,5 +124,26 @@ def read_marker_record(path) -> MarkerRecord:
             absent = tuple((str(w), int(a), int(b)) for w, a, b in runs)
         except (ValueError, TypeError):
             raise MocapFormatError(path, "nobody_seen: not the JSON list of [subject, start, end] a record holds") from None
-    return MarkerRecord(labels=labels, fixes=listed("fixes"), unfilled=listed("unfilled"), coincident=listed("coincident"),
+    samples = _cells(path, z, masks["changed"].shape)
+    return MarkerRecord(**samples, labels=labels, fixes=listed("fixes"), unfilled=listed("unfilled"), coincident=listed("coincident"),
                         never_seen=names("never_seen"), unlabelled=names("unlabelled"), nobody_seen=absent, **masks)
+
+
+def _cells(path, z: dict, shape: tuple) -> dict:
+    """The record's cleaned samples (:func:`mocapkit.cleaning.markers.decisions.record_cells`), checked; {} without."""
+    if "cells" not in z:
+        return {}
+    cells = np.asarray(z["cells"])
+    if cells.dtype != bool or cells.shape != shape:
+        raise MocapFormatError(path, f"cells: expected a bool {shape} mask, got {cells.dtype} {cells.shape}")
+    n = int(cells.sum())
+    out = {"cells": cells, "take_sha256": str(np.asarray(z.get("take_sha256", "")))}
+    for key, tail in (("cell_positions", (3,)), ("cell_residuals", ()), ("cell_cameras", ())):
+        if key in z:
+            a = np.asarray(z[key])
+            if a.shape != (n, *tail) or a.dtype.kind not in "fiu":
+                raise MocapFormatError(path, f"{key}: expected {(n, *tail)} numbers, got {a.dtype} {a.shape}")
+            out[key] = a
+    if "cell_positions" not in out:
+        raise MocapFormatError(path, "a marker cleaning record with cells but no cell_positions")
+    return out

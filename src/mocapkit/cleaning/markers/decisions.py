@@ -1,0 +1,266 @@
+"""A person decides, for a marker capture: each change ``clean`` made, accepted or rejected, and the capture with
+only the accepted ones.
+
+The marker counterpart of :mod:`mocapkit.cleaning.decisions`: the same
+decisions file (:data:`~mocapkit.cleaning.decisions.FORMAT`, read by
+:func:`~mocapkit.cleaning.decisions.read_decisions`), the same words
+(``accept``, ``reject``), the same digest check of the take
+(:func:`~mocapkit.cleaning.decisions.take_digest` of a :class:`MarkerSet`) and
+the same report list (``review.js``).
+
+Changes
+-------
+A change is one fix of :func:`~mocapkit.cleaning.markers.clean_markers`
+(:class:`~mocapkit.cleaning.markers.MarkerFix`): a swap undone (both markers'
+samples over its frames), a duplicate label removed, a spike removed, a gap
+filled, with its id ``KIND:MARKER:FIRST-LAST`` (frames inclusive, 0-based), which
+depends only on the record, so the same cleaning of the same capture gives the
+same ids. Its samples are those of its frames and marker(s) that differ between
+the input and the cleaned capture (position, residual or camera mask). A sample
+two fixes touched belongs to one of them, in the order duplicate, spike, gap,
+swap (a spike found on a re-labelled sample is the spike's); the changes
+therefore partition the changed samples. A changed sample no fix names (none in
+the test data) is a change of kind ``change`` per run of frames of its marker.
+
+Applying decisions
+------------------
+:func:`apply` starts from the input: the samples of each accepted change get
+the cleaned position, residual and camera mask, every other sample keeps the
+input's, bit for bit (a rejected fill stays missing, with residual -1; a
+rejected swap keeps the recorded labels). Rejecting every change gives the
+input back; accepting every change gives the cleaned capture.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass
+from typing import Mapping
+
+import numpy as np
+
+from ...errors import MocapError, MocapFormatError
+from ..decisions import ACCEPT, FORMAT, REJECT, check_decisions, frame_note, take_digest
+from .clean import MarkerCleanResult, MarkerFix
+
+__all__ = ["MarkerChange", "differs", "changes", "accepted_samples", "apply", "template", "check", "review",
+           "record_cells", "result_from_record", "check_record"]
+
+_ORDER = ("duplicate", "spike", "gap", "swap")  # who owns a sample two fixes touched
+
+
+@dataclass(frozen=True)
+class MarkerChange:
+    """One fix of a marker capture as a person decides it: ``kind`` on ``marker`` over frames ``first``..``last``.
+
+    ``marker_index``: its column in the capture; ``other``: the marker a swap exchanged labels with (a
+    duplicate: the marker whose position it was on); ``size_mm``: :attr:`MarkerFix.size_mm` (NaN: a spike
+    or duplicate removed and left missing); ``reason``: :attr:`MarkerFix.size_text`.
+    """
+
+    id: str
+    marker: str
+    marker_index: int
+    first: int
+    last: int
+    kind: str
+    size_mm: float
+    other: str = ""
+    reason: str = ""
+
+    def size_words(self) -> str:
+        if math.isnan(self.size_mm):
+            return "left missing"
+        return f"{self.size_mm:.1f} mm"
+
+    def as_dict(self) -> dict:
+        """The report's row (``review.js``: ``joint`` and ``joint_index`` name the marker, ``size`` its words)."""
+        return {"id": self.id, "joint": self.marker, "joint_index": self.marker_index, "first": self.first,
+                "last": self.last, "step": self.kind, "method": "", "size": self.size_words(),
+                "size_mm": None if math.isnan(self.size_mm) else round(self.size_mm, 3),
+                "other": self.other, "reason": self.reason}
+
+    def __str__(self) -> str:
+        with_ = f" with {self.other}" if self.other and self.kind == "swap" else ""
+        return f"{self.id}: {self.marker} frames {self.first}-{self.last} ({self.kind}{with_}, {self.size_words()})"
+
+
+def differs(original, cleaned) -> np.ndarray:
+    """(F, M) bool: the samples whose position (NaN-aware), residual or camera mask differ between two captures."""
+    a, b = np.asarray(original.positions), np.asarray(cleaned.positions)
+    out = ~np.all((a == b) | (np.isnan(a) & np.isnan(b)), axis=-1)
+    for x, y in ((original.residuals, cleaned.residuals), (original.cameras, cleaned.cameras)):
+        if x is not None and y is not None:
+            out |= np.asarray(x) != np.asarray(y)
+        elif (x is None) != (y is None):
+            out |= True
+    return out
+
+
+def _fix(x) -> MarkerFix:
+    if isinstance(x, MarkerFix):
+        return x
+    names = {f.name for f in dataclasses.fields(MarkerFix)}
+    return MarkerFix(**{k: v for k, v in dict(x).items() if k in names})
+
+
+def _owners(original, cleaned, fixes) -> tuple[list[MarkerChange], np.ndarray]:
+    """The changes and ``(F, M)`` int: the index of the change each sample belongs to, -1 for none."""
+    labels = list(original.labels)
+    col = {label: k for k, label in enumerate(labels)}
+    diff = differs(original, cleaned)
+    owner = np.full(diff.shape, -1, dtype=np.int64)
+    found: list[MarkerChange] = []
+    fixes = [_fix(x) for x in fixes if _fix(x).kind in _ORDER and _fix(x).marker in col]
+    seen: dict[str, int] = {}
+    for x in sorted(fixes, key=lambda x: _ORDER.index(x.kind)):
+        cols = [col[x.marker]] + ([col[x.other]] if x.kind == "swap" and x.other in col else [])
+        cid = f"{x.kind}:{x.marker}:{x.start}-{x.end - 1}"
+        if cid not in seen:
+            seen[cid] = len(found)
+            found.append(MarkerChange(cid, x.marker, col[x.marker], x.start, x.end - 1, x.kind, float(x.size_mm),
+                                      x.other, x.size_text))
+        take = np.zeros(diff.shape, dtype=bool)
+        take[x.start:x.end, cols] = True
+        owner[take & diff & (owner < 0)] = seen[cid]
+    for m in np.flatnonzero(np.any(diff & (owner < 0), axis=0)):  # a change no fix names: one per run of frames
+        rest = np.concatenate([[0], (diff[:, m] & (owner[:, m] < 0)).astype(np.int8), [0]])
+        for a, b in zip(np.flatnonzero(np.diff(rest) == 1), np.flatnonzero(np.diff(rest) == -1)):
+            owner[a:b, m] = len(found)
+            found.append(MarkerChange(f"change:{labels[m]}:{a}-{b - 1}", labels[m], int(m), int(a), int(b - 1),
+                                      "change", float("nan"), reason="changed by the cleaning"))
+    used = sorted(set(np.unique(owner[owner >= 0]).tolist()))
+    keep = sorted(used, key=lambda k: (found[k].first, found[k].marker, found[k].kind))
+    remap = np.full(len(found) + 1, -1, dtype=np.int64)
+    remap[keep] = np.arange(len(keep))
+    return [found[k] for k in keep], remap[owner]
+
+
+def changes(original, cleaned, fixes) -> list[MarkerChange]:
+    """Every change of a marker cleaning, by first frame then marker (module docstring).
+
+    ``original``, ``cleaned``: the capture before and after (:class:`MarkerSet`, same labels and frames);
+    ``fixes``: :attr:`MarkerCleanResult.fixes` or a record's fix dicts. Fixes that changed no sample are not listed.
+    """
+    return _owners(original, cleaned, fixes)[0]
+
+
+def accepted_samples(original, cleaned, fixes, decisions: Mapping[str, str]) -> np.ndarray:
+    """(F, M) bool: the samples of the changes ``decisions`` accepts (a change it does not name is accepted).
+
+    Raises ValueError for an id that is not a change of this cleaning or a choice other than accept/reject.
+    """
+    found, owner = _owners(original, cleaned, fixes)
+    ids = {c.id for c in found}
+    unknown = [k for k in decisions if k not in ids]
+    if unknown:
+        raise ValueError(f"{len(unknown)} change id(s) are not changes of this cleaning: "
+                         f"{', '.join(map(repr, unknown[:3]))}{', ...' if len(unknown) > 3 else ''}")
+    bad = {v for v in decisions.values() if v not in (ACCEPT, REJECT)}
+    if bad:
+        raise ValueError(f"a decision is 'accept' or 'reject', got {', '.join(map(repr, sorted(map(str, bad))))}")
+    chosen = [k for k, c in enumerate(found) if decisions.get(c.id, ACCEPT) == ACCEPT]
+    return np.isin(owner, chosen)
+
+
+def apply(original, cleaned, fixes, decisions: Mapping[str, str]):
+    """The input capture with only the accepted changes: a :class:`MarkerSet` like ``original``.
+
+    The samples of accepted changes hold ``cleaned``'s positions, residuals and camera masks; every other
+    sample is ``original``'s, bit for bit.
+    """
+    acc = accepted_samples(original, cleaned, fixes, decisions)
+    pos = np.where(acc[..., None], cleaned.positions, original.positions)
+    res = original.residuals if original.residuals is None else np.where(acc, cleaned.residuals, original.residuals)
+    cams = original.cameras if original.cameras is None else np.where(acc, cleaned.cameras, original.cameras)
+    return dataclasses.replace(original, positions=pos, residuals=res, cameras=cams)
+
+
+def template(original, found: list[MarkerChange], take: str = "", output: str = "",
+             decisions: Mapping[str, str] | None = None) -> dict:
+    """The decisions document for ``found`` (every change "accept" unless ``decisions`` says otherwise)."""
+    from ... import __version__
+
+    chosen = dict(decisions or {})
+    return {"format": FORMAT, "mocapkit": __version__,
+            "take": {"name": take or original.name, "frames": original.num_frames, "markers": original.num_markers,
+                     "sha256": take_digest(original)},
+            "output": output, "decisions": {c.id: chosen.get(c.id, ACCEPT) for c in found}}
+
+
+def check(doc: dict, path, original, cleaned=None, fixes=()) -> dict:
+    """The choices of ``doc`` (:func:`~mocapkit.cleaning.decisions.read_decisions`) checked against this capture
+    (its digest) and, with ``cleaned``, this cleaning (its ids); refused in one line naming ``path``."""
+    chosen = check_decisions(doc, path, original)
+    if cleaned is not None:
+        try:
+            accepted_samples(original, cleaned, fixes, chosen)
+        except ValueError as exc:
+            raise MocapFormatError(path, f"{exc} (decisions made for another cleaning of the capture?)") from None
+    return chosen
+
+
+def review(original, cleaned, fixes, take: str = "", output: str = "", decisions: Mapping[str, str] | None = None,
+           first_frame: int | None = None, flags: list | None = None) -> dict:
+    """What the report's accept/reject list needs (:func:`mocapkit.cleaning.decisions.review`'s form): ``changes``,
+    the ``decisions`` document, ``flags`` (none for a marker capture unless given), ``frames`` and ``item``."""
+    found = changes(original, cleaned, fixes)
+    return {"changes": [c.as_dict() for c in found], "decisions": template(original, found, take, output, decisions),
+            "flags": list(flags or []), "frames": frame_note(take, first_frame), "item": "marker"}
+
+
+# -- the record's cleaned samples --------------------------------------------------------------
+
+
+def record_cells(original, cleaned) -> dict:
+    """The npz members a record keeps so that decisions apply without cleaning again: ``cells`` (F, M) bool
+    (:func:`differs`), ``cell_positions`` (N, 3) float64, ``cell_residuals`` and ``cell_cameras`` (N,) where the
+    capture has them, and ``take_sha256`` (:func:`~mocapkit.cleaning.decisions.take_digest` of ``original``)."""
+    cells = differs(original, cleaned)
+    out = {"cells": cells, "cell_positions": np.asarray(cleaned.positions)[cells],
+           "take_sha256": np.array(take_digest(original))}
+    if cleaned.residuals is not None:
+        out["cell_residuals"] = np.asarray(cleaned.residuals)[cells]
+    if cleaned.cameras is not None:
+        out["cell_cameras"] = np.asarray(cleaned.cameras)[cells]
+    return out
+
+
+def check_record(original, record, path) -> None:
+    """Refuse, in one line naming ``path``, a marker record that is not of ``original`` or keeps no cleaned samples."""
+    if tuple(record.labels) != tuple(original.labels) or record.num_frames != original.num_frames:
+        raise MocapFormatError(path, f"the clean record is of another capture ({record.num_frames} frames, "
+                                     f"{len(record.labels)} markers; this one has {original.num_frames} and "
+                                     f"{original.num_markers})")
+    if record.cells is None:
+        raise MocapFormatError(path, "this record keeps no cleaned samples (written by an earlier mocapkit): "
+                                     "clean the capture again to apply decisions")
+    if record.take_sha256 != take_digest(original):
+        raise MocapFormatError(path, "the clean record is of another capture (the same markers and frames, but "
+                                     "other samples than this one's)")
+
+
+def result_from_record(original, record) -> MarkerCleanResult:
+    """The :class:`MarkerCleanResult` a record (:func:`~mocapkit.cleaning.markers.record.read_marker_record`,
+    checked with :func:`check_record`) keeps for ``original``: the cleaned capture rebuilt from its cells."""
+    if record.cells is None:
+        raise MocapError("the clean record keeps no cleaned samples; clean the capture again")
+    cells = record.cells
+    pos = np.array(original.positions)
+    pos[cells] = record.cell_positions
+    res, cams = original.residuals, original.cameras
+    if res is not None and record.cell_residuals is not None:
+        res = np.array(res)
+        res[cells] = record.cell_residuals
+    if cams is not None and record.cell_cameras is not None:
+        cams = np.array(cams)
+        cams[cells] = record.cell_cameras
+    cleaned = dataclasses.replace(original, positions=pos, residuals=res, cameras=cams)
+    f = original.num_frames
+    return MarkerCleanResult(markers=cleaned, original=original, filled=record.filled, spikes=record.spikes,
+                             swapped=record.swapped, fixes=tuple(_fix(x) for x in record.fixes),
+                             never_seen=record.never_seen, unseen_start=(0, 0), unseen_end=(f, f),
+                             unlabelled=record.unlabelled, unfilled=tuple(_fix(x) for x in record.unfilled),
+                             duplicates=record.duplicates, coincident=tuple(_fix(x) for x in record.coincident),
+                             nobody_seen=record.nobody_seen)

@@ -1,0 +1,115 @@
+"""One marker capture file cleaned: read, cleaned (or its earlier record reused), decided, written.
+
+What ``mocapkit clean`` and :func:`mocapkit.batch.clean_batch` do with a
+marker capture (.c3d, .trc, marker .npz): :func:`clean_marker_file` writes the
+cleaned capture (or, with a decisions file, the input with only the accepted
+changes; in review mode the input unchanged), its ``.clean.npz`` record and
+the reports; :func:`marker_request` is what its record keeps of the options
+it was cleaned with; :func:`refuse_marker_options` refuses the options of
+joint-angle takes.
+"""
+
+from __future__ import annotations
+
+from dataclasses import replace
+from pathlib import Path
+from typing import Sequence
+
+from .errors import MocapError
+
+__all__ = ["clean_marker_file", "marker_request", "refuse_marker_options"]
+
+
+def marker_request(unit: str | None = None, max_gap_s: float | None = None, max_error_mm: float | None = None,
+                   review: bool = False) -> dict:
+    """What a marker capture was asked to be cleaned with, as its record keeps it (``request``): the length unit of a
+    file that states none, the longest gap filled (s) and the largest expected fill error (mm), None for the
+    defaults, and ``review``: whether it was only reviewed (``--steps detect``: nothing changed). :func:`clean_batch` takes a capture as complete only when its record holds the same request, as
+    :func:`clean_request` is for a joint-angle take; a record written before it kept one reads as the defaults."""
+    return {"unit": unit, "max_gap_s": None if max_gap_s is None else float(max_gap_s),
+            "max_error_mm": None if max_error_mm is None else float(max_error_mm), "review": bool(review)}
+
+
+def refuse_marker_options(inp, names: Sequence[str]) -> None:
+    """Refuse, in one line, what a marker capture's cleaning cannot honour: a marker capture is cleaned whole.
+
+    ``names``: the options given that only a joint-angle take's cleaning has (a subset of its steps, a
+    threshold, a context, models); cleaning the capture anyway would not do what its user asked.
+    """
+    if names:
+        raise MocapError(f"{inp}: a marker capture is cleaned whole (label swaps, spikes, gaps): "
+                         f"{', '.join(names)} {'applies' if len(names) == 1 else 'apply'} only to joint-angle takes")
+
+
+def clean_marker_file(inp, out, *, report=None, png=None, overwrite: bool = False, markers=None, steps=None,
+                      unit: str | None = None, max_gap_s: float | None = None, max_error_mm: float | None = None,
+                      decisions=None, record=None, review: bool = False):
+    """Clean the marker capture at ``inp`` (.c3d, .trc, marker .npz) into ``out`` (.c3d, .trc or .npz).
+
+    :func:`mocapkit.cleaning.markers.clean_markers`, then the reports (HTML
+    marker viewer with the accept/reject list, per-marker PNG), ``out`` written like the input
+    (``save_markers(..., like=input)``: a C3D keeps its parameters and
+    analogs) and the ``.clean.npz`` record last. ``max_gap_s``, ``max_error_mm``: as for
+    :func:`~mocapkit.cleaning.markers.clean_markers`. ``decisions``: a decisions file
+    (:mod:`mocapkit.cleaning.markers.decisions`): ``out`` then holds only the changes it accepts, every other
+    sample the input's; ``record``: the ``.clean.npz`` of an earlier run on this capture, reused instead of
+    cleaning again (needs ``decisions``; only ``out`` and the reports are written). ``review``: the review mode
+    (``--steps detect``): the record and reports say what cleaning would change and ``out`` holds the input's
+    samples unchanged. Returns ``(original, result)``: the capture as read and the
+    :class:`~mocapkit.cleaning.markers.MarkerCleanResult` (rebuilt from ``record`` when one is reused).
+    """
+    from .cleaning import decisions as dec
+    from .cleaning.markers import STEPS as MARKER_STEPS
+    from .cleaning.markers import clean_markers
+    from .cleaning.markers import decisions as mdec
+    from .cleaning.markers.record import read_marker_record
+    from .cleaning.pipeline import clean_path
+    from .io import MARKER_FORMATS, load_markers, save_markers, suffix_kind
+    from .io.outputs import check_outputs, file_facts, removed_on_failure
+    from .io.takes import file_first_frame
+
+    inp, out = Path(inp), Path(out)
+    reuse = record is not None
+    if reuse and decisions is None:
+        raise MocapError(f"{record}: an earlier run's record is applied with decisions; give the decisions file")
+    if review and decisions is not None:
+        raise MocapError(f"{inp}: review mode (--steps detect) changes nothing; decisions apply to a cleaning")
+    record = Path(record) if reuse else clean_path(out)
+    outputs = [out, None if reuse else record, report, png]
+    check_outputs(outputs, [inp, decisions, record if reuse else None], overwrite=overwrite)
+    suffix_kind(out, MARKER_FORMATS, "writing markers")
+    doc = dec.read_decisions(decisions) if decisions is not None else None
+    taken = file_facts(inp)
+    ms = markers if markers is not None else load_markers(inp, **({} if unit is None else {"units": unit}))
+    if doc is not None:
+        mdec.check(doc, decisions, ms)  # decisions for another capture: refused before any cleaning
+    if reuse:
+        rec = read_marker_record(record)
+        mdec.check_record(ms, rec, record)  # the record against the capture first, then the decisions against it
+        res = mdec.result_from_record(ms, rec)
+    else:
+        try:
+            res = clean_markers(ms, steps=steps or MARKER_STEPS, max_gap_s=max_gap_s, max_error_mm=max_error_mm)
+        except ValueError as exc:
+            raise MocapError(f"{inp}: {exc}") from None
+    res = replace(res, frames_note=dec.frames_note(inp, ms))  # the summary says how its frames relate to the file's
+    chosen = mdec.check(doc, decisions, ms, res.markers, res.fixes) if doc is not None else None
+    written = ms if review else res.markers if chosen is None else mdec.apply(ms, res.markers, res.fixes, chosen)
+    with removed_on_failure(outputs, overwrite=overwrite, marker=None if reuse else record):
+        if report is not None:
+            from .report.markers import write_marker_report
+
+            what = ("review mode, nothing changed" if review else f"{Path(decisions).name} applied" if doc else "")
+            write_marker_report(report, res, title=f"{inp.name}: cleaned" + (f" ({what})" if what else ""),
+                                review=mdec.review(ms, res.markers, res.fixes, take=inp.name, output=out.name,
+                                                   decisions=chosen, first_frame=file_first_frame(inp, ms)),
+                                review_mode=review)
+        if png is not None:
+            from .report.markers import plot_marker_fixes
+
+            plot_marker_fixes(png, res, title=f"{inp.name}: before (grey) and after")
+        save_markers(written, out, like=ms)
+        if not reuse:  # last: the completion marker
+            res.save(record, written={"input": taken, "output": file_facts(out)},
+                     request=marker_request(unit, max_gap_s, max_error_mm, review))
+    return ms, res

@@ -1,0 +1,161 @@
+"""``mocapkit clean IN.c3d -o OUT.c3d --decisions D.json`` and ``--steps detect`` on a real marker capture.
+
+CMU 85_02 (41 markers, 120 Hz; tests/data, from the shared data's c3d_markers_recovery) cut to 600 frames, with a
+60 mm one-sample spike on LKNE, a 40-frame gap on LANK and LTOE/RTHI swapped for 40 frames, put in by hand.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from mocapkit.cleaning.markers import decisions as md
+from mocapkit.cleaning.markers.record import read_marker_record
+from mocapkit.io import load_markers, save_markers
+
+from .helpers import one_error_line, run
+
+CMU = Path(__file__).resolve().parents[1] / "data" / "85_02.c3d"
+CHROMIUM = os.environ.get("MOCAPKIT_CHROMIUM", "/usr/bin/chromium")
+
+
+@pytest.fixture(scope="module")
+def capture(tmp_path_factory):
+    """(folder, input, plain clean's output, its record): the capture with its errors, cleaned once with a report."""
+    d = tmp_path_factory.mktemp("mdec")
+    ms = load_markers(CMU)[:600]
+    p = np.array(ms.positions)
+    p[200, 5] += [60.0, 0.0, 0.0]                       # Male:LKNE: a spike
+    p[300:340, 7] = np.nan                              # Male:LANK: a gap
+    a = p[400:440, 10].copy()                           # Male:LTOE and Male:RTHI: a swap
+    p[400:440, 10], p[400:440, 11] = p[400:440, 11], a
+    inp = d / "in.c3d"
+    save_markers(ms.with_positions(p), inp)
+    out = d / "out.c3d"
+    code, stdout, stderr = run("clean", inp, "-o", out, "--report", d / "out.html")
+    assert code == 0, stderr + stdout
+    return d, inp, out, d / "out.clean.npz"
+
+
+def _same(a, b, cells=None) -> bool:
+    """Positions (NaN-aware), residuals and camera masks of two captures equal (only at ``cells`` (F, M) if given)."""
+    sel = np.ones(a.positions.shape[:2], bool) if cells is None else cells
+    pa, pb = a.positions[sel], b.positions[sel]
+    return (np.array_equal(pa, pb, equal_nan=True) and np.array_equal(a.residuals[sel], b.residuals[sel])
+            and np.array_equal(a.cameras[sel], b.cameras[sel]))
+
+
+def _decide(folder: Path, inp: Path, choices: dict, name: str = "d.json") -> Path:
+    ms = load_markers(inp)
+    res = md.result_from_record(ms, read_marker_record(folder / "out.clean.npz"))
+    doc = md.template(ms, md.changes(ms, res.markers, res.fixes), inp.name, "out.c3d", choices)
+    path = folder / name
+    path.write_text(json.dumps(doc))
+    return path
+
+
+def test_each_fix_is_a_change_with_a_stable_id(capture):
+    d, inp, out, record = capture
+    ms = load_markers(inp)
+    res = md.result_from_record(ms, read_marker_record(record))
+    ids = [c.id for c in md.changes(ms, res.markers, res.fixes)]
+    assert ids == ["spike:Male:LKNE:200-200", "gap:Male:LANK:300-339", "swap:Male:LTOE:400-439"]
+
+
+@pytest.mark.parametrize("reject", ["spike:Male:LKNE:200-200", "gap:Male:LANK:300-339", "swap:Male:LTOE:400-439"])
+def test_a_rejected_change_gets_the_input_back_and_only_there(capture, tmp_path, reject):
+    d, inp, out, _ = capture
+    dec = _decide(d, inp, {reject: "reject"}, f"{reject.split(':')[0]}.json")
+    got = tmp_path / "decided.c3d"
+    code, stdout, stderr = run("clean", inp, "-o", got, "--decisions", dec, "--record", d / "out.clean.npz")
+    assert code == 0, stderr + stdout
+    assert f"rejected {reject}" in stdout
+    a, b, c = load_markers(inp), load_markers(out), load_markers(got)
+    kind, marker, frames = reject.split(":", 1)[0], reject.rsplit(":", 1)[0].split(":", 1)[1], reject.rsplit(":", 1)[1]
+    first, last = map(int, frames.split("-"))
+    undone = np.zeros(a.positions.shape[:2], bool)
+    cols = [a.labels.index(marker)] + ([a.labels.index("Male:RTHI")] if kind == "swap" else [])
+    undone[first:last + 1, cols] = True
+    assert _same(c, a, undone) and _same(c, b, ~undone)  # the input's samples there (missing: residual -1), clean's elsewhere
+    assert not _same(a, b, undone)
+
+
+def test_reject_all_gives_the_input_and_accept_all_plain_clean(capture, tmp_path):
+    d, inp, out, _ = capture
+    names = ["spike:Male:LKNE:200-200", "gap:Male:LANK:300-339", "swap:Male:LTOE:400-439"]
+    none = _decide(d, inp, {k: "reject" for k in names}, "none.json")
+    every = _decide(d, inp, {}, "all.json")
+    for dec, want in ((none, inp), (every, out)):
+        got = tmp_path / f"{dec.stem}.c3d"
+        code, stdout, stderr = run("clean", inp, "-o", got, "--decisions", dec)  # no record: cleaned again
+        assert code == 0, stderr + stdout
+        assert _same(load_markers(got), load_markers(want))
+
+
+@pytest.mark.parametrize("case", ["other capture", "truncated", "unknown id"])
+def test_bad_decisions_are_refused_in_one_line_and_nothing_is_written(capture, tmp_path, case):
+    d, inp, out, record = capture
+    dec = json.loads(_decide(d, inp, {}, "ok.json").read_text())
+    bad = tmp_path / "bad.json"
+    if case == "other capture":
+        dec["take"]["sha256"] = md.template(load_markers(CMU), [])["take"]["sha256"]
+        bad.write_text(json.dumps(dec))
+    elif case == "truncated":
+        bad.write_text(json.dumps(dec)[:-40])
+    else:
+        dec["decisions"]["spike:Male:LKNE:201-201"] = "reject"
+        bad.write_text(json.dumps(dec))
+    code, stdout, stderr = run("clean", inp, "-o", tmp_path / "x.c3d", "--decisions", bad, "--record", record)
+    assert code == 2 and one_error_line(stderr) and str(bad) in stderr, stderr + stdout
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["bad.json"]
+
+
+def test_review_mode_names_the_changes_and_writes_the_capture_unchanged(capture, tmp_path):
+    d, inp, out, _ = capture
+    got = tmp_path / "review.c3d"
+    code, stdout, stderr = run("clean", inp, "-o", got, "--steps", "detect", "--report", tmp_path / "r.html")
+    assert code == 0, stderr + stdout
+    assert "review mode (--steps detect): the capture unchanged" in stdout
+    assert "swap  Male:LTOE" in stdout and "spike Male:LKNE" in stdout and "gap   Male:LANK" in stdout
+    assert _same(load_markers(got), load_markers(inp))
+    page = (tmp_path / "r.html").read_text()
+    assert "review mode (--steps detect)" in page and "swap:Male:LTOE:400-439" in page
+
+
+def test_reject_one_change_in_the_report_download_and_apply(capture, tmp_path):
+    sync_api = pytest.importorskip("playwright.sync_api")
+    if not os.access(CHROMIUM, os.X_OK):
+        pytest.skip(f"no Chromium executable at {CHROMIUM}")
+    d, inp, out, record = capture
+    with sync_api.sync_playwright() as p:
+        browser = p.chromium.launch(executable_path=CHROMIUM, args=["--headless", "--no-sandbox", "--disable-gpu"])
+        try:
+            page = browser.new_context(accept_downloads=True).new_page()
+            errors = []
+            page.on("pageerror", lambda e: errors.append(str(e)))
+            page.goto((d / "out.html").as_uri())
+            assert page.evaluate("window.mocapkitReview.changes()") == [
+                "spike:Male:LKNE:200-200", "gap:Male:LANK:300-339", "swap:Male:LTOE:400-439"]
+            page.uncheck("tr[data-change='gap:Male:LANK:300-339'] input.accept")
+            page.click("tr[data-change='gap:Male:LANK:300-339'] button.jump")
+            assert page.evaluate("window.markerReport.frame()") == 300
+            with page.expect_download() as info:
+                page.click("#download-decisions")
+            path = tmp_path / info.value.suggested_filename
+            info.value.save_as(path)
+            assert not errors, errors
+        finally:
+            browser.close()
+    assert path.name == "in.decisions.json"
+    got = tmp_path / "decided.c3d"
+    code, stdout, stderr = run("clean", inp, "-o", got, "--decisions", path, "--record", record)
+    assert code == 0, stderr + stdout
+    a, b, c = load_markers(inp), load_markers(out), load_markers(got)
+    undone = np.zeros(a.positions.shape[:2], bool)
+    undone[300:340, a.labels.index("Male:LANK")] = True
+    assert _same(c, a, undone) and _same(c, b, ~undone)
+    assert np.isnan(c.positions[300:340, a.labels.index("Male:LANK")]).all()
