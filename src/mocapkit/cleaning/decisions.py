@@ -39,6 +39,7 @@ Small JSON, written by the report's "download decisions" button
     {"format": "mocapkit.decisions/1", "mocapkit": "0.4.0",
      "take": {"name": "walk.amc", "frames": 523, "joints": 31, "sha256": "..."},
      "output": "walk_clean.bvh",
+     "cleaning": {"sha256": "...", "changes": 4, "request": {...}, "record": "walk_clean.clean.npz"},
      "decisions": {"repair:lfemur:120-145": "reject", ...}}
 
 ``take.sha256`` is :func:`take_digest` of the input take: decisions made for
@@ -51,6 +52,16 @@ is not a change of this cleaning is refused. Every refusal is one line naming
 the file (:class:`~mocapkit.errors.MocapFormatError`). A record written before
 the digest was kept is still applied (decisions downloaded from its report keep
 working after an upgrade), checked by rig, length and rate only.
+
+``cleaning`` (:func:`cleaning_stamp`) is :func:`cleaning_digest` of the cleaning
+the person reviewed, with the options it was asked for and its record's path:
+the same ids can name other values (the take cleaned again with another
+context), so the decisions apply only to a cleaning with that digest
+(:func:`check_cleaning`, :func:`check_request` before a new cleaning). A file
+without it (an earlier mocapkit's, or written by hand) is applied to a record
+on its ids, and refused for a new cleaning. A key said twice is refused (JSON
+would keep the last); a file with ``cleaning`` names every change
+(:func:`check_named`).
 
 Examples
 --------
