@@ -191,6 +191,9 @@ def clean_file(
     io.check_writable(m, out)
     if doc is not None:
         dec.check_decisions(doc, decisions, m)  # decisions for another take: refused before any cleaning
+        if not reuse:  # ... and those made on a cleaning with other options (its values are not this one's)
+            dec.check_request(doc, decisions, clean_request(steps, threshold, drifts, context, models, noise_deg,
+                                                            amc_fps, unit))
     if reuse:
         res = CleanResult.load(record)
         dec.check_record(m, res, record)  # the record against the take first, then the decisions against the record
@@ -226,7 +229,7 @@ def clean_file(
     chosen = None
     if doc is not None:
         try:
-            chosen = dec.check_decisions(doc, decisions, m, res)
+            chosen = dec.check_decisions(doc, decisions, m, res, record=record if reuse else None, fresh=not reuse)
             cleaned = dec.apply(m, res, chosen)
         except MocapFormatError:
             raise
@@ -249,7 +252,7 @@ def clean_file(
             write_report(report, m, cleaned, mdm=res.mdm, flags=res.flags, changed=changed, analysed=res.analysed,
                          title=f"{inp.name}: cleaned" + (f" ({Path(decisions).name} applied)" if doc else ""),
                          review=dec.review(m, res, take=inp.name, output=out.name, decisions=chosen,
-                                           first_frame=file_first_frame(inp)))
+                                           first_frame=file_first_frame(inp), record=record))
         if png is not None:
             from .report.summary import plot_summary
 

@@ -309,3 +309,94 @@ def test_a_record_of_another_take_of_the_same_length_and_rig_is_refused(result, 
     # a record written before the digest was kept: checked by rig, length and rate only (docs/upgrading.md)
     old = dataclasses.replace(rec, take_sha256="")
     assert D.record_problem(other, old) == "" and [c.id for c in D.changes(old, take)] == [c.id for c in found]
+
+
+# ---- which cleaning a decisions file was made on (trial 24) ----------------------------------------------------
+
+
+def _other_values(result):
+    """``result`` with one cleaned rotation of one changed cell moved by one bit: the same ids, another cleaning."""
+    rot = np.array(result.motion.rotations)
+    f, j = np.argwhere(result.changed & np.isfinite(rot[..., 0]))[0]
+    rot[f, j, 1] = np.nextafter(rot[f, j, 1], 2.0)
+    return dataclasses.replace(result, motion=dataclasses.replace(result.motion, rotations=rot))
+
+
+def test_decisions_apply_only_to_the_cleaning_they_were_made_on(result, take, found, tmp_path):
+    """The report's file keeps the digest of the cleaning reviewed: the same ids with other values (another
+    context, another threshold) are refused, whether from a record or a new cleaning; before, they were applied."""
+    doc = D.template(take, found, decisions={found[0].id: D.REJECT}, result=result, record="walk.clean.npz")
+    assert doc["cleaning"]["sha256"] == D.cleaning_digest(result) and doc["cleaning"]["record"] == "walk.clean.npz"
+    path = _write(tmp_path / "d.json", doc)
+    doc = D.read_decisions(path)
+    for fresh in (False, True):  # the cleaning reviewed itself, as a record or cleaned again: applied
+        assert D.check_decisions(doc, path, take, result, fresh=fresh) == {**doc["decisions"]}
+    other = _other_values(result)
+    assert [c.id for c in D.changes(other, take)] == [c.id for c in found]  # the ids alone cannot tell
+    with pytest.raises(MocapFormatError, match=r"made on another cleaning than the record r\.clean\.npz .*"
+                                               r"--record walk\.clean\.npz") as err:
+        D.check_decisions(doc, path, take, other, record="r.clean.npz")
+    assert str(err.value).startswith(str(path)) and "\n" not in str(err.value)
+    asked = {**result.params, "request": {"context": "default", "threshold": 0.5}}
+    again = dataclasses.replace(result, params={**asked, "request": {"context": ["ctx"], "threshold": 0.5}})
+    reviewed = D.template(take, found, result=dataclasses.replace(result, params=asked), record="walk.clean.npz")
+    with pytest.raises(MocapFormatError, match=r"reviewed with context default \(now ctx\); apply them to the reviewed "
+                                               r"values: --record walk\.clean\.npz, or clean with the same options"):
+        D.check_decisions(reviewed, path, take, again, fresh=True)
+    with pytest.raises(MocapFormatError, match=r"reviewed with context default \(now ctx\)"):
+        D.check_request(reviewed, path, again.params["request"])  # refused before cleaning
+    D.check_request(reviewed, path, asked["request"])
+
+
+def test_a_file_without_the_digest_is_taken_on_its_ids_for_a_record_and_refused_for_a_new_cleaning(result, take, found,
+                                                                                                      tmp_path):
+    doc = D.template(take, found, decisions={found[0].id: D.REJECT})  # as an earlier mocapkit wrote it
+    assert "cleaning" not in doc
+    path = _write(tmp_path / "old.json", doc)
+    assert D.check_decisions(D.read_decisions(path), path, take, _other_values(result))[found[0].id] == D.REJECT
+    assert any("keeps no digest" in n for n in D.applying_notes(doc, path, result))
+    with pytest.raises(MocapFormatError, match="keeps no digest of the cleaning it was made on .* --record"):
+        D.check_decisions(D.read_decisions(path), path, take, result, fresh=True)
+
+
+def test_a_change_said_twice_is_refused_not_read_as_its_last_choice(take, found, tmp_path):
+    doc = D.template(take, found)
+    text = json.dumps(doc)
+    cid = found[0].id
+    twice = text.replace(f'"{cid}": "accept"', f'"{cid}": "reject", "{cid}": "accept"')
+    path = tmp_path / "twice.json"
+    path.write_text(twice, encoding="utf-8")
+    with pytest.raises(MocapFormatError, match=f"change '{re.escape(cid)}' is named twice") as err:
+        D.read_decisions(path)
+    assert str(err.value).startswith(str(path)) and "\n" not in str(err.value)
+    bom = tmp_path / "bom.json"
+    bom.write_bytes(b"\xef\xbb\xbf" + text.encode())  # a Windows editor's UTF-8
+    assert D.read_decisions(bom)["decisions"] == doc["decisions"]
+
+
+def test_a_report_file_missing_a_change_is_refused_a_hand_written_one_says_what_it_accepted(result, take, found,
+                                                                                              tmp_path):
+    doc = D.template(take, found, result=result)
+    del doc["decisions"][found[1].id]
+    path = _write(tmp_path / "cut.json", doc)
+    with pytest.raises(MocapFormatError, match=f"names {len(found) - 1} of the {len(found)} changes .*"
+                                               f"'{re.escape(found[1].id)}'"):
+        D.check_decisions(D.read_decisions(path), path, take, result)
+    hand = {k: v for k, v in doc.items() if k != "cleaning"}
+    hand["decisions"] = {found[0].id: D.REJECT}
+    path = _write(tmp_path / "hand.json", hand)
+    assert D.check_decisions(D.read_decisions(path), path, take, result) == {found[0].id: D.REJECT}
+    assert f"{path} names 1 of {len(found)} changes: the {len(found) - 1} it does not name were accepted" in \
+        D.applying_notes(hand, path, result)
+
+
+def test_as_written_keeps_a_record_it_made_bit_for_bit(result, take):
+    """An AMC bone with fewer dofs: as_written of a record as_written made gives its values back bit for bit (the
+    arccos of the dot read 1e-16 as 1e-6 deg and replaced them), so the record's digest is the report's."""
+    from mocapkit.io.asfamc import amc_dofs, amc_held_rotations
+
+    dofs = amc_dofs(take.skeleton)
+    held = D.as_written(result, take, lambda m: amc_held_rotations(m, dofs))
+    twice = D.as_written(held, take, lambda m: amc_held_rotations(m, dofs))
+    assert _same_bits(twice.motion.rotations, held.motion.rotations)
+    assert D.cleaning_digest(twice) == D.cleaning_digest(held)

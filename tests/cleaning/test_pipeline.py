@@ -107,6 +107,21 @@ def test_save_load_round_trip(cleaned, tmp_path):
         CleanResult.load(tmp_path / "other.npz")
 
 
+def test_a_missing_record_or_a_mask_file_is_said_as_what_it_is(tmp_path):
+    """`clean --record` given a path that is not there, or corrupt's mask file: "no such file", and what the npz
+    lacks (before: "not a mocapkit clean file (... [Errno 2] ...)" and a bare KeyError, "('meta')")."""
+    from mocapkit.errors import MissingFileError
+    from mocapkit.io.masks import write_mask
+
+    with pytest.raises(MissingFileError, match=r"nope\.clean\.npz: no such file$"):
+        CleanResult.load(tmp_path / "nope.clean.npz")
+    mask = write_mask(tmp_path / "bad.mask.npz", np.zeros((4, 2), bool), ["a", "b"], kind="gaps", seed=1)
+    with pytest.raises(MocapFormatError, match=r"bad\.mask\.npz: not a mocapkit clean file: it holds no 'meta' "
+                                               r"\(it is a mask file.*give the \.clean\.npz") as err:
+        CleanResult.load(mask)
+    assert "\n" not in str(err.value)
+
+
 def test_clean_path():
     assert clean_path("a/walk.bvh").as_posix() == "a/walk.clean.npz"
     assert clean_path("walk.npz").name == "walk.clean.npz"

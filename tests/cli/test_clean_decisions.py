@@ -275,3 +275,84 @@ def test_an_amc_output_reports_and_records_what_the_file_holds(tmp_path, capsys,
         assert main(["clean", str(inp), "-o", str(again), "--decisions", str(tmp_path / "d.json"),
                      "--record", str(tmp_path / "out.clean.npz")]) == 0
         assert again.read_bytes() == want.read_bytes()
+
+
+# ---- decisions apply to the values reviewed, and say what they did (trial 24) --------------------------------------
+
+
+def test_a_new_cleaning_with_other_options_is_refused_naming_the_record(cleaned, tmp_path, capsys):
+    """The page's decisions applied without --record to a cleaning with other options: refused before cleaning,
+    naming the options and the record to pass. Before, the take was cleaned again, the ids matched, and values
+    nobody reviewed were written."""
+    d, inp = cleaned
+    dec, ids = _decide(cleaned, tmp_path)
+    out = tmp_path / "o.npz"
+    assert main(["clean", str(inp), "-o", str(out), "--decisions", str(dec), "--threshold", "0.45"]) == 2
+    err = capsys.readouterr().err
+    assert one_error_line(err) and err.startswith(f"mocapkit: error: {dec}: made on another cleaning"), err
+    assert "reviewed with threshold 0.5 (now 0.45)" in err and f"--record {d / 'walk.clean.npz'}" in err
+    assert not out.exists() and not (tmp_path / "o.clean.npz").exists()
+
+
+def test_a_file_without_the_digest_applies_to_a_record_with_notes_and_not_to_a_new_cleaning(cleaned, tmp_path,
+                                                                                               capsys):
+    """A hand-written file naming some changes: applied to the record, saying it was taken on its ids and how many
+    unnamed changes were accepted; refused for a new cleaning (nothing tells it is the one reviewed)."""
+    d, inp = cleaned
+    dec, ids = _decide(cleaned, tmp_path)
+    doc = json.loads(dec.read_text())
+    del doc["cleaning"]
+    doc["decisions"] = {ids[0]: D.REJECT}
+    dec.write_text(json.dumps(doc))
+    out = tmp_path / "o.npz"
+    rc = main(["clean", str(inp), "-o", str(out), "--decisions", str(dec), "--record", str(d / "walk.clean.npz")])
+    text = capsys.readouterr().out
+    assert rc == 0, text
+    assert f"note: {dec} keeps no digest of the cleaning it was made on" in text
+    assert f"note: {dec} names 1 of {len(ids)} changes: the {len(ids) - 1} it does not name were accepted" in text
+    _check_output(out, inp, d / "walk.clean.npz", {ids[0]: D.REJECT})
+    assert main(["clean", str(inp), "-o", str(tmp_path / "p.npz"), "--decisions", str(dec)]) == 2
+    err = capsys.readouterr().err
+    assert one_error_line(err) and "keeps no digest of the cleaning it was made on" in err and "--record" in err
+    assert not (tmp_path / "p.npz").exists()
+
+
+def test_decisions_naming_changes_with_a_review_mode_record_say_it_holds_none(cleaned, tmp_path, capsys):
+    d, inp = cleaned
+    dec, ids = _decide(cleaned, tmp_path)
+    assert main(["clean", str(inp), "-o", str(tmp_path / "review.npz"), "--steps", "detect"]) == 0
+    record = tmp_path / "review.clean.npz"
+    capsys.readouterr()
+    assert main(["clean", str(inp), "-o", str(tmp_path / "o.npz"), "--decisions", str(dec), "--record",
+                 str(record)]) == 2
+    err = capsys.readouterr().err
+    assert one_error_line(err) and f"{record}: the clean record is from review mode (--steps detect) and holds no " \
+                                   f"changes, while {dec.name} names {len(ids)}" in err, err
+
+
+def test_a_missing_record_or_a_mask_file_as_record_says_what_it_is(cleaned, tmp_path, capsys):
+    d, inp = cleaned
+    dec, _ = _decide(cleaned, tmp_path)
+    out = tmp_path / "o.npz"
+    assert main(["clean", str(inp), "-o", str(out), "--decisions", str(dec), "--record", str(tmp_path / "no.npz")]) == 2
+    err = capsys.readouterr().err
+    assert one_error_line(err) and f"{tmp_path / 'no.npz'}: no such file" in err and "Errno" not in err, err
+    mask = tmp_path / "walk_bad.mask.npz"
+    from mocapkit.io.masks import write_mask
+
+    write_mask(mask, np.zeros((4, 2), bool), ["a", "b"], kind="gaps", seed=1)
+    assert main(["clean", str(inp), "-o", str(out), "--decisions", str(dec), "--record", str(mask)]) == 2
+    err = capsys.readouterr().err
+    assert one_error_line(err) and "holds no 'meta'" in err and "mask file" in err, err
+    assert not out.exists()
+
+
+def test_a_decisions_file_naming_a_change_twice_is_refused(cleaned, tmp_path, capsys):
+    d, inp = cleaned
+    dec, ids = _decide(cleaned, tmp_path)
+    text = dec.read_text().replace(f'"{ids[0]}": "reject"', f'"{ids[0]}": "reject", "{ids[0]}": "accept"')
+    dec.write_text(text)
+    out = tmp_path / "o.npz"
+    assert main(["clean", str(inp), "-o", str(out), "--decisions", str(dec), "--record", str(d / "walk.clean.npz")]) == 2
+    err = capsys.readouterr().err
+    assert one_error_line(err) and f"change '{ids[0]}' is named twice" in err and not out.exists()

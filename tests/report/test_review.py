@@ -235,3 +235,52 @@ def test_jump_lands_on_each_change_and_flag_of_a_long_take(browser, tmp_path):
         assert pg.evaluate("() => window.mocapkitReport.frame()") == f["first"]
     ctx.close()
     assert errors == []
+
+
+def test_decisions_from_a_cleaning_with_a_context_apply_to_its_values_only(browser, tmp_path, capsys):
+    """Trial 24: reviewed a cleaning with --context, rejected one change, applied as the page said without
+    --record: the take was cleaned again with the default context, the ids matched, and every accepted cell got
+    values nobody saw. Now the page names the record, the file keeps the digest of the cleaning reviewed, and
+    applying without the record is refused; with it OUT holds exactly the reviewed values."""
+    take = mocapkit.load(samples.path("12_walk.amc"))
+    bad, _, _ = corrupt.real_errors(take, n_errors=4, seed=11)
+    inp, ctx = tmp_path / "walk_bad.npz", tmp_path / "ctx"
+    ctx.mkdir()
+    mocapkit.save(bad, inp)
+    mocapkit.save(take, ctx / "walk_ref.npz")
+    record = tmp_path / "walk.clean.npz"
+    assert main(["clean", str(inp), "-o", str(tmp_path / "walk.npz"), "--report", str(tmp_path / "walk.html"),
+                 "--context", str(ctx)]) == 0
+    bctx = browser.new_context(accept_downloads=True, viewport={"width": 1280, "height": 900})
+    pg = bctx.new_page()
+    errors = []
+    pg.on("pageerror", lambda e: errors.append(str(e)))
+    pg.goto((tmp_path / "walk.html").resolve().as_uri())
+    pg.wait_for_function("() => window.mocapkitReport && window.mocapkitReview && window.mocapkitReport.drawCount() > 0",
+                         timeout=60000)
+    assert f"--decisions walk_bad.decisions.json --record {record}" in pg.inner_text("#apply-command")
+    ids = pg.evaluate("() => window.mocapkitReview.changes()")
+    rejected = ids[0]
+    pg.locator(f'#changes tr[data-change="{rejected}"] input.accept').uncheck()
+    with pg.expect_download() as info:
+        pg.click("#download-decisions")
+    path = tmp_path / info.value.suggested_filename
+    info.value.save_as(path)
+    bctx.close()
+    assert errors == []
+    capsys.readouterr()
+
+    out = tmp_path / "final.npz"
+    assert main(["clean", str(inp), "-o", str(out), "--decisions", str(path)]) == 2  # as the page said before
+    err = capsys.readouterr().err
+    assert f"{path}: made on another cleaning than this new one: reviewed with context {ctx.resolve()} (now " \
+           f"default)" in err and f"--record {record}" in err and len(err.strip().splitlines()) == 1, err
+    assert not out.exists() and not (tmp_path / "final.clean.npz").exists()
+
+    assert main(["clean", str(inp), "-o", str(out), "--decisions", str(path), "--record", str(record)]) == 0
+    res, got = CleanResult.load(record), mocapkit.load(out)
+    acc = D.accepted_cells(res, {rejected: D.REJECT})
+    assert acc.sum() == res.changed.sum() - next(c for c in D.changes(res, bad) if c.id == rejected).frames
+    want = np.array(bad.rotations)
+    want[acc] = res.samples["rotations"][acc[res.changed]]  # the values the report showed, bit for bit
+    assert np.ascontiguousarray(got.rotations).tobytes() == want.tobytes()

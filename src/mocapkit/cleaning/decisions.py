@@ -39,6 +39,7 @@ Small JSON, written by the report's "download decisions" button
     {"format": "mocapkit.decisions/1", "mocapkit": "0.4.0",
      "take": {"name": "walk.amc", "frames": 523, "joints": 31, "sha256": "..."},
      "output": "walk_clean.bvh",
+     "cleaning": {"sha256": "...", "changes": 4, "request": {...}, "record": "walk_clean.clean.npz"},
      "decisions": {"repair:lfemur:120-145": "reject", ...}}
 
 ``take.sha256`` is :func:`take_digest` of the input take: decisions made for
@@ -51,6 +52,16 @@ is not a change of this cleaning is refused. Every refusal is one line naming
 the file (:class:`~mocapkit.errors.MocapFormatError`). A record written before
 the digest was kept is still applied (decisions downloaded from its report keep
 working after an upgrade), checked by rig, length and rate only.
+
+``cleaning`` (:func:`cleaning_stamp`) is :func:`cleaning_digest` of the cleaning
+the person reviewed, with the options it was asked for and its record's path:
+the same ids can name other values (the take cleaned again with another
+context), so the decisions apply only to a cleaning with that digest
+(:func:`check_cleaning`, :func:`check_request` before a new cleaning). A file
+without it (an earlier mocapkit's, or written by hand) is applied to a record
+on its ids, and refused for a new cleaning. A key said twice is refused (JSON
+would keep the last); a file with ``cleaning`` names every change
+(:func:`check_named`).
 
 Examples
 --------
@@ -86,7 +97,8 @@ from .ssa.cues import cause_names
 
 __all__ = ["FORMAT", "ACCEPT", "REJECT", "Change", "changes", "apply", "take_digest", "template", "read_decisions",
            "check_decisions", "check_record", "record_problem", "as_written", "accepted_cells", "flag_segments",
-           "frame_note", "frames_note", "review"]
+           "frame_note", "frames_note", "review", "cleaning_digest", "cleaning_stamp", "check_cleaning", "check_named",
+           "unnamed_changes", "applying_notes", "request_difference", "check_request", "DuplicateKeyError"]
 
 FORMAT = "mocapkit.decisions/1"
 ACCEPT, REJECT = "accept", "reject"
@@ -232,7 +244,7 @@ def as_written(result, original: Motion, held):
     rot = np.array(original.rotations)
     rot[cells] = vals["rotations"]
     new = np.asarray(held(dataclasses.replace(original, rotations=rot)))[cells]
-    kept = ~(_angles_deg(vals["rotations"], new) > HELD_TOLERANCE_DEG)  # NaN (a missing value): kept
+    kept = ~(_chord_angles_deg(vals["rotations"], new) > HELD_TOLERANCE_DEG)  # NaN (a missing value): kept
     new = np.where(kept[:, None], vals["rotations"], new)
     out = result
     if result.samples is not None:
@@ -260,6 +272,18 @@ def _angles_deg(q0: np.ndarray, q1: np.ndarray) -> np.ndarray:
     dot = np.abs(np.sum(q0 * q1, axis=-1))
     with np.errstate(invalid="ignore"):
         return np.degrees(2.0 * np.arccos(np.clip(dot, 0.0, 1.0)))
+
+
+def _chord_angles_deg(q0: np.ndarray, q1: np.ndarray) -> np.ndarray:
+    """Geodesic angle (degrees) between unit quaternions (..., 4) from their chord; NaN where either is missing.
+
+    Exact near 0, where the arccos of the dot (:func:`_angles_deg`) reads a rounding error of 1e-16 as 1e-6 deg:
+    :func:`as_written` applied to a record it made keeps its values bit for bit, so the record's
+    :func:`cleaning_digest` is the one the report showed.
+    """
+    chord = np.minimum(np.linalg.norm(q0 - q1, axis=-1), np.linalg.norm(q0 + q1, axis=-1))
+    with np.errstate(invalid="ignore"):
+        return np.degrees(4.0 * np.arcsin(np.clip(chord / 2.0, 0.0, 1.0)))
 
 
 def _reason(result, step_code: int, j: int, a: int, b: int, missing: np.ndarray) -> str:
@@ -403,20 +427,59 @@ def take_digest(motion: Motion) -> str:
     return h.hexdigest()
 
 
+def cleaning_digest(result) -> str:
+    """SHA-256 (hex) of what a person reviews of a cleaning: which cells each step changed, their cleaned values and
+    the options that shaped them (``params["request"]``, :func:`mocapkit.batch.clean_request`; None for a
+    cleaning made in Python).
+
+    The change ids alone do not tell two cleanings apart: a take cleaned again with another context or threshold
+    can give the same ids and other values. Decisions are applied only to the cleaning with this digest
+    (:func:`check_cleaning`): the record the report was made from, or a new cleaning that gives the very same
+    values (cleaning is deterministic).
+    """
+    h = hashlib.sha256()
+    h.update(json.dumps([list(result.joint_names), list(result.changed.shape), result.params.get("request")],
+                        sort_keys=True, default=str).encode())
+    for mask in (result.filled, result.repaired, result.denoised):
+        h.update(np.packbits(np.asarray(mask, dtype=bool)).tobytes())
+    if result.changed.any():
+        vals = _cleaned(result)
+        for key in ("rotations", "root", "translations"):
+            if key in vals:
+                a = np.ascontiguousarray(vals[key], dtype="<f8")
+                h.update(key.encode() + np.where(np.isnan(a), np.nan, a).tobytes())  # one bit pattern for every NaN
+    return h.hexdigest()
+
+
+def cleaning_stamp(result, record="") -> dict:
+    """The ``"cleaning"`` entry of a decisions document: the :func:`cleaning_digest` of the cleaning reviewed, its
+    number of changes, the options it was asked for (``request``) and the ``record`` it was written to ("" where
+    none was), so that a refusal can say what to pass."""
+    return {"sha256": cleaning_digest(result), "changes": len(_runs(result)),
+            "request": result.params.get("request"), "record": str(record) if record else ""}
+
+
 def template(original: Motion, found: list[Change], take: str = "", output: str = "",
-             decisions: Mapping[str, str] | None = None) -> dict:
-    """The decisions document for ``found`` (every change "accept" unless ``decisions`` says otherwise)."""
+             decisions: Mapping[str, str] | None = None, result=None, record="") -> dict:
+    """The decisions document for ``found`` (every change "accept" unless ``decisions`` says otherwise).
+
+    With ``result`` (the clean record ``found`` lists) it keeps :func:`cleaning_stamp` as ``"cleaning"``
+    (``record``: where that record was written): the decisions then apply to that cleaning only.
+    """
     from .. import __version__
 
     chosen = dict(decisions or {})
-    return {
+    doc = {
         "format": FORMAT,
         "mocapkit": __version__,
         "take": {"name": take or original.name, "frames": original.num_frames, "joints": original.num_joints,
                  "sha256": take_digest(original)},
         "output": output,
-        "decisions": {c.id: chosen.get(c.id, ACCEPT) for c in found},
     }
+    if result is not None:
+        doc["cleaning"] = cleaning_stamp(result, record)
+    doc["decisions"] = {c.id: chosen.get(c.id, ACCEPT) for c in found}
+    return doc
 
 
 def read_decisions(path) -> dict:
@@ -429,7 +492,9 @@ def read_decisions(path) -> dict:
     try:
         if path.stat().st_size > MAX_FILE_BYTES:
             raise MocapFormatError(path, f"over {MAX_FILE_BYTES >> 20} MB; not a mocapkit decisions file")
-        doc = json.loads(path.read_text(encoding="utf-8"))
+        doc = json.loads(path.read_text(encoding="utf-8-sig"), object_pairs_hook=_unique_keys)  # a BOM is fine
+    except DuplicateKeyError as exc:
+        raise MocapFormatError(path, f"{exc}: JSON would keep only the last, so say each once") from None
     except FileNotFoundError:
         raise MissingFileError(path) from None
     except IsADirectoryError:
@@ -451,16 +516,42 @@ def read_decisions(path) -> dict:
     bad = [k for k, v in dec.items() if v not in (ACCEPT, REJECT)]
     if bad:
         raise MocapFormatError(path, f"change {bad[0]!r}: {dec[bad[0]]!r}; a decision is \"accept\" or \"reject\"")
+    stamp = doc.get("cleaning")
+    if stamp is not None and (not isinstance(stamp, dict) or not isinstance(stamp.get("sha256"), str)):
+        raise MocapFormatError(path, "\"cleaning\" must hold the \"sha256\" of the cleaning the decisions were made on")
     return doc
 
 
-def check_decisions(doc: dict, path, original: Motion, result=None) -> dict:
+class DuplicateKeyError(ValueError):
+    """A JSON object naming one key twice (:func:`read_decisions` refuses it: ``json`` keeps only the last)."""
+
+
+def _unique_keys(pairs: list) -> dict:
+    """``object_pairs_hook`` for :func:`json.loads`: the object, or :class:`DuplicateKeyError` for a key said twice.
+
+    A hand-edited file naming a change ``"reject"`` and then again ``"accept"`` would otherwise be read as an
+    accept, silently.
+    """
+    out = {}
+    for key, value in pairs:
+        if key in out:
+            what = "change" if value in (ACCEPT, REJECT) else "key"
+            raise DuplicateKeyError(f"{what} {key!r} is named twice")
+        out[key] = value
+    return out
+
+
+def check_decisions(doc: dict, path, original: Motion, result=None, record=None, fresh: bool = False) -> dict:
     """The choices of ``doc`` (from :func:`read_decisions`) after checking they fit this take and this record.
 
     Refused, in one line naming ``path``: decisions for another take (its
-    digest differs from :func:`take_digest` of ``original``), or an id that is
-    not a change of ``result``. With ``result`` None only the take is checked
-    (before a cleaning, so that decisions for another take are refused first).
+    digest differs from :func:`take_digest` of ``original``), decisions made on
+    another cleaning than ``result`` (:func:`check_cleaning`; ``record``: the
+    path ``result`` was read from, ``fresh``: ``result`` is a new cleaning), an
+    id that is not a change of ``result``, or a file made by the report that
+    leaves a change unnamed (:func:`check_named`). With ``result`` None only the
+    take is checked (before a cleaning, so that decisions for another take are
+    refused first).
     """
     take = doc["take"]
     if take["sha256"] != take_digest(original):
@@ -469,11 +560,145 @@ def check_decisions(doc: dict, path, original: Motion, result=None) -> dict:
                                f"({original.num_frames} frames): its samples differ")
     if result is None:
         return dict(doc["decisions"])
+    check_cleaning(doc, path, result, record, fresh)
     try:
         accepted_cells(result, doc["decisions"])
     except ValueError as exc:
         raise MocapFormatError(path, f"{exc} (decisions made for another cleaning of the take?)") from None
+    check_named(doc, path, result)
     return dict(doc["decisions"])
+
+
+def _is_review_mode(result) -> bool:
+    """Whether ``result`` is of ``--steps detect`` (review mode): detection ran and no step that changes cells."""
+    return bool(result.steps) and all(s.name == "detect" for s in result.steps)
+
+
+def check_cleaning(doc: dict, path, result, record=None, fresh: bool = False) -> None:
+    """Refuse, in one line, decisions that would be applied to values the person did not review.
+
+    A record that holds no changes (review mode, ``--steps detect``) while ``doc`` names some is refused naming
+    the record. A ``doc`` keeping the :func:`cleaning_digest` of the cleaning it was made on (``"cleaning"``,
+    written by the report) applies only to a cleaning with that digest: another record, or a new cleaning made
+    with other options (another ``--context``, ``--threshold``, ...), gives other values under the same ids. A
+    ``doc`` without it (an earlier mocapkit's, or written by hand) is taken on its ids for a record (``record``),
+    and refused for a new cleaning (``fresh``): nothing tells that cleaning is the one reviewed.
+    """
+    _check_has_changes(doc, path, result, record)
+    stamp = doc.get("cleaning")
+    if stamp is None:
+        if fresh:
+            _check_stamped(doc, path)
+        return
+    if stamp["sha256"] == cleaning_digest(result):
+        return
+    want = _record_wanted(stamp)
+    if not fresh:
+        where = f"the record {record}" if record is not None else "this clean record"
+        raise MocapFormatError(path, f"made on another cleaning than {where} (its changes or cleaned values differ); "
+                                     f"give the record of the cleaning reviewed: {want}")
+    diff = request_difference(stamp.get("request"), result.params.get("request"))
+    diff = diff or "its changes or cleaned values differ"
+    raise MocapFormatError(path, f"made on another cleaning than this new one: {diff}; apply them to the reviewed "
+                                 f"values: {want}, or clean with the same options")
+
+
+def _check_stamped(doc: dict, path) -> None:
+    """Refuse, for a new cleaning, a ``doc`` that keeps no digest of the cleaning it was made on."""
+    if doc.get("cleaning") is None:
+        raise MocapFormatError(path, "keeps no digest of the cleaning it was made on (an earlier mocapkit's file, or "
+                                     "one written by hand): a new cleaning may differ from the one reviewed; give "
+                                     "that cleaning's record with --record")
+
+
+def _check_has_changes(doc: dict, path, result, record=None) -> None:
+    """Refuse decisions naming changes for a cleaning that made none, saying why it made none where it is review
+    mode (``--steps detect``, which only flags): naming the record ``record`` where one was given, else ``path``."""
+    named = doc["decisions"]
+    if not named or result.changed.any():
+        return
+    mode = "is from review mode (--steps detect) and " if _is_review_mode(result) else ""
+    if record is not None:
+        raise MocapFormatError(record, f"the clean record {mode}holds no changes, while {Path(path).name} names "
+                                       f"{len(named)}; give the record of the cleaning the decisions were made on")
+    raise MocapFormatError(path, f"names {len(named)} change(s), and this cleaning {mode}changed nothing; give the "
+                                 "record of the cleaning the decisions were made on (--record)")
+
+
+def check_request(doc: dict, path, request: dict) -> None:
+    """Refuse, before a new cleaning, decisions it cannot be the reviewed cleaning for: a file that keeps no digest
+    of its cleaning (:func:`check_cleaning` would refuse it after cleaning), or one made on a cleaning asked for
+    with other options than ``request`` (:func:`mocapkit.batch.clean_request`; its digest, which keeps the options,
+    cannot match). A cleaning with a context can take minutes: the line comes first. One line naming ``path``, the
+    options that differ and the record to pass instead."""
+    stamp = doc.get("cleaning")
+    if stamp is None:
+        _check_stamped(doc, path)
+        return
+    diff = request_difference(stamp.get("request"), request)
+    if diff:
+        raise MocapFormatError(path, f"made on another cleaning than this new one: {diff}; apply them to the "
+                                     f"reviewed values: {_record_wanted(stamp)}, or clean with the same options")
+
+
+def _record_wanted(stamp: dict) -> str:
+    """What to pass to apply decisions to the cleaning reviewed: ``--record`` and the record it was written to."""
+    reviewed = stamp.get("record") if isinstance(stamp.get("record"), str) else ""
+    return f"--record {reviewed}" if reviewed else "--record with the record written beside the reviewed output"
+
+
+def request_difference(was, now) -> str:
+    """How the options of two cleanings differ, in words ("context [...] (now 'default'), threshold 0.5 (now
+    0.4)"); "" where they are the same or either is not known (None: a cleaning made in Python)."""
+    if not isinstance(was, dict) or not isinstance(now, dict):
+        return ""
+    keys = [k for k in list(was) + [k for k in now if k not in was] if was.get(k) != now.get(k)]
+    return ", ".join(f"reviewed with {k} {_said(was.get(k))} (now {_said(now.get(k))})" for k in keys)
+
+
+def _said(value) -> str:
+    """An option's value as a person reads it: a list joined, a string as is."""
+    if isinstance(value, (list, tuple)):
+        return ", ".join(map(str, value)) or "none"
+    return str(value)
+
+
+def unnamed_changes(doc: dict, result) -> list[str]:
+    """The ids of the changes of ``result`` that ``doc`` does not name (accepted when applied, unless refused)."""
+    named = doc["decisions"]
+    return [cid for cid in (_change_id(result, *r) for r in _runs(result)) if cid not in named]
+
+
+def check_named(doc: dict, path, result) -> None:
+    """Refuse, naming ``path``, a file made by the report (one keeping ``"cleaning"``) that leaves changes unnamed.
+
+    The report names every change; one missing was taken out by hand, and applying it would accept a change nobody
+    reviewed. A file without ``"cleaning"`` (written by hand) may name only some: the others are accepted, and
+    :func:`applying_notes` says how many.
+    """
+    if "cleaning" not in doc:
+        return
+    left = unnamed_changes(doc, result)
+    if left:
+        raise MocapFormatError(path, f"names {len(doc['decisions'])} of the {len(left) + len(doc['decisions'])} changes "
+                                     f"it was made for; {len(left)} not named ({left[0]!r}"
+                                     f"{', ...' if len(left) > 1 else ''}): say \"accept\" or \"reject\" for each")
+
+
+def applying_notes(doc: dict, path, result) -> list[str]:
+    """What a person applying ``doc`` (read from ``path``) to the record ``result`` should know, one line each: a
+    file that keeps no digest of its cleaning (taken on its ids), and the changes it does not name (accepted)."""
+    out = []
+    if "cleaning" not in doc:
+        out.append(f"{path} keeps no digest of the cleaning it was made on (an earlier mocapkit's file, or written "
+                   "by hand): it was applied to the record as its change ids match; make sure that record is the one "
+                   "reviewed")
+    left = unnamed_changes(doc, result)
+    if left:
+        total = len(_runs(result))
+        out.append(f"{path} names {total - len(left)} of {total} changes: the {len(left)} it does not name "
+                   f"{'was' if len(left) == 1 else 'were'} accepted")
+    return out
 
 
 def flag_segments(result) -> list[dict]:
@@ -530,14 +755,16 @@ def frames_note(path=None, take=None) -> str:
 
 
 def review(original: Motion, result, take: str = "", output: str = "", decisions: Mapping[str, str] | None = None,
-           first_frame: int | None = None) -> dict:
+           first_frame: int | None = None, record="") -> dict:
     """What the HTML report needs to let a person decide: ``{"changes": [...], "decisions": document, "flags": [...],
     "frames": note}``.
 
     ``changes``: :meth:`Change.as_dict` of :func:`changes`; ``decisions``: :func:`template`
-    with the choices of ``decisions`` (every other change accepted); ``flags``: :func:`flag_segments`;
+    with the choices of ``decisions`` (every other change accepted) and the stamp of this cleaning, ``record`` the
+    path its record was written to (the page tells the reviewer to pass it); ``flags``: :func:`flag_segments`;
     ``frames``: :func:`frame_note` for the input file ``take`` whose first frame is numbered ``first_frame``.
     """
     found = changes(result, original)
-    return {"changes": [c.as_dict() for c in found], "decisions": template(original, found, take, output, decisions),
+    return {"changes": [c.as_dict() for c in found],
+            "decisions": template(original, found, take, output, decisions, result=result, record=record),
             "flags": flag_segments(result), "frames": frame_note(take, first_frame)}

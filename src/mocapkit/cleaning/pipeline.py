@@ -123,7 +123,7 @@ from typing import Mapping, Sequence
 import numpy as np
 
 from .. import rotations as R
-from ..errors import MocapError, MocapFormatError
+from ..errors import MissingFileError, MocapError, MocapFormatError
 from ..motion import Motion, frozen
 from .calibration import CalibrationPose, calibration_poses
 from .noise_scope import with_body_noise
@@ -362,6 +362,8 @@ class CleanResult:
         from ..io.npz import load_arrays
 
         path = Path(path)
+        if not path.exists():  # said as such, not as a file that is no record
+            raise MissingFileError(path)
         try:
             data = load_arrays(path)  # declared shapes checked before anything is inflated
             meta = json.loads(str(data["meta"]))
@@ -390,7 +392,10 @@ class CleanResult:
                 zero_runs=tuple(ZeroRun(**z) for z in meta.get("zero_runs", [])),
                 stutters=tuple(Stutter(**z) for z in meta.get("stutters", [])),
             )
-        except (OSError, ValueError, KeyError, TypeError) as e:
+        except KeyError as e:  # an npz of another kind: say what it lacks, not a bare KeyError
+            raise MocapFormatError(path, f"not a mocapkit clean file: it holds no {e.args[0]!r}"
+                                         f"{record_kind_hint(path)}") from None
+        except (OSError, ValueError, TypeError) as e:
             raise MocapFormatError(path, f"not a mocapkit clean file ({e})") from None
         shape = (res.num_frames, len(res.joint_names))
         arrays = ((res.mdm, res.flags, res.repaired, res.denoised, res.noise) + (() if res.causes is None else (res.causes,))
@@ -403,6 +408,21 @@ class CleanResult:
                                         or any(v.shape != want[n] for n, v in res.samples.items())):
             raise MocapFormatError(path, f"not a mocapkit clean file (the cleaned samples are not {k} changed cells)")
         return res
+
+
+def record_kind_hint(path) -> str:
+    """What else an npz that is no clean record is, in words for a refusal (", ... (a .mask.npz ...)"), or ""."""
+    from ..io.npz import load_arrays
+
+    try:
+        names = set(load_arrays(path))
+    except (MocapFormatError, OSError):
+        return ""
+    if {"mask", "kind"} <= names and "meta" not in names:
+        return " (it is a mask file, the ground truth `mocapkit corrupt` writes: give the .clean.npz `clean` wrote)"
+    if "kind" in names and "meta" not in names:
+        return " (it is a marker capture's record: give a joint-angle take's .clean.npz)"
+    return ""
 
 
 #: lines of one kind (runs written as 0, stutters) the summary names before it counts the rest

@@ -197,16 +197,19 @@ def _print_decided(inp, out, decisions, record, report, png, original, res):
     from ..cleaning import decisions as dec
     from ..cleaning.pipeline import clean_path
 
-    choice = dec.read_decisions(decisions)["decisions"]
+    doc = dec.read_decisions(decisions)
+    choice = doc["decisions"]
     found = dec.changes(res, original)
     rejected = [c for c in found if choice.get(c.id) == dec.REJECT]
     cells = dec.accepted_cells(res, choice)
     written = [out] + ([clean_path(out)] if record is None else []) + [p for p in (report, png) if p is not None]
-    src = f"the record {record} (nothing cleaned again)" if record is not None else "a new cleaning"
+    src = f"the record {record} (nothing cleaned again)" if record is not None else "a new cleaning (its values the ones reviewed)"
     console.print(f"wrote {' and '.join(map(str, written))}: {decisions} applied to {src}: "
                   f"{len(found) - len(rejected)} of {plural(len(found), 'change')} accepted, {len(rejected)} rejected; "
                   f"{plural(int(cells.sum()), 'joint sample')} of {res.changed.size} changed, every other sample is "
                   f"{inp.name}'s")
+    for note in dec.applying_notes(doc, decisions, res):  # a file taken on its ids; the changes it does not name
+        console.print(f"note: {note}")
     if record is not None and not res.take_sha256:
         console.print(f"note: {record} was written by an earlier mocapkit and keeps no digest of its take: it was "
                       "checked by rig, length and rate only; make sure it is this take's")

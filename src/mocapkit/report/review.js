@@ -4,7 +4,8 @@
  * decisions document); absent, it does nothing. Each change has accept/reject (default accept)
  * and a link that moves the viewer to its first frame and selects its joint. The "Download
  * decisions" button saves the decisions document (a Blob download, no server) for
- * `mocapkit clean IN -o OUT --decisions FILE.json`.
+ * `mocapkit clean IN -o OUT --decisions FILE.json --record RECORD` (RECORD: the record this cleaning wrote,
+ * doc.cleaning.record).
  */
 (function () {
   "use strict";
@@ -28,9 +29,11 @@
   var frameNote = R.frames ? " " + R.frames.charAt(0).toUpperCase() + R.frames.slice(1) + "." : "";
   var count = null;
   if (list.length) {
-    el("p", { "class": "note", text: "Every change the cleaning made, one " + item + " over a run of frames. Accept or " +
-      "reject each one, then download the decisions and run: mocapkit clean " + (doc.take.name || "IN") +
-      " -o OUT --decisions " + fileName() + " (rejected changes get the input's samples back exactly)." + frameNote }, sec);
+    el("p", { "class": "note", id: "apply-command", text: "Every change the cleaning made, one " + item + " over a run of " +
+      "frames. Accept or reject each one, then download the decisions and run: mocapkit clean " +
+      shellWord(doc.take.name || "IN") + " -o OUT --decisions " + fileName() + " --record " + recordName() +
+      " (the record of the cleaning shown here: the accepted changes get exactly the values reviewed, rejected " +
+      "changes the input's samples back)." + frameNote }, sec);
     var bar = el("div", { "class": "toolbar" }, sec);
     var allAcc = el("button", { type: "button", id: "accept-all", text: "Accept all" }, bar);
     var allRej = el("button", { type: "button", id: "reject-all", text: "Reject all" }, bar);
@@ -163,6 +166,16 @@
     nav.accept.addEventListener("change", function () { if (current >= 0) set(current, nav.accept.checked); });
     showCurrent();  // before any jump, "next" shows the first change
   })();
+  // the record the decisions apply to: the one this cleaning wrote (the decisions keep its digest, and
+  // `clean --decisions` refuses any other cleaning, a new one with other options included)
+  function recordName() {
+    var rec = doc.cleaning && doc.cleaning.record;
+    return rec ? shellWord(rec) : "RECORD.clean.npz";
+  }
+  function shellWord(s) {
+    s = String(s);
+    return /^[A-Za-z0-9._\/:=+-]+$/.test(s) ? s : "'" + s.replace(/'/g, "'\\''") + "'";
+  }
   function fileName() {
     var stem = String(doc.take.name || "take").replace(/\.[^.\/]*$/, "").replace(/[^A-Za-z0-9._-]+/g, "_");
     return stem + ".decisions.json";
