@@ -93,7 +93,9 @@ def clean_marker_file(inp, out, *, report=None, png=None, overwrite: bool = Fals
         except ValueError as exc:
             raise MocapError(f"{inp}: {exc}") from None
     res = replace(res, frames_note=dec.frames_note(inp, ms))  # the summary says how its frames relate to the file's
-    chosen = mdec.check(doc, decisions, ms, res.markers, res.fixes) if doc is not None else None
+    request = marker_request(unit, max_gap_s, max_error_mm, review)
+    chosen = (mdec.check(doc, decisions, ms, res.markers, res.fixes, request=request, fresh=not reuse)
+              if doc is not None else None)
     written = ms if review else res.markers if chosen is None else mdec.apply(ms, res.markers, res.fixes, chosen)
     with removed_on_failure(outputs, overwrite=overwrite, marker=None if reuse else record):
         if report is not None:
@@ -102,7 +104,8 @@ def clean_marker_file(inp, out, *, report=None, png=None, overwrite: bool = Fals
             what = ("review mode, nothing changed" if review else f"{Path(decisions).name} applied" if doc else "")
             write_marker_report(report, res, title=f"{inp.name}: cleaned" + (f" ({what})" if what else ""),
                                 review=mdec.review(ms, res.markers, res.fixes, take=inp.name, output=out.name,
-                                                   decisions=chosen, first_frame=file_first_frame(inp, ms)),
+                                                   decisions=chosen, first_frame=file_first_frame(inp, ms),
+                                                   request=request, record=record),
                                 review_mode=review)
         if png is not None:
             from .report.markers import plot_marker_fixes
@@ -111,5 +114,5 @@ def clean_marker_file(inp, out, *, report=None, png=None, overwrite: bool = Fals
         save_markers(written, out, like=ms)
         if not reuse:  # last: the completion marker
             res.save(record, written={"input": taken, "output": file_facts(out)},
-                     request=marker_request(unit, max_gap_s, max_error_mm, review))
+                     request=request)
     return ms, res

@@ -49,10 +49,13 @@ def _same(a, b, cells=None) -> bool:
             and np.array_equal(a.cameras[sel], b.cameras[sel]))
 
 
-def _decide(folder: Path, inp: Path, choices: dict, name: str = "d.json") -> Path:
+def _decide(folder: Path, inp: Path, choices: dict, name: str = "d.json", stamped: bool = True) -> Path:
+    """A decisions file as the report downloads it (``stamped``: keeping the digest of the cleaning reviewed) or as
+    a person writes one by hand (not stamped)."""
     ms = load_markers(inp)
     res = md.result_from_record(ms, read_marker_record(folder / "out.clean.npz"))
-    doc = md.template(ms, md.changes(ms, res.markers, res.fixes), inp.name, "out.c3d", choices)
+    doc = md.template(ms, md.changes(ms, res.markers, res.fixes), inp.name, "out.c3d", choices,
+                      cleaned=res.markers if stamped else None, record=folder / "out.clean.npz")
     path = folder / name
     path.write_text(json.dumps(doc))
     return path
@@ -94,6 +97,29 @@ def test_reject_all_gives_the_input_and_accept_all_plain_clean(capture, tmp_path
         code, stdout, stderr = run("clean", inp, "-o", got, "--decisions", dec)  # no record: cleaned again
         assert code == 0, stderr + stdout
         assert _same(load_markers(got), load_markers(want))
+
+
+def test_decisions_apply_only_to_the_cleaning_reviewed(capture, tmp_path):
+    """A file made by the report keeps the digest of the samples reviewed: a new cleaning with other options (a
+    shorter --max-gap leaves the gap unfilled) gives other samples and is refused, naming the record to pass;
+    a hand-written file (no digest) is refused for a new cleaning and taken on its ids with --record; a report's
+    file with a change taken out is refused (nobody reviewed the change left out)."""
+    d, inp, out, record = capture
+    dec = _decide(d, inp, {"spike:Male:LKNE:200-200": "reject"})
+    got = tmp_path / "x.c3d"
+    code, _, stderr = run("clean", inp, "-o", got, "--decisions", dec, "--max-gap", "0.1")
+    assert code != 0 and "another cleaning" in stderr and f"--record {record}" in stderr and not got.exists()
+    hand = _decide(d, inp, {"spike:Male:LKNE:200-200": "reject"}, "hand.json", stamped=False)
+    code, _, stderr = run("clean", inp, "-o", got, "--decisions", hand)
+    assert code != 0 and "no digest" in stderr and len(stderr.strip().splitlines()) == 1 and not got.exists()
+    code, _, stderr = run("clean", inp, "-o", got, "--decisions", hand, "--record", record)
+    assert code == 0, stderr
+    doc = json.loads(dec.read_text())
+    del doc["decisions"]["gap:Male:LANK:300-339"]
+    cut = tmp_path / "cut.json"
+    cut.write_text(json.dumps(doc))
+    code, _, stderr = run("clean", inp, "-o", tmp_path / "y.c3d", "--decisions", cut, "--record", record)
+    assert code != 0 and "not named" in stderr
 
 
 @pytest.mark.parametrize("case", ["other capture", "truncated", "unknown id"])

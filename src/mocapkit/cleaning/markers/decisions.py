@@ -34,6 +34,8 @@ input back; accepting every change gives the cleaned capture.
 from __future__ import annotations
 
 import dataclasses
+import hashlib
+import json
 import math
 from dataclasses import dataclass
 from typing import Mapping
@@ -41,11 +43,11 @@ from typing import Mapping
 import numpy as np
 
 from ...errors import MocapError, MocapFormatError
-from ..decisions import ACCEPT, FORMAT, REJECT, check_decisions, frame_note, take_digest
+from ..decisions import ACCEPT, FORMAT, REJECT, check_decisions, frame_note, request_difference, take_digest
 from .clean import MarkerCleanResult, MarkerFix
 
-__all__ = ["MarkerChange", "differs", "changes", "accepted_samples", "apply", "template", "check", "review",
-           "record_cells", "result_from_record", "check_record"]
+__all__ = ["MarkerChange", "differs", "changes", "accepted_samples", "apply", "cleaning_digest", "template", "check",
+           "review", "record_cells", "result_from_record", "check_record"]
 
 _ORDER = ("duplicate", "spike", "gap", "swap")  # who owns a sample two fixes touched
 
@@ -177,36 +179,94 @@ def apply(original, cleaned, fixes, decisions: Mapping[str, str]):
     return dataclasses.replace(original, positions=pos, residuals=res, cameras=cams)
 
 
+def cleaning_digest(original, cleaned) -> str:
+    """SHA-256 (hex) of what a person reviews of a marker cleaning: which samples it changed (:func:`differs`) and
+    their cleaned positions, residuals and camera masks.
+
+    The change ids alone do not tell two cleanings apart: the capture cleaned again with another ``--max-gap`` or
+    ``--max-fill-error`` can give the same ids and other fills. Decisions keep this digest (:func:`template`) and
+    apply only to a cleaning with it (:func:`check`): the record the report was made from, or a new cleaning
+    giving the very same samples (cleaning is deterministic).
+    """
+    cells = differs(original, cleaned)
+    h = hashlib.sha256(json.dumps([list(original.labels), list(cells.shape)]).encode())
+    h.update(np.packbits(cells).tobytes())
+    for name, a in (("positions", cleaned.positions), ("residuals", cleaned.residuals),
+                    ("cameras", cleaned.cameras)):
+        if a is not None:
+            v = np.ascontiguousarray(np.asarray(a)[cells], dtype="<f8")
+            h.update(name.encode() + np.where(np.isnan(v), np.nan, v).tobytes())  # one bit pattern for every NaN
+    return h.hexdigest()
+
+
 def template(original, found: list[MarkerChange], take: str = "", output: str = "",
-             decisions: Mapping[str, str] | None = None) -> dict:
-    """The decisions document for ``found`` (every change "accept" unless ``decisions`` says otherwise)."""
+             decisions: Mapping[str, str] | None = None, cleaned=None, request=None, record="") -> dict:
+    """The decisions document for ``found`` (every change "accept" unless ``decisions`` says otherwise).
+
+    With ``cleaned`` (the capture ``found`` lists the changes of) it keeps ``"cleaning"``: the
+    :func:`cleaning_digest`, the number of changes, the options asked for (``request``) and the ``record`` it was
+    written to, so that the decisions apply to that cleaning only and a refusal can say what to pass.
+    """
     from ... import __version__
 
     chosen = dict(decisions or {})
-    return {"format": FORMAT, "mocapkit": __version__,
-            "take": {"name": take or original.name, "frames": original.num_frames, "markers": original.num_markers,
-                     "sha256": take_digest(original)},
-            "output": output, "decisions": {c.id: chosen.get(c.id, ACCEPT) for c in found}}
-
-
-def check(doc: dict, path, original, cleaned=None, fixes=()) -> dict:
-    """The choices of ``doc`` (:func:`~mocapkit.cleaning.decisions.read_decisions`) checked against this capture
-    (its digest) and, with ``cleaned``, this cleaning (its ids); refused in one line naming ``path``."""
-    chosen = check_decisions(doc, path, original)
+    doc = {"format": FORMAT, "mocapkit": __version__,
+           "take": {"name": take or original.name, "frames": original.num_frames, "markers": original.num_markers,
+                    "sha256": take_digest(original)},
+           "output": output}
     if cleaned is not None:
-        try:
-            accepted_samples(original, cleaned, fixes, chosen)
-        except ValueError as exc:
-            raise MocapFormatError(path, f"{exc} (decisions made for another cleaning of the capture?)") from None
+        doc["cleaning"] = {"sha256": cleaning_digest(original, cleaned), "changes": len(found), "request": request,
+                           "record": str(record) if record else ""}
+    doc["decisions"] = {c.id: chosen.get(c.id, ACCEPT) for c in found}
+    return doc
+
+
+def check(doc: dict, path, original, cleaned=None, fixes=(), *, request=None, fresh: bool = False) -> dict:
+    """The choices of ``doc`` (:func:`~mocapkit.cleaning.decisions.read_decisions`) checked against this capture
+    (its digest) and, with ``cleaned``, this cleaning; refused in one line naming ``path``.
+
+    Against a cleaning: every id must be one of its changes; a ``doc`` keeping ``"cleaning"`` (made by the report)
+    applies only to a cleaning with that :func:`cleaning_digest` and must name every change (one left out was
+    taken out by hand: nobody reviewed it); a ``doc`` without it (written by hand) is refused for a new cleaning
+    (``fresh``; ``request``: its options, named in the refusal) and taken on its ids for a record.
+    """
+    chosen = check_decisions(doc, path, original)
+    if cleaned is None:
+        return chosen
+    stamp = doc.get("cleaning")
+    if stamp is not None and stamp.get("sha256") != cleaning_digest(original, cleaned):
+        rec = stamp.get("record") if isinstance(stamp.get("record"), str) else ""
+        want = f"--record {rec}" if rec else "--record with the record written beside the reviewed output"
+        diff = request_difference(stamp.get("request"), request) if fresh else ""
+        raise MocapFormatError(path, f"made on another cleaning than {'this new one' if fresh else 'this record'}: "
+                                     f"{diff or 'its changed samples differ'}; apply them to the reviewed samples: "
+                                     f"{want}")
+    try:
+        accepted_samples(original, cleaned, fixes, chosen)
+    except ValueError as exc:
+        raise MocapFormatError(path, f"{exc} (decisions made for another cleaning of the capture?)") from None
+    if stamp is None:
+        if fresh:
+            raise MocapFormatError(path, "keeps no digest of the cleaning it was made on (written by hand?): a new "
+                                         "cleaning may differ from the one reviewed; give that cleaning's record "
+                                         "with --record")
+        return chosen
+    left = [c.id for c in changes(original, cleaned, fixes) if c.id not in chosen]
+    if left:
+        raise MocapFormatError(path, f"names {len(chosen)} of the {len(chosen) + len(left)} changes it was made for; "
+                                     f"{len(left)} not named ({left[0]!r}...): a change nobody reviewed is not applied")
     return chosen
 
 
 def review(original, cleaned, fixes, take: str = "", output: str = "", decisions: Mapping[str, str] | None = None,
-           first_frame: int | None = None, flags: list | None = None) -> dict:
+           first_frame: int | None = None, flags: list | None = None, request=None, record="") -> dict:
     """What the report's accept/reject list needs (:func:`mocapkit.cleaning.decisions.review`'s form): ``changes``,
-    the ``decisions`` document, ``flags`` (none for a marker capture unless given), ``frames`` and ``item``."""
+    the ``decisions`` document (stamped with this cleaning, ``request`` its options and ``record`` where its record
+    was written: :func:`template`), ``flags`` (none for a marker capture unless given), ``frames`` and ``item``."""
     found = changes(original, cleaned, fixes)
-    return {"changes": [c.as_dict() for c in found], "decisions": template(original, found, take, output, decisions),
+    return {"changes": [c.as_dict() for c in found],
+            "decisions": template(original, found, take, output, decisions, cleaned=cleaned, request=request,
+                                  record=record),
             "flags": list(flags or []), "frames": frame_note(take, first_frame), "item": "marker"}
 
 
