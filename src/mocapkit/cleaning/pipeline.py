@@ -198,7 +198,7 @@ class CleanResult:
     "translations": (K, 3)]}`` with K = ``changed.sum()`` in row-major cell
     order and K0 the frames whose root cell changed, so that
     :mod:`mocapkit.cleaning.decisions` can apply a person's choices exactly.
-    ``causes``: uint8 (F, J), which of detect's rules flagged each cell (bits of
+    ``causes``: (F, J) :data:`~mocapkit.cleaning.ssa.cues.CAUSE_DTYPE`, which of detect's rules flagged each cell (bits of
     :data:`~mocapkit.cleaning.ssa.cues.CAUSES`, 0 where not flagged; None when
     detect did not run or for a record written without them).
     ``take_sha256``: :func:`mocapkit.cleaning.decisions.take_digest` of the take
@@ -311,7 +311,9 @@ class CleanResult:
                            cleaned_root=self.motion.root_positions[cells[:, 0]])
             if self.motion.translations is not None:
                 samples["cleaned_translations"] = self.motion.translations[cells]
-        causes = {} if self.causes is None else {"causes": np.asarray(self.causes, dtype=np.uint8)}
+        from .ssa.cues import CAUSE_DTYPE
+
+        causes = {} if self.causes is None else {"causes": np.asarray(self.causes, dtype=CAUSE_DTYPE)}
         if self.zeros is not None:
             causes["zeros"] = np.asarray(self.zeros, dtype=bool)
         with atomic_write(path, "wb") as fh:
@@ -360,6 +362,7 @@ class CleanResult:
     def load(cls, path, motion: Motion | None = None) -> "CleanResult":
         """Read a file written by :meth:`save`; ``motion`` (e.g. the cleaned output) is attached as is."""
         from ..io.npz import load_arrays
+        from .ssa.cues import CAUSE_DTYPE
 
         path = Path(path)
         if not path.exists():  # said as such, not as a file that is no record
@@ -385,7 +388,7 @@ class CleanResult:
                 samples={k[len("cleaned_"):]: data[k].astype(np.float64) for k in
                          ("cleaned_rotations", "cleaned_root", "cleaned_translations") if k in data} or None,
                 calibration=tuple(CalibrationPose(**c) for c in meta.get("calibration", [])),
-                causes=data["causes"].astype(np.uint8) if "causes" in data else None,
+                causes=data["causes"].astype(CAUSE_DTYPE) if "causes" in data else None,
                 take_sha256=str(meta.get("take_sha256") or ""),
                 left_out=None if meta.get("left_out") is None else tuple((str(n), str(w)) for n, w in meta["left_out"]),
                 zeros=data["zeros"].astype(bool) if "zeros" in data else None,

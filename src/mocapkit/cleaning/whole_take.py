@@ -378,10 +378,10 @@ def with_teleports(flags: np.ndarray, causes: np.ndarray | None, teleported: np.
     a person can reject; the inputs as they are when there is none."""
     if not teleported.any():
         return flags, causes
-    from .ssa.cues import CAUSES
+    from .ssa.cues import CAUSE_DTYPE, CAUSES
 
-    causes = np.zeros(flags.shape, dtype=np.uint8) if causes is None else np.array(causes)
-    causes[teleported] |= np.uint8(1 << [k for k, _ in CAUSES].index("teleport"))
+    causes = np.zeros(flags.shape, dtype=CAUSE_DTYPE) if causes is None else np.array(causes, dtype=CAUSE_DTYPE)
+    causes[teleported] |= CAUSE_DTYPE(1 << [k for k, _ in CAUSES].index("teleport"))
     return flags | teleported, causes
 
 

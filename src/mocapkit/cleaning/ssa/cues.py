@@ -32,6 +32,7 @@ __all__ = [
     "offsets_from_residuals",
     "confirm_flags",
     "CAUSES",
+    "CAUSE_DTYPE",
     "flag_causes",
     "cause_names",
     "flag_rule",
@@ -718,28 +719,35 @@ CAUSES = (
     ("digression", "a digression over the threshold"),
     ("teleport", "the root's path jumps away and back (wrong root samples, put back on the path)"),
     ("spike", "a spike far past the joint's own motion, where no similar motion judges it"),
+    ("reversed", "a stretch played backwards (time-reversed), not a left/right swap"),
 )
+#: the integer type of :func:`flag_causes` (one bit per entry of :data:`CAUSES`)
+CAUSE_DTYPE = np.uint16
 
 
 def flag_causes(mdm, jumps, holds, swaps, offsets, threshold: float, fps: float, confirm: bool, margin_s,
-                drifts=None, spikes=None, judged=None, lone=None) -> np.ndarray:
-    """(F, J) uint8: which rules flag each cell, one bit per entry of :data:`CAUSES` (0: not flagged).
+                drifts=None, spikes=None, judged=None, lone=None, reversed_=None) -> np.ndarray:
+    """(F, J) :data:`CAUSE_DTYPE`: which rules flag each cell, one bit per entry of :data:`CAUSES` (0: not flagged).
 
     The arguments are :func:`flag_rule`'s, whose flags are exactly the cells with a bit set: with
     ``confirm``, digressions confirmed by a break (:func:`confirm_flags`), holds, swaps, transient offsets
     and smooth drifts (``drifts``, bool (F, J) or None: none) and the :func:`lone_spikes` (``lone``, bool
     (F, J) or None: none); without, ``mdm > threshold`` alone (the "digression" bit). A cell two rules flag
-    has both bits, so a report can say why each change was made.
+    has both bits, so a report can say why each change was made. ``reversed_`` (F, J) bool or None: the swap
+    cells whose run plays better backwards (:func:`~mocapkit.cleaning.ssa.reversals.reversed_runs`), named
+    ``reversed`` instead of ``swap`` (the same cells flagged).
     """
-    bit = {name: np.uint8(1 << i) for i, (name, _) in enumerate(CAUSES)}
+    bit = {name: CAUSE_DTYPE(1 << i) for i, (name, _) in enumerate(CAUSES)}
     mdm = np.asarray(mdm)
-    out = np.zeros(mdm.shape, dtype=np.uint8)
+    out = np.zeros(mdm.shape, dtype=CAUSE_DTYPE)
     if not confirm:
         out[mdm > threshold] = bit["digression"]
         return out
     breaks = jumps if judged is None else np.asarray(jumps, dtype=bool) & np.asarray(judged, dtype=bool)
+    swaps = np.asarray(swaps, dtype=bool)
+    back = np.zeros_like(swaps) if reversed_ is None else swaps & np.asarray(reversed_, dtype=bool)
     rules = [("break", confirm_flags(mdm, breaks, threshold, fps, margin_s, spikes=spikes)), ("held", holds),
-             ("swap", swaps), ("offset", offsets)] + ([] if drifts is None else [("drift", drifts)]) + (
+             ("swap", swaps & ~back), ("reversed", back), ("offset", offsets)] + ([] if drifts is None else [("drift", drifts)]) + (
                  [] if lone is None else [("spike", lone)])
     for name, cells in rules:
         out[np.asarray(cells, dtype=bool)] |= bit[name]
@@ -748,12 +756,12 @@ def flag_causes(mdm, jumps, holds, swaps, offsets, threshold: float, fps: float,
 
 def cause_names(causes) -> list[str]:
     """The words of :data:`CAUSES` for the bits set anywhere in ``causes`` (an int or an array of them), in order."""
-    seen = int(np.bitwise_or.reduce(np.asarray(causes, dtype=np.uint8).ravel())) if np.size(causes) else 0
+    seen = int(np.bitwise_or.reduce(np.asarray(causes, dtype=CAUSE_DTYPE).ravel())) if np.size(causes) else 0
     return [words for i, (_, words) in enumerate(CAUSES) if seen & (1 << i)]
 
 
 def flag_rule(mdm, jumps, holds, swaps, offsets, threshold: float, fps: float, confirm: bool, margin_s,
-              drifts=None, spikes=None, judged=None, lone=None) -> np.ndarray:
+              drifts=None, spikes=None, judged=None, lone=None, reversed_=None) -> np.ndarray:
     """The flags of :func:`detect` and :meth:`Detection.with_threshold`: confirmed digressions, holds, swaps,
     transient offsets and smooth drifts (``drifts``, bool (F, J) or None: none), or the paper's
     ``mdm > threshold`` without confirmation. ``spikes``: :func:`spike_breaks` of the take (None: no run is
@@ -761,9 +769,9 @@ def flag_rule(mdm, jumps, holds, swaps, offsets, threshold: float, fps: float, c
     context judged (a finite digression; None: all): a break outside them confirms no digression. The
     digression beside such a break (at a take's end that no neighbour word covers) says nothing about the
     break, and repairing it would change the frames before an error and leave the error. Which rule flags
-    each cell: :func:`flag_causes`; ``lone``: :func:`lone_spikes` (None: none)."""
+    each cell: :func:`flag_causes`; ``lone``: :func:`lone_spikes` (None: none); ``reversed_`` names cells only."""
     return flag_causes(mdm, jumps, holds, swaps, offsets, threshold, fps, confirm, margin_s, drifts, spikes,
-                       judged, lone) != 0
+                       judged, lone, reversed_) != 0
 
 
 def uncompensated_breaks(q: np.ndarray, parents, breaks: np.ndarray, memo: dict | None = None) -> np.ndarray:

@@ -34,11 +34,13 @@ from .cues import (
     step_angles,
     uncompensated_breaks,
     swaps_from_residuals,
+    CAUSE_DTYPE,
 )
 from .drifts import body_agreement, offset_change, smooth_drift_flags
 from .neighbours import Neighbors, flagged_words, mean_motion_texture, nearest_words, unseen_words
 from .params import SSAParams
 from .repeats import expand, kept_frames, repeat_runs, without_repeats
+from .reversals import reversed_runs
 from .texture import Analysis, facing_aligned, frame_words, prepare, upsample_quaternions
 
 __all__ = ["Detection", "detect", "detect_prepared", "movement_digression_map"]
@@ -166,6 +168,7 @@ class Detection:
     lone_spikes: np.ndarray | None = None  # (F, J) bool, None for a detection saved before the rule
     parents: np.ndarray | None = None  # (J,) int, the skeleton's parents (the drift rule's chains); None: saved before
     repeats: tuple = ()  # ((first, last), ...): frames repeating the frame before, analysed once
+    reversals: np.ndarray | None = None  # (F, J) bool: swap cells whose run plays better backwards; None: saved before
 
     @property
     def num_frames(self) -> int:
@@ -197,7 +200,7 @@ class Detection:
                        self.parents)
 
     def causes(self) -> np.ndarray:
-        """(F, J) uint8: which rules flag each cell (:func:`~mocapkit.cleaning.ssa.cues.flag_causes`; ``flags``
+        """(F, J) :data:`~mocapkit.cleaning.ssa.cues.CAUSE_DTYPE`: which rules flag each cell (:func:`~mocapkit.cleaning.ssa.cues.flag_causes`; ``flags``
         is exactly where it is not 0). Made once where the flags were made (:func:`detect`, :meth:`with_threshold`,
         :meth:`padded`: :meth:`_with_causes`), else here; a copy each call."""
         made = self.__dict__.get("_causes")
@@ -210,16 +213,16 @@ class Detection:
         return self.flag_causes(self.threshold)
 
     def flag_causes(self, threshold: float) -> np.ndarray:
-        """(F, J) uint8: :func:`~mocapkit.cleaning.ssa.cues.flag_causes` of this analysis at ``threshold`` (the
+        """(F, J) :data:`~mocapkit.cleaning.ssa.cues.CAUSE_DTYPE`: :func:`~mocapkit.cleaning.ssa.cues.flag_causes` of this analysis at ``threshold`` (the
         frames analysed only: a detection of a :attr:`span` is judged by :meth:`causes` and :meth:`with_threshold`)."""
         return flag_causes(self.mdm, self.jumps, self.holds, self.swaps, self.offsets, threshold, self.fps,
                            self.params.confirm, self.params.confirm_margin_s, self.drifts(), self.spikes,
-                           np.isfinite(self.digression), self.lone_spikes)
+                           np.isfinite(self.digression), self.lone_spikes, self.reversals)
 
     def _with_causes(self, causes: np.ndarray) -> "Detection":
         """This detection, its :meth:`causes` ``causes`` (their flags its :attr:`flags`), kept beside the frozen
         fields so that they are not made again (a cache, not a field: ``dataclasses.replace`` leaves it behind)."""
-        object.__setattr__(self, "_causes", np.array(causes, dtype=np.uint8))
+        object.__setattr__(self, "_causes", np.array(causes, dtype=CAUSE_DTYPE))
         return self
 
     def with_threshold(self, threshold: float) -> "Detection":
@@ -355,7 +358,7 @@ class Detection:
 #: what each (F, J) array of a :class:`Detection` holds on frames that were not analysed (:meth:`Detection.padded`)
 _PADS = {"mdm": 0.0, "flags": False, "digression": np.nan, "best_group": -1, "jumps": False, "holds": False,
          "swaps": False, "offsets": False, "agreement": np.nan, "consistency": np.nan, "spikes": False, "change": np.nan,
-         "lone_spikes": False}
+         "lone_spikes": False, "reversals": False}
 
 
 def _pad_frames(a: np.ndarray, lo: int, F: int, fill) -> np.ndarray:
@@ -658,8 +661,10 @@ def detect_prepared(an: Analysis, threshold: float = 0.5, *, progress: bool = Fa
     spikes = spike_breaks(q, resid, jumps)
     # a spike far past the joint's own motion is an error where no similar motion judges it
     lone = lone_spikes(q, resid, np.isfinite(digression), analysed, sk.parents, p.jump_deg, memo=chain_memo)
+    # a swap run that joins the take better played backwards is named a time-reversed stretch (same cells flagged)
+    backwards = reversed_runs(q, swaps, analysed)
     causes = flag_causes(mdm, jumps, holds, swaps, offsets, threshold, motion.fps, p.confirm, p.confirm_margin_s,
-                         drifts, spikes, np.isfinite(digression), lone)
+                         drifts, spikes, np.isfinite(digression), lone, backwards)
     flags = causes != 0  # flag_rule's flags
     if kept:  # the repair of these flags reads their words (Analysis.warped); the others are let go
         word_of = frame_words(words, N, F, fps, motion.fps)
@@ -680,7 +685,7 @@ def detect_prepared(an: Analysis, threshold: float = 0.5, *, progress: bool = Fa
         context_clips=clips, jumps=jumps, holds=holds, swaps=swaps, offsets=offsets,
         agreement=agreement, consistency=consistency, params=params, notes=tuple(notes),
         analysis=an, spikes=spikes, change=change, left_out=tuple(an.left_out), lone_spikes=lone,
-        parents=np.asarray(sk.parents, dtype=np.int64),
+        parents=np.asarray(sk.parents, dtype=np.int64), reversals=backwards,
     )
     # Detection.causes() made again gives these (its threshold float(threshold), its drifts() these or none where
     # p.drift is off, its params' confirmation p's) unless the threshold compares otherwise as a float
