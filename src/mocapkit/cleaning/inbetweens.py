@@ -133,15 +133,15 @@ def midpoint_frames(motion: Motion) -> np.ndarray:
 def find_inbetweens(motion: Motion, skip: np.ndarray | None = None) -> tuple[Inbetween, ...]:
     """The runs of at most :data:`MAX_RUN` frames of ``motion`` that are each the midpoint of their neighbours
     (:func:`midpoint_frames`), by first frame; frames in ``skip`` ((F,) bool: all-zero frames, stutters) are in
-    none, nor next to one."""
+    none, nor next to one (a run that would hold or touch one is left out whole)."""
     mid = midpoint_frames(motion)
+    near = np.zeros(motion.num_frames + 1, dtype=bool)
     if skip is not None:
         skip = np.asarray(skip, dtype=bool)
-        near = skip.copy()
-        near[1:] |= skip[:-1]
-        near[:-1] |= skip[1:]
-        mid &= ~near
-    return tuple(Inbetween(int(a), int(b) - 1) for a, b in contact_segments(mid) if b - a <= MAX_RUN)
+        near[:-1] = skip
+        near[1:] |= skip
+    return tuple(Inbetween(int(a), int(b) - 1) for a, b in contact_segments(mid)
+                 if b - a <= MAX_RUN and not near[a:b + 1].any())
 
 
 def inbetweens_note(found) -> str:
