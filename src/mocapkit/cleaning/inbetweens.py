@@ -17,9 +17,9 @@ file's written precision, and the frames around it differ by more than that prec
   (``h``: half steps);
 - linear: every channel (:meth:`~mocapkit.motion.Motion.channel_values`, degrees and file units) within that
   bound of the mean of its neighbours' values; or
-- slerp: every joint's rotation within the sum of its rotation channels' bounds (radians) of the slerp midpoint
-  of its neighbours' rotations (one Euler channel off by ``x`` turns the joint by at most ``x``), and every
-  position channel linear as above.
+- slerp: every rotation channel within the sum of its joint's rotation channels' bounds of the channel the file
+  writes for the slerp midpoint of the neighbours' rotations (a joint with fewer than three channels writes the
+  midpoint's nearest rotation it can hold), and every position channel linear as above.
 
 Real motion is smooth but never that linear on every channel at once: on the clean takes (HDM05's 285 AMC,
 CMU AMC and BVH at 120 fps, the 2,675 Bandai Namco takes at 30 fps) no frame is the midpoint of its neighbours by
@@ -117,15 +117,16 @@ def midpoint_frames(motion: Motion) -> np.ndarray:
     linear = np.all(off <= bound, axis=1)
     joint_of = np.array([j for j in range(sk.num_joints) for _ in sk.joint_channels(j)], dtype=np.int64)
     is_rot = np.array([c.endswith("rotation") for j in range(sk.num_joints) for c in sk.joint_channels(j)], dtype=bool)
-    pos_ok = np.all(off[:, ~is_rot] <= bound[:, ~is_rot], axis=1)
-    rot_joints = np.unique(joint_of[is_rot])
-    slerp = pos_ok.copy()
-    if rot_joints.size:
-        tol = np.zeros((F - 2, sk.num_joints))
-        np.add.at(tol.T, joint_of[is_rot], np.radians(bound[:, is_rot]).T)
-        q = np.asarray(motion.rotations)[:, rot_joints]
-        mid = R.slerp(q[:-2], q[2:], 0.5)
-        slerp &= np.all(R.geodesic_angle(q[1:-1], mid) <= tol[:, rot_joints] + 1e-9, axis=1)
+    slerp = np.all(off[:, ~is_rot] <= bound[:, ~is_rot], axis=1)
+    if is_rot.any():
+        q = np.asarray(motion.rotations)
+        tr = None if motion.translations is None else (motion.translations[:-2] + motion.translations[2:]) / 2
+        mid = Motion(sk, R.slerp(q[:-2], q[2:], 0.5), (motion.root_positions[:-2] + motion.root_positions[2:]) / 2,
+                     motion.fps, translations=tr).channel_values()
+        per_joint = np.zeros((F - 2, sk.num_joints))
+        np.add.at(per_joint.T, joint_of[is_rot], bound[:, is_rot].T)
+        d = np.abs(x[1:-1, is_rot] - mid[:, is_rot]) % 360.0
+        slerp &= np.all(np.minimum(d, 360.0 - d) <= per_joint[:, joint_of[is_rot]], axis=1)
     out[1:-1] = (linear | slerp) & moves
     return out
 
