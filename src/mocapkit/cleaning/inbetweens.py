@@ -21,8 +21,8 @@ file's written precision, and the frames around it differ by more than that prec
   writes for the slerp midpoint of the neighbours' rotations (a joint with fewer than three channels writes the
   midpoint's nearest rotation it can hold), and every position channel linear as above.
 
-Real motion is smooth but never that linear on every channel at once: on the clean takes (HDM05's 285 AMC,
-CMU AMC and BVH at 120 fps, the 2,675 Bandai Namco takes at 30 fps) no frame is the midpoint of its neighbours by
+Real motion is smooth but never that linear on every channel at once: on the clean takes (HDM05's 280 AMC,
+CMU AMC and BVH at 120 fps, the 2,675 Bandai Namco takes at 30 fps: 447,000 frames) no frame is the midpoint of its neighbours by
 either rule (``tests/cleaning/test_inbetweens.py`` keeps a sample of them). Runs of up to :data:`MAX_RUN` frames
 are named (a frame, or a few, inserted; each frame of an evenly spaced run is the midpoint of its own neighbours);
 a longer straight stretch (a gap another tool bridged linearly on every joint) is motion the analysis judges.
