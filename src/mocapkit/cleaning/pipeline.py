@@ -126,8 +126,9 @@ from .. import rotations as R
 from ..errors import MissingFileError, MocapError, MocapFormatError
 from ..motion import Motion, frozen
 from .calibration import CalibrationPose, calibration_poses
+from .inbetweens import find_inbetweens, inbetweens_note
 from .noise_scope import with_body_noise
-from .stutters import Stutter, find_stutters
+from .stutters import Stutter, find_stutters, stutter_frames
 from .whole_take import (MAX_WORD_ANGLE_DEG, denoise_take, detect_take, differing, fill_take, motion_span,
                          repair_whole, take_params, with_teleports)
 from .zeros import ZeroRun, find_zeros
@@ -798,6 +799,10 @@ def clean(
     found_zeros = find_zeros(motion)
     zero_cells, zero_runs, zero_frames = found_zeros
     stutters = find_stutters(motion, skip=zero_frames)
+    skip = zero_frames | stutter_frames(stutters, motion.num_frames)
+    interpolated = inbetweens_note(find_inbetweens(motion, skip=skip))
+    if interpolated:
+        notes.append(interpolated)
     if "fill" in steps:
         t = time.perf_counter()
         # the path `mocapkit fill` takes too (whole_take.fill_take)

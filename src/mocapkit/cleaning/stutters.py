@@ -25,7 +25,7 @@ import numpy as np
 from ..motion import Motion
 from .ik import contact_segments
 
-__all__ = ["Stutter", "find_stutters"]
+__all__ = ["Stutter", "find_stutters", "stutter_frames"]
 
 
 @dataclass(frozen=True)
@@ -66,3 +66,11 @@ def find_stutters(motion: Motion, skip: np.ndarray | None = None) -> tuple[Stutt
         if a >= 2 and b < F and not same[a - 1] and (skip is None or not skip[a - 1]):
             out.append(Stutter(a, b - 1))
     return tuple(out)
+
+
+def stutter_frames(stutters, num_frames: int) -> np.ndarray:
+    """(F,) bool: the frames of ``stutters`` (:func:`find_stutters`) in a take of ``num_frames`` frames."""
+    out = np.zeros(int(num_frames), dtype=bool)
+    for s in stutters:
+        out[s.first:s.last + 1] = True
+    return out

@@ -39,7 +39,7 @@ from .cues import (
 from .drifts import body_agreement, offset_change, smooth_drift_flags
 from .neighbours import Neighbors, flagged_words, mean_motion_texture, nearest_words, unseen_words
 from .params import SSAParams
-from .repeats import expand, kept_frames, repeat_runs, without_repeats
+from .repeats import analysed_once, expand, inbetween_runs, kept_frames, repeat_runs, without_repeats
 from .reversals import reversed_runs
 from .texture import Analysis, facing_aligned, frame_words, prepare, upsample_quaternions
 
@@ -133,6 +133,12 @@ class Detection:
     written twice changes no flag but its own, :mod:`~mocapkit.cleaning.ssa.repeats`); the word starts and
     neighbours count frames of the take without them. :meth:`causes`, :meth:`drifts` and :meth:`with_threshold`
     judge that take (:meth:`unrepeated`), and :func:`repair` mends it.
+
+    inbetweens : ``((first, last), ...)``: the runs of frames that lie evenly between the frames around them (an
+    interpolated frame another tool inserted: :func:`~mocapkit.cleaning.ssa.repeats.inbetween_runs`), analysed
+    once like the repeats: each holds the flags and cues of either frame around it and the values of the one
+    before (:func:`~mocapkit.cleaning.ssa.repeats.expand`), and :func:`repair` blends it again only where those
+    frames change.
     """
 
     mdm: np.ndarray
@@ -169,6 +175,13 @@ class Detection:
     parents: np.ndarray | None = None  # (J,) int, the skeleton's parents (the drift rule's chains); None: saved before
     repeats: tuple = ()  # ((first, last), ...): frames repeating the frame before, analysed once
     reversals: np.ndarray | None = None  # (F, J) bool: swap cells whose run plays better backwards; None: saved before
+    inbetweens: tuple = ()  # ((first, last), ...): frames lying evenly between the frames around them, analysed once
+
+    @property
+    def once(self) -> tuple:
+        """``((first, last), ...)``: the runs of frames the take was analysed without (:attr:`repeats` and
+        :attr:`inbetweens`), by first frame."""
+        return analysed_once(self.repeats, self.inbetweens)
 
     @property
     def num_frames(self) -> int:
@@ -194,8 +207,8 @@ class Detection:
             return np.zeros(self.mdm.shape, dtype=bool)
         if self.span is not None:  # judged on the frames analysed, as the detection itself was
             return _pad_frames(self.analysed_part().drifts(), self.span[0], self.num_frames, False)
-        if self.repeats:
-            return expand(self.unrepeated().drifts(), self.repeats, self.num_frames)
+        if self.once:
+            return expand(self.unrepeated().drifts(), self.once, self.num_frames, self.inbetweens)
         return _drifts(self.jumps, self.agreement, self.consistency, self.fps, self.params, self.joint_names, self.change,
                        self.parents)
 
@@ -208,8 +221,8 @@ class Detection:
             return made.copy()
         if self.span is not None:
             return _pad_frames(self.analysed_part().causes(), self.span[0], self.num_frames, 0)
-        if self.repeats:
-            return expand(self.unrepeated().causes(), self.repeats, self.num_frames)
+        if self.once:
+            return expand(self.unrepeated().causes(), self.once, self.num_frames, self.inbetweens)
         return self.flag_causes(self.threshold)
 
     def flag_causes(self, threshold: float) -> np.ndarray:
@@ -235,10 +248,11 @@ class Detection:
             out = dataclasses.replace(self, threshold=threshold, flags=_pad_frames(sub.flags, self.span[0],
                                                                                    self.num_frames, False))
             return out._with_causes(_pad_frames(sub.causes(), self.span[0], self.num_frames, 0))
-        if self.repeats:
+        if self.once:
             sub = self.unrepeated().with_threshold(threshold)
-            out = dataclasses.replace(self, threshold=threshold, flags=expand(sub.flags, self.repeats, self.num_frames))
-            return out._with_causes(expand(sub.causes(), self.repeats, self.num_frames))
+            out = dataclasses.replace(self, threshold=threshold,
+                                      flags=expand(sub.flags, self.once, self.num_frames, self.inbetweens))
+            return out._with_causes(expand(sub.causes(), self.once, self.num_frames, self.inbetweens))
         causes = self.flag_causes(threshold)  # flag_rule's flags are where they are not 0
         return dataclasses.replace(self, threshold=threshold, flags=causes != 0)._with_causes(causes)
 
@@ -272,26 +286,32 @@ class Detection:
         return dataclasses.replace(self, **cut, span=None, notes=notes)
 
     def unrepeated(self) -> "Detection":
-        """The detection of the frames analysed without their repeats (:attr:`repeats`), as :func:`detect` made it
-        on the take without them; ``self`` when there are none. Call it on :meth:`analysed_part`'s detection."""
-        if not self.repeats:
+        """The detection of the frames analysed without their repeats and interpolated frames (:attr:`once`), as
+        :func:`detect` made it on the take without them; ``self`` when there are none. Call it on
+        :meth:`analysed_part`'s detection."""
+        if not self.once:
             return self
         if self.span is not None:
             raise ValueError("call unrepeated() on the analysed part (analysed_part())")
-        keep = kept_frames(self.repeats, self.num_frames)
+        keep = kept_frames(self.once, self.num_frames)
         cut = {k: np.asarray(getattr(self, k))[keep] for k in _PADS if getattr(self, k) is not None}
-        return dataclasses.replace(self, **cut, repeats=())
+        return dataclasses.replace(self, **cut, repeats=(), inbetweens=())
 
-    def repeated(self, repeats, num_frames: int) -> "Detection":
+    def repeated(self, repeats, num_frames: int, inbetweens=()) -> "Detection":
         """This detection of a take without its ``repeats`` (:func:`~mocapkit.cleaning.ssa.repeats.repeat_runs`)
-        put at the take's ``num_frames`` frames: each repeat holds the rows of the frame it repeats."""
+        and ``inbetweens`` (:func:`~mocapkit.cleaning.ssa.repeats.inbetween_runs`) put at the take's
+        ``num_frames`` frames: each repeat holds the rows of the frame it repeats, each interpolated frame those
+        of the frames around it (:func:`~mocapkit.cleaning.ssa.repeats.expand`)."""
         repeats = tuple((int(a), int(b)) for a, b in repeats)
-        if not repeats:
+        inbetweens = tuple((int(a), int(b)) for a, b in inbetweens)
+        once = analysed_once(repeats, inbetweens)
+        if not once:
             return self
-        if self.repeats or self.span is not None:
+        if self.once or self.span is not None:
             raise ValueError("the detection is of the take with its repeats already")
-        arrays = {k: expand(getattr(self, k), repeats, num_frames) for k in _PADS if getattr(self, k) is not None}
-        return dataclasses.replace(self, **arrays, repeats=repeats)
+        arrays = {k: expand(getattr(self, k), once, num_frames, inbetweens) for k in _PADS
+                  if getattr(self, k) is not None}
+        return dataclasses.replace(self, **arrays, repeats=repeats, inbetweens=inbetweens)
 
     def save(self, path) -> Path:
         """Write as ``.npz`` (no pickles) through a temporary file and a rename."""
@@ -301,6 +321,7 @@ class Detection:
                   if f.name != "analysis" and getattr(self, f.name) is not None}
         arrays.pop("span", None)
         arrays.pop("repeats", None)
+        arrays.pop("inbetweens", None)
         meta = {
             "span": None if self.span is None else [int(v) for v in self.span],
             "threshold": self.threshold,
@@ -312,6 +333,7 @@ class Detection:
             "notes": list(self.notes),
             "left_out": [list(p) for p in self.left_out],
             "repeats": [list(r) for r in self.repeats],
+            "inbetweens": [list(r) for r in self.inbetweens],
         }
         for key in meta:
             arrays.pop(key, None)
@@ -350,6 +372,7 @@ class Detection:
                 left_out=tuple((str(n), str(w)) for n, w in meta.get("left_out", [])),
                 span=None if meta.get("span") is None else (int(meta["span"][0]), int(meta["span"][1])),
                 repeats=tuple((int(a), int(b)) for a, b in meta.get("repeats", [])),
+                inbetweens=tuple((int(a), int(b)) for a, b in meta.get("inbetweens", [])),
             )
         except (OSError, ValueError, KeyError, TypeError) as e:
             raise MocapFormatError(path, f"not a mocapkit detection file ({e})") from None
@@ -477,15 +500,18 @@ def detect(
     The detection keeps the prepared take (:attr:`Detection.analysis`), so
     :func:`repair` does not resample the take and its context again. Frames that repeat the frame before bit
     for bit are analysed once (:attr:`Detection.repeats`, :mod:`~mocapkit.cleaning.ssa.repeats`): the take is
-    analysed without them, and each takes what the frame it repeats was given.
+    analysed without them, and each takes what the frame it repeats was given; so are frames another tool
+    interpolated between two recorded ones (:attr:`Detection.inbetweens`), each given what the frames around it
+    were given.
     """
     if not 0.0 < threshold < 1.0:
         raise ValueError(f"threshold must be in (0, 1), got {threshold}")
     params = (SSAParams() if params is None else params).replace(**overrides)
     runs = repeat_runs(motion) if isinstance(motion, Motion) else ()
-    once = without_repeats(motion, runs)
+    inbetweens = inbetween_runs(motion, runs) if isinstance(motion, Motion) else ()
+    once = without_repeats(motion, analysed_once(runs, inbetweens))
     det = detect_prepared(prepare(once, context, params, groups=groups), threshold, progress=progress)
-    return det.repeated(runs, motion.num_frames)
+    return det.repeated(runs, motion.num_frames, inbetweens)
 
 
 def _judged_by_context(src, full, grows, words, nb: Neighbors, unseen: np.ndarray, prefilter: bool,

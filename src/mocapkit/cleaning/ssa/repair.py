@@ -23,7 +23,7 @@ from ..filters import window_frames
 from ..ik import contact_segments, segment_frames
 from .detect import Detection
 from .neighbours import dropped_terms, near_neighbors, neighbor_words
-from .repeats import expand, frame_index, kept_frames, repeat_runs, without_repeats
+from .repeats import blend_inbetweens, expand, frame_index, inbetween_runs, kept_frames, repeat_runs, without_repeats
 from .texture import Analysis, align_hemisphere, frame_words, prepare
 from .guard import LeftRun, guard_joint
 from .undo import undone_offsets
@@ -217,7 +217,7 @@ def repair_with_left(
     if detection.span is not None:
         return _repair_span(motion, detection, context, contacts=contacts, foot_skate=foot_skate, blend_s=blend_s,
                             guard=guard)
-    if detection.repeats:
+    if detection.once:
         return _repair_repeats(motion, detection, context, contacts=contacts, foot_skate=foot_skate, blend_s=blend_s,
                                guard=guard)
     flags = np.asarray(detection.flags, dtype=bool) & detection.analysed[None, :]
@@ -449,28 +449,32 @@ def _foot_skate(original: Motion, repaired: Motion, flags: np.ndarray) -> Motion
 
 
 def _repair_repeats(motion: Motion, detection: Detection, context, **options) -> tuple[Motion, tuple[LeftRun, ...]]:
-    """:func:`repair_with_left` of the take without the frames that repeat the one before
-    (:attr:`Detection.repeats`), as :func:`~mocapkit.cleaning.ssa.detect` analysed it, each repeat then written as
-    the frame it repeats (so an unflagged repeat stays bit-identical, and a repeat stays a repeat; ``contacts`` and
-    the left runs count the take's frames)."""
+    """:func:`repair_with_left` of the take without the frames that repeat the one before and the interpolated
+    frames (:attr:`Detection.once`), as :func:`~mocapkit.cleaning.ssa.detect` analysed it; each repeat then
+    written as the frame it repeats (so an unflagged repeat stays bit-identical, and a repeat stays a repeat), each
+    interpolated frame as the blend of the mended frames around it where they changed and bit for bit elsewhere
+    (:func:`~mocapkit.cleaning.ssa.repeats.blend_inbetweens`); ``contacts`` and the left runs count the take's
+    frames."""
     if not np.asarray(detection.flags, dtype=bool).any():
         return motion, ()
-    runs, F = detection.repeats, motion.num_frames
-    if repeat_runs(motion) != tuple(runs):
-        raise ValueError(f"{motion.name or 'motion'}: the detection was made on another clip (its repeated frames "
-                         "differ)")
+    runs, F = detection.once, motion.num_frames
+    repeats = repeat_runs(motion)
+    if repeats != tuple(detection.repeats) or inbetween_runs(motion, repeats) != tuple(detection.inbetweens):
+        raise ValueError(f"{motion.name or 'motion'}: the detection was made on another clip (its repeated or "
+                         "interpolated frames differ)")
     index = frame_index(runs, F)
     contacts = options.pop("contacts")
     if contacts:
         contacts = [dataclasses.replace(c, start=int(index[c.start]), end=int(index[c.end - 1]) + 1) for c in contacts]
     once, left = repair_with_left(without_repeats(motion, runs), detection.unrepeated(), context, contacts=contacts,
                                   **options)
-    kept = np.flatnonzero(kept_frames(runs, F))  # the take's frame of each frame without repeats
+    kept = np.flatnonzero(kept_frames(runs, F))  # the take's frame of each frame analysed
     left = tuple(dataclasses.replace(r, start=int(kept[r.start]), end=int(kept[r.end]) if r.end < len(kept) else F)
                  for r in left)  # a run ending on a repeated frame keeps its repeats
     tr = None if motion.translations is None else expand(once.translations, runs, F)
-    return dataclasses.replace(motion, rotations=expand(once.rotations, runs, F),
-                               root_positions=expand(once.root_positions, runs, F), translations=tr), left
+    out = dataclasses.replace(motion, rotations=expand(once.rotations, runs, F),
+                              root_positions=expand(once.root_positions, runs, F), translations=tr)
+    return blend_inbetweens(motion, out, detection.inbetweens), left
 
 
 def _analysis(motion: Motion, detection: Detection, context) -> Analysis:

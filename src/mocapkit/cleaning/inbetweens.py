@@ -1,0 +1,161 @@
+"""Interpolated frames: a frame another tool wrote between two recorded ones, the midpoint of its neighbours.
+
+A retiming, a frame-rate change or a dropped-frame fix in another tool writes a frame that copies no frame: the
+midpoint of the frames around it, by slerp of each joint's rotation or by linear blend of each channel. Such a
+frame holds no motion of its own, and like a stutter (:mod:`mocapkit.cleaning.stutters`) it shifts every later
+frame of the take by one frame time. :func:`find_inbetweens` names the runs of such frames so that detection can
+analyse the take without them (:mod:`mocapkit.cleaning.ssa.repeats`) and ``clean`` can say so.
+
+A frame *is the midpoint of its neighbours* when, on EVERY channel the file writes, it is so to within the
+file's written precision, and the frames around it differ by more than that precision (the body moves there):
+
+- the precision: the step between two numbers the file can write at each value (:func:`written_steps`): ``10^-d``
+  where the take's values are written with ``d`` fixed decimals (CMU BVH: 4), ``10^(e - s + 1)`` for a value of
+  exponent ``e`` where they are written with ``s`` significant digits (HDM05 and CMU AMC, Bandai Namco BVH: 6),
+  else the float's own (a take built in memory or read from npz). Each written value is within half a step of
+  the value meant, so a midpoint of three written frames is within ``h_t + (h_{t-1} + h_{t+1}) / 2`` of exact
+  (``h``: half steps);
+- linear: every channel (:meth:`~mocapkit.motion.Motion.channel_values`, degrees and file units) within that
+  bound of the mean of its neighbours' values; or
+- slerp: every rotation channel within the sum of its joint's rotation channels' bounds of the channel the file
+  writes for the slerp midpoint of the neighbours' rotations (a joint with fewer than three channels writes the
+  midpoint's nearest rotation it can hold), and every position channel linear as above.
+
+Real motion is smooth but never that linear on every channel at once: on the clean takes (HDM05's 280 AMC,
+CMU AMC and BVH at 120 fps, the 2,675 Bandai Namco takes at 30 fps: 447,000 frames) no frame is the midpoint of its neighbours by
+either rule (``tests/cleaning/test_inbetweens.py`` keeps a sample of them). Runs of up to :data:`MAX_RUN` frames
+are named (a frame, or a few, inserted; each frame of an evenly spaced run is the midpoint of its own neighbours);
+a longer straight stretch (a gap another tool bridged linearly on every joint) is motion the analysis judges.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .. import rotations as R
+from ..motion import Motion
+from .ik import contact_segments
+
+__all__ = ["Inbetween", "MAX_RUN", "find_inbetweens", "inbetweens_note", "midpoint_frames", "written_steps"]
+
+#: the longest run of interpolated frames named (module docstring)
+MAX_RUN = 3
+
+#: the share of a take's nonzero values that must fit a written precision for the take to be read as written in it
+_FIT_SHARE = 0.99
+
+
+@dataclass(frozen=True)
+class Inbetween:
+    """Frames ``first``..``last`` (inclusive) lie evenly between frames ``first - 1`` and ``last + 1``."""
+
+    first: int
+    last: int
+
+    def __str__(self) -> str:
+        a, b = self.first, self.last
+        frames = f"frame {a} is" if a == b else f"frames {a}-{b} are"
+        return (f"{frames} the midpoint of {'its' if a == b else 'their'} neighbours on every channel (an "
+                f"interpolated frame, as a retiming or a dropped-frame fix writes), analysed with the frames "
+                f"around {'it' if a == b else 'them'} and left as {'it is' if a == b else 'they are'}")
+
+
+def _fits(x: np.ndarray, step: np.ndarray) -> np.ndarray:
+    """(N,) bool: ``x`` is a whole number of ``step`` s, to the float noise of a value read and converted back."""
+    k = x / step
+    return np.abs(k - np.round(k)) <= 1e-6 + 1e-9 * np.abs(k)
+
+
+def written_steps(values: np.ndarray) -> np.ndarray:
+    """(F, C) float: the step between two numbers the file can write at each of ``values`` (F, C) (a take's
+    :meth:`~mocapkit.motion.Motion.channel_values`, degrees and file units). Two ways of writing are tried: the
+    fewest fixed decimals ``d`` (0-9; step ``10^-d``) and the fewest significant digits ``s`` (1-12; step
+    ``10^(e - s + 1)`` at a value of exponent ``e``) that at least 99 % of the nonzero values fit; of those that
+    fit, the coarser (the larger mean log step: a file written one way fits the other only with finer steps) is
+    the file's. Never under the float's own spacing (times 16), which is all a take that fits neither gets. A
+    value that does not fit keeps a step finer than its own, so such a frame is told from a midpoint by less,
+    never more."""
+    x = np.asarray(values, dtype=np.float64)
+    floor = 16 * np.spacing(np.maximum(np.abs(x), 1.0))
+    nz = np.isfinite(x) & (x != 0)
+    flat = x[nz]
+    if flat.size == 0:
+        return floor
+    with np.errstate(divide="ignore", invalid="ignore"):
+        e = np.floor(np.log10(np.abs(x)))
+    candidates = []
+    for d in range(10):
+        if np.mean(_fits(flat, 10.0 ** -d)) >= _FIT_SHARE:
+            candidates.append(np.full(x.shape, 10.0 ** -d))
+            break
+    for s in range(1, 13):
+        if np.mean(_fits(flat, 10.0 ** (e[nz] - s + 1))) >= _FIT_SHARE:
+            candidates.append(np.where(nz, 10.0 ** (np.where(nz, e, 0.0) - s + 1), 0.0))
+            break
+    if not candidates:
+        return floor
+    best = max(candidates, key=lambda c: float(np.mean(np.log10(c[nz]))))
+    return np.maximum(best, floor)
+
+
+def midpoint_frames(motion: Motion) -> np.ndarray:
+    """(F,) bool: the frames that are the midpoint of their neighbours (module docstring: linear or slerp, on
+    every channel, to the file's written precision, the neighbours apart by more than it); the first and last
+    frames never."""
+    F = motion.num_frames
+    out = np.zeros(F, dtype=bool)
+    if F < 3:
+        return out
+    sk = motion.skeleton
+    x = motion.channel_values()
+    h = written_steps(x) / 2
+    bound = (h[1:-1] + (h[:-2] + h[2:]) / 2) * 1.01 + 1e-12  # (F-2, C)
+    off = np.abs(x[1:-1] - (x[:-2] + x[2:]) / 2)
+    moves = np.any(np.abs(x[2:] - x[:-2]) > 2 * bound, axis=1)
+    linear = np.all(off <= bound, axis=1)
+    joint_of = np.array([j for j in range(sk.num_joints) for _ in sk.joint_channels(j)], dtype=np.int64)
+    is_rot = np.array([c.endswith("rotation") for j in range(sk.num_joints) for c in sk.joint_channels(j)], dtype=bool)
+    slerp = np.all(off[:, ~is_rot] <= bound[:, ~is_rot], axis=1)
+    if is_rot.any():
+        q = np.asarray(motion.rotations)
+        tr = None if motion.translations is None else (motion.translations[:-2] + motion.translations[2:]) / 2
+        mid = Motion(sk, R.slerp(q[:-2], q[2:], 0.5), (motion.root_positions[:-2] + motion.root_positions[2:]) / 2,
+                     motion.fps, translations=tr).channel_values()
+        per_joint = np.zeros((F - 2, sk.num_joints))
+        np.add.at(per_joint.T, joint_of[is_rot], bound[:, is_rot].T)
+        d = np.abs(x[1:-1, is_rot] - mid[:, is_rot]) % 360.0
+        slerp &= np.all(np.minimum(d, 360.0 - d) <= per_joint[:, joint_of[is_rot]], axis=1)
+    out[1:-1] = (linear | slerp) & moves
+    return out
+
+
+def find_inbetweens(motion: Motion, skip: np.ndarray | None = None) -> tuple[Inbetween, ...]:
+    """The runs of at most :data:`MAX_RUN` frames of ``motion`` that are each the midpoint of their neighbours
+    (:func:`midpoint_frames`), by first frame; frames in ``skip`` ((F,) bool: all-zero frames, stutters) are in
+    none, nor next to one (a run that would hold or touch one is left out whole)."""
+    mid = midpoint_frames(motion)
+    near = np.zeros(motion.num_frames + 1, dtype=bool)
+    if skip is not None:
+        skip = np.asarray(skip, dtype=bool)
+        near[:-1] = skip
+        near[1:] |= skip
+    return tuple(Inbetween(int(a), int(b) - 1) for a, b in contact_segments(mid)
+                 if b - a <= MAX_RUN and not near[a:b + 1].any())
+
+
+def inbetweens_note(found) -> str:
+    """One line counting the interpolated frames of ``found`` (:func:`find_inbetweens`) and naming the first
+    eight runs; ``""`` for none."""
+    found = tuple(found)
+    if not found:
+        return ""
+    n = sum(b.last - b.first + 1 for b in found)
+    shown = ", ".join(str(b.first) if b.first == b.last else f"{b.first}-{b.last}" for b in found[:8])
+    more = f" and {len(found) - 8} more runs" if len(found) > 8 else ""
+    s = "s" if n > 1 else ""
+    return (f"{n} frame{s} ({shown}{more}) look{'' if n > 1 else 's'} interpolated: the midpoint of "
+            f"{'their' if n > 1 else 'its'} neighbours on every channel, to the file's precision (as a retiming or "
+            f"a dropped-frame fix writes); detection analyses the take without {'them' if n > 1 else 'it'} and "
+            f"repair changes {'them' if n > 1 else 'it'} only where the frames around are changed")

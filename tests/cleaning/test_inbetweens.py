@@ -1,0 +1,57 @@
+"""Interpolated frames (mocapkit.cleaning.inbetweens): the midpoint of their neighbours, told from real motion."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+import mocapkit
+from mocapkit import samples
+from mocapkit.cleaning.inbetweens import Inbetween, find_inbetweens, inbetweens_note, midpoint_frames, written_steps
+from mocapkit.motion import Motion
+from tests.cleaning.ssa.helpers import with_midpoints
+
+DATA = Path(__file__).resolve().parents[1] / "data"
+
+
+def test_written_steps_read_the_files_precision():
+    bvh = mocapkit.load(samples.path("131_01.bvh")).channel_values()  # four fixed decimals
+    assert np.all(written_steps(bvh) == 1e-4)
+    amc = mocapkit.load(samples.path("HDM_bd_jogLeftCircle4StepsRstart_001_120.amc"),
+                        asf=samples.path("HDM_bd.asf")).channel_values()  # six significant digits
+    steps = written_steps(amc)
+    big = np.abs(amc) >= 100
+    assert big.any() and np.allclose(steps[big], 10.0 ** (np.floor(np.log10(np.abs(amc[big]))) - 5))
+
+
+def test_clean_takes_have_no_interpolated_frame(shared_data):
+    # real motion at 120 fps is nearly linear over three frames, but never on every channel to the file's precision
+    takes = [mocapkit.load(samples.path("131_01.bvh")),
+             mocapkit.load(samples.path("HDM_bd_jogLeftCircle4StepsRstart_001_120.amc"), asf=samples.path("HDM_bd.asf")),
+             mocapkit.load(samples.path("12_walk.amc"), asf=samples.path("12.asf")),
+             mocapkit.load(DATA / "dataset-2_run_active_049.bvh")]
+    takes += [mocapkit.load(p) for p in sorted((shared_data / "secondary_bandai_namco_CC-BY-NC").glob("*.bvh"))]
+    for m in takes:
+        assert not midpoint_frames(m).any(), m.name
+
+
+def test_inserted_midpoints_are_found(tmp_path):
+    src = samples.path("131_01.bvh")
+    m = with_midpoints(Path(src), [300, 500, 501], tmp_path / "retimed.bvh", 4)
+    found = find_inbetweens(mocapkit.load(m))
+    # after frame 300: frame 301; after 500 and after 501: frames 502 and 504, the recorded 501 between them
+    assert found == (Inbetween(301, 301), Inbetween(502, 502), Inbetween(504, 504))
+    assert inbetweens_note(found).startswith("3 frames (301, 502, 504) look interpolated")
+
+
+def test_a_linear_blend_of_channels_is_found_and_a_run_of_two():
+    m = mocapkit.load(samples.path("131_01.bvh"))[1:200]
+    x = m.channel_values()
+    thirds = np.stack([x[99] + (x[100] - x[99]) / 3, x[99] + 2 * (x[100] - x[99]) / 3])
+    y = np.round(np.concatenate([x[:100], thirds, x[100:]]), 4)
+    retimed = Motion.from_channel_values(m.skeleton, y, m.fps)
+    assert find_inbetweens(retimed) == (Inbetween(100, 101),)
+    skip = np.zeros(retimed.num_frames, dtype=bool)
+    skip[99] = True
+    assert find_inbetweens(retimed, skip=skip) == ()
