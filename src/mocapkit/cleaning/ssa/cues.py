@@ -16,7 +16,7 @@ from ... import rotations as R
 from ...motion import Motion
 from ..ik import contact_segments, segment_frames
 from .params import SSAParams
-from .step_pairs import RETURN_RATIO, UNDO_RATIO, steps_back
+from .step_pairs import UNDO_RATIO, returns, steps_back
 
 __all__ = [
     "unshared_offsets",
@@ -338,10 +338,9 @@ def transient_offsets(
     within its event and has no step. Two successive events of a joint whose
     steps both exceed ``min_offset_deg``, point in roughly opposite
     directions (cosine at most -0.5; a half turn has no sign, so two steps
-    near 180 deg pair either way), the second taking back at least half the
-    first (:func:`~mocapkit.cleaning.ssa.step_pairs.steps_back` with
-    :data:`~mocapkit.cleaning.ssa.step_pairs.RETURN_RATIO`: a twitch after a
-    step leaves the joint as far off) and start at most ``max_s`` apart are
+    near 180 deg pair either way), the second turning at least half as far
+    as the first (:func:`~mocapkit.cleaning.ssa.step_pairs.returns`: a twitch
+    after a step leaves the joint as far off) and start at most ``max_s`` apart are
     flagged from the frame after the first event's first frame to the second
     event's first frame (a step between frames f and f + 1 shows at both).
     Pairs are taken in time order, as in :func:`side_swaps`, after the pairs
@@ -546,7 +545,7 @@ def offsets_from_residuals(q, resid, fps, jump_deg, max_s, min_offset_deg, joint
             na, nb = np.linalg.norm(steps[k]), np.linalg.norm(steps[m])
             cos = float(np.dot(steps[k], steps[m]) / (na * nb)) if na > 0 and nb > 0 else 1.0
             opposite = cos <= -0.5 or (max(na, nb) > half_turn and abs(cos) >= 0.5)
-            return opposite and steps_back((np.asarray(steps), own), k, m, RETURN_RATIO)  # and takes half back
+            return opposite and returns(steps[k], steps[m])  # and turns back half as far at least
 
         def undoes(k, m):  # the second step is the first one's inverse, in one frame or the other
             return steps_back((np.asarray(steps), own), k, m, UNDO_RATIO)
