@@ -34,8 +34,8 @@ from .cues import (
     row_norms,
     stands_out,
     uncompensated_breaks,
-    undo_left,
 )
+from .step_pairs import undo_left
 from ..ik import segment_frames
 from .params import SSAParams
 

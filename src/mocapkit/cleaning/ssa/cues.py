@@ -16,6 +16,7 @@ from ... import rotations as R
 from ...motion import Motion
 from ..ik import contact_segments, segment_frames
 from .params import SSAParams
+from .step_pairs import UNDO_RATIO, returns, steps_back
 
 __all__ = [
     "unshared_offsets",
@@ -42,7 +43,7 @@ __all__ = [
     "step_angles",
     "uncompensated_breaks",
     "chain_table",
-    "event_bounds", "event_steps", "off_path", "stands_out", "undo_left", "row_norms",
+    "event_bounds", "event_steps", "off_path", "stands_out", "row_norms",
 ]
 
 _D = SSAParams()
@@ -339,7 +340,9 @@ def transient_offsets(
     within its event and has no step. Two successive events of a joint whose
     steps both exceed ``min_offset_deg``, point in roughly opposite
     directions (cosine at most -0.5; a half turn has no sign, so two steps
-    near 180 deg pair either way) and start at most ``max_s`` apart are
+    near 180 deg pair either way), the second turning at least half as far
+    as the first (:func:`~mocapkit.cleaning.ssa.step_pairs.returns`: a twitch
+    after a step leaves the joint as far off) and start at most ``max_s`` apart are
     flagged from the frame after the first event's first frame to the second
     event's first frame (a step between frames f and f + 1 shows at both).
     Pairs are taken in time order, as in :func:`side_swaps`, after the pairs
@@ -506,11 +509,6 @@ def chain_table(parents, j: int, depth: int = 3) -> np.ndarray:
     return table
 
 
-#: :func:`offsets_from_residuals`: a step back *undoes* a step off when the two, composed, leave a turn under this
-#: share of the larger one, in the parent's frame or in the joint's own (a constant offset leaves none in one of them)
-UNDO_RATIO = 0.25
-
-
 def offsets_from_residuals(q, resid, fps, jump_deg, max_s, min_offset_deg, joints, joint_names=None,
                            parents=None, digression=None) -> np.ndarray:
     """:func:`transient_offsets` on rotations ``q`` (F, J, 4) with their midpoint residuals already computed.
@@ -519,7 +517,7 @@ def offsets_from_residuals(q, resid, fps, jump_deg, max_s, min_offset_deg, joint
     :func:`_single_joint_offsets` does not count as sharing a joint's steps; ``parents`` (optional, (J,))
     lets :func:`_compensated` leave out the steps the joint's chain undoes.
 
-    A step back that undoes a step off (:data:`UNDO_RATIO`: equal and opposite, in the parent's frame or in
+    A step back that undoes a step off (:data:`~mocapkit.cleaning.ssa.step_pairs.UNDO_RATIO`: equal and opposite, in the parent's frame or in
     the joint's own) is paired with it first, also where other events of the joint lie between them: a joint's
     own steps while it is off (the CMU 131_01 right wrist turns 133 deg in 4 frames) leave the offset's two
     steps apart, and paired only in turn the error went unflagged (:func:`_undoing_pairs`). With
@@ -548,11 +546,11 @@ def offsets_from_residuals(q, resid, fps, jump_deg, max_s, min_offset_deg, joint
         def back(k, m):  # the second step points roughly opposite the first (a half turn has no sign)
             na, nb = np.linalg.norm(steps[k]), np.linalg.norm(steps[m])
             cos = float(np.dot(steps[k], steps[m]) / (na * nb)) if na > 0 and nb > 0 else 1.0
-            return cos <= -0.5 or (max(na, nb) > half_turn and abs(cos) >= 0.5)
+            opposite = cos <= -0.5 or (max(na, nb) > half_turn and abs(cos) >= 0.5)
+            return opposite and returns(steps[k], steps[m])  # and turns back half as far at least
 
         def undoes(k, m):  # the second step is the first one's inverse, in one frame or the other
-            return any(undo_left(v[k], v[m]) <= UNDO_RATIO * max(np.linalg.norm(v[k]), np.linalg.norm(v[m]))
-                       for v in (np.asarray(steps), own))
+            return steps_back((np.asarray(steps), own), k, m, UNDO_RATIO)
 
         def apart(a, b):  # a pair with events between: the stretch alone differs from the neighbour words
             return digression is not None and stands_out(digression[:, j], a + 1, b + 1)
@@ -562,11 +560,6 @@ def offsets_from_residuals(q, resid, fps, jump_deg, max_s, min_offset_deg, joint
         loose = _paired_events(starts, longest, back, skip=taken)
         pairs[j] = sorted([(starts[k], starts[m]) for k, m in strict] + loose)
     return _single_joint_offsets(pairs, F, J, partner)
-
-
-def undo_left(a: np.ndarray, b: np.ndarray) -> float:
-    """Radians: the turn left by rotation vector ``b`` after ``a`` (0 where ``b`` undoes ``a``)."""
-    return float(R.geodesic_angle(R.rotvec_to_quaternion(a), R.rotvec_to_quaternion(-np.asarray(b))))
 
 
 def _undoing_pairs(starts, longest: int, undoes, apart) -> list[tuple[int, int]]:

@@ -41,6 +41,7 @@ from .neighbours import Neighbors, flagged_words, mean_motion_texture, nearest_w
 from .params import SSAParams
 from .repeats import analysed_once, expand, inbetween_runs, kept_frames, repeat_runs, without_repeats
 from .reversals import reversed_runs
+from .still_positions import position_kept_breaks
 from .texture import Analysis, facing_aligned, frame_words, prepare, upsample_quaternions
 
 __all__ = ["Detection", "detect", "detect_prepared", "movement_digression_map"]
@@ -552,6 +553,8 @@ def detect_prepared(an: Analysis, threshold: float = 0.5, *, progress: bool = Fa
     chain_memo: dict = {}  # the break events judged compensated or not, read again by the lone spikes
     jumps = uncompensated_breaks(np.asarray(motion.rotations, dtype=np.float64), motion.skeleton.parents, jumps,
                                  chain_memo)
+    # a chain turned over in place (a thigh flipped about itself, the knee bent the other way) moves no joint
+    jumps = position_kept_breaks(motion.global_positions(), motion.skeleton.parents, jumps, resid)
     sk = motion.skeleton
     gnames, grows = list(an.group_names), list(an.group_rows)
     words = an.words
