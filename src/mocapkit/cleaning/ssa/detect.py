@@ -554,7 +554,8 @@ def detect_prepared(an: Analysis, threshold: float = 0.5, *, progress: bool = Fa
     jumps = uncompensated_breaks(np.asarray(motion.rotations, dtype=np.float64), motion.skeleton.parents, jumps,
                                  chain_memo)
     # a chain turned over in place (a thigh flipped about itself, the knee bent the other way) moves no joint
-    jumps = position_kept_breaks(motion.global_positions(), motion.skeleton.parents, jumps, resid)
+    positions, unpruned = motion.global_positions(), jumps
+    jumps = position_kept_breaks(positions, motion.skeleton.parents, jumps, resid)
     sk = motion.skeleton
     gnames, grows = list(an.group_names), list(an.group_rows)
     words = an.words
@@ -668,8 +669,11 @@ def detect_prepared(an: Analysis, threshold: float = 0.5, *, progress: bool = Fa
     analysed[tex_joints] = True
     q = np.asarray(motion.rotations, dtype=np.float64)
     # breaks under the joint's own level whose shape the digression backs (a spike, an offset and its undoing)
-    jumps |= backed_breaks(q, resid, digression, analysed, motion.fps, sk.parents, p.jump_deg, p.offset_min_deg,
+    # (a chain turned over in place confirms nothing there either)
+    backed = backed_breaks(q, resid, digression, analysed, motion.fps, sk.parents, p.jump_deg, p.offset_min_deg,
                            memo=chain_memo)
+    if backed.any():
+        jumps |= backed & position_kept_breaks(positions, sk.parents, unpruned | backed, resid)
     jumps &= analysed[None, :]
     holds = held_joints(motion, mean_speed, travel_deg=p.hold_travel_deg) & analysed[None, :]
     swaps = swaps_from_residuals(resid, sk.joint_names, motion.fps, p.swap_jump_deg, p.swap_max_s, analysed,
