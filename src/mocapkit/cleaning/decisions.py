@@ -98,7 +98,7 @@ from .ssa.cues import cause_names
 __all__ = ["FORMAT", "ACCEPT", "REJECT", "Change", "changes", "apply", "take_digest", "template", "read_decisions",
            "check_decisions", "check_record", "record_problem", "as_written", "accepted_cells", "flag_segments",
            "frame_note", "frames_note", "review", "cleaning_digest", "cleaning_stamp", "check_cleaning", "check_named",
-           "unnamed_changes", "applying_notes", "request_difference", "check_request", "DuplicateKeyError"]
+           "unnamed_changes", "applying_notes", "request_difference", "check_request", "check_choices", "record_wanted", "DuplicateKeyError"]
 
 FORMAT = "mocapkit.decisions/1"
 ACCEPT, REJECT = "accept", "reject"
@@ -351,13 +351,9 @@ def changes(result, original: Motion) -> list[Change]:
     return out
 
 
-def accepted_cells(result, decisions: Mapping[str, str]) -> np.ndarray:
-    """(F, J) bool: the cells of the changes ``decisions`` accepts (a change it does not name is accepted).
-
-    Raises ValueError for an id that is not a change of ``result`` or a choice other than accept/reject.
-    """
-    runs = _runs(result)
-    ids = {_change_id(result, *r): r for r in runs}
+def check_choices(decisions: Mapping[str, str], ids) -> None:
+    """Raise ValueError, in words, for a key of ``decisions`` that is none of the change ``ids`` of this cleaning,
+    or a choice other than ``accept``/``reject`` (a joint-angle take's or a marker capture's changes alike)."""
     unknown = [k for k in decisions if k not in ids]
     if unknown:
         raise ValueError(f"{len(unknown)} change id(s) are not changes of this cleaning: "
@@ -365,6 +361,16 @@ def accepted_cells(result, decisions: Mapping[str, str]) -> np.ndarray:
     bad = {v for v in decisions.values() if v not in (ACCEPT, REJECT)}
     if bad:
         raise ValueError(f"a decision is 'accept' or 'reject', got {', '.join(map(repr, sorted(map(str, bad))))}")
+
+
+def accepted_cells(result, decisions: Mapping[str, str]) -> np.ndarray:
+    """(F, J) bool: the cells of the changes ``decisions`` accepts (a change it does not name is accepted).
+
+    Raises ValueError for an id that is not a change of ``result`` or a choice other than accept/reject.
+    """
+    runs = _runs(result)
+    ids = {_change_id(result, *r): r for r in runs}
+    check_choices(decisions, ids)
     out = np.zeros(result.changed.shape, dtype=bool)
     for cid, (j, a, b, _) in ids.items():
         if decisions.get(cid, ACCEPT) == ACCEPT:
@@ -592,7 +598,7 @@ def check_cleaning(doc: dict, path, result, record=None, fresh: bool = False) ->
         return
     if stamp["sha256"] == cleaning_digest(result):
         return
-    want = _record_wanted(stamp)
+    want = record_wanted(stamp)
     if not fresh:
         where = f"the record {record}" if record is not None else "this clean record"
         raise MocapFormatError(path, f"made on another cleaning than {where} (its changes or cleaned values differ); "
@@ -638,10 +644,10 @@ def check_request(doc: dict, path, request: dict) -> None:
     diff = request_difference(stamp.get("request"), request)
     if diff:
         raise MocapFormatError(path, f"made on another cleaning than this new one: {diff}; apply them to the "
-                                     f"reviewed values: {_record_wanted(stamp)}, or clean with the same options")
+                                     f"reviewed values: {record_wanted(stamp)}, or clean with the same options")
 
 
-def _record_wanted(stamp: dict) -> str:
+def record_wanted(stamp: dict) -> str:
     """What to pass to apply decisions to the cleaning reviewed: ``--record`` and the record it was written to."""
     reviewed = stamp.get("record") if isinstance(stamp.get("record"), str) else ""
     return f"--record {reviewed}" if reviewed else "--record with the record written beside the reviewed output"

@@ -43,7 +43,8 @@ from typing import Mapping
 import numpy as np
 
 from ...errors import MocapError, MocapFormatError
-from ..decisions import ACCEPT, FORMAT, REJECT, check_decisions, frame_note, request_difference, take_digest
+from ..decisions import (ACCEPT, FORMAT, check_choices, check_decisions, frame_note, record_wanted,
+                         request_difference, take_digest)
 from .clean import MarkerCleanResult, MarkerFix
 
 __all__ = ["MarkerChange", "differs", "changes", "accepted_samples", "apply", "cleaning_digest", "template", "check",
@@ -154,14 +155,7 @@ def accepted_samples(original, cleaned, fixes, decisions: Mapping[str, str]) -> 
     Raises ValueError for an id that is not a change of this cleaning or a choice other than accept/reject.
     """
     found, owner = _owners(original, cleaned, fixes)
-    ids = {c.id for c in found}
-    unknown = [k for k in decisions if k not in ids]
-    if unknown:
-        raise ValueError(f"{len(unknown)} change id(s) are not changes of this cleaning: "
-                         f"{', '.join(map(repr, unknown[:3]))}{', ...' if len(unknown) > 3 else ''}")
-    bad = {v for v in decisions.values() if v not in (ACCEPT, REJECT)}
-    if bad:
-        raise ValueError(f"a decision is 'accept' or 'reject', got {', '.join(map(repr, sorted(map(str, bad))))}")
+    check_choices(decisions, {c.id for c in found})
     chosen = [k for k, c in enumerate(found) if decisions.get(c.id, ACCEPT) == ACCEPT]
     return np.isin(owner, chosen)
 
@@ -235,8 +229,7 @@ def check(doc: dict, path, original, cleaned=None, fixes=(), *, request=None, fr
         return chosen
     stamp = doc.get("cleaning")
     if stamp is not None and stamp.get("sha256") != cleaning_digest(original, cleaned):
-        rec = stamp.get("record") if isinstance(stamp.get("record"), str) else ""
-        want = f"--record {rec}" if rec else "--record with the record written beside the reviewed output"
+        want = record_wanted(stamp)
         diff = request_difference(stamp.get("request"), request) if fresh else ""
         raise MocapFormatError(path, f"made on another cleaning than {'this new one' if fresh else 'this record'}: "
                                      f"{diff or 'its changed samples differ'}; apply them to the reviewed samples: "
