@@ -30,6 +30,7 @@ a longer straight stretch (a gap another tool bridged linearly on every joint) i
 
 from __future__ import annotations
 
+import weakref
 from dataclasses import dataclass
 
 import numpy as np
@@ -100,10 +101,24 @@ def written_steps(values: np.ndarray) -> np.ndarray:
     return np.maximum(best, floor)
 
 
+_MIDPOINTS: "weakref.WeakKeyDictionary[Motion, np.ndarray]" = weakref.WeakKeyDictionary()
+
+
 def midpoint_frames(motion: Motion) -> np.ndarray:
-    """(F,) bool: the frames that are the midpoint of their neighbours (module docstring: linear or slerp, on
-    every channel, to the file's written precision, the neighbours apart by more than it); the first and last
-    frames never."""
+    """(F,) bool, read-only: the frames that are the midpoint of their neighbours (module docstring: linear or
+    slerp, on every channel, to the file's written precision, the neighbours apart by more than it); the first
+    and last frames never. Kept per Motion (an immutable take) while it lives: ``clean``'s note, detection and
+    repair ask it of the same take."""
+    got = _MIDPOINTS.get(motion)
+    if got is None:
+        got = _midpoint_frames(motion)
+        got.flags.writeable = False
+        _MIDPOINTS[motion] = got
+    return got
+
+
+def _midpoint_frames(motion: Motion) -> np.ndarray:
+    """:func:`midpoint_frames`, computed."""
     F = motion.num_frames
     out = np.zeros(F, dtype=bool)
     if F < 3:

@@ -23,7 +23,7 @@ from ..filters import window_frames
 from ..ik import contact_segments, segment_frames
 from .detect import Detection
 from .neighbours import dropped_terms, near_neighbors, neighbor_words
-from .repeats import blend_inbetweens, expand, frame_index, inbetween_runs, kept_frames, repeat_runs, without_repeats
+from .repeats import blend_inbetweens, expand, frame_index, kept_frames, repeat_runs, without_repeats
 from .texture import Analysis, align_hemisphere, frame_words, prepare
 from .guard import LeftRun, guard_joint
 from .undo import undone_offsets
@@ -459,7 +459,7 @@ def _repair_repeats(motion: Motion, detection: Detection, context, **options) ->
         return motion, ()
     runs, F = detection.once, motion.num_frames
     repeats = repeat_runs(motion)
-    if repeats != tuple(detection.repeats) or inbetween_runs(motion, repeats) != tuple(detection.inbetweens):
+    if repeats != tuple(detection.repeats) or any(b >= F for _, b in detection.inbetweens):
         raise ValueError(f"{motion.name or 'motion'}: the detection was made on another clip (its repeated or "
                          "interpolated frames differ)")
     index = frame_index(runs, F)
