@@ -25,6 +25,22 @@ if os.environ.get("PYTEST_XDIST_WORKER"):
 SHARED_DATA = Path(os.environ.get("MOCAPKIT_SHARED_DATA", Path(__file__).resolve().parents[1].parent / "shared" / "data"))
 
 
+@pytest.fixture
+def python_sigint():
+    """SIGINT as a plain Python process has it (``default_int_handler``, not blocked) for a test that interrupts
+    itself with ``os.kill(os.getpid(), SIGINT)``; restored after. A pytest-xdist worker's disposition is the
+    runner's, not the one a user's process starts with."""
+    import signal
+
+    before = signal.getsignal(signal.SIGINT)
+    blocked = signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT}) if hasattr(signal, "pthread_sigmask") else set()
+    signal.signal(signal.SIGINT, signal.default_int_handler)
+    yield
+    signal.signal(signal.SIGINT, before)
+    if signal.SIGINT in blocked:
+        signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
+
+
 @pytest.fixture(scope="session")
 def shared_data() -> Path:
     """``../shared/data`` beside the checkout; tests that need it skip on a clone without it."""

@@ -438,6 +438,7 @@ def _dead_pid():
     return child.pid
 
 
+@pytest.mark.usefixtures("python_sigint")
 def test_an_interrupt_right_after_the_old_database_is_moved_aside_leaves_a_database(small_db, saved, tmp_path, monkeypatch):
     """Finding 8: SIGINT (SIGTERM alike) lands as the first rename returns; the swap finishes, then it is raised."""
     import signal

@@ -270,6 +270,7 @@ def test_run_joins_threads_after_success_and_not_after_a_failure(tmp_path):
     assert (tmp_path / "joined").exists()
 
 
+@pytest.mark.usefixtures("python_sigint")
 def test_run_still_runs_the_exit_handlers_when_interrupted_while_joining(tmp_path):
     """Ctrl-C while the exit waits for a thread: the wait ends, the atexit handlers still run, exit 130."""
     code = ("import atexit, os, signal, sys, threading, time\n"

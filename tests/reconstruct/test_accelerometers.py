@@ -368,6 +368,7 @@ def test_cache_dir_of_other_files_is_refused_before_any_work_and_kept(db, tmp_pa
     assert _listing(tmp_path) == before and (results / "thesis_notes.txt").read_text() == "notes"
 
 
+@pytest.mark.usefixtures("python_sigint")
 def test_an_interrupted_save_leaves_nothing_and_a_retry_works(db, tmp_path, monkeypatch):
     """Finding 9: Ctrl-C while the arrays are written: no partial folder, the old knowledge base kept, retry fine."""
     import os
