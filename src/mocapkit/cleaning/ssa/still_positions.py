@@ -22,30 +22,13 @@ from __future__ import annotations
 
 import numpy as np
 
+from .cues import chain_table, event_bounds
+
 #: a break event is left out when the joint's children leave their smooth path by less than this share of what the
 #: joint's own turn would move them (the HDM05 squat's knee and ankle: under 0.1 % of it)
 POSITION_RATIO = 0.1
 #: the levels above and below a joint searched for another joint breaking at the same frames
 CHAIN_DEPTH = 2
-
-
-def _events(frames: np.ndarray) -> list[tuple[int, int]]:
-    """Sorted break frames grouped into ``(first, last)`` events of frames at most 3 apart (as the cues group them)."""
-    cut = np.flatnonzero(np.diff(frames) > 3) + 1
-    return [(int(a[0]), int(a[-1])) for a in np.split(frames, cut)]
-
-
-def _chain(parents: np.ndarray, j: int, depth: int) -> list[int]:
-    """The joints ``depth`` levels above and below ``j`` at most, ``j`` left out."""
-    out, k = [], j
-    while len(out) < depth and parents[k] >= 0:
-        k = int(parents[k])
-        out.append(k)
-    frontier = [j]
-    for _ in range(depth):
-        frontier = [int(c) for k in frontier for c in np.flatnonzero(parents == k)]
-        out += frontier
-    return out
 
 
 def position_kept_breaks(positions: np.ndarray, parents, breaks: np.ndarray, resid: np.ndarray,
@@ -70,10 +53,11 @@ def position_kept_breaks(positions: np.ndarray, parents, breaks: np.ndarray, res
     F = len(P)
     for j in np.flatnonzero(out.any(axis=0)):
         children = np.flatnonzero(parents == j)
-        chain = _chain(parents, int(j), depth)
-        if not len(children) or not chain:
+        chain = np.setdiff1d(chain_table(parents, int(j), depth), [-1, j])  # depth levels above and below j
+        if not len(children) or not len(chain):
             continue
-        for first, last in _events(np.flatnonzero(out[:, j])):
+        firsts, lasts, _ = event_bounds(np.flatnonzero(out[:, j]))
+        for first, last in zip(firsts.tolist(), lasts.tolist()):
             lo, hi = max(first, 1), min(last, F - 2)
             if hi < lo or not np.asarray(breaks)[max(first - 1, 0) : last + 2, chain].any():
                 continue
