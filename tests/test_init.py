@@ -79,9 +79,104 @@ def test_clean_takes_a_marker_capture_to_the_marker_cleaner():
     res = mocapkit.clean(samples.path("Eb015pr.c3d"))
     assert type(res).__name__ == "MarkerCleanResult"
     assert not res.markers.missing().any() and res.original.missing().any()
-    for kwargs in ({"steps": "detect"}, {"threshold": 0.8}, {"drifts": True}, {"context": "none"}):
-        with pytest.raises(mocapkit.MocapError, match="a marker capture is cleaned whole"):  # no review mode for it
+    for kwargs in ({"steps": "fill,detect"}, {"threshold": 0.8}, {"drifts": True}, {"context": "none"}):
+        with pytest.raises(mocapkit.MocapError, match="a marker capture is cleaned whole"):
             mocapkit.clean(samples.path("Eb015pr.c3d"), **kwargs)
+
+
+@pytest.fixture(scope="module")
+def capture_run(tmp_path_factory):
+    """The bundled Eb015pr.c3d (26 markers, 450 frames; its own gaps and spikes) cleaned by the CLI with a report:
+    (folder, input, output, record)."""
+    from mocapkit.cli import main
+
+    d = tmp_path_factory.mktemp("markers")
+    inp = samples.path("Eb015pr.c3d")
+    assert main(["clean", str(inp), "-o", str(d / "out.c3d")]) == 0
+    return d, inp, d / "out.c3d", d / "out.clean.npz"
+
+
+def _cli(*args):
+    from tests.cli.helpers import run
+
+    return run(*args)
+
+
+def test_review_mode_of_a_marker_capture_changes_nothing_and_says_what_the_cli_says(tmp_path):
+    inp = samples.path("Eb015pr.c3d")
+    plain, res = mocapkit.clean(inp), mocapkit.clean(inp, steps="detect")
+    assert res.review and res.output is res.original and res.fixes == plain.fixes and len(res.fixes) == 16
+    assert np.array_equal(res.output.positions, plain.original.positions, equal_nan=True)
+    code, out, err = _cli("clean", inp, "-o", tmp_path / "r.c3d", "--steps", "detect")
+    assert code == 0, err
+    assert res.summary()[0].startswith("review mode (--steps detect): the capture unchanged; cleaning would change "
+                                       "234 of 11700 marker samples")
+    assert all(f"  {line}\n" in out for line in res.summary()), (res.summary(), out)
+
+
+def _decisions(folder, inp, choices, stamped=True, name="d.json"):
+    """A decisions file as the report downloads it (``stamped``) or as written by hand, for the CLI's record."""
+    import json
+
+    from mocapkit.cleaning.markers import decisions as md
+    from mocapkit.cleaning.markers.record import read_marker_record
+    from mocapkit.io import load_markers
+
+    ms = load_markers(inp)
+    res = md.result_from_record(ms, read_marker_record(folder / "out.clean.npz"))
+    doc = md.template(ms, md.changes(ms, res.markers, res.fixes), inp.name, "out.c3d", choices,
+                      cleaned=res.markers if stamped else None, record=folder / "out.clean.npz")
+    path = folder / name
+    path.write_text(json.dumps(doc))
+    return path
+
+
+def test_decisions_apply_to_a_marker_capture_as_the_cli_applies_them(capture_run, tmp_path):
+    """The same file gives the same capture and the same summary lines in the library and in the CLI, from a new
+    cleaning and from the record; the rejected change's samples are the input's, every other sample plain clean's."""
+    from mocapkit.io import load_markers
+
+    d, inp, out, record = capture_run
+    path = _decisions(d, inp, {"spike:LFT3:43-45": "reject", "gap:PV2:403-449": "reject"})
+    plain = mocapkit.clean(inp)
+    for rec in (None, record):
+        res = mocapkit.clean(inp, decisions=path, record=rec)
+        assert res.decided is not None and len(res.fixes) == len(plain.fixes) - 2
+        back = np.zeros(res.changed.shape, bool)
+        back[43:46, plain.original.labels.index("LFT3")] = back[403:450, plain.original.labels.index("PV2")] = True
+        assert np.array_equal(res.markers.positions[back], plain.original.positions[back], equal_nan=True)
+        assert np.array_equal(res.markers.positions[~back], plain.markers.positions[~back], equal_nan=True)
+        assert not res.spikes[back].any() and not res.filled[back].any()
+        got = tmp_path / f"{rec is None}.c3d"
+        code, stdout, err = _cli("clean", inp, "-o", got, "--decisions", path, *(["--record", rec] if rec else []))
+        assert code == 0, err
+        lines = res.summary()
+        assert lines[0].startswith(f"{path} applied to ") and "14 of 16 changes accepted, 2 rejected" in lines[0]
+        assert stdout.splitlines()[0].endswith(f": {lines[0]}") and all(x in stdout for x in lines[1:]), (lines, stdout)
+        assert np.allclose(load_markers(got).positions, res.markers.positions, equal_nan=True, atol=1e-3)  # float32
+
+
+def test_marker_decisions_are_refused_in_the_library_with_the_clis_words(capture_run, tmp_path):
+    """A hand-written file (no digest of the cleaning reviewed) is refused for a new cleaning and taken with the
+    record, noting it; a file for another capture is refused; review mode takes no decisions; each refusal is the
+    line the CLI says."""
+    from mocapkit.io import load_markers, save_markers
+
+    d, inp, out, record = capture_run
+    hand = _decisions(d, inp, {"spike:LFT3:43-45": "reject"}, stamped=False, name="hand.json")
+    with pytest.raises(mocapkit.MocapFormatError) as exc:
+        mocapkit.clean(inp, decisions=hand)
+    code, _, err = _cli("clean", inp, "-o", tmp_path / "x.c3d", "--decisions", hand)
+    assert code == 2 and "keeps no digest" in str(exc.value) and str(exc.value) in err, (exc.value, err)
+    res = mocapkit.clean(inp, decisions=hand, record=record)
+    assert any(x.startswith(f"note: {hand} keeps no digest") for x in res.summary())
+    other = save_markers(load_markers(inp)[:400], tmp_path / "other.c3d")
+    with pytest.raises(mocapkit.MocapFormatError, match="decisions for another take"):
+        mocapkit.clean(other, decisions=hand)
+    with pytest.raises(mocapkit.MocapError, match="review mode"):
+        mocapkit.clean(inp, steps="detect", decisions=hand)
+    with pytest.raises(mocapkit.MocapError, match="applied with decisions"):
+        mocapkit.clean(inp, record=record)
 
 
 def test_the_summary_says_how_frames_relate_to_the_files_numbers_as_the_cli_does(tmp_path, capsys):

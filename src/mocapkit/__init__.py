@@ -49,7 +49,7 @@ __all__ = [
 
 def clean(take, context=None, *, steps="fill,detect,repair,denoise", threshold: float = 0.5, asf=None,
           drifts: bool = False, models: dict | None = None, progress: bool = False, noise_deg: float | None = None,
-          fps: float | None = None, unit: str | None = None):
+          fps: float | None = None, unit: str | None = None, decisions=None, record=None):
     """Clean a take: fill gaps, detect and repair erroneous joints, denoise the noisy cells.
 
     The main job of mocapkit, :func:`mocapkit.cleaning.pipeline.clean` on a
@@ -63,9 +63,11 @@ def clean(take, context=None, *, steps="fill,detect,repair,denoise", threshold: 
         ``.asf`` beside it unless ``asf`` is given). A marker capture
         (MarkerSet, .c3d, .trc, marker .npz) goes to
         :func:`mocapkit.cleaning.markers.clean_markers` (label swaps, spikes,
-        gaps), which returns a ``MarkerCleanResult``; the other parameters
-        apply to motions only and are refused for it (``steps="detect"`` too:
-        a marker capture has no review mode).
+        gaps), which returns a ``MarkerCleanResult``; ``steps="detect"`` is
+        its review mode (nothing changed: the result's ``output`` is the
+        input, its ``fixes`` what cleaning would change, ``review`` True), and
+        ``decisions`` applies a person's decisions to it; the other parameters
+        apply to motions only and are refused for it.
     context : None, False, "none", MotionDatabase, database folder, folder of takes, or list of Motions or files
         What detection and repair compare with besides the clip itself
         (:func:`mocapkit.context.resolve_context`): a folder of takes or a
@@ -99,6 +101,17 @@ def clean(take, context=None, *, steps="fill,detect,repair,denoise", threshold: 
         default :func:`mocapkit.io.asfamc.amc_rate`).
     unit : {"mm", "cm", "m", "in"}, optional
         The length unit of a file that states none (the CLI's ``--unit``).
+    decisions : str or os.PathLike, optional
+        A marker capture's decisions file (the report's *Download decisions*;
+        the CLI's ``--decisions``): the result then holds only the changes it
+        accepts, every other sample the input's, and its ``summary()`` says
+        what ``mocapkit clean --decisions`` says. The file applies only to the
+        cleaning it was made on, as for the CLI: its ``record``, or a new
+        cleaning giving the very same samples; a refusal is one line naming
+        the file (:func:`mocapkit.cleaning.markers.decisions.clean_and_decide`).
+    record : str or os.PathLike, optional
+        With ``decisions``: the ``.clean.npz`` of the cleaning reviewed (the
+        CLI's ``--record``), read back instead of cleaning again.
 
     Returns
     -------
@@ -134,14 +147,23 @@ def clean(take, context=None, *, steps="fill,detect,repair,denoise", threshold: 
 
         take = load_take(path, unit=unit)
     if isinstance(take, MarkerSet):
-        from .batch import refuse_marker_options
-        from .cleaning.markers import clean_markers
+        from .cleaning.markers.decisions import clean_and_decide
         from .cleaning.pipeline import STEPS, parse_steps
+        from .marker_files import marker_request, refuse_marker_options
 
+        review = parse_steps(steps) == ("detect",)
         refuse_marker_options(take.name or "the take", [name for name, given in (
-            (f"steps {steps}", parse_steps(steps) != STEPS), ("threshold", threshold != 0.5), ("drifts", drifts),
-            ("models", bool(models)), ("context", context is not None), ("noise_deg", noise_deg is not None)) if given])
-        return dataclasses.replace(clean_markers(take), frames_note=frames_note(path, take))
+            (f"steps {steps}", parse_steps(steps) not in (STEPS, ("detect",))), ("threshold", threshold != 0.5),
+            ("drifts", drifts), ("models", bool(models)), ("context", context is not None),
+            ("noise_deg", noise_deg is not None)) if given])
+        _, res = clean_and_decide(take, name=os.fspath(path) if path is not None else "", decisions=decisions,
+                                  record=record, review=review, request=marker_request(unit, review=review),
+                                  take=os.path.basename(os.fspath(path)) if path is not None else "")
+        return dataclasses.replace(res, frames_note=frames_note(path, take))
+    if decisions is not None or record is not None:
+        raise MocapError(f"{take.name if isinstance(take, Motion) else take}: decisions= and record= apply to a marker "
+                         "capture here; a joint-angle take's decisions apply with mocapkit.cleaning.decisions.apply "
+                         "or mocapkit clean --decisions")
     motion = take if isinstance(take, Motion) else _load_motion(take, asf, fps, unit)
     ctx, note = _load_context(context, motion)
     extra = {} if noise_deg is None else {"noise_deg": noise_deg}

@@ -56,13 +56,13 @@ def clean_marker_file(inp, out, *, report=None, png=None, overwrite: bool = Fals
     cleaning again (needs ``decisions``; only ``out`` and the reports are written). ``review``: the review mode
     (``--steps detect``): the record and reports say what cleaning would change and ``out`` holds the input's
     samples unchanged. Returns ``(original, result)``: the capture as read and the
-    :class:`~mocapkit.cleaning.markers.MarkerCleanResult` (rebuilt from ``record`` when one is reused).
+    :class:`~mocapkit.cleaning.markers.MarkerCleanResult` given back
+    (:func:`~mocapkit.cleaning.markers.decisions.clean_and_decide`: in review mode the cleaning with ``review``
+    set, with decisions the decided capture and its ``decided`` summary; the report draws it); the record keeps
+    the whole cleaning (rebuilt from ``record`` when one is reused).
     """
     from .cleaning import decisions as dec
-    from .cleaning.markers import STEPS as MARKER_STEPS
-    from .cleaning.markers import clean_markers
     from .cleaning.markers import decisions as mdec
-    from .cleaning.markers.record import read_marker_record
     from .cleaning.pipeline import clean_path
     from .io import MARKER_FORMATS, load_markers, save_markers, suffix_kind
     from .io.outputs import check_outputs, file_facts, removed_on_failure
@@ -78,31 +78,23 @@ def clean_marker_file(inp, out, *, report=None, png=None, overwrite: bool = Fals
     outputs = [out, None if reuse else record, report, png]
     check_outputs(outputs, [inp, decisions, record if reuse else None], overwrite=overwrite)
     suffix_kind(out, MARKER_FORMATS, "writing markers")
-    doc = dec.read_decisions(decisions) if decisions is not None else None
     taken = file_facts(inp)
     ms = markers if markers is not None else load_markers(inp, **({} if unit is None else {"units": unit}))
-    if doc is not None:
-        mdec.check(doc, decisions, ms)  # decisions for another capture: refused before any cleaning
-    if reuse:
-        rec = read_marker_record(record)
-        mdec.check_record(ms, rec, record)  # the record against the capture first, then the decisions against it
-        res = mdec.result_from_record(ms, rec)
-    else:
-        try:
-            res = clean_markers(ms, steps=steps or MARKER_STEPS, max_gap_s=max_gap_s, max_error_mm=max_error_mm)
-        except ValueError as exc:
-            raise MocapError(f"{inp}: {exc}") from None
-    res = replace(res, frames_note=dec.frames_note(inp, ms))  # the summary says how its frames relate to the file's
     request = marker_request(unit, max_gap_s, max_error_mm, review)
-    chosen = (mdec.check(doc, decisions, ms, res.markers, res.fixes, request=request, fresh=not reuse)
-              if doc is not None else None)
-    written = ms if review else res.markers if chosen is None else mdec.apply(ms, res.markers, res.fixes, chosen)
+    res, given = mdec.clean_and_decide(ms, name=str(inp), steps=steps, max_gap_s=max_gap_s,
+                                       max_error_mm=max_error_mm, decisions=decisions,
+                                       record=record if reuse else None, review=review, request=request,
+                                       take=inp.name)
+    note = dec.frames_note(inp, ms)  # the summary says how its frames relate to the file's
+    res, given = replace(res, frames_note=note), replace(given, frames_note=note)
+    chosen = None if given.decided is None else dec.read_decisions(decisions)["decisions"]
     with removed_on_failure(outputs, overwrite=overwrite, marker=None if reuse else record):
         if report is not None:
             from .report.markers import write_marker_report
 
-            what = ("review mode, nothing changed" if review else f"{Path(decisions).name} applied" if doc else "")
-            write_marker_report(report, res, title=f"{inp.name}: cleaned" + (f" ({what})" if what else ""),
+            what = ("review mode, nothing changed" if review else f"{Path(decisions).name} applied" if chosen is not None
+                    else "")
+            write_marker_report(report, given, title=f"{inp.name}: cleaned" + (f" ({what})" if what else ""),
                                 review=mdec.review(ms, res.markers, res.fixes, take=inp.name, output=out.name,
                                                    decisions=chosen, first_frame=file_first_frame(inp, ms),
                                                    request=request, record=record),
@@ -110,9 +102,9 @@ def clean_marker_file(inp, out, *, report=None, png=None, overwrite: bool = Fals
         if png is not None:
             from .report.markers import plot_marker_fixes
 
-            plot_marker_fixes(png, res, title=f"{inp.name}: before (grey) and after")
-        save_markers(written, out, like=ms)
+            plot_marker_fixes(png, given, title=f"{inp.name}: before (grey) and after")
+        save_markers(given.output, out, like=ms)
         if not reuse:  # last: the completion marker
             res.save(record, written={"input": taken, "output": file_facts(out)},
                      request=request)
-    return ms, res
+    return ms, given

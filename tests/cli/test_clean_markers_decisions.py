@@ -185,3 +185,26 @@ def test_reject_one_change_in_the_report_download_and_apply(capture, tmp_path):
     undone[300:340, a.labels.index("Male:LANK")] = True
     assert _same(c, a, undone) and _same(c, b, ~undone)
     assert np.isnan(c.positions[300:340, a.labels.index("Male:LANK")]).all()
+
+
+def test_the_decided_summary_says_what_a_joint_angle_takes_says(capture, tmp_path):
+    """One printer for both kinds of take: a hand-written file naming one change, applied to the record, gets the
+    same notes (taken on its ids; the changes it does not name accepted) and the same words as a joint-angle take's
+    (tests/cli/test_clean_decisions.py)."""
+    d, inp, out, record = capture
+    hand = _decide(d, inp, {"gap:Male:LANK:300-339": "reject"}, "hand1.json", stamped=False)
+    doc = json.loads(hand.read_text())
+    doc["decisions"] = {"gap:Male:LANK:300-339": "reject"}
+    hand.write_text(json.dumps(doc))
+    got = tmp_path / "one.c3d"
+    code, stdout, stderr = run("clean", inp, "-o", got, "--decisions", hand, "--record", record)
+    assert code == 0, stderr + stdout
+    lines = stdout.splitlines()
+    assert lines[0] == (f"wrote {got}: {hand} applied to the record {record} (nothing cleaned again): 2 of 3 changes "
+                        f"accepted, 1 rejected; 81 marker samples of {load_markers(inp).positions[:, :, 0].size} "
+                        f"changed, every other sample is in.c3d's"), lines[0]
+    assert lines[1] == (f"note: {hand} keeps no digest of the cleaning it was made on (an earlier mocapkit's file, or "
+                        "written by hand): it was applied to the record as its change ids match; make sure that record "
+                        "is the one reviewed")
+    assert lines[2] == f"note: {hand} names 1 of 3 changes: the 2 it does not name were accepted"
+    assert lines[3].startswith("  rejected gap:Male:LANK:300-339: Male:LANK frames 300-339 (gap, ")

@@ -98,7 +98,7 @@ from .ssa.cues import cause_names
 __all__ = ["FORMAT", "ACCEPT", "REJECT", "Change", "changes", "apply", "take_digest", "template", "read_decisions",
            "check_decisions", "check_record", "record_problem", "as_written", "accepted_cells", "flag_segments",
            "frame_note", "frames_note", "review", "cleaning_digest", "cleaning_stamp", "check_cleaning", "check_named",
-           "unnamed_changes", "applying_notes", "request_difference", "check_request", "check_choices", "record_wanted", "DuplicateKeyError"]
+           "unnamed_changes", "applying_notes", "ids_notes", "request_difference", "check_request", "check_choices", "record_wanted", "DuplicateKeyError"]
 
 FORMAT = "mocapkit.decisions/1"
 ACCEPT, REJECT = "accept", "reject"
@@ -694,14 +694,21 @@ def check_named(doc: dict, path, result) -> None:
 def applying_notes(doc: dict, path, result) -> list[str]:
     """What a person applying ``doc`` (read from ``path``) to the record ``result`` should know, one line each: a
     file that keeps no digest of its cleaning (taken on its ids), and the changes it does not name (accepted)."""
+    return ids_notes(doc, path, [_change_id(result, *r) for r in _runs(result)])
+
+
+def ids_notes(doc: dict, path, ids) -> list[str]:
+    """:func:`applying_notes` for a cleaning whose changes are ``ids`` (a joint-angle take's or a marker capture's:
+    :func:`mocapkit.cleaning.markers.decisions.changes`), so that both say the same lines."""
     out = []
     if "cleaning" not in doc:
         out.append(f"{path} keeps no digest of the cleaning it was made on (an earlier mocapkit's file, or written "
                    "by hand): it was applied to the record as its change ids match; make sure that record is the one "
                    "reviewed")
-    left = unnamed_changes(doc, result)
+    named = doc["decisions"]
+    left = [cid for cid in ids if cid not in named]
     if left:
-        total = len(_runs(result))
+        total = len(ids)
         out.append(f"{path} names {total - len(left)} of {total} changes: the {len(left)} it does not name "
                    f"{'was' if len(left) == 1 else 'were'} accepted")
     return out

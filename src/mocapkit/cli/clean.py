@@ -119,8 +119,14 @@ def clean(
     if skeleton_copy is not None:
         console.print(f"copied the skeleton {skeleton} to {skeleton_copy}: an AMC is read with the ASF beside it")
     if decisions is not None:
-        m = _print_decided(inp, out, decisions, record, report, png, original, res)
-        _print_reference(ref, reference, original, m)
+        from ..cleaning import decided
+        from ..cleaning import decisions as dec
+
+        doc = dec.read_decisions(decisions)
+        choice = doc["decisions"]
+        _print_decided(_written(out, record, report, png),
+                       decided.for_motion(doc, decisions, original, res, choice, record, take=inp.name), res.frames_note)
+        _print_reference(ref, reference, original, dec.apply(original, res, choice))
         return
     m = res.motion
     review = [s for s in res.steps if s.name != "detect"] == [] and res.detection is not None
@@ -192,34 +198,14 @@ def _print_reference(ref, reference, original, m) -> None:
                   f"per frame; joint positions {e['cm_before']:.2f} -> {e['cm_after']:.2f} cm RMS")
 
 
-def _print_decided(inp, out, decisions, record, report, png, original, res):
-    """The summary of ``clean --decisions``: what was reused, how many changes were accepted; returns OUT's take."""
-    from ..cleaning import decisions as dec
-    from ..cleaning.pipeline import clean_path
-
-    doc = dec.read_decisions(decisions)
-    choice = doc["decisions"]
-    found = dec.changes(res, original)
-    rejected = [c for c in found if choice.get(c.id) == dec.REJECT]
-    cells = dec.accepted_cells(res, choice)
-    written = [out] + ([clean_path(out)] if record is None else []) + [p for p in (report, png) if p is not None]
-    src = f"the record {record} (nothing cleaned again)" if record is not None else "a new cleaning (its values the ones reviewed)"
-    console.print(f"wrote {' and '.join(map(str, written))}: {decisions} applied to {src}: "
-                  f"{len(found) - len(rejected)} of {plural(len(found), 'change')} accepted, {len(rejected)} rejected; "
-                  f"{plural(int(cells.sum()), 'joint sample')} of {res.changed.size} changed, every other sample is "
-                  f"{inp.name}'s")
-    for note in dec.applying_notes(doc, decisions, res):  # a file taken on its ids; the changes it does not name
-        console.print(f"note: {note}")
-    if record is not None and not res.take_sha256:
-        console.print(f"note: {record} was written by an earlier mocapkit and keeps no digest of its take: it was "
-                      "checked by rig, length and rate only; make sure it is this take's")
-    for c in rejected[:12]:
-        console.print(f"  rejected {c}")
-    if len(rejected) > 12:
-        console.print(f"  ... and {len(rejected) - 12} more rejected")
-    if rejected and res.frames_note:  # the rejected changes' frames, against the file's own numbers
-        console.print(f"  {res.frames_note}")
-    return dec.apply(original, res, choice)
+def _print_decided(written, decided, frames_note: str) -> None:
+    """The summary of ``clean --decisions``, for a joint-angle take and a marker capture alike: the files written,
+    then :meth:`~mocapkit.cleaning.decided.Decided.lines` (what was applied to what, its notes, the rejected
+    changes)."""
+    head, *rest = decided.lines(frames_note)
+    console.print(f"wrote {' and '.join(map(str, written))}: {head}")
+    for line in rest:
+        console.print(line if line.startswith("note: ") else f"  {line}")
 
 
 def _clean_marker_take(inp: Path, out: Path, *, report, png, overwrite: bool, not_for_markers: list[str],
@@ -246,15 +232,13 @@ def _clean_marker_take(inp: Path, out: Path, *, report, png, overwrite: bool, no
     _, res = clean_marker_file(inp, out, report=report, png=png, overwrite=overwrite, markers=take,
                                max_gap_s=max_gap_s, max_error_mm=max_error_mm, decisions=decisions, record=record,
                                review=review)
-    if decisions is not None:
-        _print_marker_decided(inp, out, take, res, decisions, record, report, png)
+    if res.decided is not None:
+        _print_decided(_written(out, record, report, png), res.decided, res.frames_note)
         return True
     extra = "".join(f" and {x}" for x in (report, png) if x is not None)
     console.print(f"wrote {out} and {clean_path(out)}{extra}: {plural(take.num_frames, 'frame')} x "
-                  f"{plural(take.num_markers, 'marker')}, " +
-                  (f"review mode (--steps detect): the capture unchanged; cleaning would change "
-                   f"{int(res.changed.sum())} of {plural(res.changed.size, 'marker sample')}" if review else
-                   f"{int(res.changed.sum())} of {plural(res.changed.size, 'marker sample')} changed"))
+                  f"{plural(take.num_markers, 'marker')}" + ("" if res.review else  # summary()'s first line says it
+                  f", {int(res.changed.sum())} of {plural(res.changed.size, 'marker sample')} changed"))
     if take.units_from != "file":  # the unit every mm figure below rests on
         how = "given with --unit" if take.units_from == "given" else "inferred from the marker distances; --unit sets it"
         console.print(f"  length unit {take.units}: the file states none ({how})")
@@ -270,27 +254,12 @@ def _clean_marker_take(inp: Path, out: Path, *, report, png, overwrite: bool, no
     return True
 
 
-def _print_marker_decided(inp, out, take, res, decisions, record, report, png) -> None:
-    """The summary of ``clean --decisions`` on a marker capture: what was reused, which changes were rejected."""
-    from ..cleaning import decisions as dec
-    from ..cleaning.markers import decisions as mdec
+def _written(out: Path, record, report, png) -> list:
+    """The files ``clean --decisions`` wrote: OUT, its record when it cleaned again (no ``record`` given), the
+    reports."""
     from ..cleaning.pipeline import clean_path
 
-    choice = dec.read_decisions(decisions)["decisions"]
-    found = mdec.changes(take, res.markers, res.fixes)
-    rejected = [c for c in found if choice.get(c.id) == dec.REJECT]
-    n = int(mdec.accepted_samples(take, res.markers, res.fixes, choice).sum())
-    written = [out] + ([clean_path(out)] if record is None else []) + [p for p in (report, png) if p is not None]
-    src = f"the record {record} (nothing cleaned again)" if record is not None else "a new cleaning"
-    console.print(f"wrote {' and '.join(map(str, written))}: {decisions} applied to {src}: "
-                  f"{len(found) - len(rejected)} of {plural(len(found), 'change')} accepted, {len(rejected)} rejected; "
-                  f"{plural(n, 'marker sample')} of {res.changed.size} changed, every other sample is {inp.name}'s")
-    for c in rejected[:12]:
-        console.print(f"  rejected {c}")
-    if len(rejected) > 12:
-        console.print(f"  ... and {len(rejected) - 12} more rejected")
-    if rejected and res.frames_note:
-        console.print(f"  {res.frames_note}")
+    return [out] + ([clean_path(out)] if record is None else []) + [p for p in (report, png) if p is not None]
 
 
 def _take_line(row: dict) -> str:

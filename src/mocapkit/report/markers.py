@@ -14,6 +14,7 @@ frames shaded. Both read a :class:`~mocapkit.cleaning.markers.MarkerCleanResult`
 
 from __future__ import annotations
 
+import dataclasses
 import html
 import json
 from pathlib import Path
@@ -171,8 +172,10 @@ def write_marker_report(path, result, *, title: str = "", max_frames: int = 3000
     The page plays in real time at the capture's rate and frames every drawn point
     of every frame whole (:func:`_marker_framing`). ``review``: the changes to accept or reject and the
     decisions document (:func:`mocapkit.cleaning.markers.decisions.review`), drawn by the joint-angle
-    report's list (:func:`mocapkit.report.html.review_parts`); ``review_mode``: the capture was only
-    reviewed (``--steps detect``), the page says its output holds the input unchanged.
+    report's list (:func:`mocapkit.report.html.review_parts`); ``review_mode`` (or ``result.review``): the
+    capture was only reviewed (``--steps detect``), the page says its output holds the input unchanged. With
+    decisions applied, ``result`` is the decided one
+    (:func:`mocapkit.cleaning.markers.decisions.decided_result`): the viewer draws the capture written.
     """
     from ..io import atomic_write
     from .html import review_parts
@@ -219,9 +222,9 @@ def write_marker_report(path, result, *, title: str = "", max_frames: int = 3000
     same = (f"<h3>Two markers at one position, left as recorded ({len(coincident)})</h3><table><tr><th>markers</th>"
             f"<th>frames</th><th>what</th></tr>{same}</table>") if coincident else ""
     lines = result.summary()
-    if review_mode:
+    if review_mode or result.review:
         lines = ["review mode (--steps detect): the capture was written unchanged; the fixes below are what "
-                 "cleaning would change"] + lines
+                 "cleaning would change"] + dataclasses.replace(result, review=False).summary()
     summary = "".join(f"<li>{html.escape(s)}</li>" for s in lines)
     review_css, review_block, review_js = review_parts(review)
     head = html.escape(title or result.markers.name or "marker capture")

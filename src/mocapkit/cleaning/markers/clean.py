@@ -174,6 +174,15 @@ class MarkerCleanResult:
     coincident : tuple of MarkerFix
         Runs where two markers sit at the same position and which one is the
         copy could not be told (kind "coincident"): both left as recorded.
+    review : bool
+        Review mode (``steps="detect"``, the CLI's ``--steps detect``): nothing
+        is changed, :attr:`output` is the input, and ``markers``, the masks and
+        ``fixes`` say what cleaning would change, for a person to decide on.
+    decided : Decided or None
+        The decisions applied (:class:`mocapkit.cleaning.decided.Decided`):
+        ``markers`` then holds only the accepted changes, every other sample the
+        input's, and the masks and ``fixes`` are those of the accepted changes
+        (:func:`mocapkit.cleaning.markers.decisions.decided_result`).
     """
 
     markers: object
@@ -191,6 +200,14 @@ class MarkerCleanResult:
     coincident: tuple[MarkerFix, ...] = ()
     nobody_seen: tuple[tuple[str, int, int], ...] = ()
     frames_note: str = ""
+    review: bool = False
+    decided: object = None
+
+    @property
+    def output(self):
+        """The capture this cleaning gives back (what ``mocapkit clean`` writes): the input in review mode, else
+        :attr:`markers`."""
+        return self.original if self.review else self.markers
 
     @property
     def changed(self) -> np.ndarray:
@@ -205,7 +222,17 @@ class MarkerCleanResult:
         return self.duplicates if self.duplicates is not None else np.zeros(self.filled.shape, dtype=bool)
 
     def summary(self) -> list[str]:
-        """A few lines for a terminal, :attr:`frames_note` last where they or :attr:`fixes` name a frame."""
+        """A few lines for a terminal, :attr:`frames_note` last where they or :attr:`fixes` name a frame.
+
+        With decisions applied, the lines ``mocapkit clean --decisions`` says (:meth:`Decided.lines
+        <mocapkit.cleaning.decided.Decided.lines>`); in review mode, first the line saying nothing was changed.
+        """
+        if self.decided is not None:
+            return self.decided.lines(self.frames_note)
+        if self.review:
+            n, total = int(self.changed.sum()), self.changed.size
+            return ([f"review mode (--steps detect): the capture unchanged; cleaning would change {n} of {total} "
+                     f"marker sample{'' if total == 1 else 's'}"] + dataclasses.replace(self, review=False).summary())
         counts = {k: sum(1 for x in self.fixes if x.kind == k) for k in ("gap", "spike", "swap")}
         lines = [f"{counts['gap']} gaps filled ({int(self.filled.sum())} samples), "
                  f"{counts['spike']} spikes removed ({int(self.spikes.sum())} samples), "

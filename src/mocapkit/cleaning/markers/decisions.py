@@ -43,12 +43,12 @@ from typing import Mapping
 import numpy as np
 
 from ...errors import MocapError, MocapFormatError
-from ..decisions import (ACCEPT, FORMAT, check_choices, check_decisions, frame_note, record_wanted,
+from ..decisions import (ACCEPT, FORMAT, REJECT, check_choices, check_decisions, frame_note, record_wanted,
                          request_difference, take_digest)
 from .clean import MarkerCleanResult, MarkerFix
 
 __all__ = ["MarkerChange", "differs", "changes", "accepted_samples", "apply", "cleaning_digest", "template", "check",
-           "review", "record_cells", "result_from_record", "check_record"]
+           "review", "record_cells", "result_from_record", "check_record", "decided_result", "clean_and_decide"]
 
 _ORDER = ("duplicate", "spike", "gap", "swap")  # who owns a sample two fixes touched
 
@@ -317,3 +317,78 @@ def result_from_record(original, record) -> MarkerCleanResult:
                              unlabelled=record.unlabelled, unfilled=tuple(_fix(x) for x in record.unfilled),
                              duplicates=record.duplicates, coincident=tuple(_fix(x) for x in record.coincident),
                              nobody_seen=record.nobody_seen)
+
+
+# -- review mode and decisions, one path for the library and the CLI ------------------------------
+
+
+def decided_result(original, result: MarkerCleanResult, decisions: Mapping[str, str], decided=None
+                   ) -> MarkerCleanResult:
+    """``result`` with only the changes ``decisions`` accepts: what a person's decisions give back.
+
+    ``markers`` is :func:`apply`'s capture; ``filled``, ``spikes``, ``swapped`` and ``duplicates`` keep only the
+    accepted changes' samples, ``fixes`` (and a removed spike left missing in ``unfilled``) only the accepted
+    changes', so that a report or summary of it shows the capture written, not the whole cleaning; ``decided``:
+    the :class:`~mocapkit.cleaning.decided.Decided` kept on it (its :meth:`~MarkerCleanResult.summary`).
+    """
+    acc = accepted_samples(original, result.markers, result.fixes, decisions)
+    rejected = {c.id for c in changes(original, result.markers, result.fixes) if decisions.get(c.id) == REJECT}
+
+    def kept(x) -> bool:
+        return f"{x.kind}:{x.marker}:{x.start}-{x.end - 1}" not in rejected
+
+    return dataclasses.replace(
+        result, markers=apply(original, result.markers, result.fixes, decisions), filled=result.filled & acc,
+        spikes=result.spikes & acc, swapped=result.swapped & acc, duplicates=result.duplicate_mask & acc,
+        fixes=tuple(x for x in result.fixes if kept(x)), unfilled=tuple(x for x in result.unfilled if kept(x)),
+        decided=decided)
+
+
+def clean_and_decide(original, *, name="", steps=None, max_gap_s=None, max_error_mm=None, decisions=None,
+                     record=None, review: bool = False, request=None, take: str = ""
+                     ) -> tuple[MarkerCleanResult, MarkerCleanResult]:
+    """A marker capture cleaned (or its earlier ``record`` read back), then reviewed or decided: the one path of
+    ``mocapkit.clean`` and ``mocapkit clean`` for a marker capture.
+
+    ``original``: the capture (:class:`MarkerSet`), ``name`` what a refusal names it by (its file); ``steps``,
+    ``max_gap_s``, ``max_error_mm``: :func:`~mocapkit.cleaning.markers.clean_markers`'s. ``decisions``: a
+    decisions file (:func:`~mocapkit.cleaning.decisions.read_decisions`), checked against the capture before any
+    cleaning and against the cleaning after (:func:`check`: the digest of the cleaning reviewed, every change
+    named); ``record``: the ``.clean.npz`` of an earlier cleaning, reused (needs ``decisions``); ``review``: review
+    mode, nothing changed (not with ``decisions``). ``request``: the options asked for
+    (:func:`mocapkit.marker_files.marker_request`), named where a new cleaning's digest differs; ``take``: the
+    input's file name for the summary.
+
+    Returns ``(cleaning, given)``: the whole cleaning (what a record keeps) and what comes back: the cleaning in
+    review mode (``review=True``), :func:`decided_result` with decisions, else the cleaning itself. Every refusal is
+    one line naming the file (:class:`~mocapkit.errors.MocapError`).
+    """
+    from ..decided import for_markers
+    from ..decisions import read_decisions
+    from .clean import STEPS, clean_markers
+    from .record import read_marker_record
+
+    name = name or original.name or "the capture"
+    if record is not None and decisions is None:
+        raise MocapError(f"{record}: an earlier run's record is applied with decisions; give the decisions file")
+    if review and decisions is not None:
+        raise MocapError(f"{name}: review mode (--steps detect) changes nothing; decisions apply to a cleaning")
+    doc = read_decisions(decisions) if decisions is not None else None
+    if doc is not None:
+        check(doc, decisions, original)  # decisions for another capture: refused before any cleaning
+    if record is not None:
+        rec = read_marker_record(record)
+        check_record(original, rec, record)  # the record against the capture first, then the decisions against it
+        res = result_from_record(original, rec)
+    else:
+        try:
+            res = clean_markers(original, steps=steps or STEPS, max_gap_s=max_gap_s, max_error_mm=max_error_mm)
+        except ValueError as exc:
+            raise MocapError(f"{name}: {exc}") from None
+    if review:
+        return res, dataclasses.replace(res, review=True)
+    if doc is None:
+        return res, res
+    chosen = check(doc, decisions, original, res.markers, res.fixes, request=request, fresh=record is None)
+    said = for_markers(doc, decisions, original, res, chosen, record=record, take=take)
+    return res, decided_result(original, res, chosen, said)

@@ -1,0 +1,93 @@
+"""What applying a person's decisions did, said one way for a joint-angle take and for a marker capture.
+
+``mocapkit clean IN -o OUT --decisions FILE.json`` and ``mocapkit.clean(take, decisions=FILE.json)`` say, after
+the decisions are applied (:mod:`mocapkit.cleaning.decisions`, :mod:`mocapkit.cleaning.markers.decisions`): what
+they were applied to (a record, or a new cleaning whose digest is the one reviewed), how many changes were
+accepted and rejected, how many samples changed, what the reader should know about the file (one written by hand,
+changes it does not name) and which changes were rejected. :func:`for_motion` and :func:`for_markers` gather
+those facts into a :class:`Decided`; :meth:`Decided.lines` words them, for both kinds of take.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from . import decisions as dec
+
+__all__ = ["Decided", "for_motion", "for_markers", "MAX_LISTED"]
+
+MAX_LISTED = 12  # rejected changes listed one a line; the rest counted
+
+
+@dataclass(frozen=True)
+class Decided:
+    """The facts of one decisions file applied to one cleaning.
+
+    ``decisions``: the file as given; ``record``: the record applied to ("" for a new cleaning); ``changes``: the
+    cleaning's number of changes; ``rejected``: each rejected change in words (``KIND:WHO:FIRST-LAST: ...``);
+    ``samples``: the samples the decided take changed, of ``total``; ``item``: what a sample is ("joint sample",
+    "marker sample"); ``take``: the input's file name (every other sample is its); ``notes``: one line each
+    (:func:`mocapkit.cleaning.decisions.ids_notes`, a record without the take's digest).
+    """
+
+    decisions: str
+    record: str
+    changes: int
+    rejected: tuple[str, ...]
+    samples: int
+    total: int
+    item: str
+    take: str
+    notes: tuple[str, ...] = ()
+
+    def headline(self) -> str:
+        """One line: the file, what it was applied to, the changes accepted and rejected, the samples changed."""
+        src = (f"the record {self.record} (nothing cleaned again)" if self.record
+               else "a new cleaning (its values the ones reviewed)")
+        n, r = self.changes, len(self.rejected)
+        return (f"{self.decisions} applied to {src}: {n - r} of {n} change{'' if n == 1 else 's'} accepted, {r} "
+                f"rejected; {self.samples} {self.item}{'' if self.samples == 1 else 's'} of {self.total} changed, "
+                f"every other sample is {self.take}'s")
+
+    def rejected_lines(self, frames_note: str = "") -> list[str]:
+        """``rejected ...`` for the first :data:`MAX_LISTED` rejected changes, a count of the rest, and
+        ``frames_note`` (how the frames relate to the file's own numbers) where a change is listed."""
+        out = [f"rejected {c}" for c in self.rejected[:MAX_LISTED]]
+        if len(self.rejected) > MAX_LISTED:
+            out.append(f"... and {len(self.rejected) - MAX_LISTED} more rejected")
+        if self.rejected and frames_note:
+            out.append(frames_note)
+        return out
+
+    def lines(self, frames_note: str = "") -> list[str]:
+        """The whole summary: :meth:`headline`, each note as ``note: ...``, then :meth:`rejected_lines`."""
+        return [self.headline()] + [f"note: {n}" for n in self.notes] + self.rejected_lines(frames_note)
+
+
+def for_motion(doc: dict, path, original, result, decisions: dict, record=None, take: str = "") -> Decided:
+    """:class:`Decided` for a joint-angle take: ``doc`` read from ``path``, its checked ``decisions`` applied to
+    ``result`` (a :class:`~mocapkit.cleaning.pipeline.CleanResult` of ``original``, read from ``record`` or, None,
+    a new cleaning); ``take``: the input's file name (default the take's name)."""
+    found = dec.changes(result, original)
+    rejected = tuple(str(c) for c in found if decisions.get(c.id) == dec.REJECT)
+    notes = dec.ids_notes(doc, path, [c.id for c in found])
+    if record is not None and not result.take_sha256:
+        notes.append(f"{record} was written by an earlier mocapkit and keeps no digest of its take: it was checked by "
+                     "rig, length and rate only; make sure it is this take's")
+    return Decided(str(path), "" if record is None else str(record), len(found), rejected,
+                   int(dec.accepted_cells(result, decisions).sum()), int(result.changed.size), "joint sample",
+                   take or original.name or "the input", tuple(notes))
+
+
+def for_markers(doc: dict, path, original, result, decisions: dict, record=None, take: str = "") -> Decided:
+    """:class:`Decided` for a marker capture: ``doc`` read from ``path``, its checked ``decisions`` applied to
+    ``result`` (a :class:`~mocapkit.cleaning.markers.MarkerCleanResult` of ``original``, rebuilt from ``record``
+    or, None, a new cleaning); ``take``: the input's file name (default the capture's name)."""
+    from .markers import decisions as mdec
+
+    found = mdec.changes(original, result.markers, result.fixes)
+    rejected = tuple(str(c) for c in found if decisions.get(c.id) == dec.REJECT)
+    n = int(mdec.accepted_samples(original, result.markers, result.fixes, decisions).sum())
+    return Decided(str(path), "" if record is None else str(record), len(found), rejected, n,
+                   int(result.changed.size), "marker sample", take or original.name or "the input",
+                   tuple(dec.ids_notes(doc, path, [c.id for c in found])))
