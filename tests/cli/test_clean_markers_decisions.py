@@ -208,3 +208,52 @@ def test_the_decided_summary_says_what_a_joint_angle_takes_says(capture, tmp_pat
                         "is the one reviewed")
     assert lines[2] == f"note: {hand} names 1 of 3 changes: the 2 it does not name were accepted"
     assert lines[3].startswith("  rejected gap:Male:LANK:300-339: Male:LANK frames 300-339 (gap, ")
+
+
+def _report_data(path: Path) -> dict:
+    import re
+
+    text = path.read_text(encoding="utf-8")
+    return json.loads(re.search(r'<script id="data" type="application/json">(.*?)</script>', text, re.S)
+                      .group(1).replace("<\\/", "</"))
+
+
+def test_a_decided_report_draws_the_capture_written(capture, tmp_path):
+    """The report rendered after decisions draws OUT: a rejected gap fill is missing there (not drawn filled), an
+    accepted swap is drawn undone; its fixes table lists the accepted fixes, its list every change."""
+    d, inp, out, record = capture
+    dec = _decide(d, inp, {"gap:Male:LANK:300-339": "reject"}, "report.json")
+    got, page = tmp_path / "decided.c3d", tmp_path / "decided.html"
+    code, stdout, stderr = run("clean", inp, "-o", got, "--decisions", dec, "--record", record, "--report", page)
+    assert code == 0, stderr + stdout
+    D = _report_data(page)
+    assert D["frames"] == list(range(600))
+    lank, ltoe = D["labels"].index("Male:LANK"), D["labels"].index("Male:LTOE")
+    written = load_markers(got)
+    assert all(D["pos"][f][lank] is None and D["kind"][f][lank] == 0 for f in range(300, 340))
+    assert np.isnan(written.positions[300:340, lank]).all()
+    assert all(D["kind"][f][ltoe] == 3 for f in range(400, 440))
+    text = page.read_text()
+    assert "Fixes (2)" in text and "swap:Male:LTOE:400-439" in text and "gap:Male:LANK:300-339" in text
+
+
+def test_jump_to_rings_and_names_its_marker_in_the_viewer(capture):
+    """A change's jump (the accept/reject list) and a fix's link (the fixes table) select its marker: the viewer
+    rings it in blue and names it; nothing is ringed before."""
+    from tests.report.test_html import chromium_page
+
+    d, inp, out, record = capture
+    blue = """() => { const c = document.getElementById('view');
+        const d = c.getContext('2d').getImageData(0, 0, c.width, c.height).data; let n = 0;
+        for (let i = 0; i < d.length; i += 4) if (Math.abs(d[i] - 31) < 20 && Math.abs(d[i + 1] - 120) < 20
+            && Math.abs(d[i + 2] - 180) < 20 && d[i + 3] > 200) n++;
+        return n; }"""
+    for page in chromium_page(d / "out.html", "() => document.getElementById('flabel').textContent.length > 0"):
+        assert page.evaluate(blue) == 0
+        page.click("tr[data-change='spike:Male:LKNE:200-200'] button.jump")
+        assert page.evaluate("window.markerReport.frame()") == 200
+        assert page.evaluate("window.markerReport.selected()") == load_markers(inp).labels.index("Male:LKNE")
+        assert page.evaluate(blue) > 40 and "Male:LKNE" in page.inner_text("#flabel")
+        page.click("a.fix[data-frame='400']")
+        assert page.evaluate("window.markerReport.selected()") == load_markers(inp).labels.index("Male:LTOE")
+        assert page.evaluate(blue) > 40 and "Male:LTOE" in page.inner_text("#flabel")

@@ -7,7 +7,8 @@ green, a removed spike's fill red, a re-labelled (swapped) sample orange, a
 removed duplicate label's fill purple, and the input's bad value of a spike
 or a duplicate as a small grey cross; the list of
 fixes (marker, frames, kind, size in mm) below, each a link to its first
-frame. :func:`plot_marker_fixes` draws, for the markers with most changes,
+frame that selects its marker (ringed in blue and named in the viewer), as
+each change's *jump to frame* of the accept/reject list does. :func:`plot_marker_fixes` draws, for the markers with most changes,
 their three coordinates before (grey) and after (colour) with the changed
 frames shaded. Both read a :class:`~mocapkit.cleaning.markers.MarkerCleanResult`.
 """
@@ -30,9 +31,9 @@ const D = JSON.parse(document.getElementById('data').textContent);
 const cv = document.getElementById('view'), cx = cv.getContext('2d');
 const slider = document.getElementById('frame'), label = document.getElementById('flabel');
 const followBox = document.getElementById('follow');
-let yaw = 0.6, pitch = 0.3, playing = false, f = 0, drag = null;
+let yaw = 0.6, pitch = 0.3, playing = false, f = 0, drag = null, sel = -1;  // sel: the marker a jump selected
 const up = D.up;  // index of the vertical axis
-const colours = ['#445', '#1a9850', '#d73027', '#f28e2b', '#7b3294'];
+const colours = ['#445', '#1a9850', '#d73027', '#f28e2b', '#7b3294'], SELECTED = '#1f78b4';
 followBox.checked = D.view.follow;
 followBox.onchange = () => draw();
 function target() { return followBox.checked ? D.view.track[f] : D.view.centre; }
@@ -56,7 +57,12 @@ function draw() {
     const q = project(P[m], t);
     cx.fillStyle = colours[K[m]]; cx.beginPath(); cx.arc(q[0], q[1], K[m] ? 5 : 3.5, 0, 2 * Math.PI); cx.fill();
   }
-  label.textContent = 'frame ' + D.frames[f] + ' / ' + (D.num_frames - 1) + ' (' + (D.frames[f] / D.fps).toFixed(2) + ' s)';
+  const S = sel >= 0 ? (P[sel] || B[sel]) : null;  // the selected marker: a ring and its label where it is seen
+  if (S) { const q = project(S, t); cx.strokeStyle = SELECTED; cx.lineWidth = 2.5; cx.beginPath();
+    cx.arc(q[0], q[1], 11, 0, 2 * Math.PI); cx.stroke(); cx.lineWidth = 1;
+    cx.fillStyle = SELECTED; cx.font = '13px sans-serif'; cx.fillText(D.labels[sel], q[0] + 14, q[1] - 8); }
+  label.textContent = 'frame ' + D.frames[f] + ' / ' + (D.num_frames - 1) + ' (' + (D.frames[f] / D.fps).toFixed(2) + ' s)'
+    + (sel >= 0 ? ', ' + D.labels[sel] + (S ? '' : ' (missing here)') : '');
 }
 function indexOf(t) {  // the shown frame that is take frame t, else the nearest shown one before it
   let lo = 0, hi = D.frames.length - 1;
@@ -83,10 +89,12 @@ cv.onmousedown = e => { drag = [e.clientX, e.clientY]; };
 window.onmouseup = () => { drag = null; };
 cv.onmousemove = e => { if (!drag) return; yaw += (e.clientX - drag[0]) * 0.01;
   pitch = Math.max(-1.5, Math.min(1.5, pitch + (e.clientY - drag[1]) * 0.01)); drag = [e.clientX, e.clientY]; draw(); };
-for (const a of document.querySelectorAll('a.fix')) a.onclick = e => { e.preventDefault(); playing = false; show(indexOf(+a.dataset.frame)); };
-window.markerReport = { frame: () => D.frames[f], show: t => show(indexOf(t)), playing: () => playing };
-// what the accept/reject list (review.js) moves: the frame on show (a marker is not selected apart)
-window.mocapkitReport = { select: m => {}, setFrame: t => { playing = false; show(indexOf(t)); } };
+for (const a of document.querySelectorAll('a.fix')) a.onclick = e => { e.preventDefault(); playing = false;
+  sel = a.dataset.marker === undefined ? -1 : +a.dataset.marker; show(indexOf(+a.dataset.frame)); };
+window.markerReport = { frame: () => D.frames[f], show: t => show(indexOf(t)), playing: () => playing,
+  selected: () => sel };
+// what the accept/reject list (review.js) moves: the marker selected (ringed and named) and the frame on show
+window.mocapkitReport = { select: m => { sel = m; draw(); }, setFrame: t => { playing = false; show(indexOf(t)); } };
 draw();
 """
 
@@ -202,16 +210,22 @@ def write_marker_report(path, result, *, title: str = "", max_frames: int = 3000
     bad = np.where(removed[..., None], before, np.nan)
     fps = float(result.markers.fps)
     data = {"pos": pts(after[idx]), "kind": kind[idx].tolist(), "bad": pts(bad[idx]), "frames": idx.tolist(),
-            "num_frames": int(after.shape[0]), "fps": fps, "up": up_axis,
+            "num_frames": int(after.shape[0]), "fps": fps, "up": up_axis, "labels": list(result.markers.labels),
             "view": _marker_framing([after[idx] * mm, bad[idx] * mm], idx, fps, up_axis)}
     note = _shown_note(idx, after.shape[0], stride, detail)
+    col = {label: k for k, label in enumerate(result.markers.labels)}
+
+    def link(x) -> str:  # a fix's link: its first frame, its marker selected
+        at = f" data-marker='{col[x.marker]}'" if x.marker in col else ""
+        return f"<a class='fix' href='#' data-frame='{x.start}'{at}>{x.start}-{x.end - 1}</a>"
+
     rows = "".join(
-        f"<tr><td>{html.escape(x.marker)}</td><td><a class='fix' href='#' data-frame='{x.start}'>{x.start}-{x.end - 1}</a></td>"
+        f"<tr><td>{html.escape(x.marker)}</td><td>{link(x)}</td>"
         f"<td>{x.kind}</td><td>{html.escape(x.size_text)}</td><td>{html.escape(x.other)}</td></tr>"
         for x in result.fixes)
     unfilled = getattr(result, "unfilled", ())
     left = "".join(
-        f"<tr><td>{html.escape(x.marker)}</td><td><a class='fix' href='#' data-frame='{x.start}'>{x.start}-{x.end - 1}</a></td>"
+        f"<tr><td>{html.escape(x.marker)}</td><td>{link(x)}</td>"
         f"<td>{html.escape(x.size_text)}</td></tr>" for x in unfilled)
     left = (f"<h3>Left missing: no plausible fill ({len(unfilled)})</h3><table><tr><th>marker</th><th>frames</th>"
             f"<th>duration, rejected fill, why</th></tr>{left}</table>") if unfilled else ""
