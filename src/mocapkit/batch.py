@@ -247,12 +247,14 @@ def clean_file(
 
             place_asf(*skeleton_copy)  # first: an AMC output is never left without the ASF it is read with
         if report is not None:
+            from .cleaning.decided import apply_command
             from .report.html import write_report  # lazy: the viewer is optional
 
             write_report(report, m, cleaned, mdm=res.mdm, flags=res.flags, changed=changed, analysed=res.analysed,
                          title=f"{inp.name}: cleaned" + (f" ({Path(decisions).name} applied)" if doc else ""),
                          review=dec.review(m, res, take=inp.name, output=out.name, decisions=chosen,
-                                           first_frame=file_first_frame(inp), record=record))
+                                           first_frame=file_first_frame(inp), record=record,
+                                           command=apply_command(inp, asf=asf, amc_fps=amc_fps, unit=unit)))
         if png is not None:
             from .report.summary import plot_summary
 

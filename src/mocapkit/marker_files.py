@@ -62,6 +62,7 @@ def clean_marker_file(inp, out, *, report=None, png=None, overwrite: bool = Fals
     the whole cleaning (rebuilt from ``record`` when one is reused).
     """
     from .cleaning import decisions as dec
+    from .cleaning.decided import apply_command
     from .cleaning.markers import decisions as mdec
     from .cleaning.pipeline import clean_path
     from .io import MARKER_FORMATS, load_markers, save_markers, suffix_kind
@@ -97,7 +98,8 @@ def clean_marker_file(inp, out, *, report=None, png=None, overwrite: bool = Fals
             write_marker_report(report, given, title=f"{inp.name}: cleaned" + (f" ({what})" if what else ""),
                                 review=mdec.review(ms, res.markers, res.fixes, take=inp.name, output=out.name,
                                                    decisions=chosen, first_frame=file_first_frame(inp, ms),
-                                                   request=request, record=record),
+                                                   request=request, record=record,
+                                                   command=apply_command(inp, unit=unit)),
                                 review_mode=review)
         if png is not None:
             from .report.markers import plot_marker_fixes

@@ -277,6 +277,7 @@ def test_decisions_from_a_cleaning_with_a_context_apply_to_its_values_only(brows
            f"default)" in err and f"--record {record}" in err and len(err.strip().splitlines()) == 1, err
     assert not out.exists() and not (tmp_path / "final.clean.npz").exists()
 
+    ctx.rename(tmp_path / "ctx_moved")  # the page's command (with --record) reads no context: one moved since is fine
     assert main(["clean", str(inp), "-o", str(out), "--decisions", str(path), "--record", str(record)]) == 0
     res, got = CleanResult.load(record), mocapkit.load(out)
     acc = D.accepted_cells(res, {rejected: D.REJECT})
@@ -284,3 +285,43 @@ def test_decisions_from_a_cleaning_with_a_context_apply_to_its_values_only(brows
     want = np.array(bad.rotations)
     want[acc] = res.samples["rotations"][acc[res.changed]]  # the values the report showed, bit for bit
     assert np.ascontiguousarray(got.rotations).tobytes() == want.tobytes()
+
+
+def test_the_pages_apply_command_works_as_copied_for_an_amc_whose_asf_is_elsewhere(browser, tmp_path):
+    """An AMC read with --asf from another folder and --amc-fps: the page's command names the input as given, its
+    --asf and --amc-fps (without them the take read has no skeleton or another rate: refused), and run as shown,
+    from another folder, it applies the downloaded decisions."""
+    import shlex
+    import shutil
+
+    from tests.cli.helpers import run
+
+    (tmp_path / "skel").mkdir()
+    (tmp_path / "takes").mkdir()
+    (tmp_path / "elsewhere").mkdir()
+    asf = tmp_path / "skel" / "12.asf"
+    shutil.copy(samples.path("12.asf"), tmp_path / "takes" / "walk_bad.asf")
+    bad, _, _ = corrupt.real_errors(mocapkit.load(samples.path("12_walk.amc")), n_errors=4, seed=11)
+    inp = mocapkit.save(bad, tmp_path / "takes" / "walk_bad.amc")
+    shutil.move(tmp_path / "takes" / "walk_bad.asf", asf)  # the ASF is not beside the AMC
+    code, _, err = run("clean", inp, "-o", tmp_path / "walk.bvh", "--asf", asf, "--amc-fps", "60",
+                       "--steps", "fill,detect,repair", "--report", tmp_path / "walk.html")
+    assert code == 0, err
+    bctx = browser.new_context(accept_downloads=True, viewport={"width": 1280, "height": 900})
+    pg = bctx.new_page()
+    pg.goto((tmp_path / "walk.html").resolve().as_uri())
+    pg.wait_for_function("() => window.mocapkitReview && window.mocapkitReview.changes().length > 0", timeout=60000)
+    text = pg.inner_text("#apply-command")
+    rejected = pg.evaluate("() => window.mocapkitReview.changes()")[0]
+    pg.locator(f'#changes tr[data-change="{rejected}"] input.accept').uncheck()
+    with pg.expect_download() as info:
+        pg.click("#download-decisions")
+    info.value.save_as(tmp_path / "elsewhere" / info.value.suggested_filename)
+    bctx.close()
+    command = shlex.split(text.split("run: ", 1)[1].split(" (the record", 1)[0])
+    assert command[:2] == ["mocapkit", "clean"] and command[2] == str(inp)
+    assert command[command.index("--asf") + 1] == str(asf) and command[command.index("--amc-fps") + 1] == "60"
+    command[command.index("OUT")] = "final.bvh"
+    code, out, err = run(*command[1:], cwd=tmp_path / "elsewhere")
+    assert code == 0, err
+    assert "1 rejected" in out and (tmp_path / "elsewhere" / "final.bvh").is_file()

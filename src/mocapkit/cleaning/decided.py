@@ -1,4 +1,12 @@
-"""What applying a person's decisions did, said one way for a joint-angle take and for a marker capture.
+"""Applying a person's decisions: the command the report gives, and what applying did, said one way for a
+joint-angle take and for a marker capture.
+
+:func:`apply_command` is what the report's page needs to say the command that applies its decisions file: the
+input's path and the options that read the take as it was reviewed (an AMC's ``--asf`` and ``--amc-fps``, the
+``--unit`` of a file that states none), without which the take read is another (no skeleton, another rate or
+unit: another digest) and the command fails as copied. ``--record`` (the record the page's cleaning wrote) makes
+the options that shaped the cleaning (``--context``, ``--threshold``, ...) unneeded: a context folder moved since
+is not read.
 
 ``mocapkit clean IN -o OUT --decisions FILE.json`` and ``mocapkit.clean(take, decisions=FILE.json)`` say, after
 the decisions are applied (:mod:`mocapkit.cleaning.decisions`, :mod:`mocapkit.cleaning.markers.decisions`): what
@@ -14,7 +22,7 @@ from dataclasses import dataclass
 
 from . import decisions as dec
 
-__all__ = ["Decided", "for_motion", "for_markers", "MAX_LISTED"]
+__all__ = ["Decided", "for_motion", "for_markers", "apply_command", "MAX_LISTED"]
 
 MAX_LISTED = 12  # rejected changes listed one a line; the rest counted
 
@@ -91,3 +99,26 @@ def for_markers(doc: dict, path, original, result, decisions: dict, record=None,
     return Decided(str(path), "" if record is None else str(record), len(found), rejected, n,
                    int(result.changed.size), "marker sample", take or original.name or "the input",
                    tuple(dec.ids_notes(doc, path, [c.id for c in found])))
+
+
+def apply_command(inp, *, asf=None, amc_fps: float | None = None, unit: str | None = None) -> dict:
+    """What the report's page adds to ``mocapkit clean IN -o OUT --decisions FILE --record RECORD`` for its take:
+    ``{"input": IN, "options": [...]}``.
+
+    ``inp``: the input's path as the cleaning was given it (the page's ``--record`` is too); ``asf``: the ASF an
+    ``.amc`` input was read with (said as ``--asf`` whether or not it lies beside the AMC: the command then reads
+    the same skeleton wherever it is); ``amc_fps``: the AMC frame rate given (``--amc-fps``); ``unit``: the length
+    unit given for a file that states none (``--unit``). Each is needed to read the take the decisions were made
+    for: its digest (:func:`mocapkit.cleaning.decisions.take_digest`) keeps its rate and, for a marker capture, its
+    unit.
+    """
+    import os
+
+    opts: list[str] = []
+    if asf is not None and os.fspath(inp).lower().endswith(".amc"):
+        opts += ["--asf", os.fspath(asf)]
+    if amc_fps is not None:
+        opts += ["--amc-fps", f"{float(amc_fps):g}"]
+    if unit is not None:
+        opts += ["--unit", str(unit)]
+    return {"input": os.fspath(inp), "options": opts}

@@ -768,16 +768,18 @@ def frames_note(path=None, take=None) -> str:
 
 
 def review(original: Motion, result, take: str = "", output: str = "", decisions: Mapping[str, str] | None = None,
-           first_frame: int | None = None, record="") -> dict:
+           first_frame: int | None = None, record="", command: dict | None = None) -> dict:
     """What the HTML report needs to let a person decide: ``{"changes": [...], "decisions": document, "flags": [...],
     "frames": note}``.
 
     ``changes``: :meth:`Change.as_dict` of :func:`changes`; ``decisions``: :func:`template`
     with the choices of ``decisions`` (every other change accepted) and the stamp of this cleaning, ``record`` the
     path its record was written to (the page tells the reviewer to pass it); ``flags``: :func:`flag_segments`;
-    ``frames``: :func:`frame_note` for the input file ``take`` whose first frame is numbered ``first_frame``.
+    ``frames``: :func:`frame_note` for the input file ``take`` whose first frame is numbered ``first_frame``;
+    ``command``: the input and options of the command the page says to apply the decisions with
+    (:func:`mocapkit.cleaning.decided.apply_command`).
     """
     found = changes(result, original)
     return {"changes": [c.as_dict() for c in found],
             "decisions": template(original, found, take, output, decisions, result=result, record=record),
-            "flags": flag_segments(result), "frames": frame_note(take, first_frame)}
+            "flags": flag_segments(result), "frames": frame_note(take, first_frame), "command": command}

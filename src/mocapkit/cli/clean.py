@@ -114,7 +114,7 @@ def clean(
     original, res = clean_file(inp, out, context=context, steps=step_list, threshold=threshold, report=report, png=png,
                                progress=True, asf=asf if inp.suffix.lower() == ".amc" else None, overwrite=overwrite,
                                motion=take, drifts=drifts, decisions=decisions, noise_deg=noise_deg,
-                               record=record, models=models,
+                               record=record, models=models, amc_fps=amc_fps, unit=unit,
                                skeleton_copy=(skeleton_copy, skeleton) if skeleton_copy is not None else None)
     if skeleton_copy is not None:
         console.print(f"copied the skeleton {skeleton} to {skeleton_copy}: an AMC is read with the ASF beside it")

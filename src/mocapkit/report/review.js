@@ -5,7 +5,7 @@
  * and a link that moves the viewer to its first frame and selects its joint. The "Download
  * decisions" button saves the decisions document (a Blob download, no server) for
  * `mocapkit clean IN -o OUT --decisions FILE.json --record RECORD` (RECORD: the record this cleaning wrote,
- * doc.cleaning.record).
+ * doc.cleaning.record; IN and the options that read the take as reviewed, --asf, --amc-fps, --unit: R.command).
  */
 (function () {
   "use strict";
@@ -30,8 +30,7 @@
   var count = null;
   if (list.length) {
     el("p", { "class": "note", id: "apply-command", text: "Every change the cleaning made, one " + item + " over a run of " +
-      "frames. Accept or reject each one, then download the decisions and run: mocapkit clean " +
-      shellWord(doc.take.name || "IN") + " -o OUT --decisions " + fileName() + " --record " + recordName() +
+      "frames. Accept or reject each one, then download the decisions and run: " + applyCommand() +
       " (the record of the cleaning shown here: the accepted changes get exactly the values reviewed, rejected " +
       "changes the input's samples back)." + frameNote }, sec);
     var bar = el("div", { "class": "toolbar" }, sec);
@@ -171,6 +170,13 @@
   function recordName() {
     var rec = doc.cleaning && doc.cleaning.record;
     return rec ? shellWord(rec) : "RECORD.clean.npz";
+  }
+  // the command that applies the decisions: the input as the cleaning was given it, and the options that read
+  // the take as reviewed (an AMC's --asf and --amc-fps, a --unit), or the take read is another and is refused
+  function applyCommand() {
+    var cmd = R.command || {};
+    return ["mocapkit clean", shellWord(cmd.input || doc.take.name || "IN"), "-o OUT --decisions", fileName(),
+            "--record", recordName()].concat((cmd.options || []).map(shellWord)).join(" ");
   }
   function shellWord(s) {
     s = String(s);

@@ -252,15 +252,17 @@ def check(doc: dict, path, original, cleaned=None, fixes=(), *, request=None, fr
 
 
 def review(original, cleaned, fixes, take: str = "", output: str = "", decisions: Mapping[str, str] | None = None,
-           first_frame: int | None = None, flags: list | None = None, request=None, record="") -> dict:
+           first_frame: int | None = None, flags: list | None = None, request=None, record="",
+           command: dict | None = None) -> dict:
     """What the report's accept/reject list needs (:func:`mocapkit.cleaning.decisions.review`'s form): ``changes``,
     the ``decisions`` document (stamped with this cleaning, ``request`` its options and ``record`` where its record
-    was written: :func:`template`), ``flags`` (none for a marker capture unless given), ``frames`` and ``item``."""
+    was written: :func:`template`), ``flags`` (none for a marker capture unless given), ``frames``, ``item`` and
+    ``command`` (:func:`mocapkit.cleaning.decided.apply_command`)."""
     found = changes(original, cleaned, fixes)
     return {"changes": [c.as_dict() for c in found],
             "decisions": template(original, found, take, output, decisions, cleaned=cleaned, request=request,
                                   record=record),
-            "flags": list(flags or []), "frames": frame_note(take, first_frame), "item": "marker"}
+            "flags": list(flags or []), "frames": frame_note(take, first_frame), "item": "marker", "command": command}
 
 
 # -- the record's cleaned samples --------------------------------------------------------------
