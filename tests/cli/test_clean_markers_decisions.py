@@ -228,8 +228,8 @@ def test_a_decided_report_draws_the_capture_written(capture, tmp_path):
     assert code == 0, stderr + stdout
     D = _report_data(page)
     assert D["frames"] == list(range(600))
-    lank, ltoe = D["labels"].index("Male:LANK"), D["labels"].index("Male:LTOE")
     written = load_markers(got)
+    lank, ltoe = written.labels.index("Male:LANK"), written.labels.index("Male:LTOE")
     assert all(D["pos"][f][lank] is None and D["kind"][f][lank] == 0 for f in range(300, 340))
     assert np.isnan(written.positions[300:340, lank]).all()
     assert all(D["kind"][f][ltoe] == 3 for f in range(400, 440))
