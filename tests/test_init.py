@@ -292,3 +292,9 @@ def test_a_results_masks_are_read_only_and_its_own():
         with pytest.raises(ValueError, match="WRITEABLE"):
             a.setflags(write=True)
     assert res.detection.flags is not res.flags
+
+
+def test_decisions_for_a_motion_are_refused_naming_where_they_apply(broken, tmp_path):
+    with pytest.raises(mocapkit.MocapError, match="apply to a marker capture here; a joint-angle take's decisions "
+                                                  "apply with mocapkit.cleaning.decisions.apply"):
+        mocapkit.clean(broken[0], decisions=tmp_path / "d.json")
