@@ -876,7 +876,10 @@ def write_c3d(markers: MarkerSet, path, *, like=None) -> None:
     analog channels come from ``like`` (a MarkerSet or a C3D file) or, by
     default, from the file ``markers`` was read from (``markers.source``), with
     POINT:USED and the frame counts made consistent by ezc3d. Analogs are
-    kept when they span the same frames as the points.
+    kept when they span the same frames as the points, as the numbers the file
+    stored under its ANALOG:OFFSET, SCALE and GEN_SCALE; the header's
+    interpolation gap and the data block's start are the file's where ezc3d's
+    parameter section allows (:mod:`mocapkit.io.c3d_layout`).
     """
     from . import atomic_write
 
