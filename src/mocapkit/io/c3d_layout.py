@@ -70,7 +70,7 @@ def stored_analogs(analogs: np.ndarray, parameters):
     ``analogs`` (A, N): the samples as :func:`~mocapkit.io.c3d.read_c3d` reads
     them (float32 values, in the file's units); ``parameters``: the file's
     parsed parameter section (POINT:SCALE says integer or float storage,
-    ANALOG:SCALE, OFFSET, GEN_SCALE and FORMAT how samples are read). The
+    ANALOG:SCALE, OFFSET and GEN_SCALE how samples are read). The
     stored numbers are those the file held: whole numbers in an integer file
     (positive POINT:SCALE, |stored| within 16 bits) and in the float files
     that store A/D counts (Vicon's FunctionalWalk.c3d), else the float32
