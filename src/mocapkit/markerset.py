@@ -241,6 +241,11 @@ class MarkerSource:
         TRC: the file's text, so that a TRC writer keeps every cell, line and
         header field the take did not change; None otherwise (and for a part
         of the take: :meth:`MarkerSet.__getitem__`).
+    layout : mapping of str to int
+        C3D: header words a writer keeps as the file had them
+        (:func:`mocapkit.io.c3d_layout.header_layout`: the interpolation gap,
+        the data block's first block, the parameter section's block count);
+        empty otherwise.
     """
 
     format: str
@@ -250,9 +255,11 @@ class MarkerSource:
     labels: tuple[str, ...] = ()
     events: tuple[tuple[float, str, int], ...] = ()
     text: str | None = None
+    layout: Mapping[str, int] = dataclasses.field(default_factory=dict)
 
     def __post_init__(self):
         object.__setattr__(self, "parameters", MappingProxyType(dict(self.parameters)))
+        object.__setattr__(self, "layout", MappingProxyType(dict(self.layout)))
         object.__setattr__(self, "labels", tuple(str(s) for s in self.labels))
         object.__setattr__(self, "events", tuple((float(t), str(label), int(d)) for t, label, d in self.events))
         if self.analogs is not None:

@@ -72,9 +72,8 @@ def _expected_positions(xyz, words):
     return out
 
 
-@pytest.mark.parametrize("trial", [True, False], ids=["TRIAL-fields", "data-bytes-only"])
-def test_every_frame_of_a_long_trial_is_read(tmp_path, trial):
-    path = _long_c3d(tmp_path / "long.c3d", trial=trial)
+def test_every_frame_of_a_long_trial_is_read(tmp_path):
+    path = _long_c3d(tmp_path / "long.c3d")
     ms = read_c3d(path)
     xyz, words, analogs = _known_take()
     assert ms.num_frames == FRAMES
@@ -186,3 +185,45 @@ def test_numpy_frames_match_ezc3d_on_real_files(shared_data):
         assert np.allclose(xyz[seen], pts[:3].transpose(2, 1, 0)[seen], rtol=1e-6, atol=1e-9), name
         if a.size:
             assert np.allclose(analogs, a[0], rtol=1e-6, atol=1e-9), name
+
+
+def _tiled_capture(path, shared_data, markers: int, frames: int = 70_001):
+    """A real capture (85_02.c3d's first ``markers`` markers) tiled to ``frames`` frames and written by ezc3d as
+    ezc3d writes a long trial: the header at 65,535 and no TRIAL:ACTUAL_END_FIELD or POINT:LONG_FRAMES.
+    Returns the path and the (F, M, 3) coordinates written (gaps as zeros, float32-exact)."""
+    import ezc3d
+
+    take = read_c3d(shared_data / "c3d_markers_recovery" / "85_02.c3d")
+    xyz = np.nan_to_num(np.resize(take.positions[:, :markers], (frames, markers, 3))).astype(np.float32)
+    c = ezc3d.c3d()
+    c["parameters"]["POINT"]["RATE"]["value"] = np.array([take.fps])
+    c["parameters"]["POINT"]["LABELS"]["value"] = list(take.labels[:markers])
+    c["parameters"]["POINT"]["UNITS"] = {"type": -1, "description": "", "is_locked": False, "value": [take.units]}
+    pts = np.ones((4, markers, frames))
+    pts[:3] = xyz.transpose(2, 1, 0)
+    c["data"]["points"] = pts
+    c["data"]["meta_points"]["residuals"] = np.zeros((1, markers, frames))
+    c.write(str(path))
+    params = ezc3d.c3d(str(path))["parameters"]
+    assert "LONG_FRAMES" not in params["POINT"] and "TRIAL" not in params
+    assert struct.unpack_from("<H", path.read_bytes(), 8)[0] == FRAME_CAP
+    return path, xyz.astype(np.float64)
+
+
+def test_capped_trial_of_narrow_frames_without_a_length_is_refused(tmp_path, shared_data):
+    """8 markers (128-byte frames) and 70,001 frames: the last 512-byte block's padding (384 bytes) holds whole
+    frames, so 70,001 to 70,004 frames fit the file; none is read as frames nor any real frame dropped."""
+    path, _ = _tiled_capture(tmp_path / "tiled.c3d", shared_data, markers=8)
+    with pytest.raises(MocapFormatError) as err:
+        read_c3d(path)
+    message = str(err.value)
+    assert "tiled.c3d" in message and "70000 to 70004 frames" in message and "cannot be told" in message
+    assert "\n" not in message
+
+
+def test_capped_trial_of_wide_frames_without_a_length_is_read_whole(tmp_path, shared_data):
+    """41 markers (656-byte frames): one count alone leaves at most a block of padding, and it is read."""
+    path, xyz = _tiled_capture(tmp_path / "tiled.c3d", shared_data, markers=41)
+    ms = read_c3d(path, zeros_as_gaps=False)
+    assert ms.num_frames == 70_001
+    assert np.array_equal(ms.positions, xyz)

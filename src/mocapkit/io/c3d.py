@@ -43,6 +43,8 @@ from ..markerset import (MODELLED_GROUPS, MarkerSet, MarkerSource, length_unit_c
 from ..motion import check_fps
 from .c3d_frames import (FRAME_CAP, long_frame_parameters, point_words, read_float, residuals_and_cameras,
                          rest_of_trial, sample_bytes)
+from .c3d_layout import (header_layout, keep_data_start, put_analogs, put_header_gap, put_parameter,
+                         stored_analogs)
 
 __all__ = ["MarkerSet", "read_c3d", "write_c3d", "apply_zero_gaps", "checked_unit_cm"]
 
@@ -622,7 +624,7 @@ def read_c3d(path, zeros_as_gaps: bool | None = None, units: str | None = None) 
     n = xyz.shape[1]
     labels = unique_labels(raw_labels, n)
     file_labels = tuple(str(s).strip() for s in list(raw_labels)[:n]) + labels[len(raw_labels):]
-    source = dataclasses.replace(source, labels=file_labels, events=_header_events(raw))
+    source = dataclasses.replace(source, labels=file_labels, events=_header_events(raw), layout=header_layout(raw))
     stated = str(units).replace("\x00", " ").strip()  # NUL-padded in some files (and cut ones)
     units, units_from = marker_units(path, stated, xyz, given)
     unit_cm = checked_unit_cm(path, units)
@@ -671,44 +673,10 @@ def _c3d_like(markers: MarkerSet, like) -> MarkerSource | None:
     return source if source is not None and source.format == "c3d" else None
 
 
-def _whole_analogs(analogs: np.ndarray, analog: dict, source: MarkerSource | None):
-    """``(values, scales, gen_scale)`` that make ezc3d write a C3D's analog samples as its stored whole numbers.
-
-    Analog samples are stored as numbers ``k`` (16-bit integers in an integer
-    file, positive POINT:SCALE; floats holding whole A/D counts in the float
-    files Vicon writes: FunctionalWalk.c3d), read as ``(k - offset) * scale *
-    GEN_SCALE``. ezc3d writes ``value / (scale * GEN_SCALE)`` as a float with
-    offset 0; given ``(k - offset) * scale * GEN_SCALE`` again and the file's
-    scales, it writes the whole number ``k - offset``, which every reader turns
-    into the very value it read from the file, under the file's own
-    ANALOG:SCALE and GEN_SCALE. ``analogs`` (A, N) are the samples as read
-    (float32 values: :func:`_float32_values`); None when a scale is missing
-    or 0, or a sample is not such a whole number times its scale (a changed
-    channel, a float file storing volts): those are written as the values,
-    scale 1.
-    """
-    params = source.parameters if source is not None else {}
-    point_scale = np.ravel(params.get("POINT", {}).get("SCALE", {}).get("value", []))
-    if not len(point_scale) or not np.isfinite(point_scale[0]):
-        return None
-    most = 65535 if point_scale[0] > 0 else 2**24  # what 16-bit words, or float32, hold as whole numbers
-    a = analogs.shape[0]
-    scales = np.ravel(analog.get("SCALE", {}).get("value", [])).astype(np.float64)
-    gen = np.ravel(analog.get("GEN_SCALE", {}).get("value", [])).astype(np.float64)
-    if len(scales) < a or not len(gen):
-        return None
-    step = scales[:a, None] * gen[0]
-    if not np.all(np.isfinite(step)) or np.any(step == 0):
-        return None
-    k = np.rint(analogs / step)
-    values = k * step
-    if np.any(np.abs(k) > most) or not np.array_equal(_float32_values(values), analogs):
-        return None
-    return values, scales[:a], float(gen[0])
-
-
 def _c3d_object(markers: MarkerSet, source: MarkerSource | None):
-    """An ezc3d ``c3d`` holding ``markers`` and the parameter groups and analogs of ``source``."""
+    """An ezc3d ``c3d`` holding ``markers`` and the parameter groups and analogs of ``source``, and the (A, F *
+    ratio) analog numbers to store (:func:`~mocapkit.io.c3d_layout.stored_analogs`; None without analogs) with
+    their (A,) ANALOG:OFFSET, which ezc3d writes its own way (0 each) and :func:`write_c3d` writes over."""
     import copy
 
     import ezc3d
@@ -762,16 +730,14 @@ def _c3d_object(markers: MarkerSet, source: MarkerSource | None):
         if key == "LABELS" or values:
             values = (values + [f"Analog{i + 1}" if key == "LABELS" else "" for i in range(len(values), A)])[:A]
             analog[key] = {"type": -1, "description": "", "is_locked": False, "value": values}
-    # ezc3d writes analog values as floats divided by their scale, offset 0: samples stored as whole numbers go back as
-    # them under the file's own scales (_whole_analogs), others as the values read, scale 1; a file without
-    # analogs whose ANALOG:RATE says 0 keeps saying so (the frame rate written there read as an analog rate)
+    # the numbers the file stored under its own scales and offsets (stored_analogs), else the values read, scale 1;
+    # a file without analogs whose ANALOG:RATE says 0 keeps saying so (the frame rate written there read as an
+    # analog rate)
     old_rate = np.ravel(analog.get("RATE", {}).get("value", [np.nan]))
     none_at_0 = analogs is None and len(old_rate) > 0 and old_rate[0] == 0
     rate = 0.0 if none_at_0 else markers.fps * (1 if analogs is None else analogs.shape[1] // F)
-    whole = _whole_analogs(analogs, analog, source) if analogs is not None else None
-    scales, gen = (np.ones(A), 1.0) if whole is None else whole[1:]
-    if whole is not None:
-        analogs = whole[0]
+    kept = stored_analogs(analogs, {**source.parameters, "ANALOG": analog}) if analogs is not None else None
+    stored, scales, offsets, gen = (analogs, np.ones(A), np.zeros(A, dtype=int), 1.0) if kept is None else kept
     for key, typ, value in (("SCALE", 4, scales), ("OFFSET", 2, np.zeros(A, dtype=int)), ("GEN_SCALE", 4, np.array([gen])),
                             ("RATE", 4, np.array([rate]))):
         old = analog.get(key, {})
@@ -801,7 +767,7 @@ def _c3d_object(markers: MarkerSet, source: MarkerSource | None):
                 # ezc3d writes a list of empty texts with no columns, which reads back as no text at all ([''] ->
                 # []); a space each keeps its entries, read back as the empty texts they were
                 c["parameters"][group][key] = dict(param, value=[" "] * len(value))
-    return c
+    return c, None if analogs is None else stored, offsets
 
 
 def _data_block(data: bytearray, frames: int, points: int) -> np.ndarray:
@@ -826,24 +792,6 @@ def _put_point_words(data: bytearray, markers: MarkerSet, scale: float) -> None:
     byte = np.clip(np.rint(np.where(res < 0, 0.0, res) / step), 0, 255).astype(np.int64)
     cams = np.zeros_like(byte) if markers.cameras is None else markers.cameras & 0x7F
     block[:, 3::4][:, : markers.num_markers] = np.where(res < 0, -1, (cams << 8) | byte).astype(np.float32)
-
-
-def _put_signed_zeros(data: bytearray, markers: MarkerSet, analogs: np.ndarray, steps: np.ndarray) -> None:
-    """Give each zero analog sample the stored sign that reads back as its own (-0.0 or +0.0).
-
-    ezc3d writes every zero as +0.0 (it adds the channel's offset, 0, to each),
-    which a reader multiplies by the channel's step (ANALOG:SCALE x GEN_SCALE):
-    -0.0 read back as +0.0 under a positive step, +0.0 as -0.0 under a negative
-    one. ``analogs`` (A, F * ratio): the values written; ``steps`` (A,).
-    """
-    if analogs.size == 0 or analogs.shape[1] % max(markers.num_frames, 1):
-        return
-    flip = (analogs == 0) & (np.signbit(analogs) != (np.asarray(steps, dtype=np.float64)[:, None] < 0))
-    if not flip.any():
-        return
-    block = _data_block(data, markers.num_frames, markers.num_markers)[:, 4 * markers.num_markers:]
-    a, n = analogs.shape  # a frame holds its analog samples subframe by subframe, every channel in each
-    block[flip.reshape(a, markers.num_frames, n // markers.num_frames).transpose(1, 2, 0).reshape(block.shape)] = -0.0
 
 
 def _put_header_events(data: bytearray, events) -> None:
@@ -928,7 +876,10 @@ def write_c3d(markers: MarkerSet, path, *, like=None) -> None:
     analog channels come from ``like`` (a MarkerSet or a C3D file) or, by
     default, from the file ``markers`` was read from (``markers.source``), with
     POINT:USED and the frame counts made consistent by ezc3d. Analogs are
-    kept when they span the same frames as the points.
+    kept when they span the same frames as the points, as the numbers the file
+    stored under its ANALOG:OFFSET, SCALE and GEN_SCALE; the header's
+    interpolation gap and the data block's start are the file's where ezc3d's
+    parameter section allows (:mod:`mocapkit.io.c3d_layout`).
     """
     from . import atomic_write
 
@@ -940,16 +891,19 @@ def write_c3d(markers: MarkerSet, path, *, like=None) -> None:
         raise MocapFormatError(path, f"marker label {bad[0]!r} is not printable ASCII, which C3D labels must be")
     checked_unit_cm(path, markers.units)
     source = _c3d_like(markers, like)
-    c = _c3d_object(markers, source)
+    c, stored, offsets = _c3d_object(markers, source)
     data = _ezc3d_bytes(c, path, markers.num_frames, markers.num_markers)
     # ezc3d writes -1 as the header's scale whatever POINT:SCALE says; readers that check the two
     # agree (the c3d package) refuse the mismatch, so the header gets POINT:SCALE (Intel byte order).
     scale = float(c["parameters"]["POINT"]["SCALE"]["value"][0])
     struct.pack_into("<f", data, 12, scale)
     _put_point_words(data, markers, scale)
-    analog = c["parameters"]["ANALOG"]
-    _put_signed_zeros(data, markers, c["data"]["analogs"][0],
-                      np.ravel(analog["SCALE"]["value"]).astype(np.float64) * float(np.ravel(analog["GEN_SCALE"]["value"])[0]))
+    if stored is not None:
+        put_analogs(data, markers.num_frames, markers.num_markers, stored)
+        put_parameter(data, "ANALOG", "OFFSET", offsets)
     _put_header_events(data, source.events if source is not None else ())
+    if source is not None and source.layout:
+        put_header_gap(data, source.layout["interpolation_gap"])
+        data = keep_data_start(data, source.layout)
     with atomic_write(path, "wb") as fh:
         fh.write(data)

@@ -130,13 +130,17 @@ def long_trial_frames(path, raw: bytes, parameters: dict, read: int, points: int
     Only a header at the cap (last frame 65,535) can hide more frames. Then
     the count is the one the parameters state: ``TRIAL:ACTUAL_END_FIELD -
     TRIAL:ACTUAL_START_FIELD + 1`` (Vicon), else ``POINT:LONG_FRAMES``; where
-    neither does (ezc3d writes a long trial so), the data block's whole frames
-    (at most 512 bytes of padding after them). ``parameters``: ezc3d's parsed section;
+    neither does (ezc3d writes a long trial so), the data block's whole frames,
+    where one count alone leaves at most a 512-byte block of padding after them
+    (frames wider than 512 bytes); where several do (narrower frames: the
+    padding could be frames), the count is not known and the file is refused.
+    ``parameters``: ezc3d's parsed section;
     ``points``, ``analog``: points and analog samples a frame; ``scale``:
     POINT:SCALE (its sign says floats or 16-bit integers). Raises
     :class:`~mocapkit.errors.MocapFormatError` when the data block holds fewer
-    frames than stated, or a number of bytes no count of whole frames
-    explains: reading only the first 65,535 would lose the rest unsaid.
+    frames than stated, or a number of bytes no count of whole frames, or
+    more than one, explains: reading only the first 65,535 would lose the rest
+    unsaid, and guessing would add padding bytes as frames or drop frames.
     """
     proc = raw[(raw[0] - 1) * 512 + 3]
     e = ">" if proc == 86 else "<"
@@ -163,15 +167,19 @@ def long_trial_frames(path, raw: bytes, parameters: dict, read: int, points: int
             raise MocapFormatError(path, f"truncated file: {who} {stated} frames, the data block holds {held} "
                                          f"whole frames of {points} points and {analog} analog samples")
         return stated
-    # the fewest whole frames after which at most a 512-byte block is left: the padding to a block's end (ezc3d
-    # writes a whole block where the frames end on one)
-    frames = max(read, -(-(body - 512) // frame_bytes)) if frame_bytes > 0 else read
-    if frames <= held:
-        return frames
-    raise MocapFormatError(path, f"the header stops at frame {FRAME_CAP}, no TRIAL:ACTUAL_END_FIELD or "
-                                 f"POINT:LONG_FRAMES states the trial's length, and the data block's {body} bytes "
-                                 f"are {held} frames and {body - held * frame_bytes} bytes more: "
-                                 "its length cannot be told")
+    # the frames end where the data block's padding starts, and a writer pads at most one 512-byte block (ezc3d
+    # writes a whole one where the frames end on a block's end): every count of frames ending in the last 512
+    # bytes fits the file, and only one such count tells the trial's length
+    fits = np.arange(max(read, -(-(body - 512) // frame_bytes)), held + 1) if frame_bytes > 0 else np.array([read])
+    if len(fits) == 1:
+        return int(fits[0])
+    said = (f"the header stops at frame {FRAME_CAP} and no TRIAL:ACTUAL_END_FIELD or POINT:LONG_FRAMES states the "
+            f"trial's length: the data block's {body} bytes")
+    if not len(fits):
+        raise MocapFormatError(path, f"{said} are {held} frames and {body - held * frame_bytes} bytes more: "
+                                     "its length cannot be told")
+    raise MocapFormatError(path, f"{said} hold {fits[0]} to {fits[-1]} frames of {frame_bytes} bytes and up to a "
+                                 "512-byte block of padding: its length cannot be told")
 
 
 def read_frames(raw: bytes, begin: int, end: int, points: int, analog: int, scale: float, parameters: dict):

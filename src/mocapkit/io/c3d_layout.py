@@ -1,0 +1,199 @@
+"""What :func:`~mocapkit.io.c3d.write_c3d` keeps of a C3D's own layout that ezc3d would write otherwise.
+
+ezc3d (1.7) writes the file whole from the parsed parameters and the values
+read. Three things it writes its own way, which other tools of a lab see in
+the file even though every reader's values are the same:
+
+- the analog samples: it writes ``value / (ANALOG:SCALE * GEN_SCALE)`` as
+  floats with every ANALOG:OFFSET 0. :func:`stored_analogs` finds the numbers
+  the file stored (and the offsets, scales and GEN_SCALE they are read with),
+  :func:`put_analogs` and :func:`put_parameter` write them over ezc3d's;
+- the header's maximum interpolation gap (word 6), always 10:
+  :func:`put_header_gap` writes the file's own;
+- where the data block starts (header word 9 and ``POINT:DATA_START``): right
+  after ezc3d's own parameter section, usually fewer blocks than the file's.
+  :func:`keep_data_start` moves the data block back to the file's block where
+  ezc3d's section ends before it (zero bytes between, as C3D files pad).
+
+Each works on the bytes ezc3d wrote (Intel byte order, float data, the
+parameter section at block 2). C3D format: Motion Lab Systems, "The C3D File
+Format User Guide" (c3d.org).
+"""
+
+from __future__ import annotations
+
+import struct
+
+import numpy as np
+
+__all__ = ["header_layout", "analog_offsets", "stored_analogs", "parameter_at", "put_parameter", "put_analogs",
+           "put_header_gap", "keep_data_start"]
+
+BLOCK = 512
+"""Bytes in a C3D block: the header, the parameter section and the data block start on one."""
+
+
+def header_layout(raw: bytes) -> dict[str, int]:
+    """The header words of a C3D file (``raw``, any processor type) that :func:`keep_data_start` and
+    :func:`put_header_gap` keep: ``interpolation_gap`` (word 6, frames), ``data_start`` (word 9, the data block's
+    first 512-byte block, 1-based) and ``parameter_blocks`` (the parameter section's stated block count)."""
+    proc = raw[(raw[0] - 1) * BLOCK + 3]
+    e = ">" if proc == 86 else "<"
+    gap, = struct.unpack_from(e + "H", raw, 10)
+    data_start, = struct.unpack_from(e + "H", raw, 16)
+    return {"interpolation_gap": int(gap), "data_start": int(data_start),
+            "parameter_blocks": int(raw[(raw[0] - 1) * BLOCK + 2])}
+
+
+def _values(parameters, group: str, name: str) -> np.ndarray:
+    param = parameters.get(group, {}).get(name)
+    return np.ravel(param.get("value", [])) if isinstance(param, dict) else np.array([])
+
+
+def analog_offsets(parameters, channels: int) -> np.ndarray:
+    """(A,) int: ANALOG:OFFSET as ezc3d subtracts it, its magnitude (0 where the file has none).
+
+    A 16-bit parameter cannot hold the 32768 of a centred 16-bit converter, so
+    files write offsets past 32767 as negative numbers (Analysis.c3d: -32768
+    for stored 32768 read as 0 V) and ezc3d reads every offset as its magnitude
+    (shd01.c3d: -32752, stored 32532 read as -220 counts), whatever ANALOG:FORMAT says.
+    """
+    offsets = np.abs(_values(parameters, "ANALOG", "OFFSET").astype(np.int64))
+    out = np.zeros(channels, dtype=np.int64)
+    out[: min(len(offsets), channels)] = offsets[:channels]
+    return out
+
+
+def stored_analogs(analogs: np.ndarray, parameters):
+    """``(stored, scales, offsets, gen)``: numbers whose reading ``(stored - offset) * scale * gen`` is ``analogs``.
+
+    ``analogs`` (A, N): the samples as :func:`~mocapkit.io.c3d.read_c3d` reads
+    them (float32 values, in the file's units); ``parameters``: the file's
+    parsed parameter section (POINT:SCALE says integer or float storage,
+    ANALOG:SCALE, OFFSET and GEN_SCALE how samples are read). The
+    stored numbers are those the file held: whole numbers in an integer file
+    (positive POINT:SCALE, |stored| within 16 bits) and in the float files
+    that store A/D counts (Vicon's FunctionalWalk.c3d), else the float32
+    nearest ``value / (scale * gen) + offset``. Each is checked to read back as
+    the sample, its sign of zero included; where one does not (a channel
+    changed in Python, a scale of 0 or missing), None: the caller writes the
+    values as they are (scale 1, offset 0). Returns ``stored`` (A, N) float64,
+    ``scales`` (A,) ANALOG:SCALE, ``offsets`` (A,) int, ANALOG:OFFSET as the
+    file has it (the values are read with their magnitudes: :func:`analog_offsets`),
+    ``gen`` ANALOG:GEN_SCALE.
+    """
+    point_scale = _values(parameters, "POINT", "SCALE")
+    if not len(point_scale) or not np.isfinite(float(point_scale[0])):
+        return None
+    integer = float(point_scale[0]) > 0
+    a = analogs.shape[0]
+    scales = _values(parameters, "ANALOG", "SCALE").astype(np.float64)
+    gen = _values(parameters, "ANALOG", "GEN_SCALE").astype(np.float64)
+    if len(scales) < a or not len(gen):
+        return None
+    scales, offsets = scales[:a], analog_offsets(parameters, a)
+    written = np.zeros(a, dtype=np.int64)
+    given = _values(parameters, "ANALOG", "OFFSET").astype(np.int64)[:a]
+    written[: len(given)] = given
+    step = scales[:, None] * gen[0]
+    if not np.all(np.isfinite(step)) or np.any(step == 0):
+        return None
+    off = offsets[:, None]
+    exact = analogs / step + off
+    whole = np.rint(exact) + 0.0  # no -0.0: a stored 0 that is not the offset is +0 (a 16-bit 0)
+    if integer and np.any((whole < -32768) | (whole > 65535)):
+        return None
+
+    def reads(stored):  # what readers make of stored numbers, at float32
+        return ((stored - off) * step).astype(np.float32).astype(np.float64)
+
+    # whole numbers where they read as the sample (every one in an integer file), else the nearest float32
+    fits = np.abs(whole) <= 2**24  # whole numbers float32 holds
+    stored = whole if integer else np.where(fits & (reads(whole) == analogs), whole,
+                                            exact.astype(np.float32).astype(np.float64))
+    # the sign of a zero read: (stored - offset) is -0.0 only where stored is -0.0 and the offset 0
+    zero = (stored - off == 0) & (off == 0)
+    stored = np.where(zero, np.where(np.signbit(analogs) != (step < 0), -0.0, 0.0), stored)
+    back = reads(stored)
+    if not (np.array_equal(back, analogs) and np.array_equal(np.signbit(back), np.signbit(analogs))):
+        return None
+    return stored, scales, written, float(gen[0])
+
+
+def parameter_at(data, group: str, name: str) -> tuple[int, int, int] | None:
+    """``(byte offset of its first value, type, number of values)`` of parameter GROUP:NAME in a C3D ezc3d wrote
+    (Intel byte order), or None. Types: -1 text, 1 byte, 2 16-bit integer, 4 float."""
+    i = (data[0] - 1) * BLOCK + 4
+    groups: dict[int, str] = {}
+    found = []
+    while i + 4 <= len(data):
+        nlen, gid = abs(struct.unpack_from("b", data, i)[0]), struct.unpack_from("b", data, i + 1)[0]
+        if nlen == 0 or gid == 0:
+            break
+        label = bytes(data[i + 2:i + 2 + nlen]).decode("latin-1").upper()
+        at = i + 2 + nlen
+        nxt, = struct.unpack_from("<h", data, at)
+        if gid < 0:
+            groups[-gid] = label
+        elif label == name.upper():
+            typ, ndim = struct.unpack_from("b", data, at + 2)[0], data[at + 3]
+            dims = data[at + 4:at + 4 + ndim]
+            found.append((gid, (at + 4 + ndim, typ, int(np.prod(dims)) if ndim else 1)))
+        if nxt <= 0:
+            break
+        i = at + nxt
+    return next((where for gid, where in found if groups.get(gid) == group.upper()), None)
+
+
+def put_parameter(data: bytearray, group: str, name: str, values) -> bool:
+    """Write ``values`` over the first values of the 16-bit integer or float parameter GROUP:NAME in place (as
+    many as it holds); False where the file has no such parameter of those types."""
+    where = parameter_at(data, group, name)
+    if where is None or where[1] not in (2, 4):
+        return False
+    at, typ, count = where
+    values = np.ravel(np.asarray(values))[:count]
+    packed = (values.astype(np.int64) & 0xFFFF).astype("<u2") if typ == 2 else values.astype("<f4")
+    data[at:at + packed.nbytes] = packed.tobytes()
+    return True
+
+
+def put_analogs(data: bytearray, frames: int, points: int, stored: np.ndarray) -> None:
+    """Write the (A, F * ratio) ``stored`` analog numbers into the float data block of a C3D ezc3d wrote, which
+    holds ``frames`` frames of ``points`` points: a frame holds its analog samples subframe by subframe, every
+    channel in each."""
+    if stored.size == 0 or frames == 0 or stored.shape[1] % frames:
+        return
+    a, n = stored.shape
+    analog, data_start = struct.unpack_from("<H", data, 4)[0], struct.unpack_from("<H", data, 16)[0]
+    width = 4 * points + analog
+    block = np.frombuffer(data, dtype="<f4", count=frames * width, offset=(data_start - 1) * BLOCK).reshape(frames, width)
+    block[:, 4 * points:] = stored.reshape(a, frames, n // frames).transpose(1, 2, 0).reshape(frames, a * n // frames)
+
+
+def put_header_gap(data: bytearray, gap: int) -> None:
+    """Write header word 6, the maximum interpolation gap in frames (ezc3d writes 10 whatever the file had)."""
+    struct.pack_into("<H", data, 10, int(gap) & 0xFFFF)
+
+
+def keep_data_start(data: bytearray, layout: dict) -> bytearray:
+    """``data`` (a C3D ezc3d wrote) with its data block at the block ``layout["data_start"]`` says, where the
+    parameter section ezc3d wrote ends before it (zero bytes between); else ``data`` as it is, its data block
+    right after ezc3d's parameter section, since a section cannot shrink without losing parameters.
+
+    Header word 9 and POINT:DATA_START are set to the block; the parameter section's block count is kept at
+    ``layout["parameter_blocks"]`` where that still covers ezc3d's section and ends before the data, else it is
+    the count ezc3d wrote. ``layout``: :func:`header_layout` of the file read.
+    """
+    want = int(layout.get("data_start", 0))
+    now, = struct.unpack_from("<H", data, 16)
+    param_block, param_blocks = data[0], data[(data[0] - 1) * BLOCK + 2]
+    if want <= now or want > 32767:  # POINT:DATA_START is a signed 16-bit integer
+        return data
+    out = data[:(now - 1) * BLOCK] + bytes((want - now) * BLOCK) + data[(now - 1) * BLOCK:]
+    struct.pack_into("<H", out, 16, want)
+    put_parameter(out, "POINT", "DATA_START", [want])
+    blocks = int(layout.get("parameter_blocks", 0))
+    if param_blocks <= blocks <= want - param_block:
+        out[(param_block - 1) * BLOCK + 2] = blocks
+    return out

@@ -1,0 +1,126 @@
+"""A C3D written back keeps the file's own layout where ezc3d would write its own: stored analog numbers and
+ANALOG:OFFSET, the header's interpolation gap, where the data block starts."""
+
+import struct
+
+import numpy as np
+import pytest
+
+from mocapkit.io.c3d import read_c3d, write_c3d
+from mocapkit.io.c3d_layout import stored_analogs
+
+
+def _find(shared_data, name):
+    found = sorted(p for p in shared_data.rglob("*") if p.name == name)
+    assert found, name
+    return found[0]
+
+
+def _stored(path):
+    """(A, F * ratio) the analog numbers a little-endian C3D stores, as stored (16-bit integers or floats), read
+    from its header and ANALOG:USED alone."""
+    import ezc3d
+
+    raw = path.read_bytes()
+    assert raw[(raw[0] - 1) * 512 + 3] == 84  # Intel files only here
+    points, per_frame, first, last = struct.unpack_from("<4H", raw, 2)
+    scale, = struct.unpack_from("<f", raw, 12)
+    data_start, = struct.unpack_from("<H", raw, 16)
+    channels = int(ezc3d.c3d(str(path))["parameters"]["ANALOG"]["USED"]["value"][0])
+    frames, dtype = last - first + 1, "<i2" if scale > 0 else "<f4"
+    block = np.frombuffer(raw, dtype=dtype, count=frames * (4 * points + per_frame),
+                          offset=(data_start - 1) * 512).reshape(frames, -1)
+    ratio = per_frame // channels
+    return block[:, 4 * points:].reshape(frames, ratio, channels).transpose(2, 0, 1).reshape(channels, -1).astype(np.float64)
+
+
+@pytest.mark.parametrize("name", ["Eb015pi.c3d", "FunctionalWalk.c3d", "shd01.c3d", "PiG_Motion-FlatFoot-Full.c3d"])
+def test_analogs_are_written_as_the_numbers_and_offsets_stored(tmp_path, shared_data, name):
+    """Eb015pi: 16-bit integers with OFFSET 2048; FunctionalWalk: floats holding A/D counts, UNSIGNED, OFFSET
+    -32768; shd01: OFFSET -32752 read as 32752; PiG: floats storing volts. Written back, the file stores the same
+    numbers (as floats: see the guide) under the same ANALOG:OFFSET, SCALE and GEN_SCALE, and reads the same."""
+    import ezc3d
+
+    path = _find(shared_data, name)
+    take = read_c3d(path)
+    out = tmp_path / "out.c3d"
+    write_c3d(take, out)
+    before, after = _stored(path), _stored(out)
+    assert np.array_equal(after, before) and np.array_equal(np.signbit(after), np.signbit(before))
+    src, new = ezc3d.c3d(str(path))["parameters"]["ANALOG"], ezc3d.c3d(str(out))["parameters"]["ANALOG"]
+    channels = before.shape[0]
+    for key in ("OFFSET", "SCALE", "GEN_SCALE"):
+        n = 1 if key == "GEN_SCALE" else channels
+        assert np.array_equal(np.ravel(new[key]["value"])[:n], np.ravel(src[key]["value"])[:n]), key
+    assert np.array_equal(read_c3d(out).source.analogs, take.source.analogs)
+
+
+def test_a_changed_analog_channel_is_written_as_its_values(tmp_path, shared_data):
+    """A channel changed in Python is no longer the file's numbers: written as the values (ANALOG:SCALE 1,
+    OFFSET 0), read back the same."""
+    import dataclasses
+
+    take = read_c3d(_find(shared_data, "Eb015pi.c3d"))
+    analogs = take.source.analogs.copy()
+    analogs[0] *= 1.0 + 1e-3
+    analogs = analogs.astype(np.float32).astype(np.float64)
+    take = dataclasses.replace(take, source=dataclasses.replace(take.source, analogs=analogs))
+    assert stored_analogs(analogs, take.source.parameters) is None
+    out = tmp_path / "out.c3d"
+    write_c3d(take, out)
+    back = read_c3d(out)
+    assert np.array_equal(back.source.analogs, analogs)
+    assert not np.any(np.ravel(back.source.parameters["ANALOG"]["OFFSET"]["value"]))
+
+
+def test_stored_analogs_keep_the_sign_of_zero():
+    """A zero read under a negative step is -0.0 from a stored +0 (and +0.0 from a stored -0.0): the numbers found
+    read back as the samples, signs of zero included."""
+    params = {"POINT": {"SCALE": {"value": np.array([-0.1])}},
+              "ANALOG": {"SCALE": {"value": np.array([-0.5, 0.25])}, "GEN_SCALE": {"value": np.array([2.0])},
+                         "OFFSET": {"value": np.array([0, 0])}}}
+    analogs = np.array([[-0.0, 0.0, 1.0, -3.0], [0.0, -0.0, 0.5, 1.5]])
+    stored, scales, offsets, gen = stored_analogs(analogs, params)
+    back = (stored - offsets[:, None]) * scales[:, None] * gen
+    assert np.array_equal(back, analogs) and np.array_equal(np.signbit(back), np.signbit(analogs))
+    assert np.array_equal(stored, [[0.0, -0.0, -1.0, 3.0], [0.0, -0.0, 1.0, 3.0]])
+
+
+def _header(raw):
+    gap, = struct.unpack_from("<H", raw, 10)
+    data_start, = struct.unpack_from("<H", raw, 16)
+    return gap, data_start
+
+
+@pytest.mark.parametrize("name", ["85_02.c3d", "Eb015pi.c3d", "TESTBPI.c3d", "FunctionalWalk.c3d"])
+def test_header_gap_and_data_start_are_kept(tmp_path, shared_data, name):
+    """85_02 (interpolation gap 0, data at block 19), Eb015pi (10, 11), TESTBPI (parameters at block 11, data at
+    20), FunctionalWalk (0, 35): ezc3d writes gap 10 and the data right after its own parameter section; both are
+    the file's again, POINT:DATA_START agreeing, and every reader reads the take as before."""
+    import ezc3d
+
+    path = _find(shared_data, name)
+    take = read_c3d(path)
+    out = tmp_path / "out.c3d"
+    write_c3d(take, out)
+    assert _header(out.read_bytes()) == _header(path.read_bytes())
+    params = ezc3d.c3d(str(out))["parameters"]
+    assert int(params["POINT"]["DATA_START"]["value"][0]) == _header(path.read_bytes())[1]
+    back = read_c3d(out)
+    assert back.reader == "ezc3d"
+    assert np.array_equal(back.positions, take.positions, equal_nan=True)
+    assert np.array_equal(back.residuals, take.residuals) and np.array_equal(back.cameras, take.cameras)
+
+
+def test_data_start_moves_only_where_the_parameters_no_longer_fit(tmp_path, shared_data):
+    """561xxa01_anonym.C3D's data starts at block 6; the parameter section ezc3d writes for it ends later, so the
+    data follows it, and the header and POINT:DATA_START say where."""
+    import ezc3d
+
+    path = _find(shared_data, "561xxa01_anonym.C3D")
+    out = tmp_path / "out.c3d"
+    write_c3d(read_c3d(path), out)
+    raw = out.read_bytes()
+    gap, data_start = _header(raw)
+    assert gap == _header(path.read_bytes())[0] and data_start > _header(path.read_bytes())[1]
+    assert int(ezc3d.c3d(str(out))["parameters"]["POINT"]["DATA_START"]["value"][0]) == data_start
