@@ -162,7 +162,7 @@ def _midpoint_frames(motion: Motion, values: np.ndarray | None = None) -> np.nda
     is_rot = np.array([c.endswith("rotation") for j in range(sk.num_joints) for c in sk.joint_channels(j)], dtype=bool)
     slerp = np.all(off[:, ~is_rot] <= bound[:, ~is_rot], axis=1)
     if is_rot.any():
-        at = np.flatnonzero(slerp & moves & ~linear)  # (n,) the open frames, less one
+        at = np.flatnonzero(slerp & moves & ~linear)  # (n,) the open frames, as rows of frames 1..F-2
         slerp[:] = False
         if len(at):
             q = np.asarray(motion.rotations)
