@@ -316,3 +316,17 @@ def test_the_pelvis_of_a_rig_read_from_nothing_is_the_one_rigs_gives():
     sk = Skeleton(tuple(f"bone{j}" for j in range(sk.num_joints)), np.array(sk.parents), sk.offsets)
     assert rigs.rig_family(sk) is None and rigs.roles_by_topology(sk, sides=False) is None
     assert mocapkit.motion.find_joint(sk, "pelvis") == rigs.pelvis_index(sk) == 1
+
+
+def test_rig_family_is_read_once_per_skeleton(monkeypatch):
+    # every role a step finds asks the family again: the families' names are read for the first ask only
+    sk = mocapkit.load(samples.path("HDM_bk_sneak2StepsLStart_004_120.amc"), asf=samples.path("HDM_bk.asf")).skeleton
+    same = Skeleton(tuple(sk.joint_names), np.array(sk.parents), np.array(sk.offsets))
+    rigs.rig_family(sk)
+    resolved = []
+    read = rigs._resolve
+    monkeypatch.setattr(rigs, "_resolve", lambda skeleton, family: resolved.append(family) or read(skeleton, family))
+    assert rigs.rig_family(sk) == rigs.rig_family(same) == "acclaim"
+    assert resolved == []
+    renamed = Skeleton(tuple(n.upper() for n in sk.joint_names), np.array(sk.parents), np.array(sk.offsets))
+    assert rigs.rig_family(renamed) != "acclaim" and len(resolved) == len(rigs.FAMILIES)

@@ -317,12 +317,24 @@ def rig_family(skeleton: Skeleton) -> str | None:
     >>> rig_family(mocapkit.load(mocapkit.samples.path("131_01.bvh")).skeleton)
     'cmu_bvh_3dsmax'
     """
+    key = (tuple(skeleton.joint_names), np.asarray(skeleton.parents, dtype=np.int64).tobytes())
+    if key in _FAMILY_OF:
+        return _FAMILY_OF[key]
     best, best_n = None, 0
     for family in FAMILIES:
         found = _resolve(skeleton, family)
         if len(found) > best_n and _covers(skeleton, found):
             best, best_n = family, len(found)
+    if len(_FAMILY_OF) >= _FAMILIES_KEPT:
+        _FAMILY_OF.clear()
+    _FAMILY_OF[key] = best
     return best
+
+
+#: :func:`rig_family` of the skeletons asked since it was last cleared (at 64), by their joint names and parents (all it reads): a take's
+#: steps ask it of one skeleton dozens of times (every role a cue finds), each a pass over every family's names
+_FAMILY_OF: dict[tuple, str | None] = {}
+_FAMILIES_KEPT = 64
 
 
 def roles(skeleton: Skeleton) -> dict[str, int]:

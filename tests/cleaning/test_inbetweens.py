@@ -55,3 +55,51 @@ def test_a_linear_blend_of_channels_is_found_and_a_run_of_two():
     skip = np.zeros(retimed.num_frames, dtype=bool)
     skip[99] = True
     assert find_inbetweens(retimed, skip=skip) == ()
+
+
+def _reference_steps(x: np.ndarray) -> np.ndarray:
+    """written_steps by its definition: every candidate precision's share read over all the nonzero values."""
+    def share(v, step):
+        k = v / step
+        return np.mean(np.abs(k - np.round(k)) <= 1e-6 + 1e-9 * np.abs(k))
+
+    floor = 16 * np.spacing(np.maximum(np.abs(x), 1.0))
+    nz = np.isfinite(x) & (x != 0)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        e = np.floor(np.log10(np.abs(x)))
+    found = [np.full(x.shape, 10.0 ** -d) for d in range(10) if share(x[nz], 10.0 ** -d) >= 0.99][:1]
+    found += [np.where(nz, 10.0 ** (np.where(nz, e, 0.0) - s + 1), 0.0) for s in range(1, 13)
+              if share(x[nz], 10.0 ** (e[nz] - s + 1)) >= 0.99][:1]
+    best = max(found, key=lambda c: float(np.mean(np.log10(c[nz])))) if found else floor
+    return np.maximum(best, floor)
+
+
+def test_written_steps_read_few_values_for_the_same_precision(monkeypatch):
+    # a precision most values miss is refused after the first values, and the answer is the one every value gives
+    from mocapkit.cleaning import inbetweens
+
+    takes = [mocapkit.load(samples.path("131_01.bvh")),
+             mocapkit.load(samples.path("HDM_bd_jogLeftCircle4StepsRstart_001_120.amc"), asf=samples.path("HDM_bd.asf")),
+             mocapkit.load(DATA / "dataset-2_run_active_049.bvh")]
+    checked = []
+    fits = inbetweens._fits
+    monkeypatch.setattr(inbetweens, "_fits", lambda x, step: checked.append(x.size) or fits(x, step))
+    for m in takes:
+        x = m.channel_values()
+        x[5:9, 3] = np.nan  # a gap
+        checked.clear()
+        assert np.array_equal(written_steps(x), _reference_steps(x), equal_nan=True), m.name
+        nonzero = np.count_nonzero(np.isfinite(x) & (x != 0))
+        assert sum(checked) < 5 * nonzero, m.name  # every candidate over every value: 11 to 22 times as many
+
+
+def test_slerp_midpoints_are_made_only_where_the_cheap_tests_leave_a_frame_open(tmp_path, monkeypatch):
+    from mocapkit.cleaning import inbetweens
+
+    m = mocapkit.load(with_midpoints(Path(samples.path("131_01.bvh")), [300, 500, 501], tmp_path / "retimed.bvh", 4))
+    rows = []
+    slerp = inbetweens.R.slerp
+    monkeypatch.setattr(inbetweens.R, "slerp", lambda a, b, t: rows.append(len(a)) or slerp(a, b, t))
+    assert find_inbetweens(m) == (Inbetween(301, 301), Inbetween(502, 502), Inbetween(504, 504))
+    # the three, and the few frames whose root stands still to the file's precision: not each of the F - 2 frames
+    assert 3 <= sum(rows) < 0.05 * (m.num_frames - 2)

@@ -579,3 +579,22 @@ def test_fill_of_a_root_gap_keeps_every_observed_root_sample_bit_identical(walk)
     assert res.motion.root_positions[seen].tobytes() == take.root_positions[seen].tobytes()
     observed = ~take.missing()
     assert res.motion.rotations[observed].tobytes() == take.rotations[observed].tobytes()
+
+
+def test_clean_reads_the_takes_channels_once_for_zeros_and_interpolated_frames(monkeypatch):
+    # the dropouts and the interpolated frames read the same file channels: made once, the same flags as alone
+    from mocapkit.cleaning.inbetweens import find_inbetweens
+    from mocapkit.cleaning.zeros import find_zeros
+    from mocapkit.motion import Motion
+
+    m = mocapkit.load(samples.path("131_01.bvh"))[:400]
+    x = m.channel_values()
+    x[100:103, 9:12] = 0.0  # a joint's channels written as 0 for three frames
+    m = Motion.from_channel_values(m.skeleton, x, m.fps, name="zeroed")
+    alone = find_zeros(m)
+    calls = []
+    read = Motion.channel_values
+    monkeypatch.setattr(Motion, "channel_values", lambda self: calls.append(self is m) or read(self))
+    res = clean(m, steps="fill")
+    assert sum(calls) == 1
+    assert np.array_equal(res.zeros, alone[0]) and res.zero_runs and find_inbetweens(m) == ()

@@ -88,11 +88,15 @@ def written_steps(values: np.ndarray) -> np.ndarray:
         e = np.floor(np.log10(np.abs(x)))
     candidates = []
     for d in range(10):
-        if np.mean(_fits(flat, 10.0 ** -d)) >= _FIT_SHARE:
+        if _share_fits(flat, lambda a, b, d=d: 10.0 ** -d):
             candidates.append(np.full(x.shape, 10.0 ** -d))
             break
+    low = e[nz].min()  # the exponents are a few whole numbers: each power made once, read by index
+    which = (e[nz] - low).astype(np.int64)
+    exps = low + np.arange(which.max() + 1, dtype=np.float64)
     for s in range(1, 13):
-        if np.mean(_fits(flat, 10.0 ** (e[nz] - s + 1))) >= _FIT_SHARE:
+        powers = 10.0 ** (exps - s + 1)
+        if _share_fits(flat, lambda a, b, p=powers: p[which[a:b]]):
             candidates.append(np.where(nz, 10.0 ** (np.where(nz, e, 0.0) - s + 1), 0.0))
             break
     if not candidates:
@@ -101,30 +105,54 @@ def written_steps(values: np.ndarray) -> np.ndarray:
     return np.maximum(best, floor)
 
 
+#: the parts :func:`_share_fits` reads a take's values in (no part under 2,048 values)
+_PARTS = 16
+
+
+def _share_fits(flat: np.ndarray, steps) -> bool:
+    """Whether at least :data:`_FIT_SHARE` of ``flat`` (N,) are whole numbers of their steps (``steps(a, b)``: the
+    steps of ``flat[a:b]``, or one step for all), read a part at a time (:data:`_PARTS`) and decided as soon as the
+    values that do not fit already leave less than that share: the same answer as
+    ``np.mean(_fits(flat, step)) >= _FIT_SHARE`` (the share a count of whole values over N either way), most
+    candidate precisions refused after one part."""
+    n = flat.size
+    misses = 0
+    part = max(2048, -(-n // _PARTS))
+    for a in range(0, n, part):
+        b = min(a + part, n)
+        misses += int(np.count_nonzero(~_fits(flat[a:b], steps(a, b))))
+        if (n - misses) / n < _FIT_SHARE:
+            return False
+    return True
+
+
 _MIDPOINTS: "weakref.WeakKeyDictionary[Motion, np.ndarray]" = weakref.WeakKeyDictionary()
 
 
-def midpoint_frames(motion: Motion) -> np.ndarray:
+def midpoint_frames(motion: Motion, values: np.ndarray | None = None) -> np.ndarray:
     """(F,) bool, read-only: the frames that are the midpoint of their neighbours (module docstring: linear or
     slerp, on every channel, to the file's written precision, the neighbours apart by more than it); the first
     and last frames never. Kept per Motion (an immutable take) while it lives: ``clean``'s note, detection and
-    repair ask it of the same take."""
+    repair ask it of the same take. ``values``: ``motion.channel_values()`` when the caller has them already
+    (None: made here)."""
     got = _MIDPOINTS.get(motion)
     if got is None:
-        got = _midpoint_frames(motion)
+        got = _midpoint_frames(motion, values)
         got.flags.writeable = False
         _MIDPOINTS[motion] = got
     return got
 
 
-def _midpoint_frames(motion: Motion) -> np.ndarray:
-    """:func:`midpoint_frames`, computed."""
+def _midpoint_frames(motion: Motion, values: np.ndarray | None = None) -> np.ndarray:
+    """:func:`midpoint_frames`, computed. The slerp midpoints are made only at the frames the cheap tests leave
+    open (the body moves, the frame is not linear, every position channel is): a frame that fails those is no
+    slerp midpoint, and real motion fails them nearly everywhere (its root moves)."""
     F = motion.num_frames
     out = np.zeros(F, dtype=bool)
     if F < 3:
         return out
     sk = motion.skeleton
-    x = motion.channel_values()
+    x = motion.channel_values() if values is None else np.asarray(values, dtype=np.float64)
     h = written_steps(x) / 2
     bound = (h[1:-1] + (h[:-2] + h[2:]) / 2) * 1.01 + 1e-12  # (F-2, C)
     off = np.abs(x[1:-1] - (x[:-2] + x[2:]) / 2)
@@ -134,23 +162,29 @@ def _midpoint_frames(motion: Motion) -> np.ndarray:
     is_rot = np.array([c.endswith("rotation") for j in range(sk.num_joints) for c in sk.joint_channels(j)], dtype=bool)
     slerp = np.all(off[:, ~is_rot] <= bound[:, ~is_rot], axis=1)
     if is_rot.any():
-        q = np.asarray(motion.rotations)
-        tr = None if motion.translations is None else (motion.translations[:-2] + motion.translations[2:]) / 2
-        mid = Motion(sk, R.slerp(q[:-2], q[2:], 0.5), (motion.root_positions[:-2] + motion.root_positions[2:]) / 2,
-                     motion.fps, translations=tr).channel_values()
-        per_joint = np.zeros((F - 2, sk.num_joints))
-        np.add.at(per_joint.T, joint_of[is_rot], bound[:, is_rot].T)
-        d = np.abs(x[1:-1, is_rot] - mid[:, is_rot]) % 360.0
-        slerp &= np.all(np.minimum(d, 360.0 - d) <= per_joint[:, joint_of[is_rot]], axis=1)
+        at = np.flatnonzero(slerp & moves & ~linear)  # (n,) the open frames, as rows of frames 1..F-2
+        slerp[:] = False
+        if len(at):
+            q = np.asarray(motion.rotations)
+            root = np.asarray(motion.root_positions)
+            tr = None if motion.translations is None else (motion.translations[at] + motion.translations[at + 2]) / 2
+            mid = Motion(sk, R.slerp(q[at], q[at + 2], 0.5), (root[at] + root[at + 2]) / 2,
+                         motion.fps, translations=tr).channel_values()
+            per_joint = np.zeros((len(at), sk.num_joints))
+            np.add.at(per_joint.T, joint_of[is_rot], bound[at][:, is_rot].T)
+            d = np.abs(x[at + 1][:, is_rot] - mid[:, is_rot]) % 360.0
+            slerp[at] = np.all(np.minimum(d, 360.0 - d) <= per_joint[:, joint_of[is_rot]], axis=1)
     out[1:-1] = (linear | slerp) & moves
     return out
 
 
-def find_inbetweens(motion: Motion, skip: np.ndarray | None = None) -> tuple[Inbetween, ...]:
+def find_inbetweens(motion: Motion, skip: np.ndarray | None = None,
+                    values: np.ndarray | None = None) -> tuple[Inbetween, ...]:
     """The runs of at most :data:`MAX_RUN` frames of ``motion`` that are each the midpoint of their neighbours
     (:func:`midpoint_frames`), by first frame; frames in ``skip`` ((F,) bool: all-zero frames, stutters) are in
-    none, nor next to one (a run that would hold or touch one is left out whole)."""
-    mid = midpoint_frames(motion)
+    none, nor next to one (a run that would hold or touch one is left out whole). ``values``:
+    ``motion.channel_values()`` when the caller has them already."""
+    mid = midpoint_frames(motion, values)
     near = np.zeros(motion.num_frames + 1, dtype=bool)
     if skip is not None:
         skip = np.asarray(skip, dtype=bool)

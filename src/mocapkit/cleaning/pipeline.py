@@ -796,11 +796,13 @@ def clean(
     if held:
         notes.append(held)
     # channels written as 0 where the capture lost data are missing cells, which fill fills (module docstring)
-    found_zeros = find_zeros(motion)
+    values = motion.channel_values()  # the file's channels, read by the zeros and the interpolated frames
+    found_zeros = find_zeros(motion, values)
     zero_cells, zero_runs, zero_frames = found_zeros
     stutters = find_stutters(motion, skip=zero_frames)
     skip = zero_frames | stutter_frames(stutters, motion.num_frames)
-    interpolated = inbetweens_note(find_inbetweens(motion, skip=skip))
+    interpolated = inbetweens_note(find_inbetweens(motion, skip=skip, values=values))
+    del values
     if interpolated:
         notes.append(interpolated)
     if "fill" in steps:

@@ -122,16 +122,18 @@ def _runs(zero: np.ndarray, keep_out: np.ndarray, min_run: int) -> list[tuple[in
     return out
 
 
-def find_zeros(motion: Motion) -> tuple[np.ndarray, tuple[ZeroRun, ...], np.ndarray]:
+def find_zeros(motion: Motion, values: np.ndarray | None = None) -> tuple[np.ndarray, tuple[ZeroRun, ...], np.ndarray]:
     """``(cells (F, J) bool, runs, frames (F,) bool)``: the joint samples written as 0 (a dropout, module docstring),
-    the runs found (whole frames first, then by joint and frame), and the all-zero frames among them."""
+    the runs found (whole frames first, then by joint and frame), and the all-zero frames among them. ``values``:
+    ``motion.channel_values()`` (F, C) when the caller has them already (None: made here)."""
     sk = motion.skeleton
     F, J = motion.num_frames, motion.num_joints
     cells = np.zeros((F, J), dtype=bool)
     frames = np.zeros(F, dtype=bool)
     if F < 3:
         return cells, (), frames
-    values = motion.channel_values()
+    if values is None:
+        values = motion.channel_values()
     zero = np.abs(values) <= ZERO_TOL  # NaN (missing) is not 0
     cols, col = [], 0
     for j in range(J):
