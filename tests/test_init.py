@@ -294,7 +294,8 @@ def test_a_results_masks_are_read_only_and_its_own():
     assert res.detection.flags is not res.flags
 
 
-def test_decisions_for_a_motion_are_refused_naming_where_they_apply(broken, tmp_path):
-    with pytest.raises(mocapkit.MocapError, match="apply to a marker capture here; a joint-angle take's decisions "
-                                                  "apply with mocapkit.cleaning.decisions.apply"):
+def test_decisions_for_a_motion_are_read_as_the_command_reads_them(broken, tmp_path):
+    """A joint-angle take's decisions apply here too (tests/cleaning/test_decide.py): a missing file is the
+    command's "no such file", before any cleaning."""
+    with pytest.raises(mocapkit.MissingFileError, match="d.json"):
         mocapkit.clean(broken[0], decisions=tmp_path / "d.json")

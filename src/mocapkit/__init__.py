@@ -199,7 +199,9 @@ def _request(context, steps, threshold, drifts, models, noise_deg, fps, unit) ->
                 for c in context]
     else:
         said = [f"<{type(context).__name__} in memory>"]
-    return clean_request(steps, threshold, drifts, said, models, noise_deg, fps, unit)
+    # options of the wrong type are refused by the cleaning in its own words, not here
+    return clean_request(steps, threshold, drifts, said, models if isinstance(models, dict) else None, noise_deg,
+                         fps, unit)
 
 
 def _load_motion(path, asf, fps=None, unit=None) -> Motion:
