@@ -101,17 +101,25 @@ def clean(take, context=None, *, steps="fill,detect,repair,denoise", threshold: 
         default :func:`mocapkit.io.asfamc.amc_rate`).
     unit : {"mm", "cm", "m", "in"}, optional
         The length unit of a file that states none (the CLI's ``--unit``).
-    decisions : str or os.PathLike, optional
-        A marker capture's decisions file (the report's *Download decisions*;
-        the CLI's ``--decisions``): the result then holds only the changes it
-        accepts, every other sample the input's, and its ``summary()`` says
-        what ``mocapkit clean --decisions`` says. The file applies only to the
-        cleaning it was made on, as for the CLI: its ``record``, or a new
-        cleaning giving the very same samples; a refusal is one line naming
-        the file (:func:`mocapkit.cleaning.markers.decisions.clean_and_decide`).
+    decisions : str, os.PathLike or dict, optional
+        A decisions file (the report's *Download decisions*; the CLI's
+        ``--decisions``), or for a joint-angle take the same document as a
+        dict: the result then holds only the changes it accepts, every other
+        sample the input's bit for bit, and its ``summary()`` says what
+        ``mocapkit clean --decisions`` says (``result.decided``). The file
+        applies only to the cleaning it was made on, as for the CLI: its
+        ``record``, or a new cleaning with the options reviewed giving the
+        very same values; a refusal is the CLI's line naming the file
+        (:func:`mocapkit.cleaning.decide.clean_and_decide`,
+        :func:`mocapkit.cleaning.markers.decisions.clean_and_decide`). A
+        cleaning made here keeps its options as the CLI's record does
+        (``params["request"]``), so ``result.save(record)`` and
+        :func:`mocapkit.report.html.write_clean_report` give a record and a
+        report whose decisions apply from here or from the CLI alike.
     record : str or os.PathLike, optional
         With ``decisions``: the ``.clean.npz`` of the cleaning reviewed (the
-        CLI's ``--record``), read back instead of cleaning again.
+        CLI's ``--record``), read back instead of cleaning again (no context is
+        read; the options that shape a cleaning are not used).
 
     Returns
     -------
