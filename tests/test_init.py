@@ -156,6 +156,21 @@ def test_decisions_apply_to_a_marker_capture_as_the_cli_applies_them(capture_run
         assert np.allclose(load_markers(got).positions, res.markers.positions, equal_nan=True, atol=1e-3)  # float32
 
 
+def test_marker_decisions_as_a_dict_apply_as_their_file_does(capture_run):
+    """decisions= takes the document as a dict for a marker capture as for a joint-angle take (refusals name
+    "the decisions given")."""
+    import json
+
+    d, inp, out, record = capture_run
+    path = _decisions(d, inp, {"spike:LFT3:43-45": "reject"}, name="dict.json")
+    doc = json.loads(path.read_text())
+    a, b = (mocapkit.clean(inp, decisions=x, record=record) for x in (doc, path))
+    assert a.markers.positions.tobytes() == b.markers.positions.tobytes()
+    assert a.summary()[0] == b.summary()[0].replace(str(path), "the decisions given", 1)
+    with pytest.raises(mocapkit.MocapFormatError, match="the decisions given: decisions for another take"):
+        mocapkit.clean(samples.path("Eb015pr.c3d"), decisions={**doc, "take": {**doc["take"], "sha256": "0" * 64}})
+
+
 def test_marker_decisions_are_refused_in_the_library_with_the_clis_words(capture_run, tmp_path):
     """A hand-written file (no digest of the cleaning reviewed) is refused for a new cleaning and taken with the
     record, noting it; a file for another capture is refused; review mode takes no decisions; each refusal is the

@@ -103,8 +103,7 @@ def clean(take, context=None, *, steps="fill,detect,repair,denoise", threshold: 
         The length unit of a file that states none (the CLI's ``--unit``).
     decisions : str, os.PathLike or dict, optional
         A decisions file (the report's *Download decisions*; the CLI's
-        ``--decisions``), or for a joint-angle take the same document as a
-        dict: the result then holds only the changes it accepts, every other
+        ``--decisions``), or the same document as a dict: the result then holds only the changes it accepts, every other
         sample the input's bit for bit, and its ``summary()`` says what
         ``mocapkit clean --decisions`` says (``result.decided``). The file
         applies only to the cleaning it was made on, as for the CLI: its
