@@ -20,7 +20,7 @@ from __future__ import annotations
 import copy
 import dataclasses
 import os
-from typing import Callable, Mapping
+from collections.abc import Callable, Mapping
 
 from ..errors import MocapError, MocapFormatError
 from . import decisions as dec
