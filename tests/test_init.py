@@ -156,6 +156,21 @@ def test_decisions_apply_to_a_marker_capture_as_the_cli_applies_them(capture_run
         assert np.allclose(load_markers(got).positions, res.markers.positions, equal_nan=True, atol=1e-3)  # float32
 
 
+def test_marker_decisions_as_a_dict_apply_as_their_file_does(capture_run):
+    """decisions= takes the document as a dict for a marker capture as for a joint-angle take (refusals name
+    "the decisions given")."""
+    import json
+
+    d, inp, out, record = capture_run
+    path = _decisions(d, inp, {"spike:LFT3:43-45": "reject"}, name="dict.json")
+    doc = json.loads(path.read_text())
+    a, b = (mocapkit.clean(inp, decisions=x, record=record) for x in (doc, path))
+    assert a.markers.positions.tobytes() == b.markers.positions.tobytes()
+    assert a.summary()[0] == b.summary()[0].replace(str(path), "the decisions given", 1)
+    with pytest.raises(mocapkit.MocapFormatError, match="the decisions given: decisions for another take"):
+        mocapkit.clean(samples.path("Eb015pr.c3d"), decisions={**doc, "take": {**doc["take"], "sha256": "0" * 64}})
+
+
 def test_marker_decisions_are_refused_in_the_library_with_the_clis_words(capture_run, tmp_path):
     """A hand-written file (no digest of the cleaning reviewed) is refused for a new cleaning and taken with the
     record, noting it; a file for another capture is refused; review mode takes no decisions; each refusal is the
@@ -294,7 +309,8 @@ def test_a_results_masks_are_read_only_and_its_own():
     assert res.detection.flags is not res.flags
 
 
-def test_decisions_for_a_motion_are_refused_naming_where_they_apply(broken, tmp_path):
-    with pytest.raises(mocapkit.MocapError, match="apply to a marker capture here; a joint-angle take's decisions "
-                                                  "apply with mocapkit.cleaning.decisions.apply"):
+def test_decisions_for_a_motion_are_read_as_the_command_reads_them(broken, tmp_path):
+    """A joint-angle take's decisions apply here too (tests/cleaning/test_decide.py): a missing file is the
+    command's "no such file", before any cleaning."""
+    with pytest.raises(mocapkit.MissingFileError, match="d.json"):
         mocapkit.clean(broken[0], decisions=tmp_path / "d.json")

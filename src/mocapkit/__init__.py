@@ -101,17 +101,24 @@ def clean(take, context=None, *, steps="fill,detect,repair,denoise", threshold: 
         default :func:`mocapkit.io.asfamc.amc_rate`).
     unit : {"mm", "cm", "m", "in"}, optional
         The length unit of a file that states none (the CLI's ``--unit``).
-    decisions : str or os.PathLike, optional
-        A marker capture's decisions file (the report's *Download decisions*;
-        the CLI's ``--decisions``): the result then holds only the changes it
-        accepts, every other sample the input's, and its ``summary()`` says
-        what ``mocapkit clean --decisions`` says. The file applies only to the
-        cleaning it was made on, as for the CLI: its ``record``, or a new
-        cleaning giving the very same samples; a refusal is one line naming
-        the file (:func:`mocapkit.cleaning.markers.decisions.clean_and_decide`).
+    decisions : str, os.PathLike or dict, optional
+        A decisions file (the report's *Download decisions*; the CLI's
+        ``--decisions``), or the same document as a dict: the result then holds only the changes it accepts, every other
+        sample the input's bit for bit, and its ``summary()`` says what
+        ``mocapkit clean --decisions`` says (``result.decided``). The file
+        applies only to the cleaning it was made on, as for the CLI: its
+        ``record``, or a new cleaning with the options reviewed giving the
+        very same values; a refusal is the CLI's line naming the file
+        (:func:`mocapkit.cleaning.decide.clean_and_decide`,
+        :func:`mocapkit.cleaning.markers.decisions.clean_and_decide`). A
+        cleaning made here keeps its options as the CLI's record does
+        (``params["request"]``), so ``result.save(record)`` and
+        :func:`mocapkit.report.html.write_clean_report` give a record and a
+        report whose decisions apply from here or from the CLI alike.
     record : str or os.PathLike, optional
         With ``decisions``: the ``.clean.npz`` of the cleaning reviewed (the
-        CLI's ``--record``), read back instead of cleaning again.
+        CLI's ``--record``), read back instead of cleaning again (no context is
+        read; the options that shape a cleaning are not used).
 
     Returns
     -------
@@ -160,16 +167,48 @@ def clean(take, context=None, *, steps="fill,detect,repair,denoise", threshold: 
                                   record=record, review=review, request=marker_request(unit, review=review),
                                   take=os.path.basename(os.fspath(path)) if path is not None else "")
         return dataclasses.replace(res, frames_note=frames_note(path, take))
-    if decisions is not None or record is not None:
-        raise MocapError(f"{take.name if isinstance(take, Motion) else take}: decisions= and record= apply to a marker "
-                         "capture here; a joint-angle take's decisions apply with mocapkit.cleaning.decisions.apply "
-                         "or mocapkit clean --decisions")
+    if record is not None and decisions is None:
+        raise MocapError(f"{record}: an earlier run's record is applied with decisions; give the decisions file")
     motion = take if isinstance(take, Motion) else _load_motion(take, asf, fps, unit)
-    ctx, note = _load_context(context, motion)
-    extra = {} if noise_deg is None else {"noise_deg": noise_deg}
-    res = clean_motion(motion, ctx, steps=steps, threshold=threshold, progress=progress, drifts=drifts, models=models,
-                       **extra)
-    return dataclasses.replace(res, notes=res.notes + ((note,) if note else ()), frames_note=frames_note(path))
+    request = _request(context, steps, threshold, drifts, models, noise_deg, fps, unit)
+
+    def cleaning():
+        ctx, note = _load_context(context, motion)
+        extra = {} if noise_deg is None else {"noise_deg": noise_deg}
+        res = clean_motion(motion, ctx, steps=steps, threshold=threshold, progress=progress, drifts=drifts,
+                           models=models, **extra)
+        return dataclasses.replace(res, notes=res.notes + ((note,) if note else ()),
+                                   params={**res.params, "request": request})
+
+    if decisions is None:
+        return dataclasses.replace(cleaning(), frames_note=frames_note(path))
+    from .cleaning.decide import clean_and_decide
+
+    name = os.path.basename(os.fspath(path)) if path is not None else ""
+    _, res = clean_and_decide(motion, cleaning, decisions=decisions, record=record, request=request, take=name)
+    return dataclasses.replace(res, frames_note=frames_note(path))
+
+
+def _request(context, steps, threshold, drifts, models, noise_deg, fps, unit) -> dict:
+    """The options a take is cleaned with, as the CLI's record keeps them (:func:`mocapkit.batch.clean_request`):
+    a cleaning made here and one made by ``mocapkit clean`` with the same options have one
+    :func:`~mocapkit.cleaning.decisions.cleaning_digest`. ``context`` is said as ``--context`` says it (None: the
+    default; False or "none": none; a folder or files: their paths); one held in memory (a database, Motions), which
+    no command line can give, by what it is."""
+    from .batch import clean_request
+
+    if context is None or context is False:
+        said = None if context is None else ["none"]
+    elif isinstance(context, (str, os.PathLike)):
+        said = [context]
+    elif isinstance(context, (list, tuple)):
+        said = [c if isinstance(c, (str, os.PathLike)) else f"<{type(c).__name__} {getattr(c, 'name', '') or ''}>"
+                for c in context]
+    else:
+        said = [f"<{type(context).__name__} in memory>"]
+    # options of the wrong type are refused by the cleaning in its own words, not here
+    return clean_request(steps, threshold, drifts, said, models if isinstance(models, dict) else None, noise_deg,
+                         fps, unit)
 
 
 def _load_motion(path, asf, fps=None, unit=None) -> Motion:

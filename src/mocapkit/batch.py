@@ -159,7 +159,7 @@ def clean_file(
     from .cleaning import decisions as dec
     from .cleaning.pipeline import NOISE_DEG, STEPS, CleanResult, clean, clean_path, parse_steps
     from .io.outputs import check_outputs, file_facts, removed_on_failure
-    from .io.takes import check_asf, file_first_frame, load_motion, load_take
+    from .io.takes import check_asf, load_motion, load_take
     from .markerset import MarkerSet
 
     inp, out = Path(inp), Path(out)
@@ -248,13 +248,11 @@ def clean_file(
             place_asf(*skeleton_copy)  # first: an AMC output is never left without the ASF it is read with
         if report is not None:
             from .cleaning.decided import apply_command
-            from .report.html import write_report  # lazy: the viewer is optional
+            from .report.html import write_clean_report  # lazy: the viewer is optional
 
-            write_report(report, m, cleaned, mdm=res.mdm, flags=res.flags, changed=changed, analysed=res.analysed,
-                         title=f"{inp.name}: cleaned" + (f" ({Path(decisions).name} applied)" if doc else ""),
-                         review=dec.review(m, res, take=inp.name, output=out.name, decisions=chosen,
-                                           first_frame=file_first_frame(inp), record=record,
-                                           command=apply_command(inp, asf=asf, amc_fps=amc_fps, unit=unit)))
+            write_clean_report(report, m, res, inp=inp, output=out.name, record=record, decisions=chosen,
+                               applied=Path(decisions).name if doc else "",
+                               command=apply_command(inp, asf=asf, amc_fps=amc_fps, unit=unit))
         if png is not None:
             from .report.summary import plot_summary
 

@@ -97,7 +97,7 @@ from .ssa.cues import cause_names
 
 __all__ = ["FORMAT", "ACCEPT", "REJECT", "Change", "changes", "apply", "take_digest", "template", "read_decisions",
            "check_decisions", "check_record", "record_problem", "as_written", "accepted_cells", "flag_segments",
-           "frame_note", "frames_note", "review", "cleaning_digest", "cleaning_stamp", "check_cleaning", "check_named",
+           "frame_note", "frames_note", "review", "check_document", "cleaning_digest", "cleaning_stamp", "check_cleaning", "check_named",
            "unnamed_changes", "applying_notes", "ids_notes", "request_difference", "check_request", "check_choices", "record_wanted", "DuplicateKeyError"]
 
 FORMAT = "mocapkit.decisions/1"
@@ -509,6 +509,14 @@ def read_decisions(path) -> dict:
         raise MocapFormatError(path, f"not JSON ({exc})") from None
     except RecursionError:
         raise MocapFormatError(path, "JSON nested too deeply; not a mocapkit decisions file") from None
+    return check_document(doc, path)
+
+
+def check_document(doc, path) -> dict:
+    """``doc`` (a decisions document, read from ``path`` or given in Python, e.g. to :func:`mocapkit.clean`) after
+    checking its form as :func:`read_decisions` does: a mocapkit decisions document of this format version, with the
+    take's digest, choices that are "accept" or "reject", and a well-formed ``"cleaning"`` stamp where there is one.
+    Refused in one line naming ``path``."""
     fmt = doc.get("format") if isinstance(doc, dict) else None
     if not isinstance(fmt, str) or not fmt.startswith("mocapkit.decisions/"):
         raise MocapFormatError(path, f"not a mocapkit decisions file (no \"format\": \"{FORMAT}\")")

@@ -219,6 +219,8 @@ class CleanResult:
     input file's own, :func:`mocapkit.cleaning.decisions.frames_note`; "" when the take came from no file that
     numbers its frames from other than 0 (a Motion, a BVH). Set by :func:`mocapkit.clean` and
     :func:`mocapkit.batch.clean_file`, which know the file; not kept in the record.
+    ``decided``: the :class:`~mocapkit.cleaning.decided.Decided` of the decisions applied to get this result
+    (:func:`mocapkit.cleaning.decide.decided_result`; None for a cleaning); :meth:`summary` then says it.
     """
 
     motion: Motion | None
@@ -243,6 +245,7 @@ class CleanResult:
     zero_runs: tuple = ()
     stutters: tuple = ()
     frames_note: str = ""
+    decided: object = None
 
     def __post_init__(self):
         # read-only, and not the detection's own arrays: a caller writing res.repaired[:] = False changed what
@@ -276,7 +279,10 @@ class CleanResult:
     def summary(self) -> list[str]:
         """One line per calibration pose, per run written as 0 and per stutter (at most :data:`MAX_LINES` of each,
         then one line counting the rest), one per step, the notes, then :attr:`frames_note` where the result names
-        any frame (a flag, a calibration pose, a run written as 0, a stutter)."""
+        any frame (a flag, a calibration pose, a run written as 0, a stutter). A decided result (:attr:`decided`)
+        says what ``mocapkit clean --decisions`` says instead (:meth:`~mocapkit.cleaning.decided.Decided.lines`)."""
+        if self.decided is not None:
+            return self.decided.lines(self.frames_note)
         said = " ".join(s.note for s in self.steps)
         names_frames = bool(self.flags.any() or self.calibration or self.zero_runs or self.stutters)
         return ([str(c) for c in self.calibration] + capped_lines(self.zero_runs, "runs written as 0")

@@ -524,3 +524,58 @@ def write_report(
     with atomic_write(path, "w", encoding="utf-8") as fh:
         fh.write(page)
     return path
+
+
+def write_clean_report(path, original: Motion, result, *, inp=None, output: str = "", record="", decisions=None,
+                       applied: str = "", command: dict | None = None, asf=None) -> Path:
+    """Write the report of a cleaning to review and decide: :func:`write_report` with the list of changes.
+
+    The report ``mocapkit clean --report`` writes, for a :class:`~mocapkit.cleaning.pipeline.CleanResult` made by
+    the CLI or in Python (:func:`mocapkit.clean`): its *Download decisions* keeps the cleaning's digest, so the
+    file applies with ``mocapkit clean IN -o OUT --decisions FILE --record RECORD`` or
+    ``mocapkit.clean(IN, decisions=FILE, record=RECORD)`` alike.
+
+    Parameters
+    ----------
+    path : str or Path
+        The ``.html`` file to write.
+    original : Motion
+        The take before cleaning (the one ``result`` cleaned).
+    result : CleanResult
+        The whole cleaning, not a decided result (its changes are the ones to decide).
+    inp : str or Path, optional
+        The input file as the cleaning was given it (default ``original.source_file``): the page's title, its
+        frame numbering and its apply command name it.
+    output : str
+        The output's file name the decisions document names.
+    record : str or Path
+        Where ``result``'s record was written (:meth:`CleanResult.save`): the page's command passes it.
+    decisions : mapping of change id to "accept" or "reject", optional
+        Decisions already taken: the page draws the take with only the accepted changes and starts from them;
+        ``applied`` names their file in the title.
+    command : dict, optional
+        :func:`mocapkit.cleaning.decided.apply_command`'s; default from ``inp``, ``asf`` and the AMC rate and unit
+        the cleaning's options keep (``params["request"]``).
+    """
+    from ..cleaning import decisions as dec
+    from ..cleaning.decided import apply_command
+    from ..errors import MocapError
+    from ..io.takes import file_first_frame
+
+    if getattr(result, "decided", None) is not None:
+        raise MocapError(f"{path}: a decided result has nothing left to decide; write the report of the cleaning "
+                         "the decisions were applied to")
+    inp = inp if inp is not None else original.source_file
+    name = Path(inp).name if inp else (original.name or "take")
+    cleaned, changed = result.motion, result.changed
+    if decisions is not None or cleaned is None:
+        cleaned, changed = dec.apply(original, result, decisions or {}), dec.accepted_cells(result, decisions or {})
+    if command is None and inp:
+        request = result.params.get("request") or {}
+        command = apply_command(inp, asf=asf, amc_fps=request.get("amc_fps"), unit=request.get("unit"))
+    return write_report(path, original, cleaned, mdm=result.mdm, flags=result.flags, changed=changed,
+                        analysed=result.analysed,
+                        title=f"{name}: cleaned" + (f" ({applied} applied)" if applied else ""),
+                        review=dec.review(original, result, take=name, output=output, decisions=decisions,
+                                          first_frame=file_first_frame(inp) if inp else None, record=record,
+                                          command=command))

@@ -354,7 +354,7 @@ def clean_and_decide(original, *, name="", steps=None, max_gap_s=None, max_error
 
     ``original``: the capture (:class:`MarkerSet`), ``name`` what a refusal names it by (its file); ``steps``,
     ``max_gap_s``, ``max_error_mm``: :func:`~mocapkit.cleaning.markers.clean_markers`'s. ``decisions``: a
-    decisions file (:func:`~mocapkit.cleaning.decisions.read_decisions`), checked against the capture before any
+    decisions file or its document as a dict (:func:`mocapkit.cleaning.decide.decisions_document`), checked against the capture before any
     cleaning and against the cleaning after (:func:`check`: the digest of the cleaning reviewed, every change
     named); ``record``: the ``.clean.npz`` of an earlier cleaning, reused (needs ``decisions``); ``review``: review
     mode, nothing changed (not with ``decisions``). ``request``: the options asked for
@@ -365,8 +365,8 @@ def clean_and_decide(original, *, name="", steps=None, max_gap_s=None, max_error
     review mode (``review=True``), :func:`decided_result` with decisions, else the cleaning itself. Every refusal is
     one line naming the file (:class:`~mocapkit.errors.MocapError`).
     """
+    from ..decide import decisions_document
     from ..decided import for_markers
-    from ..decisions import read_decisions
     from .clean import STEPS, clean_markers
     from .record import read_marker_record
 
@@ -375,9 +375,9 @@ def clean_and_decide(original, *, name="", steps=None, max_gap_s=None, max_error
         raise MocapError(f"{record}: an earlier run's record is applied with decisions; give the decisions file")
     if review and decisions is not None:
         raise MocapError(f"{name}: review mode (--steps detect) changes nothing; decisions apply to a cleaning")
-    doc = read_decisions(decisions) if decisions is not None else None
+    path, doc = decisions_document(decisions) if decisions is not None else (None, None)
     if doc is not None:
-        check(doc, decisions, original)  # decisions for another capture: refused before any cleaning
+        check(doc, path, original)  # decisions for another capture: refused before any cleaning
     if record is not None:
         rec = read_marker_record(record)
         check_record(original, rec, record)  # the record against the capture first, then the decisions against it
@@ -391,6 +391,6 @@ def clean_and_decide(original, *, name="", steps=None, max_gap_s=None, max_error
         return res, dataclasses.replace(res, review=True)
     if doc is None:
         return res, res
-    chosen = check(doc, decisions, original, res.markers, res.fixes, request=request, fresh=record is None)
-    said = for_markers(doc, decisions, original, res, chosen, record=record, take=take)
+    chosen = check(doc, path, original, res.markers, res.fixes, request=request, fresh=record is None)
+    said = for_markers(doc, path, original, res, chosen, record=record, take=take)
     return res, decided_result(original, res, chosen, said)

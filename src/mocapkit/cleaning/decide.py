@@ -1,0 +1,95 @@
+"""A joint-angle take's decisions applied in Python as ``mocapkit clean --decisions`` applies them.
+
+:func:`clean_and_decide` is :func:`mocapkit.clean` with ``decisions=``: the decisions file (or the same document
+as a dict) is checked against the take before anything is cleaned, then applied to the record of the cleaning
+reviewed (``record=``, the CLI's ``--record``: nothing is cleaned again, no context is read) or to a new cleaning
+whose :func:`~mocapkit.cleaning.decisions.cleaning_digest` is the one the file keeps. Its checks and refusals are
+those of :mod:`mocapkit.cleaning.decisions` that :func:`mocapkit.batch.clean_file` makes, in the same order and
+words, so a refusal is the CLI's line. :func:`decided_result` is what comes back: the take with only the accepted
+changes, its masks holding only their cells, and the :class:`~mocapkit.cleaning.decided.Decided` its
+:meth:`~mocapkit.cleaning.pipeline.CleanResult.summary` says.
+
+A library cleaning keeps the options it was asked for as the CLI's record does (``params["request"]``,
+:func:`mocapkit.batch.clean_request`), so its record (:meth:`CleanResult.save`) and report
+(:func:`mocapkit.report.html.write_clean_report`) carry the digest the CLI computes for the same cleaning:
+decisions made in either page apply from either path.
+"""
+
+from __future__ import annotations
+
+import copy
+import dataclasses
+import os
+from collections.abc import Callable, Mapping
+
+from ..errors import MocapError, MocapFormatError
+from . import decisions as dec
+from .decided import for_motion
+from .pipeline import CleanResult
+
+__all__ = ["GIVEN", "decisions_document", "decided_result", "clean_and_decide"]
+
+GIVEN = "the decisions given"  # what a refusal names decisions given as a dict (no file)
+
+
+def decisions_document(decisions) -> tuple[str, dict]:
+    """``(name, document)`` of ``decisions``: a decisions file (:func:`~mocapkit.cleaning.decisions.read_decisions`,
+    named by its path) or the same document as a mapping (checked by
+    :func:`~mocapkit.cleaning.decisions.check_document`, named :data:`GIVEN`; copied, so the caller's dict is not
+    changed). Refused in one line naming it."""
+    if isinstance(decisions, Mapping):
+        return GIVEN, dec.check_document(copy.deepcopy(dict(decisions)), GIVEN)
+    if not isinstance(decisions, (str, os.PathLike)):
+        raise TypeError(f"decisions= is a decisions file or its document (a dict), got {type(decisions).__name__}")
+    return os.fspath(decisions), dec.read_decisions(decisions)
+
+
+def decided_result(original, result: CleanResult, decisions: Mapping[str, str], decided=None) -> CleanResult:
+    """``result`` with only the changes ``decisions`` accepts: what a person's decisions give back.
+
+    ``motion`` is :func:`~mocapkit.cleaning.decisions.apply`'s take (the input's samples, bit for bit, outside the
+    accepted changes); ``filled``, ``repaired`` and ``denoised`` keep only the accepted changes' cells, so that a
+    report or a saved record of it says what the take holds; ``decided``: the
+    :class:`~mocapkit.cleaning.decided.Decided` its :meth:`~CleanResult.summary` says.
+    """
+    acc = dec.accepted_cells(result, decisions)
+    return dataclasses.replace(result, motion=dec.apply(original, result, decisions), filled=result.filled & acc,
+                               repaired=result.repaired & acc, denoised=result.denoised & acc, samples=None,
+                               decided=decided)
+
+
+def clean_and_decide(original, cleaning: Callable[[], CleanResult], *, decisions, record=None,
+                     request: dict | None = None, take: str = "") -> tuple[CleanResult, CleanResult]:
+    """A joint-angle take's decisions applied to the record reviewed or to a new cleaning, as the CLI applies them.
+
+    ``original``: the take (:class:`~mocapkit.motion.Motion`); ``cleaning()``: the new cleaning of it
+    (:func:`mocapkit.cleaning.pipeline.clean` with the options asked for), called only without ``record``;
+    ``decisions``: a decisions file or its document (:func:`decisions_document`); ``record``: the ``.clean.npz`` of
+    the cleaning reviewed, read back instead of cleaning again; ``request``: the options asked for
+    (:func:`mocapkit.batch.clean_request`), kept on the new cleaning (its digest includes them) and named where
+    they differ from those reviewed; ``take``: the input's file name for the summary.
+
+    Refused, in one line naming the file, in this order: decisions for another take (before any cleaning), a
+    record of another take, decisions made with other options than ``request`` (before a new cleaning), made on
+    another cleaning, naming a change that is not one, or leaving one unnamed
+    (:func:`~mocapkit.cleaning.decisions.check_decisions`).
+
+    Returns ``(cleaning, decided)``: the whole cleaning (what its record keeps) and :func:`decided_result`.
+    """
+    path, doc = decisions_document(decisions)
+    dec.check_decisions(doc, path, original)  # decisions for another take: refused before any cleaning
+    if record is not None:
+        res = CleanResult.load(record)
+        dec.check_record(original, res, record)  # the record first, then the decisions against it
+    else:
+        dec.check_request(doc, path, request)  # a cleaning with other options cannot be the one reviewed
+        res = cleaning()
+        res = dataclasses.replace(res, params={**res.params, "request": request})
+    try:
+        chosen = dec.check_decisions(doc, path, original, res, record=record, fresh=record is None)
+        said = for_motion(doc, path, original, res, chosen, record, take=take)
+        return res, decided_result(original, res, chosen, said)
+    except MocapFormatError:
+        raise
+    except MocapError as exc:  # a record without its cleaned samples
+        raise MocapError(f"{record}: {exc}") from None
