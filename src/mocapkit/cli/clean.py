@@ -347,8 +347,9 @@ def clean_batch(
     A take is complete when its output and STEM.clean.npz both exist (the record is written last),
     the output is as written and the input as cleaned (the record keeps their sizes and digests);
     complete takes are skipped, so running the command again resumes, and a take whose input was
-    replaced since is cleaned again. Takes that would share a file
-    (take.amc and take.bvh in one folder) keep their input's suffix (take.amc.bvh). Every output is
+    replaced since is cleaned again. Takes of one folder that would share a file (take.amc and take.bvh,
+    take.bvh and take.c3d) are named after their input's format (take-amc.bvh, take-bvh.bvh, take-c3d.c3d),
+    each said in a note line. Every output is
     checked against every input before any take is cleaned. Prints one line per take; exits 1 if any
     take failed.
     """
@@ -371,10 +372,13 @@ def clean_batch(
         raise
     if as_json:
         print(json.dumps({"rows": summary.rows, "seconds": summary.seconds, "executor": summary.executor,
-                          "earlier": summary.earlier}))
+                          "earlier": summary.earlier, "renamed": summary.renamed}))
     else:
         for folder in summary.earlier:
             console.print(f"left out {folder}: an earlier batch's outputs")
+        for name in summary.renamed:
+            console.print(f"note: {name}: its files are named after its format ({Path(name).suffix[1:].lower()}): "
+                          "another take of its folder has the same stem")
         for row in summary.rows:
             console.print(_take_line(row))
             for note in row.get("warnings", ()):  # as clean says them: a fallback, a model's licence
