@@ -472,7 +472,7 @@ def _batch_job(job: dict) -> dict:
 
 def _clean_job(job: dict) -> dict:
     from .cleaning.pipeline import clean_path
-    from .io import marker_notes
+    from .io import marker_notes, motion_notes
     from .io.outputs import drop_kept, keep_aside, put_back
     from .parallel import owner_alive
 
@@ -494,7 +494,7 @@ def _clean_job(job: dict) -> dict:
         out.parent.mkdir(parents=True, exist_ok=True)
         stage = Path(tempfile.mkdtemp(prefix=f".{out.name}.", suffix=".part", dir=out.parent))
         staged = {f: stage / f.name for f in finals}
-        _, res = clean_file(job["input"], staged[out], context=job["context"], steps=job["steps"], threshold=job["threshold"],
+        taken, res = clean_file(job["input"], staged[out], context=job["context"], steps=job["steps"], threshold=job["threshold"],
                             report=staged[Path(job["report"])] if job.get("report") else None,
                             png=staged[Path(job["png"])] if job.get("png") else None, asf=job.get("asf"),
                             drifts=bool(job.get("drifts")), models=job.get("models"), amc_fps=job.get("amc_fps"),
@@ -518,7 +518,7 @@ def _clean_job(job: dict) -> dict:
             said = " ".join(s.note for s in res.steps)  # a step's fallback or its model's licence: warnings
             row.update(frames=res.num_frames, filled=int(res.filled.sum()), repaired=int(res.repaired.sum()),
                        denoised=int(res.denoised.sum()), flagged=int(res.flags.sum()), notes=list(res.notes),
-                       warnings=[n for n in res.notes if n in said])
+                       warnings=[n for n in res.notes if n in said] + motion_notes(taken, out, job["input"]))
     except _Orphaned:
         undo()
         row.update(status="failed", reason=_GONE)

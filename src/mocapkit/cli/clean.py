@@ -75,6 +75,7 @@ def clean(
     """
     from ..batch import clean_file
     from ..cleaning.pipeline import STEPS, clean_path
+    from ..io import motion_notes
     from ..io.takes import asf_for_output, asf_of, check_asf, load_motion
     from ..reference import check_reference
 
@@ -118,6 +119,8 @@ def clean(
                                skeleton_copy=(skeleton_copy, skeleton) if skeleton_copy is not None else None)
     if skeleton_copy is not None:
         console.print(f"copied the skeleton {skeleton} to {skeleton_copy}: an AMC is read with the ASF beside it")
+    for note in motion_notes(original, out, inp):  # what OUT's format leaves out of the input (a BVH's other roots)
+        console.print(f"note: {note}")
     if decisions is not None:
         m = _print_decided(inp, out, decisions, record, report, png, original, res)
         _print_reference(ref, reference, original, m)
