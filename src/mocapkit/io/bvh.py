@@ -6,8 +6,9 @@ other joints ``Motion.translations``; present axes replace the OFFSET, absent
 ones keep it), scale channels (``Xscale Yscale Zscale``, as Maya and some game
 exporters write them) when every value is 1 (the skeleton has no scale: they are
 kept in ``Skeleton.channels`` and written back as 1; other values are refused),
-``End Site`` blocks, tabs, CRLF, scientific notation and
-``nan``. The file is read once; the small hierarchy is parsed in Python and
+``End Site`` blocks, tabs, CRLF, scientific notation,
+``nan``, ``#`` comment lines in the header, and several ``ROOT`` hierarchies (a prop or a camera beside the
+character: the take is one of them, the others are carried through, :mod:`mocapkit.io.bvh_roots`). The file is read once; the small hierarchy is parsed in Python and
 the MOTION block by the numba number parser, then converted to quaternions in
 one fused numba pass (bit for bit what ``Motion.from_channel_values`` gives,
 which the tests check; it is 5x faster than the numpy route on whole clips).
@@ -35,6 +36,7 @@ from .. import rotations as R
 from ..motion import MAX_JOINTS, Motion, Skeleton, check_fps
 from . import atomic_write
 from ._numparse import line_of_offset, parse_floats
+from .bvh_hierarchy import MAX_INDENT, check_bvh_names, depth_first_order, hierarchy_text, shortest
 from .bvh_roots import COMMENT, Layout, is_comment, layout
 from .sources import recall, remember
 
@@ -621,42 +623,6 @@ def _motion_from_channels(skeleton: Skeleton, values: np.ndarray, fps: float, na
 _POS3 = ("Xposition", "Yposition", "Zposition")
 _ZYX = ("Zrotation", "Yrotation", "Xrotation")
 
-MAX_INDENT = 32
-"""Most tabs the writer puts before a line: a 100,000-deep chain would otherwise need 5e9 of them."""
-
-
-def check_bvh_names(path, names) -> None:
-    """Refuse joint names a BVH file cannot hold, naming the first such joint.
-
-    A BVH name is the rest of its ``ROOT`` / ``JOINT`` line, read back as its
-    whitespace-separated words joined by one space. So a name must be
-    encodable as UTF-8 (no lone surrogates), non-empty, hold no brace, and
-    have no whitespace but single inner spaces (``"Bip01 L Thigh"`` is fine;
-    a tab, a newline, a double space or a leading space is not), or it would
-    not read back as itself.
-
-    Raises
-    ------
-    MocapFormatError
-        One line naming ``path``, the joint (``ascii()`` of its name) and the problem.
-    """
-    for j, name in enumerate(names):
-        problem = None
-        try:
-            name.encode("utf-8")
-        except UnicodeEncodeError:
-            problem = "is not encodable as UTF-8 (a lone surrogate?)"
-        else:
-            if not name:
-                problem = "is empty"
-            elif "{" in name or "}" in name:
-                problem = "holds a brace"
-            elif " ".join(name.split()) != name:
-                problem = "holds whitespace other than single spaces between words"
-        if problem is not None:
-            raise MocapFormatError(path, f"joint {j} name {ascii(name)} {problem}: BVH cannot hold it; rename the joint")
-
-
 def _rotating_joints(rotations: np.ndarray) -> np.ndarray:
     """(J,) bool: joints with a (finite) quaternion of ``rotations`` (F, J, 4) away from the identity."""
     v = np.abs(rotations[..., 1:])
@@ -720,10 +686,6 @@ def _continuous_rotations(values: np.ndarray, channels, source: "_LikeSource | N
         values[:, idx] = R.continuous_euler(angles, order, fixed=fixed, start=start)
 
 
-def _fmt(x: float) -> str:
-    return repr(float(x))
-
-
 def write_bvh(motion: Motion, path, precision: int = 6, allow_nan: bool = False, like=None) -> None:
     """Write ``motion`` as a BVH file (atomically: a failed write leaves no file).
 
@@ -762,6 +724,8 @@ def write_bvh(motion: Motion, path, precision: int = 6, allow_nan: bool = False,
         conversion gives them and every next frame takes the triple nearest
         the one before (an Euler filter; not across a jump of the rotation
         itself over 90 degrees). Ignored when ``like`` is not such a file.
+        The file's other ROOTs (:mod:`mocapkit.io.bvh_roots`) and comment lines are written back as its text
+        (:func:`source_fits` says whether ``motion`` is written so).
 
     Raises
     ------
@@ -791,7 +755,7 @@ def write_bvh(motion: Motion, path, precision: int = 6, allow_nan: bool = False,
     # BVH lists joints depth first; a skeleton in another topological order (e.g. from an ASF
     # hierarchy) is written in depth-first order with its channel columns permuted to match.
     sk = motion.skeleton
-    order = _depth_first_order(sk)
+    order = depth_first_order(sk)
     source = _like_source(like, out_motion, order) if like is not None else None
     _continuous_rotations(values, channels, source)
     if order != list(range(sk.num_joints)):
@@ -800,8 +764,8 @@ def write_bvh(motion: Motion, path, precision: int = 6, allow_nan: bool = False,
     if source is not None:
         _write_like(path, out_motion, values, channels, source, precision)
         return
-    parts = _hierarchy_text(sk, channels, order)
-    parts.append(f"MOTION\nFrames: {F}\nFrame Time: {_fmt(1.0 / motion.fps)}\n")
+    parts = hierarchy_text(sk, channels, order)
+    parts.append(f"MOTION\nFrames: {F}\nFrame Time: {shortest(1.0 / motion.fps)}\n")
     C = values.shape[1]
     row = " ".join([f"%.{precision}f"] * C) + "\n"
     block = max(1, 2**18 // max(C, 1))  # frames formatted at once: a few MB of text, not the whole take
@@ -842,7 +806,7 @@ def source_fits(motion: Motion, like) -> bool:
     if like is None or motion.num_frames == 0:
         return False
     out_motion, _ = _as_written(motion)
-    return _like_source(like, out_motion, _depth_first_order(motion.skeleton)) is not None
+    return _like_source(like, out_motion, depth_first_order(motion.skeleton)) is not None
 
 
 @dataclass(frozen=True)
@@ -913,8 +877,8 @@ def _write_like(path: Path, motion: Motion, values: np.ndarray, channels, source
             fh.write("".join(source.header))
         else:  # the take's hierarchy written anew between the file's own lines (comments, other roots)
             before, after = source.around
-            parts = _hierarchy_text(sk, channels, list(range(sk.num_joints)))[1:]
-            parts.append(f"MOTION\nFrames: {F}\nFrame Time: {_fmt(1.0 / motion.fps)}\n")
+            parts = hierarchy_text(sk, channels, list(range(sk.num_joints)))[1:]
+            parts.append(f"MOTION\nFrames: {F}\nFrame Time: {shortest(1.0 / motion.fps)}\n")
             fh.write("".join(before + parts[:-1] + after + parts[-1:]))
         for f in range(F):
             line = source.lines[f]
@@ -933,62 +897,3 @@ def _write_like(path: Path, motion: Motion, values: np.ndarray, channels, source
                         continue
                     tokens[first + c] = fmt % values[f, c]
             fh.write(" ".join(tokens) + (line[len(body):] or "\n"))
-
-
-def _depth_first_order(sk: Skeleton) -> list[int]:
-    """Joint indices in depth-first (file) order, children in index order."""
-    children: list[list[int]] = [[] for _ in range(sk.num_joints)]
-    for j in range(1, sk.num_joints):
-        children[int(sk.parents[j])].append(j)
-    order: list[int] = []
-    todo = [0]
-    while todo:
-        j = todo.pop()
-        order.append(j)
-        todo.extend(reversed(children[j]))
-    return order
-
-
-def _indent(depth: int) -> str:
-    """Leading tabs of a line at nesting ``depth``, capped at :data:`MAX_INDENT` (readers ignore them)."""
-    return "\t" * min(depth, MAX_INDENT)
-
-
-def _hierarchy_text(sk: Skeleton, channels, order: list[int]) -> list[str]:
-    """The HIERARCHY section as a list of strings, joints written in depth-first ``order``.
-
-    Indentation is capped at :data:`MAX_INDENT` tabs, so the text grows
-    linearly with the number of joints however deep the hierarchy is.
-    """
-    J = sk.num_joints
-    ends: list[list[int]] = [[] for _ in range(J)]
-    for e, p in enumerate(sk.end_site_parents):
-        ends[int(p)].append(e)
-    parts = ["HIERARCHY\n"]
-    open_joints: list[int] = []
-
-    def close() -> None:
-        open_joints.pop()
-        parts.append(_indent(len(open_joints)) + "}\n")
-
-    for j in order:
-        p = int(sk.parents[j])
-        while open_joints and open_joints[-1] != p:
-            close()
-        ind = _indent(len(open_joints))
-        off = sk.offsets[j]
-        chans = channels[j]
-        parts.append(
-            f"{ind}{'ROOT' if j == 0 else 'JOINT'} {sk.joint_names[j]}\n{ind}{{\n"
-            f"{ind}\tOFFSET {_fmt(off[0])} {_fmt(off[1])} {_fmt(off[2])}\n"
-            f"{ind}\tCHANNELS {len(chans)}{''.join(' ' + c for c in chans)}\n"
-        )
-        for e in ends[j]:
-            eo = sk.end_site_offsets[e]
-            parts.append(
-                f"{ind}\tEnd Site\n{ind}\t{{\n{ind}\t\tOFFSET {_fmt(eo[0])} {_fmt(eo[1])} {_fmt(eo[2])}\n{ind}\t}}\n"
-            )
-        open_joints.append(j)
-    while open_joints:
-        close()
-    return parts
