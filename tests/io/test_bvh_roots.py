@@ -47,7 +47,7 @@ def _with_prop(source: Path, out: Path, frames: int = 30, before: bool = False, 
     it), its numbers on every motion line; ``comments``: comment lines before HIERARCHY, between the roots and
     between MOTION and Frames."""
     head, body, frame_time = _take(source, frames)
-    h = next(i for i, t in enumerate(head) if t.strip() == "HIERARCHY") + 1
+    h = next((i for i, t in enumerate(head) if t.strip() == "HIERARCHY"), -1) + 1
     note = ["# a comment between the roots\n"] if comments else []
     if before:
         hier = head[:h] + PROP + note + head[h:]
@@ -165,3 +165,22 @@ def test_info_names_the_other_roots_and_other_formats_say_in_one_line_what_they_
     assert code == 0 and sum("note:" in line and "'Sword'" in line for line in out.splitlines()) == 1
     m = read_bvh(path)
     assert source_fits(m, path) and not source_fits(m.resample(60), path)
+
+
+def test_a_take_whose_root_shares_the_hierarchy_line_is_still_written_whole(cmu, tmp_path):
+    """``HIERARCHY ROOT Hips`` on one line: the take's block cannot be cut out of the header by lines, so a new
+    skeleton is written as a whole hierarchy (alone), and with another root the take is not written like its
+    source (the note says what is left out) rather than written without its HIERARCHY line."""
+    path = tmp_path / "oneline.bvh"
+    path.write_text("HIERARCHY ROOT Hips\n" + cmu.read_text().split("ROOT Hips", 1)[1])
+    m = read_bvh(path)
+    offsets = np.array(m.skeleton.offsets)
+    offsets[3, 1] += 1.0
+    moved = dataclasses.replace(m, skeleton=dataclasses.replace(m.skeleton, offsets=offsets))
+    mocapkit.save(moved, tmp_path / "out.bvh")
+    np.testing.assert_array_equal(read_bvh(tmp_path / "out.bvh").skeleton.offsets, offsets)
+    prop = _with_prop(path, tmp_path / "prop.bvh")
+    m = read_bvh(prop)
+    moved = dataclasses.replace(m, skeleton=dataclasses.replace(m.skeleton, offsets=offsets))
+    assert source_fits(m, prop) and not source_fits(moved, prop)
+    assert "'Sword'" in mocapkit.io.motion_notes(moved, tmp_path / "out2.bvh")[0]

@@ -819,7 +819,7 @@ class _LikeSource:
     moved: np.ndarray  # (F, J) bool: cells whose position or offset differs from the file's
     values: np.ndarray  # (F, C) float: the file's numbers (its own 360-degree and Euler branches; NaN for "nan")
     layout: Layout  # the take's columns of each line and the other roots, kept as the file's text
-    around: tuple[list[str], list[str]]  # the header lines before the take's ROOT, and after it up to MOTION
+    around: tuple[list[str], list[str]] | None  # header lines before the take's ROOT and after it (_around)
 
 
 def _differs(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -855,9 +855,24 @@ def _like_source(like, motion: Motion, order: list[int]) -> _LikeSource | None:
     same_header = (ref.fps == motion.fps and np.array_equal(rsk.offsets, sk.offsets)
                    and np.array_equal(rsk.end_site_parents, sk.end_site_parents)
                    and np.array_equal(rsk.end_site_offsets, sk.end_site_offsets))
-    (r0, r1), motion_at = where.lines, next(i for i, t in enumerate(lines) if _MOTION_RE.match(t.encode()))
-    around = (lines[: r0 - 1], lines[r1:motion_at])  # the other roots' blocks and comments, as the file gives them
+    around = None if same_header else _around(lines, where)
+    if not same_header and around is None:
+        return None
     return _LikeSource(lines[: at + 1] if same_header else None, data, turned, moved, table, where, around)
+
+
+def _around(lines: list[str], where: Layout) -> tuple[list[str], list[str]] | None:
+    """The header ``lines`` (line endings kept) before the take's ROOT block and after it up to MOTION: the
+    comments and other roots a new hierarchy of the take is written between. None where the take's block shares
+    a line with other text (``HIERARCHY ROOT Hips``), so cannot be cut out by lines, and the file has other roots;
+    with none, the hierarchy is written whole, as ``HIERARCHY`` and the take's block."""
+    (r0, r1), motion_at = where.lines, next((i for i, t in enumerate(lines) if _MOTION_RE.match(t.encode())), None)
+    before = lines[: r0 - 1]
+    heads = [t.split()[0] for t in before if t.strip() and not is_comment(t)]
+    if (motion_at is None or heads[:1] != ["HIERARCHY"] or lines[r0 - 1].split()[:1] != ["ROOT"]
+            or lines[r1 - 1].split() != ["}"]):
+        return None if where.extras else (["HIERARCHY\n"], [])
+    return before, lines[r1:motion_at]
 
 
 def _write_like(path: Path, motion: Motion, values: np.ndarray, channels, source: _LikeSource, precision: int) -> None:
