@@ -42,7 +42,7 @@ def _plain(source: Path, out: Path, frames: int = 30) -> Path:
     return out
 
 
-def _with_prop(source: Path, out: Path, frames: int = 30, before: bool = False, comments: bool = False) -> Path:
+def with_prop(source: Path, out: Path, frames: int = 30, before: bool = False, comments: bool = False) -> Path:
     """``source``'s first ``frames`` frames with :data:`PROP` as a second ROOT after the character (or before
     it), its numbers on every motion line; ``comments``: comment lines before HIERARCHY, between the roots and
     between MOTION and Frames."""
@@ -68,7 +68,7 @@ def cmu() -> Path:
 
 @pytest.mark.parametrize("before", [False, True])
 def test_a_prop_root_is_read_beside_the_take_and_written_back_bit_identical(cmu, tmp_path, before):
-    path = _with_prop(cmu, tmp_path / "prop.bvh", before=before)
+    path = with_prop(cmu, tmp_path / "prop.bvh", before=before)
     m, alone = read_bvh(path), read_bvh(_plain(cmu, tmp_path / "alone.bvh"))
     assert m.skeleton.joint_names == alone.skeleton.joint_names and m.skeleton.joint_names[0] == "Hips"
     np.testing.assert_array_equal(m.rotations, alone.rotations)
@@ -80,7 +80,7 @@ def test_a_prop_root_is_read_beside_the_take_and_written_back_bit_identical(cmu,
 
 @pytest.mark.parametrize("before", [False, True])
 def test_a_changed_cell_rewrites_the_take_s_numbers_only_the_prop_s_stay_the_file_s_text(cmu, tmp_path, before):
-    path = _with_prop(cmu, tmp_path / "prop.bvh", before=before)
+    path = with_prop(cmu, tmp_path / "prop.bvh", before=before)
     m = read_bvh(path)
     rot = np.array(m.rotations)
     rot[5, 3] = [np.cos(0.2), np.sin(0.2), 0.0, 0.0]
@@ -99,7 +99,7 @@ def test_a_changed_cell_rewrites_the_take_s_numbers_only_the_prop_s_stay_the_fil
 
 
 def test_a_new_skeleton_header_keeps_the_prop_s_hierarchy_lines_and_comments(cmu, tmp_path):
-    path = _with_prop(cmu, tmp_path / "prop.bvh", comments=True)
+    path = with_prop(cmu, tmp_path / "prop.bvh", comments=True)
     m = read_bvh(path)
     offsets = np.array(m.skeleton.offsets)
     offsets[4, 0] += 1.0
@@ -125,7 +125,7 @@ def test_the_take_is_the_root_with_a_hips_like_joint_and_most_joints():
 
 def test_a_bandai_namco_take_with_a_camera_root(shared_data, tmp_path):
     source = shared_data / "secondary_bandai_namco_CC-BY-NC" / "dataset-1_kick_normal_001.bvh"
-    path = _with_prop(source, tmp_path / "kick.bvh", frames=40, before=True, comments=True)
+    path = with_prop(source, tmp_path / "kick.bvh", frames=40, before=True, comments=True)
     m, alone = read_bvh(path), read_bvh(_plain(source, tmp_path / "alone.bvh", frames=40))
     assert m.skeleton.joint_names == alone.skeleton.joint_names and m.skeleton.joint_names[0] == "joint_Root"
     np.testing.assert_array_equal(m.rotations, alone.rotations)
@@ -151,7 +151,7 @@ def test_comment_lines_are_read_as_nothing_and_kept_on_write(cmu, tmp_path):
 
 
 def test_info_names_the_other_roots_and_other_formats_say_in_one_line_what_they_leave_out(cmu, tmp_path):
-    path = _with_prop(cmu, tmp_path / "prop.bvh")
+    path = with_prop(cmu, tmp_path / "prop.bvh")
     code, out, err = run("info", path)
     assert code == 0, err
     assert "other roots  'Sword' (2 joints, 9 channels)" in out
@@ -179,7 +179,7 @@ def test_a_take_whose_root_shares_the_hierarchy_line_is_still_written_whole(cmu,
     moved = dataclasses.replace(m, skeleton=dataclasses.replace(m.skeleton, offsets=offsets))
     mocapkit.save(moved, tmp_path / "out.bvh")
     np.testing.assert_array_equal(read_bvh(tmp_path / "out.bvh").skeleton.offsets, offsets)
-    prop = _with_prop(path, tmp_path / "prop.bvh")
+    prop = with_prop(path, tmp_path / "prop.bvh")
     m = read_bvh(prop)
     moved = dataclasses.replace(m, skeleton=dataclasses.replace(m.skeleton, offsets=offsets))
     assert source_fits(m, prop) and not source_fits(moved, prop)
