@@ -531,7 +531,7 @@ def test_noise_deg_sets_the_level_a_joint_is_denoised_over(shared_data, tmp_path
 def test_clean_batch_names_a_renamed_take_and_what_an_npz_output_leaves_out(tmp_path, capsys):
     """take.bvh (with a prop root) and take.npz in one folder: each is named after its format and the command
     says so; the npz output of the BVH cannot hold the prop, and the command says that too."""
-    from tests.io.test_bvh_roots import with_prop
+    from tests.io.prop_files import with_prop
 
     src = tmp_path / "in"
     src.mkdir()

@@ -16,50 +16,7 @@ import mocapkit
 from mocapkit.io.bvh import read_bvh, source_fits
 from mocapkit.io.bvh_roots import extra_roots, humanoid_root
 from tests.cli.helpers import run
-
-PROP = ["ROOT Sword\n", "{\n", "\tOFFSET 10.0 0.0 5.0\n",
-        "\tCHANNELS 6 Xposition Yposition Zposition Zrotation Xrotation Yrotation\n",
-        "\tJOINT Blade\n", "\t{\n", "\t\tOFFSET 0 40.5 0\n", "\t\tCHANNELS 3 Zrotation Xrotation Yrotation\n",
-        "\t\tEnd Site\n", "\t\t{\n", "\t\t\tOFFSET 0 60 0\n", "\t\t}\n", "\t}\n", "}\n"]
-
-
-def _prop_numbers(f: int) -> str:
-    """The prop's 9 numbers on frame ``f``, written as an exporter might (mixed decimals, an exponent)."""
-    return f"{f * 0.5:.3f} 101.25 -3.0E1 0.00 {f % 7}.1 -90 15 0.000001 -45.5"
-
-
-def _take(source: Path, frames: int) -> tuple[list[str], list[str], str]:
-    """``source``'s hierarchy lines (up to MOTION), its first ``frames`` motion lines and its Frame Time line."""
-    lines = source.read_bytes().decode().splitlines(keepends=True)
-    at = next(i for i, t in enumerate(lines) if t.strip() == "MOTION")
-    return lines[:at], [t for t in lines[at + 3:] if t.strip()][:frames], lines[at + 2]
-
-
-def _plain(source: Path, out: Path, frames: int = 30) -> Path:
-    """The take alone: ``source``'s first ``frames`` frames."""
-    head, body, frame_time = _take(source, frames)
-    out.write_bytes("".join(head + ["MOTION\n", f"Frames: {len(body)}\n", frame_time] + body).encode())
-    return out
-
-
-def with_prop(source: Path, out: Path, frames: int = 30, before: bool = False, comments: bool = False) -> Path:
-    """``source``'s first ``frames`` frames with :data:`PROP` as a second ROOT after the character (or before
-    it), its numbers on every motion line; ``comments``: comment lines before HIERARCHY, between the roots and
-    between MOTION and Frames."""
-    head, body, frame_time = _take(source, frames)
-    h = next((i for i, t in enumerate(head) if t.strip() == "HIERARCHY"), -1) + 1
-    note = ["# a comment between the roots\n"] if comments else []
-    if before:
-        hier = head[:h] + PROP + note + head[h:]
-        rows = [_prop_numbers(f) + " " + t.lstrip(" \t") for f, t in enumerate(body)]
-    else:
-        hier = head + note + PROP
-        rows = [t.rstrip("\r\n") + " " + _prop_numbers(f) + t[len(t.rstrip("\r\n")):] for f, t in enumerate(body)]
-    pre = ["# exported with a prop\n"] if comments else []
-    motion = ["MOTION\n"] + (["  # 30 frames follow\n"] if comments else []) + [f"Frames: {len(body)}\n", frame_time]
-    out.write_bytes("".join(pre + hier + motion + rows).encode())
-    return out
-
+from tests.io.prop_files import PROP, plain, prop_numbers, take_lines, with_prop
 
 @pytest.fixture
 def cmu() -> Path:
@@ -69,7 +26,7 @@ def cmu() -> Path:
 @pytest.mark.parametrize("before", [False, True])
 def test_a_prop_root_is_read_beside_the_take_and_written_back_bit_identical(cmu, tmp_path, before):
     path = with_prop(cmu, tmp_path / "prop.bvh", before=before)
-    m, alone = read_bvh(path), read_bvh(_plain(cmu, tmp_path / "alone.bvh"))
+    m, alone = read_bvh(path), read_bvh(plain(cmu, tmp_path / "alone.bvh"))
     assert m.skeleton.joint_names == alone.skeleton.joint_names and m.skeleton.joint_names[0] == "Hips"
     np.testing.assert_array_equal(m.rotations, alone.rotations)
     np.testing.assert_array_equal(m.root_positions, alone.root_positions)
@@ -92,7 +49,7 @@ def test_a_changed_cell_rewrites_the_take_s_numbers_only_the_prop_s_stay_the_fil
     changed = [k for k in range(len(a)) if a[k] != b[k]]
     assert changed == [first + 5]
     prop = slice(0, 9) if before else slice(-9, None)
-    assert b[first + 5].split()[prop] == a[first + 5].split()[prop] == _prop_numbers(5).split()
+    assert b[first + 5].split()[prop] == a[first + 5].split()[prop] == prop_numbers(5).split()
     back = read_bvh(tmp_path / "out.bvh")
     assert np.abs(back.rotations[5, 3] - rot[5, 3]).max() < 1e-6
     assert extra_roots(tmp_path / "out.bvh") == extra_roots(path)
@@ -111,7 +68,7 @@ def test_a_new_skeleton_header_keeps_the_prop_s_hierarchy_lines_and_comments(cmu
     back = read_bvh(tmp_path / "out.bvh")
     np.testing.assert_array_equal(back.skeleton.offsets, offsets)
     rows = text.splitlines()[-30:]
-    assert [r.split()[-9:] for r in rows] == [_prop_numbers(f).split() for f in range(30)]
+    assert [r.split()[-9:] for r in rows] == [prop_numbers(f).split() for f in range(30)]
 
 
 def test_the_take_is_the_root_with_a_hips_like_joint_and_most_joints():
@@ -123,10 +80,10 @@ def test_the_take_is_the_root_with_a_hips_like_joint_and_most_joints():
     assert humanoid_root(["a", "b", "c", "d"], [(0, 1, 3), (2, 4, 9)]) == 0  # a tie: the first
 
 
-def test_a_bandai_namco_take_with_a_camera_root(shared_data, tmp_path):
+def test_a_bandai_namco_take_with_a_prop_root_and_comments(shared_data, tmp_path):
     source = shared_data / "secondary_bandai_namco_CC-BY-NC" / "dataset-1_kick_normal_001.bvh"
     path = with_prop(source, tmp_path / "kick.bvh", frames=40, before=True, comments=True)
-    m, alone = read_bvh(path), read_bvh(_plain(source, tmp_path / "alone.bvh", frames=40))
+    m, alone = read_bvh(path), read_bvh(plain(source, tmp_path / "alone.bvh", frames=40))
     assert m.skeleton.joint_names == alone.skeleton.joint_names and m.skeleton.joint_names[0] == "joint_Root"
     np.testing.assert_array_equal(m.rotations, alone.rotations)
     mocapkit.save(m, tmp_path / "out.bvh")
@@ -134,14 +91,14 @@ def test_a_bandai_namco_take_with_a_camera_root(shared_data, tmp_path):
 
 
 def test_comment_lines_are_read_as_nothing_and_kept_on_write(cmu, tmp_path):
-    head, body, frame_time = _take(cmu, 20)
+    head, body, frame_time = take_lines(cmu, 20)
     h = next(i for i, t in enumerate(head) if t.strip() == "HIERARCHY") + 1
     text = ("# written by a tool that comments\r\n" + "".join(head[:h]) + "# the character\n" + "".join(head[h:h + 4])
             + "\t\t# inside a joint\n" + "".join(head[h + 4:]) + "MOTION\n# the frames\n"
             + f"Frames: {len(body)}\n" + "# the rate\n" + frame_time + "".join(body))
     path = tmp_path / "commented.bvh"
     path.write_bytes(text.encode())
-    m, alone = read_bvh(path), read_bvh(_plain(cmu, tmp_path / "alone.bvh", frames=20))
+    m, alone = read_bvh(path), read_bvh(plain(cmu, tmp_path / "alone.bvh", frames=20))
     assert m.skeleton.joint_names == alone.skeleton.joint_names
     np.testing.assert_array_equal(m.skeleton.offsets, alone.skeleton.offsets)
     np.testing.assert_array_equal(m.rotations, alone.rotations)
