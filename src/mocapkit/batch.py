@@ -21,10 +21,11 @@ interrupt never leaves an output without its record.
 Folder layout is mirrored: ``IN_DIR/a/b/take.amc`` -> ``OUT_DIR/a/b/take.bvh``
 (+ ``take.clean.npz``). **Takes that would share a file** (``take.amc`` and
 ``take.bvh`` in one folder both become ``take.bvh`` + ``take.clean.npz``;
-``take.bvh`` and ``take.npz`` share ``take.clean.npz``) **keep their input's
-suffix**, every one of them: ``take.amc.bvh`` + ``take.amc.clean.npz`` and
-``take.bvh.bvh`` + ``take.bvh.clean.npz``. Takes that would still share a
-file after that (an input literally named ``take.amc.bvh`` beside
+``take.bvh`` and ``take.npz`` or ``take.c3d`` share ``take.clean.npz``) **are named
+after their input's format**, every one of them, joined to the stem by a hyphen:
+``take-amc.bvh`` + ``take-amc.clean.npz`` and ``take-bvh.bvh`` + ``take-bvh.clean.npz``
+(``BatchSummary.renamed``; the command says so for each). Takes that would still share a
+file after that (an input literally named ``take-amc.bvh`` beside
 ``take.amc`` and ``take.bvh``) refuse the batch, naming both inputs.
 
 **Nothing is cleaned until every output of the batch is checked**
@@ -386,14 +387,17 @@ def output_for(inp: Path, in_dir: Path, out_dir: Path, fmt: str = "auto", keep_s
     ``fmt``: ``"bvh"``, ``"amc"``, ``"npz"`` or ``"auto"`` (the input's suffix
     for .bvh, .npz, .c3d and .trc; .bvh for an AMC, which then needs no ASF
     beside it to be read; ``"amc"`` writes AMC takes as AMC, read back with
-    their ASF, and leaves BVH and .npz takes as they are; marker captures keep their format). ``keep_suffix``: append the output suffix to
-    the whole input name (``take.amc`` -> ``take.amc.bvh``), the name
-    :func:`clean_batch` gives takes that would otherwise share a file.
+    their ASF, and leaves BVH and .npz takes as they are; marker captures keep their format). ``keep_suffix``: the
+    input's format joins the stem after a hyphen (``take.amc`` -> ``take-amc.bvh``, ``take.c3d`` ->
+    ``take-c3d.c3d``), the name :func:`clean_batch` gives takes of one folder that would otherwise share a file
+    (an output, a record or a report): one rule for every format, and never a doubled suffix.
 
     >>> output_for(Path("in/a/take.amc"), Path("in"), Path("out")).as_posix()
     'out/a/take.bvh'
     >>> output_for(Path("in/a/take.amc"), Path("in"), Path("out"), keep_suffix=True).as_posix()
-    'out/a/take.amc.bvh'
+    'out/a/take-amc.bvh'
+    >>> output_for(Path("in/a/take.c3d"), Path("in"), Path("out"), keep_suffix=True).as_posix()
+    'out/a/take-c3d.c3d'
     >>> output_for(Path("in/b/take.bvh"), Path("in"), Path("out"), fmt="amc").as_posix()
     'out/b/take.bvh'
     """
@@ -408,7 +412,9 @@ def output_for(inp: Path, in_dir: Path, out_dir: Path, fmt: str = "auto", keep_s
         suffix = rel.suffix.lower()
     else:
         suffix = "." + fmt.lstrip(".").lower()
-    return Path(out_dir) / (rel.with_name(rel.name + suffix) if keep_suffix else rel.with_suffix(suffix))
+    if keep_suffix:
+        return Path(out_dir) / rel.with_name(f"{rel.stem}-{rel.suffix[1:].lower()}{suffix}")
+    return Path(out_dir) / rel.with_suffix(suffix)
 
 
 @dataclass
@@ -418,7 +424,7 @@ class BatchSummary:
     ``rows``: one dict per take, sorted by input: ``input``, ``output``,
     ``status`` (``done``/``skipped``/``failed``), ``reason`` (one line),
     ``seconds`` and, for cleaned takes, the counts of cells changed.
-    ``renamed``: the inputs whose output keeps the input's suffix because
+    ``renamed``: the inputs whose output is named after the input's format because
     another take would have written the same file (module docstring).
     ``earlier``: folders below IN_DIR left out as an earlier batch's outputs.
     """
@@ -466,7 +472,7 @@ def _batch_job(job: dict) -> dict:
 
 def _clean_job(job: dict) -> dict:
     from .cleaning.pipeline import clean_path
-    from .io import marker_notes
+    from .io import marker_notes, motion_notes
     from .io.outputs import drop_kept, keep_aside, put_back
     from .parallel import owner_alive
 
@@ -488,7 +494,7 @@ def _clean_job(job: dict) -> dict:
         out.parent.mkdir(parents=True, exist_ok=True)
         stage = Path(tempfile.mkdtemp(prefix=f".{out.name}.", suffix=".part", dir=out.parent))
         staged = {f: stage / f.name for f in finals}
-        _, res = clean_file(job["input"], staged[out], context=job["context"], steps=job["steps"], threshold=job["threshold"],
+        taken, res = clean_file(job["input"], staged[out], context=job["context"], steps=job["steps"], threshold=job["threshold"],
                             report=staged[Path(job["report"])] if job.get("report") else None,
                             png=staged[Path(job["png"])] if job.get("png") else None, asf=job.get("asf"),
                             drifts=bool(job.get("drifts")), models=job.get("models"), amc_fps=job.get("amc_fps"),
@@ -512,7 +518,7 @@ def _clean_job(job: dict) -> dict:
             said = " ".join(s.note for s in res.steps)  # a step's fallback or its model's licence: warnings
             row.update(frames=res.num_frames, filled=int(res.filled.sum()), repaired=int(res.repaired.sum()),
                        denoised=int(res.denoised.sum()), flagged=int(res.flags.sum()), notes=list(res.notes),
-                       warnings=[n for n in res.notes if n in said])
+                       warnings=[n for n in res.notes if n in said] + motion_notes(taken, out, job["input"]))
     except _Orphaned:
         undo()
         row.update(status="failed", reason=_GONE)
@@ -638,8 +644,8 @@ def clean_batch(
     Complete takes (output and ``.clean.npz`` present, made with this request) are skipped; failures
     are rows with a one-line reason. ``report``/``png``: also write
     ``<stem>.report.html`` / ``<stem>.summary.png`` beside each output.
-    Takes that would share an output keep their input's suffix
-    (``take.amc`` -> ``take.amc.bvh``; listed in ``BatchSummary.renamed``).
+    Takes that would share a file are named after their input's format
+    (``take.amc`` -> ``take-amc.bvh``; listed in ``BatchSummary.renamed``).
     Every output is checked before any take is cleaned: none may resolve to
     an input, and an existing file that is not part of a complete take is
     replaced only with ``overwrite``. ``asf``: the skeleton of every ``.amc``

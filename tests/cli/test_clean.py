@@ -526,3 +526,25 @@ def test_noise_deg_sets_the_level_a_joint_is_denoised_over(shared_data, tmp_path
         err = capsys.readouterr().err
         assert "--noise-deg must be a positive number" in err and len(err.strip().splitlines()) == 1
     assert not (tmp_path / "c.bvh").exists()
+
+
+def test_clean_batch_names_a_renamed_take_and_what_an_npz_output_leaves_out(tmp_path, capsys):
+    """take.bvh (with a prop root) and take.npz in one folder: each is named after its format and the command
+    says so; the npz output of the BVH cannot hold the prop, and the command says that too."""
+    from tests.io.prop_files import with_prop
+
+    src = tmp_path / "in"
+    src.mkdir()
+    with_prop(samples.path("131_01.bvh"), src / "take.bvh", frames=40)
+    mocapkit.save(mocapkit.load(samples.path("131_01.bvh"))[:40], src / "take.npz")
+    out = tmp_path / "out"
+    rc = main(["clean-batch", str(src), str(out), "--executor", "serial", "--steps", "fill", "--format", "npz"])
+    text = capsys.readouterr().out
+    assert rc == 0, text
+    assert sorted(p.name for p in out.iterdir() if not p.name.startswith(".")) == [
+        "take-bvh.clean.npz", "take-bvh.npz", "take-npz.clean.npz", "take-npz.npz"]
+    lines = text.splitlines()
+    for name in ("take.bvh", "take.npz"):
+        assert sum(ln.startswith(f"note: {src / name}: its files are named after its format") for ln in lines) == 1, text
+    lost = [ln for ln in lines if "not written" in ln]
+    assert len(lost) == 1 and "take-bvh.npz" in lost[0] and "'Sword'" in lost[0], text

@@ -75,6 +75,7 @@ def clean(
     """
     from ..batch import clean_file
     from ..cleaning.pipeline import STEPS, clean_path
+    from ..io import motion_notes
     from ..io.takes import asf_for_output, asf_of, check_asf, load_motion
     from ..reference import check_reference
 
@@ -118,6 +119,8 @@ def clean(
                                skeleton_copy=(skeleton_copy, skeleton) if skeleton_copy is not None else None)
     if skeleton_copy is not None:
         console.print(f"copied the skeleton {skeleton} to {skeleton_copy}: an AMC is read with the ASF beside it")
+    for note in motion_notes(original, out, inp):  # what OUT's format leaves out of the input (a BVH's other roots)
+        console.print(f"note: {note}")
     if decisions is not None:
         from ..cleaning import decided
         from ..cleaning import decisions as dec
@@ -316,8 +319,9 @@ def clean_batch(
     A take is complete when its output and STEM.clean.npz both exist (the record is written last),
     the output is as written and the input as cleaned (the record keeps their sizes and digests);
     complete takes are skipped, so running the command again resumes, and a take whose input was
-    replaced since is cleaned again. Takes that would share a file
-    (take.amc and take.bvh in one folder) keep their input's suffix (take.amc.bvh). Every output is
+    replaced since is cleaned again. Takes of one folder that would share a file (take.amc and take.bvh,
+    take.bvh and take.c3d) are named after their input's format (take-amc.bvh, take-bvh.bvh, take-c3d.c3d),
+    each said in a note line. Every output is
     checked against every input before any take is cleaned. Prints one line per take; exits 1 if any
     take failed.
     """
@@ -340,10 +344,13 @@ def clean_batch(
         raise
     if as_json:
         print(json.dumps({"rows": summary.rows, "seconds": summary.seconds, "executor": summary.executor,
-                          "earlier": summary.earlier}))
+                          "earlier": summary.earlier, "renamed": summary.renamed}))
     else:
         for folder in summary.earlier:
             console.print(f"left out {folder}: an earlier batch's outputs")
+        for name in summary.renamed:
+            console.print(f"note: {name}: its files are named after its format ({Path(name).suffix[1:].lower()}): "
+                          "another take of its folder has the same stem")
         for row in summary.rows:
             console.print(_take_line(row))
             for note in row.get("warnings", ()):  # as clean says them: a fallback, a model's licence

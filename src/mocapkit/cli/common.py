@@ -183,18 +183,22 @@ def print_table(header: Iterable[str], rows: Iterable[Iterable[str]]) -> None:
 def save_take(motion, out: Path, inp: Path | None, asf=None, overwrite: bool = False, **kwargs) -> None:
     """``io.save`` of a command's output take, and, for an AMC output, the input's ASF beside it where the
     output's folder lacks it (:func:`mocapkit.io.takes.asf_for_output`: an AMC is read with the ASF beside
-    it), said in one line. Checked before anything is written."""
+    it), said in one line, and what OUT leaves out of the input (:func:`mocapkit.io.motion_notes`: a BVH's other
+    roots) in a ``note:`` line. Checked before anything is written."""
     from .. import io
     from ..io.outputs import removed_on_failure
     from ..io.takes import asf_for_output, asf_of, place_asf
 
     skeleton = asf_of(inp, asf) if inp is not None else None
     copy = asf_for_output(out, skeleton, overwrite)
+    notes = io.motion_notes(motion, out, kwargs.get("like"))  # before the write: what OUT leaves out of the input
     with removed_on_failure([copy, out], overwrite=overwrite):
         place_asf(copy, skeleton)  # first: an AMC is never left without the ASF it is read with
         io.save(motion, out, asf=skeleton if skeleton is not None else asf, copy_asf=False, **kwargs)
     if copy is not None:
         console.print(f"copied the skeleton {skeleton} to {copy}: an AMC is read with the ASF beside it")
+    for note in notes:
+        console.print(f"note: {note}")
 
 
 def database_rows(summary: dict) -> list[tuple[str, str]]:

@@ -24,6 +24,7 @@ def info(
     unit: Optional[str] = unit_option(),
 ) -> None:
     """Print the skeleton, frame count, frame rate, duration and missing data of FILE (or what a mocapkit file holds)."""
+    from ..io.bvh_roots import extra_roots
     from ..io.c3d import MarkerSet
     from ..io.takes import check_asf, load_take
     from ..motion import ROLES, standard_joints, unit_scale_cm
@@ -51,6 +52,11 @@ def info(
              ("joints", f"{plural(sk.num_joints, 'joint')} (+{plural(sk.num_end_sites, 'end site')}), root {sk.joint_names[0]!r}"),
              ("frames", str(m.num_frames)), ("fps", f"{m.fps:g}" + _amc_rate_note(file, amc_fps)),
              ("duration", f"{m.duration:.3f} s")]
+    extras = extra_roots(file)
+    if extras:  # a prop or a camera beside the character: kept in a BVH written like this file, not analysed
+        rows.append(("other roots", ", ".join(e.describe() for e in extras)
+                     + f"; the take is the hierarchy under {sk.joint_names[0]!r} (of the roots with a hips-like joint, "
+                       "the one with most joints); the others are carried through to a .bvh output, not analysed"))
     roles = standard_joints(sk)
     missing_roles = [r for r in ROLES if r not in roles]
     try:

@@ -21,7 +21,7 @@ from ..errors import MissingFileError, MocapFormatError
 from ..markerset import MarkerSet
 from .outputs import missing_folders, publish
 
-__all__ = ["load", "save", "check_writable", "check_complete", "load_markers", "save_markers", "marker_notes", "atomic_write",
+__all__ = ["load", "save", "check_writable", "check_complete", "load_markers", "save_markers", "marker_notes", "motion_notes", "atomic_write",
            "MarkerSet",
            "READERS", "WRITERS", "MARKER_FORMATS"]
 
@@ -172,6 +172,24 @@ def marker_notes(markers: MarkerSet, path, inp=None) -> list[str]:
         notes.append(f"{path}: not written, as {fmt} cannot hold them: the input's {what}"
                      + (f" ({keep})" if keep else ""))
     return notes
+
+
+def motion_notes(motion, path, like=None) -> list[str]:
+    """What a command tells its user when it writes ``motion`` to ``path`` with :func:`save`'s ``like``: one line
+    each, naming ``path``. A take read from a BVH file with other ROOTs (a prop, a camera:
+    :mod:`mocapkit.io.bvh_roots`) keeps them only in a BVH written like that file
+    (:func:`mocapkit.io.bvh.source_fits`); any other output leaves them out, and the line says which."""
+    from .bvh import source_fits
+    from .bvh_roots import left_out_note
+
+    path = Path(path)
+    if like is False:
+        like, carried = motion.source_file, False
+    else:
+        like = like if like is not None else motion.source_file
+        carried = suffix_kind(path, WRITERS, "writing") == "bvh" and like is not None and source_fits(motion, like)
+    note = left_out_note(motion, path, like, carried)
+    return [note] if note else []
 
 
 def save(motion, path, like=None, asf=None, overwrite: bool = True, copy_asf: bool = True, **kwargs) -> Path:

@@ -6,8 +6,9 @@ other joints ``Motion.translations``; present axes replace the OFFSET, absent
 ones keep it), scale channels (``Xscale Yscale Zscale``, as Maya and some game
 exporters write them) when every value is 1 (the skeleton has no scale: they are
 kept in ``Skeleton.channels`` and written back as 1; other values are refused),
-``End Site`` blocks, tabs, CRLF, scientific notation and
-``nan``. The file is read once; the small hierarchy is parsed in Python and
+``End Site`` blocks, tabs, CRLF, scientific notation,
+``nan``, ``#`` comment lines in the header, and several ``ROOT`` hierarchies (a prop or a camera beside the
+character: the take is one of them, the others are carried through, :mod:`mocapkit.io.bvh_roots`). The file is read once; the small hierarchy is parsed in Python and
 the MOTION block by the numba number parser, then converted to quaternions in
 one fused numba pass (bit for bit what ``Motion.from_channel_values`` gives,
 which the tests check; it is 5x faster than the numpy route on whole clips).
@@ -35,11 +36,13 @@ from .. import rotations as R
 from ..motion import MAX_JOINTS, Motion, Skeleton, check_fps
 from . import atomic_write
 from ._numparse import line_of_offset, parse_floats
+from .bvh_hierarchy import MAX_INDENT, check_bvh_names, depth_first_order, hierarchy_text, shortest
+from .bvh_roots import COMMENT, Layout, is_comment, layout
 from .sources import recall, remember
 
 from numba import njit
 
-__all__ = ["read_bvh", "write_bvh", "check_bvh_names", "MAX_INDENT"]
+__all__ = ["read_bvh", "write_bvh", "check_bvh_names", "read_layout", "source_fits", "MAX_INDENT"]
 
 _CHANNELS = {c.lower(): c for c in ("Xposition", "Yposition", "Zposition", "Xrotation", "Yrotation", "Zrotation",
                                      "Xscale", "Yscale", "Zscale")}
@@ -48,6 +51,7 @@ SCALE_TOLERANCE = 1e-6
 _MOTION_RE = re.compile(rb"^[ \t]*MOTION[ \t]*\r?$", re.M)
 _FRAMES_RE = re.compile(r"^\s*Frames\s*:\s*(\S+)\s*$")
 _FRAME_TIME_RE = re.compile(r"^\s*Frame\s+Time\s*:\s*(\S+)\s*$")
+_LINE_RE = re.compile(r"[^\n]*\n|[^\n]+$")
 
 
 # -- reading -------------------------------------------------------------------
@@ -66,19 +70,23 @@ class _Block:
 
 
 def _lines(text: str):
-    """(1-based line number, whitespace-separated tokens) of each line of ``text``, one line at a time."""
+    """(1-based line number, whitespace-separated tokens) of each line of ``text``, one line at a time; blank lines
+    and comment lines (:func:`mocapkit.io.bvh_roots.is_comment`) are left out."""
     pos, ln, n = 0, 1, len(text)
     while pos < n:
         nl = text.find("\n", pos)
         stop = n if nl < 0 else nl
         toks = text[pos:stop].split()
-        if toks:
+        if toks and not toks[0].startswith(COMMENT):
             yield ln, toks
         pos, ln = stop + 1, ln + 1
 
 
 def _parse_hierarchy(path: Path, text: str, motion_line: int | None):
-    """Parse the HIERARCHY section; returns (names, parents, offsets, channels, end_parents, end_offsets).
+    """Parse the HIERARCHY section; returns (names, parents, offsets, channels, end_parents, end_offsets, roots).
+
+    Every ROOT's hierarchy is read (a prop, a camera exported beside the character): joints in file order, each
+    root with parent -1; ``roots`` lists each ROOT's (first joint, first line, closing-brace line), lines 1-based.
 
     Line by line, token by token: memory is the joints' own records, not a
     list of every token (a 100,000-joint hierarchy took 24x its text that way).
@@ -97,6 +105,7 @@ def _parse_hierarchy(path: Path, text: str, motion_line: int | None):
     stack: list[_Block] = []
     pending: _Block | None = None  # declared, waiting for its "{"
     root_seen = False
+    roots: list[list[int]] = []  # [first joint, ROOT line, closing-brace line] of each ROOT
     seen_first = False
     channel_sets: dict[tuple[str, ...], tuple[str, ...]] = {}  # one tuple per distinct layout
 
@@ -133,11 +142,10 @@ def _parse_hierarchy(path: Path, text: str, motion_line: int | None):
                 fail(f"expected '{{' after {'End Site' if pending.kind == 'end' else repr(pending.name)}, found {tok!r}", line)
             if tok in ("ROOT", "JOINT"):
                 if tok == "ROOT":
-                    if root_seen:
-                        fail("a second ROOT: files with several skeletons are not supported", line)
-                    if stack:
+                    if stack or pending is not None:
                         fail("ROOT inside a joint", line)
                     root_seen = True
+                    roots.append([len(names), line, line])
                 else:
                     if not stack:
                         fail("JOINT outside the ROOT block" if root_seen else "expected ROOT before JOINT", line)
@@ -187,9 +195,11 @@ def _parse_hierarchy(path: Path, text: str, motion_line: int | None):
                     if blk.channels is None:
                         fail(f"joint {blk.name!r} has no CHANNELS", blk.line)
                     if blk.offset is None:
-                        if blk.index != 0:
+                        if parents[blk.index] >= 0:
                             fail(f"joint {blk.name!r} has no OFFSET", blk.line)
                         blk.offset = (0.0, 0.0, 0.0)
+                    if not stack:  # a ROOT's block closed
+                        roots[-1][2] = line
                 k += 1
                 continue
             if tok == "OFFSET":
@@ -257,7 +267,7 @@ def _parse_hierarchy(path: Path, text: str, motion_line: int | None):
         fail("truncated file: no MOTION section after the hierarchy", last_line)
     offsets = np.array([b.offset for b in blocks], dtype=np.float64).reshape(-1, 3)
     channels = tuple(b.channels for b in blocks)
-    return names, parents, offsets, channels, end_parents, end_offsets
+    return names, parents, offsets, channels, end_parents, end_offsets, [tuple(r) for r in roots]
 
 
 _NTSC_FPS = tuple(x for r in (24, 30, 48, 60, 120, 240) for x in (r * 1000 / 1001, float(f"{r * 1000 / 1001:.5g}")))
@@ -331,9 +341,38 @@ def read_bvh(path) -> Motion:
     return _read_bvh(path)[0]
 
 
-def _read_bvh(path, data: bytes | None = None) -> tuple[Motion, np.ndarray]:
-    """:func:`read_bvh`'s Motion and the file's numbers as written: (F, C) channel values in file order (degrees
-    and file units, NaN where the file says ``nan``), which :func:`write_bvh` needs to stay on the file's branches.
+def read_layout(path) -> Layout:
+    """Where the take lies in the BVH file ``path`` (:class:`mocapkit.io.bvh_roots.Layout`: its columns and the
+    other roots), from its hierarchy alone: the text as the take was read (:func:`mocapkit.io.sources.recall`),
+    else the file. A file that cannot be read or parsed has one root and no extras."""
+    path = Path(path)
+    data = recall(path)
+    if data is None:
+        try:
+            data = path.read_bytes()
+        except OSError:
+            return Layout((0, 0), 0, (0, 0), (0, 0))
+    try:
+        return _parse_header(path, data)[1]
+    except MocapFormatError:
+        return Layout((0, 0), 0, (0, 0), (0, 0))
+
+
+def _parse_header(path: Path, data: bytes):
+    """The hierarchy of ``data`` (a BVH file's bytes): (the parsed hierarchy of every root, its Layout, the MOTION
+    match, the MOTION line)."""
+    m = _MOTION_RE.search(data)
+    head_end = m.start() if m else len(data)
+    header = data[:head_end].decode("utf-8", errors="replace")
+    motion_line = header.count("\n") + 1 if m else None
+    parsed = _parse_hierarchy(path, header, motion_line)
+    return parsed, layout(parsed[0], parsed[3], parsed[6]), m, motion_line
+
+
+def _read_bvh(path, data: bytes | None = None) -> tuple[Motion, np.ndarray, Layout]:
+    """:func:`read_bvh`'s Motion, the file's numbers as written: (F, C) the take's channel values in file order
+    (degrees and file units, NaN where the file says ``nan``), which :func:`write_bvh` needs to stay on the file's
+    branches, and the take's :class:`~mocapkit.io.bvh_roots.Layout` (its columns of each line, the other roots).
     ``data``: the file's bytes as read before (:func:`mocapkit.io.sources.recall`), else the file is read (and its
     bytes remembered: :func:`mocapkit.io.sources.remember`)."""
     path = Path(path)
@@ -344,11 +383,7 @@ def _read_bvh(path, data: bytes | None = None) -> tuple[Motion, np.ndarray]:
             raise MocapFormatError(path, f"cannot read: {e.strerror or e}") from None
         remember(path, data)
 
-    m = _MOTION_RE.search(data)
-    head_end = m.start() if m else len(data)
-    header = data[:head_end].decode("utf-8", errors="replace")
-    motion_line = header.count("\n") + 1 if m else None
-    names, parents, offsets, channels, end_parents, end_offsets = _parse_hierarchy(path, header, motion_line)
+    (names, parents, offsets, channels, end_parents, end_offsets, _), where, m, motion_line = _parse_header(path, data)
 
     # "Frames:" and "Frame Time:" lines after MOTION (blank lines allowed between).
     pos = m.end()
@@ -366,7 +401,7 @@ def _read_bvh(path, data: bytes | None = None) -> tuple[Motion, np.ndarray]:
         text = data[pos:stop].decode("utf-8", errors="replace")
         line += 1
         pos = stop + 1
-        if not text.strip():
+        if not text.strip() or is_comment(text):
             continue
         if frames_decl is None:
             fm = _FRAMES_RE.match(text)
@@ -435,12 +470,20 @@ def _read_bvh(path, data: bytes | None = None) -> tuple[Motion, np.ndarray]:
         )
 
     table = values.reshape(nframes, ncols)
+    if where.extras:  # the take's hierarchy and columns; the other roots stay in the file's text
+        (j0, j1), (c0, c1) = where.joints, where.columns
+        names, channels, offsets = names[j0:j1], channels[j0:j1], offsets[j0:j1]
+        parents = [p - j0 if p >= 0 else -1 for p in parents[j0:j1]]
+        ends = [k for k, p in enumerate(end_parents) if j0 <= p < j1]
+        end_parents, end_offsets = [end_parents[k] - j0 for k in ends], [end_offsets[k] for k in ends]
+        table = np.ascontiguousarray(table[:, c0:c1])
     infinite = np.flatnonzero(np.isinf(table).any(axis=1))
     if infinite.size:  # NaN means missing; an infinite angle or position means nothing
         f = int(infinite[0])
         c = int(np.flatnonzero(np.isinf(table[f]))[0])
         raise MocapFormatError(
-            path, f"infinite value {float(table[f, c])!r} in frame {f + 1} (column {c + 1}) of the motion data",
+            path, f"infinite value {float(table[f, c])!r} in frame {f + 1} (column {c + 1 + where.columns[0]}) of the "
+            "motion data",
             line=first_data_line + int(nonblank[f]),
         )
     _check_unit_scale(path, names, channels, table, first_data_line + nonblank)
@@ -455,7 +498,7 @@ def _read_bvh(path, data: bytes | None = None) -> tuple[Motion, np.ndarray]:
         )
     except SkeletonError as e:
         raise MocapFormatError(path, str(e)) from None
-    return _motion_from_channels(skeleton, table, fps, path.stem, path), table
+    return _motion_from_channels(skeleton, table, fps, path.stem, path), table, where
 
 
 def _check_unit_scale(path: Path, names, channels, table: np.ndarray, lines: np.ndarray) -> None:
@@ -580,42 +623,6 @@ def _motion_from_channels(skeleton: Skeleton, values: np.ndarray, fps: float, na
 _POS3 = ("Xposition", "Yposition", "Zposition")
 _ZYX = ("Zrotation", "Yrotation", "Xrotation")
 
-MAX_INDENT = 32
-"""Most tabs the writer puts before a line: a 100,000-deep chain would otherwise need 5e9 of them."""
-
-
-def check_bvh_names(path, names) -> None:
-    """Refuse joint names a BVH file cannot hold, naming the first such joint.
-
-    A BVH name is the rest of its ``ROOT`` / ``JOINT`` line, read back as its
-    whitespace-separated words joined by one space. So a name must be
-    encodable as UTF-8 (no lone surrogates), non-empty, hold no brace, and
-    have no whitespace but single inner spaces (``"Bip01 L Thigh"`` is fine;
-    a tab, a newline, a double space or a leading space is not), or it would
-    not read back as itself.
-
-    Raises
-    ------
-    MocapFormatError
-        One line naming ``path``, the joint (``ascii()`` of its name) and the problem.
-    """
-    for j, name in enumerate(names):
-        problem = None
-        try:
-            name.encode("utf-8")
-        except UnicodeEncodeError:
-            problem = "is not encodable as UTF-8 (a lone surrogate?)"
-        else:
-            if not name:
-                problem = "is empty"
-            elif "{" in name or "}" in name:
-                problem = "holds a brace"
-            elif " ".join(name.split()) != name:
-                problem = "holds whitespace other than single spaces between words"
-        if problem is not None:
-            raise MocapFormatError(path, f"joint {j} name {ascii(name)} {problem}: BVH cannot hold it; rename the joint")
-
-
 def _rotating_joints(rotations: np.ndarray) -> np.ndarray:
     """(J,) bool: joints with a (finite) quaternion of ``rotations`` (F, J, 4) away from the identity."""
     v = np.abs(rotations[..., 1:])
@@ -679,10 +686,6 @@ def _continuous_rotations(values: np.ndarray, channels, source: "_LikeSource | N
         values[:, idx] = R.continuous_euler(angles, order, fixed=fixed, start=start)
 
 
-def _fmt(x: float) -> str:
-    return repr(float(x))
-
-
 def write_bvh(motion: Motion, path, precision: int = 6, allow_nan: bool = False, like=None) -> None:
     """Write ``motion`` as a BVH file (atomically: a failed write leaves no file).
 
@@ -721,6 +724,8 @@ def write_bvh(motion: Motion, path, precision: int = 6, allow_nan: bool = False,
         conversion gives them and every next frame takes the triple nearest
         the one before (an Euler filter; not across a jump of the rotation
         itself over 90 degrees). Ignored when ``like`` is not such a file.
+        The file's other ROOTs (:mod:`mocapkit.io.bvh_roots`) and comment lines are written back as its text
+        (:func:`source_fits` says whether ``motion`` is written so).
 
     Raises
     ------
@@ -745,6 +750,34 @@ def write_bvh(motion: Motion, path, precision: int = 6, allow_nan: bool = False,
         if n:
             raise MocapFormatError(path, f"motion has missing values (NaN) in {n} frames; fill them or save as .npz")
 
+    out_motion, channels = _as_written(motion)
+    values = out_motion.channel_values()
+    # BVH lists joints depth first; a skeleton in another topological order (e.g. from an ASF
+    # hierarchy) is written in depth-first order with its channel columns permuted to match.
+    sk = motion.skeleton
+    order = depth_first_order(sk)
+    source = _like_source(like, out_motion, order) if like is not None else None
+    _continuous_rotations(values, channels, source)
+    if order != list(range(sk.num_joints)):
+        starts = np.cumsum([0] + [len(c) for c in channels])
+        values = values[:, [k for j in order for k in range(starts[j], starts[j + 1])]]
+    if source is not None:
+        _write_like(path, out_motion, values, channels, source, precision)
+        return
+    parts = hierarchy_text(sk, channels, order)
+    parts.append(f"MOTION\nFrames: {F}\nFrame Time: {shortest(1.0 / motion.fps)}\n")
+    C = values.shape[1]
+    row = " ".join([f"%.{precision}f"] * C) + "\n"
+    block = max(1, 2**18 // max(C, 1))  # frames formatted at once: a few MB of text, not the whole take
+    with atomic_write(path, "w", encoding="utf-8", newline="\n") as fh:
+        fh.write("".join(parts))
+        for f0 in range(0, F, block):
+            rows = values[f0 : f0 + block]
+            fh.write((row * rows.shape[0]) % tuple(rows.ravel().tolist()))
+
+
+def _as_written(motion: Motion) -> tuple[Motion, tuple[tuple[str, ...], ...]]:
+    """``motion`` on the skeleton and channel layout :func:`write_bvh` writes (:func:`_write_channels`)."""
     sk = motion.skeleton
     channels = _write_channels(motion)
     out_sk = Skeleton(
@@ -763,28 +796,17 @@ def write_bvh(motion: Motion, path, precision: int = 6, allow_nan: bool = False,
         name=motion.name,
         translations=motion.translations,
     )
-    values = out_motion.channel_values()
-    # BVH lists joints depth first; a skeleton in another topological order (e.g. from an ASF
-    # hierarchy) is written in depth-first order with its channel columns permuted to match.
-    order = _depth_first_order(sk)
-    source = _like_source(like, out_motion, order) if like is not None else None
-    _continuous_rotations(values, channels, source)
-    if order != list(range(sk.num_joints)):
-        starts = np.cumsum([0] + [len(c) for c in channels])
-        values = values[:, [k for j in order for k in range(starts[j], starts[j + 1])]]
-    if source is not None:
-        _write_like(path, out_motion, values, channels, source, precision)
-        return
-    parts = _hierarchy_text(sk, channels, order)
-    parts.append(f"MOTION\nFrames: {F}\nFrame Time: {_fmt(1.0 / motion.fps)}\n")
-    C = values.shape[1]
-    row = " ".join([f"%.{precision}f"] * C) + "\n"
-    block = max(1, 2**18 // max(C, 1))  # frames formatted at once: a few MB of text, not the whole take
-    with atomic_write(path, "w", encoding="utf-8", newline="\n") as fh:
-        fh.write("".join(parts))
-        for f0 in range(0, F, block):
-            rows = values[f0 : f0 + block]
-            fh.write((row * rows.shape[0]) % tuple(rows.ravel().tolist()))
+    return out_motion, channels
+
+
+def source_fits(motion: Motion, like) -> bool:
+    """Whether :func:`write_bvh` writes ``motion`` like the BVH file ``like`` (its text kept where no cell changed,
+    its other roots and comments carried through): the same joints, channels and frame count as the take read
+    from it, and that file's text still kept (:func:`mocapkit.io.sources.recall`)."""
+    if like is None or motion.num_frames == 0:
+        return False
+    out_motion, _ = _as_written(motion)
+    return _like_source(like, out_motion, depth_first_order(motion.skeleton)) is not None
 
 
 @dataclass(frozen=True)
@@ -796,6 +818,8 @@ class _LikeSource:
     turned: np.ndarray  # (F, J) bool: cells whose rotation differs from the file's
     moved: np.ndarray  # (F, J) bool: cells whose position or offset differs from the file's
     values: np.ndarray  # (F, C) float: the file's numbers (its own 360-degree and Euler branches; NaN for "nan")
+    layout: Layout  # the take's columns of each line and the other roots, kept as the file's text
+    around: tuple[list[str], list[str]] | None  # header lines before the take's ROOT and after it (_around)
 
 
 def _differs(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -812,14 +836,14 @@ def _like_source(like, motion: Motion, order: list[int]) -> _LikeSource | None:
     if data is None:
         return None
     try:
-        ref, table = _read_bvh(like, data)
+        ref, table, where = _read_bvh(like, data)
     except MocapFormatError:
         return None
     sk, rsk = motion.skeleton, ref.skeleton
     if (rsk.joint_names != sk.joint_names or not np.array_equal(rsk.parents, sk.parents)
             or tuple(map(tuple, rsk.channels)) != tuple(map(tuple, sk.channels)) or ref.num_frames != motion.num_frames):
         return None
-    lines = data.decode("utf-8", errors="replace").splitlines(keepends=True)
+    lines = _LINE_RE.findall(data.decode("utf-8", errors="replace"))  # lines as the reader counts them (at "\n")
     at = next((i for i, t in enumerate(lines) if _FRAME_TIME_RE.match(t)), None)  # as the reader finds it
     if at is None:
         return None
@@ -831,7 +855,24 @@ def _like_source(like, motion: Motion, order: list[int]) -> _LikeSource | None:
     same_header = (ref.fps == motion.fps and np.array_equal(rsk.offsets, sk.offsets)
                    and np.array_equal(rsk.end_site_parents, sk.end_site_parents)
                    and np.array_equal(rsk.end_site_offsets, sk.end_site_offsets))
-    return _LikeSource(lines[: at + 1] if same_header else None, data, turned, moved, table)
+    around = None if same_header else _around(lines, where)
+    if not same_header and around is None:
+        return None
+    return _LikeSource(lines[: at + 1] if same_header else None, data, turned, moved, table, where, around)
+
+
+def _around(lines: list[str], where: Layout) -> tuple[list[str], list[str]] | None:
+    """The header ``lines`` (line endings kept) before the take's ROOT block and after it up to MOTION: the
+    comments and other roots a new hierarchy of the take is written between. None where the take's block shares
+    a line with other text (``HIERARCHY ROOT Hips``), so cannot be cut out by lines, and the file has other roots;
+    with none, the hierarchy is written whole, as ``HIERARCHY`` and the take's block."""
+    (r0, r1), motion_at = where.lines, next((i for i, t in enumerate(lines) if _MOTION_RE.match(t.encode())), None)
+    before = lines[: r0 - 1]
+    heads = [t.split()[0] for t in before if t.strip() and not is_comment(t)]
+    if (motion_at is None or heads[:1] != ["HIERARCHY"] or lines[r0 - 1].split()[:1] != ["ROOT"]
+            or lines[r1 - 1].split() != ["}"]):
+        return None if where.extras else (["HIERARCHY\n"], [])
+    return before, lines[r1:motion_at]
 
 
 def _write_like(path: Path, motion: Motion, values: np.ndarray, channels, source: _LikeSource, precision: int) -> None:
@@ -842,16 +883,18 @@ def _write_like(path: Path, motion: Motion, values: np.ndarray, channels, source
     sk = motion.skeleton
     F = motion.num_frames
     starts = np.cumsum([0] + [len(c) for c in channels])
+    first = source.layout.columns[0]  # the take's first number on a line: the other roots' numbers are kept as text
     is_rot = np.array([c.endswith("rotation") for cs in channels for c in cs], dtype=bool)
     is_pos = np.array([c.endswith("position") for cs in channels for c in cs], dtype=bool)
     fmt = f"%.{precision}f"
     with atomic_write(path, "w", encoding="utf-8", newline="") as fh:
         if source.header is not None:
             fh.write("".join(source.header))
-        else:
-            parts = _hierarchy_text(sk, channels, list(range(sk.num_joints)))
-            parts.append(f"MOTION\nFrames: {F}\nFrame Time: {_fmt(1.0 / motion.fps)}\n")
-            fh.write("".join(parts))
+        else:  # the take's hierarchy written anew between the file's own lines (comments, other roots)
+            before, after = source.around
+            parts = hierarchy_text(sk, channels, list(range(sk.num_joints)))[1:]
+            parts.append(f"MOTION\nFrames: {F}\nFrame Time: {shortest(1.0 / motion.fps)}\n")
+            fh.write("".join(before + parts[:-1] + after + parts[-1:]))
         for f in range(F):
             line = source.lines[f]
             if source.header is None and not line.endswith("\n"):
@@ -867,64 +910,5 @@ def _write_like(path: Path, motion: Motion, values: np.ndarray, channels, source
                 for c in range(starts[j], starts[j + 1]):
                     if not ((turned[j] and is_rot[c]) or (moved[j] and is_pos[c])):
                         continue
-                    tokens[c] = fmt % values[f, c]
+                    tokens[first + c] = fmt % values[f, c]
             fh.write(" ".join(tokens) + (line[len(body):] or "\n"))
-
-
-def _depth_first_order(sk: Skeleton) -> list[int]:
-    """Joint indices in depth-first (file) order, children in index order."""
-    children: list[list[int]] = [[] for _ in range(sk.num_joints)]
-    for j in range(1, sk.num_joints):
-        children[int(sk.parents[j])].append(j)
-    order: list[int] = []
-    todo = [0]
-    while todo:
-        j = todo.pop()
-        order.append(j)
-        todo.extend(reversed(children[j]))
-    return order
-
-
-def _indent(depth: int) -> str:
-    """Leading tabs of a line at nesting ``depth``, capped at :data:`MAX_INDENT` (readers ignore them)."""
-    return "\t" * min(depth, MAX_INDENT)
-
-
-def _hierarchy_text(sk: Skeleton, channels, order: list[int]) -> list[str]:
-    """The HIERARCHY section as a list of strings, joints written in depth-first ``order``.
-
-    Indentation is capped at :data:`MAX_INDENT` tabs, so the text grows
-    linearly with the number of joints however deep the hierarchy is.
-    """
-    J = sk.num_joints
-    ends: list[list[int]] = [[] for _ in range(J)]
-    for e, p in enumerate(sk.end_site_parents):
-        ends[int(p)].append(e)
-    parts = ["HIERARCHY\n"]
-    open_joints: list[int] = []
-
-    def close() -> None:
-        open_joints.pop()
-        parts.append(_indent(len(open_joints)) + "}\n")
-
-    for j in order:
-        p = int(sk.parents[j])
-        while open_joints and open_joints[-1] != p:
-            close()
-        ind = _indent(len(open_joints))
-        off = sk.offsets[j]
-        chans = channels[j]
-        parts.append(
-            f"{ind}{'ROOT' if j == 0 else 'JOINT'} {sk.joint_names[j]}\n{ind}{{\n"
-            f"{ind}\tOFFSET {_fmt(off[0])} {_fmt(off[1])} {_fmt(off[2])}\n"
-            f"{ind}\tCHANNELS {len(chans)}{''.join(' ' + c for c in chans)}\n"
-        )
-        for e in ends[j]:
-            eo = sk.end_site_offsets[e]
-            parts.append(
-                f"{ind}\tEnd Site\n{ind}\t{{\n{ind}\t\tOFFSET {_fmt(eo[0])} {_fmt(eo[1])} {_fmt(eo[2])}\n{ind}\t}}\n"
-            )
-        open_joints.append(j)
-    while open_joints:
-        close()
-    return parts

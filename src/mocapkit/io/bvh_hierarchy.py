@@ -1,0 +1,112 @@
+"""The HIERARCHY section of a BVH file as text: the names it can hold, the joints' file order, the lines written.
+
+A BVH lists joints depth first, each subtree contiguous, with a ``ROOT`` / ``JOINT`` line naming the joint,
+an ``OFFSET`` and a ``CHANNELS`` line, and an ``End Site`` block per end site. :func:`mocapkit.io.bvh.write_bvh`
+writes a skeleton's hierarchy with :func:`hierarchy_text`.
+"""
+
+from __future__ import annotations
+
+from ..errors import MocapFormatError
+from ..motion import Skeleton
+
+__all__ = ["MAX_INDENT", "check_bvh_names", "depth_first_order", "hierarchy_text", "shortest"]
+
+
+def shortest(x: float) -> str:
+    """``x`` in its shortest round-trip decimal form (an OFFSET or a frame time written exactly)."""
+    return repr(float(x))
+
+MAX_INDENT = 32
+"""Most tabs the writer puts before a line: a 100,000-deep chain would otherwise need 5e9 of them."""
+
+
+def check_bvh_names(path, names) -> None:
+    """Refuse joint names a BVH file cannot hold, naming the first such joint.
+
+    A BVH name is the rest of its ``ROOT`` / ``JOINT`` line, read back as its
+    whitespace-separated words joined by one space. So a name must be
+    encodable as UTF-8 (no lone surrogates), non-empty, hold no brace, and
+    have no whitespace but single inner spaces (``"Bip01 L Thigh"`` is fine;
+    a tab, a newline, a double space or a leading space is not), or it would
+    not read back as itself.
+
+    Raises
+    ------
+    MocapFormatError
+        One line naming ``path``, the joint (``ascii()`` of its name) and the problem.
+    """
+    for j, name in enumerate(names):
+        problem = None
+        try:
+            name.encode("utf-8")
+        except UnicodeEncodeError:
+            problem = "is not encodable as UTF-8 (a lone surrogate?)"
+        else:
+            if not name:
+                problem = "is empty"
+            elif "{" in name or "}" in name:
+                problem = "holds a brace"
+            elif " ".join(name.split()) != name:
+                problem = "holds whitespace other than single spaces between words"
+        if problem is not None:
+            raise MocapFormatError(path, f"joint {j} name {ascii(name)} {problem}: BVH cannot hold it; rename the joint")
+
+
+def depth_first_order(sk: Skeleton) -> list[int]:
+    """Joint indices in depth-first (file) order, children in index order."""
+    children: list[list[int]] = [[] for _ in range(sk.num_joints)]
+    for j in range(1, sk.num_joints):
+        children[int(sk.parents[j])].append(j)
+    order: list[int] = []
+    todo = [0]
+    while todo:
+        j = todo.pop()
+        order.append(j)
+        todo.extend(reversed(children[j]))
+    return order
+
+
+def indent(depth: int) -> str:
+    """Leading tabs of a line at nesting ``depth``, capped at :data:`MAX_INDENT` (readers ignore them)."""
+    return "\t" * min(depth, MAX_INDENT)
+
+
+def hierarchy_text(sk: Skeleton, channels, order: list[int]) -> list[str]:
+    """The HIERARCHY section as a list of strings, joints written in depth-first ``order``.
+
+    Indentation is capped at :data:`MAX_INDENT` tabs, so the text grows
+    linearly with the number of joints however deep the hierarchy is.
+    """
+    J = sk.num_joints
+    ends: list[list[int]] = [[] for _ in range(J)]
+    for e, p in enumerate(sk.end_site_parents):
+        ends[int(p)].append(e)
+    parts = ["HIERARCHY\n"]
+    open_joints: list[int] = []
+
+    def close() -> None:
+        open_joints.pop()
+        parts.append(indent(len(open_joints)) + "}\n")
+
+    for j in order:
+        p = int(sk.parents[j])
+        while open_joints and open_joints[-1] != p:
+            close()
+        ind = indent(len(open_joints))
+        off = sk.offsets[j]
+        chans = channels[j]
+        parts.append(
+            f"{ind}{'ROOT' if j == 0 else 'JOINT'} {sk.joint_names[j]}\n{ind}{{\n"
+            f"{ind}\tOFFSET {shortest(off[0])} {shortest(off[1])} {shortest(off[2])}\n"
+            f"{ind}\tCHANNELS {len(chans)}{''.join(' ' + c for c in chans)}\n"
+        )
+        for e in ends[j]:
+            eo = sk.end_site_offsets[e]
+            parts.append(
+                f"{ind}\tEnd Site\n{ind}\t{{\n{ind}\t\tOFFSET {shortest(eo[0])} {shortest(eo[1])} {shortest(eo[2])}\n{ind}\t}}\n"
+            )
+        open_joints.append(j)
+    while open_joints:
+        close()
+    return parts
