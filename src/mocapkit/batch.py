@@ -51,7 +51,12 @@ a worker killed between the rename of ``OUT`` and of its record leaves an
 output without a record, which the next run refuses without ``overwrite``.
 
 One failing take is reported (file and a one-line reason) and skipped; the
-others go on. Work runs through :func:`mocapkit.parallel.map_ordered`: local
+others go on, except after a full disk, a used-up quota or a read-only file
+system (:func:`mocapkit.errors.output_stopper`): no later take could be
+written either, so the batch hands out no more takes, lets those under way
+finish, and says how many are complete (a rerun resumes the rest). Each row
+is handed to ``on_row`` as its take finishes, so a log shows the takes done
+even when the batch is cut short. Work runs through :func:`mocapkit.parallel.map_ordered`: local
 processes by default, in this process (``"serial"``), on a local Dask
 cluster (``"dask"``) or on the Dask scheduler at an address.
 """
@@ -69,9 +74,9 @@ from contextlib import contextmanager
 from dataclasses import dataclass, field, replace
 from functools import lru_cache
 from pathlib import Path
-from typing import Sequence
+from typing import Callable, Sequence
 
-from .errors import MocapError, MocapFormatError, os_error_line
+from .errors import MocapError, MocapFormatError, os_error_line, output_stopper
 from .interrupts import interrupts_as_keyboard_interrupt
 from .marker_files import clean_marker_file, marker_request, refuse_marker_options
 
@@ -423,6 +428,9 @@ class BatchSummary:
     ``renamed``: the inputs whose output keeps the input's suffix because
     another take would have written the same file (module docstring).
     ``earlier``: folders below IN_DIR left out as an earlier batch's outputs.
+    ``stopped``: empty, or the one line saying why the batch stopped early (a
+    full disk: module docstring), how many takes are complete and that a rerun
+    resumes; the takes never started then have no row (``not_started`` counts them).
     """
 
     rows: list = field(default_factory=list)
@@ -430,6 +438,8 @@ class BatchSummary:
     executor: str = ""
     renamed: list = field(default_factory=list)
     earlier: list = field(default_factory=list)
+    stopped: str = ""
+    not_started: int = 0
 
     def count(self, status: str) -> int:
         return sum(r["status"] == status for r in self.rows)
@@ -524,6 +534,9 @@ def _clean_job(job: dict) -> dict:
     except Exception as exc:  # one bad take must not stop the corpus: report it in one line
         undo()
         row.update(status="failed", reason=_unstaged(_one_line(exc), stage, out.parent))
+        stopper = output_stopper(exc)
+        if stopper:  # a full disk: the batch stops handing out takes (module docstring)
+            row["errno"] = stopper
     except BaseException:
         undo()  # an output without its record would pass for complete-but-unrecorded
         raise
@@ -634,6 +647,7 @@ def clean_batch(
     noise_deg: float | None = None,
     max_gap_s: float | None = None,
     max_error_mm: float | None = None,
+    on_row: Callable[[dict, int, int], None] | None = None,
 ) -> BatchSummary:
     """Clean every take under ``in_dir`` into the mirrored layout under ``out_dir`` (module docstring).
 
@@ -654,7 +668,11 @@ def clean_batch(
     ones is refused without ``overwrite`` and cleaned again with it, as a joint-angle take cleaned with another
     request is). ``drifts``: also flag smooth
     drifts in every take (:func:`mocapkit.cleaning.pipeline.clean`); ``models``: model files (or shipped
-    names) for every take, as :func:`clean_file`'s. Raises
+    names) for every take, as :func:`clean_file`'s. ``on_row(row, n, total)``: called in this process
+    with each take's row as soon as it is known, the complete takes first (input order), then each take
+    cleaned or failed as it finishes (completion order); ``n`` counts the rows so far, ``total`` the takes.
+    A take that fails on a full disk, a used-up quota or a read-only file system stops the batch
+    (``BatchSummary.stopped``). Raises
     :class:`~mocapkit.errors.MocapError` (one line) on a bad folder, format,
     step list, context or executor (:func:`mocapkit.parallel.check_executor`)
     and on a refused output; nothing is written then.
@@ -733,13 +751,33 @@ def clean_batch(
     skeletons = _asf_copies(inputs, plans, asf, overwrite) if fmt == "amc" else {}
     expected = [f for files in plans for f in files.values() if f is not None]
     made = missing_folders([out_dir, *(Path(files["output"]).parent for _, files in todo)])
+    total, told = len(inputs), 0
+
+    def tell(row: dict) -> None:
+        nonlocal told
+        told += 1
+        if on_row is not None:
+            on_row(row, told, total)
+
+    for row in summary.rows:  # the complete takes
+        tell(row)
+
+    def finished_take(k: int, row: dict) -> bool:
+        inp, files = todo[k]
+        _as_given(row, inp, files, again.get(inp))
+        tell(row)
+        if row.get("errno") and not summary.stopped:
+            summary.stopped = row["reason"]
+        return bool(summary.stopped)
+
     with _only_batch(out_dir):
         _sweep(expected)
         finished = False
         try:
             if jobs:
                 _mark(out_dir, in_dir)
-            rows = map_ordered(_batch_job, jobs, executor=executor, progress=progress, desc="clean") if jobs else []
+            rows = map_ordered(_batch_job, jobs, executor=executor, progress=progress, desc="clean",
+                               on_result=finished_take) if jobs else []
             finished = True
         finally:
             try:  # also after an interrupt: every complete AMC output reads back
@@ -748,16 +786,25 @@ def clean_batch(
                 _sweep(expected)  # what a killed worker could not remove
                 _unmark_if_empty(out_dir)
                 _prune(made)  # the folders made for takes that failed
-    for row, (inp, files) in zip(rows, todo):  # the paths as the caller gave them
-        row.update(input=str(inp), output=str(files["output"]))
-        if row["status"] == "done" and inp in again:
-            row["reason"] = again[inp]
-        elif row["status"] == "failed":  # the worker's absolute paths, as the caller gave them
-            row["reason"] = row["reason"].replace(_abs(files["output"]), str(files["output"]))
-    summary.rows += rows
+    summary.rows += [r for r in rows if r is not None]
     summary.rows.sort(key=lambda r: r["input"])
+    if summary.stopped:
+        summary.not_started = sum(r is None for r in rows)
+        complete = summary.count("done") + summary.count("skipped")
+        summary.stopped = (f"{summary.stopped}; stopped: {complete} of {total} takes complete, "
+                           f"{summary.not_started} not started; the same command resumes the rest")
     summary.seconds = time.perf_counter() - t0
     return summary
+
+
+def _as_given(row: dict, inp: Path, files: dict, again: str | None) -> None:
+    """A worker's row with the paths as the caller gave them (the worker saw absolute ones); ``again``: why a
+    take done before was cleaned again."""
+    row.update(input=str(inp), output=str(files["output"]))
+    if row["status"] == "done" and again:
+        row["reason"] = again
+    elif row["status"] == "failed":
+        row["reason"] = row["reason"].replace(_abs(files["output"]), str(files["output"]))
 
 
 def _asf_copies(inputs: list[Path], plans: list[dict], asf, overwrite: bool) -> dict[Path, tuple[Path, list[str]]]:
