@@ -249,3 +249,16 @@ def test_on_result_sees_each_result_as_it_finishes_and_can_stop_the_work(executo
     assert seen and len(seen) < 40
     assert [k for k, r in enumerate(out) if r is not None] == sorted(seen)  # the rest never ran
     assert all(out[k] == k * k for k in seen)
+
+
+def test_on_result_on_a_dask_scheduler_sees_each_result_and_stops_the_work():
+    distributed = pytest.importorskip("distributed")
+    with distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=True, dashboard_address=None) as cluster:
+        seen = []
+        assert map_ordered(square, [1, 2, 3], executor=cluster.scheduler_address, progress=False,
+                           on_result=lambda k, r: seen.append((k, r))) == [1, 4, 9]
+        assert sorted(seen) == [(0, 1), (1, 4), (2, 9)]
+        seen.clear()
+        out = map_ordered(slow_square, [1] * 30, executor=cluster.scheduler_address, progress=False,
+                          on_result=lambda k, r: seen.append(k) or True)
+        assert seen and len(seen) < 30 and [k for k, r in enumerate(out) if r is not None] == sorted(seen)

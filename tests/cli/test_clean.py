@@ -172,6 +172,8 @@ def test_clean_batch_on_local_dask_cluster(tmp_path, capsys):
     text = capsys.readouterr().out
     assert rc == 0, text
     assert "3 cleaned" in text and "dask" in text
+    # each take's line as it finished, counted (stdout is no terminal here), then the totals
+    assert [ln[:len("[k/3] cleaned ")] for ln in text.splitlines()[:3]] == [f"[{k}/3] cleaned " for k in (1, 2, 3)]
     serial = tmp_path / "serial"
     assert main(["clean-batch", str(src), str(serial), "--executor", "serial", "--steps", "fill,denoise"]) == 0
     capsys.readouterr()
