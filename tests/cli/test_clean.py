@@ -173,7 +173,8 @@ def test_clean_batch_on_local_dask_cluster(tmp_path, capsys):
     assert rc == 0, text
     assert "3 cleaned" in text and "dask" in text
     # each take's line as it finished, counted (stdout is no terminal here), then the totals
-    assert [ln[:len("[k/3] cleaned ")] for ln in text.splitlines()[:3]] == [f"[{k}/3] cleaned " for k in (1, 2, 3)]
+    assert [(ln[:len("cleaned ")], ln[-len(" [k/3]"):]) for ln in text.splitlines()[:3]] == \
+        [("cleaned ", f" [{k}/3]") for k in (1, 2, 3)]
     serial = tmp_path / "serial"
     assert main(["clean-batch", str(src), str(serial), "--executor", "serial", "--steps", "fill,denoise"]) == 0
     capsys.readouterr()
@@ -552,7 +553,7 @@ def test_a_batch_logged_to_a_file_says_each_take_as_it_finishes_and_keeps_it_whe
                                 preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
         try:
             # ready: two takes' lines are in the log (on the code that printed at the end, never before it ends)
-            while proc.poll() is None and log.read_text().count(" cleaned ") < 2:
+            while proc.poll() is None and log.read_text().count("\ncleaned ") < 1:
                 threading.Event().wait(0.05)
             assert proc.poll() is None, "the batch ended before a line reached its log"
             proc.send_signal(signal.SIGINT)
@@ -562,12 +563,12 @@ def test_a_batch_logged_to_a_file_says_each_take_as_it_finishes_and_keeps_it_whe
                 proc.kill()
     assert proc.returncode == 130, err
     lines = log.read_text().splitlines()
-    cleaned = [ln for ln in lines if " cleaned " in ln]
+    cleaned = [ln for ln in lines if ln.startswith("cleaned ")]
     complete = sorted(p.name for p in out.glob("*.clean.npz"))
     assert 2 <= len(cleaned) < 120
     assert len(complete) - 1 <= len(cleaned) <= len(complete)  # at most the take the interrupt caught went unsaid
     for n, line in enumerate(cleaned, 1):
-        found = re.fullmatch(rf"\[{n}/120\] cleaned {re.escape(str(src))}/(t\d+)\.bvh -> .*", line)
+        found = re.fullmatch(rf"cleaned {re.escape(str(src))}/(t\d+)\.bvh -> .* \[{n}/120\]", line)
         assert found, line
         assert f"{found[1]}.clean.npz" in complete
     assert lines[-1].startswith("note: the takes finished in")
@@ -601,5 +602,6 @@ def test_a_full_disk_stops_clean_batch_in_one_line(tmp_path, monkeypatch):
     assert "no space left on the device; stopped: 1 of 4 takes complete, 2 not started; the same command " \
            "resumes the rest" in err
     lines = text.splitlines()
-    assert lines[0].startswith("[1/4] cleaned ") and lines[1].startswith("[2/4] failed ")
+    assert lines[0].startswith("cleaned ") and lines[0].endswith(" [1/4]")
+    assert lines[1].startswith("failed ") and lines[1].endswith(" [2/4]")
     assert lines[2].endswith("1 cleaned, 0 already complete, 1 failed, 2 not started")

@@ -320,7 +320,7 @@ def clean_batch(
     replaced since is cleaned again. Takes that would share a file
     (take.amc and take.bvh in one folder) keep their input's suffix (take.amc.bvh). Every output is
     checked against every input before any take is cleaned. Prints one line per take as it finishes
-    (completion order; the complete ones first), each starting "[N/TOTAL]" when stdout is not a terminal,
+    (completion order; the complete ones first), each ending "[N/TOTAL]" when stdout is not a terminal,
     then the totals; exits 1 if any take failed. A full disk, a used-up quota or a read-only file
     system stops the batch: the takes under way finish, the rest are left for a rerun to resume.
     """
@@ -331,10 +331,10 @@ def clean_batch(
     if not patterns:
         raise MocapError("--pattern: give at least one file name pattern, e.g. '*.bvh,*.amc'")
     models = _models(ebf, ebd)
-    counted = not sys.stdout.isatty()  # no bar in a log: each line says how far the batch is
+    counted = not sys.stdout.isatty()  # no bar in a log: each line says how far the batch is, after its take
 
     def print_row(row: dict, n: int, total: int) -> None:
-        console.print((f"[{n}/{total}] " if counted else "") + _take_line(row))
+        console.print(_take_line(row) + (f" [{n}/{total}]" if counted else ""))
         for note in row.get("warnings", ()):  # as clean says them: a fallback, a model's licence
             console.print(f"warning: {row['input']}: {note}")
 
