@@ -65,18 +65,17 @@ from __future__ import annotations
 
 import dataclasses
 import fnmatch
-import json
 import os
 import shutil
 import tempfile
 import time
-from contextlib import contextmanager
 from dataclasses import dataclass, field, replace
 from functools import lru_cache
 from pathlib import Path
 from typing import Callable, Sequence
 
 from .errors import MocapError, MocapFormatError, os_error_line, output_stopper
+from .batch_folder import BATCH_MARK, mark, marked_input, only_batch, prune, sweep, unmark_if_empty
 from .interrupts import interrupts_as_keyboard_interrupt
 from .marker_files import clean_marker_file, marker_request, refuse_marker_options
 
@@ -84,8 +83,6 @@ __all__ = ["clean_file", "clean_marker_file", "clean_request", "marker_request",
 
 DEFAULT_PATTERNS = ("*.bvh", "*.amc", "*.npz", "*.c3d", "*.trc")
 
-#: The hidden file :func:`clean_batch` leaves in its OUT_DIR: a later batch leaves a folder holding it out of its inputs.
-BATCH_MARK = ".mocapkit-batch.json"
 
 
 @lru_cache(maxsize=4)
@@ -363,7 +360,7 @@ def find_inputs(in_dir, patterns: Sequence[str] = DEFAULT_PATTERNS, exclude=None
         here = Path(folder)
         dirs.sort()
         if here != in_dir and BATCH_MARK in files:
-            own = _marked_input(here)
+            own = marked_input(here)
             skipped.append((here, own))
             if earlier is not None:
                 earlier.append(here)
@@ -770,12 +767,12 @@ def clean_batch(
             summary.stopped = row["reason"]
         return bool(summary.stopped)
 
-    with _only_batch(out_dir):
-        _sweep(expected)
+    with only_batch(out_dir):
+        sweep(expected)
         finished = False
         try:
             if jobs:
-                _mark(out_dir, in_dir)
+                mark(out_dir, in_dir)
             rows = map_ordered(_batch_job, jobs, executor=executor, progress=progress, desc="clean",
                                on_result=finished_take) if jobs else []
             finished = True
@@ -783,9 +780,9 @@ def clean_batch(
             try:  # also after an interrupt: every complete AMC output reads back
                 _place_asfs(skeletons, quiet=not finished)
             finally:
-                _sweep(expected)  # what a killed worker could not remove
-                _unmark_if_empty(out_dir)
-                _prune(made)  # the folders made for takes that failed
+                sweep(expected)  # what a killed worker could not remove
+                unmark_if_empty(out_dir)
+                prune(made)  # the folders made for takes that failed
     summary.rows += [r for r in rows if r is not None]
     summary.rows.sort(key=lambda r: r["input"])
     if summary.stopped:
@@ -864,109 +861,9 @@ def _place_asfs(skeletons: dict[Path, tuple[Path, list[str]]], quiet: bool = Fal
                                             f"with ({exc.strerror or exc})") from None
 
 
-@contextmanager
-def _only_batch(out_dir: Path):
-    """Hold an exclusive lock on ``out_dir`` (``flock`` on the folder) while a batch writes into it.
-
-    Two batches into one folder would sweep each other's staging folders and judge each other's half-written
-    takes; the second is refused in one line instead. The folder is made first (:func:`_prune` removes it
-    again if nothing was written). Without ``fcntl`` (not POSIX), or where the file system refuses locks, no lock.
-    """
-    try:
-        import fcntl
-    except ImportError:  # pragma: no cover - not POSIX
-        yield
-        return
-    out_dir.mkdir(parents=True, exist_ok=True)
-    fd = os.open(out_dir, os.O_RDONLY)
-    try:
-        try:
-            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
-        except BlockingIOError:
-            raise MocapFormatError(out_dir, "another clean-batch is writing into this folder; wait for it to end, "
-                                            "or choose another output folder") from None
-        except OSError:  # a file system without locks (some network mounts)
-            pass
-        yield
-    finally:
-        os.close(fd)
-
-
 def _abs(p) -> str:
     return os.path.abspath(os.fspath(p))
 
 
 def _below(p: Path, folder: Path) -> bool:
     return p == folder or folder in p.parents
-
-
-def _marked_input(out_dir: Path) -> Path | None:
-    """The IN_DIR an earlier batch recorded in its :data:`BATCH_MARK`, when it lies inside that OUT_DIR."""
-    try:
-        recorded = Path(json.loads((out_dir / BATCH_MARK).read_text(encoding="utf-8"))["input"])
-    except (OSError, ValueError, KeyError, TypeError):
-        return None
-    try:
-        rel = recorded.relative_to(out_dir.resolve())
-    except ValueError:
-        return None
-    return out_dir / rel if rel.parts else None
-
-
-def _mark(out_dir: Path, in_dir: Path) -> None:
-    """Leave :data:`BATCH_MARK` in OUT_DIR (atomically): a later batch of a folder above it leaves it out."""
-    from .io import atomic_write
-
-    mark = Path(out_dir) / BATCH_MARK
-    text = json.dumps({"format": 1, "what": "outputs of mocapkit clean-batch", "input": str(Path(in_dir).resolve())})
-    if mark.is_file() and mark.read_text(encoding="utf-8", errors="replace") == text:
-        return
-    with atomic_write(mark, "w", encoding="utf-8") as fh:
-        fh.write(text)
-
-
-def _unmark_if_empty(out_dir: Path) -> None:
-    """Remove :data:`BATCH_MARK` again when no take was written beside it (an interrupted or failed first run)."""
-    mark = Path(out_dir) / BATCH_MARK
-    try:
-        if mark.is_file() and not any(p != mark and not p.is_dir() for p in Path(out_dir).rglob("*")):
-            mark.unlink()
-    except OSError:
-        pass
-
-
-def _prune(folders: list[Path]) -> None:
-    """Remove the folders of :func:`mocapkit.io.outputs.missing_folders` that the batch made and left empty (no take of theirs was
-    written), deepest first; a folder holding anything stays."""
-    for f in folders:
-        try:
-            f.rmdir()
-        except OSError:  # not empty, or never made
-            pass
-
-
-def _sweep(paths) -> None:
-    """Remove what a killed worker left beside ``paths``: ``.NAME.*.part`` temporaries and staging folders.
-
-    One listing per folder (not one glob per path): a corpus of N takes costs O(N).
-    """
-    by_folder: dict[Path, set] = {}
-    for p in paths:
-        p = Path(p)
-        by_folder.setdefault(p.parent, set()).add(p.name)
-    for folder, names in by_folder.items():
-        try:
-            entries = list(os.scandir(folder))
-        except OSError:  # not made yet, or unreadable: nothing of ours there
-            continue
-        for entry in entries:
-            stem = entry.name[1:-len(".part")].rpartition(".")[0]  # .NAME.RANDOM.part -> NAME (RANDOM has no dot)
-            if not (entry.name.startswith(".") and entry.name.endswith(".part") and stem in names):
-                continue
-            try:
-                if entry.is_dir(follow_symlinks=False):
-                    shutil.rmtree(entry.path)
-                else:
-                    os.unlink(entry.path)
-            except OSError:
-                pass

@@ -403,7 +403,7 @@ def _stop_pool(pool: ProcessPoolExecutor) -> None:
     Python 3.11's pool manager: it set an exception on a cancelled future when the pool broke
     (InvalidStateError in its thread), and the exit then waited on it for ever (4 of 10 interrupted
     ``db build`` runs hung). Killed workers leave nothing of theirs behind that a caller does not
-    sweep (``batch._sweep``); there is no public way to kill them before Python 3.14.
+    sweep (``batch_folder.sweep``); there is no public way to kill them before Python 3.14.
     """
     procs = list((getattr(pool, "_processes", None) or {}).values())
     writer = getattr(getattr(pool, "_result_queue", None), "_writer", None)  # before shutdown() drops the queue
