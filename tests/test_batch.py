@@ -775,3 +775,55 @@ def test_a_marker_capture_s_limits_are_part_of_its_request(tmp_path):
     assert CleanResult.load_params(record)["kind"] == "markers" and "request" not in CleanResult.load_params(record)
     with pytest.raises(MocapFormatError, match=r"max_gap_s None \(now 0\.05\)"):
         clean_batch(src, out, executor="serial", progress=False, max_gap_s=0.05)
+
+
+@pytest.mark.parametrize("code", ["ENOSPC", "EDQUOT", "EROFS"])
+def test_a_full_disk_stops_the_batch_and_a_rerun_resumes(tmp_path, short_bvh, monkeypatch, code):
+    """Trial 25: on a full 3 MB output folder the batch went on cleaning the 175 other takes, each failing with
+    the same "no space left on the device". It stops at the first, keeps what it wrote, and says so."""
+    import errno
+
+    import mocapkit.batch as batch
+
+    src, out = tmp_path / "in", tmp_path / "out"
+    src.mkdir()
+    for k in range(6):
+        shutil.copy(short_bvh, src / f"t{k}.bvh")
+    real, tried, told = batch.clean_file, [], []
+
+    def fills_up(inp, staged, **kwargs):  # the first take fits, the second fills the disk
+        tried.append(Path(inp).name)
+        if len(tried) > 1:
+            raise OSError(getattr(errno, code), os.strerror(getattr(errno, code)), str(staged))
+        return real(inp, staged, **kwargs)
+
+    monkeypatch.setattr(batch, "clean_file", fills_up)
+    s = clean_batch(src, out, steps=STEPS, executor="serial", progress=False,
+                    on_row=lambda row, n, total: told.append((row["status"], n, total)))
+    assert tried == ["t0.bvh", "t1.bvh"]  # nothing handed out after the full disk
+    assert told == [("done", 1, 6), ("failed", 2, 6)]
+    assert [r["status"] for r in s.rows] == ["done", "failed"] and s.rows[1]["errno"] == code
+    assert s.not_started == 4 and s.stopped.startswith(f"{out / 't1.bvh'}: ")
+    assert "stopped: 1 of 6 takes complete, 4 not started; the same command resumes the rest" in s.stopped
+    assert _visible(out) == ["t0.bvh", "t0.clean.npz"]
+    monkeypatch.undo()
+    again = clean_batch(src, out, steps=STEPS, executor="serial", progress=False)  # room again: it resumes
+    assert [r["status"] for r in again.rows] == ["skipped"] + ["done"] * 5 and not again.stopped
+
+
+def test_a_take_that_fails_otherwise_does_not_stop_the_batch(tmp_path, short_bvh, monkeypatch):
+    import errno
+
+    import mocapkit.batch as batch
+
+    src = tmp_path / "in"
+    src.mkdir()
+    for k in range(3):
+        shutil.copy(short_bvh, src / f"t{k}.bvh")
+
+    def denied(inp, staged, **kwargs):  # one folder without permission says nothing about the next take's
+        raise PermissionError(errno.EACCES, "Permission denied", str(staged))
+
+    monkeypatch.setattr(batch, "clean_file", denied)
+    s = clean_batch(src, tmp_path / "out", steps=STEPS, executor="serial", progress=False)
+    assert [r["status"] for r in s.rows] == ["failed"] * 3 and not s.stopped and "errno" not in s.rows[0]

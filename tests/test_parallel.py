@@ -225,3 +225,40 @@ def _die(x):
 def test_a_worker_that_dies_is_one_line_not_broken_process_pool():
     with pytest.raises(MocapError, match="a worker process ended abruptly"):
         map_ordered(_die, [1, 2], executor="processes", progress=False, max_workers=2)
+
+
+def slow_square(x):
+    time.sleep(0.05 * x)
+    return x * x
+
+
+@pytest.mark.parametrize("executor", ["serial", "processes"])
+def test_on_result_sees_each_result_as_it_finishes_and_can_stop_the_work(executor):
+    """A batch's log: each item is handed back in this process as soon as it is done, and a true answer stops
+    handing out work (items under way on local processes still finish and are handed back)."""
+    seen = []
+    assert map_ordered(slow_square, [3, 0, 1], executor=executor, progress=False,
+                       on_result=lambda k, r: seen.append((k, r))) == [9, 0, 1]
+    assert sorted(seen) == [(0, 9), (1, 0), (2, 1)]
+    if executor == "processes":
+        assert seen[0] == (1, 0)  # completion order: the slow first item is not waited for
+
+    seen.clear()
+    out = map_ordered(square, range(40), executor=executor, progress=False, max_workers=2,
+                      on_result=lambda k, r: seen.append(k) or True)  # stop at the first result
+    assert seen and len(seen) < 40
+    assert [k for k, r in enumerate(out) if r is not None] == sorted(seen)  # the rest never ran
+    assert all(out[k] == k * k for k in seen)
+
+
+def test_on_result_on_a_dask_scheduler_sees_each_result_and_stops_the_work():
+    distributed = pytest.importorskip("distributed")
+    with distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=True, dashboard_address=None) as cluster:
+        seen = []
+        assert map_ordered(square, [1, 2, 3], executor=cluster.scheduler_address, progress=False,
+                           on_result=lambda k, r: seen.append((k, r))) == [1, 4, 9]
+        assert sorted(seen) == [(0, 1), (1, 4), (2, 9)]
+        seen.clear()
+        out = map_ordered(slow_square, [1] * 30, executor=cluster.scheduler_address, progress=False,
+                          on_result=lambda k, r: seen.append(k) or True)
+        assert seen and len(seen) < 30 and [k for k, r in enumerate(out) if r is not None] == sorted(seen)

@@ -52,7 +52,12 @@ a worker killed between the rename of ``OUT`` and of its record leaves an
 output without a record, which the next run refuses without ``overwrite``.
 
 One failing take is reported (file and a one-line reason) and skipped; the
-others go on. Work runs through :func:`mocapkit.parallel.map_ordered`: local
+others go on, except after a full disk, a used-up quota or a read-only file
+system (:func:`mocapkit.errors.output_stopper`): no later take could be
+written either, so the batch hands out no more takes, lets those under way
+finish, and says how many are complete (a rerun resumes the rest). Each row
+is handed to ``on_row`` as its take finishes, so a log shows the takes done
+even when the batch is cut short. Work runs through :func:`mocapkit.parallel.map_ordered`: local
 processes by default, in this process (``"serial"``), on a local Dask
 cluster (``"dask"``) or on the Dask scheduler at an address.
 """
@@ -61,18 +66,17 @@ from __future__ import annotations
 
 import dataclasses
 import fnmatch
-import json
 import os
 import shutil
 import tempfile
 import time
-from contextlib import contextmanager
 from dataclasses import dataclass, field, replace
 from functools import lru_cache
 from pathlib import Path
-from typing import Sequence
+from typing import Callable, Sequence
 
-from .errors import MocapError, MocapFormatError, os_error_line
+from .errors import MocapError, MocapFormatError, os_error_line, output_stopper
+from .batch_folder import BATCH_MARK, mark, marked_input, only_batch, prune, sweep, unmark_if_empty
 from .interrupts import interrupts_as_keyboard_interrupt
 from .marker_files import clean_marker_file, marker_request, refuse_marker_options
 
@@ -80,8 +84,6 @@ __all__ = ["clean_file", "clean_marker_file", "clean_request", "marker_request",
 
 DEFAULT_PATTERNS = ("*.bvh", "*.amc", "*.npz", "*.c3d", "*.trc")
 
-#: The hidden file :func:`clean_batch` leaves in its OUT_DIR: a later batch leaves a folder holding it out of its inputs.
-BATCH_MARK = ".mocapkit-batch.json"
 
 
 @lru_cache(maxsize=4)
@@ -357,7 +359,7 @@ def find_inputs(in_dir, patterns: Sequence[str] = DEFAULT_PATTERNS, exclude=None
         here = Path(folder)
         dirs.sort()
         if here != in_dir and BATCH_MARK in files:
-            own = _marked_input(here)
+            own = marked_input(here)
             skipped.append((here, own))
             if earlier is not None:
                 earlier.append(here)
@@ -427,6 +429,9 @@ class BatchSummary:
     ``renamed``: the inputs whose output is named after the input's format because
     another take would have written the same file (module docstring).
     ``earlier``: folders below IN_DIR left out as an earlier batch's outputs.
+    ``stopped``: empty, or the one line saying why the batch stopped early (a
+    full disk: module docstring), how many takes are complete and that a rerun
+    resumes; the takes never started then have no row (``not_started`` counts them).
     """
 
     rows: list = field(default_factory=list)
@@ -434,6 +439,8 @@ class BatchSummary:
     executor: str = ""
     renamed: list = field(default_factory=list)
     earlier: list = field(default_factory=list)
+    stopped: str = ""
+    not_started: int = 0
 
     def count(self, status: str) -> int:
         return sum(r["status"] == status for r in self.rows)
@@ -528,6 +535,9 @@ def _clean_job(job: dict) -> dict:
     except Exception as exc:  # one bad take must not stop the corpus: report it in one line
         undo()
         row.update(status="failed", reason=_unstaged(_one_line(exc), stage, out.parent))
+        stopper = output_stopper(exc)
+        if stopper:  # a full disk: the batch stops handing out takes (module docstring)
+            row["errno"] = stopper
     except BaseException:
         undo()  # an output without its record would pass for complete-but-unrecorded
         raise
@@ -638,6 +648,7 @@ def clean_batch(
     noise_deg: float | None = None,
     max_gap_s: float | None = None,
     max_error_mm: float | None = None,
+    on_row: Callable[[dict, int, int], None] | None = None,
 ) -> BatchSummary:
     """Clean every take under ``in_dir`` into the mirrored layout under ``out_dir`` (module docstring).
 
@@ -658,7 +669,11 @@ def clean_batch(
     ones is refused without ``overwrite`` and cleaned again with it, as a joint-angle take cleaned with another
     request is). ``drifts``: also flag smooth
     drifts in every take (:func:`mocapkit.cleaning.pipeline.clean`); ``models``: model files (or shipped
-    names) for every take, as :func:`clean_file`'s. Raises
+    names) for every take, as :func:`clean_file`'s. ``on_row(row, n, total)``: called in this process
+    with each take's row as soon as it is known, the complete takes first (input order), then each take
+    cleaned or failed as it finishes (completion order); ``n`` counts the rows so far, ``total`` the takes.
+    A take that fails on a full disk, a used-up quota or a read-only file system stops the batch
+    (``BatchSummary.stopped``). Raises
     :class:`~mocapkit.errors.MocapError` (one line) on a bad folder, format,
     step list, context or executor (:func:`mocapkit.parallel.check_executor`)
     and on a refused output; nothing is written then.
@@ -737,31 +752,60 @@ def clean_batch(
     skeletons = _asf_copies(inputs, plans, asf, overwrite) if fmt == "amc" else {}
     expected = [f for files in plans for f in files.values() if f is not None]
     made = missing_folders([out_dir, *(Path(files["output"]).parent for _, files in todo)])
-    with _only_batch(out_dir):
-        _sweep(expected)
+    total, told = len(inputs), 0
+
+    def tell(row: dict) -> None:
+        nonlocal told
+        told += 1
+        if on_row is not None:
+            on_row(row, told, total)
+
+    for row in summary.rows:  # the complete takes
+        tell(row)
+
+    def finished_take(k: int, row: dict) -> bool:
+        inp, files = todo[k]
+        _as_given(row, inp, files, again.get(inp))
+        tell(row)
+        if row.get("errno") and not summary.stopped:
+            summary.stopped = row["reason"]
+        return bool(summary.stopped)
+
+    with only_batch(out_dir):
+        sweep(expected)
         finished = False
         try:
             if jobs:
-                _mark(out_dir, in_dir)
-            rows = map_ordered(_batch_job, jobs, executor=executor, progress=progress, desc="clean") if jobs else []
+                mark(out_dir, in_dir)
+            rows = map_ordered(_batch_job, jobs, executor=executor, progress=progress, desc="clean",
+                               on_result=finished_take) if jobs else []
             finished = True
         finally:
             try:  # also after an interrupt: every complete AMC output reads back
                 _place_asfs(skeletons, quiet=not finished)
             finally:
-                _sweep(expected)  # what a killed worker could not remove
-                _unmark_if_empty(out_dir)
-                _prune(made)  # the folders made for takes that failed
-    for row, (inp, files) in zip(rows, todo):  # the paths as the caller gave them
-        row.update(input=str(inp), output=str(files["output"]))
-        if row["status"] == "done" and inp in again:
-            row["reason"] = again[inp]
-        elif row["status"] == "failed":  # the worker's absolute paths, as the caller gave them
-            row["reason"] = row["reason"].replace(_abs(files["output"]), str(files["output"]))
-    summary.rows += rows
+                sweep(expected)  # what a killed worker could not remove
+                unmark_if_empty(out_dir)
+                prune(made)  # the folders made for takes that failed
+    summary.rows += [r for r in rows if r is not None]
     summary.rows.sort(key=lambda r: r["input"])
+    if summary.stopped:
+        summary.not_started = sum(r is None for r in rows)
+        complete = summary.count("done") + summary.count("skipped")
+        summary.stopped = (f"{summary.stopped}; stopped: {complete} of {total} takes complete, "
+                           f"{summary.not_started} not started; the same command resumes the rest")
     summary.seconds = time.perf_counter() - t0
     return summary
+
+
+def _as_given(row: dict, inp: Path, files: dict, again: str | None) -> None:
+    """A worker's row with the paths as the caller gave them (the worker saw absolute ones); ``again``: why a
+    take done before was cleaned again."""
+    row.update(input=str(inp), output=str(files["output"]))
+    if row["status"] == "done" and again:
+        row["reason"] = again
+    elif row["status"] == "failed":
+        row["reason"] = row["reason"].replace(_abs(files["output"]), str(files["output"]))
 
 
 def _asf_copies(inputs: list[Path], plans: list[dict], asf, overwrite: bool) -> dict[Path, tuple[Path, list[str]]]:
@@ -821,109 +865,9 @@ def _place_asfs(skeletons: dict[Path, tuple[Path, list[str]]], quiet: bool = Fal
                                             f"with ({exc.strerror or exc})") from None
 
 
-@contextmanager
-def _only_batch(out_dir: Path):
-    """Hold an exclusive lock on ``out_dir`` (``flock`` on the folder) while a batch writes into it.
-
-    Two batches into one folder would sweep each other's staging folders and judge each other's half-written
-    takes; the second is refused in one line instead. The folder is made first (:func:`_prune` removes it
-    again if nothing was written). Without ``fcntl`` (not POSIX), or where the file system refuses locks, no lock.
-    """
-    try:
-        import fcntl
-    except ImportError:  # pragma: no cover - not POSIX
-        yield
-        return
-    out_dir.mkdir(parents=True, exist_ok=True)
-    fd = os.open(out_dir, os.O_RDONLY)
-    try:
-        try:
-            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
-        except BlockingIOError:
-            raise MocapFormatError(out_dir, "another clean-batch is writing into this folder; wait for it to end, "
-                                            "or choose another output folder") from None
-        except OSError:  # a file system without locks (some network mounts)
-            pass
-        yield
-    finally:
-        os.close(fd)
-
-
 def _abs(p) -> str:
     return os.path.abspath(os.fspath(p))
 
 
 def _below(p: Path, folder: Path) -> bool:
     return p == folder or folder in p.parents
-
-
-def _marked_input(out_dir: Path) -> Path | None:
-    """The IN_DIR an earlier batch recorded in its :data:`BATCH_MARK`, when it lies inside that OUT_DIR."""
-    try:
-        recorded = Path(json.loads((out_dir / BATCH_MARK).read_text(encoding="utf-8"))["input"])
-    except (OSError, ValueError, KeyError, TypeError):
-        return None
-    try:
-        rel = recorded.relative_to(out_dir.resolve())
-    except ValueError:
-        return None
-    return out_dir / rel if rel.parts else None
-
-
-def _mark(out_dir: Path, in_dir: Path) -> None:
-    """Leave :data:`BATCH_MARK` in OUT_DIR (atomically): a later batch of a folder above it leaves it out."""
-    from .io import atomic_write
-
-    mark = Path(out_dir) / BATCH_MARK
-    text = json.dumps({"format": 1, "what": "outputs of mocapkit clean-batch", "input": str(Path(in_dir).resolve())})
-    if mark.is_file() and mark.read_text(encoding="utf-8", errors="replace") == text:
-        return
-    with atomic_write(mark, "w", encoding="utf-8") as fh:
-        fh.write(text)
-
-
-def _unmark_if_empty(out_dir: Path) -> None:
-    """Remove :data:`BATCH_MARK` again when no take was written beside it (an interrupted or failed first run)."""
-    mark = Path(out_dir) / BATCH_MARK
-    try:
-        if mark.is_file() and not any(p != mark and not p.is_dir() for p in Path(out_dir).rglob("*")):
-            mark.unlink()
-    except OSError:
-        pass
-
-
-def _prune(folders: list[Path]) -> None:
-    """Remove the folders of :func:`mocapkit.io.outputs.missing_folders` that the batch made and left empty (no take of theirs was
-    written), deepest first; a folder holding anything stays."""
-    for f in folders:
-        try:
-            f.rmdir()
-        except OSError:  # not empty, or never made
-            pass
-
-
-def _sweep(paths) -> None:
-    """Remove what a killed worker left beside ``paths``: ``.NAME.*.part`` temporaries and staging folders.
-
-    One listing per folder (not one glob per path): a corpus of N takes costs O(N).
-    """
-    by_folder: dict[Path, set] = {}
-    for p in paths:
-        p = Path(p)
-        by_folder.setdefault(p.parent, set()).add(p.name)
-    for folder, names in by_folder.items():
-        try:
-            entries = list(os.scandir(folder))
-        except OSError:  # not made yet, or unreadable: nothing of ours there
-            continue
-        for entry in entries:
-            stem = entry.name[1:-len(".part")].rpartition(".")[0]  # .NAME.RANDOM.part -> NAME (RANDOM has no dot)
-            if not (entry.name.startswith(".") and entry.name.endswith(".part") and stem in names):
-                continue
-            try:
-                if entry.is_dir(follow_symlinks=False):
-                    shutil.rmtree(entry.path)
-                else:
-                    os.unlink(entry.path)
-            except OSError:
-                pass

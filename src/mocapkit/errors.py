@@ -7,7 +7,7 @@ import os
 import re
 
 __all__ = ["MocapError", "MocapFormatError", "MissingFileError", "SkeletonError", "LicenceWarning", "TEMP_NAME",
-           "os_error_line"]
+           "os_error_line", "OUTPUT_STOPPERS", "output_stopper"]
 
 
 class MocapError(Exception):
@@ -80,4 +80,29 @@ def os_error_line(exc: OSError) -> str:
         reason = "no space left on the device"
     elif exc.errno == errno.EROFS:
         reason = "read-only file system"
+    elif exc.errno == errno.EDQUOT:
+        reason = "disk quota exceeded"
     return f"{name}: {reason}" if name else reason
+
+
+#: Filesystem errors that no later write to the same place can escape: a full disk, a used-up quota, a read-only
+#: file system. A batch stops at the first one instead of failing every take after it the same way.
+OUTPUT_STOPPERS = frozenset({errno.ENOSPC, errno.EDQUOT, errno.EROFS})
+
+
+def output_stopper(exc: BaseException) -> str | None:
+    """The errno name (``"ENOSPC"``, ``"EDQUOT"``, ``"EROFS"``) when ``exc``, or an exception it was raised from or
+    while handling, is an :class:`OSError` of :data:`OUTPUT_STOPPERS`; else None.
+
+    >>> output_stopper(OSError(errno.ENOSPC, "No space left on device"))
+    'ENOSPC'
+    >>> output_stopper(PermissionError(errno.EACCES, "Permission denied")) is None
+    True
+    """
+    seen: set[int] = set()
+    while exc is not None and id(exc) not in seen:
+        seen.add(id(exc))
+        if isinstance(exc, OSError) and exc.errno in OUTPUT_STOPPERS:
+            return errno.errorcode[exc.errno]
+        exc = exc.__cause__ or exc.__context__
+    return None

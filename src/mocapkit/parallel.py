@@ -12,7 +12,10 @@ through :func:`map_ordered`. ``executor`` chooses where it runs:
   ``distributed.Client``, a Ray ``ray.util.ActorPool``-like wrapper): used as is.
 
 Results come back in input order; progress is shown with tqdm. An
-interrupt (Ctrl-C) cancels what has not started and re-raises.
+``on_result`` callback sees each result in this process as soon as it is
+done (completion order), and may stop the work: a log then holds every
+finished item even if the run is cut short. An interrupt (Ctrl-C) cancels
+what has not started and re-raises.
 
 :func:`check_executor` refuses anything else in one line
 (:class:`~mocapkit.errors.MocapError`) before any work starts; a scheduler
@@ -43,7 +46,7 @@ import struct
 import sys
 import threading
 import time
-from concurrent.futures import Executor, ProcessPoolExecutor, as_completed
+from concurrent.futures import CancelledError, Executor, ProcessPoolExecutor, as_completed
 from contextlib import contextmanager
 from concurrent.futures.process import BrokenProcessPool
 from typing import Callable, Sequence
@@ -264,11 +267,17 @@ def map_ordered(
     desc: str | None = None,
     max_workers: int | None = None,
     done: int = 0,
+    on_result: Callable[[int, object], bool | None] | None = None,
 ) -> list:
     """``[fn(item) for item in items]``, run on ``executor`` (see the module docstring), in input order.
 
     ``fn`` and the items must be picklable for anything but ``"serial"``. ``done``: items of the same
-    job the caller already did (the progress bar counts them).
+    job the caller already did (the progress bar counts them). ``on_result(index, result)``: called in
+    this process as each item finishes, in completion order, with the progress bar cleared while it
+    runs (it may print); a true return stops the work: items not started are dropped (their slots
+    stay None), items under way on local processes or a ``concurrent.futures`` executor are waited
+    for and passed to ``on_result`` too, and on Dask they are cancelled (:func:`owner_alive` turns
+    false for them).
     The first exception raised by ``fn`` is re-raised here after the
     remaining work is cancelled. ``executor`` is checked first
     (:func:`check_executor`): a bad one raises :class:`MocapError`.
@@ -284,16 +293,18 @@ def map_ordered(
     bar = tqdm(total=n + done, initial=done, desc=desc, disable=bar_disabled(progress), unit="item", leave=False)
     try:
         if executor == "serial" or (executor in (None, "processes") and (n == 1 or (max_workers or os.cpu_count() or 1) == 1)):
-            out = []
-            for it in items:
-                out.append(fn(it))
+            out = [None] * n
+            for k, it in enumerate(items):
+                out[k] = fn(it)
                 bar.update(1)
+                if _tell(on_result, k, out[k]):
+                    break
             return out
         if executor in (None, "processes"):
             workers = min(n, max_workers or os.cpu_count() or 1)
             pool = ProcessPoolExecutor(max_workers=workers, initializer=_die_with_parent, initargs=(os.getpid(),))
             try:
-                out = _run(pool, fn, items, bar, as_completed, cancel=False, quiet_start=True)
+                out = _run(pool, fn, items, bar, as_completed, cancel=False, quiet_start=True, on_result=on_result)
                 pool.shutdown(wait=True)
             except BrokenProcessPool:
                 _stop_pool(pool)
@@ -304,18 +315,54 @@ def map_ordered(
                 raise
             return out
         if isinstance(executor, str):
-            return _run_dask(executor, fn, items, bar)
+            return _run_dask(executor, fn, items, bar, on_result)
         if _is_dask_client(executor):
             from distributed import as_completed as dask_as_completed
 
-            return _run(executor, fn, items, bar, dask_as_completed)
-        return _run(executor, fn, items, bar, as_completed)
+            return _run(executor, fn, items, bar, dask_as_completed, on_result=on_result)
+        return _run(executor, fn, items, bar, as_completed, on_result=on_result)
     finally:
         bar.close()
 
 
-def _run(pool, fn, items, bar, completed, cancel: bool = True, quiet_start: bool = False) -> list:
-    """Submit every item, then gather the results in input order. ``quiet_start``: SIGINT is held back
+def _tell(on_result, k: int, result) -> bool:
+    """``on_result(k, result)`` with the progress bar cleared meanwhile; True when it asks to stop."""
+    if on_result is None:
+        return False
+    with tqdm.external_write_mode():
+        return bool(on_result(k, result))
+
+
+def _cancelled(fut) -> bool:
+    """True for a future that was cancelled (a ``concurrent.futures`` or a Dask one)."""
+    return fut.cancelled() if callable(getattr(fut, "cancelled", None)) else getattr(fut, "status", "") == "cancelled"
+
+
+def _finish_stopped(futures: dict, got: set, out: list, bar, on_result) -> None:
+    """After ``on_result`` asked to stop: cancel what has not finished; the items still under way that cannot be
+    cancelled (a local worker's) are waited for and passed to ``on_result``, and so is any result already in."""
+    for fut, k in futures.items():
+        if k not in got and not fut.done():
+            fut.cancel()
+    for fut, k in futures.items():
+        if k in got or _cancelled(fut):
+            continue
+        try:
+            out[k] = fut.result()
+        except CancelledError:
+            continue
+        except Exception as exc:  # a Dask future cancelled meanwhile raises its own kind
+            if "Cancelled" in type(exc).__name__:
+                continue
+            raise
+        got.add(k)
+        bar.update(1)
+        _tell(on_result, k, out[k])
+
+
+def _run(pool, fn, items, bar, completed, cancel: bool = True, quiet_start: bool = False, on_result=None) -> list:
+    """Submit every item, then gather the results in input order (``on_result``: :func:`map_ordered`'s).
+    ``quiet_start``: SIGINT is held back
     while the items are submitted, when a local pool forks its workers: a worker forked with it pending
     would die of it before its initializer ignores it, breaking the pool; the parent takes it after."""
     held = quiet_start and _hold_sigint()
@@ -325,10 +372,16 @@ def _run(pool, fn, items, bar, completed, cancel: bool = True, quiet_start: bool
         if held:
             signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
     out: list = [None] * len(items)
+    got: set = set()
     try:
         for fut in completed(list(futures)):
-            out[futures[fut]] = fut.result()
+            k = futures[fut]
+            out[k] = fut.result()
+            got.add(k)
             bar.update(1)
+            if _tell(on_result, k, out[k]):
+                _finish_stopped(futures, got, out, bar, on_result)
+                break
     except BaseException:
         for fut in futures if cancel else ():
             fut.cancel()
@@ -350,7 +403,7 @@ def _stop_pool(pool: ProcessPoolExecutor) -> None:
     Python 3.11's pool manager: it set an exception on a cancelled future when the pool broke
     (InvalidStateError in its thread), and the exit then waited on it for ever (4 of 10 interrupted
     ``db build`` runs hung). Killed workers leave nothing of theirs behind that a caller does not
-    sweep (``batch._sweep``); there is no public way to kill them before Python 3.14.
+    sweep (``batch_folder.sweep``); there is no public way to kill them before Python 3.14.
     """
     procs = list((getattr(pool, "_processes", None) or {}).values())
     writer = getattr(getattr(pool, "_result_queue", None), "_writer", None)  # before shutdown() drops the queue
@@ -381,13 +434,13 @@ def _stop_pool(pool: ProcessPoolExecutor) -> None:
         pass
 
 
-def _run_dask(spec: str, fn, items, bar) -> list:
+def _run_dask(spec: str, fn, items, bar, on_result=None) -> list:
     from distributed import Client, LocalCluster, as_completed as dask_as_completed
 
     if spec == "dask":
         with LocalCluster(n_workers=os.cpu_count() or 1, threads_per_worker=1, processes=True, dashboard_address=None) as cluster:
             with Client(cluster) as client:
-                return _run(client, fn, items, bar, dask_as_completed)
+                return _run(client, fn, items, bar, dask_as_completed, on_result=on_result)
     with _quiet_dask():
         try:
             client = Client(spec, timeout=_PROBE_S * 2)
@@ -400,7 +453,7 @@ def _run_dask(spec: str, fn, items, bar) -> list:
             except Exception:  # distributed's TimeoutError
                 raise MocapError(f"--executor {spec}: the scheduler has no workers (none joined within {WORKERS_S:g} s); "
                                  f"start some with `dask worker {spec}`") from None
-            return _run_remote(client, spec, fn, items, bar)
+            return _run_remote(client, spec, fn, items, bar, on_result)
 
 
 #: seconds a remote scheduler may go without a worker (at the start, or once they are all gone) before the work stops
@@ -423,7 +476,7 @@ def _quiet_dask():
             lg.setLevel(level)
 
 
-def _run_remote(client, spec: str, fn, items, bar) -> list:
+def _run_remote(client, spec: str, fn, items, bar, on_result=None) -> list:
     """:func:`_run` on a remote scheduler's client, watched: when no worker is left for :data:`WORKERS_S` seconds,
     or the scheduler is lost, the work stops with one line saying how much of it was done (a rerun resumes it)."""
     from distributed import as_completed as dask_as_completed
@@ -431,6 +484,7 @@ def _run_remote(client, spec: str, fn, items, bar) -> list:
     futures = {client.submit(fn, it, pure=False): k for k, it in enumerate(items)}
     out: list = [None] * len(items)
     done, seen_workers, asked = 0, time.monotonic(), 0.0
+    got: set = set()
     pending = dask_as_completed(list(futures))
     try:
         while not pending.is_empty():
@@ -456,7 +510,11 @@ def _run_remote(client, spec: str, fn, items, bar) -> list:
                                          f"{done} of {len(items)} done (a rerun resumes)") from None
                     raise
                 done += 1
+                got.add(futures[fut])
                 bar.update(1)
+                if _tell(on_result, futures[fut], out[futures[fut]]):
+                    _finish_stopped(futures, got, out, bar, on_result)
+                    return out
     except BaseException:
         for fut in futures:
             fut.cancel()

@@ -172,6 +172,9 @@ def test_clean_batch_on_local_dask_cluster(tmp_path, capsys):
     text = capsys.readouterr().out
     assert rc == 0, text
     assert "3 cleaned" in text and "dask" in text
+    # each take's line as it finished, counted (stdout is no terminal here), then the totals
+    assert [(ln[:len("cleaned ")], ln[-len(" [k/3]"):]) for ln in text.splitlines()[:3]] == \
+        [("cleaned ", f" [{k}/3]") for k in (1, 2, 3)]
     serial = tmp_path / "serial"
     assert main(["clean-batch", str(src), str(serial), "--executor", "serial", "--steps", "fill,denoise"]) == 0
     capsys.readouterr()
@@ -548,3 +551,79 @@ def test_clean_batch_names_a_renamed_take_and_what_an_npz_output_leaves_out(tmp_
         assert sum(ln.startswith(f"note: {src / name}: its files are named after its format") for ln in lines) == 1, text
     lost = [ln for ln in lines if "not written" in ln]
     assert len(lost) == 1 and "take-bvh.npz" in lost[0] and "'Sword'" in lost[0], text
+
+
+# -- a batch's log --------------------------------------------------------------------------------
+
+
+def test_a_batch_logged_to_a_file_says_each_take_as_it_finishes_and_keeps_it_when_interrupted(tmp_path):
+    """Trial 25: `clean-batch IN OUT > log` printed its per-take lines only when the batch returned, so a log had
+    none of the 53 takes written before Ctrl-C. Each line is in the file as soon as its take is done, with how
+    far the batch is, since no progress bar is drawn there."""
+    src, out = tmp_path / "in", tmp_path / "out"
+    src.mkdir()
+    short = src / "t000.bvh"
+    mocapkit.save(mocapkit.load(samples.path("131_01.bvh"))[:40], short)
+    for k in range(1, 120):
+        (src / f"t{k:03d}.bvh").write_bytes(short.read_bytes())
+    log = tmp_path / "log"
+    env = {k: v for k, v in os.environ.items() if k not in ("PYTHONUNBUFFERED", "MOCAPKIT_PROGRESS")}
+    with open(log, "wb") as fh:  # stdout to a file: block-buffered, no terminal
+        proc = subprocess.Popen([sys.executable, "-m", "mocapkit.cli", "clean-batch", str(src), str(out),
+                                 "--steps", "fill", "--context", "none", "--executor", "serial"],
+                                stdout=fh, stderr=subprocess.PIPE, env=env, cwd=tmp_path,
+                                preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
+        try:
+            # ready: two takes' lines are in the log (on the code that printed at the end, never before it ends)
+            while proc.poll() is None and log.read_text().count("\ncleaned ") < 1:
+                threading.Event().wait(0.05)
+            assert proc.poll() is None, "the batch ended before a line reached its log"
+            proc.send_signal(signal.SIGINT)
+            _, err = proc.communicate(timeout=600)
+        finally:
+            if proc.poll() is None:
+                proc.kill()
+    assert proc.returncode == 130, err
+    lines = log.read_text().splitlines()
+    cleaned = [ln for ln in lines if ln.startswith("cleaned ")]
+    complete = sorted(p.name for p in out.glob("*.clean.npz"))
+    assert 2 <= len(cleaned) < 120
+    assert len(complete) - 1 <= len(cleaned) <= len(complete)  # at most the take the interrupt caught went unsaid
+    for n, line in enumerate(cleaned, 1):
+        found = re.fullmatch(rf"cleaned {re.escape(str(src))}/(t\d+)\.bvh -> .* \[{n}/120\]", line)
+        assert found, line
+        assert f"{found[1]}.clean.npz" in complete
+    assert lines[-1].startswith("note: the takes finished in")
+
+
+def test_a_full_disk_stops_clean_batch_in_one_line(tmp_path, monkeypatch):
+    """Trial 25: a full output folder failed every later take the same way; the batch stops and says how to go
+    on (a rerun resumes), after the lines of the takes it did."""
+    import errno
+
+    import mocapkit.batch as batch
+
+    src = tmp_path / "in"
+    src.mkdir()
+    for k in range(4):
+        mocapkit.save(mocapkit.load(samples.path("131_01.bvh"))[:40], src / f"t{k}.bvh")
+    real = batch.clean_file
+    tried = []
+
+    def fills_up(inp, staged, **kwargs):
+        tried.append(inp)
+        if len(tried) > 1:
+            raise OSError(errno.ENOSPC, "No space left on device", str(staged))
+        return real(inp, staged, **kwargs)
+
+    monkeypatch.setattr(batch, "clean_file", fills_up)
+    code, text, err = helpers.run("clean-batch", src, tmp_path / "out", "--steps", "fill", "--context", "none",
+                                  "--executor", "serial")
+    assert code == 2 and helpers.one_error_line(err), err
+    assert len(tried) == 2
+    assert "no space left on the device; stopped: 1 of 4 takes complete, 2 not started; the same command " \
+           "resumes the rest" in err
+    lines = text.splitlines()
+    assert lines[0].startswith("cleaned ") and lines[0].endswith(" [1/4]")
+    assert lines[1].startswith("failed ") and lines[1].endswith(" [2/4]")
+    assert lines[2].endswith("1 cleaned, 0 already complete, 1 failed, 2 not started")

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import sys
 from pathlib import Path
 from typing import Optional
 
@@ -321,9 +322,11 @@ def clean_batch(
     complete takes are skipped, so running the command again resumes, and a take whose input was
     replaced since is cleaned again. Takes of one folder that would share a file (take.amc and take.bvh,
     take.bvh and take.c3d) are named after their input's format (take-amc.bvh, take-bvh.bvh, take-c3d.c3d),
-    each said in a note line. Every output is
-    checked against every input before any take is cleaned. Prints one line per take; exits 1 if any
-    take failed.
+    each said in a note line. Every output is checked against every input before any take is cleaned.
+    Prints one line per take as it finishes (completion order; the complete ones first), each ending
+    "[N/TOTAL]" when stdout is not a terminal, then the totals; exits 1 if any take failed. A full disk,
+    a used-up quota or a read-only file system stops the batch: the takes under way finish, the rest are
+    left for a rerun to resume.
     """
     from ..batch import clean_batch as run_batch
     check_executor(executor)
@@ -332,31 +335,37 @@ def clean_batch(
     if not patterns:
         raise MocapError("--pattern: give at least one file name pattern, e.g. '*.bvh,*.amc'")
     models = _models(ebf, ebd)
+    counted = not sys.stdout.isatty()  # no bar in a log: each line says how far the batch is, after its take
+
+    def print_row(row: dict, n: int, total: int) -> None:
+        console.print(_take_line(row) + (f" [{n}/{total}]" if counted else ""))
+        for note in row.get("warnings", ()):  # as clean says them: a fallback, a model's licence
+            console.print(f"warning: {row['input']}: {note}")
+
     try:
         summary = run_batch(in_dir, out_dir, context=context, steps=step_list, threshold=threshold, patterns=patterns,
                             fmt=fmt, report=report, png=png, executor=executor, progress=not as_json,
                             overwrite=overwrite, asf=asf, drifts=drifts, models=models, amc_fps=amc_fps, unit=unit,
                             max_gap_s=max_gap, max_error_mm=max_fill_error,
-                            noise_deg=noise_deg)
+                            noise_deg=noise_deg, on_row=None if as_json else print_row)
     except KeyboardInterrupt:  # "no partial output" alone reads as if nothing was kept
         if out_dir.is_dir() and any(out_dir.rglob("*.clean.npz")):
             console.print(f"note: the takes finished in {out_dir} are kept; the same command resumes the others")
         raise
     if as_json:
         print(json.dumps({"rows": summary.rows, "seconds": summary.seconds, "executor": summary.executor,
-                          "earlier": summary.earlier, "renamed": summary.renamed}))
+                          "earlier": summary.earlier, "renamed": summary.renamed, "stopped": summary.stopped}))
     else:
         for folder in summary.earlier:
             console.print(f"left out {folder}: an earlier batch's outputs")
         for name in summary.renamed:
             console.print(f"note: {name}: its files are named after its format ({Path(name).suffix[1:].lower()}): "
                           "another take of its folder has the same stem")
-        for row in summary.rows:
-            console.print(_take_line(row))
-            for note in row.get("warnings", ()):  # as clean says them: a fallback, a model's licence
-                console.print(f"warning: {row['input']}: {note}")
-        console.print(f"{plural(len(summary.rows), 'take')} on {summary.executor} in {summary.seconds:.1f} s: "
-                      f"{summary.count('done')} cleaned, {summary.count('skipped')} already complete, "
-                      f"{summary.count('failed')} failed")
+        console.print(f"{plural(len(summary.rows) + summary.not_started, 'take')} on {summary.executor} in "
+                      f"{summary.seconds:.1f} s: {summary.count('done')} cleaned, {summary.count('skipped')} already "
+                      f"complete, {summary.count('failed')} failed"
+                      + (f", {summary.not_started} not started" if summary.stopped else ""))
+    if summary.stopped:  # a full disk: one error line, as any command says a filesystem error (exit 2)
+        raise MocapError(summary.stopped)
     if summary.failed:
         raise typer.Exit(1)
