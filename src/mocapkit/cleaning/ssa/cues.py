@@ -523,7 +523,8 @@ def offsets_from_residuals(q, resid, fps, jump_deg, max_s, min_offset_deg, joint
     steps apart, and paired only in turn the error went unflagged (:func:`_undoing_pairs`). With
     ``digression`` (F, J) radians (NaN: not judged) given, such a pair with events between counts only where
     the stretch between digresses from the neighbour words and the frames beside it do not
-    (:func:`stands_out`); without, only successive events pair. The events left pair in turn as before.
+    (:func:`stands_out`); without, only successive events pair. The events left pair in turn as before, loosely
+    (:mod:`~mocapkit.cleaning.ssa.step_pairs`), with ``digression`` only where their stretch stands out too.
     """
     from ...motion import mirror_pairs
 
@@ -555,9 +556,12 @@ def offsets_from_residuals(q, resid, fps, jump_deg, max_s, min_offset_deg, joint
         def apart(a, b):  # a pair with events between: the stretch alone differs from the neighbour words
             return digression is not None and stands_out(digression[:, j], a + 1, b + 1)
 
+        def loose_pair(k, m):  # opposite steps, the stretch between standing out where the digression is at hand
+            return back(k, m) and (digression is None or apart(starts[k], starts[m]))
+
         strict = _undoing_pairs(starts, longest, undoes, apart)
         taken = {k for pair in strict for k in pair}
-        loose = _paired_events(starts, longest, back, skip=taken)
+        loose = _paired_events(starts, longest, loose_pair, skip=taken)
         pairs[j] = sorted([(starts[k], starts[m]) for k, m in strict] + loose)
     return _single_joint_offsets(pairs, F, J, partner)
 

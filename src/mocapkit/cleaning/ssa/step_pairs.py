@@ -13,6 +13,17 @@ hand spinning 110-155 deg a frame on frames 127-131) was paired with an 11 deg
 one-frame twitch at frame 160, and the 25 frames of real hand motion between
 were turned 67-78 deg while the spin stayed. Steps are rotation vectors (3,) in
 radians, as the cues measure them.
+
+Where the movement digression is at hand, a loose pair also needs the stretch
+between to stand out from the frames beside it, as a pair with events between
+does (:func:`~mocapkit.cleaning.ssa.cues.stands_out`: an error's offset is the
+take's alone, Aristidou et al. 2018, sec. 3.4); two steps that merely point
+opposite ways are weaker evidence than a step and its inverse. In the same
+backflip the right hand's 69 deg step at frame 134 ends a fast 6-frame swing and
+a 6-frame spin burst (146-162 deg a frame, frames 160-165) 25 frames later points
+roughly back; the smooth frames between hold the hand where it is before the
+flip and after the burst, digress no more than the flip beside them, and were
+turned 40-72 deg.
 """
 
 from __future__ import annotations
