@@ -4,8 +4,8 @@ import pytest
 import mocapkit
 from mocapkit import rotations as R
 from mocapkit.cleaning import ssa
-from mocapkit.cleaning.ssa import cues
-from mocapkit.cleaning.ssa.step_pairs import RETURN_RATIO, UNDO_RATIO, returns, steps_back, undo_left
+from mocapkit.cleaning.ssa.step_pairs import (MAX_STEP_FRAMES, RETURN_RATIO, UNDO_RATIO, is_step, returns,
+                                              steps_back, undo_left)
 from tests.cleaning.ssa.helpers import turned
 
 
@@ -35,24 +35,16 @@ def test_a_step_back_that_takes_back_little_of_the_step_off_ends_no_transient_of
     assert np.flatnonzero(ssa.transient_offsets(back)[:, j]).tolist() == list(range(400, 450))
 
 
-def test_a_loose_pair_needs_its_stretch_to_stand_out_where_the_digression_is_at_hand(walk):
-    """The loose pair of the test above (40 deg off, 28 deg back) ends an offset where the stretch between digresses
-    from the neighbour words twice as much as the frames beside it; judged like them, or not judged, it ends none."""
-    back, j = turned(walk, "LeftElbow", np.arange(400, walk.num_frames), 40.0)
-    back, _ = turned(back, "LeftElbow", np.arange(450, walk.num_frames), -28.0)
-    q = np.asarray(back.rotations, dtype=np.float64)
-    sk = back.skeleton
-
-    def offsets(digression):
-        return cues.offsets_from_residuals(q, cues.midpoint_residuals(q), back.fps, 7.0, 1.0, 10.0, None,
-                                           sk.joint_names, sk.parents, digression)[:, j]
-
-    d = np.full(q.shape[:2], np.radians(3.0))
-    assert not offsets(d).any()  # the stretch digresses as little as the motion beside it
-    d[400:451, j] = np.radians(20.0)
-    assert np.flatnonzero(offsets(d)).tolist() == list(range(400, 450))
-    assert not offsets(np.full(q.shape[:2], np.nan)).any()  # nothing judged: no evidence for the weaker pair
-    assert np.flatnonzero(offsets(None)).tolist() == list(range(400, 450))  # without a digression, as before
+def test_a_loose_pair_needs_two_steps_not_a_step_and_a_burst(walk):
+    """The loose pair of the test above (40 deg off, 28 deg back) ends an offset where the step back is a jump
+    between two frames; where the joint comes back through a 5-frame burst of 150 deg spins instead, the burst is
+    no step back and the stretch before it no offset."""
+    off, j = turned(walk, "LeftElbow", np.arange(400, walk.num_frames), 40.0)
+    back, _ = turned(off, "LeftElbow", np.arange(450, walk.num_frames), -28.0)
+    assert np.flatnonzero(ssa.transient_offsets(back)[:, j]).tolist() == list(range(400, 450))
+    burst, _ = turned(back, "LeftElbow", np.arange(450, 455), [150.0, -150.0, 150.0, -150.0, 150.0])
+    assert not ssa.transient_offsets(burst)[:, j][400:450].any()
+    assert is_step(1) and is_step(MAX_STEP_FRAMES) and not is_step(MAX_STEP_FRAMES + 1) and not is_step(0)
 
 
 @pytest.fixture(scope="module")

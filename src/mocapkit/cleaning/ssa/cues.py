@@ -16,7 +16,7 @@ from ... import rotations as R
 from ...motion import Motion
 from ..ik import contact_segments, segment_frames
 from .params import SSAParams
-from .step_pairs import UNDO_RATIO, returns, steps_back
+from .step_pairs import UNDO_RATIO, is_step, returns, steps_back
 
 __all__ = [
     "unshared_offsets",
@@ -524,7 +524,7 @@ def offsets_from_residuals(q, resid, fps, jump_deg, max_s, min_offset_deg, joint
     ``digression`` (F, J) radians (NaN: not judged) given, such a pair with events between counts only where
     the stretch between digresses from the neighbour words and the frames beside it do not
     (:func:`stands_out`); without, only successive events pair. The events left pair in turn as before, loosely
-    (:mod:`~mocapkit.cleaning.ssa.step_pairs`), with ``digression`` only where their stretch stands out too.
+    (two roughly opposite steps, each a jump and not a burst: :mod:`~mocapkit.cleaning.ssa.step_pairs`).
     """
     from ...motion import mirror_pairs
 
@@ -542,6 +542,7 @@ def offsets_from_residuals(q, resid, fps, jump_deg, max_s, min_offset_deg, joint
         if parents is not None and keep.any():
             keep[keep] = ~_compensated(q, parents, int(j), first[keep], last[keep])
         starts, steps = [int(f) for f in first[keep]], list(step[keep])
+        spans = (last[keep] - first[keep] + 1).tolist()
         own = event_steps(q[:, j], first[keep], last[keep], own_frame=True)
 
         def back(k, m):  # the second step points roughly opposite the first (a half turn has no sign)
@@ -556,8 +557,8 @@ def offsets_from_residuals(q, resid, fps, jump_deg, max_s, min_offset_deg, joint
         def apart(a, b):  # a pair with events between: the stretch alone differs from the neighbour words
             return digression is not None and stands_out(digression[:, j], a + 1, b + 1)
 
-        def loose_pair(k, m):  # opposite steps, the stretch between standing out where the digression is at hand
-            return back(k, m) and (digression is None or apart(starts[k], starts[m]))
+        def loose_pair(k, m):  # roughly opposite steps, each a jump between two frames, not a burst
+            return back(k, m) and is_step(spans[k]) and is_step(spans[m])
 
         strict = _undoing_pairs(starts, longest, undoes, apart)
         taken = {k for pair in strict for k in pair}
