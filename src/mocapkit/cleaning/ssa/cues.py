@@ -342,7 +342,8 @@ def transient_offsets(
     directions (cosine at most -0.5; a half turn has no sign, so two steps
     near 180 deg pair either way), the second turning at least half as far
     as the first (:func:`~mocapkit.cleaning.ssa.step_pairs.returns`: a twitch
-    after a step leaves the joint as far off) and start at most ``max_s`` apart are
+    after a step leaves the joint as far off), each event a step and not a burst of several frames
+    (:func:`~mocapkit.cleaning.ssa.step_pairs.is_step`) and start at most ``max_s`` apart are
     flagged from the frame after the first event's first frame to the second
     event's first frame (a step between frames f and f + 1 shows at both).
     Pairs are taken in time order, as in :func:`side_swaps`, after the pairs
