@@ -16,7 +16,7 @@ from ... import rotations as R
 from ...motion import Motion
 from ..ik import contact_segments, segment_frames
 from .params import SSAParams
-from .step_pairs import UNDO_RATIO, returns, steps_back
+from .step_pairs import UNDO_RATIO, is_step, returns, steps_back
 
 __all__ = [
     "unshared_offsets",
@@ -342,7 +342,8 @@ def transient_offsets(
     directions (cosine at most -0.5; a half turn has no sign, so two steps
     near 180 deg pair either way), the second turning at least half as far
     as the first (:func:`~mocapkit.cleaning.ssa.step_pairs.returns`: a twitch
-    after a step leaves the joint as far off) and start at most ``max_s`` apart are
+    after a step leaves the joint as far off), each event a step and not a burst of several frames
+    (:func:`~mocapkit.cleaning.ssa.step_pairs.is_step`) and start at most ``max_s`` apart are
     flagged from the frame after the first event's first frame to the second
     event's first frame (a step between frames f and f + 1 shows at both).
     Pairs are taken in time order, as in :func:`side_swaps`, after the pairs
@@ -523,7 +524,8 @@ def offsets_from_residuals(q, resid, fps, jump_deg, max_s, min_offset_deg, joint
     steps apart, and paired only in turn the error went unflagged (:func:`_undoing_pairs`). With
     ``digression`` (F, J) radians (NaN: not judged) given, such a pair with events between counts only where
     the stretch between digresses from the neighbour words and the frames beside it do not
-    (:func:`stands_out`); without, only successive events pair. The events left pair in turn as before.
+    (:func:`stands_out`); without, only successive events pair. The events left pair in turn as before, loosely
+    (two roughly opposite steps, each a jump and not a burst: :mod:`~mocapkit.cleaning.ssa.step_pairs`).
     """
     from ...motion import mirror_pairs
 
@@ -541,6 +543,7 @@ def offsets_from_residuals(q, resid, fps, jump_deg, max_s, min_offset_deg, joint
         if parents is not None and keep.any():
             keep[keep] = ~_compensated(q, parents, int(j), first[keep], last[keep])
         starts, steps = [int(f) for f in first[keep]], list(step[keep])
+        spans = (last[keep] - first[keep] + 1).tolist()
         own = event_steps(q[:, j], first[keep], last[keep], own_frame=True)
 
         def back(k, m):  # the second step points roughly opposite the first (a half turn has no sign)
@@ -555,9 +558,12 @@ def offsets_from_residuals(q, resid, fps, jump_deg, max_s, min_offset_deg, joint
         def apart(a, b):  # a pair with events between: the stretch alone differs from the neighbour words
             return digression is not None and stands_out(digression[:, j], a + 1, b + 1)
 
+        def loose_pair(k, m):  # roughly opposite steps, each a jump between two frames, not a burst
+            return back(k, m) and is_step(spans[k]) and is_step(spans[m])
+
         strict = _undoing_pairs(starts, longest, undoes, apart)
         taken = {k for pair in strict for k in pair}
-        loose = _paired_events(starts, longest, back, skip=taken)
+        loose = _paired_events(starts, longest, loose_pair, skip=taken)
         pairs[j] = sorted([(starts[k], starts[m]) for k, m in strict] + loose)
     return _single_joint_offsets(pairs, F, J, partner)
 

@@ -13,6 +13,17 @@ hand spinning 110-155 deg a frame on frames 127-131) was paired with an 11 deg
 one-frame twitch at frame 160, and the 25 frames of real hand motion between
 were turned 67-78 deg while the spin stayed. Steps are rotation vectors (3,) in
 radians, as the cues measure them.
+
+A loose pair's two events must also be *steps* (:func:`is_step`): a jump
+between two frames breaks the midpoint residuals of the two frames beside it,
+so its event spans at most :data:`MAX_STEP_FRAMES` frames. A longer event is a
+burst (a solver's joint spinning for several frames), and the constant-velocity
+paths beside it measure where the burst's recovery is heading, not a step back.
+In the same backflip the right hand's 69 deg step at frame 134 (one frame,
+ending a fast swing) was paired with the 6-frame spin burst of frames 159-164
+(146-162 deg a frame), 113 deg roughly back: the 25 smooth frames between, which
+hold the hand where it is before the flip and after frame 172, were turned
+40-72 deg while the burst stayed.
 """
 
 from __future__ import annotations
@@ -26,6 +37,9 @@ from ... import rotations as R
 UNDO_RATIO = 0.25
 #: a step back *returns* the joint when it turns at least this share of the step off
 RETURN_RATIO = 0.5
+#: the most frames a step's event spans (a jump between frames f and f + 1 breaks the residuals at both; one frame
+#: of slack where a neighbouring frame breaks too)
+MAX_STEP_FRAMES = 3
 
 
 def undo_left(a: np.ndarray, b: np.ndarray) -> float:
@@ -45,3 +59,9 @@ def steps_back(frames: tuple, k: int, m: int, ratio: float) -> bool:
 def returns(off: np.ndarray, back: np.ndarray, ratio: float = RETURN_RATIO) -> bool:
     """Whether the step ``back`` (3,) turns at least ``ratio`` times as far as the step ``off`` (3,)."""
     return bool(np.linalg.norm(back) >= ratio * np.linalg.norm(off))
+
+
+def is_step(span: int, most: int = MAX_STEP_FRAMES) -> bool:
+    """Whether a break event of ``span`` frames (its last frame less its first, plus one) is a step, a jump between
+    two frames (at most ``most`` frames), rather than a burst of several frames (:data:`MAX_STEP_FRAMES`)."""
+    return 0 < int(span) <= int(most)
