@@ -34,6 +34,8 @@ from pathlib import Path
 
 import torch
 
+from mocapkit.cleaning.deep.provenance import BANDAI_LICENCE
+
 ROOT = Path(__file__).resolve().parents[1]
 DATA = ROOT.parent / "shared" / "data"
 TEST_HOLDOUT = ("HDM_mm_", "12_from_examples", "charleston2", "11_01")
@@ -41,8 +43,6 @@ VALIDATION = ("HDM_tr_",)
 #: Bandai Namco styles held out, as (dataset, style): never trained on, never cut.
 BANDAI_TEST = ((2, "elderly"), (1, "old"), (1, "sad"), (1, "proud"))
 BANDAI_VALIDATION = ((1, "tired"), (1, "childish"))
-BANDAI_LICENCE = ("CC BY-NC 4.0: trained on the Bandai Namco Research Motiondataset "
-                  "(Bandai Namco Research Inc.); non-commercial use only")
 #: Whether each rig's gap prior meets a gap's ends by a ramp (mocapkit.cleaning.deep.prior, GapPrior.ramp), chosen
 #: on the validation clips (1-4 s whole-joint gaps at 0.5 noise, prior + EBF against lerp + 58 ms Gaussian):
 #: HDM05 "tr" 0.684x with the ramp, 0.774x without; Bandai "tired"/"childish" 0.587x with, 0.553x without.

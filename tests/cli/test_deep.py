@@ -1,6 +1,7 @@
 """`mocapkit denoise`, `mocapkit fill` and `mocapkit train` on real clips, and their one-line errors; the models
 `clean` and `clean-batch` use."""
 
+import dataclasses
 import re
 from pathlib import Path
 
@@ -529,3 +530,56 @@ def test_denoise_leaves_channels_written_as_zero_and_the_frames_beside_them(tmp_
     near = np.r_[90:100, 200:210]  # the good frames beside the run move as the rest of the take does
     moved = np.degrees(mocapkit.rotations.geodesic_angle(den.rotations[near, hip], truth.rotations[near, hip]))
     assert moved.max() < 3.0
+
+
+def test_a_model_trained_on_bandai_takes_says_its_rig_data_and_licence_wherever_it_is_used(tmp_path, shared_data):
+    """A user trial: `train` on Bandai Namco takes (CC BY-NC 4.0) wrote a model that `info` called `rig acclaim`,
+    `licence none stated`, and that denoise used without a licence line."""
+    import shutil
+
+    takes = tmp_path / "takes"
+    takes.mkdir()
+    for name in ("kick_normal_001", "punch_normal_001", "walk_tired_001"):
+        shutil.copy(shared_data / "secondary_bandai_namco_CC-BY-NC" / f"dataset-1_{name}.bvh", takes)
+    out = tmp_path / "out"
+    code, _, err = run("train", "denoiser", str(takes), "-o", str(out), "--holdout", "tired", "--epochs", "1",
+                       "--steps", "1", "--hidden", "4", "--executor", "serial")
+    assert code == 0, err
+    code, said, err = run("info", str(out / "model.pt"))
+    assert code == 0, err
+    text = " ".join(said.split())
+    assert "rig bandai_namco" in text and "acclaim" not in text
+    assert "trained on 2 takes, 582 frames" in text and f"from {takes}" in text
+    assert "held out 1 take, 247 frames (--holdout tired)" in text
+    assert "licence CC BY-NC 4.0: trained on the Bandai Namco Research Motiondataset" in text
+    code, said, err = run("denoise", str(BANDAI), "-o", str(tmp_path / "d.bvh"), "--model", str(out / "model.pt"))
+    assert code == 0, err
+    assert f"warning: {BANDAI}: the EBF used is CC BY-NC 4.0" in " ".join(said.split()) and "--model picks" in said
+    noisy, _ = corrupt.angular_noise(mocapkit.load(BANDAI), 0.5, seed=3)  # clean denoises a noisy take only
+    mocapkit.save(noisy, tmp_path / "noisy.bvh")
+    code, said, err = run("clean", str(tmp_path / "noisy.bvh"), "-o", str(tmp_path / "c.bvh"), "--ebf",
+                          str(out / "model.pt"))
+    assert code == 0, err
+    text = " ".join(said.split())
+    assert "EBF (model.pt, bandai_namco)" in text and "the EBF used is CC BY-NC 4.0" in text and "--ebf (clean" in text
+
+
+def test_train_licence_states_a_model_licence_and_an_unknown_one_is_not_stated(tmp_path):
+    from mocapkit.cleaning import deep
+
+    args = ("train", "denoiser", str(WALK), "--epochs", "1", "--steps", "1", "--hidden", "4", "--executor", "serial")
+    code, _, err = run(*args, "-o", str(tmp_path / "a"), "--licence", "CC BY 4.0, our own takes")
+    assert code == 0, err
+    code, said, err = run("info", str(tmp_path / "a" / "model.pt"))
+    text = " ".join(said.split())
+    assert code == 0 and "licence CC BY 4.0, our own takes" in text and "rig acclaim" in text
+    code, _, err = run(*args, "-o", str(tmp_path / "b"))
+    assert code == 0, err
+    code, said, err = run("info", str(tmp_path / "b" / "model.pt"))
+    assert code == 0 and "licence not stated" in " ".join(said.split())
+    # a model file that keeps no rig (written before models kept one), of the game rig: not called acclaim
+    bandai = deep.shipped_model("ebf", mocapkit.load(BANDAI))
+    deep.save_model(dataclasses.replace(bandai, meta={}), tmp_path / "old.pt")
+    code, said, err = run("info", str(tmp_path / "old.pt"))
+    assert code == 0, err
+    assert "rig not stated" in " ".join(said.split()) and "acclaim" not in said

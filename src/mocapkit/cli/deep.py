@@ -261,6 +261,10 @@ def train(
         False, "--mirror", help="Also train on each training clip's left/right mirror image (doubles a small set)."),
     init: str = typer.Option("xavier", "--init", help="xavier (the shipped models') or paper (uniform [-0.5, 0.5])."),
     seed: int = typer.Option(0, "--seed"),
+    licence: Optional[str] = typer.Option(
+        None, "--licence", metavar="TEXT", help="The model's licence, kept in model.pt (mocapkit info shows it; a "
+        "non-commercial one is said wherever the model is used). Default: the takes' own where known (Bandai Namco "
+        "takes: CC BY-NC 4.0), else not stated."),
     resume: bool = typer.Option(True, "--resume/--restart", help="Continue from OUT/checkpoint.pt of the same settings "
                                 "and clips (default), or start over there, replacing OUT's model and checkpoint."),
     overwrite: bool = typer.Option(False, "--overwrite", help="Replace a model.pt or checkpoint.pt of another training "
@@ -277,6 +281,11 @@ def train(
     training (other settings, or clips of other names or content) is refused before any work unless
     --restart or --overwrite is given. With --folds K, OUT/fold_1 ... OUT/fold_K. With
     --mirror the training clips' mirror images join them (validation clips stay as they are).
+
+    model.pt keeps its card: the rig family of the clips, the training data (folders, takes,
+    frames, hold-out) and the licence. A model inherits the licence of its training takes: on the
+    Bandai Namco takes (CC BY-NC 4.0) it is non-commercial, and denoise, fill and clean say so
+    wherever it is used; --licence states it for other takes (else "not stated").
     """
     kinds = {"denoiser": "ebf", "gapfiller": "ebd"}
     if what not in kinds:  # before torch is imported: a mistyped command fails at once
@@ -284,6 +293,7 @@ def train(
     import numpy as np
 
     from ..cleaning.deep import training
+    from ..cleaning.deep.provenance import data_licence, training_rig
     from ..mirroring import mirror_for_rig
 
     # the model folder must not be, or lie inside, a source (a folder of takes, a database); its own files are
@@ -350,11 +360,17 @@ def train(
             training.check_out_dir(o, tr, cfg, val or None, resume=resume, overwrite=overwrite)
     except ValueError as exc:
         raise MocapError(f"train: {exc}") from None
+    known = data_licence(clips)
+    if licence and known and licence != known:  # the user's word is kept, the data's terms said beside it
+        console.print(f"note: these takes are of the {training_rig(clips[:1])} rig, whose data set's licence is "
+                      f"{known}; the model keeps --licence as given")
+    given = {"training_data": {"folders": [str(s.absolute()) for s in sources], "holdout": " ".join(holdout or []),
+                               "mirrored": mirror}, **({"licence": licence} if licence else {})}
     bests = []
     for tr, val, o in runs:
         try:
             model = training.train(tr, o, cfg, validation=val or None, resume=resume, executor=executor,
-                                   overwrite=overwrite)
+                                   overwrite=overwrite, meta=given)
         except (SkeletonError, ValueError) as exc:
             raise MocapError(f"train: {exc}") from None
         except KeyboardInterrupt:  # a checkpoint is a whole file, kept on purpose: say so beside "interrupted"

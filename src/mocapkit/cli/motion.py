@@ -279,13 +279,18 @@ def _info_of_own_file(path: Path) -> bool:
 
         if _describe_checkpoint(path):
             return True
+        from ..cleaning.deep.provenance import model_licence, model_rig
+
         model = deep.load_model(path)
         meta = model.meta if isinstance(model.meta, dict) else {}
+        rig = model_rig(model)
         print_fields([("file", str(path)), ("kind", f"{model.kind.upper()} model"),
-                      ("rig", str(meta.get("rig", "acclaim"))), ("channels", str(model.layout.num_channels)),
+                      ("rig", rig or "not stated (no rig family known for its joints)"),
+                      ("channels", str(model.layout.num_channels)),
                       ("fps", f"{model.fps:g}" if getattr(model, "fps", None) else "?"),
-                      ("training clips", str(len(meta.get("train_clips", ())))),
-                      ("licence", str(meta.get("licence") or "none stated"))])
+                      ("training clips", str(len(meta.get("train_clips", ()))))]
+                     + _training_data_rows(meta.get("training_data"))
+                     + [("licence", model_licence(model))])
         return True
     if not (name.endswith(".npz") and path.is_file()):
         return False
@@ -349,6 +354,19 @@ def _info_of_own_file(path: Path) -> bool:
                                   f"{plural(len(det.segments()), 'segment')}")])
         return True
     return False
+
+
+def _training_data_rows(data) -> list[tuple[str, str]]:
+    """``info``'s lines on a trained model's data (its card's ``training_data``; none in older model files)."""
+    if not isinstance(data, dict):
+        return []
+    rows = [("trained on", f"{plural(int(data.get('takes', 0)), 'take')}, {plural(int(data.get('frames', 0)), 'frame')}"
+                           + (" (with their mirror images)" if data.get("mirrored") else ""))]
+    if data.get("folders"):
+        rows.append(("from", ", ".join(map(str, data["folders"]))))
+    held = f"{plural(int(data.get('held_out_takes', 0)), 'take')}, {plural(int(data.get('held_out_frames', 0)), 'frame')}"
+    rows.append(("held out", held + (f" (--holdout {data['holdout']})" if data.get("holdout") else "")))
+    return rows
 
 
 def _describe_json(path: Path, doc_path: Path, kind: str | None) -> bool:

@@ -26,6 +26,7 @@ from ...motion import Motion
 from .channels import ChannelLayout, channel_joints, lerp_fill
 from .doubt import doubtful_runs
 from .prior import GapPrior, conditional_fill
+from .provenance import model_rig, restricts_use
 from .retarget import Serving, served_by
 from .sure import BLOCK_S, block_edges, calibrated_log_sigma, scoring_stride
 from .threads import INFERENCE_PARTS, torch_threads
@@ -283,14 +284,15 @@ def _smoothing_ebf(ebd: DeepModel, denoiser, take=None) -> DeepModel:
 
 
 def licence_note(model: DeepModel, options: dict[str, str] | None = None) -> str:
-    """One line naming a model's licence when it restricts use (a model inherits its training data's), else "".
+    """One line naming a model's licence when it restricts use (a model inherits its training data's,
+    :func:`~mocapkit.cleaning.deep.provenance.restricts_use`: non-commercial or research-only terms), else "".
 
     ``options``: the option that picks another model of each kind in the command that prints the line
     (``{"ebd": "--model", "ebf": "--denoiser"}`` in ``fill``); without it the line names clean's ``--ebf`` /
     ``--ebd`` and the Python API's ``models=``.
     """
     lic = model.meta.get("licence", "") if isinstance(model.meta, dict) else ""
-    if not lic:
+    if not restricts_use(lic):  # a licence without such terms (e.g. CC BY, MIT) is said by `mocapkit info` only
         return ""
     option = (options or {}).get(model.kind) or f"--{model.kind} (clean, clean-batch; models= in Python)"
     return (f"the {model.kind.upper()} used is {lic}; {option} picks another, e.g. {SHIPPED[model.kind]} (trained on "
@@ -776,7 +778,7 @@ def _fallback_note(method: str, kind: str, label: str, why: str) -> str:
 def _method(kind: str, label: str, sv: Serving, name: str | None = None, skeleton=None) -> str:
     """How a take was served, for the output line: the model, the rig family or joint map, and the joints beside
     the model's that the fallback took (``skeleton`` names them)."""
-    rig = sv.model.meta.get("rig", "acclaim") if isinstance(sv.model.meta, dict) else "acclaim"
+    rig = model_rig(sv.model)  # None: a model file that does not say its rig, of other joints than Acclaim's
     via = (f", {sv.family}" if rig != "acclaim" else "") if sv.direct else f", via the {sv.family} joint map"
     if sv.direct and sv.others and skeleton is not None:
         names = [skeleton.joint_names[j] for j in sv.others]

@@ -49,6 +49,7 @@ from .channels import ChannelLayout, channel_joints, encode, layout_for, wrap_de
 from .inference import DeepModel, denoise_channels, lerp_fill, run_ebd, save_model, write_torch
 from .networks import EBD, EBF, HALF_WINDOW, window_indices
 from .prior import fit_gap_prior
+from .provenance import model_card
 
 __all__ = ["TrainConfig", "load_clips", "split_holdout", "holdout_folds", "gap_mask", "channel_joints", "prepare_clip", "train",
            "clip_digest", "check_out_dir"]
@@ -603,9 +604,13 @@ def train(
     score (``best_val_rmse``, ``best_epoch``); a resumed run starts from that
     score, so it replaces ``model.pt`` only with a better model, even after
     a kill between the two files' writes. ``executor``: where the noisy pools are
-    made (:func:`mocapkit.parallel.map_ordered`). ``meta``: extra entries for
-    the model's metadata (e.g. ``{"rig": "bandai", "licence": "CC BY-NC 4.0 ..."}``:
-    a model inherits the licence of the takes it was trained on).
+    made (:func:`mocapkit.parallel.map_ordered`). The model's metadata keeps its
+    card (:func:`mocapkit.cleaning.deep.provenance.model_card`): the rig family
+    of the clips, the training data (takes and frames, trained on and held out)
+    and the licence, inherited from the takes where the project knows it (the
+    Bandai Namco set's CC BY-NC 4.0), else not stated. ``meta``: entries that
+    state or add to it (e.g. ``{"licence": "CC BY 4.0"}``, ``{"training_data":
+    {"folders": [...]}}``); takes of several rig families raise ValueError.
     """
     from ...parallel import map_ordered
 
@@ -629,6 +634,7 @@ def train(
                                 f"{layout.num_channels}); train one rig at a time")
         if abs(c.fps - fps) > 1e-6:
             raise ValueError(f"{c.name}: {c.fps:g} fps, but the first clip has {fps:g}; resample the corpus first")
+    card = model_card(clips, validation, meta)  # the rig, data and licence the model file keeps
     noise = tuple(cfg.noise)
     jobs = [(c, layout, noise, cfg.variants, cfg.seed * 100003 + i) for i, c in enumerate(clips)]
     data = map_ordered(prepare_clip, jobs, executor=executor, progress=progress, desc="noisy pairs")
@@ -687,7 +693,7 @@ def train(
                         "lr": opt.param_groups[0]["lr"], "seconds": time.perf_counter() - te})
         meta = {"config": dataclasses.asdict(cfg), "train_clips": [c.name for c in clips],
                 "validation_clips": [c.name for c in (validation or [])], "history": history,
-                "train_seconds": time.perf_counter() - t0, "torch": torch.__version__, **(meta or {}),
+                "train_seconds": time.perf_counter() - t0, "torch": torch.__version__, **card,
                 "training": training_id, "best_val_rmse": v, "best_epoch": epoch, "finished": False}
         if _plateau_halvings(history, cfg.lr_patience)[-1]:
             for g in opt.param_groups:

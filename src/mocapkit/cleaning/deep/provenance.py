@@ -1,0 +1,88 @@
+"""Where a trained model comes from: the rig family it was trained on, its training data and its licence.
+
+A model inherits the terms of the takes it was trained on: the Bandai Namco Research Motiondataset is
+CC BY-NC 4.0, so a model trained on it is for non-commercial use only and its model card must say so
+(``../shared/data`` README; the shipped ``ebf_bandai.pt`` / ``ebd_bandai.pt``, docs/models.md). These
+functions make that card when a model is trained (:func:`model_card`, kept in the model file's metadata)
+and read it back from any model file, older ones included (:func:`model_rig`, :func:`model_licence`).
+"""
+
+from __future__ import annotations
+
+import re
+
+from ... import rigs
+
+__all__ = ["BANDAI_LICENCE", "DATA_LICENCES", "NOT_STATED", "data_licence", "model_card", "model_licence",
+           "model_rig", "restricts_use", "training_rig"]
+
+BANDAI_LICENCE = ("CC BY-NC 4.0: trained on the Bandai Namco Research Motiondataset "
+                  "(Bandai Namco Research Inc.); non-commercial use only")
+#: The licence of the takes of a rig family (:func:`mocapkit.rigs.rig_family`) that is one data set's own rig: the
+#: 22-joint game rig of the Bandai Namco Research Motiondataset 1 and 2 is that set's, whose terms are CC BY-NC 4.0.
+DATA_LICENCES = {"bandai_namco": BANDAI_LICENCE}
+#: What a model card says of a licence nobody stated.
+NOT_STATED = "not stated"
+_RESTRICTIVE = re.compile(r"\bNC\b|non-?commercial|research use|no commercial", re.IGNORECASE)
+
+
+def training_rig(clips) -> str | None:
+    """The rig family (a key of :data:`mocapkit.rigs.FAMILIES`) of every take in ``clips`` (Motions), None when
+    their rig is of no known family; takes of several families raise ValueError naming one take of each (a model
+    is trained on one rig)."""
+    families: dict[str | None, str] = {}
+    for c in clips:
+        families.setdefault(rigs.rig_family(c.skeleton), c.name or "a take")
+    if len(families) > 1:
+        said = ", ".join(f"{name} ({fam or 'no known family'})" for fam, name in families.items())
+        raise ValueError(f"takes of several rigs: {said}; train one rig at a time")
+    return next(iter(families), None)
+
+
+def data_licence(clips) -> str | None:
+    """The licence the project knows ``clips`` (Motions) to carry: the one of :data:`DATA_LICENCES` when every take
+    is of that rig family, else None (unknown: the user states it, ``mocapkit train --licence``)."""
+    families = {rigs.rig_family(c.skeleton) for c in clips}
+    return DATA_LICENCES.get(next(iter(families))) if len(families) == 1 else None
+
+
+def model_card(clips, validation=None, given: dict | None = None) -> dict:
+    """The metadata entries a model trained on ``clips`` (training takes, Motions) and ``validation`` (held-out
+    takes) keeps about its origin.
+
+    ``rig``: :func:`training_rig` of all the takes (None: no known family); ``licence``: ``given["licence"]`` when
+    stated, else :func:`data_licence`, else None (read as :data:`NOT_STATED`); ``training_data``: ``takes`` and
+    ``frames`` trained on, ``held_out_takes`` and ``held_out_frames``, plus ``given["training_data"]`` (the CLI adds
+    the folders and the hold-out rule). Every other entry of ``given`` is kept as given (it may name the rig as the
+    shipped models do, ``{"rig": "bandai"}``).
+    """
+    given = dict(given or {})
+    val = list(validation or [])
+    data = {"takes": len(clips), "frames": int(sum(c.num_frames for c in clips)), "held_out_takes": len(val),
+            "held_out_frames": int(sum(c.num_frames for c in val)), **(given.pop("training_data", None) or {})}
+    rig = training_rig(list(clips) + val)
+    licence = given.pop("licence", None) or data_licence(list(clips) + val)
+    return {"rig": rig, "licence": licence, "training_data": data, **given}
+
+
+def model_rig(model) -> str | None:
+    """The rig family a :class:`~mocapkit.cleaning.deep.DeepModel` was trained on: its metadata's ``rig``; for a
+    model file without one (written before models kept it) "acclaim" where every joint it reads is an Acclaim joint
+    (the shipped ``ebf.pt`` / ``ebd.pt``), else None (not known)."""
+    meta = model.meta if isinstance(model.meta, dict) else {}
+    if "rig" in meta:
+        return meta["rig"]
+    acclaim = {n for names in rigs.FAMILIES["acclaim"].values() for n in names}
+    return "acclaim" if set(model.layout.joints) <= acclaim else None
+
+
+def model_licence(model) -> str:
+    """A model's licence as its card states it, or :data:`NOT_STATED`."""
+    meta = model.meta if isinstance(model.meta, dict) else {}
+    return str(meta.get("licence") or NOT_STATED)
+
+
+def restricts_use(licence: str | None) -> bool:
+    """Whether a licence text restricts use (non-commercial or research-only terms, e.g. CC BY-NC): the licences a
+    :class:`~mocapkit.errors.LicenceWarning` names wherever the model is used."""
+    return bool(licence) and _RESTRICTIVE.search(licence) is not None

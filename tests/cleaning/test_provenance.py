@@ -1,0 +1,70 @@
+"""A trained model's card (mocapkit.cleaning.deep.provenance): the rig family, the training data and the licence it
+inherits from real takes, kept in the model file and read back, older files included."""
+
+import dataclasses
+from pathlib import Path
+
+import pytest
+
+import mocapkit
+from mocapkit.cleaning import deep
+from mocapkit.cleaning.deep import training
+from mocapkit.cleaning.deep.provenance import (BANDAI_LICENCE, NOT_STATED, model_licence, model_rig, restricts_use,
+                                               training_rig)
+
+DATA = Path(__file__).resolve().parents[1] / "data"
+BANDAI = ["dataset-1_bow_active_001.bvh", "dataset-1_dash_chimpira_001.bvh", "dataset-1_run_masculinity_001.bvh"]
+CFG = training.TrainConfig(kind="ebf", hidden=4, epochs=1, steps_per_epoch=1, batch=2, crop=40,
+                           noise=("angular:0.5",), variants=1)
+
+
+@pytest.fixture(scope="module")
+def bandai():
+    return [mocapkit.load(DATA / n) for n in BANDAI]
+
+
+@pytest.fixture(scope="module")
+def walk():
+    return mocapkit.load(mocapkit.samples.path("12_walk.amc"))
+
+
+def test_a_model_trained_on_bandai_takes_inherits_their_rig_and_non_commercial_licence(tmp_path, bandai):
+    """A user trial: a model trained on Bandai Namco takes said `rig acclaim` and no licence; the set is CC BY-NC 4.0."""
+    training.train(bandai[:2], tmp_path, CFG, validation=bandai[2:], executor="serial", progress=False)
+    m = deep.load_model(tmp_path / "model.pt")
+    assert m.meta["rig"] == model_rig(m) == "bandai_namco"
+    assert m.meta["licence"] == model_licence(m) == BANDAI_LICENCE
+    assert m.meta["training_data"] == {"takes": 2, "frames": bandai[0].num_frames + bandai[1].num_frames,
+                                       "held_out_takes": 1, "held_out_frames": bandai[2].num_frames}
+    note = deep.licence_note(m, {"ebf": "--model"})
+    assert note.startswith(f"the EBF used is {BANDAI_LICENCE}; --model picks another, e.g. ebf.pt")
+    with pytest.warns(mocapkit.errors.LicenceWarning, match="CC BY-NC 4.0"):  # wherever the model is used
+        deep.denoise(bandai[2], m)
+
+
+def test_acclaim_takes_give_the_acclaim_rig_and_a_licence_not_stated(tmp_path, walk):
+    training.train([walk[:160]], tmp_path, CFG, executor="serial", progress=False)
+    m = deep.load_model(tmp_path / "model.pt")
+    assert model_rig(m) == "acclaim" and m.meta["licence"] is None and model_licence(m) == NOT_STATED
+    assert deep.licence_note(m) == ""
+
+
+def test_a_stated_licence_is_kept_and_only_a_restrictive_one_is_said_where_the_model_is_used(tmp_path, walk):
+    training.train([walk[:160]], tmp_path, CFG, executor="serial", progress=False, meta={"licence": "CC BY 4.0"})
+    m = deep.load_model(tmp_path / "model.pt")
+    assert model_licence(m) == "CC BY 4.0" and deep.licence_note(m) == ""  # no restriction: no warning line
+    assert restricts_use("CC BY-NC-SA 4.0") and restricts_use("research use only") and not restricts_use(None)
+
+
+def test_a_model_file_without_a_rig_is_acclaim_only_where_its_joints_are(bandai):
+    """Older model files keep no rig: the shipped Acclaim models read as before, a game-rig model is not 'acclaim'."""
+    assert model_rig(deep.shipped_model("ebf")) == "acclaim"
+    old = dataclasses.replace(deep.shipped_model("ebf", bandai[0]), meta={})
+    assert old.layout.joints[0] != "lhipjoint" and model_rig(old) is None
+
+
+def test_takes_of_several_rig_families_are_named_in_one_line(walk, bandai):
+    with pytest.raises(ValueError, match=r"takes of several rigs: 12_walk \(acclaim\), dataset-1_bow_active_001 "
+                                         r"\(bandai_namco\); train one rig at a time"):
+        training_rig([walk, bandai[0]])
+    assert training_rig(bandai) == "bandai_namco"
