@@ -220,7 +220,7 @@ def dance_big_context(seeds: int, contexts: list[str], quick: bool) -> dict:
     ``ssa_detection.py``'s ``dance_30fps`` scores it (``real_errors``, 4 per seed, 5 deg visible, clean-take
     glitches ignored), against: ``local`` (the take alone: today's figure), ``action`` (the Bandai action takes:
     call, punch, slash, kick, respond; 73 s) and ``dataset1`` (every other take of dataset 1, about 1,000 s,
-    through the kd-tree prefilter). The CMU dances cannot take this context: it is another rig, and a context
+    searched exactly). The CMU dances cannot take this context: it is another rig, and a context
     must share the take's hierarchy (``mocapkit.context.fit_context`` maps names, not rigs)."""
     import ssa_detection as S
 

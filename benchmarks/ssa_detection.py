@@ -14,7 +14,7 @@ three contexts:
 * ``small``: 8 related clips (other actors' clips of the class for HDM05;
   the other clips of the kind for CMU);
 * ``large``: about 600 s of other clips (all HDM05 actors' clips except the
-  clip's own take, CMU clips), through the kd-tree prefilter.
+  clip's own take, CMU clips), searched exactly as every context is (the kd-tree prefilter is opt-in).
 
 Baselines (a) joint limits, (b) rotation-rate threshold, (c) both, learnt
 from the clean clips of the context pool (never from the clip under test),

@@ -13,8 +13,8 @@ groups), numba compiled before the timing on a short clip:
   actors (the realistic use: HDM05 clips are single repetitions). Target
   <= 1 s per second of motion (the paper: 20 min per 15 s clip).
 * **large**: the same clip against about 600 s of other HDM05 and CMU clips,
-  through the kd-tree prefilter that ``detect`` switches on for contexts over
-  3,000 target words. Target <= 120 s (the paper: ~3 h).
+  searched exactly, as ``detect`` searches every context (the kd-tree prefilter
+  is opt-in). Target <= 120 s (the paper: ~3 h).
 
 **Baseline.** The nearest-word search (``ssa.nearest_words``, the step that is
 quadratic in the context) on the local take and the small context, once with the

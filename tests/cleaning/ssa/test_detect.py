@@ -255,3 +255,16 @@ def test_causes_made_with_the_flags_are_those_made_again(flipped):
     assert np.array_equal(padded.causes(), bare.causes())
     assert np.array_equal(padded.with_threshold(0.3).causes(), dataclasses.replace(padded.with_threshold(0.3)).causes())
     assert np.array_equal(dataclasses.replace(det).causes(), fresh)
+
+
+def test_a_large_context_is_searched_exactly_by_default(walk):
+    """A context of over 3,000 target words (the real walk at 18 frame offsets and mirrored) is searched exactly: the
+    approximate kd-tree prefilter runs only when asked for, and the neighbours are those of prefilter=False."""
+    ctx = [dataclasses.replace((walk if i % 2 else walk.mirror())[i:], name=f"walk{i}") for i in range(18)]
+    det = ssa.detect(walk[:240], ctx)
+    assert len(det.analysis.texture.target_starts(20)) > 3000
+    assert det.params.prefilter is False
+    exact = ssa.detect(walk[:240], ctx, prefilter=False)
+    for a in ("neighbor_pos", "neighbor_iend", "neighbor_jend", "neighbor_dist"):
+        assert np.array_equal(getattr(det, a), getattr(exact, a))
+    assert np.array_equal(det.flags, exact.flags) and np.array_equal(det.mdm, exact.mdm)

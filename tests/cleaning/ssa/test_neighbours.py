@@ -156,3 +156,27 @@ def test_overlap_sums_equal_the_one_word_at_a_time_reference(walk, order):
     for g, w in zip(got, want):
         assert np.array_equal(g, w)
     assert got[2].max() == 4 and got[2][205:].sum() == 0
+
+
+def test_exact_search_gives_the_same_neighbours_for_any_chunk_memory(walk):
+    """The real walk against a context of its own other half: chunks cut small by the memory budget (one word each)
+    find the same neighbours, bit for bit, as the default chunks."""
+    import dataclasses
+
+    ctx = [dataclasses.replace(walk[400:], name="rest"), dataclasses.replace(walk[400:].mirror(), name="mirrored")]
+    an = ssa.prepare(walk[:400], ctx)
+    grows = list(an.group_rows)
+    whole = neighbours.nearest_words(an.source, an.texture, grows, an.words, self_clip=0)
+    assert neighbours.chunk_words(an.words, len(an.texture.values), len(grows), 15, budget=1) == 1
+    small = neighbours.nearest_words(an.source, an.texture, grows, an.words, self_clip=0, chunk_bytes=1)
+    for a in ("pos", "iend", "jend", "dist"):
+        assert np.array_equal(getattr(whole, a), getattr(small, a))
+    assert (whole.pos >= 0).any()
+
+
+def test_chunk_words_stays_under_its_budget():
+    starts = np.arange(0, 500, 5)
+    n = neighbours.chunk_words(starts, context_frames=22000, groups=5, N=15)
+    assert 1 <= n < 96
+    assert 4 * 5 * 22000 * ((n - 1) * 5 + 15) <= neighbours.CHUNK_BYTES
+    assert neighbours.chunk_words(starts, context_frames=200, groups=5, N=15) == 96

@@ -563,9 +563,7 @@ def detect_prepared(an: Analysis, threshold: float = 0.5, *, progress: bool = Fa
     k = p.k
     has_context = an.has_context
     two_stage = p.two_stage
-    prefilter = p.prefilter
-    if prefilter is None:
-        prefilter = has_context and len(full.target_starts(M)) > 3000
+    prefilter = bool(p.prefilter)  # the approximate kd-tree search only when asked for: the exact one scales
     opts = dict(k=k, source_length=N, target_length=M, min_width=p.min_width, max_run=p.max_run, candidates=p.candidates)
     neighbors = Neighbors(
         np.full((G, W, k), -1, dtype=np.int64),

@@ -39,12 +39,18 @@ __all__ = [
     "dropped_terms",
     "local_minima_knn",
     "word_distance",
+    "CHUNK_BYTES",
+    "chunk_words",
 ]
 
 _D = SSAParams()
 
 _LARGE_GROUP = 12  # groups with at least this many joints drop 3 joint terms, smaller ones 1
 _SELF_MATRIX_BYTES = 128 << 20  # a take's self-distance matrices up to this size (~100 s at 24 fps) are computed whole
+#: the most bytes of pose distances (source frames x context frames x joint groups, float32) one chunk of source words
+#: holds against a context: a 900 s context at 24 fps takes ~20 words a chunk instead of 96 (218 MB -> 48 MB)
+CHUNK_BYTES = 48 << 20
+_PCA_SAMPLE = 2000  # target words the prefilter's PCA basis is fitted on
 #: the most bytes of warped neighbour words :func:`mean_motion_texture` keeps (``keep``) while a detection runs, so that
 #: its repair reads the words of the flagged cells (:func:`flagged_words`) instead of warping them again: a 60 s take's
 #: five groups hold about 21 MiB
@@ -120,6 +126,20 @@ def _descriptors(values: np.ndarray, starts: np.ndarray, members: np.ndarray, le
     return mats.reshape(len(starts), -1)
 
 
+def chunk_words(word_starts: np.ndarray, context_frames: int, groups: int, N: int, chunk: int = 96,
+                budget: int = CHUNK_BYTES) -> int:
+    """Source words per chunk of the exact search: at most ``chunk``, and fewer where their pose distances against
+    a context of ``context_frames`` frames in ``groups`` joint groups (float32) would pass ``budget`` bytes; at least 1.
+
+    The distances of a cell do not depend on the chunk it is computed in, so the neighbours are the same for any
+    chunk size; only the peak memory changes (a 900 s context at 24 fps: 4.4 MB per source frame).
+    """
+    W = len(word_starts)
+    step = max(1, int(word_starts[-1] - word_starts[0]) // (W - 1)) if W > 1 else 1
+    rows = budget // max(1, 4 * groups * int(context_frames))  # source frames the budget holds
+    return int(max(1, min(chunk, (rows - N) // step + 1)))
+
+
 def nearest_words(
     source: MotionTexture,
     context: MotionTexture,
@@ -136,6 +156,7 @@ def nearest_words(
     chunk: int = 96,
     progress=None,
     exhaustive: bool = False,
+    chunk_bytes: int = CHUNK_BYTES,
 ) -> Neighbors:
     """The K nearest target words of each source word, per joint group (section 3.3).
 
@@ -158,7 +179,11 @@ def nearest_words(
     (local analysis) the pose distances are its symmetric self-distance
     matrix, computed once with half the cells
     (:func:`~mocapkit.cleaning.ssa.word_dtw.self_pose_distances`) while it
-    stays under 128 MiB (about 100 s of take), else chunk by chunk.
+    stays under 128 MiB (about 100 s of take), else chunk by chunk. Against
+    another context each chunk of source words holds its pose distances to
+    every context frame, at most ``chunk_bytes`` (:func:`chunk_words`; the
+    same neighbours for any budget). ``progress`` (a tqdm bar) advances by
+    one per (group, word) searched.
     """
     N, M = source_length, target_length
     G, W = len(groups), len(word_starts)
@@ -186,7 +211,9 @@ def nearest_words(
             desc_t = _descriptors(context.values, tgt, groups[gi], N)
             desc_s = _descriptors(source.values, word_starts, groups[gi], N)
             mean = desc_t.mean(axis=0)
-            sample = desc_t[:: max(1, len(desc_t) // 20000)] - mean
+            # the PCA basis from at most ~2,000 evenly spaced target words: an SVD of every word of a 900 s
+            # context (22,000 x 432) took 25 s per joint group on two cores, for a basis that only proposes candidates
+            sample = desc_t[:: max(1, len(desc_t) // _PCA_SAMPLE)] - mean
             _, _, vt = np.linalg.svd(sample, full_matrices=False)
             basis = vt[: min(24, vt.shape[0])].T
             index = KNNIndex((desc_t - mean) @ basis)
@@ -221,6 +248,8 @@ def nearest_words(
     if context.values is source.values and G * source.num_frames**2 * 4 <= _SELF_MATRIX_BYTES:
         whole = word_dtw.self_pose_distances(source.values, masks, drops)
         out.self_costs, out.self_groups = whole, tuple(np.asarray(g) for g in groups)
+    else:
+        chunk = chunk_words(word_starts, len(context.values), G, N, chunk, chunk_bytes)
     for c0 in range(0, W, chunk):
         ws = word_starts[c0 : c0 + chunk]
         f0, f1 = int(ws.min()), int(ws.max()) + N
@@ -244,8 +273,8 @@ def nearest_words(
             out.iend[gi, sl] = ie
             out.jend[gi, sl] = je
             out.dist[gi, sl] = vals
-        if progress is not None:
-            progress.update(len(ws) * G)
+            if progress is not None:
+                progress.update(len(ws))
     return out
 
 

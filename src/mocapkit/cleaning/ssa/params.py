@@ -39,9 +39,9 @@ class SSAParams:
     two_stage, screen_threshold : bool, float
         Section 5's two stages: local analysis of the whole body first, then the context with all groups
         only around words whose local MDM exceeds ``screen_threshold``.
-    prefilter, candidates : bool or None, int
-        Rank only ``candidates`` kd-tree candidates per word by DTW (None: when the context holds more than
-        3,000 target words).
+    prefilter, candidates : bool, int
+        Rank only ``candidates`` kd-tree candidates per word by DTW: approximate (a word's best neighbour can be
+        missed), so off unless asked for; the default search is exact at any context size (None is off).
     max_word_angle_deg : float or None
         Leave unjudged the words whose nearest neighbour differs by more than this RMS joint angle (None:
         judge every word, as the paper does).
@@ -105,7 +105,7 @@ class SSAParams:
     joints: Any = 24
     two_stage: bool = False
     screen_threshold: float = 0.3
-    prefilter: bool | None = None
+    prefilter: bool | None = False
     candidates: int = 48
     max_word_angle_deg: float | None = None
     normalization: str = "median"
