@@ -228,3 +228,22 @@ def t_pose_walk():
                                root_positions=np.concatenate([walk.root_positions[:1], walk.root_positions]),
                                name="t_pose_walk")
     return corrupt.real_errors(take, n_errors=3, seed=1)[0]
+
+
+def marker_decisions_file(folder: Path, inp: Path, choices: dict, name: str = "d.json", stamped: bool = True) -> Path:
+    """A decisions file for the marker cleaning recorded in ``folder/out.clean.npz`` of ``inp``, written as
+    ``folder/name``: as the report downloads it (``stamped``: keeping the digest of the cleaning reviewed) or as a
+    person writes one by hand (not stamped)."""
+    import json
+
+    from mocapkit.cleaning.markers import decisions as md
+    from mocapkit.cleaning.markers.record import read_marker_record
+    from mocapkit.io import load_markers
+
+    ms = load_markers(inp)
+    res = md.result_from_record(ms, read_marker_record(folder / "out.clean.npz"))
+    doc = md.template(ms, md.changes(ms, res.markers, res.fixes), inp.name, "out.c3d", choices,
+                      cleaned=res.markers if stamped else None, record=folder / "out.clean.npz")
+    path = folder / name
+    path.write_text(json.dumps(doc))
+    return path

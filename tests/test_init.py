@@ -116,19 +116,9 @@ def test_review_mode_of_a_marker_capture_changes_nothing_and_says_what_the_cli_s
 
 def _decisions(folder, inp, choices, stamped=True, name="d.json"):
     """A decisions file as the report downloads it (``stamped``) or as written by hand, for the CLI's record."""
-    import json
+    from tests.shared import marker_decisions_file
 
-    from mocapkit.cleaning.markers import decisions as md
-    from mocapkit.cleaning.markers.record import read_marker_record
-    from mocapkit.io import load_markers
-
-    ms = load_markers(inp)
-    res = md.result_from_record(ms, read_marker_record(folder / "out.clean.npz"))
-    doc = md.template(ms, md.changes(ms, res.markers, res.fixes), inp.name, "out.c3d", choices,
-                      cleaned=res.markers if stamped else None, record=folder / "out.clean.npz")
-    path = folder / name
-    path.write_text(json.dumps(doc))
-    return path
+    return marker_decisions_file(folder, inp, choices, name, stamped)
 
 
 def test_decisions_apply_to_a_marker_capture_as_the_cli_applies_them(capture_run, tmp_path):

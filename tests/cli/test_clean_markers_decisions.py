@@ -17,6 +17,7 @@ from mocapkit.cleaning.markers import decisions as md
 from mocapkit.cleaning.markers.record import read_marker_record
 from mocapkit.io import load_markers, save_markers
 
+from ..shared import marker_decisions_file
 from .helpers import one_error_line, run
 
 CMU = Path(__file__).resolve().parents[1] / "data" / "85_02.c3d"
@@ -49,16 +50,7 @@ def _same(a, b, cells=None) -> bool:
             and np.array_equal(a.cameras[sel], b.cameras[sel]))
 
 
-def _decide(folder: Path, inp: Path, choices: dict, name: str = "d.json", stamped: bool = True) -> Path:
-    """A decisions file as the report downloads it (``stamped``: keeping the digest of the cleaning reviewed) or as
-    a person writes one by hand (not stamped)."""
-    ms = load_markers(inp)
-    res = md.result_from_record(ms, read_marker_record(folder / "out.clean.npz"))
-    doc = md.template(ms, md.changes(ms, res.markers, res.fixes), inp.name, "out.c3d", choices,
-                      cleaned=res.markers if stamped else None, record=folder / "out.clean.npz")
-    path = folder / name
-    path.write_text(json.dumps(doc))
-    return path
+_decide = marker_decisions_file
 
 
 def test_each_fix_is_a_change_with_a_stable_id(capture):
