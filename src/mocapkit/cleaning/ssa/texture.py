@@ -36,6 +36,7 @@ __all__ = [
     "informative_joints",
     "analysable_joints",
     "body_joints",
+    "digit_joints",
     "left_out_joints",
     "left_out_note",
     "STILL_RAD",
@@ -103,6 +104,19 @@ def body_joints(skeleton) -> np.ndarray:
             body[j] = True
             j = int(parents[j])
     return body
+
+
+def digit_joints(skeleton) -> np.ndarray:
+    """(J,) bool: the joints that play a digit's role (:data:`HAND_DETAIL_ROLES`: each hand's first finger
+    and thumb segments, :func:`mocapkit.rigs.roles`), which :func:`informative_joints` analyses in left/right
+    pairs only."""
+    from ...rigs import roles
+
+    out = np.zeros(skeleton.num_joints, dtype=bool)
+    for role, j in roles(skeleton).items():
+        if role in HAND_DETAIL_ROLES:
+            out[j] = True
+    return out
 
 
 def _descends(parents, k: int, a: int) -> bool:
@@ -197,7 +211,11 @@ def informative_joints(motions: Sequence[Motion], count: int = _D.joints) -> np.
     hand moved more in the take and the left and right groups match (a swap, which
     :func:`side_swaps` finds, needs both joints); a last slot that no pair of the body fits takes
     the half of a body pair that rotates more before any extra, and a last slot no pair of extras
-    fits the next single extra, or else the half of a pair that rotates more.
+    fits the next single extra, or else the half of a pair that rotates more, but never half a pair of
+    digits (:func:`digit_joints`): a digit is analysed with its partner or not at all. One thumb judged
+    and the other not would make a hand's judgement hang on the rig's joint count, not on the motion:
+    the same CMU backflip on the Daz rig (25 joints) had its spare 24th slot given to ``rThumb1`` and
+    its thumb flips repaired, where the Acclaim rig (31) and Unity's (26) judge neither thumb.
     :func:`left_out_joints` says why each other joint is not analysed.
     """
     from ...motion import mirror_pairs
@@ -206,6 +224,7 @@ def informative_joints(motions: Sequence[Motion], count: int = _D.joints) -> np.
     ok, spread = _candidates(motions)
     cand = np.flatnonzero(ok)
     extra = (~body_joints(sk)).astype(int)
+    digit = digit_joints(sk)
     perm = mirror_pairs(sk.joint_names)
     in_cand = np.zeros(sk.num_joints, dtype=bool)
     in_cand[cand] = True
@@ -218,7 +237,8 @@ def informative_joints(motions: Sequence[Motion], count: int = _D.joints) -> np.
             if min(extra[list(u)]) == tier and len(chosen) + len(u) <= int(count):
                 chosen.extend(u)
         # a slot no pair of the tier fits and no single is left for
-        rest = sorted((j for j in cand if j not in chosen and extra[j] == tier), key=lambda j: (-spread[j], j))
+        rest = sorted((j for j in cand if j not in chosen and extra[j] == tier and not digit[j]),
+                      key=lambda j: (-spread[j], j))
         chosen.extend(rest[: max(int(count) - len(chosen), 0)])
     return np.array(sorted(chosen), dtype=np.int64)
 
