@@ -36,6 +36,8 @@ __all__ = [
     "informative_joints",
     "analysable_joints",
     "body_joints",
+    "digit_joints",
+    "palm_standins",
     "left_out_joints",
     "left_out_note",
     "STILL_RAD",
@@ -103,6 +105,43 @@ def body_joints(skeleton) -> np.ndarray:
             body[j] = True
             j = int(parents[j])
     return body
+
+
+def digit_joints(skeleton) -> np.ndarray:
+    """(J,) bool: the joints that play a digit's role (:data:`HAND_DETAIL_ROLES`: each hand's first finger
+    and thumb segments, :func:`mocapkit.rigs.roles`), which :func:`informative_joints` analyses in left/right
+    pairs only."""
+    from ...rigs import roles
+
+    out = np.zeros(skeleton.num_joints, dtype=bool)
+    for role, j in roles(skeleton).items():
+        if role in HAND_DETAIL_ROLES:
+            out[j] = True
+    return out
+
+
+def palm_standins(skeleton) -> np.ndarray:
+    """(J,) bool: on a rig of a known family that names no palm, each hand's first finger joint (role
+    ``{side}_fingers``, a child of the wrist), which :func:`informative_joints` ranks before any other extra.
+
+    Where a rig has no palm, the first finger joint turns with the hand's flexion (the Acclaim ``lhand``
+    folded into ``lfingers``: the CMU Daz-friendly release, Unity's humanoid avatar), so it stands for the
+    palm the Acclaim rig analyses as a body joint. Ranked with the other extras by how much it turns, a
+    thumb could take its slot instead: the same HDM05 lieDownFloor_013 had its palm's 178 degree flip
+    repaired on the Acclaim rig and its thumb's on the Daz rig. It stays an extra, so it never pushes a
+    body joint out. A rig read from its tree gets its palm from :func:`body_joints` and has none."""
+    from ...rigs import rig_family, roles
+
+    out = np.zeros(skeleton.num_joints, dtype=bool)
+    if rig_family(skeleton) is None:
+        return out
+    found = roles(skeleton)
+    for side in ("left", "right"):
+        hand, fingers = found.get(f"{side}_hand"), found.get(f"{side}_fingers")
+        if f"{side}_palm" not in found and hand is not None and fingers is not None \
+                and int(skeleton.parents[fingers]) == hand:
+            out[fingers] = True
+    return out
 
 
 def _descends(parents, k: int, a: int) -> bool:
@@ -187,7 +226,8 @@ def informative_joints(motions: Sequence[Motion], count: int = _D.joints) -> np.
     """The ``count`` joints analysed, sorted skeleton indices (section 5: "m = 24").
 
     Candidates are the :func:`analysable_joints`. The body's joints (:func:`body_joints`) come first,
-    then the extras (finger segments, twist, weapon and prop bones, tails) in the slots left: an
+    then the extras (finger segments, twist, weapon and prop bones, tails) in the slots left, a palm's
+    stand-in (:func:`palm_standins`) first: an
     animated extra rotates more than a clavicle or a wrist and, ranked with them, would push body
     joints out of the analysis (fingers on one hand of a Bandai walk: the forearms, hands, spine, neck
     and pelvis; a weapon, a prop, twist bones and a tail on CMU 131_01: the head). Within each of the two, joints are ranked by how much they rotate:
@@ -197,7 +237,11 @@ def informative_joints(motions: Sequence[Motion], count: int = _D.joints) -> np.
     hand moved more in the take and the left and right groups match (a swap, which
     :func:`side_swaps` finds, needs both joints); a last slot that no pair of the body fits takes
     the half of a body pair that rotates more before any extra, and a last slot no pair of extras
-    fits the next single extra, or else the half of a pair that rotates more.
+    fits the next single extra, or else the half of a pair that rotates more, but never half a pair of
+    digits (:func:`digit_joints`): a digit is analysed with its partner or not at all. One thumb judged
+    and the other not would make a hand's judgement hang on the rig's joint count, not on the motion:
+    the same CMU backflip on the Daz rig (25 joints) had its spare 24th slot given to ``rThumb1`` and
+    its thumb flips repaired, where the Acclaim rig (31) and Unity's (26) judge neither thumb.
     :func:`left_out_joints` says why each other joint is not analysed.
     """
     from ...motion import mirror_pairs
@@ -205,7 +249,8 @@ def informative_joints(motions: Sequence[Motion], count: int = _D.joints) -> np.
     sk = motions[0].skeleton
     ok, spread = _candidates(motions)
     cand = np.flatnonzero(ok)
-    extra = (~body_joints(sk)).astype(int)
+    extra = (~body_joints(sk)).astype(int) * 2 - palm_standins(sk)  # 0 body, 1 a palm's stand-in, 2 other extras
+    digit = digit_joints(sk)
     perm = mirror_pairs(sk.joint_names)
     in_cand = np.zeros(sk.num_joints, dtype=bool)
     in_cand[cand] = True
@@ -213,12 +258,13 @@ def informative_joints(motions: Sequence[Motion], count: int = _D.joints) -> np.
     units = [(int(j),) if single[j] else (int(j), int(perm[j])) for j in cand if single[j] or perm[j] > j]
     units.sort(key=lambda u: (0 not in u, -max(spread[list(u)]), min(u)))
     chosen: list[int] = []
-    for tier in (0, 1):  # the body's joints, then the extras
+    for tier in (0, 1, 2):  # the body's joints, then the palms' stand-ins, then the other extras
         for u in units:
             if min(extra[list(u)]) == tier and len(chosen) + len(u) <= int(count):
                 chosen.extend(u)
         # a slot no pair of the tier fits and no single is left for
-        rest = sorted((j for j in cand if j not in chosen and extra[j] == tier), key=lambda j: (-spread[j], j))
+        rest = sorted((j for j in cand if j not in chosen and extra[j] == tier and not digit[j]),
+                      key=lambda j: (-spread[j], j))
         chosen.extend(rest[: max(int(count) - len(chosen), 0)])
     return np.array(sorted(chosen), dtype=np.int64)
 
