@@ -866,3 +866,18 @@ def test_written_back_keeps_empty_texts_and_the_analog_scales(shared_data, tmp_p
             return np.array([an.copy() for _, _, an in c3d.Reader(fh).read_frames()])
 
     assert np.array_equal(package_analogs(out), package_analogs(src))
+
+
+def test_values_past_float32s_range_are_kept_as_read_without_a_warning():
+    """A damaged C3D's scale can make a sample larger than any float32 (fuzz_commands' mutant 437 of `info`
+    warned "overflow encountered in cast" on standard error): it is kept as read, the others rounded as before."""
+    import warnings
+
+    from mocapkit.io import c3d
+
+    values = np.array([1.0, 1e39, -1e300, np.nan, 0.1, np.inf])
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        out = c3d._float32_values(values)
+    assert out[1] == 1e39 and out[2] == -1e300 and np.isnan(out[3]) and out[5] == np.inf
+    assert out[0] == 1.0 and out[4] == float(np.float32(0.1))

@@ -80,9 +80,13 @@ def _float32_values(values) -> np.ndarray:
     same from the file and from what the writer makes of it, so a sample a
     command did not change reads back bit-identical. Residuals are kept as
     read: ezc3d writes them as whole multiples of the scale, truncating, and
-    a residual rounded down to float32 would lose one.
+    a residual rounded down to float32 would lose one. A value past float32's
+    range (a damaged scale) is kept as read: no float32 is near it.
     """
-    return np.asarray(values, dtype=np.float64).astype(np.float32).astype(np.float64)
+    values = np.asarray(values, dtype=np.float64)
+    with np.errstate(over="ignore"):  # a value past float32's range (a damaged file's scale) cannot be rounded
+        near = values.astype(np.float32).astype(np.float64)
+    return np.where(np.isinf(near) & np.isfinite(values), values, near)
 
 
 def _ezc3d_parameters(c) -> dict:
