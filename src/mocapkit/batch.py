@@ -131,7 +131,8 @@ def clean_file(
     """Clean the take at ``inp`` and write ``out``, its ``.clean.npz`` record and optional reports.
 
     Returns ``(original, result)``: the take as read and the
-    :class:`~mocapkit.cleaning.pipeline.CleanResult`. ``context``: what
+    :class:`~mocapkit.cleaning.pipeline.CleanResult` (with ``decisions``, the decided one, what ``out`` holds:
+    :func:`mocapkit.cleaning.decide.decided_result`, its ``decided`` the summary). ``context``: what
     ``--context`` gives (:func:`load_context`; empty: the bundled default
     context, fitted to the take by :func:`mocapkit.context.fit_context`, whose
     note joins the result's notes); ``asf``: the skeleton of an
@@ -228,18 +229,21 @@ def clean_file(
             raise
         except MocapError as exc:  # a record without its cleaned samples
             raise MocapError(f"{record}: {exc}") from None
-    cleaned, changed = res.motion, res.changed
-    chosen = None
+    cleaned, chosen, decided = res.motion, None, None
     if doc is not None:
+        from .cleaning.decide import decided_result
+        from .cleaning.decided import for_motion
+
+        reviewed = record if reuse else None
         try:
-            chosen = dec.check_decisions(doc, decisions, m, res, record=record if reuse else None, fresh=not reuse)
-            cleaned = dec.apply(m, res, chosen)
+            chosen = dec.check_decisions(doc, decisions, m, res, record=reviewed, fresh=not reuse)
+            decided = decided_result(m, res, chosen, for_motion(doc, decisions, m, res, chosen, reviewed, take=inp.name))
         except MocapFormatError:
             raise
         except MocapError as exc:
             raise MocapError(f"{record}: {exc}") from None
-        changed = dec.accepted_cells(res, chosen)
-    filled_rejected = chosen is not None and bool((res.filled & ~changed).any())
+        cleaned = decided.motion
+    filled_rejected = decided is not None and bool((res.filled & ~decided.filled).any())
     io.check_complete(cleaned, out, "the cleaned take still has missing joints (NaN)",
                       "the decisions reject fill changes: accept them or write .npz" if filled_rejected
                       else "add the fill step or write .npz")
@@ -264,7 +268,7 @@ def clean_file(
         if not reuse:  # last: the completion marker, keeping what was read and written (_not_complete)
             res = replace(res, params={**res.params, "written": {"input": taken, "output": file_facts(out)}})
             res.save(record)
-    return m, res
+    return m, res if decided is None else decided
 
 
 def clean_request(steps=None, threshold: float = 0.5, drifts: bool = False, context: Sequence | None = None,

@@ -122,15 +122,9 @@ def clean(
         console.print(f"copied the skeleton {skeleton} to {skeleton_copy}: an AMC is read with the ASF beside it")
     for note in motion_notes(original, out, inp):  # what OUT's format leaves out of the input (a BVH's other roots)
         console.print(f"note: {note}")
-    if decisions is not None:
-        from ..cleaning import decided
-        from ..cleaning import decisions as dec
-
-        doc = dec.read_decisions(decisions)
-        choice = doc["decisions"]
-        _print_decided(_written(out, record, report, png),
-                       decided.for_motion(doc, decisions, original, res, choice, record, take=inp.name), res.frames_note)
-        _print_reference(ref, reference, original, dec.apply(original, res, choice))
+    if res.decided is not None:  # clean_file applied the decisions: res is what OUT holds
+        _print_decided(_written(out, record, report, png), res.decided, res.frames_note)
+        _print_reference(ref, reference, original, res.motion)
         return
     m = res.motion
     review = [s for s in res.steps if s.name != "detect"] == [] and res.detection is not None
