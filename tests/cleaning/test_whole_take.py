@@ -87,3 +87,14 @@ def test_detect_take_says_why_nothing_was_analysed(t_pose_walk):
     assert short.skipped.startswith("9 frames (0.07 s) is shorter than one motion word (15 frames at 24 fps")
     pose = detect_take(t_pose_walk[:1])
     assert pose.detection is None and pose.skipped == "the whole take is a calibration pose"
+
+
+def test_detect_take_does_not_judge_a_take_too_coarse_for_a_word(t_pose_walk):
+    """A take at 1 fps (a BVH whose Frame Time is 1 s) was resampled to 24 times its frames and searched word by
+    word; the summary now says it was not judged, and why."""
+    import dataclasses
+
+    coarse = detect_take(dataclasses.replace(t_pose_walk[:60], fps=1.0))
+    assert coarse.detection is None and coarse.span == (1, 60)
+    assert coarse.skipped.startswith("1 fps is too coarse for motion words: a source word spans 0.625 s")
+    assert coarse.skipped.endswith("(at least half of each word's frames the take's own): not judged")

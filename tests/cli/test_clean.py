@@ -627,3 +627,16 @@ def test_a_full_disk_stops_clean_batch_in_one_line(tmp_path, monkeypatch):
     assert lines[0].startswith("cleaned ") and lines[0].endswith(" [1/4]")
     assert lines[1].startswith("failed ") and lines[1].endswith(" [2/4]")
     assert lines[2].endswith("1 cleaned, 0 already complete, 1 failed, 2 not started")
+
+
+def test_clean_gives_a_take_too_coarse_for_a_word_back_bit_identical_and_says_it_was_not_judged(tmp_path):
+    """A BVH whose Frame Time is 1 s: detection was a slow search of interpolated words; clean now leaves the take
+    as it came and says what it did not judge."""
+    inp, out = tmp_path / "coarse.bvh", tmp_path / "out.bvh"
+    mocapkit.save(dataclasses.replace(mocapkit.load(helpers.SAMPLE)[:40], fps=1.0), inp)
+    code, text, err = helpers.run("clean", inp, "-o", out)
+    assert code == 0, err
+    assert out.read_bytes() == inp.read_bytes()
+    said = text + err
+    assert "detect and repair skipped: 1 fps is too coarse for motion words" in said and ": not judged" in said
+    assert re.search(r"^  detect \([0-9.]+ s\): skipped$", text, re.M)

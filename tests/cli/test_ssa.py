@@ -140,6 +140,19 @@ def test_detect_says_a_short_take_in_its_own_frames(tmp_path):
     assert code == 2 and "10 frames (0.08 s) is shorter than one motion word (15 frames at 24 fps, 0.625 s)" in err
 
 
+def test_detect_refuses_a_take_too_coarse_for_a_word_in_one_line(tmp_path):
+    """A BVH whose Frame Time is 1 s (the fuzzer's mutant 472) ran 25 s and more of word search on slerp between
+    its samples; it is refused in one line saying why, and nothing is written."""
+    import dataclasses
+
+    coarse = tmp_path / "coarse.bvh"
+    mocapkit.save(dataclasses.replace(mocapkit.load(SAMPLE)[:40], fps=1.0), coarse)
+    code, out, err = run("detect", coarse, "--out", tmp_path / "d.npz")
+    assert code == 2 and one_error_line(err) and not (tmp_path / "d.npz").exists()
+    assert f"{coarse}: 1 fps is too coarse for motion words: a source word spans 0.625 s" in err
+    assert "self-similarity judges takes of 12 fps or more" in err and err.rstrip().endswith(": not judged")
+
+
 def test_detect_flags_what_clean_in_review_mode_flags(tmp_path):
     """`mocapkit detect` judges with clean's word gate: without it, words with no neighbour within 8 deg were judged
     and the command flagged cells `clean --steps detect` did not (a user trial: 180 against 78)."""

@@ -229,8 +229,9 @@ def detect_take(motion: Motion, context=None, *, threshold: float = 0.5, params=
     take's calibration poses when the caller found them already (default: found here). The frames between
     the poses must be complete: no NaN, and no channel written as 0 where the capture lost data
     (:func:`check_no_zeros`; ``zero_runs``: the runs when the caller found them, default: found here); when they
-    are fewer than one motion word, or there are none, nothing is analysed and :attr:`TakeDetection.skipped`
-    says why. A bad parameter or a context of other joints raises :class:`~mocapkit.errors.MocapError` naming
+    are fewer than one motion word, or there are none, or the take's rate is too coarse for a word
+    (:func:`~mocapkit.cleaning.ssa.texture.too_coarse`: under 12 fps), nothing is analysed and
+    :attr:`TakeDetection.skipped` says why. A bad parameter or a context of other joints raises :class:`~mocapkit.errors.MocapError` naming
     the take.
     """
     from . import ssa
@@ -253,6 +254,9 @@ def detect_take(motion: Motion, context=None, *, threshold: float = 0.5, params=
     try:
         params = take_params() if params is None else params
         N = params.source_length
+        coarse = ssa.too_coarse(part.fps, params)
+        if coarse:
+            return TakeDetection(None, poses, span, f"{coarse}: not judged")
         if _analysis_frames(part, params.analysis_fps) < N:
             return TakeDetection(None, poses, span,
                                  f"{hi - lo} frames ({part.duration:.2f} s) is shorter than one motion word "

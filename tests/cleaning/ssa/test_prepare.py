@@ -123,3 +123,39 @@ def test_rotation_spread_of_all_joints_at_once_is_the_joint_by_joint_reference()
         sub = joints[::3]
         assert all(np.array_equal(a, b) for a, b in zip(texture._rotation_spread(motions, sub),
                                                          _rotation_spread_joint_by_joint(motions, sub)))
+
+
+def retimed(motion, fps):
+    """The take's own frames said to be sampled at ``fps`` (a BVH whose Frame Time is 1 s is a 1 fps take)."""
+    return dataclasses.replace(motion, fps=float(fps))
+
+
+def test_a_take_too_coarse_for_a_word_is_refused_before_its_texture_is_made(resamples):
+    """150 frames at 1 fps were resampled to 3,577 frames at 24 fps (714 words, 25 s and more of word DTW) of
+    slerp between samples a second apart: a word of 0.625 s lies inside one of the take's frame intervals."""
+    walk = mocapkit.load(mocapkit.samples.path("131_01.bvh"))[:150]
+    with pytest.raises(ValueError, match=r"^1 fps is too coarse for motion words: a source word spans 0\.625 s "
+                       r"\(15 frames at 24 fps\), 0\.62 of the take's frames; self-similarity judges takes of 12 fps"):
+        ssa.prepare(retimed(walk, 1))
+    with pytest.raises(ValueError, match=r"^5 fps is too coarse for motion words: .*, 3\.1 of the take's frames"):
+        ssa.prepare(retimed(walk, 5))
+    assert resamples == []
+
+
+def test_takes_from_the_lowest_judged_rate_up_are_prepared():
+    walk = mocapkit.load(mocapkit.samples.path("131_01.bvh"))[:150]
+    assert ssa.min_take_fps() == 12.0 and ssa.min_take_fps(ssa.SSAParams(analysis_fps=30)) == 15.0
+    an = ssa.prepare(retimed(walk, 12))
+    assert an.source.num_frames == 299  # the texture at most twice the take's frames
+    assert ssa.too_coarse(12.0) == "" and ssa.too_coarse(11.99) != ""
+    with pytest.raises(ValueError, match="too coarse"):
+        ssa.prepare(retimed(walk, 11.99))
+
+
+def test_a_context_clip_too_coarse_for_a_word_is_left_out_and_named(resamples):
+    walk = mocapkit.load(mocapkit.samples.path("131_01.bvh"))
+    coarse = dataclasses.replace(retimed(walk[400:550], 1), name="coarse")
+    an = ssa.prepare(walk[:300], context=[coarse])
+    assert not an.has_context and an.context == ()
+    assert any(n.startswith("context clip 'coarse' left out: 1 fps is too coarse for motion words") for n in an.notes)
+    assert resamples == [24.0]  # the take's texture only

@@ -123,9 +123,11 @@ from .texture import (
     informative_joints,
     joint_groups,
     left_out_joints,
+    min_take_fps,
     motion_texture,
     motion_words,
     prepare,
+    too_coarse,
 )
 
 __all__ = [
@@ -142,6 +144,8 @@ __all__ = [
     "LeftRun",
     "motion_texture",
     "motion_words",
+    "min_take_fps",
+    "too_coarse",
     "joint_groups",
     "informative_joints",
     "left_out_joints",

@@ -47,6 +47,9 @@ __all__ = [
     "group_rows",
     "align_hemisphere",
     "upsample_quaternions",
+    "MAX_UPSAMPLING",
+    "min_take_fps",
+    "too_coarse",
 ]
 
 _D = SSAParams()
@@ -403,6 +406,35 @@ def motion_texture(motions, analysis_fps: float = _D.analysis_fps, joints: Seque
     return MotionTexture(values, float(analysis_fps), joints, np.array(starts), tuple(m.name for m in motions))
 
 
+#: the most the motion texture is made denser than the take: a take below ``analysis_fps / MAX_UPSAMPLING`` (12 fps)
+#: would give each source word more frames made by interpolation than samples of its own
+MAX_UPSAMPLING = 2.0
+
+
+def min_take_fps(params: SSAParams = _D) -> float:
+    """The lowest frame rate (fps) at which a take is judged by its motion words: ``analysis_fps / MAX_UPSAMPLING``.
+
+    A motion word is a span of time: ``source_length`` frames at ``analysis_fps`` (15 at 24 fps, 0.625 s,
+    section 5), where the paper reduced 120 fps captures to 24 fps because motion is locally linear and smooth
+    at that rate. A take at a lower rate is resampled up to it by slerp: at 12 fps every second frame of a word is
+    interpolated, at 1 fps a word lies inside one of the take's frame intervals and the texture is interpolation
+    made 24 times denser than the take (3,600 frames and 714 words for 150 frames), slow to search and matching
+    nothing the capture measured. Below this rate the take is not judged, and the summary says so."""
+    return float(params.analysis_fps) / MAX_UPSAMPLING
+
+
+def too_coarse(fps: float, params: SSAParams = _D) -> str:
+    """One line saying why a take at ``fps`` is too coarse for motion words (:func:`min_take_fps`), or "" when it
+    is not."""
+    low = min_take_fps(params)
+    if fps >= low:
+        return ""
+    N, a = params.source_length, params.analysis_fps
+    return (f"{fps:g} fps is too coarse for motion words: a source word spans {N / a:.3f} s ({N} frames at {a:g} fps), "
+            f"{N * fps / a:.2g} of the take's frames; self-similarity judges takes of {low:g} fps or more (at least "
+            f"half of each word's frames the take's own)")
+
+
 def motion_words(num_frames: int, length: int = _D.source_length, stride: int = _D.stride) -> np.ndarray:
     """First frames of the source words: every ``stride`` frames, plus one flush with the end (section 5)."""
     if num_frames < length:
@@ -459,8 +491,9 @@ def upsample_quaternions(q: np.ndarray, fps_from: float, n_out: int, fps_to: flo
 
 
 
-def context_motions(motion: Motion, context) -> tuple[list[Motion], list[str]]:
-    """Context as a list of Motions with the input's joints; clips that are the input itself are dropped."""
+def context_motions(motion: Motion, context, params: SSAParams | None = None) -> tuple[list[Motion], list[str]]:
+    """Context as a list of Motions with the input's joints; clips that are the input itself are dropped, and with
+    ``params``, clips too coarse for motion words (:func:`too_coarse`), each named in a note."""
     notes = []
     if context is None:
         return [], notes
@@ -486,6 +519,10 @@ def context_motions(motion: Motion, context) -> tuple[list[Motion], list[str]]:
             )
         if c.name and c.name == motion.name and abs(c.duration - motion.duration) < 1.5 / min(c.fps, motion.fps):
             notes.append(f"context clip {c.name!r} is the input itself; left out")
+            continue
+        coarse = "" if params is None else too_coarse(c.fps, params)
+        if coarse:
+            notes.append(f"context clip {c.name!r} left out: {coarse}")
             continue
         out.append(c)
     return out, notes
@@ -593,8 +630,8 @@ def prepare(
     with the take's name and length is the take itself and is left out (noted). ``groups``: name ->
     joint names or indices (default :func:`joint_groups`). ``joints``: exactly these joints (skeleton
     indices, e.g. a saved detection's ``texture_joints``) instead of ``params.joints``. Raises
-    ValueError on missing rotations, a take shorter than one source word, or no group with two
-    analysed joints; :class:`~mocapkit.errors.SkeletonError` on a context clip with other joints.
+    ValueError on missing rotations, a take shorter than one source word or too coarse for one
+    (:func:`too_coarse`), or no group with two analysed joints; :class:`~mocapkit.errors.SkeletonError` on a context clip with other joints.
     """
     params = SSAParams() if params is None else params
     if not isinstance(motion, Motion):
@@ -604,7 +641,10 @@ def prepare(
         raise ValueError(
             f"{motion.name or 'motion'}: {len(bad)} frames have missing rotations (first: {bad[0]}); fill the gaps first"
         )
-    ctx, notes = context_motions(motion, context)
+    coarse = too_coarse(motion.fps, params)
+    if coarse:  # before the texture: resampled to the analysis rate, a 1 fps take would be 24 times its frames
+        raise ValueError(coarse)
+    ctx, notes = context_motions(motion, context, params)
     sk = motion.skeleton
     chosen = params.joints if joints is None else joints
     if isinstance(chosen, (int, np.integer)):
