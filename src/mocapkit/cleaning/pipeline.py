@@ -86,6 +86,9 @@ Edge cases (documented fallbacks, never a crash):
 
 - a clip shorter than one motion word (15 frames at the 24 fps analysis rate,
   0.625 s) is not analysed: detect and repair are skipped with a note;
+- a clip under 12 fps (half the analysis rate) is too coarse for a motion word
+  (:func:`mocapkit.cleaning.ssa.texture.too_coarse`): most of each word's frames
+  would be interpolation, so it is not analysed either, with a note;
 - a clip with fewer frames than the noise criterion's fit (7) is not denoised,
   with a note;
 - a single frame, a take missing in every frame, or a joint never observed
