@@ -147,9 +147,9 @@ def test_takes_from_the_lowest_judged_rate_up_are_prepared():
     assert ssa.min_take_fps() == 12.0 and ssa.min_take_fps(ssa.SSAParams(analysis_fps=30)) == 15.0
     an = ssa.prepare(retimed(walk, 12))
     assert an.source.num_frames == 299  # the texture at most twice the take's frames
-    assert ssa.too_coarse(12.0) == "" and ssa.too_coarse(11.99) != ""
+    assert ssa.too_coarse(12.0) == "" and ssa.too_coarse(1 / 0.0833334) == "" and ssa.too_coarse(11.9) != ""
     with pytest.raises(ValueError, match="too coarse"):
-        ssa.prepare(retimed(walk, 11.99))
+        ssa.prepare(retimed(walk, 11.9))
 
 
 def test_a_context_clip_too_coarse_for_a_word_is_left_out_and_named(resamples):

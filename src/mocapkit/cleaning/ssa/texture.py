@@ -425,9 +425,10 @@ def min_take_fps(params: SSAParams = _D) -> float:
 
 def too_coarse(fps: float, params: SSAParams = _D) -> str:
     """One line saying why a take at ``fps`` is too coarse for motion words (:func:`min_take_fps`), or "" when it
-    is not."""
+    is not. A rate within 0.1 % of the lowest counts as it: a BVH at 12 fps may write its Frame Time rounded up
+    (0.0833334 s, 11.99999 fps)."""
     low = min_take_fps(params)
-    if fps >= low:
+    if fps >= low * (1.0 - 1e-3):
         return ""
     N, a = params.source_length, params.analysis_fps
     return (f"{fps:g} fps is too coarse for motion words: a source word spans {N / a:.3f} s ({N} frames at {a:g} fps), "
