@@ -418,7 +418,7 @@ def min_take_fps(params: SSAParams = _D) -> float:
     section 5), where the paper reduced 120 fps captures to 24 fps because motion is locally linear and smooth
     at that rate. A take at a lower rate is resampled up to it by slerp: at 12 fps every second frame of a word is
     interpolated, at 1 fps a word lies inside one of the take's frame intervals and the texture is interpolation
-    made 24 times denser than the take (3,600 frames and 714 words for 150 frames), slow to search and matching
+    made 24 times denser than the take (3,577 frames and 714 words for 150 frames), slow to search and matching
     nothing the capture measured. Below this rate the take is not judged, and the summary says so."""
     return float(params.analysis_fps) / MAX_UPSAMPLING
 
@@ -494,8 +494,8 @@ def upsample_quaternions(q: np.ndarray, fps_from: float, n_out: int, fps_to: flo
 
 def context_motions(motion: Motion, context, params: SSAParams | None = None) -> tuple[list[Motion], list[str]]:
     """Context as a list of Motions with the input's joints; clips that are the input itself are dropped, and with
-    ``params``, clips too coarse for motion words (:func:`too_coarse`), each named in a note."""
-    notes = []
+    ``params``, clips too coarse for motion words (:func:`too_coarse`: one note names them and says why)."""
+    notes, coarse = [], []
     if context is None:
         return [], notes
     from ...database import MotionDatabase
@@ -521,11 +521,13 @@ def context_motions(motion: Motion, context, params: SSAParams | None = None) ->
         if c.name and c.name == motion.name and abs(c.duration - motion.duration) < 1.5 / min(c.fps, motion.fps):
             notes.append(f"context clip {c.name!r} is the input itself; left out")
             continue
-        coarse = "" if params is None else too_coarse(c.fps, params)
-        if coarse:
-            notes.append(f"context clip {c.name!r} left out: {coarse}")
+        if params is not None and too_coarse(c.fps, params):
+            coarse.append(c)
             continue
         out.append(c)
+    if coarse:
+        more = f" and {len(coarse) - 1} more" if len(coarse) > 1 else ""
+        notes.append(f"context clip {coarse[0].name!r}{more} left out: {too_coarse(coarse[0].fps, params)}")
     return out, notes
 
 
