@@ -87,21 +87,23 @@ DEFAULT_PATTERNS = ("*.bvh", "*.amc", "*.npz", "*.c3d", "*.trc")
 
 
 @lru_cache(maxsize=4)
-def _context(paths: tuple[str, ...], default: bool, progress: bool, prefer: str | None):
+def _context(paths: tuple[str, ...], default: bool, progress: bool, prefer: str | None, tell=None):
     """The context ``paths`` name (:func:`mocapkit.context.resolve_context`), resolved once per process."""
     from .context import resolve_context
 
-    return resolve_context(list(paths), default=default, progress=progress, prefer=prefer)
+    return resolve_context(list(paths), default=default, progress=progress, prefer=prefer, tell=tell)
 
 
-def load_context(paths: Sequence | None, *, default: bool = True, progress: bool = False, take=None):
+def load_context(paths: Sequence | None, *, default: bool = True, progress: bool = False, take=None,
+                 tell: Callable[[str], None] | None = None):
     """``--context``: a database folder, a folder of takes or motion files (built once and cached), ``none``;
     None or empty: the bundled default context (with ``default``), else the clip itself. ``take``: the
-    Motion it is for (a folder of mixed rigs then gives the takes on its skeleton)."""
+    Motion it is for (a folder of mixed rigs then gives the takes on its skeleton). ``tell``: called with a line as
+    a build of files starts and as it ends (:func:`mocapkit.context.build_context`; nothing for a cached one)."""
     from .context import topology_id
 
     prefer = topology_id(take.skeleton) if take is not None else None
-    return _context(tuple(str(p) for p in (paths or ())), default, progress, prefer)
+    return _context(tuple(str(p) for p in (paths or ())), default, progress, prefer, tell)
 
 
 def clean_file(
@@ -653,6 +655,7 @@ def clean_batch(
     max_gap_s: float | None = None,
     max_error_mm: float | None = None,
     on_row: Callable[[dict, int, int], None] | None = None,
+    on_context: Callable[[str], None] | None = None,
 ) -> BatchSummary:
     """Clean every take under ``in_dir`` into the mirrored layout under ``out_dir`` (module docstring).
 
@@ -676,6 +679,8 @@ def clean_batch(
     names) for every take, as :func:`clean_file`'s. ``on_row(row, n, total)``: called in this process
     with each take's row as soon as it is known, the complete takes first (input order), then each take
     cleaned or failed as it finishes (completion order); ``n`` counts the rows so far, ``total`` the takes.
+    ``on_context(line)``: called with a line as the ``context`` files start to be built into a database, before
+    the first take, and one as the build ends (its clips and seconds; nothing when the cache holds it).
     A take that fails on a full disk, a used-up quota or a read-only file system stops the batch
     (``BatchSummary.stopped``). Raises
     :class:`~mocapkit.errors.MocapError` (one line) on a bad folder, format,
@@ -706,7 +711,7 @@ def clean_batch(
             raise MocapError(str(exc)) from None
     ctx = [Path(c) for c in (context or [])]
     if ctx:
-        load_context(ctx, progress=progress)  # fail early, in one line, on a bad context; a folder is built and cached once
+        load_context(ctx, progress=progress, tell=on_context)  # fail early, in one line, on a bad context; a folder is built and cached once
     t0 = time.perf_counter()
     below = inside(out_dir, in_dir)  # an OUT_DIR below IN_DIR is left out of the inputs, IN_DIR itself is not
     earlier: list[Path] = []  # folders below IN_DIR holding an earlier batch's outputs: left out too

@@ -627,3 +627,29 @@ def test_a_full_disk_stops_clean_batch_in_one_line(tmp_path, monkeypatch):
     assert lines[0].startswith("cleaned ") and lines[0].endswith(" [1/4]")
     assert lines[1].startswith("failed ") and lines[1].endswith(" [2/4]")
     assert lines[2].endswith("1 cleaned, 0 already complete, 1 failed, 2 not started")
+
+
+def test_clean_batch_says_in_a_log_when_it_builds_the_context_before_the_first_take(tmp_path, monkeypatch):
+    """A user trial: with stdout a log, `clean-batch --context FOLDER` said nothing while it built the folder into
+    a database before the first take (a minute on a real folder); one line on stderr as it starts, one as it ends
+    (clips, seconds), and none when the cache already holds it."""
+    import shutil
+
+    monkeypatch.setenv("MOCAPKIT_CACHE_DIR", str(tmp_path / "cache"))
+    ctx, src = tmp_path / "ctx", tmp_path / "takes"
+    ctx.mkdir()
+    src.mkdir()
+    for name in ("HDM_bk.asf", "HDM_bd.asf", "HDM_bk_sneak2StepsLStart_005_120.amc",
+                 "HDM_bd_jogLeftCircle4StepsRstart_001_120.amc"):  # real HDM05 takes of two actors
+        shutil.copy(samples.path(name), ctx / name)
+    for name in ("HDM_bk.asf", "HDM_bk_sneak2StepsLStart_004_120.amc"):
+        shutil.copy(samples.path(name), src / name)
+    code, out, err = helpers.run("clean-batch", src, tmp_path / "out", "--steps", "fill", "--context", ctx)
+    assert code == 0, err
+    lines = [ln for ln in err.splitlines() if "context" in ln]
+    assert lines[0] == f"building context the takes of {ctx}: 2 files, once (cached for the next run)", err
+    assert re.fullmatch(rf"built context the takes of {re.escape(str(ctx))}: 2 clips of 2 files \(\d+\.\d s\)",
+                        lines[1]), err
+    assert "cleaned " in out
+    code, out, err = helpers.run("clean-batch", src, tmp_path / "out2", "--steps", "fill", "--context", ctx)
+    assert code == 0 and "context" not in err, err  # opened from the cache: nothing built, nothing said

@@ -350,6 +350,9 @@ def clean_batch(
     models = _models(ebf, ebd)
     counted = not sys.stdout.isatty()  # no bar in a log: each line says how far the batch is, after its take
 
+    def print_context(line: str) -> None:  # a build of --context before the first take: a minute a log said nothing
+        print(line, file=sys.stderr, flush=True)
+
     def print_row(row: dict, n: int, total: int) -> None:
         console.print(_take_line(row) + (f" [{n}/{total}]" if counted else ""))
         for note in row.get("warnings", ()):  # as clean says them: a fallback, a model's licence
@@ -360,7 +363,8 @@ def clean_batch(
                             fmt=fmt, report=report, png=png, executor=executor, progress=not as_json,
                             overwrite=overwrite, asf=asf, drifts=drifts, models=models, amc_fps=amc_fps, unit=unit,
                             max_gap_s=max_gap, max_error_mm=max_fill_error,
-                            noise_deg=noise_deg, on_row=None if as_json else print_row)
+                            noise_deg=noise_deg, on_row=None if as_json else print_row,
+                            on_context=print_context if counted else None)
     except KeyboardInterrupt:  # "no partial output" alone reads as if nothing was kept
         if out_dir.is_dir() and any(out_dir.rglob("*.clean.npz")):
             console.print(f"note: the takes finished in {out_dir} are kept; the same command resumes the others")
