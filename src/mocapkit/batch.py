@@ -762,6 +762,7 @@ def clean_batch(
     expected = [f for files in plans for f in files.values() if f is not None]
     made = missing_folders([out_dir, *(Path(files["output"]).parent for _, files in todo)])
     total, told = len(inputs), 0
+    said: set[int] = set()  # the takes of todo whose rows were told
 
     def tell(row: dict) -> None:
         nonlocal told
@@ -776,6 +777,7 @@ def clean_batch(
         inp, files = todo[k]
         _as_given(row, inp, files, again.get(inp))
         tell(row)
+        said.add(k)
         if row.get("errno") and not summary.stopped:
             summary.stopped = row["reason"]
         return bool(summary.stopped)
@@ -789,6 +791,9 @@ def clean_batch(
             rows = map_ordered(_batch_job, jobs, executor=executor, progress=progress, desc="clean",
                                on_result=finished_take) if jobs else []
             finished = True
+        except BaseException:  # an interrupt: a take written whose row never came is said from its record
+            _tell_written(todo, said, request, markers, tell)
+            raise
         finally:
             try:  # also after an interrupt: every complete AMC output reads back
                 _place_asfs(skeletons, quiet=not finished)
@@ -805,6 +810,20 @@ def clean_batch(
                            f"{summary.not_started} not started; the same command resumes the rest")
     summary.seconds = time.perf_counter() - t0
     return summary
+
+
+def _tell_written(todo: list, said: set, request: dict, markers: dict, tell: Callable[[dict], None]) -> None:
+    """Tell the row of each take of ``todo`` not in ``said`` that is complete on disk for this run's ``request`` /
+    ``markers`` (:func:`mocapkit.batch_written.found_written`); nothing that goes wrong here masks the interrupt."""
+    from .batch_written import found_written
+
+    try:
+        for k, row in found_written([(k, inp, files) for k, (inp, files) in enumerate(todo) if k not in said],
+                                    lambda inp, files: not _not_complete(inp, files, request, markers)[0]):
+            _as_given(row, *todo[k], None)
+            tell(row)
+    except Exception:  # noqa: BLE001 - the interrupt is what the caller must see; the next run says these takes
+        pass
 
 
 def _as_given(row: dict, inp: Path, files: dict, again: str | None) -> None:

@@ -293,8 +293,10 @@ def _take_line(row: dict) -> str:
                                                    ("spikes", "spike sample"), ("swapped", "re-labelled sample"))
              if row.get(k)]
     what = ", ".join(found) if found else "nothing to change"
-    again = f"; {row['reason']}" if row.get("reason") else ""  # "cleaned again: its input changed ..."
-    return f"cleaned {row['input']} -> {row['output']}: {what} ({row.get('seconds', 0.0):.1f} s{again})"
+    # "cleaned again: its input changed ...", or a take found written after an interrupt (no time measured)
+    seconds = row.get("seconds", 0.0)
+    said = [f"{seconds:.1f} s" if seconds is not None else "", row.get("reason") or ""]
+    return f"cleaned {row['input']} -> {row['output']}: {what} ({'; '.join(x for x in said if x)})"
 
 
 def clean_batch(
