@@ -47,7 +47,7 @@ def check_replay(record, request: Mapping, given: Iterable[str], names: Mapping[
     kept) agrees with no option given. Raises :class:`~mocapkit.errors.MocapError` (one line naming ``record``);
     :class:`~mocapkit.errors.MocapFormatError` where ``record`` is no mocapkit record.
     """
-    given = [k for k in given]
+    given = list(given)
     if not given:
         return
     was = (CleanResult.load_params(record) or {}).get("request")
