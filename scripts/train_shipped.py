@@ -34,7 +34,7 @@ from pathlib import Path
 
 import torch
 
-from mocapkit.cleaning.deep.provenance import BANDAI_LICENCE
+from mocapkit.cleaning.deep.provenance import BANDAI_LICENCE, rig_name
 
 ROOT = Path(__file__).resolve().parents[1]
 DATA = ROOT.parent / "shared" / "data"
@@ -158,7 +158,7 @@ def main() -> None:
                       bias=a.kind == "ebf" and a.bias, noise_input=a.kind == "ebf" and a.noise_input, **extra)
     out = Path(a.out) / a.kind if a.rig == "acclaim" else Path(a.out) / a.rig / a.kind
     t = time.perf_counter()
-    meta = {"rig": a.rig, "licence": BANDAI_LICENCE} if a.rig == "bandai" else {"rig": a.rig}
+    meta = {"rig": rig_name(a.rig), "licence": BANDAI_LICENCE} if a.rig == "bandai" else {"rig": a.rig}
     model = train(clips, out, cfg, validation=val, executor="serial", meta=meta)
     seconds = time.perf_counter() - t
     hist = model.meta["history"]

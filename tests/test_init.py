@@ -164,7 +164,7 @@ def test_marker_decisions_as_a_dict_apply_as_their_file_does(capture_run):
 def test_marker_decisions_are_refused_in_the_library_with_the_clis_words(capture_run, tmp_path):
     """A hand-written file (no digest of the cleaning reviewed) is refused for a new cleaning and taken with the
     record, noting it; a file for another capture is refused; review mode takes no decisions; each refusal is the
-    line the CLI says."""
+    line the CLI says (the record as ``record=``, the CLI's ``--record``)."""
     from mocapkit.io import load_markers, save_markers
 
     d, inp, out, record = capture_run
@@ -172,7 +172,9 @@ def test_marker_decisions_are_refused_in_the_library_with_the_clis_words(capture
     with pytest.raises(mocapkit.MocapFormatError) as exc:
         mocapkit.clean(inp, decisions=hand)
     code, _, err = _cli("clean", inp, "-o", tmp_path / "x.c3d", "--decisions", hand)
-    assert code == 2 and "keeps no digest" in str(exc.value) and str(exc.value) in err, (exc.value, err)
+    said = str(exc.value)  # the command's line, naming the record as each is given it
+    assert code == 2 and "keeps no digest" in said and said.endswith("record with record=") and "--record" not in said
+    assert said.replace("with record=", "with --record") in err, (exc.value, err)
     res = mocapkit.clean(inp, decisions=hand, record=record)
     assert any(x.startswith(f"note: {hand} keeps no digest") for x in res.summary())
     other = save_markers(load_markers(inp)[:400], tmp_path / "other.c3d")

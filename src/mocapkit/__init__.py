@@ -118,7 +118,12 @@ def clean(take, context=None, *, steps="fill,detect,repair,denoise", threshold: 
     record : str or os.PathLike, optional
         With ``decisions``: the ``.clean.npz`` of the cleaning reviewed (the
         CLI's ``--record``), read back instead of cleaning again (no context is
-        read; the options that shape a cleaning are not used).
+        read). The options that shape a cleaning (``context``, ``steps``,
+        ``threshold``, ``drifts``, ``models``, ``noise_deg``) are honoured
+        only where they are those the record's cleaning was made with, and
+        otherwise refused in one line naming the record and each keyword
+        (:func:`mocapkit.cleaning.replay.check_replay`); ``asf``, ``fps`` and
+        ``unit`` read the take, which must be the one the record was made from.
 
     Returns
     -------
@@ -154,6 +159,7 @@ def clean(take, context=None, *, steps="fill,detect,repair,denoise", threshold: 
 
         take = load_take(path, unit=unit)
     if isinstance(take, MarkerSet):
+        from .cleaning.decisions import RECORD_KEYWORD
         from .cleaning.markers.decisions import clean_and_decide
         from .cleaning.pipeline import STEPS, parse_steps
         from .marker_files import marker_request, refuse_marker_options
@@ -165,12 +171,21 @@ def clean(take, context=None, *, steps="fill,detect,repair,denoise", threshold: 
             ("noise_deg", noise_deg is not None)) if given])
         _, res = clean_and_decide(take, name=os.fspath(path) if path is not None else "", decisions=decisions,
                                   record=record, review=review, request=marker_request(unit, review=review),
+                                  option=RECORD_KEYWORD,
                                   take=os.path.basename(os.fspath(path)) if path is not None else "")
         return dataclasses.replace(res, frames_note=frames_note(path, take))
     if record is not None and decisions is None:
         raise MocapError(f"{record}: an earlier run's record is applied with decisions; give the decisions file")
     motion = take if isinstance(take, Motion) else _load_motion(take, asf, fps, unit)
     request = _request(context, steps, threshold, drifts, models, noise_deg, fps, unit)
+    if record is not None:
+        from .cleaning.pipeline import STEPS, parse_steps
+        from .cleaning.replay import KEYWORDS, check_replay
+
+        check_replay(record, request, [key for key, given in (
+            ("steps", parse_steps(steps) != STEPS), ("threshold", threshold != 0.5), ("drifts", drifts),
+            ("context", context is not None), ("models", bool(models)), ("noise_deg", noise_deg is not None)) if given],
+            KEYWORDS, "record=")
 
     def cleaning():
         ctx, note = _load_context(context, motion)

@@ -87,21 +87,23 @@ DEFAULT_PATTERNS = ("*.bvh", "*.amc", "*.npz", "*.c3d", "*.trc")
 
 
 @lru_cache(maxsize=4)
-def _context(paths: tuple[str, ...], default: bool, progress: bool, prefer: str | None):
+def _context(paths: tuple[str, ...], default: bool, progress: bool, prefer: str | None, tell=None):
     """The context ``paths`` name (:func:`mocapkit.context.resolve_context`), resolved once per process."""
     from .context import resolve_context
 
-    return resolve_context(list(paths), default=default, progress=progress, prefer=prefer)
+    return resolve_context(list(paths), default=default, progress=progress, prefer=prefer, tell=tell)
 
 
-def load_context(paths: Sequence | None, *, default: bool = True, progress: bool = False, take=None):
+def load_context(paths: Sequence | None, *, default: bool = True, progress: bool = False, take=None,
+                 tell: Callable[[str], None] | None = None):
     """``--context``: a database folder, a folder of takes or motion files (built once and cached), ``none``;
     None or empty: the bundled default context (with ``default``), else the clip itself. ``take``: the
-    Motion it is for (a folder of mixed rigs then gives the takes on its skeleton)."""
+    Motion it is for (a folder of mixed rigs then gives the takes on its skeleton). ``tell``: called with a line as
+    a build of files starts and as it ends (:func:`mocapkit.context.build_context`; nothing for a cached one)."""
     from .context import topology_id
 
     prefer = topology_id(take.skeleton) if take is not None else None
-    return _context(tuple(str(p) for p in (paths or ())), default, progress, prefer)
+    return _context(tuple(str(p) for p in (paths or ())), default, progress, prefer, tell)
 
 
 def clean_file(
@@ -653,6 +655,7 @@ def clean_batch(
     max_gap_s: float | None = None,
     max_error_mm: float | None = None,
     on_row: Callable[[dict, int, int], None] | None = None,
+    on_context: Callable[[str], None] | None = None,
 ) -> BatchSummary:
     """Clean every take under ``in_dir`` into the mirrored layout under ``out_dir`` (module docstring).
 
@@ -676,6 +679,8 @@ def clean_batch(
     names) for every take, as :func:`clean_file`'s. ``on_row(row, n, total)``: called in this process
     with each take's row as soon as it is known, the complete takes first (input order), then each take
     cleaned or failed as it finishes (completion order); ``n`` counts the rows so far, ``total`` the takes.
+    ``on_context(line)``: called with a line as the ``context`` files start to be built into a database, before
+    the first take, and one as the build ends (its clips and seconds; nothing when the cache holds it).
     A take that fails on a full disk, a used-up quota or a read-only file system stops the batch
     (``BatchSummary.stopped``). Raises
     :class:`~mocapkit.errors.MocapError` (one line) on a bad folder, format,
@@ -706,7 +711,7 @@ def clean_batch(
             raise MocapError(str(exc)) from None
     ctx = [Path(c) for c in (context or [])]
     if ctx:
-        load_context(ctx, progress=progress)  # fail early, in one line, on a bad context; a folder is built and cached once
+        load_context(ctx, progress=progress, tell=on_context)  # fail early, in one line, on a bad context; a folder is built and cached once
     t0 = time.perf_counter()
     below = inside(out_dir, in_dir)  # an OUT_DIR below IN_DIR is left out of the inputs, IN_DIR itself is not
     earlier: list[Path] = []  # folders below IN_DIR holding an earlier batch's outputs: left out too
@@ -757,6 +762,7 @@ def clean_batch(
     expected = [f for files in plans for f in files.values() if f is not None]
     made = missing_folders([out_dir, *(Path(files["output"]).parent for _, files in todo)])
     total, told = len(inputs), 0
+    said: set[int] = set()  # the takes of todo whose rows were told
 
     def tell(row: dict) -> None:
         nonlocal told
@@ -771,6 +777,7 @@ def clean_batch(
         inp, files = todo[k]
         _as_given(row, inp, files, again.get(inp))
         tell(row)
+        said.add(k)
         if row.get("errno") and not summary.stopped:
             summary.stopped = row["reason"]
         return bool(summary.stopped)
@@ -784,6 +791,9 @@ def clean_batch(
             rows = map_ordered(_batch_job, jobs, executor=executor, progress=progress, desc="clean",
                                on_result=finished_take) if jobs else []
             finished = True
+        except BaseException:  # an interrupt: a take written whose row never came is said from its record
+            _tell_written(todo, said, request, markers, tell)
+            raise
         finally:
             try:  # also after an interrupt: every complete AMC output reads back
                 _place_asfs(skeletons, quiet=not finished)
@@ -800,6 +810,20 @@ def clean_batch(
                            f"{summary.not_started} not started; the same command resumes the rest")
     summary.seconds = time.perf_counter() - t0
     return summary
+
+
+def _tell_written(todo: list, said: set, request: dict, markers: dict, tell: Callable[[dict], None]) -> None:
+    """Tell the row of each take of ``todo`` not in ``said`` that is complete on disk for this run's ``request`` /
+    ``markers`` (:func:`mocapkit.batch_written.found_written`); nothing that goes wrong here masks the interrupt."""
+    from .batch_written import found_written
+
+    try:
+        for k, row in found_written([(k, inp, files) for k, (inp, files) in enumerate(todo) if k not in said],
+                                    lambda inp, files: not _not_complete(inp, files, request, markers)[0]):
+            _as_given(row, *todo[k], None)
+            tell(row)
+    except Exception:  # noqa: BLE001 - the interrupt is what the caller must see; the next run says these takes
+        pass
 
 
 def _as_given(row: dict, inp: Path, files: dict, again: str | None) -> None:

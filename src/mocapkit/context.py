@@ -58,7 +58,7 @@ import shutil
 import time
 import uuid
 from pathlib import Path
-from typing import Sequence
+from typing import Callable, Sequence
 
 import numpy as np
 
@@ -248,7 +248,7 @@ def context_take(m, fps: float = BUILD_FPS, source=None):
 
 def build_context(files: Sequence, *, fps: float = BUILD_FPS, features: Sequence[str] = BUILD_FEATURES,
                   progress: bool = False, label: str | None = None, prefer: str | None = None,
-                  optional: Sequence = ()):
+                  optional: Sequence = (), tell: Callable[[str], None] | None = None):
     """Build a context database from motion files; returns ``(database, notes)``.
 
     Every file is read (an AMC with the ASF beside it, as the readers find
@@ -261,11 +261,16 @@ def build_context(files: Sequence, *, fps: float = BUILD_FPS, features: Sequence
     or, when it is among ``optional`` (files found in a folder), left out and
     named in a note. ``progress`` shows a rich progress bar on stderr.
     ``label`` is stored in the database's ``info`` (what the summary says
-    judged a take).
+    judged a take). ``tell``: called with one line as the build starts and one as it ends (the clips it holds of
+    the files read, and the seconds it took), for a log where no bar shows (``mocapkit clean-batch``).
     """
     files = [Path(f) for f in files]
     if not files:
         raise MocapError("no context files given")
+    t0 = time.perf_counter()
+    if tell is not None:
+        tell(f"building context {label or 'the context files'}: {len(files)} file{'s' if len(files) != 1 else ''}, "
+             "once (cached for the next run)")
     found = {Path(f).resolve() for f in optional}
     motions, used, bad = [], [], []
     with _progress(len(files), progress) as bar:
@@ -289,7 +294,12 @@ def build_context(files: Sequence, *, fps: float = BUILD_FPS, features: Sequence
                      f"({bad[0][1]}{'; ' + _names([b[0] for b in bad[1:]]) if len(bad) > 1 else ''})")
     if not motions:
         raise bad[0][2]  # nothing left: the first file's own error
-    return _database(motions, used, len(files), notes, fps, features, label or "the context files", prefer)
+    db, notes = _database(motions, used, len(files), notes, fps, features, label or "the context files", prefer)
+    if tell is not None:
+        clips = db.num_clips
+        tell(f"built context {label or 'the context files'}: {clips} clip{'s' if clips != 1 else ''} of "
+             f"{len(files)} file{'s' if len(files) != 1 else ''} ({time.perf_counter() - t0:.1f} s)")
+    return db, notes
 
 
 def motions_context(motions: Sequence, *, fps: float = BUILD_FPS, features: Sequence[str] = BUILD_FEATURES,
@@ -353,7 +363,7 @@ def _sweep(root: Path) -> None:
 
 def cached_context(files: Sequence, *, cache_dir=None, fps: float = BUILD_FPS, features: Sequence[str] = BUILD_FEATURES,
                    progress: bool = False, label: str | None = None, prefer: str | None = None, optional: Sequence = (),
-                   build: bool = True):
+                   build: bool = True, tell: Callable[[str], None] | None = None):
     """The context database of ``files``, built once into the cache and opened from it afterwards.
 
     ``cache_dir``: the cache folder (default :func:`cache_root`). The build
@@ -364,7 +374,8 @@ def cached_context(files: Sequence, *, cache_dir=None, fps: float = BUILD_FPS, f
     entry another user's permissions hide does not stop the work: the build
     is used from memory, and its notes say why it was not cached. Entries get
     the permissions the umask gives a new folder, so a shared cache serves
-    everyone. ``prefer`` and ``optional``: :func:`build_context`'s.
+    everyone. ``prefer``, ``optional`` and ``tell`` (a line as a build starts and ends; none for an entry opened
+    from the cache): :func:`build_context`'s.
     Returns a :class:`~mocapkit.database.MotionDatabase` (memory-mapped when
     cached) whose ``info`` holds ``label`` and the build's notes; with ``build``
     False, None when the cache does not hold it.
@@ -381,7 +392,7 @@ def cached_context(files: Sequence, *, cache_dir=None, fps: float = BUILD_FPS, f
         if not build:
             return None
         db, _ = build_context(files, fps=fps, features=features, progress=progress, label=label, prefer=prefer,
-                              optional=optional)
+                              optional=optional, tell=tell)
         return _uncached(db, "no home folder holds the context cache")
     entry = root / key
     cached, hidden = _open_entry(entry, label)
@@ -390,7 +401,7 @@ def cached_context(files: Sequence, *, cache_dir=None, fps: float = BUILD_FPS, f
     if not build:
         return None
     db, _ = build_context(files, fps=fps, features=features, progress=progress, label=label, prefer=prefer,
-                          optional=optional)
+                          optional=optional, tell=tell)
     if prefer is not None and db.info.get("majority") == topology_id(db.skeletons[0]):
         # the take's skeleton is the folder's majority (or absent from it): the build without a preference,
         # cached under its key, so that a later request without one (a batch's first check) finds it
@@ -476,7 +487,8 @@ def _describe(paths: list[Path]) -> str:
     return "the context files" if len(paths) > 1 else f"the context file {paths[0]}"
 
 
-def resolve_context(spec, *, default: bool = True, cache_dir=None, progress: bool = False, prefer: str | None = None):
+def resolve_context(spec, *, default: bool = True, cache_dir=None, progress: bool = False, prefer: str | None = None,
+                    tell: Callable[[str], None] | None = None):
     """What ``--context`` (or ``context=``) names, as the analysis takes it.
 
     ``spec`` may be None or empty (the bundled default context when
@@ -488,7 +500,8 @@ def resolve_context(spec, *, default: bool = True, cache_dir=None, progress: boo
     motion files (built once and cached, :func:`cached_context`). ``prefer``:
     the :func:`topology_id` of the take the context is for; when the files
     hold takes on it but most are on another skeleton, the context built
-    from them keeps the take's. Returns a MotionDatabase or None.
+    from them keeps the take's. ``tell``: called with a line as a build of
+    files starts and as it ends (:func:`build_context`). Returns a MotionDatabase or None.
     """
     from .database import MotionDatabase
     from .motion import Motion
@@ -517,7 +530,7 @@ def resolve_context(spec, *, default: bool = True, cache_dir=None, progress: boo
         return db
     files = context_files(paths)
     optional = [f for f in files if f not in paths]  # found in a folder, not named
-    kw = {"cache_dir": cache_dir, "progress": progress, "label": _describe(paths), "optional": optional}
+    kw = {"cache_dir": cache_dir, "progress": progress, "label": _describe(paths), "optional": optional, "tell": tell}
     plain = cached_context(files, build=prefer is None, **kw)  # the majority's build, when there is one
     if plain is not None and (prefer not in plain.info.get("topologies", ()) or topology_id(plain.skeletons[0]) == prefer):
         return plain

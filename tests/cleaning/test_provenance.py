@@ -8,7 +8,7 @@ import pytest
 
 import mocapkit
 from mocapkit.cleaning import deep
-from mocapkit.cleaning.deep import training
+from mocapkit.cleaning.deep import provenance, training
 from mocapkit.cleaning.deep.provenance import (BANDAI_LICENCE, NOT_STATED, model_licence, model_rig, restricts_use,
                                                training_rig)
 
@@ -68,3 +68,18 @@ def test_takes_of_several_rig_families_are_named_in_one_line(walk, bandai):
                                          r"\(bandai_namco\); train one rig at a time"):
         training_rig([walk, bandai[0]])
     assert training_rig(bandai) == "bandai_namco"
+
+
+def test_the_old_spelling_of_the_bandai_rig_is_read_as_bandai_namco(tmp_path, bandai):
+    """A user trial: `info ebf_bandai.pt` said `rig bandai` where `denoise`, `clean` and models trained now say
+    bandai_namco; a model written with 0.4.0's spelling loads and says the one name, and keeps it when saved again."""
+    for kind in ("ebf", "ebd"):
+        shipped = deep.load_model(f"{kind}_bandai.pt")
+        assert model_rig(shipped) == shipped.meta["rig"] == "bandai_namco"
+    old = dataclasses.replace(deep.shipped_model("ebf", bandai[0]), meta={"rig": "bandai", "licence": BANDAI_LICENCE})
+    deep.save_model(old, tmp_path / "old.pt")
+    read = deep.load_model(tmp_path / "old.pt")
+    assert model_rig(read) == read.meta["rig"] == "bandai_namco" and model_licence(read) == BANDAI_LICENCE
+    assert model_rig(old) == "bandai_namco" and model_rig(dataclasses.replace(old, meta={"rig": "unity"})) == "unity"
+    card = provenance.model_card(bandai[:1], given={"rig": "bandai"})
+    assert card["rig"] == "bandai_namco"

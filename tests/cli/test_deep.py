@@ -583,3 +583,13 @@ def test_train_licence_states_a_model_licence_and_an_unknown_one_is_not_stated(t
     code, said, err = run("info", str(tmp_path / "old.pt"))
     assert code == 0, err
     assert "rig not stated" in " ".join(said.split()) and "acclaim" not in said
+
+
+def test_info_says_the_shipped_bandai_models_rig_as_denoise_does(tmp_path):
+    """A user trial: `info ebf_bandai.pt` said `rig bandai`, `denoise` on a Bandai take `(shipped, bandai_namco)`."""
+    for name in ("ebf_bandai.pt", "ebd_bandai.pt"):
+        code, said, err = run("info", Path(mocapkit.__file__).parent / "models" / name)
+        assert code == 0, err
+        assert re.search(r"^rig +bandai_namco$", said, re.MULTILINE), said
+    code, said, err = run("denoise", str(BANDAI), "-o", str(tmp_path / "d.bvh"))
+    assert code == 0 and "(shipped, bandai_namco)" in said, err

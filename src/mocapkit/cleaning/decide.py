@@ -59,7 +59,8 @@ def decided_result(original, result: CleanResult, decisions: Mapping[str, str], 
 
 
 def clean_and_decide(original, cleaning: Callable[[], CleanResult], *, decisions, record=None,
-                     request: dict | None = None, take: str = "") -> tuple[CleanResult, CleanResult]:
+                     request: dict | None = None, take: str = "", option: str = dec.RECORD_KEYWORD
+                     ) -> tuple[CleanResult, CleanResult]:
     """A joint-angle take's decisions applied to the record reviewed or to a new cleaning, as the CLI applies them.
 
     ``original``: the take (:class:`~mocapkit.motion.Motion`); ``cleaning()``: the new cleaning of it
@@ -67,7 +68,8 @@ def clean_and_decide(original, cleaning: Callable[[], CleanResult], *, decisions
     ``decisions``: a decisions file or its document (:func:`decisions_document`); ``record``: the ``.clean.npz`` of
     the cleaning reviewed, read back instead of cleaning again; ``request``: the options asked for
     (:func:`mocapkit.batch.clean_request`), kept on the new cleaning (its digest includes them) and named where
-    they differ from those reviewed; ``take``: the input's file name for the summary.
+    they differ from those reviewed; ``take``: the input's file name for the summary; ``option``: how a refusal
+    names the record to give (default ``record=``, this function's keyword).
 
     Refused, in one line naming the file, in this order: decisions for another take (before any cleaning), a
     record of another take, decisions made with other options than ``request`` (before a new cleaning), made on
@@ -82,11 +84,11 @@ def clean_and_decide(original, cleaning: Callable[[], CleanResult], *, decisions
         res = CleanResult.load(record)
         dec.check_record(original, res, record)  # the record first, then the decisions against it
     else:
-        dec.check_request(doc, path, request)  # a cleaning with other options cannot be the one reviewed
+        dec.check_request(doc, path, request, option)  # a cleaning with other options cannot be the one reviewed
         res = cleaning()
         res = dataclasses.replace(res, params={**res.params, "request": request})
     try:
-        chosen = dec.check_decisions(doc, path, original, res, record=record, fresh=record is None)
+        chosen = dec.check_decisions(doc, path, original, res, record=record, fresh=record is None, option=option)
         said = for_motion(doc, path, original, res, chosen, record, take=take)
         return res, decided_result(original, res, chosen, said)
     except MocapFormatError:

@@ -98,7 +98,12 @@ from .ssa.cues import cause_names
 __all__ = ["FORMAT", "ACCEPT", "REJECT", "Change", "changes", "apply", "take_digest", "template", "read_decisions",
            "check_decisions", "check_record", "record_problem", "as_written", "accepted_cells", "flag_segments",
            "frame_note", "frames_note", "review", "check_document", "cleaning_digest", "cleaning_stamp", "check_cleaning", "check_named",
-           "unnamed_changes", "applying_notes", "ids_notes", "request_difference", "check_request", "check_choices", "record_wanted", "DuplicateKeyError"]
+           "unnamed_changes", "applying_notes", "ids_notes", "request_difference", "check_request", "check_choices", "record_wanted", "DuplicateKeyError",
+           "RECORD_FLAG", "RECORD_KEYWORD"]
+
+#: How a refusal names the record of the cleaning reviewed: the CLI's option, and ``mocapkit.clean``'s keyword.
+RECORD_FLAG = "--record"
+RECORD_KEYWORD = "record="
 
 FORMAT = "mocapkit.decisions/1"
 ACCEPT, REJECT = "accept", "reject"
@@ -555,7 +560,8 @@ def _unique_keys(pairs: list) -> dict:
     return out
 
 
-def check_decisions(doc: dict, path, original: Motion, result=None, record=None, fresh: bool = False) -> dict:
+def check_decisions(doc: dict, path, original: Motion, result=None, record=None, fresh: bool = False,
+                    option: str = RECORD_FLAG) -> dict:
     """The choices of ``doc`` (from :func:`read_decisions`) after checking they fit this take and this record.
 
     Refused, in one line naming ``path``: decisions for another take (its
@@ -565,7 +571,7 @@ def check_decisions(doc: dict, path, original: Motion, result=None, record=None,
     id that is not a change of ``result``, or a file made by the report that
     leaves a change unnamed (:func:`check_named`). With ``result`` None only the
     take is checked (before a cleaning, so that decisions for another take are
-    refused first).
+    refused first). ``option``: how a refusal names the record to give (:func:`record_wanted`).
     """
     take = doc["take"]
     if take["sha256"] != take_digest(original):
@@ -574,7 +580,7 @@ def check_decisions(doc: dict, path, original: Motion, result=None, record=None,
                                f"({original.num_frames} frames): its samples differ")
     if result is None:
         return dict(doc["decisions"])
-    check_cleaning(doc, path, result, record, fresh)
+    check_cleaning(doc, path, result, record, fresh, option)
     try:
         accepted_cells(result, doc["decisions"])
     except ValueError as exc:
@@ -588,7 +594,7 @@ def _is_review_mode(result) -> bool:
     return bool(result.steps) and all(s.name == "detect" for s in result.steps)
 
 
-def check_cleaning(doc: dict, path, result, record=None, fresh: bool = False) -> None:
+def check_cleaning(doc: dict, path, result, record=None, fresh: bool = False, option: str = RECORD_FLAG) -> None:
     """Refuse, in one line, decisions that would be applied to values the person did not review.
 
     A record that holds no changes (review mode, ``--steps detect``) while ``doc`` names some is refused naming
@@ -596,17 +602,18 @@ def check_cleaning(doc: dict, path, result, record=None, fresh: bool = False) ->
     written by the report) applies only to a cleaning with that digest: another record, or a new cleaning made
     with other options (another ``--context``, ``--threshold``, ...), gives other values under the same ids. A
     ``doc`` without it (an earlier mocapkit's, or written by hand) is taken on its ids for a record (``record``),
-    and refused for a new cleaning (``fresh``): nothing tells that cleaning is the one reviewed.
+    and refused for a new cleaning (``fresh``): nothing tells that cleaning is the one reviewed. ``option``: how a
+    refusal names the record to give (:func:`record_wanted`).
     """
-    _check_has_changes(doc, path, result, record)
+    _check_has_changes(doc, path, result, record, option)
     stamp = doc.get("cleaning")
     if stamp is None:
         if fresh:
-            _check_stamped(doc, path)
+            _check_stamped(doc, path, option)
         return
     if stamp["sha256"] == cleaning_digest(result):
         return
-    want = record_wanted(stamp)
+    want = record_wanted(stamp, option)
     if not fresh:
         where = f"the record {record}" if record is not None else "this clean record"
         raise MocapFormatError(path, f"made on another cleaning than {where} (its changes or cleaned values differ); "
@@ -617,15 +624,15 @@ def check_cleaning(doc: dict, path, result, record=None, fresh: bool = False) ->
                                  f"values: {want}, or clean with the same options")
 
 
-def _check_stamped(doc: dict, path) -> None:
+def _check_stamped(doc: dict, path, option: str = RECORD_FLAG) -> None:
     """Refuse, for a new cleaning, a ``doc`` that keeps no digest of the cleaning it was made on."""
     if doc.get("cleaning") is None:
         raise MocapFormatError(path, "keeps no digest of the cleaning it was made on (an earlier mocapkit's file, or "
                                      "one written by hand): a new cleaning may differ from the one reviewed; give "
-                                     "that cleaning's record with --record")
+                                     f"that cleaning's record with {option}")
 
 
-def _check_has_changes(doc: dict, path, result, record=None) -> None:
+def _check_has_changes(doc: dict, path, result, record=None, option: str = RECORD_FLAG) -> None:
     """Refuse decisions naming changes for a cleaning that made none, saying why it made none where it is review
     mode (``--steps detect``, which only flags): naming the record ``record`` where one was given, else ``path``."""
     named = doc["decisions"]
@@ -636,29 +643,33 @@ def _check_has_changes(doc: dict, path, result, record=None) -> None:
         raise MocapFormatError(record, f"the clean record {mode}holds no changes, while {Path(path).name} names "
                                        f"{len(named)}; give the record of the cleaning the decisions were made on")
     raise MocapFormatError(path, f"names {len(named)} change(s), and this cleaning {mode}changed nothing; give the "
-                                 "record of the cleaning the decisions were made on (--record)")
+                                 f"record of the cleaning the decisions were made on ({option})")
 
 
-def check_request(doc: dict, path, request: dict) -> None:
+def check_request(doc: dict, path, request: dict, option: str = RECORD_FLAG) -> None:
     """Refuse, before a new cleaning, decisions it cannot be the reviewed cleaning for: a file that keeps no digest
     of its cleaning (:func:`check_cleaning` would refuse it after cleaning), or one made on a cleaning asked for
     with other options than ``request`` (:func:`mocapkit.batch.clean_request`; its digest, which keeps the options,
     cannot match). A cleaning with a context can take minutes: the line comes first. One line naming ``path``, the
-    options that differ and the record to pass instead."""
+    options that differ and the record to pass instead (``option``: how it is given, :func:`record_wanted`)."""
     stamp = doc.get("cleaning")
     if stamp is None:
-        _check_stamped(doc, path)
+        _check_stamped(doc, path, option)
         return
     diff = request_difference(stamp.get("request"), request)
     if diff:
         raise MocapFormatError(path, f"made on another cleaning than this new one: {diff}; apply them to the "
-                                     f"reviewed values: {record_wanted(stamp)}, or clean with the same options")
+                                     f"reviewed values: {record_wanted(stamp, option)}, or clean with the same options")
 
 
-def record_wanted(stamp: dict) -> str:
-    """What to pass to apply decisions to the cleaning reviewed: ``--record`` and the record it was written to."""
+def record_wanted(stamp: dict, option: str = RECORD_FLAG) -> str:
+    """What to pass to apply decisions to the cleaning reviewed: the record it was written to, given as ``option``
+    says: :data:`RECORD_FLAG` (the CLI's ``--record PATH``) or :data:`RECORD_KEYWORD` (``mocapkit.clean``'s
+    ``record='PATH'``)."""
     reviewed = stamp.get("record") if isinstance(stamp.get("record"), str) else ""
-    return f"--record {reviewed}" if reviewed else "--record with the record written beside the reviewed output"
+    if not reviewed:
+        return f"{option} with the record written beside the reviewed output"
+    return f"{option}{reviewed!r}" if option.endswith("=") else f"{option} {reviewed}"
 
 
 def request_difference(was, now) -> str:

@@ -89,8 +89,10 @@ def clean(
         ("--context", bool(context)), ("--drifts", drifts), ("--reference", reference is not None),
         ("--ebf", ebf is not None), ("--ebd", ebd is not None)) if given]
     _check_out_early(inp, out)
+    record_said = "--record"
     if decisions is not None and record is None and clean_path(out).is_file():
         record = clean_path(out)  # the earlier run's record beside OUT: apply the decisions, clean nothing again
+        record_said = "OUT's record"
     if record is not None:
         guard([out, report, png], [inp, asf, context, reference, decisions, record, ebf, ebd], overwrite)
     else:
@@ -99,12 +101,20 @@ def clean(
     check_noise_deg(noise_deg)
     if _clean_marker_take(inp, out, report=report, png=png, overwrite=overwrite, not_for_markers=not_for_markers,
                           unit=unit, max_gap_s=max_gap, max_error_mm=max_fill_error, decisions=decisions,
-                          record=record, review=tuple(step_list) == ("detect",)):
+                          record=record, record_said=record_said, review=tuple(step_list) == ("detect",)):
         return
     for name, given in (("--max-gap", max_gap), ("--max-fill-error", max_fill_error)):
         if given is not None:
             raise MocapError(f"{inp}: {name} applies only to marker captures (.c3d, .trc, marker .npz)")
     models = _models(ebf, ebd)
+    if record is not None:  # options that shape a cleaning: only those the record's own cleaning was asked for
+        from ..batch import clean_request
+        from ..cleaning.replay import FLAGS, check_replay
+
+        check_replay(record, clean_request(step_list, threshold, drifts, context, models, noise_deg, amc_fps, unit),
+                     [key for key, given in (("steps", tuple(step_list) != STEPS), ("threshold", threshold != 0.5),
+                                             ("drifts", drifts), ("context", bool(context)), ("models", bool(models)),
+                                             ("noise_deg", noise_deg is not None)) if given], FLAGS, record_said)
     skeleton = asf_of(inp, asf)
     skeleton_copy = asf_for_output(out, skeleton, overwrite)  # an AMC output reads back with its ASF beside it
     take = load_motion(inp, asf, purpose="clean", fps=amc_fps, unit=unit)
@@ -208,12 +218,14 @@ def _print_decided(written, decided, frames_note: str) -> None:
 
 def _clean_marker_take(inp: Path, out: Path, *, report, png, overwrite: bool, not_for_markers: list[str],
                        unit: str | None = None, max_gap_s: float | None = None,
-                       max_error_mm: float | None = None, decisions=None, record=None, review: bool = False) -> bool:
+                       max_error_mm: float | None = None, decisions=None, record=None, record_said: str = "--record",
+                       review: bool = False) -> bool:
     """Clean ``inp`` as a marker capture when it is one (writing OUT, its record and reports); False for a motion.
 
     ``not_for_markers``: the options given that apply only to joint-angle takes, refused for a marker capture;
     ``unit``: ``--unit``, the length unit of a file that states none; ``decisions``, ``record``, ``review``:
-    :func:`mocapkit.marker_files.clean_marker_file`'s.
+    :func:`mocapkit.marker_files.clean_marker_file`'s; ``record_said``: how the record was given (``--record``, or
+    OUT's found by ``--decisions``), for a refusal of options beside it.
     """
     from ..batch import clean_marker_file, refuse_marker_options
     from ..cleaning.pipeline import clean_path
@@ -227,6 +239,13 @@ def _clean_marker_take(inp: Path, out: Path, *, report, png, overwrite: bool, no
     if not isinstance(take, MarkerSet):
         return False
     refuse_marker_options(inp, not_for_markers)
+    if record is not None:  # a longest gap or fill error: only that of the record's own cleaning
+        from ..cleaning.replay import FLAGS, check_replay
+        from ..marker_files import marker_request
+
+        check_replay(record, marker_request(unit, max_gap_s, max_error_mm), [
+            key for key, value in (("max_gap_s", max_gap_s), ("max_error_mm", max_error_mm)) if value is not None],
+            FLAGS, record_said)
     _, res = clean_marker_file(inp, out, report=report, png=png, overwrite=overwrite, markers=take,
                                max_gap_s=max_gap_s, max_error_mm=max_error_mm, decisions=decisions, record=record,
                                review=review)
@@ -274,8 +293,10 @@ def _take_line(row: dict) -> str:
                                                    ("spikes", "spike sample"), ("swapped", "re-labelled sample"))
              if row.get(k)]
     what = ", ".join(found) if found else "nothing to change"
-    again = f"; {row['reason']}" if row.get("reason") else ""  # "cleaned again: its input changed ..."
-    return f"cleaned {row['input']} -> {row['output']}: {what} ({row.get('seconds', 0.0):.1f} s{again})"
+    # "cleaned again: its input changed ...", or a take found written after an interrupt (no time measured)
+    seconds = row.get("seconds", 0.0)
+    said = [f"{seconds:.1f} s" if seconds is not None else "", row.get("reason") or ""]
+    return f"cleaned {row['input']} -> {row['output']}: {what} ({'; '.join(x for x in said if x)})"
 
 
 def clean_batch(
@@ -331,6 +352,9 @@ def clean_batch(
     models = _models(ebf, ebd)
     counted = not sys.stdout.isatty()  # no bar in a log: each line says how far the batch is, after its take
 
+    def print_context(line: str) -> None:  # a build of --context before the first take: a minute a log said nothing
+        print(line, file=sys.stderr, flush=True)
+
     def print_row(row: dict, n: int, total: int) -> None:
         console.print(_take_line(row) + (f" [{n}/{total}]" if counted else ""))
         for note in row.get("warnings", ()):  # as clean says them: a fallback, a model's licence
@@ -341,7 +365,8 @@ def clean_batch(
                             fmt=fmt, report=report, png=png, executor=executor, progress=not as_json,
                             overwrite=overwrite, asf=asf, drifts=drifts, models=models, amc_fps=amc_fps, unit=unit,
                             max_gap_s=max_gap, max_error_mm=max_fill_error,
-                            noise_deg=noise_deg, on_row=None if as_json else print_row)
+                            noise_deg=noise_deg, on_row=None if as_json else print_row,
+                            on_context=print_context if counted else None)
     except KeyboardInterrupt:  # "no partial output" alone reads as if nothing was kept
         if out_dir.is_dir() and any(out_dir.rglob("*.clean.npz")):
             console.print(f"note: the takes finished in {out_dir} are kept; the same command resumes the others")

@@ -178,18 +178,33 @@ def motion_notes(motion, path, like=None) -> list[str]:
     """What a command tells its user when it writes ``motion`` to ``path`` with :func:`save`'s ``like``: one line
     each, naming ``path``. A take read from a BVH file with other ROOTs (a prop, a camera:
     :mod:`mocapkit.io.bvh_roots`) keeps them only in a BVH written like that file
-    (:func:`mocapkit.io.bvh.source_fits`); any other output leaves them out, and the line says which."""
-    from .bvh import source_fits
+    (:func:`mocapkit.io.bvh.source_fits`); any other output leaves them out, and the line says which. So do its
+    ``#`` comment lines (:mod:`mocapkit.io.bvh_comments`): a line says how many the output leaves out."""
+    from .bvh import dropped_comments, source_fits
+    from .bvh_comments import comment_lines
     from .bvh_roots import left_out_note
+    from .sources import recall
 
     path = Path(path)
+    bvh = suffix_kind(path, WRITERS, "writing") == "bvh"
     if like is False:
         like, carried = motion.source_file, False
     else:
         like = like if like is not None else motion.source_file
-        carried = suffix_kind(path, WRITERS, "writing") == "bvh" and like is not None and source_fits(motion, like)
+        carried = bvh and like is not None and source_fits(motion, like)
     note = left_out_note(motion, path, like, carried)
-    return [note] if note else []
+    notes = [note] if note else []
+    if like is not None and Path(like).suffix.lower() == ".bvh":
+        if carried:
+            n, why = dropped_comments(motion, like), "their places in the take's hierarchy written anew are not known"
+        else:
+            data = recall(Path(like))
+            n = comment_lines(data) if data is not None else 0
+            why = ("a .bvh keeps them only when written like its source, at its frames, rate and skeleton" if bvh
+                   else f"{path.suffix[1:].upper() or 'this format'} holds no comments")
+        if n:
+            notes.append(f"{path}: not written: {n} comment line{'s' if n > 1 else ''} of {like} ({why})")
+    return notes
 
 
 def save(motion, path, like=None, asf=None, overwrite: bool = True, copy_asf: bool = True, **kwargs) -> Path:

@@ -13,7 +13,8 @@ Accepted tokens: an optional sign, digits with an optional decimal point
 (``1``, ``1.``, ``.0083``, ``-0.5``), an optional exponent (``1e-12``,
 ``3.64024e-015``, ``2E+3``), and ``nan`` / ``inf`` / ``infinity`` in any case.
 Separators are spaces, tabs, ``\\r``, ``\\v`` and ``\\f``; ``\\n`` ends a line, so
-CRLF files and blank lines need nothing special.
+CRLF files and blank lines need nothing special. With ``comment`` (a BVH's ``#``), a line whose first
+non-blank character it is holds no numbers, as a blank line (a ``#`` after a number is still an error).
 """
 
 from __future__ import annotations
@@ -61,7 +62,7 @@ def _count_newlines(buf):
 
 
 @njit(cache=True)
-def _parse_kernel(buf, pos, nv, line, values, counts, fb, pow10, w_nan, w_inf, w_infinity):
+def _parse_kernel(buf, pos, nv, line, values, counts, fb, pow10, w_nan, w_inf, w_infinity, comment):
     """Parse ``buf`` (uint8) from byte ``pos`` into preallocated ``values`` and ``counts``.
 
     Tokens the fast path cannot convert exactly are listed in ``fb`` (K, 3) as
@@ -70,7 +71,8 @@ def _parse_kernel(buf, pos, nv, line, values, counts, fb, pow10, w_nan, w_inf, w
     ``full`` is 1 the ``fb`` table filled up and parsing stopped at ``pos``, to
     be resumed with the returned state; ``err_offset`` is the byte offset of
     the first malformed token, or -1. No array is reallocated inside the loop
-    (that would cost reference counting on every token).
+    (that would cost reference counting on every token). ``comment``: the byte that starts a comment line
+    (skipped to its end, counting no numbers), or -1 for none.
     """
     n = buf.shape[0]
     nfb = 0
@@ -84,6 +86,10 @@ def _parse_kernel(buf, pos, nv, line, values, counts, fb, pow10, w_nan, w_inf, w
             continue
         if _is_sep(c):
             i += 1
+            continue
+        if c == comment and counts[line] == 0:  # a comment line: nothing up to its end
+            while i < n and buf[i] != 10:
+                i += 1
             continue
         start = i
         neg = False
@@ -201,13 +207,16 @@ def _as_u8(buf) -> np.ndarray:
     return np.frombuffer(buf, dtype=np.uint8)
 
 
-def parse_floats(buf) -> tuple[np.ndarray, np.ndarray, int]:
+def parse_floats(buf, comment: bytes | None = None) -> tuple[np.ndarray, np.ndarray, int]:
     """Parse whitespace-separated numbers from ASCII text.
 
     Parameters
     ----------
     buf : bytes, bytearray, memoryview or uint8 array (N,)
         The text. Lines end with ``\\n`` (a preceding ``\\r`` is whitespace).
+    comment : bytes of length 1, optional
+        The character that starts a comment line (a BVH's ``b"#"``): such a line counts 0 numbers, as a
+        blank one. Default: none (every token must be a number).
 
     Returns
     -------
@@ -229,8 +238,11 @@ def parse_floats(buf) -> tuple[np.ndarray, np.ndarray, int]:
     ([1.0, -2.5, 0.0083, 3e-15], [2, 0, 3], -1)
     >>> parse_floats(b"1 2\\n3 x4\\n")[2]
     6
+    >>> parse_floats(b"1 2\\n  # a note\\n3 4\\n", comment=b"#")[1].tolist()
+    [2, 0, 2]
     """
     arr = _as_u8(buf)
+    code = -1 if comment is None else int(comment[0])
     n = arr.shape[0]
     newlines = _count_newlines(arr)
     values = np.empty(n // 2 + 1, dtype=np.float64)
@@ -240,7 +252,7 @@ def parse_floats(buf) -> tuple[np.ndarray, np.ndarray, int]:
     pos = nv = line = 0
     while True:
         pos, nv, line, nfb, err, full = _parse_kernel(
-            arr, pos, nv, line, values, counts, fb, _POW10, _NAN, _INF, _INFINITY
+            arr, pos, nv, line, values, counts, fb, _POW10, _NAN, _INF, _INFINITY, code
         )
         if nfb:
             if raw is None:

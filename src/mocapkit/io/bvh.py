@@ -37,12 +37,13 @@ from ..motion import MAX_JOINTS, Motion, Skeleton, check_fps
 from . import atomic_write
 from ._numparse import line_of_offset, parse_floats
 from .bvh_hierarchy import MAX_INDENT, check_bvh_names, depth_first_order, hierarchy_text, shortest
+from .bvh_comments import anchored, comment_lines, keyword_count, motion_comments, with_comments
 from .bvh_roots import COMMENT, Layout, is_comment, layout
 from .sources import recall, remember
 
 from numba import njit
 
-__all__ = ["read_bvh", "write_bvh", "check_bvh_names", "read_layout", "source_fits", "MAX_INDENT"]
+__all__ = ["read_bvh", "write_bvh", "check_bvh_names", "read_layout", "source_fits", "dropped_comments", "MAX_INDENT"]
 
 _CHANNELS = {c.lower(): c for c in ("Xposition", "Yposition", "Zposition", "Xrotation", "Yrotation", "Zrotation",
                                      "Xscale", "Yscale", "Zscale")}
@@ -437,7 +438,7 @@ def _read_bvh(path, data: bytes | None = None) -> tuple[Motion, np.ndarray, Layo
         raise MocapFormatError(path, "the hierarchy declares no channels", line=motion_line)
 
     body = np.frombuffer(data, dtype=np.uint8)[min(pos, len(data)):]
-    values, counts, err = parse_floats(body)
+    values, counts, err = parse_floats(body, comment=COMMENT.encode())  # comment lines: read as nothing
     if err >= 0:
         bad_line = line_of_offset(body, err)
         tok_end = err
@@ -820,6 +821,9 @@ class _LikeSource:
     values: np.ndarray  # (F, C) float: the file's numbers (its own 360-degree and Euler branches; NaN for "nan")
     layout: Layout  # the take's columns of each line and the other roots, kept as the file's text
     around: tuple[list[str], list[str]] | None  # header lines before the take's ROOT and after it (_around)
+    between: list[list[str]]  # the comment lines before each data line, and after the last (bvh_comments)
+    inside: list[tuple[int, str]]  # the comments inside the take's ROOT block, anchored (bvh_comments.anchored)
+    keywords: int  # the hierarchy keywords of the take's ROOT block as the file writes it
 
 
 def _differs(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -847,7 +851,7 @@ def _like_source(like, motion: Motion, order: list[int]) -> _LikeSource | None:
     at = next((i for i, t in enumerate(lines) if _FRAME_TIME_RE.match(t)), None)  # as the reader finds it
     if at is None:
         return None
-    data = [t for t in lines[at + 1:] if t.strip()]
+    data, between = motion_comments(lines[at + 1:])
     if len(data) != motion.num_frames:
         return None
     turned = _differs(motion.rotations, ref.rotations)
@@ -858,7 +862,38 @@ def _like_source(like, motion: Motion, order: list[int]) -> _LikeSource | None:
     around = None if same_header else _around(lines, where)
     if not same_header and around is None:
         return None
-    return _LikeSource(lines[: at + 1] if same_header else None, data, turned, moved, table, where, around)
+    block = [] if same_header else lines[where.lines[0] - 1:where.lines[1]]
+    return _LikeSource(lines[: at + 1] if same_header else None, data, turned, moved, table, where, around, between,
+                       anchored(block), keyword_count(block))
+
+
+def _new_block(source: _LikeSource, sk, channels) -> tuple[str, int]:
+    """The take's ROOT block written anew (the file's offsets changed), with the comments it held each after the
+    same element (:func:`mocapkit.io.bvh_comments.with_comments`), and how many of them it could not place (all,
+    or none)."""
+    text = "".join(hierarchy_text(sk, channels, list(range(sk.num_joints)))[1:])
+    if not source.inside:
+        return text, 0
+    placed = with_comments(text, source.inside, source.keywords)
+    return (text, len(source.inside)) if placed is None else (placed, 0)
+
+
+def dropped_comments(motion: Motion, like) -> int:
+    """How many comment lines of the BVH file ``like`` a BVH written from ``motion`` (:func:`write_bvh` with
+    ``like``) leaves out: none when it is written like that file (the header's, the motion section's and, where
+    the take's hierarchy is written anew, those inside it, :mod:`mocapkit.io.bvh_comments`), every one when it is
+    not (another frame count, rate or skeleton). 0 where ``like`` is no BVH whose text was read."""
+    if like is None or Path(like).suffix.lower() != ".bvh" or motion.num_frames == 0:
+        return 0
+    data = recall(Path(like))
+    total = comment_lines(data) if data is not None else 0
+    if total == 0:
+        return 0
+    out_motion, channels = _as_written(motion)
+    source = _like_source(like, out_motion, depth_first_order(motion.skeleton))
+    if source is None:
+        return total
+    return 0 if source.header is not None else _new_block(source, out_motion.skeleton, channels)[1]
 
 
 def _around(lines: list[str], where: Layout) -> tuple[list[str], list[str]] | None:
@@ -892,10 +927,10 @@ def _write_like(path: Path, motion: Motion, values: np.ndarray, channels, source
             fh.write("".join(source.header))
         else:  # the take's hierarchy written anew between the file's own lines (comments, other roots)
             before, after = source.around
-            parts = hierarchy_text(sk, channels, list(range(sk.num_joints)))[1:]
-            parts.append(f"MOTION\nFrames: {F}\nFrame Time: {shortest(1.0 / motion.fps)}\n")
-            fh.write("".join(before + parts[:-1] + after + parts[-1:]))
+            block, _ = _new_block(source, sk, channels)  # comments it cannot place: said by dropped_comments
+            fh.write("".join(before + [block] + after + [f"MOTION\nFrames: {F}\nFrame Time: {shortest(1.0 / motion.fps)}\n"]))
         for f in range(F):
+            fh.write("".join(source.between[f]))
             line = source.lines[f]
             if source.header is None and not line.endswith("\n"):
                 line += "\n"
@@ -912,3 +947,4 @@ def _write_like(path: Path, motion: Motion, values: np.ndarray, channels, source
                         continue
                     tokens[first + c] = fmt % values[f, c]
             fh.write(" ".join(tokens) + (line[len(body):] or "\n"))
+        fh.write("".join(source.between[F]))

@@ -26,7 +26,7 @@ from ...motion import Motion
 from .channels import ChannelLayout, channel_joints, lerp_fill
 from .doubt import doubtful_runs
 from .prior import GapPrior, conditional_fill
-from .provenance import model_rig, restricts_use
+from .provenance import card_as_read, model_rig, restricts_use
 from .retarget import Serving, served_by
 from .sure import BLOCK_S, block_edges, calibrated_log_sigma, scoring_stride
 from .threads import INFERENCE_PARTS, torch_threads
@@ -200,7 +200,7 @@ def _parse_model(path: Path) -> DeepModel:
         net = cls(**config)
         net.load_state_dict(payload["state"], strict=True)
         fps = float(payload["fps"])
-        meta = json.loads(payload.get("meta", "{}"))
+        meta = card_as_read(json.loads(payload.get("meta", "{}")))
         if config["channels"] != layout.num_channels or not fps > 0:
             raise ValueError("layout and network disagree")
         prior = None

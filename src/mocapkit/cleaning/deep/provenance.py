@@ -4,7 +4,9 @@ A model inherits the terms of the takes it was trained on: the Bandai Namco Rese
 CC BY-NC 4.0, so a model trained on it is for non-commercial use only and its model card must say so
 (``../shared/data`` README; the shipped ``ebf_bandai.pt`` / ``ebd_bandai.pt``, docs/models.md). These
 functions make that card when a model is trained (:func:`model_card`, kept in the model file's metadata)
-and read it back from any model file, older ones included (:func:`model_rig`, :func:`model_licence`).
+and read it back from any model file, older ones included (:func:`model_rig`, :func:`model_licence`), with the rig
+said by one name everywhere (:func:`rig_name`: the shipped Bandai pair's cards, and models trained with 0.4.0, spell
+it ``bandai``; it is read as ``bandai_namco``, the name of :data:`mocapkit.rigs.FAMILIES`).
 """
 
 from __future__ import annotations
@@ -13,8 +15,8 @@ import re
 
 from ... import rigs
 
-__all__ = ["BANDAI_LICENCE", "DATA_LICENCES", "NOT_STATED", "data_licence", "model_card", "model_licence",
-           "model_rig", "restricts_use", "training_rig"]
+__all__ = ["BANDAI_LICENCE", "DATA_LICENCES", "NOT_STATED", "RIG_RESPELLINGS", "card_as_read", "data_licence",
+           "model_card", "model_licence", "model_rig", "restricts_use", "rig_name", "training_rig"]
 
 BANDAI_LICENCE = ("CC BY-NC 4.0: trained on the Bandai Namco Research Motiondataset "
                   "(Bandai Namco Research Inc.); non-commercial use only")
@@ -23,7 +25,25 @@ BANDAI_LICENCE = ("CC BY-NC 4.0: trained on the Bandai Namco Research Motiondata
 DATA_LICENCES = {"bandai_namco": BANDAI_LICENCE}
 #: What a model card says of a licence nobody stated.
 NOT_STATED = "not stated"
+#: Earlier spellings of a rig family in model cards -> the family's name (a key of :data:`mocapkit.rigs.FAMILIES`):
+#: the shipped ``ebf_bandai.pt`` / ``ebd_bandai.pt`` and models made by ``scripts/train_shipped.py --rig bandai``
+#: up to 0.4.0 say ``bandai``.
+RIG_RESPELLINGS = {"bandai": "bandai_namco"}
 _RESTRICTIVE = re.compile(r"\bNC\b|non-?commercial|research use|no commercial", re.IGNORECASE)
+
+
+def rig_name(rig):
+    """The one name of the rig family ``rig`` (a model card's ``rig`` entry): an earlier spelling of
+    :data:`RIG_RESPELLINGS` as the family's name, any other value as it is (None: not known)."""
+    return RIG_RESPELLINGS.get(rig, rig) if isinstance(rig, str) else rig
+
+
+def card_as_read(meta):
+    """A model file's metadata (its card) as mocapkit reads it: ``rig`` said by :func:`rig_name`, every other entry as
+    stored, so a model read from an older file and saved again says its rig the same way as a new one."""
+    if not isinstance(meta, dict) or "rig" not in meta:
+        return meta
+    return {**meta, "rig": rig_name(meta["rig"])}
 
 
 def training_rig(clips) -> str | None:
@@ -53,8 +73,8 @@ def model_card(clips, validation=None, given: dict | None = None) -> dict:
     ``rig``: :func:`training_rig` of all the takes (None: no known family); ``licence``: ``given["licence"]`` when
     stated, else :func:`data_licence`, else None (read as :data:`NOT_STATED`); ``training_data``: ``takes`` and
     ``frames`` trained on, ``held_out_takes`` and ``held_out_frames``, plus ``given["training_data"]`` (the CLI adds
-    the folders and the hold-out rule). Every other entry of ``given`` is kept as given (it may name the rig as the
-    shipped models do, ``{"rig": "bandai"}``).
+    the folders and the hold-out rule). Every other entry of ``given`` is kept as given; a ``rig`` there (as
+    ``scripts/train_shipped.py`` gives it) is said by :func:`rig_name`.
     """
     given = dict(given or {})
     val = list(validation or [])
@@ -62,16 +82,17 @@ def model_card(clips, validation=None, given: dict | None = None) -> dict:
             "held_out_frames": int(sum(c.num_frames for c in val)), **(given.pop("training_data", None) or {})}
     rig = training_rig(list(clips) + val)
     licence = given.pop("licence", None) or data_licence(list(clips) + val)
-    return {"rig": rig, "licence": licence, "training_data": data, **given}
+    return card_as_read({"rig": rig, "licence": licence, "training_data": data, **given})
 
 
 def model_rig(model) -> str | None:
     """The rig family a :class:`~mocapkit.cleaning.deep.DeepModel` was trained on: its metadata's ``rig``; for a
     model file without one (written before models kept it) "acclaim" where every joint it reads is an Acclaim joint
-    (the shipped ``ebf.pt`` / ``ebd.pt``), else None (not known)."""
+    (the shipped ``ebf.pt`` / ``ebd.pt``), else None (not known). An earlier spelling of the rig is read as
+    :func:`rig_name` says it (the shipped Bandai pair's ``bandai`` is ``bandai_namco``)."""
     meta = model.meta if isinstance(model.meta, dict) else {}
     if "rig" in meta:
-        return meta["rig"]
+        return rig_name(meta["rig"])
     acclaim = {n for names in rigs.FAMILIES["acclaim"].values() for n in names}
     return "acclaim" if set(model.layout.joints) <= acclaim else None
 

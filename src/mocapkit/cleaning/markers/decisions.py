@@ -43,7 +43,7 @@ from typing import Mapping
 import numpy as np
 
 from ...errors import MocapError, MocapFormatError
-from ..decisions import (ACCEPT, FORMAT, REJECT, check_choices, check_decisions, frame_note, record_wanted,
+from ..decisions import (ACCEPT, FORMAT, RECORD_FLAG, REJECT, check_choices, check_decisions, frame_note, record_wanted,
                          request_difference, take_digest)
 from .clean import MarkerCleanResult, MarkerFix
 
@@ -215,7 +215,8 @@ def template(original, found: list[MarkerChange], take: str = "", output: str = 
     return doc
 
 
-def check(doc: dict, path, original, cleaned=None, fixes=(), *, request=None, fresh: bool = False) -> dict:
+def check(doc: dict, path, original, cleaned=None, fixes=(), *, request=None, fresh: bool = False,
+          option: str = RECORD_FLAG) -> dict:
     """The choices of ``doc`` (:func:`~mocapkit.cleaning.decisions.read_decisions`) checked against this capture
     (its digest) and, with ``cleaned``, this cleaning; refused in one line naming ``path``.
 
@@ -229,7 +230,7 @@ def check(doc: dict, path, original, cleaned=None, fixes=(), *, request=None, fr
         return chosen
     stamp = doc.get("cleaning")
     if stamp is not None and stamp.get("sha256") != cleaning_digest(original, cleaned):
-        want = record_wanted(stamp)
+        want = record_wanted(stamp, option)
         diff = request_difference(stamp.get("request"), request) if fresh else ""
         raise MocapFormatError(path, f"made on another cleaning than {'this new one' if fresh else 'this record'}: "
                                      f"{diff or 'its changed samples differ'}; apply them to the reviewed samples: "
@@ -242,7 +243,7 @@ def check(doc: dict, path, original, cleaned=None, fixes=(), *, request=None, fr
         if fresh:
             raise MocapFormatError(path, "keeps no digest of the cleaning it was made on (written by hand?): a new "
                                          "cleaning may differ from the one reviewed; give that cleaning's record "
-                                         "with --record")
+                                         f"with {option}")
         return chosen
     left = [c.id for c in changes(original, cleaned, fixes) if c.id not in chosen]
     if left:
@@ -347,7 +348,7 @@ def decided_result(original, result: MarkerCleanResult, decisions: Mapping[str, 
 
 
 def clean_and_decide(original, *, name="", steps=None, max_gap_s=None, max_error_mm=None, decisions=None,
-                     record=None, review: bool = False, request=None, take: str = ""
+                     record=None, review: bool = False, request=None, take: str = "", option: str = RECORD_FLAG
                      ) -> tuple[MarkerCleanResult, MarkerCleanResult]:
     """A marker capture cleaned (or its earlier ``record`` read back), then reviewed or decided: the one path of
     ``mocapkit.clean`` and ``mocapkit clean`` for a marker capture.
@@ -359,7 +360,8 @@ def clean_and_decide(original, *, name="", steps=None, max_gap_s=None, max_error
     named); ``record``: the ``.clean.npz`` of an earlier cleaning, reused (needs ``decisions``); ``review``: review
     mode, nothing changed (not with ``decisions``). ``request``: the options asked for
     (:func:`mocapkit.marker_files.marker_request`), named where a new cleaning's digest differs; ``take``: the
-    input's file name for the summary.
+    input's file name for the summary; ``option``: how a refusal names the record to give (the CLI's ``--record``,
+    :func:`mocapkit.clean`'s ``record=``).
 
     Returns ``(cleaning, given)``: the whole cleaning (what a record keeps) and what comes back: the cleaning in
     review mode (``review=True``), :func:`decided_result` with decisions, else the cleaning itself. Every refusal is
@@ -391,6 +393,6 @@ def clean_and_decide(original, *, name="", steps=None, max_gap_s=None, max_error
         return res, dataclasses.replace(res, review=True)
     if doc is None:
         return res, res
-    chosen = check(doc, path, original, res.markers, res.fixes, request=request, fresh=record is None)
+    chosen = check(doc, path, original, res.markers, res.fixes, request=request, fresh=record is None, option=option)
     said = for_markers(doc, path, original, res, chosen, record=record, take=take)
     return res, decided_result(original, res, chosen, said)

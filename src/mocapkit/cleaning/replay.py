@@ -1,0 +1,61 @@
+"""Options given beside a record that is replayed: honoured where they agree with it, refused where they do not.
+
+Decisions applied with ``record=`` (``mocapkit.clean``; the CLI's ``--record``, or the record ``clean --decisions``
+finds beside OUT) go to the cleaning the record keeps: nothing is cleaned again, so the options that shape a cleaning
+(its steps, threshold, drifts, context, models and noise level; a marker capture's longest gap and largest fill
+error) cannot change it. Given beside the record, such an option is one the user expects to act; it is taken only
+where the record's cleaning was asked for with the very same value (``params["request"]``, as
+:func:`mocapkit.batch.clean_request` and :func:`mocapkit.marker_files.marker_request` keep it), and refused in one
+line naming the record, each option as the caller spells it and the value the record was made with, before
+anything is written. The options that read the take (an AMC's ASF and frame rate, a length unit) are the take's, not
+the cleaning's: they are used, and the take read with them must be the one the record was made from
+(:func:`mocapkit.cleaning.decisions.check_record`).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable, Mapping
+
+from ..errors import MocapError
+from .pipeline import CleanResult
+
+__all__ = ["KEYWORDS", "FLAGS", "check_replay"]
+
+#: How ``mocapkit.clean`` names the options that shape a cleaning (the keys of the record's ``request``).
+KEYWORDS = {"steps": "steps=", "threshold": "threshold=", "drifts": "drifts=", "context": "context=",
+            "models": "models=", "noise_deg": "noise_deg=", "max_gap_s": "max_gap_s=", "max_error_mm": "max_error_mm="}
+#: How ``mocapkit clean`` names them.
+FLAGS = {"steps": "--steps", "threshold": "--threshold", "drifts": "--drifts", "context": "--context",
+         "models": "--ebf/--ebd", "noise_deg": "--noise-deg", "max_gap_s": "--max-gap", "max_error_mm": "--max-fill-error"}
+
+
+def _said(value) -> str:
+    if isinstance(value, Mapping):
+        return ", ".join(f"{k} {v}" for k, v in value.items()) or "the defaults"
+    if isinstance(value, (list, tuple)):
+        return ",".join(map(str, value)) or "none"
+    return "the default" if value is None else str(value)
+
+
+def check_replay(record, request: Mapping, given: Iterable[str], names: Mapping[str, str], option: str) -> None:
+    """Refuse the options ``given`` beside ``record`` whose values are not those its cleaning was asked for.
+
+    ``record``: the ``.clean.npz`` replayed; ``request``: the options of this call as a record keeps them;
+    ``given``: the keys of ``request`` the caller set (a default left alone is not given); ``names``: how the caller
+    spells each (:data:`KEYWORDS`, :data:`FLAGS`); ``option``: how it gave the record ("record=", "--record").
+    A record that keeps no request (written by an earlier mocapkit, or by a cleaning in Python before requests were
+    kept) agrees with no option given. Raises :class:`~mocapkit.errors.MocapError` (one line naming ``record``);
+    :class:`~mocapkit.errors.MocapFormatError` where ``record`` is no mocapkit record.
+    """
+    given = list(given)
+    if not given:
+        return
+    was = (CleanResult.load_params(record) or {}).get("request")
+    was = was if isinstance(was, Mapping) else {}
+    differ = [k for k in given if k not in was or was[k] != request.get(k)]
+    if not differ:
+        return
+    said = ", ".join(f"{names[k]} {_said(request.get(k))}" for k in differ)
+    kept = ", ".join(f"{names[k]} {_said(was[k])}" if k in was else f"{names[k]} not kept" for k in differ)
+    raise MocapError(f"{record}: {said} given beside {option}, whose cleaning is applied as it was made ({kept} in "
+                     f"the record): leave {'it' if len(differ) == 1 else 'them'} out, or clean anew without {option}")

@@ -1,0 +1,104 @@
+"""A BVH's `#` comment lines in its motion section and inside the take's hierarchy: read as nothing, carried
+through where the file is written like its source (the hierarchy written anew included), and said in a note where
+an output leaves them out (mocapkit.io.bvh_comments). The takes are real: the bundled CMU 131_01 and a Bandai Namco
+take, with comment lines added as tools write them."""
+
+from __future__ import annotations
+
+import dataclasses
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import mocapkit
+from mocapkit.io import motion_notes
+from mocapkit.io.bvh import read_bvh
+from mocapkit.io.bvh_comments import anchored, with_comments
+from tests.io.prop_files import plain, take_lines
+
+
+@pytest.fixture
+def cmu() -> Path:
+    return mocapkit.samples.path("131_01.bvh")
+
+
+def _commented(source: Path, out: Path, frames: int = 20) -> Path:
+    """``source``'s first ``frames`` frames with comment lines inside the hierarchy (after the root's CHANNELS)
+    and in the motion section: before the first frame, between frames 5 and 6 (indented, CRLF) and after the last."""
+    head, body, frame_time = take_lines(source, frames)
+    h = next(i for i, t in enumerate(head) if t.strip() == "HIERARCHY") + 1
+    text = ("".join(head[:h + 4]) + "\t# the legs, left first\n" + "".join(head[h + 4:]) + "MOTION\n"
+            + f"Frames: {len(body)}\n" + frame_time + "# take 1, clean\n" + "".join(body[:5])
+            + "  # marker swap fixed by hand below\r\n" + "".join(body[5:]) + "# end of take\n")
+    out.write_bytes(text.encode())
+    return out
+
+
+@pytest.mark.parametrize("take", ["cmu", "bandai"])
+def test_comment_lines_in_the_motion_section_are_read_as_nothing_and_kept(cmu, shared_data, tmp_path, take):
+    """A user trial: `#` lines between a BVH's frames were refused ("non-numeric value '#'"), though comments
+    elsewhere in the file are read."""
+    source = cmu if take == "cmu" else shared_data / "secondary_bandai_namco_CC-BY-NC" / "dataset-1_kick_normal_001.bvh"
+    path = _commented(source, tmp_path / "commented.bvh")
+    m, alone = read_bvh(path), read_bvh(plain(source, tmp_path / "alone.bvh", frames=20))
+    assert m.num_frames == 20 and m.skeleton.joint_names == alone.skeleton.joint_names
+    np.testing.assert_array_equal(m.rotations, alone.rotations)
+    np.testing.assert_array_equal(m.root_positions, alone.root_positions)
+    mocapkit.save(m, tmp_path / "out.bvh")  # unchanged: the same file, comments where they were
+    assert (tmp_path / "out.bvh").read_bytes() == path.read_bytes()
+    assert motion_notes(m, tmp_path / "out.bvh") == []
+    rot = np.array(m.rotations)
+    rot[6, 3] = [np.cos(0.2), np.sin(0.2), 0.0, 0.0]
+    mocapkit.save(dataclasses.replace(m, rotations=rot), tmp_path / "changed.bvh")
+    a, b = path.read_text().splitlines(), (tmp_path / "changed.bvh").read_text().splitlines()
+    assert len(a) == len(b) and [k for k in range(len(a)) if a[k] != b[k]] == [a.index("# take 1, clean") + 8]  # frame 6: after 5 frames and a comment
+
+
+def test_a_bad_token_after_numbers_is_still_refused_with_its_line(cmu, tmp_path):
+    head, body, frame_time = take_lines(cmu, 3)
+    path = tmp_path / "bad.bvh"
+    path.write_bytes("".join(head + ["MOTION\n", "Frames: 3\n", frame_time, body[0], body[1].rstrip("\n")
+                                     + " # not a comment line\n", body[2]]).encode())
+    with pytest.raises(mocapkit.MocapFormatError, match=r"bad\.bvh:\d+: non-numeric value '#'"):
+        read_bvh(path)
+
+
+def test_comments_inside_the_take_s_hierarchy_written_anew_stay_after_the_same_element(cmu, tmp_path):
+    """A user trial: a take whose offsets changed is written with its hierarchy anew; the comments inside it were
+    dropped, silently."""
+    path = _commented(cmu, tmp_path / "commented.bvh")
+    m = read_bvh(path)
+    offsets = np.array(m.skeleton.offsets)
+    offsets[4, 0] += 1.0
+    moved = dataclasses.replace(m, skeleton=dataclasses.replace(m.skeleton, offsets=offsets))
+    mocapkit.save(moved, tmp_path / "out.bvh")
+    lines = (tmp_path / "out.bvh").read_text().splitlines()
+    at = lines.index("\t# the legs, left first")
+    assert lines[at - 1].split()[:2] == ["CHANNELS", "6"] and lines[at + 1].split() == ["JOINT", "LHipJoint"]
+    assert "# take 1, clean" in lines and "  # marker swap fixed by hand below" in lines and lines[-1] == "# end of take"
+    back = read_bvh(tmp_path / "out.bvh")
+    np.testing.assert_array_equal(back.skeleton.offsets, offsets)
+    np.testing.assert_array_equal(back.rotations, m.rotations)
+    assert motion_notes(moved, tmp_path / "out.bvh") == []
+
+
+def test_an_output_that_cannot_keep_the_comments_says_how_many_it_leaves_out(cmu, tmp_path):
+    path = _commented(cmu, tmp_path / "commented.bvh")
+    m = read_bvh(path)
+    assert motion_notes(m, tmp_path / "out.npz") == [
+        f"{tmp_path / 'out.npz'}: not written: 4 comment lines of {path} (NPZ holds no comments)"]
+    half = m.resample(60.0)
+    assert motion_notes(half, tmp_path / "half.bvh") == [
+        f"{tmp_path / 'half.bvh'}: not written: 4 comment lines of {path} (a .bvh keeps them only when written like "
+        "its source, at its frames, rate and skeleton)"]
+
+
+def test_a_comment_goes_after_the_element_it_followed_whatever_the_file_s_layout():
+    block = ["ROOT Hips\n", "{ OFFSET 0 0 0 CHANNELS 3 Zrotation Yrotation Xrotation\n", "# after the channels\n",
+             "End Site { OFFSET 0 1 0 }\n", "}\n"]
+    new = "ROOT Hips\n{\n\tOFFSET 0 0 0\n\tCHANNELS 3 Zrotation Yrotation Xrotation\n\tEnd Site\n\t{\n" \
+          "\t\tOFFSET 0 2 0\n\t}\n}\n"
+    assert anchored(block) == [(4, "# after the channels\n")]
+    assert with_comments(new, anchored(block), 9).splitlines()[4] == "# after the channels"
+    assert with_comments(new, anchored(block), 11) is None  # another hierarchy: no place is the same
