@@ -100,7 +100,8 @@ def test_offset_step_breaks_are_the_break_events_at_an_offsets_two_steps():
 
 def test_an_offsets_steps_confirm_no_digression_beside_it():
     """The digression beside an offset's two steps (neighbour words the error led astray) is not flagged by the
-    break rule: the flags are the offset's frames alone. A break of its own beside it still confirms."""
+    break rule: the flags are the offset's frames alone. A break of its own beside it still confirms, and so do
+    the steps of an offset that is a side swap."""
     F, fps = 80, 120.0
     offsets = np.zeros((F, 1), dtype=bool)
     offsets[30:50] = True
@@ -111,6 +112,9 @@ def test_an_offsets_steps_confirm_no_digression_beside_it():
     none = np.zeros((F, 1), dtype=bool)
     flags = cues.flag_rule(mdm, jumps, none, none, offsets, 0.5, fps, True, 0.05)
     assert np.flatnonzero(flags[:, 0]).tolist() == list(range(30, 50))
+    # a side swap's cells are replaced by neighbour words, not undone: its steps still confirm the digression
+    swapped = cues.flag_rule(mdm, jumps, none, offsets, offsets, 0.5, fps, True, 0.05)
+    assert np.flatnonzero(swapped[:, 0]).tolist() == list(range(26, 56))
     jumps[54] = True  # a break of its own, 4 frames past the step back
     flags = cues.flag_rule(mdm, jumps, none, none, offsets, 0.5, fps, True, 0.05)
     assert flags[50:56, 0].all()

@@ -76,7 +76,8 @@ def offset_step_breaks(breaks: np.ndarray, offsets: np.ndarray, gap: int = 3) ->
     between them, and the repair takes the offset away there
     (:func:`~mocapkit.cleaning.ssa.undo.undone_offsets`). The digression just outside them comes from the
     neighbour words the error led astray (a word spans 0.6 s), so these breaks must not confirm it
-    (:func:`~mocapkit.cleaning.ssa.cues.flag_causes`): on HDM05 ``tr_throwBasketball_014`` the right hand
+    (:func:`~mocapkit.cleaning.ssa.cues.flag_causes` passes the offsets that are no side swap: a swap's cells are
+    replaced by neighbour words, not undone, and keep the break rule's flags as before): on HDM05 ``tr_throwBasketball_014`` the right hand
     flips by 180 deg on frames 201-245, and the breaks of its two steps confirmed the digression of
     frames 198-200 and 246-252, real motion that was replaced by neighbour words and joined the take 9-12
     deg off. An event is a run of break frames at most ``gap`` frames apart (as the cues group them);
