@@ -4,8 +4,9 @@ import pytest
 import mocapkit
 from mocapkit import rotations as R
 from mocapkit.cleaning import ssa
-from mocapkit.cleaning.ssa.step_pairs import (MAX_STEP_FRAMES, RETURN_RATIO, UNDO_RATIO, is_step, returns,
-                                              steps_back, undo_left)
+from mocapkit.cleaning.ssa import cues
+from mocapkit.cleaning.ssa.step_pairs import (MAX_STEP_FRAMES, RETURN_RATIO, UNDO_RATIO, is_step, offset_step_breaks,
+                                              returns, steps_back, undo_left)
 from tests.cleaning.ssa.helpers import turned
 
 
@@ -77,3 +78,70 @@ def test_the_backflip_right_hand_between_its_swing_and_its_spin_burst_is_left_al
     j = m.skeleton.index("rhand")
     changed = ~np.all(m.rotations[:, j] == res.motion.rotations[:, j], axis=-1)
     assert not changed[147:160].any()
+
+
+def test_offset_step_breaks_are_the_break_events_at_an_offsets_two_steps():
+    """An offset flagged on frames 20-39 steps off between 19 and 20 and back between 39 and 40: the break events
+    holding those frames (one spanning 18-20, one 39-41) are its steps; a break inside it (30) and one elsewhere
+    (5), or on another joint, are not."""
+    F = 60
+    offsets = np.zeros((F, 2), dtype=bool)
+    offsets[20:40, 0] = True
+    breaks = np.zeros((F, 2), dtype=bool)
+    breaks[[5, 18, 20, 30, 39, 41], 0] = True
+    breaks[[19, 20, 39, 40], 1] = True  # the same frames on a joint with no offset
+    out = offset_step_breaks(breaks, offsets)
+    assert np.flatnonzero(out[:, 0]).tolist() == [18, 20, 39, 41]
+    assert not out[:, 1].any()
+    assert not offset_step_breaks(breaks, np.zeros_like(offsets)).any()
+    with pytest.raises(ValueError, match="same"):
+        offset_step_breaks(breaks, offsets[:, :1])
+
+
+def test_an_offsets_steps_confirm_no_digression_beside_it():
+    """The digression beside an offset's two steps (neighbour words the error led astray) is not flagged by the
+    break rule: the flags are the offset's frames alone. A break of its own beside it still confirms, and so do
+    the steps of an offset that is a side swap."""
+    F, fps = 80, 120.0
+    offsets = np.zeros((F, 1), dtype=bool)
+    offsets[30:50] = True
+    jumps = np.zeros((F, 1), dtype=bool)
+    jumps[[29, 30, 49, 50]] = True
+    mdm = np.zeros((F, 1))
+    mdm[26:56] = 1.0  # digresses 4 frames before the step off to 6 after the step back
+    none = np.zeros((F, 1), dtype=bool)
+    flags = cues.flag_rule(mdm, jumps, none, none, offsets, 0.5, fps, True, 0.05)
+    assert np.flatnonzero(flags[:, 0]).tolist() == list(range(30, 50))
+    # a side swap's cells are replaced by neighbour words, not undone: its steps still confirm the digression
+    swapped = cues.flag_rule(mdm, jumps, none, offsets, offsets, 0.5, fps, True, 0.05)
+    assert np.flatnonzero(swapped[:, 0]).tolist() == list(range(26, 56))
+    jumps[54] = True  # a break of its own, 4 frames past the step back
+    flags = cues.flag_rule(mdm, jumps, none, none, offsets, 0.5, fps, True, 0.05)
+    assert flags[50:56, 0].all()
+
+
+@pytest.fixture(scope="module")
+def basketball(shared_data):
+    """HDM05 ``tr_throwBasketball_014`` and ``mocapkit.clean``'s result on it (defaults)."""
+    m = mocapkit.load(shared_data / "hdm05_asfamc" / "HDM_tr_throwBasketball_014_120.amc")
+    return m, mocapkit.clean(m)
+
+
+def test_a_hand_flip_is_repaired_on_the_flipped_frames_alone(basketball):
+    """HDM05 tr_throwBasketball_014: the right hand flips by 180 deg on frames 54-148 and 201-245 (one-frame turns
+    of 168-180 deg at both ends of each). Both flips are taken back; every other frame of the hand comes back
+    bit-identical (frames 198-200 and 246-252, real motion beside the second flip, were replaced by neighbour
+    words and joined the take 9-12 deg off), and the repaired hand joins the take smoothly."""
+    m, res = basketball
+    j = m.skeleton.index("rhand")
+    a, b = m.rotations[:, j], res.motion.rotations[:, j]
+    step = np.degrees(R.geodesic_angle(a[1:], a[:-1]))
+    flipped = np.zeros(m.num_frames, dtype=bool)
+    flipped[54:149] = flipped[201:246] = True
+    assert (step[[53, 148, 200, 245]] > 160.0).all()  # the take's own flips
+    changed = ~np.all(a == b, axis=-1)
+    assert changed[flipped].all()
+    assert not changed[~flipped].any()
+    turn = np.degrees(R.geodesic_angle(b[1:], b[:-1]))
+    assert turn[[53, 148, 200, 245]].max() < 20.0  # the flips are gone
+    assert turn[195:251].max() < 8.0  # no join rougher than the hand's own motion beside it (up to 5.5 deg a frame)

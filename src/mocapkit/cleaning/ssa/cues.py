@@ -16,7 +16,7 @@ from ... import rotations as R
 from ...motion import Motion
 from ..ik import contact_segments, segment_frames
 from .params import SSAParams
-from .step_pairs import UNDO_RATIO, is_step, returns, steps_back
+from .step_pairs import UNDO_RATIO, is_step, offset_step_breaks, returns, steps_back
 
 __all__ = [
     "unshared_offsets",
@@ -731,7 +731,8 @@ def flag_causes(mdm, jumps, holds, swaps, offsets, threshold: float, fps: float,
     The arguments are :func:`flag_rule`'s, whose flags are exactly the cells with a bit set: with
     ``confirm``, digressions confirmed by a break (:func:`confirm_flags`), holds, swaps, transient offsets
     and smooth drifts (``drifts``, bool (F, J) or None: none) and the :func:`lone_spikes` (``lone``, bool
-    (F, J) or None: none); without, ``mdm > threshold`` alone (the "digression" bit). A cell two rules flag
+    (F, J) or None: none); the breaks that are the two steps of a flagged offset that is no swap (the
+    offsets repair takes away) confirm no digression (:func:`~mocapkit.cleaning.ssa.step_pairs.offset_step_breaks`); without, ``mdm > threshold`` alone (the "digression" bit). A cell two rules flag
     has both bits, so a report can say why each change was made. ``reversed_`` (F, J) bool or None: the swap
     cells whose run plays better backwards (:func:`~mocapkit.cleaning.ssa.reversals.reversed_runs`), named
     ``reversed`` instead of ``swap`` (the same cells flagged).
@@ -744,6 +745,7 @@ def flag_causes(mdm, jumps, holds, swaps, offsets, threshold: float, fps: float,
         return out
     breaks = jumps if judged is None else np.asarray(jumps, dtype=bool) & np.asarray(judged, dtype=bool)
     swaps = np.asarray(swaps, dtype=bool)
+    breaks = breaks & ~offset_step_breaks(breaks, np.asarray(offsets, dtype=bool) & ~swaps)  # confirm nothing beside
     back = np.zeros_like(swaps) if reversed_ is None else swaps & np.asarray(reversed_, dtype=bool)
     rules = [("break", confirm_flags(mdm, breaks, threshold, fps, margin_s, spikes=spikes)), ("held", holds),
              ("swap", swaps & ~back), ("reversed", back), ("offset", offsets)] + ([] if drifts is None else [("drift", drifts)]) + (

@@ -65,3 +65,37 @@ def is_step(span: int, most: int = MAX_STEP_FRAMES) -> bool:
     """Whether a break event of ``span`` frames (its last frame less its first, plus one) is a step, a jump between
     two frames (at most ``most`` frames), rather than a burst of several frames (:data:`MAX_STEP_FRAMES`)."""
     return 0 < int(span) <= int(most)
+
+
+def offset_step_breaks(breaks: np.ndarray, offsets: np.ndarray, gap: int = 3) -> np.ndarray:
+    """(F, J) bool: the cells of ``breaks`` whose break event is a step of a flagged transient offset.
+
+    A transient offset flagged on frames ``s .. e - 1`` (a run of ``offsets``) starts with a step
+    between frames ``s - 1`` and ``s`` and ends with one between ``e - 1`` and ``e``; each shows as a
+    break at both its frames. The offset rule explains those two breaks and flags exactly the frames
+    between them, and the repair takes the offset away there
+    (:func:`~mocapkit.cleaning.ssa.undo.undone_offsets`). The digression just outside them comes from the
+    neighbour words the error led astray (a word spans 0.6 s), so these breaks must not confirm it
+    (:func:`~mocapkit.cleaning.ssa.cues.flag_causes` passes the offsets that are no side swap: a swap's cells are
+    replaced by neighbour words, not undone, and keep the break rule's flags as before): on HDM05 ``tr_throwBasketball_014`` the right hand
+    flips by 180 deg on frames 201-245, and the breaks of its two steps confirmed the digression of
+    frames 198-200 and 246-252, real motion that was replaced by neighbour words and joined the take 9-12
+    deg off. An event is a run of break frames at most ``gap`` frames apart (as the cues group them);
+    it is a step of the offset when it holds ``s - 1``, ``s``, ``e - 1`` or ``e``. ``breaks``,
+    ``offsets``: (F, J) bool.
+    """
+    breaks = np.asarray(breaks, dtype=bool)
+    offsets = np.asarray(offsets, dtype=bool)
+    if breaks.shape != offsets.shape or breaks.ndim != 2:
+        raise ValueError(f"breaks and offsets must be the same (F, J) shape, got {breaks.shape} and {offsets.shape}")
+    out = np.zeros_like(breaks)
+    for j in np.flatnonzero(offsets.any(axis=0) & breaks.any(axis=0)):
+        edge = np.diff(offsets[:, j].astype(np.int8), prepend=0, append=0)
+        s, e = np.flatnonzero(edge == 1), np.flatnonzero(edge == -1)  # each run's first frame and the frame after it
+        ends = np.concatenate([s - 1, s, e - 1, e])
+        frames = np.flatnonzero(breaks[:, j])
+        event = np.concatenate([[0], np.cumsum(np.diff(frames) > gap)])  # the event of each break frame
+        at_step = np.zeros(event[-1] + 1, dtype=bool)
+        at_step[event[np.isin(frames, ends)]] = True
+        out[frames[at_step[event]], j] = True
+    return out
