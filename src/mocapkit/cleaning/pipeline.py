@@ -91,6 +91,8 @@ Edge cases (documented fallbacks, never a crash):
   would be interpolation, so it is not analysed either, with a note;
 - a clip with fewer frames than the noise criterion's fit (7) is not denoised,
   with a note;
+- a clip under 24 fps is not denoised either, with a note: its rate cannot hold
+  capture noise apart from motion (:mod:`mocapkit.cleaning.noise_rate`);
 - a single frame, a take missing in every frame, or a joint never observed
   that a step needs raise :class:`~mocapkit.errors.MocapError` with a message
   naming the take and the problem;
@@ -130,6 +132,7 @@ from ..errors import MissingFileError, MocapError, MocapFormatError
 from ..motion import Motion, frozen
 from .calibration import CalibrationPose, calibration_poses
 from .inbetweens import find_inbetweens, inbetweens_note
+from .noise_rate import noise_too_coarse
 from .noise_scope import with_body_noise
 from .stutters import Stutter, find_stutters, stutter_frames
 from .whole_take import (MAX_WORD_ANGLE_DEG, denoise_take, detect_take, differing, fill_take, motion_span,
@@ -571,6 +574,9 @@ def noisy_cells(motion: Motion, noise_deg: float = NOISE_DEG, filled: np.ndarray
     extremities' own wobble (CMU's toes and hands) passes every test of one
     track, and only the company it keeps tells it from sensor or solver
     noise. At 120 fps and above nothing changes.
+    Under :data:`~mocapkit.cleaning.noise_rate.NOISE_MIN_FPS` (24 fps) no cell
+    is noisy: the rate cannot hold jitter apart from motion
+    (:func:`mocapkit.cleaning.noise_rate.noise_too_coarse`).
     """
     from .ik import contact_segments
 
@@ -580,6 +586,8 @@ def noisy_cells(motion: Motion, noise_deg: float = NOISE_DEG, filled: np.ndarray
     has_dofs = np.array([j > 0 and bool(sk.rotation_order(j)) for j in range(sk.num_joints)])
     high = (np.nan_to_num(level) > noise_deg) & has_dofs[None, :]
     noisy = np.zeros_like(high)
+    if noise_too_coarse(motion.fps):
+        return noisy, level
     min_run = int(np.ceil(NOISE_MIN_RUN_S * motion.fps))
     if high.any():
         cos = _direction(q, miss)
@@ -881,7 +889,12 @@ def clean(
     if "denoise" in steps:
         t = time.perf_counter()
         w = noise_fit_frames(cur.fps)
-        if Fs < w:
+        coarse = noise_too_coarse(cur.fps)
+        if coarse:
+            note = f"denoise skipped: {coarse}"
+            notes.append(note)
+            records.append(StepRecord("denoise", time.perf_counter() - t, 0, "skipped", note))
+        elif Fs < w:
             note = f"denoise skipped: {Fs} frames is shorter than the noise criterion's fit ({w} frames)"
             notes.append(note)
             records.append(StepRecord("denoise", time.perf_counter() - t, 0, "skipped", note))
