@@ -827,3 +827,15 @@ def test_a_take_that_fails_otherwise_does_not_stop_the_batch(tmp_path, short_bvh
     monkeypatch.setattr(batch, "clean_file", denied)
     s = clean_batch(src, tmp_path / "out", steps=STEPS, executor="serial", progress=False)
     assert [r["status"] for r in s.rows] == ["failed"] * 3 and not s.stopped and "errno" not in s.rows[0]
+
+
+def test_no_context_is_spoken_of_when_no_step_reads_one(tmp_path):
+    # a Bandai Namco take's joints differ from the bundled default context's; fill and denoise read no context, so
+    # clean says nothing of it (detect, which reads it, says it was not used)
+    from mocapkit.batch import clean_file
+
+    take = Path(__file__).parent / "data" / "dataset-2_run_active_049.bvh"
+    _, res = clean_file(take, tmp_path / "out.bvh", steps="fill,denoise")
+    assert not any("context" in n for n in res.notes), res.notes
+    api = mocapkit.clean(take, steps="fill,denoise")
+    assert not any("context" in n for n in api.notes), api.notes

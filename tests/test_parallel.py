@@ -262,3 +262,55 @@ def test_on_result_on_a_dask_scheduler_sees_each_result_and_stops_the_work():
         out = map_ordered(slow_square, [1] * 30, executor=cluster.scheduler_address, progress=False,
                           on_result=lambda k, r: seen.append(k) or True)
         assert seen and len(seen) < 30 and [k for k, r in enumerate(out) if r is not None] == sorted(seen)
+
+
+def pid_then_sleep(folder):
+    """A worker's task: write its pid under ``folder``, then wait to be stopped."""
+    from pathlib import Path
+
+    Path(folder, str(os.getpid())).write_text("")
+    time.sleep(60)
+
+
+_INTERRUPTED_POOL = """
+import signal, sys
+signal.signal(signal.SIGINT, signal.SIG_DFL)  # a child started in the background inherits SIGINT ignored
+signal.signal(signal.SIGTERM, signal.SIG_DFL)
+from mocapkit.interrupts import exit_status, interrupts_as_keyboard_interrupt
+from mocapkit.parallel import map_ordered
+from tests.test_parallel import pid_then_sleep
+with interrupts_as_keyboard_interrupt():
+    try:
+        map_ordered(pid_then_sleep, [sys.argv[1]] * 2, executor="processes", max_workers=2, progress=False)
+    except KeyboardInterrupt:
+        print("interrupted")
+        sys.exit(exit_status())
+"""
+
+
+@pytest.mark.parametrize("target", ["worker", "parent"])
+def test_a_sigterm_to_a_pool_worker_or_its_parent_ends_the_work_as_interrupted(tmp_path, target):
+    """A worker that took a SIGTERM died of it with its traceback and broke the pool: `clean-batch` said "a worker
+    process ended abruptly" and exited 2; now the parent ends the work as a SIGTERM sent to it does, exit 143."""
+    import subprocess
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[1]
+    proc = subprocess.Popen([sys.executable, "-c", _INTERRUPTED_POOL, str(tmp_path)], cwd=root, text=True,
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    try:
+        deadline = time.monotonic() + 120
+        while len(list(tmp_path.iterdir())) < 2 and time.monotonic() < deadline and proc.poll() is None:
+            time.sleep(0.1)
+        workers = sorted(int(p.name) for p in tmp_path.iterdir())
+        assert len(workers) == 2, proc.communicate(timeout=10)
+        os.kill(workers[0] if target == "worker" else proc.pid, signal.SIGTERM)
+        out, err = proc.communicate(timeout=60)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+    assert proc.returncode == 128 + signal.SIGTERM, err
+    assert out.strip() == "interrupted" and "Traceback" not in err, err
+    for pid in workers:  # the workers are gone
+        with pytest.raises(ProcessLookupError):
+            os.kill(pid, 0)

@@ -188,7 +188,7 @@ def clean(take, context=None, *, steps="fill,detect,repair,denoise", threshold: 
             KEYWORDS, "record=")
 
     def cleaning():
-        ctx, note = _load_context(context, motion)
+        ctx, note = _load_context(context, motion, steps)
         extra = {} if noise_deg is None else {"noise_deg": noise_deg}
         res = clean_motion(motion, ctx, steps=steps, threshold=threshold, progress=progress, drifts=drifts,
                            models=models, **extra)
@@ -243,9 +243,13 @@ def _load_motion(path, asf, fps=None, unit=None) -> Motion:
     return out
 
 
-def _load_context(context, motion):
+def _load_context(context, motion, steps=None):
     """``context`` as :func:`mocapkit.cleaning.pipeline.clean` takes it (:func:`mocapkit.context.resolve_context`),
-    fitted to ``motion``'s skeleton (:func:`mocapkit.context.fit_context`); returns ``(context, note)``."""
+    fitted to ``motion``'s skeleton (:func:`mocapkit.context.fit_context`); returns ``(context, note)``.
+    ``(None, "")`` when ``steps`` (None: every step) leave detection out: no other step reads a context."""
+    from .cleaning.pipeline import STEPS, parse_steps
     from .context import fit_context, resolve_context, topology_id
 
+    if "detect" not in parse_steps(STEPS if steps is None else steps):
+        return None, ""
     return fit_context(motion, resolve_context(context, prefer=topology_id(motion.skeleton)))

@@ -206,7 +206,8 @@ def clean_file(
     else:
         from .context import fit_context
 
-        ctx, ctx_note = fit_context(m, load_context(context, progress=progress, take=m))
+        ctx, ctx_note = (fit_context(m, load_context(context, progress=progress, take=m)) if "detect" in asked
+                         else (None, ""))  # only detection reads a context: none is loaded or spoken of without it
         try:
             res = clean(m, ctx, steps=steps or STEPS, threshold=threshold, progress=progress, drifts=drifts,
                         models=models, noise_deg=NOISE_DEG if noise_deg is None else noise_deg)

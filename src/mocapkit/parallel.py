@@ -55,6 +55,7 @@ from tqdm.auto import tqdm
 from .progress import bar_disabled
 
 from .errors import MocapError
+from .interrupts import interrupts_held
 
 __all__ = ["map_ordered", "describe_executor", "check_executor", "owner_alive"]
 
@@ -65,6 +66,7 @@ _HANDSHAKE_MAX = 64 * 1024  # bytes of the scheduler's opening message the probe
 _PROBE_S = 5.0  # seconds the whole probe (name lookup, connect, handshake) may take
 _WATCH_S = 0.5  # seconds between a local worker's checks of its parent pid
 _OWNER_PID: int | None = None  # set in local pool workers: the pid of the process that started them
+_FORWARD_S = 0.5  # seconds a local worker waits before passing a SIGTERM it took on to the process that started it
 
 
 def describe_executor(executor) -> str:
@@ -211,10 +213,14 @@ def _die_with_parent(parent_pid: int) -> None:
     and ignores SIGINT: on Ctrl-C (sent to the whole process group) the parent stops the pool
     (:func:`_stop_pool`). A worker that raised KeyboardInterrupt itself could die halfway through sending a
     result, and the pool's manager thread then waited for the rest of it for ever, and the exit with it
-    (3 of 60 interrupted ``db build`` runs hung at exit)."""
+    (3 of 60 interrupted ``db build`` runs hung at exit). A SIGTERM raises nothing here either: it is passed on
+    to ``parent_pid`` (:func:`_term_to_parent`), which ends the work as interrupted (exit 143), as a SIGTERM sent
+    to it does. A worker that died of it printed its traceback and broke the pool: ``clean-batch`` then said
+    "a worker process ended abruptly" and exited 2."""
     global _OWNER_PID
     try:
         signal.signal(signal.SIGINT, signal.SIG_IGN)
+        signal.signal(signal.SIGTERM, lambda signum, frame: _term_to_parent(parent_pid))
         if hasattr(signal, "pthread_sigmask"):  # forked with SIGINT held back (_run): a pending one is now ignored
             signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
     except (ValueError, OSError):  # not the main thread of this worker: it cannot take its own interrupts either
@@ -231,6 +237,18 @@ def _die_with_parent(parent_pid: int) -> None:
     if _OWNER_PID != parent_pid and not _pid_alive(parent_pid):
         _kill_self()  # the parent died before the death signal was armed
     threading.Thread(target=_watch_parent, name="mocapkit-parent-watch", daemon=True).start()
+
+
+def _term_to_parent(parent_pid: int) -> None:
+    """A worker's SIGTERM: sent on to ``parent_pid`` after :data:`_FORWARD_S`, from a thread. Where the whole
+    process group took it (a scheduler or a shutdown stopping the job), the parent, interrupted itself, has
+    killed this worker by then and is not signalled twice while it stops the pool."""
+    def forward():
+        time.sleep(_FORWARD_S)
+        if _pid_alive(parent_pid):
+            os.kill(parent_pid, signal.SIGTERM)
+
+    threading.Thread(target=forward, name="mocapkit-term-forward", daemon=True).start()
 
 
 def _pid_alive(pid: int) -> bool:
@@ -311,7 +329,8 @@ def map_ordered(
                 raise MocapError("a worker process ended abruptly (killed, out of memory, or interrupted while "
                                  "it started); the work was stopped") from None
             except BaseException:  # an interrupt during the shutdown too
-                _stop_pool(pool)
+                with interrupts_held():  # a second SIGTERM (passed on by a worker) waits until the pool is stopped
+                    _stop_pool(pool)
                 raise
             return out
         if isinstance(executor, str):

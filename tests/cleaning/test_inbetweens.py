@@ -103,3 +103,34 @@ def test_slerp_midpoints_are_made_only_where_the_cheap_tests_leave_a_frame_open(
     assert find_inbetweens(m) == (Inbetween(301, 301), Inbetween(502, 502), Inbetween(504, 504))
     # the three, and the few frames whose root stands still to the file's precision: not each of the F - 2 frames
     assert 3 <= sum(rows) < 0.05 * (m.num_frames - 2)
+
+
+def _upsampled(path: Path, fps: float, out: Path, asf=None) -> Motion:
+    """The first 1.5 s of the take at ``path`` upsampled to ``fps`` by slerp (``convert --fps``), written and
+    read back."""
+    m = mocapkit.load(path) if asf is None else mocapkit.load(path, asf=asf)
+    m = m[1:int(1.5 * m.fps) + 1]
+    saved = mocapkit.save(m.resample(fps), out, asf=asf) if asf is not None else mocapkit.save(m.resample(fps), out)
+    return mocapkit.load(saved) if asf is None else mocapkit.load(saved, asf=asf)
+
+
+def test_a_take_upsampled_by_slerp_keeps_its_frames(tmp_path):
+    # every other frame (120 -> 240 fps), three of every four (30 -> 120 fps) is a midpoint at its true time: left
+    # out, the take would be analysed at twice (four times) its speed
+    for src, fps in ((samples.path("131_01.bvh"), 240.0), (DATA / "dataset-2_run_active_049.bvh", 120.0)):
+        up = _upsampled(Path(src), fps, tmp_path / f"up{fps:g}.bvh")
+        assert midpoint_frames(up).mean() > 0.45, up.name
+        assert find_inbetweens(up) == (), up.name
+
+
+def test_upsampling_tells_a_regular_pattern_from_frames_inserted(tmp_path):
+    from mocapkit.cleaning.inbetweens import interpolated_note, midpoint_runs, upsampling
+
+    up = _upsampled(samples.path("HDM_bd_jogLeftCircle4StepsRstart_001_120.amc"), 240.0, tmp_path / "up.amc",
+                    asf=samples.path("HDM_bd.asf"))
+    assert upsampling(midpoint_runs(up), up.num_frames) == 2
+    assert "about 1 of every 2 (the take looks upsampled" in interpolated_note(up)
+    retimed = mocapkit.load(with_midpoints(Path(samples.path("131_01.bvh")), [300, 500, 501],
+                                           tmp_path / "retimed.bvh", 4))
+    assert upsampling(midpoint_runs(retimed), retimed.num_frames) == 0
+    assert interpolated_note(retimed).startswith("3 frames (301, 502, 504) look interpolated")

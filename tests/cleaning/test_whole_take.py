@@ -5,6 +5,8 @@ with errors injected (a spike, a flip, a swap of the feet)."""
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -98,3 +100,18 @@ def test_detect_take_does_not_judge_a_take_too_coarse_for_a_word(t_pose_walk):
     assert coarse.detection is None and coarse.span == (1, 60)
     assert coarse.skipped.startswith("1 fps is too coarse for motion words: a source word spans 0.625 s")
     assert coarse.skipped.endswith("(at least half of each word's frames the take's own): not judged")
+
+
+def test_a_take_shorter_than_a_word_without_its_interpolated_frames_is_skipped(tmp_path):
+    """71 frames at 120 fps make one word; one of them a slerp midpoint another tool inserted, the 70 analysed make
+    none: the take is skipped with the statement, as a take shorter than a word is, not failed."""
+    import mocapkit
+    from mocapkit import samples
+    from tests.cleaning.ssa.helpers import with_midpoints
+
+    m = mocapkit.load(with_midpoints(Path(samples.path("131_01.bvh")), [350], tmp_path / "retimed.bvh", 4))
+    short = m[316:387]
+    got = detect_take(short)
+    assert got.detection is None
+    assert got.skipped.startswith("71 frames (0.59 s), 70 without its repeated and interpolated frames, is shorter "
+                                  "than one motion word")

@@ -25,7 +25,8 @@ Real motion is smooth but never that linear on every channel at once: on the cle
 CMU AMC and BVH at 120 fps, the 2,675 Bandai Namco takes at 30 fps: 447,000 frames) no frame is the midpoint of its neighbours by
 either rule (``tests/cleaning/test_inbetweens.py`` keeps a sample of them). Runs of up to :data:`MAX_RUN` frames
 are named (a frame, or a few, inserted; each frame of an evenly spaced run is the midpoint of its own neighbours);
-a longer straight stretch (a gap another tool bridged linearly on every joint) is motion the analysis judges.
+a longer straight stretch (a gap another tool bridged linearly on every joint) is motion the analysis judges. Runs
+at a regular step through the take are its own rate, an upsampling, not frames inserted (:func:`upsampling`).
 """
 
 from __future__ import annotations
@@ -39,7 +40,8 @@ from .. import rotations as R
 from ..motion import Motion
 from .ik import contact_segments
 
-__all__ = ["Inbetween", "MAX_RUN", "find_inbetweens", "inbetweens_note", "midpoint_frames", "written_steps"]
+__all__ = ["Inbetween", "MAX_RUN", "MIN_PERIODS", "find_inbetweens", "inbetweens_note", "interpolated_note",
+           "midpoint_frames", "midpoint_runs", "upsampling", "written_steps"]
 
 #: the longest run of interpolated frames named (module docstring)
 MAX_RUN = 3
@@ -182,8 +184,17 @@ def find_inbetweens(motion: Motion, skip: np.ndarray | None = None,
                     values: np.ndarray | None = None) -> tuple[Inbetween, ...]:
     """The runs of at most :data:`MAX_RUN` frames of ``motion`` that are each the midpoint of their neighbours
     (:func:`midpoint_frames`), by first frame; frames in ``skip`` ((F,) bool: all-zero frames, stutters) are in
-    none, nor next to one (a run that would hold or touch one is left out whole). ``values``:
+    none, nor next to one (a run that would hold or touch one is left out whole). ``()`` when the runs are the
+    take's own rate, a regular upsampling (:func:`upsampling`): those frames are at their true times. ``values``:
     ``motion.channel_values()`` when the caller has them already."""
+    found = midpoint_runs(motion, skip, values)
+    return () if upsampling(found, motion.num_frames) else found
+
+
+def midpoint_runs(motion: Motion, skip: np.ndarray | None = None,
+                  values: np.ndarray | None = None) -> tuple[Inbetween, ...]:
+    """:func:`find_inbetweens` before the upsampling test: every run of at most :data:`MAX_RUN` midpoint frames
+    away from ``skip``, by first frame."""
     mid = midpoint_frames(motion, values)
     near = np.zeros(motion.num_frames + 1, dtype=bool)
     if skip is not None:
@@ -192,6 +203,52 @@ def find_inbetweens(motion: Motion, skip: np.ndarray | None = None,
         near[1:] |= skip
     return tuple(Inbetween(int(a), int(b) - 1) for a, b in contact_segments(mid)
                  if b - a <= MAX_RUN and not near[a:b + 1].any())
+
+
+#: the fewest runs, one period apart, that make a regular upsampling (:func:`upsampling`)
+MIN_PERIODS = 8
+
+
+def upsampling(found, num_frames: int) -> int:
+    """The period ``P`` (frames) when the runs ``found`` (:func:`midpoint_runs`) are a regular upsampling of the
+    take, else 0: runs of one length ``L`` starting every ``P`` frames (the most common step between runs), at
+    least :data:`MIN_PERIODS` such steps, covering at least half the take (``L / P`` of its frames, half of them).
+
+    A frame-rate change by slerp or linear blend (``convert --fps 240`` of a 120 fps take: every other frame a
+    midpoint; 30 to 120 fps: three of every four) writes midpoints at regular times, each at its true time on the
+    file's own rate. Left out, the take would be analysed with half (a quarter) of its frames at the file's rate,
+    its motion at twice (four times) its speed: a 120 fps CMU take upsampled by slerp to 240 fps then had 10 motion
+    words of 23 judged where the take at 120 fps had 48, and a 279-frame HDM05 take failed as shorter than a word.
+    A frame another tool inserted once in a while lies at no regular step; those are left out as before."""
+    found = tuple(found)
+    if len(found) <= MIN_PERIODS:
+        return 0
+    first = np.array([b.first for b in found], dtype=np.int64)
+    length = np.array([b.last - b.first + 1 for b in found], dtype=np.int64)
+    steps = np.diff(first)
+    values, counts = np.unique(steps, return_counts=True)
+    period = int(values[np.argmax(counts)])
+    regular = (steps == period) & (length[1:] == length[:-1])
+    if regular.sum() < MIN_PERIODS:
+        return 0
+    run = int(np.bincount(length[1:][regular]).argmax())
+    covered = int(length[1:][regular & (length[1:] == run)].sum())
+    return period if covered >= 0.5 * num_frames * run / period else 0
+
+
+def interpolated_note(motion: Motion, skip: np.ndarray | None = None, values: np.ndarray | None = None) -> str:
+    """The line ``clean`` and ``detect`` say of ``motion``'s interpolated frames: :func:`inbetweens_note` of
+    :func:`find_inbetweens`, or, when they are a regular upsampling (:func:`upsampling`), that the take is
+    analysed at its own rate with them; ``""`` for none."""
+    found = midpoint_runs(motion, skip, values)
+    period = upsampling(found, motion.num_frames)
+    if not period:
+        return inbetweens_note(found)
+    n = sum(b.last - b.first + 1 for b in found)
+    return (f"{n} of {motion.num_frames} frames are the midpoint of their neighbours on every channel, about "
+            f"{round(n * period / motion.num_frames)} of every {period} (the take looks upsampled by slerp or "
+            f"linear blend, as `convert --fps` writes): they are the take's own frames at its rate, analysed "
+            f"and repaired as the others are")
 
 
 def inbetweens_note(found) -> str:

@@ -131,7 +131,7 @@ from .. import rotations as R
 from ..errors import MissingFileError, MocapError, MocapFormatError
 from ..motion import Motion, frozen
 from .calibration import CalibrationPose, calibration_poses
-from .inbetweens import find_inbetweens, inbetweens_note
+from .inbetweens import interpolated_note
 from .noise_rate import noise_too_coarse
 from .noise_scope import with_body_noise
 from .stutters import Stutter, find_stutters, stutter_frames
@@ -818,7 +818,7 @@ def clean(
     zero_cells, zero_runs, zero_frames = found_zeros
     stutters = find_stutters(motion, skip=zero_frames)
     skip = zero_frames | stutter_frames(stutters, motion.num_frames)
-    interpolated = inbetweens_note(find_inbetweens(motion, skip=skip, values=values))
+    interpolated = interpolated_note(motion, skip=skip, values=values)
     del values
     if interpolated:
         notes.append(interpolated)

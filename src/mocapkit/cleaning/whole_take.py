@@ -215,9 +215,10 @@ def check_no_zeros(motion: Motion, runs=None, span: tuple[int, int] | None = Non
                          "`mocapkit fill`, fills them)")
 
 
-def _analysis_frames(motion: Motion, analysis_fps: float) -> int:
-    """Frames of ``motion`` resampled to ``analysis_fps`` (as :meth:`Motion.resample` makes them)."""
-    return int(np.floor((motion.num_frames - 1) * analysis_fps / motion.fps + 1e-9)) + 1
+def _analysis_frames(num_frames: int, fps: float, analysis_fps: float) -> int:
+    """Frames of a take of ``num_frames`` at ``fps`` resampled to ``analysis_fps`` (as :meth:`Motion.resample`
+    makes them)."""
+    return int(np.floor((num_frames - 1) * analysis_fps / fps + 1e-9)) + 1
 
 
 def detect_take(motion: Motion, context=None, *, threshold: float = 0.5, params=None, progress: bool = False,
@@ -235,6 +236,7 @@ def detect_take(motion: Motion, context=None, *, threshold: float = 0.5, params=
     the take.
     """
     from . import ssa
+    from .ssa.repeats import analysed_frames
 
     name = motion.name or "motion"
     F = motion.num_frames
@@ -257,9 +259,11 @@ def detect_take(motion: Motion, context=None, *, threshold: float = 0.5, params=
         coarse = ssa.too_coarse(part.fps, params)
         if coarse:
             return TakeDetection(None, poses, span, f"{coarse}: not judged")
-        if _analysis_frames(part, params.analysis_fps) < N:
+        kept = analysed_frames(part)  # repeated and interpolated frames are analysed once (ssa.repeats)
+        if _analysis_frames(kept, part.fps, params.analysis_fps) < N:
+            less = f", {kept} without its repeated and interpolated frames," if kept < hi - lo else ""
             return TakeDetection(None, poses, span,
-                                 f"{hi - lo} frames ({part.duration:.2f} s) is shorter than one motion word "
+                                 f"{hi - lo} frames ({part.duration:.2f} s){less} is shorter than one motion word "
                                  f"({N} frames at {params.analysis_fps:g} fps, {N / params.analysis_fps:.3f} s)")
         det = ssa.detect(part, context, threshold=threshold, params=params, progress=progress)
     except (ValueError, SkeletonError) as exc:

@@ -42,13 +42,13 @@ def _take_notes(m, found, det) -> list[str]:
     """The lines `clean --steps detect` says of the take besides its flags: the calibration poses, a limb held
     still through the take, the stutters, then the detection's own notes (the root's path, cuts, words not
     judged)."""
-    from ..cleaning.inbetweens import find_inbetweens, inbetweens_note
+    from ..cleaning.inbetweens import interpolated_note
     from ..cleaning.pipeline import capped_lines, held_still_note
     from ..cleaning.stutters import find_stutters, stutter_frames
 
     held = held_still_note(m)
     stutters = find_stutters(m)
-    interpolated = inbetweens_note(find_inbetweens(m, skip=stutter_frames(stutters, m.num_frames)))
+    interpolated = interpolated_note(m, skip=stutter_frames(stutters, m.num_frames))
     return ([str(c) for c in found.calibration] + ([held] if held else [])
             + capped_lines(stutters, "stutters", "") + ([interpolated] if interpolated else []) + list(det.notes))
 

@@ -39,7 +39,8 @@ from ..inbetweens import find_inbetweens
 from ..stutters import find_stutters
 
 __all__ = [
-    "analysed_once", "blend_inbetweens", "expand", "frame_index", "inbetween_runs", "repeat_runs", "without_repeats",
+    "analysed_frames", "analysed_once", "blend_inbetweens", "expand", "frame_index", "inbetween_runs", "repeat_runs",
+    "without_repeats",
 ]
 
 
@@ -62,6 +63,15 @@ def inbetween_runs(motion: Motion, repeats=()) -> tuple[tuple[int, int], ...]:
 def analysed_once(repeats, inbetweens=()) -> tuple[tuple[int, int], ...]:
     """The runs of frames the take is analysed without: ``repeats`` and ``inbetweens`` together, by first frame."""
     return tuple(sorted((int(a), int(b)) for a, b in tuple(repeats) + tuple(inbetweens)))
+
+
+def analysed_frames(motion: Motion) -> int:
+    """The frames of ``motion`` that :func:`~mocapkit.cleaning.ssa.detect` analyses: its frames less its repeats
+    (:func:`repeat_runs`) and interpolated frames (:func:`inbetween_runs`), the length the take's words are
+    counted in."""
+    runs = repeat_runs(motion)
+    once = analysed_once(runs, inbetween_runs(motion, runs))
+    return motion.num_frames - sum(b - a + 1 for a, b in once)
 
 
 def kept_frames(runs, num_frames: int) -> np.ndarray:
