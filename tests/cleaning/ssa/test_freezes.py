@@ -84,3 +84,18 @@ def test_detect_names_a_freeze_no_similar_motion_judges(take):
     assert np.array_equal(dataclasses.replace(det).causes(), det.causes())
     # the take as captured: nothing frozen
     assert not ssa.detect(take, max_word_angle_deg=1e-6).frozen.any()
+
+
+def test_an_unjudged_freeze_is_bridged_like_a_gap_and_nothing_else_moves(take):
+    m, j = _frozen(take)
+    det = ssa.detect(m, max_word_angle_deg=1e-6)
+    out, left = ssa.repair_with_left(m, det, foot_skate=False)
+    q, r = np.asarray(m.rotations), np.asarray(out.rotations)
+    changed = np.any(q != r, axis=-1)
+    assert not left and np.array_equal(np.flatnonzero(changed.any(axis=0)), [j])  # only the frozen joint
+    assert changed[:, j].any() and not changed[: A, j].any() and not changed[B:, j].any()
+    # the jump out of the hold spread over the bridge: no step past the take's own
+    steps = np.degrees(R.geodesic_angle(r[1:, j], r[:-1, j]))
+    own = np.degrees(R.geodesic_angle(q[1:, j], q[:-1, j]))
+    own[A - 1 : B] = 0.0  # the joint's steps elsewhere in the take, not the freeze's 0s and jump
+    assert steps[A - 1 : B].max() < own.max() < 40
