@@ -47,7 +47,8 @@ def test_a_freeze_ending_in_a_jump_is_found_and_clean_holds_are_not(take):
     q = np.asarray(m.rotations)
     assert np.degrees(R.geodesic_angle(q[B - 1, j], q[B, j])) > 40  # the jump back to its own path
     out = _rule(m)
-    assert np.flatnonzero(out[:, j]).tolist() == list(range(A, B)) and out.sum() == B - A
+    # frame A is the sample the channel froze at: the repeats of it are flagged
+    assert np.flatnonzero(out[:, j]).tolist() == list(range(A + 1, B)) and out.sum() == B - A - 1
     # the take as captured: its knees clamp at the rest pose, its fingers and toes never move: nothing
     assert not _rule(take).any()
     # the whole body held (a repeated pose, a padded stretch): no freeze
@@ -76,10 +77,10 @@ def test_detect_names_a_freeze_no_similar_motion_judges(take):
     m, j = _frozen(take)
     det = ssa.detect(m, max_word_angle_deg=1e-6)
     assert not np.isfinite(det.digression[:, det.analysed]).any()  # no frame judged
-    assert det.flags[A:B, j].all()
+    assert det.flags[A + 1 : B, j].all()
     frozen_bit = 1 << [name for name, _ in CAUSES].index("frozen")
-    assert (det.causes()[A:B, j] & frozen_bit).all()
-    assert np.flatnonzero(det.frozen[:, j]).tolist() == list(range(A, B))
+    assert (det.causes()[A + 1 : B, j] & frozen_bit).all()
+    assert np.flatnonzero(det.frozen[:, j]).tolist() == list(range(A + 1, B))
     # made again from its fields (a saved detection read back), the same causes
     assert np.array_equal(dataclasses.replace(det).causes(), det.causes())
     # the take as captured: nothing frozen
@@ -93,9 +94,9 @@ def test_an_unjudged_freeze_is_bridged_like_a_gap_and_nothing_else_moves(take):
     q, r = np.asarray(m.rotations), np.asarray(out.rotations)
     changed = np.any(q != r, axis=-1)
     assert not left and np.array_equal(np.flatnonzero(changed.any(axis=0)), [j])  # only the frozen joint
-    assert changed[:, j].any() and not changed[: A, j].any() and not changed[B:, j].any()
+    assert changed[:, j].any() and not changed[: A + 1, j].any() and not changed[B:, j].any()
     # the jump out of the hold spread over the bridge: no step past the take's own
     steps = np.degrees(R.geodesic_angle(r[1:, j], r[:-1, j]))
     own = np.degrees(R.geodesic_angle(q[1:, j], q[:-1, j]))
     own[A - 1 : B] = 0.0  # the joint's steps elsewhere in the take, not the freeze's 0s and jump
-    assert steps[A - 1 : B].max() < own.max() < 40
+    assert steps[A : B].max() < own.max() < 40

@@ -56,7 +56,8 @@ def frozen_channels(
     recur_deg: float = 1.0,
     rest_deg: float = 0.01,
 ) -> np.ndarray:
-    """(F, J) bool: the frames of each joint's frozen channels (see the module docstring), all frames of each hold.
+    """(F, J) bool: the frames of each joint's frozen channels (see the module docstring): the repeats of each hold.
+
 
     ``rotations`` (F, J, 4) unit quaternions of the take; ``breaks`` (F, J)
     bool the joints' own breaks (:func:`~mocapkit.cleaning.ssa.cues.own_breaks`,
@@ -65,7 +66,11 @@ def frozen_channels(
     ``fps`` the take's frame rate. A hold of frames ``a .. b - 1`` is flagged
     when it lasts at least ``min_s`` seconds (and 4 frames), ends in a break at
     frame ``b - 1`` or ``b``, and on average over its steps at least
-    ``moving_share`` of the other analysed joints change their rotation.
+    ``moving_share`` of the other analysed joints change their rotation; its
+    frames ``a + 1 .. b - 1`` are flagged, not ``a``: the first of the held
+    frames is the last sample the channel had before it froze (a corrupted
+    HDM05 take whose frozen frames were flagged from ``a`` had that clean
+    sample repaired too).
     """
     q = np.asarray(rotations, dtype=np.float64)
     breaks = np.asarray(breaks, dtype=bool)
@@ -104,5 +109,5 @@ def frozen_channels(
                 continue
             share = moving[a : b - 1].mean() / n_other  # j itself holds over these steps, so counts as still
             if share >= moving_share:
-                out[a:b, j] = True
+                out[a + 1 : b, j] = True  # frame a is the sample the channel froze at; the repeats of it are not
     return out
