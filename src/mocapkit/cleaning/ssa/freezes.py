@@ -28,8 +28,11 @@ hold at the rest pose (every channel 0: a solver clamping a straight knee), a
 hold that runs to the take's last frame (nothing shows it ended in a break)
 and a hold the joint meets again at the same rotation, within ``recur_deg``, in
 another exact hold of the take (a limit the solver clamps at, met again and
-again; a frozen channel repeats the one arbitrary value it last had). A cue of
-this library, not of Aristidou et al. (2018).
+again; a frozen channel repeats the one arbitrary value it last had). On the
+3,692 clean takes of ``benchmarks/clean_untouched.py`` (every collection, all
+2,675 Bandai Namco takes, each rig's respellings and 30 fps cuts) it flags
+nothing, whether the joints counted are the informative ones or all of them. A
+cue of this library, not of Aristidou et al. (2018).
 """
 
 from __future__ import annotations
