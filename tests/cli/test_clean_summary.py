@@ -6,6 +6,7 @@ import dataclasses
 import json
 import re
 import shutil
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -36,6 +37,18 @@ def test_one_changed_sample_does_not_read_as_all_untouched(tmp_path, capsys):
     assert main(["clean", str(inp), "-o", str(tmp_path / "o.npz"), "--steps", "fill"]) == 0
     out = capsys.readouterr().out
     assert f"1 of {m.num_frames * m.num_joints} joint samples changed (99.99 % untouched)" in out, out
+
+
+def test_the_untouched_share_says_the_frames_not_judged(tmp_path, capsys):
+    # a real take on a rig the default context does not hold (pybvh's HumanIK clip, 75 frames at 30 fps): judged
+    # against itself, where 19 frames have no similar motion in any joint; "100 % untouched" alone read as all checked
+    inp = Path(__file__).resolve().parents[1] / "data" / "pybvh_test1_zup.bvh"
+    assert main(["clean", str(inp), "-o", str(tmp_path / "o.bvh")]) == 0
+    out = capsys.readouterr().out
+    line = next(ln for ln in out.splitlines() if ln.startswith("wrote "))
+    assert re.search(r"% untouched; 19 of 75 frames not judged; 18 more frames judged on some joints only: no similar "
+                     r"motion in the take or its context\)$", line), line
+    assert "37 frames have joints that no neighbour word judges (19 of them no joint at all)" in out  # detect agrees
 
 
 def _amc_frame_labels(path) -> list[int]:

@@ -136,13 +136,18 @@ def clean(
         _print_decided(_written(out, record, report, png), res.decided, res.frames_note)
         _print_reference(ref, reference, original, res.motion)
         return
+    from ..cleaning.judged import not_judged_note
+
     m = res.motion
     review = [s for s in res.steps if s.name != "detect"] == [] and res.detection is not None
+    unjudged = not_judged_note(res.detection, res.num_frames)  # said beside the untouched share: not examined
     console.print(f"wrote {out} and {clean_path(out)}" + "".join(f" and {p}" for p in (report, png) if p is not None)
                   + f": {plural(res.num_frames, 'frame')} @ {m.fps:g} fps, "
-                  + ("review mode (--steps detect): flags only, the take unchanged" if review else
+                  + ("review mode (--steps detect): flags only, the take unchanged"
+                     + (f"; {unjudged}" if unjudged else "") if review else
                      f"{int(res.changed.sum())} of {plural(res.changed.size, 'joint sample')} changed "
-                     f"({percent(int((~res.changed).sum()), res.changed.size)} % untouched)"))
+                     f"({percent(int((~res.changed).sum()), res.changed.size)} % untouched"
+                     + (f"; {unjudged}" if unjudged else "") + ")"))
     said = " ".join(s.note for s in res.steps)
     # a step's fallback or its model's licence: a warning, word for word as denoise and fill say it, and only there
     warned = [note for note in res.notes if note and note in said]

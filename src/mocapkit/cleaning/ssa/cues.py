@@ -719,13 +719,14 @@ CAUSES = (
     ("teleport", "the root's path jumps away and back (wrong root samples, put back on the path)"),
     ("spike", "a spike far past the joint's own motion, where no similar motion judges it"),
     ("reversed", "a stretch played backwards (time-reversed), not a left/right swap"),
+    ("frozen", "one rotation repeated bit for bit while the body moves, then a break (a frozen channel)"),
 )
 #: the integer type of :func:`flag_causes` (one bit per entry of :data:`CAUSES`)
 CAUSE_DTYPE = np.uint16
 
 
 def flag_causes(mdm, jumps, holds, swaps, offsets, threshold: float, fps: float, confirm: bool, margin_s,
-                drifts=None, spikes=None, judged=None, lone=None, reversed_=None) -> np.ndarray:
+                drifts=None, spikes=None, judged=None, lone=None, reversed_=None, frozen=None) -> np.ndarray:
     """(F, J) :data:`CAUSE_DTYPE`: which rules flag each cell, one bit per entry of :data:`CAUSES` (0: not flagged).
 
     The arguments are :func:`flag_rule`'s, whose flags are exactly the cells with a bit set: with
@@ -735,7 +736,8 @@ def flag_causes(mdm, jumps, holds, swaps, offsets, threshold: float, fps: float,
     offsets repair takes away) confirm no digression (:func:`~mocapkit.cleaning.ssa.step_pairs.offset_step_breaks`); without, ``mdm > threshold`` alone (the "digression" bit). A cell two rules flag
     has both bits, so a report can say why each change was made. ``reversed_`` (F, J) bool or None: the swap
     cells whose run plays better backwards (:func:`~mocapkit.cleaning.ssa.reversals.reversed_runs`), named
-    ``reversed`` instead of ``swap`` (the same cells flagged).
+    ``reversed`` instead of ``swap`` (the same cells flagged). ``frozen`` (F, J) bool or None: the frozen
+    channels (:func:`~mocapkit.cleaning.ssa.freezes.frozen_channels`), judged or not.
     """
     bit = {name: CAUSE_DTYPE(1 << i) for i, (name, _) in enumerate(CAUSES)}
     mdm = np.asarray(mdm)
@@ -749,7 +751,7 @@ def flag_causes(mdm, jumps, holds, swaps, offsets, threshold: float, fps: float,
     back = np.zeros_like(swaps) if reversed_ is None else swaps & np.asarray(reversed_, dtype=bool)
     rules = [("break", confirm_flags(mdm, breaks, threshold, fps, margin_s, spikes=spikes)), ("held", holds),
              ("swap", swaps & ~back), ("reversed", back), ("offset", offsets)] + ([] if drifts is None else [("drift", drifts)]) + (
-                 [] if lone is None else [("spike", lone)])
+                 [] if lone is None else [("spike", lone)]) + ([] if frozen is None else [("frozen", frozen)])
     for name, cells in rules:
         out[np.asarray(cells, dtype=bool)] |= bit[name]
     return out

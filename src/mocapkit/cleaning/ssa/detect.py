@@ -40,6 +40,7 @@ from .drifts import body_agreement, offset_change, smooth_drift_flags
 from .neighbours import Neighbors, flagged_words, mean_motion_texture, nearest_words, unseen_words
 from .params import SSAParams
 from .repeats import analysed_once, expand, inbetween_runs, kept_frames, repeat_runs, without_repeats
+from .freezes import frozen_channels
 from .reversals import reversed_runs
 from .still_positions import position_kept_breaks
 from .texture import Analysis, facing_aligned, frame_words, prepare, upsample_quaternions
@@ -115,7 +116,10 @@ class Detection:
     saved before they were told apart); lone_spikes : bool (F, J) the spikes far
     past the joint's own motion on cells no neighbour word judges, flagged with
     confirmation (:func:`~mocapkit.cleaning.ssa.cues.lone_spikes`; None for a
-    detection saved before); parents : int (J,) the skeleton's parent indices, read by the drift rule's chains
+    detection saved before); frozen : bool (F, J) the frozen channels, an exact repeat while the body moves that
+    ends in a break, flagged whether or not a neighbour word judges them
+    (:func:`~mocapkit.cleaning.ssa.freezes.frozen_channels`; None for a detection saved before);
+    parents : int (J,) the skeleton's parent indices, read by the drift rule's chains
     (None for a detection saved before, whose :meth:`drifts` then does not ask them). ``left_out``: ``((joint name, why), ...)``
     the joints not analysed and why (:func:`~mocapkit.cleaning.ssa.texture.left_out_joints`;
     :meth:`not_analysed`). The rest records how the analysis
@@ -177,6 +181,7 @@ class Detection:
     repeats: tuple = ()  # ((first, last), ...): frames repeating the frame before, analysed once
     reversals: np.ndarray | None = None  # (F, J) bool: swap cells whose run plays better backwards; None: saved before
     inbetweens: tuple = ()  # ((first, last), ...): frames lying evenly between the frames around them, analysed once
+    frozen: np.ndarray | None = None  # (F, J) bool: frozen channels (freezes.frozen_channels); None: saved before
 
     @property
     def once(self) -> tuple:
@@ -231,7 +236,7 @@ class Detection:
         frames analysed only: a detection of a :attr:`span` is judged by :meth:`causes` and :meth:`with_threshold`)."""
         return flag_causes(self.mdm, self.jumps, self.holds, self.swaps, self.offsets, threshold, self.fps,
                            self.params.confirm, self.params.confirm_margin_s, self.drifts(), self.spikes,
-                           np.isfinite(self.digression), self.lone_spikes, self.reversals)
+                           np.isfinite(self.digression), self.lone_spikes, self.reversals, self.frozen)
 
     def _with_causes(self, causes: np.ndarray) -> "Detection":
         """This detection, its :meth:`causes` ``causes`` (their flags its :attr:`flags`), kept beside the frozen
@@ -382,7 +387,7 @@ class Detection:
 #: what each (F, J) array of a :class:`Detection` holds on frames that were not analysed (:meth:`Detection.padded`)
 _PADS = {"mdm": 0.0, "flags": False, "digression": np.nan, "best_group": -1, "jumps": False, "holds": False,
          "swaps": False, "offsets": False, "agreement": np.nan, "consistency": np.nan, "spikes": False, "change": np.nan,
-         "lone_spikes": False, "reversals": False}
+         "lone_spikes": False, "reversals": False, "frozen": False}
 
 
 def _pad_frames(a: np.ndarray, lo: int, F: int, fill) -> np.ndarray:
@@ -549,6 +554,7 @@ def detect_prepared(an: Analysis, threshold: float = 0.5, *, progress: bool = Fa
     resid = an.residuals  # for the breaks and the side swaps (midpoint_residuals, made once per analysis)
     # breaks that stand out from the joint's own motion and speed (30 fps too)
     jumps = own_breaks(resid, p.jump_deg, motion.fps, motion.rotations)
+    own = jumps.copy()  # the frozen channels end in a break of the joint's own, whatever its chain does
     # a turn the joint's chain undoes (a solver sharing a bend another way) is no evidence of an error
     chain_memo: dict = {}  # the break events judged compensated or not, read again by the lone spikes
     jumps = uncompensated_breaks(np.asarray(motion.rotations, dtype=np.float64), motion.skeleton.parents, jumps,
@@ -674,6 +680,8 @@ def detect_prepared(an: Analysis, threshold: float = 0.5, *, progress: bool = Fa
         jumps |= backed & position_kept_breaks(positions, sk.parents, unpruned | backed, resid)
     jumps &= analysed[None, :]
     holds = held_joints(motion, mean_speed, travel_deg=p.hold_travel_deg) & analysed[None, :]
+    # a channel repeated bit for bit while the body moves, ending in a break, needs no similar motion to judge it
+    frozen = frozen_channels(q, own, analysed, motion.fps)
     swaps = swaps_from_residuals(resid, sk.joint_names, motion.fps, p.swap_jump_deg, p.swap_max_s, analysed,
                                  rotations=q, mirrored=mirrored_rotations(motion))
     offsets = offsets_from_residuals(
@@ -695,7 +703,7 @@ def detect_prepared(an: Analysis, threshold: float = 0.5, *, progress: bool = Fa
     # a swap run that joins the take better played backwards is named a time-reversed stretch (same cells flagged)
     backwards = reversed_runs(q, swaps, analysed)
     causes = flag_causes(mdm, jumps, holds, swaps, offsets, threshold, motion.fps, p.confirm, p.confirm_margin_s,
-                         drifts, spikes, np.isfinite(digression), lone, backwards)
+                         drifts, spikes, np.isfinite(digression), lone, backwards, frozen)
     flags = causes != 0  # flag_rule's flags
     if kept:  # the repair of these flags reads their words (Analysis.warped); the others are let go
         word_of = frame_words(words, N, F, fps, motion.fps)
@@ -716,7 +724,7 @@ def detect_prepared(an: Analysis, threshold: float = 0.5, *, progress: bool = Fa
         context_clips=clips, jumps=jumps, holds=holds, swaps=swaps, offsets=offsets,
         agreement=agreement, consistency=consistency, params=params, notes=tuple(notes),
         analysis=an, spikes=spikes, change=change, left_out=tuple(an.left_out), lone_spikes=lone,
-        parents=np.asarray(sk.parents, dtype=np.int64), reversals=backwards,
+        parents=np.asarray(sk.parents, dtype=np.int64), reversals=backwards, frozen=frozen,
     )
     # Detection.causes() made again gives these (its threshold float(threshold), its drifts() these or none where
     # p.drift is off, its params' confirmation p's) unless the threshold compares otherwise as a float
