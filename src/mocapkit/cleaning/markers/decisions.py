@@ -38,6 +38,7 @@ import hashlib
 import json
 import math
 from dataclasses import dataclass
+from types import SimpleNamespace
 from typing import Mapping
 
 import numpy as np
@@ -46,8 +47,9 @@ from ...errors import MocapError, MocapFormatError
 from ..decisions import (ACCEPT, FORMAT, REJECT, check_choices, check_decisions, frame_note, record_wanted,
                          request_difference, take_digest)
 from .clean import MarkerCleanResult, MarkerFix
+from .placement import destinations, relabelled, sources
 
-__all__ = ["MarkerChange", "differs", "changes", "accepted_samples", "apply", "cleaning_digest", "template", "check",
+__all__ = ["MarkerChange", "differs", "changes", "accepted_samples", "placed", "apply", "cleaning_digest", "template", "check",
            "review", "record_cells", "result_from_record", "check_record", "decided_result", "clean_and_decide"]
 
 _ORDER = ("duplicate", "spike", "gap", "swap")  # who owns a sample two fixes touched
@@ -150,7 +152,8 @@ def changes(original, cleaned, fixes) -> list[MarkerChange]:
 
 
 def accepted_samples(original, cleaned, fixes, decisions: Mapping[str, str]) -> np.ndarray:
-    """(F, M) bool: the samples of the changes ``decisions`` accepts (a change it does not name is accepted).
+    """(F, M) bool: the samples of the changes ``decisions`` accepts (a change it does not name is accepted), in
+    the cleaned capture's labelling (:func:`placed` says where each lands in the capture written).
 
     Raises ValueError for an id that is not a change of this cleaning or a choice other than accept/reject.
     """
@@ -160,17 +163,71 @@ def accepted_samples(original, cleaned, fixes, decisions: Mapping[str, str]) -> 
     return np.isin(owner, chosen)
 
 
+def _change_id(x: MarkerFix) -> str:
+    return f"{x.kind}:{x.marker}:{x.start}-{x.end - 1}"
+
+
+def placed(original, cleaned, fixes, decisions: Mapping[str, str]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Where each accepted change lands: ``(take, src, dest)``, each (F, M).
+
+    ``take`` (bool): the cleaned cells whose cleaned sample is written; ``src`` (int): the input column each
+    cleaned column holds (:func:`~mocapkit.cleaning.markers.placement.sources` of every swap); ``dest`` (int): the
+    column of the capture written each cleaned cell goes to, through the swaps kept
+    (:func:`~mocapkit.cleaning.markers.placement.destinations`). A spike or gap fixed inside a rejected swap thus
+    lands on the recorded trajectory it was made for, under the label the file gives it; a spike rejected inside
+    an accepted swap keeps its recorded samples, re-labelled. Every cell not taken gets the input's sample from
+    ``src``: the samples of every rejected change are the input's, bit for bit.
+
+    Raises ValueError, naming the changes, where the decisions split a swap from the changes on its markers and
+    the cleaned samples of the swap are not its markers' recorded samples exchanged (then where a change's samples
+    came from cannot be told, and nothing is placed on a guess).
+    """
+    found, owner = _owners(original, cleaned, fixes)
+    check_choices(decisions, {c.id for c in found})
+    choice = [decisions.get(c.id, ACCEPT) for c in found]
+    labels = list(original.labels)
+    col = {label: k for k, label in enumerate(labels)}
+    swaps = [x for x in (_fix(y) for y in fixes) if x.kind == "swap" and x.marker in col and x.other in col]
+    f = original.num_frames
+    src = sources(swaps, labels, f)
+    if all(c == ACCEPT for c in choice):
+        return np.ones(src.shape, dtype=bool), src, np.broadcast_to(np.arange(len(labels)), src.shape)
+    if all(c == REJECT for c in choice):
+        return np.zeros(src.shape, dtype=bool), src, src
+    chosen = [k for k, c in enumerate(choice) if c == ACCEPT]
+    take = np.isin(owner, chosen)
+    inner = np.isin(owner, [k for k, c in enumerate(found) if c.kind != "swap"])
+    pos, res, cams = relabelled(original, src)
+    odd = differs(SimpleNamespace(positions=pos, residuals=res, cameras=cams), cleaned)
+    odd &= ~inner & (src != np.arange(len(labels)))
+    if np.any(odd):
+        bad = sorted({_change_id(x) for x in swaps if np.any(odd[x.start:x.end, [col[x.marker], col[x.other]]])})
+        raise ValueError(f"the cleaned samples of {', '.join(bad)} are not its markers' recorded samples "
+                         f"exchanged, so a change on them cannot follow a split decision: accept or reject it "
+                         f"and the changes on its markers alike")
+    kept = sources([x for x in swaps if decisions.get(_change_id(x), ACCEPT) == ACCEPT], labels, f)
+    return take, src, destinations(src, kept)
+
+
+def _put(values: np.ndarray, dest: np.ndarray) -> np.ndarray:
+    """``values`` (F, M, ...) moved column-wise to ``dest`` (F, M): ``out[f, dest[f, c]] = values[f, c]``."""
+    out = np.empty_like(values)
+    out[np.arange(dest.shape[0])[:, None], dest] = values
+    return out
+
+
 def apply(original, cleaned, fixes, decisions: Mapping[str, str]):
     """The input capture with only the accepted changes: a :class:`MarkerSet` like ``original``.
 
-    The samples of accepted changes hold ``cleaned``'s positions, residuals and camera masks; every other
-    sample is ``original``'s, bit for bit.
+    The samples of accepted changes hold ``cleaned``'s positions, residuals and camera masks, in the column of the
+    recorded trajectory they were made for (:func:`placed`); every other sample is ``original``'s, bit for bit.
+    Raises ValueError as :func:`placed` does.
     """
-    acc = accepted_samples(original, cleaned, fixes, decisions)
-    pos = np.where(acc[..., None], cleaned.positions, original.positions)
-    res = original.residuals if original.residuals is None else np.where(acc, cleaned.residuals, original.residuals)
-    cams = original.cameras if original.cameras is None else np.where(acc, cleaned.cameras, original.cameras)
-    return dataclasses.replace(original, positions=pos, residuals=res, cameras=cams)
+    take, src, dest = placed(original, cleaned, fixes, decisions)
+    base = relabelled(original, src)
+    got = [None if b is None else _put(np.where(take[..., None] if b.ndim == 3 else take, np.asarray(c), b), dest)
+           for b, c in zip(base, (cleaned.positions, cleaned.residuals, cleaned.cameras))]
+    return dataclasses.replace(original, positions=got[0], residuals=got[1], cameras=got[2])
 
 
 def cleaning_digest(original, cleaned) -> str:
@@ -238,6 +295,10 @@ def check(doc: dict, path, original, cleaned=None, fixes=(), *, request=None, fr
         accepted_samples(original, cleaned, fixes, chosen)
     except ValueError as exc:
         raise MocapFormatError(path, f"{exc} (decisions made for another cleaning of the capture?)") from None
+    try:
+        placed(original, cleaned, fixes, chosen)
+    except ValueError as exc:
+        raise MocapFormatError(path, str(exc)) from None
     if stamp is None:
         if fresh:
             raise MocapFormatError(path, "keeps no digest of the cleaning it was made on (written by hand?): a new "
@@ -324,26 +385,47 @@ def result_from_record(original, record) -> MarkerCleanResult:
 # -- review mode and decisions, one path for the library and the CLI ------------------------------
 
 
+def _relabelled_fix(x: MarkerFix, dest: np.ndarray, labels: list) -> MarkerFix:
+    """``x`` named by the marker whose column its samples land in (:func:`placed`) where a rejected swap around it
+    leaves them under another label over all its frames (a fix split over two columns keeps its name)."""
+    col = {label: k for k, label in enumerate(labels)}
+    if x.kind == "swap" or x.marker not in col or x.end <= x.start:
+        return x
+    moved = {}
+    for field in ("marker", "other"):
+        k = col.get(getattr(x, field))
+        to = None if k is None else np.unique(dest[x.start:x.end, k])
+        if to is not None and to.size == 1 and to[0] != k:
+            moved[field] = labels[int(to[0])]
+    return dataclasses.replace(x, **moved) if moved else x
+
+
 def decided_result(original, result: MarkerCleanResult, decisions: Mapping[str, str], decided=None
                    ) -> MarkerCleanResult:
     """``result`` with only the changes ``decisions`` accepts: what a person's decisions give back.
 
     ``markers`` is :func:`apply`'s capture; ``filled``, ``spikes``, ``swapped`` and ``duplicates`` keep only the
     accepted changes' samples, ``fixes`` (and a removed spike left missing in ``unfilled``) only the accepted
-    changes', so that a report or summary of it shows the capture written, not the whole cleaning; ``decided``:
-    the :class:`~mocapkit.cleaning.decided.Decided` kept on it (its :meth:`~MarkerCleanResult.summary`).
+    changes', each in the column its samples are written to (:func:`placed`: under the label a rejected swap
+    leaves them), so that a report or summary of it shows the capture written, not the whole cleaning;
+    ``decided``: the :class:`~mocapkit.cleaning.decided.Decided` kept on it (its :meth:`~MarkerCleanResult.summary`).
     """
     acc = accepted_samples(original, result.markers, result.fixes, decisions)
+    take, _, dest = placed(original, result.markers, result.fixes, decisions)
     rejected = {c.id for c in changes(original, result.markers, result.fixes) if decisions.get(c.id) == REJECT}
+    labels = list(original.labels)
 
     def kept(x) -> bool:
-        return f"{x.kind}:{x.marker}:{x.start}-{x.end - 1}" not in rejected
+        return _change_id(x) not in rejected
+
+    def mask(m):
+        return _put(np.asarray(m) & acc & take, dest)
 
     return dataclasses.replace(
-        result, markers=apply(original, result.markers, result.fixes, decisions), filled=result.filled & acc,
-        spikes=result.spikes & acc, swapped=result.swapped & acc, duplicates=result.duplicate_mask & acc,
-        fixes=tuple(x for x in result.fixes if kept(x)), unfilled=tuple(x for x in result.unfilled if kept(x)),
-        decided=decided)
+        result, markers=apply(original, result.markers, result.fixes, decisions), filled=mask(result.filled),
+        spikes=mask(result.spikes), swapped=mask(result.swapped), duplicates=mask(result.duplicate_mask),
+        fixes=tuple(_relabelled_fix(x, dest, labels) for x in result.fixes if kept(x)),
+        unfilled=tuple(_relabelled_fix(x, dest, labels) for x in result.unfilled if kept(x)), decided=decided)
 
 
 def clean_and_decide(original, *, name="", steps=None, max_gap_s=None, max_error_mm=None, decisions=None,
