@@ -111,6 +111,27 @@ def residuals_and_cameras(words: np.ndarray, scale: float) -> tuple[np.ndarray, 
     return resid, cameras
 
 
+def put_stored_zeros(points: np.ndarray, missing: np.ndarray, stored: np.ndarray, scale: float) -> int:
+    """Write back, as the file had them, the samples a reader read as gaps from exact (0, 0, 0) that are still
+    missing; returns how many.
+
+    ``points``: the data block's point words, a writable (F, 4 * M) float32 view (x, y, z and the fourth word of
+    each marker); ``missing``: (F, M) bool, the samples written as missing; ``stored``: (F, M, 2), the residual
+    (file units) and camera mask the file stored with each such sample, NaN elsewhere
+    (:attr:`~mocapkit.markerset.MarkerSource.stored_zeros`); ``scale``: POINT:SCALE. Each gets coordinates 0 and
+    its fourth word (residual byte in units of ``|scale|``, camera mask in bits 8-14), as :func:`point_words` reads.
+    """
+    cells = missing & ~np.isnan(stored[..., 0])
+    if not cells.any():
+        return 0
+    res, cams = np.nan_to_num(stored[..., 0]), np.nan_to_num(stored[..., 1]).astype(np.int64) & 0x7F
+    byte = np.clip(np.rint(res / (abs(scale) or 1.0)), 0, 255).astype(np.int64)
+    for k in range(3):
+        points[:, k::4][cells] = 0.0
+    points[:, 3::4][cells] = ((cams << 8) | byte)[cells].astype(np.float32)
+    return int(cells.sum())
+
+
 def _value(parameters: dict, group: str, name: str):
     """The value array of parameter GROUP:NAME in ezc3d's parsed layout, or None."""
     param = parameters.get(group, {}).get(name)
