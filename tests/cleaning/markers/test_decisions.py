@@ -79,3 +79,32 @@ def test_the_decided_result_names_the_marker_its_samples_are_written_to(cleaning
     named = {(fx.kind, fx.start): fx.marker for fx in got.fixes}
     assert named[("spike", sp.first)] == x.labels[A] and named[("gap", gp.first)] == x.labels[B]
     assert ("swap", found["swap"].first) not in named
+
+
+def test_changes_whose_origin_cannot_be_told_are_tied_and_a_split_is_refused():
+    # two swaps chained over one marker (LTOE/RTHI 100-199, RTHI/LKNE 150-249) whose cleaned samples are not what
+    # exchanging them in order of first frame gives (the second exchanged first), and a spike filled inside them
+    from mocapkit.cleaning.markers import MarkerFix
+
+    x = load_markers(CMU)[:400]
+    p = np.array(x.positions)
+    k = 5  # Male:LKNE
+    p[150:250, [B, k]] = p[150:250, [k, B]]
+    p[100:200, [A, B]] = p[100:200, [B, A]]
+    p[170, k] += [0.0, 0.0, 1.0]
+    cleaned = x.with_positions(p)
+    lab = x.labels
+    fixes = [MarkerFix(lab[A], 100, 200, "swap", 1.0, lab[B]), MarkerFix(lab[B], 150, 250, "swap", 1.0, lab[k]),
+             MarkerFix(lab[k], 170, 171, "spike", 1.0)]
+    ids = [c.id for c in md.changes(x, cleaned, fixes)]
+    assert len(ids) == 3
+    assert md.tied(x, cleaned, fixes) == [sorted(ids, key=ids.index)]
+    rows = md.review(x, cleaned, fixes)["changes"]
+    assert all(sorted(r["tied"]) == sorted(ids) for r in rows)
+    with pytest.raises(ValueError, match="accept or reject them together"):
+        md.apply(x, cleaned, fixes, {ids[0]: "reject"})
+    back = md.apply(x, cleaned, fixes, {i: "reject" for i in ids})
+    assert _same((back.positions, back.residuals, back.cameras), (x.positions, x.residuals, x.cameras))
+    every = md.apply(x, cleaned, fixes, {})
+    assert _same((every.positions, every.residuals, every.cameras),
+                 (cleaned.positions, cleaned.residuals, cleaned.cameras))

@@ -49,8 +49,8 @@ from ..decisions import (ACCEPT, FORMAT, REJECT, check_choices, check_decisions,
 from .clean import MarkerCleanResult, MarkerFix
 from .placement import destinations, relabelled, sources
 
-__all__ = ["MarkerChange", "differs", "changes", "accepted_samples", "placed", "apply", "cleaning_digest", "template", "check",
-           "review", "record_cells", "result_from_record", "check_record", "decided_result", "clean_and_decide"]
+__all__ = ["MarkerChange", "differs", "changes", "accepted_samples", "tied", "placed", "apply", "cleaning_digest",
+           "template", "check", "review", "record_cells", "result_from_record", "check_record", "decided_result", "clean_and_decide"]
 
 _ORDER = ("duplicate", "spike", "gap", "swap")  # who owns a sample two fixes touched
 
@@ -167,6 +167,72 @@ def _change_id(x: MarkerFix) -> str:
     return f"{x.kind}:{x.marker}:{x.start}-{x.end - 1}"
 
 
+def _swaps(original, fixes) -> list[MarkerFix]:
+    col = set(original.labels)
+    return [x for x in (_fix(y) for y in fixes) if x.kind == "swap" and x.marker in col and x.other in col]
+
+
+def _region(x: MarkerFix, labels: list, shape) -> np.ndarray:
+    """(F, M) bool: the cells of a swap fix (both markers over its frames)."""
+    r = np.zeros(shape, dtype=bool)
+    r[x.start:x.end, [labels.index(x.marker), labels.index(x.other)]] = True
+    return r
+
+
+def _under(x, r, found, owner, swaps, regions) -> set[int]:
+    """The changes a swap with no change of its own (its samples all another's) is decided with: those owning
+    samples in its cells ``r`` and the swaps listed as changes whose cells overlap them."""
+    index = {c.id: k for k, c in enumerate(found)}
+    on = set(np.unique(owner[r & (owner >= 0)]).tolist())
+    return on | {index[_change_id(y)] for y, q in zip(swaps, regions) if _change_id(y) in index and np.any(q & r)}
+
+
+def _tied(original, cleaned, found, owner, swaps, src) -> list[list[int]]:
+    """The groups of changes (indices into ``found``) that are decided together: where the cleaned samples of a
+    swap are not its markers' recorded samples exchanged (:func:`~mocapkit.cleaning.markers.placement.sources`
+    does not give the cleaning's labelling there, e.g. swaps chained over one marker), where a change's samples
+    came from cannot be told, so that swap and every change on its markers over its frames, grown to every change
+    overlapping those, go together; and a swap fix that owns no change of its own goes with the changes
+    :func:`_under` it. Empty where every swap is its markers' samples exchanged and a change."""
+    labels = list(original.labels)
+    pos, res, cams = relabelled(original, src)
+    inner = np.isin(owner, [k for k, c in enumerate(found) if c.kind != "swap"])
+    odd = differs(SimpleNamespace(positions=pos, residuals=res, cameras=cams), cleaned)
+    odd &= ~inner & (src != np.arange(len(labels)))
+    regions = [_region(x, labels, owner.shape) for x in swaps]
+    groups: list[set[int]] = [_under(x, r, found, owner, swaps, regions) for x, r in zip(swaps, regions)
+                              if _change_id(x) not in {c.id for c in found}]
+    for r0 in (r for r in regions if np.any(r & odd)):
+        area, ids = r0.copy(), set()
+        while True:
+            grown = set(np.unique(owner[area & (owner >= 0)]).tolist())
+            new_area = area | np.isin(owner, list(grown))
+            for r in regions:
+                if np.any(r & new_area):
+                    new_area |= r
+            if grown == ids and np.array_equal(new_area, area):
+                break
+            area, ids = new_area, grown
+        groups.append(ids)
+    merged: list[set[int]] = []
+    for g in groups:
+        for m in [m for m in merged if m & g]:
+            merged.remove(m)
+            g = g | m
+        merged.append(g)
+    return [sorted(g) for g in merged if len(g) > 1]
+
+
+def tied(original, cleaned, fixes) -> list[list[str]]:
+    """The ids of the changes a person accepts or rejects together (the report's list ties them), by group;
+    empty for a cleaning whose every swap is its markers' recorded samples exchanged (every cleaning of the test
+    captures). Within a group, a split decision is refused (:func:`placed`)."""
+    found, owner = _owners(original, cleaned, fixes)
+    swaps = _swaps(original, fixes)
+    src = sources(swaps, list(original.labels), original.num_frames)
+    return [[found[k].id for k in g] for g in _tied(original, cleaned, found, owner, swaps, src)]
+
+
 def placed(original, cleaned, fixes, decisions: Mapping[str, str]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Where each accepted change lands: ``(take, src, dest)``, each (F, M).
 
@@ -178,35 +244,34 @@ def placed(original, cleaned, fixes, decisions: Mapping[str, str]) -> tuple[np.n
     an accepted swap keeps its recorded samples, re-labelled. Every cell not taken gets the input's sample from
     ``src``: the samples of every rejected change are the input's, bit for bit.
 
-    Raises ValueError, naming the changes, where the decisions split a swap from the changes on its markers and
-    the cleaned samples of the swap are not its markers' recorded samples exchanged (then where a change's samples
-    came from cannot be told, and nothing is placed on a guess).
+    Raises ValueError, naming the changes, for decisions that split a group :func:`tied` ties (where a change's
+    samples came from cannot be told there, and nothing is placed on a guess).
     """
     found, owner = _owners(original, cleaned, fixes)
     check_choices(decisions, {c.id for c in found})
     choice = [decisions.get(c.id, ACCEPT) for c in found]
     labels = list(original.labels)
-    col = {label: k for k, label in enumerate(labels)}
-    swaps = [x for x in (_fix(y) for y in fixes) if x.kind == "swap" and x.marker in col and x.other in col]
-    f = original.num_frames
-    src = sources(swaps, labels, f)
-    if all(c == ACCEPT for c in choice):
-        return np.ones(src.shape, dtype=bool), src, np.broadcast_to(np.arange(len(labels)), src.shape)
-    if all(c == REJECT for c in choice):
-        return np.zeros(src.shape, dtype=bool), src, src
-    chosen = [k for k, c in enumerate(choice) if c == ACCEPT]
-    take = np.isin(owner, chosen)
-    inner = np.isin(owner, [k for k, c in enumerate(found) if c.kind != "swap"])
-    pos, res, cams = relabelled(original, src)
-    odd = differs(SimpleNamespace(positions=pos, residuals=res, cameras=cams), cleaned)
-    odd &= ~inner & (src != np.arange(len(labels)))
-    if np.any(odd):
-        bad = sorted({_change_id(x) for x in swaps if np.any(odd[x.start:x.end, [col[x.marker], col[x.other]]])})
-        raise ValueError(f"the cleaned samples of {', '.join(bad)} are not its markers' recorded samples "
-                         f"exchanged, so a change on them cannot follow a split decision: accept or reject it "
-                         f"and the changes on its markers alike")
-    kept = sources([x for x in swaps if decisions.get(_change_id(x), ACCEPT) == ACCEPT], labels, f)
-    return take, src, destinations(src, kept)
+    swaps = _swaps(original, fixes)
+    src = sources(swaps, labels, original.num_frames)
+    for g in _tied(original, cleaned, found, owner, swaps, src):
+        if len({choice[k] for k in g}) > 1:
+            ids = [found[k].id for k in g]
+            raise ValueError(f"{', '.join(ids)} are decided apart, but the cleaned samples of the swaps among them "
+                             f"are not their markers' recorded samples exchanged, so where each change's samples "
+                             f"came from cannot be told: accept or reject them together")
+    index = {c.id: k for k, c in enumerate(found)}
+    regions = [_region(x, labels, owner.shape) for x in swaps]
+
+    def kept(x, r) -> bool:  # a swap with no change of its own: as the changes it is decided with (tied: all alike)
+        if _change_id(x) in index:
+            return choice[index[_change_id(x)]] == ACCEPT
+        return all(choice[k] == ACCEPT for k in _under(x, r, found, owner, swaps, regions))
+
+    kept = sources([x for x, r in zip(swaps, regions) if kept(x, r)], labels, original.num_frames)
+    dest = destinations(src, kept)
+    same = dest == np.arange(len(labels))
+    take = np.isin(owner, [k for k, c in enumerate(choice) if c == ACCEPT]) | ((owner < 0) & same)
+    return take, src, dest
 
 
 def _put(values: np.ndarray, dest: np.ndarray) -> np.ndarray:
@@ -315,12 +380,14 @@ def check(doc: dict, path, original, cleaned=None, fixes=(), *, request=None, fr
 def review(original, cleaned, fixes, take: str = "", output: str = "", decisions: Mapping[str, str] | None = None,
            first_frame: int | None = None, flags: list | None = None, request=None, record="",
            command: dict | None = None) -> dict:
-    """What the report's accept/reject list needs (:func:`mocapkit.cleaning.decisions.review`'s form): ``changes``,
+    """What the report's accept/reject list needs (:func:`mocapkit.cleaning.decisions.review`'s form): ``changes``
+    (a change :func:`tied` to others names them all in ``"tied"``: the list accepts or rejects them together),
     the ``decisions`` document (stamped with this cleaning, ``request`` its options and ``record`` where its record
     was written: :func:`template`), ``flags`` (none for a marker capture unless given), ``frames``, ``item`` and
     ``command`` (:func:`mocapkit.cleaning.decided.apply_command`)."""
     found = changes(original, cleaned, fixes)
-    return {"changes": [c.as_dict() for c in found],
+    together = {i: g for g in tied(original, cleaned, fixes) for i in g}
+    return {"changes": [{**c.as_dict(), **({"tied": together[c.id]} if c.id in together else {})} for c in found],
             "decisions": template(original, found, take, output, decisions, cleaned=cleaned, request=request,
                                   record=record),
             "flags": list(flags or []), "frames": frame_note(take, first_frame), "item": "marker", "command": command}
