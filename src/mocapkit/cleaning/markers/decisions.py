@@ -50,7 +50,8 @@ from .clean import MarkerCleanResult, MarkerFix
 from .placement import destinations, relabelled, sources
 
 __all__ = ["MarkerChange", "differs", "changes", "accepted_samples", "tied", "placed", "apply", "cleaning_digest",
-           "template", "check", "review", "record_cells", "result_from_record", "check_record", "decided_result", "clean_and_decide"]
+           "template", "check", "review", "record_cells", "result_from_record", "check_record", "decided_result",
+           "clean_and_decide"]
 
 _ORDER = ("duplicate", "spike", "gap", "swap")  # who owns a sample two fixes touched
 
