@@ -27,8 +27,13 @@ Applying decisions
 :func:`apply` starts from the input: the samples of each accepted change get
 the cleaned position, residual and camera mask, every other sample keeps the
 input's, bit for bit (a rejected fill stays missing, with residual -1; a
-rejected swap keeps the recorded labels). Rejecting every change gives the
-input back; accepting every change gives the cleaned capture.
+rejected swap keeps the recorded labels). A change lands on the recorded
+trajectory it was made for, through the swaps kept (:func:`placed`,
+:mod:`~mocapkit.cleaning.markers.placement`): a spike or gap fixed inside a
+rejected swap is written under the label the file gives those samples.
+Changes whose samples' origin cannot be told apart from a swap's are decided
+together (:func:`tied`). Rejecting every change gives the input back;
+accepting every change gives the cleaned capture.
 """
 
 from __future__ import annotations
