@@ -49,7 +49,8 @@ def clean_marker_file(inp, out, *, report=None, png=None, overwrite: bool = Fals
     :func:`mocapkit.cleaning.markers.clean_markers`, then the reports (HTML
     marker viewer with the accept/reject list, per-marker PNG), ``out`` written like the input
     (``save_markers(..., like=input)``: a C3D keeps its parameters and
-    analogs) and the ``.clean.npz`` record last. ``max_gap_s``, ``max_error_mm``: as for
+    analogs, and a gap it stored as exact (0, 0, 0) that the cleaning left
+    missing comes back as it stored it) and the ``.clean.npz`` record last. ``max_gap_s``, ``max_error_mm``: as for
     :func:`~mocapkit.cleaning.markers.clean_markers`. ``decisions``: a decisions file
     (:mod:`mocapkit.cleaning.markers.decisions`): ``out`` then holds only the changes it accepts, every other
     sample the input's; ``record``: the ``.clean.npz`` of an earlier run on this capture, reused instead of
@@ -105,7 +106,7 @@ def clean_marker_file(inp, out, *, report=None, png=None, overwrite: bool = Fals
             from .report.markers import plot_marker_fixes
 
             plot_marker_fixes(png, given, title=f"{inp.name}: before (grey) and after")
-        save_markers(given.output, out, like=ms)
+        save_markers(given.output, out, like=ms, stored_zeros=True)
         if not reuse:  # last: the completion marker
             res.save(record, written={"input": taken, "output": file_facts(out)},
                      request=request)

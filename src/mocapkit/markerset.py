@@ -246,6 +246,13 @@ class MarkerSource:
         (:func:`mocapkit.io.c3d_layout.header_layout`: the interpolation gap,
         the data block's first block, the parameter section's block count);
         empty otherwise.
+    stored_zeros : float array (F, M, 2) or None
+        C3D: the residual (in the file's units, as :attr:`MarkerSet.residuals`)
+        and camera mask the file stored with each sample it held as exact
+        (0, 0, 0) and the reader read as a gap (:func:`zero_gap_mask`); NaN
+        for every other sample; None when the reader read no such gap. A
+        writer asked to (``clean``'s output) writes such a sample that is
+        still missing back as the file had it.
     """
 
     format: str
@@ -256,6 +263,7 @@ class MarkerSource:
     events: tuple[tuple[float, str, int], ...] = ()
     text: str | None = None
     layout: Mapping[str, int] = dataclasses.field(default_factory=dict)
+    stored_zeros: np.ndarray | None = None
 
     def __post_init__(self):
         object.__setattr__(self, "parameters", MappingProxyType(dict(self.parameters)))
@@ -267,6 +275,11 @@ class MarkerSource:
             if a.ndim != 2:
                 raise ValueError(f"analogs: expected shape (A, N), got {a.shape}")
             object.__setattr__(self, "analogs", frozen(a))
+        if self.stored_zeros is not None:
+            z = np.asarray(self.stored_zeros, dtype=np.float64)
+            if z.ndim != 3 or z.shape[2] != 2:
+                raise ValueError(f"stored_zeros: expected shape (F, M, 2), got {z.shape}")
+            object.__setattr__(self, "stored_zeros", frozen(z))
 
     def analog_ratio(self, num_frames: int) -> int:
         """Analog samples per point frame (0 without analogs)."""
@@ -553,8 +566,9 @@ class MarkerSet:
             if ratio and step == 1:
                 analogs = source.analogs[:, start * ratio : max(start, stop) * ratio]
             whole = (start, max(start, stop), step) == (0, self.num_frames, 1)
+            zeros = None if source.stored_zeros is None else source.stored_zeros[key]
             source = dataclasses.replace(source, analogs=analogs, first_frame=source.first_frame + start,
-                                         text=source.text if whole else None)
+                                         text=source.text if whole else None, stored_zeros=zeros)
         return dataclasses.replace(self, positions=self.positions[key], fps=fps, residuals=res, source=source,
                                    cameras=cams)
 

@@ -249,3 +249,31 @@ def test_jump_to_rings_and_names_its_marker_in_the_viewer(capture):
         page.click("a.fix[data-frame='400']")
         assert page.evaluate("window.markerReport.selected()") == load_markers(inp).labels.index("Male:LTOE")
         assert page.evaluate(blue) > 40 and "Male:LTOE" in page.inner_text("#flabel")
+
+
+def test_reject_all_gives_back_gaps_the_file_stored_as_zeros_bit_for_bit(tmp_path):
+    # an exporter that stores an occlusion as (0, 0, 0) with a non-negative residual (Qualisys: 03_rolling.c3d):
+    # read as gaps and filled by the cleaning; rejecting every fill gives back the zeros and residuals as stored
+    import c3d
+
+    ms = load_markers(CMU)[:400]
+    p, res = np.array(ms.positions), np.array(ms.residuals)
+    p[200:230, 7], res[200:230, 7] = 0.0, 2.0  # Male:LANK
+    inp = save_markers(ms.with_positions(p, residuals=res), tmp_path / "in.c3d")
+    code, stdout, stderr = run("clean", inp, "-o", tmp_path / "out.c3d", "--report", tmp_path / "out.html")
+    assert code == 0, stderr + stdout
+    base = load_markers(inp)
+    rec = md.result_from_record(base, read_marker_record(tmp_path / "out.clean.npz"))
+    ids = [c.id for c in md.changes(base, rec.markers, rec.fixes)]
+    assert "gap:Male:LANK:200-229" in ids
+    dec = _decide(tmp_path, inp, {k: "reject" for k in ids})
+    got = tmp_path / "none.c3d"
+    code, stdout, stderr = run("clean", inp, "-o", got, "--decisions", dec, "--record", tmp_path / "out.clean.npz")
+    assert code == 0, stderr + stdout
+
+    def points(path):
+        with open(path, "rb") as fh:
+            return np.array([f.copy() for _, f, _ in c3d.Reader(fh).read_frames()])  # (F, M, 5): x y z res cams
+
+    a, b = points(inp), points(got)
+    assert np.all((a == b) | (np.isnan(a) & np.isnan(b)))

@@ -881,3 +881,40 @@ def test_values_past_float32s_range_are_kept_as_read_without_a_warning():
         out = c3d._float32_values(values)
     assert out[1] == 1e39 and out[2] == -1e300 and np.isnan(out[3]) and out[5] == np.inf
     assert out[0] == 1.0 and out[4] == float(np.float32(0.1))
+
+
+def _point_frames(path) -> np.ndarray:
+    """(F, M, 5) x, y, z, residual and camera mask of every sample as the ``c3d`` package reads the file."""
+    import c3d
+
+    with open(path, "rb") as fh:
+        return np.array([p.copy() for _, p, _ in c3d.Reader(fh).read_frames()])
+
+
+def _same_points(a, b) -> bool:
+    return bool(np.all((a == b) | (np.isnan(a) & np.isnan(b))))
+
+
+def test_gaps_stored_as_zeros_are_written_back_as_stored_on_request(tmp_path):
+    # CMU 85_02 (tests/data) with Male:LANK's frames 100-139 stored as an exporter stores an occlusion: (0, 0, 0)
+    # with residual 2 (a non-negative residual: a reader that does not decide reads a marker at the lab origin)
+    from mocapkit.io import load_markers, save_markers
+
+    take = load_markers(Path(__file__).resolve().parents[1] / "data" / "85_02.c3d")[:300]
+    x, res = np.array(take.positions), np.array(take.residuals)
+    x[100:140, 7], res[100:140, 7] = 0.0, 2.0
+    path = save_markers(take.with_positions(x, residuals=res), tmp_path / "zeros.c3d")
+    back = load_markers(path)
+    assert back.zero_gaps == 40 and back.missing()[100:140, 7].all()
+    stored = np.zeros(x.shape[:2], dtype=bool)
+    stored[100:140, 7] = True
+    assert np.array_equal(~np.isnan(back.source.stored_zeros[..., 0]), stored)
+    kept = save_markers(back, tmp_path / "kept.c3d", stored_zeros=True)
+    assert _same_points(_point_frames(kept), _point_frames(path))  # bit for bit: zeros and residuals as stored
+    plain = _point_frames(save_markers(back, tmp_path / "plain.c3d"))
+    assert np.all(plain[100:140, 7, 3] == -1)  # by default a gap like every other: residual -1
+    filled = np.array(back.positions)
+    filled[120, 7] = [1.0, 2.0, 3.0]  # a sample written there since: written, not the stored zero
+    part = _point_frames(save_markers(back.with_positions(filled), tmp_path / "part.c3d", stored_zeros=True))
+    assert np.array_equal(part[120, 7, :3], [1.0, 2.0, 3.0])
+    assert _same_points(part[[119, 121], 7], _point_frames(path)[[119, 121], 7])

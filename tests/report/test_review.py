@@ -325,3 +325,42 @@ def test_the_pages_apply_command_works_as_copied_for_an_amc_whose_asf_is_elsewhe
     code, out, err = run(*command[1:], cwd=tmp_path / "elsewhere")
     assert code == 0, err
     assert "1 rejected" in out and (tmp_path / "elsewhere" / "final.bvh").is_file()
+
+
+def test_tied_changes_are_accepted_and_rejected_together(browser, tmp_path):
+    # CMU 85_02 (tests/data) with two swaps chained over one marker whose cleaned samples are not what exchanging
+    # them in order gives, and a spike inside them: mocapkit.cleaning.markers.decisions.tied ties the three
+    import dataclasses
+    from pathlib import Path
+
+    from mocapkit.cleaning.markers import MarkerFix, clean_markers
+    from mocapkit.cleaning.markers import decisions as md
+    from mocapkit.io import load_markers
+    from mocapkit.report.markers import write_marker_report
+
+    x = load_markers(Path(__file__).resolve().parents[1] / "data" / "85_02.c3d")[:300]
+    a, b, k = 10, 11, 5
+    p = np.array(x.positions)
+    p[150:250, [b, k]] = p[150:250, [k, b]]
+    p[100:200, [a, b]] = p[100:200, [b, a]]
+    p[170, k] += [0.0, 0.0, 1.0]
+    lab = x.labels
+    fixes = (MarkerFix(lab[a], 100, 200, "swap", 1.0, lab[b]), MarkerFix(lab[b], 150, 250, "swap", 1.0, lab[k]),
+             MarkerFix(lab[k], 170, 171, "spike", 1.0))
+    cleaned = x.with_positions(p)
+    res = dataclasses.replace(clean_markers(x, steps=["swaps"]), markers=cleaned, fixes=fixes)
+    review = md.review(x, cleaned, fixes, take="in.c3d", output="out.c3d")
+    ids = [c["id"] for c in review["changes"]]
+    assert md.tied(x, cleaned, fixes) == [ids]
+    write_marker_report(tmp_path / "r.html", res, review=review)
+    ctx = browser.new_context(viewport={"width": 1280, "height": 900})
+    pg = ctx.new_page()
+    pg.goto((tmp_path / "r.html").resolve().as_uri())
+    pg.wait_for_function("() => window.mocapkitReview", timeout=60000)
+    pg.locator(f'#changes tr[data-change="{ids[1]}"] input.accept').uncheck()
+    boxes = [pg.locator(f'#changes tr[data-change="{i}"] input.accept').is_checked() for i in ids]
+    assert boxes == [False, False, False]
+    assert "accepted or rejected with" in pg.locator(f'#changes tr[data-change="{ids[0]}"] td.reason').inner_text()
+    pg.locator(f'#changes tr[data-change="{ids[2]}"] input.accept').check()
+    assert all(pg.locator(f'#changes tr[data-change="{i}"] input.accept').is_checked() for i in ids)
+    ctx.close()

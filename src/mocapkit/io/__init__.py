@@ -103,13 +103,16 @@ def load_markers(path, **kwargs) -> MarkerSet:
     return read_c3d(path, **kwargs)
 
 
-def save_markers(markers: MarkerSet, path, *, like=None) -> Path:
+def save_markers(markers: MarkerSet, path, *, like=None, stored_zeros: bool = False) -> Path:
     """Write ``markers`` to ``path`` (.c3d, .trc or .npz, by suffix) atomically; returns the path.
 
     ``like`` (a MarkerSet or a file of the same format) supplies the file
     contents other than the trajectories to keep: a C3D's parameter groups and
     analog channels, a TRC's header fields. Without it, those of the file
     ``markers`` was read from are kept when it had the same format.
+    ``stored_zeros`` (C3D): a gap the file stored as exact (0, 0, 0) that is
+    still missing is written back as the file had it
+    (:func:`~mocapkit.io.c3d.write_c3d`), not as residual -1.
     """
     path = Path(path)
     kind = suffix_kind(path, MARKER_FORMATS, "writing markers")
@@ -126,7 +129,7 @@ def save_markers(markers: MarkerSet, path, *, like=None) -> Path:
     else:
         from .c3d import write_c3d
 
-        write_c3d(markers, path, like=like)
+        write_c3d(markers, path, like=like, stored_zeros=stored_zeros)
     return path
 
 

@@ -41,8 +41,8 @@ from ..errors import MocapFormatError, SkeletonError
 from ..markerset import (MODELLED_GROUPS, MarkerSet, MarkerSource, length_unit_cm, marker_units,
                          repeated_labels_note, unique_labels, zero_gap_mask)
 from ..motion import check_fps
-from .c3d_frames import (FRAME_CAP, long_frame_parameters, point_words, read_float, residuals_and_cameras,
-                         rest_of_trial, sample_bytes)
+from .c3d_frames import (FRAME_CAP, long_frame_parameters, point_words, put_stored_zeros, read_float,
+                         residuals_and_cameras, rest_of_trial, sample_bytes, zero_gap_words)
 from .c3d_layout import (header_layout, keep_data_start, put_analogs, put_header_gap, put_parameter,
                          stored_analogs)
 
@@ -632,7 +632,9 @@ def read_c3d(path, zeros_as_gaps: bool | None = None, units: str | None = None) 
     stated = str(units).replace("\x00", " ").strip()  # NUL-padded in some files (and cut ones)
     units, units_from = marker_units(path, stated, xyz, given)
     unit_cm = checked_unit_cm(path, units)
+    was = resid.copy(), ~np.isnan(xyz).any(axis=-1)
     zeros = apply_zero_gaps(labels, xyz, resid, unit_cm, zeros_as_gaps, modelled)
+    source = dataclasses.replace(source, stored_zeros=zero_gap_words(was[0], cameras, was[1] & np.isnan(xyz).any(-1)))
     if cameras is not None:
         cameras[np.isnan(xyz).any(axis=-1)] = 0
     markers = MarkerSet(labels=labels, positions=xyz, fps=fps, units=units, name=path.stem, reader=reader,
@@ -862,7 +864,7 @@ def _ezc3d_bytes(c, path: Path, frames: int, points: int) -> bytearray:
                 pass
 
 
-def write_c3d(markers: MarkerSet, path, *, like=None) -> None:
+def write_c3d(markers: MarkerSet, path, *, like=None, stored_zeros: bool = False) -> None:
     """Write ``markers`` to a float C3D file with ezc3d, atomically (temp file + rename).
 
     Points are written as float32 (POINT:SCALE -1: ezc3d writes no integer
@@ -884,6 +886,9 @@ def write_c3d(markers: MarkerSet, path, *, like=None) -> None:
     stored under its ANALOG:OFFSET, SCALE and GEN_SCALE; the header's
     interpolation gap and the data block's start are the file's where ezc3d's
     parameter section allows (:mod:`mocapkit.io.c3d_layout`).
+    ``stored_zeros``: a gap the file held as exact (0, 0, 0) is written back as
+    it held it while still missing (:func:`~mocapkit.io.c3d_frames.put_stored_zeros`);
+    by default it is residual -1, as every other gap.
     """
     from . import atomic_write
 
@@ -902,6 +907,8 @@ def write_c3d(markers: MarkerSet, path, *, like=None) -> None:
     scale = float(c["parameters"]["POINT"]["SCALE"]["value"][0])
     struct.pack_into("<f", data, 12, scale)
     _put_point_words(data, markers, scale)
+    if stored_zeros:
+        put_stored_zeros(_data_block(data, markers.num_frames, markers.num_markers), markers, scale)
     if stored is not None:
         put_analogs(data, markers.num_frames, markers.num_markers, stored)
         put_parameter(data, "ANALOG", "OFFSET", offsets)

@@ -111,6 +111,41 @@ def residuals_and_cameras(words: np.ndarray, scale: float) -> tuple[np.ndarray, 
     return resid, cameras
 
 
+def zero_gap_words(resid: np.ndarray, cameras: np.ndarray | None, gaps: np.ndarray) -> np.ndarray | None:
+    """(F, M, 2) float: the residual and camera mask (0 where the file gave none) stored with each sample of
+    ``gaps`` ((F, M) bool: read as gaps from exact (0, 0, 0)), NaN elsewhere; None where ``gaps`` holds none.
+    ``resid``: (F, M) residuals as read, before the gaps were set to -1
+    (:attr:`~mocapkit.markerset.MarkerSource.stored_zeros`)."""
+    if not np.any(gaps):
+        return None
+    out = np.stack([resid, np.zeros_like(resid) if cameras is None else cameras], axis=-1).astype(np.float64)
+    out[~gaps] = np.nan
+    return out
+
+
+def put_stored_zeros(block: np.ndarray, markers, scale: float) -> int:
+    """Write back, as the file had them, the samples the reader read as gaps from exact (0, 0, 0)
+    (:attr:`~mocapkit.markerset.MarkerSource.stored_zeros`) that are still missing in ``markers``; returns how many.
+
+    Such a sample gets coordinates 0 and its fourth word (residual byte in units of ``|scale|``, camera mask in
+    bits 8-14, as :func:`point_words` reads it), so that a cleaning gives back the samples it did not change bit
+    for bit. ``block``: the data block, a writable (F, 4 * M + analog samples) float32 view; ``scale``:
+    POINT:SCALE. Only while the markers are the file's own (:meth:`~mocapkit.markerset.MarkerSet.file_labels`).
+    """
+    stored = None if markers.source is None else markers.source.stored_zeros
+    if (stored is None or stored.shape[:2] != markers.positions.shape[:2]
+            or markers.file_labels() != markers.source.labels):
+        return 0
+    cells = markers.missing() & ~np.isnan(stored[..., 0])
+    points = block[:, : 4 * markers.num_markers]
+    res, cams = np.nan_to_num(stored[..., 0]), np.nan_to_num(stored[..., 1]).astype(np.int64) & 0x7F
+    byte = np.clip(np.rint(res / (abs(scale) or 1.0)), 0, 255).astype(np.int64)
+    for k in range(3):
+        points[:, k::4][cells] = 0.0
+    points[:, 3::4][cells] = ((cams << 8) | byte)[cells].astype(np.float32)
+    return int(cells.sum())
+
+
 def _value(parameters: dict, group: str, name: str):
     """The value array of parameter GROUP:NAME in ezc3d's parsed layout, or None."""
     param = parameters.get(group, {}).get(name)

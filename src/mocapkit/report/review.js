@@ -61,7 +61,9 @@
       el("td", { "class": "num", text: c.first === c.last ? String(c.first) : c.first + "-" + c.last }, tr);
       el("td", { text: c.step, title: c.method }, tr);
       el("td", { "class": "num", text: c.size !== undefined ? c.size : c.max_deg === null ? "was missing" : (c.max_deg >= 0.1 || c.max_deg === 0 ? c.max_deg.toFixed(1) : c.max_deg.toPrecision(2)) + " deg" }, tr);
-      el("td", { "class": "reason", text: c.reason }, tr);
+      var others = (c.tied || []).filter(function (id) { return id !== c.id; });
+      el("td", { "class": "reason", text: c.reason + (others.length ? " (accepted or rejected with " +
+        others.join(", ") + ")" : "") }, tr);
       var jt = el("td", { "class": "jump" }, tr);
       var jb = el("button", { type: "button", "class": "jump", "data-index": String(k), text: "jump to frame " + c.first }, jt);
       jb.addEventListener("click", function () { jump(k, true); });
@@ -94,11 +96,17 @@
   function paint(k) {
     rows[k].tr.className = (rows[k].box.checked ? "" : "rejected") + (k === current ? " current" : "");
   }
+  // changes the cleaning ties ("tied": their ids) are accepted or rejected together: where a change's samples
+  // came from cannot be told apart from a swap's, a split decision would be refused when applied
+  var at = {};
+  list.forEach(function (c, k) { at[c.id] = k; });
   function set(k, accept, bulk) {
-    doc.decisions[list[k].id] = accept ? "accept" : "reject";
-    rows[k].box.checked = accept;
-    paint(k);
-    if (k === current) showCurrent();
+    (list[k].tied || [list[k].id]).forEach(function (id) {
+      var j = at[id] === undefined ? k : at[id];
+      doc.decisions[list[j].id] = accept ? "accept" : "reject";
+      if (rows[j]) { rows[j].box.checked = accept; paint(j); }
+      if (j === current) showCurrent();
+    });
     if (!bulk) tally();
   }
   function setAll(accept) { list.forEach(function (c, k) { set(k, accept, true); }); tally(); }

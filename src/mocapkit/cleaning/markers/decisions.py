@@ -27,8 +27,13 @@ Applying decisions
 :func:`apply` starts from the input: the samples of each accepted change get
 the cleaned position, residual and camera mask, every other sample keeps the
 input's, bit for bit (a rejected fill stays missing, with residual -1; a
-rejected swap keeps the recorded labels). Rejecting every change gives the
-input back; accepting every change gives the cleaned capture.
+rejected swap keeps the recorded labels). A change lands on the recorded
+trajectory it was made for, through the swaps kept (:func:`placed`,
+:mod:`~mocapkit.cleaning.markers.placement`): a spike or gap fixed inside a
+rejected swap is written under the label the file gives those samples.
+Changes whose samples' origin cannot be told apart from a swap's are decided
+together (:func:`tied`). Rejecting every change gives the input back;
+accepting every change gives the cleaned capture.
 """
 
 from __future__ import annotations
@@ -38,6 +43,7 @@ import hashlib
 import json
 import math
 from dataclasses import dataclass
+from types import SimpleNamespace
 from typing import Mapping
 
 import numpy as np
@@ -46,9 +52,11 @@ from ...errors import MocapError, MocapFormatError
 from ..decisions import (ACCEPT, FORMAT, RECORD_FLAG, REJECT, check_choices, check_decisions, frame_note, record_wanted,
                          request_difference, take_digest)
 from .clean import MarkerCleanResult, MarkerFix
+from .placement import destinations, relabelled, sources
 
-__all__ = ["MarkerChange", "differs", "changes", "accepted_samples", "apply", "cleaning_digest", "template", "check",
-           "review", "record_cells", "result_from_record", "check_record", "decided_result", "clean_and_decide"]
+__all__ = ["MarkerChange", "differs", "changes", "accepted_samples", "tied", "placed", "apply", "cleaning_digest",
+           "template", "check", "review", "record_cells", "result_from_record", "check_record", "decided_result",
+           "clean_and_decide"]
 
 _ORDER = ("duplicate", "spike", "gap", "swap")  # who owns a sample two fixes touched
 
@@ -150,7 +158,8 @@ def changes(original, cleaned, fixes) -> list[MarkerChange]:
 
 
 def accepted_samples(original, cleaned, fixes, decisions: Mapping[str, str]) -> np.ndarray:
-    """(F, M) bool: the samples of the changes ``decisions`` accepts (a change it does not name is accepted).
+    """(F, M) bool: the samples of the changes ``decisions`` accepts (a change it does not name is accepted), in
+    the cleaned capture's labelling (:func:`placed` says where each lands in the capture written).
 
     Raises ValueError for an id that is not a change of this cleaning or a choice other than accept/reject.
     """
@@ -160,17 +169,136 @@ def accepted_samples(original, cleaned, fixes, decisions: Mapping[str, str]) -> 
     return np.isin(owner, chosen)
 
 
+def _change_id(x: MarkerFix) -> str:
+    return f"{x.kind}:{x.marker}:{x.start}-{x.end - 1}"
+
+
+def _swaps(original, fixes) -> list[MarkerFix]:
+    col = set(original.labels)
+    return [x for x in (_fix(y) for y in fixes) if x.kind == "swap" and x.marker in col and x.other in col]
+
+
+def _region(x: MarkerFix, labels: list, shape) -> np.ndarray:
+    """(F, M) bool: the cells of a swap fix (both markers over its frames)."""
+    r = np.zeros(shape, dtype=bool)
+    r[x.start:x.end, [labels.index(x.marker), labels.index(x.other)]] = True
+    return r
+
+
+def _under(x, r, found, owner, swaps, regions) -> set[int]:
+    """The changes a swap with no change of its own (its samples all another's) is decided with: those owning
+    samples in its cells ``r`` and the swaps listed as changes whose cells overlap them."""
+    index = {c.id: k for k, c in enumerate(found)}
+    on = set(np.unique(owner[r & (owner >= 0)]).tolist())
+    return on | {index[_change_id(y)] for y, q in zip(swaps, regions) if _change_id(y) in index and np.any(q & r)}
+
+
+def _tied(original, cleaned, found, owner, swaps, src) -> list[list[int]]:
+    """The groups of changes (indices into ``found``) that are decided together: where the cleaned samples of a
+    swap are not its markers' recorded samples exchanged (:func:`~mocapkit.cleaning.markers.placement.sources`
+    does not give the cleaning's labelling there, e.g. swaps chained over one marker), where a change's samples
+    came from cannot be told, so that swap and every change on its markers over its frames, grown to every change
+    overlapping those, go together; and a swap fix that owns no change of its own goes with the changes
+    :func:`_under` it. Empty where every swap is its markers' samples exchanged and a change."""
+    labels = list(original.labels)
+    pos, res, cams = relabelled(original, src)
+    inner = np.isin(owner, [k for k, c in enumerate(found) if c.kind != "swap"])
+    odd = differs(SimpleNamespace(positions=pos, residuals=res, cameras=cams), cleaned)
+    odd &= ~inner & (src != np.arange(len(labels)))
+    regions = [_region(x, labels, owner.shape) for x in swaps]
+    groups: list[set[int]] = [_under(x, r, found, owner, swaps, regions) for x, r in zip(swaps, regions)
+                              if _change_id(x) not in {c.id for c in found}]
+    for r0 in (r for r in regions if np.any(r & odd)):
+        area, ids = r0.copy(), set()
+        while True:
+            grown = set(np.unique(owner[area & (owner >= 0)]).tolist())
+            new_area = area | np.isin(owner, list(grown))
+            for r in regions:
+                if np.any(r & new_area):
+                    new_area |= r
+            if grown == ids and np.array_equal(new_area, area):
+                break
+            area, ids = new_area, grown
+        groups.append(ids)
+    merged: list[set[int]] = []
+    for g in groups:
+        for m in [m for m in merged if m & g]:
+            merged.remove(m)
+            g = g | m
+        merged.append(g)
+    return [sorted(g) for g in merged if len(g) > 1]
+
+
+def tied(original, cleaned, fixes) -> list[list[str]]:
+    """The ids of the changes a person accepts or rejects together (the report's list ties them), by group;
+    empty for a cleaning whose every swap is its markers' recorded samples exchanged (every cleaning of the test
+    captures). Within a group, a split decision is refused (:func:`placed`)."""
+    found, owner = _owners(original, cleaned, fixes)
+    swaps = _swaps(original, fixes)
+    src = sources(swaps, list(original.labels), original.num_frames)
+    return [[found[k].id for k in g] for g in _tied(original, cleaned, found, owner, swaps, src)]
+
+
+def placed(original, cleaned, fixes, decisions: Mapping[str, str]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Where each accepted change lands: ``(take, src, dest)``, each (F, M).
+
+    ``take`` (bool): the cleaned cells whose cleaned sample is written; ``src`` (int): the input column each
+    cleaned column holds (:func:`~mocapkit.cleaning.markers.placement.sources` of every swap); ``dest`` (int): the
+    column of the capture written each cleaned cell goes to, through the swaps kept
+    (:func:`~mocapkit.cleaning.markers.placement.destinations`). A spike or gap fixed inside a rejected swap thus
+    lands on the recorded trajectory it was made for, under the label the file gives it; a spike rejected inside
+    an accepted swap keeps its recorded samples, re-labelled. Every cell not taken gets the input's sample from
+    ``src``: the samples of every rejected change are the input's, bit for bit.
+
+    Raises ValueError, naming the changes, for decisions that split a group :func:`tied` ties (where a change's
+    samples came from cannot be told there, and nothing is placed on a guess).
+    """
+    found, owner = _owners(original, cleaned, fixes)
+    check_choices(decisions, {c.id for c in found})
+    choice = [decisions.get(c.id, ACCEPT) for c in found]
+    labels = list(original.labels)
+    swaps = _swaps(original, fixes)
+    src = sources(swaps, labels, original.num_frames)
+    for g in _tied(original, cleaned, found, owner, swaps, src):
+        if len({choice[k] for k in g}) > 1:
+            ids = [found[k].id for k in g]
+            raise ValueError(f"{', '.join(ids)} are decided apart, but the cleaned samples of the swaps among them "
+                             f"are not their markers' recorded samples exchanged, so where each change's samples "
+                             f"came from cannot be told: accept or reject them together")
+    index = {c.id: k for k, c in enumerate(found)}
+    regions = [_region(x, labels, owner.shape) for x in swaps]
+
+    def kept(x, r) -> bool:  # a swap with no change of its own: as the changes it is decided with (tied: all alike)
+        if _change_id(x) in index:
+            return choice[index[_change_id(x)]] == ACCEPT
+        return all(choice[k] == ACCEPT for k in _under(x, r, found, owner, swaps, regions))
+
+    kept = sources([x for x, r in zip(swaps, regions) if kept(x, r)], labels, original.num_frames)
+    dest = destinations(src, kept)
+    same = dest == np.arange(len(labels))
+    take = np.isin(owner, [k for k, c in enumerate(choice) if c == ACCEPT]) | ((owner < 0) & same)
+    return take, src, dest
+
+
+def _put(values: np.ndarray, dest: np.ndarray) -> np.ndarray:
+    """``values`` (F, M, ...) moved column-wise to ``dest`` (F, M): ``out[f, dest[f, c]] = values[f, c]``."""
+    out = np.empty_like(values)
+    out[np.arange(dest.shape[0])[:, None], dest] = values
+    return out
+
+
 def apply(original, cleaned, fixes, decisions: Mapping[str, str]):
     """The input capture with only the accepted changes: a :class:`MarkerSet` like ``original``.
 
-    The samples of accepted changes hold ``cleaned``'s positions, residuals and camera masks; every other
-    sample is ``original``'s, bit for bit.
+    The samples of accepted changes hold ``cleaned``'s positions, residuals and camera masks, in the column of the
+    recorded trajectory they were made for (:func:`placed`); every other sample is ``original``'s, bit for bit.
+    Raises ValueError as :func:`placed` does.
     """
-    acc = accepted_samples(original, cleaned, fixes, decisions)
-    pos = np.where(acc[..., None], cleaned.positions, original.positions)
-    res = original.residuals if original.residuals is None else np.where(acc, cleaned.residuals, original.residuals)
-    cams = original.cameras if original.cameras is None else np.where(acc, cleaned.cameras, original.cameras)
-    return dataclasses.replace(original, positions=pos, residuals=res, cameras=cams)
+    take, src, dest = placed(original, cleaned, fixes, decisions)
+    base = relabelled(original, src)
+    got = [None if b is None else _put(np.where(take[..., None] if b.ndim == 3 else take, np.asarray(c), b), dest)
+           for b, c in zip(base, (cleaned.positions, cleaned.residuals, cleaned.cameras))]
+    return dataclasses.replace(original, positions=got[0], residuals=got[1], cameras=got[2])
 
 
 def cleaning_digest(original, cleaned) -> str:
@@ -239,6 +367,10 @@ def check(doc: dict, path, original, cleaned=None, fixes=(), *, request=None, fr
         accepted_samples(original, cleaned, fixes, chosen)
     except ValueError as exc:
         raise MocapFormatError(path, f"{exc} (decisions made for another cleaning of the capture?)") from None
+    try:
+        placed(original, cleaned, fixes, chosen)
+    except ValueError as exc:
+        raise MocapFormatError(path, str(exc)) from None
     if stamp is None:
         if fresh:
             raise MocapFormatError(path, "keeps no digest of the cleaning it was made on (written by hand?): a new "
@@ -255,12 +387,14 @@ def check(doc: dict, path, original, cleaned=None, fixes=(), *, request=None, fr
 def review(original, cleaned, fixes, take: str = "", output: str = "", decisions: Mapping[str, str] | None = None,
            first_frame: int | None = None, flags: list | None = None, request=None, record="",
            command: dict | None = None) -> dict:
-    """What the report's accept/reject list needs (:func:`mocapkit.cleaning.decisions.review`'s form): ``changes``,
+    """What the report's accept/reject list needs (:func:`mocapkit.cleaning.decisions.review`'s form): ``changes``
+    (a change :func:`tied` to others names them all in ``"tied"``: the list accepts or rejects them together),
     the ``decisions`` document (stamped with this cleaning, ``request`` its options and ``record`` where its record
     was written: :func:`template`), ``flags`` (none for a marker capture unless given), ``frames``, ``item`` and
     ``command`` (:func:`mocapkit.cleaning.decided.apply_command`)."""
     found = changes(original, cleaned, fixes)
-    return {"changes": [c.as_dict() for c in found],
+    together = {i: g for g in tied(original, cleaned, fixes) for i in g}
+    return {"changes": [{**c.as_dict(), **({"tied": together[c.id]} if c.id in together else {})} for c in found],
             "decisions": template(original, found, take, output, decisions, cleaned=cleaned, request=request,
                                   record=record),
             "flags": list(flags or []), "frames": frame_note(take, first_frame), "item": "marker", "command": command}
@@ -325,26 +459,47 @@ def result_from_record(original, record) -> MarkerCleanResult:
 # -- review mode and decisions, one path for the library and the CLI ------------------------------
 
 
+def _relabelled_fix(x: MarkerFix, dest: np.ndarray, labels: list) -> MarkerFix:
+    """``x`` named by the marker whose column its samples land in (:func:`placed`) where a rejected swap around it
+    leaves them under another label over all its frames (a fix split over two columns keeps its name)."""
+    col = {label: k for k, label in enumerate(labels)}
+    if x.kind == "swap" or x.marker not in col or x.end <= x.start:
+        return x
+    moved = {}
+    for field in ("marker", "other"):
+        k = col.get(getattr(x, field))
+        to = None if k is None else np.unique(dest[x.start:x.end, k])
+        if to is not None and to.size == 1 and to[0] != k:
+            moved[field] = labels[int(to[0])]
+    return dataclasses.replace(x, **moved) if moved else x
+
+
 def decided_result(original, result: MarkerCleanResult, decisions: Mapping[str, str], decided=None
                    ) -> MarkerCleanResult:
     """``result`` with only the changes ``decisions`` accepts: what a person's decisions give back.
 
     ``markers`` is :func:`apply`'s capture; ``filled``, ``spikes``, ``swapped`` and ``duplicates`` keep only the
     accepted changes' samples, ``fixes`` (and a removed spike left missing in ``unfilled``) only the accepted
-    changes', so that a report or summary of it shows the capture written, not the whole cleaning; ``decided``:
-    the :class:`~mocapkit.cleaning.decided.Decided` kept on it (its :meth:`~MarkerCleanResult.summary`).
+    changes', each in the column its samples are written to (:func:`placed`: under the label a rejected swap
+    leaves them), so that a report or summary of it shows the capture written, not the whole cleaning;
+    ``decided``: the :class:`~mocapkit.cleaning.decided.Decided` kept on it (its :meth:`~MarkerCleanResult.summary`).
     """
     acc = accepted_samples(original, result.markers, result.fixes, decisions)
+    take, _, dest = placed(original, result.markers, result.fixes, decisions)
     rejected = {c.id for c in changes(original, result.markers, result.fixes) if decisions.get(c.id) == REJECT}
+    labels = list(original.labels)
 
     def kept(x) -> bool:
-        return f"{x.kind}:{x.marker}:{x.start}-{x.end - 1}" not in rejected
+        return _change_id(x) not in rejected
+
+    def mask(m):
+        return _put(np.asarray(m) & acc & take, dest)
 
     return dataclasses.replace(
-        result, markers=apply(original, result.markers, result.fixes, decisions), filled=result.filled & acc,
-        spikes=result.spikes & acc, swapped=result.swapped & acc, duplicates=result.duplicate_mask & acc,
-        fixes=tuple(x for x in result.fixes if kept(x)), unfilled=tuple(x for x in result.unfilled if kept(x)),
-        decided=decided)
+        result, markers=apply(original, result.markers, result.fixes, decisions), filled=mask(result.filled),
+        spikes=mask(result.spikes), swapped=mask(result.swapped), duplicates=mask(result.duplicate_mask),
+        fixes=tuple(_relabelled_fix(x, dest, labels) for x in result.fixes if kept(x)),
+        unfilled=tuple(_relabelled_fix(x, dest, labels) for x in result.unfilled if kept(x)), decided=decided)
 
 
 def clean_and_decide(original, *, name="", steps=None, max_gap_s=None, max_error_mm=None, decisions=None,

@@ -1,0 +1,61 @@
+"""Where each sample of a marker cleaning goes in a capture written with only some of its label swaps undone.
+
+A marker cleaning (:func:`~mocapkit.cleaning.markers.clean_markers`) first
+re-labels swapped samples (:func:`~mocapkit.cleaning.markers.swaps.undo_swaps`),
+then removes spikes and duplicates and fills gaps in that new labelling. A
+person may reject a swap and accept a fix made inside it (or the other way
+round): the fix was made on the samples of one recorded trajectory, which the
+rejected swap leaves under the other label. Its samples must therefore land in
+the column that holds that trajectory in the capture written, not in the
+column it had in the cleaned labelling.
+
+Each swap fix exchanges the samples of two marker columns over its frames;
+applied in order of first frame (as :func:`undo_swaps` lists them) they give,
+per frame, a permutation of the columns. :func:`sources` composes every swap
+(the cleaned labelling), :func:`destinations` maps each cleaned cell to its
+column in a labelling with only the kept swaps. Arrays are frames-first:
+``(F, M)`` int, ``M`` the capture's markers (all of them, as in
+:attr:`MarkerSet.labels`).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = ["sources", "destinations", "relabelled"]
+
+
+def sources(swaps, labels, frames: int) -> np.ndarray:
+    """(F, M) int: the input column whose samples each column of the cleaned capture holds at each frame.
+
+    ``swaps``: the swap fixes (:class:`~mocapkit.cleaning.markers.MarkerFix` of kind ``"swap"``: ``marker`` and
+    ``other`` exchanged over frames ``start <= f < end``), composed in order of first frame; ``labels``: the
+    capture's labels (M,); ``frames``: F. A column no swap touched holds its own samples.
+    """
+    col = {label: k for k, label in enumerate(labels)}
+    src = np.tile(np.arange(len(labels), dtype=np.int64), (frames, 1))
+    for x in sorted(swaps, key=lambda x: (x.start, col[x.marker], col[x.other])):
+        a, b = col[x.marker], col[x.other]
+        src[x.start:x.end, [a, b]] = src[x.start:x.end, [b, a]]
+    return src
+
+
+def destinations(src: np.ndarray, kept: np.ndarray) -> np.ndarray:
+    """(F, M) int: the column of the capture written that each cleaned cell's samples belong to.
+
+    ``src``: :func:`sources` of every swap (the cleaned labelling); ``kept``: :func:`sources` of the swaps kept
+    (the labelling written). Cleaned column ``c`` holds input column ``src[f, c]``, which the capture written
+    holds in the column ``k`` with ``kept[f, k] == src[f, c]``.
+    """
+    rows = np.arange(src.shape[0])[:, None]
+    inverse = np.empty_like(kept)
+    inverse[rows, kept] = np.arange(kept.shape[1])
+    return inverse[rows, src]
+
+
+def relabelled(original, src: np.ndarray) -> tuple[np.ndarray, np.ndarray | None, np.ndarray | None]:
+    """``original``'s positions (F, M, 3), residuals and camera masks (F, M; None where it has none) in the
+    labelling ``src`` (:func:`sources`): what the cleaned capture would hold with only its swaps undone."""
+    rows = np.arange(src.shape[0])[:, None]
+    pick = [None if a is None else np.asarray(a)[rows, src] for a in (original.residuals, original.cameras)]
+    return np.asarray(original.positions)[rows, src], pick[0], pick[1]

@@ -1,0 +1,110 @@
+"""Decisions on a marker cleaning land on the samples each change was made for, whatever was decided about a swap
+around it.
+
+CMU 85_02 (41 markers, 120 Hz; tests/data) cut to 600 frames, with Male:LTOE and Male:RTHI swapped over frames
+100-159 and, inside the swap, a 60 mm spike at frame 120 on the file's LTOE label (RTHI's recorded trajectory) and a
+10-frame gap at 130-139 on the file's RTHI label (LTOE's), put in by hand.
+"""
+
+from __future__ import annotations
+
+import itertools
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from mocapkit.cleaning.markers import clean_markers
+from mocapkit.cleaning.markers import decisions as md
+from mocapkit.io import load_markers
+
+CMU = Path(__file__).resolve().parents[2] / "data" / "85_02.c3d"
+A, B = 10, 11  # Male:LTOE, Male:RTHI
+
+
+@pytest.fixture(scope="module")
+def cleaning():
+    """(input, cleaning, {kind: change}) of the capture with a swap and a spike and a gap inside it."""
+    ms = load_markers(CMU)[:600]
+    p = np.array(ms.positions)
+    p[100:160, [A, B]] = p[100:160, [B, A]]
+    p[120, A] += [0.0, 0.0, 60.0]
+    p[130:140, B] = np.nan
+    src = np.tile(np.arange(ms.num_markers), (ms.num_frames, 1))
+    src[100:160, [A, B]] = [B, A]  # the swapped samples keep their residuals and camera masks
+    x = ms.with_positions(p, sources=src)
+    res = clean_markers(x)
+    found = {c.kind: c for c in md.changes(x, res.markers, res.fixes)}
+    assert sorted(found) == ["gap", "spike", "swap"]
+    return x, res, found
+
+
+def _cell(m, f, k):
+    return m.positions[f, k], m.residuals[f, k], m.cameras[f, k]
+
+
+def _same(u, v) -> bool:
+    return all(np.array_equal(s, t, equal_nan=True) for s, t in zip(u, v))
+
+
+@pytest.mark.parametrize("swap,spike,gap", list(itertools.product(["accept", "reject"], repeat=3)))
+def test_each_accepted_change_lands_on_its_own_samples(cleaning, swap, spike, gap):
+    x, res, found = cleaning
+    chosen = {found["swap"].id: swap, found["spike"].id: spike, found["gap"].id: gap}
+    out = md.apply(x, res.markers, res.fixes, chosen)
+    cl = res.markers
+    sw, sp, gp = found["swap"], found["spike"], found["gap"]
+    assert (sp.marker_index, gp.marker_index) == (B, A)  # cleaned labelling: the spike on RTHI, the gap on LTOE
+    for f in range(x.num_frames):
+        for k in range(x.num_markers):
+            if not (sw.first <= f <= sw.last and k in (A, B)):
+                assert _same(_cell(out, f, k), _cell(cl, f, k))  # every other change is accepted
+                continue
+            # the recorded trajectory in the file's column k: marker `own` of the cleaned capture
+            own = k if swap == "accept" else (B if k == A else A)
+            fixed = (own == B and sp.first <= f <= sp.last and spike == "accept") or (
+                own == A and gp.first <= f <= gp.last and gap == "accept")
+            recorded = (A if own == B else B) if swap == "accept" else k  # where the input holds it
+            want = _cell(cl, f, own) if fixed else _cell(x, f, recorded)
+            assert _same(_cell(out, f, k), want), (f, x.labels[k])
+
+
+def test_the_decided_result_names_the_marker_its_samples_are_written_to(cleaning):
+    x, res, found = cleaning
+    chosen = {found["swap"].id: "reject", found["spike"].id: "accept", found["gap"].id: "accept"}
+    got = md.decided_result(x, res, chosen)
+    sp, gp = found["spike"], found["gap"]
+    assert np.flatnonzero(got.spikes[sp.first]).tolist() == [A]
+    assert got.filled[gp.first:gp.last + 1, B].all() and not got.filled[:, A].any()
+    named = {(fx.kind, fx.start): fx.marker for fx in got.fixes}
+    assert named[("spike", sp.first)] == x.labels[A] and named[("gap", gp.first)] == x.labels[B]
+    assert ("swap", found["swap"].first) not in named
+
+
+def test_changes_whose_origin_cannot_be_told_are_tied_and_a_split_is_refused():
+    # two swaps chained over one marker (LTOE/RTHI 100-199, RTHI/LKNE 150-249) whose cleaned samples are not what
+    # exchanging them in order of first frame gives (the second exchanged first), and a spike filled inside them
+    from mocapkit.cleaning.markers import MarkerFix
+
+    x = load_markers(CMU)[:400]
+    p = np.array(x.positions)
+    k = 5  # Male:LKNE
+    p[150:250, [B, k]] = p[150:250, [k, B]]
+    p[100:200, [A, B]] = p[100:200, [B, A]]
+    p[170, k] += [0.0, 0.0, 1.0]
+    cleaned = x.with_positions(p)
+    lab = x.labels
+    fixes = [MarkerFix(lab[A], 100, 200, "swap", 1.0, lab[B]), MarkerFix(lab[B], 150, 250, "swap", 1.0, lab[k]),
+             MarkerFix(lab[k], 170, 171, "spike", 1.0)]
+    ids = [c.id for c in md.changes(x, cleaned, fixes)]
+    assert len(ids) == 3
+    assert md.tied(x, cleaned, fixes) == [sorted(ids, key=ids.index)]
+    rows = md.review(x, cleaned, fixes)["changes"]
+    assert all(sorted(r["tied"]) == sorted(ids) for r in rows)
+    with pytest.raises(ValueError, match="accept or reject them together"):
+        md.apply(x, cleaned, fixes, {ids[0]: "reject"})
+    back = md.apply(x, cleaned, fixes, {i: "reject" for i in ids})
+    assert _same((back.positions, back.residuals, back.cameras), (x.positions, x.residuals, x.cameras))
+    every = md.apply(x, cleaned, fixes, {})
+    assert _same((every.positions, every.residuals, every.cameras),
+                 (cleaned.positions, cleaned.residuals, cleaned.cameras))
