@@ -180,3 +180,40 @@ def test_chunk_words_stays_under_its_budget():
     assert 1 <= n < 96
     assert 4 * 5 * 22000 * ((n - 1) * 5 + 15) <= neighbours.CHUNK_BYTES
     assert neighbours.chunk_words(starts, context_frames=200, groups=5, N=15) == 96
+
+
+def test_long_take_rows_give_the_short_take_neighbours_without_acos_matrices(walk, monkeypatch):
+    """The real walk against itself with the whole-matrix cap set below its size (the path of a take over ~100 s):
+    its chunks' rows of the self matrix come from the checked polynomial terms, never from the ``acos`` kernel of
+    ``group_pose_distances``, each self-matrix row computed at most twice (chunks overlap by N - 5 rows), and the
+    neighbours are those of the whole matrix, bit for bit."""
+    an = ssa.prepare(walk)
+    grows = list(an.group_rows)
+    F = len(an.source.values)
+    whole = neighbours.nearest_words(an.source, an.source, grows, an.words, self_clip=0)
+    assert whole.self_costs is not None
+    acos_cells, rows = [], []
+    exact, polynomial = word_dtw.group_pose_distances, neighbours.self_costs.self_pose_rows
+
+    def count_exact(A, B, *args):
+        acos_cells.append(len(A) * len(B))
+        return exact(A, B, *args)
+
+    def count_rows(A, r0, r1, *args):
+        rows.append((r0, r1))
+        return polynomial(A, r0, r1, *args)
+
+    monkeypatch.setattr(word_dtw, "group_pose_distances", count_exact)
+    monkeypatch.setattr(neighbours.self_costs, "self_pose_rows", count_rows)
+    long = neighbours.nearest_words(an.source, an.source, grows, an.words, self_clip=0, self_bytes=0,
+                                    chunk_bytes=4 * len(grows) * F * 40)
+    assert acos_cells == []
+    assert len(rows) > 3  # several chunks
+    covered = np.zeros(F, dtype=int)
+    for r0, r1 in rows:
+        covered[r0:r1] += 1
+    assert covered.max() <= 2 and covered[an.words.min() : an.words.max() + 15].min() >= 1
+    assert long.self_costs is None
+    for a in ("pos", "iend", "jend", "dist"):
+        assert np.array_equal(getattr(whole, a), getattr(long, a))
+    assert (whole.pos >= 0).any()

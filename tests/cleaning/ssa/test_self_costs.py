@@ -52,7 +52,7 @@ def test_upper_triangle_equals_the_acos_matrix_bit_for_bit(rtol):
     for A in _textures(rng):
         for drop in ([3, 1, 0, 2], [0, 3, 1, 1]):
             want = W.group_pose_distances(A, A, groups, drop)
-            members, offsets = W._pack_groups(groups)
+            members, offsets = S.pack_groups(groups)
             upper = np.triu(np.ones(want.shape[1:], dtype=bool))
             for side in ("serial", "parallel"):
                 out = np.full(want.shape, -7.0, dtype=np.float32)
@@ -71,3 +71,22 @@ def test_self_pose_distances_of_a_long_texture_equal_the_full_matrix():
     groups = np.array([[True] * 12, [True] * 6 + [False] * 6, [False] * 6 + [True] * 6])
     want = W.group_pose_distances(A, A, groups, [3, 1, 1])
     assert np.array_equal(W.self_pose_distances(A, groups, [3, 1, 1]), want)
+
+
+@pytest.mark.parametrize("rtol", [S.DELTA_RTOL, 1.0])
+def test_rows_equal_the_acos_matrix_bit_for_bit(rtol):
+    """Row blocks of the self matrix (every column), both twins, NaN and overlong frames among the rows and columns."""
+    rng = np.random.default_rng(7)
+    groups = np.array([[True] * 9, [True, True, False, True, False, True, True, True, False], [True] * 3 + [False] * 6])
+    drop = np.array([3, 1, 2], dtype=np.int64)
+    members, offsets = S.pack_groups(groups)
+    for A in _textures(rng):
+        want = W.group_pose_distances(A, A, groups, drop)
+        for r0, r1 in ((0, len(A)), (25, 46), (len(A) - 1, len(A)), (5, 5)):
+            for side in ("serial", "parallel"):
+                with forced(side):
+                    got = S.self_pose_rows(A, r0, r1, members, offsets, drop, rtol)
+                assert got.shape == (3, r1 - r0, len(A))
+                assert np.array_equal(got, want[:, r0:r1], equal_nan=True)
+    with pytest.raises(ValueError, match="rows"):
+        S.self_pose_rows(A, 3, len(A) + 1, members, offsets, drop)

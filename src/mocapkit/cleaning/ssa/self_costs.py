@@ -32,8 +32,8 @@ from numba import njit, prange
 
 from .twins import twin_kernels
 
-__all__ = ["self_pose_costs", "mirror_upper", "approx_half_angle_sq", "half_angle_sq", "robust_sum", "TERM_RTOL",
-           "DELTA_RTOL", "PARALLEL_CELLS"]
+__all__ = ["self_pose_costs", "self_pose_rows", "pack_groups", "mirror_upper", "approx_half_angle_sq",
+           "half_angle_sq", "robust_sum", "TERM_RTOL", "DELTA_RTOL", "PARALLEL_CELLS"]
 
 _INF = np.inf
 
@@ -156,22 +156,23 @@ def _exact_cell(A, a, b, members, offsets, drop, g, terms):
 
 
 @njit(cache=True, inline="always")
-def _row(A, Q, ok, members, offsets, drop, rtol, a, out, term, tot, s, t0, t1, t2, exact):
-    """Cells ``(a, a..F-1)`` of every group into ``out``: polynomial terms checked, the unsure cells exact."""
+def _row(A, Q, ok, members, offsets, drop, rtol, a, c0, ra, out, term, tot, s, t0, t1, t2, exact):
+    """Cells ``(a, c0..F-1)`` of every group into ``out[:, ra, c0:]``: polynomial terms checked, the unsure cells
+    exact."""
     F, m = A.shape[0], A.shape[1]
     G = drop.shape[0]
-    n = F - a
+    n = F - c0
     if not ok[a]:
         for g in range(G):
             for j in range(n):
-                out[g, a, a + j] = _exact_cell(A, a, a + j, members, offsets, drop, g, exact)
+                out[g, ra, c0 + j] = _exact_cell(A, a, c0 + j, members, offsets, drop, g, exact)
         return
     for k in range(m):
         a0, a1, a2, a3 = A[a, k, 0], A[a, k, 1], A[a, k, 2], A[a, k, 3]
         q0, q1, q2, q3 = Q[k, 0], Q[k, 1], Q[k, 2], Q[k, 3]
         tk = term[k]
         for j in range(n):
-            b = a + j
+            b = c0 + j
             d = abs(a0 * q0[b] + a1 * q1[b] + a2 * q2[b] + a3 * q3[b])
             d = min(d, 1.0)
             tk[j] = approx_half_angle_sq(d)
@@ -217,17 +218,20 @@ def _row(A, Q, ok, members, offsets, drop, rtol, a, out, term, tot, s, t0, t1, t
             tot[j] = lo if lo == hi else np.float32(np.nan)  # NaN: not sure, computed again
         for j in range(n):
             v = tot[j]
-            if v == v and ok[a + j]:
-                out[g, a, a + j] = v
+            if v == v and ok[c0 + j]:
+                out[g, ra, c0 + j] = v
             else:
-                out[g, a, a + j] = _exact_cell(A, a, a + j, members, offsets, drop, g, exact)
+                out[g, ra, c0 + j] = _exact_cell(A, a, c0 + j, members, offsets, drop, g, exact)
 
 
 @twin_kernels(PARALLEL_CELLS)
-def _self_costs(A, Q, ok, members, offsets, drop, rtol, out):
+def _self_costs(A, Q, ok, members, offsets, drop, rtol, r0, r1, full, out):
+    """The upper triangle into ``out`` (G, F, F), or with ``full`` every cell of rows ``r0..r1-1`` into ``out``
+    (G, r1 - r0, F)."""
     F = A.shape[0]
     m = A.shape[1]
-    for h in prange((F + 1) // 2):
+    steps = r1 - r0 if full else (F + 1) // 2
+    for h in prange(steps):
         term = np.empty((m, F))
         tot = np.empty(F, dtype=np.float32)
         s = np.empty(F)
@@ -236,11 +240,14 @@ def _self_costs(A, Q, ok, members, offsets, drop, rtol, out):
         t2 = np.empty(F)
         exact = np.empty(m)
         top = np.int64(h)
+        if full:
+            _row(A, Q, ok, members, offsets, drop, rtol, r0 + top, 0, top, out, term, tot, s, t0, t1, t2, exact)
+            continue
         for side in range(2):  # a long row and a short one per step, so the threads share the triangle evenly
             a = top if side == 0 else F - 1 - top
             if side == 1 and a == top:
                 break
-            _row(A, Q, ok, members, offsets, drop, rtol, a, out, term, tot, s, t0, t1, t2, exact)
+            _row(A, Q, ok, members, offsets, drop, rtol, a, a, a, out, term, tot, s, t0, t1, t2, exact)
 
 
 def self_pose_costs(A: np.ndarray, members: np.ndarray, offsets: np.ndarray, drop: np.ndarray, out: np.ndarray,
@@ -258,9 +265,46 @@ def self_pose_costs(A: np.ndarray, members: np.ndarray, offsets: np.ndarray, dro
     F = A.shape[0]
     if F == 0:
         return
-    Q = np.ascontiguousarray(A.transpose(1, 2, 0))  # (m, 4, F): a joint's component over frames, for SIMD lanes
+    Q, ok = _lanes(A)
+    _self_costs.pick(F * F // 2)(A, Q, ok, members, offsets, drop, float(rtol), 0, F, False, out)
+
+
+def self_pose_rows(A: np.ndarray, r0: int, r1: int, members: np.ndarray, offsets: np.ndarray, drop: np.ndarray,
+                   rtol: float = DELTA_RTOL) -> np.ndarray:
+    """Rows ``r0..r1-1`` of the take's self pose-distance matrix, every column: (G, r1 - r0, F) float32.
+
+    What a long take's search reads chunk by chunk when its whole matrix (G F^2 float32) would not fit in memory:
+    the same cells, bit for bit, as ``word_dtw.group_pose_distances(A[r0:r1], A, ...)``, from the checked
+    polynomial terms of :func:`self_pose_costs` (arguments as there) instead of an ``acos`` per joint term.
+    """
+    if not rtol >= DELTA_RTOL:
+        raise ValueError(f"rtol must be at least DELTA_RTOL ({DELTA_RTOL}), got {rtol}")
+    F = A.shape[0]
+    if not 0 <= r0 <= r1 <= F:
+        raise ValueError(f"rows {r0}..{r1} are not within the {F} frames")
+    out = np.empty((len(drop), r1 - r0, F), dtype=np.float32)
+    if r1 > r0:
+        Q, ok = _lanes(A)
+        _self_costs.pick((r1 - r0) * F)(A, Q, ok, members, offsets, drop, float(rtol), int(r0), int(r1), True, out)
+    return out
+
+
+def pack_groups(groups):
+    """(G, m) boolean group masks -> ``(members, offsets)``, the int64 CSR arrays of the groups' joints the kernels
+    take."""
+    groups = np.asarray(groups, dtype=bool)
+    members = np.concatenate([np.flatnonzero(g) for g in groups]).astype(np.int64)
+    offsets = np.zeros(len(groups) + 1, dtype=np.int64)
+    offsets[1:] = np.cumsum(groups.sum(axis=1))
+    return members, offsets
+
+
+def _lanes(A):
+    """``(Q, ok)``: A's (m, 4, F) layout, a joint's component over frames for SIMD lanes, and which frames (F,) may
+    take polynomial terms (finite, no component above 2 in size)."""
+    Q = np.ascontiguousarray(A.transpose(1, 2, 0))
     ok = np.all(np.isfinite(A) & (np.abs(A) <= 2.0), axis=(1, 2))
-    _self_costs.pick(F * F // 2)(A, Q, ok, members, offsets, drop, float(rtol), out)
+    return Q, ok
 
 
 @njit(cache=True)

@@ -41,7 +41,7 @@ from numba import njit, prange
 from .dtw_rows import ROW_STATES, best_state, word_dtw_rows
 from .word_bounds import cheap_bounds
 from .ordering import kth_smallest, sort_by_key
-from .self_costs import half_angle_sq, mirror_upper, robust_sum, self_pose_costs
+from .self_costs import half_angle_sq, mirror_upper, pack_groups, robust_sum, self_pose_costs
 from .twins import twin_kernels
 from .word_means import robust_word_means, select_separated_minima, shift_tolerant_angles  # re-exported
 
@@ -109,15 +109,6 @@ def _group_pose_distances(A, B, members, offsets, drop):
 
 
 
-def _pack_groups(groups):
-    """(G, m) boolean group masks -> (members, offsets) CSR arrays for the kernels."""
-    groups = np.asarray(groups, dtype=bool)
-    members = np.concatenate([np.flatnonzero(g) for g in groups]).astype(np.int64)
-    offsets = np.zeros(len(groups) + 1, dtype=np.int64)
-    offsets[1:] = np.cumsum(groups.sum(axis=1))
-    return members, offsets
-
-
 def group_pose_distances(A: np.ndarray, B: np.ndarray, groups: np.ndarray, drop) -> np.ndarray:
     """Eq. 1 pose distances between every frame of ``A`` and of ``B`` for each joint group.
 
@@ -135,7 +126,7 @@ def group_pose_distances(A: np.ndarray, B: np.ndarray, groups: np.ndarray, drop)
     drop = np.asarray(drop, dtype=np.int64).reshape(-1)
     if len(drop) != len(groups) or np.any((drop < 0) | (drop > 3)):
         raise ValueError("drop must give 0..3 for every group")
-    members, offsets = _pack_groups(groups)
+    members, offsets = pack_groups(groups)
     return _group_pose_distances.pick(A.shape[0] * B.shape[0])(A, B, members, offsets, drop)
 
 
@@ -156,7 +147,7 @@ def self_pose_distances(A: np.ndarray, groups: np.ndarray, drop) -> np.ndarray:
     drop = np.asarray(drop, dtype=np.int64).reshape(-1)
     if len(drop) != len(groups) or np.any((drop < 0) | (drop > 3)):
         raise ValueError("drop must give 0..3 for every group")
-    members, offsets = _pack_groups(groups)
+    members, offsets = pack_groups(groups)
     F = A.shape[0]
     out = np.empty((len(groups), F, F), dtype=np.float32)
     if F:
