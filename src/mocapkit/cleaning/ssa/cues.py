@@ -924,10 +924,11 @@ def held_joints(
     travel_deg: float = _D.hold_travel_deg,
     recur_deg: float = 1.0,
     rest_deg: float = 0.01,
+    min_frames: int = 2,
 ) -> np.ndarray:
     """(F, J) bool: joints held still where the mean motion texture says they move (a frozen channel).
 
-    A hold is a run of at least ``min_s`` seconds in which the joint turns
+    A hold is a run of at least ``min_s`` seconds and ``min_frames`` frames in which the joint turns
     slower than ``hold_deg_s`` (a solver or tracker repeating the last value;
     live motion is never that still for long while the body moves on). It is
     flagged when the mean texture's speed ``mean_speed`` (F, J) deg/s at the
@@ -969,7 +970,7 @@ def held_joints(
     if not still.any():
         return out
     pose_hold = still[:, analysed].mean(axis=1) >= 0.5
-    min_frames = max(2, int(np.ceil(min_s * motion.fps)))
+    min_frames = max(int(min_frames), 2, int(np.ceil(min_s * motion.fps)))
     travel = np.nan_to_num(mean_speed) / motion.fps  # degrees per frame
     recur = np.radians(recur_deg)
     for j in np.flatnonzero(still.any(axis=0)):
