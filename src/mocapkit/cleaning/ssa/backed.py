@@ -148,7 +148,11 @@ def backed_offsets(q: np.ndarray, resid: np.ndarray, digression: np.ndarray, ana
 
 
 def backed_breaks(q: np.ndarray, resid: np.ndarray, digression: np.ndarray, analysed: np.ndarray, fps: float, parents=None, jump_deg: float = _D.jump_deg,
-                  min_offset_deg: float = _D.offset_min_deg, memo: dict | None = None) -> np.ndarray:
-    """(F, J) bool: :func:`backed_spikes` or :func:`backed_offsets`, the break frames to add to a take's ``jumps``."""
-    return (backed_spikes(q, resid, analysed, parents, jump_deg, memo=memo)
-            | backed_offsets(q, resid, digression, analysed, fps, parents, jump_deg, min_offset_deg, memo=memo))
+                  min_offset_deg: float = _D.offset_min_deg, memo: dict | None = None, offsets: bool = True) -> np.ndarray:
+    """(F, J) bool: :func:`backed_spikes` or :func:`backed_offsets`, the break frames to add to a take's ``jumps``;
+    ``offsets=False`` leaves the backed offsets out (under the analysis rate:
+    :func:`~mocapkit.cleaning.ssa.coarse_cues.backs_offsets`)."""
+    spikes = backed_spikes(q, resid, analysed, parents, jump_deg, memo=memo)
+    if not offsets:
+        return spikes
+    return spikes | backed_offsets(q, resid, digression, analysed, fps, parents, jump_deg, min_offset_deg, memo=memo)

@@ -926,10 +926,11 @@ def held_joints(
     travel_deg: float = _D.hold_travel_deg,
     recur_deg: float = 1.0,
     rest_deg: float = 0.01,
+    min_frames: int = 2,
 ) -> np.ndarray:
     """(F, J) bool: joints held still where the mean motion texture says they move (a frozen channel).
 
-    A hold is a run of at least ``min_s`` seconds in which the joint turns
+    A hold is a run of at least ``min_s`` seconds (two frames or more) in which the joint turns
     slower than ``hold_deg_s`` (a solver or tracker repeating the last value;
     live motion is never that still for long while the body moves on). It is
     flagged when the mean texture's speed ``mean_speed`` (F, J) deg/s at the
@@ -948,7 +949,8 @@ def held_joints(
     knee sits at exactly 0 for its last 2 s); a frozen channel repeats the
     arbitrary last value it had, never exactly the rest pose. Where a frozen
     joint starts the digression is still small; this finds it from the first
-    held frame.
+    held frame. Only holds of ``min_frames`` frames or more are flagged; shorter ones still count as recurrences
+    (under the analysis rate: :func:`~mocapkit.cleaning.ssa.coarse_cues.hold_min_frames`).
     """
     q = np.asarray(motion.rotations, dtype=np.float64)
     F, J = q.shape[:2]
@@ -971,7 +973,7 @@ def held_joints(
     if not still.any():
         return out
     pose_hold = still[:, analysed].mean(axis=1) >= 0.5
-    min_frames = max(2, int(np.ceil(min_s * motion.fps)))
+    shortest = max(2, int(np.ceil(min_s * motion.fps)))
     travel = np.nan_to_num(mean_speed) / motion.fps  # degrees per frame
     recur = np.radians(recur_deg)
     for j in np.flatnonzero(still.any(axis=0)):
@@ -979,7 +981,7 @@ def held_joints(
             continue
         labels, count = ndimage.label(still[:, j] & ~pose_hold)
         runs = [(run.start, run.stop + 1) for (run,) in ndimage.find_objects(labels)]  # held frames a .. b - 1
-        runs = [(a, b) for a, b in runs if b - a >= min_frames]
+        runs = [(a, b) for a, b in runs if b - a >= shortest]
         if not runs:
             continue
         held = q[[a for a, _ in runs], j]  # (n, 4) the held rotations
@@ -987,6 +989,6 @@ def held_joints(
         np.fill_diagonal(near, False)
         at_rest = R.geodesic_angle(held, R.identity()) <= np.radians(rest_deg)
         for (a, b), exempt in zip(runs, near.any(axis=1) | at_rest):
-            if not exempt and travel[a:b, j].sum() >= travel_deg:
+            if not exempt and b - a >= min_frames and travel[a:b, j].sum() >= travel_deg:
                 out[a:b, j] = True
     return out

@@ -22,6 +22,7 @@ from ...rigs import pelvis_index
 from ..ik import contact_segments
 from . import word_dtw
 from .backed import backed_breaks
+from .coarse_cues import backs_offsets, hold_min_frames
 from .cues import (
     flag_causes,
     held_joints,
@@ -675,11 +676,12 @@ def detect_prepared(an: Analysis, threshold: float = 0.5, *, progress: bool = Fa
     # breaks under the joint's own level whose shape the digression backs (a spike, an offset and its undoing)
     # (a chain turned over in place confirms nothing there either)
     backed = backed_breaks(q, resid, digression, analysed, motion.fps, sk.parents, p.jump_deg, p.offset_min_deg,
-                           memo=chain_memo)
+                           memo=chain_memo, offsets=backs_offsets(motion.fps, p.analysis_fps))
     if backed.any():
         jumps |= backed & position_kept_breaks(positions, sk.parents, unpruned | backed, resid)
     jumps &= analysed[None, :]
-    holds = held_joints(motion, mean_speed, travel_deg=p.hold_travel_deg) & analysed[None, :]
+    holds = held_joints(motion, mean_speed, travel_deg=p.hold_travel_deg,
+                        min_frames=hold_min_frames(motion.fps, p.analysis_fps)) & analysed[None, :]
     # a channel repeated bit for bit while the body moves, ending in a break, needs no similar motion to judge it
     frozen = frozen_channels(q, own, analysed, motion.fps)
     swaps = swaps_from_residuals(resid, sk.joint_names, motion.fps, p.swap_jump_deg, p.swap_max_s, analysed,
