@@ -26,6 +26,7 @@ def info(
     """Print the skeleton, frame count, frame rate, duration and missing data of FILE (or what a mocapkit file holds)."""
     from ..io.bvh_roots import extra_roots
     from ..io.c3d import MarkerSet
+    from ..io.c3d_contents import marker_file_contents
     from ..io.takes import check_asf, load_take
     from ..motion import ROLES, standard_joints, unit_scale_cm
     from ..rigs import rig_family, roles_by_topology
@@ -42,6 +43,7 @@ def info(
                  ("frames", str(obj.num_frames)), ("fps", f"{obj.fps:g}"),
                  ("duration", f"{obj.num_frames / obj.fps:.3f} s"), ("units", obj.units + _UNITS_FROM[obj.units_from]),
                  ("missing", f"{100.0 * obj.missing().mean():.2f} % of marker samples")]
+        rows += marker_file_contents(obj)
         print_fields(rows)
         if joints:
             console.print(", ".join(obj.labels))
