@@ -131,7 +131,7 @@ def test_max_gap_and_max_fill_error_leave_gaps_missing_and_say_why(cut_take, tmp
     code, stdout, stderr = run("clean", inp, "-o", tmp_path / "a.c3d", "--max-gap", "0.01")
     assert code == 0, stderr
     assert np.array_equal(np.isnan(_ezc3d_points(tmp_path / "a.c3d"))[..., 0], mask)  # every gap left as read
-    assert "longer than --max-gap (1 frames): not filled" in stdout  # and named
+    assert "left missing: longer than --max-gap (0.01 s)" in stdout and "no plausible fill" not in stdout  # and named
     code, stdout, stderr = run("clean", inp, "-o", tmp_path / "b.c3d", "--max-fill-error", "0.001")
     assert code == 0, stderr
     assert "left missing: no plausible fill" in stdout and "over the 0 mm a fill may be off" in stdout
