@@ -10,8 +10,8 @@ from typing import Optional
 import typer
 
 from ..errors import MissingFileError, MocapError, MocapFormatError
-from .common import (amc_fps_option, asf_option, console, database_rows, guard, overwrite_option, plural, print_fields,
-                     print_table, save_take, unit_option)
+from .common import (amc_fps_option, asf_option, console, database_rows, guard, keep_modelled_option, overwrite_option,
+                     plural, print_fields, print_table, save_take, unit_option)
 
 
 def info(
@@ -110,6 +110,7 @@ def convert(
     asf: Optional[Path] = asf_option(),
     amc_fps: Optional[float] = amc_fps_option(),
     unit: Optional[str] = unit_option(),
+    keep_modelled: bool = keep_modelled_option(),
     overwrite: bool = overwrite_option(),
 ) -> None:
     """Convert IN to OUT: a motion between BVH, AMC and npz (optionally resampled to --fps), markers between C3D, TRC and npz."""
@@ -135,17 +136,21 @@ def convert(
         if fps is not None:
             raise MocapFormatError(inp, "--fps resamples joint angles; a marker file converts at its own rate")
         io.suffix_kind(out, io.MARKER_FORMATS, "writing markers")
-        io.save_markers(m, out)
-        console.print(f"wrote {out} ({plural(m.num_markers, 'marker')}, {plural(m.num_frames, 'frame')} @ {m.fps:g} fps, "
+        io.save_markers(m, out, keep_modelled=keep_modelled)
+        left = int(sum(m.quantities() != "")) if out.suffix.lower() == ".trc" and not keep_modelled else 0
+        console.print(f"wrote {out} ({plural(m.num_markers - left, 'marker')}, {plural(m.num_frames, 'frame')} @ {m.fps:g} fps, "
                       f"{100.0 * m.missing().mean():.2f} % missing)")
         if m.zero_gaps:
             console.print(f"read {plural(m.zero_gaps, 'sample')} stored as exact (0, 0, 0) as gaps "
                           "(--keep-zeros keeps them as positions)")
-        for note in io.marker_notes(m, out, inp):  # what the reader did, what OUT's format cannot hold
+        # what the reader did, what OUT's format cannot hold or tell apart
+        for note in io.marker_notes(m, out, inp, keep_modelled=keep_modelled):
             console.print(f"note: {note}")
         return
     if zeros_as_gaps is not None:
         raise MocapError("--zeros-as-gaps/--keep-zeros apply to marker files; IN is a motion")
+    if keep_modelled:
+        raise MocapError("--keep-modelled applies to marker files; IN is a motion")
     io.check_writable(m, out)
     r = m.resample(fps) if fps is not None else m
     resampled, m = r is not m, r

@@ -225,6 +225,15 @@ class MarkerCleanResult:
         return ~np.all(same, axis=-1)
 
     @property
+    def fill_mask(self) -> np.ndarray:
+        """(F, M) samples of :attr:`output` that fills made, not recorded ones: gap, spike and duplicate-label fills
+        (none in review mode). A format without residuals (TRC) writes them like recorded ones; the record keeps
+        the masks."""
+        if self.review:
+            return np.zeros(self.filled.shape, dtype=bool)
+        return (self.filled | self.spikes | self.duplicate_mask) & ~self.markers.missing()
+
+    @property
     def duplicate_mask(self) -> np.ndarray:
         """(F, M) :attr:`duplicates`, all False where none was given."""
         return self.duplicates if self.duplicates is not None else np.zeros(self.filled.shape, dtype=bool)
