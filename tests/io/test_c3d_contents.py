@@ -14,12 +14,12 @@ CMU = Path(__file__).resolve().parents[1] / "data" / "85_02.c3d"
 
 def test_a_c3d_with_analogs_force_plates_and_header_events():
     rows = dict(marker_file_contents(load_markers(mocapkit.samples.path("Eb015pr.c3d"))))
-    assert rows == {"first frame": "1", "analogs": "16 channels at 200 Hz", "force plates": "2 (type 2)",
+    assert rows == {"analogs": "16 channels at 200 Hz", "force plates": "2 (type 2)",
                     "events": "3 (1 RIC, 1 RHS, 1 RTO)"}
 
 
 def test_only_what_is_present_is_listed():
-    assert dict(marker_file_contents(load_markers(CMU))) == {"first frame": "1"}  # no analogs, plates or events
+    assert marker_file_contents(load_markers(CMU)) == []  # no analogs, plates or events; frames from 1
     assert marker_file_contents(dataclasses.replace(load_markers(CMU), source=None)) == []  # read from no file
 
 

@@ -48,7 +48,8 @@ def marker_file_contents(markers: MarkerSet) -> list[tuple[str, str]]:
     """``(field, value)`` rows for what ``markers``' file holds besides its trajectories, only those present.
 
     ``first frame``: the file's number of the take's first frame (a C3D's
-    header, a TRC's first ``Frame#``), the frame the take's index 0 is;
+    header, a TRC's first ``Frame#``), the frame the take's index 0 is, where
+    it is not 1 (a trimmed capture: FunctionalWalk.c3d starts at 480);
     for a C3D, ``analogs`` (channel count and rate in Hz), ``force plates``
     (count and types) and ``events`` (count and labels, from the EVENT group,
     else the header's event labels). [] for a take read from no file (npz).
@@ -56,7 +57,8 @@ def marker_file_contents(markers: MarkerSet) -> list[tuple[str, str]]:
     source = markers.source
     if source is None:
         return []
-    rows = [("first frame", str(int(source.first_frame)))]
+    first = int(source.first_frame)
+    rows = [("first frame", str(first))] if first != 1 else []
     if source.format != "c3d":
         return rows
     params = source.parameters
