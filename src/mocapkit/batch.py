@@ -527,7 +527,8 @@ def _clean_job(job: dict) -> dict:
         if hasattr(res, "fixes"):  # a marker capture (cleaning.markers.MarkerCleanResult)
             row.update(frames=res.markers.num_frames, filled=int(res.filled.sum()),
                        spikes=int(res.spikes.sum()), swapped=int(res.swapped.sum()), notes=res.summary()[1:],
-                       warnings=marker_notes(res.original, out))  # what the reader did, what OUT cannot hold
+                       warnings=marker_notes(res.original, out, filled=res.fill_mask,  # what the reader did,
+                                             record=clean_path(out)))  # what OUT cannot hold
         else:
             said = " ".join(s.note for s in res.steps)  # a step's fallback or its model's licence: warnings
             row.update(frames=res.num_frames, filled=int(res.filled.sum()), repaired=int(res.repaired.sum()),

@@ -43,7 +43,7 @@ def refuse_marker_options(inp, names: Sequence[str]) -> None:
 
 def clean_marker_file(inp, out, *, report=None, png=None, overwrite: bool = False, markers=None, steps=None,
                       unit: str | None = None, max_gap_s: float | None = None, max_error_mm: float | None = None,
-                      decisions=None, record=None, review: bool = False):
+                      decisions=None, record=None, review: bool = False, keep_modelled: bool = False):
     """Clean the marker capture at ``inp`` (.c3d, .trc, marker .npz) into ``out`` (.c3d, .trc or .npz).
 
     :func:`mocapkit.cleaning.markers.clean_markers`, then the reports (HTML
@@ -60,7 +60,8 @@ def clean_marker_file(inp, out, *, report=None, png=None, overwrite: bool = Fals
     :class:`~mocapkit.cleaning.markers.MarkerCleanResult` given back
     (:func:`~mocapkit.cleaning.markers.decisions.clean_and_decide`: in review mode the cleaning with ``review``
     set, with decisions the decided capture and its ``decided`` summary; the report draws it); the record keeps
-    the whole cleaning (rebuilt from ``record`` when one is reused).
+    the whole cleaning (rebuilt from ``record`` when one is reused). ``keep_modelled``: a .trc ``out`` keeps
+    the C3D's modelled quantities (:func:`mocapkit.io.save_markers`).
     """
     from .cleaning import decisions as dec
     from .cleaning.decided import apply_command
@@ -106,7 +107,7 @@ def clean_marker_file(inp, out, *, report=None, png=None, overwrite: bool = Fals
             from .report.markers import plot_marker_fixes
 
             plot_marker_fixes(png, given, title=f"{inp.name}: before (grey) and after")
-        save_markers(given.output, out, like=ms, stored_zeros=True)
+        save_markers(given.output, out, like=ms, stored_zeros=True, keep_modelled=keep_modelled)
         if not reuse:  # last: the completion marker
             res.save(record, written={"input": taken, "output": file_facts(out)},
                      request=request)

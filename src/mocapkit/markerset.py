@@ -402,13 +402,26 @@ class MarkerSet:
         joint centres) are listed nowhere; they are found as points no
         camera measured (:meth:`computed`).
         """
-        names: set[str] = set()
+        return (self.quantities() != "") | self.computed()
+
+    def quantities(self) -> np.ndarray:
+        """(M,) str: for each point a C3D lists as a modelled quantity, its kind ("angles", "forces", "moments",
+        "powers", "scalars", "reactions": the POINT group naming it, :data:`MODELLED_GROUPS`, lower case); "" for
+        the others.
+
+        These are no positions: their values are degrees, newtons, newton-millimetres, watts under the file's
+        length unit, so a format that holds only markers in one unit (TRC) leaves them out
+        (:func:`mocapkit.io.trc.write_trc`). Modelled positions (:meth:`computed`) are positions and are not
+        among them. All "" for a take without such a list (TRC, npz).
+        """
+        kinds: dict[str, str] = {}
         point = self.source.parameters.get("POINT", {}) if self.source is not None else {}
         for key in MODELLED_GROUPS:
             param = point.get(key)
             if isinstance(param, Mapping) and param.get("type") == -1:
-                names.update(str(v).strip() for v in np.ravel(param.get("value", [])))
-        return np.array([label in names for label in self.labels], dtype=bool) | self.computed()
+                for v in np.ravel(param.get("value", [])):
+                    kinds.setdefault(str(v).strip(), key.lower())
+        return np.array([kinds.get(label, "") for label in self.labels], dtype=object).astype(str)
 
     def computed(self) -> np.ndarray:
         """Boolean (M,) mask of points a model computed rather than cameras measured.

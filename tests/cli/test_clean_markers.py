@@ -131,7 +131,7 @@ def test_max_gap_and_max_fill_error_leave_gaps_missing_and_say_why(cut_take, tmp
     code, stdout, stderr = run("clean", inp, "-o", tmp_path / "a.c3d", "--max-gap", "0.01")
     assert code == 0, stderr
     assert np.array_equal(np.isnan(_ezc3d_points(tmp_path / "a.c3d"))[..., 0], mask)  # every gap left as read
-    assert "longer than --max-gap (1 frames): not filled" in stdout  # and named
+    assert "left missing: longer than --max-gap (0.01 s)" in stdout and "no plausible fill" not in stdout  # and named
     code, stdout, stderr = run("clean", inp, "-o", tmp_path / "b.c3d", "--max-fill-error", "0.001")
     assert code == 0, stderr
     assert "left missing: no plausible fill" in stdout and "over the 0 mm a fill may be off" in stdout
@@ -196,8 +196,9 @@ def test_what_the_output_format_cannot_hold_is_said_in_one_note(tmp_path):
     code, stdout, _ = run("clean", c3d, "-o", tmp_path / "x.trc")
     assert code == 0
     said = [line for line in stdout.splitlines() if line.startswith("note: ")]
-    assert said == [f"note: {tmp_path / 'x.trc'}: not written, as TRC cannot hold them: the input's 16 analog channels, "
-                    "events, parameter groups, residuals and camera masks (a .c3d output keeps them)"]
+    assert said[-1] == (f"note: {tmp_path / 'x.trc'}: not written, as TRC cannot hold them: the input's 16 analog "
+                        "channels, events, parameter groups, residuals and camera masks (a .c3d output keeps them)")
+    assert all("filled samples" in n or "interpolated" in n for n in said[:-1])  # what TRC cannot tell apart
     code, stdout, _ = run("convert", c3d, tmp_path / "x.npz")
     assert code == 0 and f"note: {tmp_path / 'x.npz'}: not written, as a marker npz cannot hold them" in stdout
     code, stdout, _ = run("clean", c3d, "-o", tmp_path / "y.c3d")
@@ -278,3 +279,52 @@ def test_clean_of_a_missing_file_onto_itself_names_the_missing_file(tmp_path):
     assert code != 0 and one_error_line(err)
     assert "ghost.c3d: no such file" in err and "refusing" not in err
     assert list(tmp_path.iterdir()) == []
+
+
+def test_a_trc_output_says_how_many_of_its_samples_are_fills_and_where_they_are_listed(cut_take, tmp_path):
+    """trial27: 263 filled samples of a cleaned TRC looked exactly like recorded ones and the summary said nothing
+    (a C3D output marks them with residual 0; TRC has no residual column)."""
+    inp, _, mask = cut_take
+    out = tmp_path / "c.trc"
+    code, stdout, stderr = run("clean", inp, "-o", out)
+    assert code == 0, stderr
+    assert (f"note: {out}: {int(mask.sum())} filled samples are written like recorded ones: a TRC has no residual "
+            f"column to tell them apart; {tmp_path / 'c.clean.npz'} lists them") in stdout
+    folder = tmp_path / "in"
+    folder.mkdir()
+    shutil.copy(out, folder / "cut.trc")  # a TRC with gaps, cleaned by a batch into TRC
+    cut = load_markers(out)
+    cut_positions = np.array(cut.positions)
+    cut_positions[mask] = np.nan
+    save_markers(cut.with_positions(cut_positions), folder / "cut.trc")
+    code, stdout, stderr = run("clean-batch", folder, tmp_path / "out", "--executor", "serial")
+    assert code == 0, stderr + stdout
+    assert (f"warning: {folder / 'cut.trc'}: {tmp_path / 'out' / 'cut.trc'}: {int(mask.sum())} filled samples are "
+            "written like recorded ones") in stdout
+    eb = load_markers(mocapkit_sample("Eb015pr.c3d"))  # residuals over 0: its fills are marked with residual 0 ...
+    code, stdout, stderr = run("clean", mocapkit_sample("Eb015pr.c3d"), "-o", tmp_path / "e.c3d")
+    assert code == 0, stderr
+    with np.load(tmp_path / "e.clean.npz") as rec:
+        made = int(rec["filled"].sum() + rec["spikes"].sum())
+    marked = made + int(np.sum(~eb.missing() & (eb.residuals == 0)))  # and so were the capture program's own fills
+    code, stdout, stderr = run("convert", tmp_path / "e.c3d", tmp_path / "again.trc")  # ... which TRC loses: said
+    assert code == 0, stderr
+    assert (f"note: {tmp_path / 'again.trc'}: {marked} samples the input marks as interpolated (residual 0) "
+            "are written like recorded ones") in stdout
+
+
+def test_modelled_quantities_are_left_out_of_a_trc_by_clean_and_convert_unless_kept(shared_data, tmp_path):
+    """trial27: C3D -> TRC wrote Plug-in Gait's angles (deg), forces, moments and powers as markers under Units mm."""
+    inp = shared_data / "c3d_markers" / "PiG_Motion-FlatFoot-Full.c3d"
+    note = "left out 80 modelled quantities, not markers (26 angles, 20 forces, 18 moments, 16 powers)"
+    for args, out in ((["convert", inp], tmp_path / "a.trc"), (["clean", inp, "-o"], tmp_path / "b.trc")):
+        code, stdout, stderr = run(*args, out)
+        assert code == 0, stderr
+        assert f"note: {out}: {note}" in stdout
+        labels = load_markers(out).labels
+        assert len(labels) == 113 and "LHipAngles" not in labels and "LAnklePower" not in labels and "LASI" in labels
+    code, stdout, stderr = run("convert", inp, tmp_path / "c.trc", "--keep-modelled")
+    assert code == 0, stderr
+    assert "modelled quantities" not in stdout and len(load_markers(tmp_path / "c.trc").labels) == 193
+    code, _, stderr = run("clean", SAMPLE, "-o", tmp_path / "d.bvh", "--keep-modelled")
+    assert code != 0 and one_error_line(stderr) and "applies only to marker captures" in stderr

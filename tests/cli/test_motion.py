@@ -17,6 +17,10 @@ def test_info_on_bvh_and_c3d(capsys):
     assert main(["info", str(mocapkit.samples.path("Eb015pr.c3d"))]) == 0
     out = capsys.readouterr().out
     assert "26" in out and "1.93 %" in out
+    # what the C3D holds besides markers, one line each (info said nothing of them)
+    for line in ("analogs       16 channels at 200 Hz", "force plates  2 (type 2)", "events        3 (1 RIC, 1 RHS, 1 RTO)"):
+        assert line in out
+    assert "first frame" not in out  # numbered from 1, as files are: nothing to say
 
 
 def test_convert_resamples_and_round_trips(tmp_path):

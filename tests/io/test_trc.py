@@ -691,3 +691,43 @@ def test_a_take_read_in_an_inferred_unit_is_written_back_byte_for_byte(shared_da
     out = tmp_path / "out.trc"
     save_markers(ms, out)
     assert out.read_bytes() == src.read_bytes()  # the empty Units field kept, every row the file's
+
+
+def test_a_c3ds_modelled_quantities_are_left_out_of_a_trc_and_named(shared_data, tmp_path):
+    """A TRC holds markers under one unit (OpenSim reads every point as one): Plug-in Gait's angles (deg), forces,
+    moments and powers were written as 80 'markers' under Units mm."""
+    from mocapkit.io import marker_notes
+
+    ms = load_markers(shared_data / "c3d_markers" / "PiG_Motion-FlatFoot-Full.c3d")
+    kinds = ms.quantities()
+    assert {k: int(np.sum(kinds == k)) for k in ("angles", "forces", "moments", "powers")} == \
+        {"angles": 26, "forces": 20, "moments": 18, "powers": 16}
+    assert "LHipAngles" in ms.labels and kinds[ms.labels.index("LHipAngles")] == "angles"
+    save_markers(ms, tmp_path / "pig.trc")
+    got = read_trc(tmp_path / "pig.trc")
+    keep = [label for label, k in zip(ms.labels, kinds) if not k]
+    assert got.labels == tuple(keep) and "LHipAngles" not in got.labels and "PELO" in got.labels  # positions kept
+    assert np.allclose(got.positions, ms.select(keep).positions, atol=1e-5, equal_nan=True)
+    assert (f"{tmp_path / 'pig.trc'}: left out 80 modelled quantities, not markers (26 angles, 20 forces, 18 moments, "
+            "16 powers)") in marker_notes(ms, tmp_path / "pig.trc")[0]
+    save_markers(ms, tmp_path / "all.trc", keep_modelled=True)  # asked for: every point, and no such note
+    assert read_trc(tmp_path / "all.trc").labels == ms.labels
+    assert not any("modelled quantities" in n for n in marker_notes(ms, tmp_path / "all.trc", keep_modelled=True))
+
+
+def test_samples_a_trc_cannot_tell_from_recorded_ones_are_counted(tmp_path):
+    """TRC has no residual column: a C3D's interpolated samples (residual 0) and a cleaning's fills read as recorded."""
+    import mocapkit.samples
+    from mocapkit.io import marker_notes
+
+    ms = load_markers(mocapkit.samples.path("Eb015pr.c3d"))
+    seen = ~ms.missing()
+    interpolated = int(np.sum(seen & (ms.residuals == 0)))
+    assert interpolated > 0 and np.any(ms.residuals[seen] > 0)
+    notes = marker_notes(ms, tmp_path / "x.trc")
+    assert any(n.startswith(f"{tmp_path / 'x.trc'}: {interpolated} samples the input marks as interpolated") for n in notes)
+    filled = ms.missing()
+    notes = marker_notes(ms, tmp_path / "x.trc", filled=filled, record=tmp_path / "x.clean.npz")
+    assert (f"{tmp_path / 'x.trc'}: {int(filled.sum())} filled samples are written like recorded ones: a TRC has no "
+            f"residual column to tell them apart; {tmp_path / 'x.clean.npz'} lists them") in "\n".join(notes)
+    assert not any("filled samples" in n or "interpolated" in n for n in marker_notes(ms, tmp_path / "x.c3d"))

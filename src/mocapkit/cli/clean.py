@@ -11,8 +11,8 @@ import typer
 
 from ..errors import MocapError, MocapFormatError
 from .common import (STEPS_HELP, amc_fps_option, asf_option, check_executor, check_noise_deg, console, context_option,
-                     executor_option, guard, max_fill_error_option, max_gap_option, noise_deg_option, overwrite_option,
-                     percent, plural, unit_option)
+                     executor_option, guard, keep_modelled_option, max_fill_error_option, max_gap_option,
+                     noise_deg_option, overwrite_option, percent, plural, unit_option)
 
 
 def _steps(text: str) -> list[str]:
@@ -62,6 +62,7 @@ def clean(
     unit: Optional[str] = unit_option(),
     max_gap: Optional[float] = max_gap_option(),
     max_fill_error: Optional[float] = max_fill_error_option(),
+    keep_modelled: bool = keep_modelled_option(),
     overwrite: bool = overwrite_option(),
 ) -> None:
     """Clean a take: fill gaps, detect and repair erroneous joints, denoise only the noisy cells.
@@ -101,9 +102,11 @@ def clean(
     check_noise_deg(noise_deg)
     if _clean_marker_take(inp, out, report=report, png=png, overwrite=overwrite, not_for_markers=not_for_markers,
                           unit=unit, max_gap_s=max_gap, max_error_mm=max_fill_error, decisions=decisions,
-                          record=record, record_said=record_said, review=tuple(step_list) == ("detect",)):
+                          record=record, record_said=record_said, review=tuple(step_list) == ("detect",),
+                          keep_modelled=keep_modelled):
         return
-    for name, given in (("--max-gap", max_gap), ("--max-fill-error", max_fill_error)):
+    for name, given in (("--max-gap", max_gap), ("--max-fill-error", max_fill_error),
+                        ("--keep-modelled", keep_modelled or None)):
         if given is not None:
             raise MocapError(f"{inp}: {name} applies only to marker captures (.c3d, .trc, marker .npz)")
     models = _models(ebf, ebd)
@@ -224,13 +227,13 @@ def _print_decided(written, decided, frames_note: str) -> None:
 def _clean_marker_take(inp: Path, out: Path, *, report, png, overwrite: bool, not_for_markers: list[str],
                        unit: str | None = None, max_gap_s: float | None = None,
                        max_error_mm: float | None = None, decisions=None, record=None, record_said: str = "--record",
-                       review: bool = False) -> bool:
+                       review: bool = False, keep_modelled: bool = False) -> bool:
     """Clean ``inp`` as a marker capture when it is one (writing OUT, its record and reports); False for a motion.
 
     ``not_for_markers``: the options given that apply only to joint-angle takes, refused for a marker capture;
-    ``unit``: ``--unit``, the length unit of a file that states none; ``decisions``, ``record``, ``review``:
-    :func:`mocapkit.marker_files.clean_marker_file`'s; ``record_said``: how the record was given (``--record``, or
-    OUT's found by ``--decisions``), for a refusal of options beside it.
+    ``unit``: ``--unit``, the length unit of a file that states none; ``decisions``, ``record``, ``review``,
+    ``keep_modelled``: :func:`mocapkit.marker_files.clean_marker_file`'s; ``record_said``: how the record was given
+    (``--record``, or OUT's found by ``--decisions``), for a refusal of options beside it.
     """
     from ..batch import clean_marker_file, refuse_marker_options
     from ..cleaning.pipeline import clean_path
@@ -253,9 +256,11 @@ def _clean_marker_take(inp: Path, out: Path, *, report, png, overwrite: bool, no
             FLAGS, record_said)
     _, res = clean_marker_file(inp, out, report=report, png=png, overwrite=overwrite, markers=take,
                                max_gap_s=max_gap_s, max_error_mm=max_error_mm, decisions=decisions, record=record,
-                               review=review)
+                               review=review, keep_modelled=keep_modelled)
     if res.decided is not None:
         _print_decided(_written(out, record, report, png), res.decided, res.frames_note)
+        for note in marker_notes(take, out, inp, keep_modelled=keep_modelled, filled=res.fill_mask):
+            console.print(f"note: {note}")
         return True
     extra = "".join(f" and {x}" for x in (report, png) if x is not None)
     console.print(f"wrote {out} and {clean_path(out)}{extra}: {plural(take.num_frames, 'frame')} x "
@@ -266,7 +271,8 @@ def _clean_marker_take(inp: Path, out: Path, *, report, png, overwrite: bool, no
         console.print(f"  length unit {take.units}: the file states none ({how})")
     for line in res.summary():
         console.print(f"  {line}")
-    for note in marker_notes(take, out, inp):  # what the reader did, what OUT's format cannot hold
+    # what the reader did, what OUT's format cannot hold or tell apart
+    for note in marker_notes(take, out, inp, keep_modelled=keep_modelled, filled=res.fill_mask, record=clean_path(out)):
         console.print(f"note: {note}")
     for fix in res.fixes[:12]:
         other = f" with {fix.other}" if fix.other and fix.kind == "swap" else ""  # a duplicate's says it in words

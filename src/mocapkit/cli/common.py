@@ -101,6 +101,15 @@ def max_fill_error_option(batch: bool = False):
              + (" Joint-angle takes ignore this and --max-gap." if batch else ""))
 
 
+def keep_modelled_option():
+    """The ``--keep-modelled`` option of ``convert`` and ``clean``: a .trc output written from a C3D keeps its
+    modelled quantities (angles, forces, moments, powers) as points (:func:`mocapkit.io.save_markers`)."""
+    return typer.Option(
+        False, "--keep-modelled",
+        help="Marker captures to .trc: also write the C3D's modelled quantities (joint angles, forces, moments, "
+             "powers) as points, under the TRC's length unit; left out by default (a TRC holds markers: OpenSim).")
+
+
 CONTEXT_HELP = ("What the take is compared with: a motion database folder, a folder of takes or motion files "
                 "(repeat the option; built into a database once and cached under $MOCAPKIT_CACHE_DIR/contexts, else "
                 "$XDG_CACHE_HOME/mocapkit/contexts or ~/.cache/mocapkit/contexts), or 'none' for the clip alone. Default: the bundled default context "

@@ -10,8 +10,8 @@ from typing import Optional
 import typer
 
 from ..errors import MissingFileError, MocapError, MocapFormatError
-from .common import (amc_fps_option, asf_option, console, database_rows, guard, overwrite_option, plural, print_fields,
-                     print_table, save_take, unit_option)
+from .common import (amc_fps_option, asf_option, console, database_rows, guard, keep_modelled_option, overwrite_option,
+                     plural, print_fields, print_table, save_take, unit_option)
 
 
 def info(
@@ -26,6 +26,7 @@ def info(
     """Print the skeleton, frame count, frame rate, duration and missing data of FILE (or what a mocapkit file holds)."""
     from ..io.bvh_roots import extra_roots
     from ..io.c3d import MarkerSet
+    from ..io.c3d_contents import marker_file_contents
     from ..io.takes import check_asf, load_take
     from ..motion import ROLES, standard_joints, unit_scale_cm
     from ..rigs import rig_family, roles_by_topology
@@ -42,6 +43,7 @@ def info(
                  ("frames", str(obj.num_frames)), ("fps", f"{obj.fps:g}"),
                  ("duration", f"{obj.num_frames / obj.fps:.3f} s"), ("units", obj.units + _UNITS_FROM[obj.units_from]),
                  ("missing", f"{100.0 * obj.missing().mean():.2f} % of marker samples")]
+        rows += marker_file_contents(obj)
         print_fields(rows)
         if joints:
             console.print(", ".join(obj.labels))
@@ -108,6 +110,7 @@ def convert(
     asf: Optional[Path] = asf_option(),
     amc_fps: Optional[float] = amc_fps_option(),
     unit: Optional[str] = unit_option(),
+    keep_modelled: bool = keep_modelled_option(),
     overwrite: bool = overwrite_option(),
 ) -> None:
     """Convert IN to OUT: a motion between BVH, AMC and npz (optionally resampled to --fps), markers between C3D, TRC and npz."""
@@ -133,17 +136,21 @@ def convert(
         if fps is not None:
             raise MocapFormatError(inp, "--fps resamples joint angles; a marker file converts at its own rate")
         io.suffix_kind(out, io.MARKER_FORMATS, "writing markers")
-        io.save_markers(m, out)
-        console.print(f"wrote {out} ({plural(m.num_markers, 'marker')}, {plural(m.num_frames, 'frame')} @ {m.fps:g} fps, "
+        io.save_markers(m, out, keep_modelled=keep_modelled)
+        left = int(sum(m.quantities() != "")) if out.suffix.lower() == ".trc" and not keep_modelled else 0
+        console.print(f"wrote {out} ({plural(m.num_markers - left, 'marker')}, {plural(m.num_frames, 'frame')} @ {m.fps:g} fps, "
                       f"{100.0 * m.missing().mean():.2f} % missing)")
         if m.zero_gaps:
             console.print(f"read {plural(m.zero_gaps, 'sample')} stored as exact (0, 0, 0) as gaps "
                           "(--keep-zeros keeps them as positions)")
-        for note in io.marker_notes(m, out, inp):  # what the reader did, what OUT's format cannot hold
+        # what the reader did, what OUT's format cannot hold or tell apart
+        for note in io.marker_notes(m, out, inp, keep_modelled=keep_modelled):
             console.print(f"note: {note}")
         return
     if zeros_as_gaps is not None:
         raise MocapError("--zeros-as-gaps/--keep-zeros apply to marker files; IN is a motion")
+    if keep_modelled:
+        raise MocapError("--keep-modelled applies to marker files; IN is a motion")
     io.check_writable(m, out)
     r = m.resample(fps) if fps is not None else m
     resampled, m = r is not m, r
@@ -312,6 +319,7 @@ def _info_of_own_file(path: Path) -> bool:
             console.print(f"  {line}")
         return True
     if name.endswith(".clean.npz") and {"kind", "changed", "labels"} <= keys:
+        from ..cleaning.markers.gaps import TOO_LONG
         from ..cleaning.markers.record import read_marker_record
 
         rec = read_marker_record(path)
@@ -328,7 +336,10 @@ def _info_of_own_file(path: Path) -> bool:
             rows.append(("coincident", f"{plural(len(rec.coincident), 'run')} of two markers at one position, "
                                        "which is the duplicate not told (left as recorded)"))
         if rec.unfilled:
-            rows.append(("left missing", f"{plural(len(rec.unfilled), 'gap')} (no plausible fill)"))
+            long = sum(1 for x in rec.unfilled if str(x.get("note", "")).startswith(TOO_LONG))
+            why = [f"{n} {what}" for n, what in ((len(rec.unfilled) - long, "no plausible fill"),
+                                                 (long, "longer than --max-gap")) if n]
+            rows.append(("left missing", f"{plural(len(rec.unfilled), 'gap')} ({', '.join(why)})"))
         if rec.never_seen:
             rows.append(("never seen", ", ".join(rec.never_seen)))
         if rec.unlabelled:

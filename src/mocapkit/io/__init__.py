@@ -103,7 +103,8 @@ def load_markers(path, **kwargs) -> MarkerSet:
     return read_c3d(path, **kwargs)
 
 
-def save_markers(markers: MarkerSet, path, *, like=None, stored_zeros: bool = False) -> Path:
+def save_markers(markers: MarkerSet, path, *, like=None, stored_zeros: bool = False,
+                 keep_modelled: bool = False) -> Path:
     """Write ``markers`` to ``path`` (.c3d, .trc or .npz, by suffix) atomically; returns the path.
 
     ``like`` (a MarkerSet or a file of the same format) supplies the file
@@ -112,7 +113,10 @@ def save_markers(markers: MarkerSet, path, *, like=None, stored_zeros: bool = Fa
     ``markers`` was read from are kept when it had the same format.
     ``stored_zeros`` (C3D): a gap the file stored as exact (0, 0, 0) that is
     still missing is written back as the file had it
-    (:func:`~mocapkit.io.c3d.write_c3d`), not as residual -1.
+    (:func:`~mocapkit.io.c3d.write_c3d`), not as residual -1. A .trc
+    holds markers only: a C3D's modelled quantities (angles, forces, moments,
+    powers) are left out unless ``keep_modelled``
+    (:func:`mocapkit.io.trc.write_trc`).
     """
     path = Path(path)
     kind = suffix_kind(path, MARKER_FORMATS, "writing markers")
@@ -125,7 +129,7 @@ def save_markers(markers: MarkerSet, path, *, like=None, stored_zeros: bool = Fa
     elif kind == "trc":
         from .trc import write_trc
 
-        write_trc(markers, path, like=like)
+        write_trc(markers, path, like=like, keep_modelled=keep_modelled)
     else:
         from .c3d import write_c3d
 
@@ -133,7 +137,8 @@ def save_markers(markers: MarkerSet, path, *, like=None, stored_zeros: bool = Fa
     return path
 
 
-def marker_notes(markers: MarkerSet, path, inp=None) -> list[str]:
+def marker_notes(markers: MarkerSet, path, inp=None, *, keep_modelled: bool = False, filled=None,
+                 record=None) -> list[str]:
     """What a command tells its user when it writes ``markers`` (read from ``inp``) to ``path``: one line each.
 
     The reader's notes (``markers.notes``: labels a file repeats, trajectories
@@ -142,6 +147,15 @@ def marker_notes(markers: MarkerSet, path, inp=None) -> list[str]:
     parameter groups, residuals and camera masks in a .trc or .npz; a TRC's
     header rates and counts in a .c3d or .npz), so that nothing is dropped
     without a word. Each line names the file it is about (``inp``, ``path``).
+
+    A .trc also gets a line for the modelled quantities it leaves out (count
+    and kinds, :meth:`MarkerSet.quantities`; none with ``keep_modelled``), and
+    one for the samples it writes like recorded ones although they are not,
+    as a TRC has no residual column to mark them: those ``markers`` marks as
+    interpolated (residual 0 where other samples have a residual over 0: a
+    capture program's fills, or a cleaned C3D's), and ``filled`` ((F, M) bool:
+    the samples a cleaning's fills made), with ``record``, the file that lists
+    them (a ``.clean.npz``).
     """
     import numpy as np
 
@@ -167,6 +181,10 @@ def marker_notes(markers: MarkerSet, path, inp=None) -> list[str]:
                   if source.parameters.get(k)]
         if fields:
             lost.append(f"TRC header fields {', '.join(fields)}")
+    if kind == "trc":
+        from .trc import trc_notes
+
+        notes += trc_notes(markers, path, keep_modelled=keep_modelled, filled=filled, record=record)
     if lost:
         what = ", ".join(lost[:-1]) + (" and " if len(lost) > 1 else "") + lost[-1]
         fmt = {"trc": "TRC", "npz": "a marker npz", "c3d": "C3D"}[kind]

@@ -18,11 +18,11 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import MocapFormatError, SkeletonError
-from ..markerset import MarkerSet, MarkerSource, marker_units, repeated_labels_note, unique_labels
+from ..markerset import MODELLED_GROUPS, MarkerSet, MarkerSource, marker_units, repeated_labels_note, unique_labels
 from ..motion import check_fps
 from .c3d import apply_zero_gaps, checked_unit_cm
 
-__all__ = ["read_trc", "write_trc", "TRC_DECIMALS"]
+__all__ = ["read_trc", "write_trc", "trc_notes", "TRC_DECIMALS"]
 
 TRC_DECIMALS = 5  # coordinates written with 5 decimals (Cortex and OpenSim write 5)
 _HEADER_KEYS = ("DataRate", "CameraRate", "NumFrames", "NumMarkers", "Units",
@@ -384,7 +384,7 @@ def _rate(x: float) -> str:
     return f"{x:.2f}" if round(x, 2) == x else repr(float(x))
 
 
-def write_trc(markers: MarkerSet, path, *, like=None, decimals: int = TRC_DECIMALS) -> None:
+def write_trc(markers: MarkerSet, path, *, like=None, decimals: int = TRC_DECIMALS, keep_modelled: bool = False) -> None:
     """Write ``markers`` as a tab-separated TRC file, atomically (temp file + rename).
 
     A take read from a TRC file (or written ``like`` one) whose markers are
@@ -407,10 +407,20 @@ def write_trc(markers: MarkerSet, path, *, like=None, decimals: int = TRC_DECIMA
     PathFileType line's name come from ``like`` (a MarkerSet or a TRC file)
     or the TRC file ``markers`` was read from, else they restate the take's
     own rate and frames.
+
+    A TRC holds markers, all in one length unit (``Units``), and OpenSim reads
+    every point of it as one: the modelled quantities a C3D lists as points
+    (joint angles in degrees, forces, moments, powers:
+    :meth:`MarkerSet.quantities <mocapkit.markerset.MarkerSet.quantities>`)
+    are left out unless ``keep_modelled`` (:func:`mocapkit.io.marker_notes`
+    names them). Modelled positions (segment axes, centre of mass) are kept.
     """
     from . import atomic_write
 
     path = Path(path)
+    quantities = markers.quantities() != ""
+    if quantities.any() and not keep_modelled:
+        markers = markers.select([label for label, q in zip(markers.labels, quantities) if not q])
     if markers.num_markers == 0 or markers.num_frames == 0:
         raise MocapFormatError(path, "a TRC file needs at least one marker and one frame")
     # a file's own label may be empty (read as M and its place, and so again when written back)
@@ -566,6 +576,44 @@ def _set_field(names_line: str, values_line: str, key: str, was: int, value: int
         except ValueError:
             pass
     return "\t".join(values) + values_line[len(body):]
+
+
+def trc_notes(markers: MarkerSet, path, *, keep_modelled: bool = False, filled=None, record=None) -> list[str]:
+    """The lines a command says when it writes ``markers`` to the TRC ``path`` (:func:`mocapkit.io.marker_notes`'s).
+
+    - the modelled quantities :func:`write_trc` leaves out (none with
+      ``keep_modelled``): their count and kinds (:meth:`MarkerSet.quantities`);
+    - the samples the file holds that are no recorded ones, which a TRC
+      (no residual column) writes like recorded ones: ``filled`` ((F, M) bool,
+      the fills of a cleaning) with ``record``, the file that lists them;
+      and the samples ``markers`` marks as interpolated (residual 0 where
+      some other sample of a marker has one over 0, modelled points and
+      unlabelled trajectories aside: a capture program's fills, or those of
+      a cleaned C3D), which a .c3d output keeps marked.
+    """
+    from collections import Counter
+
+    notes = []
+    kinds = markers.quantities()
+    if not keep_modelled and np.any(kinds != ""):
+        n = Counter(k for k in kinds if k)
+        counted = ", ".join(f"{n[g.lower()]} {g.lower()}" for g in MODELLED_GROUPS if n[g.lower()])
+        notes.append(f"{path}: left out {int(np.sum(kinds != ''))} modelled quantities, not markers ({counted}): "
+                     "a TRC holds markers in one length unit (--keep-modelled writes them as points)")
+    if filled is not None and np.any(filled):
+        where = f"; {record} lists them (its masks filled, spikes, duplicates)" if record is not None else ""
+        notes.append(f"{path}: {int(np.sum(filled))} filled samples are written like recorded ones: a TRC has no "
+                     f"residual column to tell them apart{where}")
+    res = markers.residuals
+    if res is not None:
+        cols = ~markers.modelled() & ~markers.unlabelled()
+        seen = ~markers.missing()[:, cols]
+        r = res[:, cols]
+        marked = seen & (r == 0) & ~(filled[:, cols] if filled is not None else False)
+        if marked.any() and np.any(r[seen] > 0):
+            notes.append(f"{path}: {int(marked.sum())} samples the input marks as interpolated (residual 0) are "
+                         "written like recorded ones: a TRC has no residual column (a .c3d output keeps them marked)")
+    return notes
 
 
 def _new_text(markers: MarkerSet, path: Path, source: MarkerSource | None, first: int, decimals: int) -> str:

@@ -352,3 +352,18 @@ def test_a_take_whose_residuals_are_all_zero_is_told_its_fills_cannot_be_told_ap
     assert any("residuals are all 0" in line and ".clean.npz" in line for line in lines)
     measured = dataclasses.replace(cmu, positions=x, residuals=np.ones(x.shape[:2]))  # as CMU's file is not
     assert not any("residuals are all 0" in line for line in clean_markers(measured).summary())
+
+
+def test_gaps_skipped_by_max_gap_are_not_called_implausible_fills(cmu):
+    """A gap longer than max_gap_s is never filled, so no fill of it was implausible: the summary and the fix say
+    "longer than --max-gap (N s)", apart from the gaps whose fills were rejected."""
+    pos = np.array(cmu.positions)
+    pos[100:160, 3] = np.nan  # 0.5 s: over the 0.25 s limit
+    pos[300:310, 7] = np.nan  # 10 frames: under it, filled
+    res = clean_markers(cmu.with_positions(pos), max_gap_s=0.25)
+    assert [(x.marker, x.start, x.end) for x in res.unfilled] == [(cmu.labels[3], 100, 160)]
+    assert res.unfilled[0].too_long and res.filled[300:310, 7].all()
+    said = [line for line in res.summary() if "left missing" in line]
+    assert said == [f"1 gap (60 samples) left missing: longer than --max-gap (0.25 s): {cmu.labels[3]} frames "
+                    "100-159 (0.50 s)"]
+    assert res.unfilled[0].size_text == "0.50 s: left missing: longer than --max-gap (0.25 s)"

@@ -38,7 +38,7 @@ import numpy as np
 
 from ...markerset import check_units, subject_of
 from .duplicates import find_duplicates
-from .gaps import SMOOTH_S, fill_gaps, nobody_seen
+from .gaps import SMOOTH_S, TOO_LONG, fill_gaps, nobody_seen
 from .rigid import distance_stats
 from .spikes import spike_mask
 from .swaps import undo_swaps
@@ -104,6 +104,12 @@ class MarkerFix:
         return f"{self.seconds:.2f} s, {how}, {doubt}" + (f" ({self.fill_note})" if self.fill_note else "")
 
     @property
+    def too_long(self) -> bool:
+        """Whether this gap was left missing because it is longer than ``max_gap_s`` (``--max-gap``): no fill was
+        tried, so none was found implausible."""
+        return self.note.startswith(TOO_LONG)
+
+    @property
     def size_text(self) -> str:
         """``size_mm`` in words, after a gap's :attr:`fill_text`: what the number measures differs by kind (a gap's is no error)."""
         if self.kind == "duplicate":
@@ -114,6 +120,8 @@ class MarkerFix:
         if self.kind == "coincident":
             return (f"at the same position as {self.other} ({self.size_mm:.1f} mm apart at most): one is a duplicate "
                     f"label, which one cannot be told ({self.note}): both left as recorded")
+        if self.too_long:
+            return f"{self.seconds:.2f} s: left missing: {self.note}"
         if self.note:
             return f"{self.fill_text or 'removed'}: left missing: no plausible fill ({self.note})"
         what = {"gap": "fill up to {} mm off the straight line between the gap's ends" if self.ends != 1 else
@@ -217,6 +225,15 @@ class MarkerCleanResult:
         return ~np.all(same, axis=-1)
 
     @property
+    def fill_mask(self) -> np.ndarray:
+        """(F, M) samples of :attr:`output` that fills made, not recorded ones: gap, spike and duplicate-label fills
+        (none in review mode). A format without residuals (TRC) writes them like recorded ones; the record keeps
+        the masks."""
+        if self.review:
+            return np.zeros(self.filled.shape, dtype=bool)
+        return (self.filled | self.spikes | self.duplicate_mask) & ~self.markers.missing()
+
+    @property
     def duplicate_mask(self) -> np.ndarray:
         """(F, M) :attr:`duplicates`, all False where none was given."""
         return self.duplicates if self.duplicates is not None else np.zeros(self.filled.shape, dtype=bool)
@@ -256,15 +273,19 @@ class MarkerCleanResult:
             lines.append(f"{x.marker} and {x.other} frames {x.start}-{x.end - 1}: at the same position "
                          f"({x.size_mm:.1f} mm apart at most); one is a duplicate label, which one cannot be told "
                          f"({x.note}): both left as recorded")
-        if self.unfilled:
-            n = len(self.unfilled)
+        long = [x for x in self.unfilled if x.too_long]
+        for group, why in ((long, long[0].note if long else ""),
+                           ([x for x in self.unfilled if not x.too_long], "no plausible fill")):
+            if not group:
+                continue
+            n = len(group)
             shown = "; ".join(f"{x.marker} frames {x.start}-{x.end - 1} ({'a spike removed, ' if x.kind == 'spike' else ''}"
-                              f"{x.seconds:.2f} s: {x.note})" for x in self.unfilled[:3])
+                              f"{x.seconds:.2f} s" + ("" if x.too_long else f": {x.note}") + ")" for x in group[:3])
             more = f"; ... and {n - 3} more" if n > 3 else ""
-            spikes = sum(1 for x in self.unfilled if x.kind == "spike")
+            spikes = sum(1 for x in group if x.kind == "spike")
             of = f"; {spikes} of them spikes removed" if spikes else ""
-            lines.append(f"{n} gap{'s' if n > 1 else ''} ({sum(x.end - x.start for x in self.unfilled)} samples{of}) "
-                         f"left missing: no plausible fill: {shown}{more}")
+            lines.append(f"{n} gap{'s' if n > 1 else ''} ({sum(x.end - x.start for x in group)} samples{of}) "
+                         f"left missing: {why}: {shown}{more}")
         marker = "labelled marker" if self.unlabelled else "marker"
         for where, (a, b) in (("start", self.unseen_start), ("end", self.unseen_end)):
             if b > a:
@@ -439,8 +460,9 @@ def clean_markers(markers, *, steps=STEPS, spike_mm: float = 15.0, swap_mm: floa
                        donors=", ".join(labels[d] for d in r.donors), expected_mm=r.expected_error * unit_mm,
                        models=r.models, fill_note=r.note)
             if not r.filled:  # no plausible fill: left missing, and said so (a spike run's samples removed: a change)
+                why = f"{TOO_LONG} ({max_gap_s:g} s)" if r.implausible.startswith(TOO_LONG) else r.implausible
                 left_fix = MarkerFix(labels[r.marker], r.start, r.end, "spike" if is_spike else "gap", float("nan"),
-                                     note=r.implausible, **how)
+                                     note=why, **how)
                 unfilled.append(left_fix)
                 if is_spike:
                     fixes.append(left_fix)

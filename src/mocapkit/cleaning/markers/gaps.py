@@ -74,7 +74,11 @@ from .plausible import TakeLimits, implausible, take_limits
 from .rigid import DistanceStats, distance_stats, donor_order, from_local, local_frames, to_local
 
 __all__ = ["GapFill", "SMOOTH_S", "gap_runs", "fill_gaps", "nobody_seen", "error_limits", "MIN_ERROR_LIMIT_MM",
-           "MAX_DONOR_SPREAD_MM", "donors_allowed"]
+           "MAX_DONOR_SPREAD_MM", "donors_allowed", "TOO_LONG"]
+
+TOO_LONG = "longer than --max-gap"
+"""The start of :attr:`GapFill.implausible` for a gap left missing because it is longer than ``max_gap``: no fill
+was tried, so it is no implausible fill (:meth:`MarkerFix.too_long <mocapkit.cleaning.markers.MarkerFix.too_long>`)."""
 
 MIN_ERROR_LIMIT_MM = 50.0
 """The least default limit on a fill's expected error (mm): see :func:`error_limits`."""
@@ -556,8 +560,7 @@ def fill_gaps(positions: np.ndarray, *, stats: DistanceStats | None = None, cand
         for a, b in zip(*gap_runs(missing[:, m])):
             a, b = int(a), int(b)
             if max_gap is not None and b - a > max_gap:  # left missing, and said so
-                records.append(GapFill(int(m), a, b, "", implausible=f"longer than --max-gap ({max_gap} frames): "
-                                                                     "not filled"))
+                records.append(GapFill(int(m), a, b, "", implausible=f"{TOO_LONG} ({max_gap} frames)"))
                 continue
             rec = _fill_one(pos, out, int(m), a, b, order, stats, candidates, keep, predictors, constrain,
                             limits, unit_mm, smooth, float(worst[m]), first_frame)

@@ -1,0 +1,83 @@
+"""What a marker file holds besides its trajectories, in words: a C3D's analog channels, force plates and events,
+and the number of the file's first frame.
+
+``mocapkit info`` prints these lines for a marker file, so that a user sees
+what a .trc or .npz output would leave out and how the file's frame numbers
+relate to the take's 0-based indexes before converting or cleaning it. The
+values come from the C3D parameter section as the reader kept it
+(:class:`~mocapkit.markerset.MarkerSource`): ANALOG:USED and ANALOG:RATE,
+FORCE_PLATFORM:USED and TYPE, EVENT:USED and LABELS, else the header's
+events (C3D format: Motion Lab Systems, "The C3D File Format User Guide",
+c3d.org).
+"""
+
+from __future__ import annotations
+
+from collections import Counter
+
+import numpy as np
+
+from ..markerset import MarkerSet
+
+__all__ = ["marker_file_contents"]
+
+
+def _values(parameters, group: str, name: str) -> list:
+    """The values of parameter ``group:name`` as a flat list ([] when the file has none)."""
+    grp = parameters.get(group, {})
+    param = grp.get(name) if isinstance(grp, dict) else None
+    if not isinstance(param, dict):
+        return []
+    return list(np.ravel(param.get("value", [])))
+
+
+def _first_int(values) -> int:
+    """The first value as an int, 0 for none or one that is not a number."""
+    try:
+        return int(values[0]) if values else 0
+    except (TypeError, ValueError):
+        return 0
+
+
+def _counted(names) -> str:
+    """``["Foot Strike", "Foot Off", "Foot Strike"]`` -> "2 Foot Strike, 1 Foot Off" (in order of first use)."""
+    return ", ".join(f"{n} {name}" for name, n in Counter(names).items())
+
+
+def marker_file_contents(markers: MarkerSet) -> list[tuple[str, str]]:
+    """``(field, value)`` rows for what ``markers``' file holds besides its trajectories, only those present.
+
+    ``first frame``: the file's number of the take's first frame (a C3D's
+    header, a TRC's first ``Frame#``), the frame the take's index 0 is, where
+    it is not 1 (a trimmed capture: FunctionalWalk.c3d starts at 480);
+    for a C3D, ``analogs`` (channel count and rate in Hz), ``force plates``
+    (count and types) and ``events`` (count and labels, from the EVENT group,
+    else the header's event labels). [] for a take read from no file (npz).
+    """
+    source = markers.source
+    if source is None:
+        return []
+    first = int(source.first_frame)
+    rows = [("first frame", str(first))] if first != 1 else []
+    if source.format != "c3d":
+        return rows
+    params = source.parameters
+    channels = source.analogs.shape[0] if source.analogs is not None else 0
+    if channels:
+        rate = _values(params, "ANALOG", "RATE")
+        hz = float(rate[0]) if rate else markers.fps * source.analog_ratio(markers.num_frames)
+        rows.append(("analogs", f"{channels} channel{'s' if channels > 1 else ''} at {hz:g} Hz"))
+    plates = _first_int(_values(params, "FORCE_PLATFORM", "USED"))
+    if plates > 0:
+        types = [str(t) for t in _values(params, "FORCE_PLATFORM", "TYPE")[:plates]]
+        kinds = f" (type {', '.join(dict.fromkeys(types))})" if types else ""
+        rows.append(("force plates", f"{plates}{kinds}"))
+    used = _first_int(_values(params, "EVENT", "USED"))
+    labels = [str(x).strip() for x in _values(params, "EVENT", "LABELS")[:used]] if used > 0 else []
+    if not labels:
+        labels = [str(label).strip() for _, label, _ in source.events]
+    if labels:
+        rows.append(("events", f"{len(labels)} ({_counted(labels)})"))
+    elif used > 0:
+        rows.append(("events", str(used)))
+    return rows
