@@ -339,6 +339,19 @@ def _swap_sources(x: np.ndarray, y: np.ndarray, swapped: np.ndarray) -> np.ndarr
     return src
 
 
+def _edge_spikes(spikes: np.ndarray, recorded: np.ndarray, filled: np.ndarray, a: int, b: int, label: str,
+                 unit_mm: float) -> list[MarkerFix]:
+    """The spike fixes inside a filled gap ``a <= f < b`` of one marker: runs removed beside the gap (found by
+    :mod:`~mocapkit.cleaning.markers.edges`) are filled with it, and named as spikes. ``spikes`` (F,) its spike
+    mask, ``recorded`` and ``filled`` (F, 3) its samples before and after (capture unit)."""
+    d = np.diff(np.concatenate([[0], spikes[a:b].astype(np.int8), [0]]))
+    out = []
+    for s, e in zip(np.flatnonzero(d == 1) + a, np.flatnonzero(d == -1) + a):
+        size = float(np.max(np.linalg.norm(recorded[s:e] - filled[s:e], axis=-1))) * unit_mm
+        out.append(MarkerFix(label, int(s), int(e), "spike", size))
+    return out
+
+
 def clean_markers(markers, *, steps=STEPS, spike_mm: float = 15.0, swap_mm: float = 15.0,
                   max_gap_s: float | None = None, constrain: bool = True,
                   max_error_mm: float | None = None) -> MarkerCleanResult:
@@ -458,6 +471,8 @@ def clean_markers(markers, *, steps=STEPS, spike_mm: float = 15.0, swap_mm: floa
                 line = (1 - u) * ref[0] + u * ref[-1]
                 size = float(np.max(np.linalg.norm(out[run, r.marker] - line, axis=-1)))
                 fixes.append(MarkerFix(labels[r.marker], a, b, "gap", size * unit_mm, ends=len(ends), **how))
+                fixes.extend(_edge_spikes(spikes[:, r.marker], before_fill[:, r.marker], out[:, r.marker], a, b,
+                                          labels[r.marker], unit_mm))
     for d in found:  # a duplicate no fill reached stays missing rather than wrong (size NaN: the summary says so)
         run = slice(d.start, d.end)
         gone = np.any(np.isnan(y[run, d.marker]))

@@ -59,6 +59,7 @@ from itertools import combinations
 
 import numpy as np
 
+from .edges import edge_glitch_mask
 from .rigid import DistanceStats, distance_stats, donor_order, from_local, local_frames, to_local
 
 __all__ = ["spike_mask", "prediction_matrix", "rigid_deviation", "partner_motion"]
@@ -561,4 +562,10 @@ def spike_mask(positions: np.ndarray, unit_mm: float = 1.0, *, threshold_mm: flo
             if len(left) == len(runs):
                 break
             runs = left
+    if rigid:  # runs beside a gap or the take's ends, which the two-sided test above cannot judge
+        if stats is None:
+            stats = distance_stats(x)
+        if order is None:
+            order = donor_order(stats)
+        mask |= edge_glitch_mask(x, mask, thr, order, max_len=max_len, context=context, reach=pad)
     return mask
