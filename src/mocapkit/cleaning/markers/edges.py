@@ -44,7 +44,7 @@ import numpy as np
 
 from .rigid import from_local, local_frames, to_local
 
-__all__ = ["edge_glitch_mask", "one_sided_rigid_miss"]
+__all__ = ["edge_glitch_mask", "edge_candidates", "one_sided_rigid_miss"]
 
 
 def one_sided_rigid_miss(track: np.ndarray, neighbours: np.ndarray, run: np.ndarray, anchor: int,
@@ -107,16 +107,60 @@ def one_sided_rigid_miss(track: np.ndarray, neighbours: np.ndarray, run: np.ndar
     return best
 
 
-def _edges(seen: np.ndarray) -> list[tuple[int, int]]:
-    """(first, step) of each edge of the seen runs of one marker's ``seen`` (F,): the run's first frame with step +1
-    (it follows a gap or the take's start), its last with step -1 (a gap or the take's end follows)."""
-    d = np.diff(np.concatenate([[0], seen.astype(np.int8), [0]]))
-    starts, ends = np.flatnonzero(d == 1), np.flatnonzero(d == -1)
-    return [(int(s), 1) for s in starts] + [(int(e) - 1, -1) for e in ends]
+def _edges(seen: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(E,) frame, step and marker of each edge of the seen runs in ``seen`` (F, M): a run's first frame with step
+    +1 (it follows a gap or the take's start), its last with step -1 (a gap or the take's end follows)."""
+    f, m = seen.shape
+    pad = np.zeros((1, m), dtype=np.int8)
+    d = np.diff(np.concatenate([pad, seen.astype(np.int8), pad]), axis=0)  # (F + 1, M)
+    t1, m1 = np.nonzero(d == 1)
+    t2, m2 = np.nonzero(d == -1)
+    return (np.concatenate([t1, t2 - 1]), np.concatenate([np.ones(t1.size, int), -np.ones(t2.size, int)]),
+            np.concatenate([m1, m2]))
+
+
+def edge_candidates(positions: np.ndarray, suspect: np.ndarray, thr: np.ndarray, max_len: int = 5,
+                    context: int = 3) -> list[tuple[int, int, np.ndarray, int, float]]:
+    """The runs at edges that the test in time takes (see the module's docstring), before the rigid test.
+
+    Returns ``(marker, edge frame, run frames, anchor frame, miss)``: the run's frames
+    (from the edge in), the seen frame next to it on its seen side, and its
+    samples' smallest distance to the straight line (capture unit). All
+    edges are tested at once for each of the few (start, length) pairs.
+    """
+    x = np.asarray(positions, dtype=np.float64)
+    f = x.shape[0]
+    seen = ~np.any(np.isnan(x), axis=-1)
+    clear = seen & ~suspect
+    edge, step, mk = _edges(seen)
+    if edge.size == 0:
+        return []
+    k = np.arange(context + max_len + context)
+    frames = edge[:, None] + step[:, None] * k[None, :]  # (E, K) frames from the edge in
+    inside = (frames >= 0) & (frames < f)
+    fr = np.clip(frames, 0, f - 1)
+    tr = x[fr, mk[:, None]]  # (E, K, 3)
+    ok = clear[fr, mk[:, None]] & inside
+    sn = seen[fr, mk[:, None]] & inside
+    t = thr[mk]
+    out = []
+    for a in range(context):
+        for b in range(a + 1, a + max_len + 1):
+            p, q, r = tr[:, b], tr[:, b + 1], tr[:, b + 2]
+            use = ok[:, b:b + context].all(axis=1) & sn[:, :b].all(axis=1) & ok[:, a:b].all(axis=1)
+            use &= np.linalg.norm(p - 2.0 * q + r, axis=-1) <= 0.5 * t  # a context that holds a jump is none
+            line = p[:, None, :] + (p - q)[:, None, :] * (b - np.arange(b))[None, :, None]
+            off = np.linalg.norm(tr[:, :b] - line, axis=-1)  # (E, b)
+            miss = np.min(off[:, a:], axis=1)
+            use &= (miss > t) & np.all(off[:, :a] <= t[:, None], axis=1)  # samples left by the edge go on with it
+            for e in np.flatnonzero(use):
+                out.append((int(mk[e]), int(edge[e]), frames[e, a:b], int(frames[e, b]), float(miss[e])))
+    return out
 
 
 def edge_glitch_mask(positions: np.ndarray, suspect: np.ndarray, thr: np.ndarray, order: np.ndarray,
-                     max_len: int = 5, context: int = 3, reach: int = 8) -> np.ndarray:
+                     max_len: int = 5, context: int = 3, reach: int = 8,
+                     candidates: list | None = None) -> np.ndarray:
     """Boolean (F, M) mask of glitch runs at the edges of the seen runs (see the module's docstring).
 
     ``positions`` (F, M, 3), NaN where unseen; ``suspect`` (F, M) the samples
@@ -126,44 +170,24 @@ def edge_glitch_mask(positions: np.ndarray, suspect: np.ndarray, thr: np.ndarray
     (:func:`~mocapkit.cleaning.markers.rigid.donor_order`); ``max_len`` the
     longest run in frames; ``context`` how far from the edge a run may start
     (and how many seen samples its seen side needs); ``reach`` how far the
-    validation of the rigid prediction looks.
+    validation of the rigid prediction looks; ``candidates``
+    :func:`edge_candidates`' answer, when already computed.
     """
     x = np.asarray(positions, dtype=np.float64)
-    f, m = x.shape[:2]
-    mask = np.zeros((f, m), dtype=bool)
-    seen = ~np.any(np.isnan(x), axis=-1)
-    clear = seen & ~suspect
-    for mk in range(m):
-        track = x[:, mk]
+    mask = np.zeros(x.shape[:2], dtype=bool)
+    if candidates is None:
+        candidates = edge_candidates(x, suspect, thr, max_len, context)
+    clear = ~np.any(np.isnan(x), axis=-1) & ~suspect
+    best: dict[tuple[int, int], tuple[float, np.ndarray]] = {}  # (marker, edge frame) -> (score, run)
+    for mk, edge, run, anchor, miss in candidates:
         nb = np.asarray([int(d) for d in order[mk] if d != mk])
         if nb.size < 3:
             continue
-        neighbours = x[:, nb]
-        for edge, step in _edges(seen[:, mk]):
-            best, pick = 1.0, None
-            for a in range(context):
-                for b in range(a + 1, a + max_len + 1):
-                    ctx = edge + step * np.arange(b, b + context)  # the seen side: b, b + 1, b + 2 from the edge
-                    if ctx[-1] < 0 or ctx[-1] >= f:
-                        break
-                    if not np.all(clear[ctx, mk]):
-                        continue
-                    run = edge + step * np.arange(a, b)
-                    if not np.all(seen[run, mk]) or np.any(suspect[run, mk]):
-                        break
-                    p, q, r = track[ctx[0]], track[ctx[1]], track[ctx[2]]
-                    if np.linalg.norm(p - 2.0 * q + r) > 0.5 * thr[mk]:  # the context holds a jump
-                        continue
-                    span = edge + step * np.arange(0, b)  # the run and the samples between it and the edge
-                    line = p[None, :] + (p - q)[None, :] * np.abs(span - ctx[0])[:, None]
-                    off = np.linalg.norm(track[span] - line, axis=-1)
-                    miss = float(np.min(off[a:]))
-                    if miss <= best * thr[mk] or np.any(off[:a] > thr[mk]):  # samples left beside the edge go on with it
-                        continue
-                    rigid = one_sided_rigid_miss(track, neighbours, run, int(ctx[0]), clear[:, mk], reach)
-                    score = min(miss, rigid) / thr[mk]
-                    if np.isfinite(rigid) and score > best:
-                        best, pick = score, run
-            if pick is not None:
-                mask[pick, mk] = True
+        key = (mk, edge)
+        rigid = one_sided_rigid_miss(x[:, mk], x[:, nb], run, anchor, clear[:, mk], reach)
+        score = min(miss, rigid) / thr[mk]
+        if np.isfinite(rigid) and score > 1.0 and score > best.get(key, (1.0, None))[0]:
+            best[key] = (score, run)
+    for (mk, _), (_, run) in best.items():
+        mask[run, mk] = True
     return mask
