@@ -38,6 +38,17 @@ def test_eb015pr_lft3s_first_43_frames_are_removed_and_its_good_samples_kept(eb0
         assert np.all((d > lo) & (d < hi)), (other, d.min(), d.max())
 
 
+def test_a_foreign_stretch_is_a_change_a_person_can_reject(eb015):
+    from mocapkit.cleaning.markers.decisions import REJECT, apply, changes
+
+    res = clean_markers(eb015)
+    found = {c.id: c for c in changes(eb015, res.markers, res.fixes)}
+    assert "foreign:LFT3:0-42" in found
+    back = apply(eb015, res.markers, res.fixes, {"foreign:LFT3:0-42": REJECT})
+    j = list(eb015.labels).index("LFT3")
+    assert np.array_equal(back.positions[:43, j], eb015.positions[:43, j])
+
+
 def test_no_foreign_stretch_on_a_complete_capture_nor_beside_its_occlusions():
     from mocapkit.cleaning.markers.foreign import find_foreign
 
