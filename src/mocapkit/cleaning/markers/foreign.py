@@ -111,7 +111,7 @@ def find_foreign(positions: np.ndarray, unit_mm: float = 1.0, *, off_mm: float =
                     continue
                 t0, t1 = frames[n - 1], frames[n]  # the stretch's last frame, the first one after the jump
                 rest = frames[n:]
-                judged = on[rest] | off[rest] | np.any(~np.isnan(miss[rest]), axis=1)
+                judged = np.any(~np.isnan(miss[rest]), axis=1)  # frames with a partner seen
                 if not on[t1] or rest.size < n or on[rest][judged].mean() < 0.9:
                     continue
                 both = partners[~np.isnan(miss[t0]) & ~np.isnan(miss[t1])]
