@@ -15,7 +15,12 @@ the spike test requires both to miss it, in their one-sided forms:
   run on its seen side, extrapolated across it. Those samples and the one
   after them must lie on a line themselves (second difference at most half
   the threshold): a context that holds the jump is no context, and the run
-  on its other side is the glitch, judged in its own right.
+  on its other side is the glitch, judged in its own right. The line's miss
+  of real motion grows with the square of the sample interval, so the run
+  must also miss it by more than the marker's own motion ever does one
+  frame ahead away from the take's edges (:func:`line_misses`): at 30 Hz a
+  wrist's real deceleration at a take's start (CMU 85_02's RWRA) misses
+  it by 46 mm.
 * **in space**: the marker's coordinates in the moving frame of each triple
   of its 4 most rigid neighbours (Kabsch fit,
   :func:`~mocapkit.cleaning.markers.rigid.local_frames`) at the seen sample
@@ -44,7 +49,7 @@ import numpy as np
 
 from .rigid import from_local, local_frames, to_local
 
-__all__ = ["edge_glitch_mask", "edge_candidates", "one_sided_rigid_miss"]
+__all__ = ["edge_glitch_mask", "edge_candidates", "line_misses", "one_sided_rigid_miss"]
 
 
 def one_sided_rigid_miss(track: np.ndarray, neighbours: np.ndarray, run: np.ndarray, anchor: int,
@@ -121,13 +126,56 @@ def _edges(seen: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
             np.concatenate([m1, m2]))
 
 
+def line_misses(positions: np.ndarray, clear: np.ndarray, ahead: int, context: int = 3) -> np.ndarray:
+    """(M, ahead + 1) the largest miss of each marker's own motion by the straight line in time, ``h`` frames ahead.
+
+    For each ``h`` in 1..``ahead``: the line through two clear samples
+    extrapolated ``h`` frames on (either way in time), measured at clear
+    samples whose line samples and the samples between are clear too, and
+    which lie more than ``context`` frames from a gap or the take's ends (the
+    edges are what is judged: their own glitches must not excuse
+    themselves). The largest such miss over the take is how far real motion
+    of this marker departs from the line at this rate: it grows with the
+    square of the sample interval, and a run at an edge is judged against
+    it. Column 0 is 0; ``inf`` where a marker has no such sample
+    (its real motion's miss is unknown).
+    """
+    x = np.asarray(positions, dtype=np.float64)
+    f, m = x.shape[:2]
+    out = np.full((m, ahead + 1), np.inf)
+    out[:, 0] = 0.0
+    seen = ~np.any(np.isnan(x), axis=-1)
+    # inner: clear and more than ``context`` frames from an unseen sample or the take's ends
+    blocked = np.pad(~seen, ((context, context), (0, 0)), constant_values=True).astype(np.int32)
+    cs = np.cumsum(np.pad(blocked, ((1, 0), (0, 0))), axis=0)
+    w = 2 * context + 1  # the frames within ``context`` of each
+    inner = clear & ((cs[w:] - cs[:-w]) == 0)
+    ck = np.cumsum(np.pad(inner.astype(np.int32), ((1, 0), (0, 0))), axis=0)
+    for h in range(1, ahead + 1):
+        if f < h + 2:
+            break
+        n = f - h - 1
+        span = (ck[h + 2:] - ck[:n]) == h + 2  # (n, M): frames t .. t + h + 1 all inner
+        best = np.full(m, -np.inf)
+        for tgt, p, q in ((x[:n], x[h:h + n], x[h + 1:]),  # backward: t from t + h, t + h + 1
+                          (x[h + 1:], x[1:1 + n], x[:n])):  # forward: t + h + 1 from t + 1, t
+            e = np.linalg.norm(tgt - (p + h * (p - q)), axis=-1)
+            best = np.maximum(best, np.max(np.where(span, e, -np.inf), axis=0))
+        out[:, h] = np.where(np.isfinite(best), best, np.inf)
+    return out
+
+
 def edge_candidates(positions: np.ndarray, suspect: np.ndarray, thr: np.ndarray, max_len: int = 5,
                     context: int = 3) -> list[tuple[int, int, np.ndarray, int, float]]:
     """The runs at edges that the test in time takes (see the module's docstring), before the rigid test.
 
     Returns ``(marker, edge frame, run frames, anchor frame, miss)``: the run's frames
     (from the edge in), the seen frame next to it on its seen side, and its
-    samples' smallest distance to the straight line (capture unit). All
+    samples' smallest distance to the straight line, measured against the
+    larger of the spike threshold and the marker's own largest one-frame-ahead
+    line miss away from the edges (its largest second difference there,
+    :func:`line_misses`) and given in units of the threshold (capture unit:
+    a miss over ``thr`` is over both). All
     edges are tested at once for each of the few (start, length) pairs.
     """
     x = np.asarray(positions, dtype=np.float64)
@@ -137,6 +185,7 @@ def edge_candidates(positions: np.ndarray, suspect: np.ndarray, thr: np.ndarray,
     edge, step, mk = _edges(seen)
     if edge.size == 0:
         return []
+    natural = line_misses(x, clear, 1, context)[:, 1]  # (M,) the largest one-frame-ahead miss of real motion
     k = np.arange(context + max_len + context)
     frames = edge[:, None] + step[:, None] * k[None, :]  # (E, K) frames from the edge in
     inside = (frames >= 0) & (frames < f)
@@ -152,7 +201,8 @@ def edge_candidates(positions: np.ndarray, suspect: np.ndarray, thr: np.ndarray,
             use = ok[:, b:b + context].all(axis=1) & sn[:, :b].all(axis=1) & ok[:, a:b].all(axis=1)
             use &= np.linalg.norm(p - 2.0 * q + r, axis=-1) <= 0.5 * t  # a context that holds a jump is none
             line = p[:, None, :] + (p - q)[:, None, :] * (b - np.arange(b))[None, :, None]
-            off = np.linalg.norm(tr[:, :b] - line, axis=-1)  # (E, b)
+            tol = np.maximum(t, natural[mk])[:, None]  # (E, 1): what real motion may depart from the line by
+            off = np.linalg.norm(tr[:, :b] - line, axis=-1) / tol * t[:, None]  # (E, b), in units of t
             miss = np.min(off[:, a:], axis=1)
             use &= (miss > t) & np.all(off[:, :a] <= t[:, None], axis=1)  # samples left by the edge go on with it
             for e in np.flatnonzero(use):
