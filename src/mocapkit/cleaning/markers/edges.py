@@ -39,6 +39,12 @@ validated on the marker's own samples: where none is, nothing is removed. Each e
 most ``max_len`` samples, starting within ``context`` samples of the edge),
 the one that misses most. Positions are (F, M, 3), frames first, NaN for
 unseen samples, in the capture's unit.
+
+Runs are judged from one side only at :data:`EDGE_MIN_FPS` and above: at
+lower rates a real change of speed between two frames (a golf club's
+marker slowing at the take's start, judged against a neighbour at rest, at
+27 Hz) misses both one-sided predictions as a glitch does, and the edge is
+left to the gap fill as before.
 """
 
 from __future__ import annotations
@@ -49,7 +55,11 @@ import numpy as np
 
 from .rigid import from_local, local_frames, to_local
 
-__all__ = ["edge_glitch_mask", "edge_candidates", "line_misses", "one_sided_rigid_miss"]
+#: The lowest capture rate (frames per second) at which a run beside a gap or a take's end is judged from its one
+#: seen side; optical marker captures run at 100-250 Hz.
+EDGE_MIN_FPS = 50.0
+
+__all__ = ["EDGE_MIN_FPS", "edge_glitch_mask", "edge_candidates", "line_misses", "one_sided_rigid_miss"]
 
 
 def one_sided_rigid_miss(track: np.ndarray, neighbours: np.ndarray, run: np.ndarray, anchor: int,

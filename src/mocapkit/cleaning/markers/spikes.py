@@ -59,7 +59,7 @@ from itertools import combinations
 
 import numpy as np
 
-from .edges import edge_candidates, edge_glitch_mask
+from .edges import EDGE_MIN_FPS, edge_candidates, edge_glitch_mask
 from .rigid import DistanceStats, distance_stats, donor_order, from_local, local_frames, to_local
 
 __all__ = ["spike_mask", "prediction_matrix", "rigid_deviation", "partner_motion", "longest_spike"]
@@ -569,7 +569,8 @@ def spike_mask(positions: np.ndarray, unit_mm: float = 1.0, *, threshold_mm: flo
             if len(left) == len(runs):
                 break
             runs = left
-    edges = edge_candidates(x, mask, thr, max_len=max_len, context=context) if rigid else []
+    one_sided = rigid and (fps is None or fps >= EDGE_MIN_FPS)  # under it, real speed changes read as glitches
+    edges = edge_candidates(x, mask, thr, max_len=max_len, context=context) if one_sided else []
     if edges:  # runs beside a gap or the take's ends, which the two-sided test above cannot judge
         if stats is None:
             stats = distance_stats(x)
