@@ -276,7 +276,7 @@ def _clean_marker_take(inp: Path, out: Path, *, report, png, overwrite: bool, no
         console.print(f"note: {note}")
     for fix in res.fixes[:12]:
         other = f" with {fix.other}" if fix.other and fix.kind == "swap" else ""  # a duplicate's says it in words
-        console.print(f"    {fix.kind:5s} {fix.marker:16s} frames {fix.start}-{fix.end - 1}{other} ({fix.size_text})")
+        console.print(f"    {fix.kind:9s} {fix.marker:16s} frames {fix.start}-{fix.end - 1}{other} ({fix.size_text})")
     if len(res.fixes) > 12:
         console.print(f"    ... and {len(res.fixes) - 12} more (all in {clean_path(out)})")
     return True

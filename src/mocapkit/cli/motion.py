@@ -331,7 +331,9 @@ def _info_of_own_file(path: Path) -> bool:
                             + ")"),
                 ("fixes", f"{plural(rec.count('gap'), 'gap')} filled, {plural(rec.count('spike'), 'spike')} removed, "
                           f"{plural(rec.count('swap'), 'label swap')} undone"
-                          + (f", {plural(rec.count('duplicate'), 'duplicate label')} removed" if rec.count('duplicate') else ""))]
+                          + (f", {plural(rec.count('duplicate'), 'duplicate label')} removed" if rec.count('duplicate') else "")
+                          + (f", {plural(rec.count('foreign'), 'foreign stretch', 'foreign stretches')} removed"
+                             if rec.count('foreign') else ""))]
         if rec.coincident:
             rows.append(("coincident", f"{plural(len(rec.coincident), 'run')} of two markers at one position, "
                                        "which is the duplicate not told (left as recorded)"))

@@ -4,8 +4,10 @@ The marker counterpart of :func:`mocapkit.cleaning.pipeline.clean`. The
 steps run in this order because each needs the one before: a swap makes
 two large jumps that would look like spikes; a marker put on another's
 position for a while (a duplicate label,
-:mod:`~mocapkit.cleaning.markers.duplicates`) is judged by its rigid
-neighbours once the swaps are undone, and its removed samples, like removed
+:mod:`~mocapkit.cleaning.markers.duplicates`), or a label on another point
+from the take's or an occlusion's edge up to a jump (a foreign stretch,
+:mod:`~mocapkit.cleaning.markers.foreign`; part of the "duplicates" step), is
+judged by its rigid neighbours once the swaps are undone, and its removed samples, like removed
 spikes, become gaps the fill closes. Every observed sample that is not an error
 comes back bit-identical; a swapped sample comes back re-labelled (its
 values unchanged); spike samples and gaps are filled
@@ -38,9 +40,10 @@ import numpy as np
 
 from ...markerset import check_units, subject_of
 from .duplicates import find_duplicates
+from .foreign import find_foreign
 from .gaps import SMOOTH_S, TOO_LONG, fill_gaps, nobody_seen
 from .rigid import distance_stats
-from .spikes import spike_mask
+from .spikes import longest_spike, spike_mask
 from .swaps import undo_swaps
 
 __all__ = ["MarkerFix", "MarkerCleanResult", "clean_markers", "STEPS"]
@@ -50,7 +53,7 @@ STEPS = ("swaps", "duplicates", "spikes", "gaps")
 
 @dataclass(frozen=True)
 class MarkerFix:
-    """One change: ``kind`` "gap", "spike", "swap" or "duplicate" on marker ``marker`` for frames ``start <= f < end``.
+    """One change: ``kind`` "gap", "spike", "swap", "duplicate" or "foreign" on marker ``marker`` for frames ``start <= f < end``.
 
     ``size_mm``: for a gap, the largest distance between the fill and the
     straight line between its ends (how far the marker moved off it, not an
@@ -58,6 +61,10 @@ class MarkerFix:
     sample from its fill; for a swap, the distance between the two markers
     where it starts. ``other``: the marker it swapped with; for a duplicate,
     the marker whose position it was put on (``note``: how that was told).
+    Kind "foreign": another point under the marker's label from a take's or
+    an occlusion's edge up to a jump (:mod:`~mocapkit.cleaning.markers.foreign`),
+    removed and filled as a duplicate is (``note``: the evidence; ``size_mm``
+    as for a duplicate, NaN where left missing).
     Kind "coincident" (in :attr:`MarkerCleanResult.coincident`, no change):
     ``marker`` and ``other`` at the same position, which one is the copy
     not told; ``size_mm`` their largest distance there. For a gap (and a gap left
@@ -94,7 +101,7 @@ class MarkerFix:
     @property
     def fill_text(self) -> str:
         """A gap's (or a filled duplicate's) duration, method and expected error in words ("" for a spike or a swap)."""
-        if self.kind not in ("gap", "duplicate") or not self.method:
+        if self.kind not in ("gap", "duplicate", "foreign") or not self.method:
             return ""
         how = self.method + (f" ({self.donors})" if self.donors else "")
         if self.models > 1:
@@ -117,6 +124,11 @@ class MarkerFix:
             done = ("removed, left missing: no plausible fill" if not np.isfinite(self.size_mm)
                     else f"removed and filled{fill}: removed samples up to {self.size_mm:.1f} mm from the fill")
             return f"on {self.other}'s position (a duplicate label: {self.note}), {done}"
+        if self.kind == "foreign":
+            fill = f" ({self.fill_text})" if self.fill_text else ""
+            done = ("removed, left missing: no plausible fill" if not np.isfinite(self.size_mm)
+                    else f"removed and filled{fill}: removed samples up to {self.size_mm:.1f} mm from the fill")
+            return f"another point under its label ({self.note}), {done}"
         if self.kind == "coincident":
             return (f"at the same position as {self.other} ({self.size_mm:.1f} mm apart at most): one is a duplicate "
                     f"label, which one cannot be told ({self.note}): both left as recorded")
@@ -176,9 +188,11 @@ class MarkerCleanResult:
         why, the other fields describe the rejected fill.
     duplicates : bool array (F, M)
         Samples of a marker found on another marker's position (a duplicate
-        label, :mod:`~mocapkit.cleaning.markers.duplicates`): removed, and
-        replaced by a fill where one reached them; each run is a fix of kind
-        "duplicate" naming the other marker.
+        label, :mod:`~mocapkit.cleaning.markers.duplicates`), or another
+        point under its label (a foreign stretch,
+        :mod:`~mocapkit.cleaning.markers.foreign`): removed, and replaced by a
+        fill where one reached them; each run is a fix of kind "duplicate"
+        naming the other marker, or of kind "foreign".
     coincident : tuple of MarkerFix
         Runs where two markers sit at the same position and which one is the
         copy could not be told (kind "coincident"): both left as recorded.
@@ -269,6 +283,9 @@ class MarkerCleanResult:
             done = "removed and filled" if np.isfinite(x.size_mm) else "removed, left missing (no plausible fill)"
             lines.append(f"{x.marker} frames {x.start}-{x.end - 1}: on {x.other}'s position (a duplicate label: "
                          f"{x.note}), {done}")
+        for x in (x for x in self.fixes if x.kind == "foreign"):
+            done = "removed and filled" if np.isfinite(x.size_mm) else "removed, left missing (no plausible fill)"
+            lines.append(f"{x.marker} frames {x.start}-{x.end - 1}: another point under its label ({x.note}), {done}")
         for x in self.coincident:
             lines.append(f"{x.marker} and {x.other} frames {x.start}-{x.end - 1}: at the same position "
                          f"({x.size_mm:.1f} mm apart at most); one is a duplicate label, which one cannot be told "
@@ -360,6 +377,19 @@ def _swap_sources(x: np.ndarray, y: np.ndarray, swapped: np.ndarray) -> np.ndarr
     return src
 
 
+def _edge_spikes(spikes: np.ndarray, recorded: np.ndarray, filled: np.ndarray, a: int, b: int, label: str,
+                 unit_mm: float) -> list[MarkerFix]:
+    """The spike fixes inside a filled gap ``a <= f < b`` of one marker: runs removed beside the gap (found by
+    :mod:`~mocapkit.cleaning.markers.edges`) are filled with it, and named as spikes. ``spikes`` (F,) its spike
+    mask, ``recorded`` and ``filled`` (F, 3) its samples before and after (capture unit)."""
+    d = np.diff(np.concatenate([[0], spikes[a:b].astype(np.int8), [0]]))
+    out = []
+    for s, e in zip(np.flatnonzero(d == 1) + a, np.flatnonzero(d == -1) + a):
+        size = float(np.max(np.linalg.norm(recorded[s:e] - filled[s:e], axis=-1))) * unit_mm
+        out.append(MarkerFix(label, int(s), int(e), "spike", size))
+    return out
+
+
 def clean_markers(markers, *, steps=STEPS, spike_mm: float = 15.0, swap_mm: float = 15.0,
                   max_gap_s: float | None = None, constrain: bool = True,
                   max_error_mm: float | None = None) -> MarkerCleanResult:
@@ -428,6 +458,11 @@ def clean_markers(markers, *, steps=STEPS, spike_mm: float = 15.0, swap_mm: floa
     found = [d for d in found if d.resolved]
     for d in found:
         dups[d.start:d.end, d.marker] = True
+    # a label on another point from a take's or an occlusion's edge up to a jump: removed as a duplicate's copy is
+    foreign = find_foreign(np.where(dups[..., None], np.nan, y), unit_mm, off_mm=spike_mm,
+                           min_frames=longest_spike(markers.fps)) if "duplicates" in steps else []
+    for g in foreign:
+        dups[g.start:g.end, g.marker] = True
     before_fill = y.copy()  # the recorded (re-labelled) samples: what a removed one was
     y[dups] = np.nan
     spikes = np.zeros((f, m), dtype=bool)
@@ -480,6 +515,8 @@ def clean_markers(markers, *, steps=STEPS, spike_mm: float = 15.0, swap_mm: floa
                 line = (1 - u) * ref[0] + u * ref[-1]
                 size = float(np.max(np.linalg.norm(out[run, r.marker] - line, axis=-1)))
                 fixes.append(MarkerFix(labels[r.marker], a, b, "gap", size * unit_mm, ends=len(ends), **how))
+                fixes.extend(_edge_spikes(spikes[:, r.marker], before_fill[:, r.marker], out[:, r.marker], a, b,
+                                          labels[r.marker], unit_mm))
     for d in found:  # a duplicate no fill reached stays missing rather than wrong (size NaN: the summary says so)
         run = slice(d.start, d.end)
         gone = np.any(np.isnan(y[run, d.marker]))
@@ -489,6 +526,13 @@ def clean_markers(markers, *, steps=STEPS, spike_mm: float = 15.0, swap_mm: floa
                         seconds=(d.end - d.start) / markers.fps, note=d.why,
                         **dup_fill.get((d.marker, d.start, d.end), {}))
         fixes.append(fix)
+    for g in foreign:  # the same: named with the evidence, missing where no fill reached it
+        run = slice(g.start, g.end)
+        gone = np.any(np.isnan(y[run, g.marker]))
+        size = (float("nan") if gone else
+                float(np.max(np.linalg.norm(before_fill[run, g.marker] - y[run, g.marker], axis=-1))) * unit_mm)
+        fixes.append(MarkerFix(labels[g.marker], g.start, g.end, "foreign", size, seconds=(g.end - g.start) / markers.fps,
+                               note=g.why, **dup_fill.get((g.marker, g.start, g.end), {})))
     # a spike no fill reached stays missing rather than wrong
     fixes.sort(key=lambda x: (x.start, x.marker, x.kind))
     out = full.copy()

@@ -12,12 +12,12 @@ Changes
 -------
 A change is one fix of :func:`~mocapkit.cleaning.markers.clean_markers`
 (:class:`~mocapkit.cleaning.markers.MarkerFix`): a swap undone (both markers'
-samples over its frames), a duplicate label removed, a spike removed, a gap
+samples over its frames), a duplicate label or a foreign stretch removed, a spike removed, a gap
 filled, with its id ``KIND:MARKER:FIRST-LAST`` (frames inclusive, 0-based), which
 depends only on the record, so the same cleaning of the same capture gives the
 same ids. Its samples are those of its frames and marker(s) that differ between
 the input and the cleaned capture (position, residual or camera mask). A sample
-two fixes touched belongs to one of them, in the order duplicate, spike, gap,
+two fixes touched belongs to one of them, in the order duplicate, foreign, spike, gap,
 swap (a spike found on a re-labelled sample is the spike's); the changes
 therefore partition the changed samples. A changed sample no fix names (none in
 the test data) is a change of kind ``change`` per run of frames of its marker.
@@ -58,7 +58,7 @@ __all__ = ["MarkerChange", "differs", "changes", "accepted_samples", "tied", "pl
            "template", "check", "review", "record_cells", "result_from_record", "check_record", "decided_result",
            "clean_and_decide"]
 
-_ORDER = ("duplicate", "spike", "gap", "swap")  # who owns a sample two fixes touched
+_ORDER = ("duplicate", "foreign", "spike", "gap", "swap")  # who owns a sample two fixes touched
 
 
 @dataclass(frozen=True)

@@ -63,7 +63,7 @@ class MarkerRecord:
         return int(self.changed.shape[0])
 
     def count(self, kind: str) -> int:
-        """How many fixes of ``kind`` ("gap", "spike", "swap", "duplicate") the record lists."""
+        """How many fixes of ``kind`` ("gap", "spike", "swap", "duplicate", "foreign") the record lists."""
         return sum(1 for f in self.fixes if f.get("kind") == kind)
 
 

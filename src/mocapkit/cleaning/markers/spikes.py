@@ -59,9 +59,18 @@ from itertools import combinations
 
 import numpy as np
 
+from .edges import EDGE_MIN_FPS, edge_candidates, edge_glitch_mask
 from .rigid import DistanceStats, distance_stats, donor_order, from_local, local_frames, to_local
 
-__all__ = ["spike_mask", "prediction_matrix", "rigid_deviation", "partner_motion"]
+__all__ = ["spike_mask", "prediction_matrix", "rigid_deviation", "partner_motion", "longest_spike"]
+
+
+def longest_spike(fps: float | None, max_len: int = 5, max_seconds: float = 5.0 / 60.0) -> int:
+    """The longest spike run in frames at ``fps`` (frames per second): ``max_len``, and with a rate no longer than
+    ``max_seconds`` (at least 1 frame); see :func:`spike_mask`."""
+    if fps is not None and fps > 0:
+        return max(1, min(max_len, int(np.floor(max_seconds * fps + 1e-9))))
+    return max_len
 
 
 def prediction_matrix(length: int, context: int = 3, degree: int = 3) -> np.ndarray:
@@ -485,8 +494,7 @@ def spike_mask(positions: np.ndarray, unit_mm: float = 1.0, *, threshold_mm: flo
         See ``fps``.
     """
     x = np.asarray(positions, dtype=np.float64)
-    if fps is not None and fps > 0:
-        max_len = max(1, min(max_len, int(np.floor(max_seconds * fps + 1e-9))))
+    max_len = longest_spike(fps, max_len, max_seconds)
     f, m = x.shape[:2]
     mask = np.zeros((f, m), dtype=bool)
     if f < 2 * context + 1:
@@ -561,4 +569,12 @@ def spike_mask(positions: np.ndarray, unit_mm: float = 1.0, *, threshold_mm: flo
             if len(left) == len(runs):
                 break
             runs = left
+    one_sided = rigid and (fps is None or fps >= EDGE_MIN_FPS)  # under it, real speed changes read as glitches
+    edges = edge_candidates(x, mask, thr, max_len=max_len, context=context) if one_sided else []
+    if edges:  # runs beside a gap or the take's ends, which the two-sided test above cannot judge
+        if stats is None:
+            stats = distance_stats(x)
+        if order is None:
+            order = donor_order(stats)
+        mask |= edge_glitch_mask(x, mask, thr, order, max_len=max_len, context=context, reach=pad, candidates=edges)
     return mask
