@@ -247,3 +247,25 @@ def marker_decisions_file(folder: Path, inp: Path, choices: dict, name: str = "d
     path = folder / name
     path.write_text(json.dumps(doc))
     return path
+
+
+def report_review(report: Path) -> dict:
+    """The changes list and decisions document a clean report embeds (its ``mocapkit-review`` JSON)."""
+    import json
+    import re
+
+    found = re.search(r'<script type="application/json" id="mocapkit-review">(.*?)</script>',
+                      Path(report).read_text(encoding="utf-8"), re.S)
+    assert found, "the report has no changes list"
+    return json.loads(found.group(1))
+
+
+def corrupted_walk(folder: Path) -> Path:
+    """The bundled real CMU walk 12 with four real-style errors (seed 11), saved as ``folder/walk_bad.npz``."""
+    import mocapkit
+    from mocapkit import corrupt, samples
+
+    bad, _, _ = corrupt.real_errors(mocapkit.load(samples.path("12_walk.amc")), n_errors=4, seed=11)
+    inp = folder / "walk_bad.npz"
+    mocapkit.save(bad, inp)
+    return inp

@@ -4,32 +4,25 @@ them, and a library cleaning's record and report that the CLI's `--decisions` ta
 from __future__ import annotations
 
 import json
-import re
 
 import numpy as np
 import pytest
 
 import mocapkit
-from mocapkit import corrupt, samples
+from mocapkit import samples
 from mocapkit.cleaning import decisions as D
 from mocapkit.cleaning.decide import GIVEN
 from mocapkit.report.html import write_clean_report
 
 from ..cli.helpers import one_error_line, run
+from ..shared import corrupted_walk, report_review
 
 REJECT = ("repair:lhumerus:41-108", "repair:rhumerus:316-335")
 
 
-def _review(report) -> dict:
-    found = re.search(r'<script type="application/json" id="mocapkit-review">(.*?)</script>',
-                      report.read_text(encoding="utf-8"), re.S)
-    assert found, "the report has no changes list"
-    return json.loads(found.group(1))
-
-
 def _decisions(report, path, reject=REJECT) -> dict:
     """The report's *Download decisions* document with the changes ``reject`` rejected, written to ``path``."""
-    doc = _review(report)["decisions"]
+    doc = report_review(report)["decisions"]
     for cid in reject:
         assert cid in doc["decisions"]
         doc["decisions"][cid] = D.REJECT
@@ -42,9 +35,7 @@ def reviewed(tmp_path_factory):
     """The real CMU walk 12 (bundled) with four real-style errors, cleaned without context twice: by the command
     (record and report) and in Python (its record saved and its report written by write_clean_report)."""
     d = tmp_path_factory.mktemp("decide")
-    bad, _, _ = corrupt.real_errors(mocapkit.load(samples.path("12_walk.amc")), n_errors=4, seed=11)
-    inp = d / "walk_bad.npz"
-    mocapkit.save(bad, inp)
+    inp = corrupted_walk(d)
     code, _, err = run("clean", inp, "-o", d / "cli.npz", "--context", "none", "--report", d / "cli.html")
     assert code == 0, err
     res = mocapkit.clean(inp, context="none")
@@ -55,7 +46,7 @@ def reviewed(tmp_path_factory):
 
 def test_a_library_cleanings_report_keeps_the_digest_the_command_computes(reviewed):
     d, inp, res = reviewed
-    cli, lib = _review(d / "cli.html"), _review(d / "lib.html")
+    cli, lib = report_review(d / "cli.html"), report_review(d / "lib.html")
     assert cli["decisions"]["cleaning"]["sha256"] == lib["decisions"]["cleaning"]["sha256"]
     assert cli["decisions"]["cleaning"]["request"] == lib["decisions"]["cleaning"]["request"]
     assert [c["id"] for c in cli["changes"]] == [c["id"] for c in lib["changes"]] and len(cli["changes"]) == 6

@@ -9,11 +9,11 @@ import json
 import pytest
 
 import mocapkit
-from mocapkit import corrupt, samples
+from mocapkit import samples
 from mocapkit.cleaning import decisions as D
 
 from ..cli.helpers import one_error_line, run
-from .test_decide import _review
+from ..shared import corrupted_walk, report_review
 
 
 @pytest.fixture(scope="module")
@@ -21,12 +21,10 @@ def reviewed(tmp_path_factory):
     """The real CMU walk 12 (bundled) with four real-style errors, cleaned by the command without context (record
     and report), and the report's decisions document with its first change rejected."""
     d = tmp_path_factory.mktemp("replay")
-    bad, _, _ = corrupt.real_errors(mocapkit.load(samples.path("12_walk.amc")), n_errors=4, seed=11)
-    inp = d / "walk_bad.npz"
-    mocapkit.save(bad, inp)
+    inp = corrupted_walk(d)
     code, _, err = run("clean", inp, "-o", d / "out.npz", "--context", "none", "--report", d / "out.html")
     assert code == 0, err
-    doc = _review(d / "out.html")["decisions"]
+    doc = report_review(d / "out.html")["decisions"]
     doc["decisions"][next(iter(doc["decisions"]))] = D.REJECT
     (d / "d.json").write_text(json.dumps(doc), encoding="utf-8")
     return d, inp, d / "out.clean.npz", d / "d.json"
