@@ -61,7 +61,6 @@ def frozen_channels(
 ) -> np.ndarray:
     """(F, J) bool: the frames of each joint's frozen channels (see the module docstring): the repeats of each hold.
 
-
     ``rotations`` (F, J, 4) unit quaternions of the take; ``breaks`` (F, J)
     bool the joints' own breaks (:func:`~mocapkit.cleaning.ssa.cues.own_breaks`,
     a step from ``f`` to ``f + 1`` marking both frames); ``analysed`` (J,) bool
