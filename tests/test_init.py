@@ -110,7 +110,7 @@ def test_review_mode_of_a_marker_capture_changes_nothing_and_says_what_the_cli_s
     code, out, err = _cli("clean", inp, "-o", tmp_path / "r.c3d", "--steps", "detect")
     assert code == 0, err
     assert res.summary()[0].startswith("review mode (--steps detect): the capture unchanged; cleaning would change "
-                                       "234 of 11700 marker samples")
+                                       "274 of 11700 marker samples")
     assert all(f"  {line}\n" in out for line in res.summary()), (res.summary(), out)
 
 
@@ -127,13 +127,13 @@ def test_decisions_apply_to_a_marker_capture_as_the_cli_applies_them(capture_run
     from mocapkit.io import load_markers
 
     d, inp, out, record = capture_run
-    path = _decisions(d, inp, {"spike:LFT3:43-45": "reject", "gap:PV2:403-449": "reject"})
+    path = _decisions(d, inp, {"foreign:LFT3:0-42": "reject", "gap:PV2:403-449": "reject"})
     plain = mocapkit.clean(inp)
     for rec in (None, record):
         res = mocapkit.clean(inp, decisions=path, record=rec)
         assert res.decided is not None and len(res.fixes) == len(plain.fixes) - 2
         back = np.zeros(res.changed.shape, bool)
-        back[43:46, plain.original.labels.index("LFT3")] = back[403:450, plain.original.labels.index("PV2")] = True
+        back[0:43, plain.original.labels.index("LFT3")] = back[403:450, plain.original.labels.index("PV2")] = True
         assert np.array_equal(res.markers.positions[back], plain.original.positions[back], equal_nan=True)
         assert np.array_equal(res.markers.positions[~back], plain.markers.positions[~back], equal_nan=True)
         assert not res.spikes[back].any() and not res.filled[back].any()
@@ -152,7 +152,7 @@ def test_marker_decisions_as_a_dict_apply_as_their_file_does(capture_run):
     import json
 
     d, inp, out, record = capture_run
-    path = _decisions(d, inp, {"spike:LFT3:43-45": "reject"}, name="dict.json")
+    path = _decisions(d, inp, {"foreign:LFT3:0-42": "reject"}, name="dict.json")
     doc = json.loads(path.read_text())
     a, b = (mocapkit.clean(inp, decisions=x, record=record) for x in (doc, path))
     assert a.markers.positions.tobytes() == b.markers.positions.tobytes()
@@ -168,7 +168,7 @@ def test_marker_decisions_are_refused_in_the_library_with_the_clis_words(capture
     from mocapkit.io import load_markers, save_markers
 
     d, inp, out, record = capture_run
-    hand = _decisions(d, inp, {"spike:LFT3:43-45": "reject"}, stamped=False, name="hand.json")
+    hand = _decisions(d, inp, {"foreign:LFT3:0-42": "reject"}, stamped=False, name="hand.json")
     with pytest.raises(mocapkit.MocapFormatError) as exc:
         mocapkit.clean(inp, decisions=hand)
     code, _, err = _cli("clean", inp, "-o", tmp_path / "x.c3d", "--decisions", hand)

@@ -615,9 +615,9 @@ def test_training_metadata_carries_the_rig_and_licence_into_the_model_file(tmp_p
     cfg = training.TrainConfig(kind="ebf", hidden=8, epochs=1, steps_per_epoch=2, batch=2, crop=40,
                                noise=("angular:0.5",), variants=1)
     m = training.train([walk[:160]], tmp_path, cfg, executor="serial", progress=False,
-                       meta={"rig": "bandai", "licence": "CC BY-NC 4.0: non-commercial"})
+                       meta={"rig": "bandai_namco", "licence": "CC BY-NC 4.0: non-commercial"})
     again = deep.load_model(tmp_path / "model.pt")
-    assert m.meta["rig"] == again.meta["rig"] == "bandai"
+    assert m.meta["rig"] == again.meta["rig"] == "bandai_namco"
     assert deep.licence_note(again) == ("the EBF used is CC BY-NC 4.0: non-commercial; --ebf (clean, clean-batch; "
                                         "models= in Python) picks another, e.g. ebf.pt (trained on HDM05 and CMU "
                                         "takes; HDM05's terms: research use, docs/models.md)")

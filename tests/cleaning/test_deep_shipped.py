@@ -119,7 +119,7 @@ def dance():
 def test_a_bandai_take_gets_the_bandai_models_held_out_by_style_and_non_commercial(dance, walk):
     for kind in ("ebf", "ebd"):
         m = deep.shipped_model(kind, dance)
-        assert m.fps == 30.0 and m.meta["rig"] == "bandai" and "CC BY-NC 4.0" in m.meta["licence"]
+        assert m.fps == 30.0 and m.meta["rig"] == "bandai_namco" and "CC BY-NC 4.0" in m.meta["licence"]
         assert not isinstance(deep.served_by(dance, m), str)
         train, val = m.meta["train_clips"], m.meta["validation_clips"]
         assert len(train) > 1000 and len(val) > 10
@@ -257,7 +257,7 @@ def test_a_bandai_take_with_a_weapon_bone_keeps_the_bandai_models_on_its_own_joi
     assert mocapkit.rigs.rig_family(armed.skeleton) == "bandai_namco"
     for kind in ("ebf", "ebd"):
         m = deep.shipped_model(kind, armed)
-        assert m.meta["rig"] == "bandai"
+        assert m.meta["rig"] == "bandai_namco"
         sv = deep.served_by(armed, m)
         assert sv.direct and sv.others == (w,) and armed.skeleton.joint_names[sv.joints[0]] == "Hips"
     plain, _m, _n = deep.denoise_or_fallback(noisy)
@@ -291,7 +291,7 @@ def test_a_bandai_take_the_bandai_models_cannot_serve_says_why(dance):
     helper = _with_joint(dance, "wrist_helper_r", "LowerArm_R", (-11.0, 0.0, 0.0), np.zeros(dance.num_frames),
                          inserted=True)
     assert helper.skeleton.joint_names[int(helper.skeleton.parents[helper.skeleton.index("Hand_R")])] == "wrist_helper_r"
-    assert deep.shipped_model("ebf", helper).meta.get("rig", "acclaim") != "bandai"
+    assert deep.shipped_model("ebf", helper).meta.get("rig", "acclaim") != "bandai_namco"
     noisy, _ = corrupt.angular_noise(helper, 0.5, seed=7)
     _out, method, note = deep.denoise_or_fallback(noisy)
     assert method == "EBF (shipped, via the bandai_namco joint map)"
