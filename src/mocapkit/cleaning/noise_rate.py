@@ -26,6 +26,8 @@ run: the take is left as it is, and the summary says why in one line.
 
 from __future__ import annotations
 
+from .ssa.coarse_cues import under_rate
+
 __all__ = ["NOISE_MIN_FPS", "noise_too_coarse"]
 
 #: frames per second under which the noise rule cannot hold jitter apart from motion (module docstring)
@@ -36,7 +38,7 @@ def noise_too_coarse(fps: float) -> str:
     """One line saying why a take at ``fps`` (frames per second) is too coarse for the noise rule, or "" when it
     is not. A rate within 0.1 % of :data:`NOISE_MIN_FPS` counts as it (23.976 fps NTSC film; a Frame Time written
     rounded up)."""
-    if fps >= NOISE_MIN_FPS * (1.0 - 1e-3):
+    if not under_rate(fps, NOISE_MIN_FPS):
         return ""
     return (f"{fps:g} fps is too coarse to tell capture noise from motion: a 7-frame fit spans {7 / fps:.2f} s and "
             f"passes motion up to about {0.4 * fps:.0f} Hz, where feet and hands move; the noise rule judges takes "

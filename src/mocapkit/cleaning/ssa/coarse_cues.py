@@ -34,25 +34,32 @@ Cues of this library, not of the paper (Aristidou et al. 2018).
 
 from __future__ import annotations
 
-__all__ = ["COARSE_HOLD_FRAMES", "under_analysis_rate", "hold_min_frames", "backs_offsets"]
+__all__ = ["COARSE_HOLD_FRAMES", "RATE_TOLERANCE", "under_rate", "hold_min_frames", "backs_offsets"]
 
 #: the fewest frames a held joint needs under the analysis rate (two still steps in a row)
 COARSE_HOLD_FRAMES = 3
 
 
-def under_analysis_rate(fps: float, analysis_fps: float) -> bool:
-    """Whether a take at ``fps`` (frames per second) is coarser than the analysis rate ``analysis_fps``. A rate
-    within 0.1 % of it counts as it (23.976 fps NTSC film for 24 fps)."""
-    return float(fps) < float(analysis_fps) * (1.0 - 1e-3)
+#: how far under a rate a take's rate may lie and count as it: 23.976 fps NTSC film is 24 fps, and a Frame Time
+#: written rounded up (0.0833334 s) is 12 fps
+RATE_TOLERANCE = 1e-3
+
+
+def under_rate(fps: float, rate: float) -> bool:
+    """Whether a take at ``fps`` (frames per second) is coarser than ``rate``; a rate within
+    :data:`RATE_TOLERANCE` (0.1 %) under it counts as it. The one comparison of the rate lines of self-similarity
+    (:func:`~mocapkit.cleaning.ssa.texture.too_coarse`), of these cues and of the noise rule
+    (:func:`mocapkit.cleaning.noise_rate.noise_too_coarse`)."""
+    return float(fps) < float(rate) * (1.0 - RATE_TOLERANCE)
 
 
 def hold_min_frames(fps: float, analysis_fps: float) -> int:
     """The fewest frames of a held joint (:func:`~mocapkit.cleaning.ssa.cues.held_joints`' ``min_frames``): 2 at
     the analysis rate and over, :data:`COARSE_HOLD_FRAMES` under it (module docstring)."""
-    return COARSE_HOLD_FRAMES if under_analysis_rate(fps, analysis_fps) else 2
+    return COARSE_HOLD_FRAMES if under_rate(fps, analysis_fps) else 2
 
 
 def backs_offsets(fps: float, analysis_fps: float) -> bool:
     """Whether backed offsets (:func:`~mocapkit.cleaning.ssa.backed.backed_offsets`) confirm errors at ``fps``:
     at the analysis rate and over only (module docstring)."""
-    return not under_analysis_rate(fps, analysis_fps)
+    return not under_rate(fps, analysis_fps)

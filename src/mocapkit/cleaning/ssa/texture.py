@@ -22,6 +22,7 @@ from ...errors import SkeletonError
 from ...features import detect_up_axis
 from ...metrics import motion_word_starts
 from ...motion import Motion, bone_moving_joints, find_joint, joint_sides
+from .coarse_cues import under_rate
 from .params import SSAParams
 
 __all__ = [
@@ -428,7 +429,7 @@ def too_coarse(fps: float, params: SSAParams = _D) -> str:
     is not. A rate within 0.1 % of the lowest counts as it: a BVH at 12 fps may write its Frame Time rounded up
     (0.0833334 s, 11.99999 fps)."""
     low = min_take_fps(params)
-    if fps >= low * (1.0 - 1e-3):
+    if not under_rate(fps, low):
         return ""
     N, a = params.source_length, params.analysis_fps
     return (f"{fps:g} fps is too coarse for motion words: a source word spans {N / a:.3f} s ({N} frames at {a:g} fps), "
