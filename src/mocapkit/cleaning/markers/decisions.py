@@ -116,6 +116,10 @@ def _fix(x) -> MarkerFix:
     return MarkerFix(**{k: v for k, v in dict(x).items() if k in names})
 
 
+def _change_id(x: MarkerFix) -> str:
+    return f"{x.kind}:{x.marker}:{x.start}-{x.end - 1}"
+
+
 def _owners(original, cleaned, fixes) -> tuple[list[MarkerChange], np.ndarray]:
     """The changes and ``(F, M)`` int: the index of the change each sample belongs to, -1 for none."""
     labels = list(original.labels)
@@ -127,7 +131,7 @@ def _owners(original, cleaned, fixes) -> tuple[list[MarkerChange], np.ndarray]:
     seen: dict[str, int] = {}
     for x in sorted(fixes, key=lambda x: _ORDER.index(x.kind)):
         cols = [col[x.marker]] + ([col[x.other]] if x.kind == "swap" and x.other in col else [])
-        cid = f"{x.kind}:{x.marker}:{x.start}-{x.end - 1}"
+        cid = _change_id(x)
         if cid not in seen:
             seen[cid] = len(found)
             found.append(MarkerChange(cid, x.marker, col[x.marker], x.start, x.end - 1, x.kind, float(x.size_mm),
@@ -167,10 +171,6 @@ def accepted_samples(original, cleaned, fixes, decisions: Mapping[str, str]) -> 
     check_choices(decisions, {c.id for c in found})
     chosen = [k for k, c in enumerate(found) if decisions.get(c.id, ACCEPT) == ACCEPT]
     return np.isin(owner, chosen)
-
-
-def _change_id(x: MarkerFix) -> str:
-    return f"{x.kind}:{x.marker}:{x.start}-{x.end - 1}"
 
 
 def _swaps(original, fixes) -> list[MarkerFix]:
@@ -268,12 +268,12 @@ def placed(original, cleaned, fixes, decisions: Mapping[str, str]) -> tuple[np.n
     index = {c.id: k for k, c in enumerate(found)}
     regions = [_region(x, labels, owner.shape) for x in swaps]
 
-    def kept(x, r) -> bool:  # a swap with no change of its own: as the changes it is decided with (tied: all alike)
+    def swap_kept(x, r) -> bool:  # a swap with no change of its own: as the changes it is decided with (tied: alike)
         if _change_id(x) in index:
             return choice[index[_change_id(x)]] == ACCEPT
         return all(choice[k] == ACCEPT for k in _under(x, r, found, owner, swaps, regions))
 
-    kept = sources([x for x, r in zip(swaps, regions) if kept(x, r)], labels, original.num_frames)
+    kept = sources([x for x, r in zip(swaps, regions) if swap_kept(x, r)], labels, original.num_frames)
     dest = destinations(src, kept)
     same = dest == np.arange(len(labels))
     take = np.isin(owner, [k for k, c in enumerate(choice) if c == ACCEPT]) | ((owner < 0) & same)
