@@ -117,18 +117,22 @@ class MarkerFix:
         return self.note.startswith(TOO_LONG)
 
     @property
+    def removed_as(self) -> str:
+        """What a duplicate label's or a foreign stretch's removed samples were, with the evidence ("" otherwise)."""
+        if self.kind == "duplicate":
+            return f"on {self.other}'s position (a duplicate label: {self.note})"
+        if self.kind == "foreign":
+            return f"another point under its label ({self.note})"
+        return ""
+
+    @property
     def size_text(self) -> str:
         """``size_mm`` in words, after a gap's :attr:`fill_text`: what the number measures differs by kind (a gap's is no error)."""
-        if self.kind == "duplicate":
+        if self.kind in ("duplicate", "foreign"):
             fill = f" ({self.fill_text})" if self.fill_text else ""
             done = ("removed, left missing: no plausible fill" if not np.isfinite(self.size_mm)
                     else f"removed and filled{fill}: removed samples up to {self.size_mm:.1f} mm from the fill")
-            return f"on {self.other}'s position (a duplicate label: {self.note}), {done}"
-        if self.kind == "foreign":
-            fill = f" ({self.fill_text})" if self.fill_text else ""
-            done = ("removed, left missing: no plausible fill" if not np.isfinite(self.size_mm)
-                    else f"removed and filled{fill}: removed samples up to {self.size_mm:.1f} mm from the fill")
-            return f"another point under its label ({self.note}), {done}"
+            return f"{self.removed_as}, {done}"
         if self.kind == "coincident":
             return (f"at the same position as {self.other} ({self.size_mm:.1f} mm apart at most): one is a duplicate "
                     f"label, which one cannot be told ({self.note}): both left as recorded")
@@ -279,13 +283,9 @@ class MarkerCleanResult:
         if removed.any():
             how = "spikes or duplicate labels" if np.any(removed & self.duplicate_mask[:, ~skip]) else "spikes"
             lines.append(f"{int(removed.sum())} recorded samples removed as {how} and left missing (no plausible fill)")
-        for x in (x for x in self.fixes if x.kind == "duplicate"):
+        for x in (x for kind in ("duplicate", "foreign") for x in self.fixes if x.kind == kind):
             done = "removed and filled" if np.isfinite(x.size_mm) else "removed, left missing (no plausible fill)"
-            lines.append(f"{x.marker} frames {x.start}-{x.end - 1}: on {x.other}'s position (a duplicate label: "
-                         f"{x.note}), {done}")
-        for x in (x for x in self.fixes if x.kind == "foreign"):
-            done = "removed and filled" if np.isfinite(x.size_mm) else "removed, left missing (no plausible fill)"
-            lines.append(f"{x.marker} frames {x.start}-{x.end - 1}: another point under its label ({x.note}), {done}")
+            lines.append(f"{x.marker} frames {x.start}-{x.end - 1}: {x.removed_as}, {done}")
         for x in self.coincident:
             lines.append(f"{x.marker} and {x.other} frames {x.start}-{x.end - 1}: at the same position "
                          f"({x.size_mm:.1f} mm apart at most); one is a duplicate label, which one cannot be told "
@@ -517,22 +517,15 @@ def clean_markers(markers, *, steps=STEPS, spike_mm: float = 15.0, swap_mm: floa
                 fixes.append(MarkerFix(labels[r.marker], a, b, "gap", size * unit_mm, ends=len(ends), **how))
                 fixes.extend(_edge_spikes(spikes[:, r.marker], before_fill[:, r.marker], out[:, r.marker], a, b,
                                           labels[r.marker], unit_mm))
-    for d in found:  # a duplicate no fill reached stays missing rather than wrong (size NaN: the summary says so)
-        run = slice(d.start, d.end)
-        gone = np.any(np.isnan(y[run, d.marker]))
+    # a duplicate or foreign stretch no fill reached stays missing rather than wrong (size NaN: the summary says so)
+    removed = [(d.marker, d.start, d.end, "duplicate", labels[d.other], d.why) for d in found]
+    removed += [(g.marker, g.start, g.end, "foreign", "", g.why) for g in foreign]
+    for mk, a, b, kind, other, why in removed:
+        gone = np.any(np.isnan(y[a:b, mk]))
         size = (float("nan") if gone else
-                float(np.max(np.linalg.norm(before_fill[run, d.marker] - y[run, d.marker], axis=-1))) * unit_mm)
-        fix = MarkerFix(labels[d.marker], d.start, d.end, "duplicate", size, labels[d.other],
-                        seconds=(d.end - d.start) / markers.fps, note=d.why,
-                        **dup_fill.get((d.marker, d.start, d.end), {}))
-        fixes.append(fix)
-    for g in foreign:  # the same: named with the evidence, missing where no fill reached it
-        run = slice(g.start, g.end)
-        gone = np.any(np.isnan(y[run, g.marker]))
-        size = (float("nan") if gone else
-                float(np.max(np.linalg.norm(before_fill[run, g.marker] - y[run, g.marker], axis=-1))) * unit_mm)
-        fixes.append(MarkerFix(labels[g.marker], g.start, g.end, "foreign", size, seconds=(g.end - g.start) / markers.fps,
-                               note=g.why, **dup_fill.get((g.marker, g.start, g.end), {})))
+                float(np.max(np.linalg.norm(before_fill[a:b, mk] - y[a:b, mk], axis=-1))) * unit_mm)
+        fixes.append(MarkerFix(labels[mk], a, b, kind, size, other, seconds=(b - a) / markers.fps, note=why,
+                               **dup_fill.get((mk, a, b), {})))
     # a spike no fill reached stays missing rather than wrong
     fixes.sort(key=lambda x: (x.start, x.marker, x.kind))
     out = full.copy()
