@@ -179,13 +179,11 @@ def clean(take, context=None, *, steps="fill,detect,repair,denoise", threshold: 
     motion = take if isinstance(take, Motion) else _load_motion(take, asf, fps, unit)
     request = _request(context, steps, threshold, drifts, models, noise_deg, fps, unit)
     if record is not None:
-        from .cleaning.pipeline import STEPS, parse_steps
-        from .cleaning.replay import KEYWORDS, check_replay
+        from .cleaning.pipeline import parse_steps
+        from .cleaning.replay import KEYWORDS, check_replay, given_options
 
-        check_replay(record, request, [key for key, given in (
-            ("steps", parse_steps(steps) != STEPS), ("threshold", threshold != 0.5), ("drifts", drifts),
-            ("context", context is not None), ("models", bool(models)), ("noise_deg", noise_deg is not None)) if given],
-            KEYWORDS, "record=")
+        check_replay(record, request, given_options(parse_steps(steps), threshold, drifts, context is not None, models,
+                                                    noise_deg), KEYWORDS, "record=")
 
     def cleaning():
         ctx, note = _load_context(context, motion, steps)

@@ -17,9 +17,9 @@ from __future__ import annotations
 from collections.abc import Iterable, Mapping
 
 from ..errors import MocapError
-from .pipeline import CleanResult
+from .pipeline import STEPS, CleanResult
 
-__all__ = ["KEYWORDS", "FLAGS", "check_replay"]
+__all__ = ["KEYWORDS", "FLAGS", "given_options", "check_replay"]
 
 #: How ``mocapkit.clean`` names the options that shape a cleaning (the keys of the record's ``request``).
 KEYWORDS = {"steps": "steps=", "threshold": "threshold=", "drifts": "drifts=", "context": "context=",
@@ -35,6 +35,16 @@ def _said(value) -> str:
     if isinstance(value, (list, tuple)):
         return ",".join(map(str, value)) or "none"
     return "the default" if value is None else str(value)
+
+
+def given_options(steps, threshold: float, drifts: bool, context: bool, models, noise_deg) -> list[str]:
+    """The keys of a joint-angle cleaning's options (a record's ``request``) that a caller set away from their
+    defaults: ``steps`` parsed (a tuple), ``threshold`` (default 0.5), ``drifts``, ``context`` whether one was given,
+    ``models`` the models chosen (none: the shipped ones), ``noise_deg`` (None: the default). What
+    :func:`check_replay` checks beside a record, the same for ``mocapkit.clean`` and ``mocapkit clean``."""
+    return [key for key, given in (("steps", tuple(steps) != STEPS), ("threshold", threshold != 0.5),
+                                   ("drifts", bool(drifts)), ("context", bool(context)), ("models", bool(models)),
+                                   ("noise_deg", noise_deg is not None)) if given]
 
 
 def check_replay(record, request: Mapping, given: Iterable[str], names: Mapping[str, str], option: str) -> None:

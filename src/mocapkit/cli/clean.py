@@ -112,12 +112,10 @@ def clean(
     models = _models(ebf, ebd)
     if record is not None:  # options that shape a cleaning: only those the record's own cleaning was asked for
         from ..batch import clean_request
-        from ..cleaning.replay import FLAGS, check_replay
+        from ..cleaning.replay import FLAGS, check_replay, given_options
 
         check_replay(record, clean_request(step_list, threshold, drifts, context, models, noise_deg, amc_fps, unit),
-                     [key for key, given in (("steps", tuple(step_list) != STEPS), ("threshold", threshold != 0.5),
-                                             ("drifts", drifts), ("context", bool(context)), ("models", bool(models)),
-                                             ("noise_deg", noise_deg is not None)) if given], FLAGS, record_said)
+                     given_options(step_list, threshold, drifts, bool(context), models, noise_deg), FLAGS, record_said)
     skeleton = asf_of(inp, asf)
     skeleton_copy = asf_for_output(out, skeleton, overwrite)  # an AMC output reads back with its ASF beside it
     take = load_motion(inp, asf, purpose="clean", fps=amc_fps, unit=unit)
