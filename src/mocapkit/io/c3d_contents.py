@@ -15,20 +15,16 @@ from __future__ import annotations
 
 from collections import Counter
 
-import numpy as np
 
 from ..markerset import MarkerSet
+from .c3d_layout import parameter_values
 
 __all__ = ["marker_file_contents"]
 
 
 def _values(parameters, group: str, name: str) -> list:
     """The values of parameter ``group:name`` as a flat list ([] when the file has none)."""
-    grp = parameters.get(group, {})
-    param = grp.get(name) if isinstance(grp, dict) else None
-    if not isinstance(param, dict):
-        return []
-    return list(np.ravel(param.get("value", [])))
+    return list(parameter_values(parameters, group, name))
 
 
 def _first_int(values) -> int:

@@ -26,8 +26,8 @@ import struct
 
 import numpy as np
 
-__all__ = ["header_layout", "analog_offsets", "stored_analogs", "parameter_at", "put_parameter", "put_analogs",
-           "put_header_gap", "keep_data_start"]
+__all__ = ["parameter_values", "header_layout", "analog_offsets", "stored_analogs", "parameter_at", "put_parameter",
+           "put_analogs", "put_header_gap", "keep_data_start"]
 
 BLOCK = 512
 """Bytes in a C3D block: the header, the parameter section and the data block start on one."""
@@ -45,8 +45,10 @@ def header_layout(raw: bytes) -> dict[str, int]:
             "parameter_blocks": int(raw[(raw[0] - 1) * BLOCK + 2])}
 
 
-def _values(parameters, group: str, name: str) -> np.ndarray:
-    param = parameters.get(group, {}).get(name)
+def parameter_values(parameters, group: str, name: str) -> np.ndarray:
+    """The values of parameter ``GROUP:NAME`` in ezc3d's parsed layout, flattened (empty where the file has none)."""
+    grp = parameters.get(group, {})
+    param = grp.get(name) if isinstance(grp, dict) else None
     return np.ravel(param.get("value", [])) if isinstance(param, dict) else np.array([])
 
 
@@ -58,7 +60,7 @@ def analog_offsets(parameters, channels: int) -> np.ndarray:
     for stored 32768 read as 0 V) and ezc3d reads every offset as its magnitude
     (shd01.c3d: -32752, stored 32532 read as -220 counts), whatever ANALOG:FORMAT says.
     """
-    offsets = np.abs(_values(parameters, "ANALOG", "OFFSET").astype(np.int64))
+    offsets = np.abs(parameter_values(parameters, "ANALOG", "OFFSET").astype(np.int64))
     out = np.zeros(channels, dtype=np.int64)
     out[: min(len(offsets), channels)] = offsets[:channels]
     return out
@@ -82,18 +84,18 @@ def stored_analogs(analogs: np.ndarray, parameters):
     file has it (the values are read with their magnitudes: :func:`analog_offsets`),
     ``gen`` ANALOG:GEN_SCALE.
     """
-    point_scale = _values(parameters, "POINT", "SCALE")
+    point_scale = parameter_values(parameters, "POINT", "SCALE")
     if not len(point_scale) or not np.isfinite(float(point_scale[0])):
         return None
     integer = float(point_scale[0]) > 0
     a = analogs.shape[0]
-    scales = _values(parameters, "ANALOG", "SCALE").astype(np.float64)
-    gen = _values(parameters, "ANALOG", "GEN_SCALE").astype(np.float64)
+    scales = parameter_values(parameters, "ANALOG", "SCALE").astype(np.float64)
+    gen = parameter_values(parameters, "ANALOG", "GEN_SCALE").astype(np.float64)
     if len(scales) < a or not len(gen):
         return None
     scales, offsets = scales[:a], analog_offsets(parameters, a)
     written = np.zeros(a, dtype=np.int64)
-    given = _values(parameters, "ANALOG", "OFFSET").astype(np.int64)[:a]
+    given = parameter_values(parameters, "ANALOG", "OFFSET").astype(np.int64)[:a]
     written[: len(given)] = given
     step = scales[:, None] * gen[0]
     if not np.all(np.isfinite(step)) or np.any(step == 0):
