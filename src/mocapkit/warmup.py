@@ -11,20 +11,24 @@ which cleans the bundled CMU walk (``12_walk.amc``) with gaps, capture errors
 and noise, against the bundled default context and alone, so that every step
 (the EBD gap filler, self-similarity detection and repair, the EBF denoiser)
 runs and compiles what it needs (the serial and the parallel twin of each
-self-similarity kernel), then writes and reads the result as BVH and npz. It writes nothing but numba's cache (the
-files go to a temporary folder that is removed).
+self-similarity kernel; the parallel twins in a second process, beside the
+rest), then writes and reads the result as BVH and npz. It writes nothing but
+numba's cache (the files go to a temporary folder that is removed).
 """
 
 from __future__ import annotations
 
 import argparse
+import contextlib
+import multiprocessing
+import os
 import tempfile
 import time
 from pathlib import Path
 
 import numpy as np
 
-__all__ = ["warm_up", "broken_walk"]
+__all__ = ["warm_up", "broken_walk", "parallel_twins"]
 
 
 def broken_walk():
@@ -42,7 +46,27 @@ def broken_walk():
     return dataclasses.replace(gappy, rotations=rot)
 
 
-def warm_up() -> dict:
+def parallel_twins() -> None:
+    """Detect and repair the broken walk with every self-similarity twin forced parallel, with and without the context.
+
+    The bundled take alone would compile only the serial twins (a call picks a
+    twin by problem size); this compiles the parallel ones, which a long take
+    uses (:mod:`mocapkit.cleaning.ssa.twins`). numba compiles ``parallel=True``
+    kernels slowly (about two thirds of the warm-up), so :func:`warm_up` runs
+    this in a second process beside the rest.
+    """
+    from .cleaning.pipeline import clean
+    from .cleaning.ssa.twins import forced
+    from .context import fit_context, resolve_context
+
+    take = broken_walk()
+    context, _ = fit_context(take, resolve_context(None))
+    with forced("parallel"):
+        for ctx in (context, None):
+            clean(take, ctx, steps="fill,detect,repair")
+
+
+def warm_up(processes: int | None = None) -> dict:
     """Run every step of :func:`mocapkit.clean` on a bundled take (and on a short piece of it) once.
 
     The take is cleaned against the bundled default context, as ``mocapkit
@@ -56,29 +80,42 @@ def warm_up() -> dict:
     The self-similarity kernels are compiled twice, serial and parallel
     (:mod:`mocapkit.cleaning.ssa.twins`), and a call takes one or the other by
     problem size: the bundled take alone would compile only the serial twins,
-    so detect and repair run again with every twin forced parallel (what a
-    long take uses, and any take once the parallel twins are cached), and on a
-    short piece (its shorter word lists compile nothing new but check the
-    small sizes run).
+    so detect and repair run again with every twin forced parallel
+    (:func:`parallel_twins`: what a long take uses, and any take once the
+    parallel twins are cached), and on a short piece (its shorter word lists
+    compile nothing new but check the small sizes run). ``processes`` (default:
+    2 where the machine has two cores or more, else 1): with 2 the parallel
+    twins compile in a second process (spawned, so it shares nothing but the
+    disk cache, which numba writes file by file under temporary names) while
+    this one compiles the rest, which halves the wall time on two cores.
     """
+    from concurrent.futures import ProcessPoolExecutor
+
     from .io import load, save
     from .cleaning.pipeline import clean
-    from .cleaning.ssa.twins import forced
     from .context import fit_context, resolve_context
 
+    if processes is None:
+        processes = 2 if (os.cpu_count() or 1) >= 2 else 1
     t = time.perf_counter()
-    take = broken_walk()
-    context, _ = fit_context(take, resolve_context(None))  # what `mocapkit clean` compares with by default
-    result = clean(take, context)
-    clean(take, steps="fill,detect,repair")  # the clip alone (context "none"): other kernels
-    with forced("parallel"):
-        for ctx in (context, None):
-            clean(take, ctx, steps="fill,detect,repair")
-    clean(take[: int(2 * take.fps)], context, steps="fill,detect,repair")
-    with tempfile.TemporaryDirectory() as tmp:
-        for suffix in (".bvh", ".npz"):
-            path = save(result.motion, Path(tmp) / f"walk{suffix}")
-            load(path)
+    with contextlib.ExitStack() as stack:
+        twins = None
+        if processes >= 2:
+            pool = stack.enter_context(ProcessPoolExecutor(1, mp_context=multiprocessing.get_context("spawn")))
+            twins = pool.submit(parallel_twins)
+        take = broken_walk()
+        context, _ = fit_context(take, resolve_context(None))  # what `mocapkit clean` compares with by default
+        result = clean(take, context)
+        clean(take, steps="fill,detect,repair")  # the clip alone (context "none"): other kernels
+        if twins is None:
+            parallel_twins()
+        clean(take[: int(2 * take.fps)], context, steps="fill,detect,repair")
+        with tempfile.TemporaryDirectory() as tmp:
+            for suffix in (".bvh", ".npz"):
+                path = save(result.motion, Path(tmp) / f"walk{suffix}")
+                load(path)
+        if twins is not None:
+            twins.result()
     return {"seconds": time.perf_counter() - t, "steps": {s.name: s.cells for s in result.steps}}
 
 
