@@ -60,8 +60,9 @@ demo: install  # demo_out/ is the demo's own folder: a rerun replaces what the l
 	@echo "demo outputs written to $(OUT)/; open $(OUT)/12_walk_report.html in a browser"
 
 # --dist loadscope keeps each test module on one worker, so a module's costly fixtures are built once
-test: install-test  # pytest-xdist: one worker process per core (at most 4), so a 2-core machine runs two
-	@bash scripts/ensure-chromium.sh
+# The browser check (which may apt-get Chromium on a bare machine) runs beside the install, not after it.
+test:  # pytest-xdist: one worker process per core (at most 4), so a 2-core machine runs two
+	@bash scripts/ensure-chromium.sh & browser=$$!; $(MAKE) --no-print-directory install-test; rc=$$?; wait $$browser; exit $$rc
 	$(PY) -m pytest -q -m "not slow" --numprocesses=auto --maxprocesses=4 --dist loadscope
 
 bench: install-test
