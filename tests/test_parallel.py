@@ -232,22 +232,81 @@ def slow_square(x):
     return x * x
 
 
+def square_after_gate(item):
+    """``(x, gate)``: x * x, once the file ``gate`` exists when one is named (at most 20 s of waiting)."""
+    x, gate = item
+    deadline = time.monotonic() + 20
+    while gate and not os.path.exists(gate) and time.monotonic() < deadline:
+        time.sleep(0.005)
+    return x * x
+
+
 @pytest.mark.parametrize("executor", ["serial", "processes"])
-def test_on_result_sees_each_result_as_it_finishes_and_can_stop_the_work(executor):
+def test_on_result_sees_each_result_as_it_finishes_and_can_stop_the_work(executor, tmp_path):
     """A batch's log: each item is handed back in this process as soon as it is done, and a true answer stops
-    handing out work (items under way on local processes still finish and are handed back)."""
+    handing out work (items under way on local processes still finish and are handed back).
+
+    On processes the first item waits at a gate that on_result opens: the others are handed back before it
+    however slowly any process runs (a 0.15 s head start was the whole test once)."""
+    gate = str(tmp_path / "gate") if executor == "processes" else None
     seen = []
-    assert map_ordered(slow_square, [3, 0, 1], executor=executor, progress=False,
-                       on_result=lambda k, r: seen.append((k, r))) == [9, 0, 1]
+
+    def log(k, r):
+        seen.append((k, r))
+        open(tmp_path / "gate", "w").close()
+
+    assert map_ordered(square_after_gate, [(3, gate), (0, None), (1, None)], executor=executor, progress=False,
+                       on_result=log) == [9, 0, 1]
     assert sorted(seen) == [(0, 9), (1, 0), (2, 1)]
     if executor == "processes":
-        assert seen[0] == (1, 0)  # completion order: the slow first item is not waited for
+        assert seen[0][0] != 0  # completion order: the held first item is not waited for
 
     seen.clear()
     out = map_ordered(square, range(40), executor=executor, progress=False, max_workers=2,
                       on_result=lambda k, r: seen.append(k) or True)  # stop at the first result
-    assert seen and len(seen) < 40
-    assert [k for k, r in enumerate(out) if r is not None] == sorted(seen)  # the rest never ran
+    if executor == "serial":
+        assert seen == [0] and out == [0] + [None] * 39
+    assert [k for k, r in enumerate(out) if r is not None] == sorted(seen)  # every item that ran is handed back
+    assert all(out[k] == k * k for k in seen)
+
+
+def test_a_stop_drops_the_items_a_local_pool_has_not_started(tmp_path, monkeypatch):
+    """on_result's stop, without a race: the items after the first wait at a gate that opens only once no future
+    of the pool is pending any more (the stop has cancelled them), so the pool cannot run them all first however
+    late this process comes to the first result. Fast items used to decide it: on a loaded machine all 40 had
+    finished before on_result saw the first, and were (rightly) all handed back. A stop that cancels nothing
+    leaves futures pending: the gate opens after 10 s and all 40 run."""
+    from concurrent.futures import ProcessPoolExecutor
+
+    import mocapkit.parallel
+
+    futures = []
+
+    class Recorded(ProcessPoolExecutor):
+        def submit(self, *args, **kwargs):
+            futures.append(super().submit(*args, **kwargs))
+            return futures[-1]
+
+    monkeypatch.setattr(mocapkit.parallel, "ProcessPoolExecutor", Recorded)
+    gate, asked = tmp_path / "gate", threading.Event()
+
+    def open_gate():
+        asked.wait(60)
+        deadline = time.monotonic() + 10
+        while any(not (f.running() or f.done()) for f in futures) and time.monotonic() < deadline:
+            time.sleep(0.005)
+        gate.touch()
+
+    opener = threading.Thread(target=open_gate, daemon=True)
+    opener.start()
+    seen = []
+    items = [(k, str(gate) if k else None) for k in range(40)]
+    out = map_ordered(square_after_gate, items, executor="processes", progress=False, max_workers=2,
+                      on_result=lambda k, r: seen.append(k) or asked.set() or True)
+    opener.join(10)
+    assert len(futures) == 40 and seen[0] == 0
+    assert len(seen) < 40 and sum(f.cancelled() for f in futures) == 40 - len(seen)  # the rest never ran
+    assert [k for k, r in enumerate(out) if r is not None] == sorted(seen)  # and every one that ran is handed back
     assert all(out[k] == k * k for k in seen)
 
 
