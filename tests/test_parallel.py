@@ -347,23 +347,27 @@ with interrupts_as_keyboard_interrupt():
 """
 
 
-@pytest.mark.parametrize("target", ["worker", "parent"])
+@pytest.mark.parametrize("target", ["worker", "parent", "group"])
 def test_a_sigterm_to_a_pool_worker_or_its_parent_ends_the_work_as_interrupted(tmp_path, target):
     """A worker that took a SIGTERM died of it with its traceback and broke the pool: `clean-batch` said "a worker
-    process ended abruptly" and exited 2; now the parent ends the work as a SIGTERM sent to it does, exit 143."""
+    process ended abruptly" and exited 2; now the parent ends the work as a SIGTERM sent to it does, exit 143.
+    "group": a scheduler stopping the job signals its whole process group, the parent and its workers at once."""
     import subprocess
     from pathlib import Path
 
     root = Path(__file__).resolve().parents[1]
     proc = subprocess.Popen([sys.executable, "-c", _INTERRUPTED_POOL, str(tmp_path)], cwd=root, text=True,
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, start_new_session=True)
     try:
         deadline = time.monotonic() + 120
         while len(list(tmp_path.iterdir())) < 2 and time.monotonic() < deadline and proc.poll() is None:
             time.sleep(0.1)
         workers = sorted(int(p.name) for p in tmp_path.iterdir())
         assert len(workers) == 2, proc.communicate(timeout=10)
-        os.kill(workers[0] if target == "worker" else proc.pid, signal.SIGTERM)
+        if target == "group":
+            os.killpg(proc.pid, signal.SIGTERM)
+        else:
+            os.kill(workers[0] if target == "worker" else proc.pid, signal.SIGTERM)
         out, err = proc.communicate(timeout=60)
     finally:
         if proc.poll() is None:
@@ -373,3 +377,56 @@ def test_a_sigterm_to_a_pool_worker_or_its_parent_ends_the_work_as_interrupted(t
     for pid in workers:  # the workers are gone
         with pytest.raises(ProcessLookupError):
             os.kill(pid, 0)
+
+
+def quick_die_or_hold(item):
+    """``(what, gate)``: "quick" returns at once; "die" waits for the file ``gate`` (at most 20 s), then ends its
+    worker as the OOM killer would; "hold" waits 60 s."""
+    what, gate = item
+    deadline = time.monotonic() + 20
+    while what == "die" and not os.path.exists(gate) and time.monotonic() < deadline:
+        time.sleep(0.005)
+    if what == "die":
+        os._exit(1)
+    if what == "hold":
+        time.sleep(60)
+    return os.getpid()
+
+
+_BROKEN_POOL_BUSY_PARENT = """
+import signal, sys, time
+signal.signal(signal.SIGTERM, signal.SIG_DFL)  # a library user's process (a notebook): a SIGTERM ends it
+from mocapkit.errors import MocapError
+from mocapkit.parallel import map_ordered
+from tests.test_parallel import quick_die_or_hold
+gate = sys.argv[1]
+
+def busy_log(k, pid):  # still busy when the pool breaks: concurrent.futures SIGTERMs the other worker meanwhile
+    print(pid, flush=True)
+    open(gate, "w").close()
+    time.sleep(1.5)
+
+try:
+    map_ordered(quick_die_or_hold, [("quick", gate), ("die", gate), ("hold", gate)], executor="processes",
+                max_workers=2, progress=False, on_result=busy_log)
+except MocapError as exc:
+    print(exc)
+"""
+
+
+def test_a_pool_that_stops_its_own_workers_never_signals_the_process_that_runs_it(tmp_path):
+    """A worker dies; concurrent.futures then sends SIGTERM to the pool's other workers. A worker that took it as
+    someone else's passed it on to its parent half a second later: the process that called map_ordered (here a
+    plain one, as a notebook is) died of a SIGTERM it never asked for, while its on_result was still busy. The
+    parent's own SIGTERM ends a worker; the call says one worker ended abruptly."""
+    import subprocess
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[1]
+    proc = subprocess.run([sys.executable, "-c", _BROKEN_POOL_BUSY_PARENT, str(tmp_path / "gate")], cwd=root,
+                          text=True, capture_output=True, timeout=60)
+    assert proc.returncode == 0, (proc.returncode, proc.stderr)
+    lines = proc.stdout.splitlines()
+    assert len(lines) == 2 and lines[1].startswith("a worker process ended abruptly"), proc.stdout
+    with pytest.raises(ProcessLookupError):  # the worker that did the quick item is gone too
+        os.kill(int(lines[0]), 0)
