@@ -232,22 +232,81 @@ def slow_square(x):
     return x * x
 
 
+def square_after_gate(item):
+    """``(x, gate)``: x * x, once the file ``gate`` exists when one is named (at most 20 s of waiting)."""
+    x, gate = item
+    deadline = time.monotonic() + 20
+    while gate and not os.path.exists(gate) and time.monotonic() < deadline:
+        time.sleep(0.005)
+    return x * x
+
+
 @pytest.mark.parametrize("executor", ["serial", "processes"])
-def test_on_result_sees_each_result_as_it_finishes_and_can_stop_the_work(executor):
+def test_on_result_sees_each_result_as_it_finishes_and_can_stop_the_work(executor, tmp_path):
     """A batch's log: each item is handed back in this process as soon as it is done, and a true answer stops
-    handing out work (items under way on local processes still finish and are handed back)."""
+    handing out work (items under way on local processes still finish and are handed back).
+
+    On processes the first item waits at a gate that on_result opens: the others are handed back before it
+    however slowly any process runs (a 0.15 s head start was the whole test once)."""
+    gate = str(tmp_path / "gate") if executor == "processes" else None
     seen = []
-    assert map_ordered(slow_square, [3, 0, 1], executor=executor, progress=False,
-                       on_result=lambda k, r: seen.append((k, r))) == [9, 0, 1]
+
+    def log(k, r):
+        seen.append((k, r))
+        open(tmp_path / "gate", "w").close()
+
+    assert map_ordered(square_after_gate, [(3, gate), (0, None), (1, None)], executor=executor, progress=False,
+                       on_result=log) == [9, 0, 1]
     assert sorted(seen) == [(0, 9), (1, 0), (2, 1)]
     if executor == "processes":
-        assert seen[0] == (1, 0)  # completion order: the slow first item is not waited for
+        assert seen[0][0] != 0  # completion order: the held first item is not waited for
 
     seen.clear()
     out = map_ordered(square, range(40), executor=executor, progress=False, max_workers=2,
                       on_result=lambda k, r: seen.append(k) or True)  # stop at the first result
-    assert seen and len(seen) < 40
-    assert [k for k, r in enumerate(out) if r is not None] == sorted(seen)  # the rest never ran
+    if executor == "serial":
+        assert seen == [0] and out == [0] + [None] * 39
+    assert [k for k, r in enumerate(out) if r is not None] == sorted(seen)  # every item that ran is handed back
+    assert all(out[k] == k * k for k in seen)
+
+
+def test_a_stop_drops_the_items_a_local_pool_has_not_started(tmp_path, monkeypatch):
+    """on_result's stop, without a race: the items after the first wait at a gate that opens only once no future
+    of the pool is pending any more (the stop has cancelled them), so the pool cannot run them all first however
+    late this process comes to the first result. Fast items used to decide it: on a loaded machine all 40 had
+    finished before on_result saw the first, and were (rightly) all handed back. A stop that cancels nothing
+    leaves futures pending: the gate opens after 10 s and all 40 run."""
+    from concurrent.futures import ProcessPoolExecutor
+
+    import mocapkit.parallel
+
+    futures = []
+
+    class Recorded(ProcessPoolExecutor):
+        def submit(self, *args, **kwargs):
+            futures.append(super().submit(*args, **kwargs))
+            return futures[-1]
+
+    monkeypatch.setattr(mocapkit.parallel, "ProcessPoolExecutor", Recorded)
+    gate, asked = tmp_path / "gate", threading.Event()
+
+    def open_gate():
+        asked.wait(60)
+        deadline = time.monotonic() + 10
+        while any(not (f.running() or f.done()) for f in futures) and time.monotonic() < deadline:
+            time.sleep(0.005)
+        gate.touch()
+
+    opener = threading.Thread(target=open_gate, daemon=True)
+    opener.start()
+    seen = []
+    items = [(k, str(gate) if k else None) for k in range(40)]
+    out = map_ordered(square_after_gate, items, executor="processes", progress=False, max_workers=2,
+                      on_result=lambda k, r: seen.append(k) or asked.set() or True)
+    opener.join(10)
+    assert len(futures) == 40 and seen[0] == 0
+    assert len(seen) < 40 and sum(f.cancelled() for f in futures) == 40 - len(seen)  # the rest never ran
+    assert [k for k, r in enumerate(out) if r is not None] == sorted(seen)  # and every one that ran is handed back
     assert all(out[k] == k * k for k in seen)
 
 
@@ -288,23 +347,27 @@ with interrupts_as_keyboard_interrupt():
 """
 
 
-@pytest.mark.parametrize("target", ["worker", "parent"])
+@pytest.mark.parametrize("target", ["worker", "parent", "group"])
 def test_a_sigterm_to_a_pool_worker_or_its_parent_ends_the_work_as_interrupted(tmp_path, target):
     """A worker that took a SIGTERM died of it with its traceback and broke the pool: `clean-batch` said "a worker
-    process ended abruptly" and exited 2; now the parent ends the work as a SIGTERM sent to it does, exit 143."""
+    process ended abruptly" and exited 2; now the parent ends the work as a SIGTERM sent to it does, exit 143.
+    "group": a scheduler stopping the job signals its whole process group, the parent and its workers at once."""
     import subprocess
     from pathlib import Path
 
     root = Path(__file__).resolve().parents[1]
     proc = subprocess.Popen([sys.executable, "-c", _INTERRUPTED_POOL, str(tmp_path)], cwd=root, text=True,
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, start_new_session=True)
     try:
         deadline = time.monotonic() + 120
         while len(list(tmp_path.iterdir())) < 2 and time.monotonic() < deadline and proc.poll() is None:
             time.sleep(0.1)
         workers = sorted(int(p.name) for p in tmp_path.iterdir())
         assert len(workers) == 2, proc.communicate(timeout=10)
-        os.kill(workers[0] if target == "worker" else proc.pid, signal.SIGTERM)
+        if target == "group":
+            os.killpg(proc.pid, signal.SIGTERM)
+        else:
+            os.kill(workers[0] if target == "worker" else proc.pid, signal.SIGTERM)
         out, err = proc.communicate(timeout=60)
     finally:
         if proc.poll() is None:
@@ -314,3 +377,56 @@ def test_a_sigterm_to_a_pool_worker_or_its_parent_ends_the_work_as_interrupted(t
     for pid in workers:  # the workers are gone
         with pytest.raises(ProcessLookupError):
             os.kill(pid, 0)
+
+
+def quick_die_or_hold(item):
+    """``(what, gate)``: "quick" returns at once; "die" waits for the file ``gate`` (at most 20 s), then ends its
+    worker as the OOM killer would; "hold" waits 60 s."""
+    what, gate = item
+    deadline = time.monotonic() + 20
+    while what == "die" and not os.path.exists(gate) and time.monotonic() < deadline:
+        time.sleep(0.005)
+    if what == "die":
+        os._exit(1)
+    if what == "hold":
+        time.sleep(60)
+    return os.getpid()
+
+
+_BROKEN_POOL_BUSY_PARENT = """
+import signal, sys, time
+signal.signal(signal.SIGTERM, signal.SIG_DFL)  # a library user's process (a notebook): a SIGTERM ends it
+from mocapkit.errors import MocapError
+from mocapkit.parallel import map_ordered
+from tests.test_parallel import quick_die_or_hold
+gate = sys.argv[1]
+
+def busy_log(k, pid):  # still busy when the pool breaks: concurrent.futures SIGTERMs the other worker meanwhile
+    print(pid, flush=True)
+    open(gate, "w").close()
+    time.sleep(1.5)
+
+try:
+    map_ordered(quick_die_or_hold, [("quick", gate), ("die", gate), ("hold", gate)], executor="processes",
+                max_workers=2, progress=False, on_result=busy_log)
+except MocapError as exc:
+    print(exc)
+"""
+
+
+def test_a_pool_that_stops_its_own_workers_never_signals_the_process_that_runs_it(tmp_path):
+    """A worker dies; concurrent.futures then sends SIGTERM to the pool's other workers. A worker that took it as
+    someone else's passed it on to its parent half a second later: the process that called map_ordered (here a
+    plain one, as a notebook is) died of a SIGTERM it never asked for, while its on_result was still busy. The
+    parent's own SIGTERM ends a worker; the call says one worker ended abruptly."""
+    import subprocess
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[1]
+    proc = subprocess.run([sys.executable, "-c", _BROKEN_POOL_BUSY_PARENT, str(tmp_path / "gate")], cwd=root,
+                          text=True, capture_output=True, timeout=60)
+    assert proc.returncode == 0, (proc.returncode, proc.stderr)
+    lines = proc.stdout.splitlines()
+    assert len(lines) == 2 and lines[1].startswith("a worker process ended abruptly"), proc.stdout
+    with pytest.raises(ProcessLookupError):  # the worker that did the quick item is gone too
+        os.kill(int(lines[0]), 0)

@@ -34,6 +34,11 @@ local worker, the parent is gone; in a Dask task, the scheduler has released
 the task because the client that submitted it went away (a remote cluster's
 workers live on). Work handed to an executor object given by the caller is
 not watched; there :func:`owner_alive` is always true.
+
+A SIGTERM that someone else sends to a local worker (``kill <worker pid>``)
+is passed on to this process, where the work ends as if it had been sent here;
+one this process's own pool sends to stop its workers never comes back to it
+(on Linux and the BSDs, where a worker can tell who sent it).
 """
 
 from __future__ import annotations
@@ -213,14 +218,13 @@ def _die_with_parent(parent_pid: int) -> None:
     and ignores SIGINT: on Ctrl-C (sent to the whole process group) the parent stops the pool
     (:func:`_stop_pool`). A worker that raised KeyboardInterrupt itself could die halfway through sending a
     result, and the pool's manager thread then waited for the rest of it for ever, and the exit with it
-    (3 of 60 interrupted ``db build`` runs hung at exit). A SIGTERM raises nothing here either: it is passed on
-    to ``parent_pid`` (:func:`_term_to_parent`), which ends the work as interrupted (exit 143), as a SIGTERM sent
-    to it does. A worker that died of it printed its traceback and broke the pool: ``clean-batch`` then said
-    "a worker process ended abruptly" and exited 2."""
+    (3 of 60 interrupted ``db build`` runs hung at exit). A SIGTERM raises nothing here either
+    (:func:`_take_sigterm`): one from someone else is passed on to ``parent_pid``, which ends the work as
+    interrupted (exit 143), as a SIGTERM sent to it does; one from ``parent_pid`` itself ends this worker."""
     global _OWNER_PID
     try:
         signal.signal(signal.SIGINT, signal.SIG_IGN)
-        signal.signal(signal.SIGTERM, lambda signum, frame: _term_to_parent(parent_pid))
+        signal.signal(signal.SIGTERM, signal.SIG_DFL)  # not the parent's handler: a SIGTERM that gets here ends the worker
         if hasattr(signal, "pthread_sigmask"):  # forked with SIGINT held back (_run): a pending one is now ignored
             signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
     except (ValueError, OSError):  # not the main thread of this worker: it cannot take its own interrupts either
@@ -233,22 +237,51 @@ def _die_with_parent(parent_pid: int) -> None:
             libc.prctl(1, int(signal.SIGKILL), 0, 0, 0)  # PR_SET_PDEATHSIG
         except (OSError, AttributeError):  # no prctl: the watcher below still works
             pass
+    _take_sigterm(parent_pid)
     _OWNER_PID = os.getppid()  # the parent (or, under forkserver, the server that dies with it)
     if _OWNER_PID != parent_pid and not _pid_alive(parent_pid):
         _kill_self()  # the parent died before the death signal was armed
     threading.Thread(target=_watch_parent, name="mocapkit-parent-watch", daemon=True).start()
 
 
-def _term_to_parent(parent_pid: int) -> None:
-    """A worker's SIGTERM: sent on to ``parent_pid`` after :data:`_FORWARD_S`, from a thread. Where the whole
-    process group took it (a scheduler or a shutdown stopping the job), the parent, interrupted itself, has
-    killed this worker by then and is not signalled twice while it stops the pool."""
-    def forward():
-        time.sleep(_FORWARD_S)
-        if _pid_alive(parent_pid):
-            os.kill(parent_pid, signal.SIGTERM)
+def _take_sigterm(parent_pid: int) -> None:
+    """A worker's SIGTERM acts by its sender; called in the worker's main thread before it starts any thread.
 
-    threading.Thread(target=forward, name="mocapkit-term-forward", daemon=True).start()
+    ``parent_pid`` sends one when its own pool stops workers (``concurrent.futures`` terminates the other
+    workers of a pool that a dead worker broke): the worker must then end, and never signal the parent,
+    which may be a notebook or a test runner that asked for no SIGTERM and dies of one (and a batch whose
+    worker the OOM killer took would exit 143 as interrupted instead of 2). Anyone else's
+    (``kill <worker pid>``, a scheduler stopping the process group) is passed on to ``parent_pid``, which
+    ends the work as interrupted (exit 143), after :data:`_FORWARD_S`, unless the parent has ended this
+    worker by then (it does when the whole group got the signal).
+
+    SIGTERM is blocked in every thread of the worker (threads started later inherit the mask) and one
+    thread takes it with ``sigwaitinfo``, which names the sender (``si_pid``). Where ``sigwaitinfo`` is
+    missing (macOS, Windows) the sender cannot be known: the worker dies of it (SIG_DFL) and the parent
+    reports a worker that ended abruptly. Processes a work function starts inherit the blocked SIGTERM:
+    stop them with SIGKILL (``Popen.kill``)."""
+    if not hasattr(signal, "sigwaitinfo"):
+        return
+    signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGTERM})
+    threading.Thread(target=_sigterm_watch, args=(parent_pid,), name="mocapkit-term-watch", daemon=True).start()
+
+
+def _sigterm_watch(parent_pid: int) -> None:
+    """The thread of :func:`_take_sigterm`: takes the worker's SIGTERMs for as long as it lives."""
+    forward_at, forwarded = None, False  # when someone else's SIGTERM is to be passed on; whether it was
+    while True:
+        if forward_at is None:
+            info = signal.sigwaitinfo({signal.SIGTERM})
+        else:
+            info = signal.sigtimedwait({signal.SIGTERM}, max(forward_at - time.monotonic(), 0.0))
+        if info is None:  # none from the parent meanwhile: pass it on, once
+            forward_at, forwarded = None, True
+            if _pid_alive(parent_pid):
+                os.kill(parent_pid, signal.SIGTERM)
+        elif info.si_pid == parent_pid:
+            _kill_self()
+        elif forward_at is None and not forwarded:
+            forward_at = time.monotonic() + _FORWARD_S
 
 
 def _pid_alive(pid: int) -> bool:
