@@ -244,10 +244,15 @@ def _load_motion(path, asf, fps=None, unit=None) -> Motion:
 def _load_context(context, motion, steps=None):
     """``context`` as :func:`mocapkit.cleaning.pipeline.clean` takes it (:func:`mocapkit.context.resolve_context`),
     fitted to ``motion``'s skeleton (:func:`mocapkit.context.fit_context`); returns ``(context, note)``.
-    ``(None, "")`` when ``steps`` (None: every step) leave detection out: no other step reads a context."""
+    ``(None, "")`` when ``steps`` (None: every step) leave detection out: no other step reads a context; ``(None,
+    line)`` for a take too coarse for detection (:func:`mocapkit.cleaning.take_context.unread_context`)."""
     from .cleaning.pipeline import STEPS, parse_steps
+    from .cleaning.take_context import unread_context
     from .context import fit_context, resolve_context, topology_id
 
     if "detect" not in parse_steps(STEPS if steps is None else steps):
         return None, ""
+    unread = unread_context(motion, context)  # under 12 fps detection does not run: nothing is built or read
+    if unread is not None:
+        return None, unread
     return fit_context(motion, resolve_context(context, prefer=topology_id(motion.skeleton)))
