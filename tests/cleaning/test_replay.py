@@ -102,3 +102,9 @@ def test_an_option_given_at_its_default_beside_a_record_counts_as_given(tmp_path
         mocapkit.clean(inp, context="none", threshold=0.5, decisions=dec, record=record)
     assert str(exc.value) == (f"{record}: threshold= 0.5 given beside record=, whose cleaning is applied as it was "
                               "made (threshold= 0.3 in the record): leave it out, or clean anew without record=")
+    code, _, err = run("clean", inp, "-o", tmp_path / "b.npz", "--decisions", dec, "--record", record,
+                       "--context", "none", "--threshold", "0.5")  # the command, as Python
+    assert code == 2 and one_error_line(err) and f"{record}: --threshold 0.5 given beside --record" in err, err
+    code, _, err = run("clean", inp, "-o", tmp_path / "c.npz", "--decisions", dec, "--record", record,
+                       "--context", "none", "--threshold", "0.3")
+    assert code == 0, err
