@@ -187,7 +187,7 @@ def test_bad_context_paths_are_refused_naming_the_file(takes, tmp_path, small_db
     with pytest.raises(MocapFormatError, match="no motion files"):
         C.context_files([tmp_path / "empty"])
     small_db.save(tmp_path / "db")
-    with pytest.raises(MocapFormatError, match="only --context"):
+    with pytest.raises(MocapFormatError, match="must be the only context given"):
         C.resolve_context([tmp_path / "db", takes], cache_dir=tmp_path / "cache")
     assert C.resolve_context(tmp_path / "db").num_clips == small_db.num_clips
     lone = tmp_path / "lone"

@@ -306,3 +306,20 @@ def test_decisions_for_a_motion_are_read_as_the_command_reads_them(broken, tmp_p
     command's "no such file", before any cleaning."""
     with pytest.raises(mocapkit.MissingFileError, match="d.json"):
         mocapkit.clean(broken[0], decisions=tmp_path / "d.json")
+
+
+def test_library_refusals_name_the_librarys_parameters_not_the_clis_flags(tmp_path):
+    """Refusals raised from ``mocapkit.clean`` said the command's spellings (``--steps detect``, ``--unit``,
+    ``--context``) to a Python caller, who has none of them; each now names what Python gives, or neither."""
+    c3d = samples.path("Eb015pr.c3d")
+    with pytest.raises(mocapkit.MocapError) as exc:
+        mocapkit.clean(c3d, steps="detect", decisions={"decisions": {}})
+    assert str(exc.value) == f'{c3d}: review mode (steps="detect") changes nothing; decisions apply to a cleaning'
+    amc = samples.path("12_walk.amc")  # its ASF states its unit
+    with pytest.raises(mocapkit.MocapFormatError) as exc:
+        mocapkit.clean(amc, steps="fill", unit="mm")
+    assert str(exc.value).endswith("not mm: unit= is for a file that states none"), exc.value
+    with pytest.raises(mocapkit.MocapFormatError) as exc:
+        mocapkit.clean(amc, tmp_path / "missing", steps="detect")
+    assert str(exc.value) == (f"{tmp_path / 'missing'}: no such file or folder (a context is a database folder, a "
+                              "folder of takes or files)")

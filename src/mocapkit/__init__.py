@@ -47,8 +47,8 @@ __all__ = [
 ]
 
 
-def clean(take, context=None, *, steps="fill,detect,repair,denoise", threshold: float = 0.5, asf=None,
-          drifts: bool = False, models: dict | None = None, progress: bool = False, noise_deg: float | None = None,
+def clean(take, context=None, *, steps=None, threshold: float | None = None, asf=None,
+          drifts: bool | None = None, models: dict | None = None, progress: bool = False, noise_deg: float | None = None,
           fps: float | None = None, unit: str | None = None, decisions=None, record=None):
     """Clean a take: fill gaps, detect and repair erroneous joints, denoise the noisy cells.
 
@@ -77,16 +77,17 @@ def clean(take, context=None, *, steps="fill,detect,repair,denoise", threshold: 
         float32, :func:`mocapkit.context.motions_context`); None: the
         bundled default context (skipped, with a note, for a take on another
         skeleton); False or "none": the clip itself alone.
-    steps : str or sequence of str
+    steps : str or sequence of str, optional
         Any of "fill", "detect", "repair", "denoise" (comma-separated or a
         list); they always run in that order, and "repair" needs "detect".
-    threshold : float
-        MDM value in (0, 1) above which a joint is flagged and repaired.
+        Default (None): all four.
+    threshold : float, optional
+        MDM value in (0, 1) above which a joint is flagged and repaired (default, None: 0.5).
     asf : str, os.PathLike or Skeleton, optional
         The ASF skeleton of an AMC take (context AMC files use the ASF beside them).
-    drifts : bool
+    drifts : bool, optional
         Also flag and repair smooth drifts (digressions with no break), where
-        ``context`` repeats the take's motion (``docs/guide/cleaning.md``; the CLI's ``--drifts``).
+        ``context`` repeats the take's motion (``docs/guide/cleaning.md``; the CLI's ``--drifts``; default, None: False).
     models : dict, optional
         ``{"ebf": ..., "ebd": ...}``: model files, shipped models' names (``"ebf.pt"``) or
         loaded models for the denoiser and the gap filler (the CLI's ``--ebf`` / ``--ebd``);
@@ -119,9 +120,10 @@ def clean(take, context=None, *, steps="fill,detect,repair,denoise", threshold: 
         With ``decisions``: the ``.clean.npz`` of the cleaning reviewed (the
         CLI's ``--record``), read back instead of cleaning again (no context is
         read). The options that shape a cleaning (``context``, ``steps``,
-        ``threshold``, ``drifts``, ``models``, ``noise_deg``) are honoured
-        only where they are those the record's cleaning was made with, and
-        otherwise refused in one line naming the record and each keyword
+        ``threshold``, ``drifts``, ``models``, ``noise_deg``), when given (not
+        None, even at their default value: ``threshold=0.5`` beside a record
+        made at 0.3 is refused), are honoured only where they are those the
+        record's cleaning was made with, and otherwise refused in one line naming the record and each keyword
         (:func:`mocapkit.cleaning.replay.check_replay`); ``asf``, ``fps`` and
         ``unit`` read the take, which must be the one the record was made from.
 
@@ -148,6 +150,10 @@ def clean(take, context=None, *, steps="fill,detect,repair,denoise", threshold: 
     from .markerset import MarkerSet
 
     check_unit(unit, "unit=")
+    asked = {"steps": steps is not None, "threshold": threshold is not None, "drifts": drifts is not None}
+    steps = "fill,detect,repair,denoise" if steps is None else steps
+    threshold = 0.5 if threshold is None else threshold
+    drifts = False if drifts is None else drifts
     if isinstance(take, (MarkerSet, Motion)):  # options of a file, refused as fps= is for a .bvh path
         given = [f"{name}=" for name, value in (("asf", asf), ("fps", fps), ("unit", unit)) if value is not None]
         if given:
@@ -157,7 +163,7 @@ def clean(take, context=None, *, steps="fill,detect,repair,denoise", threshold: 
     if path is not None and os.fspath(path).lower().endswith((".c3d", ".trc", ".npz")):
         from .io.takes import load_take
 
-        take = load_take(path, unit=unit)
+        take = load_take(path, unit=unit, unit_option="unit=")
     if isinstance(take, MarkerSet):
         from .cleaning.decisions import RECORD_KEYWORD
         from .cleaning.markers.decisions import clean_and_decide
@@ -182,8 +188,9 @@ def clean(take, context=None, *, steps="fill,detect,repair,denoise", threshold: 
         from .cleaning.pipeline import parse_steps
         from .cleaning.replay import KEYWORDS, check_replay, given_options
 
-        check_replay(record, request, given_options(parse_steps(steps), threshold, drifts, context is not None, models,
-                                                    noise_deg), KEYWORDS, "record=")
+        given = set(given_options(parse_steps(steps), threshold, drifts, context is not None, models, noise_deg))
+        given |= {key for key, on in asked.items() if on}  # an option given at its default is given too
+        check_replay(record, request, [k for k in KEYWORDS if k in given], KEYWORDS, "record=")
 
     def cleaning():
         ctx, note = _load_context(context, motion, steps)
@@ -235,7 +242,7 @@ def _load_motion(path, asf, fps=None, unit=None) -> Motion:
             raise MocapFormatError(path, f"{name}= applies to .amc files only")
     from .io.takes import load_take
 
-    out = load_take(path, asf, fps=fps, unit=unit)
+    out = load_take(path, asf, fps=fps, unit=unit, unit_option="unit=")
     if not isinstance(out, Motion):
         raise MocapFormatError(path, "holds marker trajectories, not a skeleton motion; clean takes .bvh, .amc or .npz motions")
     return out
@@ -244,10 +251,15 @@ def _load_motion(path, asf, fps=None, unit=None) -> Motion:
 def _load_context(context, motion, steps=None):
     """``context`` as :func:`mocapkit.cleaning.pipeline.clean` takes it (:func:`mocapkit.context.resolve_context`),
     fitted to ``motion``'s skeleton (:func:`mocapkit.context.fit_context`); returns ``(context, note)``.
-    ``(None, "")`` when ``steps`` (None: every step) leave detection out: no other step reads a context."""
+    ``(None, "")`` when ``steps`` (None: every step) leave detection out: no other step reads a context; ``(None,
+    line)`` for a take too coarse for detection (:func:`mocapkit.cleaning.take_context.unread_context`)."""
     from .cleaning.pipeline import STEPS, parse_steps
+    from .cleaning.take_context import unread_context
     from .context import fit_context, resolve_context, topology_id
 
     if "detect" not in parse_steps(STEPS if steps is None else steps):
         return None, ""
+    unread = unread_context(motion, context)  # under 12 fps detection does not run: nothing is built or read
+    if unread is not None:
+        return None, unread
     return fit_context(motion, resolve_context(context, prefer=topology_id(motion.skeleton)))

@@ -204,10 +204,12 @@ def clean_file(
         res = CleanResult.load(record)
         dec.check_record(m, res, record)  # the record against the take first, then the decisions against the record
     else:
+        from .cleaning.take_context import unread_context
         from .context import fit_context
 
-        ctx, ctx_note = (fit_context(m, load_context(context, progress=progress, take=m)) if "detect" in asked
-                         else (None, ""))  # only detection reads a context: none is loaded or spoken of without it
+        unread = unread_context(m, context) if "detect" in asked else ""  # a take detect does not judge reads none
+        ctx, ctx_note = (fit_context(m, load_context(context, progress=progress, take=m)) if unread is None
+                         else (None, unread))  # only detection reads a context: none is loaded or spoken of without it
         try:
             res = clean(m, ctx, steps=steps or STEPS, threshold=threshold, progress=progress, drifts=drifts,
                         models=models, noise_deg=NOISE_DEG if noise_deg is None else noise_deg)

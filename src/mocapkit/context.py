@@ -147,7 +147,7 @@ def context_files(spec) -> list[Path]:
     out: list[Path] = []
     for p in paths:
         if _is_database(p):
-            raise MocapFormatError(p, "a motion database folder must be the only --context")
+            raise MocapFormatError(p, "a motion database folder must be the only context given")
         if p.is_dir():
             found = sorted(q for q in p.rglob("*") if q.suffix.lower() in SUFFIXES and not q.name.startswith(".")
                            and not q.name.lower().endswith(_RECORDS) and q.is_file())
@@ -159,7 +159,7 @@ def context_files(spec) -> list[Path]:
                 raise MocapFormatError(p, f"cannot be context (expected {', '.join(SUFFIXES)} motion files or a folder)")
             out.append(p)
         else:
-            raise MocapFormatError(p, "no such file or folder (--context takes a database folder, a folder of takes or files)")
+            raise MocapFormatError(p, "no such file or folder (a context is a database folder, a folder of takes or files)")
     seen, unique = set(), []
     for p in out:
         r = p.resolve()

@@ -6,7 +6,7 @@ import errno
 import os
 import re
 
-__all__ = ["MocapError", "MocapFormatError", "MissingFileError", "SkeletonError", "LicenceWarning", "TEMP_NAME",
+__all__ = ["MocapError", "MocapFormatError", "MissingFileError", "SkeletonError", "NotJudgedError", "LicenceWarning", "TEMP_NAME",
            "os_error_line", "OUTPUT_STOPPERS", "output_stopper"]
 
 
@@ -53,6 +53,23 @@ class MissingFileError(MocapFormatError, FileNotFoundError):
 
 class SkeletonError(MocapError, ValueError):
     """A skeleton is malformed or two skeletons do not match where they must."""
+
+
+class NotJudgedError(MocapError, ValueError):
+    """A take self-similarity cannot judge: shorter than one motion word (0.625 s: 15 frames at 24 fps) or too
+    coarse for one (under 12 fps), raised by :func:`mocapkit.cleaning.ssa.detect` where ``mocapkit.clean`` and
+    ``mocapkit detect`` skip the take and say so.
+
+    ``str(err)`` is one line, ``"TAKE: REASON: not judged"``, the reason naming the length or rate a word needs
+    (the words ``clean``'s summary says); ``take`` and ``reason`` hold its parts.
+    """
+
+    def __init__(self, take: str, reason: str):
+        self.take, self.reason = take, reason
+        super().__init__(f"{take}: {reason}: not judged")
+
+    def __reduce__(self):
+        return type(self), (self.take, self.reason)
 
 
 class LicenceWarning(UserWarning):

@@ -200,8 +200,8 @@ def marker_units(path, stated: str, positions: np.ndarray, given: str | None = N
                 raise MocapFormatError(path, f"{exc}; the file's coordinates cannot be put on a length scale") from None
     if stated:
         if given and length_unit_cm(given) != length_unit_cm(stated):
-            raise MocapFormatError(path, f"the file states its unit is {stated!r}, not {given!r}: --unit is for a "
-                                         "file that states none")
+            raise MocapFormatError(path, f"the file states its unit is {stated!r}, not {given!r}: a unit is given "
+                                         "only for a file that states none")
         return stated, "file"
     if given:
         return given, "given"

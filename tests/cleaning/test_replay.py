@@ -82,3 +82,29 @@ def test_a_marker_captures_longest_gap_beside_its_record_is_refused(tmp_path):
                        tmp_path / "out.clean.npz", "--max-gap", "0.5")
     assert code == 2 and one_error_line(err), err
     assert "--max-gap 0.5 given beside --record" in err and "--max-gap the default in the record" in err
+
+
+def test_an_option_given_at_its_default_beside_a_record_counts_as_given(tmp_path):
+    """A user trial: `mocapkit.clean(take, threshold=0.5, decisions=D, record=R)` with R made at 0.3 applied R's 0.3
+    cleaning and said nothing: 0.5 is the default, and a default was taken for an option left out. Given (not None),
+    it is checked against the record like any other value; left out, it is not."""
+    inp = corrupted_walk(tmp_path)
+    code, _, err = run("clean", inp, "-o", tmp_path / "out.npz", "--context", "none", "--threshold", "0.3",
+                       "--report", tmp_path / "out.html")
+    assert code == 0, err
+    dec = tmp_path / "d.json"
+    dec.write_text(json.dumps(report_review(tmp_path / "out.html")["decisions"]), encoding="utf-8")
+    record = tmp_path / "out.clean.npz"
+    assert mocapkit.clean(inp, context="none", decisions=dec, record=record).decided is not None
+    assert mocapkit.clean(inp, context="none", threshold=0.3, drifts=False, steps="fill,detect,repair,denoise",
+                          decisions=dec, record=record).decided is not None
+    with pytest.raises(mocapkit.MocapError) as exc:
+        mocapkit.clean(inp, context="none", threshold=0.5, decisions=dec, record=record)
+    assert str(exc.value) == (f"{record}: threshold= 0.5 given beside record=, whose cleaning is applied as it was "
+                              "made (threshold= 0.3 in the record): leave it out, or clean anew without record=")
+    code, _, err = run("clean", inp, "-o", tmp_path / "b.npz", "--decisions", dec, "--record", record,
+                       "--context", "none", "--threshold", "0.5")  # the command, as Python
+    assert code == 2 and one_error_line(err) and f"{record}: --threshold 0.5 given beside --record" in err, err
+    code, _, err = run("clean", inp, "-o", tmp_path / "c.npz", "--decisions", dec, "--record", record,
+                       "--context", "none", "--threshold", "0.3")
+    assert code == 0, err

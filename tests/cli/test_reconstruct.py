@@ -355,3 +355,25 @@ def test_an_npz_reconstruction_says_what_it_holds(tmp_path, db_dir, query):
     assert 100 < height_cm < 220
     for key in ("positions", "joint_names", "fps", "rotations", "root_positions", "cm_per_unit", "method"):
         assert f"\n{key}:" in str(z["contents"]), key
+
+
+@pytest.mark.parametrize("signal", ["--markers", "--accelerometers", "--ssg"])
+def test_a_coarse_input_keeps_its_rate_and_frames_and_says_it_was_upsampled(tmp_path, db_dir, signal):
+    """A 5 fps take against the 30 fps database: reconstructed at 30 fps from markers (or readings) interpolated
+    between its frames, and written at 5 fps with its 13 frames; the summary said only "13 frames @ 5 fps"."""
+    src = tmp_path / "coarse.npz"
+    take = mocapkit.load(QUERY).resample(5)
+    mocapkit.save(take, src)
+    out = tmp_path / "rec.npz"
+    code, stdout, err = run("reconstruct", "--db", str(db_dir), signal, str(src), "-o", str(out))
+    assert code == 0, err
+    rec = mocapkit.load(out)
+    assert (rec.num_frames, rec.fps) == (take.num_frames, 5.0) == (13, 5.0)
+    what = "accelerometer readings" if signal == "--accelerometers" else "markers"
+    assert (f"note: the {what} at 5 fps were interpolated up to the database's 30 fps (6 frames for each one "
+            "recorded) to be reconstructed there, and the result resampled back to 5 fps") in " ".join(stdout.split())
+    code, stdout, _ = run("reconstruct", "--db", str(db_dir), signal, str(src), "-o", str(out), "--overwrite",
+                          "--json")
+    import json
+    said = json.loads(stdout.strip().splitlines()[-1])
+    assert (said["frames"], said["fps"]) == (13, 5.0) and any("interpolated up" in n for n in said["notes"])

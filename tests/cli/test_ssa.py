@@ -328,3 +328,21 @@ def test_detect_and_repair_say_the_stutters_clean_says(tmp_path):
         code, said, err = run(*args, "--context", "none")
         assert code == 0, err
         assert line in " ".join(said.split())
+
+
+def test_a_take_too_coarse_for_a_word_builds_no_context_in_any_command(tmp_path, monkeypatch):
+    """`clean`, `detect` and `repair` on a 5 fps take with a folder as --context: detection does not run, so the
+    folder is neither built nor cached; `clean` says so in one note, `detect` and `repair` refuse in one line."""
+    cache = tmp_path / "cache"
+    monkeypatch.setenv("MOCAPKIT_CACHE_DIR", str(cache))
+    folder = tmp_path / "ctx"
+    folder.mkdir()
+    (folder / "walk.bvh").write_bytes(Path(SAMPLE).read_bytes())
+    coarse = tmp_path / "coarse.bvh"
+    mocapkit.save(mocapkit.load(SAMPLE).resample(5), coarse)
+    code, out, _ = run("clean", coarse, "-o", tmp_path / "c.bvh", "--context", folder, "--steps", "detect,repair")
+    assert code == 0 and "note: the context given was neither built nor read: at 5 fps detect and repair do not run" in out
+    for cmd in ("detect", "repair"):
+        code, out, err = run(cmd, coarse, "-o", tmp_path / f"{cmd}.npz", "--context", folder)
+        assert code == 2 and one_error_line(err) and out == "" and "5 fps is too coarse for motion words" in err
+    assert not (cache / "contexts").exists() or not any((cache / "contexts").iterdir())

@@ -679,7 +679,7 @@ def test_a_unit_the_data_cannot_tell_is_asked_for_and_a_given_one_must_agree_wit
                    "name it with --unit mm|cm|m|in (Python: units=)")
     ms = read_trc(cm, units="cm")
     assert (ms.units, ms.units_from, ms.unit_cm) == ("cm", "given", 1.0)
-    with pytest.raises(MocapFormatError, match=r"Gait\.trc: the file states its unit is 'mm', not 'm': --unit is for"):
+    with pytest.raises(MocapFormatError, match=r"Gait\.trc: the file states its unit is 'mm', not 'm': a unit is given only for a file that states none"):
         read_trc(src, units="m")
     assert read_trc(src, units="mm").units_from == "file"
 

@@ -99,11 +99,17 @@ __all__ = ["FORMAT", "ACCEPT", "REJECT", "Change", "changes", "apply", "take_dig
            "check_decisions", "check_record", "record_problem", "as_written", "accepted_cells", "flag_segments",
            "frame_note", "frames_note", "review", "check_document", "cleaning_digest", "cleaning_stamp", "check_cleaning", "check_named",
            "unnamed_changes", "applying_notes", "ids_notes", "request_difference", "check_request", "check_choices", "record_wanted", "DuplicateKeyError",
-           "RECORD_FLAG", "RECORD_KEYWORD"]
+           "RECORD_FLAG", "RECORD_KEYWORD", "review_mode"]
 
 #: How a refusal names the record of the cleaning reviewed: the CLI's option, and ``mocapkit.clean``'s keyword.
 RECORD_FLAG = "--record"
 RECORD_KEYWORD = "record="
+
+
+def review_mode(option: str = RECORD_FLAG) -> str:
+    """Review mode as the caller asks for it, by how it gives a record (``option``): ``steps="detect"`` for
+    ``mocapkit.clean`` (:data:`RECORD_KEYWORD`), ``--steps detect`` for the command (:data:`RECORD_FLAG`)."""
+    return 'steps="detect"' if option == RECORD_KEYWORD else "--steps detect"
 
 FORMAT = "mocapkit.decisions/1"
 ACCEPT, REJECT = "accept", "reject"
@@ -634,11 +640,11 @@ def _check_stamped(doc: dict, path, option: str = RECORD_FLAG) -> None:
 
 def _check_has_changes(doc: dict, path, result, record=None, option: str = RECORD_FLAG) -> None:
     """Refuse decisions naming changes for a cleaning that made none, saying why it made none where it is review
-    mode (``--steps detect``, which only flags): naming the record ``record`` where one was given, else ``path``."""
+    mode (``--steps detect``, ``steps="detect"``, which only flags: :func:`review_mode`): naming the record ``record`` where one was given, else ``path``."""
     named = doc["decisions"]
     if not named or result.changed.any():
         return
-    mode = "is from review mode (--steps detect) and " if _is_review_mode(result) else ""
+    mode = f"is from review mode ({review_mode(option)}) and " if _is_review_mode(result) else ""
     if record is not None:
         raise MocapFormatError(record, f"the clean record {mode}holds no changes, while {Path(path).name} names "
                                        f"{len(named)}; give the record of the cleaning the decisions were made on")

@@ -33,6 +33,7 @@ def _model_option(kind: str):
 
 
 def clean(
+    ctx: typer.Context,
     inp: Path = typer.Argument(..., metavar="IN", help="Motion (.bvh, .amc, .npz) or marker capture (.c3d, .trc, marker .npz) to clean."),
     out: Path = typer.Option(..., "--out", "-o", help="Cleaned take (.bvh, .amc for a take read from ASF/AMC, or .npz; a marker capture: .c3d, .trc or .npz); OUT's stem + .clean.npz is written beside it."),
     context: Optional[list[Path]] = context_option(),
@@ -114,8 +115,11 @@ def clean(
         from ..batch import clean_request
         from ..cleaning.replay import FLAGS, check_replay, given_options
 
+        given = set(given_options(step_list, threshold, drifts, bool(context), models, noise_deg))
+        given |= {key for key in ("steps", "threshold", "drifts")  # a flag typed at its default is given too
+                  if getattr(ctx.get_parameter_source(key), "name", "") == "COMMANDLINE"}
         check_replay(record, clean_request(step_list, threshold, drifts, context, models, noise_deg, amc_fps, unit),
-                     given_options(step_list, threshold, drifts, bool(context), models, noise_deg), FLAGS, record_said)
+                     [k for k in FLAGS if k in given], FLAGS, record_said)
     skeleton = asf_of(inp, asf)
     skeleton_copy = asf_for_output(out, skeleton, overwrite)  # an AMC output reads back with its ASF beside it
     take = load_motion(inp, asf, purpose="clean", fps=amc_fps, unit=unit)

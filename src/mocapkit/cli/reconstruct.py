@@ -258,7 +258,10 @@ def reconstruct(
             pelvis_cm, body_cm = global_errors_cm(ref, result)
             report += f"; in the markers' frame: pelvis {pelvis_cm:.2f} cm, body {body_cm:.2f} cm"
             errors.update(pelvis_position_rms_cm=pelvis_cm, body_position_rms_cm=body_cm)
-    notes, far = [], {}
+    from ..reconstruct.control import upsampled_note
+
+    coarse = upsampled_note(fps, db.fps, "the accelerometer readings" if kind == "accelerometers" else "the markers")
+    notes, far = ([coarse] if coarse else []), {}
     if kind == "markers":
         labels = [a for a, _ in parse_use(spec) if not any(u.startswith(f"{a} (") for u in unseen)]
         far = far_from_markers(result, pos, joints, unit_scale_cm(db.skeletons[0]), labels)

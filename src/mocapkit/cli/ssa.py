@@ -84,6 +84,7 @@ def detect(
 
     from ..batch import load_context
     from ..cleaning import precompile
+    from ..cleaning.take_context import unread_context
     from ..context import context_label, fit_context
     from ..io.outputs import removed_on_failure
     from ..io.takes import check_asf, load_motion
@@ -96,7 +97,9 @@ def detect(
         raise MocapFormatError(png, "the map is written as .png")
     m = load_motion(inp, asf, purpose="detect", fps=amc_fps, unit=unit)
     precompile.start(precompile.kernels_for(["detect"]))  # with an empty numba cache: beside the context's loading
-    ctx, note = fit_context(m, load_context(context, progress=not as_json, take=m))
+    unread = unread_context(m, context)  # a take too coarse for detection: refused below in one line, no context built
+    ctx, note = (None, unread) if unread is not None else fit_context(m, load_context(context, progress=not as_json,
+                                                                                      take=m))
     found, det = _detect(inp, m, ctx, threshold, progress=not as_json, confirm=confirm, jump_deg=jump_deg,
                          drifts=drifts)
     with removed_on_failure([out, png], overwrite=overwrite, marker=out):  # the detection last
@@ -169,6 +172,7 @@ def repair(
     from .. import io
     from ..batch import load_context
     from ..cleaning import ssa
+    from ..cleaning.take_context import unread_context
     from ..cleaning.whole_take import check_no_zeros, repair_whole, with_teleports
     from ..context import fit_context
     from ..io.takes import check_asf, load_motion
@@ -184,7 +188,8 @@ def repair(
         if det.flags.shape != (m.num_frames, m.skeleton.num_joints):
             raise MocapFormatError(detection, f"the detection is of {det.flags.shape[0]} frames x {det.flags.shape[1]} joints, "
                                               f"the take {m.num_frames} x {m.skeleton.num_joints}; detect this take again")
-    ctx, note = fit_context(m, load_context(context, progress=True, take=m))
+    unread = unread_context(m, context)  # a take too coarse for detection: refused below in one line, no context built
+    ctx, note = (None, "") if unread is not None else fit_context(m, load_context(context, progress=True, take=m))
     if note:
         console.print(f"note: {note}")
     poses = None

@@ -85,7 +85,7 @@ def asf_of(path: os.PathLike | str, asf: os.PathLike | str | None = None) -> Pat
 
 
 def load_take(path: os.PathLike | str, asf: os.PathLike | str | None = None, fps: float | None = None,
-              unit: str | None = None):
+              unit: str | None = None, unit_option: str = "--unit"):
     """Read a motion (:class:`~mocapkit.motion.Motion`) or marker take (:class:`~mocapkit.io.c3d.MarkerSet`).
 
     ``asf``: the skeleton of an ``.amc`` file (ignored for other formats, so one
@@ -93,7 +93,8 @@ def load_take(path: os.PathLike | str, asf: os.PathLike | str | None = None, fps
     ``asf`` that serves none). Without it, an AMC's ASF is looked for beside it.
     ``fps``: an ``.amc`` file's frame rate (ignored for other formats; by default
     :func:`mocapkit.io.asfamc.amc_rate`). ``unit``: the length unit (one of
-    :data:`UNIT_CHOICES`) of a take whose file states none (:func:`with_unit`).
+    :data:`UNIT_CHOICES`) of a take whose file states none (:func:`with_unit`; ``unit_option``: how a refusal
+    names it, the CLI's ``--unit`` or Python's ``unit=``).
     """
     from . import load
 
@@ -107,7 +108,7 @@ def load_take(path: os.PathLike | str, asf: os.PathLike | str | None = None, fps
     if unit is not None and Path(path).suffix.lower() in (".c3d", ".trc"):
         kwargs["units"] = unit  # the reader needs it before reading a file that states none (zero gaps)
     take = load(path, **kwargs)
-    return with_unit(take, unit, path) if unit is not None and "units" not in kwargs else take
+    return with_unit(take, unit, path, unit_option) if unit is not None and "units" not in kwargs else take
 
 
 def check_unit(unit: str | None, option: str = "--unit ") -> None:
@@ -119,7 +120,7 @@ def check_unit(unit: str | None, option: str = "--unit ") -> None:
         raise MocapError(f"{option}{unit!r}: one of {', '.join(UNIT_CHOICES)} is expected")
 
 
-def with_unit(take, unit: str | None, path: os.PathLike | str):
+def with_unit(take, unit: str | None, path: os.PathLike | str, option: str = "--unit"):
     """``take`` with the length unit ``unit`` (mm, cm, m, in) where its file states none.
 
     A :class:`~mocapkit.motion.Motion` gets ``skeleton.unit_cm`` (what
@@ -127,7 +128,8 @@ def with_unit(take, unit: str | None, path: os.PathLike | str):
     bones, which assumes an adult); a marker take read from an npz keeps its
     stated unit. A unit that disagrees with one the file states (an ASF's
     ``:units``, an npz's) is refused: :class:`~mocapkit.errors.MocapFormatError`
-    naming ``path``. None: ``take`` as it is.
+    naming ``path`` and the option as the caller spells it (``option``: the CLI's ``--unit``, Python's ``unit=``).
+    None: ``take`` as it is.
     """
     if unit is None:
         return take
@@ -146,7 +148,7 @@ def with_unit(take, unit: str | None, path: os.PathLike | str):
         return take
     if stated is not None and abs(float(stated) - cm) > 1e-9 * cm:
         raise MocapFormatError(path, f"the file states its length unit ({float(stated):.4g} cm), not {unit}: "
-                                     "--unit is for a file that states none")
+                                     f"{option} is for a file that states none")
     if isinstance(take, MarkerSet) or stated is not None:
         return take
     return dataclasses.replace(take, skeleton=dataclasses.replace(take.skeleton, unit_cm=cm))

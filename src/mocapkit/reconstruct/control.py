@@ -24,7 +24,7 @@ from ..features import parse_up_axis, detect_up_axis, virtual_markers
 from ..io.c3d import MarkerSet
 from ..motion import Motion, Skeleton, unit_scale_cm
 
-__all__ = ["parse_use", "up_rotation", "control_markers", "far_from_markers", "FAR_CM"]
+__all__ = ["parse_use", "up_rotation", "control_markers", "far_from_markers", "FAR_CM", "upsampled_note"]
 
 #: a markers fit that ends this far (cm) further from a seen marker than its usual distance has not passed through it
 FAR_CM = 10.0
@@ -174,3 +174,18 @@ def far_from_markers(result: Motion, pos, joints: Sequence[str], pos_unit_cm: fl
     f, m = np.unravel_index(int(np.nanargmax(np.where(over, d, -1.0))), d.shape)
     return {"over_cm": over_cm, "frames": int(over.any(axis=1).sum()), "worst_marker": f"{labels[m]} ({joints[m]})",
             "worst_cm": round(float(d[f, m]), 2), "worst_frame": int(f)}
+
+
+def upsampled_note(fps: float, db_fps: float, what: str = "the control signals") -> str:
+    """One line saying that control signals at ``fps`` coarser than the database's ``db_fps`` were interpolated up
+    to it for the reconstruction and the result resampled back, or "" when they were not upsampled.
+
+    Every method reconstructs at the database's rate (:mod:`~mocapkit.reconstruct.markers`,
+    :mod:`~mocapkit.reconstruct.ssg`: markers linearly, :mod:`~mocapkit.reconstruct.accelerometers`: readings on the
+    database's grid) and writes the input's rate and frame count; at 5 fps against a 30 fps database five of every
+    six frames the method matches are made up between the recorded ones, which the output's own rate hides."""
+    fps, db_fps = float(fps), float(db_fps)
+    if not fps < db_fps * (1 - 1e-6):
+        return ""
+    return (f"{what} at {fps:g} fps were interpolated up to the database's {db_fps:g} fps ({db_fps / fps:.3g} frames "
+            f"for each one recorded) to be reconstructed there, and the result resampled back to {fps:g} fps")

@@ -52,7 +52,10 @@ def reconstruct_sparse(
     word chosen before. The chain is upsampled to the input's frame rate,
     its transitions smoothed with a quadratic Savitzky-Golay filter, and the
     given joints keep their input values exactly. The root trajectory is the
-    input's where it is finite. Words are matched at ``analysis_fps``.
+    input's where it is finite. Words are matched at ``analysis_fps``: a take
+    at another rate is resampled to it by slerp (at 5 fps a word of 0.625 s
+    spans about 3 of the take's frames, the rest interpolated), and the result
+    has the input's rate and frame count.
     """
     from tqdm.auto import tqdm
     from ..progress import bar_disabled

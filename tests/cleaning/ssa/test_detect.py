@@ -9,7 +9,7 @@ import mocapkit
 from mocapkit import corrupt
 from mocapkit.cleaning import ssa
 from mocapkit.cleaning.ssa import cues
-from mocapkit.errors import SkeletonError
+from mocapkit.errors import MocapError, NotJudgedError, SkeletonError
 from mocapkit.motion import concatenate
 from tests.cleaning.ssa.helpers import turned
 
@@ -75,6 +75,24 @@ def test_detection_round_trip(tmp_path, flipped):
         else:
             assert a == b, f.name
     assert list(tmp_path.iterdir()) == [path]
+
+
+def test_a_take_no_word_can_judge_is_refused_naming_it_as_clean_skips_it(walk):
+    """A take shorter than one motion word, or under 12 fps, is refused by one documented exception that names the
+    take and the length or rate a word needs, in the words ``mocapkit.clean``'s summary says as it skips the take."""
+    short = dataclasses.replace(walk[:40], name="short_take")
+    with pytest.raises(NotJudgedError) as caught:
+        ssa.detect(short)
+    err = caught.value
+    assert isinstance(err, MocapError) and isinstance(err, ValueError)
+    assert err.take == "short_take"
+    assert str(err) == ("short_take: 40 frames (0.33 s) is shorter than one motion word (15 frames at 24 fps, "
+                        "0.625 s): not judged")
+    skipped = mocapkit.clean(short, steps="detect", context=False)
+    assert skipped.detection is None and err.reason in "\n".join(skipped.summary())
+    coarse = dataclasses.replace(walk, fps=10.0, name="coarse_take")
+    with pytest.raises(NotJudgedError, match=r"^coarse_take: 10 fps is too coarse for motion words: .*: not judged$"):
+        ssa.detect(coarse)
 
 
 def test_bad_inputs(walk):

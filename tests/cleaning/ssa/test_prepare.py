@@ -134,10 +134,10 @@ def test_a_take_too_coarse_for_a_word_is_refused_before_its_texture_is_made(resa
     """150 frames at 1 fps were resampled to 3,577 frames at 24 fps (714 words, 25 s and more of word DTW) of
     slerp between samples a second apart: a word of 0.625 s lies inside one of the take's frame intervals."""
     walk = mocapkit.load(mocapkit.samples.path("131_01.bvh"))[:150]
-    with pytest.raises(ValueError, match=r"^1 fps is too coarse for motion words: a source word spans 0\.625 s "
+    with pytest.raises(ValueError, match=r"^131_01: 1 fps is too coarse for motion words: a source word spans 0\.625 s "
                        r"\(15 frames at 24 fps\), 0\.62 of the take's frames; self-similarity judges takes of 12 fps"):
         ssa.prepare(retimed(walk, 1))
-    with pytest.raises(ValueError, match=r"^5 fps is too coarse for motion words: .*, 3\.1 of the take's frames"):
+    with pytest.raises(ValueError, match=r"^131_01: 5 fps is too coarse for motion words: .*, 3\.1 of the take's frames"):
         ssa.prepare(retimed(walk, 5))
     assert resamples == []
 

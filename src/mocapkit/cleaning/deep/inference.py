@@ -279,7 +279,7 @@ def _smoothing_ebf(ebd: DeepModel, denoiser, take=None) -> DeepModel:
         ebf = model_of_kind(denoiser, "ebf", take)
     if ebf.layout != ebd.layout:
         raise ValueError(f"the EBF reads {ebf.layout.num_channels} channels and the EBD {ebd.layout.num_channels}: "
-                         "they are not a pair; give the EBF of the EBD's rig (fill --denoiser)")
+                         "they are not a pair; give the EBF of the EBD's rig as its denoiser")
     return ebf
 
 

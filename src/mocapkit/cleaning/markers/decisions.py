@@ -49,7 +49,7 @@ from typing import Mapping
 import numpy as np
 
 from ...errors import MocapError, MocapFormatError
-from ..decisions import (ACCEPT, FORMAT, RECORD_FLAG, REJECT, check_choices, check_decisions, frame_note, record_wanted,
+from ..decisions import (ACCEPT, FORMAT, RECORD_FLAG, REJECT, review_mode, check_choices, check_decisions, frame_note, record_wanted,
                          request_difference, take_digest)
 from .clean import MarkerCleanResult, MarkerFix
 from .placement import destinations, relabelled, sources
@@ -531,7 +531,7 @@ def clean_and_decide(original, *, name="", steps=None, max_gap_s=None, max_error
     if record is not None and decisions is None:
         raise MocapError(f"{record}: an earlier run's record is applied with decisions; give the decisions file")
     if review and decisions is not None:
-        raise MocapError(f"{name}: review mode (--steps detect) changes nothing; decisions apply to a cleaning")
+        raise MocapError(f"{name}: review mode ({review_mode(option)}) changes nothing; decisions apply to a cleaning")
     path, doc = decisions_document(decisions) if decisions is not None else (None, None)
     if doc is not None:
         check(doc, path, original)  # decisions for another capture: refused before any cleaning

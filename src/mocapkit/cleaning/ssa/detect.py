@@ -504,6 +504,11 @@ def detect(
         Any field of :class:`SSAParams` (``k=1``, ``confirm=False``,
         ``max_word_angle_deg=8.0``, ...) replacing the one in ``params``.
 
+    Raises :class:`~mocapkit.errors.NotJudgedError` (a ValueError) on a take no motion word can judge: shorter than
+    one word (0.625 s, counted without its repeated and interpolated frames) or under 12 fps
+    (:func:`~mocapkit.cleaning.ssa.texture.too_coarse`); its one line names the take and the length or rate a word
+    needs, the words ``mocapkit.clean`` says as it skips such a take (its result's ``detection`` then None).
+
     The detection keeps the prepared take (:attr:`Detection.analysis`), so
     :func:`repair` does not resample the take and its context again. Frames that repeat the frame before bit
     for bit are analysed once (:attr:`Detection.repeats`, :mod:`~mocapkit.cleaning.ssa.repeats`): the take is

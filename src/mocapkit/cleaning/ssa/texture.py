@@ -18,7 +18,7 @@ from typing import Mapping, Sequence
 import numpy as np
 
 from ... import rotations as R
-from ...errors import SkeletonError
+from ...errors import NotJudgedError, SkeletonError
 from ...features import detect_up_axis
 from ...metrics import motion_word_starts
 from ...motion import Motion, bone_moving_joints, find_joint, joint_sides
@@ -634,8 +634,8 @@ def prepare(
     with the take's name and length is the take itself and is left out (noted). ``groups``: name ->
     joint names or indices (default :func:`joint_groups`). ``joints``: exactly these joints (skeleton
     indices, e.g. a saved detection's ``texture_joints``) instead of ``params.joints``. Raises
-    ValueError on missing rotations, a take shorter than one source word or too coarse for one
-    (:func:`too_coarse`), or no group with two analysed joints; :class:`~mocapkit.errors.SkeletonError` on a context clip with other joints.
+    :class:`~mocapkit.errors.NotJudgedError` (a ValueError naming the take) on a take shorter than one source word or
+    too coarse for one (:func:`too_coarse`), ValueError on missing rotations or no group with two analysed joints; :class:`~mocapkit.errors.SkeletonError` on a context clip with other joints.
     """
     params = SSAParams() if params is None else params
     if not isinstance(motion, Motion):
@@ -647,7 +647,7 @@ def prepare(
         )
     coarse = too_coarse(motion.fps, params)
     if coarse:  # before the texture: resampled to the analysis rate, a 1 fps take would be 24 times its frames
-        raise ValueError(coarse)
+        raise NotJudgedError(motion.name or "motion", coarse)
     ctx, notes = context_motions(motion, context, params)
     sk = motion.skeleton
     chosen = params.joints if joints is None else joints
@@ -676,8 +676,8 @@ def prepare(
         raise ValueError("no joint group has two analysed joints")
     if src.num_frames < params.source_length:  # said in the take's own frames, as clean says it
         N, fps = params.source_length, params.analysis_fps
-        raise ValueError(f"{motion.num_frames} frames ({motion.duration:.2f} s) is shorter than one motion word "
-                         f"({N} frames at {fps:g} fps, {N / fps:.3f} s)")
+        raise NotJudgedError(motion.name or "motion", f"{motion.num_frames} frames ({motion.duration:.2f} s) is shorter "
+                             f"than one motion word ({N} frames at {fps:g} fps, {N / fps:.3f} s)")
     words = motion_words(src.num_frames, params.source_length, params.stride)
     return Analysis(motion, tuple(ctx), params, up, src, full, tuple(gnames), tuple(grows), words, tuple(notes), context,
                     tuple(left_out.items()))
