@@ -231,9 +231,9 @@ def test_long_take_rows_give_the_short_take_neighbours_without_acos_matrices(wal
         acos_cells.append(len(A) * len(B))
         return exact(A, B, *args)
 
-    def count_rows(A, r0, r1, *args):
+    def count_rows(A, r0, r1, *args, **kwargs):
         rows.append((r0, r1))
-        return polynomial(A, r0, r1, *args)
+        return polynomial(A, r0, r1, *args, **kwargs)
 
     monkeypatch.setattr(word_dtw, "group_pose_distances", count_exact)
     monkeypatch.setattr(neighbours.self_costs, "self_pose_rows", count_rows)

@@ -84,7 +84,8 @@ def test_self_pose_distances_of_a_long_texture_equal_the_full_matrix():
 
 @pytest.mark.parametrize("rtol", [S.DELTA_RTOL, 1.0])
 def test_rows_equal_the_acos_matrix_bit_for_bit(rtol):
-    """Row blocks of the self matrix (every column), both twins, NaN and overlong frames among the rows and columns."""
+    """Row blocks of the self matrix (every column), both twins, NaN and overlong frames among the rows and columns,
+    the texture's lanes made here or handed over."""
     rng = np.random.default_rng(7)
     groups = np.array([[True] * 9, [True, True, False, True, False, True, True, True, False], [True] * 3 + [False] * 6])
     drop = np.array([3, 1, 2], dtype=np.int64)
@@ -95,8 +96,10 @@ def test_rows_equal_the_acos_matrix_bit_for_bit(rtol):
             for side in ("serial", "parallel"):
                 with forced(side):
                     got = S.self_pose_rows(A, r0, r1, members, offsets, drop, rtol)
+                    given = S.self_pose_rows(A, r0, r1, members, offsets, drop, rtol, lanes=S.frame_lanes(A))
                 assert got.shape == (3, r1 - r0, len(A))
                 assert np.array_equal(got, want[:, r0:r1], equal_nan=True)
+                assert np.array_equal(given, want[:, r0:r1], equal_nan=True)  # the lanes made once by the caller
     with pytest.raises(ValueError, match="rows"):
         S.self_pose_rows(A, 3, len(A) + 1, members, offsets, drop)
 

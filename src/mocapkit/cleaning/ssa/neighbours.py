@@ -266,13 +266,14 @@ def nearest_words(
     if itself and whole is None:
         values = np.ascontiguousarray(source.values, dtype=np.float64)
         members, offsets = self_costs.pack_groups(masks)
+        lanes = self_costs.frame_lanes(values)
     for c0 in range(0, W, chunk):
         ws = word_starts[c0 : c0 + chunk]
         f0, f1 = int(ws.min()), int(ws.max()) + N
         if whole is not None:
             D = whole[:, f0:f1]
         elif itself:
-            D = self_costs.self_pose_rows(values, f0, f1, members, offsets, drops.astype(np.int64))
+            D = self_costs.self_pose_rows(values, f0, f1, members, offsets, drops.astype(np.int64), lanes=lanes)
         else:
             D = word_dtw.group_pose_distances(source.values[f0:f1], context.values, masks, drops)
         for gi in range(G):

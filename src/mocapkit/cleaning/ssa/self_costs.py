@@ -33,7 +33,7 @@ from numba import njit, prange
 from .twins import twin_kernels
 
 __all__ = ["self_pose_costs", "self_pose_rows", "pack_groups", "mirror_upper", "approx_half_angle_sq",
-           "half_angle_sq", "robust_sum", "checked_cost_block", "polynomial_frames", "TERM_RTOL", "DELTA_RTOL",
+           "half_angle_sq", "robust_sum", "checked_cost_block", "polynomial_frames", "frame_lanes", "TERM_RTOL", "DELTA_RTOL",
            "PARALLEL_CELLS"]
 
 _INF = np.inf
@@ -307,17 +307,19 @@ def self_pose_costs(A: np.ndarray, members: np.ndarray, offsets: np.ndarray, dro
     F = A.shape[0]
     if F == 0:
         return
-    Q, ok = _lanes(A)
+    Q, ok = frame_lanes(A)
     _self_costs.pick(F * F // 2)(A, Q, ok, members, offsets, drop, float(rtol), 0, F, False, out)
 
 
 def self_pose_rows(A: np.ndarray, r0: int, r1: int, members: np.ndarray, offsets: np.ndarray, drop: np.ndarray,
-                   rtol: float = DELTA_RTOL) -> np.ndarray:
+                   rtol: float = DELTA_RTOL, lanes: tuple | None = None) -> np.ndarray:
     """Rows ``r0..r1-1`` of the take's self pose-distance matrix, every column: (G, r1 - r0, F) float32.
 
     What a long take's search reads chunk by chunk when its whole matrix (G F^2 float32) would not fit in memory:
     the same cells, bit for bit, as ``word_dtw.group_pose_distances(A[r0:r1], A, ...)``, from the checked
     polynomial terms of :func:`self_pose_costs` (arguments as there) instead of an ``acos`` per joint term.
+    ``lanes``: :func:`frame_lanes` of ``A``, made once by a caller that reads many row blocks (a copy of the whole
+    texture each time otherwise: a 20-minute take's search reads some 400 blocks).
     """
     if not rtol >= DELTA_RTOL:
         raise ValueError(f"rtol must be at least DELTA_RTOL ({DELTA_RTOL}), got {rtol}")
@@ -326,7 +328,7 @@ def self_pose_rows(A: np.ndarray, r0: int, r1: int, members: np.ndarray, offsets
         raise ValueError(f"rows {r0}..{r1} are not within the {F} frames")
     out = np.empty((len(drop), r1 - r0, F), dtype=np.float32)
     if r1 > r0:
-        Q, ok = _lanes(A)
+        Q, ok = frame_lanes(A) if lanes is None else lanes
         _self_costs.pick((r1 - r0) * F)(A, Q, ok, members, offsets, drop, float(rtol), int(r0), int(r1), True, out)
     return out
 
@@ -346,7 +348,7 @@ def polynomial_frames(A: np.ndarray) -> np.ndarray:
     return np.all(np.isfinite(A) & (np.abs(A) <= 2.0), axis=(1, 2))
 
 
-def _lanes(A):
+def frame_lanes(A: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """``(Q, ok)``: A's (m, 4, F) layout, a joint's component over frames for SIMD lanes, and which frames (F,) may
     take polynomial terms (finite, no component above 2 in size)."""
     return np.ascontiguousarray(A.transpose(1, 2, 0)), polynomial_frames(A)
