@@ -451,7 +451,8 @@ def mean_motion_texture(
                 and np.array_equal(neighbors.self_groups[gi], members)):
             costs = neighbors.self_costs[gi]
         words_bytes = int(use.sum()) * N * len(members) * 4 * 8  # the group's warped words, float64
-        kept = [] if keep is not None and sum(v[2].nbytes for v in keep.values()) + words_bytes <= KEEP_WORDS_BYTES else None
+        room = keep is not None and sum(v[2].nbytes for v in keep.values()) + words_bytes <= KEEP_WORDS_BYTES
+        kept = [] if room else None
         acc, sacc, cnt = np.zeros((F, len(members), 4)), np.zeros((F, len(members))), np.zeros(F)
         for c0 in range(0, max(W, 1), chunk):  # one (empty) chunk where there are no words
             starts = word_starts[c0 : c0 + chunk]

@@ -33,8 +33,8 @@ from numba import njit, prange
 from .twins import twin_kernels
 
 __all__ = ["self_pose_costs", "self_pose_rows", "pack_groups", "mirror_upper", "approx_half_angle_sq",
-           "half_angle_sq", "robust_sum", "checked_cost_block", "polynomial_frames", "frame_lanes", "TERM_RTOL", "DELTA_RTOL",
-           "PARALLEL_CELLS"]
+           "half_angle_sq", "robust_sum", "checked_cost_block", "polynomial_frames", "frame_lanes", "TERM_RTOL",
+           "DELTA_RTOL", "PARALLEL_CELLS"]
 
 _INF = np.inf
 
