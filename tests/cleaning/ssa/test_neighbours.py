@@ -142,7 +142,8 @@ def _reference_overlap_sums(F, starts, means, spreads):
 
 @pytest.mark.parametrize("order", ["stride", "shuffled"])
 def test_overlap_sums_equal_the_one_word_at_a_time_reference(walk, order):
-    """Words added in rounds give, bit for bit, the sums of one word at a time (any word order, sign flips)."""
+    """Words added in rounds give, bit for bit, the sums of one word at a time (any word order, sign flips), in one
+    call or split over several."""
     rng = np.random.default_rng(1)
     q = np.asarray(walk.rotations[:200, 1:7], dtype=np.float64)  # real rotations, (200, 6, 4)
     starts = np.append(np.arange(0, 186, 5), [185, 40])  # a word flush with the end, one repeated
@@ -151,11 +152,42 @@ def test_overlap_sums_equal_the_one_word_at_a_time_reference(walk, order):
     means = np.stack([q[s : s + 15] for s in starts]) * rng.choice([-1.0, 1.0], (len(starts), 15, 6, 1))
     means += rng.normal(0.0, 0.01, means.shape)
     spreads = rng.random((len(starts), 15, 6))
-    got = neighbours._overlap_sums(230, starts, means, spreads)
     want = _reference_overlap_sums(230, starts, means, spreads)
-    for g, w in zip(got, want):
-        assert np.array_equal(g, w)
+    for cuts in ([], [1, 7, 8, 30]):
+        got = np.zeros((230, 6, 4)), np.zeros((230, 6)), np.zeros(230)
+        for sl in np.split(np.arange(len(starts)), cuts):
+            neighbours._overlap_sums(*got, starts[sl], means[sl], spreads[sl])
+        for g, w in zip(got, want):
+            assert np.array_equal(g, w)
     assert got[2].max() == 4 and got[2][205:].sum() == 0
+
+
+def test_mean_texture_of_a_few_words_at_a_time_equals_it_of_all_at_once(walk, flipped):
+    """The real walk with a flipped knee, its warps computing their pose costs (no self matrix handed over, as on a
+    take over ~100 s): the mean texture, its spread and the kept words are the same, bit for bit, whether the
+    source words go 1, 7 or all at a time; and with no room to keep words, none are kept."""
+    det = flipped[3]
+    an, p = det.analysis, det.params
+    grows = list(an.group_rows)
+    nb = neighbours.Neighbors(det.neighbor_pos, det.neighbor_iend, det.neighbor_jend, det.neighbor_dist)
+    args = (an.source, an.texture, grows, an.words, nb, p.source_length, p.target_length)
+    want_keep: dict = {}
+    want = neighbours.mean_motion_texture(*args, return_spread=True, keep=want_keep, chunk=len(an.words))
+    assert len(an.words) > 7 and len(want_keep) == len(grows)
+    for chunk in (1, 7):
+        keep: dict = {}
+        got = neighbours.mean_motion_texture(*args, return_spread=True, keep=keep, chunk=chunk)
+        for a, b in zip(got, want):
+            assert np.array_equal(a, b, equal_nan=True)
+        assert keep.keys() == want_keep.keys()
+        for key in keep:
+            for a, b in zip(keep[key], want_keep[key]):
+                assert a.dtype == b.dtype and np.array_equal(a, b, equal_nan=True)
+    full = {b"x": (None, None, np.zeros(neighbours.KEEP_WORDS_BYTES // 8), None)}
+    neighbours.mean_motion_texture(*args, keep=full, chunk=7)
+    assert list(full) == [b"x"]
+    with pytest.raises(ValueError, match="chunk"):
+        neighbours.mean_motion_texture(*args, chunk=0)
 
 
 def test_exact_search_gives_the_same_neighbours_for_any_chunk_memory(walk):
@@ -199,9 +231,9 @@ def test_long_take_rows_give_the_short_take_neighbours_without_acos_matrices(wal
         acos_cells.append(len(A) * len(B))
         return exact(A, B, *args)
 
-    def count_rows(A, r0, r1, *args):
+    def count_rows(A, r0, r1, *args, **kwargs):
         rows.append((r0, r1))
-        return polynomial(A, r0, r1, *args)
+        return polynomial(A, r0, r1, *args, **kwargs)
 
     monkeypatch.setattr(word_dtw, "group_pose_distances", count_exact)
     monkeypatch.setattr(neighbours.self_costs, "self_pose_rows", count_rows)

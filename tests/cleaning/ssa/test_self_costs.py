@@ -30,6 +30,15 @@ def test_polynomial_term_is_within_its_bound_of_acos():
     assert np.max(np.abs(got[nz] - want[nz]) / want[nz]) < S.TERM_RTOL / 100  # the bound has room to spare
 
 
+@njit(cache=False)
+def _blocks(A, B, okA, okB, members, drop, starts, rtol, N, M):
+    out = np.empty((len(starts), N, M))
+    terms = np.empty(A.shape[1])
+    for p in range(len(starts)):
+        S.checked_cost_block(A, B, okA, okB, members, drop, starts[p, 0], starts[p, 1], rtol, terms, out[p])
+    return out
+
+
 def _textures(rng):
     """Quaternion sets meant to trip the check: tiny and large angles, repeated frames, NaN and overlong ones."""
     walk = np.cumsum(rng.normal(scale=0.05, size=(61, 9, 4)), axis=0) + np.array([1.0, 0.0, 0.0, 0.0])
@@ -75,7 +84,8 @@ def test_self_pose_distances_of_a_long_texture_equal_the_full_matrix():
 
 @pytest.mark.parametrize("rtol", [S.DELTA_RTOL, 1.0])
 def test_rows_equal_the_acos_matrix_bit_for_bit(rtol):
-    """Row blocks of the self matrix (every column), both twins, NaN and overlong frames among the rows and columns."""
+    """Row blocks of the self matrix (every column), both twins, NaN and overlong frames among the rows and columns,
+    the texture's lanes made here or handed over."""
     rng = np.random.default_rng(7)
     groups = np.array([[True] * 9, [True, True, False, True, False, True, True, True, False], [True] * 3 + [False] * 6])
     drop = np.array([3, 1, 2], dtype=np.int64)
@@ -86,7 +96,29 @@ def test_rows_equal_the_acos_matrix_bit_for_bit(rtol):
             for side in ("serial", "parallel"):
                 with forced(side):
                     got = S.self_pose_rows(A, r0, r1, members, offsets, drop, rtol)
+                    given = S.self_pose_rows(A, r0, r1, members, offsets, drop, rtol, lanes=S.frame_lanes(A))
                 assert got.shape == (3, r1 - r0, len(A))
                 assert np.array_equal(got, want[:, r0:r1], equal_nan=True)
+                assert np.array_equal(given, want[:, r0:r1], equal_nan=True)  # the lanes made once by the caller
     with pytest.raises(ValueError, match="rows"):
         S.self_pose_rows(A, 3, len(A) + 1, members, offsets, drop)
+
+
+@pytest.mark.parametrize("rtol", [S.DELTA_RTOL, 1.0])
+def test_word_pair_blocks_equal_the_acos_matrix_bit_for_bit(rtol):
+    """The (N, M) cost blocks the warps compute, source against itself and against another texture, every drop,
+    NaN, overlong and repeated frames among them: the float32 cells of group_pose_distances, bit for bit."""
+    rng = np.random.default_rng(9)
+    walk, spread = _textures(rng)
+    members = np.array([0, 1, 3, 5, 6, 7], dtype=np.int64)
+    group = np.zeros((1, 9), dtype=bool)
+    group[0, members] = True
+    for A, B in ((walk, walk), (walk, spread[:40]), (spread, walk)):
+        okA, okB = S.polynomial_frames(A), S.polynomial_frames(B)
+        assert not okA.all() or not okB.all()
+        starts = np.array([[a, b] for a in range(0, len(A) - 15, 4) for b in range(0, len(B) - 20, 3)], dtype=np.int64)
+        for drop in (0, 1, 2, 3):
+            want = W.group_pose_distances(A, B, group, [drop])[0].astype(np.float64)
+            got = _blocks(A, B, okA, okB, members, drop, starts, rtol, 15, 20)
+            for p, (a, b) in enumerate(starts):
+                assert np.array_equal(got[p], want[a : a + 15, b : b + 20])

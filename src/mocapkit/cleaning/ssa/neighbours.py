@@ -34,6 +34,7 @@ __all__ = [
     "mean_motion_texture",
     "flagged_words",
     "KEEP_WORDS_BYTES",
+    "TEXTURE_CHUNK_WORDS",
     "unseen_words",
     "robust_means",
     "dropped_terms",
@@ -58,6 +59,9 @@ _PCA_SAMPLE = 2000  # target words the prefilter's PCA basis is fitted on
 #: its repair reads the words of the flagged cells (:func:`flagged_words`) instead of warping them again: a 60 s take's
 #: five groups hold about 21 MiB
 KEEP_WORDS_BYTES = 64 << 20
+#: source words :func:`mean_motion_texture` warps and averages at a time (a multiple of the 256 of robust_means'
+#: batches): a 22-joint group's warped neighbours of 256 words are 14 MB, whatever the take's length
+TEXTURE_CHUNK_WORDS = 256
 
 
 def word_distance(a: np.ndarray, b: np.ndarray, drop: int = 3, min_width: int = 11, max_run: int = 3):
@@ -262,13 +266,14 @@ def nearest_words(
     if itself and whole is None:
         values = np.ascontiguousarray(source.values, dtype=np.float64)
         members, offsets = self_costs.pack_groups(masks)
+        lanes = self_costs.frame_lanes(values)
     for c0 in range(0, W, chunk):
         ws = word_starts[c0 : c0 + chunk]
         f0, f1 = int(ws.min()), int(ws.max()) + N
         if whole is not None:
             D = whole[:, f0:f1]
         elif itself:
-            D = self_costs.self_pose_rows(values, f0, f1, members, offsets, drops.astype(np.int64))
+            D = self_costs.self_pose_rows(values, f0, f1, members, offsets, drops.astype(np.int64), lanes=lanes)
         else:
             D = word_dtw.group_pose_distances(source.values[f0:f1], context.values, masks, drops)
         for gi in range(G):
@@ -405,6 +410,7 @@ def mean_motion_texture(
     return_spread: bool = False,
     neighbor_ratio: float = NEIGHBOR_RATIO,
     keep: dict | None = None,
+    chunk: int = TEXTURE_CHUNK_WORDS,
 ):
     """Mean motion texture per group, (G, F, m, 4) (section 3.4).
 
@@ -420,10 +426,19 @@ def mean_motion_texture(
     (radians) of the K words from their mean, averaged like the texture. ``keep``: a dict that takes, per group
     (its rows as bytes), the words warped: ``(source word starts, positions, words, ok)`` as :func:`neighbor_words`
     makes them, while they total at most :data:`KEEP_WORDS_BYTES` (see :func:`flagged_words`).
+
+    The source words go ``chunk`` at a time (:data:`TEXTURE_CHUNK_WORDS`, a multiple of the 256 words
+    :func:`robust_means` takes at once), their warped neighbours let go before the next chunk's: the memory a
+    group holds stays that of one chunk (K x N x m_g quaternions a word, 53 KB for 22 joints) instead of
+    growing with the take. Every word's mean and every frame's sum are those of the whole take at once, bit for
+    bit (the overlapping words are added to each frame in the same order).
     """
+    if chunk < 1:
+        raise ValueError(f"chunk must be at least 1 word, got {chunk}")
     N = source_length
     G = len(groups)
     F, m = source.values.shape[:2]
+    W = len(word_starts)
     out = np.full((G, F, m, 4), np.nan)
     spread = np.full((G, F, m), np.nan)
     K = neighbors.pos.shape[2]
@@ -431,37 +446,26 @@ def mean_motion_texture(
         dists = neighbors.dist[gi]  # (W, K)
         best = np.min(dists, axis=1, keepdims=True).astype(np.float64)  # inf where a word has none: all pass
         use = (neighbors.pos[gi] >= 0) & near_neighbors(dists, best, neighbor_ratio)
-        wi, ki = np.nonzero(use)
         costs = None
         if (neighbors.self_costs is not None and context.values is source.values and gi < len(neighbors.self_groups)
                 and np.array_equal(neighbors.self_groups[gi], members)):
             costs = neighbors.self_costs[gi]
-        nws, ok = neighbor_words(
-            source.values, context, members, dropped_terms(members), word_starts[wi], neighbors.pos[gi][wi, ki], N, target_length,
-            costs=costs,
-        )
-        if keep is not None and sum(v[2].nbytes for v in keep.values()) + nws.nbytes <= KEEP_WORDS_BYTES:
-            keep[np.asarray(members, dtype=np.int64).tobytes()] = (word_starts[wi], neighbors.pos[gi][wi, ki], nws, ok)
-        # (W, K, N, m_g, 4) in neighbour order, each word's aligned with its first neighbour, not the
-        # source: a broken source joint may sit 90 degrees away in quaternion space, where hemispheres
-        # are arbitrary
-        valid = np.zeros((len(word_starts), K), dtype=bool)
-        vw, vk = wi[ok], ki[ok]
-        valid[vw, vk] = True
-        stacked = np.zeros((len(word_starts), K, N, len(members), 4))
-        stacked[vw, vk] = nws[ok]
-        has = valid.any(axis=1)
-        first = np.argmax(valid, axis=1)
-        # the words there are (a zero word stays zero whatever its reference): each quaternion as by the whole array
-        ref = stacked[np.arange(len(word_starts)), first]
-        stacked[vw, vk] = align_hemisphere(stacked[vw, vk], ref[vw])
-        means = np.zeros((len(word_starts), N, len(members), 4))
-        spreads = np.zeros((len(word_starts), N, len(members)))
-        for c0 in range(0, len(word_starts), 256):
-            sl = np.flatnonzero(has[c0 : c0 + 256]) + c0
-            if len(sl):
-                means[sl], spreads[sl] = robust_means(stacked[sl], valid[sl])
-        acc, sacc, cnt = _overlap_sums(F, word_starts[has], means[has], spreads[has])
+        words_bytes = int(use.sum()) * N * len(members) * 4 * 8  # the group's warped words, float64
+        room = keep is not None and sum(v[2].nbytes for v in keep.values()) + words_bytes <= KEEP_WORDS_BYTES
+        kept = [] if room else None
+        acc, sacc, cnt = np.zeros((F, len(members), 4)), np.zeros((F, len(members))), np.zeros(F)
+        for c0 in range(0, max(W, 1), chunk):  # one (empty) chunk where there are no words
+            starts = word_starts[c0 : c0 + chunk]
+            wi, ki = np.nonzero(use[c0 : c0 + chunk])
+            pos = neighbors.pos[gi][c0 + wi, ki]
+            nws, ok = neighbor_words(source.values, context, members, dropped_terms(members), starts[wi], pos, N,
+                                     target_length, costs=costs)
+            if kept is not None:
+                kept.append((starts[wi], pos, nws, ok))
+            means, spreads, has = _word_means(nws, ok, wi, ki, len(starts), K)
+            _overlap_sums(acc, sacc, cnt, starts[has], means[has], spreads[has])
+        if kept is not None:
+            keep[np.asarray(members, dtype=np.int64).tobytes()] = tuple(np.concatenate(a) for a in zip(*kept))
         ok = cnt > 0
         vals = np.full((F, len(members), 4), np.nan)
         vals[ok] = R.quaternion_normalize(acc[ok])
@@ -470,6 +474,33 @@ def mean_motion_texture(
         sp[ok] = sacc[ok] / cnt[ok, None]
         spread[gi][:, members] = sp
     return (out, spread) if return_spread else out
+
+
+def _word_means(nws, ok, wi, ki, W, K):
+    """Mean words and spreads (:func:`robust_means`) of ``W`` source words from their warped neighbours ``nws``
+    (P, N, m, 4) (``ok`` (P,) those warped, word ``wi`` (P,) and rank ``ki`` (P,) of each): ``(means (W, N, m, 4),
+    spreads (W, N, m), has (W,))``, ``has`` the words with a neighbour (the others' rows zero)."""
+    N, m = nws.shape[1:3]
+    # (W, K, N, m_g, 4) in neighbour order, each word's aligned with its first neighbour, not the
+    # source: a broken source joint may sit 90 degrees away in quaternion space, where hemispheres
+    # are arbitrary
+    valid = np.zeros((W, K), dtype=bool)
+    vw, vk = wi[ok], ki[ok]
+    valid[vw, vk] = True
+    stacked = np.zeros((W, K, N, m, 4))
+    stacked[vw, vk] = nws[ok]
+    has = valid.any(axis=1)
+    first = np.argmax(valid, axis=1)
+    # the words there are (a zero word stays zero whatever its reference): each quaternion as by the whole array
+    ref = stacked[np.arange(W), first]
+    stacked[vw, vk] = align_hemisphere(stacked[vw, vk], ref[vw])
+    means = np.zeros((W, N, m, 4))
+    spreads = np.zeros((W, N, m))
+    for c0 in range(0, W, 256):
+        sl = np.flatnonzero(has[c0 : c0 + 256]) + c0
+        if len(sl):
+            means[sl], spreads[sl] = robust_means(stacked[sl], valid[sl])
+    return means, spreads, has
 
 
 def flagged_words(kept: dict, groups, flags: np.ndarray, best_group: np.ndarray, word_of: np.ndarray,
@@ -491,18 +522,19 @@ def flagged_words(kept: dict, groups, flags: np.ndarray, best_group: np.ndarray,
     return out
 
 
-def _overlap_sums(F: int, starts: np.ndarray, means: np.ndarray, spreads: np.ndarray):
-    """Mean words added up where they overlap: ``(acc (F, m, 4), sacc (F, m), cnt (F,))``.
+def _overlap_sums(acc: np.ndarray, sacc: np.ndarray, cnt: np.ndarray, starts: np.ndarray, means: np.ndarray,
+                  spreads: np.ndarray) -> None:
+    """Mean words added, in place, to the sums of the frames they overlap: ``acc`` (F, m, 4), ``sacc`` (F, m),
+    ``cnt`` (F,).
 
     ``means`` (n, N, m, 4) and ``spreads`` (n, N, m) of the words at frames
     ``starts`` (n,). Per frame the words are added in ``starts`` order, each
     aligned with the hemisphere of the sum so far (of itself where the sum is
     still zero), their spreads summed and counted. The cells go in rounds,
     round k adding every frame's k-th word, so the sums are those of one word
-    at a time.
+    at a time, and words given over several calls add up as given in one.
     """
     n, N, m = means.shape[:3]
-    acc, sacc, cnt = np.zeros((F, m, 4)), np.zeros((F, m)), np.zeros(F)
     frames, rounds = _word_cells(starts, N)
     mw, sw = means.reshape(-1, m, 4), spreads.reshape(-1, m)
     for k in range(int(rounds.max(initial=-1)) + 1):
@@ -513,7 +545,6 @@ def _overlap_sums(F: int, starts: np.ndarray, means: np.ndarray, spreads: np.nda
         acc[f] = so_far + align_hemisphere(mw[c], ref)
         sacc[f] = sacc[f] + sw[c]
         cnt[f] = cnt[f] + 1
-    return acc, sacc, cnt
 
 
 def _word_cells(starts: np.ndarray, N: int) -> tuple[np.ndarray, np.ndarray]:

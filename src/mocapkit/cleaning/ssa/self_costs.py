@@ -33,7 +33,8 @@ from numba import njit, prange
 from .twins import twin_kernels
 
 __all__ = ["self_pose_costs", "self_pose_rows", "pack_groups", "mirror_upper", "approx_half_angle_sq",
-           "half_angle_sq", "robust_sum", "TERM_RTOL", "DELTA_RTOL", "PARALLEL_CELLS"]
+           "half_angle_sq", "robust_sum", "checked_cost_block", "polynomial_frames", "frame_lanes", "TERM_RTOL",
+           "DELTA_RTOL", "PARALLEL_CELLS"]
 
 _INF = np.inf
 
@@ -156,6 +157,47 @@ def _exact_cell(A, a, b, members, offsets, drop, g, terms):
 
 
 @njit(cache=True, inline="always")
+def checked_cost_block(A, B, okA, okB, members, drop, s0, t0, rtol, terms, C):
+    """``C[i, j]`` = the float32 eq. 1 cost of frames ``s0 + i`` of ``A`` and ``t0 + j`` of ``B`` on ``members``
+    (``drop`` largest terms left out), as a float64 holding that float32: the value
+    ``word_dtw.group_pose_distances`` stores, bit for bit.
+
+    A word pair's (N, M) block, as the warps of the mean motion texture read it where the take's whole self-distance
+    matrix was not kept (Aristidou et al. 2018, section 3.2). Each cell first sums polynomial terms
+    (:func:`approx_half_angle_sq`) and keeps that sum's float32 where both ends of its error interval (``rtol``
+    times the terms' total, :data:`DELTA_RTOL`) round to it, as :func:`self_pose_costs` does; otherwise, and where
+    either frame is not in ``okA`` / ``okB`` (:func:`polynomial_frames`), the cell takes the ``acos`` terms.
+    ``terms`` : (m,) float64 scratch.
+    """
+    N, M = C.shape
+    for i in range(N):
+        a = s0 + i
+        for j in range(M):
+            b = t0 + j
+            if okA[a] and okB[b]:
+                total = 0.0
+                for k in members:
+                    d = abs(A[a, k, 0] * B[b, k, 0] + A[a, k, 1] * B[b, k, 1] + A[a, k, 2] * B[b, k, 2]
+                            + A[a, k, 3] * B[b, k, 3])
+                    v = approx_half_angle_sq(min(d, 1.0))
+                    terms[k] = v
+                    total += v
+                r = robust_sum(terms, members, drop)
+                delta = rtol * total
+                lo = np.float32(max(r - delta, 0.0))
+                if lo == np.float32(r + delta):
+                    C[i, j] = lo
+                    continue
+            finite = True
+            for k in members:
+                v = half_angle_sq(A[a, k], B[b, k])
+                terms[k] = v
+                if v == _INF:
+                    finite = False
+            C[i, j] = np.float32(robust_sum(terms, members, drop)) if finite else _INF
+
+
+@njit(cache=True, inline="always")
 def _row(A, Q, ok, members, offsets, drop, rtol, a, c0, ra, out, term, tot, s, t0, t1, t2, exact):
     """Cells ``(a, c0..F-1)`` of every group into ``out[:, ra, c0:]``: polynomial terms checked, the unsure cells
     exact."""
@@ -265,17 +307,19 @@ def self_pose_costs(A: np.ndarray, members: np.ndarray, offsets: np.ndarray, dro
     F = A.shape[0]
     if F == 0:
         return
-    Q, ok = _lanes(A)
+    Q, ok = frame_lanes(A)
     _self_costs.pick(F * F // 2)(A, Q, ok, members, offsets, drop, float(rtol), 0, F, False, out)
 
 
 def self_pose_rows(A: np.ndarray, r0: int, r1: int, members: np.ndarray, offsets: np.ndarray, drop: np.ndarray,
-                   rtol: float = DELTA_RTOL) -> np.ndarray:
+                   rtol: float = DELTA_RTOL, lanes: tuple | None = None) -> np.ndarray:
     """Rows ``r0..r1-1`` of the take's self pose-distance matrix, every column: (G, r1 - r0, F) float32.
 
     What a long take's search reads chunk by chunk when its whole matrix (G F^2 float32) would not fit in memory:
     the same cells, bit for bit, as ``word_dtw.group_pose_distances(A[r0:r1], A, ...)``, from the checked
     polynomial terms of :func:`self_pose_costs` (arguments as there) instead of an ``acos`` per joint term.
+    ``lanes``: :func:`frame_lanes` of ``A``, made once by a caller that reads many row blocks (a copy of the whole
+    texture each time otherwise: a 20-minute take's search reads some 400 blocks).
     """
     if not rtol >= DELTA_RTOL:
         raise ValueError(f"rtol must be at least DELTA_RTOL ({DELTA_RTOL}), got {rtol}")
@@ -284,7 +328,7 @@ def self_pose_rows(A: np.ndarray, r0: int, r1: int, members: np.ndarray, offsets
         raise ValueError(f"rows {r0}..{r1} are not within the {F} frames")
     out = np.empty((len(drop), r1 - r0, F), dtype=np.float32)
     if r1 > r0:
-        Q, ok = _lanes(A)
+        Q, ok = frame_lanes(A) if lanes is None else lanes
         _self_costs.pick((r1 - r0) * F)(A, Q, ok, members, offsets, drop, float(rtol), int(r0), int(r1), True, out)
     return out
 
@@ -299,12 +343,15 @@ def pack_groups(groups):
     return members, offsets
 
 
-def _lanes(A):
+def polynomial_frames(A: np.ndarray) -> np.ndarray:
+    """Which frames of ``A`` (F, m, 4) may take polynomial terms, (F,) bool: finite, no component above 2 in size."""
+    return np.all(np.isfinite(A) & (np.abs(A) <= 2.0), axis=(1, 2))
+
+
+def frame_lanes(A: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """``(Q, ok)``: A's (m, 4, F) layout, a joint's component over frames for SIMD lanes, and which frames (F,) may
     take polynomial terms (finite, no component above 2 in size)."""
-    Q = np.ascontiguousarray(A.transpose(1, 2, 0))
-    ok = np.all(np.isfinite(A) & (np.abs(A) <= 2.0), axis=(1, 2))
-    return Q, ok
+    return np.ascontiguousarray(A.transpose(1, 2, 0)), polynomial_frames(A)
 
 
 @njit(cache=True)

@@ -41,7 +41,8 @@ from numba import njit, prange
 from .dtw_rows import ROW_STATES, best_state, word_dtw_rows
 from .word_bounds import cheap_bounds
 from .ordering import kth_smallest, sort_by_key
-from .self_costs import half_angle_sq, mirror_upper, pack_groups, robust_sum, self_pose_costs
+from .self_costs import (DELTA_RTOL, checked_cost_block, half_angle_sq, mirror_upper, pack_groups, polynomial_frames,
+                         robust_sum, self_pose_costs)
 from .twins import twin_kernels
 from .word_means import robust_word_means, select_separated_minima, shift_tolerant_angles  # re-exported
 
@@ -775,11 +776,8 @@ def word_knn_profile(D, src_starts, tgt_starts, k=5, exclude_center=None, exclud
 
 
 @njit(cache=True, inline="always")
-def _cost_block(A, B, members, drop, s0, t0, terms, C, as_float32):
-    """C[i, j] = eq. 1 between frames ``s0 + i`` of A and ``t0 + j`` of B on ``members`` (inf if one is NaN).
-
-    ``as_float32`` rounds each cost as :func:`group_pose_distances` stores it.
-    """
+def _cost_block(A, B, members, drop, s0, t0, terms, C):
+    """C[i, j] = eq. 1 between frames ``s0 + i`` of A and ``t0 + j`` of B on ``members`` (inf if one is NaN)."""
     N, M = C.shape
     for i in range(N):
         for j in range(M):
@@ -789,12 +787,7 @@ def _cost_block(A, B, members, drop, s0, t0, terms, C, as_float32):
                 terms[k] = v
                 if v == _INF:
                     finite = False
-            if not finite:
-                C[i, j] = _INF
-            elif as_float32:
-                C[i, j] = np.float32(robust_sum(terms, members, drop))
-            else:
-                C[i, j] = robust_sum(terms, members, drop)
+            C[i, j] = robust_sum(terms, members, drop) if finite else _INF
 
 
 @twin_kernels(_PARALLEL_PAIRS)
@@ -805,7 +798,7 @@ def _pairs(A, B, members, drop, src, tgt, N, M, min_width, max_run, dist, iend, 
         terms = np.empty(A.shape[1])
         acc = np.empty((N, M, 7))
         ln = np.empty((N, M, 7), dtype=np.int64)
-        _cost_block(A, B, members, drop, src[p], tgt[p], terms, C, False)
+        _cost_block(A, B, members, drop, src[p], tgt[p], terms, C)
         d, i, j = _word_dtw(C, 0, 0, N, M, min_width, max_run, acc, ln)
         dist[p] = d
         iend[p] = i
@@ -838,7 +831,7 @@ def word_distance_pairs(A, B, group, drop, src_starts, tgt_starts, N=15, M=20, m
 
 
 @twin_kernels(_PARALLEL_WARPS)
-def _warp(S, T, members, rows, drop, src, tgt, N, M, min_width, max_run, costs, out, iend):
+def _warp(S, T, okS, okT, members, rows, drop, src, tgt, N, M, min_width, max_run, costs, out, iend):
     P = src.shape[0]
     R = rows.shape[0]
     given = costs.shape[0] > 0
@@ -852,8 +845,8 @@ def _warp(S, T, members, rows, drop, src, tgt, N, M, min_width, max_run, costs, 
             for i in range(N):
                 for j in range(M):
                     C[i, j] = costs[src[p] + i, tgt[p] + j]
-        else:  # rounded as group_pose_distances rounds it, so the path is the one the search saw
-            _cost_block(S, T, members, drop, src[p], tgt[p], terms, C, True)
+        else:  # as group_pose_distances gives it, so the path is the one the search saw
+            checked_cost_block(S, T, okS, okT, members, drop, src[p], tgt[p], DELTA_RTOL, terms, C)
         d, bi, bj = _word_dtw(C, 0, 0, N, M, min_width, max_run, acc, ln, back)
         iend[p] = bi
         if bi < 0:
@@ -894,7 +887,9 @@ def warp_target_words(S, T, members, drop, src_starts, tgt_starts, N=15, M=20, m
 
     ``costs``: the pose distances of ``S`` against ``T`` on ``members`` (Fs, Ft), as
     :func:`group_pose_distances` or :func:`self_pose_distances` computed them for
-    the search; read instead of computed again (the same float32 values).
+    the search; read instead of computed again (the same float32 values). Without them each pair's block is
+    computed from checked polynomial terms
+    (:func:`~mocapkit.cleaning.ssa.self_costs.checked_cost_block`: the same float32 values, few ``acos``).
 
     Returns ``warped`` float64 (P, N, len(rows), 4), valid in frames
     ``0..i_end[p]`` (NaN after), and ``i_end`` int64 (P,) (-1: no admissible path).
@@ -916,6 +911,8 @@ def warp_target_words(S, T, members, drop, src_starts, tgt_starts, N=15, M=20, m
     out = np.full((len(src), N, len(rows), 4), np.nan)
     iend = np.full(len(src), -1, dtype=np.int64)
     if len(src):
-        _warp.pick(len(src))(S, T, members, rows, int(drop), src, tgt, int(N), int(M), int(min_width), int(max_run), costs,
-                             out, iend)
+        okS = polynomial_frames(S)
+        okT = okS if T is S else polynomial_frames(T)
+        _warp.pick(len(src))(S, T, okS, okT, members, rows, int(drop), src, tgt, int(N), int(M), int(min_width),
+                             int(max_run), costs, out, iend)
     return out, iend
