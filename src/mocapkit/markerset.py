@@ -15,6 +15,7 @@ those samples from the data, so that readers can turn them into gaps.
 from __future__ import annotations
 
 import dataclasses
+import re
 from dataclasses import dataclass
 from types import MappingProxyType
 from typing import Any, Mapping
@@ -54,6 +55,17 @@ read as mm would be a 12 cm body; a capture of one body part (a knee's markers s
 # jumps there from at least this far away: the lab origin is not a place a
 # marker teleports to and from.
 ZERO_GAP_DISTANCE_CM = 10.0
+
+
+_COM_WORDS = re.compile(r"cent(re|er)of(the)?mass")
+_COM_ACRONYM = re.compile(r"(?<![A-Z])(COM|CoM)(?![a-z]|[A-Z](?![a-z]))|(?<![A-Za-z])com(?![a-z])")
+
+
+def _names_centre_of_mass(label: str) -> bool:
+    """Whether a point's label names a centre of mass: "centre/center of (the) mass" in any case, spacing or
+    punctuation (``CentreOfMass``, ``Centre_of_Mass``, ``Male:center of mass floor``), or the acronym as a word
+    of its own (``COM``, ``CoM``, ``BodyCOM``, ``CoM_Floor``, ``com``; not ``Compass``, ``COMB`` nor ``LCOMP``)."""
+    return bool(_COM_WORDS.search(re.sub(r"[^a-z]", "", label.lower())) or _COM_ACRONYM.search(label))
 
 
 def unique_labels(raw, m: int) -> tuple[str, ...]:
@@ -443,7 +455,12 @@ class MarkerSet:
           which no four skin markers form; the four of one subject (the same
           ``Subject:`` prefix, :func:`subject_of`: in a two-subject file
           Alice:LFEO goes with Alice:LFEA, not Bob's);
-        - the weaker clue of a name: ``CentreOfMass`` / ``CenterOfMass``.
+        - the weaker clue of a name that says centre of mass, however spelt
+          (:func:`_names_centre_of_mass`: Plug-in Gait's ``CentreOfMass``,
+          ``Centre_of_Mass``, ``center of mass``, ``COM``, ``BodyCoM``,
+          a subject's ``Sub_CentreOfMass``): a TRC lists no modelled points,
+          so in a TRC written from a Plug-in Gait C3D (modelled positions are
+          kept, :func:`mocapkit.io.trc.write_trc`) the name is what is left.
         """
         pos = np.asarray(self.positions, dtype=np.float64)
         m = pos.shape[1]
@@ -482,7 +499,7 @@ class MarkerSet:
             cos = np.abs(np.einsum("tai,tbi->tab", u, u)[:, [0, 0, 1], [1, 2, 2]])
             if np.all(np.ptp(d, axis=1) <= tol) and np.all(cos < 1e-3):
                 out[group] = True
-        out |= np.array([b.lower().startswith(("centreofmass", "centerofmass")) for b in bare], dtype=bool)
+        out |= np.array([_names_centre_of_mass(str(label)) for label in self.labels], dtype=bool)
         return out
 
     def unlabelled(self) -> np.ndarray:
