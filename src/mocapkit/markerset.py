@@ -265,6 +265,10 @@ class MarkerSource:
         for every other sample; None when the reader read no such gap. A
         writer asked to (``clean``'s output) writes such a sample that is
         still missing back as the file had it.
+    filled : bool array (F, M) or None
+        npz: the file's ``filled`` mask, the samples it holds that are no
+        recorded ones (a cleaning's fills, or samples a C3D marked as
+        interpolated: :func:`mocapkit.io.npz.write_npz`); None otherwise.
     """
 
     format: str
@@ -276,6 +280,7 @@ class MarkerSource:
     text: str | None = None
     layout: Mapping[str, int] = dataclasses.field(default_factory=dict)
     stored_zeros: np.ndarray | None = None
+    filled: np.ndarray | None = None
 
     def __post_init__(self):
         object.__setattr__(self, "parameters", MappingProxyType(dict(self.parameters)))
@@ -292,6 +297,11 @@ class MarkerSource:
             if z.ndim != 3 or z.shape[2] != 2:
                 raise ValueError(f"stored_zeros: expected shape (F, M, 2), got {z.shape}")
             object.__setattr__(self, "stored_zeros", frozen(z))
+        if self.filled is not None:
+            f = np.asarray(self.filled)
+            if f.ndim != 2 or f.dtype != bool:
+                raise ValueError(f"filled: expected a bool array (F, M), got {f.dtype} {f.shape}")
+            object.__setattr__(self, "filled", frozen(f))
 
     def analog_ratio(self, num_frames: int) -> int:
         """Analog samples per point frame (0 without analogs)."""
@@ -566,8 +576,11 @@ class MarkerSet:
             idx.append(self.labels.index(label))
         res = None if self.residuals is None else self.residuals[:, idx]
         cams = None if self.cameras is None else self.cameras[:, idx]
+        source = self.source
+        if source is not None and source.filled is not None:
+            source = dataclasses.replace(source, filled=source.filled[:, idx])
         return dataclasses.replace(self, labels=tuple(labels), positions=self.positions[:, idx], residuals=res,
-                                   cameras=cams)
+                                   cameras=cams, source=source)
 
     def file_labels(self) -> tuple[str, ...]:
         """The labels a writer writes: the file's own (repeats included) while the markers are the file's, else ``labels``.
@@ -597,8 +610,9 @@ class MarkerSet:
                 analogs = source.analogs[:, start * ratio : max(start, stop) * ratio]
             whole = (start, max(start, stop), step) == (0, self.num_frames, 1)
             zeros = None if source.stored_zeros is None else source.stored_zeros[key]
+            filled = None if source.filled is None else source.filled[key]
             source = dataclasses.replace(source, analogs=analogs, first_frame=source.first_frame + start,
-                                         text=source.text if whole else None, stored_zeros=zeros)
+                                         text=source.text if whole else None, stored_zeros=zeros, filled=filled)
         return dataclasses.replace(self, positions=self.positions[key], fps=fps, residuals=res, source=source,
                                    cameras=cams)
 
