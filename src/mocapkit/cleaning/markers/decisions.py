@@ -196,7 +196,8 @@ def _under(x, r, found, owner, swaps, regions) -> set[int]:
 def _tied(original, cleaned, found, owner, swaps, src) -> list[list[int]]:
     """The groups of changes (indices into ``found``) that are decided together: where the cleaned samples of a
     swap are not its markers' recorded samples exchanged (:func:`~mocapkit.cleaning.markers.placement.sources`
-    does not give the cleaning's labelling there, e.g. swaps chained over one marker), where a change's samples
+    does not give the cleaning's labelling there, e.g. a record whose chained swaps were listed as the cleaning's
+    own column exchanges rather than by :func:`~mocapkit.cleaning.markers.swaps.recorded_swaps`), where a change's samples
     came from cannot be told, so that swap and every change on its markers over its frames, grown to every change
     overlapping those, go together; and a swap fix that owns no change of its own goes with the changes
     :func:`_under` it. Empty where every swap is its markers' samples exchanged and a change."""
