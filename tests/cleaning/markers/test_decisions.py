@@ -102,7 +102,11 @@ def test_changes_whose_origin_cannot_be_told_are_tied_and_a_split_is_refused():
     assert md.tied(x, cleaned, fixes) == [sorted(ids, key=ids.index)]
     rows = md.review(x, cleaned, fixes)["changes"]
     assert all(sorted(r["tied"]) == sorted(ids) for r in rows)
-    with pytest.raises(ValueError, match="accept or reject them together"):
+    # the page's row and the console say which go together and why
+    assert all(r["tied_why"] == md.TIED_WHY for r in rows) and "under another marker's label" in md.TIED_WHY
+    assert md.tied_lines(x, cleaned, fixes) == [f"{', '.join(sorted(ids, key=ids.index))}: accepted or rejected "
+                                                f"together, as {md.TIED_WHY}"]
+    with pytest.raises(ValueError, match="under another marker's label: accept or reject them together"):
         md.apply(x, cleaned, fixes, {ids[0]: "reject"})
     back = md.apply(x, cleaned, fixes, {i: "reject" for i in ids})
     assert _same((back.positions, back.residuals, back.cameras), (x.positions, x.residuals, x.cameras))
