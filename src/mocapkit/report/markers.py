@@ -309,8 +309,9 @@ def plot_marker_fixes(path, result, *, max_markers: int = 8, title: str = "") ->
             ax.plot(t, before[:, m, c] * mm, color="0.6", lw=1.6)
             ax.plot(t, after[:, m, c] * mm, color=colours[c], lw=0.8, label="xyz"[c])
         foreign = _foreign(result)
+        copies = _duplicates(result) & ~foreign
         for mask, colour in ((result.filled[:, m], "tab:green"), (result.spikes[:, m], "tab:red"),
-                             (result.swapped[:, m], "tab:orange"), ((_duplicates(result) & ~foreign)[:, m], "tab:purple"),
+                             (result.swapped[:, m], "tab:orange"), (copies[:, m], "tab:purple"),
                              (foreign[:, m], "tab:brown")):
             d = np.diff(np.concatenate([[0], mask.astype(np.int8), [0]]))
             for a, b in zip(np.flatnonzero(d == 1), np.flatnonzero(d == -1)):

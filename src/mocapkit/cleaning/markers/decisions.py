@@ -54,8 +54,8 @@ from ..decisions import (ACCEPT, FORMAT, RECORD_FLAG, REJECT, check_choices, che
 from .clean import MarkerCleanResult, MarkerFix
 from .placement import destinations, relabelled, sources
 
-__all__ = ["MarkerChange", "differs", "changes", "accepted_samples", "tied", "TIED_WHY", "tied_lines", "placed", "apply",
-           "cleaning_digest",
+__all__ = ["MarkerChange", "differs", "changes", "accepted_samples", "tied", "TIED_WHY", "tied_lines", "placed",
+           "apply", "cleaning_digest",
            "template", "check", "review", "record_cells", "result_from_record", "check_record", "decided_result",
            "clean_and_decide"]
 
@@ -197,9 +197,9 @@ def _under(x, r, found, owner, swaps, regions) -> set[int]:
 def _tied(original, cleaned, found, owner, swaps, src) -> list[list[int]]:
     """The groups of changes (indices into ``found``) that are decided together: where the cleaned samples of a
     swap are not its markers' recorded samples exchanged (:func:`~mocapkit.cleaning.markers.placement.sources`
-    does not give the cleaning's labelling there, e.g. a record whose chained swaps were listed as the cleaning's
-    own column exchanges rather than by :func:`~mocapkit.cleaning.markers.swaps.recorded_swaps`), where a change's samples
-    came from cannot be told, so that swap and every change on its markers over its frames, grown to every change
+    does not give the cleaning's labelling there: chained swaps no order of undoing one at a time gives, or a record
+    whose chained swaps were listed as the cleaning's own column exchanges rather than by
+    :func:`~mocapkit.cleaning.markers.swaps.recorded_swaps`), where a change's samples came from cannot be told, so that swap and every change on its markers over its frames, grown to every change
     overlapping those, go together; and a swap fix that owns no change of its own goes with the changes
     :func:`_under` it. Empty where every swap is its markers' samples exchanged and a change."""
     labels = list(original.labels)
