@@ -242,3 +242,24 @@ def test_a_marker_set_built_in_python_has_its_unit_checked(shared_data):
     for ms in (MarkerSet(f.labels, p, f.fps), MarkerSet(f.labels, p / 1000.0, f.fps, units="m")):
         res = mocapkit.clean(ms)
         assert res.spikes.sum() == 1 and res.spikes[300, 7]
+
+
+@pytest.mark.parametrize("name", ["Centre_of_Mass", "COM", "BodyCoM", "center of mass"])
+def test_a_centre_of_mass_in_a_trc_is_modelled_whatever_its_spelling(shared_data, tmp_path, name):
+    # A TRC lists no modelled points: Plug-in Gait's CentreOfMass, written to a TRC under another lab's spelling,
+    # was a marker, and its 30 unseen frames of PiG_Motion-FlatFoot-Full were filled as a marker's gap.
+    from mocapkit.cleaning.markers import clean_markers
+    from mocapkit.io import load_markers, save_markers
+
+    pig = load_markers(shared_data / "c3d_markers" / "PiG_Motion-FlatFoot-Full.c3d")
+    save_markers(pig, tmp_path / "pig.trc")
+    text = (tmp_path / "pig.trc").read_text()
+    (tmp_path / "lab.trc").write_text(text.replace("\tCentreOfMass\t", f"\t{name}\t", 1))
+    take = load_markers(tmp_path / "lab.trc")
+    j = list(take.labels).index(name)
+    assert take.computed()[j] and take.modelled()[j]
+    assert np.isnan(take.positions[:, j]).any()
+    markers = [i for i, label in enumerate(take.labels) if label in ("LASI", "RASI", "LPSI", "RPSI", "LTHI", "LKNE")]
+    res = clean_markers(take.select([take.labels[i] for i in markers + [j]]), steps=("gaps",))
+    assert np.array_equal(res.markers.positions[:, -1], take.positions[:, j], equal_nan=True)
+    assert not any(x.marker == name for x in res.fixes)

@@ -61,17 +61,20 @@ def clean_marker_file(inp, out, *, report=None, png=None, overwrite: bool = Fals
     (:func:`~mocapkit.cleaning.markers.decisions.clean_and_decide`: in review mode the cleaning with ``review``
     set, with decisions the decided capture and its ``decided`` summary; the report draws it); the record keeps
     the whole cleaning (rebuilt from ``record`` when one is reused). ``keep_modelled``: a .trc ``out`` keeps
-    the C3D's modelled quantities (:func:`mocapkit.io.save_markers`).
+    the C3D's modelled quantities (:func:`mocapkit.io.save_markers`); refused where it means nothing
+    (:func:`mocapkit.io.check_keep_modelled`: ``out`` not a .trc, ``inp`` not a .c3d).
     """
     from .cleaning import decisions as dec
     from .cleaning.decided import apply_command
     from .cleaning.markers import decisions as mdec
     from .cleaning.pipeline import clean_path
-    from .io import MARKER_FORMATS, load_markers, save_markers, suffix_kind
+    from .io import MARKER_FORMATS, check_keep_modelled, load_markers, save_markers, suffix_kind
     from .io.outputs import check_outputs, file_facts, removed_on_failure
     from .io.takes import file_first_frame
 
     inp, out = Path(inp), Path(out)
+    if keep_modelled:
+        check_keep_modelled(inp, out)
     reuse = record is not None
     if reuse and decisions is None:
         raise MocapError(f"{record}: an earlier run's record is applied with decisions; give the decisions file")
@@ -107,7 +110,8 @@ def clean_marker_file(inp, out, *, report=None, png=None, overwrite: bool = Fals
             from .report.markers import plot_marker_fixes
 
             plot_marker_fixes(png, given, title=f"{inp.name}: before (grey) and after")
-        save_markers(given.output, out, like=ms, stored_zeros=True, keep_modelled=keep_modelled)
+        save_markers(given.output, out, like=ms, stored_zeros=True, keep_modelled=keep_modelled,
+                     filled=given.fill_mask)
         if not reuse:  # last: the completion marker
             res.save(record, written={"input": taken, "output": file_facts(out)},
                      request=request)

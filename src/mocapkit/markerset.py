@@ -15,6 +15,7 @@ those samples from the data, so that readers can turn them into gaps.
 from __future__ import annotations
 
 import dataclasses
+import re
 from dataclasses import dataclass
 from types import MappingProxyType
 from typing import Any, Mapping
@@ -54,6 +55,17 @@ read as mm would be a 12 cm body; a capture of one body part (a knee's markers s
 # jumps there from at least this far away: the lab origin is not a place a
 # marker teleports to and from.
 ZERO_GAP_DISTANCE_CM = 10.0
+
+
+_COM_WORDS = re.compile(r"cent(re|er)of(the)?mass")
+_COM_ACRONYM = re.compile(r"(?<![A-Z])(COM|CoM)(?![a-z]|[A-Z](?![a-z]))|(?<![A-Za-z])com(?![a-z])")
+
+
+def _names_centre_of_mass(label: str) -> bool:
+    """Whether a point's label names a centre of mass: "centre/center of (the) mass" in any case, spacing or
+    punctuation (``CentreOfMass``, ``Centre_of_Mass``, ``Male:center of mass floor``), or the acronym as a word
+    of its own (``COM``, ``CoM``, ``BodyCOM``, ``CoM_Floor``, ``com``; not ``Compass``, ``COMB`` nor ``LCOMP``)."""
+    return bool(_COM_WORDS.search(re.sub(r"[^a-z]", "", label.lower())) or _COM_ACRONYM.search(label))
 
 
 def unique_labels(raw, m: int) -> tuple[str, ...]:
@@ -253,6 +265,10 @@ class MarkerSource:
         for every other sample; None when the reader read no such gap. A
         writer asked to (``clean``'s output) writes such a sample that is
         still missing back as the file had it.
+    filled : bool array (F, M) or None
+        npz: the file's ``filled`` mask, the samples it holds that are no
+        recorded ones (a cleaning's fills, or samples a C3D marked as
+        interpolated: :func:`mocapkit.io.npz.write_npz`); None otherwise.
     """
 
     format: str
@@ -264,6 +280,7 @@ class MarkerSource:
     text: str | None = None
     layout: Mapping[str, int] = dataclasses.field(default_factory=dict)
     stored_zeros: np.ndarray | None = None
+    filled: np.ndarray | None = None
 
     def __post_init__(self):
         object.__setattr__(self, "parameters", MappingProxyType(dict(self.parameters)))
@@ -280,6 +297,11 @@ class MarkerSource:
             if z.ndim != 3 or z.shape[2] != 2:
                 raise ValueError(f"stored_zeros: expected shape (F, M, 2), got {z.shape}")
             object.__setattr__(self, "stored_zeros", frozen(z))
+        if self.filled is not None:
+            f = np.asarray(self.filled)
+            if f.ndim != 2 or f.dtype != bool:
+                raise ValueError(f"filled: expected a bool array (F, M), got {f.dtype} {f.shape}")
+            object.__setattr__(self, "filled", frozen(f))
 
     def analog_ratio(self, num_frames: int) -> int:
         """Analog samples per point frame (0 without analogs)."""
@@ -443,7 +465,12 @@ class MarkerSet:
           which no four skin markers form; the four of one subject (the same
           ``Subject:`` prefix, :func:`subject_of`: in a two-subject file
           Alice:LFEO goes with Alice:LFEA, not Bob's);
-        - the weaker clue of a name: ``CentreOfMass`` / ``CenterOfMass``.
+        - the weaker clue of a name that says centre of mass, however spelt
+          (:func:`_names_centre_of_mass`: Plug-in Gait's ``CentreOfMass``,
+          ``Centre_of_Mass``, ``center of mass``, ``COM``, ``BodyCoM``,
+          a subject's ``Sub_CentreOfMass``): a TRC lists no modelled points,
+          so in a TRC written from a Plug-in Gait C3D (modelled positions are
+          kept, :func:`mocapkit.io.trc.write_trc`) the name is what is left.
         """
         pos = np.asarray(self.positions, dtype=np.float64)
         m = pos.shape[1]
@@ -482,7 +509,7 @@ class MarkerSet:
             cos = np.abs(np.einsum("tai,tbi->tab", u, u)[:, [0, 0, 1], [1, 2, 2]])
             if np.all(np.ptp(d, axis=1) <= tol) and np.all(cos < 1e-3):
                 out[group] = True
-        out |= np.array([b.lower().startswith(("centreofmass", "centerofmass")) for b in bare], dtype=bool)
+        out |= np.array([_names_centre_of_mass(str(label)) for label in self.labels], dtype=bool)
         return out
 
     def unlabelled(self) -> np.ndarray:
@@ -549,8 +576,11 @@ class MarkerSet:
             idx.append(self.labels.index(label))
         res = None if self.residuals is None else self.residuals[:, idx]
         cams = None if self.cameras is None else self.cameras[:, idx]
+        source = self.source
+        if source is not None and source.filled is not None:
+            source = dataclasses.replace(source, filled=source.filled[:, idx])
         return dataclasses.replace(self, labels=tuple(labels), positions=self.positions[:, idx], residuals=res,
-                                   cameras=cams)
+                                   cameras=cams, source=source)
 
     def file_labels(self) -> tuple[str, ...]:
         """The labels a writer writes: the file's own (repeats included) while the markers are the file's, else ``labels``.
@@ -580,8 +610,9 @@ class MarkerSet:
                 analogs = source.analogs[:, start * ratio : max(start, stop) * ratio]
             whole = (start, max(start, stop), step) == (0, self.num_frames, 1)
             zeros = None if source.stored_zeros is None else source.stored_zeros[key]
+            filled = None if source.filled is None else source.filled[key]
             source = dataclasses.replace(source, analogs=analogs, first_frame=source.first_frame + start,
-                                         text=source.text if whole else None, stored_zeros=zeros)
+                                         text=source.text if whole else None, stored_zeros=zeros, filled=filled)
         return dataclasses.replace(self, positions=self.positions[key], fps=fps, residuals=res, source=source,
                                    cameras=cams)
 

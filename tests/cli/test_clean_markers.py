@@ -329,3 +329,20 @@ def test_modelled_quantities_are_left_out_of_a_trc_by_clean_and_convert_unless_k
     assert "modelled quantities" not in stdout and len(load_markers(tmp_path / "c.trc").labels) == 193
     code, _, stderr = run("clean", SAMPLE, "-o", tmp_path / "d.bvh", "--keep-modelled")
     assert code != 0 and one_error_line(stderr) and "applies only to marker captures" in stderr
+
+
+@pytest.mark.parametrize("command", ["convert", "clean"])
+def test_keep_modelled_is_refused_in_one_line_where_it_means_nothing(shared_data, tmp_path, command):
+    """trial27: --keep-modelled was taken and did nothing for a .c3d or .npz output, nor for a .trc or .npz input:
+    only a C3D lists modelled quantities and only a .trc output leaves them out."""
+    pig = shared_data / "c3d_markers" / "PiG_Motion-FlatFoot-Full.c3d"
+    save_markers(load_markers(pig), tmp_path / "pig.npz")
+    (tmp_path / "pig.trc").write_bytes((shared_data / "trc_markers" / "T.trc").read_bytes())
+    for inp, out, word in ((pig, "a.c3d", "a .c3d or .npz output keeps every point"),
+                           (pig, "a.npz", "a .c3d or .npz output keeps every point"),
+                           (tmp_path / "pig.npz", "b.trc", "a .trc or .npz input lists none"),
+                           (tmp_path / "pig.trc", "c.trc", "a .trc or .npz input lists none")):
+        args = [command, inp, tmp_path / out] if command == "convert" else [command, inp, "-o", tmp_path / out]
+        code, _, stderr = run(*args, "--keep-modelled")
+        assert code != 0 and one_error_line(stderr) and word in stderr and "--keep-modelled" in stderr, stderr
+        assert not (tmp_path / out).exists() and not (tmp_path / (Path(out).stem + ".clean.npz")).exists()

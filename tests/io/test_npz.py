@@ -189,3 +189,36 @@ def test_a_marker_npz_keeps_the_first_frame_and_the_files_labels(tmp_path):
         arrays = {k: z[k] for k in z.files if k != "first_frame"}
     np.savez(tmp_path / "old.npz", **arrays)
     assert mocapkit.load(tmp_path / "old.npz").source.first_frame == 1
+
+
+def test_a_marker_npz_tells_fills_from_recorded_samples_and_reads_them_back(tmp_path):
+    # A C3D marks a fill by residual 0, a TRC says it in a note; a marker npz has its bool filled (F, M) beside the
+    # positions: the cleaning's fills (a gap cut in CMU 85_02 and filled), read back by the reader and by info.
+    from pathlib import Path
+
+    from mocapkit.io import load_markers, save_markers
+    from mocapkit.marker_files import clean_marker_file
+
+    from ..cli.helpers import run
+
+    m = load_markers(Path(__file__).resolve().parents[1] / "data" / "85_02.c3d")
+    p = np.array(m.positions)
+    p[200:230, m.labels.index("Male:LKNE")] = np.nan
+    save_markers(m.with_positions(p), tmp_path / "in.c3d")
+    _, res = clean_marker_file(tmp_path / "in.c3d", tmp_path / "out.npz")
+    assert res.fill_mask.sum() == 30
+    back = mocapkit.io.load_markers(tmp_path / "out.npz")
+    assert np.array_equal(back.source.filled, res.fill_mask)
+    assert np.array_equal(back[200:210].source.filled, res.fill_mask[200:210])
+    code, out, _ = run("info", tmp_path / "out.npz")
+    assert code == 0 and "30 of 33210 marker samples are no recorded ones (the npz's filled mask)" in out
+    # converted on, the mask goes with the samples: npz to npz keeps it
+    save_markers(back, tmp_path / "again.npz")
+    assert np.array_equal(mocapkit.io.load_markers(tmp_path / "again.npz").source.filled, res.fill_mask)
+    # a mask of the wrong shape is refused, naming the file
+    with np.load(tmp_path / "out.npz") as z:
+        arrays = dict(z)
+    arrays["filled"] = arrays["filled"][:5]
+    np.savez(tmp_path / "bad.npz", **arrays)
+    with pytest.raises(MocapFormatError, match="bad.npz.*filled"):
+        mocapkit.io.load_markers(tmp_path / "bad.npz")

@@ -128,3 +128,24 @@ def test_playback_runs_in_real_time_at_480_hz(page):
     page.click("#play")
     rate = frame / ((t1 - t0) / 1000) / 480.0
     assert 0.8 < rate < 1.1, f"played at {rate:.2f}x real time"
+
+
+def test_a_foreign_stretch_is_drawn_and_named_as_such_not_as_a_duplicate_label(tmp_path):
+    # Eb015pr.c3d (c3d.org, 50 Hz): LFT3's frames 0-42 are another point under its label (a foreign stretch), no
+    # copy of another marker's: the viewer gives those samples the foreign colour, and the legend names it.
+    from mocapkit import samples
+    from mocapkit.report.markers import plot_marker_fixes
+
+    m = load_markers(samples.path("Eb015pr.c3d"))
+    res = clean_markers(m)
+    j = list(m.labels).index("LFT3")
+    assert any(x.kind == "foreign" and x.marker == "LFT3" for x in res.fixes)
+    path = write_marker_report(tmp_path / "eb.html", res)
+    d = data(path)
+    shown = {f: k for k, f in enumerate(d["frames"])}
+    assert all(d["kind"][shown[f]][j] == 5 for f in range(43) if f in shown)
+    assert not any(k == 4 for row in d["kind"] for k in row)  # Eb015pr has no duplicate label
+    text = path.read_text(encoding="utf-8")
+    assert "foreign stretch (another point under the label) replaced" in text
+    assert "'#7b3294', '#8c510a'" in text
+    plot_marker_fixes(tmp_path / "eb.png", res)

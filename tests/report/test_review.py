@@ -329,7 +329,8 @@ def test_the_pages_apply_command_works_as_copied_for_an_amc_whose_asf_is_elsewhe
 
 def test_tied_changes_are_accepted_and_rejected_together(browser, tmp_path):
     # CMU 85_02 (tests/data) with two swaps chained over one marker whose cleaned samples are not what exchanging
-    # them in order gives, and a spike inside them: mocapkit.cleaning.markers.decisions.tied ties the three
+    # their recorded trajectories in order gives (their columns exchanged instead), and a spike inside them:
+    # mocapkit.cleaning.markers.decisions.tied ties the three, and the row says why
     import dataclasses
     from pathlib import Path
 
@@ -341,8 +342,8 @@ def test_tied_changes_are_accepted_and_rejected_together(browser, tmp_path):
     x = load_markers(Path(__file__).resolve().parents[1] / "data" / "85_02.c3d")[:300]
     a, b, k = 10, 11, 5
     p = np.array(x.positions)
-    p[150:250, [b, k]] = p[150:250, [k, b]]
     p[100:200, [a, b]] = p[100:200, [b, a]]
+    p[150:250, [b, k]] = p[150:250, [k, b]]
     p[170, k] += [0.0, 0.0, 1.0]
     lab = x.labels
     fixes = (MarkerFix(lab[a], 100, 200, "swap", 1.0, lab[b]), MarkerFix(lab[b], 150, 250, "swap", 1.0, lab[k]),
@@ -360,7 +361,8 @@ def test_tied_changes_are_accepted_and_rejected_together(browser, tmp_path):
     pg.locator(f'#changes tr[data-change="{ids[1]}"] input.accept').uncheck()
     boxes = [pg.locator(f'#changes tr[data-change="{i}"] input.accept').is_checked() for i in ids]
     assert boxes == [False, False, False]
-    assert "accepted or rejected with" in pg.locator(f'#changes tr[data-change="{ids[0]}"] td.reason').inner_text()
+    why = pg.locator(f'#changes tr[data-change="{ids[0]}"] td.reason').inner_text()
+    assert "accepted or rejected with" in why and "could put a trajectory under another marker's label" in why
     pg.locator(f'#changes tr[data-change="{ids[2]}"] input.accept').check()
     assert all(pg.locator(f'#changes tr[data-change="{i}"] input.accept').is_checked() for i in ids)
     ctx.close()

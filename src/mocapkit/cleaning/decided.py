@@ -95,7 +95,9 @@ def for_markers(doc: dict, path, original, result, decisions: dict, record=None,
 
     found = mdec.changes(original, result.markers, result.fixes)
     rejected = tuple(str(c) for c in found if decisions.get(c.id) == dec.REJECT)
-    n = int(mdec.accepted_samples(original, result.markers, result.fixes, decisions).sum())
+    # the samples the capture written differs from the input in (a sample two chained swaps both move is counted
+    # when either is kept)
+    n = int(mdec.differs(original, mdec.apply(original, result.markers, result.fixes, decisions)).sum())
     return Decided(str(path), "" if record is None else str(record), len(found), rejected, n,
                    int(result.changed.size), "marker sample", take or original.name or "the input",
                    tuple(dec.ids_notes(doc, path, [c.id for c in found])))

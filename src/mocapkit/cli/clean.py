@@ -238,6 +238,7 @@ def _clean_marker_take(inp: Path, out: Path, *, report, png, overwrite: bool, no
     (``--record``, or OUT's found by ``--decisions``), for a refusal of options beside it.
     """
     from ..batch import clean_marker_file, refuse_marker_options
+    from ..cleaning.markers.decisions import tied_lines
     from ..cleaning.pipeline import clean_path
     from ..io import marker_notes
     from ..io.takes import load_take
@@ -272,6 +273,8 @@ def _clean_marker_take(inp: Path, out: Path, *, report, png, overwrite: bool, no
         how = "given with --unit" if take.units_from == "given" else "inferred from the marker distances; --unit sets it"
         console.print(f"  length unit {take.units}: the file states none ({how})")
     for line in res.summary():
+        console.print(f"  {line}")
+    for line in tied_lines(take, res.markers, res.fixes):  # changes a person must decide together, and why
         console.print(f"  {line}")
     # what the reader did, what OUT's format cannot hold or tell apart
     for note in marker_notes(take, out, inp, keep_modelled=keep_modelled, filled=res.fill_mask, record=clean_path(out)):

@@ -106,8 +106,9 @@ def keep_modelled_option():
     modelled quantities (angles, forces, moments, powers) as points (:func:`mocapkit.io.save_markers`)."""
     return typer.Option(
         False, "--keep-modelled",
-        help="Marker captures to .trc: also write the C3D's modelled quantities (joint angles, forces, moments, "
-             "powers) as points, under the TRC's length unit; left out by default (a TRC holds markers: OpenSim).")
+        help="A .c3d marker capture to .trc: also write the C3D's modelled quantities (joint angles, forces, "
+             "moments, powers) as points, under the TRC's length unit; left out by default (a TRC holds markers: "
+             "OpenSim). Refused for any other input or output (a .c3d or .npz output keeps every point).")
 
 
 CONTEXT_HELP = ("What the take is compared with: a motion database folder, a folder of takes or motion files "

@@ -136,6 +136,8 @@ def convert(
         if fps is not None:
             raise MocapFormatError(inp, "--fps resamples joint angles; a marker file converts at its own rate")
         io.suffix_kind(out, io.MARKER_FORMATS, "writing markers")
+        if keep_modelled:
+            io.check_keep_modelled(inp, out)
         io.save_markers(m, out, keep_modelled=keep_modelled)
         left = int(sum(m.quantities() != "")) if out.suffix.lower() == ".trc" and not keep_modelled else 0
         console.print(f"wrote {out} ({plural(m.num_markers - left, 'marker')}, {plural(m.num_frames, 'frame')} @ {m.fps:g} fps, "

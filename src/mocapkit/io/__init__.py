@@ -16,12 +16,13 @@ import tempfile
 from contextlib import contextmanager
 from pathlib import Path
 
-from ..errors import MissingFileError, MocapFormatError
+from ..errors import MissingFileError, MocapError, MocapFormatError
 
 from ..markerset import MarkerSet
 from .outputs import missing_folders, publish
 
-__all__ = ["load", "save", "check_writable", "check_complete", "load_markers", "save_markers", "marker_notes", "motion_notes", "atomic_write",
+__all__ = ["load", "save", "check_writable", "check_complete", "load_markers", "save_markers", "check_keep_modelled",
+           "marker_notes", "motion_notes", "atomic_write",
            "MarkerSet",
            "READERS", "WRITERS", "MARKER_FORMATS"]
 
@@ -104,7 +105,7 @@ def load_markers(path, **kwargs) -> MarkerSet:
 
 
 def save_markers(markers: MarkerSet, path, *, like=None, stored_zeros: bool = False,
-                 keep_modelled: bool = False) -> Path:
+                 keep_modelled: bool = False, filled=None) -> Path:
     """Write ``markers`` to ``path`` (.c3d, .trc or .npz, by suffix) atomically; returns the path.
 
     ``like`` (a MarkerSet or a file of the same format) supplies the file
@@ -116,7 +117,9 @@ def save_markers(markers: MarkerSet, path, *, like=None, stored_zeros: bool = Fa
     (:func:`~mocapkit.io.c3d.write_c3d`), not as residual -1. A .trc
     holds markers only: a C3D's modelled quantities (angles, forces, moments,
     powers) are left out unless ``keep_modelled``
-    (:func:`mocapkit.io.trc.write_trc`).
+    (:func:`mocapkit.io.trc.write_trc`). ``filled`` ((F, M) bool, or None): the
+    samples a cleaning filled, which a .npz lists in its ``filled`` mask
+    (:func:`mocapkit.io.npz.write_npz`; a C3D marks them by residual 0, a TRC cannot).
     """
     path = Path(path)
     kind = suffix_kind(path, MARKER_FORMATS, "writing markers")
@@ -125,7 +128,7 @@ def save_markers(markers: MarkerSet, path, *, like=None, stored_zeros: bool = Fa
     if kind == "npz":
         from .npz import write_npz
 
-        write_npz(markers, path)
+        write_npz(markers, path, filled=filled)
     elif kind == "trc":
         from .trc import write_trc
 
@@ -135,6 +138,25 @@ def save_markers(markers: MarkerSet, path, *, like=None, stored_zeros: bool = Fa
 
         write_c3d(markers, path, like=like, stored_zeros=stored_zeros)
     return path
+
+
+def check_keep_modelled(inp, out) -> None:
+    """Refuse, in one line naming the file, ``--keep-modelled`` where it has no meaning.
+
+    Only a C3D lists modelled quantities (POINT:ANGLES, FORCES, MOMENTS,
+    POWERS, SCALARS, REACTIONS: :meth:`MarkerSet.quantities`), and only a
+    .trc output leaves them out (it holds markers in one length unit,
+    :func:`mocapkit.io.trc.write_trc`): a .c3d or .npz output keeps every
+    point as read, and a TRC or npz input lists none, so the option would
+    change nothing there. ``inp``, ``out``: the paths, judged by suffix.
+    """
+    inp, out = Path(inp), Path(out)
+    if out.suffix.lower() != ".trc":
+        raise MocapError(f"{out}: --keep-modelled chooses what a .trc output holds; a .c3d or .npz output keeps "
+                         "every point as read, modelled quantities included")
+    if inp.suffix.lower() != ".c3d":
+        raise MocapError(f"{inp}: --keep-modelled keeps the modelled quantities a C3D lists (POINT:ANGLES, FORCES, "
+                         "MOMENTS, POWERS, ...); a .trc or .npz input lists none")
 
 
 def marker_notes(markers: MarkerSet, path, inp=None, *, keep_modelled: bool = False, filled=None,

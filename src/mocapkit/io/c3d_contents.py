@@ -48,13 +48,17 @@ def marker_file_contents(markers: MarkerSet) -> list[tuple[str, str]]:
     it is not 1 (a trimmed capture: FunctionalWalk.c3d starts at 480);
     for a C3D, ``analogs`` (channel count and rate in Hz), ``force plates``
     (count and types) and ``events`` (count and labels, from the EVENT group,
-    else the header's event labels). [] for a take read from no file (npz).
+    else the header's event labels); for a marker npz, ``filled`` (how many
+    samples its ``filled`` mask marks as no recorded ones). [] for a take read from no file.
     """
     source = markers.source
     if source is None:
         return []
     first = int(source.first_frame)
     rows = [("first frame", str(first))] if first != 1 else []
+    if source.filled is not None and source.filled.any():
+        rows.append(("filled", f"{int(source.filled.sum())} of {source.filled.size} marker samples are no recorded "
+                               "ones (the npz's filled mask)"))
     if source.format != "c3d":
         return rows
     params = source.parameters

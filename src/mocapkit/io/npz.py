@@ -25,7 +25,31 @@ __all__ = ["read_npz", "write_npz", "load_arrays", "FORMAT_VERSION", "MAX_NPZ_BY
 FORMAT_VERSION = 1
 
 
-def write_npz(obj, path, compress: bool = True, extra: dict | None = None) -> None:
+def filled_samples(markers, filled=None) -> np.ndarray:
+    """(F, M) bool: the samples of ``markers`` that are no recorded ones, which a marker npz lists in ``filled``.
+
+    ``filled`` ((F, M) bool, or None): a cleaning's fills
+    (:attr:`~mocapkit.cleaning.markers.MarkerCleanResult.fill_mask`); with
+    them, the samples the take itself marks so: a marker npz's own ``filled``
+    mask (:attr:`~mocapkit.markerset.MarkerSource.filled`), and the samples a
+    C3D marks as interpolated (residual 0 at a seen sample, in a file where
+    some sample has a residual over 0: a capture program's fills), modelled
+    points and unlabelled trajectories aside (their residual 0 says nothing).
+    """
+    shape = markers.positions.shape[:2]
+    out = np.zeros(shape, dtype=bool) if filled is None else np.asarray(filled, dtype=bool).copy()
+    source = markers.source
+    if source is not None and source.filled is not None and source.filled.shape == shape:
+        out |= source.filled
+    res = markers.residuals
+    seen = ~markers.missing()
+    if res is not None and np.any(res[seen] > 0):
+        cols = ~markers.modelled() & ~markers.unlabelled()
+        out[:, cols] |= seen[:, cols] & (np.asarray(res)[:, cols] == 0)
+    return out & seen
+
+
+def write_npz(obj, path, compress: bool = True, extra: dict | None = None, filled=None) -> None:
     """Write a Motion or MarkerSet to ``path`` atomically (temp file + rename).
 
     Names (joints, markers, the clip, the unit) are stored as numpy strings,
@@ -35,6 +59,12 @@ def write_npz(obj, path, compress: bool = True, extra: dict | None = None) -> No
     beside the format's own (which they may not replace; :func:`read_npz`
     ignores them), e.g. what :func:`mocapkit.reconstruct.output.described_arrays`
     adds so that a reconstruction says what it holds.
+
+    A MarkerSet gets, beside its ``positions`` (F, M, 3), a bool ``filled``
+    (F, M): the samples that are no recorded ones (:func:`filled_samples` of
+    ``filled``, a cleaning's fills), which a C3D marks by residual 0 and a
+    TRC cannot mark; :func:`read_npz` reads it back
+    (:attr:`~mocapkit.markerset.MarkerSource.filled`).
     """
     from .c3d import MarkerSet
 
@@ -79,6 +109,7 @@ def write_npz(obj, path, compress: bool = True, extra: dict | None = None) -> No
             "name": np.array(obj.name),
             # the file's first frame number, and its labels where they repeat one (labels holds unique names)
             "first_frame": np.array(obj.source.first_frame if obj.source is not None else 1),
+            "filled": filled_samples(obj, filled),
         }
         if obj.file_labels() != obj.labels:
             _check_texts(path, "marker", obj.file_labels())
@@ -303,6 +334,10 @@ def read_npz(path):
                                             or len(file_labels) != len(labels)):
                 raise MocapFormatError(path, f"npz file_labels must be a 1-D string array of {len(labels)}, got "
                                        f"{file_labels.dtype} {file_labels.shape}")
+            filled = data.get("filled")  # older npz: none
+            if filled is not None and (filled.dtype != bool or filled.shape != positions.shape[:2]):
+                raise MocapFormatError(path, f"npz filled must be a bool array {positions.shape[:2]}, got "
+                                       f"{filled.dtype} {filled.shape}")
             return MarkerSet(
                 labels=tuple(str(s) for s in labels),
                 positions=positions,
@@ -311,7 +346,8 @@ def read_npz(path):
                 name=name,
                 reader="npz",
                 source=MarkerSource(format="npz", first_frame=first,
-                                    labels=() if file_labels is None else tuple(str(s) for s in file_labels)),
+                                    labels=() if file_labels is None else tuple(str(s) for s in file_labels),
+                                    filled=filled),
             )
         if kind != "motion":
             raise MocapFormatError(path, f"unknown npz kind {kind!r}")

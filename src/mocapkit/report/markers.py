@@ -4,8 +4,9 @@
 the script and data are inline): the markers as points, drag to turn the
 view, a frame slider and a play button; a sample that was filled is drawn
 green, a removed spike's fill red, a re-labelled (swapped) sample orange, a
-removed duplicate label's fill purple, and the input's bad value of a spike
-or a duplicate as a small grey cross; the list of
+removed duplicate label's fill purple, a removed foreign stretch's fill (another
+point under the marker's label, :mod:`~mocapkit.cleaning.markers.foreign`) brown,
+and the input's bad value of a spike, a duplicate or a foreign stretch as a small grey cross; the list of
 fixes (marker, frames, kind, size in mm) below, each a link to its first
 frame that selects its marker (ringed in blue and named in the viewer), as
 each change's *jump to frame* of the accept/reject list does. :func:`plot_marker_fixes` draws, for the markers with most changes,
@@ -24,7 +25,7 @@ import numpy as np
 
 __all__ = ["write_marker_report", "plot_marker_fixes"]
 
-_KIND_CODE = {"filled": 1, "spike": 2, "swap": 3, "duplicate": 4}
+_KIND_CODE = {"filled": 1, "spike": 2, "swap": 3, "duplicate": 4, "foreign": 5}
 
 _SCRIPT = r"""
 const D = JSON.parse(document.getElementById('data').textContent);
@@ -33,7 +34,7 @@ const slider = document.getElementById('frame'), label = document.getElementById
 const followBox = document.getElementById('follow');
 let yaw = 0.6, pitch = 0.3, playing = false, f = 0, drag = null, sel = -1;  // sel: the marker a jump selected
 const up = D.up;  // index of the vertical axis
-const colours = ['#445', '#1a9850', '#d73027', '#f28e2b', '#7b3294'], SELECTED = '#1f78b4';
+const colours = ['#445', '#1a9850', '#d73027', '#f28e2b', '#7b3294', '#8c510a'], SELECTED = '#1f78b4';
 followBox.checked = D.view.follow;
 followBox.onchange = () => draw();
 function target() { return followBox.checked ? D.view.track[f] : D.view.centre; }
@@ -100,9 +101,21 @@ draw();
 
 
 def _duplicates(result) -> np.ndarray:
-    """(F, M) the samples removed as duplicate labels (none for a result without the mask)."""
+    """(F, M) the samples removed as duplicate labels or foreign stretches (none for a result without the mask)."""
     d = getattr(result, "duplicates", None)
     return d if d is not None else np.zeros(result.filled.shape, dtype=bool)
+
+
+def _foreign(result) -> np.ndarray:
+    """(F, M) the samples of :func:`_duplicates` removed as foreign stretches (fixes of kind "foreign"): another
+    point under the marker's label, not a copy of another marker's (:mod:`~mocapkit.cleaning.markers.foreign`)."""
+    removed = _duplicates(result)
+    out = np.zeros(removed.shape, dtype=bool)
+    col = {label: k for k, label in enumerate(result.markers.labels)}
+    for x in result.fixes:
+        if x.kind == "foreign" and x.marker in col:
+            out[x.start:x.end, col[x.marker]] = True
+    return out & removed
 
 
 def shown_marker_frames(result, max_frames: int) -> tuple[np.ndarray, int, str]:
@@ -199,6 +212,7 @@ def write_marker_report(path, result, *, title: str = "", max_frames: int = 3000
     kind[result.swapped] = _KIND_CODE["swap"]
     removed = result.spikes | _duplicates(result)  # recorded values that were removed: drawn as grey crosses
     kind[_duplicates(result)] = _KIND_CODE["duplicate"]
+    kind[_foreign(result)] = _KIND_CODE["foreign"]
     seen = after[~np.isnan(after).any(axis=-1)]
     if up_axis is None:
         frame_spread = np.nanmedian(np.nanmax(after, axis=1) - np.nanmin(after, axis=1), axis=0) if seen.size else np.ones(3)
@@ -255,7 +269,8 @@ table{{border-collapse:collapse}}td,th{{padding:2px 8px;border-bottom:1px solid 
 <p id="shown-note">{html.escape(note)}</p>
 <div>drag to turn; <span class="k" style="background:#445"></span>recorded
 <span class="k" style="background:#1a9850"></span>gap filled <span class="k" style="background:#d73027"></span>spike replaced
-<span class="k" style="background:#f28e2b"></span>label swap undone <span class="k" style="background:#7b3294"></span>duplicate label replaced;
+<span class="k" style="background:#f28e2b"></span>label swap undone <span class="k" style="background:#7b3294"></span>duplicate label replaced
+<span class="k" style="background:#8c510a"></span>foreign stretch (another point under the label) replaced;
 grey cross: the removed recorded value</div>
 <canvas id="view" width="900" height="600"></canvas>
 <h3>Fixes ({len(result.fixes)})</h3><table><tr><th>marker</th><th>frames</th><th>kind</th><th>size (a gap: duration, method, expected error, distance off the straight line)</th><th>swapped with / on</th></tr>{rows}</table>
@@ -293,8 +308,11 @@ def plot_marker_fixes(path, result, *, max_markers: int = 8, title: str = "") ->
         for c in range(3):
             ax.plot(t, before[:, m, c] * mm, color="0.6", lw=1.6)
             ax.plot(t, after[:, m, c] * mm, color=colours[c], lw=0.8, label="xyz"[c])
+        foreign = _foreign(result)
+        copies = _duplicates(result) & ~foreign
         for mask, colour in ((result.filled[:, m], "tab:green"), (result.spikes[:, m], "tab:red"),
-                             (result.swapped[:, m], "tab:orange"), (_duplicates(result)[:, m], "tab:purple")):
+                             (result.swapped[:, m], "tab:orange"), (copies[:, m], "tab:purple"),
+                             (foreign[:, m], "tab:brown")):
             d = np.diff(np.concatenate([[0], mask.astype(np.int8), [0]]))
             for a, b in zip(np.flatnonzero(d == 1), np.flatnonzero(d == -1)):
                 ax.axvspan(t[a], t[min(b, len(t) - 1)], color=colour, alpha=0.15, lw=0)
@@ -303,7 +321,7 @@ def plot_marker_fixes(path, result, *, max_markers: int = 8, title: str = "") ->
     axes[0, 0].legend(loc="upper right", fontsize=7, ncol=3)
     axes[-1, 0].set_xlabel("s")
     fig.suptitle(title or "before (grey) and after; shaded: filled (green), spike (red), swap (orange), "
-                 "duplicate label (purple)", fontsize=9)
+                 "duplicate label (purple), foreign stretch (brown)", fontsize=9)
     fig.tight_layout()
     with atomic_write(path, "wb") as fh:
         fig.savefig(fh, format="png", dpi=90)

@@ -63,7 +63,7 @@
       el("td", { "class": "num", text: c.size !== undefined ? c.size : c.max_deg === null ? "was missing" : (c.max_deg >= 0.1 || c.max_deg === 0 ? c.max_deg.toFixed(1) : c.max_deg.toPrecision(2)) + " deg" }, tr);
       var others = (c.tied || []).filter(function (id) { return id !== c.id; });
       el("td", { "class": "reason", text: c.reason + (others.length ? " (accepted or rejected with " +
-        others.join(", ") + ")" : "") }, tr);
+        others.join(", ") + (c.tied_why ? ": " + c.tied_why : "") + ")" : "") }, tr);
       var jt = el("td", { "class": "jump" }, tr);
       var jb = el("button", { type: "button", "class": "jump", "data-index": String(k), text: "jump to frame " + c.first }, jt);
       jb.addEventListener("click", function () { jump(k, true); });

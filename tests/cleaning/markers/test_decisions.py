@@ -83,14 +83,15 @@ def test_the_decided_result_names_the_marker_its_samples_are_written_to(cleaning
 
 def test_changes_whose_origin_cannot_be_told_are_tied_and_a_split_is_refused():
     # two swaps chained over one marker (LTOE/RTHI 100-199, RTHI/LKNE 150-249) whose cleaned samples are not what
-    # exchanging them in order of first frame gives (the second exchanged first), and a spike filled inside them
+    # exchanging their recorded trajectories in order of first frame gives (the columns exchanged instead), and a
+    # spike filled inside them
     from mocapkit.cleaning.markers import MarkerFix
 
     x = load_markers(CMU)[:400]
     p = np.array(x.positions)
     k = 5  # Male:LKNE
-    p[150:250, [B, k]] = p[150:250, [k, B]]
     p[100:200, [A, B]] = p[100:200, [B, A]]
+    p[150:250, [B, k]] = p[150:250, [k, B]]
     p[170, k] += [0.0, 0.0, 1.0]
     cleaned = x.with_positions(p)
     lab = x.labels
@@ -101,10 +102,48 @@ def test_changes_whose_origin_cannot_be_told_are_tied_and_a_split_is_refused():
     assert md.tied(x, cleaned, fixes) == [sorted(ids, key=ids.index)]
     rows = md.review(x, cleaned, fixes)["changes"]
     assert all(sorted(r["tied"]) == sorted(ids) for r in rows)
-    with pytest.raises(ValueError, match="accept or reject them together"):
+    # the page's row and the console say which go together and why
+    assert all(r["tied_why"] == md.TIED_WHY for r in rows) and "under another marker's label" in md.TIED_WHY
+    assert md.tied_lines(x, cleaned, fixes) == [f"{', '.join(sorted(ids, key=ids.index))}: accepted or rejected "
+                                                f"together, as {md.TIED_WHY}"]
+    with pytest.raises(ValueError, match="under another marker's label: accept or reject them together"):
         md.apply(x, cleaned, fixes, {ids[0]: "reject"})
     back = md.apply(x, cleaned, fixes, {i: "reject" for i in ids})
     assert _same((back.positions, back.residuals, back.cameras), (x.positions, x.residuals, x.cameras))
     every = md.apply(x, cleaned, fixes, {})
     assert _same((every.positions, every.residuals, every.cameras),
                  (cleaned.positions, cleaned.residuals, cleaned.cameras))
+
+
+def test_chained_swaps_are_two_changes_each_undone_alone():
+    # trial27: in CMU 85_02, LTOE/RTHI swapped over frames 100-199 and RTHI/LKNE over 150-249 (three labels cycled
+    # in 150-199) were undone right but listed as LKNE/LTOE 150-809 and LKNE/RTHI 250-809 with a nameless change,
+    # all tied. Now: the two swaps as recorded, each a change; rejecting one gives the input's samples for its
+    # markers over its frames, except where the other (kept) moves the marker they share.
+    x = load_markers(CMU)
+    lab = list(x.labels)
+    a, b, k = lab.index("Male:LTOE"), lab.index("Male:RTHI"), lab.index("Male:LKNE")
+    q = np.array(x.positions)
+    q[100:200, [a, b]] = q[100:200, [b, a]]
+    q[150:250, [b, k]] = q[150:250, [k, b]]
+    take = x.with_positions(q)
+    res = clean_markers(take)
+    assert np.array_equal(res.markers.positions, x.positions)
+    swaps = sorted((f.marker, f.other, f.start, f.end) for f in res.fixes if f.kind == "swap")
+    assert swaps == [("Male:LKNE", "Male:RTHI", 150, 250), ("Male:LTOE", "Male:RTHI", 100, 200)]
+    ids = [c.id for c in md.changes(take, res.markers, res.fixes)]
+    assert sorted(ids) == ["swap:Male:LKNE:150-249", "swap:Male:LTOE:100-199"]
+    assert md.tied(take, res.markers, res.fixes) == []
+    # LTOE/RTHI rejected: LTOE is the input's throughout, RTHI too but where RTHI/LKNE (kept) moves it
+    out = md.apply(take, res.markers, res.fixes, {"swap:Male:LTOE:100-199": "reject"}).positions
+    assert np.array_equal(out[:, a], q[:, a])
+    assert np.array_equal(out[:150, b], q[:150, b]) and np.array_equal(out[250:, b], q[250:, b])
+    assert np.array_equal(out[150:250, b], q[150:250, k]) and np.array_equal(out[150:250, k], q[150:250, b])
+    # RTHI/LKNE rejected: LKNE is the input's throughout, RTHI too but where LTOE/RTHI (kept) moves it
+    out = md.apply(take, res.markers, res.fixes, {"swap:Male:LKNE:150-249": "reject"}).positions
+    assert np.array_equal(out[:, k], q[:, k])
+    assert np.array_equal(out[200:, b], q[200:, b]) and np.array_equal(out[:100, b], q[:100, b])
+    assert np.array_equal(out[100:200, b], q[100:200, a]) and np.array_equal(out[100:200, a], q[100:200, b])
+    # every other marker untouched either way; both rejected: the input
+    back = md.apply(take, res.markers, res.fixes, {i: "reject" for i in ids}).positions
+    assert np.array_equal(back, q)

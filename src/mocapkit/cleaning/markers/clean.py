@@ -321,8 +321,9 @@ class MarkerCleanResult:
         res = getattr(self.original, "residuals", None)
         seen = ~self.original.missing() if hasattr(self.original, "missing") else None
         if res is not None and (self.filled | self.spikes).any() and seen.any() and np.all(res[seen] == 0):
-            lines.append("the input's residuals are all 0, as a fill's are (C3D: 0 is 'interpolated'): the written file "
-                         "cannot tell fills from recorded samples; the .clean.npz's masks (filled, spikes) can")
+            lines.append("the input's residuals are all 0, as a fill's are (C3D: 0 is 'interpolated'): a .c3d or .trc "
+                         "written cannot tell fills from recorded samples; a .npz's filled mask and the .clean.npz's "
+                         "masks (filled, spikes) can")
         names_frames = bool(self.fixes or self.coincident or self.unfilled or self.nobody_seen
                             or self.unseen_start[1] > self.unseen_start[0] or self.unseen_end[1] > self.unseen_end[0])
         if self.frames_note and names_frames:

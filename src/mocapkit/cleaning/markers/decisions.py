@@ -54,7 +54,8 @@ from ..decisions import (ACCEPT, FORMAT, RECORD_FLAG, REJECT, review_mode, check
 from .clean import MarkerCleanResult, MarkerFix
 from .placement import destinations, relabelled, sources
 
-__all__ = ["MarkerChange", "differs", "changes", "accepted_samples", "tied", "placed", "apply", "cleaning_digest",
+__all__ = ["MarkerChange", "differs", "changes", "accepted_samples", "tied", "TIED_WHY", "tied_lines", "placed",
+           "apply", "cleaning_digest",
            "template", "check", "review", "record_cells", "result_from_record", "check_record", "decided_result",
            "clean_and_decide"]
 
@@ -196,8 +197,9 @@ def _under(x, r, found, owner, swaps, regions) -> set[int]:
 def _tied(original, cleaned, found, owner, swaps, src) -> list[list[int]]:
     """The groups of changes (indices into ``found``) that are decided together: where the cleaned samples of a
     swap are not its markers' recorded samples exchanged (:func:`~mocapkit.cleaning.markers.placement.sources`
-    does not give the cleaning's labelling there, e.g. swaps chained over one marker), where a change's samples
-    came from cannot be told, so that swap and every change on its markers over its frames, grown to every change
+    does not give the cleaning's labelling there: chained swaps no order of undoing one at a time gives, or a record
+    whose chained swaps were listed as the cleaning's own column exchanges rather than by
+    :func:`~mocapkit.cleaning.markers.swaps.recorded_swaps`), where a change's samples came from cannot be told, so that swap and every change on its markers over its frames, grown to every change
     overlapping those, go together; and a swap fix that owns no change of its own goes with the changes
     :func:`_under` it. Empty where every swap is its markers' samples exchanged and a change."""
     labels = list(original.labels)
@@ -227,6 +229,18 @@ def _tied(original, cleaned, found, owner, swaps, src) -> list[list[int]]:
             g = g | m
         merged.append(g)
     return [sorted(g) for g in merged if len(g) > 1]
+
+
+TIED_WHY = ("the swaps among them exchange labels over shared frames in a way no order of undoing them one at a "
+            "time gives, so where each change's samples came from cannot be told, and undoing one alone could put a "
+            "trajectory under another marker's label")
+"""Why :func:`tied` changes go together, in words: what the report's list and the console say."""
+
+
+def tied_lines(original, cleaned, fixes) -> list[str]:
+    """One line per group of :func:`tied` changes, naming them and saying why (:data:`TIED_WHY`): what a cleaning's
+    console says beside its summary, so that a person knows before deciding."""
+    return [f"{', '.join(g)}: accepted or rejected together, as {TIED_WHY}" for g in tied(original, cleaned, fixes)]
 
 
 def tied(original, cleaned, fixes) -> list[list[str]]:
@@ -262,9 +276,7 @@ def placed(original, cleaned, fixes, decisions: Mapping[str, str]) -> tuple[np.n
     for g in _tied(original, cleaned, found, owner, swaps, src):
         if len({choice[k] for k in g}) > 1:
             ids = [found[k].id for k in g]
-            raise ValueError(f"{', '.join(ids)} are decided apart, but the cleaned samples of the swaps among them "
-                             f"are not their markers' recorded samples exchanged, so where each change's samples "
-                             f"came from cannot be told: accept or reject them together")
+            raise ValueError(f"{', '.join(ids)} are decided apart, but {TIED_WHY}: accept or reject them together")
     index = {c.id: k for k, c in enumerate(found)}
     regions = [_region(x, labels, owner.shape) for x in swaps]
 
@@ -388,13 +400,15 @@ def review(original, cleaned, fixes, take: str = "", output: str = "", decisions
            first_frame: int | None = None, flags: list | None = None, request=None, record="",
            command: dict | None = None) -> dict:
     """What the report's accept/reject list needs (:func:`mocapkit.cleaning.decisions.review`'s form): ``changes``
-    (a change :func:`tied` to others names them all in ``"tied"``: the list accepts or rejects them together),
+    (a change :func:`tied` to others names them all in ``"tied"`` and says why in ``"tied_why"``: the list accepts
+    or rejects them together),
     the ``decisions`` document (stamped with this cleaning, ``request`` its options and ``record`` where its record
     was written: :func:`template`), ``flags`` (none for a marker capture unless given), ``frames``, ``item`` and
     ``command`` (:func:`mocapkit.cleaning.decided.apply_command`)."""
     found = changes(original, cleaned, fixes)
     together = {i: g for g in tied(original, cleaned, fixes) for i in g}
-    return {"changes": [{**c.as_dict(), **({"tied": together[c.id]} if c.id in together else {})} for c in found],
+    return {"changes": [{**c.as_dict(), **({"tied": together[c.id], "tied_why": TIED_WHY} if c.id in together else {})}
+                        for c in found],
             "decisions": template(original, found, take, output, decisions, cleaned=cleaned, request=request,
                                   record=record),
             "flags": list(flags or []), "frames": frame_note(take, first_frame), "item": "marker", "command": command}

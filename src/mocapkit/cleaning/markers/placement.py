@@ -9,9 +9,10 @@ rejected swap leaves under the other label. Its samples must therefore land in
 the column that holds that trajectory in the capture written, not in the
 column it had in the cleaned labelling.
 
-Each swap fix exchanges the samples of two marker columns over its frames;
-applied in order of first frame (as :func:`undo_swaps` lists them) they give,
-per frame, a permutation of the columns. :func:`sources` composes every swap
+Each swap fix exchanges two recorded trajectories over its frames, in
+whichever columns the swaps before it put them; applied in order of first
+frame (as :func:`undo_swaps` lists them) they give, per frame, a permutation
+of the columns. :func:`sources` composes every swap
 (the cleaned labelling), :func:`destinations` maps each cleaned cell to its
 column in a labelling with only the kept swaps. Arrays are frames-first:
 ``(F, M)`` int, ``M`` the capture's markers (all of them, as in
@@ -28,15 +29,18 @@ __all__ = ["sources", "destinations", "relabelled"]
 def sources(swaps, labels, frames: int) -> np.ndarray:
     """(F, M) int: the input column whose samples each column of the cleaned capture holds at each frame.
 
-    ``swaps``: the swap fixes (:class:`~mocapkit.cleaning.markers.MarkerFix` of kind ``"swap"``: ``marker`` and
-    ``other`` exchanged over frames ``start <= f < end``), composed in order of first frame; ``labels``: the
-    capture's labels (M,); ``frames``: F. A column no swap touched holds its own samples.
+    ``swaps``: the swap fixes (:class:`~mocapkit.cleaning.markers.MarkerFix` of kind ``"swap"``: the recorded
+    trajectories of ``marker`` and ``other`` exchanged over frames ``start <= f < end``, wherever the swaps before
+    it put them), composed in order of first frame; ``labels``: the capture's labels (M,); ``frames``: F. A column
+    no swap touched holds its own samples. Chained swaps (LTOE/RTHI over 100-199, RTHI/LKNE over 150-249) cycle
+    three columns where they overlap (:func:`~mocapkit.cleaning.markers.swaps.recorded_swaps`).
     """
     col = {label: k for k, label in enumerate(labels)}
     src = np.tile(np.arange(len(labels), dtype=np.int64), (frames, 1))
     for x in sorted(swaps, key=lambda x: (x.start, col[x.marker], col[x.other])):
         a, b = col[x.marker], col[x.other]
-        src[x.start:x.end, [a, b]] = src[x.start:x.end, [b, a]]
+        seg = src[x.start:x.end]
+        src[x.start:x.end] = np.where(seg == a, b, np.where(seg == b, a, seg))
     return src
 
 

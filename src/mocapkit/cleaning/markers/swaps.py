@@ -49,7 +49,7 @@ import numpy as np
 
 from .rigid import distance_stats, donor_order
 
-__all__ = ["Swap", "undo_swaps"]
+__all__ = ["Swap", "undo_swaps", "recorded_swaps"]
 
 
 @dataclass(frozen=True)
@@ -115,6 +115,7 @@ def undo_swaps(positions: np.ndarray, unit_mm: float = 1.0, *, threshold_mm: flo
     y = x.copy()
     if f < 3:
         return y, []
+    col = np.tile(np.arange(x.shape[1]), (f, 1))  # the recorded column each column of y holds, per frame
     thr = threshold_mm / unit_mm
     floor = 2.0 / unit_mm  # the smallest spread a distance is judged by (2 mm)
     with np.errstate(invalid="ignore"):
@@ -149,6 +150,7 @@ def undo_swaps(positions: np.ndarray, unit_mm: float = 1.0, *, threshold_mm: flo
             key = (a, b)
             if key in open_swaps:  # the end of a swap whose start was seen
                 y[t:, [a, b]] = y[t:, [b, a]]
+                col[t:, [a, b]] = col[t:, [b, a]]
                 s, dist = open_swaps.pop(key)
                 swaps.append(Swap(a, b, s, int(t), dist))
                 last[a] = last[b] = int(t)
@@ -162,10 +164,12 @@ def undo_swaps(positions: np.ndarray, unit_mm: float = 1.0, *, threshold_mm: flo
                                   floor)
             if start is not None:  # the end of a swap whose start was hidden
                 y[start:t, [a, b]] = y[start:t, [b, a]]
+                col[start:t, [a, b]] = col[start:t, [b, a]]
                 swaps.append(Swap(a, b, start, int(t), _first_distance(y, a, b, start, int(t), x)))
                 last[a] = last[b] = int(t)
                 continue
             y[t:, [a, b]] = y[t:, [b, a]]
+            col[t:, [a, b]] = col[t:, [b, a]]
             open_swaps[key] = (int(t), float(np.linalg.norm(x[t, a] - x[t, b])))
             last[a] = last[b] = int(t)
     for (a, b), (t, dist) in sorted(open_swaps.items(), key=lambda kv: kv[1][0]):
@@ -177,9 +181,73 @@ def undo_swaps(positions: np.ndarray, unit_mm: float = 1.0, *, threshold_mm: flo
         end = f if later else _hidden_end(y, a, b, t, lo, thr, stats, order, ratio, floor)
         if end < f:  # the exchange is undone from a hidden end on
             y[end:, [a, b]] = y[end:, [b, a]]
+            col[end:, [a, b]] = col[end:, [b, a]]
         swaps.append(Swap(a, b, t, end, dist))
+    return y, recorded_swaps(col, x)
+
+
+def recorded_swaps(col: np.ndarray, x: np.ndarray) -> list[Swap]:
+    """The swaps of recorded trajectories that give the labelling ``col``, one per swapped interval.
+
+    ``col`` (F, M) int: the recorded column each corrected column holds at
+    each frame; ``x`` (F, M, 3): the recorded positions (for the distances).
+    Each Swap names two recorded trajectories (columns of ``x``), ``a < b``,
+    and the frames where their labels are exchanged; applied in order of
+    first frame, each exchanging the two trajectories wherever the swaps
+    before it put them (:func:`~mocapkit.cleaning.markers.placement.sources`),
+    they give ``col`` back. Chained swaps (LTOE/RTHI swapped over frames
+    100-199 and RTHI/LKNE over 150-249: three labels cycled in 150-199) are
+    so two swaps, each the labeller's error it undoes, which a person can
+    accept or reject one without the other; the walk of :func:`undo_swaps`
+    sees the second as an exchange of its own corrected columns (LTOE/LKNE
+    from frame 150), which names no recorded pair.
+
+    At each frame where the labelling changes, the change (a permutation of
+    recorded trajectories) first ends the open swaps it contains (an open
+    swap, seen through the swaps opened after it, is one exchange), then
+    opens a swap per exchange left.
+    """
+    f, m = col.shape
+    ident = np.arange(m)
+    active: list[list[int]] = []  # open swaps [u, v, start], in the order they apply
+    out: list[tuple[int, int, int, int]] = []
+    prev = ident
+    changed = np.flatnonzero(np.any(col != np.vstack([ident[None], col[:-1]]), axis=1))
+    for t in changed:
+        inv = np.empty(m, dtype=np.int64)
+        inv[prev] = ident
+        tau = col[t][inv]  # the change: col[t] = tau o prev, as maps of recorded columns
+        closing = True
+        while closing and np.any(tau != ident):
+            closing = False
+            for i in range(len(active)):
+                later = ident.copy()  # the swaps opened after i, composed: where they put u and v
+                for u, v, _ in active[i + 1:]:
+                    later = np.where(later == u, v, np.where(later == v, u, later))
+                p, q = later[active[i][0]], later[active[i][1]]
+                rest = tau.copy()
+                rest[[p, q]] = tau[[q, p]]  # tau o (p q): what is left once swap i ends
+                if np.sum(rest != ident) < np.sum(tau != ident):
+                    u, v, s0 = active.pop(i)
+                    out.append((u, v, s0, int(t)))
+                    tau, closing = rest, True
+                    break
+        opened = []
+        while np.any(tau != ident):  # the exchanges left, peeled off the last applied first
+            u = int(np.flatnonzero(tau != ident)[0])
+            v = int(tau[u])
+            opened.append([min(u, v), max(u, v), int(t)])
+            tau = np.where(tau == u, v, np.where(tau == v, u, tau))  # (u v) o tau: u now stays
+        active += opened[::-1]
+        prev = col[t]
+    out += [(u, v, s0, f) for u, v, s0 in active]
+    swaps = []
+    for u, v, s0, e in out:
+        d = np.linalg.norm(x[s0:e, u] - x[s0:e, v], axis=-1)
+        seen = np.flatnonzero(~np.isnan(d))
+        swaps.append(Swap(u, v, s0, e, float(d[seen[0]]) if seen.size else float("nan")))
     swaps.sort(key=lambda s: (s.start, s.a, s.b))
-    return y, swaps
+    return swaps
 
 
 def _hidden_boundaries(p: np.ndarray, a: int, b: int, thr: float) -> np.ndarray:
