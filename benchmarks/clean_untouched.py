@@ -57,6 +57,12 @@ take, so every value is a real capture sample (a take delivered at 30 fps by dro
 They are judged against the bundled default context, as the 120 fps takes are; the level-only
 baseline is computed on them as on every take.
 
+``--fps F`` measures every take of the run resampled to ``F`` frames per second instead (``Motion.resample``,
+as ``mocapkit convert --fps`` does: every k-th frame where the take's rate is k times ``F``, so each value
+is a real capture sample, slerp between frames elsewhere; a take at ``F`` or under as it is). The low-rate
+rows of issue 21 are ``--fps 24``, ``20``, ``15`` and ``12`` with ``--no-respelled --no-low-rate --bandai 52``;
+their results are kept as ``results/clean_untouched_<F>fps.json``.
+
 Per collection: the share of changed cells, the worst take and its share, and
 the cells each step changed (fill, repair, denoise). Targets: at most 0.1 % per
 collection and no take above 1 %. Each take is also tagged ``tune`` (Bandai
@@ -187,8 +193,9 @@ def takes(n_bandai: int, all_bandai: bool, seed: int = 0, quick: bool = False,
     return [(*item, item[0] if item[0] in RESPELLED or item[0] in LOW_RATE else "") for item in out]
 
 
-def measure(item: tuple[str, str, str, str]) -> dict:
-    """Clean one take with the defaults; its changed cells, per step, and the level-only noise baseline."""
+def measure(item: tuple[str, str, str, str], fps: float | None = None) -> dict:
+    """Clean one take with the defaults (resampled to ``fps`` first where it is over it); its changed cells, per
+    step, and the level-only noise baseline."""
     import warnings
 
     warnings.simplefilter("ignore")
@@ -198,6 +205,8 @@ def measure(item: tuple[str, str, str, str]) -> dict:
     coll, path, split, spelling = item
     p = Path(path)
     m = respell(mocapkit.load(p), spelling)  # an AMC finds its ASF beside it (io.asfamc.find_asf)
+    if fps is not None and m.fps > fps:
+        m = m.resample(fps)
     t = time.perf_counter()
     res = mocapkit.clean(m)  # the defaults of `mocapkit clean`: the bundled context where it fits
     secs = time.perf_counter() - t
@@ -245,13 +254,15 @@ def main() -> None:
                     help=f"leave out the collections of takes respelled on other rigs ({', '.join(RESPELLED)})")
     ap.add_argument("--no-low-rate", dest="low_rate", action="store_false",
                     help=f"leave out the 120 fps takes at 30 fps ({', '.join(LOW_RATE)})")
+    ap.add_argument("--fps", type=float, default=None,
+                    help="resample every take over this rate to it first (mocapkit convert --fps)")
     args = ap.parse_args()
 
     items = takes(args.bandai, args.all, args.seed, args.quick, args.respelled, args.low_rate)
     log(f"{len(items)} takes, {args.workers} workers")
     rows, t0 = [], time.perf_counter()
     with ProcessPoolExecutor(max_workers=max(1, args.workers)) as ex:
-        futs = {ex.submit(measure, it): it for it in items}
+        futs = {ex.submit(measure, it, args.fps): it for it in items}
         for i, f in enumerate(as_completed(futs), 1):
             r = f.result()
             rows.append(r)
@@ -298,10 +309,13 @@ def main() -> None:
         calibration=[{"take": r["take"], "poses": r["calibration"]} for r in rows if r["calibration"]],
         bandai="all" if args.all else f"stratified sample of {sum(r['collection'] == 'bandai' for r in rows)}, seed {args.seed}",
         quick=args.quick,
+        fps=args.fps,
         seconds=round(time.perf_counter() - t0, 1),
         baseline="share of cells the level-only noise rule (residual > 1 deg, no direction test) calls noisy",
     )
     name = "clean_untouched_all" if args.all else "clean_untouched"  # the whole Bandai set keeps its own result file
+    if args.fps is not None:
+        name += f"_{args.fps:g}fps"
     harness.emit(name, args, figures=figures, baselines=baselines, targets=targets, details=details)
 
 

@@ -47,6 +47,7 @@ CUT_RATIO = 4.0  # a joint breaks at a cut when its midpoint residual passes thi
 CUT_MIN_DEG = 2.0  # ... and this many degrees
 CUT_MOVING_DEG = 10.0  # joints turning less than this from the first frame over the take are not asked
 CUT_MIN_JOINTS = 6  # a take with fewer moving joints is not asked
+CUT_MIN_FRAMES = 11  # a shorter take is not asked: its 8 inner residuals or fewer hold no usual peak below the 8 largest
 
 
 @dataclass(frozen=True)
@@ -247,9 +248,10 @@ def _scale(sk) -> float:
 
 
 def _usual_peak(resid: np.ndarray) -> np.ndarray:
-    """(J,) radians: a joint's usual peak midpoint residual, its 98th percentile (below the 8 largest in a short take)."""
+    """(J,) radians: a joint's usual peak midpoint residual, its 98th percentile (below the 8 largest in a short take;
+    its smallest in a take of 8 frames or fewer, as an 8-frame take cut to 12 fps from 20 frames at 30 fps)."""
     F = resid.shape[0]
-    return np.percentile(resid, min(98.0, 100.0 * (1.0 - 8.0 / max(F, 1))), axis=0)
+    return np.percentile(resid, max(0.0, min(98.0, 100.0 * (1.0 - 8.0 / max(F, 1)))), axis=0)
 
 
 def cut_scores(motion: Motion, resid: np.ndarray | None = None) -> np.ndarray:
@@ -287,7 +289,7 @@ def cuts(motion: Motion, span: tuple[int, int] | None = None, resid: np.ndarray 
     ``resid``: the midpoint residuals of ``motion[lo:hi]`` when the caller has them already (:func:`cut_scores`)."""
     F = motion.num_frames
     lo, hi = (0, F) if span is None else span
-    if hi - lo < 8:
+    if hi - lo < CUT_MIN_FRAMES:
         return []
     part = motion if (lo, hi) == (0, F) else motion[lo:hi]
     share = cut_scores(part, resid)
