@@ -290,8 +290,12 @@ def save(motion, path, like=None, asf=None, overwrite: bool = True, copy_asf: bo
         from .kept_channels import kept_arrays
         from .npz import write_npz
 
-        # a BVH's own numbers (or those an .npz made from one keeps), for a BVH written from this .npz later
-        kept = kept_arrays(*source_values(motion, like)) if like is not None else {}
+        # a BVH's own numbers (or those an .npz made from one keeps), for a BVH written from this .npz later; none
+        # where that file's text is gone (removed or changed since it was read): the .npz is the take all the same
+        try:
+            kept = kept_arrays(*source_values(motion, like)) if like is not None else {}
+        except MocapFormatError:
+            kept = {}
         write_npz(motion, path, **({"extra": {**kept, **kwargs.pop("extra", {})}} if kept else {}), **kwargs)
     from .sources import forget
 
