@@ -135,7 +135,9 @@ def test_a_database_of_bandai_namco_takes_says_their_licence_in_db_info_and_reco
 
     clip = Path(__file__).resolve().parents[1] / "data" / "bandai_dance-short_normal_001_first60.bvh"
     d = tmp_path / "db"
-    assert run("db", "build", str(d), str(clip), "--fps", "30", "--executor", "serial")[0] == 0
+    code, stdout, err = run("db", "build", str(d), str(clip), "--fps", "30", "--executor", "serial")
+    assert code == 0, err
+    assert sum(ln.startswith("note:") and "CC BY-NC 4.0" in ln for ln in stdout.splitlines()) == 1, stdout
     code, stdout, err = run("db", "info", str(d))
     assert code == 0, err
     assert any("licence" in ln and "CC BY-NC 4.0" in ln for ln in stdout.splitlines()), stdout
