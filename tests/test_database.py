@@ -2,6 +2,7 @@
 
 import dataclasses
 import json
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -316,3 +317,17 @@ def test_a_build_hands_its_workers_absolute_paths(tmp_path, monkeypatch):
     seen = record_map_ordered(monkeypatch)
     MotionDatabase.build(["12_walk.amc", "12_again.amc"], fps=30, progress=False, executor="serial")
     assert seen and all(os.path.isabs(path) for path, _ in seen)  # what the workers read
+
+
+def test_a_database_of_bandai_namco_takes_keeps_and_says_their_non_commercial_licence(tmp_path):
+    # the trial: `db build` from Bandai Namco takes (CC BY-NC 4.0) wrote a database that said nothing of it, while
+    # docs/guide says what is built from them is non-commercial; the rig tells the takes' data set (mocapkit.rigs)
+    data = Path(__file__).resolve().parent / "data"
+    takes = [data / "dataset-1_dash_normal_001.bvh", data / "dataset-1_bow_active_001.bvh"]
+    db = MotionDatabase.build(takes, fps=30)
+    assert "CC BY-NC 4.0" in db.info["licence"] and "non-commercial" in db.info["licence"]
+    db.save(tmp_path / "db")
+    opened = MotionDatabase.open(tmp_path / "db")
+    assert opened.summary()["licence"] == db.info["licence"]  # what `db info` and `info` print
+    cmu = MotionDatabase.build([mocapkit.samples.path("131_01.bvh")], fps=30)
+    assert "licence" not in cmu.info and "licence" not in cmu.summary()

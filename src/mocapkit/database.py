@@ -42,6 +42,7 @@ from .features import FEATURE_SETS, WINDOWED_SETS, feature_set
 from .io.outputs import same_file
 from .mirroring import mirror_for_rig
 from .motion import Motion, Skeleton, readonly_view
+from .rigs import data_terms
 from .search.matches import Match
 
 __all__ = ["MotionDatabase", "ClipInfo", "SearchResult", "FORMAT_VERSION", "FPS_RANGE", "SUFFIXES", "check_database_output", "expand_sources"]
@@ -696,6 +697,8 @@ class MotionDatabase:
             for n in features:
                 feats[n][a : a + F] = e["features"][n]
             a += F
+        terms = data_terms(skeletons)  # the Bandai Namco takes' CC BY-NC 4.0, kept in database.json and said by info
+        info = {**info, "licence": terms} if terms else info
         return cls(fps=fps, skeletons=skeletons, clips=clips, rotations=rot, root_positions=root, features=feats, translations=tr, info=info)
 
     # -- saving and opening ---------------------------------------------------------------------
@@ -799,4 +802,5 @@ class MotionDatabase:
             "feature_unit": "cm",
             "clip_frames_min_median_max": [int(sizes.min()), int(np.median(sizes)), int(sizes.max())],
             "array_megabytes": round(nbytes / 2**20, 1),
+            **({"licence": str(self.info["licence"])} if self.info.get("licence") else {}),
         }

@@ -61,6 +61,8 @@ __all__ = [
     "roles_by_topology",
     "pelvis_index",
     "role_names",
+    "DATA_TERMS",
+    "data_terms",
 ]
 
 
@@ -553,3 +555,22 @@ def roles_by_topology(skeleton: Skeleton, sides: bool = True) -> dict[str, int] 
     if len(set(found.values())) != len(found):
         return None
     return {r: found[r] for r in ROLES if r in found}
+
+
+#: The terms of the takes of a rig family that is one data set's own rig: the 22-joint game rig of the Bandai Namco
+#: Research Motiondataset 1 and 2 is that set's, CC BY-NC 4.0 (``../shared/data`` README). What is made from such
+#: takes (a model: :mod:`mocapkit.cleaning.deep.provenance`; a database, its knowledge base, a reconstruction from
+#: it) inherits them.
+DATA_TERMS = MappingProxyType({
+    "bandai_namco": "CC BY-NC 4.0: the Bandai Namco Research Motiondataset (Bandai Namco Research Inc.); "
+                    "non-commercial use only",
+})
+
+
+def data_terms(skeletons) -> str | None:
+    """The terms of :data:`DATA_TERMS` that takes on ``skeletons`` carry when each is of such a family (one line, the
+    families' terms joined by "; " when several), else None: the project does not know them."""
+    found = [DATA_TERMS.get(rig_family(sk)) for sk in skeletons]
+    if not found or any(t is None for t in found):
+        return None
+    return "; ".join(dict.fromkeys(found))

@@ -31,6 +31,7 @@ if TYPE_CHECKING:
 
 __all__ = [
     "identity",
+    "nearest_euler",
     "quaternion_multiply",
     "quaternion_conjugate",
     "quaternion_inverse",
@@ -472,6 +473,41 @@ def continuous_euler(angles, order: str, fixed=None, start=None, degrees: bool =
                             360.0 if degrees else 2.0 * np.pi, float(np.cos(np.radians(max_step) / 2.0)),
                             axes, order.isupper())
     return out[:, 0] if flat else out
+
+
+def nearest_euler(angles, ref, order: str, degrees: bool = True) -> np.ndarray:
+    """The Euler triples of ``angles``' rotations nearest ``ref``, cell by cell: (..., n), the shape of ``angles``.
+
+    The candidates are those :func:`continuous_euler` chooses among (each angle plus whole turns and, for a
+    3-axis ``order``, the other branch of the middle angle); the nearest is the one with the least sum of absolute
+    differences from ``ref`` (a tie keeps the branch ``angles`` gives). A writer of a changed cell uses it with the
+    source file's own numbers of that cell as ``ref``, so the written curve stays on the file's branch wherever the
+    file's does (a denoised or slightly corrected joint near gimbal lock, a joint whose file angle is past 180).
+    ``angles`` and ``ref`` broadcast, degrees (radians with ``degrees=False``); a cell with a NaN in ``ref`` is
+    returned as ``angles`` gives it.
+    """
+    low, _ = _check_order(order)
+    a = np.asarray(angles, dtype=np.float64)
+    r = np.broadcast_to(np.asarray(ref, dtype=np.float64), a.shape)
+    if a.shape[-1] != len(low):
+        raise ValueError(f"Euler angles for order {order!r}: expected shape (..., {len(low)}), got {a.shape}")
+    period = 360.0 if degrees else 2.0 * np.pi
+    half = period / 2.0
+    cands = [a]
+    if len(low) == 3:
+        middle = -a[..., 1] if low[0] == low[2] else half - a[..., 1]
+        cands.append(np.stack([a[..., 0] + half, middle, a[..., 2] + half], axis=-1))
+    best = best_cost = None
+    for c in cands:
+        w = c - period * np.round((c - r) / period)  # each angle the whole turn nearest ref
+        cost = np.abs(w - r).sum(axis=-1)
+        if best is None:
+            best, best_cost = w, cost
+        else:
+            take = cost < best_cost - 1e-9 * period
+            best = np.where(take[..., None], w, best)
+            best_cost = np.where(take, cost, best_cost)
+    return np.where(np.isfinite(r).all(axis=-1, keepdims=True), best, a)
 
 
 def quaternion_to_matrix(q: np.ndarray) -> np.ndarray:

@@ -36,6 +36,20 @@ def test_shipped_models_are_held_out_and_documented():
         assert all(n.startswith("HDM_tr_") for n in m.meta["validation_clips"])
 
 
+def test_models_md_states_each_shipped_gap_priors_fit_as_its_file_records_it():
+    # docs/models.md gives the command that fits each shipped gap prior with its clips, frames and time: the figures
+    # the model file keeps (gap_prior), not a time from an older fit.
+    text = (Path(__file__).resolve().parents[2] / "docs" / "models.md").read_text()
+    for rig, name in (("", "ebd.pt"), ("--rig bandai ", "ebd_bandai.pt")):
+        line = next(ln for ln in text.splitlines()
+                    if ln.lstrip().startswith(f"python scripts/train_shipped.py {rig}--kind ebd --prior-only"))
+        said = line.split("#", 1)[1]
+        fit = deep.load_model(Path(deep.__file__).resolve().parents[2] / "models" / name).meta["gap_prior"]
+        assert said.lstrip().startswith(f"{fit['train_clips']:,} "), (name, said)
+        assert f"{fit['frames']:,} frames" in said, (name, said)
+        assert said.rstrip().endswith(f" {fit['fit_seconds']} s"), (name, said, fit["fit_seconds"])
+
+
 def _gaussian_errors(walk, noisy):
     lay = deep.shipped_model("ebf").layout
     x, _ = encode(noisy, lay)

@@ -129,6 +129,24 @@ def test_markers_on_the_bandai_rig(tmp_path):
     assert np.linalg.norm(a - b, axis=-1).mean() < 2.0  # cm: its own frames are in the database
 
 
+def test_a_database_of_bandai_namco_takes_says_their_licence_in_db_info_and_reconstruct(tmp_path):
+    # the trial: a database and a reconstruction from Bandai Namco takes (CC BY-NC 4.0) said nothing of it
+    from pathlib import Path
+
+    clip = Path(__file__).resolve().parents[1] / "data" / "bandai_dance-short_normal_001_first60.bvh"
+    d = tmp_path / "db"
+    code, stdout, err = run("db", "build", str(d), str(clip), "--fps", "30", "--executor", "serial")
+    assert code == 0, err
+    assert sum(ln.startswith("note:") and "CC BY-NC 4.0" in ln for ln in stdout.splitlines()) == 1, stdout
+    code, stdout, err = run("db", "info", str(d))
+    assert code == 0, err
+    assert any("licence" in ln and "CC BY-NC 4.0" in ln for ln in stdout.splitlines()), stdout
+    code, stdout, err = run("reconstruct", "--db", str(d), "--markers", str(clip), "-o", str(tmp_path / "rec.bvh"))
+    assert code == 0, err
+    said = [ln for ln in stdout.splitlines() if ln.startswith("note:") and "CC BY-NC 4.0" in ln]
+    assert len(said) == 1 and "rec.bvh" in said[0], stdout
+
+
 def test_accelerometer_options_reach_the_method(tmp_path, db_dir, query):
     """--synthesis/--neighbours/--smoothing change the result as the library's parameters do; bad values and other
     signals are refused in one line before anything is written."""

@@ -346,3 +346,18 @@ def test_a_take_too_coarse_for_a_word_builds_no_context_in_any_command(tmp_path,
         code, out, err = run(cmd, coarse, "-o", tmp_path / f"{cmd}.npz", "--context", folder)
         assert code == 2 and one_error_line(err) and out == "" and "5 fps is too coarse for motion words" in err
     assert not (cache / "contexts").exists() or not any((cache / "contexts").iterdir())
+
+
+def test_detect_and_clean_say_in_one_line_that_drifts_were_not_looked_for_without_a_chosen_context(tmp_path):
+    # a Bandai Namco take: with --drifts and no --context the drift rule cannot run; the count of flags alone read as
+    # "no drift found" (docs/guide/cleaning.md, Smooth drifts: nothing is flagged without a context)
+    code, out, err = run("detect", str(BANDAI), "--out", str(tmp_path / "d.npz"), "--drifts")
+    assert code == 0, err
+    said = [ln for ln in out.splitlines() if "smooth drifts not looked for" in ln]
+    assert len(said) == 1 and "--context" in said[0], out
+    code, out, err = run("clean", str(BANDAI), "-o", str(tmp_path / "c.bvh"), "--drifts", "--steps", "detect")
+    assert code == 0, err
+    assert sum("smooth drifts not looked for" in ln for ln in out.splitlines()) == 1, out
+    code, out, err = run("detect", str(BANDAI), "--out", str(tmp_path / "e.npz"))  # not asked for: not said
+    assert code == 0, err
+    assert "smooth drifts" not in out

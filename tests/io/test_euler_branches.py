@@ -229,3 +229,71 @@ def test_a_root_that_only_moved_keeps_its_angles_text(tmp_path):
     assert [i for i, (a, b) in enumerate(zip(was, got)) if a != b] == [5]
     assert got[5].split()[4:] == was[5].split()[4:]
     assert float(got[5].split()[1]) == float(was[5].split()[1]) + 1.0
+
+
+BANDAI_TAKE = Path(__file__).resolve().parents[1] / "data" / "dataset-1_dash_normal_001.bvh"  # Bandai Namco game rig
+
+
+def _rotation_columns(cols):
+    return np.array([k for k, (_, c) in enumerate(cols) if c.endswith("rotation")])
+
+
+def test_a_bvh_written_from_an_npz_made_from_a_bvh_keeps_the_bvhs_numbers_where_nothing_changed(tmp_path):
+    """The trial's `mocapkit corrupt take.bvh g.npz --kind gaps` then `mocapkit fill g.npz -o f.bvh`: the cells the
+    fill did not touch came back on another Euler branch (the Bandai hips' 179.11 as -180.89, a spine at 150/90/-147
+    as -30/90/33): the .npz kept quaternions only. It keeps the file's numbers now, and they come back."""
+    take = read_bvh(BANDAI_TAKE)
+    holed, mask = C.gaps(take, start_prob=0.01, seed=3)
+    g = tmp_path / "g.npz"
+    io.save(holed, g, like=BANDAI_TAKE)
+    from mocapkit.cleaning.gapfill import fill_motion
+
+    filled = fill_motion(io.load(g), method="linear")
+    out = tmp_path / "f.bvh"
+    io.save(filled, out, like=g)
+    cols, src = _bvh_table(BANDAI_TAKE)
+    _, got = _bvh_table(out)
+    rot = _rotation_columns(cols)
+    joint_of = np.array([take.skeleton.index(cols[k][0]) for k in rot])
+    kept = ~mask[:, joint_of]  # (F, rotation columns): cells the fill did not touch
+    assert kept.sum() > 0.8 * kept.size and (~kept).any()
+    np.testing.assert_allclose(got[:, rot][kept], src[:, rot][kept], atol=1e-6)
+    # the filled cells on the branch nearest the file's numbers of those cells (the gap's own were the file's)
+    far = np.abs(got[:, rot] - src[:, rot]) > 90.0
+    assert not far[~kept].any()
+
+
+def test_a_changed_cell_near_the_files_rotation_is_written_nearest_the_files_numbers(tmp_path):
+    """The trial's noisy BVHs from `mocapkit corrupt --kind noise`: a joint near gimbal lock (the Bandai spine at
+    Y = 90) or past 180 degrees was chained frame to frame off the file's curve, so a few degrees of noise read as
+    180 degree jumps against the source. Each changed cell within 90 degrees of the file's rotation is now the
+    triple nearest the file's numbers of that cell."""
+    take = read_bvh(BANDAI_TAKE)
+    noisy, _ = C.angular_noise(take, 0.1, seed=0)
+    out = tmp_path / "n.bvh"
+    write_bvh(noisy, out, like=BANDAI_TAKE)
+    cols, src = _bvh_table(BANDAI_TAKE)
+    _, got = _bvh_table(out)
+    for joint in take.skeleton.joint_names:
+        k = _rot_cols(cols, joint)
+        if len(k) != 3:
+            continue
+        order = "".join(cols[i][1][0] for i in k)
+        a, b = src[:, k], got[:, k]
+        turn = np.degrees(R.geodesic_angle(R.euler_to_quaternion(a, order), R.euler_to_quaternion(b, order)))
+        near = turn < 90.0
+        np.testing.assert_allclose(b[near], _nearest_triple(b[near], a[near]), atol=1e-5, err_msg=joint)
+
+
+def _nearest_triple(b, a):
+    """Of each row of ``b``'s equivalent triples (whole turns of each angle, the other middle-angle branch of a
+    Tait-Bryan order), the one with the least sum of absolute differences from ``a``'s row: cell by cell."""
+    out = []
+    for x, ref in zip(b, a):
+        cands = []
+        for t in (x, np.array([x[0] + 180.0, 180.0 - x[1], x[2] + 180.0])):
+            for turns in np.array(np.meshgrid(*[np.arange(-3, 4)] * 3)).T.reshape(-1, 3):
+                cands.append(t + 360.0 * turns)
+        cands = np.array(cands)
+        out.append(cands[np.argmin(np.abs(cands - ref).sum(axis=1))])
+    return np.array(out).reshape(b.shape)

@@ -282,6 +282,14 @@ class CleanResult:
         out = set(n for n, _ in self.left_out)
         return np.array([n not in out for n in self.joint_names], dtype=bool)
 
+    @property
+    def warnings(self) -> tuple[str, ...]:
+        """The notes a step said of itself: a fallback, or the licence of a model used whose terms restrict use
+        (the non-commercial Bandai Namco models): what `mocapkit clean` says as ``warning:`` lines and the HTML
+        report shows above its viewer."""
+        said = " ".join(s.note for s in self.steps)
+        return tuple(n for n in self.notes if n and n in said)
+
     def summary(self) -> list[str]:
         """One line per calibration pose, per run written as 0 and per stutter (at most :data:`MAX_LINES` of each,
         then one line counting the rest), one per step, the notes, then :attr:`frames_note` where the result names

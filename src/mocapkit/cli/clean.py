@@ -153,9 +153,8 @@ def clean(
                      f"{int(res.changed.sum())} of {plural(res.changed.size, 'joint sample')} changed "
                      f"({percent(int((~res.changed).sum()), res.changed.size)} % untouched"
                      + (f"; {unjudged}" if unjudged else "") + ")"))
-    said = " ".join(s.note for s in res.steps)
     # a step's fallback or its model's licence: a warning, word for word as denoise and fill say it, and only there
-    warned = [note for note in res.notes if note and note in said]
+    warned = res.warnings
     for line in res.summary():
         for note in warned:
             line = line.replace(f"; {note}", "")

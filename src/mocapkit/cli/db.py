@@ -75,6 +75,8 @@ def db_build(
     db.save(out_dir, overwrite=overwrite)
     console.print(f"wrote {out_dir}: {plural(db.num_clips, 'clip')}, {plural(db.num_frames, 'frame')} @ {db.fps:g} fps, "
                   f"features {', '.join(db.feature_names)}")
+    if db.info.get("licence"):  # the takes' terms (mocapkit.rigs.data_terms), kept in database.json
+        console.print(f"note: the takes are {db.info['licence']}: so is this database")
 
 
 @db_app.command("info")

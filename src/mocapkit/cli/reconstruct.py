@@ -273,6 +273,8 @@ def reconstruct(
     if isinstance(source, Motion) and not source.skeleton.is_compatible(result.skeleton):
         notes.append(f"the body is the database's skeleton ({result.skeleton.num_joints} joints), not "
                      f"{inp.name}'s: the sensors' readings come from any rig, the poses from the database")
+    if db.info.get("licence"):  # the poses are the database's takes': their terms hold for the output
+        notes.append(f"the poses come from {db_dir}, built from takes under {db.info['licence']}: so is {out.name}")
     _write(result, out, asf_file, overwrite, kind)
     if as_json:
         import json

@@ -308,9 +308,17 @@ def save(motion, path, like=None, asf=None, overwrite: bool = True, copy_asf: bo
             place_asf(copy, asf)  # first: an AMC is never left without the ASF it is read with
             write_amc(motion, path, like=like, asf=asf, **kwargs)
     else:
+        from .bvh import source_values
+        from .kept_channels import kept_arrays
         from .npz import write_npz
 
-        write_npz(motion, path, **kwargs)
+        # a BVH's own numbers (or those an .npz made from one keeps), for a BVH written from this .npz later; none
+        # where that file's text is gone (removed or changed since it was read): the .npz is the take all the same
+        try:
+            kept = kept_arrays(*source_values(motion, like)) if like is not None else {}
+        except MocapFormatError:
+            kept = {}
+        write_npz(motion, path, **({"extra": {**kept, **kwargs.pop("extra", {})}} if kept else {}), **kwargs)
     from .sources import forget
 
     forget(path)  # a file read earlier and now written over: what was read of it is no longer its text

@@ -39,11 +39,14 @@ from ._numparse import line_of_offset, parse_floats
 from .bvh_hierarchy import MAX_INDENT, check_bvh_names, depth_first_order, hierarchy_text, shortest
 from .bvh_comments import anchored, comment_lines, keyword_count, motion_comments, with_comments
 from .bvh_roots import COMMENT, Layout, is_comment, layout
+from .euler_branches import NEAR_SOURCE_DEG, continuous_rotations
+from .kept_channels import kept_values
 from .sources import recall, remember
 
 from numba import njit
 
-__all__ = ["read_bvh", "write_bvh", "check_bvh_names", "read_layout", "source_fits", "dropped_comments", "MAX_INDENT"]
+__all__ = ["read_bvh", "write_bvh", "check_bvh_names", "read_layout", "source_fits", "source_values", "dropped_comments",
+           "MAX_INDENT", "NEAR_SOURCE_DEG"]
 
 _CHANNELS = {c.lower(): c for c in ("Xposition", "Yposition", "Zposition", "Xrotation", "Yrotation", "Zrotation",
                                      "Xscale", "Yscale", "Zscale")}
@@ -660,33 +663,6 @@ def _write_channels(motion: Motion) -> tuple[tuple[str, ...], ...]:
     return tuple(out)
 
 
-def _continuous_rotations(values: np.ndarray, channels, source: "_LikeSource | None" = None) -> None:
-    """Rewrite, in place, the rotation channels of ``values`` (F, C; columns in ``channels``' order, degrees) as
-    the Euler triples nearest their neighbouring frames (:func:`mocapkit.rotations.continuous_euler`), so the
-    written curves have no 360-degree or flipped-branch jumps: where ``source`` (the file the motion was read from)
-    is given its unchanged cells are the file's own numbers and anchor the changed ones (each written on the
-    branch of its nearest unchanged frame, chained through the changed frames between); a joint with no unchanged
-    cell starts from the file's first frame, and without ``source`` from the plain conversion. One call per
-    rotation order, all joints with that order together."""
-    starts = np.cumsum([0] + [len(c) for c in channels])
-    groups: dict[str, tuple[list[int], list[list[int]]]] = {}
-    for j, chans in enumerate(channels):
-        rot = [k for k, c in enumerate(chans) if c.endswith("rotation")]
-        if rot:
-            js, cols = groups.setdefault("".join(chans[k][0] for k in rot), ([], []))
-            js.append(j)
-            cols.append([int(starts[j]) + k for k in rot])
-    for order, (js, cols) in groups.items():
-        idx = np.array(cols)  # (K, n)
-        angles = values[:, idx]
-        fixed = start = None
-        if source is not None:
-            fixed = ~source.turned[:, js]
-            angles = np.where(fixed[..., None], source.values[:, idx], angles)
-            start = source.values[0, idx]
-        values[:, idx] = R.continuous_euler(angles, order, fixed=fixed, start=start)
-
-
 def write_bvh(motion: Motion, path, precision: int = 6, allow_nan: bool = False, like=None) -> None:
     """Write ``motion`` as a BVH file (atomically: a failed write leaves no file).
 
@@ -716,10 +692,13 @@ def write_bvh(motion: Motion, path, precision: int = 6, allow_nan: bool = False,
         cell is the file's line, byte for byte, with its line ending; the header too when the
         skeleton and rate are the file's), and a changed joint's rotation is
         written as the Euler triple (whole turns, either branch of the middle
-        angle) nearest the file's numbers at its nearest unchanged frames,
-        chained through the changed frames between (so a repaired value is
-        written next to its neighbours, never on the branch of the broken
-        value it replaces). So a take that comes back unchanged is the same
+        angle) nearest the file's numbers of that cell where it turned less than
+        :data:`NEAR_SOURCE_DEG` from the file's, else nearest its neighbours
+        (:func:`mocapkit.io.euler_branches.continuous_rotations`; a repaired
+        flip is written next to its neighbours, never on the branch of the
+        broken value it replaces). An .npz made from a BVH keeps that file's
+        numbers (:mod:`mocapkit.io.kept_channels`): as ``like`` it gives the
+        same choice of each cell's numbers, the text written anew. So a take that comes back unchanged is the same
         file, and a change touches only its own numbers. Without ``like`` (or
         when it is not such a file) each joint's angles start as the plain
         conversion gives them and every next frame takes the triple nearest
@@ -758,7 +737,7 @@ def write_bvh(motion: Motion, path, precision: int = 6, allow_nan: bool = False,
     sk = motion.skeleton
     order = depth_first_order(sk)
     source = _like_source(like, out_motion, order) if like is not None else None
-    _continuous_rotations(values, channels, source)
+    continuous_rotations(values, channels, source if source is not None else _kept_source(like, out_motion, order))
     if order != list(range(sk.num_joints)):
         starts = np.cumsum([0] + [len(c) for c in channels])
         values = values[:, [k for j in order for k in range(starts[j], starts[j + 1])]]
@@ -808,6 +787,39 @@ def source_fits(motion: Motion, like) -> bool:
         return False
     out_motion, _ = _as_written(motion)
     return _like_source(like, out_motion, depth_first_order(motion.skeleton)) is not None
+
+
+def source_values(motion: Motion, like) -> tuple[np.ndarray | None, tuple[tuple[str, ...], ...]]:
+    """The numbers ``(F, C)`` of the file ``like`` (a BVH ``motion`` was read from, or an .npz keeping such a file's,
+    :mod:`mocapkit.io.kept_channels`) in the channel layout :func:`write_bvh` writes ``motion`` with, and that
+    layout; None for the numbers where ``like`` is not such a file (other joints, channels or frames)."""
+    out_motion, channels = _as_written(motion)
+    order = depth_first_order(motion.skeleton)
+    if like is None or like is False or motion.num_frames == 0:
+        return None, channels
+    src = _like_source(like, out_motion, order)
+    if src is None:
+        src = _kept_source(like, out_motion, order)
+    return (None if src is None else src.values), channels
+
+
+@dataclass(frozen=True)
+class _Kept:
+    """The source numbers an .npz keeps (:mod:`mocapkit.io.kept_channels`) and the cells whose rotation changed."""
+
+    turned: np.ndarray  # (F, J) bool
+    values: np.ndarray  # (F, C) float
+
+
+def _kept_source(like, motion: Motion, order: list[int]) -> _Kept | None:
+    """The numbers of the BVH an .npz ``like`` was made from, where they fit ``motion`` (written in file order)."""
+    if like is None or like is False or order != list(range(motion.skeleton.num_joints)):
+        return None
+    values = kept_values(like, motion.skeleton.channels, motion.num_frames)
+    if values is None:
+        return None
+    ref = _motion_from_channels(motion.skeleton, values, motion.fps, motion.name, Path(like))
+    return _Kept(_differs(motion.rotations, ref.rotations), values)
 
 
 @dataclass(frozen=True)

@@ -323,6 +323,7 @@ def write_report(
     up_axis=None,
     review: dict | None = None,
     analysed=None,
+    warnings=(),
 ) -> Path:
     """Write the self-contained HTML cleaning report of ``original`` -> ``cleaned``.
 
@@ -362,6 +363,10 @@ def write_report(
         The joints detection analysed (:attr:`mocapkit.cleaning.pipeline.CleanResult.analysed`). The
         heat map draws the others striped grey, "not analysed", and the page names them, rather than
         an MDM of 0 that looks checked and clean. None: every joint is drawn by its MDM.
+    warnings : sequence of str
+        Lines shown under the title as ``warning: ...``, as the console says them: a step's fallback, the licence
+        of a model whose terms restrict use (:attr:`mocapkit.cleaning.pipeline.CleanResult.warnings`; the
+        non-commercial Bandai Namco models), so a page passed on says what the take's cleaning may be used for.
 
     Returns
     -------
@@ -498,6 +503,7 @@ def write_report(
     }
     esc = _html.escape(title)
     review_css, review_block, review_js = review_parts(review)
+    warned = "".join(f'<p class="warning">warning: {_html.escape(str(w))}</p>' for w in warnings if w)
     page = f"""<!DOCTYPE html>
 <html lang="en">
 <head>
@@ -511,7 +517,7 @@ def write_report(
 </style>
 </head>
 <body>
-<header><h1>{esc}</h1><p id="summary"></p></header>
+<header><h1>{esc}</h1>{warned}<p id="summary"></p></header>
 <main id="app"><noscript>This report needs JavaScript to draw the viewer.</noscript></main>
 <script type="application/json" id="mocapkit-data">{_script_json(data)}</script>{review_block}
 <script>
@@ -574,7 +580,7 @@ def write_clean_report(path, original: Motion, result, *, inp=None, output: str 
         request = result.params.get("request") or {}
         command = apply_command(inp, asf=asf, amc_fps=request.get("amc_fps"), unit=request.get("unit"))
     return write_report(path, original, cleaned, mdm=result.mdm, flags=result.flags, changed=changed,
-                        analysed=result.analysed,
+                        analysed=result.analysed, warnings=getattr(result, "warnings", ()),
                         title=f"{name}: cleaned" + (f" ({applied} applied)" if applied else ""),
                         review=dec.review(original, result, take=name, output=output, decisions=decisions,
                                           first_frame=file_first_frame(inp) if inp else None, record=record,

@@ -37,7 +37,7 @@ from .cues import (
     swaps_from_residuals,
     CAUSE_DTYPE,
 )
-from .drifts import body_agreement, offset_change, smooth_drift_flags
+from .drifts import body_agreement, not_looked_for, offset_change, smooth_drift_flags
 from .neighbours import Neighbors, flagged_words, mean_motion_texture, nearest_words, unseen_words
 from .params import SSAParams
 from .repeats import analysed_once, expand, inbetween_runs, kept_frames, repeat_runs, without_repeats
@@ -701,6 +701,8 @@ def detect_prepared(an: Analysis, threshold: float = 0.5, *, progress: bool = Fa
     # carries the path's heading (module docstring of :mod:`~mocapkit.cleaning.ssa.drifts`)
     info = getattr(an.context_given, "info", None)
     chosen = has_context and not (isinstance(info, dict) and info.get("default"))
+    if p.drift and not chosen:
+        notes.append(not_looked_for(has_context, isinstance(info, dict) and bool(info.get("default"))))
     agreement = body_agreement(digression, analysed) if chosen else np.full((F, J), np.nan)
     agreement[:, [0, pelvis_index(sk)]] = np.nan
     drifts = _drifts(jumps, agreement, consistency, motion.fps, p, sk.joint_names, change, sk.parents) if p.drift else None

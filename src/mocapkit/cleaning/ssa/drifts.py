@@ -76,7 +76,22 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["body_agreement", "chain_level", "excursions", "offset_change", "other_joints_level", "smooth_drift_flags"]
+__all__ = ["body_agreement", "chain_level", "excursions", "not_looked_for", "offset_change", "other_joints_level",
+           "smooth_drift_flags"]
+
+
+def not_looked_for(has_context: bool, default: bool) -> str:
+    """The one line a detection says when smooth drifts were asked for but the rule did not run, else "".
+
+    The rule runs only against a context the caller chose that repeats the take's motion (module docstring): with
+    none (``has_context`` False: the take analysed alone) or the bundled default context (``default``), nothing
+    could be flagged as a drift, and a count of flags must not read as "no drift found".
+    """
+    if has_context and not default:
+        return ""
+    which = "the bundled default context, a general sample," if has_context else "no context"
+    return (f"smooth drifts not looked for: the drift rule needs a context that repeats the take's motion "
+            f"(--context), and {which} repeats none")
 
 
 def body_agreement(digression: np.ndarray, analysed: np.ndarray) -> np.ndarray:

@@ -367,7 +367,7 @@ def knowledge_base(db: MotionDatabase, sensors: Sequence[Sensor] | None = None, 
     kb.index("kdtree")
     object.__setattr__(kb, "build_seconds", time.perf_counter() - t0)
     if cache_dir is not None:
-        save_knowledge_base(kb, cache_dir, _fingerprint(db))
+        save_knowledge_base(kb, cache_dir, _fingerprint(db), licence=db.info.get("licence"))
     per_db[key] = kb
     return kb
 
@@ -440,11 +440,13 @@ def check_knowledge_base_output(directory) -> None:
         raise MocapFormatError(out, f"refusing to replace it with a knowledge base: {why}; give an empty or new folder")
 
 
-def save_knowledge_base(kb: KnowledgeBase, directory, database: dict | None = None) -> Path:
+def save_knowledge_base(kb: KnowledgeBase, directory, database: dict | None = None, licence: str | None = None) -> Path:
     """Write ``kb`` to the folder ``directory``: ``knowledge.json`` (sensors, up, fps, build time) and one ``.npy`` per array.
 
     ``database`` (optional, JSON-friendly) identifies the database it was
     built from; :func:`knowledge_base` compares it before reusing the folder.
+    ``licence``: the terms of that database's takes (its ``info["licence"]``,
+    :func:`mocapkit.rigs.data_terms`), kept in ``knowledge.json``.
     An existing ``directory`` is replaced only when it is a knowledge base
     (or empty); anything else is refused (:func:`check_knowledge_base_output`).
     The folder is written into a hidden ``.NAME.OWNER-XXXX.part`` beside the
@@ -458,6 +460,8 @@ def save_knowledge_base(kb: KnowledgeBase, directory, database: dict | None = No
     check_knowledge_base_output(directory)
     meta = {"format": _FORMAT, "sensors": _sensor_json(kb.sensors), "up": [float(x) for x in kb.up], "fps": float(kb.fps),
             "build_seconds": float(kb.build_seconds), "database": database}
+    if licence:  # the terms of the database's takes (its info["licence"], e.g. the Bandai Namco set's CC BY-NC 4.0)
+        meta["licence"] = str(licence)
 
     def fill(tmp: Path) -> None:
         for name in _ARRAYS:

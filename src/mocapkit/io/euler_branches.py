@@ -1,0 +1,66 @@
+"""Which Euler triple a BVH writer puts in each rotation cell: the source file's own, or the nearest to it.
+
+A rotation has many Euler triples (whole turns, two branches of the middle angle). Where the file a take came
+from is known (:func:`mocapkit.io.bvh.write_bvh`'s ``like``: the BVH read, or an .npz keeping its numbers,
+:mod:`mocapkit.io.kept_channels`) a cell whose rotation did not change is the file's own numbers, and a changed
+cell whose rotation stays within :data:`NEAR_SOURCE_DEG` of the file's is the triple nearest the file's numbers of
+that cell (:func:`mocapkit.rotations.nearest_euler`), so noise, a denoised or a slightly corrected joint stays on
+the file's curve; the others follow their neighbours (:func:`mocapkit.rotations.continuous_euler`).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .. import rotations as R
+
+__all__ = ["NEAR_SOURCE_DEG", "continuous_rotations"]
+
+#: Degrees: a changed cell whose rotation stays this close to the source file's is written on the branch nearest the
+#: file's numbers of that cell; one turned further (a flip repaired) follows its neighbours (continuous_euler's max_step).
+NEAR_SOURCE_DEG = 90.0
+
+
+def continuous_rotations(values: np.ndarray, channels, source=None) -> None:
+    """Rewrite, in place, the rotation channels of ``values`` (F, C; columns in ``channels``' order, degrees) as
+    the Euler triples a writer puts in the file.
+
+    Without ``source`` each joint starts as the plain conversion gives it and every next frame takes the triple
+    nearest the one before (:func:`mocapkit.rotations.continuous_euler`). With ``source`` (``turned`` (F, J) bool:
+    cells whose rotation is not the file's; ``values`` (F, C): the file's numbers) an unchanged cell is the file's
+    own numbers; a changed cell within :data:`NEAR_SOURCE_DEG` of the file's rotation the triple nearest the file's
+    numbers of that cell; any other changed cell the triple nearest its nearest written neighbour, chained (a joint
+    with no such neighbour starts from the file's first frame). One call per rotation order, all joints with that
+    order together."""
+    starts = np.cumsum([0] + [len(c) for c in channels])
+    groups: dict[str, tuple[list[int], list[list[int]]]] = {}
+    for j, chans in enumerate(channels):
+        rot = [k for k, c in enumerate(chans) if c.endswith("rotation")]
+        if rot:
+            js, cols = groups.setdefault("".join(chans[k][0] for k in rot), ([], []))
+            js.append(j)
+            cols.append([int(starts[j]) + k for k in rot])
+    for order, (js, cols) in groups.items():
+        idx = np.array(cols)  # (K, n)
+        angles = values[:, idx]
+        fixed = start = None
+        if source is not None:
+            fixed = ~source.turned[:, js]
+            own = source.values[:, idx]
+            angles = np.where(fixed[..., None], own, angles)
+            # a changed cell whose rotation stays within NEAR_SOURCE_DEG of the file's: on the branch nearest the
+            # file's own numbers of that cell (noise, a denoised or corrected joint), so it follows the file's curve
+            near = ~fixed & _turned_less(angles, own, order, NEAR_SOURCE_DEG)
+            angles = np.where(near[..., None], R.nearest_euler(angles, own, order), angles)
+            fixed = fixed | near
+            start = source.values[0, idx]
+        values[:, idx] = R.continuous_euler(angles, order, fixed=fixed, start=start)
+
+
+def _turned_less(a: np.ndarray, b: np.ndarray, order: str, limit_deg: float) -> np.ndarray:
+    """(...) bool: where the Euler triples ``a`` and ``b`` (..., n; degrees, in ``order``) are both finite and their
+    rotations lie within ``limit_deg`` of each other."""
+    ok = np.isfinite(a).all(axis=-1) & np.isfinite(b).all(axis=-1)
+    qa = R.euler_to_quaternion(np.where(ok[..., None], a, 0.0), order)
+    qb = R.euler_to_quaternion(np.where(ok[..., None], b, 0.0), order)
+    return ok & (np.degrees(R.geodesic_angle(qa, qb)) < limit_deg)
