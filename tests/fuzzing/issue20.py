@@ -14,6 +14,7 @@ without making the 4 GB).
 
 from __future__ import annotations
 
+import functools
 import io
 import json
 import re
@@ -72,14 +73,19 @@ def _crc32_combine(crc1: int, crc2: int, len2: int) -> int:
     return crc1 ^ crc2
 
 
-def crc32_of_zeros(n: int, start: int = 0) -> int:
-    """``zlib.crc32(bytes(n), start)`` without making ``n`` bytes (for a 4 GB member's CRC in milliseconds)."""
-    chunk = 1 << 20
-    if n <= chunk:
-        return zlib.crc32(bytes(n), start)
+@functools.lru_cache(maxsize=None)
+def _crc32_zeros(n: int) -> int:
+    """``zlib.crc32(bytes(n))``: halves share their CRC, so a 4 GB run costs two 1 MiB CRCs and one combine a level."""
+    if n <= 1 << 20:
+        return zlib.crc32(bytes(n))
     half = n // 2
-    a = crc32_of_zeros(half, start)
-    return _crc32_combine(a, crc32_of_zeros(n - half), n - half)
+    return _crc32_combine(_crc32_zeros(half), _crc32_zeros(n - half), n - half)
+
+
+def crc32_of_zeros(n: int, start: int = 0) -> int:
+    """``zlib.crc32(bytes(n), start)`` without making ``n`` bytes (for a 4 GB member's CRC in milliseconds):
+    ``start`` is the CRC of what comes before, combined with the CRC of the zeros."""
+    return _crc32_combine(start, _crc32_zeros(n), n)
 
 
 def _npy_header(descr: str, shape: tuple) -> bytes:
