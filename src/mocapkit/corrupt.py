@@ -140,7 +140,8 @@ def channel_spread(values: np.ndarray) -> np.ndarray:
     with warnings.catch_warnings(), np.errstate(invalid="ignore"):
         warnings.simplefilter("ignore", RuntimeWarning)  # an all-NaN channel: its spread is 0 below
         spread = np.nanstd(values, axis=0)
-        for c in range(values.shape[1]):
+        span = np.nanmax(values, axis=0) - np.nanmin(values, axis=0)
+        for c in np.flatnonzero(span > 180.0):  # only a channel spanning more than 180 deg can jump by as much
             x = values[~np.isnan(values[:, c]), c]
             if not np.any(np.abs(np.diff(x)) > 180.0):
                 continue
