@@ -1,5 +1,6 @@
 import dataclasses
 import functools
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -478,3 +479,61 @@ def test_aim_gives_no_rotation_for_a_bone_with_a_missing_end():
     q2 = C._aim(cur2, np.stack([two, two]), two)
     np.testing.assert_allclose(np.abs(q2[0, 0]), 1.0, atol=1e-12)  # the same bones: no turn
     assert np.isnan(q2[1]).all()
+
+
+# -- the scale of the noise on channels that wrap at +-180 deg -----------------------------
+
+
+def bandai_thigh():
+    """A real Bandai Namco take whose right thigh's Z channel crosses +-180 deg, and that channel's column."""
+    m = mocapkit.load(Path(__file__).parent / "data" / "dataset-1_bow_active_001.bvh")
+    sk = m.skeleton
+    names = [f"{sk.joint_names[j]}.{ch}" for j in range(sk.num_joints) for ch in sk.joint_channels(j)]
+    return m, names.index("UpperLeg_R.Zrotation")
+
+
+def test_a_wrapping_channel_gets_noise_at_the_spread_of_its_motion():
+    m, c = bandai_thigh()
+    x = m.channel_values()[:, c]
+    assert np.abs(np.diff(x)).max() > 300  # the channel crosses +-180 deg
+    motion_std = np.std(np.unwrap(x, period=360.0))  # it never turns round: its unwrapped spread is its motion's
+    assert motion_std < 15 < np.std(x)
+    amount = 0.5
+    for func in (C.angular_noise, C.uniform_noise):
+        bad, _ = func(m, amount=amount, seed=4, joints=["UpperLeg_R"])
+        d = wrapped(bad.channel_values()[:, c] - x)
+        # 128 frames: the sample std is within ~20% of the drawn one; the raw values' std would give ~10x
+        assert d.std() == pytest.approx(amount * motion_std, rel=0.2)
+    bad, _ = C.bias(m, amount=amount, seed=4, joints=["UpperLeg_R"])
+    np.testing.assert_allclose(np.abs(wrapped(bad.channel_values()[:, c] - x)), amount * motion_std, rtol=1e-6)
+    assert C.channel_spread(x[:, None])[0] == pytest.approx(motion_std, rel=1e-9)
+
+
+def test_channel_spread_reads_angles_on_the_circle():
+    t = np.linspace(0, 4 * np.pi, 400)
+    near_180 = wrapped(180.0 + 5.0 * np.sin(t))  # -175 .. 180 .. 175
+    spins = wrapped(3.0 * np.degrees(t))  # turns round six times: its circular spread stays bounded
+    still = 40.0 + 20.0 * np.sin(t)
+    gappy = still.copy()
+    gappy[50:80] = np.nan
+    values = np.stack([near_180, spins, still, gappy, np.full_like(t, np.nan)], axis=1)
+    s = C.channel_spread(values)
+    assert s[0] == pytest.approx(np.std(5.0 * np.sin(t)), rel=1e-6)
+    assert 90 < s[1] < 110
+    # channels that never wrap: the plain nanstd of the array, bit for bit (the noise the Acclaim rigs always had)
+    np.testing.assert_array_equal(s[2:4], np.nanstd(values[:, 2:4], axis=0))
+    assert s[4] == 0.0
+    assert C.channel_spread(np.zeros((10, 0))).shape == (0,)
+
+
+@pytest.mark.parametrize("name", ["131_01.bvh", "12_walk.amc", "HDM_bk_sneak2StepsLStart_004_120.amc"])
+def test_acclaim_samples_keep_the_noise_of_the_plain_std(name):
+    m = mocapkit.load(mocapkit.samples.path(name))
+    cols = rotation_columns(m)
+    values = m.channel_values()[:, cols]
+    np.testing.assert_array_equal(C.channel_spread(values), np.nanstd(values, axis=0))
+    bad, _ = C.angular_noise(m, amount=0.5, seed=6)
+    full = m.channel_values()
+    full[:, cols] += np.random.default_rng(6).normal(size=values.shape) * (0.5 * np.nanstd(values, axis=0))
+    expected = Motion.from_channel_values(m.skeleton, full, m.fps)
+    assert np.degrees(R.geodesic_angle(bad.rotations, expected.rotations)).max() < 1e-6

@@ -35,6 +35,7 @@ True
 from __future__ import annotations
 
 import dataclasses
+import warnings
 from dataclasses import dataclass
 
 import numpy as np
@@ -53,6 +54,7 @@ __all__ = [
     "real_errors",
     "smooth_drifts",
     "corrupt",
+    "channel_spread",
     "ErrorRecord",
     "KINDS",
     "ERROR_KINDS",
@@ -119,11 +121,39 @@ def _rotation_columns(motion: Motion, sel: np.ndarray) -> tuple[np.ndarray, np.n
     return np.array(cols, dtype=np.int64), np.array(owner, dtype=np.int64)
 
 
+def channel_spread(values: np.ndarray) -> np.ndarray:
+    """Std (C,) in degrees of each Euler channel of ``values`` (F, C) as motion, reading angles on the circle.
+
+    A channel wraps when two of its successive values (NaN skipped) differ by more than 180 deg:
+    no joint turns that far in one frame, so the channel crossed +-180 (a Bandai Namco thigh:
+    -175 -> 180 -> -179 -> 179). Its spread is the std of its values' deviations from their circular
+    mean, each taken the short way round: the few degrees the joint moves, not the ~170 deg the raw
+    values show. Unwrapping instead would count the turns of a channel that spins through a gimbal
+    lock (hundreds of degrees); the circular deviations stay within +-180. A channel that never
+    wraps gets the plain ``nanstd`` of its raw values, bit for bit: the noise Mall et al. 2017
+    (section 4) define, unchanged for channels that do not cross +-180. NaN is ignored; a channel
+    with no value has spread 0.
+    """
+    values = np.asarray(values, dtype=np.float64)
+    if not values.size:
+        return np.zeros(values.shape[1] if values.ndim == 2 else 0)
+    with warnings.catch_warnings(), np.errstate(invalid="ignore"):
+        warnings.simplefilter("ignore", RuntimeWarning)  # an all-NaN channel: its spread is 0 below
+        spread = np.nanstd(values, axis=0)
+        span = np.nanmax(values, axis=0) - np.nanmin(values, axis=0)
+        for c in np.flatnonzero(span > 180.0):  # only a channel spanning more than 180 deg can jump by as much
+            x = values[~np.isnan(values[:, c]), c]
+            if not np.any(np.abs(np.diff(x)) > 180.0):
+                continue
+            rad = np.deg2rad(x)
+            centre = np.rad2deg(np.arctan2(np.mean(np.sin(rad)), np.mean(np.cos(rad))))
+            spread[c] = np.std((x - centre + 180.0) % 360.0 - 180.0)
+    return np.nan_to_num(spread)
+
+
 def _channel_std(motion: Motion, cols: np.ndarray) -> np.ndarray:
-    values = motion.channel_values()[:, cols]
-    with np.errstate(invalid="ignore"):
-        std = np.nanstd(values, axis=0) if values.size else np.zeros(len(cols))
-    return np.nan_to_num(std)
+    """Spread (:func:`channel_spread`, degrees) of the rotation channels ``cols`` of ``motion``."""
+    return channel_spread(motion.channel_values()[:, cols])
 
 
 def _add_to_channels(motion: Motion, noise: np.ndarray, sel: np.ndarray) -> tuple[Motion, np.ndarray]:
@@ -184,7 +214,9 @@ def angular_noise(motion: Motion, amount: float = 0.5, seed=None, joints=None, i
     0.5 is Mall et al.'s default "0.5 noise" (6 dB SNR); they also use 0.1
     (20 dB) and 0.9 (1 dB). The noise is added to the file's rotation channels
     in degrees (``channel_values`` -> add -> ``from_channel_values``); a
-    channel's std is its plain ``nanstd`` over the clip. The root trajectory
+    channel's std is its spread over the clip read on the circle
+    (:func:`channel_spread`: a channel crossing +-180 deg has the spread of
+    its motion, one that never wraps its plain std). The root trajectory
     is kept clean, as in the paper, and the root rotation too unless
     ``include_root`` (or ``joints`` names the root). Joints without rotation
     channels are never changed.

@@ -167,7 +167,8 @@ def corrupt(
     out: Path = typer.Argument(..., metavar="OUT", help="Corrupted output (.bvh, .amc or .npz; gaps need .npz)."),
     kind: str = typer.Option(..., "--kind", help="noise | uniform | bias | spatial | gaps | errors, or one error kind: spike | flip | freeze | drift | swap"),
     amount: Optional[float] = typer.Option(
-        None, "--amount", help="noise, uniform, bias: std as a fraction of each channel's std (0.1/0.5/0.9); "
+        None, "--amount", help="noise, uniform, bias: std as a fraction of each channel's std (0.1/0.5/0.9; a "
+                               "channel that crosses +-180 deg: the std of its motion, read on the circle); "
                                "spatial: std in cm. A finite number > 0 (0 would change nothing); gaps and the "
                                "error kinds take none."
     ),
