@@ -567,10 +567,12 @@ DATA_TERMS = MappingProxyType({
 })
 
 
-def data_terms(skeletons) -> str | None:
+def data_terms(skeletons, worded=DATA_TERMS) -> str | None:
     """The terms of :data:`DATA_TERMS` that takes on ``skeletons`` carry when each is of such a family (one line, the
-    families' terms joined by "; " when several), else None: the project does not know them."""
-    found = [DATA_TERMS.get(rig_family(sk)) for sk in skeletons]
+    families' terms joined by "; " when several), else None: the project does not know them. ``worded``: the same
+    families' terms as something made from the takes words them (a model's card:
+    :data:`mocapkit.cleaning.deep.provenance.DATA_LICENCES`)."""
+    found = [worded.get(rig_family(sk)) for sk in skeletons]
     if not found or any(t is None for t in found):
         return None
     return "; ".join(dict.fromkeys(found))

@@ -83,3 +83,11 @@ def test_the_old_spelling_of_the_bandai_rig_is_read_as_bandai_namco(tmp_path, ba
     assert model_rig(old) == "bandai_namco" and model_rig(dataclasses.replace(old, meta={"rig": "unity"})) == "unity"
     card = provenance.model_card(bandai[:1], given={"rig": "bandai"})
     assert card["rig"] == "bandai_namco"
+
+
+def test_a_models_licence_table_words_the_same_families_the_data_terms_name():
+    """A model's card words the terms of the same rig families whose takes carry terms (mocapkit.rigs.DATA_TERMS):
+    a family added to one table and not the other would leave a model or a database of its takes without them."""
+    from mocapkit import rigs
+
+    assert set(provenance.DATA_LICENCES) == set(rigs.DATA_TERMS)

@@ -20,8 +20,8 @@ __all__ = ["BANDAI_LICENCE", "DATA_LICENCES", "NOT_STATED", "RIG_RESPELLINGS", "
 
 BANDAI_LICENCE = ("CC BY-NC 4.0: trained on the Bandai Namco Research Motiondataset "
                   "(Bandai Namco Research Inc.); non-commercial use only")
-#: The licence of the takes of a rig family (:func:`mocapkit.rigs.rig_family`) that is one data set's own rig: the
-#: 22-joint game rig of the Bandai Namco Research Motiondataset 1 and 2 is that set's, whose terms are CC BY-NC 4.0.
+#: :data:`mocapkit.rigs.DATA_TERMS` (the terms of the takes of a rig family that is one data set's own rig: the
+#: Bandai Namco game rig's CC BY-NC 4.0) as a model trained on such takes words them in its card: the same families.
 DATA_LICENCES = {"bandai_namco": BANDAI_LICENCE}
 #: What a model card says of a licence nobody stated.
 NOT_STATED = "not stated"
@@ -61,9 +61,9 @@ def training_rig(clips) -> str | None:
 
 def data_licence(clips) -> str | None:
     """The licence the project knows ``clips`` (Motions) to carry: the one of :data:`DATA_LICENCES` when every take
-    is of that rig family, else None (unknown: the user states it, ``mocapkit train --licence``)."""
-    families = {rigs.rig_family(c.skeleton) for c in clips}
-    return DATA_LICENCES.get(next(iter(families))) if len(families) == 1 else None
+    is of that rig family (:func:`mocapkit.rigs.data_terms`), else None (unknown: the user states it, ``mocapkit
+    train --licence``)."""
+    return rigs.data_terms([c.skeleton for c in clips], DATA_LICENCES)
 
 
 def model_card(clips, validation=None, given: dict | None = None) -> dict:
