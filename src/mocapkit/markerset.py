@@ -412,6 +412,25 @@ class MarkerSet:
         """Boolean (F, M) mask of samples where the marker was not seen."""
         return np.any(np.isnan(self.positions), axis=-1)
 
+    def interpolated(self) -> np.ndarray:
+        """Boolean (F, M) mask of the seen samples of markers that the file marks as interpolated.
+
+        In C3D's convention a residual of 0 at a seen sample means "interpolated" (a capture
+        program's fill, or a cleaned C3D's); it says so only in a file where some seen marker sample
+        has a residual over 0 (a file of zeros throughout cannot tell). Modelled points and
+        unlabelled trajectories are left out: their residual 0 says nothing. All False without
+        residuals (TRC, npz).
+        """
+        out = np.zeros(self.positions.shape[:2], dtype=bool)
+        if self.residuals is None:
+            return out
+        cols = ~self.modelled() & ~self.unlabelled()
+        seen = ~self.missing()[:, cols]
+        r = np.asarray(self.residuals)[:, cols]
+        if np.any(r[seen] > 0):
+            out[:, cols] = seen & (r == 0)
+        return out
+
     def modelled(self) -> np.ndarray:
         """Boolean (M,) mask of points that are modelled quantities, not markers.
 

@@ -32,21 +32,15 @@ def filled_samples(markers, filled=None) -> np.ndarray:
     (:attr:`~mocapkit.cleaning.markers.MarkerCleanResult.fill_mask`); with
     them, the samples the take itself marks so: a marker npz's own ``filled``
     mask (:attr:`~mocapkit.markerset.MarkerSource.filled`), and the samples a
-    C3D marks as interpolated (residual 0 at a seen sample, in a file where
-    some sample has a residual over 0: a capture program's fills), modelled
-    points and unlabelled trajectories aside (their residual 0 says nothing).
+    C3D marks as interpolated (:meth:`~mocapkit.markerset.MarkerSet.interpolated`:
+    a capture program's fills).
     """
     shape = markers.positions.shape[:2]
     out = np.zeros(shape, dtype=bool) if filled is None else np.asarray(filled, dtype=bool).copy()
     source = markers.source
     if source is not None and source.filled is not None and source.filled.shape == shape:
         out |= source.filled
-    res = markers.residuals
-    seen = ~markers.missing()
-    if res is not None and np.any(res[seen] > 0):
-        cols = ~markers.modelled() & ~markers.unlabelled()
-        out[:, cols] |= seen[:, cols] & (np.asarray(res)[:, cols] == 0)
-    return out & seen
+    return (out | markers.interpolated()) & ~markers.missing()
 
 
 def write_npz(obj, path, compress: bool = True, extra: dict | None = None, filled=None) -> None:

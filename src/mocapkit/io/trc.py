@@ -604,15 +604,10 @@ def trc_notes(markers: MarkerSet, path, *, keep_modelled: bool = False, filled=N
         where = f"; {record} lists them (its masks filled, spikes, duplicates)" if record is not None else ""
         notes.append(f"{path}: {int(np.sum(filled))} filled samples are written like recorded ones: a TRC has no "
                      f"residual column to tell them apart{where}")
-    res = markers.residuals
-    if res is not None:
-        cols = ~markers.modelled() & ~markers.unlabelled()
-        seen = ~markers.missing()[:, cols]
-        r = res[:, cols]
-        marked = seen & (r == 0) & ~(filled[:, cols] if filled is not None else False)
-        if marked.any() and np.any(r[seen] > 0):
-            notes.append(f"{path}: {int(marked.sum())} samples the input marks as interpolated (residual 0) are "
-                         "written like recorded ones: a TRC has no residual column (a .c3d output keeps them marked)")
+    marked = markers.interpolated() & ~(np.asarray(filled, dtype=bool) if filled is not None else False)
+    if marked.any():
+        notes.append(f"{path}: {int(marked.sum())} samples the input marks as interpolated (residual 0) are "
+                     "written like recorded ones: a TRC has no residual column (a .c3d output keeps them marked)")
     return notes
 
 
