@@ -430,3 +430,59 @@ def test_a_pool_that_stops_its_own_workers_never_signals_the_process_that_runs_i
     assert len(lines) == 2 and lines[1].startswith("a worker process ended abruptly"), proc.stdout
     with pytest.raises(ProcessLookupError):  # the worker that did the quick item is gone too
         os.kill(int(lines[0]), 0)
+
+
+def _blocked(status: str) -> bool:
+    """Whether SIGTERM is in the ``SigBlk`` mask of a /proc/PID/status text."""
+    line = next(ln for ln in status.splitlines() if ln.startswith("SigBlk:"))
+    return bool(int(line.split()[1], 16) >> (signal.SIGTERM - 1) & 1)
+
+
+def masks_of_worker_and_forked_child(_):
+    """(the worker's SIGTERM is blocked, a child it forks has it blocked), seen inside a pool worker."""
+    with open("/proc/self/status") as fh:
+        worker = _blocked(fh.read())
+    r, w = os.pipe()
+    pid = os.fork()
+    if pid == 0:  # the child: its own mask, then out without running the parent's cleanup
+        try:
+            os.close(r)
+            with open("/proc/self/status") as fh:
+                os.write(w, fh.read().encode())
+        finally:
+            os._exit(0)
+    os.close(w)
+    with os.fdopen(r) as fh:
+        child = _blocked(fh.read())
+    os.waitpid(pid, 0)
+    return worker, child
+
+
+def mask_of_a_program_started_with_unblock_sigterm(_):
+    """Whether a program a pool worker runs by subprocess, with unblock_sigterm as preexec_fn, has SIGTERM blocked."""
+    import subprocess
+
+    from mocapkit.parallel import unblock_sigterm
+
+    return _blocked(subprocess.run(["cat", "/proc/self/status"], capture_output=True, text=True,
+                                   preexec_fn=unblock_sigterm, check=True).stdout)
+
+
+_MASKS = pytest.mark.skipif(not hasattr(signal, "sigwaitinfo") or not sys.platform.startswith("linux"),
+                            reason="the worker blocks SIGTERM only where sigwaitinfo names its sender; /proc masks")
+
+
+@_MASKS
+def test_a_process_a_work_function_forks_starts_with_sigterm_unblocked():
+    """The worker keeps SIGTERM blocked for its watcher thread; a child it forks gets the mask it would have had,
+    so a nested pool's terminate() can end it."""
+    got = map_ordered(masks_of_worker_and_forked_child, [0, 1], executor="processes", max_workers=2, progress=False)
+    assert got == [(True, False)] * 2
+
+
+@_MASKS
+def test_a_program_a_work_function_starts_with_unblock_sigterm_can_be_terminated():
+    """subprocess forks and execs in C (no fork hook runs): unblock_sigterm as preexec_fn gives it the mask."""
+    got = map_ordered(mask_of_a_program_started_with_unblock_sigterm, [0, 1], executor="processes", max_workers=2,
+                      progress=False)
+    assert got == [False, False]

@@ -62,7 +62,7 @@ from .progress import bar_disabled
 from .errors import MocapError
 from .interrupts import interrupts_held
 
-__all__ = ["map_ordered", "describe_executor", "check_executor", "owner_alive"]
+__all__ = ["map_ordered", "describe_executor", "check_executor", "owner_alive", "unblock_sigterm"]
 
 EXECUTOR_NAMES = ("processes", "serial", "dask")
 _ADDRESS_RE = re.compile(r"^tcp://(?P<host>\[[0-9A-Fa-f:.]+\]|[A-Za-z0-9_.-]+):(?P<port>[0-9]{1,5})/?$")
@@ -258,12 +258,29 @@ def _take_sigterm(parent_pid: int) -> None:
     SIGTERM is blocked in every thread of the worker (threads started later inherit the mask) and one
     thread takes it with ``sigwaitinfo``, which names the sender (``si_pid``). Where ``sigwaitinfo`` is
     missing (macOS, Windows) the sender cannot be known: the worker dies of it (SIG_DFL) and the parent
-    reports a worker that ended abruptly. Processes a work function starts inherit the blocked SIGTERM:
-    stop them with SIGKILL (``Popen.kill``)."""
+    reports a worker that ended abruptly.
+
+    A process a work function forks (``os.fork``, a ``multiprocessing`` pool or process of the fork start
+    method) starts with SIGTERM as the worker had it before (:func:`unblock_sigterm`, run after every fork in
+    the child), so its own ``terminate()`` ends it. A program started by ``subprocess`` (or a ``spawn`` or
+    ``forkserver`` start) inherits the blocked SIGTERM: CPython forks and execs those in C, where no Python
+    runs in the child before the program (no fork hook; ``preexec_fn`` is the caller's), and unblocking
+    SIGTERM in the worker while the work function runs would let a SIGTERM end the worker unseen by the
+    thread that names its sender. Stop such a program with SIGKILL (``Popen.kill``), or start it with
+    ``preexec_fn=mocapkit.parallel.unblock_sigterm``."""
     if not hasattr(signal, "sigwaitinfo"):
         return
-    signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGTERM})
+    held = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGTERM})
+    if signal.SIGTERM not in held:  # the mask a process forked here would have had
+        os.register_at_fork(after_in_child=unblock_sigterm)
     threading.Thread(target=_sigterm_watch, args=(parent_pid,), name="mocapkit-term-watch", daemon=True).start()
+
+
+def unblock_sigterm() -> None:
+    """Unblock SIGTERM in the calling thread: run after each fork in a child of a pool worker (whose blocked
+    SIGTERM it would inherit, :func:`_take_sigterm`), or as ``subprocess.Popen(..., preexec_fn=...)`` of a work
+    function so that the program it starts can be ended by SIGTERM."""
+    signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGTERM})
 
 
 def _sigterm_watch(parent_pid: int) -> None:
