@@ -330,3 +330,16 @@ def test_rig_family_is_read_once_per_skeleton(monkeypatch):
     assert resolved == []
     renamed = Skeleton(tuple(n.upper() for n in sk.joint_names), np.array(sk.parents), np.array(sk.offsets))
     assert rigs.rig_family(renamed) != "acclaim" and len(resolved) == len(rigs.FAMILIES)
+
+
+def test_rig_family_is_kept_per_skeleton_by_names_and_parents_in_a_bounded_cache():
+    """rig_family reads only joint names and parents: a skeleton asked again is answered from functools' cache
+    (64 kept), the same answer as a fresh pass, and another tree under the same names is asked anew."""
+    sk = mocapkit.load(samples.path("131_01.bvh")).skeleton
+    info = rigs.rig_family.cache_info
+    rigs.rig_family.cache_clear()
+    assert rigs.rig_family(sk) == "cmu_bvh_3dsmax" and info().misses == 1
+    assert rigs.rig_family(sk) == "cmu_bvh_3dsmax" and info().hits == 1
+    flat = Skeleton(sk.joint_names, np.r_[-1, np.zeros(sk.num_joints - 1, dtype=np.int64)], sk.offsets)
+    assert rigs.rig_family(flat) is None and info().misses == 2  # a wrong tree is not the family
+    assert info().maxsize == 64

@@ -46,6 +46,7 @@ files or depends on frame data.
 
 from __future__ import annotations
 
+import functools
 from types import MappingProxyType
 
 import numpy as np
@@ -270,9 +271,10 @@ _CORE = ("pelvis", "left_thigh", "right_thigh", "left_shin", "right_shin", "left
 _ORDER = tuple(sorted(ROLES, key=lambda r: (r == "spine_mid", ROLES.index(r))))
 
 
-def _resolve(skeleton: Skeleton, family: str) -> dict[str, int]:
+def _resolve(joint_names, family: str) -> dict[str, int]:
+    """Role -> joint index of the first of ``family``'s names for each role found among ``joint_names``."""
     table = FAMILIES[family]
-    index = {n: j for j, n in enumerate(skeleton.joint_names)}
+    index = {n: j for j, n in enumerate(joint_names)}
     out: dict[str, int] = {}
     taken: set[int] = set()
     for role in _ORDER:
@@ -285,11 +287,11 @@ def _resolve(skeleton: Skeleton, family: str) -> dict[str, int]:
     return out
 
 
-def _covers(skeleton: Skeleton, found: dict[str, int]) -> bool:
-    """The core roles are all found, and each role's joint lies below its parent role's joint."""
+def _covers(parents, found: dict[str, int]) -> bool:
+    """The core roles are all found, and each role's joint lies below its parent role's joint (``parents``: each
+    joint's parent index, -1 for the root)."""
     if not all(r in found for r in _CORE):
         return False
-    parents = skeleton.parents
     for role, j in found.items():
         up = PARENT_ROLE.get(role)
         while up is not None and up not in found:
@@ -319,24 +321,24 @@ def rig_family(skeleton: Skeleton) -> str | None:
     >>> rig_family(mocapkit.load(mocapkit.samples.path("131_01.bvh")).skeleton)
     'cmu_bvh_3dsmax'
     """
-    key = (tuple(skeleton.joint_names), np.asarray(skeleton.parents, dtype=np.int64).tobytes())
-    if key in _FAMILY_OF:
-        return _FAMILY_OF[key]
+    return _family_of(tuple(skeleton.joint_names), tuple(np.asarray(skeleton.parents).tolist()))
+
+
+@functools.lru_cache(maxsize=64)
+def _family_of(joint_names: tuple[str, ...], parents: tuple[int, ...]) -> str | None:
+    """:func:`rig_family` of a skeleton by all it reads, its joint names and parents (hashable tuples), kept for the
+    64 skeletons asked last: a take's steps ask it of one skeleton dozens of times (every role a cue finds), each
+    a pass over every family's names."""
     best, best_n = None, 0
     for family in FAMILIES:
-        found = _resolve(skeleton, family)
-        if len(found) > best_n and _covers(skeleton, found):
+        found = _resolve(joint_names, family)
+        if len(found) > best_n and _covers(parents, found):
             best, best_n = family, len(found)
-    if len(_FAMILY_OF) >= _FAMILIES_KEPT:
-        _FAMILY_OF.clear()
-    _FAMILY_OF[key] = best
     return best
 
 
-#: :func:`rig_family` of the skeletons asked since it was last cleared (at 64), by their joint names and parents (all it reads): a take's
-#: steps ask it of one skeleton dozens of times (every role a cue finds), each a pass over every family's names
-_FAMILY_OF: dict[tuple, str | None] = {}
-_FAMILIES_KEPT = 64
+rig_family.cache_info = _family_of.cache_info  # as on a functools.cache function: what is kept, hits and misses
+rig_family.cache_clear = _family_of.cache_clear
 
 
 def roles(skeleton: Skeleton) -> dict[str, int]:
@@ -356,7 +358,7 @@ def roles(skeleton: Skeleton) -> dict[str, int]:
     family = rig_family(skeleton)
     if family is None:
         return roles_by_topology(skeleton) or {"pelvis": pelvis_index(skeleton)}
-    found = _resolve(skeleton, family)
+    found = _resolve(skeleton.joint_names, family)
     return {r: found[r] for r in ROLES if r in found}
 
 
@@ -373,7 +375,7 @@ def pelvis_index(skeleton: Skeleton) -> int:
     """
     family = rig_family(skeleton)
     if family is not None:
-        return _resolve(skeleton, family)["pelvis"]
+        return _resolve(skeleton.joint_names, family)["pelvis"]
     j = 0
     while True:
         kids = skeleton.children(j)
