@@ -736,12 +736,12 @@ def write_bvh(motion: Motion, path, precision: int = 6, allow_nan: bool = False,
     # hierarchy) is written in depth-first order with its channel columns permuted to match.
     sk = motion.skeleton
     order = depth_first_order(sk)
-    source = _like_source(like, out_motion, order) if like is not None else None
-    continuous_rotations(values, channels, source if source is not None else _kept_source(like, out_motion, order))
+    source = _source_numbers(like, out_motion, order)
+    continuous_rotations(values, channels, source)
     if order != list(range(sk.num_joints)):
         starts = np.cumsum([0] + [len(c) for c in channels])
         values = values[:, [k for j in order for k in range(starts[j], starts[j + 1])]]
-    if source is not None:
+    if isinstance(source, _LikeSource):
         _write_like(path, out_motion, values, channels, source, precision)
         return
     parts = hierarchy_text(sk, channels, order)
@@ -794,13 +794,20 @@ def source_values(motion: Motion, like) -> tuple[np.ndarray | None, tuple[tuple[
     :mod:`mocapkit.io.kept_channels`) in the channel layout :func:`write_bvh` writes ``motion`` with, and that
     layout; None for the numbers where ``like`` is not such a file (other joints, channels or frames)."""
     out_motion, channels = _as_written(motion)
-    order = depth_first_order(motion.skeleton)
-    if like is None or like is False or motion.num_frames == 0:
+    if motion.num_frames == 0:
         return None, channels
-    src = _like_source(like, out_motion, order)
-    if src is None:
-        src = _kept_source(like, out_motion, order)
+    src = _source_numbers(like, out_motion, depth_first_order(motion.skeleton))
     return (None if src is None else src.values), channels
+
+
+def _source_numbers(like, motion: Motion, order: list[int]) -> "_LikeSource | _Kept | None":
+    """What ``motion`` (as written: :func:`_as_written`) keeps of ``like``'s numbers: the source BVH itself
+    (:func:`_like_source`: its text too), else the numbers an .npz made from one keeps (:func:`_kept_source`),
+    else None (no ``like``, or not such a file for these joints, channels and frames)."""
+    if like is None or like is False:
+        return None
+    source = _like_source(like, motion, order)
+    return source if source is not None else _kept_source(like, motion, order)
 
 
 @dataclass(frozen=True)
