@@ -593,3 +593,22 @@ def test_info_says_the_shipped_bandai_models_rig_as_denoise_does(tmp_path):
         assert re.search(r"^rig +bandai_namco$", said, re.MULTILINE), said
     code, said, err = run("denoise", str(BANDAI), "-o", str(tmp_path / "d.bvh"))
     assert code == 0 and "(shipped, bandai_namco)" in said, err
+
+
+def test_a_model_trained_on_bandai_takes_says_their_licence_once(tmp_path):
+    """train on Bandai Namco takes (CC BY-NC 4.0): the model inherits the licence, one console line says so, and
+    info of the model says it once."""
+    out = tmp_path / "ebf"
+    from mocapkit.motion import concatenate
+
+    bow = mocapkit.load(BANDAI.with_name("dataset-1_bow_active_001.bvh"))  # 4.3 s; twice: longer than a crop
+    take = tmp_path / "bow_twice.npz"
+    mocapkit.save(concatenate([bow, bow]), take)
+    code, stdout, err = run("train", "denoiser", str(take), "-o", str(out), "--epochs", "1", "--steps", "1",
+                            "--hidden", "8", "--executor", "serial")
+    assert code == 0, err
+    said = [ln for ln in stdout.splitlines() if "CC BY-NC 4.0" in ln]
+    assert len(said) == 1 and said[0].startswith("note: model.pt keeps its takes' licence"), stdout
+    code, stdout, err = run("info", str(out / "model.pt"))
+    assert code == 0, err
+    assert [ln.split()[0] for ln in stdout.splitlines() if "CC BY-NC 4.0" in ln] == ["licence"], stdout

@@ -395,3 +395,42 @@ def test_a_coarse_input_keeps_its_rate_and_frames_and_says_it_was_upsampled(tmp_
     import json
     said = json.loads(stdout.strip().splitlines()[-1])
     assert (said["frames"], said["fps"]) == (13, 5.0) and any("interpolated up" in n for n in said["notes"])
+
+
+def test_a_reconstruction_from_bandai_takes_keeps_their_licence_in_its_npz_and_info_says_it(tmp_path, bandai_db):
+    """The poses are the database's CC BY-NC takes': the npz keeps a licence text (a file shipped alone carries it),
+    its contents say it, and `info` of the file says it once."""
+    out = tmp_path / "rec.npz"
+    code, stdout, err = run("reconstruct", "--db", str(bandai_db), "--markers", str(BANDAI), "-o", str(out))
+    assert code == 0, err
+    assert sum("CC BY-NC 4.0" in ln for ln in stdout.splitlines()) == 1, stdout
+    with np.load(out, allow_pickle=False) as z:
+        assert "CC BY-NC 4.0" in str(z["licence"]) and "licence:" in str(z["contents"])
+    code, stdout, err = run("info", str(out))
+    assert code == 0, err
+    assert [ln.split()[0] for ln in stdout.splitlines() if "CC BY-NC 4.0" in ln] == ["licence"], stdout
+
+
+def test_a_knowledge_base_of_bandai_takes_says_their_licence_in_info(tmp_path, bandai_db):
+    """`info` of a knowledge base (reconstruct --knowledge) built from a Bandai Namco database says its licence
+    once, as the reconstruction's console line does."""
+    kb = tmp_path / "kb"
+    code, stdout, err = run("reconstruct", "--db", str(bandai_db), "--accelerometers", str(BANDAI), "-o",
+                            str(tmp_path / "rec.bvh"), "--knowledge", str(kb))
+    assert code == 0, err
+    assert sum("CC BY-NC 4.0" in ln for ln in stdout.splitlines()) == 1, stdout
+    code, stdout, err = run("info", str(kb))
+    assert code == 0, err
+    assert [ln.split()[0] for ln in stdout.splitlines() if "CC BY-NC 4.0" in ln] == ["licence"], stdout
+
+
+def test_a_reconstruction_from_takes_of_unknown_terms_keeps_no_licence(tmp_path, db_dir, query):
+    """HDM05 takes: the project does not know their terms, so nothing is claimed."""
+    src, out = tmp_path / "q.npz", tmp_path / "rec.npz"
+    mocapkit.save(query[:60], src)
+    code, stdout, err = run("reconstruct", "--db", str(db_dir), "--markers", str(src), "-o", str(out))
+    assert code == 0, err
+    with np.load(out, allow_pickle=False) as z:
+        assert "licence" not in z.files and "licence" not in str(z["contents"])
+    code, stdout, _ = run("info", str(out))
+    assert code == 0 and "licence" not in stdout

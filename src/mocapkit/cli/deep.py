@@ -385,3 +385,5 @@ def train(
                       f"best {what_rms} RMS {bests[-1]:.3f}")
     if folds > 1:
         console.print(f"{folds} holdouts: validation RMS {np.mean(bests):.3f} +- {np.std(bests):.3f}")
+    if known and (not licence or licence == known):  # inherited from the takes (model_card), as info shows it
+        console.print(f"note: {'model.pt keeps' if len(runs) == 1 else 'each model.pt keeps'} its takes' licence, {known}")

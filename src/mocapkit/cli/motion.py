@@ -78,6 +78,11 @@ def info(
     rows.append(("rig family", family))
     rows += [("channels", str(len(m.channel_names()))),
              ("missing", f"{100.0 * miss.mean():.2f} % of joint samples, {plural(int(miss.any(axis=1).sum()), 'frame')} affected")]
+    from ..reconstruct.output import kept_licence
+
+    licence = kept_licence(file)  # a reconstruction's: the terms of the database's takes its poses come from
+    if licence:
+        rows.append(("licence", licence))
     print_fields(rows)
     if joints:
         print_table(("#", "joint", "parent", "channels"),
@@ -400,8 +405,11 @@ def _describe_json(path: Path, doc_path: Path, kind: str | None) -> bool:
         return False
     if kind is not None:  # a knowledge base folder
         sensors = [s.get("name", "?") for s in doc.get("sensors", []) if isinstance(s, dict)]
-        print_fields([("file", str(path)), ("kind", kind), ("sensors", ", ".join(sensors) or "?"),
-                      ("fps", f"{doc.get('fps', '?')}"), ("built in", f"{float(doc.get('build_seconds', 0)):.1f} s")])
+        rows = [("file", str(path)), ("kind", kind), ("sensors", ", ".join(sensors) or "?"),
+                ("fps", f"{doc.get('fps', '?')}"), ("built in", f"{float(doc.get('build_seconds', 0)):.1f} s")]
+        if doc.get("licence"):  # the terms of the takes of the database it was built from (save_knowledge_base)
+            rows.append(("licence", str(doc["licence"])))
+        print_fields(rows)
         return True
     if str(doc.get("format", "")).startswith("mocapkit.decisions"):
         decided = doc.get("decisions", {}) if isinstance(doc.get("decisions"), dict) else {}

@@ -83,15 +83,15 @@ def _asf_for_amc(out: Path, skeleton: Optional[Path], performer, source, inp: Pa
     return found
 
 
-def _write(result, out: Path, asf_file: Optional[Path], overwrite: bool, method: str) -> None:
-    """Save the reconstruction (an npz that says what it holds); an ``.amc`` with its ASF beside it (copied when the
-    folder lacks it)."""
+def _write(result, out: Path, asf_file: Optional[Path], overwrite: bool, method: str, licence: Optional[str]) -> None:
+    """Save the reconstruction (an npz that says what it holds, the database takes' ``licence`` among it); an
+    ``.amc`` with its ASF beside it (copied when the folder lacks it)."""
     from ..io.outputs import removed_on_failure
     from ..io.takes import asf_for_output, place_asf
     from ..reconstruct.output import save_reconstruction
 
     if asf_file is None:
-        save_reconstruction(result, out, method)
+        save_reconstruction(result, out, method, licence=licence)
         return
     from ..io.amc_writer import check_amc_writable
 
@@ -99,7 +99,7 @@ def _write(result, out: Path, asf_file: Optional[Path], overwrite: bool, method:
     copy = asf_for_output(out, asf_file, overwrite)
     with removed_on_failure([copy, out], overwrite=overwrite):
         place_asf(copy, asf_file)
-        save_reconstruction(result, out, method, asf=asf_file)
+        save_reconstruction(result, out, method, asf=asf_file, licence=licence)
     if copy is not None:
         console.print(f"copied the skeleton {asf_file} to {copy}: an AMC is read with the ASF beside it")
 
@@ -275,7 +275,7 @@ def reconstruct(
                      f"{inp.name}'s: the sensors' readings come from any rig, the poses from the database")
     if db.info.get("licence"):  # the poses are the database's takes': their terms hold for the output
         notes.append(f"the poses come from {db_dir}, built from takes under {db.info['licence']}: so is {out.name}")
-    _write(result, out, asf_file, overwrite, kind)
+    _write(result, out, asf_file, overwrite, kind, db.info.get("licence"))
     if as_json:
         import json
 

@@ -4,7 +4,9 @@
 rotations, root positions, skeleton; ``mocapkit.load`` reads it back), and beside it the arrays a user of
 numpy alone looks for: the global joint positions (F, J, 3) with their length unit, the joint names, the
 frame rate, the control signal it was reconstructed from, and a ``contents`` text naming every array with its
-shape and unit.
+shape and unit. The poses are the database's takes': where the project knows their terms (the Bandai Namco
+set's CC BY-NC 4.0, :func:`mocapkit.rigs.data_terms`, kept in the database's ``info["licence"]``) a ``licence``
+text says them, so a file shipped alone still carries them. A BVH or AMC has no field for it (the console says it).
 """
 
 from __future__ import annotations
@@ -16,7 +18,7 @@ import numpy as np
 from ..errors import SkeletonError
 from ..joints import unit_scale_cm
 
-__all__ = ["described_arrays", "save_reconstruction", "UNIT_NAMES"]
+__all__ = ["described_arrays", "kept_licence", "save_reconstruction", "UNIT_NAMES"]
 
 #: Centimetres per unit -> the unit's name, for ``length_unit``.
 UNIT_NAMES = {0.1: "mm", 1.0: "cm", 2.54: "in", 10.0: "dm", 30.48: "ft", 100.0: "m"}
@@ -29,7 +31,7 @@ rotations: float64 (F, J, 4), local joint rotations, unit quaternions (w, x, y, 
 root_positions: float64 (F, 3), the root joint's position, in length_unit.
 offsets: float64 (J, 3), each joint's offset from its parent at rest, in length_unit.
 cm_per_unit: centimetres per length unit (NaN when it cannot be told).
-method: the control signal: markers, accelerometers or ssg (gappy markers)."""
+method: the control signal: markers, accelerometers or ssg (gappy markers).{licence}"""
 
 
 def _unit(motion) -> tuple[float, str]:
@@ -43,23 +45,46 @@ def _unit(motion) -> tuple[float, str]:
     return cm, name
 
 
-def described_arrays(motion, method: str) -> dict:
+def described_arrays(motion, method: str, licence: str | None = None) -> dict:
     """The arrays beside the Motion in a reconstruction's npz (module docstring): ``positions`` (F, J, 3) float64
     global joint positions in the skeleton's length unit, ``length_unit`` (str), ``cm_per_unit`` (float),
-    ``method`` (str) and ``contents`` (str: every array with its shape and unit)."""
+    ``method`` (str), ``contents`` (str: every array with its shape and unit) and, when ``licence`` is given (the
+    terms of the database's takes), ``licence`` (str)."""
     cm, unit = _unit(motion)
     positions = motion.global_positions()
-    contents = _CONTENTS.format(method=method, unit=unit, frames=motion.num_frames)
-    return {"positions": positions, "length_unit": np.array(unit), "cm_per_unit": np.array(cm),
-            "method": np.array(method), "contents": np.array(contents)}
+    said = f"\nlicence: the terms of the database's takes the poses come from: {licence}" if licence else ""
+    contents = _CONTENTS.format(method=method, unit=unit, frames=motion.num_frames, licence=said)
+    out = {"positions": positions, "length_unit": np.array(unit), "cm_per_unit": np.array(cm),
+           "method": np.array(method), "contents": np.array(contents)}
+    if licence:
+        out["licence"] = np.array(str(licence))
+    return out
 
 
-def save_reconstruction(motion, path, method: str, *, asf=None) -> Path:
+def save_reconstruction(motion, path, method: str, *, asf=None, licence: str | None = None) -> Path:
     """Write a reconstruction to ``path`` (.bvh, .amc, .npz) atomically: an npz says what it holds
-    (:func:`described_arrays`), the other formats are written as :func:`mocapkit.io.save` writes them.
+    (:func:`described_arrays`, with ``licence``: the terms of the database's takes, ``db.info.get("licence")``),
+    the other formats are written as :func:`mocapkit.io.save` writes them.
     ``method``: "markers", "accelerometers" or "ssg"; ``asf``: an AMC's skeleton file."""
     from .. import io
 
     path = Path(path)
-    extra = {"extra": described_arrays(motion, method)} if path.suffix.lower() == ".npz" else {}
+    extra = {"extra": described_arrays(motion, method, licence)} if path.suffix.lower() == ".npz" else {}
     return io.save(motion, path, asf=asf, like=False, copy_asf=False, **extra)
+
+
+def kept_licence(path) -> str | None:
+    """The ``licence`` text an ``.npz`` at ``path`` keeps (:func:`described_arrays`: the terms of the database's
+    takes a reconstruction's poses come from), or None: no such member, not an npz, or not one text. Read after
+    the file was read as a take (whose reader bounds its members' sizes), for ``mocapkit info``."""
+    path = Path(path)
+    if path.suffix.lower() != ".npz":
+        return None
+    try:
+        with np.load(path, allow_pickle=False) as z:
+            if "licence" not in z.files:
+                return None
+            text = z["licence"]
+    except (OSError, ValueError):
+        return None
+    return str(text) if text.dtype.kind == "U" and text.ndim == 0 and str(text) else None
