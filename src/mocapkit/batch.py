@@ -163,7 +163,7 @@ def clean_file(
     """
     from . import io
     from .cleaning import decisions as dec
-    from .cleaning.pipeline import NOISE_DEG, STEPS, CleanResult, clean, clean_path, parse_steps
+    from .cleaning.pipeline import NOISE_DEG, STEPS, clean, clean_path, parse_steps
     from .io.outputs import check_outputs, file_facts, removed_on_failure
     from .io.takes import check_asf, load_motion, load_take
     from .markerset import MarkerSet
@@ -195,17 +195,11 @@ def clean_file(
     taken = None if reuse else file_facts(inp)  # the take as read: a later batch tells a replaced input by it
     m = motion if motion is not None else load_motion(inp, asf, purpose="clean", fps=amc_fps, unit=unit)
     io.check_writable(m, out)
-    if doc is not None:
-        dec.check_decisions(doc, decisions, m)  # decisions for another take: refused before any cleaning
-        if not reuse:  # ... and those made on a cleaning with other options (its values are not this one's)
-            dec.check_request(doc, decisions, clean_request(steps, threshold, drifts, context, models, noise_deg,
-                                                            amc_fps, unit))
-    if reuse:
-        res = CleanResult.load(record)
-        dec.check_record(m, res, record)  # the record against the take first, then the decisions against the record
-    else:
+    request = None if reuse else clean_request(steps, threshold, drifts, context, models, noise_deg, amc_fps, unit)
+
+    def cleaning():
         from .cleaning.take_context import unread_context
-        from .context import fit_context
+        from .context import fit_context, terms_note
 
         unread = unread_context(m, context) if "detect" in asked else ""  # a take detect does not judge reads none
         ctx, ctx_note = (fit_context(m, load_context(context, progress=progress, take=m)) if unread is None
@@ -213,41 +207,39 @@ def clean_file(
         try:
             res = clean(m, ctx, steps=steps or STEPS, threshold=threshold, progress=progress, drifts=drifts,
                         models=models, noise_deg=NOISE_DEG if noise_deg is None else noise_deg)
-            if ctx_note:
-                res = replace(res, notes=res.notes + (ctx_note,))
-            res = replace(res, params={**res.params, "request": clean_request(steps, threshold, drifts, context, models,
-                                                                              noise_deg, amc_fps, unit)})
+            notes = tuple(n for n in (ctx_note, terms_note(ctx)) if n)  # the context's terms: repairs come from it
+            return replace(res, notes=res.notes + notes, params={**res.params, "request": request})
         except (ValueError, TypeError) as exc:
             raise MocapError(f"{inp}: {exc}") from None
         except MocapError as exc:
             msg = str(exc)
             raise MocapError(msg if str(inp) in msg else f"{inp}: {msg}") from None
-    res = replace(res, frames_note=dec.frames_note(inp))  # the summary says how its frames relate to the file's
-    if out.suffix.lower() == ".amc":  # sizes, report and record say what the AMC holds (dec.as_written)
-        from .io.amc_writer import file_dofs
+
+    def prepared(res):
+        res = replace(res, frames_note=dec.frames_note(inp))  # the summary says how its frames relate to the file's
+        if out.suffix.lower() != ".amc":
+            return res
+        from .io.amc_writer import file_dofs  # sizes, report and record say what the AMC holds (dec.as_written)
         from .io.asfamc import amc_held_rotations
 
         dofs = file_dofs(m, asf, inp)  # the layout io.save writes below
         try:
-            res = dec.as_written(res, m, lambda take: amc_held_rotations(take, dofs))
+            return dec.as_written(res, m, lambda take: amc_held_rotations(take, dofs))
         except MocapFormatError:
             raise
         except MocapError as exc:  # a record without its cleaned samples
             raise MocapError(f"{record}: {exc}") from None
-    cleaned, chosen, decided = res.motion, None, None
-    if doc is not None:
-        from .cleaning.decide import decided_result
-        from .cleaning.decided import for_motion
 
-        reviewed = record if reuse else None
-        try:
-            chosen = dec.check_decisions(doc, decisions, m, res, record=reviewed, fresh=not reuse)
-            decided = decided_result(m, res, chosen, for_motion(doc, decisions, m, res, chosen, reviewed, take=inp.name))
-        except MocapFormatError:
-            raise
-        except MocapError as exc:
-            raise MocapError(f"{record}: {exc}") from None
-        cleaned = decided.motion
+    chosen = decided = None
+    if doc is not None:  # the checks and order of the library's clean_and_decide
+        from .cleaning.decide import decide_take
+
+        res, chosen, decided = decide_take(m, cleaning, doc, decisions, record=record if reuse else None,
+                                           request=request, take=inp.name, option=dec.RECORD_FLAG,
+                                           prepared=prepared, named=record)
+    else:
+        res = prepared(cleaning())
+    cleaned = res.motion if decided is None else decided.motion
     filled_rejected = decided is not None and bool((res.filled & ~decided.filled).any())
     io.check_complete(cleaned, out, "the cleaned take still has missing joints (NaN)",
                       "the decisions reject fill changes: accept them or write .npz" if filled_rejected

@@ -81,6 +81,7 @@ __all__ = [
     "resolve_context",
     "fit_context",
     "context_label",
+    "terms_note",
     "is_off",
 ]
 
@@ -570,6 +571,16 @@ def _other_up_axis(a, b) -> str:
         return ""
     name = lambda v: ("-" if v.min() < 0 else "") + "xyz"[int(np.argmax(np.abs(v)))]  # noqa: E731
     return f"another rest pose: it stands along {name(ua)}, the context along {name(ub)}"
+
+
+def terms_note(context) -> str:
+    """One line naming the terms of the takes ``context`` holds where the project knows them (a database's
+    ``info["licence"]``: :func:`mocapkit.rigs.data_terms`, e.g. the Bandai Namco set's CC BY-NC 4.0), since a
+    repair draws its motion from them; "" for a context of unknown terms, clips or None."""
+    info = getattr(context, "info", None)
+    if not isinstance(info, dict) or not info.get("licence"):
+        return ""
+    return f"{context_label(context)} holds takes under {info['licence']}: a repair draws its motion from them"
 
 
 def context_label(context) -> str:

@@ -667,3 +667,20 @@ def test_clean_batch_says_in_a_log_when_it_builds_the_context_before_the_first_t
     assert "cleaned " in out
     code, out, err = helpers.run("clean-batch", src, tmp_path / "out2", "--steps", "fill", "--context", ctx)
     assert code == 0 and "context" not in err, err  # opened from the cache: nothing built, nothing said
+
+
+def test_a_context_of_bandai_takes_says_their_licence_once(tmp_path, capsys):
+    """clean --context <a database of Bandai Namco takes>: a repair draws its motion from CC BY-NC takes, said in
+    one line and kept in the record's notes; a context of unknown terms says nothing of a licence."""
+    bandai = Path(__file__).resolve().parents[1] / "data" / "bandai_dance-short_normal_001_first60.bvh"
+    db = tmp_path / "db"
+    assert main(["db", "build", str(db), str(bandai), "--fps", "24", "--executor", "serial"]) == 0
+    capsys.readouterr()
+    assert main(["clean", str(bandai), "-o", str(tmp_path / "out.bvh"), "--steps", "detect,repair",
+                 "--context", str(db)]) == 0
+    said = [ln for ln in capsys.readouterr().out.splitlines() if "CC BY-NC 4.0" in ln]
+    assert len(said) == 1 and "a repair draws its motion from them" in said[0], said
+    assert sum("CC BY-NC 4.0" in n for n in CleanResult.load(tmp_path / "out.clean.npz").notes) == 1
+    assert main(["clean", str(bandai), "-o", str(tmp_path / "self.bvh"), "--steps", "detect,repair",
+                 "--context", "none"]) == 0
+    assert "CC BY-NC" not in capsys.readouterr().out

@@ -27,7 +27,7 @@ from . import decisions as dec
 from .decided import for_motion
 from .pipeline import CleanResult
 
-__all__ = ["GIVEN", "decisions_document", "decided_result", "clean_and_decide"]
+__all__ = ["GIVEN", "decisions_document", "decided_result", "clean_and_decide", "decide_take"]
 
 GIVEN = "the decisions given"  # what a refusal names decisions given as a dict (no file)
 
@@ -79,6 +79,23 @@ def clean_and_decide(original, cleaning: Callable[[], CleanResult], *, decisions
     Returns ``(cleaning, decided)``: the whole cleaning (what its record keeps) and :func:`decided_result`.
     """
     path, doc = decisions_document(decisions)
+    res, _, decided = decide_take(original, cleaning, doc, path, record=record, request=request, take=take,
+                                  option=option)
+    return res, decided
+
+
+def decide_take(original, cleaning: Callable[[], CleanResult], doc: dict, path, *, record=None,
+                request: dict | None = None, take: str = "", option: str = dec.RECORD_KEYWORD,
+                prepared: Callable[[CleanResult], CleanResult] | None = None, named=None
+                ) -> tuple[CleanResult, dict, CleanResult]:
+    """The checks and steps of :func:`clean_and_decide` on a decisions document ``doc`` already read from ``path``
+    (:func:`decisions_document`), which :func:`mocapkit.batch.clean_file` makes for the CLI too.
+
+    ``prepared``: applied to the cleaning (new or read back) before the decisions are checked against it
+    (``clean_file``'s frames note and what an AMC output holds); ``named``: what a refusal of a record without
+    its cleaned samples names (default ``record``). Other arguments as :func:`clean_and_decide`'s.
+    Returns ``(cleaning, chosen, decided)``: ``chosen`` the checked choices
+    (:func:`~mocapkit.cleaning.decisions.check_decisions`)."""
     dec.check_decisions(doc, path, original)  # decisions for another take: refused before any cleaning
     if record is not None:
         res = CleanResult.load(record)
@@ -87,11 +104,13 @@ def clean_and_decide(original, cleaning: Callable[[], CleanResult], *, decisions
         dec.check_request(doc, path, request, option)  # a cleaning with other options cannot be the one reviewed
         res = cleaning()
         res = dataclasses.replace(res, params={**res.params, "request": request})
+    if prepared is not None:
+        res = prepared(res)
     try:
         chosen = dec.check_decisions(doc, path, original, res, record=record, fresh=record is None, option=option)
         said = for_motion(doc, path, original, res, chosen, record, take=take)
-        return res, decided_result(original, res, chosen, said)
+        return res, chosen, decided_result(original, res, chosen, said)
     except MocapFormatError:
         raise
     except MocapError as exc:  # a record without its cleaned samples
-        raise MocapError(f"{record}: {exc}") from None
+        raise MocapError(f"{record if named is None else named}: {exc}") from None
