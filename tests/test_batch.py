@@ -839,3 +839,26 @@ def test_no_context_is_spoken_of_when_no_step_reads_one(tmp_path):
     assert not any("context" in n for n in res.notes), res.notes
     api = mocapkit.clean(take, steps="fill,denoise")
     assert not any("context" in n for n in api.notes), api.notes
+
+
+def test_a_batch_report_names_the_record_where_it_is_placed(tmp_path, walk_in):
+    """A batch cleans each take in a staging folder and moves its files into place: the report's command names the
+    record at its place, not at the staging folder (gone once the take is placed)."""
+    out = tmp_path / "out"
+    s = clean_batch(walk_in, out, steps=["fill", "detect"], executor="serial", progress=False, report=True)
+    assert s.count("done") == 1, s.rows
+    page = next(out.glob("*.html")).read_text()
+    assert ".part" not in page
+    assert str(out / "walk.clean.npz") in page
+
+
+def test_a_batch_report_of_a_marker_capture_names_the_record_where_it_is_placed(tmp_path):
+    src = tmp_path / "in"
+    src.mkdir()
+    shutil.copy(samples.path("Eb015pr.c3d"), src / "Eb015pr.c3d")
+    out = tmp_path / "out"
+    s = clean_batch(src, out, executor="serial", progress=False, report=True)
+    assert s.count("done") == 1, s.rows
+    page = next(out.glob("*.html")).read_text()
+    assert ".part" not in page
+    assert str(out / "Eb015pr.clean.npz") in page

@@ -129,6 +129,7 @@ def clean_file(
     noise_deg: float | None = None,
     max_gap_s: float | None = None,
     max_error_mm: float | None = None,
+    placed=None,
 ):
     """Clean the take at ``inp`` and write ``out``, its ``.clean.npz`` record and optional reports.
 
@@ -151,7 +152,9 @@ def clean_file(
     shipped names, :func:`mocapkit.cleaning.deep.load_model`) instead of the shipped models chosen for
     the take's rig. ``skeleton_copy``: ``(destination, source)`` of the ASF an AMC ``out`` is read with
     (:func:`mocapkit.io.takes.asf_for_output`), written first, with the outputs. ``noise_deg``: the
-    noisy-cell level (:func:`mocapkit.cleaning.pipeline.clean`; None: its default).
+    noisy-cell level (:func:`mocapkit.cleaning.pipeline.clean`; None: its default). ``placed``: where ``out``
+    is moved once written (a batch writes each take into a staging folder first): the report names the record
+    beside it, where the user will find it.
 
     Every output is checked against every input
     (:func:`mocapkit.io.outputs.check_outputs`) before anything is read; the
@@ -174,7 +177,8 @@ def clean_file(
         ("steps " + ",".join(asked), asked not in (STEPS, ("detect",))), ("drifts", drifts),
         ("models", bool(models)), ("noise_deg", noise_deg is not None)) if given]
     as_markers = dict(report=report, png=png, overwrite=overwrite, unit=unit, max_gap_s=max_gap_s,
-                      max_error_mm=max_error_mm, decisions=decisions, record=record, review=asked == ("detect",))
+                      max_error_mm=max_error_mm, decisions=decisions, record=record, review=asked == ("detect",),
+                      placed=placed)
     if isinstance(motion, MarkerSet) or (motion is None and inp.suffix.lower() in (".c3d", ".trc")):
         refuse_marker_options(inp, not_for_markers)
         return clean_marker_file(inp, out, markers=motion, **as_markers)
@@ -254,7 +258,8 @@ def clean_file(
             from .cleaning.decided import apply_command
             from .report.html import write_clean_report  # lazy: the viewer is optional
 
-            write_clean_report(report, m, res, inp=inp, output=out.name, record=record, decisions=chosen,
+            write_clean_report(report, m, res, inp=inp, output=out.name, decisions=chosen,
+                               record=record if reuse or placed is None else clean_path(placed),
                                applied=Path(decisions).name if doc else "",
                                command=apply_command(inp, asf=asf, amc_fps=amc_fps, unit=unit))
         if png is not None:
@@ -507,7 +512,7 @@ def _clean_job(job: dict) -> dict:
                             png=staged[Path(job["png"])] if job.get("png") else None, asf=job.get("asf"),
                             drifts=bool(job.get("drifts")), models=job.get("models"), amc_fps=job.get("amc_fps"),
                             unit=job.get("unit"), noise_deg=job.get("noise_deg"), max_gap_s=job.get("max_gap_s"),
-                            max_error_mm=job.get("max_error_mm"))
+                            max_error_mm=job.get("max_error_mm"), placed=out)
         kept = keep_aside(finals)
         if finals[-1] in kept:  # the old record goes first: the take reads as incomplete while its files are replaced
             os.unlink(finals[-1])

@@ -43,7 +43,8 @@ def refuse_marker_options(inp, names: Sequence[str]) -> None:
 
 def clean_marker_file(inp, out, *, report=None, png=None, overwrite: bool = False, markers=None, steps=None,
                       unit: str | None = None, max_gap_s: float | None = None, max_error_mm: float | None = None,
-                      decisions=None, record=None, review: bool = False, keep_modelled: bool = False):
+                      decisions=None, record=None, review: bool = False, keep_modelled: bool = False,
+                      placed=None):
     """Clean the marker capture at ``inp`` (.c3d, .trc, marker .npz) into ``out`` (.c3d, .trc or .npz).
 
     :func:`mocapkit.cleaning.markers.clean_markers`, then the reports (HTML
@@ -63,6 +64,7 @@ def clean_marker_file(inp, out, *, report=None, png=None, overwrite: bool = Fals
     the whole cleaning (rebuilt from ``record`` when one is reused). ``keep_modelled``: a .trc ``out`` keeps
     the C3D's modelled quantities (:func:`mocapkit.io.save_markers`); refused where it means nothing
     (:func:`mocapkit.io.check_keep_modelled`: ``out`` not a .trc, ``inp`` not a .c3d).
+    ``placed``: where ``out`` is moved once written (a batch's staging folder): the report names the record there.
     """
     from .cleaning import decisions as dec
     from .cleaning.decided import apply_command
@@ -103,7 +105,8 @@ def clean_marker_file(inp, out, *, report=None, png=None, overwrite: bool = Fals
             write_marker_report(report, given, title=f"{inp.name}: cleaned" + (f" ({what})" if what else ""),
                                 review=mdec.review(ms, res.markers, res.fixes, take=inp.name, output=out.name,
                                                    decisions=chosen, first_frame=file_first_frame(inp, ms),
-                                                   request=request, record=record,
+                                                   request=request,
+                                                   record=record if reuse or placed is None else clean_path(placed),
                                                    command=apply_command(inp, unit=unit)),
                                 review_mode=review)
         if png is not None:
