@@ -73,8 +73,9 @@ estimate of ``s`` from second differences takes a fast motion's own acceleration
 Bandai Namco rig's feet, toes and pelvis), which makes smoothing look better than it is; the margin keeps such
 channels as they came. Chosen with :data:`KEEP_NOISE` on the validation clips (Bandai Namco styles "tired" and
 "childish", 22 takes; HDM05 actor "tr", 16 clips; 2 draws each) at 0.1, 0.5 and 0.9 of Mall's noise: the Bandai
-EBF (retrained) 1.25 -> 1.00 deg at 0.1 (input 0.84), HDM05 0.76 -> 0.73, both unchanged at 0.5 and 0.9 (margins 0 to
-0.5 alone, or a gate of 0.4, HDM05 lost up to 2 % at 0.5 or 0.9)."""
+EBF 1.13 -> 0.95 deg at 0.1 (input 0.84; joints worse than their input 16 -> 8 of 21), the Acclaim EBF 0.76 -> 0.73,
+both unchanged at 0.5 and 0.9 (a margin of 0 to 0.5 without the gate, or a gate of 0.4, cost HDM05 up to 2 % at 0.5
+or 0.9)."""
 
 KEEP_NOISE = 0.3
 """The identity is a candidate only where the block's noise estimate ``s`` is below this share of the channel's
