@@ -27,6 +27,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import shutil
 import sys
 import time
@@ -37,7 +38,7 @@ import torch
 from mocapkit.cleaning.deep.provenance import BANDAI_LICENCE, rig_name
 
 ROOT = Path(__file__).resolve().parents[1]
-DATA = ROOT.parent / "shared" / "data"
+DATA = Path(os.environ.get("MOCAPKIT_SHARED_DATA", ROOT.parent / "shared" / "data"))  # $MOCAPKIT_SHARED_DATA: a checkout elsewhere
 TEST_HOLDOUT = ("HDM_mm_", "12_from_examples", "charleston2", "11_01")
 VALIDATION = ("HDM_tr_",)
 #: Bandai Namco styles held out, as (dataset, style): never trained on, never cut.
