@@ -178,7 +178,8 @@ def write_amc(motion: Motion, path, precision: int = 6, like=None, asf=None) -> 
     and a changed cell rewrites only its bone's numbers, on the triple nearest
     the file's numbers of that cell, or for a rotation turned 90 degrees or more
     from the file's, on the branch of the bone's nearest unchanged frames (never
-    that of the broken value it replaces) (:func:`dof_values`); otherwise the file is written whole, ``:FULLY-SPECIFIED`` and
+    that of the broken value it replaces) (:func:`dof_values`); otherwise the
+    file is written whole, ``:FULLY-SPECIFIED`` and
     ``:DEGREES``, frames numbered from 1, every bone with dofs on its own line,
     its angles Euler-filtered from frame to frame (:func:`dof_values`), and where
     ``like`` is an .npz keeping the numbers of the AMC it was made from

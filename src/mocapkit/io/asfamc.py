@@ -46,8 +46,9 @@ from ..errors import MocapFormatError, SkeletonError
 from ..motion import MAX_JOINTS, Motion, Skeleton, check_fps
 from .sources import remember
 
-__all__ = ["read_asf", "read_amc", "read_amc_numbers", "amc_table_arrays", "asf_dofs", "amc_dofs", "amc_held_rotations", "amc_header", "find_asf", "pick_asf",
-           "fps_from_name", "amc_rate", "stated_fps", "rate_comment", "with_rate", "DEFAULT_FPS"]
+__all__ = ["read_asf", "read_amc", "read_amc_numbers", "amc_table_arrays", "asf_dofs", "amc_dofs", "amc_held_rotations",
+           "amc_header", "find_asf", "pick_asf", "fps_from_name", "amc_rate", "stated_fps", "rate_comment", "with_rate",
+           "DEFAULT_FPS"]
 
 DEFAULT_FPS = 120.0
 """Frame rate of an AMC that states none, its name gives none and no ``fps=`` is given: the rate the CMU and

@@ -2,10 +2,11 @@
 
 A rotation has many Euler triples (whole turns, two branches of the middle angle). Where the file a take came
 from is known (:func:`mocapkit.io.bvh.write_bvh`'s and :func:`mocapkit.io.amc_writer.write_amc`'s ``like``: the
-BVH or AMC read, or an .npz keeping its numbers, :mod:`mocapkit.io.kept_channels`) a cell whose rotation did not change is the file's own numbers, and a changed
-cell whose rotation stays within :data:`NEAR_SOURCE_DEG` of the file's is the triple nearest the file's numbers of
-that cell (:func:`mocapkit.rotations.nearest_euler`), so noise, a denoised or a slightly corrected joint stays on
-the file's curve; the others follow their neighbours (:func:`mocapkit.rotations.continuous_euler`).
+BVH or AMC read, or an .npz keeping its numbers, :mod:`mocapkit.io.kept_channels`) a cell whose rotation did not
+change is the file's own numbers, and a changed cell whose rotation stays within :data:`NEAR_SOURCE_DEG` of the
+file's is the triple nearest the file's numbers of that cell (:func:`mocapkit.rotations.nearest_euler`), so noise,
+a denoised or a slightly corrected joint stays on the file's curve; the others follow their neighbours
+(:func:`mocapkit.rotations.continuous_euler`).
 """
 
 from __future__ import annotations

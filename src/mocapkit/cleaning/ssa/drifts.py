@@ -262,7 +262,8 @@ def ordinary_level(c: np.ndarray, a: int, b: int) -> float:
 
 
 def digressed_span(e: np.ndarray, return_ratio: float, ordinary: float) -> tuple[int, int]:
-    """Half-open ``(lo, hi)``: the part of one excursion ``e`` (1-D evidence) from the foot of its rise to the foot of its fall.
+    """Half-open ``(lo, hi)``: the part of one excursion ``e`` (1-D evidence) from the foot of its rise to that of
+    its fall.
 
     A run of cells above ``extent`` may begin (or end) with a stretch at the joint's ordinary level (a performer's
     style, or the capture noise, keeps some joints above ``extent`` for seconds): a drift that starts there joins
