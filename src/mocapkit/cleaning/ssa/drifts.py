@@ -271,9 +271,9 @@ def digressed_span(e: np.ndarray, return_ratio: float, ordinary: float) -> tuple
     frames, where the joint has not yet left its path, would be repaired too. So, on each side of the peak, the
     excursion is trimmed at its deepest valley there (the foot, kept) when the joint comes back there to within
     ``return_ratio`` of the peak's evidence (the rule :func:`excursions` cuts by) and the stretch beyond the foot
-    never rises above ``ordinary`` (:func:`ordinary_level`, the caller's ``z_min`` at most). Otherwise that side is
-    kept whole: an excursion that rises steadily from its first cell is not trimmed, nor is a drift's tail that
-    dips and rises again above what the joint shows elsewhere.
+    never rises above ``ordinary`` (:func:`ordinary_level`; the caller keeps it below ``z_min``). Otherwise that
+    side is kept whole: an excursion that rises steadily from its first cell is not trimmed, nor is a drift's tail
+    that dips and rises again above what the joint shows elsewhere.
     """
     e = np.asarray(e, dtype=np.float64)
     if e.ndim != 1 or len(e) == 0:
@@ -401,8 +401,9 @@ def smooth_drift_flags(
                 back = return_ratio * e[m]
                 if (A + a == 0 and e[: m + 1].min() > back) or (A + b == F and e[m:].min() > back):
                     continue  # never seen leaving (or coming back): a pose held from before (or after) the take
-                # the joint's own path before it rises or after it falls is left as it is
-                lo, hi = digressed_span(e, return_ratio, min(z_min, ordinary_level(consistency[:, j], A + a, A + b)))
+                # the joint's own path before it rises or after it falls is left as it is (never a cell at z_min)
+                level = min(np.nextafter(z_min, -np.inf), ordinary_level(consistency[:, j], A + a, A + b))
+                lo, hi = digressed_span(e, return_ratio, level)
                 a, b = a + lo, a + hi
             out[A + a : A + b, j] = True
     return out
