@@ -8,8 +8,7 @@ import pytest
 from mocapkit import corrupt
 from mocapkit import rotations as R
 from mocapkit.cleaning import ssa
-from mocapkit.cleaning.ssa.drifts import (body_agreement, chain_level, digressed_span, excursions, ordinary_level,
-                                         other_joints_level, smooth_drift_flags)
+from mocapkit.cleaning.ssa.drifts import body_agreement, chain_level, excursions, other_joints_level, smooth_drift_flags
 
 
 def slow_agreement(d, analysed):
@@ -305,56 +304,6 @@ def test_smooth_drift_flags_judge_each_excursion_of_a_run_alone():
     flags = smooth_drift_flags(jumps, agreement, consistency, fps)
     assert np.flatnonzero(flags[:, 0]).tolist() == list(range(30, 71))
     assert np.flatnonzero(smooth_drift_flags(jumps, agreement, consistency, fps, return_ratio=1.0)[:, 0]).tolist() == list(range(30, 112))
-
-
-def style_then_drift(F=200, fps=100.0, J=3):
-    """Joint 0 held off its neighbours by a style (z 1.2-1.8) for most of the take, at its ordinary level (z about
-    1.1, above the run's extent) on frames 60-79, then a drift rising from frame 80 (z 0.9) to z 6.9 and back by 140."""
-    jumps = np.zeros((F, J), dtype=bool)
-    agreement = np.full((F, J), np.radians(1.0))
-    c = np.full((F, J), 0.5)
-    f = np.arange(F)
-    style = 1.2 + 0.6 * np.sin(np.pi * f / 25) ** 2
-    c[:40, 0], c[150:, 0] = style[:40], style[150:]
-    c[60:80, 0] = 1.1 + 0.1 * np.sin(np.pi * f[60:80] / 5)
-    c[80:141, 0] = 0.9 + 6.0 * np.sin(np.pi * (f[80:141] - 80) / 60) ** 2
-    return jumps, agreement, c, fps
-
-
-def test_smooth_drift_flags_leave_the_frames_before_the_joint_digresses():
-    """A drift that rises out of the joint's ordinary level joins it in one run; only the rise is flagged."""
-    jumps, agreement, c, fps = style_then_drift()
-    assert (c[60:141, 0] > 0.75).all()  # one run, from the ordinary stretch through the drift
-    flags = smooth_drift_flags(jumps, agreement, c, fps, extent=0.75)
-    assert np.flatnonzero(flags[:, 0]).tolist() == list(range(80, 141))  # from the foot of the rise, down to 0.9
-    assert not flags[:, 1:].any()
-    whole = smooth_drift_flags(jumps, agreement, c, fps, extent=0.75, return_ratio=1.0)
-    assert np.flatnonzero(whole[:, 0]).tolist() == list(range(60, 141))  # return_ratio 1 judges whole runs as they are
-    # the joint at that level nowhere else in the take: the stretch before the foot is no ordinary level, kept
-    lone = c.copy()
-    lone[:40, 0] = lone[150:, 0] = 0.5
-    kept = smooth_drift_flags(jumps, agreement, lone, fps, extent=0.75)
-    assert np.flatnonzero(kept[:, 0]).tolist() == list(range(60, 141))
-
-
-def test_digressed_span_trims_a_side_only_back_near_the_joints_neighbours_and_no_higher_than_its_ordinary_level():
-    rise = 0.9 + 6.0 * np.sin(np.linspace(0, np.pi, 41)) ** 2
-    e = np.concatenate([[1.1, 1.2, 1.0], rise, [1.3, 1.2]])  # feet at 3 (0.9) and 43 (0.9)
-    assert digressed_span(e, 0.3, 1.5) == (3, 44)
-    assert digressed_span(e, 0.3, 1.25) == (3, 46)  # the stretch after the fall reaches 1.3: kept
-    assert digressed_span(e, 0.1, 1.5) == (0, 46)  # 0.9 > 0.1 * 6.9: the joint never came back near, kept whole
-    assert digressed_span(rise, 0.3, 1.5) == (0, 41)  # rising from its first cell: nothing to trim
-    dip = np.concatenate([rise[:30], [1.0, 1.7, 1.1, 1.0]])  # a drift's tail that dips and rises again
-    assert digressed_span(dip, 0.3, 0.8) == (0, 34)
-    assert digressed_span(np.array([2.0]), 0.3, 1.0) == (0, 1)
-    with pytest.raises(ValueError, match="1-D"):
-        digressed_span(np.zeros((2, 2)), 0.3, 1.0)
-
-
-def test_ordinary_level_is_the_joints_evidence_outside_the_excursion():
-    c = np.concatenate([np.arange(10.0), [50.0] * 5, [np.nan], np.arange(10.0)])
-    assert ordinary_level(c, 10, 15) == pytest.approx(np.quantile(np.concatenate([np.arange(10.0)] * 2), 0.9))
-    assert ordinary_level(c, 0, len(c)) == -np.inf
 
 
 def slow_offset_change(r, scale):

@@ -37,11 +37,7 @@ that is no drift of any one of them; a style is often two-sided, a drift
 one joint's; a style bends a chain (a head bowed with the neck, an arm
 raised with the elbow opened), while a drift turns one joint and leaves
 its children's local rotations on their path. Nor is a digression of a
-style next to a drift part of the drift: each excursion is judged alone. Nor
-are the frames of an excursion before the joint rises out of its ordinary
-level, or after it has fallen back to it (:func:`digressed_span`): a drift
-that starts where a style holds the joint above ``extent`` is flagged from
-the foot of its rise, and the frames before it are left as they are.
+style next to a drift part of the drift: each excursion is judged alone.
 
 An excursion cut by the take's first or last frame must show the part the
 take cuts: between that edge and its peak the joint comes back to within
@@ -80,8 +76,8 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["ORDINARY_QUANTILE", "body_agreement", "chain_level", "digressed_span", "excursions", "not_looked_for",
-           "offset_change", "ordinary_level", "other_joints_level", "smooth_drift_flags"]
+__all__ = ["body_agreement", "chain_level", "excursions", "not_looked_for", "offset_change", "other_joints_level",
+           "smooth_drift_flags"]
 
 
 def not_looked_for(has_context: bool, default: bool) -> str:
@@ -241,57 +237,6 @@ def excursions(c: np.ndarray, return_ratio: float = 0.3) -> list[tuple[int, int]
     return sorted(out)
 
 
-ORDINARY_QUANTILE = 0.9
-"""The quantile of a joint's evidence over the take's frames outside an excursion read as the joint's ordinary level
-(:func:`ordinary_level`): the level it reaches without a drift at all but a tenth of those frames."""
-
-
-def ordinary_level(c: np.ndarray, a: int, b: int) -> float:
-    """The level a joint's evidence ``c`` (1-D over the take's frames, NaN: none) reaches outside frames ``[a, b)``.
-
-    The :data:`ORDINARY_QUANTILE` quantile of the finite values outside the
-    excursion: a joint whose style the context lacks, or a noisy one, sits
-    above ``extent`` for seconds at a time, and a stretch of an excursion no
-    higher than that is the joint on its own path. ``-inf`` where no other
-    frame has a value (nothing is then read as ordinary).
-    """
-    c = np.asarray(c, dtype=np.float64)
-    rest = np.concatenate([c[:a], c[b:]])
-    rest = rest[np.isfinite(rest)]
-    return float(np.quantile(rest, ORDINARY_QUANTILE)) if len(rest) else -np.inf
-
-
-def digressed_span(e: np.ndarray, return_ratio: float, ordinary: float) -> tuple[int, int]:
-    """Half-open ``(lo, hi)``: the part of one excursion ``e`` (1-D evidence) from the foot of its rise to that of
-    its fall.
-
-    A run of cells above ``extent`` may begin (or end) with a stretch at the joint's ordinary level (a performer's
-    style, or the capture noise, keeps some joints above ``extent`` for seconds): a drift that starts there joins
-    that stretch into one run with no valley deep enough for :func:`excursions` to cut. Flagged whole, those
-    frames, where the joint has not yet left its path, would be repaired too. So, on each side of the peak, the
-    excursion is trimmed at its deepest valley there (the foot, kept) when the joint comes back there to within
-    ``return_ratio`` of the peak's evidence (the rule :func:`excursions` cuts by) and the stretch beyond the foot
-    never rises above ``ordinary`` (:func:`ordinary_level`; the caller keeps it below ``z_min``). Otherwise that
-    side is kept whole: an excursion that rises steadily from its first cell is not trimmed, nor is a drift's tail
-    that dips and rises again above what the joint shows elsewhere.
-    """
-    e = np.asarray(e, dtype=np.float64)
-    if e.ndim != 1 or len(e) == 0:
-        raise ValueError(f"need a non-empty 1-D excursion, got shape {e.shape}")
-    m = int(np.argmax(e))
-    back = return_ratio * e[m]
-    lo, hi = 0, len(e)
-    if m > 0:
-        v = m - 1 - int(np.argmin(e[m - 1 :: -1]))  # the deepest before the peak, nearest it
-        if v > 0 and e[v] <= back and e[:v].max() <= ordinary:
-            lo = v
-    if m < len(e) - 1:
-        v = m + 1 + int(np.argmin(e[m + 1 :]))  # the deepest after the peak, nearest it
-        if v < len(e) - 1 and e[v] <= back and e[v + 1 :].max() <= ordinary:
-            hi = v + 1
-    return lo, hi
-
-
 def smooth_drift_flags(
     jumps: np.ndarray,
     agreement: np.ndarray,
@@ -330,10 +275,8 @@ def smooth_drift_flags(
     (:func:`chain_level` over the same joints; ``parents`` the skeleton's
     parent indices, None: not asked) below ``chain_ratio * z_min``, and, if it touches the first (last) frame,
     its consistency comes down to ``return_ratio`` times its peak's between
-    that frame and the peak (module docstring). A flagged excursion is
-    trimmed to the part from the foot of its rise to the foot of its fall
-    (:func:`digressed_span`, against the joint's :func:`ordinary_level`).
-    ``return_ratio`` 1 judges whole runs as they are.
+    that frame and the peak (module docstring). ``return_ratio`` 1 judges whole runs as they
+    are.
     """
     from scipy import ndimage
 
@@ -401,9 +344,5 @@ def smooth_drift_flags(
                 back = return_ratio * e[m]
                 if (A + a == 0 and e[: m + 1].min() > back) or (A + b == F and e[m:].min() > back):
                     continue  # never seen leaving (or coming back): a pose held from before (or after) the take
-                # the joint's own path before it rises or after it falls is left as it is (never a cell at z_min)
-                level = min(np.nextafter(z_min, -np.inf), ordinary_level(consistency[:, j], A + a, A + b))
-                lo, hi = digressed_span(e, return_ratio, level)
-                a, b = a + lo, a + hi
             out[A + a : A + b, j] = True
     return out
