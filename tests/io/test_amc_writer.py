@@ -254,3 +254,57 @@ def test_a_take_read_at_a_given_rate_written_like_its_file_keeps_every_frame_and
     back120 = tmp_path / "back120.amc"
     io.save(dataclasses.replace(read_amc(out, asf), fps=120.0), back120, like=out)
     assert back120.read_bytes() == src  # the stated rate, no longer needed, goes
+
+
+def _bone_numbers(text, bone):
+    """Per frame the numbers of ``bone``'s line in an AMC's text."""
+    return np.array([[float(v) for v in ln.split()[1:]] for ln in text.splitlines() if ln.startswith(bone + " ")])
+
+
+def test_a_bone_changed_in_every_frame_stays_on_each_frames_file_branch(tmp_path):
+    """A denoised bone (every frame turned a little) is written on the branch the file has at each frame, also where
+    the file's own numbers change branch mid-take (an angle wrapped past 180), not chained from its first frame."""
+    amc, asf, m = _sample(SAMPLES[0])
+    lines = amc.read_text().splitlines(keepends=True)
+    seen, out_lines = 0, []
+    for ln in lines:
+        if ln.startswith("lfemur "):
+            seen += 1
+            if seen > 100:  # the same rotations, from frame 101 on every lfemur angle 360 degrees up
+                ln = "lfemur " + " ".join(f"{float(v) + 360.0:.6f}" for v in ln.split()[1:]) + "\n"
+        out_lines.append(ln)
+    src = tmp_path / "wrapped.amc"
+    src.write_text("".join(out_lines))
+    m = read_amc(src, asf)
+    j = m.skeleton.joint_names.index("lfemur")
+    rot = np.array(m.rotations)
+    wobble = np.radians(1.0) * np.sin(np.arange(m.num_frames) / 5.0)
+    rot[:, j] = R.quaternion_multiply(rot[:, j], np.stack([np.cos(wobble / 2), np.sin(wobble / 2), 0 * wobble,
+                                                           0 * wobble], axis=1))
+    edited = dataclasses.replace(m, rotations=rot)
+    out = tmp_path / "out.amc"
+    io.save(edited, out, like=src)
+    new, old = _bone_numbers(out.read_text(), "lfemur"), _bone_numbers(src.read_text(), "lfemur")
+    assert new.shape == old.shape
+    assert np.abs(new - old).max() < 5.0  # each frame on the file's branch of that frame
+    _assert_same_motion(edited, read_amc(out, asf))
+
+
+@pytest.mark.parametrize("name", SAMPLES)
+def test_an_amc_written_from_an_npz_made_from_an_amc_keeps_the_files_numbers(name, tmp_path):
+    """``convert take.amc take.npz`` then ``fill take.npz -o out.amc``: every untouched cell is the file's own number
+    (its branch, no rounding), and a changed cell is the triple nearest the file's numbers of that cell."""
+    amc, asf, m = _sample(name)
+    z = io.save(m, tmp_path / "take.npz", like=amc)
+    back = mocapkit.load(z)
+    edited = _turned(back, 10, "rfemur", 3.0)
+    out = io.save(edited, tmp_path / "out.amc", like=z, copy_asf=False)
+    src_text, out_text = amc.read_text(encoding="latin-1"), out.read_text(encoding="latin-1")
+    for bone in [n for n, d in zip(m.skeleton.joint_names, amc_dofs(m.skeleton)) if d]:
+        a, b = _bone_numbers(src_text, bone), _bone_numbers(out_text, bone)
+        assert a.shape == b.shape, bone
+        rows = np.arange(len(a)) != 10 if bone == "rfemur" else np.ones(len(a), dtype=bool)
+        assert np.array_equal(a[rows], b[rows]), bone  # the same numbers, not only the same rotations
+    fem_a, fem_b = _bone_numbers(src_text, "rfemur")[10], _bone_numbers(out_text, "rfemur")[10]
+    assert not np.array_equal(fem_a, fem_b) and np.abs(fem_a - fem_b).max() < 5.0
+    _assert_same_motion(edited, read_amc(out, asf))

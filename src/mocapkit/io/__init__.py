@@ -312,10 +312,15 @@ def save(motion, path, like=None, asf=None, overwrite: bool = True, copy_asf: bo
         from .kept_channels import kept_arrays
         from .npz import write_npz
 
-        # a BVH's own numbers (or those an .npz made from one keeps), for a BVH written from this .npz later; none
-        # where that file's text is gone (removed or changed since it was read): the .npz is the take all the same
+        # a BVH's or AMC's own numbers (or those an .npz made from one keeps), for a file written from this .npz
+        # later; none where that file's text is gone (removed or changed since it was read): the .npz is the take
+        # all the same
         try:
             kept = kept_arrays(*source_values(motion, like)) if like is not None else {}
+            if not kept and like is not None:  # an AMC's own numbers (or those an .npz made from one keeps)
+                from .amc_writer import source_numbers
+
+                kept = kept_arrays(*source_numbers(motion, like, asf))
         except MocapFormatError:
             kept = {}
         write_npz(motion, path, **({"extra": {**kept, **kwargs.pop("extra", {})}} if kept else {}), **kwargs)

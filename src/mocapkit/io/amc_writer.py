@@ -20,9 +20,15 @@ nearest the neighbouring frames; with 1 or 2 dofs only whole turns).
 Written like the file the take was read from (``like``): every frame whose
 cells did not change is that file's text, byte for byte, and a changed cell
 rewrites only its bone's numbers on that line (a root that only moved keeps
-its angles' text, one that only turned its position's), nearest the file's
+its angles' text, one that only turned its position's), on the triple nearest
+the file's numbers of that cell where its rotation moved less than
+:data:`~mocapkit.io.euler_branches.NEAR_SOURCE_DEG`, else nearest the file's
 numbers at the bone's nearest unchanged frames, so an untouched take comes
-back the same file, as :func:`mocapkit.io.bvh.write_bvh` does for BVH.
+back the same file, as :func:`mocapkit.io.bvh.write_bvh` does for BVH. An
+.npz made from an AMC keeps the file's numbers (:func:`source_numbers`,
+:mod:`mocapkit.io.kept_channels`), and an AMC written from it chooses each
+cell's numbers the same way, writing an unchanged cell's in their shortest
+exact form.
 
 An AMC has no field for its frame rate: it is read at 120 fps unless an HDM05
 name or mocapkit's comment line says otherwise (:func:`mocapkit.io.asfamc.amc_rate`).
@@ -43,9 +49,11 @@ import numpy as np
 from .. import rotations as R
 from ..errors import MocapFormatError
 from ..motion import Motion
-from .asfamc import amc_dofs, with_rate
+from .asfamc import amc_dofs, amc_table_arrays, with_rate
+from .euler_branches import source_branches
+from .kept_channels import kept_values
 
-__all__ = ["write_amc", "check_amc_writable", "dof_values", "file_dofs"]
+__all__ = ["write_amc", "check_amc_writable", "dof_values", "file_dofs", "source_numbers"]
 
 _FRAME_LINE = re.compile(r"^\s*\d+\s*$")
 
@@ -92,11 +100,17 @@ def dof_values(motion: Motion, dofs, radians: bool, source: "_LikeSource | None"
     ``C^-1 q C`` nearest its neighbouring frames
     (:func:`mocapkit.rotations.continuous_euler`: whole turns, and for 3 dofs
     the other branch of the middle angle): with ``source`` (the AMC the take
-    was read from), a changed cell is written on the branch of its nearest
-    unchanged frame of the same bone (the file's numbers), chained through the
-    changed frames between, and a bone changed in every frame starts from the
-    file's first frame; without it each bone starts from the plain conversion
-    and every frame continues from the one before.
+    was read from, or the numbers an .npz made from one keeps: ``numbers``
+    (F, columns) in these units, ``turned`` (F, J) bool), an unchanged cell is
+    the file's numbers, a changed cell whose rotation stays within
+    :data:`~mocapkit.io.euler_branches.NEAR_SOURCE_DEG` of the file's the
+    triple nearest the file's numbers of that cell, and any other changed cell
+    (a repaired flip) the branch of its nearest placed frame of the same bone,
+    chained through the changed frames between (a bone with none starts from
+    the file's first frame), as :func:`mocapkit.io.bvh.write_bvh` writes
+    (:func:`mocapkit.io.euler_branches.source_branches`); without it each
+    bone starts from the plain conversion and every frame continues from the
+    one before.
     """
     sk = motion.skeleton
     out: list[np.ndarray | None] = []
@@ -115,8 +129,7 @@ def dof_values(motion: Motion, dofs, radians: bool, source: "_LikeSource | None"
             if source is not None:
                 file_cols = [col0 + i for i, x in enumerate(d) if x[0] == "r"]
                 given = source.numbers[:, file_cols]
-                fixed = ~source.turned[:, j]
-                ang = np.where(fixed[:, None], given, ang)
+                ang, fixed = source_branches(ang, given, source.turned[:, j], rot, degrees=not radians)
                 start = given[0]
             ang = R.continuous_euler(ang, rot, fixed=fixed, start=start, degrees=not radians)
         k = 0
@@ -162,11 +175,17 @@ def write_amc(motion: Motion, path, precision: int = 6, like=None, asf=None) -> 
     from. Where it is that file (same skeleton, same
     frame count, its units stated in its header), every frame whose rotations
     and root position are bit for bit the file's is copied as the file has it,
-    and a changed cell rewrites only its bone's numbers, each angle on the
-    branch of the bone's nearest unchanged frames (never that of the broken
-    value it replaces); otherwise the file is written whole, ``:FULLY-SPECIFIED`` and
+    and a changed cell rewrites only its bone's numbers, on the triple nearest
+    the file's numbers of that cell, or for a rotation turned 90 degrees or more
+    from the file's, on the branch of the bone's nearest unchanged frames (never
+    that of the broken value it replaces) (:func:`dof_values`); otherwise the
+    file is written whole, ``:FULLY-SPECIFIED`` and
     ``:DEGREES``, frames numbered from 1, every bone with dofs on its own line,
-    its angles Euler-filtered from frame to frame (:func:`dof_values`). Either way a
+    its angles Euler-filtered from frame to frame (:func:`dof_values`), and where
+    ``like`` is an .npz keeping the numbers of the AMC it was made from
+    (:func:`source_numbers`, :mod:`mocapkit.io.kept_channels`) each cell's numbers
+    are chosen as from that AMC (the file's own where the rotation is the file's),
+    their text written anew. Either way a
     take whose rate the file would not be read at gets mocapkit's rate comment line
     first (:func:`~mocapkit.io.asfamc.with_rate`).
     """
@@ -182,18 +201,93 @@ def write_amc(motion: Motion, path, precision: int = 6, like=None, asf=None) -> 
     if source is not None:
         _write_like(path, motion, dofs, source, precision)
         return
-    values = dof_values(motion, dofs, radians=False)
+    kept = _kept_source(like, motion, dofs)
+    values = dof_values(motion, dofs, radians=False, source=kept)
     names = motion.skeleton.joint_names
     joints = [j for j in range(len(dofs)) if dofs[j]]
-    row = "%d\n" + "".join(f"{names[j]} " + " ".join([f"%.{precision}f"] * len(dofs[j])) + "\n" for j in joints)
-    table = np.concatenate([np.arange(1, motion.num_frames + 1, dtype=np.float64)[:, None]]
-                           + [values[j] for j in joints], axis=1)
+    cell = "%s" if kept is not None else f"%.{precision}f"
+    row = "%d\n" + "".join(f"{names[j]} " + " ".join([cell] * len(dofs[j])) + "\n" for j in joints)
+    table = np.concatenate([values[j] for j in joints], axis=1)
+    if kept is not None:  # the file's own numbers where the cell is the file's, in their shortest exact form
+        own = _unchanged_columns(motion, dofs, kept)
+        fmt = f"%.{precision}f"
+        table = np.array([[_shortest(v) if o else fmt % v for v, o in zip(r, k)]
+                          for r, k in zip(table.tolist(), own.tolist())], dtype=object).reshape(table.shape)
+    table = np.concatenate([np.arange(1, motion.num_frames + 1)[:, None].astype(table.dtype), table], axis=1)
     block = max(1, 2**18 // table.shape[1])
     with atomic_write(path, "w", encoding="utf-8", newline="\n") as fh:
         fh.write(with_rate(":FULLY-SPECIFIED\n:DEGREES\n", motion.fps, path))
         for f0 in range(0, table.shape[0], block):
             rows = table[f0 : f0 + block]
             fh.write((row * rows.shape[0]) % tuple(rows.ravel().tolist()))
+
+
+def _shortest(v: float) -> str:
+    """The shortest text that reads back as ``v`` exactly, a whole number without its ``.0``."""
+    t = repr(v)
+    return t[:-2] if t.endswith(".0") else t
+
+
+def _unchanged_columns(motion: Motion, dofs, kept: "_Kept") -> np.ndarray:
+    """(F, columns) bool: the cells, in the layout ``dofs`` (joints with dofs only), that are still the kept file's:
+    a bone's angles where its rotation did not change, the root's position where it did not move."""
+    moved = np.any(np.asarray(motion.root_positions) != _kept_translations(kept.numbers, dofs), axis=-1)
+    cols = [~moved if x[0] == "t" else ~kept.turned[:, j] for j, d in enumerate(dofs) for x in d]
+    return np.stack(cols, axis=1)
+
+
+def _kept_translations(numbers: np.ndarray, dofs) -> np.ndarray:
+    """(F, 3) the root position the numbers give (0 on an axis with no dof), as the reader takes it."""
+    out = np.zeros((numbers.shape[0], 3))
+    col = 0
+    for d in dofs:
+        for x in d:
+            if x[0] == "t":
+                out[:, "xyz".index(x[1])] = numbers[:, col]
+            col += 1
+    return out
+
+
+@dataclass(frozen=True)
+class _Kept:
+    """The numbers of the AMC an .npz was made from (degrees) and the cells whose rotation is no longer the file's."""
+
+    numbers: np.ndarray  # (F, columns): each bone's dofs in the layout written, the file's branches
+    turned: np.ndarray  # (F, J) bool
+
+
+def source_numbers(motion: Motion, like, asf=None) -> tuple[np.ndarray | None, tuple[tuple[str, ...], ...]]:
+    """The numbers ``(F, columns)`` of the AMC ``like`` (the file ``motion`` was read from, or an .npz keeping such
+    a file's, :mod:`mocapkit.io.kept_channels`) in the layout :func:`write_amc` writes ``motion`` with (each bone's
+    dofs in order; angles in degrees, the file's own whole turns and branches), and that layout; None for the
+    numbers where ``like`` is no such file (other skeleton, layout or frames), or ``motion`` has no ASF skeleton.
+
+    An .npz written from an ASF/AMC take keeps them, so that an AMC written from the .npz later
+    (``mocapkit fill take.npz -o out.amc``) writes each untouched cell with the file's numbers, not the same
+    rotation on another branch."""
+    if like is None or like is False or motion.skeleton.axes is None or motion.num_frames == 0:
+        return None, ()
+    dofs = file_dofs(motion, asf, like)
+    src = _like_source(like, motion, dofs)
+    if src is not None:
+        numbers = src.numbers.copy()
+        if src.radians:
+            rot = np.array([x[0] == "r" for d in dofs for x in d])
+            numbers[:, rot] = np.degrees(numbers[:, rot])
+        return numbers, dofs
+    kept = _kept_source(like, motion, dofs)
+    return (None if kept is None else kept.numbers), dofs
+
+
+def _kept_source(like, motion: Motion, dofs) -> _Kept | None:
+    """The numbers of the AMC an .npz ``like`` was made from, where they fit ``motion`` and the layout ``dofs``."""
+    if like is None or like is False or Path(like).suffix.lower() != ".npz":
+        return None
+    numbers = kept_values(like, dofs, motion.num_frames)
+    if numbers is None:
+        return None
+    ref, _ = amc_table_arrays(numbers, motion.skeleton, dofs, radians=False)
+    return _Kept(numbers, np.any(motion.rotations != ref, axis=-1))
 
 
 @dataclass(frozen=True)

@@ -46,8 +46,9 @@ from ..errors import MocapFormatError, SkeletonError
 from ..motion import MAX_JOINTS, Motion, Skeleton, check_fps
 from .sources import remember
 
-__all__ = ["read_asf", "read_amc", "read_amc_numbers", "asf_dofs", "amc_dofs", "amc_held_rotations", "amc_header", "find_asf", "pick_asf",
-           "fps_from_name", "amc_rate", "stated_fps", "rate_comment", "with_rate", "DEFAULT_FPS"]
+__all__ = ["read_asf", "read_amc", "read_amc_numbers", "amc_table_arrays", "asf_dofs", "amc_dofs", "amc_held_rotations",
+           "amc_header", "find_asf", "pick_asf", "fps_from_name", "amc_rate", "stated_fps", "rate_comment", "with_rate",
+           "DEFAULT_FPS"]
 
 DEFAULT_FPS = 120.0
 """Frame rate of an AMC that states none, its name gives none and no ``fps=`` is given: the rate the CMU and
@@ -628,6 +629,14 @@ def read_amc_numbers(path, asf=None, fps: float | None = None, dofs=None, data: 
     (:func:`mocapkit.io.amc_writer.write_amc`) reads them to keep a changed bone on the file's branches, from
     ``data``, the file's bytes as the take was read (:func:`mocapkit.io.sources.recall`)."""
     return _read_amc(path, asf, fps, dofs, keep_numbers=True, data=data)
+
+
+def amc_table_arrays(table: np.ndarray, skeleton: Skeleton, dofs, radians: bool = False):
+    """Rotations (F, J, 4) and root positions (F, 3) from AMC numbers ``table`` (F, columns; each joint's ``dofs``
+    in order, joint after joint, angles in degrees or ``radians``), computed as :func:`read_amc` computes them, so
+    numbers a file holds give bit for bit the take read from it."""
+    return _to_motion_arrays(np.asarray(table, dtype=np.float64), skeleton,
+                             _Layout(tuple(tuple(d) for d in dofs), bool(radians)), radians=bool(radians))
 
 
 def _read_amc(path, asf=None, fps: float | None = None, dofs=None, keep_numbers: bool = False,

@@ -1,11 +1,12 @@
-"""Which Euler triple a BVH writer puts in each rotation cell: the source file's own, or the nearest to it.
+"""Which Euler triple a writer puts in each rotation cell: the source file's own, or the nearest to it.
 
 A rotation has many Euler triples (whole turns, two branches of the middle angle). Where the file a take came
-from is known (:func:`mocapkit.io.bvh.write_bvh`'s ``like``: the BVH read, or an .npz keeping its numbers,
-:mod:`mocapkit.io.kept_channels`) a cell whose rotation did not change is the file's own numbers, and a changed
-cell whose rotation stays within :data:`NEAR_SOURCE_DEG` of the file's is the triple nearest the file's numbers of
-that cell (:func:`mocapkit.rotations.nearest_euler`), so noise, a denoised or a slightly corrected joint stays on
-the file's curve; the others follow their neighbours (:func:`mocapkit.rotations.continuous_euler`).
+from is known (:func:`mocapkit.io.bvh.write_bvh`'s and :func:`mocapkit.io.amc_writer.write_amc`'s ``like``: the
+BVH or AMC read, or an .npz keeping its numbers, :mod:`mocapkit.io.kept_channels`) a cell whose rotation did not
+change is the file's own numbers, and a changed cell whose rotation stays within :data:`NEAR_SOURCE_DEG` of the
+file's is the triple nearest the file's numbers of that cell (:func:`mocapkit.rotations.nearest_euler`), so noise,
+a denoised or a slightly corrected joint stays on the file's curve; the others follow their neighbours
+(:func:`mocapkit.rotations.continuous_euler`).
 """
 
 from __future__ import annotations
@@ -14,7 +15,7 @@ import numpy as np
 
 from .. import rotations as R
 
-__all__ = ["NEAR_SOURCE_DEG", "continuous_rotations"]
+__all__ = ["NEAR_SOURCE_DEG", "continuous_rotations", "source_branches"]
 
 #: Degrees: a changed cell whose rotation stays this close to the source file's is written on the branch nearest the
 #: file's numbers of that cell; one turned further (a flip repaired) follows its neighbours (continuous_euler's max_step).
@@ -45,22 +46,34 @@ def continuous_rotations(values: np.ndarray, channels, source=None) -> None:
         angles = values[:, idx]
         fixed = start = None
         if source is not None:
-            fixed = ~source.turned[:, js]
-            own = source.values[:, idx]
-            angles = np.where(fixed[..., None], own, angles)
-            # a changed cell whose rotation stays within NEAR_SOURCE_DEG of the file's: on the branch nearest the
-            # file's own numbers of that cell (noise, a denoised or corrected joint), so it follows the file's curve
-            near = ~fixed & _turned_less(angles, own, order, NEAR_SOURCE_DEG)
-            angles = np.where(near[..., None], R.nearest_euler(angles, own, order), angles)
-            fixed = fixed | near
+            angles, fixed = source_branches(angles, source.values[:, idx], source.turned[:, js], order)
             start = source.values[0, idx]
         values[:, idx] = R.continuous_euler(angles, order, fixed=fixed, start=start)
 
 
-def _turned_less(a: np.ndarray, b: np.ndarray, order: str, limit_deg: float) -> np.ndarray:
-    """(...) bool: where the Euler triples ``a`` and ``b`` (..., n; degrees, in ``order``) are both finite and their
-    rotations lie within ``limit_deg`` of each other."""
+def source_branches(angles: np.ndarray, own: np.ndarray, turned: np.ndarray, order: str,
+                    degrees: bool = True) -> tuple[np.ndarray, np.ndarray]:
+    """The Euler angles a writer puts in the cells it can place by the source file alone, and which those are.
+
+    ``angles`` (..., n): the take's rotations as the plain conversion gives them, in ``order`` (any case, 1 to 3
+    axes); ``own`` (..., n): the file's numbers of the same cells; ``turned`` (...) bool: cells whose rotation is
+    not the file's. Returns ``(angles, placed)``: an unchanged cell is the file's own numbers; a changed cell
+    whose rotation stays within :data:`NEAR_SOURCE_DEG` of the file's is the triple nearest the file's numbers
+    of that cell (:func:`mocapkit.rotations.nearest_euler`: noise, a denoised or slightly corrected joint stays
+    on the file's curve); ``placed`` is True on both. The other cells (a repaired flip) are left for
+    :func:`mocapkit.rotations.continuous_euler` to place next to their neighbours. Degrees, radians with
+    ``degrees=False``."""
+    fixed = ~np.asarray(turned, dtype=bool)
+    angles = np.where(fixed[..., None], own, angles)
+    near = ~fixed & _turned_less(angles, own, order, NEAR_SOURCE_DEG, degrees)
+    angles = np.where(near[..., None], R.nearest_euler(angles, own, order, degrees=degrees), angles)
+    return angles, fixed | near
+
+
+def _turned_less(a: np.ndarray, b: np.ndarray, order: str, limit_deg: float, degrees: bool = True) -> np.ndarray:
+    """(...) bool: where the Euler triples ``a`` and ``b`` (..., n; degrees, radians with ``degrees=False``, in
+    ``order``) are both finite and their rotations lie within ``limit_deg`` degrees of each other."""
     ok = np.isfinite(a).all(axis=-1) & np.isfinite(b).all(axis=-1)
-    qa = R.euler_to_quaternion(np.where(ok[..., None], a, 0.0), order)
-    qb = R.euler_to_quaternion(np.where(ok[..., None], b, 0.0), order)
+    qa = R.euler_to_quaternion(np.where(ok[..., None], a, 0.0), order, degrees=degrees)
+    qb = R.euler_to_quaternion(np.where(ok[..., None], b, 0.0), order, degrees=degrees)
     return ok & (np.degrees(R.geodesic_angle(qa, qb)) < limit_deg)
