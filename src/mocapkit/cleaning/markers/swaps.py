@@ -15,7 +15,13 @@ third). The constant-acceleration prediction keeps a fast, curving marker
 (a golf club head at 108 Hz misses its constant-velocity prediction by
 20-30 mm in every frame of the downswing) from hiding a swap. How far apart
 the two markers are does not matter: the test asks that each lands where
-the other was going, which two unrelated jumps almost never do. An exchange
+the other was going, which two unrelated jumps almost never do. Two swaps
+that share a marker back to back (LTOE/RTHI up to frame 199, RTHI/LKNE from
+200) cycle three labels at the frame between them, which no exchange of two
+explains: three jumping markers whose samples each meet another's
+prediction round a cycle (:func:`_cycles`, the same tests) are re-labelled
+as the two exchanges that end the one swap and begin the other
+(:func:`_as_pairs`). An exchange
 that starts a swap is undone by the one that ends it, so the corrected
 trajectories are the recorded samples, re-labelled: the values stay
 bit-identical.
