@@ -269,6 +269,13 @@ class MarkerSource:
         npz: the file's ``filled`` mask, the samples it holds that are no
         recorded ones (a cleaning's fills, or samples a C3D marked as
         interpolated: :func:`mocapkit.io.npz.write_npz`); None otherwise.
+    modelled : mapping of str to str
+        TRC and npz: the points the file names as modelled, by label, each
+        with its kind (a :data:`MODELLED_GROUPS` name in lower case, or
+        "positions" for a modelled position), as mocapkit writes them
+        (:meth:`MarkerSet.modelled_kinds`: a TRC's ``ModelledPoints`` header
+        field, a marker npz's ``modelled`` array), since neither format has
+        C3D's POINT groups nor its camera masks; empty otherwise.
     """
 
     format: str
@@ -281,9 +288,11 @@ class MarkerSource:
     layout: Mapping[str, int] = dataclasses.field(default_factory=dict)
     stored_zeros: np.ndarray | None = None
     filled: np.ndarray | None = None
+    modelled: Mapping[str, str] = dataclasses.field(default_factory=dict)
 
     def __post_init__(self):
         object.__setattr__(self, "parameters", MappingProxyType(dict(self.parameters)))
+        object.__setattr__(self, "modelled", MappingProxyType({str(k): str(v) for k, v in self.modelled.items()}))
         object.__setattr__(self, "layout", MappingProxyType(dict(self.layout)))
         object.__setattr__(self, "labels", tuple(str(s) for s in self.labels))
         object.__setattr__(self, "events", tuple((float(t), str(label), int(d)) for t, label, d in self.events))
@@ -436,8 +445,8 @@ class MarkerSet:
 
         Vicon writes joint angles, forces, moments and powers as C3D points and
         lists their labels in POINT:ANGLES, FORCES, MOMENTS, POWERS, SCALARS and
-        REACTIONS (:data:`MODELLED_GROUPS`); cleaning leaves them alone. All
-        False for a take without such a list (TRC, npz).
+        REACTIONS (:data:`MODELLED_GROUPS`); cleaning leaves them alone. A TRC
+        or npz mocapkit wrote states them (:attr:`MarkerSource.modelled`).
 
         Modelled *positions* (Plug-in Gait's segment axes, centre of mass,
         joint centres) are listed nowhere; they are found as points no
@@ -453,9 +462,12 @@ class MarkerSet:
         These are no positions: their values are degrees, newtons, newton-millimetres, watts under the file's
         length unit, so a format that holds only markers in one unit (TRC) leaves them out
         (:func:`mocapkit.io.trc.write_trc`). Modelled positions (:meth:`computed`) are positions and are not
-        among them. All "" for a take without such a list (TRC, npz).
+        among them. A TRC or npz mocapkit wrote names them too (:attr:`MarkerSource.modelled`); all "" for
+        another TRC or npz.
         """
         kinds: dict[str, str] = {}
+        named = self.source.modelled if self.source is not None else {}
+        kinds.update((label, kind) for label, kind in named.items() if kind.upper() in MODELLED_GROUPS)
         point = self.source.parameters.get("POINT", {}) if self.source is not None else {}
         for key in MODELLED_GROUPS:
             param = point.get(key)
@@ -463,6 +475,13 @@ class MarkerSet:
                 for v in np.ravel(param.get("value", [])):
                     kinds.setdefault(str(v).strip(), key.lower())
         return np.array([kinds.get(label, "") for label in self.labels], dtype=object).astype(str)
+
+    def modelled_kinds(self) -> np.ndarray:
+        """(M,) str: each modelled point's kind (:meth:`quantities`' kind, else "positions" for a :meth:`computed`
+        one), "" for a marker: what a TRC or npz written from this take states (:attr:`MarkerSource.modelled`), so
+        that read back and cleaned, no modelled point is cleaned as a marker."""
+        kinds = self.quantities()
+        return np.where((kinds == "") & self.computed(), "positions", kinds).astype(str)
 
     def computed(self) -> np.ndarray:
         """Boolean (M,) mask of points a model computed rather than cameras measured.
@@ -490,6 +509,9 @@ class MarkerSet:
           a subject's ``Sub_CentreOfMass``): a TRC lists no modelled points,
           so in a TRC written from a Plug-in Gait C3D (modelled positions are
           kept, :func:`mocapkit.io.trc.write_trc`) the name is what is left.
+
+        A TRC or npz mocapkit wrote states them (kind "positions" in
+        :attr:`MarkerSource.modelled`): the evidence above is lost there.
         """
         pos = np.asarray(self.positions, dtype=np.float64)
         m = pos.shape[1]
@@ -529,6 +551,8 @@ class MarkerSet:
             if np.all(np.ptp(d, axis=1) <= tol) and np.all(cos < 1e-3):
                 out[group] = True
         out |= np.array([_names_centre_of_mass(str(label)) for label in self.labels], dtype=bool)
+        named = self.source.modelled if self.source is not None else {}
+        out |= np.array([named.get(label) == "positions" for label in self.labels], dtype=bool)
         return out
 
     def unlabelled(self) -> np.ndarray:

@@ -1,3 +1,5 @@
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -222,3 +224,28 @@ def test_a_marker_npz_tells_fills_from_recorded_samples_and_reads_them_back(tmp_
     np.savez(tmp_path / "bad.npz", **arrays)
     with pytest.raises(MocapFormatError, match="bad.npz.*filled"):
         mocapkit.io.load_markers(tmp_path / "bad.npz")
+
+
+def test_a_marker_npz_keeps_which_points_are_modelled(shared_data, tmp_path):
+    """A C3D written as a marker npz lost its modelled points: Plug-in Gait's 80 angles, forces, moments and powers
+    (POINT:ANGLES, ...) and 78 modelled positions (segment axes, joint centres, centre of mass) read back as markers,
+    to be cleaned as such. The npz's ``modelled`` array keeps each point's kind; a bad one is refused."""
+    from mocapkit.io import load_markers, save_markers
+
+    ms = load_markers(shared_data / "c3d_markers" / "PiG_Motion-FlatFoot-Full.c3d")
+    assert int(np.sum(ms.quantities() != "")) == 80 and int(np.sum(ms.modelled())) == 158
+    save_markers(ms, tmp_path / "pig.npz")
+    back = load_markers(tmp_path / "pig.npz")
+    assert np.array_equal(back.quantities(), ms.quantities()) and np.array_equal(back.modelled(), ms.modelled())
+    assert np.array_equal(back.modelled_kinds(), ms.modelled_kinds())
+    with np.load(tmp_path / "pig.npz") as z:
+        arrays = dict(z)
+    arrays["modelled"] = np.array(["angels"] * len(ms.labels))
+    np.savez(tmp_path / "bad.npz", **arrays)
+    with pytest.raises(MocapFormatError, match="npz modelled must be"):
+        load_markers(tmp_path / "bad.npz")
+    plain = read_c3d(Path(__file__).resolve().parents[1] / "data" / "85_02.c3d")  # CMU: markers only, no array
+    assert not plain.modelled().any()
+    save_markers(plain, tmp_path / "plain.npz")
+    with np.load(tmp_path / "plain.npz") as z:
+        assert "modelled" not in z.files

@@ -731,3 +731,39 @@ def test_samples_a_trc_cannot_tell_from_recorded_ones_are_counted(tmp_path):
     assert (f"{tmp_path / 'x.trc'}: {int(filled.sum())} filled samples are written like recorded ones: a TRC has no "
             f"residual column to tell them apart; {tmp_path / 'x.clean.npz'} lists them") in "\n".join(notes)
     assert not any("filled samples" in n or "interpolated" in n for n in marker_notes(ms, tmp_path / "x.c3d"))
+
+
+@pytest.mark.parametrize("keep", [True, False])
+def test_a_trc_written_from_a_c3d_says_which_points_are_modelled_and_cleaning_leaves_them(shared_data, tmp_path, keep):
+    """A TRC has no POINT groups nor camera masks: Plug-in Gait's angles, forces, moments and powers written with
+    --keep-modelled, and its modelled positions (segment axes, joint centres, centre of mass; kept either way) read
+    back as markers and were cleaned as such. The header's ModelledPoints field states them; read back and cleaned,
+    every modelled point comes back as read."""
+    from mocapkit.cleaning.markers import clean_markers
+
+    ms = load_markers(shared_data / "c3d_markers" / "PiG_Motion-FlatFoot-Full.c3d")
+    out = tmp_path / "pig.trc"
+    save_markers(ms, out, keep_modelled=keep)
+    back = read_trc(out)
+    cols = np.isin(back.labels, [label for label, m in zip(ms.labels, ms.modelled()) if m])
+    assert int(cols.sum()) == (158 if keep else 78)
+    res = clean_markers(back)
+    assert np.array_equal(res.markers.positions[:, cols], back.positions[:, cols], equal_nan=True)
+    assert res.changed[:, ~cols].any()  # the markers themselves are cleaned
+    assert np.array_equal(back.modelled(), cols)
+    want = dict(zip(ms.labels, ms.modelled_kinds()))
+    assert back.modelled_kinds().tolist() == [want[label] for label in back.labels]
+    save_markers(res.markers, tmp_path / "again.trc", keep_modelled=keep)  # the field kept through a TRC written from it
+    assert np.array_equal(read_trc(tmp_path / "again.trc").modelled(), cols)
+
+
+def test_a_bad_modelled_points_field_is_refused_in_one_line(tmp_path):
+    text = ("PathFileType\t4\t(X/Y/Z)\tx.trc\nDataRate\tCameraRate\tNumFrames\tNumMarkers\tUnits\tModelledPoints\n"
+            "100\t100\t2\t2\tmm\t{}\nFrame#\tTime\tA\t\t\tB\nX1\tY1\tZ1\tX2\tY2\tZ2\n\n"
+            "1\t0.00\t1\t2\t3\t4\t5\t6\n2\t0.01\t1\t2\t3\t4\t5\t6\n")
+    (tmp_path / "ok.trc").write_text(text.format("angles=2"))
+    assert read_trc(tmp_path / "ok.trc").quantities().tolist() == ["", "angles"]
+    for bad, why in (("angles=3", "out of the file's 1-2"), ("angels=1", "unknown kind"), ("angles=x", "not a marker")):
+        (tmp_path / "bad.trc").write_text(text.format(bad))
+        with pytest.raises(MocapFormatError, match=why):
+            read_trc(tmp_path / "bad.trc")

@@ -58,7 +58,13 @@ def write_npz(obj, path, compress: bool = True, extra: dict | None = None, fille
     (F, M): the samples that are no recorded ones (:func:`filled_samples` of
     ``filled``, a cleaning's fills), which a C3D marks by residual 0 and a
     TRC cannot mark; :func:`read_npz` reads it back
-    (:attr:`~mocapkit.markerset.MarkerSource.filled`).
+    (:attr:`~mocapkit.markerset.MarkerSource.filled`). Where some points are
+    modelled (a C3D's angles, forces, ..., its centre of mass and other
+    positions no camera measured), a str ``modelled`` (M,): each point's kind,
+    "" for a marker (:meth:`~mocapkit.markerset.MarkerSet.modelled_kinds`),
+    read back as :attr:`~mocapkit.markerset.MarkerSource.modelled`, so that
+    they are not cleaned as markers; the C3D's parameter groups themselves are
+    not kept.
     """
     from .c3d import MarkerSet
 
@@ -108,6 +114,9 @@ def write_npz(obj, path, compress: bool = True, extra: dict | None = None, fille
         if obj.file_labels() != obj.labels:
             _check_texts(path, "marker", obj.file_labels())
             arrays["file_labels"] = np.array(obj.file_labels())
+        kinds = obj.modelled_kinds()
+        if np.any(kinds != ""):  # the modelled points, which the npz cannot otherwise tell from markers
+            arrays["modelled"] = np.array(kinds, dtype=str)
     else:
         raise TypeError(f"write_npz takes a Motion or MarkerSet, got {type(obj).__name__}")
     clash = sorted(set(extra or {}) & set(arrays))
@@ -297,7 +306,7 @@ def read_npz(path):
     of the wrong shape or dtype, infinite values, non-unit quaternions, a
     non-positive frame rate.
     """
-    from ..markerset import MarkerSet, MarkerSource
+    from ..markerset import MODELLED_GROUPS, MarkerSet, MarkerSource
 
     path = Path(path)
     data = load_arrays(path)
@@ -332,6 +341,12 @@ def read_npz(path):
             if filled is not None and (filled.dtype != bool or filled.shape != positions.shape[:2]):
                 raise MocapFormatError(path, f"npz filled must be a bool array {positions.shape[:2]}, got "
                                        f"{filled.dtype} {filled.shape}")
+            kinds = data.get("modelled")  # older npz, or no modelled point: none
+            known = ("",) + tuple(g.lower() for g in MODELLED_GROUPS) + ("positions",)
+            if kinds is not None and (kinds.dtype.kind != "U" or kinds.shape != labels.shape
+                                      or not set(kinds.tolist()) <= set(known)):
+                raise MocapFormatError(path, f"npz modelled must be a string array of {len(labels)} kinds "
+                                       f"({', '.join(known[1:])} or empty), got {kinds.dtype} {kinds.shape}")
             return MarkerSet(
                 labels=tuple(str(s) for s in labels),
                 positions=positions,
@@ -341,7 +356,9 @@ def read_npz(path):
                 reader="npz",
                 source=MarkerSource(format="npz", first_frame=first,
                                     labels=() if file_labels is None else tuple(str(s) for s in file_labels),
-                                    filled=filled),
+                                    filled=filled,
+                                    modelled={} if kinds is None else {str(label): str(k) for label, k in
+                                                                       zip(labels, kinds) if k}),
             )
         if kind != "motion":
             raise MocapFormatError(path, f"unknown npz kind {kind!r}")

@@ -22,11 +22,61 @@ from ..markerset import MODELLED_GROUPS, MarkerSet, MarkerSource, marker_units, 
 from ..motion import check_fps
 from .c3d import apply_zero_gaps, checked_unit_cm
 
-__all__ = ["read_trc", "write_trc", "trc_notes", "TRC_DECIMALS"]
+__all__ = ["read_trc", "write_trc", "trc_notes", "TRC_DECIMALS", "MODELLED_KEY", "modelled_field"]
 
 TRC_DECIMALS = 5  # coordinates written with 5 decimals (Cortex and OpenSim write 5)
 _HEADER_KEYS = ("DataRate", "CameraRate", "NumFrames", "NumMarkers", "Units",
                 "OrigDataRate", "OrigDataStartFrame", "OrigNumFrames")
+
+
+MODELLED_KEY = "ModelledPoints"
+_KINDS = tuple(g.lower() for g in MODELLED_GROUPS) + ("positions",)
+
+
+def modelled_field(kinds) -> str:
+    """The ``ModelledPoints`` header value for the (M,) kinds of :meth:`MarkerSet.modelled_kinds` ("" for none).
+
+    A TRC has no place for a C3D's POINT groups nor its camera masks, which
+    tell a modelled point (an angle, a force, a centre of mass, a joint
+    centre) from a marker: the header states them in one more field,
+    ``KIND=N,N-N;KIND=...`` with 1-based marker numbers in file order (the
+    ``X1 Y1 Z1`` numbering; no tab, as a header value may hold none, and no
+    label, which may hold any character), so that read back and cleaned no
+    modelled point is cleaned as a marker. OpenSim keeps a header field it
+    does not know as metadata.
+    """
+    kinds = np.asarray(kinds, dtype=str)
+    parts = []
+    for kind in _KINDS:
+        idx = np.flatnonzero(kinds == kind) + 1
+        if idx.size:
+            cut = np.flatnonzero(np.diff(idx) != 1) + 1
+            runs = [(int(r[0]), int(r[-1])) for r in np.split(idx, cut)]
+            parts.append(kind + "=" + ",".join(str(a) if a == b else f"{a}-{b}" for a, b in runs))
+    return ";".join(parts)
+
+
+def _read_modelled(path: Path, text: str, labels) -> dict[str, str]:
+    """The ``ModelledPoints`` header value :func:`modelled_field` wrote, as ``{label: kind}``; refused in one line
+    naming the file where it is not one."""
+    out: dict[str, str] = {}
+    for part in filter(None, (t.strip() for t in text.split(";"))):
+        kind, _, numbers = part.partition("=")
+        if kind.strip() not in _KINDS:
+            raise MocapFormatError(path, f"header field {MODELLED_KEY}: unknown kind {kind.strip()[:40]!r} (kinds are "
+                                   f"{', '.join(_KINDS)})", line=3)
+        for run in numbers.split(","):
+            a, _, b = run.strip().partition("-")
+            try:
+                lo, hi = int(a), int(b or a)
+            except ValueError:
+                raise MocapFormatError(path, f"header field {MODELLED_KEY}: {run.strip()[:40]!r} is not a marker "
+                                       "number or range", line=3) from None
+            if not 1 <= lo <= hi <= len(labels):
+                raise MocapFormatError(path, f"header field {MODELLED_KEY}: markers {lo}-{hi} are out of the file's "
+                                       f"1-{len(labels)}", line=3)
+            out.update((labels[k - 1], kind.strip()) for k in range(lo, hi + 1))
+    return out
 
 
 def _fields(line: str) -> list[str]:
@@ -176,9 +226,10 @@ def read_trc(path, zeros_as_gaps: bool | None = None, units: str | None = None) 
     notes += _count_notes(int(stated), len([t for t in label_text if t.strip()]), held, m, labels)
     notes += _extra_field_notes(rows, row_lines, m)
     notes += frame_notes
+    modelled = _read_modelled(path, header.get(MODELLED_KEY, ""), labels)
     source = MarkerSource(format="trc", parameters={"PathFileType": first[3].strip() if len(first) > 3 else "", **header},
                           first_frame=first_frame, labels=file_labels,
-                          text=raw.decode("utf-8", errors="surrogateescape"))
+                          text=raw.decode("utf-8", errors="surrogateescape"), modelled=modelled)
     return MarkerSet(labels=labels, positions=xyz, fps=fps, units=units, name=path.stem, reader="trc",
                      source=source, zero_gaps=zeros, notes=notes, units_from=units_from)
 
@@ -634,8 +685,12 @@ def _new_text(markers: MarkerSet, path: Path, source: MarkerSource | None, first
         "OrigDataRate": old.get("OrigDataRate") or _rate(markers.fps),
         "OrigDataStartFrame": old.get("OrigDataStartFrame") or str(first), "OrigNumFrames": old.get("OrigNumFrames") or str(F),
     }
+    keys = _HEADER_KEYS
+    modelled = modelled_field(markers.modelled_kinds())
+    if modelled:  # the modelled points, which a TRC cannot otherwise tell from markers
+        head[MODELLED_KEY], keys = modelled, keys + (MODELLED_KEY,)
     out = [f"PathFileType\t4\t(X/Y/Z)\t{old.get('PathFileType') or path.name}",
-           "\t".join(_HEADER_KEYS), "\t".join(head[k] for k in _HEADER_KEYS),
+           "\t".join(keys), "\t".join(head[k] for k in keys),
            "\t".join(["Frame#", "Time"] + [f"{label}\t\t" for label in markers.file_labels()]).rstrip("\t"),
            "\t\t" + "\t".join(f"X{k + 1}\tY{k + 1}\tZ{k + 1}" for k in range(M)), ""]
     fmt = f"{{:.{int(decimals)}f}}"

@@ -147,3 +147,55 @@ def test_chained_swaps_are_two_changes_each_undone_alone():
     # every other marker untouched either way; both rejected: the input
     back = md.apply(take, res.markers, res.fixes, {i: "reject" for i in ids}).positions
     assert np.array_equal(back, q)
+
+
+CHAINS = {  # swaps made in this order (the labeller's); marker names without the subject prefix
+    "back to back": [("LTOE", "RTHI", 100, 200), ("RTHI", "LKNE", 200, 300)],
+    "back to back, other order": [("RTHI", "LKNE", 100, 200), ("LTOE", "RTHI", 200, 300)],
+    "three in a row": [("LTOE", "RTHI", 100, 200), ("RTHI", "LKNE", 200, 300), ("LKNE", "LFHD", 300, 400)],
+    "overlapping, later made first": [("RTHI", "LKNE", 150, 250), ("LTOE", "RTHI", 100, 200)],
+}
+
+
+@pytest.mark.parametrize("which", ["85_02", "HDM_bd"])
+@pytest.mark.parametrize("chain", list(CHAINS))
+def test_each_swap_of_a_chain_is_a_change_rejected_alone(which, chain, shared_data):
+    # CMU 85_02 and HDM05's HDM_bd_05-01_01_120 (frames 0-599) with swaps sharing a marker: before, back to back
+    # they were one wrong swap to the take's end, and a chain whose later swap was made first was tied. Each swap
+    # is now a change of its own: rejecting it gives the input's samples (position, residual, camera mask) on its
+    # two trajectories, bit for bit, where no kept swap moves them, and the other swaps stay undone.
+    path = CMU if which == "85_02" else shared_data / "c3d_markers_recovery" / "HDM_bd_05-01_01_120.c3d"
+    x = load_markers(path)[:600]
+    names = [label.split(":")[-1] for label in x.labels]
+    src = np.tile(np.arange(x.num_markers), (x.num_frames, 1))
+    made = []
+    for u, v, s, e in CHAINS[chain]:
+        a, b = names.index(u), names.index(v)
+        src[s:e, [a, b]] = src[s:e, [b, a]]
+        made.append((a, b, s, e))
+    take = x.with_positions(np.asarray(x.positions)[np.arange(x.num_frames)[:, None], src], sources=src)
+    res = clean_markers(take, steps=["swaps"])  # a complete capture: the other steps change nothing
+    assert _same(_cell(res.markers, slice(None), slice(None)), _cell(x, slice(None), slice(None)))
+    found = md.changes(take, res.markers, res.fixes)
+    assert all(c.kind == "swap" for c in found) and len(found) == len(made)
+    assert md.tied(take, res.markers, res.fixes) == []
+    for a, b, s, e in made:
+        cid = next(c.id for c in found if c.first == s and {c.marker_index, c.other and names.index(
+            c.other.split(":")[-1])} == {a, b})
+        out = md.apply(take, res.markers, res.fixes, {cid: "reject"})
+        others = [(p, r, t, w) for p, r, t, w in made if (p, r, t, w) != (a, b, s, e)]
+        for k in (a, b):
+            moved = [(t, w) for p, r, t, w in others if k in (p, r)]  # frames where a kept swap moves this marker
+            rows = [f for f in range(s, e) if not any(t <= f < w for t, w in moved)]
+            assert rows and _same(_cell(out, rows, k), _cell(take, rows, k))
+        # each kept swap's own marker outside the rejected one's frames, and every frame no swap of the chain
+        # touches: the cleaned samples
+        for p, r, t, w in others:
+            own = [k for k in (p, r) if k not in (a, b)]
+            rows = [f for f in range(t, w) if not s <= f < e]
+            assert rows and all(_same(_cell(out, rows, k), _cell(x, rows, k)) for k in own)
+        lo, hi = min(m[2] for m in made), max(m[3] for m in made)
+        assert _same(_cell(out, slice(hi, None), slice(None)), _cell(x, slice(hi, None), slice(None)))
+        assert _same(_cell(out, slice(0, lo), slice(None)), _cell(x, slice(0, lo), slice(None)))
+    back = md.apply(take, res.markers, res.fixes, {c.id: "reject" for c in found})
+    assert _same(_cell(back, slice(None), slice(None)), _cell(take, slice(None), slice(None)))

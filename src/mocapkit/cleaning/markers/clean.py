@@ -80,7 +80,10 @@ class MarkerFix:
     how many models' fills were averaged (``method`` and ``donors`` then name the best);
     ``fill_note``, why a gap had no donor group although markers were seen
     throughout it: too few of them rigid enough to be donors
-    (:func:`~mocapkit.cleaning.markers.gaps.donors_allowed`).
+    (:func:`~mocapkit.cleaning.markers.gaps.donors_allowed`). For a swap,
+    ``order``: where it comes when the swaps are composed (by ``order``, then
+    first frame: :func:`~mocapkit.cleaning.markers.swaps.labelling`), above 0
+    for one the labeller made on top of a later-starting swap it overlaps.
     """
 
     marker: str
@@ -97,6 +100,7 @@ class MarkerFix:
     ends: int = 2
     models: int = 1
     fill_note: str = ""
+    order: int = 0
 
     @property
     def fill_text(self) -> str:
@@ -451,7 +455,8 @@ def clean_markers(markers, *, steps=STEPS, spike_mm: float = 15.0, swap_mm: floa
         y, swaps = undo_swaps(y, unit_mm, threshold_mm=swap_mm)
         for s in swaps:
             swapped[s.start:s.end, [s.a, s.b]] = True
-            fixes.append(MarkerFix(labels[s.a], s.start, s.end, "swap", s.distance * unit_mm, labels[s.b]))
+            fixes.append(MarkerFix(labels[s.a], s.start, s.end, "swap", s.distance * unit_mm, labels[s.b],
+                                   order=s.order))
     dups = np.zeros((f, m), dtype=bool)
     found = find_duplicates(y, unit_mm, off_mm=spike_mm) if "duplicates" in steps else []
     coincident = [MarkerFix(labels[d.marker], d.start, d.end, "coincident", d.distance * unit_mm, labels[d.other],

@@ -21,7 +21,11 @@ column in a labelling with only the kept swaps. Arrays are frames-first:
 
 from __future__ import annotations
 
+from types import SimpleNamespace
+
 import numpy as np
+
+from .swaps import labelling
 
 __all__ = ["sources", "destinations", "relabelled"]
 
@@ -31,17 +35,14 @@ def sources(swaps, labels, frames: int) -> np.ndarray:
 
     ``swaps``: the swap fixes (:class:`~mocapkit.cleaning.markers.MarkerFix` of kind ``"swap"``: the recorded
     trajectories of ``marker`` and ``other`` exchanged over frames ``start <= f < end``, wherever the swaps before
-    it put them), composed in order of first frame; ``labels``: the capture's labels (M,); ``frames``: F. A column
-    no swap touched holds its own samples. Chained swaps (LTOE/RTHI over 100-199, RTHI/LKNE over 150-249) cycle
-    three columns where they overlap (:func:`~mocapkit.cleaning.markers.swaps.recorded_swaps`).
+    it put them), composed by ``order`` then first frame (:func:`~mocapkit.cleaning.markers.swaps.labelling`);
+    ``labels``: the capture's labels (M,); ``frames``: F. A column no swap touched holds its own samples. Chained
+    swaps (LTOE/RTHI over 100-199, RTHI/LKNE over 150-249) cycle three columns where they overlap
+    (:func:`~mocapkit.cleaning.markers.swaps.recorded_swaps`).
     """
     col = {label: k for k, label in enumerate(labels)}
-    src = np.tile(np.arange(len(labels), dtype=np.int64), (frames, 1))
-    for x in sorted(swaps, key=lambda x: (x.start, col[x.marker], col[x.other])):
-        a, b = col[x.marker], col[x.other]
-        seg = src[x.start:x.end]
-        src[x.start:x.end] = np.where(seg == a, b, np.where(seg == b, a, seg))
-    return src
+    return labelling([SimpleNamespace(a=col[x.marker], b=col[x.other], start=x.start, end=x.end,
+                                      order=getattr(x, "order", 0)) for x in swaps], len(labels), frames)
 
 
 def destinations(src: np.ndarray, kept: np.ndarray) -> np.ndarray:

@@ -15,7 +15,13 @@ third). The constant-acceleration prediction keeps a fast, curving marker
 (a golf club head at 108 Hz misses its constant-velocity prediction by
 20-30 mm in every frame of the downswing) from hiding a swap. How far apart
 the two markers are does not matter: the test asks that each lands where
-the other was going, which two unrelated jumps almost never do. An exchange
+the other was going, which two unrelated jumps almost never do. Two swaps
+that share a marker back to back (LTOE/RTHI up to frame 199, RTHI/LKNE from
+200) cycle three labels at the frame between them, which no exchange of two
+explains: three jumping markers whose samples each meet another's
+prediction round a cycle (:func:`_cycles`, the same tests) are re-labelled
+as the two exchanges that end the one swap and begin the other
+(:func:`_as_pairs`). An exchange
 that starts a swap is undone by the one that ends it, so the corrected
 trajectories are the recorded samples, re-labelled: the values stay
 bit-identical.
@@ -49,18 +55,42 @@ import numpy as np
 
 from .rigid import distance_stats, donor_order
 
-__all__ = ["Swap", "undo_swaps", "recorded_swaps"]
+__all__ = ["Swap", "undo_swaps", "recorded_swaps", "labelling"]
 
 
 @dataclass(frozen=True)
 class Swap:
-    """Markers ``a`` and ``b`` exchanged their labels for frames ``start <= f < end``; ``distance`` between them at ``start`` (capture unit)."""
+    """Markers ``a`` and ``b`` exchanged their labels for frames ``start <= f < end``; ``distance`` between them at ``start`` (capture unit).
+
+    ``order``: where the swap comes among the take's swaps when they are
+    composed (:func:`labelling`: by ``order``, then first frame). 0 but for a
+    swap the labeller made on top of one that starts after it and shares a
+    marker over shared frames (RTHI/LKNE over 150-249 made first, LTOE/RTHI
+    over 100-199 on top: the latter's order is 1).
+    """
 
     a: int
     b: int
     start: int
     end: int
     distance: float
+    order: int = 0
+
+
+def labelling(swaps, markers: int, frames: int) -> np.ndarray:
+    """(F, M) int: the recorded column each corrected column holds at each frame, given ``swaps``.
+
+    ``swaps``: objects with ``a``, ``b`` (recorded columns), ``start``, ``end``
+    (frames) and ``order``, composed by ``(order, start, a, b)``: each
+    exchanges the two recorded trajectories it names over its frames,
+    wherever the swaps before it put them. :func:`recorded_swaps` is its
+    inverse.
+    """
+    src = np.tile(np.arange(markers, dtype=np.int64), (frames, 1))
+    for x in sorted(swaps, key=lambda x: (x.order, x.start, x.a, x.b)):
+        seg = src[x.start:x.end]
+        src[x.start:x.end] = np.where(seg == x.a, x.b, np.where(seg == x.b, x.a, seg))
+    return src
 
 
 def _predictions(y: np.ndarray, t: int) -> np.ndarray:
@@ -81,6 +111,53 @@ def _miss(pred: np.ndarray, samples: np.ndarray) -> np.ndarray:
     A prediction that needs an unseen frame is skipped; NaN where none can be made or the sample is unseen.
     """
     return np.fmin.reduce(np.linalg.norm(samples[None] - pred, axis=-1), axis=0)
+
+
+def _cycles(pred: np.ndarray, samples: np.ndarray, free: list[int], miss: np.ndarray,
+            thr: float) -> list[tuple[int, int, int]]:
+    """Three jumping markers whose labels moved round a cycle at one frame, best first, none sharing a marker.
+
+    Two swaps that share a marker back to back (LTOE/RTHI up to frame 199,
+    RTHI/LKNE from 200) cycle three labels at the frame between them, which
+    no exchange of two explains. ``(i, j, k)``: i's sample belongs to j, j's
+    to k and k's to i, each then meeting one of its predictions ``pred``
+    (P, M, 3) within ``thr``, and the total miss cut to under a third of
+    ``miss`` (M,) summed over the three, as for a pair. ``samples`` (M, 3):
+    the frame's samples; ``free``: the jumping markers no pair explained.
+    """
+    if len(free) < 3:
+        return []
+    idx = np.asarray(free)
+    fit = np.fmin.reduce(np.linalg.norm(samples[idx][None, None] - pred[:, idx][:, :, None], axis=-1), axis=0)
+    ok = fit <= thr  # ok[r, c]: marker free[c]'s sample meets marker free[r]'s prediction
+    found = []
+    for r in range(idx.size):
+        for c in np.flatnonzero(ok[r]):
+            for d in np.flatnonzero(ok[c]):
+                if r < c and r < d and c != d and ok[d, r]:
+                    cost = fit[r, c] + fit[c, d] + fit[d, r]
+                    if cost < miss[idx[[r, c, d]]].sum() / 3.0:
+                        found.append((float(cost), int(idx[r]), int(idx[c]), int(idx[d])))
+    out: list[tuple[int, int, int]] = []
+    for _, i, j, k in sorted(found):
+        if not {i, j, k} & {n for cyc in out for n in cyc}:
+            out.append((i, j, k))
+    return out
+
+
+def _as_pairs(cycle: tuple[int, int, int], open_swaps: dict) -> list[tuple[int, int]]:
+    """The cycle ``(i, j, k)`` (:func:`_cycles`) as two exchanges made one after the other, an open swap's first.
+
+    Exchanging (i j) then (j k), (j k) then (i k), or (i k) then (i j) each
+    puts j's sample in i, k's in j and i's in k; the one that first ends a
+    swap seen to start (``open_swaps``, keyed by pairs ``a < b``) is taken,
+    so that the chain is read as one swap ending where the next begins.
+    """
+    i, j, k = cycle
+    ways = [((i, j), (j, k)), ((j, k), (i, k)), ((i, k), (i, j))]
+    key = lambda p: tuple(sorted(p))  # noqa: E731
+    best = max(ways, key=lambda w: (key(w[0]) in open_swaps, key(w[1]) in open_swaps))
+    return [key(p) for p in best]
 
 
 def undo_swaps(positions: np.ndarray, unit_mm: float = 1.0, *, threshold_mm: float = 15.0,
@@ -143,10 +220,15 @@ def undo_swaps(positions: np.ndarray, unit_mm: float = 1.0, *, threshold_mm: flo
                 if ma <= thr and mb <= thr and ma + mb < (miss[a] + miss[b]) / 3.0:
                     pairs.append((ma + mb, a, b))
         used: set[int] = set()
+        steps = []  # (a, b, whether a hidden start may be looked for): the exchanges to make at t, in order
         for _, a, b in sorted(pairs):
-            if a in used or b in used:
-                continue
-            used.update((a, b))
+            if a not in used and b not in used:
+                used.update((a, b))
+                steps.append((a, b, True))
+        for cycle in _cycles(pred, y[t], [int(k) for k in jump if k not in used], miss, thr):
+            used.update(cycle)
+            steps += [(*pair, False) for pair in _as_pairs(cycle, open_swaps)]
+        for a, b, may_hide in steps:
             key = (a, b)
             if key in open_swaps:  # the end of a swap whose start was seen
                 y[t:, [a, b]] = y[t:, [b, a]]
@@ -160,8 +242,8 @@ def undo_swaps(positions: np.ndarray, unit_mm: float = 1.0, *, threshold_mm: flo
                 order = donor_order(stats)
             after = np.flatnonzero(jumping[t + 1:, [a, b]].any(axis=1)) + t + 3  # jumping[k] is frame k + 2
             hi = int(after[0]) if after.size else f
-            start = _hidden_start(y, a, b, int(t), max(last.get(a, 0), last.get(b, 0)), hi, thr, stats, order, ratio,
-                                  floor)
+            start = None if not may_hide else _hidden_start(y, a, b, int(t), max(last.get(a, 0), last.get(b, 0)),
+                                                            hi, thr, stats, order, ratio, floor)
             if start is not None:  # the end of a swap whose start was hidden
                 y[start:t, [a, b]] = y[start:t, [b, a]]
                 col[start:t, [a, b]] = col[start:t, [b, a]]
@@ -192,25 +274,41 @@ def recorded_swaps(col: np.ndarray, x: np.ndarray) -> list[Swap]:
     ``col`` (F, M) int: the recorded column each corrected column holds at
     each frame; ``x`` (F, M, 3): the recorded positions (for the distances).
     Each Swap names two recorded trajectories (columns of ``x``), ``a < b``,
-    and the frames where their labels are exchanged; applied in order of
-    first frame, each exchanging the two trajectories wherever the swaps
-    before it put them (:func:`~mocapkit.cleaning.markers.placement.sources`),
-    they give ``col`` back. Chained swaps (LTOE/RTHI swapped over frames
-    100-199 and RTHI/LKNE over 150-249: three labels cycled in 150-199) are
-    so two swaps, each the labeller's error it undoes, which a person can
-    accept or reject one without the other; the walk of :func:`undo_swaps`
-    sees the second as an exchange of its own corrected columns (LTOE/LKNE
-    from frame 150), which names no recorded pair.
+    and the frames where their labels are exchanged; composed by
+    :func:`labelling` (by ``order``, then first frame, each exchanging the
+    two trajectories wherever the swaps before it put them), they give
+    ``col`` back. Chained swaps are so listed as the labeller's errors, each
+    of which a person can accept or reject without the other: LTOE/RTHI
+    swapped over frames 100-199 and RTHI/LKNE over 150-249 (three labels
+    cycled in 150-199), or back to back, RTHI/LKNE over 200-299; and a chain
+    whose later swap was made first (RTHI/LKNE over 150-249, then LTOE/RTHI
+    over 100-199 on top of it: that one gets ``order`` 1). The walk of
+    :func:`undo_swaps` sees such a chain as exchanges of its own corrected
+    columns (LTOE/LKNE from frame 150), which name no recorded pair.
 
     At each frame where the labelling changes, the change (a permutation of
-    recorded trajectories) first ends the open swaps it contains (an open
-    swap, seen through the swaps opened after it, is one exchange), then
-    opens a swap per exchange left.
+    recorded trajectories) first ends the open swaps it contains, then opens
+    a swap per exchange left. An open swap is ended as the last made, seen
+    through the swaps opened after it; else, where that does not fit, as
+    made before them (the swaps opened after it then exchange the
+    trajectories it put under their labels, and come first in the order).
+    Where a listing with the latter does not give ``col`` back, the former
+    alone is used.
     """
+    for under in (True, False):
+        swaps = _listing(col, x, under)
+        if np.array_equal(labelling(swaps, col.shape[1], col.shape[0]), col):
+            break
+    return swaps
+
+
+def _listing(col: np.ndarray, x: np.ndarray, under: bool) -> list[Swap]:
+    """:func:`recorded_swaps`' walk; ``under``: an open swap may end as made before those opened after it."""
     f, m = col.shape
     ident = np.arange(m)
-    active: list[list[int]] = []  # open swaps [u, v, start], in the order they apply
-    out: list[tuple[int, int, int, int]] = []
+    recs: list[list[int]] = []  # [u, v, start, end] of every swap
+    seq: list[int] = []  # indexes into recs, in the order the swaps are composed
+    active: list[int] = []  # the open ones, in that order
     prev = ident
     changed = np.flatnonzero(np.any(col != np.vstack([ident[None], col[:-1]]), axis=1))
     for t in changed:
@@ -220,32 +318,51 @@ def recorded_swaps(col: np.ndarray, x: np.ndarray) -> list[Swap]:
         closing = True
         while closing and np.any(tau != ident):
             closing = False
-            for i in range(len(active)):
-                later = ident.copy()  # the swaps opened after i, composed: where they put u and v
-                for u, v, _ in active[i + 1:]:
-                    later = np.where(later == u, v, np.where(later == v, u, later))
-                p, q = later[active[i][0]], later[active[i][1]]
-                rest = tau.copy()
-                rest[[p, q]] = tau[[q, p]]  # tau o (p q): what is left once swap i ends
-                if np.sum(rest != ident) < np.sum(tau != ident):
-                    u, v, s0 = active.pop(i)
-                    out.append((u, v, s0, int(t)))
+            for first in (True, False) if under else (True,):
+                for i in range(len(active)):
+                    u, v = recs[active[i]][:2]
+                    later = ident.copy()  # the swaps opened after i, composed: where they put u and v
+                    if first:
+                        for k in active[i + 1:]:
+                            later = np.where(later == recs[k][0], recs[k][1],
+                                             np.where(later == recs[k][1], recs[k][0], later))
+                    p, q = later[u], later[v]
+                    rest = tau.copy()
+                    rest[[p, q]] = tau[[q, p]]  # tau o (p q): what is left once swap i ends
+                    if np.sum(rest != ident) >= np.sum(tau != ident):
+                        continue
+                    if not first:  # made before the ones opened after it: they exchange what it put there
+                        moved = active[i + 1:]
+                        for k in moved:
+                            recs[k][:2] = sorted(int(np.where(w == u, v, np.where(w == v, u, w)))
+                                                 for w in recs[k][:2])
+                        seq = [k for k in seq if k not in moved]
+                        seq[seq.index(active[i]):seq.index(active[i])] = moved
+                    recs[active.pop(i)][3] = int(t)
                     tau, closing = rest, True
+                    break
+                if closing:
                     break
         opened = []
         while np.any(tau != ident):  # the exchanges left, peeled off the last applied first
             u = int(np.flatnonzero(tau != ident)[0])
             v = int(tau[u])
-            opened.append([min(u, v), max(u, v), int(t)])
+            recs.append([min(u, v), max(u, v), int(t), f])
+            opened.append(len(recs) - 1)
             tau = np.where(tau == u, v, np.where(tau == v, u, tau))  # (u v) o tau: u now stays
         active += opened[::-1]
+        seq += opened[::-1]
         prev = col[t]
-    out += [(u, v, s0, f) for u, v, s0 in active]
+    order = {}
+    for n, k in enumerate(seq):  # the least order that composes each after the ones it overlaps and follows
+        u, v, s0, e = recs[k]
+        order[k] = max([order[j] + ((recs[j][2], recs[j][0], recs[j][1]) > (s0, u, v)) for j in seq[:n]
+                        if {u, v} & set(recs[j][:2]) and recs[j][2] < e and s0 < recs[j][3]] + [0])
     swaps = []
-    for u, v, s0, e in out:
+    for k, (u, v, s0, e) in enumerate(recs):
         d = np.linalg.norm(x[s0:e, u] - x[s0:e, v], axis=-1)
         seen = np.flatnonzero(~np.isnan(d))
-        swaps.append(Swap(u, v, s0, e, float(d[seen[0]]) if seen.size else float("nan")))
+        swaps.append(Swap(u, v, s0, e, float(d[seen[0]]) if seen.size else float("nan"), int(order[k])))
     swaps.sort(key=lambda s: (s.start, s.a, s.b))
     return swaps
 
