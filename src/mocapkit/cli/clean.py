@@ -121,7 +121,7 @@ def clean(
         check_replay(record, clean_request(step_list, threshold, drifts, context, models, noise_deg, amc_fps, unit),
                      [k for k in FLAGS if k in given], FLAGS, record_said)
     skeleton = asf_of(inp, asf)
-    skeleton_copy = asf_for_output(out, skeleton, overwrite)  # an AMC output reads back with its ASF beside it
+    skeleton_copy = asf_for_output(out, skeleton, overwrite, how="use --overwrite")  # an AMC output reads back with its ASF beside it
     take = load_motion(inp, asf, purpose="clean", fps=amc_fps, unit=unit)
     ref = None
     if reference is not None:  # refused before cleaning, not after OUT is written

@@ -200,7 +200,7 @@ def save_take(motion, out: Path, inp: Path | None, asf=None, overwrite: bool = F
     from ..io.takes import asf_for_output, asf_of, place_asf
 
     skeleton = asf_of(inp, asf) if inp is not None else None
-    copy = asf_for_output(out, skeleton, overwrite)
+    copy = asf_for_output(out, skeleton, overwrite, how="use --overwrite")
     notes = io.motion_notes(motion, out, kwargs.get("like"))  # before the write: what OUT leaves out of the input
     with removed_on_failure([copy, out], overwrite=overwrite):
         place_asf(copy, skeleton)  # first: an AMC is never left without the ASF it is read with
