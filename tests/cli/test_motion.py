@@ -209,6 +209,21 @@ def test_convert_marker_files_between_c3d_trc_and_npz(tmp_path, capsys):
     assert "read with trc" in capsys.readouterr().out
 
 
+def test_convert_and_info_count_markers_apart_from_modelled_quantities(shared_data, tmp_path):
+    """`convert PiG.c3d pig.trc` said "113 markers ... 9.95 % missing" (the share over all 193 points, 80 of them
+    modelled angles, forces, moments, powers) where `info pig.trc` said 0.59 %, and `info PiG.c3d` said
+    "markers 193": the markers are counted apart from the modelled quantities, and the share is the markers'."""
+    c3d = shared_data / "c3d_markers" / "PiG_Motion-FlatFoot-Full.c3d"
+    code, out, _ = run("convert", c3d, tmp_path / "pig.trc")
+    assert code == 0
+    assert "113 markers, 315 frames @ 100 fps, 0.59 % of marker samples missing, 80 modelled quantities left out" in out
+    code, out, _ = run("info", tmp_path / "pig.trc")
+    assert code == 0 and "0.59 % of marker samples" in out
+    code, out, _ = run("info", c3d)
+    assert code == 0
+    assert "113 (+80 modelled quantities" in out and "0.59 % of marker samples" in out and "193" not in out
+
+
 def test_convert_states_zero_gaps_and_keeps_them_on_request(tmp_path, capsys):
     from mocapkit.io import load_markers, save_markers
     from mocapkit.markerset import MarkerSet

@@ -26,7 +26,7 @@ def info(
     """Print the skeleton, frame count, frame rate, duration and missing data of FILE (or what a mocapkit file holds)."""
     from ..io.bvh_roots import extra_roots
     from ..io.c3d import MarkerSet
-    from ..io.c3d_contents import marker_file_contents
+    from ..io.c3d_contents import marker_counts, marker_file_contents
     from ..io.takes import check_asf, load_take
     from ..motion import ROLES, standard_joints, unit_scale_cm
     from ..rigs import rig_family, roles_by_topology
@@ -39,10 +39,13 @@ def info(
     obj = load_take(file, asf, fps=amc_fps, unit=unit)
     rows = [("file", str(file))]
     if isinstance(obj, MarkerSet):
-        rows += [("kind", f"markers (read with {obj.reader})"), ("markers", str(obj.num_markers)),
+        markers, modelled, missing = marker_counts(obj)
+        rows += [("kind", f"markers (read with {obj.reader})"),
+                 ("markers", str(markers) + (f" (+{plural(modelled, 'modelled quantity', 'modelled quantities')}: angles, forces, moments, "
+                                             "powers; not markers)" if modelled else "")),
                  ("frames", str(obj.num_frames)), ("fps", f"{obj.fps:g}"),
                  ("duration", f"{obj.num_frames / obj.fps:.3f} s"), ("units", obj.units + _UNITS_FROM[obj.units_from]),
-                 ("missing", f"{100.0 * obj.missing().mean():.2f} % of marker samples")]
+                 ("missing", f"{100.0 * missing:.2f} % of marker samples")]
         rows += marker_file_contents(obj)
         print_fields(rows)
         if joints:
@@ -138,10 +141,15 @@ def convert(
         io.suffix_kind(out, io.MARKER_FORMATS, "writing markers")
         if keep_modelled:
             io.check_keep_modelled(inp, out)
-        io.save_markers(m, out, keep_modelled=keep_modelled)
-        left = int(sum(m.quantities() != "")) if out.suffix.lower() == ".trc" and not keep_modelled else 0
-        console.print(f"wrote {out} ({plural(m.num_markers - left, 'marker')}, {plural(m.num_frames, 'frame')} @ {m.fps:g} fps, "
-                      f"{100.0 * m.missing().mean():.2f} % missing)")
+        io.save_markers(m, out, keep_modelled=keep_modelled, overwrite=overwrite)
+        from ..io.c3d_contents import marker_counts
+
+        markers, modelled, missing = marker_counts(m)
+        quantities = plural(modelled, "modelled quantity", "modelled quantities")
+        kept = "" if not modelled else (f", {quantities} kept" if keep_modelled or out.suffix.lower() != ".trc"
+                                        else f", {quantities} left out")
+        console.print(f"wrote {out} ({plural(markers, 'marker')}, {plural(m.num_frames, 'frame')} @ {m.fps:g} fps, "
+                      f"{100.0 * missing:.2f} % of marker samples missing{kept})")
         if m.zero_gaps:
             console.print(f"read {plural(m.zero_gaps, 'sample')} stored as exact (0, 0, 0) as gaps "
                           "(--keep-zeros keeps them as positions)")
