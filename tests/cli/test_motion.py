@@ -544,3 +544,16 @@ def test_info_on_a_missing_file_says_no_such_file_whatever_its_suffix(tmp_path):
     for name in ("model.pt", "base.kb", "take.bvh", "take.clean.npz", "noext"):
         code, _, err = run("info", str(tmp_path / name))
         assert code == 2 and one_error_line(err) and err.strip().endswith(f"{tmp_path / name}: no such file"), err
+
+
+def test_info_prints_the_digest_a_hand_written_decisions_file_needs(tmp_path):
+    """The guide says a decisions file written by hand (no `cleaning`) applies with `--record`, but it is refused
+    without the take's sha256, which nothing printed: `info` gives it, for a take and a marker capture."""
+    from mocapkit.cleaning.decisions import take_digest
+    from mocapkit.io import load_markers
+
+    code, out, _ = run("info", WALK)
+    assert code == 0 and f"sha256       {take_digest(mocapkit.load(WALK))}" in out
+    c3d = mocapkit.samples.path("Eb015pr.c3d")
+    code, out, _ = run("info", c3d)
+    assert code == 0 and take_digest(load_markers(c3d)) in out

@@ -24,6 +24,7 @@ def info(
     unit: Optional[str] = unit_option(),
 ) -> None:
     """Print the skeleton, frame count, frame rate, duration and missing data of FILE (or what a mocapkit file holds)."""
+    from ..cleaning.decisions import take_digest
     from ..io.bvh_roots import extra_roots
     from ..io.c3d import MarkerSet
     from ..io.c3d_contents import marker_counts, marker_file_contents
@@ -47,6 +48,7 @@ def info(
                  ("duration", f"{obj.num_frames / obj.fps:.3f} s"), ("units", obj.units + _UNITS_FROM[obj.units_from]),
                  ("missing", f"{100.0 * missing:.2f} % of marker samples")]
         rows += marker_file_contents(obj)
+        rows.append(("sha256", f"{take_digest(obj)} (of the samples: a decisions file's \"take\" digest)"))
         print_fields(rows)
         if joints:
             console.print(", ".join(obj.labels))
@@ -80,7 +82,8 @@ def info(
                   if roles_by_topology(sk) else "none known (no joint map: the networks fall back)")
     rows.append(("rig family", family))
     rows += [("channels", str(len(m.channel_names()))),
-             ("missing", f"{100.0 * miss.mean():.2f} % of joint samples, {plural(int(miss.any(axis=1).sum()), 'frame')} affected")]
+             ("missing", f"{100.0 * miss.mean():.2f} % of joint samples, {plural(int(miss.any(axis=1).sum()), 'frame')} affected"),
+             ("sha256", f"{take_digest(m)} (of the samples: a decisions file's \"take\" digest)")]
     print_fields(rows)
     if joints:
         print_table(("#", "joint", "parent", "channels"),
