@@ -433,9 +433,9 @@ def test_a_model_licence_is_said_once_naming_cleans_own_option(tmp_path, capsys)
     assert main(["clean", str(tmp_path / "gappy.npz"), "-o", str(tmp_path / "out.npz"), "--steps", "fill",
                  "--context", "none"]) == 0
     out = capsys.readouterr().out
-    assert out.count("the EBD used is CC BY-NC") == 1 and out.count("the EBF used is CC BY-NC") == 1, out
+    assert out.count("licence of the EBD used: CC BY-NC") == 1 and out.count("licence of the EBF used: CC BY-NC") == 1, out
     assert "warning: " in out and "fill (" in out  # a warning line, as denoise and fill print it, not in the step's
-    assert "--ebd (clean, clean-batch; models= in Python) picks another, e.g. ebd.pt" in " ".join(out.split())
+    assert "--ebd (clean, clean-batch; models= in Python) picks another: no shipped model" in " ".join(out.split())
 
 
 def test_rejected_fills_written_as_bvh_say_the_decisions_left_the_gaps(tmp_path, capsys):
