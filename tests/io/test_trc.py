@@ -728,6 +728,6 @@ def test_samples_a_trc_cannot_tell_from_recorded_ones_are_counted(tmp_path):
     assert any(n.startswith(f"{tmp_path / 'x.trc'}: {interpolated} samples the input marks as interpolated") for n in notes)
     filled = ms.missing()
     notes = marker_notes(ms, tmp_path / "x.trc", filled=filled, record=tmp_path / "x.clean.npz")
-    assert (f"{tmp_path / 'x.trc'}: {int(filled.sum())} filled samples are written like recorded ones: a TRC has no "
+    assert (f"{tmp_path / 'x.trc'}: {int(filled.sum())} samples the cleaning wrote (gaps filled, spikes and duplicates replaced) are written like recorded ones: a TRC has no "
             f"residual column to tell them apart; {tmp_path / 'x.clean.npz'} lists them") in "\n".join(notes)
-    assert not any("filled samples" in n or "interpolated" in n for n in marker_notes(ms, tmp_path / "x.c3d"))
+    assert not any("samples the cleaning wrote" in n or "interpolated" in n for n in marker_notes(ms, tmp_path / "x.c3d"))

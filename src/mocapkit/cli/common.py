@@ -46,15 +46,15 @@ def overwrite_option():
     return typer.Option(False, "--overwrite", help=OVERWRITE_HELP)
 
 
-def asf_option():
-    """The ``--asf`` option of every command that reads AMC files."""
-    return typer.Option(None, "--asf", help="Skeleton (.asf) for the .amc input(s) and reference (default: the ASF beside each AMC).")
+def asf_option(what: str = "input(s) and reference"):
+    """The ``--asf`` option of every command that reads AMC files; ``what``: the files it reads (``info``: "input")."""
+    return typer.Option(None, "--asf", help=f"Skeleton (.asf) for the .amc {what} (default: the ASF beside each AMC).")
 
 
-def amc_fps_option():
+def amc_fps_option(what: str = "input(s) and reference"):
     """The ``--amc-fps`` option of every command that reads AMC files (an AMC states no rate of its own)."""
     return typer.Option(None, "--amc-fps", metavar="FPS",
-                        help="Frame rate of the .amc input(s) and reference (default: the rate the file states in "
+                        help=f"Frame rate of the .amc {what} (default: the rate the file states in "
                              "mocapkit's comment line, else the one an HDM05 name ends with, else 120, the CMU and "
                              "HDM05 rate).")
 

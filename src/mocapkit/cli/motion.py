@@ -19,8 +19,8 @@ def info(
                                           "folder, a .clean.npz record, a detection, a .mask.npz, a .pt model or "
                                           "checkpoint, a knowledge base, a decisions file, a batch mark."),
     joints: bool = typer.Option(False, "--joints", help="Also list every joint with its parent and channels."),
-    asf: Optional[Path] = asf_option(),
-    amc_fps: Optional[float] = amc_fps_option(),
+    asf: Optional[Path] = asf_option("input"),
+    amc_fps: Optional[float] = amc_fps_option("input"),
     unit: Optional[str] = unit_option(),
 ) -> None:
     """Print the skeleton, frame count, frame rate, duration and missing data of FILE (or what a mocapkit file holds)."""
@@ -181,7 +181,7 @@ def corrupt(
         None, "--amount", help="noise, uniform, bias: std as a fraction of each channel's std (0.1/0.5/0.9; a "
                                "channel that crosses +-180 deg: the std of its motion, read on the circle); "
                                "spatial: std in cm. A finite number > 0 (0 would change nothing); gaps and the "
-                               "error kinds take none."
+                               "error kinds take none. Default: 0.5 (noise, uniform, bias), 0.5 cm (spatial)."
     ),
     seed: int = typer.Option(0, "--seed", help="Random seed: the same seed gives the same corruption."),
     mask_out: Optional[Path] = typer.Option(
