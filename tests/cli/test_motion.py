@@ -557,3 +557,12 @@ def test_info_prints_the_digest_a_hand_written_decisions_file_needs(tmp_path):
     c3d = mocapkit.samples.path("Eb015pr.c3d")
     code, out, _ = run("info", c3d)
     assert code == 0 and take_digest(load_markers(c3d)) in out
+
+
+def test_help_says_what_info_reads_and_corrupts_default_amount():
+    """`info --help` said --asf/--amc-fps apply to "input(s) and reference" (info has no reference); `corrupt --help`
+    did not say --amount's default."""
+    code, out, _ = run("info", "--help")
+    assert code == 0 and "reference" not in " ".join(out.split())
+    code, out, _ = run("corrupt", "--help")
+    assert code == 0 and "Default: 0.5 (noise, uniform, bias), 0.5 cm (spatial)" in " ".join(out.replace("│", " ").split())

@@ -75,10 +75,11 @@ def check_noise_deg(noise_deg: float | None) -> None:
         raise MocapError(f"--noise-deg must be a positive number of degrees, got {noise_deg:g}")
 
 
-def unit_option():
-    """The ``--unit`` option of the commands that measure lengths (:func:`mocapkit.io.takes.with_unit`)."""
+def unit_option(what: str = "input(s) and reference"):
+    """The ``--unit`` option of the commands that measure lengths (:func:`mocapkit.io.takes.with_unit`); ``what``: the
+    files it applies to (``info``: "input")."""
     return typer.Option(None, "--unit", metavar="mm|cm|m|in",
-                        help="Length unit of the input(s) and reference where the file states none (a BVH; a marker "
+                        help=f"Length unit of the {what} where the file states none (a BVH; a marker "
                              "file with an empty unit field). Default: read from the bones, assuming an adult, or from "
                              "the marker distances.")
 

@@ -21,7 +21,7 @@ def info(
     joints: bool = typer.Option(False, "--joints", help="Also list every joint with its parent and channels."),
     asf: Optional[Path] = asf_option("input"),
     amc_fps: Optional[float] = amc_fps_option("input"),
-    unit: Optional[str] = unit_option(),
+    unit: Optional[str] = unit_option("input"),
 ) -> None:
     """Print the skeleton, frame count, frame rate, duration and missing data of FILE (or what a mocapkit file holds)."""
     from ..cleaning.decisions import take_digest
