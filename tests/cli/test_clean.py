@@ -63,7 +63,8 @@ def test_clean_writes_output_and_record(takes, tmp_path, capsys):
     # looser bound, 4.65 -> 3.83 cm now: the take's 0.9 s gap in the right upper arm is filled no better by the gap
     # prior than by the linear fill the "before" figure uses, 29 vs 28 deg, and that one arm weighs on them most;
     # before the prior read its clips' mirror images it was 33 deg and the positions 4.83 cm; docs/models.md.)
-    found = re.search(r"eq\. 2 ([\d.]+) -> ([\d.]+) per frame; joint positions ([\d.]+) -> ([\d.]+) cm", text)
+    found = re.search(r"pose error ([\d.]+) -> ([\d.]+) per frame \(Aristidou et al\. 2018 eq\. 2.*?\); positions of "
+                      r"joints and end sites ([\d.]+) -> ([\d.]+) cm", text, re.S)
     assert found, text
     e0, e1, c0, c1 = map(float, found.groups())
     assert e1 < 0.5 * e0 and 0 < c1 < 2 * c0, found.group(0)

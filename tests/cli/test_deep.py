@@ -275,7 +275,7 @@ def test_a_bandai_take_is_denoised_by_the_bandai_ebf_with_its_licence_line(tmp_p
     # the shipped model by its name, as the licence line suggests, from any folder
     code, out, err = run("denoise", str(src), "-o", str(tmp_path / "f.bvh"), "--model", "ebf.pt", cwd=tmp_path)
     assert code == 0, err
-    assert "CC BY-NC" not in out
+    assert "used: CC BY-NC" not in out
     assert np.array_equal(mocapkit.load(tmp_path / "f.bvh").rotations, mocapkit.load(tmp_path / "e.bvh").rotations)
     code, _, err = run("denoise", str(src), "-o", str(tmp_path / "g.bvh"), "--model", "ebd.pt", cwd=tmp_path)
     assert code == 2 and one_error_line(err) and "ebd.pt: an EBD model, but this needs an EBF" in " ".join(err.split())

@@ -466,7 +466,7 @@ def test_unit_names_the_length_unit_a_bvh_does_not_state(tmp_path):
     assert code == 0, err
     code, out, err = run("clean", tmp_path / "sp.bvh", "-o", tmp_path / "c.bvh", "--steps", "fill", "--reference",
                          child, "--unit", "cm", "--context", "none")
-    assert code == 0 and "joint positions" in out, (out, err)
+    assert code == 0 and "positions of joints and end sites" in out, (out, err)
     code, _, err = run("info", WALK, "--unit", "cm")  # an ASF states its unit
     assert code == 2 and one_error_line(err) and "states its length unit (5.644 cm), not cm" in err
     code, _, err = run("info", child, "--unit", "furlong")
