@@ -152,7 +152,7 @@ def test_bandai_ebf_denoises_and_its_note_names_the_licence(dance):
     # --model picks another: the Acclaim EBF, through its joint map (the game rig retargeted, its palms, fingers,
     # thumbs, middle spine and upper neck held at the model's means)
     acclaim, method, note = deep.denoise_or_fallback(noisy, deep.shipped_model("ebf"), label="given")
-    assert method == "EBF (given, via the bandai_namco joint map)" and "CC BY-NC" not in note
+    assert method == "EBF (given, via the bandai_namco joint map)" and "used: CC BY-NC" not in note and "used: research use only" in note
     assert metrics.joint_angle_rms(dance, acclaim, include_root=False) < 0.75 * before
 
 
