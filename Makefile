@@ -58,6 +58,10 @@ demo: install  # demo_out/ is the demo's own folder: a rerun replaces what the l
 	$(VENV)/bin/mocapkit reconstruct --db $(OUT)/hdm_db --markers $(SNEAK) -o $(OUT)/sneak_from_6_markers.bvh --reference $(SNEAK) --overwrite
 	$(VENV)/bin/mocapkit reconstruct --db $(OUT)/hdm_db --accelerometers $(SNEAK) -o $(OUT)/sneak_from_4_accelerometers.bvh --reference $(SNEAK) --overwrite
 	@echo "demo outputs written to $(OUT)/; open $(OUT)/12_walk_report.html in a browser"
+	@echo "$(OUT)/12_walk_cleaned.clean.npz is the cleaning's record: every change and why, so each can be kept or undone."
+	@echo "next: review: untick changes in the report, press \"Download decisions\", then apply them without cleaning again:"
+	@echo "  mocapkit clean $(OUT)/12_walk_broken.npz -o $(OUT)/12_walk_final.bvh --decisions 12_walk_broken.decisions.json --record $(OUT)/12_walk_cleaned.clean.npz"
+	@echo "  (docs/guide/cleaning.md, \"Review and decide\")"
 
 # --dist loadscope keeps each test module on one worker, so a module's costly fixtures are built once
 # The browser check (which may apt-get Chromium on a bare machine) runs beside the install, not after it.

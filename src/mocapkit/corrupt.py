@@ -493,6 +493,9 @@ def gaps(
 class ErrorRecord:
     """One injected error: its kind, joint name and frame range ``[start, end)``.
 
+    ``end`` is exclusive, the first frame after the error, as in Python's slices: ``start 89, end 120`` is
+    the summary's inclusive "frames 89-119" (0-based take indexes, as everywhere in mocapkit).
+
     For a ``swap`` there is one record per joint of the pair, each naming the
     other as ``partner``.
     """

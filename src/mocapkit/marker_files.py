@@ -114,7 +114,7 @@ def clean_marker_file(inp, out, *, report=None, png=None, overwrite: bool = Fals
 
             plot_marker_fixes(png, given, title=f"{inp.name}: before (grey) and after")
         save_markers(given.output, out, like=ms, stored_zeros=True, keep_modelled=keep_modelled,
-                     filled=given.fill_mask)
+                     filled=given.fill_mask, overwrite=True)  # out: checked by the output guard before the work
         if not reuse:  # last: the completion marker
             res.save(record, written={"input": taken, "output": file_facts(out)},
                      request=request)

@@ -117,21 +117,27 @@ def joint_angle_rms(a: Motion, b: Motion, per_frame: bool = False, include_root:
     return float(np.sqrt(_nanmean(d**2)))
 
 
-def _below_pelvis(skeleton) -> tuple[int, np.ndarray]:
-    """The pelvis (by role) and the joints (K,) below it, in skeleton order."""
+def _below_pelvis(skeleton, end_sites: bool = False) -> tuple[int, np.ndarray]:
+    """The pelvis (by role) and the joints (K,) below it, in skeleton order; with ``end_sites``, also the end sites
+    below it, indexed after the J joints (``J + e``), as in :meth:`~mocapkit.motion.Motion.global_positions`."""
     p = pelvis_index(skeleton)
     inside = np.zeros(skeleton.num_joints, dtype=bool)
     inside[p] = True
     for j in range(p + 1, skeleton.num_joints):
         inside[j] = inside[skeleton.parents[j]]
+    ends = np.flatnonzero(inside[np.asarray(skeleton.end_site_parents, dtype=int)]) if end_sites else np.zeros(0, int)
     inside[p] = False
-    return p, np.flatnonzero(inside)
+    return p, np.concatenate([np.flatnonzero(inside), skeleton.num_joints + ends])
 
 
 def joint_position_rms(
-    a: Motion, b: Motion, scale_cm: float | None = None, root_relative: bool | str = True
+    a: Motion, b: Motion, scale_cm: float | None = None, root_relative: bool | str = True, end_sites: bool = False
 ) -> float:
     """RMS joint-position error in cm over joints and frames: ``sqrt(mean |p_a - p_b|^2)``.
+
+    ``end_sites``: the end sites (head top, toe tips, finger tips) count as joints too, so that an error in the
+    rotation of a joint whose only child is an end site (the head, the toes) is seen; without it (the benchmarks'
+    figure) only joints with channels count.
 
     ``root_relative``:
 
@@ -162,12 +168,15 @@ def joint_position_rms(
     scale = unit_scale_cm(a.skeleton) if scale_cm is None else float(scale_cm)
     ga, pa = a.global_transforms()
     gb, pb = b.global_transforms()
+    if end_sites:
+        pa = np.concatenate([pa, a.end_sites_from(ga, pa)], axis=1)
+        pb = np.concatenate([pb, b.end_sites_from(gb, pb)], axis=1)
     if root_relative in ("body", "pelvis"):
-        p, below = _below_pelvis(a.skeleton)
+        p, below = _below_pelvis(a.skeleton, end_sites)
         keep = [p] if root_relative == "pelvis" else [p, *below]
         pa, pb = pa[:, keep], pb[:, keep]
     elif root_relative is not False:
-        p, below = _below_pelvis(a.skeleton)
+        p, below = _below_pelvis(a.skeleton, end_sites)
         pa = pa[:, below] - pa[:, p : p + 1]
         pb = pb[:, below] - pb[:, p : p + 1]
         if root_relative == "frame":

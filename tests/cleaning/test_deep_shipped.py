@@ -152,7 +152,7 @@ def test_bandai_ebf_denoises_and_its_note_names_the_licence(dance):
     # --model picks another: the Acclaim EBF, through its joint map (the game rig retargeted, its palms, fingers,
     # thumbs, middle spine and upper neck held at the model's means)
     acclaim, method, note = deep.denoise_or_fallback(noisy, deep.shipped_model("ebf"), label="given")
-    assert method == "EBF (given, via the bandai_namco joint map)" and "CC BY-NC" not in note
+    assert method == "EBF (given, via the bandai_namco joint map)" and "used: CC BY-NC" not in note and "used: research use only" in note
     assert metrics.joint_angle_rms(dance, acclaim, include_root=False) < 0.75 * before
 
 
@@ -178,33 +178,33 @@ def test_denoise_and_fill_gaps_warn_of_the_non_commercial_models_they_pick(dance
     from mocapkit.errors import LicenceWarning
 
     noisy, _ = corrupt.angular_noise(dance, 0.5, seed=7)
-    with pytest.warns(LicenceWarning, match="the EBF used is CC BY-NC 4.0.*model= picks another, e.g. ebf.pt"):
+    with pytest.warns(LicenceWarning, match="licence of the EBF used: CC BY-NC 4.0.*model= picks another"):
         deep.denoise(noisy)
     rot = np.array(dance.rotations)
     rot[15:45, dance.skeleton.joint_names.index("LowerLeg_L")] = np.nan
-    with pytest.warns(LicenceWarning, match="the EB[DF] used is CC BY-NC 4.0") as said:
+    with pytest.warns(LicenceWarning, match="licence of the EB[DF] used: CC BY-NC 4.0") as said:
         deep.fill_gaps(dataclasses.replace(dance, rotations=rot))
     assert any("denoiser= picks another" in str(w.message) for w in said)  # its EBF smooths the fill
-    with warnings.catch_warnings():
-        warnings.simplefilter("error")  # the Acclaim models, and clean (its summary says it), warn of nothing
+    with pytest.warns(LicenceWarning, match="licence of the EBF used: research use only"):  # HDM05's terms
         deep.denoise(noisy, deep.shipped_model("ebf"))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # clean's path (its summary says it) warns of nothing
         deep.denoise_or_fallback(noisy)
 
 
 def test_the_streaming_denoiser_warns_of_the_non_commercial_model_it_picks(dance, walk):
     """deep.Denoiser and deep.denoise_rows picked the CC BY-NC Bandai EBF for a Bandai take without a word, where
-    deep.denoise warns: the same LicenceWarning; the Acclaim model streaming an Acclaim take warns of nothing."""
-    import warnings
+    deep.denoise warns: the same LicenceWarning; the Acclaim model streaming an Acclaim take warns of HDM05's terms."""
 
     from mocapkit.errors import LicenceWarning
 
-    with pytest.warns(LicenceWarning, match="the EBF used is CC BY-NC 4.0.*model= picks another"):
+    with pytest.warns(LicenceWarning, match="licence of the EBF used: CC BY-NC 4.0.*model= picks another"):
         deep.Denoiser(dance.skeleton, dance.fps)
-    with pytest.warns(LicenceWarning, match="the EBF used is CC BY-NC 4.0"):
+    with pytest.warns(LicenceWarning, match="licence of the EBF used: CC BY-NC 4.0"):
         deep.denoise_rows(dance.skeleton, dance.channel_values()[:40], dance.fps)
-    with warnings.catch_warnings():
-        warnings.simplefilter("error")
+    with pytest.warns(LicenceWarning, match="research use only"):  # the Acclaim model: HDM05's terms
         deep.Denoiser(walk.skeleton, walk.fps)
+    with pytest.warns(LicenceWarning, match="research use only"):
         deep.denoise_rows(walk.skeleton, walk.channel_values()[:40], walk.fps)
 
 

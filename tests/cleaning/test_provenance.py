@@ -37,7 +37,8 @@ def test_a_model_trained_on_bandai_takes_inherits_their_rig_and_non_commercial_l
     assert m.meta["training_data"] == {"takes": 2, "frames": bandai[0].num_frames + bandai[1].num_frames,
                                        "held_out_takes": 1, "held_out_frames": bandai[2].num_frames}
     note = deep.licence_note(m, {"ebf": "--model"})
-    assert note.startswith(f"the EBF used is {BANDAI_LICENCE}; --model picks another, e.g. ebf.pt")
+    assert note.startswith(f"licence of the EBF used: {BANDAI_LICENCE}; --model picks another")
+    assert "e.g. ebf.pt" not in note and "no shipped model is cleared for commercial use" in note
     with pytest.warns(mocapkit.errors.LicenceWarning, match="CC BY-NC 4.0"):  # wherever the model is used
         deep.denoise(bandai[2], m)
 
@@ -91,3 +92,21 @@ def test_a_models_licence_table_words_the_same_families_the_data_terms_name():
     from mocapkit import rigs
 
     assert set(provenance.DATA_LICENCES) == set(rigs.DATA_TERMS)
+
+
+def test_the_shipped_acclaim_pair_states_hdm05s_research_terms_wherever_it_is_used(walk):
+    """`info ebf.pt` said "licence not stated" and cleaning an Acclaim take said nothing of its terms, while a Bandai
+    take's warning offered ebf.pt as the alternative: the pair was trained on HDM05 takes (research use) and CMU ones,
+    so it inherits HDM05's terms, stated as the Bandai pair's are."""
+    import numpy as np
+
+    for kind in ("ebf", "ebd"):
+        m = deep.shipped_model(kind)
+        assert model_licence(m) == provenance.HDM05_LICENCE and restricts_use(model_licence(m))
+        assert deep.licence_note(m).startswith(f"licence of the {kind.upper()} used: research use only")
+    rot = mocapkit.rotations
+    take = walk[:200]
+    jitter = rot.euler_to_quaternion(np.random.default_rng(1).normal(0, 2.0, take.rotations.shape[:-1] + (3,)), "XYZ")
+    noisy = dataclasses.replace(take, rotations=rot.quaternion_multiply(take.rotations, jitter))
+    with pytest.warns(mocapkit.errors.LicenceWarning, match="research use only"):
+        deep.denoise(noisy)

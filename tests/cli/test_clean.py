@@ -63,7 +63,8 @@ def test_clean_writes_output_and_record(takes, tmp_path, capsys):
     # looser bound, 4.65 -> 3.83 cm now: the take's 0.9 s gap in the right upper arm is filled no better by the gap
     # prior than by the linear fill the "before" figure uses, 29 vs 28 deg, and that one arm weighs on them most;
     # before the prior read its clips' mirror images it was 33 deg and the positions 4.83 cm; docs/models.md.)
-    found = re.search(r"eq\. 2 ([\d.]+) -> ([\d.]+) per frame; joint positions ([\d.]+) -> ([\d.]+) cm", text)
+    found = re.search(r"pose error ([\d.]+) -> ([\d.]+) per frame \(Aristidou et al\. 2018 eq\. 2.*?\); positions of "
+                      r"joints and end sites ([\d.]+) -> ([\d.]+) cm", text, re.S)
     assert found, text
     e0, e1, c0, c1 = map(float, found.groups())
     assert e1 < 0.5 * e0 and 0 < c1 < 2 * c0, found.group(0)
@@ -433,9 +434,9 @@ def test_a_model_licence_is_said_once_naming_cleans_own_option(tmp_path, capsys)
     assert main(["clean", str(tmp_path / "gappy.npz"), "-o", str(tmp_path / "out.npz"), "--steps", "fill",
                  "--context", "none"]) == 0
     out = capsys.readouterr().out
-    assert out.count("the EBD used is CC BY-NC") == 1 and out.count("the EBF used is CC BY-NC") == 1, out
+    assert out.count("licence of the EBD used: CC BY-NC") == 1 and out.count("licence of the EBF used: CC BY-NC") == 1, out
     assert "warning: " in out and "fill (" in out  # a warning line, as denoise and fill print it, not in the step's
-    assert "--ebd (clean, clean-batch; models= in Python) picks another, e.g. ebd.pt" in " ".join(out.split())
+    assert "--ebd (clean, clean-batch; models= in Python) picks another: no shipped model" in " ".join(out.split())
 
 
 def test_rejected_fills_written_as_bvh_say_the_decisions_left_the_gaps(tmp_path, capsys):

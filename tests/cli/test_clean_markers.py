@@ -198,7 +198,7 @@ def test_what_the_output_format_cannot_hold_is_said_in_one_note(tmp_path):
     said = [line for line in stdout.splitlines() if line.startswith("note: ")]
     assert said[-1] == (f"note: {tmp_path / 'x.trc'}: not written, as TRC cannot hold them: the input's 16 analog "
                         "channels, events, parameter groups, residuals and camera masks (a .c3d output keeps them)")
-    assert all("filled samples" in n or "interpolated" in n for n in said[:-1])  # what TRC cannot tell apart
+    assert all("samples the cleaning wrote" in n or "interpolated" in n for n in said[:-1])  # what TRC cannot tell apart
     code, stdout, _ = run("convert", c3d, tmp_path / "x.npz")
     assert code == 0 and f"note: {tmp_path / 'x.npz'}: not written, as a marker npz cannot hold them" in stdout
     code, stdout, _ = run("clean", c3d, "-o", tmp_path / "y.c3d")
@@ -288,7 +288,7 @@ def test_a_trc_output_says_how_many_of_its_samples_are_fills_and_where_they_are_
     out = tmp_path / "c.trc"
     code, stdout, stderr = run("clean", inp, "-o", out)
     assert code == 0, stderr
-    assert (f"note: {out}: {int(mask.sum())} filled samples are written like recorded ones: a TRC has no residual "
+    assert (f"note: {out}: {int(mask.sum())} samples the cleaning wrote (gaps filled, spikes and duplicates replaced) are written like recorded ones: a TRC has no residual "
             f"column to tell them apart; {tmp_path / 'c.clean.npz'} lists them") in stdout
     folder = tmp_path / "in"
     folder.mkdir()
@@ -296,10 +296,10 @@ def test_a_trc_output_says_how_many_of_its_samples_are_fills_and_where_they_are_
     cut = load_markers(out)
     cut_positions = np.array(cut.positions)
     cut_positions[mask] = np.nan
-    save_markers(cut.with_positions(cut_positions), folder / "cut.trc")
+    save_markers(cut.with_positions(cut_positions), folder / "cut.trc", overwrite=True)
     code, stdout, stderr = run("clean-batch", folder, tmp_path / "out", "--executor", "serial")
     assert code == 0, stderr + stdout
-    assert (f"warning: {folder / 'cut.trc'}: {tmp_path / 'out' / 'cut.trc'}: {int(mask.sum())} filled samples are "
+    assert (f"warning: {folder / 'cut.trc'}: {tmp_path / 'out' / 'cut.trc'}: {int(mask.sum())} samples the cleaning wrote (gaps filled, spikes and duplicates replaced) are "
             "written like recorded ones") in stdout
     eb = load_markers(mocapkit_sample("Eb015pr.c3d"))  # residuals over 0: its fills are marked with residual 0 ...
     code, stdout, stderr = run("clean", mocapkit_sample("Eb015pr.c3d"), "-o", tmp_path / "e.c3d")
@@ -326,7 +326,8 @@ def test_modelled_quantities_are_left_out_of_a_trc_by_clean_and_convert_unless_k
         assert len(labels) == 113 and "LHipAngles" not in labels and "LAnklePower" not in labels and "LASI" in labels
     code, stdout, stderr = run("convert", inp, tmp_path / "c.trc", "--keep-modelled")
     assert code == 0, stderr
-    assert "modelled quantities" not in stdout and len(load_markers(tmp_path / "c.trc").labels) == 193
+    assert "left out" not in stdout and "80 modelled quantities kept" in stdout
+    assert len(load_markers(tmp_path / "c.trc").labels) == 193
     code, _, stderr = run("clean", SAMPLE, "-o", tmp_path / "d.bvh", "--keep-modelled")
     assert code != 0 and one_error_line(stderr) and "applies only to marker captures" in stderr
 

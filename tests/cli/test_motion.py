@@ -209,6 +209,21 @@ def test_convert_marker_files_between_c3d_trc_and_npz(tmp_path, capsys):
     assert "read with trc" in capsys.readouterr().out
 
 
+def test_convert_and_info_count_markers_apart_from_modelled_quantities(shared_data, tmp_path):
+    """`convert PiG.c3d pig.trc` said "113 markers ... 9.95 % missing" (the share over all 193 points, 80 of them
+    modelled angles, forces, moments, powers) where `info pig.trc` said 0.59 %, and `info PiG.c3d` said
+    "markers 193": the markers are counted apart from the modelled quantities, and the share is the markers'."""
+    c3d = shared_data / "c3d_markers" / "PiG_Motion-FlatFoot-Full.c3d"
+    code, out, _ = run("convert", c3d, tmp_path / "pig.trc")
+    assert code == 0
+    assert "113 markers, 315 frames @ 100 fps, 0.59 % of marker samples missing, 80 modelled quantities left out" in out
+    code, out, _ = run("info", tmp_path / "pig.trc")
+    assert code == 0 and "0.59 % of marker samples" in out
+    code, out, _ = run("info", c3d)
+    assert code == 0
+    assert "113 (+80 modelled quantities" in out and "0.59 % of marker samples" in out and "193" not in out
+
+
 def test_convert_states_zero_gaps_and_keeps_them_on_request(tmp_path, capsys):
     from mocapkit.io import load_markers, save_markers
     from mocapkit.markerset import MarkerSet
@@ -451,7 +466,7 @@ def test_unit_names_the_length_unit_a_bvh_does_not_state(tmp_path):
     assert code == 0, err
     code, out, err = run("clean", tmp_path / "sp.bvh", "-o", tmp_path / "c.bvh", "--steps", "fill", "--reference",
                          child, "--unit", "cm", "--context", "none")
-    assert code == 0 and "joint positions" in out, (out, err)
+    assert code == 0 and "positions of joints and end sites" in out, (out, err)
     code, _, err = run("info", WALK, "--unit", "cm")  # an ASF states its unit
     assert code == 2 and one_error_line(err) and "states its length unit (5.644 cm), not cm" in err
     code, _, err = run("info", child, "--unit", "furlong")
@@ -529,3 +544,25 @@ def test_info_on_a_missing_file_says_no_such_file_whatever_its_suffix(tmp_path):
     for name in ("model.pt", "base.kb", "take.bvh", "take.clean.npz", "noext"):
         code, _, err = run("info", str(tmp_path / name))
         assert code == 2 and one_error_line(err) and err.strip().endswith(f"{tmp_path / name}: no such file"), err
+
+
+def test_info_prints_the_digest_a_hand_written_decisions_file_needs(tmp_path):
+    """The guide says a decisions file written by hand (no `cleaning`) applies with `--record`, but it is refused
+    without the take's sha256, which nothing printed: `info` gives it, for a take and a marker capture."""
+    from mocapkit.cleaning.decisions import take_digest
+    from mocapkit.io import load_markers
+
+    code, out, _ = run("info", WALK)
+    assert code == 0 and f"sha256       {take_digest(mocapkit.load(WALK))}" in out
+    c3d = mocapkit.samples.path("Eb015pr.c3d")
+    code, out, _ = run("info", c3d)
+    assert code == 0 and take_digest(load_markers(c3d)) in out
+
+
+def test_help_says_what_info_reads_and_corrupts_default_amount():
+    """`info --help` said --asf/--amc-fps apply to "input(s) and reference" (info has no reference); `corrupt --help`
+    did not say --amount's default."""
+    code, out, _ = run("info", "--help")
+    assert code == 0 and "reference" not in " ".join(out.split())
+    code, out, _ = run("corrupt", "--help")
+    assert code == 0 and "Default: 0.5 (noise, uniform, bias), 0.5 cm (spatial)" in " ".join(out.replace("│", " ").split())

@@ -82,3 +82,46 @@ def test_an_amc_saved_from_python_gets_its_asf_beside_it(tmp_path):
     with pytest.raises(MocapFormatError, match="no skeleton"):
         mocapkit.load(other / "12_walk.amc")
     assert mocapkit.load(other / "12_walk.amc", asf=src.parent / "12.asf").num_frames == m.num_frames
+
+
+def test_save_never_replaces_a_differing_asf_it_was_not_asked_for(tmp_path):
+    """`mocapkit.save(walk, "12_walk_clean.amc")` (the README's line) replaced a user's edited `12.asf` beside the
+    output with the take's skeleton: the ASF is replaced only with an explicit `overwrite=True`, and the refusal
+    names the library's parameter, not the CLI's flag."""
+    import mocapkit
+    from mocapkit import samples
+
+    src = samples.path("12_walk.amc")
+    walk = mocapkit.load(src)
+    edited = (src.parent / "12.asf").read_bytes() + b"# my edited skeleton\n"
+    (tmp_path / "12.asf").write_bytes(edited)
+    with pytest.raises(MocapFormatError, match="pass overwrite=True") as exc:
+        mocapkit.save(walk, tmp_path / "12_walk_clean.amc")
+    assert "--overwrite" not in str(exc.value)
+    assert (tmp_path / "12.asf").read_bytes() == edited
+    assert not (tmp_path / "12_walk_clean.amc").exists()
+    mocapkit.save(walk, tmp_path / "12_walk_clean.amc", overwrite=True)  # asked for: replaced, as --overwrite does
+    assert (tmp_path / "12.asf").read_bytes() == (src.parent / "12.asf").read_bytes()
+
+
+def test_save_markers_refuses_an_existing_file_and_its_like(tmp_path):
+    """`save_markers(m, its_input)` rewrote the capture as floats without being asked: an existing file is
+    refused unless overwrite=True, and the file given as like= is refused always."""
+    import shutil
+
+    from mocapkit import samples
+    from mocapkit.io import save_markers
+
+    c3d = tmp_path / "take.c3d"
+    shutil.copy(samples.path("Eb015pr.c3d"), c3d)
+    before = c3d.read_bytes()
+    ms = load(c3d)
+    with pytest.raises(MocapFormatError, match="already exists; pass overwrite=True"):
+        save_markers(ms, c3d)
+    with pytest.raises(MocapFormatError, match="like="):
+        save_markers(ms, c3d, like=c3d, overwrite=True)
+    assert c3d.read_bytes() == before
+    out = save_markers(ms, tmp_path / "out.trc")
+    save_markers(ms, out, overwrite=True)
+    with pytest.raises(MocapFormatError, match="already exists"):
+        save_markers(ms, out)

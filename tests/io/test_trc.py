@@ -440,7 +440,7 @@ def test_a_frame_inserted_on_write_gets_the_files_time(tmp_path):
     path.write_text(_timed_trc([11, 12, 14, 15], [0.10, 0.11, 0.13, 0.14]))
     ms = read_trc(path)
     assert ms.num_frames == 5 and ms.missing()[2].all() and ms.source.first_frame == 11
-    out = save_markers(ms, tmp_path / "out.trc").read_text().splitlines()
+    out = save_markers(ms, tmp_path / "out.trc", overwrite=True).read_text().splitlines()
     assert out[8] == "13\t0.12000\t\t\t\t\t\t" and out[2].split("\t")[2] == "5"
     pos = np.array(ms.positions)
     pos[2] = [[9, 9, 9], [8, 8, 8]]  # the inserted frame filled
@@ -451,7 +451,7 @@ def test_a_frame_inserted_on_write_gets_the_files_time(tmp_path):
     assert back.notes == () and np.array_equal(back.positions, pos, equal_nan=True)
     # two frames skipped at 30 fps (times k / 30 to 3 decimals): the times of frames 102 and 103, not 3.333 + 1/30
     path.write_text(_timed_trc([101, 104], [100 / 30, 103 / 30], rate=30, decimals=3))
-    out = save_markers(read_trc(path), tmp_path / "out.trc").read_text().splitlines()
+    out = save_markers(read_trc(path), tmp_path / "out.trc", overwrite=True).read_text().splitlines()
     assert [r.split("\t")[:2] for r in out[6:]] == [["101", "3.333"], ["102", "3.367"], ["103", "3.400"], ["104", "3.433"]]
 
 
@@ -465,10 +465,10 @@ def test_rows_a_frame_apart_in_time_are_consecutive_frames_whatever_their_frame_
     assert ms.positions[:, 0, 0].tolist() == [0.5, 1.5, 2.5, 3.5, 4.5]
     assert ms.notes == ("the Frame# column is not consecutive (Frame# 3 follows 1, line 8) but the Time column steps "
                         "by 1/DataRate: the rows are placed by their time (Frame# kept as the file has it)",)
-    assert save_markers(ms, tmp_path / "same.trc").read_bytes() == path.read_bytes()
+    assert save_markers(ms, tmp_path / "same.trc", overwrite=True).read_bytes() == path.read_bytes()
     pos = np.array(ms.positions)
     pos[2, 1, 2] = 7.0
-    out = save_markers(ms.with_positions(pos), tmp_path / "out.trc").read_text().splitlines()
+    out = save_markers(ms.with_positions(pos), tmp_path / "out.trc", overwrite=True).read_text().splitlines()
     assert out[8].split("\t")[:2] == ["5", "0.03333"] and out[8].endswith("\t7.00000")  # Frame# text kept
     # where the Time column itself skips (2/60 s), one frame is inserted; its Frame# goes on in the file's steps
     path.write_text(_timed_trc([1, 3, 5, 9], [0, 1 / 60, 2 / 60, 4 / 60], rate=60))
@@ -476,7 +476,7 @@ def test_rows_a_frame_apart_in_time_are_consecutive_frames_whatever_their_frame_
     assert ms.num_frames == 5 and ms.missing()[3].all() and not ms.missing()[[0, 1, 2, 4]].any()
     assert ms.notes[1] == ("the Time column skips frame: 1 after 0.03333 s (at line 10): read as 1 frame with every "
                            "marker missing, so every frame keeps its time")
-    out = save_markers(ms, tmp_path / "out.trc").read_text().splitlines()
+    out = save_markers(ms, tmp_path / "out.trc", overwrite=True).read_text().splitlines()
     assert out[9].split("\t")[:2] == ["7", "0.05000"] and out[2].split("\t")[2] == "5"
     assert read_trc(tmp_path / "out.trc").num_frames == 5
 
@@ -490,7 +490,7 @@ def test_a_frame_number_that_repeats_restarts_or_is_fractional_is_read_by_its_ti
     ms = read_trc(path)
     assert ms.num_frames == 5 and not ms.missing().any() and ms.positions[:, 0, 0].tolist() == [0.5, 1.5, 2.5, 3.5, 4.5]
     assert len(ms.notes) == 1 and "the rows are placed by their time" in ms.notes[0]
-    assert save_markers(ms, tmp_path / "same.trc").read_bytes() == path.read_bytes()
+    assert save_markers(ms, tmp_path / "same.trc", overwrite=True).read_bytes() == path.read_bytes()
 
 
 @pytest.mark.parametrize("times, line, reason", [
@@ -515,14 +515,14 @@ def test_without_a_usable_time_column_frame_numbers_then_row_order_place_the_row
     assert ms.num_frames == 5 and ms.missing()[2].all()
     assert ms.notes == ("the Frame# column skips frame 3 (at line 9): read as 1 frame with every marker missing, "
                         "so every frame keeps its time",)
-    assert save_markers(ms, tmp_path / "out.trc").read_text().splitlines()[8] == "3\t\t\t\t\t\t\t"
+    assert save_markers(ms, tmp_path / "out.trc", overwrite=True).read_text().splitlines()[8] == "3\t\t\t\t\t\t\t"
     # times in milliseconds: Frame# places the rows, said; an inserted row's time is spaced between its neighbours'
     path.write_text(_timed_trc([1, 2, 4, 5], [10, 20, 40, 50], numframes=5))
     ms = read_trc(path)
     assert ms.num_frames == 5 and ms.missing()[2].all()
     assert ms.notes[0] == ("the Time column does not step by 1/DataRate (0.01 s; its steps are mostly 10 s): the rows "
                            "are placed by their Frame#")
-    out = save_markers(ms, tmp_path / "out.trc").read_text().splitlines()
+    out = save_markers(ms, tmp_path / "out.trc", overwrite=True).read_text().splitlines()
     assert out[8].split("\t")[:2] == ["3", "30.00000"]
     # neither: Frame# repeats and no times: the rows in file order, said
     path.write_text(_timed_trc([1, 2, 2, 3], [""] * 4))
@@ -530,7 +530,7 @@ def test_without_a_usable_time_column_frame_numbers_then_row_order_place_the_row
     assert ms.num_frames == 4 and not ms.missing().any() and ms.positions[:, 0, 0].tolist() == [0.5, 1.5, 2.5, 3.5]
     assert ms.notes == ("the Frame# column is not whole numbers that increase (Frame# 2 follows 2, line 9) and the "
                         "Time column has rows without a time: the rows are read in file order as consecutive frames",)
-    assert save_markers(ms, tmp_path / "same.trc").read_bytes() == path.read_bytes()
+    assert save_markers(ms, tmp_path / "same.trc", overwrite=True).read_bytes() == path.read_bytes()
     # a Frame# that is text, not a number, is still refused
     path.write_text(_timed_trc([1, "x", 3], [0, 0.01, 0.02]))
     with pytest.raises(MocapFormatError, match="frame number 'x' is not a number"):
@@ -545,7 +545,7 @@ def test_a_repeated_label_is_written_as_the_file_has_it(tmp_path):
     assert ms.labels == ("RFHD", "C7", "RFHD_2") and "the repeats are called RFHD_2 here" in ms.notes[0]
     pos = np.array(ms.positions)
     pos[3, 2] += 0.5
-    out = save_markers(ms.with_positions(pos), tmp_path / "out.trc")
+    out = save_markers(ms.with_positions(pos), tmp_path / "out.trc", overwrite=True)
     assert out.read_text().splitlines()[3].split("\t")[2::3] == ["RFHD", "C7", "RFHD", ""]
     c3d = load_markers(save_markers(ms, tmp_path / "out.c3d"))
     assert c3d.labels == ms.labels and c3d.notes == ms.notes
@@ -559,7 +559,7 @@ def test_every_shared_trc_written_back_unchanged_is_byte_identical(shared_data, 
             ms = read_trc(f)
         except MocapFormatError:
             continue
-        assert save_markers(ms, tmp_path / f.name).read_bytes() == f.read_bytes(), f.name
+        assert save_markers(ms, tmp_path / f.name, overwrite=True).read_bytes() == f.read_bytes(), f.name
         done += 1
     assert done >= 12
 
@@ -568,7 +568,7 @@ def test_a_file_without_a_final_line_break_comes_back_without_one(tmp_path):
     path = tmp_path / "v.trc"
     path.write_bytes(_trc_text(end="").encode())
     ms = read_trc(path)
-    assert save_markers(ms, tmp_path / "same.trc").read_bytes() == path.read_bytes()
+    assert save_markers(ms, tmp_path / "same.trc", overwrite=True).read_bytes() == path.read_bytes()
     pos = np.array(ms.positions)
     pos[-1, 0] += 1.0
     text = save_markers(ms.with_positions(pos), tmp_path / "changed.trc").read_text()
@@ -728,9 +728,9 @@ def test_samples_a_trc_cannot_tell_from_recorded_ones_are_counted(tmp_path):
     assert any(n.startswith(f"{tmp_path / 'x.trc'}: {interpolated} samples the input marks as interpolated") for n in notes)
     filled = ms.missing()
     notes = marker_notes(ms, tmp_path / "x.trc", filled=filled, record=tmp_path / "x.clean.npz")
-    assert (f"{tmp_path / 'x.trc'}: {int(filled.sum())} filled samples are written like recorded ones: a TRC has no "
+    assert (f"{tmp_path / 'x.trc'}: {int(filled.sum())} samples the cleaning wrote (gaps filled, spikes and duplicates replaced) are written like recorded ones: a TRC has no "
             f"residual column to tell them apart; {tmp_path / 'x.clean.npz'} lists them") in "\n".join(notes)
-    assert not any("filled samples" in n or "interpolated" in n for n in marker_notes(ms, tmp_path / "x.c3d"))
+    assert not any("samples the cleaning wrote" in n or "interpolated" in n for n in marker_notes(ms, tmp_path / "x.c3d"))
 
 
 @pytest.mark.parametrize("keep", [True, False])

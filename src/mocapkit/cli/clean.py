@@ -121,7 +121,7 @@ def clean(
         check_replay(record, clean_request(step_list, threshold, drifts, context, models, noise_deg, amc_fps, unit),
                      [k for k in FLAGS if k in given], FLAGS, record_said)
     skeleton = asf_of(inp, asf)
-    skeleton_copy = asf_for_output(out, skeleton, overwrite)  # an AMC output reads back with its ASF beside it
+    skeleton_copy = asf_for_output(out, skeleton, overwrite, how="use --overwrite")  # an AMC output reads back with its ASF beside it
     take = load_motion(inp, asf, purpose="clean", fps=amc_fps, unit=unit)
     ref = None
     if reference is not None:  # refused before cleaning, not after OUT is written
@@ -211,8 +211,10 @@ def _print_reference(ref, reference, original, m) -> None:
         return
     e = clean_errors(ref, original, m)
     gaps = " (input gaps linearly filled)" if e["gaps_filled"] else ""
-    console.print(f"  error against {reference.name}{gaps}: eq. 2 {e['pose_before']:.4f} -> {e['pose_after']:.4f} "
-                  f"per frame; joint positions {e['cm_before']:.2f} -> {e['cm_after']:.2f} cm RMS")
+    console.print(f"  error against {reference.name}{gaps}: pose error {e['pose_before']:.4f} -> {e['pose_after']:.4f} "
+                  "per frame (Aristidou et al. 2018 eq. 2: sum over joints of the squared half-angle of each "
+                  f"rotation error, rad^2); positions of joints and end sites {e['cm_before']:.2f} -> {e['cm_after']:.2f} "
+                  "cm RMS (root-relative)")
 
 
 def _print_decided(written, decided, frames_note: str) -> None:

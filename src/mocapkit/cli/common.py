@@ -46,15 +46,15 @@ def overwrite_option():
     return typer.Option(False, "--overwrite", help=OVERWRITE_HELP)
 
 
-def asf_option():
-    """The ``--asf`` option of every command that reads AMC files."""
-    return typer.Option(None, "--asf", help="Skeleton (.asf) for the .amc input(s) and reference (default: the ASF beside each AMC).")
+def asf_option(what: str = "input(s) and reference"):
+    """The ``--asf`` option of every command that reads AMC files; ``what``: the files it reads (``info``: "input")."""
+    return typer.Option(None, "--asf", help=f"Skeleton (.asf) for the .amc {what} (default: the ASF beside each AMC).")
 
 
-def amc_fps_option():
+def amc_fps_option(what: str = "input(s) and reference"):
     """The ``--amc-fps`` option of every command that reads AMC files (an AMC states no rate of its own)."""
     return typer.Option(None, "--amc-fps", metavar="FPS",
-                        help="Frame rate of the .amc input(s) and reference (default: the rate the file states in "
+                        help=f"Frame rate of the .amc {what} (default: the rate the file states in "
                              "mocapkit's comment line, else the one an HDM05 name ends with, else 120, the CMU and "
                              "HDM05 rate).")
 
@@ -75,10 +75,11 @@ def check_noise_deg(noise_deg: float | None) -> None:
         raise MocapError(f"--noise-deg must be a positive number of degrees, got {noise_deg:g}")
 
 
-def unit_option():
-    """The ``--unit`` option of the commands that measure lengths (:func:`mocapkit.io.takes.with_unit`)."""
+def unit_option(what: str = "input(s) and reference"):
+    """The ``--unit`` option of the commands that measure lengths (:func:`mocapkit.io.takes.with_unit`); ``what``: the
+    files it applies to (``info``: "input")."""
     return typer.Option(None, "--unit", metavar="mm|cm|m|in",
-                        help="Length unit of the input(s) and reference where the file states none (a BVH; a marker "
+                        help=f"Length unit of the {what} where the file states none (a BVH; a marker "
                              "file with an empty unit field). Default: read from the bones, assuming an adult, or from "
                              "the marker distances.")
 
@@ -200,7 +201,7 @@ def save_take(motion, out: Path, inp: Path | None, asf=None, overwrite: bool = F
     from ..io.takes import asf_for_output, asf_of, place_asf
 
     skeleton = asf_of(inp, asf) if inp is not None else None
-    copy = asf_for_output(out, skeleton, overwrite)
+    copy = asf_for_output(out, skeleton, overwrite, how="use --overwrite")
     notes = io.motion_notes(motion, out, kwargs.get("like"))  # before the write: what OUT leaves out of the input
     with removed_on_failure([copy, out], overwrite=overwrite):
         place_asf(copy, skeleton)  # first: an AMC is never left without the ASF it is read with

@@ -381,9 +381,10 @@ def train(
         h = model.meta["history"]
         bests.append(min(x["val_rmse"] for x in h))
         what_rms = "validation" if val else "training"
+        unit = " deg" if model.layout.representation == "euler" else " (rotation-matrix entries)"
         console.print(f"wrote {o / 'model.pt'}: {plural(len(tr), 'clip')}, {plural(len(h), 'epoch')}, "
-                      f"best {what_rms} RMS {bests[-1]:.3f}")
+                      f"best {what_rms} RMS {bests[-1]:.3f}{unit}")
     if folds > 1:
-        console.print(f"{folds} holdouts: validation RMS {np.mean(bests):.3f} +- {np.std(bests):.3f}")
+        console.print(f"{folds} holdouts: validation RMS {np.mean(bests):.3f} +- {np.std(bests):.3f}{unit}")
     if known and (not licence or licence == known):  # inherited from the takes (model_card), as info shows it
         console.print(f"note: {'model.pt keeps' if len(runs) == 1 else 'each model.pt keeps'} its takes' licence, {known}")

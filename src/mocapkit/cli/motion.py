@@ -19,14 +19,15 @@ def info(
                                           "folder, a .clean.npz record, a detection, a .mask.npz, a .pt model or "
                                           "checkpoint, a knowledge base, a decisions file, a batch mark."),
     joints: bool = typer.Option(False, "--joints", help="Also list every joint with its parent and channels."),
-    asf: Optional[Path] = asf_option(),
-    amc_fps: Optional[float] = amc_fps_option(),
-    unit: Optional[str] = unit_option(),
+    asf: Optional[Path] = asf_option("input"),
+    amc_fps: Optional[float] = amc_fps_option("input"),
+    unit: Optional[str] = unit_option("input"),
 ) -> None:
     """Print the skeleton, frame count, frame rate, duration and missing data of FILE (or what a mocapkit file holds)."""
+    from ..cleaning.decisions import take_digest
     from ..io.bvh_roots import extra_roots
     from ..io.c3d import MarkerSet
-    from ..io.c3d_contents import marker_file_contents
+    from ..io.c3d_contents import marker_counts, marker_file_contents
     from ..io.takes import check_asf, load_take
     from ..motion import ROLES, standard_joints, unit_scale_cm
     from ..rigs import rig_family, roles_by_topology
@@ -39,11 +40,15 @@ def info(
     obj = load_take(file, asf, fps=amc_fps, unit=unit)
     rows = [("file", str(file))]
     if isinstance(obj, MarkerSet):
-        rows += [("kind", f"markers (read with {obj.reader})"), ("markers", str(obj.num_markers)),
+        markers, modelled, missing = marker_counts(obj)
+        rows += [("kind", f"markers (read with {obj.reader})"),
+                 ("markers", str(markers) + (f" (+{plural(modelled, 'modelled quantity', 'modelled quantities')}: angles, forces, moments, "
+                                             "powers; not markers)" if modelled else "")),
                  ("frames", str(obj.num_frames)), ("fps", f"{obj.fps:g}"),
                  ("duration", f"{obj.num_frames / obj.fps:.3f} s"), ("units", obj.units + _UNITS_FROM[obj.units_from]),
-                 ("missing", f"{100.0 * obj.missing().mean():.2f} % of marker samples")]
+                 ("missing", f"{100.0 * missing:.2f} % of marker samples")]
         rows += marker_file_contents(obj)
+        rows.append(("sha256", f"{take_digest(obj)} (of the samples: a decisions file's \"take\" digest)"))
         print_fields(rows)
         if joints:
             console.print(", ".join(obj.labels))
@@ -77,7 +82,8 @@ def info(
                   if roles_by_topology(sk) else "none known (no joint map: the networks fall back)")
     rows.append(("rig family", family))
     rows += [("channels", str(len(m.channel_names()))),
-             ("missing", f"{100.0 * miss.mean():.2f} % of joint samples, {plural(int(miss.any(axis=1).sum()), 'frame')} affected")]
+             ("missing", f"{100.0 * miss.mean():.2f} % of joint samples, {plural(int(miss.any(axis=1).sum()), 'frame')} affected"),
+             ("sha256", f"{take_digest(m)} (of the samples: a decisions file's \"take\" digest)")]
     from ..reconstruct.output import kept_licence
 
     licence = kept_licence(file)  # a reconstruction's: the terms of the database's takes its poses come from
@@ -143,10 +149,15 @@ def convert(
         io.suffix_kind(out, io.MARKER_FORMATS, "writing markers")
         if keep_modelled:
             io.check_keep_modelled(inp, out)
-        io.save_markers(m, out, keep_modelled=keep_modelled)
-        left = int(sum(m.quantities() != "")) if out.suffix.lower() == ".trc" and not keep_modelled else 0
-        console.print(f"wrote {out} ({plural(m.num_markers - left, 'marker')}, {plural(m.num_frames, 'frame')} @ {m.fps:g} fps, "
-                      f"{100.0 * m.missing().mean():.2f} % missing)")
+        io.save_markers(m, out, keep_modelled=keep_modelled, overwrite=overwrite)
+        from ..io.c3d_contents import marker_counts
+
+        markers, modelled, missing = marker_counts(m)
+        quantities = plural(modelled, "modelled quantity", "modelled quantities")
+        kept = "" if not modelled else (f", {quantities} kept" if keep_modelled or out.suffix.lower() != ".trc"
+                                        else f", {quantities} left out")
+        console.print(f"wrote {out} ({plural(markers, 'marker')}, {plural(m.num_frames, 'frame')} @ {m.fps:g} fps, "
+                      f"{100.0 * missing:.2f} % of marker samples missing{kept})")
         if m.zero_gaps:
             console.print(f"read {plural(m.zero_gaps, 'sample')} stored as exact (0, 0, 0) as gaps "
                           "(--keep-zeros keeps them as positions)")
@@ -175,7 +186,7 @@ def corrupt(
         None, "--amount", help="noise, uniform, bias: std as a fraction of each channel's std (0.1/0.5/0.9; a "
                                "channel that crosses +-180 deg: the std of its motion, read on the circle); "
                                "spatial: std in cm. A finite number > 0 (0 would change nothing); gaps and the "
-                               "error kinds take none."
+                               "error kinds take none. Default: 0.5 (noise, uniform, bias), 0.5 cm (spatial)."
     ),
     seed: int = typer.Option(0, "--seed", help="Random seed: the same seed gives the same corruption."),
     mask_out: Optional[Path] = typer.Option(

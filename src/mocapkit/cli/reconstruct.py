@@ -79,7 +79,7 @@ def _asf_for_amc(out: Path, skeleton: Optional[Path], performer, source, inp: Pa
     if found is None:
         raise MocapFormatError(out, "an .amc is read with its skeleton's ASF, and this body's skeleton has none "
                                     "(give --skeleton PERFORMER.asf, or write .bvh or .npz)")
-    asf_for_output(out, found, overwrite)  # where it is copied, refused now if that would lose a file
+    asf_for_output(out, found, overwrite, how="use --overwrite")  # where it is copied, refused now if that would lose a file
     return found
 
 
@@ -96,7 +96,7 @@ def _write(result, out: Path, asf_file: Optional[Path], overwrite: bool, method:
     from ..io.amc_writer import check_amc_writable
 
     check_amc_writable(result, out)
-    copy = asf_for_output(out, asf_file, overwrite)
+    copy = asf_for_output(out, asf_file, overwrite, how="use --overwrite")
     with removed_on_failure([copy, out], overwrite=overwrite):
         place_asf(copy, asf_file)
         save_reconstruction(result, out, method, asf=asf_file, licence=licence)

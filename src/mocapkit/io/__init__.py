@@ -105,7 +105,7 @@ def load_markers(path, **kwargs) -> MarkerSet:
 
 
 def save_markers(markers: MarkerSet, path, *, like=None, stored_zeros: bool = False,
-                 keep_modelled: bool = False, filled=None) -> Path:
+                 keep_modelled: bool = False, filled=None, overwrite: bool = False) -> Path:
     """Write ``markers`` to ``path`` (.c3d, .trc or .npz, by suffix) atomically; returns the path.
 
     ``like`` (a MarkerSet or a file of the same format) supplies the file
@@ -120,11 +120,22 @@ def save_markers(markers: MarkerSet, path, *, like=None, stored_zeros: bool = Fa
     (:func:`mocapkit.io.trc.write_trc`). ``filled`` ((F, M) bool, or None): the
     samples a cleaning filled, which a .npz lists in its ``filled`` mask
     (:func:`mocapkit.io.npz.write_npz`; a C3D marks them by residual 0, a TRC cannot).
+
+    An existing ``path`` is refused (:class:`~mocapkit.errors.MocapFormatError`) unless ``overwrite=True``:
+    a marker file written anew is not the file it replaces (a C3D's integer samples come back as floats),
+    so a capture is never rewritten by a call that did not ask for it. ``path`` naming the file ``like``
+    is refused even so: that file is what the output is written like, and it is read while writing.
     """
+    from .outputs import same_file
+
     path = Path(path)
     kind = suffix_kind(path, MARKER_FORMATS, "writing markers")
     if not isinstance(markers, MarkerSet):
         raise TypeError(f"save_markers takes a MarkerSet, got {type(markers).__name__}")
+    if isinstance(like, (str, os.PathLike)) and same_file(path, like):
+        raise MocapFormatError(path, "is the file given as like=; refusing to write over it, choose another path")
+    if not overwrite and (path.exists() or path.is_symlink()):
+        raise MocapFormatError(path, "already exists; pass overwrite=True to replace it")
     if kind == "npz":
         from .npz import write_npz
 
@@ -250,12 +261,16 @@ def motion_notes(motion, path, like=None) -> list[str]:
     return notes
 
 
-def save(motion, path, like=None, asf=None, overwrite: bool = True, copy_asf: bool = True, **kwargs) -> Path:
+def save(motion, path, like=None, asf=None, overwrite: bool | None = None, copy_asf: bool = True, **kwargs) -> Path:
     """Write ``motion`` to ``path`` (.bvh, .amc or .npz) atomically; returns the path.
 
-    As Python's ``open(path, "w")`` does, an existing file is replaced (the file the take was read from
-    too); ``overwrite=False`` refuses one instead (:class:`~mocapkit.errors.MocapFormatError`), as the
-    command line does without ``--overwrite``.
+    ``overwrite``: by default (None), as Python's ``open(path, "w")`` does, the file ``path`` names is
+    replaced when it exists (the file the take was read from too), and no other file is: an ASF beside an
+    AMC output that differs from the take's skeleton is refused (see below). ``overwrite=False`` refuses an
+    existing ``path`` too (:class:`~mocapkit.errors.MocapFormatError`), as the command line does without
+    ``--overwrite``; ``overwrite=True`` also replaces that ASF, as ``--overwrite`` does. The companion ASF
+    is replaced only on that explicit request because the call names the AMC, not the ASF: a user's edited
+    skeleton beside the output is never lost to a default.
 
     ``like``: the file ``motion`` was read from; by default ``motion.source_file``, which the readers set
     and every operation keeps (a cleaned take's too), so ``save(mocapkit.clean(path).motion, out)`` keeps
@@ -272,8 +287,8 @@ def save(motion, path, like=None, asf=None, overwrite: bool = True, copy_asf: bo
     it, so with ``copy_asf`` that ASF is copied beside ``path`` first where the folder lacks it (under
     its own name when it prefixes the AMC's, else the AMC's stem + ``.asf``:
     :func:`mocapkit.io.takes.asf_for_output`), as the command line does; an ASF of that name with
-    other contents is replaced only with ``overwrite`` and where no other AMC in the folder is read with
-    it (else refused). A take whose skeleton's ASF is not known (one read from
+    other contents is replaced only with ``overwrite=True`` and where no other AMC in the folder is read
+    with it (else refused). A take whose skeleton's ASF is not known (one read from
     .npz) is read back with ``load(path, asf=...)``. A :class:`~mocapkit.markerset.MarkerSet` is
     written by :func:`save_markers` (.c3d, .trc, .npz; ``like`` as there).
     """
@@ -282,10 +297,10 @@ def save(motion, path, like=None, asf=None, overwrite: bool = True, copy_asf: bo
     path = Path(path)
     if like is not None and like is not False and not isinstance(like, (str, os.PathLike, MarkerSet)):
         raise TypeError(f"like must be a path, False or None, got {type(like).__name__}")
-    if not overwrite and (path.exists() or path.is_symlink()):
+    if overwrite is False and (path.exists() or path.is_symlink()):
         raise MocapFormatError(path, "already exists; pass overwrite=True to replace it")
     if isinstance(motion, MarkerSet):
-        return save_markers(motion, path, like=like or None)
+        return save_markers(motion, path, like=like or None, overwrite=True)  # path: checked above
     if not isinstance(motion, Motion):
         raise TypeError(f"save takes a Motion or a MarkerSet, got {type(motion).__name__}")
     kind = suffix_kind(path, WRITERS, "writing")
@@ -303,7 +318,7 @@ def save(motion, path, like=None, asf=None, overwrite: bool = True, copy_asf: bo
 
         asf = asf if asf is not None else motion.skeleton.source_file
         check_amc_writable(motion, path)  # before the ASF is copied
-        copy = asf_for_output(path, asf, overwrite) if copy_asf and asf is not None and Path(asf).is_file() else None
+        copy = asf_for_output(path, asf, overwrite is True) if copy_asf and asf is not None and Path(asf).is_file() else None
         with removed_on_failure([copy]):
             place_asf(copy, asf)  # first: an AMC is never left without the ASF it is read with
             write_amc(motion, path, like=like, asf=asf, **kwargs)

@@ -170,7 +170,8 @@ def load_motion(path: os.PathLike | str, asf: os.PathLike | str | None = None, p
     return take
 
 
-def asf_for_output(out: os.PathLike | str, source: os.PathLike | str | None, overwrite: bool = False) -> Path | None:
+def asf_for_output(out: os.PathLike | str, source: os.PathLike | str | None, overwrite: bool = False,
+                   how: str = "pass overwrite=True") -> Path | None:
     """Where the ASF ``source`` must be copied so that the AMC written to ``out`` reads back with it.
 
     An AMC holds no skeleton: it is read with the ASF beside it (:func:`mocapkit.io.asfamc.find_asf`).
@@ -179,7 +180,8 @@ def asf_for_output(out: os.PathLike | str, source: os.PathLike | str | None, ove
     for ``HDM_bd_walk.amc``), else ``out``'s stem + ``.asf``: a name ``find_asf`` picks whatever else the
     folder holds. Checked before any work (:class:`~mocapkit.errors.MocapFormatError`): that file existing
     with other contents is refused unless ``overwrite``, and so is a copy that would change the ASF
-    another AMC of the folder is read with (one that read with the folder's only ASF).
+    another AMC of the folder is read with (one that read with the folder's only ASF). ``how``: what the
+    refusal tells the caller to do to replace it (the library's parameter; the command line's ``use --overwrite``).
     """
     out = Path(out)
     if source is None or not _is_amc(out):
@@ -208,7 +210,7 @@ def asf_for_output(out: os.PathLike | str, source: os.PathLike | str | None, ove
                                         f"skeleton {amc.name} is read with; write the AMC to another folder")
     if replaced and not overwrite:
         raise MocapFormatError(dst, f"exists and differs from the skeleton ({source}) the AMC output needs beside it; "
-                                    "use --overwrite to replace it, or write another format")
+                                    f"{how} to replace it, or write another format")
     return dst
 
 

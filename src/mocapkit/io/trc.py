@@ -653,8 +653,8 @@ def trc_notes(markers: MarkerSet, path, *, keep_modelled: bool = False, filled=N
                      "a TRC holds markers in one length unit (--keep-modelled writes them as points)")
     if filled is not None and np.any(filled):
         where = f"; {record} lists them (its masks filled, spikes, duplicates)" if record is not None else ""
-        notes.append(f"{path}: {int(np.sum(filled))} filled samples are written like recorded ones: a TRC has no "
-                     f"residual column to tell them apart{where}")
+        notes.append(f"{path}: {int(np.sum(filled))} samples the cleaning wrote (gaps filled, spikes and duplicates "
+                     f"replaced) are written like recorded ones: a TRC has no residual column to tell them apart{where}")
     marked = markers.interpolated() & ~(np.asarray(filled, dtype=bool) if filled is not None else False)
     if marked.any():
         notes.append(f"{path}: {int(marked.sum())} samples the input marks as interpolated (residual 0) are "

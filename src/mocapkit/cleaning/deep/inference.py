@@ -26,7 +26,7 @@ from ...motion import Motion
 from .channels import ChannelLayout, channel_joints, lerp_fill
 from .doubt import doubtful_runs
 from .prior import GapPrior, conditional_fill
-from .provenance import card_as_read, model_rig, restricts_use
+from .provenance import card_as_read, model_licence, model_rig, restricts_use
 from .retarget import Serving, served_by
 from .sure import BLOCK_S, block_edges, calibrated_log_sigma, scoring_stride
 from .threads import INFERENCE_PARTS, torch_threads
@@ -291,12 +291,13 @@ def licence_note(model: DeepModel, options: dict[str, str] | None = None) -> str
     (``{"ebd": "--model", "ebf": "--denoiser"}`` in ``fill``); without it the line names clean's ``--ebf`` /
     ``--ebd`` and the Python API's ``models=``.
     """
-    lic = model.meta.get("licence", "") if isinstance(model.meta, dict) else ""
+    lic = model_licence(model)
     if not restricts_use(lic):  # a licence without such terms (e.g. CC BY, MIT) is said by `mocapkit info` only
         return ""
     option = (options or {}).get(model.kind) or f"--{model.kind} (clean, clean-batch; models= in Python)"
-    return (f"the {model.kind.upper()} used is {lic}; {option} picks another, e.g. {SHIPPED[model.kind]} (trained on "
-            "HDM05 and CMU takes; HDM05's terms: research use, docs/models.md)")
+    return (f"licence of the {model.kind.upper()} used: {lic}; {option} picks another: no shipped model is cleared for "
+            "commercial use (ebf.pt/ebd.pt: HDM05's research terms; the _bandai pair: CC BY-NC 4.0), `mocapkit "
+            "train` makes one from takes you may use (docs/models.md)")
 
 
 def model_of_kind(model, kind: str, take=None) -> DeepModel:

@@ -15,11 +15,19 @@ import re
 
 from ... import rigs
 
-__all__ = ["BANDAI_LICENCE", "DATA_LICENCES", "NOT_STATED", "RIG_RESPELLINGS", "card_as_read", "data_licence",
+__all__ = ["BANDAI_LICENCE", "DATA_LICENCES", "HDM05_LICENCE", "NOT_STATED", "RIG_RESPELLINGS", "card_as_read", "data_licence",
            "model_card", "model_licence", "model_rig", "restricts_use", "rig_name", "training_rig"]
 
 BANDAI_LICENCE = ("CC BY-NC 4.0: trained on the Bandai Namco Research Motiondataset "
                   "(Bandai Namco Research Inc.); non-commercial use only")
+#: The terms of a model trained on HDM05 takes (the shipped ``ebf.pt`` / ``ebd.pt``: HDM05 and CMU clips, docs/models.md):
+#: HDM05 (Müller et al., Univ. Bonn, tech. report CG-2007-2) is published for research use; the CMU database is free
+#: for research and commercial use, so HDM05's terms are the pair's (``../shared/data`` README).
+HDM05_LICENCE = ("research use only: trained on HDM05 takes (Müller et al., Univ. Bonn, tech. report CG-2007-2; "
+                 "published for research use, no commercial terms) and CMU takes (free for research and commercial use)")
+#: The clip names the HDM05 database gives its takes (``HDM_bd_walk_001_120``): a card listing such training clips and
+#: stating no licence is of a model trained on HDM05, which inherits :data:`HDM05_LICENCE`.
+_HDM05_CLIP = re.compile(r"\bHDM_[a-z]{2}_")
 #: :data:`mocapkit.rigs.DATA_TERMS` (the terms of the takes of a rig family that is one data set's own rig: the
 #: Bandai Namco game rig's CC BY-NC 4.0) as a model trained on such takes words them in its card: the same families.
 DATA_LICENCES = {"bandai_namco": BANDAI_LICENCE}
@@ -98,9 +106,13 @@ def model_rig(model) -> str | None:
 
 
 def model_licence(model) -> str:
-    """A model's licence as its card states it, or :data:`NOT_STATED`."""
+    """A model's licence as its card states it; for a card that states none but lists HDM05 clips among its
+    training clips (``train_clips``: the shipped ``ebf.pt`` / ``ebd.pt``), :data:`HDM05_LICENCE`, the terms a model
+    inherits from that data; else :data:`NOT_STATED`."""
     meta = model.meta if isinstance(model.meta, dict) else {}
-    return str(meta.get("licence") or NOT_STATED)
+    if meta.get("licence"):
+        return str(meta["licence"])
+    return HDM05_LICENCE if _HDM05_CLIP.search(str(meta.get("train_clips", ""))) else NOT_STATED
 
 
 def restricts_use(licence: str | None) -> bool:

@@ -53,7 +53,8 @@ STEPS = ("swaps", "duplicates", "spikes", "gaps")
 
 @dataclass(frozen=True)
 class MarkerFix:
-    """One change: ``kind`` "gap", "spike", "swap", "duplicate" or "foreign" on marker ``marker`` for frames ``start <= f < end``.
+    """One change: ``kind`` "gap", "spike", "swap", "duplicate" or "foreign" on marker ``marker`` for frames ``start <= f < end``
+    (``end`` exclusive, as in Python's slices: ``start 89, end 120`` is the summary's inclusive "frames 89-119").
 
     ``size_mm``: for a gap, the largest distance between the fill and the
     straight line between its ends (how far the marker moved off it, not an
