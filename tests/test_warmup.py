@@ -6,6 +6,7 @@ import os
 import subprocess
 import sys
 
+import numpy as np
 import pytest
 
 from mocapkit import samples
@@ -38,8 +39,12 @@ def test_search_kernels_compile_what_search_and_reconstruct_call(small_db):
     x = small_db.features["F15"]
     cost = dtw.local_cost_matrix(x[:20], x)
     dtw.subsequence_dtw(None, None, small_db.clip_ids, k=3, steps="tautges", cost=cost, max_overlap=10)
+    y = np.array(x)  # writable, as tests/search/test_dtw.py's arrays
     for steps in dtw.STEPS:
         dtw.dtw(x[:30], x[40:75], steps=steps)
+        dtw.dtw(y[:30], y[40:75], steps=steps)
+        dtw.subsequence_dtw(y[:20], y, small_db.clip_ids, k=3, steps=steps)
+        dtw.accumulated_cost(y[:20], y[:50], steps=steps)
     assert {n: set(k.signatures) for n, k in kernels.items()} == before
 
 

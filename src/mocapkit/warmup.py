@@ -78,8 +78,9 @@ def search_kernels() -> None:
     Müller's subsequence DTW), the Tautges eq. 4.2 search of
     :mod:`mocapkit.reconstruct.ssg` on a precomputed cost matrix and the global
     DTW of :mod:`mocapkit.reconstruct.multilinear`, each with the
-    argument types those commands pass (one signature per kernel: see
-    :mod:`mocapkit.search.dtw`). They compile in a few seconds, while the
+    argument types those commands pass: a database's features are read-only
+    (memory-mapped), a caller's own arrays writable, two signatures of each
+    DTW kernel. They compile in a few seconds, while the
     parallel twins still compile in the second process.
     """
     from . import samples
@@ -87,13 +88,15 @@ def search_kernels() -> None:
     from .search.dtw import dtw, local_cost_matrix, subsequence_dtw
 
     db = MotionDatabase.build([samples.path("12_walk.amc")], fps=30, executor="serial", progress=False)
-    query = db.features["F15"][10:40]
-    for method in ("lng", "dtw"):
-        db.search(query, k=2, method=method)
-    cost = local_cost_matrix(query, db.features["F15"])
+    for method in ("lng", "dtw"):  # the database's features are read-only, a type of their own to numba
+        db.search(db.features["F15"][10:40], k=2, method=method)
+    features = np.array(db.features["F15"])  # writable, as a caller's own arrays
+    query = features[10:40]
+    cost = local_cost_matrix(query, features)
     subsequence_dtw(None, None, clip_ids=db.clip_ids, k=2, steps="tautges", cost=cost, max_overlap=15)
-    for steps in ("classic", "tautges"):  # global DTW, as the multilinear reconstruction aligns takes
-        dtw(query[:8], query[:12], steps=steps)
+    for steps in ("classic", "tautges"):
+        subsequence_dtw(query, features, db.clip_ids, k=2, steps=steps)
+        dtw(query[:8], query[:12], steps=steps)  # global DTW, as the multilinear reconstruction aligns takes
 
 
 def warm_up(processes: int | None = None) -> dict:
