@@ -6,10 +6,11 @@ import os
 import subprocess
 import sys
 
+import numpy as np
 import pytest
 
 from mocapkit import samples
-from mocapkit.warmup import main, warm_up
+from mocapkit.warmup import main, search_kernels, warm_up
 
 
 def test_warm_up_runs_every_step_of_clean():
@@ -19,6 +20,32 @@ def test_warm_up_runs_every_step_of_clean():
     assert list(out["steps"]) == ["fill", "detect", "repair", "denoise"]
     cells = out["steps"]  # detect changes no cell; repair changes only what detect flagged
     assert cells["fill"] > 0 and cells["repair"] > 0 and cells["denoise"] > 0, cells  # each step had work: its kernels ran
+
+
+def test_search_kernels_compile_what_search_and_reconstruct_call(small_db):
+    """After search_kernels, a search of another database by both methods, the Tautges search on a cost matrix
+    (mocapkit.reconstruct.ssg) and global DTW both ways (mocapkit.reconstruct.multilinear) add no kernel signature."""
+    from numba.core.registry import CPUDispatcher
+
+    from mocapkit.search import dtw, lng
+
+    search_kernels()
+    kernels = {f"{mod.__name__}.{n}": k for mod in (dtw, lng) for n, k in vars(mod).items()
+               if isinstance(k, CPUDispatcher)}
+    before = {n: set(k.signatures) for n, k in kernels.items()}
+    query = small_db.clip(2)[5:40]
+    for method in ("lng", "dtw"):
+        assert small_db.search(query, k=3, method=method)
+    x = small_db.features["F15"]
+    cost = dtw.local_cost_matrix(x[:20], x)
+    dtw.subsequence_dtw(None, None, small_db.clip_ids, k=3, steps="tautges", cost=cost, max_overlap=10)
+    y = np.array(x)  # writable, as tests/search/test_dtw.py's arrays
+    for steps in dtw.STEPS:
+        dtw.dtw(x[:30], x[40:75], steps=steps)
+        dtw.dtw(y[:30], y[40:75], steps=steps)
+        dtw.subsequence_dtw(y[:20], y, small_db.clip_ids, k=3, steps=steps)
+        dtw.accumulated_cost(y[:20], y[:50], steps=steps)
+    assert {n: set(k.signatures) for n, k in kernels.items()} == before
 
 
 def test_main_refuses_arguments():

@@ -12,8 +12,11 @@ and noise, against the bundled default context and alone, so that every step
 (the EBD gap filler, self-similarity detection and repair, the EBF denoiser)
 runs and compiles what it needs (the serial and the parallel twin of each
 self-similarity kernel; the parallel twins in a second process, beside the
-rest), then writes and reads the result as BVH and npz. It writes nothing but
-numba's cache (the files go to a temporary folder that is removed).
+rest), then writes and reads the result as BVH and npz, and searches a
+database of the walk by LNG and by DTW (:func:`search_kernels`: the kernels of
+``mocapkit search`` and ``reconstruct``, which ``clean`` does not call). It
+writes nothing but numba's cache (the files go to a temporary folder that is
+removed).
 """
 
 from __future__ import annotations
@@ -28,7 +31,7 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["warm_up", "broken_walk", "parallel_twins"]
+__all__ = ["warm_up", "broken_walk", "parallel_twins", "search_kernels"]
 
 
 def broken_walk():
@@ -64,6 +67,36 @@ def parallel_twins() -> None:
     with forced("parallel"):
         for ctx in (context, None):
             clean(take, ctx, steps="fill,detect,repair")
+
+
+def search_kernels() -> None:
+    """Search a database of the bundled walk for a piece of it, by LNG and by subsequence DTW (classic and Tautges).
+
+    ``mocapkit search`` and ``reconstruct`` run these kernels, ``clean`` does
+    not: :func:`mocapkit.database.MotionDatabase.search` (``method="lng"``:
+    the lazy neighbourhood graph of Krüger et al. 2010, sec. 4.1; ``"dtw"``:
+    Müller's subsequence DTW), the Tautges eq. 4.2 search of
+    :mod:`mocapkit.reconstruct.ssg` on a precomputed cost matrix and the global
+    DTW of :mod:`mocapkit.reconstruct.multilinear`, each with the
+    argument types those commands pass: a database's features are read-only
+    (memory-mapped), a caller's own arrays writable, two signatures of each
+    DTW kernel. They compile in a few seconds, while the
+    parallel twins still compile in the second process.
+    """
+    from . import samples
+    from .database import MotionDatabase
+    from .search.dtw import dtw, local_cost_matrix, subsequence_dtw
+
+    db = MotionDatabase.build([samples.path("12_walk.amc")], fps=30, executor="serial", progress=False)
+    for method in ("lng", "dtw"):  # the database's features are read-only, a type of their own to numba
+        db.search(db.features["F15"][10:40], k=2, method=method)
+    features = np.array(db.features["F15"])  # writable, as a caller's own arrays
+    query = features[10:40]
+    cost = local_cost_matrix(query, features)
+    subsequence_dtw(None, None, clip_ids=db.clip_ids, k=2, steps="tautges", cost=cost, max_overlap=15)
+    for steps in ("classic", "tautges"):
+        subsequence_dtw(query, features, db.clip_ids, k=2, steps=steps)
+        dtw(query[:8], query[:12], steps=steps)  # global DTW, as the multilinear reconstruction aligns takes
 
 
 def warm_up(processes: int | None = None) -> dict:
@@ -110,6 +143,7 @@ def warm_up(processes: int | None = None) -> dict:
         if twins is None:
             parallel_twins()
         clean(take[: int(2 * take.fps)], context, steps="fill,detect,repair")
+        search_kernels()
         with tempfile.TemporaryDirectory() as tmp:
             for suffix in (".bvh", ".npz"):
                 path = save(result.motion, Path(tmp) / f"walk{suffix}")

@@ -403,3 +403,22 @@ def test_input_errors():
     with pytest.raises(ValueError, match="cost"):
         dtw(cost=np.zeros(3))
     assert subsequence_dtw(q, np.zeros((0, 2))) == []
+
+
+def test_each_kernel_compiles_once_whatever_the_shapes():
+    """One row, one column or many, with costs given or computed, recorded or not: one signature per kernel (numba
+    types an array both C- and F-contiguous as C, so an F-ordered argument of one row or column compiled anew)."""
+    rng = np.random.default_rng(4)
+    for M, N in ((1, 1), (1, 6), (5, 1), (4, 7)):
+        q, x = rng.standard_normal((M, 3)), rng.standard_normal((N, 3))
+        C = local_cost_matrix(q, x)
+        for steps in STEPS:
+            accumulated_cost(q, x, steps=steps)
+            accumulated_cost(None, None, steps=steps, cost=C)
+            subsequence_dtw_costs(q, x, steps=steps)
+            subsequence_dtw_costs(None, None, steps=steps, cost=C)
+            subsequence_dtw(q, x, steps=steps)
+            dtw(q, x, steps=steps)
+            dtw(cost=C, steps=steps)
+    for kernel in (dtw_mod._sdtw_classic, dtw_mod._sdtw_tautges, dtw_mod._global_dtw, dtw_mod._window_cost):
+        assert len(kernel.signatures) == 1, (kernel.__name__, kernel.signatures)

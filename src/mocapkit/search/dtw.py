@@ -157,8 +157,10 @@ def _query_arrays(q: np.ndarray):
     return qT, pen
 
 
+# Every 2-D array a kernel takes is C-ordered (the cost matrix and the recorded matrix transposed, (N, M)): numba
+# types an array that is both C- and F-contiguous (one row or one column) as C, so an F-ordered argument would
+# compile the kernel again for each such shape; C-ordered ones give one signature per kernel, whatever the shapes.
 _DUMMY_C = np.zeros((2, 2))
-_DUMMY_F = np.zeros((2, 2), order="F")
 
 
 class _Problem:
@@ -169,8 +171,8 @@ class _Problem:
         if cost is not None:
             if query is not None or data is not None:
                 raise ValueError("give either query and data, or cost (with query=None, data=None), not both")
-            self.CF = _cost_matrix(cost)
-            self.M, self.N = self.CF.shape
+            self.CT = _cost_matrix(cost).T  # (N, M), C-ordered
+            self.N, self.M = self.CT.shape
             self.use_cost = True
             self.query_ok = True
             self.q = self.qT = self.data = _DUMMY_C
@@ -182,7 +184,7 @@ class _Problem:
             self.data = _features("data", data, self.q.shape[1])
             self.M, self.N = self.q.shape[0], self.data.shape[0]
             self.use_cost = False
-            self.CF = _DUMMY_F
+            self.CT = _DUMMY_C
             self.qT, self.qpen = _query_arrays(self.q)
             self.query_ok = not np.isinf(self.qpen).any()
         if self.M == 0:
@@ -192,16 +194,16 @@ class _Problem:
     def run(self, record: bool):
         end_costs = np.empty(self.N)
         starts = np.empty(self.N, dtype=np.int64)
-        full = np.empty((self.M, self.N), order="F") if record else _DUMMY_F
+        full_t = np.empty((self.N, self.M)) if record else _DUMMY_C
         kernel = _sdtw_tautges if self.tautges else _sdtw_classic
-        kernel(self.qT, self.qpen, self.data, self.CF, self.use_cost, self.flags, record, full, end_costs, starts)
+        kernel(self.qT, self.qpen, self.data, self.CT, self.use_cost, self.flags, record, full_t, end_costs, starts)
         starts[~np.isfinite(end_costs)] = -1
-        return end_costs, starts, (full if record else None)
+        return end_costs, starts, (full_t.T if record else None)
 
     def window_cost(self, start: int, end: int) -> np.ndarray:
         """Local costs (M, end - start + 1) of the database range, bit-identical to the kernel's."""
         if self.use_cost:
-            out = np.array(self.CF[:, start : end + 1], order="C")
+            out = np.array(self.CT[start : end + 1].T, order="C")
         else:
             out = np.empty((self.M, end - start + 1))
             _window_cost(self.qT, self.qpen, self.data, start, end, out)
@@ -305,8 +307,9 @@ def _features_column(qT, qpen, data, m, c):
 
 
 @njit(cache=True, inline="always")
-def _load_column(qT, qpen, data, CF, use_cost, flag, m, c):
-    """Fill c with the local costs of database frame m; returns whether the frame is usable."""
+def _load_column(qT, qpen, data, CT, use_cost, flag, m, c):
+    """Fill c with the local costs of database frame m (from the transposed cost matrix ``CT`` (N, M) when
+    ``use_cost``); returns whether the frame is usable."""
     M = c.shape[0]
     if flag & 2:
         for n in range(M):
@@ -314,7 +317,7 @@ def _load_column(qT, qpen, data, CF, use_cost, flag, m, c):
         return False
     if use_cost:
         for n in range(M):
-            c[n] = CF[n, m]
+            c[n] = CT[m, n]
     else:
         if not _features_column(qT, qpen, data, m, c):
             return False
@@ -346,11 +349,12 @@ def _window_cost(qT, qpen, data, start, end, out):
 
 
 @njit(cache=True)
-def _sdtw_classic(qT, qpen, data, CF, use_cost, flags, record, full, end_costs, starts):
+def _sdtw_classic(qT, qpen, data, CT, use_cost, flags, record, full_t, end_costs, starts):
     """Subsequence DTW with the classic unit-weight steps, one database column at a time.
 
     Keeps the previous column of D and of the path starts; writes the last row
-    (end_costs, starts) and, when ``record``, the whole matrix into ``full``.
+    (end_costs, starts) and, when ``record``, the whole matrix transposed into
+    ``full_t`` (N, M). ``CT``: the local costs transposed (N, M), read when ``use_cost``.
     """
     M = qpen.shape[0]
     N = flags.shape[0]
@@ -359,7 +363,7 @@ def _sdtw_classic(qT, qpen, data, CF, use_cost, flags, record, full, end_costs, 
     RS = np.full((2, M), -1.0)
     for m in range(N):
         fl = flags[m]
-        _load_column(qT, qpen, data, CF, use_cost, fl, m, c)
+        _load_column(qT, qpen, data, CT, use_cost, fl, m, c)
         cD = RD[m & 1]
         cS = RS[m & 1]
         pD = RD[1 - (m & 1)]
@@ -394,12 +398,13 @@ def _sdtw_classic(qT, qpen, data, CF, use_cost, flags, record, full, end_costs, 
         starts[m] = np.int64(cS[M - 1])
         if record:
             for n in range(M):
-                full[n, m] = cD[n]
+                full_t[m, n] = cD[n]
 
 
 @njit(cache=True)
-def _sdtw_tautges(qT, qpen, data, CF, use_cost, flags, record, full, end_costs, starts):
-    """Subsequence DTW with Tautges' eq. 4.2 steps, keeping the two previous columns."""
+def _sdtw_tautges(qT, qpen, data, CT, use_cost, flags, record, full_t, end_costs, starts):
+    """Subsequence DTW with Tautges' eq. 4.2 steps, keeping the two previous columns (arguments as
+    :func:`_sdtw_classic`'s)."""
     M = qpen.shape[0]
     N = flags.shape[0]
     c = np.empty(M)
@@ -408,7 +413,7 @@ def _sdtw_tautges(qT, qpen, data, CF, use_cost, flags, record, full, end_costs, 
     prev_ok = False  # column m-1 may be skipped by a (1, 2) step into column m
     for m in range(N):
         fl = flags[m]
-        usable = _load_column(qT, qpen, data, CF, use_cost, fl, m, c)
+        usable = _load_column(qT, qpen, data, CT, use_cost, fl, m, c)
         i = m % 3
         cD = RD[i]
         cS = RS[i]
@@ -464,7 +469,7 @@ def _sdtw_tautges(qT, qpen, data, CF, use_cost, flags, record, full, end_costs, 
         starts[m] = np.int64(cS[M - 1])
         if record:
             for n in range(M):
-                full[n, m] = cD[n]
+                full_t[m, n] = cD[n]
 
 
 # -- global DTW ---------------------------------------------------------------------------------
