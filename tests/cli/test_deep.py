@@ -6,9 +6,11 @@ import re
 from pathlib import Path
 
 import numpy as np
+import pytest
 
 import mocapkit
 from mocapkit import corrupt, metrics
+from mocapkit.errors import SkeletonError
 from tests.cli.helpers import SAMPLE, one_error_line, run, run_process
 from tests.shared import unknown_rig
 
@@ -612,3 +614,36 @@ def test_a_model_trained_on_bandai_takes_says_their_licence_once(tmp_path):
     code, stdout, err = run("info", str(out / "model.pt"))
     assert code == 0, err
     assert [ln.split()[0] for ln in stdout.splitlines() if "CC BY-NC 4.0" in ln] == ["licence"], stdout
+
+
+def test_a_model_named_that_cannot_serve_the_take_is_refused_not_replaced(tmp_path):
+    """A model the user names (--model, --ebf, --ebd, models=) is used or refused: on a rig it does not serve, one
+    line naming the model file and why, exit 2, nothing written; the fallback is for the shipped models chosen by
+    the take's rig. clean-batch fails that take's row and goes on with the others."""
+    (tmp_path / "in").mkdir()
+    odd = tmp_path / "in" / "odd.bvh"
+    take = unknown_rig(odd)
+    gin = tmp_path / "gaps.npz"
+    _gappy(take, gin)
+    for args, out in ((("denoise", str(odd), "--model", "ebf.pt"), "d.bvh"),
+                      (("fill", str(gin), "--model", "ebd.pt"), "f.npz"),
+                      (("clean", str(odd), "--ebf", "ebf.pt"), "c.bvh"),
+                      (("clean", str(gin), "--ebd", "ebd.pt", "--steps", "fill"), "e.npz")):
+        code, _, err = run(*args, "-o", str(tmp_path / out), cwd=tmp_path)
+        text = " ".join(err.split())
+        assert code == 2 and one_error_line(err), (args, err)
+        assert re.search(r"the EB[FD] \S*models/eb[fd]\.pt cannot serve this take: ", text), text
+        assert not (tmp_path / out).exists() and not (tmp_path / out).with_suffix(".clean.npz").exists()
+    mocapkit.save(mocapkit.load(WALK), tmp_path / "in" / "walk.bvh")
+    code, out, err = run("clean-batch", str(tmp_path / "in"), str(tmp_path / "out"), "--executor", "serial",
+                         "--ebf", "ebf.pt", "--steps", "denoise", cwd=tmp_path)
+    text = " ".join(out.split())
+    assert code == 1 and "cannot serve this take" in text, out + err
+    assert (tmp_path / "out" / "walk.bvh").is_file() and not (tmp_path / "out" / "odd.bvh").exists()
+    with pytest.raises(SkeletonError, match="cannot serve this take"):
+        mocapkit.clean(take, models={"ebf": "ebf.pt"}, steps="denoise")
+    from mocapkit.cleaning import deep
+
+    with pytest.raises(SkeletonError, match="the given EBF cannot serve this take"):
+        deep.denoise_or_fallback(take, dataclasses.replace(deep.shipped_model("ebf"), source=""))
+

@@ -64,6 +64,8 @@ __all__ = [
     "passed_over",
     "FALLBACK_DENOISE",
     "FALLBACK_FILL",
+    "refusal",
+    "check_named",
 ]
 
 FORMAT = "mocapkit.deep/1"
@@ -82,6 +84,7 @@ class DeepModel:
     fps: float
     meta: dict = field(default_factory=dict)
     prior: GapPrior | None = None  # an EBD's Gaussian gap prior, fitted on its training clips (:mod:`.prior`)
+    source: str = field(default="", compare=False)  # the file it was read from ("" for a model made in memory)
 
     def __post_init__(self):
         self.net.eval()
@@ -212,7 +215,7 @@ def _parse_model(path: Path) -> DeepModel:
         raise
     except Exception as exc:  # noqa: BLE001
         raise MocapFormatError(path, f"malformed mocapkit model ({exc})") from None
-    return DeepModel(kind, net, layout, fps, meta, prior)
+    return DeepModel(kind, net, layout, fps, meta, prior, source=str(path))
 
 
 @lru_cache(maxsize=8)
@@ -771,6 +774,32 @@ FALLBACK_FILL = "cubic spline"
 FALLBACK_DENOISE = "Savitzky-Golay (0.1 s)"
 
 
+def refusal(model: DeepModel, why: str) -> SkeletonError:
+    """The error for a model the user named (a file, a shipped name or a model object) that cannot serve a take:
+    one line naming the model's file (``model.source``; "the given EBF" for a model made in memory) and ``why``.
+    A named model is used or refused, never replaced by the fallback: that is for the shipped models chosen by
+    the take's rig (:func:`denoise_or_fallback`, :func:`fill_or_fallback`)."""
+    what = f"the {model.kind.upper()} {model.source}" if model.source else f"the given {model.kind.upper()}"
+    return SkeletonError(f"{what} cannot serve this take: {why}")
+
+
+def check_named(motion: Motion, models: dict) -> None:
+    """Refuse, before any work, a model the caller named that cannot serve ``motion``.
+
+    ``models``: ``{"ebf": ..., "ebd": ...}`` of model files, shipped names or :class:`DeepModel` s (None or a
+    missing key: the shipped model for the take's rig, which falls back instead). Raises :func:`refusal`'s
+    SkeletonError for the first that :func:`served_by` says does not serve the take, so ``clean --ebf M`` is
+    refused even where its denoise step would find nothing to denoise and never run the model.
+    """
+    for kind in ("ebd", "ebf"):
+        if models.get(kind) is None:
+            continue
+        m = model_of_kind(models[kind], kind, motion)
+        sv = served_by(motion, m)
+        if isinstance(sv, str):
+            raise refusal(m, sv)
+
+
 def _fallback_note(method: str, kind: str, label: str, why: str) -> str:
     return f"{method}: the {label} {kind.upper()} does not serve this rig ({why})"
 
@@ -796,6 +825,8 @@ def fill_or_fallback(motion: Motion, model=None, denoiser=None, smooth: bool = T
     ``smooth`` and the EBF serves it too, :func:`ebf_takes_part`); where it does not, or a
     channel the network needs is never observed, the cubic interpolating
     spline of :func:`mocapkit.cleaning.gapfill.fill_motion` fills every gap.
+    The fallback is for the shipped models chosen by the take's rig (``model`` None): a model the caller named
+    (``model`` given) that cannot serve the take raises :func:`refusal`'s SkeletonError instead.
     Returns ``(motion, method, note)``: ``note`` is "" with the networks
     (or one line naming a restrictive licence of the model used, e.g. the
     non-commercial Bandai Namco models: :func:`licence_note`), else one line
@@ -810,7 +841,10 @@ def fill_or_fallback(motion: Motion, model=None, denoiser=None, smooth: bool = T
 
     if not motion.missing().any():
         return motion, "nothing (no gaps)", ""
-    sv = served_by(motion, model_of_kind(model, "ebd", motion))
+    m = model_of_kind(model, "ebd", motion)
+    sv = served_by(motion, m)
+    if isinstance(sv, str) and model is not None:  # a model asked for by name is used or refused
+        raise refusal(m, sv)
     if not isinstance(sv, str):
         by_prior = _fills_by_prior(sv.model, method)  # raises before the try: a bad request is no reason to fall back
         ebf = served_by(motion, _smoothing_ebf(sv.model, denoiser, motion)) if smooth else "not asked"
@@ -832,6 +866,8 @@ def fill_or_fallback(motion: Motion, model=None, denoiser=None, smooth: bool = T
                 notes[doubt] = None
             return out, how, "; ".join(notes)
         except ValueError as exc:
+            if model is not None:
+                raise refusal(m, str(exc)) from None
             why = str(exc)
     else:
         why = sv
@@ -846,12 +882,16 @@ def denoise_or_fallback(motion: Motion, model=None, cells: np.ndarray | None = N
     quadratic Savitzky-Golay filter over 0.1 s (:func:`mocapkit.cleaning.filters.savgol_smooth`).
 
     The rule is :func:`served_by`. Without ``cells`` every non-root joint is
-    denoised. Returns ``(motion, method, note)`` as :func:`fill_or_fallback`
+    denoised. A named ``model`` that does not serve the take raises :func:`refusal`'s SkeletonError (the fallback
+    is for the shipped model chosen by the take's rig). Returns ``(motion, method, note)`` as :func:`fill_or_fallback`
     (``options`` as there); cells outside ``cells`` (and the root) are bit-identical to the input.
     """
     from ..filters import savgol_smooth
 
-    sv = served_by(motion, model_of_kind(model, "ebf", motion))
+    m = model_of_kind(model, "ebf", motion)
+    sv = served_by(motion, m)
+    if isinstance(sv, str) and model is not None:  # a model asked for by name is used or refused
+        raise refusal(m, sv)
     own = passed_over("ebf", motion) if model is None else ""
     if not isinstance(sv, str):
         note = "; ".join(n for n in (own, licence_note(sv.model, options)) if n)
