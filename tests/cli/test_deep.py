@@ -647,3 +647,16 @@ def test_a_model_named_that_cannot_serve_the_take_is_refused_not_replaced(tmp_pa
     with pytest.raises(SkeletonError, match="the given EBF cannot serve this take"):
         deep.denoise_or_fallback(take, dataclasses.replace(deep.shipped_model("ebf"), source=""))
 
+
+def test_train_refuses_clips_shorter_than_a_crop_before_any_work(tmp_path):
+    """`train denoiser` on a folder with a clip shorter than a crop (150 frames by default): one line naming the file,
+    exit 2, no model folder; the model card never counts a clip the training did not use."""
+    (tmp_path / "clips").mkdir()
+    mocapkit.save(mocapkit.load(WALK), tmp_path / "clips" / "walk.npz")
+    mocapkit.save(mocapkit.load(WALK)[:100], tmp_path / "clips" / "short.npz")
+    code, _, err = run("train", "denoiser", str(tmp_path / "clips"), "-o", str(tmp_path / "m"), "--epochs", "1",
+                       "--steps", "1", "--hidden", "8", "--executor", "serial")
+    text = " ".join(err.split())
+    assert code == 2 and one_error_line(err), err
+    assert "1 of 2 training clips are shorter than a crop of 150 frames" in text and "short.npz (100)" in text
+    assert not (tmp_path / "m").exists()

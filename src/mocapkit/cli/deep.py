@@ -360,6 +360,7 @@ def train(
         runs.append((tr + [mirrors[id(c)] for c in tr] if mirror else tr, val, o))
     try:  # every fold's folder before the first fold trains: a model of another training is never replaced unasked
         for tr, val, o in runs:
+            training.check_clip_lengths(tr, cfg)
             training.check_out_dir(o, tr, cfg, val or None, resume=resume, overwrite=overwrite)
     except ValueError as exc:
         raise MocapError(f"train: {exc}") from None
