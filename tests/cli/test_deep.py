@@ -660,3 +660,42 @@ def test_train_refuses_clips_shorter_than_a_crop_before_any_work(tmp_path):
     assert code == 2 and one_error_line(err), err
     assert "1 of 2 training clips are shorter than a crop of 150 frames" in text and "short.npz (100)" in text
     assert not (tmp_path / "m").exists()
+
+
+def test_a_model_of_an_unfinished_training_says_so_in_info_and_wherever_it_is_used(tmp_path):
+    """A model.pt written by an interrupted run (``finished`` False, 1 of 3 epochs) works, and says what it is:
+    info shows epochs run of planned, unfinished, its best validation RMS in deg and the noise/steps/seed settings;
+    denoise and fill say it in one warning line and still write their output."""
+    import torch
+
+    from mocapkit.cleaning import deep
+
+    walk = mocapkit.load(WALK)
+    lay = deep.layout_for(walk)
+    cfg = {"epochs": 3, "steps_per_epoch": 7, "batch": 4, "seed": 11, "representation": "euler",
+           "noise": ["angular:0.5", "uniform:0.5"]}
+    history = [{"epoch": 0, "train_rmse": 2.0, "val_rmse": 4.25, "lr": 0.002, "seconds": 1.0}]
+    meta = {"config": cfg, "history": history, "validation_clips": ["held"], "best_val_rmse": 4.25, "best_epoch": 0,
+            "finished": False}
+    torch.manual_seed(0)
+    for kind, net in (("ebf", deep.EBF(lay.num_channels, hidden=8, width=16)),
+                      ("ebd", deep.EBD(lay.num_channels, hidden=8, width=16))):
+        deep.save_model(deep.DeepModel(kind, net, lay, walk.fps, {**meta, "config": {**cfg, "kind": kind}}),
+                        tmp_path / f"{kind}.pt")
+    code, out, err = run("info", str(tmp_path / "ebf.pt"))
+    assert code == 0, err
+    rows = {line.split("  ")[0]: line.split("  ", 1)[1].strip() for line in out.splitlines() if "  " in line}
+    assert rows["epochs"].startswith("1 of 3: unfinished")
+    assert rows["best validation RMS"] == "4.250 deg (epoch 1)"
+    assert rows["noise"] == "angular:0.5, uniform:0.5" and rows["settings"] == "7 steps per epoch, batch 4, seed 11"
+    code, out, err = run("denoise", str(WALK), "-o", str(tmp_path / "d.bvh"), "--model", str(tmp_path / "ebf.pt"))
+    text = " ".join(out.split())
+    assert code == 0 and (tmp_path / "d.bvh").is_file(), err
+    assert f"the EBF {tmp_path / 'ebf.pt'} is from an unfinished training (1 of 3 epochs run)" in text
+    gin = tmp_path / "gaps.npz"
+    _gappy(walk, gin)
+    code, out, err = run("fill", str(gin), "-o", str(tmp_path / "f.npz"), "--model", str(tmp_path / "ebd.pt"),
+                         "--denoiser", str(tmp_path / "ebf.pt"), "--by", "ebd")
+    assert code == 0 and (tmp_path / "f.npz").is_file(), err
+    warned = [line for line in out.splitlines() if line.startswith("warning:")]
+    assert len(warned) == 1 and "the EBD" in warned[0] and "unfinished training (1 of 3 epochs run)" in warned[0]

@@ -26,7 +26,7 @@ from ...motion import Motion
 from .channels import ChannelLayout, channel_joints, lerp_fill
 from .doubt import doubtful_runs
 from .prior import GapPrior, conditional_fill
-from .provenance import card_as_read, model_rig, restricts_use
+from .provenance import card_as_read, model_rig, restricts_use, unfinished_note
 from .retarget import Serving, served_by
 from .sure import BLOCK_S, block_edges, calibrated_log_sigma, scoring_stride
 from .threads import INFERENCE_PARTS, torch_threads
@@ -852,8 +852,9 @@ def fill_or_fallback(motion: Motion, model=None, denoiser=None, smooth: bool = T
         try:
             out, runs = _fill_gaps(motion, sv, ebf if smooth else None, smooth, method)
             ebf_ran = ebf_takes_part(sv.model, smooth, method)
-            notes = dict.fromkeys(n for n in (licence_note(sv.model, options),
-                                              licence_note(ebf.model, options) if ebf_ran else "") if n)
+            notes = dict.fromkeys(n for n in (licence_note(sv.model, options), unfinished_note(sv.model),
+                                              licence_note(ebf.model, options) if ebf_ran else "",
+                                              unfinished_note(ebf.model) if ebf_ran else "") if n)
             if model is None:
                 notes = {passed_over("ebd", motion): None} | notes
             notes.pop("", None)
@@ -894,7 +895,7 @@ def denoise_or_fallback(motion: Motion, model=None, cells: np.ndarray | None = N
         raise refusal(m, sv)
     own = passed_over("ebf", motion) if model is None else ""
     if not isinstance(sv, str):
-        note = "; ".join(n for n in (own, licence_note(sv.model, options)) if n)
+        note = "; ".join(n for n in (own, licence_note(sv.model, options), unfinished_note(sv.model)) if n)
         return _denoise(motion, sv, cells), _method("ebf", label, sv, skeleton=motion.skeleton), note
     J = motion.skeleton.num_joints
     if cells is None:
