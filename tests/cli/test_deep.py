@@ -699,3 +699,53 @@ def test_a_model_of_an_unfinished_training_says_so_in_info_and_wherever_it_is_us
     assert code == 0 and (tmp_path / "f.npz").is_file(), err
     warned = [line for line in out.splitlines() if line.startswith("warning:")]
     assert len(warned) == 1 and "the EBD" in warned[0] and "unfinished training (1 of 3 epochs run)" in warned[0]
+
+
+def test_a_finished_training_run_again_leaves_its_model_and_the_files_are_named_for_what_they_are(tmp_path):
+    """The same finished train command again trains nothing and leaves model.pt as it was (bytes and mtime); a
+    checkpoint given as a model is named as one; a model of no known rig family prints no "None" in its line."""
+    out = tmp_path / "m"
+    args = ("train", "denoiser", WALK, "-o", out, "--epochs", "1", "--steps", "2", "--hidden", "8",
+            "--noise", "angular:0.5", "--executor", "serial")
+    code, _, err = run(*args)
+    assert code == 0, err
+    before = (out / "model.pt").stat().st_mtime_ns, (out / "model.pt").read_bytes()
+    code, _, err = run(*args)
+    assert code == 0, err
+    assert ((out / "model.pt").stat().st_mtime_ns, (out / "model.pt").read_bytes()) == before
+    code, _, err = run("denoise", WALK, "-o", tmp_path / "d.bvh", "--model", out / "checkpoint.pt")
+    text = " ".join(err.split())
+    assert code == 2 and one_error_line(err) and "a training checkpoint" in text and "use the model.pt beside it" in text
+    odd = tmp_path / "odd.bvh"
+    take = unknown_rig(odd)
+    from mocapkit.cleaning import deep
+
+    lay = deep.layout_for(take)
+    deep.save_model(deep.DeepModel("ebf", deep.EBF(lay.num_channels, hidden=8, width=16), lay, take.fps),
+                    tmp_path / "odd_ebf.pt")
+    code, said, err = run("denoise", odd, "-o", tmp_path / "o.bvh", "--model", tmp_path / "odd_ebf.pt")
+    assert code == 0, err
+    assert "denoised by EBF (given)" in " ".join(said.split()) and "None" not in said
+
+
+def test_fill_with_an_own_rig_ebd_alone_says_to_give_its_denoiser(tmp_path):
+    """An EBD trained on a rig no shipped EBF reads, given alone to fill: one line naming the model and saying to
+    give --denoiser (or --no-smooth), not the shipped Acclaim EBF's "not a pair"; with --no-smooth it fills."""
+    from mocapkit.cleaning import deep
+
+    odd = tmp_path / "odd.bvh"
+    take = unknown_rig(odd)
+    gin = tmp_path / "gaps.npz"
+    _gappy(take, gin)
+    lay = deep.layout_for(take)
+    x = np.nan_to_num(deep.channels.encode(take, lay)[0])
+    net = deep.EBD(lay.num_channels, hidden=8, width=16)
+    net.set_statistics(x.mean(0), np.maximum(x.std(0), 1.0), np.ones(3))
+    deep.save_model(deep.DeepModel("ebd", net, lay, take.fps), tmp_path / "own_ebd.pt")
+    code, _, err = run("fill", gin, "-o", tmp_path / "f.npz", "--model", tmp_path / "own_ebd.pt", "--by", "ebd")
+    text = " ".join(err.split())
+    assert code == 2 and one_error_line(err) and not (tmp_path / "f.npz").exists(), err
+    assert f"the EBD {tmp_path / 'own_ebd.pt'}" in text and "fill --denoiser" in text and "not a pair" not in text
+    code, _, err = run("fill", gin, "-o", tmp_path / "f.npz", "--model", tmp_path / "own_ebd.pt", "--by", "ebd",
+                       "--no-smooth")
+    assert code == 0 and (tmp_path / "f.npz").is_file(), err

@@ -191,6 +191,9 @@ def _parse_model(path: Path) -> DeepModel:
     except Exception as exc:  # noqa: BLE001 - any unpickling failure is a format error
         raise MocapFormatError(path, f"not a mocapkit model file ({type(exc).__name__})") from None
     try:
+        if isinstance(payload, dict) and "optimizer" in payload and "format" not in payload:
+            raise MocapFormatError(path, "a training checkpoint (what resumes a training), not a model; use the "
+                                         "model.pt beside it")
         if not isinstance(payload, dict) or payload.get("format") != FORMAT:
             raise ValueError(f"format is not {FORMAT}")
         kind = payload["kind"]
@@ -273,11 +276,17 @@ def passed_over(kind: str, take) -> str:
 def _smoothing_ebf(ebd: DeepModel, denoiser, take=None) -> DeepModel:
     """The EBF that smooths what ``ebd`` fills: ``denoiser`` (:func:`_model`'s kinds) or, when None, the shipped
     EBF that reads the EBD's channels (its pair: ``ebf.pt`` for ``ebd.pt``, ``ebf_bandai.pt`` for
-    ``ebd_bandai.pt``; the one shipped for ``take``'s rig when none does). An EBF of another rig than the EBD's is
-    refused with ValueError (a request, not a reason to fall back)."""
+    ``ebd_bandai.pt``); where none reads them (an EBD trained on one's own rig), ValueError saying to give its EBF.
+    An EBF of another rig than the EBD's is refused with ValueError (a request, not a reason to fall back).
+    ``take``: the take served (for :func:`model_of_kind`)."""
     if denoiser is None:
         found = (_packaged(n) for n in _shipped_names("ebf"))
-        ebf = next((m for m in found if m.layout == ebd.layout), None) or shipped_model("ebf", take)
+        ebf = next((m for m in found if m.layout == ebd.layout), None)
+        if ebf is None:
+            what = f"the EBD {ebd.source}" if ebd.source else "the given EBD"
+            raise ValueError(f"no shipped EBF reads the {ebd.layout.num_channels} channels of {what}: give the EBF "
+                             "trained on its rig (fill --denoiser, clean --ebf; denoiser= or models= in Python), or "
+                             "fill without it (--no-smooth)")
     else:
         ebf = model_of_kind(denoiser, "ebf", take)
     if ebf.layout != ebd.layout:
@@ -808,7 +817,7 @@ def _method(kind: str, label: str, sv: Serving, name: str | None = None, skeleto
     """How a take was served, for the output line: the model, the rig family or joint map, and the joints beside
     the model's that the fallback took (``skeleton`` names them)."""
     rig = model_rig(sv.model)  # None: a model file that does not say its rig, of other joints than Acclaim's
-    via = (f", {sv.family}" if rig != "acclaim" else "") if sv.direct else f", via the {sv.family} joint map"
+    via = (f", {sv.family}" if rig != "acclaim" and sv.family else "") if sv.direct else f", via the {sv.family} joint map"
     if sv.direct and sv.others and skeleton is not None:
         names = [skeleton.joint_names[j] for j in sv.others]
         via += f"; {', '.join(names[:3])}{', ...' if len(names) > 3 else ''} beside its joints by the fallback"

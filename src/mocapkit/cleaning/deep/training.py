@@ -686,9 +686,12 @@ def train(
             if torch.is_tensor(v):
                 st[k] = v.to(dev)
     t0 = time.perf_counter() - sum(h["seconds"] for h in history)
-    bar = tqdm(range(start_epoch, cfg.epochs), desc=f"train {cfg.kind}", disable=bar_disabled(progress), initial=start_epoch,
-               total=cfg.epochs)
-    for epoch in bar:
+    # the bar counts optimiser steps (an epoch of a large rig takes minutes), the epoch in its description
+    steps = cfg.steps_per_epoch
+    bar = tqdm(total=cfg.epochs * steps, initial=start_epoch * steps, desc=f"train {cfg.kind}", unit="step",
+               disable=bar_disabled(progress))
+    for epoch in range(start_epoch, cfg.epochs):
+        bar.set_description(f"train {cfg.kind} epoch {epoch + 1}/{cfg.epochs}")
         rng = np.random.default_rng([cfg.seed, epoch])
         torch.manual_seed(cfg.seed * 1000 + epoch)
         net.train()
@@ -707,6 +710,7 @@ def train(
             torch.nn.utils.clip_grad_norm_(net.parameters(), 10.0)
             opt.step()
             total += loss.item()
+            bar.update(1)
         net.to("cpu")
         v = _validate(net, cfg.kind, val, layout, fps) if val else math.sqrt(total / cfg.steps_per_epoch)
         history.append({"epoch": epoch, "train_rmse": math.sqrt(total / cfg.steps_per_epoch), "val_rmse": v,
@@ -730,10 +734,13 @@ def train(
         bar.set_postfix(train=f"{history[-1]['train_rmse']:.3f}", val=f"{v:.3f}", best=f"{best:.3f}")
         if cfg.minutes is not None and time.perf_counter() - t0 > 60.0 * cfg.minutes:
             break
+    bar.close()
     net.to("cpu")
     from .inference import load_model
 
     best_model = load_model(out_dir / "model.pt")
+    if start_epoch >= cfg.epochs and best_model.meta.get("finished") is True:
+        return best_model  # a finished run asked again: nothing trained, its model file left as it is
     best_model.meta.update(history=history, train_seconds=time.perf_counter() - t0, finished=True)
     if cfg.kind == "ebd":  # the gap prior on the same clean clips (seconds: one covariance)
         best_model = dataclasses.replace(best_model, prior=fit_gap_prior([d["clean"] for d in data], fps))
