@@ -789,3 +789,16 @@ def test_a_kill_between_the_first_epochs_two_writes_starts_over_unasked(tmp_path
     (tmp_path / "b" / "checkpoint.pt").unlink()  # a finished run's model: not started over
     with pytest.raises(ValueError, match=r"model.pt already exists \(no checkpoint of this training beside it\)"):
         training.check_out_dir(tmp_path / "b", [walk[:160]], cfg)
+
+
+def test_ebf_training_refuses_clips_shorter_than_a_crop_naming_them(tmp_path, walk):
+    """A clip shorter than one crop (crop + 30 frames) is never drawn by the EBF's batches: it is refused before any
+    work, naming it, rather than counted in the model card and left out of the training."""
+    cfg = training.TrainConfig(kind="ebf", hidden=8, epochs=1, steps_per_epoch=1, batch=2, crop=40,
+                               noise=("angular:0.5",), variants=1)
+    short = dataclasses.replace(walk[:60], name="short_one", source_file=None)
+    with pytest.raises(ValueError, match=r"1 of 2 training clips are shorter than a crop of 70 frames .*short_one \(60\)"):
+        training.train([walk[:200], short], tmp_path / "m", cfg, executor="serial", progress=False)
+    assert not (tmp_path / "m").exists()
+    gap_cfg = training.TrainConfig(**{**cfg.__dict__, "kind": "ebd", "centres": 4})
+    training.check_clip_lengths([walk[:200], short], gap_cfg)  # the EBD trains on whole clips of any length

@@ -6,9 +6,11 @@ import re
 from pathlib import Path
 
 import numpy as np
+import pytest
 
 import mocapkit
 from mocapkit import corrupt, metrics
+from mocapkit.errors import SkeletonError
 from tests.cli.helpers import SAMPLE, one_error_line, run, run_process
 from tests.shared import unknown_rig
 
@@ -612,3 +614,138 @@ def test_a_model_trained_on_bandai_takes_says_their_licence_once(tmp_path):
     code, stdout, err = run("info", str(out / "model.pt"))
     assert code == 0, err
     assert [ln.split()[0] for ln in stdout.splitlines() if "CC BY-NC 4.0" in ln] == ["licence"], stdout
+
+
+def test_a_model_named_that_cannot_serve_the_take_is_refused_not_replaced(tmp_path):
+    """A model the user names (--model, --ebf, --ebd, models=) is used or refused: on a rig it does not serve, one
+    line naming the model file and why, exit 2, nothing written; the fallback is for the shipped models chosen by
+    the take's rig. clean-batch fails that take's row and goes on with the others."""
+    (tmp_path / "in").mkdir()
+    odd = tmp_path / "in" / "odd.bvh"
+    take = unknown_rig(odd)
+    gin = tmp_path / "gaps.npz"
+    _gappy(take, gin)
+    for args, out in ((("denoise", str(odd), "--model", "ebf.pt"), "d.bvh"),
+                      (("fill", str(gin), "--model", "ebd.pt"), "f.npz"),
+                      (("clean", str(odd), "--ebf", "ebf.pt"), "c.bvh"),
+                      (("clean", str(gin), "--ebd", "ebd.pt", "--steps", "fill"), "e.npz")):
+        code, _, err = run(*args, "-o", str(tmp_path / out), cwd=tmp_path)
+        text = " ".join(err.split())
+        assert code == 2 and one_error_line(err), (args, err)
+        assert re.search(r"the EB[FD] \S*models/eb[fd]\.pt cannot serve this take: ", text), text
+        assert not (tmp_path / out).exists() and not (tmp_path / out).with_suffix(".clean.npz").exists()
+    mocapkit.save(mocapkit.load(WALK), tmp_path / "in" / "walk.bvh")
+    code, out, err = run("clean-batch", str(tmp_path / "in"), str(tmp_path / "out"), "--executor", "serial",
+                         "--ebf", "ebf.pt", "--steps", "denoise", cwd=tmp_path)
+    text = " ".join(out.split())
+    assert code == 1 and "cannot serve this take" in text, out + err
+    assert (tmp_path / "out" / "walk.bvh").is_file() and not (tmp_path / "out" / "odd.bvh").exists()
+    with pytest.raises(SkeletonError, match="cannot serve this take"):
+        mocapkit.clean(take, models={"ebf": "ebf.pt"}, steps="denoise")
+    from mocapkit.cleaning import deep
+
+    with pytest.raises(SkeletonError, match="the given EBF cannot serve this take"):
+        deep.denoise_or_fallback(take, dataclasses.replace(deep.shipped_model("ebf"), source=""))
+
+
+def test_train_refuses_clips_shorter_than_a_crop_before_any_work(tmp_path):
+    """`train denoiser` on a folder with a clip shorter than a crop (150 frames by default): one line naming the file,
+    exit 2, no model folder; the model card never counts a clip the training did not use."""
+    (tmp_path / "clips").mkdir()
+    mocapkit.save(mocapkit.load(WALK), tmp_path / "clips" / "walk.npz")
+    mocapkit.save(mocapkit.load(WALK)[:100], tmp_path / "clips" / "short.npz")
+    code, _, err = run("train", "denoiser", str(tmp_path / "clips"), "-o", str(tmp_path / "m"), "--epochs", "1",
+                       "--steps", "1", "--hidden", "8", "--executor", "serial")
+    text = " ".join(err.split())
+    assert code == 2 and one_error_line(err), err
+    assert "1 of 2 training clips are shorter than a crop of 150 frames" in text and "short.npz (100)" in text
+    assert not (tmp_path / "m").exists()
+
+
+def test_a_model_of_an_unfinished_training_says_so_in_info_and_wherever_it_is_used(tmp_path):
+    """A model.pt written by an interrupted run (``finished`` False, 1 of 3 epochs) works, and says what it is:
+    info shows epochs run of planned, unfinished, its best validation RMS in deg and the noise/steps/seed settings;
+    denoise and fill say it in one warning line and still write their output."""
+    import torch
+
+    from mocapkit.cleaning import deep
+
+    walk = mocapkit.load(WALK)
+    lay = deep.layout_for(walk)
+    cfg = {"epochs": 3, "steps_per_epoch": 7, "batch": 4, "seed": 11, "representation": "euler",
+           "noise": ["angular:0.5", "uniform:0.5"]}
+    history = [{"epoch": 0, "train_rmse": 2.0, "val_rmse": 4.25, "lr": 0.002, "seconds": 1.0}]
+    meta = {"config": cfg, "history": history, "validation_clips": ["held"], "best_val_rmse": 4.25, "best_epoch": 0,
+            "finished": False}
+    torch.manual_seed(0)
+    for kind, net in (("ebf", deep.EBF(lay.num_channels, hidden=8, width=16)),
+                      ("ebd", deep.EBD(lay.num_channels, hidden=8, width=16))):
+        deep.save_model(deep.DeepModel(kind, net, lay, walk.fps, {**meta, "config": {**cfg, "kind": kind}}),
+                        tmp_path / f"{kind}.pt")
+    code, out, err = run("info", str(tmp_path / "ebf.pt"))
+    assert code == 0, err
+    rows = {line.split("  ")[0]: line.split("  ", 1)[1].strip() for line in out.splitlines() if "  " in line}
+    assert rows["epochs"].startswith("1 of 3: unfinished")
+    assert rows["best validation RMS"] == "4.250 deg (epoch 1)"
+    assert rows["noise"] == "angular:0.5, uniform:0.5" and rows["settings"] == "7 steps per epoch, batch 4, seed 11"
+    code, out, err = run("denoise", str(WALK), "-o", str(tmp_path / "d.bvh"), "--model", str(tmp_path / "ebf.pt"))
+    text = " ".join(out.split())
+    assert code == 0 and (tmp_path / "d.bvh").is_file(), err
+    assert f"the EBF {tmp_path / 'ebf.pt'} is from an unfinished training (1 of 3 epochs run)" in text
+    gin = tmp_path / "gaps.npz"
+    _gappy(walk, gin)
+    code, out, err = run("fill", str(gin), "-o", str(tmp_path / "f.npz"), "--model", str(tmp_path / "ebd.pt"),
+                         "--denoiser", str(tmp_path / "ebf.pt"), "--by", "ebd")
+    assert code == 0 and (tmp_path / "f.npz").is_file(), err
+    warned = [line for line in out.splitlines() if line.startswith("warning:")]
+    assert len(warned) == 1 and "the EBD" in warned[0] and "unfinished training (1 of 3 epochs run)" in warned[0]
+
+
+def test_a_finished_training_run_again_leaves_its_model_and_the_files_are_named_for_what_they_are(tmp_path):
+    """The same finished train command again trains nothing and leaves model.pt as it was (bytes and mtime); a
+    checkpoint given as a model is named as one; a model of no known rig family prints no "None" in its line."""
+    out = tmp_path / "m"
+    args = ("train", "denoiser", WALK, "-o", out, "--epochs", "1", "--steps", "2", "--hidden", "8",
+            "--noise", "angular:0.5", "--executor", "serial")
+    code, _, err = run(*args)
+    assert code == 0, err
+    before = (out / "model.pt").stat().st_mtime_ns, (out / "model.pt").read_bytes()
+    code, _, err = run(*args)
+    assert code == 0, err
+    assert ((out / "model.pt").stat().st_mtime_ns, (out / "model.pt").read_bytes()) == before
+    code, _, err = run("denoise", WALK, "-o", tmp_path / "d.bvh", "--model", out / "checkpoint.pt")
+    text = " ".join(err.split())
+    assert code == 2 and one_error_line(err) and "a training checkpoint" in text and "use the model.pt beside it" in text
+    odd = tmp_path / "odd.bvh"
+    take = unknown_rig(odd)
+    from mocapkit.cleaning import deep
+
+    lay = deep.layout_for(take)
+    deep.save_model(deep.DeepModel("ebf", deep.EBF(lay.num_channels, hidden=8, width=16), lay, take.fps),
+                    tmp_path / "odd_ebf.pt")
+    code, said, err = run("denoise", odd, "-o", tmp_path / "o.bvh", "--model", tmp_path / "odd_ebf.pt")
+    assert code == 0, err
+    assert "denoised by EBF (given)" in " ".join(said.split()) and "None" not in said
+
+
+def test_fill_with_an_own_rig_ebd_alone_says_to_give_its_denoiser(tmp_path):
+    """An EBD trained on a rig no shipped EBF reads, given alone to fill: one line naming the model and saying to
+    give --denoiser (or --no-smooth), not the shipped Acclaim EBF's "not a pair"; with --no-smooth it fills."""
+    from mocapkit.cleaning import deep
+
+    odd = tmp_path / "odd.bvh"
+    take = unknown_rig(odd)
+    gin = tmp_path / "gaps.npz"
+    _gappy(take, gin)
+    lay = deep.layout_for(take)
+    x = np.nan_to_num(deep.channels.encode(take, lay)[0])
+    net = deep.EBD(lay.num_channels, hidden=8, width=16)
+    net.set_statistics(x.mean(0), np.maximum(x.std(0), 1.0), np.ones(3))
+    deep.save_model(deep.DeepModel("ebd", net, lay, take.fps), tmp_path / "own_ebd.pt")
+    code, _, err = run("fill", gin, "-o", tmp_path / "f.npz", "--model", tmp_path / "own_ebd.pt", "--by", "ebd")
+    text = " ".join(err.split())
+    assert code == 2 and one_error_line(err) and not (tmp_path / "f.npz").exists(), err
+    assert f"the EBD {tmp_path / 'own_ebd.pt'}" in text and "fill --denoiser" in text and "not a pair" not in text
+    code, _, err = run("fill", gin, "-o", tmp_path / "f.npz", "--model", tmp_path / "own_ebd.pt", "--by", "ebd",
+                       "--no-smooth")
+    assert code == 0 and (tmp_path / "f.npz").is_file(), err

@@ -802,6 +802,11 @@ def clean(
     _check(motion)
     steps = parse_steps(steps)
     models = check_models(models)  # before any work, as the CLI checks --ebf / --ebd
+    named = {k: m for k, m in models.items() if {"ebd": "fill", "ebf": "denoise"}[k] in steps}
+    if named:  # a model asked for by name is used or refused, before any work
+        from . import deep
+
+        deep.check_named(motion, named)
     check_threshold(threshold)
     check_noise_deg(noise_deg)
     if "detect" in steps:  # with an empty numba cache, later steps' kernels compile beside the first steps

@@ -70,14 +70,16 @@ def _no_fallback_option():
 
 
 def _served(inp: Path, motion, net, kind: str, no_fallback: bool):
-    """With ``--no-fallback``, the one-line error naming ``inp`` when the network does not serve the take."""
+    """The one-line error naming ``inp`` when a model named by ``--model`` (``net``), or with ``--no-fallback`` the
+    shipped one, does not serve the take: a named model is used or refused (:func:`mocapkit.cleaning.deep.refusal`)."""
     from ..cleaning import deep
 
-    if no_fallback:
+    if net is not None or no_fallback:
         sv = deep.served_by(motion, net if net is not None else deep.shipped_model(kind, motion))
+        if isinstance(sv, str) and net is not None:
+            raise MocapError(f"{inp}: {deep.refusal(net, sv)}")
         if isinstance(sv, str):
-            raise MocapError(f"{inp}: the {'given' if net is not None else 'shipped'} {kind.upper()} does not serve "
-                             f"this rig ({sv})")
+            raise MocapError(f"{inp}: the shipped {kind.upper()} does not serve this rig ({sv})")
 
 
 def denoise(
@@ -94,8 +96,9 @@ def denoise(
 ) -> None:
     """Denoise every joint angle with the EBF network (Mall et al. 2017); the root trajectory is kept.
 
-    On a rig the network does not serve, a Savitzky-Golay filter (0.1 s) denoises instead, with a warning
-    line (as `clean` does); --no-fallback makes that an error.
+    On a rig the shipped network does not serve, a Savitzky-Golay filter (0.1 s) denoises instead, with a
+    warning line (as `clean` does); --no-fallback makes that an error. A --model that does not serve the take
+    is refused (exit 2), never replaced by the filter.
     """
     from .. import io
     from ..cleaning.pipeline import capped_lines, noise_fit_frames
@@ -160,7 +163,7 @@ def fill(
     Channels written as 0 where the capture lost data (a joint, one channel or a whole frame jumping to 0
     and back) are gaps too, named and filled, as `clean` fills them. On a rig the network does not serve,
     a cubic spline fills the gaps instead, with a warning line (as `clean` does); --no-fallback makes that
-    an error. A take without gaps is reported and OUT is not written unless --always-write.
+    an error. A --model that does not serve the take is refused (exit 2), never replaced by the spline. A take without gaps is reported and OUT is not written unless --always-write.
     """
     from .. import io
     from ..cleaning import deep
@@ -357,6 +360,7 @@ def train(
         runs.append((tr + [mirrors[id(c)] for c in tr] if mirror else tr, val, o))
     try:  # every fold's folder before the first fold trains: a model of another training is never replaced unasked
         for tr, val, o in runs:
+            training.check_clip_lengths(tr, cfg)
             training.check_out_dir(o, tr, cfg, val or None, resume=resume, overwrite=overwrite)
     except ValueError as exc:
         raise MocapError(f"train: {exc}") from None

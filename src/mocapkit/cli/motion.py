@@ -305,7 +305,7 @@ def _info_of_own_file(path: Path) -> bool:
 
         if _describe_checkpoint(path):
             return True
-        from ..cleaning.deep.provenance import model_licence, model_rig
+        from ..cleaning.deep.provenance import model_licence, model_rig, training_rows
 
         model = deep.load_model(path)
         meta = model.meta if isinstance(model.meta, dict) else {}
@@ -315,7 +315,7 @@ def _info_of_own_file(path: Path) -> bool:
                       ("channels", str(model.layout.num_channels)),
                       ("fps", f"{model.fps:g}" if getattr(model, "fps", None) else "?"),
                       ("training clips", str(len(meta.get("train_clips", ()))))]
-                     + _training_data_rows(meta.get("training_data"))
+                     + _training_data_rows(meta.get("training_data")) + training_rows(meta)
                      + [("licence", model_licence(model))])
         return True
     if not (name.endswith(".npz") and path.is_file()):

@@ -28,6 +28,8 @@ from .inference import (
     lerp_fill,
     licence_note,
     load_model,
+    check_named,
+    refusal,
     save_model,
     shipped_model,
 )
@@ -51,6 +53,8 @@ __all__ = [
     "served_by",
     "denoise_or_fallback",
     "fill_or_fallback",
+    "refusal",
+    "check_named",
     "ChannelLayout",
     "layout_for",
     "DeepModel",

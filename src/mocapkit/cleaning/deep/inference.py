@@ -26,7 +26,7 @@ from ...motion import Motion
 from .channels import ChannelLayout, channel_joints, lerp_fill
 from .doubt import doubtful_runs
 from .prior import GapPrior, conditional_fill
-from .provenance import card_as_read, model_licence, model_rig, restricts_use
+from .provenance import card_as_read, model_licence, model_rig, restricts_use, unfinished_note
 from .retarget import Serving, served_by
 from .sure import BLOCK_S, block_edges, calibrated_log_sigma, scoring_stride
 from .threads import INFERENCE_PARTS, torch_threads
@@ -64,6 +64,8 @@ __all__ = [
     "passed_over",
     "FALLBACK_DENOISE",
     "FALLBACK_FILL",
+    "refusal",
+    "check_named",
 ]
 
 FORMAT = "mocapkit.deep/1"
@@ -82,6 +84,7 @@ class DeepModel:
     fps: float
     meta: dict = field(default_factory=dict)
     prior: GapPrior | None = None  # an EBD's Gaussian gap prior, fitted on its training clips (:mod:`.prior`)
+    source: str = field(default="", compare=False)  # the file it was read from ("" for a model made in memory)
 
     def __post_init__(self):
         self.net.eval()
@@ -188,6 +191,9 @@ def _parse_model(path: Path) -> DeepModel:
     except Exception as exc:  # noqa: BLE001 - any unpickling failure is a format error
         raise MocapFormatError(path, f"not a mocapkit model file ({type(exc).__name__})") from None
     try:
+        if isinstance(payload, dict) and "optimizer" in payload and "format" not in payload:
+            raise MocapFormatError(path, "a training checkpoint (what resumes a training), not a model; use the "
+                                         "model.pt beside it")
         if not isinstance(payload, dict) or payload.get("format") != FORMAT:
             raise ValueError(f"format is not {FORMAT}")
         kind = payload["kind"]
@@ -212,7 +218,7 @@ def _parse_model(path: Path) -> DeepModel:
         raise
     except Exception as exc:  # noqa: BLE001
         raise MocapFormatError(path, f"malformed mocapkit model ({exc})") from None
-    return DeepModel(kind, net, layout, fps, meta, prior)
+    return DeepModel(kind, net, layout, fps, meta, prior, source=str(path))
 
 
 @lru_cache(maxsize=8)
@@ -270,11 +276,17 @@ def passed_over(kind: str, take) -> str:
 def _smoothing_ebf(ebd: DeepModel, denoiser, take=None) -> DeepModel:
     """The EBF that smooths what ``ebd`` fills: ``denoiser`` (:func:`_model`'s kinds) or, when None, the shipped
     EBF that reads the EBD's channels (its pair: ``ebf.pt`` for ``ebd.pt``, ``ebf_bandai.pt`` for
-    ``ebd_bandai.pt``; the one shipped for ``take``'s rig when none does). An EBF of another rig than the EBD's is
-    refused with ValueError (a request, not a reason to fall back)."""
+    ``ebd_bandai.pt``); where none reads them (an EBD trained on one's own rig), ValueError saying to give its EBF.
+    An EBF of another rig than the EBD's is refused with ValueError (a request, not a reason to fall back).
+    ``take``: the take served (for :func:`model_of_kind`)."""
     if denoiser is None:
         found = (_packaged(n) for n in _shipped_names("ebf"))
-        ebf = next((m for m in found if m.layout == ebd.layout), None) or shipped_model("ebf", take)
+        ebf = next((m for m in found if m.layout == ebd.layout), None)
+        if ebf is None:
+            what = f"the EBD {ebd.source}" if ebd.source else "the given EBD"
+            raise ValueError(f"no shipped EBF reads the {ebd.layout.num_channels} channels of {what}: give the EBF "
+                             "trained on its rig (fill --denoiser, clean --ebf; denoiser= or models= in Python), or "
+                             "fill without it (--no-smooth)")
     else:
         ebf = model_of_kind(denoiser, "ebf", take)
     if ebf.layout != ebd.layout:
@@ -772,6 +784,32 @@ FALLBACK_FILL = "cubic spline"
 FALLBACK_DENOISE = "Savitzky-Golay (0.1 s)"
 
 
+def refusal(model: DeepModel, why: str) -> SkeletonError:
+    """The error for a model the user named (a file, a shipped name or a model object) that cannot serve a take:
+    one line naming the model's file (``model.source``; "the given EBF" for a model made in memory) and ``why``.
+    A named model is used or refused, never replaced by the fallback: that is for the shipped models chosen by
+    the take's rig (:func:`denoise_or_fallback`, :func:`fill_or_fallback`)."""
+    what = f"the {model.kind.upper()} {model.source}" if model.source else f"the given {model.kind.upper()}"
+    return SkeletonError(f"{what} cannot serve this take: {why}")
+
+
+def check_named(motion: Motion, models: dict) -> None:
+    """Refuse, before any work, a model the caller named that cannot serve ``motion``.
+
+    ``models``: ``{"ebf": ..., "ebd": ...}`` of model files, shipped names or :class:`DeepModel` s (None or a
+    missing key: the shipped model for the take's rig, which falls back instead). Raises :func:`refusal`'s
+    SkeletonError for the first that :func:`served_by` says does not serve the take, so ``clean --ebf M`` is
+    refused even where its denoise step would find nothing to denoise and never run the model.
+    """
+    for kind in ("ebd", "ebf"):
+        if models.get(kind) is None:
+            continue
+        m = model_of_kind(models[kind], kind, motion)
+        sv = served_by(motion, m)
+        if isinstance(sv, str):
+            raise refusal(m, sv)
+
+
 def _fallback_note(method: str, kind: str, label: str, why: str) -> str:
     return f"{method}: the {label} {kind.upper()} does not serve this rig ({why})"
 
@@ -780,7 +818,7 @@ def _method(kind: str, label: str, sv: Serving, name: str | None = None, skeleto
     """How a take was served, for the output line: the model, the rig family or joint map, and the joints beside
     the model's that the fallback took (``skeleton`` names them)."""
     rig = model_rig(sv.model)  # None: a model file that does not say its rig, of other joints than Acclaim's
-    via = (f", {sv.family}" if rig != "acclaim" else "") if sv.direct else f", via the {sv.family} joint map"
+    via = (f", {sv.family}" if rig != "acclaim" and sv.family else "") if sv.direct else f", via the {sv.family} joint map"
     if sv.direct and sv.others and skeleton is not None:
         names = [skeleton.joint_names[j] for j in sv.others]
         via += f"; {', '.join(names[:3])}{', ...' if len(names) > 3 else ''} beside its joints by the fallback"
@@ -797,6 +835,8 @@ def fill_or_fallback(motion: Motion, model=None, denoiser=None, smooth: bool = T
     ``smooth`` and the EBF serves it too, :func:`ebf_takes_part`); where it does not, or a
     channel the network needs is never observed, the cubic interpolating
     spline of :func:`mocapkit.cleaning.gapfill.fill_motion` fills every gap.
+    The fallback is for the shipped models chosen by the take's rig (``model`` None): a model the caller named
+    (``model`` given) that cannot serve the take raises :func:`refusal`'s SkeletonError instead.
     Returns ``(motion, method, note)``: ``note`` is "" with the networks
     (or one line naming a restrictive licence of the model used, e.g. the
     non-commercial Bandai Namco models: :func:`licence_note`), else one line
@@ -811,7 +851,10 @@ def fill_or_fallback(motion: Motion, model=None, denoiser=None, smooth: bool = T
 
     if not motion.missing().any():
         return motion, "nothing (no gaps)", ""
-    sv = served_by(motion, model_of_kind(model, "ebd", motion))
+    m = model_of_kind(model, "ebd", motion)
+    sv = served_by(motion, m)
+    if isinstance(sv, str) and model is not None:  # a model asked for by name is used or refused
+        raise refusal(m, sv)
     if not isinstance(sv, str):
         by_prior = _fills_by_prior(sv.model, method)  # raises before the try: a bad request is no reason to fall back
         ebf = served_by(motion, _smoothing_ebf(sv.model, denoiser, motion)) if smooth else "not asked"
@@ -819,8 +862,9 @@ def fill_or_fallback(motion: Motion, model=None, denoiser=None, smooth: bool = T
         try:
             out, runs = _fill_gaps(motion, sv, ebf if smooth else None, smooth, method)
             ebf_ran = ebf_takes_part(sv.model, smooth, method)
-            notes = dict.fromkeys(n for n in (licence_note(sv.model, options),
-                                              licence_note(ebf.model, options) if ebf_ran else "") if n)
+            notes = dict.fromkeys(n for n in (licence_note(sv.model, options), unfinished_note(sv.model),
+                                              licence_note(ebf.model, options) if ebf_ran else "",
+                                              unfinished_note(ebf.model) if ebf_ran else "") if n)
             if model is None:
                 notes = {passed_over("ebd", motion): None} | notes
             notes.pop("", None)
@@ -833,6 +877,8 @@ def fill_or_fallback(motion: Motion, model=None, denoiser=None, smooth: bool = T
                 notes[doubt] = None
             return out, how, "; ".join(notes)
         except ValueError as exc:
+            if model is not None:
+                raise refusal(m, str(exc)) from None
             why = str(exc)
     else:
         why = sv
@@ -847,15 +893,19 @@ def denoise_or_fallback(motion: Motion, model=None, cells: np.ndarray | None = N
     quadratic Savitzky-Golay filter over 0.1 s (:func:`mocapkit.cleaning.filters.savgol_smooth`).
 
     The rule is :func:`served_by`. Without ``cells`` every non-root joint is
-    denoised. Returns ``(motion, method, note)`` as :func:`fill_or_fallback`
+    denoised. A named ``model`` that does not serve the take raises :func:`refusal`'s SkeletonError (the fallback
+    is for the shipped model chosen by the take's rig). Returns ``(motion, method, note)`` as :func:`fill_or_fallback`
     (``options`` as there); cells outside ``cells`` (and the root) are bit-identical to the input.
     """
     from ..filters import savgol_smooth
 
-    sv = served_by(motion, model_of_kind(model, "ebf", motion))
+    m = model_of_kind(model, "ebf", motion)
+    sv = served_by(motion, m)
+    if isinstance(sv, str) and model is not None:  # a model asked for by name is used or refused
+        raise refusal(m, sv)
     own = passed_over("ebf", motion) if model is None else ""
     if not isinstance(sv, str):
-        note = "; ".join(n for n in (own, licence_note(sv.model, options)) if n)
+        note = "; ".join(n for n in (own, licence_note(sv.model, options), unfinished_note(sv.model)) if n)
         return _denoise(motion, sv, cells), _method("ebf", label, sv, skeleton=motion.skeleton), note
     J = motion.skeleton.num_joints
     if cells is None:

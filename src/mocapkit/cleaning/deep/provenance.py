@@ -16,7 +16,8 @@ import re
 from ... import rigs
 
 __all__ = ["BANDAI_LICENCE", "DATA_LICENCES", "HDM05_LICENCE", "NOT_STATED", "RIG_RESPELLINGS", "card_as_read", "data_licence",
-           "model_card", "model_licence", "model_rig", "restricts_use", "rig_name", "training_rig"]
+           "model_card", "model_licence", "model_rig", "restricts_use", "rig_name", "training_rig", "training_rows",
+           "unfinished_note"]
 
 BANDAI_LICENCE = ("CC BY-NC 4.0: trained on the Bandai Namco Research Motiondataset "
                   "(Bandai Namco Research Inc.); non-commercial use only")
@@ -119,3 +120,56 @@ def restricts_use(licence: str | None) -> bool:
     """Whether a licence text restricts use (non-commercial or research-only terms, e.g. CC BY-NC): the licences a
     :class:`~mocapkit.errors.LicenceWarning` names wherever the model is used."""
     return bool(licence) and _RESTRICTIVE.search(licence) is not None
+
+
+def _epochs(meta: dict) -> tuple[int, int | None]:
+    """(epochs run, epochs planned) from a model's metadata: its ``history`` and its ``config``'s ``epochs``."""
+    history = meta.get("history")
+    config = meta.get("config") if isinstance(meta.get("config"), dict) else {}
+    planned = config.get("epochs")
+    return (len(history) if isinstance(history, list) else 0), (int(planned) if isinstance(planned, int) else None)
+
+
+def unfinished_note(model) -> str:
+    """One line for a model whose training was interrupted (its metadata's ``finished`` is False: ``train`` writes
+    each better epoch's model as it goes and marks it finished at the run's end), else "": the model works, but
+    it is not what the run was set to make; the same ``mocapkit train`` command resumes it."""
+    meta = model.meta if isinstance(model.meta, dict) else {}
+    if meta.get("finished") is not False:
+        return ""
+    run, planned = _epochs(meta)
+    what = f"{run} of {planned}" if planned else str(run)
+    where = f" {model.source}" if getattr(model, "source", "") else ""
+    return (f"the {model.kind.upper()}{where} is from an unfinished training ({what} epochs run); the same "
+            "`mocapkit train` command resumes it")
+
+
+def training_rows(meta) -> list[tuple[str, str]]:
+    """``info``'s lines on how a model was trained, from its metadata (none for a model file without them):
+    epochs run of planned and whether the run finished, the best validation RMS (degrees on Euler channels,
+    Mall et al. 2017's error; rotation-matrix units on 6-D ones; the training RMS where nothing was held out)
+    with its epoch, and the noise, steps and seed settings."""
+    if not isinstance(meta, dict) or not isinstance(meta.get("config"), dict):
+        return []
+    cfg = meta["config"]
+    run, planned = _epochs(meta)
+    of = f"{run} of {planned}" if planned else str(run)
+    if meta.get("finished") is False:
+        state = f"{of}: unfinished (interrupted; the same train command resumes it)"
+    elif planned and run < planned:
+        state = f"{of}: finished early (its --minutes budget)"
+    else:
+        state = f"{of}: finished" if "finished" in meta else of
+    rows = [("epochs", state)]
+    best = meta.get("best_val_rmse")
+    if isinstance(best, (int, float)):
+        unit = "deg" if cfg.get("representation", "euler") == "euler" else "(6-D units)"
+        which = "validation" if meta.get("validation_clips") else "training"
+        epoch = meta.get("best_epoch")
+        at = f" (epoch {int(epoch) + 1})" if isinstance(epoch, int) else ""
+        rows.append((f"best {which} RMS", f"{best:.3f} {unit}{at}"))
+    if cfg.get("noise"):
+        rows.append(("noise", ", ".join(map(str, cfg["noise"]))))
+    rows.append(("settings", f"{cfg.get('steps_per_epoch', '?')} steps per epoch, batch {cfg.get('batch', '?')}, "
+                             f"seed {cfg.get('seed', '?')}"))
+    return rows

@@ -51,7 +51,7 @@ from .networks import EBD, EBF, HALF_WINDOW, window_indices
 from .prior import fit_gap_prior
 from .provenance import model_card
 
-__all__ = ["TrainConfig", "load_clips", "split_holdout", "holdout_folds", "gap_mask", "channel_joints", "prepare_clip", "train",
+__all__ = ["TrainConfig", "load_clips", "check_clip_lengths", "split_holdout", "holdout_folds", "gap_mask", "channel_joints", "prepare_clip", "train",
            "clip_digest", "check_out_dir"]
 
 DEFAULT_NOISE = ("angular:0.1", "angular:0.5", "angular:0.9", "uniform:0.5", "spatial:0.5", "spatial:1.0")
@@ -139,8 +139,27 @@ def load_clips(sources, asf=None, amc_fps: float | None = None) -> list[Motion]:
             out += [db.clip(i) for i in range(db.num_clips)]
             continue
         for item in expand_sources([s]):
-            out.append(item if isinstance(item, Motion) else load_take(item, asf, fps=amc_fps))
+            m = item if isinstance(item, Motion) else load_take(item, asf, fps=amc_fps)
+            if m.source_file is None and not isinstance(item, Motion):  # an .npz says no file: errors name it
+                m = dataclasses.replace(m, source_file=str(item))
+            out.append(m)
     return out
+
+
+def check_clip_lengths(clips: list[Motion], config: TrainConfig) -> None:
+    """Refuse (ValueError, one line naming them) EBF training clips shorter than one crop (``config.crop`` + 30
+    frames, 150 by default): :func:`_ebf_batch` draws its crops from whole clips, so such a clip would never be
+    trained on while the model card counted it. An EBD trains on whole clips of any length; validation clips
+    are denoised whole, so neither is checked."""
+    if config.kind != "ebf":
+        return
+    need = config.crop + 2 * HALF_WINDOW
+    short = [c for c in clips if c.num_frames < need]
+    if short:
+        names = [f"{c.source_file or c.name or 'clip'} ({c.num_frames})" for c in short]
+        raise ValueError(f"{len(short)} of {len(clips)} training clips are shorter than a crop of {need} frames "
+                         f"and would never be trained on: {', '.join(names[:4])}{', ...' if len(names) > 4 else ''}; "
+                         "leave them out (or hold them out for validation)")
 
 
 def split_holdout(clips: list[Motion], holdout: list[str] | int = 0, seed: int = 0):
@@ -617,6 +636,7 @@ def train(
     cfg = config
     if not clips:
         raise ValueError("no training clips")
+    check_clip_lengths(clips, cfg)
     out_dir = Path(out_dir)  # made by the first write (atomic_write): a run that fails before leaves no folder
     # A checkpoint continues when everything but the stopping rule and device matches, on the same clips;
     # another run's checkpoint or model is not replaced by a resume (it would be lost): refused before any work
@@ -666,9 +686,12 @@ def train(
             if torch.is_tensor(v):
                 st[k] = v.to(dev)
     t0 = time.perf_counter() - sum(h["seconds"] for h in history)
-    bar = tqdm(range(start_epoch, cfg.epochs), desc=f"train {cfg.kind}", disable=bar_disabled(progress), initial=start_epoch,
-               total=cfg.epochs)
-    for epoch in bar:
+    # the bar counts optimiser steps (an epoch of a large rig takes minutes), the epoch in its description
+    steps = cfg.steps_per_epoch
+    bar = tqdm(total=cfg.epochs * steps, initial=start_epoch * steps, desc=f"train {cfg.kind}", unit="step",
+               disable=bar_disabled(progress))
+    for epoch in range(start_epoch, cfg.epochs):
+        bar.set_description(f"train {cfg.kind} epoch {epoch + 1}/{cfg.epochs}")
         rng = np.random.default_rng([cfg.seed, epoch])
         torch.manual_seed(cfg.seed * 1000 + epoch)
         net.train()
@@ -687,6 +710,7 @@ def train(
             torch.nn.utils.clip_grad_norm_(net.parameters(), 10.0)
             opt.step()
             total += loss.item()
+            bar.update(1)
         net.to("cpu")
         v = _validate(net, cfg.kind, val, layout, fps) if val else math.sqrt(total / cfg.steps_per_epoch)
         history.append({"epoch": epoch, "train_rmse": math.sqrt(total / cfg.steps_per_epoch), "val_rmse": v,
@@ -710,10 +734,13 @@ def train(
         bar.set_postfix(train=f"{history[-1]['train_rmse']:.3f}", val=f"{v:.3f}", best=f"{best:.3f}")
         if cfg.minutes is not None and time.perf_counter() - t0 > 60.0 * cfg.minutes:
             break
+    bar.close()
     net.to("cpu")
     from .inference import load_model
 
     best_model = load_model(out_dir / "model.pt")
+    if start_epoch >= cfg.epochs and best_model.meta.get("finished") is True:
+        return best_model  # a finished run asked again: nothing trained, its model file left as it is
     best_model.meta.update(history=history, train_seconds=time.perf_counter() - t0, finished=True)
     if cfg.kind == "ebd":  # the gap prior on the same clean clips (seconds: one covariance)
         best_model = dataclasses.replace(best_model, prior=fit_gap_prior([d["clean"] for d in data], fps))
