@@ -46,7 +46,7 @@ from .motion import Motion, Skeleton, readonly_view
 from .rigs import data_terms
 from .search.matches import Match
 
-__all__ = ["MotionDatabase", "ClipInfo", "SearchResult", "FORMAT_VERSION", "FPS_RANGE", "SUFFIXES", "check_database_output", "expand_sources"]
+__all__ = ["MotionDatabase", "ClipInfo", "SearchResult", "FORMAT_VERSION", "FPS_RANGE", "SUFFIXES", "check_database_output", "expand_sources", "read_joint_map"]
 
 #: File suffixes a database is built from (C3D marker files hold no skeleton motion).
 SUFFIXES = (".bvh", ".amc", ".npz")
@@ -169,6 +169,20 @@ def _renamed(m: Motion, joint_map: Mapping[str, str], source: str) -> Motion:
         twice = sorted({n for n in names if names.count(n) > 1})
         raise MocapFormatError(source, f"the joint map gives two of the clip's joints the name {twice[0]!r}")
     return dataclasses.replace(m, skeleton=dataclasses.replace(m.skeleton, joint_names=names))
+
+
+def read_joint_map(path) -> dict:
+    """The joint map a JSON file holds (``--joint-map``): an object {clip joint: database joint}, e.g.
+    ``{"kt_b04": "Hand_L"}``, which names a rig's joints after a rig of known naming so that its roles (hands,
+    feet, head) are found. A file that is not such an object is refused in one line naming it."""
+    path = Path(path)
+    try:
+        jm = json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, ValueError) as exc:
+        raise MocapFormatError(path, f"not a readable JSON joint map ({exc})") from None
+    if not isinstance(jm, dict) or not all(isinstance(k, str) and isinstance(v, str) for k, v in jm.items()):
+        raise MocapFormatError(path, "a joint map is a JSON object of joint name -> joint name")
+    return jm
 
 
 def _prepare(item, fps: float, features: tuple[str, ...], mirror: bool, ref_skeleton: Skeleton | None, joint_map,
