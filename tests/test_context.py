@@ -4,6 +4,7 @@ import dataclasses
 import json
 import os
 import shutil
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -352,3 +353,32 @@ def test_context_motions_clean_a_take_bit_for_bit_as_their_files_do(tmp_path, mo
     np.testing.assert_array_equal(by_motion.mdm, by_file.mdm)
     np.testing.assert_array_equal(by_motion.repaired, by_file.repaired)
     assert "context Motions (1 clip" in by_motion.steps[1].method
+
+
+def _unknown_names(path, out):
+    """The Bandai Namco take at ``path`` written to ``out`` on joints named ``kt_00``, ``kt_01``, ... (names that say
+    no role, as a studio's own rig), and the joint map back to the Bandai names."""
+    m = mocapkit.load(path)
+    names = tuple(f"kt_{j:02d}" for j in range(len(m.skeleton.joint_names)))
+    mocapkit.save(dataclasses.replace(m, skeleton=dataclasses.replace(m.skeleton, joint_names=names)), out)
+    return dict(zip(names, m.skeleton.joint_names))
+
+
+def test_a_folder_of_a_rig_of_unknown_names_is_context_under_its_joint_map(tmp_path):
+    data = Path(__file__).parent / "data"
+    folder = tmp_path / "kt"
+    folder.mkdir()
+    for n in ("dataset-1_dash_normal_001", "dataset-1_dash_chimpira_001"):
+        jm = _unknown_names(data / f"{n}.bvh", folder / f"{n}.bvh")
+    _unknown_names(data / "dataset-1_run_masculinity_001.bvh", tmp_path / "take.bvh")
+    take = mocapkit.load(tmp_path / "take.bvh")
+    cache = tmp_path / "cache"
+    with pytest.raises(MocapFormatError, match=r"dataset-1_dash_chimpira_001\.bvh: .*left_hand.*--joint-map"):
+        C.resolve_context(folder, cache_dir=cache)  # the file, not <motion ...>
+    db = C.resolve_context(folder, cache_dir=cache, joint_map=jm, prefer=C.topology_id(take.skeleton))
+    assert db.skeletons[0].joint_names[9] == "Hand_L" and db.num_clips == 2
+    served, note = C.fit_context(take, db)
+    assert served.skeletons[0].joint_names == take.skeleton.joint_names and "joint map" in note
+    files = C.context_files(folder)
+    assert C.context_key(files, joint_map=jm) != C.context_key(files)
+    assert len([p for p in cache.iterdir() if not p.name.startswith(".")]) == 1  # built once

@@ -331,3 +331,28 @@ def test_a_database_of_bandai_namco_takes_keeps_and_says_their_non_commercial_li
     assert opened.summary()["licence"] == db.info["licence"]  # what `db info` and `info` print
     cmu = MotionDatabase.build([mocapkit.samples.path("131_01.bvh")], fps=30)
     assert "licence" not in cmu.info and "licence" not in cmu.summary()
+
+
+def _unknown_names(m, name):
+    """``m`` on joints named ``kt_00``, ``kt_01``, ... (names that say no role), and the map back."""
+    names = tuple(f"kt_{j:02d}" for j in range(len(m.skeleton.joint_names)))
+    sk = dataclasses.replace(m.skeleton, joint_names=names)
+    return dataclasses.replace(m, skeleton=sk, name=name), dict(zip(names, m.skeleton.joint_names))
+
+
+def test_joint_map_applies_to_the_first_clip_too():
+    m = mocapkit.load(samples.path("131_01.bvh"))
+    a, jm = _unknown_names(m, "a")
+    b, _ = _unknown_names(m[: m.num_frames // 2], "b")
+    db = MotionDatabase.build([a, b], fps=30, joint_map=jm, executor="serial", progress=False)
+    assert db.skeletons[0].joint_names == m.skeleton.joint_names  # the database's names are the map's
+    plain = MotionDatabase.build([m], fps=30, executor="serial", progress=False)
+    np.testing.assert_array_equal(db.features["F15"][slice(*db.clip_range("a"))], plain.features["F15"])
+
+
+def test_joint_map_refuses_two_joints_renamed_alike():
+    m = mocapkit.load(samples.path("131_01.bvh"))
+    a, jm = _unknown_names(m, "a")
+    jm["kt_01"] = jm["kt_02"]
+    with pytest.raises(MocapFormatError, match="two of the clip's joints"):
+        MotionDatabase.build([a], fps=30, joint_map=jm, executor="serial", progress=False)

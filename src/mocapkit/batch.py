@@ -87,23 +87,27 @@ DEFAULT_PATTERNS = ("*.bvh", "*.amc", "*.npz", "*.c3d", "*.trc")
 
 
 @lru_cache(maxsize=4)
-def _context(paths: tuple[str, ...], default: bool, progress: bool, prefer: str | None, tell=None):
+def _context(paths: tuple[str, ...], default: bool, progress: bool, prefer: str | None, tell=None, joint_map=()):
     """The context ``paths`` name (:func:`mocapkit.context.resolve_context`), resolved once per process."""
     from .context import resolve_context
 
-    return resolve_context(list(paths), default=default, progress=progress, prefer=prefer, tell=tell)
+    return resolve_context(list(paths), default=default, progress=progress, prefer=prefer, tell=tell,
+                           joint_map=dict(joint_map) or None)
 
 
 def load_context(paths: Sequence | None, *, default: bool = True, progress: bool = False, take=None,
-                 tell: Callable[[str], None] | None = None):
+                 tell: Callable[[str], None] | None = None, joint_map: dict | None = None):
     """``--context``: a database folder, a folder of takes or motion files (built once and cached), ``none``;
     None or empty: the bundled default context (with ``default``), else the clip itself. ``take``: the
     Motion it is for (a folder of mixed rigs then gives the takes on its skeleton). ``tell``: called with a line as
-    a build of files starts and as it ends (:func:`mocapkit.context.build_context`; nothing for a cached one)."""
+    a build of files starts and as it ends (:func:`mocapkit.context.build_context`; nothing for a cached one).
+    ``joint_map`` (``--joint-map``, :func:`mocapkit.database.read_joint_map`): the names a folder's build gives
+    the joints of a rig whose names say no roles."""
     from .context import topology_id
 
     prefer = topology_id(take.skeleton) if take is not None else None
-    return _context(tuple(str(p) for p in (paths or ())), default, progress, prefer, tell)
+    return _context(tuple(str(p) for p in (paths or ())), default, progress, prefer, tell,
+                    tuple(sorted((joint_map or {}).items())))
 
 
 def clean_file(
@@ -130,6 +134,7 @@ def clean_file(
     max_gap_s: float | None = None,
     max_error_mm: float | None = None,
     placed=None,
+    joint_map: dict | None = None,
 ):
     """Clean the take at ``inp`` and write ``out``, its ``.clean.npz`` record and optional reports.
 
@@ -154,7 +159,7 @@ def clean_file(
     (:func:`mocapkit.io.takes.asf_for_output`), written first, with the outputs. ``noise_deg``: the
     noisy-cell level (:func:`mocapkit.cleaning.pipeline.clean`; None: its default). ``placed``: where ``out``
     is moved once written (a batch writes each take into a staging folder first): the report names the record
-    beside it, where the user will find it.
+    beside it, where the user will find it. ``joint_map``: :func:`load_context`'s.
 
     Every output is checked against every input
     (:func:`mocapkit.io.outputs.check_outputs`) before anything is read; the
@@ -206,7 +211,7 @@ def clean_file(
         from .context import fit_context, terms_note
 
         unread = unread_context(m, context) if "detect" in asked else ""  # a take detect does not judge reads none
-        ctx, ctx_note = (fit_context(m, load_context(context, progress=progress, take=m)) if unread is None
+        ctx, ctx_note = (fit_context(m, load_context(context, progress=progress, take=m, joint_map=joint_map)) if unread is None
                          else (None, unread))  # only detection reads a context: none is loaded or spoken of without it
         try:
             res = clean(m, ctx, steps=steps or STEPS, threshold=threshold, progress=progress, drifts=drifts,
@@ -508,6 +513,7 @@ def _clean_job(job: dict) -> dict:
         stage = Path(tempfile.mkdtemp(prefix=f".{out.name}.", suffix=".part", dir=out.parent))
         staged = {f: stage / f.name for f in finals}
         taken, res = clean_file(job["input"], staged[out], context=job["context"], steps=job["steps"], threshold=job["threshold"],
+                            joint_map=job.get("joint_map"),
                             report=staged[Path(job["report"])] if job.get("report") else None,
                             png=staged[Path(job["png"])] if job.get("png") else None, asf=job.get("asf"),
                             drifts=bool(job.get("drifts")), models=job.get("models"), amc_fps=job.get("amc_fps"),
@@ -657,6 +663,7 @@ def clean_batch(
     max_error_mm: float | None = None,
     on_row: Callable[[dict, int, int], None] | None = None,
     on_context: Callable[[str], None] | None = None,
+    joint_map: dict | None = None,
 ) -> BatchSummary:
     """Clean every take under ``in_dir`` into the mirrored layout under ``out_dir`` (module docstring).
 
@@ -682,6 +689,7 @@ def clean_batch(
     cleaned or failed as it finishes (completion order); ``n`` counts the rows so far, ``total`` the takes.
     ``on_context(line)``: called with a line as the ``context`` files start to be built into a database, before
     the first take, and one as the build ends (its clips and seconds; nothing when the cache holds it).
+    ``joint_map``: the names the ``context`` build gives a rig's joints (:func:`load_context`).
     A take that fails on a full disk, a used-up quota or a read-only file system stops the batch
     (``BatchSummary.stopped``). Raises
     :class:`~mocapkit.errors.MocapError` (one line) on a bad folder, format,
@@ -712,7 +720,7 @@ def clean_batch(
             raise MocapError(str(exc)) from None
     ctx = [Path(c) for c in (context or [])]
     if ctx:
-        load_context(ctx, progress=progress, tell=on_context)  # fail early, in one line, on a bad context; a folder is built and cached once
+        load_context(ctx, progress=progress, tell=on_context, joint_map=joint_map)  # fail early, in one line, on a bad context; a folder is built and cached once
     t0 = time.perf_counter()
     below = inside(out_dir, in_dir)  # an OUT_DIR below IN_DIR is left out of the inputs, IN_DIR itself is not
     earlier: list[Path] = []  # folders below IN_DIR holding an earlier batch's outputs: left out too
@@ -751,7 +759,7 @@ def clean_batch(
     # every path absolute: a remote Dask worker resolves a relative one against its own working folder
     jobs = [{"input": _abs(inp), "output": _abs(files["output"]), "steps": steps,
              "context": [str(c) if is_off(c) else _abs(c) for c in ctx],  # 'none' stays a word
-             "threshold": float(threshold), "drifts": bool(drifts),
+             "threshold": float(threshold), "drifts": bool(drifts), "joint_map": joint_map,
              "models": {k: _abs(v) if Path(v).exists() else str(v) for k, v in (models or {}).items()} or None,
              "report": _abs(files["report"]) if files["report"] else None,
              "png": _abs(files["png"]) if files["png"] else None,

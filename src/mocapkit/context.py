@@ -182,10 +182,11 @@ def topology_id(skeleton) -> str:
 
 
 def context_key(files: Sequence, fps: float = BUILD_FPS, features: Sequence[str] = BUILD_FEATURES,
-                prefer: str | None = None, optional: Sequence = ()) -> str:
+                prefer: str | None = None, optional: Sequence = (), joint_map: dict | None = None) -> str:
     """The cache key of a context built from ``files``: a hex digest of every file's resolved path, size and
     mtime (an AMC's also of the ASF beside it), the settings (``prefer``: a :func:`topology_id`; ``optional``:
-    the files found in folders) and the database format version."""
+    the files found in folders; ``joint_map``: the names the clips' joints were given) and the database format
+    version."""
     from .database_folder import FORMAT_VERSION
     from .io.asfamc import find_asf
 
@@ -202,6 +203,8 @@ def context_key(files: Sequence, fps: float = BUILD_FPS, features: Sequence[str]
     settings = {"files": stamps, "fps": float(fps), "features": list(features), "format": FORMAT_VERSION, "layout": 2}
     if prefer is not None:
         settings["prefer"] = prefer
+    if joint_map:
+        settings["joint_map"] = sorted(dict(joint_map).items())
     found = sorted(str(Path(f).resolve()) for f in optional)
     if found:
         settings["optional"] = found
@@ -249,7 +252,7 @@ def context_take(m, fps: float = BUILD_FPS, source=None):
 
 def build_context(files: Sequence, *, fps: float = BUILD_FPS, features: Sequence[str] = BUILD_FEATURES,
                   progress: bool = False, label: str | None = None, prefer: str | None = None,
-                  optional: Sequence = (), tell: Callable[[str], None] | None = None):
+                  optional: Sequence = (), tell: Callable[[str], None] | None = None, joint_map: dict | None = None):
     """Build a context database from motion files; returns ``(database, notes)``.
 
     Every file is read (an AMC with the ASF beside it, as the readers find
@@ -264,6 +267,10 @@ def build_context(files: Sequence, *, fps: float = BUILD_FPS, features: Sequence
     ``label`` is stored in the database's ``info`` (what the summary says
     judged a take). ``tell``: called with one line as the build starts and one as it ends (the clips it holds of
     the files read, and the seconds it took), for a log where no bar shows (``mocapkit clean-batch``).
+    ``joint_map`` ({clip joint: joint of a known rig}, ``--joint-map``): the names the clips' joints take in the
+    database (:meth:`MotionDatabase.build`), for a rig whose own names say no roles (no hands, feet or head
+    found for the features); a take on the clips' own names is then served by hierarchy and rest pose
+    (:func:`fit_context`).
     """
     files = [Path(f) for f in files]
     if not files:
@@ -295,7 +302,8 @@ def build_context(files: Sequence, *, fps: float = BUILD_FPS, features: Sequence
                      f"({bad[0][1]}{'; ' + _names([b[0] for b in bad[1:]]) if len(bad) > 1 else ''})")
     if not motions:
         raise bad[0][2]  # nothing left: the first file's own error
-    db, notes = _database(motions, used, len(files), notes, fps, features, label or "the context files", prefer)
+    db, notes = _database(motions, used, len(files), notes, fps, features, label or "the context files", prefer,
+                          joint_map=joint_map, named=True)
     if tell is not None:
         clips = db.num_clips
         tell(f"built context {label or 'the context files'}: {clips} clip{'s' if clips != 1 else ''} of "
@@ -304,7 +312,7 @@ def build_context(files: Sequence, *, fps: float = BUILD_FPS, features: Sequence
 
 
 def motions_context(motions: Sequence, *, fps: float = BUILD_FPS, features: Sequence[str] = BUILD_FEATURES,
-                    prefer: str | None = None):
+                    prefer: str | None = None, joint_map: dict | None = None):
     """The context database of Motions already read, built in memory as :func:`build_context` builds one from
     their files; returns ``(database, notes)``.
 
@@ -317,14 +325,15 @@ def motions_context(motions: Sequence, *, fps: float = BUILD_FPS, features: Sequ
     """
     clips = [context_take(m, fps) for m in motions]
     names = [Path(m.name or f"context Motion {i}") for i, m in enumerate(motions)]
-    return _database(clips, names, len(clips), [], fps, features, "the context Motions", prefer)
+    return _database(clips, names, len(clips), [], fps, features, "the context Motions", prefer, joint_map=joint_map)
 
 
 def _database(motions: list, used: list, total: int, notes: list, fps: float, features: Sequence[str], label: str,
-              prefer: str | None):
+              prefer: str | None, joint_map: dict | None = None, named: bool = False):
     """The database of the context clips ``motions`` (read from ``used``, of ``total`` asked for) on the topology
-    ``prefer`` names when one is on it, else the majority's; the others left out with a note. Returns
-    ``(database, notes)``."""
+    ``prefer`` names when one is on it, else the majority's; the others left out with a note; ``joint_map``
+    renames their joints (:meth:`MotionDatabase.build`); ``named``: ``used`` are the files read, which a clip's
+    error names. Returns ``(database, notes)``."""
     from .database import MotionDatabase
 
     topo = [topology_id(m.skeleton) for m in motions]
@@ -333,17 +342,19 @@ def _database(motions: list, used: list, total: int, notes: list, fps: float, fe
         counts[t] = counts.get(t, 0) + 1
     majority = max(counts, key=lambda t: (counts[t], -topo.index(t)))
     best = prefer if prefer in counts else majority
-    keep = [m for m, t in zip(motions, topo) if t == best]
+    keep = [(m, p) if named else m for m, p, t in zip(motions, used, topo) if t == best]
     left = [p for p, t in zip(used, topo) if t != best]
     if left:
         why = "than this take's" if best == prefer and counts[best] < max(counts.values()) else "than the one of the others"
         notes.append(f"context: left out {len(left)} of {total} takes on another skeleton {why}, "
-                     f"{len(keep[0].skeleton.joint_names)} joints ({_names(left)})")
-    db = MotionDatabase.build(keep, fps=fps, features=tuple(features), progress=False, executor="serial")
+                     f"{len(motions[topo.index(best)].skeleton.joint_names)} joints ({_names(left)})")
+    db = MotionDatabase.build(keep, fps=fps, features=tuple(features), progress=False, executor="serial",
+                              joint_map=joint_map or None)
     db.info["label"] = label
     db.info["notes"] = notes
     db.info["topologies"] = sorted(counts)
     db.info["majority"] = majority
+    db.info["kept"] = best  # the clips' topology as read: a joint map renames the database's
     return db, notes
 
 
@@ -364,7 +375,7 @@ def _sweep(root: Path) -> None:
 
 def cached_context(files: Sequence, *, cache_dir=None, fps: float = BUILD_FPS, features: Sequence[str] = BUILD_FEATURES,
                    progress: bool = False, label: str | None = None, prefer: str | None = None, optional: Sequence = (),
-                   build: bool = True, tell: Callable[[str], None] | None = None):
+                   build: bool = True, tell: Callable[[str], None] | None = None, joint_map: dict | None = None):
     """The context database of ``files``, built once into the cache and opened from it afterwards.
 
     ``cache_dir``: the cache folder (default :func:`cache_root`). The build
@@ -375,8 +386,8 @@ def cached_context(files: Sequence, *, cache_dir=None, fps: float = BUILD_FPS, f
     entry another user's permissions hide does not stop the work: the build
     is used from memory, and its notes say why it was not cached. Entries get
     the permissions the umask gives a new folder, so a shared cache serves
-    everyone. ``prefer``, ``optional`` and ``tell`` (a line as a build starts and ends; none for an entry opened
-    from the cache): :func:`build_context`'s.
+    everyone. ``prefer``, ``optional``, ``tell`` (a line as a build starts and ends; none for an entry opened
+    from the cache) and ``joint_map`` (part of the key): :func:`build_context`'s.
     Returns a :class:`~mocapkit.database.MotionDatabase` (memory-mapped when
     cached) whose ``info`` holds ``label`` and the build's notes; with ``build``
     False, None when the cache does not hold it.
@@ -388,12 +399,12 @@ def cached_context(files: Sequence, *, cache_dir=None, fps: float = BUILD_FPS, f
         root = Path(cache_dir) if cache_dir is not None else cache_root()
     except RuntimeError:  # no home folder to hold the cache (a container run under an unknown user)
         root = None
-    key = context_key(files, fps, features, prefer=prefer, optional=optional)
+    key = context_key(files, fps, features, prefer=prefer, optional=optional, joint_map=joint_map)
     if root is None:
         if not build:
             return None
         db, _ = build_context(files, fps=fps, features=features, progress=progress, label=label, prefer=prefer,
-                              optional=optional, tell=tell)
+                              optional=optional, tell=tell, joint_map=joint_map)
         return _uncached(db, "no home folder holds the context cache")
     entry = root / key
     cached, hidden = _open_entry(entry, label)
@@ -402,11 +413,11 @@ def cached_context(files: Sequence, *, cache_dir=None, fps: float = BUILD_FPS, f
     if not build:
         return None
     db, _ = build_context(files, fps=fps, features=features, progress=progress, label=label, prefer=prefer,
-                          optional=optional, tell=tell)
-    if prefer is not None and db.info.get("majority") == topology_id(db.skeletons[0]):
+                          optional=optional, tell=tell, joint_map=joint_map)
+    if prefer is not None and db.info.get("majority") == db.info.get("kept"):
         # the take's skeleton is the folder's majority (or absent from it): the build without a preference,
         # cached under its key, so that a later request without one (a batch's first check) finds it
-        key = context_key(files, fps, features, optional=optional)
+        key = context_key(files, fps, features, optional=optional, joint_map=joint_map)
         entry = root / key
         cached, hidden = _open_entry(entry, label)
         if cached is not None:
@@ -489,7 +500,7 @@ def _describe(paths: list[Path]) -> str:
 
 
 def resolve_context(spec, *, default: bool = True, cache_dir=None, progress: bool = False, prefer: str | None = None,
-                    tell: Callable[[str], None] | None = None):
+                    tell: Callable[[str], None] | None = None, joint_map: dict | None = None):
     """What ``--context`` (or ``context=``) names, as the analysis takes it.
 
     ``spec`` may be None or empty (the bundled default context when
@@ -502,7 +513,9 @@ def resolve_context(spec, *, default: bool = True, cache_dir=None, progress: boo
     the :func:`topology_id` of the take the context is for; when the files
     hold takes on it but most are on another skeleton, the context built
     from them keeps the take's. ``tell``: called with a line as a build of
-    files starts and as it ends (:func:`build_context`). Returns a MotionDatabase or None.
+    files starts and as it ends (:func:`build_context`). ``joint_map`` ({clip joint: joint of a known rig},
+    ``--joint-map``): the names a build of files or Motions gives the clips' joints, for a rig whose names say no
+    roles (a database folder is opened as it was built). Returns a MotionDatabase or None.
     """
     from .database import MotionDatabase
     from .motion import Motion
@@ -520,7 +533,7 @@ def resolve_context(spec, *, default: bool = True, cache_dir=None, progress: boo
                         f"Motions; got {type(spec).__name__} {spec!r:.60}")
     items = [spec] if isinstance(spec, (str, os.PathLike)) else list(spec)
     if all(isinstance(c, Motion) for c in items):
-        db, _ = motions_context(items, prefer=prefer)  # as their files would be built: the same result bit for bit
+        db, _ = motions_context(items, prefer=prefer, joint_map=joint_map)  # as their files would be built: the same result bit for bit
         return db
     if not all(isinstance(c, (str, os.PathLike)) for c in items):
         raise TypeError("context must be a MotionDatabase, Motions, or paths of files and folders (not a mix)")
@@ -531,9 +544,11 @@ def resolve_context(spec, *, default: bool = True, cache_dir=None, progress: boo
         return db
     files = context_files(paths)
     optional = [f for f in files if f not in paths]  # found in a folder, not named
-    kw = {"cache_dir": cache_dir, "progress": progress, "label": _describe(paths), "optional": optional, "tell": tell}
+    kw = {"cache_dir": cache_dir, "progress": progress, "label": _describe(paths), "optional": optional, "tell": tell,
+          "joint_map": joint_map}
     plain = cached_context(files, build=prefer is None, **kw)  # the majority's build, when there is one
-    if plain is not None and (prefer not in plain.info.get("topologies", ()) or topology_id(plain.skeletons[0]) == prefer):
+    kept = (plain.info.get("kept") or topology_id(plain.skeletons[0])) if plain is not None else None
+    if plain is not None and (prefer not in plain.info.get("topologies", ()) or kept == prefer):
         return plain
     # built for the take's skeleton; when that is the majority's (or absent), cached as the plain build
     return cached_context(files, prefer=prefer, **kw)
@@ -596,11 +611,23 @@ def context_label(context) -> str:
     return f"{info['label']} ({size})" if info.get("label") else f"a database of {size}"
 
 
+def _renamed_context(context, names: tuple):
+    """``context`` with its joints named ``names`` (arrays shared, nothing copied)."""
+    from .database import MotionDatabase
+
+    renamed = [dataclasses.replace(s, joint_names=names) for s in context.skeletons]
+    return MotionDatabase(fps=context.fps, skeletons=renamed, clips=context.clips, rotations=context.rotations,
+                          root_positions=context.root_positions, features=context.features,
+                          translations=context.translations, clip_ids=context.clip_ids, path=context.path,
+                          info=context.info)
+
+
 def fit_context(motion, context):
     """``context`` made to serve ``motion``; returns ``(context, note)`` (note: one line, or "").
 
     A list of Motions and a database on the take's joint names and up axis
-    come back as they are. A database on the same topology and rest pose under other joint
+    come back as they are; a database built under a joint map (``info["joint_map"]``, :func:`build_context`)
+    serves a take whose joints the map names as the database's, on the same up axis, renamed to the take's. A database on the same topology and rest pose under other joint
     names (module docstring) comes back with its joints renamed to the take's
     (arrays shared, nothing copied) and a note saying so. Otherwise the
     bundled default context is dropped (``(None, note)``: the take is judged
@@ -614,6 +641,15 @@ def fit_context(motion, context):
     built = "; ".join(str(n) for n in context.info.get("notes", ()) if isinstance(n, str))
     names = tuple(motion.skeleton.joint_names)
     ref = context.skeletons[0]
+    jm = context.info.get("joint_map") or {}
+    mapped = tuple(jm.get(n, n) for n in names) if isinstance(jm, dict) else names
+    if mapped != names and tuple(ref.joint_names) == mapped:
+        # a take of the rig the context was built from under its joint map: its joints are the map's, by name
+        why = _other_up_axis(dataclasses.replace(motion.skeleton, joint_names=mapped), ref)  # roles by the map
+        if not why:
+            return _renamed_context(context, names), "; ".join(
+                n for n in (built, f"{context_label(context)}: joints named by its joint map "
+                                   f"({names[1]!r} -> {mapped[1]!r}, ...)") if n)
     if tuple(ref.joint_names) == names:
         # the same names on another basis (a Z-up export of a Y-up rig keeps them): the context's local rotations
         # are in the other basis; other rest differences of a rig under the same names (an actor's toes 33 deg
@@ -629,10 +665,6 @@ def fit_context(motion, context):
             return None, f"{label} not used: this take's joints differ from the context's ({why}); the take is judged against itself"
         raise MocapError(f"{motion.name or 'take'}: its joints differ from those of the context, {label} ({why}); "
                          "give a context on this take's skeleton" + (f" ({built})" if built else ""))
-    renamed = [dataclasses.replace(s, joint_names=names) for s in context.skeletons]
-    out = MotionDatabase(fps=context.fps, skeletons=renamed, clips=context.clips, rotations=context.rotations,
-                         root_positions=context.root_positions, features=context.features,
-                         translations=context.translations, clip_ids=context.clip_ids, path=context.path,
-                         info=context.info)
+    out = _renamed_context(context, names)
     note = f"{context.info.get('label') or 'the context'}: joints matched by hierarchy and rest pose ({ref.joint_names[1]!r} -> {names[1]!r}, ...)"
     return out, "; ".join(n for n in (built, note) if n)

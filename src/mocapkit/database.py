@@ -27,6 +27,7 @@ Indexes (kd-trees) are built from a database on demand
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import os
 from dataclasses import dataclass
@@ -45,7 +46,7 @@ from .motion import Motion, Skeleton, readonly_view
 from .rigs import data_terms
 from .search.matches import Match
 
-__all__ = ["MotionDatabase", "ClipInfo", "SearchResult", "FORMAT_VERSION", "FPS_RANGE", "SUFFIXES", "check_database_output", "expand_sources"]
+__all__ = ["MotionDatabase", "ClipInfo", "SearchResult", "FORMAT_VERSION", "FPS_RANGE", "SUFFIXES", "check_database_output", "expand_sources", "read_joint_map"]
 
 #: File suffixes a database is built from (C3D marker files hold no skeleton motion).
 SUFFIXES = (".bvh", ".amc", ".npz")
@@ -156,16 +157,48 @@ def _retarget(m: Motion, ref_skeleton: Skeleton, joint_map: Mapping[str, str], s
     return Motion(ref_skeleton, rot, m.root_positions * scale, m.fps, m.name)
 
 
+def _renamed(m: Motion, joint_map: Mapping[str, str], source: str) -> Motion:
+    """``m`` with the joints ``joint_map`` names (clip joint -> database joint) renamed, rotations untouched.
+
+    Joints the map does not name keep their names; a clip that lacks every joint the map names (one already
+    on the database's names) comes back as it is. Two joints renamed alike are refused naming ``source``."""
+    names = tuple(joint_map.get(n, n) for n in m.skeleton.joint_names)
+    if names == tuple(m.skeleton.joint_names):
+        return m
+    if len(set(names)) != len(names):
+        twice = sorted({n for n in names if names.count(n) > 1})
+        raise MocapFormatError(source, f"the joint map gives two of the clip's joints the name {twice[0]!r}")
+    return dataclasses.replace(m, skeleton=dataclasses.replace(m.skeleton, joint_names=names))
+
+
+def read_joint_map(path) -> dict:
+    """The joint map a JSON file holds (``--joint-map``): an object {clip joint: database joint}, e.g.
+    ``{"kt_b04": "Hand_L"}``, which names a rig's joints after a rig of known naming so that its roles (hands,
+    feet, head) are found. A file that is not such an object is refused in one line naming it."""
+    path = Path(path)
+    try:
+        jm = json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, ValueError) as exc:
+        raise MocapFormatError(path, f"not a readable JSON joint map ({exc})") from None
+    if not isinstance(jm, dict) or not all(isinstance(k, str) and isinstance(v, str) for k, v in jm.items()):
+        raise MocapFormatError(path, "a joint map is a JSON object of joint name -> joint name")
+    return jm
+
+
 def _prepare(item, fps: float, features: tuple[str, ...], mirror: bool, ref_skeleton: Skeleton | None, joint_map,
              amc: dict | None = None) -> list[dict]:
     """Load (if a path), check, resample and featurise one clip; with ``mirror`` also its mirror image.
 
-    ``item``: a Motion, a path, or ``(path to read, source to keep)``; ``amc``: ``{"asf": ..., "fps": ...}`` for
-    an ``.amc`` file (:func:`mocapkit.io.takes.load_take`)."""
+    ``item``: a Motion, a path, ``(path to read, source to keep)`` or ``(Motion, the file it was read from)``;
+    ``amc``: ``{"asf": ..., "fps": ...}`` for an ``.amc`` file (:func:`mocapkit.io.takes.load_take`). ``joint_map``
+    (clip joint -> database joint) renames every clip's joints first, the first clip's included, so that a rig
+    whose names say no roles gets its features on the names the map gives."""
     from .io.takes import load_take
 
     if isinstance(item, Motion):
         m, source = item, f"<motion {item.name}>"
+    elif isinstance(item, tuple) and isinstance(item[0], Motion):
+        m, source = item[0], str(item[1])
     else:
         path, source = (Path(item[0]), str(item[1])) if isinstance(item, tuple) else (Path(item), str(item))
         m = load_take(path, **(amc or {}))
@@ -173,6 +206,8 @@ def _prepare(item, fps: float, features: tuple[str, ...], mirror: bool, ref_skel
             raise MocapFormatError(path, "a marker file holds no skeleton motion and cannot go into a motion database")
     if m.num_frames == 0:
         raise MocapFormatError(source, "the clip has no frames")
+    if joint_map:
+        m = _renamed(m, joint_map, source)
     if ref_skeleton is not None:
         diff = _topology_difference(m.skeleton, _topology(ref_skeleton))
         if diff:
@@ -180,7 +215,7 @@ def _prepare(item, fps: float, features: tuple[str, ...], mirror: bool, ref_skel
                 raise MocapFormatError(
                     source, f"skeleton differs from the database's ({diff}); pass a joint map to retarget it"
                 )
-            m = _retarget(m, ref_skeleton, joint_map, source)
+            m = _retarget(m, ref_skeleton, {}, source)  # its joints renamed by the map: equal names map
     m = m.resample(fps)
     out = []
     for mirrored in (False, True) if mirror else (False,):
@@ -222,6 +257,11 @@ def _float32(values: np.ndarray, what: str, source) -> np.ndarray:
     return out
 
 
+def _in_memory(item) -> bool:
+    """True for a clip already read: a Motion, or ``(Motion, the file it was read from)``."""
+    return isinstance(item, Motion) or (isinstance(item, tuple) and bool(item) and isinstance(item[0], Motion))
+
+
 def expand_sources(sources) -> list:
     """The clips ``sources`` names: Motions as given, files checked, folders searched recursively.
 
@@ -243,7 +283,7 @@ def expand_sources(sources) -> list:
             items.append(path)
 
     for s in sources:
-        if isinstance(s, Motion):
+        if isinstance(s, Motion) or (isinstance(s, tuple) and s and isinstance(s[0], Motion)):
             items.append(s)
             continue
         p = Path(s)
@@ -628,7 +668,9 @@ class MotionDatabase:
         clip's are rejected with :class:`~mocapkit.errors.MocapFormatError`
         unless ``joint_map`` (clip joint name -> database joint name; unnamed
         joints map by equal name) says how to copy their local rotations —
-        which is only right when the rest poses agree.
+        which is only right when the rest poses agree. The map renames every
+        clip's joints, the first clip's included, so a rig whose joint names
+        say no roles (``kt_a01``, ...) gets its features on the names it maps to.
 
         Loading and featurising runs on ``executor`` (:mod:`mocapkit.parallel`:
         local processes by default, ``"dask"`` or a scheduler address for a
@@ -644,14 +686,14 @@ class MotionDatabase:
         features = _check_features(features)
         # a file goes out absolute (a remote Dask worker resolves a relative path against its own working folder),
         # with the path as given, which the clip keeps as its source
-        items = [it if isinstance(it, Motion) else (os.path.abspath(it), str(it)) for it in expand_sources(sources)]
+        items = [it if _in_memory(it) else (os.path.abspath(it), str(it)) for it in expand_sources(sources)]
         amc = {"asf": None if asf is None else os.path.abspath(asf), "fps": amc_fps}
         first = _prepare(items[0], fps, features, mirror, None, joint_map, amc)
         ref = first[0]["skeleton"]
         job = partial(_prepare, fps=fps, features=features, mirror=mirror, ref_skeleton=ref, joint_map=joint_map,
                       amc=amc)
         # files are loaded and featurised on the executor; Motions already in memory stay here
-        file_slots = [k for k in range(1, len(items)) if not isinstance(items[k], Motion)]
+        file_slots = [k for k in range(1, len(items)) if not _in_memory(items[k])]
         loaded = map_ordered(job, [items[k] for k in file_slots], executor=executor, progress=progress, desc="clips",
                              done=1)  # the first clip, read here for the reference skeleton
         prepared: list = [first] + [None] * (len(items) - 1)

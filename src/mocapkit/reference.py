@@ -65,7 +65,8 @@ def check_reference(reference, path: os.PathLike | str, *, frames: int, joint_na
     try:
         unit_scale_cm(reference.skeleton)  # the position errors are in cm: told before any work, not after
     except SkeletonError as exc:
-        raise MocapFormatError(path, f"the error in cm needs the reference's length unit: {exc}") from None
+        raise MocapFormatError(path, f"the error in cm needs the reference's length unit: {exc}; give it with "
+                                     "--unit (mm, cm, m, in)") from None
     return reference
 
 

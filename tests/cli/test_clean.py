@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import dataclasses
 import hashlib
+import json
 import os
 import re
 import signal
@@ -685,3 +686,30 @@ def test_a_context_of_bandai_takes_says_their_licence_once(tmp_path, capsys):
     assert main(["clean", str(bandai), "-o", str(tmp_path / "self.bvh"), "--steps", "detect,repair",
                  "--context", "none"]) == 0
     assert "CC BY-NC" not in capsys.readouterr().out
+
+
+def test_clean_and_detect_take_a_joint_map_for_a_context_of_a_rig_whose_names_say_no_roles(tmp_path, monkeypatch):
+    """One --joint-map file, as db build takes it, lets a folder of such a rig's takes be the context."""
+    from tests.shared import unnamed
+
+    data = Path(__file__).resolve().parents[1] / "data"
+    folder = tmp_path / "kt"
+    folder.mkdir()
+    for n in ("dataset-1_dash_normal_001", "dataset-2_run_active_049"):
+        m = mocapkit.load(data / f"{n}.bvh")
+        mocapkit.save(unnamed(m), folder / f"{n}.bvh")
+    jm = tmp_path / "map.json"
+    jm.write_text(json.dumps({f"bone{j}": n for j, n in enumerate(m.skeleton.joint_names)}))
+    take = tmp_path / "take.bvh"
+    mocapkit.save(unnamed(mocapkit.load(data / "dataset-1_run_masculinity_001.bvh")), take)
+    monkeypatch.setenv("MOCAPKIT_CACHE_DIR", str(tmp_path / "cache"))
+    out = tmp_path / "out.bvh"
+    code, _, err = helpers.run("clean", str(take), "-o", str(out), "--context", str(folder))
+    assert code == 2 and helpers.one_error_line(err) and "dataset-1_dash_normal_001.bvh: " in err and "--joint-map" in err
+    assert not out.exists()
+    code, stdout, err = helpers.run("clean", str(take), "-o", str(out), "--context", str(folder), "--joint-map", str(jm))
+    assert code == 0, err
+    assert "joints named by its joint map" in " ".join(stdout.split())
+    assert np.array_equal(mocapkit.load(out).rotations, mocapkit.load(take).rotations)  # a clean take untouched
+    code, _, err = helpers.run("detect", str(take), "-o", str(tmp_path / "d.npz"), "--context", str(folder), "--joint-map", str(jm))
+    assert code == 0, err

@@ -11,8 +11,9 @@ import pytest
 import mocapkit
 from mocapkit import corrupt, metrics
 from mocapkit.errors import SkeletonError
+from mocapkit.motion import concatenate
 from tests.cli.helpers import SAMPLE, one_error_line, run, run_process
-from tests.shared import unknown_rig
+from tests.shared import unknown_rig, unnamed
 
 WALK = mocapkit.samples.path("12_walk.amc")
 BVH = mocapkit.samples.path("131_01.bvh")  # the Acclaim skeleton spelled as CMU's 3dsMax-friendly BVH
@@ -749,3 +750,25 @@ def test_fill_with_an_own_rig_ebd_alone_says_to_give_its_denoiser(tmp_path):
     code, _, err = run("fill", gin, "-o", tmp_path / "f.npz", "--model", tmp_path / "own_ebd.pt", "--by", "ebd",
                        "--no-smooth")
     assert code == 0 and (tmp_path / "f.npz").is_file(), err
+
+
+def test_a_rig_whose_bones_do_not_tell_the_unit_is_given_it_with_unit(tmp_path):
+    """train's default spatial noise (cm) and denoise/fill --reference (errors in cm) on a rig of unknown names:
+    each error names --unit, and --unit serves them."""
+    bow = unnamed(mocapkit.load(Path(__file__).resolve().parents[1] / "data" / "dataset-1_bow_active_001.bvh"))
+    odd = tmp_path / "odd.bvh"
+    mocapkit.save(concatenate([bow, bow]), odd)  # a Bandai take under names no family knows, long enough to train on
+    out = tmp_path / "ebf"
+    args = ("train", "denoiser", str(odd), "-o", str(out), "--epochs", "1", "--steps", "1", "--hidden", "8",
+            "--executor", "serial")
+    code, _, err = run(*args)
+    assert code != 0 and one_error_line(err) and "--unit" in err and "--noise" in err and not out.exists()
+    code, _, err = run(*args, "--unit", "cm")
+    assert code == 0, err
+    assert (out / "model.pt").is_file()
+    for cmd in ("denoise", "fill"):
+        res = tmp_path / f"{cmd}.bvh"
+        code, _, err = run(cmd, str(odd), "-o", str(res), "--reference", str(odd))
+        assert code == 2 and one_error_line(err) and str(odd) in err and "--unit" in err and not res.exists()
+        code, _, err = run(cmd, str(odd), "-o", str(res), "--reference", str(odd), "--unit", "cm")
+        assert code == 0, err

@@ -10,7 +10,7 @@ from typing import Optional
 import typer
 
 from ..errors import MocapError, MocapFormatError
-from .common import (STEPS_HELP, amc_fps_option, asf_option, check_executor, check_noise_deg, console, context_option,
+from .common import (STEPS_HELP, amc_fps_option, asf_option, check_executor, check_noise_deg, console, context_option, joint_map_option, read_map,
                      executor_option, guard, keep_modelled_option, max_fill_error_option, max_gap_option,
                      noise_deg_option, overwrite_option, percent, plural, unit_option)
 
@@ -37,6 +37,7 @@ def clean(
     inp: Path = typer.Argument(..., metavar="IN", help="Motion (.bvh, .amc, .npz) or marker capture (.c3d, .trc, marker .npz) to clean."),
     out: Path = typer.Option(..., "--out", "-o", help="Cleaned take (.bvh, .amc for a take read from ASF/AMC, or .npz; a marker capture: .c3d, .trc or .npz); OUT's stem + .clean.npz is written beside it."),
     context: Optional[list[Path]] = context_option(),
+    joint_map: Optional[Path] = joint_map_option(),
     steps: str = typer.Option("fill,detect,repair,denoise", "--steps",
                               help=STEPS_HELP + " --steps detect is the review mode: flags, record and report; OUT "
                                                 "holds the input's samples unchanged."),
@@ -96,9 +97,11 @@ def clean(
         record = clean_path(out)  # the earlier run's record beside OUT: apply the decisions, clean nothing again
         record_said = "OUT's record"
     if record is not None:
-        guard([out, report, png], [inp, asf, context, reference, decisions, record, ebf, ebd], overwrite)
+        guard([out, report, png], [inp, asf, context, reference, decisions, record, ebf, ebd, joint_map], overwrite)
     else:
-        guard([out, clean_path(out), report, png], [inp, asf, context, reference, decisions, ebf, ebd], overwrite)
+        guard([out, clean_path(out), report, png], [inp, asf, context, reference, decisions, ebf, ebd, joint_map],
+              overwrite)
+    jm = read_map(joint_map)
     check_asf(asf, [inp, reference], amc_fps)
     check_noise_deg(noise_deg)
     if _clean_marker_take(inp, out, report=report, png=png, overwrite=overwrite, not_for_markers=not_for_markers,
@@ -131,7 +134,7 @@ def clean(
     original, res = clean_file(inp, out, context=context, steps=step_list, threshold=threshold, report=report, png=png,
                                progress=True, asf=asf if inp.suffix.lower() == ".amc" else None, overwrite=overwrite,
                                motion=take, drifts=drifts, decisions=decisions, noise_deg=noise_deg,
-                               record=record, models=models, amc_fps=amc_fps, unit=unit,
+                               record=record, models=models, amc_fps=amc_fps, unit=unit, joint_map=jm,
                                skeleton_copy=(skeleton_copy, skeleton) if skeleton_copy is not None else None)
     if skeleton_copy is not None:
         console.print(f"copied the skeleton {skeleton} to {skeleton_copy}: an AMC is read with the ASF beside it")
@@ -320,6 +323,7 @@ def clean_batch(
     in_dir: Path = typer.Argument(..., metavar="IN_DIR", help="Folder of takes (searched recursively)."),
     out_dir: Path = typer.Argument(..., metavar="OUT_DIR", help="Folder for the cleaned takes (same layout)."),
     context: Optional[list[Path]] = context_option(),
+    joint_map: Optional[Path] = joint_map_option(),
     steps: str = typer.Option("fill,detect,repair,denoise", "--steps", help=STEPS_HELP),
     threshold: float = typer.Option(0.5, "--threshold", help="MDM value above which a joint is flagged (0-1)."),
     noise_deg: Optional[float] = noise_deg_option(),
@@ -362,6 +366,7 @@ def clean_batch(
     """
     from ..batch import clean_batch as run_batch
     check_executor(executor)
+    jm = read_map(joint_map)
     step_list = _steps(steps)
     patterns = tuple(p.strip() for p in pattern.split(",") if p.strip())
     if not patterns:
@@ -383,7 +388,7 @@ def clean_batch(
                             overwrite=overwrite, asf=asf, drifts=drifts, models=models, amc_fps=amc_fps, unit=unit,
                             max_gap_s=max_gap, max_error_mm=max_fill_error,
                             noise_deg=noise_deg, on_row=None if as_json else print_row,
-                            on_context=print_context if counted else None)
+                            on_context=print_context if counted else None, joint_map=jm)
     except KeyboardInterrupt:  # "no partial output" alone reads as if nothing was kept
         if out_dir.is_dir() and any(out_dir.rglob("*.clean.npz")):
             console.print(f"note: the takes finished in {out_dir} are kept; the same command resumes the others")

@@ -27,6 +27,8 @@ __all__ = [
     "amc_fps_option",
     "unit_option",
     "context_option",
+    "joint_map_option",
+    "read_map",
     "CONTEXT_HELP",
     "executor_option",
     "check_executor",
@@ -117,6 +119,23 @@ CONTEXT_HELP = ("What the take is compared with: a motion database folder, a fol
                 "$XDG_CACHE_HOME/mocapkit/contexts or ~/.cache/mocapkit/contexts), or 'none' for the clip alone. Default: the bundled default context "
                 "(common human motion on the CMU/HDM05 Acclaim skeleton; takes on another skeleton are judged against "
                 "themselves).")
+
+
+JOINT_MAP_HELP = ("JSON object {this rig's joint: joint of a known rig}, e.g. {\"kt_b04\": \"Hand_L\"}, for a rig whose joint "
+                  "names say no roles (hands, feet, head): the clips of a database or --context folder get these "
+                  "names (docs/guide/databases-and-search.md). One file serves every command.")
+
+
+def joint_map_option():
+    """The ``--joint-map`` option of ``db build`` and the commands that build a ``--context`` folder."""
+    return typer.Option(None, "--joint-map", help=JOINT_MAP_HELP)
+
+
+def read_map(path):
+    """The ``--joint-map`` file's map (:func:`mocapkit.database.read_joint_map`), None when not given."""
+    from ..database import read_joint_map
+
+    return None if path is None else read_joint_map(path)
 
 
 def context_option():

@@ -10,7 +10,7 @@ from typing import Optional
 import typer
 
 from ..errors import MocapError, MocapFormatError
-from .common import (amc_fps_option, asf_option, check_executor, console, database_rows, executor_option, plural,
+from .common import (amc_fps_option, asf_option, check_executor, console, database_rows, executor_option, joint_map_option, plural,
                      print_fields, print_table, unit_option)
 
 db_app = typer.Typer(
@@ -23,17 +23,6 @@ def _feature_list(text: str) -> tuple[str, ...]:
     return tuple(t.strip() for t in text.split(",") if t.strip())
 
 
-def _read_joint_map(path: Path) -> dict:
-    """``--joint-map``: a JSON object {clip joint: database joint}, checked here so its errors name the file."""
-    try:
-        jm = json.loads(path.read_text(encoding="utf-8"))
-    except (OSError, ValueError) as exc:
-        raise MocapFormatError(path, f"not a readable JSON joint map ({exc})") from None
-    if not isinstance(jm, dict) or not all(isinstance(k, str) and isinstance(v, str) for k, v in jm.items()):
-        raise MocapFormatError(path, "a joint map is a JSON object of joint name -> joint name")
-    return jm
-
-
 @db_app.command("build")
 def db_build(
     out_dir: Path = typer.Argument(..., metavar="OUT_DIR", help="Folder to create for the database."),
@@ -42,7 +31,7 @@ def db_build(
     mirror: bool = typer.Option(False, "--mirror", help="Also add every clip's left/right mirror image."),
     features: str = typer.Option("F15", "--features", help="Comma-separated feature sets: F15, F30, F39, F15x3, F15x5, F30x3, F39x3."),
     executor: Optional[str] = executor_option("clips are loaded"),
-    joint_map: Optional[Path] = typer.Option(None, "--joint-map", help="JSON object {clip joint: database joint} for clips of another skeleton."),
+    joint_map: Optional[Path] = joint_map_option(),
     asf: Optional[Path] = asf_option(),
     amc_fps: Optional[float] = amc_fps_option(),
     overwrite: bool = typer.Option(
@@ -52,7 +41,7 @@ def db_build(
     ),
 ) -> None:
     """Build a motion database from FILES and save it to OUT_DIR."""
-    from ..database import FPS_RANGE, MotionDatabase, check_database_output
+    from ..database import FPS_RANGE, MotionDatabase, check_database_output, read_joint_map
     from ..parallel import describe_executor
 
     if not FPS_RANGE[0] <= fps <= FPS_RANGE[1]:  # before any work, naming the option (a database's own range)
@@ -65,7 +54,7 @@ def db_build(
 
         check_asf(asf, expand_sources(files), amc_fps)
     check_executor(executor)
-    jm = _read_joint_map(joint_map) if joint_map is not None else None
+    jm = read_joint_map(joint_map) if joint_map is not None else None
     console.print(f"building from {plural(len(files), 'path')} on {describe_executor(executor)}")
     try:
         db = MotionDatabase.build(files, fps=fps, features=_feature_list(features), mirror=mirror, joint_map=jm,

@@ -276,6 +276,7 @@ def train(
     device: str = typer.Option("auto", "--device", help="auto (a GPU when present), cpu or cuda."),
     asf: Optional[Path] = asf_option(),
     amc_fps: Optional[float] = amc_fps_option(),
+    unit: Optional[str] = unit_option(),
 ) -> None:
     """Train an EBF or EBD on noisy/clean pairs made on the fly with mocapkit.corrupt (Mall et al. 2017, 4).
 
@@ -317,7 +318,11 @@ def train(
         from ..io.takes import check_asf
 
         check_asf(asf, expand_sources([s for s in sources if not (s / "database.json").is_file()]), amc_fps)
-    clips = training.load_clips(sources, asf, amc_fps)
+    if unit is not None:
+        from ..io.takes import check_unit
+
+        check_unit(unit)
+    clips = training.load_clips(sources, asf, amc_fps, unit=unit)
     if not clips:
         raise MocapError(f"train: no .bvh, .amc or .npz clips in {', '.join(map(str, sources))}")
     # --holdout is a count of random clips (one number) or name substrings
@@ -352,7 +357,8 @@ def train(
             unit_scale_cm(clips[0].skeleton)
         except SkeletonError as exc:
             raise MocapError(f"train: spatial noise (in cm{', a default' if not noise else ''}) needs the clips' "
-                             f"length unit: {exc}; give --noise without spatial: (e.g. --noise angular:0.5)") from None
+                             f"length unit: {exc}; give it with --unit (mm, cm, m, in), or give --noise without spatial: "
+                             "(e.g. --noise angular:0.5)") from None
     runs = []
     for (tr, val), o in zip(splits, outs):
         if not tr:

@@ -8,7 +8,7 @@ from typing import Optional
 import typer
 
 from ..errors import MocapError, MocapFormatError
-from .common import (amc_fps_option, asf_option, console, context_option, guard, overwrite_option, plural, save_take,
+from .common import (amc_fps_option, asf_option, console, context_option, joint_map_option, read_map, guard, overwrite_option, plural, save_take,
                      unit_option)
 
 
@@ -57,6 +57,7 @@ def detect(
     inp: Path = typer.Argument(..., metavar="IN", help="Motion to check (.bvh, .amc, .npz)."),
     out: Path = typer.Option(..., "--out", "-o", help="Detection file to write (.npz): MDM, flags, neighbours."),
     context: Optional[list[Path]] = context_option(),
+    joint_map: Optional[Path] = joint_map_option(),
     threshold: float = typer.Option(0.5, "--threshold", help="MDM value above which a joint is flagged (0-1)."),
     confirm: bool = typer.Option(
         True, "--confirm/--no-confirm",
@@ -89,7 +90,8 @@ def detect(
     from ..io.outputs import removed_on_failure
     from ..io.takes import check_asf, load_motion
 
-    guard([out, png], [inp, asf, context], overwrite)
+    guard([out, png], [inp, asf, context, joint_map], overwrite)
+    jm = read_map(joint_map)
     check_asf(asf, [inp], amc_fps)
     if out.suffix.lower() != ".npz":
         raise MocapFormatError(out, "the detection is written as .npz")
@@ -99,7 +101,7 @@ def detect(
     precompile.start(precompile.kernels_for(["detect"]))  # with an empty numba cache: beside the context's loading
     unread = unread_context(m, context)  # a take too coarse for detection: refused below in one line, no context built
     ctx, note = (None, unread) if unread is not None else fit_context(m, load_context(context, progress=not as_json,
-                                                                                      take=m))
+                                                                                      take=m, joint_map=jm))
     found, det = _detect(inp, m, ctx, threshold, progress=not as_json, confirm=confirm, jump_deg=jump_deg,
                          drifts=drifts)
     with removed_on_failure([out, png], overwrite=overwrite, marker=out):  # the detection last
@@ -140,6 +142,7 @@ def repair(
     inp: Path = typer.Argument(..., metavar="IN", help="Motion to repair (.bvh, .amc, .npz)."),
     out: Path = typer.Option(..., "--out", "-o", help="Repaired motion (.bvh, .amc for a take read from ASF/AMC, or .npz)."),
     context: Optional[list[Path]] = context_option(),
+    joint_map: Optional[Path] = joint_map_option(),
     detection: Optional[Path] = typer.Option(
         None, "--detection", help="Use this detection (from `mocapkit detect`, same --context) instead of detecting again."
     ),
@@ -177,7 +180,8 @@ def repair(
     from ..context import fit_context
     from ..io.takes import check_asf, load_motion
 
-    guard([out], [inp, asf, context, detection], overwrite)
+    guard([out], [inp, asf, context, detection, joint_map], overwrite)
+    jm = read_map(joint_map)
     check_asf(asf, [inp], amc_fps)
     io.suffix_kind(out, io.WRITERS, "writing")
     m = load_motion(inp, asf, purpose="repair", fps=amc_fps, unit=unit)
@@ -189,7 +193,8 @@ def repair(
             raise MocapFormatError(detection, f"the detection is of {det.flags.shape[0]} frames x {det.flags.shape[1]} joints, "
                                               f"the take {m.num_frames} x {m.skeleton.num_joints}; detect this take again")
     unread = unread_context(m, context)  # a take too coarse for detection: refused below in one line, no context built
-    ctx, note = (None, "") if unread is not None else fit_context(m, load_context(context, progress=True, take=m))
+    ctx, note = (None, "") if unread is not None else fit_context(m, load_context(context, progress=True, take=m,
+                                                                                           joint_map=jm))
     if note:
         console.print(f"note: {note}")
     poses = None
