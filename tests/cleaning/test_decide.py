@@ -64,7 +64,7 @@ def test_decisions_from_either_page_give_the_same_bytes_by_either_path(reviewed,
         _decisions(d / f"{page}.html", path)
         for rec in (record, None):
             got = mocapkit.clean(inp, context="none", decisions=path, record=rec)
-            mocapkit.save(got.motion, tmp_path / f"lib_{page}_{rec is not None}.npz")
+            mocapkit.save(got.motion, tmp_path / f"lib_{page}_{rec is not None}.npz", like=inp)  # as the command
             outs.append(tmp_path / f"lib_{page}_{rec is not None}.npz")
             out = tmp_path / f"cli_{page}_{rec is not None}.npz"
             code, stdout, err = run("clean", inp, "-o", out, "--context", "none", "--decisions", path,
