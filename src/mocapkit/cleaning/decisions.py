@@ -94,6 +94,7 @@ from ..markerset import MarkerSet
 from ..motion import Motion
 from .ik import contact_segments
 from .ssa.cues import cause_names
+from ..digest import take_digest
 
 __all__ = ["FORMAT", "ACCEPT", "REJECT", "Change", "changes", "apply", "take_digest", "template", "read_decisions",
            "check_decisions", "check_record", "record_problem", "as_written", "accepted_cells", "flag_segments",
@@ -423,25 +424,6 @@ def apply(original: Motion, result, decisions: Mapping[str, str]) -> Motion:
 
 
 # -- the decisions file ------------------------------------------------------------------------
-
-
-def take_digest(motion: Motion) -> str:
-    """SHA-256 (hex) of a take's samples: joint names, rate, rotations, root positions, animated offsets; for a
-    :class:`~mocapkit.markerset.MarkerSet`, labels, rate, unit, positions, residuals and camera masks.
-
-    Two reads of the same file give the same digest; any change of a sample changes it.
-    """
-    h = hashlib.sha256()
-    if isinstance(motion, MarkerSet):  # a marker capture: labels, rate, unit, positions, residuals, camera masks
-        h.update(json.dumps(["markers", list(motion.labels), float(motion.fps), motion.units]).encode())
-        arrays = [motion.positions] + [a for a in (motion.residuals, motion.cameras) if a is not None]
-    else:
-        h.update(json.dumps([list(motion.skeleton.joint_names), float(motion.fps)]).encode())
-        arrays = [motion.rotations, motion.root_positions] + ([motion.translations] if motion.translations is not None else [])
-    for a in arrays:
-        a = np.ascontiguousarray(a, dtype="<f8")
-        h.update(np.where(np.isnan(a), np.nan, a).tobytes())  # one bit pattern for every NaN
-    return h.hexdigest()
 
 
 def cleaning_digest(result) -> str:

@@ -24,7 +24,7 @@ def info(
     unit: Optional[str] = unit_option("input"),
 ) -> None:
     """Print the skeleton, frame count, frame rate, duration and missing data of FILE (or what a mocapkit file holds)."""
-    from ..cleaning.decisions import take_digest
+    from ..digest import take_digest
     from ..io.bvh_roots import extra_roots
     from ..io.c3d import MarkerSet
     from ..io.c3d_contents import marker_counts, marker_file_contents
