@@ -331,6 +331,7 @@ def test_kill_9_of_the_batch_takes_its_workers_and_their_writes(long_takes, tmp_
     assert _visible(out) == []  # nothing was moved into place, and no worker is left to do it
 
 
+@pytest.mark.slow  # ~11 s each of a dask cluster starting and dying: `pytest -m slow`
 @pytest.mark.skipif(sys.platform == "win32", reason="kill -9")
 def test_kill_9_of_a_dask_client_writes_nothing_on_the_cluster(long_takes, tmp_path):
     distributed = pytest.importorskip("distributed")
@@ -348,6 +349,7 @@ def test_kill_9_of_a_dask_client_writes_nothing_on_the_cluster(long_takes, tmp_p
     assert _visible(out) == []
 
 
+@pytest.mark.slow  # ~11 s each of a dask cluster starting and dying: `pytest -m slow`
 @pytest.mark.skipif(sys.platform == "win32", reason="kill -9")
 def test_kill_9_of_a_batch_on_its_own_dask_cluster_takes_the_cluster(long_takes, tmp_path):
     pytest.importorskip("distributed")

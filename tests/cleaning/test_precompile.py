@@ -125,6 +125,7 @@ def _copy_other_kernels(cache: Path, leave_out: set[str]) -> int:
     return copied
 
 
+@pytest.mark.slow  # ~23 s compiling into an empty cache: `pytest -m slow`
 def test_the_helper_fills_an_empty_cache_with_what_clean_then_loads(tmp_path):
     """With numba's cache in an empty folder the helper starts, compiles its kernels into that cache and exits; a
     process then finds them there (and would not start it again), and a clean of the bundled walk with every defect
