@@ -85,8 +85,7 @@ def context_cache(tmp_path_factory):
 # Modules whose tests take a minute or more on one core between them (`pytest --durations`): run first, so that
 # with `--dist loadscope` (each module on one worker, `make test`) no worker is left with one of them at the end
 # while the other idles.
-LONG_MODULES = ("test_fuzz_commands.py", "test_precompile.py", "test_amc_writer.py", "test_fuzz.py", "test_batch.py",
-                "test_deep.py", "test_clean.py", "test_pipeline.py", "test_word_dtw.py", "test_swaps.py")
+LONG_MODULES = ("test_fuzz_commands.py", "test_precompile.py", "test_amc_writer.py", "test_fuzz.py")
 
 
 def pytest_collection_modifyitems(items):
