@@ -66,6 +66,7 @@ __all__ = [
     "FALLBACK_FILL",
     "refusal",
     "check_named",
+    "served_or_refused",
 ]
 
 FORMAT = "mocapkit.deep/1"
@@ -804,10 +805,19 @@ def check_named(motion: Motion, models: dict) -> None:
     for kind in ("ebd", "ebf"):
         if models.get(kind) is None:
             continue
-        m = model_of_kind(models[kind], kind, motion)
-        sv = served_by(motion, m)
-        if isinstance(sv, str):
-            raise refusal(m, sv)
+        served_or_refused(motion, models[kind], kind)
+
+
+def served_or_refused(motion: Motion, model, kind: str):
+    """``(model, serving)``: ``model`` as a :class:`DeepModel` of ``kind`` (:func:`model_of_kind`; None: the shipped
+    one for the take's rig) and :func:`served_by`'s answer for ``motion`` (a Serving, or the reason it cannot
+    serve). A model the caller named (``model`` not None) that cannot serve the take raises :func:`refusal`'s
+    SkeletonError: it is used or refused; only the shipped model chosen by the rig falls back."""
+    m = model_of_kind(model, kind, motion)
+    sv = served_by(motion, m)
+    if isinstance(sv, str) and model is not None:
+        raise refusal(m, sv)
+    return m, sv
 
 
 def _fallback_note(method: str, kind: str, label: str, why: str) -> str:
@@ -851,10 +861,7 @@ def fill_or_fallback(motion: Motion, model=None, denoiser=None, smooth: bool = T
 
     if not motion.missing().any():
         return motion, "nothing (no gaps)", ""
-    m = model_of_kind(model, "ebd", motion)
-    sv = served_by(motion, m)
-    if isinstance(sv, str) and model is not None:  # a model asked for by name is used or refused
-        raise refusal(m, sv)
+    m, sv = served_or_refused(motion, model, "ebd")  # a model asked for by name is used or refused
     if not isinstance(sv, str):
         by_prior = _fills_by_prior(sv.model, method)  # raises before the try: a bad request is no reason to fall back
         ebf = served_by(motion, _smoothing_ebf(sv.model, denoiser, motion)) if smooth else "not asked"
@@ -899,10 +906,7 @@ def denoise_or_fallback(motion: Motion, model=None, cells: np.ndarray | None = N
     """
     from ..filters import savgol_smooth
 
-    m = model_of_kind(model, "ebf", motion)
-    sv = served_by(motion, m)
-    if isinstance(sv, str) and model is not None:  # a model asked for by name is used or refused
-        raise refusal(m, sv)
+    m, sv = served_or_refused(motion, model, "ebf")  # a model asked for by name is used or refused
     own = passed_over("ebf", motion) if model is None else ""
     if not isinstance(sv, str):
         note = "; ".join(n for n in (own, licence_note(sv.model, options), unfinished_note(sv.model)) if n)
