@@ -297,7 +297,7 @@ def train(
     import numpy as np
 
     from ..cleaning.deep import training
-    from ..cleaning.deep.provenance import data_licence, training_rig
+    from ..cleaning.deep.provenance import data_licence, rms_unit, training_rig
     from ..mirroring import mirror_for_rig
 
     # the model folder must not be, or lie inside, a source (a folder of takes, a database); its own files are
@@ -391,7 +391,7 @@ def train(
         h = model.meta["history"]
         bests.append(min(x["val_rmse"] for x in h))
         what_rms = "validation" if val else "training"
-        unit = " deg" if model.layout.representation == "euler" else " (rotation-matrix entries)"
+        unit = " " + rms_unit(model.layout.representation)
         console.print(f"wrote {o / 'model.pt'}: {plural(len(tr), 'clip')}, {plural(len(h), 'epoch')}, "
                       f"best {what_rms} RMS {bests[-1]:.3f}{unit}")
     if folds > 1:

@@ -17,7 +17,7 @@ from ... import rigs
 
 __all__ = ["BANDAI_LICENCE", "DATA_LICENCES", "HDM05_LICENCE", "NOT_STATED", "RIG_RESPELLINGS", "card_as_read", "data_licence",
            "model_card", "model_licence", "model_rig", "restricts_use", "rig_name", "training_rig", "training_rows",
-           "unfinished_note"]
+           "unfinished_note", "rms_unit"]
 
 BANDAI_LICENCE = ("CC BY-NC 4.0: trained on the Bandai Namco Research Motiondataset "
                   "(Bandai Namco Research Inc.); non-commercial use only")
@@ -144,6 +144,12 @@ def unfinished_note(model) -> str:
             "`mocapkit train` command resumes it")
 
 
+def rms_unit(representation: str) -> str:
+    """The unit of a model's training and validation RMS (Mall et al. 2017's error) on channels of ``representation``:
+    degrees on Euler channels, rotation-matrix entries on 6-D ones."""
+    return "deg" if representation == "euler" else "(rotation-matrix entries)"
+
+
 def training_rows(meta) -> list[tuple[str, str]]:
     """``info``'s lines on how a model was trained, from its metadata (none for a model file without them):
     epochs run of planned and whether the run finished, the best validation RMS (degrees on Euler channels,
@@ -163,7 +169,7 @@ def training_rows(meta) -> list[tuple[str, str]]:
     rows = [("epochs", state)]
     best = meta.get("best_val_rmse")
     if isinstance(best, (int, float)):
-        unit = "deg" if cfg.get("representation", "euler") == "euler" else "(6-D units)"
+        unit = rms_unit(cfg.get("representation", "euler"))
         which = "validation" if meta.get("validation_clips") else "training"
         epoch = meta.get("best_epoch")
         at = f" (epoch {int(epoch) + 1})" if isinstance(epoch, int) else ""
