@@ -864,3 +864,25 @@ def test_a_batch_report_of_a_marker_capture_names_the_record_where_it_is_placed(
     page = next(out.glob("*.html")).read_text()
     assert ".part" not in page
     assert str(out / "Eb015pr.clean.npz") in page
+
+
+def test_a_take_cleaned_under_another_joint_map_is_not_complete(tmp_path, walk_in, short_bvh, monkeypatch):
+    """The joint map a context folder is built with shapes the cleaning as the context does: a batch rerun with an
+    edited map is not skipped as complete, the same map is."""
+    monkeypatch.setenv("MOCAPKIT_CACHE_DIR", str(tmp_path / "cache"))
+    folder = tmp_path / "ctx"
+    folder.mkdir()
+    shutil.copy(short_bvh, folder / "other.bvh")
+    names = mocapkit.load(short_bvh).skeleton.joint_names
+    first, edited = {names[0]: names[0]}, {names[0]: names[0], names[1]: names[1]}  # renames that keep the rig
+    out = tmp_path / "out"
+    run = dict(context=[folder], executor="serial", progress=False)
+    assert clean_batch(walk_in, out, joint_map=first, **run).count("done") == 1
+    assert clean_batch(walk_in, out, joint_map=first, **run).count("skipped") == 1
+    with pytest.raises(MocapFormatError, match=r"walk.bvh: exists from an earlier run, but it was cleaned with "
+                                               r"joint_map [0-9a-f]{8} \(now [0-9a-f]{8}\); use --overwrite"):
+        clean_batch(walk_in, out, joint_map=edited, **run)
+    with pytest.raises(MocapFormatError, match=r"joint_map [0-9a-f]{8} \(now none\)"):
+        clean_batch(walk_in, out, **run)
+    assert clean_batch(walk_in, out, joint_map=edited, overwrite=True, **run).count("done") == 1
+    assert clean_batch(walk_in, out, joint_map=dict(reversed(edited.items())), **run).count("skipped") == 1

@@ -66,6 +66,8 @@ from __future__ import annotations
 
 import dataclasses
 import fnmatch
+import hashlib
+import json
 import os
 import shutil
 import tempfile
@@ -204,7 +206,8 @@ def clean_file(
     taken = None if reuse else file_facts(inp)  # the take as read: a later batch tells a replaced input by it
     m = motion if motion is not None else load_motion(inp, asf, purpose="clean", fps=amc_fps, unit=unit)
     io.check_writable(m, out)
-    request = None if reuse else clean_request(steps, threshold, drifts, context, models, noise_deg, amc_fps, unit)
+    request = None if reuse else clean_request(steps, threshold, drifts, context, models, noise_deg, amc_fps, unit,
+                                               joint_map)
 
     def cleaning():
         from .cleaning.take_context import unread_context
@@ -280,13 +283,15 @@ def clean_file(
 
 def clean_request(steps=None, threshold: float = 0.5, drifts: bool = False, context: Sequence | None = None,
                   models: dict | None = None, noise_deg: float | None = None, amc_fps: float | None = None,
-                  unit: str | None = None) -> dict:
+                  unit: str | None = None, joint_map: dict | None = None) -> dict:
     """What a take was asked to be cleaned with, as its record keeps it (``params["request"]``).
 
     :func:`clean_batch` takes a take as complete only when its record holds the same request: a take
-    reviewed with ``steps="detect"`` or cleaned at another threshold, noise level, AMC frame rate or unit is
-    not what a later run asks for. Keys a record of an earlier mocapkit lacks read as their defaults
-    (:data:`REQUEST_DEFAULTS`).
+    reviewed with ``steps="detect"`` or cleaned at another threshold, noise level, AMC frame rate, unit or
+    joint map is not what a later run asks for. ``joint_map``: the names a ``context`` folder's build gives a rig's
+    joints (:func:`load_context`), kept as its content, sorted (a map file edited in place is another request);
+    kept only where a context is given, the one thing it shapes. Keys a record of an earlier mocapkit lacks read as
+    their defaults (:data:`REQUEST_DEFAULTS`).
     """
     from .cleaning.pipeline import NOISE_DEG, STEPS, parse_steps
 
@@ -302,10 +307,11 @@ def clean_request(steps=None, threshold: float = 0.5, drifts: bool = False, cont
             "models": {k: spec(v) if isinstance(v, (str, os.PathLike)) else type(v).__name__
                        for k, v in sorted((models or {}).items())},
             "noise_deg": float(NOISE_DEG if noise_deg is None else noise_deg),
-            "amc_fps": None if amc_fps is None else float(amc_fps), "unit": unit}
+            "amc_fps": None if amc_fps is None else float(amc_fps), "unit": unit,
+            "joint_map": dict(sorted((joint_map or {}).items())) if context and not is_off(list(context)) else {}}
 
 
-REQUEST_DEFAULTS = {"noise_deg": 1.0, "amc_fps": None, "unit": None, "review": False}  # what a record without these keys was made with
+REQUEST_DEFAULTS = {"noise_deg": 1.0, "amc_fps": None, "unit": None, "review": False, "joint_map": {}}  # what a record without these keys was made with
 
 
 def _not_complete(inp: Path, files: dict, request: dict, markers: dict | None = None) -> tuple[str, bool]:
@@ -343,11 +349,13 @@ def _not_complete(inp: Path, files: dict, request: dict, markers: dict | None = 
     if not isinstance(done, dict):  # a record written before requests were kept
         return "", False
     was = {k: done.get(k, REQUEST_DEFAULTS.get(k)) for k in request}
-    diff = [f"{k} {_said(was[k])} (now {_said(request[k])})" for k in request if was[k] != request[k]]
+    diff = [f"{k} {_said(was[k], k)} (now {_said(request[k], k)})" for k in request if was[k] != request[k]]
     return (f"it was cleaned with {', '.join(diff)}" if diff else ""), False
 
 
-def _said(v) -> str:
+def _said(v, key: str = "") -> str:
+    if key == "joint_map":  # a map of a rig's every joint: its digest, not its names
+        return hashlib.sha256(json.dumps(v, sort_keys=True).encode()).hexdigest()[:8] if v else "none"
     if isinstance(v, list):
         return ",".join(str(x) for x in v) or "none"
     if isinstance(v, dict):
@@ -734,7 +742,7 @@ def clean_batch(
     summary = BatchSummary(executor=describe_executor(executor), renamed=[str(p) for p in renamed],
                            earlier=[str(p) for p in earlier if not (below and resolved(p) == resolved(out_dir))])
     todo, stale, again = [], [], {}
-    request = clean_request(steps, threshold, drifts, ctx, models, noise_deg, amc_fps, unit)
+    request = clean_request(steps, threshold, drifts, ctx, models, noise_deg, amc_fps, unit, joint_map)
     markers = marker_request(unit, max_gap_s, max_error_mm)
     for inp, files in zip(inputs, plans):
         if files["output"].is_file() and files["record"].is_file():
