@@ -121,7 +121,8 @@ def clean(
         given = set(given_options(step_list, threshold, drifts, bool(context), models, noise_deg))
         given |= {key for key in ("steps", "threshold", "drifts")  # a flag typed at its default is given too
                   if getattr(ctx.get_parameter_source(key), "name", "") == "COMMANDLINE"}
-        check_replay(record, clean_request(step_list, threshold, drifts, context, models, noise_deg, amc_fps, unit),
+        given |= {"joint_map"} if jm is not None else set()
+        check_replay(record, clean_request(step_list, threshold, drifts, context, models, noise_deg, amc_fps, unit, jm),
                      [k for k in FLAGS if k in given], FLAGS, record_said)
     skeleton = asf_of(inp, asf)
     skeleton_copy = asf_for_output(out, skeleton, overwrite, how="use --overwrite")  # an AMC output reads back with its ASF beside it
