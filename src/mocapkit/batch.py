@@ -85,6 +85,8 @@ from .marker_files import clean_marker_file, marker_request, refuse_marker_optio
 __all__ = ["clean_file", "clean_marker_file", "clean_request", "marker_request", "refuse_marker_options", "clean_batch", "find_inputs", "output_for", "BatchSummary", "DEFAULT_PATTERNS", "BATCH_MARK"]
 
 DEFAULT_PATTERNS = ("*.bvh", "*.amc", "*.npz", "*.c3d", "*.trc")
+#: How a refusal names an option to its caller: Python's keywords, or (``flags``) the command line's flags.
+SAID = {False: {"overwrite": "overwrite=True", "asf": "asf="}, True: {"overwrite": "--overwrite", "asf": "--asf"}}
 
 
 
@@ -137,6 +139,7 @@ def clean_file(
     max_error_mm: float | None = None,
     placed=None,
     joint_map: dict | None = None,
+    flags: bool = False,
 ):
     """Clean the take at ``inp`` and write ``out``, its ``.clean.npz`` record and optional reports.
 
@@ -161,7 +164,8 @@ def clean_file(
     (:func:`mocapkit.io.takes.asf_for_output`), written first, with the outputs. ``noise_deg``: the
     noisy-cell level (:func:`mocapkit.cleaning.pipeline.clean`; None: its default). ``placed``: where ``out``
     is moved once written (a batch writes each take into a staging folder first): the report names the record
-    beside it, where the user will find it. ``joint_map``: :func:`load_context`'s.
+    beside it, where the user will find it. ``joint_map``: :func:`load_context`'s. ``flags``: refusals name the
+    command line's flags (``--overwrite``), not Python's keywords (:data:`SAID`).
 
     Every output is checked against every input
     (:func:`mocapkit.io.outputs.check_outputs`) before anything is read; the
@@ -196,7 +200,7 @@ def clean_file(
     outputs = [out, None if reuse else record, report, png]
     given = [Path(m) for m in (models or {}).values() if isinstance(m, (str, Path))]
     check_outputs(outputs, [inp, asf, decisions, record if reuse else None, *(context or []), *given],
-                  overwrite=overwrite)
+                  overwrite=overwrite, how=f"pass {SAID[flags]['overwrite']}")
     check_asf(asf, [inp], amc_fps)
     if motion is None and inp.suffix.lower() == ".npz" and isinstance(take := load_take(inp, unit=unit), MarkerSet):
         refuse_marker_options(inp, not_for_markers)
@@ -613,7 +617,7 @@ def _plan(inputs: list[Path], in_dir: Path, out_dir: Path, fmt: str, report: boo
 
 
 def _check_batch_outputs(plans: list[dict], todo: list[tuple[Path, dict]], inputs: list[Path], folders: list[Path],
-                         context: list[Path], overwrite: bool) -> None:
+                         context: list[Path], overwrite: bool, said: dict = SAID[False]) -> None:
     """Refuse the batch before any take is cleaned if one of its outputs would replace an input or another output.
 
     First one index of every input (resolved path and inode) against every
@@ -644,7 +648,8 @@ def _check_batch_outputs(plans: list[dict], todo: list[tuple[Path, dict]], input
                 raise MocapFormatError(out, f"given as two outputs ({written[r]}); each output needs its own path")
             written[r] = out
     for inp, files in todo:
-        check_outputs([f for f in files.values() if f is not None], [inp, *context, *folders], overwrite=overwrite)
+        check_outputs([f for f in files.values() if f is not None], [inp, *context, *folders], overwrite=overwrite,
+                      how=f"pass {said['overwrite']}")
 
 
 def clean_batch(
@@ -672,6 +677,7 @@ def clean_batch(
     on_row: Callable[[dict, int, int], None] | None = None,
     on_context: Callable[[str], None] | None = None,
     joint_map: dict | None = None,
+    flags: bool = False,
 ) -> BatchSummary:
     """Clean every take under ``in_dir`` into the mirrored layout under ``out_dir`` (module docstring).
 
@@ -698,6 +704,8 @@ def clean_batch(
     ``on_context(line)``: called with a line as the ``context`` files start to be built into a database, before
     the first take, and one as the build ends (its clips and seconds; nothing when the cache holds it).
     ``joint_map``: the names the ``context`` build gives a rig's joints (:func:`load_context`).
+    ``flags``: refusals name the command line's flags (``--overwrite``, ``--asf``), not Python's keywords
+    (``overwrite=True``, ``asf=``: :data:`SAID`).
     A take that fails on a full disk, a used-up quota or a read-only file system stops the batch
     (``BatchSummary.stopped``). Raises
     :class:`~mocapkit.errors.MocapError` (one line) on a bad folder, format,
@@ -759,10 +767,10 @@ def clean_batch(
     folders = [] if below else [in_dir]
     earlier_outputs = {out for out, _ in stale} | {files["output"] for inp, files in todo if inp in again}
     _check_batch_outputs(plans, todo if overwrite else [t for t in todo if t[1]["output"] not in earlier_outputs],
-                         inputs, folders, ctx, overwrite)  # an output that is an input: refused first
+                         inputs, folders, ctx, overwrite, SAID[flags])  # an output that is an input: refused first
     if stale and not overwrite:  # an earlier run's take, made otherwise: not this run's to skip, nor to replace silently
         more = f" ({len(stale) - 1} more take{'s' if len(stale) > 2 else ''} alike)" if len(stale) > 1 else ""
-        raise MocapFormatError(stale[0][0], f"exists from an earlier run, but {stale[0][1]}; use --overwrite to clean "
+        raise MocapFormatError(stale[0][0], f"exists from an earlier run, but {stale[0][1]}; use {SAID[flags]['overwrite']} to clean "
                                             f"it again{more}")
     # every path absolute: a remote Dask worker resolves a relative one against its own working folder
     jobs = [{"input": _abs(inp), "output": _abs(files["output"]), "steps": steps,
@@ -775,7 +783,7 @@ def clean_batch(
              "amc_fps": float(amc_fps) if amc_fps is not None and inp.suffix.lower() == ".amc" else None,
              "unit": unit, "noise_deg": None if noise_deg is None else float(noise_deg),
              "max_gap_s": max_gap_s, "max_error_mm": max_error_mm} for inp, files in todo]
-    skeletons = _asf_copies(inputs, plans, asf, overwrite) if fmt == "amc" else {}
+    skeletons = _asf_copies(inputs, plans, asf, overwrite, SAID[flags]) if fmt == "amc" else {}
     expected = [f for files in plans for f in files.values() if f is not None]
     made = missing_folders([out_dir, *(Path(files["output"]).parent for _, files in todo)])
     total, told = len(inputs), 0
@@ -853,7 +861,8 @@ def _as_given(row: dict, inp: Path, files: dict, again: str | None) -> None:
         row["reason"] = row["reason"].replace(_abs(files["output"]), str(files["output"]))
 
 
-def _asf_copies(inputs: list[Path], plans: list[dict], asf, overwrite: bool) -> dict[Path, tuple[Path, list[str]]]:
+def _asf_copies(inputs: list[Path], plans: list[dict], asf, overwrite: bool,
+                said: dict = SAID[False]) -> dict[Path, tuple[Path, list[str]]]:
     """For ``--format amc``: each ASF skeleton the AMC outputs need beside them, checked before any take is cleaned.
 
     An AMC holds no skeleton: read back, it takes the ASF beside it (named
@@ -877,12 +886,12 @@ def _asf_copies(inputs: list[Path], plans: list[dict], asf, overwrite: bool) -> 
         dst = files["output"].parent / src.name
         if dst in out and out[dst][0] != src and out[dst][0].read_bytes() != src.read_bytes():  # read once per ASF
             raise MocapFormatError(dst, f"two different skeletons of this name ({out[dst][0]}, {src}) would be "
-                                        "copied here for the AMC outputs; give --asf or write another format")
+                                        f"copied here for the AMC outputs; give {said['asf']} or write another format")
         out.setdefault(dst, (src, []))[1].append(str(files["output"]))
     for dst, (src, _) in out.items():
         if dst.exists() and not overwrite and (not dst.is_file() or dst.read_bytes() != src.read_bytes()):
             raise MocapFormatError(dst, f"exists and differs from the skeleton ({src}) the AMC outputs need beside "
-                                        "them; use --overwrite to replace it")
+                                        f"them; use {said['overwrite']} to replace it")
     return out
 
 

@@ -31,7 +31,7 @@ def _reference(path: Optional[Path], take, asf: Optional[Path] = None, fps: Opti
     if path is None:
         return None
     return check_reference(load_motion(path, asf, purpose="a reference", fps=fps, unit=unit), path, frames=take.num_frames,
-                           joint_names=take.skeleton.joint_names)
+                           joint_names=take.skeleton.joint_names, option="--unit")
 
 
 def _marker_reason(command: str) -> str:
