@@ -127,9 +127,9 @@ def clean(take, context=None, *, steps=None, threshold: float | None = None, asf
         With ``decisions``: the ``.clean.npz`` of the cleaning reviewed (the
         CLI's ``--record``), read back instead of cleaning again (no context is
         read). The options that shape a cleaning (``context``, ``steps``,
-        ``threshold``, ``drifts``, ``models``, ``noise_deg``), when given (not
+        ``threshold``, ``drifts``, ``models``, ``noise_deg``, ``joint_map``), when given (not
         None, even at their default value: ``threshold=0.5`` beside a record
-        made at 0.3 is refused; ``joint_map``), are honoured only where they are those the
+        made at 0.3 is refused), are honoured only where they are those the
         record's cleaning was made with, and otherwise refused in one line naming the record and each keyword
         (:func:`mocapkit.cleaning.replay.check_replay`); ``asf``, ``fps`` and
         ``unit`` read the take, which must be the one the record was made from.
