@@ -211,7 +211,7 @@ def test_existing_outputs_need_overwrite_but_complete_takes_resume(tmp_path, sho
     (out / "c.bvh").write_text("someone else's file")
     (out / "c.clean.npz").unlink()
     before = _tree(out)
-    with pytest.raises(MocapFormatError, match=r"b\.bvh: already exists; pass --overwrite"):
+    with pytest.raises(MocapFormatError, match=r"b\.bvh: already exists; pass overwrite=True"):
         clean_batch(src, out, steps=STEPS, executor="serial", progress=False)
     assert _tree(out) == before  # refused before anything was cleaned
     s = clean_batch(src, out, steps=STEPS, executor="serial", progress=False, overwrite=True)
@@ -443,7 +443,7 @@ def test_a_take_is_complete_only_for_the_request_that_made_it(tmp_path, walk_in)
     assert clean_batch(src, out, steps=["detect"], executor="serial", progress=False).count("done") == 1
     review = (out / "walk.bvh").read_bytes()
     with pytest.raises(MocapFormatError, match=r"walk.bvh: exists from an earlier run, but it was cleaned with steps "
-                                               r"detect \(now fill,detect,repair,denoise\); use --overwrite"):
+                                               r"detect \(now fill,detect,repair,denoise\); use overwrite=True"):
         clean_batch(src, out, executor="serial", progress=False)
     assert (out / "walk.bvh").read_bytes() == review  # refused before anything was written
     again = clean_batch(src, out, executor="serial", progress=False, overwrite=True)
@@ -672,7 +672,7 @@ def test_an_output_changed_outside_mocapkit_is_not_complete(tmp_path, short_bvh,
     (out / "a.bvh").write_bytes(data[:1000] if damage == "truncate" else data[:-2] + b"9\n")
     before = _tree(out)
     with pytest.raises(MocapFormatError, match=r"a\.bvh: exists from an earlier run, but its output was changed since "
-                                               r"that run wrote it.*use --overwrite"):
+                                               r"that run wrote it.*use overwrite=True"):
         clean_batch(src, out, steps=STEPS, executor="serial", progress=False)
     assert _tree(out) == before
     s = clean_batch(src, out, steps=STEPS, executor="serial", progress=False, overwrite=True)
@@ -762,7 +762,7 @@ def test_a_marker_capture_s_limits_are_part_of_its_request(tmp_path):
     assert CleanResult.load_params(record)["request"] == marker_request()
     assert clean_batch(src, out, executor="serial", progress=False).count("skipped") == 1
     with pytest.raises(MocapFormatError, match=r"e\.c3d: exists from an earlier run, but it was cleaned with "
-                                               r"max_gap_s None \(now 0\.05\); use --overwrite"):
+                                               r"max_gap_s None \(now 0\.05\); use overwrite=True"):
         clean_batch(src, out, executor="serial", progress=False, max_gap_s=0.05)
     s = clean_batch(src, out, executor="serial", progress=False, max_gap_s=0.05, overwrite=True)
     assert s.count("done") == 1
@@ -864,3 +864,42 @@ def test_a_batch_report_of_a_marker_capture_names_the_record_where_it_is_placed(
     page = next(out.glob("*.html")).read_text()
     assert ".part" not in page
     assert str(out / "Eb015pr.clean.npz") in page
+
+
+def test_a_take_cleaned_under_another_joint_map_is_not_complete(tmp_path, walk_in, short_bvh, monkeypatch):
+    """The joint map a context folder is built with shapes the cleaning as the context does: a batch rerun with an
+    edited map is not skipped as complete, the same map is."""
+    monkeypatch.setenv("MOCAPKIT_CACHE_DIR", str(tmp_path / "cache"))
+    folder = tmp_path / "ctx"
+    folder.mkdir()
+    shutil.copy(short_bvh, folder / "other.bvh")
+    names = mocapkit.load(short_bvh).skeleton.joint_names
+    first, edited = {names[0]: names[0]}, {names[0]: names[0], names[1]: names[1]}  # renames that keep the rig
+    out = tmp_path / "out"
+    run = dict(context=[folder], executor="serial", progress=False)
+    assert clean_batch(walk_in, out, joint_map=first, **run).count("done") == 1
+    assert clean_batch(walk_in, out, joint_map=first, **run).count("skipped") == 1
+    with pytest.raises(MocapFormatError, match=r"walk.bvh: exists from an earlier run, but it was cleaned with "
+                                               r"joint_map [0-9a-f]{8} \(now [0-9a-f]{8}\); use overwrite=True"):
+        clean_batch(walk_in, out, joint_map=edited, **run)
+    with pytest.raises(MocapFormatError, match=r"joint_map [0-9a-f]{8} \(now none\)"):
+        clean_batch(walk_in, out, **run)
+    assert clean_batch(walk_in, out, joint_map=edited, overwrite=True, **run).count("done") == 1
+    assert clean_batch(walk_in, out, joint_map=dict(reversed(edited.items())), **run).count("skipped") == 1
+
+
+def test_a_batchs_refusals_name_the_callers_option(tmp_path, walk_in):
+    """``clean_batch`` called from Python names ``overwrite=True`` in its refusals; with ``flags`` (the CLI) the
+    flag ``--overwrite``."""
+    out = tmp_path / "out"
+    clean_batch(walk_in, out, steps=["detect"], executor="serial", progress=False)
+    for flags, said in ((False, "use overwrite=True to clean it again"), (True, "use --overwrite to clean it again")):
+        with pytest.raises(MocapFormatError, match=r"walk\.bvh: exists from an earlier run, .*; " + said) as exc:
+            clean_batch(walk_in, out, executor="serial", progress=False, flags=flags)
+        assert ("--" in str(exc.value)) == flags
+    shutil.rmtree(out)
+    out.mkdir()
+    (out / "walk.bvh").write_text("someone's file")
+    for flags, said in ((False, "pass overwrite=True"), (True, "pass --overwrite")):
+        with pytest.raises(MocapFormatError, match=r"walk\.bvh: already exists; " + said):
+            clean_batch(walk_in, out, executor="serial", progress=False, flags=flags)

@@ -323,3 +323,33 @@ def test_library_refusals_name_the_librarys_parameters_not_the_clis_flags(tmp_pa
         mocapkit.clean(amc, tmp_path / "missing", steps="detect")
     assert str(exc.value) == (f"{tmp_path / 'missing'}: no such file or folder (a context is a database folder, a "
                               "folder of takes or files)")
+
+
+def test_clean_takes_the_joint_map_of_a_context_folder_as_the_cli_does(tmp_path, monkeypatch):
+    """``joint_map=`` (a dict, or the JSON file ``--joint-map`` takes) lets a folder of a rig whose names say no roles
+    be the context of ``mocapkit.clean``, and the result's request keeps it as the CLI's record does."""
+    import json
+    from pathlib import Path
+
+    from mocapkit.errors import MocapFormatError
+    from tests.shared import unnamed
+
+    data = Path(__file__).parent / "data"
+    folder = tmp_path / "kt"
+    folder.mkdir()
+    for n in ("dataset-1_dash_normal_001", "dataset-2_run_active_049"):
+        m = mocapkit.load(data / f"{n}.bvh")
+        mocapkit.save(unnamed(m), folder / f"{n}.bvh")
+    jm = {f"bone{j}": n for j, n in enumerate(m.skeleton.joint_names)}
+    (tmp_path / "map.json").write_text(json.dumps(jm))
+    take = unnamed(mocapkit.load(data / "dataset-1_run_masculinity_001.bvh"))
+    monkeypatch.setenv("MOCAPKIT_CACHE_DIR", str(tmp_path / "cache"))
+    with pytest.raises(MocapFormatError, match="dataset-1_dash_normal_001.bvh: "):
+        mocapkit.clean(take, context=folder)
+    for given in (jm, tmp_path / "map.json"):
+        res = mocapkit.clean(take, context=folder, joint_map=given)
+        assert any("joints named by its joint map" in n for n in res.notes)
+        assert np.array_equal(res.motion.rotations, take.rotations)  # a clean take untouched
+        assert res.params["request"]["joint_map"] == dict(sorted(jm.items()))
+    with pytest.raises(MocapFormatError, match=r"nomap\.json: "):
+        mocapkit.clean(take, context=folder, joint_map=tmp_path / "nomap.json")

@@ -59,3 +59,19 @@ def test_the_position_figure_sees_an_error_on_a_joint_whose_only_child_is_an_end
     e = clean_errors(walk, bent, walk)
     assert e["cm_before"] > 0.1 and e["cm_after"] == 0.0
     assert metrics.joint_position_rms(walk, bent, end_sites=True, root_relative=False) > 0.1
+
+
+def test_a_reference_of_unknown_unit_is_refused_in_the_callers_words(tmp_path):
+    """The position error needs the reference's length unit: Python's caller is told ``unit=``, the CLI's
+    ``--unit``."""
+    from pathlib import Path
+
+    from mocapkit.reference import check_reference
+    from tests.shared import unnamed
+
+    ref = unnamed(mocapkit.load(Path(__file__).parent / "data" / "dataset-1_bow_active_001.bvh"))
+    with pytest.raises(MocapFormatError, match=r"ref\.bvh: .*give it with unit= \(mm, cm, m, in\)") as exc:
+        check_reference(ref, "ref.bvh", frames=ref.num_frames)
+    assert "--unit" not in str(exc.value)
+    with pytest.raises(MocapFormatError, match=r"give it with --unit \(mm, cm, m, in\)"):
+        check_reference(ref, "ref.bvh", frames=ref.num_frames, option="--unit")

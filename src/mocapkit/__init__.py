@@ -49,7 +49,7 @@ __all__ = [
 
 def clean(take, context=None, *, steps=None, threshold: float | None = None, asf=None,
           drifts: bool | None = None, models: dict | None = None, progress: bool = False, noise_deg: float | None = None,
-          fps: float | None = None, unit: str | None = None, decisions=None, record=None):
+          fps: float | None = None, unit: str | None = None, decisions=None, record=None, joint_map=None):
     """Clean a take: fill gaps, detect and repair erroneous joints, denoise the noisy cells.
 
     The main job of mocapkit, :func:`mocapkit.cleaning.pipeline.clean` on a
@@ -77,6 +77,13 @@ def clean(take, context=None, *, steps=None, threshold: float | None = None, asf
         float32, :func:`mocapkit.context.motions_context`); None: the
         bundled default context (skipped, with a note, for a take on another
         skeleton); False or "none": the clip itself alone.
+    joint_map : dict, str or os.PathLike, optional
+        ``{clip joint: joint of a known rig}``, or the JSON file holding it
+        (the CLI's ``--joint-map``, :func:`mocapkit.database.read_joint_map`):
+        the names a ``context`` folder, files or Motions are built under, for a
+        rig whose joint names say no roles (hands, feet, head); the context is
+        cached under a key that includes the map, and the result's request
+        keeps its content.
     steps : str or sequence of str, optional
         Any of "fill", "detect", "repair", "denoise" (comma-separated or a
         list); they always run in that order, and "repair" needs "detect".
@@ -120,7 +127,7 @@ def clean(take, context=None, *, steps=None, threshold: float | None = None, asf
         With ``decisions``: the ``.clean.npz`` of the cleaning reviewed (the
         CLI's ``--record``), read back instead of cleaning again (no context is
         read). The options that shape a cleaning (``context``, ``steps``,
-        ``threshold``, ``drifts``, ``models``, ``noise_deg``), when given (not
+        ``threshold``, ``drifts``, ``models``, ``noise_deg``, ``joint_map``), when given (not
         None, even at their default value: ``threshold=0.5`` beside a record
         made at 0.3 is refused), are honoured only where they are those the
         record's cleaning was made with, and otherwise refused in one line naming the record and each keyword
@@ -150,6 +157,10 @@ def clean(take, context=None, *, steps=None, threshold: float | None = None, asf
     from .markerset import MarkerSet
 
     check_unit(unit, "unit=")
+    if isinstance(joint_map, (str, os.PathLike)):
+        from .database import read_joint_map
+
+        joint_map = read_joint_map(joint_map)
     asked = {"steps": steps is not None, "threshold": threshold is not None, "drifts": drifts is not None}
     steps = "fill,detect,repair,denoise" if steps is None else steps
     threshold = 0.5 if threshold is None else threshold
@@ -174,7 +185,7 @@ def clean(take, context=None, *, steps=None, threshold: float | None = None, asf
         refuse_marker_options(take.name or "the take", [name for name, given in (
             (f"steps {steps}", parse_steps(steps) not in (STEPS, ("detect",))), ("threshold", threshold != 0.5),
             ("drifts", drifts), ("models", bool(models)), ("context", context is not None),
-            ("noise_deg", noise_deg is not None)) if given])
+            ("noise_deg", noise_deg is not None), ("joint_map", joint_map is not None)) if given])
         _, res = clean_and_decide(take, name=os.fspath(path) if path is not None else "", decisions=decisions,
                                   record=record, review=review, request=marker_request(unit, review=review),
                                   option=RECORD_KEYWORD,
@@ -183,17 +194,17 @@ def clean(take, context=None, *, steps=None, threshold: float | None = None, asf
     if record is not None and decisions is None:
         raise MocapError(f"{record}: an earlier run's record is applied with decisions; give the decisions file")
     motion = take if isinstance(take, Motion) else _load_motion(take, asf, fps, unit)
-    request = _request(context, steps, threshold, drifts, models, noise_deg, fps, unit)
+    request = _request(context, steps, threshold, drifts, models, noise_deg, fps, unit, joint_map)
     if record is not None:
         from .cleaning.pipeline import parse_steps
         from .cleaning.replay import KEYWORDS, check_replay, given_options
 
         given = set(given_options(parse_steps(steps), threshold, drifts, context is not None, models, noise_deg))
-        given |= {key for key, on in asked.items() if on}  # an option given at its default is given too
+        given |= {key for key, on in {**asked, "joint_map": joint_map is not None}.items() if on}  # at its default too
         check_replay(record, request, [k for k in KEYWORDS if k in given], KEYWORDS, "record=")
 
     def cleaning():
-        ctx, note = _load_context(context, motion, steps)
+        ctx, note = _load_context(context, motion, steps, joint_map)
         extra = {} if noise_deg is None else {"noise_deg": noise_deg}
         res = clean_motion(motion, ctx, steps=steps, threshold=threshold, progress=progress, drifts=drifts,
                            models=models, **extra)
@@ -209,7 +220,7 @@ def clean(take, context=None, *, steps=None, threshold: float | None = None, asf
     return dataclasses.replace(res, frames_note=frames_note(path))
 
 
-def _request(context, steps, threshold, drifts, models, noise_deg, fps, unit) -> dict:
+def _request(context, steps, threshold, drifts, models, noise_deg, fps, unit, joint_map=None) -> dict:
     """The options a take is cleaned with, as the CLI's record keeps them (:func:`mocapkit.batch.clean_request`):
     a cleaning made here and one made by ``mocapkit clean`` with the same options have one
     :func:`~mocapkit.cleaning.decisions.cleaning_digest`. ``context`` is said as ``--context`` says it (None: the
@@ -228,7 +239,7 @@ def _request(context, steps, threshold, drifts, models, noise_deg, fps, unit) ->
         said = [f"<{type(context).__name__} in memory>"]
     # options of the wrong type are refused by the cleaning in its own words, not here
     return clean_request(steps, threshold, drifts, said, models if isinstance(models, dict) else None, noise_deg,
-                         fps, unit)
+                         fps, unit, joint_map)
 
 
 def _load_motion(path, asf, fps=None, unit=None) -> Motion:
@@ -248,8 +259,9 @@ def _load_motion(path, asf, fps=None, unit=None) -> Motion:
     return out
 
 
-def _load_context(context, motion, steps=None):
-    """``context`` as :func:`mocapkit.cleaning.pipeline.clean` takes it (:func:`mocapkit.context.resolve_context`),
+def _load_context(context, motion, steps=None, joint_map=None):
+    """``context`` as :func:`mocapkit.cleaning.pipeline.clean` takes it (:func:`mocapkit.context.resolve_context`,
+    built under ``joint_map``),
     fitted to ``motion``'s skeleton (:func:`mocapkit.context.fit_context`); returns ``(context, note)``.
     ``(None, "")`` when ``steps`` (None: every step) leave detection out: no other step reads a context; ``(None,
     line)`` for a take too coarse for detection (:func:`mocapkit.cleaning.take_context.unread_context`)."""
@@ -262,4 +274,4 @@ def _load_context(context, motion, steps=None):
     unread = unread_context(motion, context)  # under 12 fps detection does not run: nothing is built or read
     if unread is not None:
         return None, unread
-    return fit_context(motion, resolve_context(context, prefer=topology_id(motion.skeleton)))
+    return fit_context(motion, resolve_context(context, prefer=topology_id(motion.skeleton), joint_map=joint_map))

@@ -66,6 +66,8 @@ from __future__ import annotations
 
 import dataclasses
 import fnmatch
+import hashlib
+import json
 import os
 import shutil
 import tempfile
@@ -83,6 +85,8 @@ from .marker_files import clean_marker_file, marker_request, refuse_marker_optio
 __all__ = ["clean_file", "clean_marker_file", "clean_request", "marker_request", "refuse_marker_options", "clean_batch", "find_inputs", "output_for", "BatchSummary", "DEFAULT_PATTERNS", "BATCH_MARK"]
 
 DEFAULT_PATTERNS = ("*.bvh", "*.amc", "*.npz", "*.c3d", "*.trc")
+#: How a refusal names an option to its caller: Python's keywords, or (``flags``) the command line's flags.
+SAID = {False: {"overwrite": "overwrite=True", "asf": "asf="}, True: {"overwrite": "--overwrite", "asf": "--asf"}}
 
 
 
@@ -135,6 +139,7 @@ def clean_file(
     max_error_mm: float | None = None,
     placed=None,
     joint_map: dict | None = None,
+    flags: bool = False,
 ):
     """Clean the take at ``inp`` and write ``out``, its ``.clean.npz`` record and optional reports.
 
@@ -159,7 +164,8 @@ def clean_file(
     (:func:`mocapkit.io.takes.asf_for_output`), written first, with the outputs. ``noise_deg``: the
     noisy-cell level (:func:`mocapkit.cleaning.pipeline.clean`; None: its default). ``placed``: where ``out``
     is moved once written (a batch writes each take into a staging folder first): the report names the record
-    beside it, where the user will find it. ``joint_map``: :func:`load_context`'s.
+    beside it, where the user will find it. ``joint_map``: :func:`load_context`'s. ``flags``: refusals name the
+    command line's flags (``--overwrite``), not Python's keywords (:data:`SAID`).
 
     Every output is checked against every input
     (:func:`mocapkit.io.outputs.check_outputs`) before anything is read; the
@@ -194,7 +200,7 @@ def clean_file(
     outputs = [out, None if reuse else record, report, png]
     given = [Path(m) for m in (models or {}).values() if isinstance(m, (str, Path))]
     check_outputs(outputs, [inp, asf, decisions, record if reuse else None, *(context or []), *given],
-                  overwrite=overwrite)
+                  overwrite=overwrite, how=f"pass {SAID[flags]['overwrite']}")
     check_asf(asf, [inp], amc_fps)
     if motion is None and inp.suffix.lower() == ".npz" and isinstance(take := load_take(inp, unit=unit), MarkerSet):
         refuse_marker_options(inp, not_for_markers)
@@ -204,7 +210,8 @@ def clean_file(
     taken = None if reuse else file_facts(inp)  # the take as read: a later batch tells a replaced input by it
     m = motion if motion is not None else load_motion(inp, asf, purpose="clean", fps=amc_fps, unit=unit)
     io.check_writable(m, out)
-    request = None if reuse else clean_request(steps, threshold, drifts, context, models, noise_deg, amc_fps, unit)
+    request = None if reuse else clean_request(steps, threshold, drifts, context, models, noise_deg, amc_fps, unit,
+                                               joint_map)
 
     def cleaning():
         from .cleaning.take_context import unread_context
@@ -280,13 +287,15 @@ def clean_file(
 
 def clean_request(steps=None, threshold: float = 0.5, drifts: bool = False, context: Sequence | None = None,
                   models: dict | None = None, noise_deg: float | None = None, amc_fps: float | None = None,
-                  unit: str | None = None) -> dict:
+                  unit: str | None = None, joint_map: dict | None = None) -> dict:
     """What a take was asked to be cleaned with, as its record keeps it (``params["request"]``).
 
     :func:`clean_batch` takes a take as complete only when its record holds the same request: a take
-    reviewed with ``steps="detect"`` or cleaned at another threshold, noise level, AMC frame rate or unit is
-    not what a later run asks for. Keys a record of an earlier mocapkit lacks read as their defaults
-    (:data:`REQUEST_DEFAULTS`).
+    reviewed with ``steps="detect"`` or cleaned at another threshold, noise level, AMC frame rate, unit or
+    joint map is not what a later run asks for. ``joint_map``: the names a ``context`` folder's build gives a rig's
+    joints (:func:`load_context`), kept as its content, sorted (a map file edited in place is another request);
+    kept only where a context is given, the one thing it shapes. Keys a record of an earlier mocapkit lacks read as
+    their defaults (:data:`REQUEST_DEFAULTS`).
     """
     from .cleaning.pipeline import NOISE_DEG, STEPS, parse_steps
 
@@ -302,10 +311,11 @@ def clean_request(steps=None, threshold: float = 0.5, drifts: bool = False, cont
             "models": {k: spec(v) if isinstance(v, (str, os.PathLike)) else type(v).__name__
                        for k, v in sorted((models or {}).items())},
             "noise_deg": float(NOISE_DEG if noise_deg is None else noise_deg),
-            "amc_fps": None if amc_fps is None else float(amc_fps), "unit": unit}
+            "amc_fps": None if amc_fps is None else float(amc_fps), "unit": unit,
+            "joint_map": dict(sorted((joint_map or {}).items())) if context and not is_off(list(context)) else {}}
 
 
-REQUEST_DEFAULTS = {"noise_deg": 1.0, "amc_fps": None, "unit": None, "review": False}  # what a record without these keys was made with
+REQUEST_DEFAULTS = {"noise_deg": 1.0, "amc_fps": None, "unit": None, "review": False, "joint_map": {}}  # what a record without these keys was made with
 
 
 def _not_complete(inp: Path, files: dict, request: dict, markers: dict | None = None) -> tuple[str, bool]:
@@ -343,11 +353,13 @@ def _not_complete(inp: Path, files: dict, request: dict, markers: dict | None = 
     if not isinstance(done, dict):  # a record written before requests were kept
         return "", False
     was = {k: done.get(k, REQUEST_DEFAULTS.get(k)) for k in request}
-    diff = [f"{k} {_said(was[k])} (now {_said(request[k])})" for k in request if was[k] != request[k]]
+    diff = [f"{k} {_said(was[k], k)} (now {_said(request[k], k)})" for k in request if was[k] != request[k]]
     return (f"it was cleaned with {', '.join(diff)}" if diff else ""), False
 
 
-def _said(v) -> str:
+def _said(v, key: str = "") -> str:
+    if key == "joint_map":  # a map of a rig's every joint: its digest, not its names
+        return hashlib.sha256(json.dumps(v, sort_keys=True).encode()).hexdigest()[:8] if v else "none"
     if isinstance(v, list):
         return ",".join(str(x) for x in v) or "none"
     if isinstance(v, dict):
@@ -605,7 +617,7 @@ def _plan(inputs: list[Path], in_dir: Path, out_dir: Path, fmt: str, report: boo
 
 
 def _check_batch_outputs(plans: list[dict], todo: list[tuple[Path, dict]], inputs: list[Path], folders: list[Path],
-                         context: list[Path], overwrite: bool) -> None:
+                         context: list[Path], overwrite: bool, said: dict = SAID[False]) -> None:
     """Refuse the batch before any take is cleaned if one of its outputs would replace an input or another output.
 
     First one index of every input (resolved path and inode) against every
@@ -636,7 +648,8 @@ def _check_batch_outputs(plans: list[dict], todo: list[tuple[Path, dict]], input
                 raise MocapFormatError(out, f"given as two outputs ({written[r]}); each output needs its own path")
             written[r] = out
     for inp, files in todo:
-        check_outputs([f for f in files.values() if f is not None], [inp, *context, *folders], overwrite=overwrite)
+        check_outputs([f for f in files.values() if f is not None], [inp, *context, *folders], overwrite=overwrite,
+                      how=f"pass {said['overwrite']}")
 
 
 def clean_batch(
@@ -664,6 +677,7 @@ def clean_batch(
     on_row: Callable[[dict, int, int], None] | None = None,
     on_context: Callable[[str], None] | None = None,
     joint_map: dict | None = None,
+    flags: bool = False,
 ) -> BatchSummary:
     """Clean every take under ``in_dir`` into the mirrored layout under ``out_dir`` (module docstring).
 
@@ -690,6 +704,8 @@ def clean_batch(
     ``on_context(line)``: called with a line as the ``context`` files start to be built into a database, before
     the first take, and one as the build ends (its clips and seconds; nothing when the cache holds it).
     ``joint_map``: the names the ``context`` build gives a rig's joints (:func:`load_context`).
+    ``flags``: refusals name the command line's flags (``--overwrite``, ``--asf``), not Python's keywords
+    (``overwrite=True``, ``asf=``: :data:`SAID`).
     A take that fails on a full disk, a used-up quota or a read-only file system stops the batch
     (``BatchSummary.stopped``). Raises
     :class:`~mocapkit.errors.MocapError` (one line) on a bad folder, format,
@@ -734,7 +750,7 @@ def clean_batch(
     summary = BatchSummary(executor=describe_executor(executor), renamed=[str(p) for p in renamed],
                            earlier=[str(p) for p in earlier if not (below and resolved(p) == resolved(out_dir))])
     todo, stale, again = [], [], {}
-    request = clean_request(steps, threshold, drifts, ctx, models, noise_deg, amc_fps, unit)
+    request = clean_request(steps, threshold, drifts, ctx, models, noise_deg, amc_fps, unit, joint_map)
     markers = marker_request(unit, max_gap_s, max_error_mm)
     for inp, files in zip(inputs, plans):
         if files["output"].is_file() and files["record"].is_file():
@@ -751,10 +767,10 @@ def clean_batch(
     folders = [] if below else [in_dir]
     earlier_outputs = {out for out, _ in stale} | {files["output"] for inp, files in todo if inp in again}
     _check_batch_outputs(plans, todo if overwrite else [t for t in todo if t[1]["output"] not in earlier_outputs],
-                         inputs, folders, ctx, overwrite)  # an output that is an input: refused first
+                         inputs, folders, ctx, overwrite, SAID[flags])  # an output that is an input: refused first
     if stale and not overwrite:  # an earlier run's take, made otherwise: not this run's to skip, nor to replace silently
         more = f" ({len(stale) - 1} more take{'s' if len(stale) > 2 else ''} alike)" if len(stale) > 1 else ""
-        raise MocapFormatError(stale[0][0], f"exists from an earlier run, but {stale[0][1]}; use --overwrite to clean "
+        raise MocapFormatError(stale[0][0], f"exists from an earlier run, but {stale[0][1]}; use {SAID[flags]['overwrite']} to clean "
                                             f"it again{more}")
     # every path absolute: a remote Dask worker resolves a relative one against its own working folder
     jobs = [{"input": _abs(inp), "output": _abs(files["output"]), "steps": steps,
@@ -767,7 +783,7 @@ def clean_batch(
              "amc_fps": float(amc_fps) if amc_fps is not None and inp.suffix.lower() == ".amc" else None,
              "unit": unit, "noise_deg": None if noise_deg is None else float(noise_deg),
              "max_gap_s": max_gap_s, "max_error_mm": max_error_mm} for inp, files in todo]
-    skeletons = _asf_copies(inputs, plans, asf, overwrite) if fmt == "amc" else {}
+    skeletons = _asf_copies(inputs, plans, asf, overwrite, SAID[flags]) if fmt == "amc" else {}
     expected = [f for files in plans for f in files.values() if f is not None]
     made = missing_folders([out_dir, *(Path(files["output"]).parent for _, files in todo)])
     total, told = len(inputs), 0
@@ -845,7 +861,8 @@ def _as_given(row: dict, inp: Path, files: dict, again: str | None) -> None:
         row["reason"] = row["reason"].replace(_abs(files["output"]), str(files["output"]))
 
 
-def _asf_copies(inputs: list[Path], plans: list[dict], asf, overwrite: bool) -> dict[Path, tuple[Path, list[str]]]:
+def _asf_copies(inputs: list[Path], plans: list[dict], asf, overwrite: bool,
+                said: dict = SAID[False]) -> dict[Path, tuple[Path, list[str]]]:
     """For ``--format amc``: each ASF skeleton the AMC outputs need beside them, checked before any take is cleaned.
 
     An AMC holds no skeleton: read back, it takes the ASF beside it (named
@@ -869,12 +886,12 @@ def _asf_copies(inputs: list[Path], plans: list[dict], asf, overwrite: bool) -> 
         dst = files["output"].parent / src.name
         if dst in out and out[dst][0] != src and out[dst][0].read_bytes() != src.read_bytes():  # read once per ASF
             raise MocapFormatError(dst, f"two different skeletons of this name ({out[dst][0]}, {src}) would be "
-                                        "copied here for the AMC outputs; give --asf or write another format")
+                                        f"copied here for the AMC outputs; give {said['asf']} or write another format")
         out.setdefault(dst, (src, []))[1].append(str(files["output"]))
     for dst, (src, _) in out.items():
         if dst.exists() and not overwrite and (not dst.is_file() or dst.read_bytes() != src.read_bytes()):
             raise MocapFormatError(dst, f"exists and differs from the skeleton ({src}) the AMC outputs need beside "
-                                        "them; use --overwrite to replace it")
+                                        f"them; use {said['overwrite']} to replace it")
     return out
 
 

@@ -31,7 +31,7 @@ __all__ = ["check_reference", "clean_errors", "joint_angle_errors", "filled_erro
 
 
 def check_reference(reference, path: os.PathLike | str, *, frames: int, joint_names: Sequence[str] | None = None,
-                    skeleton=None, whose: str = "the input's"):
+                    skeleton=None, whose: str = "the input's", option: str = "unit="):
     """Return ``reference`` if it can be compared with a result of ``frames`` frames, else refuse.
 
     Parameters
@@ -44,6 +44,8 @@ def check_reference(reference, path: os.PathLike | str, *, frames: int, joint_na
     skeleton : a Skeleton the reference must be compatible with (same joints,
         any offsets: :meth:`~mocapkit.motion.Skeleton.is_compatible`).
     whose : what the result is, for the message (``"the reconstruction's"``: the database's skeleton).
+    option : how the caller gives the length unit, named where the reference's is unknown (Python's ``unit=``
+        of :func:`mocapkit.io.takes.load_motion`; the command line's ``--unit``).
 
     Raises
     ------
@@ -66,7 +68,7 @@ def check_reference(reference, path: os.PathLike | str, *, frames: int, joint_na
         unit_scale_cm(reference.skeleton)  # the position errors are in cm: told before any work, not after
     except SkeletonError as exc:
         raise MocapFormatError(path, f"the error in cm needs the reference's length unit: {exc}; give it with "
-                                     "--unit (mm, cm, m, in)") from None
+                                     f"{option} (mm, cm, m, in)") from None
     return reference
 
 

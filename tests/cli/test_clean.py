@@ -146,6 +146,10 @@ def test_clean_batch_serial_resume_and_failure(tmp_path, capsys):
     out2 = tmp_path / "out2"
     assert main(["clean-batch", str(src), str(out2), "--executor", "serial", "--steps", "fill", "--pattern", "*.bvh"]) == 1
     assert sorted(p.name for p in out2.rglob("*") if p.is_file()) == [".mocapkit-batch.json", "131_01.bvh", "131_01.clean.npz"]
+    # a take made with another request: refused in the command line's words (the library's say overwrite=True)
+    code, _, err = helpers.run("clean-batch", str(src), str(out2), "--executor", "serial", "--steps", "fill",
+                               "--pattern", "*.bvh", "--threshold", "0.7")
+    assert code == 2 and helpers.one_error_line(err) and "use --overwrite to clean it again" in " ".join(err.split()), err
 
 
 def test_a_failed_batch_row_names_the_input_once(tmp_path, capsys):

@@ -772,3 +772,38 @@ def test_a_rig_whose_bones_do_not_tell_the_unit_is_given_it_with_unit(tmp_path):
         assert code == 2 and one_error_line(err) and str(odd) in err and "--unit" in err and not res.exists()
         code, _, err = run(cmd, str(odd), "-o", str(res), "--reference", str(odd), "--unit", "cm")
         assert code == 0, err
+
+
+def test_fill_with_an_own_rig_ebd_takes_the_ebf_named_as_its_pair_beside_it(tmp_path):
+    """An own-rig EBD given alone whose folder holds its pair by the shipped models' naming (``own_ebd.pt`` ->
+    ``own_ebf.pt``) reading the same channels: fill uses that EBF and says so in one line; an EBF of that name
+    that reads other channels is not its pair, and the refusal stays."""
+    from mocapkit.cleaning import deep
+
+    odd = tmp_path / "odd.bvh"
+    take = unknown_rig(odd)
+    gin = tmp_path / "gaps.npz"
+    _gappy(take, gin)
+    lay = deep.layout_for(take)
+    x = np.nan_to_num(deep.channels.encode(take, lay)[0])
+    net = deep.EBD(lay.num_channels, hidden=8, width=16)
+    net.set_statistics(x.mean(0), np.maximum(x.std(0), 1.0), np.ones(3))
+    models = tmp_path / "models"
+    models.mkdir()
+    deep.save_model(deep.DeepModel("ebd", net, lay, take.fps), models / "own_ebd.pt")
+    other = deep.layout_for(mocapkit.load(WALK))
+    deep.save_model(deep.DeepModel("ebf", deep.EBF(other.num_channels, hidden=8, width=16), other, take.fps),
+                    models / "own_ebf.pt")
+    args = ("fill", gin, "-o", tmp_path / "f.npz", "--model", models / "own_ebd.pt", "--by", "ebd")
+    code, _, err = run(*args)
+    assert code == 2 and one_error_line(err) and "fill --denoiser" in " ".join(err.split()), err
+    assert not (tmp_path / "f.npz").exists()
+    deep.save_model(deep.DeepModel("ebf", deep.EBF(lay.num_channels, hidden=8, width=16), lay, take.fps),
+                    models / "own_ebf.pt")
+    code, out, err = run(*args)
+    assert code == 0 and (tmp_path / "f.npz").is_file(), err
+    said = [ln for ln in out.splitlines() if "own_ebf.pt" in ln]
+    assert len(said) == 1 and "beside" in said[0], out
+    code, _, err = run(*args[:3], tmp_path / "g.npz", *args[4:], "--denoiser", models / "own_ebf.pt")
+    assert code == 0, err
+    assert np.array_equal(mocapkit.load(tmp_path / "f.npz").rotations, mocapkit.load(tmp_path / "g.npz").rotations)

@@ -249,3 +249,23 @@ def test_a_marker_npz_keeps_which_points_are_modelled(shared_data, tmp_path):
     save_markers(plain, tmp_path / "plain.npz")
     with np.load(tmp_path / "plain.npz") as z:
         assert "modelled" not in z.files
+
+
+def test_a_bvh_saved_from_a_take_read_from_its_npz_keeps_the_bvhs_numbers_as_the_cli_does(tmp_path):
+    """``mocapkit.save(mocapkit.load("x.npz"), "y.bvh")`` with no ``like=``: the numbers the .npz keeps of the BVH it
+    was made from come back, as the command line (which passes the .npz as ``like``) writes them; a filled take too,
+    its untouched cells the source's."""
+    from mocapkit import corrupt
+    from mocapkit.cleaning.gapfill import fill_motion
+
+    src = Path(__file__).resolve().parents[1] / "data" / "dataset-1_dash_normal_001.bvh"  # Euler branches past 180
+    x = tmp_path / "x.npz"
+    mocapkit.save(mocapkit.load(src), x)
+    holed = corrupt.gaps(mocapkit.load(x), seed=3, start_prob=0.01)[0]
+    for name, take in (("y", mocapkit.load(x)), ("f", fill_motion(holed, method="linear"))):
+        mocapkit.save(take, tmp_path / f"{name}.bvh")
+        mocapkit.save(take, tmp_path / f"{name}_like.bvh", like=x)
+        assert (tmp_path / f"{name}.bvh").read_bytes() == (tmp_path / f"{name}_like.bvh").read_bytes(), name
+    got, want = (np.loadtxt(p.read_text().splitlines()[p.read_text().splitlines().index("MOTION") + 3:], ndmin=2)
+                 for p in (tmp_path / "y.bvh", src))
+    np.testing.assert_allclose(got, want, atol=1e-6)  # the file's own numbers, not a plain conversion's branch

@@ -194,3 +194,15 @@ def test_an_output_named_as_a_missing_input_is_refused_as_missing(tmp_path):
     ghost.write_bytes(b"")
     with pytest.raises(MocapFormatError, match="refusing to write over an input"):
         check_outputs([ghost], [ghost])
+
+
+def test_an_existing_output_is_refused_in_the_callers_words(tmp_path):
+    """Called from Python, the refusal names the keyword (``overwrite=True``), not the command line's flag; the CLI's
+    guard says ``--overwrite``."""
+    out = tmp_path / "out.bvh"
+    out.write_text("someone's file")
+    with pytest.raises(MocapFormatError, match=r"out\.bvh: already exists; pass overwrite=True to replace it") as exc:
+        check_outputs([out], [tmp_path / "in.bvh"])
+    assert "--" not in str(exc.value)
+    with pytest.raises(MocapFormatError, match=r"already exists; pass --overwrite to replace it"):
+        check_outputs([out], [tmp_path / "in.bvh"], how="pass --overwrite")

@@ -23,10 +23,12 @@ __all__ = ["KEYWORDS", "FLAGS", "given_options", "check_replay"]
 
 #: How ``mocapkit.clean`` names the options that shape a cleaning (the keys of the record's ``request``).
 KEYWORDS = {"steps": "steps=", "threshold": "threshold=", "drifts": "drifts=", "context": "context=",
-            "models": "models=", "noise_deg": "noise_deg=", "max_gap_s": "max_gap_s=", "max_error_mm": "max_error_mm="}
+            "models": "models=", "noise_deg": "noise_deg=", "max_gap_s": "max_gap_s=", "max_error_mm": "max_error_mm=",
+            "joint_map": "joint_map="}
 #: How ``mocapkit clean`` names them.
 FLAGS = {"steps": "--steps", "threshold": "--threshold", "drifts": "--drifts", "context": "--context",
-         "models": "--ebf/--ebd", "noise_deg": "--noise-deg", "max_gap_s": "--max-gap", "max_error_mm": "--max-fill-error"}
+         "models": "--ebf/--ebd", "noise_deg": "--noise-deg", "max_gap_s": "--max-gap", "max_error_mm": "--max-fill-error",
+         "joint_map": "--joint-map"}
 
 
 def _said(value) -> str:

@@ -121,7 +121,8 @@ def clean(
         given = set(given_options(step_list, threshold, drifts, bool(context), models, noise_deg))
         given |= {key for key in ("steps", "threshold", "drifts")  # a flag typed at its default is given too
                   if getattr(ctx.get_parameter_source(key), "name", "") == "COMMANDLINE"}
-        check_replay(record, clean_request(step_list, threshold, drifts, context, models, noise_deg, amc_fps, unit),
+        given |= {"joint_map"} if jm is not None else set()
+        check_replay(record, clean_request(step_list, threshold, drifts, context, models, noise_deg, amc_fps, unit, jm),
                      [k for k in FLAGS if k in given], FLAGS, record_said)
     skeleton = asf_of(inp, asf)
     skeleton_copy = asf_for_output(out, skeleton, overwrite, how="use --overwrite")  # an AMC output reads back with its ASF beside it
@@ -130,11 +131,11 @@ def clean(
     if reference is not None:  # refused before cleaning, not after OUT is written
         ref = check_reference(load_motion(reference, asf, purpose="a reference", fps=amc_fps, unit=unit), reference,
                               frames=take.num_frames,
-                              joint_names=take.skeleton.joint_names)
+                              joint_names=take.skeleton.joint_names, option="--unit")
     original, res = clean_file(inp, out, context=context, steps=step_list, threshold=threshold, report=report, png=png,
                                progress=True, asf=asf if inp.suffix.lower() == ".amc" else None, overwrite=overwrite,
                                motion=take, drifts=drifts, decisions=decisions, noise_deg=noise_deg,
-                               record=record, models=models, amc_fps=amc_fps, unit=unit, joint_map=jm,
+                               record=record, models=models, amc_fps=amc_fps, unit=unit, joint_map=jm, flags=True,
                                skeleton_copy=(skeleton_copy, skeleton) if skeleton_copy is not None else None)
     if skeleton_copy is not None:
         console.print(f"copied the skeleton {skeleton} to {skeleton_copy}: an AMC is read with the ASF beside it")
@@ -388,7 +389,7 @@ def clean_batch(
                             overwrite=overwrite, asf=asf, drifts=drifts, models=models, amc_fps=amc_fps, unit=unit,
                             max_gap_s=max_gap, max_error_mm=max_fill_error,
                             noise_deg=noise_deg, on_row=None if as_json else print_row,
-                            on_context=print_context if counted else None, joint_map=jm)
+                            on_context=print_context if counted else None, joint_map=jm, flags=True)
     except KeyboardInterrupt:  # "no partial output" alone reads as if nothing was kept
         if out_dir.is_dir() and any(out_dir.rglob("*.clean.npz")):
             console.print(f"note: the takes finished in {out_dir} are kept; the same command resumes the others")

@@ -169,7 +169,7 @@ def guard(outputs: Iterable, inputs: Iterable, overwrite: bool = False) -> None:
             flat.extend(i)
         else:
             flat.append(i)
-    check_outputs(outputs, flat, overwrite=overwrite)
+    check_outputs(outputs, flat, overwrite=overwrite, how="pass --overwrite")
 
 
 def plural(n: int, word: str, many: str | None = None) -> str:

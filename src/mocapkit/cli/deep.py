@@ -31,7 +31,7 @@ def _reference(path: Optional[Path], take, asf: Optional[Path] = None, fps: Opti
     if path is None:
         return None
     return check_reference(load_motion(path, asf, purpose="a reference", fps=fps, unit=unit), path, frames=take.num_frames,
-                           joint_names=take.skeleton.joint_names)
+                           joint_names=take.skeleton.joint_names, option="--unit")
 
 
 def _marker_reason(command: str) -> str:
@@ -198,6 +198,11 @@ def fill(
     if never:
         raise MocapError(f"{inp}: joint(s) {', '.join(never[:4])} are missing in every frame; nothing to fill them from")
     _served(inp, m, ebd, "ebd", no_fallback)
+    if ebd is not None and ebf is None and deep.ebf_takes_part(ebd, smooth, by):
+        pair, said = deep.paired_ebf(ebd)  # the shipped EBF of its channels (said ""), else its pair beside it
+        if said:
+            ebf = pair
+            console.print(f"note: {inp}: {said}")
     try:  # the path clean's fill step takes
         done = fill_take(m, ebd, ebf, smooth=smooth, method=by, options={"ebd": "--model", "ebf": "--denoiser"},
                          zeros=zeros)

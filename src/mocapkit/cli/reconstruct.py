@@ -229,7 +229,8 @@ def reconstruct(
     if reference is not None:  # checked before the (long) reconstruction
         ref = check_reference(load_motion(reference, asf, purpose="a reference", fps=amc_fps, unit=unit), reference,
                               frames=frames,
-                              skeleton=db.skeletons[0], whose=f"the reconstruction's ({db_dir.name}'s skeleton)")
+                              skeleton=db.skeletons[0], whose=f"the reconstruction's ({db_dir.name}'s skeleton)",
+                              option="--unit")
     try:
         if kind == "accelerometers":
             if knowledge is not None:  # primes the knowledge base the reconstruction then uses
@@ -246,7 +247,7 @@ def reconstruct(
     report, errors = "", {}
     if ref is not None:
         check_reference(ref, reference, frames=result.num_frames, skeleton=result.skeleton,
-                        whose=f"the reconstruction's ({db_dir.name}'s skeleton)")
+                        whose=f"the reconstruction's ({db_dir.name}'s skeleton)", option="--unit")
         # accelerometers see no heading: their error is measured with each motion's heading removed
         heading = kind == "accelerometers"
         err = position_error_cm(ref, result, heading=heading)

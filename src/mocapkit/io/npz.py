@@ -305,6 +305,10 @@ def read_npz(path):
     :func:`load_arrays`), object arrays, a missing array, an array
     of the wrong shape or dtype, infinite values, non-unit quaternions, a
     non-positive frame rate.
+
+    A Motion's ``source_file`` is ``path``: the numbers an .npz made from a BVH or AMC keeps of that file
+    (:mod:`mocapkit.io.kept_channels`) are found there by :func:`mocapkit.io.save`, as by a command given the .npz
+    as ``like``, so the cells a later step leaves are written with the file's own numbers.
     """
     from ..markerset import MODELLED_GROUPS, MarkerSet, MarkerSource
 
@@ -396,6 +400,7 @@ def read_npz(path):
             fps=fps,
             name=name,
             translations=_real(path, data, "translations", optional=True),
+            source_file=str(path),  # the file io.save writes like: the source BVH's or AMC's numbers it keeps
         )
     except KeyError as exc:
         raise MocapFormatError(path, f"npz lacks the array {exc.args[0]!r}") from None

@@ -75,6 +75,7 @@ def check_outputs(
     inputs: Iterable[os.PathLike | str | None] = (),
     *,
     overwrite: bool = False,
+    how: str = "pass overwrite=True",
 ) -> None:
     """Refuse, before any work, outputs that would replace an input, each other, or an existing file.
 
@@ -85,6 +86,8 @@ def check_outputs(
         An output equal to an input file, or inside an input folder, is refused; an output
         equal to an input that does not exist is refused naming the missing input.
     overwrite : allow replacing an existing output *file* (never an input, never a folder).
+    how : what the refusal of an existing output tells its caller to do, in the caller's words (Python's
+        ``pass overwrite=True``; the command line's ``pass --overwrite``).
 
     Raises
     ------
@@ -114,7 +117,7 @@ def check_outputs(
         if parent.exists() and not parent.is_dir():
             raise MocapFormatError(out, f"cannot create it: {parent} is a file, not a folder")
         if os.path.lexists(out) and not overwrite:  # a dangling link too
-            raise MocapFormatError(out, "already exists; pass --overwrite to replace it")
+            raise MocapFormatError(out, f"already exists; {how} to replace it")
 
 
 _NEW_ONLY: ContextVar[frozenset] = ContextVar("mocapkit_new_only", default=frozenset())

@@ -34,6 +34,7 @@ from .inference import (
     shipped_model,
 )
 from .networks import EBD, EBF
+from .pairs import paired_ebf
 from .prior import GapPrior, conditional_fill, fit_gap_prior
 from .retarget import Serving, served_by
 from .streaming import Denoiser, denoise_rows
@@ -55,6 +56,7 @@ __all__ = [
     "fill_or_fallback",
     "refusal",
     "check_named",
+    "paired_ebf",
     "ChannelLayout",
     "layout_for",
     "DeepModel",
