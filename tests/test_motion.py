@@ -515,3 +515,17 @@ def test_missing_is_made_once_and_handed_out_as_a_new_array():
     assert np.array_equal(m.missing(), np.isnan(rot).any(axis=-1)) and m.missing() is not m.missing()
     assert not m[10:].missing().any() and m[:20].missing()[5:9, 3].all()
     assert not dataclasses.replace(m, rotations=np.nan_to_num(m.rotations, nan=0.5)).missing().any()
+
+
+def test_forward_kinematics_passes_the_kernel_one_argument_type():
+    """Whatever a Motion holds (contiguous rotations, a strided slice's, animated translations), global_transforms
+    calls the FK kernel with read-only inputs: numba compiles one machine code per argument type, so that one
+    signature, which ``python -m mocapkit.warmup`` caches, serves every take."""
+    from mocapkit._numba_fk import fk_kernel
+
+    plain = random_motion(5)
+    for m in (plain, plain[::2], random_motion(6, with_translations=True)):
+        grot, gpos = m.global_transforms()
+        assert np.allclose(gpos[:, 0], m.root_positions)
+    inputs = {sig[1:3] for sig in fk_kernel.signatures}
+    assert {(a.mutable, b.mutable) for a, b in inputs} == {(False, False)}, fk_kernel.signatures

@@ -1,4 +1,4 @@
-"""Tests of mocapkit.warmup: every step of clean runs, and afterwards a clean compiles nothing."""
+"""Tests of mocapkit.warmup: every step of clean runs, and afterwards a clean (a search, a reconstruction) compiles nothing."""
 
 from __future__ import annotations
 
@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from mocapkit import samples
-from mocapkit.warmup import main, search_kernels, warm_up
+from mocapkit.warmup import main, reconstruct_kernels, search_kernels, warm_up
 
 
 def test_warm_up_runs_every_step_of_clean():
@@ -69,3 +69,34 @@ def test_after_warm_up_a_clean_compiles_nothing(tmp_path):
     out = subprocess.run([sys.executable, "-c", code], env=env, check=True, capture_output=True, text=True)
     assert "data loaded" in out.stdout
     assert "data saved" not in out.stdout
+
+
+def test_reconstruct_kernels_compile_what_reconstruct_calls(tmp_path):
+    """After reconstruct_kernels, reconstructions from markers and from accelerometers (mean pose and energy
+    synthesis) on other databases, built in memory or opened from disk as ``mocapkit reconstruct`` does, add no
+    kernel signature."""
+    from numba.core.registry import CPUDispatcher
+
+    from mocapkit import load, samples
+    from mocapkit.database import MotionDatabase
+    from mocapkit.features import virtual_accelerometers, virtual_markers
+    from mocapkit.reconstruct import accelerometers, markers
+    from mocapkit.reconstruct.accelerometers import kernels as acc_kernels
+    from mocapkit.search import lng
+
+    reconstruct_kernels()
+    found = {f"{mod.__name__}.{n}": k for mod in (acc_kernels, lng, markers) for n, k in vars(mod).items()
+             if isinstance(k, CPUDispatcher)}
+    before = {n: set(k.signatures) for n, k in found.items()}
+    db = MotionDatabase.build([samples.path("HDM_bd_jogLeftCircle4StepsRstart_001_120.amc")], fps=30, mirror=True,
+                              executor="serial", progress=False)
+    take = load(samples.path("HDM_bk_sneak2StepsLStart_004_120.amc")).resample(30)[10:30]
+    readings = virtual_accelerometers(take)
+    for synthesis in ("mean", "energy"):
+        accelerometers.reconstruct(readings, db, take.fps, synthesis=synthesis, progress=False)
+    opened = MotionDatabase.open(db.save(tmp_path / "db"))
+    accelerometers.reconstruct(readings, opened, take.fps, synthesis="energy", progress=False)
+    joints = ["lhand", "rhand", "lfoot", "rfoot", "head", "root"]
+    for base in (db, opened):
+        markers.reconstruct(virtual_markers(take, joints), joints, base, take.fps, progress=False)
+    assert {n: set(k.signatures) for n, k in found.items()} == before

@@ -531,10 +531,12 @@ class Motion:
         local = self.skeleton.offsets[None] if self.translations is None else self.translations
         from ._numba_fk import fk_kernel  # lazy: importing mocapkit loads no numba
 
+        # the inputs always read-only: numba compiles one machine code per argument type, and a copy made contiguous
+        # (a slice's rotations) or animated translations would otherwise be writable arrays, a type of their own
         fk_kernel(
-            np.ascontiguousarray(self.skeleton.parents),
-            np.ascontiguousarray(self.rotations),
-            np.ascontiguousarray(local),
+            readonly_view(np.ascontiguousarray(self.skeleton.parents)),
+            readonly_view(np.ascontiguousarray(self.rotations)),
+            readonly_view(np.ascontiguousarray(local)),
             grot,
             gpos,
         )

@@ -14,8 +14,9 @@ runs and compiles what it needs (the serial and the parallel twin of each
 self-similarity kernel; the parallel twins in a second process, beside the
 rest), then writes and reads the result as BVH and npz, and searches a
 database of the walk by LNG and by DTW (:func:`search_kernels`: the kernels of
-``mocapkit search`` and ``reconstruct``, which ``clean`` does not call). It
-writes nothing but numba's cache (the files go to a temporary folder that is
+``mocapkit search`` and ``reconstruct``, which ``clean`` does not call), and
+reconstructs a second of a bundled take from markers and from accelerometers
+(:func:`reconstruct_kernels`). It writes nothing but numba's cache (the files go to a temporary folder that is
 removed).
 """
 
@@ -31,7 +32,7 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["warm_up", "broken_walk", "parallel_twins", "search_kernels"]
+__all__ = ["warm_up", "broken_walk", "parallel_twins", "search_kernels", "reconstruct_kernels"]
 
 
 def broken_walk():
@@ -99,6 +100,39 @@ def search_kernels() -> None:
         dtw(query[:8], query[:12], steps=steps)  # global DTW, as the multilinear reconstruction aligns takes
 
 
+def reconstruct_kernels() -> None:
+    """Reconstruct a second of the bundled HDM05 sneak from six of its joints' markers and from four accelerometers.
+
+    ``mocapkit reconstruct --markers`` (Krüger et al. 2010, sec. 5.2: the
+    forward kinematics of the local pose model) and ``--accelerometers``
+    (Tautges 2012, ch. 3: online LNG, the mean pose of the best paths, and
+    ``--synthesis energy``, the minimisation of eq. 3.4 with the kernel prior)
+    run kernels that ``clean`` and ``search`` do not. A one-clip database at
+    25 fps and 30 frames of another take fix their argument types, both as
+    built in memory (a caller's own database) and as ``reconstruct`` opens one
+    from disk (read-only arrays, a type of their own to numba); they compile
+    in seconds, in this process while the parallel twins compile in the other.
+    """
+    from . import samples
+    from .database import MotionDatabase
+    from .features import virtual_accelerometers, virtual_markers
+    from .io import load
+    from .reconstruct import accelerometers, markers
+
+    db = MotionDatabase.build([samples.path("HDM_bk_sneak2StepsLStart_004_120.amc")], fps=25, executor="serial",
+                              progress=False)
+    take = load(samples.path("HDM_bk_sneak2StepsLStart_005_120.amc")).resample(25)[:30]
+    readings = virtual_accelerometers(take)
+    for synthesis in ("mean", "energy"):
+        accelerometers.reconstruct(readings, db, take.fps, synthesis=synthesis, progress=False)
+    joints = ["lhand", "rhand", "lfoot", "rfoot", "head", "root"]
+    with tempfile.TemporaryDirectory() as tmp:
+        opened = MotionDatabase.open(db.save(Path(tmp) / "db"))
+        accelerometers.reconstruct(readings, opened, take.fps, progress=False)
+        for base in (db, opened):
+            markers.reconstruct(virtual_markers(take, joints), joints, base, take.fps, progress=False)
+
+
 def warm_up(processes: int | None = None) -> dict:
     """Run every step of :func:`mocapkit.clean` on a bundled take (and on a short piece of it) once.
 
@@ -144,6 +178,7 @@ def warm_up(processes: int | None = None) -> dict:
             parallel_twins()
         clean(take[: int(2 * take.fps)], context, steps="fill,detect,repair")
         search_kernels()
+        reconstruct_kernels()
         with tempfile.TemporaryDirectory() as tmp:
             for suffix in (".bvh", ".npz"):
                 path = save(result.motion, Path(tmp) / f"walk{suffix}")
