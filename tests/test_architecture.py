@@ -14,7 +14,7 @@ LAYERS = {
     "_numba_quaternions": -1, "_numba_euler": -1,
     "motion": 0, "joints": 0, "rigs": 0, "markerset": 0, "digest": 0, "mirroring": 0, "samples": 0, "_numba_fk": 0,
     "io": 1,
-    "features": 2, "metrics": 2, "corrupt": 2,
+    "features": 2, "metrics": 2, "corrupt": 2, "joint_spread": 2,
     "database": 3, "database_folder": 3, "context": 3, "search": 3,
     "cleaning": 4, "reconstruct": 4, "reference": 4,
     "report": 5,

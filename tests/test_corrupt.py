@@ -11,6 +11,7 @@ import mocapkit
 from mocapkit import corrupt as C
 from mocapkit import metrics
 from mocapkit import rotations as R
+from mocapkit.joint_spread import joint_rotation_spread
 from mocapkit.motion import Motion, Skeleton, find_joint, mirror_pairs
 
 ALL_KINDS = C.KINDS + C.ERROR_KINDS
@@ -202,10 +203,17 @@ def test_uniform_noise_is_bounded_with_the_same_std(bvh):
     assert inside.mean() > 0.99  # all but Euler-branch changes near gimbal lock
 
 
+def noise_scale(m, std):
+    """The noise scale of each non-root rotation channel: ``std`` (C,), at most its joint's rotation spread."""
+    sk = m.skeleton
+    owner = [j for j in range(1, sk.num_joints) for c in sk.joint_channels(j) if c.endswith("rotation")]
+    return np.minimum(std, joint_rotation_spread(m.rotations)[owner])
+
+
 def test_bias_constant_and_sinusoidal(bvh):
     cols = rotation_columns(bvh)
     a = bvh.channel_values()[:, cols]
-    std = a.std(axis=0)
+    std = noise_scale(bvh, a.std(axis=0))
     moving = std > 1.0
     bad, _ = C.bias(bvh, amount=0.5, kind="constant", seed=0)
     d = wrapped(bad.channel_values()[:, cols] - a)[:, moving]
@@ -527,13 +535,37 @@ def test_channel_spread_reads_angles_on_the_circle():
 
 
 @pytest.mark.parametrize("name", ["131_01.bvh", "12_walk.amc", "HDM_bk_sneak2StepsLStart_004_120.amc"])
-def test_acclaim_samples_keep_the_noise_of_the_plain_std(name):
+def test_samples_get_the_plain_std_capped_at_the_joints_turn(name):
     m = mocapkit.load(mocapkit.samples.path(name))
     cols = rotation_columns(m)
     values = m.channel_values()[:, cols]
     np.testing.assert_array_equal(C.channel_spread(values), np.nanstd(values, axis=0))
     bad, _ = C.angular_noise(m, amount=0.5, seed=6)
     full = m.channel_values()
-    full[:, cols] += np.random.default_rng(6).normal(size=values.shape) * (0.5 * np.nanstd(values, axis=0))
+    scale = noise_scale(m, np.nanstd(values, axis=0))
+    full[:, cols] += np.random.default_rng(6).normal(size=values.shape) * (0.5 * scale)
     expected = Motion.from_channel_values(m.skeleton, full, m.fps)
     assert np.degrees(R.geodesic_angle(bad.rotations, expected.rotations)).max() < 1e-6
+    # the cap binds only where a joint's Euler channels move more than the joint turns: on no AMC degree of
+    # freedom that moves, on the CMU BVH's elbows and knees (ZXY triples of what the AMC gives as a hinge)
+    sk = m.skeleton
+    owner = [sk.joint_names[j] for j in range(1, sk.num_joints) for c in sk.joint_channels(j) if c.endswith("rotation")]
+    capped = {owner[k] for k in np.flatnonzero(scale < np.nanstd(values, axis=0) - 1e-9)}
+    assert capped == ({"LeftKnee", "RightKnee", "LeftElbow", "RightElbow"} if name.endswith(".bvh") else set())
+
+
+def test_noise_near_gimbal_lock_is_the_size_of_the_joints_turn():
+    # A ZXY joint at Z = 90 (the Bandai Namco Hips) turning 120 deg about its X channel: the read-back X stops at
+    # 90 and Z, Y jump by 180 (gimbal lock), so their spread (78 deg) is the Euler singularity's, not the motion's.
+    sk = Skeleton(("root", "a"), [-1, 0], [[0, 0, 0], [0, 1, 0]])
+    vals = np.zeros((300, 9))
+    vals[:, 6:9] = [90.0, 0.0, 10.0]
+    vals[:, 7] = np.linspace(0.0, 120.0, 300)
+    m = Motion.from_channel_values(sk, vals, 30.0)
+    assert C.channel_spread(m.channel_values()[:, 6:9]).max() > 70.0  # the singular channels
+    turn = np.std(vals[:, 7])  # one-axis turn: its angle's std is how far the joint turns (34.8 deg)
+    for amount in (0.1, 0.5):
+        bad, _ = C.angular_noise(m, amount, seed=4)
+        g = np.degrees(R.geodesic_angle(bad.rotations[:, 1], m.rotations[:, 1]))
+        # each channel's noise turns the joint by its own size, each at most amount x the joint's spread
+        assert np.sqrt(np.mean(g**2)) <= 1.1 * np.sqrt(3.0) * amount * turn

@@ -283,3 +283,20 @@ def test_joint_angles_of_an_amc_take_and_its_bvh_conversion_agree(tmp_path):
     bvh = mocapkit.load(tmp_path / "same.bvh")
     assert bvh.skeleton.channels != amc.skeleton.channels
     assert M.joint_angle_rms(amc, bvh) < 1e-4
+
+
+def test_joint_angle_rms_reads_the_other_euler_branch_as_no_error():
+    # ZXY joint at X = 89.5 turned 1 deg about X: its plain conversion is on the other branch (Z, Y + 180, X 89.5)
+    sk = mocapkit.Skeleton(("root", "a"), [-1, 0], [[0, 0, 0], [0, 1, 0]])
+    vals = np.zeros((3, 9))
+    vals[:, 6:9] = [30.0, 89.5, -20.0]
+    other = vals.copy()
+    other[:, 7] = 90.5
+    a = mocapkit.Motion.from_channel_values(sk, vals, 30)
+    b = mocapkit.Motion.from_channel_values(sk, other, 30)
+    assert abs(b.channel_values()[0, 6] - 30.0) > 170.0
+    # one degree on one of the 6 rotation channels, every frame
+    assert M.joint_angle_rms(a, b) == pytest.approx(np.sqrt(1.0 / 6), rel=1e-6)
+    assert M.joint_angle_rms(b, a) == pytest.approx(np.sqrt(1.0 / 6), rel=1e-6)
+    np.testing.assert_array_equal(M.same_branch_channels(a.channel_values(), b.channel_values(), sk)[:, :6],
+                                  a.channel_values()[:, :6])

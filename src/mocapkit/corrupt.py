@@ -42,6 +42,7 @@ import numpy as np
 
 from . import rotations as R
 from .errors import SkeletonError
+from .joint_spread import joint_rotation_spread, noise_spread
 from .mirroring import mirror_for_rig
 from .motion import Motion, bone_moving_joints, find_joint, mirror_pairs, unit_scale_cm
 
@@ -151,9 +152,14 @@ def channel_spread(values: np.ndarray) -> np.ndarray:
     return np.nan_to_num(spread)
 
 
-def _channel_std(motion: Motion, cols: np.ndarray) -> np.ndarray:
-    """Spread (:func:`channel_spread`, degrees) of the rotation channels ``cols`` of ``motion``."""
-    return channel_spread(motion.channel_values()[:, cols])
+def _channel_std(motion: Motion, cols: np.ndarray, owner: np.ndarray) -> np.ndarray:
+    """Noise scale (degrees) of the rotation channels ``cols`` of ``motion``, owned by joints ``owner``.
+
+    Each channel's spread (:func:`channel_spread`), at most its joint's rotation spread
+    (:func:`mocapkit.joint_spread.noise_spread`): a channel near gimbal lock, whose values swing far more
+    than its joint turns, gets noise the size of the joint's motion, not of the Euler singularity's.
+    """
+    return noise_spread(channel_spread(motion.channel_values()[:, cols]), owner, joint_rotation_spread(motion.rotations))
 
 
 def _add_to_channels(motion: Motion, noise: np.ndarray, sel: np.ndarray) -> tuple[Motion, np.ndarray]:
@@ -225,8 +231,8 @@ def angular_noise(motion: Motion, amount: float = 0.5, seed=None, joints=None, i
     """
     rng = _rng(seed)
     sel = joint_set(motion, joints, include_root)
-    cols, _ = _rotation_columns(motion, sel)
-    std = _channel_std(motion, cols)
+    cols, owner = _rotation_columns(motion, sel)
+    std = _channel_std(motion, cols, owner)
     noise = rng.normal(size=(motion.num_frames, len(cols))) * (amount * std)
     return _add_to_channels(motion, noise, sel)
 
@@ -239,8 +245,8 @@ def uniform_noise(motion: Motion, amount: float = 0.5, seed=None, joints=None, i
     """
     rng = _rng(seed)
     sel = joint_set(motion, joints, include_root)
-    cols, _ = _rotation_columns(motion, sel)
-    half_width = np.sqrt(3.0) * amount * _channel_std(motion, cols)
+    cols, owner = _rotation_columns(motion, sel)
+    half_width = np.sqrt(3.0) * amount * _channel_std(motion, cols, owner)
     noise = rng.uniform(-1.0, 1.0, size=(motion.num_frames, len(cols))) * half_width
     return _add_to_channels(motion, noise, sel)
 
@@ -269,8 +275,8 @@ def bias(
         raise ValueError(f"period_s must be positive, got {period_s!r}")
     rng = _rng(seed)
     sel = joint_set(motion, joints, include_root)
-    cols, _ = _rotation_columns(motion, sel)
-    std = _channel_std(motion, cols)
+    cols, owner = _rotation_columns(motion, sel)
+    std = _channel_std(motion, cols, owner)
     F = motion.num_frames
     amp = amount * std * rng.choice([-1.0, 1.0], size=len(cols))
     if kind == "constant":

@@ -36,6 +36,7 @@ __all__ = [
     "pose_error",
     "pose_error_per_joint",
     "joint_angle_rms",
+    "same_branch_channels",
     "joint_position_rms",
     "d_pv",
     "d_pv_per_frame",
@@ -92,16 +93,43 @@ def pose_error_per_joint(a: Motion, b: Motion) -> np.ndarray:
     return _nanmean(half**2, axis=0)
 
 
+def same_branch_channels(values: np.ndarray, ref: np.ndarray, skeleton) -> np.ndarray:
+    """``values`` (F, C) with each joint's Euler triple on the branch nearest ``ref``'s (F, C), degrees.
+
+    A rotation with middle angle ``x`` is also ``(z + 180, 180 - x, y + 180)`` (``-x`` for a repeated axis):
+    near gimbal lock (``x`` near +-90) a few degrees of noise move the plain conversion to that other branch,
+    and comparing it channel by channel with a take on the first branch counts two 180-deg "errors" for a
+    rotation that turned a few degrees (a Bandai Namco ``Hips`` in a heading turn, ZXY with X through 90).
+    :func:`mocapkit.rotations.nearest_euler` picks, cell by cell, the triple of the same rotation nearest
+    ``ref``; position channels and joints with fewer than three rotation channels are returned as given.
+    """
+    out = np.array(values, dtype=np.float64)
+    start = 0
+    groups: dict[str, list[list[int]]] = {}
+    for j in range(skeleton.num_joints):
+        chans = skeleton.joint_channels(j)
+        rot = [start + k for k, c in enumerate(chans) if c.endswith("rotation")]
+        if len(rot) == 3:
+            groups.setdefault("".join(chans[k - start][0] for k in rot), []).append(rot)
+        start += len(chans)
+    for order, cols in groups.items():
+        idx = np.array(cols)  # (K, 3)
+        out[:, idx] = R.nearest_euler(out[:, idx], ref[:, idx], order)
+    return out
+
+
 def joint_angle_rms(a: Motion, b: Motion, per_frame: bool = False, include_root: bool = True):
     """RMS difference in degrees over the joint-angle channels, as Mall et al. report it.
 
     Channels are the files' rotation channels (:meth:`Motion.channel_values`:
     BVH Euler angles, ASF degrees of freedom); differences are wrapped to
-    [-180, 180) so a wrap-around is no error. Root position channels never
-    count; the root's rotation channels do unless ``include_root`` is False.
-    Returns one float over all channels and frames, or with ``per_frame`` the
-    RMS over channels of each frame (F,) (Mall's error-over-time plots).
-    NaN channels are left out.
+    [-180, 180) so a wrap-around is no error, and each joint's Euler triple of
+    ``b`` is read on the branch nearest ``a``'s (:func:`same_branch_channels`) so
+    the other branch of the same rotation is no error either. Root position
+    channels never count; the root's rotation channels do unless
+    ``include_root`` is False. Returns one float over all channels and frames,
+    or with ``per_frame`` the RMS over channels of each frame (F,) (Mall's
+    error-over-time plots). NaN channels are left out.
     """
     _check_pair(a, b)
     b = with_channels_of(b, a.skeleton)  # an AMC take and its BVH conversion: the same angles, other channels
@@ -110,7 +138,8 @@ def joint_angle_rms(a: Motion, b: Motion, per_frame: bool = False, include_root:
         [c.endswith("rotation") and (include_root or j > 0) for j in range(sk.num_joints) for c in sk.joint_channels(j)],
         dtype=bool,
     )
-    d = a.channel_values()[:, rot] - b.channel_values()[:, rot]
+    va = a.channel_values()
+    d = va[:, rot] - same_branch_channels(b.channel_values(), va, sk)[:, rot]
     d = (d + 180.0) % 360.0 - 180.0
     if per_frame:
         return np.sqrt(_nanmean(d**2, axis=1))

@@ -106,6 +106,27 @@ def test_encode_decode_round_trip(walk, rep):
     assert metrics.pose_error(walk, back).max() < 1e-16
 
 
+def test_euler_encode_keeps_a_joint_near_gimbal_lock_on_one_branch():
+    # ZXY joint with X at 89 +- 2 deg (the Bandai Namco Hips in a heading turn): the plain conversion flips to
+    # (z + 180, 180 - x, y + 180) on every frame past 90; the model must read one continuous curve
+    sk = mocapkit.Skeleton(("root", "a"), [-1, 0], [[0, 0, 0], [0, 1, 0]])
+    F = 120
+    vals = np.zeros((F, 9))
+    vals[:, 6] = 30.0 + 5.0 * np.sin(np.arange(F) / 20.0)
+    vals[:, 7] = 89.0 + np.random.default_rng(0).normal(0.0, 2.0, F)
+    vals[:, 8] = -20.0
+    m = mocapkit.Motion.from_channel_values(sk, vals, 30.0)
+    assert np.abs(np.diff(m.channel_values()[:, 6])).max() > 170.0  # the plain conversion flips
+    lay = deep.layout_for(m)
+    x, _ = ch.encode(m, lay)
+    assert np.abs(np.diff(x, axis=0)).max() < 15.0
+    # a smoother of the channels stays near the joint's rotations (mixing the branches turned it by ~180 deg)
+    from scipy.ndimage import gaussian_filter1d
+
+    smooth = ch.decode(gaussian_filter1d(x, 2.0, axis=0, mode="nearest"), m, lay)
+    assert np.degrees(metrics.geodesic_pose_distance(m, smooth)).max() < 10.0
+
+
 def test_euler_decode_converts_only_changed_cells_bit_for_bit(walk):
     """decode converts only the cells not kept, joint by joint: the same bits as converting every file channel
     back (Motion.from_channel_values) and then copying the kept cells, NaN and out-of-range values too."""

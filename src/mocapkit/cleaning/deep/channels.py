@@ -30,6 +30,7 @@ from numba import njit
 
 from ... import rotations as R
 from ...errors import SkeletonError
+from ...io.euler_branches import continuous_rotations
 from ...motion import Motion
 
 __all__ = ["ChannelLayout", "layout_for", "euler_columns", "root_angular_velocity", "encode", "decode", "unwrap_degrees", "wrap_degrees", "channel_joints", "lerp_fill"]
@@ -173,14 +174,23 @@ def root_angular_velocity(root_rotations: np.ndarray, fps: float) -> np.ndarray:
 def encode(motion: Motion, layout: ChannelLayout) -> tuple[np.ndarray, np.ndarray]:
     """(values (F, C), context (F, 3)) for the model: channels in the layout's representation and root omega.
 
-    Euler values are degrees unwrapped along time; 6-D values are matrix
+    Euler values are degrees, each joint's triple on the branch nearest its
+    previous frame's (:func:`mocapkit.io.euler_branches.continuous_rotations`,
+    the rule every writer of Euler text follows), then unwrapped along time.
+    The plain conversion (:meth:`Motion.channel_values`) of a joint near gimbal
+    lock flips to the other branch, ``(z + 180, 180 - x, y + 180)``, on every
+    frame whose noise pushes the middle angle past +-90 deg (a Bandai Namco
+    ``Hips`` in a heading turn): read as it is, a smoother averages the two
+    branches into rotations the joint never had. 6-D values are matrix
     entries in [-1, 1]. Missing joints (NaN rotations) give NaN channels.
     """
     layout.check(motion)
     ctx = root_angular_velocity(motion.rotations[:, 0], motion.fps)
     if layout.representation == "euler":
-        vals = motion.channel_values()[:, euler_columns(motion)]
-        return unwrap_degrees(vals), ctx
+        sk = motion.skeleton
+        vals = motion.channel_values()
+        continuous_rotations(vals, [sk.joint_channels(j) for j in range(sk.num_joints)])
+        return unwrap_degrees(vals[:, euler_columns(motion)]), ctx
     ids = np.array([motion.skeleton.index(n) for n in layout.joints], dtype=np.int64)
     m = R.quaternion_to_matrix(_local_dof_rotations(motion, ids))  # (F, n, 3, 3)
     vals = np.concatenate([m[..., :, 0], m[..., :, 1]], axis=-1)  # (F, n, 6)
