@@ -1,0 +1,67 @@
+"""Labels cycled at one frame, injected into real complete captures, are undone by clean_markers.
+
+CMU 85_02 (tests/data) and HDM05's HDM_bd_05-01_01_120 (shared data), frames 0-599: from frame 100 on (to frame
+200, or to the end of the take) the labels of three to five markers move round a ring, each taking the next one's
+trajectory; a three-label cycle with one of its labels unseen over frames 97-102 (only two of the three jump).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from mocapkit.cleaning.markers import clean_markers, undo_swaps
+from mocapkit.io import load_markers
+
+CMU = Path(__file__).resolve().parents[2] / "data" / "85_02.c3d"
+
+CASES = {
+    "four labels": (["LTOE", "RTHI", "LKNE", "LFHD"], None),
+    "five labels": (["LTOE", "RTHI", "LKNE", "LFHD", "RELB"], None),
+    "three labels, one hidden at the start": (["LTOE", "RTHI", "LKNE"], "LTOE"),
+    "three labels, another hidden at the start": (["LTOE", "RTHI", "LKNE"], "RTHI"),
+}
+
+
+def _inject(x, ring, hidden, end):
+    """The capture with ``ring``'s labels cycled over frames 100..end-1, ``hidden``'s label unseen at 97-102; and
+    the truth: the recorded trajectories with the samples that label hid left out."""
+    names = [label.split(":")[-1] for label in x.labels]
+    truth = np.array(x.positions, dtype=np.float64)
+    cols = [names.index(n) for n in ring]
+    q = truth.copy()
+    q[100:end, cols] = q[100:end, cols[1:] + cols[:1]]
+    if hidden is not None:
+        h = names.index(hidden)
+        q[97:103, h] = np.nan
+        truth[97:100, h] = np.nan
+        truth[100:103, cols[(cols.index(h) + 1) % len(cols)]] = np.nan
+    return q, truth, len(ring) - 1
+
+
+@pytest.mark.parametrize("end", [200, 600])
+@pytest.mark.parametrize("which", ["85_02", "HDM_bd"])
+@pytest.mark.parametrize("case", list(CASES))
+def test_labels_cycled_at_one_frame_are_undone(case, which, end, shared_data):
+    # before, four or more labels cycled at one frame, and three whose cycle started with one of them unseen, kept
+    # the wrong trajectories: no exchange of two, and no cycle of three jumping markers, explains the frame
+    path = CMU if which == "85_02" else shared_data / "c3d_markers_recovery" / "HDM_bd_05-01_01_120.c3d"
+    x = load_markers(path)[:600]
+    q, truth, exchanges = _inject(x, *CASES[case], end)
+    y, swaps = undo_swaps(q)
+    assert np.array_equal(y, truth, equal_nan=True)
+    assert len(swaps) == exchanges and all((s.start, s.end) == (100, end) for s in swaps)
+    res = clean_markers(x.with_positions(q))
+    out = np.asarray(res.markers.positions)
+    kept = ~res.filled & ~np.isnan(truth).any(axis=-1)
+    assert np.allclose(out[kept], truth[kept], atol=1e-9, rtol=0)  # every marker back on its own trajectory
+    listed = [f for f in res.fixes if f.kind == "swap"]
+    assert len(listed) == exchanges and all((f.start, f.end) == (100, end) for f in listed)  # each one decision
+
+
+def test_a_capture_as_recorded_has_no_cycle():
+    x = load_markers(CMU)
+    y, swaps = undo_swaps(np.asarray(x.positions))
+    assert swaps == [] and np.array_equal(y, np.asarray(x.positions), equal_nan=True)
