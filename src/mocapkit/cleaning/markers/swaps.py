@@ -58,7 +58,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .cycles import as_exchanges, find_cycles, hidden_member_cycles
+from .cycles import apply_exchanges, as_exchanges, find_cycles, hidden_member_cycles
 from .rigid import distance_stats, donor_order
 
 __all__ = ["Swap", "undo_swaps", "recorded_swaps", "labelling"]
@@ -186,7 +186,19 @@ def undo_swaps(positions: np.ndarray, unit_mm: float = 1.0, *, threshold_mm: flo
                 steps.append((a, b, True))
         for cycle in find_cycles(pred, y[t], [int(k) for k in jump if k not in used], miss, thr):
             used.update(cycle)
-            steps += [(*pair, False) for pair in as_exchanges(cycle, open_swaps)]
+            pairs_of = as_exchanges(cycle, open_swaps)
+            start = None
+            if not any(pair in open_swaps for pair in pairs_of):  # it ends no swap seen to start: a hidden start?
+                if stats is None:
+                    stats = distance_stats(x)
+                    order = donor_order(stats)
+                start = _hidden_cycle_start(y, cycle, int(t), jumping, last, thr, stats, order, ratio, floor)
+            if start is None:
+                steps += [(*pair, False) for pair in pairs_of]
+                continue
+            y[start:t] = apply_exchanges(y[start:t].transpose(0, 2, 1), pairs_of[::-1]).transpose(0, 2, 1)
+            col[start:t] = apply_exchanges(col[start:t], pairs_of[::-1])
+            last.update((k, int(t)) for k in cycle)
         free = [int(k) for k in jump if k not in used]
         cands = hidden_member_cycles(pred, y[t], free, _blind(y, t) & ~np.isin(np.arange(y.shape[1]), list(used)), thr)
         if cands:
@@ -412,6 +424,49 @@ def _constancy(p: np.ndarray, members, nbrs, scale: np.ndarray) -> float:
 def _blind(y: np.ndarray, t: int) -> np.ndarray:
     """(M,) bool: the markers unseen at frame t, t-1 or t-2 (no sample or no prediction to test for a jump)."""
     return np.any(np.isnan(y[max(t - 2, 0):t + 1]), axis=(0, 2))
+
+
+def _hidden_cycle_start(y: np.ndarray, cycle, t: int, jumping: np.ndarray, last: dict, thr: float, stats,
+                        order: np.ndarray, ratio: float, floor: float) -> int | None:
+    """Where a cycle of labels seen at t (:func:`~mocapkit.cleaning.markers.cycles.find_cycles`) began, if it ends at t.
+
+    As :func:`_hidden_start` for a pair: a cycle seen at t with no swap of
+    its markers open either starts there or ends one whose start an
+    occlusion hid (a marker back from it under another's label). For each
+    candidate start s (:func:`_candidates` of each two markers next in the
+    cycle, after the markers' latest exchange), the labelling with s..t-1
+    cycled back is set against the one with t on cycled, over the frames
+    from that exchange to the next jump of any of them, by how constant the
+    markers' distances to their rigid neighbours (the cycle's own left out)
+    stay; the best start is taken when its cost is under ``ratio`` times
+    the other's. None: the cycle starts at t.
+    """
+    f, k = y.shape[0], len(cycle)
+    lo = max(last.get(c, 0) for c in cycle)
+    starts = np.unique(np.concatenate([_candidates(y[lo:t], cycle[n], cycle[(n + 1) % k], thr, lo) for n in range(k)]))
+    starts = starts[(starts > lo) & (starts < t)]
+    if starts.size == 0:
+        return None
+    after = np.flatnonzero(jumping[t + 1:, list(cycle)].any(axis=1)) + t + 3  # jumping[k] is frame k + 2
+    hi = int(after[0]) if after.size else f
+    scale = np.maximum(np.nan_to_num(stats.spread, nan=np.inf), floor)
+    nbrs = [[int(n) for n in order[c] if n not in cycle and np.isfinite(stats.median[c, n])][:4] for c in cycle]
+    cols = list(cycle) + sorted({n for ns in nbrs for n in ns})
+    pos = {c: n for n, c in enumerate(cols)}
+    win = y[lo:hi][:, cols]
+    local = [[pos[n] for n in ns] for ns in nbrs]
+    sc = scale[np.ix_(cols, cols)]
+    ring, back = list(range(k)), list(range(1, k)) + [0]
+    moved = win.copy()
+    moved[t - lo:, ring] = win[t - lo:, back]  # each takes the next one's samples from t on
+    best, where = ratio * _constancy(moved, ring, local, sc), None
+    for s in starts:
+        q = win.copy()
+        q[s - lo:t - lo, back] = win[s - lo:t - lo, ring]  # the next one takes each one's samples before t
+        c = _constancy(q, ring, local, sc)
+        if c < best:
+            best, where = c, int(s)
+    return where
 
 
 def _hidden_cycle(y: np.ndarray, cands, t: int, jumping: np.ndarray, last: dict, stats, order: np.ndarray,
