@@ -426,6 +426,20 @@ def _blind(y: np.ndarray, t: int) -> np.ndarray:
     return np.any(np.isnan(y[max(t - 2, 0):t + 1]), axis=(0, 2))
 
 
+def _ring_window(y: np.ndarray, ring, lo: int, hi: int, stats, order: np.ndarray, floor: float, count: int = 4):
+    """Frames lo..hi-1 of the markers ``ring`` (as columns 0..k-1) and of their ``count`` most rigid neighbours.
+
+    Returns those positions, each ring marker's neighbours (the ring's own
+    left out) renumbered to match, and their usual spreads (at least
+    ``floor``), as :func:`_constancy` takes them.
+    """
+    nbrs = [[int(n) for n in order[k] if n not in ring and np.isfinite(stats.median[k, n])][:count] for k in ring]
+    cols = list(ring) + sorted({n for ns in nbrs for n in ns})
+    pos = {c: n for n, c in enumerate(cols)}
+    scale = np.maximum(np.nan_to_num(stats.spread, nan=np.inf), floor)
+    return y[lo:hi][:, cols], [[pos[n] for n in ns] for ns in nbrs], scale[np.ix_(cols, cols)]
+
+
 def _hidden_cycle_start(y: np.ndarray, cycle, t: int, jumping: np.ndarray, last: dict, thr: float, stats,
                         order: np.ndarray, ratio: float, floor: float) -> int | None:
     """Where a cycle of labels seen at t (:func:`~mocapkit.cleaning.markers.cycles.find_cycles`) began, if it ends at t.
@@ -449,13 +463,7 @@ def _hidden_cycle_start(y: np.ndarray, cycle, t: int, jumping: np.ndarray, last:
         return None
     after = np.flatnonzero(jumping[t + 1:, list(cycle)].any(axis=1)) + t + 3  # jumping[k] is frame k + 2
     hi = int(after[0]) if after.size else f
-    scale = np.maximum(np.nan_to_num(stats.spread, nan=np.inf), floor)
-    nbrs = [[int(n) for n in order[c] if n not in cycle and np.isfinite(stats.median[c, n])][:4] for c in cycle]
-    cols = list(cycle) + sorted({n for ns in nbrs for n in ns})
-    pos = {c: n for n, c in enumerate(cols)}
-    win = y[lo:hi][:, cols]
-    local = [[pos[n] for n in ns] for ns in nbrs]
-    sc = scale[np.ix_(cols, cols)]
+    win, local, sc = _ring_window(y, cycle, lo, hi, stats, order, floor)
     ring, back = list(range(k)), list(range(1, k)) + [0]
     moved = win.copy()
     moved[t - lo:, ring] = win[t - lo:, back]  # each takes the next one's samples from t on
@@ -482,7 +490,6 @@ def _hidden_cycle(y: np.ndarray, cands, t: int, jumping: np.ndarray, last: dict,
     when its cost is under ``ratio`` times the recorded labels'.
     """
     f = y.shape[0]
-    scale = np.maximum(np.nan_to_num(stats.spread, nan=np.inf), floor)
     best, pick = np.inf, None
     for ring in cands:
         lo = max(last.get(k, 0) for k in ring)
@@ -490,12 +497,7 @@ def _hidden_cycle(y: np.ndarray, cands, t: int, jumping: np.ndarray, last: dict,
         hi = int(after[0]) if after.size else f
         w = min(t - lo, hi - t)  # as many frames either side of t: neither labelling holds in most of them
         lo, hi = t - w, t + w
-        nbrs = [[int(n) for n in order[k] if n not in ring and np.isfinite(stats.median[k, n])][:4] for k in ring]
-        cols = list(ring) + sorted({n for ns in nbrs for n in ns})
-        pos = {c: n for n, c in enumerate(cols)}
-        win = y[lo:hi][:, cols]
-        local = [[pos[n] for n in ns] for ns in nbrs]
-        sc = scale[np.ix_(cols, cols)]
+        win, local, sc = _ring_window(y, ring, lo, hi, stats, order, floor)
         members = range(len(ring))
         moved = win.copy()
         moved[t - lo:, [0, 1, 2]] = win[t - lo:, [1, 2, 0]]  # each takes the next one's samples
