@@ -440,6 +440,15 @@ def _ring_window(y: np.ndarray, ring, lo: int, hi: int, stats, order: np.ndarray
     return y[lo:hi][:, cols], [[pos[n] for n in ns] for ns in nbrs], scale[np.ix_(cols, cols)]
 
 
+def _seen_either_side(win: np.ndarray, k: int, t: int) -> bool:
+    """Whether each of the first ``k`` columns of ``win`` (F, K, 3) is seen in at least half the frames before ``t``
+    and in half those from ``t`` on: a labelling that puts a marker's samples under a label unseen most of the
+    time would only look constant for want of distances to measure."""
+    seen = ~np.isnan(win[:, :k]).any(axis=-1)
+    return bool(t > 0 and t < win.shape[0] and np.all(seen[:t].mean(axis=0) >= 0.5)
+                and np.all(seen[t:].mean(axis=0) >= 0.5))
+
+
 def _hidden_cycle_start(y: np.ndarray, cycle, t: int, jumping: np.ndarray, last: dict, thr: float, stats,
                         order: np.ndarray, ratio: float, floor: float) -> int | None:
     """Where a cycle of labels seen at t (:func:`~mocapkit.cleaning.markers.cycles.find_cycles`) began, if it ends at t.
@@ -464,6 +473,8 @@ def _hidden_cycle_start(y: np.ndarray, cycle, t: int, jumping: np.ndarray, last:
     after = np.flatnonzero(jumping[t + 1:, list(cycle)].any(axis=1)) + t + 3  # jumping[k] is frame k + 2
     hi = int(after[0]) if after.size else f
     win, local, sc = _ring_window(y, cycle, lo, hi, stats, order, floor)
+    if not _seen_either_side(win, k, t - lo):
+        return None
     ring, back = list(range(k)), list(range(1, k)) + [0]
     moved = win.copy()
     moved[t - lo:, ring] = win[t - lo:, back]  # each takes the next one's samples from t on
@@ -498,6 +509,8 @@ def _hidden_cycle(y: np.ndarray, cands, t: int, jumping: np.ndarray, last: dict,
         w = min(t - lo, hi - t)  # as many frames either side of t: neither labelling holds in most of them
         lo, hi = t - w, t + w
         win, local, sc = _ring_window(y, ring, lo, hi, stats, order, floor)
+        if not _seen_either_side(win, len(ring), t - lo):
+            continue
         members = range(len(ring))
         moved = win.copy()
         moved[t - lo:, [0, 1, 2]] = win[t - lo:, [1, 2, 0]]  # each takes the next one's samples
