@@ -45,6 +45,7 @@ from .c3d_frames import (FRAME_CAP, long_frame_parameters, point_words, put_stor
                          residuals_and_cameras, rest_of_trial, sample_bytes, zero_gap_words)
 from .c3d_layout import (header_layout, keep_data_start, put_analogs, put_header_gap, put_parameter,
                          stored_analogs)
+from .c3d_modelled import modelled_parameters, stated_positions
 
 __all__ = ["MarkerSet", "read_c3d", "write_c3d", "apply_zero_gaps", "checked_unit_cm"]
 
@@ -628,7 +629,9 @@ def read_c3d(path, zeros_as_gaps: bool | None = None, units: str | None = None) 
     n = xyz.shape[1]
     labels = unique_labels(raw_labels, n)
     file_labels = tuple(str(s).strip() for s in list(raw_labels)[:n]) + labels[len(raw_labels):]
-    source = dataclasses.replace(source, labels=file_labels, events=_header_events(raw), layout=header_layout(raw))
+    source = dataclasses.replace(source, labels=file_labels, events=_header_events(raw), layout=header_layout(raw),
+                                 modelled=stated_positions(source.parameters, labels))
+    modelled = set(modelled) | set(source.modelled)
     stated = str(units).replace("\x00", " ").strip()  # NUL-padded in some files (and cut ones)
     units, units_from = marker_units(path, stated, xyz, given)
     unit_cm = checked_unit_cm(path, units)
@@ -726,6 +729,8 @@ def _c3d_object(markers: MarkerSet, source: MarkerSource | None):
         old = point.get(key, {})
         point[key] = {"type": typ, "description": old.get("description", ""), "is_locked": old.get("is_locked", False),
                       "value": value}
+    stated = markers.source.modelled if markers.source is not None else {}  # a TRC's or npz's modelled points
+    point.update(modelled_parameters(labels, [stated.get(label, "") for label in markers.labels], point))
     analog = c["parameters"]["ANALOG"]
     A = 0 if analogs is None else analogs.shape[0]
     for key in ("LABELS", "DESCRIPTIONS", "UNITS"):  # one text per channel written, LABELS2... folded in

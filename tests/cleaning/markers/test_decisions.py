@@ -199,3 +199,19 @@ def test_each_swap_of_a_chain_is_a_change_rejected_alone(which, chain, shared_da
         assert _same(_cell(out, slice(0, lo), slice(None)), _cell(x, slice(0, lo), slice(None)))
     back = md.apply(take, res.markers, res.fixes, {c.id: "reject" for c in found})
     assert _same(_cell(back, slice(None), slice(None)), _cell(take, slice(None), slice(None)))
+
+
+def test_labels_cycled_at_one_frame_are_each_a_decision_of_their_own():
+    # four labels cycled over frames 100-199 of CMU 85_02 are undone as three swaps over the same frames; taken in
+    # the listing's order, the third's two markers were the first two's, so it owned no sample and the swaps were
+    # tied (accepted or rejected together)
+    x = load_markers(Path(__file__).resolve().parents[2] / "data" / "85_02.c3d")[:600]
+    names = [label.split(":")[-1] for label in x.labels]
+    ring = [names.index(n) for n in ("LTOE", "RTHI", "LKNE", "LFHD")]
+    q = np.array(x.positions, dtype=np.float64)
+    q[100:200, ring] = q[100:200, ring[1:] + ring[:1]]
+    taken = x.with_positions(q)
+    res = clean_markers(taken)
+    assert md.tied(taken, res.markers, res.fixes) == []
+    assert sorted(c.id for c in md.changes(taken, res.markers, res.fixes)) == sorted(
+        f"swap:{f.marker}:100-199" for f in res.fixes if f.kind == "swap") and len(res.fixes) == 3

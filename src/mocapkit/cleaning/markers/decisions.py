@@ -117,6 +117,30 @@ def _fix(x) -> MarkerFix:
     return MarkerFix(**{k: v for k, v in dict(x).items() if k in names})
 
 
+def _claiming(fixes: list[MarkerFix]) -> list[MarkerFix]:
+    """``fixes`` in the order their samples are claimed: swaps over the same frames each next to one claimed before.
+
+    Labels cycled at one frame are undone as k - 1 swaps over the same
+    frames on k markers, a tree of exchanges: taken in the order of the
+    list, a swap whose two markers earlier ones already hold would own no
+    sample and could not be decided alone. Each such group is taken from
+    its first swap on, each next one the first that shares one marker with
+    those taken (every swap then owns the samples of the marker it adds);
+    other fixes keep their places.
+    """
+    out, groups = [], {}
+    for x in fixes:
+        groups.setdefault((x.start, x.end) if x.kind == "swap" else id(x), []).append(x)
+    for group in groups.values():
+        held: set[str] = set()
+        while group:
+            nxt = next((x for x in group if len({x.marker, x.other} & held) == 1), group[0])
+            group.remove(nxt)
+            held |= {nxt.marker, nxt.other}
+            out.append(nxt)
+    return out
+
+
 def _change_id(x: MarkerFix) -> str:
     return f"{x.kind}:{x.marker}:{x.start}-{x.end - 1}"
 
@@ -130,7 +154,7 @@ def _owners(original, cleaned, fixes) -> tuple[list[MarkerChange], np.ndarray]:
     found: list[MarkerChange] = []
     fixes = [_fix(x) for x in fixes if _fix(x).kind in _ORDER and _fix(x).marker in col]
     seen: dict[str, int] = {}
-    for x in sorted(fixes, key=lambda x: _ORDER.index(x.kind)):
+    for x in sorted(_claiming(fixes), key=lambda x: _ORDER.index(x.kind)):
         cols = [col[x.marker]] + ([col[x.other]] if x.kind == "swap" and x.other in col else [])
         cid = _change_id(x)
         if cid not in seen:

@@ -17,11 +17,16 @@ third). The constant-acceleration prediction keeps a fast, curving marker
 the two markers are does not matter: the test asks that each lands where
 the other was going, which two unrelated jumps almost never do. Two swaps
 that share a marker back to back (LTOE/RTHI up to frame 199, RTHI/LKNE from
-200) cycle three labels at the frame between them, which no exchange of two
-explains: three jumping markers whose samples each meet another's
-prediction round a cycle (:func:`_cycles`, the same tests) are re-labelled
-as the two exchanges that end the one swap and begin the other
-(:func:`_as_pairs`). An exchange
+200) cycle three labels at the frame between them, and a labeller can
+cycle four or more at once, which no exchange of two explains: the cycles
+among the jumping markers no pair explained
+(:func:`~mocapkit.cleaning.markers.cycles.find_cycles`, the same tests) are
+re-labelled as exchanges of two made one after the other
+(:func:`~mocapkit.cleaning.markers.cycles.as_exchanges`). A cycle of three
+whose start one of its labels hides (unseen at the frame it starts, so
+that only an open chain of two jumps shows) is closed through that label
+(:func:`~mocapkit.cleaning.markers.cycles.hidden_member_cycles`) when the
+rigid neighbours say so (:func:`_hidden_cycle`). An exchange
 that starts a swap is undone by the one that ends it, so the corrected
 trajectories are the recorded samples, re-labelled: the values stay
 bit-identical.
@@ -53,6 +58,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .cycles import apply_exchanges, as_exchanges, find_cycles, hidden_member_cycles
 from .rigid import distance_stats, donor_order
 
 __all__ = ["Swap", "undo_swaps", "recorded_swaps", "labelling"]
@@ -111,53 +117,6 @@ def _miss(pred: np.ndarray, samples: np.ndarray) -> np.ndarray:
     A prediction that needs an unseen frame is skipped; NaN where none can be made or the sample is unseen.
     """
     return np.fmin.reduce(np.linalg.norm(samples[None] - pred, axis=-1), axis=0)
-
-
-def _cycles(pred: np.ndarray, samples: np.ndarray, free: list[int], miss: np.ndarray,
-            thr: float) -> list[tuple[int, int, int]]:
-    """Three jumping markers whose labels moved round a cycle at one frame, best first, none sharing a marker.
-
-    Two swaps that share a marker back to back (LTOE/RTHI up to frame 199,
-    RTHI/LKNE from 200) cycle three labels at the frame between them, which
-    no exchange of two explains. ``(i, j, k)``: i's sample belongs to j, j's
-    to k and k's to i, each then meeting one of its predictions ``pred``
-    (P, M, 3) within ``thr``, and the total miss cut to under a third of
-    ``miss`` (M,) summed over the three, as for a pair. ``samples`` (M, 3):
-    the frame's samples; ``free``: the jumping markers no pair explained.
-    """
-    if len(free) < 3:
-        return []
-    idx = np.asarray(free)
-    fit = np.fmin.reduce(np.linalg.norm(samples[idx][None, None] - pred[:, idx][:, :, None], axis=-1), axis=0)
-    ok = fit <= thr  # ok[r, c]: marker free[c]'s sample meets marker free[r]'s prediction
-    found = []
-    for r in range(idx.size):
-        for c in np.flatnonzero(ok[r]):
-            for d in np.flatnonzero(ok[c]):
-                if r < c and r < d and c != d and ok[d, r]:
-                    cost = fit[r, c] + fit[c, d] + fit[d, r]
-                    if cost < miss[idx[[r, c, d]]].sum() / 3.0:
-                        found.append((float(cost), int(idx[r]), int(idx[c]), int(idx[d])))
-    out: list[tuple[int, int, int]] = []
-    for _, i, j, k in sorted(found):
-        if not {i, j, k} & {n for cyc in out for n in cyc}:
-            out.append((i, j, k))
-    return out
-
-
-def _as_pairs(cycle: tuple[int, int, int], open_swaps: dict) -> list[tuple[int, int]]:
-    """The cycle ``(i, j, k)`` (:func:`_cycles`) as two exchanges made one after the other, an open swap's first.
-
-    Exchanging (i j) then (j k), (j k) then (i k), or (i k) then (i j) each
-    puts j's sample in i, k's in j and i's in k; the one that first ends a
-    swap seen to start (``open_swaps``, keyed by pairs ``a < b``) is taken,
-    so that the chain is read as one swap ending where the next begins.
-    """
-    i, j, k = cycle
-    ways = [((i, j), (j, k)), ((j, k), (i, k)), ((i, k), (i, j))]
-    key = lambda p: tuple(sorted(p))  # noqa: E731
-    best = max(ways, key=lambda w: (key(w[0]) in open_swaps, key(w[1]) in open_swaps))
-    return [key(p) for p in best]
 
 
 def undo_swaps(positions: np.ndarray, unit_mm: float = 1.0, *, threshold_mm: float = 15.0,
@@ -225,9 +184,30 @@ def undo_swaps(positions: np.ndarray, unit_mm: float = 1.0, *, threshold_mm: flo
             if a not in used and b not in used:
                 used.update((a, b))
                 steps.append((a, b, True))
-        for cycle in _cycles(pred, y[t], [int(k) for k in jump if k not in used], miss, thr):
+        for cycle in find_cycles(pred, y[t], [int(k) for k in jump if k not in used], miss, thr):
             used.update(cycle)
-            steps += [(*pair, False) for pair in _as_pairs(cycle, open_swaps)]
+            pairs_of = as_exchanges(cycle, open_swaps)
+            start = None
+            if not any(pair in open_swaps for pair in pairs_of):  # it ends no swap seen to start: a hidden start?
+                if stats is None:
+                    stats = distance_stats(x)
+                    order = donor_order(stats)
+                start = _hidden_cycle_start(y, cycle, int(t), jumping, last, thr, stats, order, ratio, floor)
+            if start is None:
+                steps += [(*pair, False) for pair in pairs_of]
+                continue
+            y[start:t] = apply_exchanges(y[start:t].transpose(0, 2, 1), pairs_of[::-1]).transpose(0, 2, 1)
+            col[start:t] = apply_exchanges(col[start:t], pairs_of[::-1])
+            last.update((k, int(t)) for k in cycle)
+        free = [int(k) for k in jump if k not in used]
+        cands = hidden_member_cycles(pred, y[t], free, _blind(y, t) & ~np.isin(np.arange(y.shape[1]), list(used)), thr)
+        if cands:
+            if stats is None:
+                stats = distance_stats(x)
+                order = donor_order(stats)
+            cycle = _hidden_cycle(y, cands, int(t), jumping, last, stats, order, ratio, floor)
+            if cycle is not None:
+                steps += [(*pair, False) for pair in as_exchanges(cycle, open_swaps)]
         for a, b, may_hide in steps:
             key = (a, b)
             if key in open_swaps:  # the end of a swap whose start was seen
@@ -422,23 +402,122 @@ def _candidates(p: np.ndarray, a: int, b: int, thr: float, offset: int) -> np.nd
     return np.unique(np.asarray(out, dtype=int)) + offset
 
 
-def _constancy(p: np.ndarray, a: int, b: int, nbrs: tuple[list[int], list[int]], scale: np.ndarray) -> float:
-    """How much the distances of a and b to their rigid neighbours vary over ``p``'s frames.
+def _constancy(p: np.ndarray, members, nbrs, scale: np.ndarray) -> float:
+    """How much the distances of ``members`` (columns of ``p``) to their rigid neighbours ``nbrs`` vary.
 
     Each distance's mean absolute deviation from its median over the
     frames, in units of its usual spread ``scale`` (M, M), summed. The
-    labelling of a and b under which these distances stay most constant
-    over a stretch of the take is the right one, whichever of the two
-    labellings holds in most of its frames.
+    labelling of the members under which these distances stay most
+    constant over a stretch of the take is the right one, whichever
+    labelling holds in most of its frames.
     """
     total = 0.0
-    for k, ns in zip((a, b), nbrs):
+    for k, ns in zip(members, nbrs):
         d = np.linalg.norm(p[:, [k]] - p[:, ns], axis=-1)
         with np.errstate(all="ignore"), warnings.catch_warnings():
             warnings.simplefilter("ignore", RuntimeWarning)  # a neighbour unseen throughout: all-NaN columns
             dev = np.nanmean(np.abs(d - np.nanmedian(d, axis=0)), axis=0)
         total += float(np.nansum(dev / scale[k, ns]))
     return total
+
+
+def _blind(y: np.ndarray, t: int) -> np.ndarray:
+    """(M,) bool: the markers unseen at frame t, t-1 or t-2 (no sample or no prediction to test for a jump)."""
+    return np.any(np.isnan(y[max(t - 2, 0):t + 1]), axis=(0, 2))
+
+
+def _ring_window(y: np.ndarray, ring, lo: int, hi: int, stats, order: np.ndarray, floor: float, count: int = 4):
+    """Frames lo..hi-1 of the markers ``ring`` (as columns 0..k-1) and of their ``count`` most rigid neighbours.
+
+    Returns those positions, each ring marker's neighbours (the ring's own
+    left out) renumbered to match, and their usual spreads (at least
+    ``floor``), as :func:`_constancy` takes them.
+    """
+    nbrs = [[int(n) for n in order[k] if n not in ring and np.isfinite(stats.median[k, n])][:count] for k in ring]
+    cols = list(ring) + sorted({n for ns in nbrs for n in ns})
+    pos = {c: n for n, c in enumerate(cols)}
+    scale = np.maximum(np.nan_to_num(stats.spread, nan=np.inf), floor)
+    return y[lo:hi][:, cols], [[pos[n] for n in ns] for ns in nbrs], scale[np.ix_(cols, cols)]
+
+
+def _seen_either_side(win: np.ndarray, k: int, t: int) -> bool:
+    """Whether each of the first ``k`` columns of ``win`` (F, K, 3) is seen in at least half the frames before ``t``
+    and in half those from ``t`` on: a labelling that puts a marker's samples under a label unseen most of the
+    time would only look constant for want of distances to measure."""
+    seen = ~np.isnan(win[:, :k]).any(axis=-1)
+    return bool(t > 0 and t < win.shape[0] and np.all(seen[:t].mean(axis=0) >= 0.5)
+                and np.all(seen[t:].mean(axis=0) >= 0.5))
+
+
+def _hidden_cycle_start(y: np.ndarray, cycle, t: int, jumping: np.ndarray, last: dict, thr: float, stats,
+                        order: np.ndarray, ratio: float, floor: float) -> int | None:
+    """Where a cycle of labels seen at t (:func:`~mocapkit.cleaning.markers.cycles.find_cycles`) began, if it ends at t.
+
+    As :func:`_hidden_start` for a pair: a cycle seen at t with no swap of
+    its markers open either starts there or ends one whose start an
+    occlusion hid (a marker back from it under another's label). For each
+    candidate start s (:func:`_candidates` of each two markers next in the
+    cycle, after the markers' latest exchange), the labelling with s..t-1
+    cycled back is set against the one with t on cycled, over the frames
+    from that exchange to the next jump of any of them, by how constant the
+    markers' distances to their rigid neighbours (the cycle's own left out)
+    stay; the best start is taken when its cost is under ``ratio`` times
+    the other's. None: the cycle starts at t.
+    """
+    f, k = y.shape[0], len(cycle)
+    lo = max(last.get(c, 0) for c in cycle)
+    starts = np.unique(np.concatenate([_candidates(y[lo:t], cycle[n], cycle[(n + 1) % k], thr, lo) for n in range(k)]))
+    starts = starts[(starts > lo) & (starts < t)]
+    if starts.size == 0:
+        return None
+    after = np.flatnonzero(jumping[t + 1:, list(cycle)].any(axis=1)) + t + 3  # jumping[k] is frame k + 2
+    hi = int(after[0]) if after.size else f
+    win, local, sc = _ring_window(y, cycle, lo, hi, stats, order, floor)
+    if not _seen_either_side(win, k, t - lo):
+        return None
+    ring, back = list(range(k)), list(range(1, k)) + [0]
+    moved = win.copy()
+    moved[t - lo:, ring] = win[t - lo:, back]  # each takes the next one's samples from t on
+    best, where = ratio * _constancy(moved, ring, local, sc), None
+    for s in starts:
+        q = win.copy()
+        q[s - lo:t - lo, back] = win[s - lo:t - lo, ring]  # the next one takes each one's samples before t
+        c = _constancy(q, ring, local, sc)
+        if c < best:
+            best, where = c, int(s)
+    return where
+
+
+def _hidden_cycle(y: np.ndarray, cands, t: int, jumping: np.ndarray, last: dict, stats, order: np.ndarray,
+                  ratio: float, floor: float):
+    """Of the cycles ``cands`` (:func:`~mocapkit.cleaning.markers.cycles.hidden_member_cycles`), the one to undo at t.
+
+    Each cycle's markers are taken over as many frames either side of t
+    as lie between the latest exchange of any of them and the next frame
+    where one jumps (so that neither labelling holds in most of them); the
+    cycle undone from t on is set against the recorded labels by how
+    constant the markers' distances to their rigid neighbours (the cycle's
+    own markers left out) stay (:func:`_constancy`), and the best is taken
+    when its cost is under ``ratio`` times the recorded labels'.
+    """
+    f = y.shape[0]
+    best, pick = np.inf, None
+    for ring in cands:
+        lo = max(last.get(k, 0) for k in ring)
+        after = np.flatnonzero(jumping[t + 1:, list(ring)].any(axis=1)) + t + 3  # jumping[k] is frame k + 2
+        hi = int(after[0]) if after.size else f
+        w = min(t - lo, hi - t)  # as many frames either side of t: neither labelling holds in most of them
+        lo, hi = t - w, t + w
+        win, local, sc = _ring_window(y, ring, lo, hi, stats, order, floor)
+        if not _seen_either_side(win, len(ring), t - lo):
+            continue
+        members = range(len(ring))
+        moved = win.copy()
+        moved[t - lo:, [0, 1, 2]] = win[t - lo:, [1, 2, 0]]  # each takes the next one's samples
+        c = _constancy(moved, members, local, sc)
+        if c < ratio * _constancy(win, members, local, sc) and c < best:
+            best, pick = c, ring
+    return pick
 
 
 def _neighbours(order: np.ndarray, stats, a: int, b: int, floor: float,
@@ -485,11 +564,11 @@ def _hidden_start(y: np.ndarray, a: int, b: int, t: int, lo: int, hi: int, thr: 
     win, nbrs, scale = _local(y, lo, hi, a, b, *_neighbours(order, stats, a, b, floor))
     after = win.copy()
     after[t - lo:, [0, 1]] = after[t - lo:, [1, 0]]
-    best, where = ratio * _constancy(after, 0, 1, nbrs, scale), None
+    best, where = ratio * _constancy(after, (0, 1), nbrs, scale), None
     for s in starts:
         q = win.copy()
         q[s - lo:t - lo, [0, 1]] = q[s - lo:t - lo, [1, 0]]
-        c = _constancy(q, 0, 1, nbrs, scale)
+        c = _constancy(q, (0, 1), nbrs, scale)
         if c < best:
             best, where = c, int(s)
     return where
@@ -510,11 +589,11 @@ def _hidden_end(y: np.ndarray, a: int, b: int, t: int, lo: int, thr: float, stat
     if ends.size == 0:
         return f
     win, nbrs, scale = _local(y, lo, f, a, b, *_neighbours(order, stats, a, b, floor))
-    best, where = ratio * _constancy(win, 0, 1, nbrs, scale), f
+    best, where = ratio * _constancy(win, (0, 1), nbrs, scale), f
     for e in ends:
         q = win.copy()
         q[e - lo:, [0, 1]] = q[e - lo:, [1, 0]]
-        c = _constancy(q, 0, 1, nbrs, scale)
+        c = _constancy(q, (0, 1), nbrs, scale)
         if c < best:
             best, where = c, int(e)
     return where
