@@ -132,6 +132,7 @@ from ..search.knn import KNNIndex
 from ..rigs import pelvis_index, roles
 from ._common import (align_about_vertical, database_up, body_joints, body_motion, body_skeleton, in_database_units, in_units_of,
                       output_skeleton, per_clip, whole_motion)
+from .dofs import on_joint_dofs
 
 __all__ = ["reconstruct", "nearest_neighbor", "marker_residuals", "default_neighbours", "search_weights"]
 
@@ -802,7 +803,7 @@ def _solve(
     out = in_units_of(out, given, back)
     if run_fps != fps:
         out = out.resample(fps)[:F_in]
-    return out
+    return on_joint_dofs(out)
 
 
 def reconstruct(

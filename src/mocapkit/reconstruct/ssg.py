@@ -65,6 +65,7 @@ from ..motion import Motion, Skeleton
 from ..search.dtw import subsequence_dtw
 from ._common import (align_about_vertical, body_skeleton, database_bodies, database_positions, in_database_units, in_units_of,
                       onto_pelvis_marker, output_skeleton, per_clip, whole_motion)
+from .dofs import on_joint_dofs
 
 __all__ = [
     "Alignment",
@@ -921,7 +922,7 @@ def reconstruct(
     out = in_units_of(whole_motion(Motion(body_skeleton(out_sk), rot, root, db.fps, name="ssg reconstruction"), out_sk, _UP), given, back)
     if fps != db.fps:
         out = out.resample(fps)[: X.shape[0]]
-    return out
+    return on_joint_dofs(out)
 
 
 def framewise(markers, joints, db: MotionDatabase, fps: float, *, cost_window: float = 0.25, skeleton: Skeleton | None = None) -> Motion:
@@ -960,4 +961,4 @@ def framewise(markers, joints, db: MotionDatabase, fps: float, *, cost_window: f
     out = in_units_of(whole_motion(Motion(body_skeleton(out_sk), rot, root, db.fps, name="framewise nearest pose"), out_sk, _UP), given, back)
     if fps != db.fps:
         out = out.resample(fps)[: X.shape[0]]
-    return out
+    return on_joint_dofs(out)
