@@ -152,7 +152,7 @@ def reconstruct(
     from .. import io
     from ..database import MotionDatabase
     from ..io.c3d import MarkerSet
-    from ..io.takes import check_asf, load_motion, load_take
+    from ..io.takes import CLI_AMC_NAMES, check_asf, load_motion, load_take
     from ..motion import Motion, unit_scale_cm
     from ..reference import check_reference, global_errors_cm, position_error_cm
 
@@ -173,7 +173,7 @@ def reconstruct(
         except ValueError as e:
             raise MocapError(f"{option}: {e}") from None
     guard([out], [inp, db_dir, skeleton, reference, asf], overwrite)
-    check_asf(asf, [inp, reference], amc_fps)
+    check_asf(asf, [inp, reference], amc_fps, names=CLI_AMC_NAMES)
     io.suffix_kind(out, io.WRITERS, "writing")
     if knowledge is not None:
         from ..reconstruct.accelerometers.knowledge import check_knowledge_base_output
