@@ -24,7 +24,7 @@ from ..features import parse_up_axis, detect_up_axis, virtual_markers
 from ..io.c3d import MarkerSet
 from ..motion import Motion, Skeleton, unit_scale_cm
 
-__all__ = ["parse_use", "up_rotation", "control_markers", "far_from_markers", "FAR_CM", "upsampled_note"]
+__all__ = ["parse_use", "up_rotation", "control_markers", "far_from_markers", "FAR_CM", "upsampled_note", "warn_unseen"]
 
 #: a markers fit that ends this far (cm) further from a seen marker than its usual distance has not passed through it
 FAR_CM = 10.0
@@ -174,6 +174,24 @@ def far_from_markers(result: Motion, pos, joints: Sequence[str], pos_unit_cm: fl
     f, m = np.unravel_index(int(np.nanargmax(np.where(over, d, -1.0))), d.shape)
     return {"over_cm": over_cm, "frames": int(over.any(axis=1).sum()), "worst_marker": f"{labels[m]} ({joints[m]})",
             "worst_cm": round(float(d[f, m]), 2), "worst_frame": int(f)}
+
+
+def warn_unseen(markers, joints: Sequence[str], stacklevel: int = 2) -> list[str]:
+    """Warn (``UserWarning``) naming the markers (F, M, 3) NaN in every frame, and return their joints.
+
+    Such a marker says nothing and the fit goes on without it, carried by the others; counted as used it would
+    claim a fit that was not made, and a mislabelled marker shows up here. The command line says the same in a
+    note (and leaves the marker out before the reconstruction, so this stays silent there). ``stacklevel``: as
+    :func:`warnings.warn`'s, counted from the caller of this function (2: its caller's caller).
+    """
+    import warnings
+
+    seen = np.isfinite(np.asarray(markers, dtype=np.float64)).all(axis=-1).any(axis=0)
+    unseen = [str(j) for j, ok in zip(joints, seen) if not ok]
+    if unseen and seen.any():
+        warnings.warn(f"marker(s) on {', '.join(unseen)} never seen in any frame: left out (the other markers "
+                      "carry the fit)", UserWarning, stacklevel=stacklevel + 1)
+    return unseen
 
 
 def upsampled_note(fps: float, db_fps: float, what: str = "the control signals") -> str:

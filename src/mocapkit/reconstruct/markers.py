@@ -132,6 +132,7 @@ from ..search.knn import KNNIndex
 from ..rigs import pelvis_index, roles
 from ._common import (align_about_vertical, database_up, body_joints, body_motion, body_skeleton, in_database_units, in_units_of,
                       output_skeleton, per_clip, whole_motion)
+from .control import warn_unseen
 from .dofs import on_joint_dofs
 
 __all__ = ["reconstruct", "nearest_neighbor", "marker_residuals", "default_neighbours", "search_weights"]
@@ -643,6 +644,7 @@ def _solve(
     progress: bool,
 ) -> Motion:
     x, joints = _check(markers, joints, db, fps)
+    warn_unseen(x, joints, stacklevel=4)  # _solve <- _run <- reconstruct <- the user's call
     if k is None:
         k = default_neighbours(db.num_frames)
     if int(k) != k or k < 1:

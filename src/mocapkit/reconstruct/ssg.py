@@ -65,6 +65,7 @@ from ..motion import Motion, Skeleton
 from ..search.dtw import subsequence_dtw
 from ._common import (align_about_vertical, body_skeleton, database_bodies, database_positions, in_database_units, in_units_of,
                       onto_pelvis_marker, output_skeleton, per_clip, whole_motion)
+from .control import warn_unseen
 from .dofs import on_joint_dofs
 
 __all__ = [
@@ -904,6 +905,7 @@ def reconstruct(
         two frames, bad parameters, or a database with no usable subsequence.
     """
     X, names, fps = _check_input(markers, joints, db, fps)
+    warn_unseen(X, names)
     for name, v in (("window", window), ("overlap", overlap), ("cost_window", cost_window)):
         if not np.isfinite(v) or v < 0:
             raise ValueError(f"{name}: expected a non-negative number of seconds, got {v!r}")
@@ -937,6 +939,7 @@ def framewise(markers, joints, db: MotionDatabase, fps: float, *, cost_window: f
     output as :func:`reconstruct`.
     """
     X, names, fps = _check_input(markers, joints, db, fps)
+    warn_unseen(X, names)
     given = output_skeleton(db, skeleton)
     out_sk, back = in_database_units(db, given)  # the markers are in the database's unit: so is the playback
     Xd = np.array(_resample_markers(X, fps, db.fps))  # a copy: filled in place below
