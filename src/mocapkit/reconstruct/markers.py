@@ -132,7 +132,7 @@ from ..search.knn import KNNIndex
 from ..rigs import pelvis_index, roles
 from ._common import (align_about_vertical, database_up, body_joints, body_motion, body_skeleton, in_database_units, in_units_of,
                       output_skeleton, per_clip, whole_motion)
-from .control import warn_unseen
+from .control import marker_residuals, warn_unseen
 from .dofs import on_joint_dofs
 
 __all__ = ["reconstruct", "nearest_neighbor", "marker_residuals", "default_neighbours", "search_weights"]
@@ -581,19 +581,6 @@ class _Problem:
         batch = np.vstack([z, z + _STEP * np.eye(n)])
         res = self.residuals(batch)
         return ((res[1:] - res[0]) / _STEP).T
-
-
-def marker_residuals(motion: Motion, markers: np.ndarray, joints: Sequence[str]) -> np.ndarray:
-    """Distances (F, M) in cm between a motion's markers and the given ones (NaN where a marker is missing).
-
-    The fit residual of :func:`reconstruct`: how closely the reconstruction
-    passes through the markers the user gave.
-    """
-    p = virtual_markers(motion, list(joints))
-    x = np.asarray(markers, dtype=np.float64)
-    if x.shape != p.shape:
-        raise ValueError(f"markers: expected shape {p.shape}, got {x.shape}")
-    return np.linalg.norm(p - x, axis=-1) * unit_scale_cm(motion.skeleton)
 
 
 # -- the reconstruction --------------------------------------------------------------------------
