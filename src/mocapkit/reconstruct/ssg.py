@@ -64,7 +64,7 @@ from ..database import MotionDatabase
 from ..motion import Motion, Skeleton
 from ..search.dtw import subsequence_dtw
 from ._common import (align_about_vertical, body_skeleton, database_bodies, database_positions, in_database_units, in_units_of,
-                      onto_pelvis_marker, output_skeleton, per_clip, whole_motion)
+                      onto_marker_heights, onto_pelvis_marker, output_skeleton, per_clip, whole_motion)
 from .control import warn_unseen
 from .dofs import on_joint_dofs
 
@@ -921,6 +921,7 @@ def reconstruct(
     path = shortest_path(graph, transition_weight)
     rot, root = _synthesise(db, database_bodies(db), graph, path)
     root = onto_pelvis_marker(root, Xd, names, db.skeletons[0])
+    root = onto_marker_heights(root, rot, Xd, names, out_sk, db.fps, _UP)
     out = in_units_of(whole_motion(Motion(body_skeleton(out_sk), rot, root, db.fps, name="ssg reconstruction"), out_sk, _UP), given, back)
     if fps != db.fps:
         out = out.resample(fps)[: X.shape[0]]

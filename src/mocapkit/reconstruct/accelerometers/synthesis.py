@@ -419,6 +419,7 @@ class AccelerometerReconstructor:
         h = R.quaternion_from_axis_angle(up, self._heading)
         q[0] = R.quaternion_multiply(h, q[0])
         root = (self._ground + height * up) / self.rig.scale
+        q = on_joint_dofs(Motion(self.body, q[None], root[None], self.db_fps)).rotations[0]  # the skeleton's dofs
         return Pose(readonly_view(q), readonly_view(root))
 
     # -- input ------------------------------------------------------------------------------
