@@ -356,3 +356,12 @@ def test_joint_map_refuses_two_joints_renamed_alike():
     jm["kt_01"] = jm["kt_02"]
     with pytest.raises(MocapFormatError, match="two of the clip's joints"):
         MotionDatabase.build([a], fps=30, joint_map=jm, executor="serial", progress=False)
+
+
+def test_build_refuses_an_amc_skeleton_or_rate_when_no_source_is_an_amc():
+    """asf= and amc_fps= apply to .amc sources only: given for a BVH they are refused in the library's words."""
+    bvh = mocapkit.samples.path("131_01.bvh")
+    with pytest.raises(mocapkit.MocapError, match=r"amc_fps= is the frame rate of an \.amc input"):
+        MotionDatabase.build([bvh], fps=30, amc_fps=60, executor="serial", progress=False)
+    with pytest.raises(mocapkit.MocapError, match=r"asf= is the skeleton of an \.amc input"):
+        MotionDatabase.build([bvh], fps=30, asf=mocapkit.samples.path("HDM_bd.asf"), executor="serial", progress=False)

@@ -135,8 +135,8 @@ def test_overwrite_replaces_only_a_database(small_db, saved, tmp_path):
 def test_existing_database_replaced_only_with_overwrite(small_db, saved, tmp_path):
     db = shutil.copytree(saved, tmp_path / "db")
     (db / "clip_ids.npy").write_bytes(b"")  # damaged: still only database files, so replaceable
-    with pytest.raises(MocapFormatError, match="already exists; pass --overwrite"):
-        small_db.save(db)
+    with pytest.raises(MocapFormatError, match=r"already exists; pass overwrite=True to replace it"):
+        small_db.save(db)  # a Python call is told the keyword, not the command line's flag
     assert (db / "clip_ids.npy").read_bytes() == b""
     assert small_db.save(db, overwrite=True) == db
     assert MotionDatabase.open(db).num_frames == small_db.num_frames
@@ -482,7 +482,7 @@ def test_a_database_hidden_by_a_killed_write_is_put_back_not_lost(small_db, save
     assert rc == 137 and not db.exists()
     with pytest.raises(MocapFormatError, match=r"no such folder; an interrupted write left the previous database at .*\.old"):
         MotionDatabase.open(db)  # said when opening, nothing moved
-    with pytest.raises(MocapFormatError, match=r"already exists \(put back from .*\.old.*; pass --overwrite"):
+    with pytest.raises(MocapFormatError, match=r"already exists \(put back from .*\.old.*; pass overwrite=True"):
         small_db.save(db)  # a write without --overwrite: put back, then refused as any existing database
     assert _tree(db) == before
     assert sorted(p.name for p in tmp_path.iterdir()) == ["db"]  # the unfinished .part swept with it
@@ -581,7 +581,7 @@ def test_a_database_a_killed_earlier_version_left_hidden_is_put_back(saved, tmp_
     target = tmp_path / "db"
     with pytest.raises(MocapFormatError, match=r"no such folder; an interrupted write left the previous database at .*\.db\.k3j9x0ab\.old"):
         read_folder(target)
-    with pytest.raises(MocapFormatError, match=r"already exists \(put back from .*k3j9x0ab.*; pass --overwrite"):
+    with pytest.raises(MocapFormatError, match=r"already exists \(put back from .*k3j9x0ab.*; pass overwrite=True"):
         check_database_output(target)
     assert read_folder(target)[0].num_frames == read_folder(saved)[0].num_frames and not hidden.exists()
     fresh = tmp_path / ".db.zz9x0abc.old"  # a minute has not passed: it may be a live 0.1.0 writer's

@@ -300,3 +300,15 @@ def test_joint_angle_rms_reads_the_other_euler_branch_as_no_error():
     assert M.joint_angle_rms(b, a) == pytest.approx(np.sqrt(1.0 / 6), rel=1e-6)
     np.testing.assert_array_equal(M.same_branch_channels(a.channel_values(), b.channel_values(), sk)[:, :6],
                                   a.channel_values()[:, :6])
+
+
+def test_joint_position_mean_is_the_mean_euclidean_distance_not_the_rms(clip):
+    """Krüger et al. 2010, Table 3: cm per joint, the mean distance; the RMS squares first."""
+    F = clip.num_frames
+    shift = np.zeros((F, 3))
+    shift[: F // 4, 0] = 4.0  # a quarter of the frames 4 units off, the rest exact
+    moved = dataclasses.replace(clip, root_positions=clip.root_positions + shift)
+    assert M.joint_position_mean(clip, moved, scale_cm=1.0) == pytest.approx(1.0)  # every joint 4 in 1/4 frames
+    assert M.joint_position_rms(clip, moved, root_relative=False, scale_cm=1.0) == pytest.approx(2.0)
+    assert M.joint_position_mean(clip, moved, root_relative=True) == pytest.approx(0.0, abs=1e-9)
+    assert M.joint_position_mean(clip, clip) == 0.0

@@ -228,7 +228,7 @@ def _prepare(item, fps: float, features: tuple[str, ...], mirror: bool, ref_skel
             raise MocapFormatError(source, f"cannot compute features: {exc}") from None
         except KeyError as exc:  # the features' end effectors (hands, feet, head) found by role: none here
             raise MocapFormatError(source, f"cannot compute features {', '.join(features)}: "
-                                           f"{exc.args[0] if exc.args else exc}; give --joint-map onto a rig of "
+                                           f"{exc.args[0] if exc.args else exc}; give a joint map onto a rig of "
                                            "known naming") from None
         tr = None if mm.translations is None else _float32(mm.translations, "joint translations", source)
         out.append(
@@ -676,7 +676,8 @@ class MotionDatabase:
         local processes by default, ``"dask"`` or a scheduler address for a
         Dask cluster). ``asf`` and ``amc_fps``: the skeleton and frame rate of
         the ``.amc`` files among the sources (:func:`mocapkit.io.takes.load_take`;
-        by default the ASF beside each and :func:`mocapkit.io.asfamc.amc_rate`).
+        by default the ASF beside each and :func:`mocapkit.io.asfamc.amc_rate`); either given
+        where no source is an ``.amc`` file is refused (:func:`mocapkit.io.takes.check_asf`), not ignored.
         """
         from .parallel import map_ordered
 
@@ -687,6 +688,10 @@ class MotionDatabase:
         # a file goes out absolute (a remote Dask worker resolves a relative path against its own working folder),
         # with the path as given, which the clip keeps as its source
         items = [it if _in_memory(it) else (os.path.abspath(it), str(it)) for it in expand_sources(sources)]
+        if asf is not None or amc_fps is not None:  # an AMC's skeleton and rate: refused where no source is an AMC
+            from .io.takes import check_asf
+
+            check_asf(asf, [it[0] for it in items if not _in_memory(it)], amc_fps)
         amc = {"asf": None if asf is None else os.path.abspath(asf), "fps": amc_fps}
         first = _prepare(items[0], fps, features, mirror, None, joint_map, amc)
         ref = first[0]["skeleton"]

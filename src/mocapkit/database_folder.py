@@ -577,7 +577,8 @@ def content_digest(description: Description, arrays: Mapping[str, np.ndarray]) -
     return f"blake2b-256:{h.hexdigest()}"
 
 
-def check_database_output(directory, inputs: Iterable = (), overwrite: bool = False) -> None:
+def check_database_output(directory, inputs: Iterable = (), overwrite: bool = False,
+                          how: str = "pass overwrite=True") -> None:
     """Refuse, before any work, a database folder whose writing could lose anything.
 
     ``directory`` may not be an input, lie inside an input folder, or hold an
@@ -596,6 +597,8 @@ def check_database_output(directory, inputs: Iterable = (), overwrite: bool = Fa
     inputs : paths read to build it (files or folders); entries that are not
         paths (``None``, Motions) are ignored.
     overwrite : allow replacing an existing database folder.
+    how : what the refusal of an existing folder tells the caller to do (the library's keyword; the
+        command line's ``pass --overwrite``).
 
     Raises
     ------
@@ -620,7 +623,7 @@ def check_database_output(directory, inputs: Iterable = (), overwrite: bool = Fa
         return
     if not overwrite:
         note = f" (put back from {restored}, where an interrupted write had left it)" if restored else ""
-        raise MocapFormatError(out, f"already exists{note}; pass --overwrite to replace it")
+        raise MocapFormatError(out, f"already exists{note}; {how} to replace it")
     why = _not_a_database(resolved(out)) if out.exists() else "it is a broken symbolic link"
     if why:
         raise MocapFormatError(out, f"refusing to replace it: {why}")

@@ -1,4 +1,4 @@
-"""Error measures of the four papers: geodesic pose error, joint-angle and joint-position RMS, D_pv, precision/recall.
+"""Error measures of the four papers: geodesic pose error, joint-angle and joint-position RMS, mean joint distance, D_pv, precision/recall.
 
 All measures compare two motions frame by frame (same skeleton, same number
 of frames) and ignore NaN cells (missing data): sums and means run over the
@@ -38,6 +38,7 @@ __all__ = [
     "joint_angle_rms",
     "same_branch_channels",
     "joint_position_rms",
+    "joint_position_mean",
     "d_pv",
     "d_pv_per_frame",
     "DetectionScore",
@@ -191,6 +192,31 @@ def joint_position_rms(
     Lengths are converted with ``scale_cm`` or :func:`unit_scale_cm` of
     ``a``'s skeleton. NaN joints are left out.
     """
+    pa, pb, scale = _compared_positions(a, b, scale_cm, root_relative, end_sites)
+    d2 = np.sum((pa - pb) ** 2, axis=-1)
+    return float(np.sqrt(_nanmean(d2)) * scale)
+
+
+def joint_position_mean(
+    a: Motion, b: Motion, scale_cm: float | None = None, root_relative: bool | str = False, end_sites: bool = False
+) -> float:
+    """Mean joint-position error in cm over joints and frames: ``mean |p_a - p_b|``, the Euclidean distance.
+
+    The measure of Krüger et al. 2010 (sec. 5.2, Table 3: "average (max) reconstruction errors (in cm per joint)", global
+    positions; their six markers include the root, which places the body), and the six-marker figures of
+    ``benchmarks/reconstruct_markers.py``. By default (``root_relative=False``) global positions of all
+    joints, as there. :func:`joint_position_rms` squares before averaging, so on the same result it is
+    larger wherever the error is uneven over joints and frames (about 1.5x on a six-marker reconstruction,
+    whose hands and feet sit on their markers while elbows and knees miss). ``root_relative``,
+    ``end_sites`` and ``scale_cm`` select and convert as in :func:`joint_position_rms`. NaN joints are left out.
+    """
+    pa, pb, scale = _compared_positions(a, b, scale_cm, root_relative, end_sites)
+    return float(_nanmean(np.linalg.norm(pa - pb, axis=-1)) * scale)
+
+
+def _compared_positions(a: Motion, b: Motion, scale_cm, root_relative, end_sites) -> tuple[np.ndarray, np.ndarray, float]:
+    """The joint positions (F, J', 3) of ``a`` and ``b`` that :func:`joint_position_rms` and
+    :func:`joint_position_mean` compare (their ``root_relative`` and ``end_sites``), and cm per unit."""
     _check_pair(a, b)
     if root_relative not in (True, False, "frame", "heading", "body", "pelvis"):
         raise ValueError(f"root_relative must be True, False, 'frame', 'heading', 'body' or 'pelvis', got {root_relative!r}")
@@ -216,8 +242,7 @@ def joint_position_rms(
 
             pa = R.quaternion_rotate(R.quaternion_conjugate(root_frame(a)[0][:, None]), pa)
             pb = R.quaternion_rotate(R.quaternion_conjugate(root_frame(b)[0][:, None]), pb)
-    d2 = np.sum((pa - pb) ** 2, axis=-1)
-    return float(np.sqrt(_nanmean(d2)) * scale)
+    return pa, pb, scale
 
 
 def d_pv_per_frame(a: Motion, b: Motion, scale_cm: float | None = None) -> np.ndarray:

@@ -44,7 +44,7 @@ def test_db_errors_are_one_line(tmp_path):
     assert code == 2 and one_error_line(err) and f"{tmp_path / 'nope'}: no such folder" in " ".join(err.split())
     assert main(["db", "build", str(db_dir), str(mocapkit.samples.path("12_walk.amc")), "--executor", "serial"]) == 0
     code, _, err = run("db", "build", str(db_dir), str(mocapkit.samples.path("12_walk.amc")))
-    assert code == 2 and "already exists" in err
+    assert code == 2 and "already exists; pass --overwrite" in err  # the command's flag, not the library's keyword
     code, _, err = run("search", str(db_dir), str(mocapkit.samples.path("Eb015pr.c3d")))
     assert code == 2 and "Eb015pr.c3d" in err and one_error_line(err)
     code, _, err = run("search", str(db_dir), str(mocapkit.samples.path("12_walk.amc")), "--features", "F39")

@@ -434,3 +434,26 @@ def test_a_reconstruction_from_takes_of_unknown_terms_keeps_no_licence(tmp_path,
         assert "licence" not in z.files and "licence" not in str(z["contents"])
     code, stdout, _ = run("info", str(out))
     assert code == 0 and "licence" not in stdout
+
+
+def test_ssg_result_says_which_frames_lie_far_from_the_markers(tmp_path, bandai_db):
+    """The subsequence graph fits no marker: where it plays motion the markers do not show, frames are named."""
+    import json
+
+    from mocapkit.features import virtual_markers
+    from mocapkit.io import save_markers
+    from mocapkit.markerset import MarkerSet
+
+    take = mocapkit.load(BANDAI)
+    names = ["Hand_L", "Hand_R", "Foot_L", "Foot_R", "Hips"]
+    x = virtual_markers(take, names)
+    x[30:36, 0, 1] += 150.0  # a left-hand marker 1.5 m above the hand: no database motion goes there
+    src, out = tmp_path / "m.npz", tmp_path / "rec.bvh"
+    save_markers(MarkerSet(tuple(names), x, take.fps, "cm"), src)
+    code, stdout, err = run("reconstruct", "--db", str(bandai_db), "--ssg", str(src), "--use", ",".join(names),
+                            "--up-axis", "y", "-o", str(out), "--json")
+    assert code == 0, err
+    said = json.loads(stdout)
+    far = said["far_from_markers"]
+    assert far["worst_marker"] == "Hand_L (Hand_L)" and 30 <= far["worst_frame"] <= 35
+    assert any(a <= 32 <= b for a, b in far["ranges"]) and any("further than usual" in n for n in said["notes"])

@@ -97,3 +97,20 @@ def test_asf_for_output_never_swaps_the_skeleton_another_amc_reads_with(tmp_path
         with pytest.raises(MocapFormatError, match="would change the skeleton HDM_bd_01.amc is read with"):
             asf_for_output(out / "HDM_bd_02.amc", other, overwrite=overwrite)
     assert (out / "HDM_bd.asf").read_bytes() == samples.path("HDM_bd.asf").read_bytes()
+
+
+def test_check_asf_speaks_the_callers_language(amc_apart):
+    """The library's keywords by default, the command line's flags where a command passes CLI_AMC_NAMES."""
+    from mocapkit.errors import MocapError
+    from mocapkit.io.takes import CLI_AMC_NAMES
+
+    amc, asf = amc_apart
+    bvh = mocapkit.samples.path("131_01.bvh")
+    with pytest.raises(MocapFormatError, match=r"asf= is the skeleton of an \.amc input"):
+        check_asf(asf, [bvh])
+    with pytest.raises(MocapError, match=r"amc_fps= is the frame rate of an \.amc input"):
+        check_asf(None, [bvh], 60)
+    with pytest.raises(MocapFormatError, match=r"--asf is the skeleton of an \.amc input"):
+        check_asf(asf, [bvh], names=CLI_AMC_NAMES)
+    with pytest.raises(MocapError, match=r"--amc-fps is the frame rate of an \.amc input"):
+        check_asf(None, [bvh], 60, names=CLI_AMC_NAMES)

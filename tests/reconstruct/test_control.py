@@ -75,3 +75,20 @@ def test_a_bare_label_names_the_subject_prefixed_one():
     two = dataclasses.replace(ms, labels=(f"Bastian:{a}", f"Other:{a}") + tuple(ms.labels[2:]))
     with pytest.raises(ValueError, match=f"marker {a} is Bastian:{a} or Other:{a} in the file; give the full label"):
         control_markers(two, f"{a}=head", sk)
+
+
+def test_a_marker_never_seen_is_named_in_a_warning_from_python():
+    """The command line leaves it out with a note; a Python call says the same in a UserWarning."""
+    import warnings
+
+    import numpy as np
+
+    from mocapkit.reconstruct.control import warn_unseen
+
+    x = np.zeros((5, 3, 3))
+    x[:, 1] = np.nan
+    with pytest.warns(UserWarning, match=r"marker\(s\) on rhand never seen in any frame: left out"):
+        assert warn_unseen(x, ["lhand", "rhand", "root"]) == ["rhand"]
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert warn_unseen(np.zeros((5, 3, 3)), ["lhand", "rhand", "root"]) == []

@@ -382,3 +382,12 @@ def test_performer_skeleton_in_metres_gives_the_same_body_in_metres(db, truth, r
     assert out_m.skeleton is metres
     d = np.linalg.norm(out_m.global_positions() * 100.0 - out.global_positions() * unit_scale_cm(truth.skeleton), axis=-1)
     assert d.mean() < 0.05 and d.max() < 1.0, (d.mean(), d.max())
+
+
+def test_six_marker_result_saved_as_amc_reads_back_the_same_motion(tmp_path, truth, result):
+    """The fit's 2-dof feet and hands stay on their ASF dofs: an .amc of the result is the result."""
+    _, out = result
+    path = mocapkit.save(out, tmp_path / "body.amc", asf=samples.path("HDM_bk.asf"), like=False)
+    back = mocapkit.load(path)
+    ang = np.degrees(2 * np.arccos(np.clip(np.abs(np.sum(back.rotations * out.rotations, axis=-1)), 0.0, 1.0)))
+    assert ang.max() < 1e-3, (ang.max(), out.skeleton.joint_names[int(ang.max(axis=0).argmax())])

@@ -379,3 +379,26 @@ def test_bandai_performer_skeleton_in_metres_is_played_back_in_metres(bandai_db,
     assert out.skeleton is metres
     err = np.linalg.norm(out.global_positions() * 100.0 - m.global_positions() * unit_scale_cm(sk), axis=-1)
     assert err[:, 1:].max() < 1.0
+
+
+def test_a_marker_never_seen_is_left_out_with_a_warning(knowledge, truth):
+    """From Python too (the command line says it in a note): a marker NaN in every frame is named, not dropped
+    silently."""
+    take = truth.resample(30)[:30]
+    X = virtual_markers(take, HANDS_FEET)
+    X[:, 1] = np.nan
+    with pytest.warns(UserWarning, match=rf"marker\(s\) on {HANDS_FEET[1]} never seen in any frame"):
+        ssg.framewise(X, HANDS_FEET, knowledge, 30.0, skeleton=take.skeleton)
+
+
+def test_without_a_pelvis_marker_the_body_meets_the_markers_heights(knowledge, truth):
+    """Eq. 4.3 places a subsequence on the ground plane only: markers 30 cm below any database pose's (a floor
+    lower than the database's, or a pose the database lacks played at another height) leave the body floating
+    unless its height is taken from the markers."""
+    take = truth.resample(30)[:60]
+    X = virtual_markers(take, HANDS_FEET)
+    drop = 30.0 / unit_scale_cm(take.skeleton)
+    X[..., 1] -= drop
+    out = ssg.reconstruct(X, HANDS_FEET, knowledge, 30.0, skeleton=take.skeleton)
+    dy = (X - virtual_markers(out, HANDS_FEET))[..., 1] * unit_scale_cm(take.skeleton)
+    assert abs(np.median(dy)) < 3.0, np.median(dy)  # 23 cm before the heights were taken from the markers

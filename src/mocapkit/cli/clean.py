@@ -80,7 +80,7 @@ def clean(
     from ..batch import clean_file
     from ..cleaning.pipeline import STEPS, clean_path
     from ..io import motion_notes
-    from ..io.takes import asf_for_output, asf_of, check_asf, load_motion
+    from ..io.takes import asf_for_output, asf_of, CLI_AMC_NAMES, check_asf, load_motion
     from ..reference import check_reference
 
     if record is not None and decisions is None:
@@ -102,7 +102,7 @@ def clean(
         guard([out, clean_path(out), report, png], [inp, asf, context, reference, decisions, ebf, ebd, joint_map],
               overwrite)
     jm = read_map(joint_map)
-    check_asf(asf, [inp, reference], amc_fps)
+    check_asf(asf, [inp, reference], amc_fps, names=CLI_AMC_NAMES)
     check_noise_deg(noise_deg)
     if _clean_marker_take(inp, out, report=report, png=png, overwrite=overwrite, not_for_markers=not_for_markers,
                           unit=unit, max_gap_s=max_gap, max_error_mm=max_fill_error, decisions=decisions,

@@ -47,12 +47,13 @@ def db_build(
     if not FPS_RANGE[0] <= fps <= FPS_RANGE[1]:  # before any work, naming the option (a database's own range)
         raise MocapError(f"--fps must be a positive number from {FPS_RANGE[0]:g} to {FPS_RANGE[1]:g} (frames per second) "
                          f"for a database, got {fps:g}")
-    check_database_output(out_dir, [*files, *([joint_map] if joint_map is not None else [])], overwrite=overwrite)
+    check_database_output(out_dir, [*files, *([joint_map] if joint_map is not None else [])], overwrite=overwrite,
+                          how="pass --overwrite")
     if asf is not None or amc_fps is not None:
         from ..database import expand_sources
-        from ..io.takes import check_asf
+        from ..io.takes import CLI_AMC_NAMES, check_asf
 
-        check_asf(asf, expand_sources(files), amc_fps)
+        check_asf(asf, expand_sources(files), amc_fps, names=CLI_AMC_NAMES)
     check_executor(executor)
     jm = read_joint_map(joint_map) if joint_map is not None else None
     console.print(f"building from {plural(len(files), 'path')} on {describe_executor(executor)}")
@@ -107,11 +108,11 @@ def search(
 ) -> None:
     """Rank the database segments most similar to QUERY (numerical similarity search)."""
     from ..database import MotionDatabase
-    from ..io.takes import check_asf, load_motion
+    from ..io.takes import CLI_AMC_NAMES, check_asf, load_motion
 
     if k < 1 or neighbors < 1:  # before any work, naming the option
         raise MocapError(f"{'--k' if k < 1 else '--neighbors'} must be a positive integer, got {min(k, neighbors)}")
-    check_asf(asf, [query], amc_fps)
+    check_asf(asf, [query], amc_fps, names=CLI_AMC_NAMES)
     db = MotionDatabase.open(db_dir)
     m = load_motion(query, asf, purpose="a query", fps=amc_fps, unit=unit)
     a = 0 if start is None else int(round(start * m.fps))

@@ -104,12 +104,12 @@ def denoise(
     from ..cleaning.pipeline import capped_lines, noise_fit_frames
     from ..cleaning.whole_take import denoise_take
     from ..cleaning.zeros import find_zeros
-    from ..io.takes import check_asf
+    from ..io.takes import CLI_AMC_NAMES, check_asf
     from ..metrics import joint_angle_rms
     from ..reference import joint_angle_errors
 
     guard([out], [inp, asf, model, reference], overwrite)
-    check_asf(asf, [inp, reference], amc_fps)
+    check_asf(asf, [inp, reference], amc_fps, names=CLI_AMC_NAMES)
     m = _motion_for(inp, out, asf, "denoise", amc_fps, unit)
     if m.num_frames < noise_fit_frames(m.fps):  # as clean skips it: too few frames to tell noise from motion
         raise MocapError(f"{inp}: {plural(m.num_frames, 'frame')} is shorter than the noise criterion's fit "
@@ -170,7 +170,7 @@ def fill(
     from ..cleaning.pipeline import capped_lines
     from ..cleaning.whole_take import fill_take
     from ..cleaning.zeros import as_missing, find_zeros
-    from ..io.takes import check_asf
+    from ..io.takes import CLI_AMC_NAMES, check_asf
     from ..reference import filled_error_deg
 
     import numpy as np
@@ -178,7 +178,7 @@ def fill(
     if by not in deep.FILL_METHODS:
         raise MocapError(f"--by must be one of {', '.join(deep.FILL_METHODS)}, got {by!r}")
     guard([out], [inp, asf, model, denoiser, reference], overwrite)
-    check_asf(asf, [inp, reference], amc_fps)
+    check_asf(asf, [inp, reference], amc_fps, names=CLI_AMC_NAMES)
     m = _motion_for(inp, out, asf, "fill", amc_fps, unit)
     io.check_writable(m, out)
     ref = _reference(reference, m, asf, amc_fps, unit)
@@ -320,9 +320,9 @@ def train(
         raise MocapError(f"train: {exc}") from None
     if asf is not None or amc_fps is not None:
         from ..database import expand_sources
-        from ..io.takes import check_asf
+        from ..io.takes import CLI_AMC_NAMES, check_asf
 
-        check_asf(asf, expand_sources([s for s in sources if not (s / "database.json").is_file()]), amc_fps)
+        check_asf(asf, expand_sources([s for s in sources if not (s / "database.json").is_file()]), amc_fps, names=CLI_AMC_NAMES)
     if unit is not None:
         from ..io.takes import check_unit
 

@@ -28,11 +28,11 @@ def info(
     from ..io.bvh_roots import extra_roots
     from ..io.c3d import MarkerSet
     from ..io.c3d_contents import marker_counts, marker_file_contents
-    from ..io.takes import check_asf, load_take
+    from ..io.takes import CLI_AMC_NAMES, check_asf, load_take
     from ..motion import ROLES, standard_joints, unit_scale_cm
     from ..rigs import rig_family, roles_by_topology
 
-    check_asf(asf, [file], amc_fps)
+    check_asf(asf, [file], amc_fps, names=CLI_AMC_NAMES)
     if not file.exists():  # before the suffix: a missing model or knowledge base is missing, not of unknown kind
         raise MissingFileError(file)
     if _info_of_own_file(file):  # a database, a cleaning record, a detection, a mask or a model: not a take
@@ -126,13 +126,13 @@ def convert(
 ) -> None:
     """Convert IN to OUT: a motion between BVH, AMC and npz (optionally resampled to --fps), markers between C3D, TRC and npz."""
     from .. import io
-    from ..io.takes import check_asf, check_unit, load_take
+    from ..io.takes import CLI_AMC_NAMES, check_asf, check_unit, load_take
     from ..motion import Motion, check_fps
 
     if fps is not None:
         check_fps(fps, "--fps")  # before any work, naming the option
     guard([out], [inp, asf], overwrite)
-    check_asf(asf, [inp], amc_fps)
+    check_asf(asf, [inp], amc_fps, names=CLI_AMC_NAMES)
     check_unit(unit)
     marker_input = inp.suffix.lower() in (".c3d", ".trc")
     if marker_input:
@@ -202,7 +202,7 @@ def corrupt(
     from .. import io
     from ..io.masks import error_record, mask_path_for, write_mask
     from ..io.outputs import removed_on_failure
-    from ..io.takes import check_asf, load_motion
+    from ..io.takes import CLI_AMC_NAMES, check_asf, load_motion
 
     if amount is not None and not (math.isfinite(amount) and amount > 0):  # one rule for every kind, before any work
         raise MocapError(f"--amount must be a finite number greater than 0, got {amount:g}")
@@ -212,7 +212,7 @@ def corrupt(
                                                 "(.c3d, .trc)")
     mask_path = mask_out or mask_path_for(out)
     guard([out, mask_path], [inp, asf], overwrite)
-    check_asf(asf, [inp], amc_fps)
+    check_asf(asf, [inp], amc_fps, names=CLI_AMC_NAMES)
     io.suffix_kind(out, io.WRITERS, "writing")
     m = load_motion(inp, asf, purpose="corrupt", fps=amc_fps, unit=unit)
     io.check_writable(m, out)
@@ -246,13 +246,13 @@ def plot(
 ) -> None:
     """Plot the rotation channels of one joint of two or more takes over time, as a PNG."""
     from ..io.masks import mask_path_for, read_mask
-    from ..io.takes import check_asf, load_motion
+    from ..io.takes import CLI_AMC_NAMES, check_asf, load_motion
     from ..report import plot_channels
 
     implicit = mask_path_for(others[0])
     mask_path = mask if mask is not None else (implicit if implicit.is_file() else None)
     guard([out], [reference, *others, asf, mask_path], overwrite)
-    check_asf(asf, [reference, *others], amc_fps)
+    check_asf(asf, [reference, *others], amc_fps, names=CLI_AMC_NAMES)
     if out.suffix.lower() != ".png":
         raise MocapFormatError(out, "the plot is written as .png")
     motions = [load_motion(p, asf, purpose="plot", fps=amc_fps) for p in (reference, *others)]

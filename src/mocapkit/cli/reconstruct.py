@@ -152,7 +152,7 @@ def reconstruct(
     from .. import io
     from ..database import MotionDatabase
     from ..io.c3d import MarkerSet
-    from ..io.takes import check_asf, load_motion, load_take
+    from ..io.takes import CLI_AMC_NAMES, check_asf, load_motion, load_take
     from ..motion import Motion, unit_scale_cm
     from ..reference import check_reference, global_errors_cm, position_error_cm
 
@@ -173,7 +173,7 @@ def reconstruct(
         except ValueError as e:
             raise MocapError(f"{option}: {e}") from None
     guard([out], [inp, db_dir, skeleton, reference, asf], overwrite)
-    check_asf(asf, [inp, reference], amc_fps)
+    check_asf(asf, [inp, reference], amc_fps, names=CLI_AMC_NAMES)
     io.suffix_kind(out, io.WRITERS, "writing")
     if knowledge is not None:
         from ..reconstruct.accelerometers.knowledge import check_knowledge_base_output
@@ -263,12 +263,15 @@ def reconstruct(
 
     coarse = upsampled_note(fps, db.fps, "the accelerometer readings" if kind == "accelerometers" else "the markers")
     notes, far = ([coarse] if coarse else []), {}
-    if kind == "markers":
+    if kind != "accelerometers":  # markers: a fit's compromise; ssg: database motion that does not follow them
         labels = [a for a, _ in parse_use(spec) if not any(u.startswith(f"{a} (") for u in unseen)]
         far = far_from_markers(result, pos, joints, unit_scale_cm(db.skeletons[0]), labels)
         if far["frames"]:
-            notes.append(f"the fit ends over {far['over_cm']:g} cm further than usual from a seen marker in {plural(far['frames'], 'frame')} of "
-                         f"{result.num_frames} (worst: {far['worst_marker']} {far['worst_cm']:.1f} cm at frame {far['worst_frame']})")
+            runs = ", ".join(f"{a}-{b}" if b > a else f"{a}" for a, b in far["ranges"][:5])
+            more = f" and {len(far['ranges']) - 5} more" if len(far["ranges"]) > 5 else ""
+            notes.append(f"the {'fit' if kind == 'markers' else 'result'} ends over {far['over_cm']:g} cm further than usual "
+                         f"from a seen marker in {plural(far['frames'], 'frame')} of {result.num_frames} "
+                         f"(frames {runs}{more}; worst: {far['worst_marker']} {far['worst_cm']:.1f} cm at frame {far['worst_frame']})")
     if kind != "accelerometers" and unseen:
         notes.append(f"{', '.join(unseen)} never seen in {inp.name}: left out (the other markers carry the fit)")
     if isinstance(source, Motion) and not source.skeleton.is_compatible(result.skeleton):

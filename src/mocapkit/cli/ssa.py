@@ -88,11 +88,11 @@ def detect(
     from ..cleaning.take_context import unread_context
     from ..context import context_label, fit_context
     from ..io.outputs import removed_on_failure
-    from ..io.takes import check_asf, load_motion
+    from ..io.takes import CLI_AMC_NAMES, check_asf, load_motion
 
     guard([out, png], [inp, asf, context, joint_map], overwrite)
     jm = read_map(joint_map)
-    check_asf(asf, [inp], amc_fps)
+    check_asf(asf, [inp], amc_fps, names=CLI_AMC_NAMES)
     if out.suffix.lower() != ".npz":
         raise MocapFormatError(out, "the detection is written as .npz")
     if png is not None and png.suffix.lower() != ".png":
@@ -178,11 +178,11 @@ def repair(
     from ..cleaning.take_context import unread_context
     from ..cleaning.whole_take import check_no_zeros, repair_whole, with_teleports
     from ..context import fit_context
-    from ..io.takes import check_asf, load_motion
+    from ..io.takes import CLI_AMC_NAMES, check_asf, load_motion
 
     guard([out], [inp, asf, context, detection, joint_map], overwrite)
     jm = read_map(joint_map)
-    check_asf(asf, [inp], amc_fps)
+    check_asf(asf, [inp], amc_fps, names=CLI_AMC_NAMES)
     io.suffix_kind(out, io.WRITERS, "writing")
     m = load_motion(inp, asf, purpose="repair", fps=amc_fps, unit=unit)
     io.check_writable(m, out)

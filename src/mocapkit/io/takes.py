@@ -33,41 +33,49 @@ from typing import Iterable
 from ..errors import MissingFileError, MocapFormatError
 
 __all__ = ["load_take", "load_motion", "check_asf", "asf_of", "asf_for_output", "place_asf", "file_first_frame",
-           "with_unit", "check_unit", "UNIT_CHOICES"]
+           "with_unit", "check_unit", "UNIT_CHOICES", "CLI_AMC_NAMES"]
 
 UNIT_CHOICES = ("mm", "cm", "m", "in")
 """The length units ``--unit`` names (millimetres, centimetres, metres, inches)."""
+
+CLI_AMC_NAMES = ("--asf", "--amc-fps")
+"""What the command line calls an AMC's skeleton and frame rate (:func:`check_asf`'s ``names``)."""
 
 
 def _is_amc(path: os.PathLike | str) -> bool:
     return Path(path).suffix.lower() == ".amc"
 
 
-def check_asf(asf: os.PathLike | str | None, inputs: Iterable[os.PathLike | str | None], fps: float | None = None) -> None:
+def check_asf(asf: os.PathLike | str | None, inputs: Iterable[os.PathLike | str | None], fps: float | None = None,
+              *, names: tuple[str, str] = ("asf=", "amc_fps=")) -> None:
     """Refuse an explicit ASF skeleton that no input can use, or that is not a readable ``.asf`` file; and an AMC
-    frame rate (``fps``, the CLI's ``--amc-fps``) when no input is an AMC file or it is no rate mocapkit reads.
+    frame rate (``fps``) when no input is an AMC file or it is no rate mocapkit reads.
 
     ``inputs``: the motion files the skeleton is meant for (``None`` entries
-    ignored). Raises :class:`~mocapkit.errors.MocapFormatError` naming the ASF
+    ignored). ``names``: what the caller calls the skeleton and the rate, said in
+    the refusals: the library's keywords by default, the command line's
+    :data:`CLI_AMC_NAMES` (``--asf``, ``--amc-fps``) from a command. Raises
+    :class:`~mocapkit.errors.MocapFormatError` naming the ASF
     (:class:`~mocapkit.errors.MocapError` for the rate).
     """
+    asf_name, fps_name = names
     inputs = [p for p in inputs if p is not None]
     if fps is not None:
         from ..errors import MocapError
         from ..motion import check_fps
 
-        check_fps(fps, "--amc-fps")
+        check_fps(fps, fps_name.rstrip("="))
         if not any(_is_amc(p) for p in inputs):
-            raise MocapError("--amc-fps is the frame rate of an .amc input, and no input is an .amc file")
+            raise MocapError(f"{fps_name} is the frame rate of an .amc input, and no input is an .amc file")
     if asf is None:
         return
     asf = Path(asf)
     if asf.suffix.lower() != ".asf":
-        raise MocapFormatError(asf, "an ASF skeleton file (.asf) is expected for --asf")
+        raise MocapFormatError(asf, f"an ASF skeleton file (.asf) is expected for {asf_name}")
     if not asf.is_file():
         raise (MocapFormatError(asf, "not a regular file") if asf.exists() else MissingFileError(asf))
     if not any(_is_amc(p) for p in inputs if p is not None):
-        raise MocapFormatError(asf, "--asf is the skeleton of an .amc input, and no input is an .amc file")
+        raise MocapFormatError(asf, f"{asf_name} is the skeleton of an .amc input, and no input is an .amc file")
 
 
 def asf_of(path: os.PathLike | str, asf: os.PathLike | str | None = None) -> Path | None:

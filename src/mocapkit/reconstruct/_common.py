@@ -297,3 +297,38 @@ def onto_pelvis_marker(pelvis: np.ndarray, markers: np.ndarray, joints: list[str
     t = np.arange(len(pelvis))
     d = x[seen] - pelvis[seen]
     return pelvis + np.stack([np.interp(t, t[seen], d[:, c]) for c in range(3)], axis=1)
+
+
+def onto_marker_heights(pelvis: np.ndarray, rotations: np.ndarray, markers: np.ndarray, joints: list[str],
+                        skeleton: Skeleton, fps: float, up: np.ndarray) -> np.ndarray:
+    """The played-back pelvis positions (F, 3) lifted or lowered so that the body's markers meet the given ones'
+    heights, where no pelvis marker is seen (:func:`onto_pelvis_marker` places the pelvis then).
+
+    The alignment of eq. 4.3 turns a subsequence about the vertical and moves it on the ground: its height is the
+    database actor's. Where the database lacks the performer's motion the graph can play motion at another height
+    (a standing T-pose played as hop apexes: the body 30 cm above the floor for seconds). Per frame, the median
+    over the seen markers of ``(marker - body's marker) . up`` says how far; it is interpolated over frames with
+    no marker (held at the ends), smoothed with a Gaussian of 0.25 s (the played motion's own vertical motion
+    is kept, a per-frame median's jitter is not) and added along ``up``. ``rotations`` (F, J_body, 4) and
+    ``pelvis`` are the body's (:func:`body_skeleton` of ``skeleton``, the performer's in the markers' units);
+    ``markers`` (F, M, 3) NaN where unseen, on ``joints``; markers on joints outside the body are not used.
+    """
+    from scipy.ndimage import gaussian_filter1d
+
+    name = skeleton.joint_names[pelvis_index(skeleton)]
+    if any(j == name and np.isfinite(markers[:, m]).all(axis=-1).any() for m, j in enumerate(joints)):
+        return pelvis
+    body = body_skeleton(skeleton)
+    known = set(body.joint_names) | set(body.end_site_names)
+    cols = [m for m, j in enumerate(joints) if j in known]
+    if not cols:
+        return pelvis
+    played = virtual_markers(Motion(body, rotations, pelvis, fps), [joints[m] for m in cols])
+    d = (markers[:, cols] - played) @ up  # (F, M') NaN where unseen
+    seen = np.isfinite(d).any(axis=1)
+    if not seen.any():
+        return pelvis
+    off = np.nanmedian(np.where(seen[:, None], d, 0.0), axis=1)
+    t = np.arange(len(pelvis))
+    off = gaussian_filter1d(np.interp(t, t[seen], off[seen]), 0.25 * fps, mode="nearest")
+    return pelvis + off[:, None] * up

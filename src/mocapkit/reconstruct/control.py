@@ -24,7 +24,7 @@ from ..features import parse_up_axis, detect_up_axis, virtual_markers
 from ..io.c3d import MarkerSet
 from ..motion import Motion, Skeleton, unit_scale_cm
 
-__all__ = ["parse_use", "up_rotation", "control_markers", "far_from_markers", "FAR_CM", "upsampled_note"]
+__all__ = ["parse_use", "up_rotation", "control_markers", "marker_residuals", "far_from_markers", "FAR_CM", "upsampled_note", "warn_unseen"]
 
 #: a markers fit that ends this far (cm) further from a seen marker than its usual distance has not passed through it
 FAR_CM = 10.0
@@ -150,20 +150,40 @@ def control_markers(
     return pos @ P.T, joints, float(source.fps)
 
 
+def marker_residuals(motion: Motion, markers: np.ndarray, joints: Sequence[str]) -> np.ndarray:
+    """Distances (F, M) in cm between a motion's markers and the given ones (NaN where a marker is missing).
+
+    How closely a reconstruction passes through the markers the user gave, per frame: the fit residual of
+    :func:`~mocapkit.reconstruct.markers.reconstruct`, and for :func:`~mocapkit.reconstruct.ssg.reconstruct`
+    (which plays back database motion and fits no marker) the check that the result follows them at all.
+    ``motion``: the result; ``markers`` (F, M, 3) in its skeleton's units and frame; ``joints`` (M) the joints
+    or end sites they sit on.
+    """
+    p = virtual_markers(motion, list(joints))
+    x = np.asarray(markers, dtype=np.float64)
+    if x.shape != p.shape:
+        raise ValueError(f"markers: expected shape {p.shape}, got {x.shape}")
+    return np.linalg.norm(p - x, axis=-1) * unit_scale_cm(motion.skeleton)
+
+
 def far_from_markers(result: Motion, pos, joints: Sequence[str], pos_unit_cm: float, labels: Sequence[str],
                      over_cm: float = FAR_CM) -> dict:
-    """Where a markers fit ends over ``over_cm`` further from a seen marker than usual: frames, the worst marker
+    """Where a reconstruction ends over ``over_cm`` further from a seen marker than usual: frames, the worst marker
     and frame.
 
-    The fit is a least-squares compromise with a pose prior, a smoothness and a joint-range term, and in single
-    frames it can end tens of centimetres from a marker (a hand missed when the local model cannot reach it).
+    The markers fit is a least-squares compromise with a pose prior, a smoothness and a joint-range term, and in
+    single frames it can end tens of centimetres from a marker (a hand missed when the local model cannot reach
+    it). The subsequence graph plays database motion back and fits no marker: where the database lacks the
+    performer's motion it follows other motion for seconds (a standing T-pose played as hop apexes, the body
+    30 cm above the floor).
     ``pos`` (F, M, 3): the markers as the fit saw them, in units of ``pos_unit_cm`` centimetres (the database's)
     and its frame, NaN where unseen; ``joints`` (M): the joint each sits on; ``labels`` (M): the markers' names.
     The result's markers are taken on its own skeleton, in its unit. A skin marker sits centimetres off its joint
     (LFHD on the forehead, not the head joint), so its usual distance, the median over the take, is no miss.
 
     Returns ``{"over_cm", "frames"}`` (frames with any marker over), and where there are some ``"worst_marker"``
-    (``"LABEL (joint)"``), ``"worst_cm"`` (beyond the marker's median distance) and ``"worst_frame"``.
+    (``"LABEL (joint)"``), ``"worst_cm"`` (beyond the marker's median distance), ``"worst_frame"`` and
+    ``"ranges"``: the runs of such frames, ``[first, last]`` each (0-based, inclusive), in order.
     """
     fitted = virtual_markers(result, list(joints)) * unit_scale_cm(result.skeleton)
     d = np.linalg.norm(fitted - np.asarray(pos) * pos_unit_cm, axis=-1)  # (F, M) cm, NaN unseen
@@ -172,8 +192,29 @@ def far_from_markers(result: Motion, pos, joints: Sequence[str], pos_unit_cm: fl
     if not over.any():
         return {"over_cm": over_cm, "frames": 0}
     f, m = np.unravel_index(int(np.nanargmax(np.where(over, d, -1.0))), d.shape)
+    bad = np.concatenate([[False], over.any(axis=1), [False]]).astype(np.int8)
+    edges = np.flatnonzero(np.diff(bad))
+    ranges = [[int(a), int(b) - 1] for a, b in zip(edges[::2], edges[1::2])]
     return {"over_cm": over_cm, "frames": int(over.any(axis=1).sum()), "worst_marker": f"{labels[m]} ({joints[m]})",
-            "worst_cm": round(float(d[f, m]), 2), "worst_frame": int(f)}
+            "worst_cm": round(float(d[f, m]), 2), "worst_frame": int(f), "ranges": ranges}
+
+
+def warn_unseen(markers, joints: Sequence[str], stacklevel: int = 2) -> list[str]:
+    """Warn (``UserWarning``) naming the markers (F, M, 3) NaN in every frame, and return their joints.
+
+    Such a marker says nothing and the fit goes on without it, carried by the others; counted as used it would
+    claim a fit that was not made, and a mislabelled marker shows up here. The command line says the same in a
+    note (and leaves the marker out before the reconstruction, so this stays silent there). ``stacklevel``: as
+    :func:`warnings.warn`'s, counted from the caller of this function (2: its caller's caller).
+    """
+    import warnings
+
+    seen = np.isfinite(np.asarray(markers, dtype=np.float64)).all(axis=-1).any(axis=0)
+    unseen = [str(j) for j, ok in zip(joints, seen) if not ok]
+    if unseen and seen.any():
+        warnings.warn(f"marker(s) on {', '.join(unseen)} never seen in any frame: left out (the other markers "
+                      "carry the fit)", UserWarning, stacklevel=stacklevel + 1)
+    return unseen
 
 
 def upsampled_note(fps: float, db_fps: float, what: str = "the control signals") -> str:

@@ -132,6 +132,8 @@ from ..search.knn import KNNIndex
 from ..rigs import pelvis_index, roles
 from ._common import (align_about_vertical, database_up, body_joints, body_motion, body_skeleton, in_database_units, in_units_of,
                       output_skeleton, per_clip, whole_motion)
+from .control import marker_residuals, warn_unseen
+from .dofs import on_joint_dofs
 
 __all__ = ["reconstruct", "nearest_neighbor", "marker_residuals", "default_neighbours", "search_weights"]
 
@@ -581,19 +583,6 @@ class _Problem:
         return ((res[1:] - res[0]) / _STEP).T
 
 
-def marker_residuals(motion: Motion, markers: np.ndarray, joints: Sequence[str]) -> np.ndarray:
-    """Distances (F, M) in cm between a motion's markers and the given ones (NaN where a marker is missing).
-
-    The fit residual of :func:`reconstruct`: how closely the reconstruction
-    passes through the markers the user gave.
-    """
-    p = virtual_markers(motion, list(joints))
-    x = np.asarray(markers, dtype=np.float64)
-    if x.shape != p.shape:
-        raise ValueError(f"markers: expected shape {p.shape}, got {x.shape}")
-    return np.linalg.norm(p - x, axis=-1) * unit_scale_cm(motion.skeleton)
-
-
 # -- the reconstruction --------------------------------------------------------------------------
 
 
@@ -642,6 +631,7 @@ def _solve(
     progress: bool,
 ) -> Motion:
     x, joints = _check(markers, joints, db, fps)
+    warn_unseen(x, joints, stacklevel=4)  # _solve <- _run <- reconstruct <- the user's call
     if k is None:
         k = default_neighbours(db.num_frames)
     if int(k) != k or k < 1:
@@ -802,7 +792,7 @@ def _solve(
     out = in_units_of(out, given, back)
     if run_fps != fps:
         out = out.resample(fps)[:F_in]
-    return out
+    return on_joint_dofs(out)
 
 
 def reconstruct(

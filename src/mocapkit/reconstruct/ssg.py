@@ -64,7 +64,9 @@ from ..database import MotionDatabase
 from ..motion import Motion, Skeleton
 from ..search.dtw import subsequence_dtw
 from ._common import (align_about_vertical, body_skeleton, database_bodies, database_positions, in_database_units, in_units_of,
-                      onto_pelvis_marker, output_skeleton, per_clip, whole_motion)
+                      onto_marker_heights, onto_pelvis_marker, output_skeleton, per_clip, whole_motion)
+from .control import warn_unseen
+from .dofs import on_joint_dofs
 
 __all__ = [
     "Alignment",
@@ -903,6 +905,7 @@ def reconstruct(
         two frames, bad parameters, or a database with no usable subsequence.
     """
     X, names, fps = _check_input(markers, joints, db, fps)
+    warn_unseen(X, names)
     for name, v in (("window", window), ("overlap", overlap), ("cost_window", cost_window)):
         if not np.isfinite(v) or v < 0:
             raise ValueError(f"{name}: expected a non-negative number of seconds, got {v!r}")
@@ -918,10 +921,11 @@ def reconstruct(
     path = shortest_path(graph, transition_weight)
     rot, root = _synthesise(db, database_bodies(db), graph, path)
     root = onto_pelvis_marker(root, Xd, names, db.skeletons[0])
+    root = onto_marker_heights(root, rot, Xd, names, out_sk, db.fps, _UP)
     out = in_units_of(whole_motion(Motion(body_skeleton(out_sk), rot, root, db.fps, name="ssg reconstruction"), out_sk, _UP), given, back)
     if fps != db.fps:
         out = out.resample(fps)[: X.shape[0]]
-    return out
+    return on_joint_dofs(out)
 
 
 def framewise(markers, joints, db: MotionDatabase, fps: float, *, cost_window: float = 0.25, skeleton: Skeleton | None = None) -> Motion:
@@ -936,6 +940,7 @@ def framewise(markers, joints, db: MotionDatabase, fps: float, *, cost_window: f
     output as :func:`reconstruct`.
     """
     X, names, fps = _check_input(markers, joints, db, fps)
+    warn_unseen(X, names)
     given = output_skeleton(db, skeleton)
     out_sk, back = in_database_units(db, given)  # the markers are in the database's unit: so is the playback
     Xd = np.array(_resample_markers(X, fps, db.fps))  # a copy: filled in place below
@@ -960,4 +965,4 @@ def framewise(markers, joints, db: MotionDatabase, fps: float, *, cost_window: f
     out = in_units_of(whole_motion(Motion(body_skeleton(out_sk), rot, root, db.fps, name="framewise nearest pose"), out_sk, _UP), given, back)
     if fps != db.fps:
         out = out.resample(fps)[: X.shape[0]]
-    return out
+    return on_joint_dofs(out)

@@ -282,11 +282,25 @@ def _root_quaternion(skeleton: Skeleton, rows: np.ndarray, root_cols: np.ndarray
 
 def denoise_rows(skeleton: Skeleton, rows: np.ndarray, fps: float, model=None) -> np.ndarray:
     """Offline EBF on file-channel rows (F, C_file), the batch counterpart of :class:`Denoiser`: the network's own
-    filter widths (no calibration, which needs the block ahead), so the same numbers as streaming."""
+    filter widths (no calibration, which needs the block ahead), so the same numbers as streaming.
+
+    ``skeleton``: a :class:`~mocapkit.motion.Skeleton` (``motion.skeleton``); ``rows``: numbers (F, C_file) in the
+    skeleton's file-channel layout (``motion.channel_values()``), degrees; ``fps``: their frame rate. Anything
+    else is refused at the entry with a ``TypeError`` naming what was given (a Motion for either, most often).
+    """
+    if not isinstance(skeleton, Skeleton):
+        raise TypeError(f"denoise_rows: skeleton must be a Skeleton (motion.skeleton), got {type(skeleton).__name__}")
+    try:
+        arr = np.asarray(rows, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise TypeError(f"denoise_rows: rows must be an array (F, C) of file-channel values "
+                        f"(motion.channel_values()), got {type(rows).__name__}") from None
+    if arr.ndim != 2:
+        raise ValueError(f"denoise_rows: rows must be 2-D (F, C) file-channel values, got shape {arr.shape}")
     m = model_of_kind(model, "ebf", skeleton)
     warn_licence(m, {"ebf": "model="})
     m.layout.check(skeleton, "skeleton")
-    rows = np.asarray(rows, dtype=np.float64)
+    rows = arr
     cols = euler_columns(skeleton)
     x = unwrap_degrees(rows[:, cols])
     q = _root_quaternion(skeleton, rows, _root_rotation_columns(skeleton))

@@ -106,6 +106,7 @@ from ...features import find_up_axis
 from ...motion import Motion, Skeleton, readonly_view, unit_scale_cm
 from ...search.lng import OnlineLazyNeighborhoodGraph
 from .._common import body_skeleton, output_skeleton, whole_motion
+from ..dofs import on_joint_dofs
 from .kernels import FrameEnergy, Rig, minimise
 from .knowledge import clip_starts, knowledge_base
 
@@ -418,6 +419,7 @@ class AccelerometerReconstructor:
         h = R.quaternion_from_axis_angle(up, self._heading)
         q[0] = R.quaternion_multiply(h, q[0])
         root = (self._ground + height * up) / self.rig.scale
+        q = on_joint_dofs(Motion(self.body, q[None], root[None], self.db_fps)).rotations[0]  # the skeleton's dofs
         return Pose(readonly_view(q), readonly_view(root))
 
     # -- input ------------------------------------------------------------------------------
@@ -575,17 +577,18 @@ def motion_of_poses(poses: list[Pose], skeleton: Skeleton, fps: float, name: str
     Poses of the body of a rig whose pelvis is not the root are put back on
     the whole skeleton (:func:`~mocapkit.reconstruct._common.whole_motion`),
     the root on the ground plane orthogonal to ``up`` (found from the poses
-    when None).
+    when None). Each joint is turned only about its skeleton's rotation dofs
+    (:func:`~mocapkit.reconstruct.dofs.on_joint_dofs`: what an AMC keeps).
     """
     body = body_skeleton(skeleton)
     if not poses:
         return Motion(skeleton, np.zeros((0, skeleton.num_joints, 4)), np.zeros((0, 3)), fps, name)
     m = Motion(body, np.stack([p.rotations for p in poses]), np.stack([p.root_position for p in poses]), fps, name)
     if body is skeleton:
-        return m
+        return on_joint_dofs(m)
     if up is None:
         up = find_up_axis(body, m.global_positions())
-    return whole_motion(m, skeleton, np.asarray(up, dtype=np.float64))
+    return on_joint_dofs(whole_motion(m, skeleton, np.asarray(up, dtype=np.float64)))
 
 
 def reconstruct(readings, db: MotionDatabase, fps: float, sensors=None, *, skeleton: Skeleton | None = None,
@@ -680,4 +683,4 @@ def reconstruct_nearest_neighbor(readings, db: MotionDatabase, fps: float, senso
         q = R.rotvec_to_quaternion(p.reshape(J, 3))
         q[0] = R.quaternion_multiply(R.quaternion_from_axis_angle(up, heading), q[0])
         rot[k], root[k] = q, (ground + height * up) / scale
-    return whole_motion(Motion(sk, rot[held], root[held], fps, "nearest neighbour"), whole, up)
+    return on_joint_dofs(whole_motion(Motion(sk, rot[held], root[held], fps, "nearest neighbour"), whole, up))
