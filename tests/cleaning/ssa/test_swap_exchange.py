@@ -17,7 +17,6 @@ from mocapkit.cleaning import ssa
 from mocapkit.cleaning.ssa.cues import mirrored_rotations
 from mocapkit.cleaning.ssa.swap_exchange import swap_exchanges
 from mocapkit.cleaning.whole_take import detect_take
-from mocapkit.motion import mirror_pairs
 
 A, B = 146, 217  # the swapped frames a .. b - 1
 
