@@ -12,7 +12,9 @@ The package, by step of the method:
   repeats the motion;
 - :mod:`~mocapkit.cleaning.ssa.detect`: the movement digression map and the flags;
 - :mod:`~mocapkit.cleaning.ssa.repair`: the flagged cells replaced by their neighbour words;
-- :mod:`~mocapkit.cleaning.ssa.undo`: a transient offset's offset taken away instead.
+- :mod:`~mocapkit.cleaning.ssa.undo`: a transient offset's offset taken away instead;
+- :mod:`~mocapkit.cleaning.ssa.swap_exchange`: a side swap exchanged back with mirrored rotations instead;
+- :mod:`~mocapkit.cleaning.ssa.freeze_bounds`: a frozen channel's flags bounded to its frozen frames.
 
 A clip's joint rotations over time form a *motion texture* (section 3.1):
 resampled to the analysis rate (24 fps), one row per joint, the root's heading removed so global

@@ -15,6 +15,7 @@ import numpy as np
 from ... import rotations as R
 from ...motion import Motion
 from ..ik import contact_segments, segment_frames
+from .freeze_bounds import bounded_breaks
 from .params import SSAParams
 from .step_pairs import UNDO_RATIO, is_step, offset_step_breaks, returns, steps_back
 
@@ -737,7 +738,8 @@ def flag_causes(mdm, jumps, holds, swaps, offsets, threshold: float, fps: float,
     has both bits, so a report can say why each change was made. ``reversed_`` (F, J) bool or None: the swap
     cells whose run plays better backwards (:func:`~mocapkit.cleaning.ssa.reversals.reversed_runs`), named
     ``reversed`` instead of ``swap`` (the same cells flagged). ``frozen`` (F, J) bool or None: the frozen
-    channels (:func:`~mocapkit.cleaning.ssa.freezes.frozen_channels`), judged or not.
+    channels (:func:`~mocapkit.cleaning.ssa.freezes.frozen_channels`), judged or not: the break that ends one
+    confirms its frozen cells only (:func:`~mocapkit.cleaning.ssa.freeze_bounds.bounded_breaks`).
     """
     bit = {name: CAUSE_DTYPE(1 << i) for i, (name, _) in enumerate(CAUSES)}
     mdm = np.asarray(mdm)
@@ -749,7 +751,8 @@ def flag_causes(mdm, jumps, holds, swaps, offsets, threshold: float, fps: float,
     swaps = np.asarray(swaps, dtype=bool)
     breaks = breaks & ~offset_step_breaks(breaks, np.asarray(offsets, dtype=bool) & ~swaps)  # confirm nothing beside
     back = np.zeros_like(swaps) if reversed_ is None else swaps & np.asarray(reversed_, dtype=bool)
-    rules = [("break", confirm_flags(mdm, breaks, threshold, fps, margin_s, spikes=spikes)), ("held", holds),
+    confirmed = bounded_breaks(lambda b: confirm_flags(mdm, b, threshold, fps, margin_s, spikes=spikes), breaks, frozen)
+    rules = [("break", confirmed), ("held", holds),
              ("swap", swaps & ~back), ("reversed", back), ("offset", offsets)] + ([] if drifts is None else [("drift", drifts)]) + (
                  [] if lone is None else [("spike", lone)]) + ([] if frozen is None else [("frozen", frozen)])
     for name, cells in rules:

@@ -41,6 +41,7 @@ from .drifts import body_agreement, not_looked_for, offset_change, smooth_drift_
 from .neighbours import Neighbors, flagged_words, mean_motion_texture, nearest_words, unseen_words
 from .params import SSAParams
 from .repeats import analysed_once, expand, inbetween_runs, kept_frames, repeat_runs, without_repeats
+from .freeze_bounds import bounded_holds
 from .freezes import frozen_channels
 from .reversals import reversed_runs
 from .still_positions import position_kept_breaks
@@ -99,7 +100,8 @@ class Detection:
     (:func:`confirm_flags`), with ``holds``, ``swaps`` and ``offsets``; or ``mdm >
     threshold`` alone when the detection was made with ``confirm=False``; jumps : bool (F, J) the analysed joints'
     :func:`discontinuities` over their own motion's level (less the turns their chain undoes, :func:`~mocapkit.cleaning.ssa.cues.uncompensated_breaks`, and at 24-30 fps the breaks their speed beside them explains, :func:`~mocapkit.cleaning.ssa.cues.motion_explained`); holds, swaps, offsets : bool (F, J) their
-    :func:`held_joints`, :func:`side_swaps` and :func:`transient_offsets`
+    :func:`held_joints` (a hold that holds a frozen channel cut to its frozen cells,
+    :func:`~mocapkit.cleaning.ssa.freeze_bounds.bounded_holds`), :func:`side_swaps` and :func:`transient_offsets`
     (flagged with confirmation at any threshold); agreement : float (F, J)
     the median angle in radians of the other analysed joints from the mean
     texture (:func:`body_agreement`), consistency : float (F, J) the joint's
@@ -689,6 +691,7 @@ def detect_prepared(an: Analysis, threshold: float = 0.5, *, progress: bool = Fa
                         min_frames=hold_min_frames(motion.fps, p.analysis_fps)) & analysed[None, :]
     # a channel repeated bit for bit while the body moves, ending in a break, needs no similar motion to judge it
     frozen = frozen_channels(q, own, analysed, motion.fps)
+    holds = bounded_holds(holds, frozen)  # a hold that holds a freeze: its repeats, not the sample it froze at
     swaps = swaps_from_residuals(resid, sk.joint_names, motion.fps, p.swap_jump_deg, p.swap_max_s, analysed,
                                  rotations=q, mirrored=mirrored_rotations(motion))
     offsets = offsets_from_residuals(

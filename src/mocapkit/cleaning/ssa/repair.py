@@ -5,7 +5,8 @@ median of the KNN, an actual motion, as the paper requires) on the word's
 flagged joints, blended into the untouched motion with a quadratic
 Savitzky-Golay filter; every unflagged value stays bit-identical. A transient
 offset's cells keep the joint's own motion, its offset taken away
-(:mod:`~mocapkit.cleaning.ssa.undo`).
+(:mod:`~mocapkit.cleaning.ssa.undo`); a left/right swap's cells take back their
+partner's mirrored rotations (:mod:`~mocapkit.cleaning.ssa.swap_exchange`).
 """
 
 from __future__ import annotations
@@ -18,14 +19,16 @@ from scipy.signal import savgol_filter
 
 from ... import rotations as R
 from ...errors import SkeletonError
-from ...motion import Motion, find_joint
+from ...motion import Motion, find_joint, mirror_pairs
 from ..filters import window_frames
 from ..ik import contact_segments, segment_frames
+from .cues import mirrored_rotations
 from .detect import Detection
 from .neighbours import dropped_terms, near_neighbors, neighbor_words
 from .repeats import blend_inbetweens, expand, frame_index, kept_frames, repeat_runs, without_repeats
 from .texture import Analysis, align_hemisphere, frame_words, prepare
 from .guard import LeftRun, guard_joint
+from .swap_exchange import swap_exchanges
 from .undo import undone_offsets
 
 __all__ = ["Contact", "repair", "repair_with_left"]
@@ -185,7 +188,9 @@ def repair_with_left(
     (:attr:`Detection.offsets`, not a side swap's) are not replaced: the
     offset measured at its two steps is taken away
     (:func:`~mocapkit.cleaning.ssa.undo.undone_offsets`), and the other
-    runs blend into the track so mended. Every unflagged value is bit-identical to the input, except, with
+    runs blend into the track so mended. Likewise the cells of a side swap (not a time-reversed stretch)
+    that the mirrored exchange joins to the take are exchanged back, each joint taking its partner's mirrored
+    rotation (:func:`~mocapkit.cleaning.ssa.swap_exchange.swap_exchanges`), not replaced. Every unflagged value is bit-identical to the input, except, with
     ``foot_skate``, the hip and knee of a leg whose joints were replaced in a
     frame where its foot is planted (foot-skate cleanup, see
     :func:`mocapkit.cleaning.ik.foot_skate_cleanup`). ``contacts`` (list of
@@ -243,12 +248,21 @@ def repair_with_left(
     placed = np.zeros(flags.shape, dtype=bool)  # the flagged cells a neighbour word was written into
     heading = R.quaternion_twist(motion.rotations[:, 0], up)
     # a transient offset's own motion is kept: its offset is taken away, not replaced by a neighbour word (a side
-    # swap's joint took its partner's pose, no offset of its own: the neighbour words repair it)
+    # swap's joint took its partner's pose, no offset of its own: it is exchanged back below)
     base = np.array(motion.rotations)
     undone = np.zeros(flags.shape, dtype=bool)
     offsets = flags & np.asarray(detection.offsets, dtype=bool) & ~np.asarray(detection.swaps, dtype=bool)
     for j in np.flatnonzero(offsets.any(axis=0)):
         base[:, j], undone[:, j] = undone_offsets(motion.rotations[:, j], offsets[:, j])
+    # a swap detection confirmed by the mirrored exchange is put back by that exchange (swap_exchange.py)
+    swapped = flags & np.asarray(detection.swaps, dtype=bool) & ~undone
+    if detection.reversals is not None:
+        swapped &= ~np.asarray(detection.reversals, dtype=bool)
+    if swapped.any():
+        values, exchanged = swap_exchanges(motion.rotations, mirrored_rotations(motion), swapped,
+                                           mirror_pairs(motion.skeleton.joint_names))
+        base[exchanged] = values[exchanged]
+        undone |= exchanged
     flagged_frames_by_word: dict[tuple[int, int], list] = {}
     fi, ji = np.nonzero(flags & ~undone)
     for f, j in zip(fi, ji):

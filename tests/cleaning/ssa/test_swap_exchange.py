@@ -1,0 +1,57 @@
+"""A confirmed left/right swap put back by the mirrored exchange (mocapkit.cleaning.ssa.swap_exchange).
+
+The real take is PyMO's AV_8Walk_Meredith (HumanIK rig, inches, a peer file in the shared data): its arms are
+swapped over frames 146-216 as a labelling error swaps them, each arm taking its partner's mirrored rotation.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import pytest
+
+import mocapkit
+from mocapkit import rotations as R
+from mocapkit.cleaning import ssa
+from mocapkit.cleaning.ssa.cues import mirrored_rotations
+from mocapkit.cleaning.ssa.swap_exchange import swap_exchanges
+from mocapkit.cleaning.whole_take import detect_take
+
+A, B = 146, 217  # the swapped frames a .. b - 1
+
+
+@pytest.fixture(scope="module")
+def swapped_take(shared_data):
+    take = mocapkit.load(shared_data / "peer_files" / "omimo+PyMO" / "demos" / "data" / "AV_8Walk_Meredith_HVHA_Rep1.bvh")
+    names = take.skeleton.joint_names
+    arms = [names.index("LeftArm"), names.index("RightArm")]
+    q = np.array(take.rotations)
+    q[A:B, arms] = mirrored_rotations(take)[A:B, arms]
+    return take, dataclasses.replace(take, rotations=q), arms
+
+
+def test_a_detected_arm_swap_is_put_back_bit_for_bit(swapped_take):
+    take, m, arms = swapped_take
+    det = detect_take(m).detection
+    assert det.swaps[A:B, arms].all()
+    fixed = ssa.repair(m, det, foot_skate=False)
+    assert np.array_equal(fixed.rotations[A:B, arms], take.rotations[A:B, arms])
+
+
+def test_the_exchange_is_made_only_where_it_joins_the_take():
+    F, t = 40, np.linspace(0.0, 1.0, 40)
+    q = np.zeros((F, 2, 4))
+    q[:, 0] = R.quaternion_from_axis_angle(np.array([1.0, 0.0, 0.0]), 0.5 * t)  # two slow, different tracks
+    q[:, 1] = R.quaternion_from_axis_angle(np.array([0.0, 1.0, 0.0]), -0.5 * t)
+    mirrored = q[:, ::-1].copy()  # a stand-in mirror: each side takes the other's rotation
+    swapped = q.copy()
+    swapped[10:20] = mirrored[10:20]
+    cells = np.zeros((F, 2), dtype=bool)
+    cells[10:20] = True
+    values, done = swap_exchanges(swapped, swapped[:, ::-1], cells, [1, 0])
+    assert np.array_equal(done, cells) and np.array_equal(values, q)
+    # the same run on the unswapped take: exchanging would break the track at both ends, so nothing is done
+    values, done = swap_exchanges(q, mirrored, cells, [1, 0])
+    assert not done.any() and np.array_equal(values, q)
+    assert not swap_exchanges(swapped, None, cells, [1, 0])[1].any()
