@@ -86,7 +86,8 @@ __all__ = ["clean_file", "clean_marker_file", "clean_request", "marker_request",
 
 DEFAULT_PATTERNS = ("*.bvh", "*.amc", "*.npz", "*.c3d", "*.trc")
 #: How a refusal names an option to its caller: Python's keywords, or (``flags``) the command line's flags.
-SAID = {False: {"overwrite": "overwrite=True", "asf": "asf="}, True: {"overwrite": "--overwrite", "asf": "--asf"}}
+SAID = {False: {"overwrite": "overwrite=True", "asf": "asf=", "amc_fps": "amc_fps="},
+        True: {"overwrite": "--overwrite", "asf": "--asf", "amc_fps": "--amc-fps"}}
 
 
 
@@ -201,7 +202,7 @@ def clean_file(
     given = [Path(m) for m in (models or {}).values() if isinstance(m, (str, Path))]
     check_outputs(outputs, [inp, asf, decisions, record if reuse else None, *(context or []), *given],
                   overwrite=overwrite, how=f"pass {SAID[flags]['overwrite']}")
-    check_asf(asf, [inp], amc_fps)
+    check_asf(asf, [inp], amc_fps, names=(SAID[flags]['asf'], SAID[flags]['amc_fps']))
     if motion is None and inp.suffix.lower() == ".npz" and isinstance(take := load_take(inp, unit=unit), MarkerSet):
         refuse_marker_options(inp, not_for_markers)
         return clean_marker_file(inp, out, markers=take, **as_markers)
@@ -744,7 +745,7 @@ def clean_batch(
     if asf is not None or amc_fps is not None or unit is not None:
         from .io.takes import check_asf, check_unit
 
-        check_asf(asf, inputs, amc_fps)
+        check_asf(asf, inputs, amc_fps, names=(SAID[flags]['asf'], SAID[flags]['amc_fps']))
         check_unit(unit)
     plans, renamed = _plan(inputs, in_dir, out_dir, fmt, report, png)
     summary = BatchSummary(executor=describe_executor(executor), renamed=[str(p) for p in renamed],

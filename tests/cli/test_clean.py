@@ -717,3 +717,14 @@ def test_clean_and_detect_take_a_joint_map_for_a_context_of_a_rig_whose_names_sa
     assert np.array_equal(mocapkit.load(out).rotations, mocapkit.load(take).rotations)  # a clean take untouched
     code, _, err = helpers.run("detect", str(take), "-o", str(tmp_path / "d.npz"), "--context", str(folder), "--joint-map", str(jm))
     assert code == 0, err
+
+
+def test_clean_batch_refuses_an_amc_rate_for_bvh_takes_naming_the_flag(tmp_path):
+    """--amc-fps with no .amc among the batch's takes: one line naming the flag the user typed (not the library's
+    keyword), exit 2, nothing written."""
+    src = tmp_path / "in"
+    src.mkdir()
+    (src / "131_01.bvh").write_bytes(samples.path("131_01.bvh").read_bytes())
+    code, out, err = helpers.run("clean-batch", src, tmp_path / "out", "--amc-fps", "60")
+    assert code == 2 and "--amc-fps" in err and "amc_fps=" not in err, err
+    assert not (tmp_path / "out").exists()
