@@ -897,7 +897,8 @@ def clean(
             notes.extend(capped_lines(done.left, "runs left"))
             note = "; ".join(x for x in (note, f"{_count(len(done.left), 'run')} left: repair not better than the take") if x)
         records.append(StepRecord("repair", time.perf_counter() - t, int(repaired.sum()),
-                                  "medoid of the nearest motion words" + (" + foot-skate cleanup" if foot_skate else ""), note))
+                                  "medoid of the nearest motion words (transient offsets taken away, confirmed left/right swaps exchanged "
+                                  "back)" + (" + foot-skate cleanup" if foot_skate else ""), note))
 
     if "denoise" in steps:
         t = time.perf_counter()
