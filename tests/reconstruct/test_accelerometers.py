@@ -599,3 +599,16 @@ def test_smoothing_is_a_causal_exponential_filter_of_the_pose_vectors(db, readin
         np.testing.assert_allclose(smooth._p, expect, atol=1e-12)
     with pytest.raises(ValueError, match="smoothing"):
         A.check_params({"smoothing": 1.0})
+
+
+def test_cache_dir_is_written_when_the_knowledge_base_is_already_in_memory(db, readings, tmp_path):
+    """A knowledge base this process holds (from a reconstruct) is still saved to the cache_dir asked for, then opened from it."""
+    A.clear_cache(db)
+    A.reconstruct(readings[:10], db, 25)  # builds and keeps it in memory
+    kb = A.knowledge_base(db, cache_dir=tmp_path / "kb")
+    assert (tmp_path / "kb" / "knowledge.json").is_file()
+    assert kb is A.knowledge_base(db)  # the one in memory, not built again
+    back = A.knowledge_base(db, cache_dir=tmp_path / "kb")
+    assert back.path == tmp_path / "kb"
+    np.testing.assert_array_equal(np.asarray(back.readings), kb.readings)
+    A.clear_cache(db)
