@@ -365,3 +365,34 @@ def test_build_refuses_an_amc_skeleton_or_rate_when_no_source_is_an_amc():
         MotionDatabase.build([bvh], fps=30, amc_fps=60, executor="serial", progress=False)
     with pytest.raises(mocapkit.MocapError, match=r"asf= is the skeleton of an \.amc input"):
         MotionDatabase.build([bvh], fps=30, asf=mocapkit.samples.path("HDM_bd.asf"), executor="serial", progress=False)
+
+
+def test_excluding_a_clip_excludes_its_mirror_too(small_db):
+    """Leave-one-out: the query's own mirror image is no match (it ranked second with exclude=clip_range)."""
+    query = small_db.clip(SNEAK_4)[5:35]
+    own = {SNEAK_4, SNEAK_4 + " (mirrored)"}
+    for method in ("lng", "dtw"):
+        res = small_db.search(query, k=3, exclude=small_db.clip_range(SNEAK_4), method=method)
+        assert res and not own & {r.name for r in res}, method
+        kept = small_db.search(query, k=3, exclude=small_db.clip_range(SNEAK_4), method=method, exclude_mirrors=False)
+        assert SNEAK_4 + " (mirrored)" in {r.name for r in kept}, method
+    mask = small_db.excluded_frames(small_db.clip_range(SNEAK_4))
+    a, b = small_db.clip_range(SNEAK_4 + " (mirrored)")
+    assert mask[a:b].all() and mask.sum() == 2 * (b - a)
+    assert small_db.excluded_frames(None) is None
+
+
+def test_fewer_matches_than_k_come_with_a_warning_that_says_why():
+    """A CMU walk in a database of HDM05 sneaks: no segment of a plausible speed for the default LNG; it says so."""
+    db = MotionDatabase.build([samples.path(n) for n in (SNEAK_4 + ".amc", SNEAK_5 + ".amc")], fps=30,
+                              executor="serial", progress=False)
+    walk = mocapkit.load(samples.path("12_walk.amc"))
+    for method in ("lng", "dtw"):
+        with pytest.warns(UserWarning, match=r"of the 5 matches asked for: .*max_warp") as rec:
+            res = db.search(walk, k=5, method=method)
+        assert len(res) < 5 and str(len(res)) in str(rec[0].message)
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # k reached: no warning
+        assert len(db.search(db.clip(SNEAK_4)[5:35], k=1)) == 1

@@ -30,6 +30,7 @@ from __future__ import annotations
 import dataclasses
 import json
 import os
+import warnings
 from dataclasses import dataclass
 from functools import partial
 from pathlib import Path
@@ -457,6 +458,27 @@ class MotionDatabase:
         info = self.clips[self.clip_number(clip)]
         return info.start, info.stop
 
+    def excluded_frames(self, exclude, mirrors: bool = True) -> np.ndarray | None:
+        """The database frames (bool, N) that the half-open range ``exclude = (lo, hi)`` bans from a search; None for None.
+
+        With ``mirrors``, every clip the range covers whole also bans its
+        mirror twin (``NAME`` and ``NAME (mirrored)`` of one source, built
+        with ``mirror=True``): a leave-one-out search with
+        ``exclude=db.clip_range(NAME)`` would otherwise find the query's own
+        mirror image.
+        """
+        if exclude is None:
+            return None
+        lo, hi = (int(x) for x in np.asarray(exclude, dtype=np.int64).reshape(2))
+        banned = np.zeros(self.num_frames, dtype=bool)
+        banned[max(lo, 0) : max(hi, 0)] = True
+        if mirrors:
+            whole = {(c.source, c.name.removesuffix(" (mirrored)")) for c in self.clips if lo <= c.start and c.stop <= hi}
+            for c in self.clips:
+                if (c.source, c.name.removesuffix(" (mirrored)")) in whole:
+                    banned[c.start : c.stop] = True
+        return banned
+
     # -- motions out ------------------------------------------------------------------------
 
     def segment(self, start: int, stop: int, name: str | None = None) -> Motion:
@@ -535,6 +557,7 @@ class MotionDatabase:
         exclude=None,
         max_neighbors: int = 2048,
         max_warp: float = MAX_WARP,
+        exclude_mirrors: bool = True,
     ) -> list[SearchResult]:
         """Numerical similarity search: the ``k`` best non-overlapping segments similar to ``query``.
 
@@ -560,7 +583,9 @@ class MotionDatabase:
             at small K (the LNG finds only paths through reported neighbours).
         method : {"lng", "dtw"}
         exclude : (lo, hi), optional
-            Half-open database range no result may use (e.g. the query's own clip).
+            Half-open database range no result may use (e.g. the query's own
+            clip); a clip it covers whole takes its mirror twin with it
+            (:meth:`excluded_frames`) unless ``exclude_mirrors=False``.
         max_neighbors : int
             Largest neighbourhood the LNG may grow to.
         max_warp : float
@@ -569,7 +594,18 @@ class MotionDatabase:
             a path stay on one database frame (or one query frame) for any
             number of steps, so a 2.5 s query "matched" a single held frame
             where fewer than ``k`` real matches exist.
+        exclude_mirrors : bool
+            See ``exclude``.
+
+        Fewer than ``k`` results come with a :class:`UserWarning` saying why.
         """
+        results, why = self._search(query, k, features, neighbors, method, exclude, max_neighbors, max_warp, exclude_mirrors)
+        if len(results) < k:
+            warnings.warn(f"{len(results)} of the {k} matches asked for: {why}", UserWarning, stacklevel=2)
+        return results
+
+    def _search(self, query, k, features, neighbors, method, exclude, max_neighbors, max_warp, exclude_mirrors=True):
+        """:meth:`search`'s results and the reason, in words, why there may be fewer than ``k``."""
         from .search import dtw, lng
 
         name = self._feature_name(features)
@@ -583,25 +619,38 @@ class MotionDatabase:
         def kept(found):  # segments of a plausible speed against the query's length
             return [mt for mt in found if len(q) <= max_warp * (mt.end - mt.start + 1) <= max_warp**2 * len(q)]
 
+        if method not in ("lng", "dtw"):
+            raise ValueError(f"method must be 'lng' or 'dtw', got {method!r}")
+        banned = self.excluded_frames(exclude, exclude_mirrors)
         if method == "lng":
             # A query unlike anything in the database can leave the neighbourhoods without a
             # chain of consecutive frames: widen them (x4) until k matches exist or max_neighbors.
             K = min(int(neighbors), self.num_frames)
             while True:
-                dist, idx = self.index(name).query(q, k=K, exclude=exclude)
+                dist, idx = self._neighbours(name, q, K, banned)
                 matches = kept(lng.lazy_neighborhood_graph(idx, dist, self.clip_ids, k=2 * k))
                 if len(matches) >= k or K >= min(max_neighbors, self.num_frames):
                     break
                 K = min(4 * K, max_neighbors, self.num_frames)
-        elif method == "dtw":
-            mask = None
-            if exclude is not None:
-                mask = np.zeros(self.num_frames, dtype=bool)
-                mask[int(exclude[0]) : int(exclude[1])] = True
-            matches = kept(dtw.subsequence_dtw(q, data, self.clip_ids, k=2 * k, exclude=mask))
+            why = (f"the lazy neighbourhood graph found no more chains of neighbouring frames at up to {K} neighbours "
+                   f"per query frame (max_neighbors; method='dtw' searches every segment), and segments more than "
+                   f"max_warp={max_warp:g} times shorter or longer than the query are not returned")
         else:
-            raise ValueError(f"method must be 'lng' or 'dtw', got {method!r}")
-        return self._results(matches[:k])
+            matches = kept(dtw.subsequence_dtw(q, data, self.clip_ids, k=2 * k, exclude=banned))
+            why = (f"no other segment of the database{' outside exclude' if banned is not None else ''} lasts between "
+                   f"1/{max_warp:g} and {max_warp:g} times the query's {len(q)} frames (max_warp)")
+        return self._results(matches[:k]), why
+
+    def _neighbours(self, name: str, q: np.ndarray, K: int, banned: np.ndarray | None):
+        """The ``K`` nearest database frames (dist, idx: (M, K), inf / -1 where missing) of each query row, none ``banned``."""
+        if banned is None or not banned.any():
+            return self.index(name).query(q, k=K)
+        n_banned = int(banned.sum())
+        d, i = self.index(name).query(q, k=min(K + n_banned, self.num_frames))
+        bad = (i >= 0) & banned[np.clip(i, 0, None)]
+        d, i = np.where(bad, np.inf, d), np.where(bad, -1, i)
+        order = np.argsort(d, axis=1, kind="stable")
+        return np.take_along_axis(d, order, axis=1)[:, :K], np.take_along_axis(i, order, axis=1)[:, :K]
 
     def logical_search(
         self,
@@ -631,7 +680,7 @@ class MotionDatabase:
         for round_ in range(max(1, iterations)):
             new_frontier = []
             for q in frontier:
-                for r in self.search(q, k=k, features=name, neighbors=neighbors):
+                for r in self._search(q, k, name, neighbors, "lng", None, 2048, MAX_WARP)[0]:
                     per_frame = r.cost / max(len(q), 1)
                     if per_frame > bound or any(r.match.overlaps(f.match) for _, f in found):
                         continue

@@ -28,6 +28,7 @@ import multiprocessing
 import os
 import tempfile
 import time
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -89,8 +90,10 @@ def search_kernels() -> None:
     from .search.dtw import dtw, local_cost_matrix, subsequence_dtw
 
     db = MotionDatabase.build([samples.path("12_walk.amc")], fps=30, executor="serial", progress=False)
-    for method in ("lng", "dtw"):  # the database's features are read-only, a type of their own to numba
-        db.search(db.features["F15"][10:40], k=2, method=method)
+    with warnings.catch_warnings():  # compiling the kernels, not searching: no note on fewer matches
+        warnings.simplefilter("ignore", UserWarning)
+        for method in ("lng", "dtw"):  # the database's features are read-only, a type of their own to numba
+            db.search(db.features["F15"][10:40], k=2, method=method)
     features = np.array(db.features["F15"])  # writable, as a caller's own arrays
     query = features[10:40]
     cost = local_cost_matrix(query, features)

@@ -599,3 +599,39 @@ def test_smoothing_is_a_causal_exponential_filter_of_the_pose_vectors(db, readin
         np.testing.assert_allclose(smooth._p, expect, atol=1e-12)
     with pytest.raises(ValueError, match="smoothing"):
         A.check_params({"smoothing": 1.0})
+
+
+def test_cache_dir_is_written_when_the_knowledge_base_is_already_in_memory(db, readings, tmp_path):
+    """A knowledge base this process holds (from a reconstruct) is still saved to the cache_dir asked for, then opened from it."""
+    A.clear_cache(db)
+    A.reconstruct(readings[:10], db, 25)  # builds and keeps it in memory
+    kb = A.knowledge_base(db, cache_dir=tmp_path / "kb")
+    assert (tmp_path / "kb" / "knowledge.json").is_file()
+    assert kb is A.knowledge_base(db)  # the one in memory, not built again
+    back = A.knowledge_base(db, cache_dir=tmp_path / "kb")
+    assert back.path == tmp_path / "kb"
+    np.testing.assert_array_equal(np.asarray(back.readings), kb.readings)
+    A.clear_cache(db)
+
+
+def test_readings_faster_than_the_database_are_low_passed_before_the_grid(db):
+    """A 40 Hz vibration in 100 Hz readings would alias to 10 Hz on a 25 fps grid: it is filtered out first."""
+    assert A.anti_alias_filter(25.0, 25.0) is None and A.anti_alias_filter(20.0, 25.0) is None
+    S = len(A.knowledge_base(db).sensors)
+    t = np.arange(400) / 100.0
+    still = np.tile([0.0, 9.81, 0.0], (S, 1))
+    stream = still[None] + (3.0 * np.sin(2 * np.pi * 40.0 * t))[:, None, None] * np.array([1.0, 0.0, 0.0])
+    rec = A.AccelerometerReconstructor(db, 100)
+    grid = []
+    for r in stream:
+        n = rec._n_grid
+        rec.push(r)
+        if rec._n_grid > n:
+            grid.append(rec._recent[-1])
+    late = np.stack(grid)[25:]  # after the filter's first second
+    assert np.abs(late - still).max() < 0.1 * 3.0  # point-sampled: the vibration's full 3 m/s^2 aliased
+    np.testing.assert_allclose(late.mean(axis=0), still, atol=0.05)
+    # at the database's rate nothing is filtered: the samples reach the grid as given
+    rec25 = A.AccelerometerReconstructor(db, 25)
+    rec25.push(stream[1])
+    np.testing.assert_array_equal(rec25._recent[-1], stream[1])

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import sys
+import warnings
 from pathlib import Path
 from typing import Optional
 
@@ -120,7 +121,9 @@ def search(
     if not 0 <= a < b <= m.num_frames:
         raise MocapFormatError(query, f"--start/--end select no frames (clip has {plural(m.num_frames, 'frame')}, {m.duration:.2f} s)")
     try:
-        results = db.search(m[a:b], k=k, features=features, neighbors=neighbors, method=method)
+        with warnings.catch_warnings():  # the command words its own note on fewer matches, below
+            warnings.simplefilter("ignore", UserWarning)
+            results = db.search(m[a:b], k=k, features=features, neighbors=neighbors, method=method)
     except (KeyError, ValueError) as exc:
         why = str(exc.args[0] if exc.args else exc)
         if isinstance(exc, KeyError) and "no joint plays the role" in why:  # the query's rig lacks an end effector

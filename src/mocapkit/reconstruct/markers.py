@@ -130,6 +130,7 @@ from ..features import parse_up_axis, root_frame, virtual_markers
 from ..motion import Motion, Skeleton, unit_scale_cm
 from ..search.knn import KNNIndex
 from ..rigs import pelvis_index, roles
+from .marker_units import check_marker_scale
 from ._common import (align_about_vertical, database_up, body_joints, body_motion, body_skeleton, in_database_units, in_units_of,
                       output_skeleton, per_clip, whole_motion)
 from .control import marker_residuals, warn_unseen
@@ -631,6 +632,7 @@ def _solve(
     progress: bool,
 ) -> Motion:
     x, joints = _check(markers, joints, db, fps)
+    check_marker_scale(x, joints, db)
     warn_unseen(x, joints, stacklevel=4)  # _solve <- _run <- reconstruct <- the user's call
     if k is None:
         k = default_neighbours(db.num_frames)

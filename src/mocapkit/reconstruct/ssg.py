@@ -63,6 +63,7 @@ from .. import rotations as R
 from ..database import MotionDatabase
 from ..motion import Motion, Skeleton
 from ..search.dtw import subsequence_dtw
+from .marker_units import check_marker_scale
 from ._common import (align_about_vertical, body_skeleton, database_bodies, database_positions, in_database_units, in_units_of,
                       onto_marker_heights, onto_pelvis_marker, output_skeleton, per_clip, whole_motion)
 from .control import warn_unseen
@@ -843,6 +844,7 @@ def _check_input(markers, joints, db: MotionDatabase, fps) -> tuple[np.ndarray, 
         raise ValueError("markers: infinite values; mark unseen markers with NaN")
     if not np.isfinite(X).all(axis=-1).any():
         raise ValueError("markers: every value is NaN; at least one marker must be seen in one frame")
+    check_marker_scale(X, names, db)
     return X, names, fps
 
 

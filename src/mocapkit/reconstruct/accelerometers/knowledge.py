@@ -299,7 +299,9 @@ def knowledge_base(db: MotionDatabase, sensors: Sequence[Sensor] | None = None, 
     memory-map it. The kNN index is built on first use
     (:meth:`KnowledgeBase.index`) and kept with it.
 
-    ``cache_dir``: a folder for the knowledge base on disk. When it holds one
+    ``cache_dir``: a folder for the knowledge base on disk, looked at on
+    every call (a knowledge base this process already holds is saved there
+    rather than built again). When it holds one
     of this database (same content digest, frames, clips and sensors) it is
     opened memory-mapped (:func:`open_knowledge_base`); otherwise the
     knowledge base is built and saved there (:func:`save_knowledge_base`),
@@ -315,14 +317,17 @@ def knowledge_base(db: MotionDatabase, sensors: Sequence[Sensor] | None = None, 
     sensors = check_sensors(sk0, sensors, up)
     key = _sensor_key(sensors)
     per_db = _KB_CACHE.setdefault(db, {})
-    if key in per_db:
-        return per_db[key]
-    if cache_dir is not None:
+    if cache_dir is None:
+        if key in per_db:
+            return per_db[key]
+    else:  # the folder asked for is opened or written every time, whatever this process holds in memory
         found = _open_matching(Path(cache_dir), db, key)
         if found is not None:
             per_db[key] = found
             return found
         check_knowledge_base_output(cache_dir)  # before the build: a folder of other files is refused, not emptied
+        if key in per_db:
+            return _saved(per_db[key], cache_dir, db)
     t0 = time.perf_counter()
     S, J = len(sensors), sk0.num_joints
     if db.path is not None and executor != "serial" and db.num_clips > 1:
@@ -367,8 +372,14 @@ def knowledge_base(db: MotionDatabase, sensors: Sequence[Sensor] | None = None, 
     kb.index("kdtree")
     object.__setattr__(kb, "build_seconds", time.perf_counter() - t0)
     if cache_dir is not None:
-        save_knowledge_base(kb, cache_dir, _fingerprint(db), licence=db.info.get("licence"))
+        kb = _saved(kb, cache_dir, db)
     per_db[key] = kb
+    return kb
+
+
+def _saved(kb: KnowledgeBase, cache_dir, db: MotionDatabase) -> KnowledgeBase:
+    """``kb`` after writing it to ``cache_dir`` as ``db``'s (:func:`save_knowledge_base`); it stays in memory (``path`` None)."""
+    save_knowledge_base(kb, cache_dir, _fingerprint(db), licence=db.info.get("licence"))
     return kb
 
 
