@@ -226,9 +226,9 @@ def clean_file(
             raise MocapError(msg if str(inp) in msg else f"{inp}: {msg}") from None
 
     def prepared(res):
-        res = replace(res, frames_note=dec.frames_note(inp))  # the summary says how its frames relate to the file's
-        if out.suffix.lower() != ".amc":
-            return res
+        return replace(res, frames_note=dec.frames_note(inp))  # the summary says how its frames relate to the file's
+
+    def held(res):
         from .io.amc_writer import file_dofs  # sizes, report and record say what the AMC holds (dec.as_written)
         from .io.asfamc import amc_held_rotations
 
@@ -246,9 +246,11 @@ def clean_file(
 
         res, chosen, decided = decide_take(m, cleaning, doc, decisions, record=record if reuse else None,
                                            request=request, take=inp.name, option=dec.RECORD_FLAG,
-                                           prepared=prepared, named=record)
+                                           prepared=prepared, named=record,
+                                           held=held if out.suffix.lower() == ".amc" else None)
     else:
         res = prepared(cleaning())
+        res = held(res) if out.suffix.lower() == ".amc" else res
     cleaned = res.motion if decided is None else decided.motion
     filled_rejected = decided is not None and bool((res.filled & ~decided.filled).any())
     io.check_complete(cleaned, out, "the cleaned take still has missing joints (NaN)",

@@ -356,3 +356,53 @@ def test_a_decisions_file_naming_a_change_twice_is_refused(cleaned, tmp_path, ca
     assert main(["clean", str(inp), "-o", str(out), "--decisions", str(dec), "--record", str(d / "walk.clean.npz")]) == 2
     err = capsys.readouterr().err
     assert one_error_line(err) and f"change '{ids[0]}' is named twice" in err and not out.exists()
+
+
+# ---- a batch's record applied to an AMC output; a refusal never asks for what was given (trial 33) --------------
+
+
+def test_decisions_on_a_batch_bvh_record_apply_to_an_amc_output(tmp_path, capsys, shared_data):
+    """clean-batch writes an AMC take as .bvh, its record holding the cleaned rotations whole; the decisions its
+    report offers apply to that record for an .amc OUT too, where a bone with two dofs holds only its dofs' part
+    (CMU backflip: lhand repaired; before: refused as made on another cleaning, naming the very --record given)."""
+    import shutil
+
+    takes, out = tmp_path / "takes", tmp_path / "out"
+    takes.mkdir()
+    shutil.copy(shared_data / "cmu_asfamc" / "backflip.asf", takes / "bad.asf")
+    shutil.copy(shared_data / "cmu_asfamc" / "backflip.amc", takes / "bad.amc")
+    assert main(["clean-batch", str(takes), str(out), "--report", "--executor", "serial"]) == 0, capsys.readouterr()
+    record = out / "bad.clean.npz"
+    take, res = mocapkit.load(takes / "bad.amc"), CleanResult.load(record)
+    few = {j for j, d in enumerate(mocapkit.io.asfamc.amc_dofs(take.skeleton)) if 0 < len(d) < 3}
+    assert any(c.joint_index in few for c in D.changes(res, take))  # the case an AMC cannot hold whole
+    doc = review_block(out / "bad.report.html")["decisions"]
+    for choice in (D.ACCEPT, D.REJECT):
+        doc["decisions"] = {k: choice for k in doc["decisions"]}
+        (tmp_path / "d.json").write_text(json.dumps(doc))
+        final = tmp_path / f"{choice}.amc"
+        capsys.readouterr()
+        code = main(["clean", str(takes / "bad.amc"), "-o", str(final), "--decisions", str(tmp_path / "d.json"),
+                     "--record", str(record)])
+        assert code == 0, capsys.readouterr().err
+    assert (tmp_path / "reject.amc").read_bytes() == (takes / "bad.amc").read_bytes()  # every change undone
+    assert main(["clean", str(takes / "bad.amc"), "-o", str(tmp_path / "fresh.amc")]) == 0
+    assert (tmp_path / "accept.amc").read_bytes() == (tmp_path / "fresh.amc").read_bytes()  # the cleaning, as AMC
+
+
+def test_a_record_rewritten_since_the_review_is_not_asked_for_again(cleaned, tmp_path, capsys):
+    """The decisions name record R, and R now holds another cleaning (the take cleaned again over it): the
+    refusal says so, and does not tell the user to give --record R, which they gave."""
+    d, inp = cleaned
+    dec, _ = _decide(cleaned, tmp_path)
+    assert main(["clean", str(inp), "-o", str(tmp_path / "again.npz"), "--threshold", "0.45"]) == 0
+    again = tmp_path / "again.clean.npz"
+    doc = json.loads(dec.read_text())
+    doc["cleaning"]["record"] = str(again)  # the record the review was of, since written over
+    dec.write_text(json.dumps(doc))
+    capsys.readouterr()
+    assert main(["clean", str(inp), "-o", str(tmp_path / "o.npz"), "--decisions", str(dec), "--record",
+                 str(again)]) == 2
+    err = capsys.readouterr().err
+    assert one_error_line(err) and f"{dec}: made on another cleaning than the record {again}" in err, err
+    assert f"--record {again}" not in err and "written again since the review" in err

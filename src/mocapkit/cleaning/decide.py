@@ -86,16 +86,21 @@ def clean_and_decide(original, cleaning: Callable[[], CleanResult], *, decisions
 
 def decide_take(original, cleaning: Callable[[], CleanResult], doc: dict, path, *, record=None,
                 request: dict | None = None, take: str = "", option: str = dec.RECORD_KEYWORD,
-                prepared: Callable[[CleanResult], CleanResult] | None = None, named=None
+                prepared: Callable[[CleanResult], CleanResult] | None = None, named=None,
+                held: Callable[[CleanResult], CleanResult] | None = None
                 ) -> tuple[CleanResult, dict, CleanResult]:
     """The checks and steps of :func:`clean_and_decide` on a decisions document ``doc`` already read from ``path``
     (:func:`decisions_document`), which :func:`mocapkit.batch.clean_file` makes for the CLI too.
 
     ``prepared``: applied to the cleaning (new or read back) before the decisions are checked against it
-    (``clean_file``'s frames note and what an AMC output holds); ``named``: what a refusal of a record without
-    its cleaned samples names (default ``record``). Other arguments as :func:`clean_and_decide`'s.
-    Returns ``(cleaning, chosen, decided)``: ``chosen`` the checked choices
-    (:func:`~mocapkit.cleaning.decisions.check_decisions`)."""
+    (``clean_file``'s frames note); ``held``: the cleaning as the output file holds it
+    (:func:`~mocapkit.cleaning.decisions.as_written`: an AMC's bones with fewer than three dofs), to which the
+    decisions are applied. They are checked against the cleaning as the person reviewed it: as it was read or
+    made where the file's digest is of that (a batch's ``.bvh`` record applied to an ``.amc`` output), else as
+    held (a record made for an ``.amc`` output; the change ids are the same either way). ``named``: what a
+    refusal of a record without its cleaned samples names (default ``record``). Other arguments as
+    :func:`clean_and_decide`'s. Returns ``(cleaning, chosen, decided)``: the cleaning as held, ``chosen`` the
+    checked choices (:func:`~mocapkit.cleaning.decisions.check_decisions`)."""
     dec.check_decisions(doc, path, original)  # decisions for another take: refused before any cleaning
     if record is not None:
         res = CleanResult.load(record)
@@ -106,10 +111,14 @@ def decide_take(original, cleaning: Callable[[], CleanResult], doc: dict, path, 
         res = dataclasses.replace(res, params={**res.params, "request": request})
     if prepared is not None:
         res = prepared(res)
+    shown = res if held is None else held(res)
     try:
-        chosen = dec.check_decisions(doc, path, original, res, record=record, fresh=record is None, option=option)
-        said = for_motion(doc, path, original, res, chosen, record, take=take)
-        return res, chosen, decided_result(original, res, chosen, said)
+        stamp = doc.get("cleaning") or {}
+        reviewed = res if shown is not res and stamp.get("sha256") == dec.cleaning_digest(res) else shown
+        chosen = dec.check_decisions(doc, path, original, reviewed, record=record, fresh=record is None,
+                                     option=option)
+        said = for_motion(doc, path, original, shown, chosen, record, take=take)
+        return shown, chosen, decided_result(original, shown, chosen, said)
     except MocapFormatError:
         raise
     except MocapError as exc:  # a record without its cleaned samples

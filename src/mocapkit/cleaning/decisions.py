@@ -83,6 +83,7 @@ import dataclasses
 import hashlib
 import json
 import math
+import os
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Mapping
@@ -604,12 +605,24 @@ def check_cleaning(doc: dict, path, result, record=None, fresh: bool = False, op
     want = record_wanted(stamp, option)
     if not fresh:
         where = f"the record {record}" if record is not None else "this clean record"
+        if record is not None and _names_record(stamp, record):  # the record it names, written again since
+            raise MocapFormatError(path, f"made on another cleaning than {where} (its changes or cleaned values "
+                                         "differ), though it names that record: the record was written again since "
+                                         "the review (the take cleaned again); review that record's report anew")
         raise MocapFormatError(path, f"made on another cleaning than {where} (its changes or cleaned values differ); "
                                      f"give the record of the cleaning reviewed: {want}")
     diff = request_difference(stamp.get("request"), result.params.get("request"))
     diff = diff or "its changes or cleaned values differ"
     raise MocapFormatError(path, f"made on another cleaning than this new one: {diff}; apply them to the reviewed "
                                  f"values: {want}, or clean with the same options")
+
+
+def _names_record(stamp: dict, record) -> bool:
+    """Whether the record a decisions file names (``stamp["record"]``) is the file ``record``."""
+    named = stamp.get("record")
+    if not isinstance(named, str) or not named:
+        return False
+    return os.path.realpath(named) == os.path.realpath(os.fspath(record))
 
 
 def _check_stamped(doc: dict, path, option: str = RECORD_FLAG) -> None:
