@@ -247,7 +247,7 @@ def clean_file(
         res, chosen, decided = decide_take(m, cleaning, doc, decisions, record=record if reuse else None,
                                            request=request, take=inp.name, option=dec.RECORD_FLAG,
                                            prepared=prepared, named=record,
-                                           held=held if out.suffix.lower() == ".amc" else None)
+                                           held=held if out.suffix.lower() == ".amc" else None, source=inp)
     else:
         res = prepared(cleaning())
         res = held(res) if out.suffix.lower() == ".amc" else res

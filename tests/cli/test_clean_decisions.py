@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import re
 
@@ -406,3 +407,26 @@ def test_a_record_rewritten_since_the_review_is_not_asked_for_again(cleaned, tmp
     err = capsys.readouterr().err
     assert one_error_line(err) and f"{dec}: made on another cleaning than the record {again}" in err, err
     assert f"--record {again}" not in err and "written again since the review" in err
+
+
+def test_an_edited_take_is_named_as_the_file_that_does_not_match(cleaned, tmp_path, capsys):
+    """The decisions and the record are of one take, the input an edited copy of it: the refusal names the input
+    and why, not the decisions file; without a record the decisions' refusal names the input by its file name."""
+    d, inp = cleaned
+    dec, _ = _decide(cleaned, tmp_path)
+    take = mocapkit.load(inp)
+    rot = np.array(take.rotations)
+    rot[3, 2] = rot[4, 2]  # one sample edited
+    edited = tmp_path / "edited.npz"
+    mocapkit.save(dataclasses.replace(take, rotations=rot), edited)
+    capsys.readouterr()
+    assert main(["clean", str(edited), "-o", str(tmp_path / "o.npz"), "--decisions", str(dec), "--record",
+                 str(d / "walk.clean.npz")]) == 2
+    err = capsys.readouterr().err
+    assert one_error_line(err) and err.startswith(f"mocapkit: error: {edited}: not the take that {dec.name} and "
+                                                  "the record walk.clean.npz were made for"), err
+    assert main(["clean", str(edited), "-o", str(tmp_path / "o.npz"), "--decisions", str(dec)]) == 2
+    err = capsys.readouterr().err
+    assert one_error_line(err) and err.startswith(f"mocapkit: error: {dec}: decisions for another take"), err
+    assert "not edited.npz (" in err
+    assert not (tmp_path / "o.npz").exists()

@@ -550,7 +550,7 @@ def _unique_keys(pairs: list) -> dict:
 
 
 def check_decisions(doc: dict, path, original: Motion, result=None, record=None, fresh: bool = False,
-                    option: str = RECORD_FLAG) -> dict:
+                    option: str = RECORD_FLAG, take: str = "") -> dict:
     """The choices of ``doc`` (from :func:`read_decisions`) after checking they fit this take and this record.
 
     Refused, in one line naming ``path``: decisions for another take (its
@@ -560,12 +560,13 @@ def check_decisions(doc: dict, path, original: Motion, result=None, record=None,
     id that is not a change of ``result``, or a file made by the report that
     leaves a change unnamed (:func:`check_named`). With ``result`` None only the
     take is checked (before a cleaning, so that decisions for another take are
-    refused first). ``option``: how a refusal names the record to give (:func:`record_wanted`).
+    refused first). ``option``: how a refusal names the record to give (:func:`record_wanted`); ``take``: the
+    input's file name, as a refusal names it (default the take's name).
     """
-    take = doc["take"]
-    if take["sha256"] != take_digest(original):
-        what = f"{take.get('name', '?')}, {take.get('frames', '?')} frames"
-        raise MocapFormatError(path, f"decisions for another take ({what}), not {original.name or 'this take'} "
+    named = doc["take"]
+    if named["sha256"] != take_digest(original):
+        what = f"{named.get('name', '?')}, {named.get('frames', '?')} frames"
+        raise MocapFormatError(path, f"decisions for another take ({what}), not {take or original.name or 'this take'} "
                                f"({original.num_frames} frames): its samples differ")
     if result is None:
         return dict(doc["decisions"])
