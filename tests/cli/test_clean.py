@@ -713,3 +713,16 @@ def test_clean_and_detect_take_a_joint_map_for_a_context_of_a_rig_whose_names_sa
     assert np.array_equal(mocapkit.load(out).rotations, mocapkit.load(take).rotations)  # a clean take untouched
     code, _, err = helpers.run("detect", str(take), "-o", str(tmp_path / "d.npz"), "--context", str(folder), "--joint-map", str(jm))
     assert code == 0, err
+
+
+def test_clean_batch_in_review_mode_says_reviewed(tmp_path, capsys):
+    """--steps detect changes nothing: each take's line and the totals say "reviewed", not "cleaned"."""
+    src = tmp_path / "src"
+    src.mkdir()
+    mocapkit.save(mocapkit.load(samples.path("12_walk.amc")), src / "walk.npz")
+    rc = main(["clean-batch", str(src), str(tmp_path / "out"), "--executor", "serial", "--steps", "detect"])
+    text = capsys.readouterr().out
+    assert rc == 0, text
+    lines = text.splitlines()
+    assert any(ln.startswith(f"reviewed {src / 'walk.npz'} -> ") for ln in lines), text
+    assert not any(ln.startswith("cleaned ") for ln in lines) and "1 reviewed," in lines[-1], text
