@@ -87,6 +87,9 @@ def test_decisions_reuse_the_record_beside_out(cleaned, tmp_path, capsys):
     record = d / "walk.clean.npz"
     before = digest(record), digest(inp)
     out = d / "walk.npz"
+    import shutil
+
+    shutil.copy(record, d / "walk.before.clean.npz")
     capsys.readouterr()
     assert main(["clean", str(inp), "-o", str(out), "--decisions", str(dec)]) == 2  # OUT exists: --overwrite
     assert "--overwrite" in capsys.readouterr().err
@@ -95,8 +98,23 @@ def test_decisions_reuse_the_record_beside_out(cleaned, tmp_path, capsys):
     assert rc == 0, text
     assert "nothing cleaned again" in text and f"{len(ids) - 1} of {len(ids)} changes accepted, 1 rejected" in text
     assert f"rejected {ids[0]}" in text and "ssa" not in text
-    assert (digest(record), digest(inp)) == before  # the record of the earlier run is read, not rewritten
+    assert digest(inp) == before[1]
+    # the record's cleaning is read, not changed: it only notes the decisions that wrote OUT (mocapkit.batch_decided)
+    assert _same_record(record, d / "walk.before.clean.npz")
+    assert CleanResult.load_params(record)["decided"] == {"decisions": str(dec), "output": {
+        "size": out.stat().st_size, "sha256": digest(out)}}
     _check_output(out, inp, record, {ids[0]: D.REJECT})
+
+
+def _same_record(a, b) -> bool:
+    """Two records with the same arrays, bit for bit, and the same meta but for ``params["decided"]``."""
+    with np.load(a) as x, np.load(b) as y:
+        if sorted(x.files) != sorted(y.files):
+            return False
+        meta = [json.loads(str(z["meta"])) for z in (x, y)]
+        for m in meta:
+            m["params"].pop("decided", None)
+        return meta[0] == meta[1] and all(_same_bits(x[k], y[k]) for k in x.files if k != "meta")
 
 
 def test_decisions_with_an_explicit_record_and_a_report(cleaned, tmp_path, capsys):
@@ -148,7 +166,11 @@ def test_decisions_for_another_take_are_refused_and_nothing_is_written(cleaned, 
                  ["clean", str(other), "-o", str(out), "--decisions", str(dec)]):
         assert main(args) == 2
         err = capsys.readouterr().err
-        assert one_error_line(err) and str(dec) in err and "decisions for another take (walk_bad.npz" in err, err
+        if "--record" in args:  # the decisions and the record agree: the input is the take that does not match
+            assert one_error_line(err) and err.startswith(f"mocapkit: error: {other}: not the take that {dec.name} "
+                                                          "and the record walk.clean.npz were made for"), err
+        else:
+            assert one_error_line(err) and str(dec) in err and "decisions for another take (walk_bad.npz" in err, err
         assert not out.exists() and not (tmp_path / "o.clean.npz").exists()
 
 
