@@ -334,7 +334,7 @@ def test_asf_serves_clean_batch_and_the_reference(tmp_path, capsys):
     rc = main(["clean-batch", str(src), str(tmp_path / "out"), "--executor", "serial", "--steps", "detect", "--asf", str(asf)])
     text = capsys.readouterr().out
     assert rc == 0, text
-    assert any(ln.startswith("cleaned ") and "walk.amc" in ln for ln in text.splitlines()), text
+    assert any(ln.startswith("reviewed ") and "walk.amc" in ln for ln in text.splitlines()), text  # --steps detect
     assert (tmp_path / "out" / "walk.bvh").is_file()
     m = mocapkit.load(amc)
     bad, _, _ = corrupt.real_errors(m, n_errors=2, seed=5)
