@@ -78,6 +78,7 @@ from pathlib import Path
 from typing import Callable, Sequence
 
 from .errors import MocapError, MocapFormatError, os_error_line, output_stopper
+from .batch_decided import is_own_record, stamp_decided
 from .batch_folder import BATCH_MARK, mark, marked_input, only_batch, prune, sweep, unmark_if_empty
 from .interrupts import interrupts_as_keyboard_interrupt
 from .marker_files import clean_marker_file, marker_request, refuse_marker_options
@@ -233,9 +234,9 @@ def clean_file(
             raise MocapError(msg if str(inp) in msg else f"{inp}: {msg}") from None
 
     def prepared(res):
-        res = replace(res, frames_note=dec.frames_note(inp))  # the summary says how its frames relate to the file's
-        if out.suffix.lower() != ".amc":
-            return res
+        return replace(res, frames_note=dec.frames_note(inp))  # the summary says how its frames relate to the file's
+
+    def held(res):
         from .io.amc_writer import file_dofs  # sizes, report and record say what the AMC holds (dec.as_written)
         from .io.asfamc import amc_held_rotations
 
@@ -253,9 +254,11 @@ def clean_file(
 
         res, chosen, decided = decide_take(m, cleaning, doc, decisions, record=record if reuse else None,
                                            request=request, take=inp.name, option=dec.RECORD_FLAG,
-                                           prepared=prepared, named=record)
+                                           prepared=prepared, named=record,
+                                           held=held if out.suffix.lower() == ".amc" else None, source=inp)
     else:
         res = prepared(cleaning())
+        res = held(res) if out.suffix.lower() == ".amc" else res
     cleaned = res.motion if decided is None else decided.motion
     filled_rejected = decided is not None and bool((res.filled & ~decided.filled).any())
     io.check_complete(cleaned, out, "the cleaned take still has missing joints (NaN)",
@@ -280,6 +283,8 @@ def clean_file(
 
             plot_summary(dataclasses.replace(res, motion=cleaned), m, png, title=inp.name)
         io.save(cleaned, out, like=inp, asf=asf, copy_asf=False)  # the ASF: skeleton_copy, or the batch's
+        if reuse and is_own_record(record, out):  # decided in place: a later batch keeps OUT (batch_decided)
+            stamp_decided(record, decisions, out)
         if not reuse:  # last: the completion marker, keeping what was read and written (_not_complete)
             res = replace(res, params={**res.params, "written": {"input": taken, "output": file_facts(out)}})
             res.save(record)
@@ -319,43 +324,59 @@ def clean_request(steps=None, threshold: float = 0.5, drifts: bool = False, cont
 REQUEST_DEFAULTS = {"noise_deg": 1.0, "amc_fps": None, "unit": None, "review": False, "joint_map": {}}  # what a record without these keys was made with
 
 
-def _not_complete(inp: Path, files: dict, request: dict, markers: dict | None = None) -> tuple[str, bool]:
-    """Why a take whose output and record exist is not complete for this run ("" when it is), and whether it is
+def _not_complete(inp: Path, files: dict, request: dict, markers: dict | None = None) -> tuple[str, bool, str]:
+    """Why a take whose output and record exist is not complete for this run ("" when it is), whether it is
     cleaned again as it is (True: its input was replaced since, and the output is this batch's own, of the old take)
-    or refused without ``overwrite`` (an output changed outside mocapkit, another request, a missing report).
+    or refused without ``overwrite`` (an output changed outside mocapkit, another request, a missing report), and the
+    decisions file that wrote its output ("" where none did: :func:`mocapkit.batch_decided.decided_by`).
     ``request``: this run's :func:`clean_request`; ``markers``: its :func:`marker_request`, which a marker capture's
     record is held to (default: the defaults).
 
     The record keeps the size and SHA-256 of the input as read and of the output as written (``params["written"]``,
-    :func:`mocapkit.io.outputs.file_facts`); a record without them (an earlier mocapkit's) is taken at its word.
+    :func:`mocapkit.io.outputs.file_facts`); a record without them (an earlier mocapkit's) is taken at its word. An
+    output decisions were applied to in place is as written when it is as those decisions wrote it; where its input
+    changed since, it is not cleaned again as it is (``anew`` False): that would discard the decisions.
     """
+    from .batch_decided import decided_by
     from .cleaning.pipeline import CleanResult
     from .io.outputs import file_facts
 
     missing = [k for k in ("report", "png") if files.get(k) is not None and not Path(files[k]).is_file()]
     if missing:
-        return f"its {' and '.join(missing)} {'is' if len(missing) == 1 else 'are'} missing", False
+        return f"its {' and '.join(missing)} {'is' if len(missing) == 1 else 'are'} missing", False, ""
     try:
         params = CleanResult.load_params(files["record"])
     except MocapFormatError as exc:
-        return f"its record {Path(files['record']).name} is {exc.reason}", False
+        return f"its record {Path(files['record']).name} is {exc.reason}", False, ""
     written = (params or {}).get("written")
+    decided = decided_by(params, files["output"])
     if isinstance(written, dict):
         was, out = written.get("output") or {}, Path(files["output"])
         size = out.stat().st_size
-        if size != was.get("size") or file_facts(out) != was:
+        if not decided and (size != was.get("size") or file_facts(out) != was):
             return (f"its output was changed since that run wrote it ({size} bytes, {was.get('size')} when "
-                    "written)" if size != was.get("size") else "its output was changed since that run wrote it"), False
+                    "written)" if size != was.get("size") else "its output was changed since that run wrote it"), False, ""
         if file_facts(inp) != written.get("input"):
-            return "its input changed since it was cleaned", True
+            if decided:
+                return f"its input changed since it was decided by {decided}", False, decided
+            return "its input changed since it was cleaned", True, ""
     done = None if params is None else params.get("request")
     if params is not None and params.get("kind") == "markers":  # held to the marker request, kept or not
         request, done = markers if markers is not None else marker_request(), done if isinstance(done, dict) else {}
     if not isinstance(done, dict):  # a record written before requests were kept
-        return "", False
+        return "", False, decided
     was = {k: done.get(k, REQUEST_DEFAULTS.get(k)) for k in request}
     diff = [f"{k} {_said(was[k], k)} (now {_said(request[k], k)})" for k in request if was[k] != request[k]]
-    return (f"it was cleaned with {', '.join(diff)}" if diff else ""), False
+    return (f"it was cleaned with {', '.join(diff)}" if diff else ""), False, decided
+
+
+def _kept(why: str, decided: str, overwrite: str = SAID[False]["overwrite"]) -> str:
+    """A skipped take's reason: complete, kept as its decisions wrote it (:mod:`mocapkit.batch_decided`), or kept
+    although its input changed since it was decided (``why``), because cleaning it again discards the decisions.
+    ``overwrite``: how the caller asks for that (:data:`SAID`)."""
+    if not why:
+        return f"kept: decided by {decided}" if decided else "complete"
+    return f"kept: {why}; {overwrite} cleans it again and discards those decisions"
 
 
 def _said(v, key: str = "") -> str:
@@ -755,15 +776,18 @@ def clean_batch(
     markers = marker_request(unit, max_gap_s, max_error_mm)
     for inp, files in zip(inputs, plans):
         if files["output"].is_file() and files["record"].is_file():
-            why, anew = _not_complete(inp, files, request, markers)
-            if not why:
+            why, anew, decided = _not_complete(inp, files, request, markers)
+            if not why or (decided and why.startswith("its input") and not overwrite):
                 summary.rows.append({"input": str(inp), "output": str(files["output"]), "status": "skipped",
-                                     "reason": "complete", "seconds": 0.0})
+                                     "reason": _kept(why, decided, SAID[flags]["overwrite"]), "seconds": 0.0})
                 continue
             if anew:  # a new version of the take: its old output is this batch's own, cleaned again as it is
                 again[inp] = f"cleaned again: {why}"
+            elif decided and why.startswith("its input"):  # told to (overwrite): the decisions go, and the line says so
+                again[inp] = f"cleaned again: {why}; those decisions were discarded"
             else:
-                stale.append((files["output"], why))
+                stale.append((files["output"], why + (f" (its output was decided by {decided}: cleaning it again "
+                                                      "discards those decisions)" if decided else "")))
         todo.append((inp, files))
     folders = [] if below else [in_dir]
     earlier_outputs = {out for out, _ in stale} | {files["output"] for inp, files in todo if inp in again}

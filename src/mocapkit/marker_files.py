@@ -15,6 +15,7 @@ from dataclasses import replace
 from pathlib import Path
 from typing import Sequence
 
+from .batch_decided import is_own_record, stamp_decided
 from .errors import MocapError
 
 __all__ = ["clean_marker_file", "marker_request", "refuse_marker_options"]
@@ -115,6 +116,8 @@ def clean_marker_file(inp, out, *, report=None, png=None, overwrite: bool = Fals
             plot_marker_fixes(png, given, title=f"{inp.name}: before (grey) and after")
         save_markers(given.output, out, like=ms, stored_zeros=True, keep_modelled=keep_modelled,
                      filled=given.fill_mask, overwrite=True)  # out: checked by the output guard before the work
+        if reuse and chosen is not None and is_own_record(record, out):  # decided in place: a later batch keeps OUT
+            stamp_decided(record, decisions, out)
         if not reuse:  # last: the completion marker
             res.save(record, written={"input": taken, "output": file_facts(out)},
                      request=request)

@@ -338,7 +338,7 @@ def test_asf_serves_clean_batch_and_the_reference(tmp_path, capsys):
     rc = main(["clean-batch", str(src), str(tmp_path / "out"), "--executor", "serial", "--steps", "detect", "--asf", str(asf)])
     text = capsys.readouterr().out
     assert rc == 0, text
-    assert any(ln.startswith("cleaned ") and "walk.amc" in ln for ln in text.splitlines()), text
+    assert any(ln.startswith("reviewed ") and "walk.amc" in ln for ln in text.splitlines()), text  # --steps detect
     assert (tmp_path / "out" / "walk.bvh").is_file()
     m = mocapkit.load(amc)
     bad, _, _ = corrupt.real_errors(m, n_errors=2, seed=5)
@@ -728,3 +728,16 @@ def test_clean_batch_refuses_an_amc_rate_for_bvh_takes_naming_the_flag(tmp_path)
     code, out, err = helpers.run("clean-batch", src, tmp_path / "out", "--amc-fps", "60")
     assert code == 2 and "--amc-fps" in err and "amc_fps=" not in err, err
     assert not (tmp_path / "out").exists()
+
+
+def test_clean_batch_in_review_mode_says_reviewed(tmp_path, capsys):
+    """--steps detect changes nothing: each take's line and the totals say "reviewed", not "cleaned"."""
+    src = tmp_path / "src"
+    src.mkdir()
+    mocapkit.save(mocapkit.load(samples.path("12_walk.amc")), src / "walk.npz")
+    rc = main(["clean-batch", str(src), str(tmp_path / "out"), "--executor", "serial", "--steps", "detect"])
+    text = capsys.readouterr().out
+    assert rc == 0, text
+    lines = text.splitlines()
+    assert any(ln.startswith(f"reviewed {src / 'walk.npz'} -> ") for ln in lines), text
+    assert not any(ln.startswith("cleaned ") for ln in lines) and "1 reviewed," in lines[-1], text

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import re
 
@@ -86,6 +87,9 @@ def test_decisions_reuse_the_record_beside_out(cleaned, tmp_path, capsys):
     record = d / "walk.clean.npz"
     before = digest(record), digest(inp)
     out = d / "walk.npz"
+    import shutil
+
+    shutil.copy(record, d / "walk.before.clean.npz")
     capsys.readouterr()
     assert main(["clean", str(inp), "-o", str(out), "--decisions", str(dec)]) == 2  # OUT exists: --overwrite
     assert "--overwrite" in capsys.readouterr().err
@@ -94,8 +98,23 @@ def test_decisions_reuse_the_record_beside_out(cleaned, tmp_path, capsys):
     assert rc == 0, text
     assert "nothing cleaned again" in text and f"{len(ids) - 1} of {len(ids)} changes accepted, 1 rejected" in text
     assert f"rejected {ids[0]}" in text and "ssa" not in text
-    assert (digest(record), digest(inp)) == before  # the record of the earlier run is read, not rewritten
+    assert digest(inp) == before[1]
+    # the record's cleaning is read, not changed: it only notes the decisions that wrote OUT (mocapkit.batch_decided)
+    assert _same_record(record, d / "walk.before.clean.npz")
+    assert CleanResult.load_params(record)["decided"] == {"decisions": str(dec), "output": {
+        "size": out.stat().st_size, "sha256": digest(out)}}
     _check_output(out, inp, record, {ids[0]: D.REJECT})
+
+
+def _same_record(a, b) -> bool:
+    """Two records with the same arrays, bit for bit, and the same meta but for ``params["decided"]``."""
+    with np.load(a) as x, np.load(b) as y:
+        if sorted(x.files) != sorted(y.files):
+            return False
+        meta = [json.loads(str(z["meta"])) for z in (x, y)]
+        for m in meta:
+            m["params"].pop("decided", None)
+        return meta[0] == meta[1] and all(_same_bits(x[k], y[k]) for k in x.files if k != "meta")
 
 
 def test_decisions_with_an_explicit_record_and_a_report(cleaned, tmp_path, capsys):
@@ -147,7 +166,11 @@ def test_decisions_for_another_take_are_refused_and_nothing_is_written(cleaned, 
                  ["clean", str(other), "-o", str(out), "--decisions", str(dec)]):
         assert main(args) == 2
         err = capsys.readouterr().err
-        assert one_error_line(err) and str(dec) in err and "decisions for another take (walk_bad.npz" in err, err
+        if "--record" in args:  # the decisions and the record agree: the input is the take that does not match
+            assert one_error_line(err) and err.startswith(f"mocapkit: error: {other}: not the take that {dec.name} "
+                                                          "and the record walk.clean.npz were made for"), err
+        else:
+            assert one_error_line(err) and str(dec) in err and "decisions for another take (walk_bad.npz" in err, err
         assert not out.exists() and not (tmp_path / "o.clean.npz").exists()
 
 
@@ -356,3 +379,76 @@ def test_a_decisions_file_naming_a_change_twice_is_refused(cleaned, tmp_path, ca
     assert main(["clean", str(inp), "-o", str(out), "--decisions", str(dec), "--record", str(d / "walk.clean.npz")]) == 2
     err = capsys.readouterr().err
     assert one_error_line(err) and f"change '{ids[0]}' is named twice" in err and not out.exists()
+
+
+# ---- a batch's record applied to an AMC output; a refusal never asks for what was given (trial 33) --------------
+
+
+def test_decisions_on_a_batch_bvh_record_apply_to_an_amc_output(tmp_path, capsys, shared_data):
+    """clean-batch writes an AMC take as .bvh, its record holding the cleaned rotations whole; the decisions its
+    report offers apply to that record for an .amc OUT too, where a bone with two dofs holds only its dofs' part
+    (CMU backflip: lhand repaired; before: refused as made on another cleaning, naming the very --record given)."""
+    import shutil
+
+    takes, out = tmp_path / "takes", tmp_path / "out"
+    takes.mkdir()
+    shutil.copy(shared_data / "cmu_asfamc" / "backflip.asf", takes / "bad.asf")
+    shutil.copy(shared_data / "cmu_asfamc" / "backflip.amc", takes / "bad.amc")
+    assert main(["clean-batch", str(takes), str(out), "--report", "--executor", "serial"]) == 0, capsys.readouterr()
+    record = out / "bad.clean.npz"
+    take, res = mocapkit.load(takes / "bad.amc"), CleanResult.load(record)
+    few = {j for j, d in enumerate(mocapkit.io.asfamc.amc_dofs(take.skeleton)) if 0 < len(d) < 3}
+    assert any(c.joint_index in few for c in D.changes(res, take))  # the case an AMC cannot hold whole
+    doc = review_block(out / "bad.report.html")["decisions"]
+    for choice in (D.ACCEPT, D.REJECT):
+        doc["decisions"] = {k: choice for k in doc["decisions"]}
+        (tmp_path / "d.json").write_text(json.dumps(doc))
+        final = tmp_path / f"{choice}.amc"
+        capsys.readouterr()
+        code = main(["clean", str(takes / "bad.amc"), "-o", str(final), "--decisions", str(tmp_path / "d.json"),
+                     "--record", str(record)])
+        assert code == 0, capsys.readouterr().err
+    assert (tmp_path / "reject.amc").read_bytes() == (takes / "bad.amc").read_bytes()  # every change undone
+    assert main(["clean", str(takes / "bad.amc"), "-o", str(tmp_path / "fresh.amc")]) == 0
+    assert (tmp_path / "accept.amc").read_bytes() == (tmp_path / "fresh.amc").read_bytes()  # the cleaning, as AMC
+
+
+def test_a_record_rewritten_since_the_review_is_not_asked_for_again(cleaned, tmp_path, capsys):
+    """The decisions name record R, and R now holds another cleaning (the take cleaned again over it): the
+    refusal says so, and does not tell the user to give --record R, which they gave."""
+    d, inp = cleaned
+    dec, _ = _decide(cleaned, tmp_path)
+    assert main(["clean", str(inp), "-o", str(tmp_path / "again.npz"), "--threshold", "0.45"]) == 0
+    again = tmp_path / "again.clean.npz"
+    doc = json.loads(dec.read_text())
+    doc["cleaning"]["record"] = str(again)  # the record the review was of, since written over
+    dec.write_text(json.dumps(doc))
+    capsys.readouterr()
+    assert main(["clean", str(inp), "-o", str(tmp_path / "o.npz"), "--decisions", str(dec), "--record",
+                 str(again)]) == 2
+    err = capsys.readouterr().err
+    assert one_error_line(err) and f"{dec}: made on another cleaning than the record {again}" in err, err
+    assert f"--record {again}" not in err and "written again since the review" in err
+
+
+def test_an_edited_take_is_named_as_the_file_that_does_not_match(cleaned, tmp_path, capsys):
+    """The decisions and the record are of one take, the input an edited copy of it: the refusal names the input
+    and why, not the decisions file; without a record the decisions' refusal names the input by its file name."""
+    d, inp = cleaned
+    dec, _ = _decide(cleaned, tmp_path)
+    take = mocapkit.load(inp)
+    rot = np.array(take.rotations)
+    rot[3, 2] = rot[4, 2]  # one sample edited
+    edited = tmp_path / "edited.npz"
+    mocapkit.save(dataclasses.replace(take, rotations=rot), edited)
+    capsys.readouterr()
+    assert main(["clean", str(edited), "-o", str(tmp_path / "o.npz"), "--decisions", str(dec), "--record",
+                 str(d / "walk.clean.npz")]) == 2
+    err = capsys.readouterr().err
+    assert one_error_line(err) and err.startswith(f"mocapkit: error: {edited}: not the take that {dec.name} and "
+                                                  "the record walk.clean.npz were made for"), err
+    assert main(["clean", str(edited), "-o", str(tmp_path / "o.npz"), "--decisions", str(dec)]) == 2
+    err = capsys.readouterr().err
+    assert one_error_line(err) and err.startswith(f"mocapkit: error: {dec}: decisions for another take"), err
+    assert "not edited.npz (" in err
+    assert not (tmp_path / "o.npz").exists()

@@ -27,7 +27,7 @@ from . import decisions as dec
 from .decided import for_motion
 from .pipeline import CleanResult
 
-__all__ = ["GIVEN", "decisions_document", "decided_result", "clean_and_decide", "decide_take"]
+__all__ = ["GIVEN", "decisions_document", "decided_result", "clean_and_decide", "decide_take", "the_odd_take"]
 
 GIVEN = "the decisions given"  # what a refusal names decisions given as a dict (no file)
 
@@ -84,21 +84,44 @@ def clean_and_decide(original, cleaning: Callable[[], CleanResult], *, decisions
     return res, decided
 
 
+def the_odd_take(doc: dict, path, original, record_result: CleanResult, record, source) -> None:
+    """Refuse, naming the input ``source``, a take that is not the one both the decisions ``doc`` (read from
+    ``path``) and the record ``record`` were made for: they agree with each other (the record keeps the digest of
+    the take the decisions name), so it is the input that is another take, or an edited one. Nothing where the
+    decisions are of this take, or the record keeps no digest (the decisions and record checks then say which)."""
+    named = doc["take"]
+    if named["sha256"] == dec.take_digest(original) or record_result.take_sha256 != named["sha256"]:
+        return
+    raise MocapFormatError(source or original.name or "the input",
+                           f"not the take that {os.path.basename(os.fspath(path))} and the record "
+                           f"{os.path.basename(os.fspath(record))} were made for ({named.get('name', '?')}, "
+                           f"{named.get('frames', '?')} frames; this file has {original.num_frames}): its samples "
+                           "differ (another take, or one edited since)")
+
+
 def decide_take(original, cleaning: Callable[[], CleanResult], doc: dict, path, *, record=None,
                 request: dict | None = None, take: str = "", option: str = dec.RECORD_KEYWORD,
-                prepared: Callable[[CleanResult], CleanResult] | None = None, named=None
+                prepared: Callable[[CleanResult], CleanResult] | None = None, named=None,
+                held: Callable[[CleanResult], CleanResult] | None = None, source=None
                 ) -> tuple[CleanResult, dict, CleanResult]:
     """The checks and steps of :func:`clean_and_decide` on a decisions document ``doc`` already read from ``path``
     (:func:`decisions_document`), which :func:`mocapkit.batch.clean_file` makes for the CLI too.
 
     ``prepared``: applied to the cleaning (new or read back) before the decisions are checked against it
-    (``clean_file``'s frames note and what an AMC output holds); ``named``: what a refusal of a record without
-    its cleaned samples names (default ``record``). Other arguments as :func:`clean_and_decide`'s.
-    Returns ``(cleaning, chosen, decided)``: ``chosen`` the checked choices
-    (:func:`~mocapkit.cleaning.decisions.check_decisions`)."""
-    dec.check_decisions(doc, path, original)  # decisions for another take: refused before any cleaning
+    (``clean_file``'s frames note); ``held``: the cleaning as the output file holds it
+    (:func:`~mocapkit.cleaning.decisions.as_written`: an AMC's bones with fewer than three dofs), to which the
+    decisions are applied. They are checked against the cleaning as the person reviewed it: as it was read or
+    made where the file's digest is of that (a batch's ``.bvh`` record applied to an ``.amc`` output), else as
+    held (a record made for an ``.amc`` output; the change ids are the same either way). ``named``: what a
+    refusal of a record without its cleaned samples names (default ``record``). ``source``: the input's path,
+    named where it is the file that does not match (the decisions and the record are of one take, another than
+    it: :func:`the_odd_take`). Other arguments as :func:`clean_and_decide`'s. Returns ``(cleaning, chosen, decided)``: the cleaning as held, ``chosen`` the
+    checked choices (:func:`~mocapkit.cleaning.decisions.check_decisions`)."""
     if record is not None:
         res = CleanResult.load(record)
+        the_odd_take(doc, path, original, res, record, source if source is not None else take)
+    dec.check_decisions(doc, path, original, take=take)  # decisions for another take: refused before any cleaning
+    if record is not None:
         dec.check_record(original, res, record)  # the record first, then the decisions against it
     else:
         dec.check_request(doc, path, request, option)  # a cleaning with other options cannot be the one reviewed
@@ -106,10 +129,14 @@ def decide_take(original, cleaning: Callable[[], CleanResult], doc: dict, path, 
         res = dataclasses.replace(res, params={**res.params, "request": request})
     if prepared is not None:
         res = prepared(res)
+    shown = res if held is None else held(res)
     try:
-        chosen = dec.check_decisions(doc, path, original, res, record=record, fresh=record is None, option=option)
-        said = for_motion(doc, path, original, res, chosen, record, take=take)
-        return res, chosen, decided_result(original, res, chosen, said)
+        stamp = doc.get("cleaning") or {}
+        reviewed = res if shown is not res and stamp.get("sha256") == dec.cleaning_digest(res) else shown
+        chosen = dec.check_decisions(doc, path, original, reviewed, record=record, fresh=record is None,
+                                     option=option, take=take)
+        said = for_motion(doc, path, original, shown, chosen, record, take=take)
+        return shown, chosen, decided_result(original, shown, chosen, said)
     except MocapFormatError:
         raise
     except MocapError as exc:  # a record without its cleaned samples

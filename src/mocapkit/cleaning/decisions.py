@@ -83,6 +83,7 @@ import dataclasses
 import hashlib
 import json
 import math
+import os
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Mapping
@@ -549,7 +550,7 @@ def _unique_keys(pairs: list) -> dict:
 
 
 def check_decisions(doc: dict, path, original: Motion, result=None, record=None, fresh: bool = False,
-                    option: str = RECORD_FLAG) -> dict:
+                    option: str = RECORD_FLAG, take: str = "") -> dict:
     """The choices of ``doc`` (from :func:`read_decisions`) after checking they fit this take and this record.
 
     Refused, in one line naming ``path``: decisions for another take (its
@@ -559,12 +560,13 @@ def check_decisions(doc: dict, path, original: Motion, result=None, record=None,
     id that is not a change of ``result``, or a file made by the report that
     leaves a change unnamed (:func:`check_named`). With ``result`` None only the
     take is checked (before a cleaning, so that decisions for another take are
-    refused first). ``option``: how a refusal names the record to give (:func:`record_wanted`).
+    refused first). ``option``: how a refusal names the record to give (:func:`record_wanted`); ``take``: the
+    input's file name, as a refusal names it (default the take's name).
     """
-    take = doc["take"]
-    if take["sha256"] != take_digest(original):
-        what = f"{take.get('name', '?')}, {take.get('frames', '?')} frames"
-        raise MocapFormatError(path, f"decisions for another take ({what}), not {original.name or 'this take'} "
+    named = doc["take"]
+    if named["sha256"] != take_digest(original):
+        what = f"{named.get('name', '?')}, {named.get('frames', '?')} frames"
+        raise MocapFormatError(path, f"decisions for another take ({what}), not {take or original.name or 'this take'} "
                                f"({original.num_frames} frames): its samples differ")
     if result is None:
         return dict(doc["decisions"])
@@ -604,12 +606,24 @@ def check_cleaning(doc: dict, path, result, record=None, fresh: bool = False, op
     want = record_wanted(stamp, option)
     if not fresh:
         where = f"the record {record}" if record is not None else "this clean record"
+        if record is not None and _names_record(stamp, record):  # the record it names, written again since
+            raise MocapFormatError(path, f"made on another cleaning than {where} (its changes or cleaned values "
+                                         "differ), though it names that record: the record was written again since "
+                                         "the review (the take cleaned again); review that record's report anew")
         raise MocapFormatError(path, f"made on another cleaning than {where} (its changes or cleaned values differ); "
                                      f"give the record of the cleaning reviewed: {want}")
     diff = request_difference(stamp.get("request"), result.params.get("request"))
     diff = diff or "its changes or cleaned values differ"
     raise MocapFormatError(path, f"made on another cleaning than this new one: {diff}; apply them to the reviewed "
                                  f"values: {want}, or clean with the same options")
+
+
+def _names_record(stamp: dict, record) -> bool:
+    """Whether the record a decisions file names (``stamp["record"]``) is the file ``record``."""
+    named = stamp.get("record")
+    if not isinstance(named, str) or not named:
+        return False
+    return os.path.realpath(named) == os.path.realpath(os.fspath(record))
 
 
 def _check_stamped(doc: dict, path, option: str = RECORD_FLAG) -> None:

@@ -358,8 +358,8 @@ class CleanResult:
         """The ``params`` of a record written by :meth:`save`, read without its arrays.
 
         A marker capture's record (:class:`mocapkit.cleaning.markers.MarkerCleanResult`) gives ``kind``
-        ``"markers"``, ``written`` (the sizes and digests of the files read and written) and ``request`` (what it
-        was asked to be cleaned with), each where it keeps one, and None when it keeps neither. Raises
+        ``"markers"``, ``written`` (the sizes and digests of the files read and written), ``request`` (what it
+        was asked to be cleaned with) and ``decided`` (:func:`mocapkit.batch_decided.stamp_decided`), each where it keeps one, and None when it keeps neither. Raises
         :class:`~mocapkit.errors.MocapFormatError` naming ``path`` when it is no
         mocapkit record or cannot be read (empty, cut short, another program's file).
         """
@@ -368,7 +368,7 @@ class CleanResult:
             with np.load(path, allow_pickle=False) as data:
                 if "meta" not in data.files:
                     if "kind" in data.files and str(data["kind"]) == "markers":
-                        kept = {k: json.loads(str(data[k])) for k in ("written", "request") if k in data.files}
+                        kept = {k: json.loads(str(data[k])) for k in ("written", "request", "decided") if k in data.files}
                         return {"kind": "markers", **kept} if kept else None
                     raise ValueError("it holds no record")
                 meta = json.loads(str(data["meta"]))

@@ -300,8 +300,9 @@ def _written(out: Path, record, report, png) -> list:
     return [out] + ([clean_path(out)] if record is None else []) + [p for p in (report, png) if p is not None]
 
 
-def _take_line(row: dict) -> str:
-    """One line per take of a batch: what was found and fixed, or why it failed or was skipped."""
+def _take_line(row: dict, done: str = "cleaned") -> str:
+    """One line per take of a batch: what was found and fixed, or why it failed or was skipped; ``done``: the word
+    a take done starts with ("reviewed" in review mode, --steps detect, where nothing is changed)."""
     if row["status"] == "failed":
         reason, name = str(row["reason"]), str(row["input"])
         # a reader's reason names the file already ("PATH:LINE: ..."): the path once
@@ -317,7 +318,7 @@ def _take_line(row: dict) -> str:
     # "cleaned again: its input changed ...", or a take found written after an interrupt (no time measured)
     seconds = row.get("seconds", 0.0)
     said = [f"{seconds:.1f} s" if seconds is not None else "", row.get("reason") or ""]
-    return f"cleaned {row['input']} -> {row['output']}: {what} ({'; '.join(x for x in said if x)})"
+    return f"{done} {row['input']} -> {row['output']}: {what} ({'; '.join(x for x in said if x)})"
 
 
 def clean_batch(
@@ -374,12 +375,13 @@ def clean_batch(
         raise MocapError("--pattern: give at least one file name pattern, e.g. '*.bvh,*.amc'")
     models = _models(ebf, ebd)
     counted = not sys.stdout.isatty()  # no bar in a log: each line says how far the batch is, after its take
+    done = "reviewed" if tuple(step_list) == ("detect",) else "cleaned"  # review mode changes nothing
 
     def print_context(line: str) -> None:  # a build of --context before the first take: a minute a log said nothing
         print(line, file=sys.stderr, flush=True)
 
     def print_row(row: dict, n: int, total: int) -> None:
-        console.print(_take_line(row) + (f" [{n}/{total}]" if counted else ""))
+        console.print(_take_line(row, done) + (f" [{n}/{total}]" if counted else ""))
         for note in row.get("warnings", ()):  # as clean says them: a fallback, a model's licence
             console.print(f"warning: {row['input']}: {note}")
 
@@ -404,7 +406,7 @@ def clean_batch(
             console.print(f"note: {name}: its files are named after its format ({Path(name).suffix[1:].lower()}): "
                           "another take of its folder has the same stem")
         console.print(f"{plural(len(summary.rows) + summary.not_started, 'take')} on {summary.executor} in "
-                      f"{summary.seconds:.1f} s: {summary.count('done')} cleaned, {summary.count('skipped')} already "
+                      f"{summary.seconds:.1f} s: {summary.count('done')} {done}, {summary.count('skipped')} already "
                       f"complete, {summary.count('failed')} failed"
                       + (f", {summary.not_started} not started" if summary.stopped else ""))
     if summary.stopped:  # a full disk: one error line, as any command says a filesystem error (exit 2)
