@@ -79,15 +79,18 @@
     var fsec = el("section", { "class": "changes flags", id: "flags" }, sec.parentNode);
     el("h2", { text: "Flags (" + flags.length + ")" }, fsec);
     el("p", { "class": "note", text: "What detection flagged, one joint over a run of frames, and the rule that " +
-      "flagged it. The changes above are what the cleaning did about them." }, fsec);
+      "flagged it. The changes above are what the cleaning did about them; a flag it left as it was says why." }, fsec);
     var ftable = el("table", {}, fsec), fhead = el("tr", {}, el("thead", {}, ftable));
-    ["joint", "frames", "why", ""].forEach(function (h) { el("th", { text: h }, fhead); });
+    ["joint", "frames", "why", "what the cleaning did", ""].forEach(function (h) { el("th", { text: h }, fhead); });
     var fbody = el("tbody", {}, ftable);
     flags.forEach(function (f) {
       var tr = el("tr", { "data-flag": f.joint + ":" + f.first + "-" + f.last }, fbody);
       el("td", { text: f.joint }, tr);
       el("td", { "class": "num", text: f.first === f.last ? String(f.first) : f.first + "-" + f.last }, tr);
       el("td", { "class": "reason", text: f.why.join(", ") }, tr);
+      // f.left: why a flag was left as it was ("" where a change above is the cleaning's answer)
+      el("td", { "class": "outcome" + (f.left ? " left" : ""),
+        text: f.left === undefined ? "" : (f.left || "changed: see the changes above") }, tr);
       var jb = el("button", { type: "button", "class": "jump", text: "jump to frame " + f.first }, el("td", { "class": "jump" }, tr));
       jb.addEventListener("click", function () { goTo(f.joint_index, f.first); });
     });
