@@ -123,3 +123,23 @@ def test_clean_batch_line_says_the_flags_left_and_the_frames_not_judged(tmp_path
     assert "flagged run" in line and "left as it was (" in line and "RightWrist 23" in line
     assert "the repair was not better than the take" in line
     assert not_judged_note(res.detection, take.num_frames) in line
+
+
+def test_each_change_and_flag_reads_as_an_animators_sentence_with_the_rule_as_detail(open_page, report, cleaned_131_01):
+    """The trial: reasons read "a digression its own break confirms", "MDM up to 0.00". Each row now opens with what
+    is wrong with the motion and what was done, the detector's words kept after it in brackets."""
+    take, res = cleaned_131_01
+    pg = open_page(report)
+    assert pg.errors == []
+    cells = pg.js("""() => [...document.querySelectorAll('#changes td.reason, #flags td.reason')].map(
+        td => [td.textContent, td.querySelector('.detail').textContent])""")
+    assert len(cells) == pg.js("() => document.querySelectorAll('#changes tbody tr, #flags tbody tr').length") > 0
+    for text, detail in cells:
+        sentence = text[:len(text) - len(detail)].strip()
+        assert sentence and sentence[0].isupper() and sentence.endswith(".")
+        assert "MDM" not in sentence and "digression" not in sentence and "confirms" not in sentence
+        assert detail.startswith("(") and detail.endswith(")")
+    wrist = pg.js("""() => [...document.querySelectorAll('#flags tr')].filter(tr => (tr.dataset.flag || '')
+        .startsWith('RightWrist:')).map(tr => tr.querySelector('td.reason').textContent)""")
+    assert wrist and all(t.startswith("The joint breaks away from how it moves in the similar moments of the take.")
+                         and "(a digression its own break confirms" in t for t in wrist)

@@ -582,6 +582,7 @@ def write_clean_report(path, original: Motion, result, *, inp=None, output: str 
     from ..cleaning.judged import not_judged_cells, not_judged_note
     from ..errors import MocapError
     from ..io.takes import file_first_frame
+    from .plain import with_plain_words
 
     if getattr(result, "decided", None) is not None:
         raise MocapError(f"{path}: a decided result has nothing left to decide; write the report of the cleaning "
@@ -597,6 +598,7 @@ def write_clean_report(path, original: Motion, result, *, inp=None, output: str 
     review = dec.review(original, result, take=name, output=output, decisions=decisions,
                         first_frame=file_first_frame(inp) if inp else None, record=record, command=command)
     review["flags"] = flag_outcomes(result)  # each flag with what the cleaning did about it
+    review = with_plain_words(review, result)  # an animator's sentence first, the detector's words as detail
     det = result.detection  # None for a record read back: it keeps no per-cell judgement
     return write_report(path, original, cleaned, mdm=result.mdm, flags=result.flags, changed=changed,
                         analysed=result.analysed, warnings=getattr(result, "warnings", ()),
