@@ -42,7 +42,7 @@ def plain_sentence(step: str, why: list[str]) -> str:
     :data:`~mocapkit.cleaning.ssa.cues.CAUSES`, as :func:`~mocapkit.cleaning.ssa.cues.cause_names` gives them).
 
     >>> plain_sentence("repair", ["a transient offset (a step off its path and back)"])
-    'The joint steps off its path and later steps back: replaced by the take\\'s own similar motion.'
+    "The joint steps off its path and later steps back: replaced by the take's own similar motion."
     """
     what = "; ".join(_BY_WORDS.get(w, w) for w in why)
     done = "; ".join(_STEPS[s] for s in step.split("+") if s in _STEPS) if step else ""
