@@ -340,6 +340,20 @@ def test_gaps_defaults_long_gaps_and_root():
         C.gaps(m, start_prob=1.5)
 
 
+def test_gaps_leave_joints_without_rotation_channels_alone():
+    """The trial's `corrupt --kind gaps` gapped rhipjoint of an HDM05 take, a bone with no dof: clean then listed
+    "fill" changes on a bone nothing can move. CMU 12_walk (ASF/AMC): lhipjoint and rhipjoint have no dof."""
+    m = mocapkit.load(mocapkit.samples.path("12_walk.amc"))
+    bare = [j for j in range(1, m.num_joints) if not m.skeleton.rotation_order(j)]
+    assert {m.skeleton.joint_names[j] for j in bare} >= {"lhipjoint", "rhipjoint"}
+    _, mask = C.gaps(m, start_prob=0.05, seed=0)
+    assert not mask[:, bare].any()
+    moving = [j for j in range(1, m.num_joints) if j not in bare]
+    assert mask[:, moving].any(axis=0).all()  # every joint the file animates still gets its gaps
+    _, mask = C.gaps(m, start_prob=0.05, joints=["rhipjoint"], seed=0)  # named: as asked
+    assert mask[:, m.skeleton.index("rhipjoint")].any()
+
+
 # -- real errors -----------------------------------------------------------------------------
 
 

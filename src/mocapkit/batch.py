@@ -569,9 +569,13 @@ def _clean_job(job: dict) -> dict:
                        warnings=marker_notes(res.original, out, filled=res.fill_mask,  # what the reader did,
                                              record=clean_path(out)))  # what OUT cannot hold
         else:
+            from .cleaning.flags_left import left_line
+            from .cleaning.judged import not_judged_note
+
             said = " ".join(s.note for s in res.steps)  # a step's fallback or its model's licence: warnings
             row.update(frames=res.num_frames, filled=int(res.filled.sum()), repaired=int(res.repaired.sum()),
                        denoised=int(res.denoised.sum()), flagged=int(res.flags.sum()), notes=list(res.notes),
+                       left=left_line(res), judged=not_judged_note(res.detection, res.num_frames),
                        warnings=[n for n in res.notes if n in said] + motion_notes(taken, out, job["input"]))
     except _Orphaned:
         undo()

@@ -27,6 +27,7 @@ def row_from_record(inp, output, record) -> dict:
     joint-angle take; ``filled``, ``spikes``, ``swapped`` of a marker capture), ``seconds`` None (not measured here)
     and ``reason`` :data:`WRITTEN_NOTE`. Raises :class:`~mocapkit.errors.MocapFormatError` for a record that cannot
     be read."""
+    from .cleaning.flags_left import left_line
     from .cleaning.markers.record import read_marker_record
     from .cleaning.pipeline import CleanResult
 
@@ -38,7 +39,7 @@ def row_from_record(inp, output, record) -> dict:
     else:
         res = CleanResult.load(record)
         row.update(frames=res.num_frames, filled=int(res.filled.sum()), repaired=int(res.repaired.sum()),
-                   denoised=int(res.denoised.sum()), flagged=int(res.flags.sum()))
+                   denoised=int(res.denoised.sum()), flagged=int(res.flags.sum()), left=left_line(res))
     return row
 
 

@@ -456,8 +456,11 @@ def gaps(
     ``start_prob=0.1`` for the literal reading.
 
     The root is not gapped unless ``joints`` names it; a gapped root loses its
-    position too. The mask is the cells that became missing (cells already
-    NaN in the input are not "changed").
+    position too. A joint the file gives no rotation channel (an ASF bone with
+    no dof, such as CMU's and HDM05's ``lhipjoint``) is not gapped unless
+    ``joints`` names it: no capture loses what it never records, and a fill
+    there would be a change to a bone nothing can move. The mask is the cells
+    that became missing (cells already NaN in the input are not "changed").
 
     Returns ``(motion, mask)``.
     """
@@ -470,6 +473,9 @@ def gaps(
         raise ValueError("mean_length_s and max_length_s must be positive")
     rng = _rng(seed)
     sel = joint_set(motion, joints, include_root=False)
+    # only joints the file animates lose samples; the others still draw theirs, so a seed gaps the rest alike
+    keep = sel & (joints is not None or np.array([bool(motion.skeleton.rotation_order(j))
+                                                   for j in range(motion.num_joints)]))
     F = motion.num_frames
     rot = np.array(motion.rotations)
     root = np.array(motion.root_positions)
@@ -484,7 +490,8 @@ def gaps(
                     n = int(rng.integers(long_lo, long_hi + 1))
                 else:
                     n = min(int(rng.geometric(1.0 / mean_frames)), max_frames)
-                rot[f : f + n, j] = np.nan
+                if keep[j]:
+                    rot[f : f + n, j] = np.nan
                 if j == 0:
                     root[f : f + n] = np.nan
                 f += n + int(rng.geometric(start_prob))  # >= 1 observed frame in between

@@ -13,6 +13,7 @@ from mocapkit import corrupt, samples
 from mocapkit.cleaning import decisions as D
 from mocapkit.cleaning.pipeline import CleanResult
 from mocapkit.cli import main
+from mocapkit.report.plain import plain_sentence
 
 CHROMIUM = os.environ.get("MOCAPKIT_CHROMIUM", "/usr/bin/chromium")
 CHROMIUM_ARGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-background-networking",
@@ -181,7 +182,10 @@ def test_review_mode_lists_every_flag_with_the_rule_that_raised_it(browser, tmp_
         cells = rows.nth(k).locator("td")
         assert cells.nth(0).inner_text() == f["joint"]
         assert cells.nth(1).inner_text() == (str(f["first"]) if f["first"] == f["last"] else f"{f['first']}-{f['last']}")
-        assert cells.nth(2).inner_text() == ", ".join(f["why"])
+        # an animator's sentence first, the rules' words as its detail
+        assert cells.nth(2).locator(".detail").inner_text() == "(" + ", ".join(f["why"]) + ")"
+        assert cells.nth(2).inner_text().startswith(plain_sentence("", f["why"]))
+        assert cells.nth(3).inner_text() == "left as it was: the repair step did not run"
     f = flags[-1]
     rows.nth(len(flags) - 1).locator("button.jump").click()
     assert pg.evaluate("() => window.mocapkitReport.frame()") == f["first"]

@@ -14,7 +14,22 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["not_judged", "not_judged_note"]
+__all__ = ["not_judged", "not_judged_cells", "not_judged_note"]
+
+
+def not_judged_cells(detection) -> np.ndarray:
+    """(F, J) bool: the cells of the analysed joints, in the analysed span, that no neighbour word judged.
+
+    ``detection`` a :class:`~mocapkit.cleaning.ssa.Detection`. Such a cell has MDM 0 and nothing flags it:
+    the report draws it as not judged (striped) rather than as a cell found clean. Joints not analysed at all
+    and frames outside the ``span`` (calibration poses left alone) are False here: the report says those apart.
+    """
+    dig = np.asarray(detection.digression, dtype=np.float64)
+    analysed = np.asarray(detection.analysed, dtype=bool)
+    out = np.zeros(dig.shape, dtype=bool)
+    lo, hi = (0, dig.shape[0]) if detection.span is None else detection.span
+    out[lo:hi] = ~np.isfinite(dig[lo:hi]) & analysed[None, :]
+    return out
 
 
 def not_judged(detection) -> tuple[int, int]:

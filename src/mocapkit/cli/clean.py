@@ -315,6 +315,8 @@ def _take_line(row: dict, done: str = "cleaned") -> str:
                                                    ("spikes", "spike sample"), ("swapped", "re-labelled sample"))
              if row.get(k)]
     what = ", ".join(found) if found else "nothing to change"
+    # flags left as they were and frames detection never judged: the counts alone read as all of it checked
+    what = "; ".join([what] + [row[k] for k in ("left", "judged") if row.get(k)])
     # "cleaned again: its input changed ...", or a take found written after an interrupt (no time measured)
     seconds = row.get("seconds", 0.0)
     said = [f"{seconds:.1f} s" if seconds is not None else "", row.get("reason") or ""]

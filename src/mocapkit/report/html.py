@@ -13,7 +13,7 @@ What the page holds
   the cleaned motion as a patch of the points that differ when fewer than half do;
 - the movement digression map quantised to uint8, and one uint8 per cell with
   bit 0 = flagged, bit 1 = changed by the cleaning, bit 2 / 3 = missing in the
-  original / cleaned motion;
+  original / cleaned motion, bit 4 = not judged by detection (no similar motion to judge it against);
 - the rotation channels (degrees, as the file gives them) before and after of
   the joints the cleaning flagged or changed, int16 on a per-channel grid;
 - the framing (:mod:`mocapkit.report.view`): floor height, camera target (fixed,
@@ -70,7 +70,7 @@ DETAIL_MARGIN = 3
 MAX_PLOT_JOINTS = 12
 
 _MISSING_I16 = -32768
-_BIT_FLAG, _BIT_CHANGED, _BIT_MISSING_ORIG, _BIT_MISSING_CLEAN = 1, 2, 4, 8
+_BIT_FLAG, _BIT_CHANGED, _BIT_MISSING_ORIG, _BIT_MISSING_CLEAN, _BIT_NOT_JUDGED = 1, 2, 4, 8, 16
 
 
 def _b64(a: np.ndarray) -> str:
@@ -323,6 +323,8 @@ def write_report(
     up_axis=None,
     review: dict | None = None,
     analysed=None,
+    not_judged=None,
+    judged_note: str = "",
     warnings=(),
 ) -> Path:
     """Write the self-contained HTML cleaning report of ``original`` -> ``cleaned``.
@@ -363,6 +365,11 @@ def write_report(
         The joints detection analysed (:attr:`mocapkit.cleaning.pipeline.CleanResult.analysed`). The
         heat map draws the others striped grey, "not analysed", and the page names them, rather than
         an MDM of 0 that looks checked and clean. None: every joint is drawn by its MDM.
+    not_judged : bool array (F, J), optional
+        Cells of analysed joints that no neighbour word judged
+        (:func:`mocapkit.cleaning.judged.not_judged_cells`): their MDM is 0 though nothing checked them, so the
+        heat map stripes them like the joints not analysed. ``judged_note``: the words the page's summary says
+        of them (:func:`mocapkit.cleaning.judged.not_judged_note`, as the console says them).
     warnings : sequence of str
         Lines shown under the title as ``warning: ...``, as the console says them: a step's fallback, the licence
         of a model whose terms restrict use (:attr:`mocapkit.cleaning.pipeline.CleanResult.warnings`; the
@@ -402,6 +409,7 @@ def write_report(
         mdm_arr = np.nan_to_num(mdm_arr, nan=0.0).clip(0.0, 1.0)
     flags_arr = _cell_mask(flags, "flags", shape)
     changed_arr = _cell_mask(changed, "changed", shape)
+    unjudged_arr = _cell_mask(not_judged, "not_judged", shape)
     unchecked = []
     if analysed is not None:
         analysed = np.asarray(analysed)
@@ -457,6 +465,9 @@ def write_report(
     all_shown = len(idx) == F
     if not all_shown:  # each shown frame stands for the frames up to the next shown one
         bits = np.bitwise_or.reduceat(bits, idx, axis=0)
+    if unjudged_arr is not None:  # a shown frame is not judged where none of the frames it stands for is
+        unjudged_shown = unjudged_arr if all_shown else np.logical_and.reduceat(unjudged_arr, idx, axis=0)
+        bits |= unjudged_shown.astype(np.uint8) * _BIT_NOT_JUDGED
     mdm_q = None
     if mdm_arr is not None:
         mdm_q = np.rint((mdm_arr if all_shown else np.maximum.reduceat(mdm_arr, idx, axis=0)) * 255).astype(np.uint8)
@@ -498,6 +509,8 @@ def write_report(
             "missingOriginal": int(miss_o.sum()),
             "missingCleaned": int(miss_c.sum()),
             "flaggedJoints": None if flags_arr is None else [names[j] for j in np.flatnonzero(flags_arr.any(axis=0))],
+            # frames no neighbour word judged, in the console's words: a change-free stretch there was not checked
+            "notJudged": str(judged_note or ""),
         },
         "plots": plots,
     }
@@ -565,8 +578,11 @@ def write_clean_report(path, original: Motion, result, *, inp=None, output: str 
     """
     from ..cleaning import decisions as dec
     from ..cleaning.decided import apply_command
+    from ..cleaning.flags_left import flag_outcomes
+    from ..cleaning.judged import not_judged_cells, not_judged_note
     from ..errors import MocapError
     from ..io.takes import file_first_frame
+    from .plain import with_plain_words
 
     if getattr(result, "decided", None) is not None:
         raise MocapError(f"{path}: a decided result has nothing left to decide; write the report of the cleaning "
@@ -579,9 +595,13 @@ def write_clean_report(path, original: Motion, result, *, inp=None, output: str 
     if command is None and inp:
         request = result.params.get("request") or {}
         command = apply_command(inp, asf=asf, amc_fps=request.get("amc_fps"), unit=request.get("unit"))
+    review = dec.review(original, result, take=name, output=output, decisions=decisions,
+                        first_frame=file_first_frame(inp) if inp else None, record=record, command=command)
+    review["flags"] = flag_outcomes(result)  # each flag with what the cleaning did about it
+    review = with_plain_words(review, result)  # an animator's sentence first, the detector's words as detail
+    det = result.detection  # None for a record read back: it keeps no per-cell judgement
     return write_report(path, original, cleaned, mdm=result.mdm, flags=result.flags, changed=changed,
                         analysed=result.analysed, warnings=getattr(result, "warnings", ()),
-                        title=f"{name}: cleaned" + (f" ({applied} applied)" if applied else ""),
-                        review=dec.review(original, result, take=name, output=output, decisions=decisions,
-                                          first_frame=file_first_frame(inp) if inp else None, record=record,
-                                          command=command))
+                        not_judged=None if det is None else not_judged_cells(det),
+                        judged_note=not_judged_note(det, original.num_frames),
+                        title=f"{name}: cleaned" + (f" ({applied} applied)" if applied else ""), review=review)

@@ -62,8 +62,10 @@
       el("td", { text: c.step, title: c.method }, tr);
       el("td", { "class": "num", text: c.size !== undefined ? c.size : c.max_deg === null ? "was missing" : (c.max_deg >= 0.1 || c.max_deg === 0 ? c.max_deg.toFixed(1) : c.max_deg.toPrecision(2)) + " deg" }, tr);
       var others = (c.tied || []).filter(function (id) { return id !== c.id; });
-      el("td", { "class": "reason", text: c.reason + (others.length ? " (accepted or rejected with " +
-        others.join(", ") + (c.tied_why ? ": " + c.tied_why : "") + ")" : "") }, tr);
+      var why = el("td", { "class": "reason", text: (c.plain ? c.plain + " " : "") }, tr);
+      // the detector's words stay, as the detail of the sentence
+      el("span", { "class": "detail", text: (c.plain ? "(" + c.reason + ")" : c.reason) + (others.length ?
+        " (accepted or rejected with " + others.join(", ") + (c.tied_why ? ": " + c.tied_why : "") + ")" : "") }, why);
       var jt = el("td", { "class": "jump" }, tr);
       var jb = el("button", { type: "button", "class": "jump", "data-index": String(k), text: "jump to frame " + c.first }, jt);
       jb.addEventListener("click", function () { jump(k, true); });
@@ -79,15 +81,19 @@
     var fsec = el("section", { "class": "changes flags", id: "flags" }, sec.parentNode);
     el("h2", { text: "Flags (" + flags.length + ")" }, fsec);
     el("p", { "class": "note", text: "What detection flagged, one joint over a run of frames, and the rule that " +
-      "flagged it. The changes above are what the cleaning did about them." }, fsec);
+      "flagged it. The changes above are what the cleaning did about them; a flag it left as it was says why." }, fsec);
     var ftable = el("table", {}, fsec), fhead = el("tr", {}, el("thead", {}, ftable));
-    ["joint", "frames", "why", ""].forEach(function (h) { el("th", { text: h }, fhead); });
+    ["joint", "frames", "why", "what the cleaning did", ""].forEach(function (h) { el("th", { text: h }, fhead); });
     var fbody = el("tbody", {}, ftable);
     flags.forEach(function (f) {
       var tr = el("tr", { "data-flag": f.joint + ":" + f.first + "-" + f.last }, fbody);
       el("td", { text: f.joint }, tr);
       el("td", { "class": "num", text: f.first === f.last ? String(f.first) : f.first + "-" + f.last }, tr);
-      el("td", { "class": "reason", text: f.why.join(", ") }, tr);
+      var fwhy = el("td", { "class": "reason", text: f.plain ? f.plain + " " : "" }, tr);
+      el("span", { "class": "detail", text: f.plain ? "(" + f.why.join(", ") + ")" : f.why.join(", ") }, fwhy);
+      // f.left: why a flag was left as it was ("" where a change above is the cleaning's answer)
+      el("td", { "class": "outcome" + (f.left ? " left" : ""),
+        text: f.left === undefined ? "" : (f.left || "changed: see the changes above") }, tr);
       var jb = el("button", { type: "button", "class": "jump", text: "jump to frame " + f.first }, el("td", { "class": "jump" }, tr));
       jb.addEventListener("click", function () { goTo(f.joint_index, f.first); });
     });

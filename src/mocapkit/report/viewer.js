@@ -11,7 +11,7 @@
   TIMES.parse = performance.now() - T0;
   var N = D.n, P = D.names.length, J = D.numJoints, STRIDE = D.stride, F = D.frames;
   var MISSING = -32768;
-  var BIT_FLAG = 1, BIT_CHANGED = 2, BIT_MISS_O = 4, BIT_MISS_C = 8;
+  var BIT_FLAG = 1, BIT_CHANGED = 2, BIT_MISS_O = 4, BIT_MISS_C = 8, BIT_NOT_JUDGED = 16;
 
   // ---- decoding ---------------------------------------------------------
   function bytes(b64) {
@@ -104,6 +104,8 @@
     if (st.missingOriginal) parts.push(st.missingOriginal + " missing cells in the input");
     if (UNCHECKED.length) parts.push(UNCHECKED.length + " joint" + (UNCHECKED.length === 1 ? "" : "s") +
       " not analysed by detection (" + UNCHECKED.map(function (j) { return D.names[j]; }).join(", ") + ")");
+    // frames no similar motion judged: a stretch with no change there was not checked, not found clean
+    if (st.notJudged) parts.push(st.notJudged);
     summary.textContent = parts.join("; ") + ".";
     if (N < F) el("p", { "class": "note", id: "downsample-note", text: downsampleNote() }, document.querySelector("header"));
   })();
@@ -154,7 +156,9 @@
   var heatNote = el("p", { "class": "note" }, heatSec);
   heatNote.textContent = (D.has.mdm ? "Colour: MDM (0 dark to 1 bright)" : "No MDM given") +
     (D.has.flags ? "; red: flagged" : (D.has.changed ? "; red: changed by the cleaning" : "")) +
-    "; grey: missing in the input" + (UNCHECKED.length ? "; striped: not analysed by detection (not checked, no MDM)" : "") +
+    "; grey: missing in the input" + (UNCHECKED.length || D.stats.notJudged ? "; striped: not judged by detection (" +
+      (UNCHECKED.length ? "a joint not analysed" : "") + (UNCHECKED.length && D.stats.notJudged ? ", or " : "") +
+      (D.stats.notJudged ? "frames with no similar motion to judge them against" : "") + "; not checked, no MDM)" : "") +
     ". Click a cell to jump to that frame and select that joint.";
   var heat = el("canvas", { id: "heatmap", "class": "heat-canvas" }, heatSec);
 
@@ -349,7 +353,7 @@
         var rgb = LUT[v];
         if (red && (b & red)) rgb = [Math.round(rgb[0] * 0.2 + 224 * 0.8), Math.round(rgb[1] * 0.2 + 49 * 0.8), Math.round(rgb[2] * 0.2 + 49 * 0.8)];
         else if ((b & BIT_MISS_O) && !v) rgb = [190, 190, 190];
-        else if (NOT_ANALYSED[j]) rgb = (c >> 2) % 2 ? [222, 226, 230] : [173, 181, 189];  // striped: not checked
+        else if (NOT_ANALYSED[j] || ((b & BIT_NOT_JUDGED) && !v)) rgb = (c >> 2) % 2 ? [222, 226, 230] : [173, 181, 189];  // striped: not checked
         var o = (j * W + c) * 4;
         px[o] = rgb[0]; px[o + 1] = rgb[1]; px[o + 2] = rgb[2]; px[o + 3] = 255;
       }

@@ -26,6 +26,7 @@ at its ends moves it off the medoid on most good repairs, so it left more good r
 
 from __future__ import annotations
 
+import re
 from dataclasses import dataclass
 
 import numpy as np
@@ -33,7 +34,7 @@ import numpy as np
 from ... import rotations as R
 from ..ik import contact_segments
 
-__all__ = ["LeftRun", "angular_acceleration", "guard_joint", "roughness"]
+__all__ = ["LEFT_PREFIX", "LeftRun", "angular_acceleration", "guard_joint", "roughness"]
 
 #: degrees per frame squared a repaired run may add to the input's largest angular acceleration: the joins of a
 #: 0.25 s blend add about 1 (a smooth drift repaired from a twin: 0.1 -> 1.1), a step put into a real turn tens
@@ -55,7 +56,19 @@ class LeftRun:
     reason: str
 
     def __str__(self) -> str:
-        return f"left: repair not better than the take: {self.joint} frames {self.start}-{self.end - 1} ({self.reason})"
+        return f"{LEFT_PREFIX}{self.joint} frames {self.start}-{self.end - 1} ({self.reason})"
+
+    @classmethod
+    def from_note(cls, note: str) -> "LeftRun | None":
+        """The run a note of :attr:`CleanResult.notes <mocapkit.cleaning.pipeline.CleanResult.notes>` says
+        (``str(run)``, the only form a record keeps); None for any other note."""
+        m = _LEFT_NOTE.fullmatch(note)
+        return None if m is None else cls(m["joint"], int(m["a"]), int(m["b"]) + 1, m["reason"])
+
+
+#: how a :class:`LeftRun`'s note begins (the console's, the record's and the report's words)
+LEFT_PREFIX = "left: repair not better than the take: "
+_LEFT_NOTE = re.compile(re.escape(LEFT_PREFIX) + r"(?P<joint>.+) frames (?P<a>\d+)-(?P<b>\d+) \((?P<reason>.*)\)")
 
 
 def angular_acceleration(q: np.ndarray) -> np.ndarray:

@@ -1,0 +1,55 @@
+"""The flags a cleaning left as they were, and why: said on each flag of the report and in clean-batch's line.
+
+Detection flags a run of frames of a joint; repair may give a run back as it was when its result is no better
+than the take (:class:`~mocapkit.cleaning.ssa.LeftRun`, a rule of this library: it would join the take less
+smoothly or bridge faster than the joint ever turns), and without the repair step nothing changes a flag.
+The console names those runs in a note; a reviewer reading the report's flags beside its changes, or a batch
+log's counts, needs the same words, or an unchanged flag reads as one the cleaning forgot.
+:func:`flag_outcomes` gives each flag what the cleaning did about it, :func:`left_line` the batch line's words.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .decisions import flag_segments
+from .ssa import LeftRun
+
+__all__ = ["flag_outcomes", "left_line"]
+
+
+def flag_outcomes(result) -> list[dict]:
+    """:func:`~mocapkit.cleaning.decisions.flag_segments` of ``result``, each with ``"left"``: "" where a step
+    changed some of its cells, else why it was left as it was, in a reader's words (the repair guard's reason
+    from the result's notes, or that repair did not run).
+
+    ``result`` a :class:`~mocapkit.cleaning.pipeline.CleanResult` (a fresh one or one loaded from its record:
+    the notes keep the guard's runs).
+    """
+    changed = np.asarray(result.changed, dtype=bool)
+    runs = [r for r in (LeftRun.from_note(n) for n in result.notes) if r is not None]
+    repaired = any(s.name == "repair" for s in result.steps)
+    out = []
+    for seg in flag_segments(result):
+        j, a, b = seg["joint_index"], seg["first"], seg["last"]
+        left = ""
+        if not changed[a:b + 1, j].any():
+            why = [r.reason for r in runs if r.joint == seg["joint"] and r.start <= b and a < r.end]
+            left = ("left as it was: the repair was not better than the take" + (f" ({why[0]})" if why else "")
+                    if repaired else "left as it was: the repair step did not run")
+        out.append({**seg, "left": left})
+    return out
+
+
+def left_line(result) -> str:
+    """``"1 flagged run left as it was (RightWrist 248-267: the repair was not better than the take)"``, the
+    words clean-batch's line says of the flags :func:`flag_outcomes` finds unchanged; "" where there are none.
+    Up to three runs are named, then how many more."""
+    left = [f for f in flag_outcomes(result) if f["left"]]
+    if not left:
+        return ""
+    named = [f"{f['joint']} {f['first']}-{f['last']}" for f in left[:3]] + \
+        ([f"{len(left) - 3} more"] if len(left) > 3 else [])
+    why = {f["left"].split(" (")[0].removeprefix("left as it was: ") for f in left}
+    return (f"{len(left)} flagged run{'' if len(left) == 1 else 's'} left as it was ({', '.join(named)}: "
+            f"{'; '.join(sorted(why))})")

@@ -1,0 +1,145 @@
+"""What the report says of the frames detection never judged and of the flags the cleaning left as they were.
+
+On CMU 131_01 (shipped, BVH, 120 fps) detection judges some frames on no joint or on some joints only (no
+similar motion in the take), and the repair guard leaves RightWrist's own fast turn (frames 23x) as it was.
+A heat map cell nothing judged has MDM 0 and was drawn dark, as if found clean; a flag left unchanged was listed
+under "the changes above are what the cleaning did about them" with no word of why.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import mocapkit
+from mocapkit import samples
+from mocapkit.cleaning.decisions import flag_segments
+from mocapkit.cleaning.judged import not_judged, not_judged_cells, not_judged_note
+from mocapkit.cleaning.pipeline import clean
+from mocapkit.cleaning.ssa import LeftRun
+from mocapkit.report.html import write_clean_report
+
+from .test_html import browser, open_page, page_data  # noqa: F401  (fixtures)
+
+STRIPES = ((173, 181, 189), (222, 226, 230))
+DARK = (68, 1, 84)  # the colour ramp's 0
+
+
+@pytest.fixture(scope="module")
+def cleaned_131_01():
+    take = mocapkit.load(samples.path("131_01.bvh"))
+    res = clean(take, steps=("detect", "repair"))
+    none, some = not_judged(res.detection)
+    assert none + some > 0  # the take has frames nothing judged: what the page must say
+    return take, res
+
+
+@pytest.fixture(scope="module")
+def report(tmp_path_factory, cleaned_131_01):
+    take, res = cleaned_131_01
+    return write_clean_report(tmp_path_factory.mktemp("judged") / "131_01.html", take, res,
+                              inp=samples.path("131_01.bvh"))
+
+
+def test_not_judged_cells_are_those_of_analysed_joints_without_a_digression(cleaned_131_01):
+    _, res = cleaned_131_01
+    det = res.detection
+    cells = not_judged_cells(det)
+    assert cells.shape == det.digression.shape and not cells[:, ~det.analysed].any()
+    assert np.array_equal(cells[:, det.analysed], ~np.isfinite(det.digression[:, det.analysed]))
+    none, some = not_judged(det)
+    rows = cells[:, det.analysed]
+    assert (int(rows.all(axis=1).sum()), int((rows.any(axis=1) & ~rows.all(axis=1)).sum())) == (none, some)
+
+
+def test_frames_not_judged_are_striped_and_counted_not_drawn_as_found_clean(open_page, report, cleaned_131_01):
+    take, res = cleaned_131_01
+    cells = not_judged_cells(res.detection)
+    pg = open_page(report)
+    assert pg.errors == []
+    summary = pg.js("document.getElementById('summary').textContent")
+    assert not_judged_note(res.detection, take.num_frames) in summary
+    assert "frames not judged" in summary or "judged on some joints only" in summary
+    assert "not judged by detection" in pg.js("document.querySelector('.heat .note').textContent")
+    lay = pg.js("window.mocapkitReport.heatmapLayout()")
+    dpr = pg.js("window.devicePixelRatio || 1")
+    F = take.num_frames
+
+    def ink(j, first, last, rgb):  # pixels of joint j's heat row over frames first..last-1 close to rgb
+        x0 = (lay["left"] + lay["width"] * first / F) * dpr + 1
+        x1 = (lay["left"] + lay["width"] * last / F) * dpr - 1
+        y = int((lay["top"] + (j + 0.5) * lay["rowHeight"]) * dpr)
+        return pg.ink("heatmap", rgb=rgb, region=[int(x0), y, max(1, int(x1 - x0)), 1])
+
+    # the analysed joint with the longest run of frames nothing judged, and nothing flagged there
+    best = None
+    for j in np.flatnonzero(res.analysed):
+        col = cells[:, j] & ~res.flags[:, j]
+        edges = np.flatnonzero(np.diff(np.r_[0, col.astype(int), 0]))
+        for a, b in zip(edges[::2], edges[1::2]):
+            if best is None or b - a > best[2] - best[1]:
+                best = (int(j), int(a), int(b))
+    assert best is not None and best[2] - best[1] >= 20
+    j, a, b = best
+    assert sum(ink(j, a, b, c) for c in STRIPES) > 10 and ink(j, a, b, DARK) == 0
+    judged = np.flatnonzero(~cells[:, j] & (res.mdm[:, j] == 0) & ~res.flags[:, j])
+    assert judged.size  # a cell judged and found clean stays dark
+    run = judged[:20] if np.all(np.diff(judged[:20]) == 1) else judged[:1]
+    assert ink(j, int(run[0]), int(run[-1]) + 1, DARK) > 0
+
+
+def test_a_flag_left_as_it_was_says_why_and_a_repaired_one_points_to_its_change(open_page, report, cleaned_131_01):
+    take, res = cleaned_131_01
+    runs = [LeftRun.from_note(n) for n in res.notes if n.startswith("left: repair not better than the take: ")]
+    assert runs and all(runs) and any(r.joint == "RightWrist" for r in runs)
+    pg = open_page(report)
+    assert pg.errors == []
+    assert "a flag it left as it was says why" in pg.js("document.querySelector('#flags .note').textContent")
+    rows = pg.js("""() => [...document.querySelectorAll('#flags tbody tr')].map(
+        tr => [tr.dataset.flag, tr.querySelector('td.outcome').textContent])""")
+    assert len(rows) == len(flag_segments(res))
+    left = 0
+    for flag, outcome in rows:
+        joint, span = flag.rsplit(":", 1)
+        a, b = (int(x) for x in span.split("-"))
+        if res.changed[a:b + 1, take.skeleton.index(joint)].any():
+            assert outcome == "changed: see the changes above"
+            continue
+        why = [r.reason for r in runs if r.joint == joint and r.start <= b and a < r.end]
+        assert why and outcome == f"left as it was: the repair was not better than the take ({why[0]})"
+        left += 1
+    assert left >= 1 and any(f.startswith("RightWrist:") and "left as it was" in o for f, o in rows)
+
+
+def test_clean_batch_line_says_the_flags_left_and_the_frames_not_judged(tmp_path, capsys, cleaned_131_01):
+    from mocapkit.cli import main
+
+    take, res = cleaned_131_01
+    src = tmp_path / "in"
+    src.mkdir()
+    (src / "131_01.bvh").write_bytes(samples.path("131_01.bvh").read_bytes())
+    assert main(["clean-batch", str(src), str(tmp_path / "out"), "--steps", "detect,repair"]) == 0
+    line = next(x for x in capsys.readouterr().out.splitlines() if x.startswith("cleaned "))
+    assert "flagged run" in line and "left as it was (" in line and "RightWrist 23" in line
+    assert "the repair was not better than the take" in line
+    assert not_judged_note(res.detection, take.num_frames) in line
+
+
+def test_each_change_and_flag_reads_as_an_animators_sentence_with_the_rule_as_detail(open_page, report, cleaned_131_01):
+    """The trial: reasons read "a digression its own break confirms", "MDM up to 0.00". Each row now opens with what
+    is wrong with the motion and what was done, the detector's words kept after it in brackets."""
+    take, res = cleaned_131_01
+    pg = open_page(report)
+    assert pg.errors == []
+    cells = pg.js("""() => [...document.querySelectorAll('#changes td.reason, #flags td.reason')].map(
+        td => [td.textContent, td.querySelector('.detail').textContent])""")
+    assert len(cells) == pg.js("() => document.querySelectorAll('#changes tbody tr, #flags tbody tr').length") > 0
+    for text, detail in cells:
+        sentence = text[:len(text) - len(detail)].strip()
+        assert sentence and sentence[0].isupper() and sentence.endswith(".")
+        assert "MDM" not in sentence and "digression" not in sentence and "confirms" not in sentence
+        assert detail.startswith("(") and detail.endswith(")")
+    wrist = pg.js("""() => [...document.querySelectorAll('#flags tr')].filter(tr => (tr.dataset.flag || '')
+        .startsWith('RightWrist:')).map(tr => tr.querySelector('td.reason').textContent)""")
+    assert wrist and all(t.startswith("The joint breaks away from how it moves in the similar moments of the take.")
+                         and "(a digression its own break confirms" in t for t in wrist)
