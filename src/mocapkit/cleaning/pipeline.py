@@ -859,6 +859,37 @@ def clean(
     mdm, flags, causes = np.zeros((F, J)), zeros, None
     repaired, denoised, noise = zeros, zeros, np.full((F, J), np.nan)
 
+    den_record = None
+    if "denoise" in steps:  # before detect, which then judges the take denoised (module docstring, step 2)
+        t = time.perf_counter()
+        w = noise_fit_frames(cur.fps)
+        coarse = noise_too_coarse(cur.fps)
+        if coarse:
+            note = f"denoise skipped: {coarse}"
+            notes.append(note)
+            den_record = StepRecord("denoise", time.perf_counter() - t, 0, "skipped", note)
+        elif Fs < w:
+            note = f"denoise skipped: {Fs} frames is shorter than the noise criterion's fit ({w} frames)"
+            notes.append(note)
+            den_record = StepRecord("denoise", time.perf_counter() - t, 0, "skipped", note)
+        else:
+            part = cur[lo:hi]  # calibration frames as they came out of fill
+            noisy, sub_noise = noisy_cells(part, noise_deg, filled=filled[lo:hi])
+            noisy &= ~part.missing()
+            # the zeros fill did not fill, in the part's frames (none after fill)
+            left = ((zero_cells[lo:hi], zero_runs, zero_frames[lo:hi]) if "fill" not in steps
+                    else (np.zeros_like(noisy), (), np.zeros(Fs, dtype=bool)))
+            den, method, note = _denoise(part, noisy, models, notes, left)
+            rot = np.array(cur.rotations)
+            rot[lo:hi] = den.rotations
+            denoised = differing(cur.rotations, rot)
+            cur = dataclasses.replace(cur, rotations=rot)
+            noise[lo:hi] = sub_noise
+            extra = (f"{_count(int(noisy.sum()), 'noisy cell')} (level > {noise_deg:g} deg) on "
+                     f"{_count(int(noisy.any(axis=0).sum()), 'joint')}")
+            den_record = StepRecord("denoise", time.perf_counter() - t, int(denoised.sum()), method,
+                                      extra + (f"; {note}" if note else ""))
+
     if "detect" in steps:
         t = time.perf_counter()
         gaps = cur[lo:hi].missing().any(axis=1)
@@ -899,35 +930,8 @@ def clean(
         records.append(StepRecord("repair", time.perf_counter() - t, int(repaired.sum()),
                                   "medoid of the nearest motion words" + (" + foot-skate cleanup" if foot_skate else ""), note))
 
-    if "denoise" in steps:
-        t = time.perf_counter()
-        w = noise_fit_frames(cur.fps)
-        coarse = noise_too_coarse(cur.fps)
-        if coarse:
-            note = f"denoise skipped: {coarse}"
-            notes.append(note)
-            records.append(StepRecord("denoise", time.perf_counter() - t, 0, "skipped", note))
-        elif Fs < w:
-            note = f"denoise skipped: {Fs} frames is shorter than the noise criterion's fit ({w} frames)"
-            notes.append(note)
-            records.append(StepRecord("denoise", time.perf_counter() - t, 0, "skipped", note))
-        else:
-            part = cur[lo:hi]  # calibration frames as they came out of fill
-            noisy, sub_noise = noisy_cells(part, noise_deg, filled=filled[lo:hi])
-            noisy &= ~part.missing()
-            # the zeros fill did not fill, in the part's frames (none after fill)
-            left = ((zero_cells[lo:hi], zero_runs, zero_frames[lo:hi]) if "fill" not in steps
-                    else (np.zeros_like(noisy), (), np.zeros(Fs, dtype=bool)))
-            den, method, note = _denoise(part, noisy, models, notes, left)
-            rot = np.array(cur.rotations)
-            rot[lo:hi] = den.rotations
-            denoised = differing(cur.rotations, rot)
-            cur = dataclasses.replace(cur, rotations=rot)
-            noise[lo:hi] = sub_noise
-            extra = (f"{_count(int(noisy.sum()), 'noisy cell')} (level > {noise_deg:g} deg) on "
-                     f"{_count(int(noisy.any(axis=0).sum()), 'joint')}")
-            records.append(StepRecord("denoise", time.perf_counter() - t, int(denoised.sum()), method,
-                                      extra + (f"; {note}" if note else "")))
+    if den_record is not None:  # listed in the order of STEPS, where the record has always listed it
+        records.append(den_record)
 
     if cur.source_file != motion.source_file:  # the file a writer keeps the text of (mocapkit.io.save's like)
         cur = dataclasses.replace(cur, source_file=motion.source_file)
