@@ -273,21 +273,24 @@ def test_noise_level_stays_where_the_noise_is(walk):
 
 def test_clean_equals_its_steps_run_the_slow_way(cleaned):
     """clean() against its steps run one by one: the EBF on the whole filled take, its output kept on the noisy
-    cells, then detection of the take so denoised and a repair that prepares the take again (as from a saved
-    detection). Bit-identical."""
+    cells; detection of the take so denoised; a repair of the filled take that prepares it again (as from a saved
+    detection); the EBF on the whole repaired take, its output kept on the same noisy cells. Bit-identical."""
     from mocapkit.cleaning import deep, ssa
     from mocapkit.cleaning.pipeline import MAX_WORD_ANGLE_DEG
 
     bad, *_, res = cleaned
-    filled = deep.fill_gaps(bad, deep.shipped_model("ebd"), deep.shipped_model("ebf"))
+    ebf = deep.shipped_model("ebf")
+    filled = deep.fill_gaps(bad, deep.shipped_model("ebd"), ebf)
     noisy, _ = noisy_cells(filled)
-    whole = deep.denoise(filled, deep.shipped_model("ebf"))
-    denoised = dataclasses.replace(filled, rotations=np.where(noisy[..., None], whole.rotations, filled.rotations))
-    det = ssa.detect(denoised, max_word_angle_deg=MAX_WORD_ANGLE_DEG)
+    first = deep.denoise(filled, ebf)
+    judged = dataclasses.replace(filled, rotations=np.where(noisy[..., None], first.rotations, filled.rotations))
+    det = ssa.detect(judged, max_word_angle_deg=MAX_WORD_ANGLE_DEG)
     assert np.array_equal(det.mdm, res.mdm) and np.array_equal(det.flags, res.flags)
-    repaired = ssa.repair(denoised, dataclasses.replace(det, analysis=None), foot_skate=False)
+    repaired = ssa.repair(filled, dataclasses.replace(det, analysis=None), foot_skate=False)
+    whole = deep.denoise(repaired, ebf)
+    expected = np.where(noisy[..., None], whole.rotations, repaired.rotations)
     assert res.denoised.any() and res.repaired.any()
-    assert np.array_equal(res.motion.rotations, repaired.rotations)
+    assert np.array_equal(res.motion.rotations, expected)
 
 
 def test_summary_counts_say_1_joint_not_1_joints():

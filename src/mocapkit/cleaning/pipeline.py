@@ -865,7 +865,7 @@ def clean(
     mdm, flags, causes = np.zeros((F, J)), zeros, None
     repaired, denoised, noise = zeros, zeros, np.full((F, J), np.nan)
 
-    den_record = None
+    den_record, redo = None, None
     if "denoise" in steps:  # before detect, which then judges the take denoised (module docstring, step 2)
         t = time.perf_counter()
         w = noise_fit_frames(cur.fps)
@@ -888,7 +888,8 @@ def clean(
             den, method, note = _denoise(part, noisy, models, notes, left)
             rot = np.array(cur.rotations)
             rot[lo:hi] = den.rotations
-            denoised = differing(cur.rotations, rot)
+            denoised, den_rot = differing(cur.rotations, rot), rot
+            undenoised, redo = cur, (noisy, left)  # repair works on the take as filled, denoised after it
             cur = dataclasses.replace(cur, rotations=rot)
             noise[lo:hi] = sub_noise
             extra = (f"{_count(int(noisy.sum()), 'noisy cell')} (level > {noise_deg:g} deg) on "
@@ -925,8 +926,17 @@ def clean(
     if "repair" in steps and det is not None:
         t = time.perf_counter()
         # on the take detect prepared, teleports put back after: the path `mocapkit repair` takes too
-        done = repair_whole(cur, det, foot_skate=foot_skate, poses=poses)
+        done = repair_whole(cur if redo is None else undenoised, det, foot_skate=foot_skate, poses=poses)
         cur, repaired = done.motion, done.changed
+        if redo is not None and repaired.any():  # the noisy cells denoised again, around the repaired ones
+            den, _, _ = _denoise(cur[lo:hi], redo[0], models, [], redo[1])
+            rot = np.array(cur.rotations)
+            rot[lo:hi] = den.rotations
+            denoised = differing(cur.rotations, rot)
+            cur = dataclasses.replace(cur, rotations=rot)
+            den_record = dataclasses.replace(den_record, cells=int(denoised.sum()))
+        elif redo is not None:
+            cur = dataclasses.replace(cur, rotations=np.where(denoised[..., None], den_rot, cur.rotations))
         # the root cells put back: flagged in the record, so a person can undo them
         flags, causes = with_teleports(flags, causes, done.teleported)
         note = "; ".join(done.put_back) if done.put_back else "" if flags.any() else "nothing flagged"
