@@ -1,8 +1,8 @@
 """One call to clean a take: fill gaps, detect and repair erroneous joints, denoise only what is noisy.
 
 :func:`clean` chains the cleaners of :mod:`mocapkit.cleaning` in a fixed order,
-whatever order the steps are named in (denoise, listed and recorded last, runs
-right after fill: step 4):
+whatever order the steps are named in (denoise also runs once before detect:
+step 4):
 
 1. **fill** — the missing (NaN) joints. On a rig the networks serve
    (:func:`mocapkit.cleaning.deep.served_by`: the Acclaim ASF/AMC rig of CMU
@@ -15,7 +15,7 @@ right after fill: step 4):
    analysis needs every frame.
 2. **detect** — erroneous joints by self-similarity
    (:func:`mocapkit.cleaning.ssa.detect`, Aristidou et al. 2018) on the filled
-   and denoised take: against the clip itself (``context=None``), related clips (a list of
+   take with its noisy cells denoised (step 4): against the clip itself (``context=None``), related clips (a list of
    Motions with the same joints) or a :class:`~mocapkit.database.MotionDatabase`.
    A word whose nearest neighbour differs from it by more than 8 degrees
    (RMS over the group's joints, ``max_word_angle_deg``) is not judged: the
@@ -29,12 +29,14 @@ right after fill: step 4):
    and :func:`~mocapkit.cleaning.whole_take.repair_whole` (the flagged cells,
    then the root's teleports put back), as the ``detect`` and ``repair``
    commands do: their flags and changes are clean's.
-4. **denoise** — only where the take is noisy, before detect: self-similarity
+4. **denoise** — only where the take is noisy. The noisy cells of the filled
+   take are denoised before detect, which judges that take: self-similarity
    reads the jitter of a fast limb as breaks and digressions, and repairs it
    from motion words far from the motion (Mall et al.'s angular noise, 0.3, on
    HDM05 grabHighR: worst cell 40.7 deg off the clean take, 72.1 after a repair
-   of the noisy take, 15.7 with the take denoised first); a clean take has no
-   noisy cell, so detect sees it unchanged. Tests on each
+   of the take judged noisy, 15.7 judged denoised). Repair works on the take as
+   filled; where it changed cells, the same noisy cells are denoised again from
+   the repaired take. A take with no noisy cell is detected as it is. Tests on each
    joint's own track (see :func:`noise_level` and :func:`noise_direction`):
    the *level*, the rotation left over after a cubic Savitzky-Golay fit over
    0.06 s (at least 7 frames), i.e. the part of the motion no smooth curve
