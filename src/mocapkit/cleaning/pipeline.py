@@ -868,7 +868,7 @@ def clean(
     repaired, denoised, noise = zeros, zeros, np.full((F, J), np.nan)
 
     den_record, redo = None, None
-    if "denoise" in steps:  # before detect, which then judges the take denoised (module docstring, step 2)
+    if "denoise" in steps:  # before detect, which judges the take denoised (module docstring, step 4)
         t = time.perf_counter()
         w = noise_fit_frames(cur.fps)
         coarse = noise_too_coarse(cur.fps)
@@ -927,7 +927,7 @@ def clean(
 
     if "repair" in steps and det is not None:
         t = time.perf_counter()
-        # on the take detect prepared, teleports put back after: the path `mocapkit repair` takes too
+        # on the take as filled, teleports put back after: the path `mocapkit repair` takes too
         done = repair_whole(cur if redo is None else undenoised, det, foot_skate=foot_skate, poses=poses)
         cur, repaired = done.motion, done.changed
         if redo is not None and repaired.any():  # the noisy cells denoised again, around the repaired ones
