@@ -126,7 +126,16 @@ def test_mixed_decisions_bit_identical_outside_accepted_changes(result, take, fo
     _check_cells(out, take, result.motion, acc)
 
 
-def test_seam_between_an_accepted_and_a_rejected_change_of_one_joint(result, take, found):
+def test_seam_between_an_accepted_and_a_rejected_change_of_one_joint(take):
+    """Two changes of one joint that touch: a gap cut into the noisy stretch of lfemur is filled (and denoised with
+    it) beside cells only denoised, so the joint's changes meet at a frame."""
+    j = take.skeleton.joint_names.index("lfemur")
+    mid = take.num_frames // 2
+    rot = np.array(take.rotations)
+    rot[mid:mid + 6, j] = np.nan
+    take = dataclasses.replace(take, rotations=rot)
+    result = clean(take)
+    found = D.changes(result, take)
     by_joint = {}
     for c in found:
         by_joint.setdefault(c.joint_index, []).append(c)
