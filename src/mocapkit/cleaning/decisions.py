@@ -36,7 +36,7 @@ The decisions file
 Small JSON, written by the report's "download decisions" button
 (:func:`template` makes the same document in Python)::
 
-    {"format": "mocapkit.decisions/1", "mocapkit": "0.8.0",
+    {"format": "mocapkit.decisions/1", "mocapkit": "0.9.0",
      "take": {"name": "walk.amc", "frames": 523, "joints": 31, "sha256": "..."},
      "output": "walk_clean.bvh",
      "cleaning": {"sha256": "...", "changes": 4, "request": {...}, "record": "walk_clean.clean.npz"},
