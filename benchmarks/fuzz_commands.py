@@ -81,7 +81,8 @@ def main() -> None:
         mem = int(args.mem_gb * (1 << 30))
         launch = "fresh" if args.fresh else "fork"
         base_cpu, base_results = commands.baseline_cpu(seeds, work, commands.Limits(mem_bytes=mem, cpu_s={"default": 600.0},
-                                                                                     wall_s=args.wall, launch=launch))
+                                                                                     wall_s=args.wall, launch=launch),
+                                                       workers=args.workers)
         budgets = {k: round(CPU_FACTOR * v + CPU_SLACK_S, 1) for k, v in base_cpu.items() if v == v}
         budgets["default"] = max(budgets.values())
         limits = commands.Limits(mem_bytes=mem, cpu_s=budgets, wall_s=args.wall, launch=launch)
