@@ -535,10 +535,10 @@ def run_step(argv, cwd: Path, limits: Limits, wall_s: float | None = None, captu
         except OSError:
             pass
 
-    t0 = time.monotonic()
     if limits.launch == "fork":
-        server = forkserver.acquire(env, LAUNCHER)
+        server = forkserver.acquire(env, LAUNCHER)  # a new server's start is not the run's wall time
         broken = True
+        t0 = time.monotonic()
         try:
             out_path.write_bytes(b"")
             err_path.write_bytes(b"")
@@ -553,6 +553,7 @@ def run_step(argv, cwd: Path, limits: Limits, wall_s: float | None = None, captu
         finally:
             forkserver.release(server, env, LAUNCHER, broken)
     elif limits.launch == "fresh":
+        t0 = time.monotonic()
         cmd = [sys.executable, "-c", LAUNCHER, *map(str, rlimits), entry, *argv]
         with open(out_path, "wb") as fo, open(err_path, "wb") as fe:
             proc = subprocess.Popen(cmd, cwd=cwd, stdin=subprocess.DEVNULL, stdout=fo, stderr=fe, env=env,
