@@ -230,7 +230,7 @@ def _prepare(item, fps: float, features: tuple[str, ...], mirror: bool, ref_skel
         except KeyError as exc:  # the features' end effectors (hands, feet, head) found by role: none here
             raise MocapFormatError(source, f"cannot compute features {', '.join(features)}: "
                                            f"{exc.args[0] if exc.args else exc}; give a joint map onto a rig of "
-                                           "known naming") from None
+                                           "known naming (--joint-map; joint_map= from Python)") from None
         tr = None if mm.translations is None else _float32(mm.translations, "joint translations", source)
         out.append(
             {
