@@ -624,3 +624,19 @@ def test_a_noisy_take_is_judged_denoised_and_comes_back_no_worse(shared_data):
     changed = res.changed
     assert err_out[changed].mean() < err_in[changed].mean()
     assert not (err_out > err_in + 10.0).any()  # no cell made far worse than the noise left it
+
+
+def test_a_noisy_take_with_errors_is_repaired_against_the_default_context():
+    """Detection judges the take denoised and repair works on the take as filled: the detection's prepared take
+    serves only the take it judged, so repair prepares the filled one against the same context (the bundled
+    default here); given none, it fell back to the clip alone and refused ("repair needs the context the detection
+    was made with")."""
+    from mocapkit.warmup import broken_walk  # the bundled walk with gaps, real-style errors, noise on two joints
+
+    from mocapkit.context import fit_context, resolve_context
+
+    take = broken_walk()
+    context, _ = fit_context(take, resolve_context(None))  # as `mocapkit clean` and the install's warm-up give it
+    res = clean(take, context)
+    assert res.denoised.any() and res.repaired.any()
+    assert [s.name for s in res.steps] == ["fill", "detect", "repair", "denoise"]

@@ -928,7 +928,10 @@ def clean(
     if "repair" in steps and det is not None:
         t = time.perf_counter()
         # on the take as filled, teleports put back after: the path `mocapkit repair` takes too
-        done = repair_whole(cur if redo is None else undenoised, det, foot_skate=foot_skate, poses=poses)
+        # (the detection's prepared take serves only the take it judged: the take as filled is prepared again,
+        # against the same context)
+        done = (repair_whole(cur, det, foot_skate=foot_skate, poses=poses) if redo is None else
+                repair_whole(undenoised, det, context, foot_skate=foot_skate, poses=poses))
         cur, repaired = done.motion, done.changed
         if redo is not None and repaired.any():  # the noisy cells denoised again, around the repaired ones
             den, _, _ = _denoise(cur[lo:hi], redo[0], models, [], redo[1])
