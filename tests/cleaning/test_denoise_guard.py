@@ -14,8 +14,8 @@ import pytest
 import mocapkit
 from mocapkit import corrupt
 from mocapkit import rotations as R
-from mocapkit.cleaning.denoise_guard import (departure_bounds, far_cells, guarded, midpoint_deviation,
-                                             rotation_angle)
+from mocapkit.cleaning.denoise_guard import (MARGIN_DEG, SIGMAS, departure_bounds, far_cells, guarded, held_cells,
+                                             midpoint_deviation, rotation_angle)
 from mocapkit.cleaning.filters import savgol_smooth
 from mocapkit.cleaning.whole_take import denoise_take
 
@@ -75,14 +75,28 @@ def test_rotation_angle_and_midpoint_deviation_on_known_rotations():
     track = np.stack([about_x(d) for d in (0.0, 10.0, 20.0, 35.0)])[:, None]  # (F, 1, 4)
     dev = midpoint_deviation(track)
     assert np.isnan(dev[[0, -1], 0]).all()
-    assert dev[1, 0] == pytest.approx(0.0, abs=1e-9) and dev[2, 0] == pytest.approx(2.5)
+    assert np.allclose(dev[1, 0], 0.0, atol=1e-9) and np.allclose(dev[2, 0], [-2.5, 0.0, 0.0])
 
 
-def test_departure_bounds_read_white_noise_and_ignore_a_few_jumps():
+@pytest.mark.parametrize("scales", [(2.0, 2.0, 2.0), (0.2, 4.0, 0.3)])
+def test_departure_bounds_read_white_noise_along_its_widest_axis_and_ignore_a_few_jumps(scales):
     rng = np.random.default_rng(0)
-    F, sigma = 4000, 2.0
-    angles = rng.normal(scale=sigma, size=(F, 3))
-    q = R.euler_to_quaternion(angles, "XYZ")[:, None]
+    F = 4000
+    vec = np.radians(rng.normal(size=(F, 3)) * np.array(scales))
+    q = R.rotvec_to_quaternion(vec)[:, None]
     q[100:105] = R.quaternion_multiply(R.euler_to_quaternion(np.array([[180.0, 0.0, 0.0]]), "XYZ")[0], q[100:105])
     bound = departure_bounds(q, np.ones((F, 1), bool))[0]
-    assert bound == pytest.approx(6.0 * sigma + 3.0, rel=0.1)
+    assert bound == pytest.approx(SIGMAS * max(scales) + MARGIN_DEG, rel=0.1)
+
+
+def test_held_cells_keep_a_run_and_its_neighbours_but_leave_a_spike_to_the_denoiser():
+    about_x = lambda degs: R.euler_to_quaternion(np.stack([degs, 0 * degs, 0 * degs], axis=-1), "XYZ")
+    deg = np.arange(20.0)
+    deg[5] += 90.0  # a spike: far from both neighbours
+    deg[12:15] += 150.0  # a jump held for three frames
+    q = about_x(deg)[:, None]
+    far = np.ones((20, 1), bool)
+    held = held_cells(q, far, np.array([10.0]))[:, 0]
+    assert not held[5]
+    assert held[11] and held[12:15].all() and held[15]
+    assert held[[0, 19]].all()
