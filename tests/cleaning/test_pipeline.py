@@ -640,3 +640,52 @@ def test_a_noisy_take_with_errors_is_repaired_against_the_default_context():
     res = clean(take, context)
     assert res.denoised.any() and res.repaired.any()
     assert [s.name for s in res.steps] == ["fill", "detect", "repair", "denoise"]
+
+
+_SAME_CLEAN = """
+import hashlib, sys, numpy as np, torch, mocapkit
+from mocapkit import corrupt
+from mocapkit.cleaning.pipeline import clean
+torch.set_num_threads(2)
+bad, _ = corrupt.corrupt(mocapkit.load(sys.argv[1]), "noise", seed=1, amount=0.1)
+res = clean(bad)
+print(hashlib.sha1(np.ascontiguousarray(res.motion.rotations).tobytes() + res.repaired.tobytes()
+                   + res.denoised.tobytes()).hexdigest())
+"""
+
+
+def test_clean_gives_the_same_bits_twice_in_one_process_and_in_another(shared_data):
+    """A real take with its own one-frame flips (CMU backflip, where one run was measured 179.6 deg off and another
+    151), noisy: cleaned with the serial and the parallel numba twins, and with torch and OpenMP at other thread
+    counts in a second process, it comes back bit for bit the same."""
+    import hashlib
+    import os
+    import subprocess
+    import sys
+
+    import torch
+
+    from mocapkit.cleaning.ssa.twins import forced
+
+    path = shared_data / "cmu_asfamc" / "backflip.amc"
+    bad, _ = corrupt.corrupt(mocapkit.load(path), "noise", seed=1, amount=0.1)
+
+    def digest(res):
+        return hashlib.sha1(np.ascontiguousarray(res.motion.rotations).tobytes() + res.repaired.tobytes()
+                            + res.denoised.tobytes()).hexdigest()
+
+    threads = torch.get_num_threads()
+    try:
+        with forced("serial"):
+            torch.set_num_threads(1)
+            first = digest(clean(bad))
+        with forced("parallel"):
+            torch.set_num_threads(2)
+            second = digest(clean(bad))
+    finally:
+        torch.set_num_threads(threads)
+    assert first == second
+    env = {**os.environ, "OMP_NUM_THREADS": "2", "NUMBA_NUM_THREADS": "2"}
+    out = subprocess.run([sys.executable, "-c", _SAME_CLEAN, str(path)], env=env, capture_output=True, text=True,
+                         check=True, timeout=600)
+    assert out.stdout.split()[-1] == first

@@ -47,6 +47,7 @@ import numpy as np
 from ..errors import MocapError, SkeletonError
 from ..motion import Motion
 from .calibration import calibration_mask, calibration_poses
+from .denoise_guard import guarded
 from .zeros import as_missing, find_zeros
 
 __all__ = ["MAX_WORD_ANGLE_DEG", "MADE_UP_SHARE", "TakeDetection", "TakeFill", "TakeRepair", "take_params",
@@ -182,8 +183,9 @@ def denoise_take(motion: Motion, ebf=None, *, cells: np.ndarray | None = None, o
     The runs of :func:`~mocapkit.cleaning.zeros.find_zeros` (``zeros``: its result when the caller has it) are
     missing to the filter (the EBF reads around them, as around a gap) and come back as they were: read as motion,
     a dropout's jump into 0 and out was spread over the good frames beside it (a Bandai Namco hip zeroed for 40
-    frames: its 5 frames on each side turned by up to 80 deg). ``ebf``: as :func:`resolve_model` takes it;
-    ``options``: as for ``denoise_or_fallback``.
+    frames: its 5 frames on each side turned by up to 80 deg). A cell the denoiser moves further than the take's
+    noise explains is kept as it came, and its neighbours denoised without it (:func:`~mocapkit.cleaning.denoise_guard.guarded`,
+    said in the note). ``ebf``: as :func:`resolve_model` takes it; ``options``: as for ``denoise_or_fallback``.
     """
     from dataclasses import replace
 
@@ -192,7 +194,8 @@ def denoise_take(motion: Motion, ebf=None, *, cells: np.ndarray | None = None, o
     zc, runs, zf = find_zeros(motion) if zeros is None else zeros
     ebf, label = resolve_model(ebf)
     src = as_missing(motion, zc, zf) if runs else motion
-    out, method, note = deep.denoise_or_fallback(src, ebf, cells=cells, label=label, options=options)
+    out, method, note = guarded(src, cells, lambda m, c: deep.denoise_or_fallback(m, ebf, cells=c, label=label,
+                                                                               options=options))
     if runs:  # the lost samples as written; positions, which denoising keeps, as they were
         rot = np.where(zc[..., None], motion.rotations, out.rotations)
         out = replace(out, rotations=rot, root_positions=motion.root_positions, translations=motion.translations)
