@@ -729,9 +729,9 @@ def test_a_finished_training_run_again_leaves_its_model_and_the_files_are_named_
     assert "denoised by EBF (given)" in " ".join(said.split()) and "None" not in said
 
 
-def test_fill_with_an_own_rig_ebd_alone_says_to_give_its_denoiser(tmp_path):
-    """An EBD trained on a rig no shipped EBF reads, given alone to fill: one line naming the model and saying to
-    give --denoiser (or --no-smooth), not the shipped Acclaim EBF's "not a pair"; with --no-smooth it fills."""
+def _own_rig_ebd(tmp_path):
+    """A gappy take of a rig no shipped model reads (``gaps.npz``) and a small untrained EBD for its channels:
+    ``(take, gappy file, layout, EBD network)``."""
     from mocapkit.cleaning import deep
 
     odd = tmp_path / "odd.bvh"
@@ -742,6 +742,15 @@ def test_fill_with_an_own_rig_ebd_alone_says_to_give_its_denoiser(tmp_path):
     x = np.nan_to_num(deep.channels.encode(take, lay)[0])
     net = deep.EBD(lay.num_channels, hidden=8, width=16)
     net.set_statistics(x.mean(0), np.maximum(x.std(0), 1.0), np.ones(3))
+    return take, gin, lay, net
+
+
+def test_fill_with_an_own_rig_ebd_alone_says_to_give_its_denoiser(tmp_path):
+    """An EBD trained on a rig no shipped EBF reads, given alone to fill: one line naming the model and saying to
+    give --denoiser (or --no-smooth), not the shipped Acclaim EBF's "not a pair"; with --no-smooth it fills."""
+    from mocapkit.cleaning import deep
+
+    take, gin, lay, net = _own_rig_ebd(tmp_path)
     deep.save_model(deep.DeepModel("ebd", net, lay, take.fps), tmp_path / "own_ebd.pt")
     code, _, err = run("fill", gin, "-o", tmp_path / "f.npz", "--model", tmp_path / "own_ebd.pt", "--by", "ebd")
     text = " ".join(err.split())
@@ -780,14 +789,7 @@ def test_fill_with_an_own_rig_ebd_takes_the_ebf_named_as_its_pair_beside_it(tmp_
     that reads other channels is not its pair, and the refusal stays."""
     from mocapkit.cleaning import deep
 
-    odd = tmp_path / "odd.bvh"
-    take = unknown_rig(odd)
-    gin = tmp_path / "gaps.npz"
-    _gappy(take, gin)
-    lay = deep.layout_for(take)
-    x = np.nan_to_num(deep.channels.encode(take, lay)[0])
-    net = deep.EBD(lay.num_channels, hidden=8, width=16)
-    net.set_statistics(x.mean(0), np.maximum(x.std(0), 1.0), np.ones(3))
+    take, gin, lay, net = _own_rig_ebd(tmp_path)
     models = tmp_path / "models"
     models.mkdir()
     deep.save_model(deep.DeepModel("ebd", net, lay, take.fps), models / "own_ebd.pt")
