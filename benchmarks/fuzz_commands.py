@@ -3,15 +3,12 @@
 Usage::
 
     python benchmarks/fuzz_commands.py --json [--count 500] [--workers 2] [--seed 0] [--mem-gb 2]
-        [--data DIR] [--no-fixed] [--no-big] [--keep-failures DIR] [--fresh]
+        [--data DIR] [--no-fixed] [--no-big] [--keep-failures DIR]
 
-Each run is ``mocapkit ...`` in a process of its own, in its own folder, under
+Each run is ``mocapkit ...`` in a subprocess, in its own folder, under
 ``RLIMIT_AS = --mem-gb`` GiB and a CPU budget per command kind (3x its CPU time
 on the unmutated seed plus 10 s), killed with its process group after
-``--wall`` seconds (``tests/fuzzing/commands.py``). By default each run is forked
-from a fork server that has imported what a fresh ``mocapkit`` start imports
-(``tests/fuzzing/forkserver.py``); ``--fresh`` starts a new interpreter per run
-(the budgets then include each run's interpreter start and imports). Cases: the command kinds on
+``--wall`` seconds (``tests/fuzzing/commands.py``). Cases: the command kinds on
 unmutated seeds (the baseline), the hand-made cases of issue 20
 (``tests/fuzzing/issue20.py``; with a 50 MB AMC unless ``--no-big``) unless
 ``--no-fixed``, and ``--count`` mutants:
@@ -69,7 +66,6 @@ def main() -> None:
     ap.add_argument("--no-fixed", action="store_true", help="skip the fixed cases of issue 20")
     ap.add_argument("--no-big", action="store_true", help="skip the fixed cases with a 50 MB input")
     ap.add_argument("--keep-failures", type=Path, default=None, help="lay failing mutants out here")
-    ap.add_argument("--fresh", action="store_true", help="a new interpreter per run instead of the fork server")
     ap.add_argument("--no-progress", action="store_true")
     args = ap.parse_args()
 
@@ -79,13 +75,11 @@ def main() -> None:
         data = args.data if args.data and args.data.is_dir() else None
         seeds = commands.command_seeds(data)
         mem = int(args.mem_gb * (1 << 30))
-        launch = "fresh" if args.fresh else "fork"
         base_cpu, base_results = commands.baseline_cpu(seeds, work, commands.Limits(mem_bytes=mem, cpu_s={"default": 600.0},
-                                                                                     wall_s=args.wall, launch=launch),
-                                                       workers=args.workers)
+                                                                                     wall_s=args.wall))
         budgets = {k: round(CPU_FACTOR * v + CPU_SLACK_S, 1) for k, v in base_cpu.items() if v == v}
         budgets["default"] = max(budgets.values())
-        limits = commands.Limits(mem_bytes=mem, cpu_s=budgets, wall_s=args.wall, launch=launch)
+        limits = commands.Limits(mem_bytes=mem, cpu_s=budgets, wall_s=args.wall)
         registry = {**issue20.FIXED_CASES, **({} if args.no_big else issue20.BIG_CASES)}
         names = [] if args.no_fixed else list(registry)
         first = args.seed * 10**6
@@ -143,7 +137,7 @@ def main() -> None:
     targets = {GROUP_FIGURES[g]: {"value": 0, "op": "<=", "of": "figures"} for g in GROUP_FIGURES}
     details = {
         "cpu_budget_s": budgets, "baseline_cpu_s": base_cpu, "rlimit_as_gb": args.mem_gb, "wall_limit_s": args.wall,
-        "workers": args.workers, "launch": launch, "seeds": [s.name for s in seeds], "skipped": summary["skipped"],
+        "workers": args.workers, "seeds": [s.name for s in seeds], "skipped": summary["skipped"],
         "failing_fixed_cases": failing_fixed,
         "passing_fixed_cases": [n for n in names if n not in failing_fixed and not fixed[n].skipped],
         "fixed_case_runs": {n: [{"command": "mocapkit " + " ".join(s.argv), "exit": s.returncode, "signal": s.signal,

@@ -49,7 +49,7 @@ def seeds():
 
 @pytest.fixture(scope="module")
 def baseline(workdir, seeds):
-    """Every command kind on an unmutated seed, two at a time: the CPU budgets of the other tests."""
+    """Every command kind on the unmutated BVH seed, one after another (the first run fills numba's cache)."""
     return commands.baseline_cpu(seeds, workdir, commands.Limits(cpu_s={"default": 600.0}))
 
 

@@ -16,15 +16,11 @@ judges what it did:
   control characters), give the file a plain or a hostile name, and run one
   command on it. Fixed cases (``tests/fuzzing/issue20.py``) are the hand-made
   inputs of issue 20, each with what the command must do.
-* **Each run** (:func:`run_step`) is what ``python -c LAUNCHER`` does, in a new
-  session, under ``RLIMIT_AS`` (``mem_bytes``, 2 GiB), ``RLIMIT_CPU`` (the
-  command's CPU budget), ``RLIMIT_FSIZE`` and no core files, with
-  ``TQDM_DISABLE=1`` and one thread per library; a run still alive after
-  ``wall_s`` is killed with its whole process group. By default
-  (``Limits.launch == "fork"``) the run is a child forked from a fork server
-  that has imported what a fresh start imports (``tests/fuzzing/forkserver.py``:
-  the interpreter start and ``mocapkit.cli``'s imports paid once per harness
-  thread, not per run); ``"fresh"`` starts a new interpreter each run.
+* **Each run** (:func:`run_step`) is ``python -c LAUNCHER`` in a new session,
+  under ``RLIMIT_AS`` (``mem_bytes``, 2 GiB), ``RLIMIT_CPU`` (the command's
+  CPU budget), ``RLIMIT_FSIZE`` and no core files, with ``TQDM_DISABLE=1`` and
+  one thread per library; a run still alive after ``wall_s`` is killed with its
+  whole process group.
 * **The oracle** (:func:`judge`) turns a run into :class:`Finding` s, none when
   all is well. Progress bars aside (:func:`strip_progress`), exit 0 with an
   empty standard error, or exit 2 (1 for
@@ -71,32 +67,28 @@ from typing import Callable
 
 import numpy as np
 
-from . import forkserver, readers
+from . import readers
 
 __all__ = [
-    "Case", "Step", "Symlink", "Finding", "StepResult", "CaseResult", "Limits", "LAUNCHER", "ENTRY", "KIND_GROUPS",
+    "Case", "Step", "Symlink", "Finding", "StepResult", "CaseResult", "Limits", "LAUNCHER", "KIND_GROUPS",
     "command_seeds", "mutant_case", "hostile_names", "npz_of", "run_case", "run_cases", "run_step", "judge",
-    "summarize", "snapshot", "run_env", "write_case", "baseline_cpu", "command_kind", "strip_progress", "file_findings",
+    "summarize", "snapshot", "write_case", "baseline_cpu", "command_kind", "strip_progress", "file_findings",
 ]
 
 TRIM_FRAMES = 150
 
-# Sets the limits, then runs the entry point (``module:function``, the console script's by default) in this
-# process (no exec: one interpreter start). The fork server (tests/fuzzing/forkserver.py) runs the same lines from
-# the first setrlimit on, in a child forked after its imports.
+# Sets the limits, then runs the console script's entry point in this process (no exec: one interpreter start).
 LAUNCHER = r"""
 import resource, sys
 mem, cpu, fsize = (int(x) for x in sys.argv[1:4])
-entry, args = sys.argv[4], sys.argv[5:]
 resource.setrlimit(resource.RLIMIT_AS, (mem, mem))
 resource.setrlimit(resource.RLIMIT_CPU, (cpu, cpu + 5))
 resource.setrlimit(resource.RLIMIT_FSIZE, (fsize, fsize))
 resource.setrlimit(resource.RLIMIT_CORE, (0, 0))
-sys.argv = ["mocapkit", *args]
-module, _, name = entry.partition(":")
-sys.exit(getattr(__import__(module, fromlist=[name]), name)())
+sys.argv = ["mocapkit", *sys.argv[4:]]
+from mocapkit.cli import main
+sys.exit(main())
 """
-ENTRY = "mocapkit.cli:main"
 
 # How findings are counted in a report (benchmarks/fuzz_commands.py, the tests).
 KIND_GROUPS = {
@@ -206,17 +198,12 @@ class CaseResult:
 
 @dataclass(frozen=True)
 class Limits:
-    """Per-run limits: memory (RLIMIT_AS, bytes), CPU seconds per command kind, wall seconds, file size.
-
-    ``launch``: how a run starts, ``"fork"`` (from a fork server, the default) or ``"fresh"`` (a new
-    interpreter each run); see :func:`run_step`.
-    """
+    """Per-run limits: memory (RLIMIT_AS, bytes), CPU seconds per command kind, wall seconds, file size."""
 
     mem_bytes: int = 2 << 30
     cpu_s: dict = field(default_factory=lambda: {"default": 60.0})
     wall_s: float = 300.0
     fsize_bytes: int = 1 << 30
-    launch: str = "fork"
 
     def cpu_for(self, argv) -> float:
         return float(self.cpu_s.get(command_kind(argv), self.cpu_s["default"]))
@@ -437,8 +424,7 @@ def _clean_record(out: str) -> str:
 # -- running -------------------------------------------------------------------------------------
 
 
-def run_env() -> dict:
-    """The environment of every run: this one, with no progress bars and one thread per library."""
+def _env() -> dict:
     env = dict(os.environ)
     env.update(TQDM_DISABLE="1", OMP_NUM_THREADS="1", MKL_NUM_THREADS="1", OPENBLAS_NUM_THREADS="1",
                NUMBA_NUM_THREADS="1", MPLBACKEND="Agg", COLUMNS="200", PYTHONDONTWRITEBYTECODE="1")
@@ -510,76 +496,47 @@ def _undo_readonly(folder: Path) -> None:
         pass
 
 
-def run_step(argv, cwd: Path, limits: Limits, wall_s: float | None = None, capture: Path | None = None,
-             entry: str = ENTRY) -> StepResult:
-    """Run ``mocapkit ARGV`` in ``cwd`` under ``limits``; the result has no findings yet (see :func:`judge`).
-
-    ``limits.launch``: ``"fork"`` forks the run from a fork server that has imported what a fresh start
-    imports (:mod:`tests.fuzzing.forkserver`), ``"fresh"`` starts ``python -c LAUNCHER``. ``entry``: the
-    ``module:function`` called as the console script (the harness's own tests call misbehaving ones).
-    """
+def run_step(argv, cwd: Path, limits: Limits, wall_s: float | None = None, capture: Path | None = None) -> StepResult:
+    """Run ``mocapkit ARGV`` in ``cwd`` under ``limits``; the result has no findings yet (see :func:`judge`)."""
     argv = tuple(argv)
     cpu = limits.cpu_for(argv)
     wall = wall_s if wall_s is not None else limits.wall_s
     cap = Path(capture) if capture is not None else Path(tempfile.mkdtemp(prefix="mocapkit-fuzz-cap-"))
     cap.mkdir(parents=True, exist_ok=True)
     out_path, err_path = cap / "stdout", cap / "stderr"
-    rlimits = (limits.mem_bytes, int(cpu) + 1, limits.fsize_bytes)
+    cmd = [sys.executable, "-c", LAUNCHER, str(limits.mem_bytes), str(int(cpu) + 1), str(limits.fsize_bytes), *argv]
     killed = threading.Event()
-    env = run_env()
+    t0 = time.monotonic()
+    with open(out_path, "wb") as fo, open(err_path, "wb") as fe:
+        proc = subprocess.Popen(cmd, cwd=cwd, stdin=subprocess.DEVNULL, stdout=fo, stderr=fe, env=_env(),
+                                start_new_session=True)
 
-    def kill(pid: int) -> None:
-        killed.set()
-        try:
-            os.killpg(pid, signal.SIGKILL)
-        except OSError:
-            pass
-
-    if limits.launch == "fork":
-        server = forkserver.acquire(env, LAUNCHER)  # a new server's start is not the run's wall time
-        broken = True
-        t0 = time.monotonic()
-        try:
-            out_path.write_bytes(b"")
-            err_path.write_bytes(b"")
-            pid = server.spawn(cwd, argv, out_path, err_path, *rlimits, entry)
-            timer = threading.Timer(wall, kill, (pid,))
-            timer.start()
+        def kill() -> None:
+            killed.set()
             try:
-                status, cpu_s, maxrss = server.wait()
-            finally:
-                timer.cancel()
-            broken = False
+                os.killpg(proc.pid, signal.SIGKILL)
+            except OSError:
+                pass
+
+        timer = threading.Timer(wall, kill)
+        timer.start()
+        try:
+            _, status, usage = os.wait4(proc.pid, 0)
         finally:
-            forkserver.release(server, env, LAUNCHER, broken)
-    elif limits.launch == "fresh":
-        t0 = time.monotonic()
-        cmd = [sys.executable, "-c", LAUNCHER, *map(str, rlimits), entry, *argv]
-        with open(out_path, "wb") as fo, open(err_path, "wb") as fe:
-            proc = subprocess.Popen(cmd, cwd=cwd, stdin=subprocess.DEVNULL, stdout=fo, stderr=fe, env=env,
-                                    start_new_session=True)
-            pid = proc.pid
-            timer = threading.Timer(wall, kill, (pid,))
-            timer.start()
-            try:
-                _, status, usage = os.wait4(pid, 0)
-            finally:
-                timer.cancel()
-            proc.returncode = os.waitstatus_to_exitcode(status)  # reaped here: keep Popen from waiting again
-        cpu_s, maxrss = usage.ru_utime + usage.ru_stime, usage.ru_maxrss
-    else:
-        raise ValueError(f"launch must be 'fork' or 'fresh', not {limits.launch!r}")
+            timer.cancel()
+        proc.returncode = os.waitstatus_to_exitcode(status)  # reaped here: keep Popen from waiting again
     elapsed = time.monotonic() - t0
     orphans = False
     try:
-        os.killpg(pid, 0)  # the leader is reaped: anything left in its group is a process it started
+        os.killpg(proc.pid, 0)  # the leader is reaped: anything left in its group is a process it started
         orphans = True
-        os.killpg(pid, signal.SIGKILL)
+        os.killpg(proc.pid, signal.SIGKILL)
     except OSError:
         pass
-    code = os.waitstatus_to_exitcode(status)
+    code = proc.returncode
     res = StepResult(argv, code if code >= 0 else None, -code if code < 0 else None, round(elapsed, 3),
-                     round(cpu_s, 3), round(maxrss / 1024, 1), _head_and_tail(out_path), _head_and_tail(err_path))
+                     round(usage.ru_utime + usage.ru_stime, 3), round(usage.ru_maxrss / 1024, 1),
+                     _head_and_tail(out_path), _head_and_tail(err_path))
     if killed.is_set():
         res.findings.append(Finding("hang", f"still running after {wall:g} s wall clock (CPU {res.cpu_s:.1f} s); killed"))
     if orphans:
@@ -751,13 +708,10 @@ def run_cases(cases, workdir: Path, limits: Limits, workers: int = 2, on_result=
         return list(pool.map(one, cases))
 
 
-def baseline_cpu(seeds: list[readers.Seed], workdir: Path, limits: Limits, workers: int = 2) -> tuple[dict, list[CaseResult]]:
-    """CPU seconds of each command kind on an unmutated seed, ``workers`` kinds at a time.
+def baseline_cpu(seeds: list[readers.Seed], workdir: Path, limits: Limits) -> tuple[dict, list[CaseResult]]:
+    """CPU seconds of each command kind on an unmutated seed, run one after another (the first warms numba's cache).
 
     The BVH seed for all but ``denoise``, which runs on the AMC seed (the shipped denoiser's rig).
-    Each kind's CPU time is its own process's, whatever runs beside it; numba's kernels come
-    from the cache that ``python -m mocapkit.warmup`` fills at install (on a cold cache each
-    kind's figure includes what it compiled).
 
     Returns ``({kind: cpu_s}, results)``; the results are judged like any case (an unmutated
     seed must run cleanly).
@@ -773,10 +727,13 @@ def baseline_cpu(seeds: list[readers.Seed], workdir: Path, limits: Limits, worke
         "detect": ("detect", "take.bvh", "-o", "det.npz"),
         "denoise": ("denoise", "walk.amc", "-o", "out.bvh"),
     }
-    cases = [Case(f"unmutated-{kind.replace(' ', '-')}", dict(files), (Step(argv, "ok", ()),), inputs=tuple(files))
-             for kind, argv in runs.items()]
-    results = run_cases(cases, Path(workdir), limits, workers=workers)
-    cpu = {kind: r.steps[0].cpu_s if r.steps else float("nan") for kind, r in zip(runs, results)}
+    cpu: dict[str, float] = {}
+    results = []
+    for kind, argv in runs.items():
+        case = Case(f"unmutated-{kind.replace(' ', '-')}", dict(files), (Step(argv, "ok", ()),), inputs=tuple(files))
+        r = run_case(case, Path(workdir), limits)
+        results.append(r)
+        cpu[kind] = r.steps[0].cpu_s if r.steps else float("nan")
     return cpu, results
 
 
