@@ -9,6 +9,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..runs import true_runs
+
 __all__ = ["doubtful_runs", "end_line", "DOUBT_SPREAD", "DOUBT_FLOOR_DEG", "DOUBT_MIN_DEG"]
 
 
@@ -23,11 +25,6 @@ DOUBT_FLOOR_DEG = 1.0
 DOUBT_MIN_DEG = 10.0
 
 
-def _runs(col: np.ndarray) -> list[tuple[int, int]]:
-    """Runs of True in a 1-D bool array, as ``(first, last)`` frames."""
-    d = np.diff(np.concatenate(([0], col.astype(np.int8), [0])))
-    return list(zip(np.flatnonzero(d == 1), np.flatnonzero(d == -1) - 1))
-
 
 def end_line(values: np.ndarray) -> np.ndarray:
     """The straight line through each NaN run of (F, C) degrees ``values`` between its seen ends, the far end moved
@@ -37,7 +34,7 @@ def end_line(values: np.ndarray) -> np.ndarray:
     for c in np.flatnonzero(miss.any(axis=0)):
         if miss[:, c].all():
             continue
-        for a, b in _runs(miss[:, c]):
+        for a, b in true_runs(miss[:, c]):
             lo = x[a - 1, c] if a > 0 else None
             hi = x[b + 1, c] if b + 1 < len(x) else None
             if lo is None or hi is None:
@@ -71,7 +68,7 @@ def doubtful_runs(values: np.ndarray, filled: np.ndarray, groups: np.ndarray):
     out = []
     for g in np.unique(groups[miss.any(axis=0)]):
         cols = np.flatnonzero(groups == g)
-        for a, b in _runs(miss[:, cols].any(axis=1)):
+        for a, b in true_runs(miss[:, cols].any(axis=1)):
             side = "start" if a == 0 else "end" if b == F - 1 else None
             sp = spread[cols]
             allow = np.maximum(DOUBT_SPREAD * (sp + DOUBT_FLOOR_DEG), DOUBT_MIN_DEG)

@@ -23,16 +23,13 @@ from collections.abc import Callable
 
 import numpy as np
 
+from ..runs import true_runs
+
 __all__ = ["freeze_end_breaks", "bounded_breaks", "bounded_holds"]
 
 #: break frames at most this many frames apart are one break event (as ``cues.event_bounds`` groups them)
 EVENT_GAP = 3
 
-
-def _runs(mask: np.ndarray) -> list[tuple[int, int]]:
-    """The runs of True of a (F,) bool mask as ``(first, last)`` frames, inclusive."""
-    edges = np.diff(np.concatenate([[0], mask.astype(np.int8), [0]]))
-    return list(zip(np.flatnonzero(edges == 1).tolist(), (np.flatnonzero(edges == -1) - 1).tolist()))
 
 
 def freeze_end_breaks(breaks: np.ndarray, frozen: np.ndarray) -> np.ndarray:
@@ -50,7 +47,7 @@ def freeze_end_breaks(breaks: np.ndarray, frozen: np.ndarray) -> np.ndarray:
     for j in np.flatnonzero(breaks.any(axis=0) & frozen.any(axis=0)):
         frames = np.flatnonzero(breaks[:, j])
         event = np.concatenate([[0], np.cumsum(np.diff(frames) > EVENT_GAP)])  # the event of each break frame
-        for _, e in _runs(frozen[:, j]):
+        for _, e in true_runs(frozen[:, j]):
             ending = np.unique(event[(frames == e) | (frames == e + 1)])
             out[frames[np.isin(event, ending)], j] = True
     return out
@@ -84,7 +81,7 @@ def bounded_holds(holds: np.ndarray, frozen) -> np.ndarray:
         return holds
     frozen = np.asarray(frozen, dtype=bool)
     for j in np.flatnonzero(holds.any(axis=0) & frozen.any(axis=0)):
-        for a, b in _runs(holds[:, j]):
+        for a, b in true_runs(holds[:, j]):
             if frozen[a : b + 1, j].any():
                 holds[a : b + 1, j] &= frozen[a : b + 1, j]
     return holds

@@ -20,17 +20,13 @@ from __future__ import annotations
 import numpy as np
 
 from ... import rotations as R
+from ..runs import true_runs
 
 __all__ = ["swap_exchanges", "SWAP_JOIN_RATIO"]
 
 #: the exchanged track must step into and out of the run less than this share of the input's step there
 SWAP_JOIN_RATIO = 0.5
 
-
-def _runs(mask: np.ndarray) -> list[tuple[int, int]]:
-    """The runs of True of a (F,) bool mask as ``(first, last)`` frames, inclusive."""
-    edges = np.diff(np.concatenate([[0], mask.astype(np.int8), [0]]))
-    return list(zip(np.flatnonzero(edges == 1).tolist(), (np.flatnonzero(edges == -1) - 1).tolist()))
 
 
 def _joins(q: np.ndarray, new: np.ndarray, a: int, b: int, ratio: float) -> bool:
@@ -74,7 +70,7 @@ def swap_exchanges(rotations: np.ndarray, mirrored: np.ndarray | None, swaps: np
         p = int(partner[j])
         if p <= j:
             continue
-        for a, b in _runs(swaps[:, j] & swaps[:, p]):
+        for a, b in true_runs(swaps[:, j] & swaps[:, p]):
             if all(_joins(q[:, k], mirrored[a : b + 1, k], a, b, ratio) for k in (j, p)):
                 cells[a : b + 1, [j, p]] = True
     values[cells] = mirrored[cells]
