@@ -655,3 +655,21 @@ def test_a_full_disk_says_so_and_leaves_no_folder_it_made(small_db, tmp_path, mo
     with pytest.raises(MocapFormatError, match=r"new/a/db: cannot write the database \(no space left on the device\)"):
         small_db.save(tmp_path / "new" / "a" / "db")
     assert list(tmp_path.iterdir()) == []
+
+
+def test_a_database_another_process_writes_meanwhile_is_said_to_have_appeared(small_db, saved, tmp_path, monkeypatch):
+    # two `db build`s of one folder at once: the later one's refusal says what happened, not "pass overwrite=True"
+    out = tmp_path / "db"
+    staging = database_folder.staging_folder
+
+    def other_build_lands_first(target):
+        tmp = staging(target)
+        shutil.copytree(saved, target)
+        return tmp
+
+    monkeypatch.setattr(database_folder, "staging_folder", other_build_lands_first)
+    with pytest.raises(MocapFormatError, match=r"db: appeared while this command ran \(another program wrote it\); "
+                                               r"nothing was written over it"):
+        small_db.save(out)
+    assert MotionDatabase.open(out).clips == MotionDatabase.open(saved).clips
+    assert [p.name for p in tmp_path.iterdir()] == ["db"]  # no staging folder left

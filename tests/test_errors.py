@@ -45,3 +45,12 @@ def test_a_missing_file_is_also_a_file_not_found_error(tmp_path):
     with pytest.raises(MocapFormatError) as err:
         mocapkit.load(tmp_path / "dir.bvh")
     assert not isinstance(err.value, FileNotFoundError)
+
+
+def test_a_file_size_limit_is_said_in_words():
+    import errno
+
+    from mocapkit.errors import os_error_line
+
+    line = os_error_line(OSError(errno.EFBIG, "File too large", "out.html"))
+    assert line.startswith("out.html: file too large (over the file-size limit")

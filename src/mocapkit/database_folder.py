@@ -649,6 +649,7 @@ def write_folder(directory, description: Description, arrays: Mapping[str, np.nd
             raise ValueError(f"{rel!r} is not a file of the database layout (feature names are plain identifiers)")
     inputs = list(inputs)
     check_database_output(directory, inputs, overwrite=overwrite)
+    existed = os.path.lexists(directory)
     desc = description_json(description)
 
     def fill(tmp: Path) -> None:
@@ -660,8 +661,13 @@ def write_folder(directory, description: Description, arrays: Mapping[str, np.nd
         with open(tmp / DESCRIPTION, "w", encoding="utf-8") as fh:
             json.dump(desc, fh, indent=1)
 
-    return write_staged(directory, fill, lambda: check_database_output(directory, inputs, overwrite=overwrite),
-                        "the database")
+    def recheck() -> None:
+        if not existed and os.path.lexists(directory):  # another process wrote it since the first check
+            raise MocapFormatError(directory, "appeared while this command ran (another program wrote it); nothing "
+                                              "was written over it")
+        check_database_output(directory, inputs, overwrite=overwrite)
+
+    return write_staged(directory, fill, recheck, "the database")
 
 
 def write_staged(directory, fill: Callable[[Path], None], recheck: Callable[[], None], what: str) -> Path:

@@ -99,6 +99,8 @@ def os_error_line(exc: OSError) -> str:
         reason = "read-only file system"
     elif exc.errno == errno.EDQUOT:
         reason = "disk quota exceeded"
+    elif exc.errno == errno.EFBIG:
+        reason = "file too large (over the file-size limit this process runs under, ulimit -f, or the file system's)"
     return f"{name}: {reason}" if name else reason
 
 

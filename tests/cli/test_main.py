@@ -341,3 +341,17 @@ def test_a_path_the_terminal_cannot_show_does_not_fail_the_command(tmp_path):
                           capture_output=True, env=env)
     assert proc.returncode == 0, proc.stderr
     assert (tmp_path / "é.npz").is_file() and b"\\xe9.npz" in proc.stdout  # said, escaped
+
+
+def test_running_out_of_memory_names_the_take(monkeypatch, capsys):
+    import mocapkit.io.takes as takes
+
+    def too_big(*args, **kwargs):
+        raise MemoryError("Unable to allocate 2.60 MiB for an array with shape (2751, 31, 4) and data type float64")
+
+    monkeypatch.setattr(takes, "load_take", too_big)
+    assert main(["info", SAMPLE]) == 2
+    err = capsys.readouterr().err
+    assert one_error_line(err)
+    assert err.strip().startswith(f"mocapkit: error: {SAMPLE}: out of memory (Unable to allocate 2.60 MiB")
+    assert "MemoryError" not in err

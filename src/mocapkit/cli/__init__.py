@@ -119,7 +119,7 @@ def main(argv: list[str] | None = None) -> int:
         with interrupts_as_keyboard_interrupt():  # SIGTERM too, so atomic writes clean up (see mocapkit.interrupts)
             result = app(args=argv, standalone_mode=False)
     except BaseException as exc:  # noqa: BLE001 - every failure ends in one line and an exit status
-        return _exit_status(exc)
+        return _exit_status(exc, sys.argv[1:] if argv is None else list(argv))
     if result == EXIT_INTERRUPTED:  # typer turns an interrupt inside a command into Exit(130)
         print("mocapkit: interrupted; no partial output was left", file=sys.stderr)
         return interrupted_status()
@@ -168,8 +168,17 @@ def interrupted_status() -> int:
     return exit_status()
 
 
-def _exit_status(exc: BaseException) -> int:
-    """Print the one line for a failure and return the exit status (see :func:`main`)."""
+def memory_line(args: list[str], exc: MemoryError) -> str:
+    """The one line for running out of memory: the command's first argument that is a file (the take or folder it
+    was working on; ``mocapkit`` itself when none is), what ran out, and what numpy asked for when it says so."""
+    first = next((a for a in args[1:] if not a.startswith("-") and os.path.exists(a)), None)
+    asked = f" ({exc})" if str(exc) else ""
+    return (f"{first or 'mocapkit ' + (args[0] if args else '')}: out of memory{asked}; "
+            f"give it more memory, or a shorter take")
+
+
+def _exit_status(exc: BaseException, args: list[str] = ()) -> int:
+    """Print the one line for a failure and return the exit status (see :func:`main`); ``args`` the command's."""
     if isinstance(exc, typer.Abort) and isinstance(exc.__cause__, EOFError):  # click's Abort for a file cut short
         return _fail(f"a file ended before its data did (EOFError: {exc.__cause__})")
     if isinstance(exc, (KeyboardInterrupt, typer.Abort)):
@@ -191,6 +200,8 @@ def _exit_status(exc: BaseException) -> int:
     if isinstance(exc, ModuleNotFoundError) and exc.name == "torch":  # installed without its declared dependency
         return _fail("the networks (fill, denoise, train) need PyTorch: pip install torch==2.13.0 (the CPU wheel); "
                      "or leave those steps out (clean --steps detect,repair)")
+    if isinstance(exc, MemoryError):
+        return _fail(memory_line(list(args), exc))
     if not isinstance(exc, Exception):  # GeneratorExit and the like: not ours to swallow
         raise exc
     return _fail(f"{type(exc).__name__}: {exc}")  # anything unexpected: still one line, naming the exception
