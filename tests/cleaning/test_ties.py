@@ -43,4 +43,5 @@ def test_swap_cells_and_the_refusal_words():
     assert not swap_cells(None, (2, 2)).any()  # a record without causes ties no swap
     ids = ["a", "b", "c", "d", "e"]
     words = split_message(ids, ["accept", "reject", "accept", "accept", "accept"], "why")
-    assert words == "accepts a, c, d and 1 more but rejects b, which are decided together (why): accept or reject them all"
+    assert words == ("accepts a, c, d and 1 more but rejects b, which are decided together (why): accept or reject "
+                     "them all")

@@ -351,7 +351,8 @@ def test_unticking_one_side_of_a_swap_unticks_the_other_and_says_why(page, clean
     page.locator(f'#changes tr[data-change="{sides[0]}"] input.accept').check()
     assert boxes() == [True, True]
     # the viewer's own accept box, on one side, decides both
-    page.evaluate(f"() => window.mocapkitReview.jump({page.evaluate('() => window.mocapkitReview.changes()').index(sides[0])})")
+    k = page.evaluate("() => window.mocapkitReview.changes()").index(sides[0])
+    page.evaluate(f"() => window.mocapkitReview.jump({k})")
     page.locator("#change-accept").uncheck()
     assert boxes() == [False, False]
 

@@ -824,8 +824,8 @@ def review(original: Motion, result, take: str = "", output: str = "", decisions
     "frames": note}``.
 
     ``changes``: :meth:`Change.as_dict` of :func:`changes` (a change :func:`tied` to others names them all in
-    ``"tied"`` and says why in ``"tied_why"``: the list accepts or rejects them together); ``decisions``: :func:`template`
-    with the choices of ``decisions`` (every other change accepted) and the stamp of this cleaning, ``record`` the
+    ``"tied"`` and says why in ``"tied_why"``: the list accepts or rejects them together); ``decisions``:
+    :func:`template` with the choices of ``decisions`` (every other change accepted) and the stamp of this cleaning, ``record`` the
     path its record was written to (the page tells the reviewer to pass it); ``flags``: :func:`flag_segments`;
     ``frames``: :func:`frame_note` for the input file ``take`` whose first frame is numbered ``first_frame``;
     ``command``: the input and options of the command the page says to apply the decisions with

@@ -61,7 +61,8 @@ def swap_cells(causes, shape: tuple[int, int]) -> np.ndarray:
     return (np.asarray(causes).astype(np.int64) & _SWAP_BIT) != 0
 
 
-def tie_groups(rows: Sequence[tuple[int, int, int, frozenset]], swaps: np.ndarray, partner) -> list[tuple[list[int], str]]:
+def tie_groups(rows: Sequence[tuple[int, int, int, frozenset]], swaps: np.ndarray,
+               partner) -> list[tuple[list[int], str]]:
     """The tied groups of ``rows`` (module docstring): ``(indices into rows, why)`` per group of two or more.
 
     ``rows``: ``(joint, first, last, steps)`` of each change (frames inclusive; ``steps`` the set of step names,
