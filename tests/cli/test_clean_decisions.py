@@ -479,3 +479,13 @@ def test_a_file_that_decides_one_side_of_a_swap_alone_is_refused_and_nothing_is_
     dec.write_text(json.dumps(doc), encoding="utf-8")
     assert main(args) == 0
     assert _same_bits(mocapkit.load(out).rotations[316:336], mocapkit.load(inp).rotations[316:336])
+
+
+def test_clean_says_which_changes_are_decided_together(cleaned, tmp_path, capsys):
+    from mocapkit.cleaning.ties import SWAP_WHY
+
+    d, inp = cleaned
+    assert main(["clean", str(inp), "-o", str(tmp_path / "w.npz")]) == 0
+    out = capsys.readouterr().out
+    said = [line.strip() for line in out.splitlines() if "accepted or rejected together" in line]
+    assert said == [f"repair:lhumerus:316-335, repair:rhumerus:316-335: accepted or rejected together, as {SWAP_WHY}"]

@@ -105,7 +105,7 @@ __all__ = ["FORMAT", "ACCEPT", "REJECT", "Change", "changes", "apply", "take_dig
            "check_decisions", "check_record", "record_problem", "as_written", "accepted_cells", "flag_segments",
            "frame_note", "frames_note", "review", "check_document", "cleaning_digest", "cleaning_stamp", "check_cleaning", "check_named",
            "unnamed_changes", "applying_notes", "ids_notes", "request_difference", "check_request", "check_choices", "record_wanted", "DuplicateKeyError",
-           "RECORD_FLAG", "RECORD_KEYWORD", "review_mode", "tied", "check_ties"]
+           "RECORD_FLAG", "RECORD_KEYWORD", "review_mode", "tied", "tied_lines", "check_ties"]
 
 #: How a refusal names the record of the cleaning reviewed: the CLI's option, and ``mocapkit.clean``'s keyword.
 RECORD_FLAG = "--record"
@@ -389,6 +389,22 @@ def tied(result) -> list[tuple[list[str], str]]:
     swaps = swap_cells(getattr(result, "causes", None), result.changed.shape)
     return [([_change_id(result, *runs[k]) for k in g], why)
             for g, why in tie_groups(rows, swaps, mirror_pairs(result.joint_names))]
+
+
+#: at most this many :func:`tied_lines`, then a count of the rest
+MAX_TIED_LINES = 12
+
+
+def tied_lines(result) -> list[str]:
+    """One line per group of :func:`tied` changes, naming them and saying why (the marker side's
+    :func:`mocapkit.cleaning.markers.decisions.tied_lines` words), the first :data:`MAX_TIED_LINES` and a count of
+    the rest: what ``clean``'s console says beside its summary, so that a person editing a decisions file knows."""
+    groups = tied(result)
+    out = [f"{', '.join(ids)}: accepted or rejected together, as {why}" for ids, why in groups[:MAX_TIED_LINES]]
+    if len(groups) > MAX_TIED_LINES:
+        out.append(f"... and {len(groups) - MAX_TIED_LINES} more groups of changes accepted or rejected together "
+                   "(the report ties them)")
+    return out
 
 
 def check_ties(decisions: Mapping[str, str], result) -> None:
