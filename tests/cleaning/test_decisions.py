@@ -13,6 +13,7 @@ import mocapkit
 from mocapkit import corrupt, samples
 from mocapkit.cleaning import decisions as D
 from mocapkit.cleaning.pipeline import CleanResult, clean
+from mocapkit.cleaning.ties import STEPS_WHY, SWAP_WHY
 from mocapkit.errors import MocapError, MocapFormatError
 
 ROOT_GAP = slice(200, 212)  # frames whose root position is missing in the input
@@ -22,6 +23,14 @@ def _same_bits(a, b) -> bool:
     """Bit for bit, NaN included (``array_equal`` would call -0.0 and 0.0 equal and cannot compare NaN payloads)."""
     a, b = np.ascontiguousarray(a), np.ascontiguousarray(b)
     return a.shape == b.shape and a.dtype == b.dtype and a.tobytes() == b.tobytes()
+
+
+def _groups_as_one(result, choice: dict) -> dict:
+    """``choice`` with each group of changes decided together (:func:`D.tied`) decided as its first change is."""
+    out = dict(choice)
+    for ids, _ in D.tied(result):
+        out.update({i: choice[ids[0]] for i in ids})
+    return out
 
 
 @pytest.fixture(scope="module")
@@ -116,7 +125,7 @@ def _check_cells(out, take, cleaned, acc):
 
 
 def test_mixed_decisions_bit_identical_outside_accepted_changes(result, take, found):
-    choice = {c.id: (D.ACCEPT if k % 2 else D.REJECT) for k, c in enumerate(found)}
+    choice = _groups_as_one(result, {c.id: (D.ACCEPT if k % 2 else D.REJECT) for k, c in enumerate(found)})
     out = D.apply(take, result, choice)
     acc = np.zeros(result.changed.shape, dtype=bool)
     for c in found:
@@ -126,9 +135,10 @@ def test_mixed_decisions_bit_identical_outside_accepted_changes(result, take, fo
     _check_cells(out, take, result.motion, acc)
 
 
-def test_seam_between_an_accepted_and_a_rejected_change_of_one_joint(take):
+def test_touching_changes_of_one_joint_made_by_one_step_are_decided_together(take):
     """Two changes of one joint that touch: a gap cut into the noisy stretch of lfemur is filled (and denoised with
-    it) beside cells only denoised, so the joint's changes meet at a frame."""
+    it) beside cells only denoised, so the joint's changes meet at a frame. The denoising ran across both joins: the
+    three are tied, a split is refused, and decided as one they give the cleaned or the input's stretch."""
     j = take.skeleton.joint_names.index("lfemur")
     mid = take.num_frames // 2
     rot = np.array(take.rotations)
@@ -136,19 +146,18 @@ def test_seam_between_an_accepted_and_a_rejected_change_of_one_joint(take):
     take = dataclasses.replace(take, rotations=rot)
     result = clean(take)
     found = D.changes(result, take)
-    by_joint = {}
-    for c in found:
-        by_joint.setdefault(c.joint_index, []).append(c)
-    pairs = [(a, b) for cs in by_joint.values() for a, b in zip(cs, cs[1:]) if b.first == a.last + 1]
-    assert pairs, "the corrupted take has two changes of one joint that touch"
-    for first_accepted in (True, False):
-        a, b = pairs[0]
-        choice = {a.id: D.ACCEPT if first_accepted else D.REJECT, b.id: D.REJECT if first_accepted else D.ACCEPT}
-        out = D.apply(take, result, choice)
-        j, seam = a.joint_index, b.first
-        left, right = (result.motion, take) if first_accepted else (take, result.motion)
-        assert _same_bits(out.rotations[a.first:seam, j], left.rotations[a.first:seam, j])
-        assert _same_bits(out.rotations[seam:b.last + 1, j], right.rotations[seam:b.last + 1, j])
+    run = [c for c in found if c.joint_index == j]
+    assert [c.step for c in run] == ["denoise", "fill+denoise", "denoise"]
+    assert [a.last + 1 == b.first for a, b in zip(run, run[1:])] == [True, True]
+    ids = [c.id for c in run]
+    for odd in ids:
+        with pytest.raises(ValueError, match=f"decided together .*{re.escape(STEPS_WHY)}"):
+            D.apply(take, result, {odd: D.REJECT})
+    assert [(g, why) for g, why in D.tied(result) if set(g) & set(ids)] == [(ids, STEPS_WHY)]
+    a, b = run[0].first, run[-1].last + 1
+    for choice, want in ((D.ACCEPT, result.motion), (D.REJECT, take)):
+        out = D.apply(take, result, {i: choice for i in ids})
+        assert _same_bits(out.rotations[a:b, j], want.rotations[a:b, j])
 
 
 def test_root_translation_follows_the_root_change(result, take, found):
@@ -168,7 +177,7 @@ def test_record_file_applies_the_same_and_ids_are_stable(result, take, found, tm
     rec = CleanResult.load(path)
     assert rec.motion is None and rec.samples is not None
     assert [c.id for c in D.changes(rec, take)] == [c.id for c in found]
-    choice = {c.id: (D.REJECT if k % 3 == 0 else D.ACCEPT) for k, c in enumerate(found)}
+    choice = _groups_as_one(result, {c.id: (D.REJECT if k % 3 == 0 else D.ACCEPT) for k, c in enumerate(found)})
     a, b = D.apply(take, rec, choice), D.apply(take, result, choice)
     assert _same_bits(a.rotations, b.rotations) and _same_bits(a.root_positions, b.root_positions)
     # a record attached to a cleaned take read back from a lossy file still applies its own float64 samples
@@ -409,3 +418,65 @@ def test_as_written_keeps_a_record_it_made_bit_for_bit(result, take):
     twice = D.as_written(held, take, lambda m: amc_held_rotations(m, dofs))
     assert _same_bits(twice.motion.rotations, held.motion.rotations)
     assert D.cleaning_digest(twice) == D.cleaning_digest(held)
+
+
+def test_one_side_of_a_real_swap_is_never_written_alone():
+    """CMU walk 12 (bundled) with real-style errors, one a swap of the upper arms over frames 316-335 that the
+    mirrored exchange puts back (each side takes its partner's mirrored rotation). Accepting one side and rejecting
+    the other would write a right arm that is the left arm's mirror image: both limbs with one side's motion. Such
+    decisions are refused; deciding both sides as one gives the capture's arms or the input's."""
+    from mocapkit import rotations as R
+    from mocapkit.cleaning.ssa.cues import mirrored_rotations
+
+    ref = mocapkit.load(samples.path("12_walk.amc"))
+    bad, _, _ = corrupt.real_errors(ref, n_errors=4, seed=11)
+    result = clean(bad)
+    names = bad.skeleton.joint_names
+    arms = [names.index("lhumerus"), names.index("rhumerus")]
+    sides = ["repair:lhumerus:316-335", "repair:rhumerus:316-335"]
+    span = slice(316, 336)
+    for kept, dropped in (sides, sides[::-1]):
+        try:
+            out = D.apply(bad, result, {kept: D.ACCEPT, dropped: D.REJECT})
+        except ValueError as exc:
+            assert f"accepts {kept} but rejects {dropped}, which are decided together ({SWAP_WHY})" in str(exc)
+            continue
+        q = out.rotations[span][:, arms]
+        own = np.degrees(R.geodesic_angle(q, ref.rotations[span][:, arms])).max(axis=0)
+        mirror = np.degrees(R.geodesic_angle(q[:, ::-1], mirrored_rotations(out)[span][:, arms[::-1]])).max()
+        assert _same_bits(q, bad.rotations[span][:, arms]) or own.max() < 1e-9, (
+            f"accepting {kept} alone wrote arms {own.round(1)} deg from the capture's, each the other's mirror image "
+            f"(to {mirror:.1g} deg): both limbs hold one side's motion")
+    assert (sides, SWAP_WHY) in D.tied(result)
+    for choice, want in ((D.ACCEPT, ref), (D.REJECT, bad)):
+        q = D.apply(bad, result, {s: choice for s in sides}).rotations[span][:, arms]
+        assert np.degrees(R.geodesic_angle(q, want.rotations[span][:, arms])).max() < 1e-9
+
+
+def test_a_one_frame_repair_inside_a_denoised_run_is_not_rejected_alone(shared_data):
+    """HDM05 throwBasketball (bd, 001) with angular noise (0.3 of each channel's spread): lhumerus is denoised over
+    its whole take, and its frame 112, also flagged and repaired, is its own change. Rejecting that one frame alone
+    would put its noisy input value between smoothed neighbours: a pop of tens of degrees in one frame, where the
+    take cleaned steps under 2 deg. The three changes are decided together."""
+    from mocapkit import rotations as R
+
+    take = mocapkit.load(shared_data / "hdm05_asfamc" / "HDM_bd_throwBasketball_001_120.amc")
+    bad = corrupt.corrupt(take, kind="noise", amount=0.3, seed=1)[0]
+    result = clean(bad)
+    j = bad.skeleton.joint_names.index("lhumerus")
+    ids = [c.id for c in D.changes(result, bad) if c.joint_index == j]
+    assert ids == ["denoise:lhumerus:0-111", "repair+denoise:lhumerus:112-112", "denoise:lhumerus:113-280"]
+    steps = np.degrees(R.geodesic_angle(result.motion.rotations[1:, j], result.motion.rotations[:-1, j]))
+    assert steps[110:114].max() < 2.0
+    try:
+        out = D.apply(bad, result, {ids[1]: D.REJECT})
+    except ValueError as exc:
+        assert f"accepts {ids[0]}, {ids[2]} but rejects {ids[1]}, which are decided together ({STEPS_WHY})" in str(exc)
+    else:
+        pop = np.degrees(R.geodesic_angle(out.rotations[1:, j], out.rotations[:-1, j]))[110:114]
+        pytest.fail(f"rejecting {ids[1]} alone was applied: lhumerus steps {pop.round(1)} deg/frame over frames "
+                    f"111-114, a pop the take cleaned ({steps[110:114].round(1)}) does not have")
+    assert (ids, STEPS_WHY) in D.tied(result)
+    for choice, want in ((D.ACCEPT, result.motion), (D.REJECT, bad)):
+        out = D.apply(bad, result, {i: choice for i in ids})
+        assert _same_bits(out.rotations[:, j], want.rotations[:, j])

@@ -452,3 +452,40 @@ def test_an_edited_take_is_named_as_the_file_that_does_not_match(cleaned, tmp_pa
     assert one_error_line(err) and err.startswith(f"mocapkit: error: {dec}: decisions for another take"), err
     assert "not edited.npz (" in err
     assert not (tmp_path / "o.npz").exists()
+
+
+def test_a_file_that_decides_one_side_of_a_swap_alone_is_refused_and_nothing_is_written(cleaned, tmp_path, capsys):
+    # walk_bad's upper arms are swapped over frames 316-335 and put back by the mirrored exchange: the report ties
+    # the two sides; a file edited to reject one alone would write both arms with the left arm's motion
+    from mocapkit.cleaning.ties import SWAP_WHY
+
+    d, inp = cleaned
+    block = review_block(d / "walk.html")
+    sides = ["repair:lhumerus:316-335", "repair:rhumerus:316-335"]
+    rows = {c["id"]: c for c in block["changes"]}
+    assert all(rows[s]["tied"] == sides and rows[s]["tied_why"] == SWAP_WHY for s in sides)
+    doc = block["decisions"]
+    doc["decisions"][sides[1]] = D.REJECT
+    dec = tmp_path / "walk.decisions.json"
+    dec.write_text(json.dumps(doc), encoding="utf-8")
+    out = tmp_path / "o.npz"
+    args = ["clean", str(inp), "-o", str(out), "--decisions", str(dec), "--record", str(d / "walk.clean.npz")]
+    assert main(args) == 2
+    err = capsys.readouterr().err
+    assert one_error_line(err) and err.startswith(f"mocapkit: error: {dec}: accepts {sides[0]} but rejects {sides[1]}, "
+                                                  f"which are decided together ({SWAP_WHY})"), err
+    assert not out.exists()
+    doc["decisions"][sides[0]] = D.REJECT  # both sides: the input's arms back
+    dec.write_text(json.dumps(doc), encoding="utf-8")
+    assert main(args) == 0
+    assert _same_bits(mocapkit.load(out).rotations[316:336], mocapkit.load(inp).rotations[316:336])
+
+
+def test_clean_says_which_changes_are_decided_together(cleaned, tmp_path, capsys):
+    from mocapkit.cleaning.ties import SWAP_WHY
+
+    d, inp = cleaned
+    assert main(["clean", str(inp), "-o", str(tmp_path / "w.npz")]) == 0
+    out = capsys.readouterr().out
+    said = [line.strip() for line in out.splitlines() if "accepted or rejected together" in line]
+    assert said == [f"repair:lhumerus:316-335, repair:rhumerus:316-335: accepted or rejected together, as {SWAP_WHY}"]

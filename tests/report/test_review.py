@@ -331,6 +331,32 @@ def test_the_pages_apply_command_works_as_copied_for_an_amc_whose_asf_is_elsewhe
     assert "1 rejected" in out and (tmp_path / "elsewhere" / "final.bvh").is_file()
 
 
+def test_unticking_one_side_of_a_swap_unticks_the_other_and_says_why(page, cleaned):
+    # walk_bad's upper arms are swapped over frames 316-335 and put back by the mirrored exchange: one side alone
+    # would leave both arms with one side's motion (mocapkit.cleaning.ties), so the two rows move together
+    from mocapkit.cleaning.ties import SWAP_WHY
+
+    sides = ["repair:lhumerus:316-335", "repair:rhumerus:316-335"]
+    n = len(page.evaluate("() => window.mocapkitReview.changes()"))
+
+    def boxes():
+        return [page.locator(f'#changes tr[data-change="{i}"] input.accept').is_checked() for i in sides]
+
+    page.locator(f'#changes tr[data-change="{sides[1]}"] input.accept').uncheck()
+    assert boxes() == [False, False]
+    assert page.inner_text("#decision-count") == f"{n - 2} accepted, 2 rejected"
+    assert [page.evaluate("() => window.mocapkitReview.decisions()")["decisions"][i] for i in sides] == ["reject"] * 2
+    why = page.locator(f'#changes tr[data-change="{sides[1]}"] td.reason').inner_text()
+    assert f"(accepted or rejected with {sides[0]}: {SWAP_WHY})" in why
+    page.locator(f'#changes tr[data-change="{sides[0]}"] input.accept').check()
+    assert boxes() == [True, True]
+    # the viewer's own accept box, on one side, decides both
+    k = page.evaluate("() => window.mocapkitReview.changes()").index(sides[0])
+    page.evaluate(f"() => window.mocapkitReview.jump({k})")
+    page.locator("#change-accept").uncheck()
+    assert boxes() == [False, False]
+
+
 def test_tied_changes_are_accepted_and_rejected_together(browser, tmp_path):
     # CMU 85_02 (tests/data) with two swaps chained over one marker whose cleaned samples are not what exchanging
     # their recorded trajectories in order gives (their columns exchanged instead), and a spike inside them:

@@ -27,7 +27,9 @@ other sample (unchanged cells and the cells of rejected changes) is the
 input's, bit for bit: rejecting every change gives the input back, accepting
 every change gives the cleaned take. Adjacent changes of one joint with
 different decisions meet at a frame boundary; nothing is blended across it,
-so the take can jump there, as it did in the input. The cleaned values come
+so the take can jump there, as it did in the input. Changes that are parts of one fix (the two sides of a
+left/right swap, touching runs of one joint made by nested steps: :mod:`~mocapkit.cleaning.ties`) are
+accepted or rejected together (:func:`tied`); decisions that split them are refused. The cleaned values come
 from the record (:attr:`CleanResult.samples`, float64 as the pipeline made
 them) or, for a record without them, from ``result.motion``.
 
@@ -93,15 +95,17 @@ import numpy as np
 from ..errors import MissingFileError, MocapError, MocapFormatError
 from ..markerset import MarkerSet
 from ..motion import Motion
+from ..joints import mirror_pairs
 from .ik import contact_segments
 from .ssa.cues import cause_names
 from ..digest import take_digest
+from .ties import SplitTieError, split_message, swap_cells, tie_groups
 
 __all__ = ["FORMAT", "ACCEPT", "REJECT", "Change", "changes", "apply", "take_digest", "template", "read_decisions",
            "check_decisions", "check_record", "record_problem", "as_written", "accepted_cells", "flag_segments",
            "frame_note", "frames_note", "review", "check_document", "cleaning_digest", "cleaning_stamp", "check_cleaning", "check_named",
            "unnamed_changes", "applying_notes", "ids_notes", "request_difference", "check_request", "check_choices", "record_wanted", "DuplicateKeyError",
-           "RECORD_FLAG", "RECORD_KEYWORD", "review_mode"]
+           "RECORD_FLAG", "RECORD_KEYWORD", "review_mode", "tied", "tied_lines", "check_ties"]
 
 #: How a refusal names the record of the cleaning reviewed: the CLI's option, and ``mocapkit.clean``'s keyword.
 RECORD_FLAG = "--record"
@@ -376,14 +380,54 @@ def check_choices(decisions: Mapping[str, str], ids) -> None:
         raise ValueError(f"a decision is 'accept' or 'reject', got {', '.join(map(repr, sorted(map(str, bad))))}")
 
 
+def tied(result) -> list[tuple[list[str], str]]:
+    """The changes of ``result`` a person accepts or rejects together: ``(ids, why)`` per group, by first change
+    (:func:`mocapkit.cleaning.ties.tie_groups`: the two sides of one left/right swap, touching runs of one joint
+    made by nested steps). A record without :attr:`CleanResult.causes` ties no swap."""
+    runs = _runs(result)
+    rows = [(j, a, b, frozenset(_step_name(code).split("+"))) for j, a, b, code in runs]
+    swaps = swap_cells(getattr(result, "causes", None), result.changed.shape)
+    return [([_change_id(result, *runs[k]) for k in g], why)
+            for g, why in tie_groups(rows, swaps, mirror_pairs(result.joint_names))]
+
+
+#: at most this many :func:`tied_lines`, then a count of the rest
+MAX_TIED_LINES = 12
+
+
+def tied_lines(result) -> list[str]:
+    """One line per group of :func:`tied` changes, naming them and saying why (the marker side's
+    :func:`mocapkit.cleaning.markers.decisions.tied_lines` words), the first :data:`MAX_TIED_LINES` and a count of
+    the rest: what ``clean``'s console says beside its summary, so that a person editing a decisions file knows."""
+    groups = tied(result)
+    out = [f"{', '.join(ids)}: accepted or rejected together, as {why}" for ids, why in groups[:MAX_TIED_LINES]]
+    if len(groups) > MAX_TIED_LINES:
+        out.append(f"... and {len(groups) - MAX_TIED_LINES} more groups of changes accepted or rejected together "
+                   "(the report ties them)")
+    return out
+
+
+def check_ties(decisions: Mapping[str, str], result) -> None:
+    """Raise :class:`~mocapkit.cleaning.ties.SplitTieError` (a ValueError), naming the changes and why, where
+    ``decisions`` accepts some changes of a :func:`tied` group and rejects others (a change not named is
+    accepted): the take written would hold half a fix."""
+    for ids, why in tied(result):
+        choices = [decisions.get(i, ACCEPT) for i in ids]
+        if len(set(choices)) > 1:
+            raise SplitTieError(split_message(ids, choices, why, ACCEPT))
+
+
 def accepted_cells(result, decisions: Mapping[str, str]) -> np.ndarray:
     """(F, J) bool: the cells of the changes ``decisions`` accepts (a change it does not name is accepted).
 
-    Raises ValueError for an id that is not a change of ``result`` or a choice other than accept/reject.
+    Raises ValueError for an id that is not a change of ``result`` or a choice other than accept/reject, and
+    :class:`~mocapkit.cleaning.ties.SplitTieError` for decisions that split changes decided together
+    (:func:`check_ties`).
     """
     runs = _runs(result)
     ids = {_change_id(result, *r): r for r in runs}
     check_choices(decisions, ids)
+    check_ties(decisions, result)
     out = np.zeros(result.changed.shape, dtype=bool)
     for cid, (j, a, b, _) in ids.items():
         if decisions.get(cid, ACCEPT) == ACCEPT:
@@ -573,6 +617,8 @@ def check_decisions(doc: dict, path, original: Motion, result=None, record=None,
     check_cleaning(doc, path, result, record, fresh, option)
     try:
         accepted_cells(result, doc["decisions"])
+    except SplitTieError as exc:
+        raise MocapFormatError(path, str(exc)) from None
     except ValueError as exc:
         raise MocapFormatError(path, f"{exc} (decisions made for another cleaning of the take?)") from None
     check_named(doc, path, result)
@@ -793,14 +839,17 @@ def review(original: Motion, result, take: str = "", output: str = "", decisions
     """What the HTML report needs to let a person decide: ``{"changes": [...], "decisions": document, "flags": [...],
     "frames": note}``.
 
-    ``changes``: :meth:`Change.as_dict` of :func:`changes`; ``decisions``: :func:`template`
-    with the choices of ``decisions`` (every other change accepted) and the stamp of this cleaning, ``record`` the
+    ``changes``: :meth:`Change.as_dict` of :func:`changes` (a change :func:`tied` to others names them all in
+    ``"tied"`` and says why in ``"tied_why"``: the list accepts or rejects them together); ``decisions``:
+    :func:`template` with the choices of ``decisions`` (every other change accepted) and the stamp of this cleaning, ``record`` the
     path its record was written to (the page tells the reviewer to pass it); ``flags``: :func:`flag_segments`;
     ``frames``: :func:`frame_note` for the input file ``take`` whose first frame is numbered ``first_frame``;
     ``command``: the input and options of the command the page says to apply the decisions with
     (:func:`mocapkit.cleaning.decided.apply_command`).
     """
     found = changes(result, original)
-    return {"changes": [c.as_dict() for c in found],
+    together = {i: (ids, why) for ids, why in tied(result) for i in ids}
+    return {"changes": [{**c.as_dict(), **({"tied": together[c.id][0], "tied_why": together[c.id][1]}
+                                            if c.id in together else {})} for c in found],
             "decisions": template(original, found, take, output, decisions, result=result, record=record),
             "flags": flag_segments(result), "frames": frame_note(take, first_frame), "command": command}

@@ -165,6 +165,10 @@ def clean(
         console.print(f"  {line}")
     for note in warned:
         console.print(f"warning: {inp}: {note}")
+    from ..cleaning.decisions import tied_lines
+
+    for line in tied_lines(res):  # changes a person must decide together, and why
+        console.print(f"  {line}")
     if res.detection is not None:
         from ..cleaning.decisions import flag_segments
 

@@ -102,8 +102,9 @@
   function paint(k) {
     rows[k].tr.className = (rows[k].box.checked ? "" : "rejected") + (k === current ? " current" : "");
   }
-  // changes the cleaning ties ("tied": their ids) are accepted or rejected together: where a change's samples
-  // came from cannot be told apart from a swap's, a split decision would be refused when applied
+  // changes the cleaning ties ("tied": their ids, "tied_why": why) are accepted or rejected together: parts of one
+  // fix (the two sides of a swap, touching runs of one joint one step smoothed, a marker change whose origin cannot
+  // be told apart from a swap's), whose split would be refused when applied
   var at = {};
   list.forEach(function (c, k) { at[c.id] = k; });
   function set(k, accept, bulk) {
