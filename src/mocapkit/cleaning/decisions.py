@@ -392,7 +392,7 @@ def tied(result) -> list[tuple[list[str], str]]:
 
 
 #: at most this many :func:`tied_lines`, then a count of the rest
-MAX_TIED_LINES = 12
+MAX_TIED_LINES = 3
 
 
 def tied_lines(result) -> list[str]:
