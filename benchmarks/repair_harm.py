@@ -169,11 +169,12 @@ def summarise(results: list[dict], which: str) -> dict:
     return out
 
 
-def worse_rows(results: list[dict], which: str) -> list[str]:
+def worse_rows(results: list[dict], which: str, sign: float = 1.0) -> list[str]:
+    """One line per run made worse (``sign`` -1: per run improved)."""
     rows = []
     for r in results:
         for j, s, e, i, o, hit in r[which]["runs"]:
-            if o - i > WORSE_DEG:
+            if sign * (o - i) > WORSE_DEG:
                 rows.append(f"{r['collection']} {r['take']} seed {r['seed']}: {r['joints'][j]} frames {s}-{e - 1} "
                             f"{i:.1f} -> {o:.1f} deg{'' if hit else ' (no error there)'}")
     return rows
@@ -208,7 +209,8 @@ def main(argv=None) -> None:
     harness.emit("repair_harm", args, figures=figures, baselines=baselines,
                  details={"guarded": new, "unguarded": old, "check_collections": list(CHECK),
                           "worse_runs": worse_rows(results, "guarded"),
-                          "worse_runs_unguarded": worse_rows(results, "unguarded")})
+                          "worse_runs_unguarded": worse_rows(results, "unguarded"),
+                          "improved_runs": worse_rows(results, "guarded", -1.0)})
 
 
 if __name__ == "__main__":
