@@ -11,7 +11,7 @@ from mocapkit import rotations as R
 from mocapkit.cleaning import ssa
 from mocapkit.cleaning.pipeline import clean
 from mocapkit.cleaning.whole_take import detect_take, take_params
-from mocapkit.cleaning.ssa.guard import angular_acceleration, end_roughness, guard_joint, rougher_end, roughness
+from mocapkit.cleaning.ssa.guard import angular_acceleration, end_roughness, guard_joint, held, rougher_end, roughness
 
 
 def _turn(angles_deg: np.ndarray) -> np.ndarray:
@@ -64,6 +64,22 @@ def test_a_run_whose_exit_gains_a_step_is_left_though_its_entry_had_a_larger_one
     assert "exit" in rougher_end(acc_in, acc_out, 20, 30)
     bad = guard_joint(orig, out, changed, np.zeros(F, dtype=bool), changed)
     assert [(s, e) for s, e, _ in bad] == [(20, 30)] and "exit" in bad[0][2]
+
+
+def test_a_held_run_is_not_judged_by_its_ends():
+    """A frozen channel joins the take smoothly where it starts holding; its repair, moving again, cannot."""
+    F = 60
+    truth = _turn(np.arange(F) * 1.0)
+    orig = np.array(truth)
+    orig[20:30] = truth[19]  # frozen: a step of 10 degrees back to the motion at frame 30
+    changed = np.zeros(F, dtype=bool)
+    changed[20:30] = True
+    out = np.array(truth)
+    out[20:30] = R.quaternion_multiply(_turn(np.full(10, 8.0)), truth[20:30])  # the word's motion, 8 degrees off
+    acc_in, acc_out = angular_acceleration(orig), angular_acceleration(out)
+    assert held(orig, 20, 30) and not held(truth, 20, 30)
+    assert rougher_end(acc_in, acc_out, 20, 30) is not None  # its entry gains a step ...
+    assert guard_joint(orig, out, changed, np.zeros(F, dtype=bool), changed) == []  # ... but a freeze's repair is kept
 
 
 def test_a_bridge_that_turns_a_still_joint_fast_is_left():
