@@ -11,7 +11,10 @@ take is cleaned, but the take's own continuity is. A run of changed cells of one
 * it joins the take no less smoothly than the input did (within :data:`ROUGHNESS_TOL_DEG`): the largest
   angular acceleration (the angle of
   the second difference of the joint's rotation, degrees per frame squared) over the run and the frame on
-  each side is not larger after than before (:func:`roughness`);
+  each side is not larger after than before (:func:`roughness`), and neither is it at each end of the run
+  on its own, within :data:`END_TOL_DEG`, unless the input holds the joint bit-still in the run (:func:`rougher_end`,
+  :func:`held`): flags that run on past an error over captured frames otherwise hide the step their repair
+  puts at the run's far end behind the error's own step at the near one;
 * where it is bridged (no neighbour word covers it), the bridge turns no faster than :data:`BRIDGE_MIN_DEG`
   degrees a frame or :data:`BRIDGE_FACTOR` times the fastest turn the joint makes between two unflagged
   frames, whichever is more: a slerp an order of magnitude faster than the joint ever turns is no motion
