@@ -1,4 +1,4 @@
-"""Repairs that make a take worse (issue 21, "do no harm"): the runs of self-similarity repair judged against the clean take.
+"""Repairs that make a take worse (issue 21, "do no harm"): self-similarity repair's runs against the clean take.
 
 Usage::
 
@@ -19,8 +19,8 @@ is the repair without its guard (``guard=False``).
 
 Collections (tune: the rules may be chosen on them; check: judge there, never tune):
 
-* ``cmu`` (tune): CMU ASF/AMC 11_01, charleston1, pirouette, backflip, 12_02_01 and CMU BVH 131_01-02 (131_03 holds a dropout detect refuses), clean
-  and seed 1001;
+* ``cmu`` (tune): CMU ASF/AMC 11_01, charleston1, pirouette, backflip, 12_02_01 and CMU BVH 131_01-02
+  (131_03 holds a dropout detect refuses), clean and seed 1001;
 * ``hdm05`` (tune): HDM05 actors bd, bk, dg, tr, the first take of each of the 11 classes, clean and seeds
   1001, 1002 (``--quick``: grabHighR only);
 * ``hdm05_mm`` (check): actor mm, the first two takes of each class, clean and seed 2001 (``--quick``: kick

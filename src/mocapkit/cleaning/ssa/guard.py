@@ -37,7 +37,8 @@ import numpy as np
 from ... import rotations as R
 from ..ik import contact_segments
 
-__all__ = ["LEFT_PREFIX", "LeftRun", "angular_acceleration", "end_roughness", "guard_joint", "held", "rougher_end", "roughness"]
+__all__ = ["LEFT_PREFIX", "LeftRun", "angular_acceleration", "end_roughness", "guard_joint", "held", "rougher_end",
+           "roughness"]
 
 #: degrees per frame squared a repaired run may add to the input's largest angular acceleration: the joins of a
 #: 0.25 s blend add about 1 (a smooth drift repaired from a twin: 0.1 -> 1.1), a step put into a real turn tens
