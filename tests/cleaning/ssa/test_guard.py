@@ -11,7 +11,7 @@ from mocapkit import rotations as R
 from mocapkit.cleaning import ssa
 from mocapkit.cleaning.pipeline import clean
 from mocapkit.cleaning.whole_take import detect_take, take_params
-from mocapkit.cleaning.ssa.guard import angular_acceleration, guard_joint, roughness
+from mocapkit.cleaning.ssa.guard import angular_acceleration, end_roughness, guard_joint, held, rougher_end, roughness
 
 
 def _turn(angles_deg: np.ndarray) -> np.ndarray:
@@ -49,6 +49,37 @@ def test_a_repair_that_takes_a_step_away_is_kept():
     assert guard_joint(orig, truth, changed, np.zeros(F, dtype=bool), changed) == []
     # bridged: the slerp between the ends turns as the joint does: kept
     assert guard_joint(orig, truth, changed, changed, changed) == []
+
+
+def test_a_run_whose_exit_gains_a_step_is_left_though_its_entry_had_a_larger_one():
+    F = 60
+    orig = _turn(np.where(np.arange(F) >= 20, 0.0, 30.0) + np.arange(F) * 1.0)  # a 30-degree step at frame 20
+    out = np.array(orig)
+    out[20:30] = R.quaternion_multiply(_turn(np.linspace(20.0, 15.0, 10)), orig[20:30])  # off the take, then a step back
+    changed = np.zeros(F, dtype=bool)
+    changed[20:30] = True
+    acc_in, acc_out = angular_acceleration(orig), angular_acceleration(out)
+    assert roughness(acc_out, 20, 30) < roughness(acc_in, 20, 30)  # the whole-run rule alone keeps it
+    assert end_roughness(acc_in, 20, 30)[1] < 0.5 and end_roughness(acc_out, 20, 30)[1] > 10.0
+    assert "exit" in rougher_end(acc_in, acc_out, 20, 30)
+    bad = guard_joint(orig, out, changed, np.zeros(F, dtype=bool), changed)
+    assert [(s, e) for s, e, _ in bad] == [(20, 30)] and "exit" in bad[0][2]
+
+
+def test_a_held_run_is_not_judged_by_its_ends():
+    """A frozen channel joins the take smoothly where it starts holding; its repair, moving again, cannot."""
+    F = 60
+    truth = _turn(np.arange(F) * 1.0)
+    orig = np.array(truth)
+    orig[20:30] = truth[19]  # frozen: a step of 10 degrees back to the motion at frame 30
+    changed = np.zeros(F, dtype=bool)
+    changed[20:30] = True
+    out = np.array(truth)
+    out[20:30] = R.quaternion_multiply(_turn(np.full(10, 8.0)), truth[20:30])  # the word's motion, 8 degrees off
+    acc_in, acc_out = angular_acceleration(orig), angular_acceleration(out)
+    assert held(orig, 20, 30) and not held(truth, 20, 30)
+    assert rougher_end(acc_in, acc_out, 20, 30) is not None  # its entry gains a step ...
+    assert guard_joint(orig, out, changed, np.zeros(F, dtype=bool), changed) == []  # ... but a freeze's repair is kept
 
 
 def test_a_bridge_that_turns_a_still_joint_fast_is_left():
@@ -94,3 +125,21 @@ def test_clean_leaves_a_real_fast_turn_and_names_it():
     assert np.array_equal(res.motion.rotations[230:250, j], take.rotations[230:250, j])
     assert not res.repaired[230:250, j].any()
     assert any(line.startswith("note: left: repair not better than the take: RightWrist frames 23") for line in res.summary())
+
+
+def test_flags_past_an_error_over_clean_frames_are_given_back(shared_data):
+    """HDM05 grabHighR (bd, 001) with real-style errors (seed 1002): the flags of the right forearm run on past the
+    error's last frame (204) over frames 205-211, which the input holds as captured and which run on smoothly into
+    the take; a neighbour word written there put them 8-20 degrees off the clean take with a step at frame 211."""
+    path = shared_data / "hdm05_asfamc" / "HDM_bd_grabHighR_001_120.amc"
+    if not path.is_file():
+        pytest.skip("HDM05 grabHighR take not in the shared data")
+    ref = mocapkit.load(path)
+    bad, mask, _ = corrupt.real_errors(ref, n_errors=4, seed=1002)
+    j = ref.skeleton.index("rradius")
+    assert not mask[205:212, j].any()
+    det = detect_take(bad, None, params=take_params()).detection
+    assert det.flags[205:212, j].all()
+    new, left = ssa.repair_with_left(bad, det, None, foot_skate=False)
+    assert np.array_equal(new.rotations[205:212, j], ref.rotations[205:212, j])
+    assert any(r.joint == "rradius" and r.start <= 205 and r.end >= 212 and "exit" in r.reason for r in left)

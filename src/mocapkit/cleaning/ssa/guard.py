@@ -11,7 +11,10 @@ take is cleaned, but the take's own continuity is. A run of changed cells of one
 * it joins the take no less smoothly than the input did (within :data:`ROUGHNESS_TOL_DEG`): the largest
   angular acceleration (the angle of
   the second difference of the joint's rotation, degrees per frame squared) over the run and the frame on
-  each side is not larger after than before (:func:`roughness`);
+  each side is not larger after than before (:func:`roughness`), and neither is it at each end of the run
+  on its own, within :data:`END_TOL_DEG`, unless the input holds the joint bit-still in the run (:func:`rougher_end`,
+  :func:`held`): flags that run on past an error over captured frames otherwise hide the step their repair
+  puts at the run's far end behind the error's own step at the near one;
 * where it is bridged (no neighbour word covers it), the bridge turns no faster than :data:`BRIDGE_MIN_DEG`
   degrees a frame or :data:`BRIDGE_FACTOR` times the fastest turn the joint makes between two unflagged
   frames, whichever is more: a slerp an order of magnitude faster than the joint ever turns is no motion
@@ -34,11 +37,16 @@ import numpy as np
 from ... import rotations as R
 from ..ik import contact_segments
 
-__all__ = ["LEFT_PREFIX", "LeftRun", "angular_acceleration", "guard_joint", "roughness"]
+__all__ = ["LEFT_PREFIX", "LeftRun", "angular_acceleration", "end_roughness", "guard_joint", "held", "rougher_end",
+           "roughness"]
 
 #: degrees per frame squared a repaired run may add to the input's largest angular acceleration: the joins of a
 #: 0.25 s blend add about 1 (a smooth drift repaired from a twin: 0.1 -> 1.1), a step put into a real turn tens
 ROUGHNESS_TOL_DEG = 2.0
+#: degrees per frame squared a repaired run may add at one of its ends to the input's angular acceleration there
+#: (:func:`rougher_end`): the joins of good repairs on the HDM05 and CMU takes tuned on added up to 2.4, the steps
+#: put where flags ran on past an error over clean frames 6-9
+END_TOL_DEG = 5.0
 #: a bridge may turn up to this many degrees a frame whatever the joint does elsewhere (at 30 fps, 300 deg/s) ...
 BRIDGE_MIN_DEG = 10.0
 #: ... and up to this many times the joint's fastest turn between two unflagged frames
@@ -94,6 +102,44 @@ def roughness(acc: np.ndarray, start: int, end: int) -> float:
     return float(acc[lo:hi].max()) if hi > lo else 0.0
 
 
+def end_roughness(acc: np.ndarray, start: int, end: int) -> tuple[float, float]:
+    """``(entry, exit)``: the largest of ``acc`` (F,) (:func:`angular_acceleration`) at the run's first join (frames
+    ``start - 1`` and ``start``, the second differences that hold the turn from the frame before the run into it)
+    and at its last (``end - 1`` and ``end``); 0 where the run starts or ends the take."""
+    F = len(acc)
+    entry = float(acc[max(start - 1, 0) : min(start + 1, F)].max()) if start > 0 else 0.0
+    exit_ = float(acc[max(end - 1, 0) : min(end + 1, F)].max()) if end < F else 0.0
+    return entry, exit_
+
+
+def rougher_end(acc_in: np.ndarray, acc_out: np.ndarray, start: int, end: int) -> str | None:
+    """The guard's words where one end of the run joins the take with a step the input did not have there, else
+    None: at the run's entry or exit (:func:`end_roughness`) the output's angular acceleration passes the input's
+    there by more than :data:`END_TOL_DEG`.
+
+    The whole-run rule (:func:`roughness`) compares the largest values over the run, so the error's own step at
+    one end (the break the flags start at) hides a step the repair puts at the other, where the input ran on
+    smoothly into the take: the flags went on past the error over uncorrupted frames (HDM05 bd grabHighR, the
+    right forearm's flags 8 frames past its error's last frame: 0 -> 8-20 degrees off the clean take, a step of
+    8.6 deg/frame^2 where the input's was 0.2). Not for a held run (:func:`held`): a frozen channel joins the
+    take smoothly where it starts holding, and its repair, moving again, cannot.
+    """
+    e_in, x_in = end_roughness(acc_in, start, end)
+    e_out, x_out = end_roughness(acc_out, start, end)
+    for side, r_in, r_out in (("entry", e_in, e_out), ("exit", x_in, x_out)):
+        if r_out > r_in + END_TOL_DEG:
+            return f"its {side} joins the take less smoothly: {r_out:.1f} against {r_in:.1f} deg/frame^2"
+    return None
+
+
+def held(q: np.ndarray, start: int, end: int) -> bool:
+    """Whether the track ``q`` (F, 4) repeats a rotation bit for bit between two consecutive frames of
+    ``start - 1 .. end - 1`` (the frame before the run and the run): a frozen channel, which no capture of a
+    moving joint shows."""
+    seg = q[max(start - 1, 0) : end]
+    return bool(len(seg) > 1 and np.all(seg[1:] == seg[:-1], axis=-1).any())
+
+
 def guard_joint(
     orig: np.ndarray,
     out: np.ndarray,
@@ -126,4 +172,8 @@ def guard_joint(
             fast = float(out_speed[max(s - 1, 0) : e].max())  # the turns into, through and out of the run
             if fast > max(BRIDGE_MIN_DEG, BRIDGE_FACTOR * peak):
                 bad.append((s, e, f"a bridge turning {fast:.1f} deg/frame, the joint at most {peak:.1f} elsewhere"))
+                continue
+        rough_end = None if held(orig, s, e) else rougher_end(acc_in, acc_out, s, e)
+        if rough_end is not None:
+            bad.append((s, e, rough_end))
     return bad

@@ -1,0 +1,217 @@
+"""Repairs that make a take worse (issue 21, "do no harm"): self-similarity repair's runs against the clean take.
+
+Usage::
+
+    python benchmarks/repair_harm.py [--quick] [--collections C,...] [--workers W] [--json] [--no-save]
+
+Each take is cleaned as ``clean --steps detect,repair`` cleans it (``whole_take.detect_take`` with
+``take_params()``, then ``ssa.repair_with_left``, no foot-skate cleanup), once as it is (a clean take, where
+every change is harm) and once per seed corrupted with ``corrupt.real_errors`` (4 errors; the CLI's
+``mocapkit corrupt --kind errors``). A *run* is a maximal run of frames in which the repair changed one joint;
+each run is judged by the mean angle (degrees) of its cells off the clean take, input against output:
+
+* ``worse``: the output is more than 1 degree further off than the input was (the guide's figure);
+* ``improved``: more than 1 degree nearer; ``repaired``: every run the repair left changed.
+
+``moved``: the cells no error touched that the repair changed, how many and by how much (mean and largest
+angle from their input, which is the clean take there). The baseline, in the same run on the same detections,
+is the repair without its guard (``guard=False``).
+
+Collections (tune: the rules may be chosen on them; check: judge there, never tune):
+
+* ``cmu`` (tune): CMU ASF/AMC 11_01, charleston1, pirouette, backflip, 12_02_01 and CMU BVH 131_01-02
+  (131_03 holds a dropout detect refuses), clean and seed 1001;
+* ``hdm05`` (tune): HDM05 actors bd, bk, dg, tr, the first take of each of the 11 classes, clean and seeds
+  1001, 1002 (``--quick``: grabHighR only);
+* ``hdm05_mm`` (check): actor mm, the first two takes of each class, clean and seed 2001 (``--quick``: kick
+  and grabHighR);
+* ``bandai`` (check): 12 Bandai Namco takes (every 200th of the 2,675, sorted by path), clean and seed 2001
+  (``--quick``: 4).
+
+    python benchmarks/repair_harm.py --json --no-save            # every collection (~10 min on 2 cores)
+    python benchmarks/repair_harm.py --quick --json --no-save    # ~3 min
+"""
+
+from __future__ import annotations
+
+import sys
+from collections import defaultdict
+from concurrent.futures import ProcessPoolExecutor
+from pathlib import Path
+
+import numpy as np
+
+REPO = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(REPO / "src"))
+sys.path.insert(0, str(REPO / "benchmarks"))
+
+import _harness as harness  # noqa: E402
+
+DATA = REPO.parent / "shared" / "data"
+COLLECTIONS = ("cmu", "hdm05", "hdm05_mm", "bandai")
+CHECK = ("hdm05_mm", "bandai")
+WORSE_DEG = 1.0
+
+
+def _hdm05(actors, per_class: int, classes=None) -> list[Path]:
+    root = DATA / "hdm05_asfamc"
+    out = []
+    for actor in actors:
+        by_class = defaultdict(list)
+        for p in sorted(root.glob(f"HDM_{actor}_*_120.amc")):
+            by_class[p.name.split("_")[2]].append(p)
+        for c in sorted(by_class):
+            if classes is None or c in classes:
+                out += by_class[c][:per_class]
+    return out
+
+
+def jobs(collections, quick: bool) -> list[tuple[str, str, int | None]]:
+    """``(collection, path, seed)`` for every run (seed None: the clean take)."""
+    out = []
+    if "cmu" in collections:
+        names = ["11_01.amc", "charleston1.amc", "pirouette.amc", "backflip.amc", "12_from_examples_02_01.amc"]
+        paths = [DATA / "cmu_asfamc" / n for n in names] + [DATA / "cmu_bvh" / f"131_0{i}.bvh" for i in (1, 2)]
+        if quick:
+            paths = paths[3:5] + paths[5:6]
+        out += [("cmu", str(p), s) for p in paths for s in (None, 1001)]
+    if "hdm05" in collections:
+        paths = _hdm05(("bd", "bk", "dg", "tr"), 1, ("grabHighR",) if quick else None)
+        out += [("hdm05", str(p), s) for p in paths for s in (None, 1001, 1002)]
+    if "hdm05_mm" in collections:
+        paths = _hdm05(("mm",), 2, ("kickLFront1Reps", "grabHighR") if quick else None)
+        out += [("hdm05_mm", str(p), s) for p in paths for s in (None, 2001)]
+    if "bandai" in collections:
+        from _bandai import bandai_takes
+
+        takes = bandai_takes()[::200][: 4 if quick else 12]
+        out += [("bandai", str(t.path), s) for t in takes for s in (None, 2001)]
+    return out
+
+
+def _asf(path: Path) -> Path | None:
+    if path.suffix != ".amc":
+        return None
+    if path.parent.name == "hdm05_asfamc":
+        return path.parent / f"HDM_{path.name.split('_')[1]}.asf"
+    own = path.with_suffix(".asf")
+    if own.is_file():
+        return own
+    stem = path.stem.split("_")[0]
+    for cand in (path.parent / f"{stem}.asf", path.parent / f"{stem.rstrip('0123456789')}.asf"):
+        if cand.is_file():
+            return cand
+    return None
+
+
+def _runs(changed: np.ndarray) -> list[tuple[int, int]]:
+    edges = np.diff(np.concatenate([[0], changed.astype(np.int8), [0]]))
+    return list(zip(np.flatnonzero(edges == 1).tolist(), np.flatnonzero(edges == -1).tolist()))
+
+
+def judge(clean_rot, bad_rot, out_rot, mask) -> dict:
+    """The runs of ``out_rot`` (F, J, 4) changed from ``bad_rot`` judged against ``clean_rot``; ``mask`` (F, J) the
+    corrupted cells."""
+    from mocapkit import rotations as R
+
+    off_in = np.degrees(R.geodesic_angle(bad_rot, clean_rot))
+    off_out = np.degrees(R.geodesic_angle(out_rot, clean_rot))
+    changed = np.any(out_rot != bad_rot, axis=-1)
+    runs = []
+    for j in np.flatnonzero(changed.any(axis=0)):
+        for s, e in _runs(changed[:, j]):
+            runs.append((int(j), s, e, float(off_in[s:e, j].mean()), float(off_out[s:e, j].mean()),
+                         bool(mask[s:e, j].any())))
+    moved = changed & ~mask
+    step = np.degrees(R.geodesic_angle(out_rot, bad_rot))[moved]
+    return {"runs": runs, "moved": int(moved.sum()), "moved_mean_deg": float(step.mean()) if step.size else 0.0,
+            "moved_max_deg": float(step.max()) if step.size else 0.0}
+
+
+def one(job) -> dict:
+    """Both repairs of one take (clean or corrupted) and their runs."""
+    import mocapkit
+    from mocapkit import corrupt
+    from mocapkit.cleaning import ssa
+    from mocapkit.cleaning.whole_take import detect_take, take_params
+    from mocapkit.io.takes import load_take
+
+    coll, path, seed = job
+    p = Path(path)
+    asf = _asf(p)
+    clean = load_take(p, asf=asf) if asf is not None else mocapkit.load(p)
+    if seed is None:
+        bad, mask = clean, np.zeros(clean.rotations.shape[:2], dtype=bool)
+    else:
+        bad, mask, _ = corrupt.corrupt(clean, kind="errors", seed=seed)
+    det = detect_take(bad, None, params=take_params()).detection
+    res = {"collection": coll, "take": p.name, "seed": seed, "joints": list(clean.skeleton.joint_names)}
+    for name, guard in (("guarded", True), ("unguarded", False)):
+        out, _ = ssa.repair_with_left(bad, det, None, foot_skate=False, guard=guard)
+        res[name] = judge(clean.rotations, bad.rotations, out.rotations, mask)
+    return res
+
+
+def summarise(results: list[dict], which: str) -> dict:
+    """Per collection: runs repaired / improved / worse, uncorrupted cells moved and by how much."""
+    out = {}
+    for coll in sorted({r["collection"] for r in results}):
+        rs = [r for r in results if r["collection"] == coll]
+        runs = [x for r in rs for x in r[which]["runs"]]
+        worse = sum(o - i > WORSE_DEG for _, _, _, i, o, _ in runs)
+        improved = sum(i - o > WORSE_DEG for _, _, _, i, o, _ in runs)
+        moved = sum(r[which]["moved"] for r in rs)
+        mean = (sum(r[which]["moved"] * r[which]["moved_mean_deg"] for r in rs) / moved) if moved else 0.0
+        out[coll] = {"takes": len(rs), "runs": len(runs), "improved": improved, "worse": worse,
+                     "worse_deg": round(sum(max(o - i, 0.0) for _, _, _, i, o, _ in runs if o - i > WORSE_DEG), 1),
+                     "moved": moved, "moved_mean_deg": round(mean, 2),
+                     "moved_max_deg": round(max((r[which]["moved_max_deg"] for r in rs), default=0.0), 2)}
+    return out
+
+
+def worse_rows(results: list[dict], which: str, sign: float = 1.0) -> list[str]:
+    """One line per run made worse (``sign`` -1: per run improved)."""
+    rows = []
+    for r in results:
+        for j, s, e, i, o, hit in r[which]["runs"]:
+            if sign * (o - i) > WORSE_DEG:
+                rows.append(f"{r['collection']} {r['take']} seed {r['seed']}: {r['joints'][j]} frames {s}-{e - 1} "
+                            f"{i:.1f} -> {o:.1f} deg{'' if hit else ' (no error there)'}")
+    return rows
+
+
+def main(argv=None) -> None:
+    ap = harness.parser(__doc__)
+    ap.add_argument("--quick", action="store_true", help="fewer takes per collection")
+    ap.add_argument("--collections", default=",".join(COLLECTIONS), help="comma-separated: " + ", ".join(COLLECTIONS))
+    ap.add_argument("--workers", type=int, default=2)
+    args = ap.parse_args(argv)
+    colls = [c for c in args.collections.split(",") if c]
+    bad = [c for c in colls if c not in COLLECTIONS]
+    if bad:
+        raise SystemExit(f"unknown collection(s) {bad}; collections are {', '.join(COLLECTIONS)}")
+    todo = jobs(colls, args.quick)
+    if args.workers > 1:
+        with ProcessPoolExecutor(args.workers) as ex:
+            results = list(ex.map(one, todo))
+    else:
+        results = [one(j) for j in todo]
+    new, old = summarise(results, "guarded"), summarise(results, "unguarded")
+    figures, baselines = {}, {}
+    for coll in new:
+        for key in ("runs", "improved", "worse", "moved", "moved_max_deg"):
+            figures[f"{coll}_{key}"] = new[coll][key]
+            baselines[f"{coll}_{key}"] = old[coll][key]
+    if not args.json:
+        for coll in new:
+            print(coll, "guarded", new[coll], "\n", " " * len(coll), "unguarded", old[coll])
+        print("\n".join(worse_rows(results, "guarded")))
+    harness.emit("repair_harm", args, figures=figures, baselines=baselines,
+                 details={"guarded": new, "unguarded": old, "check_collections": list(CHECK),
+                          "worse_runs": worse_rows(results, "guarded"),
+                          "worse_runs_unguarded": worse_rows(results, "unguarded"),
+                          "improved_runs": worse_rows(results, "guarded", -1.0)})
+
+
+if __name__ == "__main__":
+    main()
