@@ -270,12 +270,12 @@ def test_on_result_sees_each_result_as_it_finishes_and_can_stop_the_work(executo
     assert all(out[k] == k * k for k in seen)
 
 
-def test_a_stop_drops_the_items_a_local_pool_has_not_started(tmp_path, monkeypatch):
-    """on_result's stop, without a race: the items after the first wait at a gate that opens only once no future
-    of the pool is pending any more (the stop has cancelled them), so the pool cannot run them all first however
-    late this process comes to the first result. Fast items used to decide it: on a loaded machine all 40 had
-    finished before on_result saw the first, and were (rightly) all handed back. A stop that cancels nothing
-    leaves futures pending: the gate opens after 10 s and all 40 run."""
+def test_a_stop_starts_nothing_new_on_a_local_pool(tmp_path, monkeypatch):
+    """on_result's stop (a batch's full disk): no item is handed to the pool after it, and the one under way beside
+    it finishes and is handed back. A ProcessPoolExecutor moves submitted items into its call queue ahead of its
+    workers, where they can no longer be cancelled: given all 40 items at once, a stop at the first result still
+    started up to three more on two workers (four in a trial's full-disk batch). The items after the first wait at
+    a gate that opens once no handed-out item is pending, so the pool cannot run ahead of this process."""
     from concurrent.futures import ProcessPoolExecutor
 
     import mocapkit.parallel
@@ -304,10 +304,29 @@ def test_a_stop_drops_the_items_a_local_pool_has_not_started(tmp_path, monkeypat
     out = map_ordered(square_after_gate, items, executor="processes", progress=False, max_workers=2,
                       on_result=lambda k, r: seen.append(k) or asked.set() or True)
     opener.join(10)
-    assert len(futures) == 40 and seen[0] == 0
-    assert len(seen) < 40 and sum(f.cancelled() for f in futures) == 40 - len(seen)  # the rest never ran
-    assert [k for k, r in enumerate(out) if r is not None] == sorted(seen)  # and every one that ran is handed back
-    assert all(out[k] == k * k for k in seen)
+    assert seen[0] == 0 and len(futures) == 2  # the stopping item and the one under way beside it: nothing more
+    assert sorted(seen) == [0, 1] and not any(f.cancelled() for f in futures)
+    assert [k for k, r in enumerate(out) if r is not None] == [0, 1] and out[:2] == [0, 1]
+
+
+def test_a_local_pool_is_handed_its_items_as_its_workers_free(tmp_path, monkeypatch):
+    """Without a stop every item runs, in input order of results, though at most two are handed out at a time."""
+    from concurrent.futures import ProcessPoolExecutor
+
+    import mocapkit.parallel
+
+    most, handed = [0], []
+
+    class Counted(ProcessPoolExecutor):
+        def submit(self, *args, **kwargs):
+            handed.append(super().submit(*args, **kwargs))
+            most[0] = max(most[0], sum(not f.done() for f in handed))  # done() is set before any waiter wakes
+            return handed[-1]
+
+    monkeypatch.setattr(mocapkit.parallel, "ProcessPoolExecutor", Counted)
+    assert map_ordered(square, range(25), executor="processes", progress=False, max_workers=2) == [
+        k * k for k in range(25)]
+    assert most[0] <= 2
 
 
 def test_on_result_on_a_dask_scheduler_sees_each_result_and_stops_the_work():

@@ -51,7 +51,7 @@ import struct
 import sys
 import threading
 import time
-from concurrent.futures import CancelledError, Executor, ProcessPoolExecutor, as_completed
+from concurrent.futures import FIRST_COMPLETED, CancelledError, Executor, ProcessPoolExecutor, as_completed, wait
 from contextlib import contextmanager
 from concurrent.futures.process import BrokenProcessPool
 from typing import Callable, Sequence
@@ -372,7 +372,7 @@ def map_ordered(
             workers = min(n, max_workers or os.cpu_count() or 1)
             pool = ProcessPoolExecutor(max_workers=workers, initializer=_die_with_parent, initargs=(os.getpid(),))
             try:
-                out = _run(pool, fn, items, bar, as_completed, cancel=False, quiet_start=True, on_result=on_result)
+                out = _run_windowed(pool, fn, items, bar, workers, on_result=on_result)
                 pool.shutdown(wait=True)
             except BrokenProcessPool:
                 _stop_pool(pool)
@@ -429,17 +429,10 @@ def _finish_stopped(futures: dict, got: set, out: list, bar, on_result) -> None:
         _tell(on_result, k, out[k])
 
 
-def _run(pool, fn, items, bar, completed, cancel: bool = True, quiet_start: bool = False, on_result=None) -> list:
-    """Submit every item, then gather the results in input order (``on_result``: :func:`map_ordered`'s).
-    ``quiet_start``: SIGINT is held back
-    while the items are submitted, when a local pool forks its workers: a worker forked with it pending
-    would die of it before its initializer ignores it, breaking the pool; the parent takes it after."""
-    held = quiet_start and _hold_sigint()
-    try:
-        futures = {pool.submit(fn, it): k for k, it in enumerate(items)}
-    finally:
-        if held:
-            signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
+def _run(pool, fn, items, bar, completed, cancel: bool = True, on_result=None) -> list:
+    """Submit every item to an executor that is not a local pool (:func:`_run_windowed` is that one's), then gather
+    the results in input order (``on_result``: :func:`map_ordered`'s)."""
+    futures = {pool.submit(fn, it): k for k, it in enumerate(items)}
     out: list = [None] * len(items)
     got: set = set()
     try:
@@ -455,6 +448,50 @@ def _run(pool, fn, items, bar, completed, cancel: bool = True, quiet_start: bool
         for fut in futures if cancel else ():
             fut.cancel()
         raise
+    return out
+
+
+def _run_windowed(pool, fn, items, bar, window: int, on_result=None) -> list:
+    """:func:`_run` for a local pool, handing it at most ``window`` items (its workers) at a time, the next as each
+    finishes. A :class:`ProcessPoolExecutor` moves submitted items into its call queue ahead of its workers, and an
+    item there can no longer be cancelled: given every item at once, a stop asked by ``on_result`` (a full disk in a
+    batch) would still start the queued ones. Handed out this way, a stop starts nothing new; the items under way
+    finish and are passed to ``on_result``. SIGINT is held back while items are handed out, when the pool forks its
+    workers: a worker forked with it pending would die of it before its initializer ignores it, breaking the pool;
+    this process takes it after."""
+    out: list = [None] * len(items)
+    got: set = set()
+    futures: dict = {}
+    pending = iter(enumerate(items))
+
+    def hand_out(n: int) -> set:
+        new = set()
+        held = _hold_sigint()
+        try:
+            for _ in range(n):
+                nxt = next(pending, None)
+                if nxt is None:
+                    break
+                fut = pool.submit(fn, nxt[1])
+                futures[fut] = nxt[0]
+                new.add(fut)
+        finally:
+            if held:
+                signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
+        return new
+
+    live = hand_out(max(1, window))
+    while live:
+        done, live = wait(live, return_when=FIRST_COMPLETED)
+        for fut in done:
+            k = futures[fut]
+            out[k] = fut.result()
+            got.add(k)
+            bar.update(1)
+            if _tell(on_result, k, out[k]):
+                _finish_stopped({f: futures[f] for f in live | done}, got, out, bar, on_result)
+                return out
+        live |= hand_out(len(done))
     return out
 
 
