@@ -37,10 +37,11 @@ from .runs import true_runs
 from ..motion import Motion
 
 __all__ = ["rotation_angle", "midpoint_deviation", "noise_std", "departure_bounds", "jump_bounds", "far_cells",
-           "held_cells", "jump_cells", "beside", "kept_cells", "guarded", "SIGMAS", "MARGIN_DEG", "SPIKE_P"]
+           "held_cells", "displaced_runs", "jump_cells", "beside", "kept_cells", "guarded", "SIGMAS", "MARGIN_DEG", "SPIKE_P", "RUN_FRAMES"]
 
 SIGMAS = 4.0  # the bound, in standard deviations of the noise along its widest axis: white noise passes it ~2e-4
 MARGIN_DEG = 3.0  # added to the bound: what a smoother may move a clean cell by (a capture's own jitter)
+RUN_FRAMES = 8  # the longest run :func:`displaced_runs` reads as one (a flip held for a few frames)
 SPIKE_P = 1e-9  # the chance a cell of white noise passes :func:`jump_bounds` (a take of 1e6 cells: once in 1,000)
 # a white noise sample n_t less the mean of its neighbours' has 1.5 times its variance; the median of |N(0, 1)|
 _MEDIAN_ABS_NORMAL = 0.6745
@@ -140,6 +141,32 @@ def held_cells(rotations: np.ndarray, far: np.ndarray, bounds: np.ndarray) -> np
     return far & (agrees | alone)
 
 
+def displaced_runs(rotations: np.ndarray, denoised: np.ndarray, cells: np.ndarray) -> np.ndarray:
+    """(F, J) bool: the ``cells`` (F, J) in a run of 2 to ``RUN_FRAMES`` frames that ``denoised`` (F, J, 4) moved
+    from ``rotations`` (F, J, 4) the same way on average, by more than noise moves such a mean.
+
+    The denoiser's move of a cell (a rotation vector, degrees) is at most its noise sample where the take is
+    noise; the mean of ``n`` independent samples has ``1 / sqrt(n)`` of their std, so a mean longer than
+    ``chi(3).isf(SPIKE_P)`` times :func:`noise_std` over ``sqrt(n)``, plus ``MARGIN_DEG``, is a run the take holds
+    (a flip of a few frames, each frame of which alone is within what heavy noise makes). A missing cell counts
+    as not moved."""
+    q = np.asarray(rotations, dtype=np.float64)
+    d = np.asarray(denoised, dtype=np.float64)
+    cells = np.asarray(cells, dtype=bool)
+    d = np.where(np.sum(q * d, axis=-1, keepdims=True) < 0.0, -d, d)
+    move = np.nan_to_num(np.degrees(R.quaternion_to_rotvec(R.quaternion_multiply(R.quaternion_conjugate(d), q))))
+    F, J = cells.shape
+    total = np.concatenate([np.zeros((1, J, 3)), np.cumsum(move, axis=0)])  # (F + 1, J, 3)
+    std = noise_std(q, cells)
+    k = chi(3).isf(SPIKE_P)
+    out = np.zeros((F, J), dtype=bool)
+    for n in range(2, min(RUN_FRAMES, F) + 1):
+        hit = np.linalg.norm(total[n:] - total[:-n], axis=-1) / n > (k * std / np.sqrt(n) + MARGIN_DEG)[None, :]
+        for i in range(n):
+            out[i:F - n + 1 + i] |= hit
+    return out & cells
+
+
 def jump_cells(rotations: np.ndarray, far: np.ndarray, bounds: np.ndarray) -> np.ndarray:
     """(F, J) bool: the cells a jump in the take explains, of ``rotations`` (F, J, 4) whose ``far`` cells (F, J) a
     denoiser moved too far. A jump is a step between neighbouring frames longer than the joint's ``bounds`` (J,)
@@ -202,15 +229,16 @@ def kept_cells(rotations: np.ndarray, denoised: np.ndarray, judged: np.ndarray) 
     """(F, J) bool: the cells of ``judged`` (F, J) that :func:`guarded` keeps as they came, of ``rotations`` (F, J, 4)
     denoised into ``denoised`` (F, J, 4): of those moved further than :func:`departure_bounds` (:func:`far_cells`),
     the ones a jump explains (:func:`jump_cells`) and, of the others not beside them (frames the jump dragged,
-    which a run around the jump denoises), the held ones (:func:`held_cells`); bounds from the noise of
-    ``judged``."""
+    which a run around the jump denoises), the held ones (:func:`held_cells`); and the runs moved further on
+    average than noise explains (:func:`displaced_runs`). Bounds from the noise of ``judged``."""
     q = np.asarray(rotations, dtype=np.float64)
     bounds = departure_bounds(q, judged)
     far = far_cells(q, denoised, bounds) & judged
+    runs = displaced_runs(q, denoised, judged)
     if not far.any():
-        return far
+        return runs
     jumps = jump_cells(q, far, jump_bounds(q, judged))
-    return jumps | held_cells(q, far & ~jumps & ~beside(jumps, far), bounds)
+    return jumps | runs | held_cells(q, far & ~jumps & ~beside(jumps, far), bounds)
 
 
 def guarded(motion: Motion, cells: np.ndarray | None, run) -> tuple[Motion, str, str]:
