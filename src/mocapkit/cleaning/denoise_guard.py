@@ -7,15 +7,20 @@ of the file itself (a flip in the source, not noise), and at 0.1 noise the EBF m
 the cells it moved further than :func:`departure_bounds` (a bound tied to each joint's own noise level) that are
 no noise sample:
 
-* :func:`held_cells`: a run the take holds, two or more neighbouring far cells within the bound of each other (a
-  flip held for several frames). Two white-noise samples side by side, each past the bound and both on the same
-  side, are about as rare as the square of one (~1e-8 a pair), while one large sample that happens to sit near
-  one plain neighbour is common; such a sample is the denoiser's;
-* :func:`jump_cells`: one frame away from both neighbours and from their midpoint by more than white noise of
-  the joint's level reaches once in ``1 / SPIKE_P`` cells (:func:`jump_bounds`): CMU's ``backflip.amc`` turns
-  joints by 150-179 deg for one frame of the file; smoothed as noise, such a turn dragged the good frames beside
-  it by 108-130 deg. Kept as it came, it is the take's own (detection and repair judge it; a smoother cannot
-  tell a flip in the file from a turn the body made, and the file's sample is the one that can be undone).
+* :func:`jump_cells`: a jump is a turn between neighbouring frames that white noise of the joint's level makes
+  once in ``1 / SPIKE_P`` steps (:func:`jump_bounds`). The frames between two jumps, fewer than those on either
+  side, are a flip the file holds and are kept whole (CMU's ``backflip.amc`` turns hands and thumbs by 120-170
+  deg for one frame of its file; smoothed as noise, such a turn dragged the good frames beside it by up to 135
+  deg); beside a lone jump, the far cells it dragged are kept. Kept as it came, a flip stays the take's own for
+  detection and repair to judge: a smoother cannot tell a flip in the file from a turn the body made, and what
+  it made of one could not be undone;
+* :func:`held_cells`: a far cell beside another far cell within the bound of it (two white-noise samples side
+  by side, each past the bound, are about as rare as the square of one), while one large sample that happens to
+  sit near one plain neighbour is noise's and stays the denoiser's (HDM05 grabHighR at 0.5 noise: kept, such a
+  sample left the take 82 deg off);
+* :func:`displaced_runs`: a run of 2 to ``RUN_FRAMES`` frames the denoiser moved the same way by more on average
+  than noise moves such a mean (under heavy noise, a flip of a few frames none of whose frames alone is past
+  what noise makes: the squat's at 0.5 noise).
 
 Those cells are then missing to a second run (read around, as around a gap: their neighbours are denoised without
 the jump), and come back as they came, bit for bit; a cell of the second run that is still held or a jump is
@@ -29,7 +34,6 @@ from __future__ import annotations
 import dataclasses
 
 import numpy as np
-
 from scipy.stats import chi
 
 from .. import rotations as R
@@ -37,7 +41,8 @@ from .runs import true_runs
 from ..motion import Motion
 
 __all__ = ["rotation_angle", "midpoint_deviation", "noise_std", "departure_bounds", "jump_bounds", "far_cells",
-           "held_cells", "displaced_runs", "jump_cells", "beside", "kept_cells", "guarded", "SIGMAS", "MARGIN_DEG", "SPIKE_P", "RUN_FRAMES"]
+           "held_cells", "displaced_runs", "jump_cells", "beside", "kept_cells", "guarded", "SIGMAS", "MARGIN_DEG",
+           "SPIKE_P", "RUN_FRAMES"]
 
 SIGMAS = 4.0  # the bound, in standard deviations of the noise along its widest axis: white noise passes it ~2e-4
 MARGIN_DEG = 3.0  # added to the bound: what a smoother may move a clean cell by (a capture's own jitter)
@@ -243,7 +248,7 @@ def kept_cells(rotations: np.ndarray, denoised: np.ndarray, judged: np.ndarray) 
 
 def guarded(motion: Motion, cells: np.ndarray | None, run) -> tuple[Motion, str, str]:
     """Denoise ``motion`` by ``run(motion, cells) -> (motion, method, note)`` (only ``cells`` (F, J), None: every
-    non-root joint), keeping as they came the cells :func:`kept_cells` finds (held or a jump; module docstring),
+    non-root joint), keeping as they came the cells :func:`kept_cells` finds (a flip, held, a run; module docstring),
     read around by a second run. Returns ``run``'s ``(motion, method, note)``, the note saying the kept cells when
     there are any; every kept cell is bit-identical to the input."""
     F, J = motion.num_frames, motion.num_joints
