@@ -2,7 +2,9 @@
 
 The real take: HDM05's HDM_dg_squat1Reps_025_120.amc, whose own file turns lfemur by 180 deg on frames 78-82
 (deep flexion); at 0.1 noise (seed 1) the EBF moved the good frame 77 by 128 deg and the Savitzky-Golay fallback
-by 86, smoothing across that jump."""
+by 86, smoothing across that jump. HDM05's grabHighR at 0.5 noise: one large noise sample that sits near one
+neighbour is noise's, not a held jump. CMU's backflip.amc holds one-frame flips of 150-179 deg in its own file:
+no noise sample, kept as they came, and the good frames beside them are not dragged."""
 
 from __future__ import annotations
 
@@ -14,12 +16,15 @@ import pytest
 import mocapkit
 from mocapkit import corrupt
 from mocapkit import rotations as R
-from mocapkit.cleaning.denoise_guard import (MARGIN_DEG, SIGMAS, departure_bounds, far_cells, guarded, held_cells,
+from mocapkit.cleaning.denoise_guard import (MARGIN_DEG, SIGMAS, SPIKE_P, departure_bounds, displaced_runs,
+                                             far_cells, guarded, held_cells, jump_bounds, jump_cells,
                                              midpoint_deviation, rotation_angle)
 from mocapkit.cleaning.filters import savgol_smooth
 from mocapkit.cleaning.whole_take import denoise_take
 
 SQUAT = "hdm05_asfamc/HDM_dg_squat1Reps_025_120.amc"
+GRAB = "hdm05_asfamc/HDM_dg_grabHighR_014_120.amc"
+BACKFLIP = "cmu_asfamc/backflip.amc"
 
 
 @pytest.fixture(scope="module")
@@ -63,7 +68,8 @@ def test_the_fallback_filter_is_guarded_too_and_kept_cells_are_bit_identical(squ
     moved = ~np.all(out.rotations == noisy.rotations, axis=-1)
     assert moved[:, 1:].mean() > 0.9  # the rest of the take is denoised
     bounds = departure_bounds(noisy.rotations, cells)
-    assert not far_cells(noisy.rotations, out.rotations, bounds).any()
+    far = far_cells(noisy.rotations, out.rotations, bounds)
+    assert not held_cells(noisy.rotations, far, bounds).any()  # what is left far is lone noise, the filter's
     assert np.array_equal(out.rotations[:, 0], noisy.rotations[:, 0])
 
 
@@ -100,3 +106,92 @@ def test_held_cells_keep_a_run_and_its_neighbours_but_leave_a_spike_to_the_denoi
     assert not held[5]
     assert held[11] and held[12:15].all() and held[15]
     assert held[[0, 19]].all()
+
+
+def _worst_all(truth, motion):
+    return float(np.nanmax(rotation_angle(truth.rotations[:, 1:], motion.rotations[:, 1:])))
+
+
+def test_a_large_noise_sample_near_one_neighbour_is_denoised_not_kept(shared_data):
+    truth = mocapkit.load(shared_data / GRAB)
+    noisy, _ = corrupt.corrupt(truth, "noise", seed=4, amount=0.5)
+    out, _, _ = denoise_take(noisy)
+    worst_in = _worst_all(truth, noisy)
+    assert worst_in > 80.0  # rhumerus frame 181: a noise sample of 82 deg beside a neighbour noise put near it
+    assert _worst_all(truth, out) < 0.5 * worst_in
+
+
+def test_the_backflips_one_frame_flips_are_kept_and_drag_no_good_frame(shared_data):
+    truth = mocapkit.load(shared_data / BACKFLIP)
+    q = truth.rotations
+    step = rotation_angle(q[1:], q[:-1])
+    flips = np.zeros(q.shape[:2], bool)
+    flips[1:-1] = (step[:-1] > 120.0) & (step[1:] > 120.0)  # away from both neighbours by 120+ deg
+    flips[:, 0] = False
+    assert flips.sum() >= 3  # lhand frames 129-130, rthumb frame 134
+    out, _, note = denoise_take(truth)
+    assert np.array_equal(out.rotations[flips], q[flips])  # the file's flips as they came
+    assert _worst_all(truth, out) < 20.0  # no good frame dragged towards them (134.6 deg before)
+    assert "kept as they came" in note
+
+
+def test_the_squats_own_flip_is_not_hidden_at_heavy_noise(shared_data):
+    truth = mocapkit.load(shared_data / SQUAT)
+    noisy, _ = corrupt.corrupt(truth, "noise", seed=6, amount=0.5)
+    out, _, _ = denoise_take(noisy)
+    assert _worst_vs(truth, out, "lfemur") <= _worst_vs(truth, noisy, "lfemur") + 5.0
+
+
+def _about_x(degs):
+    degs = np.asarray(degs, dtype=np.float64)
+    return R.euler_to_quaternion(np.stack([degs, 0 * degs, 0 * degs], axis=-1), "XYZ")
+
+
+def test_a_far_sample_near_one_plain_neighbour_is_not_held():
+    deg = np.arange(20.0)
+    deg[8] += 50.0  # a large noise sample ...
+    deg[9] += 45.0  # ... whose next frame noise put near it, but not far
+    q = _about_x(deg)[:, None]
+    far = np.zeros((20, 1), bool)
+    far[8] = True
+    assert not held_cells(q, far, np.array([10.0]))[8, 0]
+    far[9] = True  # two far cells side by side that agree: held
+    assert held_cells(q, far, np.array([10.0]))[[8, 9], 0].all()
+
+
+def test_jump_cells_keep_a_one_frame_flip_and_a_held_flip_whole_but_not_noise():
+    rng = np.random.default_rng(3)
+    F = 400
+    deg = np.linspace(0.0, 40.0, F) + rng.normal(size=F) * 2.0  # 2 deg of white noise
+    deg[100] += 170.0  # a one-frame flip
+    deg[200:205] += 180.0  # a flip held for five frames
+    q = _about_x(deg)[:, None]
+    cells = np.ones((F, 1), bool)
+    bound = jump_bounds(q, cells)
+    assert bound[0] == pytest.approx(np.sqrt(2.0) * 6.696 * 2.0 + MARGIN_DEG, rel=0.15)  # chi(3) at SPIKE_P
+    assert SPIKE_P == pytest.approx(1e-9)
+    far = np.zeros((F, 1), bool)
+    far[[99, 100, 101, 199, 202, 205, 300]] = True  # the flips, frames dragged beside them, a noise sample
+    kept = jump_cells(q, far, bound)[:, 0]
+    assert kept[100] and kept[200:205].all()
+    assert not kept[[99, 101, 199, 205, 300]].any()  # dragged frames: a run around the flip denoises them
+    one = np.zeros((F, 1), bool)
+    one[[199, 250]] = True  # a single jump (no flip between two): the far run touching it is kept
+    base = np.linspace(0.0, 40.0, F) + rng.normal(size=F) * 2.0
+    q2 = _about_x(np.where(np.arange(F) >= 200, base + 180.0, base))[:, None]
+    assert jump_cells(q2, one, bound)[199, 0] and not jump_cells(q2, one, bound)[250, 0]
+
+
+def test_displaced_runs_find_a_run_moved_the_same_way_each_cell_within_the_bound():
+    rng = np.random.default_rng(5)
+    F = 600
+    q = R.rotvec_to_quaternion(np.radians(rng.normal(size=(F, 3)) * 10.0))[:, None]  # 10 deg of noise
+    moved = np.zeros(F)
+    moved[300:305] = 40.0  # five frames moved 40 deg one way: under the 43 deg bound each, a run together
+    moved[100] = 40.0  # one frame alone: noise's
+    den = R.quaternion_multiply(q, _about_x(-moved)[:, None])
+    cells = np.ones((F, 1), bool)
+    assert departure_bounds(q, cells)[0] > 40.0
+    runs = displaced_runs(q, den, cells)[:, 0]
+    assert runs[300:305].all() and not runs[100]
+    assert not runs[:297].any() and not runs[308:].any()  # a window may reach a frame or two past the run

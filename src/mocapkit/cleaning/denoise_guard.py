@@ -3,12 +3,28 @@
 A smoother reads every frame of its window. Where the take holds a jump no noise makes, it spreads the jump over
 the good frames around it: HDM05's ``HDM_dg_squat1Reps_025_120.amc`` turns ``lfemur`` by 180 deg on frames 78-82
 of the file itself (a flip in the source, not noise), and at 0.1 noise the EBF moved frame 77, a good frame, by
-128 deg (the Savitzky-Golay fallback by 86), with nothing repaired. So :func:`guarded` runs the denoiser, finds
-the cells it moved further than :func:`departure_bounds` (a bound tied to each joint's own noise level) that the
-take holds where they are (:func:`held_cells`: near the frame before or after; a lone spike is noise's and is left
-to the denoiser), runs it again with those cells missing (read around, as around a gap: their neighbours are denoised without the jump),
-and gives those cells back as they came, bit for bit; a cell of the second run that still moved too far is kept
-as it came too. The count and the joints are said in the step's note.
+128 deg (the Savitzky-Golay fallback by 86), with nothing repaired. So :func:`guarded` runs the denoiser and finds
+the cells it moved further than :func:`departure_bounds` (a bound tied to each joint's own noise level) that are
+no noise sample:
+
+* :func:`jump_cells`: a jump is a turn between neighbouring frames that white noise of the joint's level makes
+  once in ``1 / SPIKE_P`` steps (:func:`jump_bounds`). The frames between two jumps, fewer than those on either
+  side, are a flip the file holds and are kept whole (CMU's ``backflip.amc`` turns hands and thumbs by 120-170
+  deg for one frame of its file; smoothed as noise, such a turn dragged the good frames beside it by up to 135
+  deg); beside a lone jump, the far cells it dragged are kept. Kept as it came, a flip stays the take's own for
+  detection and repair to judge: a smoother cannot tell a flip in the file from a turn the body made, and what
+  it made of one could not be undone;
+* :func:`held_cells`: a far cell beside another far cell within the bound of it (two white-noise samples side
+  by side, each past the bound, are about as rare as the square of one), while one large sample that happens to
+  sit near one plain neighbour is noise's and stays the denoiser's (HDM05 grabHighR at 0.5 noise: kept, such a
+  sample left the take 82 deg off);
+* :func:`displaced_runs`: a run of 2 to ``RUN_FRAMES`` frames the denoiser moved the same way by more on average
+  than noise moves such a mean (under heavy noise, a flip of a few frames none of whose frames alone is past
+  what noise makes: the squat's at 0.5 noise).
+
+Those cells are then missing to a second run (read around, as around a gap: their neighbours are denoised without
+the jump), and come back as they came, bit for bit; a cell of the second run that is still held or a jump is
+kept as it came too. The count and the joints are said in the step's note.
 
 Rotations are (F, J, 4) unit quaternions (w, x, y, z), frames first; angles in degrees.
 """
@@ -18,15 +34,20 @@ from __future__ import annotations
 import dataclasses
 
 import numpy as np
+from scipy.stats import chi
 
 from .. import rotations as R
+from .runs import true_runs
 from ..motion import Motion
 
-__all__ = ["rotation_angle", "midpoint_deviation", "departure_bounds", "far_cells", "held_cells", "guarded", "SIGMAS",
-           "MARGIN_DEG"]
+__all__ = ["rotation_angle", "midpoint_deviation", "noise_std", "departure_bounds", "jump_bounds", "far_cells",
+           "held_cells", "displaced_runs", "jump_cells", "beside", "kept_cells", "guarded", "SIGMAS", "MARGIN_DEG",
+           "SPIKE_P", "RUN_FRAMES"]
 
 SIGMAS = 4.0  # the bound, in standard deviations of the noise along its widest axis: white noise passes it ~2e-4
 MARGIN_DEG = 3.0  # added to the bound: what a smoother may move a clean cell by (a capture's own jitter)
+RUN_FRAMES = 8  # the longest run :func:`displaced_runs` reads as one (a flip held for a few frames)
+SPIKE_P = 1e-9  # the chance a cell of white noise passes :func:`jump_bounds` (a take of 1e6 cells: once in 1,000)
 # a white noise sample n_t less the mean of its neighbours' has 1.5 times its variance; the median of |N(0, 1)|
 _MEDIAN_ABS_NORMAL = 0.6745
 
@@ -56,15 +77,14 @@ def midpoint_deviation(rotations: np.ndarray) -> np.ndarray:
     return out
 
 
-def departure_bounds(rotations: np.ndarray, cells: np.ndarray) -> np.ndarray:
-    """(J,) degrees: how far a denoiser may move a cell of each joint, ``SIGMAS`` standard deviations of the joint's
-    noise along its widest axis plus ``MARGIN_DEG``.
+def noise_std(rotations: np.ndarray, cells: np.ndarray) -> np.ndarray:
+    """(J,) degrees: the standard deviation of each joint's noise along its widest axis.
 
     The noise's std along each axis of :func:`midpoint_deviation` is its median absolute value over the joint's
     ``cells`` (F, J) (the ones being denoised: a take noisy in one stretch is judged by that stretch) over that of
     white noise; the widest axis counts (noise added to Euler channels is far wider along one axis than the
     others). The median is the robust choice: a few frames of a jump (a flip, a spike) do not raise it. A joint
-    without a cell to judge by gets ``MARGIN_DEG``.
+    without a cell to judge by gets 0.
     """
     dev = np.abs(midpoint_deviation(rotations))
     dev = np.where(np.asarray(cells, dtype=bool)[..., None], dev, np.nan)
@@ -74,7 +94,24 @@ def departure_bounds(rotations: np.ndarray, cells: np.ndarray) -> np.ndarray:
     if judged.any():
         med = np.nanmedian(dev[:, judged], axis=0)  # (judged, 3)
         std[judged] = med.max(axis=-1) / (_MEDIAN_ABS_NORMAL * np.sqrt(1.5))
-    return SIGMAS * std + MARGIN_DEG
+    return std
+
+
+def departure_bounds(rotations: np.ndarray, cells: np.ndarray) -> np.ndarray:
+    """(J,) degrees: how far a denoiser may move a cell of each joint, ``SIGMAS`` times :func:`noise_std` (over
+    ``cells`` (F, J)) plus ``MARGIN_DEG``."""
+    return SIGMAS * noise_std(rotations, cells) + MARGIN_DEG
+
+
+def jump_bounds(rotations: np.ndarray, cells: np.ndarray) -> np.ndarray:
+    """(J,) degrees: the turn between neighbouring frames that white noise of :func:`noise_std` (over ``cells``
+    (F, J)) passes once in ``1 / SPIKE_P`` steps, plus ``MARGIN_DEG``: a jump no noise sample makes.
+
+    A step between two noisy frames carries the difference of two samples, ``sqrt(2)`` times the noise's std;
+    read as isotropic at the widest axis's std (an upper bound on noise narrower along the other axes), its length
+    follows the chi distribution with 3 degrees of freedom, whose ``SPIKE_P`` tail starts at 6.7 of its scale.
+    """
+    return chi(3).isf(SPIKE_P) * np.sqrt(2.0) * noise_std(rotations, cells) + MARGIN_DEG
 
 
 def far_cells(before: np.ndarray, after: np.ndarray, bounds: np.ndarray) -> np.ndarray:
@@ -84,16 +121,100 @@ def far_cells(before: np.ndarray, after: np.ndarray, bounds: np.ndarray) -> np.n
     return np.nan_to_num(d, nan=0.0) > np.asarray(bounds)[None, :]
 
 
-def held_cells(rotations: np.ndarray, far: np.ndarray, bounds: np.ndarray) -> np.ndarray:
-    """(F, J) bool: the ``far`` cells (F, J) that the take holds where they are, within their joint's ``bounds`` (J,)
-    degrees of the frame before or after (a cell with no neighbour to judge by counts as held). A good frame the
-    filter dragged towards a jump beside it, and the frames of a jump held for several frames, are held; a spike
-    away from both neighbours is what noise makes, and is left to the denoiser."""
-    q = np.asarray(rotations, dtype=np.float64)
+def _steps(q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(F, J) degrees each: every cell's turn from the frame before and to the frame after; NaN without one."""
     step = rotation_angle(q[1:], q[:-1])  # (F - 1, J)
     pad = np.full((1, q.shape[1]), np.nan)
-    near = np.fmin(np.concatenate([pad, step]), np.concatenate([step, pad]))  # NaN only without a neighbour
-    return far & ~(np.nan_to_num(near, nan=0.0) > np.asarray(bounds)[None, :])
+    return np.concatenate([pad, step]), np.concatenate([step, pad])
+
+
+def held_cells(rotations: np.ndarray, far: np.ndarray, bounds: np.ndarray) -> np.ndarray:
+    """(F, J) bool: the ``far`` cells (F, J) that the take holds where they are: next to another far cell within
+    their joint's ``bounds`` (J,) degrees of it (a run of far cells that agree: the frames of a flip held for
+    several frames), or with no neighbour to judge by. A far cell whose neighbours are not far is what noise makes
+    (a large sample, even one that happens to sit near one of them), and is left to the denoiser."""
+    q = np.asarray(rotations, dtype=np.float64)
+    far = np.asarray(far, dtype=bool)
+    before, after = _steps(q)
+    bounds = np.asarray(bounds)[None, :]
+    pad = np.zeros((1, q.shape[1]), dtype=bool)
+    far_before = np.concatenate([pad, far[:-1]])
+    far_after = np.concatenate([far[1:], pad])
+    agrees = (far_before & (np.nan_to_num(before, nan=np.inf) <= bounds)) | (
+        far_after & (np.nan_to_num(after, nan=np.inf) <= bounds))
+    alone = np.isnan(before) & np.isnan(after)
+    return far & (agrees | alone)
+
+
+def displaced_runs(rotations: np.ndarray, denoised: np.ndarray, cells: np.ndarray) -> np.ndarray:
+    """(F, J) bool: the ``cells`` (F, J) in a run of 2 to ``RUN_FRAMES`` frames that ``denoised`` (F, J, 4) moved
+    from ``rotations`` (F, J, 4) the same way on average, by more than noise moves such a mean.
+
+    The denoiser's move of a cell (a rotation vector, degrees) is at most its noise sample where the take is
+    noise; the mean of ``n`` independent samples has ``1 / sqrt(n)`` of their std, so a mean longer than
+    ``chi(3).isf(SPIKE_P)`` times :func:`noise_std` over ``sqrt(n)``, plus ``MARGIN_DEG``, is a run the take holds
+    (a flip of a few frames, each frame of which alone is within what heavy noise makes). A missing cell counts
+    as not moved."""
+    q = np.asarray(rotations, dtype=np.float64)
+    d = np.asarray(denoised, dtype=np.float64)
+    cells = np.asarray(cells, dtype=bool)
+    d = np.where(np.sum(q * d, axis=-1, keepdims=True) < 0.0, -d, d)
+    move = np.nan_to_num(np.degrees(R.quaternion_to_rotvec(R.quaternion_multiply(R.quaternion_conjugate(d), q))))
+    F, J = cells.shape
+    total = np.concatenate([np.zeros((1, J, 3)), np.cumsum(move, axis=0)])  # (F + 1, J, 3)
+    std = noise_std(q, cells)
+    k = chi(3).isf(SPIKE_P)
+    out = np.zeros((F, J), dtype=bool)
+    for n in range(2, min(RUN_FRAMES, F) + 1):
+        hit = np.linalg.norm(total[n:] - total[:-n], axis=-1) / n > (k * std / np.sqrt(n) + MARGIN_DEG)[None, :]
+        for i in range(n):
+            out[i:F - n + 1 + i] |= hit
+    return out & cells
+
+
+def jump_cells(rotations: np.ndarray, far: np.ndarray, bounds: np.ndarray) -> np.ndarray:
+    """(F, J) bool: the cells a jump in the take explains, of ``rotations`` (F, J, 4) whose ``far`` cells (F, J) a
+    denoiser moved too far. A jump is a step between neighbouring frames longer than the joint's ``bounds`` (J,)
+    degrees (:func:`jump_bounds`) with a far cell on either side of it.
+
+    Per joint, the frames between two jumps that are fewer than the frames before and after them (a flip the file
+    holds for a stretch, a one-frame flip included) are returned whole when one of them is far: the flip is the
+    file's, and its frames, judged by their own neighbours, would move towards the frames around it. Each run of
+    far cells that touches a jump is returned too (the frames a smoother dragged towards it), but for one beside
+    a flip returned whole (read around, the flip drags no more)."""
+    q = np.asarray(rotations, dtype=np.float64)
+    far = np.asarray(far, dtype=bool)
+    F, J = far.shape
+    out = np.zeros((F, J), dtype=bool)
+    step = np.nan_to_num(rotation_angle(q[1:], q[:-1]), nan=0.0)  # (F - 1, J)
+    jump = (step > np.asarray(bounds)[None, :]) & (far[:-1] | far[1:])
+    for j in np.flatnonzero(jump.any(axis=0)):
+        cuts = np.flatnonzero(jump[:, j]) + 1  # the first frame after each jump
+        edges = np.concatenate([[0], cuts, [F]])
+        size = np.diff(edges)
+        flip = np.zeros(F, dtype=bool)
+        for k in range(1, len(cuts)):
+            a, b = edges[k], edges[k + 1]
+            if size[k] < size[k - 1] and size[k] < size[k + 1] and far[a:b, j].any():
+                flip[a:b] = True
+        out[:, j] = flip
+        for first, last in true_runs(far[:, j] & ~flip):
+            touch = cuts[(cuts >= first) & (cuts <= last + 1)]
+            if any(not flip[c - 1] if c == first else not flip[c] for c in touch):
+                out[first:last + 1, j] = True
+    return out
+
+
+def beside(kept: np.ndarray, far: np.ndarray) -> np.ndarray:
+    """(F, J) bool: the ``far`` cells (F, J) joined to a ``kept`` cell (F, J) by a run of far cells in time."""
+    kept, far = np.asarray(kept, dtype=bool), np.asarray(far, dtype=bool)
+    out = np.zeros_like(far)
+    for j in np.flatnonzero(kept.any(axis=0)):
+        k = kept[:, j]
+        for first, last in true_runs(far[:, j] | k):
+            if k[first:last + 1].any():
+                out[first:last + 1, j] = True
+    return out & far & ~kept
 
 
 def _kept_note(kept: np.ndarray, motion: Motion) -> str:
@@ -109,11 +230,27 @@ def _frames(f: np.ndarray) -> str:
     return f"frame {f[0]}" if len(f) == 1 else f"frames {f[0]}-{f[-1]}"
 
 
+def kept_cells(rotations: np.ndarray, denoised: np.ndarray, judged: np.ndarray) -> np.ndarray:
+    """(F, J) bool: the cells of ``judged`` (F, J) that :func:`guarded` keeps as they came, of ``rotations`` (F, J, 4)
+    denoised into ``denoised`` (F, J, 4): of those moved further than :func:`departure_bounds` (:func:`far_cells`),
+    the ones a jump explains (:func:`jump_cells`) and, of the others not beside them (frames the jump dragged,
+    which a run around the jump denoises), the held ones (:func:`held_cells`); and the runs moved further on
+    average than noise explains (:func:`displaced_runs`). Bounds from the noise of ``judged``."""
+    q = np.asarray(rotations, dtype=np.float64)
+    bounds = departure_bounds(q, judged)
+    far = far_cells(q, denoised, bounds) & judged
+    runs = displaced_runs(q, denoised, judged)
+    if not far.any():
+        return runs
+    jumps = jump_cells(q, far, jump_bounds(q, judged))
+    return jumps | runs | held_cells(q, far & ~jumps & ~beside(jumps, far), bounds)
+
+
 def guarded(motion: Motion, cells: np.ndarray | None, run) -> tuple[Motion, str, str]:
     """Denoise ``motion`` by ``run(motion, cells) -> (motion, method, note)`` (only ``cells`` (F, J), None: every
-    non-root joint), keeping as they came the cells it moved further than :func:`departure_bounds` that the take
-    holds where they are (:func:`held_cells`; module docstring). Returns ``run``'s ``(motion, method, note)``, the
-    note saying the kept cells when there are any; every kept cell is bit-identical to the input."""
+    non-root joint), keeping as they came the cells :func:`kept_cells` finds (a flip, held, a run; module docstring),
+    read around by a second run. Returns ``run``'s ``(motion, method, note)``, the note saying the kept cells when
+    there are any; every kept cell is bit-identical to the input."""
     F, J = motion.num_frames, motion.num_joints
     judged = np.zeros((F, J), dtype=bool)
     if cells is None:
@@ -121,13 +258,12 @@ def guarded(motion: Motion, cells: np.ndarray | None, run) -> tuple[Motion, str,
     else:
         judged[:] = np.asarray(cells, dtype=bool)
     out, method, note = run(motion, cells)
-    bounds = departure_bounds(motion.rotations, judged)
-    far = held_cells(motion.rotations, far_cells(motion.rotations, out.rotations, bounds) & judged, bounds)
-    if not far.any():
+    kept = kept_cells(motion.rotations, out.rotations, judged)
+    if not kept.any():
         return out, method, note
-    around = dataclasses.replace(motion, rotations=np.where(far[..., None], np.nan, motion.rotations))
-    out, method, note = run(around, judged & ~far)
-    far |= held_cells(motion.rotations, far_cells(motion.rotations, out.rotations, bounds) & judged, bounds)
-    rot = np.where(far[..., None], motion.rotations, out.rotations)
-    kept = _kept_note(far, motion)
-    return dataclasses.replace(out, rotations=rot), method, f"{note}; {kept}" if note else kept
+    around = dataclasses.replace(motion, rotations=np.where(kept[..., None], np.nan, motion.rotations))
+    out, method, note = run(around, judged & ~kept)
+    kept |= kept_cells(motion.rotations, out.rotations, judged)
+    rot = np.where(kept[..., None], motion.rotations, out.rotations)
+    said = _kept_note(kept, motion)
+    return dataclasses.replace(out, rotations=rot), method, f"{note}; {said}" if note else said
