@@ -24,7 +24,8 @@ from numba import njit
 from ... import rotations as R
 from ...errors import SkeletonError
 from ...motion import Skeleton
-from .channels import UNWRAP_ALPHA, euler_columns, root_angular_velocity, unwrap_degrees
+from ...io.euler_branches import continuous_rotations
+from .channels import UNWRAP_ALPHA, euler_columns, euler_values, root_angular_velocity
 from .inference import denoise_channels, model_of_kind, needs_resampling, warn_licence
 from .networks import EBF, HALF_WINDOW, LOG_SIGMA_RANGE, NOISE_WINDOW, gaussian_filter_frames, noise_level_step
 from .retarget import served_by
@@ -40,7 +41,12 @@ class Denoiser:
     emits nothing until 15 more frames have arrived; then each push returns the
     cleaned row of the frame 15 earlier. :meth:`flush` returns the last 15.
     The output equals :func:`denoise_rows` on the whole take frame for frame
-    (to float32 rounding). Root channels pass through unchanged. Each push
+    (to float32 rounding). Each joint's Euler triple is read on one branch, the
+    one nearest its previous frame's (:func:`~mocapkit.cleaning.deep.channels.euler_values`,
+    as :func:`~mocapkit.cleaning.deep.denoise` reads a take), so a row on the
+    other branch near gimbal lock (a Bandai Namco ``Hips`` in a heading turn) is
+    no 180-deg jump; cleaned rows come out on that one branch, wrapped to
+    [-180, 180). Root channels pass through unchanged. Each push
     runs the network's layers on one frame with the weights as float64 numpy
     arrays and numba loops (about 0.8 ms on this CPU, where the same layers as
     ~20 PyTorch calls cost 2 ms).
@@ -65,6 +71,8 @@ class Denoiser:
         self.skeleton = skeleton
         self.fps = float(fps)
         self._cols = euler_columns(skeleton)
+        self._channels = [skeleton.joint_channels(j) for j in range(skeleton.num_joints)]
+        self._branch = None  # the last row with each joint's triple on its branch (channels.euler_values)
         self._root = _root_rotation_columns(skeleton)
         self._n_file = sum(len(skeleton.joint_channels(j)) for j in range(skeleton.num_joints))
         L1, L2 = self.net.lstm1.lookahead, self.net.lstm2.lookahead
@@ -86,7 +94,10 @@ class Denoiser:
         self._started = False
 
     def _inputs(self, row: np.ndarray):
-        raw = row[self._cols]
+        one = row[None].copy()
+        continuous_rotations(one, self._channels, previous=self._branch)  # as channels.euler_values, causally
+        self._branch = one[0]
+        raw = self._branch[self._cols]
         if self._ref is None:
             self._ref = raw.copy()
         u = self._ref + (np.mod(raw - self._ref + 180.0, 360.0) - 180.0)  # as channels.unwrap_degrees
@@ -302,7 +313,7 @@ def denoise_rows(skeleton: Skeleton, rows: np.ndarray, fps: float, model=None) -
     m.layout.check(skeleton, "skeleton")
     rows = arr
     cols = euler_columns(skeleton)
-    x = unwrap_degrees(rows[:, cols])
+    x = euler_values(rows, skeleton)  # each joint's triple on one branch, as deep.denoise and streaming read it
     q = _root_quaternion(skeleton, rows, _root_rotation_columns(skeleton))
     out = denoise_channels(x, root_angular_velocity(q, fps), m, fps=fps, calibrate=False)  # as streaming runs
     res = rows.copy()
