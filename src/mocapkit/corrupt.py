@@ -808,7 +808,7 @@ def corrupt(motion: Motion, kind: str = "noise", seed=None, **params):
     else:
         raise ValueError(f"unknown corruption kind {kind!r}; kinds are: {', '.join(KINDS + ERROR_KINDS)}")
     if func in (gaps, real_errors) and "amount" in params:
-        raise ValueError(f"--amount does not apply to {kind}")
+        raise ValueError(f"amount= (--amount on the command line) does not apply to {kind}")
     if func is bias and "bias_kind" in params:
         params = dict(params)
         params["kind"] = params.pop("bias_kind")

@@ -115,7 +115,7 @@ def search(
         raise MocapError(f"{'--k' if k < 1 else '--neighbors'} must be a positive integer, got {min(k, neighbors)}")
     check_asf(asf, [query], amc_fps, names=CLI_AMC_NAMES)
     db = MotionDatabase.open(db_dir)
-    m = load_motion(query, asf, purpose="a query", fps=amc_fps, unit=unit)
+    m = load_motion(query, asf, purpose="a query", fps=amc_fps, unit=unit, unit_option="--unit")
     a = 0 if start is None else int(round(start * m.fps))
     b = m.num_frames if end is None else min(int(round(end * m.fps)), m.num_frames)  # --end past the clip: its end
     if not 0 <= a < b <= m.num_frames:

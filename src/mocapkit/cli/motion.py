@@ -37,7 +37,7 @@ def info(
         raise MissingFileError(file)
     if _info_of_own_file(file):  # a database, a cleaning record, a detection, a mask or a model: not a take
         return
-    obj = load_take(file, asf, fps=amc_fps, unit=unit)
+    obj = load_take(file, asf, fps=amc_fps, unit=unit, unit_option="--unit")
     rows = [("file", str(file))]
     if isinstance(obj, MarkerSet):
         markers, modelled, missing = marker_counts(obj)
@@ -133,7 +133,7 @@ def convert(
         check_fps(fps, "--fps")  # before any work, naming the option
     guard([out], [inp, asf], overwrite)
     check_asf(asf, [inp], amc_fps, names=CLI_AMC_NAMES)
-    check_unit(unit)
+    check_unit(unit, "--unit")
     marker_input = inp.suffix.lower() in (".c3d", ".trc")
     if marker_input:
         io.suffix_kind(out, io.MARKER_FORMATS, "writing markers")
@@ -142,7 +142,7 @@ def convert(
     if marker_input:
         m = io.load_markers(inp, zeros_as_gaps=zeros_as_gaps, **({} if unit is None else {"units": unit}))
     else:
-        m = load_take(inp, asf, fps=amc_fps, unit=unit)
+        m = load_take(inp, asf, fps=amc_fps, unit=unit, unit_option="--unit")
     if not isinstance(m, Motion):
         if fps is not None:
             raise MocapFormatError(inp, "--fps resamples joint angles; a marker file converts at its own rate")
@@ -214,7 +214,7 @@ def corrupt(
     guard([out, mask_path], [inp, asf], overwrite)
     check_asf(asf, [inp], amc_fps, names=CLI_AMC_NAMES)
     io.suffix_kind(out, io.WRITERS, "writing")
-    m = load_motion(inp, asf, purpose="corrupt", fps=amc_fps, unit=unit)
+    m = load_motion(inp, asf, purpose="corrupt", fps=amc_fps, unit=unit, unit_option="--unit")
     io.check_writable(m, out)
     params = {} if amount is None else {"amount": amount}
     try:

@@ -292,7 +292,7 @@ def _smoothing_ebf(ebd: DeepModel, denoiser, take=None, said: list | None = None
             what = f"the EBD {ebd.source}" if ebd.source else "the given EBD"
             raise ValueError(f"no shipped EBF reads the {ebd.layout.num_channels} channels of {what}: give the EBF "
                              "trained on its rig (fill --denoiser, clean --ebf; denoiser= or models= in Python), or "
-                             "fill without it (--no-smooth)")
+                             "fill without it (--no-smooth; smooth=False in Python)")
     else:
         ebf = model_of_kind(denoiser, "ebf", take)
     if ebf.layout != ebd.layout:
