@@ -57,6 +57,7 @@ __all__ = [
     "corrupt",
     "channel_spread",
     "ErrorRecord",
+    "describe_error",
     "KINDS",
     "ERROR_KINDS",
 ]
@@ -518,6 +519,28 @@ class ErrorRecord:
     start: int
     end: int
     partner: str | None = None
+
+
+def describe_error(record, original: Motion, corrupted: Motion) -> str:
+    """One plain line for an injected error, as a user reads it: what, which joint, which frames, how large.
+
+    ``record``: an :class:`ErrorRecord` (or its dict, as a ``.mask.npz`` keeps it); ``original``, ``corrupted``:
+    the take before and after. The size is the largest rotation, in degrees, between the joint's rotation in the
+    two takes over the error's frames (NaN-free frames only). E.g. ``swap: LeftShoulder with RightShoulder,
+    frames 673-728 (56 frames, 0.47 s), turned by up to 34.2 deg``.
+    """
+    r = record if isinstance(record, dict) else dataclasses.asdict(record)
+    start, end = int(r["start"]), int(r["end"])
+    n = end - start
+    what = f"{r['kind']}: {r['joint']}" + (f" with {r['partner']}" if r.get("partner") else "")
+    frames = f"frame {start}" if n == 1 else f"frames {start}-{end - 1}"
+    line = f"{what}, {frames} ({n} frame{'s' if n != 1 else ''}, {n / original.fps:.2f} s)"
+    j = original.skeleton.index(r["joint"])
+    a, b = original.rotations[start:end, j], corrupted.rotations[start:end, j]
+    ok = np.isfinite(a).all(axis=-1) & np.isfinite(b).all(axis=-1)
+    if ok.any():
+        line += f", turned by up to {np.degrees(R.geodesic_angle(a[ok], b[ok])).max():.1f} deg"
+    return line
 
 
 def _error_setup(motion: Motion, joints, duration_s, seed):

@@ -200,7 +200,7 @@ def corrupt(
     """Corrupt IN with known ground truth; writes OUT and a .mask.npz of what changed."""
     from .. import corrupt as corrupt_mod
     from .. import io
-    from ..io.masks import error_record, mask_path_for, write_mask
+    from ..io.masks import mask_path_for, write_mask
     from ..io.outputs import removed_on_failure
     from ..io.takes import CLI_AMC_NAMES, check_asf, load_motion
 
@@ -231,7 +231,7 @@ def corrupt(
     console.print(f"wrote {out} and {mask_path}: {plural(int(mask.sum()), 'joint sample')} changed in "
                   f"{frames} of {plural(m.num_frames, 'frame')}")
     for r in records:
-        console.print(f"  {error_record(r)}")
+        console.print(f"  {corrupt_mod.describe_error(r, m, bad)}")
 
 
 def plot(
