@@ -15,7 +15,7 @@ import mocapkit
 from mocapkit import corrupt
 from mocapkit import rotations as R
 from mocapkit.cleaning.denoise_guard import (MARGIN_DEG, SIGMAS, departure_bounds, far_cells, guarded, held_cells,
-                                             midpoint_deviation, rotation_angle)
+                                             midpoint_deviation)
 from mocapkit.cleaning.filters import savgol_smooth
 from mocapkit.cleaning.whole_take import denoise_take
 
@@ -27,6 +27,11 @@ def squat(shared_data):
     truth = mocapkit.load(shared_data / SQUAT)
     noisy, _ = corrupt.corrupt(truth, "noise", seed=1, amount=0.1)
     return truth, noisy
+
+
+def rotation_angle(a, b):
+    """Degrees between rotations, as the guard measures them (mocapkit.rotations.geodesic_angle)."""
+    return np.degrees(R.geodesic_angle(a, b))
 
 
 def _worst_vs(truth, motion, joint):
@@ -100,3 +105,18 @@ def test_held_cells_keep_a_run_and_its_neighbours_but_leave_a_spike_to_the_denoi
     assert not held[5]
     assert held[11] and held[12:15].all() and held[15]
     assert held[[0, 19]].all()
+
+
+def test_the_guard_measures_turns_by_the_one_geodesic_angle():
+    """denoise_guard kept its own rotation_angle, a copy of rotations.geodesic_angle but for NaN handling: the guard
+    now uses the shared one, whose NaN behaviour (NaN, quietly, where a joint is missing) is documented and tested
+    (tests/test_rotations.py)."""
+    from mocapkit.cleaning import denoise_guard
+
+    assert not hasattr(denoise_guard, "rotation_angle")
+    q = R.euler_to_quaternion(np.array([[0.0, 0.0, 0.0], [40.0, 0.0, 0.0], [80.0, 0.0, 0.0]]), "XYZ")[:, None]
+    far = np.ones((3, 1), dtype=bool)
+    assert not held_cells(q, far, np.array([1.0])).any()  # 40 deg from each neighbour: none held
+    gone = q.copy()
+    gone[1] = np.nan  # a missing cell: no step to or from it, so no neighbour to judge by (held)
+    assert held_cells(gone, far, np.array([1.0])).all()

@@ -22,20 +22,13 @@ import numpy as np
 from .. import rotations as R
 from ..motion import Motion
 
-__all__ = ["rotation_angle", "midpoint_deviation", "departure_bounds", "far_cells", "held_cells", "guarded", "SIGMAS",
+__all__ = ["midpoint_deviation", "departure_bounds", "far_cells", "held_cells", "guarded", "SIGMAS",
            "MARGIN_DEG"]
 
 SIGMAS = 4.0  # the bound, in standard deviations of the noise along its widest axis: white noise passes it ~2e-4
 MARGIN_DEG = 3.0  # added to the bound: what a smoother may move a clean cell by (a capture's own jitter)
 # a white noise sample n_t less the mean of its neighbours' has 1.5 times its variance; the median of |N(0, 1)|
 _MEDIAN_ABS_NORMAL = 0.6745
-
-
-def rotation_angle(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """The rotation (degrees) between unit quaternions ``a`` and ``b`` (..., 4), either sign; NaN where one is
-    missing. From the chord, stable near 0: ``|a - b| = 2 sin(t / 4)`` for the rotation angle ``t``."""
-    chord = np.minimum(np.linalg.norm(a - b, axis=-1), np.linalg.norm(a + b, axis=-1))
-    return np.degrees(4.0 * np.arcsin(np.clip(chord / 2.0, 0.0, 1.0)))
 
 
 def midpoint_deviation(rotations: np.ndarray) -> np.ndarray:
@@ -80,7 +73,7 @@ def departure_bounds(rotations: np.ndarray, cells: np.ndarray) -> np.ndarray:
 def far_cells(before: np.ndarray, after: np.ndarray, bounds: np.ndarray) -> np.ndarray:
     """(F, J) bool: cells whose rotation ``after`` (F, J, 4) is more than their joint's ``bounds`` (J,) degrees from
     ``before``; a missing cell on either side is not far."""
-    d = rotation_angle(np.asarray(before, dtype=np.float64), np.asarray(after, dtype=np.float64))
+    d = np.degrees(R.geodesic_angle(before, after))
     return np.nan_to_num(d, nan=0.0) > np.asarray(bounds)[None, :]
 
 
@@ -90,7 +83,7 @@ def held_cells(rotations: np.ndarray, far: np.ndarray, bounds: np.ndarray) -> np
     filter dragged towards a jump beside it, and the frames of a jump held for several frames, are held; a spike
     away from both neighbours is what noise makes, and is left to the denoiser."""
     q = np.asarray(rotations, dtype=np.float64)
-    step = rotation_angle(q[1:], q[:-1])  # (F - 1, J)
+    step = np.degrees(R.geodesic_angle(q[1:], q[:-1]))  # (F - 1, J)
     pad = np.full((1, q.shape[1]), np.nan)
     near = np.fmin(np.concatenate([pad, step]), np.concatenate([step, pad]))  # NaN only without a neighbour
     return far & ~(np.nan_to_num(near, nan=0.0) > np.asarray(bounds)[None, :])
