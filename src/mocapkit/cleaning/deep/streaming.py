@@ -24,7 +24,6 @@ from numba import njit
 from ... import rotations as R
 from ...errors import SkeletonError
 from ...motion import Skeleton
-from ...io.euler_branches import continuous_rotations
 from .channels import UNWRAP_ALPHA, euler_columns, euler_values, root_angular_velocity
 from .inference import denoise_channels, model_of_kind, needs_resampling, warn_licence
 from .networks import EBF, HALF_WINDOW, LOG_SIGMA_RANGE, NOISE_WINDOW, gaussian_filter_frames, noise_level_step
@@ -71,7 +70,7 @@ class Denoiser:
         self.skeleton = skeleton
         self.fps = float(fps)
         self._cols = euler_columns(skeleton)
-        self._channels = [skeleton.joint_channels(j) for j in range(skeleton.num_joints)]
+        self._triples = _three_axis_groups(skeleton)
         self._branch = None  # the last row with each joint's triple on its branch (channels.euler_values)
         self._root = _root_rotation_columns(skeleton)
         self._n_file = sum(len(skeleton.joint_channels(j)) for j in range(skeleton.num_joints))
@@ -94,10 +93,12 @@ class Denoiser:
         self._started = False
 
     def _inputs(self, row: np.ndarray):
-        one = row[None].copy()
-        continuous_rotations(one, self._channels, previous=self._branch)  # as channels.euler_values, causally
-        self._branch = one[0]
-        raw = self._branch[self._cols]
+        branch = row.copy()  # each 3-axis triple nearest the frame before's, as channels.euler_values, causally
+        for order, idx in self._triples:
+            start = None if self._branch is None else self._branch[idx]
+            branch[idx] = R.continuous_euler(row[idx][None], order, start=start)[0]
+        self._branch = branch
+        raw = branch[self._cols]
         if self._ref is None:
             self._ref = raw.copy()
         u = self._ref + (np.mod(raw - self._ref + 180.0, 360.0) - 180.0)  # as channels.unwrap_degrees
@@ -257,6 +258,21 @@ def _lstm_backward(gis, w_hh: np.ndarray) -> np.ndarray:
     """The backward direction's output at the window's first position: from zero state, last to first."""
     H = w_hh.shape[1]
     return _lstm_steps(np.stack(gis)[::-1].copy(), np.zeros(H), np.zeros(H), w_hh)[0]
+
+
+def _three_axis_groups(skeleton: Skeleton) -> list[tuple[str, np.ndarray]]:
+    """``(order, columns (K, 3))`` per rotation order of the joints with three rotation channels, in file-row
+    columns: the triples whose branch :func:`~mocapkit.io.euler_branches.continuous_rotations` chooses (a joint
+    with fewer axes has only whole turns, which the unwrapping takes care of alike, to rounding)."""
+    groups: dict[str, list[list[int]]] = {}
+    c = 0
+    for j in range(skeleton.num_joints):
+        chans = skeleton.joint_channels(j)
+        rot = [c + k for k, ch in enumerate(chans) if ch.endswith("rotation")]
+        if len(rot) == 3:
+            groups.setdefault("".join(chans[k - c][0] for k in rot), []).append(rot)
+        c += len(chans)
+    return [(order, np.array(cols, dtype=np.int64)) for order, cols in groups.items()]
 
 
 def _root_rotation_columns(skeleton: Skeleton) -> np.ndarray:
