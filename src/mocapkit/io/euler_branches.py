@@ -22,7 +22,7 @@ __all__ = ["NEAR_SOURCE_DEG", "continuous_rotations", "source_branches"]
 NEAR_SOURCE_DEG = 90.0
 
 
-def continuous_rotations(values: np.ndarray, channels, source=None, previous=None) -> None:
+def continuous_rotations(values: np.ndarray, channels, source=None) -> None:
     """Rewrite, in place, the rotation channels of ``values`` (F, C; columns in ``channels``' order, degrees) as
     the Euler triples a writer puts in the file.
 
@@ -32,13 +32,7 @@ def continuous_rotations(values: np.ndarray, channels, source=None, previous=Non
     own numbers; a changed cell within :data:`NEAR_SOURCE_DEG` of the file's rotation the triple nearest the file's
     numbers of that cell; any other changed cell the triple nearest its nearest written neighbour, chained (a joint
     with no such neighbour starts from the file's first frame). One call per rotation order, all joints with that
-    order together.
-
-    ``previous`` (C,): the row written just before ``values``' first (a stream's last frame, degrees); each joint
-    then starts from the triple nearest it, so rows rewritten one at a time, each with the one before as
-    ``previous``, come out bit for bit as the whole take rewritten at once. Not with ``source``."""
-    if source is not None and previous is not None:
-        raise ValueError("continuous_rotations: give source or previous, not both")
+    order together."""
     starts = np.cumsum([0] + [len(c) for c in channels])
     groups: dict[str, tuple[list[int], list[list[int]]]] = {}
     for j, chans in enumerate(channels):
@@ -54,8 +48,6 @@ def continuous_rotations(values: np.ndarray, channels, source=None, previous=Non
         if source is not None:
             angles, fixed = source_branches(angles, source.values[:, idx], source.turned[:, js], order)
             start = source.values[0, idx]
-        elif previous is not None:
-            start = np.asarray(previous, dtype=np.float64)[idx]
         values[:, idx] = R.continuous_euler(angles, order, fixed=fixed, start=start)
 
 
