@@ -87,8 +87,8 @@ __all__ = ["clean_file", "clean_marker_file", "clean_request", "marker_request",
 
 DEFAULT_PATTERNS = ("*.bvh", "*.amc", "*.npz", "*.c3d", "*.trc")
 #: How a refusal names an option to its caller: Python's keywords, or (``flags``) the command line's flags.
-SAID = {False: {"overwrite": "overwrite=True", "asf": "asf=", "amc_fps": "amc_fps="},
-        True: {"overwrite": "--overwrite", "asf": "--asf", "amc_fps": "--amc-fps"}}
+SAID = {False: {"overwrite": "overwrite=True", "asf": "asf=", "amc_fps": "amc_fps=", "unit": "unit="},
+        True: {"overwrite": "--overwrite", "asf": "--asf", "amc_fps": "--amc-fps", "unit": "--unit"}}
 
 
 
@@ -204,13 +204,16 @@ def clean_file(
     check_outputs(outputs, [inp, asf, decisions, record if reuse else None, *(context or []), *given],
                   overwrite=overwrite, how=f"pass {SAID[flags]['overwrite']}")
     check_asf(asf, [inp], amc_fps, names=(SAID[flags]['asf'], SAID[flags]['amc_fps']))
-    if motion is None and inp.suffix.lower() == ".npz" and isinstance(take := load_take(inp, unit=unit), MarkerSet):
+    said_unit = SAID[flags]["unit"]
+    if motion is None and inp.suffix.lower() == ".npz" and isinstance(
+            take := load_take(inp, unit=unit, unit_option=said_unit), MarkerSet):
         refuse_marker_options(inp, not_for_markers)
         return clean_marker_file(inp, out, markers=take, **as_markers)
     io.suffix_kind(out, io.WRITERS, "writing")
     doc = dec.read_decisions(decisions) if decisions is not None else None
     taken = None if reuse else file_facts(inp)  # the take as read: a later batch tells a replaced input by it
-    m = motion if motion is not None else load_motion(inp, asf, purpose="clean", fps=amc_fps, unit=unit)
+    m = motion if motion is not None else load_motion(inp, asf, purpose="clean", fps=amc_fps, unit=unit,
+                                                      unit_option=said_unit)
     io.check_writable(m, out)
     request = None if reuse else clean_request(steps, threshold, drifts, context, models, noise_deg, amc_fps, unit,
                                                joint_map)
@@ -771,7 +774,7 @@ def clean_batch(
         from .io.takes import check_asf, check_unit
 
         check_asf(asf, inputs, amc_fps, names=(SAID[flags]['asf'], SAID[flags]['amc_fps']))
-        check_unit(unit)
+        check_unit(unit, SAID[flags]["unit"])
     plans, renamed = _plan(inputs, in_dir, out_dir, fmt, report, png)
     summary = BatchSummary(executor=describe_executor(executor), renamed=[str(p) for p in renamed],
                            earlier=[str(p) for p in earlier if not (below and resolved(p) == resolved(out_dir))])

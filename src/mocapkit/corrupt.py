@@ -57,6 +57,7 @@ __all__ = [
     "corrupt",
     "channel_spread",
     "ErrorRecord",
+    "describe_error",
     "KINDS",
     "ERROR_KINDS",
 ]
@@ -520,6 +521,28 @@ class ErrorRecord:
     partner: str | None = None
 
 
+def describe_error(record, original: Motion, corrupted: Motion) -> str:
+    """One plain line for an injected error, as a user reads it: what, which joint, which frames, how large.
+
+    ``record``: an :class:`ErrorRecord` (or its dict, as a ``.mask.npz`` keeps it); ``original``, ``corrupted``:
+    the take before and after. The size is the largest rotation, in degrees, between the joint's rotation in the
+    two takes over the error's frames (NaN-free frames only). E.g. ``swap: LeftShoulder with RightShoulder,
+    frames 673-728 (56 frames, 0.47 s), turned by up to 34.2 deg``.
+    """
+    r = record if isinstance(record, dict) else dataclasses.asdict(record)
+    start, end = int(r["start"]), int(r["end"])
+    n = end - start
+    what = f"{r['kind']}: {r['joint']}" + (f" with {r['partner']}" if r.get("partner") else "")
+    frames = f"frame {start}" if n == 1 else f"frames {start}-{end - 1}"
+    line = f"{what}, {frames} ({n} frame{'s' if n != 1 else ''}, {n / original.fps:.2f} s)"
+    j = original.skeleton.index(r["joint"])
+    a, b = original.rotations[start:end, j], corrupted.rotations[start:end, j]
+    ok = np.isfinite(a).all(axis=-1) & np.isfinite(b).all(axis=-1)
+    if ok.any():
+        line += f", turned by up to {np.degrees(R.geodesic_angle(a[ok], b[ok])).max():.1f} deg"
+    return line
+
+
 def _error_setup(motion: Motion, joints, duration_s, seed):
     """What :func:`real_errors` and :func:`smooth_drifts` start from: the checked error lengths, the generator,
     the skeleton, (F, J), the selected joints (J,) bool and the joints with rotation channels (J,) bool."""
@@ -808,7 +831,7 @@ def corrupt(motion: Motion, kind: str = "noise", seed=None, **params):
     else:
         raise ValueError(f"unknown corruption kind {kind!r}; kinds are: {', '.join(KINDS + ERROR_KINDS)}")
     if func in (gaps, real_errors) and "amount" in params:
-        raise ValueError(f"--amount does not apply to {kind}")
+        raise ValueError(f"amount= (--amount on the command line) does not apply to {kind}")
     if func is bias and "bias_kind" in params:
         params = dict(params)
         params["kind"] = params.pop("bias_kind")

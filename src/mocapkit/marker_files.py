@@ -82,7 +82,8 @@ def clean_marker_file(inp, out, *, report=None, png=None, overwrite: bool = Fals
     if reuse and decisions is None:
         raise MocapError(f"{record}: an earlier run's record is applied with decisions; give the decisions file")
     if review and decisions is not None:
-        raise MocapError(f"{inp}: review mode (--steps detect) changes nothing; decisions apply to a cleaning")
+        raise MocapError(f"{inp}: review mode (--steps detect; steps=\"detect\" in Python) changes nothing; decisions "
+                         "apply to a cleaning")
     record = Path(record) if reuse else clean_path(out)
     outputs = [out, None if reuse else record, report, png]
     check_outputs(outputs, [inp, decisions, record if reuse else None], overwrite=overwrite)

@@ -280,7 +280,11 @@ def geodesic_angle(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """Rotation angle in radians, in [0, pi], between rotations ``a`` and ``b`` (broadcasting).
 
     Equals ``2 |log(a^-1 b)|``; computed with ``atan2`` so it is accurate for
-    both tiny and near-pi angles, and symmetric in its arguments.
+    both tiny and near-pi angles, and symmetric in its arguments. Either sign
+    of a quaternion gives the same angle, and a quaternion need not be of unit
+    length. NaN where either rotation has a NaN (a missing joint), quietly:
+    a caller comparing takes with gaps reads NaN there (``np.nanmax`` and the
+    like leave those cells out).
     """
     a = check_quaternions(a, "a")
     b = check_quaternions(b, "b")

@@ -674,7 +674,7 @@ def test_a_resume_on_clips_of_other_content_is_refused(tmp_path, walk):
     rot[40:80, 3] = rot[40:80, 3][::-1]
     edited = dataclasses.replace(walk[:160], rotations=rot)
     assert edited.name == walk[:160].name
-    with pytest.raises(ValueError, match=r"holds a training with other clips .*; --restart starts it over there"):
+    with pytest.raises(ValueError, match=r"holds a training with other clips .*; --restart \(resume=False in Python\) starts it over there"):
         training.train([edited], tmp_path, _tiny(epochs=2), executor="serial", progress=False)
     # a checkpoint from before clip digests (names only) is no match either
     ck = torch.load(tmp_path / "checkpoint.pt", weights_only=True)
@@ -696,7 +696,7 @@ def test_a_model_without_its_checkpoint_is_refused_before_any_work(tmp_path, wal
 
     monkeypatch.setattr(training, "prepare_clip", no_work)
     with pytest.raises(ValueError, match=r"model.pt already exists \(no checkpoint of this training beside it\); "
-                                         r"--restart or --overwrite replaces it"):
+                                         r"--restart or --overwrite \(resume=False or overwrite=True in Python\) replaces it"):
         training.train([walk[:160]], tmp_path, _tiny(), executor="serial", progress=False)
     (tmp_path / "model.pt").write_bytes(b"a file that is no model")
     with pytest.raises(ValueError, match="model.pt already exists"):
@@ -744,7 +744,8 @@ def test_a_finished_training_without_its_model_says_so(tmp_path, walk):
     """The checkpoint of a finished run without model.pt: nothing to resume (it ended in a raw 'no such file')."""
     training.train([walk[:160]], tmp_path, _tiny(), executor="serial", progress=False)
     (tmp_path / "model.pt").unlink()
-    with pytest.raises(ValueError, match="its training is finished but model.pt is missing; more --epochs continue it"):
+    with pytest.raises(ValueError, match=r"its training is finished but model.pt is missing; more --epochs "
+                                         r"\(TrainConfig.epochs\) continue it, --restart \(resume=False\)"):
         training.train([walk[:160]], tmp_path, _tiny(), executor="serial", progress=False)
     assert training.train([walk[:160]], tmp_path, _tiny(epochs=2), executor="serial", progress=False).meta["best_epoch"] == 1
 

@@ -18,7 +18,7 @@ from mocapkit import corrupt
 from mocapkit import rotations as R
 from mocapkit.cleaning.denoise_guard import (MARGIN_DEG, SIGMAS, SPIKE_P, departure_bounds, displaced_runs,
                                              far_cells, guarded, held_cells, jump_bounds, jump_cells,
-                                             midpoint_deviation, rotation_angle)
+                                             midpoint_deviation)
 from mocapkit.cleaning.filters import savgol_smooth
 from mocapkit.cleaning.whole_take import denoise_take
 
@@ -32,6 +32,11 @@ def squat(shared_data):
     truth = mocapkit.load(shared_data / SQUAT)
     noisy, _ = corrupt.corrupt(truth, "noise", seed=1, amount=0.1)
     return truth, noisy
+
+
+def rotation_angle(a, b):
+    """Degrees between rotations, as the guard measures them (mocapkit.rotations.geodesic_angle)."""
+    return np.degrees(R.geodesic_angle(a, b))
 
 
 def _worst_vs(truth, motion, joint):
@@ -195,3 +200,18 @@ def test_displaced_runs_find_a_run_moved_the_same_way_each_cell_within_the_bound
     runs = displaced_runs(q, den, cells)[:, 0]
     assert runs[300:305].all() and not runs[100]
     assert not runs[:297].any() and not runs[308:].any()  # a window may reach a frame or two past the run
+
+
+def test_the_guard_measures_turns_by_the_one_geodesic_angle():
+    """denoise_guard kept its own rotation_angle, a copy of rotations.geodesic_angle but for NaN handling: the guard
+    now uses the shared one, whose NaN behaviour (NaN, quietly, where a joint is missing) is documented and tested
+    (tests/test_rotations.py)."""
+    from mocapkit.cleaning import denoise_guard
+
+    assert not hasattr(denoise_guard, "rotation_angle")
+    q = R.euler_to_quaternion(np.array([[0.0, 0.0, 0.0], [40.0, 0.0, 0.0], [80.0, 0.0, 0.0]]), "XYZ")[:, None]
+    far = np.ones((3, 1), dtype=bool)
+    assert not held_cells(q, far, np.array([1.0])).any()  # 40 deg from each neighbour: none held
+    gone = q.copy()
+    gone[1] = np.nan  # a missing cell: no step to or from it, so no neighbour to judge by (held)
+    assert held_cells(gone, far, np.array([1.0])).all()

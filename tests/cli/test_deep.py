@@ -809,3 +809,28 @@ def test_fill_with_an_own_rig_ebd_takes_the_ebf_named_as_its_pair_beside_it(tmp_
     code, _, err = run(*args[:3], tmp_path / "g.npz", *args[4:], "--denoiser", models / "own_ebf.pt")
     assert code == 0, err
     assert np.array_equal(mocapkit.load(tmp_path / "f.npz").rotations, mocapkit.load(tmp_path / "g.npz").rotations)
+
+
+def test_every_path_pairs_an_own_rig_ebd_with_its_ebf_in_trains_layout(tmp_path):
+    """``mocapkit train -o my_ebd`` / ``-o my_ebf`` write ``my_ebd/model.pt`` and ``my_ebf/model.pt``: an EBD given
+    alone there is smoothed by that EBF in fill --model, clean --ebd, mocapkit.clean(models=) and deep.fill_gaps
+    alike (one rule, cleaning.deep.pairs), each the same as with the EBF named, and the CLI says which it used."""
+    from mocapkit.cleaning import deep
+
+    take, gin, lay, net = _own_rig_ebd(tmp_path)
+    ebd, ebf = tmp_path / "my_ebd" / "model.pt", tmp_path / "my_ebf" / "model.pt"
+    ebd.parent.mkdir()
+    ebf.parent.mkdir()
+    deep.save_model(deep.DeepModel("ebd", net, lay, take.fps), ebd)
+    deep.save_model(deep.DeepModel("ebf", deep.EBF(lay.num_channels, hidden=8, width=16), lay, take.fps), ebf)
+    gappy = mocapkit.load(gin)
+    named = deep.fill_gaps(gappy, model=ebd, denoiser=ebf, method="ebd")
+    assert np.array_equal(deep.fill_gaps(gappy, model=ebd, method="ebd").rotations, named.rotations)
+    res = mocapkit.clean(gappy, steps="fill", models={"ebd": ebd})  # no gap prior in this EBD: the network fills
+    assert np.array_equal(res.motion.rotations, named.rotations)
+    for cmd, opt in (("fill", "--model"), ("clean", "--ebd")):
+        out = tmp_path / f"{cmd}.npz"
+        code, said, err = run(cmd, gin, "-o", out, opt, ebd, *(("--by", "ebd") if cmd == "fill" else ("--steps", "fill")))
+        assert code == 0, err
+        assert np.array_equal(mocapkit.load(out).rotations, named.rotations)
+        assert str(ebf) in " ".join((said + err).split())

@@ -1,7 +1,7 @@
 """The entry point: one error line and exit 2 for every failure, --version, --help."""
 
-
 import os
+import re
 import subprocess
 import sys
 
@@ -40,6 +40,28 @@ def test_help_reads_well():
     assert code == 0
     for cmd in ("info", "convert", "corrupt", "plot"):
         assert cmd in out
+
+
+def test_every_commands_help_shows_flags_as_flags():
+    """Typer's help showed an on/off option as ``--overwrite <bool>``, which reads as an option taking a value: in
+    every command's help a flag stands alone (``--overwrite``, ``--smooth / --no-smooth``), with no type."""
+    import typer
+
+    from mocapkit.cli import app
+
+    def commands(group, path=()):
+        for name, cmd in group.commands.items():
+            yield (*path, name)
+            if hasattr(cmd, "commands"):  # a group: its own commands too
+                yield from commands(cmd, (*path, name))
+
+    every = [()] + list(commands(typer.main.get_command(app)))
+    assert ("fill",) in every and ("db", "build") in every
+    for path in every:
+        code, out, _ = run(*path, "--help")
+        assert code == 0 and "<bool>" not in out and "--help" in out, (path, out)
+    out = run("corrupt", "--help")[1]
+    assert re.search(r"--overwrite\s+Replace output files", out), out  # no type between the flag and its help
 
 
 

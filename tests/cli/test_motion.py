@@ -566,3 +566,18 @@ def test_help_says_what_info_reads_and_corrupts_default_amount():
     assert code == 0 and "reference" not in " ".join(out.split())
     code, out, _ = run("corrupt", "--help")
     assert code == 0 and "Default: 0.5 (noise, uniform, bias), 0.5 cm (spatial)" in " ".join(out.replace("│", " ").split())
+
+
+def test_corrupt_prints_each_injected_error_as_a_plain_line(tmp_path):
+    """`corrupt --kind errors` printed each error record as a Python dict (``{'kind': 'swap', ..., 'partner':
+    None}``); each is now one line a user reads: what, which joint (and partner), which frames, how large."""
+    import re
+
+    out = tmp_path / "bad.bvh"
+    code, said, err = run("corrupt", SAMPLE, out, "--kind", "errors", "--seed", "4")
+    assert code == 0, err
+    lines = said.splitlines()[1:]
+    assert lines and "{" not in said and "None" not in said, said
+    for line in lines:
+        assert re.fullmatch(r"  (spike|flip|freeze|drift|swap): \S+( with \S+)?, frames? \d+(-\d+)? "
+                            r"\(\d+ frames?, \d+\.\d\d s\), turned by up to \d+\.\d deg", line), line

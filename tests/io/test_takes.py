@@ -114,3 +114,25 @@ def test_check_asf_speaks_the_callers_language(amc_apart):
         check_asf(asf, [bvh], names=CLI_AMC_NAMES)
     with pytest.raises(MocapError, match=r"--amc-fps is the frame rate of an \.amc input"):
         check_asf(None, [bvh], 60, names=CLI_AMC_NAMES)
+
+
+def test_a_python_callers_unit_refusals_name_unit_not_the_clis_flag():
+    """load_take, load_motion, with_unit and check_unit refused with the command line's ``--unit`` by default, which a
+    Python caller has no way to give: by default they name ``unit=``; the CLI passes its own spelling."""
+    from mocapkit.errors import MocapError
+    from mocapkit.io.takes import check_unit, with_unit
+
+    amc = samples.path("12_walk.amc")  # its ASF states its unit
+    for call in (lambda: load_take(amc, unit="mm"), lambda: load_motion(amc, unit="mm"),
+                 lambda: with_unit(mocapkit.load(amc), "mm", amc)):
+        with pytest.raises(MocapFormatError) as exc:
+            call()
+        assert str(exc.value).endswith("not mm: unit= is for a file that states none") and "--unit" not in str(exc.value)
+    for call in (lambda: load_take(amc, unit="furlong"), lambda: check_unit("furlong")):
+        with pytest.raises(MocapError) as exc:
+            call()
+        assert str(exc.value).startswith("unit='furlong': one of") and "--unit" not in str(exc.value)
+    with pytest.raises(MocapError, match=r"^--unit 'furlong': one of"):
+        load_take(amc, unit="furlong", unit_option="--unit")
+    with pytest.raises(MocapFormatError, match="not mm: --unit is for a file that states none"):
+        load_motion(amc, unit="mm", unit_option="--unit")

@@ -40,7 +40,7 @@ from .. import rotations as R
 from .runs import true_runs
 from ..motion import Motion
 
-__all__ = ["rotation_angle", "midpoint_deviation", "noise_std", "departure_bounds", "jump_bounds", "far_cells",
+__all__ = ["midpoint_deviation", "noise_std", "departure_bounds", "jump_bounds", "far_cells",
            "held_cells", "displaced_runs", "jump_cells", "beside", "kept_cells", "guarded", "SIGMAS", "MARGIN_DEG",
            "SPIKE_P", "RUN_FRAMES"]
 
@@ -50,13 +50,6 @@ RUN_FRAMES = 8  # the longest run :func:`displaced_runs` reads as one (a flip he
 SPIKE_P = 1e-9  # the chance a cell of white noise passes :func:`jump_bounds` (a take of 1e6 cells: once in 1,000)
 # a white noise sample n_t less the mean of its neighbours' has 1.5 times its variance; the median of |N(0, 1)|
 _MEDIAN_ABS_NORMAL = 0.6745
-
-
-def rotation_angle(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """The rotation (degrees) between unit quaternions ``a`` and ``b`` (..., 4), either sign; NaN where one is
-    missing. From the chord, stable near 0: ``|a - b| = 2 sin(t / 4)`` for the rotation angle ``t``."""
-    chord = np.minimum(np.linalg.norm(a - b, axis=-1), np.linalg.norm(a + b, axis=-1))
-    return np.degrees(4.0 * np.arcsin(np.clip(chord / 2.0, 0.0, 1.0)))
 
 
 def midpoint_deviation(rotations: np.ndarray) -> np.ndarray:
@@ -117,13 +110,13 @@ def jump_bounds(rotations: np.ndarray, cells: np.ndarray) -> np.ndarray:
 def far_cells(before: np.ndarray, after: np.ndarray, bounds: np.ndarray) -> np.ndarray:
     """(F, J) bool: cells whose rotation ``after`` (F, J, 4) is more than their joint's ``bounds`` (J,) degrees from
     ``before``; a missing cell on either side is not far."""
-    d = rotation_angle(np.asarray(before, dtype=np.float64), np.asarray(after, dtype=np.float64))
+    d = np.degrees(R.geodesic_angle(np.asarray(before, dtype=np.float64), np.asarray(after, dtype=np.float64)))
     return np.nan_to_num(d, nan=0.0) > np.asarray(bounds)[None, :]
 
 
 def _steps(q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """(F, J) degrees each: every cell's turn from the frame before and to the frame after; NaN without one."""
-    step = rotation_angle(q[1:], q[:-1])  # (F - 1, J)
+    step = np.degrees(R.geodesic_angle(q[1:], q[:-1]))  # (F - 1, J)
     pad = np.full((1, q.shape[1]), np.nan)
     return np.concatenate([pad, step]), np.concatenate([step, pad])
 
@@ -186,7 +179,7 @@ def jump_cells(rotations: np.ndarray, far: np.ndarray, bounds: np.ndarray) -> np
     far = np.asarray(far, dtype=bool)
     F, J = far.shape
     out = np.zeros((F, J), dtype=bool)
-    step = np.nan_to_num(rotation_angle(q[1:], q[:-1]), nan=0.0)  # (F - 1, J)
+    step = np.nan_to_num(np.degrees(R.geodesic_angle(q[1:], q[:-1])), nan=0.0)  # (F - 1, J)
     jump = (step > np.asarray(bounds)[None, :]) & (far[:-1] | far[1:])
     for j in np.flatnonzero(jump.any(axis=0)):
         cuts = np.flatnonzero(jump[:, j]) + 1  # the first frame after each jump

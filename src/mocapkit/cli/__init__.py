@@ -30,6 +30,7 @@ import typer
 from ..errors import TEMP_NAME, MocapError, os_error_line
 from . import clean as clean_cmds
 from . import db, deep, motion, reconstruct, ssa
+from .common import FlagsCommand, FlagsGroup
 
 __all__ = ["app", "main", "version"]
 
@@ -42,6 +43,7 @@ app = typer.Typer(
     no_args_is_help=True,
     add_completion=False,
     pretty_exceptions_enable=False,
+    cls=FlagsGroup,
 )
 
 
@@ -75,8 +77,8 @@ def _root(
 
 for _fn in (motion.info, motion.convert, motion.corrupt, motion.plot, db.search, ssa.detect, ssa.repair,
             deep.denoise, deep.fill, deep.train, reconstruct.reconstruct, clean_cmds.clean):
-    app.command()(_fn)
-app.command("clean-batch")(clean_cmds.clean_batch)
+    app.command(cls=FlagsCommand)(_fn)
+app.command("clean-batch", cls=FlagsCommand)(clean_cmds.clean_batch)
 app.add_typer(db.db_app, name="db")
 
 def _fail(message: str, code: int = EXIT_BAD_INPUT) -> int:

@@ -126,10 +126,11 @@ def clean(
                      [k for k in FLAGS if k in given], FLAGS, record_said)
     skeleton = asf_of(inp, asf)
     skeleton_copy = asf_for_output(out, skeleton, overwrite, how="use --overwrite")  # an AMC output reads back with its ASF beside it
-    take = load_motion(inp, asf, purpose="clean", fps=amc_fps, unit=unit)
+    take = load_motion(inp, asf, purpose="clean", fps=amc_fps, unit=unit, unit_option="--unit")
     ref = None
     if reference is not None:  # refused before cleaning, not after OUT is written
-        ref = check_reference(load_motion(reference, asf, purpose="a reference", fps=amc_fps, unit=unit), reference,
+        ref = check_reference(load_motion(reference, asf, purpose="a reference", fps=amc_fps, unit=unit,
+                                          unit_option="--unit"), reference,
                               frames=take.num_frames,
                               joint_names=take.skeleton.joint_names, option="--unit")
     original, res = clean_file(inp, out, context=context, steps=step_list, threshold=threshold, report=report, png=png,
@@ -255,7 +256,7 @@ def _clean_marker_take(inp: Path, out: Path, *, report, png, overwrite: bool, no
 
     if inp.suffix.lower() not in (".c3d", ".trc", ".npz"):
         return False
-    take = load_take(inp, unit=unit)
+    take = load_take(inp, unit=unit, unit_option="--unit")
     if not isinstance(take, MarkerSet):
         return False
     refuse_marker_options(inp, not_for_markers)

@@ -14,6 +14,7 @@ from typing import Iterable, Optional
 
 import typer
 from rich.console import Console
+from typer.core import TyperCommand, TyperGroup
 
 __all__ = [
     "console",
@@ -34,9 +35,36 @@ __all__ = [
     "check_executor",
     "OVERWRITE_HELP",
     "STEPS_HELP",
+    "FlagsCommand",
+    "FlagsGroup",
 ]
 
 console = Console(markup=False, highlight=False, soft_wrap=True)
+
+
+def _flags_without_type(params):
+    """``params`` with each on/off option's type column left empty: typer's help shows ``--overwrite <bool>``, which
+    reads as an option taking a value; a flag is given alone (``--mirror``, or ``--smooth / --no-smooth``)."""
+    for p in params:
+        if getattr(p, "is_flag", False) and p.metavar is None:
+            p.metavar = ""
+    return params
+
+
+class FlagsCommand(TyperCommand):
+    """A command whose ``--help`` shows flags as flags (:func:`_flags_without_type`)."""
+
+    def get_params(self, ctx):
+        return _flags_without_type(super().get_params(ctx))
+
+
+class FlagsGroup(TyperGroup):
+    """A command group whose commands (and its own ``--help``) show flags as flags (:class:`FlagsCommand`)."""
+
+    command_class = FlagsCommand
+
+    def get_params(self, ctx):
+        return _flags_without_type(super().get_params(ctx))
 
 OVERWRITE_HELP = ("Replace output files that already exist (without it they are refused; an input is never "
                   "replaced). Missing parent folders are created.")

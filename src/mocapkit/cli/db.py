@@ -11,12 +11,13 @@ from typing import Optional
 import typer
 
 from ..errors import MocapError, MocapFormatError
-from .common import (amc_fps_option, asf_option, check_executor, console, database_rows, executor_option, joint_map_option, plural,
-                     print_fields, print_table, unit_option)
+from .common import (FlagsCommand, FlagsGroup, amc_fps_option, asf_option, check_executor, console, database_rows,
+                     executor_option, joint_map_option, plural, print_fields, print_table, unit_option)
 
 db_app = typer.Typer(
     help="Build and inspect motion databases (the knowledge that search and cleaning compare against).",
     no_args_is_help=True,
+    cls=FlagsGroup,
 )
 
 
@@ -24,7 +25,7 @@ def _feature_list(text: str) -> tuple[str, ...]:
     return tuple(t.strip() for t in text.split(",") if t.strip())
 
 
-@db_app.command("build")
+@db_app.command("build", cls=FlagsCommand)
 def db_build(
     out_dir: Path = typer.Argument(..., metavar="OUT_DIR", help="Folder to create for the database."),
     files: list[Path] = typer.Argument(..., metavar="FILES...", help="Motion files (.bvh, .amc, .npz) or folders."),
@@ -70,7 +71,7 @@ def db_build(
         console.print(f"note: the takes are {db.info['licence']}: so is this database")
 
 
-@db_app.command("info")
+@db_app.command("info", cls=FlagsCommand)
 def db_info(
     directory: Path = typer.Argument(..., metavar="DIR", help="A database folder."),
     clips: bool = typer.Option(False, "--clips", help="Also list every clip with its frame range."),
@@ -115,7 +116,7 @@ def search(
         raise MocapError(f"{'--k' if k < 1 else '--neighbors'} must be a positive integer, got {min(k, neighbors)}")
     check_asf(asf, [query], amc_fps, names=CLI_AMC_NAMES)
     db = MotionDatabase.open(db_dir)
-    m = load_motion(query, asf, purpose="a query", fps=amc_fps, unit=unit)
+    m = load_motion(query, asf, purpose="a query", fps=amc_fps, unit=unit, unit_option="--unit")
     a = 0 if start is None else int(round(start * m.fps))
     b = m.num_frames if end is None else min(int(round(end * m.fps)), m.num_frames)  # --end past the clip: its end
     if not 0 <= a < b <= m.num_frames:

@@ -30,7 +30,8 @@ def _reference(path: Optional[Path], take, asf: Optional[Path] = None, fps: Opti
 
     if path is None:
         return None
-    return check_reference(load_motion(path, asf, purpose="a reference", fps=fps, unit=unit), path, frames=take.num_frames,
+    return check_reference(load_motion(path, asf, purpose="a reference", fps=fps, unit=unit, unit_option="--unit"), path,
+                           frames=take.num_frames,
                            joint_names=take.skeleton.joint_names, option="--unit")
 
 
@@ -56,7 +57,7 @@ def _motion_for(inp: Path, out: Path, asf: Optional[Path], command: str, fps: Op
         if inp.suffix.lower() != ".npz" or not inp.is_file():
             raise
         bad_out = exc  # a marker .npz is named as one first
-    take = load_take(inp, asf, fps=fps, unit=unit)
+    take = load_take(inp, asf, fps=fps, unit=unit, unit_option="--unit")
     if not isinstance(take, Motion):
         raise MocapFormatError(inp, _marker_reason(command))
     if bad_out is not None:
@@ -326,7 +327,7 @@ def train(
     if unit is not None:
         from ..io.takes import check_unit
 
-        check_unit(unit)
+        check_unit(unit, "--unit")
     clips = training.load_clips(sources, asf, amc_fps, unit=unit)
     if not clips:
         raise MocapError(f"train: no .bvh, .amc or .npz clips in {', '.join(map(str, sources))}")

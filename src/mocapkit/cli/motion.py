@@ -37,7 +37,7 @@ def info(
         raise MissingFileError(file)
     if _info_of_own_file(file):  # a database, a cleaning record, a detection, a mask or a model: not a take
         return
-    obj = load_take(file, asf, fps=amc_fps, unit=unit)
+    obj = load_take(file, asf, fps=amc_fps, unit=unit, unit_option="--unit")
     rows = [("file", str(file))]
     if isinstance(obj, MarkerSet):
         markers, modelled, missing = marker_counts(obj)
@@ -133,7 +133,7 @@ def convert(
         check_fps(fps, "--fps")  # before any work, naming the option
     guard([out], [inp, asf], overwrite)
     check_asf(asf, [inp], amc_fps, names=CLI_AMC_NAMES)
-    check_unit(unit)
+    check_unit(unit, "--unit")
     marker_input = inp.suffix.lower() in (".c3d", ".trc")
     if marker_input:
         io.suffix_kind(out, io.MARKER_FORMATS, "writing markers")
@@ -142,7 +142,7 @@ def convert(
     if marker_input:
         m = io.load_markers(inp, zeros_as_gaps=zeros_as_gaps, **({} if unit is None else {"units": unit}))
     else:
-        m = load_take(inp, asf, fps=amc_fps, unit=unit)
+        m = load_take(inp, asf, fps=amc_fps, unit=unit, unit_option="--unit")
     if not isinstance(m, Motion):
         if fps is not None:
             raise MocapFormatError(inp, "--fps resamples joint angles; a marker file converts at its own rate")
@@ -200,7 +200,7 @@ def corrupt(
     """Corrupt IN with known ground truth; writes OUT and a .mask.npz of what changed."""
     from .. import corrupt as corrupt_mod
     from .. import io
-    from ..io.masks import error_record, mask_path_for, write_mask
+    from ..io.masks import mask_path_for, write_mask
     from ..io.outputs import removed_on_failure
     from ..io.takes import CLI_AMC_NAMES, check_asf, load_motion
 
@@ -214,7 +214,7 @@ def corrupt(
     guard([out, mask_path], [inp, asf], overwrite)
     check_asf(asf, [inp], amc_fps, names=CLI_AMC_NAMES)
     io.suffix_kind(out, io.WRITERS, "writing")
-    m = load_motion(inp, asf, purpose="corrupt", fps=amc_fps, unit=unit)
+    m = load_motion(inp, asf, purpose="corrupt", fps=amc_fps, unit=unit, unit_option="--unit")
     io.check_writable(m, out)
     params = {} if amount is None else {"amount": amount}
     try:
@@ -231,7 +231,7 @@ def corrupt(
     console.print(f"wrote {out} and {mask_path}: {plural(int(mask.sum()), 'joint sample')} changed in "
                   f"{frames} of {plural(m.num_frames, 'frame')}")
     for r in records:
-        console.print(f"  {error_record(r)}")
+        console.print(f"  {corrupt_mod.describe_error(r, m, bad)}")
 
 
 def plot(

@@ -198,7 +198,7 @@ def reconstruct(
             raise MocapFormatError(inp, str(exc)) from None
         sensors = _sensors_named(names, db, inp)
     else:
-        source = load_take(inp, asf, fps=amc_fps, unit=unit)
+        source = load_take(inp, asf, fps=amc_fps, unit=unit, unit_option="--unit")
         if kind == "accelerometers" and not isinstance(source, Motion):
             raise MocapFormatError(inp, "accelerometers come as a CSV (or a motion to simulate them on), not markers")
     performer = _performer_skeleton(skeleton, source, db)
@@ -227,7 +227,8 @@ def reconstruct(
         frames = pos.shape[0]
     ref = None
     if reference is not None:  # checked before the (long) reconstruction
-        ref = check_reference(load_motion(reference, asf, purpose="a reference", fps=amc_fps, unit=unit), reference,
+        ref = check_reference(load_motion(reference, asf, purpose="a reference", fps=amc_fps, unit=unit,
+                                          unit_option="--unit"), reference,
                               frames=frames,
                               skeleton=db.skeletons[0], whose=f"the reconstruction's ({db_dir.name}'s skeleton)",
                               option="--unit")

@@ -97,7 +97,7 @@ def detect(
         raise MocapFormatError(out, "the detection is written as .npz")
     if png is not None and png.suffix.lower() != ".png":
         raise MocapFormatError(png, "the map is written as .png")
-    m = load_motion(inp, asf, purpose="detect", fps=amc_fps, unit=unit)
+    m = load_motion(inp, asf, purpose="detect", fps=amc_fps, unit=unit, unit_option="--unit")
     precompile.start(precompile.kernels_for(["detect"]))  # with an empty numba cache: beside the context's loading
     unread = unread_context(m, context)  # a take too coarse for detection: refused below in one line, no context built
     ctx, note = (None, unread) if unread is not None else fit_context(m, load_context(context, progress=not as_json,
@@ -184,7 +184,7 @@ def repair(
     jm = read_map(joint_map)
     check_asf(asf, [inp], amc_fps, names=CLI_AMC_NAMES)
     io.suffix_kind(out, io.WRITERS, "writing")
-    m = load_motion(inp, asf, purpose="repair", fps=amc_fps, unit=unit)
+    m = load_motion(inp, asf, purpose="repair", fps=amc_fps, unit=unit, unit_option="--unit")
     io.check_writable(m, out)
     det = None
     if detection is not None:

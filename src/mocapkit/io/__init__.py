@@ -163,10 +163,10 @@ def check_keep_modelled(inp, out) -> None:
     """
     inp, out = Path(inp), Path(out)
     if out.suffix.lower() != ".trc":
-        raise MocapError(f"{out}: --keep-modelled chooses what a .trc output holds; a .c3d or .npz output keeps "
+        raise MocapError(f"{out}: --keep-modelled (keep_modelled=True) chooses what a .trc output holds; a .c3d or .npz output keeps "
                          "every point as read, modelled quantities included")
     if inp.suffix.lower() != ".c3d":
-        raise MocapError(f"{inp}: --keep-modelled keeps the modelled quantities a C3D lists (POINT:ANGLES, FORCES, "
+        raise MocapError(f"{inp}: --keep-modelled (keep_modelled=True) keeps the modelled quantities a C3D lists (POINT:ANGLES, FORCES, "
                          "MOMENTS, POWERS, ...); a .trc or .npz input lists none")
 
 

@@ -140,7 +140,7 @@ def publish(tmp: os.PathLike | str, path: os.PathLike | str) -> None:
             os.link(tmp, path)
         except FileExistsError:
             raise MocapFormatError(path, "appeared while this command ran (another program wrote it); pass "
-                                         "--overwrite to replace it") from None
+                                         "overwrite=True (--overwrite on the command line) to replace it") from None
         except OSError:  # no hard links here (some network and FAT file systems): the plain rename
             os.replace(tmp, path)
         else:
@@ -289,7 +289,7 @@ def removed_on_failure(
         for o in outs:
             if os.path.lexists(o):
                 raise MocapFormatError(o, "appeared while this command ran (another program wrote it); pass "
-                                          "--overwrite to replace it")
+                                          "overwrite=True (--overwrite on the command line) to replace it")
     made = missing_folders(o.absolute().parent for o in outs)  # removed again, when empty, on failure
     kept = keep_aside(outs)
     outer, mine = _WRITTEN.get(), []

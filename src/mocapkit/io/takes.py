@@ -93,7 +93,7 @@ def asf_of(path: os.PathLike | str, asf: os.PathLike | str | None = None) -> Pat
 
 
 def load_take(path: os.PathLike | str, asf: os.PathLike | str | None = None, fps: float | None = None,
-              unit: str | None = None, unit_option: str = "--unit"):
+              unit: str | None = None, unit_option: str = "unit="):
     """Read a motion (:class:`~mocapkit.motion.Motion`) or marker take (:class:`~mocapkit.io.c3d.MarkerSet`).
 
     ``asf``: the skeleton of an ``.amc`` file (ignored for other formats, so one
@@ -102,11 +102,11 @@ def load_take(path: os.PathLike | str, asf: os.PathLike | str | None = None, fps
     ``fps``: an ``.amc`` file's frame rate (ignored for other formats; by default
     :func:`mocapkit.io.asfamc.amc_rate`). ``unit``: the length unit (one of
     :data:`UNIT_CHOICES`) of a take whose file states none (:func:`with_unit`; ``unit_option``: how a refusal
-    names it, the CLI's ``--unit`` or Python's ``unit=``).
+    names it, Python's ``unit=`` by default, the CLI passes its ``--unit``).
     """
     from . import load
 
-    check_unit(unit)
+    check_unit(unit, unit_option)
     kwargs = {}
     if _is_amc(path):
         if asf is not None:
@@ -119,16 +119,18 @@ def load_take(path: os.PathLike | str, asf: os.PathLike | str | None = None, fps
     return with_unit(take, unit, path, unit_option) if unit is not None and "units" not in kwargs else take
 
 
-def check_unit(unit: str | None, option: str = "--unit ") -> None:
-    """Refuse a ``--unit`` that is none of :data:`UNIT_CHOICES` (:class:`~mocapkit.errors.MocapError`); None passes.
-    ``option``: how the message names it (the CLI's ``--unit ``, Python's ``unit=``)."""
+def check_unit(unit: str | None, option: str = "unit=") -> None:
+    """Refuse a unit that is none of :data:`UNIT_CHOICES` (:class:`~mocapkit.errors.MocapError`); None passes.
+    ``option``: how the message names it (Python's ``unit=`` by default, the CLI's ``--unit``)."""
     if unit is not None and unit not in UNIT_CHOICES:
         from ..errors import MocapError
 
-        raise MocapError(f"{option}{unit!r}: one of {', '.join(UNIT_CHOICES)} is expected")
+        lead = option.rstrip()
+        raise MocapError(f"{lead}{'' if lead.endswith('=') else ' '}{unit!r}: one of {', '.join(UNIT_CHOICES)} "
+                         "is expected")
 
 
-def with_unit(take, unit: str | None, path: os.PathLike | str, option: str = "--unit"):
+def with_unit(take, unit: str | None, path: os.PathLike | str, option: str = "unit="):
     """``take`` with the length unit ``unit`` (mm, cm, m, in) where its file states none.
 
     A :class:`~mocapkit.motion.Motion` gets ``skeleton.unit_cm`` (what
@@ -136,7 +138,8 @@ def with_unit(take, unit: str | None, path: os.PathLike | str, option: str = "--
     bones, which assumes an adult); a marker take read from an npz keeps its
     stated unit. A unit that disagrees with one the file states (an ASF's
     ``:units``, an npz's) is refused: :class:`~mocapkit.errors.MocapFormatError`
-    naming ``path`` and the option as the caller spells it (``option``: the CLI's ``--unit``, Python's ``unit=``).
+    naming ``path`` and the option as the caller spells it (``option``: Python's ``unit=`` by default, the CLI's
+    ``--unit``).
     None: ``take`` as it is.
     """
     if unit is None:
@@ -146,7 +149,7 @@ def with_unit(take, unit: str | None, path: os.PathLike | str, option: str = "--
     from ..markerset import MarkerSet, length_unit_cm
     from ..motion import Motion
 
-    check_unit(unit)
+    check_unit(unit, option)
     cm = length_unit_cm(unit)
     if isinstance(take, MarkerSet):
         stated = length_unit_cm(take.units)
@@ -163,16 +166,16 @@ def with_unit(take, unit: str | None, path: os.PathLike | str, option: str = "--
 
 
 def load_motion(path: os.PathLike | str, asf: os.PathLike | str | None = None, purpose: str = "this command",
-                fps: float | None = None, unit: str | None = None):
+                fps: float | None = None, unit: str | None = None, unit_option: str = "unit="):
     """Read a take that must have joint angles (a :class:`~mocapkit.motion.Motion`); a marker file is refused.
 
     ``purpose``: who needs the angles ("clean", "a query", ...), used in the
     one-line refusal ``PATH: a marker file has no joint angles, which clean needs; ...``.
-    ``fps``, ``unit``: as for :func:`load_take`.
+    ``fps``, ``unit``, ``unit_option``: as for :func:`load_take`.
     """
     from ..motion import Motion
 
-    take = load_take(path, asf, fps=fps, unit=unit)
+    take = load_take(path, asf, fps=fps, unit=unit, unit_option=unit_option)
     if not isinstance(take, Motion):
         raise MocapFormatError(path, f"a marker file has no joint angles, which {purpose} needs; solve it to a skeleton first")
     return take

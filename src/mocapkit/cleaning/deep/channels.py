@@ -33,7 +33,7 @@ from ...errors import SkeletonError
 from ...io.euler_branches import continuous_rotations
 from ...motion import Motion
 
-__all__ = ["ChannelLayout", "layout_for", "euler_columns", "root_angular_velocity", "encode", "decode", "unwrap_degrees", "wrap_degrees", "channel_joints", "lerp_fill"]
+__all__ = ["ChannelLayout", "layout_for", "euler_columns", "euler_values", "root_angular_velocity", "encode", "decode", "unwrap_degrees", "wrap_degrees", "channel_joints", "lerp_fill"]
 
 REPRESENTATIONS = ("euler", "rot6d")
 
@@ -187,14 +187,27 @@ def encode(motion: Motion, layout: ChannelLayout) -> tuple[np.ndarray, np.ndarra
     layout.check(motion)
     ctx = root_angular_velocity(motion.rotations[:, 0], motion.fps)
     if layout.representation == "euler":
-        sk = motion.skeleton
-        vals = motion.channel_values()
-        continuous_rotations(vals, [sk.joint_channels(j) for j in range(sk.num_joints)])
-        return unwrap_degrees(vals[:, euler_columns(motion)]), ctx
+        return euler_values(motion.channel_values(), motion.skeleton), ctx
     ids = np.array([motion.skeleton.index(n) for n in layout.joints], dtype=np.int64)
     m = R.quaternion_to_matrix(_local_dof_rotations(motion, ids))  # (F, n, 3, 3)
     vals = np.concatenate([m[..., :, 0], m[..., :, 1]], axis=-1)  # (F, n, 6)
     return vals.reshape(len(vals), -1), ctx
+
+
+def euler_values(rows: np.ndarray, skeleton) -> np.ndarray:
+    """(F, C) the Euler model channels of file-channel rows (F, C_file; degrees, file order), one branch per joint.
+
+    Each joint's triple is put on the branch nearest its previous frame's
+    (:func:`mocapkit.io.euler_branches.continuous_rotations`), then the model's columns
+    (:func:`euler_columns`) are unwrapped along time (:func:`unwrap_degrees`). The one encoding of every
+    Euler path: :func:`encode` (rows from :meth:`Motion.channel_values`), the streaming
+    :class:`~mocapkit.cleaning.deep.Denoiser` (one row at a time, the same numbers) and its batch counterpart
+    :func:`~mocapkit.cleaning.deep.denoise_rows`: rows on either branch (the plain conversion's or a file's
+    own) read as the same channels.
+    """
+    vals = np.array(rows, dtype=np.float64)
+    continuous_rotations(vals, [skeleton.joint_channels(j) for j in range(skeleton.num_joints)])
+    return unwrap_degrees(vals[:, euler_columns(skeleton)])
 
 
 def _gram_schmidt(v: np.ndarray) -> np.ndarray:

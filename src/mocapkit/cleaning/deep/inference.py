@@ -274,20 +274,25 @@ def passed_over(kind: str, take) -> str:
     return f"the {family} {kind.upper()} ({name}) was not used: {why}"
 
 
-def _smoothing_ebf(ebd: DeepModel, denoiser, take=None) -> DeepModel:
-    """The EBF that smooths what ``ebd`` fills: ``denoiser`` (:func:`_model`'s kinds) or, when None, the shipped
-    EBF that reads the EBD's channels (its pair: ``ebf.pt`` for ``ebd.pt``, ``ebf_bandai.pt`` for
-    ``ebd_bandai.pt``); where none reads them (an EBD trained on one's own rig), ValueError saying to give its EBF.
+def _smoothing_ebf(ebd: DeepModel, denoiser, take=None, said: list | None = None) -> DeepModel:
+    """The EBF that smooths what ``ebd`` fills: ``denoiser`` (:func:`_model`'s kinds) or, when None, its pair
+    (:func:`~mocapkit.cleaning.deep.pairs.paired_ebf`: the shipped EBF that reads the EBD's channels, ``ebf.pt`` for
+    ``ebd.pt``, ``ebf_bandai.pt`` for ``ebd_bandai.pt``, else the EBF of those channels at the EBD file's
+    :func:`~mocapkit.cleaning.deep.pairs.pair_path`, whose line is appended to ``said`` when given); with no pair
+    (an EBD trained on one's own rig, alone), ValueError saying to give its EBF.
     An EBF of another rig than the EBD's is refused with ValueError (a request, not a reason to fall back).
     ``take``: the take served (for :func:`model_of_kind`)."""
     if denoiser is None:
-        found = (_packaged(n) for n in _shipped_names("ebf"))
-        ebf = next((m for m in found if m.layout == ebd.layout), None)
+        from .pairs import paired_ebf
+
+        ebf, line = paired_ebf(ebd)
+        if line and said is not None:
+            said.append(line)
         if ebf is None:
             what = f"the EBD {ebd.source}" if ebd.source else "the given EBD"
             raise ValueError(f"no shipped EBF reads the {ebd.layout.num_channels} channels of {what}: give the EBF "
                              "trained on its rig (fill --denoiser, clean --ebf; denoiser= or models= in Python), or "
-                             "fill without it (--no-smooth)")
+                             "fill without it (--no-smooth; smooth=False in Python)")
     else:
         ebf = model_of_kind(denoiser, "ebf", take)
     if ebf.layout != ebd.layout:
@@ -864,12 +869,13 @@ def fill_or_fallback(motion: Motion, model=None, denoiser=None, smooth: bool = T
     m, sv = served_or_refused(motion, model, "ebd")  # a model asked for by name is used or refused
     if not isinstance(sv, str):
         by_prior = _fills_by_prior(sv.model, method)  # raises before the try: a bad request is no reason to fall back
-        ebf = served_by(motion, _smoothing_ebf(sv.model, denoiser, motion)) if smooth else "not asked"
+        paired: list[str] = []  # the line naming an own-rig EBF found as the EBD's pair
+        ebf = served_by(motion, _smoothing_ebf(sv.model, denoiser, motion, paired)) if smooth else "not asked"
         smooth = not isinstance(ebf, str)
         try:
             out, runs = _fill_gaps(motion, sv, ebf if smooth else None, smooth, method)
             ebf_ran = ebf_takes_part(sv.model, smooth, method)
-            notes = dict.fromkeys(n for n in (licence_note(sv.model, options), unfinished_note(sv.model),
+            notes = dict.fromkeys(n for n in (*paired, licence_note(sv.model, options), unfinished_note(sv.model),
                                               licence_note(ebf.model, options) if ebf_ran else "",
                                               unfinished_note(ebf.model) if ebf_ran else "") if n)
             if model is None:

@@ -4,9 +4,12 @@ Mall et al. (2017, sec. 4) smooth the gap filler's output with the denoiser: the
 EBF that reads the very same channels. The shipped models come in such pairs, named alike (``ebd.pt`` /
 ``ebf.pt``, ``ebd_bandai.pt`` / ``ebf_bandai.pt``: the EBF's file name is the EBD's with "ebd" read "ebf"), and a
 pair is told by its channels (:class:`~mocapkit.cleaning.deep.channels.ChannelLayout`), not its name. An EBD trained
-on one's own rig has no shipped EBF of its channels; where the EBD's own folder holds the file its name pairs it with
-(``my_rig_ebd.pt`` -> ``my_rig_ebf.pt``), an EBF reading the same channels, that EBF is its pair, as the shipped pair
-is the shipped EBD's, and the caller says so in one line. Anything else beside it (no such file, a file that does not
+on one's own rig has no shipped EBF of its channels; where the file its path pairs it with (:func:`pair_path`: the
+EBD's file name with "ebd" read "ebf", ``my_rig_ebd.pt`` -> ``my_rig_ebf.pt`` in the same folder, or for a name
+without "ebd" its folder's, ``my_ebd/model.pt`` -> ``my_ebf/model.pt`` as ``mocapkit train -o`` lays models out) is an
+EBF reading the same channels, that EBF is its pair, as the shipped pair is the shipped EBD's, and the caller says so
+in one line. Every path that smooths an EBD's fill without a named EBF takes its pair by this one rule: ``fill
+--model``, ``clean --ebd``, :func:`mocapkit.clean`'s ``models=``, :func:`~mocapkit.cleaning.deep.fill_gaps`. Anything else beside it (no such file, a file that does not
 read as a model, an EBD, an EBF of other channels) is no pair: the caller refuses as it does without one.
 """
 
@@ -17,7 +20,7 @@ from pathlib import Path
 
 from ...errors import MocapFormatError
 
-__all__ = ["pair_name", "paired_ebf"]
+__all__ = ["pair_name", "pair_path", "paired_ebf"]
 
 
 def pair_name(name: str) -> str:
@@ -27,6 +30,19 @@ def pair_name(name: str) -> str:
         return ""
     return re.sub("ebd", lambda m: m.group(0)[:2] + ("f" if m.group(0)[2].islower() else "F"), name,
                   flags=re.IGNORECASE)
+
+
+def pair_path(ebd_path) -> Path | None:
+    """Where the EBF paired with the EBD file ``ebd_path`` would be: the file :func:`pair_name` names beside it
+    (``models/kt_ebd.pt`` -> ``models/kt_ebf.pt``); for a file name without "ebd", the same file name in the folder
+    whose name :func:`pair_name` reads (``my_ebd/model.pt`` -> ``my_ebf/model.pt``: ``mocapkit train -o my_ebd``'s
+    layout); None when neither name has "ebd". Says nothing of whether that file exists."""
+    p = Path(ebd_path)
+    name = pair_name(p.name)
+    if name:
+        return p.with_name(name)
+    folder = pair_name(p.parent.name)
+    return p.parent.with_name(folder) / p.name if folder else None
 
 
 def _shipped_pair(ebd):
@@ -44,12 +60,10 @@ def _shipped_pair(ebd):
 
 
 def _beside(ebd):
-    """The EBF in ``ebd``'s folder that :func:`pair_name` names, where it is one reading ``ebd``'s channels; else
-    None."""
+    """The EBF at :func:`pair_path` of ``ebd``'s file, where it is one reading ``ebd``'s channels; else None."""
     from .inference import load_model
 
-    name = pair_name(Path(ebd.source).name) if ebd.source else ""
-    path = Path(ebd.source).with_name(name) if name else None
+    path = pair_path(ebd.source) if ebd.source else None
     if path is None or not path.is_file():
         return None
     try:
@@ -62,8 +76,8 @@ def _beside(ebd):
 def paired_ebf(ebd) -> tuple:
     """``(ebf, line)``: the EBF that smooths what the EBD model ``ebd`` fills when no EBF is named (module docstring).
 
-    The shipped EBF that reads ``ebd``'s channels, with line ""; else the EBF beside ``ebd``'s file under its
-    :func:`pair_name`, with the line that says it is used; else ``(None, "")``: the caller asks for an EBF."""
+    The shipped EBF that reads ``ebd``'s channels, with line ""; else the EBF at :func:`pair_path` of ``ebd``'s
+    file, with the line that says it is used; else ``(None, "")``: the caller asks for an EBF."""
     shipped = _shipped_pair(ebd)
     if shipped is not None:
         return shipped, ""

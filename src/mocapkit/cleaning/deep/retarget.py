@@ -39,7 +39,10 @@ maps the model's output back onto the take's joints:
 3. ``M = C^-1 L C`` with ``C`` the Acclaim ``axis`` of the joint
    (:data:`ACCLAIM_AXES`, the same in every CMU and HDM05 ASF), and the
    degrees of freedom are ``M``'s Euler angles in the model's channel order,
-   as :meth:`Motion.channel_values` reads an AMC. A spine or neck segment
+   as :meth:`Motion.channel_values` reads an AMC, each joint's triple on the
+   branch nearest its previous frame's (:func:`mocapkit.rotations.continuous_euler`,
+   as :func:`channels.encode` reads a take: near gimbal lock the plain
+   conversion's other branch would read as a 180-deg jump). A spine or neck segment
    the rig lacks (a three-segment spine has no middle one, a Biovision
    ``Hips, Chest, Chest2, Neck, Head`` trunk no lower back and lower neck)
    takes half of the turn between the mapped joints around it and the one
@@ -518,9 +521,12 @@ def _pelvis_rotation(motion: Motion, s: Serving) -> np.ndarray:
 
 
 def _full_angles(m: np.ndarray, order: str) -> tuple[np.ndarray, str]:
-    """Euler angles (F, 3) of M in the 3-axis order completing ``order``; the dofs sit at ``order``'s axes."""
+    """Euler angles (F, 3), degrees, of M (F, 4) in the 3-axis order completing ``order``; the dofs sit at
+    ``order``'s axes. Each frame's triple is the one nearest the frame before's
+    (:func:`mocapkit.rotations.continuous_euler`): one branch, as :func:`channels.encode` reads a joint, so a
+    joint near gimbal lock does not jump by 180 deg where the plain conversion changes branch."""
     full = _complete_order(order)
-    return R.quaternion_to_euler(m, full), full
+    return R.continuous_euler(R.quaternion_to_euler(m, full), full), full
 
 
 def encode(motion: Motion, serving: Serving) -> tuple[np.ndarray, np.ndarray]:

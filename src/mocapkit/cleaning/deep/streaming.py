@@ -24,7 +24,7 @@ from numba import njit
 from ... import rotations as R
 from ...errors import SkeletonError
 from ...motion import Skeleton
-from .channels import UNWRAP_ALPHA, euler_columns, root_angular_velocity, unwrap_degrees
+from .channels import UNWRAP_ALPHA, euler_columns, euler_values, root_angular_velocity
 from .inference import denoise_channels, model_of_kind, needs_resampling, warn_licence
 from .networks import EBF, HALF_WINDOW, LOG_SIGMA_RANGE, NOISE_WINDOW, gaussian_filter_frames, noise_level_step
 from .retarget import served_by
@@ -40,7 +40,12 @@ class Denoiser:
     emits nothing until 15 more frames have arrived; then each push returns the
     cleaned row of the frame 15 earlier. :meth:`flush` returns the last 15.
     The output equals :func:`denoise_rows` on the whole take frame for frame
-    (to float32 rounding). Root channels pass through unchanged. Each push
+    (to float32 rounding). Each joint's Euler triple is read on one branch, the
+    one nearest its previous frame's (:func:`~mocapkit.cleaning.deep.channels.euler_values`,
+    as :func:`~mocapkit.cleaning.deep.denoise` reads a take), so a row on the
+    other branch near gimbal lock (a Bandai Namco ``Hips`` in a heading turn) is
+    no 180-deg jump; cleaned rows come out on that one branch, wrapped to
+    [-180, 180). Root channels pass through unchanged. Each push
     runs the network's layers on one frame with the weights as float64 numpy
     arrays and numba loops (about 0.8 ms on this CPU, where the same layers as
     ~20 PyTorch calls cost 2 ms).
@@ -65,6 +70,8 @@ class Denoiser:
         self.skeleton = skeleton
         self.fps = float(fps)
         self._cols = euler_columns(skeleton)
+        self._triples = _three_axis_groups(skeleton)
+        self._branch = None  # the last row with each joint's triple on its branch (channels.euler_values)
         self._root = _root_rotation_columns(skeleton)
         self._n_file = sum(len(skeleton.joint_channels(j)) for j in range(skeleton.num_joints))
         L1, L2 = self.net.lstm1.lookahead, self.net.lstm2.lookahead
@@ -86,7 +93,12 @@ class Denoiser:
         self._started = False
 
     def _inputs(self, row: np.ndarray):
-        raw = row[self._cols]
+        branch = row.copy()  # each 3-axis triple nearest the frame before's, as channels.euler_values, causally
+        for order, idx in self._triples:
+            start = None if self._branch is None else self._branch[idx]
+            branch[idx] = R.continuous_euler(row[idx][None], order, start=start)[0]
+        self._branch = branch
+        raw = branch[self._cols]
         if self._ref is None:
             self._ref = raw.copy()
         u = self._ref + (np.mod(raw - self._ref + 180.0, 360.0) - 180.0)  # as channels.unwrap_degrees
@@ -248,6 +260,21 @@ def _lstm_backward(gis, w_hh: np.ndarray) -> np.ndarray:
     return _lstm_steps(np.stack(gis)[::-1].copy(), np.zeros(H), np.zeros(H), w_hh)[0]
 
 
+def _three_axis_groups(skeleton: Skeleton) -> list[tuple[str, np.ndarray]]:
+    """``(order, columns (K, 3))`` per rotation order of the joints with three rotation channels, in file-row
+    columns: the triples whose branch :func:`~mocapkit.io.euler_branches.continuous_rotations` chooses (a joint
+    with fewer axes has only whole turns, which the unwrapping takes care of alike, to rounding)."""
+    groups: dict[str, list[list[int]]] = {}
+    c = 0
+    for j in range(skeleton.num_joints):
+        chans = skeleton.joint_channels(j)
+        rot = [c + k for k, ch in enumerate(chans) if ch.endswith("rotation")]
+        if len(rot) == 3:
+            groups.setdefault("".join(chans[k - c][0] for k in rot), []).append(rot)
+        c += len(chans)
+    return [(order, np.array(cols, dtype=np.int64)) for order, cols in groups.items()]
+
+
 def _root_rotation_columns(skeleton: Skeleton) -> np.ndarray:
     chans = skeleton.joint_channels(0)
     return np.array([k for k, c in enumerate(chans) if c.endswith("rotation")], dtype=np.int64)
@@ -302,7 +329,7 @@ def denoise_rows(skeleton: Skeleton, rows: np.ndarray, fps: float, model=None) -
     m.layout.check(skeleton, "skeleton")
     rows = arr
     cols = euler_columns(skeleton)
-    x = unwrap_degrees(rows[:, cols])
+    x = euler_values(rows, skeleton)  # each joint's triple on one branch, as deep.denoise and streaming read it
     q = _root_quaternion(skeleton, rows, _root_rotation_columns(skeleton))
     out = denoise_channels(x, root_angular_velocity(q, fps), m, fps=fps, calibrate=False)  # as streaming runs
     res = rows.copy()

@@ -583,12 +583,12 @@ def check_out_dir(out_dir, clips: list[Motion], config: TrainConfig = TrainConfi
                 why = (" (written by an earlier mocapkit, which kept no digest of its clips' content: it cannot be "
                        "resumed)" if ck is not None and _without_digests(ck.get("data")) else
                        " (other clips, or the same clips with other content)")
-            raise ValueError(f"{out_dir} holds {other}{why}; --restart starts it over there (its model and checkpoint "
-                             "replaced), or give another folder")
+            raise ValueError(f"{out_dir} holds {other}{why}; --restart (resume=False in Python) starts it over there "
+                             "(its model and checkpoint replaced), or give another folder")
         same_run = not other
         if same_run and not model_path.exists() and int(ck.get("epoch", -1)) + 1 >= config.epochs:
-            raise ValueError(f"{out_dir}: its training is finished but model.pt is missing; more --epochs continue "
-                             "it, --restart trains it again")
+            raise ValueError(f"{out_dir}: its training is finished but model.pt is missing; more --epochs "
+                             "(TrainConfig.epochs) continue it, --restart (resume=False) trains it again")
     if model_path.exists():
         meta = _model_record(model_path)
         this_training = meta is not None and meta.get("training") == _training_id(cfg_json, data_json)
@@ -599,8 +599,8 @@ def check_out_dir(out_dir, clips: list[Motion], config: TrainConfig = TrainConfi
         mine = same_run and this_training
         if not mine and not overwrite:
             why = "no checkpoint of this training beside it" if not same_run else "it is another training's model"
-            raise ValueError(f"{model_path} already exists ({why}); --restart or --overwrite replaces it, or give "
-                             "another folder")
+            raise ValueError(f"{model_path} already exists ({why}); --restart or --overwrite (resume=False or "
+                             "overwrite=True in Python) replaces it, or give another folder")
         same_run = same_run and mine
     return same_run
 

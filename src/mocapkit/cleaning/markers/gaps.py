@@ -704,7 +704,7 @@ def _fill_one(pos, out, m, a, b, order, stats, candidates, keep, predictors, con
         why = ""
         if np.isfinite(expected) and expected > max_error:
             why = (f"expected error {expected * unit_mm:.0f} mm, over the {max_error * unit_mm:.0f} mm a fill may be "
-                   "off (the distance to its nearest marker; --max-fill-error)")
+                   "off (the distance to its nearest marker; --max-fill-error, max_error_mm= in Python)")
         elif limits is not None:
             why = implausible(pos, m, a, b, est, limits, unit_mm, first_frame)
         rec = GapFill(m, a, b, method, tuple(donors), expected, False, why, averaged if k == 0 else 1, note)

@@ -91,7 +91,7 @@ def not_looked_for(has_context: bool, default: bool) -> str:
         return ""
     which = "the bundled default context, a general sample," if has_context else "no context"
     return (f"smooth drifts not looked for: the drift rule needs a context that repeats the take's motion "
-            f"(--context), and {which} repeats none")
+            f"(--context; context= in Python), and {which} repeats none")
 
 
 def body_agreement(digression: np.ndarray, analysed: np.ndarray) -> np.ndarray:
