@@ -27,6 +27,7 @@ PLAIN_CAUSES = {
     "spike": "the joint spikes far past anything it does elsewhere",
     "reversed": "this stretch plays backwards",
     "frozen": "the joint's rotation sticks on one value while the body moves, then jumps",
+    "flip": "the joint turns half a turn in one frame and later turns back",
 }
 _BY_WORDS = {words: PLAIN_CAUSES[name] for name, words in CAUSES}
 _STEPS = {
