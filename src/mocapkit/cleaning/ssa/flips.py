@@ -145,6 +145,30 @@ def _channel_halves(sk, j: int) -> np.ndarray:
     return h
 
 
+def _offsets_apart(t: np.ndarray, a: int, b: int) -> float:
+    """Degrees between the offsets of a joint's track ``t`` (F, 4) at the step into frame ``a`` and at the step
+    out of frame ``b`` (measured as :func:`_leaf_repair` does, the closer of the parent's and the own frame);
+    0 where there is no room to measure."""
+    if a < 2 or b + 2 >= len(t):
+        return 0.0
+    return float(np.degrees(min(R.geodesic_angle(*e) for e in _offset_ends(t, a, b).values())))
+
+
+def _ahead(q0: np.ndarray, q1: np.ndarray) -> np.ndarray:
+    """(4,): ``q1`` carried one frame further along the constant-velocity path from ``q0``."""
+    q0 = np.where(np.sum(q0 * q1) < 0, -q0, q0)
+    return R.quaternion_multiply(R.quaternion_multiply(q1, R.quaternion_inverse(q0)), q1)
+
+
+def _offset_ends(t: np.ndarray, a: int, b: int) -> dict:
+    """The offset of frames ``a .. b`` of track ``t`` (F, 4) at each end, ``{"parent": (on, back), "own": ...}``:
+    ``t[a]`` against the path of ``t[a - 2], t[a - 1]`` carried on, ``t[b]`` against ``t[b + 2], t[b + 1]``'s."""
+    good_a, good_b = _ahead(t[a - 2], t[a - 1]), _ahead(t[b + 2], t[b + 1])
+    inv = R.quaternion_inverse
+    return {"parent": (R.quaternion_multiply(t[a], inv(good_a)), R.quaternion_multiply(t[b], inv(good_b))),
+            "own": (R.quaternion_multiply(inv(good_a), t[a]), R.quaternion_multiply(inv(good_b), t[b]))}
+
+
 def _leaf_repair(q: np.ndarray, j: int, a: int, b: int, halves=None) -> tuple[np.ndarray | None, str]:
     """Joint ``j``'s constant half turn over frames ``a .. b`` of ``q`` (F, J, 4) taken away: ``(new q, "")``, or
     ``(None, why)`` where the offsets at the two steps do not agree or there is no room to measure them. Where
@@ -154,15 +178,8 @@ def _leaf_repair(q: np.ndarray, j: int, a: int, b: int, halves=None) -> tuple[np
     if a < 2 or b + 2 >= F:
         return None, "too near the take's end to measure"
     t = q[:, j]
-
-    def ahead(q0, q1):  # q1 carried one frame further along the constant-velocity path from q0
-        q0 = np.where(np.sum(q0 * q1) < 0, -q0, q0)
-        return R.quaternion_multiply(R.quaternion_multiply(q1, R.quaternion_inverse(q0)), q1)
-
-    good_a, good_b = ahead(t[a - 2], t[a - 1]), ahead(t[b + 2], t[b + 1])
     inv = R.quaternion_inverse
-    ends = {"parent": (R.quaternion_multiply(t[a], inv(good_a)), R.quaternion_multiply(t[b], inv(good_b))),
-            "own": (R.quaternion_multiply(inv(good_a), t[a]), R.quaternion_multiply(inv(good_b), t[b]))}
+    ends = _offset_ends(t, a, b)
     frame = min(ends, key=lambda k: float(R.geodesic_angle(*ends[k])))
     on, back = ends[frame]
     if np.degrees(R.geodesic_angle(on, back)) > AGREE_DEG:
@@ -281,8 +298,15 @@ def turned_back(motion, leaves=()) -> tuple:
         j = names.index(name)
         if (parents == j).any():
             continue
-        for a, b in _pair_steps(np.flatnonzero(local[:, j])):
-            found.append((a, b, [j], "leaf"))
+        at = np.flatnonzero(local[:, j])
+        k = 0
+        while k < len(at):  # a step whose next one does not turn the same half turn back pairs with none
+            a, b = at[k] + 1, (at[k + 1] if k + 1 < len(at) else None)
+            found.append((int(a), None if b is None else int(b), [j], "leaf"))
+            # the next step turns some other way (offsets over 90 deg apart): the step off pairs with none; two
+            # steps that turn nearly the same half turn back stay a pair, undone or named
+            apart = _offsets_apart(q[:, j], a, b) if b is not None else 0.0
+            k += 1 if apart > 90.0 and k + 2 < len(at) else 2
     flips = []
     out = q
     usual = np.percentile(point_steps(motion), 95, axis=0) if found else None
