@@ -955,7 +955,9 @@ def clean(
             note = "; ".join(x for x in (note, f"{_count(len(done.left), 'run')} left: repair not better than the take") if x)
         records.append(StepRecord("repair", time.perf_counter() - t, int(repaired.sum()),
                                   "medoid of the nearest motion words (transient offsets taken away, confirmed left/right swaps exchanged "
-                                  "back)" + (" + foot-skate cleanup" if foot_skate else ""), note))
+                                  "back)" + (" + foot-skate cleanup" if foot_skate else "")
+                                  + (" + turn-overs turned back (ssa.flips)" if done.turned is not None and done.turned.any() else ""),
+                                  note))
 
     if den_record is not None:  # listed in the order of STEPS, where the record has always listed it
         records.append(den_record)
