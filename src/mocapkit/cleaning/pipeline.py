@@ -947,7 +947,7 @@ def clean(
         flags, causes = with_flips(flags, causes, done)  # turn-overs turned back or named: flagged, named below
         note = "; ".join(done.put_back) if done.put_back else "" if flags.any() else "nothing flagged"
         if done.flips:
-            notes.extend(capped_lines(done.flips, "turn-overs"))
+            notes.extend(done.flips)  # every one: a flag's outcome in the report reads its line
             turned = sum(": turned back exactly" in line for line in done.flips)
             note = "; ".join(x for x in (note, f"{_count(len(done.flips), 'turn-over')} ({turned} turned back)") if x)
         if done.left:  # runs the repair guard gave back as they were: flagged, not changed, named

@@ -34,13 +34,14 @@ joint. A repair of this library, not of Aristidou et al. (2018).
 from __future__ import annotations
 
 import dataclasses
+import re
 from dataclasses import dataclass
 
 import numpy as np
 
 from ... import rotations as R
 
-__all__ = ["FLIP_DEG", "AXIS_COS", "AGREE_DEG", "STEP_OK_DEG", "LIMIT_TOL_DEG", "Flip", "turn_steps", "point_steps", "turned_back"]
+__all__ = ["FLIP_DEG", "AXIS_COS", "AGREE_DEG", "STEP_OK_DEG", "LIMIT_TOL_DEG", "Flip", "left_from_note", "turn_steps", "point_steps", "turned_back"]
 
 #: a step of a joint's rotation this large (degrees, in one frame) is a turn-over
 FLIP_DEG = 150.0
@@ -73,6 +74,20 @@ class Flip:
         what = (f"turned 180 deg about itself, {frames}, positions unchanged" if self.kind == "bone"
                 else f"turned 180 deg and back, {frames} (a constant half turn)")
         return f"{j} {what}: " + ("turned back exactly" if self.fixed else f"left as is ({self.why})")
+
+
+_NOTE = re.compile(r"^flip: (\S+)(?: \(with ([^)]*)\))? turned 180 deg .*?frames? (\d+)(?:-(\d+))?.*?: left as is \((.*)\)$")
+
+
+def left_from_note(note: str):
+    """``(joint names, first, last, why)`` of a turn-over named and left, read back from its line (``"flip: ..."``,
+    as :class:`Flip` says it and a clean record's notes keep it); None for any other line."""
+    m = _NOTE.match(note)
+    if m is None:
+        return None
+    joints = (m.group(1),) + (tuple(m.group(2).split(", ")) if m.group(2) else ())
+    first = int(m.group(3))
+    return joints, first, int(m.group(4) or first), m.group(5)
 
 
 def turn_steps(q: np.ndarray, flip_deg: float = FLIP_DEG) -> np.ndarray:
@@ -224,11 +239,13 @@ def _check(motion, new_q: np.ndarray, joints: list[int], a: int, b: int, usual: 
     part, fixed = motion[lo:hi], dataclasses.replace(motion[lo:hi], rotations=new_q[lo:hi])
     m0, m1 = point_steps(part), point_steps(fixed)
     names = list(sk.joint_names) + list(sk.end_site_names)
+    scale, unit = (sk.unit_cm, "cm") if sk.unit_cm else (1.0, "file units")
     for s in steps:
         worse = m1[s - 1 - lo] - m0[s - 1 - lo] - usual
         if (worse > 0).any():
             k = int(np.argmax(worse))
-            return f"{names[k]} would step {m1[s - 1 - lo, k]:.3g} against {m0[s - 1 - lo, k]:.3g} file units at frame {s}"
+            return (f"{names[k]} would step {m1[s - 1 - lo, k] * scale:.3g} against {m0[s - 1 - lo, k] * scale:.3g} "
+                    f"{unit} at frame {s}")
     vals = fixed.channel_values()
     back = type(motion).from_channel_values(sk, vals, motion.fps).rotations
     if np.degrees(R.geodesic_angle(back[:, joints], fixed.rotations[:, joints])).max() > 0.01:
