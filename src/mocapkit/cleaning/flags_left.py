@@ -14,6 +14,7 @@ import numpy as np
 
 from .decisions import flag_segments
 from .ssa import LeftRun
+from .ssa.flips import left_from_note
 
 __all__ = ["flag_outcomes", "left_line"]
 
@@ -21,19 +22,24 @@ __all__ = ["flag_outcomes", "left_line"]
 def flag_outcomes(result) -> list[dict]:
     """:func:`~mocapkit.cleaning.decisions.flag_segments` of ``result``, each with ``"left"``: "" where a step
     changed some of its cells, else why it was left as it was, in a reader's words (the repair guard's reason
-    from the result's notes, or that repair did not run).
+    from the result's notes, a turn-over's reason for being left (:mod:`~mocapkit.cleaning.ssa.flips`), or that
+    repair did not run).
 
     ``result`` a :class:`~mocapkit.cleaning.pipeline.CleanResult` (a fresh one or one loaded from its record:
     the notes keep the guard's runs).
     """
     changed = np.asarray(result.changed, dtype=bool)
     runs = [r for r in (LeftRun.from_note(n) for n in result.notes) if r is not None]
+    flips = [f for f in (left_from_note(n) for n in result.notes) if f is not None]  # turn-overs named and left
     repaired = any(s.name == "repair" for s in result.steps)
     out = []
     for seg in flag_segments(result):
         j, a, b = seg["joint_index"], seg["first"], seg["last"]
         left = ""
-        if not changed[a:b + 1, j].any():
+        turns = [w for js, f0, f1, w in flips if seg["joint"] in js and f0 <= b and a <= f1]
+        if not changed[a:b + 1, j].any() and turns:
+            left = f"left as it was: a half turn in one frame and back, not turned back ({turns[0]})"
+        elif not changed[a:b + 1, j].any():
             why = [r.reason for r in runs if r.joint == seg["joint"] and r.start <= b and a < r.end]
             left = ("left as it was: the repair was not better than the take" + (f" ({why[0]})" if why else "")
                     if repaired else "left as it was: the repair step did not run")

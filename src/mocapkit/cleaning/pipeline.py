@@ -144,7 +144,7 @@ from .noise_rate import noise_too_coarse
 from .noise_scope import with_body_noise
 from .stutters import Stutter, find_stutters, stutter_frames
 from .whole_take import (MAX_WORD_ANGLE_DEG, denoise_take, detect_take, differing, fill_take, motion_span,
-                         repair_whole, take_params, with_teleports)
+                         repair_whole, take_params, with_flips, with_teleports)
 from .zeros import ZeroRun, find_zeros
 
 __all__ = ["STEPS", "CleanResult", "StepRecord", "clean", "capped_lines", "noise_level", "noise_direction", "noisy_cells", "clean_path", "parse_steps",
@@ -944,13 +944,20 @@ def clean(
             cur = dataclasses.replace(cur, rotations=np.where(denoised[..., None], den_rot, cur.rotations))
         # the root cells put back: flagged in the record, so a person can undo them
         flags, causes = with_teleports(flags, causes, done.teleported)
+        flags, causes = with_flips(flags, causes, done)  # turn-overs turned back or named: flagged, named below
         note = "; ".join(done.put_back) if done.put_back else "" if flags.any() else "nothing flagged"
+        if done.flips:
+            notes.extend(done.flips)  # every one: a flag's outcome in the report reads its line
+            turned = sum(": turned back exactly" in line for line in done.flips)
+            note = "; ".join(x for x in (note, f"{_count(len(done.flips), 'turn-over')} ({turned} turned back)") if x)
         if done.left:  # runs the repair guard gave back as they were: flagged, not changed, named
             notes.extend(capped_lines(done.left, "runs left"))
             note = "; ".join(x for x in (note, f"{_count(len(done.left), 'run')} left: repair not better than the take") if x)
         records.append(StepRecord("repair", time.perf_counter() - t, int(repaired.sum()),
                                   "medoid of the nearest motion words (transient offsets taken away, confirmed left/right swaps exchanged "
-                                  "back)" + (" + foot-skate cleanup" if foot_skate else ""), note))
+                                  "back)" + (" + foot-skate cleanup" if foot_skate else "")
+                                  + (" + turn-overs turned back (ssa.flips)" if done.turned is not None and done.turned.any() else ""),
+                                  note))
 
     if den_record is not None:  # listed in the order of STEPS, where the record has always listed it
         records.append(den_record)

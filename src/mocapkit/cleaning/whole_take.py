@@ -39,6 +39,7 @@ Two more things of a whole take go the same way in every command:
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -345,18 +346,25 @@ class TakeRepair:
     teleports put back (the root's position on joint 0, the pelvis's animated offset on its joint), none of them
     in ``repaired``; ``put_back``: one line per teleport put back
     (:class:`~mocapkit.cleaning.take_breaks.RootEvent`); ``left``: one line per run the repair guard left as it
-    was ("left: repair not better than the take: ...", :class:`~mocapkit.cleaning.ssa.LeftRun`)."""
+    was ("left: repair not better than the take: ...", :class:`~mocapkit.cleaning.ssa.LeftRun`); ``turned``
+    and ``turn_flags``: (F, J) bool or None, the cells of the turn-overs turned back, and those plus the cells of
+    the turn-overs named and left (:func:`mocapkit.cleaning.ssa.flips.turned_back`); ``flips``: one line per
+    turn-over ("flip: lfemur (with ltibia) turned 180 deg about itself, frames 78-82, ...")."""
 
     motion: Motion
     repaired: np.ndarray
     teleported: np.ndarray
     put_back: tuple = ()
     left: tuple = ()
+    turned: np.ndarray | None = None
+    turn_flags: np.ndarray | None = None
+    flips: tuple = ()
 
     @property
     def changed(self) -> np.ndarray:
         """(F, J) bool: every cell the repair changed."""
-        return self.repaired | self.teleported
+        out = self.repaired | self.teleported
+        return out if self.turned is None else out | self.turned
 
 
 def repair_whole(motion: Motion, detection, context=None, *, foot_skate: bool = False, poses=None) -> TakeRepair:
@@ -376,11 +384,56 @@ def repair_whole(motion: Motion, detection, context=None, *, foot_skate: bool = 
     left = tuple(str(r) for r in left)
     moved = changed_cells(motion, fixed)
     events = [e for e in tb.root_events(fixed, span) if e.kind == "teleport"]
-    if not events:
-        return TakeRepair(fixed, moved, np.zeros_like(moved), left=left)
-    back, done = tb.fix_teleports(fixed, events)
+    back, done = tb.fix_teleports(fixed, events) if events else (fixed, ())
     teleported = changed_cells(motion, back) & ~moved
-    return TakeRepair(back, moved, teleported, tuple(str(e) for e in done if e.fixed), left)
+    leaves = [name for name, _ in getattr(detection, "left_out", ()) or ()]
+    return turned_over(TakeRepair(back, moved, teleported, tuple(str(e) for e in done if e.fixed), left), span, leaves)
+
+
+def turned_over(done: TakeRepair, span: tuple[int, int], leaves=()) -> TakeRepair:
+    """``done`` with the turn-overs of its take within frames ``span`` (``lo .. hi - 1``) turned back where that is
+    right and named either way (:func:`mocapkit.cleaning.ssa.flips.turned_back`; ``leaves``: the joints
+    self-similarity did not analyse, whose constant half turns are looked for too). A turn-over whose cells the
+    repair changed before is named and left."""
+    from .ssa.flips import turned_back
+
+    lo, hi = int(span[0]), int(span[1])
+    m = done.motion
+    names = list(m.skeleton.joint_names)
+    part, turned, flagged, flips = turned_back(m[lo:hi], [n for n in leaves if n in names])
+    if not flips:
+        return done
+    rot = np.array(m.rotations)
+    full = np.zeros((m.num_frames, len(names)), dtype=bool)
+    full_flags = np.zeros_like(full)
+    full_flags[lo:hi] = flagged
+    before = done.repaired | done.teleported
+    lines = []
+    for f in flips:
+        a, b = f.first + lo, f.last + lo
+        cells = turned[f.first : f.last + 1]
+        if f.fixed and (before[a : b + 1] & cells).any():
+            f = dataclasses.replace(f, fixed=False, why="the repair changed its cells")
+        elif f.fixed:
+            full[a : b + 1] |= cells
+            rot[a : b + 1] = np.where(cells[..., None], part.rotations[f.first : f.last + 1], rot[a : b + 1])
+        lines.append(f"flip: {dataclasses.replace(f, first=a, last=b)}")
+    if full.any():
+        m = dataclasses.replace(m, rotations=rot)
+    return dataclasses.replace(done, motion=m, turned=full, turn_flags=full_flags, flips=tuple(lines))
+
+
+def with_flips(flags: np.ndarray, causes: np.ndarray | None, done: TakeRepair):
+    """``(flags, causes)`` (F, J) with the cells of ``done``'s turn-overs (:func:`turned_over`) flagged, cause
+    ``flip`` (:data:`mocapkit.cleaning.ssa.cues.CAUSES`), so that a record lists them and a person can reject a
+    turn-back; the inputs as they are when there is none."""
+    if done.turn_flags is None or not done.turn_flags.any():
+        return flags, causes
+    from .ssa.cues import CAUSE_DTYPE, CAUSES
+
+    causes = np.zeros(flags.shape, dtype=CAUSE_DTYPE) if causes is None else np.array(causes, dtype=CAUSE_DTYPE)
+    causes[done.turn_flags] |= CAUSE_DTYPE(1 << [k for k, _ in CAUSES].index("flip"))
+    return flags | done.turn_flags, causes
 
 
 def with_teleports(flags: np.ndarray, causes: np.ndarray | None, teleported: np.ndarray):

@@ -176,7 +176,7 @@ def repair(
     from ..batch import load_context
     from ..cleaning import ssa
     from ..cleaning.take_context import unread_context
-    from ..cleaning.whole_take import check_no_zeros, repair_whole, with_teleports
+    from ..cleaning.whole_take import check_no_zeros, repair_whole, with_flips, with_teleports
     from ..context import fit_context
     from ..io.takes import CLI_AMC_NAMES, check_asf, load_motion
 
@@ -212,10 +212,10 @@ def repair(
     done = repair_whole(m, det, ctx, foot_skate=foot_skate, poses=poses)
     save_take(done.motion, out, inp, asf, overwrite, like=inp)
     changed = done.changed
-    flags, _ = with_teleports(det.flags, None, done.teleported)
+    flags, _ = with_flips(*with_teleports(det.flags, None, done.teleported), done)
     extra = int((done.repaired & ~det.flags).sum())
     said = f"{int(flags.sum())} flagged" + (f"; {extra} more moved by the foot-skate cleanup" if extra else "")
     console.print(f"wrote {out}: {plural(int(changed.sum()), 'joint sample')} changed in {int(changed.any(axis=1).sum())} "
                   f"of {plural(m.num_frames, 'frame')} ({said})")
-    for line in done.put_back + done.left:  # as clean's repair step says them
+    for line in done.put_back + done.left + done.flips:  # as clean's repair step says them
         console.print(f"  {line}")

@@ -27,6 +27,7 @@ PLAIN_CAUSES = {
     "spike": "the joint spikes far past anything it does elsewhere",
     "reversed": "this stretch plays backwards",
     "frozen": "the joint's rotation sticks on one value while the body moves, then jumps",
+    "flip": "the joint turns half a turn in one frame and later turns back",
 }
 _BY_WORDS = {words: PLAIN_CAUSES[name] for name, words in CAUSES}
 _STEPS = {
@@ -46,6 +47,8 @@ def plain_sentence(step: str, why: list[str]) -> str:
     """
     what = "; ".join(_BY_WORDS.get(w, w) for w in why)
     done = "; ".join(_STEPS[s] for s in step.split("+") if s in _STEPS) if step else ""
+    if step and why and all(w == dict(CAUSES)["flip"] for w in why):  # ssa.flips turns it back, no motion words
+        done = done.replace(_STEPS["repair"], "turned back by the same half turn")
     if step and "repair" in step.split("+") and not why:
         what = "moved with a flagged joint it is repaired with"
     text = f"{what}: {done}" if what and done else what or done

@@ -4,7 +4,7 @@ import numpy as np
 
 import mocapkit
 from mocapkit import rotations as R
-from mocapkit.cleaning.ssa.cues import midpoint_residuals, residual_breaks
+from mocapkit.cleaning.ssa.cues import CAUSES, midpoint_residuals, residual_breaks
 from mocapkit.cleaning.ssa.still_positions import position_kept_breaks
 from tests.cleaning.ssa.helpers import turned
 
@@ -45,11 +45,14 @@ def test_a_chain_turned_over_in_place_confirms_nothing_an_error_in_it_still_does
     assert breaks[299:301, knee].all() and np.array_equal(kept, breaks)
 
 
-def test_the_squat_whose_legs_turn_over_in_place_keeps_its_thighs_and_shanks(shared_data):
-    """HDM05 dg_squat1Reps_026: both femurs turn 180 deg and both knees 62 deg at frames 80-81, every joint staying
-    on its path. The legs' rotations come back bit-identical (a repair blended them and swung the feet 22 cm)."""
+def test_the_squat_whose_legs_turn_over_in_place_is_not_blended_from_words(shared_data):
+    """HDM05 dg_squat1Reps_026: both femurs turn 180 deg about themselves at frames 80-81 and back at 100-101, every
+    joint staying on its path. No motion-word repair blends them (it swung the feet 22 cm): the hips, knees and
+    ankles stay where they were, the legs turned back exactly or left (:mod:`mocapkit.cleaning.ssa.flips`)."""
     m = mocapkit.load(shared_data / "hdm05_asfamc" / "HDM_dg_squat1Reps_026_120.amc")
     res = mocapkit.clean(m)
-    for name in ("lfemur", "rfemur", "ltibia", "rtibia"):
-        j = m.skeleton.index(name)
-        assert np.array_equal(res.motion.rotations[:, j], m.rotations[:, j]), name
+    legs = [m.skeleton.index(n) for n in ("lfemur", "rfemur", "ltibia", "rtibia", "lfoot", "rfoot")]
+    assert np.allclose(res.motion.global_positions()[:, legs], m.global_positions()[:, legs], atol=1e-9)
+    thighs_shanks = legs[:4]
+    flip = 1 << [name for name, _ in CAUSES].index("flip")
+    assert (res.causes[:, thighs_shanks][res.changed[:, thighs_shanks]] & flip).all()  # no other repair

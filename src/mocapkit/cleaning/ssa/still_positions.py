@@ -2,12 +2,13 @@
 
 A pose solver can turn a thigh 180 deg about itself and bend the knee the
 other way in one frame (HDM05 dg_squat1Reps_026, frames 80-81: both femurs 180 deg,
-both knees 62 deg): every joint of the legs stays on its path, only the knees
-now face backwards. Both rotations break
+both knees 62 deg; they turn back at frames 100-101): every joint of the legs stays
+on its path, only the knees now face backwards. Both rotations break
 (:func:`~mocapkit.cleaning.ssa.cues.discontinuities`), but the positions need no
-change, and the repair of such a break, words blended over a few frames, cannot
-turn the chain back over (the flip lasts to the end of the take): it swung the
-feet 22 cm in a frame and back where the take held them still.
+change, and the repair of such a break, words blended over a few frames, is the
+wrong tool: it swung the feet 22 cm in a frame and back where the take held them
+still. Such a turn-over is turned back exactly, or named, by
+:mod:`~mocapkit.cleaning.ssa.flips` after the repair.
 :func:`position_kept_breaks` leaves those break events out of the breaks that
 confirm a digression, as :func:`~mocapkit.cleaning.ssa.cues.uncompensated_breaks`
 leaves out the turns a chain's rotations undo: a turn that another joint of its

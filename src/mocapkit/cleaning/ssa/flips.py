@@ -1,0 +1,354 @@
+"""Turn-overs undone: a joint turned 180 deg in one frame and turned back later, found and turned back exactly.
+
+A pose solver can turn a limb over in one frame and back some frames later. Two kinds are seen in the data:
+
+- **A chain turned over about its own bones** (HDM05 dg_squat1Reps_025, lfemur frames 78-82; squat_026's
+  rfemur 80-99 and lfemur 81-100; bk_depositFloorR_007 rfemur 138-205): the thigh turns 180 deg about
+  itself and the shank 180 deg about itself, so the hip, knee and ankle stay where they are while the knee
+  now bends backwards (ltibia's AMC value reads 203 deg against the ASF's limit of 170). The positions need
+  no change, so self-similarity's breaks are left out of confirmation
+  (:mod:`~mocapkit.cleaning.ssa.still_positions`), and a repair from motion words is the wrong tool for it:
+  it blends the two sides and swings the foot. A rotation of pi about a bone's own direction is known
+  exactly, so the flip is undone exactly: each joint of the chain is turned back by pi about its bone over
+  the flipped frames (its local rotation ``q`` becomes ``R_p q R_j^-1``, ``R_j`` the half turn about joint
+  ``j``'s bone and ``R_p`` its parent's, identity above the chain); the joint below the chain keeps its
+  local rotation when its own world orientation turned over with the chain (the foot, carried back with
+  the shank), and is compensated (``R_last q``, its world orientation kept) when it did not. Every joint of
+  the chain and the joint below stay where they were, bit for bit up to rounding.
+- **A leaf joint turned by a constant half turn** (the thumbs: HDM05 bd_throwBasketball_002 rthumb frames
+  102-141, whose AMC ``rz`` channel jumps by 180 deg; CMU 131_02's RThumb near gimbal lock): no joint
+  hangs below, so nothing is compensated. The offset is measured at both steps, as a turn in the parent's
+  frame and in the joint's own (the two frames :mod:`~mocapkit.cleaning.ssa.undo` measures a transient
+  offset in, here at the frames beside each step so that a one-frame flip is measured too); where both
+  ends agree the offset is slerped across the run and taken away.
+
+A turn-over is undone only where the result is checked to be right: both steps become small
+(:data:`STEP_OK_DEG`), no position beside a step moves more than it did, the AMC channels can hold the new
+rotation (its degrees of freedom) and an ASF joint's limits are kept, or broken no more than the take breaks
+them beside the run. Otherwise it is named and left as it is. Either way its cells are flagged (cause
+``flip``) and a line names it. The leaf rule is applied to the joints self-similarity does not analyse
+(thumbs, fingers: :func:`~mocapkit.cleaning.ssa.texture.informative_joints`); the chain rule to every
+joint. A repair of this library, not of Aristidou et al. (2018).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import re
+from dataclasses import dataclass
+
+import numpy as np
+
+from ... import rotations as R
+
+__all__ = ["FLIP_DEG", "AXIS_COS", "AGREE_DEG", "STEP_OK_DEG", "LIMIT_TOL_DEG", "Flip", "left_from_note", "turn_steps", "point_steps", "turned_back"]
+
+#: a step of a joint's rotation this large (degrees, in one frame) is a turn-over
+FLIP_DEG = 150.0
+#: a turn-over is about the joint's own bone when its axis and the bone's direction have at least this |cosine|
+AXIS_COS = 0.99
+#: a leaf's offsets measured at its two steps agree within this angle (degrees) for it to be taken away
+AGREE_DEG = 10.0
+#: after turning back, each changed joint's rotation step at both ends is at most this (degrees)
+STEP_OK_DEG = 20.0
+#: a joint channel may leave its ASF limits by this much (degrees) more than the take beside the run does
+LIMIT_TOL_DEG = 1.0
+
+
+@dataclass(frozen=True)
+class Flip:
+    """A turn-over: ``joints`` (names, the chain's top first) turned over frames ``first .. last`` (0-based,
+    inclusive); ``kind`` ``"bone"`` (about their own bones, positions unchanged) or ``"leaf"`` (a constant half
+    turn of a joint with no joint below); ``fixed`` whether it was turned back, ``why`` why not."""
+
+    joints: tuple
+    first: int
+    last: int
+    kind: str
+    fixed: bool
+    why: str = ""
+
+    def __str__(self) -> str:
+        j = self.joints[0] + (f" (with {', '.join(self.joints[1:])})" if len(self.joints) > 1 else "")
+        frames = f"frames {self.first}-{self.last}" if self.last > self.first else f"frame {self.first}"
+        what = (f"turned 180 deg about itself, {frames}, positions unchanged" if self.kind == "bone"
+                else f"turned 180 deg and back, {frames} (a constant half turn)")
+        return f"{j} {what}: " + ("turned back exactly" if self.fixed else f"left as is ({self.why})")
+
+
+_NOTE = re.compile(r"^flip: (\S+)(?: \(with ([^)]*)\))? turned 180 deg .*?frames? (\d+)(?:-(\d+))?.*?: left as is \((.*)\)$")
+
+
+def left_from_note(note: str):
+    """``(joint names, first, last, why)`` of a turn-over named and left, read back from its line (``"flip: ..."``,
+    as :class:`Flip` says it and a clean record's notes keep it); None for any other line."""
+    m = _NOTE.match(note)
+    if m is None:
+        return None
+    joints = (m.group(1),) + (tuple(m.group(2).split(", ")) if m.group(2) else ())
+    first = int(m.group(3))
+    return joints, first, int(m.group(4) or first), m.group(5)
+
+
+def turn_steps(q: np.ndarray, flip_deg: float = FLIP_DEG) -> np.ndarray:
+    """(F - 1, J) bool: the steps ``f -> f + 1`` of rotations ``q`` (F, J, 4) over ``flip_deg`` degrees."""
+    return np.degrees(R.geodesic_angle(q[:-1], q[1:])) > flip_deg
+
+
+def _bone_axes(skeleton) -> np.ndarray:
+    """(J, 3): each joint's bone direction in its own frame, its children's common offset direction (NaN for a
+    joint with no child joint, or with children in different directions: a half turn would move one)."""
+    off = np.asarray(skeleton.offsets, dtype=np.float64)
+    parents = np.asarray(skeleton.parents)
+    out = np.full((len(off), 3), np.nan)
+    for j in range(len(off)):
+        kids = np.flatnonzero(parents == j)
+        d = off[kids]
+        n = np.linalg.norm(d, axis=1)
+        if not len(kids) or (n <= 0).any():
+            continue
+        u = d / n[:, None]
+        if (np.abs(u @ u[0]) > 1 - 1e-9).all():
+            out[j] = u[0]
+    return out
+
+
+def _pair_steps(at: np.ndarray) -> list[tuple[int, int | None]]:
+    """The steps ``at`` (step ``i`` is the turn into frame ``i + 1``) paired in order: ``(first flipped frame,
+    last flipped frame)``, the last None for a step left over at the end (a flip to the end of the take)."""
+    at = list(at)
+    out = [(at[k] + 1, at[k + 1]) for k in range(0, len(at) - 1, 2)]
+    if len(at) % 2:
+        out.append((at[-1] + 1, None))
+    return out
+
+
+def _chain_repair(q: np.ndarray, g: np.ndarray, sk, axes: np.ndarray, chain: list[int], a: int, b: int):
+    """The chain ``chain`` (joint indices, each the child of the one before) turned back by pi about its bones
+    over frames ``a .. b`` of ``q`` (F, J, 4) local rotations (``g`` the world ones): ``(new q, changed joints)``."""
+    new = np.array(q)
+    halves = {j: R.quaternion_from_axis_angle(axes[j], np.pi) for j in chain}
+    prev = None
+    for j in chain:
+        r = new[a : b + 1, j]
+        if prev is not None:
+            r = R.quaternion_multiply(halves[prev], r)
+        new[a : b + 1, j] = R.quaternion_multiply(r, R.quaternion_inverse(halves[j]))
+        prev = j
+    changed = list(chain)
+    last = chain[-1]
+    for c in np.flatnonzero(np.asarray(sk.parents) == last):
+        # the joint below keeps its local rotation when it turned over with the chain, else its world orientation
+        turned = np.degrees(R.geodesic_angle(g[a - 1, c], g[a, c])) > FLIP_DEG
+        if not turned:
+            new[a : b + 1, c] = R.quaternion_multiply(halves[last], new[a : b + 1, c])
+            changed.append(int(c))
+    new[a : b + 1] = R.quaternion_normalize(new[a : b + 1])
+    return new, changed
+
+
+def _channel_halves(sk, j: int) -> np.ndarray:
+    """(k, 4): the half turns about joint ``j``'s rotation channel axes, in its local frame (an ASF joint's
+    through its ``axis`` frame ``C``: ``C R C^-1``): the offsets an Euler channel jumping by 180 deg makes."""
+    axes = [np.eye(3)["XYZ".index(c[0])] for c in sk.joint_channels(j) if c.endswith("rotation")]
+    if not axes:
+        return np.zeros((0, 4))
+    h = R.quaternion_from_axis_angle(np.array(axes), np.full(len(axes), np.pi))
+    if sk.axes is not None:
+        c = np.broadcast_to(sk.axes[j], h.shape)
+        h = R.quaternion_multiply(R.quaternion_multiply(c, h), R.quaternion_inverse(c))
+    return h
+
+
+def _offsets_apart(t: np.ndarray, a: int, b: int) -> float:
+    """Degrees between the offsets of a joint's track ``t`` (F, 4) at the step into frame ``a`` and at the step
+    out of frame ``b`` (measured as :func:`_leaf_repair` does, the closer of the parent's and the own frame);
+    0 where there is no room to measure."""
+    if a < 2 or b + 2 >= len(t):
+        return 0.0
+    return float(np.degrees(min(R.geodesic_angle(*e) for e in _offset_ends(t, a, b).values())))
+
+
+def _ahead(q0: np.ndarray, q1: np.ndarray) -> np.ndarray:
+    """(4,): ``q1`` carried one frame further along the constant-velocity path from ``q0``."""
+    q0 = np.where(np.sum(q0 * q1) < 0, -q0, q0)
+    return R.quaternion_multiply(R.quaternion_multiply(q1, R.quaternion_inverse(q0)), q1)
+
+
+def _offset_ends(t: np.ndarray, a: int, b: int) -> dict:
+    """The offset of frames ``a .. b`` of track ``t`` (F, 4) at each end, ``{"parent": (on, back), "own": ...}``:
+    ``t[a]`` against the path of ``t[a - 2], t[a - 1]`` carried on, ``t[b]`` against ``t[b + 2], t[b + 1]``'s."""
+    good_a, good_b = _ahead(t[a - 2], t[a - 1]), _ahead(t[b + 2], t[b + 1])
+    inv = R.quaternion_inverse
+    return {"parent": (R.quaternion_multiply(t[a], inv(good_a)), R.quaternion_multiply(t[b], inv(good_b))),
+            "own": (R.quaternion_multiply(inv(good_a), t[a]), R.quaternion_multiply(inv(good_b), t[b]))}
+
+
+def _leaf_repair(q: np.ndarray, j: int, a: int, b: int, halves=None) -> tuple[np.ndarray | None, str]:
+    """Joint ``j``'s constant half turn over frames ``a .. b`` of ``q`` (F, J, 4) taken away: ``(new q, "")``, or
+    ``(None, why)`` where the offsets at the two steps do not agree or there is no room to measure them. Where
+    both measured offsets lie within :data:`AGREE_DEG` of one of ``halves`` ((k, 4), :func:`_channel_halves`),
+    that exact half turn is taken away instead of the measured ones (a channel's 180 deg jump undone exactly)."""
+    F = len(q)
+    if a < 2 or b + 2 >= F:
+        return None, "too near the take's end to measure"
+    t = q[:, j]
+    inv = R.quaternion_inverse
+    ends = _offset_ends(t, a, b)
+    frame = min(ends, key=lambda k: float(R.geodesic_angle(*ends[k])))
+    on, back = ends[frame]
+    if np.degrees(R.geodesic_angle(on, back)) > AGREE_DEG:
+        return None, f"the two steps' offsets differ by {np.degrees(R.geodesic_angle(on, back)):.0f} deg"
+    back = np.where(np.sum(on * back) < 0, -back, back)
+    n = b - a + 1
+    if halves is not None and len(halves):
+        near = np.maximum(R.geodesic_angle(halves, on), R.geodesic_angle(halves, back))
+        if np.degrees(near.min()) <= AGREE_DEG:
+            on = back = halves[int(np.argmin(near))]
+    off_inv = inv(R.slerp(np.broadcast_to(on, (n, 4)), np.broadcast_to(back, (n, 4)), (np.arange(n) + 0.5) / n))
+    run = t[a : b + 1]
+    fixed = R.quaternion_multiply(off_inv, run) if frame == "parent" else R.quaternion_multiply(run, off_inv)
+    new = np.array(q)
+    new[a : b + 1, j] = R.quaternion_normalize(fixed)
+    return new, ""
+
+
+def point_steps(motion) -> np.ndarray:
+    """(F - 1, P): how far each joint and end site moves from one frame to the next, in file units."""
+    p = motion.global_positions(end_sites=True)
+    return np.linalg.norm(np.diff(p, axis=0), axis=-1)
+
+
+def _check(motion, new_q: np.ndarray, joints: list[int], a: int, b: int, usual: np.ndarray) -> str:
+    """Why turning back frames ``a .. b`` of ``joints`` (``new_q`` (F, J, 4) the take's rotations after) is not
+    right, or "" when it is: each joint's step at both ends at most :data:`STEP_OK_DEG` and smaller than it was;
+    no joint or end site stepping further there than it did by more than ``usual`` (P,), its own 95th-percentile
+    step over the take; the file's channels able to hold the new rotations; and a one-channel joint (a knee's
+    hinge) inside its ASF limits, or out by no more than the take is beside the run (+ :data:`LIMIT_TOL_DEG`)."""
+    sk = motion.skeleton
+    q = np.asarray(motion.rotations)
+    F = len(q)
+    steps = [s for s in (a, b + 1) if 1 <= s < F]
+    for j in joints:
+        for s in steps:
+            after = float(np.degrees(R.geodesic_angle(new_q[s - 1, j], new_q[s, j])))
+            before = float(np.degrees(R.geodesic_angle(q[s - 1, j], q[s, j])))
+            if after > STEP_OK_DEG or after >= before:
+                return f"{sk.joint_names[j]} would still step {after:.0f} deg at frame {s}"
+    lo, hi = max(a - 1, 0), min(b + 2, F)
+    part, fixed = motion[lo:hi], dataclasses.replace(motion[lo:hi], rotations=new_q[lo:hi])
+    m0, m1 = point_steps(part), point_steps(fixed)
+    names = list(sk.joint_names) + list(sk.end_site_names)
+    scale, unit = (sk.unit_cm, "cm") if sk.unit_cm else (1.0, "file units")
+    for s in steps:
+        worse = m1[s - 1 - lo] - m0[s - 1 - lo] - usual
+        if (worse > 0).any():
+            k = int(np.argmax(worse))
+            return (f"{names[k]} would step {m1[s - 1 - lo, k] * scale:.3g} against {m0[s - 1 - lo, k] * scale:.3g} "
+                    f"{unit} at frame {s}")
+    vals = fixed.channel_values()
+    back = type(motion).from_channel_values(sk, vals, motion.fps).rotations
+    if np.degrees(R.geodesic_angle(back[:, joints], fixed.rotations[:, joints])).max() > 0.01:
+        return "the file's channels cannot hold the turned-back rotation"
+    if sk.limits is None:
+        return ""
+    orig = part.channel_values()
+    col = 0
+    inside = slice(1 if a >= 1 else 0, (hi - lo) - 1 if b + 1 < F else hi - lo)
+    for j in range(sk.num_joints):
+        chans = sk.joint_channels(j)
+        rot = [i for i, c in enumerate(chans) if c.endswith("rotation")]
+        if j in joints and len(rot) == 1 and sk.limits[j]:
+            lim_lo, lim_hi = sk.limits[j][0]
+            c = col + rot[0]
+
+            def past(v):  # degrees past the limits
+                return np.maximum(lim_lo - v, v - lim_hi).clip(0)
+
+            beside = max([0.0] + [float(past(orig[r, c])) for r, ok in ((0, a >= 1), (-1, b + 1 < F)) if ok])
+            v = vals[inside, c]
+            if past(v).max() > beside + LIMIT_TOL_DEG:
+                return (f"{sk.joint_names[j]}.{chans[rot[0]]} would read {v[np.argmax(past(v))]:.0f} deg against "
+                        f"its limits {lim_lo:g}..{lim_hi:g}")
+        col += len(chans)
+    return ""
+
+
+def turned_back(motion, leaves=()) -> tuple:
+    """``(motion, changed, flagged, flips)``: ``motion`` with its turn-overs turned back where that is right.
+
+    ``leaves``: names of the joints whose constant half turns are looked for too (the leaf joints
+    self-similarity does not analyse; only those with no joint below are). ``changed`` and ``flagged`` (F, J)
+    bool: the cells turned back, and those plus the cells of the turn-overs left as they are; ``flips`` the
+    :class:`Flip` of each, in frame order. A take with no turn-over comes back as it is (the same object).
+    """
+    sk = motion.skeleton
+    F, J = motion.num_frames, sk.num_joints
+    changed = np.zeros((F, J), dtype=bool)
+    flagged = np.zeros((F, J), dtype=bool)
+    if F < 3:
+        return motion, changed, flagged, ()
+    q = np.asarray(motion.rotations, dtype=np.float64)
+    parents = np.asarray(sk.parents)
+    g = motion.global_rotations()
+    axes = _bone_axes(sk)
+    found = []  # (first, last or None, chain, kind)
+    world = turn_steps(g)  # (F - 1, J)
+    step = R.quaternion_multiply(R.quaternion_inverse(g[:-1]), g[1:])
+    about = np.abs(np.einsum("fjk,jk->fj", step[..., 1:], np.nan_to_num(axes)))
+    about /= np.maximum(np.linalg.norm(step[..., 1:], axis=-1), 1e-12)
+    bone = world & (about > AXIS_COS) & np.isfinite(axes[:, 0])[None]
+    top = bone & ~np.concatenate([np.zeros((F - 1, 1), dtype=bool), bone[:, parents[1:]]], axis=1)
+    for j in np.flatnonzero(top.any(axis=0)):
+        for a, b in _pair_steps(np.flatnonzero(top[:, j])):
+            chain = [int(j)]
+            while True:
+                kids = np.flatnonzero(parents == chain[-1])
+                nxt = [int(c) for c in kids if bone[a - 1, c]]
+                if len(nxt) != 1:
+                    break
+                chain.append(nxt[0])
+            found.append((a, b, chain, "bone"))
+    names = list(sk.joint_names)
+    local = turn_steps(q)
+    for name in leaves:
+        j = names.index(name)
+        if (parents == j).any():
+            continue
+        at = np.flatnonzero(local[:, j])
+        k = 0
+        while k < len(at):  # a step whose next one does not turn the same half turn back pairs with none
+            a, b = at[k] + 1, (at[k + 1] if k + 1 < len(at) else None)
+            found.append((int(a), None if b is None else int(b), [j], "leaf"))
+            # the next step turns some other way (offsets over 90 deg apart): the step off pairs with none; two
+            # steps that turn nearly the same half turn back stay a pair, undone or named
+            apart = _offsets_apart(q[:, j], a, b) if b is not None else 0.0
+            k += 1 if apart > 90.0 and k + 2 < len(at) else 2
+    flips = []
+    out = q
+    usual = np.percentile(point_steps(motion), 95, axis=0) if found else None
+    for a, b, chain, kind in sorted(found, key=lambda x: (x[0], x[2][0])):
+        joint_names = tuple(names[c] for c in chain)
+        if b is None:
+            flips.append(Flip(joint_names, a, F - 1, kind, False, "it lasts to the end of the take"))
+            flagged[a:, chain] = True
+            continue
+        if kind == "bone":
+            new, joints = _chain_repair(out, g, sk, axes, chain, a, b)
+            why = _check(dataclasses.replace(motion, rotations=out), new, joints, a, b, usual)
+        else:
+            new, why = _leaf_repair(out, chain[0], a, b, _channel_halves(sk, chain[0]))
+            joints = chain
+            if new is not None:
+                why = _check(dataclasses.replace(motion, rotations=out), new, joints, a, b, usual)
+        flagged[a : b + 1, chain] = True
+        if why:
+            flips.append(Flip(joint_names, a, b, kind, False, why))
+            continue
+        out = new
+        changed[a : b + 1, joints] = True
+        flagged[a : b + 1, joints] = True
+        flips.append(Flip(joint_names, a, b, kind, True))
+    if not changed.any():
+        return motion, changed, flagged, tuple(flips)
+    return dataclasses.replace(motion, rotations=np.where(changed[..., None], out, q)), changed, flagged, tuple(flips)

@@ -1,0 +1,110 @@
+"""Turn-overs on real takes: a thigh turned 180 deg about itself and back, a thumb's constant half turn."""
+
+import numpy as np
+import pytest
+
+import mocapkit
+from mocapkit import rotations as R
+from mocapkit.cleaning.ssa.cues import CAUSES
+from mocapkit.cleaning.ssa.flips import turned_back
+
+FLIP_BIT = 1 << [name for name, _ in CAUSES].index("flip")
+
+
+def _steps(q):
+    return np.degrees(R.geodesic_angle(q[:-1], q[1:]))
+
+
+def _load(shared_data, name):
+    return mocapkit.load(shared_data / "hdm05_asfamc" / name)
+
+
+def test_a_thigh_turned_over_and_back_is_turned_back_exactly_and_named(shared_data):
+    """HDM05 dg_squat1Reps_025: lfemur and ltibia turned 180 deg about themselves over frames 78-82 (ltibia's AMC
+    value 203 deg against the ASF's 170). clean turns both back on those frames only, the hip, knee and ankle
+    where they were, the knee inside its limit, and names it in the record's notes and causes."""
+    m = _load(shared_data, "HDM_dg_squat1Reps_025_120.amc")
+    res = mocapkit.clean(m)
+    sk = m.skeleton
+    fem, tib, foot = sk.index("lfemur"), sk.index("ltibia"), sk.index("lfoot")
+    changed = res.changed
+    assert changed[78:83, [fem, tib]].all()
+    assert changed.sum() == 10  # nothing else in the take
+    out = res.motion
+    for j in (fem, tib):
+        assert _steps(out.rotations[:, j])[77] < 5 and _steps(out.rotations[:, j])[82] < 5
+    p0, p1 = m.global_positions(), out.global_positions()
+    assert np.allclose(p1[:, [fem, tib, foot]], p0[:, [fem, tib, foot]], atol=1e-9)
+    col = out.channel_names().index("ltibia.Xrotation")
+    lo, hi = sk.limits[tib][0]
+    v0 = m.channel_values()[78:83, col]
+    assert ((v0 < lo) | (v0 > hi)).all()  # the take's knee bent backwards, past its limits
+    assert (out.channel_values()[78:83, col] >= lo).all() and (out.channel_values()[78:83, col] <= hi).all()
+    assert (res.causes[78:83, fem] & FLIP_BIT).all() and res.flags[78:83, [fem, tib]].all()
+    assert any("lfemur (with ltibia) turned 180 deg about itself, frames 78-82, positions unchanged: turned back exactly"
+               in n for n in res.notes)
+
+
+def test_a_turn_over_whose_turn_back_would_move_the_toes_is_named_and_left(shared_data):
+    """HDM05 dg_squat1Reps_026: the right leg's foot makes its own 52 deg turn as it turns back at frame 100, so
+    turning the thigh back there would step the toes 13 cm: left bit for bit, flagged and named; the left leg
+    (frames 81-100) is turned back."""
+    m = _load(shared_data, "HDM_dg_squat1Reps_026_120.amc")
+    res = mocapkit.clean(m)
+    sk = m.skeleton
+    for name in ("rfemur", "rtibia"):
+        j = sk.index(name)
+        assert np.array_equal(res.motion.rotations[:, j], m.rotations[:, j]), name
+        assert res.flags[80:100, j].all() and (res.causes[80:100, j] & FLIP_BIT).all()
+    assert any(n.startswith("flip: rfemur (with rtibia) turned 180 deg about itself, frames 80-99, positions unchanged: "
+                            "left as is (rtoes_end would step") for n in res.notes)
+    lf = sk.index("lfemur")
+    assert res.changed[81:101, lf].all() and _steps(res.motion.rotations[:, lf]).max() < 20
+
+
+@pytest.mark.parametrize("name, joint, first, last", [
+    ("HDM_dg_squat1Reps_030_120.amc", "rfemur", 78, 96),
+    ("HDM_bk_depositFloorR_007_120.amc", "rfemur", 138, 205),
+    ("HDM_dg_depositFloorR_018_120.amc", "rfemur", 213, 231),
+    ("HDM_bk_depositFloorR_011_120.amc", "rfemur", 121, 160),
+])
+def test_turn_overs_of_other_takes_are_turned_back_with_the_knee_in_its_limits(shared_data, name, joint, first, last):
+    m = _load(shared_data, name)
+    out, changed, flagged, flips = turned_back(m)
+    [flip] = flips
+    assert (flip.joints[0], flip.first, flip.last, flip.fixed) == (joint, first, last, True)
+    j = m.skeleton.index(joint)
+    rows = np.flatnonzero(changed.any(axis=1))
+    assert rows.min() == first and rows.max() == last and np.array_equal(changed, flagged)
+    tib = m.skeleton.index(joint[0] + "tibia")
+    lo, hi = m.skeleton.limits[tib][0]
+    knee = out.channel_values()[:, out.channel_names().index(f"{joint[0]}tibia.Xrotation")]
+    assert lo <= knee[first : last + 1].min() and knee[first : last + 1].max() <= hi
+    assert _steps(out.rotations[:, j])[[first - 1, last]].max() < 5
+    kept = ~changed
+    assert np.array_equal(np.asarray(out.rotations)[kept], np.asarray(m.rotations)[kept])
+
+
+def test_a_thumbs_constant_half_turn_is_undone_on_its_channel(shared_data):
+    """HDM05 bd_throwBasketball_002: rthumb's AMC rz jumps by 180 deg at frame 102 and back at 142. clean (the
+    thumb not analysed by self-similarity) turns it back exactly: rz 180 deg back, rx as it was, nothing else."""
+    m = _load(shared_data, "HDM_bd_throwBasketball_002_120.amc")
+    res = mocapkit.clean(m)
+    j = m.skeleton.index("rthumb")
+    assert np.array_equal(np.flatnonzero(res.changed.any(axis=1)), np.arange(102, 142))
+    assert res.changed[:, j].sum() == 40 and res.changed.sum() == 40
+    names = m.channel_names()
+    z, x = names.index("rthumb.Zrotation"), names.index("rthumb.Xrotation")
+    before, after = m.channel_values(), res.motion.channel_values()
+    dz = (after[102:142, z] - before[102:142, z] + 180.0) % 360.0 - 180.0
+    assert np.allclose(np.abs(dz), 180.0, atol=1e-6) and np.allclose(after[102:142, x], before[102:142, x], atol=1e-6)
+    assert _steps(res.motion.rotations[:, j])[[101, 141]].max() < 10
+    assert any("rthumb turned 180 deg and back, frames 102-141 (a constant half turn): turned back exactly" in n
+               for n in res.notes)
+
+
+def test_a_take_with_no_turn_over_comes_back_as_it_is(shared_data):
+    m = _load(shared_data, "HDM_bd_squat1Reps_001_120.amc")
+    leaves = [n for n in m.skeleton.joint_names if "thumb" in n or "fingers" in n]
+    out, changed, flagged, flips = turned_back(m, leaves)
+    assert out is m and not changed.any() and not flagged.any() and flips == ()
