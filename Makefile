@@ -28,10 +28,16 @@ $(VENV)/.installed: pyproject.toml | $(PY)
 
 # The test install is one pip run with the test extras (not the plain install and then the extras: one resolve, one
 # editable build fewer); it also counts as the plain install.
+# Beside the warm-up, one pytest collection writes the bytecode of the tests (assertions rewritten) and of the sources
+# (imported by --doctest-modules) once, with writing bytecode on whatever PYTHONDONTWRITEBYTECODE says: otherwise each
+# xdist worker rewrites every test module itself (~11 s CPU each) and every `mocapkit` subprocess of the tests compiles
+# the sources it imports. It runs while the warm-up's shorter process leaves a core free; its output is not needed
+# (the test run reports any collection error itself).
 $(VENV)/.installed-test: pyproject.toml | $(PY)
 	$(PIP) install torch==2.13.0
 	$(PIP) install -e '.[test]'
-	$(PY) -m mocapkit.warmup
+	env -u PYTHONDONTWRITEBYTECODE $(PY) -m pytest --collect-only -q -p no:cacheprovider >/dev/null 2>&1 & collect=$$!; \
+	  $(PY) -m mocapkit.warmup; rc=$$?; wait $$collect; exit $$rc
 	touch $(VENV)/.installed $@
 
 install: $(VENV)/.installed
