@@ -18,8 +18,10 @@ scaled by the factor of :data:`SCALES` with the least estimated risk (a
 narrower one only where it gains enough over the network's own:
 :data:`MIN_GAIN`), ``s`` estimated
 from the block's second differences (white noise of std ``s`` gives them
-variance ``6 s^2``; a smooth motion adds little at the rates the networks
-run). Clean motion and light noise then get a narrower width (a light
+variance ``6 s^2``; a smooth motion adds little at 120 fps), or where a
+fast motion at 30 fps fills them (a hand waving, a foot striking the
+floor) from the noise subspace of the block's short windows
+(:mod:`.noise_subspace`, :data:`SUBSPACE_MARGIN`). Clean motion and light noise then get a narrower width (a light
 touch), heavy noise about the network's own or wider. One more candidate is
 the identity, the block's input kept as it is (centre tap 1, no change: risk
 ``N s^2`` by the same estimate): where the noise is light (``s`` below
@@ -70,9 +72,8 @@ than the network's own widths, where without the margin it was worse."""
 KEEP_GAIN = 0.25
 """The share of the identity's estimated risk (``N s^2``: the input kept as it is) that the chosen factor's must
 lie below for a lightly noisy block and channel (:data:`KEEP_NOISE`) to be filtered; else the input is kept. The
-estimate of ``s`` from second differences takes a fast motion's own acceleration for noise (most at 30 fps: the
-Bandai Namco rig's feet, toes and pelvis), which makes smoothing look better than it is; the margin keeps such
-channels as they came. Chosen on the validation clips (Bandai Namco styles "tired" and "childish", HDM05 actor
+estimate of ``s`` takes what is left of a fast motion's own acceleration (and a take's own jitter) for noise,
+which makes smoothing look better than it is; the margin keeps such channels as they came. Chosen on the validation clips (Bandai Namco styles "tired" and "childish", HDM05 actor
 "tr") at 0.1, 0.5 and 0.9 of Mall's noise among 0 to 0.75: larger margins cost both at 0.5 and 0.9."""
 
 KEEP_NOISE = 0.15
