@@ -20,8 +20,8 @@ narrower one only where it gains enough over the network's own:
 from the block's second differences (white noise of std ``s`` gives them
 variance ``6 s^2``; a smooth motion adds little at 120 fps), or where a
 fast motion at 30 fps fills them (a hand waving, a foot striking the
-floor) from the noise subspace of the block's short windows
-(:mod:`.noise_subspace`, :data:`SUBSPACE_MARGIN`). Clean motion and light noise then get a narrower width (a light
+floor) through the block's own best interpolator (:mod:`.noise_predictor`,
+:data:`PREDICTOR_MARGIN`). Clean motion and light noise then get a narrower width (a light
 touch), heavy noise about the network's own or wider. One more candidate is
 the identity, the block's input kept as it is (centre tap 1, no change: risk
 ``N s^2`` by the same estimate): where the noise is light (``s`` below
@@ -49,9 +49,9 @@ import numpy as np
 from numba import njit
 
 from .networks import observed_second_differences
-from .noise_subspace import subspace_noise_std
+from .noise_predictor import predictor_noise_std
 
-__all__ = ["SCALES", "BLOCK_S", "SUBSPACE_MARGIN", "MIN_GAIN", "KEEP_GAIN", "KEEP_NOISE", "LOG_SIGMA_KEEP", "block_spread", "SCORE_HZ", "scoring_stride", "block_edges", "noise_std", "risk_terms", "calibrated_log_sigma"]
+__all__ = ["SCALES", "BLOCK_S", "PREDICTOR_MARGIN", "MIN_GAIN", "KEEP_GAIN", "KEEP_NOISE", "LOG_SIGMA_KEEP", "block_spread", "SCORE_HZ", "scoring_stride", "block_edges", "noise_std", "risk_terms", "calibrated_log_sigma"]
 
 SCALES = 2.0 ** (np.arange(-6, 3) / 2.0)
 """Factors tried on the network's widths: 1/8 to 2 in steps of sqrt(2) (1: the network's own; the steps of
@@ -86,13 +86,13 @@ validation clips (22 Bandai takes, all 47 "tr" clips, 2 draws) 0.15 to 0.3 all l
 moved ``benchmarks/clean_takes.py``'s corrupted HDM05 takes for the worse (eq2 0.00711 -> 0.00751) and the HDM05
 test clips at 0.5 (2.352 -> 2.357 deg), which 0.15 leaves as they were: the gate is the smaller one."""
 
-SUBSPACE_MARGIN = 1.3
-"""A block's noise std is the subspace estimate (:func:`mocapkit.cleaning.deep.noise_subspace.subspace_noise_std`)
-where it lies below the second differences' by more than this factor, else the second differences': the
-second differences read fast motion as noise, and below the margin the two agree within their scatter on white
-noise (taking the lower of two agreeing estimates would bias ``s`` low and the risk towards narrow widths: HDM05
-actor "tr" at 0.9 of Mall's noise, 4.031 -> 4.052 deg with the lower of the two, 4.020 with the margin; 1.5
-4.033). Chosen on the validation clips (Bandai Namco styles "tired" and "childish", actor "tr")."""
+PREDICTOR_MARGIN = 1.3
+"""A block's noise std is the interpolator's estimate (:func:`mocapkit.cleaning.deep.noise_predictor.predictor_noise_std`)
+where it lies below the second differences' by more than this factor, else the second differences': these read
+fast motion as noise, and below the margin the two agree within their scatter on white noise (the lower of two
+agreeing estimates would bias ``s`` low and the risk towards narrow widths). Chosen on the validation clips
+(Bandai Namco styles "tired" and "childish", HDM05 actor "tr"), with a windowed estimate first: the lower of the
+two moved "tr" at 0.9 of Mall's noise 4.031 -> 4.052 deg, the margin 4.020 (1.5: 4.033)."""
 
 LOG_SIGMA_KEEP = -6.0
 """The log width that keeps a frame as it is: the floor of the networks' range, where every off-centre tap of
@@ -248,8 +248,8 @@ def calibrated_log_sigma(xp: np.ndarray, log_sigma: np.ndarray, observed: np.nda
     obs = np.ascontiguousarray(observed, dtype=np.bool_)
     x = np.asarray(xp[half : half + F], dtype=np.float64)
     s, n_d = noise_std(x, obs, edges)
-    s_sub = subspace_noise_std(x, obs, edges)
-    s = np.where(SUBSPACE_MARGIN * s_sub < s, s_sub, s)  # the second differences read fast motion as noise (NaN: kept)
+    s_lp = predictor_noise_std(x, obs, edges)
+    s = np.where(PREDICTOR_MARGIN * s_lp < s, s_lp, s)  # the second differences read fast motion as noise (NaN: kept)
     log_scales = np.log(SCALES)
     change, centre, counts = risk_terms(xp, log_sigma, obs, edges, log_scales, int(half), stride)
     risk = change + 2.0 * s**2 * centre - counts * s**2  # (A, B, C)
