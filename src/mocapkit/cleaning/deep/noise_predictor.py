@@ -39,7 +39,8 @@ __all__ = ["ORDER", "MIN_FRAMES", "predictor_noise_std"]
 
 ORDER = 3
 """Taps on each side of the interpolator (frames t - 3 .. t + 3 but t): a 30 fps step's or wave's motion over a
-fifth of a second is predicted from them; 2 taps gave the same on the validation styles."""
+fifth of a second is predicted from them (chosen with the subspace estimate's windows of 16 frames in mind, not
+tuned)."""
 
 MIN_FRAMES = 16
 """The fewest frames of a block and channel whose interpolator is fitted (their ``2 ORDER + 1`` frames all

@@ -73,8 +73,9 @@ KEEP_GAIN = 0.25
 """The share of the identity's estimated risk (``N s^2``: the input kept as it is) that the chosen factor's must
 lie below for a lightly noisy block and channel (:data:`KEEP_NOISE`) to be filtered; else the input is kept. The
 estimate of ``s`` takes what is left of a fast motion's own acceleration (and a take's own jitter) for noise,
-which makes smoothing look better than it is; the margin keeps such channels as they came. Chosen on the validation clips (Bandai Namco styles "tired" and "childish", HDM05 actor
-"tr") at 0.1, 0.5 and 0.9 of Mall's noise among 0 to 0.75: larger margins cost both at 0.5 and 0.9."""
+which makes smoothing look better than it is; the margin keeps such channels as they came. Chosen on the
+validation clips (Bandai Namco styles "tired" and "childish", HDM05 actor "tr") at 0.1, 0.5 and 0.9 of Mall's
+noise among 0 to 0.75: larger margins cost both at 0.5 and 0.9."""
 
 KEEP_NOISE = 0.15
 """The identity is a candidate only where the block's noise estimate ``s`` is below this share of the channel's
@@ -87,12 +88,13 @@ moved ``benchmarks/clean_takes.py``'s corrupted HDM05 takes for the worse (eq2 0
 test clips at 0.5 (2.352 -> 2.357 deg), which 0.15 leaves as they were: the gate is the smaller one."""
 
 PREDICTOR_MARGIN = 1.3
-"""A block's noise std is the interpolator's estimate (:func:`mocapkit.cleaning.deep.noise_predictor.predictor_noise_std`)
-where it lies below the second differences' by more than this factor, else the second differences': these read
-fast motion as noise, and below the margin the two agree within their scatter on white noise (the lower of two
-agreeing estimates would bias ``s`` low and the risk towards narrow widths). Chosen on the validation clips
-(Bandai Namco styles "tired" and "childish", HDM05 actor "tr"), with a windowed estimate first: the lower of the
-two moved "tr" at 0.9 of Mall's noise 4.031 -> 4.052 deg, the margin 4.020 (1.5: 4.033)."""
+"""A block's noise std is the interpolator's estimate
+(:func:`mocapkit.cleaning.deep.noise_predictor.predictor_noise_std`) where it lies below the second differences'
+by more than this factor, else the second differences': these read fast motion as noise, and below the margin
+the two agree within their scatter on white noise (the lower of two agreeing estimates would bias ``s`` low and
+the risk towards narrow widths). Chosen on the validation clips (Bandai Namco styles "tired" and "childish",
+HDM05 actor "tr") with a windowed estimate first: the lower of the two moved "tr" at 0.9 of Mall's noise
+4.031 -> 4.052 deg, the margin 4.020 (1.5: 4.033)."""
 
 LOG_SIGMA_KEEP = -6.0
 """The log width that keeps a frame as it is: the floor of the networks' range, where every off-centre tap of
