@@ -51,7 +51,7 @@ from numba import njit
 from .networks import observed_second_differences
 from .noise_predictor import predictor_noise_std
 
-__all__ = ["SCALES", "BLOCK_S", "PREDICTOR_MARGIN", "MIN_GAIN", "KEEP_GAIN", "KEEP_NOISE", "LOG_SIGMA_KEEP", "block_spread", "SCORE_HZ", "scoring_stride", "block_edges", "noise_std", "risk_terms", "calibrated_log_sigma"]
+__all__ = ["SCALES", "BLOCK_S", "PREDICTOR_MARGIN", "PREDICTOR_MAX_FPS", "MIN_GAIN", "KEEP_GAIN", "KEEP_NOISE", "LOG_SIGMA_KEEP", "block_spread", "SCORE_HZ", "scoring_stride", "block_edges", "noise_std", "risk_terms", "calibrated_log_sigma"]
 
 SCALES = 2.0 ** (np.arange(-6, 3) / 2.0)
 """Factors tried on the network's widths: 1/8 to 2 in steps of sqrt(2) (1: the network's own; the steps of
@@ -95,6 +95,13 @@ the two agree within their scatter on white noise (the lower of two agreeing est
 the risk towards narrow widths). Chosen on the validation clips (Bandai Namco styles "tired" and "childish",
 HDM05 actor "tr") with a windowed estimate first: the lower of the two moved "tr" at 0.9 of Mall's noise
 4.031 -> 4.052 deg, the margin 4.020 (1.5: 4.033)."""
+
+PREDICTOR_MAX_FPS = 60.0
+"""The highest rate (frames/s, the model's) at which :data:`PREDICTOR_MARGIN`'s estimate is read. A motion's share
+of the second differences falls as the fourth power of the rate (a 4.5 Hz wave leaves 256 times less at 120 fps
+than at 30), so at 120 fps they read the noise; and the interpolator's median passes over sparse spikes, which
+``benchmarks/clean_takes.py`` corrupts its 120 fps HDM05 and CMU takes with and the EBF is there to take off
+(read at 120 fps, eq. 2 per frame rose on 8 of its 9 takes, grabHighR 0.0042 -> 0.0365, 1.91 -> 6.76 cm)."""
 
 LOG_SIGMA_KEEP = -6.0
 """The log width that keeps a frame as it is: the floor of the networks' range, where every off-centre tap of
@@ -226,14 +233,16 @@ def risk_terms(xp: np.ndarray, log_sigma: np.ndarray, observed: np.ndarray, edge
 
 
 def calibrated_log_sigma(xp: np.ndarray, log_sigma: np.ndarray, observed: np.ndarray, edges: np.ndarray,
-                         half: int, stride: int = 1) -> np.ndarray:
+                         half: int, stride: int = 1, fps: float | None = None) -> np.ndarray:
     """The network's log widths (F, C) plus, per block and channel, the log of the factor of :data:`SCALES`
     with the least Stein risk estimate, clamped to the network's range (-6, 4); float32 like the input.
 
     ``xp`` (F + 2 half, C) padded channels, ``observed`` (F, C) bool (filled
     gap entries False), ``edges`` (B + 1,) the blocks' starts and ``F``
     (:func:`block_edges`); ``stride``: score every ``stride``-th frame of a
-    block (:func:`scoring_stride`). A block and channel without an observed
+    block (:func:`scoring_stride`); ``fps`` the model's rate (None: as at 30
+    fps; above :data:`PREDICTOR_MAX_FPS` the noise is read from second
+    differences only). A block and channel without an observed
     second difference, or where no narrower factor gains :data:`MIN_GAIN`
     and no wider one gains at all, keeps factor 1; one whose noise is light
     (``s`` below :data:`KEEP_NOISE` of :func:`block_spread`) and where the
@@ -250,8 +259,9 @@ def calibrated_log_sigma(xp: np.ndarray, log_sigma: np.ndarray, observed: np.nda
     obs = np.ascontiguousarray(observed, dtype=np.bool_)
     x = np.asarray(xp[half : half + F], dtype=np.float64)
     s, n_d = noise_std(x, obs, edges)
-    s_lp = predictor_noise_std(x, obs, edges)
-    s = np.where(PREDICTOR_MARGIN * s_lp < s, s_lp, s)  # the second differences read fast motion as noise (NaN: kept)
+    if fps is None or fps <= PREDICTOR_MAX_FPS:
+        s_lp = predictor_noise_std(x, obs, edges)
+        s = np.where(PREDICTOR_MARGIN * s_lp < s, s_lp, s)  # second differences read fast motion as noise
     log_scales = np.log(SCALES)
     change, centre, counts = risk_terms(xp, log_sigma, obs, edges, log_scales, int(half), stride)
     risk = change + 2.0 * s**2 * centre - counts * s**2  # (A, B, C)
