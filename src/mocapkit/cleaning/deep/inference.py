@@ -360,7 +360,7 @@ def _pad(x: np.ndarray, ctx: np.ndarray, half: int = HALF_WINDOW):
 @torch.inference_mode()
 def _run_ebf(
     net: EBF, xp: np.ndarray, cp: np.ndarray, chunk: int = 4096, noise: np.ndarray | None = None,
-    observed: np.ndarray | None = None, edges: np.ndarray | None = None, stride: int = 1,
+    observed: np.ndarray | None = None, edges: np.ndarray | None = None, stride: int = 1, fps: float | None = None,
 ) -> np.ndarray:
     """Offline EBF on padded (F + 30, C) channels: the trunk in one pass, the head in chunks, then the filter.
 
@@ -371,7 +371,8 @@ def _run_ebf(
     :func:`denoise_channels`), else the network's own. ``observed`` (F, C)
     bool: calibrate the Gaussian head's widths per channel and block
     (``edges``: block starts and the end, over the F frames) by Stein's risk
-    estimate on these samples (every ``stride``-th frame of a block scored)
+    estimate on these samples (every ``stride``-th frame of a block scored;
+    ``fps`` the model's rate)
     (:func:`mocapkit.cleaning.deep.sure.calibrated_log_sigma`); None keeps
     the network's widths.
     """
@@ -385,7 +386,7 @@ def _run_ebf(
         heads = [net.filter_parameters(y2[:, s : s + chunk]) for s in range(0, F, chunk)]
         log_sigma = np.concatenate([p[0].numpy() for p, _ in heads]) if heads else np.zeros((0, net.channels), np.float32)
         if observed is not None:
-            log_sigma = calibrated_log_sigma(x32, log_sigma, observed, edges, HALF_WINDOW, stride)
+            log_sigma = calibrated_log_sigma(x32, log_sigma, observed, edges, HALF_WINDOW, stride, fps)
         out = gaussian_filter_frames(x32, log_sigma)
         if net.with_bias:
             out = out - np.concatenate([b[0].double().numpy() for _, b in heads])
@@ -482,7 +483,7 @@ def denoise_channels(
     observed = ~filled[:end] if calibrate else None
     run_edges = np.append(edges[edges < end], end) if calibrate else None  # the blocks this run holds
     out = _run_ebf(m.net, xp, cp, noise=None if noise is None else _pad(noise[:end], ctx_m[:end])[0],
-                   observed=observed, edges=run_edges, stride=scoring_stride(m.fps))
+                   observed=observed, edges=run_edges, stride=scoring_stride(m.fps), fps=m.fps)
     if resample:
         out = _to_rate(out, m.fps, fps, n_to=len(x))
     elif end < len(x):

@@ -18,8 +18,10 @@ scaled by the factor of :data:`SCALES` with the least estimated risk (a
 narrower one only where it gains enough over the network's own:
 :data:`MIN_GAIN`), ``s`` estimated
 from the block's second differences (white noise of std ``s`` gives them
-variance ``6 s^2``; a smooth motion adds little at the rates the networks
-run). Clean motion and light noise then get a narrower width (a light
+variance ``6 s^2``; a smooth motion adds little at 120 fps), or where a
+fast motion at 30 fps fills them (a hand waving, a foot striking the
+floor) through the block's own best interpolator (:mod:`.noise_predictor`,
+:data:`PREDICTOR_MARGIN`). Clean motion and light noise then get a narrower width (a light
 touch), heavy noise about the network's own or wider. One more candidate is
 the identity, the block's input kept as it is (centre tap 1, no change: risk
 ``N s^2`` by the same estimate): where the noise is light (``s`` below
@@ -47,8 +49,9 @@ import numpy as np
 from numba import njit
 
 from .networks import observed_second_differences
+from .noise_predictor import predictor_noise_std
 
-__all__ = ["SCALES", "BLOCK_S", "MIN_GAIN", "KEEP_GAIN", "KEEP_NOISE", "LOG_SIGMA_KEEP", "block_spread", "SCORE_HZ", "scoring_stride", "block_edges", "noise_std", "risk_terms", "calibrated_log_sigma"]
+__all__ = ["SCALES", "BLOCK_S", "PREDICTOR_MARGIN", "PREDICTOR_MAX_FPS", "MIN_GAIN", "KEEP_GAIN", "KEEP_NOISE", "LOG_SIGMA_KEEP", "block_spread", "SCORE_HZ", "scoring_stride", "block_edges", "noise_std", "risk_terms", "calibrated_log_sigma"]
 
 SCALES = 2.0 ** (np.arange(-6, 3) / 2.0)
 """Factors tried on the network's widths: 1/8 to 2 in steps of sqrt(2) (1: the network's own; the steps of
@@ -69,10 +72,10 @@ than the network's own widths, where without the margin it was worse."""
 KEEP_GAIN = 0.25
 """The share of the identity's estimated risk (``N s^2``: the input kept as it is) that the chosen factor's must
 lie below for a lightly noisy block and channel (:data:`KEEP_NOISE`) to be filtered; else the input is kept. The
-estimate of ``s`` from second differences takes a fast motion's own acceleration for noise (most at 30 fps: the
-Bandai Namco rig's feet, toes and pelvis), which makes smoothing look better than it is; the margin keeps such
-channels as they came. Chosen on the validation clips (Bandai Namco styles "tired" and "childish", HDM05 actor
-"tr") at 0.1, 0.5 and 0.9 of Mall's noise among 0 to 0.75: larger margins cost both at 0.5 and 0.9."""
+estimate of ``s`` takes what is left of a fast motion's own acceleration (and a take's own jitter) for noise,
+which makes smoothing look better than it is; the margin keeps such channels as they came. Chosen on the
+validation clips (Bandai Namco styles "tired" and "childish", HDM05 actor "tr") at 0.1, 0.5 and 0.9 of Mall's
+noise among 0 to 0.75: larger margins cost both at 0.5 and 0.9."""
 
 KEEP_NOISE = 0.15
 """The identity is a candidate only where the block's noise estimate ``s`` is below this share of the channel's
@@ -83,6 +86,22 @@ validation clips (22 Bandai takes, all 47 "tr" clips, 2 draws) 0.15 to 0.3 all l
 0.3 did best at 0.1 (Bandai EBF 1.13 -> 0.95 deg, input 0.84; 0.15: 1.02; HDM05 0.76 -> 0.72 for each); but 0.3
 moved ``benchmarks/clean_takes.py``'s corrupted HDM05 takes for the worse (eq2 0.00711 -> 0.00751) and the HDM05
 test clips at 0.5 (2.352 -> 2.357 deg), which 0.15 leaves as they were: the gate is the smaller one."""
+
+PREDICTOR_MARGIN = 1.3
+"""A block's noise std is the interpolator's estimate
+(:func:`mocapkit.cleaning.deep.noise_predictor.predictor_noise_std`) where it lies below the second differences'
+by more than this factor, else the second differences': these read fast motion as noise, and below the margin
+the two agree within their scatter on white noise (the lower of two agreeing estimates would bias ``s`` low and
+the risk towards narrow widths). Chosen on the validation clips (Bandai Namco styles "tired" and "childish",
+HDM05 actor "tr") with a windowed estimate first: the lower of the two moved "tr" at 0.9 of Mall's noise
+4.031 -> 4.052 deg, the margin 4.020 (1.5: 4.033)."""
+
+PREDICTOR_MAX_FPS = 60.0
+"""The highest rate (frames/s, the model's) at which :data:`PREDICTOR_MARGIN`'s estimate is read. A motion's share
+of the second differences falls as the fourth power of the rate (a 4.5 Hz wave leaves 256 times less at 120 fps
+than at 30), so at 120 fps they read the noise; and the interpolator's median passes over sparse spikes, which
+``benchmarks/clean_takes.py`` corrupts its 120 fps HDM05 and CMU takes with and the EBF is there to take off
+(read at 120 fps, eq. 2 per frame rose on 8 of its 9 takes, grabHighR 0.0042 -> 0.0365, 1.91 -> 6.76 cm)."""
 
 LOG_SIGMA_KEEP = -6.0
 """The log width that keeps a frame as it is: the floor of the networks' range, where every off-centre tap of
@@ -214,14 +233,16 @@ def risk_terms(xp: np.ndarray, log_sigma: np.ndarray, observed: np.ndarray, edge
 
 
 def calibrated_log_sigma(xp: np.ndarray, log_sigma: np.ndarray, observed: np.ndarray, edges: np.ndarray,
-                         half: int, stride: int = 1) -> np.ndarray:
+                         half: int, stride: int = 1, fps: float | None = None) -> np.ndarray:
     """The network's log widths (F, C) plus, per block and channel, the log of the factor of :data:`SCALES`
     with the least Stein risk estimate, clamped to the network's range (-6, 4); float32 like the input.
 
     ``xp`` (F + 2 half, C) padded channels, ``observed`` (F, C) bool (filled
     gap entries False), ``edges`` (B + 1,) the blocks' starts and ``F``
     (:func:`block_edges`); ``stride``: score every ``stride``-th frame of a
-    block (:func:`scoring_stride`). A block and channel without an observed
+    block (:func:`scoring_stride`); ``fps`` the model's rate (None: as at 30
+    fps; above :data:`PREDICTOR_MAX_FPS` the noise is read from second
+    differences only). A block and channel without an observed
     second difference, or where no narrower factor gains :data:`MIN_GAIN`
     and no wider one gains at all, keeps factor 1; one whose noise is light
     (``s`` below :data:`KEEP_NOISE` of :func:`block_spread`) and where the
@@ -238,6 +259,9 @@ def calibrated_log_sigma(xp: np.ndarray, log_sigma: np.ndarray, observed: np.nda
     obs = np.ascontiguousarray(observed, dtype=np.bool_)
     x = np.asarray(xp[half : half + F], dtype=np.float64)
     s, n_d = noise_std(x, obs, edges)
+    if fps is None or fps <= PREDICTOR_MAX_FPS:
+        s_lp = predictor_noise_std(x, obs, edges)
+        s = np.where(PREDICTOR_MARGIN * s_lp < s, s_lp, s)  # second differences read fast motion as noise
     log_scales = np.log(SCALES)
     change, centre, counts = risk_terms(xp, log_sigma, obs, edges, log_scales, int(half), stride)
     risk = change + 2.0 * s**2 * centre - counts * s**2  # (A, B, C)
