@@ -16,6 +16,7 @@ from ... import rotations as R
 from ...motion import Motion
 from ..ik import contact_segments, segment_frames
 from .freeze_bounds import bounded_breaks
+from .spike_bounds import spike_frames
 from .params import SSAParams
 from .step_pairs import UNDO_RATIO, is_step, offset_step_breaks, returns, steps_back
 
@@ -655,15 +656,13 @@ def confirm_flags(
 ) -> np.ndarray:
     """Error flags (F, J) from an MDM confirmed by the joint's own discontinuities (see :func:`detect`).
 
-    Per joint, a run is a connected stretch of frames with ``mdm > extent *
-    threshold`` or within ``margin_s`` seconds of a ``jumps`` frame of the
-    same joint (so the digression on the two sides of a break is one run);
-    its cells with ``mdm > extent * threshold`` are flagged when it reaches
-    ``mdm > threshold`` somewhere and one of them lies within the margin of
-    the break. So every flagged run both digresses clearly and holds a
-    break no smooth motion makes.
-    A run that holds two breaks or more (separate steps or spikes) is cut
-    to its first and last break, within ``margin_s``: an error starts and
+    Per joint, a run is a connected stretch of frames with ``mdm > extent * threshold`` or within ``margin_s``
+    seconds of a ``jumps`` frame of the same joint (so the digression on the two sides of a break is one run);
+    its cells with ``mdm > extent * threshold`` are flagged when it reaches ``mdm > threshold`` somewhere and
+    one of them lies within the margin of the break. So every flagged run both digresses clearly and holds a
+    break no smooth motion makes. A run whose breaks are all ``spikes`` is flagged on the spikes' own frames
+    only, digressing or not (:mod:`~mocapkit.cleaning.ssa.spike_bounds`). A run that holds two breaks or more
+    (separate steps) is cut to its first and last break, within ``margin_s``: an error starts and
     ends with a break, and beyond them the digression comes from the
     neighbour words the error itself led astray (a word spans 0.6 s), not
     from more error, and repairing there would replace clean frames. A run with one break (a drift that grows
@@ -701,8 +700,11 @@ def confirm_flags(
         at = np.flatnonzero(jumps[rows, j]) + a
         if not len(at):
             continue
-        if (np.diff(at) > 2).any() or (spikes is not None and spikes[at, j].all()):
-            # two break events or more (a step marks two adjacent frames), or only spikes
+        if spikes is not None and spikes[at, j].all():  # only spikes: their own frames (spike_bounds)
+            out[rows, j] = False
+            out[spike_frames(at), j] = True
+            continue
+        if (np.diff(at) > 2).any():  # two break events or more (a step marks two adjacent frames)
             out[a : max(at[0] - n, a), j] = False  # (a negative stop would count from the end)
         out[at[-1] + n + 1 : rows.stop, j] = False  # past its last break a run digresses only
     return out
