@@ -12,14 +12,7 @@ the good frames instead of the bad ones):
   the margin: an error starts and ends with a break.
 * **One break event** (a drift that grows smoothly, a frozen channel, each ending in a step): the digressing frames
   before the break, up to the margin past it; an error ends with a break, and past its last one the joint is
-  back on its path. A run whose one break is a burst (breaking frames over more than a step's
-  :data:`~mocapkit.cleaning.ssa.step_pairs.MAX_STEP_FRAMES`: a turn that takes several frames, as motion does,
-  not a jump between two) with no digressing frame before it is no such error, and none of it is flagged: the
-  digression begins with the turn and goes on after it, where the joint moves on a path of its own that the
-  similar motion does not hold (CMU 131_01's right wrist turns 133 deg in 4 frames at frame 235, a turn its
-  other takes do not make; against them the 8 frames from the turn on were repaired, up to 91 deg away, with a
-  new 28-deg pop at frame 243). A one-frame step with the digression only after it is still flagged as before:
-  the digression lags a step by up to a word's timing.
+  back on its path.
 
 A rule of this library, not of the paper.
 """
@@ -29,7 +22,6 @@ from __future__ import annotations
 import numpy as np
 
 from .spike_bounds import spike_frames
-from .step_pairs import is_step
 
 __all__ = ["run_cells"]
 
@@ -51,6 +43,4 @@ def run_cells(low: np.ndarray, breaks: np.ndarray, spikes: np.ndarray | None, ma
     out[: at[-1] + margin + 1] = low[: at[-1] + margin + 1]  # past its last break a run digresses only
     if (np.diff(at) > 2).any():  # two break events or more (a step marks two adjacent frames): from the first
         out[: max(at[0] - margin, 0)] = False
-    elif not low[: at[0]].any() and not is_step(at[-1] - at[0] + 1):  # a burst, nothing digressing before it
-        out[:] = False
     return out
