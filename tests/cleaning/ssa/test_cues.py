@@ -101,9 +101,9 @@ def test_confirm_flags_keep_runs_that_reach_the_threshold_and_hold_a_break_up_to
     steps[50, 0] = True
     assert np.flatnonzero(ssa.confirm_flags(long, steps, 0.5, fps)).tolist() == list(range(25, 56))
     one = np.zeros((F, 1), dtype=bool)
-    one[30:33, 0] = True  # one break event: kept up to it as a step, cut to it (within the margin) as a spike
+    one[30:33, 0] = True  # one break event: kept up to it as a step; as a spike, the spike's own frame only
     assert np.flatnonzero(ssa.confirm_flags(long, one, 0.5, fps)).tolist() == list(range(10, 38))
-    assert np.flatnonzero(ssa.confirm_flags(long, one, 0.5, fps, spikes=one)).tolist() == list(range(25, 38))
+    assert np.flatnonzero(ssa.confirm_flags(long, one, 0.5, fps, spikes=one)).tolist() == [31]
     assert np.flatnonzero(ssa.confirm_flags(long, one, 0.5, fps, spikes=~one)).tolist() == list(range(10, 38))
     early = np.zeros((F, 1))
     early[0:70, 0] = 0.8  # a run from the first frame, its first break within the margin of it

@@ -69,7 +69,9 @@ Departures from the paper, and why:
   connected cells of ``MDM > threshold / 2`` that reach ``threshold`` and
   hold a break, so the repair covers the error's whole extent; a run with
   two breaks or more is cut to the first and last of them, since beyond
-  them the digression is the error's wake in the neighbour words. The price: an error that
+  them the digression is the error's wake in the neighbour words, and a run
+  whose breaks are all spikes is flagged on the spikes' own frames
+  (:mod:`~mocapkit.cleaning.ssa.run_extent`). The price: an error that
   grows smoothly out of the motion and back (no step anywhere) is left
   unflagged; ``confirm=False`` finds it, with the false flags above.
   Confirmation also flags held joints (:func:`held_joints`): a joint held

@@ -16,6 +16,7 @@ from ... import rotations as R
 from ...motion import Motion
 from ..ik import contact_segments, segment_frames
 from .freeze_bounds import bounded_breaks
+from .run_extent import run_cells
 from .params import SSAParams
 from .step_pairs import UNDO_RATIO, is_step, offset_step_breaks, returns, steps_back
 
@@ -655,23 +656,21 @@ def confirm_flags(
 ) -> np.ndarray:
     """Error flags (F, J) from an MDM confirmed by the joint's own discontinuities (see :func:`detect`).
 
-    Per joint, a run is a connected stretch of frames with ``mdm > extent *
-    threshold`` or within ``margin_s`` seconds of a ``jumps`` frame of the
-    same joint (so the digression on the two sides of a break is one run);
-    its cells with ``mdm > extent * threshold`` are flagged when it reaches
-    ``mdm > threshold`` somewhere and one of them lies within the margin of
-    the break. So every flagged run both digresses clearly and holds a
-    break no smooth motion makes.
-    A run that holds two breaks or more (separate steps or spikes) is cut
-    to its first and last break, within ``margin_s``: an error starts and
-    ends with a break, and beyond them the digression comes from the
-    neighbour words the error itself led astray (a word spans 0.6 s), not
-    from more error, and repairing there would replace clean frames. A run with one break (a drift that grows
+    Per joint, a run is a connected stretch of frames with ``mdm > extent * threshold`` or within ``margin_s``
+    seconds of a ``jumps`` frame of the same joint (so the digression on the two sides of a break is one run);
+    its cells with ``mdm > extent * threshold`` are flagged when it reaches ``mdm > threshold`` somewhere and
+    one of them lies within the margin of the break. So every flagged run both digresses clearly and holds a
+    break no smooth motion makes. Which of a run's frames are flagged, its breaks say
+    (:mod:`~mocapkit.cleaning.ssa.run_extent`): a run whose breaks are all ``spikes``, the spikes' own frames,
+    digressing or not; one that holds two breaks or more (separate steps), its digressing frames from its
+    first to its last break, within ``margin_s``: an error starts and ends with a break, and beyond them the
+    digression comes from the neighbour words the error itself led astray (a word spans 0.6 s), not from more
+    error, and repairing there would replace clean frames. A run with one break (a drift that grows
     smoothly, a frozen channel, each ending in a step) keeps its frames before the break, not those after it:
     an error ends with a break, and past its last one the joint is back on its path, whatever the digression
     says there (the neighbour words the error led astray, the take's own motion that nothing repeats: on 30
-    fps Bandai Namco takes, 30 frames after a frozen upper arm were repaired 65 deg off). ``mdm`` float (F, J)
-    in [0, 1]; ``jumps`` bool (F, J).
+    fps Bandai Namco takes, 30 frames after a frozen upper arm were repaired 65 deg off); with none digressing
+    before its break, none. ``mdm`` float (F, J) in [0, 1]; ``jumps`` bool (F, J).
     """
     from scipy import ndimage
 
@@ -695,16 +694,9 @@ def confirm_flags(
     keep = np.concatenate([[False], peak & broken])
     out = keep[labels] & low
     for lab, (rows, cols) in enumerate(ndimage.find_objects(labels), start=1):
-        if not keep[lab]:
-            continue
-        a, j = rows.start, cols.start
-        at = np.flatnonzero(jumps[rows, j]) + a
-        if not len(at):
-            continue
-        if (np.diff(at) > 2).any() or (spikes is not None and spikes[at, j].all()):
-            # two break events or more (a step marks two adjacent frames), or only spikes
-            out[a : max(at[0] - n, a), j] = False  # (a negative stop would count from the end)
-        out[at[-1] + n + 1 : rows.stop, j] = False  # past its last break a run digresses only
+        j = cols.start
+        if keep[lab] and jumps[rows, j].any():  # the frames its breaks give it (run_extent)
+            out[rows, j] = run_cells(low[rows, j], jumps[rows, j], None if spikes is None else spikes[rows, j], n)
     return out
 
 

@@ -28,6 +28,7 @@ from .neighbours import dropped_terms, near_neighbors, neighbor_words
 from .repeats import blend_inbetweens, expand, frame_index, kept_frames, repeat_runs, without_repeats
 from .texture import Analysis, align_hemisphere, frame_words, prepare
 from .guard import LeftRun, guard_joint
+from .negligible import negligible_runs
 from .swap_exchange import swap_exchanges
 from .undo import undone_offsets
 
@@ -207,7 +208,8 @@ def repair_with_left(
 
     With ``guard`` (the default), each run of one joint's changed cells is checked against the take itself
     before contacts and foot skate (:mod:`~mocapkit.cleaning.ssa.guard`): a run that joins the take less
-    smoothly than the input did, or a bridge turning far faster than the joint does anywhere else, is given
+    smoothly than the input did, a bridge turning far faster than the joint does anywhere else, or a run that
+    moves no cell by half a degree (:mod:`~mocapkit.cleaning.ssa.negligible`), is given
     back its input values bit for bit; ``left`` names each such run (:class:`~mocapkit.cleaning.ssa.guard.LeftRun`, frames of
     ``motion``). Without it every flagged cell is repaired as above and ``left`` is empty.
     """
@@ -338,7 +340,9 @@ def repair_with_left(
         names = motion.skeleton.joint_names
         for j in np.flatnonzero((placed | undone).any(axis=0)):
             changed = np.any(out_rot[:, j] != motion.rotations[:, j], axis=-1)
-            for s, e, why in guard_joint(motion.rotations[:, j], out_rot[:, j], changed, bridged[:, j], flags[:, j]):
+            tiny = negligible_runs(motion.rotations[:, j], out_rot[:, j], changed)  # (negligible.py)
+            worse = guard_joint(motion.rotations[:, j], out_rot[:, j], changed, bridged[:, j], flags[:, j])
+            for s, e, why in tiny + [r for r in worse if r[:2] not in {t[:2] for t in tiny}]:
                 out_rot[s:e, j] = motion.rotations[s:e, j]
                 left.append(LeftRun(names[j], int(s), int(e), why))
     out = dataclasses.replace(motion, rotations=out_rot)
