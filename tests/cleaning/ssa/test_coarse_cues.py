@@ -22,11 +22,19 @@ def throw(shared_data):
 def test_a_clean_take_cut_to_15_or_12_fps_comes_back_bit_identical(throw, step):
     """Every 8th (15 fps) or 10th (12 fps) real frame of 131_02: its toes' flicks (38-63 deg between two frames
     at 15 fps) were backed offsets, 19 toe cells repaired by up to 48 deg; at 12 fps a toe and an elbow that
-    turned out and back between two frames were held, 4 cells repaired."""
+    turned out and back between two frames were held, 4 cells repaired. Its right thumb's 180-degree turn-overs
+    (mocapkit.cleaning.ssa.flips), defects of the file at any rate, are the only cells flagged or changed."""
+    from mocapkit.cleaning.ssa.cues import CAUSES
+
     take = throw[::step]
     out = clean(take)
-    assert not out.flags.any()
-    np.testing.assert_array_equal(out.motion.rotations, take.rotations)
+    flip = 1 << [name for name, _ in CAUSES].index("flip")
+    turned = (np.asarray(out.causes).astype(np.int64) & flip) != 0
+    thumbs = [j for j, n in enumerate(take.skeleton.joint_names) if "Thumb" in n]
+    assert not (out.flags & ~turned).any()
+    assert not np.delete(turned, thumbs, axis=1).any()
+    keep = ~turned
+    np.testing.assert_array_equal(out.motion.rotations[keep], take.rotations[keep])
     np.testing.assert_array_equal(out.motion.root_positions, take.root_positions)
 
 
