@@ -295,72 +295,79 @@ def square(x, out):
         out[i] = x[i] * x[i]
 '''
 
+# One process of the cold-cache sequence: the twins named in ``sides`` called in that order, each line
+# ``side cache_hits cache_misses``; ``picks`` first prints the twin pick() gives below, at and far over the threshold
+# (before any call, so it reads the cache as a new process finds it) and, after the calls, at the threshold again.
 _TWIN_RUN = '''
-import sys, numpy as np
-sys.path.insert(0, {folder!r})
-import twinmod
-x = np.arange(200.0)
-for side in {sides!r}:
-    t = getattr(twinmod.square, side)
-    out = np.empty(200)
-    t(x, out)
-    assert np.array_equal(out, x * x)
-    st = t.stats
-    print(side, len(st.cache_hits), len(st.cache_misses))
-'''
-
-
-def test_twins_keep_their_own_cache_entries(tmp_path):
-    """Compiled serial only, then parallel in a fresh process: the parallel twin compiles (it does not load the
-    serial machine code); a third process loads both from the cache."""
-    import os
-    import subprocess
-    import sys
-
-    (tmp_path / "twinmod.py").write_text(_TWIN_MODULE)
-    env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path / "cache")}
-
-    def run(*sides):
-        code = _TWIN_RUN.format(folder=str(tmp_path), sides=sides)
-        out = subprocess.run([sys.executable, "-c", code], env=env, check=True, capture_output=True, text=True)
-        return {line.split()[0]: tuple(line.split()[1:3]) for line in out.stdout.splitlines()}
-
-    assert run("serial") == {"serial": ("0", "1")}  # compiled, saved
-    assert run("parallel") == {"parallel": ("0", "1")}  # not the serial entry: compiled, saved
-    assert run("serial", "parallel") == {"serial": ("1", "0"), "parallel": ("1", "0")}  # each loads its own
-    names = sorted(p.name.split("-")[0] for p in (tmp_path / "cache").rglob("*.nbi"))
-    assert names == ["twinmod.square", "twinmod.square" + PARALLEL_SUFFIX]
-
-
-_PICK_RUN = '''
 import sys, numpy as np
 sys.path.insert(0, {folder!r})
 import twinmod
 from mocapkit.cleaning.ssa.twins import COLD_FACTOR
 t = twinmod.square
-before = (t.pick(99) is t.serial, t.pick(100) is t.parallel, t.pick(100 * COLD_FACTOR) is t.parallel)
-t.parallel(np.arange(3.0), np.empty(3))
-print(*before, t.pick(100) is t.parallel)
+if {picks!r}:
+    print("picks", t.pick(99) is t.serial, t.pick(100) is t.parallel, t.pick(100 * COLD_FACTOR) is t.parallel)
+x = np.arange(200.0)
+for side in {sides!r}:
+    k = getattr(t, side)
+    out = np.empty(200)
+    k(x, out)
+    assert np.array_equal(out, x * x)
+    st = k.stats
+    print(side, len(st.cache_hits), len(st.cache_misses))
+if {picks!r}:
+    print("after", t.pick(100) is t.parallel)
 '''
 
 
-def test_a_parallel_twin_not_compiled_nor_cached_runs_only_on_very_large_problems(tmp_path):
-    """With an empty cache a size over the threshold still gets the serial twin (compiling the parallel one would
-    cost more than it saves), up to COLD_FACTOR x the threshold; once compiled, and in a later process that finds it
-    in the cache, the threshold alone decides."""
-    import os
+@pytest.fixture(scope="module")
+def cold_twin_runs(tmp_path_factory):
+    """A two-twin kernel in a fresh numba cache, through three processes (the one cold compile of each twin that
+    the tests below share; a parallel twin compiles cold in seconds, the test run's costliest step here):
+
+    1. ``serial``: the serial twin alone, with an empty cache;
+    2. ``parallel``: pick() with only the serial twin cached, then the parallel twin alone;
+    3. ``both``: pick() with both cached, then the serial and the parallel twin.
+
+    Returns ``(outputs, names)``: each run's lines as ``{first word: the rest}``, and the sorted kernel names of
+    the cache's index files.
+    """
     import subprocess
     import sys
 
-    (tmp_path / "twinmod.py").write_text(_TWIN_MODULE)
-    env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path / "cache")}
-    code = _PICK_RUN.format(folder=str(tmp_path))
+    folder = tmp_path_factory.mktemp("twins")
+    (folder / "twinmod.py").write_text(_TWIN_MODULE)
+    env = {**os.environ, "NUMBA_CACHE_DIR": str(folder / "cache")}
 
-    def run():
-        return subprocess.run([sys.executable, "-c", code], env=env, check=True, capture_output=True, text=True).stdout.split()
+    def run(sides, picks):
+        code = _TWIN_RUN.format(folder=str(folder), sides=sides, picks=picks)
+        out = subprocess.run([sys.executable, "-c", code], env=env, check=True, capture_output=True, text=True)
+        return {line.split()[0]: tuple(line.split()[1:]) for line in out.stdout.splitlines()}
 
-    assert run() == ["True", "False", "True", "True"]  # cold: serial at the threshold; compiled: parallel
-    assert run() == ["True", "True", "True", "True"]  # cached: parallel at the threshold before any call
+    outputs = {"serial": run(("serial",), False), "parallel": run(("parallel",), True),
+               "both": run(("serial", "parallel"), True)}
+    names = sorted(p.name.split("-")[0] for p in (folder / "cache").rglob("*.nbi"))
+    return outputs, names
+
+
+def test_twins_keep_their_own_cache_entries(cold_twin_runs):
+    """Compiled serial only, then parallel in a fresh process: the parallel twin compiles (it does not load the
+    serial machine code); a third process loads both from the cache."""
+    out, names = cold_twin_runs
+    assert out["serial"] == {"serial": ("0", "1")}  # compiled, saved
+    assert out["parallel"]["parallel"] == ("0", "1")  # not the serial entry: compiled, saved
+    assert {k: out["both"][k] for k in ("serial", "parallel")} == {"serial": ("1", "0"), "parallel": ("1", "0")}
+    assert names == ["twinmod.square", "twinmod.square" + PARALLEL_SUFFIX]
+
+
+def test_a_parallel_twin_not_compiled_nor_cached_runs_only_on_very_large_problems(cold_twin_runs):
+    """With the parallel twin neither compiled nor cached (the serial one cached beside it) a size over the threshold
+    still gets the serial twin (compiling the parallel one would cost more than it saves), up to COLD_FACTOR x the
+    threshold; once compiled, and in a later process that finds it in the cache, the threshold alone decides."""
+    out, _ = cold_twin_runs
+    assert out["parallel"]["picks"] == ("True", "False", "True")  # cold: serial at the threshold
+    assert out["parallel"]["after"] == ("True",)  # compiled: parallel
+    assert out["both"]["picks"] == ("True", "True", "True")  # cached: parallel at the threshold before any call
+    assert out["both"]["after"] == ("True",)
 
 
 _TORCH_THREADS_RUN = '''
