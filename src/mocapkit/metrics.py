@@ -28,6 +28,7 @@ import numpy as np
 
 from . import rotations as R
 from .errors import SkeletonError
+from .io.euler_branches import three_axis_groups
 from .rigs import pelvis_index
 from .motion import Motion, unit_scale_cm, with_channels_of
 
@@ -105,16 +106,7 @@ def same_branch_channels(values: np.ndarray, ref: np.ndarray, skeleton) -> np.nd
     ``ref``; position channels and joints with fewer than three rotation channels are returned as given.
     """
     out = np.array(values, dtype=np.float64)
-    start = 0
-    groups: dict[str, list[list[int]]] = {}
-    for j in range(skeleton.num_joints):
-        chans = skeleton.joint_channels(j)
-        rot = [start + k for k, c in enumerate(chans) if c.endswith("rotation")]
-        if len(rot) == 3:
-            groups.setdefault("".join(chans[k - start][0] for k in rot), []).append(rot)
-        start += len(chans)
-    for order, cols in groups.items():
-        idx = np.array(cols)  # (K, 3)
+    for order, idx in three_axis_groups(skeleton):  # idx (K, 3)
         out[:, idx] = R.nearest_euler(out[:, idx], ref[:, idx], order)
     return out
 

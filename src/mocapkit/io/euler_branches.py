@@ -15,7 +15,7 @@ import numpy as np
 
 from .. import rotations as R
 
-__all__ = ["NEAR_SOURCE_DEG", "continuous_rotations", "source_branches"]
+__all__ = ["NEAR_SOURCE_DEG", "continuous_rotations", "source_branches", "three_axis_groups"]
 
 #: Degrees: a changed cell whose rotation stays this close to the source file's is written on the branch nearest the
 #: file's numbers of that cell; one turned further (a flip repaired) follows its neighbours (continuous_euler's max_step).
@@ -77,3 +77,19 @@ def _turned_less(a: np.ndarray, b: np.ndarray, order: str, limit_deg: float, deg
     qa = R.euler_to_quaternion(np.where(ok[..., None], a, 0.0), order, degrees=degrees)
     qb = R.euler_to_quaternion(np.where(ok[..., None], b, 0.0), order, degrees=degrees)
     return ok & (np.degrees(R.geodesic_angle(qa, qb)) < limit_deg)
+
+
+def three_axis_groups(skeleton) -> list[tuple[str, np.ndarray]]:
+    """``(order, columns (K, 3))`` per rotation order (``"ZXY"``, ...) of the joints of ``skeleton`` with three
+    rotation channels, columns into the file's channel rows (:meth:`~mocapkit.skeleton.Skeleton.joint_channels`
+    in joint order): the Euler triples a branch choice applies to (a joint with fewer axes has only whole turns,
+    which unwrapping takes care of)."""
+    groups: dict[str, list[list[int]]] = {}
+    start = 0
+    for j in range(skeleton.num_joints):
+        chans = skeleton.joint_channels(j)
+        rot = [start + k for k, c in enumerate(chans) if c.endswith("rotation")]
+        if len(rot) == 3:
+            groups.setdefault("".join(chans[k - start][0] for k in rot), []).append(rot)
+        start += len(chans)
+    return [(order, np.array(cols, dtype=np.int64)) for order, cols in groups.items()]

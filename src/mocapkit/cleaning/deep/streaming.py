@@ -23,6 +23,7 @@ from numba import njit
 
 from ... import rotations as R
 from ...errors import SkeletonError
+from ...io.euler_branches import three_axis_groups
 from ...motion import Skeleton
 from .channels import UNWRAP_ALPHA, euler_columns, euler_values, root_angular_velocity
 from .inference import denoise_channels, model_of_kind, needs_resampling, warn_licence
@@ -70,7 +71,7 @@ class Denoiser:
         self.skeleton = skeleton
         self.fps = float(fps)
         self._cols = euler_columns(skeleton)
-        self._triples = _three_axis_groups(skeleton)
+        self._triples = three_axis_groups(skeleton)
         self._branch = None  # the last row with each joint's triple on its branch (channels.euler_values)
         self._root = _root_rotation_columns(skeleton)
         self._n_file = sum(len(skeleton.joint_channels(j)) for j in range(skeleton.num_joints))
@@ -258,21 +259,6 @@ def _lstm_backward(gis, w_hh: np.ndarray) -> np.ndarray:
     """The backward direction's output at the window's first position: from zero state, last to first."""
     H = w_hh.shape[1]
     return _lstm_steps(np.stack(gis)[::-1].copy(), np.zeros(H), np.zeros(H), w_hh)[0]
-
-
-def _three_axis_groups(skeleton: Skeleton) -> list[tuple[str, np.ndarray]]:
-    """``(order, columns (K, 3))`` per rotation order of the joints with three rotation channels, in file-row
-    columns: the triples whose branch :func:`~mocapkit.io.euler_branches.continuous_rotations` chooses (a joint
-    with fewer axes has only whole turns, which the unwrapping takes care of alike, to rounding)."""
-    groups: dict[str, list[list[int]]] = {}
-    c = 0
-    for j in range(skeleton.num_joints):
-        chans = skeleton.joint_channels(j)
-        rot = [c + k for k, ch in enumerate(chans) if ch.endswith("rotation")]
-        if len(rot) == 3:
-            groups.setdefault("".join(chans[k - c][0] for k in rot), []).append(rot)
-        c += len(chans)
-    return [(order, np.array(cols, dtype=np.int64)) for order, cols in groups.items()]
 
 
 def _root_rotation_columns(skeleton: Skeleton) -> np.ndarray:
