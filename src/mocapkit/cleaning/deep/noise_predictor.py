@@ -77,8 +77,8 @@ def _solve_spd(g, h):
 
 
 @njit(cache=True)
-def _predictor_noise(x, observed, edges, p, med, out):
-    C, F = x.shape  # channels-first inside: each channel's frames contiguous
+def _predictor_noise(x, usable, edges, p, med, out):
+    C = x.shape[0]  # channels-first inside: each channel's frames contiguous; usable (C, F): _usable
     B = edges.shape[0] - 1
     for c in range(C):
         for b in range(B):
@@ -87,11 +87,8 @@ def _predictor_noise(x, observed, edges, p, med, out):
             h = np.zeros(p)
             u = np.empty(p)
             n = 0
-            for t in range(max(lo, p), min(hi, F - p)):
-                ok = observed[c, t]
-                for k in range(1, p + 1):
-                    ok = ok and observed[c, t - k] and observed[c, t + k]
-                if not ok:
+            for t in range(lo, hi):
+                if not usable[c, t]:
                     continue
                 n += 1
                 for k in range(p):
@@ -108,11 +105,8 @@ def _predictor_noise(x, observed, edges, p, med, out):
             a = _solve_spd(g, h)
             e2 = np.empty(n)
             m = 0
-            for t in range(max(lo, p), min(hi, F - p)):
-                ok = observed[c, t]
-                for k in range(1, p + 1):
-                    ok = ok and observed[c, t - k] and observed[c, t + k]
-                if not ok:
+            for t in range(lo, hi):
+                if not usable[c, t]:
                     continue
                 r = x[c, t]
                 for k in range(p):
@@ -135,6 +129,18 @@ def predictor_noise_std(x: np.ndarray, observed: np.ndarray, edges: np.ndarray) 
     """
     x = np.asarray(x, dtype=np.float64)
     out = np.full((len(edges) - 1, x.shape[1]), np.nan)
-    _predictor_noise(np.ascontiguousarray(x.T), np.ascontiguousarray(np.asarray(observed, dtype=np.bool_).T),
+    _predictor_noise(np.ascontiguousarray(x.T), np.ascontiguousarray(_usable(observed, ORDER).T),
                      np.asarray(edges, dtype=np.int64), ORDER, _MEDIAN_CHI2_1, out)
+    return out
+
+
+def _usable(observed: np.ndarray, p: int) -> np.ndarray:
+    """(F, C) bool: the frames whose own sample and ``p`` neighbours on each side are all ``observed`` (F, C) (a
+    frame within ``p`` of either end has too few neighbours: False), those the interpolator is fitted on."""
+    obs = np.asarray(observed, dtype=bool)
+    F = obs.shape[0]
+    out = np.zeros_like(obs)
+    if F > 2 * p:
+        win = np.lib.stride_tricks.sliding_window_view(obs, 2 * p + 1, axis=0)  # (F - 2p, C, 2p + 1)
+        out[p:F - p] = win.all(axis=-1)
     return out
