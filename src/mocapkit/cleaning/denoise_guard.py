@@ -90,21 +90,22 @@ def noise_std(rotations: np.ndarray, cells: np.ndarray) -> np.ndarray:
     return std
 
 
-def departure_bounds(rotations: np.ndarray, cells: np.ndarray) -> np.ndarray:
+def departure_bounds(rotations: np.ndarray, cells: np.ndarray, std: np.ndarray | None = None) -> np.ndarray:
     """(J,) degrees: how far a denoiser may move a cell of each joint, ``SIGMAS`` times :func:`noise_std` (over
-    ``cells`` (F, J)) plus ``MARGIN_DEG``."""
-    return SIGMAS * noise_std(rotations, cells) + MARGIN_DEG
+    ``cells`` (F, J); ``std`` (J,): that std, already measured) plus ``MARGIN_DEG``."""
+    return SIGMAS * (noise_std(rotations, cells) if std is None else std) + MARGIN_DEG
 
 
-def jump_bounds(rotations: np.ndarray, cells: np.ndarray) -> np.ndarray:
+def jump_bounds(rotations: np.ndarray, cells: np.ndarray, std: np.ndarray | None = None) -> np.ndarray:
     """(J,) degrees: the turn between neighbouring frames that white noise of :func:`noise_std` (over ``cells``
-    (F, J)) passes once in ``1 / SPIKE_P`` steps, plus ``MARGIN_DEG``: a jump no noise sample makes.
+    (F, J); ``std`` (J,): that std, already measured) passes once in ``1 / SPIKE_P`` steps, plus ``MARGIN_DEG``: a
+    jump no noise sample makes.
 
     A step between two noisy frames carries the difference of two samples, ``sqrt(2)`` times the noise's std;
     read as isotropic at the widest axis's std (an upper bound on noise narrower along the other axes), its length
     follows the chi distribution with 3 degrees of freedom, whose ``SPIKE_P`` tail starts at 6.7 of its scale.
     """
-    return chi(3).isf(SPIKE_P) * np.sqrt(2.0) * noise_std(rotations, cells) + MARGIN_DEG
+    return chi(3).isf(SPIKE_P) * np.sqrt(2.0) * (noise_std(rotations, cells) if std is None else std) + MARGIN_DEG
 
 
 def far_cells(before: np.ndarray, after: np.ndarray, bounds: np.ndarray) -> np.ndarray:
@@ -139,7 +140,8 @@ def held_cells(rotations: np.ndarray, far: np.ndarray, bounds: np.ndarray) -> np
     return far & (agrees | alone)
 
 
-def displaced_runs(rotations: np.ndarray, denoised: np.ndarray, cells: np.ndarray) -> np.ndarray:
+def displaced_runs(rotations: np.ndarray, denoised: np.ndarray, cells: np.ndarray,
+                   std: np.ndarray | None = None) -> np.ndarray:
     """(F, J) bool: the ``cells`` (F, J) in a run of 2 to ``RUN_FRAMES`` frames that ``denoised`` (F, J, 4) moved
     from ``rotations`` (F, J, 4) the same way on average, by more than noise moves such a mean.
 
@@ -147,7 +149,7 @@ def displaced_runs(rotations: np.ndarray, denoised: np.ndarray, cells: np.ndarra
     noise; the mean of ``n`` independent samples has ``1 / sqrt(n)`` of their std, so a mean longer than
     ``chi(3).isf(SPIKE_P)`` times :func:`noise_std` over ``sqrt(n)``, plus ``MARGIN_DEG``, is a run the take holds
     (a flip of a few frames, each frame of which alone is within what heavy noise makes). A missing cell counts
-    as not moved."""
+    as not moved. ``std`` (J,): :func:`noise_std` of ``rotations`` over ``cells``, already measured."""
     q = np.asarray(rotations, dtype=np.float64)
     d = np.asarray(denoised, dtype=np.float64)
     cells = np.asarray(cells, dtype=bool)
@@ -155,7 +157,7 @@ def displaced_runs(rotations: np.ndarray, denoised: np.ndarray, cells: np.ndarra
     move = np.nan_to_num(np.degrees(R.quaternion_to_rotvec(R.quaternion_multiply(R.quaternion_conjugate(d), q))))
     F, J = cells.shape
     total = np.concatenate([np.zeros((1, J, 3)), np.cumsum(move, axis=0)])  # (F + 1, J, 3)
-    std = noise_std(q, cells)
+    std = noise_std(q, cells) if std is None else std
     k = chi(3).isf(SPIKE_P)
     out = np.zeros((F, J), dtype=bool)
     for n in range(2, min(RUN_FRAMES, F) + 1):
@@ -223,19 +225,22 @@ def _frames(f: np.ndarray) -> str:
     return f"frame {f[0]}" if len(f) == 1 else f"frames {f[0]}-{f[-1]}"
 
 
-def kept_cells(rotations: np.ndarray, denoised: np.ndarray, judged: np.ndarray) -> np.ndarray:
+def kept_cells(rotations: np.ndarray, denoised: np.ndarray, judged: np.ndarray,
+               std: np.ndarray | None = None) -> np.ndarray:
     """(F, J) bool: the cells of ``judged`` (F, J) that :func:`guarded` keeps as they came, of ``rotations`` (F, J, 4)
     denoised into ``denoised`` (F, J, 4): of those moved further than :func:`departure_bounds` (:func:`far_cells`),
     the ones a jump explains (:func:`jump_cells`) and, of the others not beside them (frames the jump dragged,
     which a run around the jump denoises), the held ones (:func:`held_cells`); and the runs moved further on
-    average than noise explains (:func:`displaced_runs`). Bounds from the noise of ``judged``."""
+    average than noise explains (:func:`displaced_runs`). Bounds from the noise of ``judged`` (``std`` (J,): its
+    :func:`noise_std`, already measured)."""
     q = np.asarray(rotations, dtype=np.float64)
-    bounds = departure_bounds(q, judged)
+    std = noise_std(q, judged) if std is None else std  # once for the three bounds below
+    bounds = departure_bounds(q, judged, std)
     far = far_cells(q, denoised, bounds) & judged
-    runs = displaced_runs(q, denoised, judged)
+    runs = displaced_runs(q, denoised, judged, std)
     if not far.any():
         return runs
-    jumps = jump_cells(q, far, jump_bounds(q, judged))
+    jumps = jump_cells(q, far, jump_bounds(q, judged, std))
     return jumps | runs | held_cells(q, far & ~jumps & ~beside(jumps, far), bounds)
 
 
@@ -251,12 +256,13 @@ def guarded(motion: Motion, cells: np.ndarray | None, run) -> tuple[Motion, str,
     else:
         judged[:] = np.asarray(cells, dtype=bool)
     out, method, note = run(motion, cells)
-    kept = kept_cells(motion.rotations, out.rotations, judged)
+    std = noise_std(motion.rotations, judged)  # the take's noise: the same for both runs' judgements
+    kept = kept_cells(motion.rotations, out.rotations, judged, std)
     if not kept.any():
         return out, method, note
     around = dataclasses.replace(motion, rotations=np.where(kept[..., None], np.nan, motion.rotations))
     out, method, note = run(around, judged & ~kept)
-    kept |= kept_cells(motion.rotations, out.rotations, judged)
+    kept |= kept_cells(motion.rotations, out.rotations, judged, std)
     rot = np.where(kept[..., None], motion.rotations, out.rotations)
     said = _kept_note(kept, motion)
     return dataclasses.replace(out, rotations=rot), method, f"{note}; {said}" if note else said
