@@ -32,9 +32,9 @@ Rotations are (F, J, 4) unit quaternions (w, x, y, z), frames first; angles in d
 from __future__ import annotations
 
 import dataclasses
+import functools
 
 import numpy as np
-from scipy.stats import chi
 
 from .. import rotations as R
 from .runs import true_runs
@@ -50,6 +50,15 @@ RUN_FRAMES = 8  # the longest run :func:`displaced_runs` reads as one (a flip he
 SPIKE_P = 1e-9  # the chance a cell of white noise passes :func:`jump_bounds` (a take of 1e6 cells: once in 1,000)
 # a white noise sample n_t less the mean of its neighbours' has 1.5 times its variance; the median of |N(0, 1)|
 _MEDIAN_ABS_NORMAL = 0.6745
+
+
+@functools.cache
+def _chi3_isf() -> float:
+    """``chi(3).isf(SPIKE_P)``: where the ``SPIKE_P`` tail of the chi distribution with 3 degrees of freedom starts
+    (6.7), computed on first use (importing ``scipy.stats`` takes ~0.5 s, which a take without noise never needs)."""
+    from scipy.stats import chi
+
+    return float(chi(3).isf(SPIKE_P))
 
 
 def midpoint_deviation(rotations: np.ndarray) -> np.ndarray:
@@ -105,7 +114,7 @@ def jump_bounds(rotations: np.ndarray, cells: np.ndarray, std: np.ndarray | None
     read as isotropic at the widest axis's std (an upper bound on noise narrower along the other axes), its length
     follows the chi distribution with 3 degrees of freedom, whose ``SPIKE_P`` tail starts at 6.7 of its scale.
     """
-    return chi(3).isf(SPIKE_P) * np.sqrt(2.0) * (noise_std(rotations, cells) if std is None else std) + MARGIN_DEG
+    return _chi3_isf() * np.sqrt(2.0) * (noise_std(rotations, cells) if std is None else std) + MARGIN_DEG
 
 
 def far_cells(before: np.ndarray, after: np.ndarray, bounds: np.ndarray) -> np.ndarray:
@@ -158,7 +167,7 @@ def displaced_runs(rotations: np.ndarray, denoised: np.ndarray, cells: np.ndarra
     F, J = cells.shape
     total = np.concatenate([np.zeros((1, J, 3)), np.cumsum(move, axis=0)])  # (F + 1, J, 3)
     std = noise_std(q, cells) if std is None else std
-    k = chi(3).isf(SPIKE_P)
+    k = _chi3_isf()
     out = np.zeros((F, J), dtype=bool)
     for n in range(2, min(RUN_FRAMES, F) + 1):
         hit = np.linalg.norm(total[n:] - total[:-n], axis=-1) / n > (k * std / np.sqrt(n) + MARGIN_DEG)[None, :]

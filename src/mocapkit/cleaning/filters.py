@@ -37,8 +37,6 @@ import dataclasses
 from typing import Callable
 
 import numpy as np
-from scipy.ndimage import gaussian_filter1d
-from scipy.signal import savgol_filter
 
 from .. import rotations as R
 from ..corrupt import joint_set
@@ -109,6 +107,7 @@ def gaussian_smooth(motion: Motion, sigma_s: float = 0.02, joints=None, root: bo
     if not (np.isfinite(sigma_s) and sigma_s > 0):
         raise ValueError(f"sigma_s must be a positive number of seconds, got {sigma_s!r}")
     sigma = sigma_s * motion.fps
+    from scipy.ndimage import gaussian_filter1d  # here: importing scipy.ndimage takes ~0.2 s
 
     def func(x: np.ndarray) -> np.ndarray:
         return gaussian_filter1d(x, sigma, axis=0, mode="nearest")
@@ -128,6 +127,8 @@ def savgol_smooth(
     the polynomial is left as it is. Other arguments as in
     :func:`gaussian_smooth`. Returns a new Motion.
     """
+    from scipy.signal import savgol_filter  # here: importing scipy.signal takes ~1 s, which most commands never need
+
     window = window_frames(window_s, motion.fps, polyorder)
 
     def func(x: np.ndarray) -> np.ndarray:

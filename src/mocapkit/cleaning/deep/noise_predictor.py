@@ -31,9 +31,10 @@ take's own jitter is indistinguishable from it.
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 from numba import njit
-from scipy.stats import chi2
 
 __all__ = ["ORDER", "MIN_FRAMES", "predictor_noise_std"]
 
@@ -46,7 +47,14 @@ MIN_FRAMES = 16
 """The fewest frames of a block and channel whose interpolator is fitted (their ``2 ORDER + 1`` frames all
 observed): fewer give no estimate."""
 
-_MEDIAN_CHI2_1 = float(chi2.ppf(0.5, 1))
+
+@functools.cache
+def _median_chi2_1() -> float:
+    """The median of a chi-square with one degree of freedom (0.455), computed on first use (importing
+    ``scipy.stats`` takes ~0.5 s, which most commands never need)."""
+    from scipy.stats import chi2
+
+    return float(chi2.ppf(0.5, 1))
 
 
 @njit(cache=True)
@@ -130,7 +138,7 @@ def predictor_noise_std(x: np.ndarray, observed: np.ndarray, edges: np.ndarray) 
     x = np.asarray(x, dtype=np.float64)
     out = np.full((len(edges) - 1, x.shape[1]), np.nan)
     _predictor_noise(np.ascontiguousarray(x.T), np.ascontiguousarray(_usable(observed, ORDER).T),
-                     np.asarray(edges, dtype=np.int64), ORDER, _MEDIAN_CHI2_1, out)
+                     np.asarray(edges, dtype=np.int64), ORDER, _median_chi2_1(), out)
     return out
 
 

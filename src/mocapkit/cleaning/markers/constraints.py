@@ -26,7 +26,6 @@ Positions are (F, M, 3), frames first, in the capture's unit.
 from __future__ import annotations
 
 import numpy as np
-from scipy.ndimage import gaussian_filter1d
 
 from ..ik import contact_segments
 from .rigid import DistanceStats
@@ -118,6 +117,8 @@ def smooth_correction(before: np.ndarray, after: np.ndarray, free: np.ndarray, s
                 continue  # a NaN sample in the run: left as projected
             left = np.repeat(corr[:1] if a == 0 else np.zeros((1, 3)), pad, axis=0)
             right = np.repeat(corr[-1:] if b == f else np.zeros((1, 3)), pad, axis=0)
+            from scipy.ndimage import gaussian_filter1d  # here: importing scipy.ndimage takes ~0.2 s
+
             low = gaussian_filter1d(np.concatenate([left, corr, right]), sigma, axis=0, mode="nearest")
             out[a:b, m] = before[a:b, m] + low[pad:pad + b - a]
     return out

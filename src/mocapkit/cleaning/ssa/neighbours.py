@@ -18,7 +18,6 @@ from dataclasses import dataclass
 from typing import Sequence
 
 import numpy as np
-from scipy.signal import resample_poly
 
 from ... import rotations as R
 from . import self_costs, word_dtw, word_means
@@ -335,7 +334,10 @@ def neighbor_words(
     warped, iend = word_dtw.warp_target_words(
         source_values, context.values, members, drop, src_starts[idx], pos[idx], N, M, min_width, 3, rows, costs
     )
-    for L in np.unique(iend[(iend >= 0) & (iend + 1 != N)]) + 1:
+    short = np.unique(iend[(iend >= 0) & (iend + 1 != N)]) + 1
+    if len(short):
+        from scipy.signal import resample_poly  # here: importing scipy.signal takes ~1 s
+    for L in short:
         sel = np.flatnonzero(iend + 1 == L)
         part = R.quaternion_continuity(warped[sel, :L], axis=1).reshape(len(sel), L, -1)
         warped[sel] = resample_poly(part, N, L, axis=1, padtype="line").reshape(len(sel), N, len(rows), 4)

@@ -15,7 +15,6 @@ import dataclasses
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.signal import savgol_filter
 
 from ... import rotations as R
 from ...errors import SkeletonError
@@ -98,6 +97,8 @@ def _blend_runs(orig: np.ndarray, new: np.ndarray, flags: np.ndarray, window: in
         track[idx] = R.quaternion_multiply(R.quaternion_exp(delta), rep)
     cont = R.quaternion_continuity(track, axis=0)
     if F >= window:
+        from scipy.signal import savgol_filter  # here: importing scipy.signal takes ~1 s
+
         smooth = savgol_filter(cont, window, 2, axis=0, mode="interp")
     else:
         smooth = cont

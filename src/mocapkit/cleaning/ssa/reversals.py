@@ -30,7 +30,6 @@ nothing.
 from __future__ import annotations
 
 import numpy as np
-from scipy import ndimage
 
 from ... import rotations as R
 
@@ -68,6 +67,8 @@ def reversed_runs(rotations: np.ndarray, swaps: np.ndarray, joints=None, ratio: 
     out = np.zeros(swaps.shape, dtype=bool)
     if not swaps.any():
         return out
+    from scipy import ndimage  # here: importing it takes ~0.2 s, which a take without swaps never needs
+
     F = swaps.shape[0]
     judged: dict[tuple[int, int], bool] = {}  # a pair's two joints share their run
     for j in np.flatnonzero(swaps.any(axis=0)):
