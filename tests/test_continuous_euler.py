@@ -115,7 +115,7 @@ def test_kernel_matches_the_slow_reference(order, degrees):
     # a seed of its own per case (Python's hash of a string changes from one process to the next)
     rng = np.random.default_rng(zlib.crc32(f"{order}-{degrees}".encode()))
     n = len(order)
-    for _ in range(60):
+    for _ in range(25):  # 300 random takes over the 12 cases; the reference's enumeration is what costs
         F, K = int(rng.integers(1, 14)), int(rng.integers(1, 4))
         scale = 1.0 if degrees else np.pi / 180
         # a random walk (small steps, some big jumps), any branch per cell, some NaN cells, some fixed ones
