@@ -692,3 +692,16 @@ def test_clean_gives_the_same_bits_twice_in_one_process_and_in_another(shared_da
     out = subprocess.run([sys.executable, "-c", _SAME_CLEAN, str(path)], env=env, capture_output=True, text=True,
                          check=True, timeout=600)
     assert out.stdout.split()[-1] == first
+
+
+def test_importing_the_pipeline_loads_no_heavy_library():
+    """`clean`, `detect` and `fill` start without torch, matplotlib or the scipy subpackages that take ~1.5 s to
+    import (scipy.signal pulls scipy.stats); the steps import them where they use them."""
+    import subprocess
+    import sys
+
+    heavy = ("torch", "matplotlib", "scipy.signal", "scipy.stats", "scipy.optimize", "scipy.ndimage", "scipy.interpolate")
+    code = ("import sys, mocapkit.cleaning.pipeline, mocapkit.cli.clean, mocapkit.cli.ssa; "
+            f"print(sorted(m for m in {heavy!r} if m in sys.modules))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == "[]"
