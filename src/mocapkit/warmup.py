@@ -36,8 +36,9 @@ import numpy as np
 __all__ = ["warm_up", "broken_walk", "parallel_twins", "search_kernels", "reconstruct_kernels"]
 
 
-def broken_walk():
-    """The bundled walk with gaps, capture errors and noise on two joints (a Motion with every defect ``clean`` treats)."""
+def broken_walk(gaps: bool = True):
+    """The bundled walk with gaps, capture errors and noise on two joints (a Motion with every defect ``clean`` treats);
+    ``gaps=False``: the same without the gaps (nothing for the fill step, so no network is loaded)."""
     import dataclasses
 
     from . import corrupt, samples
@@ -45,7 +46,7 @@ def broken_walk():
 
     walk = load(samples.path("12_walk.amc"))
     bad, _, _ = corrupt.real_errors(walk, n_errors=4, seed=7)
-    gappy, gap = corrupt.gaps(bad, seed=8)
+    gappy, gap = corrupt.gaps(bad, seed=8) if gaps else (bad, np.zeros(bad.rotations.shape[:2], dtype=bool))
     noisy, mask = corrupt.angular_noise(gappy, amount=0.5, seed=9, joints=["lfemur", "rhumerus"])
     rot = np.where((mask & ~gap)[..., None], noisy.rotations, gappy.rotations)
     return dataclasses.replace(gappy, rotations=rot)
@@ -58,17 +59,19 @@ def parallel_twins() -> None:
     twin by problem size); this compiles the parallel ones, which a long take
     uses (:mod:`mocapkit.cleaning.ssa.twins`). numba compiles ``parallel=True``
     kernels slowly (about two thirds of the warm-up), so :func:`warm_up` runs
-    this in a second process beside the rest.
+    this in a second process beside the rest. The walk has no gaps here: the
+    twins are detect's and repair's, and filling (the EBD, torch) is the other
+    process's work, which this one would only repeat.
     """
     from .cleaning.pipeline import clean
     from .cleaning.ssa.twins import forced
     from .context import fit_context, resolve_context
 
-    take = broken_walk()
+    take = broken_walk(gaps=False)
     context, _ = fit_context(take, resolve_context(None))
     with forced("parallel"):
         for ctx in (context, None):
-            clean(take, ctx, steps="fill,detect,repair")
+            clean(take, ctx, steps="detect,repair")
 
 
 def search_kernels() -> None:
