@@ -72,14 +72,23 @@ def test_detect_no_confirm_gives_the_papers_flags(tmp_path):
     inp = tmp_path / "walk.npz"
     mocapkit.save(walk, inp)
     paths = {rule: tmp_path / f"{rule}.npz" for rule in ("confirm", "no-confirm")}
-    segments = {}
+    segments, notes = {}, {}
     for rule, path in paths.items():
         code, out, err = run("detect", str(inp), "--out", str(path), f"--{rule}", "--json")
         assert code == 0, err
-        segments[rule] = json.loads(out.strip().splitlines()[-1])["segments"]
+        found = json.loads(out.strip().splitlines()[-1])
+        segments[rule], notes[rule] = found["segments"], found["notes"]
     confirmed, paper = (ssa.Detection.load(p) for p in paths.values())
-    # each segment names the rules that flagged it: without confirmation, the digression alone
+    # each segment names the rules that flagged it: without confirmation, the digression alone, and the take's own
+    # RThumb turn-overs (not analysed by self-similarity) under either rule, as repair would look for them
     words = dict(ssa.cues.CAUSES)
+    flips = {rule: [(g["joint"], g["start"], g["last"]) for g in segs if g["causes"] == [words["flip"]]]
+             for rule, segs in segments.items()}
+    assert flips["confirm"] == flips["no-confirm"] == [("RThumb", 178, 191), ("RThumb", 237, 242)]
+    assert ("flip: RThumb turned 180 deg and back, frames 178-191 (a constant half turn): left as is (repair would "
+            "turn it back exactly)") in notes["no-confirm"]
+    assert not paper.flags[:, walk.skeleton.index("RThumb")].any()  # the file keeps self-similarity's flags alone
+    segments = {rule: [g for g in segs if g["causes"] != [words["flip"]]] for rule, segs in segments.items()}
     assert segments["no-confirm"] and all(g["causes"] == [words["digression"]] for g in segments["no-confirm"])
     others = set(words.values()) - {words["digression"]}
     assert all(g["causes"] and set(g["causes"]) <= others for g in segments["confirm"])  # none, or named

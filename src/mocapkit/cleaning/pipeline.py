@@ -144,7 +144,7 @@ from .noise_rate import noise_too_coarse
 from .noise_scope import with_body_noise
 from .stutters import Stutter, find_stutters, stutter_frames
 from .whole_take import (MAX_WORD_ANGLE_DEG, denoise_take, detect_take, differing, fill_take, motion_span,
-                         repair_whole, take_params, with_flips, with_teleports)
+                         repair_whole, review_turn_overs, take_params, turn_overs_note, with_flips, with_teleports)
 from .zeros import ZeroRun, find_zeros
 
 __all__ = ["STEPS", "CleanResult", "StepRecord", "clean", "capped_lines", "noise_level", "noise_direction", "noisy_cells", "clean_path", "parse_steps",
@@ -923,6 +923,12 @@ def clean(
             said = det.analysed_part().notes  # the frames analysed are said by the calibration lines
             note = f"{_count(len(det.segments()), 'flagged segment')} on {_count(int(flags.any(axis=0).sum()), 'joint')}" + (
                 f"; {'; '.join(said)}" if said else "")
+            if "repair" not in steps:  # review: the turn-overs the repair step would name, flagged, none turned back
+                seen = (review_turn_overs(cur, det, poses=poses) if redo is None else
+                        review_turn_overs(undenoised, det, context, poses=poses))
+                flags, causes = with_flips(flags, causes, seen.flagged)
+                notes.extend(seen.lines)
+                note = "; ".join(x for x in (note, turn_overs_note(seen.lines)) if x)
             records.append(StepRecord("detect", time.perf_counter() - t, 0, f"self-similarity against {what}", note))
 
     if "repair" in steps and det is not None:
@@ -944,12 +950,10 @@ def clean(
             cur = dataclasses.replace(cur, rotations=np.where(denoised[..., None], den_rot, cur.rotations))
         # the root cells put back: flagged in the record, so a person can undo them
         flags, causes = with_teleports(flags, causes, done.teleported)
-        flags, causes = with_flips(flags, causes, done)  # turn-overs turned back or named: flagged, named below
+        flags, causes = with_flips(flags, causes, done.turn_flags)  # turn-overs turned back or named: named below
         note = "; ".join(done.put_back) if done.put_back else "" if flags.any() else "nothing flagged"
-        if done.flips:
-            notes.extend(done.flips)  # every one: a flag's outcome in the report reads its line
-            turned = sum(": turned back exactly" in line for line in done.flips)
-            note = "; ".join(x for x in (note, f"{_count(len(done.flips), 'turn-over')} ({turned} turned back)") if x)
+        notes.extend(done.flips)  # every one: a flag's outcome in the report reads its line
+        note = "; ".join(x for x in (note, turn_overs_note(done.flips)) if x)
         if done.left:  # runs the repair guard gave back as they were: flagged, not changed, named
             notes.extend(capped_lines(done.left, "runs left"))
             note = "; ".join(x for x in (note, f"{_count(len(done.left), 'run')} left: repair not better than the take") if x)

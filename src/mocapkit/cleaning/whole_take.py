@@ -22,7 +22,7 @@ both, and so do the ``detect`` and ``repair`` commands: on the same take, contex
 and options, ``detect`` flags what ``clean --steps detect`` flags and ``repair``
 changes what ``clean --steps detect,repair`` changes.
 
-Two more things of a whole take go the same way in every command:
+Three more things of a whole take go the same way in every command:
 
 - **Channels written as 0 where the capture lost data** (:mod:`mocapkit.cleaning.zeros`) are missing
   samples, as NaN is. :func:`fill_take` (``clean``'s fill step and the ``fill`` command) makes them
@@ -35,6 +35,11 @@ Two more things of a whole take go the same way in every command:
   (``clean``'s repair step and the ``repair`` command), after the flagged cells are repaired; their
   cells join the flags with the cause ``teleport`` (:func:`with_teleports`), so they are undone like any
   repair.
+- **Turn-overs** (a bone turned 180 deg about itself in one frame and back, :mod:`mocapkit.cleaning.ssa.flips`)
+  are found by :func:`turn_overs`: turned back by :func:`repair_whole` where that is checked right, and named,
+  none turned back, where no repair runs (:func:`review_turn_overs`: ``clean --steps detect`` and the ``detect``
+  command). Either way their cells join the flags with the cause ``flip`` (:func:`with_flips`) and one line names
+  each, in the same words on the same frames.
 """
 
 from __future__ import annotations
@@ -53,7 +58,8 @@ from .zeros import as_missing, find_zeros
 
 __all__ = ["MAX_WORD_ANGLE_DEG", "MADE_UP_SHARE", "TakeDetection", "TakeFill", "TakeRepair", "take_params",
            "motion_span", "made_up_note", "resolve_model", "fill_take", "denoise_take", "check_no_zeros", "detect_take", "across_breaks",
-           "repair_take", "repair_whole", "with_teleports", "changed_cells", "differing"]
+           "repair_take", "repair_whole", "TurnOvers", "turn_overs", "review_turn_overs", "turn_overs_note", "with_flips",
+           "with_teleports", "changed_cells", "differing", "REVIEW_WHY"]
 
 MAX_WORD_ANGLE_DEG = 8.0  # words with no neighbour this close (RMS joint angle) are not judged
 #: above this share of missing joint samples, a fill is said to have made up most of the take
@@ -369,11 +375,19 @@ class TakeRepair:
 
 def repair_whole(motion: Motion, detection, context=None, *, foot_skate: bool = False, poses=None) -> TakeRepair:
     """``clean``'s repair step and the ``repair`` command: :func:`repair_take`, then the teleports of the root's
-    path between the calibration poses put back (:func:`mocapkit.cleaning.take_breaks.fix_teleports`).
+    path between the calibration poses put back (:func:`mocapkit.cleaning.take_breaks.fix_teleports`), then the
+    turn-overs turned back where that is right and named either way (:func:`turn_overs`).
 
     The frames looked at are the detection's (``detection.span``) when it has them, else those between the
     take's calibration ``poses`` (found here when not given). Raises as :func:`repair_take`.
     """
+    done, span, leaves = _repaired(motion, detection, context, foot_skate=foot_skate, poses=poses)
+    return turned_over(done, span, leaves)
+
+
+def _repaired(motion: Motion, detection, context=None, *, foot_skate: bool = False, poses=None):
+    """``(TakeRepair, span, leaves)``: :func:`repair_whole` before the turn-overs, the frames ``(lo, hi)`` it looked
+    at, and the joints self-similarity did not analyse (whose constant half turns :func:`turn_overs` looks for)."""
     from . import take_breaks as tb
 
     F = motion.num_frames
@@ -387,53 +401,111 @@ def repair_whole(motion: Motion, detection, context=None, *, foot_skate: bool = 
     back, done = tb.fix_teleports(fixed, events) if events else (fixed, ())
     teleported = changed_cells(motion, back) & ~moved
     leaves = [name for name, _ in getattr(detection, "left_out", ()) or ()]
-    return turned_over(TakeRepair(back, moved, teleported, tuple(str(e) for e in done if e.fixed), left), span, leaves)
+    return TakeRepair(back, moved, teleported, tuple(str(e) for e in done if e.fixed), left), span, leaves
 
 
-def turned_over(done: TakeRepair, span: tuple[int, int], leaves=()) -> TakeRepair:
-    """``done`` with the turn-overs of its take within frames ``span`` (``lo .. hi - 1``) turned back where that is
-    right and named either way (:func:`mocapkit.cleaning.ssa.flips.turned_back`; ``leaves``: the joints
-    self-similarity did not analyse, whose constant half turns are looked for too). A turn-over whose cells the
-    repair changed before is named and left."""
+#: the reason a review gives for leaving a turn-over the repair step turns back (``clean --steps detect``, ``detect``)
+REVIEW_WHY = "repair would turn it back exactly"
+
+
+@dataclass(frozen=True)
+class TurnOvers:
+    """The turn-overs of a take (:func:`turn_overs`): ``motion``, the take with those turned back (the take itself
+    where none was, and in a review); ``turned`` and ``flagged``: (F, J) bool, the cells turned back, and those
+    plus the cells of the turn-overs named and left; ``lines``: one per turn-over, in frame order, as ``clean``'s
+    console, record and report say it ("flip: lfemur (with ltibia) turned 180 deg about itself, frames 78-82, ...")."""
+
+    motion: Motion
+    turned: np.ndarray
+    flagged: np.ndarray
+    lines: tuple = ()
+
+
+def turn_overs(motion: Motion, span: tuple[int, int], leaves=(), *, changed=None, review: bool = False) -> TurnOvers:
+    """The turn-overs of ``motion`` within frames ``span`` (``lo .. hi - 1``), turned back where that is right and
+    named either way (:func:`mocapkit.cleaning.ssa.flips.turned_back`; ``leaves``: the joints self-similarity did
+    not analyse, whose constant half turns are looked for too): the one rule by which ``clean``'s repair step, the
+    ``repair`` command and the review (:func:`review_turn_overs`) find and name them.
+
+    ``changed``: (F, J) bool, the cells a repair changed before; a turn-over touching them is named and left.
+    ``review``: nothing is turned back; a turn-over that would be is named and left with the reason
+    :data:`REVIEW_WHY`, one that would be left keeps its own reason.
+    """
     from .ssa.flips import turned_back
 
     lo, hi = int(span[0]), int(span[1])
-    m = done.motion
-    names = list(m.skeleton.joint_names)
-    part, turned, flagged, flips = turned_back(m[lo:hi], [n for n in leaves if n in names])
-    if not flips:
-        return done
-    rot = np.array(m.rotations)
-    full = np.zeros((m.num_frames, len(names)), dtype=bool)
+    names = list(motion.skeleton.joint_names)
+    full = np.zeros((motion.num_frames, len(names)), dtype=bool)
     full_flags = np.zeros_like(full)
+    part, turned, flagged, flips = turned_back(motion[lo:hi], [n for n in leaves if n in names])
+    if not flips:
+        return TurnOvers(motion, full, full_flags)
+    rot = np.array(motion.rotations)
     full_flags[lo:hi] = flagged
-    before = done.repaired | done.teleported
     lines = []
     for f in flips:
         a, b = f.first + lo, f.last + lo
         cells = turned[f.first : f.last + 1]
-        if f.fixed and (before[a : b + 1] & cells).any():
+        if f.fixed and changed is not None and (changed[a : b + 1] & cells).any():
             f = dataclasses.replace(f, fixed=False, why="the repair changed its cells")
+        elif f.fixed and review:
+            f = dataclasses.replace(f, fixed=False, why=REVIEW_WHY)
         elif f.fixed:
             full[a : b + 1] |= cells
             rot[a : b + 1] = np.where(cells[..., None], part.rotations[f.first : f.last + 1], rot[a : b + 1])
         lines.append(f"flip: {dataclasses.replace(f, first=a, last=b)}")
-    if full.any():
-        m = dataclasses.replace(m, rotations=rot)
-    return dataclasses.replace(done, motion=m, turned=full, turn_flags=full_flags, flips=tuple(lines))
+    out = dataclasses.replace(motion, rotations=rot) if full.any() else motion
+    return TurnOvers(out, full, full_flags, tuple(lines))
 
 
-def with_flips(flags: np.ndarray, causes: np.ndarray | None, done: TakeRepair):
-    """``(flags, causes)`` (F, J) with the cells of ``done``'s turn-overs (:func:`turned_over`) flagged, cause
-    ``flip`` (:data:`mocapkit.cleaning.ssa.cues.CAUSES`), so that a record lists them and a person can reject a
-    turn-back; the inputs as they are when there is none."""
-    if done.turn_flags is None or not done.turn_flags.any():
+def review_turn_overs(motion: Motion, detection, context=None, *, poses=None) -> TurnOvers:
+    """What the repair step would say of the turn-overs of ``motion`` (:func:`repair_whole` on ``detection``, its
+    ``context`` and calibration ``poses``, foot-skate cleanup off as in ``clean``), said and flagged with none
+    turned back: the turn-overs of ``clean --steps detect`` and the ``detect`` command.
+
+    The repair is made in memory to find them and given up: a turn-over whose cells self-similarity flagged is
+    replaced from motion words first, and then is no turn-over left for the repair step to name, or is named and
+    left; looked for on the take as it is, the review named some the cleaning never did (an injected 180 deg
+    flip of a CMU walk's humerus, flagged and repaired from motion words). So the review's lines and ``flagged``
+    cells are those of the repair step, on the same frames and in the same words, except that one the repair step
+    turns back is left with the reason :data:`REVIEW_WHY`; ``motion`` is the input itself, ``turned`` all False.
+    """
+    done, span, leaves = _repaired(motion, detection, context, poses=poses)
+    found = turn_overs(done.motion, span, leaves, changed=done.repaired | done.teleported, review=True)
+    return dataclasses.replace(found, motion=motion)
+
+
+def turn_overs_note(lines) -> str:
+    """``"2 turn-overs (1 turned back)"``: the count a step's record says of the turn-over ``lines``
+    (:attr:`TurnOvers.lines`); "" for none."""
+    if not lines:
+        return ""
+    turned = sum(": turned back exactly" in line for line in lines)
+    return f"{len(lines)} turn-over{'' if len(lines) == 1 else 's'} ({turned} turned back)"
+
+
+def turned_over(done: TakeRepair, span: tuple[int, int], leaves=()) -> TakeRepair:
+    """``done`` with the turn-overs of its take within frames ``span`` (``lo .. hi - 1``) turned back where that is
+    right and named either way (:func:`turn_overs`; ``leaves``: the joints self-similarity did not analyse, whose
+    constant half turns are looked for too). A turn-over whose cells the repair changed before is named and left."""
+    found = turn_overs(done.motion, span, leaves, changed=done.repaired | done.teleported)
+    if not found.lines:
+        return done
+    return dataclasses.replace(done, motion=found.motion, turned=found.turned, turn_flags=found.flagged,
+                               flips=found.lines)
+
+
+def with_flips(flags: np.ndarray, causes: np.ndarray | None, turn_flags: np.ndarray | None):
+    """``(flags, causes)`` (F, J) with the cells of a take's turn-overs (``turn_flags``: :attr:`TakeRepair.turn_flags`,
+    :attr:`TurnOvers.flagged`) flagged, cause ``flip`` (:data:`mocapkit.cleaning.ssa.cues.CAUSES`), so that a record
+    lists them and a person can reject a turn-back; the inputs as they are when there is none."""
+    if turn_flags is None or not turn_flags.any():
         return flags, causes
     from .ssa.cues import CAUSE_DTYPE, CAUSES
 
     causes = np.zeros(flags.shape, dtype=CAUSE_DTYPE) if causes is None else np.array(causes, dtype=CAUSE_DTYPE)
-    causes[done.turn_flags] |= CAUSE_DTYPE(1 << [k for k, _ in CAUSES].index("flip"))
-    return flags | done.turn_flags, causes
+    causes[turn_flags] |= CAUSE_DTYPE(1 << [k for k, _ in CAUSES].index("flip"))
+    return flags | turn_flags, causes
 
 
 def with_teleports(flags: np.ndarray, causes: np.ndarray | None, teleported: np.ndarray):

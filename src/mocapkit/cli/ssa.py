@@ -80,12 +80,15 @@ def detect(
 
     The flags are those of `clean --steps detect` on the same take and options: calibration poses at the
     take's ends are left out (named in a note), and words with no neighbour within 8 degrees are not judged.
+    The turn-overs the repair step would name (a bone turned 180 degrees in one frame and back) are printed
+    and flagged with them, none turned back; OUT keeps self-similarity's flags alone (those repair replaces).
     """
     import json
 
     from ..batch import load_context
     from ..cleaning import precompile
     from ..cleaning.take_context import unread_context
+    from ..cleaning.whole_take import review_turn_overs, with_flips
     from ..context import context_label, fit_context
     from ..io.outputs import removed_on_failure
     from ..io.takes import CLI_AMC_NAMES, check_asf, load_motion
@@ -104,6 +107,10 @@ def detect(
                                                                                       take=m, joint_map=jm))
     found, det = _detect(inp, m, ctx, threshold, progress=not as_json, confirm=confirm, jump_deg=jump_deg,
                          drifts=drifts)
+    # the turn-overs the repair step would name, flagged and said as clean --steps detect says them (none turned
+    # back); the detection file keeps self-similarity's flags alone, those that repair --detection replaces
+    seen = review_turn_overs(m, det, ctx, poses=found.calibration)
+    flags, causes = with_flips(det.flags, det.causes(), seen.flagged)
     with removed_on_failure([out, png], overwrite=overwrite, marker=out):  # the detection last
         if png is not None:
             from ..report.plots import plot_mdm
@@ -111,12 +118,12 @@ def detect(
             import numpy as np
 
             shown = np.where(det.analysed[None, :], det.mdm, np.nan)  # grey, "not analysed", rather than an MDM of 0
-            plot_mdm(shown, det.joint_names, det.fps, png, flags=det.flags, title=f"{inp.name}: movement digression map")
+            plot_mdm(shown, det.joint_names, det.fps, png, flags=flags, title=f"{inp.name}: movement digression map")
         det.save(out)
     from ..cleaning.ssa.cues import cause_names
+    from ..cleaning.ssa.detect import flag_runs
 
-    segs = det.segments()
-    causes = det.causes()
+    segs = flag_runs(flags, det.joint_names)
     why = [cause_names(causes[a:b, det.joint_names.index(j)]) for j, a, b in segs]
     if as_json:  # end: the frame after the segment (Python's slice); last: its last frame, as the lines print it
         # not_analysed: joint -> why; nothing flags those joints because nothing checked them
@@ -124,12 +131,12 @@ def detect(
             "segments": [{"joint": j, "start": a, "end": b, "last": b - 1, "start_s": a / m.fps, "end_s": b / m.fps,
                           "causes": w} for (j, a, b), w in zip(segs, why)],
             "not_analysed": det.not_analysed(),
-            "notes": ([note] if note else []) + _take_notes(m, found, det),
+            "notes": ([note] if note else []) + _take_notes(m, found, det) + list(seen.lines),
         }))
         return
     console.print(f"wrote {out}" + (f" and {png}" if png else "") + f": {plural(len(segs), 'flagged segment')}"
                   f" (judged against {context_label(ctx)})")
-    for line in ([note] if note else []) + _take_notes(m, found, det):
+    for line in ([note] if note else []) + _take_notes(m, found, det) + list(seen.lines):
         console.print(f"  note: {line}")
     for (j, a, b), w in zip(segs[:50], why):
         # the first and last frame's times (frame f is at f / fps, as the report's viewer labels it)
@@ -212,7 +219,7 @@ def repair(
     done = repair_whole(m, det, ctx, foot_skate=foot_skate, poses=poses)
     save_take(done.motion, out, inp, asf, overwrite, like=inp)
     changed = done.changed
-    flags, _ = with_flips(*with_teleports(det.flags, None, done.teleported), done)
+    flags, _ = with_flips(*with_teleports(det.flags, None, done.teleported), done.turn_flags)
     extra = int((done.repaired & ~det.flags).sum())
     said = f"{int(flags.sum())} flagged" + (f"; {extra} more moved by the foot-skate cleanup" if extra else "")
     console.print(f"wrote {out}: {plural(int(changed.sum()), 'joint sample')} changed in {int(changed.any(axis=1).sum())} "

@@ -108,3 +108,28 @@ def test_a_take_with_no_turn_over_comes_back_as_it_is(shared_data):
     leaves = [n for n in m.skeleton.joint_names if "thumb" in n or "fingers" in n]
     out, changed, flagged, flips = turned_back(m, leaves)
     assert out is m and not changed.any() and not flagged.any() and flips == ()
+
+
+def test_the_review_mode_names_and_flags_the_turn_overs_clean_turns_back_and_changes_nothing():
+    """The bundled CMU 131_01 turns its RThumb a constant half turn on frames 178-191 (clean turns it back) and on
+    237-242 (left: its two steps disagree). The review mode (steps="detect") said neither: a person reviewing the take
+    saw nothing there. It now names both in clean's words on clean's frames, flags their cells (cause flip) for the
+    report's list, says why each is left, and returns the take bit for bit."""
+    from mocapkit.cleaning.flags_left import flag_outcomes
+
+    take = mocapkit.load(mocapkit.samples.path("131_01.bvh"))[150:260]  # the two turn-overs at frames 28-41, 87-92
+    review, cleaned = mocapkit.clean(take, steps="detect"), mocapkit.clean(take, steps="detect,repair")
+    said = {n for n in cleaned.notes if n.startswith("flip: ")}
+    assert said == {"flip: RThumb turned 180 deg and back, frames 28-41 (a constant half turn): turned back exactly",
+                    "flip: RThumb turned 180 deg and back, frames 87-92 (a constant half turn): left as is (the two "
+                    "steps' offsets differ by 23 deg)"}
+    assert {n for n in review.notes if n.startswith("flip: ")} == {
+        n.replace(": turned back exactly", ": left as is (repair would turn it back exactly)") for n in said}
+    assert any(line.startswith("note: flip: RThumb") for line in review.summary())
+    j = take.skeleton.index("RThumb")
+    assert np.array_equal(review.flags, cleaned.flags) and review.flags[:, j].sum() == 20
+    assert (review.causes[28:42, j] & FLIP_BIT).all() and (review.causes[87:93, j] & FLIP_BIT).all()
+    assert np.array_equal(review.motion.rotations, take.rotations) and not review.changed.any()
+    left = {(f["first"], f["last"]): f["left"] for f in flag_outcomes(review) if f["joint"] == "RThumb"}
+    assert left[(28, 41)].endswith("not turned back (repair would turn it back exactly)")
+    assert left[(87, 92)].endswith("not turned back (the two steps' offsets differ by 23 deg)")

@@ -47,7 +47,7 @@ from .reversals import reversed_runs
 from .still_positions import position_kept_breaks
 from .texture import Analysis, facing_aligned, frame_words, prepare, upsample_quaternions
 
-__all__ = ["Detection", "detect", "detect_prepared", "movement_digression_map"]
+__all__ = ["Detection", "detect", "detect_prepared", "movement_digression_map", "flag_runs"]
 
 _D = SSAParams()
 
@@ -204,11 +204,8 @@ class Detection:
         return {n: why.get(n, "not analysed") for n, a in zip(self.joint_names, self.analysed) if not a}
 
     def segments(self) -> list[tuple[str, int, int]]:
-        """Flagged runs as ``(joint name, start frame, end frame)``, half-open, sorted by start."""
-        out = []
-        for j in np.flatnonzero(self.flags.any(axis=0)):
-            out += [(self.joint_names[j], a, b) for a, b in contact_segments(self.flags[:, j])]
-        return sorted(out, key=lambda s: (s[1], s[0]))
+        """Flagged runs as ``(joint name, start frame, end frame)``, half-open, sorted by start (:func:`flag_runs`)."""
+        return flag_runs(self.flags, self.joint_names)
 
     def drifts(self) -> np.ndarray:
         """(F, J) bool smooth drifts (:func:`smooth_drift_flags`; any threshold), none where ``params.drift`` is off."""
@@ -385,6 +382,17 @@ class Detection:
             )
         except (OSError, ValueError, KeyError, TypeError) as e:
             raise MocapFormatError(path, f"not a mocapkit detection file ({e})") from None
+
+
+def flag_runs(flags: np.ndarray, joint_names) -> list[tuple[str, int, int]]:
+    """The runs of ``flags`` ((F, J) bool) as ``(joint name, start frame, end frame)``, half-open, sorted by start
+    then joint name: :meth:`Detection.segments`, and the review mode's flags with the turn-overs among them
+    (:func:`mocapkit.cleaning.whole_take.review_turn_overs`)."""
+    flags = np.asarray(flags, dtype=bool)
+    out = []
+    for j in np.flatnonzero(flags.any(axis=0)):
+        out += [(joint_names[j], a, b) for a, b in contact_segments(flags[:, j])]
+    return sorted(out, key=lambda s: (s[1], s[0]))
 
 
 #: what each (F, J) array of a :class:`Detection` holds on frames that were not analysed (:meth:`Detection.padded`)
