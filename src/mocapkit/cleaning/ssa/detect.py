@@ -44,6 +44,7 @@ from .repeats import analysed_once, expand, inbetween_runs, kept_frames, repeat_
 from .freeze_bounds import bounded_holds
 from .freezes import frozen_channels
 from .reversals import reversed_runs
+from .smooth_turns import smooth_turn_breaks
 from .still_positions import position_kept_breaks
 from .texture import Analysis, facing_aligned, frame_words, prepare, upsample_quaternions
 
@@ -563,6 +564,8 @@ def detect_prepared(an: Analysis, threshold: float = 0.5, *, progress: bool = Fa
     # breaks that stand out from the joint's own motion and speed (30 fps too)
     jumps = own_breaks(resid, p.jump_deg, motion.fps, motion.rotations)
     own = jumps.copy()  # the frozen channels end in a break of the joint's own, whatever its chain does
+    # a fast turn that speeds up and slows down over several frames and never turns back (a hand's flick) is motion
+    jumps = smooth_turn_breaks(np.asarray(motion.rotations, dtype=np.float64), resid, jumps, p.jump_deg)
     # a turn the joint's chain undoes (a solver sharing a bend another way) is no evidence of an error
     chain_memo: dict = {}  # the break events judged compensated or not, read again by the lone spikes
     jumps = uncompensated_breaks(np.asarray(motion.rotations, dtype=np.float64), motion.skeleton.parents, jumps,
