@@ -60,11 +60,47 @@ def test_a_held_frame_or_a_turn_back_is_no_smooth_turn():
         assert _events(q) and not any(smooth_turn(q, r, a, b, JUMP) for a, b in _events(q))
 
 
+def test_a_smooth_turn_while_a_joint_up_its_chain_breaks_is_kept():
+    flick = np.r_[np.full(20, 4.0), 6, 10, 22, 40, 55, 34, 12, 11, 15, 16, 13, 10, np.full(20, 5.0)]
+    foot = _track(flick)
+    still = _track(np.full(len(flick), 1.0), axis=(1.0, 0.0, 0.0))
+    over = _track(np.where(np.arange(len(flick)) == 24, 180.0, 1.0), axis=(0.0, 1.0, 0.0))  # a turn-over at 24
+    for thigh, kept in ((still, False), (over, True)):
+        q = np.stack([still, thigh, foot], axis=1)  # (F, 3, 4): root, thigh, foot
+        resid = midpoint_residuals(q)
+        breaks = own_breaks(resid, JUMP)
+        assert breaks[:, 2].any()
+        out = smooth_turn_breaks(q, resid, breaks, JUMP, parents=[-1, 0, 1])
+        if kept:  # the thigh's turn-over moves the foot: its breaks stay
+            assert np.array_equal(out[:, 2], breaks[:, 2])
+        else:
+            assert not out[:, 2].any()
+        assert not smooth_turn_breaks(q, resid, breaks, JUMP)[:, 2].any()  # the foot's shape alone: a smooth turn
+
+
+def test_the_hdm05_squats_foot_turning_around_its_thighs_turn_over_still_breaks(shared_data):
+    """HDM05 dg_squat1Reps_026: the right foot turns 180 deg in 9 smooth frames (peak 52 deg at frame 100) around
+    the frame its thigh turns back over in one: the turn-over's, not the foot's own motion."""
+    import mocapkit
+
+    path = shared_data / "hdm05_asfamc" / "HDM_dg_squat1Reps_026_120.amc"
+    if not path.is_file():
+        pytest.skip("HDM05 squat take not in the shared data")
+    m = mocapkit.load(path, asf=shared_data / "hdm05_asfamc" / "HDM_dg.asf")
+    q = np.asarray(m.rotations, dtype=np.float64)
+    resid = midpoint_residuals(q)
+    breaks = own_breaks(resid, JUMP, m.fps, q)
+    j = m.skeleton.index("rfoot")
+    assert breaks[99, j] and breaks[102, j]
+    assert smooth_turn_breaks(q, resid, breaks, JUMP)[99:103, j].sum() == 0  # its shape alone: a smooth turn
+    assert np.array_equal(smooth_turn_breaks(q, resid, breaks, JUMP, m.skeleton.parents)[:, j], breaks[:, j])
+
+
 def test_the_walks_wrist_flicks_are_smooth_turns_and_no_other_break_of_the_take_is(walk):
     q = np.asarray(walk.rotations, dtype=np.float64)
     resid = midpoint_residuals(q)
     breaks = own_breaks(resid, JUMP, walk.fps, q)
-    kept = smooth_turn_breaks(q, resid, breaks, JUMP)
+    kept = smooth_turn_breaks(q, resid, breaks, JUMP, walk.skeleton.parents)
     j = walk.skeleton.index("RightWrist")
     assert breaks[235:239, j].all() and breaks[808, j] and breaks[810, j]
     gone = breaks & ~kept
@@ -78,7 +114,7 @@ def test_every_injected_error_still_breaks(walk, seed):
     q = np.asarray(bad.rotations, dtype=np.float64)
     resid = midpoint_residuals(q)
     breaks = own_breaks(resid, JUMP, bad.fps, q)
-    kept = smooth_turn_breaks(q, resid, breaks, JUMP)
+    kept = smooth_turn_breaks(q, resid, breaks, JUMP)  # by their shape alone, no chain
     near = np.zeros_like(mask)  # the cells within 2 frames of an injected error
     for d in range(-2, 3):
         near |= np.roll(mask, d, axis=0)

@@ -15,7 +15,9 @@ spike or a gap filled by a straight line) steps off the joint's path at once:
   its last accelerates by half the break level, where a real turn builds its speed up or lets it die down over the
   frames around its breaks (a gap a capture filled by a straight line turns at a steady speed and breaks at its two
   corners only: HDM05 mm grabHighR 018's right arm, 32 deg a frame);
-* or one step is more than :data:`SPEED_RATIO` times the step beside it (a step out of a slow or held track).
+* or one step is more than :data:`SPEED_RATIO` times the step beside it (a step out of a slow or held track);
+* or a joint up its chain breaks meanwhile, and moves it: a capture's turn-over of a thigh, which its foot follows
+  around in smooth frames (:func:`smooth_turn_breaks`).
 
 A break event (:func:`~mocapkit.cleaning.ssa.cues.event_bounds`) that does none of these, over its own steps and the
 two beside it, is a smooth turn and confirms nothing (:func:`smooth_turn_breaks`). Measured on the 224 break events
@@ -35,13 +37,15 @@ import numpy as np
 from ... import rotations as R
 from .cues import event_bounds
 
-__all__ = ["SPEED_RATIO", "TURN_BACK_DEG", "smooth_turn", "smooth_turn_breaks"]
+__all__ = ["CHAIN_DEPTH", "SPEED_RATIO", "TURN_BACK_DEG", "smooth_turn", "smooth_turn_breaks"]
 
 #: the most one step of a smooth turn may be of the step beside it, either way (131_01's flick: 2.9, as its
 #: 34 deg step slows to 12; every injected error's event over 4.8)
 SPEED_RATIO = 4.0
 #: two successive steps of a smooth turn point less than this far apart (a turn back points about 180 deg away)
 TURN_BACK_DEG = 90.0
+#: how many joints up the chain :func:`smooth_turn_breaks` looks for a break that moves the joint
+CHAIN_DEPTH = 3
 
 
 def smooth_turn(q: np.ndarray, resid: np.ndarray, first: int, last: int, jump_deg: float) -> bool:
@@ -70,17 +74,38 @@ def smooth_turn(q: np.ndarray, resid: np.ndarray, first: int, last: int, jump_de
     return bool((cos > np.cos(np.radians(TURN_BACK_DEG))).all())
 
 
-def smooth_turn_breaks(q: np.ndarray, resid: np.ndarray, breaks: np.ndarray, jump_deg: float) -> np.ndarray:
+def smooth_turn_breaks(q: np.ndarray, resid: np.ndarray, breaks: np.ndarray, jump_deg: float,
+                       parents=None) -> np.ndarray:
     """``breaks`` (F, J) bool without the events that are smooth turns (:func:`smooth_turn`).
 
     ``q`` (F, J, 4) local rotations, ``resid`` (F, J) radians (:func:`~mocapkit.cleaning.ssa.cues.midpoint_residuals`),
-    ``jump_deg`` the break level the breaks were found at (degrees). Used for the breaks that confirm a digression
-    (:func:`~mocapkit.cleaning.ssa.detect`'s ``jumps``); the frozen channels' own breaks are left as they are.
+    ``jump_deg`` the break level the breaks were found at (degrees). With ``parents`` (J,), an event during which a
+    joint up the chain (:data:`CHAIN_DEPTH` levels at most) breaks too (its residual over ``jump_deg`` over the
+    event's frames and the two beside them) is kept whatever its shape: the chain's break moves it (HDM05
+    dg_squat1Reps_026's right foot turns 180 deg in 9 smooth frames around the frame its thigh turns back over in
+    one, a turn-over of the capture's own: the toes swing 6-18 times their usual speed). Used for the breaks that
+    confirm a digression (:func:`~mocapkit.cleaning.ssa.detect`'s ``jumps``); the frozen channels' own breaks are left
+    as they are.
     """
     out = np.array(breaks, dtype=bool)
+    F = len(out)
+    level = np.radians(jump_deg)
     for j in np.flatnonzero(out.any(axis=0)):
         frames = np.flatnonzero(out[:, j])
         first, last, event = event_bounds(frames)
-        smooth = np.array([smooth_turn(q[:, j], resid[:, j], int(a), int(b), jump_deg) for a, b in zip(first, last)])
+        ups = _ancestors(parents, int(j)) if parents is not None else []
+        smooth = np.array([smooth_turn(q[:, j], resid[:, j], int(a), int(b), jump_deg)
+                           and not (resid[max(a - 2, 0) : min(b + 3, F)][:, ups] > level).any()
+                           for a, b in zip(first, last)], dtype=bool)
         out[frames[smooth[event]], j] = False
     return out
+
+
+def _ancestors(parents, j: int) -> list[int]:
+    """The joints up ``j``'s chain, nearest first, :data:`CHAIN_DEPTH` at most."""
+    parents = np.asarray(parents)
+    ups = []
+    while len(ups) < CHAIN_DEPTH and parents[j] >= 0:
+        j = int(parents[j])
+        ups.append(j)
+    return ups
