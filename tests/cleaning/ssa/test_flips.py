@@ -108,3 +108,23 @@ def test_a_take_with_no_turn_over_comes_back_as_it_is(shared_data):
     leaves = [n for n in m.skeleton.joint_names if "thumb" in n or "fingers" in n]
     out, changed, flagged, flips = turned_back(m, leaves)
     assert out is m and not changed.any() and not flagged.any() and flips == ()
+
+
+def test_the_foots_own_steps_at_a_thigh_turn_over_go_with_it(shared_data):
+    """HDM05 bk_depositFloorR_009: rfemur and rtibia turned over about themselves over frames 163-188, and the right
+    foot, turning over with them, steps 29 deg into frame 163 and 26 deg out of frame 188 in its own channels. The
+    chain was turned back and the foot kept: its toes then jumped 0.21 units at both frames (0.07 a frame beside)
+    and the break rule flagged the foot. Its steps are taken away with the turn-over; only it and the chain change."""
+    m = mocapkit.load(shared_data / "hdm05_asfamc" / "HDM_bk_depositFloorR_009_120.amc")
+    out, changed, flagged, flips = turned_back(m)
+    [flip] = flips
+    assert (flip.joints, flip.first, flip.last, flip.fixed) == (("rfemur", "rtibia"), 163, 188, True)
+    sk = m.skeleton
+    foot = sk.index("rfoot")
+    assert _steps(np.asarray(m.rotations)[:, foot])[[162, 188]].min() > 25
+    assert _steps(out.rotations[:, foot])[[162, 188]].max() < 3
+    assert np.flatnonzero(changed.any(axis=0)).tolist() == sorted(sk.index(n) for n in ("rfemur", "rtibia", "rfoot"))
+    assert np.flatnonzero(changed[:, foot]).tolist() == list(range(163, 189))
+    toes = sk.index("rtoes")
+    step = np.linalg.norm(np.diff(out.global_positions()[:, toes], axis=0), axis=-1)
+    assert step[[162, 188]].max() < 2 * step[[160, 161, 189, 190]].max()
