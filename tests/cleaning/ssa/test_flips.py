@@ -119,6 +119,7 @@ def test_the_foots_own_steps_at_a_thigh_turn_over_go_with_it(shared_data):
     out, changed, flagged, flips = turned_back(m)
     [flip] = flips
     assert (flip.joints, flip.first, flip.last, flip.fixed) == (("rfemur", "rtibia"), 163, 188, True)
+    assert str(flip).endswith("turned back exactly, rfoot's own steps at both ends taken away with it")
     sk = m.skeleton
     foot = sk.index("rfoot")
     assert _steps(np.asarray(m.rotations)[:, foot])[[162, 188]].min() > 25

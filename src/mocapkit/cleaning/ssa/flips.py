@@ -63,7 +63,8 @@ LIMIT_TOL_DEG = 1.0
 class Flip:
     """A turn-over: ``joints`` (names, the chain's top first) turned over frames ``first .. last`` (0-based,
     inclusive); ``kind`` ``"bone"`` (about their own bones, positions unchanged) or ``"leaf"`` (a constant half
-    turn of a joint with no joint below); ``fixed`` whether it was turned back, ``why`` why not."""
+    turn of a joint with no joint below); ``fixed`` whether it was turned back, ``why`` why not; ``steps_below``
+    (names) the joints below the chain whose own steps at its two frames were taken away with it."""
 
     joints: tuple
     first: int
@@ -71,13 +72,15 @@ class Flip:
     kind: str
     fixed: bool
     why: str = ""
+    steps_below: tuple = ()
 
     def __str__(self) -> str:
         j = self.joints[0] + (f" (with {', '.join(self.joints[1:])})" if len(self.joints) > 1 else "")
         frames = f"frames {self.first}-{self.last}" if self.last > self.first else f"frame {self.first}"
         what = (f"turned 180 deg about itself, {frames}, positions unchanged" if self.kind == "bone"
                 else f"turned 180 deg and back, {frames} (a constant half turn)")
-        return f"{j} {what}: " + ("turned back exactly" if self.fixed else f"left as is ({self.why})")
+        below = "".join(f", {n}'s own steps at both ends taken away with it" for n in self.steps_below)
+        return f"{j} {what}: " + (f"turned back exactly{below}" if self.fixed else f"left as is ({self.why})")
 
 
 _NOTE = re.compile(r"^flip: (\S+)(?: \(with ([^)]*)\))? turned 180 deg .*?frames? (\d+)(?:-(\d+))?.*?: left as is \((.*)\)$")
@@ -132,7 +135,7 @@ def _chain_repair(q: np.ndarray, g: np.ndarray, sk, axes: np.ndarray, chain: lis
     """The chain ``chain`` (joint indices, each the child of the one before) turned back by pi about its bones
     over frames ``a .. b`` of ``q`` (F, J, 4) local rotations (``g`` the world ones): ``(new q, changed joints,
     stepped)``; ``stepped``: a joint below that turned over with the chain had its own steps at the turn-over's two
-    frames taken away too (:func:`_stepped_with`; only with ``below_steps``)."""
+    frames taken away too (:func:`_stepped_with`; only with ``below_steps``): their indices."""
     new = np.array(q)
     halves = {j: R.quaternion_from_axis_angle(axes[j], np.pi) for j in chain}
     prev = None
@@ -143,7 +146,7 @@ def _chain_repair(q: np.ndarray, g: np.ndarray, sk, axes: np.ndarray, chain: lis
         new[a : b + 1, j] = R.quaternion_multiply(r, R.quaternion_inverse(halves[j]))
         prev = j
     changed = list(chain)
-    stepped = False
+    stepped = []
     last = chain[-1]
     for c in np.flatnonzero(np.asarray(sk.parents) == last):
         # the joint below keeps its local rotation when it turned over with the chain, else its world orientation
@@ -156,7 +159,7 @@ def _chain_repair(q: np.ndarray, g: np.ndarray, sk, axes: np.ndarray, chain: lis
             # offset (the solver's share of the turn-over): that offset goes with it
             new, _ = _leaf_repair(new, int(c), a, b)
             changed.append(int(c))
-            stepped = True
+            stepped.append(int(c))
     new[a : b + 1] = R.quaternion_normalize(new[a : b + 1])
     return new, changed, stepped
 
@@ -364,7 +367,7 @@ def turned_back(motion, leaves=()) -> tuple:
             new, joints, stepped = _chain_repair(out, g, sk, axes, chain, a, b)
             why = _check(dataclasses.replace(motion, rotations=out), new, joints, a, b, usual)
             if why and stepped:  # the joint below's steps cannot go (its channels, limits): turned back without them
-                new, joints, _ = _chain_repair(out, g, sk, axes, chain, a, b, below_steps=False)
+                new, joints, stepped = _chain_repair(out, g, sk, axes, chain, a, b, below_steps=False)
                 why = _check(dataclasses.replace(motion, rotations=out), new, joints, a, b, usual)
         else:
             new, why = _leaf_repair(out, chain[0], a, b, _channel_halves(sk, chain[0]))
@@ -378,7 +381,8 @@ def turned_back(motion, leaves=()) -> tuple:
         out = new
         changed[a : b + 1, joints] = True
         flagged[a : b + 1, joints] = True
-        flips.append(Flip(joint_names, a, b, kind, True))
+        flips.append(Flip(joint_names, a, b, kind, True, steps_below=tuple(names[c] for c in stepped)
+                          if kind == "bone" else ()))
     if not changed.any():
         return motion, changed, flagged, tuple(flips)
     return dataclasses.replace(motion, rotations=np.where(changed[..., None], out, q)), changed, flagged, tuple(flips)
