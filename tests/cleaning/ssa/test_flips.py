@@ -133,3 +133,24 @@ def test_the_review_mode_names_and_flags_the_turn_overs_clean_turns_back_and_cha
     left = {(f["first"], f["last"]): f["left"] for f in flag_outcomes(review) if f["joint"] == "RThumb"}
     assert left[(28, 41)].endswith("not turned back (repair would turn it back exactly)")
     assert left[(87, 92)].endswith("not turned back (the two steps' offsets differ by 23 deg)")
+
+
+def test_the_foots_own_steps_at_a_thigh_turn_over_go_with_it(shared_data):
+    """HDM05 bk_depositFloorR_009: rfemur and rtibia turned over about themselves over frames 163-188, and the right
+    foot, turning over with them, steps 29 deg into frame 163 and 26 deg out of frame 188 in its own channels. The
+    chain was turned back and the foot kept: its toes then jumped 0.21 units at both frames (0.07 a frame beside)
+    and the break rule flagged the foot. Its steps are taken away with the turn-over; only it and the chain change."""
+    m = mocapkit.load(shared_data / "hdm05_asfamc" / "HDM_bk_depositFloorR_009_120.amc")
+    out, changed, flagged, flips = turned_back(m)
+    [flip] = flips
+    assert (flip.joints, flip.first, flip.last, flip.fixed) == (("rfemur", "rtibia"), 163, 188, True)
+    assert str(flip).endswith("turned back exactly, rfoot's own steps at both ends taken away with it")
+    sk = m.skeleton
+    foot = sk.index("rfoot")
+    assert _steps(np.asarray(m.rotations)[:, foot])[[162, 188]].min() > 25
+    assert _steps(out.rotations[:, foot])[[162, 188]].max() < 3
+    assert np.flatnonzero(changed.any(axis=0)).tolist() == sorted(sk.index(n) for n in ("rfemur", "rtibia", "rfoot"))
+    assert np.flatnonzero(changed[:, foot]).tolist() == list(range(163, 189))
+    toes = sk.index("rtoes")
+    step = np.linalg.norm(np.diff(out.global_positions()[:, toes], axis=0), axis=-1)
+    assert step[[162, 188]].max() < 2 * step[[160, 161, 189, 190]].max()

@@ -115,18 +115,6 @@ def test_guard_off_repairs_as_before_and_the_guard_changes_only_the_runs_it_name
     assert np.array_equal(new.rotations[kept], old.rotations[kept])  # elsewhere the repair is the same
 
 
-def test_clean_leaves_a_real_fast_turn_and_names_it():
-    """CMU 131_01: the RightWrist's own turn (133 deg around frame 235) is flagged by the break rule; repairing
-    it put a 48-degree step into clean capture. Clean leaves it and says so."""
-    take = mocapkit.load(samples.path("131_01.bvh"))
-    res = clean(take, steps=("detect", "repair"))
-    j = take.skeleton.index("RightWrist")
-    assert res.flags[236:241, j].all()
-    assert np.array_equal(res.motion.rotations[230:250, j], take.rotations[230:250, j])
-    assert not res.repaired[230:250, j].any()
-    assert any(line.startswith("note: left: repair not better than the take: RightWrist frames 23") for line in res.summary())
-
-
 def test_flags_past_an_error_over_clean_frames_are_given_back(shared_data):
     """HDM05 grabHighR (bd, 001) with real-style errors (seed 1002): the flags of the right forearm run on past the
     error's last frame (204) over frames 205-211, which the input holds as captured and which run on smoothly into

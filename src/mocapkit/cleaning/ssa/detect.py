@@ -44,6 +44,7 @@ from .repeats import analysed_once, expand, inbetween_runs, kept_frames, repeat_
 from .freeze_bounds import bounded_holds
 from .freezes import frozen_channels
 from .reversals import reversed_runs
+from .smooth_turns import smooth_turn_breaks
 from .still_positions import position_kept_breaks
 from .texture import Analysis, facing_aligned, frame_words, prepare, upsample_quaternions
 
@@ -571,6 +572,9 @@ def detect_prepared(an: Analysis, threshold: float = 0.5, *, progress: bool = Fa
     # breaks that stand out from the joint's own motion and speed (30 fps too)
     jumps = own_breaks(resid, p.jump_deg, motion.fps, motion.rotations)
     own = jumps.copy()  # the frozen channels end in a break of the joint's own, whatever its chain does
+    # a fast turn that speeds up and slows down over several frames and never turns back (a hand's flick) is motion
+    jumps = smooth_turn_breaks(np.asarray(motion.rotations, dtype=np.float64), resid, jumps, p.jump_deg,
+                               motion.skeleton.parents)
     # a turn the joint's chain undoes (a solver sharing a bend another way) is no evidence of an error
     chain_memo: dict = {}  # the break events judged compensated or not, read again by the lone spikes
     jumps = uncompensated_breaks(np.asarray(motion.rotations, dtype=np.float64), motion.skeleton.parents, jumps,
@@ -692,6 +696,7 @@ def detect_prepared(an: Analysis, threshold: float = 0.5, *, progress: bool = Fa
     # (a chain turned over in place confirms nothing there either)
     backed = backed_breaks(q, resid, digression, analysed, motion.fps, sk.parents, p.jump_deg, p.offset_min_deg,
                            memo=chain_memo, offsets=backs_offsets(motion.fps, p.analysis_fps))
+    backed = smooth_turn_breaks(q, resid, backed, p.jump_deg, sk.parents)  # a smooth turn backs no break either
     if backed.any():
         jumps |= backed & position_kept_breaks(positions, sk.parents, unpruned | backed, resid)
     jumps &= analysed[None, :]

@@ -14,7 +14,11 @@ A pose solver can turn a limb over in one frame and back some frames later. Two 
   ``j``'s bone and ``R_p`` its parent's, identity above the chain); the joint below the chain keeps its
   local rotation when its own world orientation turned over with the chain (the foot, carried back with
   the shank), and is compensated (``R_last q``, its world orientation kept) when it did not. Every joint of
-  the chain and the joint below stay where they were, bit for bit up to rounding.
+  the chain and the joint below stay where they were, bit for bit up to rounding. A joint below that turned
+  over with the chain *and* stepped off its own path at the turn-over's two frames by one offset (the solver's
+  share of the turn-over: bk_depositFloorR_009's rfoot, 29 deg in at frame 163 and 26 out at 189) has that
+  offset taken away as a leaf's is (:func:`_stepped_with`), where the checks below pass with it; else the chain
+  is turned back without it.
 - **A leaf joint turned by a constant half turn** (the thumbs: HDM05 bd_throwBasketball_002 rthumb frames
   102-141, whose AMC ``rz`` channel jumps by 180 deg; CMU 131_02's RThumb near gimbal lock): no joint
   hangs below, so nothing is compensated. The offset is measured at both steps, as a turn in the parent's
@@ -59,7 +63,8 @@ LIMIT_TOL_DEG = 1.0
 class Flip:
     """A turn-over: ``joints`` (names, the chain's top first) turned over frames ``first .. last`` (0-based,
     inclusive); ``kind`` ``"bone"`` (about their own bones, positions unchanged) or ``"leaf"`` (a constant half
-    turn of a joint with no joint below); ``fixed`` whether it was turned back, ``why`` why not."""
+    turn of a joint with no joint below); ``fixed`` whether it was turned back, ``why`` why not; ``steps_below``
+    (names) the joints below the chain whose own steps at its two frames were taken away with it."""
 
     joints: tuple
     first: int
@@ -67,13 +72,15 @@ class Flip:
     kind: str
     fixed: bool
     why: str = ""
+    steps_below: tuple = ()
 
     def __str__(self) -> str:
         j = self.joints[0] + (f" (with {', '.join(self.joints[1:])})" if len(self.joints) > 1 else "")
         frames = f"frames {self.first}-{self.last}" if self.last > self.first else f"frame {self.first}"
         what = (f"turned 180 deg about itself, {frames}, positions unchanged" if self.kind == "bone"
                 else f"turned 180 deg and back, {frames} (a constant half turn)")
-        return f"{j} {what}: " + ("turned back exactly" if self.fixed else f"left as is ({self.why})")
+        below = "".join(f", {n}'s own steps at both ends taken away with it" for n in self.steps_below)
+        return f"{j} {what}: " + (f"turned back exactly{below}" if self.fixed else f"left as is ({self.why})")
 
 
 _NOTE = re.compile(r"^flip: (\S+)(?: \(with ([^)]*)\))? turned 180 deg .*?frames? (\d+)(?:-(\d+))?.*?: left as is \((.*)\)$")
@@ -123,9 +130,12 @@ def _pair_steps(at: np.ndarray) -> list[tuple[int, int | None]]:
     return out
 
 
-def _chain_repair(q: np.ndarray, g: np.ndarray, sk, axes: np.ndarray, chain: list[int], a: int, b: int):
+def _chain_repair(q: np.ndarray, g: np.ndarray, sk, axes: np.ndarray, chain: list[int], a: int, b: int,
+                  below_steps: bool = True):
     """The chain ``chain`` (joint indices, each the child of the one before) turned back by pi about its bones
-    over frames ``a .. b`` of ``q`` (F, J, 4) local rotations (``g`` the world ones): ``(new q, changed joints)``."""
+    over frames ``a .. b`` of ``q`` (F, J, 4) local rotations (``g`` the world ones): ``(new q, changed joints,
+    stepped)``; ``stepped``: a joint below that turned over with the chain had its own steps at the turn-over's two
+    frames taken away too (:func:`_stepped_with`; only with ``below_steps``): their indices."""
     new = np.array(q)
     halves = {j: R.quaternion_from_axis_angle(axes[j], np.pi) for j in chain}
     prev = None
@@ -136,6 +146,7 @@ def _chain_repair(q: np.ndarray, g: np.ndarray, sk, axes: np.ndarray, chain: lis
         new[a : b + 1, j] = R.quaternion_multiply(r, R.quaternion_inverse(halves[j]))
         prev = j
     changed = list(chain)
+    stepped = []
     last = chain[-1]
     for c in np.flatnonzero(np.asarray(sk.parents) == last):
         # the joint below keeps its local rotation when it turned over with the chain, else its world orientation
@@ -143,8 +154,27 @@ def _chain_repair(q: np.ndarray, g: np.ndarray, sk, axes: np.ndarray, chain: lis
         if not turned:
             new[a : b + 1, c] = R.quaternion_multiply(halves[last], new[a : b + 1, c])
             changed.append(int(c))
+        elif below_steps and _stepped_with(new[:, c], a, b):
+            # it turned over with the chain and stepped off its own path at the turn-over's two frames by the same
+            # offset (the solver's share of the turn-over): that offset goes with it
+            new, _ = _leaf_repair(new, int(c), a, b)
+            changed.append(int(c))
+            stepped.append(int(c))
     new[a : b + 1] = R.quaternion_normalize(new[a : b + 1])
-    return new, changed
+    return new, changed, stepped
+
+
+def _stepped_with(t: np.ndarray, a: int, b: int) -> bool:
+    """Whether track ``t`` (F, 4) steps off its path into frame ``a`` and back out of frame ``b`` by the same offset,
+    both over :data:`AGREE_DEG` and within :data:`AGREE_DEG` of each other (as :func:`_leaf_repair` measures them):
+    HDM05 bk_depositFloorR_009's right foot, which turned over with its thigh and shank over frames 163-188 and
+    steps 29 deg in and 26 deg out with them; kept, it stepped so after the chain was turned back."""
+    if a < 2 or b + 2 >= len(t):
+        return False
+    ends = _offset_ends(t, a, b)
+    on, back = ends[min(ends, key=lambda k: float(R.geodesic_angle(*ends[k])))]
+    size = np.degrees(R.geodesic_angle(np.stack([on, back]), np.array([1.0, 0.0, 0.0, 0.0])))
+    return bool(size.min() > AGREE_DEG and np.degrees(R.geodesic_angle(on, back)) <= AGREE_DEG)
 
 
 def _channel_halves(sk, j: int) -> np.ndarray:
@@ -334,8 +364,11 @@ def turned_back(motion, leaves=()) -> tuple:
             flagged[a:, chain] = True
             continue
         if kind == "bone":
-            new, joints = _chain_repair(out, g, sk, axes, chain, a, b)
+            new, joints, stepped = _chain_repair(out, g, sk, axes, chain, a, b)
             why = _check(dataclasses.replace(motion, rotations=out), new, joints, a, b, usual)
+            if why and stepped:  # the joint below's steps cannot go (its channels, limits): turned back without them
+                new, joints, stepped = _chain_repair(out, g, sk, axes, chain, a, b, below_steps=False)
+                why = _check(dataclasses.replace(motion, rotations=out), new, joints, a, b, usual)
         else:
             new, why = _leaf_repair(out, chain[0], a, b, _channel_halves(sk, chain[0]))
             joints = chain
@@ -348,7 +381,8 @@ def turned_back(motion, leaves=()) -> tuple:
         out = new
         changed[a : b + 1, joints] = True
         flagged[a : b + 1, joints] = True
-        flips.append(Flip(joint_names, a, b, kind, True))
+        flips.append(Flip(joint_names, a, b, kind, True, steps_below=tuple(names[c] for c in stepped)
+                          if kind == "bone" else ()))
     if not changed.any():
         return motion, changed, flagged, tuple(flips)
     return dataclasses.replace(motion, rotations=np.where(changed[..., None], out, q)), changed, flagged, tuple(flips)

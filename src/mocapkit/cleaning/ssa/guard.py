@@ -3,8 +3,8 @@
 Self-similarity repair (Aristidou et al. 2018, section 4) replaces a flagged joint by the medoid of its
 neighbour words, bridges what no word covers by slerp between its ends, and takes a transient offset away
 (:mod:`~mocapkit.cleaning.ssa.undo`). Each can leave a joint worse than it found it: a real fast turn that
-the break rule flagged (CMU 131_01's RightWrist, 133 degrees at frame 235) comes back with a step where the
-take turned smoothly; a bridge across a flip whose *other* side was flagged (the clean frames before a long
+the break rule flagged (CMU 131_01's RightWrist, 133 degrees at frame 235, until such turns confirmed nothing:
+:mod:`~mocapkit.cleaning.ssa.smooth_turns`) came back with a step where the take turned smoothly; a bridge across a flip whose *other* side was flagged (the clean frames before a long
 flip of the toes) turns a still joint 180 degrees in 23 frames of clean capture. The truth is not known when a
 take is cleaned, but the take's own continuity is. A run of changed cells of one joint is kept only when
 

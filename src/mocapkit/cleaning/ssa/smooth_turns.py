@@ -1,0 +1,111 @@
+"""Fast smooth turns: breaks of a joint's track that its own motion makes, not an error.
+
+The confirmation (:func:`~mocapkit.cleaning.ssa.cues.own_breaks`) reads a midpoint residual over ``jump_deg`` (8 deg)
+as a break: at 120 fps smooth motion stays far under it (:func:`~mocapkit.cleaning.ssa.cues.discontinuities`). A hand
+flicked at the end of an arm's swing does not: CMU 131_01's right wrist turns 10, 22, 40, 55, 34 and 12 deg in
+successive frames around frame 236 (midpoint residuals 6-20 deg over six frames), and again at frame 808; 131_02 and
+131_03 make the same flick about the same axis, by the same 80-110 deg and with the same overshoot, at the moment
+the arm stops (slower there: 20-40 deg a frame). The break confirmed the digression beside it and the flick was
+flagged as an error. Its shape tells it from one: the joint speeds up and slows down over several frames and never
+turns back. An error (:func:`mocapkit.corrupt.real_errors`: spikes, flips, freezes, drifts and swaps; a capture's
+spike or a gap filled by a straight line) steps off the joint's path at once:
+
+* it turns back (a spike, a swap and its undoing, a flip), so two successive steps point more than 90 deg apart;
+* or it leaves and rejoins the joint's own pace at once: neither the frame before its first break nor the one after
+  its last accelerates by half the break level, where a real turn builds its speed up or lets it die down over the
+  frames around its breaks (a gap a capture filled by a straight line turns at a steady speed and breaks at its two
+  corners only: HDM05 mm grabHighR 018's right arm, 32 deg a frame);
+* or one step is more than :data:`SPEED_RATIO` times the step beside it (a step out of a slow or held track);
+* or a joint up its chain breaks meanwhile, and moves it: a capture's turn-over of a thigh, which its foot follows
+  around in smooth frames (:func:`smooth_turn_breaks`).
+
+A break event (:func:`~mocapkit.cleaning.ssa.cues.event_bounds`) that does none of these, over its own steps and the
+two beside it, is a smooth turn and confirms nothing (:func:`smooth_turn_breaks`). Measured on the 224 break events
+of 69 clean takes (10 CMU; 59 HDM05, every fourth by name of actors bd, bk, dg and mm) and the 1,372 events of the
+errors :func:`mocapkit.corrupt.real_errors` injects in them (three seeds, four errors each): no injected error's
+event is a smooth turn (the least speed ratio among them 4.9); eight clean events are (131_01's two wrist flicks
+and 131_03's, a turn of 131_03's right thumb, the pirouette's right foot, three of the backflip's thigh and arm
+swings). What it costs: an error smaller than the steps of a turn this fast, where it happens, confirms nothing (a
+30 deg spike at the peak of a turn of 40-55 deg a frame; one of 60 deg turns the path back and still breaks). A
+cue of this library, not of the paper (Aristidou et al. 2018 flag ``MDM > threshold``, section 3.4).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ... import rotations as R
+from .cues import event_bounds
+
+__all__ = ["CHAIN_DEPTH", "SPEED_RATIO", "TURN_BACK_DEG", "smooth_turn", "smooth_turn_breaks"]
+
+#: the most one step of a smooth turn may be of the step beside it, either way (131_01's flick: 2.9, as its
+#: 34 deg step slows to 12; every injected error's event over 4.8)
+SPEED_RATIO = 4.0
+#: two successive steps of a smooth turn point less than this far apart (a turn back points about 180 deg away)
+TURN_BACK_DEG = 90.0
+#: how many joints up the chain :func:`smooth_turn_breaks` looks for a break that moves the joint
+CHAIN_DEPTH = 3
+
+
+def smooth_turn(q: np.ndarray, resid: np.ndarray, first: int, last: int, jump_deg: float) -> bool:
+    """Whether the break event ``first .. last`` (frames) of one joint's track is a smooth turn (module docstring).
+
+    ``q`` (F, 4) the joint's unit quaternions, ``resid`` (F,) its midpoint residuals in radians
+    (:func:`~mocapkit.cleaning.ssa.cues.midpoint_residuals`), ``jump_deg`` the break level in degrees. The steps read
+    are ``q[first - 2] -> q[first - 1]`` to ``q[last + 1] -> q[last + 2]``; an event too near the take's ends for
+    them is no smooth turn (kept as a break).
+    """
+    F = len(q)
+    if first < 2 or last + 2 >= F:
+        return False
+    if max(resid[first - 1], resid[last + 1]) < 0.5 * np.radians(jump_deg):
+        return False  # the turn neither built up nor died down over the frames beside its breaks
+    seg = np.asarray(q[first - 2 : last + 3], dtype=np.float64)
+    if not np.isfinite(seg).all():
+        return False
+    v = R.quaternion_to_rotvec(R.quaternion_multiply(seg[1:], R.quaternion_inverse(seg[:-1])))  # steps, radians
+    s = np.linalg.norm(v, axis=-1)
+    if (s <= 0.0).any():
+        return False  # a held frame: a freeze let go, not a turn
+    if (np.maximum(s[1:] / s[:-1], s[:-1] / s[1:]) > SPEED_RATIO).any():
+        return False
+    cos = np.sum(v[1:] * v[:-1], axis=-1) / (s[1:] * s[:-1])
+    return bool((cos > np.cos(np.radians(TURN_BACK_DEG))).all())
+
+
+def smooth_turn_breaks(q: np.ndarray, resid: np.ndarray, breaks: np.ndarray, jump_deg: float,
+                       parents=None) -> np.ndarray:
+    """``breaks`` (F, J) bool without the events that are smooth turns (:func:`smooth_turn`).
+
+    ``q`` (F, J, 4) local rotations, ``resid`` (F, J) radians (:func:`~mocapkit.cleaning.ssa.cues.midpoint_residuals`),
+    ``jump_deg`` the break level the breaks were found at (degrees). With ``parents`` (J,), an event during which a
+    joint up the chain (:data:`CHAIN_DEPTH` levels at most) breaks too (its residual over ``jump_deg`` over the
+    event's frames and the two beside them) is kept whatever its shape: the chain's break moves it (HDM05
+    dg_squat1Reps_026's right foot turns 180 deg in 9 smooth frames around the frame its thigh turns back over in
+    one, a turn-over of the capture's own: the toes swing 6-18 times their usual speed). Used for the breaks that
+    confirm a digression (:func:`~mocapkit.cleaning.ssa.detect`'s ``jumps``); the frozen channels' own breaks are left
+    as they are.
+    """
+    out = np.array(breaks, dtype=bool)
+    F = len(out)
+    level = np.radians(jump_deg)
+    for j in np.flatnonzero(out.any(axis=0)):
+        frames = np.flatnonzero(out[:, j])
+        first, last, event = event_bounds(frames)
+        ups = _ancestors(parents, int(j)) if parents is not None else []
+        smooth = np.array([smooth_turn(q[:, j], resid[:, j], int(a), int(b), jump_deg)
+                           and not (resid[max(a - 2, 0) : min(b + 3, F)][:, ups] > level).any()
+                           for a, b in zip(first, last)], dtype=bool)
+        out[frames[smooth[event]], j] = False
+    return out
+
+
+def _ancestors(parents, j: int) -> list[int]:
+    """The joints up ``j``'s chain, nearest first, :data:`CHAIN_DEPTH` at most."""
+    parents = np.asarray(parents)
+    ups = []
+    while len(ups) < CHAIN_DEPTH and parents[j] >= 0:
+        j = int(parents[j])
+        ups.append(j)
+    return ups
