@@ -8,7 +8,9 @@ the cells it moved further than :func:`departure_bounds` (a bound tied to each j
 no noise sample:
 
 * :func:`jump_cells`: a jump is a turn between neighbouring frames that white noise of the joint's level makes
-  once in ``1 / SPIKE_P`` steps (:func:`jump_bounds`). The frames between two jumps, fewer than those on either
+  once in ``1 / SPIKE_P`` steps (:func:`jump_bounds`), or such a turn between the means of 2 to ``RUN_FRAMES``
+  frames on either side (:func:`jump_steps`: under heavy noise a single step's bound passes 180 deg, and a flip
+  held for a few frames is seen only between means; HDM05's squat at 0.5 noise). The frames between two jumps, fewer than those on either
   side, are a flip the file holds and are kept whole (CMU's ``backflip.amc`` turns hands and thumbs by 120-170
   deg for one frame of its file; smoothed as noise, such a turn dragged the good frames beside it by up to 135
   deg); beside a lone jump, the far cells it dragged are kept. Kept as it came, a flip stays the take's own for
