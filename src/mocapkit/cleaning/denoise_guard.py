@@ -10,12 +10,12 @@ no noise sample:
 * :func:`jump_cells`: a jump is a turn between neighbouring frames that white noise of the joint's level makes
   once in ``1 / SPIKE_P`` steps (:func:`jump_bounds`), or such a turn between the means of 2 to ``RUN_FRAMES``
   frames on either side (:func:`jump_steps`: under heavy noise a single step's bound passes 180 deg, and a flip
-  held for a few frames is seen only between means; HDM05's squat at 0.5 noise). The frames between two jumps, fewer than those on either
-  side, are a flip the file holds and are kept whole (CMU's ``backflip.amc`` turns hands and thumbs by 120-170
-  deg for one frame of its file; smoothed as noise, such a turn dragged the good frames beside it by up to 135
-  deg); beside a lone jump, the far cells it dragged are kept. Kept as it came, a flip stays the take's own for
-  detection and repair to judge: a smoother cannot tell a flip in the file from a turn the body made, and what
-  it made of one could not be undone;
+  held for a few frames is seen only between means; HDM05's squat at 0.5 noise). The frames between two jumps,
+  fewer than those on either side, are a flip the file holds and are kept whole (CMU's ``backflip.amc`` turns
+  hands and thumbs by 120-170 deg for one frame of its file; smoothed as noise, such a turn dragged the good
+  frames beside it by up to 135 deg); beside a lone jump, the far cells it dragged are kept. Kept as it came, a
+  flip stays the take's own for detection and repair to judge: a smoother cannot tell a flip in the file from a
+  turn the body made, and what it made of one could not be undone;
 * :func:`held_cells`: a far cell beside another far cell within the bound of it (two white-noise samples side
   by side, each past the bound, are about as rare as the square of one), while one large sample that happens to
   sit near one plain neighbour is noise's and stays the denoiser's (HDM05 grabHighR at 0.5 noise: kept, such a
@@ -250,9 +250,9 @@ def jump_cells(rotations: np.ndarray, far: np.ndarray, bounds: np.ndarray,
     (a flip the file holds for a stretch, a one-frame flip included) are returned whole when one of them, or a
     frame beside them, is far: the flip is the file's, and its frames, judged by their own neighbours, would move
     towards the frames around it (under heavy noise the denoiser may drag the good frames beside a flip further
-    than the flip's own: HDM05 squat 025 at 0.5 noise, seed 3). Each run of far cells that touches a jump is
-    returned too (the frames a smoother dragged towards it), but for one beside a flip returned whole (read around,
-    the flip drags no more)."""
+    than the flip's own: HDM05 squat 025 at 0.5 noise, seed 0, frames 77 and 83 beside the flip 78-82). Each run
+    of far cells that touches a jump is returned too (the frames a smoother dragged towards it), but for one beside
+    a flip returned whole (read around, the flip drags no more)."""
     q = np.asarray(rotations, dtype=np.float64)
     far = np.asarray(far, dtype=bool)
     F, J = far.shape
