@@ -215,3 +215,31 @@ def test_the_guard_measures_turns_by_the_one_geodesic_angle():
     gone = q.copy()
     gone[1] = np.nan  # a missing cell: no step to or from it, so no neighbour to judge by (held)
     assert held_cells(gone, far, np.array([1.0])).all()
+
+
+def test_the_squats_own_flip_is_read_between_window_means_when_one_step_cannot_show_it(shared_data):
+    """At 0.5 noise (seed 0) lfemur's noise std is 23 deg: the single-step jump bound (221 deg) passes any turn, so
+    the jump rule saw no flip, nothing was kept, and the EBF dragged the good frame 77 138 deg off the source. The
+    5-frame flip (78-82) is plain between the means of the frames either side (bound 100 deg)."""
+    truth = mocapkit.load(shared_data / SQUAT)
+    noisy, _ = corrupt.corrupt(truth, "noise", seed=0, amount=0.5)
+    out, _, note = denoise_take(noisy)
+    assert _worst_vs(truth, out, "lfemur") <= _worst_vs(truth, noisy, "lfemur") + 5.0
+    assert "lfemur" in note
+
+
+def test_jump_steps_find_a_held_flip_under_noise_too_heavy_for_one_step():
+    from mocapkit.cleaning.denoise_guard import jump_steps, window_steps
+
+    rng = np.random.default_rng(7)
+    F = 300
+    deg = np.linspace(0.0, 60.0, F) + rng.normal(size=F) * 20.0  # 20 deg of noise: one step's bound > 180 deg
+    deg[150:155] += 180.0  # a flip held for five frames
+    q = _about_x(deg)[:, None]
+    cells = np.ones((F, 1), bool)
+    bound = jump_bounds(q, cells)
+    assert bound[0] > 180.0
+    assert not jump_steps(q, bound)[:, 0].any()  # single steps: blind
+    found = np.flatnonzero(jump_steps(q, bound, np.array([0.2]))[:, 0]) + 1  # the first frame after each jump
+    assert set(found) <= {149, 150, 151, 154, 155, 156} and len(found) == 2
+    assert np.allclose(window_steps(q, 1)[:, 0], rotation_angle(q[1:, 0], q[:-1, 0]))

@@ -8,12 +8,14 @@ the cells it moved further than :func:`departure_bounds` (a bound tied to each j
 no noise sample:
 
 * :func:`jump_cells`: a jump is a turn between neighbouring frames that white noise of the joint's level makes
-  once in ``1 / SPIKE_P`` steps (:func:`jump_bounds`). The frames between two jumps, fewer than those on either
-  side, are a flip the file holds and are kept whole (CMU's ``backflip.amc`` turns hands and thumbs by 120-170
-  deg for one frame of its file; smoothed as noise, such a turn dragged the good frames beside it by up to 135
-  deg); beside a lone jump, the far cells it dragged are kept. Kept as it came, a flip stays the take's own for
-  detection and repair to judge: a smoother cannot tell a flip in the file from a turn the body made, and what
-  it made of one could not be undone;
+  once in ``1 / SPIKE_P`` steps (:func:`jump_bounds`), or such a turn between the means of 2 to ``RUN_FRAMES``
+  frames on either side (:func:`jump_steps`: under heavy noise a single step's bound passes 180 deg, and a flip
+  held for a few frames is seen only between means; HDM05's squat at 0.5 noise). The frames between two jumps,
+  fewer than those on either side, are a flip the file holds and are kept whole (CMU's ``backflip.amc`` turns
+  hands and thumbs by 120-170 deg for one frame of its file; smoothed as noise, such a turn dragged the good
+  frames beside it by up to 135 deg); beside a lone jump, the far cells it dragged are kept. Kept as it came, a
+  flip stays the take's own for detection and repair to judge: a smoother cannot tell a flip in the file from a
+  turn the body made, and what it made of one could not be undone;
 * :func:`held_cells`: a far cell beside another far cell within the bound of it (two white-noise samples side
   by side, each past the bound, are about as rare as the square of one), while one large sample that happens to
   sit near one plain neighbour is noise's and stays the denoiser's (HDM05 grabHighR at 0.5 noise: kept, such a
@@ -42,11 +44,12 @@ from ..motion import Motion
 
 __all__ = ["midpoint_deviation", "noise_std", "departure_bounds", "jump_bounds", "far_cells",
            "held_cells", "displaced_runs", "jump_cells", "beside", "kept_cells", "guarded", "SIGMAS", "MARGIN_DEG",
-           "SPIKE_P", "RUN_FRAMES"]
+           "SPIKE_P", "RUN_FRAMES", "JUMP_APART", "window_steps", "jump_steps", "motion_speed"]
 
 SIGMAS = 4.0  # the bound, in standard deviations of the noise along its widest axis: white noise passes it ~2e-4
 MARGIN_DEG = 3.0  # added to the bound: what a smoother may move a clean cell by (a capture's own jitter)
 RUN_FRAMES = 8  # the longest run :func:`displaced_runs` reads as one (a flip held for a few frames)
+JUMP_APART = 2  # steps either side of a jump read between window means within which no other such jump is read
 SPIKE_P = 1e-9  # the chance a cell of white noise passes :func:`jump_bounds` (a take of 1e6 cells: once in 1,000)
 # a white noise sample n_t less the mean of its neighbours' has 1.5 times its variance; the median of |N(0, 1)|
 _MEDIAN_ABS_NORMAL = 0.6745
@@ -176,22 +179,95 @@ def displaced_runs(rotations: np.ndarray, denoised: np.ndarray, cells: np.ndarra
     return out & cells
 
 
-def jump_cells(rotations: np.ndarray, far: np.ndarray, bounds: np.ndarray) -> np.ndarray:
-    """(F, J) bool: the cells a jump in the take explains, of ``rotations`` (F, J, 4) whose ``far`` cells (F, J) a
-    denoiser moved too far. A jump is a step between neighbouring frames longer than the joint's ``bounds`` (J,)
-    degrees (:func:`jump_bounds`) with a far cell on either side of it.
+def window_steps(rotations: np.ndarray, n: int) -> np.ndarray:
+    """(F - 1, J) degrees: at each step between frames ``f`` and ``f + 1`` of ``rotations`` (F, J, 4), the turn
+    between the mean rotation of the ``n`` frames up to ``f`` and that of the ``n`` frames from ``f + 1`` (each the
+    normalised sum of its quaternions, signs made continuous in time: the chordal mean, which averages small-angle
+    noise like vectors); NaN where a window leaves the take or holds a missing cell. ``n = 1`` is the plain step.
+    """
+    q = np.asarray(rotations, dtype=np.float64)
+    F, J = q.shape[:2]
+    out = np.full((max(F - 1, 0), J), np.nan)
+    if F < 2 * n:
+        return out
+    gone = np.isnan(q).any(axis=-1)
+    a = np.nan_to_num(q)
+    flip = np.concatenate([np.zeros((1, J), bool), np.sum(a[1:] * a[:-1], axis=-1) < 0.0])
+    a = np.where((np.cumsum(flip, axis=0) % 2 == 1)[..., None], -a, a)  # each frame on its neighbour's side
+    total = np.concatenate([np.zeros((1, J, 4)), np.cumsum(a, axis=0)])  # (F + 1, J, 4)
+    holes = np.concatenate([np.zeros((1, J)), np.cumsum(gone, axis=0)])
+    mean = total[n:] - total[:-n]  # (F - n + 1, J, 4): frames i .. i + n - 1
+    whole = (holes[n:] - holes[:-n]) == 0
+    norm = np.linalg.norm(mean, axis=-1, keepdims=True)
+    ok = whole & (norm[..., 0] > 1e-9)
+    mean = np.where(ok[..., None], mean / np.maximum(norm, 1e-12), np.array([1.0, 0.0, 0.0, 0.0]))
+    before, after = mean[:F - 2 * n + 1], mean[n:]  # windows ending at frame f, starting at f + 1 (f = n-1 .. F-n-1)
+    step = np.degrees(R.geodesic_angle(before, after))
+    out[n - 1:F - n] = np.where(ok[:F - 2 * n + 1] & ok[n:], step, np.nan)
+    return out
 
-    Per joint, the frames between two jumps that are fewer than the frames before and after them (a flip the file
-    holds for a stretch, a one-frame flip included) are returned whole when one of them is far: the flip is the
-    file's, and its frames, judged by their own neighbours, would move towards the frames around it. Each run of
-    far cells that touches a jump is returned too (the frames a smoother dragged towards it), but for one beside
+
+def motion_speed(denoised: np.ndarray, cells: np.ndarray) -> np.ndarray:
+    """(J,) degrees a frame: each joint's typical turn between neighbouring frames of ``denoised`` (F, J, 4), the
+    median over the steps between two of its ``cells`` (F, J) (0 without one): how fast the motion under the noise
+    moves, which the median reads past the few frames a denoiser smeared a jump over."""
+    d = np.asarray(denoised, dtype=np.float64)
+    cells = np.asarray(cells, dtype=bool)
+    step = window_steps(d, 1)
+    step = np.where(cells[1:] & cells[:-1], step, np.nan)
+    out = np.zeros(d.shape[1])
+    some = np.any(np.isfinite(step), axis=0)
+    if some.any():
+        out[some] = np.nanmedian(step[:, some], axis=0)
+    return out
+
+
+def jump_steps(rotations: np.ndarray, bounds: np.ndarray, speed: np.ndarray | None = None) -> np.ndarray:
+    """(F - 1, J) bool: the steps of ``rotations`` (F, J, 4) between frames ``f`` and ``f + 1`` that are a jump.
+
+    A jump is a turn :func:`jump_bounds` (``bounds`` (J,) degrees) says noise makes once in ``1 / SPIKE_P`` steps,
+    read between single frames and, where ``speed`` (J,) (degrees a frame: how fast each joint moves) is given,
+    between the means of ``n`` = 2 to ``RUN_FRAMES`` frames on either side (:func:`window_steps`; only where the
+    step's share of its bound, the largest over ``n``, peaks within ``JUMP_APART`` steps: windows that straddle one
+    jump all read it, and noise moves their peak by a frame or two): the mean of
+    ``n`` noise samples has ``1 / sqrt(n)`` of their std, so its bound is ``(bounds - MARGIN_DEG) / sqrt(n) +
+    MARGIN_DEG`` plus the ``(n - 1) * speed`` the joint turns as the windows' centres move ``n - 1`` frames further
+    apart. Under heavy noise a single step's bound passes 180 deg (at a std of 18.6 deg), where no turn reaches
+    it: a flip the file holds for a few frames is still plain between the means (HDM05 squat 025 at 0.5 noise,
+    lfemur's 180-deg flip on frames 78-82 at a std of 23 deg: single-step bound 221 deg, 5-frame bound 100)."""
+    q = np.asarray(rotations, dtype=np.float64)
+    bounds = np.asarray(bounds, dtype=np.float64)
+    jump = np.nan_to_num(window_steps(q, 1), nan=0.0) > bounds[None, :]
+    if speed is None:
+        return jump
+    score = np.zeros_like(jump, dtype=np.float64)  # the largest share of its bound a window step reaches
+    for n in range(2, RUN_FRAMES + 1):
+        bound_n = (bounds - MARGIN_DEG) / np.sqrt(n) + MARGIN_DEG + (n - 1) * np.asarray(speed)
+        score = np.fmax(score, np.nan_to_num(window_steps(q, n), nan=0.0) / bound_n[None, :])
+    from scipy.ndimage import maximum_filter1d  # here: importing scipy.ndimage takes ~0.2 s
+
+    peak = score >= maximum_filter1d(score, size=2 * JUMP_APART + 1, axis=0, mode="nearest")
+    return jump | (peak & (score > 1.0))
+
+
+def jump_cells(rotations: np.ndarray, far: np.ndarray, bounds: np.ndarray,
+               speed: np.ndarray | None = None) -> np.ndarray:
+    """(F, J) bool: the cells a jump in the take explains, of ``rotations`` (F, J, 4) whose ``far`` cells (F, J) a
+    denoiser moved too far. A jump is a step :func:`jump_steps` finds (``bounds`` (J,): :func:`jump_bounds`;
+    ``speed`` (J,): :func:`motion_speed`, None: single steps only).
+
+    Per joint with a far cell, the frames between two jumps that are fewer than the frames before and after them
+    (a flip the file holds for a stretch, a one-frame flip included) are returned whole when one of them, or a
+    frame beside them, is far: the flip is the file's, and its frames, judged by their own neighbours, would move
+    towards the frames around it (under heavy noise the denoiser may drag the good frames beside a flip further
+    than the flip's own: HDM05 squat 025 at 0.5 noise, seed 0, frames 77 and 83 beside the flip 78-82). Each run
+    of far cells that touches a jump is returned too (the frames a smoother dragged towards it), but for one beside
     a flip returned whole (read around, the flip drags no more)."""
     q = np.asarray(rotations, dtype=np.float64)
     far = np.asarray(far, dtype=bool)
     F, J = far.shape
     out = np.zeros((F, J), dtype=bool)
-    step = np.nan_to_num(np.degrees(R.geodesic_angle(q[1:], q[:-1])), nan=0.0)  # (F - 1, J)
-    jump = (step > np.asarray(bounds)[None, :]) & (far[:-1] | far[1:])
+    jump = jump_steps(q, bounds, speed) & far.any(axis=0)[None, :]  # (F - 1, J)
     for j in np.flatnonzero(jump.any(axis=0)):
         cuts = np.flatnonzero(jump[:, j]) + 1  # the first frame after each jump
         edges = np.concatenate([[0], cuts, [F]])
@@ -199,7 +275,7 @@ def jump_cells(rotations: np.ndarray, far: np.ndarray, bounds: np.ndarray) -> np
         flip = np.zeros(F, dtype=bool)
         for k in range(1, len(cuts)):
             a, b = edges[k], edges[k + 1]
-            if size[k] < size[k - 1] and size[k] < size[k + 1] and far[a:b, j].any():
+            if size[k] < size[k - 1] and size[k] < size[k + 1] and far[a - 1:b + 1, j].any():
                 flip[a:b] = True
         out[:, j] = flip
         for first, last in true_runs(far[:, j] & ~flip):
@@ -249,7 +325,7 @@ def kept_cells(rotations: np.ndarray, denoised: np.ndarray, judged: np.ndarray,
     runs = displaced_runs(q, denoised, judged, std)
     if not far.any():
         return runs
-    jumps = jump_cells(q, far, jump_bounds(q, judged, std))
+    jumps = jump_cells(q, far, jump_bounds(q, judged, std), motion_speed(denoised, judged))
     return jumps | runs | held_cells(q, far & ~jumps & ~beside(jumps, far), bounds)
 
 
