@@ -2,6 +2,7 @@
 named and no frame beside them "repaired" because of them; clean takes untouched and unnamed."""
 
 import dataclasses
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -176,3 +177,14 @@ def test_a_take_of_8_or_9_frames_is_cleaned(shared_data, frames):
     assert tb.cuts(take) == []
     res = clean(take)
     assert res.motion.num_frames == frames and not any("cut" in n for n in res.notes)
+
+
+def test_the_root_s_teleport_is_named_at_the_take_s_frames_after_a_calibration_pose():
+    """CMU 01_01 opens on the converter's T-pose (frame 0, left out of detection). Its root 1 m away on frames
+    50-51: detect's line said "frames 49-50" (the analysed part's frames), repair's "frames 50-51"."""
+    m = mocapkit.load(Path(__file__).parents[1] / "data" / "cmu_01_01_start.bvh")
+    res = clean(_moved_root(m, slice(50, 52), (100.0, 0.0, 0.0)), steps="detect")
+    assert [str(p) for p in res.calibration] == ["frame 0: calibration T-pose, left alone"]
+    detect = next(s for s in res.steps if s.name == "detect")
+    assert "frames 50-51: the root (Hips) jumps 100 cm away and back" in detect.note
+    assert "frames 49-50" not in detect.note

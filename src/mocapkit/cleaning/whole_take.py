@@ -278,19 +278,21 @@ def detect_take(motion: Motion, context=None, *, threshold: float = 0.5, params=
         det = ssa.detect(part, context, threshold=threshold, params=params, progress=progress)
     except (ValueError, SkeletonError) as exc:
         raise MocapError(f"{name}: detect: {exc}") from None
-    det = across_breaks(part, det)
+    det = across_breaks(part, det, lo=lo)
     return TakeDetection(det.padded(lo, F) if poses else det, poses, span)
 
 
-def across_breaks(part: Motion, det):
-    """``det`` (a detection of ``part``, the frames analysed) with the take's breaks said and judged as such.
+def across_breaks(part: Motion, det, *, lo: int = 0):
+    """``det`` (a detection of ``part``, the frames analysed: the take's frames ``lo ..``) with the take's breaks
+    said and judged as such.
 
     The cuts of ``part`` and the jumps of its root's path (:mod:`mocapkit.cleaning.take_breaks`) are named in
     the detection's notes (so ``detect`` prints them and ``clean`` says them); at a cut, or where the root
     jumps and stays, the whole take changes, and a joint's break there confirms no digression: the breaks
     (``jumps``) within ``confirm_margin_s`` of it are cleared and the flags made again, so the frames on
     either side are not "repaired" because of it (a splice of two walks had the pelvis of the 17 frames before
-    it turned round by up to 172 deg).
+    it turned round by up to 172 deg). The notes name the take's frames (``lo`` on from part's), as the repair
+    step's lines do: named at part's, a teleport after a calibration T-pose was said one frame early.
     """
     import dataclasses
 
@@ -300,7 +302,9 @@ def across_breaks(part: Motion, det):
     an = det.analysis  # its midpoint residuals are part's when it analysed part itself
     found = tb.cuts(part, resid=an.residuals if an is not None and an.motion is part else None)
     at = sorted({c.frame for c in found} | {e.first for e in events if e.kind == "jump"})
-    lines = [str(e) for e in events] + [str(c) for c in found if not any(e.first == c.frame for e in events)]
+    said = ([dataclasses.replace(e, first=e.first + lo, last=e.last + lo) for e in events]
+            + [dataclasses.replace(c, frame=c.frame + lo) for c in found if not any(e.first == c.frame for e in events)])
+    lines = [str(x) for x in said]
     if not lines:
         return det
     det = dataclasses.replace(det, notes=tuple(det.notes) + tuple(lines))
