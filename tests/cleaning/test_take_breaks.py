@@ -2,6 +2,7 @@
 named and no frame beside them "repaired" because of them; clean takes untouched and unnamed."""
 
 import dataclasses
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -176,3 +177,36 @@ def test_a_take_of_8_or_9_frames_is_cleaned(shared_data, frames):
     assert tb.cuts(take) == []
     res = clean(take)
     assert res.motion.num_frames == frames and not any("cut" in n for n in res.notes)
+
+
+def test_the_root_s_teleport_is_named_at_the_take_s_frames_after_a_calibration_pose():
+    """CMU 01_01 opens on the converter's T-pose (frame 0, left out of detection). Its root 1 m away on frames
+    50-51: detect's line said "frames 49-50" (the analysed part's frames), repair's "frames 50-51"."""
+    m = mocapkit.load(Path(__file__).parents[1] / "data" / "cmu_01_01_start.bvh")
+    res = clean(_moved_root(m, slice(50, 52), (100.0, 0.0, 0.0)), steps="detect")
+    assert [str(p) for p in res.calibration] == ["frame 0: calibration T-pose, left alone"]
+    detect = next(s for s in res.steps if s.name == "detect")
+    assert "frames 50-51: the root (Hips) jumps 100 cm away and back" in detect.note
+    assert "frames 49-50" not in detect.note
+
+
+def test_the_review_mode_names_and_flags_the_teleports_clean_puts_back_and_changes_nothing():
+    """The review mode (steps="detect") said a teleport only as detection's finding: no flag on its cells, nothing
+    of what the repair step does to it. It now flags the cells the repair step puts back (cause teleport), in the
+    repair step's line with "left as is", and returns the take bit for bit (CMU 01_01's start, root 1 m away)."""
+    from mocapkit.cleaning.flags_left import flag_outcomes
+
+    m = mocapkit.load(Path(__file__).parents[1] / "data" / "cmu_01_01_start.bvh")
+    bad = _moved_root(m, slice(50, 52), (100.0, 0.0, 0.0))
+    review, cleaned = clean(bad, steps="detect"), clean(bad, steps="detect,repair")
+    put_back = next(s for s in cleaned.steps if s.name == "repair").note
+    line = "frames 50-51: the root (Hips) jumps 100 cm away and back (wrong root samples)"
+    assert f"{line}; put back on the path between the frames around them" in put_back
+    assert f"{line}; left as is (repair would put it back on the path between the frames around them)" in review.notes
+    assert "1 teleport (0 put back)" in next(s for s in review.steps if s.name == "detect").note
+    tele = 1 << [name for name, _ in CAUSES].index("teleport")
+    assert np.array_equal(review.flags, cleaned.flags) and np.flatnonzero(review.flags[:, 0]).tolist() == [50, 51]
+    assert (np.asarray(review.causes[50:52, 0]).astype(np.int64) & tele).all()
+    assert np.array_equal(review.motion.root_positions, bad.root_positions) and not review.changed.any()
+    assert [(f["joint"], f["first"], f["last"], f["left"]) for f in flag_outcomes(review)] == [
+        ("Hips", 50, 51, "left as it was: the repair step did not run")]

@@ -308,6 +308,26 @@ def test_repair_puts_back_a_root_teleport_as_clean_does(tmp_path):
         assert np.linalg.norm(path[f:f + 2] - truth[f:f + 2], axis=1).max() < 5.0
 
 
+def test_detect_names_and_flags_a_root_teleport_as_the_review_mode_does(tmp_path):
+    """`detect` flags the cells of a teleport repair puts back (cause teleport) and says it in clean's review line,
+    left as is (it printed detection's finding alone, nothing flagged); the detection file keeps self-similarity's
+    flags alone."""
+    from tests.cleaning.test_take_breaks import _moved_root
+
+    src = Path(__file__).resolve().parents[1] / "data" / "cmu_01_01_start.bvh"
+    inp, det = tmp_path / "tele.bvh", tmp_path / "det.npz"
+    mocapkit.save(_moved_root(mocapkit.load(src), slice(50, 52), (100.0, 0.0, 0.0)), inp, like=src)
+    code, out, err = run("detect", str(inp), "-o", str(det), "--context", "none", "--json")
+    assert code == 0, err
+    doc = json.loads(out.strip().splitlines()[-1])
+    words = dict(ssa.cues.CAUSES)
+    assert [(g["joint"], g["start"], g["last"], g["causes"]) for g in doc["segments"]] == [
+        ("Hips", 50, 51, [words["teleport"]])]
+    assert ("frames 50-51: the root (Hips) jumps 100 cm away and back (wrong root samples); left as is (repair would "
+            "put it back on the path between the frames around them)") in doc["notes"]
+    assert not ssa.Detection.load(det).flags.any()
+
+
 def test_detect_and_repair_refuse_channels_written_as_zero_as_they_refuse_gaps(tmp_path):
     """A dropout written as 0 is samples the capture lost: detect and repair refuse it in one line naming the file
     and the run, as clean without its fill step does (detect flagged the run with two good frames before it, and

@@ -144,7 +144,8 @@ from .noise_rate import noise_too_coarse
 from .noise_scope import with_body_noise
 from .stutters import Stutter, find_stutters, stutter_frames
 from .whole_take import (MAX_WORD_ANGLE_DEG, denoise_take, detect_take, differing, fill_take, motion_span,
-                         repair_whole, review_turn_overs, take_params, turn_overs_note, with_flips, with_teleports)
+                         repair_whole, review_whole, take_params, teleports_note, turn_overs_note, with_flips,
+                         with_teleports)
 from .zeros import ZeroRun, find_zeros
 
 __all__ = ["STEPS", "CleanResult", "StepRecord", "clean", "capped_lines", "noise_level", "noise_direction", "noisy_cells", "clean_path", "parse_steps",
@@ -923,12 +924,14 @@ def clean(
             said = det.analysed_part().notes  # the frames analysed are said by the calibration lines
             note = f"{_count(len(det.segments()), 'flagged segment')} on {_count(int(flags.any(axis=0).sum()), 'joint')}" + (
                 f"; {'; '.join(said)}" if said else "")
-            if "repair" not in steps:  # review: the turn-overs the repair step would name, flagged, none turned back
-                seen = (review_turn_overs(cur, det, poses=poses) if redo is None else
-                        review_turn_overs(undenoised, det, context, poses=poses))
-                flags, causes = with_flips(flags, causes, seen.flagged)
+            if "repair" not in steps:  # review: the teleports and turn-overs the repair step would name, flagged, left
+                seen = (review_whole(cur, det, poses=poses) if redo is None else
+                        review_whole(undenoised, det, context, poses=poses))
+                flags, causes = with_teleports(flags, causes, seen.teleported)
+                flags, causes = with_flips(flags, causes, seen.turn_overs.flagged)
                 notes.extend(seen.lines)
-                note = "; ".join(x for x in (note, turn_overs_note(seen.lines)) if x)
+                note = "; ".join(x for x in (note, teleports_note(seen.teleports), turn_overs_note(seen.turn_overs.lines))
+                                 if x)
             records.append(StepRecord("detect", time.perf_counter() - t, 0, f"self-similarity against {what}", note))
 
     if "repair" in steps and det is not None:

@@ -55,7 +55,8 @@ class RootEvent:
     """One finding on the root's path: ``kind`` "teleport", "jump" or "frozen"; frames ``first``..``last``
     (inclusive; for a jump, ``first`` is the frame the root lands on and ``last`` the take's last frame);
     ``size_cm``: how far the root is off, cm (teleport, jump), or how far the legs turned over the hold, degrees
-    (frozen); ``joint``: the pelvis's name; ``fixed``: the frames were put back (teleports)."""
+    (frozen); ``joint``: the pelvis's name; ``fixed``: the frames were put back (teleports); ``review``: a teleport
+    the repair step puts back, said where no repair runs (``clean --steps detect``, ``detect``) and left."""
 
     kind: str
     first: int
@@ -63,13 +64,16 @@ class RootEvent:
     size_cm: float
     joint: str
     fixed: bool = False
+    review: bool = False
 
     def __str__(self) -> str:
         frames = f"frame {self.first}" if self.first == self.last else f"frames {self.first}-{self.last}"
         if self.kind == "teleport":
+            where = "on the path between the frames around them"
             what = (f"{frames}: the root ({self.joint}) jumps {self.size_cm:.0f} cm away and back "
-                    "(wrong root samples)" + ("; put back on the path between the frames around them"
-                                              if self.fixed else ""))
+                    "(wrong root samples)" + (f"; put back {where}" if self.fixed else
+                                              f"; left as is (repair would put it back {where})" if self.review
+                                              else ""))
         elif self.kind == "jump":
             what = (f"frame {self.first}: the root ({self.joint}) jumps {self.size_cm:.0f} cm and stays there "
                     "(an offset, or a cut); left as it is: which side is right is not known")

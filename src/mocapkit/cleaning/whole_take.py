@@ -34,7 +34,8 @@ Three more things of a whole take go the same way in every command:
 - **The root's teleports** (:mod:`mocapkit.cleaning.take_breaks`) are put back by :func:`repair_whole`
   (``clean``'s repair step and the ``repair`` command), after the flagged cells are repaired; their
   cells join the flags with the cause ``teleport`` (:func:`with_teleports`), so they are undone like any
-  repair.
+  repair. Where no repair runs (``clean --steps detect``, the ``detect`` command) the same cells are flagged and
+  the same line says them, left as is (:func:`review_whole`).
 - **Turn-overs** (a bone turned 180 deg about itself in one frame and back, :mod:`mocapkit.cleaning.ssa.flips`)
   are found by :func:`turn_overs`: turned back by :func:`repair_whole` where that is checked right, and named,
   none turned back, where no repair runs (:func:`review_turn_overs`: ``clean --steps detect`` and the ``detect``
@@ -59,6 +60,7 @@ from .zeros import as_missing, find_zeros
 __all__ = ["MAX_WORD_ANGLE_DEG", "MADE_UP_SHARE", "TakeDetection", "TakeFill", "TakeRepair", "take_params",
            "motion_span", "made_up_note", "resolve_model", "fill_take", "denoise_take", "check_no_zeros", "detect_take", "across_breaks",
            "repair_take", "repair_whole", "TurnOvers", "turn_overs", "review_turn_overs", "turn_overs_note", "with_flips",
+           "TakeReview", "review_whole", "teleports_note",
            "with_teleports", "changed_cells", "differing", "REVIEW_WHY"]
 
 MAX_WORD_ANGLE_DEG = 8.0  # words with no neighbour this close (RMS joint angle) are not judged
@@ -278,19 +280,21 @@ def detect_take(motion: Motion, context=None, *, threshold: float = 0.5, params=
         det = ssa.detect(part, context, threshold=threshold, params=params, progress=progress)
     except (ValueError, SkeletonError) as exc:
         raise MocapError(f"{name}: detect: {exc}") from None
-    det = across_breaks(part, det)
+    det = across_breaks(part, det, lo=lo)
     return TakeDetection(det.padded(lo, F) if poses else det, poses, span)
 
 
-def across_breaks(part: Motion, det):
-    """``det`` (a detection of ``part``, the frames analysed) with the take's breaks said and judged as such.
+def across_breaks(part: Motion, det, *, lo: int = 0):
+    """``det`` (a detection of ``part``, the frames analysed: the take's frames ``lo ..``) with the take's breaks
+    said and judged as such.
 
     The cuts of ``part`` and the jumps of its root's path (:mod:`mocapkit.cleaning.take_breaks`) are named in
     the detection's notes (so ``detect`` prints them and ``clean`` says them); at a cut, or where the root
     jumps and stays, the whole take changes, and a joint's break there confirms no digression: the breaks
     (``jumps``) within ``confirm_margin_s`` of it are cleared and the flags made again, so the frames on
     either side are not "repaired" because of it (a splice of two walks had the pelvis of the 17 frames before
-    it turned round by up to 172 deg).
+    it turned round by up to 172 deg). The notes name the take's frames (``lo`` on from part's), as the repair
+    step's lines do: named at part's, a teleport after a calibration T-pose was said one frame early.
     """
     import dataclasses
 
@@ -300,7 +304,9 @@ def across_breaks(part: Motion, det):
     an = det.analysis  # its midpoint residuals are part's when it analysed part itself
     found = tb.cuts(part, resid=an.residuals if an is not None and an.motion is part else None)
     at = sorted({c.frame for c in found} | {e.first for e in events if e.kind == "jump"})
-    lines = [str(e) for e in events] + [str(c) for c in found if not any(e.first == c.frame for e in events)]
+    said = ([dataclasses.replace(e, first=e.first + lo, last=e.last + lo) for e in events]
+            + [dataclasses.replace(c, frame=c.frame + lo) for c in found if not any(e.first == c.frame for e in events)])
+    lines = [str(x) for x in said]
     if not lines:
         return det
     det = dataclasses.replace(det, notes=tuple(det.notes) + tuple(lines))
@@ -381,13 +387,14 @@ def repair_whole(motion: Motion, detection, context=None, *, foot_skate: bool = 
     The frames looked at are the detection's (``detection.span``) when it has them, else those between the
     take's calibration ``poses`` (found here when not given). Raises as :func:`repair_take`.
     """
-    done, span, leaves = _repaired(motion, detection, context, foot_skate=foot_skate, poses=poses)
+    done, span, leaves, _ = _repaired(motion, detection, context, foot_skate=foot_skate, poses=poses)
     return turned_over(done, span, leaves)
 
 
 def _repaired(motion: Motion, detection, context=None, *, foot_skate: bool = False, poses=None):
-    """``(TakeRepair, span, leaves)``: :func:`repair_whole` before the turn-overs, the frames ``(lo, hi)`` it looked
-    at, and the joints self-similarity did not analyse (whose constant half turns :func:`turn_overs` looks for)."""
+    """``(TakeRepair, span, leaves, put_back)``: :func:`repair_whole` before the turn-overs, the frames ``(lo, hi)``
+    it looked at, the joints self-similarity did not analyse (whose constant half turns :func:`turn_overs` looks
+    for), and the teleports put back (:class:`~mocapkit.cleaning.take_breaks.RootEvent`, ``fixed``)."""
     from . import take_breaks as tb
 
     F = motion.num_frames
@@ -401,7 +408,8 @@ def _repaired(motion: Motion, detection, context=None, *, foot_skate: bool = Fal
     back, done = tb.fix_teleports(fixed, events) if events else (fixed, ())
     teleported = changed_cells(motion, back) & ~moved
     leaves = [name for name, _ in getattr(detection, "left_out", ()) or ()]
-    return TakeRepair(back, moved, teleported, tuple(str(e) for e in done if e.fixed), left), span, leaves
+    put_back = tuple(e for e in done if e.fixed)
+    return TakeRepair(back, moved, teleported, tuple(str(e) for e in put_back), left), span, leaves, put_back
 
 
 #: the reason a review gives for leaving a turn-over the repair step turns back (``clean --steps detect``, ``detect``)
@@ -469,10 +477,51 @@ def review_turn_overs(motion: Motion, detection, context=None, *, poses=None) ->
     flip of a CMU walk's humerus, flagged and repaired from motion words). So the review's lines and ``flagged``
     cells are those of the repair step, on the same frames and in the same words, except that one the repair step
     turns back is left with the reason :data:`REVIEW_WHY`; ``motion`` is the input itself, ``turned`` all False.
+    :func:`review_whole` says the root's teleports with them.
     """
-    done, span, leaves = _repaired(motion, detection, context, poses=poses)
+    return review_whole(motion, detection, context, poses=poses).turn_overs
+
+
+@dataclass(frozen=True)
+class TakeReview:
+    """What the repair step would do to a take beyond its flagged cells, said and flagged with none of it done
+    (:func:`review_whole`): ``teleported``: (F, J) bool, the cells of the root's teleports it would put back
+    (:attr:`TakeRepair.teleported`); ``teleports``: one line per teleport, the repair step's line with "left as is
+    (repair would put it back on the path between the frames around them)" for its outcome; ``turn_overs``: the
+    :class:`TurnOvers` of :func:`review_turn_overs`."""
+
+    teleported: np.ndarray
+    teleports: tuple
+    turn_overs: TurnOvers
+
+    @property
+    def lines(self) -> tuple:
+        """The teleports' lines, then the turn-overs', in the order the repair step says them."""
+        return tuple(self.teleports) + tuple(self.turn_overs.lines)
+
+
+def review_whole(motion: Motion, detection, context=None, *, poses=None) -> TakeReview:
+    """The review of ``clean --steps detect`` and the ``detect`` command: what :func:`repair_whole` (on
+    ``detection``, its ``context`` and calibration ``poses``, foot-skate cleanup off as in ``clean``) would do to
+    the root's teleports and the turn-overs, said and flagged, none of it done; the take is not changed.
+
+    The repair is made in memory and given up. Its teleports (the root a jump away and back within 0.5 s,
+    :mod:`mocapkit.cleaning.take_breaks`) come back on the same cells and frames in the repair step's words,
+    left; its turn-overs as :func:`review_turn_overs` says. Without this, a review flagged neither and said a
+    teleport only as detection's finding, nothing of what the cleaning would do to it.
+    """
+    done, span, leaves, put_back = _repaired(motion, detection, context, poses=poses)
     found = turn_overs(done.motion, span, leaves, changed=done.repaired | done.teleported, review=True)
-    return dataclasses.replace(found, motion=motion)
+    teleports = tuple(str(dataclasses.replace(e, fixed=False, review=True)) for e in put_back)
+    return TakeReview(done.teleported, teleports, dataclasses.replace(found, motion=motion))
+
+
+def teleports_note(lines) -> str:
+    """``"1 teleport (0 put back)"``: the count a review's record says of the teleport ``lines``
+    (:attr:`TakeReview.teleports`); "" for none."""
+    if not lines:
+        return ""
+    return f"{len(lines)} teleport{'' if len(lines) == 1 else 's'} (0 put back)"
 
 
 def turn_overs_note(lines) -> str:

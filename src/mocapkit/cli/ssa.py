@@ -80,15 +80,16 @@ def detect(
 
     The flags are those of `clean --steps detect` on the same take and options: calibration poses at the
     take's ends are left out (named in a note), and words with no neighbour within 8 degrees are not judged.
-    The turn-overs the repair step would name (a bone turned 180 degrees in one frame and back) are printed
-    and flagged with them, none turned back; OUT keeps self-similarity's flags alone (those repair replaces).
+    The root's teleports and the turn-overs the repair step would name (a bone turned 180 degrees in one frame
+    and back) are printed and flagged with them, none put back; OUT keeps self-similarity's flags alone (those
+    repair replaces).
     """
     import json
 
     from ..batch import load_context
     from ..cleaning import precompile
     from ..cleaning.take_context import unread_context
-    from ..cleaning.whole_take import review_turn_overs, with_flips
+    from ..cleaning.whole_take import review_whole, with_flips, with_teleports
     from ..context import context_label, fit_context
     from ..io.outputs import removed_on_failure
     from ..io.takes import CLI_AMC_NAMES, check_asf, load_motion
@@ -107,10 +108,10 @@ def detect(
                                                                                       take=m, joint_map=jm))
     found, det = _detect(inp, m, ctx, threshold, progress=not as_json, confirm=confirm, jump_deg=jump_deg,
                          drifts=drifts)
-    # the turn-overs the repair step would name, flagged and said as clean --steps detect says them (none turned
-    # back); the detection file keeps self-similarity's flags alone, those that repair --detection replaces
-    seen = review_turn_overs(m, det, ctx, poses=found.calibration)
-    flags, causes = with_flips(det.flags, det.causes(), seen.flagged)
+    # the teleports and turn-overs the repair step would name, flagged and said as clean --steps detect says them
+    # (none put back); the detection file keeps self-similarity's flags alone, those that repair --detection replaces
+    seen = review_whole(m, det, ctx, poses=found.calibration)
+    flags, causes = with_flips(*with_teleports(det.flags, det.causes(), seen.teleported), seen.turn_overs.flagged)
     with removed_on_failure([out, png], overwrite=overwrite, marker=out):  # the detection last
         if png is not None:
             from ..report.plots import plot_mdm

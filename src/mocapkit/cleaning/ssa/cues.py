@@ -709,7 +709,7 @@ CAUSES = (
     ("offset", "a transient offset (a step off its path and back)"),
     ("drift", "a smooth drift (off its neighbours' path, no break)"),
     ("digression", "a digression over the threshold"),
-    ("teleport", "the root's path jumps away and back (wrong root samples, put back on the path)"),
+    ("teleport", "the root's path jumps away and back (wrong root samples)"),
     ("spike", "a spike far past the joint's own motion, where no similar motion judges it"),
     ("reversed", "a stretch played backwards (time-reversed), not a left/right swap"),
     ("frozen", "one rotation repeated bit for bit while the body moves, then a break (a frozen channel)"),
