@@ -396,3 +396,16 @@ def test_tied_changes_are_accepted_and_rejected_together(browser, tmp_path):
     pg.locator(f'#changes tr[data-change="{ids[2]}"] input.accept').check()
     assert all(pg.locator(f'#changes tr[data-change="{i}"] input.accept').is_checked() for i in ids)
     ctx.close()
+
+
+def test_a_put_back_teleport_is_not_said_to_be_replaced_by_similar_motion():
+    """The repair step puts a root teleport back on the path between the frames around it (whole_take), as it turns
+    a flip back by the same half turn: neither copies the take's similar motion, which the sentence said of both."""
+    from mocapkit.cleaning.ssa.cues import CAUSES
+
+    words = dict(CAUSES)
+    assert plain_sentence("repair", [words["teleport"]]) == (
+        "The whole body jumps away and back (bad root samples): put back on the root's path between the frames "
+        "around the jump.")
+    assert plain_sentence("repair", [words["flip"]]).endswith(": turned back by the same half turn.")
+    assert plain_sentence("repair", [words["offset"]]).endswith(": replaced by the take's own similar motion.")

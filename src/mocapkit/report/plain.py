@@ -35,6 +35,12 @@ _STEPS = {
     "repair": "replaced by the take's own similar motion",
     "denoise": "jitter smoothed out",
 }
+#: what the repair step does instead of copying similar motion, for the causes it undoes exactly
+#: (:mod:`mocapkit.cleaning.ssa.flips`, the root's teleports in :mod:`mocapkit.cleaning.whole_take`)
+_UNDONE = {
+    "flip": "turned back by the same half turn",
+    "teleport": "put back on the root's path between the frames around the jump",
+}
 
 
 def plain_sentence(step: str, why: list[str]) -> str:
@@ -47,8 +53,9 @@ def plain_sentence(step: str, why: list[str]) -> str:
     """
     what = "; ".join(_BY_WORDS.get(w, w) for w in why)
     done = "; ".join(_STEPS[s] for s in step.split("+") if s in _STEPS) if step else ""
-    if step and why and all(w == dict(CAUSES)["flip"] for w in why):  # ssa.flips turns it back, no motion words
-        done = done.replace(_STEPS["repair"], "turned back by the same half turn")
+    for cause, undone in _UNDONE.items():  # whole-take rules undo the error itself, not from the take's motion words
+        if step and why and all(w == dict(CAUSES)[cause] for w in why):
+            done = done.replace(_STEPS["repair"], undone)
     if step and "repair" in step.split("+") and not why:
         what = "moved with a flagged joint it is repaired with"
     text = f"{what}: {done}" if what and done else what or done
