@@ -44,7 +44,7 @@ from ..motion import Motion
 
 __all__ = ["midpoint_deviation", "noise_std", "departure_bounds", "jump_bounds", "far_cells",
            "held_cells", "displaced_runs", "jump_cells", "beside", "kept_cells", "guarded", "SIGMAS", "MARGIN_DEG",
-           "SPIKE_P", "RUN_FRAMES", "JUMP_APART", "window_steps", "jump_steps", "motion_speed"]
+           "SPIKE_P", "RUN_FRAMES", "JUMP_APART", "window_steps", "window_step_table", "jump_steps", "motion_speed"]
 
 SIGMAS = 4.0  # the bound, in standard deviations of the noise along its widest axis: white noise passes it ~2e-4
 MARGIN_DEG = 3.0  # added to the bound: what a smoother may move a clean cell by (a capture's own jitter)
@@ -185,17 +185,35 @@ def window_steps(rotations: np.ndarray, n: int) -> np.ndarray:
     normalised sum of its quaternions, signs made continuous in time: the chordal mean, which averages small-angle
     noise like vectors); NaN where a window leaves the take or holds a missing cell. ``n = 1`` is the plain step.
     """
-    q = np.asarray(rotations, dtype=np.float64)
+    return _steps_of(_window_sums(np.asarray(rotations, dtype=np.float64)), n)
+
+
+def window_step_table(rotations: np.ndarray, most: int) -> np.ndarray:
+    """(most, F - 1, J) degrees: :func:`window_steps` of ``rotations`` (F, J, 4) for ``n`` = 1 to ``most`` (row
+    ``n - 1``), the signs and running sums they share made once."""
+    sums = _window_sums(np.asarray(rotations, dtype=np.float64))
+    return np.stack([_steps_of(sums, n) for n in range(1, most + 1)])
+
+
+def _window_sums(q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The running sums :func:`window_steps` reads its means from: of ``q`` (F, J, 4) with signs made continuous in
+    time, (F + 1, J, 4), and of its missing cells, (F + 1, J)."""
     F, J = q.shape[:2]
-    out = np.full((max(F - 1, 0), J), np.nan)
-    if F < 2 * n:
-        return out
     gone = np.isnan(q).any(axis=-1)
     a = np.nan_to_num(q)
     flip = np.concatenate([np.zeros((1, J), bool), np.sum(a[1:] * a[:-1], axis=-1) < 0.0])
     a = np.where((np.cumsum(flip, axis=0) % 2 == 1)[..., None], -a, a)  # each frame on its neighbour's side
     total = np.concatenate([np.zeros((1, J, 4)), np.cumsum(a, axis=0)])  # (F + 1, J, 4)
     holes = np.concatenate([np.zeros((1, J)), np.cumsum(gone, axis=0)])
+    return total, holes
+
+
+def _steps_of(sums: tuple[np.ndarray, np.ndarray], n: int) -> np.ndarray:
+    total, holes = sums
+    F, J = total.shape[0] - 1, total.shape[1]
+    out = np.full((max(F - 1, 0), J), np.nan)
+    if F < 2 * n:
+        return out
     mean = total[n:] - total[:-n]  # (F - n + 1, J, 4): frames i .. i + n - 1
     whole = (holes[n:] - holes[:-n]) == 0
     norm = np.linalg.norm(mean, axis=-1, keepdims=True)
@@ -222,7 +240,8 @@ def motion_speed(denoised: np.ndarray, cells: np.ndarray) -> np.ndarray:
     return out
 
 
-def jump_steps(rotations: np.ndarray, bounds: np.ndarray, speed: np.ndarray | None = None) -> np.ndarray:
+def jump_steps(rotations: np.ndarray, bounds: np.ndarray, speed: np.ndarray | None = None,
+               table: np.ndarray | None = None) -> np.ndarray:
     """(F - 1, J) bool: the steps of ``rotations`` (F, J, 4) between frames ``f`` and ``f + 1`` that are a jump.
 
     A jump is a turn :func:`jump_bounds` (``bounds`` (J,) degrees) says noise makes once in ``1 / SPIKE_P`` steps,
@@ -234,16 +253,19 @@ def jump_steps(rotations: np.ndarray, bounds: np.ndarray, speed: np.ndarray | No
     MARGIN_DEG`` plus the ``(n - 1) * speed`` the joint turns as the windows' centres move ``n - 1`` frames further
     apart. Under heavy noise a single step's bound passes 180 deg (at a std of 18.6 deg), where no turn reaches
     it: a flip the file holds for a few frames is still plain between the means (HDM05 squat 025 at 0.5 noise,
-    lfemur's 180-deg flip on frames 78-82 at a std of 23 deg: single-step bound 221 deg, 5-frame bound 100)."""
+    lfemur's 180-deg flip on frames 78-82 at a std of 23 deg: single-step bound 221 deg, 5-frame bound 100).
+    ``table``: :func:`window_step_table` of ``rotations`` to ``RUN_FRAMES`` or more, when already made."""
     q = np.asarray(rotations, dtype=np.float64)
     bounds = np.asarray(bounds, dtype=np.float64)
-    jump = np.nan_to_num(window_steps(q, 1), nan=0.0) > bounds[None, :]
+    if speed is not None and table is None:
+        table = window_step_table(q, RUN_FRAMES)
+    jump = np.nan_to_num(window_steps(q, 1) if table is None else table[0], nan=0.0) > bounds[None, :]
     if speed is None:
         return jump
     score = np.zeros_like(jump, dtype=np.float64)  # the largest share of its bound a window step reaches
     for n in range(2, RUN_FRAMES + 1):
         bound_n = (bounds - MARGIN_DEG) / np.sqrt(n) + MARGIN_DEG + (n - 1) * np.asarray(speed)
-        score = np.fmax(score, np.nan_to_num(window_steps(q, n), nan=0.0) / bound_n[None, :])
+        score = np.fmax(score, np.nan_to_num(table[n - 1], nan=0.0) / bound_n[None, :])
     from scipy.ndimage import maximum_filter1d  # here: importing scipy.ndimage takes ~0.2 s
 
     peak = score >= maximum_filter1d(score, size=2 * JUMP_APART + 1, axis=0, mode="nearest")
@@ -251,10 +273,11 @@ def jump_steps(rotations: np.ndarray, bounds: np.ndarray, speed: np.ndarray | No
 
 
 def jump_cells(rotations: np.ndarray, far: np.ndarray, bounds: np.ndarray,
-               speed: np.ndarray | None = None) -> np.ndarray:
+               speed: np.ndarray | None = None, table: np.ndarray | None = None) -> np.ndarray:
     """(F, J) bool: the cells a jump in the take explains, of ``rotations`` (F, J, 4) whose ``far`` cells (F, J) a
     denoiser moved too far. A jump is a step :func:`jump_steps` finds (``bounds`` (J,): :func:`jump_bounds`;
-    ``speed`` (J,): :func:`motion_speed`, None: single steps only).
+    ``speed`` (J,): :func:`motion_speed`, None: single steps only; ``table``: :func:`window_step_table` of
+    ``rotations``, when already made).
 
     Per joint with a far cell, the frames between two jumps that are fewer than the frames before and after them
     (a flip the file holds for a stretch, a one-frame flip included) are returned whole when one of them, or a
@@ -267,7 +290,11 @@ def jump_cells(rotations: np.ndarray, far: np.ndarray, bounds: np.ndarray,
     far = np.asarray(far, dtype=bool)
     F, J = far.shape
     out = np.zeros((F, J), dtype=bool)
-    jump = jump_steps(q, bounds, speed) & far.any(axis=0)[None, :]  # (F - 1, J)
+    jump = np.zeros((max(F - 1, 0), J), dtype=bool)  # (F - 1, J): only the joints with a far cell are read
+    cols = np.flatnonzero(far.any(axis=0))  # (each joint's steps are its own: the others' would be thrown away)
+    if len(cols):
+        jump[:, cols] = jump_steps(q[:, cols], np.asarray(bounds)[cols], None if speed is None else np.asarray(speed)[cols],
+                                   None if table is None else table[:, :, cols])
     for j in np.flatnonzero(jump.any(axis=0)):
         cuts = np.flatnonzero(jump[:, j]) + 1  # the first frame after each jump
         edges = np.concatenate([[0], cuts, [F]])
@@ -311,13 +338,14 @@ def _frames(f: np.ndarray) -> str:
 
 
 def kept_cells(rotations: np.ndarray, denoised: np.ndarray, judged: np.ndarray,
-               std: np.ndarray | None = None) -> np.ndarray:
+               std: np.ndarray | None = None, memo: dict | None = None) -> np.ndarray:
     """(F, J) bool: the cells of ``judged`` (F, J) that :func:`guarded` keeps as they came, of ``rotations`` (F, J, 4)
     denoised into ``denoised`` (F, J, 4): of those moved further than :func:`departure_bounds` (:func:`far_cells`),
     the ones a jump explains (:func:`jump_cells`) and, of the others not beside them (frames the jump dragged,
     which a run around the jump denoises), the held ones (:func:`held_cells`); and the runs moved further on
     average than noise explains (:func:`displaced_runs`). Bounds from the noise of ``judged`` (``std`` (J,): its
-    :func:`noise_std`, already measured)."""
+    :func:`noise_std`, already measured). ``memo``: a dict kept between calls on the same ``rotations`` (its
+    :func:`window_step_table`, made on the first call that needs it)."""
     q = np.asarray(rotations, dtype=np.float64)
     std = noise_std(q, judged) if std is None else std  # once for the three bounds below
     bounds = departure_bounds(q, judged, std)
@@ -325,7 +353,11 @@ def kept_cells(rotations: np.ndarray, denoised: np.ndarray, judged: np.ndarray,
     runs = displaced_runs(q, denoised, judged, std)
     if not far.any():
         return runs
-    jumps = jump_cells(q, far, jump_bounds(q, judged, std), motion_speed(denoised, judged))
+    if memo is None:
+        memo = {}
+    if "table" not in memo:
+        memo["table"] = window_step_table(q, RUN_FRAMES)
+    jumps = jump_cells(q, far, jump_bounds(q, judged, std), motion_speed(denoised, judged), memo["table"])
     return jumps | runs | held_cells(q, far & ~jumps & ~beside(jumps, far), bounds)
 
 
@@ -342,12 +374,13 @@ def guarded(motion: Motion, cells: np.ndarray | None, run) -> tuple[Motion, str,
         judged[:] = np.asarray(cells, dtype=bool)
     out, method, note = run(motion, cells)
     std = noise_std(motion.rotations, judged)  # the take's noise: the same for both runs' judgements
-    kept = kept_cells(motion.rotations, out.rotations, judged, std)
+    memo: dict = {}  # and the take's window steps
+    kept = kept_cells(motion.rotations, out.rotations, judged, std, memo)
     if not kept.any():
         return out, method, note
     around = dataclasses.replace(motion, rotations=np.where(kept[..., None], np.nan, motion.rotations))
     out, method, note = run(around, judged & ~kept)
-    kept |= kept_cells(motion.rotations, out.rotations, judged, std)
+    kept |= kept_cells(motion.rotations, out.rotations, judged, std, memo)
     rot = np.where(kept[..., None], motion.rotations, out.rotations)
     said = _kept_note(kept, motion)
     return dataclasses.replace(out, rotations=rot), method, f"{note}; {said}" if note else said
