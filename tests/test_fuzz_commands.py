@@ -23,6 +23,13 @@ from tests.conftest import SHARED_DATA
 from tests.fuzzing import commands, issue20
 
 QUICK_MUTANTS = 8  # a smoke check of the mutation path: benchmarks/fuzz_commands.py runs 500 (each ~1.4 s of CPU)
+# Cases that run whole commands on a real take for what in-process tests also check (~23 s of CPU of the ~60 the
+# fixed cases take, in a `make test` at the edge of its 10 minutes): joint and file names holding rich markup
+# (tests/cli/test_motion.py, test_db.py, test_ssa.py), a lone surrogate in a joint name (tests/io/test_bvh.py,
+# test_npz.py) and a deep joint chain (tests/io/test_bvh.py, 20,000 joints). Marked slow here (`pytest -m slow`);
+# benchmarks/fuzz_commands.py runs them as commands too.
+WHOLE_COMMAND_CASES = ("markup-names-npz", "markup-names-bvh", "lone-surrogate-joint", "bvh-chain-3000")
+QUICK_CASES = tuple(n for n in issue20.FIXED_CASES if n not in WHOLE_COMMAND_CASES)
 # A run may take its kind's CPU time on the unmutated seed this many times over, plus the issue's 10 s.
 CPU_FACTOR, CPU_SLACK_S = 3.0, 10.0
 
@@ -61,10 +68,18 @@ def limits(baseline):
     return commands.Limits(mem_bytes=2 << 30, cpu_s=budgets, wall_s=600.0)
 
 
+def _run_fixed(names, workdir, limits) -> dict:
+    return dict(zip(names, commands.run_cases([issue20.FIXED_CASES[n] for n in names], workdir, limits, workers=2)))
+
+
 @pytest.fixture(scope="module")
 def fixed_results(workdir, limits):
-    names = list(issue20.FIXED_CASES)
-    return dict(zip(names, commands.run_cases([issue20.FIXED_CASES[n] for n in names], workdir, limits, workers=2)))
+    return _run_fixed(QUICK_CASES, workdir, limits)
+
+
+@pytest.fixture(scope="module")
+def whole_command_results(workdir, limits):
+    return _run_fixed(WHOLE_COMMAND_CASES, workdir, limits)
 
 
 def test_unmutated_seed_runs_cleanly(baseline):
@@ -76,15 +91,25 @@ def test_unmutated_seed_runs_cleanly(baseline):
         assert r.steps[0].returncode == 0 and r.steps[0].stdout.strip()
 
 
-@pytest.mark.parametrize("name", list(issue20.FIXED_CASES))
-def test_issue20_fixed_case(fixed_results, name):
-    """One hand-made case of issue 20: every command line of it exits cleanly (as the case expects), within limits,
-    losing no input and leaving no partial output."""
-    r = fixed_results[name]
+def _check_fixed(r, name):
     if r.skipped:
         pytest.skip(r.skipped)
     assert r.steps, name
     assert not r.all_findings, _report(name, r)
+
+
+@pytest.mark.parametrize("name", QUICK_CASES)
+def test_issue20_fixed_case(fixed_results, name):
+    """One hand-made case of issue 20: every command line of it exits cleanly (as the case expects), within limits,
+    losing no input and leaving no partial output."""
+    _check_fixed(fixed_results[name], name)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", WHOLE_COMMAND_CASES)
+def test_issue20_whole_command_case(whole_command_results, name):
+    """The cases of issue 20 that in-process tests also check (:data:`WHOLE_COMMAND_CASES`), as commands."""
+    _check_fixed(whole_command_results[name], name)
 
 
 def test_mutated_commands(workdir, seeds, limits):
@@ -216,6 +241,7 @@ def test_crc32_of_zeros_matches_zlib(n):
 
 def test_fixed_cases_cover_issue_20():
     names = set(issue20.FIXED_CASES)
+    assert set(WHOLE_COMMAND_CASES) < names and set(QUICK_CASES) | set(WHOLE_COMMAND_CASES) == names
     for must in ("bvh-frame-time-1000", "npz-fps-0.01", "npz-zip-bomb", "bvh-chain-3000", "c3d-point-used-32767",
                  "markup-names-npz", "lone-surrogate-joint", "info-base-link1-link2", "clean-output-is-reference",
                  "clean-output-is-context", "db-build-overwrite-over-inputs", "executor-garbage",
