@@ -243,3 +243,23 @@ def test_jump_steps_find_a_held_flip_under_noise_too_heavy_for_one_step():
     found = np.flatnonzero(jump_steps(q, bound, np.array([0.2]))[:, 0]) + 1  # the first frame after each jump
     assert set(found) <= {149, 150, 151, 154, 155, 156} and len(found) == 2
     assert np.allclose(window_steps(q, 1)[:, 0], rotation_angle(q[1:, 0], q[:-1, 0]))
+
+
+def test_the_window_step_table_holds_each_windows_steps_and_far_joints_alone_are_read():
+    """window_step_table's row n - 1 is window_steps(q, n) bit for bit (missing cells and a take too short for the
+    widest windows included), and jump_cells reads the same jumps from the table as without it."""
+    from mocapkit.cleaning.denoise_guard import RUN_FRAMES, window_step_table, window_steps
+
+    rng = np.random.default_rng(3)
+    q = np.stack([_about_x(np.cumsum(rng.normal(0.0, 6.0, 40)) + 180.0 * (np.arange(40) % 17 == 5)) for _ in range(3)],
+                 axis=1)
+    q[11, 1] = np.nan
+    table = window_step_table(q, RUN_FRAMES)
+    assert table.shape == (RUN_FRAMES, 39, 3)
+    for n in range(1, RUN_FRAMES + 1):
+        assert np.array_equal(table[n - 1], window_steps(q, n), equal_nan=True)
+    assert np.isnan(window_step_table(q[:9], RUN_FRAMES)[RUN_FRAMES - 1]).all()  # 9 frames: no two 8-frame windows
+    far = np.zeros((40, 3), bool)
+    far[4:8, [0, 2]] = True
+    bounds, speed = np.full(3, 20.0), np.full(3, 3.0)
+    assert np.array_equal(jump_cells(q, far, bounds, speed, table), jump_cells(q, far, bounds, speed))
