@@ -171,8 +171,7 @@ def _stepped_with(t: np.ndarray, a: int, b: int) -> bool:
     steps 29 deg in and 26 deg out with them; kept, it stepped so after the chain was turned back."""
     if a < 2 or b + 2 >= len(t):
         return False
-    ends = _offset_ends(t, a, b)
-    on, back = ends[min(ends, key=lambda k: float(R.geodesic_angle(*ends[k])))]
+    _, on, back = _closer_offsets(t, a, b)
     size = np.degrees(R.geodesic_angle(np.stack([on, back]), np.array([1.0, 0.0, 0.0, 0.0])))
     return bool(size.min() > AGREE_DEG and np.degrees(R.geodesic_angle(on, back)) <= AGREE_DEG)
 
@@ -196,7 +195,8 @@ def _offsets_apart(t: np.ndarray, a: int, b: int) -> float:
     0 where there is no room to measure."""
     if a < 2 or b + 2 >= len(t):
         return 0.0
-    return float(np.degrees(min(R.geodesic_angle(*e) for e in _offset_ends(t, a, b).values())))
+    _, on, back = _closer_offsets(t, a, b)
+    return float(np.degrees(R.geodesic_angle(on, back)))
 
 
 def _ahead(q0: np.ndarray, q1: np.ndarray) -> np.ndarray:
@@ -214,6 +214,14 @@ def _offset_ends(t: np.ndarray, a: int, b: int) -> dict:
             "own": (R.quaternion_multiply(inv(good_a), t[a]), R.quaternion_multiply(inv(good_b), t[b]))}
 
 
+def _closer_offsets(t: np.ndarray, a: int, b: int) -> tuple[str, np.ndarray, np.ndarray]:
+    """``(frame, on, back)``: the offsets of :func:`_offset_ends` in the frame (``"parent"`` or ``"own"``) where the
+    two ends agree better, as :func:`_leaf_repair`, :func:`_offsets_apart` and :func:`_stepped_with` measure them."""
+    ends = _offset_ends(t, a, b)
+    frame = min(ends, key=lambda k: float(R.geodesic_angle(*ends[k])))
+    return (frame, *ends[frame])
+
+
 def _leaf_repair(q: np.ndarray, j: int, a: int, b: int, halves=None) -> tuple[np.ndarray | None, str]:
     """Joint ``j``'s constant half turn over frames ``a .. b`` of ``q`` (F, J, 4) taken away: ``(new q, "")``, or
     ``(None, why)`` where the offsets at the two steps do not agree or there is no room to measure them. Where
@@ -224,9 +232,7 @@ def _leaf_repair(q: np.ndarray, j: int, a: int, b: int, halves=None) -> tuple[np
         return None, "too near the take's end to measure"
     t = q[:, j]
     inv = R.quaternion_inverse
-    ends = _offset_ends(t, a, b)
-    frame = min(ends, key=lambda k: float(R.geodesic_angle(*ends[k])))
-    on, back = ends[frame]
+    frame, on, back = _closer_offsets(t, a, b)
     if np.degrees(R.geodesic_angle(on, back)) > AGREE_DEG:
         return None, f"the two steps' offsets differ by {np.degrees(R.geodesic_angle(on, back)):.0f} deg"
     back = np.where(np.sum(on * back) < 0, -back, back)
