@@ -27,7 +27,6 @@ import numpy as np
 
 from .cues import (
     UNDO_RATIO,
-    event_bounds,
     event_steps,
     off_path,
     residual_breaks,
@@ -35,6 +34,7 @@ from .cues import (
     stands_out,
     uncompensated_breaks,
 )
+from .events import event_bounds
 from .step_pairs import undo_left
 from ..ik import segment_frames
 from .params import SSAParams

@@ -15,6 +15,7 @@ import numpy as np
 from ... import rotations as R
 from ...motion import Motion
 from ..ik import contact_segments, segment_frames
+from .events import event_bounds
 from .freeze_bounds import bounded_breaks
 from .run_extent import run_cells
 from .params import SSAParams
@@ -287,16 +288,6 @@ def _swap_step(q: np.ndarray, mirrored: np.ndarray, f: int, j: int, ratio: float
         if partner < ratio * own:
             return True
     return False
-
-
-def event_bounds(frames: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Sorted break frames (at least one) grouped into events, runs whose frames lie at most 3 apart:
-    ``(first, last, event)``, the events' first and last frames (n,) and the event of each of ``frames``."""
-    cut = np.flatnonzero(np.diff(frames) > 3) + 1
-    event = np.zeros(len(frames), dtype=np.int64)
-    event[cut] = 1
-    event = np.cumsum(event)
-    return frames[np.concatenate([[0], cut])], frames[np.concatenate([cut - 1, [len(frames) - 1]])], event
 
 
 def _paired_events(starts, longest: int, match=None, skip=()) -> list[tuple[int, int]]:

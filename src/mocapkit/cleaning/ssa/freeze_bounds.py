@@ -24,12 +24,9 @@ from collections.abc import Callable
 import numpy as np
 
 from ..runs import true_runs
+from .events import event_bounds
 
 __all__ = ["freeze_end_breaks", "bounded_breaks", "bounded_holds"]
-
-#: break frames at most this many frames apart are one break event (as ``cues.event_bounds`` groups them)
-EVENT_GAP = 3
-
 
 
 def freeze_end_breaks(breaks: np.ndarray, frozen: np.ndarray) -> np.ndarray:
@@ -37,7 +34,7 @@ def freeze_end_breaks(breaks: np.ndarray, frozen: np.ndarray) -> np.ndarray:
 
     ``breaks`` (F, J) bool, a joint's breaks (a step from ``f`` to ``f + 1`` marks both frames); ``frozen`` (F, J)
     bool, the frozen channels' cells (the repeats of each hold, :func:`~mocapkit.cleaning.ssa.freezes.frozen_channels`).
-    A stretch of frames ``s .. e`` ends in the break event (break frames at most :data:`EVENT_GAP` apart) that
+    A stretch of frames ``s .. e`` ends in the break event (:func:`~mocapkit.cleaning.ssa.events.event_bounds`) that
     holds frame ``e`` or ``e + 1``; that event's frames are returned, the joint's other breaks are not.
     """
     breaks, frozen = np.asarray(breaks, dtype=bool), np.asarray(frozen, dtype=bool)
@@ -46,7 +43,7 @@ def freeze_end_breaks(breaks: np.ndarray, frozen: np.ndarray) -> np.ndarray:
     out = np.zeros_like(breaks)
     for j in np.flatnonzero(breaks.any(axis=0) & frozen.any(axis=0)):
         frames = np.flatnonzero(breaks[:, j])
-        event = np.concatenate([[0], np.cumsum(np.diff(frames) > EVENT_GAP)])  # the event of each break frame
+        _, _, event = event_bounds(frames)  # the event of each break frame
         for _, e in true_runs(frozen[:, j]):
             ending = np.unique(event[(frames == e) | (frames == e + 1)])
             out[frames[np.isin(event, ending)], j] = True

@@ -19,7 +19,7 @@ spike or a gap filled by a straight line) steps off the joint's path at once:
 * or a joint up its chain breaks meanwhile, and moves it: a capture's turn-over of a thigh, which its foot follows
   around in smooth frames (:func:`smooth_turn_breaks`).
 
-A break event (:func:`~mocapkit.cleaning.ssa.cues.event_bounds`) that does none of these, over its own steps and the
+A break event (:func:`~mocapkit.cleaning.ssa.events.event_bounds`) that does none of these, over its own steps and the
 two beside it, is a smooth turn and confirms nothing (:func:`smooth_turn_breaks`). Measured on the 224 break events
 of 69 clean takes (10 CMU; 59 HDM05, every fourth by name of actors bd, bk, dg and mm) and the 1,372 events of the
 errors :func:`mocapkit.corrupt.real_errors` injects in them (three seeds, four errors each): no injected error's
@@ -35,7 +35,7 @@ from __future__ import annotations
 import numpy as np
 
 from ... import rotations as R
-from .cues import event_bounds
+from .events import event_bounds
 
 __all__ = ["CHAIN_DEPTH", "SPEED_RATIO", "TURN_BACK_DEG", "smooth_turn", "smooth_turn_breaks"]
 

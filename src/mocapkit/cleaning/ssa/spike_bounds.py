@@ -20,24 +20,20 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["EVENT_GAP", "spike_frames"]
+from .events import event_bounds
 
-#: break frames at most this many frames apart are one break event (as ``cues.event_bounds`` groups them)
-EVENT_GAP = 3
+__all__ = ["spike_frames"]
 
 
 def spike_frames(breaks: np.ndarray) -> np.ndarray:
     """The frames a joint's spikes hold, from their sorted break frames ``breaks`` (n,) int (at least one).
 
     A spike of k frames (``f .. f + k - 1``) breaks at the frame before it and the one after it too (the
-    midpoint residual of its neighbours), so an event (break frames at most :data:`EVENT_GAP` apart) that
+    midpoint residual of its neighbours), so an event (:func:`~mocapkit.cleaning.ssa.events.event_bounds`) that
     spans three frames or more holds the frames strictly inside it; a shorter event (a spike at the take's
     edge, or one whose neighbours did not break) holds all of its frames. Returns the sorted frames (m,) int.
     """
-    breaks = np.asarray(breaks, dtype=np.int64)
-    cut = np.flatnonzero(np.diff(breaks) > EVENT_GAP) + 1
-    first = breaks[np.concatenate([[0], cut])]
-    last = breaks[np.concatenate([cut - 1, [len(breaks) - 1]])]
+    first, last, _ = event_bounds(np.asarray(breaks, dtype=np.int64))
     wide = last - first >= 2
     lo, hi = np.where(wide, first + 1, first), np.where(wide, last - 1, last)
     return np.concatenate([np.arange(a, b + 1) for a, b in zip(lo, hi)])

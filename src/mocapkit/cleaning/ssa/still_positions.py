@@ -23,7 +23,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from .cues import chain_table, event_bounds
+from .cues import chain_table
+from .events import event_bounds
 
 #: a break event is left out when the joint's children leave their smooth path by less than this share of what the
 #: joint's own turn would move them (the HDM05 squat's knee and ankle: under 0.1 % of it)
