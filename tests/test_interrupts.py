@@ -116,3 +116,88 @@ def test_the_exit_status_names_the_signal():
     finally:
         signal.signal(signal.SIGTERM, before)
         signal.signal(signal.SIGINT, before_int)
+
+
+def _landing_in_hand_over(handler, generator_name: str):
+    """A trace function that calls ``handler`` (SIGINT) once, with the frame of contextlib's ``__exit__`` of the
+    context manager made from ``generator_name``, as the interpreter does when a signal comes while that frame
+    runs; an exception the handler raises is raised there."""
+    import contextlib
+
+    fired = []
+
+    def trace(frame, event, arg):
+        code = frame.f_code
+        if (event == "call" and not fired and code.co_name == "__exit__" and code.co_filename == contextlib.__file__
+                and getattr(getattr(frame.f_locals.get("self"), "gen", None), "__name__", "") == generator_name):
+            fired.append(frame)
+            handler(signal.SIGINT, frame)
+        return None
+
+    return trace, fired
+
+
+def _interrupt_within(seconds: float) -> bool:
+    """Whether a KeyboardInterrupt came within ``seconds``."""
+    try:
+        time.sleep(seconds)
+    except KeyboardInterrupt:
+        return True
+    return False
+
+
+def test_an_interrupt_in_the_hand_over_of_a_finished_block_lands_after_it(tmp_path):
+    """An interrupted ``train`` said its first checkpoint resumes, and then the checkpoint was gone: the
+    interrupt had come in contextlib's ``__exit__`` before it resumed ``removed_on_failure``, which was left
+    suspended and put the outputs back at garbage collection. Now the interrupt lands after the block, and
+    the block's complete outputs stay."""
+    import gc
+
+    from mocapkit.io import atomic_write
+    from mocapkit.io.outputs import removed_on_failure
+
+    out = tmp_path / "checkpoint.pt"
+    with interrupts_as_keyboard_interrupt():
+        trace, fired = _landing_in_hand_over(signal.getsignal(signal.SIGINT), "removed_on_failure")
+        sys.settrace(trace)
+        try:
+            with removed_on_failure([out], overwrite=True):
+                with atomic_write(out) as fh:
+                    fh.write("epoch 1")
+            seen = "the block ended"
+        except KeyboardInterrupt:
+            seen = "interrupted in the hand-over"
+        finally:
+            sys.settrace(None)
+        later = _interrupt_within(5)  # the interrupt, sent again RETRY_S later
+    assert fired and seen == "the block ended" and later
+    fired.clear()
+    gc.collect()  # what a suspended generator would have put back
+    assert out.read_text() == "epoch 1" and sorted(p.name for p in tmp_path.iterdir()) == ["checkpoint.pt"]
+
+
+def test_an_interrupt_in_the_hand_over_of_a_failed_block_puts_back_at_once(tmp_path):
+    """The block failed (a full disk) and the interrupt came in ``__exit__`` before the failure reached the
+    generator: the outputs are put back before the failure is seen, not at garbage collection."""
+    from mocapkit.io import atomic_write
+    from mocapkit.io.outputs import removed_on_failure
+
+    first, second = tmp_path / "model.pt", tmp_path / "checkpoint.pt"
+    second.write_text("old")
+    with interrupts_as_keyboard_interrupt():
+        trace, fired = _landing_in_hand_over(signal.getsignal(signal.SIGINT), "removed_on_failure")
+        sys.settrace(trace)
+        try:
+            with removed_on_failure([first, second], overwrite=True):
+                with atomic_write(first) as fh:
+                    fh.write("new")
+                with atomic_write(second) as fh:
+                    fh.write("new")
+                raise OSError(28, "No space left on device")
+        except BaseException as exc:  # noqa: BLE001 - which one came first is the point
+            seen = type(exc).__name__, first.exists(), second.read_text(), sorted(p.name for p in tmp_path.iterdir())
+        finally:
+            sys.settrace(None)
+        later = _interrupt_within(5)
+    assert fired and later
+    assert seen == ("OSError", False, "old", ["checkpoint.pt"])  # put back before the error was seen

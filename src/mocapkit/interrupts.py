@@ -7,16 +7,25 @@ LLVM's C++ (llvmlite's object-cache hooks), and an exception raised there cannot
 it: the process crashed with SIGSEGV when Ctrl-C or SIGTERM landed while a kernel was loaded or
 compiled. While a frame of llvmlite is on the stack the handler therefore sends the signal again
 50 ms later instead of raising, so the interrupt lands right after the callback returns.
+
+The same holds in the ``with`` statement's hand-over into and out of the generator context managers
+that keep outputs whole (:func:`whole_hand_over`: ``removed_on_failure``, ``atomic_write``,
+:func:`interrupts_held`): an exception raised in contextlib's own ``__exit__`` before it resumes the
+generator leaves the generator suspended, and its clean-up ran later, at garbage collection, after
+the command had said what it kept (an interrupted ``train`` said its first checkpoint resumes, then
+its put-back removed it).
 """
 
 from __future__ import annotations
 
+import contextlib
 import os
 import signal
 import threading
 from contextlib import contextmanager
 
-__all__ = ["interrupts_as_keyboard_interrupt", "interrupts_held", "in_native_callback", "exit_status", "RETRY_S"]
+__all__ = ["interrupts_as_keyboard_interrupt", "interrupts_held", "in_native_callback", "whole_hand_over",
+           "in_hand_over", "exit_status", "RETRY_S"]
 
 RETRY_S = 0.05  # seconds before a deferred signal is sent again
 
@@ -30,11 +39,38 @@ def in_native_callback(frame) -> bool:
     return False
 
 
+_HAND_OVERS: set = set()  # code objects of the generator functions given to whole_hand_over
+
+
+def whole_hand_over(generator_function):
+    """Mark a generator function (made a context manager with ``contextlib.contextmanager``) whose hand-over an
+    interrupt must not land in; returns it unchanged.
+
+    A signal that comes while contextlib's ``__enter__`` or ``__exit__`` of such a context manager runs its
+    own code (the steps between the ``with`` block and the generator) is sent again :data:`RETRY_S` later, as
+    one in llvmlite's callbacks is: it lands in the generator (whose ``try`` puts the outputs back) or after
+    the block, never between the two, where it would leave the generator suspended and its clean-up to
+    garbage collection.
+    """
+    _HAND_OVERS.add(generator_function.__code__)
+    return generator_function
+
+
+def in_hand_over(frame) -> bool:
+    """True while ``frame`` is contextlib's ``__enter__`` or ``__exit__`` of a :func:`whole_hand_over` context
+    manager (only that frame: the generator's own code, below it, handles an interrupt itself)."""
+    code = frame.f_code
+    if code.co_name not in ("__enter__", "__exit__") or code.co_filename != contextlib.__file__:
+        return False
+    generator = getattr(frame.f_locals.get("self"), "gen", None)
+    return getattr(generator, "gi_code", None) in _HAND_OVERS
+
+
 _last_signal: list[int] = []  # the signal that raised the last KeyboardInterrupt here (exit_status)
 
 
 def _interrupt(signum, frame):
-    if in_native_callback(frame):
+    if in_native_callback(frame) or (frame is not None and in_hand_over(frame)):
         timer = threading.Timer(RETRY_S, os.kill, (os.getpid(), signum))
         timer.daemon = True
         timer.start()
@@ -91,6 +127,7 @@ def interrupts_as_keyboard_interrupt():
 
 
 @contextmanager
+@whole_hand_over
 def interrupts_held():
     """While the block runs, SIGINT and SIGTERM wait; when it ends, the first one that came acts as usual.
 

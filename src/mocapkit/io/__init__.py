@@ -17,7 +17,7 @@ from contextlib import contextmanager
 from pathlib import Path
 
 from ..errors import MissingFileError, MocapError, MocapFormatError
-
+from ..interrupts import whole_hand_over
 from ..markerset import MarkerSet
 from .outputs import missing_folders, publish
 
@@ -382,6 +382,7 @@ def _final_mode(path: Path) -> int:
 
 
 @contextmanager
+@whole_hand_over
 def atomic_write(path, mode: str = "w", **open_kwargs):
     """Open a temporary file beside ``path`` for writing and rename it over ``path`` on success.
 

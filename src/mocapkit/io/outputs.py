@@ -42,7 +42,7 @@ from pathlib import Path
 from typing import Iterable, Iterator
 
 from ..errors import MocapFormatError
-from ..interrupts import interrupts_held
+from ..interrupts import interrupts_held, whole_hand_over
 
 __all__ = ["check_outputs", "same_file", "inside", "removed_on_failure", "publish", "keep_aside", "put_back",
            "drop_kept", "missing_folders", "file_facts"]
@@ -266,6 +266,7 @@ def missing_folders(folders: Iterable[os.PathLike | str]) -> list[Path]:
 
 
 @contextmanager
+@whole_hand_over
 def removed_on_failure(
     outputs: Iterable[os.PathLike | str | None],
     *,
