@@ -40,6 +40,7 @@ and ratio.
 from __future__ import annotations
 
 import dataclasses
+import os
 import shutil
 import sys
 import tempfile
@@ -59,7 +60,8 @@ from mocapkit.cleaning import filters, gapfill  # noqa: E402
 from mocapkit.cleaning.pipeline import clean  # noqa: E402
 from mocapkit.motion import concatenate  # noqa: E402
 
-DATA = REPO.parent / "shared" / "data"
+# the real data beside the repository; $MOCAPKIT_SHARED_DATA for a checkout elsewhere (a git worktree)
+DATA = Path(os.environ.get("MOCAPKIT_SHARED_DATA", REPO.parent / "shared" / "data"))
 
 
 def log(*a):

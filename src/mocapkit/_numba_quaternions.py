@@ -8,6 +8,9 @@ quaternion is ``(w, x, y, z)``, a rotation vector is axis times angle in
 radians. Each function is tested against its array twin in
 :mod:`mocapkit.rotations`.
 
+:func:`multiply_rows` is the loop behind :func:`mocapkit.rotations.quaternion_multiply` on many rows: the
+same products and sums in the same order, one pass without the temporaries numpy makes per term.
+
 Importing this module compiles nothing: numba compiles a helper the first
 time a kernel that calls it is compiled (and caches it with that kernel).
 """
@@ -18,7 +21,7 @@ import math
 
 import numba
 
-__all__ = ["qmul", "qrot", "qexp"]
+__all__ = ["qmul", "qrot", "qexp", "multiply_rows"]
 
 
 @numba.njit(cache=True, inline="always")
@@ -48,3 +51,24 @@ def qexp(rx, ry, rz):
     ang = math.sqrt(rx * rx + ry * ry + rz * rz)
     s = math.sin(0.5 * ang) / ang if ang > 1e-12 else 0.5 - ang * ang / 48.0
     return math.cos(0.5 * ang), rx * s, ry * s, rz * s
+
+
+@numba.njit(cache=True)
+def multiply_rows(a, b, out):
+    """``out[i] = a[i] * b[i]`` (Hamilton product) for (N, 4) float64 rows, C-contiguous; True when every
+    component written is finite.
+
+    Each component is :func:`qmul`'s expression, the terms added left to right as
+    :func:`mocapkit.rotations.quaternion_multiply` adds them (no fused multiply-add: numba does not contract
+    without ``fastmath``), so a finite result is the same number, bit for bit (IEEE rounds each product and sum
+    alone). Every component reads all eight inputs, and an inf or NaN, once made, never turns finite again: a
+    finite result had finite inputs and no overflow on the way. Otherwise (False) the caller takes numpy's: the
+    sign bit of a NaN that ``inf - inf`` makes depends on the operand order the compiler picks, and numpy warns.
+    """
+    ok = True
+    for i in range(a.shape[0]):
+        w, x, y, z = qmul(a[i, 0], a[i, 1], a[i, 2], a[i, 3], b[i, 0], b[i, 1], b[i, 2], b[i, 3])
+        out[i, 0], out[i, 1], out[i, 2], out[i, 3] = w, x, y, z
+        if not (math.isfinite(w) and math.isfinite(x) and math.isfinite(y) and math.isfinite(z)):
+            ok = False
+    return ok

@@ -263,3 +263,72 @@ def test_the_window_step_table_holds_each_windows_steps_and_far_joints_alone_are
     far[4:8, [0, 2]] = True
     bounds, speed = np.full(3, 20.0), np.full(3, 3.0)
     assert np.array_equal(jump_cells(q, far, bounds, speed, table), jump_cells(q, far, bounds, speed))
+
+
+
+def _kept_reading_every_joint(q, den, judged, std):
+    """kept_cells as it read every joint before it read the judged and the far ones alone: the reference."""
+    import mocapkit.cleaning.denoise_guard as G
+
+    bounds = departure_bounds(q, judged, std)
+    far = far_cells(q, den, bounds) & judged
+    runs = displaced_runs(q, den, judged, std)
+    if not far.any():
+        return runs
+    jumps = jump_cells(q, far, jump_bounds(q, judged, std), G.motion_speed(den, judged),
+                       G.window_step_table(q, G.RUN_FRAMES))
+    return jumps | runs | held_cells(q, far & ~jumps & ~G.beside(jumps, far), bounds)
+
+
+@pytest.fixture(scope="module")
+def jog_flipped():
+    """A real bundled take (HDM05 bd jog) with injected flips under 0.3 noise, and its Savitzky-Golay smoothing."""
+    from mocapkit import samples
+
+    take = mocapkit.load(samples.path("HDM_bd_jogLeftCircle4StepsRstart_001_120.amc"))
+    noisy = corrupt.corrupt(corrupt.corrupt(take, "flip", seed=4)[0], "noise", seed=2, amount=0.3)[0]
+    return noisy.rotations, savgol_smooth(noisy, window_s=0.1, polyorder=2, root=False).rotations
+
+
+def test_kept_cells_reads_only_the_joints_with_a_far_cell_and_finds_what_reading_all_finds(jog_flipped, monkeypatch):
+    """kept_cells makes window steps for the joints the denoiser moved a cell of too far, not for all 31 (on the
+    benchmark's 60 s take, 1.1 s of 9.5 s), and returns the cells the whole-table reading returns, bit for bit."""
+    import mocapkit.cleaning.denoise_guard as G
+
+    q, den = jog_flipped
+    judged = np.ones(q.shape[:2], bool)
+    judged[:, 0] = False
+    std = G.noise_std(q, judged)
+    far = far_cells(q, den, departure_bounds(q, judged, std)) & judged
+    cols = np.flatnonzero(far.any(axis=0))
+    assert 0 < len(cols) < q.shape[1]
+    whole = _kept_reading_every_joint(q, den, judged, std)
+    assert whole[far].any() and (whole & ~far).any()  # jumps and held cells, and displaced runs
+    widths = []
+    real = G.window_step_table
+    monkeypatch.setattr(G, "window_step_table", lambda r, most: widths.append(r.shape[1]) or real(r, most))
+    memo: dict = {}
+    assert np.array_equal(G.kept_cells(q, den, judged, std, memo), whole)
+    assert widths == [len(cols)]
+    assert np.array_equal(G.kept_cells(q, den, judged, std, memo), whole) and widths == [len(cols)]  # memo: once
+
+
+def test_kept_cells_reads_only_the_judged_joints_and_finds_what_reading_all_finds(jog_flipped, monkeypatch):
+    """Denoising three noisy joints, the guard reads those three (the benchmark's take: 3 of 31; 0.4 s of its
+    guard's 0.8 s went to joints nothing was judged in), with the same cells kept as reading all of them."""
+    import mocapkit.cleaning.denoise_guard as G
+
+    q, den = jog_flipped
+    std_all = G.noise_std(q, np.ones(q.shape[:2], bool))
+    far_all = far_cells(q, den, departure_bounds(q, np.ones(q.shape[:2], bool), std_all))
+    joints = np.concatenate([np.flatnonzero(far_all.any(axis=0))[:2], [np.flatnonzero(~far_all.any(axis=0))[-1]]])
+    judged = np.zeros(q.shape[:2], bool)
+    judged[20:, joints] = True
+    whole = _kept_reading_every_joint(q, den, judged, G.noise_std(q, judged))
+    assert whole.any()
+    widths = []
+    real = G.far_cells
+    monkeypatch.setattr(G, "far_cells", lambda a, b, c: widths.append(a.shape[1]) or real(a, b, c))
+    assert np.array_equal(G.kept_cells(q, den, judged), whole)
+    assert np.array_equal(G.kept_cells(q, den, judged, G.noise_std(q, judged)), whole)
+    assert widths == [3, 3]
