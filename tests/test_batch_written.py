@@ -64,7 +64,8 @@ def test_a_row_from_a_record_counts_what_the_take_had_changed(tmp_path, takes):
         {k: done[k] for k in ("repaired", "denoised", "flagged", "frames")}
 
 
-def test_an_interrupt_as_a_take_is_told_says_it_once_and_numbers_it_right(tmp_path, monkeypatch):
+@pytest.mark.usefixtures("python_sigint")  # a held interrupt is a real SIGINT, raised as the hold ends
+def test_an_interrupt_as_a_take_is_told_says_it_once_and_numbers_it_right(tmp_path):
     """An interrupt inside the telling of a take's row (after its line was written, before the take was marked
     said) had the row told again from its record: the take twice in the log; one before the line was written had
     its number counted, and the row told from its record came numbered one past it. A profile function calls the

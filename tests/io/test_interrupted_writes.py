@@ -92,6 +92,7 @@ def _write(tmp_path, overwrite, k: int):
     return len(seen), state
 
 
+@pytest.mark.usefixtures("python_sigint")  # a deferred interrupt is a real SIGINT, sent again RETRY_S later
 @pytest.mark.parametrize("overwrite", [True, False], ids=["replacing", "new"])
 def test_an_interrupt_anywhere_in_the_write_leaves_it_whole_and_nothing_hidden(tmp_path, overwrite, monkeypatch):
     """An interrupt that landed as mkstemp had made a temporary file, or between keep_aside and the try that drops
