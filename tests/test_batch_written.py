@@ -62,3 +62,60 @@ def test_a_row_from_a_record_counts_what_the_take_had_changed(tmp_path, takes):
     assert row["filled"] == done["filled"] == int(CleanResult.load(record).filled.sum()) > 0
     assert {k: row[k] for k in ("repaired", "denoised", "flagged", "frames")} == \
         {k: done[k] for k in ("repaired", "denoised", "flagged", "frames")}
+
+
+@pytest.mark.usefixtures("python_sigint")  # a held interrupt is a real SIGINT, raised as the hold ends
+def test_an_interrupt_as_a_take_is_told_says_it_once_and_numbers_it_right(tmp_path):
+    """An interrupt inside the telling of a take's row (after its line was written, before the take was marked
+    said) had the row told again from its record: the take twice in the log; one before the line was written had
+    its number counted, and the row told from its record came numbered one past it. A profile function calls the
+    installed SIGINT handler at each signal check in the telling's and the line's own frames, one per run (as the
+    interpreter would: a Python function starting, a builtin returning)."""
+    import signal
+    import sys
+
+    import mocapkit.batch
+    from mocapkit.interrupts import interrupts_as_keyboard_interrupt
+
+    src = tmp_path / "in"
+    src.mkdir()
+    mocapkit.save(mocapkit.load(samples.path("131_01.bvh"))[:40], src / "a.bvh")
+
+    def told(frame) -> bool:  # in the batch's telling of a row, or in the line's writing it calls
+        code = frame.f_code
+        return code.co_name in ("tell", "on_row") and code.co_filename in (mocapkit.batch.__file__, __file__)
+
+    def run(k: int):
+        lines, seen = [], []
+
+        def on_row(row, n, total):  # a log's line, then what print_row does after it (its warnings)
+            lines.append((row["input"], n, total))
+            for _ in row.get("warnings", ()):
+                pass
+
+        def profile(frame, event, arg):
+            if event in ("call", "c_return") and told(frame):
+                seen.append(event)
+                if len(seen) - 1 == k:
+                    signal.getsignal(signal.SIGINT)(signal.SIGINT, frame)
+
+        out = tmp_path / f"out{k}"
+        with interrupts_as_keyboard_interrupt():
+            sys.setprofile(profile)
+            try:
+                clean_batch(src, out, steps=["fill"], executor="serial", progress=False, on_row=on_row)
+            except KeyboardInterrupt:
+                pass
+            finally:
+                sys.setprofile(None)
+        complete = (out / "a.clean.npz").exists()
+        return len(seen), lines, complete
+
+    checks, lines, complete = run(-1)
+    assert checks > 3 and complete and lines == [(str(src / "a.bvh"), 1, 1)]
+    wrong = {}
+    for k in range(checks):
+        _, lines, complete = run(k)
+        if lines != [(str(src / "a.bvh"), 1, 1)] * complete:  # said once, numbered 1, exactly when kept
+            wrong[k] = lines
+    assert not wrong, wrong

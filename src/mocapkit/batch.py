@@ -80,7 +80,7 @@ from typing import Callable, Sequence
 from .errors import MocapError, MocapFormatError, os_error_line, output_stopper
 from .batch_decided import is_own_record, stamp_decided
 from .batch_folder import BATCH_MARK, mark, marked_input, only_batch, prune, sweep, unmark_if_empty
-from .interrupts import interrupts_as_keyboard_interrupt
+from .interrupts import interrupts_as_keyboard_interrupt, interrupts_held
 from .marker_files import clean_marker_file, marker_request, refuse_marker_options
 
 __all__ = ["clean_file", "clean_marker_file", "clean_request", "marker_request", "refuse_marker_options", "clean_batch", "find_inputs", "output_for", "BatchSummary", "DEFAULT_PATTERNS", "BATCH_MARK"]
@@ -821,11 +821,17 @@ def clean_batch(
     total, told = len(inputs), 0
     said: set[int] = set()  # the takes of todo whose rows were told
 
-    def tell(row: dict) -> None:
+    def tell(row: dict, k: int | None = None) -> None:
         nonlocal told
-        told += 1
-        if on_row is not None:
-            on_row(row, told, total)
+        # its number, its line and its being said as one, interrupts held: one that landed after the line was
+        # written and before the take was marked said had it told again from its record (twice in the log), one
+        # before the line had its number counted (the row told from its record came numbered one past it)
+        with interrupts_held():
+            told += 1
+            if on_row is not None:
+                on_row(row, told, total)
+            if k is not None:
+                said.add(k)
 
     for row in summary.rows:  # the complete takes
         tell(row)
@@ -833,8 +839,7 @@ def clean_batch(
     def finished_take(k: int, row: dict) -> bool:
         inp, files = todo[k]
         _as_given(row, inp, files, again.get(inp))
-        tell(row)
-        said.add(k)
+        tell(row, k)
         if row.get("errno") and not summary.stopped:
             summary.stopped = row["reason"]
         return bool(summary.stopped)

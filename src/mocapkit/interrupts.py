@@ -13,7 +13,8 @@ that keep outputs whole (:func:`whole_hand_over`: ``removed_on_failure``, ``atom
 :func:`interrupts_held`): an exception raised in contextlib's own ``__exit__`` before it resumes the
 generator leaves the generator suspended, and its clean-up ran later, at garbage collection, after
 the command had said what it kept (an interrupted ``train`` said its first checkpoint resumes, then
-its put-back removed it).
+its put-back removed it). And in a short last step that must run whole once begun (:func:`whole_step`: the
+clean-up after a ``removed_on_failure`` block, whose hidden links of the old outputs an interrupt there left).
 """
 
 from __future__ import annotations
@@ -25,7 +26,7 @@ import threading
 from contextlib import contextmanager
 
 __all__ = ["interrupts_as_keyboard_interrupt", "interrupts_held", "in_native_callback", "whole_hand_over",
-           "in_hand_over", "exit_status", "RETRY_S"]
+           "in_hand_over", "whole_step", "in_whole_step", "exit_status", "RETRY_S"]
 
 RETRY_S = 0.05  # seconds before a deferred signal is sent again
 
@@ -66,11 +67,37 @@ def in_hand_over(frame) -> bool:
     return getattr(generator, "gi_code", None) in _HAND_OVERS
 
 
+_WHOLE_STEPS: set = set()  # code objects of the functions given to whole_step
+
+
+def whole_step(function):
+    """Mark a short function that must run to its end once called (a few file names removed, context variables
+    set back); returns it unchanged.
+
+    A signal that comes while it, or anything it calls, runs is sent again :data:`RETRY_S` later, as one in
+    llvmlite's callbacks is, so it lands after the function has returned. For clean-up in a ``finally``:
+    :func:`interrupts_held` cannot guard it, since entering that ``with`` runs Python code (contextlib's, its
+    own) where an interrupt still lands and cuts the clean-up off before it began. A call is a signal check
+    only once the called function runs, so the step is guarded from its first line.
+    """
+    _WHOLE_STEPS.add(function.__code__)
+    return function
+
+
+def in_whole_step(frame) -> bool:
+    """True while ``frame`` or any of its callers runs a :func:`whole_step` function."""
+    while frame is not None:
+        if frame.f_code in _WHOLE_STEPS:
+            return True
+        frame = frame.f_back
+    return False
+
+
 _last_signal: list[int] = []  # the signal that raised the last KeyboardInterrupt here (exit_status)
 
 
 def _interrupt(signum, frame):
-    if in_native_callback(frame) or (frame is not None and in_hand_over(frame)):
+    if in_native_callback(frame) or (frame is not None and (in_hand_over(frame) or in_whole_step(frame))):
         timer = threading.Timer(RETRY_S, os.kill, (os.getpid(), signum))
         timer.daemon = True
         timer.start()

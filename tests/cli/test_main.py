@@ -2,6 +2,7 @@
 
 import os
 import re
+import signal
 import subprocess
 import sys
 
@@ -305,6 +306,55 @@ def test_run_still_runs_the_exit_handlers_when_interrupted_while_joining(tmp_pat
     proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
     assert proc.returncode == 130, proc.stderr
     assert (tmp_path / "handled").exists()
+
+
+@pytest.mark.usefixtures("python_sigint")
+@pytest.mark.parametrize("when", ["as main starts", "as main has returned"])
+def test_run_exits_130_for_a_ctrl_c_as_the_command_starts_or_ends(monkeypatch, capsys, when):
+    """A Ctrl-C outside main's handling of it (before its handlers are ours, or after they were restored) raised past
+    every handler of run: a traceback, and the process killed by SIGINT instead of exit 130. A profile function
+    calls Python's SIGINT handler at the signal check the interpreter makes there (main's first, or the first after
+    it returned): one phase, every run, not the scheduler's luck. The exit's own steps are recorded, not taken."""
+    import atexit
+    import threading
+
+    from mocapkit import cli
+
+    steps = []
+    monkeypatch.setattr(threading, "_shutdown", lambda: steps.append("joined"))
+    monkeypatch.setattr(atexit, "_run_exitfuncs", lambda: steps.append("handlers"))
+
+    def exit_now(code):
+        sys.setprofile(None)
+        raise SystemExit(code)
+
+    monkeypatch.setattr(os, "_exit", exit_now)
+    monkeypatch.setattr(sys, "argv", ["mocapkit", "--version"])
+    armed = []
+
+    def profile(frame, event, arg):
+        if event == "call" and frame.f_code is cli.main.__code__ and when == "as main starts":
+            armed.append(frame)
+        elif event == "return" and frame.f_code is cli.main.__code__ and when == "as main has returned":
+            armed.append(frame)
+            return
+        if armed and event in ("call", "c_return") and len(armed) == 1:
+            armed.append(frame)
+            signal.getsignal(signal.SIGINT)(signal.SIGINT, frame)
+
+    sys.setprofile(profile)
+    try:
+        cli.run()
+        ended = "returned"
+    except SystemExit as exc:
+        ended = exc.code
+    except KeyboardInterrupt:  # (caught here, or it would end the test run)
+        ended = "KeyboardInterrupt raised out of run"
+    finally:
+        sys.setprofile(None)
+    assert len(armed) == 2 and ended == 130 and steps == ["handlers"]  # no join after an interrupt
+    if when == "as main starts":
+        assert "mocapkit: interrupted" in capsys.readouterr().err
 
 
 def test_a_rig_of_no_known_naming_is_one_line_before_any_output(tmp_path):

@@ -138,9 +138,15 @@ def run() -> None:
     joined (after a failure or an interrupt nothing is left to finish, and no thread a stopped pool
     left behind may hold the exit).
     """
-    code = main()
-    # CPython's own first steps of an exit (Py_FinalizeEx): elsewhere, the ordinary exit
+    # CPython's own first steps of an exit (Py_FinalizeEx), looked up before the command: from main's return to the
+    # guarded join below no signal check is left, where a Ctrl-C (the command's handlers restored) raised past
+    # every handler: a traceback, and the process killed by SIGINT instead of exit 130
     join_threads, run_exitfuncs = getattr(threading, "_shutdown", None), getattr(atexit, "_run_exitfuncs", None)
+    try:
+        code = main()
+    except KeyboardInterrupt:  # as the command began or ended, outside main's own handling of it
+        print("mocapkit: interrupted; no partial output was left", file=sys.stderr)
+        code = interrupted_status()
     if join_threads is None or run_exitfuncs is None:
         sys.exit(code)
     if code == 0:  # thread pools told to stop (their atexit hooks), then every non-daemon thread joined
@@ -155,11 +161,14 @@ def run() -> None:
         run_exitfuncs()
     except KeyboardInterrupt:
         code = code or EXIT_INTERRUPTED
-    for stream in (sys.stdout, sys.stderr):
-        try:
-            stream.flush()
-        except (OSError, ValueError):  # a closed pipe (| head): nothing more can reach it
-            pass
+    try:  # the loop inside: its step to the next stream is a signal check too
+        for stream in (sys.stdout, sys.stderr):
+            try:
+                stream.flush()
+            except (OSError, ValueError):  # a closed pipe (| head): nothing more can reach it
+                pass
+    except KeyboardInterrupt:  # Ctrl-C while a slow reader holds the pipe: what it has not read is not waited for
+        code = code or EXIT_INTERRUPTED
     os._exit(code)
 
 

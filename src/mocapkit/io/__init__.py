@@ -17,7 +17,7 @@ from contextlib import contextmanager
 from pathlib import Path
 
 from ..errors import MissingFileError, MocapError, MocapFormatError
-from ..interrupts import whole_hand_over
+from ..interrupts import interrupts_held, whole_hand_over
 from ..markerset import MarkerSet
 from .outputs import missing_folders, publish
 
@@ -394,14 +394,22 @@ def atomic_write(path, mode: str = "w", **open_kwargs):
     """
     path = Path(path)
     made = missing_folders([path.absolute().parent])
+    tmp = fh = None
     try:
-        path.parent.mkdir(parents=True, exist_ok=True)
-        fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".part", dir=path.parent)
+        # made, named and opened as one, interrupts held: one that landed in mkstemp once the file was made left
+        # it behind, unnamed; now it waits for this block, then lands here, where the file is known and removed
+        with interrupts_held():
+            path.parent.mkdir(parents=True, exist_ok=True)
+            fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".part", dir=path.parent)
+            fh = os.fdopen(fd, mode, **open_kwargs)
     except BaseException:
+        if tmp is not None:
+            _close_quietly(fh, fd)
+            _discard(tmp)
         _remove_empty(made)
         raise
     try:
-        with os.fdopen(fd, mode, **open_kwargs) as fh:
+        with fh:
             yield fh
             fh.flush()
             os.fsync(fh.fileno())
@@ -417,6 +425,15 @@ def atomic_write(path, mode: str = "w", **open_kwargs):
         _discard(tmp)
         _remove_empty(made)
         raise
+
+
+def _close_quietly(fh, fd: int) -> None:
+    """Close the temporary file: ``fh`` where it was opened, else the descriptor (which a failed ``fdopen`` may have
+    closed already)."""
+    try:
+        fh.close() if fh is not None else os.close(fd)
+    except OSError:
+        pass
 
 
 def _discard(tmp: str) -> None:

@@ -42,7 +42,7 @@ from pathlib import Path
 from typing import Iterable, Iterator
 
 from ..errors import MocapFormatError
-from ..interrupts import interrupts_held, whole_hand_over
+from ..interrupts import interrupts_held, whole_hand_over, whole_step
 
 __all__ = ["check_outputs", "same_file", "inside", "removed_on_failure", "publish", "keep_aside", "put_back",
            "drop_kept", "missing_folders", "file_facts"]
@@ -154,14 +154,17 @@ def publish(tmp: os.PathLike | str, path: os.PathLike | str) -> None:
         written.append(key)
 
 
-def keep_aside(paths: Iterable[os.PathLike | str | None]) -> dict[Path, Path]:
+def keep_aside(paths: Iterable[os.PathLike | str | None], kept: dict[Path, Path] | None = None) -> dict[Path, Path]:
     """A hidden hard link (``.NAME.RANDOM.part``, a copy where links fail) beside each existing file of ``paths``,
     and a hidden copy of each that is a symbolic link (the link itself, not what it points to).
 
     Each output is replaced by a rename, which leaves the old file's data at the link: :func:`put_back`
-    restores it, :func:`drop_kept` removes the links. Returns ``{path: link}``.
+    restores it, :func:`drop_kept` removes the links. Returns ``{path: link}``: ``kept`` when given, filled as
+    each link is made, so that a caller's ``finally`` drops the links of an interrupt that lands before this
+    call has returned. A link's name is reserved (``mkstemp``) and entered in ``kept`` before the link is made,
+    with interrupts held while the reserved file exists (an interrupt there left it behind, unnamed).
     """
-    kept: dict[Path, Path] = {}
+    kept = {} if kept is None else kept
     try:
         for p in paths:
             if p is None:
@@ -170,9 +173,11 @@ def keep_aside(paths: Iterable[os.PathLike | str | None]) -> dict[Path, Path]:
             link = p.is_symlink()
             if not (link or p.is_file()):
                 continue
-            fd, tmp = tempfile.mkstemp(prefix=f".{p.name}.", suffix=".part", dir=p.parent)
-            os.close(fd)
-            os.unlink(tmp)
+            with interrupts_held():
+                fd, tmp = tempfile.mkstemp(prefix=f".{p.name}.", suffix=".part", dir=p.parent)
+                os.close(fd)
+                os.unlink(tmp)
+            kept[p] = Path(tmp)  # drop_kept removes the link from here on (a name not yet made is passed over)
             if link:
                 os.symlink(os.readlink(p), tmp)
             elif _removable_link(p):
@@ -182,7 +187,6 @@ def keep_aside(paths: Iterable[os.PathLike | str | None]) -> dict[Path, Path]:
                     shutil.copy2(p, tmp)
             else:
                 shutil.copy2(p, tmp)
-            kept[p] = Path(tmp)
     except BaseException:
         drop_kept(kept)
         raise
@@ -292,26 +296,40 @@ def removed_on_failure(
                 raise MocapFormatError(o, "appeared while this command ran (another program wrote it); pass "
                                           "overwrite=True (--overwrite on the command line) to replace it")
     made = missing_folders(o.absolute().parent for o in outs)  # removed again, when empty, on failure
-    kept = keep_aside(outs)
-    outer, mine = _WRITTEN.get(), []
+    outer, mine, new_before = _WRITTEN.get(), [], _NEW_ONLY.get()
     new_only = {os.path.abspath(o) for o in outs if not os.path.lexists(o)} if overwrite is False else set()
-    token = _NEW_ONLY.set(_NEW_ONLY.get() | new_only)
-    token_w = _WRITTEN.set(mine)
+    kept: dict[Path, Path] = {}
+    ready = False
+    # set up inside the try, and the context set back by value: an interrupt that landed between keep_aside and the
+    # try, or as a ContextVar.set returned (before its token was kept), left the hidden links and the context behind
     try:
+        keep_aside(outs, kept)
+        _NEW_ONLY.set(new_before | new_only)
+        _WRITTEN.set(mine)
+        ready = True
         if marker is not None and Path(marker) in kept:
             os.unlink(marker)
         yield
     except BaseException:
-        put_back(outs, kept, None if overwrite is None else set(mine))
-        for folder in made:
-            try:
-                folder.rmdir()
-            except OSError:  # not empty (something else was put there), or never made
-                pass
+        if ready:  # else nothing was written yet (and a failed keep_aside must put nothing back)
+            put_back(outs, kept, None if overwrite is None else set(mine))
+            for folder in made:
+                try:
+                    folder.rmdir()
+                except OSError:  # not empty (something else was put there), or never made
+                    pass
         raise
     finally:
-        _WRITTEN.reset(token_w)
-        _NEW_ONLY.reset(token)
-        if outer is not None:
-            outer.extend(mine)  # an enclosing block removes these too if it fails later
-        drop_kept(kept)
+        _end_block(outer, mine, new_before, kept)
+
+
+@whole_step
+def _end_block(outer: list | None, mine: list, new_before: frozenset, kept: dict[Path, Path]) -> None:
+    """removed_on_failure's last step, whole (:func:`mocapkit.interrupts.whole_step`): the enclosing block's context
+    back, this block's writes handed to it (it removes them too if it fails later), the old outputs' links dropped
+    (an interrupt here left them, hidden, beside the outputs)."""
+    _WRITTEN.set(outer)
+    _NEW_ONLY.set(new_before)
+    if outer is not None:
+        outer.extend(mine)
+    drop_kept(kept)
