@@ -146,6 +146,7 @@ def _interrupt_within(seconds: float) -> bool:
     return False
 
 
+@pytest.mark.usefixtures("python_sigint")  # the deferred interrupt is a real SIGINT, sent again
 def test_an_interrupt_in_the_hand_over_of_a_finished_block_lands_after_it(tmp_path):
     """An interrupted ``train`` said its first checkpoint resumes, and then the checkpoint was gone: the
     interrupt had come in contextlib's ``__exit__`` before it resumed ``removed_on_failure``, which was left
@@ -176,6 +177,7 @@ def test_an_interrupt_in_the_hand_over_of_a_finished_block_lands_after_it(tmp_pa
     assert out.read_text() == "epoch 1" and sorted(p.name for p in tmp_path.iterdir()) == ["checkpoint.pt"]
 
 
+@pytest.mark.usefixtures("python_sigint")  # the deferred interrupt is a real SIGINT, sent again
 def test_an_interrupt_in_the_hand_over_of_a_failed_block_puts_back_at_once(tmp_path):
     """The block failed (a full disk) and the interrupt came in ``__exit__`` before the failure reached the
     generator: the outputs are put back before the failure is seen, not at garbage collection."""
@@ -201,3 +203,37 @@ def test_an_interrupt_in_the_hand_over_of_a_failed_block_puts_back_at_once(tmp_p
         later = _interrupt_within(5)
     assert fired and later
     assert seen == ("OSError", False, "old", ["checkpoint.pt"])  # put back before the error was seen
+
+
+@pytest.mark.usefixtures("python_sigint")  # the deferred interrupt is a real SIGINT, sent again
+def test_a_signal_as_a_numba_kernel_calls_python_back_lands_after_it():
+    """A compiled kernel calls numba's ``serialize._numba_unpickle`` back as it runs (reading a BVH: its fused
+    channel conversion); Ctrl-C landing there came out of the kernel as ``SystemError: CPUDispatcher(...)
+    returned a result with an exception set``, which clean-batch took for a failed take, going on with the rest
+    (1 of 10 interrupted batches under load). The handler, called with that frame as the interpreter calls it,
+    now sends the signal again; it lands after the kernel, as a KeyboardInterrupt."""
+    import mocapkit
+    from mocapkit import samples
+
+    path = samples.path("131_01.bvh")
+    mocapkit.load(path)  # the kernel compiled or loaded from the cache first: the read below runs it
+    with interrupts_as_keyboard_interrupt():
+        handler, fired = signal.getsignal(signal.SIGINT), []
+
+        def profile(frame, event, arg):
+            if event == "call" and not fired and frame.f_code.co_name == "_numba_unpickle":
+                fired.append(frame.f_code.co_filename)
+                handler(signal.SIGINT, frame)
+
+        sys.setprofile(profile)
+        try:
+            mocapkit.load(path)
+            seen = "read"
+        except KeyboardInterrupt:
+            seen = "interrupted in the callback"
+        except SystemError as exc:
+            seen = f"SystemError: {exc}"
+        finally:
+            sys.setprofile(None)
+        later = _interrupt_within(5)
+    assert fired and seen == "read" and later, (fired, seen)

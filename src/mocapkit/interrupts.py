@@ -6,7 +6,9 @@ raise it. One place is unsafe for any exception: numba's JIT cache calls Python 
 LLVM's C++ (llvmlite's object-cache hooks), and an exception raised there cannot unwind through
 it: the process crashed with SIGSEGV when Ctrl-C or SIGTERM landed while a kernel was loaded or
 compiled. While a frame of llvmlite is on the stack the handler therefore sends the signal again
-50 ms later instead of raising, so the interrupt lands right after the callback returns.
+50 ms later instead of raising, so the interrupt lands right after the callback returns. The same
+for numba's ``serialize`` module, which a compiled kernel calls back as it runs: an interrupt raised
+there came out as a ``SystemError`` (a batch took the take for failed and went on).
 
 The same holds in the ``with`` statement's hand-over into and out of the generator context managers
 that keep outputs whole (:func:`whole_hand_over`: ``removed_on_failure``, ``atomic_write``,
@@ -31,10 +33,19 @@ __all__ = ["interrupts_as_keyboard_interrupt", "interrupts_held", "in_native_cal
 RETRY_S = 0.05  # seconds before a deferred signal is sent again
 
 
+#: the Python code that native code calls back: llvmlite's (LLVM's C++ below it), and numba's ``serialize`` module,
+#: which a compiled kernel calls to unpickle its constants (the arguments of an exception it may raise): a
+#: KeyboardInterrupt raised there reached the kernel's caller as ``SystemError: CPUDispatcher(...) returned a
+#: result with an exception set``, which a batch took for a failed take and went on
+_CALLBACK_FILES = (f"{os.sep}llvmlite{os.sep}", f"{os.sep}numba{os.sep}core{os.sep}serialize.py")
+
+
 def in_native_callback(frame) -> bool:
-    """True while ``frame`` or any of its callers runs llvmlite's Python code (C++ may be below it)."""
+    """True while ``frame`` or any of its callers runs Python code that native code called (:data:`_CALLBACK_FILES`:
+    llvmlite's, numba's ``serialize``), where an exception cannot unwind as one."""
     while frame is not None:
-        if f"{os.sep}llvmlite{os.sep}" in frame.f_code.co_filename:
+        name = frame.f_code.co_filename
+        if any(part in name for part in _CALLBACK_FILES):
             return True
         frame = frame.f_back
     return False
