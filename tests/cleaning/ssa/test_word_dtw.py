@@ -204,8 +204,9 @@ def _mean_exceeds_reference(C, N, M, min_width, lam):
 
 
 def test_mean_exceeds_stopping_early_is_the_whole_blocks_answer(rng):
-    """``_mean_exceeds`` returns False at the first end cell that proves it (the least sum only falls, the margin
-    only grows): the same answer as the DP over the whole block, including where a later row holds larger costs."""
+    """``_mean_exceeds`` (first row and column filled apart, False at the first row whose end cells prove it: the
+    least sum only falls, the margin only grows) gives the answer of the plain DP over the whole block, including
+    where a later row holds larger costs or the first row and column impassable cells."""
     row = np.empty(20)
     early = 0
     for trial in range(400):
@@ -214,6 +215,8 @@ def test_mean_exceeds_stopping_early_is_the_whole_blocks_answer(rng):
             C[11:] *= 50.0  # rows after the first end cells: large costs raise cmax after an early stop
         if trial % 7 == 0:
             C[rng.integers(15), rng.integers(20)] = np.inf
+        if trial % 11 == 0:  # impassable cells on the first row and column, which the kernel fills apart
+            C[0, rng.integers(1, 20)] = C[rng.integers(1, 15), 0] = np.inf
         d, _, _ = W.word_dtw(C)
         for lam in (0.0, 0.5 * d, d, 1.5 * d, float(C.max(initial=0.0, where=np.isfinite(C)))):
             got = W._mean_exceeds(C, 0, 0, 15, 20, 11, lam, row)
