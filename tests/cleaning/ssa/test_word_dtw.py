@@ -185,6 +185,46 @@ def test_mean_exceeds_only_when_every_path_mean_does(rng):
     assert said > seen // 3  # and it does skip: lam well under the distance is proven
 
 
+def _mean_exceeds_reference(C, N, M, min_width, lam):
+    """The one-state DP of ``_mean_exceeds`` over the whole block, then the decision: the slow reference."""
+    lo = min_width - 1
+    S = np.full((N, M), np.inf)
+    cmax, best = lam, np.inf
+    for i in range(N):
+        for j in range(M):
+            c = float(C[i, j])
+            if c < np.inf and c > cmax:
+                cmax = c
+            prev = 0.0 if i == j == 0 else min(S[i - 1, j] if i else np.inf, S[i - 1, j - 1] if i and j else np.inf,
+                                               S[i, j - 1] if j else np.inf)
+            S[i, j] = prev + (c - lam)
+            if (i == N - 1 and j >= lo) or (j == M - 1 and i >= lo):
+                best = min(best, S[i, j])
+    return best > 1e-12 * (N + M) * cmax
+
+
+def test_mean_exceeds_stopping_early_is_the_whole_blocks_answer(rng):
+    """``_mean_exceeds`` (first row and column filled apart, False at the first row whose end cells prove it: the
+    least sum only falls, the margin only grows) gives the answer of the plain DP over the whole block, including
+    where a later row holds larger costs or the first row and column impassable cells."""
+    row = np.empty(20)
+    early = 0
+    for trial in range(400):
+        C = rng.random((15, 20)) ** 3
+        if trial % 5 == 0:
+            C[11:] *= 50.0  # rows after the first end cells: large costs raise cmax after an early stop
+        if trial % 7 == 0:
+            C[rng.integers(15), rng.integers(20)] = np.inf
+        if trial % 11 == 0:  # impassable cells on the first row and column, which the kernel fills apart
+            C[0, rng.integers(1, 20)] = C[rng.integers(1, 15), 0] = np.inf
+        d, _, _ = W.word_dtw(C)
+        for lam in (0.0, 0.5 * d, d, 1.5 * d, float(C.max(initial=0.0, where=np.isfinite(C)))):
+            got = W._mean_exceeds(C, 0, 0, 15, 20, 11, lam, row)
+            assert got == _mean_exceeds_reference(C, 15, 20, 11, lam)
+            early += not got
+    assert early > 300  # the early stop is exercised
+
+
 def test_knn_profile_few_minima_and_k_larger_than_targets():
     A = _walk_texture(60, 2)
     D = W.group_pose_distances(A, A, np.ones((1, 6), dtype=bool), [1])[0]
