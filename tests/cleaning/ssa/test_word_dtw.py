@@ -206,23 +206,25 @@ def _mean_exceeds_reference(C, N, M, min_width, lam):
 def test_mean_exceeds_stopping_early_is_the_whole_blocks_answer(rng):
     """``_mean_exceeds`` (first row and column filled apart, False at the first row whose end cells prove it: the
     least sum only falls, the margin only grows) gives the answer of the plain DP over the whole block, including
-    where a later row holds larger costs or the first row and column impassable cells."""
-    row = np.empty(20)
+    where a later row holds larger costs or the first row and column impassable cells, and for blocks narrower or
+    shorter than ``min_width`` (``reconstruct.sparse`` passes ``min(11, N)`` with any target length)."""
     early = 0
-    for trial in range(400):
-        C = rng.random((15, 20)) ** 3
-        if trial % 5 == 0:
-            C[11:] *= 50.0  # rows after the first end cells: large costs raise cmax after an early stop
-        if trial % 7 == 0:
-            C[rng.integers(15), rng.integers(20)] = np.inf
-        if trial % 11 == 0:  # impassable cells on the first row and column, which the kernel fills apart
-            C[0, rng.integers(1, 20)] = C[rng.integers(1, 15), 0] = np.inf
-        d, _, _ = W.word_dtw(C)
-        for lam in (0.0, 0.5 * d, d, 1.5 * d, float(C.max(initial=0.0, where=np.isfinite(C)))):
-            got = W._mean_exceeds(C, 0, 0, 15, 20, 11, lam, row)
-            assert got == _mean_exceeds_reference(C, 15, 20, 11, lam)
-            early += not got
-    assert early > 300  # the early stop is exercised
+    for N, M, min_width in ((15, 20, 11), (15, 8, 11), (12, 20, 12), (8, 8, 8)):
+        row = np.empty(M)
+        for trial in range(120):
+            C = rng.random((N, M)) ** 3
+            if trial % 5 == 0:
+                C[min(min_width, N - 1):] *= 50.0  # rows after the first end cells: large costs raise cmax after a stop
+            if trial % 7 == 0:
+                C[rng.integers(N), rng.integers(M)] = np.inf
+            if trial % 11 == 0:  # impassable cells on the first row and column, which the kernel fills apart
+                C[0, rng.integers(1, M)] = C[rng.integers(1, N), 0] = np.inf
+            top = float(C.max(initial=0.0, where=np.isfinite(C)))
+            for lam in (0.0, 0.1 * top, 0.3 * top, top):
+                got = W._mean_exceeds(C, 0, 0, N, M, min_width, lam, row)
+                assert got == _mean_exceeds_reference(C, N, M, min_width, lam), (N, M, min_width, trial, lam)
+                early += not got
+    assert early > 600  # the early stop is exercised
 
 
 def test_knn_profile_few_minima_and_k_larger_than_targets():

@@ -558,12 +558,13 @@ def _mean_exceeds(D, si, tj, N, M, min_width, lam, row):
                 diag = up
             left = prev + (c - lam)
             row[j] = left
-        # this row's end cells: the last row from column lo, the last column from row lo
+        # this row's end cells: the last row from column lo, the last column from row lo (the last row's last
+        # cell too when the block is narrower than min_width, where range(lo, M) is empty)
         if i == N - 1:
             for j in range(lo, M):
                 if row[j] < best:
                     best = row[j]
-        elif i >= lo and row[M - 1] < best:
+        if i >= lo and row[M - 1] < best:
             best = row[M - 1]
         if not best > 1e-12 * (N + M) * cmax:
             return False  # the least sum only falls and the margin only grows from here: proven
