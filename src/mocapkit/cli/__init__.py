@@ -123,8 +123,7 @@ def main(argv: list[str] | None = None) -> int:
     except BaseException as exc:  # noqa: BLE001 - every failure ends in one line and an exit status
         return _exit_status(exc, sys.argv[1:] if argv is None else list(argv))
     if result == EXIT_INTERRUPTED:  # typer turns an interrupt inside a command into Exit(130)
-        print("mocapkit: interrupted; no partial output was left", file=sys.stderr)
-        return interrupted_status()
+        return _said_interrupted()
     return result if isinstance(result, int) else 0
 
 
@@ -145,8 +144,7 @@ def run() -> None:
     try:
         code = main()
     except KeyboardInterrupt:  # as the command began or ended, outside main's own handling of it
-        print("mocapkit: interrupted; no partial output was left", file=sys.stderr)
-        code = interrupted_status()
+        code = _said_interrupted()
     if join_threads is None or run_exitfuncs is None:
         sys.exit(code)
     if code == 0:  # thread pools told to stop (their atexit hooks), then every non-daemon thread joined
@@ -179,6 +177,12 @@ def interrupted_status() -> int:
     return exit_status()
 
 
+def _said_interrupted() -> int:
+    """The one line of an interrupted command, on stderr; returns its exit status (:func:`interrupted_status`)."""
+    print("mocapkit: interrupted; no partial output was left", file=sys.stderr)
+    return interrupted_status()
+
+
 def memory_line(args: list[str], exc: MemoryError) -> str:
     """The one line for running out of memory: the command's first argument that is a file (the take or folder it
     was working on; ``mocapkit`` itself when none is), what ran out, and what numpy asked for when it says so."""
@@ -193,8 +197,7 @@ def _exit_status(exc: BaseException, args: list[str] = ()) -> int:
     if isinstance(exc, typer.Abort) and isinstance(exc.__cause__, EOFError):  # click's Abort for a file cut short
         return _fail(f"a file ended before its data did (EOFError: {exc.__cause__})")
     if isinstance(exc, (KeyboardInterrupt, typer.Abort)):
-        print("mocapkit: interrupted; no partial output was left", file=sys.stderr)
-        return interrupted_status()
+        return _said_interrupted()
     if isinstance(exc, SystemExit):
         return exc.code if isinstance(exc.code, int) else (0 if exc.code is None else EXIT_BAD_INPUT)
     if isinstance(exc, typer.Exit):
