@@ -274,8 +274,12 @@ def test_a_stop_starts_nothing_new_on_a_local_pool(tmp_path, monkeypatch):
     """on_result's stop (a batch's full disk): no item is handed to the pool after it, and the one under way beside
     it finishes and is handed back. A ProcessPoolExecutor moves submitted items into its call queue ahead of its
     workers, where they can no longer be cancelled: given all 40 items at once, a stop at the first result still
-    started up to three more on two workers (four in a trial's full-disk batch). The items after the first wait at
-    a gate that opens once no handed-out item is pending, so the pool cannot run ahead of this process."""
+    started up to three more on two workers (four in a trial's full-disk batch).
+
+    The first item waits until the pool has taken the second (it is running: it can no longer be cancelled), and
+    the others wait at a gate that opens once the stop is asked. Opening the first gate as soon as nothing was
+    pending raced the pool's manager thread: the second item, submitted but not yet queued, was cancelled at the
+    stop, rightly (it never started), and the test failed once in CI."""
     from concurrent.futures import ProcessPoolExecutor
 
     import mocapkit.parallel
@@ -288,25 +292,59 @@ def test_a_stop_starts_nothing_new_on_a_local_pool(tmp_path, monkeypatch):
             return futures[-1]
 
     monkeypatch.setattr(mocapkit.parallel, "ProcessPoolExecutor", Recorded)
-    gate, asked = tmp_path / "gate", threading.Event()
+    first, rest, asked = tmp_path / "first", tmp_path / "rest", threading.Event()
 
-    def open_gate():
-        asked.wait(60)
-        deadline = time.monotonic() + 10
-        while any(not (f.running() or f.done()) for f in futures) and time.monotonic() < deadline:
+    def open_gates():
+        deadline = time.monotonic() + 20
+        while not (len(futures) > 1 and futures[1].running()) and time.monotonic() < deadline:
             time.sleep(0.005)
-        gate.touch()
+        first.touch()
+        asked.wait(60)
+        rest.touch()
 
-    opener = threading.Thread(target=open_gate, daemon=True)
+    opener = threading.Thread(target=open_gates, daemon=True)
     opener.start()
     seen = []
-    items = [(k, str(gate) if k else None) for k in range(40)]
+    items = [(k, str(rest if k else first)) for k in range(40)]
     out = map_ordered(square_after_gate, items, executor="processes", progress=False, max_workers=2,
                       on_result=lambda k, r: seen.append(k) or asked.set() or True)
     opener.join(10)
     assert seen[0] == 0 and len(futures) == 2  # the stopping item and the one under way beside it: nothing more
     assert sorted(seen) == [0, 1] and not any(f.cancelled() for f in futures)
     assert [k for k, r in enumerate(out) if r is not None] == [0, 1] and out[:2] == [0, 1]
+
+
+def test_a_stop_cancels_a_handed_out_item_the_pool_has_not_taken(monkeypatch):
+    """The other side of the race above: an item handed out but not yet taken into the pool's call queue when the
+    stop comes is cancelled (it never starts, its slot stays None) rather than started and waited for."""
+    from concurrent.futures import Future
+
+    import mocapkit.parallel
+
+    class Lagging:  # a pool whose manager thread has taken only the first item when it finishes
+        def __init__(self, max_workers=None, **kwargs):
+            self.futures = []
+
+        def submit(self, fn, *args):
+            fut = Future()
+            if not self.futures:
+                fut.set_running_or_notify_cancel()
+                fut.set_result(fn(*args))
+            else:  # taken a second later, unless cancelled by then: a pool that waited for it hands it back
+                threading.Timer(1.0, lambda: fut.set_running_or_notify_cancel() and fut.set_result(fn(*args))).start()
+            self.futures.append(fut)
+            return fut
+
+        def shutdown(self, wait=True, cancel_futures=False):
+            pass
+
+    pools = []
+    monkeypatch.setattr(mocapkit.parallel, "ProcessPoolExecutor", lambda **kw: pools.append(Lagging(**kw)) or pools[-1])
+    seen = []
+    out = map_ordered(square, range(40), executor="processes", progress=False, max_workers=2,
+                      on_result=lambda k, r: seen.append(k) or True)
+    assert seen == [0] and out == [0] + [None] * 39
+    assert len(pools[0].futures) == 2 and pools[0].futures[1].cancelled()
 
 
 def test_a_local_pool_is_handed_its_items_as_its_workers_free(tmp_path, monkeypatch):

@@ -456,7 +456,7 @@ def _run_windowed(pool, fn, items, bar, window: int, on_result=None) -> list:
     finishes. A :class:`ProcessPoolExecutor` moves submitted items into its call queue ahead of its workers, and an
     item there can no longer be cancelled: given every item at once, a stop asked by ``on_result`` (a full disk in a
     batch) would still start the queued ones. Handed out this way, a stop starts nothing new; the items under way
-    finish and are passed to ``on_result``. SIGINT is held back while items are handed out, when the pool forks its
+    finish and are passed to ``on_result``, and one handed out that the pool has not yet taken is cancelled. SIGINT is held back while items are handed out, when the pool forks its
     workers: a worker forked with it pending would die of it before its initializer ignores it, breaking the pool;
     this process takes it after."""
     out: list = [None] * len(items)
