@@ -111,3 +111,60 @@ def test_an_interrupt_anywhere_in_the_write_leaves_it_whole_and_nothing_hidden(t
             wrong[k] = state
         k += 1
     assert k > 20 and not wrong, wrong
+
+
+def _undo(tmp_path, k: int):
+    """take.bvh written "new" over "old", then the block interrupted (a first Ctrl-C), and a second interrupt at the
+    ``k``-th check while removed_on_failure undoes the write; returns the number of checks seen and what was left."""
+    out = tmp_path / "take.bvh"
+    out.write_text("old")
+    before = outputs._NEW_ONLY.get(), outputs._WRITTEN.get()
+    landing, seen = _landing_at(k)
+
+    def profile(frame, event, arg):  # the generator entered by throw() (the first interrupt) is no check: CPython's
+        if event != "call" or frame.f_code is not removed_on_failure.__wrapped__.__code__:  # throwflag path skips
+            landing(frame, event, arg)  # RESUME, where a resumed or started frame checks for signals
+
+    came, second = 0, False
+    with interrupts_as_keyboard_interrupt():
+        try:
+            try:
+                with removed_on_failure([out], overwrite=True):
+                    with atomic_write(out) as fh:
+                        fh.write("new")
+                    sys.setprofile(profile)  # the checks counted: those after the first interrupt
+                    raise KeyboardInterrupt("the first Ctrl-C")
+            finally:
+                sys.setprofile(None)
+        except KeyboardInterrupt as exc:
+            came += 1
+            second = str(exc) != "the first Ctrl-C"  # the second one raised at once, in place of the first
+        if len(seen) > k >= 0 and not second:
+            try:
+                time.sleep(60)  # a deferred second interrupt, sent again RETRY_S later, ends this wait
+            except KeyboardInterrupt:
+                came += 1
+    left = sorted(p.name for p in tmp_path.iterdir())
+    state = (left, out.read_text() if out.exists() else None,
+             (outputs._NEW_ONLY.get(), outputs._WRITTEN.get()) == before, came)
+    for p in tmp_path.iterdir():
+        p.unlink()
+    return len(seen), state
+
+
+@pytest.mark.usefixtures("python_sigint")
+def test_a_second_interrupt_while_a_failed_write_is_undone_still_puts_the_old_file_back(tmp_path, monkeypatch):
+    """A second Ctrl-C that landed as removed_on_failure began undoing an interrupted block (before put_back held
+    interrupts) skipped the put-back, and the clean-up then dropped the hidden link of the old version: the file
+    the user had was gone for good, the half-written new set left in its place."""
+    monkeypatch.setattr(mocapkit.interrupts, "RETRY_S", 0.002)
+    checks, state = _undo(tmp_path, -1)
+    assert checks > 3 and state == (["take.bvh"], "old", True, 1)
+    wrong = {}
+    for k in range(checks + 3):
+        seen, state = _undo(tmp_path, k)
+        if seen <= k:
+            break
+        if state[:3] != (["take.bvh"], "old", True) or state[3] not in (1, 2):
+            wrong[k] = state
+    assert not wrong, wrong

@@ -311,16 +311,26 @@ def removed_on_failure(
             os.unlink(marker)
         yield
     except BaseException:
-        if ready:  # else nothing was written yet (and a failed keep_aside must put nothing back)
-            put_back(outs, kept, None if overwrite is None else set(mine))
-            for folder in made:
-                try:
-                    folder.rmdir()
-                except OSError:  # not empty (something else was put there), or never made
-                    pass
+        _undo_block(ready, outs, kept, None if overwrite is None else mine, made)
         raise
     finally:
         _end_block(outer, mine, new_before, kept)
+
+
+@whole_step
+def _undo_block(ready: bool, outs: list[Path], kept: dict[Path, Path], written: list | None, made: list[Path]) -> None:
+    """removed_on_failure's undo after its block failed, whole (:func:`mocapkit.interrupts.whole_step`): the old
+    outputs put back, the new ones and the folders made for them removed. A second Ctrl-C that landed before
+    put_back held interrupts skipped it, and the clean-up then dropped the old version's hidden link: the file
+    the user had was gone, the half-written new set in its place."""
+    if not ready:  # nothing was written yet (and a failed keep_aside must put nothing back)
+        return
+    put_back(outs, kept, None if written is None else set(written))
+    for folder in made:
+        try:
+            folder.rmdir()
+        except OSError:  # not empty (something else was put there), or never made
+            pass
 
 
 @whole_step
