@@ -515,6 +515,54 @@ def test_an_interrupted_overwrite_leaves_the_earlier_take_whole(tmp_path, monkey
     assert _tree(out) == before  # the earlier take, report and record, and no hidden copy left
 
 
+@pytest.mark.usefixtures("python_sigint")  # the second interrupt, deferred, is a real SIGINT sent again later
+def test_a_second_interrupt_as_the_undo_begins_still_puts_the_earlier_take_back(tmp_path, monkeypatch, walk_in):
+    """As above, and a second Ctrl-C lands at the first point Python checks for one after the first (the call that
+    begins the undo): it skipped the put-back, and the clean-up then dropped the hidden links of the earlier run's
+    files, which were lost. The handler installed then is called with that frame, as the interpreter would."""
+    import mocapkit.batch
+    import mocapkit.interrupts
+
+    monkeypatch.setattr(mocapkit.interrupts, "RETRY_S", 0.002)
+    src = walk_in
+    out = tmp_path / "out"
+    clean_batch(src, out, steps=STEPS, executor="serial", progress=False, report=True)
+    before = _tree(out)
+    real, first = os.replace, []
+
+    def interrupted_at_the_record(a, b, *args, **kwargs):
+        if Path(b) == out / "walk.clean.npz" and ".part" in str(a) and Path(a).parent != out:
+            first.append(True)
+            raise KeyboardInterrupt("the first Ctrl-C")
+        return real(a, b, *args, **kwargs)
+
+    landed = []
+
+    def profile(frame, event, arg):
+        if first and not landed and event == "call" and frame.f_code.co_filename == mocapkit.batch.__file__:
+            landed.append(frame.f_code.co_name)
+            signal.getsignal(signal.SIGINT)(signal.SIGINT, frame)
+
+    monkeypatch.setattr(os, "replace", interrupted_at_the_record)
+    came = []
+    try:
+        sys.setprofile(profile)
+        try:
+            clean_batch(src, out, steps=["fill", "denoise"], executor="serial", progress=False, report=True,
+                        overwrite=True)
+        finally:
+            sys.setprofile(None)
+    except KeyboardInterrupt as exc:
+        came.append(str(exc))
+    if came and came[0] == "the first Ctrl-C":  # the second was deferred: it comes RETRY_S later
+        try:
+            time.sleep(60)
+        except KeyboardInterrupt as exc:
+            came.append(str(exc))
+    assert landed and len(came) in (1, 2)
+    assert _tree(out) == before  # the earlier take, report and record, and no hidden copy left
+
+
 def test_a_record_that_cannot_be_read_is_not_a_complete_take(tmp_path, walk_in):
     src = walk_in
     out = tmp_path / "out"

@@ -80,7 +80,7 @@ from typing import Callable, Sequence
 from .errors import MocapError, MocapFormatError, os_error_line, output_stopper
 from .batch_decided import is_own_record, stamp_decided
 from .batch_folder import BATCH_MARK, mark, marked_input, only_batch, prune, sweep, unmark_if_empty
-from .interrupts import interrupts_as_keyboard_interrupt, interrupts_held
+from .interrupts import interrupts_as_keyboard_interrupt, interrupts_held, whole_step
 from .marker_files import clean_marker_file, marker_request, refuse_marker_options
 
 __all__ = ["clean_file", "clean_marker_file", "clean_request", "marker_request", "refuse_marker_options", "clean_batch", "find_inputs", "output_for", "BatchSummary", "DEFAULT_PATTERNS", "BATCH_MARK"]
@@ -525,10 +525,20 @@ def _batch_job(job: dict) -> dict:
         return _clean_job(job)
 
 
+@whole_step
+def _undo_take(finals: list[Path], kept: dict[Path, Path], moved: list[Path]) -> None:
+    """A failed or interrupted take's files undone, whole (:func:`mocapkit.interrupts.whole_step`): what it moved into
+    place removed, an earlier run's files put back. A second Ctrl-C as the undo began skipped the put-back, and the
+    clean-up then dropped the hidden links of the earlier run's files (``--overwrite``): they were lost."""
+    from .io.outputs import put_back
+
+    put_back(finals, kept, {os.path.abspath(p) for p in moved})
+
+
 def _clean_job(job: dict) -> dict:
     from .cleaning.pipeline import clean_path
     from .io import marker_notes, motion_notes
-    from .io.outputs import drop_kept, keep_aside, put_back
+    from .io.outputs import drop_kept, keep_aside
     from .parallel import owner_alive
 
     t = time.perf_counter()
@@ -540,9 +550,6 @@ def _clean_job(job: dict) -> dict:
         return row
     moved: list[Path] = []
     kept: dict[Path, Path] = {}  # an earlier run's files (--overwrite): put back if this take's cannot all be placed
-
-    def undo():
-        put_back(finals, kept, {os.path.abspath(p) for p in moved})
 
     stage = None
     try:
@@ -556,7 +563,7 @@ def _clean_job(job: dict) -> dict:
                             drifts=bool(job.get("drifts")), models=job.get("models"), amc_fps=job.get("amc_fps"),
                             unit=job.get("unit"), noise_deg=job.get("noise_deg"), max_gap_s=job.get("max_gap_s"),
                             max_error_mm=job.get("max_error_mm"), placed=out)
-        kept = keep_aside(finals)
+        keep_aside(finals, kept)  # kept filled as each link is made: an interrupt in it leaves none behind
         if finals[-1] in kept:  # the old record goes first: the take reads as incomplete while its files are replaced
             os.unlink(finals[-1])
         for final in finals:  # the record last: the completion marker
@@ -581,19 +588,19 @@ def _clean_job(job: dict) -> dict:
                        left=left_line(res), judged=not_judged_note(res.detection, res.num_frames),
                        warnings=[n for n in res.notes if n in said] + motion_notes(taken, out, job["input"]))
     except _Orphaned:
-        undo()
+        _undo_take(finals, kept, moved)
         row.update(status="failed", reason=_GONE)
     except FileNotFoundError as exc:
-        undo()
+        _undo_take(finals, kept, moved)
         row.update(status="failed", reason=_unstaged(f"{exc.filename or exc}: no such file", stage, out.parent))
     except Exception as exc:  # one bad take must not stop the corpus: report it in one line
-        undo()
+        _undo_take(finals, kept, moved)
         row.update(status="failed", reason=_unstaged(_one_line(exc), stage, out.parent))
         stopper = output_stopper(exc)
         if stopper:  # a full disk: the batch stops handing out takes (module docstring)
             row["errno"] = stopper
     except BaseException:
-        undo()  # an output without its record would pass for complete-but-unrecorded
+        _undo_take(finals, kept, moved)  # an output without its record would pass for complete-but-unrecorded
         raise
     finally:
         drop_kept(kept)
