@@ -50,7 +50,9 @@ gets) per set; the baseline, in the same run from the same analysis, is the
 flags without the smooth-drift rule (``params.drift=False``'s flags). Also:
 the cells the drift rule flags on the untouched takes (each take is detected
 clean too: every such cell is harm), and the drift rule's statistic on the
-drifted cells (``agreement``, ``consistency``).
+drifted cells (``agreement``, ``consistency``), and which gate of the rule stops which cells
+(:func:`gate_blockers`: ``gate_blockers_drifted`` on the drifted cells, ``gate_blockers_untouched`` on the
+untouched takes' judged cells; a gate that stops many of the first and few of the second is worth a look).
 
     python benchmarks/drift_detection.py --json
     python benchmarks/drift_detection.py --quick --json     # a few takes per set
@@ -172,6 +174,52 @@ def hdm_cases(quick: bool):
     return out
 
 
+GATES = ("z", "agreement", "others", "partner", "chain")
+
+
+def gate_blockers(det, cells) -> dict:
+    """Of ``cells`` (F, J) bool, how many pass every cell-level gate of the drift rule (``pass``), and how many
+    fail one gate alone (that gate's name): the cells each gate alone keeps from being evidence.
+
+    The gates are :func:`~mocapkit.cleaning.ssa.drifts.smooth_drift_flags`' on the detection's own evidence
+    (``change`` where ``params.drift_change``, else ``consistency``) and drift parameters: ``z`` (the evidence at
+    ``drift_z``), ``agreement`` (the other joints within ``drift_repeat_deg``), ``others`` (at most ``drift_others``
+    other joints at ``drift_z``), ``partner`` and ``chain`` (the left/right partner, parent and children under
+    their ratio of ``drift_z``); a gate the parameters turn off passes every cell. Counted on the drifted cells it
+    says what keeps drifts from being flagged; on an untouched take's cells, what keeps its style from being
+    flagged: a gate loosened gains the first and loses the second."""
+    from mocapkit.cleaning.ssa.drifts import chain_level, other_joints_level
+    from mocapkit.motion import mirror_pairs
+
+    p = det.params
+    c = det.change if det.change is not None and p.drift_change else det.consistency
+    a = det.agreement
+    judged = np.isfinite(a)
+    z = p.drift_z
+    with np.errstate(invalid="ignore"):
+        ok = {"z": c >= z, "agreement": a <= np.radians(p.drift_repeat_deg)}
+        ok.update({g: np.ones(c.shape, dtype=bool) for g in ("others", "partner", "chain")})
+        if p.drift_others is not None:
+            ok["others"] = other_joints_level(c, judged, p.drift_others) < z
+        if p.drift_partner_ratio is not None:
+            perm = mirror_pairs(det.joint_names)
+            ok["partner"] = ~((perm != np.arange(len(perm)))[None, :] & (c[:, perm] >= p.drift_partner_ratio * z))
+        if p.drift_chain_ratio is not None and det.parents is not None:
+            ok["chain"] = chain_level(c, judged, det.parents) < p.drift_chain_ratio * z
+    cells = np.asarray(cells, dtype=bool) & judged
+    out = {"cells": int(cells.sum()), "pass": int((np.logical_and.reduce([ok[g] for g in GATES]) & cells).sum())}
+    for g in GATES:
+        rest = np.logical_and.reduce([ok[o] for o in GATES if o != g])
+        out[g] = int((rest & ~ok[g] & cells).sum())
+    return out
+
+
+def add_counts(stats, name, counts):
+    total = stats.setdefault(name, {})
+    for k, v in counts.items():
+        total[k] = total.get(k, 0) + v
+
+
 def run_case(name, clean, context, drifts, seeds, fps_db, stats, totals, key, rows, detect_opts):
     joints = drift_joints(clean)
     db = MotionDatabase.build(context, fps=fps_db, progress=False, executor="serial") if context else None
@@ -184,6 +232,7 @@ def run_case(name, clean, context, drifts, seeds, fps_db, stats, totals, key, ro
     stats[f"{key}/clean_take_drift_cells"] += int(own_drift.sum()) if own_drift is not None else 0
     stats.setdefault(f"{key}/clean_take_cells", 0)
     stats[f"{key}/clean_take_cells"] += int(own.analysed.sum() * clean.num_frames)
+    add_counts(stats, f"{key}/gate_blockers_untouched", gate_blockers(own, np.ones(own.agreement.shape, dtype=bool)))
     for seed in range(seeds):
         bad, mask, records = corrupt.smooth_drifts(clean, n_drifts=drifts, seed=(zlib.crc32(name.encode()), seed), joints=joints)
         truth = mask & (np.degrees(R.geodesic_angle(clean.rotations, bad.rotations)) >= 5.0)
@@ -192,6 +241,7 @@ def run_case(name, clean, context, drifts, seeds, fps_db, stats, totals, key, ro
         base = flag_rule(det.mdm, det.jumps, det.holds, det.swaps, det.offsets, det.threshold, det.fps,
                          det.params.confirm, det.params.confirm_margin_s, None)
         dr = det.drifts()
+        add_counts(stats, f"{key}/gate_blockers_drifted", gate_blockers(det, truth))
         # the same analysis with the drift rule reading the angle ratio (``drift_change`` off)
         unchanged = flag_rule(det.mdm, det.jumps, det.holds, det.swaps, det.offsets, det.threshold, det.fps,
                               det.params.confirm, det.params.confirm_margin_s,
@@ -344,7 +394,10 @@ def main(argv=None):
                "params": ssa.SSAParams().replace(**opts).as_dict(),
                "note": "figures: all of detect's flags (target on the held-out Bandai styles); baselines: the same "
                        "analysis's flags without the smooth-drift rule; drift_rule_only: the drift rule's flags alone; "
-                       "clean-take drift cell share: cells the drift rule flags on the untouched takes over analysed cells"}
+                       "clean-take drift cell share: cells the drift rule flags on the untouched takes over analysed cells; "
+                       "statistic gate_blockers_drifted / _untouched: of the drifted cells (of the untouched takes' judged "
+                       "cells), those that pass every cell-level gate of the drift rule and those one gate alone stops "
+                       "(gate_blockers)"}
     if not args.json:
         for k, v in results.items():
             print(f"{k:32s} recall {v['recall']:.3f} precision {v['precision']:.3f} (tp {v['tp']} fp {v['fp']} fn {v['fn']})")
