@@ -271,6 +271,14 @@ class LookaheadLSTM(nn.Module):
         ``parts``: the positions are cut into this many parts run
         concurrently (:func:`mocapkit.cleaning.deep.threads.run_in_parts`;
         the same result).
+
+        Without gradients (inference) each step makes two new tensors, the
+        recurrent product ``h W_hh^T`` and ``tanh(c)``; the gates, the cell
+        and the output are worked out in place in them (the same elementwise
+        operations on the same operands, each tensor with the strides it had:
+        the same numbers, bit for bit, as the step written out, which training
+        runs for autograd). The ten temporaries a step that made, allocated and
+        freed again, cost a quarter of the pass on a 60 s take.
         """
         B, T, I = x.shape
         L, H = self.lookahead, self.hidden
@@ -281,6 +289,7 @@ class LookaheadLSTM(nn.Module):
         gi = torch.nn.functional.linear(x, lstm.weight_ih_l0, lstm.bias_ih_l0 + lstm.bias_hh_l0)  # (B, T, 4H)
         w_hh = lstm.weight_hh_l0
         step = max(1, chunk // max(B, 1))
+        in_place = not torch.is_grad_enabled()  # inference (the parts' threads run in the caller's grad mode)
 
         def positions(lo: int, hi: int) -> list[torch.Tensor]:
             out = []
@@ -288,13 +297,25 @@ class LookaheadLSTM(nn.Module):
                 m = min(step, hi - s)
                 h = c = None
                 for k in range(L, -1, -1):  # x[t + L] first, x[t] last
-                    g = gi[:, s + k : s + k + m]
-                    if h is not None:
-                        g = g + torch.matmul(h, w_hh.t())
+                    g = gi[:, s + k : s + k + m]  # a view of gi, which every window reads: never written
+                    if not in_place:  # autograd (training) keeps each step's tensors: every one a new tensor
+                        if h is not None:
+                            g = g + torch.matmul(h, w_hh.t())
+                        i, f, gg, o = g.chunk(4, dim=-1)
+                        i, o, gg = torch.sigmoid(i), torch.sigmoid(o), torch.tanh(gg)
+                        c = i * gg if c is None else torch.sigmoid(f) * c + i * gg
+                        h = o * torch.tanh(c)
+                        continue
+                    # the gate inputs in a tensor of their own: x's projection plus h's (IEEE sums commute)
+                    g = g.clone() if h is None else torch.matmul(h, w_hh.t()).add_(g)
                     i, f, gg, o = g.chunk(4, dim=-1)
-                    i, o, gg = torch.sigmoid(i), torch.sigmoid(o), torch.tanh(gg)
-                    c = i * gg if c is None else torch.sigmoid(f) * c + i * gg
-                    h = o * torch.tanh(c)
+                    i.sigmoid_()
+                    o.sigmoid_()
+                    gg.tanh_()
+                    # c = sigmoid(f) * c + i * gg, in c's and i's storage (the first step's c: i * gg, a contiguous
+                    # tensor, as c always is: tanh reads it in the same SIMD lanes as it did)
+                    c = i * gg if c is None else c.mul_(f.sigmoid_()).add_(i.mul_(gg))
+                    h = torch.tanh(c).mul_(o)
                 out.append(h)
             return out
 
