@@ -4,13 +4,24 @@ import os
 from pathlib import Path
 
 import numba
+import pytest
 
 from mocapkit import kernel_cache
 
 
-def test_a_private_temporary_folder_when_nothing_else_is_writable(monkeypatch, tmp_path):
-    monkeypatch.delenv("NUMBA_CACHE_DIR", raising=False)
+@pytest.fixture
+def numba_cache_dir_unset(monkeypatch):
+    """``NUMBA_CACHE_DIR`` unset for the test and put back as it was after it, whatever ensure_cache_dir set meanwhile.
+    ``monkeypatch.delenv`` of a variable that is not set records nothing to undo; setting it first records it as it
+    was (put back last, after any later change is undone). Without it the folder ensure_cache_dir chose under the
+    test's tmp_path stayed numba's cache for every later test of the worker and every process they started."""
+    monkeypatch.setenv("NUMBA_CACHE_DIR", "")
+    monkeypatch.delenv("NUMBA_CACHE_DIR")
     monkeypatch.setattr(numba.config, "CACHE_DIR", numba.config.CACHE_DIR)  # restored after the test
+
+
+@pytest.mark.usefixtures("numba_cache_dir_unset")
+def test_a_private_temporary_folder_when_nothing_else_is_writable(monkeypatch, tmp_path):
     monkeypatch.setattr(kernel_cache, "writable", lambda folder: False)  # read-only site-packages and home
     monkeypatch.setattr(kernel_cache.tempfile, "gettempdir", lambda: str(tmp_path))
     folder = kernel_cache.ensure_cache_dir()
@@ -28,11 +39,10 @@ def test_nothing_changes_where_numba_has_a_place(monkeypatch, tmp_path):
     assert kernel_cache.ensure_cache_dir() is None and "NUMBA_CACHE_DIR" not in os.environ
 
 
+@pytest.mark.usefixtures("numba_cache_dir_unset")
 def test_a_folder_others_can_write_in_is_never_numbas_cache(monkeypatch, tmp_path):
     """numba's cache holds pickles: a folder of the expected name that others may write in (planted by another user)
     is passed over for a fresh private one."""
-    monkeypatch.delenv("NUMBA_CACHE_DIR", raising=False)
-    monkeypatch.setattr(numba.config, "CACHE_DIR", numba.config.CACHE_DIR)
     monkeypatch.setattr(kernel_cache, "writable", lambda folder: False)
     monkeypatch.setattr(kernel_cache.tempfile, "gettempdir", lambda: str(tmp_path))
     who = os.getuid() if hasattr(os, "getuid") else "user"
