@@ -118,16 +118,44 @@ def test_every_marker_of_every_frame_is_on_the_canvas_at_any_angle(page):
     assert worst <= 0, f"a marker {worst:.1f} px off the canvas"
 
 
-def test_playback_runs_in_real_time_at_480_hz(page):
-    page.evaluate("() => { const s = document.getElementById('frame'); s.value = 0; s.oninput(); }")
-    assert shown_frame(page) == 0
-    t0 = page.evaluate("() => performance.now()")
+_PLAY_FOR = """([step, ms]) => {
+    // the page's animation frames driven by hand, ``step`` ms apart for ``ms`` ms after the first; play and pause
+    // by the button, as a user does
+    const queue = [], real = window.requestAnimationFrame;
+    window.requestAnimationFrame = cb => { queue.push(cb); return queue.length; };
+    try {
+      document.getElementById('play').click();
+      const t0 = 1000;
+      for (let k = 0; ; k++) {
+        const t = Math.min(t0 + k * step, t0 + ms);
+        queue.splice(0).forEach(cb => cb(t));
+        if (t === t0 + ms) break;
+      }
+      document.getElementById('play').click();
+      return [pos, markerReport.frame(), markerReport.playing()];
+    } finally {
+      window.requestAnimationFrame = real;
+    }
+}"""
+
+
+def test_playback_runs_in_real_time_at_480_hz(page, long_capture):
+    """1.5 s of playback moves 720 take frames (480 Hz) and shows the kept frame at or before it, whether the screen
+    draws 60 frames a second or 7 (a busy machine: frames in between are skipped). The animation frames are given
+    by hand with their times: timing the real ones against the wall clock measured the machine's load too (0.79x
+    real time beside busy cores, where the click's and the reads' round trips fell inside the timed window)."""
+    kept = data(long_capture[0])["frames"]
+    for step in (1000 / 60, 1000 / 7):
+        page.evaluate("() => { const s = document.getElementById('frame'); s.value = 0; s.oninput(); }")
+        assert shown_frame(page) == 0
+        pos, frame, playing = page.evaluate(_PLAY_FOR, [step, 1500])
+        assert pos == pytest.approx(1.5 * 480, abs=1e-6), f"played at {pos / 720:.4f}x real time"
+        assert frame == max(f for f in kept if f <= pos) and shown_frame(page) == frame and not playing
+    # and the browser's own animation frames drive it: it moves, then stops where the button pauses it
     page.click("#play")
-    page.wait_for_timeout(1500)
-    frame, t1 = shown_frame(page), page.evaluate("() => performance.now()")
+    page.wait_for_function("() => markerReport.frame() > 0", timeout=60000)
     page.click("#play")
-    rate = frame / ((t1 - t0) / 1000) / 480.0
-    assert 0.8 < rate < 1.1, f"played at {rate:.2f}x real time"
+    assert not page.evaluate("() => markerReport.playing()")
 
 
 def test_a_foreign_stretch_is_drawn_and_named_as_such_not_as_a_duplicate_label(tmp_path):
