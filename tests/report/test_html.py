@@ -563,7 +563,7 @@ def test_slider_scrubs_and_mouse_orbits(open_page, walk_report, walk):
     # the label is rewritten on the next animation frame, not by the click itself: wait for that redraw
     from playwright.sync_api import expect  # present: the browser fixture skips without it
 
-    expect(pg.page.locator("#frame-label")).to_contain_text(f"frame {mid} /", timeout=5000)
+    expect(pg.page.locator("#frame-label")).to_contain_text(f"frame {mid} /", timeout=60000)  # a wait, as wait_for
     assert f"frame {mid} /" in pg.page.inner_text("#frame-label")
     # orbit by dragging and zoom by the wheel redraw the view differently
     vb = pg.page.locator("#viewer").bounding_box()
