@@ -163,6 +163,19 @@ def test_round_trip_keeps_points_residuals_labels_rate_units_and_analogs(tmp_pat
     assert int(_params(back)["POINT"]["FRAMES"]["value"][0]) == 450
 
 
+def test_written_back_every_parameter_keeps_its_description_and_lock(tmp_path):
+    """Eb015pr.c3d's ANALOG:LABELS, DESCRIPTIONS and UNITS say what they are ("  Analog labels"); the writer
+    rebuilds their values (one per channel written) and wrote them with empty descriptions."""
+    from mocapkit.io import load_markers, save_markers
+
+    src = load_markers(mocapkit.samples.path("Eb015pr.c3d"))
+    back = load_markers(save_markers(src, tmp_path / "copy.c3d"))
+    assert _params(src)["ANALOG"]["LABELS"]["description"] == "  Analog labels"
+    for name in ("LABELS", "DESCRIPTIONS", "UNITS"):
+        for key in ("description", "is_locked"):
+            assert _params(back)["ANALOG"][name][key] == _params(src)["ANALOG"][name][key], (name, key)
+
+
 def test_a_cleaned_take_written_back_changes_only_its_points(tmp_path):
     from mocapkit.io import load_markers, save_markers
 

@@ -227,3 +227,29 @@ def test_capped_trial_of_wide_frames_without_a_length_is_read_whole(tmp_path, sh
     ms = read_c3d(path, zeros_as_gaps=False)
     assert ms.num_frames == 70_001
     assert np.array_equal(ms.positions, xyz)
+
+
+def test_a_files_own_long_frame_count_is_kept_stating_the_frames_written(tmp_path):
+    """Qualisys states POINT:LONG_FRAMES in every file, long or not (03_rolling.c3d: 2305.0). Written back it is
+    kept, stating the frames written (a part of the take: its own count), not dropped as a parameter of the
+    file's lost; a file without one gets none."""
+    import dataclasses
+    from pathlib import Path
+
+    import ezc3d
+
+    take = read_c3d(Path(__file__).resolve().parents[1] / "data" / "85_02.c3d")
+    assert "LONG_FRAMES" not in take.source.parameters["POINT"]
+    write_c3d(take, tmp_path / "plain.c3d")
+    assert "LONG_FRAMES" not in ezc3d.c3d(str(tmp_path / "plain.c3d"))["parameters"]["POINT"]
+    params = {g: dict(p) for g, p in take.source.parameters.items()}
+    params["POINT"]["LONG_FRAMES"] = {"type": 4, "description": "Number of frames (not limited to 65535)",
+                                      "is_locked": False, "value": np.array([float(take.num_frames)])}
+    qualisys = dataclasses.replace(take, source=dataclasses.replace(take.source, parameters=params))
+    for part, frames in ((qualisys, take.num_frames), (qualisys[:100], 100)):
+        out = tmp_path / f"{frames}.c3d"
+        write_c3d(part, out)
+        got = ezc3d.c3d(str(out))["parameters"]["POINT"]["LONG_FRAMES"]
+        assert float(got["value"][0]) == frames
+        assert got["description"] == "Number of frames (not limited to 65535)"
+        assert read_c3d(out).num_frames == frames

@@ -734,13 +734,14 @@ def _c3d_object(markers: MarkerSet, source: MarkerSource | None):
     analog = c["parameters"]["ANALOG"]
     A = 0 if analogs is None else analogs.shape[0]
     for key in ("LABELS", "DESCRIPTIONS", "UNITS"):  # one text per channel written, LABELS2... folded in
-        values = []
+        values, old = [], dict(analog.get(key, {}))  # its description and lock kept, as the file had them
         for k in [key] + [f"{key}{i}" for i in range(2, 100)]:
             if k in analog:
                 values += [str(v) for v in np.ravel(analog.pop(k)["value"])]
         if key == "LABELS" or values:
             values = (values + [f"Analog{i + 1}" if key == "LABELS" else "" for i in range(len(values), A)])[:A]
-            analog[key] = {"type": -1, "description": "", "is_locked": False, "value": values}
+            analog[key] = {"type": -1, "description": old.get("description", ""),
+                           "is_locked": old.get("is_locked", False), "value": values}
     # the numbers the file stored under its own scales and offsets (stored_analogs), else the values read, scale 1;
     # a file without analogs whose ANALOG:RATE says 0 keeps saying so (the frame rate written there read as an
     # analog rate)
@@ -755,17 +756,17 @@ def _c3d_object(markers: MarkerSet, source: MarkerSource | None):
         analog[key] = {"type": typ, "description": old.get("description", ""), "is_locked": old.get("is_locked", False),
                        "value": value}
     data_analogs = np.zeros((1, 0, 0 if none_at_0 else F)) if analogs is None else analogs[None]
-    # the trial's first and last frames and its length, kept in step with the frames written, and written
-    # whenever the header's 16-bit frame numbers cannot hold them (long_frame_parameters)
+    # the trial's first and last frames and its length, kept in step with the frames written where the file
+    # states them (Qualisys states POINT:LONG_FRAMES in every file), and written whenever the header's 16-bit
+    # frame numbers cannot hold them (long_frame_parameters)
     for (group, key), param in long_frame_parameters(first, F).items():
         params = c["parameters"]
         if F > FRAME_CAP and group not in params:
             params[group] = {"__METADATA__": {"DESCRIPTION": "", "IS_LOCKED": False}}
-        if F > FRAME_CAP or (key in params.get(group, {}) and key != "LONG_FRAMES"):
+        if F > FRAME_CAP or key in params.get(group, {}):
             old = params[group].get(key, {})
-            params[group][key] = dict(param, description=old.get("description", param["description"]))
-        elif key in params.get(group, {}):
-            del params[group][key]  # a count no longer true: C3D states it only past the header's reach
+            params[group][key] = dict(param, description=old.get("description", param["description"]),
+                                      is_locked=old.get("is_locked", param["is_locked"]))
     pts = np.ones((4, M, F))
     pts[:3] = np.transpose(markers.positions, (2, 1, 0))
     c["data"]["points"] = pts
