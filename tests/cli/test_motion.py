@@ -581,3 +581,25 @@ def test_corrupt_prints_each_injected_error_as_a_plain_line(tmp_path):
     for line in lines:
         assert re.fullmatch(r"  (spike|flip|freeze|drift|swap): \S+( with \S+)?, frames? \d+(-\d+)? "
                             r"\(\d+ frames?, \d+\.\d\d s\), turned by up to \d+\.\d deg", line), line
+
+
+def test_info_and_clean_say_how_many_samples_stored_as_zeros_were_read_as_gaps(tmp_path):
+    """Trial: `convert` said that 35,965 of Qualisys 03_rolling.c3d's samples, stored as exact (0, 0, 0), were read
+    as gaps, but `info` (22.95 % missing) and `clean` (194 gaps filled) did not, so the user of either never
+    learnt where the missing share came from. A TRC whose exporter wrote 0 for unseen markers (Eb015pr's gaps)."""
+    from mocapkit.io import load_markers, save_markers
+
+    src = load_markers(mocapkit.samples.path("Eb015pr.c3d"))[:200]
+    take = tmp_path / "zeros.trc"
+    save_markers(src, take)
+    rows = [ln.split("\t") for ln in take.read_text().split("\n")]
+    for row in rows[6:]:
+        row[2:] = ["0" if (cell == "" and k < 3 * src.num_markers) else cell for k, cell in enumerate(row[2:])]
+    take.write_text("\n".join("\t".join(row) for row in rows))
+    n = int(src.missing().sum())
+    assert load_markers(take).zero_gaps == n > 0
+    said = f"read {n} samples stored as exact (0, 0, 0) as gaps"
+    code, out, _ = run("info", take)
+    assert code == 0 and f"% of marker samples ({said})" in out, out
+    code, out, err = run("clean", take, "-o", tmp_path / "c.trc")
+    assert code == 0 and f"\n  {said}\n" in out, (out, err)

@@ -282,6 +282,10 @@ def _clean_marker_take(inp: Path, out: Path, *, report, png, overwrite: bool, no
     if take.units_from != "file":  # the unit every mm figure below rests on
         how = "given with --unit" if take.units_from == "given" else "inferred from the marker distances; --unit sets it"
         console.print(f"  length unit {take.units}: the file states none ({how})")
+    if take.zero_gaps:  # the gaps below include these; convert --keep-zeros shows the file's samples as positions
+        from ..io.c3d_contents import zero_gaps_line
+
+        console.print(f"  {zero_gaps_line(take.zero_gaps)}")
     for line in res.summary():
         console.print(f"  {line}")
     for line in tied_lines(take, res.markers, res.fixes):  # changes a person must decide together, and why

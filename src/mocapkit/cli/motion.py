@@ -27,7 +27,7 @@ def info(
     from ..digest import take_digest
     from ..io.bvh_roots import extra_roots
     from ..io.c3d import MarkerSet
-    from ..io.c3d_contents import marker_counts, marker_file_contents
+    from ..io.c3d_contents import marker_counts, marker_file_contents, zero_gaps_line
     from ..io.takes import CLI_AMC_NAMES, check_asf, load_take
     from ..motion import ROLES, standard_joints, unit_scale_cm
     from ..rigs import rig_family, roles_by_topology
@@ -46,7 +46,8 @@ def info(
                                              "powers; not markers)" if modelled else "")),
                  ("frames", str(obj.num_frames)), ("fps", f"{obj.fps:g}"),
                  ("duration", f"{obj.num_frames / obj.fps:.3f} s"), ("units", obj.units + _UNITS_FROM[obj.units_from]),
-                 ("missing", f"{100.0 * missing:.2f} % of marker samples")]
+                 ("missing", f"{100.0 * missing:.2f} % of marker samples"
+                             + (f" ({zero_gaps_line(obj.zero_gaps)})" if obj.zero_gaps else ""))]
         rows += marker_file_contents(obj)
         rows.append(("sha256", f"{take_digest(obj)} (of the samples: a decisions file's \"take\" digest)"))
         print_fields(rows)
@@ -150,7 +151,7 @@ def convert(
         if keep_modelled:
             io.check_keep_modelled(inp, out)
         io.save_markers(m, out, keep_modelled=keep_modelled, overwrite=overwrite)
-        from ..io.c3d_contents import marker_counts
+        from ..io.c3d_contents import marker_counts, zero_gaps_line
 
         markers, modelled, missing = marker_counts(m)
         quantities = plural(modelled, "modelled quantity", "modelled quantities")
@@ -159,8 +160,7 @@ def convert(
         console.print(f"wrote {out} ({plural(markers, 'marker')}, {plural(m.num_frames, 'frame')} @ {m.fps:g} fps, "
                       f"{100.0 * missing:.2f} % of marker samples missing{kept})")
         if m.zero_gaps:
-            console.print(f"read {plural(m.zero_gaps, 'sample')} stored as exact (0, 0, 0) as gaps "
-                          "(--keep-zeros keeps them as positions)")
+            console.print(f"{zero_gaps_line(m.zero_gaps)} (--keep-zeros keeps them as positions)")
         # what the reader did, what OUT's format cannot hold or tell apart
         for note in io.marker_notes(m, out, inp, keep_modelled=keep_modelled):
             console.print(f"note: {note}")

@@ -19,7 +19,7 @@ from collections import Counter
 from ..markerset import MarkerSet
 from .c3d_layout import parameter_values
 
-__all__ = ["marker_file_contents", "marker_counts"]
+__all__ = ["marker_file_contents", "marker_counts", "zero_gaps_line"]
 
 
 def _values(parameters, group: str, name: str) -> list:
@@ -94,3 +94,13 @@ def marker_file_contents(markers: MarkerSet) -> list[tuple[str, str]]:
     elif used > 0:
         rows.append(("events", str(used)))
     return rows
+
+
+def zero_gaps_line(count: int) -> str:
+    """What the reader made of samples stored as exact (0, 0, 0), for ``info``, ``convert`` and ``clean``.
+
+    ``count``: :attr:`MarkerSet.zero_gaps`, the samples read as gaps (decided run by run from the data unless
+    ``zeros_as_gaps=`` says; docs/guide/markers.md, Gaps stored as zeros: 23 % of Qualisys's 03_rolling.c3d), so
+    that a missing share or a cleaning's gap count that comes from them is never unexplained.
+    """
+    return f"read {count} sample{'' if count == 1 else 's'} stored as exact (0, 0, 0) as gaps"
