@@ -457,3 +457,24 @@ def test_ssg_result_says_which_frames_lie_far_from_the_markers(tmp_path, bandai_
     far = said["far_from_markers"]
     assert far["worst_marker"] == "Hand_L (Hand_L)" and 30 <= far["worst_frame"] <= 35
     assert any(a <= 32 <= b for a, b in far["ranges"]) and any("further than usual" in n for n in said["notes"])
+
+
+def test_a_marker_file_whose_vertical_is_not_z_is_said_in_a_note(db_dir, tmp_path):
+    """Trial: a Y-up TRC (OpenSim's convention: the shared data's T.trc) without --up-axis came back lying on its
+    side and the command said nothing. CMU 85_02.c3d turned Y-up (y, z, x) and written as a TRC."""
+    import dataclasses
+    import json
+
+    from mocapkit.io import load_markers, save_markers
+
+    take = load_markers(Path(__file__).resolve().parents[1] / "data" / "85_02.c3d")[:120]
+    src = save_markers(dataclasses.replace(take, positions=take.positions[..., [1, 2, 0]], source=None),
+                       tmp_path / "y_up.trc")
+    said = ("the markers stand along the file's y axis, not z (the default, the C3D convention): the body was "
+            "reconstructed lying on its side; pass --up-axis y")
+    use = "LFHD=head,LANK=lfoot,RANK=rfoot,LFWT=root"
+    for up, notes in ((), [said]), (("--up-axis", "y"), []):
+        code, stdout, err = run("reconstruct", "--db", str(db_dir), "--ssg", str(src), "--use", use, *up,
+                                "-o", str(tmp_path / f"r{len(up)}.npz"), "--json")
+        assert code == 0, err
+        assert [n for n in json.loads(stdout.strip().splitlines()[-1])["notes"] if "axis" in n] == notes

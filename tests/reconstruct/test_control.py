@@ -9,7 +9,7 @@ import mocapkit
 from mocapkit import samples
 from mocapkit.features import parse_up_axis, virtual_markers
 from mocapkit.motion import unit_scale_cm
-from mocapkit.reconstruct.control import control_markers, parse_use, up_rotation
+from mocapkit.reconstruct.control import control_markers, parse_use, up_axis_note, up_rotation
 
 AXES = ["x", "y", "z", "-x", "-y", "-z"]
 
@@ -92,3 +92,26 @@ def test_a_marker_never_seen_is_named_in_a_warning_from_python():
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         assert warn_unseen(np.zeros((5, 3, 3)), ["lhand", "rhand", "root"]) == []
+
+
+def test_a_marker_file_read_with_the_wrong_vertical_is_said():
+    """Trial: an OpenSim-style Y-up TRC (the shared data's T.trc) given to `reconstruct --markers/--ssg` without
+    --up-axis was read Z-up and the body reconstructed lying on its side, with no note at all. CMU 85_02.c3d
+    (Z-up) as a Y-up file (y, z, x): said, with the axis to pass; read with that axis, or the file itself, not."""
+    import dataclasses
+    from pathlib import Path
+
+    take = mocapkit.load(Path(__file__).resolve().parents[1] / "data" / "85_02.c3d")
+    sk = mocapkit.load(samples.path("HDM_bk_sneak2StepsLStart_004_120.amc")).skeleton
+    use = "LFHD=head,LWRA=lhand,RWRA=rhand,LANK=lfoot,RANK=rfoot,LFWT=root"
+
+    def note(markers, up=None):
+        return up_axis_note(control_markers(markers, use, sk, up_axis=up)[0], [j for _, j in parse_use(use)], sk, up)
+
+    assert note(take) == "" and note(take, "z") == ""
+    y_up = dataclasses.replace(take, positions=take.positions[..., [1, 2, 0]])
+    assert note(y_up) == ("the markers stand along the file's y axis, not z (the default, the C3D convention): the "
+                          "body was reconstructed lying on its side; pass --up-axis y")
+    assert note(y_up, "y") == ""
+    assert note(y_up, "-y").endswith("not -y: the body was reconstructed upside down; pass --up-axis y")
+    assert note(take, "x").endswith("not x: the body was reconstructed lying on its side; pass --up-axis z")

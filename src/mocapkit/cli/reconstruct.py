@@ -119,18 +119,18 @@ def reconstruct(
     db_dir: Path = typer.Option(..., "--db", help="The knowledge base: a database folder (`mocapkit db build`)."),
     out: Path = typer.Option(..., "--out", "-o", help="Reconstructed full-body motion (.bvh or .npz; .amc when the body is on an ASF's skeleton: --skeleton X.asf, or an .amc input; the ASF is copied beside it)."),
     markers: Optional[Path] = typer.Option(
-        None, "--markers", help="A few marker trajectories (.c3d, marker .npz, or a motion whose joints become markers): local linear models (Krüger 2010, 5.2)."
+        None, "--markers", help="A few marker trajectories (.c3d, .trc, marker .npz, or a motion whose joints become markers): local linear models (Krüger 2010, 5.2)."
     ),
     accelerometers: Optional[Path] = typer.Option(
         None, "--accelerometers", help="Accelerometer CSV (time,<sensor>.x,.y,.z,... in s and m/s^2), or a motion to simulate them on: online LNG, the mean pose of its best paths (Tautges ch. 3)."
     ),
     ssg: Optional[Path] = typer.Option(
-        None, "--ssg", help="Marker trajectories with gaps (.c3d, marker .npz, or a motion): the subsequence graph (Tautges ch. 4)."
+        None, "--ssg", help="Marker trajectories with gaps (.c3d, .trc, marker .npz, or a motion): the subsequence graph (Tautges ch. 4)."
     ),
     use: Optional[str] = typer.Option(
         None, "--use", help="Markers as LABEL[=JOINT],... (default for a motion: hands, feet, head and root)."
     ),
-    up_axis: Optional[str] = typer.Option(None, "--up-axis", help="Vertical axis of a marker file (default z, the C3D convention)."),
+    up_axis: Optional[str] = typer.Option(None, "--up-axis", help="Vertical axis of a marker file (default z, the C3D convention; an OpenSim .trc is y: a note says when the markers stand along another axis)."),
     skeleton: Optional[Path] = typer.Option(
         None, "--skeleton", help="The performer's skeleton (.asf, or a motion file), same joints as the database; default: the input motion's, else the database's."
     ),
@@ -213,6 +213,7 @@ def reconstruct(
     else:
         from ..reconstruct.control import control_markers, far_from_markers, parse_use
 
+        lying = ""
         if use is None and isinstance(source, MarkerSet):
             raise MocapFormatError(inp, "a marker file needs --use LABEL=JOINT,... to say which joint each marker sits on")
         spec = use if use is not None else _default_use(source.skeleton)
@@ -223,6 +224,10 @@ def reconstruct(
         pos, joints, unseen = _drop_unseen(pos, joints, spec)
         if not joints:
             raise MocapFormatError(inp, f"no marker named in --use is seen in any frame ({', '.join(unseen)})")
+        if isinstance(source, MarkerSet):  # a file whose vertical is not the one it was read with
+            from ..reconstruct.control import up_axis_note
+
+            lying = up_axis_note(pos, joints, db.skeletons[0], up_axis)
         what = f"{plural(len(joints), 'marker')} ({', '.join(joints)})"
         frames = pos.shape[0]
     ref = None
@@ -264,6 +269,8 @@ def reconstruct(
 
     coarse = upsampled_note(fps, db.fps, "the accelerometer readings" if kind == "accelerometers" else "the markers")
     notes, far = ([coarse] if coarse else []), {}
+    if kind != "accelerometers" and isinstance(source, MarkerSet) and lying:
+        notes.append(lying)
     if kind != "accelerometers":  # markers: a fit's compromise; ssg: database motion that does not follow them
         labels = [a for a, _ in parse_use(spec) if not any(u.startswith(f"{a} (") for u in unseen)]
         far = far_from_markers(result, pos, joints, unit_scale_cm(db.skeletons[0]), labels)

@@ -24,7 +24,8 @@ from ..features import parse_up_axis, detect_up_axis, virtual_markers
 from ..io.c3d import MarkerSet
 from ..motion import Motion, Skeleton, unit_scale_cm
 
-__all__ = ["parse_use", "up_rotation", "control_markers", "marker_residuals", "far_from_markers", "FAR_CM", "upsampled_note", "warn_unseen"]
+__all__ = ["parse_use", "up_rotation", "control_markers", "marker_residuals", "far_from_markers", "FAR_CM", "upsampled_note", "warn_unseen",
+           "up_axis_note"]
 
 #: a markers fit that ends this far (cm) further from a seen marker than its usual distance has not passed through it
 FAR_CM = 10.0
@@ -148,6 +149,70 @@ def control_markers(
     pos = source.positions[:, [found[a] for a, _ in pairs]] * (source.unit_cm * to_unit)
     P = up_rotation("z" if up_axis is None else up_axis, target_up)
     return pos @ P.T, joints, float(source.fps)
+
+
+def up_axis_note(pos: np.ndarray, joints: Sequence[str], skeleton: Skeleton, up_axis=None) -> str:
+    """A note where a marker file's trajectories do not stand along the vertical axis they were read with; "".
+
+    ``pos`` (F, M, 3): :func:`control_markers`' output for a marker file read with ``up_axis`` (None: ``"z"``,
+    the C3D convention), in ``skeleton``'s frame and units; ``joints`` (M): the joints or end sites they sit on.
+    In each frame with 3 or more markers seen off the arms (which reach above the head), their coordinates along
+    each axis are regressed on their joints' heights in ``skeleton``'s rest pose (head above hips above feet):
+    along the vertical the slope is near 1 (0.76-1.12 on CMU 85_02, 85_12, 135_02, HDM05 bd_05-01, and the
+    shared data's Y-up T.trc and ballet_reduced.trc read with --up-axis y), along a horizontal axis near 0
+    (under 0.15). Where the median
+    slope over frames is under 0.3 along the vertical and over 0.5 in size along another axis (or under -0.5
+    along the vertical), the file's vertical is that axis: an OpenSim TRC is Y-up, and read as Z-up its body
+    was reconstructed lying on its side, without a word (Krüger 2010 and Tautges 2011 take the control
+    signals in the database's frame). A take lying down for most of its frames stands along no axis and gets no
+    note.
+    """
+    from ..joints import find_joint
+
+    names = list(skeleton.joint_names) + list(skeleton.end_site_names)
+    owner = list(range(skeleton.num_joints)) + [int(p) for p in skeleton.end_site_parents]  # an end site's joint
+    arms = set()  # arms reach above the head or out to the sides: no height to expect
+    for role in ("left_shoulder", "right_shoulder"):
+        try:
+            arms.add(find_joint(skeleton, role))
+        except KeyError:
+            pass
+
+    def on_arm(j: int) -> bool:
+        while j >= 0 and j not in arms:
+            j = int(skeleton.parents[j])
+        return j >= 0
+
+    keep = [m for m, j in enumerate(joints) if not on_arm(owner[names.index(j)])]
+    up = detect_up_axis(skeleton)
+    heights = skeleton.rest_positions(end_sites=True)[[names.index(joints[m]) for m in keep]] @ up
+    x = np.asarray(pos, dtype=np.float64)[:, keep]
+    seen = ~np.isnan(x).any(axis=-1)
+    if len(keep) < 3 or np.ptp(heights) <= 0:
+        return ""
+    slope = np.full((x.shape[0], 3), np.nan)
+    for f in np.flatnonzero(seen.sum(axis=1) >= 3):
+        h = heights[seen[f]] - heights[seen[f]].mean()
+        for a in range(3):
+            v = x[f, seen[f], a] - x[f, seen[f], a].mean()
+            slope[f, a] = v @ h / (h @ h) if h @ h > 0 else np.nan
+    if np.isnan(slope).all():
+        return ""
+    med = np.nanmedian(slope, axis=0)
+    k_up = int(np.argmax(np.abs(up)))
+    k = int(np.argmax(np.abs(med)))  # the file's vertical: a horizontal axis, or the vertical upside down
+    if not (med[k_up] * np.sign(up[k_up]) < 0.3 and abs(med[k]) > 0.5):
+        return ""
+    given = "z" if up_axis is None else str(up_axis)
+    target = np.zeros(3)
+    target[k] = np.sign(med[k])
+    v = up_rotation(given, up).T @ target  # back into the file's axes
+    a = int(np.argmax(np.abs(v)))
+    axis = ("-" if v[a] < 0 else "") + "xyz"[a]
+    default = " (the default, the C3D convention)" if up_axis is None else ""
+    how = "upside down" if k == k_up else "lying on its side"
+    return (f"the markers stand along the file's {axis} axis, not {given}{default}: the body was reconstructed "
+            f"{how}; pass --up-axis {axis}")
 
 
 def marker_residuals(motion: Motion, markers: np.ndarray, joints: Sequence[str]) -> np.ndarray:
