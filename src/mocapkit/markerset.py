@@ -24,7 +24,7 @@ import numpy as np
 
 from .motion import check_fps, frame_slice, frozen
 
-__all__ = ["MarkerSet", "MarkerSource", "length_unit_cm", "zero_gap_mask", "unique_labels", "repeated_labels_note",
+__all__ = ["MarkerSet", "MarkerSource", "length_unit_cm", "unit_symbol", "zero_gap_mask", "unique_labels", "repeated_labels_note",
            "subject_of",
            "infer_units", "marker_units", "check_units", "UNIT_MISMATCH_FACTOR", "ZERO_GAP_DISTANCE_CM", "BODY_SPAN_M",
            "MODELLED_GROUPS"]
@@ -134,6 +134,18 @@ def length_unit_cm(units: str) -> float:
     except KeyError:
         known = "mm, cm, dm, m, in, ft (and their spelled-out forms)"
         raise ValueError(f"unknown length unit {str(units)!r}; known: {known}") from None
+
+
+def unit_symbol(units: str) -> str:
+    """The symbol of a length unit as a file states it: ``"mete"`` (a 4-character C3D field: c3d.org FP1.C3D),
+    ``"metres"``, ``"M"`` -> ``"m"``; ``"millimeters"`` -> ``"mm"``; ``"inches"`` -> ``"in"``.
+
+    What a TRC written new states in its Units field: OpenSim and Motion Analysis read the symbols, and a
+    C3D's truncated ``"mete"`` copied into a TRC names no unit they know. Raises ValueError as
+    :func:`length_unit_cm` for an unknown unit.
+    """
+    cm = length_unit_cm(units)
+    return next(name for name in ("mm", "cm", "dm", "m", "in", "ft") if _UNIT_CM[name] == cm)
 
 
 def infer_units(positions: np.ndarray) -> str | None:

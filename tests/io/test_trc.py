@@ -767,3 +767,24 @@ def test_a_bad_modelled_points_field_is_refused_in_one_line(tmp_path):
         (tmp_path / "bad.trc").write_text(text.format(bad))
         with pytest.raises(MocapFormatError, match=why):
             read_trc(tmp_path / "bad.trc")
+
+
+def test_a_trc_written_new_states_the_unit_s_symbol_where_the_input_spelt_it_otherwise(tmp_path):
+    """Trial: c3d.org's FP1.C3D states POINT:UNITS "mete" (a 4-character field); `convert FP1.C3D fp1.trc` wrote
+    Units "mete", which OpenSim and Motion Analysis do not read as metres. Eb015pr.c3d in metres, so spelt; a
+    TRC's own spelling stays as it was."""
+    import dataclasses
+
+    import mocapkit.samples
+
+    src = load_markers(mocapkit.samples.path("Eb015pr.c3d"))[:20]
+    metres = dataclasses.replace(src, positions=src.positions / 1000, units="mete")
+    out = save_markers(metres, tmp_path / "m.trc")
+    header = out.read_text().splitlines()
+    assert header[2].split("\t")[header[1].split("\t").index("Units")] == "m"
+    back = load_markers(out)
+    assert back.units == "m" and np.array_equal(back.positions, np.round(metres.positions, 5), equal_nan=True)
+    spelt = tmp_path / "spelt.trc"
+    spelt.write_text(out.read_text().replace("\tm\t", "\tmeters\t", 1))
+    again = save_markers(load_markers(spelt).select(list(src.labels[:3])), tmp_path / "again.trc")
+    assert again.read_text().splitlines()[2].split("\t")[4] == "meters"

@@ -18,7 +18,8 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import MocapFormatError, SkeletonError
-from ..markerset import MODELLED_GROUPS, MarkerSet, MarkerSource, marker_units, repeated_labels_note, unique_labels
+from ..markerset import (MODELLED_GROUPS, MarkerSet, MarkerSource, marker_units, repeated_labels_note, unique_labels,
+                         unit_symbol)
 from ..motion import check_fps
 from .c3d import apply_zero_gaps, checked_unit_cm
 
@@ -681,7 +682,9 @@ def _new_text(markers: MarkerSet, path: Path, source: MarkerSource | None, first
     F, M = markers.num_frames, markers.num_markers
     head = {
         "DataRate": _rate(markers.fps), "CameraRate": old.get("CameraRate") or _rate(markers.fps),
-        "NumFrames": str(F), "NumMarkers": str(M), "Units": markers.units,
+        "NumFrames": str(F), "NumMarkers": str(M),
+        # the TRC's own spelling, else the symbol (a C3D's 4-character "mete" is no unit OpenSim reads)
+        "Units": markers.units if old.get("Units") == markers.units else unit_symbol(markers.units),
         "OrigDataRate": old.get("OrigDataRate") or _rate(markers.fps),
         "OrigDataStartFrame": old.get("OrigDataStartFrame") or str(first), "OrigNumFrames": old.get("OrigNumFrames") or str(F),
     }
