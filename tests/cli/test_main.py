@@ -65,6 +65,19 @@ def test_every_commands_help_shows_flags_as_flags():
     assert re.search(r"--overwrite\s+Replace output files", out), out  # no type between the flag and its help
 
 
+def test_a_commands_help_is_wrapped_by_the_terminal_not_by_its_docstring(monkeypatch):
+    """At 80 columns the docstring's own line breaks (kept by typer after the first paragraph) and the terminal's
+    wrap cut ``clean --help``'s text into ragged lines ("step changed and" / "a record per step; ..."): each line
+    of a paragraph but its last is now as full as the next line's first word allows."""
+    monkeypatch.setenv("COLUMNS", "80")
+    for cmd in ("clean", "train", "clean-batch", "fill"):
+        out = run(cmd, "--help")[1]
+        text = out.split("Usage:", 1)[1].split("\u256d", 1)[0].splitlines()[2:]  # the description, before the panels
+        short = [a for a, b in zip(text, text[1:])  # a line the next one's first word would still have fitted on
+                 if a.strip() and b.strip() and len(a.rstrip()) + 1 + len(b.split()[0]) < 78]
+        assert text and not short, (cmd, short)
+
+
 
 
 # -- --version -------------------------------------------------------------------------------

@@ -9,6 +9,7 @@ no user string needs escaping case by case. Lines are not wrapped or cut
 
 from __future__ import annotations
 
+import inspect
 import math
 from typing import Iterable, Optional
 
@@ -51,8 +52,23 @@ def _flags_without_type(params):
     return params
 
 
+def _unwrapped(text: str | None) -> str | None:
+    """A command's help with each paragraph on one line: typer keeps the docstring's line breaks after the first
+    paragraph, so at 80 columns the terminal's wrap and the docstring's broke the text into ragged lines. Paragraphs
+    stay apart (a blank line); one that starts with ``\\b`` (click's "keep as written") is left as it is."""
+    if not text:
+        return text
+    paragraphs = inspect.cleandoc(text).split("\n\n")
+    return "\n\n".join(p if p.startswith("\b") else " ".join(line.strip() for line in p.splitlines()) for p in paragraphs)
+
+
 class FlagsCommand(TyperCommand):
-    """A command whose ``--help`` shows flags as flags (:func:`_flags_without_type`)."""
+    """A command whose ``--help`` shows flags as flags (:func:`_flags_without_type`) and its text as paragraphs
+    the terminal wraps (:func:`_unwrapped`)."""
+
+    def __init__(self, *args, **kwargs):
+        super().__init__(*args, **kwargs)
+        self.help = _unwrapped(self.help)
 
     def get_params(self, ctx):
         return _flags_without_type(super().get_params(ctx))
@@ -62,6 +78,10 @@ class FlagsGroup(TyperGroup):
     """A command group whose commands (and its own ``--help``) show flags as flags (:class:`FlagsCommand`)."""
 
     command_class = FlagsCommand
+
+    def __init__(self, *args, **kwargs):
+        super().__init__(*args, **kwargs)
+        self.help = _unwrapped(self.help)
 
     def get_params(self, ctx):
         return _flags_without_type(super().get_params(ctx))
