@@ -603,3 +603,23 @@ def test_info_and_clean_say_how_many_samples_stored_as_zeros_were_read_as_gaps(t
     assert code == 0 and f"% of marker samples ({said})" in out, out
     code, out, err = run("clean", take, "-o", tmp_path / "c.trc")
     assert code == 0 and f"\n  {said}\n" in out, (out, err)
+
+
+def test_plot_names_a_take_and_its_cleaned_copy_of_the_same_name_apart(tmp_path, monkeypatch):
+    """`clean-batch` keeps a take's name in OUT_DIR: the legend said 'walk vs walk', not which line is which."""
+    import mocapkit.report
+
+    (tmp_path / "in").mkdir()
+    (tmp_path / "out").mkdir()
+    take, cleaned = tmp_path / "in" / "walk.bvh", tmp_path / "out" / "walk.bvh"
+    mocapkit.save(mocapkit.load(SAMPLE)[:40], take)
+    mocapkit.save(mocapkit.load(take), cleaned)
+    drawn = []
+    monkeypatch.setattr(mocapkit.report, "plot_channels", lambda motions, joint, out, labels, mask: drawn.append(labels))
+    assert main(["plot", str(take), str(cleaned), "--joint", "LeftKnee", "-o", str(tmp_path / "p.png")]) == 0
+    assert drawn == [[str(take), str(cleaned)]]
+    amc = mocapkit.samples.path("HDM_bk_sneak2StepsLStart_004_120.amc")  # a take and its conversion: the file names
+    assert main(["convert", str(amc), str(tmp_path / "HDM_bk_sneak2StepsLStart_004_120.bvh")]) == 0
+    assert main(["plot", str(amc), str(tmp_path / "HDM_bk_sneak2StepsLStart_004_120.bvh"), "--joint", "rhumerus",
+                 "-o", str(tmp_path / "q.png")]) == 0
+    assert drawn[1] == ["HDM_bk_sneak2StepsLStart_004_120.amc", "HDM_bk_sneak2StepsLStart_004_120.bvh"]

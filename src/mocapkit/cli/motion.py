@@ -265,11 +265,22 @@ def plot(
         except MocapFormatError:
             if mask is not None:  # asked for: its problem is an error; a mask merely found beside OTHER is skipped
                 raise
-    plot_channels(motions, joint, out, labels=[reference.stem] + [p.stem for p in others], mask=mask_arr)
+    plot_channels(motions, joint, out, labels=_plot_labels([reference, *others]), mask=mask_arr)
     console.print(f"wrote {out}")
     for k in redrawn:
         console.print(f"note: {others[k - 1]} drawn in {reference.name}'s channels (its own order or axes differ; "
                       "the rotations are the same)")
+
+
+def _plot_labels(paths: list[Path]) -> list[str]:
+    """The legend's and title's name of each plotted file: its stem, else (stems shared: a take and its
+    conversion, ``take.amc`` and ``take.bvh``) its file name, else (names shared: a take and its cleaned copy
+    that ``clean-batch`` names alike in another folder) the path as given, so no two lines carry one name."""
+    for label in (lambda p: p.stem, lambda p: p.name, str):
+        labels = [label(p) for p in paths]
+        if len(set(labels)) == len(labels):
+            return labels
+    return labels  # one file given twice: the same name is the truth
 
 
 def _in_reference_channels(motions: list) -> tuple[list, list[int]]:
