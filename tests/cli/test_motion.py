@@ -623,3 +623,20 @@ def test_plot_names_a_take_and_its_cleaned_copy_of_the_same_name_apart(tmp_path,
     assert main(["plot", str(amc), str(tmp_path / "HDM_bk_sneak2StepsLStart_004_120.bvh"), "--joint", "rhumerus",
                  "-o", str(tmp_path / "q.png")]) == 0
     assert drawn[1] == ["HDM_bk_sneak2StepsLStart_004_120.amc", "HDM_bk_sneak2StepsLStart_004_120.bvh"]
+
+
+def test_an_amc_written_from_an_npz_says_it_reads_back_only_with_asf(tmp_path):
+    """An .npz keeps the skeleton but no ASF file to copy: the AMC written from it said only 'wrote', and
+    the next command on it failed ('no skeleton'); the write now says so in a note naming the file."""
+    amc = mocapkit.samples.path("12_walk.amc")
+    (tmp_path / "a").mkdir()
+    npz, out = tmp_path / "a" / "walk.npz", tmp_path / "b" / "walk.amc"
+    assert run("convert", amc, npz)[0] == 0
+    code, said, err = run("convert", npz, out)
+    assert code == 0, err
+    said = " ".join(said.split())
+    assert f"note: {out}: no ASF beside it (walk.npz keeps the skeleton but no .asf file to copy): read it back with --asf" in said
+    back = mocapkit.load(out, asf=mocapkit.samples.path("12.asf"))
+    assert np.array_equal(back.rotations, mocapkit.load(amc).rotations)
+    code, said, _ = run("convert", amc, tmp_path / "b" / "again.amc")  # its ASF copied beside it: nothing to say
+    assert code == 0 and "no ASF beside it" not in said and "copied the skeleton" in said

@@ -80,7 +80,7 @@ def clean(
     from ..batch import clean_file
     from ..cleaning.pipeline import STEPS, clean_path
     from ..io import motion_notes
-    from ..io.takes import asf_for_output, asf_of, CLI_AMC_NAMES, check_asf, load_motion
+    from ..io.takes import asf_for_output, asf_of, CLI_AMC_NAMES, check_asf, load_motion, unread_amc_note
     from ..reference import check_reference
 
     if record is not None and decisions is None:
@@ -140,7 +140,8 @@ def clean(
                                skeleton_copy=(skeleton_copy, skeleton) if skeleton_copy is not None else None)
     if skeleton_copy is not None:
         console.print(f"copied the skeleton {skeleton} to {skeleton_copy}: an AMC is read with the ASF beside it")
-    for note in motion_notes(original, out, inp):  # what OUT's format leaves out of the input (a BVH's other roots)
+    unread = unread_amc_note(out, inp)  # an AMC from an .npz: no ASF to copy beside it
+    for note in motion_notes(original, out, inp) + ([unread] if unread else []):  # what OUT's format leaves out
         console.print(f"note: {note}")
     if res.decided is not None:  # clean_file applied the decisions: res is what OUT holds
         _print_decided(_written(out, record, report, png), res.decided, res.frames_note)

@@ -265,7 +265,7 @@ def save_take(motion, out: Path, inp: Path | None, asf=None, overwrite: bool = F
     roots) in a ``note:`` line. Checked before anything is written."""
     from .. import io
     from ..io.outputs import removed_on_failure
-    from ..io.takes import asf_for_output, asf_of, place_asf
+    from ..io.takes import asf_for_output, asf_of, place_asf, unread_amc_note
 
     skeleton = asf_of(inp, asf) if inp is not None else None
     copy = asf_for_output(out, skeleton, overwrite, how="use --overwrite")
@@ -275,7 +275,8 @@ def save_take(motion, out: Path, inp: Path | None, asf=None, overwrite: bool = F
         io.save(motion, out, asf=skeleton if skeleton is not None else asf, copy_asf=False, **kwargs)
     if copy is not None:
         console.print(f"copied the skeleton {skeleton} to {copy}: an AMC is read with the ASF beside it")
-    for note in notes:
+    unread = unread_amc_note(out, inp)
+    for note in notes + ([unread] if unread else []):
         console.print(f"note: {note}")
 
 

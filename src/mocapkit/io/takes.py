@@ -92,6 +92,27 @@ def asf_of(path: os.PathLike | str, asf: os.PathLike | str | None = None) -> Pat
         return None
 
 
+def unread_amc_note(out: os.PathLike | str, source: os.PathLike | str | None) -> str | None:
+    """One line for an AMC just written to ``out`` that no ASF beside it reads back, else None.
+
+    An AMC holds no skeleton (:func:`mocapkit.io.asfamc.find_asf`); a take read from ``.npz`` keeps its
+    skeleton but no ASF file to copy beside the output (:func:`asf_for_output` copies only a file), so the
+    written AMC reads back only with ``--asf``: said when it is written, not when a later command fails on it.
+    ``source``: the input file the take was read from, named in the line.
+    """
+    if not _is_amc(out):
+        return None
+    from .asfamc import find_asf
+
+    try:
+        find_asf(out)
+        return None
+    except MocapFormatError:
+        came = f" ({Path(source).name} keeps the skeleton but no .asf file to copy)" if source is not None else ""
+        return (f"{out}: no ASF beside it{came}: read it back with --asf FILE (asf= in Python), the skeleton "
+                "the take was first read with")
+
+
 def load_take(path: os.PathLike | str, asf: os.PathLike | str | None = None, fps: float | None = None,
               unit: str | None = None, unit_option: str = "unit="):
     """Read a motion (:class:`~mocapkit.motion.Motion`) or marker take (:class:`~mocapkit.io.c3d.MarkerSet`).
