@@ -132,6 +132,20 @@ def test_every_writing_command_has_overwrite_and_says_what_it_does():
             "db build"} <= names
 
 
+def test_amc_options_name_a_reference_only_where_the_command_reads_one():
+    """--asf, --amc-fps and --unit said '.amc input(s) and reference' on detect, repair, convert, clean-batch...,
+    which take no reference: a user looked for a --reference they could not give."""
+    seen = set()
+    for name, cmd in _commands():
+        opts = {p.name: p for p in cmd.params}
+        has_reference = "reference" in opts or name == "plot"  # plot's first argument is its reference take
+        for option in ("asf", "amc_fps", "unit"):
+            if option in opts:
+                seen.add(name)
+                assert ("reference" in opts[option].help) == has_reference, (name, option, opts[option].help)
+    assert {"clean", "clean-batch", "detect", "repair", "convert", "fill", "denoise", "search", "plot"} <= seen
+
+
 def test_existing_output_is_refused_without_overwrite(tmp_path, capsys):
     out = tmp_path / "new" / "deeper" / "walk.npz"  # missing parent folders are created
     assert main(["convert", SAMPLE, str(out)]) == 0

@@ -354,9 +354,9 @@ def clean_batch(
     as_json: bool = typer.Option(False, "--json", help="Print the per-take rows as JSON."),
     ebf: Optional[Path] = _model_option("ebf"),
     ebd: Optional[Path] = _model_option("ebd"),
-    asf: Optional[Path] = asf_option(),
-    amc_fps: Optional[float] = amc_fps_option(),
-    unit: Optional[str] = unit_option(),
+    asf: Optional[Path] = asf_option("input(s)"),
+    amc_fps: Optional[float] = amc_fps_option("input(s)"),
+    unit: Optional[str] = unit_option("input(s)"),
     max_gap: Optional[float] = max_gap_option(batch=True),
     max_fill_error: Optional[float] = max_fill_error_option(batch=True),
     overwrite: bool = typer.Option(

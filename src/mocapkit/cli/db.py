@@ -34,8 +34,8 @@ def db_build(
     features: str = typer.Option("F15", "--features", help="Comma-separated feature sets: F15, F30, F39, F15x3, F15x5, F30x3, F39x3."),
     executor: Optional[str] = executor_option("clips are loaded"),
     joint_map: Optional[Path] = joint_map_option(),
-    asf: Optional[Path] = asf_option(),
-    amc_fps: Optional[float] = amc_fps_option(),
+    asf: Optional[Path] = asf_option("input(s)"),
+    amc_fps: Optional[float] = amc_fps_option("input(s)"),
     overwrite: bool = typer.Option(
         False, "--overwrite",
         help="Replace OUT_DIR if it is a mocapkit database holding none of the inputs (anything else is refused). "
@@ -104,9 +104,9 @@ def search(
     start: Optional[float] = typer.Option(None, "--start", help="Use the query from this time (s)."),
     end: Optional[float] = typer.Option(None, "--end", help="Use the query up to this time (s; past its end: to its end)."),
     as_json: bool = typer.Option(False, "--json", help="Print the matches as JSON."),
-    asf: Optional[Path] = asf_option(),
-    amc_fps: Optional[float] = amc_fps_option(),
-    unit: Optional[str] = unit_option(),
+    asf: Optional[Path] = asf_option("input(s)"),
+    amc_fps: Optional[float] = amc_fps_option("input(s)"),
+    unit: Optional[str] = unit_option("input(s)"),
 ) -> None:
     """Rank the database segments most similar to QUERY (numerical similarity search)."""
     from ..database import MotionDatabase

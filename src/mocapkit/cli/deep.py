@@ -280,9 +280,9 @@ def train(
                                    "in OUT (refused without it); the same training still resumes."),
     executor: Optional[str] = executor_option("noisy pairs are made"),
     device: str = typer.Option("auto", "--device", help="auto (a GPU when present), cpu or cuda."),
-    asf: Optional[Path] = asf_option(),
-    amc_fps: Optional[float] = amc_fps_option(),
-    unit: Optional[str] = unit_option(),
+    asf: Optional[Path] = asf_option("input(s)"),
+    amc_fps: Optional[float] = amc_fps_option("input(s)"),
+    unit: Optional[str] = unit_option("input(s)"),
 ) -> None:
     """Train an EBF or EBD on noisy/clean pairs made on the fly with mocapkit.corrupt (Mall et al. 2017, 4).
 

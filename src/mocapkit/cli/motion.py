@@ -119,9 +119,9 @@ def convert(
     zeros_as_gaps: Optional[bool] = typer.Option(
         None, "--zeros-as-gaps/--keep-zeros",
         help="Marker files: read samples at exactly (0, 0, 0) as gaps, or keep them (default: decided from the data)."),
-    asf: Optional[Path] = asf_option(),
-    amc_fps: Optional[float] = amc_fps_option(),
-    unit: Optional[str] = unit_option(),
+    asf: Optional[Path] = asf_option("input(s)"),
+    amc_fps: Optional[float] = amc_fps_option("input(s)"),
+    unit: Optional[str] = unit_option("input(s)"),
     keep_modelled: bool = keep_modelled_option(),
     overwrite: bool = overwrite_option(),
 ) -> None:
@@ -192,9 +192,9 @@ def corrupt(
     mask_out: Optional[Path] = typer.Option(
         None, "--mask", help="Ground-truth mask file (default: OUT with suffix .mask.npz)."
     ),
-    asf: Optional[Path] = asf_option(),
-    amc_fps: Optional[float] = amc_fps_option(),
-    unit: Optional[str] = unit_option(),
+    asf: Optional[Path] = asf_option("input(s)"),
+    amc_fps: Optional[float] = amc_fps_option("input(s)"),
+    unit: Optional[str] = unit_option("input(s)"),
     overwrite: bool = overwrite_option(),
 ) -> None:
     """Corrupt IN with known ground truth; writes OUT and a .mask.npz of what changed."""

@@ -71,9 +71,9 @@ def detect(
     png: Optional[Path] = typer.Option(None, "--png", help="Also draw the movement digression map here."),
     as_json: bool = typer.Option(
         False, "--json", help="Print one JSON object: the flagged segments, the joints not analysed and why, the notes."),
-    asf: Optional[Path] = asf_option(),
-    amc_fps: Optional[float] = amc_fps_option(),
-    unit: Optional[str] = unit_option(),
+    asf: Optional[Path] = asf_option("input(s)"),
+    amc_fps: Optional[float] = amc_fps_option("input(s)"),
+    unit: Optional[str] = unit_option("input(s)"),
     overwrite: bool = overwrite_option(),
 ) -> None:
     """Find erroneous joints by self-similarity (Aristidou et al. 2018): movement digression map + flags.
@@ -167,9 +167,9 @@ def repair(
         help="Also pin planted feet on repaired frames: this moves the hip and knee of a leg whose foot is planted, "
              "joints that were not flagged (off by default, as in clean).",
     ),
-    asf: Optional[Path] = asf_option(),
-    amc_fps: Optional[float] = amc_fps_option(),
-    unit: Optional[str] = unit_option(),
+    asf: Optional[Path] = asf_option("input(s)"),
+    amc_fps: Optional[float] = amc_fps_option("input(s)"),
+    unit: Optional[str] = unit_option("input(s)"),
     overwrite: bool = overwrite_option(),
 ) -> None:
     """Replace only the flagged joints in flagged frames by the medoid (the median word) of their nearest motion words.
