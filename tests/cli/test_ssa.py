@@ -399,3 +399,15 @@ def test_detect_and_clean_say_in_one_line_that_drifts_were_not_looked_for_withou
     code, out, err = run("detect", str(BANDAI), "--out", str(tmp_path / "e.npz"))  # not asked for: not said
     assert code == 0, err
     assert "smooth drifts" not in out
+
+
+def test_detect_and_repair_send_a_marker_capture_to_clean(tmp_path):
+    """They said 'solve it to a skeleton first', which mocapkit does not do; `clean` reviews and cleans marker files."""
+    c3d = mocapkit.samples.path("Eb015pr.c3d")
+    for argv, says in ((["detect", str(c3d), "-o", str(tmp_path / "d.npz")], "`mocapkit clean --steps detect` reviews"),
+                       (["repair", str(c3d), "-o", str(tmp_path / "r.c3d")], "`mocapkit clean` cleans a marker file")):
+        code, _, err = run(*argv)
+        text = " ".join(err.split())
+        assert code == 2 and one_error_line(err), err
+        assert f"{c3d}: a marker file has no joint angles, which {argv[0]} needs; {says}" in text, text
+    assert list(tmp_path.iterdir()) == []

@@ -101,7 +101,8 @@ def detect(
         raise MocapFormatError(out, "the detection is written as .npz")
     if png is not None and png.suffix.lower() != ".png":
         raise MocapFormatError(png, "the map is written as .png")
-    m = load_motion(inp, asf, purpose="detect", fps=amc_fps, unit=unit, unit_option="--unit")
+    m = load_motion(inp, asf, purpose="detect", fps=amc_fps, unit=unit, unit_option="--unit",
+                    instead="`mocapkit clean --steps detect` reviews a marker file (gaps, spikes, label swaps)")
     precompile.start(precompile.kernels_for(["detect"]))  # with an empty numba cache: beside the context's loading
     unread = unread_context(m, context)  # a take too coarse for detection: refused below in one line, no context built
     ctx, note = (None, unread) if unread is not None else fit_context(m, load_context(context, progress=not as_json,
@@ -191,8 +192,10 @@ def repair(
     guard([out], [inp, asf, context, detection, joint_map], overwrite)
     jm = read_map(joint_map)
     check_asf(asf, [inp], amc_fps, names=CLI_AMC_NAMES)
+    # IN first: a marker capture is IN's problem, whatever OUT's suffix (a .c3d OUT would be the wrong complaint)
+    m = load_motion(inp, asf, purpose="repair", fps=amc_fps, unit=unit, unit_option="--unit",
+                    instead="`mocapkit clean` cleans a marker file (fills gaps, removes spikes, undoes swaps)")
     io.suffix_kind(out, io.WRITERS, "writing")
-    m = load_motion(inp, asf, purpose="repair", fps=amc_fps, unit=unit, unit_option="--unit")
     io.check_writable(m, out)
     det = None
     if detection is not None:

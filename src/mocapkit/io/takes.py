@@ -187,18 +187,20 @@ def with_unit(take, unit: str | None, path: os.PathLike | str, option: str = "un
 
 
 def load_motion(path: os.PathLike | str, asf: os.PathLike | str | None = None, purpose: str = "this command",
-                fps: float | None = None, unit: str | None = None, unit_option: str = "unit="):
+                fps: float | None = None, unit: str | None = None, unit_option: str = "unit=",
+                instead: str = "solve it to a skeleton first"):
     """Read a take that must have joint angles (a :class:`~mocapkit.motion.Motion`); a marker file is refused.
 
     ``purpose``: who needs the angles ("clean", "a query", ...), used in the
-    one-line refusal ``PATH: a marker file has no joint angles, which clean needs; ...``.
+    one-line refusal ``PATH: a marker file has no joint angles, which clean needs; ...``; ``instead``: what the
+    line ends with, what to do with a marker file (a command that has a marker counterpart names it).
     ``fps``, ``unit``, ``unit_option``: as for :func:`load_take`.
     """
     from ..motion import Motion
 
     take = load_take(path, asf, fps=fps, unit=unit, unit_option=unit_option)
     if not isinstance(take, Motion):
-        raise MocapFormatError(path, f"a marker file has no joint angles, which {purpose} needs; solve it to a skeleton first")
+        raise MocapFormatError(path, f"a marker file has no joint angles, which {purpose} needs; {instead}")
     return take
 
 
