@@ -232,9 +232,9 @@ def clean_file(
             return replace(res, notes=res.notes + notes, params={**res.params, "request": request})
         except (ValueError, TypeError) as exc:
             raise MocapError(f"{inp}: {exc}") from None
-        except MocapError as exc:
-            msg = str(exc)
-            raise MocapError(msg if str(inp) in msg else f"{inp}: {msg}") from None
+        except MocapError as exc:  # the library names the take (its stem): the line names the file instead
+            msg, name = str(exc), f"{m.name or 'motion'}: "
+            raise MocapError(msg if str(inp) in msg else f"{inp}: {msg.removeprefix(name)}") from None
 
     def prepared(res):
         return replace(res, frames_note=dec.frames_note(inp))  # the summary says how its frames relate to the file's

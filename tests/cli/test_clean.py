@@ -741,3 +741,13 @@ def test_clean_batch_in_review_mode_says_reviewed(tmp_path, capsys):
     lines = text.splitlines()
     assert any(ln.startswith(f"reviewed {src / 'walk.npz'} -> ") for ln in lines), text
     assert not any(ln.startswith("cleaned ") for ln in lines) and "1 reviewed," in lines[-1], text
+
+
+def test_a_take_clean_refuses_is_named_once_by_its_file(tmp_path):
+    """The library names the take by its stem; the command's line named both ('one.bvh: one: 1 frame(s)')."""
+    one = tmp_path / "one.bvh"
+    mocapkit.save(mocapkit.load(helpers.SAMPLE)[:1], one)
+    code, _, err = helpers.run("clean", one, "-o", tmp_path / "c.bvh")
+    assert code == 2 and helpers.one_error_line(err), err
+    assert f"error: {one}: 1 frame(s); cleaning compares frames" in " ".join(err.split())
+    assert not (tmp_path / "c.bvh").exists()
