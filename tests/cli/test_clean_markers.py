@@ -322,6 +322,10 @@ def test_modelled_quantities_are_left_out_of_a_trc_by_clean_and_convert_unless_k
         code, stdout, stderr = run(*args, out)
         assert code == 0, stderr
         assert f"note: {out}: {note}" in stdout
+        if args[0] == "clean":  # counted as info counts them (113 markers): the line said '315 frames x 193 markers'
+            said = " ".join(stdout.split())
+            assert ": 315 frames x 113 markers (+80 modelled quantities, left as read), " in said, said
+            assert " of 35595 marker samples changed" in said, said
         labels = load_markers(out).labels
         assert len(labels) == 113 and "LHipAngles" not in labels and "LAnklePower" not in labels and "LASI" in labels
     code, stdout, stderr = run("convert", inp, tmp_path / "c.trc", "--keep-modelled")

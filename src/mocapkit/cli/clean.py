@@ -252,6 +252,7 @@ def _clean_marker_take(inp: Path, out: Path, *, report, png, overwrite: bool, no
     from ..cleaning.markers.decisions import tied_lines
     from ..cleaning.pipeline import clean_path
     from ..io import marker_notes
+    from ..io.c3d_contents import marker_counts
     from ..io.takes import load_take
     from ..markerset import MarkerSet
 
@@ -277,9 +278,12 @@ def _clean_marker_take(inp: Path, out: Path, *, report, png, overwrite: bool, no
             console.print(f"note: {note}")
         return True
     extra = "".join(f" and {x}" for x in (report, png) if x is not None)
+    # markers counted as info and convert count them: a C3D's modelled quantities (angles, forces, ...) apart, left as read
+    markers, quantities, _ = marker_counts(take)
+    also = f" (+{plural(quantities, 'modelled quantity', 'modelled quantities')}, left as read)" if quantities else ""
     console.print(f"wrote {out} and {clean_path(out)}{extra}: {plural(take.num_frames, 'frame')} x "
-                  f"{plural(take.num_markers, 'marker')}" + ("" if res.review else  # summary()'s first line says it
-                  f", {int(res.changed.sum())} of {plural(res.changed.size, 'marker sample')} changed"))
+                  f"{plural(markers, 'marker')}{also}" + ("" if res.review else  # summary()'s first line says it
+                  f", {int(res.changed.sum())} of {plural(take.num_frames * markers, 'marker sample')} changed"))
     if take.units_from != "file":  # the unit every mm figure below rests on
         how = "given with --unit" if take.units_from == "given" else "inferred from the marker distances; --unit sets it"
         console.print(f"  length unit {take.units}: the file states none ({how})")

@@ -270,7 +270,8 @@ class MarkerCleanResult:
         if self.decided is not None:
             return self.decided.lines(self.frames_note)
         if self.review:
-            n, total = int(self.changed.sum()), self.changed.size
+            # of the markers' samples: a C3D's modelled quantities (angles, forces, ...) are left as read, as info counts
+            n, total = int(self.changed.sum()), self.changed.shape[0] * int((self.markers.quantities() == "").sum())
             return ([f"review mode (--steps detect): the capture unchanged; cleaning would change {n} of {total} "
                      f"marker sample{'' if total == 1 else 's'}"] + dataclasses.replace(self, review=False).summary())
         counts = {k: sum(1 for x in self.fixes if x.kind == k) for k in ("gap", "spike", "swap")}
