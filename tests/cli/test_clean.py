@@ -751,3 +751,15 @@ def test_a_take_clean_refuses_is_named_once_by_its_file(tmp_path):
     assert code == 2 and helpers.one_error_line(err), err
     assert f"error: {one}: 1 frame(s); cleaning compares frames" in " ".join(err.split())
     assert not (tmp_path / "c.bvh").exists()
+
+
+def test_a_batch_that_finds_no_take_says_so(tmp_path):
+    """A mistyped --pattern or folder printed only '0 takes ... 0 cleaned' and exit 0: now a warning line says why."""
+    src = tmp_path / "in"
+    src.mkdir()
+    mocapkit.save(mocapkit.load(helpers.SAMPLE)[:20], src / "walk.bvh")
+    code, out, err = helpers.run("clean-batch", src, tmp_path / "out", "--pattern", "*.bhv")
+    assert code == 0, err
+    assert "0 takes on" in out
+    assert f"warning: {src}: no file matches --pattern *.bhv (searched recursively); nothing cleaned" in " ".join(err.split())
+    assert not (tmp_path / "out").exists()

@@ -425,6 +425,10 @@ def clean_batch(
                       f"{summary.seconds:.1f} s: {summary.count('done')} {done}, {summary.count('skipped')} already "
                       f"complete, {summary.count('failed')} failed"
                       + (f", {summary.not_started} not started" if summary.stopped else ""))
+        if not summary.rows and not summary.not_started:  # a mistyped folder or pattern said only "0 takes"
+            print(f"warning: {in_dir}: no file matches --pattern {','.join(patterns)} (searched recursively"
+                  + (", earlier batches' output folders left out" if summary.earlier else "") + "); nothing cleaned",
+                  file=sys.stderr)
     if summary.stopped:  # a full disk: one error line, as any command says a filesystem error (exit 2)
         raise MocapError(summary.stopped)
     if summary.failed:
