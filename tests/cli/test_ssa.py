@@ -411,3 +411,24 @@ def test_detect_and_repair_send_a_marker_capture_to_clean(tmp_path):
         assert code == 2 and one_error_line(err), err
         assert f"{c3d}: a marker file has no joint angles, which {argv[0]} needs; {says}" in text, text
     assert list(tmp_path.iterdir()) == []
+
+
+def test_detect_png_draws_the_frames_no_word_judged_grey(tmp_path, monkeypatch):
+    """Their MDM is 0 though nothing checked them: the map drew them black, as found clean, while the console said
+    '... not judged there' and the report stripes them; now grey, 'not analysed or judged'."""
+    import mocapkit.report.plots
+    from mocapkit.cleaning.judged import not_judged_cells
+
+    drawn = {}
+
+    def plot_mdm(mdm, joint_names, fps, path, **kwargs):
+        drawn.update(mdm=mdm, grey=kwargs.get("grey"))
+        Path(path).write_bytes(b"")
+
+    monkeypatch.setattr(mocapkit.report.plots, "plot_mdm", plot_mdm)
+    take = mocapkit.samples.path("HDM_bk_sneak2StepsLStart_004_120.amc")
+    code, _, err = run("detect", take, "-o", tmp_path / "d.npz", "--png", tmp_path / "d.png", "--context", "none")
+    assert code == 0, err
+    unjudged = not_judged_cells(ssa.Detection.load(tmp_path / "d.npz"))
+    assert unjudged.any()
+    assert np.isnan(drawn["mdm"][unjudged]).all() and drawn["grey"] == "not analysed or judged"

@@ -119,8 +119,13 @@ def detect(
 
             import numpy as np
 
+            from ..cleaning.judged import not_judged_cells
+
             shown = np.where(det.analysed[None, :], det.mdm, np.nan)  # grey, "not analysed", rather than an MDM of 0
-            plot_mdm(shown, det.joint_names, det.fps, png, flags=flags, title=f"{inp.name}: movement digression map")
+            unjudged = not_judged_cells(det)  # MDM 0 though no neighbour word judged them: grey too, as in the report
+            shown[unjudged] = np.nan
+            plot_mdm(shown, det.joint_names, det.fps, png, flags=flags, title=f"{inp.name}: movement digression map",
+                     grey="not analysed or judged" if unjudged.any() else "not analysed")
         det.save(out)
     from ..cleaning.ssa.cues import cause_names
     from ..cleaning.ssa.detect import flag_runs

@@ -178,6 +178,7 @@ def plot_mdm(
     title: str | None = None,
     threshold: float | None = 0.5,
     start_frame: int = 0,
+    grey: str = "not analysed",
 ) -> Path:
     """Draw a movement digression map as a heat map PNG (Aristidou et al. 2018, section 3.4, Fig. 1, Fig. 9).
 
@@ -192,7 +193,9 @@ def plot_mdm(
     about 80 frames per inch (4 to 18 in); clips longer than the axes has
     pixels are shown by the maximum over each block of frames, so a
     one-frame spike never disappears. Written atomically at 100 dpi; returns
-    the path. Bad shapes or values raise ``ValueError``.
+    the path. Bad shapes or values raise ``ValueError``. ``grey``: the legend's words for the NaN cells
+    ("not analysed or judged" where they include cells no neighbour word judged:
+    :func:`mocapkit.cleaning.judged.not_judged_cells`, MDM 0 though nothing checked them).
     """
     import matplotlib
 
@@ -210,7 +213,7 @@ def plot_mdm(
         ax = fig.add_axes((lay["left"] / w, _MDM_BOTTOM_IN / h, lay["axes_w"] / w, lay["axes_h"] / h))
         cax = fig.add_axes(((lay["left"] + lay["axes_w"] + 0.2) / w, _MDM_BOTTOM_IN / h, 0.18 / w, lay["axes_h"] / h))
         handles = _draw_mdm(ax, cax, mdm, joint_names, fps, masks, threshold, start_frame, lay["axes_w"] * _MDM_DPI,
-                            lay["fontsize"], max(int(lay["axes_w"] * 1.2), 4))
+                            lay["fontsize"], max(int(lay["axes_w"] * 1.2), 4), grey)
         if handles:
             fig.legend(handles=handles, loc="upper right", ncol=len(handles), fontsize=8, frameon=False,
                        bbox_to_anchor=(1.0, 1.0))
@@ -224,7 +227,8 @@ def plot_mdm(
     return path
 
 
-def _draw_mdm(ax, cax, mdm, joint_names, fps, masks, threshold, start_frame, width_px, fontsize, nbins) -> list:
+def _draw_mdm(ax, cax, mdm, joint_names, fps, masks, threshold, start_frame, width_px, fontsize, nbins,
+              grey: str = "not analysed") -> list:
     """Draw a checked MDM on ``ax`` with its colorbar in ``cax``; returns the legend handles."""
     import matplotlib.pyplot as plt
     from matplotlib.collections import LineCollection
@@ -265,7 +269,7 @@ def _draw_mdm(ax, cax, mdm, joint_names, fps, masks, threshold, start_frame, wid
             handles.append(Line2D([], [], color=st["colors"], lw=st["linewidths"],
                                   linestyle=st.get("linestyles", "-"), label=labels[name]))
     if np.isnan(mdm).any():
-        handles.append(Patch(facecolor="#9e9e9e", label="not analysed"))
+        handles.append(Patch(facecolor="#9e9e9e", label=grey))
     cb = ax.figure.colorbar(im, cax=cax)
     cb.set_label("digression", fontsize=9)
     cb.ax.tick_params(labelsize=8)
@@ -275,20 +279,21 @@ def _draw_mdm(ax, cax, mdm, joint_names, fps, masks, threshold, start_frame, wid
 
 
 def draw_mdm(ax, cax, mdm: np.ndarray, joint_names: Sequence[str], fps: float, flags: np.ndarray | None = None,
-             truth: np.ndarray | None = None, threshold: float | None = 0.5, start_frame: int = 0) -> list:
+             truth: np.ndarray | None = None, threshold: float | None = 0.5, start_frame: int = 0,
+             grey: str = "not analysed") -> list:
     """Draw a movement digression map on the matplotlib axes ``ax``, its colorbar in ``cax``.
 
     The same picture as :func:`plot_mdm` (same arguments and checks) on axes of
     any figure; clips longer than the axes has pixels are shown by the maximum
     over each block of frames. Returns the legend handles (flags, truth, not
-    analysed) for the caller's legend.
+    analysed) for the caller's legend; ``grey``: the legend's words for the NaN cells (as :func:`plot_mdm`).
     """
     joint_names = [str(n) for n in joint_names]
     mdm, masks = _checked_mdm(mdm, joint_names, fps, threshold, flags, truth)
     width_px = max(ax.get_position().width * ax.figure.get_figwidth() * ax.figure.dpi, 1.0)
     fontsize = max(4.0, min(8.0, 72.0 * ax.get_position().height * ax.figure.get_figheight() / max(len(joint_names), 1) * 0.8))
     return _draw_mdm(ax, cax, mdm, joint_names, fps, masks, threshold, start_frame, width_px, fontsize,
-                     max(int(width_px / _MDM_DPI * 1.2), 4))
+                     max(int(width_px / _MDM_DPI * 1.2), 4), grey)
 
 
 def _checked_mdm(mdm, joint_names, fps, threshold, flags, truth):

@@ -6,6 +6,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..cleaning.judged import not_judged_cells
 from ..io import atomic_write
 from ..motion import Motion
 from .plots import channel_names, draw_channels, draw_mdm
@@ -52,7 +53,14 @@ def plot_summary(result, original: Motion, path, joints: int = 2, title: str | N
         mdm = np.array(result.mdm, dtype=np.float64)
         if result.analysed is not None:  # drawn grey, "not analysed", rather than an MDM of 0
             mdm[:, ~result.analysed] = np.nan
-        handles = draw_mdm(ax, fig.add_subplot(grid[0, 1]), mdm, result.joint_names, result.fps, flags=result.flags)
+        # cells no neighbour word judged: MDM 0 though nothing checked them, grey as in the report (a record read
+        # back keeps no per-cell judgement: None)
+        unjudged = not_judged_cells(result.detection) if getattr(result, "detection", None) is not None else None
+        grey = "not analysed"
+        if unjudged is not None and unjudged.shape == mdm.shape and unjudged.any():
+            mdm[unjudged], grey = np.nan, "not analysed or judged"
+        handles = draw_mdm(ax, fig.add_subplot(grid[0, 1]), mdm, result.joint_names, result.fps, flags=result.flags,
+                           grey=grey)
         calib = tuple(getattr(result, "calibration", ()) or ())
         for c in calib:
             a, b = c.frames
