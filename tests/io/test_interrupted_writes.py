@@ -84,12 +84,18 @@ def _write(tmp_path, overwrite, k: int):
                 time.sleep(60)  # a deferred interrupt, sent again RETRY_S later, ends this wait
         except KeyboardInterrupt:
             came = True
+    return len(seen), _left(tmp_path, out, before, came)
+
+
+def _left(tmp_path, out, before, came):
+    """What a run left, then cleared for the next: the folder's names, OUT's text, whether the writers' context is
+    as ``before``, and ``came`` (the interrupts that reached the caller)."""
     left = sorted(p.name for p in tmp_path.iterdir())
     state = (left, out.read_text() if out.exists() else None,
              (outputs._NEW_ONLY.get(), outputs._WRITTEN.get()) == before, came)
     for p in tmp_path.iterdir():
         p.unlink()
-    return len(seen), state
+    return state
 
 
 @pytest.mark.usefixtures("python_sigint")  # a deferred interrupt is a real SIGINT, sent again RETRY_S later
@@ -144,12 +150,7 @@ def _undo(tmp_path, k: int):
                 time.sleep(60)  # a deferred second interrupt, sent again RETRY_S later, ends this wait
             except KeyboardInterrupt:
                 came += 1
-    left = sorted(p.name for p in tmp_path.iterdir())
-    state = (left, out.read_text() if out.exists() else None,
-             (outputs._NEW_ONLY.get(), outputs._WRITTEN.get()) == before, came)
-    for p in tmp_path.iterdir():
-        p.unlink()
-    return len(seen), state
+    return len(seen), _left(tmp_path, out, before, came)
 
 
 @pytest.mark.usefixtures("python_sigint")
