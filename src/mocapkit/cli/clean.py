@@ -252,7 +252,7 @@ def _clean_marker_take(inp: Path, out: Path, *, report, png, overwrite: bool, no
     from ..cleaning.markers.decisions import tied_lines
     from ..cleaning.pipeline import clean_path
     from ..io import marker_notes
-    from ..io.c3d_contents import marker_counts
+    from ..io.c3d_contents import marker_counts, zero_gaps_line
     from ..io.takes import load_take
     from ..markerset import MarkerSet
 
@@ -288,8 +288,6 @@ def _clean_marker_take(inp: Path, out: Path, *, report, png, overwrite: bool, no
         how = "given with --unit" if take.units_from == "given" else "inferred from the marker distances; --unit sets it"
         console.print(f"  length unit {take.units}: the file states none ({how})")
     if take.zero_gaps:  # the gaps below include these; convert --keep-zeros shows the file's samples as positions
-        from ..io.c3d_contents import zero_gaps_line
-
         console.print(f"  {zero_gaps_line(take.zero_gaps)}")
     for line in res.summary():
         console.print(f"  {line}")

@@ -115,17 +115,11 @@ def detect(
     flags, causes = with_flips(*with_teleports(det.flags, det.causes(), seen.teleported), seen.turn_overs.flagged)
     with removed_on_failure([out, png], overwrite=overwrite, marker=out):  # the detection last
         if png is not None:
-            from ..report.plots import plot_mdm
+            from ..report.plots import plot_mdm, shown_mdm
 
-            import numpy as np
-
-            from ..cleaning.judged import not_judged_cells
-
-            shown = np.where(det.analysed[None, :], det.mdm, np.nan)  # grey, "not analysed", rather than an MDM of 0
-            unjudged = not_judged_cells(det)  # MDM 0 though no neighbour word judged them: grey too, as in the report
-            shown[unjudged] = np.nan
+            shown, grey = shown_mdm(det.mdm, det.analysed, det)  # grey, not an MDM of 0, where nothing was judged
             plot_mdm(shown, det.joint_names, det.fps, png, flags=flags, title=f"{inp.name}: movement digression map",
-                     grey="not analysed or judged" if unjudged.any() else "not analysed")
+                     grey=grey)
         det.save(out)
     from ..cleaning.ssa.cues import cause_names
     from ..cleaning.ssa.detect import flag_runs

@@ -10,7 +10,7 @@ import numpy as np
 from ..io import atomic_write
 from ..motion import Motion
 
-__all__ = ["plot_channels", "plot_mdm", "draw_channels", "draw_mdm", "channel_names"]
+__all__ = ["plot_channels", "plot_mdm", "draw_channels", "draw_mdm", "channel_names", "shown_mdm"]
 
 
 def channel_names(motion: Motion, joint: str) -> list[str]:
@@ -276,6 +276,25 @@ def _draw_mdm(ax, cax, mdm, joint_names, fps, masks, threshold, start_frame, wid
     if threshold is not None:
         cax.axhline(threshold, color="#00e5ff", lw=1.5)
     return handles
+
+
+def shown_mdm(mdm: np.ndarray, analysed: np.ndarray | None, detection=None) -> tuple[np.ndarray, str]:
+    """The MDM (F, J) as :func:`plot_mdm` and :func:`draw_mdm` should draw it, and the legend's words for its grey:
+    NaN (grey, "not analysed") for the joints not analysed, and for the cells no neighbour word judged when
+    ``detection`` (a :class:`~mocapkit.cleaning.ssa.Detection`; None for a record read back, which keeps no
+    per-cell judgement) has any (:func:`mocapkit.cleaning.judged.not_judged_cells`: MDM 0 though nothing checked
+    them, read as "found clean" in black; "not analysed or judged"), as the HTML report stripes them."""
+    shown = np.array(mdm, dtype=np.float64)
+    if analysed is not None:
+        shown[:, ~np.asarray(analysed, dtype=bool)] = np.nan
+    if detection is not None:
+        from ..cleaning.judged import not_judged_cells
+
+        unjudged = not_judged_cells(detection)
+        if unjudged.shape == shown.shape and unjudged.any():
+            shown[unjudged] = np.nan
+            return shown, "not analysed or judged"
+    return shown, "not analysed"
 
 
 def draw_mdm(ax, cax, mdm: np.ndarray, joint_names: Sequence[str], fps: float, flags: np.ndarray | None = None,

@@ -6,10 +6,9 @@ from pathlib import Path
 
 import numpy as np
 
-from ..cleaning.judged import not_judged_cells
 from ..io import atomic_write
 from ..motion import Motion
-from .plots import channel_names, draw_channels, draw_mdm
+from .plots import channel_names, draw_channels, draw_mdm, shown_mdm
 
 __all__ = ["plot_summary"]
 
@@ -50,15 +49,8 @@ def plot_summary(result, original: Motion, path, joints: int = 2, title: str | N
         grid = fig.add_gridspec(len(heights), 2, height_ratios=heights, width_ratios=[60, 1], hspace=0.6, wspace=0.02,
                                 left=0.12, right=0.95, top=1.0 - 1.0 / (sum(heights) + gaps), bottom=0.5 / (sum(heights) + gaps))
         ax = fig.add_subplot(grid[0, 0])
-        mdm = np.array(result.mdm, dtype=np.float64)
-        if result.analysed is not None:  # drawn grey, "not analysed", rather than an MDM of 0
-            mdm[:, ~result.analysed] = np.nan
-        # cells no neighbour word judged: MDM 0 though nothing checked them, grey as in the report (a record read
-        # back keeps no per-cell judgement: None)
-        unjudged = not_judged_cells(result.detection) if getattr(result, "detection", None) is not None else None
-        grey = "not analysed"
-        if unjudged is not None and unjudged.shape == mdm.shape and unjudged.any():
-            mdm[unjudged], grey = np.nan, "not analysed or judged"
+        # grey, not an MDM of 0, where nothing was analysed or judged (a record read back has no detection)
+        mdm, grey = shown_mdm(result.mdm, result.analysed, getattr(result, "detection", None))
         handles = draw_mdm(ax, fig.add_subplot(grid[0, 1]), mdm, result.joint_names, result.fps, flags=result.flags,
                            grey=grey)
         calib = tuple(getattr(result, "calibration", ()) or ())
