@@ -708,6 +708,28 @@ def test_a_rerun_cleans_again_a_take_whose_input_was_replaced_and_says_so(tmp_pa
     assert clean_batch(src, out, steps=STEPS, executor="serial", progress=False).count("skipped") == 2
 
 
+def test_a_second_batch_of_another_folder_does_not_replace_a_take_of_the_same_name(tmp_path, short_bvh):
+    """Docs trial A: two batches of two folders into one OUT_DIR, each holding a take.bvh. The second took the
+    first's cleaned take.bvh for its own, "cleaned again: its input changed since it was cleaned", and replaced
+    it and its record unasked. It is now refused, naming the other input, until overwrite; a resumed batch of a
+    folder moved since (the same bytes) still skips its takes."""
+    first, second, out = tmp_path / "first", tmp_path / "second", tmp_path / "out"
+    first.mkdir(), second.mkdir()
+    shutil.copy(short_bvh, first / "take.bvh")
+    mocapkit.save(mocapkit.load(short_bvh)[:30], second / "take.bvh")  # another take of the same name
+    assert clean_batch(first, out, steps=STEPS, executor="serial", progress=False).count("done") == 1
+    before = _tree(out)
+    with pytest.raises(MocapFormatError, match=r"take\.bvh: exists from an earlier run, but it was cleaned from another "
+                                               r"input \(.*first/take\.bvh\); use overwrite=True"):
+        clean_batch(second, out, steps=STEPS, executor="serial", progress=False)
+    assert _tree(out) == before
+    moved = tmp_path / "moved"
+    first.rename(moved)
+    assert clean_batch(moved, out, steps=STEPS, executor="serial", progress=False).count("skipped") == 1
+    s = clean_batch(second, out, steps=STEPS, executor="serial", progress=False, overwrite=True)
+    assert s.count("done") == 1 and mocapkit.load(out / "take.bvh").num_frames == 30
+
+
 @pytest.mark.parametrize("damage", ["truncate", "same size"])
 def test_an_output_changed_outside_mocapkit_is_not_complete(tmp_path, short_bvh, damage):
     """Trial 20: an output cut short outside mocapkit counted as complete. It is now refused, naming it, until

@@ -180,7 +180,7 @@ def clean_file(
     from . import io
     from .cleaning import decisions as dec
     from .cleaning.pipeline import NOISE_DEG, STEPS, clean, clean_path, parse_steps
-    from .io.outputs import check_outputs, file_facts, removed_on_failure
+    from .io.outputs import check_outputs, file_facts, input_facts, removed_on_failure
     from .io.takes import check_asf, load_motion, load_take
     from .markerset import MarkerSet
 
@@ -211,7 +211,7 @@ def clean_file(
         return clean_marker_file(inp, out, markers=take, **as_markers)
     io.suffix_kind(out, io.WRITERS, "writing")
     doc = dec.read_decisions(decisions) if decisions is not None else None
-    taken = None if reuse else file_facts(inp)  # the take as read: a later batch tells a replaced input by it
+    taken = None if reuse else input_facts(inp)  # the take as read: a later batch tells a replaced input by it
     m = motion if motion is not None else load_motion(inp, asf, purpose="clean", fps=amc_fps, unit=unit,
                                                       unit_option=said_unit)
     io.check_writable(m, out)
@@ -330,19 +330,20 @@ REQUEST_DEFAULTS = {"noise_deg": 1.0, "amc_fps": None, "unit": None, "review": F
 def _not_complete(inp: Path, files: dict, request: dict, markers: dict | None = None) -> tuple[str, bool, str]:
     """Why a take whose output and record exist is not complete for this run ("" when it is), whether it is
     cleaned again as it is (True: its input was replaced since, and the output is this batch's own, of the old take)
-    or refused without ``overwrite`` (an output changed outside mocapkit, another request, a missing report), and the
+    or refused without ``overwrite`` (an output changed outside mocapkit, another request, a missing report, the
+    output of another folder's take of the same name: :func:`mocapkit.io.outputs.other_input`), and the
     decisions file that wrote its output ("" where none did: :func:`mocapkit.batch_decided.decided_by`).
     ``request``: this run's :func:`clean_request`; ``markers``: its :func:`marker_request`, which a marker capture's
     record is held to (default: the defaults).
 
-    The record keeps the size and SHA-256 of the input as read and of the output as written (``params["written"]``,
-    :func:`mocapkit.io.outputs.file_facts`); a record without them (an earlier mocapkit's) is taken at its word. An
+    The record keeps the size, SHA-256 and path of the input as read and the size and SHA-256 of the output as
+    written (``params["written"]``, :func:`mocapkit.io.outputs.input_facts`, ``file_facts``); a record without them (an earlier mocapkit's) is taken at its word. An
     output decisions were applied to in place is as written when it is as those decisions wrote it; where its input
     changed since, it is not cleaned again as it is (``anew`` False): that would discard the decisions.
     """
     from .batch_decided import decided_by
     from .cleaning.pipeline import CleanResult
-    from .io.outputs import file_facts
+    from .io.outputs import file_facts, other_input
 
     missing = [k for k in ("report", "png") if files.get(k) is not None and not Path(files[k]).is_file()]
     if missing:
@@ -359,9 +360,12 @@ def _not_complete(inp: Path, files: dict, request: dict, markers: dict | None = 
         if not decided and (size != was.get("size") or file_facts(out) != was):
             return (f"its output was changed since that run wrote it ({size} bytes, {was.get('size')} when "
                     "written)" if size != was.get("size") else "its output was changed since that run wrote it"), False, ""
-        if file_facts(inp) != written.get("input"):
+        kept = written.get("input") or {}
+        if file_facts(inp) != {k: kept.get(k) for k in ("size", "sha256")}:
             if decided:
                 return f"its input changed since it was decided by {decided}", False, decided
+            if other := other_input(kept, inp):  # another folder's take of the same name: not this batch's output
+                return f"it was cleaned from another input ({other})", False, ""
             return "its input changed since it was cleaned", True, ""
     done = None if params is None else params.get("request")
     if params is not None and params.get("kind") == "markers":  # held to the marker request, kept or not

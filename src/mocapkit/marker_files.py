@@ -72,7 +72,7 @@ def clean_marker_file(inp, out, *, report=None, png=None, overwrite: bool = Fals
     from .cleaning.markers import decisions as mdec
     from .cleaning.pipeline import clean_path
     from .io import MARKER_FORMATS, check_keep_modelled, load_markers, save_markers, suffix_kind
-    from .io.outputs import check_outputs, file_facts, removed_on_failure
+    from .io.outputs import check_outputs, file_facts, input_facts, removed_on_failure
     from .io.takes import file_first_frame
 
     inp, out = Path(inp), Path(out)
@@ -88,7 +88,7 @@ def clean_marker_file(inp, out, *, report=None, png=None, overwrite: bool = Fals
     outputs = [out, None if reuse else record, report, png]
     check_outputs(outputs, [inp, decisions, record if reuse else None], overwrite=overwrite)
     suffix_kind(out, MARKER_FORMATS, "writing markers")
-    taken = file_facts(inp)
+    taken = input_facts(inp)
     ms = markers if markers is not None else load_markers(inp, **({} if unit is None else {"units": unit}))
     request = marker_request(unit, max_gap_s, max_error_mm, review)
     res, given = mdec.clean_and_decide(ms, name=str(inp), steps=steps, max_gap_s=max_gap_s,

@@ -45,7 +45,7 @@ from ..errors import MocapFormatError
 from ..interrupts import interrupts_held, whole_hand_over, whole_step
 
 __all__ = ["check_outputs", "same_file", "inside", "removed_on_failure", "publish", "keep_aside", "put_back",
-           "drop_kept", "missing_folders", "file_facts"]
+           "drop_kept", "missing_folders", "file_facts", "input_facts", "other_input"]
 
 
 def resolved(path: os.PathLike | str) -> Path:
@@ -255,6 +255,21 @@ def file_facts(path: os.PathLike | str) -> dict:
             h.update(chunk)
             size += len(chunk)
     return {"size": size, "sha256": h.hexdigest()}
+
+
+def input_facts(path: os.PathLike | str) -> dict:
+    """:func:`file_facts` of a take as read, with its absolute path (links resolved): what a record keeps of its
+    input, so that a later batch into the same OUT_DIR tells that input replaced since (the same path, other
+    bytes: cleaned again) from another folder's take of the same name (another path, other bytes: its output is
+    not that batch's to replace unasked)."""
+    return {**file_facts(path), "path": str(Path(path).resolve())}
+
+
+def other_input(kept: dict | None, path: os.PathLike | str) -> str:
+    """The input a record's :func:`input_facts` name where that is not the file at ``path`` ("" where it is, or
+    where the record names none: an earlier mocapkit's)."""
+    was = (kept or {}).get("path")
+    return was if isinstance(was, str) and Path(was) != Path(path).resolve() else ""
 
 
 def missing_folders(folders: Iterable[os.PathLike | str]) -> list[Path]:
