@@ -391,6 +391,17 @@ def test_failures_name_the_output_not_the_staging_folder(tmp_path, short_bvh):
     assert not list(out.rglob("*"))
 
 
+def test_a_failing_take_s_reason_names_its_input_as_given(tmp_path, monkeypatch):
+    """Docs trial A: `clean-batch cap3/ out/` printed `failed  cap3/broken.bvh: /abs/.../cap3/broken.bvh:3: ...`,
+    the take named twice, once by the worker's absolute path (the line names a reader's PATH:LINE once)."""
+    monkeypatch.chdir(tmp_path)
+    Path("cap").mkdir()
+    Path("cap/broken.bvh").write_text("HIERARCHY\nROOT Hips\n{\n")
+    s = clean_batch("cap", "out", steps=STEPS, executor="serial", progress=False)
+    assert s.failed[0]["input"] == str(Path("cap/broken.bvh"))
+    assert s.failed[0]["reason"].startswith(f"{Path('cap/broken.bvh')}:3: "), s.failed[0]["reason"]
+
+
 def test_leftovers_of_a_killed_worker_are_swept_and_nothing_else(tmp_path, walk_in):
     src = walk_in
     out = tmp_path / "out"

@@ -905,8 +905,9 @@ def _as_given(row: dict, inp: Path, files: dict, again: str | None) -> None:
     row.update(input=str(inp), output=str(files["output"]))
     if row["status"] == "done" and again:
         row["reason"] = again
-    elif row["status"] == "failed":
-        row["reason"] = row["reason"].replace(_abs(files["output"]), str(files["output"]))
+    elif row["status"] == "failed":  # a reader's "PATH:LINE: ..." names the input as given, so its line says it once
+        for path in (files["output"], inp):
+            row["reason"] = row["reason"].replace(_abs(path), str(path))
 
 
 def _asf_copies(inputs: list[Path], plans: list[dict], asf, overwrite: bool,
