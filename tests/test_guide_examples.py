@@ -14,6 +14,7 @@ import shutil
 from pathlib import Path
 
 import numpy as np
+import pytest
 
 import mocapkit
 from mocapkit import corrupt, samples
@@ -113,3 +114,29 @@ def test_markers_guide_examples_read_write_and_clean(tmp_path, monkeypatch):
     assert np.array_equal(decided.markers.positions[120, 7], given.positions[120, 7])  # the spike as recorded
     assert not decided.markers.missing()[60:80, 5].any()  # the gap filled
     assert any(line.startswith(f"rejected {spike}") for line in decided.summary())
+
+
+def test_databases_guide_example_builds_opens_and_searches(tmp_path, monkeypatch, capsys):
+    """databases-and-search.md: build, save and open a database; the other sneak take ranks first."""
+    monkeypatch.chdir(tmp_path)
+    (example,) = _blocks("databases-and-search.md")
+    with pytest.warns(UserWarning, match="matches asked for"):  # the page's query finds 2 of the 3 asked for
+        scope = _run(example, "databases-and-search.md", {})
+    first = capsys.readouterr().out.splitlines()[0]
+    assert first.startswith("HDM_bk_sneak2StepsLStart_005_120 "), first
+    assert scope["dist"].shape == scope["idx"].shape == (4, 16)
+
+
+def test_deep_models_guide_example_denoises_fills_and_streams(tmp_path, monkeypatch, capsys):
+    """deep-models.md: the shipped EBF lowers Mall's 0.5 noise, the EBD fills every gap, and the live denoiser
+    gives the offline rows (None for its first 15 pushes, then every frame once)."""
+    monkeypatch.chdir(tmp_path)
+    (example,) = _blocks("deep-models.md")
+    scope = _run(example, "deep-models.md", {})
+    noisy_deg, clean_deg = map(float, capsys.readouterr().out.split())
+    assert clean_deg < 0.5 * noisy_deg
+    assert not scope["filled"].missing().any() and scope["gappy"].missing().any()
+    rows, walk = scope["rows"], scope["walk"]
+    assert all(r is None for r in rows[:15]) and len(rows) == walk.num_frames + 15
+    offline = scope["deep"].denoise_rows(walk.skeleton, scope["noisy"].channel_values(), walk.fps)
+    assert np.allclose(np.array(rows[15:]), offline, atol=1e-4)
