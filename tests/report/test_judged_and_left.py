@@ -126,9 +126,21 @@ def test_clean_batch_line_says_the_flags_left_and_the_frames_not_judged(tmp_path
     (src / "131_01.bvh").write_bytes(samples.path("131_01.bvh").read_bytes())
     assert main(["clean-batch", str(src), str(tmp_path / "out"), "--steps", "detect,repair"]) == 0
     line = next(x for x in capsys.readouterr().out.splitlines() if x.startswith("cleaned "))
-    assert "flagged run" in line and "left as it was (" in line and "RightElbow 96" in line
+    assert "flagged runs left as they were (" in line and "RightElbow 96" in line  # and RThumb 237-242's flip
     assert "the repair was not better than the take" in line
     assert not_judged_note(res.detection, take.num_frames) in line
+
+
+def test_the_batch_line_says_one_run_left_as_it_was_and_two_as_they_were(monkeypatch):
+    """Docs trial A: clean-batch said "2 flagged runs left as it was (RThumb 237-242, RightElbow 960-965: ...)"."""
+    from mocapkit.cleaning import flags_left
+
+    runs = [{"joint": "RThumb", "first": 237, "last": 242, "left": "left as it was: a half turn in one frame and back"},
+            {"joint": "RightElbow", "first": 960, "last": 965, "left": "left as it was: the repair was not better than the take"}]
+    monkeypatch.setattr(flags_left, "flag_outcomes", lambda result: runs[:1])
+    assert flags_left.left_line(None).startswith("1 flagged run left as it was (RThumb 237-242: a half turn")
+    monkeypatch.setattr(flags_left, "flag_outcomes", lambda result: runs)
+    assert flags_left.left_line(None).startswith("2 flagged runs left as they were (RThumb 237-242, RightElbow 960-965: ")
 
 
 def test_each_change_and_flag_reads_as_an_animators_sentence_with_the_rule_as_detail(open_page, report, cleaned_131_01):

@@ -57,5 +57,5 @@ def left_line(result) -> str:
     named = [f"{f['joint']} {f['first']}-{f['last']}" for f in left[:3]] + \
         ([f"{len(left) - 3} more"] if len(left) > 3 else [])
     why = {f["left"].split(" (")[0].removeprefix("left as it was: ") for f in left}
-    return (f"{len(left)} flagged run{'' if len(left) == 1 else 's'} left as it was ({', '.join(named)}: "
+    return (f"{len(left)} flagged run{' left as it was' if len(left) == 1 else 's left as they were'} ({', '.join(named)}: "
             f"{'; '.join(sorted(why))})")
