@@ -262,7 +262,7 @@ def test_the_record_console_and_batch_json_count_filled_and_spike_samples_alike(
     _write_with_ezc3d(src / "bad.c3d", y, ms.labels, ms.fps)
     code, stdout, stderr = run("clean", src / "bad.c3d", "-o", tmp_path / "one.c3d")
     assert code == 0, stderr
-    assert "1 gaps filled (40 samples), 1 spikes removed (3 samples)" in stdout
+    assert "1 gap filled (40 samples), 1 spike removed (3 samples), 0 label swaps undone (0 samples)" in stdout
     with np.load(tmp_path / "one.clean.npz") as rec:
         filled, spikes = rec["filled"], rec["spikes"]
     assert filled.sum() == 40 and filled[300:340, 4].all()

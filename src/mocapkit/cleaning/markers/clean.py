@@ -275,9 +275,9 @@ class MarkerCleanResult:
             return ([f"review mode (--steps detect): the capture unchanged; cleaning would change {n} of {total} "
                      f"marker sample{'' if total == 1 else 's'}"] + dataclasses.replace(self, review=False).summary())
         counts = {k: sum(1 for x in self.fixes if x.kind == k) for k in ("gap", "spike", "swap")}
-        lines = [f"{counts['gap']} gaps filled ({int(self.filled.sum())} samples), "
-                 f"{counts['spike']} spikes removed ({int(self.spikes.sum())} samples), "
-                 f"{counts['swap']} label swaps undone ({int(self.swapped.sum())} samples)"]
+        lines = [f"{_n(counts['gap'], 'gap')} filled ({_n(int(self.filled.sum()), 'sample')}), "
+                 f"{_n(counts['spike'], 'spike')} removed ({_n(int(self.spikes.sum()), 'sample')}), "
+                 f"{_n(counts['swap'], 'label swap')} undone ({_n(int(self.swapped.sum()), 'sample')})"]
         skip = np.isin(self.markers.labels, self.unlabelled)
         if hasattr(self.original, "modelled"):  # modelled points' unseen samples are no markers' missing ones
             skip = skip | self.original.modelled()
@@ -285,10 +285,10 @@ class MarkerCleanResult:
         removed = gone & ~self.original.missing()[:, ~skip]  # recorded samples removed as spikes, no fill passed
         left = int(np.sum(gone & ~removed))
         if left:
-            lines.append(f"{left} samples still missing")
+            lines.append(f"{_n(left, 'sample')} still missing")
         if removed.any():
             how = "spikes or duplicate labels" if np.any(removed & self.duplicate_mask[:, ~skip]) else "spikes"
-            lines.append(f"{int(removed.sum())} recorded samples removed as {how} and left missing (no plausible fill)")
+            lines.append(f"{_n(int(removed.sum()), 'recorded sample')} removed as {how} and left missing (no plausible fill)")
         for x in (x for kind in ("duplicate", "foreign") for x in self.fixes if x.kind == kind):
             done = "removed and filled" if np.isfinite(x.size_mm) else "removed, left missing (no plausible fill)"
             lines.append(f"{x.marker} frames {x.start}-{x.end - 1}: {x.removed_as}, {done}")
@@ -362,6 +362,11 @@ class MarkerCleanResult:
                 **({"request": np.array(json.dumps(request))} if request else {}),
             )
         return path
+
+
+def _n(count: int, word: str) -> str:
+    """``count`` and ``word``, plural unless one: "1 gap", "2 gaps"."""
+    return f"{count} {word}{'' if count == 1 else 's'}"
 
 
 def _swap_sources(x: np.ndarray, y: np.ndarray, swapped: np.ndarray) -> np.ndarray:
