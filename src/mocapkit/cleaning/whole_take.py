@@ -55,6 +55,7 @@ from ..errors import MocapError, SkeletonError
 from ..motion import Motion
 from .calibration import calibration_mask, calibration_poses
 from .denoise_guard import guarded
+from .measured import keep_measured
 from .zeros import as_missing, find_zeros
 
 __all__ = ["MAX_WORD_ANGLE_DEG", "MADE_UP_SHARE", "TakeDetection", "TakeFill", "TakeRepair", "take_params",
@@ -156,8 +157,9 @@ def fill_take(motion: Motion, ebd=None, ebf=None, *, smooth: bool = True, method
 
     The runs of :func:`~mocapkit.cleaning.zeros.find_zeros` (``zeros``: its result when the caller has it) become
     missing cells (:func:`~mocapkit.cleaning.zeros.as_missing`), and every missing cell is filled by
-    :func:`mocapkit.cleaning.deep.fill_or_fallback` (the EBD where it serves the take, else the cubic spline);
-    every other sample is returned bit-identical. ``ebd``, ``ebf``: as :func:`resolve_model` takes them;
+    :func:`mocapkit.cleaning.deep.fill_or_fallback` (the EBD where it serves the take, else the cubic spline),
+    the numbers a missing cell still has put back (:func:`~mocapkit.cleaning.measured.keep_measured`: a BVH cell
+    with one ``nan`` channel takes the fill's value in that channel alone); every other sample is returned bit-identical. ``ebd``, ``ebf``: as :func:`resolve_model` takes them;
     ``smooth``, ``method``, ``options``: as for ``fill_or_fallback``. Raises :class:`~mocapkit.errors.MocapError`
     naming the take when a joint is missing in every frame (nothing to fill it from).
     """
@@ -178,6 +180,7 @@ def fill_take(motion: Motion, ebd=None, ebf=None, *, smooth: bool = True, method
     doubts: list[str] = []
     out, how, note = deep.fill_or_fallback(cur, ebd, ebf, smooth=smooth, label=label, method=method,
                                            options=options, doubts=doubts)
+    out, _ = keep_measured(cur, out)  # a cell's measured numbers put back: only its missing ones filled
     filled = differing(cur.rotations, out.rotations) | (gaps & ~out.missing())
     warnings = tuple(w for w in (made_up_note(gaps), *doubts) if w)
     return TakeFill(out, filled, cells, tuple(runs), how, note, warnings)

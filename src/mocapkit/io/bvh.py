@@ -39,7 +39,7 @@ from ._numparse import line_of_offset, parse_floats
 from .bvh_hierarchy import MAX_INDENT, check_bvh_names, depth_first_order, hierarchy_text, shortest
 from .bvh_comments import anchored, comment_lines, keyword_count, motion_comments, with_comments
 from .bvh_roots import COMMENT, Layout, is_comment, layout
-from .euler_branches import NEAR_SOURCE_DEG, continuous_rotations
+from .euler_branches import NEAR_SOURCE_DEG, continuous_rotations, measured_text
 from .kept_channels import kept_values
 from .sources import recall, remember
 
@@ -932,7 +932,9 @@ def _around(lines: list[str], where: Layout) -> tuple[list[str], list[str]] | No
 def _write_like(path: Path, motion: Motion, values: np.ndarray, channels, source: _LikeSource, precision: int) -> None:
     """Write ``values`` (F, C) keeping ``source``'s text wherever a cell did not change: a joint's rotation channels
     are written where its rotation changed, its position channels where its position did (a 6-channel joint whose
-    rotation was repaired keeps the file's position text), and its scale channels never (always 1, as read). The changed angles in ``values`` are already on the
+    rotation was repaired keeps the file's position text), and its scale channels never (always 1, as read); in a
+    cell the file left partly ``nan`` the channels it measured keep their text where the fill put them back
+    (:func:`~mocapkit.io.euler_branches.measured_text`). The changed angles in ``values`` are already on the
     branch of their unchanged neighbours (:func:`_continuous_rotations`)."""
     sk = motion.skeleton
     F = motion.num_frames
@@ -941,6 +943,7 @@ def _write_like(path: Path, motion: Motion, values: np.ndarray, channels, source
     is_rot = np.array([c.endswith("rotation") for cs in channels for c in cs], dtype=bool)
     is_pos = np.array([c.endswith("position") for cs in channels for c in cs], dtype=bool)
     fmt = f"%.{precision}f"
+    kept = measured_text(values, channels, source.values)  # a filled cell's measured channels: the file's text
     with atomic_write(path, "w", encoding="utf-8", newline="") as fh:
         if source.header is not None:
             fh.write("".join(source.header))
@@ -962,7 +965,7 @@ def _write_like(path: Path, motion: Motion, values: np.ndarray, channels, source
             tokens = body.split()
             for j in joints:
                 for c in range(starts[j], starts[j + 1]):
-                    if not ((turned[j] and is_rot[c]) or (moved[j] and is_pos[c])):
+                    if not ((turned[j] and is_rot[c]) or (moved[j] and is_pos[c])) or kept[f, c]:
                         continue
                     tokens[first + c] = fmt % values[f, c]
             fh.write(" ".join(tokens) + (line[len(body):] or "\n"))

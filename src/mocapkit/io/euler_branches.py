@@ -15,11 +15,17 @@ import numpy as np
 
 from .. import rotations as R
 
-__all__ = ["NEAR_SOURCE_DEG", "continuous_rotations", "source_branches", "three_axis_groups"]
+__all__ = ["MEASURED_TOLERANCE_DEG", "NEAR_SOURCE_DEG", "bridged", "continuous_rotations", "measured_text",
+           "partly_missing", "source_branches", "three_axis_groups"]
 
 #: Degrees: a changed cell whose rotation stays this close to the source file's is written on the branch nearest the
 #: file's numbers of that cell; one turned further (a flip repaired) follows its neighbours (continuous_euler's max_step).
 NEAR_SOURCE_DEG = 90.0
+
+#: Degrees: in a cell the file leaves partly missing (a ``nan`` channel), a measured channel whose value to write is
+#: this close to the file's number keeps the file's text (the fill put it back: mocapkit.cleaning.measured; what is
+#: left is the rounding of taking the rotation apart again).
+MEASURED_TOLERANCE_DEG = 1e-9
 
 
 def continuous_rotations(values: np.ndarray, channels, source=None) -> None:
@@ -46,9 +52,55 @@ def continuous_rotations(values: np.ndarray, channels, source=None) -> None:
         angles = values[:, idx]
         fixed = start = None
         if source is not None:
-            angles, fixed = source_branches(angles, source.values[:, idx], source.turned[:, js], order)
+            own = source.values[:, idx]
+            part = partly_missing(own)  # a nan channel beside measured ones: placed nearest the bridged curve
+            if part.any():
+                own = np.where(part[..., None], bridged(own), own)
+            angles, fixed = source_branches(angles, own, source.turned[:, js], order)
             start = source.values[0, idx]
         values[:, idx] = R.continuous_euler(angles, order, fixed=fixed, start=start)
+
+
+def partly_missing(own: np.ndarray) -> np.ndarray:
+    """(...) bool: the cells of ``own`` (..., n; a joint's rotation channels as the file gives them, NaN for
+    ``nan``) with some channels missing and some measured."""
+    nan = np.isnan(own)
+    return nan.any(axis=-1) & ~nan.all(axis=-1)
+
+
+def bridged(own: np.ndarray) -> np.ndarray:
+    """``own`` (F, ...) with each column's NaN replaced by the straight line between its measured frames (held
+    flat past the first or last): the curve a missing channel's new value is placed nearest (whole turns, Euler
+    branch). A column with no measured value stays NaN."""
+    out = np.array(own, dtype=np.float64)
+    flat = out.reshape(out.shape[0], -1)
+    t = np.arange(flat.shape[0])
+    for k in range(flat.shape[1]):
+        ok = np.isfinite(flat[:, k])
+        if ok.any() and not ok.all():
+            flat[~ok, k] = np.interp(t[~ok], t[ok], flat[ok, k])
+    return flat.reshape(out.shape)
+
+
+def measured_text(values: np.ndarray, channels, own: np.ndarray) -> np.ndarray:
+    """(F, C) bool: the channels a writer keeps the file's text of in a changed cell: those the file measures
+    (``own`` (F, C), the file's numbers, finite) among a joint's rotation (or position) channels it leaves partly
+    missing (:func:`partly_missing`), whose value to write (``values`` (F, C), degrees or file units) is the
+    file's within :data:`MEASURED_TOLERANCE_DEG` (a position: put back exactly): the fill filled the missing channel and put the measured ones back
+    (:func:`mocapkit.cleaning.measured.keep_measured`)."""
+    keep = np.zeros(values.shape, dtype=bool)
+    start = 0
+    for chans in channels:
+        for kind in ("rotation", "position"):
+            cols = [start + k for k, c in enumerate(chans) if c.endswith(kind)]
+            if len(cols) < 2:
+                continue
+            part = partly_missing(own[:, cols])
+            if part.any():
+                close = np.abs(values[:, cols] - own[:, cols]) <= MEASURED_TOLERANCE_DEG  # False where own is NaN
+                keep[:, cols] = part[:, None] & close
+        start += len(chans)
+    return keep
 
 
 def source_branches(angles: np.ndarray, own: np.ndarray, turned: np.ndarray, order: str,

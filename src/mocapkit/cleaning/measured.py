@@ -1,0 +1,91 @@
+"""The channels a BVH still measures in a cell it leaves partly missing, put back after the fill.
+
+A joint's sample is its whole rotation (``Motion.rotations`` (F, J, 4)), so one NaN channel of a BVH cell (a
+``Zrotation`` written as ``nan`` for ten frames) makes the joint missing in those frames, and the fill (EBD or
+spline) makes up its whole rotation there. The file's other rotation channels of those cells are measurements,
+which a cleaning tool must not lose (nor the rotation of a joint missing by a position channel alone, nor
+the measured axes of a position): :func:`keep_measured` takes the filled rotation apart in the file's channel
+order (on the Euler branch nearest the file's numbers, :func:`mocapkit.rotations.nearest_euler`), puts the file's
+measured angles back, and builds the rotation again, so only the missing channel takes the fill's value. The BVH
+writer then keeps the measured channels' own text in those cells (:func:`mocapkit.io.bvh.write_bvh` with ``like``).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from pathlib import Path
+
+import numpy as np
+
+from .. import rotations as R
+from ..io.euler_branches import bridged, partly_missing
+from ..motion import Motion
+
+__all__ = ["keep_measured"]
+
+
+def keep_measured(before: Motion, after: Motion) -> tuple[Motion, np.ndarray]:
+    """``after`` (``before`` filled) with every number ``before`` measured in a cell it leaves missing put back.
+
+    A joint is missing where any of its numbers is NaN (:meth:`Motion.missing`), and the fill makes up the whole
+    cell; here ``after`` keeps of each filled cell only what ``before`` lacks: a rotation ``before`` has whole
+    (the cell was missing by a position channel) is ``before``'s, bit for bit; a root position or animated
+    offset axis ``before`` has (``root_positions`` (F, 3), ``translations`` (F, J, 3); file units) is
+    ``before``'s; and where the BVH file ``before`` was read from (its ``source_file``, or an .npz keeping such
+    a file's numbers, :mod:`mocapkit.io.kept_channels`) gives a joint's rotation channels partly ``nan``
+    (:func:`~mocapkit.io.euler_branches.partly_missing`), the filled rotation is read as Euler angles in the
+    joint's channel order (degrees; on the branch nearest the file's numbers, a missing channel's own curve
+    bridged linearly over its gap), the measured channels set to the file's numbers and the rotation built
+    from them again (intrinsic order, as the BVH reader builds it), so only the missing channel takes the fill's
+    value. A skeleton with ASF axes has no such channels (AMC dofs: not done). Returns ``(motion, cells)``:
+    ``cells`` (F, J) bool the cells changed from ``after``; ``after`` itself where none is.
+    """
+    F, J = after.num_frames, after.num_joints
+    rot = np.array(after.rotations)
+    whole = np.isfinite(before.rotations).all(axis=-1)
+    rot[whole] = before.rotations[whole]
+    _partly_measured(before, after, rot)
+    root = np.where(np.isfinite(before.root_positions), before.root_positions, after.root_positions)
+    trans = after.translations
+    if trans is not None and before.translations is not None:
+        trans = np.where(np.isfinite(before.translations), before.translations, trans)
+    cells = _differs(rot, after.rotations)
+    cells[:, 0] |= _differs(root, after.root_positions)
+    if trans is not None:
+        cells |= _differs(trans, after.translations)
+    if not cells.any():
+        return after, cells
+    return dataclasses.replace(after, rotations=rot, root_positions=root, translations=trans), cells
+
+
+def _differs(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Elementwise "not the same float" (NaN equals NaN), reduced over the last axis."""
+    return np.any((a != b) & ~(np.isnan(a) & np.isnan(b)), axis=-1)
+
+
+def _partly_measured(before: Motion, after: Motion, rot: np.ndarray) -> None:
+    """Put the measured rotation channels of ``before``'s BVH file back into ``rot`` (F, J, 4; ``after``'s filled
+    rotations, in place) in the cells the file gives partly ``nan`` (:func:`keep_measured`)."""
+    src = before.source_file
+    if src is None or Path(src).suffix.lower() not in (".bvh", ".npz") or after.skeleton.axes is not None:
+        return
+    from ..io.bvh import source_values  # io is below cleaning; imported on use: most takes have no gaps
+
+    values, channels = source_values(after, src)
+    if values is None or values.shape[0] != after.num_frames or not np.isnan(values).any():
+        return
+    start = 0
+    for j, chans in enumerate(channels):
+        axes = [k for k, c in enumerate(chans) if c.endswith("rotation")]
+        cols = [start + k for k in axes]
+        start += len(chans)
+        if not cols:
+            continue
+        own = values[:, cols]
+        part = partly_missing(own) & np.isfinite(rot[:, j]).all(axis=-1)
+        if not part.any():
+            continue
+        order = "".join(chans[k][0] for k in axes)
+        angles = R.nearest_euler(R.quaternion_to_euler(rot[part, j], order), bridged(own)[part], order)
+        angles = np.where(np.isnan(own[part]), angles, own[part])
+        rot[part, j] = R.euler_to_quaternion(angles, order)

@@ -1,0 +1,48 @@
+"""A BVH cell with one ``nan`` channel: the fill fills that channel alone, the file's measured ones kept bit for bit
+(mocapkit.cleaning.measured, the BVH writer's measured_text)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from mocapkit.cleaning.whole_take import fill_take
+from mocapkit.io.bvh import read_bvh, write_bvh
+
+DATA = Path(__file__).resolve().parents[1] / "data"
+
+
+def _with_nan(src: Path, out: Path, column: int, frames: range) -> list[str]:
+    """``src`` with its ``column``-th number written ``nan`` in ``frames``; the file's lines."""
+    lines = src.read_text().split("\n")
+    at = next(i for i, t in enumerate(lines) if t.startswith("Frame Time")) + 1
+    for f in frames:
+        tokens = lines[at + f].split(" ")
+        tokens[column] = "nan"
+        lines[at + f] = " ".join(tokens)
+    out.write_text("\n".join(lines))
+    return lines
+
+
+@pytest.mark.parametrize("take, column, joint", [
+    ("pybvh_test1_zup.bvh", 7, 1),  # pybvh's Xsens-like take: the Spine's Zrotation (of Xrotation Zrotation Yrotation)
+    ("dataset-1_dash_normal_001.bvh", 13, 2),  # a Bandai Namco take: its Spine's Yposition (its rotation whole)
+])
+def test_fill_of_one_nan_channel_keeps_the_measured_channels_text(tmp_path, take, column, joint):
+    path = tmp_path / "one_nan.bvh"
+    lines = _with_nan(DATA / take, path, column, range(5, 13))
+    at = next(i for i, t in enumerate(lines) if t.startswith("Frame Time")) + 1
+    taken = read_bvh(path)
+    assert taken.missing()[5:13, joint].all()
+    done = fill_take(taken)
+    assert done.filled[5:13, joint].all() and not done.motion.missing().any()
+    out = tmp_path / "out.bvh"
+    write_bvh(done.motion, out, like=path)
+    written = out.read_text().split("\n")
+    changed = [(i, k) for i, (a, b) in enumerate(zip(lines, written)) for k, (x, y) in
+               enumerate(zip(a.split(" "), b.split(" "))) if x != y]
+    assert changed == [(at + f, column) for f in range(5, 13)]  # only the nan numbers; the measured ones the file's
+    back = read_bvh(out).channel_values()[3:15, column]
+    assert np.all(np.abs(np.diff(back)) < 5.0)  # the filled channel joins its curve
