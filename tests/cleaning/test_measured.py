@@ -1,5 +1,5 @@
-"""A BVH cell with one ``nan`` channel: the fill fills that channel alone, the file's measured ones kept bit for bit
-(mocapkit.cleaning.measured, the BVH writer's measured_text)."""
+"""A BVH cell with one ``nan`` channel (an AMC bone line with one ``nan`` dof): the fill fills that channel alone, the
+file's measured ones kept bit for bit (mocapkit.cleaning.measured, the writers keeping their text)."""
 
 from __future__ import annotations
 
@@ -8,7 +8,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from mocapkit import samples
 from mocapkit.cleaning.whole_take import fill_take
+from mocapkit.io.amc_writer import write_amc
+from mocapkit.io.asfamc import read_amc
 from mocapkit.io.bvh import read_bvh, write_bvh
 
 DATA = Path(__file__).resolve().parents[1] / "data"
@@ -46,3 +49,27 @@ def test_fill_of_one_nan_channel_keeps_the_measured_channels_text(tmp_path, take
     assert changed == [(at + f, column) for f in range(5, 13)]  # only the nan numbers; the measured ones the file's
     back = read_bvh(out).channel_values()[3:15, column]
     assert np.all(np.abs(np.diff(back)) < 5.0)  # the filled channel joins its curve
+
+
+def test_fill_of_one_nan_dof_keeps_the_measured_dofs_text(tmp_path):
+    asf = samples.path("HDM_bk.asf")
+    lines = samples.path("HDM_bk_sneak2StepsLStart_004_120.amc").read_text(encoding="latin-1").split("\n")
+    frame, nan_at = 0, []
+    for i, line in enumerate(lines):  # lhumerus's second dof written nan in frames 10 to 17
+        tokens = line.split(" ")
+        if tokens[0].isdigit():
+            frame = int(tokens[0])
+        elif tokens[0] == "lhumerus" and 10 <= frame < 18:
+            tokens[2] = "nan"
+            lines[i] = " ".join(tokens)
+            nan_at.append(i)
+    path = tmp_path / "one_nan.amc"
+    path.write_text("\n".join(lines), encoding="latin-1")
+    done = fill_take(read_amc(path, asf=asf))
+    assert not done.motion.missing().any()
+    out = tmp_path / "out.amc"
+    write_amc(done.motion, out, like=path, asf=asf)
+    written = out.read_text(encoding="latin-1").split("\n")
+    changed = [(i, k) for i, (a, b) in enumerate(zip(lines, written)) for k, (x, y) in
+               enumerate(zip(a.split(" "), b.split(" "))) if x != y]
+    assert len(nan_at) == 8 and changed == [(i, 2) for i in nan_at]  # the nan dofs alone; the measured as the file's

@@ -1,4 +1,4 @@
-"""The channels a BVH still measures in a cell it leaves partly missing, put back after the fill.
+"""The channels a BVH (dofs an AMC) still measures in a cell it leaves partly missing, put back after the fill.
 
 A joint's sample is its whole rotation (``Motion.rotations`` (F, J, 4)), so one NaN channel of a BVH cell (a
 ``Zrotation`` written as ``nan`` for ten frames) makes the joint missing in those frames, and the fill (EBD or
@@ -7,7 +7,8 @@ which a cleaning tool must not lose (nor the rotation of a joint missing by a po
 the measured axes of a position): :func:`keep_measured` takes the filled rotation apart in the file's channel
 order (on the Euler branch nearest the file's numbers, :func:`mocapkit.rotations.nearest_euler`), puts the file's
 measured angles back, and builds the rotation again, so only the missing channel takes the fill's value. The BVH
-writer then keeps the measured channels' own text in those cells (:func:`mocapkit.io.bvh.write_bvh` with ``like``).
+and AMC writers then keep the measured channels' own text in those cells (:func:`mocapkit.io.bvh.write_bvh`,
+:func:`mocapkit.io.amc_writer.write_amc`, with ``like``).
 """
 
 from __future__ import annotations
@@ -31,13 +32,14 @@ def keep_measured(before: Motion, after: Motion) -> tuple[Motion, np.ndarray]:
     cell; here ``after`` keeps of each filled cell only what ``before`` lacks: a rotation ``before`` has whole
     (the cell was missing by a position channel) is ``before``'s, bit for bit; a root position or animated
     offset axis ``before`` has (``root_positions`` (F, 3), ``translations`` (F, J, 3); file units) is
-    ``before``'s; and where the BVH file ``before`` was read from (its ``source_file``, or an .npz keeping such
-    a file's numbers, :mod:`mocapkit.io.kept_channels`) gives a joint's rotation channels partly ``nan``
+    ``before``'s; and where the BVH or AMC file ``before`` was read from (its ``source_file``, or an .npz keeping
+    such a file's numbers, :mod:`mocapkit.io.kept_channels`) gives a joint's rotation channels partly ``nan``
     (:func:`~mocapkit.io.euler_branches.partly_missing`), the filled rotation is read as Euler angles in the
     joint's channel order (degrees; on the branch nearest the file's numbers, a missing channel's own curve
     bridged linearly over its gap), the measured channels set to the file's numbers and the rotation built
     from them again (intrinsic order, as the BVH reader builds it), so only the missing channel takes the fill's
-    value. A skeleton with ASF axes has no such channels (AMC dofs: not done). Returns ``(motion, cells)``:
+    value; an AMC bone line partly ``nan`` alike (its dofs the Euler angles of ``C^-1 q C``, ``C`` the bone's ASF
+    axis frame, in the dofs' extrinsic order). Returns ``(motion, cells)``:
     ``cells`` (F, J) bool the cells changed from ``after``; ``after`` itself where none is.
     """
     F, J = after.num_frames, after.num_joints
@@ -64,11 +66,47 @@ def _differs(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 
 
 def _partly_measured(before: Motion, after: Motion, rot: np.ndarray) -> None:
-    """Put the measured rotation channels of ``before``'s BVH file back into ``rot`` (F, J, 4; ``after``'s filled
-    rotations, in place) in the cells the file gives partly ``nan`` (:func:`keep_measured`)."""
+    """Put the measured rotation channels (BVH) or dofs (AMC) of ``before``'s file back into ``rot`` (F, J, 4;
+    ``after``'s filled rotations, in place) in the cells the file gives partly ``nan`` (:func:`keep_measured`)."""
     src = before.source_file
-    if src is None or Path(src).suffix.lower() not in (".bvh", ".npz") or after.skeleton.axes is not None:
+    if src is None or Path(src).suffix.lower() not in (".bvh", ".amc", ".npz"):
         return
+    if after.skeleton.axes is None:
+        _bvh_measured(after, src, rot)
+    else:
+        _amc_measured(after, src, rot)
+
+
+def _amc_measured(after: Motion, src, rot: np.ndarray) -> None:
+    """:func:`_partly_measured` for an ASF/AMC take: a bone's dof angles are the Euler angles of ``C^-1 q C``
+    (``C`` its ASF axis frame; extrinsic, in the dofs' order), as the AMC reader builds ``q`` from them."""
+    from ..io.amc_writer import source_numbers  # io is below cleaning; imported on use
+
+    values, dofs = source_numbers(after, src)
+    if values is None or values.shape[0] != after.num_frames or not np.isnan(values).any():
+        return
+    start = 0
+    for j, d in enumerate(dofs):
+        axes = [k for k, x in enumerate(d) if x[0] == "r"]
+        cols = [start + k for k in axes]
+        start += len(d)
+        if len(cols) < 2:
+            continue
+        own = values[:, cols]
+        part = partly_missing(own) & np.isfinite(rot[:, j]).all(axis=-1)
+        if not part.any():
+            continue
+        order = "".join(d[k][1] for k in axes)
+        c = np.broadcast_to(after.skeleton.axes[j], rot[part, j].shape)
+        m = R.quaternion_multiply(R.quaternion_multiply(R.quaternion_conjugate(c), rot[part, j]), c)
+        angles = R.nearest_euler(R.quaternion_to_euler(m, order), bridged(own)[part], order)
+        m = R.euler_to_quaternion(np.where(np.isnan(own[part]), angles, own[part]), order)
+        rot[part, j] = R.quaternion_multiply(R.quaternion_multiply(c, m), R.quaternion_conjugate(c))
+
+
+def _bvh_measured(after: Motion, src, rot: np.ndarray) -> None:
+    """:func:`_partly_measured` for a BVH take: a joint's rotation channels are intrinsic Euler angles in the
+    file's channel order, as the BVH reader builds the rotation from them."""
     from ..io.bvh import source_values  # io is below cleaning; imported on use: most takes have no gaps
 
     values, channels = source_values(after, src)

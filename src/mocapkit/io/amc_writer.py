@@ -50,7 +50,7 @@ from .. import rotations as R
 from ..errors import MocapFormatError
 from ..motion import Motion
 from .asfamc import amc_dofs, amc_table_arrays, with_rate
-from .euler_branches import source_branches
+from .euler_branches import MEASURED_TOLERANCE_DEG, bridged, partly_missing, source_branches
 from .kept_channels import kept_values
 
 __all__ = ["write_amc", "check_amc_writable", "dof_values", "file_dofs", "source_numbers"]
@@ -129,6 +129,9 @@ def dof_values(motion: Motion, dofs, radians: bool, source: "_LikeSource | None"
             if source is not None:
                 file_cols = [col0 + i for i, x in enumerate(d) if x[0] == "r"]
                 given = source.numbers[:, file_cols]
+                part = partly_missing(given)  # a nan dof beside measured ones: placed nearest the bridged curve
+                if part.any():
+                    given = np.where(part[:, None], bridged(given), given)
                 ang, fixed = source_branches(ang, given, source.turned[:, j], rot, degrees=not radians)
                 start = given[0]
             ang = R.continuous_euler(ang, rot, fixed=fixed, start=start, degrees=not radians)
@@ -341,12 +344,16 @@ def _like_source(like, motion: Motion, dofs) -> _LikeSource | None:
 
 def _write_like(path: Path, motion: Motion, dofs, source: _LikeSource, precision: int) -> None:
     """Write the take keeping ``source``'s text wherever a frame or a bone's line did not change (and a root's
-    angles where only its position changed, its position where only its rotation did)."""
+    angles where only its position changed, its position where only its rotation did; in a bone line the file
+    gives partly ``nan``, the dofs it measures where the fill put them back, within
+    :data:`~mocapkit.io.euler_branches.MEASURED_TOLERANCE_DEG`)."""
     from . import atomic_write
 
     names = motion.skeleton.joint_names
     values = dof_values(motion, dofs, radians=source.radians, source=source)
     fmt = f"%.{precision}f"
+    starts = np.cumsum([0] + [len(d) for d in dofs])
+    tol = np.radians(MEASURED_TOLERANCE_DEG) if source.radians else MEASURED_TOLERANCE_DEG
     with atomic_write(path, "w", encoding="latin-1", newline="") as fh:
         fh.write(with_rate(source.header, motion.fps, path))
         for f, block in enumerate(source.frames):
@@ -370,7 +377,15 @@ def _write_like(path: Path, motion: Motion, dofs, source: _LikeSource, precision
                 line = block[i]
                 body = line.rstrip("\r\n")
                 tok = body.split("#", 1)[0].split()
+                own = source.numbers[f, starts[j]:starts[j + 1]]
+                kept = set()  # dofs the file measures beside a nan one of their kind, put back by the fill
+                for kind in "rt":
+                    ks = [k for k, x in enumerate(dofs[j]) if x[0] == kind]
+                    if ks and partly_missing(own[ks]):
+                        kept.update(k for k in ks if abs(new[k] - own[k]) <= (tol if kind == "r" else 0.0))
                 for k, v in enumerate(new):  # angles already on the branch of the bone's unchanged frames (dof_values)
+                    if k in kept:
+                        continue
                     if source.moved[f] if dofs[j][k][0] == "t" else source.turned[f, j]:
                         tok[k + 1] = fmt % v  # a root that only moved keeps its angles' text, and the other way
                 block[i] = " ".join(tok) + (line[len(body):] or ending)
