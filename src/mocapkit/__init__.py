@@ -49,7 +49,8 @@ __all__ = [
 
 def clean(take, context=None, *, steps=None, threshold: float | None = None, asf=None,
           drifts: bool | None = None, models: dict | None = None, progress: bool = False, noise_deg: float | None = None,
-          fps: float | None = None, unit: str | None = None, decisions=None, record=None, joint_map=None):
+          fps: float | None = None, unit: str | None = None, decisions=None, record=None, joint_map=None,
+          zeros_as_gaps: bool | None = None):
     """Clean a take: fill gaps, detect and repair erroneous joints, denoise the noisy cells.
 
     The main job of mocapkit, :func:`mocapkit.cleaning.pipeline.clean` on a
@@ -109,6 +110,10 @@ def clean(take, context=None, *, steps=None, threshold: float | None = None, asf
         default :func:`mocapkit.io.asfamc.amc_rate`).
     unit : {"mm", "cm", "m", "in"}, optional
         The length unit of a file that states none (the CLI's ``--unit``).
+    zeros_as_gaps : bool, optional
+        How a .c3d or .trc file's samples at exactly (0, 0, 0) are read: True gaps, False positions (the CLI's
+        ``--zeros-as-gaps`` / ``--keep-zeros``); default (None) decided from the data
+        (:func:`mocapkit.io.load_markers`). Marker files only.
     decisions : str, os.PathLike or dict, optional
         A decisions file (the report's *Download decisions*; the CLI's
         ``--decisions``), or the same document as a dict: the result then holds only the changes it accepts, every other
@@ -166,7 +171,8 @@ def clean(take, context=None, *, steps=None, threshold: float | None = None, asf
     threshold = 0.5 if threshold is None else threshold
     drifts = False if drifts is None else drifts
     if isinstance(take, (MarkerSet, Motion)):  # options of a file, refused as fps= is for a .bvh path
-        given = [f"{name}=" for name, value in (("asf", asf), ("fps", fps), ("unit", unit)) if value is not None]
+        given = [f"{name}=" for name, value in (("asf", asf), ("fps", fps), ("unit", unit),
+                                                 ("zeros_as_gaps", zeros_as_gaps)) if value is not None]
         if given:
             raise MocapError(f"{take.name or 'the take'}: {', '.join(given)} {'apply' if len(given) > 1 else 'applies'} "
                              f"to a file read here, not to a {type(take).__name__} already read")
@@ -174,7 +180,7 @@ def clean(take, context=None, *, steps=None, threshold: float | None = None, asf
     if path is not None and os.fspath(path).lower().endswith((".c3d", ".trc", ".npz")):
         from .io.takes import load_take
 
-        take = load_take(path, unit=unit, unit_option="unit=")
+        take = load_take(path, unit=unit, unit_option="unit=", zeros_as_gaps=zeros_as_gaps)
     if isinstance(take, MarkerSet):
         from .cleaning.decisions import RECORD_KEYWORD
         from .cleaning.markers.decisions import clean_and_decide
@@ -187,12 +193,15 @@ def clean(take, context=None, *, steps=None, threshold: float | None = None, asf
             ("drifts", drifts), ("models", bool(models)), ("context", context is not None),
             ("noise_deg", noise_deg is not None), ("joint_map", joint_map is not None)) if given])
         _, res = clean_and_decide(take, name=os.fspath(path) if path is not None else "", decisions=decisions,
-                                  record=record, review=review, request=marker_request(unit, review=review),
+                                  record=record, review=review,
+                                  request=marker_request(unit, review=review, zeros_as_gaps=zeros_as_gaps),
                                   option=RECORD_KEYWORD,
                                   take=os.path.basename(os.fspath(path)) if path is not None else "")
         return dataclasses.replace(res, frames_note=frames_note(path, take))
     if record is not None and decisions is None:
         raise MocapError(f"{record}: an earlier run's record is applied with decisions; give the decisions file")
+    if zeros_as_gaps is not None:
+        raise MocapError(f"{take}: zeros_as_gaps= applies only to marker captures (.c3d, .trc)")
     motion = take if isinstance(take, Motion) else _load_motion(take, asf, fps, unit)
     request = _request(context, steps, threshold, drifts, models, noise_deg, fps, unit, joint_map)
     if record is not None:

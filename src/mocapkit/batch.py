@@ -142,6 +142,7 @@ def clean_file(
     placed=None,
     joint_map: dict | None = None,
     flags: bool = False,
+    zeros_as_gaps: bool | None = None,
 ):
     """Clean the take at ``inp`` and write ``out``, its ``.clean.npz`` record and optional reports.
 
@@ -167,7 +168,8 @@ def clean_file(
     noisy-cell level (:func:`mocapkit.cleaning.pipeline.clean`; None: its default). ``placed``: where ``out``
     is moved once written (a batch writes each take into a staging folder first): the report names the record
     beside it, where the user will find it. ``joint_map``: :func:`load_context`'s. ``flags``: refusals name the
-    command line's flags (``--overwrite``), not Python's keywords (:data:`SAID`).
+    command line's flags (``--overwrite``), not Python's keywords (:data:`SAID`). ``zeros_as_gaps``: how a marker
+    capture's samples at exactly (0, 0, 0) are read (:func:`clean_marker_file`; a joint-angle take ignores it).
 
     Every output is checked against every input
     (:func:`mocapkit.io.outputs.check_outputs`) before anything is read; the
@@ -191,7 +193,7 @@ def clean_file(
         ("models", bool(models)), ("noise_deg", noise_deg is not None)) if given]
     as_markers = dict(report=report, png=png, overwrite=overwrite, unit=unit, max_gap_s=max_gap_s,
                       max_error_mm=max_error_mm, decisions=decisions, record=record, review=asked == ("detect",),
-                      placed=placed)
+                      placed=placed, zeros_as_gaps=zeros_as_gaps)
     if isinstance(motion, MarkerSet) or (motion is None and inp.suffix.lower() in (".c3d", ".trc")):
         refuse_marker_options(inp, not_for_markers)
         return clean_marker_file(inp, out, markers=motion, **as_markers)
@@ -324,7 +326,8 @@ def clean_request(steps=None, threshold: float = 0.5, drifts: bool = False, cont
             "joint_map": dict(sorted((joint_map or {}).items())) if context and not is_off(list(context)) else {}}
 
 
-REQUEST_DEFAULTS = {"noise_deg": 1.0, "amc_fps": None, "unit": None, "review": False, "joint_map": {}}  # what a record without these keys was made with
+REQUEST_DEFAULTS = {"noise_deg": 1.0, "amc_fps": None, "unit": None, "review": False, "joint_map": {},
+                    "zeros_as_gaps": None}  # what a record without these keys was made with
 
 
 def _not_complete(inp: Path, files: dict, request: dict, markers: dict | None = None) -> tuple[str, bool, str]:
@@ -387,6 +390,8 @@ def _kept(why: str, decided: str, overwrite: str = SAID[False]["overwrite"]) -> 
 
 
 def _said(v, key: str = "") -> str:
+    if key == "zeros_as_gaps":  # how exact (0, 0, 0) samples were read, as the flags say it
+        return {None: "decided from the data", True: "--zeros-as-gaps", False: "--keep-zeros"}.get(v, str(v))
     if key == "joint_map":  # a map of a rig's every joint: its digest, not its names
         return hashlib.sha256(json.dumps(v, sort_keys=True).encode()).hexdigest()[:8] if v else "none"
     if isinstance(v, list):
@@ -566,7 +571,7 @@ def _clean_job(job: dict) -> dict:
                             png=staged[Path(job["png"])] if job.get("png") else None, asf=job.get("asf"),
                             drifts=bool(job.get("drifts")), models=job.get("models"), amc_fps=job.get("amc_fps"),
                             unit=job.get("unit"), noise_deg=job.get("noise_deg"), max_gap_s=job.get("max_gap_s"),
-                            max_error_mm=job.get("max_error_mm"), placed=out)
+                            max_error_mm=job.get("max_error_mm"), placed=out, zeros_as_gaps=job.get("zeros_as_gaps"))
         keep_aside(finals, kept)  # kept filled as each link is made: an interrupt in it leaves none behind
         if finals[-1] in kept:  # the old record goes first: the take reads as incomplete while its files are replaced
             os.unlink(finals[-1])
@@ -714,6 +719,7 @@ def clean_batch(
     noise_deg: float | None = None,
     max_gap_s: float | None = None,
     max_error_mm: float | None = None,
+    zeros_as_gaps: bool | None = None,
     on_row: Callable[[dict, int, int], None] | None = None,
     on_context: Callable[[str], None] | None = None,
     joint_map: dict | None = None,
@@ -736,7 +742,8 @@ def clean_batch(
     every marker capture (:func:`mocapkit.cleaning.markers.clean_markers`; joint-angle takes ignore them; a
     marker capture's record keeps them with its unit, :func:`marker_request`, and a capture cleaned with other
     ones is refused without ``overwrite`` and cleaned again with it, as a joint-angle take cleaned with another
-    request is). ``drifts``: also flag smooth
+    request is); ``zeros_as_gaps``: how every marker capture's samples at exactly (0, 0, 0) are read (True gaps,
+    False positions, None decided from the data; kept in its request alike). ``drifts``: also flag smooth
     drifts in every take (:func:`mocapkit.cleaning.pipeline.clean`); ``models``: model files (or shipped
     names) for every take, as :func:`clean_file`'s. ``on_row(row, n, total)``: called in this process
     with each take's row as soon as it is known, the complete takes first (input order), then each take
@@ -791,7 +798,7 @@ def clean_batch(
                            earlier=[str(p) for p in earlier if not (below and resolved(p) == resolved(out_dir))])
     todo, stale, again = [], [], {}
     request = clean_request(steps, threshold, drifts, ctx, models, noise_deg, amc_fps, unit, joint_map)
-    markers = marker_request(unit, max_gap_s, max_error_mm)
+    markers = marker_request(unit, max_gap_s, max_error_mm, zeros_as_gaps=zeros_as_gaps)
     for inp, files in zip(inputs, plans):
         if files["output"].is_file() and files["record"].is_file():
             why, anew, decided = _not_complete(inp, files, request, markers)
@@ -825,7 +832,7 @@ def clean_batch(
              "asf": _abs(asf) if asf is not None and inp.suffix.lower() == ".amc" else None,
              "amc_fps": float(amc_fps) if amc_fps is not None and inp.suffix.lower() == ".amc" else None,
              "unit": unit, "noise_deg": None if noise_deg is None else float(noise_deg),
-             "max_gap_s": max_gap_s, "max_error_mm": max_error_mm} for inp, files in todo]
+             "max_gap_s": max_gap_s, "max_error_mm": max_error_mm, "zeros_as_gaps": zeros_as_gaps} for inp, files in todo]
     skeletons = _asf_copies(inputs, plans, asf, overwrite, SAID[flags]) if fmt == "amc" else {}
     expected = [f for files in plans for f in files.values() if f is not None]
     made = missing_folders([out_dir, *(Path(files["output"]).parent for _, files in todo)])

@@ -22,13 +22,16 @@ __all__ = ["clean_marker_file", "marker_request", "refuse_marker_options"]
 
 
 def marker_request(unit: str | None = None, max_gap_s: float | None = None, max_error_mm: float | None = None,
-                   review: bool = False) -> dict:
+                   review: bool = False, zeros_as_gaps: bool | None = None) -> dict:
     """What a marker capture was asked to be cleaned with, as its record keeps it (``request``): the length unit of a
     file that states none, the longest gap filled (s) and the largest expected fill error (mm), None for the
-    defaults, and ``review``: whether it was only reviewed (``--steps detect``: nothing changed). :func:`clean_batch` takes a capture as complete only when its record holds the same request, as
+    defaults, ``review``: whether it was only reviewed (``--steps detect``: nothing changed), and ``zeros_as_gaps``:
+    how its samples at exactly (0, 0, 0) were read (``--zeros-as-gaps``/``--keep-zeros``; None: decided from the
+    data), which makes another capture of the same file. :func:`clean_batch` takes a capture as complete only when its record holds the same request, as
     :func:`clean_request` is for a joint-angle take; a record written before it kept one reads as the defaults."""
     return {"unit": unit, "max_gap_s": None if max_gap_s is None else float(max_gap_s),
-            "max_error_mm": None if max_error_mm is None else float(max_error_mm), "review": bool(review)}
+            "max_error_mm": None if max_error_mm is None else float(max_error_mm), "review": bool(review),
+            "zeros_as_gaps": None if zeros_as_gaps is None else bool(zeros_as_gaps)}
 
 
 def refuse_marker_options(inp, names: Sequence[str]) -> None:
@@ -45,7 +48,7 @@ def refuse_marker_options(inp, names: Sequence[str]) -> None:
 def clean_marker_file(inp, out, *, report=None, png=None, overwrite: bool = False, markers=None, steps=None,
                       unit: str | None = None, max_gap_s: float | None = None, max_error_mm: float | None = None,
                       decisions=None, record=None, review: bool = False, keep_modelled: bool = False,
-                      placed=None):
+                      placed=None, zeros_as_gaps: bool | None = None):
     """Clean the marker capture at ``inp`` (.c3d, .trc, marker .npz) into ``out`` (.c3d, .trc or .npz).
 
     :func:`mocapkit.cleaning.markers.clean_markers`, then the reports (HTML
@@ -66,6 +69,9 @@ def clean_marker_file(inp, out, *, report=None, png=None, overwrite: bool = Fals
     the C3D's modelled quantities (:func:`mocapkit.io.save_markers`); refused where it means nothing
     (:func:`mocapkit.io.check_keep_modelled`: ``out`` not a .trc, ``inp`` not a .c3d).
     ``placed``: where ``out`` is moved once written (a batch's staging folder): the report names the record there.
+    ``zeros_as_gaps``: how a .c3d or .trc ``inp``'s samples at exactly (0, 0, 0) are read when ``markers`` is not
+    given (:func:`mocapkit.io.load_markers`; None: decided from the data), kept in the record's request and said in
+    the report's command.
     """
     from .cleaning import decisions as dec
     from .cleaning.decided import apply_command
@@ -89,8 +95,9 @@ def clean_marker_file(inp, out, *, report=None, png=None, overwrite: bool = Fals
     check_outputs(outputs, [inp, decisions, record if reuse else None], overwrite=overwrite)
     suffix_kind(out, MARKER_FORMATS, "writing markers")
     taken = input_facts(inp)
-    ms = markers if markers is not None else load_markers(inp, **({} if unit is None else {"units": unit}))
-    request = marker_request(unit, max_gap_s, max_error_mm, review)
+    zeros = {} if zeros_as_gaps is None or inp.suffix.lower() not in (".c3d", ".trc") else {"zeros_as_gaps": zeros_as_gaps}
+    ms = markers if markers is not None else load_markers(inp, **({} if unit is None else {"units": unit}), **zeros)
+    request = marker_request(unit, max_gap_s, max_error_mm, review, zeros_as_gaps)
     res, given = mdec.clean_and_decide(ms, name=str(inp), steps=steps, max_gap_s=max_gap_s,
                                        max_error_mm=max_error_mm, decisions=decisions,
                                        record=record if reuse else None, review=review, request=request,
@@ -109,7 +116,8 @@ def clean_marker_file(inp, out, *, report=None, png=None, overwrite: bool = Fals
                                                    decisions=chosen, first_frame=file_first_frame(inp, ms),
                                                    request=request,
                                                    record=record if reuse or placed is None else clean_path(placed),
-                                                   command=apply_command(inp, unit=unit)),
+                                                   command=apply_command(inp, unit=unit,
+                                                                         zeros_as_gaps=zeros_as_gaps)),
                                 review_mode=review)
         if png is not None:
             from .report.markers import plot_marker_fixes

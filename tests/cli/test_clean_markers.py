@@ -351,3 +351,39 @@ def test_keep_modelled_is_refused_in_one_line_where_it_means_nothing(shared_data
         code, _, stderr = run(*args, "--keep-modelled")
         assert code != 0 and one_error_line(stderr) and word in stderr and "--keep-modelled" in stderr, stderr
         assert not (tmp_path / out).exists() and not (tmp_path / (Path(out).stem + ".clean.npz")).exists()
+
+
+@pytest.fixture(scope="module")
+def origin_folder(tmp_path_factory):
+    """Eb015pr's first 120 frames as a TRC, with a marker ORIGIN at exactly (0, 0, 0) in every frame (a lab-origin
+    marker): read as never seen by default, kept as a position with --keep-zeros."""
+    import mocapkit
+    from mocapkit.markerset import MarkerSet
+
+    d = tmp_path_factory.mktemp("origin")
+    ms = load_markers(mocapkit.samples.path("Eb015pr.c3d"))
+    pos = np.concatenate([ms.positions[:120], np.zeros((120, 1, 3))], axis=1)
+    save_markers(MarkerSet(labels=(*ms.labels, "ORIGIN"), positions=pos, fps=ms.fps, units=ms.units), d / "z.trc")
+    return d
+
+
+def test_clean_and_clean_batch_keep_zeros_on_request(origin_folder, tmp_path):
+    """convert had --keep-zeros, clean and clean-batch not: a marker truly at the origin was cleaned as a gap."""
+    from mocapkit.cleaning.pipeline import CleanResult
+
+    inp = origin_folder / "z.trc"
+    code, stdout, stderr = run("clean", inp, "-o", tmp_path / "a.trc")
+    assert code == 0, stderr + stdout
+    assert "read 120 samples stored as exact (0, 0, 0) as gaps (--keep-zeros keeps them" in stdout
+    assert "left missing: ORIGIN" in stdout
+    code, stdout, stderr = run("clean", inp, "-o", tmp_path / "b.trc", "--keep-zeros")
+    assert code == 0, stderr + stdout
+    assert "(0, 0, 0)" not in stdout and "ORIGIN" not in stdout
+    assert CleanResult.load_params(tmp_path / "b.clean.npz")["request"]["zeros_as_gaps"] is False
+    code, stdout, stderr = run("clean-batch", origin_folder, tmp_path / "out", "--executor", "serial", "--keep-zeros")
+    assert code == 0 and "1 cleaned" in stdout, stderr + stdout
+    assert (tmp_path / "out" / "z.trc").read_bytes() == (tmp_path / "b.trc").read_bytes()
+    code, stdout, stderr = run("clean-batch", origin_folder, tmp_path / "out", "--executor", "serial")
+    assert code == 2 and "zeros_as_gaps --keep-zeros (now decided from the data)" in stdout + stderr, stdout + stderr
+    code, _, err = run("clean", SAMPLE, "-o", tmp_path / "w.bvh", "--keep-zeros")
+    assert code == 2 and one_error_line(err) and "--keep-zeros applies only to marker captures" in err

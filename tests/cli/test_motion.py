@@ -602,7 +602,7 @@ def test_info_and_clean_say_how_many_samples_stored_as_zeros_were_read_as_gaps(t
     code, out, _ = run("info", take)
     assert code == 0 and f"% of marker samples ({said})" in out, out
     code, out, err = run("clean", take, "-o", tmp_path / "c.trc")
-    assert code == 0 and f"\n  {said}\n" in out, (out, err)
+    assert code == 0 and f"\n  {said} (--keep-zeros keeps them as positions)\n" in out, (out, err)
 
 
 def test_plot_names_a_take_and_its_cleaned_copy_of_the_same_name_apart(tmp_path, monkeypatch):

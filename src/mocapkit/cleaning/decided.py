@@ -103,14 +103,16 @@ def for_markers(doc: dict, path, original, result, decisions: dict, record=None,
                    tuple(dec.ids_notes(doc, path, [c.id for c in found])))
 
 
-def apply_command(inp, *, asf=None, amc_fps: float | None = None, unit: str | None = None) -> dict:
+def apply_command(inp, *, asf=None, amc_fps: float | None = None, unit: str | None = None,
+                  zeros_as_gaps: bool | None = None) -> dict:
     """What the report's page adds to ``mocapkit clean IN -o OUT --decisions FILE --record RECORD`` for its take:
     ``{"input": IN, "options": [...]}``.
 
     ``inp``: the input's path as the cleaning was given it (the page's ``--record`` is too); ``asf``: the ASF an
     ``.amc`` input was read with (said as ``--asf`` whether or not it lies beside the AMC: the command then reads
     the same skeleton wherever it is); ``amc_fps``: the AMC frame rate given (``--amc-fps``); ``unit``: the length
-    unit given for a file that states none (``--unit``). Each is needed to read the take the decisions were made
+    unit given for a file that states none (``--unit``); ``zeros_as_gaps``: how a marker file's exact (0, 0, 0)
+    samples were read (``--zeros-as-gaps`` or ``--keep-zeros``; None, decided from the data: neither). Each is needed to read the take the decisions were made
     for: its digest (:func:`mocapkit.cleaning.decisions.take_digest`) keeps its rate and, for a marker capture, its
     unit.
     """
@@ -123,4 +125,6 @@ def apply_command(inp, *, asf=None, amc_fps: float | None = None, unit: str | No
         opts += ["--amc-fps", f"{float(amc_fps):g}"]
     if unit is not None:
         opts += ["--unit", str(unit)]
+    if zeros_as_gaps is not None:
+        opts += ["--zeros-as-gaps" if zeros_as_gaps else "--keep-zeros"]
     return {"input": os.fspath(inp), "options": opts}

@@ -12,7 +12,7 @@ import typer
 from ..errors import MocapError, MocapFormatError
 from .common import (STEPS_HELP, amc_fps_option, asf_option, check_executor, check_noise_deg, console, context_option, joint_map_option, read_map,
                      executor_option, guard, keep_modelled_option, max_fill_error_option, max_gap_option,
-                     noise_deg_option, overwrite_option, percent, plural, unit_option)
+                     noise_deg_option, overwrite_option, percent, plural, unit_option, zeros_option)
 
 
 def _steps(text: str) -> list[str]:
@@ -65,6 +65,7 @@ def clean(
     max_gap: Optional[float] = max_gap_option(),
     max_fill_error: Optional[float] = max_fill_error_option(),
     keep_modelled: bool = keep_modelled_option(),
+    zeros_as_gaps: Optional[bool] = zeros_option(),
     overwrite: bool = overwrite_option(),
 ) -> None:
     """Clean a take: fill gaps, detect and repair erroneous joints, denoise only the noisy cells.
@@ -107,10 +108,11 @@ def clean(
     if _clean_marker_take(inp, out, report=report, png=png, overwrite=overwrite, not_for_markers=not_for_markers,
                           unit=unit, max_gap_s=max_gap, max_error_mm=max_fill_error, decisions=decisions,
                           record=record, record_said=record_said, review=tuple(step_list) == ("detect",),
-                          keep_modelled=keep_modelled):
+                          keep_modelled=keep_modelled, zeros_as_gaps=zeros_as_gaps):
         return
     for name, given in (("--max-gap", max_gap), ("--max-fill-error", max_fill_error),
-                        ("--keep-modelled", keep_modelled or None)):
+                        ("--keep-modelled", keep_modelled or None),
+                        ("--zeros-as-gaps" if zeros_as_gaps else "--keep-zeros", zeros_as_gaps)):
         if given is not None:
             raise MocapError(f"{inp}: {name} applies only to marker captures (.c3d, .trc, marker .npz)")
     models = _models(ebf, ebd)
@@ -240,12 +242,12 @@ def _print_decided(written, decided, frames_note: str) -> None:
 def _clean_marker_take(inp: Path, out: Path, *, report, png, overwrite: bool, not_for_markers: list[str],
                        unit: str | None = None, max_gap_s: float | None = None,
                        max_error_mm: float | None = None, decisions=None, record=None, record_said: str = "--record",
-                       review: bool = False, keep_modelled: bool = False) -> bool:
+                       review: bool = False, keep_modelled: bool = False, zeros_as_gaps: bool | None = None) -> bool:
     """Clean ``inp`` as a marker capture when it is one (writing OUT, its record and reports); False for a motion.
 
     ``not_for_markers``: the options given that apply only to joint-angle takes, refused for a marker capture;
     ``unit``: ``--unit``, the length unit of a file that states none; ``decisions``, ``record``, ``review``,
-    ``keep_modelled``: :func:`mocapkit.marker_files.clean_marker_file`'s; ``record_said``: how the record was given
+    ``keep_modelled``, ``zeros_as_gaps`` (``--zeros-as-gaps/--keep-zeros``): :func:`mocapkit.marker_files.clean_marker_file`'s; ``record_said``: how the record was given
     (``--record``, or OUT's found by ``--decisions``), for a refusal of options beside it.
     """
     from ..batch import clean_marker_file, refuse_marker_options
@@ -258,7 +260,7 @@ def _clean_marker_take(inp: Path, out: Path, *, report, png, overwrite: bool, no
 
     if inp.suffix.lower() not in (".c3d", ".trc", ".npz"):
         return False
-    take = load_take(inp, unit=unit, unit_option="--unit")
+    take = load_take(inp, unit=unit, unit_option="--unit", zeros_as_gaps=zeros_as_gaps)
     if not isinstance(take, MarkerSet):
         return False
     refuse_marker_options(inp, not_for_markers)
@@ -271,7 +273,7 @@ def _clean_marker_take(inp: Path, out: Path, *, report, png, overwrite: bool, no
             FLAGS, record_said)
     _, res = clean_marker_file(inp, out, report=report, png=png, overwrite=overwrite, markers=take,
                                max_gap_s=max_gap_s, max_error_mm=max_error_mm, decisions=decisions, record=record,
-                               review=review, keep_modelled=keep_modelled)
+                               review=review, keep_modelled=keep_modelled, zeros_as_gaps=zeros_as_gaps)
     if res.decided is not None:
         _print_decided(_written(out, record, report, png), res.decided, res.frames_note)
         for note in marker_notes(take, out, inp, keep_modelled=keep_modelled, filled=res.fill_mask):
@@ -287,8 +289,8 @@ def _clean_marker_take(inp: Path, out: Path, *, report, png, overwrite: bool, no
     if take.units_from != "file":  # the unit every mm figure below rests on
         how = "given with --unit" if take.units_from == "given" else "inferred from the marker distances; --unit sets it"
         console.print(f"  length unit {take.units}: the file states none ({how})")
-    if take.zero_gaps:  # the gaps below include these; convert --keep-zeros shows the file's samples as positions
-        console.print(f"  {zero_gaps_line(take.zero_gaps)}")
+    if take.zero_gaps:  # the gaps below include these; --keep-zeros reads the file's samples as positions
+        console.print(f"  {zero_gaps_line(take.zero_gaps)} (--keep-zeros keeps them as positions)")
     for line in res.summary():
         console.print(f"  {line}")
     for line in tied_lines(take, res.markers, res.fixes):  # changes a person must decide together, and why
@@ -361,6 +363,7 @@ def clean_batch(
     unit: Optional[str] = unit_option("input(s)"),
     max_gap: Optional[float] = max_gap_option(batch=True),
     max_fill_error: Optional[float] = max_fill_error_option(batch=True),
+    zeros_as_gaps: Optional[bool] = zeros_option(),
     overwrite: bool = typer.Option(
         False, "--overwrite",
         help="Replace existing outputs that are not complete takes of an earlier run (without it they are refused; "
@@ -403,7 +406,7 @@ def clean_batch(
         summary = run_batch(in_dir, out_dir, context=context, steps=step_list, threshold=threshold, patterns=patterns,
                             fmt=fmt, report=report, png=png, executor=executor, progress=not as_json,
                             overwrite=overwrite, asf=asf, drifts=drifts, models=models, amc_fps=amc_fps, unit=unit,
-                            max_gap_s=max_gap, max_error_mm=max_fill_error,
+                            max_gap_s=max_gap, max_error_mm=max_fill_error, zeros_as_gaps=zeros_as_gaps,
                             noise_deg=noise_deg, on_row=None if as_json else print_row,
                             on_context=print_context if counted else None, joint_map=jm, flags=True)
     except KeyboardInterrupt:  # "no partial output" alone reads as if nothing was kept

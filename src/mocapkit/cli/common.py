@@ -152,6 +152,15 @@ def max_fill_error_option(batch: bool = False):
              + (" Joint-angle takes ignore this and --max-gap." if batch else ""))
 
 
+def zeros_option(who: str = "Marker files"):
+    """The ``--zeros-as-gaps/--keep-zeros`` option of ``convert``, ``clean`` and ``clean-batch``: how a .c3d or .trc
+    marker file's samples at exactly (0, 0, 0) are read (the readers' ``zeros_as_gaps``: True, False, None to decide
+    from the data, docs/guide/markers.md)."""
+    return typer.Option(
+        None, "--zeros-as-gaps/--keep-zeros",
+        help=f"{who}: read samples at exactly (0, 0, 0) as gaps, or keep them (default: decided from the data).")
+
+
 def keep_modelled_option():
     """The ``--keep-modelled`` option of ``convert`` and ``clean``: a .trc output written from a C3D keeps its
     modelled quantities (angles, forces, moments, powers) as points (:func:`mocapkit.io.save_markers`)."""

@@ -11,7 +11,7 @@ import typer
 
 from ..errors import MissingFileError, MocapError, MocapFormatError
 from .common import (amc_fps_option, asf_option, console, database_rows, guard, keep_modelled_option, overwrite_option,
-                     plural, print_fields, print_table, save_take, unit_option)
+                     plural, print_fields, print_table, save_take, unit_option, zeros_option)
 
 
 def info(
@@ -116,9 +116,7 @@ def convert(
     inp: Path = typer.Argument(..., metavar="IN", help="Input take (.bvh, .amc, .npz) or marker file (.c3d, .trc, marker .npz)."),
     out: Path = typer.Argument(..., metavar="OUT", help="Output, chosen by suffix: .bvh, .amc (a take read from ASF/AMC) or .npz for a motion; .c3d, .trc or .npz for markers."),
     fps: Optional[float] = typer.Option(None, "--fps", help="Resample a motion to this frame rate (slerp)."),
-    zeros_as_gaps: Optional[bool] = typer.Option(
-        None, "--zeros-as-gaps/--keep-zeros",
-        help="Marker files: read samples at exactly (0, 0, 0) as gaps, or keep them (default: decided from the data)."),
+    zeros_as_gaps: Optional[bool] = zeros_option(),
     asf: Optional[Path] = asf_option("input(s)"),
     amc_fps: Optional[float] = amc_fps_option("input(s)"),
     unit: Optional[str] = unit_option("input(s)"),

@@ -114,7 +114,7 @@ def unread_amc_note(out: os.PathLike | str, source: os.PathLike | str | None) ->
 
 
 def load_take(path: os.PathLike | str, asf: os.PathLike | str | None = None, fps: float | None = None,
-              unit: str | None = None, unit_option: str = "unit="):
+              unit: str | None = None, unit_option: str = "unit=", zeros_as_gaps: bool | None = None):
     """Read a motion (:class:`~mocapkit.motion.Motion`) or marker take (:class:`~mocapkit.io.c3d.MarkerSet`).
 
     ``asf``: the skeleton of an ``.amc`` file (ignored for other formats, so one
@@ -123,7 +123,9 @@ def load_take(path: os.PathLike | str, asf: os.PathLike | str | None = None, fps
     ``fps``: an ``.amc`` file's frame rate (ignored for other formats; by default
     :func:`mocapkit.io.asfamc.amc_rate`). ``unit``: the length unit (one of
     :data:`UNIT_CHOICES`) of a take whose file states none (:func:`with_unit`; ``unit_option``: how a refusal
-    names it, Python's ``unit=`` by default, the CLI passes its ``--unit``).
+    names it, Python's ``unit=`` by default, the CLI passes its ``--unit``). ``zeros_as_gaps``: how a .c3d or .trc
+    file's samples at exactly (0, 0, 0) are read (True gaps, False positions, None decided from the data:
+    :func:`mocapkit.io.c3d.apply_zero_gaps`; ignored for other formats, as ``asf`` is).
     """
     from . import load
 
@@ -136,6 +138,8 @@ def load_take(path: os.PathLike | str, asf: os.PathLike | str | None = None, fps
             kwargs["fps"] = float(fps)
     if unit is not None and Path(path).suffix.lower() in (".c3d", ".trc"):
         kwargs["units"] = unit  # the reader needs it before reading a file that states none (zero gaps)
+    if zeros_as_gaps is not None and Path(path).suffix.lower() in (".c3d", ".trc"):
+        kwargs["zeros_as_gaps"] = bool(zeros_as_gaps)
     take = load(path, **kwargs)
     return with_unit(take, unit, path, unit_option) if unit is not None and "units" not in kwargs else take
 
