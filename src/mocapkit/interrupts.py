@@ -17,6 +17,11 @@ generator leaves the generator suspended, and its clean-up ran later, at garbage
 the command had said what it kept (an interrupted ``train`` said its first checkpoint resumes, then
 its put-back removed it). And in a short last step that must run whole once begun (:func:`whole_step`: the
 clean-up after a ``removed_on_failure`` block, whose hidden links of the old outputs an interrupt there left).
+
+A closed output stream (``mocapkit info take.bvh | head -1``: the reader gone) ends a command as SIGPIPE ends
+``yes | head``, quietly and with status 141; Python ignores SIGPIPE and raises ``BrokenPipeError`` at the write
+instead, which the CLI's stream guard turns into this interrupt (:func:`stream_closed`), so that the command
+stops as on Ctrl-C: the outputs written are whole, the one being written is removed.
 """
 
 from __future__ import annotations
@@ -28,7 +33,8 @@ import threading
 from contextlib import contextmanager
 
 __all__ = ["interrupts_as_keyboard_interrupt", "interrupts_held", "in_native_callback", "whole_hand_over",
-           "in_hand_over", "whole_step", "in_whole_step", "exit_status", "RETRY_S"]
+           "in_hand_over", "whole_step", "in_whole_step", "exit_status", "stream_closed", "by_closed_stream",
+           "RETRY_S"]
 
 RETRY_S = 0.05  # seconds before a deferred signal is sent again
 
@@ -117,10 +123,23 @@ def _interrupt(signum, frame):
     raise KeyboardInterrupt(f"signal {signum}")
 
 
+def stream_closed() -> KeyboardInterrupt:
+    """The interrupt that ends a command whose output stream was closed by its reader (module docstring): recorded
+    as SIGPIPE's (:func:`exit_status` 141, :func:`by_closed_stream` True), returned for the caller to raise."""
+    _last_signal[:] = [int(signal.SIGPIPE)]
+    return KeyboardInterrupt("output stream closed")
+
+
+def by_closed_stream() -> bool:
+    """Whether the last interrupt came from a closed output stream (:func:`stream_closed`): said by nothing, as
+    SIGPIPE's is not."""
+    return _last_signal[:1] == [int(signal.SIGPIPE)]
+
+
 def exit_status() -> int:
     """The exit status of a command an interrupt ended: 128 + the signal's number, as a shell reports a process the
     signal ended (130 for Ctrl-C, 143 for SIGTERM, what a scheduler that stopped it expects); 130 for an interrupt
-    no signal of ours raised."""
+    no signal of ours raised; 141 for a closed output stream (SIGPIPE's, :func:`stream_closed`)."""
     return 128 + (_last_signal[0] if _last_signal else int(signal.SIGINT))
 
 

@@ -1,10 +1,12 @@
 """The entry point: one error line and exit 2 for every failure, --version, --help."""
 
+import io
 import os
 import re
 import signal
 import subprocess
 import sys
+from pathlib import Path
 
 import pytest
 
@@ -454,3 +456,25 @@ def test_running_out_of_memory_names_the_take(monkeypatch, capsys):
     assert one_error_line(err)
     assert err.strip().startswith(f"mocapkit: error: {SAMPLE}: out of memory (Unable to allocate 2.60 MiB")
     assert "MemoryError" not in err
+
+
+def test_a_closed_stdout_ends_a_command_quietly_and_its_outputs_whole(tmp_path, monkeypatch):
+    """``mocapkit ... | head -1``: a write to a pipe its reader closed ended the command with status 1 and no word
+    (rich's console), as a batch with failed takes ends; now as SIGPIPE ends ``yes | head``: 141, quietly."""
+    import numpy as np
+
+    from mocapkit.io import load
+
+    take = str(Path(__file__).resolve().parents[1] / "data" / "cmu_01_01_start.bvh")
+    err = io.StringIO()
+    monkeypatch.setattr(sys, "stderr", err)
+    for args in (["info", take, "--joints"], ["convert", take, str(tmp_path / "a.npz")]):  # convert prints last
+        r, w = os.pipe()
+        os.close(r)  # the reader went away before the command printed
+        with open(w, "w", buffering=1, encoding="utf-8") as gone:
+            monkeypatch.setattr(sys, "stdout", gone)
+            assert main(args) == 141
+            print("after", file=gone)  # the descriptor now writes nowhere: nothing fails after the command
+    assert err.getvalue() == ""
+    assert np.array_equal(load(tmp_path / "a.npz").rotations, load(take).rotations)
+    assert [p.name for p in tmp_path.iterdir()] == ["a.npz"]

@@ -15,7 +15,9 @@ What every command guarantees:
   fails leaves none of the files it created;
 - every failure ends in one line on stderr, ``mocapkit: error: ...``, and exit
   status 2 (1 for a batch with failed takes; 130 when interrupted, 143 after SIGTERM), never a
-  traceback (:func:`main`).
+  traceback (:func:`main`);
+- a reader that closes the output early (``| head -1``) ends the command as SIGPIPE ends
+  ``yes | head``: quietly, status 141, the outputs written whole (:mod:`.streams`).
 """
 
 from __future__ import annotations
@@ -108,9 +110,11 @@ def main(argv: list[str] | None = None) -> int:
     Returns the exit status: 0, 2 for any failure (bad input, usage, a
     filesystem error, an unexpected exception: ``mocapkit: error: ...`` on
     stderr, no traceback), 1 for a batch with failed takes (the command says
-    which), 130 when interrupted (143 by SIGTERM).
+    which), 130 when interrupted (143 by SIGTERM), 141 saying nothing when the reader of stdout or stderr went
+    away (:mod:`.streams`).
     """
     from ..interrupts import interrupts_as_keyboard_interrupt
+    from .streams import guarded_streams
 
     for stream in (sys.stdout, sys.stderr):  # a path the terminal's encoding cannot show must not fail the command
         try:
@@ -118,7 +122,8 @@ def main(argv: list[str] | None = None) -> int:
         except (AttributeError, ValueError):  # not a text file of the io module (a test's StringIO)
             pass
     try:
-        with interrupts_as_keyboard_interrupt():  # SIGTERM too, so atomic writes clean up (see mocapkit.interrupts)
+        # SIGTERM too, so atomic writes clean up (see mocapkit.interrupts); a closed stdout as SIGPIPE (streams)
+        with interrupts_as_keyboard_interrupt(), guarded_streams():
             result = app(args=argv, standalone_mode=False)
     except BaseException as exc:  # noqa: BLE001 - every failure ends in one line and an exit status
         return _exit_status(exc, sys.argv[1:] if argv is None else list(argv))
@@ -178,7 +183,12 @@ def interrupted_status() -> int:
 
 
 def _said_interrupted() -> int:
-    """The one line of an interrupted command, on stderr; returns its exit status (:func:`interrupted_status`)."""
+    """The one line of an interrupted command, on stderr; returns its exit status (:func:`interrupted_status`).
+    Nothing for a command whose reader closed its output (141), as a shell says nothing of ``yes | head``."""
+    from ..interrupts import by_closed_stream
+
+    if by_closed_stream():
+        return interrupted_status()
     print("mocapkit: interrupted; no partial output was left", file=sys.stderr)
     return interrupted_status()
 
