@@ -124,3 +124,19 @@ def test_data_start_moves_only_where_the_parameters_no_longer_fit(tmp_path, shar
     gap, data_start = _header(raw)
     assert gap == _header(path.read_bytes())[0] and data_start > _header(path.read_bytes())[1]
     assert int(ezc3d.c3d(str(out))["parameters"]["POINT"]["DATA_START"]["value"][0]) == data_start
+
+
+def test_data_start_keeps_its_description(tmp_path):
+    """POINT:DATA_START was left out of the parameters ezc3d was given, so ezc3d wrote its own without the file's
+    description (Eb015pr's '* First record of video/analog data') and lock; its value is ezc3d's still."""
+    import ezc3d
+
+    from mocapkit import samples
+
+    path = samples.path("Eb015pr.c3d")
+    out = tmp_path / "out.c3d"
+    write_c3d(read_c3d(path), out)
+    was, now = (ezc3d.c3d(str(p))["parameters"]["POINT"]["DATA_START"] for p in (path, out))
+    assert was["description"] == "* First record of video/analog data"
+    assert (now["description"], now["is_locked"]) == (was["description"], was["is_locked"])
+    assert int(now["value"][0]) == _header(out.read_bytes())[1] == _header(path.read_bytes())[1]

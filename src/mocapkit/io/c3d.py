@@ -714,7 +714,8 @@ def _c3d_object(markers: MarkerSet, source: MarkerSource | None):
     labels = [label.strip() for label in markers.file_labels()]
     same_markers = old_labels[:M] == labels
     for k in list(point):
-        if k.startswith("LABELS") and k != "LABELS" or k in ("DATA_START",):
+        # POINT:DATA_START stays: ezc3d writes its own value there, keeping the file's description and lock
+        if k.startswith("LABELS") and k != "LABELS":
             del point[k]
         elif k.startswith("DESCRIPTIONS") and (k != "DESCRIPTIONS" or not same_markers):
             del point[k]  # per-marker descriptions only while the markers are the file's, in its order
