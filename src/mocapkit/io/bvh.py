@@ -36,7 +36,7 @@ from .. import rotations as R
 from ..motion import MAX_JOINTS, Motion, Skeleton, check_fps
 from . import atomic_write
 from ._numparse import line_of_offset, parse_floats
-from .bvh_hierarchy import MAX_INDENT, check_bvh_names, depth_first_order, hierarchy_text, shortest
+from .bvh_hierarchy import MAX_INDENT, check_bvh_names, depth_first_order, exact_number, hierarchy_text, shortest
 from .bvh_comments import anchored, comment_lines, keyword_count, motion_comments, with_comments
 from .bvh_roots import COMMENT, Layout, is_comment, layout
 from .euler_branches import NEAR_SOURCE_DEG, continuous_rotations, measured_text
@@ -698,7 +698,8 @@ def write_bvh(motion: Motion, path, precision: int = 6, allow_nan: bool = False,
         flip is written next to its neighbours, never on the branch of the
         broken value it replaces). An .npz made from a BVH keeps that file's
         numbers (:mod:`mocapkit.io.kept_channels`): as ``like`` it gives the
-        same choice of each cell's numbers, the text written anew. So a take that comes back unchanged is the same
+        same choice of each cell's numbers, the text written anew (a number still the file's in its shortest
+        exact form, not rounded to ``precision``). So a take that comes back unchanged is the same
         file, and a change touches only its own numbers. Without ``like`` (or
         when it is not such a file) each joint's angles start as the plain
         conversion gives them and every next frame takes the triple nearest
@@ -749,11 +750,17 @@ def write_bvh(motion: Motion, path, precision: int = 6, allow_nan: bool = False,
     C = values.shape[1]
     row = " ".join([f"%.{precision}f"] * C) + "\n"
     block = max(1, 2**18 // max(C, 1))  # frames formatted at once: a few MB of text, not the whole take
+    kept, fmt = (source.values if isinstance(source, _Kept) else None), f"%.{precision}f"  # an .npz's file numbers
     with atomic_write(path, "w", encoding="utf-8", newline="\n") as fh:
         fh.write("".join(parts))
         for f0 in range(0, F, block):
             rows = values[f0 : f0 + block]
-            fh.write((row * rows.shape[0]) % tuple(rows.ravel().tolist()))
+            if kept is None:
+                fh.write((row * rows.shape[0]) % tuple(rows.ravel().tolist()))
+                continue
+            own = (rows == kept[f0 : f0 + block]).tolist()  # still the file's number: exact, never rounded
+            fh.write("".join(" ".join(exact_number(v) if o else fmt % v for v, o in zip(r, k)) + "\n"
+                             for r, k in zip(rows.tolist(), own)))
 
 
 def _as_written(motion: Motion) -> tuple[Motion, tuple[tuple[str, ...], ...]]:

@@ -17,6 +17,13 @@ def shortest(x: float) -> str:
     """``x`` in its shortest round-trip decimal form (an OFFSET or a frame time written exactly)."""
     return repr(float(x))
 
+def exact_number(x: float) -> str:
+    """``x`` as a motion line's number that reads back as ``x`` exactly: its shortest round-trip form, a whole number
+    without its ``.0`` (a file's ``0`` stays ``0``)."""
+    t = repr(float(x))
+    return t[:-2] if t.endswith(".0") else t
+
+
 MAX_INDENT = 32
 """Most tabs the writer puts before a line: a 100,000-deep chain would otherwise need 5e9 of them."""
 
