@@ -751,6 +751,7 @@ def write_bvh(motion: Motion, path, precision: int = 6, allow_nan: bool = False,
     row = " ".join([f"%.{precision}f"] * C) + "\n"
     block = max(1, 2**18 // max(C, 1))  # frames formatted at once: a few MB of text, not the whole take
     kept, fmt = (source.values if isinstance(source, _Kept) else None), f"%.{precision}f"  # an .npz's file numbers
+    measured = None if kept is None else measured_text(values, channels, kept)  # a filled cell's measured channels
     with atomic_write(path, "w", encoding="utf-8", newline="\n") as fh:
         fh.write("".join(parts))
         for f0 in range(0, F, block):
@@ -758,9 +759,10 @@ def write_bvh(motion: Motion, path, precision: int = 6, allow_nan: bool = False,
             if kept is None:
                 fh.write((row * rows.shape[0]) % tuple(rows.ravel().tolist()))
                 continue
-            own = (rows == kept[f0 : f0 + block]).tolist()  # still the file's number: exact, never rounded
-            fh.write("".join(" ".join(exact_number(v) if o else fmt % v for v, o in zip(r, k)) + "\n"
-                             for r, k in zip(rows.tolist(), own)))
+            file = kept[f0 : f0 + block]
+            own = ((rows == file) | measured[f0 : f0 + block]).tolist()  # the file's number: exact, never rounded
+            fh.write("".join(" ".join(exact_number(w) if o else fmt % v for v, w, o in zip(r, q, k)) + "\n"
+                             for r, q, k in zip(rows.tolist(), file.tolist(), own)))
 
 
 def _as_written(motion: Motion) -> tuple[Motion, tuple[tuple[str, ...], ...]]:
