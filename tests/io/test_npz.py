@@ -296,3 +296,22 @@ def test_a_bvh_from_its_npz_gives_the_files_numbers_bit_for_bit(tmp_path):
     differ = np.argwhere(numbers != want)
     assert len(differ) and set(differ[:, 0]) == {5}  # frame 5's changed joint alone
     assert "5.1072e-06" in lines[0].split()
+
+
+def test_a_bvh_from_its_npz_keeps_the_files_header_text(tmp_path):
+    """The header of a BVH written from an .npz was mocapkit's own: a CHANNELS line's trailing space, the OFFSETs'
+    ``0.00000`` and a Frame Time as the file wrote it (``0.0333333``, read as 30 fps) came back otherwise. The .npz
+    keeps the file's header, written while the take is on its skeleton and rate, and written anew once not."""
+    for name in ("cmu_01_01_start.bvh", "dataset-1_dash_normal_001.bvh"):
+        src = Path(__file__).resolve().parents[1] / "data" / name
+        x = tmp_path / "x.npz"
+        mocapkit.save(mocapkit.load(src), x, overwrite=True)
+        take = mocapkit.load(x)
+        mocapkit.save(take, tmp_path / "y.bvh", like=x, overwrite=True)
+        lines, want = ((tmp_path / "y.bvh").read_bytes().splitlines(True), src.read_bytes().splitlines(True))
+        at = next(i for i, t in enumerate(want) if t.startswith(b"Frame Time")) + 1
+        assert lines[:at] == want[:at], name
+    moved = dataclasses.replace(take, skeleton=dataclasses.replace(take.skeleton, offsets=take.skeleton.offsets * 2))
+    mocapkit.save(moved, tmp_path / "z.bvh", like=x)
+    assert mocapkit.load(tmp_path / "z.bvh").skeleton.offsets.tolist() == moved.skeleton.offsets.tolist()
+    assert b"Frame Time: 0.03333333333333333" in (tmp_path / "z.bvh").read_bytes()  # the header written anew

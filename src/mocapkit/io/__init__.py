@@ -323,15 +323,16 @@ def save(motion, path, like=None, asf=None, overwrite: bool | None = None, copy_
             place_asf(copy, asf)  # first: an AMC is never left without the ASF it is read with
             write_amc(motion, path, like=like, asf=asf, **kwargs)
     else:
-        from .bvh import source_values
-        from .kept_channels import kept_arrays
+        from .bvh import source_header, source_values
+        from .kept_channels import kept_arrays, kept_header
         from .npz import write_npz
 
         # a BVH's or AMC's own numbers (or those an .npz made from one keeps), for a file written from this .npz
         # later; none where that file's text is gone (removed or changed since it was read): the .npz is the take
         # all the same
         try:
-            kept = kept_arrays(*source_values(motion, like)) if like is not None else {}
+            kept = (kept_arrays(*source_values(motion, like), header=source_header(motion, like)
+                                or kept_header(like, motion)) if like is not None else {})
             if not kept and like is not None:  # an AMC's own numbers (or those an .npz made from one keeps)
                 from .amc_writer import source_numbers
 

@@ -40,7 +40,7 @@ from .bvh_hierarchy import MAX_INDENT, check_bvh_names, depth_first_order, exact
 from .bvh_comments import anchored, comment_lines, keyword_count, motion_comments, with_comments
 from .bvh_roots import COMMENT, Layout, is_comment, layout
 from .euler_branches import NEAR_SOURCE_DEG, continuous_rotations, measured_text
-from .kept_channels import kept_values
+from .kept_channels import kept_header, kept_values
 from .sources import recall, remember
 
 from numba import njit
@@ -745,10 +745,12 @@ def write_bvh(motion: Motion, path, precision: int = 6, allow_nan: bool = False,
     if isinstance(source, _LikeSource):
         _write_like(path, out_motion, values, channels, source, precision)
         return
-    parts = hierarchy_text(sk, channels, order)
-    parts.append(f"MOTION\nFrames: {F}\nFrame Time: {shortest(1.0 / motion.fps)}\n")
+    header = kept_header(like, out_motion) if isinstance(source, _Kept) else None  # the source BVH's own text
+    end = "\r\n" if header and header.endswith("\r\n") else "\n"
+    parts = [header] if header else hierarchy_text(sk, channels, order) + [
+        f"MOTION\nFrames: {F}\nFrame Time: {shortest(1.0 / motion.fps)}\n"]
     C = values.shape[1]
-    row = " ".join([f"%.{precision}f"] * C) + "\n"
+    row = " ".join([f"%.{precision}f"] * C) + end
     block = max(1, 2**18 // max(C, 1))  # frames formatted at once: a few MB of text, not the whole take
     kept, fmt = (source.values if isinstance(source, _Kept) else None), f"%.{precision}f"  # an .npz's file numbers
     measured = None if kept is None else measured_text(values, channels, kept)  # a filled cell's measured channels
@@ -761,7 +763,7 @@ def write_bvh(motion: Motion, path, precision: int = 6, allow_nan: bool = False,
                 continue
             file = kept[f0 : f0 + block]
             own = ((rows == file) | measured[f0 : f0 + block]).tolist()  # the file's number: exact, never rounded
-            fh.write("".join(" ".join(exact_number(w) if o else fmt % v for v, w, o in zip(r, q, k)) + "\n"
+            fh.write("".join(" ".join(exact_number(w) if o else fmt % v for v, w, o in zip(r, q, k)) + end
                              for r, q, k in zip(rows.tolist(), file.tolist(), own)))
 
 
@@ -796,6 +798,16 @@ def source_fits(motion: Motion, like) -> bool:
         return False
     out_motion, _ = _as_written(motion)
     return _like_source(like, out_motion, depth_first_order(motion.skeleton)) is not None
+
+
+def source_header(motion: Motion, like) -> str | None:
+    """The header text (its lines up to Frame Time, as read) of the BVH ``like`` that a BVH written from ``motion``
+    keeps: where ``motion`` has that file's skeleton, channels, frame count and rate, and the file no other ROOT;
+    else None. What an .npz made from the file keeps of it (:mod:`mocapkit.io.kept_channels`)."""
+    if like is None or like is False or motion.num_frames == 0:
+        return None
+    source = _like_source(like, _as_written(motion)[0], depth_first_order(motion.skeleton))
+    return None if source is None or source.header is None or source.layout.extras else "".join(source.header)
 
 
 def source_values(motion: Motion, like) -> tuple[np.ndarray | None, tuple[tuple[str, ...], ...]]:

@@ -7,8 +7,11 @@ would write every cell, untouched ones included, on the branch the plain convers
 but a 180 or 360 degree jump in a curve editor and in any channel diff. So the .npz keeps the file's numbers,
 ``(F, C)`` degrees and file units in the columns of the channel layout the BVH writer writes
 (:data:`LAYOUT_KEY`, JSON), and :func:`mocapkit.io.bvh.write_bvh` given such an .npz as ``like`` writes every cell
-whose rotation is still the file's with the file's numbers, and a changed one on the branch nearest them.
-:func:`mocapkit.io.npz.read_npz` ignores both arrays; the Motion read is the same.
+whose rotation is still the file's with the file's numbers, and a changed one on the branch nearest them. It keeps
+the BVH's header text too (:data:`HEADER_KEY`: up to its Frame Time line, comments, spacing, a CHANNELS line's
+trailing space and the Frame Time as written), which a BVH written from it keeps while the take is on that skeleton,
+rate and frame count (:func:`kept_header`). :func:`mocapkit.io.npz.read_npz` ignores these arrays; the Motion read
+is the same.
 """
 
 from __future__ import annotations
@@ -18,18 +21,47 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["VALUES_KEY", "LAYOUT_KEY", "kept_arrays", "kept_values"]
+__all__ = ["VALUES_KEY", "LAYOUT_KEY", "HEADER_KEY", "kept_arrays", "kept_values", "kept_header"]
 
 VALUES_KEY = "source_channel_values"
 LAYOUT_KEY = "source_channel_layout"
+HEADER_KEY = "source_bvh_header"
 
 
-def kept_arrays(values: np.ndarray | None, channels) -> dict[str, np.ndarray]:
+def kept_arrays(values: np.ndarray | None, channels, header: str | None = None) -> dict[str, np.ndarray]:
     """The arrays an .npz keeps beside a take (``write_npz``'s ``extra``): the source file's ``values`` (F, C) in
-    the columns of ``channels`` (one tuple of channel names per joint); none when ``values`` is None."""
+    the columns of ``channels`` (one tuple of channel names per joint) and, for a BVH, its ``header`` text
+    (:func:`mocapkit.io.bvh.source_header`); none when ``values`` is None."""
     if values is None:
         return {}
-    return {VALUES_KEY: np.asarray(values, dtype=np.float64), LAYOUT_KEY: np.array(json.dumps([list(c) for c in channels]))}
+    out = {VALUES_KEY: np.asarray(values, dtype=np.float64), LAYOUT_KEY: np.array(json.dumps([list(c) for c in channels]))}
+    return {**out, HEADER_KEY: np.array(header)} if header else out
+
+
+def kept_header(path, motion) -> str | None:
+    """The header text of the BVH an .npz at ``path`` was made from (:data:`HEADER_KEY`), where ``motion`` is on the
+    take's skeleton (joints, offsets, end sites, channels), rate and frame count that the .npz holds, so the header
+    says what a BVH of ``motion`` holds; None otherwise, or where the .npz keeps none."""
+    from ..errors import MocapError
+    from .npz import load_arrays, read_npz
+
+    path = Path(path) if path is not None and path is not False else None
+    if path is None or path.suffix.lower() != ".npz" or not path.is_file() or motion.num_frames == 0:
+        return None
+    try:
+        header = load_arrays(path).get(HEADER_KEY)
+        if header is None or header.dtype.kind != "U" or header.ndim != 0:
+            return None
+        ref = read_npz(path)
+    except (MocapError, OSError, ValueError):
+        return None
+    a, b = getattr(ref, "skeleton", None), motion.skeleton
+    same = (a is not None and ref.fps == motion.fps and ref.num_frames == motion.num_frames and a.axes is None
+            and b.axes is None and a.joint_names == b.joint_names and np.array_equal(a.parents, b.parents)
+            and np.array_equal(a.offsets, b.offsets) and np.array_equal(a.end_site_parents, b.end_site_parents)
+            and np.array_equal(a.end_site_offsets, b.end_site_offsets)
+            and tuple(map(tuple, a.channels or ())) == tuple(map(tuple, b.channels or ())))
+    return str(header) if same else None
 
 
 def kept_values(path, channels, num_frames: int) -> np.ndarray | None:
