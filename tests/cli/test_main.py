@@ -478,3 +478,9 @@ def test_a_closed_stdout_ends_a_command_quietly_and_its_outputs_whole(tmp_path, 
     assert err.getvalue() == ""
     assert np.array_equal(load(tmp_path / "a.npz").rotations, load(take).rotations)
     assert [p.name for p in tmp_path.iterdir()] == ["a.npz"]
+    r, w = os.pipe()
+    os.close(r)
+    with open(w, "w", buffering=1, encoding="utf-8") as gone:  # `2>&1 | head -0`: a failure's line meets it too
+        monkeypatch.setattr(sys, "stdout", gone)
+        monkeypatch.setattr(sys, "stderr", gone)
+        assert main(["info", str(tmp_path / "none.bvh")]) == 141

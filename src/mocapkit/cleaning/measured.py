@@ -42,7 +42,6 @@ def keep_measured(before: Motion, after: Motion) -> tuple[Motion, np.ndarray]:
     axis frame, in the dofs' extrinsic order). Returns ``(motion, cells)``:
     ``cells`` (F, J) bool the cells changed from ``after``; ``after`` itself where none is.
     """
-    F, J = after.num_frames, after.num_joints
     rot = np.array(after.rotations)
     whole = np.isfinite(before.rotations).all(axis=-1)
     rot[whole] = before.rotations[whole]

@@ -113,7 +113,6 @@ def main(argv: list[str] | None = None) -> int:
     which), 130 when interrupted (143 by SIGTERM), 141 saying nothing when the reader of stdout or stderr went
     away (:mod:`.streams`).
     """
-    from ..interrupts import interrupts_as_keyboard_interrupt
     from .streams import guarded_streams
 
     for stream in (sys.stdout, sys.stderr):  # a path the terminal's encoding cannot show must not fail the command
@@ -121,9 +120,23 @@ def main(argv: list[str] | None = None) -> int:
             stream.reconfigure(errors="backslashreplace")
         except (AttributeError, ValueError):  # not a text file of the io module (a test's StringIO)
             pass
+    with guarded_streams():  # a closed stdout or stderr as SIGPIPE (streams), the failure's own line included
+        try:
+            return _run_app(argv)
+        except KeyboardInterrupt:  # the line saying a failure met a closed stream: nothing can say anything
+            from ..interrupts import by_closed_stream
+
+            if by_closed_stream():
+                return interrupted_status()
+            raise
+
+
+def _run_app(argv: list[str] | None) -> int:
+    """:func:`main`'s work: the app run, every failure turned into its line and exit status."""
+    from ..interrupts import interrupts_as_keyboard_interrupt
+
     try:
-        # SIGTERM too, so atomic writes clean up (see mocapkit.interrupts); a closed stdout as SIGPIPE (streams)
-        with interrupts_as_keyboard_interrupt(), guarded_streams():
+        with interrupts_as_keyboard_interrupt():  # SIGTERM too, so atomic writes clean up (see mocapkit.interrupts)
             result = app(args=argv, standalone_mode=False)
     except BaseException as exc:  # noqa: BLE001 - every failure ends in one line and an exit status
         return _exit_status(exc, sys.argv[1:] if argv is None else list(argv))
