@@ -154,3 +154,24 @@ def test_the_foots_own_steps_at_a_thigh_turn_over_go_with_it(shared_data):
     toes = sk.index("rtoes")
     step = np.linalg.norm(np.diff(out.global_positions()[:, toes], axis=0), axis=-1)
     assert step[[162, 188]].max() < 2 * step[[160, 161, 189, 190]].max()
+
+
+def test_a_take_with_position_channels_on_every_joint_is_turned_back_as_without_them():
+    """LaFAN1 and Unreal exports carry position channels below the root (every joint's, or the pelvis's under
+    ``root``). The check that the file's channels hold a turn-back read them back without animated offsets and
+    raised SkeletonError, so ``mocapkit clean`` failed on such a take wherever it had a turn-over (2 of 33 HDM05 and
+    Bandai takes on an Unreal mannequin rig). The bundled 131_01's RThumb half turns, on the same rig with position
+    channels (their values the offsets) on every joint, are turned back (or left) as on the take without them."""
+    import dataclasses
+
+    take = mocapkit.load(mocapkit.samples.path("131_01.bvh"))[150:260]
+    sk = take.skeleton
+    pos = ("Xposition", "Yposition", "Zposition")
+    channels = tuple(c if c[0].endswith("position") else pos + c for c in sk.channels)
+    offsets = np.broadcast_to(sk.offsets, (take.num_frames, sk.num_joints, 3)).copy()
+    offsets[:, 0] = take.root_positions
+    lafan = dataclasses.replace(take, skeleton=dataclasses.replace(sk, channels=channels), translations=offsets)
+    out, changed, _, flips = turned_back(take, ["RThumb", "LThumb"])
+    out2, changed2, _, flips2 = turned_back(lafan, ["RThumb", "LThumb"])
+    assert [f.fixed for f in flips] == [True, False] and flips2 == flips
+    assert np.array_equal(changed2, changed) and np.array_equal(out2.rotations, out.rotations)

@@ -283,7 +283,8 @@ def _check(motion, new_q: np.ndarray, joints: list[int], a: int, b: int, usual: 
             return (f"{names[k]} would step {m1[s - 1 - lo, k] * scale:.3g} against {m0[s - 1 - lo, k] * scale:.3g} "
                     f"{unit} at frame {s}")
     vals = fixed.channel_values()
-    back = type(motion).from_channel_values(sk, vals, motion.fps).rotations
+    # position channels below the root (LaFAN1's on every joint, Unreal's pelvis under its root) read back as they are
+    back = type(motion).from_channel_values(sk, vals, motion.fps, animated_offsets=True).rotations
     if np.degrees(R.geodesic_angle(back[:, joints], fixed.rotations[:, joints])).max() > 0.01:
         return "the file's channels cannot hold the turned-back rotation"
     if sk.limits is None:
