@@ -2,7 +2,8 @@
 walk, a real take on a rig of no known family (:func:`unknown_rig`), any take under names that say nothing
 (:func:`unnamed`), and real takes respelled on the rigs
 users bring that ``../shared/data`` does not hold (:func:`smpl_spelling`, :func:`daz_spelling`,
-:func:`xsens_spelling`, :func:`unity_spelling`, :func:`unreal_spelling`, :func:`motionbuilder_spelling`; the
+:func:`xsens_spelling`, :func:`unity_spelling`, :func:`unreal_spelling`, :func:`lafan_spelling`,
+:func:`motionbuilder_spelling`; the
 benchmarks use them too).
 
 ``peer_files/`` (other projects' test files, many deliberately odd) and
@@ -157,6 +158,28 @@ def unreal_spelling(motion):
                   f"Hand_{a}": f"hand_{b}", f"UpperLeg_{a}": f"thigh_{b}", f"LowerLeg_{a}": f"calf_{b}",
                   f"Foot_{a}": f"foot_{b}", f"Toes_{a}": f"ball_{b}"}
     return respelled(motion, names)
+
+
+def lafan_spelling(motion):
+    """A CMU MotionBuilder-release BVH take on the rig of Ubisoft's LaFAN1 BVH files: ``Hips``, ``Spine``,
+    ``Spine1``, ``Spine2``, ``Neck``, ``Head``, ``LeftShoulder``, ``LeftArm``, ``LeftForeArm``, ``LeftHand``,
+    ``LeftUpLeg``, ``LeftLeg``, ``LeftFoot``, ``LeftToe`` (22 joints: the hip bones, the upper neck, the palms,
+    fingers and thumbs dropped, :func:`respelled`), with position channels on every joint whose values are the
+    offsets (as LaFAN1 writes them); the frame rate as given (LaFAN1's is 30 fps: slice ``[::4]`` a 120 fps take)."""
+    import dataclasses
+
+    import numpy as np
+
+    names = {"LowerBack": "Spine", "Spine": "Spine1", "Spine1": "Spine2", "LeftToeBase": "LeftToe",
+             "RightToeBase": "RightToe"}
+    take = respelled(motion, names, drop=("LHipJoint", "RHipJoint", "Neck1", "LeftFingerBase", "LFingers", "LThumb",
+                                          "RightFingerBase", "RFingers", "RThumb"))
+    sk = take.skeleton
+    pos = ("Xposition", "Yposition", "Zposition")
+    channels = tuple(c if c[0].endswith("position") else pos + c for c in sk.channels)
+    offsets = np.broadcast_to(sk.offsets, (take.num_frames, sk.num_joints, 3)).copy()
+    offsets[:, 0] = take.root_positions
+    return dataclasses.replace(take, skeleton=dataclasses.replace(sk, channels=channels), translations=offsets)
 
 
 def motionbuilder_spelling(motion, order: str = "ZYX"):

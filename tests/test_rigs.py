@@ -9,8 +9,8 @@ import mocapkit
 from mocapkit import rigs, samples
 from mocapkit.io.asfamc import read_asf
 from mocapkit.motion import Skeleton, standard_joints
-from tests.shared import (PYBVH, curated_files, daz_spelling, motionbuilder_spelling, respelled, smpl_spelling,
-                          unity_spelling, unknown_rig, unnamed, unreal_spelling, xsens_spelling)
+from tests.shared import (PYBVH, curated_files, daz_spelling, lafan_spelling, motionbuilder_spelling, respelled,
+                          smpl_spelling, unity_spelling, unknown_rig, unnamed, unreal_spelling, xsens_spelling)
 
 # the joint each family names for a few roles (what the files write, not what the code says)
 EXPECTED = {
@@ -176,6 +176,18 @@ def test_the_xsens_mvn_rig():
                                              "RThumb")).skeleton
     assert rigs.rig_family(biovision) == "cmu_bvh_3dsmax"
     assert rigs.role_names(biovision)["chest"] == "Chest2"
+
+
+def test_the_lafan1_rig():
+    """A CMU walk on the rig of Ubisoft's LaFAN1 BVH files (HumanIK's names but ``LeftToe`` for the toes, no hip
+    bones, upper neck or fingers): every joint plays a role, the toes too. The HumanIK family did not name
+    ``LeftToe``, so the toes played none and their wobble at 30 fps was denoised as the body's noise."""
+    walk = motionbuilder_spelling(mocapkit.load(samples.path("12_walk.amc")))
+    sk = lafan_spelling(walk).skeleton
+    assert rigs.rig_family(sk) == "humanik" and len(rigs.roles(sk)) == sk.num_joints == 22
+    named = rigs.role_names(sk)
+    assert (named["left_toe"], named["right_toe"], named["chest"], named["spine_mid"]) == (
+        "LeftToe", "RightToe", "Spine2", "Spine1")
 
 
 def test_the_unity_humanoid_rig():

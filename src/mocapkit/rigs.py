@@ -204,12 +204,13 @@ _UNITY = _both(
 )
 
 # HumanIK (MotionBuilder's character rig): Spine, Spine1 ... Spine9 and Neck, Neck1 ... Neck9; the chest is the
-# highest spine joint present (resolved first), the middle spine the lowest one left.
+# highest spine joint present (resolved first), the middle spine the lowest one left. Ubisoft's LaFAN1 BVH files
+# spell the same rig with ``LeftToe`` for the toes.
 _SPINES = tuple(f"Spine{k}" for k in range(9, 0, -1))
 _HUMANIK = _both(
     {"pelvis": ("Hips",), "spine": ("Spine",), "chest": _SPINES, "spine_mid": _SPINES[::-1],
      "neck": ("Neck",), "neck_upper": tuple(f"Neck{k}" for k in range(1, 10)), "head": ("Head",)},
-    {"thigh": ("LeftUpLeg",), "shin": ("LeftLeg",), "foot": ("LeftFoot",), "toe": ("LeftToeBase",),
+    {"thigh": ("LeftUpLeg",), "shin": ("LeftLeg",), "foot": ("LeftFoot",), "toe": ("LeftToeBase", "LeftToe"),
      "clavicle": ("LeftShoulder",), "upper_arm": ("LeftArm",), "forearm": ("LeftForeArm",), "hand": ("LeftHand",),
      "fingers": ("LeftHandIndex1",), "thumb": ("LeftHandThumb1",)},
     _lr,
