@@ -60,7 +60,7 @@ from .zeros import as_missing, find_zeros
 
 __all__ = ["MAX_WORD_ANGLE_DEG", "MADE_UP_SHARE", "TakeDetection", "TakeFill", "TakeRepair", "take_params",
            "motion_span", "made_up_note", "resolve_model", "fill_take", "denoise_take", "check_no_zeros", "detect_take", "across_breaks",
-           "repair_take", "repair_whole", "TurnOvers", "turn_overs", "review_turn_overs", "turn_overs_note", "with_flips",
+           "repair_take", "repair_whole", "TurnOvers", "body_joints", "turn_overs", "review_turn_overs", "turn_overs_note", "with_flips",
            "TakeReview", "review_whole", "teleports_note",
            "with_teleports", "changed_cells", "differing", "REVIEW_WHY"]
 
@@ -432,6 +432,26 @@ class TurnOvers:
     lines: tuple = ()
 
 
+def body_joints(skeleton) -> list[int]:
+    """The pelvis (:func:`mocapkit.rigs.pelvis_index`) and every joint below it: the body, without what hangs
+    from a root above the pelvis beside it (Unreal's ``ik_foot_root``/``ik_hand_root`` chains, props).
+
+    Those helpers copy a body joint's world rotation (``ik_foot_l`` the foot's) or hold a target: a half turn
+    of one is the body joint's, which the turn-over rules judge on the body itself, not a glitch of the helper's
+    to turn back (``turn_overs`` looks for none there). On a rig whose root is the pelvis (Acclaim, the CMU BVH)
+    every joint.
+    """
+    from ..rigs import pelvis_index
+
+    parents = np.asarray(skeleton.parents)
+    top = pelvis_index(skeleton)
+    inside = np.zeros(len(parents), dtype=bool)
+    inside[top] = True
+    for j in range(top + 1, len(parents)):  # parents come before their children
+        inside[j] = parents[j] >= 0 and inside[parents[j]]
+    return np.flatnonzero(inside).tolist()
+
+
 def turn_overs(motion: Motion, span: tuple[int, int], leaves=(), *, changed=None, review: bool = False) -> TurnOvers:
     """The turn-overs of ``motion`` within frames ``span`` (``lo .. hi - 1``), turned back where that is right and
     named either way (:func:`mocapkit.cleaning.ssa.flips.turned_back`; ``leaves``: the joints self-similarity did
@@ -448,7 +468,9 @@ def turn_overs(motion: Motion, span: tuple[int, int], leaves=(), *, changed=None
     names = list(motion.skeleton.joint_names)
     full = np.zeros((motion.num_frames, len(names)), dtype=bool)
     full_flags = np.zeros_like(full)
-    part, turned, flagged, flips = turned_back(motion[lo:hi], [n for n in leaves if n in names])
+    body = set(body_joints(motion.skeleton))
+    part, turned, flagged, flips = turned_back(motion[lo:hi], [n for n in leaves if n in names and
+                                                               names.index(n) in body])
     if not flips:
         return TurnOvers(motion, full, full_flags)
     rot = np.array(motion.rotations)

@@ -175,3 +175,34 @@ def test_a_take_with_position_channels_on_every_joint_is_turned_back_as_without_
     out2, changed2, _, flips2 = turned_back(lafan, ["RThumb", "LThumb"])
     assert [f.fixed for f in flips] == [True, False] and flips2 == flips
     assert np.array_equal(changed2, changed) and np.array_equal(out2.rotations, out.rotations)
+
+
+def test_a_helper_bone_beside_the_pelvis_is_not_turned_back_as_a_leaf():
+    """An Unreal mannequin's ``ik_hand_r`` hangs from ``root`` beside the pelvis and copies the hand's world
+    rotation (here the bundled 131_01's RThumb, which turns a constant half turn on frames 28-41). The leaf rule
+    turned the helper back on its own (HDM05 dg_squat1Reps_027 on that rig: ``ik_foot_l`` 13 cells changed
+    while the foot it copies was left): now only the body's joints are looked at, and RThumb is turned back as
+    before."""
+    from mocapkit.cleaning.whole_take import body_joints, turn_overs
+    from mocapkit.motion import Motion, Skeleton
+
+    take = mocapkit.load(mocapkit.samples.path("131_01.bvh"))[150:260]
+    sk, F = take.skeleton, take.num_frames
+    g, p = take.global_transforms()
+    thumb = sk.index("RThumb")
+    pos = ("Xposition", "Yposition", "Zposition")
+    rig = Skeleton(("root",) + sk.joint_names + ("ik_hand_r",), np.r_[-1, np.asarray(sk.parents) + 1, 0],
+                   np.r_[[np.zeros(3)], sk.offsets, [np.zeros(3)]], np.asarray(sk.end_site_parents) + 1,
+                   sk.end_site_offsets, channels=(pos + ("Zrotation", "Yrotation", "Xrotation"),) +
+                   ((pos + sk.channels[0][3:]),) + sk.channels[1:] + (pos + ("Zrotation", "Yrotation", "Xrotation"),))
+    rot = np.concatenate([np.broadcast_to(R.identity(), (F, 1, 4)), take.rotations, g[:, thumb : thumb + 1]], axis=1)
+    tr = np.concatenate([np.zeros((F, 1, 3)), np.broadcast_to(sk.offsets, (F, sk.num_joints, 3)), p[:, None, thumb]],
+                        axis=1)
+    tr[:, 1] = take.root_positions
+    ue = Motion(rig, rot, np.zeros((F, 3)), take.fps, translations=tr)
+    assert np.allclose(ue.global_positions()[:, -1], p[:, thumb])
+    assert body_joints(rig) == list(range(1, rig.num_joints - 1))
+    found = turn_overs(ue, (0, F), ["RThumb", "ik_hand_r"])
+    changed = np.flatnonzero(found.turned.any(axis=0))
+    assert changed.tolist() == [rig.index("RThumb")] and np.flatnonzero(found.turned[:, changed[0]]).tolist() == list(
+        range(28, 42))
