@@ -9,7 +9,8 @@ Every take is cleaned by :func:`mocapkit.clean` with its defaults, as
 context where it fits the take's skeleton (the Acclaim rig of CMU and HDM05;
 a take the context holds is left out of its own context by detect) and the
 clip itself elsewhere; default steps. A cell is *changed* when any rotation channel of that joint at
-that frame differs from the input at all (for the root, its position too).
+that frame differs from the input at all (for the root, its position too; for a joint with position
+channels, those too).
 The takes are clean captures, so every changed cell is harm.
 
 Collections (``../shared/data``):
@@ -43,6 +44,10 @@ motion on another rig's names and joints, so any cell changed is harm too):
   rest pose), 120 fps;
 * ``unreal``: every 10th take of the Bandai Namco sample under Unreal Engine mannequin names
   (``root``, ``pelvis``, ``spine_01``, ``thigh_l``, ...), 30 fps.
+* ``lafan``: every 8th HDM05 clip from the sixth and the CMU ASF/AMC takes on the rig of Ubisoft's LaFAN1
+  BVH files (``Hips``, ``Spine``-``Spine2``, ``LeftUpLeg``, ``LeftToe``, ``LeftArm``, ... : no hip bones, upper
+  neck or fingers; position channels on every joint, their values the offsets), 30 fps (every 4th frame): a
+  rig that differs in structure, not only in names.
 
 None fits the bundled default context (another skeleton): each take is judged against itself.
 ``--no-respelled`` leaves them out.
@@ -105,8 +110,8 @@ sys.path.insert(0, str(REPO / "benchmarks"))
 sys.path.insert(0, str(REPO))
 
 import _harness as harness  # noqa: E402
-from tests.shared import (daz_spelling, motionbuilder_spelling, smpl_spelling, unity_spelling, unnamed,  # noqa: E402
-                          unreal_spelling, xsens_spelling)
+from tests.shared import (daz_spelling, lafan_spelling, motionbuilder_spelling, smpl_spelling,  # noqa: E402
+                          unity_spelling, unnamed, unreal_spelling, xsens_spelling)
 
 DATA = REPO.parent / "shared" / "data"
 if not DATA.is_dir():  # a worktree beside the main checkout
@@ -124,7 +129,7 @@ def log(*a):
 # how each collection respells a CMU or HDM05 ASF/AMC take (on the MotionBuilder release's spelling first)
 _ON_ACCLAIM = {"smpl": smpl_spelling, "daz": daz_spelling, "xsens": xsens_spelling, "unity": unity_spelling,
                "unnamed": unnamed}
-RESPELLED = (*_ON_ACCLAIM, "unreal")
+RESPELLED = (*_ON_ACCLAIM, "unreal", "lafan")
 """The collections of takes respelled on rigs ``../shared/data`` does not hold (``tests/shared.py``)."""
 LOW_RATE = {"hdm05_30fps": 4, "cmu_asfamc_30fps": 4, "cmu_bvh_30fps": 4}
 """The collections of 120 fps takes at a lower rate, and the step between the frames each keeps."""
@@ -136,6 +141,8 @@ def respell(motion, spelling: str):
         return motion[:: LOW_RATE[spelling]]
     if spelling == "unreal":
         return unreal_spelling(motion)
+    if spelling == "lafan":  # LaFAN1's rig at its 30 fps: every 4th frame of a 120 fps take
+        return lafan_spelling(motionbuilder_spelling(motion))[::4]
     return _ON_ACCLAIM[spelling](motionbuilder_spelling(motion)) if spelling else motion
 
 def takes(n_bandai: int, all_bandai: bool, seed: int = 0, quick: bool = False,
@@ -186,6 +193,8 @@ def takes(n_bandai: int, all_bandai: bool, seed: int = 0, quick: bool = False,
         out += [("unnamed", str(p), "check" if "_mm_" in p.name else "tune") for p in hdm[1::8 if not quick else 1]]
         out += [("unnamed", str(p), "check") for p in cmu]
         out += [("unreal", str(t.path), "tune" if t.dataset == 1 else "check") for t in pick[::10]]
+        out += [("lafan", str(p), "check" if "_mm_" in p.name else "tune") for p in hdm[5::8 if not quick else 1]]
+        out += [("lafan", str(p), "check") for p in cmu]
     if low_rate:
         out += [("hdm05_30fps", str(p), "check" if "_mm_" in p.name else "tune") for p in hdm[::4 if not quick else 1]]
         out += [("cmu_asfamc_30fps", str(p), "check") for p in cmu]
@@ -215,6 +224,9 @@ def measure(item: tuple[str, str, str, str], fps: float | None = None) -> dict:
     changed = ~np.all(same, axis=-1)
     pa, pb = m.root_positions, res.motion.root_positions
     changed[:, 0] |= ~np.all((pa == pb) | (np.isnan(pa) & np.isnan(pb)), axis=-1)
+    ta, tb = m.translations, res.motion.translations  # position channels below the root (lafan): theirs too
+    if ta is not None:
+        changed[:, 1:] |= ~np.all((ta == tb) | (np.isnan(ta) & np.isnan(tb)), axis=-1)[:, 1:] if tb is not None else True
     sk = m.skeleton
     dofs = np.array([j > 0 and bool(sk.rotation_order(j)) for j in range(sk.num_joints)])
     level_only = int(((np.nan_to_num(noise_level(m)) > NOISE_DEG) & dofs[None, :]).sum())
