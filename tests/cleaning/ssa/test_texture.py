@@ -18,6 +18,31 @@ def test_joint_groups_of_cmu_rig(walk):
     assert "Head" not in [names[j] for j in g["lower"]]
 
 
+def test_joint_groups_of_a_rig_whose_root_is_above_the_pelvis():
+    """The Bandai Namco rig (``joint_Root`` on the floor, ``Hips`` below it) and Unreal's mannequin (``root``,
+    ``pelvis``, IK helpers hanging from ``root``): the legs were traced up to the pelvis, so ``lower`` was the
+    whole body and ``upper`` (empty) was dropped. Now the legs are the subtrees hanging from the pelvis: ``lower``
+    the root, the pelvis and the legs, ``upper`` the spine, head and arms, without the helpers beside the pelvis."""
+    from mocapkit.motion import Skeleton
+    from tests.shared import unreal_spelling
+
+    take = mocapkit.load(Path(__file__).parents[2] / "data" / "dataset-1_bow_active_001.bvh")
+    sk = take.skeleton
+    g = ssa.joint_groups(sk)
+    names = lambda k: {sk.joint_names[j] for j in g[k]}  # noqa: E731
+    assert set(g) == {"whole", "upper", "lower", "left", "right"}
+    legs = {f"{p}_{s}" for p in ("UpperLeg", "LowerLeg", "Foot", "Toes") for s in "LR"}
+    assert names("lower") == {"joint_Root", "Hips"} | legs
+    assert names("upper") == set(sk.joint_names) - names("lower")
+    ue = unreal_spelling(take).skeleton
+    rig = Skeleton(ue.joint_names + ("ik_foot_root", "ik_foot_l"), np.r_[ue.parents, 0, ue.num_joints],
+                   np.r_[ue.offsets, np.zeros((2, 3))])
+    g = ssa.joint_groups(rig)
+    upper = {rig.joint_names[j] for j in g["upper"]}
+    assert {"spine_01", "head", "hand_l", "clavicle_r"} <= upper and not {"ik_foot_root", "ik_foot_l", "pelvis"} & upper
+    assert "thigh_l" in {rig.joint_names[j] for j in g["lower"]}
+
+
 def test_informative_joints_take_left_and_right_partners_together():
     """On the sneak take the right hand alone ranked 25th (its partner made the 24); now the pair comes in together."""
     from mocapkit.motion import mirror_pairs

@@ -319,13 +319,19 @@ def joint_groups(skeleton, joints: Sequence[int] | None = None) -> dict[str, np.
 
     ``whole`` (all), ``upper`` (spine, head, arms), ``lower`` (root and legs),
     ``left`` and ``right`` (root and the joints of that side). Legs are the
-    subtrees hanging from the root that hold the feet; sides come from joint
+    subtrees hanging from the pelvis (:func:`mocapkit.rigs.pelvis_index`) that hold the feet; the root is the
+    pelvis and any joint above it (the Bandai Namco rig's ``joint_Root``, Unreal's ``root``, which were traced
+    into the legs: ``lower`` was the whole body and ``upper`` missing); ``upper`` is what else hangs from the
+    pelvis, not helpers beside it (Unreal's ``ik_foot_root``). Sides come from joint
     names (``l``/``left`` prefixes and the like, as :func:`mocapkit.motion.mirror_pairs`).
     Groups with fewer than two joints are left out.
     """
+    from ...rigs import pelvis_index
+
     J = skeleton.num_joints
     joints = np.arange(J) if joints is None else np.asarray(joints, dtype=np.int64)
     parents = skeleton.parents
+    pelvis = pelvis_index(skeleton)
     leg = np.zeros(J, dtype=bool)
     for role in ("left_foot", "right_foot"):
         try:
@@ -333,9 +339,9 @@ def joint_groups(skeleton, joints: Sequence[int] | None = None) -> dict[str, np.
         except KeyError:
             continue
         top = j
-        while parents[top] > 0:
+        while parents[top] > pelvis:  # up to the joint hanging from the pelvis (not from a root above it)
             top = int(parents[top])
-        if parents[top] == 0 or top == j:
+        if parents[top] == pelvis or top == j:
             for c in range(J):  # mark the subtree under `top`
                 a = c
                 while a > 0 and a != top:
@@ -344,10 +350,13 @@ def joint_groups(skeleton, joints: Sequence[int] | None = None) -> dict[str, np.
     side = np.array([s or "" for s in joint_sides(skeleton.joint_names)])
     sel = np.zeros(J, dtype=bool)
     sel[joints] = True
-    root = np.arange(J) == 0
+    root = np.arange(J) <= pelvis  # the root and the pelvis (and any joint between: a root above the pelvis)
+    body = np.zeros(J, dtype=bool)  # below the pelvis: not the helpers hanging from a root above it beside it
+    for c in range(pelvis + 1, J):
+        body[c] = parents[c] == pelvis or body[parents[c]]
     groups = {
         "whole": sel,
-        "upper": sel & ~leg & ~root,
+        "upper": sel & ~leg & body,
         "lower": sel & (leg | root),
         "left": sel & ((side == "left") | root),
         "right": sel & ((side == "right") | root),
