@@ -27,3 +27,23 @@ def test_sort_by_key_is_a_stable_argsort(rng):
         got = idx.copy()
         sort_by_key(got, key, np.empty_like(got))
         assert np.array_equal(got, want)
+
+
+def test_sort_by_key_is_a_stable_argsort_across_runs_and_merges(rng):
+    """Long inputs (the kNN search sorts 1,000-1,400 bounds): insertion-sorted runs, merges, runs already in
+    order, ties that straddle runs and infinite keys, each against numpy's stable argsort."""
+    for n in (15, 16, 17, 31, 32, 33, 100, 1000, 1421):
+        for kind in ("random", "ascending", "descending", "few"):
+            key = rng.normal(size=1500)
+            if kind == "ascending":
+                key = np.sort(key)
+            elif kind == "descending":
+                key = np.sort(key)[::-1].copy()
+            elif kind == "few":
+                key = rng.integers(0, 3, size=1500).astype(np.float64)  # long runs of ties
+            key[rng.random(1500) < 0.05] = np.inf
+            idx = np.sort(rng.choice(1500, size=n, replace=False)).astype(np.int64)
+            want = idx[np.argsort(key[idx], kind="mergesort")]
+            got = idx.copy()
+            sort_by_key(got, key, np.empty_like(got))
+            assert np.array_equal(got, want), (n, kind)

@@ -124,6 +124,31 @@ def test_knn_profile_equals_full_profile_minima(exclude):
     assert ev.mean() < len(tgt)  # the bound pruned something
 
 
+def test_knn_profile_past_its_first_batches_equals_full_profile_minima():
+    """Words whose K-th minimum takes more than the first batch of 64 positions to know (a drifting walk: no two
+    cycles alike) visit the rest in later batches; the answer is still the full profile's minima, tie for tie."""
+    rng = np.random.default_rng(3)
+    n = 400
+    A = _walk_texture(n, 3)
+    ang = 2.0 * np.cumsum(rng.normal(size=(n, 6)), axis=0) / np.sqrt(n)  # a drift on top of the cycles
+    axes = rng.normal(size=(6, 3))
+    axes /= np.linalg.norm(axes, axis=1, keepdims=True)
+    drift = np.concatenate([np.cos(ang / 2)[..., None], np.sin(ang / 2)[..., None] * axes[None]], axis=-1)
+    A = R.quaternion_multiply(A, drift)
+    D = W.group_pose_distances(A, A, np.ones((1, 6), dtype=bool), [1])[0]
+    src, tgt = np.arange(0, n - 15, 5), np.arange(0, n - 19)
+    dist, ie, je = W.word_distance_profile(D, src, tgt)
+    want = naive_local_minima_knn(dist, tgt, 5, src, 7)
+    idx, d, i_end, j_end, ev = W.word_knn_profile(D, src, tgt, 5, src, 7, return_evaluated=True)
+    assert (ev > 64).sum() >= 10  # past the first batch
+    for w in range(len(src)):
+        got = [(float(d[w, q]), int(idx[w, q])) for q in range(5) if idx[w, q] >= 0]
+        assert [t for _, t in got] == [t for _, t in want[w]]
+        assert [v for v, _ in got] == [float(np.float32(dist[w, t])) for _, t in want[w]]
+        for q, (_, t) in enumerate(got):
+            assert (i_end[w, q], j_end[w, q]) == (ie[w, t], je[w, t])
+
+
 def test_knn_profile_lower_bound_is_a_bound(rng):
     A, B = _random_quats(rng, (40, 5)), _random_quats(rng, (60, 5))
     D = W.group_pose_distances(A, B, np.ones((1, 5), dtype=bool), [0])[0]

@@ -57,41 +57,78 @@ def kth_smallest(x, k, heap):
     return heap[0] if n == k else np.nan
 
 
+#: run length :func:`sort_by_key` sorts by insertion before merging
+_RUN = 16
+
+
 @njit(cache=True)
 def sort_by_key(idx, key, tmp):
     """``idx`` (n,) int64 reordered in place so that ``key[idx]`` increases, ties in their order (a stable sort).
 
     What ``idx[np.argsort(key[idx], kind="mergesort")]`` gives for keys that
-    are not NaN; a bottom-up merge sort with ``tmp`` (n,) as scratch, written
-    out because numba's ``argsort`` takes most of a second to compile.
+    are not NaN; written out because numba's ``argsort`` takes most of a
+    second to compile. The keys are gathered once and move with their
+    indices (no indirect load per comparison); runs of ``_RUN`` are sorted by
+    insertion, then merged bottom-up, ``tmp`` (n,) as scratch, a merge of two
+    runs already in order copied as it is. Stable throughout (an element
+    moves before an earlier one only on a strictly smaller key), so the order
+    is the stable sort's, tie for tie; 1.7x faster than a merge sort from
+    single elements on the kNN search's bounds (1,000-1,400 per word).
     """
     n = idx.shape[0]
-    width = 1
-    src = idx
-    dst = tmp
+    if n < 2:
+        return
+    ka = np.empty(n)
+    kb = np.empty(n)
+    for q in range(n):
+        ka[q] = key[idx[q]]
+    for lo in range(0, n, _RUN):  # stable insertion sort of each run
+        hi = min(lo + _RUN, n)
+        for a in range(lo + 1, hi):
+            v = ka[a]
+            x = idx[a]
+            b = a
+            while b > lo and ka[b - 1] > v:
+                ka[b] = ka[b - 1]
+                idx[b] = idx[b - 1]
+                b -= 1
+            ka[b] = v
+            idx[b] = x
+    width = _RUN
+    si, sk, di, dk = idx, ka, tmp, kb
     in_tmp = False
     while width < n:
         for lo in range(0, n, 2 * width):
             mid = min(lo + width, n)
             hi = min(lo + 2 * width, n)
+            if mid >= hi or not sk[mid] < sk[mid - 1]:  # one run, or two already in order
+                for q in range(lo, hi):
+                    di[q] = si[q]
+                    dk[q] = sk[q]
+                continue
             a, b, o = lo, mid, lo
             while a < mid and b < hi:
-                if key[src[b]] < key[src[a]]:
-                    dst[o] = src[b]
+                if sk[b] < sk[a]:
+                    di[o] = si[b]
+                    dk[o] = sk[b]
                     b += 1
                 else:
-                    dst[o] = src[a]
+                    di[o] = si[a]
+                    dk[o] = sk[a]
                     a += 1
                 o += 1
             while a < mid:
-                dst[o] = src[a]
+                di[o] = si[a]
+                dk[o] = sk[a]
                 a += 1
                 o += 1
             while b < hi:
-                dst[o] = src[b]
+                di[o] = si[b]
+                dk[o] = sk[b]
                 b += 1
                 o += 1
-        src, dst = dst, src
+        si, di = di, si
+        sk, dk = dk, sk
         in_tmp = not in_tmp
         width *= 2
     if in_tmp:

@@ -622,7 +622,8 @@ def _knn_profile(D, rowmin, level, src, tgt, consec, excl_lo, excl_hi, N, M, min
         nv = 0  # of vals set
         row = np.empty(M)
         ev = np.empty(T, dtype=np.int64)
-        heap = np.empty(first)
+        heap = np.empty(T)
+        rest = np.empty(T)  # the bound of each position not yet visited, NaN once visited
         btot = np.empty(T)
         bmu = np.empty(T)
         alive = np.empty(T, dtype=np.bool_)
@@ -635,21 +636,37 @@ def _knn_profile(D, rowmin, level, src, tgt, consec, excl_lo, excl_hi, N, M, min
                 lb[t] = _INF
             else:
                 lb[t] = lb[t] * (1.0 - 1e-9)
+        for t in range(T):
+            rest[t] = lb[t]
         tau = _INF
-        for phase in range(2):
-            # in increasing order of the bound: first the `first` lowest, then, once tau is known, only the
-            # positions whose bound is at most tau (a few hundred of a long take's thousands need sorting)
-            if phase == 0:
-                cut = kth_smallest(lb, first, heap) if first < T else _INF
-                cand = np.flatnonzero(lb <= cut)
+        batch = first
+        done = False
+        while not done:
+            # in increasing order of the bound, a batch at a time: while tau is unknown the `batch` lowest not yet
+            # visited (64, then twice as many each time: a word whose tau takes a few hundred DTWs to know sorts
+            # those, not the take's thousands), then only the positions whose bound is at most tau. The batches
+            # join into one stable sort of the bounds (a batch takes every tie of its cut, and a visited
+            # position's bound is never below the tau it was visited under), so the positions are visited
+            # in the order, and with the outcomes, of a sort of them all
+            if tau < _INF:
+                cut = tau
+                done = True
             else:
-                cand = np.flatnonzero((lb <= tau) & ~evaluated & ~strict)
-            order = cand
-            sort_by_key(order, lb, np.empty_like(cand))
+                cut = kth_smallest(rest, batch, heap) if batch < T else np.nan
+                if cut != cut:  # fewer than `batch` left: all of them
+                    cut = _INF
+                    done = True
+                batch *= 2
+            order = np.flatnonzero(rest <= cut)
+            if order.shape[0] == 0:
+                break
+            sort_by_key(order, rest, np.empty_like(order))
             for x in range(order.shape[0]):
                 t = order[x]
                 if not lb[t] <= tau:
+                    done = True
                     break
+                rest[t] = np.nan
                 if evaluated[t] or strict[t] or lo < tgt[t] < hi:
                     continue
                 if tau < _INF and not refined[t]:  # the sorting bound, only where the cheap one is not enough
