@@ -38,6 +38,7 @@ __all__ = [
     "quaternion_conjugate",
     "quaternion_inverse",
     "quaternion_normalize",
+    "row_norms",
     "quaternion_rotate",
     "quaternion_continuity",
     "quaternion_log",
@@ -138,10 +139,29 @@ def quaternion_inverse(q: np.ndarray) -> np.ndarray:
     return quaternion_conjugate(q) / np.sum(q * q, axis=-1, keepdims=True)
 
 
+def row_norms(x: np.ndarray, keepdims: bool = False) -> np.ndarray:
+    """Euclidean norms over the last axis, ``np.linalg.norm(x, axis=-1, keepdims=keepdims)`` bit for bit.
+
+    For float64 ``x`` whose last axis holds 2-4 entries (quaternions, 3-vectors) the squares are summed column by
+    column in axis order, ``((x0^2 + x1^2) + x2^2) + x3^2``, the order numpy's reduction adds so few entries in
+    (``tests/test_rotations.py`` checks every bit on every shape the library passes, NaN and inf included), without
+    its per-row reduction loop: 2.5-4x faster on a take's (F, J, 4) rotations. Other inputs go to numpy.
+    """
+    x = np.asarray(x)
+    n = x.shape[-1] if x.ndim else 0
+    if x.dtype != np.float64 or not 2 <= n <= 4:
+        return np.linalg.norm(x, axis=-1, keepdims=keepdims)
+    s = x[..., 0] * x[..., 0]
+    for i in range(1, n):
+        s += x[..., i] * x[..., i]
+    out = np.sqrt(s)
+    return out[..., None] if keepdims else out
+
+
 def quaternion_normalize(q: np.ndarray) -> np.ndarray:
     """Scale to unit length; a zero quaternion becomes NaN (it is no rotation)."""
     q = np.asarray(q, dtype=np.float64)
-    norm = np.linalg.norm(q, axis=-1, keepdims=True)
+    norm = row_norms(q, keepdims=True)
     with np.errstate(invalid="ignore", divide="ignore"):
         out = q / norm
     out[np.broadcast_to(norm == 0.0, out.shape)] = np.nan
@@ -198,7 +218,7 @@ def quaternion_log(q: np.ndarray) -> np.ndarray:
     q = check_quaternions(q)
     q = np.where(q[..., :1] < 0.0, -q, q)
     v = q[..., 1:]
-    s = np.linalg.norm(v, axis=-1, keepdims=True)
+    s = row_norms(v, keepdims=True)
     half = np.arctan2(s, q[..., :1])
     # sin(half)/half -> 1 as half -> 0; use the series to stay exact near identity.
     with np.errstate(invalid="ignore", divide="ignore"):
@@ -211,7 +231,7 @@ def quaternion_log(q: np.ndarray) -> np.ndarray:
 def quaternion_exp(v: np.ndarray) -> np.ndarray:
     """Inverse of :func:`quaternion_log`: (..., 3) vectors ``(theta / 2) * axis`` to (..., 4)."""
     v = np.asarray(v, dtype=np.float64)
-    half = np.linalg.norm(v, axis=-1, keepdims=True)
+    half = row_norms(v, keepdims=True)
     with np.errstate(invalid="ignore", divide="ignore"):
         sinc = np.where(half > 1e-12, np.sin(half) / np.where(half > 1e-12, half, 1.0), 1.0 - half * half / 6.0)
     return np.concatenate([np.cos(half), v * sinc], axis=-1)
@@ -320,8 +340,8 @@ def geodesic_angle(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     a = check_quaternions(a, "a")
     b = check_quaternions(b, "b")
     d = quaternion_multiply(quaternion_conjugate(a), b)
-    d = d / np.linalg.norm(d, axis=-1, keepdims=True)
-    return 2.0 * np.arctan2(np.linalg.norm(d[..., 1:], axis=-1), np.abs(d[..., 0]))
+    d = d / row_norms(d, keepdims=True)
+    return 2.0 * np.arctan2(row_norms(d[..., 1:]), np.abs(d[..., 0]))
 
 
 def slerp(a: np.ndarray, b: np.ndarray, t: np.ndarray | float) -> np.ndarray:
