@@ -276,3 +276,21 @@ def test_row_norms_are_numpys_norms_bit_for_bit():
                 assert np.asarray(got).tobytes() == np.asarray(want).tobytes(), (shape, keep)
     q = rng.normal(size=(50, 6, 4))
     assert R.quaternion_normalize(q).tobytes() == (q / np.linalg.norm(q, axis=-1, keepdims=True)).tobytes()
+
+
+def test_quaternion_to_euler_the_same_with_and_without_missing_rows():
+    """Rotations without a missing row convert in one call, no copy in or out: every angle the same, bit for bit, as
+    the path for rotations with missing (NaN, inf or zero) rows gives those rows, and the empty set stays empty."""
+    rng = np.random.default_rng(3)
+    q = R.quaternion_normalize(rng.normal(size=(200, 3, 4)))
+    for order in ("xyz", "ZXY", "zy", "x"):
+        whole = R.quaternion_to_euler(q, order)
+        gappy = q.copy()
+        gappy[5, 1] = np.nan
+        gappy[9, 0, 2] = np.inf
+        gappy[11, 2] = 0.0
+        part = R.quaternion_to_euler(gappy, order)
+        bad = np.zeros((200, 3), dtype=bool)
+        bad[5, 1] = bad[9, 0] = bad[11, 2] = True
+        assert np.isnan(part[bad]).all() and part[~bad].tobytes() == whole[~bad].tobytes()
+        assert R.quaternion_to_euler(q[:0], order).shape == (0, 3, len(order))

@@ -432,15 +432,21 @@ def quaternion_to_euler(q: np.ndarray, order: str, degrees: bool = True) -> np.n
     full = _complete_order(low)
     shape = q.shape[:-1]
     flat = q.reshape(-1, 4)
-    good = np.all(np.isfinite(flat), axis=1) & (np.linalg.norm(flat, axis=1) > 0)
-    out = np.full((flat.shape[0], 3), np.nan)
-    if np.any(good):
+    # finite and not zero (each column's test, then the norm: the mask np.all(np.isfinite) & norm > 0 gives)
+    good = np.isfinite(flat[:, 0]) & np.isfinite(flat[:, 1]) & np.isfinite(flat[:, 2]) & np.isfinite(flat[:, 3])
+    good &= row_norms(flat) > 0
+    every = len(good) > 0 and bool(good.all())
+    out = None if every else np.full((flat.shape[0], 3), np.nan)
+    if every or np.any(good):
         seq = full.upper() if intrinsic else full
         import warnings
 
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", UserWarning)  # gimbal lock is handled: angles stay valid
-            out[good] = to_scipy(flat[good]).as_euler(seq, degrees=degrees)
+            if every:  # no copy in and out of the rows that convert (a take without gaps: all of them)
+                out = to_scipy(flat).as_euler(seq, degrees=degrees)
+            else:
+                out[good] = to_scipy(flat[good]).as_euler(seq, degrees=degrees)
     keep = [full.index(a) for a in low]
     return out[:, keep].reshape(shape + (len(low),))
 
