@@ -73,3 +73,24 @@ def test_fill_of_one_nan_dof_keeps_the_measured_dofs_text(tmp_path):
     changed = [(i, k) for i, (a, b) in enumerate(zip(lines, written)) for k, (x, y) in
                enumerate(zip(a.split(" "), b.split(" "))) if x != y]
     assert len(nan_at) == 8 and changed == [(i, 2) for i in nan_at]  # the nan dofs alone; the measured as the file's
+
+
+def test_a_nan_channel_left_unfilled_stays_nan_from_an_npz(tmp_path):
+    """An .npz keeping a BVH's numbers, written back with ``allow_nan`` before any fill: the cell's ``nan`` channel
+    is written ``nan`` and its measured channels the file's numbers (the bridged curve a fill is placed near was
+    written as the missing channel's number, ``0.000000``: a gap turned into a measurement)."""
+    from mocapkit import io
+    from mocapkit.io.npz import read_npz
+
+    path = tmp_path / "one_nan.bvh"
+    lines = _with_nan(DATA / "cmu_01_01_start.bvh", path, 7, range(20, 30))  # LHipJoint's Yrotation
+    at = next(i for i, t in enumerate(lines) if t.startswith("Frame Time")) + 1
+    kept = tmp_path / "one_nan.npz"
+    io.save(read_bvh(path), kept, like=path)
+    out = tmp_path / "back.bvh"
+    write_bvh(read_npz(kept), out, allow_nan=True, like=kept)
+    written = out.read_text().split("\n")
+    for f in range(20, 30):
+        want = [float(x) for x in lines[at + f].split(" ")[6:9]]
+        got = [float(x) for x in written[at + f].split(" ")[6:9]]
+        assert np.isnan(got[1]) and got[0] == want[0] and got[2] == want[2], (f, got, want)

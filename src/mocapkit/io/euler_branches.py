@@ -53,7 +53,9 @@ def continuous_rotations(values: np.ndarray, channels, source=None) -> None:
         fixed = start = None
         if source is not None:
             own = source.values[:, idx]
-            part = partly_missing(own)  # a nan channel beside measured ones: placed nearest the bridged curve
+            # a changed cell's nan channel beside measured ones: placed nearest the bridged curve (an unchanged
+            # cell is the file's own numbers, its nan kept: a missing value is never written as a measured one)
+            part = partly_missing(own) & source.turned[:, js]
             if part.any():
                 own = np.where(part[..., None], bridged(own), own)
             angles, fixed = source_branches(angles, own, source.turned[:, js], order)
