@@ -484,3 +484,30 @@ def test_a_closed_stdout_ends_a_command_quietly_and_its_outputs_whole(tmp_path, 
         monkeypatch.setattr(sys, "stdout", gone)
         monkeypatch.setattr(sys, "stderr", gone)
         assert main(["info", str(tmp_path / "none.bvh")]) == 141
+
+
+@pytest.mark.parametrize("closed", ["stdout", "stderr"])
+def test_a_command_started_with_a_stream_closed_ends_without_a_traceback(monkeypatch, closed):
+    """``mocapkit info take.bvh >&-`` (or ``2>&-``): Python starts with ``sys.stdout`` (``sys.stderr``) None, and
+    run's last flush called None.flush(): an AttributeError traceback and status 1 after the command had succeeded
+    (a failure's status 2 likewise turned 1). Now the command's own status. The exit's own steps are not taken."""
+    import atexit
+    import threading
+
+    from mocapkit import cli
+
+    monkeypatch.setattr(threading, "_shutdown", lambda: None)
+    monkeypatch.setattr(atexit, "_run_exitfuncs", lambda: None)
+
+    def exit_now(code):
+        raise SystemExit(code)
+
+    monkeypatch.setattr(os, "_exit", exit_now)
+    monkeypatch.setattr(sys, closed, None)
+    monkeypatch.setattr(sys, "stdout" if closed == "stderr" else "stderr", io.StringIO())
+    take = str(Path(__file__).resolve().parents[1] / "data" / "cmu_01_01_start.bvh")
+    for args, status in ((["info", take], 0), (["info", take + ".none"], 2)):
+        monkeypatch.setattr(sys, "argv", ["mocapkit", *args])
+        with pytest.raises(SystemExit) as ended:
+            cli.run()
+        assert ended.value.code == status

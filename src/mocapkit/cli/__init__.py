@@ -179,6 +179,8 @@ def run() -> None:
         code = code or EXIT_INTERRUPTED
     try:  # the loop inside: its step to the next stream is a signal check too
         for stream in (sys.stdout, sys.stderr):
+            if stream is None:  # started with it closed (>&-, 2>&-): Python's None, nothing to flush
+                continue
             try:
                 stream.flush()
             except (OSError, ValueError):  # a closed pipe (| head): nothing more can reach it
