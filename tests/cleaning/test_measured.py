@@ -94,3 +94,22 @@ def test_a_nan_channel_left_unfilled_stays_nan_from_an_npz(tmp_path):
         want = [float(x) for x in lines[at + f].split(" ")[6:9]]
         got = [float(x) for x in written[at + f].split(" ")[6:9]]
         assert np.isnan(got[1]) and got[0] == want[0] and got[2] == want[2], (f, got, want)
+
+
+def test_a_cell_the_motion_has_is_its_own_whatever_its_file_says(tmp_path):
+    """A take read from a file with one ``nan`` channel, whose partly missing cells the caller has since given a
+    rotation of its own, filled for another gap: those cells are the caller's, bit for bit (the file's measured
+    channels were put into them: (10, 20, 30) deg came back (0, 20, 0), marked filled)."""
+    import dataclasses
+
+    from mocapkit import rotations as R
+
+    path = tmp_path / "one_nan.bvh"
+    _with_nan(DATA / "cmu_01_01_start.bvh", path, 7, range(20, 30))  # LHipJoint's Yrotation
+    taken = read_bvh(path)
+    rot = np.array(taken.rotations)
+    rot[20:30, 1] = R.euler_to_quaternion(np.array([10.0, 20.0, 30.0]), "ZYX")  # the caller's own fill
+    rot[50:56, 5] = np.nan  # a gap for the fill
+    done = fill_take(dataclasses.replace(taken, rotations=rot))
+    assert done.filled[50:56, 5].all() and not done.filled[20:30, 1].any()
+    assert np.array_equal(done.motion.rotations[20:30, 1], rot[20:30, 1])

@@ -45,7 +45,7 @@ def keep_measured(before: Motion, after: Motion) -> tuple[Motion, np.ndarray]:
     rot = np.array(after.rotations)
     whole = np.isfinite(before.rotations).all(axis=-1)
     rot[whole] = before.rotations[whole]
-    _partly_measured(before, after, rot)
+    _partly_measured(before, after, rot, ~whole)
     root = np.where(np.isfinite(before.root_positions), before.root_positions, after.root_positions)
     trans = after.translations
     if trans is not None and before.translations is not None:
@@ -64,19 +64,20 @@ def _differs(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return np.any((a != b) & ~(np.isnan(a) & np.isnan(b)), axis=-1)
 
 
-def _partly_measured(before: Motion, after: Motion, rot: np.ndarray) -> None:
+def _partly_measured(before: Motion, after: Motion, rot: np.ndarray, gone: np.ndarray) -> None:
     """Put the measured rotation channels (BVH) or dofs (AMC) of ``before``'s file back into ``rot`` (F, J, 4;
-    ``after``'s filled rotations, in place) in the cells the file gives partly ``nan`` (:func:`keep_measured`)."""
+    ``after``'s filled rotations, in place) in the cells the file gives partly ``nan`` (:func:`keep_measured`) and
+    ``before`` lacks (``gone`` (F, J) bool): a cell ``before`` has is its own, whatever its file says there."""
     src = before.source_file
     if src is None or Path(src).suffix.lower() not in (".bvh", ".amc", ".npz"):
         return
     if after.skeleton.axes is None:
-        _bvh_measured(after, src, rot)
+        _bvh_measured(after, src, rot, gone)
     else:
-        _amc_measured(after, src, rot)
+        _amc_measured(after, src, rot, gone)
 
 
-def _amc_measured(after: Motion, src, rot: np.ndarray) -> None:
+def _amc_measured(after: Motion, src, rot: np.ndarray, gone: np.ndarray) -> None:
     """:func:`_partly_measured` for an ASF/AMC take: a bone's dof angles are the Euler angles of ``C^-1 q C``
     (``C`` its ASF axis frame; extrinsic, in the dofs' order), as the AMC reader builds ``q`` from them."""
     from ..io.amc_writer import source_numbers  # io is below cleaning; imported on use
@@ -92,7 +93,7 @@ def _amc_measured(after: Motion, src, rot: np.ndarray) -> None:
         if len(cols) < 2:
             continue
         own = values[:, cols]
-        part = partly_missing(own) & np.isfinite(rot[:, j]).all(axis=-1)
+        part = partly_missing(own) & gone[:, j] & np.isfinite(rot[:, j]).all(axis=-1)
         if not part.any():
             continue
         order = "".join(d[k][1] for k in axes)
@@ -103,7 +104,7 @@ def _amc_measured(after: Motion, src, rot: np.ndarray) -> None:
         rot[part, j] = R.quaternion_multiply(R.quaternion_multiply(c, m), R.quaternion_conjugate(c))
 
 
-def _bvh_measured(after: Motion, src, rot: np.ndarray) -> None:
+def _bvh_measured(after: Motion, src, rot: np.ndarray, gone: np.ndarray) -> None:
     """:func:`_partly_measured` for a BVH take: a joint's rotation channels are intrinsic Euler angles in the
     file's channel order, as the BVH reader builds the rotation from them."""
     from ..io.bvh import source_values  # io is below cleaning; imported on use: most takes have no gaps
@@ -119,7 +120,7 @@ def _bvh_measured(after: Motion, src, rot: np.ndarray) -> None:
         if not cols:
             continue
         own = values[:, cols]
-        part = partly_missing(own) & np.isfinite(rot[:, j]).all(axis=-1)
+        part = partly_missing(own) & gone[:, j] & np.isfinite(rot[:, j]).all(axis=-1)
         if not part.any():
             continue
         order = "".join(chans[k][0] for k in axes)
