@@ -113,3 +113,20 @@ def test_a_cell_the_motion_has_is_its_own_whatever_its_file_says(tmp_path):
     done = fill_take(dataclasses.replace(taken, rotations=rot))
     assert done.filled[50:56, 5].all() and not done.filled[20:30, 1].any()
     assert np.array_equal(done.motion.rotations[20:30, 1], rot[20:30, 1])
+
+
+def test_a_fill_needs_no_file_its_take_was_read_from(tmp_path, monkeypatch):
+    """A take whose file was replaced after it was read, its bytes let go (64 MB of other files read since:
+    mocapkit.io.sources): a gap of whole cells is filled all the same. keep_measured's look at the file for
+    ``nan`` channels raised the writer's 'removed or changed after its take was read', and fill_take failed."""
+    from mocapkit.io import sources
+
+    path = tmp_path / "gap.bvh"
+    _with_nan(DATA / "cmu_01_01_start.bvh", path, 6, range(20, 30))
+    _with_nan(path, path, 7, range(20, 30))
+    _with_nan(path, path, 8, range(20, 30))  # LHipJoint missing whole in frames 20-29: no channel measured
+    monkeypatch.setattr(sources, "MAX_KEPT_BYTES", 0)  # only the digest is kept (a large corpus read since)
+    taken = read_bvh(path)
+    path.write_text("replaced by a sync tool\n")
+    done = fill_take(taken)
+    assert done.filled[20:30, 1].all() and not done.motion.missing().any()

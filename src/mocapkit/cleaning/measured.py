@@ -19,6 +19,7 @@ from pathlib import Path
 import numpy as np
 
 from .. import rotations as R
+from ..errors import MocapFormatError
 from ..io.euler_branches import bridged, partly_missing
 from ..motion import Motion
 
@@ -69,12 +70,15 @@ def _partly_measured(before: Motion, after: Motion, rot: np.ndarray, gone: np.nd
     ``after``'s filled rotations, in place) in the cells the file gives partly ``nan`` (:func:`keep_measured`) and
     ``before`` lacks (``gone`` (F, J) bool): a cell ``before`` has is its own, whatever its file says there."""
     src = before.source_file
-    if src is None or Path(src).suffix.lower() not in (".bvh", ".amc", ".npz"):
+    if src is None or Path(src).suffix.lower() not in (".bvh", ".amc", ".npz") or not gone.any():
         return
-    if after.skeleton.axes is None:
-        _bvh_measured(after, src, rot, gone)
-    else:
-        _amc_measured(after, src, rot, gone)
+    try:
+        if after.skeleton.axes is None:
+            _bvh_measured(after, src, rot, gone)
+        else:
+            _amc_measured(after, src, rot, gone)
+    except (MocapFormatError, OSError):  # the file removed or replaced since it was read, its bytes let go
+        return  # (mocapkit.io.sources): nothing to put back, the fill stands as for a take read from no file
 
 
 def _amc_measured(after: Motion, src, rot: np.ndarray, gone: np.ndarray) -> None:
