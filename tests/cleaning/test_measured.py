@@ -130,3 +130,24 @@ def test_a_fill_needs_no_file_its_take_was_read_from(tmp_path, monkeypatch):
     path.write_text("replaced by a sync tool\n")
     done = fill_take(taken)
     assert done.filled[20:30, 1].all() and not done.motion.missing().any()
+
+
+def test_near_gimbal_lock_the_written_rotation_is_the_fills_nearest(tmp_path):
+    """Bandai bye_giant's Spine (ZXY, its X 89.4-89.6 deg in frames 12-19) with its Zrotation nan, filled 1 deg
+    off the file's rotation: the rotation kept with the measured X and Y is at most that far from the fill (the
+    file's own Z is one such). The fill's Z taken apart from its rotation and set beside the file's X and Y put it
+    up to tens of degrees away (Z and Y trade off near gimbal lock)."""
+    import dataclasses
+
+    from mocapkit import rotations as R
+    from mocapkit.cleaning.measured import keep_measured
+
+    path = tmp_path / "one_nan.bvh"
+    _with_nan(DATA / "dataset-1_bye_giant_001.bvh", path, 15, range(12, 20))
+    before, truth = read_bvh(path), read_bvh(DATA / "dataset-1_bye_giant_001.bvh")
+    off = R.euler_to_quaternion(np.array([1.0, 0.0, 0.0]), "XYZ")  # the fill's error: 1 deg about X
+    rot = np.array(truth.rotations)
+    rot[12:20, 2] = R.quaternion_multiply(rot[12:20, 2], np.broadcast_to(off, (8, 4)))
+    kept, cells = keep_measured(before, dataclasses.replace(before, rotations=rot))
+    assert cells[12:20, 2].all() and cells.sum() == 8
+    assert np.degrees(R.geodesic_angle(kept.rotations[12:20, 2], rot[12:20, 2])).max() <= 1.0 + 1e-6
