@@ -339,7 +339,7 @@ def _not_complete(inp: Path, files: dict, request: dict, markers: dict | None = 
     ``request``: this run's :func:`clean_request`; ``markers``: its :func:`marker_request`, which a marker capture's
     record is held to (default: the defaults).
 
-    The record keeps the size, SHA-256 and path of the input as read and the size and SHA-256 of the output as
+    The record keeps the size, SHA-256 and path digest of the input as read and the size and SHA-256 of the output as
     written (``params["written"]``, :func:`mocapkit.io.outputs.input_facts`, ``file_facts``); a record without them (an earlier mocapkit's) is taken at its word. An
     output decisions were applied to in place is as written when it is as those decisions wrote it; where its input
     changed since, it is not cleaned again as it is (``anew`` False): that would discard the decisions.
@@ -367,8 +367,8 @@ def _not_complete(inp: Path, files: dict, request: dict, markers: dict | None = 
         if file_facts(inp) != {k: kept.get(k) for k in ("size", "sha256")}:
             if decided:
                 return f"its input changed since it was decided by {decided}", False, decided
-            if other := other_input(kept, inp):  # another folder's take of the same name: not this batch's output
-                return f"it was cleaned from another input ({other})", False, ""
+            if other_input(kept, inp):  # another folder's take of the same name: not this batch's output
+                return "it was cleaned from another file of the same name", False, ""
             return "its input changed since it was cleaned", True, ""
     done = None if params is None else params.get("request")
     if params is not None and params.get("kind") == "markers":  # held to the marker request, kept or not

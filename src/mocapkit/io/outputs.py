@@ -258,18 +258,25 @@ def file_facts(path: os.PathLike | str) -> dict:
 
 
 def input_facts(path: os.PathLike | str) -> dict:
-    """:func:`file_facts` of a take as read, with its absolute path (links resolved): what a record keeps of its
-    input, so that a later batch into the same OUT_DIR tells that input replaced since (the same path, other
-    bytes: cleaned again) from another folder's take of the same name (another path, other bytes: its output is
-    not that batch's to replace unasked)."""
-    return {**file_facts(path), "path": str(Path(path).resolve())}
+    """:func:`file_facts` of a take as read, with the SHA-256 of its absolute path (links resolved): what a record
+    keeps of its input, so that a later batch into the same OUT_DIR tells that input replaced since (the same path,
+    other bytes: cleaned again) from another folder's take of the same name (another path, other bytes: its output
+    is not that batch's to replace unasked). The path's digest, not the path: a record shared with others does not
+    carry the folders of the machine that cleaned it."""
+    return {**file_facts(path), "path_sha256": _path_digest(path)}
 
 
-def other_input(kept: dict | None, path: os.PathLike | str) -> str:
-    """The input a record's :func:`input_facts` name where that is not the file at ``path`` ("" where it is, or
-    where the record names none: an earlier mocapkit's)."""
-    was = (kept or {}).get("path")
-    return was if isinstance(was, str) and Path(was) != Path(path).resolve() else ""
+def other_input(kept: dict | None, path: os.PathLike | str) -> bool:
+    """Whether a record's :func:`input_facts` name another file than the one at ``path`` (False where the record
+    names none: an earlier mocapkit's)."""
+    was = (kept or {}).get("path_sha256")
+    return isinstance(was, str) and was != _path_digest(path)
+
+
+def _path_digest(path: os.PathLike | str) -> str:
+    import hashlib
+
+    return hashlib.sha256(os.fsencode(Path(path).resolve())).hexdigest()
 
 
 def missing_folders(folders: Iterable[os.PathLike | str]) -> list[Path]:
