@@ -46,6 +46,7 @@ from .c3d_frames import (FRAME_CAP, long_frame_parameters, point_words, put_stor
 from .c3d_layout import (header_layout, keep_data_start, put_analogs, put_header_gap, put_parameter,
                          stored_analogs)
 from .c3d_modelled import modelled_parameters, stated_positions
+from .c3d_trial import fit_event_group, fit_force_plates, fit_header_events, same_trial
 
 __all__ = ["MarkerSet", "read_c3d", "write_c3d", "apply_zero_gaps", "checked_unit_cm"]
 
@@ -671,21 +672,29 @@ def _header_events(raw: bytes) -> tuple[tuple[float, str, int], ...]:
     return tuple(out)
 
 
-def _c3d_like(markers: MarkerSet, like) -> MarkerSource | None:
-    """The C3D metadata to keep: ``like``'s (a MarkerSet, or a C3D file read for it), else the take's own."""
+def _c3d_like(markers: MarkerSet, like) -> tuple[MarkerSource | None, bool]:
+    """The C3D metadata to keep: ``like``'s (a MarkerSet, or a C3D file read for it), else the take's own; and
+    whether it is the take's own trial, whose events are the take's (:func:`~mocapkit.io.c3d_trial.same_trial`)."""
+    own = True
     if like is not None:
         if not isinstance(like, MarkerSet):
             like = read_c3d(like, zeros_as_gaps=False)
         source = like.source
+        mine = markers.source
+        own = source is mine or (source is not None and same_trial(
+            markers.fps, mine.first_frame if mine is not None else 1, markers.num_frames,
+            like.fps, source.first_frame, like.num_frames))
     else:
         source = markers.source
-    return source if source is not None and source.format == "c3d" else None
+    return (source, own) if source is not None and source.format == "c3d" else (None, own)
 
 
-def _c3d_object(markers: MarkerSet, source: MarkerSource | None):
+def _c3d_object(markers: MarkerSet, source: MarkerSource | None, own: bool = True):
     """An ezc3d ``c3d`` holding ``markers`` and the parameter groups and analogs of ``source``, and the (A, F *
     ratio) analog numbers to store (:func:`~mocapkit.io.c3d_layout.stored_analogs`; None without analogs) with
-    their (A,) ANALOG:OFFSET, which ezc3d writes its own way (0 each) and :func:`write_c3d` writes over."""
+    their (A,) ANALOG:OFFSET, which ezc3d writes its own way (0 each) and :func:`write_c3d` writes over.
+    Force plates whose analog channels are not written, and the events of another trial than the take's
+    (``own`` False) or outside its frames, are left out (:mod:`mocapkit.io.c3d_trial`)."""
     import copy
 
     import ezc3d
@@ -701,6 +710,8 @@ def _c3d_object(markers: MarkerSet, source: MarkerSource | None):
             analogs = source.analogs
     # the take's own frame numbers (a TRC's Frame# column included), 1-based; ezc3d's header counts from 0
     first = max(int(markers.source.first_frame), 1) if markers.source is not None else 1
+    fit_force_plates(c["parameters"], 0 if analogs is None else analogs.shape[0])
+    fit_event_group(c["parameters"], own, markers.fps, first, F)
     c["header"]["points"]["first_frame"] = first - 1
     for group in ("POINT", "ANALOG"):
         if group not in c["parameters"]:
@@ -885,7 +896,9 @@ def write_c3d(markers: MarkerSet, path, *, like=None, stored_zeros: bool = False
     as the C3D guide has it (:func:`_put_point_words`). Labels are the
     file's own while the markers are (:meth:`MarkerSet.file_labels`: a label
     the file repeats is written as it had it, with its POINT:DESCRIPTIONS),
-    else ``markers.labels``; the header's events are kept. Rate and units come from ``markers``; every other parameter group and the
+    else ``markers.labels``; the events of the take's own trial within its frames
+    are kept, another trial's are not, nor force plates whose analog channels are not written
+    (:mod:`mocapkit.io.c3d_trial`). Rate and units come from ``markers``; every other parameter group and the
     analog channels come from ``like`` (a MarkerSet or a C3D file) or, by
     default, from the file ``markers`` was read from (``markers.source``), with
     POINT:USED and the frame counts made consistent by ezc3d. Analogs are
@@ -906,8 +919,8 @@ def write_c3d(markers: MarkerSet, path, *, like=None, stored_zeros: bool = False
     if bad:
         raise MocapFormatError(path, f"marker label {bad[0]!r} is not printable ASCII, which C3D labels must be")
     checked_unit_cm(path, markers.units)
-    source = _c3d_like(markers, like)
-    c, stored, offsets = _c3d_object(markers, source)
+    source, own = _c3d_like(markers, like)
+    c, stored, offsets = _c3d_object(markers, source, own)
     data = _ezc3d_bytes(c, path, markers.num_frames, markers.num_markers)
     # ezc3d writes -1 as the header's scale whatever POINT:SCALE says; readers that check the two
     # agree (the c3d package) refuse the mismatch, so the header gets POINT:SCALE (Intel byte order).
@@ -919,7 +932,9 @@ def write_c3d(markers: MarkerSet, path, *, like=None, stored_zeros: bool = False
     if stored is not None:
         put_analogs(data, markers.num_frames, markers.num_markers, stored)
         put_parameter(data, "ANALOG", "OFFSET", offsets)
-    _put_header_events(data, source.events if source is not None else ())
+    first = max(int(markers.source.first_frame), 1) if markers.source is not None else 1
+    _put_header_events(data, fit_header_events(source.events, own, markers.fps, first, markers.num_frames)
+                       if source is not None else ())
     if source is not None and source.layout:
         put_header_gap(data, source.layout["interpolation_gap"])
         data = keep_data_start(data, source.layout)
