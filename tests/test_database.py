@@ -228,6 +228,15 @@ def test_logical_search_grows_the_result_set(small_db):
         assert not any(r.match.overlaps(o.match) for o in logical[i + 1 :])
 
 
+def test_logical_search_returns_no_segment_of_another_speed_than_the_query(small_db):
+    # trial 2026-12-06: round two searched with round one's 10-frame segments and kept their 4-frame matches
+    # (a third of a third of the 30-frame query); the limit is the query's, every round
+    query = small_db.clip(SNEAK_4)[30:60]
+    lengths = [r.end - r.start + 1 for r in small_db.logical_search(query, k=10, iterations=2)]
+    assert len(lengths) > 10  # round two still adds segments
+    assert all(10 <= n <= 90 for n in lengths), lengths
+
+
 def test_lng_search_widens_small_neighbourhoods(small_db):
     import mocapkit
 

@@ -668,6 +668,12 @@ class MotionDatabase:
         segment is kept when its cost per query frame is at most
         ``max_cost_ratio`` times the largest per-frame cost of round one (so a
         round-one hit on the query itself, at cost 0, does not shut the door).
+        Every returned segment lasts between 1/:data:`MAX_WARP` and
+        :data:`MAX_WARP` times the user's query (as :meth:`search`'s, with
+        ``max_warp`` 3): a later round's segment is judged against ``query``,
+        not against the segment it was found for, which may itself be a third
+        as long (a 30-frame query returned 4-frame segments in round two). A
+        segment outside these lengths is neither returned nor searched with.
         Returns all kept segments, non-overlapping, ranked by cost per frame
         of the query that found them.
         """
@@ -682,6 +688,9 @@ class MotionDatabase:
             for q in frontier:
                 for r in self._search(q, k, name, neighbors, "lng", None, 2048, MAX_WARP)[0]:
                     per_frame = r.cost / max(len(q), 1)
+                    length = r.match.end - r.match.start + 1  # against the user's query, not this round's
+                    if not len(q0) <= MAX_WARP * length <= MAX_WARP**2 * len(q0):
+                        continue
                     if per_frame > bound or any(r.match.overlaps(f.match) for _, f in found):
                         continue
                     found.append((per_frame, r))
