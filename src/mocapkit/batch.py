@@ -376,7 +376,8 @@ def _not_complete(inp: Path, files: dict, request: dict, markers: dict | None = 
     if not isinstance(done, dict):  # a record written before requests were kept
         return "", False, decided
     was = {k: done.get(k, REQUEST_DEFAULTS.get(k)) for k in request}
-    diff = [f"{k} {_said(was[k], k)} (now {_said(request[k], k)})" for k in request if was[k] != request[k]]
+    diff = [_zeros_change(was[k], request[k]) if k == "zeros_as_gaps" else f"{k} {_said(was[k], k)} (now {_said(request[k], k)})"
+            for k in request if was[k] != request[k]]
     return (f"it was cleaned with {', '.join(diff)}" if diff else ""), False, decided
 
 
@@ -389,9 +390,18 @@ def _kept(why: str, decided: str, overwrite: str = SAID[False]["overwrite"]) -> 
     return f"kept: {why}; {overwrite} cleans it again and discards those decisions"
 
 
+def _zeros_change(was, now) -> str:
+    """How a marker capture's exact (0, 0, 0) samples were read and are read now, in words naming the options
+    (``zeros_as_gaps``: True ``--zeros-as-gaps``, False ``--keep-zeros``, None neither: decided from the data):
+    ``--keep-zeros (now without it: exact (0, 0, 0) samples decided from the data)``."""
+    flag = {True: "--zeros-as-gaps", False: "--keep-zeros"}
+    how = {True: "read as gaps", False: "kept as positions", None: "decided from the data"}
+    if was is None:
+        return f"neither --zeros-as-gaps nor --keep-zeros (now {flag[now]}: exact (0, 0, 0) samples {how[now]})"
+    return f"{flag[was]} (now {'without it' if now is None else flag[now]}: exact (0, 0, 0) samples {how[now]})"
+
+
 def _said(v, key: str = "") -> str:
-    if key == "zeros_as_gaps":  # how exact (0, 0, 0) samples were read, as the flags say it
-        return {None: "decided from the data", True: "--zeros-as-gaps", False: "--keep-zeros"}.get(v, str(v))
     if key == "joint_map":  # a map of a rig's every joint: its digest, not its names
         return hashlib.sha256(json.dumps(v, sort_keys=True).encode()).hexdigest()[:8] if v else "none"
     if isinstance(v, list):

@@ -384,6 +384,7 @@ def test_clean_and_clean_batch_keep_zeros_on_request(origin_folder, tmp_path):
     assert code == 0 and "1 cleaned" in stdout, stderr + stdout
     assert (tmp_path / "out" / "z.trc").read_bytes() == (tmp_path / "b.trc").read_bytes()
     code, stdout, stderr = run("clean-batch", origin_folder, tmp_path / "out", "--executor", "serial")
-    assert code == 2 and "zeros_as_gaps --keep-zeros (now decided from the data)" in stdout + stderr, stdout + stderr
+    assert code == 2 and ("it was cleaned with --keep-zeros (now without it: exact (0, 0, 0) samples decided from "
+                          "the data); use --overwrite") in stdout + stderr, stdout + stderr
     code, _, err = run("clean", SAMPLE, "-o", tmp_path / "w.bvh", "--keep-zeros")
     assert code == 2 and one_error_line(err) and "--keep-zeros applies only to marker captures" in err
