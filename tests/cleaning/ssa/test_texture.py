@@ -41,6 +41,13 @@ def test_joint_groups_of_a_rig_whose_root_is_above_the_pelvis():
     upper = {rig.joint_names[j] for j in g["upper"]}
     assert {"spine_01", "head", "hand_l", "clavicle_r"} <= upper and not {"ik_foot_root", "ik_foot_l", "pelvis"} & upper
     assert "thigh_l" in {rig.joint_names[j] for j in g["lower"]}
+    # a helper listed before the pelvis (root, ik_hand_root, pelvis, ...) is beside it, not above it
+    parents = np.r_[-1, 0, [p if p == 0 else p + 1 for p in ue.parents[1:]]]
+    rig = Skeleton((ue.joint_names[0], "ik_hand_root") + ue.joint_names[1:], parents,
+                   np.r_[ue.offsets[:1], np.zeros((1, 3)), ue.offsets[1:]])
+    g = ssa.joint_groups(rig)
+    lower = {rig.joint_names[j] for j in g["lower"]}
+    assert {"root", "pelvis", "thigh_l"} <= lower and "ik_hand_root" not in lower
 
 
 def test_informative_joints_take_left_and_right_partners_together():

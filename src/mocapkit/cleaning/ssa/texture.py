@@ -350,7 +350,11 @@ def joint_groups(skeleton, joints: Sequence[int] | None = None) -> dict[str, np.
     side = np.array([s or "" for s in joint_sides(skeleton.joint_names)])
     sel = np.zeros(J, dtype=bool)
     sel[joints] = True
-    root = np.arange(J) <= pelvis  # the root and the pelvis (and any joint between: a root above the pelvis)
+    root = np.zeros(J, dtype=bool)  # the pelvis and the joints above it (a root above the pelvis), not beside it
+    a = pelvis
+    while a >= 0:
+        root[a] = True
+        a = int(parents[a])
     body = np.zeros(J, dtype=bool)  # below the pelvis: not the helpers hanging from a root above it beside it
     for c in range(pelvis + 1, J):
         body[c] = parents[c] == pelvis or body[parents[c]]
