@@ -407,7 +407,13 @@ def test_input_errors():
 
 def test_each_kernel_compiles_once_whatever_the_shapes():
     """One row, one column or many, with costs given or computed, recorded or not: one signature per kernel (numba
-    types an array both C- and F-contiguous as C, so an F-ordered argument of one row or column compiled anew)."""
+    types an array both C- and F-contiguous as C, so an F-ordered argument of one row or column compiled anew).
+
+    Writable arrays alone: a database's read-only (memory-mapped) features are a type of their own to numba, the
+    second signature :func:`mocapkit.warmup` compiles, which a database test run earlier in the same process (as
+    pytest-xdist's scheduling may put it) has made already."""
+    from numba.types import Array
+
     rng = np.random.default_rng(4)
     for M, N in ((1, 1), (1, 6), (5, 1), (4, 7)):
         q, x = rng.standard_normal((M, 3)), rng.standard_normal((N, 3))
@@ -421,4 +427,5 @@ def test_each_kernel_compiles_once_whatever_the_shapes():
             dtw(q, x, steps=steps)
             dtw(cost=C, steps=steps)
     for kernel in (dtw_mod._sdtw_classic, dtw_mod._sdtw_tautges, dtw_mod._global_dtw, dtw_mod._window_cost):
-        assert len(kernel.signatures) == 1, (kernel.__name__, kernel.signatures)
+        writable = [sig for sig in kernel.signatures if all(a.mutable for a in sig if isinstance(a, Array))]
+        assert len(writable) == 1, (kernel.__name__, kernel.signatures)
