@@ -89,20 +89,7 @@ def _amc_measured(after: Motion, src, rot: np.ndarray, gone: np.ndarray) -> None
     from ..io.amc_writer import source_numbers  # io is below cleaning; imported on use
 
     values, dofs = source_numbers(after, src)
-    if values is None or values.shape[0] != after.num_frames or not np.isnan(values).any():
-        return
-    start = 0
-    for j, d in enumerate(dofs):
-        axes = [k for k, x in enumerate(d) if x[0] == "r"]
-        cols = [start + k for k in axes]
-        start += len(d)
-        if len(cols) < 2:
-            continue
-        own = values[:, cols]
-        part = partly_missing(own) & gone[:, j] & np.isfinite(rot[:, j]).all(axis=-1)
-        if not part.any():
-            continue
-        order = "".join(d[k][1] for k in axes)
+    for j, own, part, order in _partly_nan(after, values, dofs, lambda x: x[1] if x[0] == "r" else "", rot, gone):
         c = np.broadcast_to(after.skeleton.axes[j], rot[part, j].shape)
         m = R.quaternion_multiply(R.quaternion_multiply(R.quaternion_conjugate(c), rot[part, j]), c)
         m = R.euler_to_quaternion(_filled_angles(m, own[part], bridged(own)[part], order), order)
@@ -115,21 +102,32 @@ def _bvh_measured(after: Motion, src, rot: np.ndarray, gone: np.ndarray) -> None
     from ..io.bvh import source_values  # io is below cleaning; imported on use: most takes have no gaps
 
     values, channels = source_values(after, src)
+    for j, own, part, order in _partly_nan(after, values, channels, lambda c: c[0] if c.endswith("rotation") else "",
+                                           rot, gone):
+        rot[part, j] = R.euler_to_quaternion(_filled_angles(rot[part, j], own[part], bridged(own)[part], order), order)
+
+
+def _partly_nan(after: Motion, values, channels, axis_of, rot: np.ndarray, gone: np.ndarray):
+    """The joints whose rotation numbers in the file are partly ``nan`` in cells ``after`` lacks (``gone``) and
+    the fill gave a rotation: yields ``(j, own, part, order)``, ``own`` (F, n) the joint's rotation numbers
+    (degrees), ``part`` (F,) bool those cells, ``order`` the rotation axes' letters in file order.
+
+    ``values`` (F, C): every number of the file, joint after joint (None: no such file); ``channels``: per joint
+    its channel names (BVH) or dof names (AMC); ``axis_of(name)``: the axis letter of a rotation channel, "" for
+    any other. A joint with fewer than two rotation channels has no partly-missing rotation."""
     if values is None or values.shape[0] != after.num_frames or not np.isnan(values).any():
         return
     start = 0
-    for j, chans in enumerate(channels):
-        axes = [k for k, c in enumerate(chans) if c.endswith("rotation")]
-        cols = [start + k for k in axes]
-        start += len(chans)
-        if not cols:
+    for j, names in enumerate(channels):
+        axes = [(k, a) for k, a in enumerate(map(axis_of, names)) if a]
+        cols = [start + k for k, _ in axes]
+        start += len(names)
+        if len(cols) < 2:
             continue
         own = values[:, cols]
         part = partly_missing(own) & gone[:, j] & np.isfinite(rot[:, j]).all(axis=-1)
-        if not part.any():
-            continue
-        order = "".join(chans[k][0] for k in axes)
-        rot[part, j] = R.euler_to_quaternion(_filled_angles(rot[part, j], own[part], bridged(own)[part], order), order)
+        if part.any():
+            yield j, own, part, "".join(a for _, a in axes)
 
 
 def _filled_angles(target: np.ndarray, own: np.ndarray, near: np.ndarray, order: str) -> np.ndarray:
