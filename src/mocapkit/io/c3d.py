@@ -689,12 +689,13 @@ def _c3d_like(markers: MarkerSet, like) -> tuple[MarkerSource | None, bool]:
     return (source, own) if source is not None and source.format == "c3d" else (None, own)
 
 
-def _c3d_object(markers: MarkerSet, source: MarkerSource | None, own: bool = True):
+def _c3d_object(markers: MarkerSet, source: MarkerSource | None, own: bool, first: int):
     """An ezc3d ``c3d`` holding ``markers`` and the parameter groups and analogs of ``source``, and the (A, F *
     ratio) analog numbers to store (:func:`~mocapkit.io.c3d_layout.stored_analogs`; None without analogs) with
     their (A,) ANALOG:OFFSET, which ezc3d writes its own way (0 each) and :func:`write_c3d` writes over.
     Force plates whose analog channels are not written, and the events of another trial than the take's
-    (``own`` False) or outside its frames, are left out (:mod:`mocapkit.io.c3d_trial`)."""
+    (``own`` False) or outside its frames, are left out (:mod:`mocapkit.io.c3d_trial`). ``first``: the take's
+    own first frame number, 1-based."""
     import copy
 
     import ezc3d
@@ -708,11 +709,9 @@ def _c3d_object(markers: MarkerSet, source: MarkerSource | None, own: bool = Tru
         ratio = source.analog_ratio(F)
         if ratio and source.analogs.shape[1] == F * ratio:
             analogs = source.analogs
-    # the take's own frame numbers (a TRC's Frame# column included), 1-based; ezc3d's header counts from 0
-    first = max(int(markers.source.first_frame), 1) if markers.source is not None else 1
     fit_force_plates(c["parameters"], 0 if analogs is None else analogs.shape[0])
     fit_event_group(c["parameters"], own, markers.fps, first, F)
-    c["header"]["points"]["first_frame"] = first - 1
+    c["header"]["points"]["first_frame"] = first - 1  # ezc3d's header counts from 0
     for group in ("POINT", "ANALOG"):
         if group not in c["parameters"]:
             c["parameters"][group] = copy.deepcopy(dict(ezc3d.c3d()["parameters"][group]))
@@ -920,7 +919,9 @@ def write_c3d(markers: MarkerSet, path, *, like=None, stored_zeros: bool = False
         raise MocapFormatError(path, f"marker label {bad[0]!r} is not printable ASCII, which C3D labels must be")
     checked_unit_cm(path, markers.units)
     source, own = _c3d_like(markers, like)
-    c, stored, offsets = _c3d_object(markers, source, own)
+    # the take's own frame numbers (a TRC's Frame# column included), 1-based: the header's, the events kept
+    first = max(int(markers.source.first_frame), 1) if markers.source is not None else 1
+    c, stored, offsets = _c3d_object(markers, source, own, first)
     data = _ezc3d_bytes(c, path, markers.num_frames, markers.num_markers)
     # ezc3d writes -1 as the header's scale whatever POINT:SCALE says; readers that check the two
     # agree (the c3d package) refuse the mismatch, so the header gets POINT:SCALE (Intel byte order).
@@ -932,7 +933,6 @@ def write_c3d(markers: MarkerSet, path, *, like=None, stored_zeros: bool = False
     if stored is not None:
         put_analogs(data, markers.num_frames, markers.num_markers, stored)
         put_parameter(data, "ANALOG", "OFFSET", offsets)
-    first = max(int(markers.source.first_frame), 1) if markers.source is not None else 1
     _put_header_events(data, fit_header_events(source.events, own, markers.fps, first, markers.num_frames)
                        if source is not None else ())
     if source is not None and source.layout:
