@@ -50,7 +50,7 @@ from .. import rotations as R
 from ..errors import MocapFormatError
 from ..motion import Motion
 from .asfamc import amc_dofs, amc_table_arrays, with_rate
-from .euler_branches import MEASURED_TOLERANCE_DEG, bridged, partly_missing, source_branches
+from .euler_branches import MEASURED_TOLERANCE_DEG, bridged, measured_text, partly_missing, source_branches
 from .kept_channels import kept_values
 
 __all__ = ["write_amc", "check_amc_writable", "dof_values", "file_dofs", "source_numbers"]
@@ -353,7 +353,12 @@ def _write_like(path: Path, motion: Motion, dofs, source: _LikeSource, precision
     values = dof_values(motion, dofs, radians=source.radians, source=source)
     fmt = f"%.{precision}f"
     starts = np.cumsum([0] + [len(d) for d in dofs])
-    tol = np.radians(MEASURED_TOLERANCE_DEG) if source.radians else MEASURED_TOLERANCE_DEG
+    # the dofs the file measures beside a nan one of their kind, put back by the fill: the file's text
+    kept = measured_text(np.concatenate([np.empty((motion.num_frames, 0)) if v is None else v for v in values],
+                                        axis=1),
+                         dofs, source.numbers, kind_of=lambda dof: dof[0] if dof[0] in "rt" else "",
+                         tolerance={"r": np.radians(MEASURED_TOLERANCE_DEG) if source.radians
+                                    else MEASURED_TOLERANCE_DEG, "t": 0.0})
     with atomic_write(path, "w", encoding="latin-1", newline="") as fh:
         fh.write(with_rate(source.header, motion.fps, path))
         for f, block in enumerate(source.frames):
@@ -377,14 +382,8 @@ def _write_like(path: Path, motion: Motion, dofs, source: _LikeSource, precision
                 line = block[i]
                 body = line.rstrip("\r\n")
                 tok = body.split("#", 1)[0].split()
-                own = source.numbers[f, starts[j]:starts[j + 1]]
-                kept = set()  # dofs the file measures beside a nan one of their kind, put back by the fill
-                for kind in "rt":
-                    ks = [k for k, x in enumerate(dofs[j]) if x[0] == kind]
-                    if ks and partly_missing(own[ks]):
-                        kept.update(k for k in ks if abs(new[k] - own[k]) <= (tol if kind == "r" else 0.0))
                 for k, v in enumerate(new):  # angles already on the branch of the bone's unchanged frames (dof_values)
-                    if k in kept:
+                    if kept[f, starts[j] + k]:
                         continue
                     if source.moved[f] if dofs[j][k][0] == "t" else source.turned[f, j]:
                         tok[k + 1] = fmt % v  # a root that only moved keeps its angles' text, and the other way

@@ -84,25 +84,39 @@ def bridged(own: np.ndarray) -> np.ndarray:
     return flat.reshape(out.shape)
 
 
-def measured_text(values: np.ndarray, channels, own: np.ndarray) -> np.ndarray:
+def measured_text(values: np.ndarray, channels, own: np.ndarray, kind_of=None, tolerance=None) -> np.ndarray:
     """(F, C) bool: the channels a writer keeps the file's text of in a changed cell: those the file measures
     (``own`` (F, C), the file's numbers, finite) among a joint's rotation (or position) channels it leaves partly
     missing (:func:`partly_missing`), whose value to write (``values`` (F, C), degrees or file units) is the
-    file's within :data:`MEASURED_TOLERANCE_DEG` (a position: put back exactly): the fill filled the missing channel and put the measured ones back
-    (:func:`mocapkit.cleaning.measured.keep_measured`)."""
+    file's within ``tolerance`` of the channel's kind: the fill filled the missing channel and put the measured
+    ones back (:func:`mocapkit.cleaning.measured.keep_measured`).
+
+    ``channels``: per joint its channel names, in ``values``' column order. ``kind_of(name)``: a channel's kind,
+    "" for one kept by no rule (default: a BVH channel's, ``"rotation"`` or ``"position"``); ``tolerance``: per
+    kind (default :data:`MEASURED_TOLERANCE_DEG` for both; an AMC in radians passes its own, and 0 for its
+    translations, which the fill puts back exactly)."""
+    if kind_of is None:
+        kind_of = _bvh_kind
+    if tolerance is None:
+        tolerance = {"rotation": MEASURED_TOLERANCE_DEG, "position": MEASURED_TOLERANCE_DEG}
     keep = np.zeros(values.shape, dtype=bool)
     start = 0
     for chans in channels:
-        for kind in ("rotation", "position"):
-            cols = [start + k for k, c in enumerate(chans) if c.endswith(kind)]
+        kinds = [kind_of(c) for c in chans]
+        for kind, tol in tolerance.items():
+            cols = [start + k for k, c in enumerate(kinds) if c == kind]
             if len(cols) < 2:
                 continue
             part = partly_missing(own[:, cols])
             if part.any():
-                close = np.abs(values[:, cols] - own[:, cols]) <= MEASURED_TOLERANCE_DEG  # False where own is NaN
+                close = np.abs(values[:, cols] - own[:, cols]) <= tol  # False where own is NaN
                 keep[:, cols] = part[:, None] & close
         start += len(chans)
     return keep
+
+
+def _bvh_kind(channel: str) -> str:
+    return "rotation" if channel.endswith("rotation") else "position" if channel.endswith("position") else ""
 
 
 def source_branches(angles: np.ndarray, own: np.ndarray, turned: np.ndarray, order: str,
