@@ -53,18 +53,15 @@ def keep_measured(before: Motion, after: Motion) -> tuple[Motion, np.ndarray]:
     trans = after.translations
     if trans is not None and before.translations is not None:
         trans = np.where(np.isfinite(before.translations), before.translations, trans)
-    cells = _differs(rot, after.rotations)
-    cells[:, 0] |= _differs(root, after.root_positions)
+    from .whole_take import differing  # whole_take fills with keep_measured: imported on use
+
+    cells = differing(rot, after.rotations)
+    cells[:, 0] |= differing(root, after.root_positions)
     if trans is not None:
-        cells |= _differs(trans, after.translations)
+        cells |= differing(trans, after.translations)
     if not cells.any():
         return after, cells
     return dataclasses.replace(after, rotations=rot, root_positions=root, translations=trans), cells
-
-
-def _differs(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Elementwise "not the same float" (NaN equals NaN), reduced over the last axis."""
-    return np.any((a != b) & ~(np.isnan(a) & np.isnan(b)), axis=-1)
 
 
 def _partly_measured(before: Motion, after: Motion, rot: np.ndarray, gone: np.ndarray) -> None:
