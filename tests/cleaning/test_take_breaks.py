@@ -210,3 +210,19 @@ def test_the_review_mode_names_and_flags_the_teleports_clean_puts_back_and_chang
     assert np.array_equal(review.motion.root_positions, bad.root_positions) and not review.changed.any()
     assert [(f["joint"], f["first"], f["last"], f["left"]) for f in flag_outcomes(review)] == [
         ("Hips", 50, 51, "left as it was: the repair step did not run")]
+
+
+def test_a_take_of_many_jumps_names_the_first_few_in_clean_s_summary_and_counts_the_rest(walk131):
+    """A long take of many cuts (a session of takes joined) named every one in the detect step's single summary
+    line; the first :data:`~mocapkit.cleaning.pipeline.MAX_LINES` are named, the rest counted."""
+    from mocapkit.cleaning.pipeline import MAX_LINES
+
+    root = np.array(walk131.root_positions)
+    at = list(range(60, walk131.num_frames - 30, 60))  # 16 jumps that stay
+    for f in at:
+        root[f:, 0] += 200.0
+    res = clean(dataclasses.replace(walk131, root_positions=root), steps="fill,detect")
+    note = next(s.note for s in res.steps if s.name == "detect")
+    assert note.count("and stays there") == MAX_LINES
+    assert f"... and {len(at) - MAX_LINES} more cuts and jumps of the root (`mocapkit detect` lists them all)" in note
+    assert np.array_equal(res.motion.root_positions, root)  # named, not changed

@@ -922,6 +922,9 @@ def clean(
             left_out = tuple(det.not_analysed().items())
             what = "the clip itself" if context is None else f"the clip and {_context_label(context)}"
             said = det.analysed_part().notes  # the frames analysed are said by the calibration lines
+            if len(found.breaks) > MAX_LINES:  # a long take of many cuts: the first few, then a count
+                said = tuple(n for n in said if n not in found.breaks) + tuple(capped_lines(
+                    list(found.breaks), "cuts and jumps of the root", " (`mocapkit detect` lists them all)"))
             note = f"{_count(len(det.segments()), 'flagged segment')} on {_count(int(flags.any(axis=0).sum()), 'joint')}" + (
                 f"; {'; '.join(said)}" if said else "")
             if "repair" not in steps:  # review: the teleports and turn-overs the repair step would name, flagged, left

@@ -76,13 +76,16 @@ class TakeDetection:
     ``detection``: the :class:`~mocapkit.cleaning.ssa.Detection` at the take's frames (its ``span`` set when
     calibration poses were left out), or None when nothing could be analysed; ``skipped``: then why, one
     line ("" otherwise); ``calibration``: the :class:`~mocapkit.cleaning.calibration.CalibrationPose` of the
-    take, left alone; ``span``: ``(lo, hi)``, the frames between them.
+    take, left alone; ``span``: ``(lo, hi)``, the frames between them; ``breaks``: the lines among the
+    detection's notes that name the take's cuts and its root's jumps (:func:`across_breaks`), which a summary
+    may count past the first few (a long take of many cuts names dozens).
     """
 
     detection: object
     calibration: tuple
     span: tuple
     skipped: str = ""
+    breaks: tuple = ()
 
 
 def take_params(*, max_word_angle_deg: float | None = MAX_WORD_ANGLE_DEG, drifts: bool = False, **overrides):
@@ -283,8 +286,9 @@ def detect_take(motion: Motion, context=None, *, threshold: float = 0.5, params=
         det = ssa.detect(part, context, threshold=threshold, params=params, progress=progress)
     except (ValueError, SkeletonError) as exc:
         raise MocapError(f"{name}: detect: {exc}") from None
+    before = len(det.notes)
     det = across_breaks(part, det, lo=lo)
-    return TakeDetection(det.padded(lo, F) if poses else det, poses, span)
+    return TakeDetection(det.padded(lo, F) if poses else det, poses, span, breaks=tuple(det.notes[before:]))
 
 
 def across_breaks(part: Motion, det, *, lo: int = 0):
