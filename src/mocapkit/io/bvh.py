@@ -26,7 +26,6 @@ from __future__ import annotations
 
 import re
 from dataclasses import dataclass
-from decimal import Decimal, InvalidOperation
 from pathlib import Path
 
 import numpy as np
@@ -36,9 +35,10 @@ from .. import rotations as R
 from ..motion import MAX_JOINTS, Motion, Skeleton, check_fps
 from . import atomic_write
 from ._numparse import line_of_offset, parse_floats
-from .bvh_hierarchy import MAX_INDENT, check_bvh_names, depth_first_order, exact_number, hierarchy_text, shortest
+from .bvh_hierarchy import (MAX_INDENT, check_bvh_names, depth_first_order, exact_number, fps_from_frame_time,
+                            hierarchy_text, shortest)
 from .bvh_comments import anchored, comment_lines, keyword_count, motion_comments, with_comments
-from .bvh_roots import COMMENT, Layout, is_comment, layout
+from .bvh_roots import COMMENT, Layout, around_take, is_comment, layout
 from .euler_branches import NEAR_SOURCE_DEG, continuous_rotations, measured_text
 from .kept_channels import kept_header, kept_values
 from .sources import recall, remember
@@ -274,44 +274,6 @@ def _parse_hierarchy(path: Path, text: str, motion_line: int | None):
     return names, parents, offsets, channels, end_parents, end_offsets, [tuple(r) for r in roots]
 
 
-_NTSC_FPS = tuple(x for r in (24, 30, 48, 60, 120, 240) for x in (r * 1000 / 1001, float(f"{r * 1000 / 1001:.5g}")))
-"""The NTSC rates (r * 1000 / 1001: 23.976..., 29.97..., 59.94...), each followed by the decimal it is called by
-(23.976, 29.97, 59.94): rates a Frame Time is read as when it is one of theirs at the digits it shows."""
-
-
-def _fps_from_frame_time(token: str) -> float:
-    """Frames per second from the ``Frame Time:`` token.
-
-    ``1 / t`` is snapped to the integer ``r``, else to an NTSC rate
-    (:data:`_NTSC_FPS`), when the printed frame time is ``1 / r`` rounded to
-    the digits it shows and ``1 / t`` is within 1e-3 relative of ``r``:
-    ``.0083333`` gives 120, NTSC's ``0.0333667`` or ``0.033367`` (0.1 % from
-    30) 30000/1001. A token with 15 or more significant digits (mocapkit
-    writes ``repr(1 / fps)``) gives the rate with fewest decimals whose
-    ``1 / fps`` is that number, so a written rate reads back as it was (29.97
-    stays 29.97, where ``1 / t`` is 29.970000000000002).
-    """
-    t = float(token)
-    fps = 1.0 / t
-    try:
-        shown = Decimal(token).as_tuple()
-    except InvalidOperation:
-        return fps
-    last_digit = shown.exponent
-    if not isinstance(last_digit, int):
-        return fps
-    half = 0.5 * 10.0**last_digit * (1 + 1e-9)
-    for r in (round(fps), *_NTSC_FPS):
-        if r >= 1 and abs(fps - r) <= 1e-3 * r and abs(t - 1.0 / r) <= half:
-            return float(r)
-    if len(shown.digits) - next((i for i, d in enumerate(shown.digits) if d), 0) >= 15:
-        for k in range(16):
-            r = round(fps, k)
-            if r > 0 and 1.0 / r == t:
-                return r
-    return fps
-
-
 def read_bvh(path) -> Motion:
     """Read a BVH file.
 
@@ -432,7 +394,7 @@ def _read_bvh(path, data: bytes | None = None) -> tuple[Motion, np.ndarray, Layo
                 raise MocapFormatError(path, f"Frame Time {tm.group(1)} is too small: 1 / it is not a finite rate",
                                        line=line)
             try:
-                fps = check_fps(_fps_from_frame_time(ft_token))
+                fps = check_fps(fps_from_frame_time(ft_token))
             except SkeletonError as exc:
                 raise MocapFormatError(path, f"Frame Time {ft_token} s: {exc}", line=line) from None
     first_data_line = line + 1
@@ -860,7 +822,7 @@ class _LikeSource:
     moved: np.ndarray  # (F, J) bool: cells whose position or offset differs from the file's
     values: np.ndarray  # (F, C) float: the file's numbers (its own 360-degree and Euler branches; NaN for "nan")
     layout: Layout  # the take's columns of each line and the other roots, kept as the file's text
-    around: tuple[list[str], list[str]] | None  # header lines before the take's ROOT and after it (_around)
+    around: tuple[list[str], list[str]] | None  # header lines before the take's ROOT and after it (around_take)
     between: list[list[str]]  # the comment lines before each data line, and after the last (bvh_comments)
     inside: list[tuple[int, str]]  # the comments inside the take's ROOT block, anchored (bvh_comments.anchored)
     keywords: int  # the hierarchy keywords of the take's ROOT block as the file writes it
@@ -899,7 +861,8 @@ def _like_source(like, motion: Motion, order: list[int]) -> _LikeSource | None:
     same_header = (ref.fps == motion.fps and np.array_equal(rsk.offsets, sk.offsets)
                    and np.array_equal(rsk.end_site_parents, sk.end_site_parents)
                    and np.array_equal(rsk.end_site_offsets, sk.end_site_offsets))
-    around = None if same_header else _around(lines, where)
+    around = None if same_header else around_take(
+        lines, where, next((i for i, t in enumerate(lines) if _MOTION_RE.match(t.encode())), None))
     if not same_header and around is None:
         return None
     block = [] if same_header else lines[where.lines[0] - 1:where.lines[1]]
@@ -934,20 +897,6 @@ def dropped_comments(motion: Motion, like) -> int:
     if source is None:
         return total
     return 0 if source.header is not None else _new_block(source, out_motion.skeleton, channels)[1]
-
-
-def _around(lines: list[str], where: Layout) -> tuple[list[str], list[str]] | None:
-    """The header ``lines`` (line endings kept) before the take's ROOT block and after it up to MOTION: the
-    comments and other roots a new hierarchy of the take is written between. None where the take's block shares
-    a line with other text (``HIERARCHY ROOT Hips``), so cannot be cut out by lines, and the file has other roots;
-    with none, the hierarchy is written whole, as ``HIERARCHY`` and the take's block."""
-    (r0, r1), motion_at = where.lines, next((i for i, t in enumerate(lines) if _MOTION_RE.match(t.encode())), None)
-    before = lines[: r0 - 1]
-    heads = [t.split()[0] for t in before if t.strip() and not is_comment(t)]
-    if (motion_at is None or heads[:1] != ["HIERARCHY"] or lines[r0 - 1].split()[:1] != ["ROOT"]
-            or lines[r1 - 1].split() != ["}"]):
-        return None if where.extras else (["HIERARCHY\n"], [])
-    return before, lines[r1:motion_at]
 
 
 def _write_like(path: Path, motion: Motion, values: np.ndarray, channels, source: _LikeSource, precision: int) -> None:

@@ -2,15 +2,19 @@
 
 A BVH lists joints depth first, each subtree contiguous, with a ``ROOT`` / ``JOINT`` line naming the joint,
 an ``OFFSET`` and a ``CHANNELS`` line, and an ``End Site`` block per end site. :func:`mocapkit.io.bvh.write_bvh`
-writes a skeleton's hierarchy with :func:`hierarchy_text`.
+writes a skeleton's hierarchy with :func:`hierarchy_text`. The ``Frame Time:`` line that closes the header gives the
+take's rate: read by :func:`fps_from_frame_time` as the rate it was written for, written exactly by :func:`shortest`.
 """
 
 from __future__ import annotations
 
+from decimal import Decimal, InvalidOperation
+
 from ..errors import MocapFormatError
 from ..motion import Skeleton
 
-__all__ = ["MAX_INDENT", "check_bvh_names", "depth_first_order", "hierarchy_text", "shortest"]
+__all__ = ["MAX_INDENT", "NTSC_FPS", "check_bvh_names", "depth_first_order", "fps_from_frame_time", "hierarchy_text",
+           "shortest"]
 
 
 def shortest(x: float) -> str:
@@ -22,6 +26,44 @@ def exact_number(x: float) -> str:
     without its ``.0`` (a file's ``0`` stays ``0``)."""
     t = repr(float(x))
     return t[:-2] if t.endswith(".0") else t
+
+
+NTSC_FPS = tuple(x for r in (24, 30, 48, 60, 120, 240) for x in (r * 1000 / 1001, float(f"{r * 1000 / 1001:.5g}")))
+"""The NTSC rates (r * 1000 / 1001: 23.976..., 29.97..., 59.94...), each followed by the decimal it is called by
+(23.976, 29.97, 59.94): rates a Frame Time is read as when it is one of theirs at the digits it shows."""
+
+
+def fps_from_frame_time(token: str) -> float:
+    """Frames per second from the ``Frame Time:`` token.
+
+    ``1 / t`` is snapped to the integer ``r``, else to an NTSC rate
+    (:data:`NTSC_FPS`), when the printed frame time is ``1 / r`` rounded to
+    the digits it shows and ``1 / t`` is within 1e-3 relative of ``r``:
+    ``.0083333`` gives 120, NTSC's ``0.0333667`` or ``0.033367`` (0.1 % from
+    30) 30000/1001. A token with 15 or more significant digits (mocapkit
+    writes ``repr(1 / fps)``) gives the rate with fewest decimals whose
+    ``1 / fps`` is that number, so a written rate reads back as it was (29.97
+    stays 29.97, where ``1 / t`` is 29.970000000000002).
+    """
+    t = float(token)
+    fps = 1.0 / t
+    try:
+        shown = Decimal(token).as_tuple()
+    except InvalidOperation:
+        return fps
+    last_digit = shown.exponent
+    if not isinstance(last_digit, int):
+        return fps
+    half = 0.5 * 10.0**last_digit * (1 + 1e-9)
+    for r in (round(fps), *NTSC_FPS):
+        if r >= 1 and abs(fps - r) <= 1e-3 * r and abs(t - 1.0 / r) <= half:
+            return float(r)
+    if len(shown.digits) - next((i for i, d in enumerate(shown.digits) if d), 0) >= 15:
+        for k in range(16):
+            r = round(fps, k)
+            if r > 0 and 1.0 / r == t:
+                return r
+    return fps
 
 
 MAX_INDENT = 32

@@ -20,7 +20,8 @@ import re
 from dataclasses import dataclass
 from pathlib import Path
 
-__all__ = ["COMMENT", "ExtraRoot", "Layout", "layout", "humanoid_root", "extra_roots", "left_out_note", "is_comment"]
+__all__ = ["COMMENT", "ExtraRoot", "Layout", "layout", "humanoid_root", "extra_roots", "left_out_note", "is_comment",
+           "around_take"]
 
 COMMENT = "#"
 """The character that starts a comment line of a BVH header."""
@@ -128,3 +129,18 @@ def layout(names, channels, roots) -> Layout:
                    for i, (a, b, r) in enumerate(zip(firsts, stops, roots)) if i != k)
     a, b = firsts[k], stops[k]
     return Layout((starts[a], starts[b]), starts[-1], (a, b), (int(roots[k][1]), int(roots[k][2])), extras)
+
+
+def around_take(lines: list[str], where: Layout, motion_at: int | None) -> tuple[list[str], list[str]] | None:
+    """The header ``lines`` of a BVH (line endings kept) before the take's ROOT block (``where.lines``, 1-based) and
+    after it up to MOTION (line ``motion_at``, 0-based; None: none): the comments and other roots a new hierarchy
+    of the take is written between. None where the take's block shares a line with other text (``HIERARCHY ROOT
+    Hips``), so cannot be cut out by lines, and the file has other roots; with none, the hierarchy is written
+    whole, as ``HIERARCHY`` and the take's block."""
+    (r0, r1) = where.lines
+    before = lines[: r0 - 1]
+    heads = [t.split()[0] for t in before if t.strip() and not is_comment(t)]
+    if (motion_at is None or heads[:1] != ["HIERARCHY"] or lines[r0 - 1].split()[:1] != ["ROOT"]
+            or lines[r1 - 1].split() != ["}"]):
+        return None if where.extras else (["HIERARCHY\n"], [])
+    return before, lines[r1:motion_at]
