@@ -86,12 +86,37 @@ def test_comments_inside_the_take_s_hierarchy_written_anew_stay_after_the_same_e
 def test_an_output_that_cannot_keep_the_comments_says_how_many_it_leaves_out(cmu, tmp_path):
     path = _commented(cmu, tmp_path / "commented.bvh")
     m = read_bvh(path)
-    assert motion_notes(m, tmp_path / "out.npz") == [
-        f"{tmp_path / 'out.npz'}: not written: 4 comment lines of {path} (NPZ holds no comments)"]
+    assert motion_notes(m, tmp_path / "out.npz") == []  # the .npz keeps all 4 (test_an_npz_made_from_the_bvh_...)
     half = m.resample(60.0)
     assert motion_notes(half, tmp_path / "half.bvh") == [
         f"{tmp_path / 'half.bvh'}: not written: 4 comment lines of {path} (a .bvh keeps them only when written like "
         "its source, at its frames, rate and skeleton)"]
+    assert motion_notes(half, tmp_path / "half.npz") == [
+        f"{tmp_path / 'half.npz'}: not written: 4 comment lines of {path} (an .npz keeps them only at the take's "
+        "frames, rate and skeleton)"]
+
+
+def test_an_npz_made_from_the_bvh_keeps_its_motion_comments_where_they_stood(cmu, tmp_path):
+    """A user trial: BVH -> npz -> BVH (``mocapkit convert``) lost the comment lines between the frames (the header's
+    were kept): the npz kept no motion-section comments. Now the BVH written from the npz has each of them, byte for
+    byte (the CRLF one too), before the same frame, the take read back the same, and a changed take keeps them."""
+    path = _commented(cmu, tmp_path / "commented.bvh")
+    m = read_bvh(path)
+    mocapkit.save(m, tmp_path / "take.npz")
+    n = mocapkit.load(tmp_path / "take.npz")
+    mocapkit.save(n, tmp_path / "back.bvh")
+    src, back = path.read_bytes().splitlines(keepends=True), (tmp_path / "back.bvh").read_bytes().splitlines(keepends=True)
+    assert len(back) == len(src)
+    assert [(i, t) for i, t in enumerate(back) if t.lstrip().startswith(b"#")] == [
+        (i, t) for i, t in enumerate(src) if t.lstrip().startswith(b"#")]  # 4 lines: the header's and the motion's 3
+    again = read_bvh(tmp_path / "back.bvh")
+    np.testing.assert_array_equal(again.rotations, m.rotations)
+    np.testing.assert_array_equal(again.root_positions, m.root_positions)
+    rot = np.array(n.rotations)
+    rot[6, 3] = [np.cos(0.2), np.sin(0.2), 0.0, 0.0]
+    mocapkit.save(dataclasses.replace(n, rotations=rot), tmp_path / "changed.bvh")  # like: the npz it was read from
+    changed = (tmp_path / "changed.bvh").read_bytes().splitlines(keepends=True)
+    assert [k for k in range(len(back)) if back[k] != changed[k]] == [src.index(b"# take 1, clean\n") + 8]
 
 
 def test_a_comment_goes_after_the_element_it_followed_whatever_the_file_s_layout():
@@ -102,3 +127,22 @@ def test_a_comment_goes_after_the_element_it_followed_whatever_the_file_s_layout
     assert anchored(block) == [(4, "# after the channels\n")]
     assert with_comments(new, anchored(block), 9).splitlines()[4] == "# after the channels"
     assert with_comments(new, anchored(block), 11) is None  # another hierarchy: no place is the same
+
+
+def test_an_npz_s_motion_comments_are_written_only_as_comment_lines_of_its_frame_count(cmu, tmp_path):
+    """The comments an .npz keeps are text a BVH writer puts between frames: kept only as whole comment lines, at
+    frames the take has (a line that is no comment, or runs into the next, would change the take read back)."""
+    import json
+
+    from mocapkit.io.kept_channels import COMMENTS_KEY, kept_comments
+    from mocapkit.io.npz import load_arrays
+
+    path = _commented(cmu, tmp_path / "commented.bvh")
+    mocapkit.save(read_bvh(path), tmp_path / "take.npz")
+    arrays = load_arrays(tmp_path / "take.npz")
+    assert json.loads(str(arrays[COMMENTS_KEY])) == [
+        [0, "# take 1, clean\n"], [5, "  # marker swap fixed by hand below\r\n"], [20, "# end of take\n"]]
+    assert kept_comments(tmp_path / "take.npz", 19) is None  # another frame count
+    for bad in ([[3, "1.0 2.0 3.0\n"]], [[3, "# two\n# lines\n"]], [[3, "# runs on"], [4, "# next\n"]], [[3.0, "# x\n"]]):
+        np.savez(tmp_path / "bad.npz", **{**arrays, COMMENTS_KEY: np.array(json.dumps(bad))})
+        assert kept_comments(tmp_path / "bad.npz", 20) is None, bad

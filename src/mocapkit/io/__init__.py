@@ -259,9 +259,26 @@ def motion_notes(motion, path, like=None) -> list[str]:
             n = comment_lines(data) if data is not None else 0
             why = ("a .bvh keeps them only when written like its source, at its frames, rate and skeleton" if bvh
                    else f"{path.suffix[1:].upper() or 'this format'} holds no comments")
+            if n and suffix_kind(path, WRITERS, "writing") == "npz":  # an .npz keeps the header's and the motion's
+                n -= _npz_kept_comments(motion, like)
+                why = "an .npz keeps them only at the take's frames, rate and skeleton"
         if n:
             notes.append(f"{path}: not written: {n} comment line{'s' if n > 1 else ''} of {like} ({why})")
     return notes
+
+
+def _npz_kept_comments(motion, like) -> int:
+    """How many comment lines of the BVH ``like`` an .npz of ``motion`` keeps (:mod:`mocapkit.io.kept_channels`):
+    those of its header where the .npz keeps the header's text (the take at the file's skeleton, rate and frame
+    count, :func:`mocapkit.io.bvh.source_header`), and those between its motion lines where it keeps the file's
+    numbers (its joints, channels and frame count, :func:`mocapkit.io.bvh.source_comments`)."""
+    from .bvh import source_comments, source_header, source_values
+    from .bvh_comments import comment_lines
+
+    if source_values(motion, like)[0] is None:
+        return 0
+    header, between = source_header(motion, like), source_comments(motion, like) or ()
+    return (comment_lines(header.encode()) if header else 0) + sum(len(b) for b in between)
 
 
 def save(motion, path, like=None, asf=None, overwrite: bool | None = None, copy_asf: bool = True, **kwargs) -> Path:
@@ -326,7 +343,7 @@ def save(motion, path, like=None, asf=None, overwrite: bool | None = None, copy_
             place_asf(copy, asf)  # first: an AMC is never left without the ASF it is read with
             write_amc(motion, path, like=like, asf=asf, **kwargs)
     else:
-        from .bvh import source_header, source_values
+        from .bvh import source_comments, source_header, source_values
         from .kept_channels import kept_arrays, kept_header
         from .npz import write_npz
 
@@ -335,7 +352,8 @@ def save(motion, path, like=None, asf=None, overwrite: bool | None = None, copy_
         # all the same
         try:
             kept = (kept_arrays(*source_values(motion, like), header=source_header(motion, like)
-                                or kept_header(like, motion)) if like is not None else {})
+                                or kept_header(like, motion), comments=source_comments(motion, like))
+                    if like is not None else {})
             if not kept and like is not None:  # an AMC's own numbers (or those an .npz made from one keeps)
                 from .amc_writer import source_numbers
 

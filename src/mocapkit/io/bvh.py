@@ -40,12 +40,13 @@ from .bvh_hierarchy import (MAX_INDENT, check_bvh_names, depth_first_order, exac
 from .bvh_comments import anchored, comment_lines, keyword_count, motion_comments, with_comments
 from .bvh_roots import COMMENT, Layout, around_take, is_comment, layout
 from .euler_branches import NEAR_SOURCE_DEG, continuous_rotations, measured_text
-from .kept_channels import kept_header, kept_values
+from .kept_channels import kept_comments, kept_header, kept_values
 from .sources import recall, remember
 
 from numba import njit
 
-__all__ = ["read_bvh", "write_bvh", "check_bvh_names", "read_layout", "source_fits", "source_values", "dropped_comments",
+__all__ = ["read_bvh", "write_bvh", "check_bvh_names", "read_layout", "source_fits", "source_values", "source_comments",
+           "dropped_comments",
            "MAX_INDENT", "NEAR_SOURCE_DEG"]
 
 _CHANNELS = {c.lower(): c for c in ("Xposition", "Yposition", "Zposition", "Xrotation", "Yrotation", "Zrotation",
@@ -716,6 +717,7 @@ def write_bvh(motion: Motion, path, precision: int = 6, allow_nan: bool = False,
     block = max(1, 2**18 // max(C, 1))  # frames formatted at once: a few MB of text, not the whole take
     kept, fmt = (source.values if isinstance(source, _Kept) else None), f"%.{precision}f"  # an .npz's file numbers
     measured = None if kept is None else measured_text(values, channels, kept)  # a filled cell's measured channels
+    between = (kept_comments(like, F) if kept is not None else None) or [[]] * (F + 1)  # the motion's comment lines
     with atomic_write(path, "w", encoding="utf-8", newline="\n") as fh:
         fh.write("".join(parts))
         for f0 in range(0, F, block):
@@ -725,8 +727,9 @@ def write_bvh(motion: Motion, path, precision: int = 6, allow_nan: bool = False,
                 continue
             file = kept[f0 : f0 + block]
             own = ((rows == file) | measured[f0 : f0 + block]).tolist()  # the file's number: exact, never rounded
-            fh.write("".join(" ".join(exact_number(w) if o else fmt % v for v, w, o in zip(r, q, k)) + end
-                             for r, q, k in zip(rows.tolist(), file.tolist(), own)))
+            fh.write("".join("".join(c) + " ".join(exact_number(w) if o else fmt % v for v, w, o in zip(r, q, k)) + end
+                             for r, q, k, c in zip(rows.tolist(), file.tolist(), own, between[f0 : f0 + block])))
+        fh.write("".join(between[F]))
 
 
 def _as_written(motion: Motion) -> tuple[Motion, tuple[tuple[str, ...], ...]]:
@@ -781,6 +784,19 @@ def source_values(motion: Motion, like) -> tuple[np.ndarray | None, tuple[tuple[
         return None, channels
     src = _source_numbers(like, out_motion, depth_first_order(motion.skeleton))
     return (None if src is None else src.values), channels
+
+
+def source_comments(motion: Motion, like) -> list[list[str]] | None:
+    """The comment lines of the BVH ``like`` (or kept by an .npz made from one, :mod:`mocapkit.io.kept_channels`)
+    between its motion lines that a BVH written from ``motion`` keeps: ``F + 1`` lists, the lines before each frame
+    and after the last (line endings kept, :func:`mocapkit.io.bvh_comments.motion_comments`), where ``motion`` has
+    that file's joints, channels and frame count; else None."""
+    if like is None or like is False or motion.num_frames == 0:
+        return None
+    source = _source_numbers(like, _as_written(motion)[0], depth_first_order(motion.skeleton))
+    if isinstance(source, _Kept):
+        return kept_comments(like, motion.num_frames)
+    return None if source is None else source.between
 
 
 def _source_numbers(like, motion: Motion, order: list[int]) -> "_LikeSource | _Kept | None":

@@ -10,8 +10,10 @@ but a 180 or 360 degree jump in a curve editor and in any channel diff. So the .
 whose rotation is still the file's with the file's numbers, and a changed one on the branch nearest them. It keeps
 the BVH's header text too (:data:`HEADER_KEY`: up to its Frame Time line, comments, spacing, a CHANNELS line's
 trailing space and the Frame Time as written), which a BVH written from it keeps while the take is on that skeleton,
-rate and frame count (:func:`kept_header`). :func:`mocapkit.io.npz.read_npz` ignores these arrays; the Motion read
-is the same.
+rate and frame count (:func:`kept_header`), and the ``#`` comment lines of its motion section with the frame each
+stood before (:data:`COMMENTS_KEY`, JSON), which a BVH written from it puts back between the same frames while the
+take has that frame count and channel layout (:func:`kept_comments`). :func:`mocapkit.io.npz.read_npz` ignores these
+arrays; the Motion read is the same.
 """
 
 from __future__ import annotations
@@ -21,21 +23,64 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["VALUES_KEY", "LAYOUT_KEY", "HEADER_KEY", "kept_arrays", "kept_values", "kept_header"]
+__all__ = ["VALUES_KEY", "LAYOUT_KEY", "HEADER_KEY", "COMMENTS_KEY", "kept_arrays", "kept_values", "kept_header",
+           "kept_comments"]
 
 VALUES_KEY = "source_channel_values"
 LAYOUT_KEY = "source_channel_layout"
 HEADER_KEY = "source_bvh_header"
+COMMENTS_KEY = "source_bvh_motion_comments"
 
 
-def kept_arrays(values: np.ndarray | None, channels, header: str | None = None) -> dict[str, np.ndarray]:
+def kept_arrays(values: np.ndarray | None, channels, header: str | None = None,
+                comments: list[list[str]] | None = None) -> dict[str, np.ndarray]:
     """The arrays an .npz keeps beside a take (``write_npz``'s ``extra``): the source file's ``values`` (F, C) in
     the columns of ``channels`` (one tuple of channel names per joint) and, for a BVH, its ``header`` text
-    (:func:`mocapkit.io.bvh.source_header`); none when ``values`` is None."""
+    (:func:`mocapkit.io.bvh.source_header`) and its motion section's comment lines (``comments``: F + 1 lists, the
+    lines before each frame and after the last, line endings kept: :func:`mocapkit.io.bvh.source_comments`), as
+    ``[frame, line]`` pairs; none when ``values`` is None."""
     if values is None:
         return {}
     out = {VALUES_KEY: np.asarray(values, dtype=np.float64), LAYOUT_KEY: np.array(json.dumps([list(c) for c in channels]))}
-    return {**out, HEADER_KEY: np.array(header)} if header else out
+    if header:
+        out[HEADER_KEY] = np.array(header)
+    pairs = [[f, t] for f, lines in enumerate(comments or ()) for t in lines]
+    if pairs and len(comments) == len(values) + 1:
+        out[COMMENTS_KEY] = np.array(json.dumps(pairs))
+    return out
+
+
+def kept_comments(path, num_frames: int) -> list[list[str]] | None:
+    """The comment lines of the BVH an .npz at ``path`` was made from that stood between its motion lines
+    (:data:`COMMENTS_KEY`): ``num_frames + 1`` lists, the lines (line endings kept) before each frame and after the
+    last, for a take of that many frames; None when ``path`` keeps none, or keeps them for another frame count, or
+    they are not comment lines of one line each (a BVH written with them must read back as the same take)."""
+    from ..errors import MocapError
+    from .bvh_roots import is_comment
+    from .npz import load_arrays
+
+    path = Path(path) if path is not None and path is not False else None
+    if path is None or path.suffix.lower() != ".npz" or not path.is_file():
+        return None
+    try:
+        kept = load_arrays(path).get(COMMENTS_KEY)
+        if kept is None or kept.dtype.kind != "U" or kept.ndim != 0:
+            return None
+        pairs = json.loads(str(kept))
+    except (MocapError, OSError, ValueError):
+        return None
+    out: list[list[str]] = [[] for _ in range(num_frames + 1)]
+    for pair in pairs if isinstance(pairs, list) else [None]:
+        if not (isinstance(pair, list) and len(pair) == 2 and type(pair[0]) is int and isinstance(pair[1], str)):
+            return None
+        f, line = pair
+        body = line[:-2] if line.endswith("\r\n") else line[:-1] if line.endswith("\n") else line
+        if not 0 <= f <= num_frames or not is_comment(body) or "\n" in body or "\r" in body:
+            return None
+        out[f].append(line)
+    if any(not t.endswith("\n") for f, t in pairs[:-1]):  # a line that ran into the next
+        return None
+    return out
 
 
 def kept_header(path, motion) -> str | None:
