@@ -151,3 +151,43 @@ def test_near_gimbal_lock_the_written_rotation_is_the_fills_nearest(tmp_path):
     kept, cells = keep_measured(before, dataclasses.replace(before, rotations=rot))
     assert cells[12:20, 2].all() and cells.sum() == 8
     assert np.degrees(R.geodesic_angle(kept.rotations[12:20, 2], rot[12:20, 2])).max() <= 1.0 + 1e-6
+
+
+def test_a_repair_of_a_filled_cell_moves_its_missing_channel_not_the_measured_ones(tmp_path):
+    """cmu_01_01_start's LeftUpLeg with its Zrotation nan in frames 20-25 and 57-62, filled; detection flagging
+    those cells (set here, so the repair judges exactly them, as a full clean's detect can), the repair replaced each
+    whole rotation (by 0.19-0.60 deg: a medoid repair of a clean cell) and the written BVH moved the measured Y and X
+    of frames 20-25 by up to 0.18 deg: numbers the file measured, changed on no evidence against them. Now only the
+    nan numbers change there, the rotation within REPAIR_TOLERANCE_DEG of the repair's. Frame 60 carries a 12 deg
+    spike in its measured Y and X, which no Z undoes: that repair (17 deg) stands whole, its measured channels what
+    it corrects, as in a cell the file measures whole."""
+    import dataclasses
+
+    from mocapkit import rotations as R
+    from mocapkit.cleaning.whole_take import detect_take, repair_take, repair_whole
+
+    path = tmp_path / "one_nan.bvh"
+    lines = _with_nan(DATA / "cmu_01_01_start.bvh", path, 9, [*range(20, 26), *range(57, 63)])  # LeftUpLeg's Z
+    at = next(i for i, t in enumerate(lines) if t.startswith("Frame Time")) + 1
+    tokens = lines[at + 60].split(" ")
+    tokens[10], tokens[11] = f"{float(tokens[10]) + 12:.4f}", f"{float(tokens[11]) - 12:.4f}"  # the spike: Y, X
+    lines[at + 60] = " ".join(tokens)
+    path.write_text("\n".join(lines))
+    filled = fill_take(read_bvh(path)).motion
+    flags = np.zeros((filled.num_frames, filled.num_joints), dtype=bool)
+    flags[20:26, 2] = flags[60, 2] = True
+    det = detect_take(filled).detection
+    det = dataclasses.replace(det, flags=flags)
+    done = repair_whole(filled, det)
+    assert done.repaired[20:26, 2].all() and done.repaired[60, 2]
+    out = tmp_path / "out.bvh"
+    write_bvh(done.motion, out, like=path)
+    written = out.read_text().split("\n")
+    changed = [(i - at, k) for i, (a, b) in enumerate(zip(lines, written)) for k, (x, y) in
+               enumerate(zip(a.split(" "), b.split(" "))) if x != y]
+    assert [c for c in changed if c[0] != 60] == [(f, 9) for f in [*range(20, 26), 57, 58, 59, 61, 62]]
+    assert {k for f, k in changed if f == 60} == {9, 10, 11}  # the spike repaired: its measured Y and X too
+    from mocapkit.cleaning.measured import REPAIR_TOLERANCE_DEG
+
+    raw = repair_take(filled, det).rotations[20:26, 2]
+    assert np.degrees(R.geodesic_angle(done.motion.rotations[20:26, 2], raw)).max() <= REPAIR_TOLERANCE_DEG

@@ -11,6 +11,12 @@ allow (taking the filled rotation apart and keeping its angle instead left it te
 lock, as Z and Y trade off there). The BVH
 and AMC writers then keep the measured channels' own text in those cells (:func:`mocapkit.io.bvh.write_bvh`,
 :func:`mocapkit.io.amc_writer.write_amc`, with ``like``).
+
+The repair step judges a joint's whole rotation too: where detection flags such a cell and the repair replaces
+it, :func:`keep_measured_in_repair` keeps the measured channels as the file gives them and moves only the missing
+ones, wherever they alone bring the rotation within :data:`REPAIR_TOLERANCE_DEG` of the repair's (the flag is then
+explained by the made-up channel); a repair no missing channel can reach is evidence against the measured ones,
+and stands whole, as for a cell the file measures whole.
 """
 
 from __future__ import annotations
@@ -25,7 +31,12 @@ from ..errors import MocapFormatError
 from ..io.euler_branches import bridged, partly_missing
 from ..motion import Motion
 
-__all__ = ["keep_measured"]
+__all__ = ["keep_measured", "keep_measured_in_repair", "REPAIR_TOLERANCE_DEG"]
+
+#: Degrees: a repaired cell the file gives partly ``nan`` keeps its measured channels where its missing ones alone put
+#: the rotation this close to the repair's: clean's default noise level (``--noise-deg``, NOISE_DEG), under which a
+#: difference is the capture's noise, no evidence against a measured channel.
+REPAIR_TOLERANCE_DEG = 1.0
 
 
 def keep_measured(before: Motion, after: Motion) -> tuple[Motion, np.ndarray]:
@@ -62,6 +73,36 @@ def keep_measured(before: Motion, after: Motion) -> tuple[Motion, np.ndarray]:
     if not cells.any():
         return after, cells
     return dataclasses.replace(after, rotations=rot, root_positions=root, translations=trans), cells
+
+
+def keep_measured_in_repair(before: Motion, after: Motion, cells: np.ndarray,
+                            tolerance_deg: float = REPAIR_TOLERANCE_DEG) -> tuple[Motion, np.ndarray]:
+    """``after`` (``before`` repaired: the repair step's medoid words) with the cells ``cells`` (F, J) bool (those the
+    repair changed) that ``before``'s BVH or AMC file gives partly ``nan`` (a filled cell: :func:`keep_measured`)
+    put back on the file's measured channels, where that costs the repair little.
+
+    Detection flags a joint's whole rotation, and the repair replaces it, measured channels and all: a filled cell
+    flagged and repaired came back with its measured channels moved (cmu_01_01_start's LeftUpLeg, Z nan, repaired
+    by 0.19-0.60 deg: its measured Y and X moved up to 0.18 deg), numbers the file measured changed on no evidence
+    against them. Here each such cell is rebuilt as the fill's is
+    (:func:`_filled_angles`): the measured angles the file's, the missing ones those whose rotation is nearest the
+    repair's. Where that rotation is within ``tolerance_deg`` (degrees; :data:`REPAIR_TOLERANCE_DEG`) of the
+    repair's it is taken: the flag is explained by the made-up channel, which alone changes. Where it is further,
+    the measured channels themselves disagree with the repair (a spike in them: CMU 01_01's LeftToeBase at frame
+    844 with its Z nan, 11 deg away) and the repair stands whole, as in a cell the file measures whole. Returns ``(motion,
+    kept)``: ``kept`` (F, J) bool the cells put back on their measured channels; ``after`` itself where none is."""
+    kept = np.zeros(np.shape(cells), dtype=bool)
+    rot = np.array(after.rotations)
+    _partly_measured(before, after, rot, np.asarray(cells, dtype=bool))
+    from .whole_take import differing  # whole_take repairs with keep_measured_in_repair: imported on use
+
+    moved = differing(rot, after.rotations)
+    if moved.any():
+        off = np.degrees(R.geodesic_angle(rot[moved], after.rotations[moved]))
+        kept[moved] = off <= tolerance_deg
+    if not kept.any():
+        return after, kept
+    return dataclasses.replace(after, rotations=np.where(kept[..., None], rot, after.rotations)), kept
 
 
 def _partly_measured(before: Motion, after: Motion, rot: np.ndarray, gone: np.ndarray) -> None:

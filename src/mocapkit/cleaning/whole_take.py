@@ -55,7 +55,7 @@ from ..errors import MocapError, SkeletonError
 from ..motion import Motion
 from .calibration import calibration_mask, calibration_poses
 from .denoise_guard import guarded
-from .measured import keep_measured
+from .measured import keep_measured, keep_measured_in_repair
 from .zeros import as_missing, find_zeros
 
 __all__ = ["MAX_WORD_ANGLE_DEG", "MADE_UP_SHARE", "TakeDetection", "TakeFill", "TakeRepair", "take_params",
@@ -387,7 +387,9 @@ class TakeRepair:
 
 
 def repair_whole(motion: Motion, detection, context=None, *, foot_skate: bool = False, poses=None) -> TakeRepair:
-    """``clean``'s repair step and the ``repair`` command: :func:`repair_take`, then the teleports of the root's
+    """``clean``'s repair step and the ``repair`` command: :func:`repair_take` (a repaired cell its BVH or AMC file
+    gives partly ``nan`` keeping its measured channels where its missing ones reach the repair's rotation:
+    :func:`~mocapkit.cleaning.measured.keep_measured_in_repair`), then the teleports of the root's
     path between the calibration poses put back (:func:`mocapkit.cleaning.take_breaks.fix_teleports`), then the
     turn-overs turned back where that is right and named either way (:func:`turn_overs`).
 
@@ -410,6 +412,8 @@ def _repaired(motion: Motion, detection, context=None, *, foot_skate: bool = Fal
     span = tuple(detection.span) if detection.span is not None else motion_span(poses, F)
     fixed, left = repair_take_left(motion, detection, context, foot_skate=foot_skate, poses=poses)
     left = tuple(str(r) for r in left)
+    # a filled cell's measured channels kept where its missing ones explain the repair (measured module docstring)
+    fixed, _ = keep_measured_in_repair(motion, fixed, changed_cells(motion, fixed))
     moved = changed_cells(motion, fixed)
     events = [e for e in tb.root_events(fixed, span) if e.kind == "teleport"]
     back, done = tb.fix_teleports(fixed, events) if events else (fixed, ())
