@@ -66,8 +66,6 @@ from __future__ import annotations
 
 import dataclasses
 import fnmatch
-import hashlib
-import json
 import os
 import shutil
 import tempfile
@@ -80,10 +78,12 @@ from typing import Callable, Sequence
 from .errors import MocapError, MocapFormatError, os_error_line, output_stopper
 from .batch_decided import is_own_record, stamp_decided
 from .batch_folder import BATCH_MARK, mark, marked_input, only_batch, prune, sweep, unmark_if_empty
+from .batch_request import REQUEST_DEFAULTS, clean_request, request_change
 from .interrupts import interrupts_as_keyboard_interrupt, interrupts_held, whole_step
 from .marker_files import clean_marker_file, marker_request, refuse_marker_options
 
-__all__ = ["clean_file", "clean_marker_file", "clean_request", "marker_request", "refuse_marker_options", "clean_batch", "find_inputs", "output_for", "BatchSummary", "DEFAULT_PATTERNS", "BATCH_MARK"]
+__all__ = ["clean_file", "clean_marker_file", "clean_request", "marker_request", "refuse_marker_options", "clean_batch", "find_inputs", "output_for", "BatchSummary", "DEFAULT_PATTERNS", "BATCH_MARK",
+           "REQUEST_DEFAULTS"]
 
 DEFAULT_PATTERNS = ("*.bvh", "*.amc", "*.npz", "*.c3d", "*.trc")
 #: How a refusal names an option to its caller: Python's keywords, or (``flags``) the command line's flags.
@@ -296,40 +296,6 @@ def clean_file(
     return m, res if decided is None else decided
 
 
-def clean_request(steps=None, threshold: float = 0.5, drifts: bool = False, context: Sequence | None = None,
-                  models: dict | None = None, noise_deg: float | None = None, amc_fps: float | None = None,
-                  unit: str | None = None, joint_map: dict | None = None) -> dict:
-    """What a take was asked to be cleaned with, as its record keeps it (``params["request"]``).
-
-    :func:`clean_batch` takes a take as complete only when its record holds the same request: a take
-    reviewed with ``steps="detect"`` or cleaned at another threshold, noise level, AMC frame rate, unit or
-    joint map is not what a later run asks for. ``joint_map``: the names a ``context`` folder's build gives a rig's
-    joints (:func:`load_context`), kept as its content, sorted (a map file edited in place is another request);
-    kept only where a context is given, the one thing it shapes. Keys a record of an earlier mocapkit lacks read as
-    their defaults (:data:`REQUEST_DEFAULTS`).
-    """
-    from .cleaning.pipeline import NOISE_DEG, STEPS, parse_steps
-
-    def spec(c):
-        p = Path(c)
-        return str(p.resolve()) if p.exists() else os.fspath(c)
-
-    from .context import is_off
-
-    return {"steps": list(parse_steps(steps or STEPS)), "threshold": float(threshold), "drifts": bool(drifts),
-            # the context turned off, however it was said ('none', 'off', 'NONE'): one request, as records kept it
-            "context": ["none"] if context and is_off(list(context)) else ([spec(c) for c in context] if context else "default"),
-            "models": {k: spec(v) if isinstance(v, (str, os.PathLike)) else type(v).__name__
-                       for k, v in sorted((models or {}).items())},
-            "noise_deg": float(NOISE_DEG if noise_deg is None else noise_deg),
-            "amc_fps": None if amc_fps is None else float(amc_fps), "unit": unit,
-            "joint_map": dict(sorted((joint_map or {}).items())) if context and not is_off(list(context)) else {}}
-
-
-REQUEST_DEFAULTS = {"noise_deg": 1.0, "amc_fps": None, "unit": None, "review": False, "joint_map": {},
-                    "zeros_as_gaps": None}  # what a record without these keys was made with
-
-
 def _not_complete(inp: Path, files: dict, request: dict, markers: dict | None = None) -> tuple[str, bool, str]:
     """Why a take whose output and record exist is not complete for this run ("" when it is), whether it is
     cleaned again as it is (True: its input was replaced since, and the output is this batch's own, of the old take)
@@ -375,10 +341,7 @@ def _not_complete(inp: Path, files: dict, request: dict, markers: dict | None = 
         request, done = markers if markers is not None else marker_request(), done if isinstance(done, dict) else {}
     if not isinstance(done, dict):  # a record written before requests were kept
         return "", False, decided
-    was = {k: done.get(k, REQUEST_DEFAULTS.get(k)) for k in request}
-    diff = [_zeros_change(was[k], request[k]) if k == "zeros_as_gaps" else f"{k} {_said(was[k], k)} (now {_said(request[k], k)})"
-            for k in request if was[k] != request[k]]
-    return (f"it was cleaned with {', '.join(diff)}" if diff else ""), False, decided
+    return request_change(done, request), False, decided
 
 
 def _kept(why: str, decided: str, overwrite: str = SAID[False]["overwrite"]) -> str:
@@ -388,27 +351,6 @@ def _kept(why: str, decided: str, overwrite: str = SAID[False]["overwrite"]) -> 
     if not why:
         return f"kept: decided by {decided}" if decided else "complete"
     return f"kept: {why}; {overwrite} cleans it again and discards those decisions"
-
-
-def _zeros_change(was, now) -> str:
-    """How a marker capture's exact (0, 0, 0) samples were read and are read now, in words naming the options
-    (``zeros_as_gaps``: True ``--zeros-as-gaps``, False ``--keep-zeros``, None neither: decided from the data):
-    ``--keep-zeros (now without it: exact (0, 0, 0) samples decided from the data)``."""
-    flag = {True: "--zeros-as-gaps", False: "--keep-zeros"}
-    how = {True: "read as gaps", False: "kept as positions", None: "decided from the data"}
-    if was is None:
-        return f"neither --zeros-as-gaps nor --keep-zeros (now {flag[now]}: exact (0, 0, 0) samples {how[now]})"
-    return f"{flag[was]} (now {'without it' if now is None else flag[now]}: exact (0, 0, 0) samples {how[now]})"
-
-
-def _said(v, key: str = "") -> str:
-    if key == "joint_map":  # a map of a rig's every joint: its digest, not its names
-        return hashlib.sha256(json.dumps(v, sort_keys=True).encode()).hexdigest()[:8] if v else "none"
-    if isinstance(v, list):
-        return ",".join(str(x) for x in v) or "none"
-    if isinstance(v, dict):
-        return ",".join(f"{k}={x}" for k, x in v.items()) or "shipped"
-    return str(v)
 
 
 # -- corpora -------------------------------------------------------------------------------
