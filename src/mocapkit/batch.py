@@ -193,7 +193,7 @@ def clean_file(
         ("models", bool(models)), ("noise_deg", noise_deg is not None)) if given]
     as_markers = dict(report=report, png=png, overwrite=overwrite, unit=unit, max_gap_s=max_gap_s,
                       max_error_mm=max_error_mm, decisions=decisions, record=record, review=asked == ("detect",),
-                      placed=placed, zeros_as_gaps=zeros_as_gaps)
+                      placed=placed, zeros_as_gaps=zeros_as_gaps, flags=flags)
     if isinstance(motion, MarkerSet) or (motion is None and inp.suffix.lower() in (".c3d", ".trc")):
         refuse_marker_options(inp, not_for_markers)
         return clean_marker_file(inp, out, markers=motion, **as_markers)
@@ -258,7 +258,8 @@ def clean_file(
         from .cleaning.decide import decide_take
 
         res, chosen, decided = decide_take(m, cleaning, doc, decisions, record=record if reuse else None,
-                                           request=request, take=inp.name, option=dec.RECORD_FLAG,
+                                           request=request, take=inp.name,
+                                           option=dec.RECORD_FLAG if flags else dec.RECORD_KEYWORD,
                                            prepared=prepared, named=record,
                                            held=held if out.suffix.lower() == ".amc" else None, source=inp)
     else:
@@ -296,14 +297,16 @@ def clean_file(
     return m, res if decided is None else decided
 
 
-def _not_complete(inp: Path, files: dict, request: dict, markers: dict | None = None) -> tuple[str, bool, str]:
+def _not_complete(inp: Path, files: dict, request: dict, markers: dict | None = None,
+                  flags: bool = False) -> tuple[str, bool, str]:
     """Why a take whose output and record exist is not complete for this run ("" when it is), whether it is
     cleaned again as it is (True: its input was replaced since, and the output is this batch's own, of the old take)
     or refused without ``overwrite`` (an output changed outside mocapkit, another request, a missing report, the
     output of another folder's take of the same name: :func:`mocapkit.io.outputs.other_input`), and the
     decisions file that wrote its output ("" where none did: :func:`mocapkit.batch_decided.decided_by`).
     ``request``: this run's :func:`clean_request`; ``markers``: its :func:`marker_request`, which a marker capture's
-    record is held to (default: the defaults).
+    record is held to (default: the defaults); ``flags``: another request's options are named as the command line's
+    flags, else as Python's keywords (:func:`mocapkit.batch_request.request_change`).
 
     The record keeps the size, SHA-256 and path digest of the input as read and the size and SHA-256 of the output as
     written (``params["written"]``, :func:`mocapkit.io.outputs.input_facts`, ``file_facts``); a record without them (an earlier mocapkit's) is taken at its word. An
@@ -341,7 +344,7 @@ def _not_complete(inp: Path, files: dict, request: dict, markers: dict | None = 
         request, done = markers if markers is not None else marker_request(), done if isinstance(done, dict) else {}
     if not isinstance(done, dict):  # a record written before requests were kept
         return "", False, decided
-    return request_change(done, request), False, decided
+    return request_change(done, request, flags), False, decided
 
 
 def _kept(why: str, decided: str, overwrite: str = SAID[False]["overwrite"]) -> str:
@@ -753,7 +756,7 @@ def clean_batch(
     markers = marker_request(unit, max_gap_s, max_error_mm, zeros_as_gaps=zeros_as_gaps)
     for inp, files in zip(inputs, plans):
         if files["output"].is_file() and files["record"].is_file():
-            why, anew, decided = _not_complete(inp, files, request, markers)
+            why, anew, decided = _not_complete(inp, files, request, markers, flags)
             if not why or (decided and why.startswith("its input") and not overwrite):
                 summary.rows.append({"input": str(inp), "output": str(files["output"]), "status": "skipped",
                                      "reason": _kept(why, decided, SAID[flags]["overwrite"]), "seconds": 0.0})

@@ -8,13 +8,11 @@ complete only when its record holds this run's request, and refuses one made wit
 
 from __future__ import annotations
 
-import hashlib
-import json
 import os
 from pathlib import Path
 from typing import Sequence
 
-__all__ = ["clean_request", "REQUEST_DEFAULTS", "request_change", "zeros_change", "said_value"]
+__all__ = ["clean_request", "REQUEST_DEFAULTS", "request_change"]
 
 
 def clean_request(steps=None, threshold: float = 0.5, drifts: bool = False, context: Sequence | None = None,
@@ -51,33 +49,13 @@ REQUEST_DEFAULTS = {"noise_deg": 1.0, "amc_fps": None, "unit": None, "review": F
                     "zeros_as_gaps": None}  # what a record without these keys was made with
 
 
-def zeros_change(was, now) -> str:
-    """How a marker capture's exact (0, 0, 0) samples were read and are read now, in words naming the options
-    (``zeros_as_gaps``: True ``--zeros-as-gaps``, False ``--keep-zeros``, None neither: decided from the data):
-    ``--keep-zeros (now without it: exact (0, 0, 0) samples decided from the data)``."""
-    flag = {True: "--zeros-as-gaps", False: "--keep-zeros"}
-    how = {True: "read as gaps", False: "kept as positions", None: "decided from the data"}
-    if was is None:
-        return f"neither --zeros-as-gaps nor --keep-zeros (now {flag[now]}: exact (0, 0, 0) samples {how[now]})"
-    return f"{flag[was]} (now {'without it' if now is None else flag[now]}: exact (0, 0, 0) samples {how[now]})"
-
-
-def said_value(v, key: str = "") -> str:
-    """A request's value in a refusal's words: a joint map by its digest, a list joined, models by kind."""
-    if key == "joint_map":  # a map of a rig's every joint: its digest, not its names
-        return hashlib.sha256(json.dumps(v, sort_keys=True).encode()).hexdigest()[:8] if v else "none"
-    if isinstance(v, list):
-        return ",".join(str(x) for x in v) or "none"
-    if isinstance(v, dict):
-        return ",".join(f"{k}={x}" for k, x in v.items()) or "shipped"
-    return str(v)
-
-
-def request_change(done: dict, request: dict) -> str:
+def request_change(done: dict, request: dict, flags: bool = False) -> str:
     """How the request a take's record keeps (``done``; keys it lacks read as :data:`REQUEST_DEFAULTS`) differs from
-    this run's ``request``, in one clause for a refusal (``it was cleaned with threshold 0.5 (now 0.7)``); "" when it
-    does not."""
+    this run's ``request``, in one clause for a refusal, each option as the caller gave it
+    (:func:`mocapkit.cleaning.request_words.request_changes`; ``flags``: the command line's, else Python's keywords):
+    ``it was cleaned without --max-gap (now --max-gap 0.05)``; "" when it does not differ."""
+    from .cleaning.request_words import request_changes
+
     was = {k: done.get(k, REQUEST_DEFAULTS.get(k)) for k in request}
-    diff = [zeros_change(was[k], request[k]) if k == "zeros_as_gaps" else f"{k} {said_value(was[k], k)} (now {said_value(request[k], k)})"
-            for k in request if was[k] != request[k]]
-    return f"it was cleaned with {', '.join(diff)}" if diff else ""
+    diff = request_changes(was, request, flags)
+    return f"it was cleaned {', '.join(diff)}" if diff else ""

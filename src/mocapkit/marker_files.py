@@ -48,7 +48,7 @@ def refuse_marker_options(inp, names: Sequence[str]) -> None:
 def clean_marker_file(inp, out, *, report=None, png=None, overwrite: bool = False, markers=None, steps=None,
                       unit: str | None = None, max_gap_s: float | None = None, max_error_mm: float | None = None,
                       decisions=None, record=None, review: bool = False, keep_modelled: bool = False,
-                      placed=None, zeros_as_gaps: bool | None = None):
+                      placed=None, zeros_as_gaps: bool | None = None, flags: bool = False):
     """Clean the marker capture at ``inp`` (.c3d, .trc, marker .npz) into ``out`` (.c3d, .trc or .npz).
 
     :func:`mocapkit.cleaning.markers.clean_markers`, then the reports (HTML
@@ -71,7 +71,8 @@ def clean_marker_file(inp, out, *, report=None, png=None, overwrite: bool = Fals
     ``placed``: where ``out`` is moved once written (a batch's staging folder): the report names the record there.
     ``zeros_as_gaps``: how a .c3d or .trc ``inp``'s samples at exactly (0, 0, 0) are read when ``markers`` is not
     given (:func:`mocapkit.io.load_markers`; None: decided from the data), kept in the record's request and said in
-    the report's command.
+    the report's command. ``flags``: a refusal names the command line's options (``--record``, ``--overwrite``,
+    ``--steps detect``), else Python's keywords (``record=``, ``overwrite=True``, ``steps="detect"``).
     """
     from .cleaning import decisions as dec
     from .cleaning.decided import apply_command
@@ -87,12 +88,13 @@ def clean_marker_file(inp, out, *, report=None, png=None, overwrite: bool = Fals
     reuse = record is not None
     if reuse and decisions is None:
         raise MocapError(f"{record}: an earlier run's record is applied with decisions; give the decisions file")
+    option = dec.RECORD_FLAG if flags else dec.RECORD_KEYWORD
     if review and decisions is not None:
-        raise MocapError(f"{inp}: review mode (--steps detect; steps=\"detect\" in Python) changes nothing; decisions "
-                         "apply to a cleaning")
+        raise MocapError(f"{inp}: review mode ({dec.review_mode(option)}) changes nothing; decisions apply to a cleaning")
     record = Path(record) if reuse else clean_path(out)
     outputs = [out, None if reuse else record, report, png]
-    check_outputs(outputs, [inp, decisions, record if reuse else None], overwrite=overwrite)
+    check_outputs(outputs, [inp, decisions, record if reuse else None], overwrite=overwrite,
+                  how="pass --overwrite" if flags else "pass overwrite=True")
     suffix_kind(out, MARKER_FORMATS, "writing markers")
     taken = input_facts(inp)
     zeros = {} if zeros_as_gaps is None or inp.suffix.lower() not in (".c3d", ".trc") else {"zeros_as_gaps": zeros_as_gaps}
@@ -101,7 +103,7 @@ def clean_marker_file(inp, out, *, report=None, png=None, overwrite: bool = Fals
     res, given = mdec.clean_and_decide(ms, name=str(inp), steps=steps, max_gap_s=max_gap_s,
                                        max_error_mm=max_error_mm, decisions=decisions,
                                        record=record if reuse else None, review=review, request=request,
-                                       take=inp.name)
+                                       take=inp.name, option=option)
     note = dec.frames_note(inp, ms)  # the summary says how its frames relate to the file's
     res, given = replace(res, frames_note=note), replace(given, frames_note=note)
     chosen = None if given.decided is None else dec.read_decisions(decisions)["decisions"]

@@ -133,8 +133,11 @@ def test_decisions_for_another_cleaning_are_refused_in_the_commands_words(review
                        "--decisions", path)
     record = d / "cli.clean.npz"
     assert code != 0 and one_error_line(err)
-    assert str(lib.value).replace(f"record={str(record)!r}", f"--record {record}") in err
-    assert "reviewed with threshold 0.5 (now 0.4)" in str(lib.value) and f"record={str(record)!r}" in str(lib.value)
+    # each in its caller's words: keywords to Python, the flags as typed to the command, the line otherwise one
+    assert str(lib.value).replace(f"record={str(record)!r}", f"--record {record}").replace(
+        "threshold=0.5", "--threshold 0.5") in err
+    assert "reviewed with threshold=0.5 (now 0.4)" in str(lib.value) and f"record={str(record)!r}" in str(lib.value)
+    assert "reviewed with --threshold 0.5 (now 0.4)" in err
     assert not (tmp_path / "x.npz").exists()
 
     other = tmp_path / "other.clean.npz"  # the record of another cleaning of the take: fill and detect only

@@ -358,10 +358,10 @@ def test_decisions_apply_only_to_the_cleaning_they_were_made_on(result, take, fo
     asked = {**result.params, "request": {"context": "default", "threshold": 0.5}}
     again = dataclasses.replace(result, params={**asked, "request": {"context": ["ctx"], "threshold": 0.5}})
     reviewed = D.template(take, found, result=dataclasses.replace(result, params=asked), record="walk.clean.npz")
-    with pytest.raises(MocapFormatError, match=r"reviewed with context default \(now ctx\); apply them to the reviewed "
+    with pytest.raises(MocapFormatError, match=r"reviewed without --context \(now --context ctx\); apply them to the reviewed "
                                                r"values: --record walk\.clean\.npz, or clean with the same options"):
         D.check_decisions(reviewed, path, take, again, fresh=True)
-    with pytest.raises(MocapFormatError, match=r"reviewed with context default \(now ctx\)"):
+    with pytest.raises(MocapFormatError, match=r"reviewed without --context \(now --context ctx\)"):
         D.check_request(reviewed, path, again.params["request"])  # refused before cleaning
     D.check_request(reviewed, path, asked["request"])
 

@@ -313,7 +313,7 @@ def test_a_new_cleaning_with_other_options_is_refused_naming_the_record(cleaned,
     assert main(["clean", str(inp), "-o", str(out), "--decisions", str(dec), "--threshold", "0.45"]) == 2
     err = capsys.readouterr().err
     assert one_error_line(err) and err.startswith(f"mocapkit: error: {dec}: made on another cleaning"), err
-    assert "reviewed with threshold 0.5 (now 0.45)" in err and f"--record {d / 'walk.clean.npz'}" in err
+    assert "reviewed with --threshold 0.5 (now 0.45)" in err and f"--record {d / 'walk.clean.npz'}" in err
     assert not out.exists() and not (tmp_path / "o.clean.npz").exists()
 
 

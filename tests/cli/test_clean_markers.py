@@ -386,5 +386,10 @@ def test_clean_and_clean_batch_keep_zeros_on_request(origin_folder, tmp_path):
     code, stdout, stderr = run("clean-batch", origin_folder, tmp_path / "out", "--executor", "serial")
     assert code == 2 and ("it was cleaned with --keep-zeros (now without it: exact (0, 0, 0) samples decided from "
                           "the data); use --overwrite") in stdout + stderr, stdout + stderr
+    # another limit, said as typed (was "max_gap_s None (now 0.05)": Python's names to a CLI user)
+    code, stdout, stderr = run("clean-batch", origin_folder, tmp_path / "out", "--executor", "serial", "--keep-zeros",
+                               "--max-gap", "0.05", "--max-fill-error", "20")
+    assert code == 2 and ("it was cleaned without --max-gap (now --max-gap 0.05), without --max-fill-error (now "
+                          "--max-fill-error 20); use --overwrite") in stdout + stderr, stdout + stderr
     code, _, err = run("clean", SAMPLE, "-o", tmp_path / "w.bvh", "--keep-zeros")
     assert code == 2 and one_error_line(err) and "--keep-zeros applies only to marker captures" in err

@@ -277,8 +277,8 @@ def test_decisions_from_a_cleaning_with_a_context_apply_to_its_values_only(brows
     out = tmp_path / "final.npz"
     assert main(["clean", str(inp), "-o", str(out), "--decisions", str(path)]) == 2  # as the page said before
     err = capsys.readouterr().err
-    assert f"{path}: made on another cleaning than this new one: reviewed with context {ctx.resolve()} (now " \
-           f"default)" in err and f"--record {record}" in err and len(err.strip().splitlines()) == 1, err
+    assert f"{path}: made on another cleaning than this new one: reviewed with --context {ctx.resolve()} (now " \
+           f"without it)" in err and f"--record {record}" in err and len(err.strip().splitlines()) == 1, err
     assert not out.exists() and not (tmp_path / "final.clean.npz").exists()
 
     ctx.rename(tmp_path / "ctx_moved")  # the page's command (with --record) reads no context: one moved since is fine

@@ -658,7 +658,7 @@ def check_cleaning(doc: dict, path, result, record=None, fresh: bool = False, op
                                          "the review (the take cleaned again); review that record's report anew")
         raise MocapFormatError(path, f"made on another cleaning than {where} (its changes or cleaned values differ); "
                                      f"give the record of the cleaning reviewed: {want}")
-    diff = request_difference(stamp.get("request"), result.params.get("request"))
+    diff = request_difference(stamp.get("request"), result.params.get("request"), option)
     diff = diff or "its changes or cleaned values differ"
     raise MocapFormatError(path, f"made on another cleaning than this new one: {diff}; apply them to the reviewed "
                                  f"values: {want}, or clean with the same options")
@@ -704,7 +704,7 @@ def check_request(doc: dict, path, request: dict, option: str = RECORD_FLAG) -> 
     if stamp is None:
         _check_stamped(doc, path, option)
         return
-    diff = request_difference(stamp.get("request"), request)
+    diff = request_difference(stamp.get("request"), request, option)
     if diff:
         raise MocapFormatError(path, f"made on another cleaning than this new one: {diff}; apply them to the "
                                      f"reviewed values: {record_wanted(stamp, option)}, or clean with the same options")
@@ -720,20 +720,18 @@ def record_wanted(stamp: dict, option: str = RECORD_FLAG) -> str:
     return f"{option}{reviewed!r}" if option.endswith("=") else f"{option} {reviewed}"
 
 
-def request_difference(was, now) -> str:
-    """How the options of two cleanings differ, in words ("context [...] (now 'default'), threshold 0.5 (now
-    0.4)"); "" where they are the same or either is not known (None: a cleaning made in Python)."""
+def request_difference(was, now, option: str = RECORD_FLAG) -> str:
+    """How the options of two cleanings differ, in words naming each as the caller gives it
+    (:func:`mocapkit.cleaning.request_words.request_changes`): ``option`` (:data:`RECORD_FLAG`, the CLI's
+    ``--record``, or :data:`RECORD_KEYWORD`, ``record=``) says which, the command line's flags
+    ("reviewed without --context (now --context /data/ctx), reviewed with --threshold 0.5 (now 0.4)") or Python's
+    keywords ("reviewed with threshold=0.5 (now 0.4)"); "" where they are the same or either is not known (None: a
+    cleaning made in Python)."""
+    from .request_words import request_changes
+
     if not isinstance(was, dict) or not isinstance(now, dict):
         return ""
-    keys = [k for k in list(was) + [k for k in now if k not in was] if was.get(k) != now.get(k)]
-    return ", ".join(f"reviewed with {k} {_said(was.get(k))} (now {_said(now.get(k))})" for k in keys)
-
-
-def _said(value) -> str:
-    """An option's value as a person reads it: a list joined, a string as is."""
-    if isinstance(value, (list, tuple)):
-        return ", ".join(map(str, value)) or "none"
-    return str(value)
+    return ", ".join(f"reviewed {change}" for change in request_changes(was, now, not option.endswith("=")))
 
 
 def unnamed_changes(doc: dict, result) -> list[str]:

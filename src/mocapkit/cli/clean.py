@@ -273,7 +273,7 @@ def _clean_marker_take(inp: Path, out: Path, *, report, png, overwrite: bool, no
             FLAGS, record_said)
     _, res = clean_marker_file(inp, out, report=report, png=png, overwrite=overwrite, markers=take,
                                max_gap_s=max_gap_s, max_error_mm=max_error_mm, decisions=decisions, record=record,
-                               review=review, keep_modelled=keep_modelled, zeros_as_gaps=zeros_as_gaps)
+                               review=review, keep_modelled=keep_modelled, zeros_as_gaps=zeros_as_gaps, flags=True)
     if res.decided is not None:
         _print_decided(_written(out, record, report, png), res.decided, res.frames_note)
         for note in marker_notes(take, out, inp, keep_modelled=keep_modelled, filled=res.fill_mask):

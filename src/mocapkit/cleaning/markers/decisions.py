@@ -395,7 +395,7 @@ def check(doc: dict, path, original, cleaned=None, fixes=(), *, request=None, fr
     stamp = doc.get("cleaning")
     if stamp is not None and stamp.get("sha256") != cleaning_digest(original, cleaned):
         want = record_wanted(stamp, option)
-        diff = request_difference(stamp.get("request"), request) if fresh else ""
+        diff = request_difference(stamp.get("request"), request, option) if fresh else ""
         raise MocapFormatError(path, f"made on another cleaning than {'this new one' if fresh else 'this record'}: "
                                      f"{diff or 'its changed samples differ'}; apply them to the reviewed samples: "
                                      f"{want}")

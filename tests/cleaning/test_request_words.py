@@ -1,0 +1,56 @@
+"""A refusal names the options a take was cleaned with as its caller gives them: the command line's flags and values
+as typed, or the Python API's keywords; an option left unset in words, never ``None``."""
+
+from mocapkit.batch_request import clean_request, request_change
+from mocapkit.cleaning.decisions import RECORD_FLAG, RECORD_KEYWORD, request_difference
+from mocapkit.marker_files import marker_request
+
+
+def test_a_changed_marker_request_is_said_in_the_callers_words():
+    was, now = marker_request(zeros_as_gaps=False), marker_request(max_gap_s=0.05, zeros_as_gaps=False)
+    assert request_change(was, now, flags=True) == "it was cleaned without --max-gap (now --max-gap 0.05)"
+    assert request_change(was, now) == "it was cleaned without max_gap_s (now max_gap_s=0.05)"
+    assert request_change(now, marker_request(unit="cm", zeros_as_gaps=False), flags=True) == (
+        "it was cleaned without --unit (now --unit cm), with --max-gap 0.05 (now without it)")
+    assert request_change(marker_request(max_error_mm=20.0, review=True), marker_request(), flags=True) == (
+        "it was cleaned with --max-fill-error 20 (now without it), with --steps detect (now all steps)")
+    assert request_change(marker_request(), marker_request(unit="cm", review=True)) == (
+        'it was cleaned without unit (now unit="cm"), with all steps (now steps="detect")')
+    assert request_change(was, now, flags=True) != request_change(was, now) and "None" not in request_change(was, now)
+
+
+def test_a_changed_joint_angle_request_is_said_in_the_callers_words():
+    was, now = clean_request(steps="detect", drifts=True), clean_request(threshold=0.7, noise_deg=3, amc_fps=100.0)
+    assert request_change(was, now, flags=True) == (
+        "it was cleaned with --steps detect (now fill,detect,repair,denoise), with --threshold 0.5 (now 0.7), "
+        "with --drifts (now without it), with --noise-deg 1 (now 3), without --amc-fps (now --amc-fps 100)")
+    assert request_change(was, now) == (
+        'it was cleaned with steps="detect" (now "fill,detect,repair,denoise"), with threshold=0.5 (now 0.7), '
+        "with drifts=True (now False), with noise_deg=1 (now 3), without amc_fps (now amc_fps=100)")
+    ctx, other = clean_request(context=["none"]), clean_request(context=["none"], models={"ebf": "ebf_bandai.pt"})
+    assert request_change(ctx, other, flags=True) == "it was cleaned without --ebf/--ebd (now --ebf ebf_bandai.pt)"
+    assert request_change(other, ctx) == 'it was cleaned with models={"ebf": "ebf_bandai.pt"} (now without it)'
+
+
+def test_a_decisions_files_other_cleaning_is_said_as_its_record_was_given():
+    was, now = {"context": "default", "threshold": 0.5}, {"context": ["ctx"], "threshold": 0.4}
+    assert request_difference(was, now, RECORD_FLAG) == ("reviewed without --context (now --context ctx), "
+                                                         "reviewed with --threshold 0.5 (now 0.4)")
+    assert request_difference(was, now, RECORD_KEYWORD) == ('reviewed without context (now context=["ctx"]), '
+                                                            "reviewed with threshold=0.5 (now 0.4)")
+    assert request_difference(was, None, RECORD_FLAG) == ""
+
+
+def test_a_marker_captures_review_mode_is_refused_with_decisions_in_the_callers_words(tmp_path):
+    import pytest
+
+    from mocapkit import samples
+    from mocapkit.errors import MocapError
+    from mocapkit.marker_files import clean_marker_file
+
+    inp, said = samples.path("Eb015pr.c3d"), "changes nothing; decisions apply to a cleaning"
+    for flags, mode in ((False, 'steps="detect"'), (True, "--steps detect")):
+        with pytest.raises(MocapError) as err:
+            clean_marker_file(inp, tmp_path / "out.c3d", review=True, decisions=tmp_path / "d.json", flags=flags)
+        assert str(err.value) == f"{inp}: review mode ({mode}) {said}"
+    assert not list(tmp_path.iterdir())
