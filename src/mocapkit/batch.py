@@ -188,9 +188,11 @@ def clean_file(
 
     inp, out = Path(inp), Path(out)
     asked = parse_steps(steps or STEPS)
+    # a joint-angle take's options, named as the caller gave them: a batch's CLI user typed --drifts, not drifts
     not_for_markers = [name for name, given in (
-        ("steps " + ",".join(asked), asked not in (STEPS, ("detect",))), ("drifts", drifts),
-        ("models", bool(models)), ("noise_deg", noise_deg is not None)) if given]
+        (("--steps " if flags else "steps ") + ",".join(asked), asked not in (STEPS, ("detect",))),
+        ("--drifts" if flags else "drifts", drifts), ("--noise-deg" if flags else "noise_deg", noise_deg is not None),
+        *((f"--{kind}", flags) for kind in (models or {})), ("models", bool(models) and not flags)) if given]
     as_markers = dict(report=report, png=png, overwrite=overwrite, unit=unit, max_gap_s=max_gap_s,
                       max_error_mm=max_error_mm, decisions=decisions, record=record, review=asked == ("detect",),
                       placed=placed, zeros_as_gaps=zeros_as_gaps, flags=flags)
@@ -526,7 +528,8 @@ def _clean_job(job: dict) -> dict:
                             png=staged[Path(job["png"])] if job.get("png") else None, asf=job.get("asf"),
                             drifts=bool(job.get("drifts")), models=job.get("models"), amc_fps=job.get("amc_fps"),
                             unit=job.get("unit"), noise_deg=job.get("noise_deg"), max_gap_s=job.get("max_gap_s"),
-                            max_error_mm=job.get("max_error_mm"), placed=out, zeros_as_gaps=job.get("zeros_as_gaps"))
+                            max_error_mm=job.get("max_error_mm"), placed=out, zeros_as_gaps=job.get("zeros_as_gaps"),
+                            flags=bool(job.get("flags")))
         keep_aside(finals, kept)  # kept filled as each link is made: an interrupt in it leaves none behind
         if finals[-1] in kept:  # the old record goes first: the take reads as incomplete while its files are replaced
             os.unlink(finals[-1])
@@ -787,7 +790,8 @@ def clean_batch(
              "asf": _abs(asf) if asf is not None and inp.suffix.lower() == ".amc" else None,
              "amc_fps": float(amc_fps) if amc_fps is not None and inp.suffix.lower() == ".amc" else None,
              "unit": unit, "noise_deg": None if noise_deg is None else float(noise_deg),
-             "max_gap_s": max_gap_s, "max_error_mm": max_error_mm, "zeros_as_gaps": zeros_as_gaps} for inp, files in todo]
+             "max_gap_s": max_gap_s, "max_error_mm": max_error_mm, "zeros_as_gaps": zeros_as_gaps,
+             "flags": flags} for inp, files in todo]
     skeletons = _asf_copies(inputs, plans, asf, overwrite, SAID[flags]) if fmt == "amc" else {}
     expected = [f for files in plans for f in files.values() if f is not None]
     made = missing_folders([out_dir, *(Path(files["output"]).parent for _, files in todo)])

@@ -54,3 +54,20 @@ def test_a_marker_captures_review_mode_is_refused_with_decisions_in_the_callers_
             clean_marker_file(inp, tmp_path / "out.c3d", review=True, decisions=tmp_path / "d.json", flags=flags)
         assert str(err.value) == f"{inp}: review mode ({mode}) {said}"
     assert not list(tmp_path.iterdir())
+
+
+def test_a_batchs_joint_angle_options_refused_for_a_marker_capture_are_said_as_given(tmp_path):
+    """clean-batch --drifts over a folder holding a capture failed it with "drifts applies only to joint-angle takes":
+    Python's name to a CLI user."""
+    import shutil
+
+    from mocapkit import samples
+    from mocapkit.batch import clean_batch
+
+    src = tmp_path / "in"
+    src.mkdir()
+    shutil.copy(samples.path("Eb015pr.c3d"), src / "e.c3d")
+    for flags, said in ((True, "--drifts, --noise-deg apply"), (False, "drifts, noise_deg apply")):
+        s = clean_batch(src, tmp_path / f"out{flags}", drifts=True, noise_deg=2.0, executor="serial", progress=False,
+                        flags=flags)
+        assert s.count("failed") == 1 and f"{said} only to joint-angle takes" in s.failed[0]["reason"], s.rows
