@@ -851,3 +851,13 @@ def test_every_path_pairs_an_own_rig_ebd_with_its_ebf_in_trains_layout(tmp_path)
         assert code == 0, err
         assert np.array_equal(mocapkit.load(out).rotations, named.rotations)
         assert str(ebf) in " ".join((said + err).split())
+
+
+def test_train_names_unit_as_the_command_line_does(tmp_path):
+    """train --unit on a clip whose file states another unit said "unit= is for a file that states none": Python's
+    keyword to a CLI user, and the clip's name, not its file."""
+    walk = mocapkit.samples.path("12_walk.amc")
+    code, _, err = run("train", "denoiser", walk, "-o", tmp_path / "ebf", "--unit", "mm", "--executor", "serial")
+    assert code == 2 and one_error_line(err), err
+    assert f"{walk}: the file states its length unit (5.644 cm), not mm: --unit is for a file that states none" in err
+    assert "unit=" not in err and not (tmp_path / "ebf").exists()

@@ -328,7 +328,7 @@ def train(
         from ..io.takes import check_unit
 
         check_unit(unit, "--unit")
-    clips = training.load_clips(sources, asf, amc_fps, unit=unit)
+    clips = training.load_clips(sources, asf, amc_fps, unit=unit, unit_option="--unit")
     if not clips:
         raise MocapError(f"train: no .bvh, .amc or .npz clips in {', '.join(map(str, sources))}")
     # --holdout is a count of random clips (one number) or name substrings

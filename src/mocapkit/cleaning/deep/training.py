@@ -120,18 +120,22 @@ class TrainConfig:
         raise ValueError(f"kind must be 'ebf' or 'ebd', got {self.kind!r}")
 
 
-def load_clips(sources, asf=None, amc_fps: float | None = None, unit: str | None = None) -> list[Motion]:
+def load_clips(sources, asf=None, amc_fps: float | None = None, unit: str | None = None,
+               unit_option: str = "unit=") -> list[Motion]:
     """Motions from files, folders (every .bvh/.amc/.npz below) or a MotionDatabase directory/object.
 
     ``asf``, ``amc_fps``: the skeleton and frame rate of the ``.amc`` files (:func:`mocapkit.io.takes.load_take`;
     by default the ASF beside each and :func:`mocapkit.io.asfamc.amc_rate`). ``unit`` (mm, cm, m, in; ``--unit``):
     the length unit of the clips whose files state none (:func:`mocapkit.io.takes.with_unit`), which spatial noise
-    in cm needs on a rig whose bones do not tell it (no ankle or head found by name)."""
+    in cm needs on a rig whose bones do not tell it (no ankle or head found by name); a clip whose file states
+    another is refused naming its file and the option as the caller gave it (``unit_option``: Python's ``unit=``,
+    ``mocapkit train``'s ``--unit``)."""
     from ...database import MotionDatabase, expand_sources
     from ...io.takes import load_take, with_unit
 
     if unit is not None:
-        return [with_unit(c, unit, c.name or "a clip") for c in load_clips(sources, asf, amc_fps)]
+        return [with_unit(c, unit, c.source_file or c.name or "a clip", unit_option)
+                for c in load_clips(sources, asf, amc_fps)]
     if isinstance(sources, MotionDatabase):
         return [sources.clip(i) for i in range(sources.num_clips)]
     srcs = [sources] if isinstance(sources, (str, Path)) else list(sources)
