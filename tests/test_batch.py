@@ -221,7 +221,8 @@ def test_existing_outputs_need_overwrite_but_complete_takes_resume(tmp_path, sho
 
 def test_bad_arguments_are_one_line_and_write_nothing(twins, tmp_path):
     out = tmp_path / "out"
-    for kwargs, msg in [({"executor": "garbage"}, "--executor: expected"), ({"fmt": "c3d"}, "format must be"),
+    for kwargs, msg in [({"executor": "garbage"}, "^executor='garbage': expected"), ({"fmt": "c3d"}, "format must be"),
+                        ({"executor": "garbage", "flags": True}, "^--executor: expected"),
                         ({"steps": ["fill", "nope"]}, "nope")]:
         with pytest.raises(MocapError, match=msg):
             clean_batch(twins, out, **{"steps": STEPS, "executor": "serial", "progress": False, **kwargs})

@@ -54,10 +54,12 @@ def test_first_error_is_raised():
 
 def test_empty_and_bad_executor():
     assert map_ordered(square, [], progress=False) == []
-    with pytest.raises(MocapError, match="--executor: expected .* got int 42"):
+    with pytest.raises(MocapError, match="^executor= expects .* got int 42"):  # Python's keyword: the caller's
         map_ordered(square, [1, 2], executor=42, progress=False)
-    with pytest.raises(MocapError, match="--executor: expected"):
+    with pytest.raises(MocapError, match="^executor='garbage': expected"):
         map_ordered(square, [], executor="garbage", progress=False)  # checked even when there is nothing to do
+    with pytest.raises(MocapError, match="^--executor: expected .* got int 42"):  # the command line's flag
+        map_ordered(square, [1, 2], executor=42, progress=False, option="--executor")
     assert "local processes" in describe_executor(None)
 
 
@@ -69,9 +71,13 @@ def test_named_executors_pass(spec):
 @pytest.mark.parametrize("spec", ["garbage", "Processes", "tcp://", "tcp://host", "tcp://host:port", "http://127.0.0.1:8786",
                                   "127.0.0.1:8786", "tcp://127.0.0.1:8786; rm -rf /", ""])
 def test_malformed_executor_is_one_line(spec):
-    with pytest.raises(MocapError, match="^--executor: expected processes, serial, dask or a Dask scheduler address tcp://HOST:PORT, got") as info:
+    accepted = "expected processes, serial, dask or a Dask scheduler address tcp://HOST:PORT"
+    with pytest.raises(MocapError) as info:
+        check_executor(spec, option="--executor")
+    assert str(info.value) == f"--executor: {accepted}, got {spec!r}"
+    with pytest.raises(MocapError) as info:  # a Python caller passed executor=, not --executor
         check_executor(spec)
-    assert "\n" not in str(info.value)
+    assert str(info.value) == f"executor={spec!r}: {accepted}"
 
 
 def test_port_out_of_range():
@@ -87,7 +93,9 @@ def _free_port() -> int:
 
 def test_unreachable_scheduler_is_refused():
     port = _free_port()  # bound and released: nothing listens there now
-    with pytest.raises(MocapError, match=f"--executor tcp://127.0.0.1:{port}: cannot connect"):
+    with pytest.raises(MocapError, match=f"^--executor tcp://127.0.0.1:{port}: cannot connect"):
+        check_executor(f"tcp://127.0.0.1:{port}", option="--executor")
+    with pytest.raises(MocapError, match=f"^executor='tcp://127.0.0.1:{port}': cannot connect"):
         check_executor(f"tcp://127.0.0.1:{port}")
 
 
@@ -161,8 +169,8 @@ def test_a_scheduler_without_workers_is_one_line_not_a_wait(monkeypatch):
     monkeypatch.setattr(mocapkit.parallel, "WORKERS_S", 1.0)
     with distributed.LocalCluster(n_workers=0, processes=True, dashboard_address=None) as cluster:
         t0 = time.monotonic()
-        with pytest.raises(MocapError, match="the scheduler has no workers"):
-            map_ordered(square, [1, 2], executor=cluster.scheduler_address, progress=False)
+        with pytest.raises(MocapError, match=f"^executor={cluster.scheduler_address!r}: the scheduler has no workers"):
+            map_ordered(square, [1, 2], executor=cluster.scheduler_address, progress=False)  # named as passed
         assert time.monotonic() - t0 < 30
 
 

@@ -709,8 +709,8 @@ def clean_batch(
     ``on_context(line)``: called with a line as the ``context`` files start to be built into a database, before
     the first take, and one as the build ends (its clips and seconds; nothing when the cache holds it).
     ``joint_map``: the names the ``context`` build gives a rig's joints (:func:`load_context`).
-    ``flags``: refusals name the command line's flags (``--overwrite``, ``--asf``), not Python's keywords
-    (``overwrite=True``, ``asf=``: :data:`SAID`).
+    ``flags``: refusals name the command line's flags (``--overwrite``, ``--asf``, ``--executor``, ``--max-gap``),
+    not Python's keywords (``overwrite=True``, ``asf=``, ``executor=``, ``max_gap_s=``: :data:`SAID`).
     A take that fails on a full disk, a used-up quota or a read-only file system stops the batch
     (``BatchSummary.stopped``). Raises
     :class:`~mocapkit.errors.MocapError` (one line) on a bad folder, format,
@@ -729,7 +729,8 @@ def clean_batch(
         raise MocapFormatError(out_dir, "refusing to write into the input folder; choose another output folder")
     if fmt not in ("auto", "bvh", "amc", "npz"):
         raise MocapError(f"format must be auto, bvh, amc or npz, got {fmt!r}")
-    check_executor(executor)
+    executor_option = "--executor" if flags else "executor="
+    check_executor(executor, option=executor_option)
     try:
         steps = list(parse_steps(steps or STEPS))
     except ValueError as exc:
@@ -828,7 +829,7 @@ def clean_batch(
             if jobs:
                 mark(out_dir, in_dir)
             rows = map_ordered(_batch_job, jobs, executor=executor, progress=progress, desc="clean",
-                               on_result=finished_take) if jobs else []
+                               on_result=finished_take, option=executor_option) if jobs else []
             finished = True
         except BaseException:  # an interrupt: a take written whose row never came is said from its record
             _tell_written(todo, said, request, markers, tell)

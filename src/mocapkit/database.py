@@ -717,6 +717,7 @@ class MotionDatabase:
         progress: bool = True,
         asf=None,
         amc_fps: float | None = None,
+        executor_option: str = "executor=",
     ) -> "MotionDatabase":
         """Build a database from files, folders (searched recursively) and/or Motions.
 
@@ -732,7 +733,8 @@ class MotionDatabase:
 
         Loading and featurising runs on ``executor`` (:mod:`mocapkit.parallel`:
         local processes by default, ``"dask"`` or a scheduler address for a
-        Dask cluster). ``asf`` and ``amc_fps``: the skeleton and frame rate of
+        Dask cluster; ``executor_option``: how a refusal of it names the option, Python's ``executor=`` or
+        ``db build``'s ``--executor``). ``asf`` and ``amc_fps``: the skeleton and frame rate of
         the ``.amc`` files among the sources (:func:`mocapkit.io.takes.load_take`;
         by default the ASF beside each and :func:`mocapkit.io.asfamc.amc_rate`); either given
         where no source is an ``.amc`` file is refused (:func:`mocapkit.io.takes.check_asf`), not ignored.
@@ -758,7 +760,7 @@ class MotionDatabase:
         # files are loaded and featurised on the executor; Motions already in memory stay here
         file_slots = [k for k in range(1, len(items)) if not _in_memory(items[k])]
         loaded = map_ordered(job, [items[k] for k in file_slots], executor=executor, progress=progress, desc="clips",
-                             done=1)  # the first clip, read here for the reference skeleton
+                             done=1, option=executor_option)  # the first clip, read here for the reference skeleton
         prepared: list = [first] + [None] * (len(items) - 1)
         for k, group in zip(file_slots, loaded):
             prepared[k] = group

@@ -62,7 +62,7 @@ from .progress import bar_disabled
 from .errors import MocapError
 from .interrupts import interrupts_held
 
-__all__ = ["map_ordered", "describe_executor", "check_executor", "owner_alive", "unblock_sigterm"]
+__all__ = ["map_ordered", "describe_executor", "check_executor", "executor_said", "owner_alive", "unblock_sigterm"]
 
 EXECUTOR_NAMES = ("processes", "serial", "dask")
 _ADDRESS_RE = re.compile(r"^tcp://(?P<host>\[[0-9A-Fa-f:.]+\]|[A-Za-z0-9_.-]+):(?P<port>[0-9]{1,5})/?$")
@@ -83,7 +83,16 @@ def describe_executor(executor) -> str:
     return type(executor).__name__
 
 
-def check_executor(executor, timeout: float = _PROBE_S):
+def executor_said(option: str, spec=None) -> str:
+    """The executor option as the caller gave it, for a refusal: ``option`` is the command line's ``--executor``
+    (``--executor tcp://HOST:PORT``) or Python's keyword ``executor=`` (``executor='tcp://HOST:PORT'``); without
+    ``spec`` the option alone."""
+    if spec is None:
+        return option
+    return f"{option}{spec!r}" if option.endswith("=") else f"{option} {spec}"
+
+
+def check_executor(executor, timeout: float = _PROBE_S, option: str = "executor="):
     """Return ``executor`` if :func:`map_ordered` can run on it; else raise :class:`MocapError` in one line.
 
     Accepted: ``None``, ``"processes"``, ``"serial"``, ``"dask"`` (needs
@@ -91,7 +100,8 @@ def check_executor(executor, timeout: float = _PROBE_S):
     object with a ``submit`` method (a :class:`concurrent.futures.Executor`, a
     ``distributed.Client``). An address is probed within ``timeout`` seconds:
     it must accept a TCP connection and open with a Dask handshake (read at
-    most 64 KiB), so unreachable and non-Dask peers are refused here.
+    most 64 KiB), so unreachable and non-Dask peers are refused here. ``option``: how a refusal names the option,
+    as the caller gave it (:func:`executor_said`): Python's ``executor=`` or the command line's ``--executor``.
 
     >>> check_executor("serial")
     'serial'
@@ -99,8 +109,15 @@ def check_executor(executor, timeout: float = _PROBE_S):
     ...     check_executor("garbage")
     ... except MocapError as exc:
     ...     print(exc)
+    executor='garbage': expected processes, serial, dask or a Dask scheduler address tcp://HOST:PORT
+    >>> try:
+    ...     check_executor("garbage", option="--executor")
+    ... except MocapError as exc:
+    ...     print(exc)
     --executor: expected processes, serial, dask or a Dask scheduler address tcp://HOST:PORT, got 'garbage'
     """
+    said = executor_said(option, executor) if isinstance(executor, str) else option
+    flag = not option.endswith("=")
     if executor is None or executor in ("processes", "serial"):
         return executor
     if isinstance(executor, str):
@@ -108,27 +125,30 @@ def check_executor(executor, timeout: float = _PROBE_S):
             try:
                 import distributed  # noqa: F401
             except ImportError:
-                raise MocapError('--executor dask needs Dask: pip install "mocapkit[dask]"') from None
+                raise MocapError(f'{said} needs Dask: pip install "mocapkit[dask]"') from None
             return executor
         match = _ADDRESS_RE.match(executor.strip())
         if match is None:
-            raise MocapError(f"--executor: expected {_ACCEPTED}, got {executor!r}")
+            raise MocapError(f"--executor: expected {_ACCEPTED}, got {executor!r}" if flag
+                             else f"{said}: expected {_ACCEPTED}")
         port = int(match["port"])
         if not 0 < port < 65536:
-            raise MocapError(f"--executor {executor}: port {port} is out of range (1-65535)")
+            raise MocapError(f"{said}: port {port} is out of range (1-65535)")
         try:
             import distributed  # noqa: F401
         except ImportError:
-            raise MocapError(f'--executor {executor}: a Dask scheduler needs Dask: pip install "mocapkit[dask]"') from None
-        _probe_scheduler(executor, match["host"].strip("[]"), port, timeout)
+            raise MocapError(f'{said}: a Dask scheduler needs Dask: pip install "mocapkit[dask]"') from None
+        _probe_scheduler(said, match["host"].strip("[]"), port, timeout)
         return executor
     if callable(getattr(executor, "submit", None)):
         return executor
-    raise MocapError(f"--executor: expected {_ACCEPTED} or an object with submit(), got {type(executor).__name__} {executor!r}")
+    raise MocapError(f"{option}{': expected' if flag else ' expects'} {_ACCEPTED} or an object with submit(), got "
+                     f"{type(executor).__name__} {executor!r}")
 
 
-def _probe_scheduler(address: str, host: str, port: int, timeout: float) -> None:
-    """Connect to ``host:port`` and read the opening handshake a Dask server sends; MocapError if it does not."""
+def _probe_scheduler(said: str, host: str, port: int, timeout: float) -> None:
+    """Connect to ``host:port`` and read the opening handshake a Dask server sends; MocapError if it does not, its line
+    opening with ``said``, the option and address as the caller gave them (:func:`executor_said`)."""
     deadline = time.monotonic() + timeout
     found: list = []
 
@@ -142,9 +162,9 @@ def _probe_scheduler(address: str, host: str, port: int, timeout: float) -> None
     worker.start()
     worker.join(timeout)
     if not found:
-        raise MocapError(f"--executor {address}: cannot resolve {host!r} within {timeout:g} s")
+        raise MocapError(f"{said}: cannot resolve {host!r} within {timeout:g} s")
     if isinstance(found[0], OSError):
-        raise MocapError(f"--executor {address}: cannot resolve {host!r} ({found[0].strerror or found[0]})")
+        raise MocapError(f"{said}: cannot resolve {host!r} ({found[0].strerror or found[0]})")
     family, kind, proto, _, sockaddr = found[0][0]
     sock = socket.socket(family, kind, proto)
     try:
@@ -157,13 +177,13 @@ def _probe_scheduler(address: str, host: str, port: int, timeout: float) -> None
                 raise ValueError(f"its first message announces {nbytes} bytes")
             body = _recv_exactly(sock, nbytes, deadline)
         except (socket.timeout, TimeoutError):
-            raise MocapError(f"--executor {address}: no Dask scheduler answered within {timeout:g} s") from None
+            raise MocapError(f"{said}: no Dask scheduler answered within {timeout:g} s") from None
         except ValueError as exc:
-            raise MocapError(f"--executor {address}: not a Dask scheduler ({exc})") from None
+            raise MocapError(f"{said}: not a Dask scheduler ({exc})") from None
         except OSError as exc:
-            raise MocapError(f"--executor {address}: cannot connect ({exc.strerror or exc})") from None
+            raise MocapError(f"{said}: cannot connect ({exc.strerror or exc})") from None
         if b"pickle-protocol" not in body:
-            raise MocapError(f"--executor {address}: not a Dask scheduler (no Dask handshake)")
+            raise MocapError(f"{said}: not a Dask scheduler (no Dask handshake)")
     finally:
         sock.close()
 
@@ -336,6 +356,7 @@ def map_ordered(
     max_workers: int | None = None,
     done: int = 0,
     on_result: Callable[[int, object], bool | None] | None = None,
+    option: str = "executor=",
 ) -> list:
     """``[fn(item) for item in items]``, run on ``executor`` (see the module docstring), in input order.
 
@@ -348,12 +369,13 @@ def map_ordered(
     false for them).
     The first exception raised by ``fn`` is re-raised here after the
     remaining work is cancelled. ``executor`` is checked first
-    (:func:`check_executor`): a bad one raises :class:`MocapError`.
+    (:func:`check_executor`): a bad one raises :class:`MocapError`, naming it as ``option`` says (Python's
+    ``executor=``, or the command line's ``--executor``), as does a Dask cluster that fails under way.
 
     >>> map_ordered(abs, [-1, 2, -3], executor="serial", progress=False)
     [1, 2, 3]
     """
-    check_executor(executor)
+    check_executor(executor, option=option)
     items = list(items)
     n = len(items)
     if n == 0:
@@ -384,7 +406,7 @@ def map_ordered(
                 raise
             return out
         if isinstance(executor, str):
-            return _run_dask(executor, fn, items, bar, on_result)
+            return _run_dask(executor, fn, items, bar, on_result, executor_said(option, executor))
         if _is_dask_client(executor):
             from distributed import as_completed as dask_as_completed
 
@@ -540,7 +562,9 @@ def _stop_pool(pool: ProcessPoolExecutor) -> None:
         pass
 
 
-def _run_dask(spec: str, fn, items, bar, on_result=None) -> list:
+def _run_dask(spec: str, fn, items, bar, on_result=None, said: str = "") -> list:
+    """:func:`_run` on a local Dask cluster (``spec`` "dask") or the scheduler at the address ``spec``; a failure is one
+    line opening with ``said``, the option as the caller gave it (:func:`executor_said`)."""
     from distributed import Client, LocalCluster, as_completed as dask_as_completed
 
     if spec == "dask":
@@ -559,14 +583,14 @@ def _run_dask(spec: str, fn, items, bar, on_result=None) -> list:
             client = Client(spec, timeout=_PROBE_S * 2)
         except Exception as exc:  # it speaks Dask but is no scheduler (a worker, a nanny), or went away since the probe
             reason = (str(exc).strip().splitlines() or [""])[0]
-            raise MocapError(f"--executor {spec}: cannot start a Dask client there ({type(exc).__name__}: {reason})") from None
+            raise MocapError(f"{said}: cannot start a Dask client there ({type(exc).__name__}: {reason})") from None
         with client:
             try:
                 client.wait_for_workers(1, timeout=WORKERS_S)
             except Exception:  # distributed's TimeoutError
-                raise MocapError(f"--executor {spec}: the scheduler has no workers (none joined within {WORKERS_S:g} s); "
+                raise MocapError(f"{said}: the scheduler has no workers (none joined within {WORKERS_S:g} s); "
                                  f"start some with `dask worker {spec}`") from None
-            return _run_remote(client, spec, fn, items, bar, on_result)
+            return _run_remote(client, said, fn, items, bar, on_result)
 
 
 #: seconds a remote scheduler may go without a worker (at the start, or once they are all gone) before the work stops
@@ -591,7 +615,7 @@ def _quiet_dask():
             lg.setLevel(level)
 
 
-def _run_remote(client, spec: str, fn, items, bar, on_result=None) -> list:
+def _run_remote(client, said: str, fn, items, bar, on_result=None) -> list:
     """:func:`_run` on a remote scheduler's client, watched: when no worker is left for :data:`WORKERS_S` seconds,
     or the scheduler is lost, the work stops with one line saying how much of it was done (a rerun resumes it)."""
     from distributed import as_completed as dask_as_completed
@@ -611,7 +635,7 @@ def _run_remote(client, spec: str, fn, items, bar, on_result=None) -> list:
                     if _workers(client) > 0:
                         seen_workers = now
                     elif now - seen_workers > WORKERS_S:
-                        raise MocapError(f"--executor {spec}: no worker has been connected to the scheduler for "
+                        raise MocapError(f"{said}: no worker has been connected to the scheduler for "
                                          f"{WORKERS_S:g} s; {done} of {len(items)} done (a rerun resumes)")
                 time.sleep(0.1)
                 continue
@@ -621,7 +645,7 @@ def _run_remote(client, spec: str, fn, items, bar, on_result=None) -> list:
                     out[futures[fut]] = fut.result()
                 except Exception as exc:
                     if _lost(exc):
-                        raise MocapError(f"--executor {spec}: the Dask scheduler was lost ({type(exc).__name__}); "
+                        raise MocapError(f"{said}: the Dask scheduler was lost ({type(exc).__name__}); "
                                          f"{done} of {len(items)} done (a rerun resumes)") from None
                     raise
                 done += 1

@@ -207,10 +207,10 @@ def executor_option(what: str):
 
 
 def check_executor(spec: Optional[str]) -> None:
-    """Refuse an ``--executor`` value before any work (:func:`mocapkit.parallel.check_executor`)."""
+    """Refuse an ``--executor`` value before any work (:func:`mocapkit.parallel.check_executor`), naming the flag."""
     from ..parallel import check_executor as check
 
-    check(spec)
+    check(spec, option="--executor")
 
 
 def guard(outputs: Iterable, inputs: Iterable, overwrite: bool = False) -> None:

@@ -61,7 +61,7 @@ def db_build(
     console.print(f"building from {plural(len(files), 'path')} on {describe_executor(executor)}")
     try:
         db = MotionDatabase.build(files, fps=fps, features=_feature_list(features), mirror=mirror, joint_map=jm,
-                                  executor=executor, asf=asf, amc_fps=amc_fps)
+                                  executor=executor, asf=asf, amc_fps=amc_fps, executor_option="--executor")
     except ValueError as exc:
         raise MocapError(str(exc)) from None
     db.save(out_dir, overwrite=overwrite)

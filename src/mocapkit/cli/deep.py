@@ -386,7 +386,7 @@ def train(
     for tr, val, o in runs:
         try:
             model = training.train(tr, o, cfg, validation=val or None, resume=resume, executor=executor,
-                                   overwrite=overwrite, meta=given)
+                                   overwrite=overwrite, meta=given, executor_option="--executor")
         except (SkeletonError, ValueError) as exc:
             raise MocapError(f"train: {exc}") from None
         except KeyboardInterrupt:  # a checkpoint is a whole file, kept on purpose: say so beside "interrupted"

@@ -619,6 +619,7 @@ def train(
     progress: bool = True,
     meta: dict | None = None,
     overwrite: bool = False,
+    executor_option: str = "executor=",
 ) -> DeepModel:
     """Train an EBF or EBD on ``clips``; returns the best model (also written to ``out_dir/model.pt``).
 
@@ -631,7 +632,8 @@ def train(
     score (``best_val_rmse``, ``best_epoch``); a resumed run starts from that
     score, so it replaces ``model.pt`` only with a better model, even after
     a kill between the two files' writes. ``executor``: where the noisy pools are
-    made (:func:`mocapkit.parallel.map_ordered`). The model's metadata keeps its
+    made (:func:`mocapkit.parallel.map_ordered`; ``executor_option``: how a refusal names it, Python's ``executor=``
+    or ``train``'s ``--executor``). The model's metadata keeps its
     card (:func:`mocapkit.cleaning.deep.provenance.model_card`): the rig family
     of the clips, the training data (takes and frames, trained on and held out)
     and the licence, inherited from the takes where the project knows it (the
@@ -665,9 +667,10 @@ def train(
     card = model_card(clips, validation, meta)  # the rig, data and licence the model file keeps
     noise = tuple(cfg.noise)
     jobs = [(c, layout, noise, cfg.variants, cfg.seed * 100003 + i) for i, c in enumerate(clips)]
-    data = map_ordered(prepare_clip, jobs, executor=executor, progress=progress, desc="noisy pairs")
+    data = map_ordered(prepare_clip, jobs, executor=executor, progress=progress, desc="noisy pairs",
+                       option=executor_option)
     val_jobs = [(c, layout, ("angular:0.5",), 1, 777 + i) for i, c in enumerate(validation or [])]
-    val = map_ordered(prepare_clip, val_jobs, executor=executor, progress=False) if val_jobs else []
+    val = map_ordered(prepare_clip, val_jobs, executor=executor, progress=False, option=executor_option) if val_jobs else []
     torch.manual_seed(cfg.seed)
     net = cfg.network(layout.num_channels)
     stats = _statistics(data)
