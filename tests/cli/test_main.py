@@ -262,6 +262,24 @@ def test_write_errors_are_one_line_naming_the_output(tmp_path, monkeypatch, caps
     assert not out.exists() and not out.parent.exists()  # the temporary file is gone too, and the folder made for it
 
 
+def test_a_write_error_names_the_output_as_typed(tmp_path, monkeypatch):
+    """-o ../ro/out.npz on a read-only file system said "/home/me/ro/out.npz: read-only file system": mkstemp makes
+    the temporary file's name absolute, and the line was read from it."""
+    import errno
+
+    import mocapkit.io as mio
+
+    def read_only(prefix="", suffix="", dir=None, **kwargs):  # as Python's own: the name it tried, made absolute
+        name = os.path.abspath(os.path.join(dir, f"{prefix}k2j4h1x9{suffix}"))
+        raise OSError(errno.EROFS, "Read-only file system", name)
+
+    (tmp_path / "work").mkdir()
+    monkeypatch.setattr(mio.tempfile, "mkstemp", read_only)
+    for out in (os.path.join("..", "ro", "walk.npz"), "walk.npz"):
+        code, _, err = run("convert", SAMPLE, out, cwd=tmp_path / "work")
+        assert code == 2 and err.strip() == f"mocapkit: error: {out}: read-only file system", err
+
+
 @pytest.mark.skipif(not hasattr(os, "geteuid") or os.geteuid() == 0, reason="root writes into read-only folders")
 def test_read_only_folder_for_real(tmp_path):
     ro = tmp_path / "ro"

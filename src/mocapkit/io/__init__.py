@@ -424,11 +424,13 @@ def atomic_write(path, mode: str = "w", **open_kwargs):
             path.parent.mkdir(parents=True, exist_ok=True)
             fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".part", dir=path.parent)
             fh = os.fdopen(fd, mode, **open_kwargs)
-    except BaseException:
+    except BaseException as exc:
         if tmp is not None:
             _close_quietly(fh, fd)
             _discard(tmp)
         _remove_empty(made)
+        if isinstance(exc, OSError):  # a read-only or full file system: the temporary file named as the user gave OUT
+            _named_as_given(exc, path)
         raise
     try:
         with fh:
@@ -440,6 +442,7 @@ def atomic_write(path, mode: str = "w", **open_kwargs):
     except OSError as exc:
         if exc.filename is None:  # a write or fsync failed (a full disk): the error names the output
             exc.filename = str(path)
+        _named_as_given(exc, path)
         _discard(tmp)
         _remove_empty(made)
         raise
@@ -447,6 +450,20 @@ def atomic_write(path, mode: str = "w", **open_kwargs):
         _discard(tmp)
         _remove_empty(made)
         raise
+
+
+def _named_as_given(exc: OSError, path: Path) -> None:
+    """Name the temporary file beside ``path`` in ``exc`` as ``path`` was given: ``tempfile.mkstemp`` makes its name
+    absolute, so ``-o ../ro/out.bvh`` on a read-only folder was said as ``/home/me/ro/out.bvh: read-only file
+    system`` (:func:`mocapkit.errors.os_error_line` reads the output's name from the temporary file's); now
+    ``../ro/out.bvh: read-only file system``."""
+    if path.is_absolute():
+        return
+    folder = os.path.abspath(path.parent)
+    for attr in ("filename", "filename2"):
+        name = getattr(exc, attr, None)
+        if isinstance(name, str) and os.path.isabs(name) and os.path.dirname(name) == folder:
+            setattr(exc, attr, str(path.with_name(os.path.basename(name))))
 
 
 def _close_quietly(fh, fd: int) -> None:
