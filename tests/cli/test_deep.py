@@ -822,7 +822,7 @@ def test_fill_with_an_own_rig_ebd_takes_the_ebf_named_as_its_pair_beside_it(tmp_
     code, out, err = run(*args)
     assert code == 0 and (tmp_path / "f.npz").is_file(), err
     said = [ln for ln in out.splitlines() if "own_ebf.pt" in ln]
-    assert len(said) == 1 and "beside" in said[0], out
+    assert len(said) == 1 and said[0].startswith(f"warning: {gin}: the EBF ") and "beside" in said[0], out
     code, _, err = run(*args[:3], tmp_path / "g.npz", *args[4:], "--denoiser", models / "own_ebf.pt")
     assert code == 0, err
     assert np.array_equal(mocapkit.load(tmp_path / "f.npz").rotations, mocapkit.load(tmp_path / "g.npz").rotations)
@@ -831,7 +831,8 @@ def test_fill_with_an_own_rig_ebd_takes_the_ebf_named_as_its_pair_beside_it(tmp_
 def test_every_path_pairs_an_own_rig_ebd_with_its_ebf_in_trains_layout(tmp_path):
     """``mocapkit train -o my_ebd`` / ``-o my_ebf`` write ``my_ebd/model.pt`` and ``my_ebf/model.pt``: an EBD given
     alone there is smoothed by that EBF in fill --model, clean --ebd, mocapkit.clean(models=) and deep.fill_gaps
-    alike (one rule, cleaning.deep.pairs), each the same as with the EBF named, and the CLI says which it used."""
+    alike (one rule, cleaning.deep.pairs), each the same as with the EBF named, and the CLI says which it used: fill
+    and clean in one line, the same words at the same level (fill said it as a note, clean as a warning)."""
     from mocapkit.cleaning import deep
 
     take, gin, lay, net = _own_rig_ebd(tmp_path)
@@ -845,12 +846,17 @@ def test_every_path_pairs_an_own_rig_ebd_with_its_ebf_in_trains_layout(tmp_path)
     assert np.array_equal(deep.fill_gaps(gappy, model=ebd, method="ebd").rotations, named.rotations)
     res = mocapkit.clean(gappy, steps="fill", models={"ebd": ebd})  # no gap prior in this EBD: the network fills
     assert np.array_equal(res.motion.rotations, named.rotations)
+    lines = []
     for cmd, opt in (("fill", "--model"), ("clean", "--ebd")):
         out = tmp_path / f"{cmd}.npz"
         code, said, err = run(cmd, gin, "-o", out, opt, ebd, *(("--by", "ebd") if cmd == "fill" else ("--steps", "fill")))
         assert code == 0, err
         assert np.array_equal(mocapkit.load(out).rotations, named.rotations)
-        assert str(ebf) in " ".join((said + err).split())
+        lines.append([ln for ln in (said + err).splitlines() if str(ebf) in ln])
+    assert lines[0] == lines[1] and len(lines[0]) == 1 and lines[0][0] == (
+        f"warning: {gin}: the EBF {ebf} smooths the fill of the EBD {ebd}: its pair beside it (by name, reading the "
+        f"same {lay.num_channels} channels), as no shipped EBF reads them"), lines
+    assert res.warnings == (lines[0][0].split(": ", 2)[2],)  # mocapkit.clean's warnings, word for word
 
 
 def test_train_names_unit_as_the_command_line_does(tmp_path):

@@ -199,12 +199,8 @@ def fill(
     if never:
         raise MocapError(f"{inp}: joint(s) {', '.join(never[:4])} are missing in every frame; nothing to fill them from")
     _served(inp, m, ebd, "ebd", no_fallback)
-    if ebd is not None and ebf is None and deep.ebf_takes_part(ebd, smooth, by):
-        pair, said = deep.paired_ebf(ebd)  # the shipped EBF of its channels (said ""), else its pair beside it
-        if said:
-            ebf = pair
-            console.print(f"note: {inp}: {said}")
-    try:  # the path clean's fill step takes
+    try:  # the path clean's fill step takes; an own-rig EBD's pair beside it is found there, said in done.note
+        # as clean says it (a warning line: a model file the command was not given)
         done = fill_take(m, ebd, ebf, smooth=smooth, method=by, options={"ebd": "--model", "ebf": "--denoiser"},
                          zeros=zeros)
     except (SkeletonError, ValueError) as exc:

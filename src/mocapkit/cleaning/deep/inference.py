@@ -876,7 +876,9 @@ def fill_or_fallback(motion: Motion, model=None, denoiser=None, smooth: bool = T
         try:
             out, runs = _fill_gaps(motion, sv, ebf if smooth else None, smooth, method)
             ebf_ran = ebf_takes_part(sv.model, smooth, method)
-            notes = dict.fromkeys(n for n in (*paired, licence_note(sv.model, options), unfinished_note(sv.model),
+            # the EBF found as the EBD's pair said only where it smooths: `fill` and `clean` say this one line alike
+            notes = dict.fromkeys(n for n in (*(paired if ebf_ran else ()), licence_note(sv.model, options),
+                                              unfinished_note(sv.model),
                                               licence_note(ebf.model, options) if ebf_ran else "",
                                               unfinished_note(ebf.model) if ebf_ran else "") if n)
             if model is None:
