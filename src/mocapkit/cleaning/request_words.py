@@ -83,7 +83,7 @@ def said_option(key: str, value, flags: bool) -> str:
 
 
 def _value(key: str, value, flags: bool) -> str:
-    """``value`` alone, as the ``(now ...)`` of a changed option says it: ``0.7``, ``cm``, ``'cm'``."""
+    """``value`` alone, as the ``(now ...)`` of a changed option says it: ``0.7``, ``cm`` (``"cm"`` to Python)."""
     said = said_option(key, value, flags)
     if key in ("threshold", "noise_deg", "amc_fps", "unit", "max_gap_s", "max_error_mm", "steps"):
         return said.split("=", 1)[1] if not flags else said.split(" ", 1)[1] if " " in said else said
