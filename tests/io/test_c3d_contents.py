@@ -5,6 +5,9 @@ from __future__ import annotations
 import dataclasses
 from pathlib import Path
 
+import numpy as np
+import pytest
+
 import mocapkit.samples
 from mocapkit.io import load_markers
 from mocapkit.io.c3d_contents import marker_file_contents
@@ -56,3 +59,41 @@ def test_a_crop_keeps_its_analogs_plates_and_the_events_inside_it(tmp_path):
     same = dict(marker_file_contents(load_markers(save_markers(take, tmp_path / "same.c3d",
                                                               like=mocapkit.samples.path("Eb015pr.c3d")))))
     assert same == dict(marker_file_contents(take))  # its own file as like=: every plate and event kept
+
+
+def test_a_crop_written_like_its_whole_file_keeps_the_events_inside_it(tmp_path):
+    # 2026-12-06: take[100:300] written like=Eb015pr.c3d (its own file, 450 frames) lost all 3 events, its analogs
+    # and its plates (the file was taken for another trial: another first frame and length); now it is the file
+    # without like=, byte for byte: frames 101-300 (2.0-5.98 s) keep RIC (2.72 s) and RHS (5.40 s), not RTO (7.32 s)
+    import ezc3d
+
+    from mocapkit.io import save_markers
+
+    path = mocapkit.samples.path("Eb015pr.c3d")
+    take = load_markers(path)
+    alone = save_markers(take[100:300], tmp_path / "alone.c3d")
+    for like in (path, take):
+        out = save_markers(take[100:300], tmp_path / "like.c3d", like=like, overwrite=True)
+        assert out.read_bytes() == alone.read_bytes()
+        crop = load_markers(out)
+        assert [(round(t, 2), label) for t, label, _ in crop.source.events] == [(2.72, "RIC "), (5.40, "RHS ")]
+        assert dict(marker_file_contents(crop))["force plates"] == "2 (type 2)"
+        c = ezc3d.c3d(str(out))  # ezc3d reads it back: frame 101 first (0-based 100), the 200 frames, 2 events
+        assert c["header"]["points"]["first_frame"] == 100 and c["data"]["points"].shape[2] == 200
+        assert list(c["header"]["events"]["events_time"][:2]) == pytest.approx([2.72, 5.40])
+
+
+def test_another_trial_of_the_same_rate_start_and_length_keeps_no_events(tmp_path):
+    # Eb015pr's markers 200 frames on (another moment of the gait, as another trial would hold): same rate, first
+    # frame and length as Eb015pr.c3d, which was enough to take its 3 events; the samples disagree, so none is kept.
+    # The take itself moved by 0.3 mm everywhere (a smoothing) is still the file's trial and keeps all 3.
+    from mocapkit.io import save_markers
+
+    path = mocapkit.samples.path("Eb015pr.c3d")
+    take = load_markers(path)
+    other = take.with_positions(np.roll(take.positions, 200, axis=0))
+    out = save_markers(other, tmp_path / "other.c3d", like=path)
+    assert load_markers(out).source.events == ()
+    moved = take.with_positions(take.positions + 0.3 / np.sqrt(3))
+    out = save_markers(moved, tmp_path / "moved.c3d", like=path)
+    assert load_markers(out).source.events == take.source.events

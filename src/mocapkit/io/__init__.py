@@ -113,8 +113,8 @@ def save_markers(markers: MarkerSet, path, *, like=None, stored_zeros: bool = Fa
     analog channels, a TRC's header fields. Without it, those of the file
     ``markers`` was read from are kept when it had the same format. A C3D's
     force plates are kept only with their analog channels, its events only
-    where ``like`` is the take's own trial (same rate, first frame and frame
-    count) and within the frames written (:mod:`mocapkit.io.c3d_trial`).
+    where ``like`` is the take's own trial (same rate, the take's frames, markers that agree there: a crop of
+    the file keeps the events inside it) and within the frames written (:mod:`mocapkit.io.c3d_trial`).
     ``stored_zeros`` (C3D): a gap the file stored as exact (0, 0, 0) that is
     still missing is written back as the file had it
     (:func:`~mocapkit.io.c3d.write_c3d`), not as residual -1. A .trc

@@ -46,7 +46,7 @@ from .c3d_frames import (FRAME_CAP, long_frame_parameters, point_words, put_stor
 from .c3d_layout import (header_layout, keep_data_start, put_analogs, put_header_gap, put_parameter,
                          stored_analogs)
 from .c3d_modelled import modelled_parameters, stated_positions
-from .c3d_trial import fit_event_group, fit_force_plates, fit_header_events, same_trial
+from .c3d_trial import fit_event_group, fit_force_plates, fit_header_events, trial_offset
 
 __all__ = ["MarkerSet", "read_c3d", "write_c3d", "apply_zero_gaps", "checked_unit_cm"]
 
@@ -674,16 +674,20 @@ def _header_events(raw: bytes) -> tuple[tuple[float, str, int], ...]:
 
 def _c3d_like(markers: MarkerSet, like) -> tuple[MarkerSource | None, bool]:
     """The C3D metadata to keep: ``like``'s (a MarkerSet, or a C3D file read for it), else the take's own; and
-    whether it is the take's own trial, whose events are the take's (:func:`~mocapkit.io.c3d_trial.same_trial`)."""
+    whether it is the take's own trial, whose events are the take's (:func:`~mocapkit.io.c3d_trial.trial_offset`).
+    A ``like`` holding more of the take's trial than the take (a crop written like its whole file) is cut to the
+    take's frames, so that its analogs (and the force plates in them) are kept too."""
     own = True
     if like is not None:
         if not isinstance(like, MarkerSet):
             like = read_c3d(like, zeros_as_gaps=False)
         source = like.source
-        mine = markers.source
-        own = source is mine or (source is not None and same_trial(
-            markers.fps, mine.first_frame if mine is not None else 1, markers.num_frames,
-            like.fps, source.first_frame, like.num_frames))
+        own = source is markers.source
+        if not own and source is not None and source.format == "c3d":
+            start = trial_offset(markers, like)
+            own = start is not None
+            if own and (start, markers.num_frames) != (0, like.num_frames):
+                source = like[start:start + markers.num_frames].source
     else:
         source = markers.source
     return (source, own) if source is not None and source.format == "c3d" else (None, own)
