@@ -212,6 +212,12 @@ def _c3d_package_parameters(reader) -> dict:
                     value = np.atleast_1d(np.asarray(param.int16_value if scalar else param.int16_array, dtype=int))
                 else:
                     value = np.atleast_1d(np.asarray(param.int8_value if scalar else param.int8_array, dtype=int))
+                if typ != -1:
+                    # the package shapes an array by its dimensions reversed (C order); ezc3d by the dimensions
+                    # themselves, first fastest (Fortran order), which is what the writer writes: transposed, a
+                    # plate's FORCE_PLATFORM:CHANNEL (6, plates) is not written as (plates, 6), which read its
+                    # channels across the plates (Eb015si.c3d: plate 1 on channels 1 and 9)
+                    value = value.T
             except Exception:  # a parameter the package cannot shape: not kept
                 continue
             g[pname] = {"type": typ, "description": _text(param.desc), "is_locked": False, "value": value}
@@ -229,23 +235,30 @@ def _with_written_case(parameters: dict, written: dict) -> dict:
 
     ezc3d keeps a file's names as written (dynamic.c3d's ``SUBJECT:Address``), and
     lookups by name are case-sensitive, so a take read by the pure-Python reader
-    is written back with its own names. ``written``: (GROUP, NAME) upper-cased -> (group, name) as the file
-    writes them, a group's own record keyed (GROUP, "") (:func:`_check_structure` reads them). The groups in
+    is written back with its own names. ``written``: (GROUP, NAME) upper-cased -> (group, name, locked) as the
+    file writes them, a group's own record keyed (GROUP, "") (:func:`_check_structure` reads them). The groups in
     :data:`_LOOKED_UP` (and their parameters) keep their upper-case names; a name the package changed
-    otherwise (a repeated group renamed) is kept as the package gives it.
+    otherwise (a repeated group renamed) is kept as the package gives it. Each keeps its lock (a negative name
+    length in the file), which the package does not read and ezc3d does: Eb015si.c3d's POINT:USED stays locked.
     """
     out = {}
     for group, params in parameters.items():
-        if group in _LOOKED_UP:
-            out[group] = params
-            continue
-        g = written.get((group, ""), (group, ""))[0]
-        out[g] = {written.get((group, k), (g, k))[1] if k != "__METADATA__" else k: v for k, v in params.items()}
+        g = group if group in _LOOKED_UP else written.get((group, ""), (group, ""))[0]
+        got = {}
+        for k, v in params.items():
+            if k == "__METADATA__":
+                got[k] = dict(v, IS_LOCKED=bool(written.get((group, ""), ("", "", v.get("IS_LOCKED")))[2]))
+                continue
+            spelled = written.get((group, k), (g, k, v.get("is_locked")))
+            got[k if group in _LOOKED_UP else spelled[1]] = dict(v, is_locked=bool(spelled[2]))
+        out[g] = got
     return out
 
 
 def _text(raw) -> str:
-    return raw.decode("latin-1").strip() if isinstance(raw, bytes) else str(raw or "").strip()
+    """A description as ezc3d reads it: its leading spaces kept (Eb015si.c3d's '  Analog labels'), the trailing
+    ones (padding) not."""
+    return raw.decode("latin-1").rstrip() if isinstance(raw, bytes) else str(raw or "").rstrip()
 
 
 def _read_c3d_package(path: Path, written: dict):
@@ -283,10 +296,15 @@ def _read_c3d_package(path: Path, written: dict):
                 except Exception:
                     pass
         first = int(reader.first_frame)
+        scale = reader.point_scale
     if data.shape[1] == 0:
         raise MocapFormatError(path, "C3D file holds no 3D points")
     xyz = _float32_values(data[..., :3])
-    resid = data[..., 3].copy()
+    # the package's residuals are float32 (byte * |scale| rounded): made the float64 products ezc3d's reading gives
+    # (residuals_and_cameras), so that a big-endian file read here and written back (little-endian, read by ezc3d)
+    # reads back equal (Eb015si.c3d: 8,357 residuals 2e-7 mm apart)
+    step = abs(float(scale))
+    resid = np.where(data[..., 3] < 0, -1.0, np.rint(data[..., 3] / step) * step if step > 0 else data[..., 3])
     xyz[resid < 0] = np.nan
     analogs = None
     if analog and np.asarray(analog[0]).size:
@@ -370,7 +388,8 @@ def _check_structure(path: Path, b: bytes) -> tuple[bool, dict]:
     typed: list[tuple[int, str, int, int]] = []  # (group id, name, type, data bytes)
     value_at: dict[tuple[int, str], int] = {}  # (group id, name) -> byte offset of its data
     spelled: dict[int, str] = {}  # group id -> its name as written
-    names: list[tuple[int, str]] = []  # (group id, parameter name as written)
+    names: list[tuple[int, str, bool]] = []  # (group id, parameter name as written, locked)
+    locked_groups: dict[int, bool] = {}  # group id -> locked
     count = 0
     while nblocks and i + 2 <= end:
         nlen = abs(struct.unpack_from("b", b, i)[0])
@@ -394,6 +413,7 @@ def _check_structure(path: Path, b: bytes) -> tuple[bool, dict]:
                 fail(f"parameter section defines group id {-gid} twice ({groups[-gid]}, {name.decode().upper()})")
             groups[-gid] = name.decode().upper()
             spelled[-gid] = name.decode()
+            locked_groups[-gid] = struct.unpack_from("b", b, i)[0] < 0  # a negative name length: locked
             need = 1
             if body + 1 <= end:
                 need += b[body]
@@ -412,7 +432,7 @@ def _check_structure(path: Path, b: bytes) -> tuple[bool, dict]:
             for d in b[body + 2 : body + 2 + ndim]:
                 size *= d
             typed.append((gid, name.decode().upper(), typ, size if typ != -1 or ndim else -1))
-            names.append((gid, name.decode()))
+            names.append((gid, name.decode(), struct.unpack_from("b", b, i)[0] < 0))
             value_at[(gid, name.decode().upper())] = body + 2 + ndim
             need = 2 + ndim + size + 1
             if body + need <= end:
@@ -428,8 +448,8 @@ def _check_structure(path: Path, b: bytes) -> tuple[bool, dict]:
     # Parameters of a group id the section never defines (c3d.org TYPE-2.C3D, TYPE-4.C3D) are
     # ignored, as ezc3d and the c3d package ignore them.
     typed = [t for t in typed if t[0] in groups]
-    written = {(g.upper(), ""): (g, "") for g in spelled.values()}
-    written.update({(groups[gid], n.upper()): (spelled[gid], n) for gid, n in names if gid in groups})
+    written = {(g.upper(), ""): (g, "", locked_groups[gid]) for gid, g in spelled.items()}
+    written.update({(groups[gid], n.upper()): (spelled[gid], n, lock) for gid, n, lock in names if gid in groups})
     # A parameter defined twice (Vicon's PiG_Calibration files: PROCESSING:BODYMASS) is read by
     # ezc3d, which keeps the first; the c3d package refuses it.
     ezc3d_ok = True
