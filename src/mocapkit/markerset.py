@@ -268,7 +268,11 @@ class MarkerSource:
     layout : mapping of str to int
         C3D: header words a writer keeps as the file had them
         (:func:`mocapkit.io.c3d_layout.header_layout`: the interpolation gap,
-        the data block's first block, the parameter section's block count);
+        the data block's first block, the parameter section's block count),
+        and the whole file's first frame number and frame count
+        (``trial_first``, ``trial_frames``: a part of the take keeps them, so
+        that a writer keeps an event past the file's ends while the frames
+        written reach that end: :func:`mocapkit.io.c3d_trial.event_kept`);
         empty otherwise.
     stored_zeros : float array (F, M, 2) or None
         C3D: the residual (in the file's units, as :attr:`MarkerSet.residuals`)

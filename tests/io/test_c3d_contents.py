@@ -97,3 +97,19 @@ def test_another_trial_of_the_same_rate_start_and_length_keeps_no_events(tmp_pat
     moved = take.with_positions(take.positions + 0.3 / np.sqrt(3))
     out = save_markers(moved, tmp_path / "moved.c3d", like=path)
     assert load_markers(out).source.events == take.source.events
+
+
+def test_an_event_past_the_file_s_last_frame_is_kept_while_the_take_reaches_it(shared_data, tmp_path):
+    # c3d.org's FP1.C3D (480 frames at 60 Hz: 0 to 7.98 s) lists L. E at 8.0 s, past its last frame: written back
+    # whole it was lost. Only a crop that cuts the file's end (frames 1-240) leaves it out now.
+    from mocapkit.io import save_markers
+
+    take = load_markers(shared_data / "peer_files" / "BTKData" / "Input" / "C3DSamples" / "c3d.org" / "sample15"
+                        / "FP1.C3D")
+    assert [t for t, _, _ in take.source.events] == pytest.approx([0.0, 8.0, 1 / 30, 0.0])
+    whole = load_markers(save_markers(take, tmp_path / "whole.c3d"))
+    assert whole.source.events == take.source.events
+    head = load_markers(save_markers(take[:240], tmp_path / "head.c3d"))
+    assert [label for _, label, _ in head.source.events] == ["R. I", "L. I", "R. E"]
+    tail = load_markers(save_markers(take[240:], tmp_path / "tail.c3d"))
+    assert [label for _, label, _ in tail.source.events] == ["L. E"]

@@ -46,7 +46,7 @@ from .c3d_frames import (FRAME_CAP, long_frame_parameters, point_words, put_stor
 from .c3d_layout import (header_layout, keep_data_start, put_analogs, put_header_gap, put_parameter,
                          stored_analogs)
 from .c3d_modelled import modelled_parameters, stated_positions
-from .c3d_trial import fit_event_group, fit_force_plates, fit_header_events, trial_offset
+from .c3d_trial import fit_event_group, fit_force_plates, fit_header_events, trial_offset, trial_span
 
 __all__ = ["MarkerSet", "read_c3d", "write_c3d", "apply_zero_gaps", "checked_unit_cm"]
 
@@ -650,7 +650,8 @@ def read_c3d(path, zeros_as_gaps: bool | None = None, units: str | None = None) 
     n = xyz.shape[1]
     labels = unique_labels(raw_labels, n)
     file_labels = tuple(str(s).strip() for s in list(raw_labels)[:n]) + labels[len(raw_labels):]
-    source = dataclasses.replace(source, labels=file_labels, events=_header_events(raw), layout=header_layout(raw),
+    layout = dict(header_layout(raw), trial_first=source.first_frame, trial_frames=xyz.shape[0])  # the whole file
+    source = dataclasses.replace(source, labels=file_labels, events=_header_events(raw), layout=layout,
                                  modelled=stated_positions(source.parameters, labels))
     modelled = set(modelled) | set(source.modelled)
     stated = str(units).replace("\x00", " ").strip()  # NUL-padded in some files (and cut ones)
@@ -734,7 +735,7 @@ def _c3d_object(markers: MarkerSet, source: MarkerSource | None, own: bool, firs
         if ratio and source.analogs.shape[1] == F * ratio:
             analogs = source.analogs
     fit_force_plates(c["parameters"], 0 if analogs is None else analogs.shape[0])
-    fit_event_group(c["parameters"], own, markers.fps, first, F)
+    fit_event_group(c["parameters"], own, markers.fps, first, F, trial_span(source.layout) if source is not None else None)
     c["header"]["points"]["first_frame"] = first - 1  # ezc3d's header counts from 0
     for group in ("POINT", "ANALOG"):
         if group not in c["parameters"]:
@@ -957,8 +958,8 @@ def write_c3d(markers: MarkerSet, path, *, like=None, stored_zeros: bool = False
     if stored is not None:
         put_analogs(data, markers.num_frames, markers.num_markers, stored)
         put_parameter(data, "ANALOG", "OFFSET", offsets)
-    _put_header_events(data, fit_header_events(source.events, own, markers.fps, first, markers.num_frames)
-                       if source is not None else ())
+    _put_header_events(data, fit_header_events(source.events, own, markers.fps, first, markers.num_frames,
+                                               trial_span(source.layout)) if source is not None else ())
     if source is not None and source.layout:
         put_header_gap(data, source.layout["interpolation_gap"])
         data = keep_data_start(data, source.layout)

@@ -27,7 +27,8 @@ import numpy as np
 
 from ..markerset import MarkerSet
 
-__all__ = ["same_rate", "same_trial", "samples_agree", "trial_offset", "event_kept", "fit_force_plates", "fit_event_group", "fit_header_events"]
+__all__ = ["same_rate", "same_trial", "samples_agree", "trial_offset", "event_kept", "fit_force_plates", "fit_event_group", "fit_header_events",
+           "trial_span"]
 
 
 def same_rate(fps: float, like_fps: float) -> bool:
@@ -99,11 +100,22 @@ def trial_offset(markers: MarkerSet, like: MarkerSet) -> int | None:
     return start if agree else None
 
 
-def event_kept(time_s: float, fps: float, first: int, frames: int) -> bool:
+def event_kept(time_s: float, fps: float, first: int, frames: int, trial: tuple[int, int] | None = None) -> bool:
     """Whether an event at ``time_s`` seconds (the trial's clock: frame ``n`` at ``(n - 1) / fps``) lies within
-    the ``frames`` frames written from frame number ``first`` (half a frame either side)."""
+    the ``frames`` frames written from frame number ``first`` (half a frame either side).
+
+    ``trial``: (first frame number, frame count) of the whole file read. An event before its first frame or
+    after its last lies in no frame a crop cut away, and is kept while the frames written reach that end of the
+    file: a take written whole keeps every event it had (c3d.org's FP1.C3D lists L. E at 8.0 s, past its 480
+    frames at 60 Hz: written back, it was lost)."""
     start = (int(first) - 1) / fps
-    return bool(start - 0.5 / fps <= float(time_s) <= start + (int(frames) - 0.5) / fps)
+    low, high = start - 0.5 / fps, start + (int(frames) - 0.5) / fps
+    if trial is not None:
+        if int(first) <= int(trial[0]):
+            low = -np.inf
+        if int(first) + int(frames) >= int(trial[0]) + int(trial[1]):
+            high = np.inf
+    return bool(low <= float(time_s) <= high)
 
 
 def fit_force_plates(parameters: dict, channels: int) -> bool:
@@ -138,10 +150,11 @@ def _per_event(value, count: int, keep: np.ndarray):
     return value
 
 
-def fit_event_group(parameters: dict, own: bool, fps: float, first: int, frames: int) -> int:
+def fit_event_group(parameters: dict, own: bool, fps: float, first: int, frames: int,
+                    trial: tuple[int, int] | None = None) -> int:
     """Keep, in ``parameters``' ``EVENT`` group (changed in place), only the events of the take's own trial
-    (``own``) that lie within its frames (:func:`event_kept`); ``USED`` and every per-event parameter (LABELS,
-    CONTEXTS, TIMES, ...) follow. Returns how many events were left out."""
+    (``own``) that lie within its frames (:func:`event_kept`, ``trial`` as there); ``USED`` and every per-event
+    parameter (LABELS, CONTEXTS, TIMES, ...) follow. Returns how many events were left out."""
     group = parameters.get("EVENT")
     if not group or "USED" not in group or "TIMES" not in group:
         return 0
@@ -150,7 +163,7 @@ def fit_event_group(parameters: dict, own: bool, fps: float, first: int, frames:
         return 0
     times = np.asarray(group["TIMES"]["value"], dtype=np.float64)
     pairs = times.reshape(count, 2) if times.ndim == 1 else times.reshape(2, -1).T[:count]
-    keep = np.array([own and event_kept(60.0 * m + s, fps, first, frames) for m, s in pairs], dtype=bool)
+    keep = np.array([own and event_kept(60.0 * m + s, fps, first, frames, trial) for m, s in pairs], dtype=bool)
     if keep.all():
         return 0
     for key in [k for k in group if k not in ("__METADATA__", "USED")]:
@@ -160,7 +173,17 @@ def fit_event_group(parameters: dict, own: bool, fps: float, first: int, frames:
     return int((~keep).sum())
 
 
-def fit_header_events(events, own: bool, fps: float, first: int, frames: int) -> tuple:
+def fit_header_events(events, own: bool, fps: float, first: int, frames: int,
+                      trial: tuple[int, int] | None = None) -> tuple:
     """The header events (``(time s, label, flag)``) to write: the take's own trial's (``own``) within its
-    frames (:func:`event_kept`); none of another trial's."""
-    return tuple(e for e in events if own and event_kept(e[0], fps, first, frames))
+    frames (:func:`event_kept`, ``trial`` as there); none of another trial's."""
+    return tuple(e for e in events if own and event_kept(e[0], fps, first, frames, trial))
+
+
+def trial_span(layout) -> tuple[int, int] | None:
+    """(first frame number, frame count) of the whole C3D file a take was read from, as
+    :func:`~mocapkit.io.c3d.read_c3d` keeps them in ``MarkerSource.layout`` (``trial_first``, ``trial_frames``);
+    None where it does not (a take read before they were kept, or from no C3D)."""
+    if "trial_first" not in layout or "trial_frames" not in layout:
+        return None
+    return int(layout["trial_first"]), int(layout["trial_frames"])
