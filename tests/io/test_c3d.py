@@ -957,3 +957,66 @@ def test_a_big_endian_c3d_is_written_as_its_little_endian_twin(shared_data, tmp_
         assert np.array_equal(back.source.analogs, take.source.analogs)
         plates = ezc3d.c3d(str(out))["parameters"]["FORCE_PLATFORM"]
         assert plates["CHANNEL"]["value"][:, 0].tolist() == [1, 2, 3, 4, 5, 6]
+
+
+def test_an_integer_c3d_is_written_back_as_its_own_16_bit_numbers(shared_data, tmp_path):
+    # c3d.org's Eb015pi.c3d stores int16 * POINT:SCALE (0.0833 mm). It came back as a float file twice its size,
+    # whose samples other readers (ezc3d: float64 products) read up to half a float32 step off the input's. Now
+    # its data block is the input's, bit for bit; a changed sample is rounded to the file's step, and a cleaning's
+    # notes say so.
+    import struct
+
+    import ezc3d
+
+    from mocapkit.io import marker_notes, save_markers
+
+    path = shared_data / "c3d_markers" / "Eb015pi.c3d"
+    take = read_c3d(path)
+    raw, got = path.read_bytes(), save_markers(take, tmp_path / "same.c3d").read_bytes()
+    assert len(got) == len(raw) and struct.unpack_from("<f", got, 12)[0] == pytest.approx(1 / 12)
+    block = slice(10 * 512, 10 * 512 + 450 * (4 * 26 + 16 * 4) * 2)  # data block 11 in both: 450 frames, int16
+    assert got[block] == raw[block]
+    step = float(np.float32(1 / 12))
+    f, m = next((f, m) for f in range(100, 450) for m in range(26) if not take.missing()[f, m])
+    moved = take.positions.copy()
+    moved[f, m] += 0.01  # mm: 0.12 of a step
+    out = save_markers(take.with_positions(moved), tmp_path / "moved.c3d")
+    back = read_c3d(out)
+    assert np.all(np.abs(back.positions[f, m] - moved[f, m]) <= step / 2)
+    assert np.array_equal(back.positions[f, m], take.positions[f, m])  # rounded back to the step it was on
+    a, b = ezc3d.c3d(str(path))["data"]["points"], ezc3d.c3d(str(out))["data"]["points"]
+    seen = ~take.missing().T
+    assert np.array_equal(a[:3][:, seen], b[:3][:, seen])  # every reader reads the input's values
+    notes = marker_notes(take, out, path, filled=np.zeros(take.missing().shape, dtype=bool))
+    assert any("16-bit integers in steps of 0.08333 mm" in note and "0.042 mm at most" in note for note in notes)
+    far = take.positions.copy()
+    far[f, m, 0] = 3000.0  # mm: past the 32,767 steps (2.73 m) a 16-bit number holds: the file is written as floats
+    out = save_markers(take.with_positions(far), tmp_path / "far.c3d")
+    assert struct.unpack_from("<f", out.read_bytes(), 12)[0] < 0
+    assert np.array_equal(read_c3d(out).positions, far, equal_nan=True)
+    other = read_c3d(Path(__file__).resolve().parents[1] / "data" / "85_02.c3d")  # another trial: not rounded
+    out = save_markers(other, tmp_path / "other.c3d", like=path)
+    assert struct.unpack_from("<f", out.read_bytes(), 12)[0] < 0
+
+
+def test_an_integer_c3d_keeps_its_storage_without_shared_data(tmp_path):
+    # the same on a small integer file the c3d package writes (scale 0.1): the data block comes back as it was,
+    # a changed sample on the nearest 0.1 step
+    import struct
+
+    from mocapkit.io import save_markers
+
+    path = _integer_c3d(tmp_path / "int.c3d")
+    take = read_c3d(path)
+    raw, got = path.read_bytes(), save_markers(take, tmp_path / "back.c3d").read_bytes()
+    start = lambda b: (struct.unpack_from("<H", b, 16)[0] - 1) * 512  # noqa: E731
+    assert struct.unpack_from("<f", got, 12)[0] == pytest.approx(0.1)
+    a = np.frombuffer(got, "<i2", 30 * 12, start(got)).reshape(30, 3, 4)
+    b = np.frombuffer(raw, "<i2", 30 * 12, start(raw)).reshape(30, 3, 4)
+    seen = np.arange(30) != 4  # frame 5 is occluded: written as C3D has it, coordinates 0 and word -1
+    assert np.array_equal(a[seen], b[seen]) and np.all(a[4] == [0, 0, 0, -1]) and np.all(b[4, :, 3] < 0)
+    moved = take.positions.copy()
+    moved[10, 1] += 0.123456789
+    back = read_c3d(save_markers(take.with_positions(moved), tmp_path / "moved.c3d"))
+    assert np.allclose(back.positions[10, 1], moved[10, 1], rtol=0, atol=0.05 + 1e-6)
+    assert np.allclose(back.positions[10, 1] / np.float32(0.1), np.rint(back.positions[10, 1] / np.float32(0.1)))

@@ -125,7 +125,7 @@ def save_markers(markers: MarkerSet, path, *, like=None, stored_zeros: bool = Fa
     (:func:`mocapkit.io.npz.write_npz`; a C3D marks them by residual 0, a TRC cannot).
 
     An existing ``path`` is refused (:class:`~mocapkit.errors.MocapFormatError`) unless ``overwrite=True``:
-    a marker file written anew is not the file it replaces (a C3D's integer samples come back as floats),
+    a marker file written anew is not the file it replaces (a C3D's parameter section is ezc3d's),
     so a capture is never rewritten by a call that did not ask for it. ``path`` naming the file ``like``
     is refused even so: that file is what the output is written like, and it is read while writing.
     """
@@ -184,6 +184,9 @@ def marker_notes(markers: MarkerSet, path, inp=None, *, keep_modelled: bool = Fa
     header rates and counts in a .c3d or .npz), so that nothing is dropped
     without a word. Each line names the file it is about (``inp``, ``path``).
 
+    A .c3d written after a cleaning (``filled`` given) of an integer C3D, stored as 16-bit integers as the
+    input is (:func:`mocapkit.io.c3d_layout.integer_data`), gets a line saying that the changed and filled
+    samples are rounded to the file's steps (POINT:SCALE).
     A .trc also gets a line for the modelled quantities it leaves out (count
     and kinds, :meth:`MarkerSet.quantities`; none with ``keep_modelled``), and
     one for the samples it writes like recorded ones although they are not,
@@ -217,6 +220,15 @@ def marker_notes(markers: MarkerSet, path, inp=None, *, keep_modelled: bool = Fa
                   if source.parameters.get(k)]
         if fields:
             lost.append(f"TRC header fields {', '.join(fields)}")
+    if kind == "c3d" and filled is not None and source is not None and source.format == "c3d":
+        from .c3d_layout import stored_scale
+
+        step = stored_scale(path)  # the output's: 16-bit integers where the input's were and every value fitted
+        if step is not None and step > 0:
+            notes.append(f"{path}: samples stored as 16-bit integers in steps of {step:.4g} {markers.units}, as "
+                         f"{inp if inp is not None else 'the input'} stores them: a sample the cleaning changed or "
+                         f"filled is rounded to the nearest step ({step / 2:.2g} {markers.units} at most), every "
+                         "other one is the input's own number")
     if kind == "trc":
         from .trc import trc_notes
 

@@ -18,11 +18,12 @@ Residuals and camera masks are read from each point's fourth word as
 the C3D guide defines it (:func:`point_words`: ezc3d 1.7 swaps its two
 bytes), and the header's events (:func:`_header_events`) are kept.
 
-:func:`write_c3d` writes float point data with ezc3d and keeps every other
-parameter group and the analog channels of the file read. Coordinates and
-analog samples are read as the float32 values a float C3D holds
-(:func:`_float32_values`), so that what is written back reads the same, bit
-for bit, wherever a command did not change it, integer files included. C3D
+:func:`write_c3d` writes with ezc3d and keeps every other parameter group and
+the analog channels of the file read, and an integer file's 16-bit storage
+(:func:`~mocapkit.io.c3d_layout.integer_data`). Coordinates and analog samples
+are read as the float32 values a float C3D holds (:func:`_float32_values`), so
+that what is written back reads the same, bit for bit, wherever a command did
+not change it, integer files included. C3D
 format: Motion Lab Systems, "The C3D File Format User Guide" (c3d.org).
 """
 
@@ -43,8 +44,8 @@ from ..markerset import (MODELLED_GROUPS, MarkerSet, MarkerSource, length_unit_c
 from ..motion import check_fps
 from .c3d_frames import (FRAME_CAP, long_frame_parameters, point_words, put_stored_zeros, read_float,
                          residuals_and_cameras, rest_of_trial, sample_bytes, zero_gap_words)
-from .c3d_layout import (header_layout, keep_data_start, put_analogs, put_header_gap, put_parameter,
-                         stored_analogs)
+from .c3d_layout import (header_layout, integer_data, integer_scale, keep_data_start, put_analogs, put_header_gap,
+                         put_parameter, stored_analogs)
 from .c3d_modelled import modelled_parameters, stated_positions
 from .c3d_trial import fit_event_group, fit_force_plates, fit_header_events, trial_offset, trial_span
 
@@ -71,9 +72,8 @@ class _NoPoints(Exception):
 def _float32_values(values) -> np.ndarray:
     """``values`` (point coordinates or analog samples) as float64 holding the float32 nearest each.
 
-    What :func:`write_c3d` writes is float32, because ezc3d writes float data
-    only: it cannot keep an integer file's storage (int16 and POINT:SCALE),
-    which would have been the better way. A float C3D holds float32 already;
+    ezc3d writes float32 data only (:func:`write_c3d` turns an integer
+    file's back into 16-bit numbers where they fit). A float C3D holds float32 already;
     an integer one (positive POINT:SCALE: Eb015pi.c3d, BTK's Gait.c3d) holds
     ``int16 * scale``, which ezc3d and the c3d package compute in float64 and
     float32 cannot all hold: written back, 97 % of Gait's samples came back
@@ -907,12 +907,14 @@ def _ezc3d_bytes(c, path: Path, frames: int, points: int) -> bytearray:
 
 
 def write_c3d(markers: MarkerSet, path, *, like=None, stored_zeros: bool = False) -> None:
-    """Write ``markers`` to a float C3D file with ezc3d, atomically (temp file + rename).
+    """Write ``markers`` to a C3D file with ezc3d, atomically (temp file + rename).
 
-    Points are written as float32 (POINT:SCALE -1: ezc3d writes no integer
-    data, so an integer file comes back as a float one; :func:`read_c3d`
-    reads both as float32 values, so every sample not changed reads back
-    bit-identical), missing samples with
+    Points are written as float32 (POINT:SCALE negative), or, where the file
+    kept (``like``'s, else the take's own) is the take's trial and stores 16-bit
+    integers, as its integers where every value fits (:func:`~mocapkit.io.c3d_layout.integer_data`:
+    an unchanged sample the file's own number, a changed one rounded to its
+    step); :func:`read_c3d` reads both as float32 values, so every sample not
+    changed reads back bit-identical; missing samples with
     residual -1 (and NaN coordinates, which ezc3d and the ``c3d`` package both
     read back as missing), seen ones with the take's residuals and camera
     masks (residual 0 and no camera for a sample a cleaner changed or
@@ -963,5 +965,10 @@ def write_c3d(markers: MarkerSet, path, *, like=None, stored_zeros: bool = False
     if source is not None and source.layout:
         put_header_gap(data, source.layout["interpolation_gap"])
         data = keep_data_start(data, source.layout)
+    # the take's own integer file keeps its storage where every value fits (else float, as ezc3d wrote); another
+    # trial's samples, never on that file's steps, are not rounded to them
+    step = integer_scale(source.parameters, markers.units) if source is not None and own else None
+    if step is not None:
+        data = integer_data(data, markers.num_frames, markers.num_markers, step) or data
     with atomic_write(path, "wb") as fh:
         fh.write(data)
