@@ -357,7 +357,7 @@ def _check_structure(path: Path, b: bytes) -> tuple[bool, dict]:
     an unexpected type or no value, or the file holds fewer whole frames than
     the header states (the pure-Python reader copes with those and reads the
     frames there); and the parameter names as the file writes them, (GROUP,
-    NAME) upper-cased -> (group, name) (a group's own record keyed (GROUP, ""):
+    NAME) upper-cased -> (group, name, locked) (a group's own record keyed (GROUP, ""):
     :func:`_with_written_case`).
     """
     n = len(b)
