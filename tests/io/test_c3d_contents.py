@@ -113,3 +113,17 @@ def test_an_event_past_the_file_s_last_frame_is_kept_while_the_take_reaches_it(s
     assert [label for _, label, _ in head.source.events] == ["R. I", "L. I", "R. E"]
     tail = load_markers(save_markers(take[240:], tmp_path / "tail.c3d"))
     assert [label for _, label, _ in tail.source.events] == ["L. E"]
+
+
+def test_a_file_s_own_plates_are_kept_as_it_has_them(shared_data, tmp_path):
+    # BTK's shd01.c3d holds 6 analog channels and states 2 plates, the second on channels 8-13: written back
+    # unchanged, both plates were left out (USED 0) as if its channels had been dropped; every channel is written
+    import ezc3d
+
+    from mocapkit.io import save_markers
+
+    path = shared_data / "peer_files" / "BTKData" / "Input" / "C3DSamples" / "others" / "shd01.c3d"
+    out = save_markers(load_markers(path), tmp_path / "shd01.c3d")
+    before, after = (ezc3d.c3d(str(p))["parameters"]["FORCE_PLATFORM"] for p in (path, out))
+    for key in ("USED", "CHANNEL", "TYPE", "CORNERS", "ORIGIN"):
+        assert np.array_equal(after[key]["value"], before[key]["value"]), key

@@ -734,7 +734,8 @@ def _c3d_object(markers: MarkerSet, source: MarkerSource | None, own: bool, firs
         ratio = source.analog_ratio(F)
         if ratio and source.analogs.shape[1] == F * ratio:
             analogs = source.analogs
-    fit_force_plates(c["parameters"], 0 if analogs is None else analogs.shape[0])
+    fit_force_plates(c["parameters"], 0 if analogs is None else analogs.shape[0],
+                     None if source is None or source.analogs is None else source.analogs.shape[0])
     fit_event_group(c["parameters"], own, markers.fps, first, F, trial_span(source.layout) if source is not None else None)
     c["header"]["points"]["first_frame"] = first - 1  # ezc3d's header counts from 0
     for group in ("POINT", "ANALOG"):

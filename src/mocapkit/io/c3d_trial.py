@@ -118,13 +118,16 @@ def event_kept(time_s: float, fps: float, first: int, frames: int, trial: tuple[
     return bool(low <= float(time_s) <= high)
 
 
-def fit_force_plates(parameters: dict, channels: int) -> bool:
+def fit_force_plates(parameters: dict, channels: int, held: int | None = None) -> bool:
     """Leave out (``USED`` 0, no per-plate parameter) the force plates of ``parameters`` (an ezc3d parameter
     dict, changed in place) whose ``FORCE_PLATFORM:CHANNEL`` names an analog channel beyond the ``channels``
     written. Returns whether any plate was left out. The plates are left out whole: a plate with some of its
-    channels is no plate a reader can use either."""
+    channels is no plate a reader can use either. ``held``: the analog channels of the file read; where every
+    one is written (``channels >= held``) the plates are the file's as it had them, kept even where they name
+    channels it never held (BTK's shd01.c3d: plate 2 on channels 8-13 of 6; both plates were left out of it
+    written back unchanged)."""
     group = parameters.get("FORCE_PLATFORM")
-    if not group or "USED" not in group:
+    if not group or "USED" not in group or (held is not None and channels >= held):
         return False
     used = int(np.ravel(group["USED"]["value"])[0]) if np.size(group["USED"]["value"]) else 0
     chan = np.asarray(group.get("CHANNEL", {}).get("value", []))
