@@ -37,7 +37,7 @@ from .cues import (
     swaps_from_residuals,
     CAUSE_DTYPE,
 )
-from .drifts import body_agreement, not_looked_for, offset_change, smooth_drift_flags
+from .drifts import body_agreement, group_offset_change, not_looked_for, smooth_drift_flags
 from .neighbours import Neighbors, flagged_words, mean_motion_texture, nearest_words, unseen_words
 from .params import SSAParams
 from .repeats import analysed_once, expand, inbetween_runs, kept_frames, repeat_runs, without_repeats
@@ -110,7 +110,8 @@ class Detection:
     drifts, :func:`smooth_drift_flags`, where ``params.drift_change`` is
     off); change : float (F, J) or None, the joint's offset from
     the mean texture less the offset it holds over the take, over the same
-    spread and noise (:func:`~mocapkit.cleaning.ssa.drifts.offset_change`;
+    spread and noise, both in the joint group that judges the cell
+    (:func:`~mocapkit.cleaning.ssa.drifts.group_offset_change`;
     the drift rule's evidence, None where ``params.drift`` or
     ``params.drift_change`` is off); digression : float (F, J) angle in
     radians between the input and the mean motion texture (NaN where not
@@ -685,10 +686,8 @@ def detect_prepared(an: Analysis, threshold: float = 0.5, *, progress: bool = Fa
     change = None
     if more:  # the drift rule's second evidence: the joint's offset from its neighbours, less the one it holds
         rot_g, scale_g = more
-        rot = np.take_along_axis(rot_g, best[None, :, :, None], axis=0)[0]
-        scale = np.take_along_axis(scale_g, best[None], axis=0)[0]
         change = np.full((F, J), np.nan)
-        change[:, tex_joints] = offset_change(np.where(ok[..., None], rot, np.nan), np.where(ok, scale, np.nan))
+        change[:, tex_joints] = np.where(ok, group_offset_change(rot_g, scale_g, best), np.nan)
     analysed = np.zeros(J, dtype=bool)
     analysed[tex_joints] = True
     q = np.asarray(motion.rotations, dtype=np.float64)

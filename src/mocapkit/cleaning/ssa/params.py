@@ -88,7 +88,8 @@ class SSAParams:
         :func:`~mocapkit.cleaning.ssa.drifts.chain_level`); None: not asked.
     drift_change : bool
         A cell is evidence of a drift only as far as the joint's offset from its neighbours' mean differs
-        from the offset it holds over the take (the median): that ratio, not the joint's angle ratio, is
+        from the offset it holds over the take (the median; both in the group that judges the cell,
+        :func:`~mocapkit.cleaning.ssa.drifts.group_offset_change`): that ratio, not the joint's angle ratio, is
         the one compared with ``drift_z`` and ``drift_extent``. A style holds an offset for the whole
         take; a drift leaves and comes back (:func:`~mocapkit.cleaning.ssa.drifts.offset_change`); False:
         the angle ratio.
