@@ -8,8 +8,8 @@ import pytest
 from mocapkit import corrupt
 from mocapkit import rotations as R
 from mocapkit.cleaning import ssa
-from mocapkit.cleaning.ssa.drifts import (body_agreement, chain_level, excursions, group_offset_change, other_joints_level,
-                                         smooth_drift_flags)
+from mocapkit.cleaning.ssa.drifts import (body_agreement, chain_level, excursions, group_agreement, group_offset_change,
+                                         other_joints_level, smooth_drift_flags)
 
 
 def slow_agreement(d, analysed):
@@ -44,6 +44,29 @@ def test_body_agreement_is_the_median_of_the_other_analysed_joints():
         body_agreement(d, analysed[:3])
 
 
+
+def test_group_agreement_is_the_other_joints_angle_from_the_words_that_judge_the_joint():
+    """The body agrees with the words that judge a joint, not with each other joint's closest words: joint 0's
+    group 1 matches it best while the rest of the body is far from group 1's words (12 deg); each other joint is
+    close to some other group's (1 deg), and the median of those smallest angles (what body_agreement reads)
+    says the body agrees."""
+    F = 20
+    d = np.full((3, F, 4), np.nan)
+    d[0] = np.radians([5.0, 1.0, 1.0, 1.0])  # group 0 holds every joint: the others close, joint 0 not
+    d[1, :, :3] = np.radians([0.5, 12.0, 12.0])  # group 1 (joints 0-2) matches joint 0 and nothing else
+    d[2, :, [0, 3]] = np.radians(2.0)  # group 2 holds joints 0 and 3 only
+    best = np.nanargmin(d, axis=0)
+    assert (best[:, 0] == 1).all()
+    got = np.degrees(group_agreement(d, best))
+    assert np.allclose(got[:, 0], 12.0)  # the median of joints 1 and 2 in group 1
+    assert np.allclose(np.degrees(body_agreement(np.nanmin(d, axis=0), np.ones(4, dtype=bool)))[:, 0], 1.0)
+    assert np.allclose(got[:, 3], 1.0)  # joint 3 judged by group 0: joints 0 (5), 1 and 2 (1 each)
+    assert np.allclose(np.degrees(group_agreement(d, np.full((F, 4), 2)))[:, 3], 2.0)  # group 2: joint 0 alone
+    lone = np.full((1, F, 4), np.nan)
+    lone[0, :, 0] = 0.1
+    assert np.isnan(group_agreement(lone, np.zeros((F, 4), dtype=int))).all()  # no other joint in the group
+    with pytest.raises(ValueError, match="best"):
+        group_agreement(d, best[:, :3])
 
 def drift_case(F=100, fps=100.0, J=3):
     """A 40-frame excursion on joint 0 (consistency up to 6), the body agreeing (1 deg) everywhere."""

@@ -37,7 +37,7 @@ from .cues import (
     swaps_from_residuals,
     CAUSE_DTYPE,
 )
-from .drifts import body_agreement, group_offset_change, not_looked_for, smooth_drift_flags
+from .drifts import group_agreement, group_offset_change, not_looked_for, smooth_drift_flags
 from .neighbours import Neighbors, flagged_words, mean_motion_texture, nearest_words, unseen_words
 from .params import SSAParams
 from .repeats import analysed_once, expand, inbetween_runs, kept_frames, repeat_runs, without_repeats
@@ -104,8 +104,9 @@ class Detection:
     :func:`held_joints` (a hold that holds a frozen channel cut to its frozen cells,
     :func:`~mocapkit.cleaning.ssa.freeze_bounds.bounded_holds`), :func:`side_swaps` and :func:`transient_offsets`
     (flagged with confirmation at any threshold); agreement : float (F, J)
-    the median angle in radians of the other analysed joints from the mean
-    texture (:func:`body_agreement`), consistency : float (F, J) the joint's
+    the median angle in radians of the other joints of the group that judges
+    the cell from that group's mean texture
+    (:func:`~mocapkit.cleaning.ssa.drifts.group_agreement`), consistency : float (F, J) the joint's
     angle over the neighbours' spread and noise (the evidence of the smooth
     drifts, :func:`smooth_drift_flags`, where ``params.drift_change`` is
     off); change : float (F, J) or None, the joint's offset from
@@ -718,7 +719,9 @@ def detect_prepared(an: Analysis, threshold: float = 0.5, *, progress: bool = Fa
     chosen = has_context and not (isinstance(info, dict) and info.get("default"))
     if p.drift and not chosen:
         notes.append(not_looked_for(has_context, isinstance(info, dict) and bool(info.get("default"))))
-    agreement = body_agreement(digression, analysed) if chosen else np.full((F, J), np.nan)
+    agreement = np.full((F, J), np.nan)
+    if chosen:  # the other joints' angles from the mean texture of the neighbour words that judge the joint
+        agreement[:, tex_joints] = np.where(ok, group_agreement(dig_g, best), np.nan)
     agreement[:, [0, pelvis_index(sk)]] = np.nan
     drifts = _drifts(jumps, agreement, consistency, motion.fps, p, sk.joint_names, change, sk.parents) if p.drift else None
     spikes = spike_breaks(q, resid, jumps)

@@ -13,9 +13,10 @@ joints closely (the context holds this motion), they agree among themselves on
 the joint (their spread is small), and the joint alone is far from them. The
 statistic, per cell ``(f, j)``:
 
-- ``agreement``: the median, over the other analysed joints, of their angle
-  from the mean motion texture at frame ``f`` (radians) -- how well the
-  neighbours match the rest of the body (:func:`body_agreement`);
+- ``agreement``: the median, over the other joints of the group whose
+  neighbours judge the cell, of their angle from that group's mean motion
+  texture at frame ``f`` (radians) -- how well the neighbours that judge the
+  joint match the rest of the body (:func:`group_agreement`);
 - ``consistency``: the joint's angle from the mean texture over the
   neighbours' spread at the cell and the capture noise, ``a / sqrt(s^2 +
   noise^2)`` (the ``"spread"`` z-score of :func:`detect`).
@@ -79,8 +80,8 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["body_agreement", "chain_level", "excursions", "group_offset_change", "not_looked_for", "offset_change",
-           "other_joints_level", "smooth_drift_flags"]
+__all__ = ["body_agreement", "chain_level", "excursions", "group_agreement", "group_offset_change", "not_looked_for",
+           "offset_change", "other_joints_level", "smooth_drift_flags"]
 
 
 def not_looked_for(has_context: bool, default: bool) -> str:
@@ -123,6 +124,30 @@ def body_agreement(digression: np.ndarray, analysed: np.ndarray) -> np.ndarray:
     return out
 
 
+
+def group_agreement(digression: np.ndarray, best: np.ndarray) -> np.ndarray:
+    """(F, m) :func:`body_agreement` within each joint group, read from the group that judges the cell.
+
+    ``digression`` float (G, F, m): per joint group (section 3.1), each joint's angle from that group's mean
+    motion texture (radians; NaN where the group does not hold the joint or judge the cell); ``best`` int (F, m)
+    the group whose neighbours explain each cell best (``Detection.best_group``). The value at ``(f, j)`` is the
+    median angle of the *other* joints of group ``best[f, j]`` from that group's mean texture: how closely the
+    neighbour words that judge the joint match the rest of the body. Each joint's smallest angle over the groups
+    (``Detection.digression``, what :func:`body_agreement` reads) takes every other joint's closest words,
+    which are not the joint's: with more groups to choose from (the Bandai Namco rig's ``upper`` group beside
+    ``whole``, ``left`` and ``right``) the body seems to agree where the words that judge the joint do not (the
+    calibration styles' untouched takes: 454 drift cells that way, 275 this one;
+    ``benchmarks/drift_detection.py --split calibration``). NaN where that group has no other joint's value.
+    """
+    d = np.asarray(digression, dtype=np.float64)
+    best = np.asarray(best)
+    if d.ndim != 3 or best.shape != d.shape[1:]:
+        raise ValueError(f"need digression (G, F, m) and best (F, m), got {d.shape} and {best.shape}")
+    if d.shape[0] == 0:
+        return np.full(best.shape, np.nan)
+    per_group = np.stack([body_agreement(d[g], np.isfinite(d[g]).any(axis=0)) for g in range(d.shape[0])])
+    ok = (best >= 0) & (best < d.shape[0])
+    return np.where(ok, np.take_along_axis(per_group, np.where(ok, best, 0)[None], axis=0)[0], np.nan)
 
 def offset_change(offsets: np.ndarray, scale: np.ndarray) -> np.ndarray:
     """(F, J) how far each joint's offset from its neighbours moves away from the offset it holds over the take.

@@ -70,8 +70,9 @@ class SSAParams:
         ``offset_max_s``, at breaks over ``offset_jump_deg``.
     drift, drift_repeat_deg, drift_z, drift_min_s, drift_extent : bool, degrees, ratio, seconds, ratio
         Smooth drifts (:mod:`mocapkit.cleaning.ssa.drifts`): a digression with no break is flagged where,
-        for at least ``drift_min_s``, the other joints sit within ``drift_repeat_deg`` (median) of the
-        neighbours' mean (the context repeats the motion) and the joint's angle is ``drift_z`` times the
+        for at least ``drift_min_s``, the other joints of the group that judges the joint sit within
+        ``drift_repeat_deg`` (median) of that group's neighbours' mean (the context repeats the motion,
+        :func:`~mocapkit.cleaning.ssa.drifts.group_agreement`) and the joint's angle is ``drift_z`` times the
         neighbours' spread and noise; the flagged run extends while that ratio exceeds ``drift_extent``;
     drift_others, drift_return_ratio : int or None, ratio
         At most ``drift_others`` other joints may digress by ``drift_z`` at the same frames (one joint
