@@ -230,12 +230,12 @@ def clean(take, context=None, *, steps=None, threshold: float | None = None, asf
 
 
 def _request(context, steps, threshold, drifts, models, noise_deg, fps, unit, joint_map=None) -> dict:
-    """The options a take is cleaned with, as the CLI's record keeps them (:func:`mocapkit.batch.clean_request`):
+    """The options a take is cleaned with, as the CLI's record keeps them (:func:`mocapkit.batch_request.clean_request`):
     a cleaning made here and one made by ``mocapkit clean`` with the same options have one
     :func:`~mocapkit.cleaning.decisions.cleaning_digest`. ``context`` is said as ``--context`` says it (None: the
     default; False or "none": none; a folder or files: their paths); one held in memory (a database, Motions), which
     no command line can give, by what it is."""
-    from .batch import clean_request
+    from .batch_request import clean_request
 
     if context is None or context is False:
         said = None if context is None else ["none"]

@@ -10,7 +10,7 @@ changes, its masks holding only their cells, and the :class:`~mocapkit.cleaning.
 :meth:`~mocapkit.cleaning.pipeline.CleanResult.summary` says.
 
 A library cleaning keeps the options it was asked for as the CLI's record does (``params["request"]``,
-:func:`mocapkit.batch.clean_request`), so its record (:meth:`CleanResult.save`) and report
+:func:`mocapkit.batch_request.clean_request`), so its record (:meth:`CleanResult.save`) and report
 (:func:`mocapkit.report.html.write_clean_report`) carry the digest the CLI computes for the same cleaning:
 decisions made in either page apply from either path.
 """
@@ -67,7 +67,7 @@ def clean_and_decide(original, cleaning: Callable[[], CleanResult], *, decisions
     (:func:`mocapkit.cleaning.pipeline.clean` with the options asked for), called only without ``record``;
     ``decisions``: a decisions file or its document (:func:`decisions_document`); ``record``: the ``.clean.npz`` of
     the cleaning reviewed, read back instead of cleaning again; ``request``: the options asked for
-    (:func:`mocapkit.batch.clean_request`), kept on the new cleaning (its digest includes them) and named where
+    (:func:`mocapkit.batch_request.clean_request`), kept on the new cleaning (its digest includes them) and named where
     they differ from those reviewed; ``take``: the input's file name for the summary; ``option``: how a refusal
     names the record to give (default ``record=``, this function's keyword).
 

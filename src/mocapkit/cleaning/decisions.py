@@ -473,7 +473,7 @@ def apply(original: Motion, result, decisions: Mapping[str, str]) -> Motion:
 
 def cleaning_digest(result) -> str:
     """SHA-256 (hex) of what a person reviews of a cleaning: which cells each step changed, their cleaned values and
-    the options that shaped them (``params["request"]``, :func:`mocapkit.batch.clean_request`; None for a
+    the options that shaped them (``params["request"]``, :func:`mocapkit.batch_request.clean_request`; None for a
     cleaning made in Python).
 
     The change ids alone do not tell two cleanings apart: a take cleaned again with another context or threshold
@@ -697,7 +697,7 @@ def _check_has_changes(doc: dict, path, result, record=None, option: str = RECOR
 def check_request(doc: dict, path, request: dict, option: str = RECORD_FLAG) -> None:
     """Refuse, before a new cleaning, decisions it cannot be the reviewed cleaning for: a file that keeps no digest
     of its cleaning (:func:`check_cleaning` would refuse it after cleaning), or one made on a cleaning asked for
-    with other options than ``request`` (:func:`mocapkit.batch.clean_request`; its digest, which keeps the options,
+    with other options than ``request`` (:func:`mocapkit.batch_request.clean_request`; its digest, which keeps the options,
     cannot match). A cleaning with a context can take minutes: the line comes first. One line naming ``path``, the
     options that differ and the record to pass instead (``option``: how it is given, :func:`record_wanted`)."""
     stamp = doc.get("cleaning")

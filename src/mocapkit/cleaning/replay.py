@@ -5,7 +5,7 @@ finds beside OUT) go to the cleaning the record keeps: nothing is cleaned again,
 (its steps, threshold, drifts, context, models and noise level; a marker capture's longest gap and largest fill
 error) cannot change it. Given beside the record, such an option is one the user expects to act; it is taken only
 where the record's cleaning was asked for with the very same value (``params["request"]``, as
-:func:`mocapkit.batch.clean_request` and :func:`mocapkit.marker_files.marker_request` keep it), and refused in one
+:func:`mocapkit.batch_request.clean_request` and :func:`mocapkit.marker_files.marker_request` keep it), and refused in one
 line naming the record, each option as the caller spells it and the value the record was made with, before
 anything is written. The options that read the take (an AMC's ASF and frame rate, a length unit) are the take's, not
 the cleaning's: they are used, and the take read with them must be the one the record was made from

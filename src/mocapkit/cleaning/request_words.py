@@ -1,7 +1,7 @@
 """How a refusal says the options a cleaning was asked for: as its caller gave them.
 
 A take's record keeps the options it was cleaned with as Python values (its ``request``:
-:func:`mocapkit.batch.clean_request`, :func:`mocapkit.marker_files.marker_request`). A refusal that names one
+:func:`mocapkit.batch_request.clean_request`, :func:`mocapkit.marker_files.marker_request`). A refusal that names one
 of them speaks to whoever gave it: a ``clean-batch`` user typed ``--max-gap 0.05``, a caller of
 ``mocapkit.clean_batch(...)`` wrote ``max_gap_s=0.05``. :func:`request_changes` says how an earlier request
 differs from this one in either tongue (``flags``): each option by its flag or keyword, its value as typed

@@ -117,7 +117,7 @@ def clean(
             raise MocapError(f"{inp}: {name} applies only to marker captures (.c3d, .trc, marker .npz)")
     models = _models(ebf, ebd)
     if record is not None:  # options that shape a cleaning: only those the record's own cleaning was asked for
-        from ..batch import clean_request
+        from ..batch_request import clean_request
         from ..cleaning.replay import FLAGS, check_replay, given_options
 
         given = set(given_options(step_list, threshold, drifts, bool(context), models, noise_deg))
