@@ -124,7 +124,6 @@ def body_agreement(digression: np.ndarray, analysed: np.ndarray) -> np.ndarray:
     return out
 
 
-
 def group_agreement(digression: np.ndarray, best: np.ndarray) -> np.ndarray:
     """(F, m) :func:`body_agreement` within each joint group, read from the group that judges the cell.
 
@@ -135,9 +134,8 @@ def group_agreement(digression: np.ndarray, best: np.ndarray) -> np.ndarray:
     neighbour words that judge the joint match the rest of the body. Each joint's smallest angle over the groups
     (``Detection.digression``, what :func:`body_agreement` reads) takes every other joint's closest words,
     which are not the joint's: with more groups to choose from (the Bandai Namco rig's ``upper`` group beside
-    ``whole``, ``left`` and ``right``) the body seems to agree where the words that judge the joint do not (the
-    calibration styles' untouched takes: 454 drift cells that way, 275 this one;
-    ``benchmarks/drift_detection.py --split calibration``). NaN where that group has no other joint's value.
+    ``whole``, ``left`` and ``right``) the body seems to agree where the words that judge the joint do not, and
+    untouched takes get drift flags. NaN where that group has no other joint's value.
     """
     d = np.asarray(digression, dtype=np.float64)
     best = np.asarray(best)
@@ -148,6 +146,7 @@ def group_agreement(digression: np.ndarray, best: np.ndarray) -> np.ndarray:
     per_group = np.stack([body_agreement(d[g], np.isfinite(d[g]).any(axis=0)) for g in range(d.shape[0])])
     ok = (best >= 0) & (best < d.shape[0])
     return np.where(ok, np.take_along_axis(per_group, np.where(ok, best, 0)[None], axis=0)[0], np.nan)
+
 
 def offset_change(offsets: np.ndarray, scale: np.ndarray) -> np.ndarray:
     """(F, J) how far each joint's offset from its neighbours moves away from the offset it holds over the take.
@@ -179,7 +178,6 @@ def offset_change(offsets: np.ndarray, scale: np.ndarray) -> np.ndarray:
     return out
 
 
-
 def group_offset_change(offsets: np.ndarray, scale: np.ndarray, best: np.ndarray) -> np.ndarray:
     """(F, m) :func:`offset_change` measured in each joint group, read from the group that judges the cell.
 
@@ -191,8 +189,7 @@ def group_offset_change(offsets: np.ndarray, scale: np.ndarray, best: np.ndarray
     differently close to the take, so the offset a joint holds differs from group to group; a median over the
     take of the offsets of whichever group was best at each frame mixes them, and where the best group changes
     the joint's offset seems to change with no drift at all (on the Bandai Namco rig, where an ``upper`` group
-    judges the spine, head and arms beside ``whole``, ``left`` and ``right``, the calibration styles' untouched
-    takes had 585 drift cells this way and 454 this one; ``benchmarks/drift_detection.py --split calibration``).
+    judges the spine, head and arms beside ``whole``, ``left`` and ``right``).
     """
     r = np.asarray(offsets, dtype=np.float64)
     scale = np.asarray(scale, dtype=np.float64)
