@@ -4,7 +4,9 @@ import numpy as np
 import pytest
 from numba import njit
 
+import mocapkit
 from mocapkit import rotations as R
+from mocapkit import samples
 from mocapkit.cleaning.ssa import self_costs as S
 from mocapkit.cleaning.ssa import word_dtw as W
 from mocapkit.cleaning.ssa.twins import forced
@@ -28,6 +30,51 @@ def test_polynomial_term_is_within_its_bound_of_acos():
     assert np.array_equal(got == 0.0, want == 0.0)  # zero exactly where acos is (d = 1)
     nz = want > 0
     assert np.max(np.abs(got[nz] - want[nz]) / want[nz]) < S.TERM_RTOL / 100  # the bound has room to spare
+
+
+def _estrin(d: float) -> float:
+    """The slow reference of the term: the polynomial of self_costs._COEF in t = 1 - 2 d by Estrin's scheme, in
+    Python floats, each operation as approx_half_angle_sq's docstring orders them."""
+    c = S._COEF
+    t = 1.0 - 2.0 * d
+    t2 = t * t
+    t4 = t2 * t2
+    t8 = t4 * t4
+    a = [c[2 * i] + c[2 * i + 1] * t for i in range(8)]
+    b = [a[2 * i] + a[2 * i + 1] * t2 for i in range(4)]
+    p = (b[0] + b[1] * t4) + ((b[2] + b[3] * t4) + c[16] * t8) * t8
+    return 2.0 * (1.0 - d) * (p * p)
+
+
+def test_polynomial_term_is_estrins_evaluation_bit_for_bit():
+    """The kernel's term is the reference's, bit for bit (Estrin's four dependent steps, not Horner's sixteen, which
+    held the SIMD lanes of a row for their latency), on random values of d, near 0 and 1, and on a real take's."""
+    rng = np.random.default_rng(17)
+    m = mocapkit.load(samples.path("131_01.bvh"))
+    q = R.quaternion_normalize(np.asarray(m.rotations[:200], dtype=np.float64))
+    real = np.abs(np.einsum("fjc,gjc->fgj", q[:40], q)).ravel()[::7]  # |dot| of the take's joints, frame pairs
+    d = np.clip(np.concatenate([rng.random(3000), 1.0 - np.geomspace(1e-17, 1.0, 2001), np.geomspace(1e-17, 1.0, 2001),
+                                [0.0, 0.5, 1.0], real]), 0.0, 1.0)
+    got = _approx(d)
+    want = np.array([_estrin(float(x)) for x in d])
+    assert np.array_equal(got, want)
+
+
+def test_rows_of_a_real_take_equal_the_acos_matrix_for_every_group_size():
+    """A group's sums take its joints four at a time and the last one to three one at a time: groups of 1 to 9 joints
+    (every remainder) and drops 0 to 3 on a real take's rotations, both twins, equal the one-joint-at-a-time acos
+    kernel's cells bit for bit."""
+    m = mocapkit.load(samples.path("131_01.bvh"))
+    A = np.ascontiguousarray(R.quaternion_normalize(np.asarray(m.rotations[::4][:150, :10], dtype=np.float64)))
+    groups = np.array([[j < size for j in range(10)] for size in range(1, 10)] + [[True] * 10])
+    drop = np.array([0, 1, 1, 3, 2, 3, 0, 3, 1, 3], dtype=np.int64)
+    drop = np.minimum(drop, groups.sum(axis=1) - 1)
+    members, offsets = S.pack_groups(groups)
+    want = W.group_pose_distances(A, A, groups, drop)
+    for side in ("serial", "parallel"):
+        with forced(side):
+            got = S.self_pose_rows(A, 20, 60, members, offsets, drop)
+        assert np.array_equal(got, want[:, 20:60])
 
 
 @njit(cache=False)
