@@ -266,13 +266,17 @@ def nearest_words(
         values = np.ascontiguousarray(source.values, dtype=np.float64)
         members, offsets = self_costs.pack_groups(masks)
         lanes = self_costs.frame_lanes(values)
+    D, held = None, (0, 0)  # the chunk's pose distances and the frames of their rows
     for c0 in range(0, W, chunk):
         ws = word_starts[c0 : c0 + chunk]
         f0, f1 = int(ws.min()), int(ws.max()) + N
         if whole is not None:
             D = whole[:, f0:f1]
         elif itself:
-            D = self_costs.self_pose_rows(values, f0, f1, members, offsets, drops.astype(np.int64), lanes=lanes)
+            shared = _shared_rows(D, held, f0, f1)
+            D = None  # the chunk before let go before this one's rows are computed: two chunks' rows at most
+            D = _self_rows(shared, f0, f1, values, members, offsets, drops.astype(np.int64), lanes)
+            held = (f0, f1)
         else:
             D = word_dtw.group_pose_distances(source.values[f0:f1], context.values, masks, drops)
         for gi in range(G):
@@ -294,6 +298,30 @@ def nearest_words(
             if progress is not None:
                 progress.update(len(ws))
     return out
+
+
+def _shared_rows(D, held, f0: int, f1: int):
+    """The rows of frames ``f0..`` that the chunk before holds (``D``, rows ``held = (h0, h1)``), copied, or None.
+
+    Chunks of source words 5 frames apart overlap by N - 5 = 10 rows, which each chunk computed again: a
+    fifth of the rows of a 30-minute take's chunks (about 55 rows each), 6% of a 10-minute take's."""
+    h0, h1 = held
+    if D is None or not h0 <= f0 < h1:
+        return None
+    return D[:, f0 - h0 : min(f1, h1) - h0].copy()
+
+
+def _self_rows(shared, f0: int, f1: int, values, members, offsets, drops, lanes) -> np.ndarray:
+    """Rows ``f0..f1-1`` of the take's self pose-distance matrix, (G, f1 - f0, F) float32: the first ones
+    ``shared`` (:func:`_shared_rows`, or None), the others computed by
+    :func:`~mocapkit.cleaning.ssa.self_costs.self_pose_rows`; the same cells, bit for bit."""
+    if shared is None:
+        return self_costs.self_pose_rows(values, f0, f1, members, offsets, drops, lanes=lanes)
+    r = f0 + shared.shape[1]
+    if r >= f1:
+        return shared
+    return np.concatenate([shared, self_costs.self_pose_rows(values, r, f1, members, offsets, drops, lanes=lanes)],
+                          axis=1)
 
 
 def neighbor_words(
