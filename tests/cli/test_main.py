@@ -280,6 +280,29 @@ def test_a_write_error_names_the_output_as_typed(tmp_path, monkeypatch):
         assert code == 2 and err.strip() == f"mocapkit: error: {out}: read-only file system", err
 
 
+def test_overwriting_in_a_read_only_folder_names_the_output_as_typed(tmp_path, monkeypatch):
+    """--overwrite sets the old OUT aside first (io.outputs.keep_aside: a hidden name made by mkstemp beside it); in
+    a read-only folder that failed with the hidden name made absolute ("/home/me/ro/walk.npz: read-only file
+    system") where atomic_write's own failure says "../ro/walk.npz". Root writes into read-only folders: mkstemp
+    raises as it does there."""
+    import errno
+
+    import mocapkit.io.outputs as outputs
+
+    (tmp_path / "work").mkdir()
+    (tmp_path / "ro").mkdir()
+    out = os.path.join("..", "ro", "walk.npz")
+    assert run("convert", SAMPLE, out, cwd=tmp_path / "work")[0] == 0
+
+    def read_only(prefix="", suffix="", dir=None, **kwargs):  # as Python's own: the name it tried, made absolute
+        raise OSError(errno.EROFS, "Read-only file system", os.path.abspath(os.path.join(dir, f"{prefix}x{suffix}")))
+
+    monkeypatch.setattr(outputs.tempfile, "mkstemp", read_only)
+    code, _, err = run("convert", SAMPLE, out, "--overwrite", cwd=tmp_path / "work")
+    assert code == 2 and err.strip() == f"mocapkit: error: {out}: read-only file system", err
+    assert (tmp_path / "ro" / "walk.npz").is_file()
+
+
 @pytest.mark.skipif(not hasattr(os, "geteuid") or os.geteuid() == 0, reason="root writes into read-only folders")
 def test_read_only_folder_for_real(tmp_path):
     ro = tmp_path / "ro"

@@ -19,7 +19,7 @@ from pathlib import Path
 from ..errors import MissingFileError, MocapError, MocapFormatError
 from ..interrupts import interrupts_held, whole_hand_over
 from ..markerset import MarkerSet
-from .outputs import missing_folders, publish
+from .outputs import missing_folders, named_as_given, publish
 
 __all__ = ["load", "save", "check_writable", "check_complete", "load_markers", "save_markers", "check_keep_modelled",
            "marker_notes", "motion_notes", "atomic_write",
@@ -442,7 +442,7 @@ def atomic_write(path, mode: str = "w", **open_kwargs):
             _discard(tmp)
         _remove_empty(made)
         if isinstance(exc, OSError):  # a read-only or full file system: the temporary file named as the user gave OUT
-            _named_as_given(exc, path)
+            named_as_given(exc, path)
         raise
     try:
         with fh:
@@ -454,7 +454,7 @@ def atomic_write(path, mode: str = "w", **open_kwargs):
     except OSError as exc:
         if exc.filename is None:  # a write or fsync failed (a full disk): the error names the output
             exc.filename = str(path)
-        _named_as_given(exc, path)
+        named_as_given(exc, path)
         _discard(tmp)
         _remove_empty(made)
         raise
@@ -462,20 +462,6 @@ def atomic_write(path, mode: str = "w", **open_kwargs):
         _discard(tmp)
         _remove_empty(made)
         raise
-
-
-def _named_as_given(exc: OSError, path: Path) -> None:
-    """Name the temporary file beside ``path`` in ``exc`` as ``path`` was given: ``tempfile.mkstemp`` makes its name
-    absolute, so ``-o ../ro/out.bvh`` on a read-only folder was said as ``/home/me/ro/out.bvh: read-only file
-    system`` (:func:`mocapkit.errors.os_error_line` reads the output's name from the temporary file's); now
-    ``../ro/out.bvh: read-only file system``."""
-    if path.is_absolute():
-        return
-    folder = os.path.abspath(path.parent)
-    for attr in ("filename", "filename2"):
-        name = getattr(exc, attr, None)
-        if isinstance(name, str) and os.path.isabs(name) and os.path.dirname(name) == folder:
-            setattr(exc, attr, str(path.with_name(os.path.basename(name))))
 
 
 def _close_quietly(fh, fd: int) -> None:

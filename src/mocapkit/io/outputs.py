@@ -44,7 +44,7 @@ from typing import Iterable, Iterator
 from ..errors import MocapFormatError
 from ..interrupts import interrupts_held, whole_hand_over, whole_step
 
-__all__ = ["check_outputs", "same_file", "inside", "removed_on_failure", "publish", "keep_aside", "put_back",
+__all__ = ["check_outputs", "same_file", "inside", "removed_on_failure", "publish", "keep_aside", "named_as_given", "put_back",
            "drop_kept", "missing_folders", "file_facts", "input_facts", "other_input"]
 
 
@@ -154,6 +154,20 @@ def publish(tmp: os.PathLike | str, path: os.PathLike | str) -> None:
         written.append(key)
 
 
+def named_as_given(exc: OSError, path: Path) -> None:
+    """Name the temporary file beside ``path`` in ``exc`` as ``path`` was given: ``tempfile.mkstemp`` makes its name
+    absolute, so ``-o ../ro/out.bvh`` on a read-only folder was said as ``/home/me/ro/out.bvh: read-only file
+    system`` (:func:`mocapkit.errors.os_error_line` reads the output's name from the temporary file's); now
+    ``../ro/out.bvh: read-only file system``."""
+    if path.is_absolute():
+        return
+    folder = os.path.abspath(path.parent)
+    for attr in ("filename", "filename2"):
+        name = getattr(exc, attr, None)
+        if isinstance(name, str) and os.path.isabs(name) and os.path.dirname(name) == folder:
+            setattr(exc, attr, str(path.with_name(os.path.basename(name))))
+
+
 def keep_aside(paths: Iterable[os.PathLike | str | None], kept: dict[Path, Path] | None = None) -> dict[Path, Path]:
     """A hidden hard link (``.NAME.RANDOM.part``, a copy where links fail) beside each existing file of ``paths``,
     and a hidden copy of each that is a symbolic link (the link itself, not what it points to).
@@ -162,9 +176,12 @@ def keep_aside(paths: Iterable[os.PathLike | str | None], kept: dict[Path, Path]
     restores it, :func:`drop_kept` removes the links. Returns ``{path: link}``: ``kept`` when given, filled as
     each link is made, so that a caller's ``finally`` drops the links of an interrupt that lands before this
     call has returned. A link's name is reserved (``mkstemp``) and entered in ``kept`` before the link is made,
-    with interrupts held while the reserved file exists (an interrupt there left it behind, unnamed).
+    with interrupts held while the reserved file exists (an interrupt there left it behind, unnamed). A failure
+    to make one (a read-only folder) names the output as the caller gave it (:func:`named_as_given`), as
+    :func:`mocapkit.io.atomic_write` does.
     """
     kept = {} if kept is None else kept
+    p = None
     try:
         for p in paths:
             if p is None:
@@ -187,8 +204,10 @@ def keep_aside(paths: Iterable[os.PathLike | str | None], kept: dict[Path, Path]
                     shutil.copy2(p, tmp)
             else:
                 shutil.copy2(p, tmp)
-    except BaseException:
+    except BaseException as exc:
         drop_kept(kept)
+        if isinstance(exc, OSError) and p is not None:  # a read-only folder: the hidden name said as OUT was given
+            named_as_given(exc, Path(p))
         raise
     return kept
 
