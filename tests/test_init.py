@@ -314,7 +314,7 @@ def test_library_refusals_name_the_librarys_parameters_not_the_clis_flags(tmp_pa
     c3d = samples.path("Eb015pr.c3d")
     with pytest.raises(mocapkit.MocapError) as exc:
         mocapkit.clean(c3d, steps="detect", decisions={"decisions": {}})
-    assert str(exc.value) == f'{c3d}: review mode (steps="detect") changes nothing; decisions apply to a cleaning'
+    assert str(exc.value) == f"{c3d}: review mode (steps='detect') changes nothing; decisions apply to a cleaning"
     amc = samples.path("12_walk.amc")  # its ASF states its unit
     with pytest.raises(mocapkit.MocapFormatError) as exc:
         mocapkit.clean(amc, steps="fill", unit="mm")

@@ -72,7 +72,7 @@ def clean_marker_file(inp, out, *, report=None, png=None, overwrite: bool = Fals
     ``zeros_as_gaps``: how a .c3d or .trc ``inp``'s samples at exactly (0, 0, 0) are read when ``markers`` is not
     given (:func:`mocapkit.io.load_markers`; None: decided from the data), kept in the record's request and said in
     the report's command. ``flags``: a refusal names the command line's options (``--record``, ``--overwrite``,
-    ``--steps detect``), else Python's keywords (``record=``, ``overwrite=True``, ``steps="detect"``).
+    ``--steps detect``), else Python's keywords (``record=``, ``overwrite=True``, ``steps='detect'``).
     """
     from .cleaning import decisions as dec
     from .cleaning.decided import apply_command

@@ -15,7 +15,7 @@ def test_a_changed_marker_request_is_said_in_the_callers_words():
     assert request_change(marker_request(max_error_mm=20.0, review=True), marker_request(), flags=True) == (
         "it was cleaned with --max-fill-error 20 (now without it), with --steps detect (now all steps)")
     assert request_change(marker_request(), marker_request(unit="cm", review=True)) == (
-        'it was cleaned without unit (now unit="cm"), with all steps (now steps="detect")')
+        "it was cleaned without unit (now unit='cm'), with all steps (now steps='detect')")
     assert request_change(was, now, flags=True) != request_change(was, now) and "None" not in request_change(was, now)
 
 
@@ -25,20 +25,37 @@ def test_a_changed_joint_angle_request_is_said_in_the_callers_words():
         "it was cleaned with --steps detect (now fill,detect,repair,denoise), with --threshold 0.5 (now 0.7), "
         "with --drifts (now without it), with --noise-deg 1 (now 3), without --amc-fps (now --amc-fps 100)")
     assert request_change(was, now) == (
-        'it was cleaned with steps="detect" (now "fill,detect,repair,denoise"), with threshold=0.5 (now 0.7), '
+        "it was cleaned with steps='detect' (now 'fill,detect,repair,denoise'), with threshold=0.5 (now 0.7), "
         "with drifts=True (now False), with noise_deg=1 (now 3), without amc_fps (now amc_fps=100)")
     ctx, other = clean_request(context=["none"]), clean_request(context=["none"], models={"ebf": "ebf_bandai.pt"})
     assert request_change(ctx, other, flags=True) == "it was cleaned without --ebf/--ebd (now --ebf ebf_bandai.pt)"
-    assert request_change(other, ctx) == 'it was cleaned with models={"ebf": "ebf_bandai.pt"} (now without it)'
+    assert request_change(other, ctx) == "it was cleaned with models={'ebf': 'ebf_bandai.pt'} (now without it)"
 
 
 def test_a_decisions_files_other_cleaning_is_said_as_its_record_was_given():
     was, now = {"context": "default", "threshold": 0.5}, {"context": ["ctx"], "threshold": 0.4}
     assert request_difference(was, now, RECORD_FLAG) == ("reviewed without --context (now --context ctx), "
                                                          "reviewed with --threshold 0.5 (now 0.4)")
-    assert request_difference(was, now, RECORD_KEYWORD) == ('reviewed without context (now context=["ctx"]), '
+    assert request_difference(was, now, RECORD_KEYWORD) == ("reviewed without context (now context=['ctx']), "
                                                             "reviewed with threshold=0.5 (now 0.4)")
     assert request_difference(was, None, RECORD_FLAG) == ""
+
+
+def test_python_values_are_quoted_one_way_in_a_line():
+    """Decisions made on another cleaning, refused to a Python caller, said `unit="cm"` (JSON) beside
+    `record='R.clean.npz'` (Python's repr) in one line: every value a refusal gives a Python keyword is now
+    Python's repr, as the caller writes it."""
+    import pytest
+
+    from mocapkit.cleaning.decisions import check_request
+    from mocapkit.errors import MocapFormatError
+
+    doc = {"cleaning": {"record": "R.clean.npz", "request": marker_request()}}
+    with pytest.raises(MocapFormatError) as err:
+        check_request(doc, "d.json", marker_request(unit="cm", review=True), RECORD_KEYWORD)
+    said = str(err.value)
+    assert "reviewed without unit (now unit='cm'), reviewed with all steps (now steps='detect')" in said, said
+    assert "record='R.clean.npz'" in said and '"' not in said
 
 
 def test_a_marker_captures_review_mode_is_refused_with_decisions_in_the_callers_words(tmp_path):
@@ -49,7 +66,7 @@ def test_a_marker_captures_review_mode_is_refused_with_decisions_in_the_callers_
     from mocapkit.marker_files import clean_marker_file
 
     inp, said = samples.path("Eb015pr.c3d"), "changes nothing; decisions apply to a cleaning"
-    for flags, mode in ((False, 'steps="detect"'), (True, "--steps detect")):
+    for flags, mode in ((False, "steps='detect'"), (True, "--steps detect")):
         with pytest.raises(MocapError) as err:
             clean_marker_file(inp, tmp_path / "out.c3d", review=True, decisions=tmp_path / "d.json", flags=flags)
         assert str(err.value) == f"{inp}: review mode ({mode}) {said}"

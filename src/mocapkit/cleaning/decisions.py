@@ -113,9 +113,9 @@ RECORD_KEYWORD = "record="
 
 
 def review_mode(option: str = RECORD_FLAG) -> str:
-    """Review mode as the caller asks for it, by how it gives a record (``option``): ``steps="detect"`` for
+    """Review mode as the caller asks for it, by how it gives a record (``option``): ``steps='detect'`` for
     ``mocapkit.clean`` (:data:`RECORD_KEYWORD`), ``--steps detect`` for the command (:data:`RECORD_FLAG`)."""
-    return 'steps="detect"' if option == RECORD_KEYWORD else "--steps detect"
+    return "steps='detect'" if option == RECORD_KEYWORD else "--steps detect"
 
 FORMAT = "mocapkit.decisions/1"
 ACCEPT, REJECT = "accept", "reject"
@@ -682,7 +682,7 @@ def _check_stamped(doc: dict, path, option: str = RECORD_FLAG) -> None:
 
 def _check_has_changes(doc: dict, path, result, record=None, option: str = RECORD_FLAG) -> None:
     """Refuse decisions naming changes for a cleaning that made none, saying why it made none where it is review
-    mode (``--steps detect``, ``steps="detect"``, which only flags: :func:`review_mode`): naming the record ``record`` where one was given, else ``path``."""
+    mode (``--steps detect``, ``steps='detect'``, which only flags: :func:`review_mode`): naming the record ``record`` where one was given, else ``path``."""
     named = doc["decisions"]
     if not named or result.changed.any():
         return

@@ -9,7 +9,8 @@ differs from this one in either tongue (``flags``): each option by its flag or k
 context) in words, never as ``None``:
 
 - ``with --threshold 0.5 (now 0.7)`` / ``with threshold=0.5 (now 0.7)``; ``with --unit cm (now mm)`` /
-  ``with unit="cm" (now "mm")`` (strings, lists and maps as JSON writes them);
+  ``with unit='cm' (now 'mm')`` (strings, lists and maps as Python writes them: ``repr``, as every refusal
+  naming a Python keyword says its value, ``record='R.clean.npz'``, ``executor='tcp://...'``);
 - ``without --max-gap (now --max-gap 0.05)`` / ``without max_gap_s (now max_gap_s=0.05)``;
 - ``with --drifts (now without it)``, ``without --drifts (now with it)`` / ``with drifts=True (now False)``.
 
@@ -35,7 +36,7 @@ OPTION_FLAGS = {"steps": "--steps", "threshold": "--threshold", "drifts": "--dri
 OPTION_KEYWORDS = {"steps": "steps", "threshold": "threshold", "drifts": "drifts", "context": "context",
                    "models": "models", "noise_deg": "noise_deg", "amc_fps": "amc_fps", "unit": "unit",
                    "joint_map": "joint_map", "max_gap_s": "max_gap_s", "max_error_mm": "max_error_mm",
-                   "review": 'steps="detect"', "zeros_as_gaps": "zeros_as_gaps"}
+                   "review": "steps='detect'", "zeros_as_gaps": "zeros_as_gaps"}
 
 _ZEROS_FLAG = {True: "--zeros-as-gaps", False: "--keep-zeros"}
 _ZEROS_HOW = {True: "read as gaps", False: "kept as positions", None: "decided from the data"}
@@ -79,11 +80,11 @@ def said_option(key: str, value, flags: bool) -> str:
         return f"{name} {_number(value)}"
     if key == "steps" and isinstance(value, (list, tuple)):
         value = ",".join(map(str, value))
-    return f"{name}={_number(value) if isinstance(value, (int, float)) else json.dumps(value)}"
+    return f"{name}={_number(value) if isinstance(value, (int, float)) else repr(value)}"
 
 
 def _value(key: str, value, flags: bool) -> str:
-    """``value`` alone, as the ``(now ...)`` of a changed option says it: ``0.7``, ``cm`` (``"cm"`` to Python)."""
+    """``value`` alone, as the ``(now ...)`` of a changed option says it: ``0.7``, ``cm`` (``'cm'`` to Python)."""
     said = said_option(key, value, flags)
     if key in ("threshold", "noise_deg", "amc_fps", "unit", "max_gap_s", "max_error_mm", "steps"):
         return said.split("=", 1)[1] if not flags else said.split(" ", 1)[1] if " " in said else said
