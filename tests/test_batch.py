@@ -455,7 +455,7 @@ def test_a_take_is_complete_only_for_the_request_that_made_it(tmp_path, walk_in)
     assert clean_batch(src, out, steps=["detect"], executor="serial", progress=False).count("done") == 1
     review = (out / "walk.bvh").read_bytes()
     with pytest.raises(MocapFormatError, match=r"walk.bvh: exists from an earlier run, but it was cleaned with steps="
-                                               r"\"detect\" \(now \"fill,detect,repair,denoise\"\); use overwrite=True"):
+                                               r"'detect' \(now 'fill,detect,repair,denoise'\); use overwrite=True"):
         clean_batch(src, out, executor="serial", progress=False)
     assert (out / "walk.bvh").read_bytes() == review  # refused before anything was written
     again = clean_batch(src, out, executor="serial", progress=False, overwrite=True)
