@@ -206,11 +206,11 @@ def clean(take, context=None, *, steps=None, threshold: float | None = None, asf
     request = _request(context, steps, threshold, drifts, models, noise_deg, fps, unit, joint_map)
     if record is not None:
         from .cleaning.pipeline import parse_steps
-        from .cleaning.replay import KEYWORDS, check_replay, given_options
+        from .cleaning.replay import check_replay, given_options
 
         given = set(given_options(parse_steps(steps), threshold, drifts, context is not None, models, noise_deg))
         given |= {key for key, on in {**asked, "joint_map": joint_map is not None}.items() if on}  # at its default too
-        check_replay(record, request, [k for k in KEYWORDS if k in given], KEYWORDS, "record=")
+        check_replay(record, request, given, False, "record=")
 
     def cleaning():
         ctx, note = _load_context(context, motion, steps, joint_map)

@@ -39,10 +39,15 @@ def test_an_option_the_record_was_not_cleaned_with_is_refused_naming_the_python_
     with pytest.raises(mocapkit.MocapError) as exc:
         mocapkit.clean(inp, context="none", threshold=0.3, drifts=True, decisions=dec, record=record)
     said = str(exc.value)
-    assert said.startswith(f"{record}: threshold= 0.3, drifts= True given beside record=") and "\n" not in said
-    assert "threshold= 0.5, drifts= False in the record" in said and "--" not in said
-    with pytest.raises(mocapkit.MocapError, match=r"noise_deg= 2.0 given beside record=.*noise_deg= 1.0 in the"):
+    assert said.startswith(f"{record}: threshold=0.3, drifts=True given beside record=") and "\n" not in said
+    assert "(threshold=0.5, drifts=False in the record)" in said and "--" not in said
+    with pytest.raises(mocapkit.MocapError, match=r"noise_deg=2 given beside record=.*\(noise_deg=1 in the"):
         mocapkit.clean(inp, noise_deg=2.0, decisions=dec, record=record)
+    with pytest.raises(mocapkit.MocapError) as exc:  # said as a Python caller writes them ("steps= detect" before)
+        mocapkit.clean(inp, context="none", steps="detect", models={"ebf": "ebf.pt"}, decisions=dec, record=record)
+    said = str(exc.value)
+    assert said.startswith(f"{record}: steps='detect', models={{'ebf': ") and "given beside record=" in said, said
+    assert "(steps='fill,detect,repair,denoise', models not given in the record)" in said, said
 
 
 def test_the_command_refuses_a_flag_beside_the_record_naming_the_flag(reviewed, tmp_path):
@@ -81,7 +86,7 @@ def test_a_marker_captures_longest_gap_beside_its_record_is_refused(tmp_path):
     code, _, err = run("clean", inp, "-o", tmp_path / "b.c3d", "--decisions", dec, "--record",
                        tmp_path / "out.clean.npz", "--max-gap", "0.5")
     assert code == 2 and one_error_line(err), err
-    assert "--max-gap 0.5 given beside --record" in err and "--max-gap the default in the record" in err
+    assert "--max-gap 0.5 given beside --record" in err and "(--max-gap not given in the record)" in err
 
 
 def test_an_option_given_at_its_default_beside_a_record_counts_as_given(tmp_path):
@@ -100,8 +105,8 @@ def test_an_option_given_at_its_default_beside_a_record_counts_as_given(tmp_path
                           decisions=dec, record=record).decided is not None
     with pytest.raises(mocapkit.MocapError) as exc:
         mocapkit.clean(inp, context="none", threshold=0.5, decisions=dec, record=record)
-    assert str(exc.value) == (f"{record}: threshold= 0.5 given beside record=, whose cleaning is applied as it was "
-                              "made (threshold= 0.3 in the record): leave it out, or clean anew without record=")
+    assert str(exc.value) == (f"{record}: threshold=0.5 given beside record=, whose cleaning is applied as it was "
+                              "made (threshold=0.3 in the record): leave it out, or clean anew without record=")
     code, _, err = run("clean", inp, "-o", tmp_path / "b.npz", "--decisions", dec, "--record", record,
                        "--context", "none", "--threshold", "0.5")  # the command, as Python
     assert code == 2 and one_error_line(err) and f"{record}: --threshold 0.5 given beside --record" in err, err

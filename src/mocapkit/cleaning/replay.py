@@ -18,25 +18,20 @@ from collections.abc import Iterable, Mapping
 
 from ..errors import MocapError
 from .pipeline import STEPS, CleanResult
+from .request_words import OPTION_FLAGS, OPTION_KEYWORDS, is_unset, said_option
 
-__all__ = ["KEYWORDS", "FLAGS", "given_options", "check_replay"]
-
-#: How ``mocapkit.clean`` names the options that shape a cleaning (the keys of the record's ``request``).
-KEYWORDS = {"steps": "steps=", "threshold": "threshold=", "drifts": "drifts=", "context": "context=",
-            "models": "models=", "noise_deg": "noise_deg=", "max_gap_s": "max_gap_s=", "max_error_mm": "max_error_mm=",
-            "joint_map": "joint_map="}
-#: How ``mocapkit clean`` names them.
-FLAGS = {"steps": "--steps", "threshold": "--threshold", "drifts": "--drifts", "context": "--context",
-         "models": "--ebf/--ebd", "noise_deg": "--noise-deg", "max_gap_s": "--max-gap", "max_error_mm": "--max-fill-error",
-         "joint_map": "--joint-map"}
+__all__ = ["given_options", "check_replay"]
 
 
-def _said(value) -> str:
-    if isinstance(value, Mapping):
-        return ", ".join(f"{k} {v}" for k, v in value.items()) or "the defaults"
-    if isinstance(value, (list, tuple)):
-        return ",".join(map(str, value)) or "none"
-    return "the default" if value is None else str(value)
+def _as_given(key: str, value, flags: bool, unset: str) -> str:
+    """Option ``key`` of a request at ``value`` as its caller gives it (:func:`mocapkit.cleaning.request_words.said_option`:
+    ``--threshold 0.3``, ``threshold=0.3``, ``--ebf m.pt``, ``steps='detect'``); one at its default (None, no
+    models, the default context) by its name and ``unset`` (the record's: ``--max-gap not given``), never ``None``;
+    Python's ``drifts=False`` is a value given, not an option left out."""
+    name = (OPTION_FLAGS if flags else OPTION_KEYWORDS)[key]
+    if is_unset(key, value) and (flags or key != "drifts"):
+        return f"{name}{unset}"
+    return said_option(key, value, flags)
 
 
 def given_options(steps, threshold: float, drifts: bool, context: bool, models, noise_deg) -> list[str]:
@@ -49,17 +44,20 @@ def given_options(steps, threshold: float, drifts: bool, context: bool, models, 
                                    ("noise_deg", noise_deg is not None)) if given]
 
 
-def check_replay(record, request: Mapping, given: Iterable[str], names: Mapping[str, str], option: str) -> None:
+def check_replay(record, request: Mapping, given: Iterable[str], flags: bool, option: str) -> None:
     """Refuse the options ``given`` beside ``record`` whose values are not those its cleaning was asked for.
 
     ``record``: the ``.clean.npz`` replayed; ``request``: the options of this call as a record keeps them;
-    ``given``: the keys of ``request`` the caller set (a default left alone is not given); ``names``: how the caller
-    spells each (:data:`KEYWORDS`, :data:`FLAGS`); ``option``: how it gave the record ("record=", "--record").
+    ``given``: the keys of ``request`` the caller set (a default left alone is not given); ``flags``: whether the
+    caller is the command line (its flags, :data:`~mocapkit.cleaning.request_words.OPTION_FLAGS`) or Python (its
+    keywords, :data:`~mocapkit.cleaning.request_words.OPTION_KEYWORDS`); ``option``: how it gave the record
+    ("record=", "--record"). Each option is said as that caller gives it, with its value
+    (:func:`~mocapkit.cleaning.request_words.said_option`), in the order of those tables.
     A record that keeps no request (written by an earlier mocapkit, or by a cleaning in Python before requests were
     kept) agrees with no option given. Raises :class:`~mocapkit.errors.MocapError` (one line naming ``record``);
     :class:`~mocapkit.errors.MocapFormatError` where ``record`` is no mocapkit record.
     """
-    given = list(given)
+    given = [k for k in OPTION_FLAGS if k in set(given)]
     if not given:
         return
     was = (CleanResult.load_params(record) or {}).get("request")
@@ -67,7 +65,8 @@ def check_replay(record, request: Mapping, given: Iterable[str], names: Mapping[
     differ = [k for k in given if k not in was or was[k] != request.get(k)]
     if not differ:
         return
-    said = ", ".join(f"{names[k]} {_said(request.get(k))}" for k in differ)
-    kept = ", ".join(f"{names[k]} {_said(was[k])}" if k in was else f"{names[k]} not kept" for k in differ)
+    said = ", ".join(_as_given(k, request.get(k), flags, "" if flags else "=") for k in differ)
+    kept = ", ".join(_as_given(k, was[k], flags, " not given") if k in was
+                     else f"{(OPTION_FLAGS if flags else OPTION_KEYWORDS)[k]} not kept" for k in differ)
     raise MocapError(f"{record}: {said} given beside {option}, whose cleaning is applied as it was made ({kept} in "
                      f"the record): leave {'it' if len(differ) == 1 else 'them'} out, or clean anew without {option}")

@@ -24,7 +24,7 @@ import hashlib
 import json
 from collections.abc import Mapping
 
-__all__ = ["OPTION_FLAGS", "OPTION_KEYWORDS", "request_changes", "said_option"]
+__all__ = ["OPTION_FLAGS", "OPTION_KEYWORDS", "is_unset", "request_changes", "said_option"]
 
 #: How ``mocapkit clean`` / ``clean-batch`` name the options a request keeps (``review``: a marker capture's
 #: ``--steps detect``; ``models`` by the flag of each model; ``zeros_as_gaps`` by its two flags).
@@ -50,7 +50,7 @@ def _number(v) -> str:
     return short if float(short) == float(v) else repr(float(v))
 
 
-def _unset(key: str, value) -> bool:
+def is_unset(key: str, value) -> bool:
     """Whether ``value`` is ``key`` left to its default: None, no models, no joint map, the default context, not
     review mode, no ``--drifts``."""
     return (value is None or (key == "models" and value == {}) or (key == "joint_map" and not value)
@@ -106,10 +106,10 @@ def _change(key: str, was, now, flags: bool) -> str:
         return f"with {name if was else 'all steps'} (now {name if now else 'all steps'})"
     if key == "drifts" and not flags:  # a Python bool is a value, not a flag left out
         return f"with {name}={was!r} (now {now!r})"
-    if _unset(key, was):
+    if is_unset(key, was):
         bare = flags and key == "drifts"  # a flag with no value: "without --drifts (now with it)"
         return f"without {name} (now {'with it' if bare else said_option(key, now, flags)})"
-    if _unset(key, now):
+    if is_unset(key, now):
         return f"with {said_option(key, was, flags)} (now without it)"
     return f"with {said_option(key, was, flags)} (now {_value(key, now, flags)})"
 

@@ -118,14 +118,14 @@ def clean(
     models = _models(ebf, ebd)
     if record is not None:  # options that shape a cleaning: only those the record's own cleaning was asked for
         from ..batch_request import clean_request
-        from ..cleaning.replay import FLAGS, check_replay, given_options
+        from ..cleaning.replay import check_replay, given_options
 
         given = set(given_options(step_list, threshold, drifts, bool(context), models, noise_deg))
         given |= {key for key in ("steps", "threshold", "drifts")  # a flag typed at its default is given too
                   if getattr(ctx.get_parameter_source(key), "name", "") == "COMMANDLINE"}
         given |= {"joint_map"} if jm is not None else set()
         check_replay(record, clean_request(step_list, threshold, drifts, context, models, noise_deg, amc_fps, unit, jm),
-                     [k for k in FLAGS if k in given], FLAGS, record_said)
+                     given, True, record_said)
     skeleton = asf_of(inp, asf)
     skeleton_copy = asf_for_output(out, skeleton, overwrite, how="use --overwrite")  # an AMC output reads back with its ASF beside it
     take = load_motion(inp, asf, purpose="clean", fps=amc_fps, unit=unit, unit_option="--unit")
@@ -265,12 +265,12 @@ def _clean_marker_take(inp: Path, out: Path, *, report, png, overwrite: bool, no
         return False
     refuse_marker_options(inp, not_for_markers)
     if record is not None:  # a longest gap or fill error: only that of the record's own cleaning
-        from ..cleaning.replay import FLAGS, check_replay
+        from ..cleaning.replay import check_replay
         from ..marker_files import marker_request
 
         check_replay(record, marker_request(unit, max_gap_s, max_error_mm), [
             key for key, value in (("max_gap_s", max_gap_s), ("max_error_mm", max_error_mm)) if value is not None],
-            FLAGS, record_said)
+            True, record_said)
     _, res = clean_marker_file(inp, out, report=report, png=png, overwrite=overwrite, markers=take,
                                max_gap_s=max_gap_s, max_error_mm=max_error_mm, decisions=decisions, record=record,
                                review=review, keep_modelled=keep_modelled, zeros_as_gaps=zeros_as_gaps, flags=True)
