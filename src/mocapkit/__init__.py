@@ -185,13 +185,14 @@ def clean(take, context=None, *, steps=None, threshold: float | None = None, asf
         from .cleaning.decisions import RECORD_KEYWORD
         from .cleaning.markers.decisions import clean_and_decide
         from .cleaning.pipeline import STEPS, parse_steps
-        from .marker_files import marker_request, refuse_marker_options
+        from .marker_files import joint_angle_options, marker_request, refuse_marker_options
 
         review = parse_steps(steps) == ("detect",)
-        refuse_marker_options(take.name or "the take", [name for name, given in (
-            (f"steps {steps}", parse_steps(steps) not in (STEPS, ("detect",))), ("threshold", threshold != 0.5),
-            ("drifts", drifts), ("models", bool(models)), ("context", context is not None),
-            ("noise_deg", noise_deg is not None), ("joint_map", joint_map is not None)) if given])
+        refuse_marker_options(take.name or "the take", joint_angle_options({key: value for key, value, given in (
+            ("steps", parse_steps(steps), parse_steps(steps) not in (STEPS, ("detect",))),
+            ("threshold", threshold, threshold != 0.5), ("drifts", drifts, drifts), ("models", models, bool(models)),
+            ("context", context, context is not None), ("noise_deg", noise_deg, noise_deg is not None),
+            ("joint_map", joint_map, joint_map is not None)) if given}, flags=False))
         _, res = clean_and_decide(take, name=os.fspath(path) if path is not None else "", decisions=decisions,
                                   record=record, review=review,
                                   request=marker_request(unit, review=review, zeros_as_gaps=zeros_as_gaps),

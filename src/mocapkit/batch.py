@@ -80,7 +80,7 @@ from .batch_decided import is_own_record, stamp_decided
 from .batch_folder import BATCH_MARK, mark, marked_input, only_batch, prune, sweep, unmark_if_empty
 from .batch_request import REQUEST_DEFAULTS, clean_request, request_change
 from .interrupts import interrupts_as_keyboard_interrupt, interrupts_held, whole_step
-from .marker_files import clean_marker_file, marker_request, refuse_marker_options
+from .marker_files import clean_marker_file, joint_angle_options, marker_request, refuse_marker_options
 
 __all__ = ["clean_file", "clean_marker_file", "clean_request", "marker_request", "refuse_marker_options", "clean_batch", "find_inputs", "output_for", "BatchSummary", "DEFAULT_PATTERNS", "BATCH_MARK",
            "REQUEST_DEFAULTS"]
@@ -189,10 +189,9 @@ def clean_file(
     inp, out = Path(inp), Path(out)
     asked = parse_steps(steps or STEPS)
     # a joint-angle take's options, named as the caller gave them: a batch's CLI user typed --drifts, not drifts
-    not_for_markers = [name for name, given in (
-        (("--steps " if flags else "steps ") + ",".join(asked), asked not in (STEPS, ("detect",))),
-        ("--drifts" if flags else "drifts", drifts), ("--noise-deg" if flags else "noise_deg", noise_deg is not None),
-        *((f"--{kind}", flags) for kind in (models or {})), ("models", bool(models) and not flags)) if given]
+    not_for_markers = joint_angle_options({key: value for key, value, given in (
+        ("steps", asked, asked not in (STEPS, ("detect",))), ("drifts", drifts, drifts),
+        ("noise_deg", noise_deg, noise_deg is not None), ("models", models, bool(models))) if given}, flags)
     as_markers = dict(report=report, png=png, overwrite=overwrite, unit=unit, max_gap_s=max_gap_s,
                       max_error_mm=max_error_mm, decisions=decisions, record=record, review=asked == ("detect",),
                       placed=placed, zeros_as_gaps=zeros_as_gaps, flags=flags)

@@ -11,6 +11,7 @@ joint-angle takes.
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import replace
 from pathlib import Path
 from typing import Sequence
@@ -18,7 +19,7 @@ from typing import Sequence
 from .batch_decided import is_own_record, stamp_decided
 from .errors import MocapError
 
-__all__ = ["clean_marker_file", "marker_request", "refuse_marker_options"]
+__all__ = ["clean_marker_file", "marker_request", "joint_angle_options", "refuse_marker_options"]
 
 
 def marker_request(unit: str | None = None, max_gap_s: float | None = None, max_error_mm: float | None = None,
@@ -32,6 +33,26 @@ def marker_request(unit: str | None = None, max_gap_s: float | None = None, max_
     return {"unit": unit, "max_gap_s": None if max_gap_s is None else float(max_gap_s),
             "max_error_mm": None if max_error_mm is None else float(max_error_mm), "review": bool(review),
             "zeros_as_gaps": None if zeros_as_gaps is None else bool(zeros_as_gaps)}
+
+
+def joint_angle_options(given: Mapping[str, object], flags: bool) -> list[str]:
+    """The joint-angle options ``given`` (request key -> value, only those the caller set: ``steps`` a subset of the
+    steps, ``threshold``, ``drifts``, ``context``, ``models`` a ``{kind: model}`` map, ``noise_deg``, ``joint_map``)
+    named as the caller gave them, for :func:`refuse_marker_options`: the command line's flags (``--steps
+    fill,denoise``, ``--threshold``, ``--ebf``: :data:`mocapkit.cleaning.request_words.OPTION_FLAGS`) or Python's
+    keywords as a call writes them (``steps='fill,denoise'``, ``threshold=``, ``models=``: ``OPTION_KEYWORDS``). The
+    steps come with their value (only some are refused), each model by its own flag."""
+    from .cleaning.request_words import OPTION_FLAGS, OPTION_KEYWORDS, said_option
+
+    said = []
+    for key, value in given.items():
+        if key == "steps":
+            said.append(said_option(key, list(value), flags))
+        elif key == "models" and flags and isinstance(value, Mapping):
+            said.extend(f"--{kind}" for kind in value)
+        else:
+            said.append(OPTION_FLAGS[key] if flags else f"{OPTION_KEYWORDS[key]}=")
+    return said
 
 
 def refuse_marker_options(inp, names: Sequence[str]) -> None:

@@ -84,7 +84,22 @@ def test_a_batchs_joint_angle_options_refused_for_a_marker_capture_are_said_as_g
     src = tmp_path / "in"
     src.mkdir()
     shutil.copy(samples.path("Eb015pr.c3d"), src / "e.c3d")
-    for flags, said in ((True, "--drifts, --noise-deg apply"), (False, "drifts, noise_deg apply")):
+    for flags, said in ((True, "--drifts, --noise-deg apply"), (False, "drifts=, noise_deg= apply")):
         s = clean_batch(src, tmp_path / f"out{flags}", drifts=True, noise_deg=2.0, executor="serial", progress=False,
                         flags=flags)
         assert s.count("failed") == 1 and f"{said} only to joint-angle takes" in s.failed[0]["reason"], s.rows
+
+
+def test_joint_angle_options_refused_for_a_marker_capture_are_said_as_a_python_call_writes_them():
+    """`mocapkit.clean("x.c3d", steps="fill,denoise", threshold=0.8)` said "steps fill,denoise, threshold apply only
+    to joint-angle takes": bare names a Python caller never wrote. Now as the call writes them."""
+    import pytest
+
+    import mocapkit
+    from mocapkit import samples
+
+    with pytest.raises(mocapkit.MocapError) as err:
+        mocapkit.clean(samples.path("Eb015pr.c3d"), steps="fill,denoise", threshold=0.8, drifts=True, noise_deg=2.0)
+    assert str(err.value).endswith(": a marker capture is cleaned whole (label swaps, spikes, gaps): "
+                                   "steps='fill,denoise', threshold=, drifts=, noise_deg= apply only to joint-angle "
+                                   "takes"), str(err.value)
