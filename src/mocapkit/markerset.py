@@ -281,6 +281,14 @@ class MarkerSource:
         for every other sample; None when the reader read no such gap. A
         writer asked to (``clean``'s output) writes such a sample that is
         still missing back as the file had it.
+    missing_stored : float array (K, 6) or None
+        C3D: the samples the file marks missing (a negative fourth word) under
+        which it stored coordinates other than (0, 0, 0), one row each: frame
+        (0-based, in this take's frames), marker, x, y, z (the file's unit) and
+        the stored word; None for none. Readers read such a sample as missing;
+        a writer writes one still missing back as the file held it
+        (:func:`mocapkit.io.c3d_frames.put_missing_stored`; ADemo1's integer
+        copy holds 85).
     filled : bool array (F, M) or None
         npz: the file's ``filled`` mask, the samples it holds that are no
         recorded ones (a cleaning's fills, or samples a C3D marked as
@@ -303,6 +311,7 @@ class MarkerSource:
     text: str | None = None
     layout: Mapping[str, int] = dataclasses.field(default_factory=dict)
     stored_zeros: np.ndarray | None = None
+    missing_stored: np.ndarray | None = None
     filled: np.ndarray | None = None
     modelled: Mapping[str, str] = dataclasses.field(default_factory=dict)
 
@@ -322,6 +331,11 @@ class MarkerSource:
             if z.ndim != 3 or z.shape[2] != 2:
                 raise ValueError(f"stored_zeros: expected shape (F, M, 2), got {z.shape}")
             object.__setattr__(self, "stored_zeros", frozen(z))
+        if self.missing_stored is not None:
+            rows = np.asarray(self.missing_stored, dtype=np.float64)
+            if rows.ndim != 2 or rows.shape[1] != 6:
+                raise ValueError(f"missing_stored: expected shape (K, 6), got {rows.shape}")
+            object.__setattr__(self, "missing_stored", frozen(rows))
         if self.filled is not None:
             f = np.asarray(self.filled)
             if f.ndim != 2 or f.dtype != bool:
@@ -670,8 +684,16 @@ class MarkerSet:
             whole = (start, max(start, stop), step) == (0, self.num_frames, 1)
             zeros = None if source.stored_zeros is None else source.stored_zeros[key]
             filled = None if source.filled is None else source.filled[key]
+            rows = source.missing_stored
+            if rows is not None:  # each row's frame renumbered in the part's frames; rows of frames left out dropped
+                at = np.full(self.num_frames, -1)
+                at[np.arange(self.num_frames)[key]] = np.arange(len(range(start, stop, step)))
+                rows = np.array(rows)[rows[:, 0] < self.num_frames]
+                rows[:, 0] = at[rows[:, 0].astype(np.int64)]
+                rows = rows[rows[:, 0] >= 0]
             source = dataclasses.replace(source, analogs=analogs, first_frame=source.first_frame + start,
-                                         text=source.text if whole else None, stored_zeros=zeros, filled=filled)
+                                         text=source.text if whole else None, stored_zeros=zeros, filled=filled,
+                                         missing_stored=rows)
         return dataclasses.replace(self, positions=self.positions[key], fps=fps, residuals=res, source=source,
                                    cameras=cams)
 

@@ -42,8 +42,8 @@ from ..errors import MocapFormatError, SkeletonError
 from ..markerset import (MODELLED_GROUPS, MarkerSet, MarkerSource, length_unit_cm, marker_units,
                          repeated_labels_note, unique_labels, zero_gap_mask)
 from ..motion import check_fps
-from .c3d_frames import (FRAME_CAP, long_frame_parameters, point_words, put_stored_zeros, read_float,
-                         residuals_and_cameras, rest_of_trial, zero_gap_words)
+from .c3d_frames import (FRAME_CAP, long_frame_parameters, missing_stored, point_words, put_missing_stored,
+                         put_stored_zeros, read_float, residuals_and_cameras, rest_of_trial, zero_gap_words)
 from .c3d_layout import (header_layout, integer_data, integer_scale, keep_data_start, put_analogs, put_header_gap,
                          put_parameter, stored_analogs)
 from .c3d_modelled import modelled_parameters, stated_positions
@@ -90,6 +90,16 @@ def _float32_values(values) -> np.ndarray:
     with np.errstate(over="ignore"):  # a value past float32's range (a damaged file's scale) cannot be rounded
         near = values.astype(np.float32).astype(np.float64)
     return np.where(np.isinf(near) & np.isfinite(values), values, near)
+
+
+def _stored_rows(rows: np.ndarray | None) -> np.ndarray | None:
+    """:func:`~mocapkit.io.c3d_frames.missing_stored`'s rows with their coordinates read as the float32 values
+    every other sample is read as (:func:`_float32_values`)."""
+    if rows is None:
+        return None
+    rows = np.array(rows, dtype=np.float64)
+    rows[:, 2:5] = _float32_values(rows[:, 2:5])
+    return rows
 
 
 def _ezc3d_parameters(c) -> dict:
@@ -173,11 +183,12 @@ def _read_ezc3d(path: Path, raw: bytes):
     words = point_words(raw, xyz.shape[0], n, scale, per_frame)
     if rest is not None:  # the frames ezc3d did not read: their residuals and cameras from the words alone
         resid = np.concatenate([resid, residuals_and_cameras(words[pts.shape[2]:], scale)[0]])
-    cameras = None
+    cameras = stored = None
     # ezc3d's residuals are the camera byte (see point_words); both read a negative word as a missing sample, so
     # where they disagree on that the word was not found where ezc3d read it: ezc3d's residuals are kept
     if words is not None and np.array_equal(words < 0, resid < 0):
         resid, cameras = residuals_and_cameras(words, scale)
+        stored = _stored_rows(missing_stored(raw, xyz.shape[0], n, scale, per_frame))
     xyz[resid < 0] = np.nan
     modelled = set()
     for key in _MODELLED:
@@ -188,6 +199,7 @@ def _read_ezc3d(path: Path, raw: bytes):
         parameters=_ezc3d_parameters(c),
         analogs=None if analogs is None else _float32_values(analogs),
         first_frame=int(c["header"]["points"]["first_frame"]) + 1,
+        missing_stored=stored,
     )
     fps = _point_rate(path, c["header"]["points"]["frame_rate"])
     return labels, xyz, (resid, cameras), fps, units, "ezc3d", source, modelled
@@ -306,12 +318,16 @@ def _read_c3d_package(path: Path, written: dict):
     # reads back equal (Eb015si.c3d: 8,357 residuals 2e-7 mm apart)
     step = abs(float(scale))
     resid = np.where(data[..., 3] < 0, -1.0, np.rint(data[..., 3] / step) * step if step > 0 else data[..., 3])
+    gone = (resid < 0) & (data[..., :3] != 0).any(axis=-1) & np.isfinite(data[..., :3]).all(axis=-1)
+    f, m = np.nonzero(gone)  # the stored coordinates under a missing sample's word, which the package reads as -1
+    stored = _stored_rows(np.column_stack([f, m, data[f, m, :3], -np.ones(len(f))]) if len(f) else None)
     xyz[resid < 0] = np.nan
     analogs = None
     if analog and np.asarray(analog[0]).size:
         a = _float32_values(analog)  # (F, A, ratio)
         analogs = a.transpose(1, 0, 2).reshape(a.shape[1], -1)
-    source = MarkerSource(format="c3d", parameters=parameters, analogs=analogs, first_frame=max(first, 1))
+    source = MarkerSource(format="c3d", parameters=parameters, analogs=analogs, first_frame=max(first, 1),
+                          missing_stored=stored)
     # (F, M) camera masks: the c3d package reads the fourth word of a point as the C3D guide has it
     cameras = np.where(resid < 0, 0, data[..., 4]).astype(np.int64)
     return labels, xyz, (resid, cameras), fps, units, "c3d", source, modelled
@@ -722,6 +738,7 @@ def write_c3d(markers: MarkerSet, path, *, like=None, stored_zeros: bool = False
     scale = float(c["parameters"]["POINT"]["SCALE"]["value"][0])
     struct.pack_into("<f", data, 12, scale)
     _put_point_words(data, markers, scale)
+    put_missing_stored(_data_block(data, markers.num_frames, markers.num_markers), markers)
     if stored_zeros:
         put_stored_zeros(_data_block(data, markers.num_frames, markers.num_markers), markers, scale)
     if stored is not None:

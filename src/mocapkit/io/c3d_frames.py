@@ -22,7 +22,8 @@ import numpy as np
 
 from ..errors import MocapFormatError
 
-__all__ = ["FRAME_CAP", "read_float", "sample_bytes", "point_words", "residuals_and_cameras",
+__all__ = ["FRAME_CAP", "read_float", "sample_bytes", "point_words", "missing_stored", "put_missing_stored",
+           "residuals_and_cameras",
            "long_trial_frames", "read_frames", "rest_of_trial", "long_frame_parameters"]
 
 FRAME_CAP = 65535
@@ -101,6 +102,61 @@ def point_words(raw: bytes, frames: int, points: int, scale: float, analog: int 
         return values.astype(np.int64)
     values = np.where(np.isfinite(values), values, -1.0)
     return np.clip(np.trunc(values), -(2**31), 2**31 - 1).astype(np.int64)
+
+
+def missing_stored(raw: bytes, frames: int, points: int, scale: float, analog: int | None = None) -> np.ndarray | None:
+    """(K, 6) float64: the samples the file marks missing (a negative fourth word) whose coordinates it stored as
+    anything but (0, 0, 0), one row each: frame (0-based), point, x, y, z (the stored numbers read as a reader
+    reads them: an integer file's ``int16 * scale``, a float file's floats) and the word; None where there are
+    none or the data block does not hold ``frames`` whole frames (arguments as :func:`point_words`).
+
+    Readers hand such a sample back as missing (ezc3d as NaN), but the file holds numbers there (BTK's
+    ADemo1_rewrite_c3d_pc_integer.c3d: 85 samples), which :func:`put_missing_stored` writes back, so that a file
+    written unchanged holds what it held (:attr:`~mocapkit.markerset.MarkerSource.missing_stored`). Rows, not an
+    (F, M) array: most takes have few such samples and a long one is large.
+    """
+    if analog is None:
+        proc = raw[(raw[0] - 1) * 512 + 3]
+        analog, = struct.unpack_from(">H" if proc == 86 else "<H", raw, 4)
+    words = point_words(raw, frames, points, scale, analog)
+    if words is None or not np.any(words < 0):
+        return None
+    block, proc, e, size = _block(raw, 0, frames, points, analog, scale)
+    f, m = np.nonzero(words < 0)
+    cells = block[:, : 4 * points * size].reshape(frames, points, 4, size)[f, m, :3]  # (K, 3, size)
+    xyz = _values(cells, proc, e, size)
+    if size == 2:
+        xyz = xyz * float(scale)
+    keep = np.isfinite(xyz).all(axis=1) & (xyz != 0).any(axis=1)
+    if not keep.any():
+        return None
+    return np.column_stack([f[keep], m[keep], xyz[keep], words[f[keep], m[keep]]]).astype(np.float64)
+
+
+def put_missing_stored(block: np.ndarray, markers) -> int:
+    """Write back the coordinates and fourth word the file stored under each sample it marks missing
+    (:attr:`~mocapkit.markerset.MarkerSource.missing_stored`, :func:`missing_stored`) that is still missing in
+    ``markers``; returns how many. ``block``: the data block, a writable (F, 4 * M + analog samples) float32
+    view (:func:`~mocapkit.io.c3d_layout.integer_data` turns an integer file's back into its 16-bit numbers).
+
+    Only while the markers are the file's own (:meth:`~mocapkit.markerset.MarkerSet.file_labels`) in the length
+    unit the file states (a take in another unit holds no such numbers); a sample filled or otherwise given a
+    value is written as the take has it.
+    """
+    rows = None if markers.source is None else markers.source.missing_stored
+    if rows is None or len(rows) == 0 or markers.file_labels() != markers.source.labels:
+        return 0
+    stated = _value(markers.source.parameters, "POINT", "UNITS")
+    if stated is not None and np.size(stated) and str(np.ravel(stated)[0]).strip() != str(markers.units).strip():
+        return 0
+    f, m = rows[:, 0].astype(np.int64), rows[:, 1].astype(np.int64)
+    inside = (f < markers.num_frames) & (m < markers.num_markers)
+    f, m, rows = f[inside], m[inside], rows[inside]
+    still = markers.missing()[f, m]
+    f, m, rows = f[still], m[still], rows[still]
+    for k in range(4):  # x, y, z, the word: indexed in the block itself (a reshape of a strided view may copy)
+        block[f, 4 * m + k] = rows[:, 2 + k].astype(np.float32)
+    return int(still.sum())
 
 
 def residuals_and_cameras(words: np.ndarray, scale: float) -> tuple[np.ndarray, np.ndarray]:

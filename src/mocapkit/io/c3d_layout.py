@@ -217,7 +217,7 @@ def integer_data(data: bytearray, frames: int, points: int, scale: float) -> byt
     3e-8 of a step of it), bit for bit for every reader; a changed one is rounded to the nearest step of
     ``scale`` (half a step at most: 0.042 mm for Eb015pi.c3d's 0.0833 mm). Each point's fourth word is the
     16-bit word the float block holds as a float (residual byte, camera bits, -1 where missing: a missing
-    sample's coordinates are 0); analog samples are the whole numbers the file stored (:func:`stored_analogs`),
+    sample's coordinates are 0, or those the file stored there: :func:`~mocapkit.io.c3d_frames.put_missing_stored`); analog samples are the whole numbers the file stored (:func:`stored_analogs`),
     written in 16 bits (over 32767: ANALOG:FORMAT UNSIGNED, the same bits). None (the caller keeps the float
     file) where a coordinate is past 32,767 steps, a fourth word or an analog sample is no whole 16-bit number
     (an analog channel changed in Python), or a coordinate of a sample not missing is not finite. The header's
@@ -233,7 +233,8 @@ def integer_data(data: bytearray, frames: int, points: int, scale: float) -> byt
     word, xyz = pts[..., 3], pts[..., :3]
     missing = word < 0
     with np.errstate(invalid="ignore", over="ignore"):
-        steps = np.where(missing[..., None], 0.0, np.rint(xyz / scale))
+        # a missing sample's coordinates: 0, or the file's own where it stored some (put_missing_stored)
+        steps = np.where(missing[..., None] & ~np.isfinite(xyz), 0.0, np.rint(xyz / scale))
     samples = block[:, 4 * points:]
     if not (np.all(np.isfinite(steps)) and np.all(np.abs(steps) <= 32767)
             and np.all(np.rint(word) == word) and np.all((word >= -32768) & (word <= 32767))
