@@ -58,3 +58,38 @@ def test_ademo1_integer_copy_written_unchanged_reads_back_whole(shared_data, tmp
     back = _point_frames(save_markers(take, tmp_path / "back.c3d"))
     assert np.array_equal(back, _point_frames(src))  # before: 85 samples' coordinates 0
     assert len(take.source.missing_stored) == 85
+
+
+def _plates_without_analogs(path) -> Path:
+    """A C3D (written by ezc3d) of 3 markers, 20 frames at 100 Hz and one force plate stated on channels 1-6,
+    with no analog channel."""
+    import ezc3d
+
+    c = ezc3d.c3d()
+    c["parameters"]["POINT"]["RATE"]["value"] = [100.0]
+    c["parameters"]["POINT"]["LABELS"]["value"] = ["A", "B", "C"]
+    c["parameters"]["POINT"]["UNITS"]["value"] = ["mm"]
+    pts = np.ones((4, 3, 20))
+    pts[:3] = np.arange(3 * 3 * 20, dtype=float).reshape(3, 3, 20) * 10.0 + 100.0
+    c["data"]["points"] = pts
+    param = lambda typ, value: {"type": typ, "description": "", "is_locked": False, "value": value}  # noqa: E731
+    c["parameters"]["FORCE_PLATFORM"] = {
+        "__METADATA__": {"DESCRIPTION": "", "IS_LOCKED": False}, "USED": param(2, np.array([1])),
+        "TYPE": param(2, np.array([2])), "CHANNEL": param(2, np.arange(1, 7).reshape(6, 1)),
+        "ORIGIN": param(4, np.array([[0.0], [0.0], [-40.0]]))}
+    c.write(str(path))
+    return path
+
+
+def test_a_file_of_plates_without_analog_channels_keeps_them_written_back(tmp_path):
+    import ezc3d
+
+    take = load_markers(_plates_without_analogs(tmp_path / "plates.c3d"))
+    assert take.source.analogs is None
+    back = ezc3d.c3d(str(save_markers(take, tmp_path / "back.c3d")))["parameters"]["FORCE_PLATFORM"]
+    assert int(back["USED"]["value"][0]) == 1  # before: 0, every per-plate parameter dropped
+    assert np.array_equal(np.ravel(back["CHANNEL"]["value"]), np.arange(1, 7))
+    # a file with analog channels resampled (its channels not written) still leaves its plates out
+    eb = load_markers(EB015PR)
+    half = ezc3d.c3d(str(save_markers(eb[::2], tmp_path / "half.c3d")))["parameters"]["FORCE_PLATFORM"]
+    assert int(half["USED"]["value"][0]) == 0

@@ -48,7 +48,7 @@ from .c3d_layout import (header_layout, integer_data, integer_scale, keep_data_s
                          put_parameter, stored_analogs)
 from .c3d_modelled import modelled_parameters, stated_positions
 from .c3d_structure import check_structure
-from .c3d_trial import fit_event_group, fit_force_plates, fit_header_events, trial_offset, trial_span
+from .c3d_trial import channels_held, fit_event_group, fit_force_plates, fit_header_events, trial_offset, trial_span
 
 __all__ = ["MarkerSet", "read_c3d", "write_c3d", "apply_zero_gaps", "checked_unit_cm"]
 
@@ -516,8 +516,7 @@ def _c3d_object(markers: MarkerSet, source: MarkerSource | None, own: bool, firs
         ratio = source.analog_ratio(F)
         if ratio and source.analogs.shape[1] == F * ratio:
             analogs = source.analogs
-    fit_force_plates(c["parameters"], 0 if analogs is None else analogs.shape[0],
-                     None if source is None or source.analogs is None else source.analogs.shape[0])
+    fit_force_plates(c["parameters"], 0 if analogs is None else analogs.shape[0], channels_held(source, own))
     fit_event_group(c["parameters"], own, markers.fps, first, F, trial_span(source.layout) if source is not None else None)
     c["header"]["points"]["first_frame"] = first - 1  # ezc3d's header counts from 0
     for group in ("POINT", "ANALOG"):

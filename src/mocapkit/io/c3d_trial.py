@@ -27,8 +27,8 @@ import numpy as np
 
 from ..markerset import MarkerSet
 
-__all__ = ["same_rate", "same_trial", "samples_agree", "trial_offset", "event_kept", "fit_force_plates", "fit_event_group", "fit_header_events",
-           "trial_span"]
+__all__ = ["same_rate", "same_trial", "samples_agree", "trial_offset", "event_kept", "channels_held", "fit_force_plates",
+           "fit_event_group", "fit_header_events", "trial_span"]
 
 
 def same_rate(fps: float, like_fps: float) -> bool:
@@ -116,6 +116,24 @@ def event_kept(time_s: float, fps: float, first: int, frames: int, trial: tuple[
         if int(first) + int(frames) >= int(trial[0]) + int(trial[1]):
             high = np.inf
     return bool(low <= float(time_s) <= high)
+
+
+def channels_held(source, own: bool) -> int | None:
+    """The analog channels of the C3D file a take was read from (``source``, its
+    :class:`~mocapkit.markerset.MarkerSource`), for :func:`fit_force_plates`' ``held``; None where unknown.
+
+    The take's analogs when it holds them; 0 for the take's own file (``own``) that has none (ANALOG:USED 0 or
+    absent), so that its plates, which no channel of the file ever held, are kept as it states them (a file of
+    plates without analogs lost them written back); None where the take has dropped the file's channels (a
+    resampled take: ``source.analogs`` None under an ANALOG:USED above 0), or is no C3D's.
+    """
+    if source is None:
+        return None
+    if source.analogs is not None:
+        return int(source.analogs.shape[0])
+    group = source.parameters.get("ANALOG", {})
+    used = np.ravel(group.get("USED", {}).get("value", [])) if isinstance(group, dict) else []
+    return 0 if own and (len(used) == 0 or int(used[0]) == 0) else None
 
 
 def fit_force_plates(parameters: dict, channels: int, held: int | None = None) -> bool:
