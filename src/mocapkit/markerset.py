@@ -265,12 +265,13 @@ class MarkerSource:
         TRC: the file's text, so that a TRC writer keeps every cell, line and
         header field the take did not change; None otherwise (and for a part
         of the take: :meth:`MarkerSet.__getitem__`).
-    layout : mapping of str to int
+    layout : mapping of str to number
         C3D: header words a writer keeps as the file had them
         (:func:`mocapkit.io.c3d_layout.header_layout`: the interpolation gap,
         the data block's first block, the parameter section's block count),
-        and the whole file's first frame number and frame count
-        (``trial_first``, ``trial_frames``: a part of the take keeps them, so
+        and the whole file's first frame number, frame count and frame rate
+        (``trial_first``, ``trial_frames``, ``trial_rate`` Hz: the clock of
+        ``first_frame``, which a resampled take keeps; a part of the take keeps them, so
         that a writer keeps an event past the file's ends while the frames
         written reach that end: :func:`mocapkit.io.c3d_trial.event_kept`);
         empty otherwise.

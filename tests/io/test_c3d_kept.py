@@ -93,3 +93,24 @@ def test_a_file_of_plates_without_analog_channels_keeps_them_written_back(tmp_pa
     eb = load_markers(EB015PR)
     half = ezc3d.c3d(str(save_markers(eb[::2], tmp_path / "half.c3d")))["parameters"]["FORCE_PLATFORM"]
     assert int(half["USED"]["value"][0]) == 0
+
+
+def _header_events(path) -> list[str]:
+    """The labels of the header events of the C3D at ``path`` as ezc3d reads them, and its first frame (1-based)."""
+    import ezc3d
+
+    header = ezc3d.c3d(str(path))["header"]
+    return [label.strip() for label in header["events"]["events_label"] if label.strip()], \
+        header["points"]["first_frame"] + 1
+
+
+def test_a_resampled_take_keeps_the_events_within_its_time_span(tmp_path):
+    take = load_markers(EB015PR)  # 450 frames at 50 Hz; header events RIC 2.72 s, RHS 5.40 s, RTO 7.32 s
+    # frames 151-399 every other one: 3.0 to 7.96 s at 25 Hz. The file's frame 151 read at 25 Hz put it at
+    # 6.0 s and kept RTO alone; its first frame is written at 25 Hz (76: 3.0 s)
+    assert _header_events(save_markers(take[150:400:2], tmp_path / "mid.c3d")) == (["RHS", "RTO"], 76)
+    # from 2.0 s to the file's end at 16.7 Hz keeps all three (before: RTO alone, from 6.0 s)
+    assert _header_events(save_markers(take[100::3], tmp_path / "end.c3d"))[0] == ["RIC", "RHS", "RTO"]
+    # 0 to 5.96 s: RIC and RHS; the take at the file's rate is unchanged (a crop keeps its frame numbers)
+    assert _header_events(save_markers(take[0:300:2], tmp_path / "start.c3d")) == (["RIC", "RHS"], 1)
+    assert _header_events(save_markers(take[150:400], tmp_path / "crop.c3d")) == (["RHS", "RTO"], 151)

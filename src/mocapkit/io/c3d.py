@@ -48,7 +48,8 @@ from .c3d_layout import (header_layout, integer_data, integer_scale, keep_data_s
                          put_parameter, stored_analogs)
 from .c3d_modelled import modelled_parameters, stated_positions
 from .c3d_structure import check_structure
-from .c3d_trial import channels_held, fit_event_group, fit_force_plates, fit_header_events, trial_offset, trial_span
+from .c3d_trial import (channels_held, fit_event_group, fit_force_plates, fit_header_events, trial_offset, trial_rate,
+                         trial_span, written_first)
 
 __all__ = ["MarkerSet", "read_c3d", "write_c3d", "apply_zero_gaps", "checked_unit_cm"]
 
@@ -432,7 +433,8 @@ def read_c3d(path, zeros_as_gaps: bool | None = None, units: str | None = None) 
     n = xyz.shape[1]
     labels = unique_labels(raw_labels, n)
     file_labels = tuple(str(s).strip() for s in list(raw_labels)[:n]) + labels[len(raw_labels):]
-    layout = dict(header_layout(raw), trial_first=source.first_frame, trial_frames=xyz.shape[0])  # the whole file
+    layout = dict(header_layout(raw), trial_first=source.first_frame, trial_frames=xyz.shape[0],  # the whole file
+                  trial_rate=fps)
     source = dataclasses.replace(source, labels=file_labels, events=_header_events(raw), layout=layout,
                                  modelled=stated_positions(source.parameters, labels))
     modelled = set(modelled) | set(source.modelled)
@@ -496,13 +498,14 @@ def _c3d_like(markers: MarkerSet, like) -> tuple[MarkerSource | None, bool]:
     return (source, own) if source is not None and source.format == "c3d" else (None, own)
 
 
-def _c3d_object(markers: MarkerSet, source: MarkerSource | None, own: bool, first: int):
+def _c3d_object(markers: MarkerSet, source: MarkerSource | None, own: bool, first: int, rate: float):
     """An ezc3d ``c3d`` holding ``markers`` and the parameter groups and analogs of ``source``, and the (A, F *
     ratio) analog numbers to store (:func:`~mocapkit.io.c3d_layout.stored_analogs`; None without analogs) with
     their (A,) ANALOG:OFFSET, which ezc3d writes its own way (0 each) and :func:`write_c3d` writes over.
     Force plates whose analog channels are not written, and the events of another trial than the take's
     (``own`` False) or outside its frames, are left out (:mod:`mocapkit.io.c3d_trial`). ``first``: the take's
-    own first frame number, 1-based."""
+    own first frame number, 1-based, at ``rate`` Hz, the file's rate (a resampled take's differs: its header
+    gets :func:`~mocapkit.io.c3d_trial.written_first`)."""
     import copy
 
     import ezc3d
@@ -517,7 +520,9 @@ def _c3d_object(markers: MarkerSet, source: MarkerSource | None, own: bool, firs
         if ratio and source.analogs.shape[1] == F * ratio:
             analogs = source.analogs
     fit_force_plates(c["parameters"], 0 if analogs is None else analogs.shape[0], channels_held(source, own))
-    fit_event_group(c["parameters"], own, markers.fps, first, F, trial_span(source.layout) if source is not None else None)
+    fit_event_group(c["parameters"], own, markers.fps, first, F, trial_span(source.layout) if source is not None else None,
+                    rate)
+    first = written_first(first, markers.fps, rate)  # the take's own clock from here on
     c["header"]["points"]["first_frame"] = first - 1  # ezc3d's header counts from 0
     for group in ("POINT", "ANALOG"):
         if group not in c["parameters"]:
@@ -730,7 +735,9 @@ def write_c3d(markers: MarkerSet, path, *, like=None, stored_zeros: bool = False
     source, own = _c3d_like(markers, like)
     # the take's own frame numbers (a TRC's Frame# column included), 1-based: the header's, the events kept
     first = max(int(markers.source.first_frame), 1) if markers.source is not None else 1
-    c, stored, offsets = _c3d_object(markers, source, own, first)
+    # the clock of those frame numbers: the file's rate (a resampled take's is not the file's)
+    rate = trial_rate(markers.source.layout, markers.fps) if markers.source is not None else markers.fps
+    c, stored, offsets = _c3d_object(markers, source, own, first, rate)
     data = _ezc3d_bytes(c, path, markers.num_frames, markers.num_markers)
     # ezc3d writes -1 as the header's scale whatever POINT:SCALE says; readers that check the two
     # agree (the c3d package) refuse the mismatch, so the header gets POINT:SCALE (Intel byte order).
@@ -744,7 +751,7 @@ def write_c3d(markers: MarkerSet, path, *, like=None, stored_zeros: bool = False
         put_analogs(data, markers.num_frames, markers.num_markers, stored)
         put_parameter(data, "ANALOG", "OFFSET", offsets)
     _put_header_events(data, fit_header_events(source.events, own, markers.fps, first, markers.num_frames,
-                                               trial_span(source.layout)) if source is not None else ())
+                                               trial_span(source.layout), rate) if source is not None else ())
     if source is not None and source.layout:
         put_header_gap(data, source.layout["interpolation_gap"])
         data = keep_data_start(data, source.layout)

@@ -16,7 +16,10 @@ them describe the file's own recording, not a layout:
   frames written (:func:`event_kept`); a crop of the take keeps the events
   inside it, at their own times (its first frame number written with it), and
   so does a crop written ``like`` the whole file: the file is then cut to the
-  crop's frames (its analogs and force plates kept too).
+  crop's frames (its analogs and force plates kept too). A resampled take
+  (``markers[::2]``) keeps the events within its time span, read on the file's
+  clock (:func:`trial_rate`), and is written from the frame of its own rate
+  at its first frame's time (:func:`written_first`).
 
 C3D format: Motion Lab Systems, "The C3D File Format User Guide" (c3d.org).
 """
@@ -28,7 +31,7 @@ import numpy as np
 from ..markerset import MarkerSet
 
 __all__ = ["same_rate", "same_trial", "samples_agree", "trial_offset", "event_kept", "channels_held", "fit_force_plates",
-           "fit_event_group", "fit_header_events", "trial_span"]
+           "fit_event_group", "fit_header_events", "trial_span", "trial_rate", "written_first"]
 
 
 def same_rate(fps: float, like_fps: float) -> bool:
@@ -100,20 +103,28 @@ def trial_offset(markers: MarkerSet, like: MarkerSet) -> int | None:
     return start if agree else None
 
 
-def event_kept(time_s: float, fps: float, first: int, frames: int, trial: tuple[int, int] | None = None) -> bool:
-    """Whether an event at ``time_s`` seconds (the trial's clock: frame ``n`` at ``(n - 1) / fps``) lies within
-    the ``frames`` frames written from frame number ``first`` (half a frame either side).
+def event_kept(time_s: float, fps: float, first: int, frames: int, trial: tuple[int, int] | None = None,
+               rate: float | None = None) -> bool:
+    """Whether an event at ``time_s`` seconds (the trial's clock: the file's frame ``n`` at ``(n - 1) / rate``)
+    lies within the time span of the ``frames`` frames written at ``fps`` Hz from the file's frame number
+    ``first`` (half a frame of ``fps`` either side).
 
-    ``trial``: (first frame number, frame count) of the whole file read. An event before its first frame or
-    after its last lies in no frame a crop cut away, and is kept while the frames written reach that end of the
-    file: a take written whole keeps every event it had (c3d.org's FP1.C3D lists L. E at 8.0 s, past its 480
-    frames at 60 Hz: written back, it was lost)."""
-    start = (int(first) - 1) / fps
+    ``rate``: the file's frame rate, the clock of ``first`` and ``trial`` (default ``fps``); a resampled take
+    (``markers[::2]``: ``fps`` half the file's ``rate``) spans ``(first - 1) / rate`` to ``(frames - 1) / fps``
+    later, which mixing the file's frame numbers with the take's rate put elsewhere (FunctionalWalk.c3d[::3]
+    from its frame 580 at 40 Hz: 14.5 s, past all its events). ``trial``: (first frame number, frame count) of
+    the whole file read. An event before its first frame or after its last lies in no frame a crop cut away,
+    and is kept while the frames written reach that end of the file (a resampled take: its next frame would lie
+    past the file's last): a take written whole keeps every event it had (c3d.org's FP1.C3D lists L. E at
+    8.0 s, past its 480 frames at 60 Hz: written back, it was lost)."""
+    rate = float(fps) if rate is None else float(rate)
+    start = (int(first) - 1) / rate
     low, high = start - 0.5 / fps, start + (int(frames) - 0.5) / fps
     if trial is not None:
         if int(first) <= int(trial[0]):
             low = -np.inf
-        if int(first) + int(frames) >= int(trial[0]) + int(trial[1]):
+        # the frame after the last written, in the file's frames (first + frames at the file's own rate)
+        if int(first) + int(frames) * rate / fps >= int(trial[0]) + int(trial[1]) - 1e-6:
             high = np.inf
     return bool(low <= float(time_s) <= high)
 
@@ -172,9 +183,9 @@ def _per_event(value, count: int, keep: np.ndarray):
 
 
 def fit_event_group(parameters: dict, own: bool, fps: float, first: int, frames: int,
-                    trial: tuple[int, int] | None = None) -> int:
+                    trial: tuple[int, int] | None = None, rate: float | None = None) -> int:
     """Keep, in ``parameters``' ``EVENT`` group (changed in place), only the events of the take's own trial
-    (``own``) that lie within its frames (:func:`event_kept`, ``trial`` as there); ``USED`` and every per-event
+    (``own``) that lie within its frames (:func:`event_kept`, ``trial`` and ``rate`` as there); ``USED`` and every per-event
     parameter (LABELS, CONTEXTS, TIMES, ...) follow. Returns how many events were left out."""
     group = parameters.get("EVENT")
     if not group or "USED" not in group or "TIMES" not in group:
@@ -184,7 +195,7 @@ def fit_event_group(parameters: dict, own: bool, fps: float, first: int, frames:
         return 0
     times = np.asarray(group["TIMES"]["value"], dtype=np.float64)
     pairs = times.reshape(count, 2) if times.ndim == 1 else times.reshape(2, -1).T[:count]
-    keep = np.array([own and event_kept(60.0 * m + s, fps, first, frames, trial) for m, s in pairs], dtype=bool)
+    keep = np.array([own and event_kept(60.0 * m + s, fps, first, frames, trial, rate) for m, s in pairs], dtype=bool)
     if keep.all():
         return 0
     for key in [k for k in group if k not in ("__METADATA__", "USED")]:
@@ -195,10 +206,28 @@ def fit_event_group(parameters: dict, own: bool, fps: float, first: int, frames:
 
 
 def fit_header_events(events, own: bool, fps: float, first: int, frames: int,
-                      trial: tuple[int, int] | None = None) -> tuple:
+                      trial: tuple[int, int] | None = None, rate: float | None = None) -> tuple:
     """The header events (``(time s, label, flag)``) to write: the take's own trial's (``own``) within its
-    frames (:func:`event_kept`, ``trial`` as there); none of another trial's."""
-    return tuple(e for e in events if own and event_kept(e[0], fps, first, frames, trial))
+    frames (:func:`event_kept`, ``trial`` and ``rate`` as there); none of another trial's."""
+    return tuple(e for e in events if own and event_kept(e[0], fps, first, frames, trial, rate))
+
+
+def trial_rate(layout, fps: float) -> float:
+    """The frame rate (Hz) of the whole C3D file a take was read from, the clock of its frame numbers, as
+    :func:`~mocapkit.io.c3d.read_c3d` keeps it in ``MarkerSource.layout`` (``trial_rate``); ``fps`` (the take's)
+    where it does not (a take read before it was kept)."""
+    return float(layout.get("trial_rate", fps)) if layout is not None else float(fps)
+
+
+def written_first(first: int, fps: float, rate: float) -> int:
+    """The first frame number (1-based) to write for a take whose first frame is the file's frame ``first``
+    (at the file's ``rate`` Hz), written at ``fps`` Hz: ``first`` itself at the file's rate, else the frame of
+    the take's rate nearest the same time, ``1 + round((first - 1) * fps / rate)`` (FunctionalWalk.c3d's
+    frame 480 at 120 Hz, 3.992 s, is frame 241 of its ``[::2]`` at 60 Hz, 4.000 s: within half a frame of the
+    take's rate; Eb015pr.c3d's frame 151 at 50 Hz, 3.0 s, is frame 76 of its ``[150::2]``, 3.0 s)."""
+    if same_rate(fps, rate):
+        return int(first)
+    return max(1, 1 + int(round((int(first) - 1) * float(fps) / float(rate))))
 
 
 def trial_span(layout) -> tuple[int, int] | None:
