@@ -191,3 +191,70 @@ def test_a_repair_of_a_filled_cell_moves_its_missing_channel_not_the_measured_on
 
     raw = repair_take(filled, det).rotations[20:26, 2]
     assert np.degrees(R.geodesic_angle(done.motion.rotations[20:26, 2], raw)).max() <= REPAIR_TOLERANCE_DEG
+
+
+def _noisy_around(src: Path, out: Path, column: int, gap: range, sigma: float, in_gap: bool) -> list[str]:
+    """``src`` with its ``column``-th number ``nan`` in frames ``gap`` and white noise of ``sigma`` deg (seeded) on
+    the three numbers of that column's joint in every other frame (``in_gap``: on the gap's measured numbers too)."""
+    lines = src.read_text().split("\n")
+    at = next(i for i, t in enumerate(lines) if t.startswith("Frame Time")) + 1
+    rng, base = np.random.default_rng(0), column - column % 3
+    for f in range(len(lines) - at):
+        tokens = lines[at + f].split(" ")
+        if len(tokens) <= column:
+            continue
+        for k in range(base, base + 3):
+            if f in gap and k == column:
+                tokens[k] = "nan"
+            elif in_gap or f not in gap:
+                tokens[k] = f"{float(tokens[k]) + rng.normal(0.0, sigma):.4f}"
+        lines[at + f] = " ".join(tokens)
+    out.write_text("\n".join(lines))
+    return lines
+
+
+@pytest.mark.parametrize("in_gap", [False, True])
+def test_a_denoise_of_a_filled_cell_moves_its_missing_channel_not_clean_measured_ones(tmp_path, in_gap):
+    """cmu_01_01_start's LeftUpLeg with its Zrotation nan in frames 45-50 and 2 deg noise written on its channels
+    around them: noisy, its run denoised whole, the filled cells in it too. Their measured Y and X, which carry no
+    noise, moved by up to 0.85 deg (numbers the file measured, changed on no evidence against them); now only the
+    nan numbers change there, and the step's note says so. With the noise on those measured numbers too
+    (``in_gap``), no Z reaches the denoised rotation: the denoise stands whole, the noise its evidence."""
+    from mocapkit.cleaning.pipeline import clean
+
+    path = tmp_path / "noisy.bvh"
+    lines = _noisy_around(DATA / "cmu_01_01_start.bvh", path, 9, range(45, 51), 2.0, in_gap)
+    at = next(i for i, t in enumerate(lines) if t.startswith("Frame Time")) + 1
+    res = clean(read_bvh(path), steps="fill,denoise")
+    assert res.filled[45:51, 2].all() and res.denoised[45:51, 2].all()
+    out = tmp_path / "out.bvh"
+    write_bvh(res.motion, out, like=path)
+    written = out.read_text().split("\n")
+    changed = {(i - at, k) for i, (a, b) in enumerate(zip(lines, written)) for k, (x, y) in
+               enumerate(zip(a.split(" "), b.split(" "))) if x != y and 45 <= i - at < 51}
+    note = next(s.note for s in res.steps if s.name == "denoise")
+    if in_gap:
+        assert {k for _, k in changed} == {9, 10, 11} and "kept the file's measured channels" not in note
+    else:
+        assert changed == {(f, 9) for f in range(45, 51)}
+        assert "6 filled cells (LeftUpLeg) kept the file's measured channels" in note
+
+
+def test_denoise_take_of_a_whole_filled_take_keeps_clean_measured_channels(tmp_path):
+    """The same take through whole_take.denoise_take (``mocapkit denoise``'s path, and clean's on a take with no
+    calibration pose): the whole take has the file's rows, and there the filled cells keep their measured ones (all
+    but one, whose measured ones alone the EBF moved by more than the tolerance: its denoise stands whole)."""
+    from mocapkit.cleaning.pipeline import noisy_cells
+    from mocapkit.cleaning.whole_take import denoise_take
+
+    path = tmp_path / "noisy.bvh"
+    lines = _noisy_around(DATA / "cmu_01_01_start.bvh", path, 9, range(45, 51), 2.0, False)
+    at = next(i for i, t in enumerate(lines) if t.startswith("Frame Time")) + 1
+    filled = fill_take(read_bvh(path))
+    noisy, _ = noisy_cells(filled.motion, filled=filled.filled)
+    out, _, note = denoise_take(filled.motion, cells=noisy)
+    raw = np.array([[float(x) for x in lines[at + f].split(" ")[10:12]] for f in range(45, 51)])
+    same = np.isclose(out.channel_values()[45:51, 10:12], raw, rtol=0.0, atol=1e-9).all(axis=1)  # Y and X: the file's
+    assert noisy[45:51, 2].all() and same.sum() >= 5  # (one, 1.2 deg off, stands whole: the EBF reads frame 0 here)
+    assert f"{same.sum()} filled cells (LeftUpLeg) kept the file's measured channels" in note
+

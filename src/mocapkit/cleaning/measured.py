@@ -16,7 +16,9 @@ The repair step judges a joint's whole rotation too: where detection flags such 
 it, :func:`keep_measured_in_repair` keeps the measured channels as the file gives them and moves only the missing
 ones, wherever they alone bring the rotation within :data:`REPAIR_TOLERANCE_DEG` of the repair's (the flag is then
 explained by the made-up channel); a repair no missing channel can reach is evidence against the measured ones,
-and stands whole, as for a cell the file measures whole.
+and stands whole, as for a cell the file measures whole. The denoise step alike
+(:func:`keep_measured_in_denoise`): a filled cell inside a noisy joint's run is denoised with it, and its measured
+channels moved with the noise around them.
 """
 
 from __future__ import annotations
@@ -31,7 +33,8 @@ from ..errors import MocapFormatError
 from ..io.euler_branches import bridged, partly_missing
 from ..motion import Motion
 
-__all__ = ["keep_measured", "keep_measured_in_repair", "REPAIR_TOLERANCE_DEG"]
+__all__ = ["keep_measured", "keep_measured_in_repair", "keep_measured_in_denoise", "kept_note",
+           "REPAIR_TOLERANCE_DEG"]
 
 #: Degrees: a repaired cell the file gives partly ``nan`` keeps its measured channels where its missing ones alone put
 #: the rotation this close to the repair's: clean's default noise level (``--noise-deg``, NOISE_DEG), under which a
@@ -103,6 +106,36 @@ def keep_measured_in_repair(before: Motion, after: Motion, cells: np.ndarray,
     if not kept.any():
         return after, kept
     return dataclasses.replace(after, rotations=np.where(kept[..., None], rot, after.rotations)), kept
+
+
+def keep_measured_in_denoise(before: Motion, after: Motion) -> tuple[Motion, np.ndarray]:
+    """``after`` (``before`` denoised, the same frames) with the cells it changed that ``before``'s BVH or AMC file
+    gives partly ``nan`` (a filled cell) put back on the file's measured channels where the missing ones alone reach
+    the denoised rotation within :data:`REPAIR_TOLERANCE_DEG`: the rule of :func:`keep_measured_in_repair`, for the
+    denoise step (:func:`mocapkit.cleaning.whole_take.denoise_take`,
+    ``clean``'s denoise step on the frames between calibration poses).
+
+    A noisy joint's run is denoised as a whole, its filled cells too (they are smooth and left out of the noise
+    test, not out of the run): cmu_01_01_start's LeftUpLeg, noisy (2 deg noise written on its channels around
+    frames 45-50, its Z ``nan`` there), came back with the measured Y and X of those frames moved by up to 0.85 deg,
+    numbers the file measured with no noise in them. Where the measured channels are themselves noisy, no missing
+    channel reaches the denoised rotation and the denoise stands whole (the noise is the evidence against them).
+    Both are whole takes (the file's frames: a slice of one has no file rows to put back). Returns
+    ``(motion, kept)`` as :func:`keep_measured_in_repair`."""
+    from .whole_take import differing  # whole_take denoises with this: imported on use
+
+    return keep_measured_in_repair(before, after, differing(before.rotations, after.rotations))
+
+
+def kept_note(kept: np.ndarray, names, step: str) -> str:
+    """One line saying the cells ``kept`` (F, J) bool a ``step`` ("denoise") put back on their measured channels
+    (:func:`keep_measured_in_denoise`), the joints named (``names``: the take's joint names); "" for none."""
+    if not np.any(kept):
+        return ""
+    joints = ", ".join(names[j] for j in np.flatnonzero(np.any(kept, axis=0)))
+    n = int(np.sum(kept))
+    return (f"{n} filled cell{'' if n == 1 else 's'} ({joints}) kept the file's measured channels, the {step} moving "
+            f"the missing ones alone (within {REPAIR_TOLERANCE_DEG:g} deg of its rotation)")
 
 
 def _partly_measured(before: Motion, after: Motion, rot: np.ndarray, gone: np.ndarray) -> None:

@@ -140,6 +140,7 @@ from ..errors import MissingFileError, MocapError, MocapFormatError
 from ..motion import Motion, frozen
 from .calibration import CalibrationPose, calibration_poses
 from .inbetweens import interpolated_note
+from .measured import keep_measured_in_denoise, kept_note
 from .noise_rate import noise_too_coarse
 from .noise_scope import with_body_noise
 from .stutters import Stutter, find_stutters, stutter_frames
@@ -692,16 +693,25 @@ def _check(motion: Motion) -> None:
         raise MocapError(f"{name}: every joint is missing (NaN) in every frame; nothing to clean")
 
 
-def _denoise(motion: Motion, noisy: np.ndarray, models: dict, notes: list, zeros) -> tuple[Motion, str, str]:
+def _denoise(cur: Motion, lo: int, hi: int, noisy: np.ndarray, models: dict, notes: list,
+             zeros) -> tuple[np.ndarray, str, str]:
+    """``(rotations, method, note)``: ``cur``'s (F, J, 4) with the ``noisy`` cells (Fs, J) of frames ``lo .. hi - 1``
+    denoised, a filled cell's measured channels kept where its missing ones reach the denoise
+    (:func:`~mocapkit.cleaning.measured.keep_measured_in_denoise`: on the whole take, which has the file's rows)."""
     if not noisy.any():
-        return motion, "nothing (no joint is noisy)", ""
+        return np.array(cur.rotations), "nothing (no joint is noisy)", ""
     # the EBF runs only as far as the noisy cells need; the rule and fallback every command applies, and the path
     # `mocapkit denoise` takes (whole_take.denoise_take: channels written as 0 left as written)
-    den, method, note = denoise_take(motion, models.get("ebf"), cells=noisy, zeros=zeros)
+    den, method, note = denoise_take(cur[lo:hi], models.get("ebf"), cells=noisy, zeros=zeros)
+    rot = np.array(cur.rotations)
+    rot[lo:hi] = np.where(noisy[..., None], den.rotations, rot[lo:hi])
+    if (lo, hi) != (0, cur.num_frames):  # denoise_take keeps them on a whole take; here on the frames between poses
+        kept_m, kept = keep_measured_in_denoise(cur, dataclasses.replace(cur, rotations=rot))
+        rot = kept_m.rotations
+        note = "; ".join(x for x in (note, kept_note(kept, cur.skeleton.joint_names, "denoise")) if x)
     if note:
         notes.append(note)
-    rot = np.where(noisy[..., None], den.rotations, motion.rotations)
-    return dataclasses.replace(motion, rotations=rot), method, note
+    return rot, method, note
 
 
 def _context_label(context) -> str:
@@ -888,9 +898,7 @@ def clean(
             # the zeros fill did not fill, in the part's frames (none after fill)
             left = ((zero_cells[lo:hi], zero_runs, zero_frames[lo:hi]) if "fill" not in steps
                     else (np.zeros_like(noisy), (), np.zeros(Fs, dtype=bool)))
-            den, method, note = _denoise(part, noisy, models, notes, left)
-            rot = np.array(cur.rotations)
-            rot[lo:hi] = den.rotations
+            rot, method, note = _denoise(cur, lo, hi, noisy, models, notes, left)
             denoised, den_rot = differing(cur.rotations, rot), rot
             undenoised, redo = cur, (noisy, left)  # repair works on the take as filled, denoised after it
             cur = dataclasses.replace(cur, rotations=rot)
@@ -946,9 +954,7 @@ def clean(
                 repair_whole(undenoised, det, context, foot_skate=foot_skate, poses=poses))
         cur, repaired = done.motion, done.changed
         if redo is not None and repaired.any():  # the noisy cells denoised again, around the repaired ones
-            den, _, _ = _denoise(cur[lo:hi], redo[0], models, [], redo[1])
-            rot = np.array(cur.rotations)
-            rot[lo:hi] = den.rotations
+            rot, _, _ = _denoise(cur, lo, hi, redo[0], models, [], redo[1])
             denoised = differing(cur.rotations, rot)
             cur = dataclasses.replace(cur, rotations=rot)
             den_record = dataclasses.replace(den_record, cells=int(denoised.sum()))

@@ -55,7 +55,7 @@ from ..errors import MocapError, SkeletonError
 from ..motion import Motion
 from .calibration import calibration_mask, calibration_poses
 from .denoise_guard import guarded
-from .measured import keep_measured, keep_measured_in_repair
+from .measured import keep_measured, keep_measured_in_denoise, keep_measured_in_repair, kept_note
 from .zeros import as_missing, find_zeros
 
 __all__ = ["MAX_WORD_ANGLE_DEG", "MADE_UP_SHARE", "TakeDetection", "TakeFill", "TakeRepair", "take_params",
@@ -200,6 +200,8 @@ def denoise_take(motion: Motion, ebf=None, *, cells: np.ndarray | None = None, o
     a dropout's jump into 0 and out was spread over the good frames beside it (a Bandai Namco hip zeroed for 40
     frames: its 5 frames on each side turned by up to 80 deg). A cell the denoiser moves further than the take's
     noise explains is kept as it came, and its neighbours denoised without it (:func:`~mocapkit.cleaning.denoise_guard.guarded`,
+    said in the note). A denoised cell its BVH or AMC file gives partly ``nan`` (filled) keeps its measured channels
+    where its missing ones reach the denoised rotation (:func:`~mocapkit.cleaning.measured.keep_measured_in_denoise`,
     said in the note). ``ebf``: as :func:`resolve_model` takes it; ``options``: as for ``denoise_or_fallback``.
     """
     from dataclasses import replace
@@ -214,6 +216,9 @@ def denoise_take(motion: Motion, ebf=None, *, cells: np.ndarray | None = None, o
     if runs:  # the lost samples as written; positions, which denoising keeps, as they were
         rot = np.where(zc[..., None], motion.rotations, out.rotations)
         out = replace(out, rotations=rot, root_positions=motion.root_positions, translations=motion.translations)
+    # a filled cell's measured channels kept where its missing ones explain the denoise (measured module docstring)
+    out, kept = keep_measured_in_denoise(motion, out)
+    note = "; ".join(x for x in (note, kept_note(kept, motion.skeleton.joint_names, "denoise")) if x)
     return out, method, note
 
 
