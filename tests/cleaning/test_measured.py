@@ -258,3 +258,31 @@ def test_denoise_take_of_a_whole_filled_take_keeps_clean_measured_channels(tmp_p
     assert noisy[45:51, 2].all() and same.sum() >= 5  # (one, 1.2 deg off, stands whole: the EBF reads frame 0 here)
     assert f"{same.sum()} filled cells (LeftUpLeg) kept the file's measured channels" in note
 
+
+def test_a_teleport_put_back_moves_a_measured_root_axis_only_on_its_own_jump(tmp_path):
+    """cmu_01_01_start's root with its Yposition nan in frames 30-32 and 70-72 (filled, X and Z kept as written),
+    and a teleport in those frames: X and Z 20 in away in 30-32, X alone in 70-72. The put-back replaced the whole
+    position by the line between the frames around: in 70-72 the measured Z, on its path, moved too (by up to 0.006
+    in), on no evidence against it. Now it is written as the file gives it there; X (its jump) and the filled Y are
+    put back, and in 30-32 Z, which jumps too, is."""
+    from mocapkit.cleaning.whole_take import detect_take, repair_whole
+
+    path = tmp_path / "teleport.bvh"
+    lines = _with_nan(DATA / "cmu_01_01_start.bvh", path, 1, [*range(30, 33), *range(70, 73)])  # the root's Y
+    at = next(i for i, t in enumerate(lines) if t.startswith("Frame Time")) + 1
+    for f in [*range(30, 33), *range(70, 73)]:
+        tokens = lines[at + f].split(" ")
+        for k in (0, 2) if f < 50 else (0,):
+            tokens[k] = f"{float(tokens[k]) + 20:.5f}"
+        lines[at + f] = " ".join(tokens)
+    path.write_text("\n".join(lines))
+    filled = fill_take(read_bvh(path)).motion
+    done = repair_whole(filled, detect_take(filled).detection)
+    assert len(done.put_back) == 2 and done.teleported[30:33, 0].all() and done.teleported[70:73, 0].all()
+    out = tmp_path / "out.bvh"
+    write_bvh(done.motion, out, like=path)
+    written = out.read_text().split("\n")
+    changed = {(i - at, k) for i, (a, b) in enumerate(zip(lines, written)) for k, (x, y) in
+               enumerate(zip(a.split(" "), b.split(" "))) if x != y and k < 3}
+    want = {(f, k) for f in range(30, 33) for k in (0, 1, 2)} | {(f, k) for f in range(70, 73) for k in (0, 1)}
+    assert changed == want  # 70-72: Z as the file writes it

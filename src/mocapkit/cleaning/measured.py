@@ -18,7 +18,10 @@ ones, wherever they alone bring the rotation within :data:`REPAIR_TOLERANCE_DEG`
 explained by the made-up channel); a repair no missing channel can reach is evidence against the measured ones,
 and stands whole, as for a cell the file measures whole. The denoise step alike
 (:func:`keep_measured_in_denoise`): a filled cell inside a noisy joint's run is denoised with it, and its measured
-channels moved with the noise around them.
+channels moved with the noise around them. A root position the file gives partly ``nan`` (its ``Yposition``
+written ``nan``, X and Z measured) keeps its measured axes through the fill; :func:`measured_axes` names them, so that
+the teleport put-back (:func:`mocapkit.cleaning.take_breaks.fix_teleports`) moves such an axis only on evidence
+against that axis itself.
 """
 
 from __future__ import annotations
@@ -33,7 +36,7 @@ from ..errors import MocapFormatError
 from ..io.euler_branches import bridged, partly_missing
 from ..motion import Motion
 
-__all__ = ["keep_measured", "keep_measured_in_repair", "keep_measured_in_denoise", "kept_note",
+__all__ = ["keep_measured", "keep_measured_in_repair", "keep_measured_in_denoise", "kept_note", "measured_axes",
            "REPAIR_TOLERANCE_DEG"]
 
 #: Degrees: a repaired cell the file gives partly ``nan`` keeps its measured channels where its missing ones alone put
@@ -136,6 +139,51 @@ def kept_note(kept: np.ndarray, names, step: str) -> str:
     n = int(np.sum(kept))
     return (f"{n} filled cell{'' if n == 1 else 's'} ({joints}) kept the file's measured channels, the {step} moving "
             f"the missing ones alone (within {REPAIR_TOLERANCE_DEG:g} deg of its rotation)")
+
+
+def measured_axes(motion: Motion) -> tuple[np.ndarray | None, np.ndarray | None]:
+    """``(root, offsets)``: the position axes ``motion``'s BVH or AMC file (its ``source_file``, or an .npz keeping
+    such a file's numbers) measures in the cells where it gives a joint's position channels partly ``nan`` (a root
+    ``Yposition`` written ``nan``, its ``Xposition`` and ``Zposition`` numbers; an AMC root's ``ty``).
+
+    ``root``: (F, 3) bool, axes x, y, z of ``Motion.root_positions``; ``offsets``: (F, J, 3) bool, of the animated
+    offsets ``Motion.translations`` (None where the take has none). Each is None where no such cell is (no file,
+    none partly ``nan``, or the file gone since it was read). The fill keeps those numbers as the file writes them
+    (:func:`keep_measured`); a later step that moves the position of such a cell has evidence against the missing
+    axis it made up, not necessarily against these."""
+    src = motion.source_file
+    if src is None or Path(src).suffix.lower() not in (".bvh", ".amc", ".npz"):
+        return None, None
+    try:
+        if motion.skeleton.axes is None:
+            from ..io.bvh import source_values  # io is below cleaning; imported on use
+
+            values, names = source_values(motion, src)
+            axis_of = lambda c: c[0] if c.endswith("position") else ""  # noqa: E731
+        else:
+            from ..io.amc_writer import source_numbers
+
+            values, names = source_numbers(motion, src)
+            axis_of = lambda d: d[1] if d[0] == "t" else ""  # noqa: E731
+    except (MocapFormatError, OSError):  # the file removed or replaced since it was read: nothing to tell
+        return None, None
+    F = motion.num_frames
+    if values is None or values.shape[0] != F or not np.isnan(values).any():
+        return None, None
+    root = np.zeros((F, 3), dtype=bool)
+    offsets = None if motion.translations is None else np.zeros((F, motion.num_joints, 3), dtype=bool)
+    start = 0
+    for j, chans in enumerate(names):
+        axes = [(start + k, "xyz".index(a.lower())) for k, a in enumerate(map(axis_of, chans)) if a]
+        start += len(chans)
+        into = root if j == 0 else None if offsets is None else offsets[:, j]
+        if len(axes) < 2 or into is None:
+            continue
+        own = values[:, [c for c, _ in axes]]
+        part = partly_missing(own)
+        for i, (_, ax) in enumerate(axes):
+            into[:, ax] |= part & np.isfinite(own[:, i])
+    return (root if root.any() else None), (offsets if offsets is not None and offsets.any() else None)
 
 
 def _partly_measured(before: Motion, after: Motion, rot: np.ndarray, gone: np.ndarray) -> None:

@@ -34,11 +34,14 @@ import numpy as np
 
 from ..motion import Motion
 
-__all__ = ["JUMP_CM", "TELEPORT_MAX_S", "FROZEN_MIN_S", "CUT_SHARE", "CUT_RATIO", "CUT_MIN_DEG", "RootEvent",
+__all__ = ["JUMP_CM", "AXIS_CM", "TELEPORT_MAX_S", "FROZEN_MIN_S", "CUT_SHARE", "CUT_RATIO", "CUT_MIN_DEG", "RootEvent",
            "Cut", "pelvis_path_cm", "root_jumps", "root_events", "fix_teleports", "cut_scores", "cuts",
            "cut_mask"]
 
 JUMP_CM = 25.0  # a step of the pelvis this far off the steps beside it (cm per frame) no body makes
+#: cm: a measured axis of a position the file gives partly ``nan`` is put on the line only when it alone is this far off
+#: it (:func:`fix_teleports`): a channel put back is off by half JUMP_CM, so its farthest axis by at least this
+AXIS_CM = 0.5 * JUMP_CM / np.sqrt(3.0)
 TELEPORT_MAX_S = 0.5  # a jump back within this long makes a teleport
 FROZEN_MIN_S = 0.5  # a root held bit for bit this long while the legs turn is named
 FROZEN_TURN_DEG = 10.0  # ... the legs turning at least this far over the hold
@@ -207,7 +210,7 @@ def _frozen(motion: Motion, path: np.ndarray, lo: int, name: str) -> list[RootEv
     return out
 
 
-def fix_teleports(motion: Motion, events) -> tuple[Motion, list[RootEvent]]:
+def fix_teleports(motion: Motion, events, measured=(None, None)) -> tuple[Motion, list[RootEvent]]:
     """``motion`` with each teleport of ``events`` put back, and the events (teleports marked ``fixed``).
 
     Over a teleport's frames, each position channel that carries the jump (the root position, and the
@@ -215,6 +218,12 @@ def fix_teleports(motion: Motion, events) -> tuple[Motion, list[RootEvent]]:
     between its values at the frames before and after; a channel off that line by less than half
     :data:`JUMP_CM` is left bit for bit, as is every other frame. A teleport touching the take's ends is
     left (there is no good frame on one side).
+
+    ``measured``: ``(root (F, 3), offsets (F, J, 3))`` bool or None each
+    (:func:`mocapkit.cleaning.measured.measured_axes`), the axes the file measures in a position it gives partly
+    ``nan``: such an axis is put on the line only where it alone is off it by more than :data:`AXIS_CM`, else left
+    as written. The jump is evidence against the axes that carry it: a CMU root with ``Yposition`` ``nan`` in the
+    frames of a teleport in X had its measured Z, on its path, moved onto the line too (by up to 0.006 in).
     """
     sk = motion.skeleton
     _, p = pelvis_path_cm(motion)
@@ -225,6 +234,9 @@ def fix_teleports(motion: Motion, events) -> tuple[Motion, list[RootEvent]]:
     root = np.array(motion.root_positions, dtype=np.float64)
     tr = None if motion.translations is None else np.array(motion.translations, dtype=np.float64)
     chans = [root] + ([] if tr is None else [tr[:, j] for j in chain if j > 0])  # views: written in place
+    at_root, at_offsets = measured
+    kept = [at_root] + ([] if tr is None else
+                        [None if at_offsets is None else at_offsets[:, j] for j in chain if j > 0])
     out = []
     for e in events:
         if e.kind != "teleport" or e.first < 1 or e.last + 1 >= motion.num_frames:
@@ -232,9 +244,11 @@ def fix_teleports(motion: Motion, events) -> tuple[Motion, list[RootEvent]]:
             continue
         a, b = e.first, e.last + 1  # wrong frames a..b-1; good frames a-1 and b
         t = ((np.arange(a, b) - (a - 1)) / (b - (a - 1)))[:, None]
-        for c in chans:
+        for c, keep in zip(chans, kept):
             line = c[a - 1] + t * (c[b] - c[a - 1])
             if np.max(np.linalg.norm(c[a:b] - line, axis=1)) * scale > 0.5 * JUMP_CM:
+                if keep is not None:  # a measured axis no jump of its own moves: as written
+                    line = np.where(keep[a:b] & (np.abs(c[a:b] - line) * scale <= AXIS_CM), c[a:b], line)
                 c[a:b] = line
         out.append(dataclasses.replace(e, fixed=True))
     return dataclasses.replace(motion, root_positions=root, translations=tr), out

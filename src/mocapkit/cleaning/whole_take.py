@@ -55,7 +55,7 @@ from ..errors import MocapError, SkeletonError
 from ..motion import Motion
 from .calibration import calibration_mask, calibration_poses
 from .denoise_guard import guarded
-from .measured import keep_measured, keep_measured_in_denoise, keep_measured_in_repair, kept_note
+from .measured import keep_measured, keep_measured_in_denoise, keep_measured_in_repair, kept_note, measured_axes
 from .zeros import as_missing, find_zeros
 
 __all__ = ["MAX_WORD_ANGLE_DEG", "MADE_UP_SHARE", "TakeDetection", "TakeFill", "TakeRepair", "take_params",
@@ -421,7 +421,8 @@ def _repaired(motion: Motion, detection, context=None, *, foot_skate: bool = Fal
     fixed, _ = keep_measured_in_repair(motion, fixed, changed_cells(motion, fixed))
     moved = changed_cells(motion, fixed)
     events = [e for e in tb.root_events(fixed, span) if e.kind == "teleport"]
-    back, done = tb.fix_teleports(fixed, events) if events else (fixed, ())
+    # a measured axis of a root the file gives partly nan put on the path only on its own evidence (measured_axes)
+    back, done = tb.fix_teleports(fixed, events, measured_axes(motion)) if events else (fixed, ())
     teleported = changed_cells(motion, back) & ~moved
     leaves = [name for name, _ in getattr(detection, "left_out", ()) or ()]
     put_back = tuple(e for e in done if e.fixed)
