@@ -207,6 +207,14 @@ def checked_cost_block(A, B, okA, okB, members, drop, s0, t0, rtol, terms, C):
 
 
 @njit(cache=True, inline="always")
+def _top3(x, m0, m1, m2, v):
+    """A cell's running sum ``x`` and its three largest terms ``m0 >= m1 >= m2`` with the term ``v`` added (the
+    insertion word_dtw's robust sum keeps)."""
+    x0, x1 = m0, m1
+    return x + v, max(x0, v), max(x1, min(x0, v)), max(m2, min(x1, v))
+
+
+@njit(cache=True, inline="always")
 def _row(A, Q, ok, members, offsets, drop, rtol, a, c0, ra, out, term, tot, s, t0, t1, t2, exact):
     """Cells ``(a, c0..F-1)`` of every group into ``out[:, ra, c0:]``: polynomial terms checked, the unsure cells
     exact.
@@ -255,30 +263,10 @@ def _row(A, Q, ok, members, offsets, drop, rtol, a, c0, ra, out, term, tot, s, t
             else:
                 for j in range(n):
                     x, m0, m1, m2 = s[j], t0[j], t1[j], t2[j]
-                    v = ta[j]
-                    x += v
-                    x0, x1 = m0, m1
-                    m0 = max(x0, v)
-                    m1 = max(x1, min(x0, v))
-                    m2 = max(m2, min(x1, v))
-                    v = tb[j]
-                    x += v
-                    x0, x1 = m0, m1
-                    m0 = max(x0, v)
-                    m1 = max(x1, min(x0, v))
-                    m2 = max(m2, min(x1, v))
-                    v = tc[j]
-                    x += v
-                    x0, x1 = m0, m1
-                    m0 = max(x0, v)
-                    m1 = max(x1, min(x0, v))
-                    m2 = max(m2, min(x1, v))
-                    v = td[j]
-                    x += v
-                    x0, x1 = m0, m1
-                    m0 = max(x0, v)
-                    m1 = max(x1, min(x0, v))
-                    m2 = max(m2, min(x1, v))
+                    x, m0, m1, m2 = _top3(x, m0, m1, m2, ta[j])
+                    x, m0, m1, m2 = _top3(x, m0, m1, m2, tb[j])
+                    x, m0, m1, m2 = _top3(x, m0, m1, m2, tc[j])
+                    x, m0, m1, m2 = _top3(x, m0, m1, m2, td[j])
                     s[j], t0[j], t1[j], t2[j] = x, m0, m1, m2
             q += 4
         for k in mem[q:]:  # the last one to three joints, one a pass
