@@ -144,7 +144,7 @@ def clean(take, context=None, *, steps=None, threshold: float | None = None, asf
     CleanResult
         ``motion`` (the cleaned take), the (F, J) cell masks ``filled``,
         ``repaired``, ``denoised``, the detection, and one record per step
-        (see :class:`mocapkit.cleaning.pipeline.CleanResult`); its
+        (see :class:`mocapkit.cleaning.clean_record.CleanResult`); its
         ``summary()`` lines are those ``mocapkit clean`` prints, the line on
         how its 0-based frames relate to the file's own numbers (an AMC's,
         a TRC's, a C3D's) included when ``take`` is such a file.

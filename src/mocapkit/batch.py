@@ -3,7 +3,7 @@
 What is on disk after a take is cleaned, beside each other:
 
 - ``OUT`` (``.bvh`` or ``.npz``): the cleaned motion;
-- ``OUT``'s stem + ``.clean.npz`` (:func:`mocapkit.cleaning.pipeline.clean_path`):
+- ``OUT``'s stem + ``.clean.npz`` (:func:`mocapkit.cleaning.clean_record.clean_path`):
   the MDM, the flags and what each step changed (:meth:`CleanResult.save`);
 - optionally the HTML report and the PNG summary.
 
@@ -147,7 +147,7 @@ def clean_file(
     """Clean the take at ``inp`` and write ``out``, its ``.clean.npz`` record and optional reports.
 
     Returns ``(original, result)``: the take as read and the
-    :class:`~mocapkit.cleaning.pipeline.CleanResult` (with ``decisions``, the decided one, what ``out`` holds:
+    :class:`~mocapkit.cleaning.clean_record.CleanResult` (with ``decisions``, the decided one, what ``out`` holds:
     :func:`mocapkit.cleaning.decide.decided_result`, its ``decided`` the summary). ``context``: what
     ``--context`` gives (:func:`load_context`; empty: the bundled default
     context, fitted to the take by :func:`mocapkit.context.fit_context`, whose

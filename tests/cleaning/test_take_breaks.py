@@ -214,7 +214,7 @@ def test_the_review_mode_names_and_flags_the_teleports_clean_puts_back_and_chang
 
 def test_a_take_of_many_jumps_names_the_first_few_in_clean_s_summary_and_counts_the_rest(walk131):
     """A long take of many cuts (a session of takes joined) named every one in the detect step's single summary
-    line; the first :data:`~mocapkit.cleaning.pipeline.MAX_LINES` are named, the rest counted."""
+    line; the first :data:`~mocapkit.cleaning.clean_record.MAX_LINES` are named, the rest counted."""
     from mocapkit.cleaning.pipeline import MAX_LINES
 
     root = np.array(walk131.root_positions)

@@ -7,7 +7,7 @@ whose :func:`~mocapkit.cleaning.decisions.cleaning_digest` is the one the file k
 those of :mod:`mocapkit.cleaning.decisions` that :func:`mocapkit.batch.clean_file` makes, in the same order and
 words, so a refusal is the CLI's line. :func:`decided_result` is what comes back: the take with only the accepted
 changes, its masks holding only their cells, and the :class:`~mocapkit.cleaning.decided.Decided` its
-:meth:`~mocapkit.cleaning.pipeline.CleanResult.summary` says.
+:meth:`~mocapkit.cleaning.clean_record.CleanResult.summary` says.
 
 A library cleaning keeps the options it was asked for as the CLI's record does (``params["request"]``,
 :func:`mocapkit.batch_request.clean_request`), so its record (:meth:`CleanResult.save`) and report

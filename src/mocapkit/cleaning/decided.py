@@ -74,7 +74,7 @@ class Decided:
 
 def for_motion(doc: dict, path, original, result, decisions: dict, record=None, take: str = "") -> Decided:
     """:class:`Decided` for a joint-angle take: ``doc`` read from ``path``, its checked ``decisions`` applied to
-    ``result`` (a :class:`~mocapkit.cleaning.pipeline.CleanResult` of ``original``, read from ``record`` or, None,
+    ``result`` (a :class:`~mocapkit.cleaning.clean_record.CleanResult` of ``original``, read from ``record`` or, None,
     a new cleaning); ``take``: the input's file name (default the take's name)."""
     found = dec.changes(result, original)
     rejected = tuple(str(c) for c in found if decisions.get(c.id) == dec.REJECT)

@@ -817,7 +817,7 @@ def frames_note(path=None, take=None) -> str:
 
     ``take``: the :class:`~mocapkit.markerset.MarkerSet` read from ``path``, whose source keeps the first
     frame's number (:func:`mocapkit.io.takes.file_first_frame`); with ``path`` None it is named by its
-    ``name``. :meth:`CleanResult.summary <mocapkit.cleaning.pipeline.CleanResult.summary>` and
+    ``name``. :meth:`CleanResult.summary <mocapkit.cleaning.clean_record.CleanResult.summary>` and
     :meth:`MarkerCleanResult.summary <mocapkit.cleaning.markers.MarkerCleanResult.summary>` say it, so
     ``mocapkit.clean`` and ``mocapkit clean`` say the same.
     """

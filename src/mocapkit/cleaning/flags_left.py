@@ -25,7 +25,7 @@ def flag_outcomes(result) -> list[dict]:
     from the result's notes, a turn-over's reason for being left (:mod:`~mocapkit.cleaning.ssa.flips`), or that
     repair did not run).
 
-    ``result`` a :class:`~mocapkit.cleaning.pipeline.CleanResult` (a fresh one or one loaded from its record:
+    ``result`` a :class:`~mocapkit.cleaning.clean_record.CleanResult` (a fresh one or one loaded from its record:
     the notes keep the guard's runs).
     """
     changed = np.asarray(result.changed, dtype=bool)

@@ -362,7 +362,7 @@ def write_report(
         :func:`~mocapkit.cleaning.decisions.template`): the page lists the
         changes for a person to accept or reject and download the decisions.
     analysed : bool array (J,), optional
-        The joints detection analysed (:attr:`mocapkit.cleaning.pipeline.CleanResult.analysed`). The
+        The joints detection analysed (:attr:`mocapkit.cleaning.clean_record.CleanResult.analysed`). The
         heat map draws the others striped grey, "not analysed", and the page names them, rather than
         an MDM of 0 that looks checked and clean. None: every joint is drawn by its MDM.
     not_judged : bool array (F, J), optional
@@ -372,7 +372,7 @@ def write_report(
         of them (:func:`mocapkit.cleaning.judged.not_judged_note`, as the console says them).
     warnings : sequence of str
         Lines shown under the title as ``warning: ...``, as the console says them: a step's fallback, the licence
-        of a model whose terms restrict use (:attr:`mocapkit.cleaning.pipeline.CleanResult.warnings`; the
+        of a model whose terms restrict use (:attr:`mocapkit.cleaning.clean_record.CleanResult.warnings`; the
         non-commercial Bandai Namco models), so a page passed on says what the take's cleaning may be used for.
 
     Returns
@@ -549,7 +549,7 @@ def write_clean_report(path, original: Motion, result, *, inp=None, output: str 
                        applied: str = "", command: dict | None = None, asf=None) -> Path:
     """Write the report of a cleaning to review and decide: :func:`write_report` with the list of changes.
 
-    The report ``mocapkit clean --report`` writes, for a :class:`~mocapkit.cleaning.pipeline.CleanResult` made by
+    The report ``mocapkit clean --report`` writes, for a :class:`~mocapkit.cleaning.clean_record.CleanResult` made by
     the CLI or in Python (:func:`mocapkit.clean`): its *Download decisions* keeps the cleaning's digest, so the
     file applies with ``mocapkit clean IN -o OUT --decisions FILE --record RECORD`` or
     ``mocapkit.clean(IN, decisions=FILE, record=RECORD)`` alike.

@@ -65,7 +65,7 @@ def plain_sentence(step: str, why: list[str]) -> str:
 def with_plain_words(review: dict, result) -> dict:
     """``review`` (:func:`mocapkit.cleaning.decisions.review`) with ``"plain"`` on each change and flag:
     :func:`plain_sentence` of its step and of the rules that flagged its cells in ``result`` (a
-    :class:`~mocapkit.cleaning.pipeline.CleanResult`)."""
+    :class:`~mocapkit.cleaning.clean_record.CleanResult`)."""
     causes = getattr(result, "causes", None)
     flags = np.asarray(result.flags, dtype=bool)
 

@@ -16,7 +16,7 @@ __all__ = ["plot_summary"]
 def plot_summary(result, original: Motion, path, joints: int = 2, title: str | None = None) -> Path:
     """One PNG: the MDM heat map (flags outlined) over before/after channel plots of the most changed joints.
 
-    ``result``: a :class:`~mocapkit.cleaning.pipeline.CleanResult` holding the
+    ``result``: a :class:`~mocapkit.cleaning.clean_record.CleanResult` holding the
     cleaned motion; ``original``: the take it was cleaned from. The joints
     shown (``joints`` of them, among those with rotation channels) are those
     with the most flagged cells, then the most changed ones. Calibration poses

@@ -5,7 +5,7 @@
 the labels, the fixes, the gaps left unfilled and the runs where two markers
 coincide and which is the copy was not told (JSON texts), the markers
 never seen, the unlabelled trajectories, the frames where nobody (of a subject) is seen, and ``kind = "markers"``, which
-tells it from a motion's record (:class:`~mocapkit.cleaning.pipeline.CleanResult`).
+tells it from a motion's record (:class:`~mocapkit.cleaning.clean_record.CleanResult`).
 It holds no trajectories: the cleaned capture is the output file.
 """
 

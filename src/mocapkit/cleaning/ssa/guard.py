@@ -68,7 +68,7 @@ class LeftRun:
 
     @classmethod
     def from_note(cls, note: str) -> "LeftRun | None":
-        """The run a note of :attr:`CleanResult.notes <mocapkit.cleaning.pipeline.CleanResult.notes>` says
+        """The run a note of :attr:`CleanResult.notes <mocapkit.cleaning.clean_record.CleanResult.notes>` says
         (``str(run)``, the only form a record keeps); None for any other note."""
         m = _LEFT_NOTE.fullmatch(note)
         return None if m is None else cls(m["joint"], int(m["a"]), int(m["b"]) + 1, m["reason"])
