@@ -169,7 +169,10 @@ def clean_file(
     is moved once written (a batch writes each take into a staging folder first): the report names the record
     beside it, where the user will find it. ``joint_map``: :func:`load_context`'s. ``flags``: refusals name the
     command line's flags (``--overwrite``), not Python's keywords (:data:`SAID`). ``zeros_as_gaps``: how a marker
-    capture's samples at exactly (0, 0, 0) are read (:func:`clean_marker_file`; a joint-angle take ignores it).
+    capture's samples at exactly (0, 0, 0) are read (:func:`clean_marker_file`; a joint-angle take ignores it). A
+    marker capture, cleaned whole, refuses the joint-angle options given (``steps`` other than all or detect, a
+    ``threshold`` other than 0.5, ``drifts``, ``context``, ``noise_deg``, ``models``) in one line, named as
+    ``flags`` says (:func:`mocapkit.marker_files.joint_angle_options`), before anything is written.
 
     Every output is checked against every input
     (:func:`mocapkit.io.outputs.check_outputs`) before anything is read; the
@@ -190,7 +193,8 @@ def clean_file(
     asked = parse_steps(steps or STEPS)
     # a joint-angle take's options, named as the caller gave them: a batch's CLI user typed --drifts, not drifts
     not_for_markers = joint_angle_options({key: value for key, value, given in (
-        ("steps", asked, asked not in (STEPS, ("detect",))), ("drifts", drifts, drifts),
+        ("steps", asked, asked not in (STEPS, ("detect",))), ("threshold", threshold, threshold != 0.5),
+        ("drifts", drifts, drifts), ("context", context, bool(context)),
         ("noise_deg", noise_deg, noise_deg is not None), ("models", models, bool(models))) if given}, flags)
     as_markers = dict(report=report, png=png, overwrite=overwrite, unit=unit, max_gap_s=max_gap_s,
                       max_error_mm=max_error_mm, decisions=decisions, record=record, review=asked == ("detect",),

@@ -41,13 +41,15 @@ def joint_angle_options(given: Mapping[str, object], flags: bool) -> list[str]:
     named as the caller gave them, for :func:`refuse_marker_options`: the command line's flags (``--steps
     fill,denoise``, ``--threshold``, ``--ebf``: :data:`mocapkit.cleaning.request_words.OPTION_FLAGS`) or Python's
     keywords as a call writes them (``steps='fill,denoise'``, ``threshold=``, ``models=``: ``OPTION_KEYWORDS``). The
-    steps come with their value (only some are refused), each model by its own flag."""
+    steps come with their value (only some are refused), as typed when given as text (``--steps denoise,fill``), each
+    model by its own flag. The one table of these words: ``mocapkit clean``, :func:`mocapkit.batch.clean_file` and
+    :func:`mocapkit.clean` each refuse what it names."""
     from .cleaning.request_words import OPTION_FLAGS, OPTION_KEYWORDS, said_option
 
     said = []
     for key, value in given.items():
         if key == "steps":
-            said.append(said_option(key, list(value), flags))
+            said.append(said_option(key, value if isinstance(value, str) else list(value), flags))
         elif key == "models" and flags and isinstance(value, Mapping):
             said.extend(f"--{kind}" for kind in value)
         else:

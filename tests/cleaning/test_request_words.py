@@ -103,3 +103,42 @@ def test_joint_angle_options_refused_for_a_marker_capture_are_said_as_a_python_c
     assert str(err.value).endswith(": a marker capture is cleaned whole (label swaps, spikes, gaps): "
                                    "steps='fill,denoise', threshold=, drifts=, noise_deg= apply only to joint-angle "
                                    "takes"), str(err.value)
+
+
+def test_clean_file_refuses_threshold_and_context_for_a_marker_capture_as_it_refuses_drifts(tmp_path):
+    """`clean_file("x.c3d", ..., threshold=0.8, context=[...])` cleaned the capture whole and wrote it, the two
+    joint-angle options silently ignored, where it refused `drifts=` and `noise_deg=` in one line. Now refused alike,
+    nothing written; a batch's CLI user reads the flags."""
+    import pytest
+
+    from mocapkit import samples
+    from mocapkit.batch import clean_file
+    from mocapkit.errors import MocapError
+
+    inp = samples.path("Eb015pr.c3d")
+    for flags, said in ((False, "threshold=, context= apply"), (True, "--threshold, --context apply")):
+        with pytest.raises(MocapError) as err:
+            clean_file(inp, tmp_path / "out.c3d", threshold=0.8, context=[tmp_path / "ctx"], flags=flags)
+        assert str(err.value) == (f"{inp}: a marker capture is cleaned whole (label swaps, spikes, gaps): {said} "
+                                  "only to joint-angle takes"), str(err.value)
+    with pytest.raises(MocapError, match=r": context= applies only"):
+        clean_file(inp, tmp_path / "out.c3d", context=["none"])
+    assert not list(tmp_path.iterdir())
+
+
+def test_clean_commands_joint_angle_flags_refused_for_a_marker_capture_keep_their_words_and_order(tmp_path):
+    """`mocapkit clean` kept its own list of the flags a marker capture refuses beside marker_files' table; now the
+    table's (plus --reference, the command's own): the line it prints is the one it printed, steps as typed."""
+    from mocapkit import samples
+
+    from tests.cli.helpers import one_error_line, run
+
+    ref = tmp_path / "ref.bvh"
+    ref.write_text("")
+    code, _, err = run("clean", samples.path("Eb015pr.c3d"), "-o", tmp_path / "x.c3d", "--steps", "denoise,fill",
+                       "--threshold", "0.8", "--noise-deg", "2", "--context", "none", "--drifts", "--reference", ref,
+                       "--ebf", "ebf_bandai.pt", "--ebd", "ebd_bandai.pt")
+    assert code == 2 and one_error_line(err), err
+    assert ("a marker capture is cleaned whole (label swaps, spikes, gaps): --steps denoise,fill, --threshold, "
+            "--noise-deg, --context, --drifts, --reference, --ebf, --ebd apply only to joint-angle takes") in \
+        " ".join(err.split()), err

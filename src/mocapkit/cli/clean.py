@@ -82,16 +82,21 @@ def clean(
     from ..cleaning.pipeline import STEPS, clean_path
     from ..io import motion_notes
     from ..io.takes import asf_for_output, asf_of, CLI_AMC_NAMES, check_asf, load_motion, unread_amc_note
+    from ..marker_files import joint_angle_options
     from ..reference import check_reference
 
     if record is not None and decisions is None:
         raise MocapError("--record: the earlier run's record is read with --decisions; give the decisions file")
     step_list = _steps(steps)  # an unknown step is refused for any take
-    not_for_markers = [name for name, given in (
-        (f"--steps {steps}", tuple(step_list) not in (STEPS, ("detect",))), ("--threshold", threshold != 0.5),
-        ("--noise-deg", noise_deg is not None),
-        ("--context", bool(context)), ("--drifts", drifts), ("--reference", reference is not None),
-        ("--ebf", ebf is not None), ("--ebd", ebd is not None)) if given]
+    def said(*options) -> list[str]:  # the flags given, in marker_files' one table of joint-angle options
+        return joint_angle_options({key: value for key, value, given in options if given}, flags=True)
+
+    models_given = {kind: model for kind, model in (("ebf", ebf), ("ebd", ebd)) if model is not None}
+    not_for_markers = (said(("steps", steps, tuple(step_list) not in (STEPS, ("detect",))),
+                            ("threshold", threshold, threshold != 0.5), ("noise_deg", noise_deg, noise_deg is not None),
+                            ("context", context, bool(context)), ("drifts", drifts, drifts))
+                       + ["--reference"] * (reference is not None)  # the command's own: no Python call has it
+                       + said(("models", models_given, bool(models_given))))
     _check_out_early(inp, out)
     record_said = "--record"
     if decisions is not None and record is None and clean_path(out).is_file():
