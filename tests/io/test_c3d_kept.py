@@ -114,3 +114,26 @@ def test_a_resampled_take_keeps_the_events_within_its_time_span(tmp_path):
     # 0 to 5.96 s: RIC and RHS; the take at the file's rate is unchanged (a crop keeps its frame numbers)
     assert _header_events(save_markers(take[0:300:2], tmp_path / "start.c3d")) == (["RIC", "RHS"], 1)
     assert _header_events(save_markers(take[150:400], tmp_path / "crop.c3d")) == (["RHS", "RTO"], 151)
+
+
+def test_a_resampled_take_written_like_its_own_file_keeps_its_events(tmp_path):
+    """`save_markers(take[150:400:2], out, like=file)` kept none of the file's events: a take at another rate was
+    taken for another trial. Its samples are the file's at the frames it came from: it is the file's trial, and keeps
+    what it keeps written without like= (the same bytes); a take of other frames, or other samples, keeps none."""
+    import dataclasses
+
+    import ezc3d
+
+    take = load_markers(EB015PR)
+    for name, part in (("mid", take[150:400:2]), ("end", take[100::3]), ("half", take[::2])):
+        alone = save_markers(part, tmp_path / f"{name}.c3d")
+        like = save_markers(part, tmp_path / f"{name}_like.c3d", like=EB015PR)
+        assert like.read_bytes() == alone.read_bytes(), name
+    assert _header_events(tmp_path / "mid_like.c3d") == (["RHS", "RTO"], 76)  # before: ([], 76)
+    assert _header_events(tmp_path / "end_like.c3d")[0] == ["RIC", "RHS", "RTO"]
+    assert ezc3d.c3d(str(tmp_path / "half_like.c3d"))["data"]["points"].shape[2] == 225  # ezc3d reads it back
+    part = take[150:400:2]
+    shifted = dataclasses.replace(part, source=dataclasses.replace(part.source, first_frame=153))  # frames 153, 155...
+    moved = dataclasses.replace(part, positions=part.positions + 5.0)  # 5 mm off the file's samples
+    for name, other in (("shifted", shifted), ("moved", moved)):
+        assert _header_events(save_markers(other, tmp_path / f"{name}.c3d", like=EB015PR))[0] == [], name

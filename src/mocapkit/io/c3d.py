@@ -48,7 +48,7 @@ from .c3d_layout import (header_layout, integer_data, integer_scale, keep_data_s
                          put_parameter, stored_analogs)
 from .c3d_modelled import modelled_parameters, stated_positions
 from .c3d_structure import check_structure
-from .c3d_trial import (channels_held, fit_event_group, fit_force_plates, fit_header_events, trial_offset, trial_rate,
+from .c3d_trial import (channels_held, fit_event_group, fit_force_plates, fit_header_events, trial_frames, trial_rate,
                          trial_span, written_first)
 
 __all__ = ["MarkerSet", "read_c3d", "write_c3d", "apply_zero_gaps", "checked_unit_cm"]
@@ -479,9 +479,10 @@ def _header_events(raw: bytes) -> tuple[tuple[float, str, int], ...]:
 
 def _c3d_like(markers: MarkerSet, like) -> tuple[MarkerSource | None, bool]:
     """The C3D metadata to keep: ``like``'s (a MarkerSet, or a C3D file read for it), else the take's own; and
-    whether it is the take's own trial, whose events are the take's (:func:`~mocapkit.io.c3d_trial.trial_offset`).
+    whether it is the take's own trial, whose events are the take's (:func:`~mocapkit.io.c3d_trial.trial_frames`).
     A ``like`` holding more of the take's trial than the take (a crop written like its whole file) is cut to the
-    take's frames, so that its analogs (and the force plates in them) are kept too."""
+    take's frames, so that its analogs (and the force plates in them) are kept too; a resampled take's (``[::2]``)
+    is sliced as the take was, its analogs dropped, as the take's own source has them."""
     own = True
     if like is not None:
         if not isinstance(like, MarkerSet):
@@ -489,10 +490,10 @@ def _c3d_like(markers: MarkerSet, like) -> tuple[MarkerSource | None, bool]:
         source = like.source
         own = source is markers.source
         if not own and source is not None and source.format == "c3d":
-            start = trial_offset(markers, like)
-            own = start is not None
-            if own and (start, markers.num_frames) != (0, like.num_frames):
-                source = like[start:start + markers.num_frames].source
+            held = trial_frames(markers, like)
+            own = held is not None
+            if own and (held.start, held.stop, held.step) != (0, like.num_frames, 1):
+                source = like[held].source
     else:
         source = markers.source
     return (source, own) if source is not None and source.format == "c3d" else (None, own)

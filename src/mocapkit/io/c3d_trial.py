@@ -12,13 +12,14 @@ them describe the file's own recording, not a layout:
   seconds, of that trial (``(frame - 1) / rate`` of its own frame numbers, as
   Vicon writes them: FunctionalWalk.c3d's first frame 480 at 120 Hz is at
   3.99 s, its events 4.5 to 7.2 s). They are kept only where the file is the
-  take's own trial (:func:`trial_offset`), and then only the events inside the
+  take's own trial (:func:`trial_frames`), and then only the events inside the
   frames written (:func:`event_kept`); a crop of the take keeps the events
   inside it, at their own times (its first frame number written with it), and
   so does a crop written ``like`` the whole file: the file is then cut to the
   crop's frames (its analogs and force plates kept too). A resampled take
   (``markers[::2]``) keeps the events within its time span, read on the file's
-  clock (:func:`trial_rate`), and is written from the frame of its own rate
+  clock (:func:`trial_rate`), written ``like`` its own file too (its samples
+  are the file's at the frames it came from), and is written from the frame of its own rate
   at its first frame's time (:func:`written_first`).
 
 C3D format: Motion Lab Systems, "The C3D File Format User Guide" (c3d.org).
@@ -30,7 +31,7 @@ import numpy as np
 
 from ..markerset import MarkerSet
 
-__all__ = ["same_rate", "same_trial", "samples_agree", "trial_offset", "event_kept", "channels_held", "fit_force_plates",
+__all__ = ["same_rate", "same_trial", "samples_agree", "trial_frames", "event_kept", "channels_held", "fit_force_plates",
            "fit_event_group", "fit_header_events", "trial_span", "trial_rate", "written_first"]
 
 
@@ -82,25 +83,36 @@ def samples_agree(markers: MarkerSet, like: MarkerSet) -> bool | None:
     return bool(np.mean(d <= AGREE_CM) >= 0.5)
 
 
-def trial_offset(markers: MarkerSet, like: MarkerSet) -> int | None:
-    """Where the take ``markers`` starts in ``like``'s frames (0-based) when ``like`` (a C3D read) is the take's
-    own trial, else None; the events of ``like`` are the take's only then.
+def trial_frames(markers: MarkerSet, like: MarkerSet) -> slice | None:
+    """The frames of ``like`` (a C3D read) that the take ``markers`` holds, as a slice of ``like``'s frames (0-based,
+    step 1 or the resampling's), when ``like`` is the take's own trial, else None; the events of ``like`` are the
+    take's only then.
 
-    ``like`` is the take's trial when it has the take's rate, holds the take's frames (by their numbers: each
-    ``source.first_frame``, 1 without a source) and the markers seen in both agree there (:func:`samples_agree`):
-    the take itself (offset 0), or a crop of it (``take[100:300]`` written like its file: offset 100). Where no
-    marker is seen in both in a frame of both (no label in common), the data say nothing and ``like`` is the
-    take's trial only when it spans the very frames (:func:`same_trial`), as before the data were compared.
+    ``like`` is the take's trial when it holds the take's frames (by their numbers: each ``source.first_frame``, 1
+    without a source) and the markers seen in both agree there (:func:`samples_agree`): the take itself
+    (``slice(0, F)``), a crop of it (``take[100:300]`` written like its file: ``slice(100, 300)``), or a resampled
+    take (``take[150:400:2]`` at half the file's rate: ``slice(150, 399, 2)``), compared at the file's frames it
+    came from. A resampled take's first frame number is on its file's clock (``trial_rate`` in its source's layout,
+    :func:`trial_rate`; a take without one: its own rate), and the file's rate must be a whole multiple of the
+    take's. Where no marker is seen in both in a frame of both (no label in common), the data say nothing and
+    ``like`` is the take's trial only when it spans the very frames at the take's rate (:func:`same_trial`), as
+    before the data were compared: nothing then shows a resampled take to be the file's.
     """
     first = markers.source.first_frame if markers.source is not None else 1
     like_first = like.source.first_frame if like.source is not None else 1
-    start, frames = int(first) - int(like_first), markers.num_frames
-    if not same_rate(markers.fps, like.fps) or start < 0 or start + frames > like.num_frames:
+    clock = trial_rate(markers.source.layout, markers.fps) if markers.source is not None else float(markers.fps)
+    step, frames = float(like.fps) / float(markers.fps), markers.num_frames
+    at = (int(first) - 1) * float(like.fps) / clock + 1 - int(like_first)  # the take's first frame in like's
+    if round(step) < 1 or not same_rate(markers.fps * round(step), like.fps) or abs(at - round(at)) > 1e-6:
         return None
-    agree = samples_agree(markers, like[start:start + frames])
+    step, start = int(round(step)), int(round(at))
+    if start < 0 or start + (frames - 1) * step >= like.num_frames:
+        return None
+    held = slice(start, start + (frames - 1) * step + 1, step)
+    agree = samples_agree(markers, like[held])
     if agree is None:
-        agree = same_trial(markers.fps, first, frames, like.fps, like_first, like.num_frames)
-    return start if agree else None
+        agree = step == 1 and same_trial(markers.fps, first, frames, like.fps, like_first, like.num_frames)
+    return held if agree else None
 
 
 def event_kept(time_s: float, fps: float, first: int, frames: int, trial: tuple[int, int] | None = None,
