@@ -192,6 +192,40 @@ def test_a_repair_of_a_filled_cell_moves_its_missing_channel_not_the_measured_on
 
     raw = repair_take(filled, det).rotations[20:26, 2]
     assert np.degrees(R.geodesic_angle(done.motion.rotations[20:26, 2], raw)).max() <= REPAIR_TOLERANCE_DEG
+    assert done.measured.startswith("6 filled cells (LeftUpLeg) kept the file's measured channels")
+
+
+def test_the_repair_step_says_which_filled_cells_kept_their_measured_channels_and_which_it_changed_whole(
+        tmp_path, monkeypatch):
+    """The repair of a filled cell either keeps its measured channels (its nan one alone reaches the repair) or
+    stands whole, moving them (evidence against them: frame 60's 12 deg spike in its measured Y and X). clean's repair
+    step said neither, so a user could not tell that measured numbers were changed, nor why; the denoise says its
+    kept cells. Now the repair's note says both, a count and the joints. cmu_01_01_start's LeftUpLeg as above,
+    detection set to flag frames 20-25 and 60 (the take is too short for its own detection to judge them)."""
+    from mocapkit.cleaning import pipeline
+
+    path = tmp_path / "one_nan.bvh"
+    lines = _with_nan(DATA / "cmu_01_01_start.bvh", path, 9, [*range(20, 26), *range(57, 63)])  # LeftUpLeg's Z
+    at = next(i for i, t in enumerate(lines) if t.startswith("Frame Time")) + 1
+    tokens = lines[at + 60].split(" ")
+    tokens[10], tokens[11] = f"{float(tokens[10]) + 12:.4f}", f"{float(tokens[11]) - 12:.4f}"  # the spike: Y, X
+    lines[at + 60] = " ".join(tokens)
+    path.write_text("\n".join(lines))
+    detect = pipeline.detect_take
+
+    def flagging(motion, *args, **kwargs):
+        found = detect(motion, *args, **kwargs)
+        flags = np.zeros((motion.num_frames, motion.num_joints), dtype=bool)
+        flags[20:26, 2] = flags[60, 2] = True
+        return dataclasses.replace(found, detection=dataclasses.replace(found.detection, flags=flags))
+
+    monkeypatch.setattr(pipeline, "detect_take", flagging)
+    res = pipeline.clean(read_bvh(path), steps="fill,detect,repair")
+    note = next(s.note for s in res.steps if s.name == "repair")
+    assert ("6 filled cells (LeftUpLeg) kept the file's measured channels, the repair moving the missing ones alone "
+            "(within 1 deg of its rotation); 1 filled cell (LeftUpLeg) changed whole by the repair, measured channels "
+            "too: the missing ones alone came no nearer than 1 deg to its rotation (evidence against the measured "
+            "ones)") in note, note
 
 
 def _noisy_around(src: Path, out: Path, column: int, gap: range, sigma: float, in_gap: bool) -> list[str]:

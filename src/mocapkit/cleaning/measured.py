@@ -98,7 +98,9 @@ def keep_measured_in_repair(before: Motion, after: Motion, cells: np.ndarray,
     repair's it is taken: the flag is explained by the made-up channel, which alone changes. Where it is further,
     the measured channels themselves disagree with the repair (a spike in them: CMU 01_01's LeftToeBase at frame
     844 with its Z nan, 11 deg away) and the repair stands whole, as in a cell the file measures whole. Returns ``(motion,
-    kept)``: ``kept`` (F, J) bool the cells put back on their measured channels; ``after`` itself where none is."""
+    kept, stood)``: ``kept`` (F, J) bool the cells put back on their measured channels (``after`` itself where none
+    is); ``stood`` (F, J) bool the filled cells whose repair stands whole, its measured channels changed with it
+    (:func:`kept_note` says both)."""
     kept = np.zeros(np.shape(cells), dtype=bool)
     rot = np.array(after.rotations)
     _partly_measured(before, after, rot, np.asarray(cells, dtype=bool))
@@ -108,9 +110,10 @@ def keep_measured_in_repair(before: Motion, after: Motion, cells: np.ndarray,
     if moved.any():
         off = np.degrees(R.geodesic_angle(rot[moved], after.rotations[moved]))
         kept[moved] = off <= tolerance_deg
+    stood = moved & ~kept
     if not kept.any():
-        return after, kept
-    return dataclasses.replace(after, rotations=np.where(kept[..., None], rot, after.rotations)), kept
+        return after, kept, stood
+    return dataclasses.replace(after, rotations=np.where(kept[..., None], rot, after.rotations)), kept, stood
 
 
 def keep_measured_in_denoise(before: Motion, after: Motion) -> tuple[Motion, np.ndarray]:
@@ -129,18 +132,29 @@ def keep_measured_in_denoise(before: Motion, after: Motion) -> tuple[Motion, np.
     ``(motion, kept)`` as :func:`keep_measured_in_repair`."""
     from .whole_take import differing  # whole_take denoises with this: imported on use
 
-    return keep_measured_in_repair(before, after, differing(before.rotations, after.rotations))
+    out, kept, _ = keep_measured_in_repair(before, after, differing(before.rotations, after.rotations))
+    return out, kept
 
 
-def kept_note(kept: np.ndarray, names, step: str) -> str:
-    """One line saying the cells ``kept`` (F, J) bool a ``step`` ("denoise") put back on their measured channels
-    (:func:`keep_measured_in_denoise`), the joints named (``names``: the take's joint names); "" for none."""
-    if not np.any(kept):
-        return ""
-    joints = ", ".join(names[j] for j in np.flatnonzero(np.any(kept, axis=0)))
-    n = int(np.sum(kept))
-    return (f"{n} filled cell{'' if n == 1 else 's'} ({joints}) kept the file's measured channels, the {step} moving "
-            f"the missing ones alone (within {REPAIR_TOLERANCE_DEG:g} deg of its rotation)")
+def kept_note(kept: np.ndarray, names, step: str, stood: np.ndarray | None = None) -> str:
+    """One line saying the cells ``kept`` (F, J) bool a ``step`` ("denoise", "repair") put back on their measured
+    channels (:func:`keep_measured_in_denoise`, :func:`keep_measured_in_repair`), and, given ``stood`` (F, J) bool,
+    the filled cells it changed whole, measured channels too, because no missing channel alone came within
+    :data:`REPAIR_TOLERANCE_DEG` of its rotation (the measured ones disagree with it: the evidence against them);
+    each a count and the joints named (``names``: the take's joint names); "" for none of either."""
+    def cells(mask) -> str:
+        joints = ", ".join(names[j] for j in np.flatnonzero(np.any(mask, axis=0)))
+        n = int(np.sum(mask))
+        return f"{n} filled cell{'' if n == 1 else 's'} ({joints})"
+
+    said = []
+    if np.any(kept):
+        said.append(f"{cells(kept)} kept the file's measured channels, the {step} moving the missing ones alone "
+                    f"(within {REPAIR_TOLERANCE_DEG:g} deg of its rotation)")
+    if stood is not None and np.any(stood):
+        said.append(f"{cells(stood)} changed whole by the {step}, measured channels too: the missing ones alone came "
+                    f"no nearer than {REPAIR_TOLERANCE_DEG:g} deg to its rotation (evidence against the measured ones)")
+    return "; ".join(said)
 
 
 def measured_axes(motion: Motion) -> tuple[np.ndarray | None, np.ndarray | None]:

@@ -653,7 +653,7 @@ def clean(
         flags, causes = with_flips(flags, causes, done.turn_flags)  # turn-overs turned back or named: named below
         note = "; ".join(done.put_back) if done.put_back else "" if flags.any() else "nothing flagged"
         notes.extend(done.flips)  # every one: a flag's outcome in the report reads its line
-        note = "; ".join(x for x in (note, turn_overs_note(done.flips)) if x)
+        note = "; ".join(x for x in (note, turn_overs_note(done.flips), done.measured) if x)  # kept or changed whole
         if done.left:  # runs the repair guard gave back as they were: flagged, not changed, named
             notes.extend(capped_lines(done.left, "runs left"))
             note = "; ".join(x for x in (note, f"{counted(len(done.left), 'run')} left: repair not better than the take") if x)

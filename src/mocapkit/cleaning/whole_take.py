@@ -373,7 +373,9 @@ class TakeRepair:
     was ("left: repair not better than the take: ...", :class:`~mocapkit.cleaning.ssa.LeftRun`); ``turned``
     and ``turn_flags``: (F, J) bool or None, the cells of the turn-overs turned back, and those plus the cells of
     the turn-overs named and left (:func:`mocapkit.cleaning.ssa.flips.turned_back`); ``flips``: one line per
-    turn-over ("flip: lfemur (with ltibia) turned 180 deg about itself, frames 78-82, ...")."""
+    turn-over ("flip: lfemur (with ltibia) turned 180 deg about itself, frames 78-82, ..."); ``measured``: what
+    became of the repaired cells the take's file gives partly ``nan`` (their measured channels kept, or changed
+    with the repair standing whole, and why: :func:`~mocapkit.cleaning.measured.kept_note`), "" for none."""
 
     motion: Motion
     repaired: np.ndarray
@@ -383,6 +385,7 @@ class TakeRepair:
     turned: np.ndarray | None = None
     turn_flags: np.ndarray | None = None
     flips: tuple = ()
+    measured: str = ""
 
     @property
     def changed(self) -> np.ndarray:
@@ -418,7 +421,7 @@ def _repaired(motion: Motion, detection, context=None, *, foot_skate: bool = Fal
     fixed, left = repair_take_left(motion, detection, context, foot_skate=foot_skate, poses=poses)
     left = tuple(str(r) for r in left)
     # a filled cell's measured channels kept where its missing ones explain the repair (measured module docstring)
-    fixed, _ = keep_measured_in_repair(motion, fixed, changed_cells(motion, fixed))
+    fixed, kept, stood = keep_measured_in_repair(motion, fixed, changed_cells(motion, fixed))
     moved = changed_cells(motion, fixed)
     events = [e for e in tb.root_events(fixed, span) if e.kind == "teleport"]
     # a measured axis of a root the file gives partly nan put on the path only on its own evidence (measured_axes)
@@ -426,7 +429,9 @@ def _repaired(motion: Motion, detection, context=None, *, foot_skate: bool = Fal
     teleported = changed_cells(motion, back) & ~moved
     leaves = [name for name, _ in getattr(detection, "left_out", ()) or ()]
     put_back = tuple(e for e in done if e.fixed)
-    return TakeRepair(back, moved, teleported, tuple(str(e) for e in put_back), left), span, leaves, put_back
+    measured = kept_note(kept, motion.skeleton.joint_names, "repair", stood)
+    return (TakeRepair(back, moved, teleported, tuple(str(e) for e in put_back), left, measured=measured), span, leaves,
+            put_back)
 
 
 #: the reason a review gives for leaving a turn-over the repair step turns back (``clean --steps detect``, ``detect``)

@@ -227,5 +227,5 @@ def repair(
     said = f"{int(flags.sum())} flagged" + (f"; {extra} more moved by the foot-skate cleanup" if extra else "")
     console.print(f"wrote {out}: {plural(int(changed.sum()), 'joint sample')} changed in {int(changed.any(axis=1).sum())} "
                   f"of {plural(m.num_frames, 'frame')} ({said})")
-    for line in done.put_back + done.left + done.flips:  # as clean's repair step says them
+    for line in done.put_back + done.left + done.flips + ((done.measured,) if done.measured else ()):  # as clean says them
         console.print(f"  {line}")
