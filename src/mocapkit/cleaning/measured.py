@@ -116,7 +116,7 @@ def keep_measured_in_repair(before: Motion, after: Motion, cells: np.ndarray,
     return dataclasses.replace(after, rotations=np.where(kept[..., None], rot, after.rotations)), kept, stood
 
 
-def keep_measured_in_denoise(before: Motion, after: Motion) -> tuple[Motion, np.ndarray]:
+def keep_measured_in_denoise(before: Motion, after: Motion) -> tuple[Motion, np.ndarray, np.ndarray]:
     """``after`` (``before`` denoised, the same frames) with the cells it changed that ``before``'s BVH or AMC file
     gives partly ``nan`` (a filled cell) put back on the file's measured channels where the missing ones alone reach
     the denoised rotation within :data:`REPAIR_TOLERANCE_DEG`: the rule of :func:`keep_measured_in_repair`, for the
@@ -129,11 +129,10 @@ def keep_measured_in_denoise(before: Motion, after: Motion) -> tuple[Motion, np.
     numbers the file measured with no noise in them. Where the measured channels are themselves noisy, no missing
     channel reaches the denoised rotation and the denoise stands whole (the noise is the evidence against them).
     Both are whole takes (the file's frames: a slice of one has no file rows to put back). Returns
-    ``(motion, kept)`` as :func:`keep_measured_in_repair`."""
+    ``(motion, kept, stood)`` as :func:`keep_measured_in_repair` (:func:`kept_note` says both)."""
     from .whole_take import differing  # whole_take denoises with this: imported on use
 
-    out, kept, _ = keep_measured_in_repair(before, after, differing(before.rotations, after.rotations))
-    return out, kept
+    return keep_measured_in_repair(before, after, differing(before.rotations, after.rotations))
 
 
 def kept_note(kept: np.ndarray, names, step: str, stood: np.ndarray | None = None) -> str:

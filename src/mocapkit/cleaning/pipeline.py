@@ -394,9 +394,9 @@ def _denoise(cur: Motion, lo: int, hi: int, noisy: np.ndarray, models: dict, not
     rot = np.array(cur.rotations)
     rot[lo:hi] = np.where(noisy[..., None], den.rotations, rot[lo:hi])
     if (lo, hi) != (0, cur.num_frames):  # denoise_take keeps them on a whole take; here on the frames between poses
-        kept_m, kept = keep_measured_in_denoise(cur, dataclasses.replace(cur, rotations=rot))
+        kept_m, kept, stood = keep_measured_in_denoise(cur, dataclasses.replace(cur, rotations=rot))
         rot = kept_m.rotations
-        note = "; ".join(x for x in (note, kept_note(kept, cur.skeleton.joint_names, "denoise")) if x)
+        note = "; ".join(x for x in (note, kept_note(kept, cur.skeleton.joint_names, "denoise", stood)) if x)
     if note:
         notes.append(note)
     return rot, method, note

@@ -217,8 +217,8 @@ def denoise_take(motion: Motion, ebf=None, *, cells: np.ndarray | None = None, o
         rot = np.where(zc[..., None], motion.rotations, out.rotations)
         out = replace(out, rotations=rot, root_positions=motion.root_positions, translations=motion.translations)
     # a filled cell's measured channels kept where its missing ones explain the denoise (measured module docstring)
-    out, kept = keep_measured_in_denoise(motion, out)
-    note = "; ".join(x for x in (note, kept_note(kept, motion.skeleton.joint_names, "denoise")) if x)
+    out, kept, stood = keep_measured_in_denoise(motion, out)
+    note = "; ".join(x for x in (note, kept_note(kept, motion.skeleton.joint_names, "denoise", stood)) if x)
     return out, method, note
 
 
