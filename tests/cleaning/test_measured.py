@@ -154,6 +154,18 @@ def test_near_gimbal_lock_the_written_rotation_is_the_fills_nearest(tmp_path):
     assert np.degrees(R.geodesic_angle(kept.rotations[12:20, 2], rot[12:20, 2])).max() <= 1.0 + 1e-6
 
 
+def _one_nan_and_a_spike(path: Path) -> tuple[list[str], int]:
+    """cmu_01_01_start at ``path`` with LeftUpLeg's Z ``nan`` in frames 20-25 and 57-62 and a 12 deg spike in its
+    measured Y and X at frame 60; the file's lines, as written, and the index of its first motion line."""
+    lines = _with_nan(DATA / "cmu_01_01_start.bvh", path, 9, [*range(20, 26), *range(57, 63)])  # LeftUpLeg's Z
+    at = next(i for i, t in enumerate(lines) if t.startswith("Frame Time")) + 1
+    tokens = lines[at + 60].split(" ")
+    tokens[10], tokens[11] = f"{float(tokens[10]) + 12:.4f}", f"{float(tokens[11]) - 12:.4f}"  # the spike: Y, X
+    lines[at + 60] = " ".join(tokens)
+    path.write_text("\n".join(lines))
+    return lines, at
+
+
 def test_a_repair_of_a_filled_cell_moves_its_missing_channel_not_the_measured_ones(tmp_path):
     """cmu_01_01_start's LeftUpLeg with its Zrotation nan in frames 20-25 and 57-62, filled; detection flagging
     those cells (set here, so the repair judges exactly them, as a full clean's detect can), the repair replaced each
@@ -168,12 +180,7 @@ def test_a_repair_of_a_filled_cell_moves_its_missing_channel_not_the_measured_on
     from mocapkit.cleaning.whole_take import detect_take, repair_take, repair_whole
 
     path = tmp_path / "one_nan.bvh"
-    lines = _with_nan(DATA / "cmu_01_01_start.bvh", path, 9, [*range(20, 26), *range(57, 63)])  # LeftUpLeg's Z
-    at = next(i for i, t in enumerate(lines) if t.startswith("Frame Time")) + 1
-    tokens = lines[at + 60].split(" ")
-    tokens[10], tokens[11] = f"{float(tokens[10]) + 12:.4f}", f"{float(tokens[11]) - 12:.4f}"  # the spike: Y, X
-    lines[at + 60] = " ".join(tokens)
-    path.write_text("\n".join(lines))
+    lines, at = _one_nan_and_a_spike(path)
     filled = fill_take(read_bvh(path)).motion
     flags = np.zeros((filled.num_frames, filled.num_joints), dtype=bool)
     flags[20:26, 2] = flags[60, 2] = True
@@ -205,12 +212,7 @@ def test_the_repair_step_says_which_filled_cells_kept_their_measured_channels_an
     from mocapkit.cleaning import pipeline
 
     path = tmp_path / "one_nan.bvh"
-    lines = _with_nan(DATA / "cmu_01_01_start.bvh", path, 9, [*range(20, 26), *range(57, 63)])  # LeftUpLeg's Z
-    at = next(i for i, t in enumerate(lines) if t.startswith("Frame Time")) + 1
-    tokens = lines[at + 60].split(" ")
-    tokens[10], tokens[11] = f"{float(tokens[10]) + 12:.4f}", f"{float(tokens[11]) - 12:.4f}"  # the spike: Y, X
-    lines[at + 60] = " ".join(tokens)
-    path.write_text("\n".join(lines))
+    _one_nan_and_a_spike(path)
     detect = pipeline.detect_take
 
     def flagging(motion, *args, **kwargs):
