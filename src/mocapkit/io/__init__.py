@@ -282,15 +282,15 @@ def motion_notes(motion, path, like=None) -> list[str]:
 def _npz_kept_comments(motion, like) -> int:
     """How many comment lines of the BVH ``like`` an .npz of ``motion`` keeps (:mod:`mocapkit.io.kept_channels`):
     those of its header where the .npz keeps the header's text (the take at the file's skeleton, rate and frame
-    count, :func:`mocapkit.io.bvh.source_header`), and those between its motion lines where it keeps the file's
-    numbers (its joints, channels and frame count, :func:`mocapkit.io.bvh.source_comments`)."""
-    from .bvh import source_comments, source_header, source_values
+    count), and those between its motion lines where it keeps the file's numbers (its joints, channels and frame
+    count): :func:`mocapkit.io.bvh.source_kept`."""
+    from .bvh import source_kept
     from .bvh_comments import comment_lines
 
-    if source_values(motion, like)[0] is None:
+    values, _, header, between = source_kept(motion, like)
+    if values is None:
         return 0
-    header, between = source_header(motion, like), source_comments(motion, like) or ()
-    return (comment_lines(header.encode()) if header else 0) + sum(len(b) for b in between)
+    return (comment_lines(header.encode()) if header else 0) + sum(len(b) for b in between or ())
 
 
 def save(motion, path, like=None, asf=None, overwrite: bool | None = None, copy_asf: bool = True, **kwargs) -> Path:
@@ -355,7 +355,7 @@ def save(motion, path, like=None, asf=None, overwrite: bool | None = None, copy_
             place_asf(copy, asf)  # first: an AMC is never left without the ASF it is read with
             write_amc(motion, path, like=like, asf=asf, **kwargs)
     else:
-        from .bvh import source_comments, source_header, source_values
+        from .bvh import source_kept
         from .kept_channels import kept_arrays, kept_header
         from .npz import write_npz
 
@@ -363,9 +363,11 @@ def save(motion, path, like=None, asf=None, overwrite: bool | None = None, copy_
         # later; none where that file's text is gone (removed or changed since it was read): the .npz is the take
         # all the same
         try:
-            kept = (kept_arrays(*source_values(motion, like), header=source_header(motion, like)
-                                or kept_header(like, motion), comments=source_comments(motion, like))
-                    if like is not None else {})
+            if like is not None:
+                values, channels, header, comments = source_kept(motion, like)
+                kept = kept_arrays(values, channels, header=header or kept_header(like, motion), comments=comments)
+            else:
+                kept = {}
             if not kept and like is not None:  # an AMC's own numbers (or those an .npz made from one keeps)
                 from .amc_writer import source_numbers
 

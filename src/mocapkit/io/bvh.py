@@ -45,7 +45,7 @@ from .sources import recall, remember
 
 from numba import njit
 
-__all__ = ["read_bvh", "write_bvh", "check_bvh_names", "read_layout", "source_fits", "source_values", "source_comments",
+__all__ = ["read_bvh", "write_bvh", "check_bvh_names", "read_layout", "source_fits", "source_values", "source_kept",
            "dropped_comments",
            "MAX_INDENT", "NEAR_SOURCE_DEG"]
 
@@ -765,38 +765,35 @@ def source_fits(motion: Motion, like) -> bool:
     return _like_source(like, out_motion, depth_first_order(motion.skeleton)) is not None
 
 
-def source_header(motion: Motion, like) -> str | None:
-    """The header text (its lines up to Frame Time, as read) of the BVH ``like`` that a BVH written from ``motion``
-    keeps: where ``motion`` has that file's skeleton, channels, frame count and rate, and the file no other ROOT;
-    else None. What an .npz made from the file keeps of it (:mod:`mocapkit.io.kept_channels`)."""
-    if like is None or like is False or motion.num_frames == 0:
-        return None
-    source = _like_source(like, _as_written(motion)[0], depth_first_order(motion.skeleton))
-    return None if source is None or source.header is None or source.layout.extras else "".join(source.header)
-
-
 def source_values(motion: Motion, like) -> tuple[np.ndarray | None, tuple[tuple[str, ...], ...]]:
     """The numbers ``(F, C)`` of the file ``like`` (a BVH ``motion`` was read from, or an .npz keeping such a file's,
     :mod:`mocapkit.io.kept_channels`) in the channel layout :func:`write_bvh` writes ``motion`` with, and that
     layout; None for the numbers where ``like`` is not such a file (other joints, channels or frames)."""
+    values, channels, _, _ = source_kept(motion, like)
+    return values, channels
+
+
+def source_kept(motion: Motion, like) -> tuple[np.ndarray | None, tuple[tuple[str, ...], ...], str | None,
+                                                list[list[str]] | None]:
+    """``(values, channels, header, comments)``: what an .npz made from ``motion`` keeps of the file ``like``
+    (:mod:`mocapkit.io.kept_channels`), ``like``'s text parsed once.
+
+    ``values``, ``channels``: as :func:`source_values`. ``header``: the header text (its lines up to Frame Time, as
+    read) of the BVH ``like`` where ``motion`` has that file's skeleton, channels, frame count and rate, and the file
+    no other ROOT; else None. ``comments``: the comment lines between its motion lines (or kept by an .npz made from
+    one) that a BVH written from ``motion`` keeps, ``F + 1`` lists, the lines before each frame and after the last
+    (line endings kept, :func:`mocapkit.io.bvh_comments.motion_comments`), where ``motion`` has that file's joints,
+    channels and frame count; else None."""
     out_motion, channels = _as_written(motion)
     if motion.num_frames == 0:
-        return None, channels
-    src = _source_numbers(like, out_motion, depth_first_order(motion.skeleton))
-    return (None if src is None else src.values), channels
-
-
-def source_comments(motion: Motion, like) -> list[list[str]] | None:
-    """The comment lines of the BVH ``like`` (or kept by an .npz made from one, :mod:`mocapkit.io.kept_channels`)
-    between its motion lines that a BVH written from ``motion`` keeps: ``F + 1`` lists, the lines before each frame
-    and after the last (line endings kept, :func:`mocapkit.io.bvh_comments.motion_comments`), where ``motion`` has
-    that file's joints, channels and frame count; else None."""
-    if like is None or like is False or motion.num_frames == 0:
-        return None
-    source = _source_numbers(like, _as_written(motion)[0], depth_first_order(motion.skeleton))
+        return None, channels, None, None
+    source = _source_numbers(like, out_motion, depth_first_order(motion.skeleton))
+    if source is None:
+        return None, channels, None, None
     if isinstance(source, _Kept):
-        return kept_comments(like, motion.num_frames)
-    return None if source is None else source.between
+        return source.values, channels, None, kept_comments(like, motion.num_frames)
+    header = None if source.header is None or source.layout.extras else "".join(source.header)
+    return source.values, channels, header, source.between
 
 
 def _source_numbers(like, motion: Motion, order: list[int]) -> "_LikeSource | _Kept | None":

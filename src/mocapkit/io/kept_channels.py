@@ -36,8 +36,8 @@ def kept_arrays(values: np.ndarray | None, channels, header: str | None = None,
                 comments: list[list[str]] | None = None) -> dict[str, np.ndarray]:
     """The arrays an .npz keeps beside a take (``write_npz``'s ``extra``): the source file's ``values`` (F, C) in
     the columns of ``channels`` (one tuple of channel names per joint) and, for a BVH, its ``header`` text
-    (:func:`mocapkit.io.bvh.source_header`) and its motion section's comment lines (``comments``: F + 1 lists, the
-    lines before each frame and after the last, line endings kept: :func:`mocapkit.io.bvh.source_comments`), as
+    (:func:`mocapkit.io.bvh.source_kept`) and its motion section's comment lines (``comments``: F + 1 lists, the
+    lines before each frame and after the last, line endings kept), as
     ``[frame, line]`` pairs; none when ``values`` is None."""
     if values is None:
         return {}
