@@ -390,13 +390,13 @@ def _denoise(cur: Motion, lo: int, hi: int, noisy: np.ndarray, models: dict, not
         return np.array(cur.rotations), "nothing (no joint is noisy)", ""
     # the EBF runs only as far as the noisy cells need; the rule and fallback every command applies, and the path
     # `mocapkit denoise` takes (whole_take.denoise_take: channels written as 0 left as written)
-    den, method, note = denoise_take(cur[lo:hi], models.get("ebf"), cells=noisy, zeros=zeros)
+    den, method, note = denoise_take(cur[lo:hi], models.get("ebf"), cells=noisy, zeros=zeros, measured=False)
     rot = np.array(cur.rotations)
     rot[lo:hi] = np.where(noisy[..., None], den.rotations, rot[lo:hi])
-    if (lo, hi) != (0, cur.num_frames):  # denoise_take keeps them on a whole take; here on the frames between poses
-        kept_m, kept, stood = keep_measured_in_denoise(cur, dataclasses.replace(cur, rotations=rot))
-        rot = kept_m.rotations
-        note = "; ".join(x for x in (note, kept_note(kept, cur.skeleton.joint_names, "denoise", stood)) if x)
+    # measured channels kept here, on the whole take (its rows are the file's), whatever the frames denoised
+    kept_m, kept, stood = keep_measured_in_denoise(cur, dataclasses.replace(cur, rotations=rot))
+    rot = kept_m.rotations
+    note = "; ".join(x for x in (note, kept_note(kept, cur.skeleton.joint_names, "denoise", stood)) if x)
     if note:
         notes.append(note)
     return rot, method, note

@@ -190,7 +190,7 @@ def fill_take(motion: Motion, ebd=None, ebf=None, *, smooth: bool = True, method
 
 
 def denoise_take(motion: Motion, ebf=None, *, cells: np.ndarray | None = None, options=None,
-                 zeros=None) -> tuple[Motion, str, str]:
+                 zeros=None, measured: bool = True) -> tuple[Motion, str, str]:
     """Denoise ``motion`` (only ``cells`` (F, J) when given) by :func:`mocapkit.cleaning.deep.denoise_or_fallback`,
     its channels written as 0 where the capture lost data left as written: ``clean``'s denoise step and the
     ``denoise`` command (module docstring). Returns ``(motion, method, note)`` as ``denoise_or_fallback``.
@@ -202,7 +202,8 @@ def denoise_take(motion: Motion, ebf=None, *, cells: np.ndarray | None = None, o
     noise explains is kept as it came, and its neighbours denoised without it (:func:`~mocapkit.cleaning.denoise_guard.guarded`,
     said in the note). A denoised cell its BVH or AMC file gives partly ``nan`` (filled) keeps its measured channels
     where its missing ones reach the denoised rotation (:func:`~mocapkit.cleaning.measured.keep_measured_in_denoise`,
-    said in the note). ``ebf``: as :func:`resolve_model` takes it; ``options``: as for ``denoise_or_fallback``.
+    said in the note; ``measured`` False leaves that to a caller that has the whole take of a part it denoises).
+    ``ebf``: as :func:`resolve_model` takes it; ``options``: as for ``denoise_or_fallback``.
     """
     from dataclasses import replace
 
@@ -216,9 +217,9 @@ def denoise_take(motion: Motion, ebf=None, *, cells: np.ndarray | None = None, o
     if runs:  # the lost samples as written; positions, which denoising keeps, as they were
         rot = np.where(zc[..., None], motion.rotations, out.rotations)
         out = replace(out, rotations=rot, root_positions=motion.root_positions, translations=motion.translations)
-    # a filled cell's measured channels kept where its missing ones explain the denoise (measured module docstring)
-    out, kept, stood = keep_measured_in_denoise(motion, out)
-    note = "; ".join(x for x in (note, kept_note(kept, motion.skeleton.joint_names, "denoise", stood)) if x)
+    if measured:  # a filled cell's measured channels kept where its missing ones explain the denoise
+        out, kept, stood = keep_measured_in_denoise(motion, out)
+        note = "; ".join(x for x in (note, kept_note(kept, motion.skeleton.joint_names, "denoise", stood)) if x)
     return out, method, note
 
 
