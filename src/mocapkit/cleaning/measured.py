@@ -166,25 +166,11 @@ def measured_axes(motion: Motion) -> tuple[np.ndarray | None, np.ndarray | None]
     none partly ``nan``, or the file gone since it was read). The fill keeps those numbers as the file writes them
     (:func:`keep_measured`); a later step that moves the position of such a cell has evidence against the missing
     axis it made up, not necessarily against these."""
-    src = motion.source_file
-    if src is None or Path(src).suffix.lower() not in (".bvh", ".amc", ".npz") or not _may_hold_nan(src):
-        return None, None
-    try:
-        if motion.skeleton.axes is None:
-            from ..io.bvh import source_values  # io is below cleaning; imported on use
-
-            values, names = source_values(motion, src)
-            axis_of = lambda c: c[0] if c.endswith("position") else ""  # noqa: E731
-        else:
-            from ..io.amc_writer import source_numbers
-
-            values, names = source_numbers(motion, src)
-            axis_of = lambda d: d[1] if d[0] == "t" else ""  # noqa: E731
-    except (MocapFormatError, OSError):  # the file removed or replaced since it was read: nothing to tell
-        return None, None
+    values, names, bvh = _file_numbers(motion, motion.source_file)
     F = motion.num_frames
     if values is None or values.shape[0] != F or not np.isnan(values).any():
         return None, None
+    axis_of = (lambda c: c[0] if c.endswith("position") else "") if bvh else (lambda d: d[1] if d[0] == "t" else "")
     root = np.zeros((F, 3), dtype=bool)
     offsets = None if motion.translations is None else np.zeros((F, motion.num_joints, 3), dtype=bool)
     start = 0
@@ -218,29 +204,43 @@ def _may_hold_nan(src) -> bool:
     return data is None or _NAN.search(data) is not None
 
 
+def _file_numbers(motion: Motion, src) -> tuple[np.ndarray | None, tuple, bool]:
+    """``(values, names, bvh)``: the numbers (F, C) of the BVH or AMC file ``src`` (or of an .npz keeping such a
+    file's numbers) that ``motion`` was read from, as the writers read them (:func:`mocapkit.io.bvh.source_values`,
+    :func:`mocapkit.io.amc_writer.source_numbers`), each joint's channel or dof names, and whether it is a BVH's;
+    ``values`` None where there is no such file, its text holds no ``nan`` (:func:`_may_hold_nan`: nothing partly
+    measured), or it was removed or replaced since it was read, its bytes let go (:mod:`mocapkit.io.sources`):
+    nothing to keep, the step stands as for a take read from no file."""
+    bvh = motion.skeleton.axes is None
+    if src is None or Path(src).suffix.lower() not in (".bvh", ".amc", ".npz") or not _may_hold_nan(src):
+        return None, (), bvh
+    try:
+        if bvh:
+            from ..io.bvh import source_values  # io is below cleaning; imported on use: most takes have no gaps
+
+            return (*source_values(motion, src), bvh)
+        from ..io.amc_writer import source_numbers
+
+        return (*source_numbers(motion, src), bvh)
+    except (MocapFormatError, OSError):
+        return None, (), bvh
+
+
 def _partly_measured(before: Motion, after: Motion, rot: np.ndarray, gone: np.ndarray) -> None:
     """Put the measured rotation channels (BVH) or dofs (AMC) of ``before``'s file back into ``rot`` (F, J, 4;
     ``after``'s filled rotations, in place) in the cells the file gives partly ``nan`` (:func:`keep_measured`) and
     ``before`` lacks (``gone`` (F, J) bool): a cell ``before`` has is its own, whatever its file says there."""
-    src = before.source_file
-    if src is None or Path(src).suffix.lower() not in (".bvh", ".amc", ".npz") or not gone.any() \
-            or not _may_hold_nan(src):
+    if not gone.any():
         return
-    try:
-        if after.skeleton.axes is None:
-            _bvh_measured(after, src, rot, gone)
-        else:
-            _amc_measured(after, src, rot, gone)
-    except (MocapFormatError, OSError):  # the file removed or replaced since it was read, its bytes let go
-        return  # (mocapkit.io.sources): nothing to put back, the fill stands as for a take read from no file
+    values, names, bvh = _file_numbers(after, before.source_file)
+    if values is not None:
+        (_bvh_measured if bvh else _amc_measured)(after, values, names, rot, gone)
 
 
-def _amc_measured(after: Motion, src, rot: np.ndarray, gone: np.ndarray) -> None:
-    """:func:`_partly_measured` for an ASF/AMC take: a bone's dof angles are the Euler angles of ``C^-1 q C``
-    (``C`` its ASF axis frame; extrinsic, in the dofs' order), as the AMC reader builds ``q`` from them."""
-    from ..io.amc_writer import source_numbers  # io is below cleaning; imported on use
-
-    values, dofs = source_numbers(after, src)
+def _amc_measured(after: Motion, values: np.ndarray, dofs, rot: np.ndarray, gone: np.ndarray) -> None:
+    """:func:`_partly_measured` for an ASF/AMC take (``values``, ``dofs``: its file's, :func:`_file_numbers`): a
+    bone's dof angles are the Euler angles of ``C^-1 q C`` (``C`` its ASF axis frame; extrinsic, in the dofs' order),
+    as the AMC reader builds ``q`` from them."""
     for j, own, part, order in _partly_nan(after, values, dofs, lambda x: x[1] if x[0] == "r" else "", rot, gone):
         c = np.broadcast_to(after.skeleton.axes[j], rot[part, j].shape)
         m = R.quaternion_multiply(R.quaternion_multiply(R.quaternion_conjugate(c), rot[part, j]), c)
@@ -248,12 +248,10 @@ def _amc_measured(after: Motion, src, rot: np.ndarray, gone: np.ndarray) -> None
         rot[part, j] = R.quaternion_multiply(R.quaternion_multiply(c, m), R.quaternion_conjugate(c))
 
 
-def _bvh_measured(after: Motion, src, rot: np.ndarray, gone: np.ndarray) -> None:
-    """:func:`_partly_measured` for a BVH take: a joint's rotation channels are intrinsic Euler angles in the
-    file's channel order, as the BVH reader builds the rotation from them."""
-    from ..io.bvh import source_values  # io is below cleaning; imported on use: most takes have no gaps
-
-    values, channels = source_values(after, src)
+def _bvh_measured(after: Motion, values: np.ndarray, channels, rot: np.ndarray, gone: np.ndarray) -> None:
+    """:func:`_partly_measured` for a BVH take (``values``, ``channels``: its file's, :func:`_file_numbers`): a
+    joint's rotation channels are intrinsic Euler angles in the file's channel order, as the BVH reader builds the
+    rotation from them."""
     for j, own, part, order in _partly_nan(after, values, channels, lambda c: c[0] if c.endswith("rotation") else "",
                                            rot, gone):
         rot[part, j] = R.euler_to_quaternion(_filled_angles(rot[part, j], own[part], bridged(own)[part], order), order)
