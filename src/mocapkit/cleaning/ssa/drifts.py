@@ -143,9 +143,7 @@ def group_agreement(digression: np.ndarray, best: np.ndarray) -> np.ndarray:
         raise ValueError(f"need digression (G, F, m) and best (F, m), got {d.shape} and {best.shape}")
     if d.shape[0] == 0:
         return np.full(best.shape, np.nan)
-    per_group = np.stack([body_agreement(d[g], np.isfinite(d[g]).any(axis=0)) for g in range(d.shape[0])])
-    ok = (best >= 0) & (best < d.shape[0])
-    return np.where(ok, np.take_along_axis(per_group, np.where(ok, best, 0)[None], axis=0)[0], np.nan)
+    return _at_best(np.stack([body_agreement(d[g], np.isfinite(d[g]).any(axis=0)) for g in range(d.shape[0])]), best)
 
 
 def offset_change(offsets: np.ndarray, scale: np.ndarray) -> np.ndarray:
@@ -199,9 +197,14 @@ def group_offset_change(offsets: np.ndarray, scale: np.ndarray, best: np.ndarray
                          f"{scale.shape} and {best.shape}")
     if r.shape[0] == 0:
         return np.full(best.shape, np.nan)
-    per_group = np.stack([offset_change(r[g], scale[g]) for g in range(r.shape[0])])  # (G, F, m)
-    ok = (best >= 0) & (best < r.shape[0])
+    return _at_best(np.stack([offset_change(r[g], scale[g]) for g in range(r.shape[0])]), best)
+
+
+def _at_best(per_group: np.ndarray, best: np.ndarray) -> np.ndarray:
+    """(F, m) ``per_group`` (G, F, m) read at each cell's group ``best`` (F, m); NaN where ``best`` names none."""
+    ok = (best >= 0) & (best < per_group.shape[0])
     return np.where(ok, np.take_along_axis(per_group, np.where(ok, best, 0)[None], axis=0)[0], np.nan)
+
 
 def other_joints_level(consistency: np.ndarray, judged: np.ndarray, others: int = 1) -> np.ndarray:
     """(F, J) the ``others + 1``-th largest ``consistency`` among the *other* judged joints at each frame.
