@@ -263,3 +263,48 @@ def test_a_centre_of_mass_in_a_trc_is_modelled_whatever_its_spelling(shared_data
     res = clean_markers(take.select([take.labels[i] for i in markers + [j]]), steps=("gaps",))
     assert np.array_equal(res.markers.positions[:, -1], take.positions[:, j], equal_nan=True)
     assert not any(x.marker == name for x in res.fixes)
+
+
+# a part of a resampled take against the same frames taken from the file in one slice (50 Hz Eb015pr.c3d)
+RESLICED = [("[::2][75:200]", slice(150, 400, 2)), ("[10:][::3]", slice(10, None, 3)),
+            ("[::2][::2][5:]", slice(20, None, 4)), ("[::2][-50:]", slice(350, None, 2)),
+            ("[-100:][::2]", slice(350, None, 2)), ("[::3][7:40]", slice(21, 120, 3))]
+
+
+def test_a_resampled_take_sliced_again_is_numbered_and_written_as_the_files_frames_sliced_once(tmp_path):
+    import ezc3d
+
+    from mocapkit.io import load_markers, save_markers
+
+    ms = load_markers(mocapkit.samples.path("Eb015pr.c3d"))
+    (tmp_path / "once").mkdir()
+    assert ms[::2][75:200].source.first_frame == 151  # the file's frame 151 (3.0 s), not frame 76 (1.5 s)
+    for steps, once in RESLICED:
+        part, direct = eval(f"ms{steps}"), ms[once]  # noqa: S307 (the slices as a user types them)
+        assert part.source.first_frame == direct.source.first_frame, steps
+        assert np.array_equal(part.positions, direct.positions, equal_nan=True), steps
+        for suffix in (".c3d", ".trc", ".npz"):
+            a, b = tmp_path / f"part{suffix}", tmp_path / "once" / f"part{suffix}"  # one name: a TRC states it
+            save_markers(part, a, overwrite=True)
+            save_markers(direct, b, overwrite=True)
+            assert a.read_bytes() == b.read_bytes(), (steps, suffix)
+    c3d = tmp_path / "part.c3d"
+    save_markers(ms[::2][75:200], c3d, overwrite=True)
+    head = ezc3d.c3d(str(c3d))["header"]["points"]
+    assert head["first_frame"] + 1 == 76 and head["frame_rate"] == 25  # 3.0 s at 25 Hz, as ms[150:400:2] writes it
+    # its events are those of 3.0 s to 7.96 s (RHS at 5.40 s, RTO at 7.32 s), not of 1.5 s to 6.46 s (RIC at 2.72 s)
+    within = [e for e in ms.source.events if 3.0 - 0.02 <= e[0] <= 7.96 + 0.02]
+    assert [e[1] for e in within][:2] == ["RHS ", "RTO "] and not any(e[1] == "RIC " for e in within)
+    assert [e[1] for e in load_markers(c3d).source.events] == [e[1] for e in within]
+
+
+def test_a_resampled_take_keeps_its_first_frames_time_through_trc_and_npz(tmp_path):
+    from mocapkit.io import load_markers, save_markers
+
+    ms = load_markers(mocapkit.samples.path("Eb015pr.c3d"))
+    trc = save_markers(ms[150::2], tmp_path / "part.trc")
+    row = trc.read_text().splitlines()[6].split("\t")  # after 5 header lines and an empty one
+    assert row[:2] == ["76", "3.000000"]  # frame 76 at 25 Hz: 3.0 s, the file's frame 151 (not 151 at 25 Hz: 6.0 s)
+    back = load_markers(save_markers(ms[::2][75:], tmp_path / "part.npz"))
+    assert back.source.first_frame == 151 and back.source.layout["trial_rate"] == 50
+    assert load_markers(save_markers(back, tmp_path / "back.c3d")).source.first_frame == 76

@@ -253,7 +253,9 @@ class MarkerSource:
         C3D analog channels at the analog rate (``ratio`` samples per point
         frame), in the file's scaled units; None when the file has none.
     first_frame : int
-        Number of the first frame in the file (C3D header, TRC Frame# column), 1-based.
+        Number of the first frame in the file (C3D header, TRC Frame# column), 1-based: the file's own number
+        of the take's first sample, on the clock of the file's frames (``layout``'s ``trial_rate``, else the
+        take's rate), so that ``take[::2][75:200]`` is numbered as ``take[150:400:2]`` (Eb015pr.c3d's frame 151).
     labels : tuple of str
         The marker labels as the file states them, one per marker read, in
         file order (repeats and a TRC label's spaces included), so a writer
@@ -273,8 +275,10 @@ class MarkerSource:
         (``trial_first``, ``trial_frames``, ``trial_rate`` Hz: the clock of
         ``first_frame``, which a resampled take keeps; a part of the take keeps them, so
         that a writer keeps an event past the file's ends while the frames
-        written reach that end: :func:`mocapkit.io.c3d_trial.event_kept`);
-        empty otherwise.
+        written reach that end: :func:`mocapkit.io.c3d_trial.event_kept`).
+        A TRC or npz take has ``trial_rate`` alone once resampled (the first
+        step :meth:`MarkerSet.__getitem__` takes, or an npz's
+        ``first_frame_rate``); empty otherwise.
     stored_zeros : float array (F, M, 2) or None
         C3D: the residual (in the file's units, as :attr:`MarkerSet.residuals`)
         and camera mask the file stored with each sample it held as exact
@@ -692,7 +696,12 @@ class MarkerSet:
                 rows = np.array(rows)[rows[:, 0] < self.num_frames]
                 rows[:, 0] = at[rows[:, 0].astype(np.int64)]
                 rows = rows[rows[:, 0] >= 0]
-            source = dataclasses.replace(source, analogs=analogs, first_frame=source.first_frame + start,
+            # the first frame kept, numbered on the clock of the file's frame numbers (layout's trial_rate, kept
+            # from the first step taken): a frame of a take at a k-th of that rate is k of the file's frames
+            clock = float(source.layout.get("trial_rate", self.fps))
+            layout = source.layout if step == 1 else {**source.layout, "trial_rate": clock}
+            first = source.first_frame + int(round(start * clock / float(self.fps)))
+            source = dataclasses.replace(source, analogs=analogs, first_frame=first, layout=layout,
                                          text=source.text if whole else None, stored_zeros=zeros, filled=filled,
                                          missing_stored=rows)
         return dataclasses.replace(self, positions=self.positions[key], fps=fps, residuals=res, source=source,

@@ -19,6 +19,7 @@ import numpy as np
 from ..errors import MocapError, MocapFormatError, SkeletonError
 from ..motion import Motion, Skeleton, check_fps
 from . import atomic_write
+from .c3d_trial import same_rate
 
 __all__ = ["read_npz", "write_npz", "load_arrays", "FORMAT_VERSION", "MAX_NPZ_BYTES", "MAX_NPZ_MEMBERS"]
 
@@ -111,6 +112,9 @@ def write_npz(obj, path, compress: bool = True, extra: dict | None = None, fille
             "first_frame": np.array(obj.source.first_frame if obj.source is not None else 1),
             "filled": filled_samples(obj, filled),
         }
+        clock = obj.source.layout.get("trial_rate", obj.fps) if obj.source is not None else obj.fps
+        if not same_rate(clock, obj.fps):  # a resampled take's first frame is numbered on its file's clock
+            arrays["first_frame_rate"] = np.array(float(clock))
         if obj.file_labels() != obj.labels:
             _check_texts(path, "marker", obj.file_labels())
             arrays["file_labels"] = np.array(obj.file_labels())
@@ -336,6 +340,12 @@ def read_npz(path):
             first = _scalar(path, data, "first_frame", "i") if "first_frame" in data else 1  # older npz: none
             if abs(first) >= 2**31:
                 raise MocapFormatError(path, f"npz first_frame {first} is out of range")
+            clock = {}  # the clock of first_frame where it is not fps (a resampled take: its file's rate)
+            if "first_frame_rate" in data:
+                try:
+                    clock = {"trial_rate": check_fps(_scalar(path, data, "first_frame_rate", "f"))}
+                except SkeletonError as exc:
+                    raise MocapFormatError(path, f"npz first_frame_rate: {exc}") from None
             file_labels = data.get("file_labels")
             if file_labels is not None and (file_labels.ndim != 1 or file_labels.dtype.kind != "U"
                                             or len(file_labels) != len(labels)):
@@ -358,7 +368,7 @@ def read_npz(path):
                 units=_scalar(path, data, "units", "s"),
                 name=name,
                 reader="npz",
-                source=MarkerSource(format="npz", first_frame=first,
+                source=MarkerSource(format="npz", first_frame=first, layout=clock,
                                     labels=() if file_labels is None else tuple(str(s) for s in file_labels),
                                     filled=filled,
                                     modelled={} if kinds is None else {str(label): str(k) for label, k in

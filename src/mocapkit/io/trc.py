@@ -22,6 +22,7 @@ from ..markerset import (MODELLED_GROUPS, MarkerSet, MarkerSource, marker_units,
                          unit_symbol)
 from ..motion import check_fps
 from .c3d import apply_zero_gaps, checked_unit_cm
+from .c3d_trial import trial_rate, written_first
 
 __all__ = ["read_trc", "write_trc", "trc_notes", "TRC_DECIMALS", "MODELLED_KEY", "modelled_field"]
 
@@ -487,7 +488,9 @@ def write_trc(markers: MarkerSet, path, *, like=None, decimals: int = TRC_DECIMA
     trc = source if source is not None and source.format == "trc" else None
     out = _edited_text(markers, trc, decimals) if trc is not None else None
     if out is None:
-        out = _new_text(markers, path, trc, source.first_frame if source is not None else 1, decimals)
+        # the first frame's number on the clock of the file's frame numbers (a resampled take keeps the file's)
+        clock = trial_rate(source.layout, (like if like is not None else markers).fps) if source is not None else markers.fps
+        out = _new_text(markers, path, trc, source.first_frame if source is not None else 1, decimals, clock)
     with atomic_write(path, "w", encoding="utf-8", errors="surrogateescape", newline="") as fh:
         fh.write(out)
 
@@ -663,12 +666,21 @@ def trc_notes(markers: MarkerSet, path, *, keep_modelled: bool = False, filled=N
     return notes
 
 
-def _new_text(markers: MarkerSet, path: Path, source: MarkerSource | None, first: int, decimals: int) -> str:
-    """A TRC text written new (see :func:`write_trc`): the source TRC's header fields, line breaks and first time kept."""
+def _new_text(markers: MarkerSet, path: Path, source: MarkerSource | None, first: int, decimals: int,
+              clock: float | None = None) -> str:
+    """A TRC text written new (see :func:`write_trc`): the source TRC's header fields, line breaks and first time kept.
+
+    ``first``: the number of the take's first frame on the clock of its file's frame numbers, ``clock`` Hz (the
+    take's rate where None). A resampled take (``markers[150::2]`` of a 100 Hz file: its frame 151, 1.5 s) is
+    numbered at its own rate from the frame nearest that time (:func:`~mocapkit.io.c3d_trial.written_first`:
+    Frame# 76 at 50 Hz) and timed from that time, as the C3D writer numbers its header; the file's own frame
+    number stays in OrigDataStartFrame where the file states none.
+    """
+    clock = float(markers.fps) if clock is None else float(clock)
     old = dict(source.parameters) if source is not None else {}
     text = source.text if source is not None else None
     eol = "\r\n" if text is not None and "\r\n" in text.split("\n", 1)[0] + "\n" else "\n"
-    t0, time_like = (first - 1) / markers.fps, "0.000000"
+    t0, time_like = (first - 1) / clock, "0.000000"
     if text is not None:
         lines, at, numbers, _ = _rows(text)
         if at:
@@ -698,6 +710,7 @@ def _new_text(markers: MarkerSet, path: Path, source: MarkerSource | None, first
            "\t\t" + "\t".join(f"X{k + 1}\tY{k + 1}\tZ{k + 1}" for k in range(M)), ""]
     fmt = f"{{:.{int(decimals)}f}}"
     pos = markers.positions.reshape(F, 3 * M)
+    number = written_first(first, markers.fps, clock)
     for i in range(F):
-        out.append(_new_row(first + i, _time_text(time_like, t0 + i / markers.fps), pos[i], fmt))
+        out.append(_new_row(number + i, _time_text(time_like, t0 + i / markers.fps), pos[i], fmt))
     return eol.join(out) + eol
