@@ -180,6 +180,8 @@ def clean(take, context=None, *, steps=None, threshold: float | None = None, asf
     if path is not None and os.fspath(path).lower().endswith((".c3d", ".trc", ".npz")):
         from .io.takes import load_take
 
+        _amc_only(path, asf, fps)  # an AMC's skeleton and rate: refused for a marker capture too, not ignored
+
         take = load_take(path, unit=unit, unit_option="unit=", zeros_as_gaps=zeros_as_gaps)
     if isinstance(take, MarkerSet):
         from .cleaning.decisions import RECORD_KEYWORD
@@ -252,15 +254,20 @@ def _request(context, steps, threshold, drifts, models, noise_deg, fps, unit, jo
                          fps, unit, joint_map)
 
 
+def _amc_only(path, asf, fps) -> None:
+    """Refuse ``asf`` or ``fps`` given for a file ``path`` that is no AMC, in one line naming the file and keyword."""
+    is_amc = os.fspath(path).lower().endswith(".amc")
+    for name, given in (("asf", asf), ("fps", fps)):
+        if given is not None and not is_amc:
+            raise MocapFormatError(path, f"{name}= applies to .amc files only")
+
+
 def _load_motion(path, asf, fps=None, unit=None) -> Motion:
     """The Motion in ``path`` (``asf`` and ``fps`` for an AMC file, ``unit`` where the file states none); a marker
     file, or ``asf`` or ``fps`` with another format, is refused."""
     if not isinstance(path, (str, os.PathLike)):
         raise TypeError(f"expected a Motion or a file path, got {type(path).__name__}")
-    is_amc = os.fspath(path).lower().endswith(".amc")
-    for name, given in (("asf", asf), ("fps", fps)):
-        if given is not None and not is_amc:
-            raise MocapFormatError(path, f"{name}= applies to .amc files only")
+    _amc_only(path, asf, fps)
     from .io.takes import load_take
 
     out = load_take(path, asf, fps=fps, unit=unit, unit_option="unit=")

@@ -171,7 +171,7 @@ def clean_file(
     command line's flags (``--overwrite``), not Python's keywords (:data:`SAID`). ``zeros_as_gaps``: how a marker
     capture's samples at exactly (0, 0, 0) are read (:func:`clean_marker_file`; a joint-angle take ignores it). A
     marker capture, cleaned whole, refuses the joint-angle options given (``steps`` other than all or detect, a
-    ``threshold`` other than 0.5, ``drifts``, ``context``, ``noise_deg``, ``models``) in one line, named as
+    ``threshold`` other than 0.5, ``drifts``, ``context``, ``noise_deg``, ``models``, ``joint_map``) in one line, named as
     ``flags`` says (:func:`mocapkit.marker_files.joint_angle_options`), before anything is written.
 
     Every output is checked against every input
@@ -195,12 +195,14 @@ def clean_file(
     not_for_markers = joint_angle_options({key: value for key, value, given in (
         ("steps", asked, asked not in (STEPS, ("detect",))), ("threshold", threshold, threshold != 0.5),
         ("drifts", drifts, drifts), ("context", context, bool(context)),
-        ("noise_deg", noise_deg, noise_deg is not None), ("models", models, bool(models))) if given}, flags)
+        ("noise_deg", noise_deg, noise_deg is not None), ("models", models, bool(models)),
+        ("joint_map", joint_map, joint_map is not None)) if given}, flags)
     as_markers = dict(report=report, png=png, overwrite=overwrite, unit=unit, max_gap_s=max_gap_s,
                       max_error_mm=max_error_mm, decisions=decisions, record=record, review=asked == ("detect",),
                       placed=placed, zeros_as_gaps=zeros_as_gaps, flags=flags)
     if isinstance(motion, MarkerSet) or (motion is None and inp.suffix.lower() in (".c3d", ".trc")):
         refuse_marker_options(inp, not_for_markers)
+        check_asf(asf, [inp], amc_fps, names=(SAID[flags]['asf'], SAID[flags]['amc_fps']))  # refused, not ignored
         return clean_marker_file(inp, out, markers=motion, **as_markers)
     reuse = record is not None
     if reuse and decisions is None:

@@ -142,3 +142,47 @@ def test_clean_commands_joint_angle_flags_refused_for_a_marker_capture_keep_thei
     assert ("a marker capture is cleaned whole (label swaps, spikes, gaps): --steps denoise,fill, --threshold, "
             "--noise-deg, --context, --drifts, --reference, --ebf, --ebd apply only to joint-angle takes") in \
         " ".join(err.split()), err
+
+
+def test_a_joint_map_is_refused_for_a_marker_capture_on_every_entry_point(tmp_path):
+    """`clean_file("x.c3d", ..., joint_map={...})` (a clean-batch row's call) and `mocapkit clean x.c3d --joint-map m`
+    cleaned the capture whole and wrote it, the map silently ignored, where `mocapkit.clean` refused `joint_map=`.
+    Now every entry point refuses it in one line naming the file and the option as its caller wrote it, and an AMC's
+    skeleton or rate (`asf=`, `amc_fps=`/`fps=`, the tables' amc_fps) given with a marker capture is refused too,
+    nothing written."""
+    import shutil
+
+    import pytest
+
+    import mocapkit
+    from mocapkit import samples
+    from mocapkit.batch import clean_batch, clean_file
+    from mocapkit.errors import MocapError
+
+    from tests.cli.helpers import one_error_line, run
+
+    inp, jm = samples.path("Eb015pr.c3d"), {"kt_b04": "Hand_L"}
+    tail = ": a marker capture is cleaned whole (label swaps, spikes, gaps): {} applies only to joint-angle takes"
+    with pytest.raises(MocapError) as err:
+        mocapkit.clean(inp, joint_map=jm)
+    assert str(err.value) == "Eb015pr" + tail.format("joint_map=")  # the take's name: as before
+    for flags, said in ((False, "joint_map="), (True, "--joint-map")):
+        with pytest.raises(MocapError) as err:
+            clean_file(inp, tmp_path / "out.c3d", joint_map=jm, flags=flags)
+        assert str(err.value) == f"{inp}" + tail.format(said), str(err.value)
+    with pytest.raises(MocapError, match="amc_fps= is the frame rate of an .amc input"):
+        clean_file(inp, tmp_path / "out.c3d", amc_fps=120.0)
+    with pytest.raises(MocapError, match=r"Eb015pr.c3d: fps= applies to .amc files only"):
+        mocapkit.clean(inp, fps=120.0)
+    with pytest.raises(MocapError, match=r"Eb015pr.c3d: asf= applies to .amc files only"):
+        mocapkit.clean(inp, asf=samples.path("12.asf"))
+    (tmp_path / "map.json").write_text('{"kt_b04": "Hand_L"}')
+    code, _, stderr = run("clean", inp, "-o", tmp_path / "x.c3d", "--joint-map", tmp_path / "map.json")
+    assert code == 2 and one_error_line(stderr), stderr
+    assert f"{inp}" + tail.format("--joint-map") in " ".join(stderr.split()), stderr
+    src = tmp_path / "in"
+    src.mkdir()
+    shutil.copy(inp, src / "e.c3d")
+    s = clean_batch(src, tmp_path / "out", joint_map=jm, executor="serial", progress=False, flags=True)
+    assert s.count("failed") == 1 and s.failed[0]["reason"].endswith(tail.format("--joint-map")[2:]), s.rows
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["in", "map.json"]  # nothing written

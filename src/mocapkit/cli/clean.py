@@ -94,7 +94,8 @@ def clean(
     models_given = {kind: model for kind, model in (("ebf", ebf), ("ebd", ebd)) if model is not None}
     not_for_markers = (said(("steps", steps, tuple(step_list) not in (STEPS, ("detect",))),
                             ("threshold", threshold, threshold != 0.5), ("noise_deg", noise_deg, noise_deg is not None),
-                            ("context", context, bool(context)), ("drifts", drifts, drifts))
+                            ("context", context, bool(context)), ("drifts", drifts, drifts),
+                            ("joint_map", joint_map, joint_map is not None))
                        + ["--reference"] * (reference is not None)  # the command's own: no Python call has it
                        + said(("models", models_given, bool(models_given))))
     _check_out_early(inp, out)
