@@ -287,7 +287,7 @@ def _npz_kept_comments(motion, like) -> int:
     from .bvh import source_kept
     from .bvh_comments import comment_lines
 
-    values, _, header, between = source_kept(motion, like)
+    values, _, header, between, _ = source_kept(motion, like)
     if values is None:
         return 0
     return (comment_lines(header.encode()) if header else 0) + sum(len(b) for b in between or ())
@@ -364,14 +364,16 @@ def save(motion, path, like=None, asf=None, overwrite: bool | None = None, copy_
         # all the same
         try:
             if like is not None:
-                values, channels, header, comments = source_kept(motion, like)
-                kept = kept_arrays(values, channels, header=header or kept_header(like, motion), comments=comments)
+                values, channels, header, comments, text = source_kept(motion, like)
+                kept = kept_arrays(values, channels, header=header or kept_header(like, motion), comments=comments,
+                                   text=None if text is None else (".bvh", text))
             else:
                 kept = {}
             if not kept and like is not None:  # an AMC's own numbers (or those an .npz made from one keeps)
                 from .amc_writer import source_numbers
 
-                kept = kept_arrays(*source_numbers(motion, like, asf))
+                numbers, dofs, text = source_numbers(motion, like, asf, with_text=True)
+                kept = kept_arrays(numbers, dofs, text=None if text is None else (".amc", text))
         except MocapFormatError:
             kept = {}
         write_npz(motion, path, **({"extra": {**kept, **kwargs.pop("extra", {})}} if kept else {}), **kwargs)

@@ -40,6 +40,7 @@ before, without it.
 
 from __future__ import annotations
 
+import json
 import re
 from dataclasses import dataclass
 from pathlib import Path
@@ -157,7 +158,7 @@ def file_dofs(motion: Motion, asf, like) -> tuple[tuple[str, ...], ...]:
     if asf is None and like is not None:
         asf = asf_of(like)
     if asf is None or not Path(asf).is_file():
-        return dofs
+        return _kept_dofs(like, dofs)
     try:
         given = asf_dofs(asf)
     except MocapFormatError:
@@ -165,6 +166,28 @@ def file_dofs(motion: Motion, asf, like) -> tuple[tuple[str, ...], ...]:
     if len(given) != len(dofs) or any(sorted(a) != sorted(b) for a, b in zip(given, dofs)):
         return dofs  # another skeleton's ASF
     return tuple(tuple(d) for d in given)
+
+
+def _kept_dofs(like, dofs):
+    """The layout of the AMC an .npz ``like`` was made from (:data:`~mocapkit.io.kept_channels.LAYOUT_KEY`, its
+    root's order as its ASF gave it) where it keeps that AMC's text and the layout is ``dofs`` reordered; else
+    ``dofs``: an AMC written from the .npz, with no ASF at hand, keeps the file's root order with its text."""
+    from ..errors import MocapError
+    from .kept_channels import LAYOUT_KEY, TEXT_KEYS
+    from .npz import load_arrays
+
+    if like is None or like is False or Path(like).suffix.lower() != ".npz" or not Path(like).is_file():
+        return dofs
+    try:
+        data = load_arrays(like)
+        layout = data.get(LAYOUT_KEY) if TEXT_KEYS[".amc"] in data else None
+        given = json.loads(str(layout)) if layout is not None and layout.dtype.kind == "U" and layout.ndim == 0 else None
+    except (MocapError, OSError, ValueError):
+        return dofs
+    if (not isinstance(given, list) or len(given) != len(dofs)
+            or any(not isinstance(a, list) or sorted(map(str, a)) != sorted(b) for a, b in zip(given, dofs))):
+        return dofs
+    return tuple(tuple(str(x) for x in d) for d in given)
 
 
 def write_amc(motion: Motion, path, precision: int = 6, like=None, asf=None) -> None:
@@ -175,7 +198,8 @@ def write_amc(motion: Motion, path, precision: int = 6, like=None, asf=None) -> 
     with the same ASF; precision : decimals of every number; asf : the ASF the
     take was read with (by default the one beside ``like``), whose ``:root
     order`` the root's line follows; like : the AMC file ``motion`` was read
-    from. Where it is that file (same skeleton, same
+    from, or an .npz made from it that keeps its text (:func:`mocapkit.io.kept_channels.kept_text`; the root's
+    order then as that AMC had it, :func:`_kept_dofs`). Where it is that file (same skeleton, same
     frame count, its units stated in its header), every frame whose rotations
     and root position are bit for bit the file's is copied as the file has it,
     and a changed cell rewrites only its bone's numbers, on the triple nearest
@@ -259,7 +283,7 @@ class _Kept:
     turned: np.ndarray  # (F, J) bool
 
 
-def source_numbers(motion: Motion, like, asf=None) -> tuple[np.ndarray | None, tuple[tuple[str, ...], ...]]:
+def source_numbers(motion: Motion, like, asf=None, with_text: bool = False) -> tuple:
     """The numbers ``(F, columns)`` of the AMC ``like`` (the file ``motion`` was read from, or an .npz keeping such
     a file's, :mod:`mocapkit.io.kept_channels`) in the layout :func:`write_amc` writes ``motion`` with (each bone's
     dofs in order; angles in degrees, the file's own whole turns and branches), and that layout; None for the
@@ -267,9 +291,11 @@ def source_numbers(motion: Motion, like, asf=None) -> tuple[np.ndarray | None, t
 
     An .npz written from an ASF/AMC take keeps them, so that an AMC written from the .npz later
     (``mocapkit fill take.npz -o out.amc``) writes each untouched cell with the file's numbers, not the same
-    rotation on another branch."""
+    rotation on another branch. ``with_text``: a third item, the bytes of that AMC (read from it, or kept by an .npz
+    made from it: :func:`mocapkit.io.kept_channels.kept_text`) where ``motion`` is still on its skeleton and frames,
+    which an .npz keeps so that an AMC written from it keeps every unchanged line's text; else None."""
     if like is None or like is False or motion.skeleton.axes is None or motion.num_frames == 0:
-        return None, ()
+        return (None, (), None) if with_text else (None, ())
     dofs = file_dofs(motion, asf, like)
     src = _like_source(like, motion, dofs)
     if src is not None:
@@ -277,9 +303,9 @@ def source_numbers(motion: Motion, like, asf=None) -> tuple[np.ndarray | None, t
         if src.radians:
             rot = np.array([x[0] == "r" for d in dofs for x in d])
             numbers[:, rot] = np.degrees(numbers[:, rot])
-        return numbers, dofs
+        return (numbers, dofs, src.text) if with_text else (numbers, dofs)
     kept = _kept_source(like, motion, dofs)
-    return (None if kept is None else kept.numbers), dofs
+    return ((None if kept is None else kept.numbers), dofs) + ((None,) if with_text else ())
 
 
 def _kept_source(like, motion: Motion, dofs) -> _Kept | None:
@@ -304,17 +330,21 @@ class _LikeSource:
     turned: np.ndarray  # (F, J) bool: cells whose rotation differs from the file's
     moved: np.ndarray  # (F,) bool: frames whose root position differs from the file's
     numbers: np.ndarray  # (F, columns): the file's numbers, each bone's dofs in file order (its own branches)
+    text: bytes  # the file's bytes as read, which an .npz made from the take keeps (kept_channels.TEXT_KEYS)
 
 
 def _like_source(like, motion: Motion, dofs) -> _LikeSource | None:
-    """The source AMC's lines and changed cells, or None when ``like`` is not the file ``motion`` came from."""
+    """The source AMC's lines and changed cells, or None when ``like`` is not the file ``motion`` came from: the AMC
+    itself, or an .npz made from it that keeps its text (:func:`mocapkit.io.kept_channels.kept_text`)."""
     from .asfamc import amc_header, read_amc_numbers
+    from .kept_channels import kept_text
     from .sources import recall
 
     like = Path(like)
-    if like.suffix.lower() != ".amc":
+    if like.suffix.lower() not in (".amc", ".npz"):
         return None
-    data = recall(like)  # the text as the take was read from it, even if the file was removed or changed since
+    # the text as the take was read from it, even if the file was removed or changed since; or as an .npz keeps it
+    data = recall(like) if like.suffix.lower() == ".amc" else kept_text(like, ".amc")
     if data is None:
         return None
     try:
@@ -339,7 +369,7 @@ def _like_source(like, motion: Motion, dofs) -> _LikeSource | None:
     moved = np.any(np.asarray(motion.root_positions) != ref.root_positions, axis=-1)
     changed = turned.copy()
     changed[:, 0] |= moved
-    return _LikeSource(header, frames, radians, changed, turned, moved, numbers)
+    return _LikeSource(header, frames, radians, changed, turned, moved, numbers, data)
 
 
 def _write_like(path: Path, motion: Motion, dofs, source: _LikeSource, precision: int) -> None:

@@ -40,7 +40,7 @@ from .bvh_hierarchy import (MAX_INDENT, check_bvh_names, depth_first_order, exac
 from .bvh_comments import anchored, comment_lines, keyword_count, motion_comments, with_comments
 from .bvh_roots import COMMENT, Layout, around_take, is_comment, layout
 from .euler_branches import NEAR_SOURCE_DEG, continuous_rotations, measured_text
-from .kept_channels import kept_comments, kept_header, kept_values
+from .kept_channels import kept_comments, kept_header, kept_text, kept_values
 from .sources import recall, remember
 
 from numba import njit
@@ -660,7 +660,10 @@ def write_bvh(motion: Motion, path, precision: int = 6, allow_nan: bool = False,
         (:func:`mocapkit.io.euler_branches.continuous_rotations`; a repaired
         flip is written next to its neighbours, never on the branch of the
         broken value it replaces). An .npz made from a BVH keeps that file's
-        numbers (:mod:`mocapkit.io.kept_channels`): as ``like`` it gives the
+        text while the take is on its joints, channels and frames
+        (:func:`mocapkit.io.kept_channels.kept_text`): as ``like`` it is that
+        BVH, byte for byte where nothing changed. One that keeps only the file's
+        numbers (made before 0.14.0, or from a cut take) gives the
         same choice of each cell's numbers, the text written anew (a number still the file's in its shortest
         exact form, not rounded to ``precision``). So a take that comes back unchanged is the same
         file, and a change touches only its own numbers. Without ``like`` (or
@@ -769,13 +772,13 @@ def source_values(motion: Motion, like) -> tuple[np.ndarray | None, tuple[tuple[
     """The numbers ``(F, C)`` of the file ``like`` (a BVH ``motion`` was read from, or an .npz keeping such a file's,
     :mod:`mocapkit.io.kept_channels`) in the channel layout :func:`write_bvh` writes ``motion`` with, and that
     layout; None for the numbers where ``like`` is not such a file (other joints, channels or frames)."""
-    values, channels, _, _ = source_kept(motion, like)
+    values, channels, _, _, _ = source_kept(motion, like)
     return values, channels
 
 
 def source_kept(motion: Motion, like) -> tuple[np.ndarray | None, tuple[tuple[str, ...], ...], str | None,
-                                                list[list[str]] | None]:
-    """``(values, channels, header, comments)``: what an .npz made from ``motion`` keeps of the file ``like``
+                                                list[list[str]] | None, bytes | None]:
+    """``(values, channels, header, comments, text)``: what an .npz made from ``motion`` keeps of the file ``like``
     (:mod:`mocapkit.io.kept_channels`), ``like``'s text parsed once.
 
     ``values``, ``channels``: as :func:`source_values`. ``header``: the header text (its lines up to Frame Time, as
@@ -783,17 +786,19 @@ def source_kept(motion: Motion, like) -> tuple[np.ndarray | None, tuple[tuple[st
     no other ROOT; else None. ``comments``: the comment lines between its motion lines (or kept by an .npz made from
     one) that a BVH written from ``motion`` keeps, ``F + 1`` lists, the lines before each frame and after the last
     (line endings kept, :func:`mocapkit.io.bvh_comments.motion_comments`), where ``motion`` has that file's joints,
-    channels and frame count; else None."""
+    channels and frame count; else None. ``text``: the bytes of that BVH (read from it, or kept by an .npz made
+    from it: :func:`mocapkit.io.kept_channels.kept_text`) where ``motion`` has its joints, channels and frame count,
+    so that a BVH written from the .npz keeps every unchanged cell's text; else None."""
     out_motion, channels = _as_written(motion)
     if motion.num_frames == 0:
-        return None, channels, None, None
+        return None, channels, None, None, None
     source = _source_numbers(like, out_motion, depth_first_order(motion.skeleton))
     if source is None:
-        return None, channels, None, None
+        return None, channels, None, None, None
     if isinstance(source, _Kept):
-        return source.values, channels, None, kept_comments(like, motion.num_frames)
+        return source.values, channels, None, kept_comments(like, motion.num_frames), None
     header = None if source.header is None or source.layout.extras else "".join(source.header)
-    return source.values, channels, header, source.between
+    return source.values, channels, header, source.between, source.text
 
 
 def _source_numbers(like, motion: Motion, order: list[int]) -> "_LikeSource | _Kept | None":
@@ -839,6 +844,7 @@ class _LikeSource:
     between: list[list[str]]  # the comment lines before each data line, and after the last (bvh_comments)
     inside: list[tuple[int, str]]  # the comments inside the take's ROOT block, anchored (bvh_comments.anchored)
     keywords: int  # the hierarchy keywords of the take's ROOT block as the file writes it
+    text: bytes  # the file's bytes as read, which an .npz made from the take keeps (kept_channels.TEXT_KEYS)
 
 
 def _differs(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -847,11 +853,13 @@ def _differs(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 
 
 def _like_source(like, motion: Motion, order: list[int]) -> _LikeSource | None:
-    """The source BVH's lines and changed cells, or None when ``like`` is not the file ``motion`` came from."""
+    """The source BVH's lines and changed cells, or None when ``like`` is not the file ``motion`` came from: the BVH
+    itself, or an .npz made from it that keeps its text (:func:`mocapkit.io.kept_channels.kept_text`)."""
     like = Path(like)
-    if like.suffix.lower() != ".bvh" or order != list(range(motion.skeleton.num_joints)):
+    if like.suffix.lower() not in (".bvh", ".npz") or order != list(range(motion.skeleton.num_joints)):
         return None
-    data = recall(like)  # the text as the take was read from it, even if the file was removed or changed since
+    # the text as the take was read from it, even if the file was removed or changed since; or as an .npz keeps it
+    data = recall(like) if like.suffix.lower() == ".bvh" else kept_text(like, ".bvh")
     if data is None:
         return None
     try:
@@ -862,6 +870,7 @@ def _like_source(like, motion: Motion, order: list[int]) -> _LikeSource | None:
     if (rsk.joint_names != sk.joint_names or not np.array_equal(rsk.parents, sk.parents)
             or tuple(map(tuple, rsk.channels)) != tuple(map(tuple, sk.channels)) or ref.num_frames != motion.num_frames):
         return None
+    text = data
     lines = _LINE_RE.findall(data.decode("utf-8", errors="replace"))  # lines as the reader counts them (at "\n")
     at = next((i for i, t in enumerate(lines) if _FRAME_TIME_RE.match(t)), None)  # as the reader finds it
     if at is None:
@@ -880,7 +889,7 @@ def _like_source(like, motion: Motion, order: list[int]) -> _LikeSource | None:
         return None
     block = [] if same_header else lines[where.lines[0] - 1:where.lines[1]]
     return _LikeSource(lines[: at + 1] if same_header else None, data, turned, moved, table, where, around, between,
-                       anchored(block), keyword_count(block))
+                       anchored(block), keyword_count(block), text)
 
 
 def _new_block(source: _LikeSource, sk, channels) -> tuple[str, int]:
