@@ -112,10 +112,14 @@ def test_info_names_the_other_roots_and_other_formats_say_in_one_line_what_they_
     code, out, err = run("info", path)
     assert code == 0, err
     assert "other roots  'Sword' (2 joints, 9 channels)" in out
-    code, out, err = run("convert", path, tmp_path / "prop.npz")
+    code, out, err = run("convert", path, tmp_path / "prop.npz")  # it keeps the file's text: a BVH of it has them
+    assert code == 0 and "note:" not in out, err + out
+    code, out, err = run("convert", tmp_path / "prop.npz", tmp_path / "back.bvh")
+    assert code == 0 and "note:" not in out and (tmp_path / "back.bvh").read_bytes() == path.read_bytes()
+    code, out, err = run("convert", path, tmp_path / "half.npz", "--fps", "60")  # not at the file's frames: left out
     assert code == 0, err
     notes = [line for line in out.splitlines() if line.startswith("note:")]
-    assert len(notes) == 1 and "prop.npz: not written" in notes[0] and "'Sword'" in notes[0]
+    assert len(notes) == 1 and "half.npz: not written" in notes[0] and "'Sword'" in notes[0]
     code, out, err = run("convert", path, tmp_path / "same.bvh")  # a BVH like its source: nothing left out
     assert code == 0 and "note:" not in out and (tmp_path / "same.bvh").read_bytes() == path.read_bytes()
     code, out, err = run("convert", path, tmp_path / "slow.bvh", "--fps", "60")

@@ -248,22 +248,27 @@ def motion_notes(motion, path, like=None) -> list[str]:
     each, naming ``path``. A take read from a BVH file with other ROOTs (a prop, a camera:
     :mod:`mocapkit.io.bvh_roots`) keeps them only in a BVH written like that file
     (:func:`mocapkit.io.bvh.source_fits`); any other output leaves them out, and the line says which. So do its
-    ``#`` comment lines (:mod:`mocapkit.io.bvh_comments`): a line says how many the output leaves out."""
-    from .bvh import dropped_comments, source_fits
+    ``#`` comment lines (:mod:`mocapkit.io.bvh_comments`): a line says how many the output leaves out. An .npz
+    that keeps the BVH's text (the take on its joints, channels and frames: :mod:`mocapkit.io.kept_channels`)
+    leaves out neither: a BVH written from it has them."""
+    from .bvh import dropped_comments, source_fits, source_kept
     from .bvh_comments import comment_lines
     from .bvh_roots import left_out_note
     from .sources import recall
 
     path = Path(path)
-    bvh = suffix_kind(path, WRITERS, "writing") == "bvh"
+    kind = suffix_kind(path, WRITERS, "writing")
+    bvh, text = kind == "bvh", False
     if like is False:
         like, carried = motion.source_file, False
     else:
         like = like if like is not None else motion.source_file
         carried = bvh and like is not None and source_fits(motion, like)
-    note = left_out_note(motion, path, like, carried)
+        text = kind == "npz" and like is not None and Path(like).suffix.lower() == ".bvh" and \
+            source_kept(motion, like)[4] is not None
+    note = left_out_note(motion, path, like, carried or text)
     notes = [note] if note else []
-    if like is not None and Path(like).suffix.lower() == ".bvh":
+    if like is not None and Path(like).suffix.lower() == ".bvh" and not text:
         if carried:
             n, why = dropped_comments(motion, like), "their places in the take's hierarchy written anew are not known"
         else:
