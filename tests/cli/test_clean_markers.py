@@ -110,10 +110,17 @@ def test_clean_c3d_end_to_end(cut_take, tmp_path):
     assert (tmp_path / "p.png").read_bytes()[:4] == b"\x89PNG"
 
 
-def test_clean_c3d_to_trc_and_refusals(cut_take, tmp_path):
+@pytest.fixture(scope="module")
+def cut_take_as_trc(cut_take, tmp_path_factory):
+    """``clean CUT.c3d -o clean.trc``, run once for the two tests that read its output: (out, exit code, stdout,
+    stderr). The tests only read the file and the record beside it."""
+    out = tmp_path_factory.mktemp("trc") / "clean.trc"
+    return (out, *run("clean", cut_take[0], "-o", out))
+
+
+def test_clean_c3d_to_trc_and_refusals(cut_take, cut_take_as_trc, tmp_path):
     inp, _, _ = cut_take
-    out = tmp_path / "clean.trc"
-    code, _, stderr = run("clean", inp, "-o", out)
+    out, code, _, stderr = cut_take_as_trc
     assert code == 0, stderr
     assert not load_markers(out).missing().any()
     code, _, stderr = run("clean", inp, "-o", out)  # exists: refused without --overwrite
@@ -207,7 +214,7 @@ def test_what_the_output_format_cannot_hold_is_said_in_one_note(tmp_path):
 
 def test_a_reader_note_is_shown_by_clean_convert_and_clean_batch(tmp_path):
     # trial11: a capture's repeated labels were renamed on writing without a word (BTK's Gait.c3d: RKNE -> RKNE_2)
-    ms = load_markers(CMU)
+    ms = load_markers(CMU)[:120]  # the take's first second: a note about its labels, whatever its length
     folder = tmp_path / "in"
     folder.mkdir()
     labels = list(ms.labels)
@@ -281,15 +288,15 @@ def test_clean_of_a_missing_file_onto_itself_names_the_missing_file(tmp_path):
     assert list(tmp_path.iterdir()) == []
 
 
-def test_a_trc_output_says_how_many_of_its_samples_are_fills_and_where_they_are_listed(cut_take, tmp_path):
+def test_a_trc_output_says_how_many_of_its_samples_are_fills_and_where_they_are_listed(cut_take, cut_take_as_trc,
+                                                                                       tmp_path):
     """trial27: 263 filled samples of a cleaned TRC looked exactly like recorded ones and the summary said nothing
     (a C3D output marks them with residual 0; TRC has no residual column)."""
-    inp, _, mask = cut_take
-    out = tmp_path / "c.trc"
-    code, stdout, stderr = run("clean", inp, "-o", out)
+    _, _, mask = cut_take
+    out, code, stdout, stderr = cut_take_as_trc  # clean CUT.c3d -o clean.trc
     assert code == 0, stderr
     assert (f"note: {out}: {int(mask.sum())} samples the cleaning wrote (gaps filled, spikes and duplicates replaced) are written like recorded ones: a TRC has no residual "
-            f"column to tell them apart; {tmp_path / 'c.clean.npz'} lists them") in stdout
+            f"column to tell them apart; {out.parent / 'clean.clean.npz'} lists them") in stdout
     folder = tmp_path / "in"
     folder.mkdir()
     shutil.copy(out, folder / "cut.trc")  # a TRC with gaps, cleaned by a batch into TRC
