@@ -419,7 +419,7 @@ def test_an_interrupted_train_says_its_checkpoint_resumes(tmp_path):
 
     out = tmp_path / "m"
     p = subprocess.Popen([sys.executable, "-m", "mocapkit.cli", "train", "denoiser", str(WALK), "-o", str(out),
-                          "--epochs", "500", "--steps", "2", "--hidden", "8", "--noise", "angular:0.5",
+                          "--epochs", "500", "--steps", "1", "--hidden", "8", "--noise", "angular:0.5",
                           "--executor", "serial"], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
                          preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
     # readiness, not speed: an epoch's model and checkpoint set has ended whole. checkpoint.pt appearing is not that:
