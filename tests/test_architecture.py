@@ -63,23 +63,30 @@ def _imports(path: Path):
 FILES = sorted(SRC.rglob("*.py"))
 
 
-def test_imports_go_one_way_between_layers():
+@pytest.fixture(scope="module")
+def imports() -> dict:
+    """``{path: [(line, module, name), ...]}`` of :func:`_imports` for every source file, parsed once for the two
+    tests that read them."""
+    return {path: list(_imports(path)) for path in FILES}
+
+
+def test_imports_go_one_way_between_layers(imports):
     wrong = []
     for path in FILES:
         mod = _module(path)
         here = _layer(mod)
-        for line, target, name in _imports(path):
+        for line, target, name in imports[path]:
             there = -1 if (target, name) == ("mocapkit", "__version__") else _layer(target)
             if there > here or (here == -1 and there >= 0):
                 wrong.append(f"{path.relative_to(SRC)}:{line} ({mod}, layer {here}) imports {target} (layer {there})")
     assert not wrong, "\n".join(wrong)
 
 
-def test_no_private_name_is_imported_across_modules():
+def test_no_private_name_is_imported_across_modules(imports):
     wrong = []
     for path in FILES:
         mod = _module(path)
-        for line, target, name in _imports(path):
+        for line, target, name in imports[path]:
             if name and name.startswith("_") and not name.startswith("__") and target != mod:
                 wrong.append(f"{path.relative_to(SRC)}:{line} imports {name} from {target}")
     assert not wrong, "\n".join(wrong)
