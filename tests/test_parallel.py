@@ -176,7 +176,8 @@ def test_a_scheduler_without_workers_is_one_line_not_a_wait(monkeypatch):
 
 def test_waiting_on_a_remote_scheduler_does_not_spin(monkeypatch):
     """The client looks at the workers about once a second while it waits (a deadline set once made every later
-    look immediate: 29,600 looks and 3 s of CPU for one 4-second task)."""
+    look immediate: 29,600 looks and 3 s of CPU for one 4-second task). A 2-second task: 2-3 looks; one every
+    0.1 s (the wait's step) would be 20."""
     distributed = pytest.importorskip("distributed")
     import mocapkit.parallel
 
@@ -185,7 +186,7 @@ def test_waiting_on_a_remote_scheduler_does_not_spin(monkeypatch):
     monkeypatch.setattr(mocapkit.parallel, "_workers", lambda client: looks.append(1) or real(client))
     with distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=True, dashboard_address=None) as cluster:
         cpu = time.process_time()
-        assert map_ordered(time.sleep, [3.0], executor=cluster.scheduler_address, progress=False) == [None]
+        assert map_ordered(time.sleep, [2.0], executor=cluster.scheduler_address, progress=False) == [None]
         assert len(looks) <= 10 and time.process_time() - cpu < 2.0
 
 
