@@ -88,12 +88,12 @@ def test_reconstruct_kernels_compile_what_reconstruct_calls(tmp_path):
     from mocapkit import load, samples
     from mocapkit.database import MotionDatabase
     from mocapkit.features import virtual_accelerometers, virtual_markers
-    from mocapkit.reconstruct import accelerometers, markers
+    from mocapkit.reconstruct import accelerometers, markers, model_kinematics
     from mocapkit.reconstruct.accelerometers import kernels as acc_kernels
     from mocapkit.search import lng
 
     reconstruct_kernels()
-    found = {f"{mod.__name__}.{n}": k for mod in (acc_kernels, lng, markers) for n, k in vars(mod).items()
+    found = {f"{mod.__name__}.{n}": k for mod in (acc_kernels, lng, markers, model_kinematics) for n, k in vars(mod).items()
              if isinstance(k, CPUDispatcher)}
     before = {n: set(k.signatures) for n, k in found.items()}
     db = MotionDatabase.build([samples.path("HDM_bd_jogLeftCircle4StepsRstart_001_120.amc")], fps=30, mirror=True,

@@ -9,13 +9,14 @@ from mocapkit import samples
 from mocapkit.database import ClipInfo, MotionDatabase
 from mocapkit.features import virtual_markers
 from mocapkit.motion import Motion, unit_scale_cm
+from mocapkit.reconstruct import markers as markers_module
 from mocapkit.reconstruct.markers import (
-    _fk_model_poses,
     _marker_columns,
     marker_residuals,
     nearest_neighbor,
     reconstruct,
 )
+from mocapkit.reconstruct.model_kinematics import fk_model_pose, fk_model_poses
 
 MARKERS = ["lhand", "rhand", "lfoot", "rfoot", "head", "root"]
 UP = np.array([0.0, 1.0, 0.0])
@@ -172,12 +173,53 @@ def test_fk_kernel_matches_motion_forward_kinematics(truth, rng):
     joints = ["lhand", "head", "ltoes_end", "rthumb_end"]
     index, offset = _marker_columns(sk, joints)
     gpos, mpos = np.empty((B, J, 3)), np.empty((B, len(joints), 3))
-    _fk_model_poses(mean, rel, yaw, root, np.asarray(sk.parents, np.int64), np.asarray(sk.offsets), index, offset, gpos, mpos)
+    parents, offsets = np.asarray(sk.parents, np.int64), np.asarray(sk.offsets)
+    fk_model_poses(mean, rel, yaw, root, parents, offsets, index, offset, gpos, mpos)
     q = R.quaternion_multiply(mean, R.rotvec_to_quaternion(rel))
     q[:, 0] = R.quaternion_multiply(yaw, q[:, 0])
     m = Motion(sk, q, root, 30.0)
     assert np.allclose(gpos, m.global_positions(), atol=1e-10)
     assert np.allclose(mpos, virtual_markers(m, joints), atol=1e-10)
+    # the one-pose kernel of the analytic Jacobian: the same positions, and the global rotations as matrices
+    g1, m1, grot = np.empty((J, 3)), np.empty((len(joints), 3)), np.empty((J, 3, 3))
+    fk_model_pose(mean, rel[2], yaw[2], root[2], parents, offsets, index, offset, g1, m1, grot)
+    assert np.array_equal(g1, gpos[2]) and np.array_equal(m1, mpos[2])
+    g = _global_rotations(q[2], sk.parents)
+    assert np.allclose(grot.transpose(0, 2, 1), R.quaternion_rotate(g[:, None], np.eye(3)), atol=1e-12)
+
+
+def _global_rotations(q, parents):
+    """Global rotations (J, 4) of local rotations q (J, 4) (the slow twin of the kernels' chain)."""
+    g = q.copy()
+    for j, p in enumerate(parents):
+        if p >= 0:
+            g[j] = R.quaternion_multiply(g[p], q[j])
+    return g
+
+
+@pytest.mark.parametrize("joints", [MARKERS, MARKERS[:5]], ids=["root marker", "no root marker: height prior"])
+def test_analytic_jacobian_matches_forward_differences(db, truth, monkeypatch, joints):
+    """The per-frame fit's analytic Jacobian (model_kinematics) equals forward differences of the residuals on a
+    real take: every term (markers, prior, heading, height prior, joint ranges, smoothness of 1 and 2 frames), at
+    the solver's start and away from it (joints beyond their ranges)."""
+    checked, beyond = [], 0
+    solve = markers_module.least_squares
+
+    def spy(fun, z0, jac, **kw):
+        nonlocal beyond
+        p = jac.__self__
+        for z in (z0, z0 + np.random.default_rng(len(checked)).normal(scale=0.3, size=len(z0))):
+            a, b = p.jac(z), p.jac_numeric(z)
+            assert a.shape == b.shape
+            checked.append(np.abs(a - b).max() / np.abs(b).max())
+            assert np.allclose(p.fun(z), p.residuals(z[None])[0], rtol=0, atol=1e-9)
+            beyond += bool(np.any(p.ranges.excess(p.model.decode(z[None, : p.model.dim])) > 0))
+        return solve(fun, z0, jac=jac, **kw)
+
+    monkeypatch.setattr(markers_module, "least_squares", spy)
+    reconstruct(virtual_markers(truth[40:45], joints), joints, db, 30, skeleton=truth.skeleton)
+    assert len(checked) >= 10 and beyond > 0
+    assert max(checked) < 1e-5  # forward differences with step 1e-6 agree to about 1e-7 of the largest entry
 
 
 def test_held_out_actor_locomotion(shared_data):

@@ -45,9 +45,9 @@ markers (hands, feet, head, root; Tables 3 and 4). For every frame ``t``:
    turn about the vertical while the limbs compensate, most of all without a
    root marker. Solved by
    :func:`scipy.optimize.least_squares` (Levenberg-Marquardt) from the
-   previous frame's pose projected into the new model, with a Jacobian by
-   forward differences evaluated as one batched forward-kinematics call
-   (numba, :func:`_fk_model_poses`).
+   previous frame's pose projected into the new model, with the analytic
+   Jacobian of the forward kinematics (:mod:`.model_kinematics`; the forward
+   differences it replaced, ``_Problem.jac_numeric``, check it in the tests).
 5. **Joint ranges** (not in the papers): ``E`` also holds
    ``limit_weight * excess`` for every joint and principal axis, the radians
    by which the pose leaves the range the database's frames give that joint
@@ -113,10 +113,9 @@ such small matrices is slow on a busy machine (also consider
 from __future__ import annotations
 
 import weakref
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Sequence
 
-import numba
 import numpy as np
 from scipy.optimize import least_squares
 from threadpoolctl import threadpool_limits
@@ -124,7 +123,6 @@ from tqdm.auto import tqdm
 from ..progress import bar_disabled
 
 from .. import rotations as R
-from .._numba_quaternions import qexp, qmul, qrot
 from ..database import MotionDatabase
 from ..features import parse_up_axis, root_frame, virtual_markers
 from ..motion import Motion, Skeleton, unit_scale_cm
@@ -135,6 +133,8 @@ from ._common import (align_about_vertical, database_up, body_joints, body_motio
                       output_skeleton, per_clip, whole_motion)
 from .control import marker_residuals, warn_unseen
 from .dofs import on_joint_dofs
+from .model_kinematics import (carried_by, fk_model_pose, fk_model_poses, point_jacobian, range_coordinates,
+                               range_excess_jacobian)
 
 __all__ = ["reconstruct", "nearest_neighbor", "marker_residuals", "default_neighbours", "search_weights"]
 
@@ -409,45 +409,6 @@ def _resample_markers(x: np.ndarray, fps: float, target_fps: float) -> np.ndarra
     return out
 
 
-# -- batched forward kinematics of local-model poses (numba; the slow twin is Motion.global_transforms) --
-
-
-@numba.njit(cache=True)
-def _fk_model_poses(mean, rel, yaw, root, parents, offsets, mk_joint, mk_offset, gpos, mpos):
-    """Global joint and marker positions of poses ``mean[j] * exp(rel[b, j])`` with the root turned by ``yaw[b]``.
-
-    mean (J, 4) local rotations (root: tilt), rel (B, J, 3) rotation vectors
-    (radians) relative to them, yaw (B, 4) rotations about the vertical
-    applied to the root, root (B, 3) root positions; parents (J,), offsets
-    (J, 3); markers on joints ``mk_joint`` (M,) at ``mk_offset`` (M, 3) in the
-    joint's global frame. Writes gpos (B, J, 3) and mpos (B, M, 3).
-    """
-    B = rel.shape[0]
-    J = parents.shape[0]
-    g = np.empty((J, 4))
-    for b in range(B):
-        for j in range(J):
-            e0, e1, e2, e3 = qexp(rel[b, j, 0], rel[b, j, 1], rel[b, j, 2])
-            q0, q1, q2, q3 = qmul(mean[j, 0], mean[j, 1], mean[j, 2], mean[j, 3], e0, e1, e2, e3)
-            par = parents[j]
-            if par < 0:
-                a0, a1, a2, a3 = yaw[b, 0], yaw[b, 1], yaw[b, 2], yaw[b, 3]
-                gpos[b, j, 0], gpos[b, j, 1], gpos[b, j, 2] = root[b, 0], root[b, 1], root[b, 2]
-            else:
-                a0, a1, a2, a3 = g[par, 0], g[par, 1], g[par, 2], g[par, 3]
-                ox, oy, oz = qrot(a0, a1, a2, a3, offsets[j, 0], offsets[j, 1], offsets[j, 2])
-                gpos[b, j, 0] = gpos[b, par, 0] + ox
-                gpos[b, j, 1] = gpos[b, par, 1] + oy
-                gpos[b, j, 2] = gpos[b, par, 2] + oz
-            g[j, 0], g[j, 1], g[j, 2], g[j, 3] = qmul(a0, a1, a2, a3, q0, q1, q2, q3)
-        for k in range(mk_joint.shape[0]):
-            j = mk_joint[k]
-            ox, oy, oz = qrot(g[j, 0], g[j, 1], g[j, 2], g[j, 3], mk_offset[k, 0], mk_offset[k, 1], mk_offset[k, 2])
-            mpos[b, k, 0] = gpos[b, j, 0] + ox
-            mpos[b, k, 1] = gpos[b, j, 1] + oy
-            mpos[b, k, 2] = gpos[b, j, 2] + oz
-
-
 # -- the per-frame model and its residuals -------------------------------------------------------
 
 
@@ -528,6 +489,8 @@ class _Problem:
     heading_std: float  # radians
     ranges: _JointRanges | None = None  # the database's joint ranges; None: no joint-range term
     limit: float = 0.0  # cm of residual per radian beyond a joint's range
+    mask: np.ndarray | None = None  # (J + M, J) :func:`.model_kinematics.carried_by` (computed when None)
+    _last: tuple | None = field(default=None, repr=False)  # the last :meth:`_frame`, by its parameters' bytes
 
     def pose(self, z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Local rotations (B, J, 4) with the global root rotation and root positions (B, 3) of parameters (B, n)."""
@@ -546,12 +509,17 @@ class _Problem:
         root = np.ascontiguousarray(z[:, d + 1 : d + 4]) / self.scale
         gpos = np.empty((B, J, 3))
         mpos = np.empty((B, len(self.index), 3))
-        _fk_model_poses(self.model.mean, rel, yaw, root, self.parents, self.offsets, self.index, self.offset, gpos, mpos)
+        fk_model_poses(self.model.mean, rel, yaw, root, self.parents, self.offsets, self.index, self.offset, gpos, mpos)
         return gpos, mpos
 
     def residuals(self, z: np.ndarray) -> np.ndarray:
         """Residual vectors (B, n_res) of parameters (B, n): markers, prior, height prior, smoothness (cm)."""
         gpos, p = self.positions(z)
+        return self._assemble(z, gpos, p)
+
+    def _assemble(self, z: np.ndarray, gpos: np.ndarray, p: np.ndarray, excess: np.ndarray | None = None) -> np.ndarray:
+        """The residuals (B, n_res) of parameters (B, n) with joint (B, J, 3), marker (B, M, 3) positions (and the
+        joint-range excess (B, J, 3) when known)."""
         parts = [((p[:, self.observed] - self.target[self.observed]) * self.scale).reshape(len(z), -1)]
         parts.append(self.prior * z[:, : self.model.dim])
         parts.append(((z[:, self.model.dim] - self.heading) / self.heading_std)[:, None])
@@ -560,7 +528,9 @@ class _Problem:
             std = max(self.model.height_std, _MIN_HEIGHT_STD_CM / self.scale)
             parts.append(((h - self.model.height) / std)[:, None])
         if self.ranges is not None and self.limit > 0:
-            parts.append(self.limit * self.ranges.excess(self.model.decode(z[:, : self.model.dim])).reshape(len(z), -1))
+            if excess is None:
+                excess = self.ranges.excess(self.model.decode(z[:, : self.model.dim]))
+            parts.append(self.limit * excess.reshape(len(z), -1))
         if len(self.history) == 2:
             acc = gpos - 2 * self.history[0] + self.history[1]
             parts.append((self.smooth * self.scale * acc).reshape(len(z), -1))
@@ -568,8 +538,31 @@ class _Problem:
             parts.append((self.smooth * self.scale * (gpos - self.history[0])).reshape(len(z), -1))
         return np.concatenate(parts, axis=1)
 
+    def _frame(self, z: np.ndarray) -> tuple:
+        """Joint (J, 3), marker (M, 3) positions, global rotations (J, 3, 3), rotation vectors (J, 3) of z (n,).
+
+        The last one is kept: the solver asks for the Jacobian where it has just evaluated the residuals.
+        """
+        key = z.tobytes()
+        if self._last is None or self._last[0] != key:
+            d, J = self.model.dim, self.sk.num_joints
+            rel = (self.model.mu + self.model.basis @ z[:d]).reshape(J, 3)
+            yaw = R.quaternion_from_axis_angle(self.up, z[d : d + 1])[0]
+            gpos, mpos, grot = np.empty((J, 3)), np.empty((len(self.index), 3)), np.empty((J, 3, 3))
+            fk_model_pose(self.model.mean, rel, yaw, z[d + 1 : d + 4] / self.scale, self.parents, self.offsets,
+                          self.index, self.offset, gpos, mpos, grot)
+            vc = None
+            if self.ranges is not None and self.limit > 0:
+                vc = np.empty((J, 3)), np.empty((J, 3))
+                range_coordinates(self.model.mean, rel, self.ranges.mean, self.ranges.axes, *vc)
+            self._last = (key, (gpos, mpos, grot, rel, vc))
+        return self._last[1]
+
     def fun(self, z: np.ndarray) -> np.ndarray:
-        return self.residuals(z[None])[0]
+        gpos, mpos, _, _, vc = self._frame(z)
+        rg = self.ranges
+        excess = None if vc is None else np.maximum(vc[1] - rg.hi, 0.0) + np.maximum(rg.lo - vc[1], 0.0)
+        return self._assemble(z[None], gpos[None], mpos[None], excess)[0]
 
     def leaves_range(self, z: np.ndarray) -> bool:
         """Whether the pose of parameters (n,) takes a joint beyond its database range (:class:`_JointRanges`)."""
@@ -577,11 +570,35 @@ class _Problem:
             return False
         return bool(np.any(self.ranges.excess(self.model.decode(z[None, : self.model.dim])) > 0))
 
-    def jac(self, z: np.ndarray) -> np.ndarray:
+    def jac_numeric(self, z: np.ndarray) -> np.ndarray:
+        """The Jacobian (n_res, n) by forward differences (step 1e-6), one batched FK call: the reference of :meth:`jac`."""
         n = len(z)
         batch = np.vstack([z, z + _STEP * np.eye(n)])
         res = self.residuals(batch)
         return ((res[1:] - res[0]) / _STEP).T
+
+    def jac(self, z: np.ndarray) -> np.ndarray:
+        """The Jacobian (n_res, n) of :meth:`fun`, analytic (:func:`.model_kinematics.point_jacobian`)."""
+        gpos, mpos, grot, rel, vc = self._frame(z)
+        d, J, n = self.model.dim, len(gpos), len(z)
+        if self.mask is None:
+            self.mask = carried_by(self.parents, self.index)
+        dp = point_jacobian(np.concatenate([gpos, mpos]), gpos, grot, rel, self.model.basis, self.mask, self.up,
+                            self.scale)
+        rows = [self.scale * dp[J:][self.observed].reshape(-1, n), np.zeros((d + 1, n))]
+        rows[1][:d, :d] = self.prior * np.eye(d)
+        rows[1][d, d] = 1.0 / self.heading_std
+        if self.height_prior:
+            std = max(self.model.height_std, _MIN_HEIGHT_STD_CM / self.scale)
+            rows.append(np.zeros((1, n)))
+            rows[-1][0, d + 1 :] = self.up / self.scale / std
+        if self.ranges is not None and self.limit > 0:
+            rows.append(np.zeros((3 * J, n)))
+            rg = self.ranges
+            rows[-1][:, :d] = self.limit * range_excess_jacobian(rel, *vc, self.model.basis, rg.axes, rg.lo, rg.hi)
+        if len(self.history):
+            rows.append(self.smooth * self.scale * dp[:J].reshape(-1, n))
+        return np.concatenate(rows, axis=0)
 
 
 # -- the reconstruction --------------------------------------------------------------------------
@@ -775,7 +792,7 @@ def _solve(
             root[t] = rp[0]
             local[t] = q[0]
             local[t, 0] = R.quaternion_multiply(R.quaternion_conjugate(R.quaternion_from_axis_angle(up, z[d])), q[0, 0])
-        _fk_model_poses(
+        fk_model_poses(
             local[t],
             np.zeros((1, J, 3)),
             R.quaternion_from_axis_angle(up, theta[t : t + 1]),
