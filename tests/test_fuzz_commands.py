@@ -1,6 +1,8 @@
 """Fuzzing whole commands: the fixed cases of issue 20 one by one, a few mutated real files, and the oracle itself.
 
-Each command runs as a subprocess under a 2 GiB address-space limit and a CPU
+Each command runs as a process of its own (forked by a ``commands.ForkServer``
+that has imported mocapkit once, so ~60 runs do not each pay ~0.8 s of CPU
+for Python's start and the imports) under a 2 GiB address-space limit and a CPU
 budget (``tests/fuzzing/commands.py``). ``test_issue20_fixed_case[NAME]``
 reports each hand-made case of issue 20 on its own, so a failing run names
 the case, the command line and what it did (the exception line and the
@@ -57,7 +59,7 @@ def seeds():
 @pytest.fixture(scope="module")
 def baseline(workdir, seeds):
     """Every command kind on the unmutated BVH seed, one after another (the first run fills numba's cache)."""
-    return commands.baseline_cpu(seeds, workdir, commands.Limits(cpu_s={"default": 600.0}))
+    return commands.baseline_cpu(seeds, workdir, commands.Limits(cpu_s={"default": 600.0}), fork=True)
 
 
 @pytest.fixture(scope="module")
@@ -69,7 +71,7 @@ def limits(baseline):
 
 
 def _run_fixed(names, workdir, limits) -> dict:
-    return dict(zip(names, commands.run_cases([issue20.FIXED_CASES[n] for n in names], workdir, limits, workers=2)))
+    return dict(zip(names, commands.run_cases([issue20.FIXED_CASES[n] for n in names], workdir, limits, workers=2, fork=True)))
 
 
 @pytest.fixture(scope="module")
@@ -115,7 +117,7 @@ def test_issue20_whole_command_case(whole_command_results, name):
 def test_mutated_commands(workdir, seeds, limits):
     """A few mutated real files through the commands: no traceback, no run over its limits, no input lost."""
     cases = [partial(commands.mutant_case, seeds, n) for n in range(QUICK_MUTANTS)]
-    results = commands.run_cases(cases, workdir, limits, workers=2)
+    results = commands.run_cases(cases, workdir, limits, workers=2, fork=True)
     summary = commands.summarize(results)
     assert summary["runs"] == QUICK_MUTANTS
     failing = [r for r in results if r.all_findings]

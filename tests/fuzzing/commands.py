@@ -20,7 +20,12 @@ judges what it did:
   under ``RLIMIT_AS`` (``mem_bytes``, 2 GiB), ``RLIMIT_CPU`` (the command's
   CPU budget), ``RLIMIT_FSIZE`` and no core files, with ``TQDM_DISABLE=1`` and
   one thread per library; a run still alive after ``wall_s`` is killed with its
-  whole process group.
+  whole process group. With a :class:`ForkServer` (the tests' choice) the run is
+  instead a process forked, under the same limits and in a new session, from an
+  interpreter that has already imported ``mocapkit.cli``: the same command in its
+  own process (exit status, signals, CPU and memory of its own), without paying
+  Python's start and mocapkit's imports again (about 0.4 s of CPU a run, most of
+  what a refused command costs).
 * **The oracle** (:func:`judge`) turns a run into :class:`Finding` s, none when
   all is well. Progress bars aside (:func:`strip_progress`), exit 0 with an
   empty standard error, or exit 2 (1 for
@@ -50,7 +55,9 @@ from __future__ import annotations
 import dataclasses
 import hashlib
 import io
+import json
 import os
+import queue
 import random
 import re
 import shutil
@@ -73,6 +80,7 @@ __all__ = [
     "Case", "Step", "Symlink", "Finding", "StepResult", "CaseResult", "Limits", "LAUNCHER", "KIND_GROUPS",
     "command_seeds", "mutant_case", "hostile_names", "npz_of", "run_case", "run_cases", "run_step", "judge",
     "summarize", "snapshot", "write_case", "baseline_cpu", "command_kind", "strip_progress", "file_findings",
+    "ForkServer", "FORK_SERVER", "PRELOAD",
 ]
 
 TRIM_FRAMES = 150
@@ -89,6 +97,101 @@ sys.argv = ["mocapkit", *sys.argv[4:]]
 from mocapkit.cli import main
 sys.exit(main())
 """
+
+# A fork server: imports the console script's module (and PRELOAD) once, then for each request (a JSON line on stdin: argv,
+# cwd, limits, the files for stdout and stderr) forks a child that becomes the command exactly as LAUNCHER does
+# (new session, limits, standard streams on the files, sys.argv, main()); it answers on its original stdout with
+# the child's pid, then with its wait status and resource usage once it has exited.
+FORK_SERVER = r"""
+import importlib, json, os, resource, sys
+from mocapkit.cli import main
+for name in sys.argv[1:]:
+    importlib.import_module(name)
+ctl, buf = os.dup(1), b""
+while True:
+    while b"\n" not in buf:
+        chunk = os.read(0, 1 << 16)
+        if not chunk:
+            os._exit(0)
+        buf += chunk
+    line, buf = buf.split(b"\n", 1)
+    req = json.loads(line)
+    pid = os.fork()
+    if pid == 0:
+        os.setsid()
+        os.close(ctl)
+        for fd, path, flags in ((0, os.devnull, os.O_RDONLY), (1, req["out"], os.O_WRONLY | os.O_CREAT | os.O_TRUNC),
+                                (2, req["err"], os.O_WRONLY | os.O_CREAT | os.O_TRUNC)):
+            f = os.open(path, flags, 0o644)
+            os.dup2(f, fd)
+            os.close(f)
+        os.chdir(req["cwd"])
+        mem, cpu, fsize = req["limits"]
+        resource.setrlimit(resource.RLIMIT_AS, (mem, mem))
+        resource.setrlimit(resource.RLIMIT_CPU, (cpu, cpu + 5))
+        resource.setrlimit(resource.RLIMIT_FSIZE, (fsize, fsize))
+        resource.setrlimit(resource.RLIMIT_CORE, (0, 0))
+        sys.argv = ["mocapkit", *req["argv"]]
+        break
+    os.write(ctl, (json.dumps({"pid": pid}) + "\n").encode())
+    _, status, ru = os.wait4(pid, 0)
+    os.write(ctl, (json.dumps({"status": status, "utime": ru.ru_utime, "stime": ru.ru_stime,
+                               "maxrss": ru.ru_maxrss}) + "\n").encode())
+sys.exit(main())
+"""
+
+
+# What ``mocapkit info`` on a BVH imports (numpy, scipy, numba, rich, the readers and rigs: ~0.8 s of CPU), which
+# every command reading a take imports too, and the database and cleaning modules. Not torch (``denoise``'s
+# alone, and large in RLIMIT_AS): a forked command is charged no address space it would not have mapped itself.
+PRELOAD = ("mocapkit.cli.streams", "mocapkit.io.takes", "mocapkit.io.bvh", "mocapkit.io.asfamc", "mocapkit.io.c3d",
+           "mocapkit.io.npz", "mocapkit.rigs", "mocapkit.features", "mocapkit.digest", "mocapkit.database_folder",
+           "mocapkit.reconstruct.output", "mocapkit.database", "mocapkit.cleaning.pipeline")
+
+
+class ForkServer:
+    """A running :data:`FORK_SERVER`: one command at a time (:func:`run_cases` keeps one per worker).
+
+    Started in an empty folder with :func:`_env`'s environment, as each fresh run was; close it with
+    :meth:`close` (or use it as a context manager).
+    """
+
+    def __init__(self) -> None:
+        self._home = tempfile.mkdtemp(prefix="mocapkit-fuzz-fork-")
+        self._proc = subprocess.Popen([sys.executable, "-c", FORK_SERVER, *PRELOAD], cwd=self._home, stdin=subprocess.PIPE,
+                                      stdout=subprocess.PIPE, env=_env())
+
+    def start(self, argv, cwd: Path, limits: tuple[int, int, int], out: Path, err: Path) -> int:
+        """Fork the command; its pid (also its process group's id)."""
+        req = {"argv": list(argv), "cwd": str(cwd), "limits": list(limits), "out": str(out), "err": str(err)}
+        self._proc.stdin.write((json.dumps(req) + "\n").encode())
+        self._proc.stdin.flush()
+        return int(self._reply()["pid"])
+
+    def wait(self) -> tuple[int, float, float]:
+        """The forked command's wait status, CPU seconds (user + system) and peak RSS (kB), once it has exited."""
+        r = self._reply()
+        return int(r["status"]), float(r["utime"]) + float(r["stime"]), float(r["maxrss"])
+
+    def _reply(self) -> dict:
+        line = self._proc.stdout.readline()
+        if not line:
+            raise RuntimeError(f"the fork server exited (status {self._proc.poll()})")
+        return json.loads(line)
+
+    def close(self) -> None:
+        if self._proc.poll() is None:
+            self._proc.stdin.close()
+            self._proc.wait(timeout=60)
+        self._proc.stdout.close()
+        shutil.rmtree(self._home, ignore_errors=True)
+
+    def __enter__(self) -> "ForkServer":
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
 
 # How findings are counted in a report (benchmarks/fuzz_commands.py, the tests).
 KIND_GROUPS = {
@@ -496,8 +599,12 @@ def _undo_readonly(folder: Path) -> None:
         pass
 
 
-def run_step(argv, cwd: Path, limits: Limits, wall_s: float | None = None, capture: Path | None = None) -> StepResult:
-    """Run ``mocapkit ARGV`` in ``cwd`` under ``limits``; the result has no findings yet (see :func:`judge`)."""
+def run_step(argv, cwd: Path, limits: Limits, wall_s: float | None = None, capture: Path | None = None,
+             server: ForkServer | None = None) -> StepResult:
+    """Run ``mocapkit ARGV`` in ``cwd`` under ``limits``; the result has no findings yet (see :func:`judge`).
+
+    A fresh interpreter (``python -c LAUNCHER``), or a process forked by ``server`` (:class:`ForkServer`).
+    """
     argv = tuple(argv)
     cpu = limits.cpu_for(argv)
     wall = wall_s if wall_s is not None else limits.wall_s
@@ -507,36 +614,54 @@ def run_step(argv, cwd: Path, limits: Limits, wall_s: float | None = None, captu
     cmd = [sys.executable, "-c", LAUNCHER, str(limits.mem_bytes), str(int(cpu) + 1), str(limits.fsize_bytes), *argv]
     killed = threading.Event()
     t0 = time.monotonic()
-    with open(out_path, "wb") as fo, open(err_path, "wb") as fe:
-        proc = subprocess.Popen(cmd, cwd=cwd, stdin=subprocess.DEVNULL, stdout=fo, stderr=fe, env=_env(),
-                                start_new_session=True)
+    if server is not None:
+        pid = server.start(argv, cwd, (limits.mem_bytes, int(cpu) + 1, limits.fsize_bytes), out_path, err_path)
 
         def kill() -> None:
             killed.set()
             try:
-                os.killpg(proc.pid, signal.SIGKILL)
+                os.killpg(pid, signal.SIGKILL)
             except OSError:
                 pass
 
         timer = threading.Timer(wall, kill)
         timer.start()
         try:
-            _, status, usage = os.wait4(proc.pid, 0)
+            status, cpu_used, maxrss_kb = server.wait()
         finally:
             timer.cancel()
-        proc.returncode = os.waitstatus_to_exitcode(status)  # reaped here: keep Popen from waiting again
+        code = os.waitstatus_to_exitcode(status)
+    else:
+        with open(out_path, "wb") as fo, open(err_path, "wb") as fe:
+            proc = subprocess.Popen(cmd, cwd=cwd, stdin=subprocess.DEVNULL, stdout=fo, stderr=fe, env=_env(),
+                                    start_new_session=True)
+            pid = proc.pid
+
+            def kill() -> None:
+                killed.set()
+                try:
+                    os.killpg(proc.pid, signal.SIGKILL)
+                except OSError:
+                    pass
+
+            timer = threading.Timer(wall, kill)
+            timer.start()
+            try:
+                _, status, usage = os.wait4(proc.pid, 0)
+            finally:
+                timer.cancel()
+            proc.returncode = os.waitstatus_to_exitcode(status)  # reaped here: keep Popen from waiting again
+        code, cpu_used, maxrss_kb = proc.returncode, usage.ru_utime + usage.ru_stime, usage.ru_maxrss
     elapsed = time.monotonic() - t0
     orphans = False
     try:
-        os.killpg(proc.pid, 0)  # the leader is reaped: anything left in its group is a process it started
+        os.killpg(pid, 0)  # the leader is reaped: anything left in its group is a process it started
         orphans = True
-        os.killpg(proc.pid, signal.SIGKILL)
+        os.killpg(pid, signal.SIGKILL)
     except OSError:
         pass
-    code = proc.returncode
     res = StepResult(argv, code if code >= 0 else None, -code if code < 0 else None, round(elapsed, 3),
-                     round(usage.ru_utime + usage.ru_stime, 3), round(usage.ru_maxrss / 1024, 1),
-                     _head_and_tail(out_path), _head_and_tail(err_path))
+                     round(cpu_used, 3), round(maxrss_kb / 1024, 1), _head_and_tail(out_path), _head_and_tail(err_path))
     if killed.is_set():
         res.findings.append(Finding("hang", f"still running after {wall:g} s wall clock (CPU {res.cpu_s:.1f} s); killed"))
     if orphans:
@@ -661,8 +786,11 @@ def file_findings(before: dict, after: dict, step: Step, res: StepResult, inputs
     return found
 
 
-def run_case(case: Case, workdir: Path, limits: Limits, keep: bool = False) -> CaseResult:
-    """Lay the case out in a fresh folder under ``workdir``, run its steps, judge each; remove the folder unless ``keep``."""
+def run_case(case: Case, workdir: Path, limits: Limits, keep: bool = False, server: ForkServer | None = None) -> CaseResult:
+    """Lay the case out in a fresh folder under ``workdir``, run its steps, judge each; remove the folder unless ``keep``.
+
+    ``server``: run the steps as processes forked by it (:func:`run_step`).
+    """
     result = CaseResult(case.name)
     base = Path(tempfile.mkdtemp(prefix="case-", dir=workdir))
     root = base / "run"
@@ -675,7 +803,7 @@ def run_case(case: Case, workdir: Path, limits: Limits, keep: bool = False) -> C
         for k, step in enumerate(case.steps):
             before = snapshot(root)
             lim = limits if case.cpu_s is None else dataclasses.replace(limits, cpu_s={"default": case.cpu_s})
-            res = run_step(step.argv, root, lim, wall_s=case.wall_s, capture=base / f"capture-{k}")
+            res = run_step(step.argv, root, lim, wall_s=case.wall_s, capture=base / f"capture-{k}", server=server)
             after = snapshot(root)
             res.findings += judge(res, step, lim)
             res.findings += file_findings(before, after, step, res, case.inputs, root)
@@ -692,29 +820,51 @@ def run_case(case: Case, workdir: Path, limits: Limits, keep: bool = False) -> C
     return result
 
 
-def run_cases(cases, workdir: Path, limits: Limits, workers: int = 2, on_result=None) -> list[CaseResult]:
-    """Run cases (``Case`` objects or zero-argument factories) ``workers`` at a time; results in input order."""
+def run_cases(cases, workdir: Path, limits: Limits, workers: int = 2, on_result=None,
+              fork: bool = False) -> list[CaseResult]:
+    """Run cases (``Case`` objects or zero-argument factories) ``workers`` at a time; results in input order.
+
+    ``fork``: each worker runs its steps through a :class:`ForkServer` of its own (see :func:`run_step`).
+    """
     workdir = Path(workdir)
     workdir.mkdir(parents=True, exist_ok=True)
+    servers: queue.SimpleQueue = queue.SimpleQueue()
+    started: list[ForkServer] = []
 
     def one(c):
         case = c() if callable(c) else c
-        r = run_case(case, workdir, limits)
+        server = None
+        if fork:
+            try:
+                server = servers.get_nowait()
+            except queue.Empty:
+                server = ForkServer()
+                started.append(server)
+        try:
+            r = run_case(case, workdir, limits, server=server)
+        finally:
+            if server is not None:
+                servers.put(server)
         if on_result is not None:
             on_result(case, r)
         return r
 
-    with ThreadPoolExecutor(max_workers=max(1, workers)) as pool:
-        return list(pool.map(one, cases))
+    try:
+        with ThreadPoolExecutor(max_workers=max(1, workers)) as pool:
+            return list(pool.map(one, cases))
+    finally:
+        for server in started:
+            server.close()
 
 
-def baseline_cpu(seeds: list[readers.Seed], workdir: Path, limits: Limits) -> tuple[dict, list[CaseResult]]:
+def baseline_cpu(seeds: list[readers.Seed], workdir: Path, limits: Limits, fork: bool = False) -> tuple[dict, list[CaseResult]]:
     """CPU seconds of each command kind on an unmutated seed, run one after another (the first warms numba's cache).
 
     The BVH seed for all but ``denoise``, which runs on the AMC seed (the shipped denoiser's rig).
 
     Returns ``({kind: cpu_s}, results)``; the results are judged like any case (an unmutated
-    seed must run cleanly).
+    seed must run cleanly). ``fork``: run them through a :class:`ForkServer` (their CPU then leaves out
+    Python's start and mocapkit's imports, as the runs it budgets do when they are forked too).
     """
     seed = next(s for s in seeds if s.fmt == "bvh")
     walk = next(s for s in seeds if s.fmt == "amc")  # the shipped denoiser's rig (CMU ASF)
@@ -729,11 +879,13 @@ def baseline_cpu(seeds: list[readers.Seed], workdir: Path, limits: Limits) -> tu
     }
     cpu: dict[str, float] = {}
     results = []
+    server = ForkServer() if fork else None
     for kind, argv in runs.items():
         case = Case(f"unmutated-{kind.replace(' ', '-')}", dict(files), (Step(argv, "ok", ()),), inputs=tuple(files))
-        r = run_case(case, Path(workdir), limits)
-        results.append(r)
+        results.append(r := run_case(case, Path(workdir), limits, server=server))
         cpu[kind] = r.steps[0].cpu_s if r.steps else float("nan")
+    if server is not None:
+        server.close()
     return cpu, results
 
 
