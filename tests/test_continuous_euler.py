@@ -12,29 +12,32 @@ from scipy.spatial.transform import Rotation
 from mocapkit import rotations as R
 
 
+# The whole turns tried on each angle, in itertools.product order: (-3, -3, -3), (-3, -3, -2), ...
+_TURNS = {n: np.array(list(itertools.product(range(-3, 4), repeat=n)), dtype=float) for n in (1, 2, 3)}
+
+
 def _equivalents(a, order, period):
-    """Every triple (or pair, or angle) equivalent to ``a`` within 3 turns, the branch ``a`` gives first."""
+    """Every triple (or pair, or angle) equivalent to ``a`` within 3 turns, the branch ``a`` gives first: an array
+    (candidates, n), row after row as itertools.product enumerates the turns."""
     half = period / 2
     n = len(a)
     branches = [np.array(a, dtype=float)]
     if n == 3:
         proper = order.lower()[0] == order.lower()[2]
         branches.append(np.array([a[0] + half, -a[1] if proper else half - a[1], a[2] + half]))
-    for b in branches:
-        for ks in itertools.product(range(-3, 4), repeat=n):
-            yield b + period * np.array(ks)
+    return np.concatenate([b + period * _TURNS[n] for b in branches])
 
 
 def _nearest(a, ref, order, period, flip):
     """Brute force: the candidate nearest ``ref`` (sum of |differences|); the first branch on a tie."""
     best, cost = None, np.inf
-    cands = list(_equivalents(a, order, period))
+    cands = _equivalents(a, order, period)
     if not flip:
         cands = cands[: 7 ** len(a)]
-    for c in cands:
-        d = np.abs(c - ref).sum()
+    dist = np.abs(cands - ref).sum(axis=1).tolist()  # each row's sum as np.abs(c - ref).sum() adds it
+    for i, d in enumerate(dist):  # in order, a later candidate only when nearer by more than 1e-12
         if d < cost - 1e-12:
-            best, cost = c, d
+            best, cost = cands[i], d
     return best
 
 
