@@ -52,14 +52,22 @@ def workdir(tmp_path_factory):
 
 
 @pytest.fixture(scope="module")
+def fork_pool():
+    """The fork servers every command of this module runs from (each started once: ~1 s of CPU)."""
+    pool = commands.ForkPool()
+    yield pool
+    pool.close()
+
+
+@pytest.fixture(scope="module")
 def seeds():
     return commands.command_seeds(SHARED_DATA if SHARED_DATA.is_dir() else None)
 
 
 @pytest.fixture(scope="module")
-def baseline(workdir, seeds):
+def baseline(workdir, seeds, fork_pool):
     """Every command kind on the unmutated BVH seed, one after another (the first run fills numba's cache)."""
-    return commands.baseline_cpu(seeds, workdir, commands.Limits(cpu_s={"default": 600.0}), fork=True)
+    return commands.baseline_cpu(seeds, workdir, commands.Limits(cpu_s={"default": 600.0}), fork=fork_pool)
 
 
 @pytest.fixture(scope="module")
@@ -70,18 +78,19 @@ def limits(baseline):
     return commands.Limits(mem_bytes=2 << 30, cpu_s=budgets, wall_s=600.0)
 
 
-def _run_fixed(names, workdir, limits) -> dict:
-    return dict(zip(names, commands.run_cases([issue20.FIXED_CASES[n] for n in names], workdir, limits, workers=2, fork=True)))
+def _run_fixed(names, workdir, limits, fork_pool) -> dict:
+    cases = [issue20.FIXED_CASES[n] for n in names]
+    return dict(zip(names, commands.run_cases(cases, workdir, limits, workers=2, fork=fork_pool)))
 
 
 @pytest.fixture(scope="module")
-def fixed_results(workdir, limits):
-    return _run_fixed(QUICK_CASES, workdir, limits)
+def fixed_results(workdir, limits, fork_pool):
+    return _run_fixed(QUICK_CASES, workdir, limits, fork_pool)
 
 
 @pytest.fixture(scope="module")
-def whole_command_results(workdir, limits):
-    return _run_fixed(WHOLE_COMMAND_CASES, workdir, limits)
+def whole_command_results(workdir, limits, fork_pool):
+    return _run_fixed(WHOLE_COMMAND_CASES, workdir, limits, fork_pool)
 
 
 def test_unmutated_seed_runs_cleanly(baseline):
@@ -114,10 +123,10 @@ def test_issue20_whole_command_case(whole_command_results, name):
     _check_fixed(whole_command_results[name], name)
 
 
-def test_mutated_commands(workdir, seeds, limits):
+def test_mutated_commands(workdir, seeds, limits, fork_pool):
     """A few mutated real files through the commands: no traceback, no run over its limits, no input lost."""
     cases = [partial(commands.mutant_case, seeds, n) for n in range(QUICK_MUTANTS)]
-    results = commands.run_cases(cases, workdir, limits, workers=2, fork=True)
+    results = commands.run_cases(cases, workdir, limits, workers=2, fork=fork_pool)
     summary = commands.summarize(results)
     assert summary["runs"] == QUICK_MUTANTS
     failing = [r for r in results if r.all_findings]

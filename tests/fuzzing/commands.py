@@ -80,7 +80,7 @@ __all__ = [
     "Case", "Step", "Symlink", "Finding", "StepResult", "CaseResult", "Limits", "LAUNCHER", "KIND_GROUPS",
     "command_seeds", "mutant_case", "hostile_names", "npz_of", "run_case", "run_cases", "run_step", "judge",
     "summarize", "snapshot", "write_case", "baseline_cpu", "command_kind", "strip_progress", "file_findings",
-    "ForkServer", "FORK_SERVER", "PRELOAD",
+    "ForkServer", "ForkPool", "FORK_SERVER", "PRELOAD",
 ]
 
 TRIM_FRAMES = 150
@@ -191,6 +191,36 @@ class ForkServer:
 
     def __exit__(self, *exc) -> None:
         self.close()
+
+
+class ForkPool:
+    """Fork servers for workers to take and give back (one per worker at a time), started as needed; ``close`` ends them.
+
+    One pool can serve several :func:`run_cases` and :func:`baseline_cpu` calls: each server's start (Python and
+    :data:`PRELOAD`, ~1 s of CPU) is paid once.
+    """
+
+    def __init__(self) -> None:
+        self._free: queue.SimpleQueue = queue.SimpleQueue()
+        self._all: list[ForkServer] = []
+        self._lock = threading.Lock()
+
+    def take(self) -> ForkServer:
+        try:
+            return self._free.get_nowait()
+        except queue.Empty:
+            server = ForkServer()
+            with self._lock:
+                self._all.append(server)
+            return server
+
+    def give(self, server: ForkServer) -> None:
+        self._free.put(server)
+
+    def close(self) -> None:
+        for server in self._all:
+            server.close()
+        self._all.clear()
 
 
 # How findings are counted in a report (benchmarks/fuzz_commands.py, the tests).
@@ -821,50 +851,46 @@ def run_case(case: Case, workdir: Path, limits: Limits, keep: bool = False, serv
 
 
 def run_cases(cases, workdir: Path, limits: Limits, workers: int = 2, on_result=None,
-              fork: bool = False) -> list[CaseResult]:
+              fork: "bool | ForkPool" = False) -> list[CaseResult]:
     """Run cases (``Case`` objects or zero-argument factories) ``workers`` at a time; results in input order.
 
-    ``fork``: each worker runs its steps through a :class:`ForkServer` of its own (see :func:`run_step`).
+    ``fork``: each worker runs its steps through a :class:`ForkServer` of its own (see :func:`run_step`), from
+    the :class:`ForkPool` given, or from one made (and closed) for this call when ``True``.
     """
     workdir = Path(workdir)
     workdir.mkdir(parents=True, exist_ok=True)
-    servers: queue.SimpleQueue = queue.SimpleQueue()
-    started: list[ForkServer] = []
+    pool = fork if isinstance(fork, ForkPool) else (ForkPool() if fork else None)
 
     def one(c):
         case = c() if callable(c) else c
-        server = None
-        if fork:
-            try:
-                server = servers.get_nowait()
-            except queue.Empty:
-                server = ForkServer()
-                started.append(server)
+        server = pool.take() if pool is not None else None
         try:
             r = run_case(case, workdir, limits, server=server)
         finally:
             if server is not None:
-                servers.put(server)
+                pool.give(server)
         if on_result is not None:
             on_result(case, r)
         return r
 
     try:
-        with ThreadPoolExecutor(max_workers=max(1, workers)) as pool:
-            return list(pool.map(one, cases))
+        with ThreadPoolExecutor(max_workers=max(1, workers)) as pool_threads:
+            return list(pool_threads.map(one, cases))
     finally:
-        for server in started:
-            server.close()
+        if pool is not None and pool is not fork:
+            pool.close()
 
 
-def baseline_cpu(seeds: list[readers.Seed], workdir: Path, limits: Limits, fork: bool = False) -> tuple[dict, list[CaseResult]]:
+def baseline_cpu(seeds: list[readers.Seed], workdir: Path, limits: Limits,
+                 fork: "bool | ForkPool" = False) -> tuple[dict, list[CaseResult]]:
     """CPU seconds of each command kind on an unmutated seed, run one after another (the first warms numba's cache).
 
     The BVH seed for all but ``denoise``, which runs on the AMC seed (the shipped denoiser's rig).
 
     Returns ``({kind: cpu_s}, results)``; the results are judged like any case (an unmutated
-    seed must run cleanly). ``fork``: run them through a :class:`ForkServer` (their CPU then leaves out
-    Python's start and mocapkit's imports, as the runs it budgets do when they are forked too).
+    seed must run cleanly). ``fork``: run them through a :class:`ForkServer` (of the :class:`ForkPool` given,
+    or one of its own when ``True``): their CPU then leaves out Python's start and mocapkit's imports, as the
+    runs it budgets do when they are forked too.
     """
     seed = next(s for s in seeds if s.fmt == "bvh")
     walk = next(s for s in seeds if s.fmt == "amc")  # the shipped denoiser's rig (CMU ASF)
@@ -879,13 +905,16 @@ def baseline_cpu(seeds: list[readers.Seed], workdir: Path, limits: Limits, fork:
     }
     cpu: dict[str, float] = {}
     results = []
-    server = ForkServer() if fork else None
+    pool = fork if isinstance(fork, ForkPool) else (ForkPool() if fork else None)
+    server = pool.take() if pool is not None else None
     for kind, argv in runs.items():
         case = Case(f"unmutated-{kind.replace(' ', '-')}", dict(files), (Step(argv, "ok", ()),), inputs=tuple(files))
         results.append(r := run_case(case, Path(workdir), limits, server=server))
         cpu[kind] = r.steps[0].cpu_s if r.steps else float("nan")
     if server is not None:
-        server.close()
+        pool.give(server)
+        if pool is not fork:
+            pool.close()
     return cpu, results
 
 
