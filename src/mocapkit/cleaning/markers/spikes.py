@@ -55,12 +55,13 @@ never-suspected samples near the run (:func:`rigid_deviation`, ``nearby``).
 
 from __future__ import annotations
 
+from functools import lru_cache
 from itertools import combinations
 
 import numpy as np
 
 from .edges import EDGE_MIN_FPS, edge_candidates, edge_glitch_mask
-from .rigid import DistanceStats, distance_stats, donor_order, from_local, local_frames, to_local
+from .rigid import DistanceStats, distance_stats, donor_order, from_local, local_frames_stacked, to_local
 
 __all__ = ["spike_mask", "prediction_matrix", "rigid_deviation", "partner_motion", "longest_spike"]
 
@@ -88,6 +89,26 @@ def prediction_matrix(length: int, context: int = 3, degree: int = 3) -> np.ndar
     return vr @ np.linalg.pinv(vc)
 
 
+@lru_cache(maxsize=256)
+def _prediction_weights(length: int, context: int) -> np.ndarray:
+    """:func:`prediction_matrix` (cubic), computed once per (length, context) and read-only: :func:`_settle` asks
+    for the same few matrices every round of every flagged region (a pseudo-inverse each)."""
+    w = prediction_matrix(length, context)
+    w.flags.writeable = False
+    return w
+
+
+@lru_cache(maxsize=4096)
+def _offset_weights(length: int, offsets: tuple) -> np.ndarray:
+    """:func:`_cubic_weights` of a run of ``length`` frames starting at frame 0 with its context at frames
+    ``offsets``, read-only and cached. Frames enter the fit only as offsets from the run's centre, exact in floating
+    point (integers and half-integers), so a run starting at frame ``a`` with its context at ``a + offsets`` has
+    these very weights, bit for bit."""
+    w = _cubic_weights(0, length, np.asarray(offsets))
+    w.flags.writeable = False
+    return w
+
+
 def _cubic_weights(a: int, b: int, ctx: np.ndarray) -> np.ndarray:
     """(b - a, len(ctx)) least-squares weights of the cubic through the samples at frames ``ctx`` (any, around the
     run) evaluated at frames ``a .. b - 1``: :func:`prediction_matrix` for a context with frames missing."""
@@ -104,7 +125,7 @@ def _run_deviation(x: np.ndarray, length: int, context: int) -> np.ndarray:
     n = f - length - 2 * context + 1
     if n <= 0:
         return np.full((0, x.shape[1]), np.nan)
-    w = prediction_matrix(length, context)
+    w = _prediction_weights(length, context)
     offs = np.concatenate([np.arange(0, context), np.arange(context + length, 2 * context + length)])
     ctx = np.stack([x[o:o + n] for o in offs], axis=0)  # (2c, S, M, 3)
     dev = None
@@ -195,7 +216,15 @@ def _settle(seg: np.ndarray, thr: float, max_len: int, context: int, d2: np.ndar
     n = seg.shape[0]
     limit = 4 * max_len if limit is None else limit
     runs = []
-    weights: dict[tuple, np.ndarray] = {}  # context offsets -> least-squares prediction weights
+    # Each run's deviation from the cubic through its whole context (NaN without one), per length. Removing a run
+    # makes NaN exactly the runs whose samples or context touch it (NaN propagates through the fit); the others'
+    # inputs are unchanged, so they are computed once, not every round.
+    devs = {}
+    for length in range(1, max_len + 1):
+        fast = np.full(n - length + 1, np.nan)
+        dev = _run_deviation(seg[:, None, :], length, context)[:, 0]
+        fast[context:context + dev.size] = dev
+        devs[length] = fast
     while True:
         seen = ~np.any(np.isnan(seg), axis=-1)
         idx = np.flatnonzero(seen)
@@ -207,38 +236,44 @@ def _settle(seg: np.ndarray, thr: float, max_len: int, context: int, d2: np.ndar
             return _one_ended(seg, a, b, before, after, d2, lo, 0.5 * thr, limit)
 
         for length in range(1, max_len + 1):
-            fast = np.full(n - length + 1, np.nan)
-            dev = _run_deviation(seg[:, None, :], length, context)[:, 0]  # runs with a whole context
-            fast[context:context + dev.size] = dev
-            for a in np.argsort(-np.nan_to_num(fast, nan=-np.inf), kind="stable"):
-                if not fast[a] > best * thr:
-                    break
-                if not stepside(int(a), int(a) + length):
-                    best, where = fast[a] / thr, (int(a), length)
+            fast = devs[length]
+            over = np.flatnonzero(fast > best * thr)  # the largest deviation first (the first of equals)
+            for a in over[np.argsort(-fast[over], kind="stable")].tolist():
+                if not stepside(a, a + length):
+                    best, where = fast[a] / thr, (a, length)
                     break
             run_seen = np.convolve(seen.astype(np.int8), np.ones(length, dtype=np.int8), mode="valid") == length
-            for a in np.flatnonzero(np.isnan(fast) & run_seen):  # runs whose context skips removed samples
-                b = a + length
-                k0 = np.searchsorted(idx, a)
-                k1 = np.searchsorted(idx, b)
-                before, after = idx[max(k0 - context, 0):k0], idx[k1:k1 + context]
-                if len(before) < context or len(after) < context:
-                    continue
-                if a - before[0] > context + max_len or after[-1] - (b - 1) > context + max_len:
-                    continue
-                ctx = np.concatenate([before, after])
-                key = (length, *(ctx - a))
-                w = weights.get(key)
-                if w is None:
-                    w = weights[key] = _cubic_weights(a, b, ctx)
-                pred = w @ seg[ctx]
-                score = np.min(np.linalg.norm(seg[a:b] - pred, axis=-1)) / thr
-                if score > best and not stepside(int(a), int(b), before, after):
-                    best, where = score, (int(a), length)
+            # runs whose context skips removed samples: those with `context` seen samples on each side, the
+            # furthest within `context + max_len` frames of the run
+            starts = np.flatnonzero(np.isnan(fast) & run_seen)
+            k0 = np.searchsorted(idx, starts)
+            k1 = np.searchsorted(idx, starts + length)
+            whole = (k0 >= context) & (k1 + context <= idx.size)
+            starts, k0, k1 = starts[whole], k0[whole], k1[whole]
+            near = ((starts - idx[k0 - context] <= context + max_len)
+                    & (idx[k1 + context - 1] - (starts + length - 1) <= context + max_len))
+            starts, k0, k1 = starts[near], k0[near], k1[near]
+            if not starts.size:
+                continue
+            ctx = np.concatenate([idx[k0[:, None] + np.arange(-context, 0)], idx[k1[:, None] + np.arange(context)]],
+                                 axis=1)  # (S, 2 context) the frames of each run's context
+            w = np.stack([_offset_weights(length, tuple(o)) for o in (ctx - starts[:, None]).tolist()])
+            pred = np.matmul(w, seg[ctx])  # (S, length, 3): each run's `w @ seg[ctx]`, the same product per run
+            score = np.min(np.linalg.norm(seg[starts[:, None] + np.arange(length)] - pred, axis=-1), axis=1) / thr
+            # the run of largest score (the first of equals) not beside a step, as a scan in frame order finds it
+            for i in np.argsort(-score, kind="stable").tolist():
+                if not score[i] > best:
+                    break
+                a, b = int(starts[i]), int(starts[i]) + length
+                if not stepside(a, b, ctx[i, :context], ctx[i, context:]):
+                    best, where = score[i], (a, length)
+                    break
         if where is None:
             return runs
         runs.append(where)
         seg[where[0]:where[0] + where[1]] = np.nan
+        for length, fast in devs.items():  # the runs that reach the removed samples with their context
+            fast[max(where[0] - length - context + 1, 0):where[0] + where[1] + context] = np.nan
 
 
 def rigid_deviation(positions: np.ndarray, good: np.ndarray, marker: int, start: int, end: int,
@@ -295,7 +330,6 @@ def rigid_deviation(positions: np.ndarray, good: np.ndarray, marker: int, start:
     if len(cand) < 3:
         return float("inf")
     u = ((np.arange(start, end) - p) / (q - p))[:, None]
-    run = slice(start - p, end - p)
     # the same prediction's validation runs: q - p - 1 frames between two good ends, on good frames within reach
     n = q - p - 1
     lo, hi = max(p - reach, 0), min(q + reach + 1, f)
@@ -308,28 +342,43 @@ def rigid_deviation(positions: np.ndarray, good: np.ndarray, marker: int, start:
         starts = starts[(starts + n + 1 <= p) | (starts >= q)]
     best = float("inf")
     validated = []  # (the triple's largest miss on the marker's samples nearby, its miss of the run)
-    for g in combinations(cand, 3):
-        d = span[:, list(g)]
-        rot, origin = local_frames(d, d[0])
-        loc = to_local(span[[0, -1], marker], rot[[0, -1]], origin[[0, -1]])
+    # Only the frames a prediction reads are fitted: the run's two ends and its own frames, and the validation runs'.
+    # Each frame's Kabsch fit is its own (the same rotation, bit for bit, whichever frames share the call), and at a
+    # low rate the runs are many and the validation windows long: fitting every frame of the window was most of
+    # the time spike_mask took there.
+    triples = [list(g) for g in combinations(cand, 3)]
+    uses = []
+    for cols in triples:
+        use = starts
+        if starts.size:
+            seen = ~np.any(np.isnan(positions[lo:hi][:, cols]), axis=(1, 2))
+            if suspect is not None:
+                seen &= ~np.any(suspect[lo:hi][:, cols], axis=1)
+            # a validation run is used when the triple is seen (and not suspected) on its n + 2 frames
+            whole = np.convolve(seen.astype(np.int8), np.ones(n + 2, dtype=np.int8), mode="valid") == n + 2
+            use = starts[whole[starts - lo]]
+        uses.append(use)
+    need = np.unique(np.concatenate([[p, q], np.arange(start, end)] + [(used[:, None] + np.arange(n + 2)).ravel()
+                                                                      for used in uses]))
+    # every triple's frames at `need`, reference: frame p
+    rots, origins = local_frames_stacked(positions[need][:, triples].transpose(1, 0, 2, 3), positions[p][triples])
+    ends = np.searchsorted(need, [p, q])
+    run = np.searchsorted(need, np.arange(start, end))
+    for rot, origin, use in zip(rots, origins, uses):
+        loc = to_local(positions[[p, q], marker], rot[ends], origin[ends])
         pred = from_local((1.0 - u) * loc[0] + u * loc[1], rot[run], origin[run])
         miss = float(np.min(np.linalg.norm(positions[start:end, marker] - pred, axis=-1)))
-        if starts.size:
-            dw = positions[lo:hi][:, list(g)]
-            seen = ~np.any(np.isnan(dw), axis=(1, 2))
-            if suspect is not None:
-                seen &= ~np.any(suspect[lo:hi][:, list(g)], axis=1)
-            use = starts[[bool(np.all(seen[s - lo:s - lo + n + 2])) for s in starts]]
-            if use.size:
-                rw, ow = local_frames(dw, d[0])
-                lw = to_local(positions[lo:hi, marker], rw, ow)  # NaN where the marker or the triple is unseen
-                v = np.arange(1, n + 1) / (n + 1)
-                i0 = use - lo  # (S,) the validation runs' first ends, window rows
-                inner = i0[:, None] + np.arange(1, n + 1)  # (S, n)
-                est = (1.0 - v)[None, :, None] * lw[i0][:, None, :] + v[None, :, None] * lw[i0 + n + 1][:, None, :]
-                room = np.einsum("snij,snj->sni", rw[inner], est) + ow[inner]
-                natural = float(np.max(np.min(np.linalg.norm(positions[lo:hi, marker][inner] - room, axis=-1), axis=1)))
-                validated.append((natural, miss))
+        if use.size:
+            first, last = np.searchsorted(need, use), np.searchsorted(need, use + n + 1)
+            l0 = to_local(positions[use, marker], rot[first], origin[first])
+            l1 = to_local(positions[use + n + 1, marker], rot[last], origin[last])
+            v = np.arange(1, n + 1) / (n + 1)
+            frames = use[:, None] + np.arange(1, n + 1)  # (S, n) the validation runs' inner frames
+            inner = np.searchsorted(need, frames)
+            est = (1.0 - v)[None, :, None] * l0[:, None, :] + v[None, :, None] * l1[:, None, :]
+            room = np.einsum("snij,snj->sni", rot[inner], est) + origin[inner]
+            natural = float(np.max(np.min(np.linalg.norm(positions[frames, marker] - room, axis=-1), axis=1)))
+            validated.append((natural, miss))
         best = min(best, miss)
     if validated:  # the triple that predicts the marker best nearby, allowed its miss there
         natural, miss = min(validated)
@@ -374,7 +423,7 @@ def partner_motion(positions: np.ndarray, good: np.ndarray, marker: int, start: 
     if before.size < context or after.size < context or len(partners) == 0:
         return None
     ctx = np.concatenate([before[-context:], after[:context]])
-    w = _cubic_weights(start, end, ctx)
+    w = _offset_weights(end - start, tuple((ctx - start).tolist()))  # _cubic_weights(start, end, ctx), cached
     frames = np.concatenate([ctx, np.arange(start, end)])
     own = np.linalg.norm(positions[start:end, marker] - w @ positions[ctx, marker], axis=-1)
     kept = np.zeros(end - start, dtype=bool)
@@ -398,7 +447,8 @@ def partner_motion(positions: np.ndarray, good: np.ndarray, marker: int, start: 
     return bool(np.all(kept & ~broken))
 
 
-def _rigid_noise(x: np.ndarray, marker: int, order: np.ndarray, candidates: int = 4, frames: int = 600) -> float:
+def _rigid_noise(x: np.ndarray, marker: int, order: np.ndarray, candidates: int = 4, frames: int = 600,
+                 fits: dict | None = None) -> float:
     """Median one-sample miss of ``marker`` by the moving frame of its rigid neighbours (capture unit; inf if none).
 
     On at most ``frames`` evenly spaced frames t of ``x`` (F, M, 3), the
@@ -406,7 +456,8 @@ def _rigid_noise(x: np.ndarray, marker: int, order: np.ndarray, candidates: int 
     ``candidates`` neighbours in ``order`` at t - 1 and t + 1 are averaged
     and mapped back at t (:func:`rigid_deviation` for a one-sample run); the
     best triple's miss is taken per frame, and the median over frames where
-    all are seen returned.
+    all are seen returned. ``fits`` (a dict, optional) keeps each triple's frames for the next marker of the same
+    ``x`` and ``frames``: a triple's fit does not depend on the marker.
     """
     f = x.shape[0]
     if f < 3:
@@ -414,10 +465,19 @@ def _rigid_noise(x: np.ndarray, marker: int, order: np.ndarray, candidates: int 
     t = np.unique(np.linspace(1, f - 2, min(f - 2, frames)).round().astype(int))
     cand = [int(d) for d in order[marker] if d != marker][:candidates]
     best = np.full(t.size, np.inf)
+    fit = np.unique(np.concatenate([t - 1, t, t + 1]))  # each frame fitted once (the Kabsch fit is per frame)
+    rows = np.searchsorted(fit, np.concatenate([t - 1, t, t + 1]))
+    fits = {} if fits is None else fits
+    new = [g for g in combinations(cand, 3) if g not in fits]
+    if new:  # each triple's reference: its first frame where all three are seen
+        refs = []
+        for g in new:
+            d = x[:, list(g)]
+            refs.append(d[np.argmax(~np.any(np.isnan(d), axis=(1, 2)))])
+        rots, origins = local_frames_stacked(x[fit][:, [list(g) for g in new]].transpose(1, 0, 2, 3), np.stack(refs))
+        fits.update(zip(new, zip(rots, origins)))
     for g in combinations(cand, 3):
-        d = x[:, list(g)]
-        ref = d[np.argmax(~np.any(np.isnan(d), axis=(1, 2)))]
-        rot, origin = local_frames(np.concatenate([d[t - 1], d[t], d[t + 1]]), ref)
+        rot, origin = fits[g][0][rows], fits[g][1][rows]
         n = t.size
         loc = to_local(np.concatenate([x[t - 1, marker], x[t + 1, marker]]), np.concatenate([rot[:n], rot[2 * n:]]),
                        np.concatenate([origin[:n], origin[2 * n:]]))
@@ -517,8 +577,9 @@ def spike_mask(positions: np.ndarray, unit_mm: float = 1.0, *, threshold_mm: flo
             stats = distance_stats(x)
         if order is None:
             order = donor_order(stats)
+        fits: dict = {}  # a triple's moving frames, shared by the markers it is a neighbour triple of
         for mk in raised:
-            scale[mk] = min(scale[mk], 1.4826 * _rigid_noise(x, int(mk), order))
+            scale[mk] = min(scale[mk], 1.4826 * _rigid_noise(x, int(mk), order, fits=fits))
     thr = np.maximum(threshold_mm / unit_mm, noise_factor * scale)  # (M,)
     hits = np.zeros((f, m), dtype=bool)
     for length in range(1, max_len + 1):
