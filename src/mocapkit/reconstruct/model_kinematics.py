@@ -47,30 +47,10 @@ def fk_model_poses(mean, rel, yaw, root, parents, offsets, mk_joint, mk_offset, 
     (J, 3); markers on joints ``mk_joint`` (M,) at ``mk_offset`` (M, 3) in the
     joint's global frame. Writes gpos (B, J, 3) and mpos (B, M, 3).
     """
-    B = rel.shape[0]
     J = parents.shape[0]
-    g = np.empty((J, 4))
-    for b in range(B):
-        for j in range(J):
-            e0, e1, e2, e3 = qexp(rel[b, j, 0], rel[b, j, 1], rel[b, j, 2])
-            q0, q1, q2, q3 = qmul(mean[j, 0], mean[j, 1], mean[j, 2], mean[j, 3], e0, e1, e2, e3)
-            par = parents[j]
-            if par < 0:
-                a0, a1, a2, a3 = yaw[b, 0], yaw[b, 1], yaw[b, 2], yaw[b, 3]
-                gpos[b, j, 0], gpos[b, j, 1], gpos[b, j, 2] = root[b, 0], root[b, 1], root[b, 2]
-            else:
-                a0, a1, a2, a3 = g[par, 0], g[par, 1], g[par, 2], g[par, 3]
-                ox, oy, oz = qrot(a0, a1, a2, a3, offsets[j, 0], offsets[j, 1], offsets[j, 2])
-                gpos[b, j, 0] = gpos[b, par, 0] + ox
-                gpos[b, j, 1] = gpos[b, par, 1] + oy
-                gpos[b, j, 2] = gpos[b, par, 2] + oz
-            g[j, 0], g[j, 1], g[j, 2], g[j, 3] = qmul(a0, a1, a2, a3, q0, q1, q2, q3)
-        for k in range(mk_joint.shape[0]):
-            j = mk_joint[k]
-            ox, oy, oz = qrot(g[j, 0], g[j, 1], g[j, 2], g[j, 3], mk_offset[k, 0], mk_offset[k, 1], mk_offset[k, 2])
-            mpos[b, k, 0] = gpos[b, j, 0] + ox
-            mpos[b, k, 1] = gpos[b, j, 1] + oy
-            mpos[b, k, 2] = gpos[b, j, 2] + oz
+    grot = np.empty((J, 3, 3))  # each pose's rotation matrices, not returned
+    for b in range(rel.shape[0]):
+        fk_model_pose(mean, rel[b], yaw[b], root[b], parents, offsets, mk_joint, mk_offset, gpos[b], mpos[b], grot)
 
 
 @numba.njit(cache=True)
@@ -82,8 +62,7 @@ def fk_model_pose(mean, rel, yaw, root, parents, offsets, mk_joint, mk_offset, g
     root (3,) root position; parents (J,), offsets (J, 3); markers on joints
     ``mk_joint`` (M,) at ``mk_offset`` (M, 3) in the joint's global frame.
     Writes gpos (J, 3), mpos (M, 3) (the units of ``offsets``) and grot
-    (J, 3, 3), each joint's global rotation matrix. The same products as
-    :func:`fk_model_poses` for one pose.
+    (J, 3, 3), each joint's global rotation matrix. :func:`fk_model_poses` runs it for each pose of a batch.
     """
     J = parents.shape[0]
     g = np.empty((J, 4))
