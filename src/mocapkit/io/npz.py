@@ -19,7 +19,7 @@ import numpy as np
 from ..errors import MocapError, MocapFormatError, SkeletonError
 from ..motion import Motion, Skeleton, check_fps
 from . import atomic_write
-from .c3d_trial import same_rate
+from .c3d_trial import same_rate, trial_rate
 
 __all__ = ["read_npz", "write_npz", "load_arrays", "FORMAT_VERSION", "MAX_NPZ_BYTES", "MAX_NPZ_MEMBERS"]
 
@@ -112,7 +112,7 @@ def write_npz(obj, path, compress: bool = True, extra: dict | None = None, fille
             "first_frame": np.array(obj.source.first_frame if obj.source is not None else 1),
             "filled": filled_samples(obj, filled),
         }
-        clock = obj.source.layout.get("trial_rate", obj.fps) if obj.source is not None else obj.fps
+        clock = trial_rate(obj.source.layout if obj.source is not None else None, obj.fps)
         if not same_rate(clock, obj.fps):  # a resampled take's first frame is numbered on its file's clock
             arrays["first_frame_rate"] = np.array(float(clock))
         if obj.file_labels() != obj.labels:
