@@ -63,8 +63,15 @@ def test_every_commands_help_shows_flags_as_flags():
     for path in every:
         code, out, _ = run(*path, "--help")
         assert code == 0 and "<bool>" not in out and "--help" in out, (path, out)
+        # no Python annotation in a type column (typer showed <list[Path]>, <list[str]>, <int range>, <float,float>)
+        assert not re.search(r"list\[|\w range>|<\w+,\w+>", out), (path, out)
     out = run("corrupt", "--help")[1]
     assert re.search(r"--overwrite\s+Replace output files", out), out  # no type between the flag and its help
+    out = run("train", "--help")[1]
+    assert re.search(r"--speed\s+<float> <float>", out) and re.search(r"--epochs\s+<int> \[x>=1\]\s+Epochs", out), out
+    # the arguments as README.md names them (typer showed the Python names: {file}, {reference})
+    assert "info [OPTIONS] {FILE}" in run("info", "--help")[1]
+    assert "plot [OPTIONS] {REFERENCE} {OTHER...}" in run("plot", "--help")[1]
 
 
 def test_a_commands_help_is_wrapped_by_the_terminal_not_by_its_docstring(monkeypatch):

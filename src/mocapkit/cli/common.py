@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import inspect
 import math
+import re
 from typing import Iterable, Optional
 
 import typer
@@ -43,12 +44,31 @@ __all__ = [
 console = Console(markup=False, highlight=False, soft_wrap=True)
 
 
-def _flags_without_type(params):
+def _cli_type(shown: str) -> str:
+    """The type column typer shows for a parameter (``<list[Path]>``, ``<list[str]>``, ``<int range>``,
+    ``<float,float>...``: Python annotations) in the words of the other options (``<path>``, ``<str>``, ``<int>``,
+    ``<float> <float>``). A repeated option or an argument taking many values says so by its ``...`` or its help."""
+    shown = re.sub(r"list\[(\w+)\]", lambda m: m.group(1).lower(), shown)
+    shown = shown.replace(" range>", ">")
+    if re.fullmatch(r"<\w+(,\w+)+>\.\.\.", shown):  # a tuple option (--speed LO HI)
+        shown = " ".join(f"<{t}>" for t in shown[1:-4].split(","))
+    return shown
+
+
+def _flags_without_type(params, ctx=None):
     """``params`` with each on/off option's type column left empty: typer's help shows ``--overwrite <bool>``, which
-    reads as an option taking a value; a flag is given alone (``--mirror``, or ``--smooth / --no-smooth``)."""
+    reads as an option taking a value; a flag is given alone (``--mirror``, or ``--smooth / --no-smooth``).
+    Every other type column reads as a command line's (:func:`_cli_type`), not as a Python annotation."""
     for p in params:
         if getattr(p, "is_flag", False) and p.metavar is None:
             p.metavar = ""
+        elif ctx is not None and hasattr(p, "display_type_rich"):
+            shown = p.display_type_rich(ctx)
+            if shown and _cli_type(shown) != shown:
+                if p.param_type_name == "option":
+                    p.metavar = _cli_type(shown)
+                else:  # an argument's metavar would rename it (FILES...): only its type column changes
+                    p.display_type_rich = lambda ctx, _shown=_cli_type(shown): _shown
     return params
 
 
@@ -71,7 +91,7 @@ class FlagsCommand(TyperCommand):
         self.help = _unwrapped(self.help)
 
     def get_params(self, ctx):
-        return _flags_without_type(super().get_params(ctx))
+        return _flags_without_type(super().get_params(ctx), ctx)
 
 
 class FlagsGroup(TyperGroup):
@@ -84,7 +104,7 @@ class FlagsGroup(TyperGroup):
         self.help = _unwrapped(self.help)
 
     def get_params(self, ctx):
-        return _flags_without_type(super().get_params(ctx))
+        return _flags_without_type(super().get_params(ctx), ctx)
 
 OVERWRITE_HELP = ("Replace output files that already exist (without it they are refused; an input is never "
                   "replaced). Missing parent folders are created.")

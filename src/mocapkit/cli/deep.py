@@ -239,7 +239,7 @@ def train(
         None, "--holdout", help="Validation clips: a name substring (repeat) or a count of random clips."
     ),
     folds: int = typer.Option(1, "--folds", min=1, help="Cross-validate on this many disjoint random holdouts (Mall: 5)."),
-    epochs: int = typer.Option(40, "--epochs", min=1),
+    epochs: int = typer.Option(40, "--epochs", min=1, help="Epochs to train (each --steps optimiser steps, then a validation)."),
     steps: int = typer.Option(100, "--steps", min=1, help="Optimiser steps per epoch."),
     minutes: Optional[float] = typer.Option(None, "--minutes", help="Stop after the epoch that passes this budget."),
     hidden: Optional[int] = typer.Option(None, "--hidden", help="LSTM units per direction (EBF 126, EBD 32)."),

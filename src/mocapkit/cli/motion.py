@@ -15,7 +15,7 @@ from .common import (amc_fps_option, asf_option, console, database_rows, guard, 
 
 
 def info(
-    file: Path = typer.Argument(..., help="A .bvh, .amc, .c3d, .trc or .npz file; or what mocapkit writes: a database "
+    file: Path = typer.Argument(..., metavar="FILE", help="A .bvh, .amc, .c3d, .trc or .npz file; or what mocapkit writes: a database "
                                           "folder, a .clean.npz record, a detection, a .mask.npz, a .pt model or "
                                           "checkpoint, a knowledge base, a decisions file, a batch mark."),
     joints: bool = typer.Option(False, "--joints", help="Also list every joint with its parent and channels."),
@@ -233,7 +233,7 @@ def corrupt(
 
 
 def plot(
-    reference: Path = typer.Argument(..., help="Reference take (e.g. the clean clip)."),
+    reference: Path = typer.Argument(..., metavar="REFERENCE", help="Reference take (e.g. the clean clip)."),
     others: list[Path] = typer.Argument(..., metavar="OTHER...", help="Takes to compare (e.g. noisy, then cleaned)."),
     joint: str = typer.Option(..., "--joint", help="Joint whose rotation channels are plotted."),
     out: Path = typer.Option(..., "-o", "--out", help="PNG to write."),
