@@ -164,7 +164,7 @@ def main() -> None:
     seconds = time.perf_counter() - t
     hist = model.meta["history"]
     if a.install:
-        shutil.copyfile(out / "model.pt", ROOT / "src" / "mocapkit" / "models" / INSTALL_NAME[a.rig, a.kind])
+        install(out / "model.pt", ROOT / "src" / "mocapkit" / "models" / INSTALL_NAME[a.rig, a.kind])
     res = {
         "benchmark": "train_shipped", "rig": a.rig, "kind": a.kind, "every": a.every, "mirror": a.mirror, "hidden": hidden, "bias": cfg.bias, "noise_input": cfg.noise_input, "train_clips": len(clips),
         "train_frames": int(sum(c.num_frames for c in clips)), "validation_clips": len(val),
@@ -173,6 +173,17 @@ def main() -> None:
         "wall_seconds_this_run": seconds, "threads": torch.get_num_threads(), "device": "cpu",
     }
     print(json.dumps(res) if a.json else json.dumps(res, indent=1))
+
+
+def install(model_file: Path, installed: Path) -> None:
+    """Copy ``model_file`` to ``installed`` (src/mocapkit/models/) and write beside it the layout that
+    `mocapkit info` reads without torch (mocapkit.cleaning.deep.layouts; tests/cleaning/test_layouts.py checks
+    that the two agree)."""
+    from mocapkit.cleaning.deep import load_model
+    from mocapkit.cleaning.deep.layouts import write_layout
+
+    shutil.copyfile(model_file, installed)
+    write_layout(load_model(installed), installed)
 
 
 def attach_prior(a, clips, train_f, test_f) -> None:
@@ -204,7 +215,7 @@ def attach_prior(a, clips, train_f, test_f) -> None:
     out.parent.mkdir(parents=True, exist_ok=True)
     save_model(model, out)
     if a.install:
-        shutil.copyfile(out, installed)
+        install(out, installed)
     res = {"benchmark": "train_shipped", "rig": a.rig, "kind": "ebd prior", "train_clips": len(clips),
            "prior_frames": prior.frames, "test_clips": [f.name for f in test_f], **meta["gap_prior"]}
     print(json.dumps(res) if a.json else json.dumps(res, indent=1))

@@ -476,10 +476,12 @@ def _describe_checkpoint(path: Path) -> bool:
 
 def _served_note(m) -> str:
     """Whether the shipped networks serve a rig read from its tree, as denoise, fill and clean decide
-    (``deep.served_by``: the roles found may still leave a trunk segment unmapped)."""
-    from ..cleaning import deep  # torch: only for a rig of no known family
+    (``deep.served_by``: the roles found may still leave a trunk segment unmapped). The shipped networks' layouts
+    are read from the JSON kept beside them (``deep.shipped_layout``), so ``info`` does not import torch."""
+    from ..cleaning.deep.layouts import shipped_layout
+    from ..cleaning.deep.retarget import served_by
 
-    sv = deep.served_by(m, deep.shipped_model("ebf", m))
+    sv = served_by(m, shipped_layout("ebf", m))
     return " (the networks serve it through them)" if not isinstance(sv, str) else f" (the networks fall back: {sv})"
 
 

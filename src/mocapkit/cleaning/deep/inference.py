@@ -25,6 +25,7 @@ from ...io import atomic_write
 from ...motion import Motion
 from .channels import ChannelLayout, channel_joints, lerp_fill
 from .doubt import doubtful_runs
+from .layouts import SHIPPED, SHIPPED_FOR_RIG, pick_served, shipped_names
 from .prior import GapPrior, conditional_fill
 from .provenance import card_as_read, model_licence, model_rig, restricts_use, unfinished_note
 from .retarget import Serving, served_by
@@ -70,9 +71,6 @@ __all__ = [
 ]
 
 FORMAT = "mocapkit.deep/1"
-SHIPPED = {"ebf": "ebf.pt", "ebd": "ebd.pt"}
-#: The shipped models of the other rig families (docs/models.md), offered after the Acclaim ones.
-SHIPPED_FOR_RIG = {"bandai_namco": {"ebf": "ebf_bandai.pt", "ebd": "ebd_bandai.pt"}}
 
 
 @dataclass(frozen=True)
@@ -92,7 +90,8 @@ class DeepModel:
 
 
 def save_model(model: DeepModel, path) -> Path:
-    """Write ``model`` to ``path`` (temp file + rename): weights, config, layout, fps and metadata."""
+    """Write ``model`` to ``path`` (temp file + rename): weights, config, layout, fps and metadata. (A shipped
+    model also gets :func:`.layouts.write_layout` beside it: ``scripts/train_shipped.py --install``.)"""
     path = Path(path)
     payload = {
         "format": FORMAT,
@@ -146,13 +145,8 @@ def load_model(path, kind: str | None = None) -> DeepModel:
     return model
 
 
-def _shipped_names(kind: str) -> list[str]:
-    """The shipped model files of ``kind``, the Acclaim one first, then each rig family's own."""
-    return [SHIPPED[kind]] + [files[kind] for files in SHIPPED_FOR_RIG.values()]
-
-
 def _shipped_files() -> set[str]:
-    return {name for kind in SHIPPED for name in _shipped_names(kind)}
+    return {name for kind in SHIPPED for name in shipped_names(kind)}
 
 
 def _read_model(path: Path) -> DeepModel:
@@ -243,18 +237,7 @@ def shipped_model(kind: str = "ebf", take=None) -> DeepModel:
     """
     if kind not in SHIPPED:
         raise ValueError(f"kind must be one of {tuple(SHIPPED)}, got {kind!r}")
-    first = _packaged(SHIPPED[kind])
-    if take is None:
-        return first
-    mapped = None
-    for name in _shipped_names(kind):
-        m = _packaged(name)  # loaded only when the ones before do not serve the take directly
-        s = served_by(take, m)
-        if not isinstance(s, str) and s.direct:
-            return m
-        if mapped is None and not isinstance(s, str):
-            mapped = m
-    return first if mapped is None else mapped
+    return pick_served(shipped_names(kind), take, _packaged)  # each loaded only when the ones before do not serve
 
 
 def passed_over(kind: str, take) -> str:

@@ -1,0 +1,140 @@
+"""The shipped networks' layouts without torch: what :func:`.retarget.served_by` reads of a model, kept beside it.
+
+Which takes a model serves (directly, or through a joint map onto the Acclaim rig; Mall et al. 2017 trained
+the EBF and EBD on the Acclaim skeleton's Euler channels) depends on its channel layout and, for a joint map,
+on the per-channel normalisation its network holds (a channel whose training std is at most 1 deg never moved:
+held; the channel means fill a joint the rig lacks). Reading those from the ``.pt`` file imports torch (about
+2.5 s), which ``mocapkit info`` on a rig of no known family needed only to say whether the networks serve it.
+So ``scripts/train_shipped.py --install``, which installs the shipped models, writes them beside each as
+``NAME.layout.json`` (:func:`write_layout`, from the model as installed), and :func:`shipped_layout` answers from
+those files with the same rule :func:`..inference.shipped_model` applies to the networks (:func:`pick_served`).
+A test checks every shipped ``.json`` against its ``.pt`` (tests/cleaning/test_layouts.py).
+
+The JSON holds ``format``, ``kind`` ("ebf" or "ebd"), ``fps`` (frames per second the model was trained at),
+``layout`` (channel names such as ``"lfemur.rx"``, joint names, representation) and ``mean`` / ``std`` (C,
+the network's per-channel normalisation in the channels' units, degrees for Euler channels), as float32
+values written exactly.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass
+from importlib import resources
+from pathlib import Path
+from typing import Callable, Sequence
+
+import numpy as np
+
+from ...errors import MocapFormatError
+from ...io import atomic_write
+from .channels import ChannelLayout
+from .retarget import served_by
+
+__all__ = ["SHIPPED", "SHIPPED_FOR_RIG", "LAYOUT_SUFFIX", "NetStats", "ShippedLayout", "shipped_names",
+           "layout_card", "write_layout", "read_layout", "shipped_layout", "pick_served"]
+
+LAYOUT_FORMAT = "mocapkit.deep-layout/1"
+LAYOUT_SUFFIX = ".layout.json"
+#: The shipped Acclaim-rig models (docs/models.md), offered first.
+SHIPPED = {"ebf": "ebf.pt", "ebd": "ebd.pt"}
+#: The shipped models of the other rig families (docs/models.md), offered after the Acclaim ones.
+SHIPPED_FOR_RIG = {"bandai_namco": {"ebf": "ebf_bandai.pt", "ebd": "ebd_bandai.pt"}}
+
+
+def shipped_names(kind: str) -> list[str]:
+    """The shipped model files of ``kind``, the Acclaim one first, then each rig family's own."""
+    return [SHIPPED[kind]] + [files[kind] for files in SHIPPED_FOR_RIG.values()]
+
+
+@dataclass(frozen=True)
+class NetStats:
+    """A network's per-channel normalisation: ``mean`` and ``std``, (C,) float64, in the channels' units."""
+
+    mean: np.ndarray
+    std: np.ndarray
+
+
+@dataclass(frozen=True)
+class ShippedLayout:
+    """What :func:`.retarget.served_by` reads of a model (``layout``, ``net.mean``, ``net.std``), without its
+    weights: a stand-in for a :class:`..inference.DeepModel` wherever only the answer's kind (served or the
+    reason) is wanted, never for inference."""
+
+    kind: str
+    layout: ChannelLayout
+    fps: float
+    net: NetStats
+    source: str = ""
+
+
+def layout_card(model) -> dict:
+    """The JSON object :func:`write_layout` writes for ``model`` (a DeepModel or a ShippedLayout)."""
+    lay = model.layout
+    return {"format": LAYOUT_FORMAT, "kind": model.kind, "fps": float(model.fps),
+            "layout": {"names": list(lay.names), "joints": list(lay.joints), "representation": lay.representation},
+            "mean": np.asarray(model.net.mean, dtype=np.float64).reshape(-1).tolist(),
+            "std": np.asarray(model.net.std, dtype=np.float64).reshape(-1).tolist()}
+
+
+def write_layout(model, model_path) -> Path:
+    """Write :func:`layout_card` of ``model`` beside ``model_path`` (``ebf.pt`` -> ``ebf.layout.json``),
+    atomically (a temporary file, then a rename); returns its path."""
+    path = Path(model_path).with_suffix(LAYOUT_SUFFIX)
+    with atomic_write(path, encoding="utf-8") as f:
+        json.dump(layout_card(model), f, indent=1)
+        f.write("\n")
+    return path
+
+
+def read_layout(path) -> ShippedLayout:
+    """The :class:`ShippedLayout` in the JSON file ``path``; MocapFormatError naming the file if it is not one."""
+    path = Path(path)
+    try:
+        card = json.loads(path.read_text(encoding="utf-8"))
+        if card.get("format") != LAYOUT_FORMAT:
+            raise ValueError(f"format is not {LAYOUT_FORMAT}")
+        lay = card["layout"]
+        layout = ChannelLayout(tuple(lay["names"]), tuple(lay["joints"]), lay["representation"])
+        mean, std = (np.asarray(card[k], dtype=np.float64) for k in ("mean", "std"))
+        if mean.shape != (layout.num_channels,) or std.shape != mean.shape:
+            raise ValueError("layout and normalisation disagree")
+        return ShippedLayout(str(card["kind"]), layout, float(card["fps"]), NetStats(mean, std), str(path))
+    except FileNotFoundError:
+        raise MocapFormatError(path, "no such layout file") from None
+    except (ValueError, KeyError, TypeError, AttributeError) as exc:
+        raise MocapFormatError(path, f"malformed model layout ({exc})") from None
+
+
+def _packaged_layout(name: str) -> ShippedLayout:
+    ref = resources.files("mocapkit") / "models" / Path(name).with_suffix(LAYOUT_SUFFIX).name
+    with resources.as_file(ref) as p:
+        return read_layout(p)
+
+
+def pick_served(names: Sequence[str], take, get: Callable):
+    """The model of ``names`` (:func:`shipped_names`) for ``take``, each read by ``get(name)`` only when needed:
+    the first that :func:`.retarget.served_by` says serves the take on its own channels, else the first that
+    serves it through a joint map, else the first (so the fallback's reason is its); without ``take``, the first.
+    The one rule of :func:`..inference.shipped_model` (the networks) and :func:`shipped_layout` (their layouts)."""
+    first = get(names[0])
+    if take is None:
+        return first
+    mapped = None
+    for name in names:
+        m = first if name == names[0] else get(name)  # loaded only when the ones before do not serve it directly
+        s = served_by(take, m)
+        if not isinstance(s, str) and s.direct:
+            return m
+        if mapped is None and not isinstance(s, str):
+            mapped = m
+    return first if mapped is None else mapped
+
+
+def shipped_layout(kind: str = "ebf", take=None) -> ShippedLayout:
+    """:func:`..inference.shipped_model`'s choice for ``take`` (a Motion or Skeleton), read from the layouts kept
+    beside the shipped models, without torch: ``served_by(take, shipped_layout("ebf", take))`` says what
+    ``served_by(take, shipped_model("ebf", take))`` says, served or the reason."""
+    if kind not in SHIPPED:
+        raise ValueError(f"kind must be one of {tuple(SHIPPED)}, got {kind!r}")
+    return pick_served(shipped_names(kind), take, _packaged_layout)
