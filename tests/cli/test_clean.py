@@ -82,7 +82,8 @@ def test_clean_refuses_bad_requests(takes, tmp_path, capsys):
     err = capsys.readouterr().err
     assert "add the fill step" in err and len(err.strip().splitlines()) == 1
     assert main(["clean", str(inp), "-o", str(tmp_path / "x.bvh"), "--steps", "fill,shine"]) == 2
-    assert "unknown step" in capsys.readouterr().err
+    err = capsys.readouterr().err
+    assert "unknown step(s) shine; steps are fill, detect, repair, denoise" in err, err  # not a Python list ['shine']
     bogus = tmp_path / "bogus.bvh"
     bogus.write_text("HIERARCHY\nROOT Hips\n{\n")
     assert main(["clean", str(bogus), "-o", str(tmp_path / "y.bvh")]) == 2

@@ -333,7 +333,7 @@ def parse_steps(steps) -> tuple[str, ...]:
     if not steps:
         raise ValueError(f"no step given; steps are {', '.join(STEPS)} (comma-separated, or a list)")
     if bad:
-        raise ValueError(f"unknown step(s) {bad!r}; steps are {', '.join(STEPS)}")
+        raise ValueError(f"unknown step(s) {', '.join(map(str, bad))}; steps are {', '.join(STEPS)}")
     if "repair" in steps and "detect" not in steps:
         raise ValueError("the repair step needs the detect step (it replaces what detect flags)")
     return tuple(s for s in STEPS if s in steps)
