@@ -705,3 +705,25 @@ def test_importing_the_pipeline_loads_no_heavy_library():
             f"print(sorted(m for m in {heavy!r} if m in sys.modules))")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.strip() == "[]"
+
+
+def test_a_take_missing_one_frame_is_refused_in_words_for_one():
+    """Detection refuses a take with gaps, counting the frames: "1 frame has missing joints" (it said "1 frames
+    have"), from clean without the fill step, from detect_take (`mocapkit detect`, `repair`) and from the
+    self-similarity analysis itself."""
+    from mocapkit.cleaning.ssa.texture import prepare
+    from mocapkit.cleaning.whole_take import detect_take
+
+    walk = mocapkit.load(samples.path("12_walk.amc"))[:120]
+    rot = np.array(walk.rotations)
+    rot[60, 3] = np.nan
+    take = dataclasses.replace(walk, rotations=rot)
+    with pytest.raises(MocapError, match=r": 1 frame has missing joints; detect needs complete frames: add the fill"):
+        clean(take, context=False, steps="detect")
+    with pytest.raises(MocapError, match=r": 1 frame has missing joints; detect needs complete frames \(fill"):
+        detect_take(take)
+    with pytest.raises(ValueError, match=r": 1 frame has missing rotations \(first: 60\)"):
+        prepare(take)
+    rot[61, 3] = np.nan
+    with pytest.raises(MocapError, match=r": 2 frames have missing joints"):
+        detect_take(dataclasses.replace(walk, rotations=rot))

@@ -600,7 +600,8 @@ def clean(
         t = time.perf_counter()
         gaps = cur[lo:hi].missing().any(axis=1)
         if gaps.any():
-            raise MocapError(f"{name}: {int(gaps.sum())} frames have missing joints; detect needs "
+            n = int(gaps.sum())
+            raise MocapError(f"{name}: {n} frame{'s have' if n != 1 else ' has'} missing joints; detect needs "
                              "complete frames: add the fill step")
         # the path `mocapkit detect` and `mocapkit repair` take too (whole_take): their flags are these
         found = detect_take(cur, context, threshold=threshold, params=params, progress=progress, poses=poses,

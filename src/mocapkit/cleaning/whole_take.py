@@ -274,7 +274,8 @@ def detect_take(motion: Motion, context=None, *, threshold: float = 0.5, params=
     part = motion[lo:hi]
     missing = part.missing().any(axis=1)
     if missing.any():
-        raise MocapError(f"{name}: {int(missing.sum())} frames have missing joints; detect needs complete frames "
+        n = int(missing.sum())
+        raise MocapError(f"{name}: {n} frame{'s have' if n != 1 else ' has'} missing joints; detect needs complete frames "
                          "(fill the gaps first)")
     check_no_zeros(motion, zero_runs, span)
     try:

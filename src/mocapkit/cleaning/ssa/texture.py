@@ -656,7 +656,8 @@ def prepare(
     if not np.all(np.isfinite(motion.rotations)):
         bad = np.flatnonzero(~np.all(np.isfinite(motion.rotations), axis=(1, 2)))
         raise ValueError(
-            f"{motion.name or 'motion'}: {len(bad)} frames have missing rotations (first: {bad[0]}); fill the gaps first"
+            f"{motion.name or 'motion'}: {len(bad)} frame{'s have' if len(bad) != 1 else ' has'} missing rotations "
+            f"(first: {bad[0]}); fill the gaps first"
         )
     coarse = too_coarse(motion.fps, params)
     if coarse:  # before the texture: resampled to the analysis rate, a 1 fps take would be 24 times its frames
