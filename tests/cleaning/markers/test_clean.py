@@ -367,3 +367,17 @@ def test_gaps_skipped_by_max_gap_are_not_called_implausible_fills(cmu):
     assert said == [f"1 gap (60 samples) left missing: longer than --max-gap (0.25 s): {cmu.labels[3]} frames "
                     "100-159 (0.50 s)"]
     assert res.unfilled[0].size_text == "0.50 s: left missing: longer than --max-gap (0.25 s)"
+
+
+def test_one_sample_left_missing_is_counted_as_one():
+    """The summary counts a one-sample gap left missing as "1 gap (1 sample)" (it said "1 samples")."""
+    import mocapkit
+    from mocapkit.io import load_markers
+
+    m = load_markers(mocapkit.samples.path("Eb015pr.c3d"))
+    seen = ~m.missing()[:200].any(axis=0)
+    take = m.select([label for label, s in zip(m.labels, seen) if s][:12])[:200]
+    p = np.array(take.positions)
+    p[100, 2] = np.nan
+    lines = clean_markers(take.with_positions(p), max_gap_s=0.0, steps="gaps").summary()
+    assert any(line.startswith("1 gap (1 sample) left missing: longer than --max-gap") for line in lines), lines

@@ -307,7 +307,8 @@ class MarkerCleanResult:
             more = f"; ... and {n - 3} more" if n > 3 else ""
             spikes = sum(1 for x in group if x.kind == "spike")
             of = f"; {spikes} of them spikes removed" if spikes else ""
-            lines.append(f"{n} gap{'s' if n > 1 else ''} ({sum(x.end - x.start for x in group)} samples{of}) "
+            k = sum(x.end - x.start for x in group)
+            lines.append(f"{n} gap{'s' if n > 1 else ''} ({k} sample{'s' if k != 1 else ''}{of}) "
                          f"left missing: {why}: {shown}{more}")
         marker = "labelled marker" if self.unlabelled else "marker"
         for where, (a, b) in (("start", self.unseen_start), ("end", self.unseen_end)):
