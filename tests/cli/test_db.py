@@ -128,6 +128,8 @@ def test_search_clamps_end_and_names_k_and_neighbors(tmp_path):
     for opt in ("--k", "--neighbors"):
         code, _, err = run("search", str(db_dir), query, opt, "0")
         assert code == 2 and one_error_line(err) and f"{opt} must be a positive integer, got 0" in err
+    code, _, err = run("search", str(db_dir), query, "--method", "knn")  # the option, not the Python argument
+    assert code == 2 and one_error_line(err) and "error: --method must be lng or dtw, got 'knn'" in err, err
 
 
 def test_a_query_whose_rig_lacks_the_features_names_the_query(tmp_path):

@@ -114,6 +114,8 @@ def search(
 
     if k < 1 or neighbors < 1:  # before any work, naming the option
         raise MocapError(f"{'--k' if k < 1 else '--neighbors'} must be a positive integer, got {min(k, neighbors)}")
+    if method not in ("lng", "dtw"):  # before any work, naming the option (the database's "method must be ...")
+        raise MocapError(f"--method must be lng or dtw, got {method!r}")
     check_asf(asf, [query], amc_fps, names=CLI_AMC_NAMES)
     db = MotionDatabase.open(db_dir)
     m = load_motion(query, asf, purpose="a query", fps=amc_fps, unit=unit, unit_option="--unit")
