@@ -112,3 +112,17 @@ def test_the_shipped_acclaim_pair_states_hdm05s_research_terms_wherever_it_is_us
     noisy = dataclasses.replace(take, rotations=rot.quaternion_multiply(take.rotations, jitter))
     with pytest.warns(mocapkit.errors.LicenceWarning, match="research use only"):
         deep.denoise(noisy)
+
+
+def test_a_model_trained_on_hdm05_takes_alone_claims_no_cmu_takes():
+    """A model whose card lists HDM05 clips and states no licence inherits HDM05's research terms; trained on HDM05
+    takes alone (`mocapkit train` on HDM05 AMCs) it said "... and CMU takes (free for research and commercial
+    use)" as the shipped pair does, a claim about training data it never saw."""
+    shipped = deep.shipped_model("ebf")
+    hdm = [c for c in shipped.meta["train_clips"] if c.startswith("HDM_")][:3]
+    alone = dataclasses.replace(shipped, meta={"train_clips": hdm})
+    assert model_licence(alone).startswith("research use only: trained on HDM05 takes") and restricts_use(model_licence(alone))
+    assert "CMU" not in model_licence(alone) and model_licence(alone) == provenance.HDM05_ONLY_LICENCE
+    mixed = dataclasses.replace(shipped, meta={"train_clips": hdm + ["01_01"]})
+    assert model_licence(mixed) == provenance.HDM05_LICENCE == model_licence(shipped)
+    assert model_licence(dataclasses.replace(shipped, meta={"train_clips": ["01_01"]})) == NOT_STATED

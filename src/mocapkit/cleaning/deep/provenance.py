@@ -15,7 +15,7 @@ import re
 
 from ... import rigs
 
-__all__ = ["BANDAI_LICENCE", "DATA_LICENCES", "HDM05_LICENCE", "NOT_STATED", "RIG_RESPELLINGS", "card_as_read", "data_licence",
+__all__ = ["BANDAI_LICENCE", "DATA_LICENCES", "HDM05_LICENCE", "HDM05_ONLY_LICENCE", "NOT_STATED", "RIG_RESPELLINGS", "card_as_read", "data_licence",
            "model_card", "model_licence", "model_rig", "restricts_use", "rig_name", "training_rig", "training_rows",
            "unfinished_note", "rms_unit"]
 
@@ -24,8 +24,9 @@ BANDAI_LICENCE = ("CC BY-NC 4.0: trained on the Bandai Namco Research Motiondata
 #: The terms of a model trained on HDM05 takes (the shipped ``ebf.pt`` / ``ebd.pt``: HDM05 and CMU clips, docs/models.md):
 #: HDM05 (Müller et al., Univ. Bonn, tech. report CG-2007-2) is published for research use; the CMU database is free
 #: for research and commercial use, so HDM05's terms are the pair's (``../shared/data`` README).
-HDM05_LICENCE = ("research use only: trained on HDM05 takes (Müller et al., Univ. Bonn, tech. report CG-2007-2; "
-                 "published for research use, no commercial terms) and CMU takes (free for research and commercial use)")
+HDM05_ONLY_LICENCE = ("research use only: trained on HDM05 takes (Müller et al., Univ. Bonn, tech. report CG-2007-2; "
+                      "published for research use, no commercial terms)")
+HDM05_LICENCE = HDM05_ONLY_LICENCE + " and CMU takes (free for research and commercial use)"
 #: The clip names the HDM05 database gives its takes (``HDM_bd_walk_001_120``): a card listing such training clips and
 #: stating no licence is of a model trained on HDM05, which inherits :data:`HDM05_LICENCE`.
 _HDM05_CLIP = re.compile(r"\bHDM_[a-z]{2}_")
@@ -108,12 +109,18 @@ def model_rig(model) -> str | None:
 
 def model_licence(model) -> str:
     """A model's licence as its card states it; for a card that states none but lists HDM05 clips among its
-    training clips (``train_clips``: the shipped ``ebf.pt`` / ``ebd.pt``), :data:`HDM05_LICENCE`, the terms a model
-    inherits from that data; else :data:`NOT_STATED`."""
+    training clips (``train_clips``: the shipped ``ebf.pt`` / ``ebd.pt``), the terms a model inherits from that
+    data: :data:`HDM05_ONLY_LICENCE` where every clip is HDM05's (a model trained on HDM05 takes alone does not
+    claim CMU takes), else :data:`HDM05_LICENCE` (HDM05 and CMU clips, as the shipped pair's); else
+    :data:`NOT_STATED`."""
     meta = model.meta if isinstance(model.meta, dict) else {}
     if meta.get("licence"):
         return str(meta["licence"])
-    return HDM05_LICENCE if _HDM05_CLIP.search(str(meta.get("train_clips", ""))) else NOT_STATED
+    clips = meta.get("train_clips")
+    names = [str(c) for c in clips] if isinstance(clips, list) else [str(clips or "")]
+    if not any(_HDM05_CLIP.search(n) for n in names):
+        return NOT_STATED
+    return HDM05_ONLY_LICENCE if all(_HDM05_CLIP.search(n) for n in names) else HDM05_LICENCE
 
 
 def restricts_use(licence: str | None) -> bool:
