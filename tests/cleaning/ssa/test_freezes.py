@@ -100,3 +100,20 @@ def test_an_unjudged_freeze_is_bridged_like_a_gap_and_nothing_else_moves(take):
     own = np.degrees(R.geodesic_angle(q[1:, j], q[:-1, j]))
     own[A - 1 : B] = 0.0  # the joint's steps elsewhere in the take, not the freeze's 0s and jump
     assert steps[A : B].max() < own.max() < 40
+
+
+def test_recurring_holds_are_the_same_in_blocks_as_from_the_whole_matrix(take):
+    """The (n, n) angles of a long take's holds are taken in blocks of rows (their memory grew as n^2: 400 MB on
+    a 9-minute session); any block size gives the whole matrix's answer, bit for bit."""
+    from mocapkit.cleaning.ssa.freezes import recurring
+
+    j = take.skeleton.joint_names.index("RightAnkle")
+    held = np.asarray(take.rotations[::2, j], dtype=np.float64)  # 240 real rotations, about half within 1 deg of another
+    recur = np.radians(1.0)
+    near = R.geodesic_angle(held[:, None], held[None, :]) <= recur
+    np.fill_diagonal(near, False)
+    whole = near.any(axis=1)
+    assert whole.any() and not whole.all()
+    for cells in (1, 239, 240 * 7 + 5, 1 << 18):  # one row a block, blocks not dividing n, the whole at once
+        assert np.array_equal(recurring(held, recur, block_cells=cells), whole)
+    assert not recurring(held[:1], recur).any() and recurring(held[:0], recur).shape == (0,)

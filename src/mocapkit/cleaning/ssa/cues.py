@@ -17,6 +17,7 @@ from ...motion import Motion
 from ..ik import contact_segments, segment_frames
 from .events import event_bounds
 from .freeze_bounds import bounded_breaks
+from .freezes import recurring
 from .run_extent import run_cells
 from .params import SSAParams
 from .step_pairs import UNDO_RATIO, is_step, offset_step_breaks, returns, steps_back
@@ -972,10 +973,8 @@ def held_joints(
         if not runs:
             continue
         held = q[[a for a, _ in runs], j]  # (n, 4) the held rotations
-        near = R.geodesic_angle(held[:, None], held[None, :]) <= recur
-        np.fill_diagonal(near, False)
         at_rest = R.geodesic_angle(held, R.identity()) <= np.radians(rest_deg)
-        for (a, b), exempt in zip(runs, near.any(axis=1) | at_rest):
+        for (a, b), exempt in zip(runs, recurring(held, recur) | at_rest):
             if not exempt and b - a >= min_frames and travel[a:b, j].sum() >= travel_deg:
                 out[a:b, j] = True
     return out

@@ -41,12 +41,36 @@ import numpy as np
 
 from ... import rotations as R
 
-__all__ = ["frozen_channels", "MIN_FROZEN_S", "MOVING_SHARE"]
+__all__ = ["frozen_channels", "recurring", "MIN_FROZEN_S", "MOVING_SHARE", "RECUR_BLOCK_CELLS"]
 
 #: the shortest exact repeat taken for a frozen channel, seconds (12 frames at 120 fps; at least 4 frames at any rate)
 MIN_FROZEN_S = 0.1
 #: the share of the other joints analysed that must change their rotation over a hold for the body to be moving
 MOVING_SHARE = 0.5
+#: pairs of held rotations :func:`recurring` compares at once (a block of rows of its (n, n) angles: 8 MB per
+#: (rows, n, 4) float64 temporary); the whole matrix of a 9-minute Bandai Namco session's holds took 400 MB
+RECUR_BLOCK_CELLS = 1 << 18
+
+
+def recurring(held: np.ndarray, recur: float, block_cells: int = RECUR_BLOCK_CELLS) -> np.ndarray:
+    """(n,) bool: which of the (n, 4) rotations ``held`` lie within ``recur`` radians of another one of them.
+
+    A hold met again at the same rotation is a limit the solver clamps at, not a frozen channel (module docstring;
+    :func:`~mocapkit.cleaning.ssa.cues.held_joints` asks the same of its holds). The (n, n) geodesic angles are
+    taken a block of rows at a time, at most ``block_cells`` angles a block (at least one row): a long take has
+    thousands of holds per joint, and the whole matrix's temporaries grow as its square. Each angle is the same
+    elementwise expression whatever the block, so the answer is the same, bit for bit, for any ``block_cells``.
+    """
+    held = np.asarray(held, dtype=np.float64)
+    n = len(held)
+    out = np.zeros(n, dtype=bool)
+    rows = max(1, int(block_cells) // max(n, 1))
+    for r0 in range(0, n, rows):
+        r1 = min(n, r0 + rows)
+        near = R.geodesic_angle(held[r0:r1, None], held[None, :]) <= recur
+        near[np.arange(r1 - r0), np.arange(r0, r1)] = False  # a hold is not its own recurrence
+        out[r0:r1] = near.any(axis=1)
+    return out
 
 
 def frozen_channels(
@@ -103,9 +127,7 @@ def frozen_channels(
         if not runs:
             continue
         held = q[[a for a, _ in runs], j]  # (n, 4)
-        near = R.geodesic_angle(held[:, None], held[None, :]) <= recur
-        np.fill_diagonal(near, False)
-        exempt = near.any(axis=1) | (R.geodesic_angle(held, R.identity()) <= rest)
+        exempt = recurring(held, recur) | (R.geodesic_angle(held, R.identity()) <= rest)
         for (a, b), skip in zip(runs, exempt):
             if skip or b >= F or not breaks[b - 1 : b + 1, j].any():
                 continue
