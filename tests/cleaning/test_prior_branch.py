@@ -165,3 +165,25 @@ def test_the_bandai_pelvis_lost_to_a_dances_end_is_held_not_swung(shared_data):
     held = np.degrees(R.geodesic_angle(filled.rotations[210:, j], take.rotations[209, j]))
     assert off.max() < 15.0 and held.max() < 1e-3
     np.testing.assert_array_equal(filled.rotations[:210], take.rotations[:210])
+
+
+def test_branch_windows_are_shifted_in_place_with_the_same_numbers():
+    """branch_lagged shifts each lag's block of the windows in place: a long take's (F, C * L) windows are the fill's
+    largest array (a 9-minute session: 63 MB), and the shift made three more of them; the numbers are the same."""
+    import tracemalloc
+
+    model = deep.load_model(Path(deep.__file__).resolve().parents[2] / "models" / "ebd_bandai.pt")
+    pr = model.prior
+    take = mocapkit.load(Path(__file__).resolve().parents[1] / "data" / "dataset-1_dash_normal_001.bvh")
+    x = lerp_fill(encode(take, model.layout)[0])
+    v = P.lagged(x, pr.lags)
+    before = v - 360.0 * np.tile(P.branch_turns(x, pr.branch), (1, len(pr.lags)))  # the expression it replaced
+    assert (before != v).any()  # the take's thighs are shifted by whole turns
+    tracemalloc.start()
+    try:
+        got = P.branch_lagged(x, pr.lags, pr.branch)
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    assert np.array_equal(got, before) and got.dtype == before.dtype
+    assert peak < 1.5 * v.nbytes  # the windows and one (F, C) array of turns; was 3 windows' worth more

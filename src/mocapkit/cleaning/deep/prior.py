@@ -210,8 +210,12 @@ def branch_lagged(x: np.ndarray, lags, branch: np.ndarray | None) -> np.ndarray:
     v = lagged(x, lags)
     if branch is None:
         return v
-    k = branch_turns(x, branch)
-    return v - 360.0 * np.tile(k, (1, len(lags)))
+    v = v.astype(np.float64, copy=False)  # the dtype ``v - 360.0 * turns`` had (float32 windows promoted, exactly)
+    turns = 360.0 * branch_turns(x, branch)  # (F, C): each lag's block shifted in place, no (F, C * L) temporaries
+    C = turns.shape[1]
+    for k in range(len(lags)):
+        v[:, k * C:(k + 1) * C] -= turns
+    return v
 
 
 LAGS_S = (1 / 15, 2 / 15, 4 / 15)
@@ -363,9 +367,9 @@ def _take_update(z: np.ndarray, miss: np.ndarray, prior: GapPrior, n0: float):
     n = int(rows.sum())
     if n < 10 or not np.isfinite(n0):
         return np.zeros(z.shape[1]), None
-    zo = z[rows]
-    m = zo.mean(axis=0)
-    d = zo - m
+    d = z[rows]
+    m = d.mean(axis=0)
+    d -= m  # centred in place (a copy of z's rows): one (n, D) array, not two
     w = n / (n + max(float(n0), 0.0))
     cov = (1.0 - w) * prior.cov + w * (d.T @ d / n) + w * (1.0 - w) * np.outer(m, m)
     return w * m, cov
@@ -568,7 +572,9 @@ def _conditional_fill(values, prior: GapPrior, fps: float, prior_s: float, smoot
         w = cross * noise_share(x, pred)  # per channel: the prediction's weight where noise is what it removes
         base = lerp_fill(np.where(miss, np.nan, (1.0 - w) * base + w * pred))
     lags = prior.lags
-    z = (branch_lagged(base, lags, prior.branch) - prior.mean) / prior.scale
+    z = branch_lagged(base, lags, prior.branch)  # (F, C * L), standardised in place: a long take's largest array
+    z -= prior.mean
+    z /= prior.scale
     shift, cov = _take_update(z, miss, prior, prior_s * fps)
     cov = prior.cov if cov is None else cov
     mean = prior.mean + shift * prior.scale
