@@ -249,3 +249,27 @@ def test_long_take_rows_give_the_short_take_neighbours_without_acos_matrices(wal
     for a in ("pos", "iend", "jend", "dist"):
         assert np.array_equal(getattr(whole, a), getattr(long, a))
     assert (whole.pos >= 0).any()
+
+
+def test_knn_search_in_a_reused_workspace_finds_what_a_fresh_one_does(walk):
+    """The pruned search's row minima written into one buffer that chunk after chunk reuses (a long take allocated
+    ~50 MB per chunk and group anew): a dirty buffer, larger than a chunk needs, shared by chunks of different
+    lengths, gives every neighbour, distance and end cell a fresh array gives, bit for bit."""
+    an = ssa.prepare(walk)
+    g = list(an.group_rows)[0]
+    F = len(an.source.values)
+    D = word_dtw.group_pose_distances(an.source.values, an.source.values, np.isin(np.arange(an.source.values.shape[1]),
+                                      g)[None], [0])[0]
+    tgt = an.source.target_starts(20)
+    work = word_dtw.knn_workspace(120, len(tgt))
+    work[:] = np.nan  # whatever a chunk before left there
+    assert work.size == 5 * 120 * len(tgt)
+    for lo, n in ((0, 12), (60, 21), (F - 75, 3)):  # chunks of 12, 21 and 3 words: 70, 115 and 25 rows
+        ws = an.words[(an.words >= lo)][:n]
+        f0, f1 = int(ws.min()), int(ws.max()) + 15
+        args = (D[f0:f1], ws - f0, tgt, 5, ws, 7)
+        fresh = word_dtw.word_knn_profile(*args, return_evaluated=True)
+        reused = word_dtw.word_knn_profile(*args, return_evaluated=True, work=work)
+        for a, b in zip(fresh, reused, strict=True):
+            assert a.dtype == b.dtype and np.array_equal(a, b)
+        assert (fresh[0] >= 0).any()

@@ -267,6 +267,11 @@ def nearest_words(
         members, offsets = self_costs.pack_groups(masks)
         lanes = self_costs.frame_lanes(values)
     D, held = None, (0, 0)  # the chunk's pose distances and the frames of their rows
+    work = None  # the row minima of the pruned search, one buffer for every chunk and group
+    if not exhaustive:
+        rows = max(int(word_starts[c0 : c0 + chunk].max() - word_starts[c0 : c0 + chunk].min()) + N
+                   for c0 in range(0, W, chunk))
+        work = word_dtw.knn_workspace(rows, len(tgt), N, M, max_run)
     for c0 in range(0, W, chunk):
         ws = word_starts[c0 : c0 + chunk]
         f0, f1 = int(ws.min()), int(ws.max()) + N
@@ -289,7 +294,8 @@ def nearest_words(
                 je = np.take_along_axis(je, np.maximum(idx, 0), axis=1)
                 vals = np.where(idx >= 0, vals, np.inf).astype(np.float32)
             else:
-                idx, vals, ie, je = word_dtw.word_knn_profile(D[gi], ws - f0, tgt, k, excl, half, N, M, min_width, max_run)
+                idx, vals, ie, je = word_dtw.word_knn_profile(D[gi], ws - f0, tgt, k, excl, half, N, M, min_width, max_run,
+                                                              work=work)
             sl = slice(c0, c0 + len(ws))
             out.pos[gi, sl] = np.where(idx >= 0, tgt[np.maximum(idx, 0)], -1)
             out.iend[gi, sl] = ie

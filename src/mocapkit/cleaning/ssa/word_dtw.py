@@ -53,6 +53,7 @@ __all__ = [
     "word_dtw_path",
     "word_distance_profile",
     "word_knn_profile",
+    "knn_workspace",
     "word_dtw_lower_bounds",
     "word_distance_pairs",
     "warp_target_words",
@@ -755,8 +756,16 @@ def word_dtw_lower_bounds(D, src_starts, tgt_starts, N=15, M=20, min_width=11, m
     return out
 
 
+def knn_workspace(rows: int, targets: int, N: int = 15, M: int = 20, max_run: int = 3) -> np.ndarray:
+    """A float32 buffer (1-D) that holds :func:`word_knn_profile`'s row minima for up to ``rows`` rows of ``D``
+    against ``targets`` target starts: (levels, rows, targets) entries, the levels of :func:`_row_windows`
+    (5 for N=15, M=20). A search that runs chunk after chunk passes the same one to every call: a long take's
+    chunks each allocated and faulted in ~50 MB anew (an 18-minute take: 1,500 times)."""
+    return np.empty(len(_row_windows(N, M, max_run)[0]) * int(rows) * int(targets), dtype=np.float32)
+
+
 def word_knn_profile(D, src_starts, tgt_starts, k=5, exclude_center=None, exclude_half=7, N=15, M=20,
-                     min_width=11, max_run=3, return_evaluated=False):
+                     min_width=11, max_run=3, return_evaluated=False, work=None):
     """The K smallest local minima of each source word's distance function, without computing all of it.
 
     The same answer as :func:`word_distance_profile` followed by taking, per
@@ -775,7 +784,9 @@ def word_knn_profile(D, src_starts, tgt_starts, k=5, exclude_center=None, exclud
     Returns ``idx`` int64 (W, k) indices into ``tgt_starts`` (-1: fewer than
     ``k`` minima), ``dist`` float32 (W, k) ascending (inf where -1), ``i_end``,
     ``j_end`` int16 (W, k), and with ``return_evaluated`` the number of DTWs run
-    per source word (W,).
+    per source word (W,). ``work``: a :func:`knn_workspace` buffer the row minima
+    are written into when it is large enough (else they are allocated); every
+    entry is written before it is read, so the answer is the same either way.
     """
     D = np.asarray(D)
     src = np.ascontiguousarray(src_starts, dtype=np.int64)
@@ -798,7 +809,12 @@ def word_knn_profile(D, src_starts, tgt_starts, k=5, exclude_center=None, exclud
         consec = np.zeros(T, dtype=np.bool_)
         consec[1:] = tgt[1:] == tgt[:-1] + 1
         lens, level = _row_windows(N, M, max_run)
-        rowmin = np.empty((len(lens), D.shape[0], T), dtype=np.float32)
+        shape = (len(lens), D.shape[0], T)
+        size = shape[0] * shape[1] * shape[2]
+        if work is not None and work.dtype == np.float32 and work.ndim == 1 and work.size >= size:
+            rowmin = work[:size].reshape(shape)  # C-contiguous: the kernels' one signature
+        else:
+            rowmin = np.empty(shape, dtype=np.float32)
         _row_minima.pick(D.shape[0] * len(tgt))(D, tgt, lens, rowmin)
         _knn_profile.pick(W * T)(D, rowmin, level, src, tgt, consec, lo, hi, N, M, int(min_width), int(max_run), int(k),
                      idx, dist, iend, jend, evaluated)
