@@ -305,6 +305,12 @@ class MarkerSource:
         (:meth:`MarkerSet.modelled_kinds`: a TRC's ``ModelledPoints`` header
         field, a marker npz's ``modelled`` array), since neither format has
         C3D's POINT groups nor its camera masks; empty otherwise.
+    analog_numbers : float array (A, F * ratio) or None
+        C3D float file: the float32 numbers the file stored for ``analogs``
+        (before its offsets and scales: :func:`mocapkit.io.c3d_layout.held_analogs`),
+        which a writer stores again wherever they still read as the sample; None
+        otherwise (an integer file's whole numbers are found from the samples) and
+        where they are not of ``analogs``' shape.
     """
 
     format: str
@@ -319,6 +325,7 @@ class MarkerSource:
     missing_stored: np.ndarray | None = None
     filled: np.ndarray | None = None
     modelled: Mapping[str, str] = dataclasses.field(default_factory=dict)
+    analog_numbers: np.ndarray | None = None
 
     def __post_init__(self):
         object.__setattr__(self, "parameters", MappingProxyType(dict(self.parameters)))
@@ -331,6 +338,10 @@ class MarkerSource:
             if a.ndim != 2:
                 raise ValueError(f"analogs: expected shape (A, N), got {a.shape}")
             object.__setattr__(self, "analogs", frozen(a))
+        if self.analog_numbers is not None:  # numbers of other samples than ``analogs`` (replaced) say nothing
+            held = np.asarray(self.analog_numbers, dtype=np.float64)
+            keep = self.analogs is not None and held.shape == self.analogs.shape
+            object.__setattr__(self, "analog_numbers", frozen(held) if keep else None)
         if self.stored_zeros is not None:
             z = np.asarray(self.stored_zeros, dtype=np.float64)
             if z.ndim != 3 or z.shape[2] != 2:
@@ -683,9 +694,11 @@ class MarkerSet:
         source = self.source
         if source is not None:
             ratio = source.analog_ratio(self.num_frames)
-            analogs = None
+            analogs = numbers = None
             if ratio and step == 1:
                 analogs = source.analogs[:, start * ratio : max(start, stop) * ratio]
+                if source.analog_numbers is not None:
+                    numbers = source.analog_numbers[:, start * ratio : max(start, stop) * ratio]
             whole = (start, max(start, stop), step) == (0, self.num_frames, 1)
             zeros = None if source.stored_zeros is None else source.stored_zeros[key]
             filled = None if source.filled is None else source.filled[key]
@@ -701,7 +714,7 @@ class MarkerSet:
             clock = float(source.layout.get("trial_rate", self.fps))
             layout = source.layout if step == 1 else {**source.layout, "trial_rate": clock}
             first = source.first_frame + int(round(start * clock / float(self.fps)))
-            source = dataclasses.replace(source, analogs=analogs, first_frame=first, layout=layout,
+            source = dataclasses.replace(source, analogs=analogs, analog_numbers=numbers, first_frame=first, layout=layout,
                                          text=source.text if whole else None, stored_zeros=zeros, filled=filled,
                                          missing_stored=rows)
         return dataclasses.replace(self, positions=self.positions[key], fps=fps, residuals=res, source=source,

@@ -34,10 +34,13 @@ def _stored(path):
     return block[:, 4 * points:].reshape(frames, ratio, channels).transpose(2, 0, 1).reshape(channels, -1).astype(np.float64)
 
 
-@pytest.mark.parametrize("name", ["Eb015pi.c3d", "FunctionalWalk.c3d", "shd01.c3d", "PiG_Motion-FlatFoot-Full.c3d"])
+@pytest.mark.parametrize("name", ["Eb015pi.c3d", "FunctionalWalk.c3d", "shd01.c3d", "PiG_Motion-FlatFoot-Full.c3d",
+                                  "ADemo1_rewrite_c3d_pc_float.c3d"])
 def test_analogs_are_written_as_the_numbers_and_offsets_stored(tmp_path, shared_data, name):
     """Eb015pi: 16-bit integers with OFFSET 2048; FunctionalWalk: floats holding A/D counts, UNSIGNED, OFFSET
-    -32768; shd01: OFFSET -32752 read as 32752; PiG: floats storing volts. Written back, the file stores the same
+    -32768; shd01: OFFSET -32752 read as 32752; PiG: floats storing volts; ADemo1's float copy: floats under
+    ANALOG:SCALE -0.05, where several floats read as one float32 sample (335 were written one step off before
+    0.15.0, as the float32 nearest the sample's reading). Written back, the file stores the same
     numbers (as floats: see the guide) under the same ANALOG:OFFSET, SCALE and GEN_SCALE, and reads the same."""
     import ezc3d
 
@@ -53,6 +56,18 @@ def test_analogs_are_written_as_the_numbers_and_offsets_stored(tmp_path, shared_
         n = 1 if key == "GEN_SCALE" else channels
         assert np.array_equal(np.ravel(new[key]["value"])[:n], np.ravel(src[key]["value"])[:n]), key
     assert np.array_equal(read_c3d(out).source.analogs, take.source.analogs)
+
+
+def test_a_part_of_a_float_file_keeps_its_stored_analog_numbers(tmp_path, shared_data):
+    """Frames 100-299 of ADemo1's float copy (4 analog samples a frame) written alone store the numbers the file
+    stored for those frames, each channel's samples read as before."""
+    path = _find(shared_data, "ADemo1_rewrite_c3d_pc_float.c3d")
+    part = read_c3d(path)[100:300]
+    out = tmp_path / "part.c3d"
+    write_c3d(part, out)
+    ratio = part.source.analogs.shape[1] // part.num_frames
+    assert np.array_equal(_stored(out), _stored(path)[:, 100 * ratio : 300 * ratio])
+    assert np.array_equal(read_c3d(out).source.analogs, part.source.analogs)
 
 
 def test_a_changed_analog_channel_is_written_as_its_values(tmp_path, shared_data):

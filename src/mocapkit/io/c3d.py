@@ -44,8 +44,8 @@ from ..markerset import (MODELLED_GROUPS, MarkerSet, MarkerSource, length_unit_c
 from ..motion import check_fps
 from .c3d_frames import (FRAME_CAP, long_frame_parameters, missing_stored, point_words, put_missing_stored,
                          put_stored_zeros, read_float, residuals_and_cameras, rest_of_trial, zero_gap_words)
-from .c3d_layout import (header_layout, integer_data, integer_scale, keep_data_start, put_analogs, put_header_gap,
-                         put_parameter, stored_analogs)
+from .c3d_layout import (header_layout, held_analogs, integer_data, integer_scale, keep_data_start, put_analogs,
+                         put_header_gap, put_parameter, stored_analogs)
 from .c3d_modelled import modelled_parameters, stated_positions
 from .c3d_structure import check_structure
 from .c3d_trial import (channels_held, fit_event_group, fit_force_plates, fit_header_events, trial_frames, trial_rate,
@@ -199,6 +199,7 @@ def _read_ezc3d(path: Path, raw: bytes):
         format="c3d",
         parameters=_ezc3d_parameters(c),
         analogs=None if analogs is None else _float32_values(analogs),
+        analog_numbers=None if analogs is None else held_analogs(analogs, c["parameters"]),
         first_frame=int(c["header"]["points"]["first_frame"]) + 1,
         missing_stored=stored,
     )
@@ -572,7 +573,8 @@ def _c3d_object(markers: MarkerSet, source: MarkerSource | None, own: bool, firs
     old_rate = np.ravel(analog.get("RATE", {}).get("value", [np.nan]))
     none_at_0 = analogs is None and len(old_rate) > 0 and old_rate[0] == 0
     rate = 0.0 if none_at_0 else markers.fps * (1 if analogs is None else analogs.shape[1] // F)
-    kept = stored_analogs(analogs, {**source.parameters, "ANALOG": analog}) if analogs is not None else None
+    kept = None if analogs is None else stored_analogs(analogs, {**source.parameters, "ANALOG": analog},
+                                                       held=source.analog_numbers)
     stored, scales, offsets, gen = (analogs, np.ones(A), np.zeros(A, dtype=int), 1.0) if kept is None else kept
     for key, typ, value in (("SCALE", 4, scales), ("OFFSET", 2, np.zeros(A, dtype=int)), ("GEN_SCALE", 4, np.array([gen])),
                             ("RATE", 4, np.array([rate]))):

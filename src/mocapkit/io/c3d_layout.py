@@ -30,7 +30,7 @@ import struct
 
 import numpy as np
 
-__all__ = ["parameter_values", "header_layout", "analog_offsets", "stored_analogs", "parameter_at", "put_parameter",
+__all__ = ["parameter_values", "header_layout", "analog_offsets", "held_analogs", "stored_analogs", "parameter_at", "put_parameter",
            "put_analogs", "put_header_gap", "keep_data_start", "integer_data",
            "integer_scale", "stored_scale"]
 
@@ -71,7 +71,44 @@ def analog_offsets(parameters, channels: int) -> np.ndarray:
     return out
 
 
-def stored_analogs(analogs: np.ndarray, parameters):
+def _analog_step(parameters, channels: int):
+    """``(step, offsets, integer)``: the (A, 1) ANALOG:SCALE * GEN_SCALE and (A, 1) offsets samples are read with,
+    and whether POINT:SCALE says integer storage; None where the scales are absent, not finite or 0."""
+    point_scale = parameter_values(parameters, "POINT", "SCALE")
+    if not len(point_scale) or not np.isfinite(float(point_scale[0])):
+        return None
+    scales = parameter_values(parameters, "ANALOG", "SCALE").astype(np.float64)
+    gen = parameter_values(parameters, "ANALOG", "GEN_SCALE").astype(np.float64)
+    if len(scales) < channels or not len(gen):
+        return None
+    step = scales[:channels, None] * gen[0]
+    if not np.all(np.isfinite(step)) or np.any(step == 0):
+        return None
+    return step, analog_offsets(parameters, channels)[:, None], float(point_scale[0]) > 0
+
+
+def held_analogs(analogs: np.ndarray, parameters) -> np.ndarray | None:
+    """(A, N) float64: the float32 numbers a float C3D stored for its analog samples, from ``analogs`` (A, N) as
+    the reader computed them in float64, ``(stored - offset) * scale * gen``, before they are rounded to float32.
+
+    Rounding the readings to float32 loses which number the file stored: under an ANALOG:SCALE below 1 several
+    float32 numbers read as the same float32 sample (BTK's ADemo1_rewrite_c3d_pc_float.c3d, scale -0.05:
+    1,456 of its 16,384 samples), so :func:`stored_analogs` keeps these where they read as the sample and a
+    file written back holds the numbers it had. None for an integer file (its whole numbers are recovered
+    exactly) or where the scales are unusable. C3D format: "The C3D File Format User Guide" (c3d.org), ANALOG.
+    """
+    if analogs is None or np.ndim(analogs) != 2 or analogs.size == 0:
+        return None
+    found = _analog_step(parameters, analogs.shape[0])
+    if found is None or found[2]:
+        return None
+    step, off, _ = found
+    with np.errstate(over="ignore", invalid="ignore"):
+        held = (np.asarray(analogs, dtype=np.float64) / step + off).astype(np.float32).astype(np.float64)
+    return held
+
+
+def stored_analogs(analogs: np.ndarray, parameters, held: np.ndarray | None = None):
     """``(stored, scales, offsets, gen)``: numbers whose reading ``(stored - offset) * scale * gen`` is ``analogs``.
 
     ``analogs`` (A, N): the samples as :func:`~mocapkit.io.c3d.read_c3d` reads
@@ -87,25 +124,20 @@ def stored_analogs(analogs: np.ndarray, parameters):
     values as they are (scale 1, offset 0). Returns ``stored`` (A, N) float64,
     ``scales`` (A,) ANALOG:SCALE, ``offsets`` (A,) int, ANALOG:OFFSET as the
     file has it (the values are read with their magnitudes: :func:`analog_offsets`),
-    ``gen`` ANALOG:GEN_SCALE.
+    ``gen`` ANALOG:GEN_SCALE. ``held`` (A, N): the numbers the file stored
+    (:func:`held_analogs`, kept by the reader), taken wherever they still read as the sample, since rounded
+    to float32 a sample of a float file no longer says which of several numbers the file held.
     """
-    point_scale = parameter_values(parameters, "POINT", "SCALE")
-    if not len(point_scale) or not np.isfinite(float(point_scale[0])):
-        return None
-    integer = float(point_scale[0]) > 0
     a = analogs.shape[0]
-    scales = parameter_values(parameters, "ANALOG", "SCALE").astype(np.float64)
-    gen = parameter_values(parameters, "ANALOG", "GEN_SCALE").astype(np.float64)
-    if len(scales) < a or not len(gen):
+    found = _analog_step(parameters, a)
+    if found is None:
         return None
-    scales, offsets = scales[:a], analog_offsets(parameters, a)
+    step, off, integer = found
+    scales = parameter_values(parameters, "ANALOG", "SCALE").astype(np.float64)[:a]
+    gen = parameter_values(parameters, "ANALOG", "GEN_SCALE").astype(np.float64)
     written = np.zeros(a, dtype=np.int64)
     given = parameter_values(parameters, "ANALOG", "OFFSET").astype(np.int64)[:a]
     written[: len(given)] = given
-    step = scales[:, None] * gen[0]
-    if not np.all(np.isfinite(step)) or np.any(step == 0):
-        return None
-    off = offsets[:, None]
     exact = analogs / step + off
     whole = np.rint(exact) + 0.0  # no -0.0: a stored 0 that is not the offset is +0 (a 16-bit 0)
     if integer and np.any((whole < -32768) | (whole > 65535)):
@@ -118,6 +150,10 @@ def stored_analogs(analogs: np.ndarray, parameters):
     fits = np.abs(whole) <= 2**24  # whole numbers float32 holds
     stored = whole if integer else np.where(fits & (reads(whole) == analogs), whole,
                                             exact.astype(np.float32).astype(np.float64))
+    if not integer and held is not None and np.shape(held) == analogs.shape:
+        with np.errstate(over="ignore", invalid="ignore"):
+            own = (reads(held) == analogs) & (np.signbit(reads(held)) == np.signbit(analogs))
+        stored = np.where(own, held, stored)
     # the sign of a zero read: (stored - offset) is -0.0 only where stored is -0.0 and the offset 0
     zero = (stored - off == 0) & (off == 0)
     stored = np.where(zero, np.where(np.signbit(analogs) != (step < 0), -0.0, 0.0), stored)
