@@ -308,3 +308,21 @@ def test_an_amc_written_from_an_npz_made_from_an_amc_keeps_the_files_numbers(nam
     fem_a, fem_b = _bone_numbers(src_text, "rfemur")[10], _bone_numbers(out_text, "rfemur")[10]
     assert not np.array_equal(fem_a, fem_b) and np.abs(fem_a - fem_b).max() < 5.0
     _assert_same_motion(edited, read_amc(out, asf))
+
+
+def test_an_output_that_cannot_keep_the_amc_comments_says_how_many_it_leaves_out(tmp_path):
+    """HDM05's AMC opens with a ``#!OML:ASF`` comment line naming its skeleton's file. An AMC or .npz written like
+    the file keeps it; a BVH, a resampled AMC or .npz, or a slice drops it, and said nothing of it before 0.15.0
+    (a BVH's comments were said): now one line says how many it leaves out."""
+    from mocapkit.io import motion_notes
+
+    amc, asf, m = _sample(SAMPLES[2])
+    assert motion_notes(m, tmp_path / "same.amc") == [] and motion_notes(m, tmp_path / "same.npz") == []
+    why = "(an AMC's are kept only in an .amc or .npz written like it, at its frames and skeleton)"
+    for out, take in (("out.bvh", m), ("half.amc", m.resample(60.0)), ("part.npz", m[10:50])):
+        assert motion_notes(take, tmp_path / out) == [f"{tmp_path / out}: not written: 1 comment line of {amc} {why}"]
+    io.save(m, tmp_path / "same.npz")  # the .npz keeps the AMC's text: an AMC from it keeps the line, a BVH not
+    kept = mocapkit.load(tmp_path / "same.npz")
+    assert motion_notes(kept, tmp_path / "back.amc") == []
+    assert motion_notes(kept, tmp_path / "back.bvh") == [
+        f"{tmp_path / 'back.bvh'}: not written: 1 comment line of {tmp_path / 'same.npz'} {why}"]

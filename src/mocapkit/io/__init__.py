@@ -281,7 +281,33 @@ def motion_notes(motion, path, like=None) -> list[str]:
                 why = "an .npz keeps them only at the take's frames, rate and skeleton"
         if n:
             notes.append(f"{path}: not written: {n} comment line{'s' if n > 1 else ''} of {like} ({why})")
-    return notes
+    amc = _amc_dropped_comments(motion, path, kind, like)
+    return notes + ([amc] if amc else [])
+
+
+def _amc_dropped_comments(motion, path: Path, kind: str, like) -> str | None:
+    """The line saying that ``path`` leaves out the comment lines of the AMC ``motion`` was read from (``like``:
+    that AMC, or an .npz keeping its text), or None. An AMC or .npz written like that AMC (the take on its
+    skeleton and frames: :func:`mocapkit.io.amc_writer.source_numbers` gives its text) keeps them; any other
+    output (a BVH, an AMC or .npz at another rate or frame count, a slice) does not, as for a BVH's comments."""
+    from .amc_writer import source_numbers
+    from .asfamc import amc_comment_lines
+    from .kept_channels import kept_text
+    from .sources import recall
+
+    if like is None or like is False or Path(like).suffix.lower() not in (".amc", ".npz"):
+        return None
+    try:
+        data = recall(Path(like)) if Path(like).suffix.lower() == ".amc" else kept_text(like, ".amc")
+        n = amc_comment_lines(data) if data is not None else 0
+        if n and kind in ("amc", "npz") and motion.skeleton.axes is not None:
+            n = 0 if source_numbers(motion, like, with_text=True)[2] is not None else n
+    except MocapError:
+        return None
+    if not n:
+        return None
+    return (f"{path}: not written: {n} comment line{'s' if n > 1 else ''} of {like} (an AMC's are kept only in an "
+            ".amc or .npz written like it, at its frames and skeleton)")
 
 
 def _npz_kept_comments(motion, like) -> int:

@@ -48,7 +48,7 @@ from .sources import remember
 
 __all__ = ["read_asf", "read_amc", "read_amc_numbers", "amc_table_arrays", "asf_dofs", "amc_dofs", "amc_held_rotations",
            "amc_header", "find_asf", "pick_asf", "fps_from_name", "amc_rate", "stated_fps", "rate_comment", "with_rate",
-           "DEFAULT_FPS"]
+           "amc_comment_lines", "DEFAULT_FPS"]
 
 DEFAULT_FPS = 120.0
 """Frame rate of an AMC that states none, its name gives none and no ``fps=`` is given: the rate the CMU and
@@ -526,6 +526,13 @@ def amc_rate(path, fps: float | None = None, data: bytes | None = None) -> tuple
     if named is not None:
         return named, "name"
     return DEFAULT_FPS, "default"
+
+
+def amc_comment_lines(data: bytes) -> int:
+    """How many lines of an AMC's text ``data`` hold a comment (``#`` to the line's end, an Acclaim comment: the
+    ``#!OML:ASF`` line CMU and HDM05 files start with, a frame line's trailing note), mocapkit's rate line
+    (:func:`rate_comment`) not counted: a writer states the rate of the take it writes."""
+    return sum(b"#" in line and _RATE_LINE.match(line.strip()) is None for line in data.splitlines())
 
 
 def rate_comment(fps: float) -> str:
