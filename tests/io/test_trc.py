@@ -788,3 +788,22 @@ def test_a_trc_written_new_states_the_unit_s_symbol_where_the_input_spelt_it_oth
     spelt.write_text(out.read_text().replace("\tm\t", "\tmeters\t", 1))
     again = save_markers(load_markers(spelt).select(list(src.labels[:3])), tmp_path / "again.trc")
     assert again.read_text().splitlines()[2].split("\t")[4] == "meters"
+
+
+def test_a_c3d_written_from_a_trc_says_it_rounds_the_coordinates_to_32_bit_floats(shared_data, tmp_path):
+    """T.trc states 5 decimals of a mm; a C3D stores 32-bit floats (1639.63722 -> 1639.6372 mm): every coordinate
+    is rounded, up to 6.1e-05 mm (5,521 come back another number at 5 decimals in a TRC written from the C3D),
+    which no line said before 0.15.0. A take read from a C3D holds 32-bit floats already: no line."""
+    import mocapkit.samples
+    from mocapkit.io import marker_notes
+
+    path = _file(shared_data, f"{TRC}/T.trc")
+    ms = read_trc(path)
+    out = tmp_path / "T.c3d"
+    notes = [n for n in marker_notes(ms, out, path) if "32-bit" in n]
+    assert notes == [f"{out}: C3D stores coordinates as 32-bit floats: 10,947 of 10,947 coordinates of {path} are "
+                     "rounded to the nearest, up to 6.1e-05 mm off (a .trc or .npz output keeps them)"]
+    back = load_markers(save_markers(ms, out))
+    assert np.max(np.abs(back.positions - ms.positions)) == pytest.approx(6.1e-05, abs=5e-7)
+    c3d = load_markers(mocapkit.samples.path("Eb015pr.c3d"))
+    assert not any("32-bit" in n for n in marker_notes(c3d, tmp_path / "x.c3d"))

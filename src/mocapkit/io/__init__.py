@@ -229,6 +229,10 @@ def marker_notes(markers: MarkerSet, path, inp=None, *, keep_modelled: bool = Fa
                          f"{inp if inp is not None else 'the input'} stores them: a sample the cleaning changed or "
                          f"filled is rounded to the nearest step ({step / 2:.2g} {markers.units} at most), every "
                          "other one is the input's own number")
+    if kind == "c3d" and (source is None or source.format != "c3d"):
+        note = _float32_note(markers, path, inp)
+        if note:
+            notes.append(note)
     if kind == "trc":
         from .trc import trc_notes
 
@@ -241,6 +245,25 @@ def marker_notes(markers: MarkerSet, path, inp=None, *, keep_modelled: bool = Fa
         notes.append(f"{path}: not written, as {fmt} cannot hold them: the input's {what}"
                      + (f" ({keep})" if keep else ""))
     return notes
+
+
+def _float32_note(markers: MarkerSet, path: Path, inp) -> str | None:
+    """The line saying how many coordinates of ``markers`` a C3D at ``path`` rounds: a C3D stores them as 32-bit
+    floats (the data block of a float file: "The C3D File Format User Guide", c3d.org), and a TRC's text or an
+    npz holds more digits (BTK's T.trc: 1639.63722 mm is stored as 1639.6372 mm, 5,521 of its 10,947 coordinates
+    up to 6e-05 mm off). None where every coordinate is a 32-bit float already (a take read from a C3D)."""
+    import numpy as np
+
+    pos = np.asarray(markers.positions, dtype=np.float64)
+    seen = np.isfinite(pos)
+    with np.errstate(over="ignore"):
+        off = np.abs(pos[seen].astype(np.float32).astype(np.float64) - pos[seen])
+    rounded = int(np.count_nonzero(off))
+    if not rounded:
+        return None
+    return (f"{path}: C3D stores coordinates as 32-bit floats: {rounded:,} of {off.size:,} coordinates of "
+            f"{inp if inp is not None else 'the take'} are rounded to the nearest, up to {float(np.max(off)):.2g} "
+            f"{markers.units} off (a .trc or .npz output keeps them)")
 
 
 def motion_notes(motion, path, like=None) -> list[str]:
