@@ -251,15 +251,21 @@ def clean_file(
     def held(res):
         from .io.amc_writer import file_dofs  # sizes, report and record say what the AMC holds (dec.as_written)
         from .io.asfamc import amc_held_rotations
+        from .io.euler_branches import bvh_held_rotations  # or a BVH whose hinges hold one or two angles
 
-        dofs = file_dofs(m, asf, inp)  # the layout io.save writes below
+        dofs = file_dofs(m, asf, inp) if out.suffix.lower() == ".amc" else None  # the layout io.save writes below
         try:
-            return dec.as_written(res, m, lambda take: amc_held_rotations(take, dofs))
+            return dec.as_written(res, m, (lambda take: amc_held_rotations(take, dofs)) if dofs is not None
+                                  else bvh_held_rotations)
         except MocapFormatError:
             raise
         except MocapError as exc:  # a record without its cleaned samples
             raise MocapError(f"{record}: {exc}") from None
 
+    from .io.euler_branches import partial_rotation_joints
+
+    # an output that cannot hold every rotation: an AMC (bones of fewer dofs), a BVH of one- or two-channel joints
+    partial = out.suffix.lower() == ".amc" or (out.suffix.lower() == ".bvh" and bool(partial_rotation_joints(m.skeleton)))
     chosen = decided = None
     if doc is not None:  # the checks and order of the library's clean_and_decide
         from .cleaning.decide import decide_take
@@ -268,10 +274,10 @@ def clean_file(
                                            request=request, take=inp.name,
                                            option=dec.RECORD_FLAG if flags else dec.RECORD_KEYWORD,
                                            prepared=prepared, named=record,
-                                           held=held if out.suffix.lower() == ".amc" else None, source=inp)
+                                           held=held if partial else None, source=inp)
     else:
         res = prepared(cleaning())
-        res = held(res) if out.suffix.lower() == ".amc" else res
+        res = held(res) if partial else res
     cleaned = res.motion if decided is None else decided.motion
     filled_rejected = decided is not None and bool((res.filled & ~decided.filled).any())
     io.check_complete(cleaned, out, "the cleaned take still has missing joints (NaN)",

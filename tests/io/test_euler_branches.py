@@ -297,3 +297,61 @@ def _nearest_triple(b, a):
         cands = np.array(cands)
         out.append(cands[np.argmin(np.abs(cands - ref).sum(axis=1))])
     return np.array(out).reshape(b.shape)
+
+
+def _hinged(tmp_path):
+    """The bundled CMU start with LeftLeg declared as a hinge, ``CHANNELS 1 Xrotation`` (its X angle kept)."""
+    lines = START_01_01.read_text().splitlines()
+    at = [i for i, t in enumerate(lines) if "CHANNELS" in t][3]  # LeftLeg: columns 12-14 (Z Y X)
+    lines[at] = lines[at].replace("CHANNELS 3 Zrotation Yrotation Xrotation", "CHANNELS 1 Xrotation")
+    body = lines.index(next(t for t in lines if t.startswith("Frame Time"))) + 1
+    for i in range(body, len(lines)):
+        v = lines[i].split()
+        lines[i] = " ".join(v[:12] + v[14:])
+    path = tmp_path / "hinged.bvh"
+    path.write_text("\n".join(lines) + "\n")
+    return path
+
+
+def test_a_bvh_hinge_holds_only_its_axis(tmp_path):
+    """A joint declaring one rotation channel holds only its angle about that axis: bvh_held_rotations is the
+    rotation the file reads back as (a 30 deg turn about Z is gone), every other joint as given."""
+    import dataclasses
+
+    import mocapkit
+    from mocapkit import rotations as R
+    from mocapkit.io.euler_branches import bvh_held_rotations, partial_rotation_joints
+
+    m = mocapkit.load(_hinged(tmp_path))
+    j = m.skeleton.joint_names.index("LeftLeg")
+    assert partial_rotation_joints(m.skeleton) == [j]
+    rot = np.array(m.rotations)
+    rot[10:20, j] = R.quaternion_multiply(rot[10:20, j], R.euler_to_quaternion(np.array([0.0, 0.0, 30.0]), "XYZ"))
+    turned = dataclasses.replace(m, rotations=rot)
+    mocapkit.save(turned, tmp_path / "turned.bvh")
+    back = np.array(mocapkit.load(tmp_path / "turned.bvh").rotations)
+    held = bvh_held_rotations(turned)
+    assert np.allclose(np.abs(np.sum(held * back, axis=-1)), 1.0, rtol=0, atol=1e-12)
+    assert np.abs(np.sum(held[10:20, j] * rot[10:20, j], axis=-1)).min() < 0.99
+    np.testing.assert_array_equal(np.delete(held, j, axis=1), np.delete(rot, j, axis=1))
+
+
+def test_a_cleaning_written_to_a_bvh_hinge_records_what_the_file_holds(tmp_path):
+    """Before 0.15.0, `clean` to a BVH with a one-channel joint recorded the denoised hinge's cleaned rotation
+    (off its axis by up to 0.41 deg on this take with noise) while the file held only its X angle: the record,
+    the report and the decisions said what the file did not hold. Now each changed cell's cleaned rotation is
+    the one the file reads back as (as for an AMC bone of fewer dofs)."""
+    import mocapkit
+    from mocapkit.batch import clean_file
+    from mocapkit.corrupt import corrupt
+
+    m = mocapkit.load(_hinged(tmp_path))
+    noisy = tmp_path / "noisy.bvh"
+    mocapkit.save(corrupt(m, "noise", seed=3)[0], noisy)
+    out = tmp_path / "clean.bvh"
+    clean_file(noisy, out, steps=("denoise",))
+    z = np.load(tmp_path / "clean.clean.npz")
+    j = m.skeleton.joint_names.index("LeftLeg")
+    assert z["changed"][:, j].any()
+    written = np.array(mocapkit.load(out).rotations)[z["changed"]]
+    assert np.allclose(np.abs(np.sum(z["cleaned_rotations"] * written, axis=-1)), 1.0, rtol=0, atol=1e-9)

@@ -15,8 +15,8 @@ import numpy as np
 
 from .. import rotations as R
 
-__all__ = ["MEASURED_TOLERANCE_DEG", "NEAR_SOURCE_DEG", "bridged", "continuous_rotations", "measured_text",
-           "partly_missing", "source_branches", "three_axis_groups"]
+__all__ = ["MEASURED_TOLERANCE_DEG", "NEAR_SOURCE_DEG", "bridged", "bvh_held_rotations", "continuous_rotations",
+           "measured_text", "partly_missing", "partial_rotation_joints", "source_branches", "three_axis_groups"]
 
 #: Degrees: a changed cell whose rotation stays this close to the source file's is written on the branch nearest the
 #: file's numbers of that cell; one turned further (a flip repaired) follows its neighbours (continuous_euler's max_step).
@@ -161,3 +161,28 @@ def three_axis_groups(skeleton) -> list[tuple[str, np.ndarray]]:
             groups.setdefault("".join(chans[k - start][0] for k in rot), []).append(rot)
         start += len(chans)
     return [(order, np.array(cols, dtype=np.int64)) for order, cols in groups.items()]
+
+
+def partial_rotation_joints(skeleton) -> list[int]:
+    """The joints of a BVH skeleton (``axes`` None) declaring one or two rotation channels (a hinge's
+    ``CHANNELS 1 Xrotation``): a BVH written on that layout holds only the rotations about those axes."""
+    if skeleton.axes is not None:
+        return []
+    return [j for j in range(skeleton.num_joints) if 0 < len(skeleton.rotation_order(j)) < 3]
+
+
+def bvh_held_rotations(motion) -> np.ndarray:
+    """The local rotations (F, J, 4) a BVH written for ``motion`` reads back as: a joint declaring one or two
+    rotation channels (:func:`partial_rotation_joints`) holds its rotation's angles about those axes and drops
+    the rest (:meth:`mocapkit.motion.Motion.channel_values`, read back by ``from_channel_values``), as an AMC bone
+    with fewer than three dofs does (:func:`mocapkit.io.asfamc.amc_held_rotations`): what a cleaning written as
+    that BVH measures and records its changes with (:func:`mocapkit.cleaning.decisions.as_written`). Other joints
+    and missing (NaN) cells are returned as given."""
+    rot = np.array(motion.rotations, dtype=np.float64)
+    for j in partial_rotation_joints(motion.skeleton):
+        order = motion.skeleton.rotation_order(j)
+        q = rot[:, j]
+        seen = np.isfinite(q).all(axis=-1)
+        if seen.any():
+            q[seen] = R.euler_to_quaternion(R.quaternion_to_euler(q[seen], order), order)
+    return rot
