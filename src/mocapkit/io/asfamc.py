@@ -44,7 +44,7 @@ import numpy as np
 from .. import rotations as R
 from ..errors import MocapFormatError, SkeletonError
 from ..motion import MAX_JOINTS, Motion, Skeleton, check_fps
-from .sources import remember
+from .sources import bom_length, remember
 
 __all__ = ["read_asf", "read_amc", "read_amc_numbers", "amc_table_arrays", "asf_dofs", "amc_dofs", "amc_held_rotations",
            "amc_header", "find_asf", "pick_asf", "fps_from_name", "amc_rate", "stated_fps", "rate_comment", "with_rate",
@@ -79,7 +79,8 @@ class _Layout:
 
 def _read_text(path: Path) -> str:
     try:
-        return path.read_bytes().decode("latin-1")
+        data = path.read_bytes()
+        return data[bom_length(data):].decode("latin-1")  # a byte-order mark is not text
     except OSError as exc:
         raise MocapFormatError(path, f"cannot read: {exc.strerror or exc}") from None
 
@@ -495,7 +496,7 @@ def stated_fps(data: bytes) -> float | None:
     other programs skip them (``#`` starts an Acclaim comment).
     """
     body_at = amc_header(data)[0]
-    for line in data[:body_at].splitlines():
+    for line in data[bom_length(data):body_at].splitlines():
         m = _RATE_LINE.match(line.strip())
         if m is not None:
             return float(m.group(1))
@@ -532,7 +533,8 @@ def amc_comment_lines(data: bytes) -> int:
     """How many lines of an AMC's text ``data`` hold a comment (``#`` to the line's end, an Acclaim comment: the
     ``#!OML:ASF`` line CMU and HDM05 files start with, a frame line's trailing note), mocapkit's rate line
     (:func:`rate_comment`) not counted: a writer states the rate of the take it writes."""
-    return sum(b"#" in line and _RATE_LINE.match(line.strip()) is None for line in data.splitlines())
+    return sum(b"#" in line and _RATE_LINE.match(line.strip()) is None
+               for line in data[bom_length(data):].splitlines())
 
 
 def rate_comment(fps: float) -> str:
@@ -551,8 +553,12 @@ def with_rate(header: str, fps: float, path) -> str:
     ``header`` itself when the file would be read at ``fps`` already (:func:`amc_rate` of its stated rate, the
     name's, or the default 120) and, for a file stating none, ``fps`` is the default 120 too (so a renamed copy
     keeps it); else ``header`` with mocapkit's rate line (:func:`rate_comment`) first and any earlier one removed
-    (only removed at 120 fps): a 120 fps AMC is written as before, byte for byte.
+    (only removed at 120 fps): a 120 fps AMC is written as before, byte for byte. A byte-order mark the header
+    starts with (:data:`~mocapkit.io.sources.BOM`, as latin-1 text) stays first.
     """
+    mark = header[:bom_length(header.encode("latin-1", "replace"))]
+    if mark:
+        return mark + with_rate(header[len(mark):], fps, path)
     data = header.encode("latin-1", "replace")
     stated = stated_fps(data)
     named = fps_from_name(Path(path).stem)
@@ -570,8 +576,9 @@ def with_rate(header: str, fps: float, path) -> str:
 
 
 def amc_header(data: bytes) -> tuple[int, int, bool | None]:
-    """(byte offset of the body, its 1-based first line, radians flag or None if unstated)."""
-    pos = 0
+    """(byte offset of the body, its 1-based first line, radians flag or None if unstated); a byte-order mark
+    before the first line (:func:`~mocapkit.io.sources.bom_length`) is skipped, and counted in the offset."""
+    pos = bom_length(data)
     line = 1
     radians = None
     n = len(data)

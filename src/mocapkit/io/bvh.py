@@ -41,7 +41,7 @@ from .bvh_comments import anchored, comment_lines, keyword_count, motion_comment
 from .bvh_roots import COMMENT, Layout, around_take, is_comment, layout
 from .euler_branches import NEAR_SOURCE_DEG, continuous_rotations, measured_text
 from .kept_channels import kept_comments, kept_header, kept_text, kept_values
-from .sources import recall, remember
+from .sources import bom_length, recall, remember
 
 from numba import njit
 
@@ -330,7 +330,7 @@ def _parse_header(path: Path, data: bytes):
     match, the MOTION line)."""
     m = _MOTION_RE.search(data)
     head_end = m.start() if m else len(data)
-    header = data[:head_end].decode("utf-8", errors="replace")
+    header = data[bom_length(data):head_end].decode("utf-8", errors="replace")  # a byte-order mark is not text
     motion_line = header.count("\n") + 1 if m else None
     parsed = _parse_hierarchy(path, header, motion_line)
     return parsed, layout(parsed[0], parsed[3], parsed[6]), m, motion_line

@@ -22,10 +22,23 @@ from pathlib import Path
 
 from ..errors import MocapFormatError
 
-__all__ = ["remember", "recall", "forget", "MAX_KEPT_BYTES", "MAX_DIGESTS"]
+__all__ = ["remember", "recall", "forget", "MAX_KEPT_BYTES", "MAX_DIGESTS", "BOM", "bom_length"]
 
 MAX_KEPT_BYTES = 64 << 20  # the bytes of the files read last, in all (a take: a few MB)
 MAX_DIGESTS = 100_000  # digests of the files read (a corpus read for a database), about 100 bytes each
+
+BOM = b"\xef\xbb\xbf"
+"""The UTF-8 byte-order mark some Windows tools write before a text file's first line (BVH, TRC, ASF, AMC)."""
+
+
+def bom_length(data: bytes) -> int:
+    """How many bytes of a text file's ``data`` are its UTF-8 byte-order mark (:data:`BOM`): 3 or 0.
+
+    The mark is no part of the file's first line: the readers parse the text after it, and the writers that keep a
+    file's text (the bytes kept here) keep it too, so such a file written back unchanged is byte for byte the same.
+    """
+    return len(BOM) if data[:len(BOM)] == BOM else 0
+
 
 _lock = threading.Lock()
 _kept: OrderedDict[str, bytes] = OrderedDict()

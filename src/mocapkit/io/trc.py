@@ -23,6 +23,7 @@ from ..markerset import (MODELLED_GROUPS, MarkerSet, MarkerSource, marker_units,
 from ..motion import check_fps
 from .c3d import apply_zero_gaps, checked_unit_cm
 from .c3d_trial import trial_rate, written_first
+from .sources import bom_length
 
 __all__ = ["read_trc", "write_trc", "trc_notes", "TRC_DECIMALS", "MODELLED_KEY", "modelled_field"]
 
@@ -121,7 +122,7 @@ def read_trc(path, zeros_as_gaps: bool | None = None, units: str | None = None) 
     path = Path(path)
     try:
         raw = path.read_bytes()
-        text = raw.decode("utf-8", errors="replace")
+        text = raw[bom_length(raw):].decode("utf-8", errors="replace")  # a byte-order mark is not text
     except OSError as exc:
         raise MocapFormatError(path, f"cannot read: {exc.strerror or exc}") from None
     lines = text.splitlines()
