@@ -105,6 +105,7 @@ def denoise(
     from ..cleaning.pipeline import capped_lines, noise_fit_frames
     from ..cleaning.whole_take import denoise_take
     from ..cleaning.zeros import find_zeros
+    from ..io.euler_branches import bvh_written
     from ..io.takes import CLI_AMC_NAMES, check_asf
     from ..metrics import joint_angle_rms
     from ..reference import joint_angle_errors
@@ -124,6 +125,7 @@ def denoise(
         cleaned, method, note = denoise_take(m, net, options={"ebf": "--model"}, zeros=zeros)
     except SkeletonError as exc:
         raise MocapError(f"{inp}: {exc}") from None
+    cleaned = bvh_written(m, cleaned, out)  # a BVH hinge holds its axis' angle: what is written is reported
     save_take(cleaned, out, inp, asf, overwrite, like=inp)
     if note:
         console.print(f"warning: {inp}: {note}")
@@ -171,6 +173,7 @@ def fill(
     from ..cleaning.pipeline import capped_lines
     from ..cleaning.whole_take import fill_take
     from ..cleaning.zeros import as_missing, find_zeros
+    from ..io.euler_branches import bvh_written
     from ..io.takes import CLI_AMC_NAMES, check_asf
     from ..reference import filled_error_deg
 
@@ -205,7 +208,7 @@ def fill(
                          zeros=zeros)
     except (SkeletonError, ValueError) as exc:
         raise MocapError(f"{inp}: {exc}") from None
-    filled, method = done.motion, done.method
+    filled, method = bvh_written(m, done.motion, out), done.method  # a BVH hinge holds its axis' angle
     save_take(filled, out, inp, asf, overwrite, like=inp)
     for said in (done.note, *done.warnings):
         if said:

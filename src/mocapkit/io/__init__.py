@@ -11,6 +11,7 @@ folder and rename it, so a failed or interrupted write leaves no partial file.
 from __future__ import annotations
 
 import os
+import warnings
 import stat
 import tempfile
 from contextlib import contextmanager
@@ -377,6 +378,12 @@ def save(motion, path, like=None, asf=None, overwrite: bool | None = None, copy_
     with it (else refused). A take whose skeleton's ASF is not known (one read from
     .npz) is read back with ``load(path, asf=...)``. A :class:`~mocapkit.markerset.MarkerSet` is
     written by :func:`save_markers` (.c3d, .trc, .npz; ``like`` as there).
+
+    A BVH holds a joint declaring one or two rotation channels (a hinge's ``CHANNELS 1 Xrotation``) only by its
+    angles about those axes: where ``motion`` turns such a joint about another axis too (``mocapkit.clean``'s
+    result, which does not know the output's format), the file drops that part and a :class:`UserWarning` says
+    how many rotations and how much at most (:func:`mocapkit.io.euler_branches.off_axis_note`);
+    :func:`mocapkit.io.euler_branches.bvh_written` puts the changed ones on the axes first, as the commands do.
     """
     from ..motion import Motion
 
@@ -395,8 +402,12 @@ def save(motion, path, like=None, asf=None, overwrite: bool | None = None, copy_
     like = like or None
     if kind == "bvh":
         from .bvh import write_bvh
+        from .euler_branches import off_axis_note
 
         write_bvh(motion, path, like=like, **kwargs)
+        lost = off_axis_note(motion, path)  # a hinge's rotation about other axes: a BVH cannot hold it, said
+        if lost:
+            warnings.warn(lost, UserWarning, stacklevel=2)
     elif kind == "amc":
         from .amc_writer import check_amc_writable, write_amc
         from .outputs import removed_on_failure

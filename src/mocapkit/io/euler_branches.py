@@ -15,8 +15,9 @@ import numpy as np
 
 from .. import rotations as R
 
-__all__ = ["MEASURED_TOLERANCE_DEG", "NEAR_SOURCE_DEG", "bridged", "bvh_held_rotations", "continuous_rotations",
-           "measured_text", "partly_missing", "partial_rotation_joints", "source_branches", "three_axis_groups"]
+__all__ = ["MEASURED_TOLERANCE_DEG", "NEAR_SOURCE_DEG", "OFF_AXIS_DEG", "bridged", "bvh_held_rotations", "bvh_written",
+           "continuous_rotations", "measured_text", "off_axis_note", "partly_missing", "partial_rotation_joints",
+           "source_branches", "three_axis_groups"]
 
 #: Degrees: a changed cell whose rotation stays this close to the source file's is written on the branch nearest the
 #: file's numbers of that cell; one turned further (a flip repaired) follows its neighbours (continuous_euler's max_step).
@@ -186,3 +187,59 @@ def bvh_held_rotations(motion) -> np.ndarray:
         if seen.any():
             q[seen] = R.euler_to_quaternion(R.quaternion_to_euler(q[seen], order), order)
     return rot
+
+
+def bvh_written(original, motion, path):
+    """``motion`` (an operation's output of ``original``, the same frames and joints) as a BVH at ``path`` holds
+    it: each rotation of a joint declaring one or two rotation channels (:func:`partial_rotation_joints`) that
+    differs from ``original``'s put on its channels' axes (:func:`bvh_held_rotations`), every other value as
+    given (an unchanged cell bit for bit). What ``fill``, ``denoise`` and ``repair`` write to a BVH and report
+    from, as ``clean`` does (:func:`mocapkit.cleaning.decisions.as_written`). ``motion`` itself for another
+    output format or a skeleton without such joints."""
+    import dataclasses
+    from pathlib import Path
+
+    joints = partial_rotation_joints(motion.skeleton)
+    if Path(path).suffix.lower() != ".bvh" or not joints:
+        return motion
+    rot = np.array(motion.rotations, dtype=np.float64)
+    held = bvh_held_rotations(motion)[:, joints]
+    was = np.asarray(original.rotations, dtype=np.float64)
+    if was.shape != rot.shape:  # another take: every cell of those joints is the file's
+        rot[:, joints] = held
+    else:
+        a, b = rot[:, joints], was[:, joints]
+        changed = np.any((a != b) & ~(np.isnan(a) & np.isnan(b)), axis=-1)
+        rot[:, joints] = np.where(changed[..., None], held, a)
+    return dataclasses.replace(motion, rotations=rot)
+
+
+#: Degrees: a rotation of a one- or two-channel joint further than this from its channels' axes loses that part in
+#: a BVH (:func:`off_axis_note`); rounding of the Euler round trip is far below it.
+OFF_AXIS_DEG = 1e-6
+
+
+def off_axis_note(motion, path) -> str | None:
+    """The line saying how many rotations of ``motion`` a BVH at ``path`` cannot hold and by how much at most: those
+    of joints declaring one or two rotation channels (:func:`partial_rotation_joints`) that turn about another axis
+    by more than :data:`OFF_AXIS_DEG` (the BVH keeps the angles about the declared axes: :func:`bvh_held_rotations`).
+    None for another format or where there are none (a take read from such a BVH and changed only by putting the
+    changed cells on the axes: :func:`bvh_written`)."""
+    from pathlib import Path
+
+    joints = partial_rotation_joints(motion.skeleton)
+    if Path(path).suffix.lower() != ".bvh" or not joints:
+        return None
+    a = np.asarray(motion.rotations, dtype=np.float64)[:, joints]
+    b = bvh_held_rotations(motion)[:, joints]
+    chord = np.linalg.norm(a - np.where(np.sum(a * b, axis=-1, keepdims=True) < 0, -b, b), axis=-1)
+    with np.errstate(invalid="ignore"):
+        off = np.degrees(4.0 * np.arcsin(np.clip(chord / 2.0, 0.0, 1.0)))
+    lost = off > OFF_AXIS_DEG  # NaN (missing): not counted
+    n = int(lost.sum())
+    if not n:
+        return None
+    names = [motion.skeleton.joint_names[joints[k]] for k in np.flatnonzero(lost.any(axis=0))]
+    return (f"{path}: {n:,} rotation{'s' if n > 1 else ''} of {', '.join(names[:4])}{' ...' if len(names) > 4 else ''}"
+            f" (one or two rotation channels) turn about other axes too, up to {float(off[lost].max()):.2g} deg: the BVH"
+            " holds only the angles about the declared axes, that part is not written")
