@@ -640,3 +640,24 @@ def test_an_amc_written_from_an_npz_says_it_reads_back_only_with_asf(tmp_path):
     assert np.array_equal(back.rotations, mocapkit.load(amc).rotations)
     code, said, _ = run("convert", amc, tmp_path / "b" / "again.amc")  # its ASF copied beside it: nothing to say
     assert code == 0 and "no ASF beside it" not in said and "copied the skeleton" in said
+
+
+@pytest.mark.parametrize("args", [
+    ("convert", SAMPLE, "{out}/x.bvh/"),
+    ("corrupt", SAMPLE, "{out}/x.npz/", "--kind", "noise"),
+    ("clean", SAMPLE, "-o", "{out}/x.bvh/"),
+    ("clean", SAMPLE, "-o", "{out}/x.bvh", "--report", "{out}/r.html/"),
+    ("denoise", SAMPLE, "--out={out}/x.bvh/"),
+    ("detect", SAMPLE, "-o", "{out}/x.npz/"),
+    ("repair", SAMPLE, "-o", "{out}/x.bvh/"),
+    ("plot", SAMPLE, SAMPLE, "--joint", "Hips", "-o", "{out}/x.png/"),
+])
+def test_an_output_path_ending_with_a_slash_is_refused_naming_it(tmp_path, args):
+    """`convert a.bvh out/x.bvh/` named a folder; before 0.15.0 it wrote out/x.bvh (the slash is lost once typer
+    makes a Path of it). Every command's output guard (cli.common.guard -> io.outputs.check_outputs) refuses it in
+    one line naming the path as typed, before any work."""
+    words = [a.format(out=tmp_path / "o") for a in args]
+    code, _, err = run(*words)
+    typed = next(w.split("=", 1)[-1] for w in words if w.endswith("/"))
+    assert code == 2 and one_error_line(err) and f"{typed}: ends with a path separator" in err, err
+    assert not (tmp_path / "o").exists()

@@ -134,7 +134,9 @@ def main(argv: list[str] | None = None) -> int:
 def _run_app(argv: list[str] | None) -> int:
     """:func:`main`'s work: the app run, every failure turned into its line and exit status."""
     from ..interrupts import interrupts_as_keyboard_interrupt
+    from .common import GIVEN_ARGS
 
+    GIVEN_ARGS.set(tuple(sys.argv[1:] if argv is None else argv))  # an output path as typed (common.as_typed)
     try:
         with interrupts_as_keyboard_interrupt():  # SIGTERM too, so atomic writes clean up (see mocapkit.interrupts)
             result = app(args=argv, standalone_mode=False)

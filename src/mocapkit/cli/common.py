@@ -11,7 +11,10 @@ from __future__ import annotations
 
 import inspect
 import math
+import os
 import re
+from contextvars import ContextVar
+from pathlib import Path
 from typing import Iterable, Optional
 
 import typer
@@ -246,7 +249,24 @@ def guard(outputs: Iterable, inputs: Iterable, overwrite: bool = False) -> None:
             flat.extend(i)
         else:
             flat.append(i)
-    check_outputs(outputs, flat, overwrite=overwrite, how="pass --overwrite")
+    check_outputs([as_typed(o) for o in outputs], flat, overwrite=overwrite, how="pass --overwrite")
+
+
+#: The command line's words as typed (set by :func:`mocapkit.cli.main`): a path option's value as the user wrote
+#: it, which the Path typer makes of it no longer shows (``out/x.bvh/`` becomes ``out/x.bvh``).
+GIVEN_ARGS: ContextVar[tuple[str, ...]] = ContextVar("mocapkit_given_args", default=())
+
+
+def as_typed(path):
+    """``path`` (a command's output Path) as the user typed it where that ends with a path separator (the user named
+    a folder, which :func:`mocapkit.io.outputs.check_outputs` refuses); else ``path``."""
+    if path is None:
+        return None
+    for word in GIVEN_ARGS.get():
+        value = word.split("=", 1)[1] if word.startswith("-") and "=" in word else word
+        if value.endswith(tuple({"/", os.sep})) and len(value) > 1 and Path(value) == Path(path):
+            return value
+    return path
 
 
 def plural(n: int, word: str, many: str | None = None) -> str:

@@ -81,7 +81,8 @@ def check_outputs(
 
     Parameters
     ----------
-    outputs : paths the caller will write (``None`` entries are ignored).
+    outputs : paths the caller will write (``None`` entries are ignored); a text ending with a path separator
+        (``out/x.bvh/``) names a folder and is refused, not written as ``out/x.bvh``.
     inputs : every path the caller reads: files and folders (``None`` ignored).
         An output equal to an input file, or inside an input folder, is refused; an output
         equal to an input that does not exist is refused naming the missing input.
@@ -94,6 +95,9 @@ def check_outputs(
     MocapFormatError
         One line naming the output and what is wrong with it.
     """
+    for o in outputs:  # "out/x.bvh/": the user named a folder; a Path made of it has lost the slash
+        if isinstance(o, str) and o.endswith(tuple({"/", os.sep})):
+            raise MocapFormatError(o, "ends with a path separator, which names a folder; give a file path for this output")
     outs = [Path(o) for o in outputs if o is not None]
     ins = [Path(i) for i in inputs if i is not None]
     seen: list[Path] = []
