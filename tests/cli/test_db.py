@@ -118,6 +118,18 @@ def test_db_build_names_fps(tmp_path):
     assert not db_dir.exists()
 
 
+def test_db_build_names_features_before_any_work(tmp_path):
+    """Before 0.15.0 an unknown --features printed "building from 1 path ..." and then refused the Python
+    "unknown feature set 'F99'", without naming the option."""
+    db_dir = tmp_path / "db"
+    for given, got in (("F99", "got F99"), ("F15,F99", "got F99"), (",", "got ','")):
+        code, out, err = run("db", "build", str(db_dir), str(mocapkit.samples.path("12_walk.amc")), "--features", given)
+        assert code == 2 and one_error_line(err) and out == "", (out, err)
+        assert ("--features must be one or more of F15, F30, F39, F15x3, F15x5, F30x3, F39x3 (comma-separated), "
+                + got) in err, err
+    assert not db_dir.exists()
+
+
 def test_search_clamps_end_and_names_k_and_neighbors(tmp_path):
     db_dir = tmp_path / "db"
     assert main(["db", "build", str(db_dir), *_db_sources()[:2], "--executor", "serial"]) == 0

@@ -22,7 +22,17 @@ db_app = typer.Typer(
 
 
 def _feature_list(text: str) -> tuple[str, ...]:
-    return tuple(t.strip() for t in text.split(",") if t.strip())
+    """The feature sets ``--features`` names (comma-separated); one it does not know, or none, is refused in one
+    line naming the option and the accepted values, before any work."""
+    from ..features import FEATURE_SETS, WINDOWED_SETS
+
+    names = tuple(t.strip() for t in text.split(",") if t.strip())
+    known = list(FEATURE_SETS) + list(WINDOWED_SETS)
+    bad = [n for n in names if n not in known]
+    if bad or not names:
+        got = f"got {', '.join(bad)}" if bad else f"got {text!r}"
+        raise MocapError(f"--features must be one or more of {', '.join(known)} (comma-separated), {got}")
+    return names
 
 
 @db_app.command("build", cls=FlagsCommand)
@@ -49,6 +59,7 @@ def db_build(
     if not FPS_RANGE[0] <= fps <= FPS_RANGE[1]:  # before any work, naming the option (a database's own range)
         raise MocapError(f"--fps must be a positive number from {FPS_RANGE[0]:g} to {FPS_RANGE[1]:g} (frames per second) "
                          f"for a database, got {fps:g}")
+    feature_names = _feature_list(features)  # before any work, naming the option
     check_database_output(out_dir, [*files, *([joint_map] if joint_map is not None else [])], overwrite=overwrite,
                           how="pass --overwrite")
     if asf is not None or amc_fps is not None:
@@ -60,7 +71,7 @@ def db_build(
     jm = read_joint_map(joint_map) if joint_map is not None else None
     console.print(f"building from {plural(len(files), 'path')} on {describe_executor(executor)}")
     try:
-        db = MotionDatabase.build(files, fps=fps, features=_feature_list(features), mirror=mirror, joint_map=jm,
+        db = MotionDatabase.build(files, fps=fps, features=feature_names, mirror=mirror, joint_map=jm,
                                   executor=executor, asf=asf, amc_fps=amc_fps, executor_option="--executor")
     except ValueError as exc:
         raise MocapError(str(exc)) from None
