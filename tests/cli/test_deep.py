@@ -867,3 +867,13 @@ def test_train_names_unit_as_the_command_line_does(tmp_path):
     assert code == 2 and one_error_line(err), err
     assert f"{walk}: the file states its length unit (5.644 cm), not mm: --unit is for a file that states none" in err
     assert "unit=" not in err and not (tmp_path / "ebf").exists()
+
+
+@pytest.mark.parametrize("args", [("denoise", "--model", "ebf_bandai.pt"), ("clean", "--ebf", "ebf_bandai.pt")])
+def test_a_shipped_model_refused_for_a_rig_is_named_as_typed(tmp_path, args):
+    """Before 0.15.0 the refusal named the installed copy (.../site-packages/mocapkit/models/ebf_bandai.pt), not
+    the name the user gave."""
+    command, option, name = args
+    code, _, err = run(command, SAMPLE, "-o", str(tmp_path / "d.bvh"), option, name)
+    assert code == 2 and one_error_line(err) and f": the EBF {name} cannot serve this take:" in err, err
+    assert "models/" not in err and not (tmp_path / "d.bvh").exists()

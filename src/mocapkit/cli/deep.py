@@ -70,7 +70,7 @@ def _no_fallback_option():
                                                      "not serve this rig (see docs/guide/deep-models.md).")
 
 
-def _served(inp: Path, motion, net, kind: str, no_fallback: bool):
+def _served(inp: Path, motion, net, kind: str, no_fallback: bool, given: Optional[Path] = None):
     """The one-line error naming ``inp`` when a model named by ``--model`` (``net``), or with ``--no-fallback`` the
     shipped one, does not serve the take: a named model is used or refused (:func:`mocapkit.cleaning.deep.refusal`)."""
     from ..cleaning import deep
@@ -78,7 +78,7 @@ def _served(inp: Path, motion, net, kind: str, no_fallback: bool):
     if net is not None or no_fallback:
         sv = deep.served_by(motion, net if net is not None else deep.shipped_model(kind, motion))
         if isinstance(sv, str) and net is not None:
-            raise MocapError(f"{inp}: {deep.refusal(net, sv)}")
+            raise MocapError(f"{inp}: {deep.refusal(net, sv, given)}")  # the model named as typed
         if isinstance(sv, str):
             raise MocapError(f"{inp}: the shipped {kind.upper()} does not serve this rig ({sv})")
 
@@ -119,7 +119,7 @@ def denoise(
     io.check_writable(m, out)
     ref = _reference(reference, m, asf, amc_fps, unit)
     net = _model(model, "ebf")  # torch: only once the input is read (a bad file fails at once)
-    _served(inp, m, net, "ebf", no_fallback)
+    _served(inp, m, net, "ebf", no_fallback, model)
     zeros = find_zeros(m)  # channels written as 0 where the capture lost data: left as written, as clean leaves them
     try:  # the path clean's denoise step takes
         cleaned, method, note = denoise_take(m, net, options={"ebf": "--model"}, zeros=zeros)
@@ -201,7 +201,7 @@ def fill(
     never = [m.skeleton.joint_names[j] for j in np.flatnonzero(missing.all(axis=0))]
     if never:
         raise MocapError(f"{inp}: joint(s) {', '.join(never[:4])} are missing in every frame; nothing to fill them from")
-    _served(inp, m, ebd, "ebd", no_fallback)
+    _served(inp, m, ebd, "ebd", no_fallback, model)
     try:  # the path clean's fill step takes; an own-rig EBD's pair beside it is found there, said in done.note
         # as clean says it (a warning line: a model file the command was not given)
         done = fill_take(m, ebd, ebf, smooth=smooth, method=by, options={"ebd": "--model", "ebf": "--denoiser"},

@@ -774,12 +774,14 @@ FALLBACK_FILL = "cubic spline"
 FALLBACK_DENOISE = "Savitzky-Golay (0.1 s)"
 
 
-def refusal(model: DeepModel, why: str) -> SkeletonError:
+def refusal(model: DeepModel, why: str, given=None) -> SkeletonError:
     """The error for a model the user named (a file, a shipped name or a model object) that cannot serve a take:
-    one line naming the model's file (``model.source``; "the given EBF" for a model made in memory) and ``why``.
+    one line naming the model as ``given`` (the file or shipped name the user typed: ``ebf_bandai.pt``, not the
+    installed copy's path), else its file (``model.source``; "the given EBF" for a model made in memory), and ``why``.
     A named model is used or refused, never replaced by the fallback: that is for the shipped models chosen by
     the take's rig (:func:`denoise_or_fallback`, :func:`fill_or_fallback`)."""
-    what = f"the {model.kind.upper()} {model.source}" if model.source else f"the given {model.kind.upper()}"
+    name = str(given) if isinstance(given, (str, Path)) else model.source
+    what = f"the {model.kind.upper()} {name}" if name else f"the given {model.kind.upper()}"
     return SkeletonError(f"{what} cannot serve this take: {why}")
 
 
@@ -805,7 +807,7 @@ def served_or_refused(motion: Motion, model, kind: str):
     m = model_of_kind(model, kind, motion)
     sv = served_by(motion, m)
     if isinstance(sv, str) and model is not None:
-        raise refusal(m, sv)
+        raise refusal(m, sv, model)  # named as given
     return m, sv
 
 
@@ -877,7 +879,7 @@ def fill_or_fallback(motion: Motion, model=None, denoiser=None, smooth: bool = T
             return out, how, "; ".join(notes)
         except ValueError as exc:
             if model is not None:
-                raise refusal(m, str(exc)) from None
+                raise refusal(m, str(exc), model) from None
             why = str(exc)
     else:
         why = sv
