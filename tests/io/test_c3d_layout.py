@@ -155,3 +155,23 @@ def test_data_start_keeps_its_description(tmp_path):
     assert was["description"] == "* First record of video/analog data"
     assert (now["description"], now["is_locked"]) == (was["description"], was["is_locked"])
     assert int(now["value"][0]) == _header(out.read_bytes())[1] == _header(path.read_bytes())[1]
+
+
+@pytest.mark.parametrize("name", ["ADemo1_rewrite_c3d_pc_float.c3d", "Qualisys.c3d"])
+def test_the_fallback_reader_keeps_the_stored_analog_numbers_as_ezc3d_does(tmp_path, shared_data, monkeypatch, name):
+    """Without ezc3d the ``c3d`` package reads the file; it scales the analog samples in float32, and before
+    0.15.0 it kept no stored numbers (``MarkerSource.analog_numbers`` None), so a float file written back stored
+    some numbers one float32 step off (ADemo1's float copy: 335 of 16,384; Qualisys: 1,377 of 234,600). Now it
+    keeps the numbers the ezc3d path keeps, and the file written back stores the numbers the input stored."""
+    import sys
+
+    path = _find(shared_data, name)
+    with monkeypatch.context() as m:
+        m.setitem(sys.modules, "ezc3d", None)  # `import ezc3d` fails: the fallback reader reads it
+        take = read_c3d(path)
+    assert take.reader == "c3d"
+    kept = read_c3d(path).source.analog_numbers
+    assert kept is not None and np.array_equal(take.source.analog_numbers, kept)
+    out = tmp_path / "out.c3d"
+    write_c3d(take, out)
+    assert np.array_equal(_stored(out), _stored(path))

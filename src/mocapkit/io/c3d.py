@@ -43,7 +43,7 @@ from ..markerset import (MODELLED_GROUPS, MarkerSet, MarkerSource, length_unit_c
                          repeated_labels_note, unique_labels, zero_gap_mask)
 from ..motion import check_fps
 from .c3d_frames import (FRAME_CAP, long_frame_parameters, missing_stored, point_words, put_missing_stored,
-                         put_stored_zeros, read_float, residuals_and_cameras, rest_of_trial, zero_gap_words)
+                         put_stored_zeros, read_float, read_frames, residuals_and_cameras, rest_of_trial, zero_gap_words)
 from .c3d_layout import (header_layout, held_analogs, integer_data, integer_scale, keep_data_start, put_analogs,
                          put_header_gap, put_parameter, stored_analogs)
 from .c3d_modelled import modelled_parameters, stated_positions
@@ -276,9 +276,9 @@ def _text(raw) -> str:
     return raw.decode("latin-1").rstrip() if isinstance(raw, bytes) else str(raw or "").rstrip()
 
 
-def _read_c3d_package(path: Path, written: dict):
-    """The pure-Python reader: what :func:`_read_ezc3d` returns, for the file ``path`` whose parameters the file
-    names as ``written`` says (:func:`_with_written_case`)."""
+def _read_c3d_package(path: Path, written: dict, raw: bytes | None = None):
+    """The pure-Python reader: what :func:`_read_ezc3d` returns, for the file ``path`` (its bytes ``raw``) whose
+    parameters the file names as ``written`` says (:func:`_with_written_case`)."""
     import c3d
 
     with open(path, "rb") as fh, warnings.catch_warnings():
@@ -328,11 +328,31 @@ def _read_c3d_package(path: Path, written: dict):
     if analog and np.asarray(analog[0]).size:
         a = _float32_values(analog)  # (F, A, ratio)
         analogs = a.transpose(1, 0, 2).reshape(a.shape[1], -1)
-    source = MarkerSource(format="c3d", parameters=parameters, analogs=analogs, first_frame=max(first, 1),
-                          missing_stored=stored)
+    numbers = None if analogs is None or raw is None else _package_analog_numbers(raw, data.shape[0], data.shape[1],
+                                                                                   scale, parameters, analogs)
+    source = MarkerSource(format="c3d", parameters=parameters, analogs=analogs, analog_numbers=numbers,
+                          first_frame=max(first, 1), missing_stored=stored)
     # (F, M) camera masks: the c3d package reads the fourth word of a point as the C3D guide has it
     cameras = np.where(resid < 0, 0, data[..., 4]).astype(np.int64)
     return labels, xyz, (resid, cameras), fps, units, "c3d", source, modelled
+
+
+def _package_analog_numbers(raw: bytes, frames: int, points: int, scale: float, parameters: dict,
+                           analogs: np.ndarray) -> np.ndarray | None:
+    """(A, F * ratio) float64: the numbers a float C3D stored for its analog samples, for the ``c3d`` package's
+    reading (which scales them in float32, so :func:`~mocapkit.io.c3d_layout.held_analogs` cannot tell them from
+    its values): the samples read again from ``raw``'s data block in float64 as ezc3d reads them
+    (:func:`~mocapkit.io.c3d_frames.read_frames`), then held_analogs as the ezc3d path keeps them
+    (``MarkerSource.analog_numbers``), so both readers keep the same numbers. None for an integer file, or where
+    that reading does not agree with the package's ``analogs`` (A, F * ratio) to float32 precision."""
+    proc = raw[(raw[0] - 1) * 512 + 3]
+    per_frame, = struct.unpack_from(">H" if proc == 86 else "<H", raw, 4)  # analog samples a frame
+    got = read_frames(raw, 0, frames, points, per_frame, scale, parameters)
+    if got is None or got[1] is None or got[1].shape != analogs.shape:
+        return None
+    if not np.allclose(got[1], analogs, rtol=1e-6, atol=1e-9, equal_nan=True):
+        return None
+    return held_analogs(got[1], parameters)
 
 
 def _check_result(path: Path, markers: MarkerSet) -> MarkerSet:
@@ -416,7 +436,7 @@ def read_c3d(path, zeros_as_gaps: bool | None = None, units: str | None = None) 
             first_error = exc
     if got is None:
         try:
-            got = _read_c3d_package(path, written)
+            got = _read_c3d_package(path, written, raw)
         except MocapFormatError as exc:
             raise MocapFormatError(path, no_points) if no_points else exc from None
         except Exception as exc:
