@@ -218,7 +218,8 @@ def test_long_take_rows_give_the_short_take_neighbours_without_acos_matrices(wal
     """The real walk against itself with the whole-matrix cap set below its size (the path of a take over ~100 s):
     its chunks' rows of the self matrix come from the checked polynomial terms, never from the ``acos`` kernel of
     ``group_pose_distances``, each self-matrix row computed once (chunks overlap by N - 5 rows: a chunk takes those
-    from the chunk before), and the neighbours are those of the whole matrix, bit for bit."""
+    from the chunk before), written into one buffer that every chunk reuses, and the neighbours are those of the
+    whole matrix, bit for bit."""
     an = ssa.prepare(walk)
     grows = list(an.group_rows)
     F = len(an.source.values)
@@ -233,7 +234,10 @@ def test_long_take_rows_give_the_short_take_neighbours_without_acos_matrices(wal
 
     def count_rows(A, r0, r1, *args, **kwargs):
         rows.append((r0, r1))
+        buffers.append(kwargs.get("out"))
         return polynomial(A, r0, r1, *args, **kwargs)
+
+    buffers = []
 
     monkeypatch.setattr(word_dtw, "group_pose_distances", count_exact)
     monkeypatch.setattr(neighbours.self_costs, "self_pose_rows", count_rows)
@@ -245,6 +249,8 @@ def test_long_take_rows_give_the_short_take_neighbours_without_acos_matrices(wal
     for r0, r1 in rows:
         covered[r0:r1] += 1
     assert covered.max() == 1 and covered[an.words.min() : an.words.max() + 15].min() == 1
+    # every chunk's rows written into one buffer, none allocated per chunk and joined to the rows it shares
+    assert buffers[0] is not None and all(b is buffers[0] for b in buffers)
     assert long.self_costs is None
     for a in ("pos", "iend", "jend", "dist"):
         assert np.array_equal(getattr(whole, a), getattr(long, a))

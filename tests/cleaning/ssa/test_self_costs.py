@@ -147,8 +147,31 @@ def test_rows_equal_the_acos_matrix_bit_for_bit(rtol):
                 assert got.shape == (3, r1 - r0, len(A))
                 assert np.array_equal(got, want[:, r0:r1], equal_nan=True)
                 assert np.array_equal(given, want[:, r0:r1], equal_nan=True)  # the lanes made once by the caller
+                buf = np.full((3, r1 - r0 + 7, len(A)), -5.0, dtype=np.float32)  # a long take's reused chunk buffer
+                with forced(side):
+                    into = S.self_pose_rows(A, r0, r1, members, offsets, drop, rtol, out=buf, at=4)
+                assert into.base is buf and np.array_equal(into, want[:, r0:r1], equal_nan=True)
+                assert (buf[:, :4] == -5.0).all() and (buf[:, r1 - r0 + 4 :] == -5.0).all()  # only its rows written
     with pytest.raises(ValueError, match="rows"):
         S.self_pose_rows(A, 3, len(A) + 1, members, offsets, drop)
+    with pytest.raises(ValueError, match="C-contiguous"):
+        S.self_pose_rows(A, 0, 5, members, offsets, drop, out=np.empty((3, 4, len(A)), dtype=np.float32))
+
+
+def test_rows_are_bit_symmetric_on_a_real_take():
+    """d(a, b) == d(b, a) in floating point for every cell the rows kernel gives (each term's dot product takes the
+    same products in the same order, the group sums the same terms in the joints' order), which the whole-matrix
+    path relies on when it mirrors its upper triangle: the rows of a real take, both twins, equal their transpose."""
+    m = mocapkit.load(samples.path("131_01.bvh"))
+    A = np.ascontiguousarray(R.quaternion_normalize(np.asarray(m.rotations[::3][:240], dtype=np.float64)))
+    groups = np.zeros((3, A.shape[1]), dtype=bool)
+    groups[0], groups[1, ::2], groups[2, :7] = True, True, True
+    members, offsets = S.pack_groups(groups)
+    drop = np.array([3, 1, 0], dtype=np.int64)
+    for side in ("serial", "parallel"):
+        with forced(side):
+            D = S.self_pose_rows(A, 0, len(A), members, offsets, drop)
+        assert np.array_equal(D, D.transpose(0, 2, 1)) and (D > 0).any()
 
 
 @pytest.mark.parametrize("rtol", [S.DELTA_RTOL, 1.0])

@@ -262,15 +262,16 @@ def nearest_words(
         out.self_costs, out.self_groups = whole, tuple(np.asarray(g) for g in groups)
     else:
         chunk = chunk_words(word_starts, len(context.values), G, N, chunk, chunk_bytes)
+    rows = max(int(word_starts[c0 : c0 + chunk].max() - word_starts[c0 : c0 + chunk].min()) + N
+               for c0 in range(0, W, chunk))  # the most rows a chunk holds
     if itself and whole is None:
         values = np.ascontiguousarray(source.values, dtype=np.float64)
         members, offsets = self_costs.pack_groups(masks)
         lanes = self_costs.frame_lanes(values)
+        held_rows = np.empty((G, rows, len(values)), dtype=np.float32)  # every chunk's rows, written in place
     D, held = None, (0, 0)  # the chunk's pose distances and the frames of their rows
     work = None  # the row minima of the pruned search, one buffer for every chunk and group
     if not exhaustive:
-        rows = max(int(word_starts[c0 : c0 + chunk].max() - word_starts[c0 : c0 + chunk].min()) + N
-                   for c0 in range(0, W, chunk))
         work = word_dtw.knn_workspace(rows, len(tgt), N, M, max_run)
     for c0 in range(0, W, chunk):
         ws = word_starts[c0 : c0 + chunk]
@@ -278,9 +279,7 @@ def nearest_words(
         if whole is not None:
             D = whole[:, f0:f1]
         elif itself:
-            shared = _shared_rows(D, held, f0, f1)
-            D = None  # the chunk before let go before this one's rows are computed: two chunks' rows at most
-            D = _self_rows(shared, f0, f1, values, members, offsets, drops.astype(np.int64), lanes)
+            D = _self_rows(held_rows, held, f0, f1, values, members, offsets, drops.astype(np.int64), lanes)
             held = (f0, f1)
         else:
             D = word_dtw.group_pose_distances(source.values[f0:f1], context.values, masks, drops)
@@ -306,28 +305,22 @@ def nearest_words(
     return out
 
 
-def _shared_rows(D, held, f0: int, f1: int):
-    """The rows of frames ``f0..`` that the chunk before holds (``D``, rows ``held = (h0, h1)``), copied, or None.
+def _self_rows(buf, held, f0: int, f1: int, values, members, offsets, drops, lanes) -> np.ndarray:
+    """Rows ``f0..f1-1`` of the take's self pose-distance matrix, (G, f1 - f0, F) float32: a view of the first
+    rows of ``buf`` (G, R, F), which holds the chunk before's rows ``held = (h0, h1)`` from its row 0 on.
 
-    Chunks of source words 5 frames apart overlap by N - 5 = 10 rows, which each chunk computed again: a
-    fifth of the rows of a 30-minute take's chunks (about 55 rows each), 6% of a 10-minute take's."""
+    Chunks of source words 5 frames apart overlap by N - 5 = 10 rows, which each chunk computed again: a fifth
+    of the rows of a 30-minute take's chunks (about 55 rows each), 6% of a 10-minute take's. Those rows are moved
+    to the front of ``buf`` and the others written after them by
+    :func:`~mocapkit.cleaning.ssa.self_costs.self_pose_rows`; the same cells, bit for bit, as one call for all
+    of them, without a chunk's rows (~48 MB) allocated and its shared rows copied and joined to them each time."""
     h0, h1 = held
-    if D is None or not h0 <= f0 < h1:
-        return None
-    return D[:, f0 - h0 : min(f1, h1) - h0].copy()
-
-
-def _self_rows(shared, f0: int, f1: int, values, members, offsets, drops, lanes) -> np.ndarray:
-    """Rows ``f0..f1-1`` of the take's self pose-distance matrix, (G, f1 - f0, F) float32: the first ones
-    ``shared`` (:func:`_shared_rows`, or None), the others computed by
-    :func:`~mocapkit.cleaning.ssa.self_costs.self_pose_rows`; the same cells, bit for bit."""
-    if shared is None:
-        return self_costs.self_pose_rows(values, f0, f1, members, offsets, drops, lanes=lanes)
-    r = f0 + shared.shape[1]
-    if r >= f1:
-        return shared
-    return np.concatenate([shared, self_costs.self_pose_rows(values, r, f1, members, offsets, drops, lanes=lanes)],
-                          axis=1)
+    n = min(f1, h1) - f0 if h0 <= f0 < h1 else 0  # rows the chunk before holds
+    if n > 0 and f0 > h0:
+        buf[:, :n] = buf[:, f0 - h0 : f0 - h0 + n]  # numpy copies through a temporary where the two overlap
+    if f0 + n < f1:
+        self_costs.self_pose_rows(values, f0 + n, f1, members, offsets, drops, lanes=lanes, out=buf, at=n)
+    return buf[:, : f1 - f0]
 
 
 def neighbor_words(

@@ -310,9 +310,9 @@ def _row(A, Q, ok, members, offsets, drop, rtol, a, c0, ra, out, term, tot, s, t
 
 
 @twin_kernels(PARALLEL_CELLS)
-def _self_costs(A, Q, ok, members, offsets, drop, rtol, r0, r1, full, out):
-    """The upper triangle into ``out`` (G, F, F), or with ``full`` every cell of rows ``r0..r1-1`` into ``out``
-    (G, r1 - r0, F)."""
+def _self_costs(A, Q, ok, members, offsets, drop, rtol, r0, r1, full, o0, out):
+    """The upper triangle into ``out`` (G, F, F), or with ``full`` every cell of rows ``r0..r1-1`` into rows
+    ``o0..o0 + r1 - r0 - 1`` of ``out`` (G, >= o0 + r1 - r0, F)."""
     F = A.shape[0]
     m = A.shape[1]
     steps = r1 - r0 if full else (F + 1) // 2
@@ -326,7 +326,7 @@ def _self_costs(A, Q, ok, members, offsets, drop, rtol, r0, r1, full, out):
         exact = np.empty(m)
         top = np.int64(h)
         if full:
-            _row(A, Q, ok, members, offsets, drop, rtol, r0 + top, 0, top, out, term, tot, s, t0, t1, t2, exact)
+            _row(A, Q, ok, members, offsets, drop, rtol, r0 + top, 0, o0 + top, out, term, tot, s, t0, t1, t2, exact)
             continue
         for side in range(2):  # a long row and a short one per step, so the threads share the triangle evenly
             a = top if side == 0 else F - 1 - top
@@ -351,29 +351,38 @@ def self_pose_costs(A: np.ndarray, members: np.ndarray, offsets: np.ndarray, dro
     if F == 0:
         return
     Q, ok = frame_lanes(A)
-    _self_costs.pick(F * F // 2)(A, Q, ok, members, offsets, drop, float(rtol), 0, F, False, out)
+    _self_costs.pick(F * F // 2)(A, Q, ok, members, offsets, drop, float(rtol), 0, F, False, 0, out)
 
 
 def self_pose_rows(A: np.ndarray, r0: int, r1: int, members: np.ndarray, offsets: np.ndarray, drop: np.ndarray,
-                   rtol: float = DELTA_RTOL, lanes: tuple | None = None) -> np.ndarray:
+                   rtol: float = DELTA_RTOL, lanes: tuple | None = None, out: np.ndarray | None = None,
+                   at: int = 0) -> np.ndarray:
     """Rows ``r0..r1-1`` of the take's self pose-distance matrix, every column: (G, r1 - r0, F) float32.
 
     What a long take's search reads chunk by chunk when its whole matrix (G F^2 float32) would not fit in memory:
     the same cells, bit for bit, as ``word_dtw.group_pose_distances(A[r0:r1], A, ...)``, from the checked
     polynomial terms of :func:`self_pose_costs` (arguments as there) instead of an ``acos`` per joint term.
     ``lanes``: :func:`frame_lanes` of ``A``, made once by a caller that reads many row blocks (a copy of the whole
-    texture each time otherwise: a 20-minute take's search reads some 400 blocks).
+    texture each time otherwise: a 20-minute take's search reads some 400 blocks). ``out``: a C-contiguous
+    (G, R, F) float32 buffer the rows are written into, from its row ``at`` on (``at + r1 - r0 <= R``), and
+    returned as that view ``out[:, at : at + r1 - r0]``: a search that runs chunk after chunk keeps one buffer
+    instead of allocating its rows (~48 MB) per chunk.
     """
     if not rtol >= DELTA_RTOL:
         raise ValueError(f"rtol must be at least DELTA_RTOL ({DELTA_RTOL}), got {rtol}")
     F = A.shape[0]
     if not 0 <= r0 <= r1 <= F:
         raise ValueError(f"rows {r0}..{r1} are not within the {F} frames")
-    out = np.empty((len(drop), r1 - r0, F), dtype=np.float32)
+    if out is None:
+        out, at = np.empty((len(drop), r1 - r0, F), dtype=np.float32), 0
+    elif (out.dtype != np.float32 or not out.flags.c_contiguous or out.ndim != 3 or out.shape[0] != len(drop)
+          or out.shape[2] != F or not 0 <= at <= out.shape[1] - (r1 - r0)):
+        raise ValueError(f"out must be a C-contiguous ({len(drop)}, >= {at + r1 - r0}, {F}) float32 array")
     if r1 > r0:
         Q, ok = frame_lanes(A) if lanes is None else lanes
-        _self_costs.pick((r1 - r0) * F)(A, Q, ok, members, offsets, drop, float(rtol), int(r0), int(r1), True, out)
-    return out
+        _self_costs.pick((r1 - r0) * F)(A, Q, ok, members, offsets, drop, float(rtol), int(r0), int(r1), True,
+                                        int(at), out)
+    return out[:, at : at + r1 - r0]
 
 
 def pack_groups(groups):
