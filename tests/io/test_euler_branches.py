@@ -414,3 +414,37 @@ def test_denoise_to_a_bvh_hinge_reports_what_the_file_holds(tmp_path):
     assert code == 0, err
     said = float(re.search(r"mean change ([0-9.]+) deg RMS", stdout).group(1))
     assert said == round(joint_angle_rms(mocapkit.load(noisy), mocapkit.load(out), include_root=False), 2)
+
+
+def test_an_amc_bone_of_fewer_dofs_is_put_on_its_dofs_and_a_save_says_what_it_drops(tmp_path):
+    """An AMC bone with fewer than three ASF dofs (CMU 12's ``ltibia``: ``dof rx``) holds only its angles about them.
+    Before 0.15.0 ``fill``, ``denoise`` and ``repair`` to an AMC reported from, and ``mocapkit.save`` wrote, a
+    rotation turning such a bone about another axis, the file dropping that part without a word (``repair`` of
+    CMU 12 / HDM05 bd with errors: 61 rotations of lhand, up to 0.01 deg); now :func:`bvh_written` puts the changed
+    cells on the dofs (as ``clean`` does, :func:`mocapkit.cleaning.decisions.as_written`) and a save of a take
+    not put on them warns how many and how much."""
+    import warnings
+
+    from mocapkit.io.asfamc import amc_held_rotations
+    from mocapkit.io.euler_branches import bvh_written, off_axis_note, written_partial_joints
+
+    m = read_amc(WALK, WALK_ASF)
+    names = m.skeleton.joint_names
+    assert {names[j] for j in written_partial_joints(m, "x.amc", WALK_ASF)} >= {"ltibia", "lradius", "lhand"}
+    j = names.index("ltibia")
+    rot = np.array(m.rotations)
+    rot[10:20, j] = R.quaternion_multiply(rot[10:20, j], R.euler_to_quaternion(np.array([0.0, 0.0, 5.0]), "XYZ"))
+    turned = dataclasses.replace(m, rotations=rot)
+    with pytest.warns(UserWarning, match=r"10 rotations of ltibia \(fewer than three rotation dofs\) .* up to 5 deg"):
+        mocapkit.save(turned, tmp_path / "py.amc", asf=WALK_ASF, copy_asf=False)
+    written = bvh_written(m, turned, tmp_path / "on_dofs.amc", WALK_ASF, WALK)
+    held = amc_held_rotations(turned)
+    np.testing.assert_allclose(np.asarray(written.rotations)[10:20, j], held[10:20, j], rtol=0, atol=1e-12)
+    keep = np.ones(rot.shape[:2], bool)
+    keep[10:20, j] = False
+    np.testing.assert_array_equal(np.asarray(written.rotations)[keep], np.asarray(m.rotations)[keep])  # bit for bit
+    assert off_axis_note(written, tmp_path / "on_dofs.amc", WALK_ASF, WALK) is None
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        mocapkit.save(written, tmp_path / "on_dofs.amc", asf=WALK_ASF, copy_asf=False)
+    assert (tmp_path / "on_dofs.amc").read_bytes() == (tmp_path / "py.amc").read_bytes()  # the same file, now said

@@ -125,7 +125,7 @@ def denoise(
         cleaned, method, note = denoise_take(m, net, options={"ebf": "--model"}, zeros=zeros)
     except SkeletonError as exc:
         raise MocapError(f"{inp}: {exc}") from None
-    cleaned = bvh_written(m, cleaned, out)  # a BVH hinge holds its axis' angle: what is written is reported
+    cleaned = bvh_written(m, cleaned, out, asf, inp)  # a BVH hinge, an AMC bone of fewer dofs: what is written is reported
     save_take(cleaned, out, inp, asf, overwrite, like=inp)
     if note:
         console.print(f"warning: {inp}: {note}")
@@ -208,7 +208,7 @@ def fill(
                          zeros=zeros)
     except (SkeletonError, ValueError) as exc:
         raise MocapError(f"{inp}: {exc}") from None
-    filled, method = bvh_written(m, done.motion, out), done.method  # a BVH hinge holds its axis' angle
+    filled, method = bvh_written(m, done.motion, out, asf, inp), done.method  # a hinge holds its axis' angle
     save_take(filled, out, inp, asf, overwrite, like=inp)
     for said in (done.note, *done.warnings):
         if said:

@@ -379,9 +379,10 @@ def save(motion, path, like=None, asf=None, overwrite: bool | None = None, copy_
     .npz) is read back with ``load(path, asf=...)``. A :class:`~mocapkit.markerset.MarkerSet` is
     written by :func:`save_markers` (.c3d, .trc, .npz; ``like`` as there).
 
-    A BVH holds a joint declaring one or two rotation channels (a hinge's ``CHANNELS 1 Xrotation``) only by its
-    angles about those axes: where ``motion`` turns such a joint about another axis too (``mocapkit.clean``'s
-    result, which does not know the output's format), the file drops that part and a :class:`UserWarning` says
+    A BVH holds a joint declaring one or two rotation channels (a hinge's ``CHANNELS 1 Xrotation``), an AMC a bone
+    with fewer than three ASF dofs (CMU's and HDM05's ``dof rx`` tibia), only by its angles about those axes: where
+    ``motion`` turns such a joint about another axis too (``mocapkit.clean``'s result, which does not know the
+    output's format), the file drops that part and a :class:`UserWarning` says
     how many rotations and how much at most (:func:`mocapkit.io.euler_branches.off_axis_note`);
     :func:`mocapkit.io.euler_branches.bvh_written` puts the changed ones on the axes first, as the commands do.
     """
@@ -410,6 +411,7 @@ def save(motion, path, like=None, asf=None, overwrite: bool | None = None, copy_
             warnings.warn(lost, UserWarning, stacklevel=2)
     elif kind == "amc":
         from .amc_writer import check_amc_writable, write_amc
+        from .euler_branches import off_axis_note
         from .outputs import removed_on_failure
         from .takes import asf_for_output, place_asf
 
@@ -419,6 +421,9 @@ def save(motion, path, like=None, asf=None, overwrite: bool | None = None, copy_
         with removed_on_failure([copy]):
             place_asf(copy, asf)  # first: an AMC is never left without the ASF it is read with
             write_amc(motion, path, like=like, asf=asf, **kwargs)
+        lost = off_axis_note(motion, path, asf, like)  # a bone of fewer dofs turned about others: dropped, said
+        if lost:
+            warnings.warn(lost, UserWarning, stacklevel=2)
     else:
         from .bvh import source_kept
         from .kept_channels import kept_arrays, kept_header

@@ -17,7 +17,7 @@ from .. import rotations as R
 
 __all__ = ["MEASURED_TOLERANCE_DEG", "NEAR_SOURCE_DEG", "OFF_AXIS_DEG", "bridged", "bvh_held_rotations", "bvh_written",
            "continuous_rotations", "measured_text", "off_axis_note", "partly_missing", "partial_rotation_joints",
-           "source_branches", "three_axis_groups"]
+           "source_branches", "three_axis_groups", "written_partial_joints"]
 
 #: Degrees: a changed cell whose rotation stays this close to the source file's is written on the branch nearest the
 #: file's numbers of that cell; one turned further (a flip repaired) follows its neighbours (continuous_euler's max_step).
@@ -189,21 +189,22 @@ def bvh_held_rotations(motion) -> np.ndarray:
     return rot
 
 
-def bvh_written(original, motion, path):
-    """``motion`` (an operation's output of ``original``, the same frames and joints) as a BVH at ``path`` holds
-    it: each rotation of a joint declaring one or two rotation channels (:func:`partial_rotation_joints`) that
-    differs from ``original``'s put on its channels' axes (:func:`bvh_held_rotations`), every other value as
-    given (an unchanged cell bit for bit). What ``fill``, ``denoise`` and ``repair`` write to a BVH and report
-    from, as ``clean`` does (:func:`mocapkit.cleaning.decisions.as_written`). ``motion`` itself for another
-    output format or a skeleton without such joints."""
+def bvh_written(original, motion, path, asf=None, like=None):
+    """``motion`` (an operation's output of ``original``, the same frames and joints) as the file at ``path`` holds
+    it: each rotation of a joint the file keeps only some rotation axes of (:func:`written_partial_joints`: a BVH
+    joint declaring one or two rotation channels, an AMC bone with fewer than three rotation dofs) that differs
+    from ``original``'s put on those axes (:func:`bvh_held_rotations`; for an AMC
+    :func:`mocapkit.io.asfamc.amc_held_rotations` on the layout written, :func:`mocapkit.io.amc_writer.file_dofs`
+    of ``asf``/``like``), every other value as given (an unchanged cell bit for bit). What ``fill``, ``denoise``
+    and ``repair`` write and report from, as ``clean`` does (:func:`mocapkit.cleaning.decisions.as_written`).
+    ``motion`` itself for another output format or a skeleton without such joints."""
     import dataclasses
-    from pathlib import Path
 
-    joints = partial_rotation_joints(motion.skeleton)
-    if Path(path).suffix.lower() != ".bvh" or not joints:
+    joints, held_of = _partial_layout(motion, path, asf, like)
+    if not joints:
         return motion
     rot = np.array(motion.rotations, dtype=np.float64)
-    held = bvh_held_rotations(motion)[:, joints]
+    held = held_of(motion)[:, joints]
     was = np.asarray(original.rotations, dtype=np.float64)
     if was.shape != rot.shape:  # another take: every cell of those joints is the file's
         rot[:, joints] = held
@@ -214,24 +215,51 @@ def bvh_written(original, motion, path):
     return dataclasses.replace(motion, rotations=rot)
 
 
+def _partial_layout(motion, path, asf=None, like=None):
+    """(joints, held): the joints a file at ``path`` keeps only some rotation axes of, and the function giving the
+    rotations (F, J, 4) that file reads back as; ``([], None)`` for another format or none such."""
+    from pathlib import Path
+
+    kind = Path(path).suffix.lower()
+    if kind == ".bvh":
+        return partial_rotation_joints(motion.skeleton), bvh_held_rotations
+    if kind != ".amc" or motion.skeleton.axes is None:
+        return [], None
+    from .amc_writer import file_dofs  # lazy: amc_writer imports this module
+    from .asfamc import amc_held_rotations
+
+    dofs = file_dofs(motion, asf, like)
+    joints = [j for j, d in enumerate(dofs) if 0 < sum(x[0] == "r" for x in d) < 3]
+    return joints, (lambda take: amc_held_rotations(take, dofs))
+
+
+def written_partial_joints(motion, path, asf=None, like=None) -> list[int]:
+    """The joints of ``motion`` a file at ``path`` keeps only some rotation axes of: a BVH's one- or two-channel
+    joints (:func:`partial_rotation_joints`), an AMC's bones with fewer than three rotation dofs (in the layout
+    :func:`mocapkit.io.amc_writer.file_dofs` gives for ``asf``/``like``); [] for another format."""
+    return _partial_layout(motion, path, asf, like)[0]
+
+
 #: Degrees: a rotation of a one- or two-channel joint further than this from its channels' axes loses that part in
 #: a BVH (:func:`off_axis_note`); rounding of the Euler round trip is far below it.
 OFF_AXIS_DEG = 1e-6
 
 
-def off_axis_note(motion, path) -> str | None:
-    """The line saying how many rotations of ``motion`` a BVH at ``path`` cannot hold and by how much at most: those
-    of joints declaring one or two rotation channels (:func:`partial_rotation_joints`) that turn about another axis
-    by more than :data:`OFF_AXIS_DEG` (the BVH keeps the angles about the declared axes: :func:`bvh_held_rotations`).
-    None for another format or where there are none (a take read from such a BVH and changed only by putting the
-    changed cells on the axes: :func:`bvh_written`)."""
+def off_axis_note(motion, path, asf=None, like=None) -> str | None:
+    """The line saying how many rotations of ``motion`` a BVH or AMC at ``path`` cannot hold and by how much at most:
+    those of joints the file keeps only some rotation axes of (:func:`written_partial_joints`: a BVH joint declaring
+    one or two rotation channels, an AMC bone with fewer than three rotation dofs, ``asf``/``like`` giving its
+    layout) that turn about another axis by more than :data:`OFF_AXIS_DEG` (the file keeps the angles about those
+    axes: :func:`bvh_held_rotations`, :func:`mocapkit.io.asfamc.amc_held_rotations`). None for another format or
+    where there are none (a take read from such a file and changed only by putting the changed cells on the axes:
+    :func:`bvh_written`)."""
     from pathlib import Path
 
-    joints = partial_rotation_joints(motion.skeleton)
-    if Path(path).suffix.lower() != ".bvh" or not joints:
+    joints, held_of = _partial_layout(motion, path, asf, like)
+    if not joints:
         return None
     a = np.asarray(motion.rotations, dtype=np.float64)[:, joints]
-    b = bvh_held_rotations(motion)[:, joints]
+    b = held_of(motion)[:, joints]
     chord = np.linalg.norm(a - np.where(np.sum(a * b, axis=-1, keepdims=True) < 0, -b, b), axis=-1)
     with np.errstate(invalid="ignore"):
         off = np.degrees(4.0 * np.arcsin(np.clip(chord / 2.0, 0.0, 1.0)))
@@ -240,6 +268,8 @@ def off_axis_note(motion, path) -> str | None:
     if not n:
         return None
     names = [motion.skeleton.joint_names[joints[k]] for k in np.flatnonzero(lost.any(axis=0))]
+    bvh = Path(path).suffix.lower() == ".bvh"
     return (f"{path}: {n:,} rotation{'s' if n > 1 else ''} of {', '.join(names[:4])}{' ...' if len(names) > 4 else ''}"
-            f" (one or two rotation channels) turn about other axes too, up to {float(off[lost].max()):.2g} deg: the BVH"
-            " holds only the angles about the declared axes, that part is not written")
+            f" ({'one or two rotation channels' if bvh else 'fewer than three rotation dofs'}) turn about other axes"
+            f" too, up to {float(off[lost].max()):.2g} deg: the {'BVH' if bvh else 'AMC'} holds only the angles about"
+            f" the {'declared axes' if bvh else 'ASF dofs'}, that part is not written")
