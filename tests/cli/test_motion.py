@@ -661,3 +661,15 @@ def test_an_output_path_ending_with_a_slash_is_refused_naming_it(tmp_path, args)
     typed = next(w.split("=", 1)[-1] for w in words if w.endswith("/"))
     assert code == 2 and one_error_line(err) and f"{typed}: ends with a path separator" in err, err
     assert not (tmp_path / "o").exists()
+
+
+@pytest.mark.parametrize("joined", ["-o{out}/x.bvh/", "-o={out}/x.bvh/"])
+def test_an_output_path_ending_with_a_slash_joined_to_a_short_option_is_refused(tmp_path, monkeypatch, joined):
+    """`denoise a.bvh -oout/x.bvh/` (the value joined to -o; `-o=out/x.bvh/` click reads as `=out/x.bvh/`) named a
+    folder too; before 0.15.0 it wrote out/x.bvh (`=out/x.bvh`): cli.common.as_typed read only a separate word or a
+    long option's `=`."""
+    monkeypatch.chdir(tmp_path)  # a path made of `=o/x.bvh/` is relative: it would land here
+    word = joined.format(out="o")
+    code, _, err = run("denoise", str(Path(SAMPLE).absolute()), word)
+    assert code == 2 and one_error_line(err) and f"{word[2:]}: ends with a path separator" in err, err
+    assert not (tmp_path / "o").exists() and not list(tmp_path.glob("=*"))

@@ -206,3 +206,35 @@ def test_an_existing_output_is_refused_in_the_callers_words(tmp_path):
     assert "--" not in str(exc.value)
     with pytest.raises(MocapFormatError, match=r"already exists; pass --overwrite to replace it"):
         check_outputs([out], [tmp_path / "in.bvh"], how="pass --overwrite")
+
+
+def test_a_python_output_path_ending_with_a_separator_is_refused_by_every_writer(tmp_path):
+    """``mocapkit.save(m, "out/x.bvh/")`` named a folder; before 0.15.0 it, ``save_markers`` and the
+    ``mocapkit.io`` writers (which do not go through the commands' output guard) wrote ``out/x.bvh``. Each now
+    refuses it in one MocapFormatError line naming the path as given (:func:`check_file_path`), writing nothing."""
+    from pathlib import Path
+
+    import mocapkit
+    from mocapkit.io.amc_writer import write_amc
+    from mocapkit.io.bvh import write_bvh
+    from mocapkit.io.npz import write_npz
+    from mocapkit.io.trc import write_trc
+
+    data = Path(mocapkit.__file__).parent / "data"
+    m = mocapkit.load(data / "12_walk.amc", asf=data / "12.asf")
+    markers = mocapkit.io.load_markers(Path(__file__).parents[1] / "data" / "85_02.c3d")
+    out = tmp_path / "o"
+    calls = [lambda p: mocapkit.save(m, p + ".bvh/"), lambda p: mocapkit.save(m, p + ".amc/"),
+             lambda p: mocapkit.save(m, p + ".npz/"), lambda p: mocapkit.save(markers, p + ".trc/"),
+             lambda p: mocapkit.io.save_markers(markers, p + ".c3d/"), lambda p: write_bvh(m, p + ".bvh/"),
+             lambda p: write_amc(m, p + ".amc/"), lambda p: write_npz(m, p + ".npz/"),
+             lambda p: write_trc(markers, p + ".trc/")]
+    for k, call in enumerate(calls):
+        given = f"{out}/x{k}"
+        with pytest.raises(MocapFormatError, match="ends with a path separator") as exc:
+            call(given)
+        assert str(exc.value).startswith(f"{given}.") and "\n" not in str(exc.value)
+    with pytest.raises(MocapFormatError, match="ends with a path separator"):
+        with atomic_write(f"{out}/y.txt/") as fh:
+            fh.write("x")
+    assert not out.exists()

@@ -259,13 +259,20 @@ GIVEN_ARGS: ContextVar[tuple[str, ...]] = ContextVar("mocapkit_given_args", defa
 
 def as_typed(path):
     """``path`` (a command's output Path) as the user typed it where that ends with a path separator (the user named
-    a folder, which :func:`mocapkit.io.outputs.check_outputs` refuses); else ``path``."""
+    a folder, which :func:`mocapkit.io.outputs.check_outputs` refuses); else ``path``. The value is a word of its
+    own (``-o out/x.bvh/``), after a long option's ``=`` (``--out=out/x.bvh/``) or joined to a short option
+    (``-oout/x.bvh/``; ``-o=x/``, whose value click takes as ``=x/``)."""
     if path is None:
         return None
     for word in GIVEN_ARGS.get():
-        value = word.split("=", 1)[1] if word.startswith("-") and "=" in word else word
-        if value.endswith(tuple({"/", os.sep})) and len(value) > 1 and Path(value) == Path(path):
-            return value
+        values = [word]
+        if word.startswith("--") and "=" in word:
+            values.append(word.split("=", 1)[1])
+        elif word.startswith("-") and len(word) > 2:  # a short option with its value joined to it
+            values.append(word[2:])
+        for value in values:
+            if value.endswith(tuple({"/", os.sep})) and len(value) > 1 and Path(value) == Path(path):
+                return value
     return path
 
 

@@ -20,7 +20,7 @@ from pathlib import Path
 from ..errors import MissingFileError, MocapError, MocapFormatError
 from ..interrupts import interrupts_held, whole_hand_over
 from ..markerset import MarkerSet
-from .outputs import missing_folders, named_as_given, publish
+from .outputs import check_file_path, missing_folders, named_as_given, publish
 
 __all__ = ["load", "save", "check_writable", "check_complete", "load_markers", "save_markers", "check_keep_modelled",
            "marker_notes", "motion_notes", "atomic_write",
@@ -132,7 +132,7 @@ def save_markers(markers: MarkerSet, path, *, like=None, stored_zeros: bool = Fa
     """
     from .outputs import same_file
 
-    path = Path(path)
+    path = Path(check_file_path(path))  # "x.trc/" names a folder: refused, not written as x.trc
     kind = suffix_kind(path, MARKER_FORMATS, "writing markers")
     if not isinstance(markers, MarkerSet):
         raise TypeError(f"save_markers takes a MarkerSet, got {type(markers).__name__}")
@@ -388,7 +388,7 @@ def save(motion, path, like=None, asf=None, overwrite: bool | None = None, copy_
     """
     from ..motion import Motion
 
-    path = Path(path)
+    path = Path(check_file_path(path))  # "x.bvh/" names a folder: refused, not written as x.bvh
     if like is not None and like is not False and not isinstance(like, (str, os.PathLike, MarkerSet)):
         raise TypeError(f"like must be a path, False or None, got {type(like).__name__}")
     if overwrite is False and (path.exists() or path.is_symlink()):
@@ -500,7 +500,7 @@ def atomic_write(path, mode: str = "w", **open_kwargs):
     ``open(path, "w")`` would give it (those of the file it replaces, else
     0o666 less the umask), not the temporary file's private 0o600.
     """
-    path = Path(path)
+    path = Path(check_file_path(path))
     made = missing_folders([path.absolute().parent])
     tmp = fh = None
     try:

@@ -49,6 +49,7 @@ import numpy as np
 
 from .. import rotations as R
 from ..errors import MocapFormatError
+from .outputs import check_file_path
 from ..motion import Motion
 from .asfamc import amc_dofs, amc_table_arrays, with_rate
 from .euler_branches import MEASURED_TOLERANCE_DEG, bridged, measured_text, partly_missing, source_branches
@@ -218,7 +219,7 @@ def write_amc(motion: Motion, path, precision: int = 6, like=None, asf=None) -> 
     """
     from . import atomic_write
 
-    path = Path(path)
+    path = Path(check_file_path(path))  # "out/x/" names a folder: refused, not written as out/x
     precision = int(precision)
     if precision < 0:
         raise ValueError(f"precision must be >= 0, got {precision}")

@@ -31,6 +31,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import MocapFormatError, SkeletonError
+from .outputs import check_file_path
 from .. import rotations as R
 from ..motion import MAX_JOINTS, Motion, Skeleton, check_fps
 from . import atomic_write
@@ -681,7 +682,7 @@ def write_bvh(motion: Motion, path, precision: int = 6, allow_nan: bool = False,
         a joint name BVH cannot hold (:func:`check_bvh_names`); nothing is
         written then.
     """
-    path = Path(path)
+    path = Path(check_file_path(path))  # "out/x/" names a folder: refused, not written as out/x
     precision = int(precision)
     if precision < 0:
         raise ValueError(f"precision must be >= 0, got {precision}")

@@ -39,6 +39,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import MocapFormatError, SkeletonError
+from .outputs import check_file_path
 from ..markerset import (MODELLED_GROUPS, MarkerSet, MarkerSource, length_unit_cm, marker_units,
                          repeated_labels_note, unique_labels, zero_gap_mask)
 from ..motion import check_fps
@@ -748,7 +749,7 @@ def write_c3d(markers: MarkerSet, path, *, like=None, stored_zeros: bool = False
     """
     from . import atomic_write
 
-    path = Path(path)
+    path = Path(check_file_path(path))  # "out/x/" names a folder: refused, not written as out/x
     if markers.num_markers == 0 or markers.num_frames == 0:
         raise MocapFormatError(path, "a C3D file needs at least one marker and one frame")
     bad = [label for label in markers.labels + markers.file_labels() if not label.isprintable() or not label.isascii()]

@@ -17,6 +17,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import MocapError, MocapFormatError, SkeletonError
+from .outputs import check_file_path
 from ..motion import Motion, Skeleton, check_fps
 from . import atomic_write
 from .c3d_trial import same_rate, trial_rate
@@ -69,7 +70,7 @@ def write_npz(obj, path, compress: bool = True, extra: dict | None = None, fille
     """
     from .c3d import MarkerSet
 
-    path = Path(path)
+    path = Path(check_file_path(path))  # "out/x/" names a folder: refused, not written as out/x
     if isinstance(obj, Motion):
         _check_texts(path, "joint", obj.skeleton.joint_names)
         _check_texts(path, "clip name", [obj.name])

@@ -44,7 +44,7 @@ from typing import Iterable, Iterator
 from ..errors import MocapFormatError
 from ..interrupts import interrupts_held, whole_hand_over, whole_step
 
-__all__ = ["check_outputs", "same_file", "inside", "removed_on_failure", "publish", "keep_aside", "named_as_given", "put_back",
+__all__ = ["check_file_path", "check_outputs", "same_file", "inside", "removed_on_failure", "publish", "keep_aside", "named_as_given", "put_back",
            "drop_kept", "missing_folders", "file_facts", "input_facts", "other_input"]
 
 
@@ -68,6 +68,21 @@ def inside(path: os.PathLike | str, folder: os.PathLike | str) -> bool:
     """True when ``path`` resolves to ``folder`` itself or to something below it."""
     rp, rf = resolved(path), resolved(folder)
     return rp == rf or rf in rp.parents
+
+
+def check_file_path(path):
+    """``path``, refused where it is a text ending with a path separator (``"out/x.bvh/"``): the caller named a
+    folder, and a :class:`~pathlib.Path` made of it has lost the slash (it would write ``out/x.bvh``). Every writer
+    and :func:`check_outputs` (the commands' output guard) call it before they make a Path of their output.
+
+    Raises
+    ------
+    MocapFormatError
+        One line naming ``path`` as given.
+    """
+    if isinstance(path, str) and path.endswith(tuple({"/", os.sep})):
+        raise MocapFormatError(path, "ends with a path separator, which names a folder; give a file path for this output")
+    return path
 
 
 def check_outputs(
@@ -95,9 +110,8 @@ def check_outputs(
     MocapFormatError
         One line naming the output and what is wrong with it.
     """
-    for o in outputs:  # "out/x.bvh/": the user named a folder; a Path made of it has lost the slash
-        if isinstance(o, str) and o.endswith(tuple({"/", os.sep})):
-            raise MocapFormatError(o, "ends with a path separator, which names a folder; give a file path for this output")
+    for o in outputs:
+        check_file_path(o)
     outs = [Path(o) for o in outputs if o is not None]
     ins = [Path(i) for i in inputs if i is not None]
     seen: list[Path] = []

@@ -18,6 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import MocapFormatError, SkeletonError
+from .outputs import check_file_path
 from ..markerset import (MODELLED_GROUPS, MarkerSet, MarkerSource, marker_units, repeated_labels_note, unique_labels,
                          unit_symbol)
 from ..motion import check_fps
@@ -471,7 +472,7 @@ def write_trc(markers: MarkerSet, path, *, like=None, decimals: int = TRC_DECIMA
     """
     from . import atomic_write
 
-    path = Path(path)
+    path = Path(check_file_path(path))  # "out/x/" names a folder: refused, not written as out/x
     quantities = markers.quantities() != ""
     if quantities.any() and not keep_modelled:
         markers = markers.select([label for label, q in zip(markers.labels, quantities) if not q])
