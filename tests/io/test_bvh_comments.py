@@ -146,3 +146,21 @@ def test_an_npz_s_motion_comments_are_written_only_as_comment_lines_of_its_frame
     for bad in ([[3, "1.0 2.0 3.0\n"]], [[3, "# two\n# lines\n"]], [[3, "# runs on"], [4, "# next\n"]], [[3.0, "# x\n"]]):
         np.savez(tmp_path / "bad.npz", **{**arrays, COMMENTS_KEY: np.array(json.dumps(bad))})
         assert kept_comments(tmp_path / "bad.npz", 20) is None, bad
+
+
+def test_a_comment_first_line_after_a_byte_order_mark_is_counted(cmu, tmp_path):
+    """A BVH starting with a UTF-8 byte-order mark and a ``#`` first line (a Windows tool's signature line): the
+    mark is no part of that line (io.sources.bom_length), so it is a comment like the others. Before 0.15.0 the
+    note of an output leaving the comments out counted one fewer (4 -> 3 here; a file whose only comment is that
+    line: no note at all)."""
+    from mocapkit.io.bvh_comments import comment_lines
+
+    plain_text = _commented(cmu, tmp_path / "commented.bvh").read_bytes()
+    path = tmp_path / "marked.bvh"
+    path.write_bytes(b"\xef\xbb\xbf# written by a tool\n" + plain_text)
+    assert comment_lines(path.read_bytes()) == comment_lines(b"# written by a tool\n" + plain_text) == 5
+    half = read_bvh(path).resample(60.0)
+    assert motion_notes(half, tmp_path / "half.bvh") == [
+        f"{tmp_path / 'half.bvh'}: not written: 5 comment lines of {path} (a .bvh keeps them only when written like "
+        "its source, at its frames, rate and skeleton)"]
+    assert motion_notes(read_bvh(path), tmp_path / "out.npz") == []  # the .npz keeps all 5, the first one too

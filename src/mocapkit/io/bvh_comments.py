@@ -13,6 +13,7 @@ an output cannot keep them (another format, or a BVH not written like its source
 from __future__ import annotations
 
 from .bvh_roots import is_comment
+from .sources import bom_length
 
 __all__ = ["KEYWORDS", "motion_comments", "anchored", "keyword_count", "with_comments", "comment_lines"]
 
@@ -83,5 +84,6 @@ def with_comments(text: str, comments: list[tuple[int, str]], keywords: int | No
 
 
 def comment_lines(data: bytes) -> int:
-    """How many comment lines a BVH file's text ``data`` holds (header and motion section)."""
-    return sum(is_comment(t) for t in data.decode("utf-8", errors="replace").splitlines())
+    """How many comment lines a BVH file's text ``data`` holds (header and motion section). A UTF-8 byte-order mark
+    (:func:`mocapkit.io.sources.bom_length`) is no part of the first line: a first line ``#`` after it is a comment."""
+    return sum(is_comment(t) for t in data[bom_length(data):].decode("utf-8", errors="replace").splitlines())
