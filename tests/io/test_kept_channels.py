@@ -3,6 +3,7 @@
 import dataclasses
 
 import numpy as np
+import pytest
 
 import mocapkit
 from mocapkit import samples
@@ -46,6 +47,10 @@ def test_an_amc_written_from_the_npz_made_from_it_is_that_amc_byte_for_byte(tmp_
     n = mocapkit.load(tmp_path / "x.npz")
     for name, take in (("same", n), ("direct", _turned(m)), ("via", _turned(n))):
         (tmp_path / name).mkdir()
-        mocapkit.save(take, tmp_path / name / "t.amc", asf=asf)
+        if name == "same":
+            mocapkit.save(take, tmp_path / name / "t.amc", asf=asf)
+            continue
+        with pytest.warns(UserWarning, match="rotations of ltibia"):  # turned about axes its 1-dof tibia lacks: said
+            mocapkit.save(take, tmp_path / name / "t.amc", asf=asf)
     assert (tmp_path / "same" / "t.amc").read_bytes() == amc.read_bytes()
     assert (tmp_path / "via" / "t.amc").read_bytes() == (tmp_path / "direct" / "t.amc").read_bytes() != amc.read_bytes()

@@ -9,10 +9,12 @@ no user string needs escaping case by case. Lines are not wrapped or cut
 
 from __future__ import annotations
 
+import contextlib
 import inspect
 import math
 import os
 import re
+import warnings
 from contextvars import ContextVar
 from pathlib import Path
 from typing import Iterable, Optional
@@ -34,6 +36,7 @@ __all__ = [
     "unit_option",
     "context_option",
     "joint_map_option",
+    "warnings_as_notes",
     "read_map",
     "CONTEXT_HELP",
     "executor_option",
@@ -314,6 +317,22 @@ def print_table(header: Iterable[str], rows: Iterable[Iterable[str]]) -> None:
         console.print("  ".join(cell.ljust(w) for cell, w in zip(r, widths)).rstrip())
 
 
+@contextlib.contextmanager
+def warnings_as_notes(notes: list):
+    """Within the block, a plain :class:`UserWarning` (what :func:`mocapkit.io.save` says a file cannot hold, e.g.
+    :func:`mocapkit.io.euler_branches.off_axis_note`: a hinge turned about other axes) is appended to ``notes``, for
+    the command to print as a ``note:`` line beside its others, instead of Python's warning format (its source
+    file and line); every other warning (a subclass, a RuntimeWarning) is given on as it was raised."""
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", UserWarning)
+        yield notes
+    for w in caught:
+        if w.category is UserWarning:
+            notes.append(str(w.message))
+        else:
+            warnings.warn_explicit(w.message, w.category, w.filename, w.lineno, source=w.source)
+
+
 def save_take(motion, out: Path, inp: Path | None, asf=None, overwrite: bool = False, **kwargs) -> None:
     """``io.save`` of a command's output take, and, for an AMC output, the input's ASF beside it where the
     output's folder lacks it (:func:`mocapkit.io.takes.asf_for_output`: an AMC is read with the ASF beside
@@ -328,7 +347,8 @@ def save_take(motion, out: Path, inp: Path | None, asf=None, overwrite: bool = F
     notes = io.motion_notes(motion, out, kwargs.get("like"))  # before the write: what OUT leaves out of the input
     with removed_on_failure([copy, out], overwrite=overwrite):
         place_asf(copy, skeleton)  # first: an AMC is never left without the ASF it is read with
-        io.save(motion, out, asf=skeleton if skeleton is not None else asf, copy_asf=False, **kwargs)
+        with warnings_as_notes(notes):  # what OUT cannot hold of the take (a hinge's other axes): said below
+            io.save(motion, out, asf=skeleton if skeleton is not None else asf, copy_asf=False, **kwargs)
     if copy is not None:
         console.print(f"copied the skeleton {skeleton} to {copy}: an AMC is read with the ASF beside it")
     unread = unread_amc_note(out, inp)

@@ -8,7 +8,8 @@ from typing import Optional
 import typer
 
 from ..errors import MissingFileError, MocapError, MocapFormatError
-from .common import amc_fps_option, asf_option, console, guard, overwrite_option, plural, unit_option
+from .common import (amc_fps_option, asf_option, console, guard, overwrite_option, plural, unit_option,
+                     warnings_as_notes)
 
 # Krüger's six markers (2010, sec. 5.2): the four end effectors, the head and the root
 SIX_MARKERS = ("left_hand", "right_hand", "left_foot", "right_foot", "head")
@@ -90,8 +91,12 @@ def _write(result, out: Path, asf_file: Optional[Path], overwrite: bool, method:
     from ..io.takes import asf_for_output, place_asf
     from ..reconstruct.output import save_reconstruction
 
+    notes: list[str] = []  # what OUT cannot hold of the poses (a bone of fewer dofs turned about others)
     if asf_file is None:
-        save_reconstruction(result, out, method, licence=licence)
+        with warnings_as_notes(notes):
+            save_reconstruction(result, out, method, licence=licence)
+        for note in notes:
+            console.print(f"note: {note}")
         return
     from ..io.amc_writer import check_amc_writable
 
@@ -99,9 +104,12 @@ def _write(result, out: Path, asf_file: Optional[Path], overwrite: bool, method:
     copy = asf_for_output(out, asf_file, overwrite, how="use --overwrite")
     with removed_on_failure([copy, out], overwrite=overwrite):
         place_asf(copy, asf_file)
-        save_reconstruction(result, out, method, asf=asf_file, licence=licence)
+        with warnings_as_notes(notes):
+            save_reconstruction(result, out, method, asf=asf_file, licence=licence)
     if copy is not None:
         console.print(f"copied the skeleton {asf_file} to {copy}: an AMC is read with the ASF beside it")
+    for note in notes:
+        console.print(f"note: {note}")
 
 
 def _sensors_named(names, db, path: Path):
