@@ -87,6 +87,13 @@ def test_csv_missing_values_and_irregular_times(tmp_path):
         ("time,a.x,a.y,a.z\n0,1,2,3\n0,1,2,3\n", r"bad\.csv:3: time 0 s does not increase"),
         ("time,a.x,a.y,a.z\nnan,1,2,3\n", r"bad\.csv:2: the time must be a finite number"),
         ("time,a.x,a.y,a.z\n", r"bad\.csv: no data rows"),
+        # a reading of inf is no acceleration and no missing sample: refused (was read as missing, the pose held)
+        ("time,a.x,a.y,a.z\n0,1,2,3\n0.1,1,inf,3\n", r"bad\.csv:3: column a\.y: an infinite reading 'inf'"),
+        ("time,a.x,a.y,a.z\n0,1,2,3\n0.1,1,-1e999,3\n", r"bad\.csv:3: column a\.y: an infinite reading '-1e999'"),
+        # no sample with every reading: nothing to reconstruct from (was a frozen pose for the whole take, exit 0)
+        ("time,a.x,a.y,a.z,b.x,b.y,b.z\n0,1,2,3,4,5,\n0.1,1,2,3,4,5,nan\n",
+         r"bad\.csv: no sample has all 6 readings \(column b\.z is empty in every row\)"),
+        ("time,a.x,a.y,a.z\n0,,2,3\n0.1,1,,3\n", r"bad\.csv: no sample has all 3 readings \(every row misses one\)"),
     ],
 )
 def test_csv_bad_files(tmp_path, text, match):

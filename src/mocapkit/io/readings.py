@@ -8,7 +8,9 @@ One header line, then one line per sample::
 ``time`` then three columns ``<sensor>.x, <sensor>.y, <sensor>.z`` per
 sensor, in the sensor's local frame, m/s^2 (gravity included, as an
 accelerometer reads it); time in seconds, strictly increasing. Empty cells
-and ``nan`` are missing values. The default sensor names
+and ``nan`` are missing values; an infinite reading is refused, and so is a
+recording none of whose samples has every reading (it would reconstruct one
+frozen pose). The default sensor names
 (:data:`DEFAULT_SENSOR_NAMES`) are those of
 :func:`mocapkit.features.default_sensors`. Irregular time stamps are
 resampled (linearly) to a uniform grid at the recording's nominal rate
@@ -103,7 +105,8 @@ def read_readings_csv(path, fps: float | None = None):
     ------
     MocapFormatError
         ``"PATH:LINE: reason"`` for a bad header, a bad number, a wrong
-        number of values, non-increasing or non-finite time.
+        number of values, non-increasing or non-finite time, an infinite
+        reading, or no sample with every reading.
     """
     path = Path(path)
     try:
@@ -144,6 +147,10 @@ def read_readings_csv(path, fps: float | None = None):
             raise MocapFormatError(path, f"not a number: {bad.strip()!r}", ln) from None
         if not np.isfinite(vals[0]):
             raise MocapFormatError(path, "the time must be a finite number", ln)
+        inf = next((k for k, v in enumerate(vals) if k and math.isinf(v)), None)
+        if inf is not None:  # a saturated or broken sensor: not an acceleration, nor a missing sample (empty / nan)
+            raise MocapFormatError(path, f"column {head[inf]}: an infinite reading {cells[inf].strip()!r} (a reading is a "
+                                   "finite number, or empty or nan where missing)", ln)
         if rows and vals[0] <= rows[-1][0]:
             raise MocapFormatError(path, f"time {vals[0]:g} s does not increase (previous {rows[-1][0]:g} s)", ln)
         rows.append(vals)
@@ -151,6 +158,7 @@ def read_readings_csv(path, fps: float | None = None):
     if not rows:
         raise MocapFormatError(path, "no data rows after the header")
     data = np.array(rows, dtype=np.float64)
+    _check_some_sample_complete(path, data[:, 1:], cols)
     t = data[:, 0]
     a = data[:, 1:].reshape(len(t), len(names), 3)
     dt = np.diff(t)
@@ -171,6 +179,24 @@ def read_readings_csv(path, fps: float | None = None):
     flat = a.reshape(len(t), -1)
     out = np.stack([np.interp(tg, t, flat[:, c]) for c in range(flat.shape[1])], axis=1)
     return tg, out.reshape(G, len(names), 3), names
+
+
+def _check_some_sample_complete(path: Path, values: np.ndarray, columns: list[str]) -> None:
+    """Refuse a recording (values (N, 3S), m/s^2, NaN where missing) none of whose samples has every reading.
+
+    A sample missing a reading holds the pose (Tautges 2012, ch. 3, as
+    :mod:`mocapkit.reconstruct.accelerometers.synthesis` runs it): with no
+    complete sample the whole take would come back as one frozen pose, written
+    and reported as a reconstruction. Names the column empty in every row, if
+    one is (a sensor not recorded), else says every row misses one.
+    """
+    seen = np.isfinite(values)
+    if seen.all(axis=1).any():
+        return
+    empty = [c for c, s in zip(columns, seen.any(axis=0)) if not s]
+    why = (f"column{'s' if len(empty) > 1 else ''} {', '.join(empty[:3])}{', ...' if len(empty) > 3 else ''} "
+           f"{'are' if len(empty) > 1 else 'is'} empty in every row") if empty else "every row misses one"
+    raise MocapFormatError(path, f"no sample has all {len(columns)} readings ({why}): nothing to reconstruct from")
 
 
 def _is_number(s: str) -> bool:
