@@ -94,6 +94,10 @@ def test_csv_missing_values_and_irregular_times(tmp_path):
         ("time,a.x,a.y,a.z,b.x,b.y,b.z\n0,1,2,3,4,5,\n0.1,1,2,3,4,5,nan\n",
          r"bad\.csv: no sample has all 6 readings \(column b\.z is empty in every row\)"),
         ("time,a.x,a.y,a.z\n0,,2,3\n0.1,1,,3\n", r"bad\.csv: no sample has all 3 readings \(every row misses one\)"),
+        # time in milliseconds: 0.03 Hz, upsampled to the database's rate (hours of frames) before the fix; now refused
+        ("time,a.x,a.y,a.z\n0,1,2,3\n33.3,1,2,3\n66.7,1,2,3\n",
+         r"bad\.csv: time stamps 33\.35 s apart \(0\.03 Hz\): is the time column in milliseconds"),
+        ("time,a.x,a.y,a.z\n0,1,2,3\n1e-6,1,2,3\n2e-6,1,2,3\n", r"bad\.csv: time stamps 1e-06 s apart \(1e\+06 Hz\)"),
     ],
 )
 def test_csv_bad_files(tmp_path, text, match):

@@ -7,7 +7,8 @@ One header line, then one line per sample::
 
 ``time`` then three columns ``<sensor>.x, <sensor>.y, <sensor>.z`` per
 sensor, in the sensor's local frame, m/s^2 (gravity included, as an
-accelerometer reads it); time in seconds, strictly increasing. Empty cells
+accelerometer reads it); time in seconds, strictly increasing, at a rate from
+1 Hz to 100 kHz (:data:`RATE_RANGE`). Empty cells
 and ``nan`` are missing values; an infinite reading is refused, and so is a
 recording none of whose samples has every reading (it would reconstruct one
 frozen pose). The default sensor names
@@ -39,11 +40,14 @@ import numpy as np
 from ..errors import MocapFormatError
 from . import atomic_write
 
-__all__ = ["DEFAULT_SENSOR_NAMES", "nominal_rate", "read_readings_csv", "write_readings_csv"]
+__all__ = ["DEFAULT_SENSOR_NAMES", "RATE_RANGE", "nominal_rate", "read_readings_csv", "write_readings_csv"]
 
 #: Sensor names of :func:`mocapkit.features.default_sensors`, in its order.
 DEFAULT_SENSOR_NAMES = ("left_wrist", "right_wrist", "left_ankle", "right_ankle")
 
+
+#: Sample rates (Hz) a recording is read at: a median time step outside them is a time column in another unit.
+RATE_RANGE = (1.0, 100_000.0)
 
 # rates a recording is taken at: a time stamp's rate within 0.1 % of one of them is that rate (as BVH frame times are read)
 _RATES = (24, 25, 30, 48, 50, 60, 100, 120, 240, 250, 500, 1000)
@@ -105,8 +109,9 @@ def read_readings_csv(path, fps: float | None = None):
     ------
     MocapFormatError
         ``"PATH:LINE: reason"`` for a bad header, a bad number, a wrong
-        number of values, non-increasing or non-finite time, an infinite
-        reading, or no sample with every reading.
+        number of values, non-increasing or non-finite time, a median time
+        step outside :data:`RATE_RANGE` (a time column in ms or us), an
+        infinite reading, or no sample with every reading.
     """
     path = Path(path)
     try:
@@ -162,6 +167,12 @@ def read_readings_csv(path, fps: float | None = None):
     t = data[:, 0]
     a = data[:, 1:].reshape(len(t), len(names), 3)
     dt = np.diff(t)
+    if dt.size and not RATE_RANGE[0] <= 1.0 / float(np.median(dt)) <= RATE_RANGE[1]:
+        # a time column in ms or us reads as a rate under 1 Hz: resampled to a database's rate it became hours of frames
+        step = float(np.median(dt))
+        raise MocapFormatError(path, f"time stamps {step:.4g} s apart ({1.0 / step:.3g} Hz): is the time column in "
+                               f"milliseconds or microseconds? It is in seconds, for a rate from {RATE_RANGE[0]:g} Hz "
+                               f"to {RATE_RANGE[1]:g} Hz")
     if fps is None:
         if dt.size == 0:
             return t, a, names
