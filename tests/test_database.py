@@ -272,6 +272,18 @@ def test_values_beyond_float32_are_refused_not_stored_as_infinity():
     assert np.isfinite(db.root_positions).all()
 
 
+def test_a_take_with_missing_joints_is_refused_naming_it_not_stored_as_nan(tmp_path):
+    """A take with gaps went into the database as NaN poses and features: `search` then dropped the clip (its own
+    exact match included) and `reconstruct` failed naming the query file. Refused at build, naming the take."""
+    m = mocapkit.load(samples.path("131_01.bvh"))[:40]
+    rot = np.array(m.rotations)
+    rot[10:12, 5] = np.nan
+    gappy = tmp_path / "gappy.npz"
+    mocapkit.save(dataclasses.replace(m, rotations=rot), gappy)
+    with pytest.raises(MocapFormatError, match=r"gappy\.npz: 2 frames have missing joints \(NaN\); fill the gaps"):
+        MotionDatabase.build([samples.path("131_01.bvh"), gappy], fps=30, executor="serial", progress=False)
+
+
 def test_a_mirrored_clip_of_a_rig_whose_frames_differ_by_side_lands_on_the_reflected_take():
     """A mirrored clip's rotations are reused on the database skeleton: on the Bandai Namco game rig (no
     reflection maps it onto itself) the mirror image keeps the clip's own skeleton, so the mirrored clip posed on

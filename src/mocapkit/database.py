@@ -207,6 +207,11 @@ def _prepare(item, fps: float, features: tuple[str, ...], mirror: bool, ref_skel
             raise MocapFormatError(path, "a marker file holds no skeleton motion and cannot go into a motion database")
     if m.num_frames == 0:
         raise MocapFormatError(source, "the clip has no frames")
+    gaps = m.missing().any(axis=1)
+    if gaps.any():  # NaN poses and features: a search would drop the clip, a reconstruction fail naming its query
+        n = int(gaps.sum())
+        raise MocapFormatError(source, f"{n} frame{'s have' if n != 1 else ' has'} missing joints (NaN); fill the "
+                                       "gaps first (mocapkit fill) to put the take in a motion database")
     if joint_map:
         m = _renamed(m, joint_map, source)
     if ref_skeleton is not None:
