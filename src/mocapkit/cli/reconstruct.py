@@ -95,19 +95,17 @@ def _write(result, out: Path, asf_file: Optional[Path], overwrite: bool, method:
     if asf_file is None:
         with warnings_as_notes(notes):
             save_reconstruction(result, out, method, licence=licence)
-        for note in notes:
-            console.print(f"note: {note}")
-        return
-    from ..io.amc_writer import check_amc_writable
+    else:
+        from ..io.amc_writer import check_amc_writable
 
-    check_amc_writable(result, out)
-    copy = asf_for_output(out, asf_file, overwrite, how="use --overwrite")
-    with removed_on_failure([copy, out], overwrite=overwrite):
-        place_asf(copy, asf_file)
-        with warnings_as_notes(notes):
-            save_reconstruction(result, out, method, asf=asf_file, licence=licence)
-    if copy is not None:
-        console.print(f"copied the skeleton {asf_file} to {copy}: an AMC is read with the ASF beside it")
+        check_amc_writable(result, out)
+        copy = asf_for_output(out, asf_file, overwrite, how="use --overwrite")
+        with removed_on_failure([copy, out], overwrite=overwrite):
+            place_asf(copy, asf_file)
+            with warnings_as_notes(notes):
+                save_reconstruction(result, out, method, asf=asf_file, licence=licence)
+        if copy is not None:
+            console.print(f"copied the skeleton {asf_file} to {copy}: an AMC is read with the ASF beside it")
     for note in notes:
         console.print(f"note: {note}")
 
