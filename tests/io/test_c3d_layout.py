@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from mocapkit.io.c3d import read_c3d, write_c3d
-from mocapkit.io.c3d_layout import stored_analogs
+from mocapkit.io.c3d_layout import parameter_at, put_parameter, stored_analogs
 
 
 def _find(shared_data, name):
@@ -38,7 +38,7 @@ def _stored(path):
                                   "ADemo1_rewrite_c3d_pc_float.c3d"])
 def test_analogs_are_written_as_the_numbers_and_offsets_stored(tmp_path, shared_data, name):
     """Eb015pi: 16-bit integers with OFFSET 2048; FunctionalWalk: floats holding A/D counts, UNSIGNED, OFFSET
-    -32768; shd01: OFFSET -32752 read as 32752; PiG: floats storing volts; ADemo1's float copy: floats under
+    -32768 (32768); shd01: UNSIGNED, OFFSET -32752 read as 32784; PiG: floats storing volts; ADemo1's float copy: floats under
     ANALOG:SCALE -0.05, where several floats read as one float32 sample (335 were written one step off before
     0.15.0, as the float32 nearest the sample's reading). Written back, the file stores the same
     numbers (as floats: see the guide) under the same ANALOG:OFFSET, SCALE and GEN_SCALE, and reads the same."""
@@ -175,3 +175,78 @@ def test_the_fallback_reader_keeps_the_stored_analog_numbers_as_ezc3d_does(tmp_p
     out = tmp_path / "out.c3d"
     write_c3d(take, out)
     assert np.array_equal(_stored(out), _stored(path))
+
+
+def _offset_file(path, fmt, offsets, stored):
+    """A float C3D of 4 frames (1 point, analog channels at the frame rate) storing ``stored`` (A, 4) under
+    ANALOG:SCALE 1, ANALOG:FORMAT ``fmt`` and ANALOG:OFFSET ``offsets`` (A,), the 16-bit values the file holds."""
+    import ezc3d
+
+    a = len(offsets)
+    c = ezc3d.c3d()
+    c["parameters"]["POINT"]["RATE"]["value"] = np.array([100.0])
+    c["parameters"]["POINT"]["UNITS"] = {"type": -1, "description": "", "is_locked": False, "value": ["mm"]}
+    c["parameters"]["POINT"]["LABELS"]["value"] = ["A"]
+    c["parameters"]["ANALOG"]["RATE"]["value"] = np.array([100.0])
+    c["parameters"]["ANALOG"]["USED"]["value"] = np.array([a])
+    c["parameters"]["ANALOG"]["LABELS"]["value"] = [f"ch{i}" for i in range(a)]
+    c["parameters"]["ANALOG"]["FORMAT"]["value"] = [fmt]
+    pts = np.ones((4, 1, 4))
+    pts[:3] = np.arange(12.0).reshape(3, 1, 4) * 100
+    c["data"]["points"] = pts
+    c["data"]["meta_points"]["residuals"] = np.zeros((1, 1, 4))
+    c["data"]["analogs"] = np.asarray(stored, dtype=np.float64)[None]
+    c.write(str(path))
+    data = bytearray(path.read_bytes())
+    assert put_parameter(data, "ANALOG", "OFFSET", offsets)
+    path.write_bytes(bytes(data))
+    return path
+
+
+@pytest.mark.parametrize("fmt, offsets, stored, values", [
+    # UNSIGNED: offsets unsigned (-32752 is 32784), as the C3D guide, BTK and the c3d package read them
+    ("UNSIGNED", [-32752, 100, -32768], [[32800, 32784, 32000, 0], [100, 90, 0, 65535], [32768, 40000, 1, 2]],
+     [[16, 0, -784, -32784], [0, -10, -100, 65435], [0, 7232, -32767, -32766]]),
+    # SIGNED: signed (-5 is -5), but for -32768, 0x8000, read as 32768 (Analysis.c3d's 0 V)
+    ("SIGNED", [-5, -32768, 7], [[-5, 10, 0, -32767], [32768, 32770, 0, 65535], [7, 0, 8, 6]],
+     [[0, 15, 5, -32762], [0, 2, -32768, 32767], [0, -7, 1, -1]]),
+])
+def test_analog_offsets_are_read_as_the_c3d_guide_has_them_by_both_readers(tmp_path, monkeypatch, fmt, offsets,
+                                                                           stored, values):
+    """ANALOG:OFFSET under ANALOG:FORMAT (c3d_layout.offset_values): the value read is ``stored - offset``, the
+    same by ezc3d's path (which subtracted each offset's magnitude: 48 for 16 above, -10 for 0) and by the
+    ``c3d`` package's (65,536 for Analysis.c3d's 0), and a take written back keeps the file's OFFSET bytes."""
+    import sys
+
+    path = _offset_file(tmp_path / "offsets.c3d", fmt, offsets, stored)
+    take = read_c3d(path)
+    assert take.reader == "ezc3d"
+    assert np.array_equal(take.source.analogs, np.asarray(values, dtype=np.float64))
+    out = tmp_path / "out.c3d"
+    write_c3d(take, out)
+    assert np.array_equal(read_c3d(out).source.analogs, take.source.analogs)
+    at, typ, count = parameter_at(bytearray(out.read_bytes()), "ANALOG", "OFFSET")
+    assert typ == 2 and np.frombuffer(out.read_bytes(), "<i2", count=count, offset=at).tolist()[:3] == offsets
+    monkeypatch.setitem(sys.modules, "ezc3d", None)  # the fallback reader
+    fallback = read_c3d(path)
+    assert fallback.reader == "c3d"
+    assert np.array_equal(fallback.source.analogs, take.source.analogs)
+
+
+def test_both_readers_read_analysis_and_shd01_analogs_alike(shared_data, monkeypatch):
+    """BTK's Analysis.c3d (SIGNED, OFFSET -32768, every sample 32768) reads 0 V by either reader, and shd01.c3d
+    (UNSIGNED, OFFSET -32752, -32701, -32704 on Fx, Fz, Mx) the same by both: Fz 23.5 (its units) below ezc3d's reading."""
+    import sys
+
+    import ezc3d
+
+    analysis, shd01 = _find(shared_data, "Analysis.c3d"), _find(shared_data, "shd01.c3d")
+    first = [read_c3d(analysis).source.analogs, read_c3d(shd01).source.analogs]
+    assert np.array_equal(first[0], np.zeros_like(first[0]))
+    c = ezc3d.c3d(str(shd01))
+    fz = c["data"]["analogs"][0, 2] - (32835 - 32701) * c["parameters"]["ANALOG"]["SCALE"]["value"][2]
+    assert np.allclose(first[1][2], fz, rtol=1e-6) and np.allclose(first[1][1], c["data"]["analogs"][0, 1], rtol=1e-6)
+    monkeypatch.setitem(sys.modules, "ezc3d", None)
+    for path, values in zip((analysis, shd01), first):
+        fallback = read_c3d(path)
+        assert fallback.reader == "c3d" and np.array_equal(fallback.source.analogs, values), path.name

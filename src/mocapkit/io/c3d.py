@@ -45,8 +45,8 @@ from ..markerset import (MODELLED_GROUPS, MarkerSet, MarkerSource, length_unit_c
 from ..motion import check_fps
 from .c3d_frames import (FRAME_CAP, long_frame_parameters, missing_stored, point_words, put_missing_stored,
                          put_stored_zeros, read_float, read_frames, residuals_and_cameras, rest_of_trial, zero_gap_words)
-from .c3d_layout import (header_layout, held_analogs, integer_data, integer_scale, keep_data_start, put_analogs,
-                         put_header_gap, put_parameter, stored_analogs)
+from .c3d_layout import (header_layout, held_analogs, integer_data, integer_scale, keep_data_start, parameter_values,
+                         put_analogs, put_header_gap, put_parameter, stored_analogs, with_offsets)
 from .c3d_modelled import modelled_parameters, stated_positions
 from .c3d_structure import check_structure
 from .c3d_trial import (channels_held, fit_event_group, fit_force_plates, fit_header_events, trial_frames, trial_rate,
@@ -177,6 +177,9 @@ def _read_ezc3d(path: Path, raw: bytes):
     a = c["data"]["analogs"]  # (1, A, F * ratio): the frame layout ezc3d read
     per_frame = a.shape[1] * (a.shape[2] // max(xyz.shape[0], 1))
     analogs = c["data"]["analogs"][0] if a.size else None
+    if analogs is not None:  # ezc3d subtracts each ANALOG:OFFSET's magnitude: read again as the C3D guide has it
+        analogs = with_offsets(analogs, c["parameters"],
+                               np.abs(parameter_values(c["parameters"], "ANALOG", "OFFSET").astype(np.int64)))
     # a trial past the 65,535 frames a header can state: ezc3d read the first 65,535, numpy reads the rest
     rest = rest_of_trial(path, raw, c["parameters"], np.transpose(pts[:3], (2, 1, 0)), analogs, per_frame, scale)
     if rest is not None:
@@ -313,6 +316,7 @@ def _read_c3d_package(path: Path, written: dict, raw: bytes | None = None):
                     pass
         first = int(reader.first_frame)
         scale = reader.point_scale
+        offsets = reader.get_analog_transform_parameters()[2] if reader.analog_used else []
     if data.shape[1] == 0:
         raise MocapFormatError(path, "C3D file holds no 3D points")
     xyz = _float32_values(data[..., :3])
@@ -327,8 +331,11 @@ def _read_c3d_package(path: Path, written: dict, raw: bytes | None = None):
     xyz[resid < 0] = np.nan
     analogs = None
     if analog and np.asarray(analog[0]).size:
-        a = _float32_values(analog)  # (F, A, ratio)
-        analogs = a.transpose(1, 0, 2).reshape(a.shape[1], -1)
+        a = np.asarray(analog, dtype=np.float64)  # (F, A, ratio)
+        a = a.transpose(1, 0, 2).reshape(a.shape[1], -1)
+        if "OFFSET" in parameters.get("ANALOG", {}):  # the package's offsets read as the C3D guide has them
+            a = with_offsets(a, parameters, offsets)
+        analogs = _float32_values(a)
     numbers = None if analogs is None or raw is None else _package_analog_numbers(raw, data.shape[0], data.shape[1],
                                                                                    scale, parameters, analogs)
     source = MarkerSource(format="c3d", parameters=parameters, analogs=analogs, analog_numbers=numbers,

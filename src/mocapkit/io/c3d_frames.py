@@ -21,6 +21,7 @@ import struct
 import numpy as np
 
 from ..errors import MocapFormatError
+from .c3d_layout import analog_offsets
 
 __all__ = ["FRAME_CAP", "read_float", "sample_bytes", "point_words", "missing_stored", "put_missing_stored",
            "residuals_and_cameras",
@@ -279,9 +280,9 @@ def read_frames(raw: bytes, begin: int, end: int, points: int, analog: int, scal
     Returns ``(xyz, analogs)``: ``xyz`` (F, M, 3) float64 point coordinates
     in the file's units as stored (16-bit integers times ``scale`` when it is
     positive, else floats), ``analogs`` (A, F * ratio) float64 at the analog
-    rate, ``(stored - ANALOG:OFFSET) * ANALOG:SCALE * ANALOG:GEN_SCALE`` as
-    ezc3d reads them (``ANALOG:FORMAT`` UNSIGNED: stored and offset unsigned
-    16-bit), or None when the file holds none. ``analog``: analog samples a
+    rate, ``(stored - ANALOG:OFFSET) * ANALOG:SCALE * ANALOG:GEN_SCALE`` (``ANALOG:FORMAT`` UNSIGNED: stored
+    unsigned 16-bit; the offsets as :func:`~mocapkit.io.c3d_layout.analog_offsets` reads them), or None when
+    the file holds none. ``analog``: analog samples a
     frame (channels x ratio); ``parameters``: ezc3d's parsed section. None when
     the file does not hold those frames whole.
     """
@@ -300,10 +301,7 @@ def read_frames(raw: bytes, begin: int, end: int, points: int, analog: int, scal
     unsigned = fmt is not None and len(fmt) > 0 and str(fmt[0]).strip().upper() == "UNSIGNED"
     samples = _values(block[:, 4 * points * size:].reshape(frames, ratio, channels, size), proc, e, size,
                       unsigned=unsigned)  # (F, ratio, A)
-    offsets = np.zeros(channels) if _value(parameters, "ANALOG", "OFFSET") is None else \
-        np.resize(_value(parameters, "ANALOG", "OFFSET").astype(np.int64), channels)
-    if unsigned:
-        offsets = offsets & 0xFFFF
+    offsets = analog_offsets(parameters, channels)
     scales = _value(parameters, "ANALOG", "SCALE")
     scales = np.ones(channels) if scales is None or not len(scales) else np.resize(scales.astype(np.float64), channels)
     gen = _value(parameters, "ANALOG", "GEN_SCALE")

@@ -30,8 +30,8 @@ import struct
 
 import numpy as np
 
-__all__ = ["parameter_values", "header_layout", "analog_offsets", "held_analogs", "stored_analogs", "parameter_at", "put_parameter",
-           "put_analogs", "put_header_gap", "keep_data_start", "integer_data",
+__all__ = ["parameter_values", "header_layout", "offset_values", "analog_offsets", "with_offsets", "held_analogs",
+           "stored_analogs", "parameter_at", "put_parameter", "put_analogs", "put_header_gap", "keep_data_start", "integer_data",
            "integer_scale", "stored_scale"]
 
 BLOCK = 512
@@ -57,17 +57,56 @@ def parameter_values(parameters, group: str, name: str) -> np.ndarray:
     return np.ravel(param.get("value", [])) if isinstance(param, dict) else np.array([])
 
 
-def analog_offsets(parameters, channels: int) -> np.ndarray:
-    """(A,) int: ANALOG:OFFSET as ezc3d subtracts it, its magnitude (0 where the file has none).
+def offset_values(raw, unsigned: bool) -> np.ndarray:
+    """(A,) int: the offsets that ANALOG:OFFSET's 16-bit values ``raw`` (A,) (as parsed, -32768 to 32767) stand for.
 
-    A 16-bit parameter cannot hold the 32768 of a centred 16-bit converter, so
-    files write offsets past 32767 as negative numbers (Analysis.c3d: -32768
-    for stored 32768 read as 0 V) and ezc3d reads every offset as its magnitude
-    (shd01.c3d: -32752, stored 32532 read as -220 counts), whatever ANALOG:FORMAT says.
+    The one rule both readers and the writer use: a sample reads ``(stored - offset) * SCALE * GEN_SCALE``.
+    C3D guide (Motion Lab Systems, "The C3D File Format User Guide", c3d.org: ANALOG:OFFSET, ANALOG:FORMAT,
+    "Notes for programmers - integer analog data"): where ANALOG:FORMAT is UNSIGNED (``unsigned``) the
+    offsets are unsigned, 0 to 65535 (shd01.c3d: -32752 is 32784, as BTK and the ``c3d`` package read it),
+    else signed. One value is read unsigned in either format: -32768 (0x8000), which the guide's ANALOG:FORMAT
+    page and integer glossary leave out of the signed range (-32767 to +32767), is 32768, the zero of a
+    16-bit converter's offset binary: Analysis.c3d (SIGNED, BITS 16) stores every sample as 32768, 0 V so
+    read (as ezc3d and mocapkit before 0.16.0 read it), 65,536 V as BTK and the ``c3d`` package read it.
+    ezc3d 1.7 reads every offset as its magnitude (shd01.c3d: 32752; a SIGNED -5 as 5).
     """
-    offsets = np.abs(parameter_values(parameters, "ANALOG", "OFFSET").astype(np.int64))
+    raw = np.asarray(raw, dtype=np.int64)
+    return np.where(unsigned | (raw == -32768), raw & 0xFFFF, raw)
+
+
+def analog_offsets(parameters, channels: int) -> np.ndarray:
+    """(A,) int: the offset each of ``channels`` analog channels is read with (0 where the file has none).
+
+    ANALOG:OFFSET's values in ezc3d's parsed layout ``parameters``, read as
+    :func:`offset_values` says under the file's ANALOG:FORMAT.
+    """
+    fmt = parameter_values(parameters, "ANALOG", "FORMAT")
+    unsigned = len(fmt) > 0 and str(fmt[0]).strip().upper() == "UNSIGNED"
+    offsets = offset_values(parameter_values(parameters, "ANALOG", "OFFSET"), unsigned)
     out = np.zeros(channels, dtype=np.int64)
     out[: min(len(offsets), channels)] = offsets[:channels]
+    return out
+
+
+def with_offsets(analogs: np.ndarray, parameters, read_with) -> np.ndarray:
+    """(A, N) float64: ``analogs`` (A, N), read by a peer with the offsets ``read_with`` (A,), as
+    :func:`analog_offsets` reads them: ``(read_with - offset) * ANALOG:SCALE * GEN_SCALE`` added on each channel
+    whose offsets differ (scale and GEN_SCALE 1 where absent, as readers take them); the others as they are."""
+    a = analogs.shape[0]
+    shift = np.zeros(a, dtype=np.int64)
+    given = np.asarray(read_with, dtype=np.int64)[:a]
+    shift[: len(given)] = given
+    shift -= analog_offsets(parameters, a)
+    if not shift.any():
+        return analogs
+    scales = np.ones(a)
+    found = parameter_values(parameters, "ANALOG", "SCALE").astype(np.float64)[:a]
+    scales[: len(found)] = found
+    gen = parameter_values(parameters, "ANALOG", "GEN_SCALE").astype(np.float64)
+    step = scales * (float(gen[0]) if len(gen) else 1.0)
+    out = np.array(analogs, dtype=np.float64)
+    moved = shift != 0
+    out[moved] += (shift[moved] * step[moved])[:, None]
     return out
 
 
@@ -123,7 +162,7 @@ def stored_analogs(analogs: np.ndarray, parameters, held: np.ndarray | None = No
     changed in Python, a scale of 0 or missing), None: the caller writes the
     values as they are (scale 1, offset 0). Returns ``stored`` (A, N) float64,
     ``scales`` (A,) ANALOG:SCALE, ``offsets`` (A,) int, ANALOG:OFFSET as the
-    file has it (the values are read with their magnitudes: :func:`analog_offsets`),
+    file has it (the values are read as :func:`analog_offsets` says),
     ``gen`` ANALOG:GEN_SCALE. ``held`` (A, N): the numbers the file stored
     (:func:`held_analogs`, kept by the reader), taken wherever they still read as the sample, since rounded
     to float32 a sample of a float file no longer says which of several numbers the file held.
