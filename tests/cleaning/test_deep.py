@@ -857,3 +857,23 @@ def test_ebf_training_refuses_clips_shorter_than_a_crop_naming_them(tmp_path, wa
     assert not (tmp_path / "m").exists()
     gap_cfg = training.TrainConfig(**{**cfg.__dict__, "kind": "ebd", "centres": 4})
     training.check_clip_lengths([walk[:200], short], gap_cfg)  # the EBD trains on whole clips of any length
+
+
+def test_a_truncated_model_or_checkpoint_is_refused_as_damaged_not_as_another_training(tmp_path, walk):
+    """A model.pt or checkpoint.pt cut short (a full disk, an interrupted copy) was refused as "no checkpoint of this
+    training beside it" / "not one mocapkit wrote": it is named as damaged, and nothing in the folder is replaced."""
+    whole = tmp_path / "whole.pt"
+    torch.save({"meta": json.dumps({"training": "x"}), "state": torch.zeros(4096)}, whole)
+    cut = whole.read_bytes()[: whole.stat().st_size // 2]
+    (tmp_path / "model.pt").write_bytes(cut)
+    with pytest.raises(ValueError, match=r"model.pt already exists \(damaged or truncated: torch cannot read it\); "
+                                         r"--restart or --overwrite"):
+        training.check_out_dir(tmp_path, [walk[:160]], _tiny())
+    (tmp_path / "checkpoint.pt").write_bytes(cut)
+    with pytest.raises(ValueError, match=r"holds a damaged or truncated checkpoint.pt \(torch cannot read it\)"):
+        training.check_out_dir(tmp_path, [walk[:160]], _tiny())
+    assert (tmp_path / "model.pt").read_bytes() == cut and (tmp_path / "checkpoint.pt").read_bytes() == cut
+    (tmp_path / "model.pt").write_bytes(whole.read_bytes())  # a whole torch file that is no model of this training
+    (tmp_path / "checkpoint.pt").unlink()
+    with pytest.raises(ValueError, match=r"model.pt already exists \(no checkpoint of this training beside it\)"):
+        training.check_out_dir(tmp_path, [walk[:160]], _tiny())

@@ -534,6 +534,16 @@ def _load_or_none(path: Path) -> dict | None:
     return out if isinstance(out, dict) else None
 
 
+def _damaged(path: Path) -> bool:
+    """True when ``torch.load`` cannot read the file at all (cut short by a full disk or an interrupted copy, or
+    bytes of another kind), as against a whole torch file that is not a mocapkit one: each is refused in its words."""
+    try:
+        torch.load(path, map_location="cpu", weights_only=True)
+    except Exception:  # zip, pickle and torch errors alike: not a whole torch file
+        return True
+    return False
+
+
 def _model_record(path: Path) -> dict | None:
     """``model.pt``'s metadata (JSON), None when it is missing or unreadable."""
     payload = _load_or_none(path) if path.is_file() else None
@@ -576,7 +586,8 @@ def check_out_dir(out_dir, clips: list[Motion], config: TrainConfig = TrainConfi
     if ckpt_path.is_file():
         ck = _load_or_none(ckpt_path)
         if ck is None:
-            other = "an unreadable checkpoint.pt (not one mocapkit wrote)"
+            other = ("a damaged or truncated checkpoint.pt (torch cannot read it)" if _damaged(ckpt_path) else
+                     "an unreadable checkpoint.pt (not one mocapkit wrote)")
         else:
             differ = [what for what, same in (("settings", ck.get("config") == cfg_json),
                                               ("clips", ck.get("data") == data_json)) if not same]
@@ -603,6 +614,8 @@ def check_out_dir(out_dir, clips: list[Motion], config: TrainConfig = TrainConfi
         mine = same_run and this_training
         if not mine and not overwrite:
             why = "no checkpoint of this training beside it" if not same_run else "it is another training's model"
+            if meta is None and model_path.is_file() and _damaged(model_path):  # not another training's: unreadable
+                why = "damaged or truncated: torch cannot read it"
             raise ValueError(f"{model_path} already exists ({why}); --restart or --overwrite (resume=False or "
                              "overwrite=True in Python) replaces it, or give another folder")
         same_run = same_run and mine
