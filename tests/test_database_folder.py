@@ -673,3 +673,20 @@ def test_a_database_another_process_writes_meanwhile_is_said_to_have_appeared(sm
         small_db.save(out)
     assert MotionDatabase.open(out).clips == MotionDatabase.open(saved).clips
     assert [p.name for p in tmp_path.iterdir()] == ["db"]  # no staging folder left
+
+
+def test_no_other_output_is_written_inside_a_database_folder(saved, tmp_path):
+    """`train -o DB` and `detect -o DB/x.npz` wrote into a database folder, which `db build --overwrite` then refused
+    ("it holds det.npz, which a database save does not write"): every writer's guard refuses it in one line."""
+    from mocapkit.io.outputs import check_outputs
+
+    for out in (saved / "model.pt", saved / "fold_1" / "model.pt", saved / "features" / "det.npz"):
+        with pytest.raises(MocapFormatError, match=r"refusing to write inside a motion database folder \(.*db\), which "
+                                                   r"`db build --overwrite` replaces whole; choose another folder"):
+            check_outputs([out], overwrite=True)
+    check_outputs([saved.parent / "model.pt"])  # beside it is fine
+    takes = tmp_path / "takes"  # a folder whose database.json is not a mocapkit database's is no database
+    takes.mkdir()
+    (takes / "database.json").write_text(json.dumps({"format": "someone-else"}))
+    check_outputs([takes / "out.bvh"])
+    check_database_output(saved, overwrite=True)  # nothing was written there: db build may still replace it

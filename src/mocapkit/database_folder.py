@@ -48,7 +48,7 @@ import numpy as np
 from .errors import MocapError, MocapFormatError
 from .features import FEATURE_SETS, WINDOWED_SETS
 from .interrupts import interrupts_held
-from .io.outputs import inside, missing_folders, resolved, same_file
+from .io.outputs import DATABASE_DESCRIPTION, DATABASE_FORMAT, inside, missing_folders, resolved, same_file
 from .motion import Skeleton
 
 __all__ = [
@@ -69,9 +69,9 @@ __all__ = [
     "read_folder",
 ]
 
-FORMAT = "mocapkit-motion-database"
+FORMAT = DATABASE_FORMAT
 FORMAT_VERSION = 1
-DESCRIPTION = "database.json"
+DESCRIPTION = DATABASE_DESCRIPTION
 #: Frame rates (fps) a database may have: queries are resampled to it, so it bounds their size.
 FPS_RANGE = (1.0, 1000.0)
 #: dtype of each stored array, by file name ("features" for every features/<name>.npy).

@@ -8,6 +8,7 @@ every path a command will write is checked against every path it reads:
 - no two outputs may be the same file;
 - an existing output file is replaced only when ``overwrite`` is true;
 - an output that exists and is a folder, or whose parent is a file, is refused;
+- an output inside a motion database folder (:func:`database_around`) is refused: the folder is ``db build``'s;
 - missing parent folders are created only when the output is written
   (:func:`mocapkit.io.atomic_write` does that), never by the check.
 
@@ -32,6 +33,7 @@ refusing to write over an input
 
 from __future__ import annotations
 
+import json
 import os
 import shutil
 import stat
@@ -44,13 +46,41 @@ from typing import Iterable, Iterator
 from ..errors import MocapFormatError
 from ..interrupts import interrupts_held, whole_hand_over, whole_step
 
-__all__ = ["check_file_path", "check_outputs", "same_file", "inside", "removed_on_failure", "publish", "keep_aside", "named_as_given", "put_back",
+__all__ = ["check_file_path", "check_outputs", "database_around", "same_file", "inside", "removed_on_failure", "publish", "keep_aside", "named_as_given", "put_back",
            "drop_kept", "missing_folders", "file_facts", "input_facts", "other_input"]
 
 
 def resolved(path: os.PathLike | str) -> Path:
     """The absolute path with symlinks, ``.`` and ``..`` resolved (also for paths that do not exist yet)."""
     return Path(os.path.realpath(os.path.abspath(os.fspath(path))))
+
+
+#: The file that makes a folder a mocapkit motion database, and the format it names (``mocapkit.database_folder``
+#: writes both): such a folder holds only what a database save writes, and ``db build --overwrite`` replaces it whole.
+DATABASE_DESCRIPTION = "database.json"
+DATABASE_FORMAT = "mocapkit-motion-database"
+
+
+def database_around(path: os.PathLike | str) -> Path | None:
+    """The motion database folder that ``path`` would be written inside (its folder or any folder above it), or None.
+
+    A file written there is refused by :func:`check_outputs`: nothing would be lost at once, but ``db build
+    --overwrite`` then refuses the folder (it holds a file a database save does not write), and a database replaced
+    whole would lose it. Only a ``database.json`` naming the format counts (a folder of takes may hold another one).
+    """
+    start = resolved(path).parent
+    for folder in (start, *start.parents):
+        desc = folder / DATABASE_DESCRIPTION
+        if not desc.is_file():
+            continue
+        try:
+            with open(desc, encoding="utf-8") as fh:
+                meta = json.loads(fh.read(2**24))
+        except (OSError, ValueError):
+            continue
+        if isinstance(meta, dict) and meta.get("format") == DATABASE_FORMAT:
+            return folder
+    return None
 
 
 def same_file(a: os.PathLike | str, b: os.PathLike | str) -> bool:
@@ -134,6 +164,10 @@ def check_outputs(
             parent = parent.parent
         if parent.exists() and not parent.is_dir():
             raise MocapFormatError(out, f"cannot create it: {parent} is a file, not a folder")
+        db = database_around(out)
+        if db is not None:
+            raise MocapFormatError(out, f"refusing to write inside a motion database folder ({db}), which `db build "
+                                        "--overwrite` replaces whole; choose another folder")
         if os.path.lexists(out) and not overwrite:  # a dangling link too
             raise MocapFormatError(out, f"already exists; {how} to replace it")
 
