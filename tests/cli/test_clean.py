@@ -59,6 +59,7 @@ def test_clean_writes_output_and_record(takes, tmp_path, capsys):
     assert rec.filled.sum() == mocapkit.load(inp).missing().sum() > 0
     assert not cleaned.missing().any() and cleaned.num_frames == rec.num_frames
     assert (tmp_path / "s.png").read_bytes()[:4] == b"\x89PNG"
+    assert f"wrote {out}, {tmp_path / 'walk.clean.npz'} and {tmp_path / 's.png'}: " in text  # was "A and B and C"
     assert "fill" in text and "EBD's gap prior (shipped)" in text and "flagged" in text
     # the error before and after is printed; the pose error after is far lower. (The joint positions are held to a
     # looser bound, 4.65 -> 3.83 cm now: the take's 0.9 s gap in the right upper arm is filled no better by the gap

@@ -91,6 +91,8 @@ def test_clean_c3d_end_to_end(cut_take, tmp_path):
     out = tmp_path / "clean.c3d"
     code, stdout, stderr = run("clean", inp, "-o", out, "--report", tmp_path / "r.html", "--png", tmp_path / "p.png")
     assert code == 0, stderr
+    # the files as a person lists them (it said "wrote A and B and C and D")
+    assert f"wrote {out}, {tmp_path / 'clean.clean.npz'}, {tmp_path / 'r.html'} and {tmp_path / 'p.png'}: " in stdout, stdout
     assert f"{len(np.flatnonzero(mask.any(0)))} gaps filled" in stdout
     assert "mm off the straight line between the gap's ends" in stdout  # what a gap's size measures (no error)
     got = _ezc3d_points(out)

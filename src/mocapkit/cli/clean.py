@@ -12,7 +12,7 @@ import typer
 from ..errors import MocapError, MocapFormatError
 from .common import (STEPS_HELP, amc_fps_option, asf_option, check_executor, check_noise_deg, console, context_option, joint_map_option, read_map,
                      executor_option, guard, keep_modelled_option, max_fill_error_option, max_gap_option,
-                     noise_deg_option, overwrite_option, percent, plural, unit_option, zeros_option)
+                     listed, noise_deg_option, overwrite_option, percent, plural, unit_option, zeros_option)
 
 
 def _steps(text: str) -> list[str]:
@@ -160,7 +160,7 @@ def clean(
     m = res.motion
     review = [s for s in res.steps if s.name != "detect"] == [] and res.detection is not None
     unjudged = not_judged_note(res.detection, res.num_frames)  # said beside the untouched share: not examined
-    console.print(f"wrote {out} and {clean_path(out)}" + "".join(f" and {p}" for p in (report, png) if p is not None)
+    console.print(f"wrote {listed(p for p in (out, clean_path(out), report, png) if p is not None)}"
                   + f": {plural(res.num_frames, 'frame')} @ {m.fps:g} fps, "
                   + ("review mode (--steps detect): flags only, the take unchanged"
                      + (f"; {unjudged}" if unjudged else "") if review else
@@ -240,7 +240,7 @@ def _print_decided(written, decided, frames_note: str) -> None:
     then :meth:`~mocapkit.cleaning.decided.Decided.lines` (what was applied to what, its notes, the rejected
     changes)."""
     head, *rest = decided.lines(frames_note)
-    console.print(f"wrote {' and '.join(map(str, written))}: {head}")
+    console.print(f"wrote {listed(written)}: {head}")
     for line in rest:
         console.print(line if line.startswith("note: ") else f"  {line}")
 
@@ -285,11 +285,10 @@ def _clean_marker_take(inp: Path, out: Path, *, report, png, overwrite: bool, no
         for note in marker_notes(take, out, inp, keep_modelled=keep_modelled, filled=res.fill_mask):
             console.print(f"note: {note}")
         return True
-    extra = "".join(f" and {x}" for x in (report, png) if x is not None)
     # markers counted as info and convert count them: a C3D's modelled quantities (angles, forces, ...) apart, left as read
     markers, quantities, _ = marker_counts(take)
     also = f" (+{plural(quantities, 'modelled quantity', 'modelled quantities')}, left as read)" if quantities else ""
-    console.print(f"wrote {out} and {clean_path(out)}{extra}: {plural(take.num_frames, 'frame')} x "
+    console.print(f"wrote {listed(x for x in (out, clean_path(out), report, png) if x is not None)}: {plural(take.num_frames, 'frame')} x "
                   f"{plural(markers, 'marker')}{also}" + ("" if res.review else  # summary()'s first line says it
                   f", {int(res.changed.sum())} of {plural(take.num_frames * markers, 'marker sample')} changed"))
     if take.units_from != "file":  # the unit every mm figure below rests on

@@ -284,6 +284,12 @@ def plural(n: int, word: str, many: str | None = None) -> str:
     return f"{n} {word if n == 1 else (many or word + 's')}"
 
 
+def listed(items) -> str:
+    """``items`` as a person lists them: ``"A"``, ``"A and B"``, ``"A, B and C"`` (a "wrote ..." line's files)."""
+    words = [str(i) for i in items]
+    return words[0] if len(words) == 1 else f"{', '.join(words[:-1])} and {words[-1]}" if words else ""
+
+
 def percent(part: int, whole: int) -> str:
     """``part`` of ``whole`` as a percentage that never rounds to 100 or 0 unless it is: "99.98", "> 99.999".
 

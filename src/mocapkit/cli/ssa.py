@@ -8,7 +8,7 @@ from typing import Optional
 import typer
 
 from ..errors import MocapError, MocapFormatError
-from .common import (amc_fps_option, asf_option, console, context_option, joint_map_option, read_map, guard, overwrite_option, plural, save_take,
+from .common import (amc_fps_option, asf_option, console, context_option, joint_map_option, listed, read_map, guard, overwrite_option, plural, save_take,
                      unit_option)
 
 
@@ -135,7 +135,7 @@ def detect(
             "notes": ([note] if note else []) + _take_notes(m, found, det) + list(seen.lines),
         }))
         return
-    console.print(f"wrote {out}" + (f" and {png}" if png else "") + f": {plural(len(segs), 'flagged segment')}"
+    console.print(f"wrote {listed(p for p in (out, png) if p)}: {plural(len(segs), 'flagged segment')}"
                   f" (judged against {context_label(ctx)})")
     for line in ([note] if note else []) + _take_notes(m, found, det) + list(seen.lines):
         console.print(f"  note: {line}")
