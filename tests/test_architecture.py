@@ -11,7 +11,7 @@ SRC = Path(__file__).resolve().parents[1] / "src" / "mocapkit"
 # the layers of docs/architecture.md, left (0) to right; -1: the small modules every layer may use
 LAYERS = {
     "errors": -1, "rotations": -1, "interrupts": -1, "progress": -1, "parallel": -1, "kernel_cache": -1,
-    "_numba_quaternions": -1, "_numba_euler": -1,
+    "_numba_quaternions": -1, "_numba_euler": -1, "words": -1,
     "motion": 0, "joints": 0, "rigs": 0, "markerset": 0, "digest": 0, "mirroring": 0, "samples": 0, "_numba_fk": 0,
     "io": 1,
     "features": 2, "metrics": 2, "corrupt": 2, "joint_spread": 2,

@@ -81,6 +81,7 @@ from .batch_folder import BATCH_MARK, mark, marked_input, only_batch, prune, swe
 from .batch_request import REQUEST_DEFAULTS, clean_request, request_change
 from .interrupts import interrupts_as_keyboard_interrupt, interrupts_held, whole_step
 from .marker_files import clean_marker_file, joint_angle_options, marker_request, refuse_marker_options
+from .words import plural
 
 __all__ = ["clean_file", "clean_marker_file", "clean_request", "marker_request", "refuse_marker_options", "clean_batch", "find_inputs", "output_for", "BatchSummary", "DEFAULT_PATTERNS", "BATCH_MARK",
            "REQUEST_DEFAULTS"]
@@ -857,7 +858,7 @@ def clean_batch(
     if summary.stopped:
         summary.not_started = sum(r is None for r in rows)
         complete = summary.count("done") + summary.count("skipped")
-        summary.stopped = (f"{summary.stopped}; stopped: {complete} of {total} takes complete, "
+        summary.stopped = (f"{summary.stopped}; stopped: {complete} of {plural(total, 'take')} complete, "
                            f"{summary.not_started} not started; the same command resumes the rest")
     summary.seconds = time.perf_counter() - t0
     return summary

@@ -63,6 +63,7 @@ from typing import Callable, Sequence
 import numpy as np
 
 from .errors import MocapError, MocapFormatError
+from .words import plural
 
 __all__ = [
     "BUILD_FPS",
@@ -298,7 +299,7 @@ def build_context(files: Sequence, *, fps: float = BUILD_FPS, features: Sequence
             bar.advance(task)
     notes = []
     if bad:
-        notes.append(f"context: left out {len(bad)} of {len(files)} files that cannot be context "
+        notes.append(f"context: left out {len(bad)} of {plural(len(files), 'file')} that cannot be context "
                      f"({bad[0][1]}{'; ' + _names([b[0] for b in bad[1:]]) if len(bad) > 1 else ''})")
     if not motions:
         raise bad[0][2]  # nothing left: the first file's own error
@@ -346,7 +347,7 @@ def _database(motions: list, used: list, total: int, notes: list, fps: float, fe
     left = [p for p, t in zip(used, topo) if t != best]
     if left:
         why = "than this take's" if best == prefer and counts[best] < max(counts.values()) else "than the one of the others"
-        notes.append(f"context: left out {len(left)} of {total} takes on another skeleton {why}, "
+        notes.append(f"context: left out {len(left)} of {plural(total, 'take')} on another skeleton {why}, "
                      f"{len(motions[topo.index(best)].skeleton.joint_names)} joints ({_names(left)})")
     db = MotionDatabase.build(keep, fps=fps, features=tuple(features), progress=False, executor="serial",
                               joint_map=joint_map or None)

@@ -31,6 +31,7 @@ from .errors import SkeletonError
 from .io.euler_branches import three_axis_groups
 from .rigs import pelvis_index
 from .motion import Motion, unit_scale_cm, with_channels_of
+from .words import plural
 
 __all__ = [
     "geodesic_pose_distance",
@@ -60,7 +61,7 @@ def _check_pair(a: Motion, b: Motion) -> None:
     if not a.skeleton.is_compatible(b.skeleton):
         raise SkeletonError(f"cannot compare {a.name!r} and {b.name!r}: different skeletons")
     if a.num_frames != b.num_frames:
-        raise SkeletonError(f"cannot compare {a.num_frames} frames with {b.num_frames} frames")
+        raise SkeletonError(f"cannot compare {plural(a.num_frames, 'frame')} with {plural(b.num_frames, 'frame')}")
 
 
 def geodesic_pose_distance(a: Motion, b: Motion) -> np.ndarray:

@@ -26,6 +26,7 @@ from typing import Sequence
 import numpy as np
 
 from .errors import MocapFormatError
+from .words import plural
 
 __all__ = ["check_reference", "clean_errors", "joint_angle_errors", "filled_error_deg", "global_errors_cm", "position_error_cm"]
 
@@ -59,8 +60,8 @@ def check_reference(reference, path: os.PathLike | str, *, frames: int, joint_na
         same_rig = same_rig and reference.skeleton.is_compatible(skeleton)
     if reference.num_frames != frames or not same_rig:
         rig = "" if same_rig else "; its joints differ"
-        raise MocapFormatError(path, f"the reference must have {whose} joints and {frames} frames "
-                                     f"(it has {reference.num_frames} frames{rig})")
+        raise MocapFormatError(path, f"the reference must have {whose} joints and {plural(frames, 'frame')} "
+                                     f"(it has {plural(reference.num_frames, 'frame')}{rig})")
     from .errors import SkeletonError
     from .motion import unit_scale_cm
 

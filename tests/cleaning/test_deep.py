@@ -852,7 +852,7 @@ def test_ebf_training_refuses_clips_shorter_than_a_crop_naming_them(tmp_path, wa
     cfg = training.TrainConfig(kind="ebf", hidden=8, epochs=1, steps_per_epoch=1, batch=2, crop=40,
                                noise=("angular:0.5",), variants=1)
     short = dataclasses.replace(walk[:60], name="short_one", source_file=None)
-    with pytest.raises(ValueError, match=r"1 of 2 training clips are shorter than a crop of 70 frames .*short_one \(60\)"):
+    with pytest.raises(ValueError, match=r"1 of 2 training clips is shorter than a crop of 70 frames .*short_one \(60\)"):
         training.train([walk[:200], short], tmp_path / "m", cfg, executor="serial", progress=False)
     assert not (tmp_path / "m").exists()
     gap_cfg = training.TrainConfig(**{**cfg.__dict__, "kind": "ebd", "centres": 4})

@@ -676,7 +676,7 @@ def test_train_refuses_clips_shorter_than_a_crop_before_any_work(tmp_path):
                        "--steps", "1", "--hidden", "8", "--executor", "serial")
     text = " ".join(err.split())
     assert code == 2 and one_error_line(err), err
-    assert "1 of 2 training clips are shorter than a crop of 150 frames" in text and "short.npz (100)" in text
+    assert "1 of 2 training clips is shorter than a crop of 150 frames" in text and "short.npz (100)" in text
     assert not (tmp_path / "m").exists()
 
 

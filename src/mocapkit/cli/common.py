@@ -23,11 +23,14 @@ import typer
 from rich.console import Console
 from typer.core import TyperCommand, TyperGroup
 
+from ..words import listed, plural
+
 __all__ = [
     "console",
     "guard",
     "percent",
     "plural",
+    "listed",
     "print_fields",
     "print_table",
     "overwrite_option",
@@ -277,17 +280,6 @@ def as_typed(path):
             if value.endswith(tuple({"/", os.sep})) and len(value) > 1 and Path(value) == Path(path):
                 return value
     return path
-
-
-def plural(n: int, word: str, many: str | None = None) -> str:
-    """``"1 joint"``, ``"2 joints"`` (``many``: an irregular plural)."""
-    return f"{n} {word if n == 1 else (many or word + 's')}"
-
-
-def listed(items) -> str:
-    """``items`` as a person lists them: ``"A"``, ``"A and B"``, ``"A, B and C"`` (a "wrote ..." line's files)."""
-    words = [str(i) for i in items]
-    return words[0] if len(words) == 1 else f"{', '.join(words[:-1])} and {words[-1]}" if words else ""
 
 
 def percent(part: int, whole: int) -> str:

@@ -44,6 +44,7 @@ import numpy as np
 from .. import rotations as R
 from ..errors import MocapFormatError, SkeletonError
 from ..motion import MAX_JOINTS, Motion, Skeleton, check_fps
+from ..words import plural
 from .sources import bom_length, remember
 
 __all__ = ["read_asf", "read_amc", "read_amc_numbers", "amc_table_arrays", "asf_dofs", "amc_dofs", "amc_held_rotations",
@@ -448,7 +449,7 @@ def find_asf(amc) -> Path:
         return best
     first = next((k for k in range(1, len(amc.stem) + 1) if _at_boundary(amc.stem, k)), len(amc.stem))
     wanted = folder / f"{amc.stem[:first]}.asf"
-    found = f"{len(asfs)} other ASF files" if asfs else "no ASF files"
+    found = plural(len(asfs), "other ASF file") if asfs else "no ASF files"
     raise MocapFormatError(
         amc,
         f"no skeleton: looked for {wanted} (or another ASF named by a prefix of {amc.stem!r}) "

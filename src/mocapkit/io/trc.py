@@ -655,7 +655,7 @@ def trc_notes(markers: MarkerSet, path, *, keep_modelled: bool = False, filled=N
     if not keep_modelled and np.any(kinds != ""):
         n = Counter(k for k in kinds if k)
         counted = ", ".join(f"{n[g.lower()]} {g.lower()}" for g in MODELLED_GROUPS if n[g.lower()])
-        notes.append(f"{path}: left out {int(np.sum(kinds != ''))} modelled quantities, not markers ({counted}): "
+        notes.append(f"{path}: left out {_plural(int(np.sum(kinds != '')), 'modelled quantity', 'modelled quantities')}, not markers ({counted}): "
                      "a TRC holds markers in one length unit (--keep-modelled writes them as points)")
     if filled is not None and np.any(filled):
         where = f"; {record} lists them (its masks filled, spikes, duplicates)" if record is not None else ""

@@ -22,6 +22,7 @@ from ..cleaning.ssa.texture import context_motions, motion_texture, upsample_qua
 from ..features import detect_up_axis
 from ..metrics import motion_word_starts
 from ..motion import Motion
+from ..words import plural
 
 __all__ = ["reconstruct_sparse"]
 
@@ -77,7 +78,7 @@ def reconstruct_sparse(
     src = motion_texture(dataclasses.replace(sparse, rotations=filled), analysis_fps, all_rows, up)
     full = motion_texture(ctx, analysis_fps, all_rows, up)
     if src.num_frames < N:
-        raise ValueError(f"a clip of {src.num_frames} frames at {analysis_fps:g} fps is shorter than one motion word")
+        raise ValueError(f"a clip of {plural(src.num_frames, 'frame')} at {analysis_fps:g} fps is shorter than one motion word")
     words = motion_word_starts(src.num_frames, N, N)
     nb = nearest_words(src, full, [known], words, k=k, source_length=N, target_length=M, min_width=min(11, N), self_clip=None)
     drop = dropped_terms(known)

@@ -45,6 +45,7 @@ from ... import corrupt
 from ...errors import SkeletonError
 from ...io.outputs import removed_on_failure
 from ...motion import Motion
+from ...words import plural
 from .channels import ChannelLayout, channel_joints, encode, layout_for, wrap_degrees
 from .inference import DeepModel, denoise_channels, lerp_fill, run_ebd, save_model, write_torch
 from .networks import EBD, EBF, HALF_WINDOW, window_indices
@@ -165,7 +166,8 @@ def check_clip_lengths(clips: list[Motion], config: TrainConfig) -> None:
     short = [c for c in clips if c.num_frames < need]
     if short:
         names = [f"{c.source_file or c.name or 'clip'} ({c.num_frames})" for c in short]
-        raise ValueError(f"{len(short)} of {len(clips)} training clips are shorter than a crop of {need} frames "
+        raise ValueError(f"{len(short)} of {plural(len(clips), 'training clip')} {'is' if len(short) == 1 else 'are'} "
+                         f"shorter than a crop of {need} frames "
                          f"and would never be trained on: {', '.join(names[:4])}{', ...' if len(names) > 4 else ''}; "
                          "leave them out (or hold them out for validation)")
 
@@ -192,7 +194,8 @@ def holdout_folds(clips: list[Motion], folds: int, size: int | None = None, seed
         raise ValueError(f"folds must be at least 1, got {folds}")
     size = size if size is not None else max(1, n // (folds + 1))
     if size < 1 or folds * size >= n:
-        raise ValueError(f"{folds} holdouts of {size} clips need more than {folds * size} clips, got {n}")
+        raise ValueError(f"{plural(folds, 'holdout')} of {plural(size, 'clip')} need{'s' if folds == 1 else ''} more "
+                         f"than {plural(folds * size, 'clip')}, got {n}")
     order = np.random.default_rng(seed).permutation(n)
     out = []
     for k in range(folds):

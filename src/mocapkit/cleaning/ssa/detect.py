@@ -19,6 +19,7 @@ import numpy as np
 from ... import rotations as R
 from ...motion import Motion, mirror_pairs
 from ...rigs import pelvis_index
+from ...words import plural
 from ..ik import contact_segments
 from . import word_dtw
 from .backed import backed_breaks
@@ -739,7 +740,8 @@ def detect_prepared(an: Analysis, threshold: float = 0.5, *, progress: bool = Fa
     masks = an.group_masks()
     if not ok.all():
         some, every = int((~ok).any(axis=1).sum()), int((~ok).all(axis=1).sum())
-        notes.append(f"{some} frames have joints that no neighbour word judges ({every} of them no joint at all): "
+        notes.append(f"{plural(some, 'frame')} {'has' if some == 1 else 'have'} joints that no neighbour word judges "
+                     f"({every} of {'it' if some == 1 else 'them'} no joint at all): "
                      "not judged there; a context that repeats the motion judges more")
     clips = an.clips
     params = p.replace(two_stage=bool(two_stage and has_context), prefilter=bool(prefilter and has_context))

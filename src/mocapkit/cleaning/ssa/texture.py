@@ -22,6 +22,7 @@ from ...errors import NotJudgedError, SkeletonError
 from ...features import detect_up_axis
 from ...metrics import motion_word_starts
 from ...motion import Motion, bone_moving_joints, find_joint, joint_sides
+from ...words import plural
 from .coarse_cues import under_rate
 from .params import SSAParams
 
@@ -453,7 +454,7 @@ def too_coarse(fps: float, params: SSAParams = _D) -> str:
 def motion_words(num_frames: int, length: int = _D.source_length, stride: int = _D.stride) -> np.ndarray:
     """First frames of the source words: every ``stride`` frames, plus one flush with the end (section 5)."""
     if num_frames < length:
-        raise ValueError(f"a clip of {num_frames} frames is shorter than one motion word ({length} frames)")
+        raise ValueError(f"a clip of {plural(num_frames, 'frame')} is shorter than one motion word ({length} frames)")
     return motion_word_starts(num_frames, length, stride)
 
 
@@ -690,7 +691,7 @@ def prepare(
         raise ValueError("no joint group has two analysed joints")
     if src.num_frames < params.source_length:  # said in the take's own frames, as clean says it
         N, fps = params.source_length, params.analysis_fps
-        raise NotJudgedError(motion.name or "motion", f"{motion.num_frames} frames ({motion.duration:.2f} s) is shorter "
+        raise NotJudgedError(motion.name or "motion", f"{plural(motion.num_frames, 'frame')} ({motion.duration:.2f} s) is shorter "
                              f"than one motion word ({N} frames at {fps:g} fps, {N / fps:.3f} s)")
     words = motion_words(src.num_frames, params.source_length, params.stride)
     return Analysis(motion, tuple(ctx), params, up, src, full, tuple(gnames), tuple(grows), words, tuple(notes), context,

@@ -1,0 +1,25 @@
+"""Counts and lists in the words a person reads them: ``"1 file"``, ``"3 files"``, ``"A, B and C"``.
+
+Every note and error that counts something (files left out of a context, takes complete, frames a rule
+could not judge) says ``"1 of 1 file"``, never ``"1 of 1 files"``, and a "wrote ..." line lists its files
+as a sentence does. A small module of plain text helpers that every layer may use (it imports nothing of
+mocapkit's), so the library's notes and the command line's lines share one wording.
+"""
+
+from __future__ import annotations
+
+from typing import Iterable
+
+__all__ = ["plural", "listed"]
+
+
+def plural(n: int, word: str, many: str | None = None) -> str:
+    """``n`` and ``word``, plural unless one: ``"1 joint"``, ``"2 joints"`` (``many``: an irregular plural,
+    ``plural(2, "modelled quantity", "modelled quantities")``)."""
+    return f"{n} {word if n == 1 else (many or word + 's')}"
+
+
+def listed(items: Iterable) -> str:
+    """``items`` as a person lists them: ``"A"``, ``"A and B"``, ``"A, B and C"`` (``""`` for none)."""
+    words = [str(i) for i in items]
+    return words[0] if len(words) == 1 else f"{', '.join(words[:-1])} and {words[-1]}" if words else ""

@@ -1,0 +1,40 @@
+"""Counts and lists in a person's words (mocapkit.words): "1 of 1 file", never "1 of 1 files"; "A, B and C"."""
+
+import dataclasses
+
+import pytest
+
+import mocapkit
+from mocapkit import metrics, samples
+from mocapkit.cleaning.deep import training
+from mocapkit.cleaning.ssa.texture import motion_words
+from mocapkit.errors import MocapFormatError, SkeletonError
+from mocapkit.reference import check_reference
+from mocapkit.words import listed, plural
+
+
+def test_plural_and_listed():
+    assert [plural(n, "file") for n in (0, 1, 2)] == ["0 files", "1 file", "2 files"]
+    assert plural(1, "modelled quantity", "modelled quantities") == "1 modelled quantity"
+    assert plural(3, "modelled quantity", "modelled quantities") == "3 modelled quantities"
+    assert [listed(x) for x in ([], ["A"], ["A", "B"], ["A", "B", "C", "D"])] == ["", "A", "A and B", "A, B, C and D"]
+
+
+def test_notes_and_errors_that_count_one_say_it_in_the_singular():
+    """Each said "1 frames", "1 of 1 training clips are", "1 other ASF files": the count of one reads as one."""
+    walk = mocapkit.load(samples.path("12_walk.amc"))
+    one = walk[:1]
+    with pytest.raises(MocapFormatError, match=r"must have the input's joints and 1 frame \(it has 2 frames\)"):
+        check_reference(walk[:2], "ref.bvh", frames=1, joint_names=walk.skeleton.joint_names)
+    with pytest.raises(MocapFormatError, match=r"and 2 frames \(it has 1 frame\)"):
+        check_reference(one, "ref.bvh", frames=2, joint_names=walk.skeleton.joint_names)
+    with pytest.raises(SkeletonError, match=r"cannot compare 1 frame with 2 frames"):
+        metrics.joint_angle_rms(one, walk[:2])
+    with pytest.raises(ValueError, match=r"a clip of 1 frame is shorter than one motion word"):
+        motion_words(1, 15)
+    cfg = training.TrainConfig(kind="ebf", hidden=8, epochs=1, steps_per_epoch=1, batch=2, crop=40,
+                               noise=("angular:0.5",), variants=1)
+    with pytest.raises(ValueError, match=r"^1 of 1 training clip is shorter than a crop of 70 frames"):
+        training.check_clip_lengths([dataclasses.replace(walk[:60], name="short_one", source_file=None)], cfg)
+    with pytest.raises(ValueError, match=r"^1 holdout of 1 clip needs more than 1 clip, got 1$"):
+        training.holdout_folds([walk[:60]], 1, 1)
