@@ -267,10 +267,12 @@ class MarkerSource:
         TRC: the file's text, so that a TRC writer keeps every cell, line and
         header field the take did not change; None otherwise (and for a part
         of the take: :meth:`MarkerSet.__getitem__`).
-    layout : mapping of str to number
+    layout : mapping of str to number (or bytes)
         C3D: header words a writer keeps as the file had them
         (:func:`mocapkit.io.c3d_layout.header_layout`: the interpolation gap,
-        the data block's first block, the parameter section's block count),
+        the data block's first block, the parameter section's block count;
+        :func:`mocapkit.io.c3d_layout.spare_events`: the event slots no event
+        uses, as bytes),
         and the whole file's first frame number, frame count and frame rate
         (``trial_first``, ``trial_frames``, ``trial_rate`` Hz: the clock of
         ``first_frame``, which a resampled take keeps; a part of the take keeps them, so

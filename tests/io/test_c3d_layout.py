@@ -250,3 +250,33 @@ def test_both_readers_read_analysis_and_shd01_analogs_alike(shared_data, monkeyp
     for path, values in zip((analysis, shd01), first):
         fallback = read_c3d(path)
         assert fallback.reader == "c3d" and np.array_equal(fallback.source.analogs, values), path.name
+
+
+def _event_section(raw: bytes) -> bytes:
+    """The header's event section, words 150-234 (bytes 298-467): key, count, times, flags, labels."""
+    return raw[298:468]
+
+
+def test_the_header_event_slots_no_event_uses_are_kept(tmp_path, shared_data):
+    """FP1.C3D lists 4 events and flags its 14 unused slots 1 with labels of spaces; Eb015pr.c3d sets word 152:
+    ezc3d wrote zeros there. The whole event section is the file's again, every reader reading the same events,
+    and a part of the take that leaves an event out leaves its slot empty (never the old event's bytes)."""
+    from mocapkit import samples
+
+    for path in (samples.path("Eb015pr.c3d"), _find(shared_data, "FP1.C3D")):
+        take = read_c3d(path)
+        out = tmp_path / f"{path.stem}.c3d"
+        write_c3d(take, out)
+        assert _event_section(out.read_bytes()) == _event_section(path.read_bytes()), path.name
+        assert read_c3d(out).source.events == take.source.events
+    fp1 = path.read_bytes()
+    part = take[2:]  # from 1/30 s on: the two events at 0 s are left out, L. I (1/30 s) and L. E (8 s) kept
+    write_c3d(part, tmp_path / "part.c3d")
+    raw = (tmp_path / "part.c3d").read_bytes()
+    kept = read_c3d(tmp_path / "part.c3d").source.events
+    assert [label for _, label, _ in kept] == ["L. E", "L. I"]
+    n = len(take.source.events)
+    assert raw[376 + len(kept):376 + n] == bytes(n - len(kept)) and raw[396 + 4 * len(kept):396 + 4 * n] == bytes(4 * (n - len(kept)))
+    # the slots the file itself left unused (flags, times, labels): as the file had them
+    assert raw[376 + n:394] == fp1[376 + n:394] and raw[396 + 4 * n:468] == fp1[396 + 4 * n:468]
+    assert raw[304 + 4 * n:376] == fp1[304 + 4 * n:376]

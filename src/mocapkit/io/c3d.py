@@ -46,7 +46,8 @@ from ..motion import check_fps
 from .c3d_frames import (FRAME_CAP, long_frame_parameters, missing_stored, point_words, put_missing_stored,
                          put_stored_zeros, read_float, read_frames, residuals_and_cameras, rest_of_trial, zero_gap_words)
 from .c3d_layout import (header_layout, held_analogs, integer_data, integer_scale, keep_data_start, parameter_values,
-                         put_analogs, put_header_gap, put_parameter, stored_analogs, with_offsets)
+                         put_analogs, put_header_gap, put_parameter, put_spare_events, spare_events, stored_analogs,
+                         with_offsets)
 from .c3d_modelled import modelled_parameters, stated_positions
 from .c3d_structure import check_structure
 from .c3d_trial import (channels_held, fit_event_group, fit_force_plates, fit_header_events, trial_frames, trial_rate,
@@ -463,7 +464,7 @@ def read_c3d(path, zeros_as_gaps: bool | None = None, units: str | None = None) 
     labels = unique_labels(raw_labels, n)
     file_labels = tuple(str(s).strip() for s in list(raw_labels)[:n]) + labels[len(raw_labels):]
     layout = dict(header_layout(raw), trial_first=source.first_frame, trial_frames=xyz.shape[0],  # the whole file
-                  trial_rate=fps)
+                  trial_rate=fps, **spare_events(raw))
     source = dataclasses.replace(source, labels=file_labels, events=_header_events(raw), layout=layout,
                                  modelled=stated_positions(source.parameters, labels))
     modelled = set(modelled) | set(source.modelled)
@@ -781,8 +782,11 @@ def write_c3d(markers: MarkerSet, path, *, like=None, stored_zeros: bool = False
     if stored is not None:
         put_analogs(data, markers.num_frames, markers.num_markers, stored)
         put_parameter(data, "ANALOG", "OFFSET", offsets)
-    _put_header_events(data, fit_header_events(source.events, own, markers.fps, first, markers.num_frames,
-                                               trial_span(source.layout), rate) if source is not None else ())
+    events = fit_header_events(source.events, own, markers.fps, first, markers.num_frames, trial_span(source.layout),
+                               rate) if source is not None else ()
+    _put_header_events(data, events)
+    if source is not None and own:  # the slots no event uses, as the take's own file had them
+        put_spare_events(data, source.layout, min(len(events), 18))
     if source is not None and source.layout:
         put_header_gap(data, source.layout["interpolation_gap"])
         data = keep_data_start(data, source.layout)

@@ -18,6 +18,11 @@ the file even though every reader's values are the same:
   floats: :func:`integer_data` stores it as 16-bit numbers again, where the
   file's own scale is the take's (:func:`integer_scale`), and
   :func:`stored_scale` reads which storage a file has.
+- the header's event slots that no event uses (of 18): ezc3d writes them as zeros, where a file
+  may have set their display flags and padded their labels with spaces (c3d.org's FP1.C3D: 4
+  events, the other 14 flagged 1 and labelled "    "). :func:`spare_events` keeps them and
+  :func:`put_spare_events` writes them back; no reader looks past the event count, so every
+  reader sees the same events either way.
 
 Each works on the bytes ezc3d wrote (Intel byte order, float data, the
 parameter section at block 2). C3D format: Motion Lab Systems, "The C3D File
@@ -32,7 +37,7 @@ import numpy as np
 
 __all__ = ["parameter_values", "header_layout", "offset_values", "analog_offsets", "with_offsets", "held_analogs",
            "stored_analogs", "parameter_at", "put_parameter", "put_analogs", "put_header_gap", "keep_data_start", "integer_data",
-           "integer_scale", "stored_scale"]
+           "integer_scale", "stored_scale", "spare_events", "put_spare_events", "EVENT_SLOTS"]
 
 BLOCK = 512
 """Bytes in a C3D block: the header, the parameter section and the data block start on one."""
@@ -48,6 +53,64 @@ def header_layout(raw: bytes) -> dict[str, int]:
     data_start, = struct.unpack_from(e + "H", raw, 16)
     return {"interpolation_gap": int(gap), "data_start": int(data_start),
             "parameter_blocks": int(raw[(raw[0] - 1) * BLOCK + 2])}
+
+
+#: The header's event section (C3D User Guide, "the header"): 16-bit words 150-234 from 1, as byte offsets from
+#: 0: the key 12345 (word 150), the count (151), a reserved word (152), 18 times (floats, 153-188), 18 display
+#: flag bytes (189-197), a reserved word (198) and 18 four-character labels (199-234).
+EVENT_SLOTS = 18
+_KEY, _COUNT, _RESERVED_1, _TIMES, _FLAGS, _RESERVED_2, _LABELS, _END = 298, 300, 302, 304, 376, 394, 396, 468
+
+
+def spare_events(raw: bytes) -> dict[str, object]:
+    """The bytes of the header's event section that no event of the file uses, to write back as the file had them.
+
+    ``{}`` where the header has no event section (no key 12345, or a count outside 0..18). Else
+    ``event_spare_from`` (the file's event count: the first slot no event uses), ``event_flags`` and
+    ``event_labels`` (those slots' flag bytes and 4-byte labels: bytes, alike in every processor type),
+    ``event_reserved`` (words 152 and 198, as bytes: c3d.org's big-endian Eb015si.c3d holds word 152 in the
+    same bytes as its Intel twin) and ``event_times`` (those slots' floats, in the byte order written, Intel: a
+    big-endian file's bytes reversed, a DEC file's converted as its events' times are,
+    :func:`~mocapkit.io.c3d_frames.read_float`). A slot that held an event is never among them, so an event a
+    crop leaves out is not written back into its slot.
+    """
+    from .c3d_frames import read_float
+
+    proc = raw[(raw[0] - 1) * BLOCK + 3]
+    e = ">" if proc == 86 else "<"
+    if len(raw) < _END:
+        return {}
+    key, count = struct.unpack_from(e + "hh", raw, _KEY)
+    if key != 12345 or not 0 <= count <= EVENT_SLOTS:
+        return {}
+    slots = range(count, EVENT_SLOTS)
+    if proc == 84:
+        times = bytes(raw[_TIMES + 4 * count:_FLAGS])
+    elif proc == 86:  # big-endian IEEE: the same float, its bytes reversed
+        times = b"".join(raw[_TIMES + 4 * i:_TIMES + 4 * i + 4][::-1] for i in slots)
+    else:
+        times = b"".join(struct.pack("<f", read_float(raw, proc, _TIMES + 4 * i)) for i in slots)
+    words = (raw[_RESERVED_1:_RESERVED_1 + 2], raw[_RESERVED_2:_RESERVED_2 + 2])
+    return {"event_spare_from": int(count), "event_flags": bytes(raw[_FLAGS + count:_FLAGS + EVENT_SLOTS]),
+            "event_labels": bytes(raw[_LABELS + 4 * count:_END]), "event_times": times,
+            "event_reserved": b"".join(bytes(w) for w in words)}
+
+
+def put_spare_events(data: bytearray, layout, used: int) -> None:
+    """Write back into ``data`` (the header ezc3d wrote, with ``used`` events written by the caller) the event
+    section's bytes that the file read used for no event (:func:`spare_events` in ``layout``); slots between
+    ``used`` and the file's own count (events a crop left out) stay zero. A file with an event section keeps it
+    where no event is written (the key and a count of 0, as the file read with none had them)."""
+    start = layout.get("event_spare_from") if layout else None
+    if start is None or used > start:
+        return
+    if used == 0:
+        struct.pack_into("<hh", data, _KEY, 12345, 0)
+    data[_FLAGS + start:_FLAGS + EVENT_SLOTS] = layout["event_flags"]
+    data[_LABELS + 4 * start:_END] = layout["event_labels"]
+    data[_TIMES + 4 * start:_FLAGS] = layout["event_times"]
+    data[_RESERVED_1:_TIMES] = layout["event_reserved"][:2]
+    data[_RESERVED_2:_LABELS] = layout["event_reserved"][2:]
 
 
 def parameter_values(parameters, group: str, name: str) -> np.ndarray:
