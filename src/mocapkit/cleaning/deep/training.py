@@ -538,9 +538,13 @@ def _load_or_none(path: Path) -> dict | None:
 
 
 def _damaged(path: Path) -> bool:
-    """True when ``torch.load`` cannot read the file at all (cut short by a full disk or an interrupted copy, or
-    bytes of another kind), as against a whole torch file that is not a mocapkit one: each is refused in its words."""
+    """True for a torch file (a zip archive: ``torch.save``'s format) that ``torch.load`` cannot read: cut short by
+    a full disk or an interrupted copy, or otherwise damaged; False for a whole file and for bytes of another kind
+    (not a model file at all). A damaged model is refused as such, not as another training's."""
     try:
+        with open(path, "rb") as fh:
+            if fh.read(4) != b"PK\x03\x04":
+                return False
         torch.load(path, map_location="cpu", weights_only=True)
     except Exception:  # zip, pickle and torch errors alike: not a whole torch file
         return True
