@@ -672,6 +672,11 @@ def test_training_metadata_carries_the_rig_and_licence_into_the_model_file(tmp_p
                        meta={"rig": "bandai_namco", "licence": "CC BY-NC 4.0: non-commercial"})
     again = deep.load_model(tmp_path / "model.pt")
     assert m.meta["rig"] == again.meta["rig"] == "bandai_namco"
+    # beside it, its layout and card for `info` without torch (cleaning.deep.layouts.layout_beside)
+    from mocapkit.cleaning.deep.layouts import layout_beside
+
+    kept = layout_beside(tmp_path / "model.pt")
+    assert kept is not None and kept.meta == again.meta and kept.layout == again.layout and kept.kind == "ebf"
     assert deep.licence_note(again).startswith("licence of the EBF used: CC BY-NC 4.0: non-commercial; --ebf (clean, "
                                                "clean-batch; models= in Python) picks another")
 

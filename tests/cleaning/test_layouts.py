@@ -71,3 +71,35 @@ def test_info_on_a_rig_of_no_known_family_does_not_import_torch(tmp_path):
                          check=True).stdout
     assert "rig family   none known; roles read from its tree and rest pose (the networks" in out, out
     assert out.strip().splitlines()[-1] == "False", out
+
+
+
+def test_info_reads_a_model_s_own_layout_without_torch_and_falls_back_to_the_pt(tmp_path, monkeypatch, capsys):
+    """`mocapkit info DIR/model.pt` of a model trained here loaded the .pt (torch): the layout JSON was written for
+    the shipped models only. `train` writes it beside every model.pt it saves (``write_layout(card=True)``: the
+    card and the .pt's size and SHA-256; tests/cleaning/test_deep.py checks train writes it); `info` reads it
+    without torch and says what it says from the .pt, and a .pt without its JSON, or replaced, is read itself."""
+    import shutil
+
+    import torch
+
+    from mocapkit.cleaning.deep.inference import save_model
+    from mocapkit.cli import main
+
+    model = deep.load_model("ebf_bandai.pt")  # a model with a training card, saved as train saves one
+    pt = save_model(model, tmp_path / "model.pt")
+    layouts.write_layout(model, pt, card=True)
+    kept = layouts.layout_beside(pt)
+    assert kept is not None and kept.kind == "ebf" and kept.layout == model.layout and kept.meta == model.meta
+    with monkeypatch.context() as m:
+        m.setattr(torch, "load", lambda *a, **k: pytest.fail("info loaded the .pt"))
+        assert main(["info", str(pt)]) == 0
+    from_json = capsys.readouterr().out
+    assert "EBF model" in from_json and "epochs" in from_json and "licence" in from_json, from_json
+    (tmp_path / "model.layout.json").rename(tmp_path / "aside.json")
+    assert layouts.layout_beside(pt) is None  # no JSON (an earlier train's model): info reads the .pt, as before
+    assert main(["info", str(pt)]) == 0
+    assert capsys.readouterr().out == from_json  # the same lines either way
+    (tmp_path / "aside.json").rename(tmp_path / "model.layout.json")
+    shutil.copy(deep.shipped_model("ebf").source, pt)  # another model copied over it, its JSON left stale
+    assert layouts.layout_beside(pt) is None

@@ -307,7 +307,7 @@ def train(
 
     # the model folder must not be, or lie inside, a source (a folder of takes, a database); its own files are
     # resumed or replaced (--resume/--restart/--overwrite: training.check_out_dir, below), not refused here
-    guard([out / "model.pt", out / "checkpoint.pt"], sources, overwrite=True)
+    guard([out / "model.pt", out / "model.layout.json", out / "checkpoint.pt"], sources, overwrite=True)
     check_executor(executor)
     try:  # every setting is checked by TrainConfig before a clip is read
         cfg = training.TrainConfig(

@@ -8,16 +8,22 @@ held; the channel means fill a joint the rig lacks). Reading those from the ``.p
 So ``scripts/train_shipped.py --install``, which installs the shipped models, writes them beside each as
 ``NAME.layout.json`` (:func:`write_layout`, from the model as installed), and :func:`shipped_layout` answers from
 those files with the same rule :func:`..inference.shipped_model` applies to the networks (:func:`pick_served`).
-A test checks every shipped ``.json`` against its ``.pt`` (tests/cleaning/test_layouts.py).
+A test checks every shipped ``.json`` against its ``.pt`` (tests/cleaning/test_layouts.py). ``mocapkit train``
+writes one beside every ``model.pt`` it saves (``write_layout(..., card=True)``), with the model's card and the
+``.pt`` file's size and SHA-256, so ``mocapkit info DIR/model.pt`` reads a model of one's own without torch
+(:func:`layout_beside`); where the JSON is missing or describes another file (a ``.pt`` replaced or copied
+alone), ``info`` loads the ``.pt`` as before.
 
 The JSON holds ``format``, ``kind`` ("ebf" or "ebd"), ``fps`` (frames per second the model was trained at),
 ``layout`` (channel names such as ``"lfemur.rx"``, joint names, representation) and ``mean`` / ``std`` (C,
 the network's per-channel normalisation in the channels' units, degrees for Euler channels), as float32
-values written exactly.
+values written exactly; a trained model's also ``meta`` (its card: :attr:`..inference.DeepModel.meta`) and
+``model_file`` (``size`` in bytes and ``sha256`` of the ``.pt`` it describes).
 """
 
 from __future__ import annotations
 
+import hashlib
 import json
 from dataclasses import dataclass
 from importlib import resources
@@ -32,7 +38,7 @@ from .channels import ChannelLayout
 from .retarget import served_by
 
 __all__ = ["SHIPPED", "SHIPPED_FOR_RIG", "LAYOUT_SUFFIX", "NetStats", "ShippedLayout", "shipped_names",
-           "layout_card", "write_layout", "read_layout", "shipped_layout", "pick_served"]
+           "layout_card", "write_layout", "read_layout", "layout_beside", "shipped_layout", "pick_served"]
 
 LAYOUT_FORMAT = "mocapkit.deep-layout/1"
 LAYOUT_SUFFIX = ".layout.json"
@@ -66,6 +72,10 @@ class ShippedLayout:
     fps: float
     net: NetStats
     source: str = ""
+    #: A trained model's card (``DeepModel.meta``) where the JSON keeps it, else None (the shipped ones').
+    meta: dict | None = None
+    #: ``{"size": bytes, "sha256": hex}`` of the ``.pt`` the JSON describes, where it says (a trained model's).
+    model_file: dict | None = None
 
 
 def layout_card(model) -> dict:
@@ -77,12 +87,26 @@ def layout_card(model) -> dict:
             "std": np.asarray(model.net.std, dtype=np.float64).reshape(-1).tolist()}
 
 
-def write_layout(model, model_path) -> Path:
+def _file_facts(path: Path) -> dict:
+    """``{"size", "sha256"}`` of the file at ``path`` (read in 1 MiB pieces)."""
+    h = hashlib.sha256()
+    with open(path, "rb") as fh:
+        for piece in iter(lambda: fh.read(2**20), b""):
+            h.update(piece)
+    return {"size": path.stat().st_size, "sha256": h.hexdigest()}
+
+
+def write_layout(model, model_path, *, card: bool = False) -> Path:
     """Write :func:`layout_card` of ``model`` beside ``model_path`` (``ebf.pt`` -> ``ebf.layout.json``),
-    atomically (a temporary file, then a rename); returns its path."""
+    atomically (a temporary file, then a rename); returns its path. With ``card`` (``mocapkit train``, after
+    writing ``model_path``) it also holds the model's ``meta`` and the size and SHA-256 of the file at
+    ``model_path``, so :func:`layout_beside` tells it from the JSON of another file."""
     path = Path(model_path).with_suffix(LAYOUT_SUFFIX)
+    doc = layout_card(model)
+    if card:
+        doc.update(meta=model.meta if isinstance(model.meta, dict) else {}, model_file=_file_facts(Path(model_path)))
     with atomic_write(path, encoding="utf-8") as f:
-        json.dump(layout_card(model), f, indent=1)
+        json.dump(doc, f, indent=1)
         f.write("\n")
     return path
 
@@ -99,11 +123,31 @@ def read_layout(path) -> ShippedLayout:
         mean, std = (np.asarray(card[k], dtype=np.float64) for k in ("mean", "std"))
         if mean.shape != (layout.num_channels,) or std.shape != mean.shape:
             raise ValueError("layout and normalisation disagree")
-        return ShippedLayout(str(card["kind"]), layout, float(card["fps"]), NetStats(mean, std), str(path))
+        meta, facts = card.get("meta"), card.get("model_file")
+        return ShippedLayout(str(card["kind"]), layout, float(card["fps"]), NetStats(mean, std), str(path),
+                             meta if isinstance(meta, dict) else None, facts if isinstance(facts, dict) else None)
     except FileNotFoundError:
         raise MocapFormatError(path, "no such layout file") from None
     except (ValueError, KeyError, TypeError, AttributeError) as exc:
         raise MocapFormatError(path, f"malformed model layout ({exc})") from None
+
+
+def layout_beside(model_path) -> ShippedLayout | None:
+    """The layout JSON that ``mocapkit train`` wrote beside the model file ``model_path``, read without torch;
+    None where there is none, it is unreadable, or it describes another file (its ``model_file`` size and SHA-256
+    are not those of ``model_path``: a ``.pt`` replaced or copied without it), so the caller reads the ``.pt``."""
+    model_path = Path(model_path)
+    json_path = model_path.with_suffix(LAYOUT_SUFFIX)
+    if not json_path.is_file() or not model_path.is_file():
+        return None
+    try:
+        kept = read_layout(json_path)
+    except MocapFormatError:
+        return None
+    facts = kept.model_file
+    if kept.meta is None or not facts or facts.get("size") != model_path.stat().st_size:
+        return None
+    return kept if facts.get("sha256") == _file_facts(model_path)["sha256"] else None
 
 
 def _packaged_layout(name: str) -> ShippedLayout:

@@ -48,6 +48,7 @@ from ...motion import Motion
 from ...words import plural
 from .channels import ChannelLayout, channel_joints, encode, layout_for, wrap_degrees
 from .inference import DeepModel, denoise_channels, lerp_fill, run_ebd, save_model, write_torch
+from .layouts import LAYOUT_SUFFIX, write_layout
 from .networks import EBD, EBF, HALF_WINDOW, window_indices
 from .prior import fit_gap_prior
 from .provenance import model_card
@@ -755,9 +756,11 @@ def train(
                 g["lr"] *= 0.5
         # the epoch's model and checkpoint as one set: if either write fails (a full disk) or is interrupted, both
         # are as after the last epoch (on a first epoch, neither is there), so the same command resumes
-        with removed_on_failure([out_dir / "model.pt", ckpt_path], overwrite=True):
+        with removed_on_failure([out_dir / "model.pt", out_dir / f"model{LAYOUT_SUFFIX}", ckpt_path], overwrite=True):
             if v < best:
-                save_model(DeepModel(cfg.kind, net, layout, fps, meta), out_dir / "model.pt")
+                epoch_model = DeepModel(cfg.kind, net, layout, fps, meta)
+                save_model(epoch_model, out_dir / "model.pt")
+                write_layout(epoch_model, out_dir / "model.pt", card=True)  # what `info` reads without torch
             write_torch({"config": cfg_json, "data": data_json, "state": net.state_dict(), "optimizer": opt.state_dict(),
                          "epoch": epoch, "best": min(best, v), "history": json.dumps(history)}, ckpt_path)
         best = min(best, v)
@@ -776,4 +779,5 @@ def train(
     if cfg.kind == "ebd":  # the gap prior on the same clean clips (seconds: one covariance)
         best_model = dataclasses.replace(best_model, prior=fit_gap_prior([d["clean"] for d in data], fps))
     save_model(best_model, out_dir / "model.pt")  # the whole history, not only up to the best epoch
+    write_layout(best_model, out_dir / "model.pt", card=True)
     return best_model
