@@ -821,7 +821,7 @@ def test_a_full_disk_in_the_first_epoch_names_the_file_and_leaves_nothing_that_b
     assert caught.value.errno == errno.ENOSPC and caught.value.filename == str(out / "checkpoint.pt")
     assert not out.exists()  # no model.pt without its checkpoint (nor the folder made for them)
     assert training.train([walk[:160]], out, _tiny(), executor="serial", progress=False).meta["best_epoch"] == 0
-    assert sorted(p.name for p in out.iterdir()) == ["checkpoint.pt", "model.pt"]
+    assert sorted(p.name for p in out.iterdir()) == ["checkpoint.pt", "model.layout.json", "model.pt"]
 
 
 def test_a_kill_between_the_first_epochs_two_writes_starts_over_unasked(tmp_path, walk, monkeypatch):
