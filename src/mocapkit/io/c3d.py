@@ -47,7 +47,7 @@ from .c3d_frames import (FRAME_CAP, long_frame_parameters, missing_stored, point
                          put_stored_zeros, read_float, read_frames, residuals_and_cameras, rest_of_trial, zero_gap_words)
 from .c3d_layout import (header_layout, held_analogs, integer_data, integer_scale, keep_data_start, parameter_values,
                          put_analogs, put_header_gap, put_parameter, put_spare_events, spare_events, stored_analogs,
-                         with_offsets)
+                         with_offsets, text_chunks)
 from .c3d_modelled import modelled_parameters, stated_positions
 from .c3d_structure import check_structure
 from .c3d_trial import (channels_held, fit_event_group, fit_force_plates, fit_header_events, trial_frames, trial_rate,
@@ -296,8 +296,12 @@ def _read_c3d_package(path: Path, written: dict, raw: bytes | None = None):
         if not frames:
             raise MocapFormatError(path, "C3D file holds no point frames")
         data = np.asarray(frames, dtype=np.float64)  # (F, M, 5): x y z residual cameras
-        param = reader.get("POINT:LABELS")
-        labels = list(param.string_array) if param is not None else []
+        labels = []
+        for key in ["LABELS"] + [f"LABELS{k}" for k in range(2, 100)]:  # past 255 points: LABELS2, LABELS3 ...
+            param = reader.get(f"POINT:{key}")
+            if param is None:
+                break
+            labels += list(param.string_array)
         unit_param = reader.get("POINT:UNITS")
         units = ""
         if unit_param is not None:  # one unit, or one per point (ezc3d-testFiles Optotrak.c3d): the first
@@ -566,15 +570,17 @@ def _c3d_object(markers: MarkerSet, source: MarkerSource | None, own: bool, firs
     # the file's own labels while the markers are the file's (a label it repeats written as it had it)
     labels = [label.strip() for label in markers.file_labels()]
     same_markers = old_labels[:M] == labels
+    texts = []  # the file's per-marker descriptions, DESCRIPTIONS2... (past 255 markers) folded in
+    for k in ["DESCRIPTIONS"] + [f"DESCRIPTIONS{i}" for i in range(2, 100)]:
+        if k in point:
+            texts += [str(v) for v in np.ravel(point[k]["value"])]
+    described = dict(point["DESCRIPTIONS"]) if "DESCRIPTIONS" in point and same_markers else None
     for k in list(point):
         # POINT:DATA_START stays: ezc3d writes its own value there, keeping the file's description and lock
-        if k.startswith("LABELS") and k != "LABELS":
-            del point[k]
-        elif k.startswith("DESCRIPTIONS") and (k != "DESCRIPTIONS" or not same_markers):
+        if (k.startswith("LABELS") and k != "LABELS") or k.startswith("DESCRIPTIONS"):
             del point[k]  # per-marker descriptions only while the markers are the file's, in its order
-        elif k == "DESCRIPTIONS":  # one per marker (Eb015pr.c3d has 20 for 26 markers)
-            texts = [str(v) for v in np.ravel(point[k]["value"])][:M]
-            point[k] = dict(point[k], type=-1, value=texts + [""] * (M - len(texts)))
+    if described is not None:  # one per marker (Eb015pr.c3d has 20 for 26 markers)
+        point.update(text_chunks("DESCRIPTIONS", dict(described, type=-1), (texts + [""] * M)[:M]))
     # Float data (a negative scale); its magnitude is the residuals' resolution, kept from the source.
     old_scale = np.ravel(point.get("SCALE", {}).get("value", [])) if source is not None else []
     scale = -abs(float(old_scale[0])) if len(old_scale) and np.isfinite(old_scale[0]) and old_scale[0] != 0 else -1.0

@@ -36,11 +36,32 @@ import struct
 import numpy as np
 
 __all__ = ["parameter_values", "header_layout", "offset_values", "analog_offsets", "with_offsets", "held_analogs",
-           "stored_analogs", "parameter_at", "put_parameter", "put_analogs", "put_header_gap", "keep_data_start", "integer_data",
-           "integer_scale", "stored_scale", "spare_events", "put_spare_events", "EVENT_SLOTS"]
+           "stored_analogs", "parameter_at", "put_parameter", "put_analogs", "put_header_gap", "keep_data_start",
+           "integer_data", "integer_scale", "stored_scale", "spare_events", "put_spare_events", "EVENT_SLOTS",
+           "PARAMETER_ENTRIES", "text_chunks"]
 
 BLOCK = 512
 """Bytes in a C3D block: the header, the parameter section and the data block start on one."""
+
+PARAMETER_ENTRIES = 255
+"""Most entries one C3D parameter holds along a dimension (a dimension is one byte): a file of more points states
+their LABELS and DESCRIPTIONS on in LABELS2, DESCRIPTIONS2 ... (C3D User Guide, POINT group)."""
+
+
+def text_chunks(name: str, param: dict, values: list[str]) -> dict[str, dict]:
+    """``values`` (one text per point) as the parameters NAME, NAME2, NAME3 ... of up to 255 entries each.
+
+    ezc3d 1.7 writes a list of more than 255 texts with its count cut to the
+    low byte (300 descriptions stated as 44): the file ezc3d then refuses to
+    read back, and the ``c3d`` package reads the rest of the section
+    misplaced. Split as the C3D guide has it, every entry keeps its place.
+    ``param``: the parameter as the file had it (description, lock), put on
+    each part. ezc3d's writer states its own blank POINT:DESCRIPTIONS where
+    that list is not one per point, so past 255 points the first 255
+    descriptions are written blank while DESCRIPTIONS2 ... keep theirs.
+    """
+    parts = [values[i:i + PARAMETER_ENTRIES] for i in range(0, len(values), PARAMETER_ENTRIES)] or [[]]
+    return {name + (str(i + 1) if i else ""): dict(param, value=part) for i, part in enumerate(parts)}
 
 
 def header_layout(raw: bytes) -> dict[str, int]:
