@@ -516,7 +516,7 @@ def _undo_take(finals: list[Path], kept: dict[Path, Path], moved: list[Path]) ->
 def _clean_job(job: dict) -> dict:
     from .cleaning.pipeline import clean_path
     from .io import marker_notes, motion_notes
-    from .io.outputs import drop_kept, keep_aside
+    from .io.outputs import drop_kept, keep_aside, temp_prefix
     from .parallel import owner_alive
 
     t = time.perf_counter()
@@ -532,7 +532,7 @@ def _clean_job(job: dict) -> dict:
     stage = None
     try:
         out.parent.mkdir(parents=True, exist_ok=True)
-        stage = Path(tempfile.mkdtemp(prefix=f".{out.name}.", suffix=".part", dir=out.parent))
+        stage = Path(tempfile.mkdtemp(prefix=temp_prefix(out.name), suffix=".part", dir=out.parent))
         staged = {f: stage / f.name for f in finals}
         taken, res = clean_file(job["input"], staged[out], context=job["context"], steps=job["steps"], threshold=job["threshold"],
                             joint_map=job.get("joint_map"),

@@ -102,10 +102,12 @@ def sweep(paths) -> None:
 
     One listing per folder (not one glob per path): a corpus of N takes costs O(N).
     """
+    from .io.outputs import temp_prefix
+
     by_folder: dict[Path, set] = {}
     for p in paths:
         p = Path(p)
-        by_folder.setdefault(p.parent, set()).add(p.name)
+        by_folder.setdefault(p.parent, set()).add(temp_prefix(p.name)[1:-1])  # NAME as its temporaries start
     for folder, names in by_folder.items():
         try:
             entries = list(os.scandir(folder))

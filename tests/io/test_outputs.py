@@ -238,3 +238,33 @@ def test_a_python_output_path_ending_with_a_separator_is_refused_by_every_writer
         with atomic_write(f"{out}/y.txt/") as fh:
             fh.write("x")
     assert not out.exists()
+
+
+def test_an_output_name_of_up_to_255_bytes_is_written_and_replaced(tmp_path):
+    """The hidden temporary beside an output (``.NAME.RANDOM.part``, 15 bytes longer than NAME) made every name
+    of 241-255 bytes fail with 'File name too long', after the work was done; now it is cut to fit NAME_MAX.
+    A replaced file's set-aside copy (keep_aside), a C3D's staging folder and a batch's sweep name it alike, and
+    an error still names the output whole."""
+    import errno
+
+    from mocapkit.batch_folder import sweep
+    from mocapkit.errors import os_error_line
+    from mocapkit.io.outputs import drop_kept, keep_aside, named_as_given, temp_prefix
+
+    for name in ("b" * 251 + ".bvh", "\u00e9" * 125 + ".bvh"):  # 255 bytes; 254, two bytes a character
+        out = tmp_path / name
+        with atomic_write(out) as fh:
+            fh.write("first")
+        kept = keep_aside([out])
+        with atomic_write(out) as fh:
+            fh.write("second")
+        assert out.read_text() == "second" and len(os.fsencode(kept[out].name)) <= 255
+        drop_kept(kept)
+        left = tmp_path / (temp_prefix(name) + "abcdefgh.part")  # what a killed worker leaves
+        left.write_text("")
+        exc = OSError(errno.EROFS, "Read-only file system", str(left))
+        named_as_given(exc, out)
+        assert os_error_line(exc) == f"{out}: read-only file system"
+        sweep([out])
+        assert sorted(p.name for p in tmp_path.iterdir()) == [name]
+        out.unlink()

@@ -20,7 +20,7 @@ from pathlib import Path
 from ..errors import MissingFileError, MocapError, MocapFormatError
 from ..interrupts import interrupts_held, whole_hand_over
 from ..markerset import MarkerSet
-from .outputs import check_file_path, missing_folders, named_as_given, publish
+from .outputs import check_file_path, missing_folders, named_as_given, publish, temp_prefix
 
 __all__ = ["load", "save", "check_writable", "check_complete", "load_markers", "save_markers", "check_keep_modelled",
            "marker_notes", "motion_notes", "atomic_write",
@@ -508,7 +508,7 @@ def atomic_write(path, mode: str = "w", **open_kwargs):
         # it behind, unnamed; now it waits for this block, then lands here, where the file is known and removed
         with interrupts_held():
             path.parent.mkdir(parents=True, exist_ok=True)
-            fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".part", dir=path.parent)
+            fd, tmp = tempfile.mkstemp(prefix=temp_prefix(path.name), suffix=".part", dir=path.parent)
             fh = os.fdopen(fd, mode, **open_kwargs)
     except BaseException as exc:
         if tmp is not None:

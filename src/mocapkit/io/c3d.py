@@ -695,12 +695,12 @@ def _ezc3d_bytes(c, path: Path, frames: int, points: int) -> bytearray:
     import shutil
     import tempfile
 
-    from .outputs import missing_folders
+    from .outputs import missing_folders, temp_prefix
 
     made = missing_folders([path.absolute().parent])  # removed again, when left empty, if the write fails
     done = False
     path.parent.mkdir(parents=True, exist_ok=True)
-    stage = tempfile.mkdtemp(prefix=f".{path.name}.", suffix=".part", dir=path.parent)
+    stage = tempfile.mkdtemp(prefix=temp_prefix(path.name), suffix=".part", dir=path.parent)
     try:
         try:
             c.write(os.path.join(stage, "out.c3d"))  # a name ending .c3d: ezc3d adds the suffix to any other

@@ -46,7 +46,8 @@ from typing import Iterable, Iterator
 from ..errors import MocapFormatError
 from ..interrupts import interrupts_held, whole_hand_over, whole_step
 
-__all__ = ["check_file_path", "check_outputs", "database_around", "same_file", "inside", "removed_on_failure", "publish", "keep_aside", "named_as_given", "put_back",
+__all__ = ["check_file_path", "check_outputs", "database_around", "same_file", "inside", "removed_on_failure",
+           "publish", "keep_aside", "named_as_given", "put_back", "temp_prefix", "NAME_MAX"]
            "drop_kept", "missing_folders", "file_facts", "input_facts", "other_input"]
 
 
@@ -206,18 +207,44 @@ def publish(tmp: os.PathLike | str, path: os.PathLike | str) -> None:
         written.append(key)
 
 
+NAME_MAX = 255
+"""Bytes a file name may hold on Linux, macOS and Windows file systems (ext4, APFS, NTFS)."""
+
+
+def temp_prefix(name: str) -> str:
+    """The start of the hidden temporary name beside the output ``name``: ``.NAME.`` (``mkstemp``/``mkdtemp``
+    add 8 random characters and ``.part``), with NAME cut to the bytes that leave the whole within
+    :data:`NAME_MAX` (240), at a character's end.
+
+    An output name of 241-255 bytes is a legal name, but ``.NAME.RANDOM.part`` is 15 bytes longer: every
+    write of it failed with "File name too long", after the work was done (a clean of a take).
+    """
+    room = NAME_MAX - len("..") - 8 - len(".part")
+    raw = os.fsencode(name)
+    if len(raw) <= room:
+        return f".{name}."
+    cut = raw[:room]
+    while cut and (cut[-1] & 0xC0) == 0x80:  # a UTF-8 continuation byte: the character it ends is cut whole
+        cut = cut[:-1]
+    if cut and cut[-1] >= 0xC0:  # a lead byte left alone
+        cut = cut[:-1]
+    return f".{os.fsdecode(cut)}."
+
+
 def named_as_given(exc: OSError, path: Path) -> None:
     """Name the temporary file beside ``path`` in ``exc`` as ``path`` was given: ``tempfile.mkstemp`` makes its name
     absolute, so ``-o ../ro/out.bvh`` on a read-only folder was said as ``/home/me/ro/out.bvh: read-only file
     system`` (:func:`mocapkit.errors.os_error_line` reads the output's name from the temporary file's); now
     ``../ro/out.bvh: read-only file system``."""
-    if path.is_absolute():
-        return
-    folder = os.path.abspath(path.parent)
+    folder, prefix = os.path.abspath(path.parent), temp_prefix(path.name)
     for attr in ("filename", "filename2"):
         name = getattr(exc, attr, None)
         if isinstance(name, str) and os.path.isabs(name) and os.path.dirname(name) == folder:
-            setattr(exc, attr, str(path.with_name(os.path.basename(name))))
+            base = os.path.basename(name)
+            if base.startswith(prefix) and base.endswith(".part"):  # a cut name (temp_prefix) said whole
+                base = f".{path.name}.{base[len(prefix):]}"
+            if not path.is_absolute() or base != os.path.basename(name):
+                setattr(exc, attr, str(path.with_name(base)))
 
 
 def keep_aside(paths: Iterable[os.PathLike | str | None], kept: dict[Path, Path] | None = None) -> dict[Path, Path]:
@@ -243,7 +270,7 @@ def keep_aside(paths: Iterable[os.PathLike | str | None], kept: dict[Path, Path]
             if not (link or p.is_file()):
                 continue
             with interrupts_held():
-                fd, tmp = tempfile.mkstemp(prefix=f".{p.name}.", suffix=".part", dir=p.parent)
+                fd, tmp = tempfile.mkstemp(prefix=temp_prefix(p.name), suffix=".part", dir=p.parent)
                 os.close(fd)
                 os.unlink(tmp)
             kept[p] = Path(tmp)  # drop_kept removes the link from here on (a name not yet made is passed over)
