@@ -315,3 +315,26 @@ def test_a_bvh_from_its_npz_keeps_the_files_header_text(tmp_path):
     mocapkit.save(moved, tmp_path / "z.bvh", like=x)
     assert mocapkit.load(tmp_path / "z.bvh").skeleton.offsets.tolist() == moved.skeleton.offsets.tolist()
     assert b"Frame Time: 0.03333333333333333" in (tmp_path / "z.bvh").read_bytes()  # the header written anew
+
+
+def test_arrays_no_reader_reads_are_said_left_out(tmp_path):
+    """An .npz holding arrays mocapkit does not read (a user's own beside the take, a reconstruction's
+    ``licence`` ...) gave outputs without them and no word: convert and clean of it to .npz or .bvh, of a marker
+    npz to .trc. Now a note names them; an npz of the format's own arrays alone gets none."""
+    from mocapkit.io import marker_notes, motion_notes
+    from mocapkit.io.npz import unread_arrays, write_npz
+
+    data = Path(mocapkit.__file__).parent / "data"
+    motion, markers = mocapkit.load(data / "131_01.bvh"), read_c3d(data / "Eb015pr.c3d")
+    for take, plain in ((motion, tmp_path / "m.npz"), (markers, tmp_path / "k.npz")):
+        write_npz(take, plain)
+        added = tmp_path / f"added_{plain.name}"
+        np.savez(added, **dict(np.load(plain)), my_labels=np.arange(3), notes=np.array("left foot taped"))
+        assert unread_arrays(plain) == [] and unread_arrays(added) == ["my_labels", "notes"]
+        read = mocapkit.load(added)
+        for out in ("out.npz", "out.trc" if take is markers else "out.bvh"):
+            notes = marker_notes(read, out, added) if take is markers else motion_notes(read, out, added)
+            said = f"{out}: not written: 2 arrays of {added} that mocapkit does not read (my_labels, notes)"
+            assert said in notes, notes
+            plain_notes = marker_notes(read, out, plain) if take is markers else motion_notes(mocapkit.load(plain), out)
+            assert not [n for n in plain_notes if "does not read" in n]

@@ -238,6 +238,9 @@ def marker_notes(markers: MarkerSet, path, inp=None, *, keep_modelled: bool = Fa
         from .trc import trc_notes
 
         notes += trc_notes(markers, path, keep_modelled=keep_modelled, filled=filled, record=record)
+    unread = unread_note(path, inp)
+    if unread:
+        notes.append(unread)
     if lost:
         what = ", ".join(lost[:-1]) + (" and " if len(lost) > 1 else "") + lost[-1]
         fmt = {"trc": "TRC", "npz": "a marker npz", "c3d": "C3D"}[kind]
@@ -306,7 +309,24 @@ def motion_notes(motion, path, like=None) -> list[str]:
         if n:
             notes.append(f"{path}: not written: {n} comment line{'s' if n > 1 else ''} of {like} ({why})")
     amc = _amc_dropped_comments(motion, path, kind, like)
-    return notes + ([amc] if amc else [])
+    unread = unread_note(path, like if like not in (None, False) else motion.source_file)
+    return notes + ([amc] if amc else []) + ([unread] if unread else [])
+
+
+def unread_note(path, inp) -> str | None:
+    """The line saying that ``path`` leaves out the arrays of the npz ``inp`` that mocapkit does not read
+    (:func:`mocapkit.io.npz.unread_arrays`: a user's own, a reconstruction's description), or None: the take
+    is read from the format's arrays alone, and an output of any format is written from the take."""
+    if inp is None or Path(inp).suffix.lower() != ".npz":
+        return None
+    from .npz import unread_arrays
+
+    names = unread_arrays(inp)
+    if not names:
+        return None
+    shown = ", ".join(names[:8]) + (f" and {len(names) - 8} more" if len(names) > 8 else "")
+    return (f"{path}: not written: {len(names)} array{'s' if len(names) > 1 else ''} of {inp} that mocapkit "
+            f"does not read ({shown})")
 
 
 def _amc_dropped_comments(motion, path: Path, kind: str, like) -> str | None:

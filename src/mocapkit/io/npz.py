@@ -22,9 +22,18 @@ from ..motion import Motion, Skeleton, check_fps
 from . import atomic_write
 from .c3d_trial import same_rate, trial_rate
 
-__all__ = ["read_npz", "write_npz", "load_arrays", "FORMAT_VERSION", "MAX_NPZ_BYTES", "MAX_NPZ_MEMBERS"]
+__all__ = ["read_npz", "write_npz", "load_arrays", "unread_arrays", "FORMAT_VERSION", "MAX_NPZ_BYTES",
+           "MAX_NPZ_MEMBERS"]
 
 FORMAT_VERSION = 1
+
+MOTION_ARRAYS = frozenset({"kind", "format_version", "rotations", "root_positions", "fps", "name", "joint_names",
+                           "parents", "offsets", "end_site_parents", "end_site_offsets", "channels", "limits",
+                           "unit_cm", "axes", "translations"})
+"""The arrays of a motion npz that :func:`read_npz` reads (beside them, :mod:`mocapkit.io.kept_channels`' keys)."""
+MARKER_ARRAYS = frozenset({"kind", "format_version", "labels", "positions", "fps", "units", "name", "first_frame",
+                           "first_frame_rate", "file_labels", "filled", "modelled"})
+"""The arrays of a marker npz that :func:`read_npz` reads."""
 
 
 def filled_samples(markers, filled=None) -> np.ndarray:
@@ -419,3 +428,23 @@ def read_npz(path):
         if isinstance(exc, MocapFormatError):
             raise
         raise MocapFormatError(path, f"inconsistent npz contents: {exc}".replace("\n", " ")) from None
+
+
+def unread_arrays(path) -> list[str]:
+    """The arrays of the npz at ``path`` that no mocapkit reader reads, in the file's order: arrays a user added
+    (``np.savez(out, **dict(np.load(take)), my_labels=...)``), or a reconstruction's ``positions``, ``licence``
+    ... (:func:`mocapkit.reconstruct.output.described_arrays`). A file written from the take holds only the
+    format's own arrays, so a command's note names these as left out (:func:`mocapkit.io.motion_notes`,
+    :func:`mocapkit.io.marker_notes`). Only the zip's directory and its ``kind`` are read; [] where the file
+    cannot be read (gone since, not an npz)."""
+    from .kept_channels import COMMENTS_KEY, HEADER_KEY, LAYOUT_KEY, TEXT_KEYS, VALUES_KEY
+
+    try:
+        with np.load(Path(path), allow_pickle=False) as z:
+            names = [name for name in z.files]
+            kind = str(z["kind"][()]) if "kind" in names else ""
+    except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile, zlib.error):
+        return []
+    known = MARKER_ARRAYS if kind == "markers" else \
+        MOTION_ARRAYS | {VALUES_KEY, LAYOUT_KEY, HEADER_KEY, COMMENTS_KEY, *TEXT_KEYS.values()}
+    return [name for name in names if name not in known]
