@@ -63,3 +63,55 @@ def test_a_c3d_of_300_points_is_written_back_whole(tmp_path, monkeypatch):
         assert with_package.reader == "c3d" and list(with_package.labels) == labels
         assert np.array_equal(with_package.positions, take.positions, equal_nan=True)
 
+
+
+def test_the_descriptions_of_300_points_are_written_whole(tmp_path):
+    """Past 255 points ezc3d states its own blank first 255 POINT:DESCRIPTIONS (a list of 255 is not one per
+    point to it); the writer puts the take's over them (c3d_layout.put_texts), DESCRIPTIONS2 beside."""
+    import ezc3d
+
+    src, out = tmp_path / "m300.c3d", tmp_path / "out.c3d"
+    _tiled(src)
+    take = read_c3d(src)
+    said = [f"marker number {i + 1}" for i in range(300)]
+    point = take.source.parameters["POINT"]
+    point["DESCRIPTIONS"]["value"], point["DESCRIPTIONS2"]["value"] = said[:255], said[255:]
+    write_c3d(take, out)
+    back = ezc3d.c3d(str(out))
+    assert back["parameters"]["POINT"]["DESCRIPTIONS"]["value"] + back["parameters"]["POINT"]["DESCRIPTIONS2"]["value"] == said
+    again = read_c3d(out)
+    assert again.labels == take.labels and np.array_equal(again.positions, take.positions, equal_nan=True)
+
+
+def test_a_c3d_of_300_analog_channels_is_written_back_whole(tmp_path):
+    """ANALOG:LABELS, DESCRIPTIONS, UNITS, SCALE and OFFSET of 300 channels were handed to ezc3d as one list
+    each: a file ezc3d refused to read. Now they go on in LABELS2, UNITS2 ..., every channel's samples, label,
+    unit and description kept."""
+    import ezc3d
+
+    c = ezc3d.c3d(str(EB015PR))
+    src, out = tmp_path / "a300.c3d", tmp_path / "out.c3d"
+    n = c["data"]["points"].shape[1]
+    new = ezc3d.c3d()
+    for key in ("RATE", "UNITS"):
+        new["parameters"]["POINT"][key]["value"] = c["parameters"]["POINT"][key]["value"]
+    new["parameters"]["POINT"]["LABELS"]["value"] = c["parameters"]["POINT"]["LABELS"]["value"][:n]
+    new["data"]["points"] = c["data"]["points"][:, :, :100]
+    new["parameters"]["ANALOG"]["RATE"]["value"] = c["parameters"]["ANALOG"]["RATE"]["value"]
+    new["parameters"]["ANALOG"]["LABELS"]["value"] = [f"ch{i}" for i in range(300)]
+    analogs = c["data"]["analogs"][:, :, :400]
+    new["data"]["analogs"] = np.concatenate([analogs + r for r in range(19)], axis=1)[:, :300]
+    new.write(str(src))
+    take = read_c3d(src)
+    analog = take.source.parameters["ANALOG"]
+    units, said = ["mV"] * 255 + ["N"] * 45, [f"channel {i}" for i in range(300)]
+    analog["UNITS"]["value"], analog["UNITS2"]["value"] = units[:255], units[255:]
+    analog["DESCRIPTIONS"]["value"], analog["DESCRIPTIONS2"]["value"] = said[:255], said[255:]
+    write_c3d(take, out)
+    back = ezc3d.c3d(str(out))  # raised OSError before
+    params = back["parameters"]["ANALOG"]
+    assert params["LABELS"]["value"] + params["LABELS2"]["value"] == [f"ch{i}" for i in range(300)]
+    assert params["UNITS"]["value"] + params["UNITS2"]["value"] == units
+    assert params["DESCRIPTIONS"]["value"] + params["DESCRIPTIONS2"]["value"] == said
+    assert np.array_equal(back["data"]["analogs"], ezc3d.c3d(str(src))["data"]["analogs"])
+    assert np.array_equal(read_c3d(out).positions, take.positions, equal_nan=True)

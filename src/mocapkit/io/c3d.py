@@ -47,7 +47,7 @@ from .c3d_frames import (FRAME_CAP, long_frame_parameters, missing_stored, point
                          put_stored_zeros, read_float, read_frames, residuals_and_cameras, rest_of_trial, zero_gap_words)
 from .c3d_layout import (header_layout, held_analogs, integer_data, integer_scale, keep_data_start, parameter_values,
                          put_analogs, put_header_gap, put_parameter, put_spare_events, spare_events, stored_analogs,
-                         with_offsets, text_chunks)
+                         with_offsets, text_chunks, PARAMETER_ENTRIES, put_texts)
 from .c3d_modelled import modelled_parameters, stated_positions
 from .c3d_structure import check_structure
 from .c3d_trial import (channels_held, fit_event_group, fit_force_plates, fit_header_events, trial_frames, trial_rate,
@@ -600,8 +600,8 @@ def _c3d_object(markers: MarkerSet, source: MarkerSource | None, own: bool, firs
                 values += [str(v) for v in np.ravel(analog.pop(k)["value"])]
         if key == "LABELS" or values:
             values = (values + [f"Analog{i + 1}" if key == "LABELS" else "" for i in range(len(values), A)])[:A]
-            analog[key] = {"type": -1, "description": old.get("description", ""),
-                           "is_locked": old.get("is_locked", False), "value": values}
+            analog.update(text_chunks(key, {"type": -1, "description": old.get("description", ""),
+                                            "is_locked": old.get("is_locked", False)}, values))
     # the numbers the file stored under its own scales and offsets (stored_analogs), else the values read, scale 1;
     # a file without analogs whose ANALOG:RATE says 0 keeps saying so (the frame rate written there read as an
     # analog rate)
@@ -614,8 +614,10 @@ def _c3d_object(markers: MarkerSet, source: MarkerSource | None, own: bool, firs
     for key, typ, value in (("SCALE", 4, scales), ("OFFSET", 2, np.zeros(A, dtype=int)), ("GEN_SCALE", 4, np.array([gen])),
                             ("RATE", 4, np.array([rate]))):
         old = analog.get(key, {})
-        analog[key] = {"type": typ, "description": old.get("description", ""), "is_locked": old.get("is_locked", False),
-                       "value": value}
+        for k in [f"{key}{i}" for i in range(2, 100)]:  # past 255 channels: SCALE2, OFFSET2 ... made anew
+            analog.pop(k, None)
+        analog.update(text_chunks(key, {"type": typ, "description": old.get("description", ""),
+                                        "is_locked": old.get("is_locked", False)}, value))
     data_analogs = np.zeros((1, 0, 0 if none_at_0 else F)) if analogs is None else analogs[None]
     # the trial's first and last frames and its length, kept in step with the frames written where the file
     # states them (Qualisys states POINT:LONG_FRAMES in every file), and written whenever the header's 16-bit
@@ -731,6 +733,21 @@ def _ezc3d_bytes(c, path: Path, frames: int, points: int) -> bytearray:
                 pass
 
 
+def _put_first_parts(data: bytearray, parameters: dict) -> bytearray:
+    """``data`` (the file ezc3d wrote) with the first 255 entries of a per-point or per-channel parameter split
+    past 255 (:func:`~mocapkit.io.c3d_layout.text_chunks`: NAME2 written beside NAME) as ``parameters`` has
+    them: ezc3d writes its own there (blank POINT:DESCRIPTIONS, ANALOG:DESCRIPTIONS and UNITS, ANALOG:SCALE 1)."""
+    for group, key in (("POINT", "DESCRIPTIONS"), ("ANALOG", "DESCRIPTIONS"), ("ANALOG", "UNITS"), ("ANALOG", "SCALE")):
+        if f"{key}2" not in parameters[group] or key not in parameters[group]:
+            continue
+        value = parameters[group][key]["value"]
+        if key == "SCALE":
+            put_parameter(data, group, key, np.asarray(value, dtype=np.float64))
+        elif any(str(v).strip() for v in value):
+            data = put_texts(data, group, key, list(value))
+    return data
+
+
 def write_c3d(markers: MarkerSet, path, *, like=None, stored_zeros: bool = False) -> None:
     """Write ``markers`` to a C3D file with ezc3d, atomically (temp file + rename).
 
@@ -777,6 +794,7 @@ def write_c3d(markers: MarkerSet, path, *, like=None, stored_zeros: bool = False
     rate = trial_rate(markers.source.layout, markers.fps) if markers.source is not None else markers.fps
     c, stored, offsets = _c3d_object(markers, source, own, first, rate)
     data = _ezc3d_bytes(c, path, markers.num_frames, markers.num_markers)
+    data = _put_first_parts(data, c["parameters"])
     # ezc3d writes -1 as the header's scale whatever POINT:SCALE says; readers that check the two
     # agree (the c3d package) refuse the mismatch, so the header gets POINT:SCALE (Intel byte order).
     scale = float(c["parameters"]["POINT"]["SCALE"]["value"][0])
@@ -787,7 +805,9 @@ def write_c3d(markers: MarkerSet, path, *, like=None, stored_zeros: bool = False
         put_stored_zeros(_data_block(data, markers.num_frames, markers.num_markers), markers, scale)
     if stored is not None:
         put_analogs(data, markers.num_frames, markers.num_markers, stored)
-        put_parameter(data, "ANALOG", "OFFSET", offsets)
+        for i in range(0, max(len(offsets), 1), PARAMETER_ENTRIES):  # OFFSET, OFFSET2 ... past 255 channels
+            put_parameter(data, "ANALOG", f"OFFSET{i // PARAMETER_ENTRIES + 1 if i else ''}",
+                          offsets[i:i + PARAMETER_ENTRIES])
     events = fit_header_events(source.events, own, markers.fps, first, markers.num_frames, trial_span(source.layout),
                                rate) if source is not None else ()
     _put_header_events(data, events)
