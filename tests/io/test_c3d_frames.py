@@ -253,3 +253,31 @@ def test_a_files_own_long_frame_count_is_kept_stating_the_frames_written(tmp_pat
         assert float(got["value"][0]) == frames
         assert got["description"] == "Number of frames (not limited to 65535)"
         assert read_c3d(out).num_frames == frames
+
+
+def test_a_part_of_a_long_trial_keeps_its_frame_numbers(tmp_path, monkeypatch):
+    """A part of a long trial starting past frame 65,535 (written with TRIAL:ACTUAL_START_FIELD) read back
+    numbered one frame early (66,001 as 66,000: the ``c3d`` package takes the field's high word as 65,535
+    frames) and, a short one, with one frame more than written (read from the padding past the data block);
+    ezc3d, reading the header's word alone, read a take numbered from 70,001 as 4,465. The header now holds
+    the cap, the field the number, and both readers number the frames the take's."""
+    import sys
+
+    from mocapkit.markerset import MarkerSource
+
+    xyz = _known_take()[0]
+    whole = tmp_path / "whole.c3d"
+    write_c3d(MarkerSet(labels=("a", "b", "c"), positions=xyz, fps=100.0, units="mm"), whole)
+    taken = read_c3d(whole)
+    own = MarkerSet(labels=("a", "b", "c"), positions=xyz[:10], fps=100.0, units="mm",
+                    source=MarkerSource(format="npz", first_frame=70_001))
+    for take, first in ((taken[66_000:69_000], 66_001), (taken[69_990:], 69_991), (own, 70_001)):
+        out = tmp_path / "part.c3d"
+        write_c3d(take, out)
+        for reader in ("ezc3d", "c3d"):
+            with monkeypatch.context() as m:
+                if reader == "c3d":
+                    m.setitem(sys.modules, "ezc3d", None)  # `import ezc3d` fails: the fallback reader reads it
+                back = read_c3d(out)
+            assert back.reader == reader and back.source.first_frame == first
+            assert np.array_equal(back.positions, take.positions, equal_nan=True)

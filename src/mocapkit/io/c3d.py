@@ -44,10 +44,11 @@ from ..markerset import (MODELLED_GROUPS, MarkerSet, MarkerSource, length_unit_c
                          repeated_labels_note, unique_labels, zero_gap_mask)
 from ..motion import check_fps
 from .c3d_frames import (FRAME_CAP, long_frame_parameters, missing_stored, point_words, put_missing_stored,
-                         put_stored_zeros, read_float, read_frames, residuals_and_cameras, rest_of_trial, zero_gap_words)
-from .c3d_layout import (header_layout, held_analogs, integer_data, integer_scale, keep_data_start, parameter_values,
-                         put_analogs, put_header_gap, put_parameter, put_spare_events, spare_events, stored_analogs,
-                         with_offsets, text_chunks, PARAMETER_ENTRIES, put_texts)
+                         put_stored_zeros, read_float, read_frames, residuals_and_cameras, rest_of_trial, trial_first,
+                         zero_gap_words)
+from .c3d_layout import (PARAMETER_ENTRIES, header_layout, held_analogs, integer_data, integer_scale, keep_data_start,
+                         parameter_values, put_analogs, put_header_gap, put_parameter, put_spare_events, put_texts,
+                         spare_events, stored_analogs, text_chunks, with_offsets)
 from .c3d_modelled import modelled_parameters, stated_positions
 from .c3d_structure import check_structure
 from .c3d_trial import (channels_held, fit_event_group, fit_force_plates, fit_header_events, trial_frames, trial_rate,
@@ -205,7 +206,7 @@ def _read_ezc3d(path: Path, raw: bytes):
         parameters=_ezc3d_parameters(c),
         analogs=None if analogs is None else _float32_values(analogs),
         analog_numbers=None if analogs is None else held_analogs(analogs, c["parameters"]),
-        first_frame=int(c["header"]["points"]["first_frame"]) + 1,
+        first_frame=trial_first(c["parameters"], int(c["header"]["points"]["first_frame"]) + 1),
         missing_stored=stored,
     )
     fps = _point_rate(path, c["header"]["points"]["frame_rate"])
@@ -319,7 +320,16 @@ def _read_c3d_package(path: Path, written: dict, raw: bytes | None = None):
                     modelled.update(s.strip() for s in p.string_array.reshape(-1))
                 except Exception:
                     pass
-        first = int(reader.first_frame)
+        # the package reads TRIAL:ACTUAL_START_FIELD where a file has it, its high word as 65,535 frames (and
+        # ACTUAL_END_FIELD's as 65,536): past frame 65,535 it numbered the trial one frame early and read one
+        # frame more than the file holds, from the padding after the data block
+        first = trial_first(parameters, int(reader.header.first_frame)) if "TRIAL" in parameters else 0
+        if first > FRAME_CAP and first != int(reader.first_frame):
+            held = int(reader.last_frame) - first + 1
+            if 0 < held < data.shape[0]:
+                data, analog = data[:held], analog[:held]
+        else:
+            first = int(reader.first_frame)
         scale = reader.point_scale
         offsets = reader.get_analog_transform_parameters()[2] if reader.analog_used else []
     if data.shape[1] == 0:
@@ -558,7 +568,9 @@ def _c3d_object(markers: MarkerSet, source: MarkerSource | None, own: bool, firs
     fit_event_group(c["parameters"], own, markers.fps, first, F, trial_span(source.layout) if source is not None else None,
                     rate)
     first = written_first(first, markers.fps, rate)  # the take's own clock from here on
-    c["header"]["points"]["first_frame"] = first - 1  # ezc3d's header counts from 0
+    # ezc3d's header counts from 0; past 65,535 the header holds the cap and TRIAL:ACTUAL_START_FIELD the number
+    # (long_frame_parameters below), as the c3d package writes it: ezc3d wrote the number's low 16 bits
+    c["header"]["points"]["first_frame"] = min(first, FRAME_CAP) - 1
     for group in ("POINT", "ANALOG"):
         if group not in c["parameters"]:
             c["parameters"][group] = copy.deepcopy(dict(ezc3d.c3d()["parameters"][group]))
@@ -622,11 +634,12 @@ def _c3d_object(markers: MarkerSet, source: MarkerSource | None, own: bool, firs
     # the trial's first and last frames and its length, kept in step with the frames written where the file
     # states them (Qualisys states POINT:LONG_FRAMES in every file), and written whenever the header's 16-bit
     # frame numbers cannot hold them (long_frame_parameters)
+    beyond = first + F - 1 > FRAME_CAP  # a frame number past the header's 16-bit words
     for (group, key), param in long_frame_parameters(first, F).items():
         params = c["parameters"]
-        if F > FRAME_CAP and group not in params:
+        if beyond and group not in params:
             params[group] = {"__METADATA__": {"DESCRIPTION": "", "IS_LOCKED": False}}
-        if F > FRAME_CAP or key in params.get(group, {}):
+        if beyond or key in params.get(group, {}):
             old = params[group].get(key, {})
             params[group][key] = dict(param, description=old.get("description", param["description"]),
                                       is_locked=old.get("is_locked", param["is_locked"]))

@@ -23,7 +23,7 @@ import numpy as np
 from ..errors import MocapFormatError
 from .c3d_layout import analog_offsets
 
-__all__ = ["FRAME_CAP", "read_float", "sample_bytes", "point_words", "missing_stored", "put_missing_stored",
+__all__ = ["FRAME_CAP", "trial_first", "read_float", "sample_bytes", "point_words", "missing_stored", "put_missing_stored",
            "residuals_and_cameras",
            "long_trial_frames", "read_frames", "rest_of_trial", "long_frame_parameters"]
 
@@ -214,6 +214,22 @@ def _field(words) -> int | None:
     if words is None or len(words) < 2:
         return None
     return (int(words[0]) & 0xFFFF) | ((int(words[1]) & 0xFFFF) << 16)
+
+
+def trial_first(parameters: dict, header_first: int) -> int:
+    """The trial's first frame number (1-based) read from a header stating ``header_first``, in a file whose
+    TRIAL:ACTUAL_START_FIELD may state it past 65,535 (a part of a long trial, as :func:`long_frame_parameters`
+    writes it): that 32-bit number where it is past 65,535 and the header's 16-bit word is its low word (or
+    the cap, 65,535), else ``header_first``.
+
+    ezc3d reads the header's word alone (frame 66,001 read as 465), and the ``c3d`` package takes the field's
+    high word as 65,535 frames (66,001 read as 66,000): a part of a long trial written and read back was
+    numbered wrongly, and its events and ``like=`` crops placed by those numbers.
+    """
+    start = _field(_value(parameters, "TRIAL", "ACTUAL_START_FIELD"))
+    if start is not None and start > FRAME_CAP and header_first & 0xFFFF in (start & 0xFFFF, FRAME_CAP):
+        return start
+    return header_first
 
 
 def long_trial_frames(path, raw: bytes, parameters: dict, read: int, points: int, analog: int, scale: float) -> int:
