@@ -690,3 +690,19 @@ def test_no_other_output_is_written_inside_a_database_folder(saved, tmp_path):
     (takes / "database.json").write_text(json.dumps({"format": "someone-else"}))
     check_outputs([takes / "out.bvh"])
     check_database_output(saved, overwrite=True)  # nothing was written there: db build may still replace it
+
+
+def test_a_database_folder_named_up_to_255_bytes_is_saved_and_its_leftovers_swept(small_db, tmp_path):
+    """The hidden staging folder beside OUT (``.NAME.PID-HOST-XXXXXXXX.part``, 29 bytes and a pid longer than NAME)
+    made ``db build`` of a 240-byte OUT fail 'cannot write the database (File name too long)' once the
+    database was built. NAME is now cut to fit, and a dead writer's folder under the cut name is swept."""
+    name = "d" * 255
+    live = database_folder.staging_folder(tmp_path / name)
+    host = live.name.rsplit(".", 2)[1].split("-")[1]
+    dead = tmp_path / (live.name.rsplit(".", 2)[0] + f".{_dead_pid()}-{host}-abcd1234.part")
+    dead.mkdir()
+    (dead / "rotations.npy").write_bytes(b"x")
+    small_db.save(tmp_path / name)
+    assert sorted(p.name for p in tmp_path.iterdir()) == sorted([name, live.name])
+    small_db.save(tmp_path / name, overwrite=True)  # the replaced folder waits in a cut .old one, then goes
+    assert sorted(p.name for p in tmp_path.iterdir()) == sorted([name, live.name])

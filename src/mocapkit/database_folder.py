@@ -48,7 +48,7 @@ import numpy as np
 from .errors import MocapError, MocapFormatError
 from .features import FEATURE_SETS, WINDOWED_SETS
 from .interrupts import interrupts_held
-from .io.outputs import DATABASE_DESCRIPTION, DATABASE_FORMAT, inside, missing_folders, resolved, same_file
+from .io.outputs import DATABASE_DESCRIPTION, DATABASE_FORMAT, inside, missing_folders, resolved, same_file, temp_prefix
 from .motion import Skeleton
 
 __all__ = [
@@ -421,6 +421,12 @@ def _owner_dead(tag: str) -> bool:
     return False
 
 
+_STAGED_AFTER = len("4194304-a1b2c3") + len("-XXXXXXXX.part")
+"""Bytes that follow NAME in a staging folder's name at most (the largest Linux pid; "part" or "old"): NAME is cut
+to what leaves the whole within NAME_MAX (:func:`mocapkit.io.outputs.temp_prefix`), the same cut for every
+owner, so :func:`_leftovers` finds a dead owner's folders by it."""
+
+
 def staging_folder(target, kind: str = "part") -> Path:
     """A new hidden folder ``.NAME.OWNER-XXXXXXXX.KIND`` beside ``target`` (``NAME`` its name, ``OWNER`` this process).
 
@@ -432,7 +438,8 @@ def staging_folder(target, kind: str = "part") -> Path:
     ``mkdtemp``'s owner-only ones), since it becomes the target.
     """
     target = Path(target)
-    path = Path(tempfile.mkdtemp(prefix=f".{target.name}.{_owner()}-", suffix=f".{kind}", dir=target.parent))
+    prefix = temp_prefix(target.name, _STAGED_AFTER) + f"{_owner()}-"  # a folder name of 225-255 bytes: cut
+    path = Path(tempfile.mkdtemp(prefix=prefix, suffix=f".{kind}", dir=target.parent))
     if kind == "part":
         try:
             probe = path / "mode"  # os.mkdir's mode under the umask, read without changing the process's umask
@@ -453,7 +460,7 @@ def _leftovers(target: Path) -> list[tuple[Path, str, str]]:
     ``.old`` folders are taken as dead once a minute old (its swap took milliseconds); its ``.part`` folders, which a
     long build of that version may still be writing, are left alone.
     """
-    name = re.escape(target.name)
+    name = re.escape(temp_prefix(target.name, _STAGED_AFTER)[1:-1])  # as staging_folder cuts it
     tagged = re.compile(rf"\.{name}\.(\d+-[0-9a-f]{{6}})-[a-z0-9_]{{8}}\.(part|old)")
     legacy = re.compile(rf"\.{name}\.[a-z0-9_]{{8}}\.(old)")
     found = []

@@ -211,15 +211,15 @@ NAME_MAX = 255
 """Bytes a file name may hold on Linux, macOS and Windows file systems (ext4, APFS, NTFS)."""
 
 
-def temp_prefix(name: str) -> str:
+def temp_prefix(name: str, after: int = 8 + len(".part")) -> str:
     """The start of the hidden temporary name beside the output ``name``: ``.NAME.`` (``mkstemp``/``mkdtemp``
-    add 8 random characters and ``.part``), with NAME cut to the bytes that leave the whole within
-    :data:`NAME_MAX` (240), at a character's end.
+    add 8 random characters and ``.part``: ``after`` bytes follow), with NAME cut to the bytes that leave the
+    whole within :data:`NAME_MAX` (240 by default), at a character's end.
 
     An output name of 241-255 bytes is a legal name, but ``.NAME.RANDOM.part`` is 15 bytes longer: every
     write of it failed with "File name too long", after the work was done (a clean of a take).
     """
-    room = NAME_MAX - len("..") - 8 - len(".part")
+    room = NAME_MAX - len("..") - after
     raw = os.fsencode(name)
     if len(raw) <= room:
         return f".{name}."
