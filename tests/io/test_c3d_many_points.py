@@ -115,3 +115,28 @@ def test_a_c3d_of_300_analog_channels_is_written_back_whole(tmp_path):
     assert params["DESCRIPTIONS"]["value"] + params["DESCRIPTIONS2"]["value"] == said
     assert np.array_equal(back["data"]["analogs"], ezc3d.c3d(str(src))["data"]["analogs"])
     assert np.array_equal(read_c3d(out).positions, take.positions, equal_nan=True)
+
+
+def test_a_parameter_a_c3d_cannot_state_is_refused_not_written_cut(tmp_path):
+    """300 events (EVENT:TIMES 2 x 300, LABELS ... of 300) or a description of 300 characters: a C3D states each
+    dimension in one byte, and ezc3d wrote them cut to it, a file it refused to read back and the ``c3d``
+    package read as 44 events. Now one line names the parameter and nothing is written."""
+    import dataclasses
+
+    import pytest
+
+    from mocapkit.errors import MocapFormatError
+
+    take, out = read_c3d(EB015PR), tmp_path / "out.c3d"
+    event = {"__METADATA__": {"DESCRIPTION": "", "IS_LOCKED": False},
+             "USED": {"type": 2, "description": "", "is_locked": False, "value": np.array([300])},
+             "LABELS": {"type": -1, "description": "", "is_locked": False, "value": ["Foot Strike"] * 300},
+             "TIMES": {"type": 4, "description": "", "is_locked": False,
+                       "value": np.vstack([np.zeros(300), 0.5 + np.arange(300) * 0.01])}}
+    with_events = dataclasses.replace(take.source, parameters={**take.source.parameters, "EVENT": event})
+    with pytest.raises(MocapFormatError, match=r"EVENT:\w+ holds (300 texts|2 x 300 values), more than the 255"):
+        write_c3d(dataclasses.replace(take, source=with_events), out)
+    take.source.parameters["POINT"]["DESCRIPTIONS"]["value"][0] = "x" * 300
+    with pytest.raises(MocapFormatError, match="POINT:DESCRIPTIONS holds a text of 300 characters"):
+        write_c3d(take, out)
+    assert list(tmp_path.iterdir()) == []

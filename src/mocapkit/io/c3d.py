@@ -47,8 +47,8 @@ from .c3d_frames import (FRAME_CAP, long_frame_parameters, missing_stored, point
                          put_stored_zeros, read_float, read_frames, residuals_and_cameras, rest_of_trial, trial_first,
                          zero_gap_words)
 from .c3d_layout import (PARAMETER_ENTRIES, header_layout, held_analogs, integer_data, integer_scale, keep_data_start,
-                         parameter_values, put_analogs, put_header_gap, put_parameter, put_spare_events, put_texts,
-                         spare_events, stored_analogs, text_chunks, with_offsets)
+                         oversized_parameter, parameter_values, put_analogs, put_header_gap, put_parameter,
+                         put_spare_events, put_texts, spare_events, stored_analogs, text_chunks, with_offsets)
 from .c3d_modelled import modelled_parameters, stated_positions
 from .c3d_structure import check_structure
 from .c3d_trial import (channels_held, fit_event_group, fit_force_plates, fit_header_events, trial_frames, trial_rate,
@@ -806,6 +806,9 @@ def write_c3d(markers: MarkerSet, path, *, like=None, stored_zeros: bool = False
     # the clock of those frame numbers: the file's rate (a resampled take's is not the file's)
     rate = trial_rate(markers.source.layout, markers.fps) if markers.source is not None else markers.fps
     c, stored, offsets = _c3d_object(markers, source, own, first, rate)
+    oversized = oversized_parameter(c["parameters"])
+    if oversized:
+        raise MocapFormatError(path, f"cannot write C3D: {oversized}, more than the 255 a C3D parameter states")
     data = _ezc3d_bytes(c, path, markers.num_frames, markers.num_markers)
     data = _put_first_parts(data, c["parameters"])
     # ezc3d writes -1 as the header's scale whatever POINT:SCALE says; readers that check the two

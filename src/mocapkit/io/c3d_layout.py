@@ -38,7 +38,7 @@ import numpy as np
 __all__ = ["parameter_values", "header_layout", "offset_values", "analog_offsets", "with_offsets", "held_analogs",
            "stored_analogs", "parameter_at", "put_parameter", "put_analogs", "put_header_gap", "keep_data_start",
            "integer_data", "integer_scale", "stored_scale", "spare_events", "put_spare_events", "EVENT_SLOTS",
-           "PARAMETER_ENTRIES", "text_chunks", "put_texts"]
+           "PARAMETER_ENTRIES", "text_chunks", "put_texts", "oversized_parameter"]
 
 BLOCK = 512
 """Bytes in a C3D block: the header, the parameter section and the data block start on one."""
@@ -313,11 +313,40 @@ def parameter_at(data, group: str, name: str) -> tuple[int, int, int] | None:
     return next((where for gid, where in found if groups.get(gid) == group.upper()), None)
 
 
-def _record_end(data, at: int) -> int:
-    """Where the values and description of the parameter whose offset-to-next word is at ``at`` end."""
+def oversized_parameter(parameters: dict) -> str | None:
+    """``"GROUP:NAME holds ..."`` for the first parameter of ``parameters`` (ezc3d's layout, as handed to its
+    writer) that a C3D cannot state: more than 255 entries along a dimension (EVENT:TIMES of 300 events) or a
+    text longer than 255 characters, each a dimension the parameter section stores in one byte; None where
+    every one fits. ezc3d writes such a parameter with the dimension cut to its low byte, a file it then
+    refuses to read and the ``c3d`` package reads wrongly (44 of 300 events). POINT:LABELS and ANALOG:LABELS
+    are counted by ezc3d's writer, which states them in LABELS2 ... past 255."""
+    for group, params in parameters.items():
+        for name, param in params.items():
+            if name == "__METADATA__" or not isinstance(param, dict) or "value" not in param:
+                continue
+            value = param["value"]
+            if param.get("type") == -1 or (isinstance(value, list) and value and isinstance(value[0], str)):
+                texts = [str(v) for v in np.ravel(np.asarray(value, dtype=object))] if len(value) else []
+                if name != "LABELS" and len(texts) > PARAMETER_ENTRIES:
+                    return f"{group}:{name} holds {len(texts)} texts"
+                longest = max((len(t) for t in texts), default=0)
+                if longest > PARAMETER_ENTRIES:
+                    return f"{group}:{name} holds a text of {longest} characters"
+            elif any(d > PARAMETER_ENTRIES for d in np.shape(value)):
+                return f"{group}:{name} holds {' x '.join(str(d) for d in np.shape(value))} values"
+    return None
+
+
+def _values_end(data, at: int) -> int:
+    """Where the values of the parameter whose offset-to-next word is at ``at`` end (its description follows)."""
     typ, ndim = struct.unpack_from("b", data, at + 2)[0], data[at + 3]
     count = int(np.prod(list(data[at + 4:at + 4 + ndim]))) if ndim else 1
-    p = at + 4 + ndim + abs(typ) * count
+    return at + 4 + ndim + abs(typ) * count
+
+
+def _record_end(data, at: int) -> int:
+    """Where the values and description of the parameter whose offset-to-next word is at ``at`` end."""
+    p = _values_end(data, at)
     return p + 1 + data[p]
 
 
@@ -355,8 +384,7 @@ def put_texts(data: bytearray, group: str, name: str, values: list[str]) -> byte
     if hit is None or last is None:
         return data
     _, start, at, nxt = hit
-    ndim = data[at + 3]
-    p = at + 4 + ndim + abs(struct.unpack_from("b", data, at + 2)[0]) * (int(np.prod(list(data[at + 4:at + 4 + ndim]))) if ndim else 1)
+    p = _values_end(data, at)  # the description's length byte, then its text
     description = bytes(data[p:p + 1 + data[p]])
     old_end = at + nxt if nxt > 0 else _record_end(data, at)
     texts = [str(v).encode("latin-1", "replace") for v in values]
