@@ -515,7 +515,7 @@ def _undo_take(finals: list[Path], kept: dict[Path, Path], moved: list[Path]) ->
 
 def _clean_job(job: dict) -> dict:
     from .cleaning.pipeline import clean_path
-    from .io import marker_notes, motion_notes
+    from .io import marker_notes, motion_notes, unread_note
     from .io.outputs import drop_kept, keep_aside, temp_prefix
     from .parallel import owner_alive
 
@@ -556,7 +556,8 @@ def _clean_job(job: dict) -> dict:
             row.update(frames=res.markers.num_frames, filled=int(res.filled.sum()),
                        spikes=int(res.spikes.sum()), swapped=int(res.swapped.sum()), notes=res.summary()[1:],
                        warnings=marker_notes(res.original, out, filled=res.fill_mask,  # what the reader did,
-                                             record=clean_path(out)))  # what OUT cannot hold
+                                             record=clean_path(out))  # what OUT cannot hold
+                       + [n for n in [unread_note(out, job["input"])] if n])  # an npz's arrays no reader reads
         else:
             from .cleaning.flags_left import left_line
             from .cleaning.judged import not_judged_note

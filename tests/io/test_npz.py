@@ -338,3 +338,19 @@ def test_arrays_no_reader_reads_are_said_left_out(tmp_path):
             assert said in notes, notes
             plain_notes = marker_notes(read, out, plain) if take is markers else motion_notes(mocapkit.load(plain), out)
             assert not [n for n in plain_notes if "does not read" in n]
+
+
+def test_clean_batch_names_a_marker_npz_s_unread_arrays(tmp_path):
+    """clean-batch's row of a marker npz said what TRC or C3D leave out of it but not the npz's own arrays no
+    reader reads (a motion npz's row did): now both kinds of take say them."""
+    from mocapkit.batch import clean_batch
+    from mocapkit.io.npz import write_npz
+
+    src = tmp_path / "in"
+    src.mkdir()
+    write_npz(read_c3d(Path(mocapkit.__file__).parent / "data" / "Eb015pr.c3d")[:100], tmp_path / "e.npz")
+    np.savez(src / "e.npz", **dict(np.load(tmp_path / "e.npz")), force=np.zeros(3))
+    row, = clean_batch(src, tmp_path / "out", executor="serial", progress=False).rows
+    assert row["status"] == "done", row
+    assert any("not written: 1 array of" in w and w.endswith("that mocapkit does not read (force)")
+               for w in row["warnings"]), row["warnings"]
