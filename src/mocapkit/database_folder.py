@@ -48,7 +48,8 @@ import numpy as np
 from .errors import MocapError, MocapFormatError
 from .features import FEATURE_SETS, WINDOWED_SETS
 from .interrupts import interrupts_held
-from .io.outputs import DATABASE_DESCRIPTION, DATABASE_FORMAT, inside, missing_folders, resolved, same_file, temp_prefix
+from .io.outputs import (DATABASE_DESCRIPTION, DATABASE_FORMAT, inside, missing_folders, resolved, same_file,
+                         temp_prefix)
 from .motion import Skeleton
 
 __all__ = [

@@ -47,8 +47,8 @@ from ..errors import MocapFormatError
 from ..interrupts import interrupts_held, whole_hand_over, whole_step
 
 __all__ = ["check_file_path", "check_outputs", "database_around", "same_file", "inside", "removed_on_failure",
-           "publish", "keep_aside", "named_as_given", "put_back", "temp_prefix", "NAME_MAX"]
-           "drop_kept", "missing_folders", "file_facts", "input_facts", "other_input"]
+           "publish", "keep_aside", "named_as_given", "put_back", "drop_kept", "missing_folders", "file_facts",
+           "input_facts", "other_input", "temp_prefix", "NAME_MAX"]
 
 
 def resolved(path: os.PathLike | str) -> Path:
