@@ -377,7 +377,7 @@ def amc_dofs(skeleton: Skeleton) -> tuple[tuple[str, ...], ...]:
     return tuple(dofs)
 
 
-def amc_held_rotations(motion: Motion, dofs=None) -> np.ndarray:
+def amc_held_rotations(motion: Motion, dofs=None, joints=None) -> np.ndarray:
     """The local rotations (F, J, 4) an AMC written for ``motion`` reads back as: each bone's rotation on its dofs.
 
     An ASF bone with fewer than three rotation dofs cannot hold every rotation: the AMC writer
@@ -385,8 +385,10 @@ def amc_held_rotations(motion: Motion, dofs=None) -> np.ndarray:
     back as the rotation those angles make. This is that rotation, made the writer's way and read
     back the reader's way without a file (so without the text's rounding to its decimals): what a
     cleaning written as AMC measures and records its changes with. ``dofs``: the AMC layout the
-    writer uses (default :func:`amc_dofs`). Joints without rotation dofs, and cells with a missing
-    (NaN) value, are returned as given. ``motion.skeleton`` must come from an ASF (``axes`` set).
+    writer uses (default :func:`amc_dofs`). ``joints``: only these bones are converted, to the same numbers
+    (a check of the 18 bones of fewer dofs of HDM05's 29 turning ones: 0.25 -> 0.16 s on 9,760 frames); the
+    others, joints without rotation dofs and cells with a missing (NaN) value are returned as given.
+    ``motion.skeleton`` must come from an ASF (``axes`` set).
     """
     import dataclasses
 
@@ -396,19 +398,21 @@ def amc_held_rotations(motion: Motion, dofs=None) -> np.ndarray:
     if sk.axes is None:
         raise ValueError("an AMC holds the rotations of a skeleton read from an ASF; this one has no ASF axes")
     dofs = amc_dofs(sk) if dofs is None else tuple(tuple(d) for d in dofs)
+    if joints is not None:  # the others without dofs: neither written nor read back
+        dofs = tuple(d if j in set(map(int, joints)) else () for j, d in enumerate(dofs))
     rot = np.asarray(motion.rotations, dtype=np.float64)
-    seen = np.isfinite(rot).all(axis=-1)
-    safe = np.where(seen[..., None], rot, R.identity())  # a NaN would run through the writer's unwrapping
+    turning = [j for j, jd in enumerate(dofs) if any(d[0] == "r" for d in jd)]  # whole columns: no (F, J) mask
+    seen = np.isfinite(rot[:, turning]).all(axis=-1)
+    safe = np.array(rot)  # a NaN would run through the writer's unwrapping
+    safe[:, turning] = np.where(seen[..., None], rot[:, turning], R.identity())
     values = dof_values(dataclasses.replace(motion, rotations=safe, root_positions=np.zeros((len(rot), 3))), dofs,
-                     radians=False)
+                        radians=False)
     out = np.array(rot)
     cols = [v for v in values if v is not None]
     if not cols:
         return out
     held, _ = _to_motion_arrays(np.concatenate(cols, axis=1), sk, _Layout(dofs, False), radians=False)
-    turning = np.array([any(d[0] == "r" for d in jd) for jd in dofs])
-    cells = seen & turning[None, :]
-    out[cells] = held[cells]
+    out[:, turning] = np.where(seen[..., None], held[:, turning], rot[:, turning])
     return out
 
 

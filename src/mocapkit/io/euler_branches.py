@@ -172,15 +172,18 @@ def partial_rotation_joints(skeleton) -> list[int]:
     return [j for j in range(skeleton.num_joints) if 0 < len(skeleton.rotation_order(j)) < 3]
 
 
-def bvh_held_rotations(motion) -> np.ndarray:
+def bvh_held_rotations(motion, joints=None) -> np.ndarray:
     """The local rotations (F, J, 4) a BVH written for ``motion`` reads back as: a joint declaring one or two
     rotation channels (:func:`partial_rotation_joints`) holds its rotation's angles about those axes and drops
     the rest (:meth:`mocapkit.motion.Motion.channel_values`, read back by ``from_channel_values``), as an AMC bone
     with fewer than three dofs does (:func:`mocapkit.io.asfamc.amc_held_rotations`): what a cleaning written as
     that BVH measures and records its changes with (:func:`mocapkit.cleaning.decisions.as_written`). Other joints
-    and missing (NaN) cells are returned as given."""
+    and missing (NaN) cells are returned as given; ``joints``: only those of these are converted (as
+    :func:`mocapkit.io.asfamc.amc_held_rotations`' ``joints``)."""
     rot = np.array(motion.rotations, dtype=np.float64)
     for j in partial_rotation_joints(motion.skeleton):
+        if joints is not None and j not in joints:
+            continue
         order = motion.skeleton.rotation_order(j)
         q = rot[:, j]
         seen = np.isfinite(q).all(axis=-1)
@@ -204,7 +207,7 @@ def bvh_written(original, motion, path, asf=None, like=None):
     if not joints:
         return motion
     rot = np.array(motion.rotations, dtype=np.float64)
-    held = held_of(motion)[:, joints]
+    held = held_of(motion, joints)[:, joints]
     was = np.asarray(original.rotations, dtype=np.float64)
     if was.shape != rot.shape:  # another take: every cell of those joints is the file's
         rot[:, joints] = held
@@ -217,7 +220,8 @@ def bvh_written(original, motion, path, asf=None, like=None):
 
 def _partial_layout(motion, path, asf=None, like=None):
     """(joints, held): the joints a file at ``path`` keeps only some rotation axes of, and the function giving the
-    rotations (F, J, 4) that file reads back as; ``([], None)`` for another format or none such."""
+    rotations (F, J, 4) that file reads back as (``held(take, joints=None)``: only ``joints`` converted where
+    given); ``([], None)`` for another format or none such."""
     from pathlib import Path
 
     kind = Path(path).suffix.lower()
@@ -230,7 +234,7 @@ def _partial_layout(motion, path, asf=None, like=None):
 
     dofs = file_dofs(motion, asf, like)
     joints = [j for j, d in enumerate(dofs) if 0 < sum(x[0] == "r" for x in d) < 3]
-    return joints, (lambda take: amc_held_rotations(take, dofs))
+    return joints, (lambda take, only=None: amc_held_rotations(take, dofs, only))
 
 
 def written_partial_joints(motion, path, asf=None, like=None) -> list[int]:
@@ -259,7 +263,7 @@ def off_axis_note(motion, path, asf=None, like=None) -> str | None:
     if not joints:
         return None
     a = np.asarray(motion.rotations, dtype=np.float64)[:, joints]
-    b = held_of(motion)[:, joints]
+    b = held_of(motion, joints)[:, joints]  # only those bones through the Euler round trip
     chord = np.linalg.norm(a - np.where(np.sum(a * b, axis=-1, keepdims=True) < 0, -b, b), axis=-1)
     with np.errstate(invalid="ignore"):
         off = np.degrees(4.0 * np.arcsin(np.clip(chord / 2.0, 0.0, 1.0)))
