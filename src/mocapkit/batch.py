@@ -249,24 +249,21 @@ def clean_file(
     def prepared(res):
         return replace(res, frames_note=dec.frames_note(inp))  # the summary says how its frames relate to the file's
 
-    def held(res):
-        from .io.amc_writer import file_dofs  # sizes, report and record say what the AMC holds (dec.as_written)
-        from .io.asfamc import amc_held_rotations
-        from .io.euler_branches import bvh_held_rotations  # or a BVH whose hinges hold one or two angles
+    from .io.euler_branches import written_layout
 
-        dofs = file_dofs(m, asf, inp) if out.suffix.lower() == ".amc" else None  # the layout io.save writes below
+    # how OUT holds the rotations (io.save writes that layout below): an AMC (each bone on its ASF dofs), a BVH of
+    # one- or two-channel joints; None for a file keeping every rotation (an .npz, a BVH without such joints)
+    _, held_of = written_layout(m, out, asf, inp)
+
+    def held(res):  # sizes, report and record say what the file holds (dec.as_written)
         try:
-            return dec.as_written(res, m, (lambda take: amc_held_rotations(take, dofs)) if dofs is not None
-                                  else bvh_held_rotations)
+            return dec.as_written(res, m, held_of)
         except MocapFormatError:
             raise
         except MocapError as exc:  # a record without its cleaned samples
             raise MocapError(f"{record}: {exc}") from None
 
-    from .io.euler_branches import partial_rotation_joints
-
-    # an output that cannot hold every rotation: an AMC (bones of fewer dofs), a BVH of one- or two-channel joints
-    partial = out.suffix.lower() == ".amc" or (out.suffix.lower() == ".bvh" and bool(partial_rotation_joints(m.skeleton)))
+    partial = held_of is not None
     chosen = decided = None
     if doc is not None:  # the checks and order of the library's clean_and_decide
         from .cleaning.decide import decide_take

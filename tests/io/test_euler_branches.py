@@ -450,6 +450,36 @@ def test_an_amc_bone_of_fewer_dofs_is_put_on_its_dofs_and_a_save_says_what_it_dr
     assert (tmp_path / "on_dofs.amc").read_bytes() == (tmp_path / "py.amc").read_bytes()  # the same file, now said
 
 
+def test_one_layout_says_what_each_output_holds_and_an_npz_keeps_every_rotation(tmp_path):
+    """:func:`written_layout` is the one place deciding which joints a file keeps only some rotation axes of and
+    what it reads back as, for ``clean`` (``batch.clean_file``'s :func:`~mocapkit.cleaning.decisions.as_written`)
+    and :func:`bvh_written` (``fill``, ``denoise``, ``repair``) alike. Before 0.16.0 each had its own copy,
+    ``clean``'s choosing the BVH rule for any output not .amc (an .npz kept every rotation only because a second
+    test left it out). An .npz keeps every rotation: nothing is put on axes for it, and ``clean`` to .npz records
+    and writes the denoised hinge as cleaned (60 rotations of LeftLeg off its axis, up to 0.41 deg)."""
+    from mocapkit.batch import clean_file
+    from mocapkit.io.euler_branches import bvh_held_rotations, written_layout
+
+    m, noisy = _noisy_hinged(tmp_path)
+    j = m.skeleton.joint_names.index("LeftLeg")
+    assert written_layout(m, "x.bvh") == ([j], bvh_held_rotations)
+    assert written_layout(m, "x.npz") == ([], None)
+    assert written_layout(read_bvh(START_01_01), "x.bvh") == ([], None)  # no hinge: a BVH holds every rotation
+    walk = read_amc(WALK, WALK_ASF)
+    joints, held = written_layout(walk, "x.amc", WALK_ASF, WALK)
+    dofs = amc_dofs(walk.skeleton)
+    assert joints == [k for k, d in enumerate(dofs) if 0 < sum(x[0] == "r" for x in d) < 3] and held is not None
+    out = tmp_path / "clean.npz"
+    clean_file(noisy, out, steps=("denoise",))
+    z = np.load(tmp_path / "clean.clean.npz")
+    written = np.asarray(mocapkit.load(out).rotations)
+    np.testing.assert_array_equal(z["cleaned_rotations"], written[z["changed"]])  # what the record says is written
+    leg = written[z["changed"][:, j], j]
+    assert len(leg) == 60
+    on_axis = bvh_held_rotations(dataclasses.replace(m, rotations=written))[z["changed"][:, j], j]
+    assert np.degrees(2 * np.arccos(np.clip(np.abs(np.sum(leg * on_axis, axis=-1)), 0, 1))).max() > 0.4  # kept off it
+
+
 def test_the_off_axis_check_converts_only_the_bones_of_fewer_dofs(monkeypatch):
     """``mocapkit.save``'s check of an AMC (:func:`off_axis_note`) put every bone through the Euler round trip
     (29 of HDM05's 31, 0.2 s on a 9,760-frame take) where only those with fewer than three rotation dofs can lose

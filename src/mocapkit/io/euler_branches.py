@@ -17,7 +17,7 @@ from .. import rotations as R
 
 __all__ = ["MEASURED_TOLERANCE_DEG", "NEAR_SOURCE_DEG", "OFF_AXIS_DEG", "bridged", "bvh_held_rotations", "bvh_written",
            "continuous_rotations", "measured_text", "off_axis_note", "partly_missing", "partial_rotation_joints",
-           "source_branches", "three_axis_groups", "written_partial_joints"]
+           "source_branches", "three_axis_groups", "written_layout", "written_partial_joints"]
 
 #: Degrees: a changed cell whose rotation stays this close to the source file's is written on the branch nearest the
 #: file's numbers of that cell; one turned further (a flip repaired) follows its neighbours (continuous_euler's max_step).
@@ -200,10 +200,10 @@ def bvh_written(original, motion, path, asf=None, like=None):
     :func:`mocapkit.io.asfamc.amc_held_rotations` on the layout written, :func:`mocapkit.io.amc_writer.file_dofs`
     of ``asf``/``like``), every other value as given (an unchanged cell bit for bit). What ``fill``, ``denoise``
     and ``repair`` write and report from, as ``clean`` does (:func:`mocapkit.cleaning.decisions.as_written`).
-    ``motion`` itself for another output format or a skeleton without such joints."""
+    ``motion`` itself for another output format or a skeleton without such joints (:func:`written_layout`)."""
     import dataclasses
 
-    joints, held_of = _partial_layout(motion, path, asf, like)
+    joints, held_of = written_layout(motion, path, asf, like)
     if not joints:
         return motion
     rot = np.array(motion.rotations, dtype=np.float64)
@@ -218,15 +218,24 @@ def bvh_written(original, motion, path, asf=None, like=None):
     return dataclasses.replace(motion, rotations=rot)
 
 
-def _partial_layout(motion, path, asf=None, like=None):
-    """(joints, held): the joints a file at ``path`` keeps only some rotation axes of, and the function giving the
-    rotations (F, J, 4) that file reads back as (``held(take, joints=None)``: only ``joints`` converted where
-    given); ``([], None)`` for another format or none such."""
+def written_layout(motion, path, asf=None, like=None):
+    """``(joints, held)``: how a file at ``path`` holds ``motion``'s rotations, the one place deciding it (for
+    :func:`bvh_written`, :func:`off_axis_note` and ``clean``'s :func:`mocapkit.cleaning.decisions.as_written`).
+
+    ``joints``: those it keeps only some rotation axes of, a BVH's joints declaring one or two rotation channels
+    (:func:`partial_rotation_joints`) or an AMC's bones with fewer than three rotation dofs in the layout written
+    (:func:`mocapkit.io.amc_writer.file_dofs` of ``asf``/``like``: the ASF's order). ``held(take, joints=None)``:
+    the rotations (F, J, 4) such a file written from ``take`` reads back as (:func:`bvh_held_rotations`;
+    :func:`mocapkit.io.asfamc.amc_held_rotations` on that layout, every bone through its Euler angles), only
+    ``joints`` converted where given. ``held`` is None where a file holds every rotation as given: an .npz (it
+    keeps the quaternions), a BVH without such joints; an AMC always has one (a take without an ASF skeleton:
+    ``([], None)``, which the AMC writer refuses)."""
     from pathlib import Path
 
     kind = Path(path).suffix.lower()
     if kind == ".bvh":
-        return partial_rotation_joints(motion.skeleton), bvh_held_rotations
+        joints = partial_rotation_joints(motion.skeleton)
+        return joints, (bvh_held_rotations if joints else None)
     if kind != ".amc" or motion.skeleton.axes is None:
         return [], None
     from .amc_writer import file_dofs  # lazy: amc_writer imports this module
@@ -241,7 +250,7 @@ def written_partial_joints(motion, path, asf=None, like=None) -> list[int]:
     """The joints of ``motion`` a file at ``path`` keeps only some rotation axes of: a BVH's one- or two-channel
     joints (:func:`partial_rotation_joints`), an AMC's bones with fewer than three rotation dofs (in the layout
     :func:`mocapkit.io.amc_writer.file_dofs` gives for ``asf``/``like``); [] for another format."""
-    return _partial_layout(motion, path, asf, like)[0]
+    return written_layout(motion, path, asf, like)[0]
 
 
 #: Degrees: a rotation of a one- or two-channel joint further than this from its channels' axes loses that part in
@@ -259,7 +268,7 @@ def off_axis_note(motion, path, asf=None, like=None) -> str | None:
     :func:`bvh_written`)."""
     from pathlib import Path
 
-    joints, held_of = _partial_layout(motion, path, asf, like)
+    joints, held_of = written_layout(motion, path, asf, like)
     if not joints:
         return None
     a = np.asarray(motion.rotations, dtype=np.float64)[:, joints]
