@@ -506,3 +506,25 @@ def test_the_off_axis_check_converts_only_the_bones_of_fewer_dofs(monkeypatch):
     assert off_axis_note(m, "x.amc", WALK_ASF, WALK) is None
     assert asked == [few]
 
+
+def test_repair_to_an_amc_reads_its_layout_once(tmp_path, monkeypatch):
+    """`repair` to an AMC read the written layout (the ASF) twice, once to put the repaired bones on their dofs
+    (:func:`bvh_written`) and again for the joints it counts; now once (:func:`written_layout`, handed to both).
+    ``mocapkit.save`` reads it on its own for the writer and its check."""
+    import traceback
+
+    import mocapkit.io.amc_writer as W
+    from tests.cli.helpers import run
+
+    real, outside_save = W.file_dofs, []
+
+    def spy(*args, **kwargs):
+        stack = traceback.extract_stack()
+        if stack[-2].filename.endswith("euler_branches.py") and "save" not in {f.name for f in stack}:
+            outside_save.append(1)  # the layout read for repair's own write and count
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(W, "file_dofs", spy)
+    code, out, err = run("repair", WALK, "-o", tmp_path / "r.amc", "--asf", WALK_ASF, "--context", "none")
+    assert code == 0, err
+    assert "wrote" in out and len(outside_save) == 1

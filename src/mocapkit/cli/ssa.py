@@ -186,7 +186,7 @@ def repair(
     from ..cleaning.take_context import unread_context
     from ..cleaning.whole_take import check_no_zeros, repair_whole, with_flips, with_teleports
     from ..context import fit_context
-    from ..io.euler_branches import bvh_written, written_partial_joints
+    from ..io.euler_branches import bvh_written, written_layout
     from ..io.takes import CLI_AMC_NAMES, check_asf, load_motion
 
     import numpy as np
@@ -223,11 +223,12 @@ def repair(
             raise _named(inp, m, exc) from None
     # the path clean's repair step takes: the flagged cells, then the root's teleports put back
     done = repair_whole(m, det, ctx, foot_skate=foot_skate, poses=poses)
-    written = bvh_written(m, done.motion, out, asf, inp)  # a BVH hinge, an AMC bone of fewer dofs: what is written is counted
+    layout = written_layout(m, out, asf, inp)  # read once (an AMC's: its ASF) for the write and the count
+    written = bvh_written(m, done.motion, out, asf, inp, layout)  # a hinge, a bone of fewer dofs: what is written is counted
     save_take(written, out, inp, asf, overwrite, like=inp)
     changed = np.array(done.changed)
     if written is not done.motion:  # a hinge's cell whose change was only about another axis: the file's again
-        hinge = written_partial_joints(m, out, asf, inp)
+        hinge = layout[0]
         changed[:, hinge] &= ~np.all(np.asarray(written.rotations)[:, hinge] == np.asarray(m.rotations)[:, hinge],
                                      axis=-1)
     flags, _ = with_flips(*with_teleports(det.flags, None, done.teleported), done.turn_flags)

@@ -192,7 +192,7 @@ def bvh_held_rotations(motion, joints=None) -> np.ndarray:
     return rot
 
 
-def bvh_written(original, motion, path, asf=None, like=None):
+def bvh_written(original, motion, path, asf=None, like=None, layout=None):
     """``motion`` (an operation's output of ``original``, the same frames and joints) as the file at ``path`` holds
     it: each rotation of a joint the file keeps only some rotation axes of (:func:`written_partial_joints`: a BVH
     joint declaring one or two rotation channels, an AMC bone with fewer than three rotation dofs) that differs
@@ -200,10 +200,11 @@ def bvh_written(original, motion, path, asf=None, like=None):
     :func:`mocapkit.io.asfamc.amc_held_rotations` on the layout written, :func:`mocapkit.io.amc_writer.file_dofs`
     of ``asf``/``like``), every other value as given (an unchanged cell bit for bit). What ``fill``, ``denoise``
     and ``repair`` write and report from, as ``clean`` does (:func:`mocapkit.cleaning.decisions.as_written`).
-    ``motion`` itself for another output format or a skeleton without such joints (:func:`written_layout`)."""
+    ``motion`` itself for another output format or a skeleton without such joints. ``layout``: the
+    :func:`written_layout` of ``motion``, ``path``, ``asf``, ``like`` where the caller has it (read once)."""
     import dataclasses
 
-    joints, held_of = written_layout(motion, path, asf, like)
+    joints, held_of = written_layout(motion, path, asf, like) if layout is None else layout
     if not joints:
         return motion
     rot = np.array(motion.rotations, dtype=np.float64)
