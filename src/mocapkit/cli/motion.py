@@ -358,7 +358,7 @@ def _info_of_own_file(path: Path) -> bool:
                 ("frames", str(rec.num_frames)), ("markers", str(len(rec.labels))),
                 ("changed", f"{plural(int(rec.changed.sum()), 'marker sample')} (filled {int(rec.filled.sum())}, "
                             f"spikes removed {int(rec.spikes.sum())}, re-labelled {int(rec.swapped.sum())}"
-                            + (f", duplicate labels removed {int(rec.duplicates.sum())}" if rec.duplicates.any() else "")
+                            + (f", {rec.duplicates_as} removed {int(rec.duplicates.sum())}" if rec.duplicates.any() else "")
                             + ")"),
                 ("fixes", f"{plural(rec.count('gap'), 'gap')} filled, {plural(rec.count('spike'), 'spike')} removed, "
                           f"{plural(rec.count('swap'), 'label swap')} undone"
@@ -369,7 +369,8 @@ def _info_of_own_file(path: Path) -> bool:
             rows.append(("coincident", f"{plural(len(rec.coincident), 'run')} of two markers at one position, "
                                        "which is the duplicate not told (left as recorded)"))
         if rec.unfilled:
-            long = sum(1 for x in rec.unfilled if str(x.get("note", "")).startswith(TOO_LONG))
+            long = sum(1 for x in rec.unfilled if str(x.get("left") if x.get("kind") in ("duplicate", "foreign")
+                                                          else x.get("note", "")).startswith(TOO_LONG))
             why = [f"{n} {what}" for n, what in ((len(rec.unfilled) - long, "no plausible fill"),
                                                  (long, "longer than --max-gap")) if n]
             rows.append(("left missing", f"{plural(len(rec.unfilled), 'gap')} ({', '.join(why)})"))

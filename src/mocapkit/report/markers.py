@@ -242,7 +242,7 @@ def write_marker_report(path, result, *, title: str = "", max_frames: int = 3000
         f"<tr><td>{html.escape(x.marker)}</td><td>{link(x)}</td>"
         f"<td>{html.escape(x.size_text)}</td></tr>" for x in unfilled)
     why = "no plausible fill" if not any(x.too_long for x in unfilled) else (
-        unfilled[0].note if all(x.too_long for x in unfilled) else "no plausible fill, or longer than --max-gap")
+        unfilled[0].why_left if all(x.too_long for x in unfilled) else "no plausible fill, or longer than --max-gap")
     left = (f"<h3>Left missing: {why} ({len(unfilled)})</h3><table><tr><th>marker</th><th>frames</th>"
             f"<th>duration, rejected fill, why</th></tr>{left}</table>") if unfilled else ""
     coincident = getattr(result, "coincident", ())

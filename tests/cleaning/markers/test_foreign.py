@@ -83,3 +83,19 @@ def test_a_label_on_another_point_after_an_occlusion_is_found():
     assert [(g.marker, g.start, g.end) for g in found] == [(k, 331, 351)]
     y[331:351, k] = x[331:351, k]  # the marker itself back after the occlusion: nothing
     assert find_foreign(y) == []
+
+
+def test_a_foreign_stretch_left_missing_by_max_gap_says_so_and_is_listed_with_the_gaps_left_missing(eb015):
+    # Eb015pr's LFT3 0-42 (0.86 s) removed under --max-gap 0.3: no fill was tried, as for the 0.5-0.94 s gaps. It said
+    # "left missing: no plausible fill" (a fill passes without --max-gap: 5.8 mm expected), was missing from
+    # res.unfilled (the summary's and `info`'s "5 gaps left missing") and counted as "duplicate labels".
+    res = clean_markers(eb015, max_gap_s=0.3)
+    fix = next(x for x in res.fixes if x.kind == "foreign" and x.marker == "LFT3")
+    assert not np.isfinite(fix.size_mm) and fix.too_long and fix.left == "longer than --max-gap (0.3 s)"
+    assert fix.size_text.endswith("removed, left missing: longer than --max-gap (0.3 s)")
+    assert "71 mm jump" in fix.note  # the evidence stays
+    assert fix in res.unfilled and all(x.too_long for x in res.unfilled)
+    text = "\n".join(res.summary())
+    assert "no plausible fill" not in text
+    assert "43 recorded samples removed as other points under their labels and left missing (longer than --max-gap)" in text
+    assert "6 gaps (222 samples; 1 of them another point under a label, removed) left missing: longer than --max-gap" in text

@@ -85,6 +85,10 @@ class MarkerFix:
     ``order``: where it comes when the swaps are composed (by ``order``, then
     first frame: :func:`~mocapkit.cleaning.markers.swaps.labelling`), above 0
     for one the labeller made on top of a later-starting swap it overlaps.
+    ``left``: for a duplicate or a foreign stretch whose removed samples were
+    left missing, why no fill was written (:attr:`why_left`): longer than
+    ``--max-gap``, or the plausibility guard's reason; "" where filled, or
+    from a record written before 0.16.0 (read as "no plausible fill").
     """
 
     marker: str
@@ -102,6 +106,7 @@ class MarkerFix:
     models: int = 1
     fill_note: str = ""
     order: int = 0
+    left: str = ""
 
     @property
     def fill_text(self) -> str:
@@ -116,10 +121,24 @@ class MarkerFix:
         return f"{self.seconds:.2f} s, {how}, {doubt}" + (f" ({self.fill_note})" if self.fill_note else "")
 
     @property
+    def why_left(self) -> str:
+        """Why this run was left missing: a gap's or a spike's :attr:`note`; a duplicate's or a foreign stretch's
+        :attr:`left` (its ``note`` is the evidence that it was removed)."""
+        return self.left if self.kind in ("duplicate", "foreign") else self.note
+
+    @property
     def too_long(self) -> bool:
         """Whether this gap was left missing because it is longer than ``max_gap_s`` (``--max-gap``): no fill was
         tried, so none was found implausible."""
-        return self.note.startswith(TOO_LONG)
+        return self.why_left.startswith(TOO_LONG)
+
+    @property
+    def left_text(self) -> str:
+        """Why a removed duplicate or foreign stretch is left missing, in words: its :attr:`left` reason
+        ("longer than --max-gap (0.3 s)": no fill was tried), else "no plausible fill" with the guard's reason."""
+        if self.too_long:
+            return self.left
+        return "no plausible fill" + (f" ({self.left})" if self.left else "")
 
     @property
     def removed_as(self) -> str:
@@ -135,7 +154,7 @@ class MarkerFix:
         """``size_mm`` in words, after a gap's :attr:`fill_text`: what the number measures differs by kind (a gap's is no error)."""
         if self.kind in ("duplicate", "foreign"):
             fill = f" ({self.fill_text})" if self.fill_text else ""
-            done = ("removed, left missing: no plausible fill" if not np.isfinite(self.size_mm)
+            done = (f"removed, left missing: {self.left_text}" if not np.isfinite(self.size_mm)
                     else f"removed and filled{fill}: removed samples up to {self.size_mm:.1f} mm from the fill")
             return f"{self.removed_as}, {done}"
         if self.kind == "coincident":
@@ -194,7 +213,10 @@ class MarkerCleanResult:
         (:mod:`~mocapkit.cleaning.markers.plausible`): kind "gap", or
         "spike" for a spike run whose samples were removed and could not be
         replaced (it is among :attr:`fixes` too: a change); ``note`` says
-        why, the other fields describe the rejected fill.
+        why, the other fields describe the rejected fill. A duplicate's or a
+        foreign stretch's removed run left missing is listed too (kind
+        "duplicate" or "foreign", among :attr:`fixes` as well): its
+        ``left`` says why (:attr:`MarkerFix.why_left`), its ``note`` the evidence.
     duplicates : bool array (F, M)
         Samples of a marker found on another marker's position (a duplicate
         label, :mod:`~mocapkit.cleaning.markers.duplicates`), or another
@@ -287,10 +309,16 @@ class MarkerCleanResult:
         if left:
             lines.append(f"{_n(left, 'sample')} still missing")
         if removed.any():
-            how = "spikes or duplicate labels" if np.any(removed & self.duplicate_mask[:, ~skip]) else "spikes"
-            lines.append(f"{_n(int(removed.sum()), 'recorded sample')} removed as {how} and left missing (no plausible fill)")
+            gone_fixes = [x for x in self.fixes if x.kind in _REMOVED and not np.isfinite(x.size_mm)]
+            kinds = {x.kind for x in gone_fixes}
+            how = " or ".join(w for k, w in (("spike", "spikes"), ("duplicate", "duplicate labels"),
+                                             ("foreign", "other points under their labels")) if k in kinds) or "spikes"
+            long = sum(1 for x in gone_fixes if x.too_long)
+            why = ("longer than --max-gap" if gone_fixes and long == len(gone_fixes) else
+                   "no plausible fill, or longer than --max-gap" if long else "no plausible fill")
+            lines.append(f"{_n(int(removed.sum()), 'recorded sample')} removed as {how} and left missing ({why})")
         for x in (x for kind in ("duplicate", "foreign") for x in self.fixes if x.kind == kind):
-            done = "removed and filled" if np.isfinite(x.size_mm) else "removed, left missing (no plausible fill)"
+            done = "removed and filled" if np.isfinite(x.size_mm) else f"removed, left missing ({x.left_text})"
             lines.append(f"{x.marker} frames {x.start}-{x.end - 1}: {x.removed_as}, {done}")
         for x in self.coincident:
             lines.append(f"{x.marker} and {x.other} frames {x.start}-{x.end - 1}: at the same position "
@@ -302,11 +330,14 @@ class MarkerCleanResult:
             if not group:
                 continue
             n = len(group)
-            shown = "; ".join(f"{x.marker} frames {x.start}-{x.end - 1} ({'a spike removed, ' if x.kind == 'spike' else ''}"
-                              f"{x.seconds:.2f} s" + ("" if x.too_long else f": {x.note}") + ")" for x in group[:3])
+            shown = "; ".join(f"{x.marker} frames {x.start}-{x.end - 1} ({_REMOVED.get(x.kind, '')}"
+                              f"{x.seconds:.2f} s" + ("" if x.too_long or not x.why_left else f": {x.why_left}") + ")"
+                              for x in group[:3])
             more = f"; ... and {n - 3} more" if n > 3 else ""
-            spikes = sum(1 for x in group if x.kind == "spike")
-            of = f"; {spikes} of them spikes removed" if spikes else ""
+            of = "".join(f"; {k} of them {what}" for k, what in (
+                (sum(1 for x in group if x.kind == "spike"), "spikes removed"),
+                (sum(1 for x in group if x.kind == "duplicate"), "duplicate labels removed"),
+                (sum(1 for x in group if x.kind == "foreign"), "another point under a label, removed")) if k)
             k = sum(x.end - x.start for x in group)
             lines.append(f"{n} gap{'s' if n > 1 else ''} ({k} sample{'s' if k != 1 else ''}{of}) "
                          f"left missing: {why}: {shown}{more}")
@@ -363,6 +394,11 @@ class MarkerCleanResult:
                 **({"request": np.array(json.dumps(request))} if request else {}),
             )
         return path
+
+
+_REMOVED = {"spike": "a spike removed, ", "duplicate": "a duplicate label removed, ",
+            "foreign": "another point under its label removed, "}
+"""How a run left missing whose recorded samples were removed begins in the summary (a gap's begins with its duration)."""
 
 
 def _n(count: int, word: str) -> str:
@@ -487,6 +523,7 @@ def clean_markers(markers, *, steps=STEPS, spike_mm: float = 15.0, swap_mm: floa
     never = np.all(np.isnan(y), axis=(0, 2))
     seen_any = np.flatnonzero(~np.all(np.isnan(y), axis=(1, 2)))  # frames with a marker seen (spikes removed)
     dup_fill: dict[tuple, dict] = {}  # (marker, start, end) -> the fill of a duplicate's removed run
+    dup_left: dict[tuple, str] = {}  # (marker, start, end) -> why a duplicate's removed run was left missing
     if "gaps" in steps or np.any(spikes) or np.any(dups):
         stats = distance_stats(y)
         max_gap = None if max_gap_s is None else int(round(max_gap_s * markers.fps))
@@ -496,6 +533,9 @@ def clean_markers(markers, *, steps=STEPS, spike_mm: float = 15.0, swap_mm: floa
         for r in records:
             run = slice(r.start, r.end)
             if np.all(dups[run, r.marker]):  # a duplicate's removed samples: named below, with the marker it was on
+                if not r.filled:  # and why no fill was written (was always "no plausible fill", --max-gap's too)
+                    dup_left[(r.marker, r.start, r.end)] = (f"{TOO_LONG} ({max_gap_s:g} s)"
+                                                            if r.implausible.startswith(TOO_LONG) else r.implausible)
                 if r.filled:
                     y[run, r.marker] = out[run, r.marker]
                     dup_fill[(r.marker, r.start, r.end)] = dict(
@@ -538,8 +578,14 @@ def clean_markers(markers, *, steps=STEPS, spike_mm: float = 15.0, swap_mm: floa
         gone = np.any(np.isnan(y[a:b, mk]))
         size = (float("nan") if gone else
                 float(np.max(np.linalg.norm(before_fill[a:b, mk] - y[a:b, mk], axis=-1))) * unit_mm)
-        fixes.append(MarkerFix(labels[mk], a, b, kind, size, other, seconds=(b - a) / markers.fps, note=why,
-                               **dup_fill.get((mk, a, b), {})))
+        # left missing: why (longer than --max-gap, or the guard's reason), from its own run or the gap holding it
+        held = next((u.why_left for u in unfilled if u.marker == labels[mk] and u.start <= a and b <= u.end), "")
+        left = dup_left.get((mk, a, b), held) if gone else ""
+        fix = MarkerFix(labels[mk], a, b, kind, size, other, seconds=(b - a) / markers.fps, note=why, left=left,
+                        **dup_fill.get((mk, a, b), {}))
+        fixes.append(fix)
+        if (mk, a, b) in dup_left:  # its own run left missing: listed with the gaps left missing, as a spike's is
+            unfilled.append(fix)
     # a spike no fill reached stays missing rather than wrong
     fixes.sort(key=lambda x: (x.start, x.marker, x.kind))
     out = full.copy()
