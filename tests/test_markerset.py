@@ -308,3 +308,34 @@ def test_a_resampled_take_keeps_its_first_frames_time_through_trc_and_npz(tmp_pa
     back = load_markers(save_markers(ms[::2][75:], tmp_path / "part.npz"))
     assert back.source.first_frame == 151 and back.source.layout["trial_rate"] == 50
     assert load_markers(save_markers(back, tmp_path / "back.c3d")).source.first_frame == 76
+
+
+def test_a_sample_cameras_saw_is_no_interpolated_one_whatever_its_rounded_residual():
+    # C3D stores a residual in steps of |POINT:SCALE| (Eb015pr: 0.083 mm) beside the cameras that saw the sample. A
+    # residual under half a step is stored as 0; with cameras named it was measured, not filled. 0.15.0 called it
+    # interpolated: a marker npz listed it in `filled` ("no recorded one") and a TRC note counted it as a fill.
+    import dataclasses
+
+    from mocapkit import samples
+    from mocapkit.io import load_markers
+
+    ms = load_markers(samples.path("Eb015pr.c3d"))
+    assert ms.interpolated().sum() == 19 and not np.any(ms.cameras[ms.interpolated()])  # its own fills: no camera
+    seen = ~ms.missing() & (ms.residuals > 0) & (ms.cameras > 0)
+    f, m = np.argwhere(seen)[0]
+    res = np.array(ms.residuals)
+    res[f, m] = 0.0  # measured by cameras, its residual rounded to 0
+    low = dataclasses.replace(ms, residuals=res)
+    assert not low.interpolated()[f, m] and low.interpolated().sum() == 19
+    cams = np.array(ms.cameras)
+    cams[f, m] = 0  # and with no camera named: a fill
+    assert dataclasses.replace(low, cameras=cams).interpolated()[f, m]
+
+
+def test_functionalwalks_camera_seen_samples_of_residual_0_are_recorded_ones(shared_data):
+    from mocapkit.io import load_markers
+
+    ms = load_markers(shared_data / "c3d_markers" / "FunctionalWalk.c3d")  # Vicon, residuals in 0.18 mm steps
+    zero = ~ms.missing() & (ms.residuals == 0) & ~ms.modelled() & ~ms.unlabelled()
+    assert zero.sum() == 11215 and np.sum(zero & (ms.cameras > 0)) == 11203
+    assert ms.interpolated().sum() == 12  # was 11,215: every sample under 0.09 mm of residual
