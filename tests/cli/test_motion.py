@@ -688,3 +688,19 @@ def test_an_output_path_ending_with_a_slash_joined_to_a_short_option_is_refused(
     code, _, err = run("denoise", str(Path(SAMPLE).absolute()), word)
     assert code == 2 and one_error_line(err) and f"{word[2:]}: ends with a path separator" in err, err
     assert not (tmp_path / "o").exists() and not list(tmp_path.glob("=*"))
+
+
+def test_info_says_which_part_of_the_missing_share_is_markers_never_seen(tmp_path, capsys):
+    # Vicon's FunctionalWalk.c3d: "29.09 % of marker samples" missing, all of it 32 labels the capture never saw,
+    # while `clean` then fills 0 gaps. CMU 85_02 (complete) with LFWT and RFWT never seen: said, and named.
+    from mocapkit.io import load_markers, save_markers
+
+    ms = load_markers(Path(__file__).resolve().parents[1] / "data" / "85_02.c3d")
+    pos = np.array(ms.positions)
+    pos[:, :2] = np.nan
+    save_markers(ms.with_positions(pos), tmp_path / "t.trc")
+    assert main(["info", str(tmp_path / "t.trc")]) == 0
+    out = capsys.readouterr().out
+    assert "4.88 % of marker samples (2 of 41 markers never seen: Male:LFWT, Male:RFWT)" in out, out
+    assert main(["info", str(mocapkit.samples.path("Eb015pr.c3d"))]) == 0
+    assert "never seen" not in capsys.readouterr().out  # every marker seen: the line as before

@@ -27,7 +27,7 @@ def info(
     from ..digest import take_digest
     from ..io.bvh_roots import extra_roots
     from ..io.c3d import MarkerSet
-    from ..io.c3d_contents import marker_counts, marker_file_contents, zero_gaps_line
+    from ..io.c3d_contents import marker_counts, marker_file_contents, never_seen_line, zero_gaps_line
     from ..io.takes import CLI_AMC_NAMES, check_asf, load_take
     from ..motion import ROLES, standard_joints, unit_scale_cm
     from ..rigs import rig_family, roles_by_topology
@@ -47,7 +47,8 @@ def info(
                  ("frames", str(obj.num_frames)), ("fps", f"{obj.fps:g}"),
                  ("duration", f"{obj.num_frames / obj.fps:.3f} s"), ("units", obj.units + _UNITS_FROM[obj.units_from]),
                  ("missing", f"{100.0 * missing:.2f} % of marker samples"
-                             + (f" ({zero_gaps_line(obj.zero_gaps)})" if obj.zero_gaps else ""))]
+                             + (f" ({zero_gaps_line(obj.zero_gaps)})" if obj.zero_gaps else "")
+                             + (f" ({never})" if (never := never_seen_line(obj)) else ""))]
         rows += marker_file_contents(obj)
         rows.append(("sha256", f"{take_digest(obj)} (of the samples: a decisions file's \"take\" digest)"))
         print_fields(rows)

@@ -15,6 +15,8 @@ from __future__ import annotations
 
 from collections import Counter
 
+import numpy as np
+
 
 from ..markerset import MarkerSet
 from .c3d_layout import parameter_values
@@ -51,6 +53,24 @@ def marker_counts(markers: MarkerSet) -> tuple[int, int, float]:
     kept = ~quantity
     missing = float(markers.missing()[:, kept].mean()) if kept.any() and markers.num_frames else 0.0
     return int(kept.sum()), int(quantity.sum()), missing
+
+
+def never_seen_line(markers: MarkerSet) -> str:
+    """How many of ``markers``' markers (modelled quantities aside, as :func:`marker_counts` counts them) are
+    missing in every frame, with the first five labels: ``32 of 110 markers never seen: LFHD, RFHD, ...``; ""
+    where every one is seen. A share of missing samples made of markers never seen (a marker set's labels the
+    capture did not use: 29 % of Vicon's FunctionalWalk.c3d) is no gap that ``clean`` could fill, so ``info``
+    says which part of its missing line they are."""
+    kept = markers.quantities() == ""
+    if not kept.any() or not markers.num_frames:
+        return ""
+    never = kept & markers.missing().all(axis=0)
+    n = int(never.sum())
+    if not n:
+        return ""
+    names = [markers.labels[i] for i in np.flatnonzero(never)]
+    shown = ", ".join(names[:5]) + (", ..." if n > 5 else "")
+    return f"{n} of {int(kept.sum())} marker{'s' if kept.sum() != 1 else ''} never seen: {shown}"
 
 
 def marker_file_contents(markers: MarkerSet) -> list[tuple[str, str]]:
