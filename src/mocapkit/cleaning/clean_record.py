@@ -22,20 +22,14 @@ import numpy as np
 
 from ..errors import MissingFileError, MocapFormatError
 from ..motion import Motion, frozen
+from ..words import plural
 from .calibration import CalibrationPose
 from .stutters import Stutter
 from .zeros import ZeroRun
 
-__all__ = ["FORMAT", "MAX_LINES", "StepRecord", "CleanResult", "clean_path", "capped_lines", "record_kind_hint",
-           "counted"]
+__all__ = ["FORMAT", "MAX_LINES", "StepRecord", "CleanResult", "clean_path", "capped_lines", "record_kind_hint"]
 
 FORMAT = "mocapkit.clean/1"
-
-
-def counted(n: int, word: str) -> str:
-    """``"1 joint"``, ``"2 joints"``: the counts of the summary lines (a step's cells here, the notes
-    :func:`mocapkit.cleaning.pipeline.clean` writes there: one wording for both)."""
-    return f"{n} {word}{'' if n == 1 else 's'}"
 
 
 @dataclass(frozen=True)
@@ -59,7 +53,7 @@ class StepRecord:
         took = f" ({self.seconds:.2f} s)" if np.isfinite(self.seconds) else ""
         s = f"{self.name}{took}: {self.method}"
         if self.name != "detect" and not self.method.startswith(("skipped", "nothing")):
-            s += f", {counted(self.cells, 'joint sample')} changed"
+            s += f", {plural(self.cells, 'joint sample')} changed"
         return s + (f"; {self.note}" if self.note else "")
 
 

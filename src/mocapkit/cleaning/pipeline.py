@@ -139,9 +139,10 @@ import numpy as np
 from .. import rotations as R
 from ..errors import MocapError
 from ..motion import Motion
+from ..words import plural
 from .calibration import calibration_poses
 # the record of a cleaning (CleanResult, StepRecord, the .clean.npz), its own module: importable from here as ever
-from .clean_record import (FORMAT, MAX_LINES, CleanResult, StepRecord, capped_lines, clean_path, counted,
+from .clean_record import (FORMAT, MAX_LINES, CleanResult, StepRecord, capped_lines, clean_path,
                            record_kind_hint)
 from .inbetweens import interpolated_note
 from .measured import keep_measured_in_denoise, kept_note
@@ -591,8 +592,8 @@ def clean(
             undenoised, redo = cur, (noisy, left)  # repair works on the take as filled, denoised after it
             cur = dataclasses.replace(cur, rotations=rot)
             noise[lo:hi] = sub_noise
-            extra = (f"{counted(int(noisy.sum()), 'noisy cell')} (level > {noise_deg:g} deg) on "
-                     f"{counted(int(noisy.any(axis=0).sum()), 'joint')}")
+            extra = (f"{plural(int(noisy.sum()), 'noisy cell')} (level > {noise_deg:g} deg) on "
+                     f"{plural(int(noisy.any(axis=0).sum()), 'joint')}")
             den_record = StepRecord("denoise", time.perf_counter() - t, int(denoised.sum()), method,
                                       extra + (f"; {note}" if note else ""))
 
@@ -622,7 +623,7 @@ def clean(
             if len(found.breaks) > MAX_LINES:  # a long take of many cuts: the first few, then a count
                 said = tuple(n for n in said if n not in found.breaks) + tuple(capped_lines(
                     list(found.breaks), "cuts and jumps of the root", " (`mocapkit detect` lists them all)"))
-            note = f"{counted(len(det.segments()), 'flagged segment')} on {counted(int(flags.any(axis=0).sum()), 'joint')}" + (
+            note = f"{plural(len(det.segments()), 'flagged segment')} on {plural(int(flags.any(axis=0).sum()), 'joint')}" + (
                 f"; {'; '.join(said)}" if said else "")
             if "repair" not in steps:  # review: the teleports and turn-overs the repair step would name, flagged, left
                 seen = (review_whole(cur, det, poses=poses) if redo is None else
@@ -657,7 +658,7 @@ def clean(
         note = "; ".join(x for x in (note, turn_overs_note(done.flips), done.measured) if x)  # kept or changed whole
         if done.left:  # runs the repair guard gave back as they were: flagged, not changed, named
             notes.extend(capped_lines(done.left, "runs left"))
-            note = "; ".join(x for x in (note, f"{counted(len(done.left), 'run')} left: repair not better than the take") if x)
+            note = "; ".join(x for x in (note, f"{plural(len(done.left), 'run')} left: repair not better than the take") if x)
         records.append(StepRecord("repair", time.perf_counter() - t, int(repaired.sum()),
                                   "medoid of the nearest motion words (transient offsets taken away, confirmed left/right swaps exchanged "
                                   "back)" + (" + foot-skate cleanup" if foot_skate else "")

@@ -22,6 +22,7 @@ from .outputs import check_file_path
 from ..markerset import (MODELLED_GROUPS, MarkerSet, MarkerSource, marker_units, repeated_labels_note, unique_labels,
                          unit_symbol)
 from ..motion import check_fps
+from ..words import plural
 from .c3d import apply_zero_gaps, checked_unit_cm
 from .c3d_trial import trial_rate, written_first
 from .sources import bom_length
@@ -388,7 +389,7 @@ def _count_notes(stated: int, named: int, held: int, m: int, labels) -> tuple[st
     unnamed = [label for k, label in enumerate(labels) if k >= named]
     if unnamed and (said or named):
         span = unnamed[0] if len(unnamed) == 1 else f"{unnamed[0]}-{unnamed[-1]}"
-        said.append(f"{_plural(len(unnamed), 'trajectory', 'trajectories')} without a label named {span} "
+        said.append(f"{plural(len(unnamed), 'trajectory', 'trajectories')} without a label named {span} "
                     "(M and the marker's place in the file)")
     return ("; ".join(said),) if said else ()
 
@@ -399,12 +400,8 @@ def _extra_field_notes(rows, row_lines, m: int) -> tuple[str, ...]:
     if not extra:
         return ()
     k, r = extra[0]
-    return (f"{_plural(len(extra), 'row', 'rows')} hold fields past the last marker's X Y Z (line {row_lines[k]}: field "
+    return (f"{plural(len(extra), 'row', 'rows')} hold fields past the last marker's X Y Z (line {row_lines[k]}: field "
             f"{3 * m + 3}, {r[3 * m]:g}): not coordinates, not read; a TRC written from this take keeps them",)
-
-
-def _plural(n: int, word: str, many: str) -> str:
-    return f"{n} {word if n == 1 else many}"
 
 
 def _check_complete(path: Path, header: dict, frames: int, last_values: int, m: int, last_line: int,
@@ -655,7 +652,7 @@ def trc_notes(markers: MarkerSet, path, *, keep_modelled: bool = False, filled=N
     if not keep_modelled and np.any(kinds != ""):
         n = Counter(k for k in kinds if k)
         counted = ", ".join(f"{n[g.lower()]} {g.lower()}" for g in MODELLED_GROUPS if n[g.lower()])
-        notes.append(f"{path}: left out {_plural(int(np.sum(kinds != '')), 'modelled quantity', 'modelled quantities')}, not markers ({counted}): "
+        notes.append(f"{path}: left out {plural(int(np.sum(kinds != '')), 'modelled quantity', 'modelled quantities')}, not markers ({counted}): "
                      "a TRC holds markers in one length unit (--keep-modelled writes them as points)")
     if filled is not None and np.any(filled):
         where = f"; {record} lists them (its masks filled, spikes, duplicates)" if record is not None else ""

@@ -39,6 +39,7 @@ from pathlib import Path
 import numpy as np
 
 from ...markerset import check_units, subject_of
+from ...words import plural
 from .duplicates import find_duplicates
 from .foreign import find_foreign
 from .gaps import SMOOTH_S, TOO_LONG, fill_gaps, nobody_seen
@@ -297,9 +298,9 @@ class MarkerCleanResult:
             return ([f"review mode (--steps detect): the capture unchanged; cleaning would change {n} of {total} "
                      f"marker sample{'' if total == 1 else 's'}"] + dataclasses.replace(self, review=False).summary())
         counts = {k: sum(1 for x in self.fixes if x.kind == k) for k in ("gap", "spike", "swap")}
-        lines = [f"{_n(counts['gap'], 'gap')} filled ({_n(int(self.filled.sum()), 'sample')}), "
-                 f"{_n(counts['spike'], 'spike')} removed ({_n(int(self.spikes.sum()), 'sample')}), "
-                 f"{_n(counts['swap'], 'label swap')} undone ({_n(int(self.swapped.sum()), 'sample')})"]
+        lines = [f"{plural(counts['gap'], 'gap')} filled ({plural(int(self.filled.sum()), 'sample')}), "
+                 f"{plural(counts['spike'], 'spike')} removed ({plural(int(self.spikes.sum()), 'sample')}), "
+                 f"{plural(counts['swap'], 'label swap')} undone ({plural(int(self.swapped.sum()), 'sample')})"]
         skip = np.isin(self.markers.labels, self.unlabelled)
         if hasattr(self.original, "modelled"):  # modelled points' unseen samples are no markers' missing ones
             skip = skip | self.original.modelled()
@@ -307,7 +308,7 @@ class MarkerCleanResult:
         removed = gone & ~self.original.missing()[:, ~skip]  # recorded samples removed as spikes, no fill passed
         left = int(np.sum(gone & ~removed))
         if left:
-            lines.append(f"{_n(left, 'sample')} still missing")
+            lines.append(f"{plural(left, 'sample')} still missing")
         if removed.any():
             gone_fixes = [x for x in self.fixes if x.kind in _REMOVED and not np.isfinite(x.size_mm)]
             kinds = {x.kind for x in gone_fixes}
@@ -316,7 +317,7 @@ class MarkerCleanResult:
             long = sum(1 for x in gone_fixes if x.too_long)
             why = ("longer than --max-gap" if gone_fixes and long == len(gone_fixes) else
                    "no plausible fill, or longer than --max-gap" if long else "no plausible fill")
-            lines.append(f"{_n(int(removed.sum()), 'recorded sample')} removed as {how} and left missing ({why})")
+            lines.append(f"{plural(int(removed.sum()), 'recorded sample')} removed as {how} and left missing ({why})")
         for x in (x for kind in ("duplicate", "foreign") for x in self.fixes if x.kind == kind):
             done = "removed and filled" if np.isfinite(x.size_mm) else f"removed, left missing ({x.left_text})"
             lines.append(f"{x.marker} frames {x.start}-{x.end - 1}: {x.removed_as}, {done}")
@@ -399,11 +400,6 @@ class MarkerCleanResult:
 _REMOVED = {"spike": "a spike removed, ", "duplicate": "a duplicate label removed, ",
             "foreign": "another point under its label removed, "}
 """How a run left missing whose recorded samples were removed begins in the summary (a gap's begins with its duration)."""
-
-
-def _n(count: int, word: str) -> str:
-    """``count`` and ``word``, plural unless one: "1 gap", "2 gaps"."""
-    return f"{count} {word}{'' if count == 1 else 's'}"
 
 
 def _swap_sources(x: np.ndarray, y: np.ndarray, swapped: np.ndarray) -> np.ndarray:
