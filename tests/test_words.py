@@ -38,3 +38,34 @@ def test_notes_and_errors_that_count_one_say_it_in_the_singular():
         training.check_clip_lengths([dataclasses.replace(walk[:60], name="short_one", source_file=None)], cfg)
     with pytest.raises(ValueError, match=r"^1 holdout of 1 clip needs more than 1 clip, got 1$"):
         training.holdout_folds([walk[:60]], 1, 1)
+
+
+def test_messages_a_user_reads_count_one_frame_in_the_singular(tmp_path):
+    """Follow-up: "NaN in 1 frames" (saving a take with one missing frame), "holds only 1 frames" (a BVH cut
+    after its first frame), "the mask has 1 frames" and "the clips cover 1 frames" (a damaged database) each
+    said a count of one in the plural."""
+    import json
+    import numpy as np
+    from mocapkit.io.masks import read_mask
+    walk = mocapkit.load(samples.path("12_walk.amc"))[:3]
+    rot = np.array(walk.rotations)
+    rot[1, 2] = np.nan
+    gap = dataclasses.replace(walk, rotations=rot)
+    with pytest.raises(MocapFormatError, match=r"missing values \(NaN\) in 1 frame; fill"):
+        mocapkit.save(gap, tmp_path / "gap.bvh")
+    mocapkit.save(walk, tmp_path / "three.bvh")
+    text = (tmp_path / "three.bvh").read_text().rstrip("\n").split("\n")
+    (tmp_path / "cut.bvh").write_text("\n".join(text[:-2]) + "\n")
+    with pytest.raises(MocapFormatError, match=r"Frames: says 3 but the data holds only 1 frame$"):
+        mocapkit.load(tmp_path / "cut.bvh")
+    np.savez(tmp_path / "m.npz", mask=np.zeros((1, walk.num_joints), bool))
+    with pytest.raises(MocapFormatError, match=r"the mask has 1 frame and the take 3"):
+        read_mask(tmp_path / "m.npz", frames=3)
+    from mocapkit.database import MotionDatabase
+    db = MotionDatabase.build([mocapkit.load(samples.path("12_walk.amc"))[:12]], progress=False, executor="serial")
+    db.save(tmp_path / "db")
+    doc = json.loads((tmp_path / "db" / "database.json").read_text())
+    doc["clips"][0]["frames"] = 1
+    (tmp_path / "db" / "database.json").write_text(json.dumps(doc))
+    with pytest.raises(MocapFormatError, match=r"the clips cover 1 frame, num_frames says 3$"):
+        MotionDatabase.open(tmp_path / "db")

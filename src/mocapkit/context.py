@@ -348,7 +348,7 @@ def _database(motions: list, used: list, total: int, notes: list, fps: float, fe
     if left:
         why = "than this take's" if best == prefer and counts[best] < max(counts.values()) else "than the one of the others"
         notes.append(f"context: left out {len(left)} of {plural(total, 'take')} on another skeleton {why}, "
-                     f"{len(motions[topo.index(best)].skeleton.joint_names)} joints ({_names(left)})")
+                     f"{plural(len(motions[topo.index(best)].skeleton.joint_names), 'joint')} ({_names(left)})")
     db = MotionDatabase.build(keep, fps=fps, features=tuple(features), progress=False, executor="serial",
                               joint_map=joint_map or None)
     db.info["label"] = label
@@ -565,7 +565,7 @@ def _rest_directions(sk) -> np.ndarray:
 def _same_rest(a, b) -> str:
     """Empty when skeletons ``a`` and ``b`` share parents and rest bone directions, else why not."""
     if len(a.joint_names) != len(b.joint_names):
-        return f"{len(a.joint_names)} joints, the context's {len(b.joint_names)}"
+        return f"{plural(len(a.joint_names), 'joint')}, the context's {len(b.joint_names)}"
     if not np.array_equal(np.asarray(a.parents), np.asarray(b.parents)):
         return "another hierarchy (parents)"
     da, db_ = _rest_directions(a), _rest_directions(b)

@@ -46,6 +46,7 @@ from .mirroring import mirror_for_rig
 from .motion import Motion, Skeleton, readonly_view
 from .rigs import data_terms
 from .search.matches import Match
+from .words import plural
 
 __all__ = ["MotionDatabase", "ClipInfo", "SearchResult", "FORMAT_VERSION", "FPS_RANGE", "SUFFIXES", "check_database_output", "expand_sources", "read_joint_map"]
 
@@ -109,7 +110,7 @@ def _topology_difference(sk: Skeleton, ref: tuple) -> str:
     names, parents = _topology(sk)
     rnames, rparents = ref
     if len(names) != len(rnames):
-        return f"{len(names)} joints, the database has {len(rnames)}"
+        return f"{plural(len(names), 'joint')}, the database has {len(rnames)}"
     for j, (a, b) in enumerate(zip(names, rnames)):
         if a != b:
             return f"joint {j} is {a!r}, the database's is {b!r}"
@@ -432,7 +433,7 @@ class MotionDatabase:
         if isinstance(clip, (int, np.integer)):
             c = int(clip)
             if not 0 <= c < self.num_clips:
-                raise IndexError(f"clip {c} out of range for {self.num_clips} clips")
+                raise IndexError(f"clip {c} out of range for {plural(self.num_clips, 'clip')}")
             return c
         for k, info in enumerate(self.clips):
             if info.name == clip:
@@ -455,7 +456,7 @@ class MotionDatabase:
         c = self.clip_number(clip)
         info = self.clips[c]
         if not 0 <= frame < info.frames:
-            raise IndexError(f"frame {frame} out of range for clip {info.name!r} ({info.frames} frames)")
+            raise IndexError(f"frame {frame} out of range for clip {info.name!r} ({plural(info.frames, 'frame')})")
         return info.start + int(frame)
 
     def clip_range(self, clip) -> tuple[int, int]:

@@ -51,6 +51,7 @@ from .interrupts import interrupts_held
 from .io.outputs import (DATABASE_DESCRIPTION, DATABASE_FORMAT, inside, missing_folders, resolved, same_file,
                          temp_prefix)
 from .motion import Skeleton
+from .words import plural
 
 __all__ = [
     "FORMAT",
@@ -161,7 +162,7 @@ def _read_json(path: Path) -> dict:
     try:
         size = path.stat().st_size
         if size > _MAX_DESCRIPTION_BYTES:
-            raise MocapFormatError(path, f"database description of {size} bytes is over the {_MAX_DESCRIPTION_BYTES}-byte limit")
+            raise MocapFormatError(path, f"database description of {plural(size, 'byte')} is over the {_MAX_DESCRIPTION_BYTES}-byte limit")
         with open(path, encoding="utf-8") as fh:
             text = fh.read(_MAX_DESCRIPTION_BYTES + 1)
         depth = _json_depth(text)
@@ -277,7 +278,7 @@ def _check_clips(raw, N: int, n_skeletons: int, path: Path) -> tuple[tuple, ...]
             raise MocapFormatError(path, f"clip {k}: wrong type (name, source: text; start, frames, skeleton: integers; mirrored: true/false)")
         name = c["name"]
         if c["start"] != start or c["frames"] < 1 or start + c["frames"] > N:
-            raise MocapFormatError(path, f"clip {k} ({name!r}): start {c['start']}, {c['frames']} frames; expected start {start} and 1 .. {N - start} frames")
+            raise MocapFormatError(path, f"clip {k} ({name!r}): start {c['start']}, {plural(c['frames'], 'frame')}; expected start {start} and 1 .. {N - start} frames")
         if not 0 <= c["skeleton"] < n_skeletons:
             raise MocapFormatError(path, f"clip {k} ({name!r}): skeleton {c['skeleton']} out of range 0 .. {n_skeletons - 1}")
         if name in names:
@@ -286,7 +287,7 @@ def _check_clips(raw, N: int, n_skeletons: int, path: Path) -> tuple[tuple, ...]
         clips.append(tuple(c[f] for f in _CLIP_KEYS))
         start += c["frames"]
     if start != N:
-        raise MocapFormatError(path, f"the clips cover {start} frames, num_frames says {N}")
+        raise MocapFormatError(path, f"the clips cover {plural(start, 'frame')}, num_frames says {N}")
     return tuple(clips)
 
 
@@ -357,7 +358,7 @@ def _load_array(directory: Path, rel: str, shape: tuple, mmap: bool) -> np.ndarr
         raise MocapFormatError(p, f"expected shape {tuple(shape)} (from {DESCRIPTION}), got {tuple(got_shape)}")
     nbytes = math.prod(shape) * dtype.itemsize
     if size != offset + nbytes:
-        raise MocapFormatError(p, f"holds {size - offset} bytes of data where its header declares {nbytes}: truncated or damaged")
+        raise MocapFormatError(p, f"holds {plural(size - offset, 'byte')} of data where its header declares {nbytes}: truncated or damaged")
     try:
         return np.load(p, mmap_mode="r" if mmap else None, allow_pickle=False)
     except (OSError, ValueError) as exc:

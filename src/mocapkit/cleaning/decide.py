@@ -95,7 +95,7 @@ def the_odd_take(doc: dict, path, original, record_result: CleanResult, record, 
     raise MocapFormatError(source or original.name or "the input",
                            f"not the take that {os.path.basename(os.fspath(path))} and the record "
                            f"{os.path.basename(os.fspath(record))} were made for ({named.get('name', '?')}, "
-                           f"{named.get('frames', '?')} frames; this file has {original.num_frames}): its samples "
+                           f"{named.get('frames', '?')} frame{'' if named.get('frames') == 1 else 's'}; this file has {original.num_frames}): its samples "
                            "differ (another take, or one edited since)")
 
 

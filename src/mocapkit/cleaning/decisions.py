@@ -100,6 +100,7 @@ from .ik import contact_segments
 from .ssa.cues import cause_names
 from ..digest import take_digest
 from .ties import SplitTieError, split_message, swap_cells, tie_groups
+from ..words import plural
 
 __all__ = ["FORMAT", "ACCEPT", "REJECT", "Change", "changes", "apply", "take_digest", "template", "read_decisions",
            "check_decisions", "check_record", "record_problem", "as_written", "accepted_cells", "flag_segments",
@@ -216,14 +217,14 @@ def record_problem(original: Motion, result) -> str:
     if not isinstance(original, Motion):
         raise TypeError(f"original must be a mocapkit Motion, got {type(original).__name__}")
     if tuple(original.skeleton.joint_names) != tuple(result.joint_names):
-        return (f"the clean record is of another rig ({len(result.joint_names)} joints "
+        return (f"the clean record is of another rig ({plural(len(result.joint_names), 'joint')} "
                 f"{', '.join(result.joint_names[:3])}, ...), not this take's")
     if original.num_frames != result.num_frames or not math.isclose(original.fps, result.fps):
-        return (f"the clean record is of another take ({result.num_frames} frames at "
+        return (f"the clean record is of another take ({plural(result.num_frames, 'frame')} at "
                 f"{result.fps:g} fps; this take has {original.num_frames} at {original.fps:g})")
     digest = getattr(result, "take_sha256", "")
     if digest and digest != take_digest(original):
-        return (f"the clean record is of another take (the same rig, {result.num_frames} frames at "
+        return (f"the clean record is of another take (the same rig, {plural(result.num_frames, 'frame')} at "
                 f"{result.fps:g} fps, but other samples than this take's)")
     return ""
 
@@ -310,9 +311,9 @@ def _reason(result, step_code: int, j: int, a: int, b: int, missing: np.ndarray)
         nz = 0 if zeros is None else int(zeros[a:b + 1, j].sum())
         n = int((missing[a:b + 1, j] & (True if zeros is None else ~zeros[a:b + 1, j])).sum())
         if nz:  # a dropout the take wrote as 0 (mocapkit.cleaning.zeros), filled as missing
-            parts.append(f"written as 0 (a dropout) in {nz} of {b - a + 1} frames")
+            parts.append(f"written as 0 (a dropout) in {nz} of {plural(b - a + 1, 'frame')}")
         if n or not nz:
-            parts.append(f"missing in {n} of {b - a + 1} frames")
+            parts.append(f"missing in {n} of {plural(b - a + 1, 'frame')}")
     if step_code & 2:
         mdm = float(np.nanmax(result.mdm[a:b + 1, j])) if result.mdm.size else float("nan")
         flagged = bool(result.flags[a:b + 1, j].any())
@@ -609,9 +610,9 @@ def check_decisions(doc: dict, path, original: Motion, result=None, record=None,
     """
     named = doc["take"]
     if named["sha256"] != take_digest(original):
-        what = f"{named.get('name', '?')}, {named.get('frames', '?')} frames"
+        what = f"{named.get('name', '?')}, {named.get('frames', '?')} frame{'' if named.get('frames') == 1 else 's'}"
         raise MocapFormatError(path, f"decisions for another take ({what}), not {take or original.name or 'this take'} "
-                               f"({original.num_frames} frames): its samples differ")
+                               f"({plural(original.num_frames, 'frame')}): its samples differ")
     if result is None:
         return dict(doc["decisions"])
     check_cleaning(doc, path, result, record, fresh, option)
@@ -690,7 +691,7 @@ def _check_has_changes(doc: dict, path, result, record=None, option: str = RECOR
     if record is not None:
         raise MocapFormatError(record, f"the clean record {mode}holds no changes, while {Path(path).name} names "
                                        f"{len(named)}; give the record of the cleaning the decisions were made on")
-    raise MocapFormatError(path, f"names {len(named)} change(s), and this cleaning {mode}changed nothing; give the "
+    raise MocapFormatError(path, f"names {plural(len(named), 'change')}, and this cleaning {mode}changed nothing; give the "
                                  f"record of the cleaning the decisions were made on ({option})")
 
 
@@ -751,7 +752,7 @@ def check_named(doc: dict, path, result) -> None:
         return
     left = unnamed_changes(doc, result)
     if left:
-        raise MocapFormatError(path, f"names {len(doc['decisions'])} of the {len(left) + len(doc['decisions'])} changes "
+        raise MocapFormatError(path, f"names {len(doc['decisions'])} of the {plural(len(left) + len(doc['decisions']), 'change')} "
                                      f"it was made for; {len(left)} not named ({left[0]!r}"
                                      f"{', ...' if len(left) > 1 else ''}): say \"accept\" or \"reject\" for each")
 
@@ -774,7 +775,7 @@ def ids_notes(doc: dict, path, ids) -> list[str]:
     left = [cid for cid in ids if cid not in named]
     if left:
         total = len(ids)
-        out.append(f"{path} names {total - len(left)} of {total} changes: the {len(left)} it does not name "
+        out.append(f"{path} names {total - len(left)} of {plural(total, 'change')}: the {len(left)} it does not name "
                    f"{'was' if len(left) == 1 else 'were'} accepted")
     return out
 

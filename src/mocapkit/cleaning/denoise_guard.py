@@ -41,6 +41,7 @@ import numpy as np
 from .. import rotations as R
 from .runs import true_runs
 from ..motion import Motion
+from ..words import plural
 
 __all__ = ["midpoint_deviation", "noise_std", "departure_bounds", "jump_bounds", "far_cells",
            "held_cells", "displaced_runs", "jump_cells", "beside", "kept_cells", "guarded", "SIGMAS", "MARGIN_DEG",
@@ -329,7 +330,7 @@ def _kept_note(kept: np.ndarray, motion: Motion) -> str:
     joints = np.flatnonzero(kept.any(axis=0))
     said = ", ".join(f"{names[j]} {_frames(np.flatnonzero(kept[:, j]))}" for j in joints[:3])
     more = f" and {len(joints) - 3} more joints" if len(joints) > 3 else ""
-    return (f"{int(kept.sum())} cells kept as they came: the denoiser moved them further than the take's noise "
+    return (f"{plural(int(kept.sum()), 'cell')} kept as they came: the denoiser moved them further than the take's noise "
             f"explains ({said}{more}; frames from 0)")
 
 

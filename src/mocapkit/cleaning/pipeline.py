@@ -577,7 +577,7 @@ def clean(
             notes.append(note)
             den_record = StepRecord("denoise", time.perf_counter() - t, 0, "skipped", note)
         elif Fs < w:
-            note = f"denoise skipped: {Fs} frames is shorter than the noise criterion's fit ({w} frames)"
+            note = f"denoise skipped: {plural(Fs, 'frame')} is shorter than the noise criterion's fit ({w} frames)"
             notes.append(note)
             den_record = StepRecord("denoise", time.perf_counter() - t, 0, "skipped", note)
         else:

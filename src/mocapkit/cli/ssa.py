@@ -203,8 +203,8 @@ def repair(
     if detection is not None:
         det = ssa.Detection.load(detection).with_threshold(threshold)
         if det.flags.shape != (m.num_frames, m.skeleton.num_joints):
-            raise MocapFormatError(detection, f"the detection is of {det.flags.shape[0]} frames x {det.flags.shape[1]} joints, "
-                                              f"the take {m.num_frames} x {m.skeleton.num_joints}; detect this take again")
+            raise MocapFormatError(detection, f"the detection is of {plural(det.flags.shape[0], 'frame')} x {plural(det.flags.shape[1], 'joint')}, "
+                                              f"the take {plural(m.num_frames, 'frame')} x {plural(m.skeleton.num_joints, 'joint')}; detect this take again")
     unread = unread_context(m, context)  # a take too coarse for detection: refused below in one line, no context built
     ctx, note = (None, "") if unread is not None else fit_context(m, load_context(context, progress=True, take=m,
                                                                                            joint_map=jm))

@@ -54,6 +54,7 @@ from ..motion import Motion
 from .asfamc import amc_dofs, amc_table_arrays, with_rate
 from .euler_branches import MEASURED_TOLERANCE_DEG, bridged, measured_text, partly_missing, source_branches
 from .kept_channels import kept_values
+from ..words import plural
 
 __all__ = ["write_amc", "check_amc_writable", "dof_values", "file_dofs", "source_numbers"]
 
@@ -89,7 +90,7 @@ def check_amc_writable(motion: Motion, path, missing_ok: bool = False) -> None:
                                "write .bvh or .npz")
     bad = np.any(np.isnan(motion.rotations), axis=(1, 2)) | np.any(np.isnan(motion.root_positions), axis=1)
     if np.any(bad) and not missing_ok:
-        raise MocapFormatError(path, f"the take has missing values (NaN) in {int(bad.sum())} frames, which AMC "
+        raise MocapFormatError(path, f"the take has missing values (NaN) in {plural(int(bad.sum()), 'frame')}, which AMC "
                                "cannot hold; fill them or write .npz")
     if motion.num_frames == 0:
         raise MocapFormatError(path, "the take has no frames; AMC needs at least one")

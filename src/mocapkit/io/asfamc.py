@@ -93,7 +93,7 @@ def _numbers(path: Path, tokens: list[str], line: int, what: str, n: int | None 
     except ValueError:
         raise MocapFormatError(path, f"{what}: non-numeric value in {' '.join(tokens)!r}", line) from None
     if n is not None and len(vals) != n:
-        raise MocapFormatError(path, f"{what}: expected {n} numbers, got {len(vals)}", line)
+        raise MocapFormatError(path, f"{what}: expected {plural(n, 'number')}, got {len(vals)}", line)
     if finite and not all(np.isfinite(v) for v in vals):
         raise MocapFormatError(path, f"{what}: values must be finite, got {' '.join(tokens)!r}", line)
     return vals
@@ -827,7 +827,7 @@ def _parse_chunk(path, body: bytes, first_line: int, skeleton: Skeleton, layout:
     bad = frame_lines[counts[frame_lines] != 1]
     if bad.size:
         raise MocapFormatError(
-            path, f"expected a frame number or a bone line, found {counts[bad[0]]} numbers", where(bad[0])
+            path, f"expected a frame number or a bone line, found {plural(int(counts[bad[0]]), 'number')}", where(bad[0])
         )
     numbers_of_frames = values[value_at[frame_lines]]
     nonint = np.flatnonzero(numbers_of_frames != np.round(numbers_of_frames))
@@ -859,7 +859,7 @@ def _parse_chunk(path, body: bytes, first_line: int, skeleton: Skeleton, layout:
         i = wrong[0]
         joint, dofs = skeleton.joint_names[ids[i]], " ".join(layout.dofs[ids[i]])
         raise MocapFormatError(
-            path, f"joint {joint} needs {ndof[ids[i]]} values ({dofs}), got {got[i]}", where(name_lines[i])
+            path, f"joint {joint} needs {plural(int(ndof[ids[i]]), 'value')} ({dofs}), got {got[i]}", where(name_lines[i])
         )
     # Row 0 is the frame left open by the previous chunk; rows 1.. this chunk's frames.
     row = np.searchsorted(frame_lines, name_lines)

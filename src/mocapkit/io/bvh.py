@@ -43,6 +43,7 @@ from .bvh_roots import COMMENT, Layout, around_take, is_comment, layout
 from .euler_branches import NEAR_SOURCE_DEG, continuous_rotations, measured_text
 from .kept_channels import kept_comments, kept_header, kept_text, kept_values
 from .sources import bom_length, recall, remember
+from ..words import plural
 
 from numba import njit
 
@@ -419,7 +420,7 @@ def _read_bvh(path, data: bytes | None = None) -> tuple[Motion, np.ndarray, Layo
         k = int(wrong[0])
         hint = " (truncated file?)" if k == nonblank[-1] and counts[k] < ncols else ""
         raise MocapFormatError(
-            path, f"frame line has {counts[k]} values, the hierarchy declares {ncols} channels{hint}",
+            path, f"frame line has {plural(counts[k], 'value')}, the hierarchy declares {plural(ncols, 'channel')}{hint}",
             line=first_data_line + k,
         )
     nframes = nonblank.size
@@ -429,7 +430,7 @@ def _read_bvh(path, data: bytes | None = None) -> tuple[Motion, np.ndarray, Layo
     if nframes < frames_decl:
         last = first_data_line + int(nonblank[-1])
         raise MocapFormatError(
-            path, f"truncated file: Frames: says {frames_decl} but the data holds only {nframes} frames", line=last
+            path, f"truncated file: Frames: says {frames_decl} but the data holds only {plural(nframes, 'frame')}", line=last
         )
     if nframes > frames_decl:
         extra = first_data_line + int(nonblank[frames_decl])
@@ -696,7 +697,7 @@ def write_bvh(motion: Motion, path, precision: int = 6, allow_nan: bool = False,
             bad |= np.any(np.isnan(motion.translations[:, 1:]), axis=(1, 2))
         n = int(np.count_nonzero(bad))
         if n:
-            raise MocapFormatError(path, f"motion has missing values (NaN) in {n} frames; fill them or save as .npz")
+            raise MocapFormatError(path, f"motion has missing values (NaN) in {plural(n, 'frame')}; fill them or save as .npz")
 
     out_motion, channels = _as_written(motion)
     values = out_motion.channel_values()

@@ -22,6 +22,7 @@ import numpy as np
 
 from ..errors import MocapFormatError
 from .c3d_layout import analog_offsets
+from ..words import plural
 
 __all__ = ["FRAME_CAP", "trial_first", "read_float", "sample_bytes", "point_words", "missing_stored", "put_missing_stored",
            "residuals_and_cameras",
@@ -270,9 +271,9 @@ def long_trial_frames(path, raw: bytes, parameters: dict, read: int, points: int
         stated, who = int(long_frames[0]), "POINT:LONG_FRAMES states"
     if stated is not None:
         if stated < read:
-            raise MocapFormatError(path, f"{who} {stated} frames, fewer than the {read} the header states")
+            raise MocapFormatError(path, f"{who} {plural(stated, 'frame')}, fewer than the {read} the header states")
         if held < stated:
-            raise MocapFormatError(path, f"truncated file: {who} {stated} frames, the data block holds {held} "
+            raise MocapFormatError(path, f"truncated file: {who} {plural(stated, 'frame')}, the data block holds {held} "
                                          f"whole frames of {points} points and {analog} analog samples")
         return stated
     # the frames end where the data block's padding starts, and a writer pads at most one 512-byte block (ezc3d

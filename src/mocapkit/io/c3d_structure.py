@@ -17,6 +17,7 @@ import numpy as np
 
 from ..errors import MocapFormatError
 from .c3d_frames import read_float, sample_bytes
+from ..words import plural
 
 __all__ = ["check_structure"]
 
@@ -196,7 +197,7 @@ def check_structure(path: Path, b: bytes) -> tuple[bool, dict]:
         return ezc3d_ok, written
     if held == 0:
         need = (data_start - 1) * 512 + frames * (4 * points + analog) * sample_bytes(scale)
-        fail(f"truncated file: {frames} frames of {points} points and {analog} analog samples need "
+        fail(f"truncated file: {plural(frames, 'frame')} of {points} points and {analog} analog samples need "
              f"{need} bytes, the file has {n}, not even one whole frame")
     if held < declared and partial:
         # A copy or download cut short. The c3d package read the whole frames there, so a cut file passed for

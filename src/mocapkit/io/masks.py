@@ -28,6 +28,7 @@ from typing import Sequence
 import numpy as np
 
 from ..errors import MocapFormatError
+from ..words import plural
 
 __all__ = ["write_mask", "read_mask", "error_record", "mask_path_for"]
 
@@ -82,5 +83,5 @@ def read_mask(path, frames: int | None = None) -> np.ndarray:
     if mask.ndim != 2:
         raise MocapFormatError(path, f"the mask must be (frames, joints), got shape {mask.shape}")
     if frames is not None and mask.shape[0] != frames:
-        raise MocapFormatError(path, f"the mask has {mask.shape[0]} frames and the take {frames}")
+        raise MocapFormatError(path, f"the mask has {plural(mask.shape[0], 'frame')} and the take {frames}")
     return mask

@@ -39,6 +39,7 @@ import numpy as np
 
 from ..errors import MocapFormatError
 from . import atomic_write
+from ..words import plural
 
 __all__ = ["DEFAULT_SENSOR_NAMES", "RATE_RANGE", "nominal_rate", "read_readings_csv", "write_readings_csv"]
 
@@ -144,7 +145,7 @@ def read_readings_csv(path, fps: float | None = None):
             continue
         cells = line.split(",")
         if len(cells) != ncol:
-            raise MocapFormatError(path, f"expected {ncol} values, got {len(cells)}", ln)
+            raise MocapFormatError(path, f"expected {plural(ncol, 'value')}, got {len(cells)}", ln)
         try:
             vals = [_parse_cell(c) for c in cells]
         except ValueError:
@@ -250,7 +251,7 @@ def write_readings_csv(path, timestamps, readings, sensor_names=None, digits: in
         sensor_names = DEFAULT_SENSOR_NAMES[:S] if S <= n else [f"sensor{i}" for i in range(S)]
     names = [str(n) for n in sensor_names]
     if len(names) != S:
-        raise ValueError(f"sensor_names: {len(names)} names for {S} sensors")
+        raise ValueError(f"sensor_names: {plural(len(names), 'name')} for {plural(S, 'sensor')}")
     for n in names:
         if not n or "," in n or "\n" in n:
             raise ValueError(f"sensor name {n!r} cannot be written in a CSV header")

@@ -134,7 +134,7 @@ def read_trc(path, zeros_as_gaps: bool | None = None, units: str | None = None) 
     if first[0].strip() != "PathFileType":
         raise MocapFormatError(path, f"not a TRC file: the first line starts with {first[0][:40]!r}, not 'PathFileType'", line=1)
     if len(lines) < 5:
-        raise MocapFormatError(path, f"truncated TRC header: {len(lines)} lines, the header needs 5 "
+        raise MocapFormatError(path, f"truncated TRC header: {plural(len(lines), 'line')}, the header needs 5 "
                                "(PathFileType, names, values, Frame#/labels, X1 Y1 Z1)", line=len(lines))
     keys = [k.strip() for k in _fields(lines[1])]
     values = [v.strip() for v in _fields(lines[2])]
@@ -429,7 +429,7 @@ def _check_complete(path: Path, header: dict, frames: int, last_values: int, m: 
                                line=last_line)
     if cut:
         raise MocapFormatError(path, f"truncated file: the last row holds {max(last_values, 0)} of the {3 * m} values "
-                               f"its {m} markers need and ends without a line break; the file is cut short", line=last_line)
+                               f"its {plural(m, 'marker')} need and ends without a line break; the file is cut short", line=last_line)
 
 
 def _rate(x: float) -> str:
@@ -656,11 +656,11 @@ def trc_notes(markers: MarkerSet, path, *, keep_modelled: bool = False, filled=N
                      "a TRC holds markers in one length unit (--keep-modelled writes them as points)")
     if filled is not None and np.any(filled):
         where = f"; {record} lists them (its masks filled, spikes, duplicates)" if record is not None else ""
-        notes.append(f"{path}: {int(np.sum(filled))} samples the cleaning wrote (gaps filled, spikes and duplicates "
+        notes.append(f"{path}: {plural(int(np.sum(filled)), 'sample')} the cleaning wrote (gaps filled, spikes and duplicates "
                      f"replaced) are written like recorded ones: a TRC has no residual column to tell them apart{where}")
     marked = markers.interpolated() & ~(np.asarray(filled, dtype=bool) if filled is not None else False)
     if marked.any():
-        notes.append(f"{path}: {int(marked.sum())} samples the input marks as interpolated (residual 0) are "
+        notes.append(f"{path}: {plural(int(marked.sum()), 'sample')} the input marks as interpolated (residual 0) are "
                      "written like recorded ones: a TRC has no residual column (a .c3d output keeps them marked)")
     return notes
 

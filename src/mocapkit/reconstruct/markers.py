@@ -135,6 +135,7 @@ from .control import marker_residuals, warn_unseen
 from .dofs import on_joint_dofs
 from .model_kinematics import (carried_by, fk_model_pose, fk_model_poses, point_jacobian, range_coordinates,
                                range_excess_jacobian)
+from ..words import plural
 
 __all__ = ["reconstruct", "nearest_neighbor", "marker_residuals", "default_neighbours", "search_weights"]
 
@@ -374,7 +375,7 @@ def _check(markers, joints, db, fps) -> tuple[np.ndarray, tuple[str, ...]]:
         raise ValueError("joints: expected a sequence of joint or end-site names, got a single string")
     joints = tuple(str(j) for j in joints)
     if x.ndim != 3 or x.shape[2] != 3 or x.shape[1] != len(joints):
-        raise ValueError(f"markers: expected shape (F, {len(joints)}, 3) for {len(joints)} joints, got {x.shape}")
+        raise ValueError(f"markers: expected shape (F, {len(joints)}, 3) for {plural(len(joints), 'joint')}, got {x.shape}")
     if len(joints) < 3:
         raise ValueError(f"need at least 3 markers to reconstruct a pose, got {len(joints)}")
     if x.shape[0] == 0:

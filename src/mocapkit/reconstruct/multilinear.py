@@ -63,6 +63,7 @@ from ..features import Sensor, default_sensors, detect_up_axis, feature_set, fiv
 from ..features import parse_up_axis, virtual_markers
 from ..motion import Motion, Skeleton, unit_scale_cm
 from ..search.dtw import dtw
+from ..words import plural
 
 __all__ = [
     "MotionTensor",
@@ -439,10 +440,10 @@ def motion_tensor(
         labels = hdm05_labels(clips)
     labels = [tuple(lab) if isinstance(lab, (tuple, list)) else (lab,) for lab in labels]
     if len(labels) != len(clips):
-        raise ValueError(f"{len(labels)} labels for {len(clips)} clips")
+        raise ValueError(f"{plural(len(labels), 'label')} for {plural(len(clips), 'clip')}")
     for lab in labels:
         if len(lab) != len(modes):
-            raise ValueError(f"label {lab!r} has {len(lab)} entries for the {len(modes)} modes {modes}")
+            raise ValueError(f"label {lab!r} has {plural(len(lab), 'entry', 'entries')} for the {plural(len(modes), 'mode')} {modes}")
     if len(set(labels)) != len(labels):
         dup = sorted({str(lab) for lab in labels if labels.count(lab) > 1})
         raise ValueError(f"two clips share the labels {', '.join(dup)}; every grid cell holds one clip")
@@ -461,7 +462,7 @@ def motion_tensor(
     if reference is None:
         reference = int(np.argsort(lengths, kind="stable")[len(lengths) // 2])
     if not 0 <= int(reference) < len(clips):
-        raise ValueError(f"reference {reference} out of range for {len(clips)} clips")
+        raise ValueError(f"reference {reference} out of range for {plural(len(clips), 'clip')}")
     reference = int(reference)
     n_ref = int(lengths[reference])
     L = n_ref if frames is None else int(frames)
@@ -692,7 +693,7 @@ class MultilinearModel:
             weights = [weights.get(m, np.full(d, 1.0 / d)) for m, d in zip(self.modes_, shape)]
         weights = list(weights)
         if len(weights) != len(shape):
-            raise ValueError(f"{len(weights)} weight vectors for the {len(shape)} modes {self.modes_}")
+            raise ValueError(f"{plural(len(weights), 'weight vector')} for the {plural(len(shape), 'mode')} {self.modes_}")
         out = []
         for m, d, w in zip(self.modes_, shape, weights):
             w = np.asarray(w, dtype=np.float64).reshape(-1)
@@ -713,7 +714,7 @@ class MultilinearModel:
             else:
                 raise ValueError(f"no entry {i!r} in mode {self.modes_[k]!r}; entries are {ent}")
             if not 0 <= pos < len(ent):
-                raise ValueError(f"entry {i!r} out of range for mode {self.modes_[k]!r} ({len(ent)} entries)")
+                raise ValueError(f"entry {i!r} out of range for mode {self.modes_[k]!r} ({plural(len(ent), 'entry', 'entries')})")
             w = np.zeros(len(ent))
             w[pos] = 1.0
             out.append(w)
@@ -851,7 +852,7 @@ class MultilinearModel:
         sensors = list(sensors)
         a = np.asarray(accelerations, dtype=np.float64)
         if a.ndim != 3 or a.shape[1:] != (len(sensors), 3):
-            raise ValueError(f"accelerations: expected shape (N, {len(sensors)}, 3) for {len(sensors)} sensors, got {a.shape}")
+            raise ValueError(f"accelerations: expected shape (N, {len(sensors)}, 3) for {plural(len(sensors), 'sensor')}, got {a.shape}")
         if a.shape[0] < 5:
             raise ValueError(f"accelerations: need at least 5 frames, got {a.shape[0]}")
         if orientations is not None:

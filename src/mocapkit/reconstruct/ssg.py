@@ -68,6 +68,7 @@ from ._common import (align_about_vertical, body_skeleton, database_bodies, data
                       onto_marker_heights, onto_pelvis_marker, output_skeleton, per_clip, whole_motion)
 from .control import warn_unseen
 from .dofs import on_joint_dofs
+from ..words import plural
 
 __all__ = [
     "Alignment",
@@ -829,7 +830,7 @@ def _check_input(markers, joints, db: MotionDatabase, fps) -> tuple[np.ndarray, 
     if X.ndim != 3 or X.shape[2] != 3:
         raise ValueError(f"markers: expected shape (F, M, 3), got {X.shape}")
     if X.shape[1] != len(names) or not names:
-        raise ValueError(f"joints: expected {X.shape[1]} names, one per marker, got {len(names)}")
+        raise ValueError(f"joints: expected {plural(X.shape[1], 'name')}, one per marker, got {len(names)}")
     sk_db = db.skeletons[0]
     known = set(sk_db.joint_names) | set(sk_db.end_site_names)
     unknown = [n for n in names if n not in known]

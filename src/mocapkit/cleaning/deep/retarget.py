@@ -82,6 +82,7 @@ from ... import rotations as R
 from ...motion import Motion, Skeleton
 from .channels import ChannelLayout, encode as encode_direct, decode as decode_direct, layout_for
 from .channels import root_angular_velocity, unwrap_degrees
+from ...words import plural
 
 __all__ = ["ACCLAIM_AXES", "SAME_REST_DEG", "OPTIONAL_ROLES", "INFERRED", "Serving", "served_by", "restricted", "encode",
            "decode"]
@@ -195,12 +196,12 @@ class Serving:
     def describe(self) -> str:
         """How the take is served, in words (for notes and messages)."""
         if self.direct:
-            return "its own channels" + (f" ({len(self.others)} joints the model does not know left to the fallback"
+            return "its own channels" + (f" ({plural(len(self.others), 'joint')} the model does not know left to the fallback"
                                          " filter)" if self.others else "")
         rig = "rig, its roles read from its tree and rest pose," if self.family == INFERRED else f"{self.family} rig"
         how = f"a joint map from the {rig} onto the Acclaim skeleton"
-        extra = [f"{len(self.retargeted)} bones retargeted from its rest pose"] if self.retargeted else []
-        extra += [f"{len(self.lacking)} joints held at the model's means"] if self.lacking else []
+        extra = [f"{plural(len(self.retargeted), 'bone')} retargeted from its rest pose"] if self.retargeted else []
+        extra += [f"{plural(len(self.lacking), 'joint')} held at the model's means"] if self.lacking else []
         return how + (f" ({'; '.join(extra)})" if extra else "")
 
 

@@ -53,6 +53,7 @@ from ..decisions import (ACCEPT, FORMAT, RECORD_FLAG, REJECT, review_mode, check
                          request_difference, take_digest)
 from .clean import MarkerCleanResult, MarkerFix
 from .placement import destinations, relabelled, sources
+from ...words import plural
 
 __all__ = ["MarkerChange", "differs", "changes", "accepted_samples", "tied", "TIED_WHY", "tied_lines", "placed",
            "apply", "cleaning_digest",
@@ -415,7 +416,7 @@ def check(doc: dict, path, original, cleaned=None, fixes=(), *, request=None, fr
         return chosen
     left = [c.id for c in changes(original, cleaned, fixes) if c.id not in chosen]
     if left:
-        raise MocapFormatError(path, f"names {len(chosen)} of the {len(chosen) + len(left)} changes it was made for; "
+        raise MocapFormatError(path, f"names {len(chosen)} of the {plural(len(chosen) + len(left), 'change')} it was made for; "
                                      f"{len(left)} not named ({left[0]!r}...): a change nobody reviewed is not applied")
     return chosen
 
@@ -458,8 +459,8 @@ def record_cells(original, cleaned) -> dict:
 def check_record(original, record, path) -> None:
     """Refuse, in one line naming ``path``, a marker record that is not of ``original`` or keeps no cleaned samples."""
     if tuple(record.labels) != tuple(original.labels) or record.num_frames != original.num_frames:
-        raise MocapFormatError(path, f"the clean record is of another capture ({record.num_frames} frames, "
-                                     f"{len(record.labels)} markers; this one has {original.num_frames} and "
+        raise MocapFormatError(path, f"the clean record is of another capture ({plural(record.num_frames, 'frame')}, "
+                                     f"{plural(len(record.labels), 'marker')}; this one has {original.num_frames} and "
                                      f"{original.num_markers})")
     if record.cells is None:
         raise MocapFormatError(path, "this record keeps no cleaned samples (written by an earlier mocapkit): "

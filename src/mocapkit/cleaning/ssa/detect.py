@@ -640,7 +640,7 @@ def detect_prepared(an: Analysis, threshold: float = 0.5, *, progress: bool = Fa
                     if gi not in whole:
                         mean_tex[gi, ~region] = np.nan
                         spread[gi, ~region] = np.nan
-            notes.append(f"two-stage: {int(redo.sum())} of {W} words re-analysed against the context")
+            notes.append(f"two-stage: {int(redo.sum())} of {plural(W, 'word')} re-analysed against the context")
         else:
             # the bundled default context, a general sample of other people's motion, only judges the words the take
             # itself cannot: as every word's neighbours it outvoted the take's own repetitions, and the mean of other
@@ -654,11 +654,11 @@ def detect_prepared(an: Analysis, threshold: float = 0.5, *, progress: bool = Fa
             if gaps_only and unseen.any():
                 before = int(unseen.any(axis=0).sum())
                 unseen = _judged_by_context(src, full, grows, words, nb, unseen, prefilter, max_word_angle_deg, opts)
-                notes.append(f"{before} of {W} words have nothing like them in the take in some joint group: judged "
+                notes.append(f"{before} of {plural(W, 'word')} have nothing like them in the take in some joint group: judged "
                              "against the default context there")
             if unseen.any():
                 notes.append(
-                    f"{int(unseen.any(axis=0).sum())} of {W} words have no neighbour within {max_word_angle_deg:g} deg "
+                    f"{int(unseen.any(axis=0).sum())} of {plural(W, 'word')} have no neighbour within {max_word_angle_deg:g} deg "
                     "(RMS joint angle) in some joint group: not judged there"
                 )
             neighbors = nb

@@ -30,6 +30,7 @@ from .guard import LeftRun, guard_joint
 from .negligible import negligible_runs
 from .swap_exchange import swap_exchanges
 from .undo import undone_offsets
+from ...words import plural
 
 __all__ = ["Contact", "repair", "repair_with_left"]
 
@@ -219,8 +220,8 @@ def repair_with_left(
     if detection.num_frames != motion.num_frames or tuple(motion.skeleton.joint_names) != detection.joint_names:
         raise ValueError(
             f"{motion.name or 'motion'}: the detection was made on another clip "
-            f"({detection.num_frames} frames, {len(detection.joint_names)} joints vs "
-            f"{motion.num_frames} frames, {motion.num_joints} joints)"
+            f"({plural(detection.num_frames, 'frame')}, {plural(len(detection.joint_names), 'joint')} vs "
+            f"{plural(motion.num_frames, 'frame')}, {plural(motion.num_joints, 'joint')})"
         )
     if detection.span is not None:
         return _repair_span(motion, detection, context, contacts=contacts, foot_skate=foot_skate, blend_s=blend_s,

@@ -118,6 +118,7 @@ from .._common import body_skeleton, output_skeleton, whole_motion
 from ..dofs import on_joint_dofs
 from .kernels import FrameEnergy, Rig, minimise
 from .knowledge import clip_starts, knowledge_base
+from ...words import plural
 
 __all__ = [
     "DEFAULTS",
@@ -456,7 +457,7 @@ class AccelerometerReconstructor:
         a = np.asarray(reading, dtype=np.float64)
         S = len(self.sensors)
         if a.shape != (S, 3):
-            raise ValueError(f"reading: expected shape ({S}, 3) for {S} sensors, got {a.shape}")
+            raise ValueError(f"reading: expected shape ({S}, 3) for {plural(S, 'sensor')}, got {a.shape}")
         n = self._n_in
         if self._sos is not None and np.all(np.isfinite(a)):  # a missing sample passes (and holds the pose), the filter skips it
             if self._zi is None:
@@ -596,7 +597,7 @@ def _check_readings(readings, sensors) -> np.ndarray:
     if a.ndim != 3 or a.shape[2] != 3:
         raise ValueError(f"readings: expected shape (F, S, 3), got {a.shape}")
     if a.shape[1] != len(sensors):
-        raise ValueError(f"readings have {a.shape[1]} sensors but {len(sensors)} sensors were given")
+        raise ValueError(f"readings have {plural(a.shape[1], 'sensor')} but {plural(len(sensors), 'sensor')} {'was' if len(sensors) == 1 else 'were'} given")
     return a
 
 
